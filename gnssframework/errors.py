@@ -1,0 +1,108 @@
+"""The library's exceptions.
+
+Every failure a user can meet is one of these, with a message that says what to fix:
+config errors name the field and the allowed values, data-file errors name the file and
+line, numerical failures name the filter, the batch element and the step.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+__all__ = [
+    "GnssFrameworkError",
+    "ConfigError",
+    "PluginError",
+    "DataFileError",
+    "NumericalError",
+    "NotPositiveDefiniteError",
+    "InvalidMeasurementError",
+]
+
+
+class GnssFrameworkError(Exception):
+    """Base class of every exception raised by gnssframework."""
+
+
+class ConfigError(GnssFrameworkError, ValueError):
+    """A configuration or plugin parameter is invalid.
+
+    Parameters
+    ----------
+    field
+        Dotted path of the offending field (``"candidates[0].estimator.alpha"``).
+    message
+        What is wrong and what is allowed.
+    """
+
+    def __init__(self, field: str, message: str) -> None:
+        self.field = field
+        self.detail = message
+        super().__init__(f"{field}: {message}" if field else message)
+
+
+class PluginError(GnssFrameworkError):
+    """A plugin could not be loaded or registered."""
+
+
+class DataFileError(GnssFrameworkError, ValueError):
+    """A data file (RINEX, NMEA, CSV) cannot be read; names the file and the line."""
+
+    def __init__(self, path: str, line: int | None, message: str) -> None:
+        self.path = str(path)
+        self.line = line
+        where = f"{self.path}:{line}" if line is not None else self.path
+        super().__init__(f"{where}: {message}")
+
+
+class NumericalError(GnssFrameworkError, ArithmeticError):
+    """A numerical failure inside a filter.
+
+    Attributes
+    ----------
+    filter_name
+        Registry name of the filter that failed (``"ckf"``).
+    batch_indices
+        Index tuples of every failing batch element (first one is in the message).
+    step
+        Time step of :func:`gnssframework.filter_sequence` (``None`` for a lone call).
+    """
+
+    what = "numerical failure"
+
+    def __init__(
+        self,
+        filter_name: str,
+        batch_indices: Sequence[tuple[int, ...]],
+        step: int | None = None,
+        detail: str = "",
+    ) -> None:
+        self.filter_name = filter_name
+        self.batch_indices = [tuple(int(i) for i in b) for b in batch_indices]
+        self.step = step
+        self.detail = detail
+        super().__init__(self._message())
+
+    def _message(self) -> str:
+        first = self.batch_indices[0] if self.batch_indices else ()
+        more = len(self.batch_indices) - 1
+        where = f"batch element {first}" + (f" (and {more} more)" if more > 0 else "")
+        when = f", step {self.step}" if self.step is not None else ""
+        tail = f": {self.detail}" if self.detail else ""
+        return f"{self.filter_name}: {self.what} at {where}{when}{tail}"
+
+    def at_step(self, step: int) -> "NumericalError":
+        """Return a copy of this error that names the time step."""
+        return type(self)(self.filter_name, self.batch_indices, step, self.detail)
+
+
+class NotPositiveDefiniteError(NumericalError):
+    """A covariance (state or innovation) is not positive definite or not finite."""
+
+    what = "covariance is not positive definite"
+
+
+class InvalidMeasurementError(NumericalError):
+    """A measurement holds NaN or inf and was not declared missing."""
+
+    what = "measurement is NaN or inf"

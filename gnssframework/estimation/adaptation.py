@@ -1,0 +1,162 @@
+"""Interfaces of noise adapters and model augmentations, and the adapters' safeguards.
+
+A :class:`NoiseAdapter` re-estimates Q and/or R from a filter's innovations. The
+published recursions (Sage-Husa, windowed innovation matching, maximum likelihood Q)
+are unbiased only near convergence: run from a poorly initialised filter they return
+negative or exploding covariances, and a filter fed those diverges. Every built-in
+adapter therefore passes its raw estimate through the same :class:`Safeguards`:
+
+1. *warm-up*: no adaptation during the first ``warmup`` updates (the innovations of a
+   filter that has not converged say more about P0 than about R);
+2. *PSD projection*: the raw (instantaneous or windowed) estimate's negative
+   eigenvalues are set to zero;
+3. *relative bounds*: the result is clamped, in the Loewner order, between
+   ``floor`` and ``ceiling`` times the initial covariance, so it is always PD, finite
+   and of a sane magnitude.
+
+The defaults (``floor = 0.01``, ``ceiling = 100``) let R grow or shrink by a factor
+100, enough for any mis-tuning we have met and far from the numerical limits.
+"""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from pydantic import Field
+
+from ..plugin import Plugin, PluginParams
+from .linalg import clamp_relative, project_psd
+from .types import Gaussian, Model, Update
+
+__all__ = [
+    "AdaptationStep",
+    "AdapterRun",
+    "NoiseAdapter",
+    "SafeguardParams",
+    "Augmentation",
+    "AugmentedProblem",
+]
+
+
+@dataclass(frozen=True)
+class AdaptationStep:
+    """What an adapter sees after the update of step ``step``.
+
+    Attributes
+    ----------
+    previous
+        Posterior of step ``k-1`` (the state that was predicted).
+    prior
+        Prediction of step ``k`` (includes the Q used).
+    update
+        The update of step ``k``.
+    model
+        The model used at step ``k`` (its ``Q`` and ``R`` are the ones in force).
+    """
+
+    step: int
+    previous: Gaussian
+    prior: Gaussian
+    update: Update
+    model: Model
+
+    @property
+    def predicted_measurement_spread(self) -> np.ndarray:
+        """``S - R``: the spread of the predicted measurement alone (``H P H^T`` for a KF,
+        ``sum w_i (Z_i - z_hat)(Z_i - z_hat)^T`` for a sigma-point filter)."""
+        return self.update.innovation_cov - self.model.R
+
+    @property
+    def propagated_spread(self) -> np.ndarray:
+        """``P[k|k-1] - Q``: ``Phi P[k-1] Phi^T`` for a KF, its sigma-point analogue otherwise."""
+        return self.prior.cov - self.model.Q
+
+
+class SafeguardParams(PluginParams):
+    """Safeguards shared by every adapter (see the module docstring)."""
+
+    warmup: int = Field(10, ge=0, description="updates before adaptation starts")
+    floor: float = Field(0.01, gt=0, description="lower bound, times the initial covariance")
+    ceiling: float = Field(100.0, gt=1, description="upper bound, times the initial covariance")
+
+
+class AdapterRun(abc.ABC):
+    """Per-sequence state of an adapter; created by :meth:`NoiseAdapter.start`."""
+
+    def __init__(self, params: SafeguardParams, Q0: np.ndarray, R0: np.ndarray) -> None:
+        self.params = params
+        self.Q0 = np.asarray(Q0, dtype=float)
+        self.R0 = np.asarray(R0, dtype=float)
+        self.Q = self.Q0
+        self.R = self.R0
+        self.updates = 0
+
+    def guard(self, raw: np.ndarray, reference: np.ndarray) -> np.ndarray:
+        """PSD-project a raw estimate, then clamp it relative to ``reference``."""
+        return clamp_relative(project_psd(raw), reference, self.params.floor, self.params.ceiling)
+
+    def step(self, ctx: AdaptationStep) -> tuple[np.ndarray, np.ndarray]:
+        """Take step ``k``'s innovation; return the ``(Q, R)`` to use from step ``k+1``."""
+        self.updates += 1
+        Q, R = self.estimate(ctx)
+        if self.updates > self.params.warmup:
+            skipped = np.asarray(ctx.update.skipped)
+            # A skipped update carries no information: keep the old estimate there.
+            if Q is not None:
+                Q = self.guard(Q, self.Q0)
+                self.Q = np.where(skipped[..., None, None], self.Q, Q) if skipped.any() else Q
+            if R is not None:
+                R = self.guard(R, self.R0)
+                self.R = np.where(skipped[..., None, None], self.R, R) if skipped.any() else R
+        return self.Q, self.R
+
+    @abc.abstractmethod
+    def estimate(self, ctx: AdaptationStep) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """Raw (unguarded) estimates of Q and R after step ``ctx.step``; ``None`` for a
+        covariance this adapter does not estimate. Called every step, also during
+        warm-up, so that windows and recursions fill."""
+
+
+class NoiseAdapter(Plugin, abc.ABC):
+    """Plugin kind ``noise_adapter``: re-estimates Q and/or R from the innovations."""
+
+    kind = "noise_adapter"
+    Params = SafeguardParams
+
+    @abc.abstractmethod
+    def start(self, Q0: np.ndarray, R0: np.ndarray) -> AdapterRun:
+        """Begin adapting a sequence whose initial covariances are ``Q0`` and ``R0``."""
+
+
+@dataclass(frozen=True)
+class AugmentedProblem:
+    """A rewritten filtering problem.
+
+    Attributes
+    ----------
+    zs
+        Measurements to filter, ``(K', ..., m')``.
+    model_at
+        ``model_at(k)`` is the model of step ``k`` (it may depend on earlier
+        measurements, as the decorrelated colored-noise model does).
+    epochs
+        ``epochs[k]``: the index of the original epoch whose state the estimate of step
+        ``k`` refers to.
+    """
+
+    zs: np.ndarray
+    model_at: Callable[[int], Model]
+    epochs: np.ndarray
+
+
+class Augmentation(Plugin, abc.ABC):
+    """Plugin kind ``augmentation``: rewrites a model (and its measurements) before filtering."""
+
+    kind = "augmentation"
+
+    @abc.abstractmethod
+    def apply(self, model: Model, zs: np.ndarray) -> AugmentedProblem:
+        """Rewrite ``model`` and the measurement sequence ``zs`` ``(K, ..., m)``."""

@@ -1,0 +1,181 @@
+"""Base classes of the Gaussian filter engines (plugin kind ``estimator``).
+
+An engine only has to say how it computes the predicted moments; the measurement
+update is shared. Given the predicted measurement ``z_hat``, its covariance ``S`` (with
+R) and the state-measurement cross covariance ``C``, every Gaussian filter updates as
+
+.. math::
+
+    K = C S^{-1}, \\qquad x^+ = x^- + K (z - \\hat z), \\qquad P^+ = P^- - K S K^T
+
+(the linear KF overrides the covariance with the Joseph form). See Särkkä,
+*Bayesian Filtering and Smoothing* (2013), algorithm 5.x/9.x, for the general
+"Gaussian filter" view.
+"""
+
+from __future__ import annotations
+
+import abc
+from typing import Literal
+
+import numpy as np
+
+from ..errors import InvalidMeasurementError, NotPositiveDefiniteError
+from ..plugin import Plugin
+from .linalg import cholesky_masked, failing_indices, mat_vec, symmetrize
+from .types import Gaussian, Model, Update
+
+__all__ = ["Estimator", "SigmaPointEstimator", "OnFailure", "OnMissing"]
+
+OnFailure = Literal["raise", "skip", "symmetrize", "clip"]
+OnMissing = Literal["raise", "skip"]
+
+
+class Estimator(Plugin, abc.ABC):
+    """A batched Gaussian filter: ``predict`` and ``update`` on :class:`Gaussian` states."""
+
+    kind = "estimator"
+
+    # -- to implement -------------------------------------------------------------
+    @abc.abstractmethod
+    def predict(self, state: Gaussian, model: Model) -> Gaussian:
+        """Propagate ``state`` through the transition of ``model`` (adds Q)."""
+
+    @abc.abstractmethod
+    def measurement_moments(
+        self, prior: Gaussian, model: Model
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Return ``(z_hat, S, C)``: predicted measurement, its covariance with R, and
+        the state-measurement cross covariance."""
+
+    # -- shared -------------------------------------------------------------------
+    def posterior_cov(self, prior: Gaussian, gain: np.ndarray, S: np.ndarray, model: Model) -> np.ndarray:
+        """``P - K S K^T``, symmetrised. Engines may override (Joseph form)."""
+        return symmetrize(prior.cov - gain @ S @ np.swapaxes(gain, -1, -2))
+
+    def update(
+        self,
+        prior: Gaussian,
+        z: np.ndarray,
+        model: Model,
+        *,
+        on_failure: OnFailure = "raise",
+        missing: OnMissing = "raise",
+    ) -> Update:
+        """Measurement update of a batch of priors.
+
+        Parameters
+        ----------
+        prior
+            Predicted state, batch shape ``B``.
+        z
+            Measurements ``(..., m)`` broadcastable to ``B + (m,)``.
+        model
+            The model whose ``h`` and ``R`` apply.
+        on_failure
+            What to do where the innovation covariance is not positive definite:
+            ``"raise"`` a :class:`NotPositiveDefiniteError` naming the batch element,
+            or skip the update there (any other policy).
+        missing
+            ``"raise"`` an :class:`InvalidMeasurementError` on a NaN/inf measurement,
+            or ``"skip"`` the update of that element (a missing measurement).
+        """
+        z = np.asarray(z, dtype=float)
+        batch = np.broadcast_shapes(prior.batch_shape, z.shape[:-1])
+        if prior.batch_shape != batch:
+            prior = Gaussian(np.broadcast_to(prior.mean, batch + prior.mean.shape[-1:]), prior.cov)
+        z = np.broadcast_to(z, batch + z.shape[-1:])
+
+        bad_z = ~np.isfinite(z).all(axis=-1)
+        if bad_z.any():
+            if missing != "skip":
+                raise InvalidMeasurementError(self.name, failing_indices(~bad_z))
+        z_hat, S, C = self.measurement_moments(prior, model)
+        L, ok = cholesky_masked(S)
+        skip = bad_z | ~ok
+        if not ok.all() and on_failure == "raise":
+            raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
+        if skip.any():
+            eye = np.eye(S.shape[-1])
+            S_safe = np.where(skip[..., None, None], eye, S)
+            z = np.where(skip[..., None], z_hat, z)
+        else:
+            S_safe = S
+        # K^T = S^{-1} C^T: one batched solve, S symmetric.
+        gain = np.swapaxes(np.linalg.solve(S_safe, np.swapaxes(C, -1, -2)), -1, -2)
+        innovation = z - z_hat
+        mean = prior.mean + mat_vec(gain, innovation)
+        cov = self.posterior_cov(prior, gain, S_safe, model)
+        if skip.any():
+            mean = np.where(skip[..., None], prior.mean, mean)
+            cov = np.where(skip[..., None, None], prior.cov, cov)
+        return Update(
+            state=Gaussian(mean, cov),
+            innovation=innovation,
+            innovation_cov=S,
+            gain=gain,
+            cross_cov=C,
+            predicted_measurement=z_hat,
+            skipped=skip,
+        )
+
+
+class SigmaPointEstimator(Estimator):
+    """A filter that propagates a deterministic set of sigma points.
+
+    Subclasses give the point rule through :meth:`sigma_points`. The points carry
+    their index on the *first* axis, ``(N, ..., n)``, so model functions broadcast
+    per-element parameters naturally. The update redraws points from the prior
+    (it does not reuse the propagated ones), which is what makes every rule exact
+    on linear models.
+    """
+
+    @abc.abstractmethod
+    def sigma_points(self, state: Gaussian) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Return ``(X, wm, wc)``: points ``(N, ..., n)``, mean and covariance weights ``(N,)``."""
+
+    def square_root(self, cov: np.ndarray) -> np.ndarray:
+        """Matrix square root ``S`` with ``S S^T = P`` (lower Cholesky by default).
+
+        Raises
+        ------
+        NotPositiveDefiniteError
+            Naming this filter and the batch elements whose P is not PD.
+        """
+        L, ok = cholesky_masked(cov)
+        if not ok.all():
+            raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="state covariance P (Cholesky)")
+        return L
+
+    @staticmethod
+    def _moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted mean and deviations of transformed points ``(N, ..., p)``."""
+        mean = np.tensordot(wm, Y, axes=(0, 0))
+        return mean, Y - mean
+
+    @staticmethod
+    def _weighted_cov(dA: np.ndarray, dB: np.ndarray, wc: np.ndarray) -> np.ndarray:
+        """``sum_i wc_i dA_i dB_i^T`` over the first axis, batched."""
+        # (..., a, N) @ (..., N, b): one batched matmul, no Python loop over points.
+        return (np.moveaxis(dA, 0, -1) * wc) @ np.moveaxis(dB, 0, -2)
+
+    def predict(self, state: Gaussian, model: Model) -> Gaussian:
+        X, wm, wc = self.sigma_points(state)
+        Y = model.f(X)
+        mean, dY = self._moments(Y, wm, wc)
+        cov = symmetrize(self._weighted_cov(dY, dY, wc) + model.Q)
+        return Gaussian(mean, cov)
+
+    def measurement_moments(self, prior: Gaussian, model: Model):
+        X, wm, wc = self.sigma_points(prior)
+        Z = model.h(X)
+        z_hat, dZ = self._moments(Z, wm, wc)
+        S = symmetrize(self._weighted_cov(dZ, dZ, wc) + model.R)
+        C = self._weighted_cov(X - prior.mean, dZ, wc)
+        return z_hat, S, C
+
+    @staticmethod
+    def _scaled_points(mean: np.ndarray, sqrt_cov: np.ndarray, scale: float) -> np.ndarray:
+        """``[m, m + scale*S_i, m - scale*S_i]`` with ``S_i`` the columns of the root."""
+        cols = np.moveaxis(sqrt_cov, -1, 0) * scale  # (n, ..., n)
+        return np.concatenate([mean[None], mean + cols, mean - cols], axis=0)

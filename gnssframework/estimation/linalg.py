@@ -1,0 +1,122 @@
+"""Batched linear algebra that reports *which* batch element failed.
+
+numpy's batched ``cholesky`` raises one ``LinAlgError`` for a whole stack of matrices;
+a filter that runs 8000 Monte Carlo runs at once must say which one broke. These
+helpers return a boolean ``ok`` mask over the batch instead of raising, and the caller
+turns a False into a named :class:`~gnssframework.errors.NumericalError`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "symmetrize",
+    "cholesky_masked",
+    "is_positive_definite",
+    "clip_eigenvalues",
+    "project_psd",
+    "clamp_relative",
+    "failing_indices",
+    "mat_vec",
+    "outer",
+]
+
+
+def symmetrize(a: np.ndarray) -> np.ndarray:
+    """Return ``(A + A^T) / 2`` over the last two axes."""
+    return 0.5 * (a + np.swapaxes(a, -1, -2))
+
+
+def mat_vec(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Batched ``A @ x`` for matrices ``(..., p, q)`` and vectors ``(..., q)``."""
+    return (a @ x[..., None])[..., 0]
+
+
+def outer(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Batched outer product ``a b^T`` of ``(..., p)`` and ``(..., q)``."""
+    return a[..., :, None] * b[..., None, :]
+
+
+def cholesky_masked(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower Cholesky factor of every matrix in a stack, with a success mask.
+
+    Parameters
+    ----------
+    a
+        Symmetric matrices, shape ``(..., n, n)``. Only the lower triangle is read.
+
+    Returns
+    -------
+    L
+        Lower factors ``(..., n, n)``; identity where the factorisation failed.
+    ok
+        Boolean ``(...)``: True where ``a`` is finite and positive definite.
+    """
+    a = np.asarray(a, dtype=float)
+    finite = np.isfinite(a).all(axis=(-2, -1))
+    if finite.all():
+        try:
+            return np.linalg.cholesky(a), np.ones(a.shape[:-2], dtype=bool)
+        except np.linalg.LinAlgError:
+            pass
+    # Slow path, only taken on failure: find the bad elements, factor the rest.
+    eye = np.broadcast_to(np.eye(a.shape[-1]), a.shape)
+    ok = finite.copy()
+    safe = np.where(ok[..., None, None], a, eye)
+    ok &= np.linalg.eigvalsh(safe).min(axis=-1) > 0
+    safe = np.where(ok[..., None, None], safe, eye)
+    L = np.empty_like(safe)
+    flat_L = L.reshape(-1, *a.shape[-2:])
+    flat_ok = ok.reshape(-1)
+    for i, m in enumerate(safe.reshape(-1, *a.shape[-2:])):  # failure path only
+        try:
+            flat_L[i] = np.linalg.cholesky(m)
+        except np.linalg.LinAlgError:
+            flat_L[i] = np.eye(a.shape[-1])
+            flat_ok[i] = False
+    return L, ok
+
+
+def is_positive_definite(a: np.ndarray) -> np.ndarray:
+    """Boolean mask over the batch: finite and positive definite."""
+    return cholesky_masked(a)[1]
+
+
+def failing_indices(ok: np.ndarray) -> list[tuple[int, ...]]:
+    """Index tuples of the False entries of a batch mask (``[()]`` for a scalar)."""
+    ok = np.asarray(ok)
+    if ok.ndim == 0:
+        return [] if ok else [()]
+    return [tuple(int(i) for i in idx) for idx in zip(*np.nonzero(~ok))]
+
+
+def clip_eigenvalues(a: np.ndarray, floor: float | np.ndarray) -> np.ndarray:
+    """Symmetrise and raise every eigenvalue to at least ``floor``.
+
+    ``floor`` broadcasts over the batch; it is an absolute value in the units of ``a``.
+    """
+    w, v = np.linalg.eigh(symmetrize(a))
+    w = np.maximum(w, np.asarray(floor)[..., None])
+    return (v * w[..., None, :]) @ np.swapaxes(v, -1, -2)
+
+
+def project_psd(a: np.ndarray) -> np.ndarray:
+    """Nearest (Frobenius) positive semi-definite matrix: negative eigenvalues set to 0."""
+    return clip_eigenvalues(a, 0.0)
+
+
+def clamp_relative(a: np.ndarray, reference: np.ndarray, floor: float, ceiling: float) -> np.ndarray:
+    """Clamp ``a`` between ``floor * reference`` and ``ceiling * reference``.
+
+    The bounds hold in the Loewner order: with ``reference = L L^T``, the eigenvalues of
+    ``L^{-1} a L^{-T}`` are clipped to ``[floor, ceiling]``. This keeps an adapted noise
+    covariance PD, finite and of the right order of magnitude whatever its shape.
+    """
+    L = np.linalg.cholesky(reference)
+    Linv = np.linalg.inv(L)
+    white = Linv @ a @ np.swapaxes(Linv, -1, -2)
+    w, v = np.linalg.eigh(symmetrize(white))
+    w = np.clip(w, floor, ceiling)
+    white = (v * w[..., None, :]) @ np.swapaxes(v, -1, -2)
+    return symmetrize(L @ white @ np.swapaxes(L, -1, -2))

@@ -1,0 +1,60 @@
+"""Hook specifications: one ``register_<kind>(register)`` hook per plugin kind.
+
+A plugin module implements the hooks for the kinds it provides and calls ``register``
+with each plugin class::
+
+    from gnssframework import hookimpl
+
+    @hookimpl
+    def register_estimator(register):
+        register(MyFilter)
+
+and points the ``gnssframework`` entry-point group at that module in its
+``pyproject.toml``. The built-in plugins do exactly this.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import pluggy
+
+__all__ = ["hookspec", "hookimpl", "KINDS"]
+
+hookspec = pluggy.HookspecMarker("gnssframework")
+hookimpl = pluggy.HookimplMarker("gnssframework")
+
+Register = Callable[[type], None]
+
+#: Every plugin kind, in the order the CLI lists them.
+KINDS = ("estimator", "noise_adapter", "augmentation", "discriminator", "channel_filter", "nav_filter")
+
+
+@hookspec
+def register_estimator(register: Register) -> None:
+    """Register Gaussian filter engines (subclasses of ``Estimator``)."""
+
+
+@hookspec
+def register_noise_adapter(register: Register) -> None:
+    """Register Q/R adapters (subclasses of ``NoiseAdapter``)."""
+
+
+@hookspec
+def register_augmentation(register: Register) -> None:
+    """Register model rewrites (subclasses of ``Augmentation``)."""
+
+
+@hookspec
+def register_discriminator(register: Register) -> None:
+    """Register correlator discriminators (subclasses of ``Discriminator``)."""
+
+
+@hookspec
+def register_channel_filter(register: Register) -> None:
+    """Register per-channel filters (subclasses of ``ChannelFilter``)."""
+
+
+@hookspec
+def register_nav_filter(register: Register) -> None:
+    """Register navigation filters (subclasses of ``NavFilter``)."""

@@ -1,0 +1,101 @@
+"""Abstract interfaces of the GNSS plugin kinds.
+
+The estimation kinds (``Estimator``, ``NoiseAdapter``, ``Augmentation``) live in
+:mod:`gnssframework.estimation`, which knows nothing of GNSS. These three compose them
+into a receiver:
+
+- a :class:`Discriminator` turns correlators into a code, frequency or phase error;
+- a :class:`ChannelFilter` processes one channel's correlators or observables per
+  epoch (batched over channels and runs);
+- a :class:`NavFilter` fuses every channel and returns the navigation state and the
+  NCO commands of the next epoch.
+
+Channel and navigation filters declare the named quantities they ``provides`` and
+``requires``, so a configuration that feeds a nav filter from a channel filter whose
+outputs it cannot use is refused before anything runs.
+"""
+
+from __future__ import annotations
+
+import abc
+from typing import Any, ClassVar, Mapping
+
+import numpy as np
+from pydantic import Field
+
+from .plugin import Plugin, PluginParams
+from .signal.correlators import Correlators
+
+__all__ = ["Discriminator", "DiscriminatorParams", "ChannelFilter", "NavFilter"]
+
+
+class DiscriminatorParams(PluginParams):
+    """Parameters every discriminator takes."""
+
+    coherent_time_s: float = Field(0.001, gt=0, le=0.1, description="coherent integration time T")
+
+
+class Discriminator(Plugin, abc.ABC):
+    """Plugin kind ``discriminator``: correlators -> an error in physical units.
+
+    Discriminators have unit slope in their linear region: for a small true error e,
+    the output is e plus noise. ``unit`` is ``"chips"``, ``"Hz"`` or ``"rad"``.
+    """
+
+    kind = "discriminator"
+    unit: ClassVar[str] = ""
+    Params = DiscriminatorParams
+    #: True for frequency discriminators, which need the previous prompt.
+    needs_previous: ClassVar[bool] = False
+
+    @abc.abstractmethod
+    def __call__(self, current: Correlators, previous: Correlators | None = None) -> np.ndarray:
+        """The error estimate, shape ``current.shape``."""
+
+    @abc.abstractmethod
+    def noise_variance(self, cn0_dbhz: float | np.ndarray) -> np.ndarray:
+        """Thermal-noise variance of one output (``unit``^2) at the given C/N0."""
+
+
+class ChannelFilter(Plugin, abc.ABC):
+    """Plugin kind ``channel_filter``: per-channel processing, batch-first.
+
+    A channel filter is stateful over one sequence: :meth:`reset` starts it for a
+    batch, :meth:`step` takes one epoch's inputs (named arrays, e.g. ``"correlators"``
+    or ``"pseudorange_m"``) and returns named outputs (e.g. ``"code_error_chips"``).
+    """
+
+    kind = "channel_filter"
+    #: Names of the inputs :meth:`step` needs.
+    requires: ClassVar[tuple[str, ...]] = ()
+    #: Names of the outputs :meth:`step` returns.
+    provides: ClassVar[tuple[str, ...]] = ()
+
+    @abc.abstractmethod
+    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
+        """Start a new sequence for ``batch_shape`` channels/runs."""
+
+    @abc.abstractmethod
+    def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Process one epoch."""
+
+
+class NavFilter(Plugin, abc.ABC):
+    """Plugin kind ``nav_filter``: fuses channel outputs into a navigation state.
+
+    :meth:`step` takes the channel filters' outputs (stacked over channels on the last
+    batch axis) and returns the navigation state and the per-channel NCO commands for
+    the next epoch.
+    """
+
+    kind = "nav_filter"
+    requires: ClassVar[tuple[str, ...]] = ()
+    provides: ClassVar[tuple[str, ...]] = ()
+
+    @abc.abstractmethod
+    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
+        """Start a new sequence."""
+
+    @abc.abstractmethod
+    def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Fuse one epoch of channel outputs."""

@@ -1,0 +1,223 @@
+"""The plugin registry.
+
+Plugins are discovered through the ``gnssframework`` entry-point group (the built-ins
+too) and register their classes with pluggy hooks ``register_<kind>(register)``::
+
+    import gnssframework as gf
+    gf.registry.kinds()                       # ["augmentation", "channel_filter", ...]
+    gf.registry.names("estimator")            # ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
+    ukf = gf.registry.create("estimator", "ukf", alpha=0.01, beta=2.0, kappa=0.0)
+
+Loading is robust: a plugin that fails to import or to register is recorded in
+:func:`failures` (distribution, entry point, exception) and the others still load.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib.metadata as md
+import threading
+import types
+from dataclasses import dataclass
+from typing import Any
+
+import pluggy
+
+from . import hookspecs
+from .errors import ConfigError, PluginError
+from .estimation.adaptation import Augmentation, NoiseAdapter
+from .estimation.estimator import Estimator
+from .interfaces import ChannelFilter, Discriminator, NavFilter
+from .plugin import Plugin
+
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "PluginInfo",
+    "LoadFailure",
+    "kinds",
+    "names",
+    "get",
+    "create",
+    "describe",
+    "failures",
+    "register_module",
+    "reload",
+]
+
+ENTRY_POINT_GROUP = "gnssframework"
+
+BASES: dict[str, type[Plugin]] = {
+    "estimator": Estimator,
+    "noise_adapter": NoiseAdapter,
+    "augmentation": Augmentation,
+    "discriminator": Discriminator,
+    "channel_filter": ChannelFilter,
+    "nav_filter": NavFilter,
+}
+
+
+@dataclass(frozen=True)
+class PluginInfo:
+    """What ``gnssframework plugins`` lists for one plugin."""
+
+    kind: str
+    name: str
+    description: str
+    distribution: str
+    version: str
+    cls: type
+
+
+@dataclass(frozen=True)
+class LoadFailure:
+    """A plugin that could not be loaded or registered."""
+
+    distribution: str
+    entry_point: str
+    error: str
+
+    def __str__(self) -> str:
+        return f"{self.distribution} (entry point {self.entry_point!r}): {self.error}"
+
+
+class _Registry:
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._loaded = False
+        self._plugins: dict[str, dict[str, PluginInfo]] = {k: {} for k in hookspecs.KINDS}
+        self._failures: list[LoadFailure] = []
+        self._pm = pluggy.PluginManager(ENTRY_POINT_GROUP)
+        self._pm.add_hookspecs(hookspecs)
+        self._sources: dict[str, tuple[str, str]] = {}
+
+    # -- loading --------------------------------------------------------------------
+    def ensure_loaded(self) -> None:
+        if self._loaded:
+            return
+        with self._lock:
+            if self._loaded:
+                return
+            for ep in md.entry_points(group=ENTRY_POINT_GROUP):
+                dist = ep.dist.name if ep.dist is not None else "unknown"
+                version = ep.dist.version if ep.dist is not None else ""
+                try:
+                    module = ep.load()
+                    self._add_module(module, ep.name, dist, version)
+                except Exception as exc:  # noqa: BLE001 - any plugin error must not stop the rest
+                    self._failures.append(LoadFailure(dist, ep.name, f"{type(exc).__name__}: {exc}"))
+            self._loaded = True
+
+    def _add_module(self, module: Any, ep_name: str, dist: str, version: str) -> None:
+        plugin_name = f"{dist}:{ep_name}"
+        if self._pm.is_registered(module) or self._pm.has_plugin(plugin_name):
+            return
+        self._pm.register(module, name=plugin_name)
+        self._sources[plugin_name] = (dist, version)
+        for kind in hookspecs.KINDS:
+            caller = getattr(self._pm.hook, f"register_{kind}")
+            for impl in caller.get_hookimpls():
+                if impl.plugin_name != plugin_name:
+                    continue
+                try:
+                    impl.function(register=lambda cls, _k=kind: self._add(_k, cls, dist, version))
+                except Exception as exc:  # noqa: BLE001
+                    self._failures.append(
+                        LoadFailure(dist, ep_name, f"register_{kind} failed: {type(exc).__name__}: {exc}")
+                    )
+
+    def _add(self, kind: str, cls: type, dist: str, version: str) -> None:
+        base = BASES[kind]
+        if not (isinstance(cls, type) and issubclass(cls, base)):
+            raise PluginError(f"{cls!r} registered as {kind} is not a subclass of {base.__name__}")
+        if not cls.name:
+            raise PluginError(f"{cls.__name__} registered as {kind} has no `name`")
+        known = self._plugins[kind].get(cls.name)
+        if known is not None and known.cls is not cls:
+            raise PluginError(f"{kind} {cls.name!r} is already registered by {known.distribution}")
+        self._plugins[kind][cls.name] = PluginInfo(
+            kind, cls.name, cls.description.strip().splitlines()[0] if cls.description else "", dist, version, cls
+        )
+
+    # -- queries --------------------------------------------------------------------
+    def check_kind(self, kind: str) -> None:
+        if kind not in self._plugins:
+            raise ConfigError("kind", f"unknown plugin kind {kind!r}; allowed: {', '.join(sorted(self._plugins))}")
+
+    def get(self, kind: str, name: str) -> type:
+        self.ensure_loaded()
+        self.check_kind(kind)
+        try:
+            return self._plugins[kind][name].cls
+        except KeyError:
+            known = sorted(self._plugins[kind])
+            close = difflib.get_close_matches(str(name), known, n=1, cutoff=0.4)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ConfigError(
+                kind, f"unknown {kind} {name!r}; known: {', '.join(known) or '(none)'}{hint}"
+            ) from None
+
+
+_REGISTRY = _Registry()
+
+
+def kinds() -> list[str]:
+    """The plugin kinds, sorted."""
+    return sorted(hookspecs.KINDS)
+
+
+def names(kind: str) -> list[str]:
+    """Registered plugin names of ``kind``, sorted."""
+    _REGISTRY.ensure_loaded()
+    _REGISTRY.check_kind(kind)
+    return sorted(_REGISTRY._plugins[kind])
+
+
+def get(kind: str, name: str) -> type:
+    """The plugin class registered as ``kind`` / ``name``.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown kind or name, listing the known ones and the closest match.
+    """
+    return _REGISTRY.get(kind, name)
+
+
+def create(kind: str, name: str, **params: Any) -> Any:
+    """Instantiate a plugin, validating ``params`` with its pydantic model.
+
+    Raises
+    ------
+    ConfigError
+        Unknown kind or name (with the known names and the closest one), or a bad
+        parameter (naming it and what it allows).
+    """
+    return get(kind, name)(**params)
+
+
+def describe() -> list[PluginInfo]:
+    """Every registered plugin, sorted by kind then name."""
+    _REGISTRY.ensure_loaded()
+    return [info for kind in kinds() for _, info in sorted(_REGISTRY._plugins[kind].items())]
+
+
+def failures() -> list[LoadFailure]:
+    """Plugins that failed to import or register."""
+    _REGISTRY.ensure_loaded()
+    return list(_REGISTRY._failures)
+
+
+def register_module(module: types.ModuleType | Any, name: str | None = None, distribution: str = "local") -> None:
+    """Register a plugin module (or object with hook implementations) at run time.
+
+    Useful in notebooks and tests; packages should use the entry-point group instead.
+    """
+    _REGISTRY.ensure_loaded()
+    with _REGISTRY._lock:
+        _REGISTRY._add_module(module, name or getattr(module, "__name__", repr(module)), distribution, "")
+
+
+def reload() -> None:
+    """Forget everything and rediscover the entry points (after installing a plugin)."""
+    global _REGISTRY
+    _REGISTRY = _Registry()

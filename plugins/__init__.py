@@ -1,0 +1,37 @@
+"""gnssframework's built-in plugins.
+
+This package is registered through the ``gnssframework`` entry-point group in
+``pyproject.toml``, exactly like a third-party plugin: the core never imports it.
+"""
+
+from __future__ import annotations
+
+from gnssframework import hookimpl
+
+from .adapters import InnovationAdapter, MaximumLikelihoodQAdapter, SageHusaAdapter
+from .augmentations import ColoredAR1
+from .estimators import (
+    CubatureKalmanFilter,
+    ExtendedKalmanFilter,
+    KalmanFilter,
+    SvdCubatureKalmanFilter,
+    UnscentedKalmanFilter,
+)
+
+
+@hookimpl
+def register_estimator(register):
+    for cls in (KalmanFilter, ExtendedKalmanFilter, UnscentedKalmanFilter, CubatureKalmanFilter,
+                SvdCubatureKalmanFilter):
+        register(cls)
+
+
+@hookimpl
+def register_noise_adapter(register):
+    for cls in (InnovationAdapter, SageHusaAdapter, MaximumLikelihoodQAdapter):
+        register(cls)
+
+
+@hookimpl
+def register_augmentation(register):
+    register(ColoredAR1)

@@ -1,0 +1,179 @@
+"""Built-in noise adapters: ``innovation``, ``sage-husa``, ``ml-q``.
+
+All share the safeguards of :mod:`gnssframework.estimation.adaptation` (warm-up, PSD
+projection, bounds relative to the initial covariance).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Literal
+
+import numpy as np
+from pydantic import Field
+
+from gnssframework.estimation import AdaptationStep, AdapterRun, NoiseAdapter, SafeguardParams
+from gnssframework.estimation.linalg import outer
+
+__all__ = ["InnovationAdapter", "SageHusaAdapter", "MaximumLikelihoodQAdapter"]
+
+
+class _Window:
+    """Running mean of the last ``size`` arrays (O(1) per step, batch-first)."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self.items: deque[np.ndarray] = deque()
+        self.total: np.ndarray | float = 0.0
+
+    def push(self, item: np.ndarray) -> np.ndarray:
+        self.items.append(item)
+        self.total = self.total + item
+        if len(self.items) > self.size:
+            self.total = self.total - self.items.popleft()
+        return self.total / len(self.items)
+
+
+# -- innovation (reference 000, eq. 31) --------------------------------------------
+
+
+class InnovationParams(SafeguardParams):
+    window: int = Field(20, ge=2, description="number L of innovations averaged")
+
+
+class _InnovationRun(AdapterRun):
+    def __init__(self, params: InnovationParams, Q0, R0) -> None:
+        super().__init__(params, Q0, R0)
+        self.window = _Window(params.window)
+
+    def estimate(self, ctx: AdaptationStep):
+        v = ctx.update.innovation
+        mean_vv = self.window.push(outer(v, v))
+        return None, mean_vv - ctx.predicted_measurement_spread
+
+
+class InnovationAdapter(NoiseAdapter):
+    r"""Windowed innovation-based estimate of R (reference 000, eq. 31).
+
+    .. math::
+
+        \hat R_k = \frac{1}{L} \sum_{j=k-L+1}^{k} v_j v_j^T
+                  - \Big(\sum_i W_i (Z_i - \hat z)(Z_i - \hat z)^T\Big)_k
+
+    The bracket is the spread of the predicted measurement (``S - R``; ``H P H^T`` for
+    a KF). The paper writes it with the equal cubature weights 1/m.
+    """
+
+    name = "innovation"
+    description = "Windowed innovation-matching estimate of R (reference 000, eq. 31)"
+    Params = InnovationParams
+
+    def start(self, Q0, R0) -> AdapterRun:
+        return _InnovationRun(self.params, Q0, R0)
+
+
+# -- Sage-Husa (classic; improved of reference 004) ---------------------------------
+
+
+class SageHusaParams(SafeguardParams):
+    variant: Literal["classic", "improved"] = Field("improved", description="recursion")
+    estimate_q: bool = Field(True, description="adapt Q")
+    estimate_r: bool = Field(True, description="adapt R")
+    b: float = Field(0.97, gt=0, lt=1, description="forgetting factor of the classic variant")
+    alpha_r: float = Field(0.5, ge=0, le=1, description="weight of the current R estimate (improved)")
+    alpha_q: float = Field(0.5, ge=0, le=1, description="weight of the current Q estimate (improved)")
+
+
+class _SageHusaRun(AdapterRun):
+    params: SageHusaParams
+
+    def estimate(self, ctx: AdaptationStep):
+        p = self.params
+        e = ctx.update.innovation
+        K = ctx.update.gain
+        r_inst = outer(e, e) - ctx.predicted_measurement_spread
+        Ke = (K @ e[..., None])[..., 0]
+        q_inst = outer(Ke, Ke) + ctx.update.state.cov - ctx.propagated_spread
+        if p.variant == "classic":
+            d = (1.0 - p.b) / (1.0 - p.b ** (ctx.step + 1))
+            R = (1.0 - d) * self.R + d * r_inst
+            Q = (1.0 - d) * self.Q + d * q_inst
+        else:
+            R = (1.0 - p.alpha_r) * self.R0 + p.alpha_r * r_inst
+            Q = (1.0 - p.alpha_q) * self.Q0 + p.alpha_q * q_inst
+        on_r = p.estimate_r and (p.variant == "classic" or p.alpha_r > 0)
+        on_q = p.estimate_q and (p.variant == "classic" or p.alpha_q > 0)
+        return (Q if on_q else None), (R if on_r else None)
+
+
+class SageHusaAdapter(NoiseAdapter):
+    r"""Sage-Husa adaptive estimation of R and Q.
+
+    ``variant="classic"`` (Sage & Husa 1969), forgetting factor b,
+    :math:`d_k = (1-b)/(1-b^{k+1})`:
+
+    .. math::
+
+        R_k = (1-d_k) R_{k-1} + d_k (e_k e_k^T - H P_{k|k-1} H^T) \\
+        Q_k = (1-d_k) Q_{k-1} + d_k (K_k e_k e_k^T K_k^T + P_k - \Phi P_{k-1} \Phi^T)
+
+    ``variant="improved"`` (reference 004, "adaptive UKF with colored noise",
+    eqs. 28-29): a convex combination of the *initial* covariance and the current
+    instantaneous estimate, weights ``alpha_r`` and ``alpha_q`` (0 switches that side
+    off):
+
+    .. math::
+
+        R_k = (1-\alpha_1) R_0 + \alpha_1 (e_k e_k^T - H P_{k|k-1} H^T) \\
+        Q_k = (1-\alpha_2) Q_0 + \alpha_2 (K_k e_k e_k^T K_k^T + P_k - \Phi P_{k-1} \Phi^T)
+
+    For sigma-point filters :math:`H P H^T` is the predicted-measurement spread
+    ``S - R`` and :math:`\Phi P \Phi^T` the propagated spread ``P[k|k-1] - Q``.
+    Simultaneous Q and R estimation is not identifiable in general: set
+    ``estimate_q=False`` to learn R alone.
+    """
+
+    name = "sage-husa"
+    description = "Sage-Husa Q/R estimation, classic (forgetting factor) or improved (reference 004)"
+    Params = SageHusaParams
+
+    def start(self, Q0, R0) -> AdapterRun:
+        return _SageHusaRun(self.params, Q0, R0)
+
+
+# -- maximum-likelihood Q (reference 001) ------------------------------------------
+
+
+class MlQParams(SafeguardParams):
+    window: int = Field(20, ge=2, description="number N of state corrections averaged")
+
+
+class _MlQRun(AdapterRun):
+    def __init__(self, params: MlQParams, Q0, R0) -> None:
+        super().__init__(params, Q0, R0)
+        self.window = _Window(params.window)
+
+    def estimate(self, ctx: AdaptationStep):
+        dx = (ctx.update.gain @ ctx.update.innovation[..., None])[..., 0]
+        mean_dxdx = self.window.push(outer(dx, dx))
+        return mean_dxdx + ctx.update.state.cov - ctx.propagated_spread, None
+
+
+class MaximumLikelihoodQAdapter(NoiseAdapter):
+    r"""Windowed maximum-likelihood estimate of Q (Mohamed & Schwarz, J. Geodesy 1999).
+
+    .. math::
+
+        \hat Q_k = \frac{1}{N} \sum_{j=k-N+1}^{k} \Delta x_j \Delta x_j^T
+                   + P_k - \Phi P_{k-1} \Phi^T, \qquad \Delta x_j = K_j v_j
+
+    Reference 001 (adaptive carrier-smoothed code) uses it with R fixed; the formula is
+    the standard one its text lost.
+    """
+
+    name = "ml-q"
+    description = "Windowed maximum-likelihood estimate of Q (reference 001)"
+    Params = MlQParams
+
+    def start(self, Q0, R0) -> AdapterRun:
+        return _MlQRun(self.params, Q0, R0)

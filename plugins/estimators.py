@@ -1,0 +1,186 @@
+"""Built-in Gaussian filter engines: ``kf``, ``ekf``, ``ukf``, ``ckf``, ``svd-ckf``."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from pydantic import Field
+
+from gnssframework.errors import ConfigError, NotPositiveDefiniteError
+from gnssframework.estimation import Estimator, Gaussian, LinearModel, SigmaPointEstimator
+from gnssframework.estimation.linalg import failing_indices, mat_vec, symmetrize
+from gnssframework.plugin import PluginParams
+
+__all__ = [
+    "KalmanFilter",
+    "ExtendedKalmanFilter",
+    "UnscentedKalmanFilter",
+    "CubatureKalmanFilter",
+    "SvdCubatureKalmanFilter",
+]
+
+
+def _transpose(a: np.ndarray) -> np.ndarray:
+    return np.swapaxes(a, -1, -2)
+
+
+class KalmanFilter(Estimator):
+    r"""The linear Kalman filter (Kalman 1960) on a :class:`LinearModel`.
+
+    .. math::
+
+        x^- = F x + u, \quad P^- = F P F^T + Q, \\
+        S = H P^- H^T + R, \quad K = P^- H^T S^{-1}, \\
+        x^+ = x^- + K (z - H x^-), \quad
+        P^+ = (I - K H) P^- (I - K H)^T + K R K^T
+
+    The covariance update is Joseph's form, which stays symmetric PSD under rounding
+    for any gain.
+    """
+
+    name = "kf"
+    description = "Linear Kalman filter (Joseph-form covariance update)"
+
+    def _require_linear(self, model) -> LinearModel:
+        if not isinstance(model, LinearModel):
+            raise ConfigError("model", f"{self.name} needs a LinearModel; use 'ekf' or a sigma-point filter")
+        return model
+
+    def predict(self, state: Gaussian, model) -> Gaussian:
+        model = self._require_linear(model)
+        F = model.F
+        return Gaussian(model.f(state.mean), symmetrize(F @ state.cov @ _transpose(F) + model.Q))
+
+    def measurement_moments(self, prior: Gaussian, model):
+        model = self._require_linear(model)
+        H = model.H
+        C = prior.cov @ _transpose(H)
+        return mat_vec(H, prior.mean), symmetrize(H @ C + model.R), C
+
+    def posterior_cov(self, prior, gain, S, model) -> np.ndarray:
+        IKH = np.eye(prior.ndim_state) - gain @ model.H
+        return symmetrize(IKH @ prior.cov @ _transpose(IKH) + gain @ model.R @ _transpose(gain))
+
+
+class ExtendedKalmanFilter(Estimator):
+    r"""Extended Kalman filter: linearise ``f`` and ``h`` at the current mean.
+
+    .. math::
+
+        x^- = f(x), \quad P^- = F P F^T + Q, \quad F = \partial f / \partial x |_{x} \\
+        \hat z = h(x^-), \quad S = H P^- H^T + R, \quad C = P^- H^T, \quad
+        H = \partial h / \partial x |_{x^-}
+
+    Jacobians come from the model (analytic when given, central differences
+    otherwise). On a :class:`LinearModel` it is the Kalman filter.
+    """
+
+    name = "ekf"
+    description = "Extended Kalman filter (analytic or central-difference Jacobians)"
+
+    def predict(self, state: Gaussian, model) -> Gaussian:
+        F = model.jacobian_f(state.mean)
+        return Gaussian(model.f(state.mean), symmetrize(F @ state.cov @ _transpose(F) + model.Q))
+
+    def measurement_moments(self, prior: Gaussian, model):
+        H = model.jacobian_h(prior.mean)
+        C = prior.cov @ _transpose(H)
+        return model.h(prior.mean), symmetrize(H @ C + model.R), C
+
+
+class UnscentedParams(PluginParams):
+    alpha: float = Field(1e-3, gt=0, le=1, description="spread of the points around the mean")
+    beta: float = Field(2.0, ge=0, description="prior knowledge of the distribution (2 is optimal for Gaussians)")
+    kappa: float = Field(0.0, description="secondary scaling; n + kappa must stay positive")
+
+
+@lru_cache(maxsize=64)
+def _merwe_weights(n: int, alpha: float, beta: float, kappa: float) -> tuple[float, np.ndarray, np.ndarray]:
+    lam = alpha**2 * (n + kappa) - n
+    c = n + lam
+    wm = np.full(2 * n + 1, 1.0 / (2.0 * c))
+    wc = wm.copy()
+    wm[0] = lam / c
+    wc[0] = lam / c + 1.0 - alpha**2 + beta
+    wm.setflags(write=False)
+    wc.setflags(write=False)
+    return float(np.sqrt(c)), wm, wc
+
+
+class UnscentedKalmanFilter(SigmaPointEstimator):
+    r"""Unscented Kalman filter with van der Merwe's scaled sigma points.
+
+    With :math:`\lambda = \alpha^2 (n + \kappa) - n` the 2n+1 points are
+    :math:`x` and :math:`x \pm \sqrt{n+\lambda}\, S_i` (columns of the Cholesky root of
+    P), with weights
+
+    .. math::
+
+        W_0^m = \frac{\lambda}{n+\lambda}, \quad
+        W_0^c = \frac{\lambda}{n+\lambda} + 1 - \alpha^2 + \beta, \quad
+        W_i^m = W_i^c = \frac{1}{2(n+\lambda)}
+
+    (van der Merwe, *Sigma-Point Kalman Filters*, PhD thesis, 2004). These are the
+    weights reference 004 means; its printed eq. 14 has two typos.
+    """
+
+    name = "ukf"
+    description = "Unscented Kalman filter, Merwe scaled sigma points (alpha, beta, kappa)"
+    Params = UnscentedParams
+
+    def sigma_points(self, state: Gaussian):
+        n = state.ndim_state
+        p = self.params
+        if n + p.kappa <= 0:
+            raise ConfigError("estimator 'ukf'.kappa", f"n + kappa must be > 0 (n = {n}, kappa = {p.kappa})")
+        scale, wm, wc = _merwe_weights(n, p.alpha, p.beta, p.kappa)
+        X = self._scaled_points(state.mean, self.square_root(state.cov), scale)
+        return X, wm, wc
+
+
+@lru_cache(maxsize=64)
+def _cubature_weights(n: int) -> np.ndarray:
+    w = np.full(2 * n, 1.0 / (2 * n))
+    w.setflags(write=False)
+    return w
+
+
+class CubatureKalmanFilter(SigmaPointEstimator):
+    r"""Cubature Kalman filter (Arasaratnam & Haykin, IEEE TAC 2009).
+
+    The third-degree spherical-radial rule: 2n points :math:`x + \sqrt{n}\, S \xi_i`,
+    :math:`\xi \in [I, -I]`, weights :math:`1/(2n)`, S the Cholesky root of P. It is
+    the UKF with :math:`\alpha = 1, \beta = 0, \kappa = 0`.
+    """
+
+    name = "ckf"
+    description = "Cubature Kalman filter, 2n third-degree spherical-radial points (Cholesky root)"
+
+    def sigma_points(self, state: Gaussian):
+        n = state.ndim_state
+        w = _cubature_weights(n)
+        X = self._scaled_points(state.mean, self.square_root(state.cov), np.sqrt(n))[1:]
+        return X, w, w
+
+
+class SvdCubatureKalmanFilter(CubatureKalmanFilter):
+    r"""Cubature Kalman filter with the square root of P from its SVD.
+
+    :math:`P = U \operatorname{diag}(s) V^T` gives the root :math:`U \operatorname{diag}(\sqrt{s})`
+    (reference 000, "Vector tracking with an adaptive cubature Kalman filter",
+    eqs. 11-25). Unlike Cholesky it exists for every symmetric P, so the filter keeps
+    running on the nearly singular covariances that rounding produces; for a PSD P the
+    root differs from Cholesky's by a rotation, which leaves the cubature moments
+    unchanged.
+    """
+
+    name = "svd-ckf"
+    description = "Cubature Kalman filter with an SVD square root (reference 000)"
+
+    def square_root(self, cov: np.ndarray) -> np.ndarray:
+        finite = np.isfinite(cov).all(axis=(-2, -1))
+        if not finite.all():
+            raise NotPositiveDefiniteError(self.name, failing_indices(finite), detail="state covariance P is not finite")
+        U, s, _ = np.linalg.svd(symmetrize(cov), hermitian=True)
+        return U * np.sqrt(s)[..., None, :]
