@@ -13,7 +13,7 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework.estimation import AdaptationStep, AdapterRun, NoiseAdapter, SafeguardParams
-from gnssframework.estimation.linalg import outer
+from gnssframework.estimation.linalg import outer, project_psd
 
 __all__ = ["InnovationAdapter", "SageHusaAdapter", "MaximumLikelihoodQAdapter"]
 
@@ -91,9 +91,16 @@ class _SageHusaRun(AdapterRun):
         p = self.params
         e = ctx.update.innovation
         K = ctx.update.gain
+        # Project the one-sample estimates onto PSD *before* they are mixed in: a
+        # negative sample would otherwise drag R (or Q) towards zero, P collapses, and
+        # the filter locks into a large-R, tiny-P state it never leaves.
+        # The classic recursion averages its samples, so only its result is projected
+        # (projecting each sample would bias it upwards).
         r_inst = outer(e, e) - ctx.predicted_measurement_spread
         Ke = (K @ e[..., None])[..., 0]
         q_inst = outer(Ke, Ke) + ctx.update.state.cov - ctx.propagated_spread
+        if p.variant == "improved":
+            r_inst, q_inst = project_psd(r_inst), project_psd(q_inst)
         if p.variant == "classic":
             d = (1.0 - p.b) / (1.0 - p.b ** (ctx.step + 1))
             R = (1.0 - d) * self.R + d * r_inst

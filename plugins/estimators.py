@@ -170,9 +170,10 @@ class SvdCubatureKalmanFilter(CubatureKalmanFilter):
     :math:`P = U \operatorname{diag}(s) V^T` gives the root :math:`U \operatorname{diag}(\sqrt{s})`
     (reference 000, "Vector tracking with an adaptive cubature Kalman filter",
     eqs. 11-25). Unlike Cholesky it exists for every symmetric P, so the filter keeps
-    running on the nearly singular covariances that rounding produces; for a PSD P the
-    root differs from Cholesky's by a rotation, which leaves the cubature moments
-    unchanged.
+    running on the nearly singular covariances that rounding produces. For a PSD P
+    the root differs from Cholesky's by an orthogonal rotation: the cubature points
+    differ, so on a *nonlinear* model the two filters agree only to the rule's third
+    degree of accuracy, while on a linear model both return the Kalman filter's numbers.
     """
 
     name = "svd-ckf"

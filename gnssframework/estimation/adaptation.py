@@ -10,12 +10,18 @@ adapter therefore passes its raw estimate through the same :class:`Safeguards`:
    filter that has not converged say more about P0 than about R);
 2. *PSD projection*: the raw (instantaneous or windowed) estimate's negative
    eigenvalues are set to zero;
-3. *relative bounds*: the result is clamped, in the Loewner order, between
-   ``floor`` and ``ceiling`` times the initial covariance, so it is always PD, finite
-   and of a sane magnitude.
+3. *relative bounds*: the result is clamped, in the Loewner order, between a floor
+   and a ceiling times the initial covariance, so it is always PD, finite and of a
+   sane magnitude.
 
-The defaults (``floor = 0.01``, ``ceiling = 100``) let R grow or shrink by a factor
-100, enough for any mis-tuning we have met and far from the numerical limits.
+Defaults: R may shrink or grow by a factor 100 (``r_floor = 0.01``,
+``r_ceiling = 100``); Q may grow by 100 but shrink only by 4 (``q_floor = 0.25``).
+The asymmetry is deliberate. A collapsing Q is the classic way a Kalman filter
+diverges: it trusts its model, stops following the measurements, its innovations
+grow, and an R estimator reads them as measurement noise. With Q and R estimated
+together (which is not identifiable from one innovation sequence), a low Q floor
+lets classic Sage-Husa settle on Q at the floor and R 20x too large, and the error
+grows tenfold on the constant-acceleration test in ``tests/test_adapters.py``.
 """
 
 from __future__ import annotations
@@ -79,8 +85,10 @@ class SafeguardParams(PluginParams):
     """Safeguards shared by every adapter (see the module docstring)."""
 
     warmup: int = Field(10, ge=0, description="updates before adaptation starts")
-    floor: float = Field(0.01, gt=0, description="lower bound, times the initial covariance")
-    ceiling: float = Field(100.0, gt=1, description="upper bound, times the initial covariance")
+    r_floor: float = Field(0.01, gt=0, le=1, description="lower bound of R, times the initial R")
+    r_ceiling: float = Field(100.0, ge=1, description="upper bound of R, times the initial R")
+    q_floor: float = Field(0.25, gt=0, le=1, description="lower bound of Q, times the initial Q")
+    q_ceiling: float = Field(100.0, ge=1, description="upper bound of Q, times the initial Q")
 
 
 class AdapterRun(abc.ABC):
@@ -94,9 +102,9 @@ class AdapterRun(abc.ABC):
         self.R = self.R0
         self.updates = 0
 
-    def guard(self, raw: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    def guard(self, raw: np.ndarray, reference: np.ndarray, floor: float, ceiling: float) -> np.ndarray:
         """PSD-project a raw estimate, then clamp it relative to ``reference``."""
-        return clamp_relative(project_psd(raw), reference, self.params.floor, self.params.ceiling)
+        return clamp_relative(project_psd(raw), reference, floor, ceiling)
 
     def step(self, ctx: AdaptationStep) -> tuple[np.ndarray, np.ndarray]:
         """Take step ``k``'s innovation; return the ``(Q, R)`` to use from step ``k+1``."""
@@ -106,10 +114,10 @@ class AdapterRun(abc.ABC):
             skipped = np.asarray(ctx.update.skipped)
             # A skipped update carries no information: keep the old estimate there.
             if Q is not None:
-                Q = self.guard(Q, self.Q0)
+                Q = self.guard(Q, self.Q0, self.params.q_floor, self.params.q_ceiling)
                 self.Q = np.where(skipped[..., None, None], self.Q, Q) if skipped.any() else Q
             if R is not None:
-                R = self.guard(R, self.R0)
+                R = self.guard(R, self.R0, self.params.r_floor, self.params.r_ceiling)
                 self.R = np.where(skipped[..., None, None], self.R, R) if skipped.any() else R
         return self.Q, self.R
 

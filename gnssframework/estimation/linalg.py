@@ -106,17 +106,26 @@ def project_psd(a: np.ndarray) -> np.ndarray:
     return clip_eigenvalues(a, 0.0)
 
 
-def clamp_relative(a: np.ndarray, reference: np.ndarray, floor: float, ceiling: float) -> np.ndarray:
+def clamp_relative(
+    a: np.ndarray, reference: np.ndarray, floor: float, ceiling: float, rel_regularisation: float = 1e-6
+) -> np.ndarray:
     """Clamp ``a`` between ``floor * reference`` and ``ceiling * reference``.
 
-    The bounds hold in the Loewner order: with ``reference = L L^T``, the eigenvalues of
-    ``L^{-1} a L^{-T}`` are clipped to ``[floor, ceiling]``. This keeps an adapted noise
+    The bounds hold in the Loewner order: with ``reference = G G^T``, the eigenvalues of
+    ``G^{-1} a G^{-T}`` are clipped to ``[floor, ceiling]``. This keeps an adapted noise
     covariance PD, finite and of the right order of magnitude whatever its shape.
+
+    A singular reference (a process noise ``Gamma q Gamma^T`` of lower rank, as in a
+    constant-acceleration model) has its eigenvalues raised to ``rel_regularisation``
+    times its largest one, so directions it does not excite may carry at most
+    ``ceiling * rel_regularisation`` of its scale.
     """
-    L = np.linalg.cholesky(reference)
-    Linv = np.linalg.inv(L)
-    white = Linv @ a @ np.swapaxes(Linv, -1, -2)
-    w, v = np.linalg.eigh(symmetrize(white))
-    w = np.clip(w, floor, ceiling)
-    white = (v * w[..., None, :]) @ np.swapaxes(v, -1, -2)
-    return symmetrize(L @ white @ np.swapaxes(L, -1, -2))
+    w, v = np.linalg.eigh(symmetrize(reference))
+    w = np.maximum(w, rel_regularisation * np.max(np.abs(w), axis=-1, keepdims=True))
+    G = v * np.sqrt(w)[..., None, :]
+    G_inv = np.swapaxes(v, -1, -2) / np.sqrt(w)[..., :, None]
+    white = G_inv @ a @ np.swapaxes(G_inv, -1, -2)
+    ww, vv = np.linalg.eigh(symmetrize(white))
+    ww = np.clip(ww, floor, ceiling)
+    white = (vv * ww[..., None, :]) @ np.swapaxes(vv, -1, -2)
+    return symmetrize(G @ white @ np.swapaxes(G, -1, -2))

@@ -1,0 +1,49 @@
+"""Shared test helpers: random PD matrices and a constant-acceleration model."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import gnssframework as gf
+
+
+def random_pd(rng: np.random.Generator, n: int, batch: tuple[int, ...] = (), scale: float = 1.0) -> np.ndarray:
+    a = rng.standard_normal(batch + (n, n))
+    return scale * (a @ np.swapaxes(a, -1, -2) / n + 0.1 * np.eye(n))
+
+
+def ca_matrices(dt: float = 1.0, q: float = 0.01) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Constant-acceleration F, H (position measured) and Q (white jerk, Gamma q Gamma^T)."""
+    F = np.array([[1.0, dt, dt**2 / 2], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
+    H = np.array([[1.0, 0.0, 0.0]])
+    G = np.array([[dt**3 / 6], [dt**2 / 2], [dt]])
+    return F, H, q * (G @ G.T)
+
+
+def psd_sqrt(a: np.ndarray) -> np.ndarray:
+    """A square root of a PSD matrix that may be singular (rank-deficient Q)."""
+    w, v = np.linalg.eigh(a)
+    return v * np.sqrt(np.clip(w, 0, None))
+
+
+def simulate_linear(rng, F, H, Q, R, x0, steps, batch=()):
+    """Truth and measurements of x' = F x + w, z = H x + v, batch-first, time on axis 0."""
+    n, m = F.shape[0], H.shape[0]
+    Lq, Lr = psd_sqrt(Q), psd_sqrt(R)
+    x = np.broadcast_to(x0, batch + (n,)).copy()
+    xs, zs = [], []
+    for _ in range(steps):
+        x = x @ F.T + rng.standard_normal(batch + (n,)) @ Lq.T
+        xs.append(x)
+        zs.append(x @ H.T + rng.standard_normal(batch + (m,)) @ Lr.T)
+    return np.stack(xs), np.stack(zs)
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(20261122)
+
+
+def create(kind: str, name: str, **params):
+    return gf.registry.create(kind, name, **params)

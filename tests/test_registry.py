@@ -1,0 +1,123 @@
+"""The plugin registry, plugin loading and the CLI listing."""
+
+from __future__ import annotations
+
+import ast
+import importlib.metadata as md
+import pathlib
+import subprocess
+import sys
+import types
+
+import pytest
+
+import gnssframework as gf
+from gnssframework import registry
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def test_kinds_and_builtin_names():
+    assert registry.kinds() == ["augmentation", "channel_filter", "discriminator", "estimator",
+                                "nav_filter", "noise_adapter"]
+    assert registry.names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
+    assert {"innovation", "sage-husa", "ml-q"} <= set(registry.names("noise_adapter"))
+    assert "colored-ar1" in registry.names("augmentation")
+
+
+def test_create_validates_parameters():
+    ukf = registry.create("estimator", "ukf", alpha=0.01, beta=2.0, kappa=0.0)
+    assert ukf.params.alpha == 0.01
+    with pytest.raises(gf.ConfigError) as err:
+        registry.create("estimator", "ukf", alpha=-1)
+    assert "alpha" in str(err.value) and "greater than 0" in str(err.value)
+    with pytest.raises(gf.ConfigError, match="alhpa: unknown parameter"):
+        registry.create("estimator", "ukf", alhpa=0.1)
+    with pytest.raises(gf.ConfigError, match=r"variant.*'classic' or 'improved'"):
+        registry.create("noise_adapter", "sage-husa", variant="fancy")
+
+
+def test_unknown_name_lists_known_ones_and_the_closest():
+    with pytest.raises(gf.ConfigError) as err:
+        registry.create("estimator", "svdckf")
+    msg = str(err.value)
+    assert "ckf, ekf, kf, svd-ckf, ukf" in msg and "did you mean 'svd-ckf'" in msg
+    with pytest.raises(gf.ConfigError, match="unknown plugin kind 'estimators'; allowed: augmentation"):
+        registry.names("estimators")
+
+
+def test_describe_names_the_source_distribution():
+    infos = {(i.kind, i.name): i for i in registry.describe()}
+    info = infos[("estimator", "svd-ckf")]
+    assert info.distribution == "gnssframework" and info.version == gf.__version__
+    assert "SVD" in info.description
+
+
+def test_a_plugin_that_fails_to_import_is_reported_and_the_rest_load(monkeypatch):
+    real = md.entry_points
+
+    class BrokenEP:
+        name = "broken"
+        group = "gnssframework"
+        dist = types.SimpleNamespace(name="broken-dist", version="9.9")
+
+        def load(self):
+            raise ImportError("No module named 'missing_dependency'")
+
+    def fake_entry_points(group=None, **kw):
+        eps = list(real(group=group, **kw))
+        return eps + [BrokenEP()] if group == "gnssframework" else eps
+
+    monkeypatch.setattr(md, "entry_points", fake_entry_points)
+    registry.reload()
+    try:
+        failures = registry.failures()
+        assert [(f.distribution, f.entry_point) for f in failures] == [("broken-dist", "broken")]
+        assert "missing_dependency" in failures[0].error
+        assert "ukf" in registry.names("estimator")
+    finally:
+        monkeypatch.undo()
+        registry.reload()
+
+
+def test_a_plugin_whose_hook_raises_or_registers_garbage_is_reported():
+    bad = types.ModuleType("bad_plugin")
+
+    @gf.hookimpl
+    def register_estimator(register):
+        register(dict)  # not an Estimator
+
+    bad.register_estimator = register_estimator
+    registry.register_module(bad, "bad", distribution="bad-dist")
+    try:
+        failure = registry.failures()[-1]
+        assert failure.distribution == "bad-dist" and "not a subclass of Estimator" in failure.error
+        assert "ukf" in registry.names("estimator")
+    finally:
+        registry.reload()
+
+
+def test_core_never_imports_the_plugins_package():
+    offenders = []
+    for path in (ROOT / "gnssframework").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            mods = []
+            if isinstance(node, ast.Import):
+                mods = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                mods = [node.module]
+            offenders += [f"{path.name}: {m}" for m in mods if m.split(".")[0] == "gnssframework_plugins"]
+    assert offenders == []
+
+
+def test_cli_lists_kind_name_description_and_source():
+    out = subprocess.run([sys.executable, "-m", "gnssframework", "plugins"], capture_output=True, text=True,
+                         check=True).stdout
+    line = next(l for l in out.splitlines() if " svd-ckf " in l)
+    assert line.split()[0] == "estimator" and f"gnssframework {gf.__version__}" in line
+
+
+def test_cli_error_is_one_line_without_traceback():
+    proc = subprocess.run([sys.executable, "-m", "gnssframework", "plugins", "--kind", "nope"],
+                          capture_output=True, text=True)
+    assert proc.returncode != 0 and "Traceback" not in proc.stderr and "invalid choice" in proc.stderr
