@@ -65,7 +65,7 @@ class NumericalError(GnssFrameworkError, ArithmeticError):
     batch_indices
         Index tuples of every failing batch element (first one is in the message).
     step
-        Time step of :func:`gnssframework.filter_sequence` (``None`` for a lone call).
+        Time step of ``gnssframework.filter_sequence`` (``None`` for a lone call).
     """
 
     what = "numerical failure"

@@ -1,13 +1,13 @@
 """Abstract interfaces of the GNSS plugin kinds.
 
 The estimation kinds (``Estimator``, ``NoiseAdapter``, ``Augmentation``) live in
-:mod:`gnssframework.estimation`, which knows nothing of GNSS. These three compose them
+``gnssframework.estimation``, which knows nothing of GNSS. These three compose them
 into a receiver:
 
-- a :class:`Discriminator` turns correlators into a code, frequency or phase error;
-- a :class:`ChannelFilter` processes one channel's correlators or observables per
+- a ``Discriminator`` turns correlators into a code, frequency or phase error;
+- a ``ChannelFilter`` processes one channel's correlators or observables per
   epoch (batched over channels and runs);
-- a :class:`NavFilter` fuses every channel and returns the navigation state and the
+- a ``NavFilter`` fuses every channel and returns the navigation state and the
   NCO commands of the next epoch.
 
 Channel and navigation filters declare the named quantities they ``provides`` and
@@ -60,15 +60,15 @@ class Discriminator(Plugin, abc.ABC):
 class ChannelFilter(Plugin, abc.ABC):
     """Plugin kind ``channel_filter``: per-channel processing, batch-first.
 
-    A channel filter is stateful over one sequence: :meth:`reset` starts it for a
-    batch, :meth:`step` takes one epoch's inputs (named arrays, e.g. ``"correlators"``
+    A channel filter is stateful over one sequence: ``reset`` starts it for a
+    batch, ``step`` takes one epoch's inputs (named arrays, e.g. ``"correlators"``
     or ``"pseudorange_m"``) and returns named outputs (e.g. ``"code_error_chips"``).
     """
 
     kind = "channel_filter"
-    #: Names of the inputs :meth:`step` needs.
+    #: Names of the inputs ``step`` needs.
     requires: ClassVar[tuple[str, ...]] = ()
-    #: Names of the outputs :meth:`step` returns.
+    #: Names of the outputs ``step`` returns.
     provides: ClassVar[tuple[str, ...]] = ()
 
     @abc.abstractmethod
@@ -83,7 +83,7 @@ class ChannelFilter(Plugin, abc.ABC):
 class NavFilter(Plugin, abc.ABC):
     """Plugin kind ``nav_filter``: fuses channel outputs into a navigation state.
 
-    :meth:`step` takes the channel filters' outputs (stacked over channels on the last
+    ``step`` takes the channel filters' outputs (stacked over channels on the last
     batch axis) and returns the navigation state and the per-channel NCO commands for
     the next epoch.
     """

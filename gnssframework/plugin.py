@@ -34,7 +34,7 @@ class PluginParams(BaseModel):
 
 
 def validation_message(exc: ValidationError, prefix: str = "") -> ConfigError:
-    """Turn a pydantic ``ValidationError`` into one :class:`ConfigError`.
+    """Turn a pydantic ``ValidationError`` into one ``ConfigError``.
 
     The message names every offending field (dotted, with ``prefix``), what it got and
     what it allows, one per line.

@@ -9,7 +9,7 @@ too) and register their classes with pluggy hooks ``register_<kind>(register)``:
     ukf = gf.registry.create("estimator", "ukf", alpha=0.01, beta=2.0, kappa=0.0)
 
 Loading is robust: a plugin that fails to import or to register is recorded in
-:func:`failures` (distribution, entry point, exception) and the others still load.
+``failures`` (distribution, entry point, exception) and the others still load.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Built-in noise adapters: ``innovation``, ``sage-husa``, ``ml-q``.
 
-All share the safeguards of :mod:`gnssframework.estimation.adaptation` (warm-up, PSD
+All share the safeguards of ``gnssframework.estimation.adaptation`` (warm-up, PSD
 projection, bounds relative to the initial covariance).
 """
 
@@ -55,10 +55,10 @@ class _InnovationRun(AdapterRun):
 class InnovationAdapter(NoiseAdapter):
     r"""Windowed innovation-based estimate of R (reference 000, eq. 31).
 
-    .. math::
-
-        \hat R_k = \frac{1}{L} \sum_{j=k-L+1}^{k} v_j v_j^T
-                  - \Big(\sum_i W_i (Z_i - \hat z)(Z_i - \hat z)^T\Big)_k
+    $$
+    \hat R_k = \frac{1}{L} \sum_{j=k-L+1}^{k} v_j v_j^T
+    - \Big(\sum_i W_i (Z_i - \hat z)(Z_i - \hat z)^T\Big)_k
+    $$
 
     The bracket is the spread of the predicted measurement (``S - R``; ``H P H^T`` for
     a KF). The paper writes it with the equal cubature weights 1/m.
@@ -117,25 +117,25 @@ class SageHusaAdapter(NoiseAdapter):
     r"""Sage-Husa adaptive estimation of R and Q.
 
     ``variant="classic"`` (Sage & Husa 1969), forgetting factor b,
-    :math:`d_k = (1-b)/(1-b^{k+1})`:
+    $d_k = (1-b)/(1-b^{k+1})$:
 
-    .. math::
-
-        R_k = (1-d_k) R_{k-1} + d_k (e_k e_k^T - H P_{k|k-1} H^T) \\
-        Q_k = (1-d_k) Q_{k-1} + d_k (K_k e_k e_k^T K_k^T + P_k - \Phi P_{k-1} \Phi^T)
+    $$
+    R_k = (1-d_k) R_{k-1} + d_k (e_k e_k^T - H P_{k|k-1} H^T) \\
+    Q_k = (1-d_k) Q_{k-1} + d_k (K_k e_k e_k^T K_k^T + P_k - \Phi P_{k-1} \Phi^T)
+    $$
 
     ``variant="improved"`` (reference 004, "adaptive UKF with colored noise",
     eqs. 28-29): a convex combination of the *initial* covariance and the current
     instantaneous estimate, weights ``alpha_r`` and ``alpha_q`` (0 switches that side
     off):
 
-    .. math::
+    $$
+    R_k = (1-\alpha_1) R_0 + \alpha_1 (e_k e_k^T - H P_{k|k-1} H^T) \\
+    Q_k = (1-\alpha_2) Q_0 + \alpha_2 (K_k e_k e_k^T K_k^T + P_k - \Phi P_{k-1} \Phi^T)
+    $$
 
-        R_k = (1-\alpha_1) R_0 + \alpha_1 (e_k e_k^T - H P_{k|k-1} H^T) \\
-        Q_k = (1-\alpha_2) Q_0 + \alpha_2 (K_k e_k e_k^T K_k^T + P_k - \Phi P_{k-1} \Phi^T)
-
-    For sigma-point filters :math:`H P H^T` is the predicted-measurement spread
-    ``S - R`` and :math:`\Phi P \Phi^T` the propagated spread ``P[k|k-1] - Q``.
+    For sigma-point filters $H P H^T$ is the predicted-measurement spread
+    ``S - R`` and $\Phi P \Phi^T$ the propagated spread ``P[k|k-1] - Q``.
     Simultaneous Q and R estimation is not identifiable in general: set
     ``estimate_q=False`` to learn R alone.
     """
@@ -169,10 +169,10 @@ class _MlQRun(AdapterRun):
 class MaximumLikelihoodQAdapter(NoiseAdapter):
     r"""Windowed maximum-likelihood estimate of Q (Mohamed & Schwarz, J. Geodesy 1999).
 
-    .. math::
-
-        \hat Q_k = \frac{1}{N} \sum_{j=k-N+1}^{k} \Delta x_j \Delta x_j^T
-                   + P_k - \Phi P_{k-1} \Phi^T, \qquad \Delta x_j = K_j v_j
+    $$
+    \hat Q_k = \frac{1}{N} \sum_{j=k-N+1}^{k} \Delta x_j \Delta x_j^T
+    + P_k - \Phi P_{k-1} \Phi^T, \qquad \Delta x_j = K_j v_j
+    $$
 
     Reference 001 (adaptive carrier-smoothed code) uses it with R fixed; the formula is
     the standard one its text lost.

@@ -34,27 +34,27 @@ def _linear_measurement(model) -> np.ndarray:
 class ColoredAR1(Augmentation):
     r"""Measurement differencing for AR(1) measurement noise (Bryson & Henrikson 1968).
 
-    Model: :math:`x_{k+1} = F x_k + w_k`, :math:`z_k = H x_k + V_k`,
-    :math:`V_k = \psi V_{k-1} + \xi_k`, :math:`w \sim N(0, Q)`, :math:`\xi \sim N(0, R)`.
+    Model: $x_{k+1} = F x_k + w_k$, $z_k = H x_k + V_k$,
+    $V_k = \psi V_{k-1} + \xi_k$, $w \sim N(0, Q)$, $\xi \sim N(0, R)$.
     The differenced measurement (reference 004, eqs. 8-11)
 
-    .. math::
+    $$
+    z^*_k = z_{k+1} - \psi z_k = H^* x_k + V^*_k, \quad H^* = H F - \psi H, \\
+    V^*_k = H w_k + \xi_{k+1}, \quad R^* = H Q H^T + R
+    $$
 
-        z^*_k = z_{k+1} - \psi z_k = H^* x_k + V^*_k, \quad H^* = H F - \psi H, \\
-        V^*_k = H w_k + \xi_{k+1}, \quad R^* = H Q H^T + R
-
-    has white noise, but :math:`V^*_k` is correlated with the process noise
-    :math:`w_k` (cross covariance :math:`M = Q H^T`), which the paper drops. We keep it
+    has white noise, but $V^*_k$ is correlated with the process noise
+    $w_k$ (cross covariance $M = Q H^T$), which the paper drops. We keep it
     by decorrelating the transition (Simon, *Optimal State Estimation*, 2006, §7.1):
-    with :math:`J = M R^{*-1}`,
+    with $J = M R^{*-1}$,
 
-    .. math::
+    $$
+    x_{k+1} = F x_k + J (z^*_k - H^* x_k) + w'_k, \quad
+    Q' = Q - M R^{*-1} M^T, \quad E[w'_k V^{*T}_k] = 0
+    $$
 
-        x_{k+1} = F x_k + J (z^*_k - H^* x_k) + w'_k, \quad
-        Q' = Q - M R^{*-1} M^T, \quad E[w'_k V^{*T}_k] = 0
-
-    Epochs: step k of the rewritten problem updates with :math:`z^*_k`, which
-    contains :math:`z_{k+1}`; its estimate is of the state at epoch **k** given the
+    Epochs: step k of the rewritten problem updates with $z^*_k$, which
+    contains $z_{k+1}$; its estimate is of the state at epoch **k** given the
     measurements through epoch **k+1** (a one-step-lagged estimate). There are K-1 steps
     for K measurements; ``FilterResult.epochs`` is ``0 .. K-2``.
     For sigma-point filters the model keeps ``f`` as given; ``h`` must be linear.

@@ -26,14 +26,14 @@ def _transpose(a: np.ndarray) -> np.ndarray:
 
 
 class KalmanFilter(Estimator):
-    r"""The linear Kalman filter (Kalman 1960) on a :class:`LinearModel`.
+    r"""The linear Kalman filter (Kalman 1960) on a ``LinearModel``.
 
-    .. math::
-
-        x^- = F x + u, \quad P^- = F P F^T + Q, \\
-        S = H P^- H^T + R, \quad K = P^- H^T S^{-1}, \\
-        x^+ = x^- + K (z - H x^-), \quad
-        P^+ = (I - K H) P^- (I - K H)^T + K R K^T
+    $$
+    x^- = F x + u, \quad P^- = F P F^T + Q, \\
+    S = H P^- H^T + R, \quad K = P^- H^T S^{-1}, \\
+    x^+ = x^- + K (z - H x^-), \quad
+    P^+ = (I - K H) P^- (I - K H)^T + K R K^T
+    $$
 
     The covariance update is Joseph's form, which stays symmetric PSD under rounding
     for any gain.
@@ -66,14 +66,14 @@ class KalmanFilter(Estimator):
 class ExtendedKalmanFilter(Estimator):
     r"""Extended Kalman filter: linearise ``f`` and ``h`` at the current mean.
 
-    .. math::
-
-        x^- = f(x), \quad P^- = F P F^T + Q, \quad F = \partial f / \partial x |_{x} \\
-        \hat z = h(x^-), \quad S = H P^- H^T + R, \quad C = P^- H^T, \quad
-        H = \partial h / \partial x |_{x^-}
+    $$
+    x^- = f(x), \quad P^- = F P F^T + Q, \quad F = \partial f / \partial x |_{x} \\
+    \hat z = h(x^-), \quad S = H P^- H^T + R, \quad C = P^- H^T, \quad
+    H = \partial h / \partial x |_{x^-}
+    $$
 
     Jacobians come from the model (analytic when given, central differences
-    otherwise). On a :class:`LinearModel` it is the Kalman filter.
+    otherwise). On a ``LinearModel`` it is the Kalman filter.
     """
 
     name = "ekf"
@@ -111,15 +111,15 @@ def _merwe_weights(n: int, alpha: float, beta: float, kappa: float) -> tuple[flo
 class UnscentedKalmanFilter(SigmaPointEstimator):
     r"""Unscented Kalman filter with van der Merwe's scaled sigma points.
 
-    With :math:`\lambda = \alpha^2 (n + \kappa) - n` the 2n+1 points are
-    :math:`x` and :math:`x \pm \sqrt{n+\lambda}\, S_i` (columns of the Cholesky root of
+    With $\lambda = \alpha^2 (n + \kappa) - n$ the 2n+1 points are
+    $x$ and $x \pm \sqrt{n+\lambda}\, S_i$ (columns of the Cholesky root of
     P), with weights
 
-    .. math::
-
-        W_0^m = \frac{\lambda}{n+\lambda}, \quad
-        W_0^c = \frac{\lambda}{n+\lambda} + 1 - \alpha^2 + \beta, \quad
-        W_i^m = W_i^c = \frac{1}{2(n+\lambda)}
+    $$
+    W_0^m = \frac{\lambda}{n+\lambda}, \quad
+    W_0^c = \frac{\lambda}{n+\lambda} + 1 - \alpha^2 + \beta, \quad
+    W_i^m = W_i^c = \frac{1}{2(n+\lambda)}
+    $$
 
     (van der Merwe, *Sigma-Point Kalman Filters*, PhD thesis, 2004). These are the
     weights reference 004 means; its printed eq. 14 has two typos.
@@ -149,9 +149,9 @@ def _cubature_weights(n: int) -> np.ndarray:
 class CubatureKalmanFilter(SigmaPointEstimator):
     r"""Cubature Kalman filter (Arasaratnam & Haykin, IEEE TAC 2009).
 
-    The third-degree spherical-radial rule: 2n points :math:`x + \sqrt{n}\, S \xi_i`,
-    :math:`\xi \in [I, -I]`, weights :math:`1/(2n)`, S the Cholesky root of P. It is
-    the UKF with :math:`\alpha = 1, \beta = 0, \kappa = 0`.
+    The third-degree spherical-radial rule: 2n points $x + \sqrt{n}\, S \xi_i$,
+    $\xi \in [I, -I]$, weights $1/(2n)$, S the Cholesky root of P. It is
+    the UKF with $\alpha = 1, \beta = 0, \kappa = 0$.
     """
 
     name = "ckf"
@@ -167,7 +167,7 @@ class CubatureKalmanFilter(SigmaPointEstimator):
 class SvdCubatureKalmanFilter(CubatureKalmanFilter):
     r"""Cubature Kalman filter with the square root of P from its SVD.
 
-    :math:`P = U \operatorname{diag}(s) V^T` gives the root :math:`U \operatorname{diag}(\sqrt{s})`
+    $P = U \operatorname{diag}(s) V^T$ gives the root $U \operatorname{diag}(\sqrt{s})$
     (reference 000, "Vector tracking with an adaptive cubature Kalman filter",
     eqs. 11-25). Unlike Cholesky it exists for every symmetric P, so the filter keeps
     running on the nearly singular covariances that rounding produces. For a PSD P

@@ -1,10 +1,10 @@
 """Interfaces of noise adapters and model augmentations, and the adapters' safeguards.
 
-A :class:`NoiseAdapter` re-estimates Q and/or R from a filter's innovations. The
+A ``NoiseAdapter`` re-estimates Q and/or R from a filter's innovations. The
 published recursions (Sage-Husa, windowed innovation matching, maximum likelihood Q)
 are unbiased only near convergence: run from a poorly initialised filter they return
 negative or exploding covariances, and a filter fed those diverges. Every built-in
-adapter therefore passes its raw estimate through the same :class:`Safeguards`:
+adapter therefore passes its raw estimate through the same ``Safeguards``:
 
 1. *warm-up*: no adaptation during the first ``warmup`` updates (the innovations of a
    filter that has not converged say more about P0 than about R);
@@ -92,7 +92,7 @@ class SafeguardParams(PluginParams):
 
 
 class AdapterRun(abc.ABC):
-    """Per-sequence state of an adapter; created by :meth:`NoiseAdapter.start`."""
+    """Per-sequence state of an adapter; created by ``NoiseAdapter.start``."""
 
     def __init__(self, params: SafeguardParams, Q0: np.ndarray, R0: np.ndarray) -> None:
         self.params = params

@@ -4,13 +4,12 @@ An engine only has to say how it computes the predicted moments; the measurement
 update is shared. Given the predicted measurement ``z_hat``, its covariance ``S`` (with
 R) and the state-measurement cross covariance ``C``, every Gaussian filter updates as
 
-.. math::
+$$
+K = C S^{-1}, \\qquad x^+ = x^- + K (z - \\hat z), \\qquad P^+ = P^- - K S K^T
+$$
 
-    K = C S^{-1}, \\qquad x^+ = x^- + K (z - \\hat z), \\qquad P^+ = P^- - K S K^T
-
-(the linear KF overrides the covariance with the Joseph form). See Särkkä,
-*Bayesian Filtering and Smoothing* (2013), algorithm 5.x/9.x, for the general
-"Gaussian filter" view.
+(the linear KF overrides the covariance with the Joseph form). This is the general
+Gaussian filter of Särkkä, *Bayesian Filtering and Smoothing* (2013), chapter 6.
 """
 
 from __future__ import annotations
@@ -32,7 +31,7 @@ OnMissing = Literal["raise", "skip"]
 
 
 class Estimator(Plugin, abc.ABC):
-    """A batched Gaussian filter: ``predict`` and ``update`` on :class:`Gaussian` states."""
+    """A batched Gaussian filter: ``predict`` and ``update`` on ``Gaussian`` states."""
 
     kind = "estimator"
 
@@ -74,10 +73,10 @@ class Estimator(Plugin, abc.ABC):
             The model whose ``h`` and ``R`` apply.
         on_failure
             What to do where the innovation covariance is not positive definite:
-            ``"raise"`` a :class:`NotPositiveDefiniteError` naming the batch element,
+            ``"raise"`` a ``NotPositiveDefiniteError`` naming the batch element,
             or skip the update there (any other policy).
         missing
-            ``"raise"`` an :class:`InvalidMeasurementError` on a NaN/inf measurement,
+            ``"raise"`` an ``InvalidMeasurementError`` on a NaN/inf measurement,
             or ``"skip"`` the update of that element (a missing measurement).
         """
         z = np.asarray(z, dtype=float)
@@ -123,7 +122,7 @@ class Estimator(Plugin, abc.ABC):
 class SigmaPointEstimator(Estimator):
     """A filter that propagates a deterministic set of sigma points.
 
-    Subclasses give the point rule through :meth:`sigma_points`. The points carry
+    Subclasses give the point rule through ``sigma_points``. The points carry
     their index on the *first* axis, ``(N, ..., n)``, so model functions broadcast
     per-element parameters naturally. The update redraws points from the prior
     (it does not reuse the propagated ones), which is what makes every rule exact
@@ -150,14 +149,18 @@ class SigmaPointEstimator(Estimator):
     @staticmethod
     def _moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean and deviations of transformed points ``(N, ..., p)``."""
-        mean = np.tensordot(wm, Y, axes=(0, 0))
+        mean = (wm @ Y.reshape(Y.shape[0], -1)).reshape(Y.shape[1:])
         return mean, Y - mean
 
     @staticmethod
     def _weighted_cov(dA: np.ndarray, dB: np.ndarray, wc: np.ndarray) -> np.ndarray:
         """``sum_i wc_i dA_i dB_i^T`` over the first axis, batched."""
         # (..., a, N) @ (..., N, b): one batched matmul, no Python loop over points.
-        return (np.moveaxis(dA, 0, -1) * wc) @ np.moveaxis(dB, 0, -2)
+        # Explicit transposes: np.moveaxis costs more than the arithmetic at batch 1.
+        nd = dA.ndim
+        a_last = dA.transpose(tuple(range(1, nd)) + (0,))
+        b_mid = dB.transpose(tuple(range(1, nd - 1)) + (0, nd - 1))
+        return (a_last * wc) @ b_mid
 
     def predict(self, state: Gaussian, model: Model) -> Gaussian:
         X, wm, wc = self.sigma_points(state)
@@ -177,5 +180,6 @@ class SigmaPointEstimator(Estimator):
     @staticmethod
     def _scaled_points(mean: np.ndarray, sqrt_cov: np.ndarray, scale: float) -> np.ndarray:
         """``[m, m + scale*S_i, m - scale*S_i]`` with ``S_i`` the columns of the root."""
-        cols = np.moveaxis(sqrt_cov, -1, 0) * scale  # (n, ..., n)
+        nd = sqrt_cov.ndim
+        cols = sqrt_cov.transpose((nd - 1,) + tuple(range(nd - 1))) * scale  # (n, ..., n): column i first
         return np.concatenate([mean[None], mean + cols, mean - cols], axis=0)

@@ -3,7 +3,7 @@
 numpy's batched ``cholesky`` raises one ``LinAlgError`` for a whole stack of matrices;
 a filter that runs 8000 Monte Carlo runs at once must say which one broke. These
 helpers return a boolean ``ok`` mask over the batch instead of raising, and the caller
-turns a False into a named :class:`~gnssframework.errors.NumericalError`.
+turns a False into a named ``gnssframework.errors.NumericalError``.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Run an estimator over a measurement sequence: :func:`filter_sequence`."""
+"""Run an estimator over a measurement sequence: ``filter_sequence``."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from .types import Gaussian, Model
 
 __all__ = ["filter_sequence", "FilterResult", "RECOVERIES"]
 
-#: Names of the recoveries counted in :attr:`FilterResult.recoveries`.
+#: Names of the recoveries counted in ``FilterResult.recoveries``.
 RECOVERIES = ("missing", "skip_update", "symmetrize", "clip_eigenvalues")
 
 _POLICIES = ("raise", "skip", "symmetrize", "clip")
@@ -24,7 +24,7 @@ _POLICIES = ("raise", "skip", "symmetrize", "clip")
 
 @dataclass
 class FilterResult:
-    """Output of :func:`filter_sequence`, stacked over time on axis 0.
+    """Output of ``filter_sequence``, stacked over time on axis 0.
 
     Attributes
     ----------
@@ -41,7 +41,7 @@ class FilterResult:
         Original epoch of each step's estimate (differs from ``arange(K)`` after an
         augmentation such as ``colored-ar1``).
     recoveries
-        Count of every recovery taken, keyed by :data:`RECOVERIES`.
+        Count of every recovery taken, keyed by ``RECOVERIES``.
     """
 
     mean: np.ndarray

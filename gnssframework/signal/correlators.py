@@ -48,7 +48,7 @@ class Correlators:
 
     @classmethod
     def from_iq(cls, iq: np.ndarray) -> "Correlators":
-        """Inverse of :meth:`as_iq`."""
+        """Inverse of ``as_iq``."""
         iq = np.asarray(iq, dtype=float)
         c = iq[..., :3] + 1j * iq[..., 3:6]
         return cls(c[..., 0], c[..., 1], c[..., 2])

@@ -1,0 +1,84 @@
+"""The correlator-domain channel model of reference 000 (vector tracking with an ACKF).
+
+State of one channel, ``x = [A, dtau, dtheta, df, dfdot]``: correlator amplitude,
+code phase error (chips), carrier phase error (rad), carrier frequency error (Hz) and
+its rate (Hz/s). Measurements: the six correlator outputs
+``[I_E, I_P, I_L, Q_E, Q_P, Q_L]`` after data wipe-off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
+
+__all__ = ["triangle_autocorrelation", "channel_iq", "channel_transition", "CODE_TO_CARRIER"]
+
+#: Code chipping rate over carrier frequency, f_code / f_carrier = 1 / 1540 for GPS L1 C/A.
+CODE_TO_CARRIER = CA_CHIP_RATE_HZ / L1_FREQ_HZ
+
+
+def triangle_autocorrelation(tau_chips: np.ndarray) -> np.ndarray:
+    """Ideal (infinite-bandwidth) C/A code autocorrelation, ``max(0, 1 - |tau|)``."""
+    return np.maximum(0.0, 1.0 - np.abs(tau_chips))
+
+
+def channel_iq(
+    x: np.ndarray, spacing_chips: float, coherent_time_s: float, data_bit: np.ndarray | float = 1.0
+) -> np.ndarray:
+    r"""The six correlator outputs of reference 000, eqs. 2-7, vectorised.
+
+    $$
+    I_E = A\, R(\delta\tau - d)\, D\, \mathrm{sinc}(\delta f T) \cos(\pi \delta f T + \delta\theta)
+    $$
+
+    with ``R(dtau)`` for prompt and ``R(dtau + d)`` for late, and Q with ``sin``. Here
+    ``d`` is the early-prompt spacing ``spacing_chips`` and ``sinc(x) = sin(pi x)/(pi x)``.
+
+    Parameters
+    ----------
+    x
+        States ``(..., 5)``; any leading dimensions.
+    spacing_chips
+        Early-to-prompt spacing d (half the early-late spacing).
+    coherent_time_s
+        Coherent integration time T.
+    data_bit
+        +1 or -1 (1 after wipe-off).
+
+    Returns
+    -------
+    np.ndarray
+        ``(..., 6)``: ``[I_E, I_P, I_L, Q_E, Q_P, Q_L]``.
+    """
+    amp, dtau, dtheta, df = x[..., 0], x[..., 1], x[..., 2], x[..., 3]
+    T = coherent_time_s
+    taps = np.stack(
+        [
+            triangle_autocorrelation(dtau - spacing_chips),
+            triangle_autocorrelation(dtau),
+            triangle_autocorrelation(dtau + spacing_chips),
+        ],
+        axis=-1,
+    )
+    common = (amp * data_bit * np.sinc(df * T))[..., None] * taps
+    phase = (np.pi * df * T + dtheta)[..., None]
+    return np.concatenate([common * np.cos(phase), common * np.sin(phase)], axis=-1)
+
+
+def channel_transition(coherent_time_s: float, code_to_carrier: float = CODE_TO_CARRIER) -> np.ndarray:
+    r"""Transition matrix of the channel state over one coherent interval (reference 000, eq. 9).
+
+    $$
+    \delta\tau' = \delta\tau + \tfrac{f_{code}}{f_{carrier}} T \delta f, \quad
+    \delta\theta' = \delta\theta + 2\pi T \delta f + \pi T^2 \dot{\delta f}, \quad
+    \delta f' = \delta f + T \dot{\delta f}
+    $$
+    """
+    T = coherent_time_s
+    F = np.eye(5)
+    F[1, 3] = code_to_carrier * T
+    F[2, 3] = 2 * np.pi * T
+    F[2, 4] = np.pi * T**2
+    F[3, 4] = T
+    return F

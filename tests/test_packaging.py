@@ -1,0 +1,28 @@
+"""A regular (non-editable) wheel ships every module of the core and the plugins."""
+
+from __future__ import annotations
+
+import pathlib
+import shutil
+import subprocess
+import sys
+import zipfile
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def test_wheel_contains_every_module_and_the_entry_point(tmp_path):
+    src = tmp_path / "src"
+    shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(
+        ".git", ".venv", "build", "*.egg-info", "site", "__pycache__", ".hypothesis", "examples", "docs"))
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "--no-build-isolation",
+                    "-w", str(tmp_path / "dist"), str(src)], check=True, capture_output=True, text=True)
+    (wheel,) = (tmp_path / "dist").glob("gnssframework-*.whl")
+    names = set(zipfile.ZipFile(wheel).namelist())
+    expected = {p.relative_to(ROOT).as_posix() for p in (ROOT / "gnssframework").rglob("*.py")}
+    expected |= {"gnssframework_plugins/" + p.relative_to(ROOT / "plugins").as_posix()
+                 for p in (ROOT / "plugins").rglob("*.py")}
+    assert expected - names == set()
+    entry_points = next(n for n in names if n.endswith("entry_points.txt"))
+    text = zipfile.ZipFile(wheel).read(entry_points).decode()
+    assert "[gnssframework]" in text and "builtin = gnssframework_plugins" in text
