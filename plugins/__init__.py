@@ -10,6 +10,15 @@ from gnssframework import hookimpl
 
 from .adapters import InnovationAdapter, MaximumLikelihoodQAdapter, SageHusaAdapter
 from .augmentations import ColoredAR1
+from .discriminators import (
+    Atan2FLL,
+    Atan2PLL,
+    CostasAtan,
+    CrossProductFLL,
+    DotProduct,
+    EarlyMinusLateEnvelope,
+    EarlyMinusLatePower,
+)
 from .estimators import (
     CubatureKalmanFilter,
     ExtendedKalmanFilter,
@@ -35,3 +44,10 @@ def register_noise_adapter(register):
 @hookimpl
 def register_augmentation(register):
     register(ColoredAR1)
+
+
+@hookimpl
+def register_discriminator(register):
+    for cls in (EarlyMinusLateEnvelope, EarlyMinusLatePower, DotProduct, CrossProductFLL, Atan2FLL, CostasAtan,
+                Atan2PLL):
+        register(cls)

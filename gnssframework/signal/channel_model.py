@@ -11,16 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from .constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
+from .correlator_model import correlator_mean
 
-__all__ = ["triangle_autocorrelation", "channel_iq", "channel_transition", "CODE_TO_CARRIER"]
+__all__ = ["channel_iq", "channel_transition", "CODE_TO_CARRIER"]
 
 #: Code chipping rate over carrier frequency, f_code / f_carrier = 1 / 1540 for GPS L1 C/A.
 CODE_TO_CARRIER = CA_CHIP_RATE_HZ / L1_FREQ_HZ
-
-
-def triangle_autocorrelation(tau_chips: np.ndarray) -> np.ndarray:
-    """Ideal (infinite-bandwidth) C/A code autocorrelation, ``max(0, 1 - |tau|)``."""
-    return np.maximum(0.0, 1.0 - np.abs(tau_chips))
 
 
 def channel_iq(
@@ -29,11 +25,14 @@ def channel_iq(
     r"""The six correlator outputs of reference 000, eqs. 2-7, vectorised.
 
     $$
-    I_E = A\, R(\delta\tau - d)\, D\, \mathrm{sinc}(\delta f T) \cos(\pi \delta f T + \delta\theta)
+    I_E = A\, R(\delta\tau + d)\, D\, \mathrm{sinc}(\delta f T) \cos(\pi \delta f T + \delta\theta)
     $$
 
-    with ``R(dtau)`` for prompt and ``R(dtau + d)`` for late, and Q with ``sin``. Here
-    ``d`` is the early-prompt spacing ``spacing_chips`` and ``sinc(x) = sin(pi x)/(pi x)``.
+    with ``R(dtau)`` for prompt and ``R(dtau - d)`` for late, and Q with ``sin``. Here
+    ``d`` is the early-prompt spacing ``spacing_chips``. The paper writes the early tap
+    as ``R(dtau - d)``, i.e. with the opposite sign of ``dtau``. The library keeps the
+    convention of `gnssframework.signal.correlator_model` (``dtau`` = true minus
+    replica delay) everywhere.
 
     Parameters
     ----------
@@ -51,19 +50,9 @@ def channel_iq(
     np.ndarray
         ``(..., 6)``: ``[I_E, I_P, I_L, Q_E, Q_P, Q_L]``.
     """
-    amp, dtau, dtheta, df = x[..., 0], x[..., 1], x[..., 2], x[..., 3]
-    T = coherent_time_s
-    taps = np.stack(
-        [
-            triangle_autocorrelation(dtau - spacing_chips),
-            triangle_autocorrelation(dtau),
-            triangle_autocorrelation(dtau + spacing_chips),
-        ],
-        axis=-1,
-    )
-    common = (amp * data_bit * np.sinc(df * T))[..., None] * taps
-    phase = (np.pi * df * T + dtheta)[..., None]
-    return np.concatenate([common * np.cos(phase), common * np.sin(phase)], axis=-1)
+    y = correlator_mean(x[..., 0], x[..., 1], x[..., 2], x[..., 3], coherent_time_s,
+                        np.array([-spacing_chips, 0.0, spacing_chips]), data_bit)
+    return np.concatenate([y.real, y.imag], axis=-1)
 
 
 def channel_transition(coherent_time_s: float, code_to_carrier: float = CODE_TO_CARRIER) -> np.ndarray:

@@ -1,0 +1,183 @@
+"""Analytic correlator model: early / prompt / late outputs with correlated noise.
+
+Normalisation
+-------------
+The noise of every correlator output has **unit variance in I and in Q**. A signal of
+carrier-to-noise density ratio C/N0 (linear ``c``, Hz) integrated coherently over T
+seconds then has amplitude
+
+$$
+A = \\sqrt{2\\, c\\, T}, \\qquad \\frac{A^2}{2 \\sigma^2} = c\\,T,
+$$
+
+so ``|P|^2 = A^2 + 2`` on average. The noise of two taps ``Delta`` chips apart is
+correlated with coefficient ``R(Delta)``, the code autocorrelation, because both
+correlate the same white noise against shifted copies of one code.
+
+Conventions
+-----------
+- ``code_error_chips`` is true delay minus replica delay. A positive error means the
+  signal arrives later than the replica, and the late tap is the stronger.
+- Tap offsets are relative to the prompt, negative for early:
+  ``offsets = (-d, 0, +d)`` with ``d = early_late_spacing_chips / 2``. A tap at offset
+  ``o`` sees ``R(code_error - o)``.
+- ``carrier_phase_rad`` is the phase error at the start of the interval. With a
+  frequency error ``df`` the output is rotated by its mean over the interval,
+  ``pi df T + phase``, and scaled by ``sinc(df T)`` (reference 000, eqs. 2-7).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from ..errors import ConfigError
+from .constants import CA_CHIP_RATE_HZ
+from .correlators import Correlators
+
+__all__ = [
+    "amplitude_from_cn0",
+    "code_autocorrelation",
+    "tap_offsets",
+    "correlator_mean",
+    "tap_noise_cov",
+    "simulate_correlators",
+]
+
+
+def amplitude_from_cn0(cn0_dbhz: np.ndarray | float, coherent_time_s: float) -> np.ndarray:
+    """Correlator amplitude ``A = sqrt(2 c T)`` for unit-variance I and Q noise."""
+    return np.sqrt(2.0 * 10.0 ** (np.asarray(cn0_dbhz, dtype=float) / 10.0) * coherent_time_s)
+
+
+@lru_cache(maxsize=16)
+def _band_limited_table(bandwidth_hz: float, chip_rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """R(tau) of a BPSK(1) code through an ideal low-pass front end of two-sided width B."""
+    f = np.linspace(-bandwidth_hz / 2, bandwidth_hz / 2, 4001)
+    Tc = 1.0 / chip_rate_hz
+    psd = Tc * np.sinc(f * Tc) ** 2
+    tau = np.linspace(-2.0, 2.0, 2001)  # chips
+    r = np.trapezoid(psd[None, :] * np.cos(2 * np.pi * f[None, :] * tau[:, None] * Tc), f, axis=1)
+    return tau, r
+
+
+def code_autocorrelation(
+    tau_chips: np.ndarray, bandwidth_hz: float | None = None, chip_rate_hz: float = CA_CHIP_RATE_HZ
+) -> np.ndarray:
+    """Code autocorrelation at ``tau_chips``.
+
+    Parameters
+    ----------
+    tau_chips
+        Lags in chips.
+    bandwidth_hz
+        ``None`` for the ideal triangle ``max(0, 1 - |tau|)``. Otherwise the two-sided
+        bandwidth of an ideal (brick-wall) front-end filter. The peak then drops below 1
+        by the power the filter removes (0.90 at 2.046 MHz), and the triangle's corners
+        are rounded.
+    """
+    tau = np.asarray(tau_chips, dtype=float)
+    if bandwidth_hz is None:
+        return np.maximum(0.0, 1.0 - np.abs(tau))
+    if bandwidth_hz <= 0:
+        raise ConfigError("bandwidth_hz", f"must be > 0 or None, got {bandwidth_hz}")
+    grid, r = _band_limited_table(float(bandwidth_hz), float(chip_rate_hz))
+    return np.interp(tau, grid, r, left=0.0, right=0.0)
+
+
+def tap_offsets(early_late_spacing_chips: float, extra: dict[str, float] | None = None) -> dict[str, float]:
+    """Offsets of the taps (chips, negative = early): early, prompt, late, then extras."""
+    if not 0 < early_late_spacing_chips <= 2:
+        raise ConfigError("early_late_spacing_chips", f"must be in (0, 2], got {early_late_spacing_chips}")
+    d = early_late_spacing_chips / 2
+    out = {"early": -d, "prompt": 0.0, "late": d}
+    out.update(extra or {})
+    return out
+
+
+def correlator_mean(
+    amplitude: np.ndarray,
+    code_error_chips: np.ndarray,
+    carrier_phase_rad: np.ndarray,
+    freq_error_hz: np.ndarray,
+    coherent_time_s: float,
+    offsets_chips: np.ndarray,
+    data_bit: np.ndarray | float = 1.0,
+    bandwidth_hz: float | None = None,
+) -> np.ndarray:
+    """Noise-free complex outputs of taps at ``offsets_chips``, shape ``(..., n_taps)``.
+
+    $$
+    y_o = A\\, D\\, R(\\delta\\tau - o)\\, \\mathrm{sinc}(\\delta f T)\\, e^{j(\\pi \\delta f T + \\delta\\theta)}
+    $$
+    """
+    amp = np.asarray(amplitude, dtype=float)
+    dtau = np.asarray(code_error_chips, dtype=float)
+    df = np.asarray(freq_error_hz, dtype=float)
+    phase = np.pi * df * coherent_time_s + np.asarray(carrier_phase_rad, dtype=float)
+    r = code_autocorrelation(dtau[..., None] - np.asarray(offsets_chips, dtype=float), bandwidth_hz)
+    common = amp * np.asarray(data_bit, dtype=float) * np.sinc(df * coherent_time_s)
+    return (common * np.exp(1j * phase))[..., None] * r
+
+
+def tap_noise_cov(offsets_chips: np.ndarray, bandwidth_hz: float | None = None) -> np.ndarray:
+    """Covariance of the I (or Q) noise of the taps: ``R(o_i - o_j)``."""
+    o = np.asarray(offsets_chips, dtype=float)
+    return code_autocorrelation(o[:, None] - o[None, :], bandwidth_hz)
+
+
+def simulate_correlators(
+    code_error_chips: np.ndarray,
+    carrier_phase_rad: np.ndarray,
+    freq_error_hz: np.ndarray,
+    cn0_dbhz: np.ndarray | float,
+    coherent_time_s: float,
+    rng: np.random.Generator,
+    early_late_spacing_chips: float = 1.0,
+    data_bit: np.ndarray | float = 1.0,
+    bandwidth_hz: float | None = None,
+    extra_taps: dict[str, float] | None = None,
+    amplitude: np.ndarray | None = None,
+) -> Correlators:
+    """Draw one coherent interval of correlator outputs for a batch of channels.
+
+    Parameters
+    ----------
+    code_error_chips, carrier_phase_rad, freq_error_hz
+        Tracking errors, broadcast together to the batch shape.
+    cn0_dbhz
+        C/N0 per element (ignored if ``amplitude`` is given).
+    coherent_time_s
+        Coherent integration time T.
+    rng
+        The only source of randomness.
+    early_late_spacing_chips
+        Early-to-late spacing (1 chip by default: early and late half a chip off prompt).
+    data_bit
+        Navigation data bit (+1/-1) per element; 1 after wipe-off.
+    bandwidth_hz
+        Front-end two-sided bandwidth (``None``: infinite, triangle).
+    extra_taps
+        Further taps by name and offset, e.g. ``{"very_early": -1.0, "very_late": 1.0}``.
+    amplitude
+        Give the amplitude directly (e.g. under scintillation) instead of C/N0.
+
+    Returns
+    -------
+    Correlators
+        With unit-variance I and Q noise, correlated across taps as ``R(o_i - o_j)``.
+    """
+    offsets = tap_offsets(early_late_spacing_chips, extra_taps)
+    names = list(offsets)
+    o = np.array([offsets[n] for n in names])
+    amp = amplitude_from_cn0(cn0_dbhz, coherent_time_s) if amplitude is None else np.asarray(amplitude, float)
+    mean = correlator_mean(amp, code_error_chips, carrier_phase_rad, freq_error_hz, coherent_time_s, o, data_bit,
+                           bandwidth_hz)
+    w, v = np.linalg.eigh(tap_noise_cov(o, bandwidth_hz))
+    root = v * np.sqrt(np.clip(w, 0.0, None))  # PSD root: taps may be (nearly) coincident
+    shape = mean.shape
+    noise = rng.standard_normal(shape) @ root.T + 1j * (rng.standard_normal(shape) @ root.T)
+    out = mean + noise
+    taps = {n: out[..., i] for i, n in enumerate(names)}
+    return Correlators(taps.pop("early"), taps.pop("prompt"), taps.pop("late"), extra=taps)
