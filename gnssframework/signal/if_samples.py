@@ -1,0 +1,182 @@
+"""Intermediate-frequency (IF) samples: generation and correlation into ``Correlators``.
+
+The same tracking loops then run on generated or recorded samples. Correlator
+outputs are scaled to the normalisation of `gnssframework.signal.correlator_model`
+(unit-variance I and Q noise), so the analytic model and this path agree.
+
+Signal model, real samples (complex: ``exp`` instead of ``cos``, no factor 1/2):
+
+$$
+s(t_n) = a\\, D(t_n)\\, c\\big(\\tau(t_n)\\big) \\cos\\big(2\\pi (f_{IF} + f_D) t_n + \\theta_0\\big) + w_n,
+\\qquad w_n \\sim N(0, \\sigma^2)
+$$
+
+with $a = \\sqrt{4 \\sigma^2 c / f_s}$ for real and $a = \\sqrt{2 \\sigma^2 c / f_s}$ for complex
+samples ($c$ = C/N0 in Hz, $f_s$ the sample rate). The code phase advances at
+$f_{chip} (1 + f_D / f_{L1})$ (code Doppler).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ConfigError
+from .codes import ca_code
+from .constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH, L1_FREQ_HZ
+from .correlator_model import tap_offsets
+from .correlators import Correlators
+from .navdata import bit_at
+
+__all__ = ["IfSignal", "generate_if_samples", "correlate_if", "SAMPLE_TYPES"]
+
+#: Allowed sample types and the noise standard deviation (in LSB) they are scaled to.
+SAMPLE_TYPES = {"float64": 1.0, "float32": 1.0, "int16": 1000.0, "int8": 16.0}
+
+
+@dataclass(frozen=True)
+class IfSignal:
+    """Generated IF samples and what is needed to correlate them."""
+
+    samples: np.ndarray
+    sample_rate_hz: float
+    if_hz: float
+    noise_std: float
+    is_complex: bool
+
+
+def _check(sample_rate_hz: float, if_hz: float, is_complex: bool) -> None:
+    if sample_rate_hz <= CA_CHIP_RATE_HZ:
+        raise ConfigError("sample_rate_hz", f"must exceed the chip rate {CA_CHIP_RATE_HZ} Hz, got {sample_rate_hz}")
+    if not is_complex and not 0 < if_hz < sample_rate_hz / 2:
+        raise ConfigError("if_hz", f"real sampling needs 0 < IF < fs/2 = {sample_rate_hz / 2}, got {if_hz}")
+
+
+def generate_if_samples(
+    prn: int,
+    duration_s: float,
+    sample_rate_hz: float,
+    if_hz: float,
+    cn0_dbhz: float,
+    rng: np.random.Generator,
+    *,
+    doppler_hz: float = 0.0,
+    code_phase_chips: float = 0.0,
+    carrier_phase_rad: float = 0.0,
+    complex_samples: bool = False,
+    sample_type: str = "float64",
+    data_bits: np.ndarray | None = None,
+    first_bit_edge_s: float = 0.0,
+    noise: bool = True,
+) -> IfSignal:
+    """Generate IF samples of one GPS L1 C/A signal in white noise.
+
+    Parameters
+    ----------
+    prn
+        Satellite PRN (1-32).
+    duration_s, sample_rate_hz, if_hz
+        Length, sample rate and intermediate frequency (0 allowed for complex).
+    cn0_dbhz
+        Carrier-to-noise density ratio.
+    rng
+        The only source of randomness.
+    doppler_hz, code_phase_chips, carrier_phase_rad
+        Signal parameters at t = 0.
+    complex_samples
+        I/Q samples instead of real ones.
+    sample_type
+        One of ``SAMPLE_TYPES``; integers are rounded and clipped after scaling the
+        noise to the listed standard deviation.
+    data_bits
+        Optional ±1 navigation bits (50 bit/s from ``first_bit_edge_s``).
+    noise
+        False generates the noise-free signal (for checks against the analytic model).
+    """
+    if sample_type not in SAMPLE_TYPES:
+        raise ConfigError("sample_type", f"got {sample_type!r}; allowed: {', '.join(SAMPLE_TYPES)}")
+    _check(sample_rate_hz, if_hz, complex_samples)
+    n = int(round(duration_s * sample_rate_hz))
+    t = np.arange(n) / sample_rate_hz
+    sigma = SAMPLE_TYPES[sample_type]
+    c = 10.0 ** (cn0_dbhz / 10.0)
+    a = np.sqrt((2.0 if complex_samples else 4.0) * sigma**2 * c / sample_rate_hz)
+    code = ca_code(prn).astype(float)
+    chips = code_phase_chips + CA_CHIP_RATE_HZ * (1.0 + doppler_hz / L1_FREQ_HZ) * t
+    sig = a * code[np.floor(chips).astype(int) % CA_CODE_LENGTH]
+    if data_bits is not None:
+        sig = sig * bit_at(t, np.asarray(data_bits), first_bit_edge_s)
+    phase = 2 * np.pi * (if_hz + doppler_hz) * t + carrier_phase_rad
+    if complex_samples:
+        x = sig * np.exp(1j * phase)
+        if noise:
+            x = x + sigma * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+    else:
+        x = sig * np.cos(phase)
+        if noise:
+            x = x + sigma * rng.standard_normal(n)
+    if sample_type.startswith("int"):
+        info = np.iinfo(sample_type)
+        if complex_samples:
+            x = np.stack([x.real, x.imag], axis=-1)
+        x = np.clip(np.rint(x), info.min, info.max).astype(sample_type)
+    else:
+        x = x.astype(np.complex128 if complex_samples and sample_type == "float64" else
+                     (np.complex64 if complex_samples else sample_type))
+    return IfSignal(x, float(sample_rate_hz), float(if_hz), sigma, complex_samples)
+
+
+def correlate_if(
+    signal: IfSignal,
+    prn: int,
+    code_phase_chips: np.ndarray,
+    code_rate_hz: np.ndarray,
+    carrier_freq_hz: np.ndarray,
+    carrier_phase_rad: np.ndarray,
+    coherent_time_s: float,
+    start_sample: int = 0,
+    early_late_spacing_chips: float = 1.0,
+    extra_taps: dict[str, float] | None = None,
+) -> Correlators:
+    """Correlate ``coherent_time_s`` of samples with code and carrier NCO replicas.
+
+    Parameters
+    ----------
+    signal
+        From `generate_if_samples` or a recording wrapped in ``IfSignal`` (integer
+        I/Q recordings as ``(n, 2)`` arrays).
+    prn
+        Replica code.
+    code_phase_chips, code_rate_hz, carrier_freq_hz, carrier_phase_rad
+        Replica NCO states at ``start_sample`` (any batch shape, e.g. one per channel or
+        per hypothesis). ``carrier_freq_hz`` is the full replica frequency (IF + Doppler).
+    coherent_time_s
+        Integration length.
+
+    Returns
+    -------
+    Correlators
+        Scaled to unit-variance I/Q noise, batch shape of the replica parameters.
+    """
+    x = signal.samples
+    if np.issubdtype(x.dtype, np.integer):
+        x = x[..., 0] + 1j * x[..., 1] if signal.is_complex else x.astype(float)
+    n = int(round(coherent_time_s * signal.sample_rate_hz))
+    if start_sample + n > x.shape[0]:
+        raise ConfigError("start_sample", f"{start_sample} + {n} samples exceeds the {x.shape[0]} available")
+    seg = x[start_sample:start_sample + n]
+    t = np.arange(n) / signal.sample_rate_hz
+    cp = np.asarray(code_phase_chips, float)[..., None]
+    cr = np.asarray(code_rate_hz, float)[..., None]
+    carrier = np.exp(-1j * (2 * np.pi * np.asarray(carrier_freq_hz, float)[..., None] * t
+                            + np.asarray(carrier_phase_rad, float)[..., None]))
+    baseband = seg * carrier  # (..., n)
+    code = ca_code(prn).astype(float)
+    # Real samples carry half the amplitude in each of the two mixing products.
+    norm = np.sqrt(n * signal.noise_std**2 * (1.0 if signal.is_complex else 0.5))
+    taps = {}
+    for name, offset in tap_offsets(early_late_spacing_chips, extra_taps).items():
+        idx = np.floor(cp + offset + cr * t).astype(int) % CA_CODE_LENGTH
+        taps[name] = np.sum(baseband * code[idx], axis=-1) / norm
+    return Correlators(taps.pop("early"), taps.pop("prompt"), taps.pop("late"), extra=taps)

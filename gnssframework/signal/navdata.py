@@ -1,0 +1,38 @@
+"""Navigation data bits (50 bit/s) and data wipe-off."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .constants import NAV_BIT_RATE_HZ
+from .correlators import Correlators
+
+__all__ = ["random_nav_bits", "bit_at", "wipe_off", "BIT_PERIOD_S"]
+
+BIT_PERIOD_S = 1.0 / NAV_BIT_RATE_HZ
+
+
+def random_nav_bits(n_bits: int, rng: np.random.Generator, batch_shape: tuple[int, ...] = ()) -> np.ndarray:
+    """Equiprobable ±1 bits, shape ``(n_bits, *batch_shape)``, ``int8``."""
+    return (1 - 2 * rng.integers(0, 2, size=(n_bits,) + tuple(batch_shape))).astype(np.int8)
+
+
+def bit_at(time_s: np.ndarray, bits: np.ndarray, first_edge_s: float | np.ndarray = 0.0) -> np.ndarray:
+    """The bit in force at ``time_s``. Bit k spans ``[first_edge + k/50, first_edge + (k+1)/50)``.
+
+    Times before the first edge take bit 0, and times after the last bit take the last bit.
+    """
+    k = np.floor((np.asarray(time_s, dtype=float) - first_edge_s) / BIT_PERIOD_S).astype(int)
+    k = np.clip(k, 0, bits.shape[0] - 1)
+    if bits.ndim == 1:
+        return bits[k]
+    # One bit stream per batch element: pick each element's own bit.
+    k = np.broadcast_to(k, bits.shape[1:])
+    return np.take_along_axis(bits, k[None], axis=0)[0]
+
+
+def wipe_off(correlators: Correlators, bit: np.ndarray) -> Correlators:
+    """Remove known data bits: multiply every tap by the (±1) bit."""
+    b = np.asarray(bit, dtype=float)
+    extra = {k: v * b for k, v in correlators.extra.items()}
+    return Correlators(correlators.early * b, correlators.prompt * b, correlators.late * b, extra=extra)

@@ -1,0 +1,60 @@
+"""IF-sample path against the analytic correlator model."""
+
+import numpy as np
+import pytest
+
+import gnssframework as gf
+from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
+from gnssframework.signal.correlator_model import amplitude_from_cn0, correlator_mean
+from gnssframework.signal.if_samples import correlate_if, generate_if_samples
+from gnssframework.signal.navdata import bit_at, random_nav_bits, wipe_off
+
+FS, IF = 5.0e6, 1.25e6
+
+
+@pytest.mark.parametrize("complex_samples, sample_type", [(False, "float64"), (True, "float64"),
+                                                          (False, "int8"), (True, "int16")])
+def test_noise_free_if_correlators_match_the_analytic_model(rng, complex_samples, sample_type):
+    T, cn0, doppler = 0.001, 45.0, 1200.0
+    sig = generate_if_samples(5, 0.002, FS, 0.0 if complex_samples else IF, cn0, rng, doppler_hz=doppler,
+                              code_phase_chips=100.0, carrier_phase_rad=0.4, complex_samples=complex_samples,
+                              sample_type=sample_type, noise=False)
+    code_err = np.array([-0.3, 0.0, 0.2])  # replica delays: true minus replica
+    freq_err, phase_err = 30.0, -0.7
+    code_rate = CA_CHIP_RATE_HZ * (1 + doppler / L1_FREQ_HZ)
+    got = correlate_if(sig, 5, 100.0 - code_err, code_rate, sig.if_hz + doppler - freq_err, 0.4 - phase_err, T)
+    want = correlator_mean(amplitude_from_cn0(cn0, T), code_err, phase_err, freq_err, T, np.array([-0.5, 0, 0.5]))
+    A = amplitude_from_cn0(cn0, T)
+    tol = 0.03 * A if sample_type.startswith("int") else 0.01 * A  # sampling and quantisation
+    for i, tap in enumerate((got.early, got.prompt, got.late)):
+        np.testing.assert_allclose(tap, want[..., i], atol=tol)
+
+
+def test_if_noise_is_unit_variance_and_tap_correlated(rng):
+    sig = generate_if_samples(3, 0.2, FS, IF, 40.0, rng)
+    starts = np.arange(0, 195) * 5000
+    out = [correlate_if(sig, 3, 512.0, CA_CHIP_RATE_HZ, IF, 0.0, 0.001, start_sample=s) for s in starts]
+    taps = np.array([[c.early, c.prompt, c.late] for c in out])
+    assert np.var(taps.real, axis=0).mean() == pytest.approx(1.0, rel=0.12)
+    assert np.corrcoef(taps[:, 0].real, taps[:, 1].real)[0, 1] == pytest.approx(0.5, abs=0.15)
+
+
+def test_data_bits_modulate_and_wipe_off_restores(rng):
+    bits = random_nav_bits(5, rng)
+    sig = generate_if_samples(9, 0.1, FS, IF, 50.0, rng, data_bits=bits, noise=False)
+    T = 0.001
+    starts = (np.arange(0, 100) * 0.001 * FS).astype(int)
+    prompts = np.array([correlate_if(sig, 9, 0.0, CA_CHIP_RATE_HZ, IF, 0.0, T, start_sample=s).prompt
+                        for s in starts])
+    t = starts / FS
+    b = bit_at(t, bits)
+    np.testing.assert_array_equal(np.sign(prompts.real), b)
+    clean = wipe_off(gf.Correlators(prompts, prompts, prompts), b)
+    assert np.all(clean.prompt.real > 0)
+
+
+def test_bad_sample_type_and_if_are_config_errors(rng):
+    with pytest.raises(gf.ConfigError, match="allowed: float64"):
+        generate_if_samples(1, 0.001, FS, IF, 45, rng, sample_type="uint4")
+    with pytest.raises(gf.ConfigError, match="if_hz"):
+        generate_if_samples(1, 0.001, FS, 3e6, 45, rng)
