@@ -10,6 +10,7 @@ from gnssframework import hookimpl
 
 from .adapters import InnovationAdapter, MaximumLikelihoodQAdapter, SageHusaAdapter
 from .augmentations import ColoredAR1
+from .channel_filters import KalmanCarrierLoop, ScalarTrackingLoop
 from .discriminators import (
     Atan2FLL,
     Atan2PLL,
@@ -50,4 +51,10 @@ def register_augmentation(register):
 def register_discriminator(register):
     for cls in (EarlyMinusLateEnvelope, EarlyMinusLatePower, DotProduct, CrossProductFLL, Atan2FLL, CostasAtan,
                 Atan2PLL):
+        register(cls)
+
+
+@hookimpl
+def register_channel_filter(register):
+    for cls in (ScalarTrackingLoop, KalmanCarrierLoop):
         register(cls)

@@ -1,0 +1,1 @@
+"""Receiver building blocks: loop filters, closed-loop tracking, jitter formulas."""
