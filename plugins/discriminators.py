@@ -34,6 +34,12 @@ __all__ = [
 ]
 
 
+def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
+    """``num / den``, 0 where ``den`` is 0: no signal in the taps carries no error information."""
+    num, den = np.broadcast_arrays(np.asarray(num, float), np.asarray(den, float))
+    return np.divide(num, den, out=np.zeros(num.shape), where=den != 0)
+
+
 def _cn0_linear(cn0_dbhz) -> np.ndarray:
     return 10.0 ** (np.asarray(cn0_dbhz, dtype=float) / 10.0)
 
@@ -72,7 +78,7 @@ class EarlyMinusLateEnvelope(_CodeDiscriminator):
 
     def __call__(self, current: Correlators, previous: Correlators | None = None) -> np.ndarray:
         e, l = np.abs(current.early), np.abs(current.late)
-        return (1.0 - self.half_spacing) * (l - e) / (l + e)
+        return (1.0 - self.half_spacing) * _ratio(l - e, l + e)
 
     def noise_variance(self, cn0_dbhz) -> np.ndarray:
         cT = _cn0_linear(cn0_dbhz) * self.params.coherent_time_s
@@ -105,7 +111,7 @@ class EarlyMinusLatePower(_CodeDiscriminator):
 
     def __call__(self, current: Correlators, previous: Correlators | None = None) -> np.ndarray:
         e2, l2 = np.abs(current.early) ** 2, np.abs(current.late) ** 2
-        return 0.5 * (1.0 - self.half_spacing) * (l2 - e2) / (l2 + e2)
+        return 0.5 * (1.0 - self.half_spacing) * _ratio(l2 - e2, l2 + e2)
 
     def noise_variance(self, cn0_dbhz) -> np.ndarray:
         cT = _cn0_linear(cn0_dbhz) * self.params.coherent_time_s
@@ -130,7 +136,7 @@ class DotProduct(_CodeDiscriminator):
 
     def __call__(self, current: Correlators, previous: Correlators | None = None) -> np.ndarray:
         p = current.prompt
-        return np.real((current.late - current.early) * np.conj(p)) / (2.0 * np.abs(p) ** 2)
+        return _ratio(np.real((current.late - current.early) * np.conj(p)), 2.0 * np.abs(p) ** 2)
 
     def noise_variance(self, cn0_dbhz) -> np.ndarray:
         cT = _cn0_linear(cn0_dbhz) * self.params.coherent_time_s
@@ -171,7 +177,7 @@ class CrossProductFLL(_FrequencyDiscriminator):
 
     def __call__(self, current: Correlators, previous: Correlators | None = None) -> np.ndarray:
         z = self._pair(current, previous)
-        return np.imag(z) / (2 * np.pi * self.params.coherent_time_s * np.abs(z))
+        return _ratio(np.imag(z), 2 * np.pi * self.params.coherent_time_s * np.abs(z))
 
     def noise_variance(self, cn0_dbhz) -> np.ndarray:
         T = self.params.coherent_time_s

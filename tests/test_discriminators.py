@@ -87,3 +87,11 @@ def test_formula_breakdown_is_where_the_docs_say(rng):
     # At 35 dB-Hz and 1 ms the envelope discriminator saturates: far below the formula.
     mc, theory = _monte_carlo_variance("eml-envelope", 35, 0.001, rng)
     assert mc < 0.5 * theory
+
+
+@pytest.mark.parametrize("name", CODE + FREQ + PHASE)
+def test_no_signal_in_the_taps_gives_zero_not_nan(name):
+    d = gf.registry.create("discriminator", name)
+    zero = gf.Correlators(np.zeros(3), np.zeros(3), np.zeros(3))
+    out = d(zero, previous=zero)
+    assert np.all(np.isfinite(out)) and np.all(out == 0)
