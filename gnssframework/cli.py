@@ -26,12 +26,40 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from .experiments import load_config, run_comparison
+
+    config = load_config(args.file, runs=args.runs, seed=args.seed)
+    out = args.out or f"results/{config.name}"
+    summary = run_comparison(config, out, progress=not args.quiet)
+    print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
+    return 0
+
+
+def _cmd_schema(args: argparse.Namespace) -> int:
+    import json
+
+    from .experiments import ComparisonConfig
+
+    print(json.dumps(ComparisonConfig.model_json_schema(), indent=2))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="gnssframework", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("plugins", help="list the registered plugins")
     p.add_argument("--kind", choices=registry.kinds(), help="only this kind")
     p.set_defaults(func=_cmd_plugins)
+    p = sub.add_parser("compare", help="run a Monte Carlo comparison from a TOML config")
+    p.add_argument("file", help="comparison config (TOML)")
+    p.add_argument("--runs", type=int, help="override the number of runs")
+    p.add_argument("--seed", type=int, help="override the seed")
+    p.add_argument("--out", help="output directory (default: results/<name>)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_compare)
+    p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
+    p.set_defaults(func=_cmd_schema)
     return parser
 
 

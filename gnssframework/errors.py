@@ -24,8 +24,11 @@ class GnssFrameworkError(Exception):
     """Base class of every exception raised by gnssframework."""
 
 
-class ConfigError(GnssFrameworkError, ValueError):
+class ConfigError(GnssFrameworkError):
     """A configuration or plugin parameter is invalid.
+
+    Deliberately not a ``ValueError``: pydantic would turn a ``ValueError`` raised inside
+    a validator into its own error and lose the field path this one carries.
 
     Parameters
     ----------

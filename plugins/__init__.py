@@ -10,7 +10,8 @@ from gnssframework import hookimpl
 
 from .adapters import InnovationAdapter, MaximumLikelihoodQAdapter, SageHusaAdapter
 from .augmentations import ColoredAR1
-from .channel_filters import KalmanCarrierLoop, ScalarTrackingLoop
+from .channel_filters import DiscriminatorChannel, IqFilter, KalmanCarrierLoop, ScalarTrackingLoop
+from .nav_filters import EkfPositionVelocity
 from .discriminators import (
     Atan2FLL,
     Atan2PLL,
@@ -56,5 +57,10 @@ def register_discriminator(register):
 
 @hookimpl
 def register_channel_filter(register):
-    for cls in (ScalarTrackingLoop, KalmanCarrierLoop):
+    for cls in (ScalarTrackingLoop, KalmanCarrierLoop, DiscriminatorChannel, IqFilter):
         register(cls)
+
+
+@hookimpl
+def register_nav_filter(register):
+    register(EkfPositionVelocity)

@@ -8,12 +8,14 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework import registry
+from gnssframework.estimation import Gaussian, NonlinearModel
 from gnssframework.interfaces import ChannelFilter
+from gnssframework.signal.navdata import wipe_off
 from gnssframework.plugin import PluginParams
 from gnssframework.receiver.loop_filters import LoopFilter
 from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 
-__all__ = ["ScalarTrackingLoop", "KalmanCarrierLoop"]
+__all__ = ["ScalarTrackingLoop", "KalmanCarrierLoop", "DiscriminatorChannel", "IqFilter"]
 
 
 class ScalarParams(PluginParams):
@@ -172,3 +174,193 @@ class KalmanCarrierLoop(ChannelFilter):
         code_err, code_freq = self.dll(corr, f_hz)
         return {"carrier_freq_hz": f_hz, "code_freq_hz": code_freq, "carrier_phase_step_rad": phase_step * self.unit,
                 "phase_disc_rad": z_rad, "code_disc_chips": code_err}
+
+
+# -- vector-tracking channel filters ------------------------------------------------
+
+VECTOR_OUTPUTS = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", "freq_error_var_hz2")
+
+
+class DiscriminatorChannelParams(PluginParams):
+    code_discriminator: str = Field("eml-envelope", description="code discriminator plugin")
+    freq_discriminator: str = Field("cross-product", description="frequency discriminator plugin")
+
+
+class DiscriminatorChannel(ChannelFilter):
+    """Discriminators as a vector-loop channel filter: the classic baseline of reference 000.
+
+    Outputs the code discriminator (``eml-envelope``) and the frequency discriminator
+    (``cross-product`` on consecutive prompts) with their thermal-noise variances at the
+    channel's C/N0 (given in the context as ``cn0_dbhz``; a receiver would use its C/N0
+    estimate). The first interval has no previous prompt: its frequency output is 0 with
+    a variance of 1e8 Hz². Known data bits are wiped off.
+    """
+
+    name = "discriminator"
+    description = "Code and frequency discriminators with their noise variances, for vector loops"
+    Params = DiscriminatorChannelParams
+    requires = ("correlators",)
+    provides = VECTOR_OUTPUTS
+
+    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
+        T = context["coherent_time_s"]
+        spacing = context.get("early_late_spacing_chips", 1.0)
+        code = registry.get("discriminator", self.params.code_discriminator)
+        kw = {"early_late_spacing_chips": spacing} if "early_late_spacing_chips" in code.Params.model_fields else {}
+        self.code = code(coherent_time_s=T, **kw)
+        self.freq = registry.create("discriminator", self.params.freq_discriminator, coherent_time_s=T)
+        if self.code.unit != "chips" or self.freq.unit != "Hz":
+            from gnssframework.errors import ConfigError
+            raise ConfigError("channel_filter 'discriminator'", "needs a code discriminator (chips) and a frequency "
+                              f"discriminator (Hz), got {self.code.unit} and {self.freq.unit}")
+        cn0 = np.broadcast_to(np.asarray(context["cn0_dbhz"], float), batch_shape)
+        self.var_code = np.broadcast_to(self.code.noise_variance(cn0), batch_shape)
+        self.var_freq = np.broadcast_to(self.freq.noise_variance(cn0), batch_shape)
+        self.previous = None
+
+    def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        corr = inputs["correlators"]
+        if "data_bit" in inputs:
+            corr = wipe_off(corr, inputs["data_bit"])
+        code = self.code(corr)
+        if self.previous is None:
+            # No previous prompt: no information. A huge finite variance (not inf, which
+            # would make S non-finite) lets the nav filter ignore the output.
+            freq, var_freq = np.zeros_like(code), np.full(code.shape, 1e8)
+        else:
+            freq, var_freq = self.freq(corr, previous=self.previous), self.var_freq
+        self.previous = corr
+        return {"code_error_chips": code, "code_error_var_chips2": self.var_code, "freq_error_hz": freq,
+                "freq_error_var_hz2": var_freq}
+
+
+class IqFilterParams(PluginParams):
+    estimator: str = Field("svd-ckf", description="estimator plugin: svd-ckf, ckf or ukf")
+    adapter: str | None = Field("innovation", description="noise adapter plugin for R, or null for none")
+    window: int = Field(20, ge=2, description="window L of the innovation adapter")
+    warmup: int = Field(20, ge=0, description="updates before R adaptation starts")
+    q: list[float] = Field([1e-3, 1e-8, 1e-5, 1e-4, 1e-2],
+                           description="diagonal of Q per interval: A, dtau (chips), dtheta (rad), df (Hz), dfdot (Hz/s)")
+    initial_std: list[float] = Field([2.0, 0.05, 0.3, 5.0, 5.0], description="initial std of the five states")
+    output: Literal["equivalent", "filtered"] = Field(
+        "equivalent", description="what the nav filter gets: this interval's equivalent measurement, or the "
+        "filtered estimate (the paper's choice, which counts old correlators again every interval)")
+
+
+def _equivalent_measurement(prior: Gaussian, post: Gaussian, idx: list[int]):
+    """The measurement that carries exactly the information one update added.
+
+    On the marginal of the states ``idx``: $R_{eq} = (P^{+-1} - P^{--1})^{-1}$,
+    $z_{eq} = R_{eq}(P^{+-1} x^+ - P^{--1} x^-)$. Elements where the update added no
+    information in some direction get a variance of 1e8 there.
+    """
+    sel = np.ix_(idx, idx)
+    Ppr, Ppo = prior.cov[(...,) + sel], post.cov[(...,) + sel]
+    Ipr, Ipo = np.linalg.inv(Ppr), np.linalg.inv(Ppo)
+    gain = Ipo - Ipr
+    w, v = np.linalg.eigh(0.5 * (gain + np.swapaxes(gain, -1, -2)))
+    w = np.maximum(w, 1e-8)  # no (or negative, from nonlinearity) information: variance 1e8
+    R_eq = (v / w[..., None, :]) @ np.swapaxes(v, -1, -2)
+    info = (Ipo @ post.mean[..., idx, None] - Ipr @ prior.mean[..., idx, None])
+    z_eq = (R_eq @ info)[..., 0]
+    return z_eq, R_eq
+
+
+class IqFilter(ChannelFilter):
+    """Reference 000's per-channel filter on the six correlator outputs.
+
+    State $x = [A, \\delta\\tau, \\delta\\theta, \\delta f, \\dot{\\delta f}]$, transition of
+    `gnssframework.signal.channel_model.channel_transition`, measurements
+    $[I_E, I_P, I_L, Q_E, Q_P, Q_L]$ through `channel_iq` (eqs. 2-7), batched over runs
+    and channels. The estimator is ``svd-ckf`` by default. R starts at the correlators'
+    true noise covariance (unit-variance I and Q, correlated across taps as the code
+    autocorrelation) and is re-estimated by the ``innovation`` adapter (eq. 31) over a
+    window of L updates.
+
+    Initialisation: the amplitude and carrier phase come from the first prompt, and
+    the code and frequency errors start at 0. The vector loop's NCO shifts are
+    subtracted from $\\delta\\tau$ and $\\delta f$ before each prediction, so the states
+    stay relative to the replica actually in use.
+
+    Data bits: with ``data_bit`` in the inputs the correlators are wiped off.
+    Otherwise the bit is decided from the sign of the prompt projected on the predicted
+    carrier phase (decision-directed). A wrong decision rotates the phase by $\\pi$
+    for one interval.
+    """
+
+    name = "iq-filter"
+    description = "CKF on the six I/Q correlator outputs with adaptive R (reference 000)"
+    Params = IqFilterParams
+    requires = ("correlators",)
+    provides = VECTOR_OUTPUTS + ("amplitude", "phase_error_rad")
+
+    def __init__(self, **params: Any) -> None:
+        super().__init__(**params)
+        from gnssframework.errors import ConfigError
+
+        p = self.params
+        if len(p.q) != 5 or len(p.initial_std) != 5:
+            raise ConfigError("channel_filter 'iq-filter'", "q and initial_std need 5 values (A, dtau, dtheta, df, dfdot)")
+        self.engine = registry.create("estimator", p.estimator)
+        self.adapter = (registry.create("noise_adapter", p.adapter, window=p.window, warmup=p.warmup)
+                        if p.adapter == "innovation" else
+                        registry.create("noise_adapter", p.adapter, warmup=p.warmup) if p.adapter else None)
+
+    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
+        from gnssframework.signal.channel_model import channel_iq, channel_transition
+        from gnssframework.signal.correlator_model import tap_noise_cov
+
+        T = context["coherent_time_s"]
+        d = context.get("early_late_spacing_chips", 1.0) / 2
+        F = channel_transition(T)
+        taps = tap_noise_cov(np.array([-d, 0.0, d]))
+        R0 = np.zeros((6, 6))
+        R0[:3, :3] = R0[3:, 3:] = taps + 1e-6 * np.eye(3)  # E/P/L share noise; a touch of jitter keeps it PD
+        self.model = NonlinearModel(lambda x: x @ F.T, lambda x: channel_iq(x, d, T), np.diag(self.params.q), R0)
+        self.batch_shape = batch_shape
+        self.state = None
+        self.run = self.adapter.start(self.model.Q, R0) if self.adapter is not None else None
+        self.T = T
+        self.k = 0
+
+    def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        corr = inputs["correlators"]
+        if "data_bit" in inputs:
+            corr = wipe_off(corr, inputs["data_bit"])
+        if self.state is None:
+            p0 = corr.prompt
+            mean = np.zeros(self.batch_shape + (5,))
+            mean[..., 0] = np.abs(p0)
+            mean[..., 2] = np.angle(p0)
+            self.state = Gaussian(mean, np.diag(np.square(self.params.initial_std)))
+            prior = self.state
+        else:
+            mean = self.state.mean.copy()
+            mean[..., 1] -= inputs["nco_shift_chips"]
+            mean[..., 3] -= inputs["nco_shift_hz"]
+            previous = Gaussian(mean, self.state.cov)
+            prior = self.engine.predict(previous, self.model)
+        if "data_bit" not in inputs:  # decision-directed wipe-off
+            phase = prior.mean[..., 2] + np.pi * prior.mean[..., 3] * self.T
+            bit = np.where(np.real(corr.prompt * np.exp(-1j * phase)) >= 0, 1.0, -1.0)
+            corr = wipe_off(corr, bit)
+        upd = self.engine.update(prior, corr.as_iq(), self.model)
+        if self.run is not None:
+            from gnssframework.estimation import AdaptationStep
+
+            previous = self.state
+            _, R = self.run.step(AdaptationStep(self.k, previous, prior, upd, self.model))
+            self.model = self.model.with_noise(R=R)
+        self.k += 1
+        first = self.k == 1
+        self.state = upd.state
+        x, P = upd.state.mean, upd.state.cov
+        out = {"amplitude": x[..., 0], "phase_error_rad": x[..., 2]}
+        if self.params.output == "filtered" or first:
+            out.update(code_error_chips=x[..., 1], code_error_var_chips2=P[..., 1, 1], freq_error_hz=x[..., 3],
+                       freq_error_var_hz2=P[..., 3, 3])
+        else:
+            z, R = _equivalent_measurement(prior, upd.state, [1, 3])
+            out.update(code_error_chips=z[..., 0], code_error_var_chips2=R[..., 0, 0], freq_error_hz=z[..., 1],
+                       freq_error_var_hz2=R[..., 1, 1])
+        return out

@@ -59,14 +59,17 @@ def channel_transition(coherent_time_s: float, code_to_carrier: float = CODE_TO_
     r"""Transition matrix of the channel state over one coherent interval (reference 000, eq. 9).
 
     $$
-    \delta\tau' = \delta\tau + \tfrac{f_{code}}{f_{carrier}} T \delta f, \quad
+    \delta\tau' = \delta\tau - \tfrac{f_{code}}{f_{carrier}} T \delta f, \quad
     \delta\theta' = \delta\theta + 2\pi T \delta f + \pi T^2 \dot{\delta f}, \quad
     \delta f' = \delta f + T \dot{\delta f}
     $$
     """
     T = coherent_time_s
     F = np.eye(5)
-    F[1, 3] = code_to_carrier * T
+    # Our code error is true minus replica delay: a positive frequency error (range
+    # shrinking faster than the replica's) makes it *decrease*. The paper's + sign
+    # goes with its opposite dtau convention.
+    F[1, 3] = -code_to_carrier * T
     F[2, 3] = 2 * np.pi * T
     F[2, 4] = np.pi * T**2
     F[3, 4] = T

@@ -1,0 +1,21 @@
+"""Config-driven Monte Carlo comparisons (``gnssframework compare FILE``)."""
+
+from .config import Candidate, Case, ComparisonConfig, Executor, PluginRef, load_config
+from .runner import plan, run_comparison
+from .scenarios import SCENARIOS, BatchResult, Scenario, get_scenario, register_scenario
+
+__all__ = [
+    "BatchResult",
+    "Candidate",
+    "Case",
+    "ComparisonConfig",
+    "Executor",
+    "PluginRef",
+    "SCENARIOS",
+    "Scenario",
+    "get_scenario",
+    "load_config",
+    "plan",
+    "register_scenario",
+    "run_comparison",
+]

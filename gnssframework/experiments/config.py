@@ -1,0 +1,159 @@
+"""The comparison config: a TOML file validated by pydantic.
+
+A config names a scenario, the cases (e.g. C/N0 values), the candidates (each a
+composition of plugins with parameters), the metrics, the number of Monte Carlo runs,
+a seed, an executor and, optionally, published values to print beside the results.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import tomllib
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from .. import registry
+from ..errors import ConfigError, DataFileError
+from ..hookspecs import KINDS
+from ..plugin import validation_message
+
+__all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "load_config"]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class PluginRef(_Strict):
+    """One plugin of a candidate: its registry name and parameters."""
+
+    name: str = Field(..., description="registered name, e.g. 'iq-filter'")
+    params: dict[str, Any] = Field(default_factory=dict, description="parameters of the plugin's model")
+
+
+class Candidate(_Strict):
+    """A named composition of plugins, one per kind the scenario uses."""
+
+    name: str = Field(..., pattern=r"^[A-Za-z0-9_.+-]+$")
+    estimator: PluginRef | None = None
+    noise_adapter: PluginRef | None = None
+    augmentation: PluginRef | None = None
+    discriminator: PluginRef | None = None
+    channel_filter: PluginRef | None = None
+    nav_filter: PluginRef | None = None
+
+    def components(self) -> dict[str, PluginRef]:
+        return {k: getattr(self, k) for k in KINDS if getattr(self, k) is not None}
+
+
+class Case(BaseModel):
+    """A scenario variant: a name plus the scenario's case parameters (e.g. ``cn0_dbhz``)."""
+
+    model_config = ConfigDict(extra="allow")
+    name: str = Field(..., pattern=r"^[A-Za-z0-9_.+-]+$")
+
+    def params(self) -> dict[str, Any]:
+        return dict(self.model_extra or {})
+
+
+class Executor(_Strict):
+    """Where the runs execute."""
+
+    kind: Literal["local", "dask"] = "local"
+    workers: int = Field(0, ge=0, description="local processes (0: one per core, 1: in this process)")
+    address: str = Field("", description="dask scheduler address; empty starts a LocalCluster")
+
+
+class ComparisonConfig(_Strict):
+    """A Monte Carlo comparison."""
+
+    name: str = "comparison"
+    description: str = ""
+    runs: int = Field(10, ge=1, description="Monte Carlo runs per case and candidate")
+    batch_size: int = Field(5, ge=1, description="runs simulated together as one array program")
+    seed: int = Field(0, ge=0)
+    executor: Executor = Field(default_factory=Executor)
+    scenario: dict[str, Any] = Field(..., description="scenario kind and its parameters (see the scenario's page)")
+    cases: list[Case] = Field(..., min_length=1)
+    candidates: list[Candidate] = Field(..., min_length=1)
+    metrics: list[str] = Field(default_factory=list, description="metrics to report (default: all of the scenario)")
+    published: dict[str, dict[str, dict[str, float]]] = Field(
+        default_factory=dict, description="published values: case -> candidate -> metric -> value")
+
+    @field_validator("candidates", "cases")
+    @classmethod
+    def _unique_names(cls, items):
+        names = [i.name for i in items]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"names must be unique, repeated: {', '.join(dup)}")
+        return items
+
+    @model_validator(mode="after")
+    def _check_against_scenario(self) -> "ComparisonConfig":
+        from .scenarios import get_scenario
+
+        scenario = get_scenario(self.scenario)  # raises ConfigError naming scenario.kind / field
+        unknown = [m for m in self.metrics if m not in scenario.metrics]
+        if unknown:
+            raise ConfigError("metrics", f"unknown {', '.join(map(repr, unknown))}; allowed: {', '.join(scenario.metrics)}")
+        for i, case in enumerate(self.cases):
+            scenario.check_case(case.params(), f"cases[{i}]")
+        for i, cand in enumerate(self.candidates):
+            scenario.check_candidate(cand.components(), f"candidates[{i}]")
+        case_names = {c.name for c in self.cases}
+        cand_names = {c.name for c in self.candidates}
+        for case, per_cand in self.published.items():
+            if case not in case_names:
+                raise ConfigError(f"published.{case}", f"unknown case; allowed: {', '.join(sorted(case_names))}")
+            for cand, values in per_cand.items():
+                if cand not in cand_names:
+                    raise ConfigError(f"published.{case}.{cand}",
+                                      f"unknown candidate; allowed: {', '.join(sorted(cand_names))}")
+                for metric in values:
+                    if metric not in scenario.metrics:
+                        raise ConfigError(f"published.{case}.{cand}.{metric}",
+                                          f"unknown metric; allowed: {', '.join(scenario.metrics)}")
+        return self
+
+    @property
+    def metric_names(self) -> list[str]:
+        from .scenarios import get_scenario
+
+        return self.metrics or list(get_scenario(self.scenario).metrics)
+
+    def identity(self) -> str:
+        """Hash of everything that changes the numbers (not runs, executor or description).
+
+        A store keyed by it lets a longer or interrupted comparison reuse finished batches.
+        """
+        data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name"})
+        return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
+    """Read and validate a comparison TOML file.
+
+    Raises
+    ------
+    DataFileError
+        If the file is missing or not valid TOML (with the line).
+    ConfigError
+        For any invalid field, naming it and what it allows.
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise DataFileError(str(path), None, "no such file") from None
+    except tomllib.TOMLDecodeError as exc:
+        line = getattr(exc, "lineno", None)
+        raise DataFileError(str(path), line, f"invalid TOML: {exc}") from None
+    data.update({k: v for k, v in overrides.items() if v is not None})
+    try:
+        return ComparisonConfig.model_validate(data)
+    except ValidationError as exc:
+        raise validation_message(exc) from None

@@ -1,0 +1,132 @@
+"""The comparison report: summary.json, report.md and PNG plots."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .config import ComparisonConfig
+from .scenarios import get_scenario
+from .store import ResultStore
+
+__all__ = ["write_report", "summary_rows"]
+
+
+def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
+    """One row per case, candidate and metric: mean and std over runs, unit, published value."""
+    scenario = get_scenario(config.scenario)
+    key = config.identity()
+    rows = []
+    for case in config.cases:
+        for cand in config.candidates:
+            for metric in config.metric_names:
+                v = store.values(key, case.name, cand.name, metric, config.runs)
+                rows.append({
+                    "case": case.name,
+                    "candidate": cand.name,
+                    "metric": metric,
+                    "mean": float(np.mean(v)) if v.size else None,
+                    "std": float(np.std(v, ddof=1)) if v.size > 1 else 0.0,
+                    "runs": int(v.size),
+                    "unit": scenario.metrics[metric],
+                    "published": config.published.get(case.name, {}).get(cand.name, {}).get(metric),
+                })
+    return rows
+
+
+def _fmt(x: float | None) -> str:
+    if x is None:
+        return "–"
+    return f"{x:.4g}"
+
+
+def _markdown(config: ComparisonConfig, rows: list[dict]) -> str:
+    lines = [f"# {config.name}", ""]
+    if config.description:
+        lines += [config.description.strip(), ""]
+    lines += [f"{config.runs} Monte Carlo runs per case and candidate, seed {config.seed}, "
+              f"batches of {config.batch_size}.", ""]
+    for case in config.cases:
+        lines += [f"## {case.name}", "", "| metric | unit | " + " | ".join(c.name for c in config.candidates) + " |",
+                  "| --- | --- | " + " | ".join("---" for _ in config.candidates) + " |"]
+        for metric in config.metric_names:
+            cells = []
+            unit = ""
+            for cand in config.candidates:
+                r = next(r for r in rows if r["case"] == case.name and r["candidate"] == cand.name
+                         and r["metric"] == metric)
+                unit = r["unit"]
+                cell = f"{_fmt(r['mean'])} ± {_fmt(r['std'])}"
+                if r["published"] is not None:
+                    cell += f" (paper {_fmt(r['published'])})"
+                cells.append(cell)
+            lines.append(f"| {metric} | {unit} | " + " | ".join(cells) + " |")
+        lines += ["", f"![time series](plots/{case.name}-series.png)", "",
+                  f"![CDFs over runs](plots/{case.name}-cdf.png)", ""]
+    return "\n".join(lines) + "\n"
+
+
+def _load_series(out: Path, case: str, cand: str) -> tuple[np.ndarray | None, dict[str, np.ndarray]]:
+    files = sorted((out / "raw" / case / cand).glob("batch*.npz"))
+    if not files:
+        return None, {}
+    parts = [np.load(f) for f in files]
+    time_s = parts[0]["time_s"]
+    keys = [k for k in parts[0].files if k not in ("time_s", "first_run")]
+    return time_s, {k: np.concatenate([p[k] for p in parts], axis=-1) for k in keys}
+
+
+def _plots(config: ComparisonConfig, rows: list[dict], out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plot_dir = out / "plots"
+    plot_dir.mkdir(exist_ok=True)
+    metrics = config.metric_names
+    for case in config.cases:
+        # Time series: the median over runs of each metric's per-epoch error.
+        fig, axes = plt.subplots(len(metrics), 1, figsize=(7, 2.0 * len(metrics)), sharex=True, squeeze=False)
+        for cand in config.candidates:
+            time_s, series = _load_series(out, case.name, cand.name)
+            for ax, metric in zip(axes[:, 0], metrics):
+                if metric in series and time_s is not None and time_s.size:
+                    ax.plot(time_s, np.median(series[metric], axis=-1), lw=0.8, label=cand.name)
+        for ax, metric in zip(axes[:, 0], metrics):
+            unit = next(r["unit"] for r in rows if r["metric"] == metric)
+            ax.set_ylabel(f"{metric}\n({unit})", fontsize=7)
+            ax.grid(alpha=0.3)
+        axes[0, 0].legend(fontsize=7)
+        axes[-1, 0].set_xlabel("time (s)")
+        axes[0, 0].set_title(f"{config.name} - {case.name}: median over runs")
+        fig.tight_layout()
+        fig.savefig(plot_dir / f"{case.name}-series.png", dpi=90)
+        plt.close(fig)
+        # CDFs over runs of every metric.
+        fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics), 2.8), squeeze=False)
+        store = ResultStore(out / "results.sqlite")
+        for ax, metric in zip(axes[0], metrics):
+            for cand in config.candidates:
+                v = np.sort(store.values(config.identity(), case.name, cand.name, metric, config.runs))
+                if v.size:
+                    ax.step(v, np.arange(1, v.size + 1) / v.size, where="post", label=cand.name)
+            ax.set_xlabel(metric, fontsize=7)
+            ax.grid(alpha=0.3)
+        axes[0, 0].set_ylabel("CDF over runs")
+        axes[0, 0].legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(plot_dir / f"{case.name}-cdf.png", dpi=90)
+        plt.close(fig)
+
+
+def write_report(config: ComparisonConfig, store: ResultStore, out: Path) -> Path:
+    """Write ``summary.json``, ``report.md`` and ``plots/`` into ``out``."""
+    rows = summary_rows(config, store)
+    summary = out / "summary.json"
+    summary.write_text(json.dumps({"name": config.name, "seed": config.seed, "rows": rows}, indent=2))
+    (out / "report.md").write_text(_markdown(config, rows))
+    _plots(config, rows, out)
+    return summary

@@ -1,0 +1,149 @@
+"""Run a comparison: plan batches, execute them (local processes or Dask), store, report.
+
+Reproducibility: runs are simulated in batches of ``batch_size``. Batch b of case i draws
+every random number from ``numpy.random.default_rng(SeedSequence([seed, i, b]))``, and
+every candidate of that case and batch gets the same generator (common random numbers:
+the candidates see the same signals and noise). So the same seed and batch size give the
+same numbers on any executor, in any order of completion, and after a resume.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+import numpy as np
+
+from ..errors import ConfigError
+from .config import ComparisonConfig
+from .scenarios import get_scenario
+from .store import ResultStore
+
+__all__ = ["Task", "plan", "run_task", "run_comparison"]
+
+
+@dataclass(frozen=True)
+class Task:
+    """One batch of runs of one case and candidate."""
+
+    case_index: int
+    candidate_index: int
+    batch: int
+    first_run: int
+    runs: int
+
+
+def plan(config: ComparisonConfig) -> list[Task]:
+    """Every (case, candidate, batch) of the comparison, batch-major for early partial results."""
+    out = []
+    for b, first in enumerate(range(0, config.runs, config.batch_size)):
+        n = min(config.batch_size, config.runs - first)
+        for i in range(len(config.cases)):
+            for j in range(len(config.candidates)):
+                out.append(Task(i, j, b, first, n))
+    return out
+
+
+def batch_rng(seed: int, case_index: int, batch: int) -> np.random.Generator:
+    """The generator of a batch (see the module docstring)."""
+    return np.random.default_rng(np.random.SeedSequence([seed, case_index, batch]))
+
+
+def run_task(config_data: dict[str, Any], task: Task) -> tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray],
+                                                                np.ndarray | None]:
+    """Execute one task in any process: rebuilds the scenario and the candidate's plugins."""
+    config = ComparisonConfig.model_validate(config_data)
+    scenario = get_scenario(config.scenario)
+    case = config.cases[task.case_index]
+    candidate = config.candidates[task.candidate_index]
+    plugins = scenario.build({k: v.model_dump() for k, v in candidate.components().items()})
+    rng = batch_rng(config.seed, task.case_index, task.batch)
+    result = scenario.run_batch({"name": case.name, **case.params()}, plugins, task.runs, rng)
+    return task, result.metrics, result.series, result.time_s
+
+
+def _save_series(out: Path, config: ComparisonConfig, task: Task, series: dict[str, np.ndarray],
+                 time_s: np.ndarray | None) -> None:
+    case = config.cases[task.case_index].name
+    cand = config.candidates[task.candidate_index].name
+    path = out / "raw" / case / cand
+    path.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path / f"batch{task.batch:04d}.npz", time_s=np.array([]) if time_s is None else time_s,
+                        first_run=task.first_run, **series)
+
+
+def _execute(config: ComparisonConfig, tasks: list[Task]) -> Iterable[tuple]:
+    data = config.model_dump(mode="json")
+    ex = config.executor
+    if ex.kind == "dask":
+        try:
+            from dask.distributed import Client, LocalCluster, as_completed as dask_completed
+        except ImportError:
+            raise ConfigError("executor.kind", "'dask' needs the optional extra: pip install 'gnssframework[dask]'") \
+                from None
+        cluster = None
+        if ex.address:
+            client = Client(ex.address)
+        else:
+            cluster = LocalCluster(n_workers=ex.workers or os.cpu_count() or 1, threads_per_worker=1,
+                                   processes=False, dashboard_address=None)
+            client = Client(cluster)
+        try:
+            futures = [client.submit(run_task, data, t, pure=False) for t in tasks]
+            for fut in dask_completed(futures):
+                yield fut.result()
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+        return
+    workers = ex.workers or os.cpu_count() or 1
+    if workers == 1 or len(tasks) == 1:
+        for t in tasks:
+            yield run_task(data, t)
+        return
+    with ProcessPoolExecutor(max_workers=min(workers, len(tasks))) as pool:
+        futures = [pool.submit(run_task, data, t) for t in tasks]
+        for fut in as_completed(futures):
+            yield fut.result()
+
+
+def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = True,
+                   on_batch: Callable[[Task], None] | None = None) -> Path:
+    """Run (or resume) ``config`` and write the report into ``out``.
+
+    Returns
+    -------
+    Path
+        The ``summary.json`` written.
+    """
+    from .report import write_report
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "config.json").write_text(config.model_dump_json(indent=2))
+    store = ResultStore(out / "results.sqlite")
+    key = config.identity()
+    done = store.finished_batches(key)
+    tasks = [t for t in plan(config)
+             if (config.cases[t.case_index].name, config.candidates[t.candidate_index].name, t.batch) not in done]
+    bar = None
+    if progress and tasks:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(tasks), desc=config.name, unit="batch")
+    for task, metrics, series, time_s in _execute(config, tasks):
+        case = config.cases[task.case_index].name
+        cand = config.candidates[task.candidate_index].name
+        _save_series(out, config, task, series, time_s)
+        store.add_batch(key, case, cand, task.batch, task.first_run, metrics)
+        if on_batch is not None:
+            on_batch(task)
+        if bar is not None:
+            bar.update()
+    if bar is not None:
+        bar.close()
+    return write_report(config, store, out)

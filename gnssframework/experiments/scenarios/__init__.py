@@ -1,0 +1,115 @@
+"""Scenario kinds of the comparison runner.
+
+A scenario turns (case, candidate, a batch of runs, a random generator) into per-run
+metrics and time series. Each kind declares its parameters, its case parameters, the
+plugin kinds a candidate must (or may) compose, and its metrics with their units.
+"""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from ... import registry
+from ...errors import ConfigError
+from ...plugin import validation_message
+
+__all__ = ["Scenario", "BatchResult", "SCENARIOS", "get_scenario", "register_scenario"]
+
+
+class ScenarioParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+@dataclass
+class BatchResult:
+    """Metrics ``(runs,)`` and time series ``(K, runs)`` of one batch of runs."""
+
+    metrics: dict[str, np.ndarray]
+    series: dict[str, np.ndarray] = field(default_factory=dict)
+    time_s: np.ndarray | None = None
+
+
+class Scenario(abc.ABC):
+    """Base class of scenario kinds."""
+
+    kind: ClassVar[str]
+    Params: ClassVar[type[ScenarioParams]]
+    CaseParams: ClassVar[type[ScenarioParams]]
+    #: plugin kind -> True if required, False if optional.
+    components: ClassVar[dict[str, bool]]
+    #: metric name -> unit.
+    metrics: ClassVar[dict[str, str]]
+
+    def __init__(self, params: ScenarioParams) -> None:
+        self.params = params
+
+    def check_case(self, case: dict[str, Any], where: str) -> None:
+        try:
+            self.CaseParams.model_validate(case)
+        except ValidationError as exc:
+            raise validation_message(exc, prefix=where) from None
+
+    def check_candidate(self, components: dict[str, Any], where: str) -> None:
+        """Every required kind present, no foreign kind, every plugin creatable, and composable."""
+        for kind, required in self.components.items():
+            if required and kind not in components:
+                raise ConfigError(f"{where}.{kind}", f"required by scenario {self.kind!r} "
+                                  f"(a candidate composes: {self._describe_components()})")
+        for kind in components:
+            if kind not in self.components:
+                raise ConfigError(f"{where}.{kind}", f"scenario {self.kind!r} does not use a {kind}; "
+                                  f"it composes: {self._describe_components()}")
+        built = {}
+        for kind, ref in components.items():
+            try:
+                cls = registry.get(kind, ref.name)
+            except ConfigError as exc:
+                raise ConfigError(f"{where}.{kind}.name", exc.detail) from None
+            try:
+                built[kind] = cls(**ref.params)
+            except ConfigError as exc:
+                raise ConfigError(f"{where}.{kind}.params", str(exc)) from None
+        self.check_composition(built, where)
+
+    def _describe_components(self) -> str:
+        return ", ".join(f"{k} ({'required' if r else 'optional'})" for k, r in self.components.items())
+
+    def check_composition(self, plugins: dict[str, Any], where: str) -> None:
+        """Refuse compositions whose parts cannot work together (override per scenario)."""
+
+    def build(self, candidate: dict[str, Any]) -> dict[str, Any]:
+        """Instantiate a candidate's plugins (fresh objects for every batch)."""
+        return {kind: registry.create(kind, ref["name"], **ref.get("params", {})) for kind, ref in candidate.items()}
+
+    @abc.abstractmethod
+    def run_batch(self, case: dict[str, Any], plugins: dict[str, Any], runs: int,
+                  rng: np.random.Generator) -> BatchResult:
+        """Simulate ``runs`` Monte Carlo runs as one array program."""
+
+
+SCENARIOS: dict[str, type[Scenario]] = {}
+
+
+def register_scenario(cls: type[Scenario]) -> type[Scenario]:
+    SCENARIOS[cls.kind] = cls
+    return cls
+
+
+def get_scenario(config: dict[str, Any]) -> Scenario:
+    """Instantiate the scenario named by ``config["kind"]`` with the other keys as parameters."""
+    from . import vector_tracking  # noqa: F401 - registers the built-in kinds
+
+    kind = config.get("kind")
+    if kind not in SCENARIOS:
+        raise ConfigError("scenario.kind", f"got {kind!r}; allowed: {', '.join(sorted(SCENARIOS))}")
+    cls = SCENARIOS[kind]
+    try:
+        params = cls.Params.model_validate({k: v for k, v in config.items() if k != "kind"})
+    except ValidationError as exc:
+        raise validation_message(exc, prefix="scenario") from None
+    return cls(params)

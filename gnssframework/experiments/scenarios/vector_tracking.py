@@ -1,0 +1,140 @@
+"""Scenario ``vector-tracking``: reference 000's experiment (adaptive CKF vector tracking).
+
+GPS L1 C/A satellites of the nominal constellation, a static receiver (or one moving at
+constant velocity), a receiver clock from h-parameters, and N channels tracked in a
+vector loop: a channel filter per channel and one navigation filter.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import numpy as np
+import pymap3d
+from pydantic import Field
+
+from ...errors import ConfigError
+from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_vector_loop
+from ...signal.constants import SPEED_OF_LIGHT_M_S
+from ...simulation.clock import PRESETS
+from ...simulation.constellation import nominal_constellation
+from . import BatchResult, Scenario, ScenarioParams, register_scenario
+
+__all__ = ["VectorTrackingScenario"]
+
+
+class VectorTrackingParams(ScenarioParams):
+    duration_s: float = Field(10.0, gt=0, le=3600)
+    coherent_time_s: float = Field(0.01, gt=0, le=0.02, description="T; with 20 ms bits, 10 ms intervals stay in a bit")
+    channels: int = Field(8, ge=4, le=12)
+    elevation_mask_deg: float = Field(10.0, ge=0, lt=90)
+    start_time_s: float = Field(37800.0, ge=0, description="seconds into the constellation's day")
+    lat_deg: float = Field(34.23, ge=-90, le=90)
+    lon_deg: float = Field(108.3576, ge=-180, le=360)
+    height_m: float = 590.6
+    velocity_enu_m_s: list[float] = Field([0.0, 0.0, 0.0], min_length=3, max_length=3,
+                                          description="constant receiver velocity, east/north/up")
+    clock: str = Field("ocxo", description="receiver clock preset: tcxo or ocxo")
+    early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0)
+    data_bits: Literal["none", "known", "unknown"] = "known"
+    initial_position_std_m: float = Field(3.0, gt=0)
+    initial_velocity_std_m_s: float = Field(0.3, gt=0)
+    settle_s: float = Field(1.0, ge=0, description="metrics ignore the first settle_s seconds")
+
+
+class VectorTrackingCase(ScenarioParams):
+    name: str | None = None
+    cn0_dbhz: float = Field(..., ge=15, le=60)
+
+
+@register_scenario
+class VectorTrackingScenario(Scenario):
+    """Vector tracking (reference 000). Candidates compose a ``channel_filter`` and a ``nav_filter``."""
+
+    kind = "vector-tracking"
+    Params = VectorTrackingParams
+    CaseParams = VectorTrackingCase
+    components = {"channel_filter": True, "nav_filter": True}
+    metrics = {
+        "code_phase_error_rmse": "chips",
+        "carrier_freq_error_rmse": "Hz",
+        "position_error_rmse": "m",
+        "velocity_error_rmse": "m/s",
+        "nees": "-",
+    }
+
+    def __init__(self, params: VectorTrackingParams) -> None:
+        super().__init__(params)
+        if params.clock not in PRESETS:
+            raise ConfigError("scenario.clock", f"got {params.clock!r}; allowed: {', '.join(PRESETS)}")
+
+    def check_composition(self, plugins: dict[str, Any], where: str) -> None:
+        ch, nav = plugins["channel_filter"], plugins["nav_filter"]
+        missing = [n for n in CHANNEL_OUTPUTS if n not in ch.provides]
+        if missing:
+            raise ConfigError(f"{where}.channel_filter.name",
+                              f"{ch.name!r} cannot feed a vector loop: it does not provide {', '.join(missing)}; "
+                              f"channel filters that do: {', '.join(self._capable('channel_filter', CHANNEL_OUTPUTS))}")
+        unmet = [n for n in nav.requires if n not in ch.provides and not n.startswith(("sat_", "next_", "replica_"))]
+        if unmet:
+            raise ConfigError(f"{where}.nav_filter.name", f"{nav.name!r} needs {', '.join(unmet)}, which "
+                              f"{ch.name!r} does not provide")
+        missing = [n for n in NAV_OUTPUTS if n not in nav.provides]
+        if missing:
+            raise ConfigError(f"{where}.nav_filter.name",
+                              f"{nav.name!r} cannot close a vector loop: it does not provide {', '.join(missing)}; "
+                              f"nav filters that do: {', '.join(self._capable('nav_filter', NAV_OUTPUTS))}")
+
+    @staticmethod
+    def _capable(kind: str, outputs: tuple[str, ...]) -> list[str]:
+        from ... import registry
+
+        return [n for n in registry.names(kind) if all(o in registry.get(kind, n).provides for o in outputs)]
+
+    def truth(self, cn0_dbhz: float, runs: int, rng: np.random.Generator) -> tuple[VectorTruth, np.ndarray, np.ndarray]:
+        p = self.params
+        const = nominal_constellation()
+        sats = const.subset(const.visible(p.start_time_s, p.lat_deg, p.lon_deg, p.height_m, p.elevation_mask_deg,
+                                          p.channels))
+        r0 = np.array(pymap3d.geodetic2ecef(p.lat_deg, p.lon_deg, p.height_m))
+        v = np.array(pymap3d.enu2uvw(*p.velocity_enu_m_s, p.lat_deg, p.lon_deg))
+        T = p.coherent_time_s
+        K = int(round(p.duration_s / T))
+        bias_s, drift = PRESETS[p.clock].simulate(K + 1, T, rng, (runs,))
+        clock = np.stack([bias_s, drift], -1) * SPEED_OF_LIGHT_M_S
+
+        def sat_state(t):
+            pos, vel, _ = sats.state(p.start_time_s + np.asarray(t))
+            return pos, vel
+
+        def receiver_state(t):
+            t = np.asarray(t, dtype=float)
+            shape = t.shape + (runs, 3)
+            return np.broadcast_to(r0 + t[..., None, None] * v, shape), np.broadcast_to(v, shape)
+
+        truth = VectorTruth(sat_state, receiver_state, clock, np.full((runs, p.channels), cn0_dbhz), T)
+        P0 = np.diag([p.initial_position_std_m**2] * 3 + [p.initial_velocity_std_m_s**2] * 3
+                     + [p.initial_position_std_m**2, p.initial_velocity_std_m_s**2])
+        x0 = truth.nav_truth(T / 2, 0) + rng.standard_normal((runs, 8)) @ np.sqrt(P0)
+        return truth, x0, P0
+
+    def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        p = self.params
+        truth, x0, P0 = self.truth(float(case["cn0_dbhz"]), runs, rng)
+        rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng,
+                              early_late_spacing_chips=p.early_late_spacing_chips, data_bits=p.data_bits)
+        s = rec.time_s >= p.settle_s
+        code = np.sqrt(np.mean(rec.code_error_chips**2, axis=-1))  # (K, runs), RMS over channels
+        freq = np.sqrt(np.mean(rec.freq_error_hz**2, axis=-1))
+        pos = np.linalg.norm(rec.position_error_m, axis=-1)
+        vel = np.linalg.norm(rec.velocity_error_m_s, axis=-1)
+        metrics = {
+            "code_phase_error_rmse": np.sqrt(np.mean(code[s] ** 2, axis=0)),
+            "carrier_freq_error_rmse": np.sqrt(np.mean(freq[s] ** 2, axis=0)),
+            "position_error_rmse": np.sqrt(np.mean(pos[s] ** 2, axis=0)),
+            "velocity_error_rmse": np.sqrt(np.mean(vel[s] ** 2, axis=0)),
+            "nees": np.mean(rec.nees[s], axis=0),
+        }
+        series = {"code_phase_error_rmse": code, "carrier_freq_error_rmse": freq, "position_error_rmse": pos,
+                  "velocity_error_rmse": vel, "nees": rec.nees}
+        return BatchResult(metrics, series, rec.time_s)

@@ -1,0 +1,238 @@
+"""Vector tracking: channel filters -> navigation filter -> NCO commands, every epoch.
+
+The loop is batched over Monte Carlo runs (axis 0) and channels (axis 1). Each
+coherent interval k, from $t_k$ to $t_{k+1} = t_k + T$:
+
+1. the replica of channel i runs from the NCO command
+   ($\\hat\\rho_i(t_k)$, $\\dot{\\hat\\rho}_i$), so its code error and carrier phase and
+   frequency errors against the true signal are known to the simulation;
+2. the correlators those errors produce are drawn (`simulate_correlators`);
+3. the channel filter turns them into code-phase and carrier-frequency errors with
+   their variances (``code_error_chips``, ``code_error_var_chips2``,
+   ``freq_error_hz``, ``freq_error_var_hz2``);
+4. the navigation filter takes them as pseudorange and pseudorange-rate errors of
+   the replica at mid-interval (reference 000, eqs. 35-36),
+   $\\delta\\rho = \\lambda_{chip}\\, \\delta\\tau$ and $\\delta\\dot\\rho = -\\lambda_{L1}\\, \\delta f$,
+   and returns the NCO command of the next interval (``nco_range_m``,
+   ``nco_range_rate_m_s``);
+5. the channel filter is told how far its replica moved (``nco_shift_chips``,
+   ``nco_shift_hz``), so it can keep its error states relative to the replica.
+
+Signs: code error = true minus replica delay (chips); frequency error = true minus
+replica Doppler (Hz), with the Doppler $f = -\\dot\\rho / \\lambda_{L1}$.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..interfaces import ChannelFilter, NavFilter
+from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
+from ..signal.correlator_model import simulate_correlators
+from ..signal.navdata import BIT_PERIOD_S, random_nav_bits
+
+__all__ = ["VectorTruth", "VectorRecord", "run_vector_loop", "predicted_range", "CHANNEL_OUTPUTS", "NAV_OUTPUTS"]
+
+#: What a channel filter must provide to feed a vector loop's nav filter.
+CHANNEL_OUTPUTS = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", "freq_error_var_hz2")
+#: What a nav filter must provide to close a vector loop.
+NAV_OUTPUTS = ("position_m", "velocity_m_s", "clock_m", "cov", "nco_range_m", "nco_range_rate_m_s")
+
+
+@dataclass(frozen=True)
+class VectorTruth:
+    """Truth of a vector-tracking run.
+
+    Attributes
+    ----------
+    sat_state
+        ``sat_state(t) -> (pos, vel)``, each ``(*t.shape, channels, 3)`` (ECEF).
+    receiver_state
+        ``receiver_state(t) -> (pos, vel)``, each ``(*t.shape, runs, 3)``.
+    clock_m
+        ``(K+1, runs, 2)``: receiver clock bias (m) and drift (m/s) at the epochs.
+    cn0_dbhz
+        ``(runs, channels)`` or broadcastable.
+    coherent_time_s
+        T.
+    """
+
+    sat_state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+    receiver_state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+    clock_m: np.ndarray
+    cn0_dbhz: np.ndarray
+    coherent_time_s: float
+
+    @property
+    def epochs(self) -> int:
+        return self.clock_m.shape[0] - 1
+
+    def pseudorange(self, t: np.ndarray, k: np.ndarray | int) -> np.ndarray:
+        """True pseudorange (m) at times t (epoch indices k for the clock): ``(runs, ch)``."""
+        s, _ = self.sat_state(t)
+        r, _ = self.receiver_state(t)
+        return np.linalg.norm(s[None] - r[:, None], axis=-1) + self.clock_m[k, :, 0][:, None]
+
+    def nav_truth(self, t: float, k: int) -> np.ndarray:
+        """True navigation state ``[x, y, z, vx, vy, vz, b, d]`` at t (clock interpolated), ``(runs, 8)``."""
+        r, v = self.receiver_state(np.asarray(t))
+        frac = (t / self.coherent_time_s) - k
+        clock = (1 - frac) * self.clock_m[k] + frac * self.clock_m[min(k + 1, self.epochs)]
+        return np.concatenate([r, v, clock], axis=-1)
+
+
+@dataclass
+class VectorRecord:
+    """Time series of a vector-tracking run, time on axis 0 (K intervals)."""
+
+    code_error_chips: np.ndarray  # (K, runs, ch) true code error of the replica
+    freq_error_hz: np.ndarray  # (K, runs, ch) true frequency error of the replica
+    position_error_m: np.ndarray  # (K, runs, 3)
+    velocity_error_m_s: np.ndarray  # (K, runs, 3)
+    nees: np.ndarray  # (K, runs) normalised estimation error squared of the 8 nav states
+    time_s: np.ndarray  # (K,) mid-interval times
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def _check_composition(channel: ChannelFilter, nav: NavFilter) -> None:
+    missing = [n for n in CHANNEL_OUTPUTS if n not in channel.provides]
+    if missing:
+        raise ConfigError("channel_filter", f"{channel.name!r} cannot feed a vector loop: it does not provide "
+                          f"{', '.join(missing)} (needs {', '.join(CHANNEL_OUTPUTS)})")
+    unmet = [n for n in nav.requires if n not in channel.provides and n not in _HARNESS_INPUTS]
+    if unmet:
+        raise ConfigError("nav_filter", f"{nav.name!r} requires {', '.join(unmet)}, which channel filter "
+                          f"{channel.name!r} does not provide (it provides {', '.join(channel.provides)})")
+    missing_nav = [n for n in NAV_OUTPUTS if n not in nav.provides]
+    if missing_nav:
+        raise ConfigError("nav_filter", f"{nav.name!r} cannot close a vector loop: it does not provide "
+                          f"{', '.join(missing_nav)}")
+
+
+_HARNESS_INPUTS = ("sat_pos_m", "sat_vel_m_s", "next_sat_pos_m", "next_sat_vel_m_s", "replica_range_m",
+                   "replica_rate_m_s")
+
+
+def run_vector_loop(
+    channel: ChannelFilter,
+    nav: NavFilter,
+    truth: VectorTruth,
+    initial_state: np.ndarray,
+    initial_cov: np.ndarray,
+    rng: np.random.Generator,
+    *,
+    early_late_spacing_chips: float = 1.0,
+    data_bits: str = "known",
+) -> VectorRecord:
+    """Run the vector tracking loop over all epochs of ``truth``.
+
+    Parameters
+    ----------
+    channel, nav
+        A channel filter providing `CHANNEL_OUTPUTS` and a nav filter providing
+        `NAV_OUTPUTS`.
+    truth
+        The scenario.
+    initial_state, initial_cov
+        The nav filter's initial estimate ``(runs, 8)`` and covariance ``(8, 8)`` at the
+        middle of the first interval (from acquisition and a first fix).
+    rng
+        Source of every random draw (initial carrier phases, data bits, noise).
+    data_bits
+        ``"none"``, or 50 bit/s navigation data that is ``"known"`` (the channel filter
+        gets ``data_bit`` and wipes it off) or ``"unknown"`` (it must decide).
+    """
+    _check_composition(channel, nav)
+    if data_bits not in ("none", "known", "unknown"):
+        raise ConfigError("scenario.data_bits", f"got {data_bits!r}; allowed: none, known, unknown")
+    T = truth.coherent_time_s
+    K = truth.epochs
+    t_edges = np.arange(K + 1) * T
+    runs = truth.clock_m.shape[1]
+    s0, _ = truth.sat_state(np.asarray(0.0))
+    n_ch = s0.shape[0]
+    batch = (runs, n_ch)
+    cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
+
+    theta0 = rng.uniform(-np.pi, np.pi, batch)  # unknown initial carrier phase per channel
+    bits = random_nav_bits(int(np.ceil(K * T / BIT_PERIOD_S)) + 1, rng, batch) if data_bits != "none" else None
+
+    channel.reset(batch, cn0_dbhz=cn0, coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips)
+    nav.reset((runs,), initial_state=initial_state, initial_cov=initial_cov, coherent_time_s=T)
+
+    # First NCO command from the initial estimate, propagated back to t_0.
+    s_mid, sv_mid = truth.sat_state(np.asarray(T / 2))
+    rho0, rate0, _ = predicted_range(initial_state, s_mid, sv_mid)
+    nco_range = rho0 - rate0 * T / 2
+    nco_rate = rate0
+    carrier_rep = np.zeros(batch)
+    shift_chips = np.zeros(batch)
+    shift_hz = np.zeros(batch)
+
+    true_rho = truth.pseudorange(np.asarray(0.0), 0)
+    rec: dict[str, list] = {k: [] for k in ("code", "freq", "pos", "vel", "nees")}
+    for k in range(K):
+        t0, t1, tm = t_edges[k], t_edges[k + 1], t_edges[k] + T / 2
+        next_rho = truth.pseudorange(np.asarray(t1), k + 1)
+        rep_end = nco_range + nco_rate * T
+        code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
+        f_rep = -nco_rate / L1_WAVELENGTH_M
+        ph0 = theta0 - 2 * np.pi * true_rho / L1_WAVELENGTH_M - carrier_rep
+        carrier_rep_end = carrier_rep + 2 * np.pi * f_rep * T
+        ph1 = theta0 - 2 * np.pi * next_rho / L1_WAVELENGTH_M - carrier_rep_end
+        freq_err = (ph1 - ph0) / (2 * np.pi * T)
+        bit = bits[int(tm // BIT_PERIOD_S)] if bits is not None else 1.0
+        corr = simulate_correlators(code_err, ph0, freq_err, cn0, T, rng,
+                                    early_late_spacing_chips=early_late_spacing_chips, data_bit=bit)
+        inputs = {"correlators": corr, "nco_shift_chips": shift_chips, "nco_shift_hz": shift_hz}
+        if data_bits == "known":
+            inputs["data_bit"] = bit
+        ch_out = channel.step(inputs)
+
+        s_mid, sv_mid = truth.sat_state(np.asarray(tm))
+        s_next, sv_next = truth.sat_state(np.asarray(t1))
+        nav_out = nav.step({**ch_out, "sat_pos_m": s_mid, "sat_vel_m_s": sv_mid, "next_sat_pos_m": s_next,
+                            "next_sat_vel_m_s": sv_next, "replica_range_m": nco_range + nco_rate * T / 2,
+                            "replica_rate_m_s": np.broadcast_to(nco_rate, batch)})
+
+        x_true = truth.nav_truth(tm, k)
+        est = np.concatenate([nav_out["position_m"], nav_out["velocity_m_s"], nav_out["clock_m"]], axis=-1)
+        err = est - x_true
+        rec["code"].append(code_err)
+        rec["freq"].append(freq_err)
+        rec["pos"].append(err[:, :3])
+        rec["vel"].append(err[:, 3:6])
+        rec["nees"].append(np.einsum("ri,rij,rj->r", err, np.linalg.inv(nav_out["cov"]), err))
+
+        new_range, new_rate = nav_out["nco_range_m"], nav_out["nco_range_rate_m_s"]
+        shift_chips = (new_range - rep_end) / CA_CHIP_LENGTH_M
+        shift_hz = -(new_rate - nco_rate) / L1_WAVELENGTH_M
+        nco_range, nco_rate = new_range, new_rate
+        carrier_rep = carrier_rep_end
+        true_rho = next_rho
+    stack = {k: np.stack(v) for k, v in rec.items()}
+    return VectorRecord(stack["code"], stack["freq"], stack["pos"], stack["vel"], stack["nees"],
+                        t_edges[:-1] + T / 2)
+
+
+def predicted_range(x: np.ndarray, sat_pos: np.ndarray, sat_vel: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pseudorange, rate and unit line of sight for nav states ``x`` ``(..., 8)``.
+
+    States ``[x, y, z, vx, vy, vz, b, d]`` with any leading dimensions (runs, sigma
+    points); satellites ``(ch, 3)`` or ``(..., ch, 3)``. Returns ``rho (..., ch)``,
+    ``rate (..., ch)`` and ``e (..., ch, 3)``, the unit vector from receiver to satellite:
+
+    $$
+    \\rho = \\lVert s - r \\rVert + b, \\qquad \\dot\\rho = (v_s - v) \\cdot e + d
+    $$
+    """
+    los = sat_pos - x[..., None, :3]
+    dist = np.linalg.norm(los, axis=-1)
+    e = los / dist[..., None]
+    rate = np.sum((sat_vel - x[..., None, 3:6]) * e, axis=-1) + x[..., None, 7]
+    return dist + x[..., None, 6], rate, e
