@@ -39,20 +39,19 @@ def validation_message(exc: ValidationError, prefix: str = "") -> ConfigError:
     The message names every offending field (dotted, with ``prefix``), what it got and
     what it allows, one per line.
     """
-    lines = []
-    first_field = prefix
+    items = []
     for err in exc.errors():
         loc = ".".join(str(p) for p in err["loc"])
         field = f"{prefix}.{loc}" if prefix and loc else (loc or prefix)
-        first_field = first_field if lines else field
         msg = err["msg"]
         if err["type"] == "extra_forbidden":
             msg = "unknown parameter"
         elif "input" in err and err["type"] != "missing":
             msg = f"{msg} (got {err['input']!r})"
-        lines.append(f"{field}: {msg}")
-    return ConfigError(first_field, "; ".join(lines[:1]) if len(lines) == 1 else
-                       "invalid values:\n  " + "\n  ".join(lines))
+        items.append((field, msg))
+    if len(items) == 1:
+        return ConfigError(*items[0])
+    return ConfigError(items[0][0], "invalid values:\n  " + "\n  ".join(f"{f}: {m}" for f, m in items))
 
 
 class Plugin:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import tomllib
 from pathlib import Path
 from typing import Any, Literal
@@ -150,7 +151,9 @@ def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
     except FileNotFoundError:
         raise DataFileError(str(path), None, "no such file") from None
     except tomllib.TOMLDecodeError as exc:
-        line = getattr(exc, "lineno", None)
+        # Python 3.11's TOMLDecodeError carries the position only in its message.
+        found = re.search(r"\(at line (\d+), column \d+\)", str(exc))
+        line = getattr(exc, "lineno", None) or (int(found.group(1)) if found else None)
         raise DataFileError(str(path), line, f"invalid TOML: {exc}") from None
     data.update({k: v for k, v in overrides.items() if v is not None})
     try:

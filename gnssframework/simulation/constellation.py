@@ -8,7 +8,6 @@ including Earth rotation, so velocities and accelerations are exact for the mode
 
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass
 from importlib import resources
 
@@ -17,7 +16,7 @@ import pymap3d
 
 from ..errors import ConfigError, DataFileError
 
-__all__ = ["Constellation", "nominal_constellation", "GM_EARTH", "OMEGA_EARTH"]
+__all__ = ["Constellation", "nominal_constellation", "load_almanac", "GM_EARTH", "OMEGA_EARTH"]
 
 GM_EARTH = 3.986005e14  # m^3/s^2, WGS 84 value of IS-GPS-200
 OMEGA_EARTH = 7.2921151467e-5  # rad/s
@@ -110,17 +109,34 @@ class Constellation:
         return above[:channels]
 
 
-def nominal_constellation() -> Constellation:
-    """The shipped baseline 24-slot constellation."""
-    path = resources.files("gnssframework") / "data" / "gps_nominal_24.csv"
+def load_almanac(path) -> Constellation:
+    """Read a circular-orbit almanac CSV (columns ``prn, raan_deg, arg_lat_deg``; ``#`` comments).
+
+    Raises
+    ------
+    DataFileError
+        Naming the file and line of a missing column or a bad number.
+    """
     rows = []
-    with path.open() as fh:
-        lines = [(no, line) for no, line in enumerate(fh, 1) if not line.startswith("#")]
-    reader = csv.DictReader(line for _, line in lines)
-    for (no, _), row in zip(lines[1:], reader):
+    with open(path) as fh:
+        lines = [(no, line) for no, line in enumerate(fh, 1) if line.strip() and not line.startswith("#")]
+    if not lines:
+        raise DataFileError(str(path), None, "no almanac rows")
+    header = [h.strip() for h in lines[0][1].strip().split(",")]
+    missing = {"prn", "raan_deg", "arg_lat_deg"} - set(header)
+    if missing:
+        raise DataFileError(str(path), lines[0][0], f"header lacks {', '.join(sorted(missing))}")
+    for no, line in lines[1:]:
+        row = dict(zip(header, (c.strip() for c in line.strip().split(","))))
         try:
             rows.append((int(row["prn"]), float(row["raan_deg"]), float(row["arg_lat_deg"])))
         except (KeyError, TypeError, ValueError) as exc:
-            raise DataFileError(str(path), no, f"bad almanac row: {exc}") from None
+            raise DataFileError(str(path), no, f"bad almanac row {line.strip()!r}: {exc}") from None
     prn, raan, u = map(np.array, zip(*rows))
     return Constellation(prn, np.radians(raan), np.radians(u))
+
+
+def nominal_constellation() -> Constellation:
+    """The shipped baseline 24-slot constellation."""
+    with resources.as_file(resources.files("gnssframework") / "data" / "gps_nominal_24.csv") as path:
+        return load_almanac(path)
