@@ -258,9 +258,16 @@ def _equivalent_measurement(prior: Gaussian, post: Gaussian, idx: list[int]):
     Ppr, Ppo = prior.cov[(...,) + sel], post.cov[(...,) + sel]
     Ipr, Ipo = np.linalg.inv(Ppr), np.linalg.inv(Ppo)
     gain = Ipo - Ipr
-    w, v = np.linalg.eigh(0.5 * (gain + np.swapaxes(gain, -1, -2)))
-    w = np.maximum(w, 1e-8)  # no (or negative, from nonlinearity) information: variance 1e8
-    R_eq = (v / w[..., None, :]) @ np.swapaxes(v, -1, -2)
+    # 2x2: invert directly where the gain is PD; eigen-clip only where it is not.
+    det = gain[..., 0, 0] * gain[..., 1, 1] - gain[..., 0, 1] * gain[..., 1, 0]
+    ok = (det > 1e-16) & (gain[..., 0, 0] > 1e-8)
+    adj = np.stack([np.stack([gain[..., 1, 1], -gain[..., 0, 1]], -1),
+                    np.stack([-gain[..., 1, 0], gain[..., 0, 0]], -1)], -2)
+    R_eq = adj / np.where(ok, det, 1.0)[..., None, None]
+    if not ok.all():  # no (or negative, from nonlinearity) information: variance 1e8 there
+        w, v = np.linalg.eigh(0.5 * (gain[~ok] + np.swapaxes(gain[~ok], -1, -2)))
+        w = np.maximum(w, 1e-8)
+        R_eq[~ok] = (v / w[..., None, :]) @ np.swapaxes(v, -1, -2)
     info = (Ipo @ post.mean[..., idx, None] - Ipr @ prior.mean[..., idx, None])
     z_eq = (R_eq @ info)[..., 0]
     return z_eq, R_eq

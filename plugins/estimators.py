@@ -183,5 +183,8 @@ class SvdCubatureKalmanFilter(CubatureKalmanFilter):
         finite = np.isfinite(cov).all(axis=(-2, -1))
         if not finite.all():
             raise NotPositiveDefiniteError(self.name, failing_indices(finite), detail="state covariance P is not finite")
-        U, s, _ = np.linalg.svd(symmetrize(cov), hermitian=True)
-        return U * np.sqrt(s)[..., None, :]
+        # For a symmetric P the SVD is its eigendecomposition with s = |w| (Hermitian
+        # SVD, as numpy computes it): U sqrt(S) = V sqrt(|w|). Column order and signs
+        # do not change the cubature point set, so eigh alone gives the same filter.
+        w, v = np.linalg.eigh(symmetrize(cov))
+        return v * np.sqrt(np.abs(w))[..., None, :]

@@ -34,7 +34,7 @@ import numpy as np
 from pydantic import Field
 
 from ..plugin import Plugin, PluginParams
-from .linalg import clamp_relative, project_psd
+from .linalg import cholesky_masked, clamp_relative, project_psd, symmetrize
 from .types import Gaussian, Model, Update
 
 __all__ = [
@@ -103,8 +103,17 @@ class AdapterRun(abc.ABC):
         self.updates = 0
 
     def guard(self, raw: np.ndarray, reference: np.ndarray, floor: float, ceiling: float) -> np.ndarray:
-        """PSD-project a raw estimate, then clamp it relative to ``reference``."""
-        return clamp_relative(project_psd(raw), reference, floor, ceiling)
+        """PSD-project a raw estimate, then clamp it relative to ``reference``.
+
+        Elements that are already PSD and inside the bounds pass unchanged; the
+        projection's ``eigh`` runs only on the others (a Cholesky test finds them).
+        """
+        raw = symmetrize(raw)
+        psd = cholesky_masked(raw)[1]
+        if not psd.all():
+            raw = raw.copy()
+            raw[~psd] = project_psd(raw[~psd])
+        return clamp_relative(raw, reference, floor, ceiling)
 
     def step(self, ctx: AdaptationStep) -> tuple[np.ndarray, np.ndarray]:
         """Take step ``k``'s innovation; return the ``(Q, R)`` to use from step ``k+1``."""

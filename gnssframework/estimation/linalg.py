@@ -17,6 +17,7 @@ __all__ = [
     "clip_eigenvalues",
     "project_psd",
     "clamp_relative",
+    "regularised",
     "failing_indices",
     "mat_vec",
     "outer",
@@ -60,16 +61,23 @@ def cholesky_masked(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             return np.linalg.cholesky(a), np.ones(a.shape[:-2], dtype=bool)
         except np.linalg.LinAlgError:
             pass
-    # Slow path, only taken on failure: find the bad elements, factor the rest.
+    # Failure path: find the bad elements with one batched eigvalsh, factor the rest in
+    # one batched call. (Callers such as the adapters' bound tests expect failures, so
+    # this must stay vectorised.)
     eye = np.broadcast_to(np.eye(a.shape[-1]), a.shape)
     ok = finite.copy()
     safe = np.where(ok[..., None, None], a, eye)
     ok &= np.linalg.eigvalsh(safe).min(axis=-1) > 0
     safe = np.where(ok[..., None, None], safe, eye)
+    try:
+        return np.linalg.cholesky(safe), ok
+    except np.linalg.LinAlgError:
+        pass
+    # eigvalsh said PD but Cholesky disagrees (eigenvalues at rounding level): per element.
     L = np.empty_like(safe)
     flat_L = L.reshape(-1, *a.shape[-2:])
     flat_ok = ok.reshape(-1)
-    for i, m in enumerate(safe.reshape(-1, *a.shape[-2:])):  # failure path only
+    for i, m in enumerate(safe.reshape(-1, *a.shape[-2:])):
         try:
             flat_L[i] = np.linalg.cholesky(m)
         except np.linalg.LinAlgError:
@@ -106,6 +114,12 @@ def project_psd(a: np.ndarray) -> np.ndarray:
     return clip_eigenvalues(a, 0.0)
 
 
+def regularised(reference: np.ndarray, rel: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """Eigen-decomposition of a PSD reference with eigenvalues floored at ``rel`` times the largest."""
+    w, v = np.linalg.eigh(symmetrize(reference))
+    return np.maximum(w, rel * np.max(np.abs(w), axis=-1, keepdims=True)), v
+
+
 def clamp_relative(
     a: np.ndarray, reference: np.ndarray, floor: float, ceiling: float, rel_regularisation: float = 1e-6
 ) -> np.ndarray:
@@ -119,13 +133,27 @@ def clamp_relative(
     constant-acceleration model) has its eigenvalues raised to ``rel_regularisation``
     times its largest one, so directions it does not excite may carry at most
     ``ceiling * rel_regularisation`` of its scale.
+
+    Elements already inside the bounds are returned unchanged without an eigen-
+    decomposition: two Cholesky tests (``a - floor ref`` and ``ceiling ref - a``
+    positive definite) decide it, and only the others pay for ``eigh``.
     """
-    w, v = np.linalg.eigh(symmetrize(reference))
-    w = np.maximum(w, rel_regularisation * np.max(np.abs(w), axis=-1, keepdims=True))
-    G = v * np.sqrt(w)[..., None, :]
-    G_inv = np.swapaxes(v, -1, -2) / np.sqrt(w)[..., :, None]
-    white = G_inv @ a @ np.swapaxes(G_inv, -1, -2)
+    a = symmetrize(np.asarray(a, dtype=float))
+    w, v = regularised(reference, rel_regularisation)
+    ref = (v * w[..., None, :]) @ np.swapaxes(v, -1, -2)
+    inside = cholesky_masked(a - floor * ref)[1] & cholesky_masked(ceiling * ref - a)[1]
+    if inside.all():
+        return a
+    out = a.copy()
+    bad = ~inside
+    shape = a.shape
+    w_b = np.broadcast_to(w, shape[:-1])[bad]
+    v_b = np.broadcast_to(v, shape)[bad]
+    G = v_b * np.sqrt(w_b)[..., None, :]
+    G_inv = np.swapaxes(v_b, -1, -2) / np.sqrt(w_b)[..., :, None]
+    white = G_inv @ a[bad] @ np.swapaxes(G_inv, -1, -2)
     ww, vv = np.linalg.eigh(symmetrize(white))
     ww = np.clip(ww, floor, ceiling)
     white = (vv * ww[..., None, :]) @ np.swapaxes(vv, -1, -2)
-    return symmetrize(G @ white @ np.swapaxes(G, -1, -2))
+    out[bad] = symmetrize(G @ white @ np.swapaxes(G, -1, -2))
+    return out
