@@ -1,0 +1,106 @@
+"""Scenario ``scintillation``: carrier tracking under ionospheric scintillation (reference 003).
+
+One channel per run tracks a GPS L1 C/A signal whose amplitude and phase are modulated by
+a scintillation process (AJ-Stanford or Cornell). The candidate is a ``channel_filter``
+that closes the carrier loop (``scalar`` PLL, ``kf-carrier-loop``), run in closed loop
+on the correlator model.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from pydantic import Field
+
+from ...errors import ConfigError
+from ...receiver.tracking import SignalTruth, run_closed_loop
+from ...simulation import scintillation as scint
+from . import BatchResult, Scenario, ScenarioParams, register_scenario
+
+__all__ = ["ScintillationScenario"]
+
+
+class ScintillationParams(ScenarioParams):
+    duration_s: float = Field(60.0, gt=0, le=3600)
+    coherent_time_s: float = Field(0.01, gt=0, le=0.02)
+    cn0_dbhz: float = Field(45.0, ge=20, le=60, description="C/N0 without scintillation")
+    doppler_hz: float = Field(1500.0, description="constant Doppler (known at start)")
+    doppler_rate_hz_s: float = Field(0.0, description="line-of-sight dynamics")
+    settle_s: float = Field(2.0, ge=0)
+    lock_window_s: float = Field(0.2, gt=0, description="block length of the lock test")
+    lock_threshold: float = Field(0.5, description="a block whose mean cos(2 phase error) is below is out of lock")
+
+
+class ScintillationCase(ScenarioParams):
+    name: str | None = None
+    model: Literal["aj-stanford", "cornell"] = "aj-stanford"
+    s4: float = Field(..., gt=0, le=1.0)
+    sigma_phi_rad: float = Field(0.1, ge=0, description="AJ-Stanford phase standard deviation")
+    tau0_s: float = Field(0.8, gt=0, description="Cornell decorrelation time")
+    p: float = Field(2.5, ge=1.5, le=4.0, description="AJ-Stanford spectral slope")
+    corner_hz: float = Field(0.1, gt=0, description="AJ-Stanford corner frequency")
+
+
+@register_scenario
+class ScintillationScenario(Scenario):
+    """Carrier tracking under amplitude and phase scintillation (reference 003)."""
+
+    kind = "scintillation"
+    Params = ScintillationParams
+    CaseParams = ScintillationCase
+    components = {"channel_filter": True}
+    metrics = {"phase_error_rmse": "rad", "discriminator_std": "rad", "loss_of_lock_fraction": "-"}
+
+    def check_composition(self, plugins, where: str) -> None:
+        ch = plugins["channel_filter"]
+        needed = ("carrier_freq_hz", "code_freq_hz", "phase_disc_rad")
+        missing = [n for n in needed if n not in ch.provides]
+        if missing or "correlators" not in ch.requires:
+            from ... import registry
+
+            able = [n for n in registry.names("channel_filter")
+                    if all(o in registry.get("channel_filter", n).provides for o in needed)]
+            raise ConfigError(f"{where}.channel_filter.name", f"{ch.name!r} cannot close a carrier loop (needs "
+                              f"{', '.join(needed)}); channel filters that can: {', '.join(able)}")
+        T = getattr(ch.params, "coherent_time_s", None)
+        if T is not None and abs(T - self.params.coherent_time_s) > 1e-12:
+            raise ConfigError(f"{where}.channel_filter.params.coherent_time_s",
+                              f"is {T} but the scenario integrates over {self.params.coherent_time_s} s; make them equal")
+
+    def _scintillation(self, case: dict, runs: int, rng: np.random.Generator) -> np.ndarray:
+        p = self.params
+        fs = 1.0 / p.coherent_time_s
+        duration = p.duration_s + p.coherent_time_s  # K+1 boundary samples
+        if case.get("model", "aj-stanford") == "cornell":
+            return scint.cornell(case["s4"], case.get("tau0_s", 0.8), duration, fs, rng, batch_shape=(runs,))
+        return scint.aj_stanford(case["s4"], case.get("sigma_phi_rad", 0.1), duration, fs, rng,
+                                 p=case.get("p", 2.5), corner_hz=case.get("corner_hz", 0.1), batch_shape=(runs,))
+
+    def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        p = self.params
+        c = self.CaseParams.model_validate(case).model_dump()
+        K = int(round(p.duration_s / p.coherent_time_s))
+        z = self._scintillation(c, runs, rng)[: K + 1]
+        phase = np.unwrap(np.angle(z), axis=0)
+        truth = SignalTruth.from_dynamics(p.duration_s, p.coherent_time_s, p.cn0_dbhz,
+                                          doppler_hz=np.full(runs, p.doppler_hz),
+                                          doppler_rate_hz_s=p.doppler_rate_hz_s,
+                                          extra_phase_rad=phase - phase[0], amplitude_scale=np.abs(z[:K]))
+        rec = run_closed_loop(plugins["channel_filter"], truth, rng, initial_doppler_hz=p.doppler_hz,
+                              record=("phase_disc_rad",))
+        t = (np.arange(K) + 0.5) * p.coherent_time_s
+        s = t >= p.settle_s
+        # Costas loops are blind to half cycles: wrap errors to (-pi/2, pi/2].
+        err = (rec.phase_error_rad + np.pi / 2) % np.pi - np.pi / 2
+        block = max(1, int(round(p.lock_window_s / p.coherent_time_s)))
+        n_blocks = int(s.sum()) // block
+        pli = np.cos(2 * err[s][: n_blocks * block]).reshape(n_blocks, block, runs).mean(axis=1)
+        metrics = {
+            "phase_error_rmse": np.sqrt(np.mean(err[s] ** 2, axis=0)),
+            "discriminator_std": np.std(rec.outputs["phase_disc_rad"][s], axis=0),
+            "loss_of_lock_fraction": np.mean(pli < p.lock_threshold, axis=0),
+        }
+        series = {"phase_error_rmse": np.abs(err), "discriminator_std": np.abs(rec.outputs["phase_disc_rad"]),
+                  "loss_of_lock_fraction": (np.cos(2 * err) < p.lock_threshold).astype(float)}
+        return BatchResult(metrics, series, t)
