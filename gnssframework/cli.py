@@ -36,6 +36,22 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_filter_positions(args: argparse.Namespace) -> int:
+    from .io.nmea import read_nmea
+    from .io.positions import filter_positions, write_positions_csv
+
+    fixes = read_nmea(args.file)
+    lat, lon, _, _ = filter_positions(fixes, args.filter, args.psi)
+    write_positions_csv(args.out, fixes, lat, lon)
+    print(f"{args.file}: {fixes.time_s.size} fixes filtered with {args.filter}, {len(fixes.skipped)} sentences "
+          f"skipped; wrote {args.out}")
+    for line, reason in fixes.skipped[:20]:
+        print(f"  skipped line {line}: {reason}")
+    if len(fixes.skipped) > 20:
+        print(f"  ... and {len(fixes.skipped) - 20} more")
+    return 0
+
+
 def _cmd_schema(args: argparse.Namespace) -> int:
     import json
 
@@ -58,6 +74,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output directory (default: results/<name>)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_compare)
+    p = sub.add_parser("filter-positions", help="filter an NMEA position log (reference 004's filters)")
+    p.add_argument("file", help="NMEA log with GGA and/or RMC sentences")
+    p.add_argument("--out", required=True, help="output CSV")
+    p.add_argument("--filter", default="AUKF1", choices=["UKF", "UKF1", "AUKF", "AUKF1"])
+    p.add_argument("--psi", type=float, default=0.95, help="AR(1) coefficient for the colored filters")
+    p.set_defaults(func=_cmd_filter_positions)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
     p.set_defaults(func=_cmd_schema)
     return parser

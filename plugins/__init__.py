@@ -11,7 +11,7 @@ from gnssframework import hookimpl
 from .adapters import InnovationAdapter, MaximumLikelihoodQAdapter, SageHusaAdapter
 from .augmentations import ColoredAR1
 from .channel_filters import DiscriminatorChannel, IqFilter, KalmanCarrierLoop, ScalarTrackingLoop
-from .nav_filters import EkfPositionVelocity
+from .nav_filters import EkfPositionVelocity, PositionConstantAcceleration
 from .discriminators import (
     Atan2FLL,
     Atan2PLL,
@@ -64,3 +64,4 @@ def register_channel_filter(register):
 @hookimpl
 def register_nav_filter(register):
     register(EkfPositionVelocity)
+    register(PositionConstantAcceleration)
