@@ -52,6 +52,37 @@ def _cmd_filter_positions(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_smooth(args: argparse.Namespace) -> int:
+    import csv
+
+    import numpy as np
+
+    from .io.rinex import read_code_carrier
+
+    data = read_code_carrier(args.file, args.prn)
+    params = {"hatch": ("hatch", {"window": args.window}),
+              "kf": ("kf-smoother", {"q": args.q, "r": args.r}),
+              "adaptive-kf": ("kf-smoother", {"q": args.q, "r": args.r, "adapter": "ml-q",
+                                              "adapter_params": {"window": 10, "warmup": 20, "q_ceiling": 1e4}})}
+    name, kw = params[args.filter]
+    if args.slip_threshold:
+        kw["slip_threshold_m"] = args.slip_threshold
+    smoother = registry.create("channel_filter", name, **kw)
+    smoother.reset(())
+    rows = [smoother.step({"pseudorange_m": np.asarray(r), "carrier_m": np.asarray(c)})
+            for r, c in zip(data.pseudorange_m, data.carrier_m)]
+    with open(args.out, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["epoch", "time_s", "pseudorange_m", "carrier_m", "smoothed_m", "slip_detected"])
+        for ep, t, r, c, out in zip(data.epoch, data.time_s, data.pseudorange_m, data.carrier_m, rows):
+            w.writerow([str(ep), f"{t:.3f}", f"{r:.3f}", f"{c:.4f}", f"{float(out['smoothed_m']):.4f}",
+                        int(bool(out["slip_detected"]))])
+    slips = sum(int(bool(o["slip_detected"])) for o in rows)
+    print(f"{args.file} {args.prn}: {len(rows)} epochs smoothed with {args.filter}"
+          + (f", {slips} slips detected" if args.slip_threshold else "") + f"; wrote {args.out}")
+    return 0
+
+
 def _cmd_schema(args: argparse.Namespace) -> int:
     import json
 
@@ -80,6 +111,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--filter", default="AUKF1", choices=["UKF", "UKF1", "AUKF", "AUKF1"])
     p.add_argument("--psi", type=float, default=0.95, help="AR(1) coefficient for the colored filters")
     p.set_defaults(func=_cmd_filter_positions)
+    p = sub.add_parser("smooth", help="carrier-smooth one satellite's code from a RINEX observation file")
+    p.add_argument("file", help="RINEX 3 observation file with C1C and L1C")
+    p.add_argument("--prn", required=True, help="satellite, e.g. G08")
+    p.add_argument("--out", required=True, help="output CSV")
+    p.add_argument("--filter", default="hatch", choices=["hatch", "kf", "adaptive-kf"])
+    p.add_argument("--window", type=int, default=100, help="Hatch window (epochs)")
+    p.add_argument("--q", type=float, default=1e-3, help="Kalman smoother Q (m^2)")
+    p.add_argument("--r", type=float, default=1.25, help="Kalman smoother R (m^2)")
+    p.add_argument("--slip-threshold", type=float, default=0.0, help="code-minus-carrier slip test (m), 0: off")
+    p.set_defaults(func=_cmd_smooth)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
     p.set_defaults(func=_cmd_schema)
     return parser

@@ -11,6 +11,7 @@ from gnssframework import hookimpl
 from .adapters import InnovationAdapter, MaximumLikelihoodQAdapter, SageHusaAdapter
 from .augmentations import ColoredAR1
 from .channel_filters import DiscriminatorChannel, IqFilter, KalmanCarrierLoop, ScalarTrackingLoop
+from .smoothers import HatchFilter, KalmanSmoother
 from .nav_filters import EkfPositionVelocity, PositionConstantAcceleration
 from .discriminators import (
     Atan2FLL,
@@ -57,7 +58,7 @@ def register_discriminator(register):
 
 @hookimpl
 def register_channel_filter(register):
-    for cls in (ScalarTrackingLoop, KalmanCarrierLoop, DiscriminatorChannel, IqFilter):
+    for cls in (ScalarTrackingLoop, KalmanCarrierLoop, DiscriminatorChannel, IqFilter, HatchFilter, KalmanSmoother):
         register(cls)
 
 

@@ -102,7 +102,7 @@ def register_scenario(cls: type[Scenario]) -> type[Scenario]:
 
 def get_scenario(config: dict[str, Any]) -> Scenario:
     """Instantiate the scenario named by ``config["kind"]`` with the other keys as parameters."""
-    from . import multipath, scintillation, vector_tracking  # noqa: F401 - registers the built-in kinds
+    from . import carrier_smoothing, multipath, scintillation, vector_tracking  # noqa: F401 - registers the built-in kinds
 
     kind = config.get("kind")
     if kind not in SCENARIOS:

@@ -1,0 +1,140 @@
+"""Carrier-smoothed code channel filters: ``hatch`` and ``kf-smoother`` (reference 001)."""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import numpy as np
+from pydantic import Field
+
+from gnssframework import registry
+from gnssframework.estimation import AdaptationStep, Gaussian, LinearModel
+from gnssframework.interfaces import ChannelFilter
+from gnssframework.plugin import PluginParams
+
+__all__ = ["HatchFilter", "KalmanSmoother"]
+
+
+class _SlipParams(PluginParams):
+    slip_threshold_m: float = Field(0.0, ge=0, description="code-minus-carrier jump that declares a cycle slip and "
+                                    "resets the smoother; 0 switches detection off")
+
+
+def _slip(rho, predicted, threshold: float) -> np.ndarray:
+    """Innovation test: |pseudorange - smoothed prediction| above the threshold.
+
+    The prediction carries the carrier-phase delta, so a carrier slip of N cycles shifts it
+    by N wavelengths while the code does not: this is a code-minus-carrier jump test.
+    """
+    if threshold <= 0:
+        return np.zeros(np.shape(rho), dtype=bool)
+    return np.abs(rho - predicted) > threshold
+
+
+class HatchParams(_SlipParams):
+    window: int = Field(100, ge=2, description="smoothing window tau (epochs)")
+
+
+class HatchFilter(ChannelFilter):
+    """Hatch filter (reference 001, adaptive carrier-smoothed code patent).
+
+    $$
+    \\rho_s[k] = \\frac{1}{n}\\rho[k] + \\frac{n-1}{n}\\big(\\rho_s[k-1] + \\varphi[k] - \\varphi[k-1]\\big),
+    \\qquad n = \\min(k + 1, \\tau)
+    $$
+
+    with $\\varphi$ the carrier phase in metres. The window grows from 1 to $\\tau$ after
+    a start or a reset (the usual implementation; the patent writes the steady state,
+    $n = \\tau$). With ``slip_threshold_m`` > 0, a code-minus-carrier jump larger than
+    the threshold resets the window (beyond the paper).
+    """
+
+    name = "hatch"
+    description = "Hatch carrier-smoothed code filter, growing window, optional slip reset"
+    Params = HatchParams
+    requires = ("pseudorange_m", "carrier_m")
+    provides = ("smoothed_m", "slip_detected")
+
+    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
+        self.smoothed = None
+        self.n = np.zeros(batch_shape)
+
+    def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        rho, phi = np.asarray(inputs["pseudorange_m"], float), np.asarray(inputs["carrier_m"], float)
+        if self.smoothed is None:
+            self.smoothed, self.phi, self.n = rho.copy(), phi, np.ones_like(rho)
+            return {"smoothed_m": self.smoothed, "slip_detected": np.zeros(rho.shape, bool)}
+        predicted = self.smoothed + (phi - self.phi)
+        slip = _slip(rho, predicted, self.params.slip_threshold_m)
+        self.n = np.where(slip, 1.0, np.minimum(self.n + 1, self.params.window))
+        self.smoothed = rho / self.n + (self.n - 1) / self.n * predicted
+        self.phi = phi
+        return {"smoothed_m": self.smoothed, "slip_detected": slip}
+
+
+class KalmanSmootherParams(_SlipParams):
+    q: float = Field(1e-3, gt=0, description="process noise Q (m²) of the carrier-propagated range")
+    r: float = Field(1.0, gt=0, description="pseudorange noise R (m²)")
+    adapter: str | None = Field(None, description="noise adapter for Q, e.g. 'ml-q' (reference 001)")
+    adapter_params: dict[str, Any] = Field(default_factory=dict, description="parameters of the adapter")
+
+
+class KalmanSmoother(ChannelFilter):
+    """The Hatch filter as a Kalman filter (reference 001), optionally with adaptive Q.
+
+    State: the pseudorange. Prediction with the carrier-phase delta as a known input,
+    update with the pseudorange:
+
+    $$
+    x[k|k-1] = x[k-1] + \\varphi[k] - \\varphi[k-1], \\quad P[k|k-1] = P[k-1] + Q, \\quad
+    z = \\rho[k], \\; H = 1, \\; R
+    $$
+
+    With ``adapter="ml-q"`` the maximum-likelihood estimator re-estimates Q from a window of
+    state corrections (R stays fixed, as in the patent). A cycle slip makes the carrier
+    delta wrong by N wavelengths, the corrections grow, and the adapted Q raises the gain
+    until the error has decayed. ``slip_threshold_m`` resets the filter on a detected
+    slip instead.
+    """
+
+    name = "kf-smoother"
+    description = "Carrier-smoothed code as a Kalman filter, optional ml-q adaptive Q and slip reset"
+    Params = KalmanSmootherParams
+    requires = ("pseudorange_m", "carrier_m")
+    provides = ("smoothed_m", "slip_detected")
+
+    def __init__(self, **params: Any) -> None:
+        super().__init__(**params)
+        p = self.params
+        self.engine = registry.create("estimator", "kf")
+        self.adapter = registry.create("noise_adapter", p.adapter, **p.adapter_params) if p.adapter else None
+
+    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
+        p = self.params
+        self.base = LinearModel(np.eye(1), np.eye(1), np.array([[p.q]]), np.array([[p.r]]))
+        self.state = None
+        self.run = self.adapter.start(self.base.Q, self.base.R) if self.adapter else None
+        self.Q = self.base.Q
+        self.k = 0
+
+    def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        rho, phi = np.asarray(inputs["pseudorange_m"], float), np.asarray(inputs["carrier_m"], float)
+        if self.state is None:
+            self.state = Gaussian(rho[..., None], np.broadcast_to(self.base.R, rho.shape + (1, 1)))
+            self.phi = phi
+            return {"smoothed_m": rho.copy(), "slip_detected": np.zeros(rho.shape, bool)}
+        model = LinearModel(self.base.F, self.base.H, self.Q, self.base.R, u=(phi - self.phi)[..., None])
+        prior = self.engine.predict(self.state, model)
+        slip = _slip(rho, prior.mean[..., 0], self.params.slip_threshold_m)
+        upd = self.engine.update(prior, rho[..., None], model)
+        post = upd.state
+        if slip.any():  # restart from the code alone
+            mean = np.where(slip[..., None], rho[..., None], post.mean)
+            cov = np.where(slip[..., None, None], self.base.R, post.cov)
+            post = Gaussian(mean, cov)
+        if self.run is not None:
+            Q, _ = self.run.step(AdaptationStep(self.k, self.state, prior, upd, model))
+            self.Q = Q
+        self.k += 1
+        self.state, self.phi = post, phi
+        return {"smoothed_m": post.mean[..., 0], "slip_detected": slip}
