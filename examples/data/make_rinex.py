@@ -15,11 +15,23 @@ import numpy as np
 import pymap3d
 
 from gnssframework.experiments import get_scenario
-from gnssframework.io.rinex import write_rinex3_obs
+from gnssframework.io.rinex import write_rinex3_nav, write_rinex3_obs
 from gnssframework.signal.constants import L1_WAVELENGTH_M
 from gnssframework.simulation.constellation import nominal_constellation
 
 OUT = pathlib.Path(__file__).resolve().parent / "simulated_pass.rnx"
+NAV = pathlib.Path(__file__).resolve().parent / "nominal_brdc.nav"
+
+
+def write_nominal_nav() -> None:
+    """The nominal 24-slot almanac as broadcast ephemeris: e = 0, omega = 0, Toe = 0, so
+    seconds of week equal the almanac's seconds of day for the first half week."""
+    const = nominal_constellation()
+    eph = {int(prn): {"sqrtA": np.sqrt(const.radius_m), "Eccentricity": 0.0, "Io": const.inclination_rad,
+                      "Omega0": float(raan), "omega": 0.0, "M0": float(u), "Toe": 0.0}
+           for prn, raan, u in zip(const.prn, const.raan_rad, const.arg_lat_rad)}
+    write_rinex3_nav(NAV, dt.datetime(2020, 4, 26, 0, 0, 0), eph)
+    print(f"wrote {NAV}")
 
 
 def main() -> None:
@@ -43,3 +55,4 @@ def main() -> None:
 
 if __name__ == "__main__":
     main()
+    write_nominal_nav()

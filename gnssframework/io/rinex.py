@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import datetime as dt
 import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,7 +17,7 @@ import numpy as np
 from ..errors import DataFileError
 from ..signal.constants import L1_WAVELENGTH_M
 
-__all__ = ["CodeCarrier", "read_code_carrier", "write_rinex3_obs", "check_rinex3_obs"]
+__all__ = ["CodeCarrier", "read_code_carrier", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs"]
 
 
 @dataclass
@@ -141,7 +142,9 @@ def read_code_carrier(path: str | Path, prn: str) -> CodeCarrier:
         raise DataFileError(str(path), None, "no such file")
     check_rinex3_obs(path)
     try:
-        obs = georinex.load(path, use="G", meas=["C1C", "L1C"])
+        with warnings.catch_warnings():  # georinex's xarray calls emit FutureWarnings
+            warnings.simplefilter("ignore", FutureWarning)
+            obs = georinex.load(path, use="G", meas=["C1C", "L1C"])
     except Exception as exc:  # noqa: BLE001 - georinex raises many types; report them as file errors
         raise DataFileError(str(path), None, f"georinex could not read it: {type(exc).__name__}: {exc}") from None
     if prn not in obs.sv.values:
@@ -155,3 +158,33 @@ def read_code_carrier(path: str | Path, prn: str) -> CodeCarrier:
     times = sat.time.values[ok]
     t = (times - times[0]) / np.timedelta64(1, "s")
     return CodeCarrier(t.astype(float), times, code[ok], phase[ok] * L1_WAVELENGTH_M)
+
+
+def _d19(x: float) -> str:
+    return f"{x:19.12E}".replace("E", "D")
+
+
+def write_rinex3_nav(path: str | Path, epoch: dt.datetime, ephemerides: dict[int, dict[str, float]],
+                     gps_week: int = 2103) -> None:
+    """Write a RINEX 3.04 GPS navigation file (one record per satellite, clock terms zero).
+
+    ``ephemerides`` maps a PRN to the IS-GPS-200 elements under georinex's names
+    (``sqrtA``, ``Eccentricity``, ``Io``, ``Omega0``, ``omega``, ``M0``, ``Toe`` and,
+    optionally, ``DeltaN``, ``OmegaDot``, ``IDOT`` and the six harmonic corrections).
+    """
+
+    def hdr(text: str, label: str) -> str:
+        return f"{text:<60}{label:<20}"
+
+    lines = [hdr("     3.04           N: GNSS NAV DATA    G: GPS", "RINEX VERSION / TYPE"),
+             hdr(f"{'gnssframework':<20}{'gnssframework':<20}{epoch:%Y%m%d %H%M%S} UTC", "PGM / RUN BY / DATE"),
+             hdr("", "END OF HEADER")]
+    for prn in sorted(ephemerides):
+        e = {k: 0.0 for k in ("DeltaN", "OmegaDot", "IDOT", "Cuc", "Cus", "Crc", "Crs", "Cic", "Cis")}
+        e.update(ephemerides[prn])
+        lines.append(f"G{prn:02d} {epoch:%Y %m %d %H %M %S}" + _d19(0.0) * 3)
+        for row in ([1.0, e["Crs"], e["DeltaN"], e["M0"]], [e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]],
+                    [e["Toe"], e["Cic"], e["Omega0"], e["Cis"]], [e["Io"], e["Crc"], e["omega"], e["OmegaDot"]],
+                    [e["IDOT"], 0.0, float(gps_week), 0.0], [2.0, 0.0, 0.0, 1.0], [e["Toe"], 4.0]):
+            lines.append("    " + "".join(_d19(v) for v in row))
+    Path(path).write_text("\n".join(lines) + "\n")

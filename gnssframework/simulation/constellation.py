@@ -8,6 +8,8 @@ including Earth rotation, so velocities and accelerations are exact for the mode
 
 from __future__ import annotations
 
+import abc
+
 from dataclasses import dataclass
 from importlib import resources
 
@@ -16,7 +18,7 @@ import pymap3d
 
 from ..errors import ConfigError, DataFileError
 
-__all__ = ["Constellation", "nominal_constellation", "load_almanac", "GM_EARTH", "OMEGA_EARTH"]
+__all__ = ["SatelliteSet", "Constellation", "nominal_constellation", "load_almanac", "GM_EARTH", "OMEGA_EARTH"]
 
 GM_EARTH = 3.986005e14  # m^3/s^2, WGS 84 value of IS-GPS-200
 OMEGA_EARTH = 7.2921151467e-5  # rad/s
@@ -24,8 +26,46 @@ NOMINAL_RADIUS_M = 26_559_700.0
 NOMINAL_INCLINATION_DEG = 55.0
 
 
+class SatelliteSet(abc.ABC):
+    """What the scenarios need of satellites: ``prn``, ``subset``, ``state`` (ECEF position,
+    velocity, acceleration at times t), and from these elevation and visibility."""
+
+    prn: np.ndarray
+
+    @abc.abstractmethod
+    def state(self, t_s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """ECEF position, velocity and acceleration, shape ``(*t.shape, *S, 3)``."""
+
+    @abc.abstractmethod
+    def subset(self, index: np.ndarray) -> "SatelliteSet":
+        """The satellites at ``index``."""
+
+    def elevation_deg(self, t_s: float, lat_deg: float, lon_deg: float, height_m: float) -> np.ndarray:
+        """Elevation of every satellite seen from a geodetic position (pymap3d)."""
+        pos, _, _ = self.state(t_s)
+        _, el, _ = pymap3d.ecef2aer(pos[..., 0], pos[..., 1], pos[..., 2], lat_deg, lon_deg, height_m)
+        return np.asarray(el)
+
+    def visible(self, t_s: float, lat_deg: float, lon_deg: float, height_m: float, mask_deg: float,
+                channels: int) -> np.ndarray:
+        """Indices of the ``channels`` highest satellites above ``mask_deg`` at ``t_s``.
+
+        Raises
+        ------
+        ConfigError
+            When fewer than ``channels`` satellites are above the mask.
+        """
+        el = self.elevation_deg(t_s, lat_deg, lon_deg, height_m)
+        order = np.argsort(-el)
+        above = order[el[order] > mask_deg]
+        if above.size < channels:
+            raise ConfigError("scenario.channels", f"only {above.size} satellites are above the {mask_deg} deg "
+                              f"mask at this place and time; ask for at most {above.size} channels")
+        return above[:channels]
+
+
 @dataclass(frozen=True)
-class Constellation:
+class Constellation(SatelliteSet):
     """Circular-orbit satellites; arrays over satellites.
 
     Attributes
@@ -84,29 +124,6 @@ class Constellation:
         v = dp_rot - w * J(p)
         a = ddp_rot - 2 * w * J(dp_rot) + w * w * J(J(p))
         return p, v, a
-
-    def elevation_deg(self, t_s: float, lat_deg: float, lon_deg: float, height_m: float) -> np.ndarray:
-        """Elevation of every satellite seen from a geodetic position (pymap3d)."""
-        pos, _, _ = self.state(t_s)
-        _, el, _ = pymap3d.ecef2aer(pos[..., 0], pos[..., 1], pos[..., 2], lat_deg, lon_deg, height_m)
-        return np.asarray(el)
-
-    def visible(self, t_s: float, lat_deg: float, lon_deg: float, height_m: float, mask_deg: float,
-                channels: int) -> np.ndarray:
-        """Indices of the ``channels`` highest satellites above ``mask_deg`` at ``t_s``.
-
-        Raises
-        ------
-        ConfigError
-            When fewer than ``channels`` satellites are above the mask.
-        """
-        el = self.elevation_deg(t_s, lat_deg, lon_deg, height_m)
-        order = np.argsort(-el)
-        above = order[el[order] > mask_deg]
-        if above.size < channels:
-            raise ConfigError("scenario.channels", f"only {above.size} satellites are above the {mask_deg} deg "
-                              f"mask at this place and time; ask for at most {above.size} channels")
-        return above[:channels]
 
 
 def load_almanac(path) -> Constellation:

@@ -28,12 +28,17 @@ class VectorTrackingParams(ScenarioParams):
     coherent_time_s: float = Field(0.01, gt=0, le=0.02, description="T; with 20 ms bits, 10 ms intervals stay in a bit")
     channels: int = Field(8, ge=4, le=12)
     elevation_mask_deg: float = Field(10.0, ge=0, lt=90)
-    start_time_s: float = Field(37800.0, ge=0, description="seconds into the constellation's day")
+    start_time_s: float = Field(37800.0, ge=0, description="seconds into the constellation's day (with an "
+                                "ephemeris file: GPS seconds of week)")
+    ephemeris_file: str | None = Field(None, description="RINEX navigation file (broadcast ephemeris, read with "
+                                       "georinex) instead of the nominal 24-slot constellation")
     lat_deg: float = Field(34.23, ge=-90, le=90)
     lon_deg: float = Field(108.3576, ge=-180, le=360)
     height_m: float = 590.6
     velocity_enu_m_s: list[float] = Field([0.0, 0.0, 0.0], min_length=3, max_length=3,
                                           description="constant receiver velocity, east/north/up")
+    trajectory_file: str | None = Field(None, description="CSV trajectory (t_s and ECEF x_m,y_m,z_m or "
+                                        "lat_deg,lon_deg,height_m) replacing the static/constant-velocity receiver")
     clock: str = Field("ocxo", description="receiver clock preset: tcxo or ocxo")
     early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0)
     data_bits: Literal["none", "known", "unknown"] = "known"
@@ -93,9 +98,20 @@ class VectorTrackingScenario(Scenario):
 
     def truth(self, cn0_dbhz: float, runs: int, rng: np.random.Generator) -> tuple[VectorTruth, np.ndarray, np.ndarray]:
         p = self.params
-        const = nominal_constellation()
-        sats = const.subset(const.visible(p.start_time_s, p.lat_deg, p.lon_deg, p.height_m, p.elevation_mask_deg,
-                                          p.channels))
+        traj = None
+        lat, lon, height = p.lat_deg, p.lon_deg, p.height_m
+        if p.trajectory_file:
+            from ...simulation.trajectory import load_trajectory
+
+            traj = load_trajectory(p.trajectory_file)
+            lat, lon, height = pymap3d.ecef2geodetic(*traj.position_m[0])  # satellites seen from the start
+        if p.ephemeris_file:
+            from ...simulation.ephemeris import load_rinex_nav
+
+            const = load_rinex_nav(p.ephemeris_file, t_s=p.start_time_s)
+        else:
+            const = nominal_constellation()
+        sats = const.subset(const.visible(p.start_time_s, lat, lon, height, p.elevation_mask_deg, p.channels))
         r0 = np.array(pymap3d.geodetic2ecef(p.lat_deg, p.lon_deg, p.height_m))
         v = np.array(pymap3d.enu2uvw(*p.velocity_enu_m_s, p.lat_deg, p.lon_deg))
         T = p.coherent_time_s
@@ -107,10 +123,16 @@ class VectorTrackingScenario(Scenario):
             pos, vel, _ = sats.state(p.start_time_s + np.asarray(t))
             return pos, vel
 
-        def receiver_state(t):
-            t = np.asarray(t, dtype=float)
-            shape = t.shape + (runs, 3)
-            return np.broadcast_to(r0 + t[..., None, None] * v, shape), np.broadcast_to(v, shape)
+        if traj is not None:
+            def receiver_state(t):
+                pos, vel = traj.state(t)
+                shape = np.shape(t) + (runs, 3)
+                return np.broadcast_to(pos[..., None, :], shape), np.broadcast_to(vel[..., None, :], shape)
+        else:
+            def receiver_state(t):
+                t = np.asarray(t, dtype=float)
+                shape = t.shape + (runs, 3)
+                return np.broadcast_to(r0 + t[..., None, None] * v, shape), np.broadcast_to(v, shape)
 
         truth = VectorTruth(sat_state, receiver_state, clock, np.full((runs, p.channels), cn0_dbhz), T)
         P0 = np.diag([p.initial_position_std_m**2] * 3 + [p.initial_velocity_std_m_s**2] * 3

@@ -1,0 +1,112 @@
+"""Satellites from GPS broadcast ephemeris (RINEX navigation files read with georinex).
+
+Positions follow the user algorithm of IS-GPS-200 (Table 20-IV): Kepler's equation,
+second-harmonic corrections, and the Earth-fixed node longitude. Velocity and
+acceleration are central differences of that position (velocity error below 1e-5 m/s,
+acceleration below 1e-6 m/s²). The time argument is GPS seconds of the week, as the ephemeris' ``Toe``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataFileError
+from .constellation import GM_EARTH, OMEGA_EARTH, SatelliteSet
+
+__all__ = ["BroadcastEphemeris", "load_rinex_nav", "EPHEMERIS_FIELDS"]
+
+#: georinex variable names of the Keplerian elements used.
+EPHEMERIS_FIELDS = ("sqrtA", "Eccentricity", "Io", "Omega0", "omega", "M0", "DeltaN", "OmegaDot", "IDOT",
+                    "Cuc", "Cus", "Crc", "Crs", "Cic", "Cis", "Toe")
+
+_HALF_WEEK_S = 302_400.0
+
+
+@dataclass(frozen=True)
+class BroadcastEphemeris(SatelliteSet):
+    """One broadcast ephemeris per satellite; ``elements[name]`` are arrays over satellites."""
+
+    prn: np.ndarray
+    elements: dict[str, np.ndarray]
+
+    def subset(self, index: np.ndarray) -> "BroadcastEphemeris":
+        return BroadcastEphemeris(self.prn[index], {k: v[index] for k, v in self.elements.items()})
+
+    def position(self, t_s: np.ndarray | float) -> np.ndarray:
+        """ECEF position (m), shape ``(*t.shape, S, 3)`` (IS-GPS-200, Table 20-IV)."""
+        e = self.elements
+        t = np.asarray(t_s, dtype=float)[..., None]
+        A = e["sqrtA"] ** 2
+        n = np.sqrt(GM_EARTH / A**3) + e["DeltaN"]
+        tk = t - e["Toe"]
+        tk = (tk + _HALF_WEEK_S) % (2 * _HALF_WEEK_S) - _HALF_WEEK_S  # week crossover
+        M = e["M0"] + n * tk
+        ecc = e["Eccentricity"]
+        E = M.copy()
+        for _ in range(10):  # Newton on Kepler's equation; converges in 3-4 steps for GPS
+            E = E - (E - ecc * np.sin(E) - M) / (1 - ecc * np.cos(E))
+        nu = np.arctan2(np.sqrt(1 - ecc**2) * np.sin(E), np.cos(E) - ecc)
+        phi = nu + e["omega"]
+        s2, c2 = np.sin(2 * phi), np.cos(2 * phi)
+        u = phi + e["Cus"] * s2 + e["Cuc"] * c2
+        r = A * (1 - ecc * np.cos(E)) + e["Crs"] * s2 + e["Crc"] * c2
+        i = e["Io"] + e["Cis"] * s2 + e["Cic"] * c2 + e["IDOT"] * tk
+        x_orb, y_orb = r * np.cos(u), r * np.sin(u)
+        node = e["Omega0"] + (e["OmegaDot"] - OMEGA_EARTH) * tk - OMEGA_EARTH * e["Toe"]
+        cn, sn, ci = np.cos(node), np.sin(node), np.cos(i)
+        return np.stack([x_orb * cn - y_orb * ci * sn, x_orb * sn + y_orb * ci * cn, y_orb * np.sin(i)], -1)
+
+    def state(self, t_s):
+        # Velocity: 10 ms central difference (truncation and rounding both below 1e-5 m/s).
+        # Acceleration: 1 s second difference; a 10 ms one would be rounding-limited.
+        t = np.asarray(t_s, dtype=float)
+        p = self.position(t)
+        v = (self.position(t + 0.01) - self.position(t - 0.01)) / 0.02
+        a = self.position(t + 1.0) - 2 * p + self.position(t - 1.0)
+        return p, v, a
+
+
+def load_rinex_nav(path: str | Path, t_s: float | None = None) -> BroadcastEphemeris:
+    """GPS ephemerides of a RINEX navigation file (georinex), one per satellite.
+
+    With ``t_s`` (GPS seconds of week), each satellite's record whose ``Toe`` is closest
+    is used; otherwise its last record.
+
+    Raises
+    ------
+    DataFileError
+        If the file is missing, unreadable or holds no complete GPS ephemeris.
+    """
+    import georinex
+
+    path = Path(path)
+    if not path.exists():
+        raise DataFileError(str(path), None, "no such file")
+    try:
+        with warnings.catch_warnings():  # georinex's xarray calls emit FutureWarnings per record
+            warnings.simplefilter("ignore", FutureWarning)
+            nav = georinex.load(path, use="G")
+    except Exception as exc:  # noqa: BLE001 - georinex raises many types
+        raise DataFileError(str(path), None, f"georinex could not read it: {type(exc).__name__}: {exc}") from None
+    missing = [f for f in EPHEMERIS_FIELDS if f not in nav.data_vars]
+    if missing:
+        raise DataFileError(str(path), None, f"not a GPS navigation file: lacks {', '.join(missing)}")
+    prns, rows = [], []
+    for sv in nav.sv.values:
+        sat = nav.sel(sv=sv)
+        toe = sat["Toe"].values
+        ok = np.all([np.isfinite(sat[f].values) for f in EPHEMERIS_FIELDS], axis=0)
+        if not ok.any():
+            continue
+        idx = np.flatnonzero(ok)
+        pick = idx[np.argmin(np.abs(toe[idx] - t_s))] if t_s is not None else idx[-1]
+        prns.append(int(str(sv)[1:]))
+        rows.append([float(sat[f].values[pick]) for f in EPHEMERIS_FIELDS])
+    if not rows:
+        raise DataFileError(str(path), None, "no complete GPS ephemeris")
+    table = np.array(rows)
+    return BroadcastEphemeris(np.array(prns), {f: table[:, j] for j, f in enumerate(EPHEMERIS_FIELDS)})

@@ -1,0 +1,94 @@
+"""Receiver trajectories: static, constant velocity, or tabulated (ECEF or geodetic CSV)."""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pymap3d
+
+from ..errors import DataFileError
+
+__all__ = ["Trajectory", "load_trajectory"]
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """ECEF positions at tabulated times; position and velocity anywhere between.
+
+    Position is a cubic Hermite interpolation whose node velocities are the tabulated
+    ones (or centred differences of the positions), so position and velocity are
+    consistent to the interpolation order.
+    """
+
+    time_s: np.ndarray  # (N,)
+    position_m: np.ndarray  # (N, 3)
+    velocity_m_s: np.ndarray  # (N, 3)
+
+    def state(self, t_s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """ECEF position and velocity at ``t_s``, shape ``(*t.shape, 3)`` (clamped to the table)."""
+        t = np.clip(np.asarray(t_s, dtype=float), self.time_s[0], self.time_s[-1])
+        i = np.clip(np.searchsorted(self.time_s, t, side="right") - 1, 0, self.time_s.size - 2)
+        t0, t1 = self.time_s[i], self.time_s[i + 1]
+        h = (t1 - t0)[..., None]
+        s = ((t - t0) / (t1 - t0))[..., None]
+        p0, p1 = self.position_m[i], self.position_m[i + 1]
+        m0, m1 = self.velocity_m_s[i] * h, self.velocity_m_s[i + 1] * h
+        h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
+        pos = h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1
+        dh00, dh10, dh01, dh11 = 6 * s**2 - 6 * s, 3 * s**2 - 4 * s + 1, -6 * s**2 + 6 * s, 3 * s**2 - 2 * s
+        vel = (dh00 * p0 + dh10 * m0 + dh01 * p1 + dh11 * m1) / h
+        return pos, vel
+
+
+def load_trajectory(path: str | Path) -> Trajectory:
+    """Read a trajectory CSV: ``t_s`` and either ``x_m, y_m, z_m`` (ECEF) or
+    ``lat_deg, lon_deg, height_m`` (WGS 84, converted with pymap3d); optional velocity
+    columns ``vx_m_s, vy_m_s, vz_m_s`` (ECEF).
+
+    Raises
+    ------
+    DataFileError
+        Naming the file and line of a missing column, a bad number or a time that does
+        not increase.
+    """
+    path = Path(path)
+    try:
+        lines = path.read_text().splitlines()
+    except OSError as exc:
+        raise DataFileError(str(path), None, f"cannot read: {exc.strerror}") from None
+    rows = [(no, line) for no, line in enumerate(lines, 1) if line.strip() and not line.startswith("#")]
+    if len(rows) < 3:
+        raise DataFileError(str(path), None, "needs a header and at least two rows")
+    header = [h.strip() for h in next(csv.reader([rows[0][1]]))]
+    if {"x_m", "y_m", "z_m"} <= set(header):
+        cols = ("x_m", "y_m", "z_m")
+    elif {"lat_deg", "lon_deg", "height_m"} <= set(header):
+        cols = ("lat_deg", "lon_deg", "height_m")
+    else:
+        raise DataFileError(str(path), rows[0][0], "header needs t_s and x_m,y_m,z_m or lat_deg,lon_deg,height_m")
+    if "t_s" not in header:
+        raise DataFileError(str(path), rows[0][0], "header lacks t_s")
+    vel_cols = ("vx_m_s", "vy_m_s", "vz_m_s")
+    has_vel = set(vel_cols) <= set(header)
+    data = []
+    for no, line in rows[1:]:
+        rec = dict(zip(header, (c.strip() for c in next(csv.reader([line])))))
+        try:
+            vals = [float(rec["t_s"])] + [float(rec[c]) for c in cols]
+            vals += [float(rec[c]) for c in vel_cols] if has_vel else []
+        except (KeyError, ValueError) as exc:
+            raise DataFileError(str(path), no, f"bad row {line.strip()!r}: {exc}") from None
+        if data and vals[0] <= data[-1][0][0]:
+            raise DataFileError(str(path), no, f"time {vals[0]} does not increase")
+        data.append((vals, no))
+    table = np.array([v for v, _ in data])
+    t = table[:, 0]
+    if cols[0] == "x_m":
+        pos = table[:, 1:4]
+    else:
+        pos = np.stack(pymap3d.geodetic2ecef(table[:, 1], table[:, 2], table[:, 3]), axis=-1)
+    vel = table[:, 4:7] if has_vel else np.gradient(pos, t, axis=0)
+    return Trajectory(t, pos, vel)
