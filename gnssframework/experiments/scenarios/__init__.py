@@ -102,8 +102,6 @@ def register_scenario(cls: type[Scenario]) -> type[Scenario]:
 
 def get_scenario(config: dict[str, Any]) -> Scenario:
     """Instantiate the scenario named by ``config["kind"]`` with the other keys as parameters."""
-    from . import carrier_smoothing, multipath, scintillation, vector_tracking  # noqa: F401 - registers the built-in kinds
-
     kind = config.get("kind")
     if kind not in SCENARIOS:
         raise ConfigError("scenario.kind", f"got {kind!r}; allowed: {', '.join(sorted(SCENARIOS))}")
@@ -113,3 +111,7 @@ def get_scenario(config: dict[str, Any]) -> Scenario:
     except ValidationError as exc:
         raise validation_message(exc, prefix="scenario") from None
     return cls(params)
+
+
+# The built-in kinds register themselves on import (at the end: they import the base above).
+from . import carrier_smoothing, multipath, scintillation, vector_tracking  # noqa: E402,F401
