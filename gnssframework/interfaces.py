@@ -26,7 +26,7 @@ from pydantic import Field
 from .plugin import Plugin, PluginParams
 from .signal.correlators import Correlators
 
-__all__ = ["Discriminator", "DiscriminatorParams", "ChannelFilter", "NavFilter"]
+__all__ = ["Discriminator", "DiscriminatorParams", "SequentialFilter", "ChannelFilter", "NavFilter"]
 
 
 class DiscriminatorParams(PluginParams):
@@ -57,15 +57,14 @@ class Discriminator(Plugin, abc.ABC):
         """Thermal-noise variance of one output (``unit``^2) at the given C/N0."""
 
 
-class ChannelFilter(Plugin, abc.ABC):
-    """Plugin kind ``channel_filter``: per-channel processing, batch-first.
+class SequentialFilter(Plugin, abc.ABC):
+    """A plugin that processes a sequence epoch by epoch, batch-first.
 
-    A channel filter is stateful over one sequence: ``reset`` starts it for a
-    batch, ``step`` takes one epoch's inputs (named arrays, e.g. ``"correlators"``
-    or ``"pseudorange_m"``) and returns named outputs (e.g. ``"code_error_chips"``).
+    ``reset`` starts it for a batch; ``step`` takes one epoch's inputs (named arrays) and
+    returns named outputs. ``requires`` and ``provides`` name them, so a composition that
+    cannot work is refused before a run.
     """
 
-    kind = "channel_filter"
     #: Names of the inputs ``step`` needs.
     requires: ClassVar[tuple[str, ...]] = ()
     #: Names of the outputs ``step`` returns.
@@ -73,29 +72,27 @@ class ChannelFilter(Plugin, abc.ABC):
 
     @abc.abstractmethod
     def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
-        """Start a new sequence for ``batch_shape`` channels/runs."""
+        """Start a new sequence for ``batch_shape`` (channels, runs, ...)."""
 
     @abc.abstractmethod
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Process one epoch."""
 
 
-class NavFilter(Plugin, abc.ABC):
+class ChannelFilter(SequentialFilter):
+    """Plugin kind ``channel_filter``: per-channel processing of correlators (``"correlators"``)
+    or observables (``"pseudorange_m"``, ``"carrier_m"``) into named outputs
+    (``"code_error_chips"``, ``"smoothed_m"``, NCO commands...)."""
+
+    kind = "channel_filter"
+
+
+class NavFilter(SequentialFilter):
     """Plugin kind ``nav_filter``: fuses channel outputs into a navigation state.
 
     ``step`` takes the channel filters' outputs (stacked over channels on the last
-    batch axis) and returns the navigation state and the per-channel NCO commands for
-    the next epoch.
+    batch axis) and returns the navigation state and, in a vector loop, the
+    per-channel NCO commands of the next epoch.
     """
 
     kind = "nav_filter"
-    requires: ClassVar[tuple[str, ...]] = ()
-    provides: ClassVar[tuple[str, ...]] = ()
-
-    @abc.abstractmethod
-    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
-        """Start a new sequence."""
-
-    @abc.abstractmethod
-    def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Fuse one epoch of channel outputs."""

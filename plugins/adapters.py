@@ -41,11 +41,15 @@ class InnovationParams(SafeguardParams):
     window: int = Field(20, ge=2, description="number L of innovations averaged")
 
 
-class _InnovationRun(AdapterRun):
-    def __init__(self, params: InnovationParams, Q0, R0) -> None:
+class _WindowedRun(AdapterRun):
+    """A run that averages a per-step sample over a window; subclasses give the sample."""
+
+    def __init__(self, params, Q0, R0) -> None:
         super().__init__(params, Q0, R0)
         self.window = _Window(params.window)
 
+
+class _InnovationRun(_WindowedRun):
     def estimate(self, ctx: AdaptationStep):
         v = ctx.update.innovation
         mean_vv = self.window.push(outer(v, v))
@@ -155,11 +159,7 @@ class MlQParams(SafeguardParams):
     window: int = Field(20, ge=2, description="number N of state corrections averaged")
 
 
-class _MlQRun(AdapterRun):
-    def __init__(self, params: MlQParams, Q0, R0) -> None:
-        super().__init__(params, Q0, R0)
-        self.window = _Window(params.window)
-
+class _MlQRun(_WindowedRun):
     def estimate(self, ctx: AdaptationStep):
         dx = (ctx.update.gain @ ctx.update.innovation[..., None])[..., 0]
         mean_dxdx = self.window.push(outer(dx, dx))
