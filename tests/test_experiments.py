@@ -97,6 +97,15 @@ def test_interrupted_comparison_resumes_and_loses_nothing(tmp_path):
     assert _rows(summary) == _rows(fresh)
 
 
+def test_rerunning_a_finished_comparison_runs_nothing_and_rewrites_the_report(tmp_path):
+    text = TINY.replace("workers = 1", "workers = 2")  # the process-pool path
+    first = run_comparison(load_config(_write(tmp_path, text)), tmp_path / "out", progress=False)
+    (tmp_path / "out" / "report.md").unlink()
+    ran = []
+    again = run_comparison(load_config(_write(tmp_path, text)), tmp_path / "out", progress=False, on_batch=ran.append)
+    assert ran == [] and _rows(again) == _rows(first) and (tmp_path / "out" / "report.md").exists()
+
+
 def test_more_runs_reuse_the_finished_batches(tmp_path):
     config = load_config(_write(tmp_path))
     run_comparison(config, tmp_path / "out", progress=False)

@@ -76,6 +76,8 @@ def _save_series(out: Path, config: ComparisonConfig, task: Task, series: dict[s
 
 
 def _execute(config: ComparisonConfig, tasks: list[Task]) -> Iterable[tuple]:
+    if not tasks:  # everything already in the store
+        return
     data = config.model_dump(mode="json")
     ex = config.executor
     if ex.kind == "dask":

@@ -1,0 +1,32 @@
+"""Run the four reference comparisons and copy their figures into docs/img/experiments/.
+
+    python docs/make_experiment_plots.py
+
+Each comparison writes to results/<name>/ and resumes from its store, so a run that
+the README's main job already made is not repeated.
+"""
+
+from __future__ import annotations
+
+import pathlib
+import shutil
+
+from gnssframework.experiments import load_config, run_comparison
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+OUT = ROOT / "docs" / "img" / "experiments"
+EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath")
+
+
+def main() -> None:
+    OUT.mkdir(parents=True, exist_ok=True)
+    for name in EXAMPLES:
+        config = load_config(ROOT / "examples" / f"{name}.toml")
+        summary = run_comparison(config, ROOT / "results" / name, progress=False)
+        for png in sorted((summary.parent / "plots").glob("*.png")):
+            shutil.copy(png, OUT / f"{name}-{png.name}")
+        print(f"{name}: figures copied")
+
+
+if __name__ == "__main__":
+    main()
