@@ -149,8 +149,9 @@ def multipath_envelope() -> None:
     for phase, label in ((0.0, "in phase"), (np.pi, "anti-phase")):
         err = []
         for dl in delays:
-            def out(e, dl=dl):
-                y = impairments.multipath_correlator_mean(A, e, 0.0, 0.0, 0.001, np.array([-0.5, 0, 0.5]), 0.5, dl, phase)
+            def out(e, dl=dl, phase=phase):
+                y = impairments.multipath_correlator_mean(A, e, 0.0, 0.0, 0.001, np.array([-0.5, 0, 0.5]), 0.5, dl,
+                                                          phase)
                 return float(disc(gf.Correlators(y[0], y[1], y[2])))
             err.append(optimize.brentq(out, -0.45, 0.45))
         ax.plot(delays, err, label=label)

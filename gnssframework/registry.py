@@ -88,7 +88,6 @@ class _Registry:
         self._failures: list[LoadFailure] = []
         self._pm = pluggy.PluginManager(ENTRY_POINT_GROUP)
         self._pm.add_hookspecs(hookspecs)
-        self._sources: dict[str, tuple[str, str]] = {}
 
     # -- loading --------------------------------------------------------------------
     def ensure_loaded(self) -> None:
@@ -112,7 +111,6 @@ class _Registry:
         if self._pm.is_registered(module) or self._pm.has_plugin(plugin_name):
             return
         self._pm.register(module, name=plugin_name)
-        self._sources[plugin_name] = (dist, version)
         for kind in hookspecs.KINDS:
             caller = getattr(self._pm.hook, f"register_{kind}")
             for impl in caller.get_hookimpls():

@@ -8,8 +8,11 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework import registry
-from gnssframework.estimation import Gaussian, NonlinearModel
+from gnssframework.errors import ConfigError
+from gnssframework.estimation import AdaptationStep, Gaussian, NonlinearModel
 from gnssframework.interfaces import ChannelFilter
+from gnssframework.signal.channel_model import channel_iq, channel_transition
+from gnssframework.signal.correlator_model import tap_noise_cov
 from gnssframework.signal.navdata import wipe_off
 from gnssframework.plugin import PluginParams
 from gnssframework.receiver.loop_filters import LoopFilter
@@ -131,7 +134,6 @@ class KalmanCarrierLoop(ChannelFilter):
         p = self.params
         n = p.states
         if len(p.q) != n:
-            from gnssframework.errors import ConfigError
             raise ConfigError("channel_filter 'kf-carrier-loop'.q", f"needs {n} values for states={n}, got {p.q}")
         T = p.coherent_time_s
         self.F = np.array([[1.0, T, T * T / 2], [0.0, 1.0, T], [0.0, 0.0, 1.0]])[:n, :n]
@@ -210,7 +212,6 @@ class DiscriminatorChannel(ChannelFilter):
         self.code = code(coherent_time_s=T, **kw)
         self.freq = registry.create("discriminator", self.params.freq_discriminator, coherent_time_s=T)
         if self.code.unit != "chips" or self.freq.unit != "Hz":
-            from gnssframework.errors import ConfigError
             raise ConfigError("channel_filter 'discriminator'", "needs a code discriminator (chips) and a frequency "
                               f"discriminator (Hz), got {self.code.unit} and {self.freq.unit}")
         cn0 = np.broadcast_to(np.asarray(context["cn0_dbhz"], float), batch_shape)
@@ -303,8 +304,6 @@ class IqFilter(ChannelFilter):
 
     def __init__(self, **params: Any) -> None:
         super().__init__(**params)
-        from gnssframework.errors import ConfigError
-
         p = self.params
         if len(p.q) != 5 or len(p.initial_std) != 5:
             raise ConfigError("channel_filter 'iq-filter'", "q and initial_std need 5 values (A, dtau, dtheta, df, dfdot)")
@@ -314,9 +313,6 @@ class IqFilter(ChannelFilter):
                         registry.create("noise_adapter", p.adapter, warmup=p.warmup) if p.adapter else None)
 
     def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
-        from gnssframework.signal.channel_model import channel_iq, channel_transition
-        from gnssframework.signal.correlator_model import tap_noise_cov
-
         T = context["coherent_time_s"]
         d = context.get("early_late_spacing_chips", 1.0) / 2
         F = channel_transition(T)
@@ -353,8 +349,6 @@ class IqFilter(ChannelFilter):
             corr = wipe_off(corr, bit)
         upd = self.engine.update(prior, corr.as_iq(), self.model)
         if self.run is not None:
-            from gnssframework.estimation import AdaptationStep
-
             previous = self.state
             _, R = self.run.step(AdaptationStep(self.k, previous, prior, upd, self.model))
             self.model = self.model.with_noise(R=R)

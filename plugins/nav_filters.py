@@ -8,7 +8,8 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework import registry
-from gnssframework.estimation import Gaussian, NonlinearModel
+from gnssframework.errors import ConfigError
+from gnssframework.estimation import Gaussian, LinearModel, NonlinearModel, filter_sequence
 from gnssframework.interfaces import NavFilter
 from gnssframework.plugin import PluginParams
 from gnssframework.receiver.vector import predicted_range
@@ -73,8 +74,6 @@ class EkfPositionVelocity(NavFilter):
 
     def __init__(self, **params: Any) -> None:
         super().__init__(**params)
-        from gnssframework.errors import ConfigError
-
         if self.params.clock not in PRESETS:
             raise ConfigError("nav_filter 'ekf-pv'.clock", f"got {self.params.clock!r}; allowed: {', '.join(PRESETS)}")
         self.engine = registry.create("estimator", self.params.estimator)
@@ -158,8 +157,6 @@ class PositionConstantAcceleration(NavFilter):
     provides = ("position_m",)
 
     def model(self):
-        from gnssframework.estimation import LinearModel
-
         p = self.params
         t = p.dt_s
         F = np.array([[1.0, t, t * t / 2], [0.0, 1.0, t], [0.0, 0.0, 1.0]])
@@ -168,8 +165,6 @@ class PositionConstantAcceleration(NavFilter):
     def filter(self, zs: np.ndarray, estimator, adapter=None, augmentation=None, **policies):
         """Filter positions ``(K, ..., n_coord)`` in metres; returns the `FilterResult`
         whose batch shape is ``(..., n_coord)`` (coordinate last) and state ``(..., 3)``."""
-        from gnssframework.estimation import filter_sequence
-
         zs = np.asarray(zs, dtype=float)
         mean0 = np.zeros(zs.shape[1:] + (3,))
         mean0[..., 0] = zs[0]

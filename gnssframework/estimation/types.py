@@ -45,7 +45,7 @@ class Gaussian:
         mean = np.asarray(self.mean, dtype=float)
         cov = np.asarray(self.cov, dtype=float)
         if mean.ndim < 1:
-            raise ConfigError("Gaussian.mean", f"needs shape (..., n), got a scalar")
+            raise ConfigError("Gaussian.mean", "needs shape (..., n), got a scalar")
         n = mean.shape[-1]
         if cov.ndim < 2 or cov.shape[-2:] != (n, n):
             raise ConfigError("Gaussian.cov", f"needs shape (..., {n}, {n}) to match the mean, got {cov.shape}")

@@ -16,7 +16,6 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from .. import registry
 from ..errors import ConfigError, DataFileError
 from ..hookspecs import KINDS
 from ..plugin import validation_message

@@ -9,7 +9,7 @@ import numpy as np
 import pymap3d
 
 from .. import registry
-from .nmea import NmeaFixes, read_nmea
+from .nmea import NmeaFixes
 
 __all__ = ["CANDIDATES", "filter_positions", "write_positions_csv"]
 

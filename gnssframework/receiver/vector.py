@@ -176,7 +176,7 @@ def run_vector_loop(
     true_rho = truth.pseudorange(np.asarray(0.0), 0)
     rec: dict[str, list] = {k: [] for k in ("code", "freq", "pos", "vel", "nees")}
     for k in range(K):
-        t0, t1, tm = t_edges[k], t_edges[k + 1], t_edges[k] + T / 2
+        t1, tm = t_edges[k + 1], t_edges[k] + T / 2
         next_rho = truth.pseudorange(np.asarray(t1), k + 1)
         rep_end = nco_range + nco_rate * T
         code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M

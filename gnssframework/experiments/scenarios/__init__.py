@@ -79,8 +79,9 @@ class Scenario(abc.ABC):
     def _describe_components(self) -> str:
         return ", ".join(f"{k} ({'required' if r else 'optional'})" for k, r in self.components.items())
 
-    def check_composition(self, plugins: dict[str, Any], where: str) -> None:
-        """Refuse compositions whose parts cannot work together (override per scenario)."""
+    def check_composition(self, plugins: dict[str, Any], where: str) -> None:  # noqa: B027 - optional hook
+        """Refuse compositions whose parts cannot work together (override per scenario; the
+        default accepts every composition that passed the per-kind checks)."""
 
     def build(self, candidate: dict[str, Any]) -> dict[str, Any]:
         """Instantiate a candidate's plugins (fresh objects for every batch)."""

@@ -17,7 +17,7 @@ from pydantic import Field
 from ...errors import ConfigError
 from ...signal.constants import L1_WAVELENGTH_M
 from ...simulation.constellation import nominal_constellation
-from ...simulation.impairments import ar1_noise, cycle_slips
+from ...simulation.impairments import ar1_noise
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["CarrierSmoothingScenario", "slip_recovery_epochs"]
