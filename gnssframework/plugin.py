@@ -78,15 +78,6 @@ class Plugin:
         except ValidationError as exc:
             raise validation_message(exc, prefix=f"{self.kind or 'plugin'} {self.name!r}") from None
 
-    @classmethod
-    def allowed_parameters(cls) -> dict[str, str]:
-        """Map every parameter to a short description of its type and default."""
-        out = {}
-        for key, field in cls.Params.model_fields.items():
-            ann = getattr(field.annotation, "__name__", str(field.annotation))
-            out[key] = f"{ann} = {field.default!r}" if not field.is_required() else ann
-        return out
-
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.model_dump().items())
         return f"{type(self).__name__}({args})"

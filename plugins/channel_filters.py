@@ -308,9 +308,13 @@ class IqFilter(ChannelFilter):
         if len(p.q) != 5 or len(p.initial_std) != 5:
             raise ConfigError("channel_filter 'iq-filter'", "q and initial_std need 5 values (A, dtau, dtheta, df, dfdot)")
         self.engine = registry.create("estimator", p.estimator)
-        self.adapter = (registry.create("noise_adapter", p.adapter, window=p.window, warmup=p.warmup)
-                        if p.adapter == "innovation" else
-                        registry.create("noise_adapter", p.adapter, warmup=p.warmup) if p.adapter else None)
+        self.adapter = None
+        if p.adapter:
+            adapter_cls = registry.get("noise_adapter", p.adapter)
+            kw = {"warmup": p.warmup}
+            if "window" in adapter_cls.Params.model_fields:  # innovation, ml-q
+                kw["window"] = p.window
+            self.adapter = adapter_cls(**kw)
 
     def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
         T = context["coherent_time_s"]

@@ -107,3 +107,8 @@ def test_cli_smooth_writes_csv(tmp_path):
     smooth = np.array([float(r[4]) for r in rows[1:]])
     # Smoothing removes most of the code noise: the smoothed track is far less rough.
     assert np.std(np.diff(smooth, 2)) < 0.3 * np.std(np.diff(code, 2))
+
+
+def test_slip_sizes_must_be_ordered_at_config_time():
+    with pytest.raises(gf.ConfigError, match="scenario.slip_max_cycles"):
+        get_scenario({"kind": "carrier-smoothing", "slip_min_cycles": 20, "slip_max_cycles": 10})

@@ -13,7 +13,6 @@ import numpy as np
 __all__ = [
     "symmetrize",
     "cholesky_masked",
-    "is_positive_definite",
     "clip_eigenvalues",
     "project_psd",
     "clamp_relative",
@@ -86,11 +85,6 @@ def cholesky_masked(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return L, ok
 
 
-def is_positive_definite(a: np.ndarray) -> np.ndarray:
-    """Boolean mask over the batch: finite and positive definite."""
-    return cholesky_masked(a)[1]
-
-
 def failing_indices(ok: np.ndarray) -> list[tuple[int, ...]]:
     """Index tuples of the False entries of a batch mask (``[()]`` for a scalar)."""
     ok = np.asarray(ok)
@@ -99,14 +93,19 @@ def failing_indices(ok: np.ndarray) -> list[tuple[int, ...]]:
     return [tuple(int(i) for i in idx) for idx in zip(*np.nonzero(~ok))]
 
 
+def _clip_spectrum(a: np.ndarray, low, high) -> np.ndarray:
+    """Symmetrise ``a`` and clip its eigenvalues into ``[low, high]`` (broadcast over the batch)."""
+    w, v = np.linalg.eigh(symmetrize(a))
+    w = np.clip(w, np.asarray(low)[..., None], np.asarray(high)[..., None])
+    return (v * w[..., None, :]) @ np.swapaxes(v, -1, -2)
+
+
 def clip_eigenvalues(a: np.ndarray, floor: float | np.ndarray) -> np.ndarray:
     """Symmetrise and raise every eigenvalue to at least ``floor``.
 
     ``floor`` broadcasts over the batch; it is an absolute value in the units of ``a``.
     """
-    w, v = np.linalg.eigh(symmetrize(a))
-    w = np.maximum(w, np.asarray(floor)[..., None])
-    return (v * w[..., None, :]) @ np.swapaxes(v, -1, -2)
+    return _clip_spectrum(a, floor, np.inf)
 
 
 def project_psd(a: np.ndarray) -> np.ndarray:
@@ -151,9 +150,6 @@ def clamp_relative(
     v_b = np.broadcast_to(v, shape)[bad]
     G = v_b * np.sqrt(w_b)[..., None, :]
     G_inv = np.swapaxes(v_b, -1, -2) / np.sqrt(w_b)[..., :, None]
-    white = G_inv @ a[bad] @ np.swapaxes(G_inv, -1, -2)
-    ww, vv = np.linalg.eigh(symmetrize(white))
-    ww = np.clip(ww, floor, ceiling)
-    white = (vv * ww[..., None, :]) @ np.swapaxes(vv, -1, -2)
+    white = _clip_spectrum(G_inv @ a[bad] @ np.swapaxes(G_inv, -1, -2), floor, ceiling)
     out[bad] = symmetrize(G @ white @ np.swapaxes(G, -1, -2))
     return out

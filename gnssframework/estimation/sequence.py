@@ -143,12 +143,12 @@ def filter_sequence(
     if zs.ndim < 2:
         raise ConfigError("zs", f"needs shape (K, ..., m), got {zs.shape}")
     if augmentation is not None:
-        if callable(model) and not hasattr(model, "Q"):
+        if callable(model):  # models are dataclasses, not callables
             raise ConfigError("augmentation", "needs a fixed model, not a callable")
         problem = augmentation.apply(model, zs)
         zs, model_at, epochs = problem.zs, problem.model_at, problem.epochs
     else:
-        model_at = model if (callable(model) and not hasattr(model, "Q")) else (lambda k: model)
+        model_at = model if callable(model) else (lambda k: model)
         epochs = np.arange(zs.shape[0])
 
     counts: Counter = Counter({k: 0 for k in RECOVERIES})

@@ -78,7 +78,7 @@ def _load_series(out: Path, case: str, cand: str) -> tuple[np.ndarray | None, di
     return time_s, {k: np.concatenate([p[k] for p in parts], axis=-1) for k in keys}
 
 
-def _plots(config: ComparisonConfig, rows: list[dict], out: Path) -> None:
+def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -107,7 +107,6 @@ def _plots(config: ComparisonConfig, rows: list[dict], out: Path) -> None:
         plt.close(fig)
         # CDFs over runs of every metric.
         fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics), 2.8), squeeze=False)
-        store = ResultStore(out / "results.sqlite")
         for ax, metric in zip(axes[0], metrics):
             for cand in config.candidates:
                 v = np.sort(store.values(config.identity(), case.name, cand.name, metric, config.runs))
@@ -128,5 +127,5 @@ def write_report(config: ComparisonConfig, store: ResultStore, out: Path) -> Pat
     summary = out / "summary.json"
     summary.write_text(json.dumps({"name": config.name, "seed": config.seed, "rows": rows}, indent=2))
     (out / "report.md").write_text(_markdown(config, rows))
-    _plots(config, rows, out)
+    _plots(config, rows, store, out)
     return summary

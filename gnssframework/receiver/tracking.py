@@ -24,7 +24,7 @@ from ..interfaces import ChannelFilter
 from ..signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 from ..signal.correlator_model import amplitude_from_cn0, simulate_correlators
 
-__all__ = ["SignalTruth", "TrackingRecord", "run_closed_loop"]
+__all__ = ["SignalTruth", "TrackingRecord", "run_closed_loop", "check_closed_loop", "NCO_COMMANDS"]
 
 
 @dataclass(frozen=True)
@@ -100,6 +100,25 @@ class TrackingRecord:
     outputs: dict[str, np.ndarray] = field(default_factory=dict)
 
 
+#: Outputs a channel filter needs to steer the NCOs of a closed loop.
+NCO_COMMANDS = ("carrier_freq_hz", "code_freq_hz")
+
+
+def check_closed_loop(channel: ChannelFilter, record: tuple[str, ...] = ()) -> None:
+    """Refuse a channel filter that cannot close a tracking loop (or lacks an output to record).
+
+    Raises
+    ------
+    ConfigError
+        With field ``"channel_filter"``.
+    """
+    needed = NCO_COMMANDS + tuple(record)
+    missing = [n for n in needed if n not in channel.provides]
+    if "correlators" not in channel.requires or missing:
+        raise ConfigError("channel_filter", f"{channel.name!r} cannot close a tracking loop: it must require "
+                          f"'correlators' and provide {', '.join(needed)}")
+
+
 def run_closed_loop(
     channel: ChannelFilter,
     truth: SignalTruth,
@@ -128,10 +147,7 @@ def run_closed_loop(
     record
         Further channel outputs to keep (e.g. ``("phase_disc_rad",)``).
     """
-    missing = {"carrier_freq_hz", "code_freq_hz"} - set(channel.provides)
-    if "correlators" not in channel.requires or missing:
-        raise ConfigError("channel_filter", f"{channel.name!r} cannot close a tracking loop: it must require "
-                          f"'correlators' and provide {sorted(missing)}")
+    check_closed_loop(channel, record)
     T = truth.coherent_time_s
     batch = truth.code_phase_chips.shape[1:]
     f_nco = np.broadcast_to(np.asarray(initial_doppler_hz, float), batch).copy()

@@ -35,7 +35,8 @@ from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ..signal.correlator_model import simulate_correlators
 from ..signal.navdata import BIT_PERIOD_S, random_nav_bits
 
-__all__ = ["VectorTruth", "VectorRecord", "run_vector_loop", "predicted_range", "CHANNEL_OUTPUTS", "NAV_OUTPUTS"]
+__all__ = ["VectorTruth", "VectorRecord", "run_vector_loop", "check_composition", "predicted_range",
+           "CHANNEL_OUTPUTS", "NAV_OUTPUTS", "HARNESS_INPUTS"]
 
 #: What a channel filter must provide to feed a vector loop's nav filter.
 CHANNEL_OUTPUTS = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", "freq_error_var_hz2")
@@ -71,9 +72,10 @@ class VectorTruth:
     def epochs(self) -> int:
         return self.clock_m.shape[0] - 1
 
-    def pseudorange(self, t: np.ndarray, k: np.ndarray | int) -> np.ndarray:
-        """True pseudorange (m) at times t (epoch indices k for the clock): ``(runs, ch)``."""
-        s, _ = self.sat_state(t)
+    def pseudorange(self, t: np.ndarray, k: np.ndarray | int, sat_pos: np.ndarray | None = None) -> np.ndarray:
+        """True pseudorange (m) at time t (epoch index k for the clock): ``(runs, ch)``.
+        ``sat_pos`` saves recomputing the satellite positions when the caller has them."""
+        s = self.sat_state(t)[0] if sat_pos is None else sat_pos
         r, _ = self.receiver_state(t)
         return np.linalg.norm(s[None] - r[:, None], axis=-1) + self.clock_m[k, :, 0][:, None]
 
@@ -98,23 +100,31 @@ class VectorRecord:
     extra: dict[str, np.ndarray] = field(default_factory=dict)
 
 
-def _check_composition(channel: ChannelFilter, nav: NavFilter) -> None:
+#: Inputs the vector loop itself gives the nav filter (besides the channel outputs).
+HARNESS_INPUTS = ("sat_pos_m", "sat_vel_m_s", "next_sat_pos_m", "next_sat_vel_m_s", "replica_range_m",
+                  "replica_rate_m_s")
+
+
+def check_composition(channel: ChannelFilter, nav: NavFilter) -> None:
+    """Refuse a channel/nav filter pair that cannot close a vector loop.
+
+    Raises
+    ------
+    ConfigError
+        With field ``"channel_filter"`` or ``"nav_filter"`` (the part at fault).
+    """
     missing = [n for n in CHANNEL_OUTPUTS if n not in channel.provides]
     if missing:
         raise ConfigError("channel_filter", f"{channel.name!r} cannot feed a vector loop: it does not provide "
-                          f"{', '.join(missing)} (needs {', '.join(CHANNEL_OUTPUTS)})")
-    unmet = [n for n in nav.requires if n not in channel.provides and n not in _HARNESS_INPUTS]
+                          f"{', '.join(missing)}")
+    unmet = [n for n in nav.requires if n not in channel.provides and n not in HARNESS_INPUTS]
     if unmet:
-        raise ConfigError("nav_filter", f"{nav.name!r} requires {', '.join(unmet)}, which channel filter "
-                          f"{channel.name!r} does not provide (it provides {', '.join(channel.provides)})")
-    missing_nav = [n for n in NAV_OUTPUTS if n not in nav.provides]
-    if missing_nav:
+        raise ConfigError("nav_filter", f"{nav.name!r} needs {', '.join(unmet)}, which {channel.name!r} does "
+                          f"not provide (it provides {', '.join(channel.provides)})")
+    missing = [n for n in NAV_OUTPUTS if n not in nav.provides]
+    if missing:
         raise ConfigError("nav_filter", f"{nav.name!r} cannot close a vector loop: it does not provide "
-                          f"{', '.join(missing_nav)}")
-
-
-_HARNESS_INPUTS = ("sat_pos_m", "sat_vel_m_s", "next_sat_pos_m", "next_sat_vel_m_s", "replica_range_m",
-                   "replica_rate_m_s")
+                          f"{', '.join(missing)}")
 
 
 def run_vector_loop(
@@ -146,7 +156,7 @@ def run_vector_loop(
         ``"none"``, or 50 bit/s navigation data that is ``"known"`` (the channel filter
         gets ``data_bit`` and wipes it off) or ``"unknown"`` (it must decide).
     """
-    _check_composition(channel, nav)
+    check_composition(channel, nav)
     if data_bits not in ("none", "known", "unknown"):
         raise ConfigError("scenario.data_bits", f"got {data_bits!r}; allowed: none, known, unknown")
     T = truth.coherent_time_s
@@ -177,7 +187,8 @@ def run_vector_loop(
     rec: dict[str, list] = {k: [] for k in ("code", "freq", "pos", "vel", "nees")}
     for k in range(K):
         t1, tm = t_edges[k + 1], t_edges[k] + T / 2
-        next_rho = truth.pseudorange(np.asarray(t1), k + 1)
+        s_next, sv_next = truth.sat_state(np.asarray(t1))
+        next_rho = truth.pseudorange(np.asarray(t1), k + 1, sat_pos=s_next)
         rep_end = nco_range + nco_rate * T
         code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
         f_rep = -nco_rate / L1_WAVELENGTH_M
@@ -194,7 +205,6 @@ def run_vector_loop(
         ch_out = channel.step(inputs)
 
         s_mid, sv_mid = truth.sat_state(np.asarray(tm))
-        s_next, sv_next = truth.sat_state(np.asarray(t1))
         nav_out = nav.step({**ch_out, "sat_pos_m": s_mid, "sat_vel_m_s": sv_mid, "next_sat_pos_m": s_next,
                             "next_sat_vel_m_s": sv_next, "replica_range_m": nco_range + nco_rate * T / 2,
                             "replica_rate_m_s": np.broadcast_to(nco_rate, batch)})

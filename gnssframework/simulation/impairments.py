@@ -92,18 +92,23 @@ def eml_multipath_error_chips(relative_amplitude: float, delay_chips: np.ndarray
 
 def cycle_slips(
     n_epochs: int, probability_per_epoch: float, rng: np.random.Generator, max_cycles: int = 10,
-    batch_shape: tuple[int, ...] = (), half_cycles: bool = False,
+    batch_shape: tuple[int, ...] = (), half_cycles: bool = False, min_cycles: int = 1,
 ) -> np.ndarray:
     """Cumulative carrier-phase slips (cycles) at each epoch, time on axis 0.
 
-    At each epoch a slip happens with ``probability_per_epoch``; its size is uniform in
-    ``±1..max_cycles`` (half cycles if ``half_cycles``, as a Costas loop slips). Add
-    ``slips * wavelength`` to a carrier-phase range in metres.
+    At each epoch after the first a slip happens with ``probability_per_epoch``; its
+    size is uniform in ``±min_cycles..max_cycles`` (half cycles if ``half_cycles``, as a
+    Costas loop slips). A slip at the first epoch would only change the ambiguity, so
+    there is none. Add ``slips * wavelength`` to a carrier-phase range in metres; the
+    slip epochs are where ``np.diff(slips, axis=0, prepend=0)`` is non-zero.
     """
     if not 0 <= probability_per_epoch <= 1:
         raise ConfigError("probability_per_epoch", f"must be in [0, 1], got {probability_per_epoch}")
+    if not 1 <= min_cycles <= max_cycles:
+        raise ConfigError("min_cycles", f"needs 1 <= min_cycles <= max_cycles, got {min_cycles} and {max_cycles}")
     shape = (n_epochs,) + tuple(batch_shape)
     happens = rng.random(shape) < probability_per_epoch
-    size = rng.integers(1, max_cycles + 1, shape) * rng.choice([-1, 1], shape)
+    happens[0] = False
+    size = rng.integers(min_cycles, max_cycles + 1, shape) * rng.choice([-1, 1], shape)
     step = np.where(happens, size, 0) * (0.5 if half_cycles else 1.0)
     return np.cumsum(step, axis=0)

@@ -79,6 +79,18 @@ class Scenario(abc.ABC):
     def _describe_components(self) -> str:
         return ", ".join(f"{k} ({'required' if r else 'optional'})" for k, r in self.components.items())
 
+    @staticmethod
+    def capable(kind: str, outputs: tuple[str, ...]) -> list[str]:
+        """Registered plugins of ``kind`` that provide every name in ``outputs``."""
+        return [n for n in registry.names(kind) if all(o in registry.get(kind, n).provides for o in outputs)]
+
+    def refuse(self, exc: ConfigError, where: str, outputs: tuple[str, ...]) -> ConfigError:
+        """Re-address a harness's composition error to the candidate's field, naming the
+        plugins of that kind that would work."""
+        kind = exc.field
+        able = ", ".join(self.capable(kind, outputs)) or "(none registered)"
+        return ConfigError(f"{where}.{kind}.name", f"{exc.detail}; {kind.replace('_', ' ')}s that do: {able}")
+
     def check_composition(self, plugins: dict[str, Any], where: str) -> None:  # noqa: B027 - optional hook
         """Refuse compositions whose parts cannot work together (override per scenario; the
         default accepts every composition that passed the per-kind checks)."""

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 import pymap3d
-from pydantic import Field
+from pydantic import Field, ValidationInfo, field_validator
 
 from ...errors import ConfigError
 from ...signal.constants import L1_WAVELENGTH_M
 from ...simulation.constellation import nominal_constellation
-from ...simulation.impairments import ar1_noise
+from ...simulation.impairments import ar1_noise, cycle_slips
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["CarrierSmoothingScenario", "slip_recovery_epochs"]
@@ -38,6 +38,13 @@ class CarrierSmoothingParams(ScenarioParams):
     slip_min_cycles: int = Field(10, ge=1)
     slip_max_cycles: int = Field(50, ge=1)
     settle_epochs: int = Field(50, ge=0, description="error_rmse ignores the first epochs")
+
+    @field_validator("slip_max_cycles")
+    @classmethod
+    def _max_not_below_min(cls, value: int, info: ValidationInfo) -> int:
+        if value < info.data.get("slip_min_cycles", 1):
+            raise ValueError(f"must be >= slip_min_cycles ({info.data.get('slip_min_cycles')})")
+        return value
 
 
 class CarrierSmoothingCase(ScenarioParams):
@@ -88,16 +95,13 @@ class CarrierSmoothingScenario(Scenario):
 
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins.get("channel_filter")
-        if ch is not None and not {"pseudorange_m", "carrier_m"} >= set(ch.requires) | {"pseudorange_m"} \
-                or ch is not None and "smoothed_m" not in ch.provides:
+        if ch is not None and (not set(ch.requires) <= {"pseudorange_m", "carrier_m"} or "smoothed_m" not in ch.provides):
             raise ConfigError(f"{where}.channel_filter.name", f"{ch.name!r} does not smooth code with carrier "
                               "(needs pseudorange_m and carrier_m, provides smoothed_m); use 'hatch' or 'kf-smoother'")
 
     def simulate(self, runs: int, rng: np.random.Generator):
         """True range, pseudorange, carrier (m) and slip epochs, each ``(K, runs)``."""
         p = self.params
-        if p.slip_min_cycles > p.slip_max_cycles:
-            raise ConfigError("scenario.slip_min_cycles", "must not exceed slip_max_cycles")
         const = nominal_constellation()
         sat = const.subset(const.visible(p.start_time_s, p.lat_deg, p.lon_deg, p.height_m, 10.0, 1))
         t = p.start_time_s + np.arange(p.epochs) * p.dt_s
@@ -108,10 +112,9 @@ class CarrierSmoothingScenario(Scenario):
         code = truth + p.code_noise_std_m * rng.standard_normal((p.epochs, runs)) \
             + ar1_noise(p.multipath_psi, mp_xi, p.epochs, rng, batch_shape=(runs,))
         ambiguity = rng.integers(-10**6, 10**6, runs) * L1_WAVELENGTH_M
-        happens = rng.random((p.epochs, runs)) < p.slip_probability
-        happens[0] = False
-        size = rng.integers(p.slip_min_cycles, p.slip_max_cycles + 1, (p.epochs, runs)) * rng.choice([-1, 1], (p.epochs, runs))
-        slips_cycles = np.cumsum(np.where(happens, size, 0), axis=0)
+        slips_cycles = cycle_slips(p.epochs, p.slip_probability, rng, p.slip_max_cycles, (runs,),
+                                   min_cycles=p.slip_min_cycles)
+        happens = np.diff(slips_cycles, axis=0, prepend=0) != 0
         carrier = truth + ambiguity + p.carrier_noise_std_m * rng.standard_normal((p.epochs, runs)) \
             + slips_cycles * L1_WAVELENGTH_M
         return truth, code, carrier, happens

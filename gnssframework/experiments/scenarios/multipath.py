@@ -35,9 +35,10 @@ def convergence_epoch(err: np.ndarray, window: int) -> np.ndarray:
     """First epoch after which the running RMS error (``window`` epochs) stays below twice
     the RMS error of the second half of the run. ``err`` is ``(K, runs)``; returns ``(runs,)``."""
     K = err.shape[0]
-    kernel = np.ones(window) / window
-    sq = np.apply_along_axis(lambda e: np.convolve(e**2, kernel, mode="full")[:K], 0, err)
-    running = np.sqrt(sq)
+    # Trailing sum of the last `window` squared errors (fewer at the start), over all runs at once.
+    cs = np.cumsum(err**2, axis=0)
+    lagged = np.concatenate([np.zeros((min(window, K),) + err.shape[1:]), cs[: max(K - window, 0)]], axis=0)
+    running = np.sqrt((cs - lagged) / window)
     bound = 2 * np.sqrt(np.mean(err[K // 2:] ** 2, axis=0))
     above = running > bound
     last = np.where(above.any(axis=0), K - 1 - np.argmax(above[::-1], axis=0), -1)

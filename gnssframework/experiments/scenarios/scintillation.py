@@ -14,7 +14,7 @@ import numpy as np
 from pydantic import Field
 
 from ...errors import ConfigError
-from ...receiver.tracking import SignalTruth, run_closed_loop
+from ...receiver.tracking import NCO_COMMANDS, SignalTruth, check_closed_loop, run_closed_loop
 from ...simulation import scintillation as scint
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
@@ -54,15 +54,10 @@ class ScintillationScenario(Scenario):
 
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins["channel_filter"]
-        needed = ("carrier_freq_hz", "code_freq_hz", "phase_disc_rad")
-        missing = [n for n in needed if n not in ch.provides]
-        if missing or "correlators" not in ch.requires:
-            from ... import registry
-
-            able = [n for n in registry.names("channel_filter")
-                    if all(o in registry.get("channel_filter", n).provides for o in needed)]
-            raise ConfigError(f"{where}.channel_filter.name", f"{ch.name!r} cannot close a carrier loop (needs "
-                              f"{', '.join(needed)}); channel filters that can: {', '.join(able)}")
+        try:
+            check_closed_loop(ch, record=("phase_disc_rad",))
+        except ConfigError as exc:
+            raise self.refuse(exc, where, NCO_COMMANDS + ("phase_disc_rad",)) from None
         T = getattr(ch.params, "coherent_time_s", None)
         if T is not None and abs(T - self.params.coherent_time_s) > 1e-12:
             raise ConfigError(f"{where}.channel_filter.params.coherent_time_s",

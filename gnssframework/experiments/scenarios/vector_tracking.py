@@ -14,7 +14,7 @@ import pymap3d
 from pydantic import Field
 
 from ...errors import ConfigError
-from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_vector_loop
+from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
@@ -74,27 +74,11 @@ class VectorTrackingScenario(Scenario):
             raise ConfigError("scenario.clock", f"got {params.clock!r}; allowed: {', '.join(PRESETS)}")
 
     def check_composition(self, plugins: dict[str, Any], where: str) -> None:
-        ch, nav = plugins["channel_filter"], plugins["nav_filter"]
-        missing = [n for n in CHANNEL_OUTPUTS if n not in ch.provides]
-        if missing:
-            raise ConfigError(f"{where}.channel_filter.name",
-                              f"{ch.name!r} cannot feed a vector loop: it does not provide {', '.join(missing)}; "
-                              f"channel filters that do: {', '.join(self._capable('channel_filter', CHANNEL_OUTPUTS))}")
-        unmet = [n for n in nav.requires if n not in ch.provides and not n.startswith(("sat_", "next_", "replica_"))]
-        if unmet:
-            raise ConfigError(f"{where}.nav_filter.name", f"{nav.name!r} needs {', '.join(unmet)}, which "
-                              f"{ch.name!r} does not provide")
-        missing = [n for n in NAV_OUTPUTS if n not in nav.provides]
-        if missing:
-            raise ConfigError(f"{where}.nav_filter.name",
-                              f"{nav.name!r} cannot close a vector loop: it does not provide {', '.join(missing)}; "
-                              f"nav filters that do: {', '.join(self._capable('nav_filter', NAV_OUTPUTS))}")
-
-    @staticmethod
-    def _capable(kind: str, outputs: tuple[str, ...]) -> list[str]:
-        from ... import registry
-
-        return [n for n in registry.names(kind) if all(o in registry.get(kind, n).provides for o in outputs)]
+        try:
+            check_composition(plugins["channel_filter"], plugins["nav_filter"])
+        except ConfigError as exc:
+            outputs = CHANNEL_OUTPUTS if exc.field == "channel_filter" else NAV_OUTPUTS
+            raise self.refuse(exc, where, outputs) from None
 
     def truth(self, cn0_dbhz: float, runs: int, rng: np.random.Generator) -> tuple[VectorTruth, np.ndarray, np.ndarray]:
         p = self.params
