@@ -16,6 +16,7 @@ from .errors import (
     NotPositiveDefiniteError,
     NumericalError,
     PluginError,
+    WorkerError,
 )
 from .estimation import (
     AdaptationStep,
@@ -68,6 +69,7 @@ __all__ = [
     "PluginParams",
     "SigmaPointEstimator",
     "Update",
+    "WorkerError",
     "errors",
     "filter_sequence",
     "hookimpl",

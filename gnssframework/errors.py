@@ -17,6 +17,7 @@ __all__ = [
     "NumericalError",
     "NotPositiveDefiniteError",
     "InvalidMeasurementError",
+    "WorkerError",
 ]
 
 
@@ -43,6 +44,11 @@ class ConfigError(GnssFrameworkError):
         self.detail = message
         super().__init__(f"{field}: {message}" if field else message)
 
+    def __reduce__(self) -> tuple:
+        # Rebuild from the constructor's arguments so the error crosses a process
+        # boundary (ProcessPoolExecutor) with its message and field intact.
+        return (type(self), (self.field, self.detail))
+
 
 class PluginError(GnssFrameworkError):
     """A plugin could not be loaded or registered."""
@@ -54,8 +60,12 @@ class DataFileError(GnssFrameworkError, ValueError):
     def __init__(self, path: str, line: int | None, message: str) -> None:
         self.path = str(path)
         self.line = line
+        self.detail = message
         where = f"{self.path}:{line}" if line is not None else self.path
         super().__init__(f"{where}: {message}")
+
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.path, self.line, self.detail))
 
 
 class NumericalError(GnssFrameworkError, ArithmeticError):
@@ -86,6 +96,9 @@ class NumericalError(GnssFrameworkError, ArithmeticError):
         self.detail = detail
         super().__init__(self._message())
 
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.filter_name, self.batch_indices, self.step, self.detail))
+
     def _message(self) -> str:
         first = self.batch_indices[0] if self.batch_indices else ()
         more = len(self.batch_indices) - 1
@@ -109,3 +122,29 @@ class InvalidMeasurementError(NumericalError):
     """A measurement holds NaN or inf and was not declared missing."""
 
     what = "measurement is NaN or inf"
+
+
+class WorkerError(GnssFrameworkError):
+    """An exception raised in a worker process that could not travel back to the parent.
+
+    The original exception's type, message and traceback are kept as text, so a failure
+    in a worker never shows as a bare ``BrokenProcessPool``.
+
+    Parameters
+    ----------
+    where
+        What the worker was doing (``"case 'c45', candidate 'ckf', batch 0"``).
+    message
+        ``"TypeName: message"`` of the original exception.
+    traceback_text
+        Its formatted traceback in the worker.
+    """
+
+    def __init__(self, where: str, message: str, traceback_text: str = "") -> None:
+        self.where = where
+        self.detail = message
+        self.traceback_text = traceback_text
+        super().__init__(f"{where}: {message}")
+
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.where, self.detail, self.traceback_text))

@@ -10,14 +10,17 @@ same numbers on any executor, in any order of completion, and after a resume.
 from __future__ import annotations
 
 import os
+import pickle
+import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, GnssFrameworkError, WorkerError
 from .config import ComparisonConfig
 from .scenarios import get_scenario
 from .store import ResultStore
@@ -65,6 +68,30 @@ def run_task(config_data: dict[str, Any], task: Task) -> tuple[Task, dict[str, n
     return task, result.metrics, result.series, result.time_s
 
 
+def _where(config_data: dict[str, Any], task: Task) -> str:
+    try:
+        case = config_data["cases"][task.case_index]["name"]
+        cand = config_data["candidates"][task.candidate_index]["name"]
+    except (KeyError, IndexError, TypeError):
+        case, cand = task.case_index, task.candidate_index
+    return f"case {case!r}, candidate {cand!r}, batch {task.batch}"
+
+
+def run_task_in_worker(config_data: dict[str, Any], task: Task) -> tuple:
+    """``run_task`` for a worker process: an exception that would not survive the trip
+    back to the parent (unpicklable, or not rebuildable from its pickle) is replaced by a
+    ``WorkerError`` carrying its type, message and traceback as text."""
+    try:
+        return run_task(config_data, task)
+    except Exception as exc:  # noqa: BLE001 - re-raised, as is or as text
+        try:
+            pickle.loads(pickle.dumps(exc))
+        except Exception:  # noqa: BLE001 - any failure to round-trip means: send text
+            raise WorkerError(_where(config_data, task), f"{type(exc).__name__}: {exc}",
+                              traceback.format_exc()) from None
+        raise
+
+
 def _save_series(out: Path, config: ComparisonConfig, task: Task, series: dict[str, np.ndarray],
                  time_s: np.ndarray | None) -> None:
     case = config.cases[task.case_index].name
@@ -108,9 +135,17 @@ def _execute(config: ComparisonConfig, tasks: list[Task]) -> Iterable[tuple]:
             yield run_task(data, t)
         return
     with ProcessPoolExecutor(max_workers=min(workers, len(tasks))) as pool:
-        futures = [pool.submit(run_task, data, t) for t in tasks]
+        futures = {pool.submit(run_task_in_worker, data, t): t for t in tasks}
         for fut in as_completed(futures):
-            yield fut.result()
+            try:
+                result = fut.result()
+            except BrokenProcessPool as exc:
+                # A worker died without raising (killed, out of memory, a crash in
+                # compiled code): say which batch and how to see the real failure.
+                raise GnssFrameworkError(
+                    f"{_where(data, futures[fut])}: a worker process died ({exc}); "
+                    "run with executor.workers = 1 to see the failure in this process") from None
+            yield result
 
 
 def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = True,
