@@ -18,13 +18,14 @@ is caught with the field's name before any filter runs::
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+import typing
+from typing import Any, ClassVar, Sequence
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from .errors import ConfigError
 
-__all__ = ["Plugin", "PluginParams", "validation_message"]
+__all__ = ["Plugin", "PluginParams", "validation_message", "field_path"]
 
 
 class PluginParams(BaseModel):
@@ -33,19 +34,68 @@ class PluginParams(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
-def validation_message(exc: ValidationError, prefix: str = "") -> ConfigError:
+def field_path(loc: Sequence[Any], prefix: str = "") -> str:
+    """Write a pydantic location the one way the library writes field paths.
+
+    >>> field_path(("candidates", 0, "estimator", "alpha"))
+    'candidates[0].estimator.alpha'
+    >>> field_path(("alpha",), prefix="cases[1]")
+    'cases[1].alpha'
+    """
+    out = prefix
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += f".{part}" if out else str(part)
+    return out
+
+
+def _submodel(annotation: Any) -> type[BaseModel] | None:
+    """The pydantic model inside ``annotation`` (through Optional, list, dict values)."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in typing.get_args(annotation):
+        found = _submodel(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def _model_at(model: type[BaseModel] | None, loc: Sequence[Any]) -> type[BaseModel] | None:
+    """The model that owns the last element of ``loc`` (indices skipped)."""
+    for part in loc[:-1]:
+        if model is None:
+            return None
+        if isinstance(part, int):
+            continue
+        field = model.model_fields.get(str(part))
+        model = _submodel(field.annotation) if field is not None else None
+    return model
+
+
+def validation_message(exc: ValidationError, prefix: str = "",
+                       model: type[BaseModel] | None = None) -> ConfigError:
     """Turn a pydantic ``ValidationError`` into one ``ConfigError``.
 
-    The message names every offending field (dotted, with ``prefix``), what it got and
-    what it allows, one per line.
+    The message names every offending field (a path like ``candidates[0].estimator``,
+    with ``prefix``), what it got and what it allows, one per line. Given the validated
+    ``model``, an unknown parameter lists the valid ones, and a parameter written beside
+    a plugin's ``name`` instead of under ``params`` gets a hint.
     """
     items = []
     for err in exc.errors():
-        loc = ".".join(str(p) for p in err["loc"])
-        field = f"{prefix}.{loc}" if prefix and loc else (loc or prefix)
+        field = field_path(err["loc"], prefix)
         msg = err["msg"]
         if err["type"] == "extra_forbidden":
             msg = "unknown parameter"
+            owner = _model_at(model, err["loc"])
+            if owner is not None:
+                fields = sorted(owner.model_fields)
+                msg += f"; valid: {', '.join(fields) or '(none)'}"
+                if set(fields) == {"name", "params"}:
+                    msg += (f"; plugin parameters go under `params`: "
+                            f"{{ name = ..., params = {{ {err['loc'][-1]} = ... }} }}")
         elif "input" in err and err["type"] != "missing":
             msg = f"{msg} (got {err['input']!r})"
         items.append((field, msg))
@@ -76,7 +126,8 @@ class Plugin:
         try:
             self.params = self.Params(**params)
         except ValidationError as exc:
-            raise validation_message(exc, prefix=f"{self.kind or 'plugin'} {self.name!r}") from None
+            raise validation_message(exc, prefix=f"{self.kind or 'plugin'} {self.name!r}",
+                                     model=self.Params) from None
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.model_dump().items())

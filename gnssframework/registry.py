@@ -129,6 +129,10 @@ class _Registry:
             raise PluginError(f"{cls!r} registered as {kind} is not a subclass of {base.__name__}")
         if not cls.name:
             raise PluginError(f"{cls.__name__} registered as {kind} has no `name`")
+        missing = sorted(getattr(cls, "__abstractmethods__", ()))
+        if missing:
+            raise PluginError(f"{kind} {cls.name!r} ({cls.__name__}) leaves abstract methods unimplemented: "
+                              f"{', '.join(missing)}")
         known = self._plugins[kind].get(cls.name)
         if known is not None and known.cls is not cls:
             raise PluginError(f"{kind} {cls.name!r} is already registered by {known.distribution}")

@@ -158,4 +158,4 @@ def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
     try:
         return ComparisonConfig.model_validate(data)
     except ValidationError as exc:
-        raise validation_message(exc) from None
+        raise validation_message(exc, model=ComparisonConfig) from None

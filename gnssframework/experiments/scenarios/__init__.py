@@ -52,7 +52,7 @@ class Scenario(abc.ABC):
         try:
             self.CaseParams.model_validate(case)
         except ValidationError as exc:
-            raise validation_message(exc, prefix=where) from None
+            raise validation_message(exc, prefix=where, model=self.CaseParams) from None
 
     def check_candidate(self, components: dict[str, Any], where: str) -> None:
         """Every required kind present, no foreign kind, every plugin creatable, and composable."""
@@ -113,6 +113,27 @@ def register_scenario(cls: type[Scenario]) -> type[Scenario]:
     return cls
 
 
+#: Cross-field rules that hold in every scenario having both fields: (smaller, larger, strict).
+ORDERED_FIELDS = (
+    ("settle_s", "duration_s", True),
+    ("coherent_time_s", "duration_s", True),
+    ("lock_window_s", "duration_s", True),
+    ("settle_epochs", "epochs", True),
+    ("convergence_window", "epochs", True),
+    ("slip_min_cycles", "slip_max_cycles", False),
+)
+
+
+def _check_ordered_fields(params: BaseModel, prefix: str) -> None:
+    for small, large, strict in ORDERED_FIELDS:
+        a, b = getattr(params, small, None), getattr(params, large, None)
+        if a is None or b is None:
+            continue
+        if (a >= b) if strict else (a > b):
+            relation = "less than" if strict else "at most"
+            raise ConfigError(f"{prefix}.{small}", f"must be {relation} {large} = {b!r} (got {a!r})")
+
+
 def get_scenario(config: dict[str, Any]) -> Scenario:
     """Instantiate the scenario named by ``config["kind"]`` with the other keys as parameters."""
     kind = config.get("kind")
@@ -122,7 +143,8 @@ def get_scenario(config: dict[str, Any]) -> Scenario:
     try:
         params = cls.Params.model_validate({k: v for k, v in config.items() if k != "kind"})
     except ValidationError as exc:
-        raise validation_message(exc, prefix="scenario") from None
+        raise validation_message(exc, prefix="scenario", model=cls.Params) from None
+    _check_ordered_fields(params, "scenario")
     return cls(params)
 
 
