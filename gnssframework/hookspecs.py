@@ -19,15 +19,18 @@ from typing import Callable
 
 import pluggy
 
-__all__ = ["hookspec", "hookimpl", "KINDS"]
+__all__ = ["hookspec", "hookimpl", "KINDS", "COMPONENT_KINDS"]
 
 hookspec = pluggy.HookspecMarker("gnssframework")
 hookimpl = pluggy.HookimplMarker("gnssframework")
 
 Register = Callable[[type], None]
 
-#: Every plugin kind, in the order the CLI lists them.
-KINDS = ("estimator", "noise_adapter", "augmentation", "discriminator", "channel_filter", "nav_filter")
+#: The plugin kinds a comparison candidate composes.
+COMPONENT_KINDS = ("estimator", "noise_adapter", "augmentation", "discriminator", "channel_filter", "nav_filter")
+#: Every plugin kind, in the order the CLI lists them: the components, then the metrics a
+#: scenario reports and the scenarios themselves.
+KINDS = COMPONENT_KINDS + ("metric", "scenario")
 
 
 @hookspec
@@ -58,3 +61,14 @@ def register_channel_filter(register: Register) -> None:
 @hookspec
 def register_nav_filter(register: Register) -> None:
     """Register navigation filters (subclasses of ``NavFilter``)."""
+
+
+@hookspec
+def register_metric(register: Register) -> None:
+    """Register metric components (``gnssframework.experiments.metrics``)."""
+
+
+@hookspec
+def register_scenario(register: Register) -> None:
+    """Register scenario kinds (subclasses of ``gnssframework.experiments.scenarios.Scenario``;
+    a scenario's registry name is its ``kind``)."""

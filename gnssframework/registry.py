@@ -15,6 +15,7 @@ Loading is robust: a plugin that fails to import or to register is recorded in
 from __future__ import annotations
 
 import difflib
+import importlib
 import importlib.metadata as md
 import threading
 import types
@@ -46,14 +47,38 @@ __all__ = [
 
 ENTRY_POINT_GROUP = "gnssframework"
 
-BASES: dict[str, type[Plugin]] = {
+BASES: dict[str, type | str] = {
     "estimator": Estimator,
     "noise_adapter": NoiseAdapter,
     "augmentation": Augmentation,
     "discriminator": Discriminator,
     "channel_filter": ChannelFilter,
     "nav_filter": NavFilter,
+    # Imported when first needed (they import this module): "module:Class".
+    "metric": "gnssframework.experiments.metrics:Metric",
+    "scenario": "gnssframework.experiments.scenarios:Scenario",
 }
+
+#: Modules of the core package that implement registration hooks (the core's own
+#: scenarios); loaded before the entry points, without needing an installed entry point.
+CORE_HOOK_MODULES = ("gnssframework.experiments.scenarios.hooks",)
+
+
+def base_class(kind: str) -> type | None:
+    """The class every plugin of ``kind`` derives from (``None`` if its module is absent)."""
+    base = BASES[kind]
+    if isinstance(base, str):
+        module, _, attr = base.partition(":")
+        try:
+            base = getattr(importlib.import_module(module), attr)
+        except (ImportError, AttributeError):
+            return None
+    return base
+
+
+def plugin_name(kind: str, cls: type) -> str:
+    """A plugin class's registry name (a scenario's is its ``kind`` attribute)."""
+    return str(getattr(cls, "kind" if kind == "scenario" else "name", "") or "")
 
 
 @dataclass(frozen=True)
@@ -96,6 +121,12 @@ class _Registry:
         with self._lock:
             if self._loaded:
                 return
+            for module_name in CORE_HOOK_MODULES:
+                try:
+                    self._add_module(importlib.import_module(module_name), module_name, "gnssframework",
+                                     _core_version())
+                except Exception as exc:  # noqa: BLE001
+                    self._failures.append(LoadFailure("gnssframework", module_name, f"{type(exc).__name__}: {exc}"))
             for ep in md.entry_points(group=ENTRY_POINT_GROUP):
                 dist = ep.dist.name if ep.dist is not None else "unknown"
                 version = ep.dist.version if ep.dist is not None else ""
@@ -124,20 +155,23 @@ class _Registry:
                     )
 
     def _add(self, kind: str, cls: type, dist: str, version: str) -> None:
-        base = BASES[kind]
-        if not (isinstance(cls, type) and issubclass(cls, base)):
-            raise PluginError(f"{cls!r} registered as {kind} is not a subclass of {base.__name__}")
-        if not cls.name:
-            raise PluginError(f"{cls.__name__} registered as {kind} has no `name`")
+        base = base_class(kind)
+        if not isinstance(cls, type) or (base is not None and not issubclass(cls, base)):
+            raise PluginError(f"{cls!r} registered as {kind} is not a subclass of "
+                              f"{getattr(base, '__name__', 'a class')}")
+        name = plugin_name(kind, cls)
+        if not name:
+            raise PluginError(f"{cls.__name__} registered as {kind} has no `{'kind' if kind == 'scenario' else 'name'}`")
         missing = sorted(getattr(cls, "__abstractmethods__", ()))
         if missing:
-            raise PluginError(f"{kind} {cls.name!r} ({cls.__name__}) leaves abstract methods unimplemented: "
+            raise PluginError(f"{kind} {name!r} ({cls.__name__}) leaves abstract methods unimplemented: "
                               f"{', '.join(missing)}")
-        known = self._plugins[kind].get(cls.name)
+        known = self._plugins[kind].get(name)
         if known is not None and known.cls is not cls:
-            raise PluginError(f"{kind} {cls.name!r} is already registered by {known.distribution}")
-        self._plugins[kind][cls.name] = PluginInfo(
-            kind, cls.name, cls.description.strip().splitlines()[0] if cls.description else "", dist, version, cls
+            raise PluginError(f"{kind} {name!r} is already registered by {known.distribution}")
+        text = getattr(cls, "description", "") or (cls.__doc__ or "")
+        self._plugins[kind][name] = PluginInfo(
+            kind, name, text.strip().splitlines()[0] if text.strip() else "", dist, version, cls
         )
 
     # -- queries --------------------------------------------------------------------
@@ -157,6 +191,20 @@ class _Registry:
             raise ConfigError(
                 kind, f"unknown {kind} {name!r}; known: {', '.join(known) or '(none)'}{hint}"
             ) from None
+
+
+def _core_version() -> str:
+    try:
+        return md.version("gnssframework")
+    except md.PackageNotFoundError:
+        return ""
+
+
+def _core_version() -> str:
+    try:
+        return md.version("gnssframework")
+    except md.PackageNotFoundError:
+        return ""
 
 
 _REGISTRY = _Registry()

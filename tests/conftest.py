@@ -47,3 +47,11 @@ def rng() -> np.random.Generator:
 
 def create(kind: str, name: str, **params):
     return gf.registry.create(kind, name, **params)
+
+
+@pytest.fixture
+def scratch_registry():
+    """For tests that register plugins at run time: the registry is rebuilt from the entry
+    points afterwards, so those plugins do not leak into other tests."""
+    yield gf.registry
+    gf.registry.reload()

@@ -70,7 +70,7 @@ def test_field_paths_use_brackets_for_indices_everywhere(tmp_path):
     assert field_path(("a", 0, "b", 2)) == "a[0].b[2]"
 
 
-def test_registration_refuses_a_class_with_abstract_methods_left_naming_them():
+def test_registration_refuses_a_class_with_abstract_methods_left_naming_them(scratch_registry):
     class HalfDone(gf.Discriminator):
         name = "half-done"
         unit = "chips"

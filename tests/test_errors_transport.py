@@ -87,7 +87,8 @@ def _failing_nav_filter(name: str, exc: Exception) -> type:
     ("raises-unrebuildable", _NeedsTwoArgs("exploded in step", 3),
      gf.WorkerError, "case 'c45', candidate 'bad', batch 0: _NeedsTwoArgs: exploded in step (code 3)"),
 ])
-def test_failure_in_a_worker_reaches_the_user_with_its_message(tmp_path, name, exc, expected_type, message):
+def test_failure_in_a_worker_reaches_the_user_with_its_message(tmp_path, name, exc, expected_type, message,
+                                                              scratch_registry):
     _failing_nav_filter(name, exc)
     path = tmp_path / "tiny.toml"
     path.write_text(TINY.replace("NAME", name))

@@ -17,10 +17,56 @@ from gnssframework import registry
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
+def builtin_names(kind: str) -> list[str]:
+    """Names registered by this project only: exact-set assertions must not see plugins
+    that other packages installed beside it (or that other tests registered)."""
+    return sorted(i.name for i in registry.describe() if i.kind == kind and i.distribution == "gnssframework")
+
+
 def test_kinds_and_builtin_names():
     assert registry.kinds() == ["augmentation", "channel_filter", "discriminator", "estimator",
-                                "nav_filter", "noise_adapter"]
-    assert registry.names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
+                                "metric", "nav_filter", "noise_adapter", "scenario"]
+    assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
+    assert builtin_names("scenario") == ["carrier-smoothing", "multipath", "scintillation", "vector-tracking"]
+
+
+def test_builtin_name_sets_ignore_a_plugin_installed_beside_the_project(scratch_registry):
+    class ThirdPartyKf(registry.get("estimator", "kf")):
+        name = "third-party-kf"
+
+    module = types.SimpleNamespace(register_estimator=gf.hookimpl(lambda register: register(ThirdPartyKf)))
+    registry.register_module(module, name="test-third-party-kf", distribution="someone-elses-package")
+    assert "third-party-kf" in registry.names("estimator")
+    assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
+
+
+def test_a_third_party_scenario_registers_through_the_hook_and_runs_from_a_config(tmp_path, scratch_registry):
+    from gnssframework.experiments import load_config
+    from gnssframework.experiments.scenarios import Scenario, get_scenario
+
+    base = get_scenario({"kind": "multipath"})
+
+    class Renamed(type(base)):
+        kind = "third-party-multipath"
+
+    module = types.SimpleNamespace(register_scenario=gf.hookimpl(lambda register: register(Renamed)))
+    registry.register_module(module, name="test-third-party-scenario", distribution="someone-elses-package")
+    assert registry.get("scenario", "third-party-multipath") is Renamed
+    assert issubclass(Renamed, Scenario)
+    assert isinstance(get_scenario({"kind": "third-party-multipath", "epochs": 30}), Renamed)
+    with pytest.raises(gf.ConfigError, match="did you mean 'third-party-multipath'"):
+        get_scenario({"kind": "third-party-multipth"})
+
+
+def test_registration_refuses_a_scenario_that_is_not_a_scenario(scratch_registry):
+    class NotAScenario:
+        kind = "not-a-scenario"
+
+    module = types.SimpleNamespace(register_scenario=gf.hookimpl(lambda register: register(NotAScenario)))
+    registry.register_module(module, name="test-not-a-scenario")
+    assert "not-a-scenario" not in registry.names("scenario")
+    [failure] = [f for f in registry.failures() if f.entry_point == "test-not-a-scenario"]
+    assert "is not a subclass of Scenario" in failure.error
     assert {"innovation", "sage-husa", "ml-q"} <= set(registry.names("noise_adapter"))
     assert "colored-ar1" in registry.names("augmentation")
 
@@ -41,7 +87,7 @@ def test_unknown_name_lists_known_ones_and_the_closest():
     with pytest.raises(gf.ConfigError) as err:
         registry.create("estimator", "svdckf")
     msg = str(err.value)
-    assert "ckf, ekf, kf, svd-ckf, ukf" in msg and "did you mean 'svd-ckf'" in msg
+    assert f"known: {', '.join(registry.names('estimator'))};" in msg and "did you mean 'svd-ckf'" in msg
     with pytest.raises(gf.ConfigError, match="unknown plugin kind 'estimators'; allowed: augmentation"):
         registry.names("estimators")
 

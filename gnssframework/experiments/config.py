@@ -17,7 +17,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from ..errors import ConfigError, DataFileError
-from ..hookspecs import KINDS
+from ..hookspecs import COMPONENT_KINDS
 from ..plugin import validation_message
 
 __all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "load_config"]
@@ -46,7 +46,7 @@ class Candidate(_Strict):
     nav_filter: PluginRef | None = None
 
     def components(self) -> dict[str, PluginRef]:
-        return {k: getattr(self, k) for k in KINDS if getattr(self, k) is not None}
+        return {k: getattr(self, k) for k in COMPONENT_KINDS if getattr(self, k) is not None}
 
 
 class Case(BaseModel):

@@ -8,6 +8,7 @@ plugin kinds a candidate must (or may) compose, and its metrics with their units
 from __future__ import annotations
 
 import abc
+import difflib
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -18,7 +19,7 @@ from ... import registry
 from ...errors import ConfigError
 from ...plugin import validation_message
 
-__all__ = ["Scenario", "BatchResult", "SCENARIOS", "get_scenario", "register_scenario"]
+__all__ = ["Scenario", "BatchResult", "SCENARIOS", "get_scenario", "register_scenario", "scenario_kinds"]
 
 
 class ScenarioParams(BaseModel):
@@ -105,12 +106,20 @@ class Scenario(abc.ABC):
         """Simulate ``runs`` Monte Carlo runs as one array program."""
 
 
+#: The core's scenario kinds (registered with the plugin registry by ``hooks``).
 SCENARIOS: dict[str, type[Scenario]] = {}
 
 
 def register_scenario(cls: type[Scenario]) -> type[Scenario]:
+    """Class decorator of the core's scenario kinds. Other packages register a scenario
+    through the ``register_scenario`` hook of the ``gnssframework`` entry-point group."""
     SCENARIOS[cls.kind] = cls
     return cls
+
+
+def scenario_kinds() -> dict[str, type[Scenario]]:
+    """Every scenario kind: the registry's (core and third-party) and the core's."""
+    return {**{n: registry.get("scenario", n) for n in registry.names("scenario")}, **SCENARIOS}
 
 
 #: Cross-field rules that hold in every scenario having both fields: (smaller, larger, strict).
@@ -137,9 +146,12 @@ def _check_ordered_fields(params: BaseModel, prefix: str) -> None:
 def get_scenario(config: dict[str, Any]) -> Scenario:
     """Instantiate the scenario named by ``config["kind"]`` with the other keys as parameters."""
     kind = config.get("kind")
-    if kind not in SCENARIOS:
-        raise ConfigError("scenario.kind", f"got {kind!r}; allowed: {', '.join(sorted(SCENARIOS))}")
-    cls = SCENARIOS[kind]
+    kinds = scenario_kinds()
+    if kind not in kinds:
+        close = difflib.get_close_matches(str(kind), list(kinds), n=1, cutoff=0.4)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise ConfigError("scenario.kind", f"got {kind!r}; allowed: {', '.join(sorted(kinds))}{hint}")
+    cls = kinds[kind]
     try:
         params = cls.Params.model_validate({k: v for k, v in config.items() if k != "kind"})
     except ValidationError as exc:
