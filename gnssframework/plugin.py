@@ -29,9 +29,10 @@ __all__ = ["Plugin", "PluginParams", "validation_message", "field_path"]
 
 
 class PluginParams(BaseModel):
-    """Base of every plugin's parameter model: unknown parameters are an error."""
+    """Base of every plugin's parameter model: unknown parameters are an error, and
+    defaults are validated like given values (a nested plugin's default name is resolved)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
 
 
 def field_path(loc: Sequence[Any], prefix: str = "") -> str:
@@ -96,6 +97,8 @@ def validation_message(exc: ValidationError, prefix: str = "",
                 if set(fields) == {"name", "params"}:
                     msg += (f"; plugin parameters go under `params`: "
                             f"{{ name = ..., params = {{ {err['loc'][-1]} = ... }} }}")
+        elif err["type"] == "value_error" and "error" in err.get("ctx", {}):
+            msg = str(err["ctx"]["error"])  # our own validators' messages are complete
         elif "input" in err and err["type"] != "missing":
             msg = f"{msg} (got {err['input']!r})"
         items.append((field, msg))

@@ -1,0 +1,165 @@
+"""Typed references to nested plugins: a parameter whose value is another plugin.
+
+A plugin that uses other plugins (``iq-filter.estimator``, ``discriminator.code_discriminator``
+...) declares the parameter as ``PluginRef(kind, ...)``. In a config it takes a name or a
+``{name, params}`` table::
+
+    estimator = "ckf"
+    estimator = { name = "ukf", params = { alpha = 0.5 } }
+
+and is resolved and validated when the config is loaded: an unknown name is refused with
+the field path, the known names and the closest one; the nested parameters are validated
+by the nested plugin's own model; a unit or capability that does not fit (a frequency
+discriminator given as ``phase_discriminator``) is refused naming the plugins that fit.
+
+>>> from gnssframework.plugin import PluginParams
+>>> class P(PluginParams):
+...     estimator: PluginRef("estimator") = "kf"
+>>> P().estimator
+PluginSpec(kind='estimator', name='kf', params={})
+>>> P(estimator={"name": "ukf", "params": {"alpha": 0.5}}).estimator.create().params.alpha
+0.5
+"""
+
+from __future__ import annotations
+
+import difflib
+import typing
+from dataclasses import dataclass, field
+from typing import Annotated, Any, Callable
+
+from pydantic import BeforeValidator, ValidationError, WithJsonSchema
+
+__all__ = ["PluginSpec", "PluginRef", "plugin_refs"]
+
+
+@dataclass(frozen=True)
+class PluginSpec:
+    """A resolved plugin reference: kind, registered name and validated parameters."""
+
+    kind: str
+    name: str
+    params: dict[str, Any] = field(default_factory=dict)
+
+    def __hash__(self) -> int:
+        return hash((self.kind, self.name, tuple(sorted(map(str, self.params.items())))))
+
+    @property
+    def cls(self) -> type:
+        """The registered plugin class."""
+        from . import registry
+
+        return registry.get(self.kind, self.name)
+
+    def create(self, **owned: Any) -> Any:
+        """Instantiate the plugin with its parameters plus the values its owner fixes
+        (``coherent_time_s``, ``early_late_spacing_chips`` ...); an owned value the
+        nested plugin does not take is dropped, and owned values win."""
+        cls = self.cls
+        fields = cls.Params.model_fields
+        return cls(**{**self.params, **{k: v for k, v in owned.items() if k in fields}})
+
+
+@dataclass(frozen=True)
+class _Rule:
+    kind: str
+    unit: str | None
+    provides: tuple[str, ...]
+    check: Callable[[type], str] | None
+
+
+def _names_that_fit(rule: _Rule) -> list[str]:
+    from . import registry
+
+    return [n for n in registry.names(rule.kind) if not _misfit(rule, registry.get(rule.kind, n))]
+
+
+def _misfit(rule: _Rule, cls: type) -> str:
+    """Why ``cls`` does not fit ``rule`` ("" if it does)."""
+    if rule.unit is not None and getattr(cls, "unit", None) != rule.unit:
+        return f"its unit is {getattr(cls, 'unit', None)!r}, this parameter needs {rule.unit!r}"
+    missing = [p for p in rule.provides if p not in getattr(cls, "provides", ())]
+    if missing:
+        return f"it does not provide {', '.join(missing)}"
+    return rule.check(cls) if rule.check is not None else ""
+
+
+def _article(word: str) -> str:
+    return "an" if word[:1] in "aeiou" else "a"
+
+
+def _resolve(rule: _Rule, value: Any) -> PluginSpec:
+    # Raise ValueError (not ConfigError) so pydantic attaches the field path.
+    from . import registry
+    from .plugin import validation_message
+
+    if isinstance(value, PluginSpec):
+        return value
+    if isinstance(value, str):
+        name, params = value, {}
+    elif isinstance(value, dict):
+        extra = sorted(set(value) - {"name", "params"})
+        if extra or "name" not in value:
+            hint = (f"; plugin parameters go under `params`: {{ name = ..., params = {{ {extra[0]} = ... }} }}"
+                    if extra and "name" in value else "")
+            raise ValueError(f"{_article(rule.kind)} {rule.kind} reference is a name or {{ name, params }}, "
+                             f"got keys {sorted(value)}{hint}")
+        name, params = value["name"], dict(value.get("params") or {})
+    else:
+        raise ValueError(f"{_article(rule.kind)} {rule.kind} reference is a name or {{ name, params }}, got {value!r}")
+    known = registry.names(rule.kind)
+    if name not in known:
+        close = difflib.get_close_matches(str(name), known, n=1, cutoff=0.4)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise ValueError(f"unknown {rule.kind} {name!r}; known: {', '.join(known) or '(none)'}{hint}")
+    cls = registry.get(rule.kind, name)
+    why = _misfit(rule, cls)
+    if why:
+        raise ValueError(f"{rule.kind} {name!r} does not fit: {why}; {rule.kind}s that do: "
+                         f"{', '.join(_names_that_fit(rule)) or '(none registered)'}")
+    try:
+        cls.Params(**params)
+    except ValidationError as exc:
+        raise ValueError(str(validation_message(exc, prefix=f"{name} params", model=cls.Params))) from None
+    return PluginSpec(rule.kind, name, params)
+
+
+def PluginRef(kind: str, *, unit: str | None = None, provides: tuple[str, ...] = (),
+              check: Callable[[type], str] | None = None) -> Any:  # noqa: N802 - reads as a type
+    """The type of a parameter that names a nested plugin of ``kind``.
+
+    Parameters
+    ----------
+    kind
+        Registry kind of the nested plugin (``"estimator"``, ``"discriminator"`` ...).
+    unit
+        Required ``unit`` of the nested plugin (discriminators: ``"chips"``, ``"rad"``, ``"Hz"``).
+    provides
+        Names the nested plugin must list in its ``provides``.
+    check
+        Extra capability test: returns why a class does not fit, or ``""``.
+    """
+    rule = _Rule(kind, unit, tuple(provides), check)
+    what = f"a {kind} plugin" + (f" with unit {unit!r}" if unit else "")
+    schema = {"description": f"{what}: its name, or {{name, params}}",
+              "anyOf": [{"type": "string"},
+                        {"type": "object", "required": ["name"], "additionalProperties": False,
+                         "properties": {"name": {"type": "string"}, "params": {"type": "object"}}}]}
+    # PluginParams validates defaults, so a default written as a name is resolved too.
+    return Annotated[PluginSpec, BeforeValidator(lambda v: _resolve(rule, v)), WithJsonSchema(schema), rule]
+
+
+def plugin_refs(params_model: type) -> dict[str, tuple[str, str | None]]:
+    """The nested-plugin parameters of a ``Params`` model: field -> (kind, unit)."""
+    def rules(obj: Any) -> list[_Rule]:
+        found = [m for m in getattr(obj, "__metadata__", ()) if isinstance(m, _Rule)]
+        for arg in typing.get_args(obj):
+            found += rules(arg)
+        return found
+
+    out = {}
+    for fname, info in params_model.model_fields.items():
+        found = [m for m in info.metadata if isinstance(m, _Rule)] + rules(info.annotation)
+        if found:
+            out[fname] = (found[0].kind, found[0].unit)
+    return out
