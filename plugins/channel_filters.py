@@ -7,7 +7,6 @@ from typing import Any, Literal, Mapping
 import numpy as np
 from pydantic import Field
 
-from gnssframework import registry
 from gnssframework.errors import ConfigError
 from gnssframework.estimation import AdaptationStep, Gaussian, NonlinearModel
 from gnssframework.interfaces import ChannelFilter
@@ -15,6 +14,7 @@ from gnssframework.signal.channel_model import channel_iq, channel_transition
 from gnssframework.signal.correlator_model import tap_noise_cov
 from gnssframework.signal.navdata import wipe_off
 from gnssframework.plugin import PluginParams
+from gnssframework.plugin_ref import PluginRef
 from gnssframework.receiver.loop_filters import LoopFilter
 from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 
@@ -29,17 +29,17 @@ class ScalarParams(PluginParams):
     dll_bandwidth_hz: float = Field(1.0, gt=0)
     dll_order: Literal[1, 2] = 1
     early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0)
-    code_discriminator: str = "eml-envelope"
-    phase_discriminator: str = "costas-atan"
-    freq_discriminator: str = "atan2-fll"
+    code_discriminator: PluginRef("discriminator", unit="chips") = "eml-envelope"
+    phase_discriminator: PluginRef("discriminator", unit="rad") = "costas-atan"
+    freq_discriminator: PluginRef("discriminator", unit="Hz") = "atan2-fll"
 
 
 class _CarrierAidedDll:
     """Carrier-aided DLL: code rate = chip rate (1 + f_carrier / f_L1) + loop correction."""
 
     def __init__(self, p, batch_shape):
-        self.disc = registry.create("discriminator", p.code_discriminator, coherent_time_s=p.coherent_time_s,
-                                    early_late_spacing_chips=p.early_late_spacing_chips)
+        self.disc = p.code_discriminator.create(coherent_time_s=p.coherent_time_s,
+                                                early_late_spacing_chips=p.early_late_spacing_chips)
         self.filter = LoopFilter(p.dll_order, p.dll_bandwidth_hz, p.coherent_time_s)
         self.filter.reset(batch_shape)
 
@@ -67,8 +67,8 @@ class ScalarTrackingLoop(ChannelFilter):
 
     def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
         p = self.params
-        self.phase_disc = registry.create("discriminator", p.phase_discriminator, coherent_time_s=p.coherent_time_s)
-        self.freq_disc = registry.create("discriminator", p.freq_discriminator, coherent_time_s=p.coherent_time_s)
+        self.phase_disc = p.phase_discriminator.create(coherent_time_s=p.coherent_time_s)
+        self.freq_disc = p.freq_discriminator.create(coherent_time_s=p.coherent_time_s)
         self.carrier = LoopFilter(p.pll_order, p.pll_bandwidth_hz, p.coherent_time_s, p.fll_bandwidth_hz)
         self.carrier.reset(batch_shape, rate0=context.get("doppler_hz", 0.0))
         self.dll = _CarrierAidedDll(p, batch_shape)
@@ -93,11 +93,11 @@ class KalmanLoopParams(PluginParams):
     r: float = Field(5.0, gt=0, description="variance R of the phase measurement")
     angle_unit: Literal["rad", "deg", "cycles"] = Field(
         "rad", description="unit of the phase in q and r (frequency: the same unit per second)")
-    phase_discriminator: str = "costas-atan"
+    phase_discriminator: PluginRef("discriminator", unit="rad") = "costas-atan"
     dll_bandwidth_hz: float = Field(1.0, gt=0)
     dll_order: Literal[1, 2] = 1
     early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0)
-    code_discriminator: str = "eml-envelope"
+    code_discriminator: PluginRef("discriminator", unit="chips") = "eml-envelope"
     initial_std: list[float] = Field([0.5, 5.0, 1.0], description="initial std: phase (unit), freq (unit/s), rate")
 
 
@@ -143,7 +143,7 @@ class KalmanCarrierLoop(ChannelFilter):
 
     def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
         p = self.params
-        self.phase_disc = registry.create("discriminator", p.phase_discriminator, coherent_time_s=p.coherent_time_s)
+        self.phase_disc = p.phase_discriminator.create(coherent_time_s=p.coherent_time_s)
         n = p.states
         self.P = np.broadcast_to(np.diag(np.array(p.initial_std[:n]) ** 2), batch_shape + (n, n)).copy()
         # Frequency and its rate of the NCO, in angle_unit/s (and /s^2).
@@ -184,8 +184,10 @@ VECTOR_OUTPUTS = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", 
 
 
 class DiscriminatorChannelParams(PluginParams):
-    code_discriminator: str = Field("eml-envelope", description="code discriminator plugin")
-    freq_discriminator: str = Field("cross-product", description="frequency discriminator plugin")
+    code_discriminator: PluginRef("discriminator", unit="chips") = Field(
+        "eml-envelope", description="code discriminator plugin")
+    freq_discriminator: PluginRef("discriminator", unit="Hz") = Field(
+        "cross-product", description="frequency discriminator plugin")
 
 
 class DiscriminatorChannel(ChannelFilter):
@@ -207,10 +209,8 @@ class DiscriminatorChannel(ChannelFilter):
     def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
         T = context["coherent_time_s"]
         spacing = context.get("early_late_spacing_chips", 1.0)
-        code = registry.get("discriminator", self.params.code_discriminator)
-        kw = {"early_late_spacing_chips": spacing} if "early_late_spacing_chips" in code.Params.model_fields else {}
-        self.code = code(coherent_time_s=T, **kw)
-        self.freq = registry.create("discriminator", self.params.freq_discriminator, coherent_time_s=T)
+        self.code = self.params.code_discriminator.create(coherent_time_s=T, early_late_spacing_chips=spacing)
+        self.freq = self.params.freq_discriminator.create(coherent_time_s=T)
         if self.code.unit != "chips" or self.freq.unit != "Hz":
             raise ConfigError("channel_filter 'discriminator'", "needs a code discriminator (chips) and a frequency "
                               f"discriminator (Hz), got {self.code.unit} and {self.freq.unit}")
@@ -236,8 +236,9 @@ class DiscriminatorChannel(ChannelFilter):
 
 
 class IqFilterParams(PluginParams):
-    estimator: str = Field("svd-ckf", description="estimator plugin: svd-ckf, ckf or ukf")
-    adapter: str | None = Field("innovation", description="noise adapter plugin for R, or null for none")
+    estimator: PluginRef("estimator") = Field("svd-ckf", description="estimator plugin: svd-ckf, ckf or ukf")
+    adapter: PluginRef("noise_adapter") | None = Field(
+        "innovation", description="noise adapter plugin for R, or null for none")
     window: int = Field(20, ge=2, description="window L of the innovation adapter")
     warmup: int = Field(20, ge=0, description="updates before R adaptation starts")
     q: list[float] = Field([1e-3, 1e-8, 1e-5, 1e-4, 1e-2],
@@ -307,14 +308,11 @@ class IqFilter(ChannelFilter):
         p = self.params
         if len(p.q) != 5 or len(p.initial_std) != 5:
             raise ConfigError("channel_filter 'iq-filter'", "q and initial_std need 5 values (A, dtau, dtheta, df, dfdot)")
-        self.engine = registry.create("estimator", p.estimator)
+        self.engine = p.estimator.create()
         self.adapter = None
         if p.adapter:
-            adapter_cls = registry.get("noise_adapter", p.adapter)
-            kw = {"warmup": p.warmup}
-            if "window" in adapter_cls.Params.model_fields:  # innovation, ml-q
-                kw["window"] = p.window
-            self.adapter = adapter_cls(**kw)
+            # window and warmup are this filter's; the adapter's own params win over them.
+            self.adapter = p.adapter.create(warmup=p.warmup, window=p.window, **p.adapter.params)
 
     def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
         T = context["coherent_time_s"]

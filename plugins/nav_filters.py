@@ -12,6 +12,7 @@ from gnssframework.errors import ConfigError
 from gnssframework.estimation import Gaussian, LinearModel, NonlinearModel, filter_sequence
 from gnssframework.interfaces import NavFilter
 from gnssframework.plugin import PluginParams
+from gnssframework.plugin_ref import PluginRef
 from gnssframework.receiver.vector import predicted_range
 from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M, SPEED_OF_LIGHT_M_S
 from gnssframework.simulation.clock import PRESETS
@@ -35,7 +36,8 @@ def cv_clock_model(T: float, accel_psd: float, clock: str) -> tuple[np.ndarray, 
 
 
 class EkfPvParams(PluginParams):
-    estimator: str = Field("ekf", description="estimator plugin that runs the filter (ekf, ukf, ckf, svd-ckf)")
+    estimator: PluginRef("estimator") = Field(
+        "ekf", description="estimator plugin that runs the filter (ekf, ukf, ckf, svd-ckf)")
     accel_psd: float = Field(0.1, gt=0, description="white-acceleration PSD of the constant-velocity model, m²/s³")
     clock: str = Field("tcxo", description="clock preset for the clock process noise: tcxo or ocxo")
     min_code_var_chips2: float = Field(1e-6, gt=0, description="floor of the code-error variance fed in as R")
@@ -76,7 +78,7 @@ class EkfPositionVelocity(NavFilter):
         super().__init__(**params)
         if self.params.clock not in PRESETS:
             raise ConfigError("nav_filter 'ekf-pv'.clock", f"got {self.params.clock!r}; allowed: {', '.join(PRESETS)}")
-        self.engine = registry.create("estimator", self.params.estimator)
+        self.engine = self.params.estimator.create()
 
     def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
         T = context["coherent_time_s"]

@@ -11,6 +11,7 @@ from gnssframework import registry
 from gnssframework.estimation import AdaptationStep, Gaussian, LinearModel
 from gnssframework.interfaces import ChannelFilter
 from gnssframework.plugin import PluginParams
+from gnssframework.plugin_ref import PluginRef
 
 __all__ = ["HatchFilter", "KalmanSmoother"]
 
@@ -75,7 +76,8 @@ class HatchFilter(ChannelFilter):
 class KalmanSmootherParams(_SlipParams):
     q: float = Field(1e-3, gt=0, description="process noise Q (m²) of the carrier-propagated range")
     r: float = Field(1.0, gt=0, description="pseudorange noise R (m²)")
-    adapter: str | None = Field(None, description="noise adapter for Q, e.g. 'ml-q' (reference 001)")
+    adapter: PluginRef("noise_adapter") | None = Field(
+        None, description="noise adapter for Q, e.g. 'ml-q' (reference 001)")
     adapter_params: dict[str, Any] = Field(default_factory=dict, description="parameters of the adapter")
 
 
@@ -107,7 +109,7 @@ class KalmanSmoother(ChannelFilter):
         super().__init__(**params)
         p = self.params
         self.engine = registry.create("estimator", "kf")
-        self.adapter = registry.create("noise_adapter", p.adapter, **p.adapter_params) if p.adapter else None
+        self.adapter = p.adapter.create(**{**p.adapter.params, **p.adapter_params}) if p.adapter else None
 
     def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
         p = self.params

@@ -1,0 +1,73 @@
+"""Nested plugins as typed references: resolved and validated when the config is loaded."""
+
+from __future__ import annotations
+
+import pytest
+
+import gnssframework as gf
+from gnssframework.plugin_ref import PluginSpec, plugin_refs
+
+from test_experiments import TINY, _write
+from gnssframework.experiments import load_config
+
+IQ = 'name = "iq-filter", params = { estimator = "ckf" }'
+
+
+def _load(tmp_path, old, new):
+    assert old in TINY
+    return load_config(_write(tmp_path, TINY.replace(old, new)))
+
+
+def test_a_typo_in_a_nested_discriminator_stops_load_config_with_the_path_and_the_closest(tmp_path):
+    with pytest.raises(gf.ConfigError) as err:
+        _load(tmp_path, '{ name = "discriminator" }',
+              '{ name = "discriminator", params = { code_discriminator = "eml-envelop" } }')
+    msg = str(err.value)
+    assert msg.startswith("candidates[0].channel_filter.params: ")
+    assert "code_discriminator: unknown discriminator 'eml-envelop'" in msg
+    assert "did you mean 'eml-envelope'?" in msg
+
+
+def test_a_discriminator_in_the_wrong_unit_is_refused_naming_the_ones_that_fit():
+    with pytest.raises(gf.ConfigError) as err:
+        gf.registry.create("channel_filter", "scalar", phase_discriminator="atan2-fll")
+    msg = str(err.value)
+    assert "phase_discriminator: discriminator 'atan2-fll' does not fit: its unit is 'Hz'" in msg
+    fit = msg.split("discriminators that do: ")[1].split(", ")
+    assert fit == [n for n in gf.registry.names("discriminator")
+                   if gf.registry.get("discriminator", n).unit == "rad"]
+    assert "costas-atan" in fit and "atan2-fll" not in fit
+
+
+def test_a_nested_estimator_takes_parameters(tmp_path):
+    config = _load(tmp_path, IQ, 'name = "iq-filter", params = { estimator = { name = "ukf", params = { alpha = 0.5 } } }')
+    ref = config.candidates[1].channel_filter
+    plugin = gf.registry.create("channel_filter", ref.name, **ref.params)
+    assert type(plugin.engine).name == "ukf" and plugin.engine.params.alpha == 0.5
+
+
+def test_bad_nested_parameters_name_the_nested_field(tmp_path):
+    with pytest.raises(gf.ConfigError) as err:
+        _load(tmp_path, IQ, 'name = "iq-filter", params = { estimator = { name = "ukf", params = { alpha = -1 } } }')
+    assert "estimator: ukf params.alpha: Input should be greater than 0 (got -1)" in str(err.value)
+
+
+def test_a_nested_parameter_beside_name_gets_the_params_hint():
+    with pytest.raises(gf.ConfigError) as err:
+        gf.registry.create("nav_filter", "ekf-pv", estimator={"name": "ukf", "alpha": 0.5})
+    assert "params = { alpha = ... }" in str(err.value)
+
+
+def test_nested_plugin_parameters_are_listed():
+    assert plugin_refs(gf.registry.get("channel_filter", "scalar").Params) == {
+        "code_discriminator": ("discriminator", "chips"),
+        "phase_discriminator": ("discriminator", "rad"),
+        "freq_discriminator": ("discriminator", "Hz"),
+    }
+    assert plugin_refs(gf.registry.get("channel_filter", "iq-filter").Params) == {
+        "estimator": ("estimator", None), "adapter": ("noise_adapter", None)}
+
+
+def test_a_default_name_is_resolved_too():
+    plugin = gf.registry.create("nav_filter", "ekf-pv")
+    assert plugin.params.estimator == PluginSpec("estimator", "ekf", {})
