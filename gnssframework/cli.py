@@ -7,12 +7,28 @@ import sys
 from typing import Sequence
 
 from . import registry
-from .errors import GnssFrameworkError
+from .errors import ConfigError, GnssFrameworkError
 
 __all__ = ["main"]
 
 
 def _cmd_plugins(args: argparse.Namespace) -> int:
+    if args.describe:
+        from .plugin_docs import describe_plugin
+
+        matches = [k for k in ([args.kind] if args.kind else registry.kinds())
+                   if args.describe in registry.names(k)]
+        if not matches:
+            if args.kind:  # the registry words it: known names of that kind, the closest one
+                registry.get(args.kind, args.describe)
+            every = sorted({n for k in registry.kinds() for n in registry.names(k)})
+            import difflib
+
+            close = difflib.get_close_matches(args.describe, every, n=1, cutoff=0.4)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ConfigError("--describe", f"no plugin named {args.describe!r}{hint}")
+        print("\n\n".join(describe_plugin(k, registry.get(k, args.describe)) for k in matches))
+        return 0
     rows = [("KIND", "NAME", "DESCRIPTION", "SOURCE")]
     for info in registry.describe():
         if args.kind and info.kind != args.kind:
@@ -97,6 +113,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("plugins", help="list the registered plugins")
     p.add_argument("--kind", choices=registry.kinds(), help="only this kind")
+    p.add_argument("--describe", metavar="NAME", help="one plugin's description, contract and parameter table")
     p.set_defaults(func=_cmd_plugins)
     p = sub.add_parser("compare", help="run a Monte Carlo comparison from a TOML config")
     p.add_argument("file", help="comparison config (TOML)")

@@ -163,7 +163,41 @@ def test_cli_lists_kind_name_description_and_source():
     assert line.split()[0] == "estimator" and f"gnssframework {gf.__version__}" in line
 
 
-def test_cli_error_is_one_line_without_traceback():
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "plugins", "--kind", "nope"],
+def test_cli_library_error_is_one_line_without_traceback_and_suggests_the_name():
+    proc = subprocess.run([sys.executable, "-m", "gnssframework", "plugins", "--describe", "eml-envelop"],
                           capture_output=True, text=True)
-    assert proc.returncode != 0 and "Traceback" not in proc.stderr and "invalid choice" in proc.stderr
+    assert proc.returncode != 0 and "Traceback" not in proc.stderr
+    assert proc.stderr.strip().splitlines() == [
+        "error: --describe: no plugin named 'eml-envelop'; did you mean 'eml-envelope'?"]
+
+
+def test_describe_prints_the_contract_and_the_parameter_table_from_params():
+    from gnssframework.plugin_docs import parameter_rows
+
+    out = subprocess.run([sys.executable, "-m", "gnssframework", "plugins", "--describe", "eml-envelope"],
+                         capture_output=True, text=True, check=True).stdout
+    assert "unit: chips" in out
+    cls = registry.get("discriminator", "eml-envelope")
+    for name, field in cls.Params.model_fields.items():
+        row = next(line for line in out.splitlines() if line.startswith(f"| `{name}` |"))
+        assert f"`{field.default}`" in row and (field.description or "") in row
+    spacing = next(r for r in parameter_rows(cls.Params) if r.name == "early_late_spacing_chips")
+    assert spacing.bounds == "> 0, <= 1.0" and spacing.type == "float"
+
+
+def test_help_shows_the_parameter_table():
+    import pydoc
+
+    text = pydoc.render_doc(registry.get("estimator", "ukf"), renderer=pydoc.plaintext)
+    assert "Parameter table (generated from ``Params``)" in text
+    assert "| `kappa` | float | `0.0` |" in text
+
+
+def test_nested_plugin_parameters_show_their_kind_and_unit():
+    from gnssframework.plugin_docs import parameter_rows
+
+    rows = {r.name: r for r in parameter_rows(registry.get("channel_filter", "scalar").Params)}
+    assert rows["phase_discriminator"].type == "discriminator plugin (rad)"
+    assert rows["phase_discriminator"].default == "'costas-atan'"
+    rows = {r.name: r for r in parameter_rows(registry.get("channel_filter", "iq-filter").Params)}
+    assert rows["adapter"].type == "noise_adapter plugin or null"
