@@ -102,9 +102,9 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
 def _cmd_schema(args: argparse.Namespace) -> int:
     import json
 
-    from .experiments import ComparisonConfig
+    from .config_schema import comparison_schema
 
-    print(json.dumps(ComparisonConfig.model_json_schema(), indent=2))
+    print(json.dumps(comparison_schema(), indent=2))
     return 0
 
 

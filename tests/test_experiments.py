@@ -168,12 +168,32 @@ def test_cli_compare_runs_and_overrides_runs_and_seed(tmp_path):
     assert summary["seed"] == 3 and all(r["runs"] == 2 for r in summary["rows"])
 
 
-def test_schema_is_valid_json_schema_of_the_config():
+def test_schema_validates_each_plugins_params_against_its_name():
+    import tomllib
+    from pathlib import Path
+
+    import jsonschema  # test-only oracle: an independent JSON-schema validator
+
     out = subprocess.run([sys.executable, "-m", "gnssframework", "schema"], capture_output=True, text=True,
                          check=True).stdout
-    schema = json.loads(out)
-    assert {"scenario", "cases", "candidates", "runs", "seed", "executor"} <= set(schema["properties"])
-    assert schema == ComparisonConfig.model_json_schema()
+    validator = jsonschema.Draft202012Validator(json.loads(out))
+    validator.check_schema(validator.schema)
+    for path in sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml")):
+        assert list(validator.iter_errors(tomllib.loads(path.read_text()))) == [], path.name
+    good = tomllib.loads(TINY)
+    assert validator.is_valid(good)
+
+    def with_channel_filter(ref):
+        data = json.loads(json.dumps(good))
+        data["candidates"][1]["channel_filter"] = ref
+        return data
+
+    # window is an iq-filter parameter: accepted under that name, refused under another,
+    # refused out of its bounds, and an unknown name is refused.
+    assert validator.is_valid(with_channel_filter({"name": "iq-filter", "params": {"window": 30}}))
+    assert not validator.is_valid(with_channel_filter({"name": "discriminator", "params": {"window": 30}}))
+    assert not validator.is_valid(with_channel_filter({"name": "iq-filter", "params": {"window": 1}}))
+    assert not validator.is_valid(with_channel_filter({"name": "iq-filtr"}))
 
 
 def test_shipped_examples_validate():

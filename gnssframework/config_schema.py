@@ -1,0 +1,48 @@
+"""The comparison config's JSON schema, with each plugin's parameters checked against its name.
+
+``ComparisonConfig.model_json_schema()`` knows a candidate's components only as
+``{name, params}``; this schema replaces each component by one branch per registered
+plugin of that kind, ``{name: const, params: <the plugin's Params schema>}``, so an
+editor or a JSON-schema validator refuses an unknown name or a bad parameter.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+from . import registry
+from .hookspecs import COMPONENT_KINDS
+
+__all__ = ["comparison_schema", "plugin_ref_schema"]
+
+
+def _params_schema(cls: type) -> dict[str, Any]:
+    schema = copy.deepcopy(cls.Params.model_json_schema())
+    schema.pop("title", None)
+    return schema
+
+
+def plugin_ref_schema(kind: str) -> dict[str, Any]:
+    """``{name, params}`` of any registered plugin of ``kind``, params checked by name."""
+    branches = []
+    for name in registry.names(kind):
+        params = _params_schema(registry.get(kind, name))
+        branches.append({"type": "object", "additionalProperties": False, "required": ["name"],
+                         "properties": {"name": {"const": name}, "params": params}})
+    return {"oneOf": branches, "description": f"a {kind} plugin: {{name, params}}"}
+
+
+def comparison_schema() -> dict[str, Any]:
+    """The JSON schema printed by ``gnssframework schema``."""
+    from .experiments import ComparisonConfig
+
+    schema = ComparisonConfig.model_json_schema()
+    candidate = schema["$defs"]["Candidate"]
+    for kind in COMPONENT_KINDS:
+        if kind in candidate["properties"]:
+            prop = candidate["properties"][kind]
+            prop.pop("anyOf", None)
+            prop.pop("$ref", None)
+            prop["anyOf"] = [plugin_ref_schema(kind), {"type": "null"}]
+    return schema
