@@ -82,7 +82,12 @@ def test_vector_loop_tracks_at_45_dbhz(vector_results, name):
     assert np.all(m["carrier_freq_error_rmse"] < 0.5)
     assert np.all(m["position_error_rmse"] < 3.0)
     assert np.all(m["velocity_error_rmse"] < 0.2)
-    assert np.all(m["nees"] < 30)
+    # The 8-state NEES averages 8 for a consistent filter. Over this short run (2.5 s after
+    # settling, strongly correlated epochs) a run's time average scatters widely, so the
+    # mean over the runs is held to a factor-3 band around 8 (measured: ~4 for the
+    # discriminator channel, ~14 for iq-filter); the double-counting 'filtered' output
+    # gives ~1000 and fails it (next test).
+    assert 8 / 3 < np.mean(m["nees"]) < 8 * 3
 
 
 def test_iq_filter_equivalent_measurement_is_consistent_and_filtered_is_not():
@@ -92,7 +97,8 @@ def test_iq_filter_equivalent_measurement_is_consistent_and_filtered_is_not():
         plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"output": output}},
                               "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
         nees[output] = np.mean(scen.run_batch({"cn0_dbhz": 40.0}, plugins, 4, np.random.default_rng(2)).metrics["nees"])
-    assert nees["equivalent"] < 30 < 10 * 30 < nees["filtered"]
+    assert 8 / 3 < nees["equivalent"] < 8 * 3
+    assert nees["filtered"] > 10 * nees["equivalent"]
 
 
 def test_decision_directed_bits_track_like_known_bits():
@@ -106,7 +112,30 @@ def test_decision_directed_bits_track_like_known_bits():
         assert np.mean(res["unknown"][metric]) < 1.5 * np.mean(res["known"][metric])
 
 
-def test_metric_conversion_to_range_units():
-    # eqs. 35-36 of reference 000: drho = c/f_code dtau, drhodot = -c/f_carrier df.
-    assert CA_CHIP_LENGTH_M == pytest.approx(293.05, abs=0.01)
-    assert L1_WAVELENGTH_M == pytest.approx(0.1903, abs=1e-4)
+def test_ekf_pv_converts_channel_errors_to_range_units():
+    # eqs. 35-36 of reference 000: drho = c/f_code dtau, drhodot = -c/f_carrier df. A code
+    # error common to every channel is a clock bias, a common frequency error a clock
+    # drift; with a tight prior on position/velocity and a loose one on the clock, one
+    # update moves the clock by exactly the converted errors. Oracle: ICD numbers.
+    from gnssframework.receiver.vector import predicted_range
+
+    c, f_code, f_l1 = 299_792_458.0, 1.023e6, 1575.42e6
+    dtau_chips, df_hz = 0.02, 3.0
+    x0 = np.array([6_378_137.0, 0.0, 0.0, 0.0, 0.0, 0.0, 100.0, 1.0])
+    dirs = np.array([[1, 0, 0], [0.8, 0.6, 0], [0.8, 0, 0.6], [0.7, -0.5, -0.5], [0.6, 0.4, -0.69]], float)
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    sat_pos = x0[:3] + 2.0e7 * dirs
+    sat_vel = np.cross(dirs, [0.0, 0.0, 1.0]) * 3000.0
+    nav = gf.registry.create("nav_filter", "ekf-pv", clock="ocxo")
+    nav.reset((), coherent_time_s=0.01, initial_state=x0, initial_cov=np.diag([1e-8] * 6 + [1e8, 1e8]))
+    rho, rate, _ = predicted_range(x0, sat_pos, sat_vel)
+    ones = np.ones(len(dirs))
+    out = nav.step({"replica_range_m": rho, "replica_rate_m_s": rate,
+                    "code_error_chips": dtau_chips * ones, "code_error_var_chips2": 1e-4 * ones,
+                    "freq_error_hz": df_hz * ones, "freq_error_var_hz2": 1e-2 * ones,
+                    "sat_pos_m": sat_pos, "sat_vel_m_s": sat_vel,
+                    "next_sat_pos_m": sat_pos, "next_sat_vel_m_s": sat_vel})
+    assert out["clock_m"][0] - x0[6] == pytest.approx(c / f_code * dtau_chips, rel=1e-4)
+    assert out["clock_m"][1] - x0[7] == pytest.approx(-c / f_l1 * df_hz, rel=1e-4)
+    assert CA_CHIP_LENGTH_M == pytest.approx(c / f_code, rel=1e-12)
+    assert L1_WAVELENGTH_M == pytest.approx(c / f_l1, rel=1e-12)
