@@ -1,0 +1,162 @@
+"""A small kit for testing a plugin against independent truths.
+
+Each check raises ``AssertionError`` with what went wrong, so it reads as one line in a
+pytest test::
+
+    from gnssframework import testing
+
+    def test_my_filter():
+        est = MyFilter()
+        testing.check_exact_on_linear(est)             # equals the Kalman filter's closed form
+        testing.check_batched_equals_one_by_one(est)   # batch-first is not an approximation
+    def test_my_discriminator():
+        testing.check_unit_slope(MyDisc(), [-1e-3, 1e-3])
+        testing.check_noise_variance(MyDisc(), cn0_dbhz=45.0, rng=np.random.default_rng(0))
+
+The truths are independent of the code under test: the linear Kalman filter written
+out below in four lines (Kalman 1960), a discriminator's slope from noise-free
+correlators of the triangle autocorrelation, and its noise from a Monte Carlo draw.
+
+>>> import numpy as np
+>>> from gnssframework import registry
+>>> check_exact_on_linear(registry.create("estimator", "ckf"))
+>>> check_covariance_psd(np.eye(2))
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .estimation import Gaussian, LinearModel
+from .signal.correlator_model import amplitude_from_cn0, correlator_mean, simulate_correlators
+
+__all__ = [
+    "random_linear_problem",
+    "check_covariance_psd",
+    "check_exact_on_linear",
+    "check_batched_equals_one_by_one",
+    "check_unit_slope",
+    "check_noise_variance",
+]
+
+
+def random_linear_problem(rng: np.random.Generator, n: int = 3, m: int = 2,
+                          batch: tuple[int, ...] = (4,)) -> tuple[Gaussian, LinearModel, np.ndarray]:
+    """A random well-conditioned linear-Gaussian problem: prior, model and a measurement."""
+    def pd(k: int) -> np.ndarray:
+        a = rng.standard_normal((k, k))
+        return a @ a.T / k + 0.5 * np.eye(k)
+
+    F = np.eye(n) + 0.1 * rng.standard_normal((n, n))
+    H = rng.standard_normal((m, n))
+    model = LinearModel(F, H, pd(n), pd(m))
+    P = np.stack([pd(n) for _ in range(int(np.prod(batch)))]).reshape(batch + (n, n))
+    prior = Gaussian(rng.standard_normal(batch + (n,)), P)
+    z = rng.standard_normal(batch + (m,))
+    return prior, model, z
+
+
+def check_covariance_psd(cov: np.ndarray, name: str = "covariance", tol: float = 1e-10) -> None:
+    """Every matrix of the batch is symmetric and positive semi-definite (to ``tol``)."""
+    cov = np.asarray(cov, float)
+    assert np.all(np.isfinite(cov)), f"{name} holds NaN or inf"
+    scale = max(1.0, float(np.max(np.abs(cov))))
+    asym = float(np.max(np.abs(cov - np.swapaxes(cov, -1, -2))))
+    assert asym <= tol * scale, f"{name} is not symmetric (max |P - P^T| = {asym:.3g})"
+    low = float(np.min(np.linalg.eigvalsh(cov)))
+    assert low >= -tol * scale, f"{name} is not PSD (smallest eigenvalue {low:.3g})"
+
+
+def _kalman_reference(prior: Gaussian, model: LinearModel, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Predict and update written out (Kalman 1960): the oracle of ``check_exact_on_linear``."""
+    F, H, Q, R = model.F, model.H, model.Q, model.R
+    x = prior.mean @ F.T
+    P = F @ prior.cov @ F.T + Q
+    S = H @ P @ H.T + R
+    K = P @ H.T @ np.linalg.inv(S)
+    x = x + np.einsum("...ij,...j->...i", K, z - x @ H.T)
+    P = P - K @ S @ np.swapaxes(K, -1, -2)
+    return x, P
+
+
+def check_exact_on_linear(estimator: Any, rng: np.random.Generator | None = None, rtol: float = 1e-8) -> None:
+    """One predict and update on a random linear-Gaussian problem equals the Kalman filter.
+
+    Every Gaussian filter (EKF, UKF, CKF, square-root forms) is exact on a linear model;
+    a filter that is not has a bug in its moments or weights.
+    """
+    rng = rng or np.random.default_rng(0)
+    prior, model, z = random_linear_problem(rng)
+    post = estimator.update(estimator.predict(prior, model), z, model).state
+    x_ref, P_ref = _kalman_reference(prior, model, z)
+    np.testing.assert_allclose(post.mean, x_ref, rtol=rtol, atol=rtol, err_msg="posterior mean differs from the KF")
+    np.testing.assert_allclose(post.cov, P_ref, rtol=rtol, atol=rtol, err_msg="posterior cov differs from the KF")
+    check_covariance_psd(post.cov, "posterior covariance")
+
+
+def check_batched_equals_one_by_one(estimator: Any, rng: np.random.Generator | None = None,
+                                    rtol: float = 1e-9) -> None:
+    """Filtering a batch gives, element by element, what filtering each element alone gives
+    (to rounding: batched and single LAPACK calls may order operations differently)."""
+    rng = rng or np.random.default_rng(1)
+    prior, model, z = random_linear_problem(rng, batch=(3,))
+    batched = estimator.update(estimator.predict(prior, model), z, model).state
+    for i in range(3):
+        one = Gaussian(prior.mean[i], prior.cov[i])
+        alone = estimator.update(estimator.predict(one, model), z[i], model).state
+        np.testing.assert_allclose(batched.mean[i], alone.mean, rtol=rtol, atol=rtol,
+                                   err_msg=f"batch element {i}: mean differs from a lone run")
+        np.testing.assert_allclose(batched.cov[i], alone.cov, rtol=rtol, atol=rtol,
+                                   err_msg=f"batch element {i}: cov differs from a lone run")
+
+
+_OFFSETS = {"chips": "code_error_chips", "rad": "carrier_phase_rad", "Hz": "freq_error_hz"}
+
+
+def _noise_free(disc: Any, error: np.ndarray, cn0_dbhz: float, spacing: float) -> tuple[Any, Any]:
+    from .interfaces import Correlators
+
+    T = disc.params.coherent_time_s
+    taps = np.array([-spacing / 2, 0.0, spacing / 2])
+    args = {"code_error_chips": 0.0, "carrier_phase_rad": 0.3, "freq_error_hz": 0.0}
+    args[_OFFSETS[disc.unit]] = error
+    if disc.unit == "rad":
+        args["carrier_phase_rad"] = error
+
+    def corr(phase: np.ndarray | float) -> Correlators:
+        a = dict(args, carrier_phase_rad=phase)
+        y = correlator_mean(amplitude_from_cn0(cn0_dbhz, T), a["code_error_chips"], a["carrier_phase_rad"],
+                            a["freq_error_hz"], T, taps)
+        return Correlators(y[..., 0], y[..., 1], y[..., 2])
+
+    previous = corr(args["carrier_phase_rad"])
+    # The next interval's phase has advanced by 2 pi df T (frequency discriminators).
+    current = corr(args["carrier_phase_rad"] + 2 * np.pi * np.asarray(args["freq_error_hz"]) * T)
+    return current, previous
+
+
+def check_unit_slope(disc: Any, errors: Any, rtol: float = 5e-3, cn0_dbhz: float = 45.0,
+                     early_late_spacing_chips: float = 1.0) -> None:
+    """For small true errors (in ``disc.unit``), the noise-free output equals the error."""
+    e = np.asarray(errors, float)
+    current, previous = _noise_free(disc, e, cn0_dbhz, early_late_spacing_chips)
+    out = disc(current, previous if disc.needs_previous else None)
+    np.testing.assert_allclose(out, e, rtol=rtol, err_msg=f"{disc.name}: slope is not 1 {disc.unit}/{disc.unit}")
+
+
+def check_noise_variance(disc: Any, cn0_dbhz: float, rng: np.random.Generator, runs: int = 40_000,
+                         rtol: float = 0.25) -> None:
+    """``noise_variance(cn0)`` matches the variance of the output on simulated correlators
+    (zero true error) within ``rtol``; check where the formula is meant to hold."""
+    T = disc.params.coherent_time_s
+    spacing = getattr(disc.params, "early_late_spacing_chips", 1.0)
+    zero = np.zeros(runs)
+    cur = simulate_correlators(zero, 0.0, 0.0, cn0_dbhz, T, rng, early_late_spacing_chips=spacing)
+    prev = simulate_correlators(zero, 0.0, 0.0, cn0_dbhz, T, rng, early_late_spacing_chips=spacing)
+    mc = float(np.var(disc(cur, prev if disc.needs_previous else None)))
+    theory = float(np.asarray(disc.noise_variance(cn0_dbhz)))
+    assert abs(mc - theory) <= rtol * theory, (
+        f"{disc.name}: Monte Carlo variance {mc:.4g} vs noise_variance {theory:.4g} at {cn0_dbhz} dB-Hz "
+        f"(tolerance {rtol:.0%}, {runs} draws)")

@@ -1,0 +1,76 @@
+"""The plugin testing kit passes the built-ins and catches planted bugs."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import gnssframework as gf
+from gnssframework import testing
+
+
+@pytest.mark.parametrize("name", ["kf", "ekf", "ukf", "ckf", "svd-ckf"])
+def test_builtin_estimators_pass_the_estimator_checks(name):
+    est = gf.registry.create("estimator", name)
+    testing.check_exact_on_linear(est)
+    testing.check_batched_equals_one_by_one(est)
+
+
+def test_exact_on_linear_catches_a_wrong_covariance():
+    ckf = gf.registry.create("estimator", "ckf")
+
+    class Inflated(type(ckf)):
+        def update(self, prior, z, model, **kw):
+            out = super().update(prior, z, model, **kw)
+            return dataclasses.replace(out, state=gf.Gaussian(out.state.mean, 1.01 * out.state.cov))  # 1 % off
+
+    with pytest.raises(AssertionError, match="cov differs from the KF"):
+        testing.check_exact_on_linear(Inflated())
+
+
+def test_batched_check_catches_cross_talk_between_batch_elements():
+    kf = gf.registry.create("estimator", "kf")
+
+    class CrossTalk(type(kf)):
+        def update(self, prior, z, model, **kw):
+            out = super().update(prior, z, model, **kw)
+            mean = out.state.mean + 1e-6 * out.state.mean.mean(axis=tuple(range(out.state.mean.ndim - 1)))
+            return dataclasses.replace(out, state=gf.Gaussian(mean, out.state.cov))
+
+    with pytest.raises(AssertionError, match="batch element"):
+        testing.check_batched_equals_one_by_one(CrossTalk())
+
+
+def test_psd_check_refuses_asymmetric_indefinite_and_nan():
+    testing.check_covariance_psd(np.diag([1.0, 0.0]))
+    for bad, words in ((np.array([[1.0, 0.5], [0.0, 1.0]]), "not symmetric"),
+                       (np.diag([1.0, -1e-3]), "not PSD"), (np.diag([np.nan, 1.0]), "NaN")):
+        with pytest.raises(AssertionError, match=words):
+            testing.check_covariance_psd(bad)
+
+
+@pytest.mark.parametrize("name, errors", [("eml-envelope", [-1e-3, 1e-3]), ("costas-atan", [-0.05, 0.05]),
+                                          ("atan2-fll", [-0.2, 0.2])])
+def test_builtin_discriminators_pass_the_slope_and_noise_checks(name, errors):
+    d = gf.registry.create("discriminator", name, coherent_time_s=0.01)
+    testing.check_unit_slope(d, errors)
+    testing.check_noise_variance(d, 45.0, np.random.default_rng(3), runs=20_000)
+
+
+def test_slope_and_noise_checks_catch_a_wrong_scale_and_a_wrong_variance():
+    d = gf.registry.create("discriminator", "costas-atan", coherent_time_s=0.01)
+
+    class Doubled(type(d)):
+        def __call__(self, current, previous=None):
+            return 2 * super().__call__(current, previous)
+
+    class Optimistic(type(d)):
+        def noise_variance(self, cn0_dbhz):
+            return 0.5 * super().noise_variance(cn0_dbhz)
+
+    with pytest.raises(AssertionError, match="slope"):
+        testing.check_unit_slope(Doubled(coherent_time_s=0.01), [0.05])
+    with pytest.raises(AssertionError, match="Monte Carlo variance"):
+        testing.check_noise_variance(Optimistic(coherent_time_s=0.01), 45.0, np.random.default_rng(4), runs=20_000)
