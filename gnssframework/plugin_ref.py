@@ -30,7 +30,14 @@ from typing import Annotated, Any, Callable
 
 from pydantic import BeforeValidator, ValidationError, WithJsonSchema
 
-__all__ = ["PluginSpec", "PluginRef", "plugin_refs"]
+__all__ = ["PluginSpec", "PluginRef", "plugin_refs", "handles_nonlinear"]
+
+
+def handles_nonlinear(cls: type) -> str:
+    """``check`` for an estimator that will see a nonlinear model: refuses one that
+    declares ``linear_only = True`` (the linear Kalman filter)."""
+    return "it is linear-only (linear_only = True) and this model is nonlinear" \
+        if getattr(cls, "linear_only", False) else ""
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from gnssframework.signal.channel_model import channel_iq, channel_transition
 from gnssframework.signal.correlator_model import tap_noise_cov
 from gnssframework.signal.navdata import wipe_off
 from gnssframework.plugin import PluginParams
-from gnssframework.plugin_ref import PluginRef
+from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.loop_filters import LoopFilter
 from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 
@@ -236,7 +236,7 @@ class DiscriminatorChannel(ChannelFilter):
 
 
 class IqFilterParams(PluginParams):
-    estimator: PluginRef("estimator") = Field("svd-ckf", description="estimator plugin: svd-ckf, ckf or ukf")
+    estimator: PluginRef("estimator", check=handles_nonlinear) = Field("svd-ckf", description="estimator plugin: svd-ckf, ckf or ukf")
     adapter: PluginRef("noise_adapter") | None = Field(
         "innovation", description="noise adapter plugin for R, or null for none")
     window: int = Field(20, ge=2, description="window L of the innovation adapter")

@@ -41,6 +41,8 @@ class KalmanFilter(Estimator):
 
     name = "kf"
     description = "Linear Kalman filter (Joseph-form covariance update)"
+    #: Only for a LinearModel: nested-plugin parameters on nonlinear models refuse it.
+    linear_only = True
 
     def _require_linear(self, model) -> LinearModel:
         if not isinstance(model, LinearModel):

@@ -12,7 +12,7 @@ from gnssframework.errors import ConfigError
 from gnssframework.estimation import Gaussian, LinearModel, NonlinearModel, filter_sequence
 from gnssframework.interfaces import NavFilter
 from gnssframework.plugin import PluginParams
-from gnssframework.plugin_ref import PluginRef
+from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.vector import predicted_range
 from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M, SPEED_OF_LIGHT_M_S
 from gnssframework.simulation.clock import PRESETS
@@ -36,7 +36,7 @@ def cv_clock_model(T: float, accel_psd: float, clock: str) -> tuple[np.ndarray, 
 
 
 class EkfPvParams(PluginParams):
-    estimator: PluginRef("estimator") = Field(
+    estimator: PluginRef("estimator", check=handles_nonlinear) = Field(
         "ekf", description="estimator plugin that runs the filter (ekf, ukf, ckf, svd-ckf)")
     accel_psd: float = Field(0.1, gt=0, description="white-acceleration PSD of the constant-velocity model, m²/s³")
     clock: str = Field("tcxo", description="clock preset for the clock process noise: tcxo or ocxo")

@@ -71,3 +71,14 @@ def test_nested_plugin_parameters_are_listed():
 def test_a_default_name_is_resolved_too():
     plugin = gf.registry.create("nav_filter", "ekf-pv")
     assert plugin.params.estimator == PluginSpec("estimator", "ekf", {})
+
+
+def test_a_linear_only_estimator_is_refused_where_the_model_is_nonlinear():
+    assert gf.registry.get("estimator", "kf").linear_only
+    for kind, name in (("nav_filter", "ekf-pv"), ("channel_filter", "iq-filter")):
+        with pytest.raises(gf.ConfigError) as err:
+            gf.registry.create(kind, name, estimator="kf")
+        msg = str(err.value)
+        assert "estimator 'kf' does not fit: it is linear-only" in msg
+        fit = msg.split("estimators that do: ")[1].split(", ")
+        assert "kf" not in fit and {"ekf", "ukf", "ckf"} <= set(fit)
