@@ -3,6 +3,8 @@
 One source for the docs page, ``help()`` (appended to the class docstring),
 ``gnssframework plugins --describe NAME`` and the JSON schema.
 
+Examples
+--------
 >>> from gnssframework import registry
 >>> rows = parameter_rows(registry.get("estimator", "ukf").Params)
 >>> [(r.name, r.default, r.bounds) for r in rows if r.name == "alpha"]

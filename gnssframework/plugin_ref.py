@@ -12,6 +12,8 @@ the field path, the known names and the closest one; the nested parameters are v
 by the nested plugin's own model; a unit or capability that does not fit (a frequency
 discriminator given as ``phase_discriminator``) is refused naming the plugins that fit.
 
+Examples
+--------
 >>> from gnssframework.plugin import PluginParams
 >>> class P(PluginParams):
 ...     estimator: PluginRef("estimator") = "kf"

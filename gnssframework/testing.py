@@ -17,6 +17,8 @@ The truths are independent of the code under test: the linear Kalman filter writ
 out below in four lines (Kalman 1960), a discriminator's slope from noise-free
 correlators of the triangle autocorrelation, and its noise from a Monte Carlo draw.
 
+Examples
+--------
 >>> import numpy as np
 >>> from gnssframework import registry
 >>> check_exact_on_linear(registry.create("estimator", "ckf"))
