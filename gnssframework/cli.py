@@ -85,7 +85,7 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
         kw["slip_threshold_m"] = args.slip_threshold
     smoother = registry.create("channel_filter", name, **kw)
     smoother.reset(())
-    rows = [smoother.step({"pseudorange_m": np.asarray(r), "carrier_m": np.asarray(c)})
+    rows = [smoother.checked_step({"pseudorange_m": np.asarray(r), "carrier_m": np.asarray(c)})
             for r, c in zip(data.pseudorange_m, data.carrier_m)]
     with open(args.out, "w", newline="") as fh:
         w = csv.writer(fh)

@@ -23,6 +23,7 @@ from typing import Any, ClassVar, Mapping
 import numpy as np
 from pydantic import Field
 
+from .errors import PluginError
 from .plugin import Plugin, PluginParams
 from .signal.correlators import Correlators
 
@@ -77,6 +78,16 @@ class SequentialFilter(Plugin, abc.ABC):
     @abc.abstractmethod
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Process one epoch."""
+
+    def checked_step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """``step``, then check it returned every name the plugin ``provides`` (harnesses
+        call this, so a plugin that breaks its declaration fails at its first epoch, by name)."""
+        out = self.step(inputs)
+        missing = [n for n in self.provides if n not in out]
+        if missing:
+            raise PluginError(f"{self.kind} {self.name!r}: step() did not return {', '.join(missing)} "
+                              f"that it declares in `provides`")
+        return out
 
 
 class ChannelFilter(SequentialFilter):

@@ -168,7 +168,7 @@ def run_closed_loop(
         amp = amp0 * (scale[k] if scale.ndim else scale)
         corr = simulate_correlators(code_err, ph0, freq_err, truth.cn0_dbhz, T, rng,
                                     early_late_spacing_chips=early_late_spacing_chips, amplitude=amp)
-        out = channel.step({"correlators": corr})
+        out = channel.checked_step({"correlators": corr})
         rec["code"].append(code_err)
         rec["phase"].append(np.angle(np.exp(1j * (ph0 + np.pi * freq_err * T))))  # mid-interval, wrapped
         rec["freq"].append(freq_err)

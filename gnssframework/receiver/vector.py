@@ -202,10 +202,10 @@ def run_vector_loop(
         inputs = {"correlators": corr, "nco_shift_chips": shift_chips, "nco_shift_hz": shift_hz}
         if data_bits == "known":
             inputs["data_bit"] = bit
-        ch_out = channel.step(inputs)
+        ch_out = channel.checked_step(inputs)
 
         s_mid, sv_mid = truth.sat_state(np.asarray(tm))
-        nav_out = nav.step({**ch_out, "sat_pos_m": s_mid, "sat_vel_m_s": sv_mid, "next_sat_pos_m": s_next,
+        nav_out = nav.checked_step({**ch_out, "sat_pos_m": s_mid, "sat_vel_m_s": sv_mid, "next_sat_pos_m": s_next,
                             "next_sat_vel_m_s": sv_next, "replica_range_m": nco_range + nco_rate * T / 2,
                             "replica_rate_m_s": np.broadcast_to(nco_rate, batch)})
 

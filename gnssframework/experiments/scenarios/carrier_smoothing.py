@@ -127,7 +127,7 @@ class CarrierSmoothingScenario(Scenario):
             smoothed = code
         else:
             ch.reset((runs,))
-            smoothed = np.stack([ch.step({"pseudorange_m": code[k], "carrier_m": carrier[k]})["smoothed_m"]
+            smoothed = np.stack([ch.checked_step({"pseudorange_m": code[k], "carrier_m": carrier[k]})["smoothed_m"]
                                  for k in range(p.epochs)])
         err = smoothed - truth
         s = slice(p.settle_epochs, None)

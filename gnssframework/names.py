@@ -1,0 +1,52 @@
+"""The names sequential filters exchange: every ``requires`` and ``provides`` entry.
+
+One module, so a plugin and a harness cannot spell a name two ways; a plugin declares
+``requires = (names.CORRELATORS,)`` and the harness checks that ``step()`` returned
+everything the plugin ``provides`` (``SequentialFilter.checked_step``).
+
+Examples
+--------
+>>> from gnssframework import names
+>>> names.CODE_ERROR_CHIPS
+'code_error_chips'
+>>> "code_error_chips" in names.ALL
+True
+"""
+
+from __future__ import annotations
+
+# -- channel filter inputs ----------------------------------------------------------
+CORRELATORS = "correlators"  #: gnssframework.Correlators of one coherent interval
+PSEUDORANGE_M = "pseudorange_m"
+CARRIER_M = "carrier_m"  #: carrier phase times the wavelength
+
+# -- scalar / carrier loop outputs ---------------------------------------------------
+CARRIER_FREQ_HZ = "carrier_freq_hz"
+CODE_FREQ_HZ = "code_freq_hz"
+CARRIER_PHASE_STEP_RAD = "carrier_phase_step_rad"
+CODE_DISC_CHIPS = "code_disc_chips"
+PHASE_DISC_RAD = "phase_disc_rad"
+FREQ_DISC_HZ = "freq_disc_hz"
+
+# -- vector-loop channel outputs (nav filter inputs) ---------------------------------
+CODE_ERROR_CHIPS = "code_error_chips"
+CODE_ERROR_VAR_CHIPS2 = "code_error_var_chips2"
+FREQ_ERROR_HZ = "freq_error_hz"
+FREQ_ERROR_VAR_HZ2 = "freq_error_var_hz2"
+AMPLITUDE = "amplitude"
+PHASE_ERROR_RAD = "phase_error_rad"
+
+# -- carrier smoothing outputs ---------------------------------------------------------
+SMOOTHED_M = "smoothed_m"
+SLIP_DETECTED = "slip_detected"
+
+# -- navigation filter outputs ---------------------------------------------------------
+POSITION_M = "position_m"
+VELOCITY_M_S = "velocity_m_s"
+CLOCK_M = "clock_m"  #: clock bias (m) and drift (m/s)
+COV = "cov"
+NCO_RANGE_M = "nco_range_m"
+NCO_RANGE_RATE_M_S = "nco_range_rate_m_s"
+
+#: Every name above.
+ALL = frozenset(v for k, v in dict(globals()).items() if k.isupper() and isinstance(v, str))
