@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable
+from typing import Callable, Literal
 
 import numpy as np
 from pydantic import Field
@@ -19,6 +19,11 @@ __all__ = ["ColoredAR1"]
 class ColoredAR1Params(PluginParams):
     psi: float | list[float] = Field(
         ..., description="AR(1) coefficient of the measurement noise, one value or one per component, |psi| < 1"
+    )
+    cross_covariance: Literal["exact", "paper"] = Field(
+        "exact",
+        description="'exact' keeps the w/V* cross covariance M = Q H^T (decorrelated transition); "
+        "'paper' drops it as reference 004 does (M = 0: Q' = Q, no J term)",
     )
 
 
@@ -112,6 +117,8 @@ class ColoredAR1(Augmentation):
 
         def decorrelation(Q: np.ndarray, R_star: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             """J and Q' from the (raw) process noise Q and the differenced R*."""
+            if self.params.cross_covariance == "paper":  # reference 004 drops M
+                return np.zeros(Q.shape[:-2] + (Q.shape[-1], H.shape[-2])), Q
             M = Q @ np.swapaxes(H, -1, -2)  # E[w V*^T]
             J = np.swapaxes(np.linalg.solve(R_star, np.swapaxes(M, -1, -2)), -1, -2)
             return J, symmetrize(Q - J @ np.swapaxes(M, -1, -2))

@@ -154,3 +154,21 @@ def test_adapted_noise_recomputes_the_decorrelation(rng):
     np.testing.assert_allclose(step.Q, Q2 - M @ M.T / R2[0, 0], rtol=1e-12)
     np.testing.assert_allclose(step.R, R2)
     np.testing.assert_allclose(step.F, F - (M / R2[0, 0]) @ (H @ F - 0.6 * H), rtol=1e-12)
+
+
+def test_paper_cross_covariance_form_is_the_model_without_the_cross_term(rng):
+    """cross_covariance='paper' is the filter on (F, H*, Q, H Q H^T + R), built by hand."""
+    n, m, K = 3, 2, 8
+    F = np.eye(n) + 0.2 * rng.standard_normal((n, n))
+    H = rng.standard_normal((m, n))
+    Q, R, P0 = random_pd(rng, n, scale=0.5), random_pd(rng, m), random_pd(rng, n, scale=3)
+    psi = np.array([0.8, -0.4])
+    zs = rng.standard_normal((K, m)) * 3
+    kf, init = create("estimator", "kf"), gf.Gaussian(np.zeros(n), P0)
+    by_hand = gf.filter_sequence(
+        kf, gf.LinearModel(F, H @ F - np.diag(psi) @ H, Q, H @ Q @ H.T + R), zs[1:] - psi * zs[:-1], init
+    )
+    aug = create("augmentation", "colored-ar1", psi=psi.tolist(), cross_covariance="paper")
+    res = gf.filter_sequence(kf, gf.LinearModel(F, H, Q, R), zs, init, augmentation=aug)
+    np.testing.assert_allclose(res.mean, by_hand.mean, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(res.cov, by_hand.cov, rtol=1e-10, atol=1e-12)
