@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+from typing import Callable, Literal
+
 import numpy as np
 from pydantic import Field
 
@@ -17,6 +20,11 @@ class ColoredAR1Params(PluginParams):
     psi: float | list[float] = Field(
         ..., description="AR(1) coefficient of the measurement noise, one value or one per component, |psi| < 1"
     )
+    cross_covariance: Literal["exact", "paper"] = Field(
+        "exact",
+        description="'exact' keeps the w/V* cross covariance M = Q H^T (decorrelated transition); "
+        "'paper' drops it as reference 004 does (M = 0: Q' = Q, no J term)",
+    )
 
 
 def _linear_measurement(model) -> np.ndarray:
@@ -29,6 +37,31 @@ def _linear_measurement(model) -> np.ndarray:
     if not np.allclose(model.h(x), mat_vec(H, x), rtol=1e-6, atol=1e-9):
         raise ConfigError("augmentation 'colored-ar1'", "needs a linear measurement function h (z = H x + v)")
     return H
+
+
+@dataclasses.dataclass(frozen=True)
+class _Decorrelated(LinearModel):
+    """A step of the decorrelated model. Its noise is stated as the *raw* process noise
+    Q and the differenced R* (what an adapter starts from and returns, see
+    ``ColoredAR1``); ``with_noise`` recomputes J and Q' from them, so an adapted Q or R
+    never replaces the decorrelated Q' by a raw Q."""
+
+    rebuild: Callable | None = None
+    raw_Q: np.ndarray | None = None
+
+    def with_noise(self, Q=None, R=None):
+        return self.rebuild(self.raw_Q if Q is None else Q, self.R if R is None else R)
+
+
+@dataclasses.dataclass(frozen=True)
+class _DecorrelatedNonlinear(NonlinearModel):
+    """Nonlinear counterpart of ``_Decorrelated``."""
+
+    rebuild: Callable | None = None
+    raw_Q: np.ndarray | None = None
+
+    def with_noise(self, Q=None, R=None):
+        return self.rebuild(self.raw_Q if Q is None else Q, self.R if R is None else R)
 
 
 class ColoredAR1(Augmentation):
@@ -58,6 +91,11 @@ class ColoredAR1(Augmentation):
     measurements through epoch **k+1** (a one-step-lagged estimate). There are K-1 steps
     for K measurements; ``FilterResult.epochs`` is ``0 .. K-2``.
     For sigma-point filters the model keeps ``f`` as given; ``h`` must be linear.
+
+    With a noise adapter: the step models state their noise as the raw Q and the
+    differenced R* (the adapter starts from these), and ``with_noise(Q, R*)`` recomputes
+    J and Q' from the adapted values every step, so an adapter whose weights are 0
+    reproduces the non-adaptive filter exactly.
     """
 
     name = "colored-ar1"
@@ -75,22 +113,29 @@ class ColoredAR1(Augmentation):
         H = _linear_measurement(model)
         Psi = np.diag(psi)
         zs_star = zs[1:] - psi * zs[:-1]
-        Q, R = model.Q, model.R
-        M = Q @ np.swapaxes(H, -1, -2)  # E[w V*^T]
-        R_star = symmetrize(H @ M + R)
-        J = np.swapaxes(np.linalg.solve(R_star, np.swapaxes(M, -1, -2)), -1, -2)
-        Q_dec = symmetrize(Q - J @ np.swapaxes(M, -1, -2))
+        R_star0 = symmetrize(H @ model.Q @ np.swapaxes(H, -1, -2) + model.R)
+
+        def decorrelation(Q: np.ndarray, R_star: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            """J and Q' from the (raw) process noise Q and the differenced R*."""
+            if self.params.cross_covariance == "paper":  # reference 004 drops M
+                return np.zeros(Q.shape[:-2] + (Q.shape[-1], H.shape[-2])), Q
+            M = Q @ np.swapaxes(H, -1, -2)  # E[w V*^T]
+            J = np.swapaxes(np.linalg.solve(R_star, np.swapaxes(M, -1, -2)), -1, -2)
+            return J, symmetrize(Q - J @ np.swapaxes(M, -1, -2))
 
         if isinstance(model, LinearModel):
             F = model.F
             H_star = H @ F - Psi @ H
 
-            def model_at(k: int) -> LinearModel:
+            def build(k: int, Q: np.ndarray, R_star: np.ndarray) -> LinearModel:
                 if k == 0:  # predicting into epoch 0: w_{-1} is not correlated with V*_0
-                    return LinearModel(F, H_star, Q, R_star, u=model.u)
+                    return _Decorrelated(F, H_star, Q, R_star, u=model.u, rebuild=lambda Q, R: build(0, Q, R), raw_Q=Q)
+                J, Q_dec = decorrelation(Q, R_star)
                 u = mat_vec(J, zs_star[k - 1])
                 u = u if model.u is None else u + model.u
-                return LinearModel(F - J @ H_star, H_star, Q_dec, R_star, u=u)
+                return _Decorrelated(
+                    F - J @ H_star, H_star, Q_dec, R_star, u=u, rebuild=lambda Q, R: build(k, Q, R), raw_Q=Q
+                )
 
         else:
             f = model.f
@@ -98,14 +143,18 @@ class ColoredAR1(Augmentation):
             def h_star(x: np.ndarray) -> np.ndarray:
                 return mat_vec(H, f(x)) - psi * mat_vec(H, x)
 
-            def model_at(k: int) -> NonlinearModel:
+            def build(k: int, Q: np.ndarray, R_star: np.ndarray) -> NonlinearModel:
                 if k == 0:
-                    return NonlinearModel(f, h_star, Q, R_star)
+                    return _DecorrelatedNonlinear(f, h_star, Q, R_star, rebuild=lambda Q, R: build(0, Q, R), raw_Q=Q)
                 z_prev = zs_star[k - 1]
+                J, Q_dec = decorrelation(Q, R_star)
 
                 def f_dec(x: np.ndarray) -> np.ndarray:
                     return f(x) + mat_vec(J, z_prev - h_star(x))
 
-                return NonlinearModel(f_dec, h_star, Q_dec, R_star)
+                return _DecorrelatedNonlinear(f_dec, h_star, Q_dec, R_star, rebuild=lambda Q, R: build(k, Q, R), raw_Q=Q)
+
+        def model_at(k: int):
+            return build(k, model.Q, R_star0)
 
         return AugmentedProblem(zs=zs_star, model_at=model_at, epochs=np.arange(zs.shape[0] - 1))

@@ -118,3 +118,57 @@ def test_nonlinear_measurement_is_refused():
     model = gf.NonlinearModel(lambda x: x, lambda x: x**2, np.eye(1), np.eye(1))
     with pytest.raises(gf.ConfigError, match="linear measurement"):
         create("augmentation", "colored-ar1", psi=0.5).apply(model, np.zeros((3, 1)))
+
+
+@pytest.mark.parametrize("name", ["kf", "ukf"])
+def test_adapter_with_zero_weight_leaves_colored_ar1_unchanged(rng, name):
+    """AUKF1 with the adapter's weights at 0 is UKF1 exactly (issue 10: the adapted Q used
+    to replace the decorrelated Q' = Q - M R*^-1 M^T by the raw Q from step 1 on)."""
+    n, m, K = 3, 2, 30
+    F = np.eye(n) + 0.2 * rng.standard_normal((n, n))
+    H = rng.standard_normal((m, n))
+    Q, R, P0 = random_pd(rng, n, scale=0.5), random_pd(rng, m), random_pd(rng, n, scale=3)
+    zs = rng.standard_normal((K, 4, m)) * 3
+    model = gf.LinearModel(F, H, Q, R)
+    if name != "kf":
+        model = gf.NonlinearModel(lambda x: x @ F.T, lambda x: x @ H.T, Q, R)
+    est = create("estimator", name)
+    aug = create("augmentation", "colored-ar1", psi=[0.5, 0.8])
+    init = gf.Gaussian(np.zeros(n), P0)
+    plain = gf.filter_sequence(est, model, zs, init, augmentation=aug)
+    adapter = create("noise_adapter", "sage-husa", variant="improved", alpha_q=0.0, alpha_r=0.0, warmup=0)
+    adapted = gf.filter_sequence(est, model, zs, init, adapter=adapter, augmentation=aug)
+    np.testing.assert_array_equal(adapted.mean, plain.mean)
+    np.testing.assert_array_equal(adapted.Q, plain.Q)
+
+
+def test_adapted_noise_recomputes_the_decorrelation(rng):
+    """A step model's with_noise(Q, R*) rebuilds J and Q' = Q - Q H^T R*^-1 H Q."""
+    n, m, K = 3, 1, 5
+    F, H = np.eye(n), rng.standard_normal((m, n))
+    Q, R = random_pd(rng, n, scale=0.5), random_pd(rng, m)
+    problem = create("augmentation", "colored-ar1", psi=0.6).apply(gf.LinearModel(F, H, Q, R), rng.standard_normal((K, m)))
+    Q2, R2 = 3.0 * Q, np.array([[7.0]])
+    step = problem.model_at(2).with_noise(Q=Q2, R=R2)
+    M = Q2 @ H.T
+    np.testing.assert_allclose(step.Q, Q2 - M @ M.T / R2[0, 0], rtol=1e-12)
+    np.testing.assert_allclose(step.R, R2)
+    np.testing.assert_allclose(step.F, F - (M / R2[0, 0]) @ (H @ F - 0.6 * H), rtol=1e-12)
+
+
+def test_paper_cross_covariance_form_is_the_model_without_the_cross_term(rng):
+    """cross_covariance='paper' is the filter on (F, H*, Q, H Q H^T + R), built by hand."""
+    n, m, K = 3, 2, 8
+    F = np.eye(n) + 0.2 * rng.standard_normal((n, n))
+    H = rng.standard_normal((m, n))
+    Q, R, P0 = random_pd(rng, n, scale=0.5), random_pd(rng, m), random_pd(rng, n, scale=3)
+    psi = np.array([0.8, -0.4])
+    zs = rng.standard_normal((K, m)) * 3
+    kf, init = create("estimator", "kf"), gf.Gaussian(np.zeros(n), P0)
+    by_hand = gf.filter_sequence(
+        kf, gf.LinearModel(F, H @ F - np.diag(psi) @ H, Q, H @ Q @ H.T + R), zs[1:] - psi * zs[:-1], init
+    )
+    aug = create("augmentation", "colored-ar1", psi=psi.tolist(), cross_covariance="paper")
+    res = gf.filter_sequence(kf, gf.LinearModel(F, H, Q, R), zs, init, augmentation=aug)
+    np.testing.assert_allclose(res.mean, by_hand.mean, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(res.cov, by_hand.cov, rtol=1e-10, atol=1e-12)
