@@ -17,6 +17,7 @@ from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.loop_filters import LoopFilter
 from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
+from gnssframework.simulation.clock import PRESETS
 
 __all__ = ["ScalarTrackingLoop", "KalmanCarrierLoop", "DiscriminatorChannel", "IqFilter"]
 
@@ -244,9 +245,18 @@ class IqFilterParams(PluginParams):
     q: list[float] = Field([1e-3, 1e-8, 1e-5, 1e-4, 1e-2],
                            description="diagonal of Q per interval: A, dtau (chips), dtheta (rad), df (Hz), dfdot (Hz/s)")
     initial_std: list[float] = Field([2.0, 0.05, 0.3, 5.0, 5.0], description="initial std of the five states")
-    output: Literal["equivalent", "filtered"] = Field(
-        "equivalent", description="what the nav filter gets: this interval's equivalent measurement, or the "
-        "filtered estimate (the paper's choice, which counts old correlators again every interval)")
+    output: Literal["split", "equivalent", "filtered", "reset"] = Field(
+        "split", description="what the nav filter gets: split (code from this interval's new information, "
+        "frequency filtered; consistent, the default), equivalent (both from this interval's new information), "
+        "filtered (the paper's filtered estimates; counts old correlators again every interval), reset "
+        "(filtered estimates from a prefilter reset after every output)")
+    split_code: Literal["discriminator", "new-information"] = Field(
+        "discriminator", description="output split: the code error comes from the code discriminator with its "
+        "thermal-noise variance at the channel's C/N0, or from this interval's new information")
+    code_discriminator: PluginRef("discriminator", unit="chips") = Field(
+        "eml-envelope", description="code discriminator of the split output")
+    clock: str | None = Field(None, description="receiver clock preset (tcxo, tcxo-hq, ocxo) whose h-parameters "
+                              "add their process noise to q; null for q alone")
 
 
 def _equivalent_measurement(prior: Gaussian, post: Gaussian, idx: list[int]):
@@ -308,6 +318,9 @@ class IqFilter(ChannelFilter):
         p = self.params
         if len(p.q) != 5 or len(p.initial_std) != 5:
             raise ConfigError("channel_filter 'iq-filter'", "q and initial_std need 5 values (A, dtau, dtheta, df, dfdot)")
+        if p.clock is not None and p.clock not in PRESETS:
+            raise ConfigError("channel_filter 'iq-filter'.clock", f"got {p.clock!r}; allowed: {', '.join(PRESETS)} "
+                              "or null")
         self.engine = p.estimator.create()
         self.adapter = None
         if p.adapter:
@@ -321,12 +334,41 @@ class IqFilter(ChannelFilter):
         taps = tap_noise_cov(np.array([-d, 0.0, d]))
         R0 = np.zeros((6, 6))
         R0[:3, :3] = R0[3:, 3:] = taps + 1e-6 * np.eye(3)  # E/P/L share noise; a touch of jitter keeps it PD
-        self.model = NonlinearModel(lambda x: x @ F.T, lambda x: channel_iq(x, d, T), np.diag(self.params.q), R0)
+        self.model = NonlinearModel(lambda x: x @ F.T, lambda x: channel_iq(x, d, T), self.process_noise(T), R0)
         self.batch_shape = batch_shape
         self.state = None
         self.run = self.adapter.start(self.model.Q, R0) if self.adapter is not None else None
         self.T = T
         self.k = 0
+        self.pending_reset = False
+        self.code_disc = None
+        if self.params.output == "split" and self.params.split_code == "discriminator":
+            self.code_disc = self.params.code_discriminator.create(coherent_time_s=T,
+                                                                   early_late_spacing_chips=2 * d)
+            cn0 = np.broadcast_to(np.asarray(context["cn0_dbhz"], float), batch_shape)
+            self.code_var = np.broadcast_to(self.code_disc.noise_variance(cn0), batch_shape)
+
+    def process_noise(self, coherent_time_s: float) -> np.ndarray:
+        r"""Q per interval: ``diag(q)`` plus, with ``clock`` set, the clock's noise on
+        $(\delta\tau, \delta\theta, \delta f)$ from its h-parameters
+        (`ClockModel.tracking_process_noise`)."""
+        Q = np.diag(np.asarray(self.params.q, float))
+        if self.params.clock is not None:
+            Q[1:4, 1:4] += PRESETS[self.params.clock].tracking_process_noise(coherent_time_s, L1_FREQ_HZ,
+                                                                            CA_CHIP_RATE_HZ)
+        return Q
+
+    def _reset_prefilter(self, mean: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        r"""Forget what the filter knows about $\delta\tau$ and $\delta f$: the nav filter has
+        it now, and its NCO command is the new reference (error 0, initial variance)."""
+        mean, cov = mean.copy(), np.array(np.broadcast_to(cov, mean.shape + (5,)), copy=True)
+        std = np.asarray(self.params.initial_std, float)
+        for i in (1, 3):
+            mean[..., i] = 0.0
+            cov[..., i, :] = 0.0
+            cov[..., :, i] = 0.0
+            cov[..., i, i] = std[i] ** 2
+        return mean, cov
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         corr = inputs["correlators"]
@@ -343,7 +385,12 @@ class IqFilter(ChannelFilter):
             mean = self.state.mean.copy()
             mean[..., 1] -= inputs["nco_shift_chips"]
             mean[..., 3] -= inputs["nco_shift_hz"]
-            previous = Gaussian(mean, self.state.cov)
+            cov = self.state.cov
+            if self.pending_reset:
+                mean, cov = self._reset_prefilter(mean, cov)
+                if self.adapter is not None:  # the innovation window restarts with the reset
+                    self.run = self.adapter.start(self.model.Q, self.model.R)
+            previous = Gaussian(mean, cov)
             prior = self.engine.predict(previous, self.model)
         if "data_bit" not in inputs:  # decision-directed wipe-off
             phase = prior.mean[..., 2] + np.pi * prior.mean[..., 3] * self.T
@@ -359,11 +406,20 @@ class IqFilter(ChannelFilter):
         self.state = upd.state
         x, P = upd.state.mean, upd.state.cov
         out = {"amplitude": x[..., 0], "phase_error_rad": x[..., 2]}
-        if self.params.output == "filtered" or first:
+        mode = self.params.output
+        self.pending_reset = mode == "reset"
+        if mode in ("filtered", "reset") or first:
             out.update(code_error_chips=x[..., 1], code_error_var_chips2=P[..., 1, 1], freq_error_hz=x[..., 3],
                        freq_error_var_hz2=P[..., 3, 3])
-        else:
-            z, R = _equivalent_measurement(prior, upd.state, [1, 3])
-            out.update(code_error_chips=z[..., 0], code_error_var_chips2=R[..., 0, 0], freq_error_hz=z[..., 1],
-                       freq_error_var_hz2=R[..., 1, 1])
+            return out
+        if self.code_disc is not None:  # split, code from the discriminator
+            out.update(code_error_chips=self.code_disc(corr), code_error_var_chips2=self.code_var,
+                       freq_error_hz=x[..., 3], freq_error_var_hz2=P[..., 3, 3])
+            return out
+        z, R = _equivalent_measurement(prior, upd.state, [1, 3])
+        out.update(code_error_chips=z[..., 0], code_error_var_chips2=R[..., 0, 0])
+        if mode == "equivalent":
+            out.update(freq_error_hz=z[..., 1], freq_error_var_hz2=R[..., 1, 1])
+        else:  # split, code from the new information
+            out.update(freq_error_hz=x[..., 3], freq_error_var_hz2=P[..., 3, 3])
         return out

@@ -9,7 +9,7 @@ from gnssframework.interfaces import ChannelFilter
 from gnssframework.receiver.vector import run_vector_loop
 from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 
-SCEN = {"kind": "vector-tracking", "duration_s": 3.0, "channels": 8, "settle_s": 0.5}
+SCEN = {"kind": "vector-tracking", "duration_s": 3.0, "channels": 8, "settle_s": 0.5, "steady_state_s": 1.5}
 
 
 class OracleChannel(ChannelFilter):

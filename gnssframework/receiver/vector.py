@@ -98,6 +98,14 @@ class VectorRecord:
     nees: np.ndarray  # (K, runs) normalised estimation error squared of the 8 nav states
     time_s: np.ndarray  # (K,) mid-interval times
     extra: dict[str, np.ndarray] = field(default_factory=dict)
+    #: (K, runs) NEES of the position (3 states) and the velocity (3 states), each on
+    #: its marginal covariance.
+    nees_position: np.ndarray | None = None
+    nees_velocity: np.ndarray | None = None
+    #: (K, runs, ch) error of what the channel filter handed the nav filter: its output
+    #: code (chips) and frequency (Hz) errors minus the true replica errors.
+    code_output_error_chips: np.ndarray | None = None
+    freq_output_error_hz: np.ndarray | None = None
 
 
 #: Inputs the vector loop itself gives the nav filter (besides the channel outputs).
@@ -184,7 +192,8 @@ def run_vector_loop(
     shift_hz = np.zeros(batch)
 
     true_rho = truth.pseudorange(np.asarray(0.0), 0)
-    rec: dict[str, list] = {k: [] for k in ("code", "freq", "pos", "vel", "nees")}
+    rec: dict[str, list] = {k: [] for k in ("code", "freq", "pos", "vel", "nees", "nees_pos", "nees_vel", "code_out",
+                                            "freq_out")}
     for k in range(K):
         t1, tm = t_edges[k + 1], t_edges[k] + T / 2
         s_next, sv_next = truth.sat_state(np.asarray(t1))
@@ -216,7 +225,12 @@ def run_vector_loop(
         rec["freq"].append(freq_err)
         rec["pos"].append(err[:, :3])
         rec["vel"].append(err[:, 3:6])
-        rec["nees"].append(np.einsum("ri,rij,rj->r", err, np.linalg.inv(nav_out["cov"]), err))
+        cov = nav_out["cov"]
+        rec["nees"].append(np.einsum("ri,rij,rj->r", err, np.linalg.inv(cov), err))
+        rec["nees_pos"].append(_nees(err[:, 0:3], cov[..., 0:3, 0:3]))
+        rec["nees_vel"].append(_nees(err[:, 3:6], cov[..., 3:6, 3:6]))
+        rec["code_out"].append(ch_out["code_error_chips"] - code_err)
+        rec["freq_out"].append(ch_out["freq_error_hz"] - freq_err)
 
         new_range, new_rate = nav_out["nco_range_m"], nav_out["nco_range_rate_m_s"]
         shift_chips = (new_range - rep_end) / CA_CHIP_LENGTH_M
@@ -226,7 +240,13 @@ def run_vector_loop(
         true_rho = next_rho
     stack = {k: np.stack(v) for k, v in rec.items()}
     return VectorRecord(stack["code"], stack["freq"], stack["pos"], stack["vel"], stack["nees"],
-                        t_edges[:-1] + T / 2)
+                        t_edges[:-1] + T / 2, nees_position=stack["nees_pos"], nees_velocity=stack["nees_vel"],
+                        code_output_error_chips=stack["code_out"], freq_output_error_hz=stack["freq_out"])
+
+
+def _nees(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """$e^T P^{-1} e$ batched over the leading axes (``err (..., n)``, ``cov (..., n, n)``)."""
+    return np.einsum("...i,...i->...", err, np.linalg.solve(cov, err[..., None])[..., 0])
 
 
 def predicted_range(x: np.ndarray, sat_pos: np.ndarray, sat_vel: np.ndarray
