@@ -45,6 +45,8 @@ class VectorTrackingParams(ScenarioParams):
     initial_position_std_m: float = Field(3.0, gt=0)
     initial_velocity_std_m_s: float = Field(0.3, gt=0)
     settle_s: float = Field(1.0, ge=0, description="metrics ignore the first settle_s seconds")
+    pcrb: bool = Field(True, description="compute the posterior Cramér-Rao bound (pcrb_position, pcrb_velocity); "
+                       "it assumes a static or constant-velocity receiver, so not with a trajectory_file")
     steady_state_s: float = Field(10.0, ge=0, description="position_steady_error_rmse counts from this time on "
                                   "(after the nav filter's position has converged)")
 
@@ -73,12 +75,19 @@ class VectorTrackingScenario(Scenario):
         "nees_velocity": "-",
         "code_output_rmse": "chips",
         "freq_output_rmse": "Hz",
+        "pcrb_position": "m",
+        "pcrb_velocity": "m/s",
     }
+    #: Error metric -> the bound drawn beside it in the report's time-series plot.
+    bounds = {"position_error_rmse": "pcrb_position", "velocity_error_rmse": "pcrb_velocity"}
 
     def __init__(self, params: VectorTrackingParams) -> None:
         super().__init__(params)
         if params.clock not in PRESETS:
             raise ConfigError("scenario.clock", f"got {params.clock!r}; allowed: {', '.join(PRESETS)}")
+        if params.pcrb and params.trajectory_file:
+            raise ConfigError("scenario.pcrb", "the bound assumes a static or constant-velocity receiver; set "
+                              "pcrb = false with a trajectory_file")
         if not params.settle_s <= params.steady_state_s < params.duration_s:
             raise ConfigError("scenario.steady_state_s", f"must be at least settle_s = {params.settle_s} and less "
                               f"than duration_s = {params.duration_s} (got {params.steady_state_s})")
@@ -149,7 +158,25 @@ class VectorTrackingScenario(Scenario):
         series = {"code_phase_error_rmse": code, "carrier_freq_error_rmse": freq, "position_error_rmse": pos,
                   "velocity_error_rmse": vel, "nees": rec.nees, "nees_position": rec.nees_position,
                   "nees_velocity": rec.nees_velocity, "code_output_rmse": code_out, "freq_output_rmse": freq_out}
+        if p.pcrb:
+            _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0)
+            series["pcrb_position"] = np.repeat(bound_pos[:, None], runs, axis=1)
+            series["pcrb_velocity"] = np.repeat(bound_vel[:, None], runs, axis=1)
         return BatchResult(vector_metrics(series, rec.time_s, p.settle_s, p.steady_state_s), series, rec.time_s)
+
+    def bound(self, cn0_dbhz: float, P0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The PCRB of this scenario at ``cn0_dbhz`` (`gnssframework.receiver.pcrb.vector_tracking_pcrb`):
+        times, RMS position bound (m) and RMS velocity bound (m/s), each ``(K,)``."""
+        from ...receiver.pcrb import vector_tracking_pcrb
+
+        p = self.params
+        T = p.coherent_time_s
+        K = int(round(p.duration_s / T))
+        truth, _, _ = self.truth(cn0_dbhz, 1, np.random.default_rng(0))  # geometry only; the draws are unused
+        r0, v = truth.receiver_state(np.asarray(0.0))
+        clock_q = SPEED_OF_LIGHT_M_S**2 * PRESETS[p.clock].process_noise(T)
+        return vector_tracking_pcrb(lambda t: truth.sat_state(t)[0], r0[0], v[0], clock_q, P0,
+                                    np.full(p.channels, cn0_dbhz), T, K, p.early_late_spacing_chips)
 
 
 def vector_metrics(series: dict[str, np.ndarray], time_s: np.ndarray, settle_s: float,
@@ -178,4 +205,7 @@ def vector_metrics(series: dict[str, np.ndarray], time_s: np.ndarray, settle_s: 
     out["position_steady_error_rmse"] = rms(series["position_error_rmse"], steady)
     for name in ("nees", "nees_position", "nees_velocity"):
         out[name] = np.mean(series[name][s], axis=0)
+    for name in ("pcrb_position", "pcrb_velocity"):  # RMS bound over the same window as the errors
+        if name in series:
+            out[name] = rms(series[name], s)
     return out
