@@ -189,6 +189,9 @@ class DiscriminatorChannelParams(PluginParams):
         "eml-envelope", description="code discriminator plugin")
     freq_discriminator: PluginRef("discriminator", unit="Hz") = Field(
         "cross-product", description="frequency discriminator plugin")
+    fixed_r_cn0_dbhz: float | None = Field(
+        None, ge=15, le=60, description="give the nav filter the thermal variances at this fixed C/N0 (a fixed R "
+        "tuned once, e.g. at 45 dB-Hz) instead of at the channel's C/N0; null: the channel's C/N0")
 
 
 class DiscriminatorChannel(ChannelFilter):
@@ -199,6 +202,11 @@ class DiscriminatorChannel(ChannelFilter):
     channel's C/N0 (given in the context as ``cn0_dbhz``; a receiver would use its C/N0
     estimate). The first interval has no previous prompt: its frequency output is 0 with
     a variance of 1e8 Hz². Known data bits are wiped off.
+
+    With ``fixed_r_cn0_dbhz`` the variances are those at that C/N0 whatever the signal:
+    a fixed R tuned once (reference 000 does not state its baseline's R; a fixed R tuned
+    on a strong signal is the common practice it most likely followed). Below that C/N0
+    the nav filter then trusts the discriminators too much.
     """
 
     name = "discriminator"
@@ -216,6 +224,8 @@ class DiscriminatorChannel(ChannelFilter):
             raise ConfigError("channel_filter 'discriminator'", "needs a code discriminator (chips) and a frequency "
                               f"discriminator (Hz), got {self.code.unit} and {self.freq.unit}")
         cn0 = np.broadcast_to(np.asarray(context["cn0_dbhz"], float), batch_shape)
+        if self.params.fixed_r_cn0_dbhz is not None:
+            cn0 = np.full(batch_shape, self.params.fixed_r_cn0_dbhz)
         self.var_code = np.broadcast_to(self.code.noise_variance(cn0), batch_shape)
         self.var_freq = np.broadcast_to(self.freq.noise_variance(cn0), batch_shape)
         self.previous = None
@@ -240,6 +250,8 @@ class IqFilterParams(PluginParams):
     estimator: PluginRef("estimator", check=handles_nonlinear) = Field("svd-ckf", description="estimator plugin: svd-ckf, ckf or ukf")
     adapter: PluginRef("noise_adapter") | None = Field(
         "innovation", description="noise adapter plugin for R, or null for none")
+    adaptive: bool = Field(True, description="re-estimate R with the adapter; false keeps R at the correlators' "
+                           "true noise covariance (the same as adapter = null, which TOML cannot write)")
     window: int = Field(20, ge=2, description="window L of the innovation adapter")
     warmup: int = Field(20, ge=0, description="updates before R adaptation starts")
     q: list[float] = Field([1e-3, 1e-8, 1e-5, 1e-4, 1e-2],
@@ -323,7 +335,7 @@ class IqFilter(ChannelFilter):
                               "or null")
         self.engine = p.estimator.create()
         self.adapter = None
-        if p.adapter:
+        if p.adapter and p.adaptive:
             # window and warmup are this filter's; the adapter's own params win over them.
             self.adapter = p.adapter.create(warmup=p.warmup, window=p.window, **p.adapter.params)
 
