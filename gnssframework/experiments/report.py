@@ -90,11 +90,19 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
     for case in config.cases:
         # Time series: the median over runs of each metric's per-epoch error.
         fig, axes = plt.subplots(len(metrics), 1, figsize=(7, 2.0 * len(metrics)), sharex=True, squeeze=False)
+        bounds = getattr(get_scenario(config.scenario), "bounds", {})
         for cand in config.candidates:
             time_s, series = _load_series(out, case.name, cand.name)
             for ax, metric in zip(axes[:, 0], metrics):
                 if metric in series and time_s is not None and time_s.size:
                     ax.plot(time_s, np.median(series[metric], axis=-1), lw=0.8, label=cand.name)
+        # A scenario's lower bound of an error metric (e.g. the PCRB) as a dashed line.
+        time_s, series = _load_series(out, case.name, config.candidates[0].name)
+        for ax, metric in zip(axes[:, 0], metrics):
+            bound = bounds.get(metric)
+            if bound in series and time_s is not None and time_s.size:
+                ax.plot(time_s, np.median(series[bound], axis=-1), "k--", lw=0.8, label=bound)
+                ax.legend(fontsize=6)
         for ax, metric in zip(axes[:, 0], metrics):
             unit = next(r["unit"] for r in rows if r["metric"] == metric)
             ax.set_ylabel(f"{metric}\n({unit})", fontsize=7)
