@@ -313,6 +313,34 @@ class IqFilter(ChannelFilter):
     subtracted from $\\delta\\tau$ and $\\delta f$ before each prediction, so the states
     stay relative to the replica actually in use.
 
+    Output modes (``output``), i.e. what the nav filter is handed, and their
+    consistency in the vector loop (reference 000's scenario, 45 and 30 dB-Hz; see the
+    docs page of that experiment):
+
+    - ``split`` (default): the code error from the code discriminator with its thermal
+      variance at the channel's C/N0 (``split_code = "discriminator"``) or from this
+      interval's new information (``"new-information"``), and the CKF's filtered
+      frequency estimate with its variance. Consistent: position and velocity NEES
+      about 3 each. The filtered frequency is correlated over a few intervals only,
+      short against the nav filter's velocity memory, so it is not double counted.
+    - ``filtered``: the filtered code and frequency estimates with their variances,
+      as in the paper. Inconsistent: the filtered code error is correlated over
+      ~150 intervals and counted again every interval; position NEES in the thousands
+      (the velocity NEES stays about 3).
+    - ``equivalent``: the measurement that carries exactly this interval's information
+      on the $(\\delta\tau, \\delta f)$ marginal (`_equivalent_measurement`). Consistent
+      in code; one interval says almost nothing about the frequency, so the frequency
+      gain is lost.
+    - ``reset``: after each output the filter forgets $\\delta\tau$ and $\\delta f$ (mean
+      0 relative to the new replica, initial variance, no cross-covariance) and the
+      innovation adapter's window restarts (otherwise the large post-reset spread makes
+      eq. 31 collapse R to its floor). Its filtered outputs are then nearly white, but
+      the frequency comes from two intervals of phase, like an FLL, and the code output
+      still leans on the reset prior (position NEES 150 at 30 dB-Hz measured).
+
+    With ``clock`` set, Q adds the oscillator's noise on code, phase and frequency from
+    its h-parameters (`process_noise`).
+
     Data bits: with ``data_bit`` in the inputs the correlators are wiped off.
     Otherwise the bit is decided from the sign of the prompt projected on the predicted
     carrier phase (decision-directed). A wrong decision rotates the phase by $\\pi$
