@@ -328,10 +328,10 @@ class IqFilter(ChannelFilter):
       ~150 intervals and counted again every interval; position NEES in the thousands
       (the velocity NEES stays about 3).
     - ``equivalent``: the measurement that carries exactly this interval's information
-      on the $(\\delta\tau, \\delta f)$ marginal (`_equivalent_measurement`). Consistent
+      on the $(\\delta\\tau, \\delta f)$ marginal (`_equivalent_measurement`). Consistent
       in code; one interval says almost nothing about the frequency, so the frequency
       gain is lost.
-    - ``reset``: after each output the filter forgets $\\delta\tau$ and $\\delta f$ (mean
+    - ``reset``: after each output the filter forgets $\\delta\\tau$ and $\\delta f$ (mean
       0 relative to the new replica, initial variance, no cross-covariance) and the
       innovation adapter's window restarts (otherwise the large post-reset spread makes
       eq. 31 collapse R to its floor). Its filtered outputs are then nearly white, but
