@@ -47,8 +47,9 @@ class VectorTrackingParams(ScenarioParams):
     settle_s: float = Field(1.0, ge=0, description="metrics ignore the first settle_s seconds")
     pcrb: bool = Field(True, description="compute the posterior Cramér-Rao bound (pcrb_position, pcrb_velocity); "
                        "it assumes a static or constant-velocity receiver, so not with a trajectory_file")
-    steady_state_s: float = Field(10.0, ge=0, description="position_steady_error_rmse counts from this time on "
-                                  "(after the nav filter's position has converged)")
+    steady_state_s: float | None = Field(None, ge=0, description="position_steady_error_rmse counts from this "
+                                         "time on (after the nav filter's position has converged); null: a third "
+                                         "of the run, at least settle_s")
 
 
 class VectorTrackingCase(ScenarioParams):
@@ -88,7 +89,7 @@ class VectorTrackingScenario(Scenario):
         if params.pcrb and params.trajectory_file:
             raise ConfigError("scenario.pcrb", "the bound assumes a static or constant-velocity receiver; set "
                               "pcrb = false with a trajectory_file")
-        if not params.settle_s <= params.steady_state_s < params.duration_s:
+        if params.steady_state_s is not None and not params.settle_s <= params.steady_state_s < params.duration_s:
             raise ConfigError("scenario.steady_state_s", f"must be at least settle_s = {params.settle_s} and less "
                               f"than duration_s = {params.duration_s} (got {params.steady_state_s})")
 
@@ -162,7 +163,8 @@ class VectorTrackingScenario(Scenario):
             _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0)
             series["pcrb_position"] = np.repeat(bound_pos[:, None], runs, axis=1)
             series["pcrb_velocity"] = np.repeat(bound_vel[:, None], runs, axis=1)
-        return BatchResult(vector_metrics(series, rec.time_s, p.settle_s, p.steady_state_s), series, rec.time_s)
+        steady = p.steady_state_s if p.steady_state_s is not None else max(p.settle_s, p.duration_s / 3)
+        return BatchResult(vector_metrics(series, rec.time_s, p.settle_s, steady), series, rec.time_s)
 
     def bound(self, cn0_dbhz: float, P0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The PCRB of this scenario at ``cn0_dbhz`` (`gnssframework.receiver.pcrb.vector_tracking_pcrb`):
