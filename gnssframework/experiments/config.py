@@ -80,6 +80,8 @@ class ComparisonConfig(_Strict):
     cases: list[Case] = Field(..., min_length=1)
     candidates: list[Candidate] = Field(..., min_length=1)
     metrics: list[str] = Field(default_factory=list, description="metrics to report (default: all of the scenario)")
+    reference: str | None = Field(None, description="candidate the others are compared with (paired differences); "
+                                  "default: the first candidate")
     published: dict[str, dict[str, dict[str, float]]] = Field(
         default_factory=dict, description="published values: case -> candidate -> metric -> value")
 
@@ -106,6 +108,9 @@ class ComparisonConfig(_Strict):
             scenario.check_candidate(cand.components(), f"candidates[{i}]")
         case_names = {c.name for c in self.cases}
         cand_names = {c.name for c in self.candidates}
+        if self.reference is not None and self.reference not in cand_names:
+            raise ConfigError("reference", f"got {self.reference!r}; allowed: the candidates' names "
+                              f"{', '.join(c.name for c in self.candidates)}")
         for case, per_cand in self.published.items():
             if case not in case_names:
                 raise ConfigError(f"published.{case}", f"unknown case; allowed: {', '.join(sorted(case_names))}")
@@ -120,6 +125,11 @@ class ComparisonConfig(_Strict):
         return self
 
     @property
+    def reference_name(self) -> str:
+        """The candidate paired differences are taken against (``reference``, default the first)."""
+        return self.reference or self.candidates[0].name
+
+    @property
     def metric_names(self) -> list[str]:
         from .scenarios import get_scenario
 
@@ -130,7 +140,8 @@ class ComparisonConfig(_Strict):
 
         A store keyed by it lets a longer or interrupted comparison reuse finished batches.
         """
-        data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name"})
+        data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
+                                        "reference"})
         return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
