@@ -99,9 +99,10 @@ class ComparisonConfig(_Strict):
         from .scenarios import get_scenario
 
         scenario = get_scenario(self.scenario)  # raises ConfigError naming scenario.kind / field
-        unknown = [m for m in self.metrics if m not in scenario.metrics]
-        if unknown:
-            raise ConfigError("metrics", f"unknown {', '.join(map(repr, unknown))}; allowed: {', '.join(scenario.metrics)}")
+        from .metrics import check_metric
+
+        for i, metric in enumerate(self.metrics):  # the scenario's own or a metric component's
+            check_metric(metric, scenario, f"metrics[{i}]")
         for i, case in enumerate(self.cases):
             scenario.check_case(case.params(), f"cases[{i}]")
         for i, cand in enumerate(self.candidates):
@@ -119,9 +120,9 @@ class ComparisonConfig(_Strict):
                     raise ConfigError(f"published.{case}.{cand}",
                                       f"unknown candidate; allowed: {', '.join(sorted(cand_names))}")
                 for metric in values:
-                    if metric not in scenario.metrics:
+                    if metric not in self.metric_names:
                         raise ConfigError(f"published.{case}.{cand}.{metric}",
-                                          f"unknown metric; allowed: {', '.join(scenario.metrics)}")
+                                          f"unknown metric; allowed: {', '.join(self.metric_names)}")
         return self
 
     @property
@@ -135,6 +136,22 @@ class ComparisonConfig(_Strict):
 
         return self.metrics or list(get_scenario(self.scenario).metrics)
 
+    @property
+    def metric_units(self) -> dict[str, str]:
+        """Unit of every reported metric (the scenario's or the metric component's)."""
+        from .metrics import check_metric
+        from .scenarios import get_scenario
+
+        scenario = get_scenario(self.scenario)
+        return {m: check_metric(m, scenario, "metrics") for m in self.metric_names}
+
+    def component_metrics(self) -> list[str]:
+        """The reported metrics computed by metric components (not by the scenario itself)."""
+        from .scenarios import get_scenario
+
+        own = get_scenario(self.scenario).metrics
+        return [m for m in self.metric_names if m not in own]
+
     def identity(self) -> str:
         """Hash of everything that changes the numbers (not runs, executor or description).
 
@@ -142,6 +159,9 @@ class ComparisonConfig(_Strict):
         """
         data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
                                         "reference"})
+        extra = self.component_metrics()
+        if extra:  # the stored rows must hold them; a config without components keeps its old key
+            data["metric_components"] = sorted(extra)
         return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 

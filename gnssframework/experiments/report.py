@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 
 from .config import ComparisonConfig
-from .scenarios import get_scenario
 from .stats import SIGNIFICANCE_RULE, paired_rows
 from .store import ResultStore
 
@@ -17,7 +16,7 @@ __all__ = ["write_report", "summary_rows"]
 
 def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
     """One row per case, candidate and metric: mean and std over runs, unit, published value."""
-    scenario = get_scenario(config.scenario)
+    units = config.metric_units
     key = config.identity()
     rows = []
     for case in config.cases:
@@ -31,7 +30,7 @@ def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
                     "mean": float(np.mean(v)) if v.size else None,
                     "std": float(np.std(v, ddof=1)) if v.size > 1 else 0.0,
                     "runs": int(v.size),
-                    "unit": scenario.metrics[metric],
+                    "unit": units[metric],
                     "published": config.published.get(case.name, {}).get(cand.name, {}).get(metric),
                 })
     return rows
