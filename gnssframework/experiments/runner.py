@@ -65,7 +65,18 @@ def run_task(config_data: dict[str, Any], task: Task) -> tuple[Task, dict[str, n
     plugins = scenario.build({k: v.model_dump() for k, v in candidate.components().items()})
     rng = batch_rng(config.seed, task.case_index, task.batch)
     result = scenario.run_batch({"name": case.name, **case.params()}, plugins, task.runs, rng)
-    return task, result.metrics, result.series, result.time_s
+    metrics, series = dict(result.metrics), dict(result.series)
+    for name in config.component_metrics():  # metric components: computed once, here
+        from .metrics import metric_plugin
+
+        value = metric_plugin(name)().compute(result.series, result.time_s, scenario)
+        metrics[name] = np.asarray(value.value, dtype=float)
+        if metrics[name].shape != (task.runs,):
+            raise GnssFrameworkError(f"metric {name!r} returned shape {metrics[name].shape}, expected "
+                                     f"({task.runs},) (one value per run)")
+        if value.series is not None:
+            series[name] = value.series
+    return task, metrics, series, result.time_s
 
 
 def _where(config_data: dict[str, Any], task: Task) -> str:
