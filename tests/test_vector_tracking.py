@@ -60,6 +60,12 @@ def test_ekf_pv_is_consistent_when_fed_measurements_with_the_stated_noise(monkey
     rec = run_vector_loop(oracle, nav, truth, x0, P0, rng)
     nees = rec.nees[100:].mean()
     assert 7.0 < nees < 9.5
+    # The 3-dim blocks average 3 each (measured 2.6 and 3.0), and the output errors the
+    # harness records are exactly the oracle's added noise: RMS 0.01 chips and 0.5 Hz.
+    assert 2.3 < rec.nees_position[100:].mean() < 3.7
+    assert 2.3 < rec.nees_velocity[100:].mean() < 3.7
+    assert np.sqrt(np.mean(rec.code_output_error_chips**2)) == pytest.approx(0.01, rel=0.02)
+    assert np.sqrt(np.mean(rec.freq_output_error_hz**2)) == pytest.approx(0.5, rel=0.02)
 
 
 @pytest.fixture(scope="module")
@@ -182,3 +188,28 @@ def test_ekf_pv_converts_channel_errors_to_range_units():
     assert out["clock_m"][1] - x0[7] == pytest.approx(-c / f_l1 * df_hz, rel=1e-4)
     assert CA_CHIP_LENGTH_M == pytest.approx(c / f_code, rel=1e-12)
     assert L1_WAVELENGTH_M == pytest.approx(c / f_l1, rel=1e-12)
+
+
+def test_vector_metrics_on_hand_built_series():
+    from gnssframework.experiments.scenarios.vector_tracking import vector_metrics
+
+    t = np.array([0.5, 1.5, 2.5, 3.5])  # settle 1 s: the last three epochs; steady 3 s: the last one
+    one = np.ones((4, 2))
+    pos = np.array([[100.0, 100.0], [3.0, 0.0], [4.0, 0.0], [0.0, 6.0]])
+    nees = np.array([[1e6, 1e6], [1.0, 2.0], [2.0, 4.0], [3.0, 6.0]])
+    series = {"code_phase_error_rmse": 0.01 * one, "carrier_freq_error_rmse": 2.0 * one,
+              "position_error_rmse": pos, "velocity_error_rmse": pos / 10, "nees": nees, "nees_position": nees / 2,
+              "nees_velocity": nees / 4, "code_output_rmse": 0.03 * one, "freq_output_rmse": 5.0 * one,
+              "pcrb_position": one}
+    m = vector_metrics(series, t, settle_s=1.0, steady_state_s=3.0)
+    # RMS over epochs 2-4: sqrt((9 + 16 + 0) / 3) and sqrt(36 / 3); NEES: plain means.
+    np.testing.assert_allclose(m["position_error_rmse"], [np.sqrt(25 / 3), np.sqrt(12.0)])
+    np.testing.assert_allclose(m["velocity_error_rmse"], [np.sqrt(25 / 3) / 10, np.sqrt(12.0) / 10])
+    np.testing.assert_allclose(m["position_steady_error_rmse"], [0.0, 6.0])
+    np.testing.assert_allclose(m["nees"], [2.0, 4.0])
+    np.testing.assert_allclose(m["nees_position"], [1.0, 2.0])
+    np.testing.assert_allclose(m["nees_velocity"], [0.5, 1.0])
+    np.testing.assert_allclose(m["code_output_rmse"], [0.03, 0.03])
+    np.testing.assert_allclose(m["freq_output_rmse"], [5.0, 5.0])
+    np.testing.assert_allclose(m["pcrb_position"], [1.0, 1.0])
+    assert "pcrb_velocity" not in m

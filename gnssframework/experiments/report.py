@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import ComparisonConfig
+from .scenarios import get_scenario
 from .stats import SIGNIFICANCE_RULE, paired_rows
 from .store import ResultStore
 

@@ -18,6 +18,7 @@ from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
+from ..metrics import nees_mean, rmse, settled
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["VectorTrackingScenario", "vector_metrics"]
@@ -192,22 +193,18 @@ def vector_metrics(series: dict[str, np.ndarray], time_s: np.ndarray, settle_s: 
     are the RMS errors of what the channel filters hand the nav filter (the quantity
     reference 000 plots as code and frequency error).
     """
-    s = time_s >= settle_s
-    steady = time_s >= steady_state_s
+    s = settled(time_s, settle_s, len(time_s))
+    steady = settled(time_s, steady_state_s, len(time_s))
     if not s.any() or not steady.any():
         raise ConfigError("scenario.settle_s", f"settle_s = {settle_s} and steady_state_s = {steady_state_s} "
                           f"must be below the run's last epoch at {time_s[-1]:.3f} s")
-
-    def rms(x, window):
-        return np.sqrt(np.mean(x[window] ** 2, axis=0))
-
-    out = {name: rms(series[name], s) for name in ("code_phase_error_rmse", "carrier_freq_error_rmse",
-                                                  "position_error_rmse", "velocity_error_rmse",
-                                                  "code_output_rmse", "freq_output_rmse")}
-    out["position_steady_error_rmse"] = rms(series["position_error_rmse"], steady)
+    out = {name: rmse(series[name], s) for name in ("code_phase_error_rmse", "carrier_freq_error_rmse",
+                                                   "position_error_rmse", "velocity_error_rmse",
+                                                   "code_output_rmse", "freq_output_rmse")}
+    out["position_steady_error_rmse"] = rmse(series["position_error_rmse"], steady)
     for name in ("nees", "nees_position", "nees_velocity"):
-        out[name] = np.mean(series[name][s], axis=0)
+        out[name] = nees_mean(series[name], mask=s)
     for name in ("pcrb_position", "pcrb_velocity"):  # RMS bound over the same window as the errors
         if name in series:
-            out[name] = rms(series[name], s)
+            out[name] = rmse(series[name], s)
     return out
