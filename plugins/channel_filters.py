@@ -385,6 +385,10 @@ class IqFilter(ChannelFilter):
         if self.params.output == "split" and self.params.split_code == "discriminator":
             self.code_disc = self.params.code_discriminator.create(coherent_time_s=T,
                                                                    early_late_spacing_chips=2 * d)
+            if context.get("cn0_dbhz") is None:
+                raise ConfigError("channel_filter 'iq-filter'.split_code", "'discriminator' needs the channel's "
+                                  "C/N0 (run context cn0_dbhz) for the discriminator's variance; this harness gives "
+                                  "none: use split_code = 'new-information'")
             cn0 = np.broadcast_to(np.asarray(context["cn0_dbhz"], float), batch_shape)
             self.code_var = np.broadcast_to(self.code_disc.noise_variance(cn0), batch_shape)
 

@@ -213,3 +213,11 @@ def test_vector_metrics_on_hand_built_series():
     np.testing.assert_allclose(m["freq_output_rmse"], [5.0, 5.0])
     np.testing.assert_allclose(m["pcrb_position"], [1.0, 1.0])
     assert "pcrb_velocity" not in m
+
+
+def test_split_output_without_a_cn0_says_what_to_do():
+    f = gf.registry.create("channel_filter", "iq-filter")
+    with pytest.raises(gf.errors.ConfigError, match="split_code = 'new-information'"):
+        f.reset((2, 3), coherent_time_s=0.01)
+    f = gf.registry.create("channel_filter", "iq-filter", split_code="new-information")
+    f.reset((2, 3), coherent_time_s=0.01)  # needs no C/N0
