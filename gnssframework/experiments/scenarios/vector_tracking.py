@@ -46,8 +46,9 @@ class VectorTrackingParams(ScenarioParams):
     initial_position_std_m: float = Field(3.0, gt=0)
     initial_velocity_std_m_s: float = Field(0.3, gt=0)
     settle_s: float = Field(1.0, ge=0, description="metrics ignore the first settle_s seconds")
-    pcrb: bool = Field(True, description="compute the posterior Cramér-Rao bound (pcrb_position, pcrb_velocity); "
-                       "it assumes a static or constant-velocity receiver, so not with a trajectory_file")
+    pcrb: bool | None = Field(None, description="compute the posterior Cramér-Rao bound (pcrb_position, "
+                              "pcrb_velocity); it assumes a static or constant-velocity receiver. null: yes, "
+                              "unless a trajectory_file is given")
     steady_state_s: float | None = Field(None, ge=0, description="position_steady_error_rmse counts from this "
                                          "time on (after the nav filter's position has converged); null: a third "
                                          "of the run, at least settle_s")
@@ -87,7 +88,7 @@ class VectorTrackingScenario(Scenario):
         super().__init__(params)
         if params.clock not in PRESETS:
             raise ConfigError("scenario.clock", f"got {params.clock!r}; allowed: {', '.join(PRESETS)}")
-        if params.pcrb and params.trajectory_file:
+        if params.pcrb is True and params.trajectory_file:
             raise ConfigError("scenario.pcrb", "the bound assumes a static or constant-velocity receiver; set "
                               "pcrb = false with a trajectory_file")
         if params.steady_state_s is not None and not params.settle_s <= params.steady_state_s < params.duration_s:
@@ -160,7 +161,7 @@ class VectorTrackingScenario(Scenario):
         series = {"code_phase_error_rmse": code, "carrier_freq_error_rmse": freq, "position_error_rmse": pos,
                   "velocity_error_rmse": vel, "nees": rec.nees, "nees_position": rec.nees_position,
                   "nees_velocity": rec.nees_velocity, "code_output_rmse": code_out, "freq_output_rmse": freq_out}
-        if p.pcrb:
+        if p.pcrb or (p.pcrb is None and not p.trajectory_file):
             _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0)
             series["pcrb_position"] = np.repeat(bound_pos[:, None], runs, axis=1)
             series["pcrb_velocity"] = np.repeat(bound_vel[:, None], runs, axis=1)
