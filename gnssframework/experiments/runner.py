@@ -5,6 +5,10 @@ every random number from ``numpy.random.default_rng(SeedSequence([seed, i, b]))`
 every candidate of that case and batch gets the same generator (common random numbers:
 the candidates see the same signals and noise). So the same seed and batch size give the
 same numbers on any executor, in any order of completion, and after a resume.
+
+Sweeps (``[[sweeps]]``): every point is the comparison with one value changed, run with
+the same seed, so the points share their random numbers too; each point is stored under
+its own identity in the same store and resumes like the comparison.
 """
 
 from __future__ import annotations
