@@ -192,3 +192,38 @@ def test_the_schema_validates_sweeps(tmp_path):
                 {"values": [1]}, {"path": "scenario.psi", "values": [1], "colour": 2}):
         data["sweeps"] = [bad]
         assert not validator.is_valid(data), bad
+
+
+def test_a_sweep_over_a_non_numeric_parameter_is_drawn_as_categories(tmp_path):
+    text = """
+runs = 2
+batch_size = 2
+[executor]
+workers = 1
+[scenario]
+kind = "vector-tracking"
+duration_s = 0.2
+channels = 4
+settle_s = 0.05
+[[cases]]
+name = "c"
+cn0_dbhz = 40.0
+[[candidates]]
+name = "disc"
+channel_filter = { name = "discriminator" }
+nav_filter = { name = "ekf-pv" }
+[[sweeps]]
+path = "scenario.clock"
+values = ["ocxo", "tcxo"]
+"""
+    path = tmp_path / "v.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=r"sweeps\[0\].values\[1\]: scenario.clock = 'rubidium'"):
+        bad = tmp_path / "bad.toml"
+        bad.write_text(text.replace('"tcxo"', '"rubidium"'))
+        load_config(bad)
+    summary = _strict(run_comparison(load_config(path), tmp_path / "out", progress=False))
+    rows = {(r["value"], r["metric"]): r for r in summary["sweeps"][0]["rows"]}
+    # The clock changes the numbers (a TCXO's frequency jitter is larger than an OCXO's).
+    assert rows[("tcxo", "carrier_freq_error_rmse")]["mean"] != rows[("ocxo", "carrier_freq_error_rmse")]["mean"]
+    assert (tmp_path / "out" / "plots" / "sweep-clock-c.png").stat().st_size > 1000
