@@ -1,4 +1,4 @@
-"""Run the four reference comparisons and copy their figures into docs/img/experiments/.
+"""Run the four reference comparisons (and the sweep demo) and copy their figures into docs/img/experiments/.
 
     python docs/make_experiment_plots.py
 
@@ -15,7 +15,7 @@ from gnssframework.experiments import load_config, run_comparison
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "img" / "experiments"
-EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath")
+EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath", "sweep_demo")
 
 
 def main() -> None:

@@ -242,3 +242,32 @@ nav_filter = { name = "ekf-pv" }
 
 def test_comparison_config_has_reference_in_schema():
     assert "reference" in ComparisonConfig.model_json_schema()["properties"]
+
+
+def test_paired_difference_agrees_with_scipys_paired_t_test():
+    """scipy.stats.ttest_rel as an independent oracle: same interval, and significant
+    exactly when its two-sided p-value is below 0.05."""
+    from scipy import stats as sps
+
+    rng = np.random.default_rng(8)
+    seen = set()
+    for trial in range(200):
+        n = int(rng.integers(2, 40))
+        common = rng.standard_normal(n) * 3
+        x = 5 + common + rng.standard_normal(n)
+        y = 5 + common + rng.standard_normal(n) + rng.uniform(-1, 1) * 2 / np.sqrt(n)
+        pd = paired_difference(x, y)
+        test = sps.ttest_rel(x, y)
+        lo, hi = test.confidence_interval(0.95)
+        assert pd.ci95 == pytest.approx((lo, hi), rel=1e-9, abs=1e-12)
+        assert pd.significant == (test.pvalue < 0.05)
+        seen.add(pd.significant)
+    assert seen == {True, False}  # both outcomes were exercised
+
+
+def test_swapping_candidate_and_reference_negates_the_difference():
+    rng = np.random.default_rng(9)
+    x, y = rng.random(7), rng.random(7)
+    a, b = paired_difference(x, y), paired_difference(y, x)
+    assert a.diff == pytest.approx(-b.diff) and a.se == pytest.approx(b.se) and a.significant == b.significant
+    assert a.ratio == pytest.approx(1 / b.ratio)

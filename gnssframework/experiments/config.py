@@ -14,13 +14,14 @@ import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator, model_validator
 
 from ..errors import ConfigError, DataFileError
 from ..hookspecs import COMPONENT_KINDS
 from ..plugin import validation_message
+from .sweeps import Sweep, check_unique_labels, expand_sweep
 
-__all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "load_config"]
+__all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "load_config"]
 
 
 class _Strict(BaseModel):
@@ -82,6 +83,8 @@ class ComparisonConfig(_Strict):
     metrics: list[str] = Field(default_factory=list, description="metrics to report (default: all of the scenario)")
     reference: str | None = Field(None, description="candidate the others are compared with (paired differences); "
                                   "default: the first candidate")
+    sweeps: list[Sweep] = Field(default_factory=list, description="parameters varied one at a time over a list "
+                                "or range of values (each point runs every case and candidate)")
     published: dict[str, dict[str, dict[str, float]]] = Field(
         default_factory=dict, description="published values: case -> candidate -> metric -> value")
 
@@ -123,7 +126,18 @@ class ComparisonConfig(_Strict):
                     if metric not in self.metric_names:
                         raise ConfigError(f"published.{case}.{cand}.{metric}",
                                           f"unknown metric; allowed: {', '.join(self.metric_names)}")
+        if self.sweeps:
+            check_unique_labels(self.sweeps)
+            self._points = {i: expand_sweep(self, i) for i in range(len(self.sweeps))}  # validates every value
         return self
+
+    _points: dict[int, list] = PrivateAttr(default_factory=dict)
+
+    def sweep_points(self, index: int) -> list[tuple[Any, "ComparisonConfig"]]:
+        """``(value, config)`` of every point of ``sweeps[index]`` (see ``sweeps.expand_sweep``)."""
+        if index not in self._points:
+            self._points[index] = expand_sweep(self, index)
+        return self._points[index]
 
     @property
     def reference_name(self) -> str:
@@ -158,7 +172,7 @@ class ComparisonConfig(_Strict):
         A store keyed by it lets a longer or interrupted comparison reuse finished batches.
         """
         data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
-                                        "reference"})
+                                        "reference", "sweeps"})
         extra = self.component_metrics()
         if extra:  # the stored rows must hold them; a config without components keeps its old key
             data["metric_components"] = sorted(extra)

@@ -72,6 +72,11 @@ def rmse(err: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
 
     ``err`` is ``(K, runs)``; a vector error ``(K, runs, d)`` is reduced with its norm
     first, ``sqrt(mean_k |e_k|^2)``. Returns ``(runs,)``.
+
+    Examples
+    --------
+    >>> rmse(np.array([[3.0], [4.0]])).round(4).tolist()
+    [3.5355]
     """
     e = _select(err, mask, "rmse")
     sq = e**2 if e.ndim <= 2 else np.sum(e**2, axis=tuple(range(2, e.ndim)))

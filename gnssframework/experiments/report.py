@@ -11,6 +11,7 @@ from .config import ComparisonConfig
 from .scenarios import get_scenario
 from .stats import SIGNIFICANCE_RULE, paired_rows
 from .store import ResultStore
+from .sweeps import write_sweeps
 
 __all__ = ["write_report", "summary_rows"]
 
@@ -160,10 +161,11 @@ def write_report(config: ComparisonConfig, store: ResultStore, out: Path) -> Pat
     """Write ``summary.json``, ``report.md`` and ``plots/`` into ``out``."""
     rows = summary_rows(config, store)
     paired = paired_rows(config, store)
+    sweeps, sweep_lines = write_sweeps(config, store, out)
     summary = out / "summary.json"
     summary.write_text(json.dumps({"name": config.name, "seed": config.seed, "rows": rows,
                                    "reference": config.reference_name, "significance_rule": SIGNIFICANCE_RULE,
-                                   "paired": paired}, indent=2))
-    (out / "report.md").write_text(_markdown(config, rows, paired))
+                                   "paired": paired, "sweeps": sweeps}, indent=2))
+    (out / "report.md").write_text(_markdown(config, rows, paired) + "\n".join(sweep_lines))
     _plots(config, rows, store, out)
     return summary

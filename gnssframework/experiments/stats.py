@@ -3,8 +3,8 @@
 Every candidate of a case sees the same signals and noise in every run (see
 :mod:`gnssframework.experiments.runner`), so a candidate's advantage over a reference is
 measured by the per-run differences ``d_r = x_r - y_r``: their mean, with the standard
-error ``s_d / sqrt(n)`` of a paired comparison (Student 1908; any text on common random
-numbers, e.g. Law, *Simulation Modeling and Analysis*, ch. 10 and 11). When the runs of
+error ``s_d / sqrt(n)`` of a paired comparison (Student 1908; common random numbers:
+Law 2015, ch. 11). When the runs of
 two candidates are positively correlated, which common random numbers achieve, this is
 much smaller than the unpaired ``sqrt(s_x^2/n + s_y^2/n)``.
 
@@ -106,6 +106,12 @@ def paired_difference(candidate: np.ndarray, reference: np.ndarray, level: float
         ``diff = mean(x - y)``, ``se = std(x - y, ddof=1) / sqrt(n)``, the t-interval,
         the ratio of means ``mean(x) / mean(y)`` with its delta-method SE
         ``sqrt(var(x) - 2 R cov(x, y) + R^2 var(y)) / (mean(y) sqrt(n))``.
+
+    Examples
+    --------
+    >>> pd = paired_difference(np.array([1.0, 2.0, 3.0, 4.0]), np.array([0.5, 1.5, 2.0, 3.5]))
+    >>> pd.n, pd.diff, pd.se, pd.significant
+    (4, 0.625, 0.125, True)
     """
     x = np.asarray(candidate, dtype=float)
     y = np.asarray(reference, dtype=float)
