@@ -258,8 +258,8 @@ class IqFilterParams(PluginParams):
                            description="diagonal of Q per interval: A, dtau (chips), dtheta (rad), df (Hz), dfdot (Hz/s)")
     initial_std: list[float] = Field([2.0, 0.05, 0.3, 5.0, 5.0], description="initial std of the five states")
     output: Literal["split", "equivalent", "filtered", "reset"] = Field(
-        "split", description="what the nav filter gets: split (code from this interval's new information, "
-        "frequency filtered; consistent, the default), equivalent (both from this interval's new information), "
+        "split", description="what the nav filter gets: split (code from the discriminator or from this "
+        "interval's new information, see split_code; frequency filtered; consistent, the default), equivalent (both from this interval's new information), "
         "filtered (the paper's filtered estimates; counts old correlators again every interval), reset "
         "(filtered estimates from a prefilter reset after every output)")
     split_code: Literal["discriminator", "new-information"] = Field(
