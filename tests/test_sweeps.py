@@ -155,6 +155,7 @@ def test_a_sweep_runs_every_point_on_common_random_numbers_and_reports_it(tmp_pa
     assert len(table) == 2 * 2 * 5 and {r["apsi"] for r in table} == {"0.8", "0.9"}
     assert _strict(out / "sweeps" / "psi.json")["values"] == [0.5, 0.9, 0.99]
     assert (out / "plots" / "sweep-psi-only.png").stat().st_size > 1000
+    assert (out / "plots" / "sweep-psi-only-paired.png").stat().st_size > 1000
     report = (out / "report.md").read_text()
     assert "## Sweep `psi`: scenario.psi" in report and "plots/sweep-apsi-only.png" in report
 
