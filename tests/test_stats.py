@@ -271,3 +271,20 @@ def test_swapping_candidate_and_reference_negates_the_difference():
     a, b = paired_difference(x, y), paired_difference(y, x)
     assert a.diff == pytest.approx(-b.diff) and a.se == pytest.approx(b.se) and a.significant == b.significant
     assert a.ratio == pytest.approx(1 / b.ratio)
+
+
+class ForgetfulScenario(DrawsScenario):
+    kind = "test-forgetful"
+    metrics = {"value": "-", "declared_only": "-"}
+
+
+def test_a_scenario_that_does_not_return_a_declared_metric_is_named(tmp_path, scratch_registry):
+    from gnssframework.errors import GnssFrameworkError
+
+    module = types.SimpleNamespace(register_scenario=gf.hookimpl(lambda register: register(ForgetfulScenario)))
+    scratch_registry.register_module(module, "test-forgetful")
+    path = tmp_path / "f.toml"
+    path.write_text(DRAWS.replace('"test-draws"', '"test-forgetful"'))
+    with pytest.raises(GnssFrameworkError, match="'test-forgetful': run_batch did not return the declared "
+                                                 "metrics declared_only"):
+        run_comparison(load_config(path), tmp_path / "out", progress=False)
