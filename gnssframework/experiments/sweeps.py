@@ -15,7 +15,9 @@
 
 Paths: ``scenario.<field>``, ``cases.<field>`` (every case), ``cases.<case>.<field>``,
 ``candidates.<candidate>.<kind>.params.<field>`` (``kind`` may be left out when exactly
-one of the candidate's plugins has that parameter). The path must name a parameter of the
+one of the candidate's plugins has that parameter), and further into a nested plugin's
+parameters, ``...params.estimator.params.alpha`` (a nested plugin given by name is
+rewritten as ``{name, params}``). The path must name a parameter of the
 target's model, and every value is validated by that model when the config is loaded
 (a bad value is refused naming the sweep, the path and the field's rule).
 
@@ -154,9 +156,11 @@ def _resolve(config, sweep: Sweep, where: str) -> list[tuple[Any, ...]]:
 
 def _set(data: dict, keys: tuple[Any, ...], value: Any, path: str, field: str) -> None:
     node = data
-    for k in keys[:-1]:
+    for i, k in enumerate(keys[:-1]):
         if isinstance(node, dict) and k not in node and isinstance(k, str):
             node[k] = {}
+        if isinstance(node, dict) and isinstance(node.get(k), str) and keys[i + 1] == "params":
+            node[k] = {"name": node[k], "params": {}}  # a nested plugin given by name: its table form
         try:
             node = node[k]
         except (KeyError, IndexError, TypeError):
