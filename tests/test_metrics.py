@@ -7,6 +7,9 @@ import types
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 
 import gnssframework as gf
 from gnssframework.errors import ConfigError, PluginError
@@ -142,11 +145,6 @@ def test_a_metric_with_compute_left_abstract_is_refused(scratch_registry):
     assert "compute" in failure.error and "abstract" in failure.error
     with pytest.raises(PluginError):  # and directly
         scratch_registry._REGISTRY._add("metric", Incomplete, "x", "")
-
-
-from hypothesis import given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
-from hypothesis.extra.numpy import arrays  # noqa: E402
 
 
 @settings(max_examples=60, deadline=None)
