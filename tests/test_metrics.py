@@ -7,6 +7,9 @@ import types
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 
 import gnssframework as gf
 from gnssframework.errors import ConfigError, PluginError
@@ -142,3 +145,15 @@ def test_a_metric_with_compute_left_abstract_is_refused(scratch_registry):
     assert "compute" in failure.error and "abstract" in failure.error
     with pytest.raises(PluginError):  # and directly
         scratch_registry._REGISTRY._add("metric", Incomplete, "x", "")
+
+
+@settings(max_examples=60, deadline=None)
+@given(arrays(float, st.tuples(st.integers(1, 12), st.integers(1, 4)), elements=st.floats(-1e3, 1e3)),
+       st.floats(-10, 10))
+def test_helper_inequalities_and_scaling(err, c):
+    r = rmse(err)
+    assert np.all(r >= np.abs(np.mean(err, axis=0)) - 1e-9)            # RMS >= |mean|
+    assert np.allclose(rmse(c * err), abs(c) * r, rtol=1e-9, atol=1e-9)  # homogeneous of degree 1
+    assert np.all(max_after_settle(err, None, 0.0) >= r - 1e-9)        # max >= RMS over the same epochs
+    f = fraction(err > 0)
+    assert np.all((f >= 0) & (f <= 1))

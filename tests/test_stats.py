@@ -271,3 +271,50 @@ def test_swapping_candidate_and_reference_negates_the_difference():
     a, b = paired_difference(x, y), paired_difference(y, x)
     assert a.diff == pytest.approx(-b.diff) and a.se == pytest.approx(b.se) and a.significant == b.significant
     assert a.ratio == pytest.approx(1 / b.ratio)
+
+
+class ForgetfulScenario(DrawsScenario):
+    kind = "test-forgetful"
+    metrics = {"value": "-", "declared_only": "-"}
+
+
+def test_a_scenario_that_does_not_return_a_declared_metric_is_named(tmp_path, scratch_registry):
+    from gnssframework.errors import GnssFrameworkError
+
+    module = types.SimpleNamespace(register_scenario=gf.hookimpl(lambda register: register(ForgetfulScenario)))
+    scratch_registry.register_module(module, "test-forgetful")
+    path = tmp_path / "f.toml"
+    path.write_text(DRAWS.replace('"test-draws"', '"test-forgetful"'))
+    with pytest.raises(GnssFrameworkError, match="'test-forgetful': run_batch did not return the declared "
+                                                 "metrics declared_only"):
+        run_comparison(load_config(path), tmp_path / "out", progress=False)
+
+
+def test_the_significance_rule_marks_five_percent_of_null_differences():
+    """Monte Carlo: with no true difference, the 95 % t-interval rule marks 5 % of the
+    comparisons, also with few runs (where |d| > 2 SE alone would mark about 12 % at n = 5)."""
+    rng = np.random.default_rng(10)
+    reps, n = 4000, 5
+    common = rng.standard_normal((reps, 1)) * 4
+    x = common + rng.standard_normal((reps, n))
+    y = common + rng.standard_normal((reps, n))
+    out = [paired_difference(x[i], y[i]) for i in range(reps)]
+    rate = np.mean([p.significant for p in out])
+    assert abs(rate - 0.05) < 3 * np.sqrt(0.05 * 0.95 / reps)
+    two_se = np.mean([abs(p.diff) > 2 * p.se for p in out])  # P(|t_4| > 2) = 0.116
+    assert abs(two_se - 0.116) < 3 * np.sqrt(0.116 * 0.884 / reps)
+
+
+def test_ratio_se_matches_the_spread_of_the_ratio_over_replications():
+    """Monte Carlo check of the delta-method SE of the ratio of means on correlated runs."""
+    rng = np.random.default_rng(11)
+    reps, n = 1500, 40
+    common = rng.gamma(4.0, 1.0, (reps, n))
+    x = 1.2 * common + rng.gamma(2.0, 0.3, (reps, n))
+    y = common + rng.gamma(2.0, 0.3, (reps, n))
+    out = [paired_difference(x[i], y[i]) for i in range(reps)]
+    ratios = np.array([p.ratio for p in out])
+    se = np.array([p.ratio_se for p in out])
+    # The spread of the estimates and the typical predicted SE agree within 10 %
+    # (the SE of a std estimate from 1500 replications is about 2 %).
+    assert np.mean(se) == pytest.approx(np.std(ratios, ddof=1), rel=0.10)

@@ -155,6 +155,7 @@ def test_a_sweep_runs_every_point_on_common_random_numbers_and_reports_it(tmp_pa
     assert len(table) == 2 * 2 * 5 and {r["apsi"] for r in table} == {"0.8", "0.9"}
     assert _strict(out / "sweeps" / "psi.json")["values"] == [0.5, 0.9, 0.99]
     assert (out / "plots" / "sweep-psi-only.png").stat().st_size > 1000
+    assert (out / "plots" / "sweep-psi-only-paired.png").stat().st_size > 1000
     report = (out / "report.md").read_text()
     assert "## Sweep `psi`: scenario.psi" in report and "plots/sweep-apsi-only.png" in report
 
@@ -227,3 +228,34 @@ values = ["ocxo", "tcxo"]
     # The clock changes the numbers (a TCXO's frequency jitter is larger than an OCXO's).
     assert rows[("tcxo", "carrier_freq_error_rmse")]["mean"] != rows[("ocxo", "carrier_freq_error_rmse")]["mean"]
     assert (tmp_path / "out" / "plots" / "sweep-clock-c.png").stat().st_size > 1000
+
+
+def test_a_nested_plugin_parameter_can_be_swept_and_is_validated_by_its_model(tmp_path):
+    base = """
+runs = 2
+[scenario]
+kind = "vector-tracking"
+duration_s = 0.2
+channels = 4
+settle_s = 0.05
+[[cases]]
+name = "c"
+cn0_dbhz = 40.0
+[[candidates]]
+name = "iq"
+channel_filter = { name = "iq-filter", params = { estimator = "ukf" } }
+nav_filter = { name = "ekf-pv" }
+"""
+    config = _load(tmp_path, '[[sweeps]]\npath = "candidates.iq.channel_filter.params.estimator.params.alpha"\n'
+                             'values = [0.5, 1.0]\n', base)
+    (_, p0), (_, p1) = config.sweep_points(0)
+    assert p0.candidates[0].channel_filter.params["estimator"] == {"name": "ukf", "params": {"alpha": 0.5}}
+    assert p1.candidates[0].channel_filter.params["estimator"]["params"]["alpha"] == 1.0
+    with pytest.raises(ConfigError) as err:
+        _load(tmp_path, '[[sweeps]]\npath = "candidates.iq.channel_filter.params.estimator.params.alpha"\n'
+                        'values = [0.5, -1.0]\n', base)
+    assert err.value.field == "sweeps[0].values[1]" and "alpha" in str(err.value)
+    with pytest.raises(ConfigError) as err:
+        _load(tmp_path, '[[sweeps]]\npath = "candidates.iq.channel_filter.params.estimator.params.alfa"\n'
+                        'values = [0.5]\n', base)
+    assert err.value.field == "sweeps[0].values[0]" and "alfa" in str(err.value)

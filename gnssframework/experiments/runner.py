@@ -69,6 +69,12 @@ def run_task(config_data: dict[str, Any], task: Task) -> tuple[Task, dict[str, n
     plugins = scenario.build({k: v.model_dump() for k, v in candidate.components().items()})
     rng = batch_rng(config.seed, task.case_index, task.batch)
     result = scenario.run_batch({"name": case.name, **case.params()}, plugins, task.runs, rng)
+    missing = [m for m in config.metric_names if m in scenario.metrics and m not in result.metrics]
+    wrong = [f"{m} {np.shape(v)}" for m, v in result.metrics.items() if np.shape(v) != (task.runs,)]
+    if missing or wrong:  # a scenario's declared metrics and its run_batch must agree
+        raise GnssFrameworkError(f"scenario {scenario.kind!r}: run_batch " + "; ".join(
+            ([f"did not return the declared metrics {', '.join(missing)}"] if missing else [])
+            + ([f"returned metrics not of shape ({task.runs},): {', '.join(wrong)}"] if wrong else [])))
     metrics, series = dict(result.metrics), dict(result.series)
     for name in config.component_metrics():  # metric components: computed once, here
         from .metrics import metric_plugin

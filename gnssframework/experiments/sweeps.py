@@ -15,7 +15,9 @@
 
 Paths: ``scenario.<field>``, ``cases.<field>`` (every case), ``cases.<case>.<field>``,
 ``candidates.<candidate>.<kind>.params.<field>`` (``kind`` may be left out when exactly
-one of the candidate's plugins has that parameter). The path must name a parameter of the
+one of the candidate's plugins has that parameter), and further into a nested plugin's
+parameters, ``...params.estimator.params.alpha`` (a nested plugin given by name is
+rewritten as ``{name, params}``). The path must name a parameter of the
 target's model, and every value is validated by that model when the config is loaded
 (a bad value is refused naming the sweep, the path and the field's rule).
 
@@ -154,9 +156,11 @@ def _resolve(config, sweep: Sweep, where: str) -> list[tuple[Any, ...]]:
 
 def _set(data: dict, keys: tuple[Any, ...], value: Any, path: str, field: str) -> None:
     node = data
-    for k in keys[:-1]:
+    for i, k in enumerate(keys[:-1]):
         if isinstance(node, dict) and k not in node and isinstance(k, str):
             node[k] = {}
+        if isinstance(node, dict) and isinstance(node.get(k), str) and keys[i + 1] == "params":
+            node[k] = {"name": node[k], "params": {}}  # a nested plugin given by name: its table form
         try:
             node = node[k]
         except (KeyError, IndexError, TypeError):
@@ -285,6 +289,47 @@ def _plot(path: Path, config, sweep: dict, case: str) -> None:
     plt.close(fig)
 
 
+def _plot_paired(path: Path, config, sweep: dict, case: str) -> None:
+    """Each metric's paired difference to the reference against the parameter, with its
+    95 % paired t-interval (the interval the significance mark uses)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    values = sweep["values"]
+    numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+    xs = np.array(values, dtype=float) if numeric else np.arange(len(values), dtype=float)
+    metrics = config.metric_names
+    fig, axes = plt.subplots(len(metrics), 1, figsize=(6.5, 2.2 * len(metrics)), sharex=True, squeeze=False)
+    for ax, metric in zip(axes[:, 0], metrics):
+        for cand in config.candidates:
+            if cand.name == config.reference_name:
+                continue
+            rows = {p["value"]: p for p in sweep["paired"]
+                    if p["case"] == case and p["candidate"] == cand.name and p["metric"] == metric}
+            diff = np.array([np.nan if rows[v]["diff"] is None else rows[v]["diff"] for v in values], dtype=float)
+            lo = np.array([np.nan if rows[v]["ci95"] is None or rows[v]["ci95"][0] is None else rows[v]["ci95"][0]
+                           for v in values], dtype=float)
+            hi = np.array([np.nan if rows[v]["ci95"] is None or rows[v]["ci95"][1] is None else rows[v]["ci95"][1]
+                           for v in values], dtype=float)
+            line, = ax.plot(xs, diff, marker="o", ms=3, lw=1.0, label=f"{cand.name} - {config.reference_name}")
+            ax.fill_between(xs, lo, hi, color=line.get_color(), alpha=0.2, lw=0)
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_ylabel(f"Δ {metric}\n({config.metric_units[metric]})", fontsize=7)
+        ax.grid(alpha=0.3)
+    if not numeric:
+        axes[-1, 0].set_xticks(xs, [str(v) for v in values])
+    axes[-1, 0].set_xlabel(sweep["path"])
+    if axes[0, 0].get_legend_handles_labels()[0]:
+        axes[0, 0].legend(fontsize=7)
+    axes[0, 0].set_title(f"{config.name} - {case}: paired difference to {config.reference_name}, "
+                         "95 % paired t-interval", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
 def _markdown(config, sweep: dict) -> list[str]:
     ref = config.reference_name
     paired = {(p["value"], p["case"], p["candidate"], p["metric"]): p for p in sweep["paired"]}
@@ -294,8 +339,10 @@ def _markdown(config, sweep: dict) -> list[str]:
              f"Mean ± SE over runs; for candidates other than `{ref}`, the paired difference to it "
              "(**\\***: significant). Table: `sweeps/" + sweep["name"] + ".csv`.", ""]
     for case in sweep["cases"]:
-        lines += [f"### {case}", "", f"![sweep {sweep['name']}](plots/sweep-{sweep['name']}-{case}.png)", "",
-                  f"| {sweep['name']} | metric | " + " | ".join(names) + " |",
+        lines += [f"### {case}", "", f"![sweep {sweep['name']}](plots/sweep-{sweep['name']}-{case}.png)", ""]
+        if len(names) > 1:
+            lines += [f"![paired differences](plots/sweep-{sweep['name']}-{case}-paired.png)", ""]
+        lines += [f"| {sweep['name']} | metric | " + " | ".join(names) + " |",
                   "| --- | --- | " + " | ".join("---" for _ in names) + " |"]
         for metric in config.metric_names:
             for v in sweep["values"]:
@@ -330,6 +377,8 @@ def write_sweeps(config, store, out: Path) -> tuple[list[dict], list[str]]:
         (out / "sweeps" / f"{sweep['name']}.json").write_text(json.dumps(sweep, indent=2, allow_nan=False))
         for case in sweep["cases"]:
             _plot(out / "plots" / f"sweep-{sweep['name']}-{case}.png", config, sweep, case)
+            if len(config.candidates) > 1:
+                _plot_paired(out / "plots" / f"sweep-{sweep['name']}-{case}-paired.png", config, sweep, case)
         lines += _markdown(config, sweep)
     return sweeps, lines
 
