@@ -333,8 +333,10 @@ class IqFilter(ChannelFilter):
       gain is lost.
     - ``reset``: after each output the filter forgets $\\delta\\tau$ and $\\delta f$ (mean
       0 relative to the new replica, initial variance, no cross-covariance) and the
-      innovation adapter's window restarts (otherwise the large post-reset spread makes
-      eq. 31 collapse R to its floor). Its filtered outputs are then nearly white, but
+      innovation adapter's window restarts, so R stays at the correlators' true
+      covariance (without the restart the large post-reset spread drives eq. 31's R
+      down: to 0.2-0.75 of the true variances within 5 s at 30 dB-Hz, measured, with a
+      frequency output error of 3.4 instead of 2.2 Hz). Its filtered outputs are then nearly white, but
       the frequency comes from two intervals of phase, like an FLL, and the code output
       still leans on the reset prior (position NEES 150 at 30 dB-Hz measured).
 
