@@ -15,7 +15,8 @@ __all__ = ["write_report", "summary_rows"]
 
 
 def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
-    """One row per case, candidate and metric: mean and std over runs, unit, published value."""
+    """One row per case, candidate and metric: mean and std over the runs where the metric is
+    defined (``runs`` counts them), unit, published value."""
     scenario = get_scenario(config.scenario)
     key = config.identity()
     rows = []
@@ -23,6 +24,7 @@ def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
         for cand in config.candidates:
             for metric in config.metric_names:
                 v = store.values(key, case.name, cand.name, metric, config.runs)
+                v = v[np.isfinite(v)]  # a metric may be undefined in a run (e.g. no isolated slip): NaN
                 rows.append({
                     "case": case.name,
                     "candidate": cand.name,
