@@ -133,7 +133,8 @@ class MultipathScenario(Scenario):
         }
         t = epochs * p.dt_s
         # convergence_epoch's series: 1 while a run has not yet converged (its mean over
-        # runs is the fraction still unconverged at each epoch).
+        # runs is the fraction still unconverged at each epoch, its median drops to 0 when
+        # half the runs have converged).
         unconverged = (np.arange(horizontal.shape[0])[:, None] < conv[None, :]).astype(float)
         series = {"lat_error_mean": np.abs(lat), "lat_error_rmse": np.abs(lat), "lon_error_mean": np.abs(lon),
                   "lon_error_rmse": np.abs(lon), "horizontal_error_rmse": horizontal,
