@@ -61,3 +61,19 @@ def test_a_filtering_candidate_needs_both_nav_filter_and_estimator():
     with pytest.raises(gf.ConfigError, match=r"candidates\[0\]\.estimator"):
         ComparisonConfig.model_validate({"scenario": {"kind": "multipath"}, "cases": [{"name": "a"}],
                                           "candidates": [{"name": "x", "nav_filter": {"name": "position-ca"}}]})
+
+
+def test_the_papers_ukf_follows_the_measurements_with_slow_multipath():
+    # Q0 = diag(1, 0.1, 0.01) against R0 = 1: steady position gain 0.77, so with slow
+    # multipath the UKF's error is the raw measurement's (the paper's UKF row).
+    ukf = {"nav_filter": {"name": "position-ca", "params": {}},
+           "estimator": {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}}}
+    case = {"psi": 0.95}
+    raw = _run({}, case, runs=10, epochs=300).metrics["horizontal_error_rmse"]
+    filtered = _run(ukf, case, runs=10, epochs=300).metrics["horizontal_error_rmse"]
+    assert np.mean(filtered) == pytest.approx(np.mean(raw), rel=0.01)
+    # ... while the colored model does lower it (paired: same measurements).
+    colored = _run({**ukf, "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": "paper"}}}, case,
+                   runs=10, epochs=300).metrics["horizontal_error_rmse"]
+    d = colored - filtered
+    assert np.mean(d) < -3 * np.std(d, ddof=1) / np.sqrt(d.size)
