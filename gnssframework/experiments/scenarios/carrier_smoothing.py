@@ -5,7 +5,9 @@ Pseudorange = range + white thermal noise + AR(1) code multipath; carrier phase 
 range + integer ambiguity + white noise + random cycle slips. No ionosphere, so
 code-carrier divergence is zero: a smoother can average indefinitely between slips.
 A candidate composes a ``channel_filter`` (``hatch``, ``kf-smoother``), or nothing for
-the raw pseudorange.
+the raw pseudorange. A case may set its own slip probability. Slip recovery is measured
+on isolated slips only, and slips whose recovery the next slip cuts off are counted
+(``censored_slips``), not averaged.
 """
 
 from __future__ import annotations
