@@ -135,7 +135,7 @@ def test_config_errors_name_the_field_and_the_allowed_values(tmp_path, change, f
     (TINY.replace('kind = "vector-tracking"', 'kind = "vector"'), "scenario.kind: got 'vector'; allowed: "),
     (TINY.replace("duration_s = 0.4", "duration_s = -1"), "scenario.duration_s"),
     (TINY.replace("cn0_dbhz = 45.0", "cn0_dbhz = 90.0"), "cases[0].cn0_dbhz"),
-    ('metrics = ["rmse"]\n' + TINY, "metrics: unknown 'rmse'; allowed: code_phase_error_rmse"),
+    ('metrics = ["rmse"]\n' + TINY, "metrics[0]: unknown 'rmse'; allowed: code_phase_error_rmse"),
     (TINY.replace("[published.c45.disc]", "[published.c45.dsc]"), "published.c45.dsc: unknown candidate"),
     (TINY.replace('kind = "local"', 'kind = "cloud"'), "executor.kind"),
 ])

@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from .config import ComparisonConfig
-from .scenarios import get_scenario
+from .stats import SIGNIFICANCE_RULE, paired_rows
 from .store import ResultStore
+from .sweeps import write_sweeps
 
 __all__ = ["write_report", "summary_rows"]
 
@@ -17,7 +18,7 @@ __all__ = ["write_report", "summary_rows"]
 def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
     """One row per case, candidate and metric: mean and std over the runs where the metric is
     defined (``runs`` counts them), unit, published value."""
-    scenario = get_scenario(config.scenario)
+    units = config.metric_units
     key = config.identity()
     rows = []
     for case in config.cases:
@@ -32,7 +33,7 @@ def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
                     "mean": float(np.mean(v)) if v.size else None,
                     "std": float(np.std(v, ddof=1)) if v.size > 1 else 0.0,
                     "runs": int(v.size),
-                    "unit": scenario.metrics[metric],
+                    "unit": units[metric],
                     "published": config.published.get(case.name, {}).get(cand.name, {}).get(metric),
                 })
     return rows
@@ -44,7 +45,31 @@ def _fmt(x: float | None) -> str:
     return f"{x:.4g}"
 
 
-def _markdown(config: ComparisonConfig, rows: list[dict]) -> str:
+def _paired_markdown(config: ComparisonConfig, paired: list[dict], case: str, units: dict[str, str]) -> list[str]:
+    """The case's paired-difference table (candidate minus reference, per metric)."""
+    others = [c.name for c in config.candidates if c.name != config.reference_name]
+    if not others:
+        return []
+    lines = [f"Paired differences to `{config.reference_name}` (candidate minus reference, mean ± SE over "
+             "the n common-random-number runs; ×: ratio of means; **\\***: significant, the 95 % paired "
+             "t-interval excludes 0):", "",
+             "| metric | unit | " + " | ".join(others) + " |", "| --- | --- | " + " | ".join("---" for _ in others) + " |"]
+    for metric in config.metric_names:
+        cells = []
+        for cand in others:
+            r = next(r for r in paired if r["case"] == case and r["candidate"] == cand and r["metric"] == metric)
+            if r["diff"] is None:
+                cells.append(f"– ({r['reason']})")
+                continue
+            cell = f"{r['diff']:+.3g} ± {_fmt(r['se'])}"
+            if r["ratio"] is not None:
+                cell += f" (×{r['ratio']:.3g})"
+            cells.append(cell + (" **\\***" if r["significant"] else "") + f" n={r['n']}")
+        lines.append(f"| {metric} | {units.get(metric, '')} | " + " | ".join(cells) + " |")
+    return lines + [""]
+
+
+def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | None = None) -> str:
     lines = [f"# {config.name}", ""]
     if config.description:
         lines += [config.description.strip(), ""]
@@ -65,7 +90,8 @@ def _markdown(config: ComparisonConfig, rows: list[dict]) -> str:
                     cell += f" (paper {_fmt(r['published'])})"
                 cells.append(cell)
             lines.append(f"| {metric} | {unit} | " + " | ".join(cells) + " |")
-        lines += ["", f"![time series](plots/{case.name}-series.png)", "",
+        lines += [""] + _paired_markdown(config, paired or [], case.name, {r["metric"]: r["unit"] for r in rows})
+        lines += [f"![time series](plots/{case.name}-series.png)", "",
                   f"![CDFs over runs](plots/{case.name}-cdf.png)", ""]
     return "\n".join(lines) + "\n"
 
@@ -101,7 +127,8 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
             unit = next(r["unit"] for r in rows if r["metric"] == metric)
             ax.set_ylabel(f"{metric}\n({unit})", fontsize=7)
             ax.grid(alpha=0.3)
-        axes[0, 0].legend(fontsize=7)
+        if axes[0, 0].get_legend_handles_labels()[0]:
+            axes[0, 0].legend(fontsize=7)
         axes[-1, 0].set_xlabel("time (s)")
         axes[0, 0].set_title(f"{config.name} - {case.name}: median over runs")
         fig.tight_layout()
@@ -126,8 +153,12 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
 def write_report(config: ComparisonConfig, store: ResultStore, out: Path) -> Path:
     """Write ``summary.json``, ``report.md`` and ``plots/`` into ``out``."""
     rows = summary_rows(config, store)
+    paired = paired_rows(config, store)
+    sweeps, sweep_lines = write_sweeps(config, store, out)
     summary = out / "summary.json"
-    summary.write_text(json.dumps({"name": config.name, "seed": config.seed, "rows": rows}, indent=2))
-    (out / "report.md").write_text(_markdown(config, rows))
+    summary.write_text(json.dumps({"name": config.name, "seed": config.seed, "rows": rows,
+                                   "reference": config.reference_name, "significance_rule": SIGNIFICANCE_RULE,
+                                   "paired": paired, "sweeps": sweeps}, indent=2))
+    (out / "report.md").write_text(_markdown(config, rows, paired) + "\n".join(sweep_lines))
     _plots(config, rows, store, out)
     return summary

@@ -59,3 +59,11 @@ class ResultStore:
                 "SELECT value FROM metrics WHERE config = ? AND case_name = ? AND candidate = ? AND metric = ? "
                 "AND run < ? ORDER BY run", (config, case, candidate, metric, runs)).fetchall()
         return np.array([r[0] for r in rows], dtype=float)
+
+    def run_values(self, config: str, case: str, candidate: str, metric: str, runs: int) -> dict[int, float]:
+        """The metric of runs ``0 .. runs-1`` by run index (pairs runs across candidates)."""
+        with self._connect() as con:
+            rows = con.execute(
+                "SELECT run, value FROM metrics WHERE config = ? AND case_name = ? AND candidate = ? AND metric = ? "
+                "AND run < ?", (config, case, candidate, metric, runs)).fetchall()
+        return {int(r): (float("nan") if v is None else float(v)) for r, v in rows}
