@@ -17,8 +17,9 @@ __all__ = ["ColoredAR1"]
 
 
 class ColoredAR1Params(PluginParams):
-    psi: float | list[float] = Field(
-        ..., description="AR(1) coefficient of the measurement noise, one value or one per component, |psi| < 1"
+    psi: float | list[float] | None = Field(
+        None, description="AR(1) coefficient of the measurement noise, one value or one per component, |psi| < 1; "
+        "unset: the true coefficient, which a scenario that simulates the noise supplies (multipath)"
     )
     cross_covariance: Literal["exact", "paper"] = Field(
         "exact",
@@ -107,6 +108,9 @@ class ColoredAR1(Augmentation):
         if zs.shape[0] < 2:
             raise ConfigError("zs", "colored-ar1 needs at least two epochs")
         m = model.dim_meas
+        if self.params.psi is None:
+            raise ConfigError("augmentation 'colored-ar1'.psi", "is not set; give the AR(1) coefficient (only a "
+                              "scenario that simulates the noise, e.g. multipath, fills in the true one)")
         psi = np.broadcast_to(np.asarray(self.params.psi, dtype=float), (m,))
         if np.any(np.abs(psi) >= 1):
             raise ConfigError("augmentation 'colored-ar1'.psi", f"must satisfy |psi| < 1, got {self.params.psi}")

@@ -152,7 +152,8 @@ def test_a_sweep_runs_every_point_on_common_random_numbers_and_reports_it(tmp_pa
     out = tmp_path / "out"
     with (out / "sweeps" / "apsi.csv").open() as f:
         table = list(csv.DictReader(f))
-    assert len(table) == 2 * 2 * 5 and {r["apsi"] for r in table} == {"0.8", "0.9"}
+    # 2 apsi values x 2 candidates x the multipath scenario's 6 metrics
+    assert len(table) == 2 * 2 * 6 and {r["apsi"] for r in table} == {"0.8", "0.9"}
     assert _strict(out / "sweeps" / "psi.json")["values"] == [0.5, 0.9, 0.99]
     assert (out / "plots" / "sweep-psi-only.png").stat().st_size > 1000
     assert (out / "plots" / "sweep-psi-only-paired.png").stat().st_size > 1000

@@ -17,7 +17,8 @@ __all__ = ["write_report", "summary_rows"]
 
 
 def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
-    """One row per case, candidate and metric: mean and std over runs, unit, published value."""
+    """One row per case, candidate and metric: mean and std over the runs where the metric is
+    defined (``runs`` counts them), unit, published value."""
     units = config.metric_units
     key = config.identity()
     rows = []
@@ -25,6 +26,7 @@ def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
         for cand in config.candidates:
             for metric in config.metric_names:
                 v = store.values(key, case.name, cand.name, metric, config.runs)
+                v = v[np.isfinite(v)]  # a metric may be undefined in a run (e.g. no isolated slip): NaN
                 rows.append({
                     "case": case.name,
                     "candidate": cand.name,
