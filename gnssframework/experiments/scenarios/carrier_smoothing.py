@@ -92,6 +92,8 @@ class CarrierSmoothingScenario(Scenario):
     CaseParams = CarrierSmoothingCase
     components = {"channel_filter": False}
     metrics = {"error_rmse": "m", "slip_recovery_epochs": "epochs"}
+    #: Why a metric can be undefined (NaN) in a run; summary.json and report.md say it.
+    undefined_reasons = {"slip_recovery_epochs": "no slips"}
 
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins.get("channel_filter")
