@@ -8,6 +8,8 @@ from typing import Sequence
 
 from . import registry
 from .errors import ConfigError, GnssFrameworkError
+from .io.nmea import MAX_SPEED_MPS
+from .io.skipped import EXIT_STATUS_HELP
 
 __all__ = ["main"]
 
@@ -55,17 +57,16 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _cmd_filter_positions(args: argparse.Namespace) -> int:
     from .io.nmea import read_nmea
     from .io.positions import filter_positions, write_positions_csv
+    from .io.skipped import exit_status, print_skipped, write_skipped_report
 
-    fixes = read_nmea(args.file)
+    fixes = read_nmea(args.file, max_speed_mps=args.max_speed, strict=args.strict)
     lat, lon, _, _ = filter_positions(fixes, args.filter, args.psi)
     write_positions_csv(args.out, fixes, lat, lon)
+    sidecar = write_skipped_report(args.out, args.file, fixes.skipped)
     print(f"{args.file}: {fixes.time_s.size} fixes filtered with {args.filter}, {len(fixes.skipped)} sentences "
-          f"skipped; wrote {args.out}")
-    for line, reason in fixes.skipped[:20]:
-        print(f"  skipped line {line}: {reason}")
-    if len(fixes.skipped) > 20:
-        print(f"  ... and {len(fixes.skipped) - 20} more")
-    return 0
+          f"skipped; wrote {args.out}" + (f" and {sidecar}" if fixes.skipped else ""))
+    print_skipped(fixes.skipped)
+    return exit_status(fixes.skipped)
 
 
 def _cmd_smooth(args: argparse.Namespace) -> int:
@@ -122,11 +123,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output directory (default: results/<name>)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_compare)
-    p = sub.add_parser("filter-positions", help="filter an NMEA position log (reference 004's filters)")
+    p = sub.add_parser("filter-positions", help="filter an NMEA position log (reference 004's filters)",
+                       description="Filter the horizontal track of an NMEA log. Corrupted sentences, impossible "
+                                   "positions, duplicated or backwards timestamps and implausible jumps are skipped "
+                                   "and listed (line and reason) on stdout and in <out>.skipped.csv.",
+                       epilog=EXIT_STATUS_HELP)
     p.add_argument("file", help="NMEA log with GGA and/or RMC sentences")
     p.add_argument("--out", required=True, help="output CSV")
     p.add_argument("--filter", default="AUKF1", choices=["UKF", "UKF1", "AUKF", "AUKF1"])
     p.add_argument("--psi", type=float, default=0.95, help="AR(1) coefficient for the colored filters")
+    p.add_argument("--max-speed", type=float, default=MAX_SPEED_MPS, metavar="M/S",
+                   help="jump check: skip a fix further from the last accepted one than this speed allows "
+                        "(default %(default)g m/s)")
+    p.add_argument("--strict", action="store_true", help="refuse the file at the first bad sentence (exit 2)")
     p.set_defaults(func=_cmd_filter_positions)
     p = sub.add_parser("smooth", help="carrier-smooth one satellite's code from a RINEX observation file")
     p.add_argument("file", help="RINEX 3 observation file with C1C and L1C")
