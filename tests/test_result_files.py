@@ -4,12 +4,10 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import signal
 import sqlite3
 import subprocess
 import sys
-import time
 import tomllib
 from pathlib import Path
 
@@ -133,11 +131,6 @@ channel_filter = { name = "hatch", params = { window = 100 } }
 """
 
 
-def _compare(config: Path, out: Path) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "gnssframework", "compare", str(config), "--out", str(out),
-                             "--quiet"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-
-
 def _check_every_file_parses(out: Path) -> None:
     """What a later run or another tool would read is whole: JSON, PNG, npz and the store."""
     for path in out.rglob("*"):
@@ -170,31 +163,60 @@ def _check_every_file_parses(out: Path) -> None:
                 con.close()
 
 
-def test_runs_killed_while_writing_resume_to_the_uninterrupted_results(tmp_path):
-    config = tmp_path / "killed.toml"
-    config.write_text(KILL_CONFIG)
-    start = time.monotonic()
-    proc = _compare(config, tmp_path / "whole")
-    assert proc.wait(timeout=120) == 0, proc.stderr.read()
-    whole = time.monotonic() - start
-    expected = loads_strict((tmp_path / "whole" / "summary.json").read_text())
+# `gnssframework compare`, SIGKILLing itself at a chosen write: inside the atomic write of
+# a named file (its bytes written, before the rename), or inside the store's transaction of
+# the n-th batch (metric rows inserted, batch row not yet committed). A kill at a chosen
+# write, rather than at a chosen time, hits the write every time.
+_KILL_AT = r"""
+import os, signal, sqlite3, sys
+import gnssframework.experiments.files as files
+import gnssframework.experiments.store as store
+from gnssframework.cli import main
 
+config, out, target = sys.argv[1:4]
+real_fsync, real_connect, batches = os.fsync, sqlite3.connect, []
+
+def fsync(fd):
+    if target in os.readlink(f"/proc/self/fd/{fd}"):
+        os.kill(os.getpid(), signal.SIGKILL)
+    real_fsync(fd)
+
+class Connection:
+    def __init__(self, con):
+        self.con = con
+    def __getattr__(self, name):
+        return getattr(self.con, name)
+    def __enter__(self):
+        self.con.__enter__()
+        return self
+    def __exit__(self, *exc):
+        return self.con.__exit__(*exc)
+    def execute(self, sql, *args):
+        if sql.startswith("INSERT OR REPLACE INTO batches"):
+            batches.append(1)
+            if target == f"store-batch-{len(batches)}":
+                os.kill(os.getpid(), signal.SIGKILL)
+        return self.con.execute(sql, *args)
+
+files.os.fsync = fsync
+store.sqlite3 = type("sqlite3", (), {"connect": staticmethod(lambda *a, **k: Connection(real_connect(*a, **k)))})
+main(["compare", config, "--out", out, "--quiet"])
+"""
+
+
+def test_compare_killed_inside_each_kind_of_write_resumes_to_the_uninterrupted_results(tmp_path):
+    config = tmp_path / "killed.toml"
+    config.write_text(KILL_CONFIG.replace("runs = 8", "runs = 3"))
+    expected = loads_strict(run_comparison(load_config(config), tmp_path / "whole", progress=False).read_text())
     out = tmp_path / "killed"
-    kills = 0
-    # A chain of runs into one folder, each killed at a later point of its own run: early
-    # ones die in imports or the first batches, later ones amid batch writes and the report.
-    for fraction in (0.5, 0.7, 0.85, 1.0):
-        proc = _compare(config, out)
-        time.sleep(fraction * whole)
-        if proc.poll() is None:
-            os.kill(proc.pid, signal.SIGKILL)
-            kills += 1
-        proc.wait(timeout=60)
-        if out.exists():
-            _check_every_file_parses(out)
-    assert kills >= 2
-    proc = _compare(config, out)
-    assert proc.wait(timeout=120) == 0, proc.stderr.read()
-    _check_every_file_parses(out)
-    assert loads_strict((out / "summary.json").read_text()) == expected
+    # One folder, one run per write site, each killed there; the next run resumes.
+    for target in ("batch0001.npz", "store-batch-2", "summary.json", "-cdf.png"):
+        before = {p: p.read_bytes() for p in out.rglob(f"*{target}")} if out.exists() else {}
+        proc = subprocess.run([sys.executable, "-c", _KILL_AT, str(config), str(out), target],
+                              capture_output=True, text=True, timeout=120)
+        assert proc.returncode == -signal.SIGKILL, (target, proc.stderr)  # it did die at that write
+        _check_every_file_parses(out)
+        # The file being written when the process died is as it was before: absent or whole.
+        assert {p: p.read_bytes() for p in out.rglob(f"*{target}")} == before, target
+    assert loads_strict(run_comparison(load_config(config), out, progress=False).read_text()) == expected
     assert (out / "report.md").read_text() == (tmp_path / "whole" / "report.md").read_text()
