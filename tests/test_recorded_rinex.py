@@ -131,3 +131,23 @@ def test_cli_smooth_exit_status_summary_and_sidecar(tmp_path, capsys):
     assert code == 2 and f"cut.rnx:{_epoch(50) + 1}: truncated" in std.err
     code, std = smooth(_write(tmp_path, LINES, "clean.rnx"))
     assert code == 0 and (tmp_path / "s.csv.skipped.csv").read_text().splitlines() == ["file,line,reason"]
+
+
+def test_any_cut_is_reported_or_falls_on_an_epoch_boundary(tmp_path):
+    """Cut the file at random characters of its data part: either the reader reports the
+    truncation and keeps exactly the epochs completed before the cut, or the cut fell at
+    the end of an epoch (with its newline) and the file reads as that many whole epochs."""
+    text = "\n".join(LINES[:HEAD + 3 * 30]) + "\n"
+    data_start = len("\n".join(LINES[:HEAD])) + 1
+    ends = [len("\n".join(LINES[:_epoch(k)])) + 1 for k in range(1, 31)]  # char after epoch k-1's newline
+    rng = np.random.default_rng(13)
+    cuts = list(rng.integers(data_start + 1, len(text), 12)) + ends[4:6]
+    for cut in cuts:
+        path = _write(tmp_path, [text[:cut]], "cut.rnx", newline=False)
+        complete = sum(e <= cut for e in ends)  # epochs whose lines all end before the cut
+        data = read_code_carrier(path, "G08")
+        if cut in ends:
+            assert data.truncated is None and data.time_s.size == complete, cut
+        else:
+            assert data.truncated is not None and data.time_s.size == complete, cut
+            assert data.skipped[-1][1].startswith("truncated epoch dropped")

@@ -192,7 +192,8 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
             raise DataFileError(str(path), no, "observation line outside an epoch (or more than its count)")
         if not _EPOCH.match(line):
             if cut and i == len(lines) - 1:
-                break  # a cut epoch line: reported as truncation below
+                epochs.append((i, -1, []))  # the cut epoch line itself: dropped as truncated below
+                break
             raise DataFileError(str(path), no, f"malformed epoch line {line!r}")
         flag, count = int(line[31]), int(line[32:35])
         body = list(range(i + 1, min(i + 1 + count, len(lines))))
