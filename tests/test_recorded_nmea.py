@@ -115,3 +115,30 @@ def test_cli_exit_status_and_sidecar_say_what_was_skipped(tmp_path, capsys):
     assert main(["filter-positions", str(_write(tmp_path, LINES[:200], "clean.nmea")), "--out", str(out),
                  "--filter", "UKF"]) == 0
     assert (tmp_path / "f.csv.skipped.csv").read_text().splitlines() == ["file,line,reason"]
+
+
+def test_no_gga_line_disappears_silently_under_random_damage(tmp_path):
+    """Duplicate, move back and damage random sentences: the accepted epochs stay strictly
+    increasing and on the globe, and every GGA line is either the fix of its epoch or listed
+    as skipped (a GGA is preferred, so a kept one is always the line of its epoch)."""
+    rng = np.random.default_rng(8)
+    for trial in range(10):
+        lines = LINES[:100]
+        for _ in range(8):
+            i = int(rng.integers(len(lines)))
+            op = rng.integers(4)
+            if op == 0:
+                lines.insert(i, lines[int(rng.integers(len(lines)))])  # a copy anywhere (dup or backwards)
+            elif op == 1:
+                lines[i] = _edit(lines[i], lat="9" + lines[i].split(",")[2 if "GGA" in lines[i] else 3][1:])
+            elif op == 2:
+                lines[i] = _edit(lines[i], lon="")
+            else:
+                lines[i] = lines[i][: int(rng.integers(5, len(lines[i])))]  # truncated sentence
+        fixes = read_nmea(_write(tmp_path, lines, f"t{trial}.nmea"))
+        assert np.all(np.diff(fixes.time_s) > 0) and np.all(np.abs(fixes.lat_deg) <= 90)
+        skipped = {line for line, _ in fixes.skipped}
+        used = set(fixes.line.tolist())
+        for no, sentence in enumerate(lines, 1):
+            if sentence.startswith("$GNGGA"):
+                assert (no in used) != (no in skipped), (trial, no, sentence)
