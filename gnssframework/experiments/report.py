@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from .config import ComparisonConfig
+from .files import atomic_open, atomic_write_text, write_json
 from .scenarios import get_scenario
 from .stats import SIGNIFICANCE_RULE, paired_rows
 from .store import ResultStore
@@ -18,8 +18,14 @@ __all__ = ["write_report", "summary_rows"]
 
 def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
     """One row per case, candidate and metric: mean and std over the runs where the metric is
-    defined (``runs`` counts them), unit, published value."""
+    defined (``runs`` counts them), unit, published value.
+
+    A metric undefined in every run (NaN, e.g. a recovery time in runs without slips) has
+    ``mean`` and ``std`` ``None`` and an ``undefined`` reason: the scenario's
+    ``undefined_reasons[metric]`` when it gives one.
+    """
     units = config.metric_units
+    scenario = get_scenario(config.scenario)
     key = config.identity()
     rows = []
     for case in config.cases:
@@ -37,7 +43,14 @@ def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
                     "unit": units[metric],
                     "published": config.published.get(case.name, {}).get(cand.name, {}).get(metric),
                 })
+                if not v.size:
+                    rows[-1].update(std=None, undefined=_undefined_reason(scenario, metric))
     return rows
+
+
+def _undefined_reason(scenario, metric: str) -> str:
+    reasons = getattr(scenario, "undefined_reasons", {}) or {}
+    return reasons.get(metric, "undefined in every run")
 
 
 def _fmt(x: float | None) -> str:
@@ -86,7 +99,7 @@ def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | N
                 r = next(r for r in rows if r["case"] == case.name and r["candidate"] == cand.name
                          and r["metric"] == metric)
                 unit = r["unit"]
-                cell = f"{_fmt(r['mean'])} ± {_fmt(r['std'])}"
+                cell = r["undefined"] if r.get("undefined") else f"{_fmt(r['mean'])} ± {_fmt(r['std'])}"
                 if r["published"] is not None:
                     cell += f" (paper {_fmt(r['published'])})"
                 cells.append(cell)
@@ -105,6 +118,11 @@ def _load_series(out: Path, case: str, cand: str) -> tuple[np.ndarray | None, di
     time_s = parts[0]["time_s"]
     keys = [k for k in parts[0].files if k not in ("time_s", "first_run")]
     return time_s, {k: np.concatenate([p[k] for p in parts], axis=-1) for k in keys}
+
+
+def _savefig(fig, path: Path) -> None:
+    with atomic_open(path, "wb") as fh:  # a killed run leaves no half PNG
+        fig.savefig(fh, format="png", dpi=90)
 
 
 def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: Path) -> None:
@@ -141,7 +159,7 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
         axes[-1, 0].set_xlabel("time (s)")
         axes[0, 0].set_title(f"{config.name} - {case.name}: median over runs")
         fig.tight_layout()
-        fig.savefig(plot_dir / f"{case.name}-series.png", dpi=90)
+        _savefig(fig, plot_dir / f"{case.name}-series.png")
         plt.close(fig)
         # CDFs over runs of every metric.
         fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics), 2.8), squeeze=False)
@@ -155,7 +173,7 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
         axes[0, 0].set_ylabel("CDF over runs")
         axes[0, 0].legend(fontsize=7)
         fig.tight_layout()
-        fig.savefig(plot_dir / f"{case.name}-cdf.png", dpi=90)
+        _savefig(fig, plot_dir / f"{case.name}-cdf.png")
         plt.close(fig)
 
 
@@ -165,9 +183,9 @@ def write_report(config: ComparisonConfig, store: ResultStore, out: Path) -> Pat
     paired = paired_rows(config, store)
     sweeps, sweep_lines = write_sweeps(config, store, out)
     summary = out / "summary.json"
-    summary.write_text(json.dumps({"name": config.name, "seed": config.seed, "rows": rows,
-                                   "reference": config.reference_name, "significance_rule": SIGNIFICANCE_RULE,
-                                   "paired": paired, "sweeps": sweeps}, indent=2))
-    (out / "report.md").write_text(_markdown(config, rows, paired) + "\n".join(sweep_lines))
+    write_json(summary, {"name": config.name, "seed": config.seed, "rows": rows,  # strict JSON, atomic
+                         "reference": config.reference_name, "significance_rule": SIGNIFICANCE_RULE,
+                         "paired": paired, "sweeps": sweeps})
+    atomic_write_text(out / "report.md", _markdown(config, rows, paired) + "\n".join(sweep_lines))
     _plots(config, rows, store, out)
     return summary

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import ConfigError, GnssFrameworkError, WorkerError
 from .config import ComparisonConfig
+from .files import atomic_open, atomic_write_text
 from .scenarios import get_scenario
 from .store import ResultStore
 
@@ -119,8 +120,9 @@ def _save_series(out: Path, config: ComparisonConfig, task: Task, series: dict[s
     cand = config.candidates[task.candidate_index].name
     path = out / "raw" / case / cand
     path.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(path / f"batch{task.batch:04d}.npz", time_s=np.array([]) if time_s is None else time_s,
-                        first_run=task.first_run, **series)
+    with atomic_open(path / f"batch{task.batch:04d}.npz", "wb") as fh:  # a kill leaves no half npz
+        np.savez_compressed(fh, time_s=np.array([]) if time_s is None else time_s, first_run=task.first_run,
+                            **series)
 
 
 def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tuple[int, tuple]]:
@@ -191,7 +193,7 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "config.json").write_text(config.model_dump_json(indent=2))
+    atomic_write_text(out / "config.json", config.model_dump_json(indent=2))
     store = ResultStore(out / "results.sqlite")
     # Every unfinished batch of the comparison and of its sweep points, the comparison's
     # first; a point equal to another (same identity) runs once.

@@ -40,6 +40,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..errors import ConfigError
+from .files import atomic_open, write_json
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
 
 __all__ = ["Sweep", "expand_sweep", "sweep_rows", "write_sweeps"]
@@ -246,7 +247,7 @@ def sweep_rows(config, store) -> list[dict]:
 
 def _write_csv(path: Path, sweep: dict) -> None:
     paired = {(p["value"], p["case"], p["candidate"], p["metric"]): p for p in sweep["paired"]}
-    with path.open("w", newline="") as f:
+    with atomic_open(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow([sweep["name"], "case", "candidate", "metric", "unit", "mean", "se", "n",
                     "diff_to_reference", "diff_se", "significant"])
@@ -285,7 +286,8 @@ def _plot(path: Path, config, sweep: dict, case: str) -> None:
     axes[0, 0].legend(fontsize=7)
     axes[0, 0].set_title(f"{config.name} - {case}: mean ± 1.96 SE over runs", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    with atomic_open(path, "wb") as fh:
+        fig.savefig(fh, format="png", dpi=90)
     plt.close(fig)
 
 
@@ -326,7 +328,8 @@ def _plot_paired(path: Path, config, sweep: dict, case: str) -> None:
     axes[0, 0].set_title(f"{config.name} - {case}: paired difference to {config.reference_name}, "
                          "95 % paired t-interval", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    with atomic_open(path, "wb") as fh:
+        fig.savefig(fh, format="png", dpi=90)
     plt.close(fig)
 
 
@@ -366,15 +369,13 @@ def write_sweeps(config, store, out: Path) -> tuple[list[dict], list[str]]:
     (``plots/sweep-<name>-<case>.png``); return the summary entries and report lines."""
     if not config.sweeps:
         return [], []
-    import json
-
     sweeps = sweep_rows(config, store)
     (out / "sweeps").mkdir(exist_ok=True)
     (out / "plots").mkdir(exist_ok=True)
     lines: list[str] = []
     for sweep in sweeps:
         _write_csv(out / "sweeps" / f"{sweep['name']}.csv", sweep)
-        (out / "sweeps" / f"{sweep['name']}.json").write_text(json.dumps(sweep, indent=2, allow_nan=False))
+        write_json(out / "sweeps" / f"{sweep['name']}.json", sweep)  # strict JSON, atomic
         for case in sweep["cases"]:
             _plot(out / "plots" / f"sweep-{sweep['name']}-{case}.png", config, sweep, case)
             if len(config.candidates) > 1:

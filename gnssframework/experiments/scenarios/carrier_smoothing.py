@@ -133,6 +133,8 @@ class CarrierSmoothingScenario(Scenario):
     components = {"channel_filter": False}
     metrics = {"error_rmse": "m", "slip_recovery_epochs": "epochs", "censored_slips": "slips/run",
                "false_reset_rate": "resets/run"}
+    #: Why a metric can be undefined (NaN) in a run; summary.json and report.md say it.
+    undefined_reasons = {"slip_recovery_epochs": "no isolated slips"}
 
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins.get("channel_filter")
