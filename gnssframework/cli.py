@@ -73,6 +73,7 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from .interfaces import RunContext
     from .io.rinex import read_code_carrier
 
     data = read_code_carrier(args.file, args.prn)
@@ -84,7 +85,9 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
     if args.slip_threshold:
         kw["slip_threshold_m"] = args.slip_threshold
     smoother = registry.create("channel_filter", name, **kw)
-    smoother.reset(())
+    steps = np.diff(np.asarray(data.time_s, float))
+    interval = float(np.median(steps)) if steps.size and np.median(steps) > 0 else None
+    smoother.reset((), RunContext(epoch_interval_s=interval))
     rows = [smoother.checked_step({"pseudorange_m": np.asarray(r), "carrier_m": np.asarray(c)})
             for r, c in zip(data.pseudorange_m, data.carrier_m)]
     with open(args.out, "w", newline="") as fh:

@@ -15,6 +15,7 @@ import pymap3d
 from pydantic import Field, ValidationInfo, field_validator
 
 from ...errors import ConfigError
+from ...interfaces import RunContext
 from ...signal.constants import L1_WAVELENGTH_M
 from ...simulation.constellation import nominal_constellation
 from ...simulation.impairments import ar1_noise, cycle_slips
@@ -126,7 +127,7 @@ class CarrierSmoothingScenario(Scenario):
         if ch is None:
             smoothed = code
         else:
-            ch.reset((runs,))
+            ch.reset((runs,), RunContext(epoch_interval_s=p.dt_s))
             smoothed = np.stack([ch.checked_step({"pseudorange_m": code[k], "carrier_m": carrier[k]})["smoothed_m"]
                                  for k in range(p.epochs)])
         err = smoothed - truth
