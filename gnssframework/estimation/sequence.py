@@ -121,6 +121,10 @@ def filter_sequence(
         epochs = np.arange(zs.shape[0])
 
     m0 = model_at(0)
+    m = m0.R.shape[-1]
+    if zs.shape[-1] != m:
+        raise InvalidInputError(estimator.name, "zs", f"has {zs.shape[-1]} measurements per step (shape {zs.shape}) "
+                                f"but the model's R is {m}x{m}")
     try:
         np.broadcast_shapes(initial.batch_shape, zs.shape[1:-1])
     except ValueError:

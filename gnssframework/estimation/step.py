@@ -124,11 +124,15 @@ def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, count
     return Gaussian(mean, cov)
 
 
-def _check_prior(prior: Gaussian, filter_name: str) -> None:
-    """A prediction from a finite state that is not finite is an overflow in f or Q."""
+def _check_prior(prior: Gaussian, state: Gaussian, filter_name: str) -> None:
+    """A prediction from a finite state that is not finite is an overflow in f, Q or the
+    sigma-point weights (a state of magnitude 1e300 after a 1e300 measurement)."""
     ok = np.isfinite(prior.mean).all(axis=-1) & np.isfinite(prior.cov).all(axis=(-2, -1))
     if not ok.all():
-        raise NonFiniteError(filter_name, failing_indices(ok), detail="prediction (overflow in the transition?)")
+        bad = failing_indices(ok)
+        size = float(np.max(np.abs(state.mean)))
+        raise NonFiniteError(filter_name, bad, detail=f"prediction, from a finite state of magnitude up to {size:.3g}: "
+                             "an overflow, or NaN/inf in the model (F, Q, a known input u)")
 
 
 @dataclass(frozen=True)
@@ -245,7 +249,7 @@ class FilterStep:
             # NumPy RuntimeWarning would say neither which filter nor which element.
             with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
                 prior = self.estimator.predict(state, self.in_force(model))
-                _check_prior(prior, self.estimator.name)
+                _check_prior(prior, state, self.estimator.name)
         except NumericalError as exc:
             raise self._named(exc) from None
         return prior
