@@ -114,7 +114,7 @@ _TO_RAD = {"rad": 1.0, "deg": np.pi / 180, "cycles": 2 * np.pi}
 
 
 class KalmanCarrierLoop(ChannelFilter):
-    """Kalman-filter carrier loop (reference 003, Kalman tracking under scintillation).
+    """Kalman-filter carrier loop (Xia et al., Kalman tracking under scintillation, undated).
 
     Error state $x = [\\delta\\theta, \\delta\\omega(, \\dot{\\delta\\omega})]$ of the carrier
     relative to the NCO, in ``angle_unit`` (and per second). With T the interval:
@@ -129,11 +129,11 @@ class KalmanCarrierLoop(ChannelFilter):
     NCO (phase step and frequency) and the error state is reset to zero. The covariance
     runs the Kalman recursion with the user's Q (per interval) and R, so this is a PLL
     whose gains follow the Riccati equation. Q and R are given in ``angle_unit``;
-    reference 003 does not state its unit.
+    Xia et al. do not state its unit.
     """
 
     name = "kf-carrier-loop"
-    description = "Kalman carrier tracking loop on the two-quadrant arctangent (reference 003)"
+    description = "Kalman carrier tracking loop on the two-quadrant arctangent (Xia et al.)"
     Params = KalmanLoopParams
     requires = ("correlators",)
     provides = ("carrier_freq_hz", "code_freq_hz", "carrier_phase_step_rad", "phase_disc_rad", "code_disc_chips")
@@ -204,7 +204,7 @@ class DiscriminatorChannelParams(PluginParams):
 
 
 class DiscriminatorChannel(ChannelFilter):
-    """Discriminators as a vector-loop channel filter: the classic baseline of reference 000.
+    """Discriminators as a vector-loop channel filter: the classic baseline of Zou et al. (2018).
 
     Outputs the code discriminator (``eml-envelope``) and the frequency discriminator
     (``cross-product`` on consecutive prompts) with their thermal-noise variances at the
@@ -290,7 +290,7 @@ def _equivalent_measurement(prior: Gaussian, post: Gaussian, idx: list[int]):
 
 
 class IqFilter(ChannelFilter):
-    """Reference 000's per-channel filter on the six correlator outputs.
+    """The per-channel filter of Zou et al. (2018) on the six correlator outputs.
 
     State $x = [A, \\delta\\tau, \\delta\\theta, \\delta f, \\dot{\\delta f}]$, transition of
     `gnssframework.signal.channel_model.channel_transition`, measurements
@@ -312,7 +312,7 @@ class IqFilter(ChannelFilter):
     """
 
     name = "iq-filter"
-    description = "CKF on the six I/Q correlator outputs with adaptive R (reference 000)"
+    description = "CKF on the six I/Q correlator outputs with adaptive R (Zou et al. 2018)"
     Params = IqFilterParams
     requires = ("correlators",)
     provides = VECTOR_OUTPUTS + ("amplitude", "phase_error_rad")

@@ -1,4 +1,4 @@
-"""Built-in navigation filter ``ekf-pv`` (reference 000's vector-tracking EKF)."""
+"""Built-in navigation filter ``ekf-pv`` (the vector-tracking EKF of Zou et al. 2018)."""
 
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ class EkfPvParams(PluginParams):
 
 
 class EkfPositionVelocity(NavFilter):
-    """8-state position/velocity/clock filter of reference 000 (eqs. 32-38).
+    """8-state position/velocity/clock filter of Zou et al. (2018, eqs. 32-38).
 
     State, in one order throughout (the paper's printed H uses
     ``[x, y, z, vx, vy, vz, b, d]`` while its state interleaves them; we use the
@@ -68,7 +68,7 @@ class EkfPositionVelocity(NavFilter):
     """
 
     name = "ekf-pv"
-    description = "8-state position/velocity/clock EKF for vector tracking (reference 000)"
+    description = "8-state position/velocity/clock EKF for vector tracking (Zou et al. 2018)"
     Params = EkfPvParams
     requires = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", "freq_error_var_hz2")
     provides = ("position_m", "velocity_m_s", "clock_m", "cov", "nco_range_m", "nco_range_rate_m_s")
@@ -144,7 +144,7 @@ class PositionCaParams(PluginParams):
 
 
 class PositionConstantAcceleration(NavFilter):
-    """Position-domain filter with a constant-acceleration model per coordinate (reference 004).
+    """Position-domain filter with a constant-acceleration model per coordinate (Liu et al. 2020).
 
     Each coordinate (latitude and longitude in local metres) has the state
     $X = [n, \\dot n, \\ddot n]$, $\\Phi = \\begin{bmatrix}1 & t & t^2/2\\\\ 0 & 1 & t\\\\ 0 & 0 & 1\\end{bmatrix}$,
@@ -155,7 +155,7 @@ class PositionConstantAcceleration(NavFilter):
     """
 
     name = "position-ca"
-    description = "Constant-acceleration position filter per coordinate (reference 004)"
+    description = "Constant-acceleration position filter per coordinate (Liu et al. 2020)"
     Params = PositionCaParams
     requires = ("position_m",)
     provides = ("position_m",)

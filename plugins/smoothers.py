@@ -1,4 +1,4 @@
-"""Carrier-smoothed code channel filters: ``hatch`` and ``kf-smoother`` (reference 001)."""
+"""Carrier-smoothed code channel filters: ``hatch`` and ``kf-smoother`` (CN105068097 patent 2015)."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ class HatchParams(_SlipParams):
 
 
 class HatchFilter(ChannelFilter):
-    """Hatch filter (reference 001, adaptive carrier-smoothed code patent).
+    """Hatch filter (Hatch 1982; the form of the CN105068097 patent, 2015).
 
     $$
     \\rho_s[k] = \\frac{1}{n}\\rho[k] + \\frac{n-1}{n}\\big(\\rho_s[k-1] + \\varphi[k] - \\varphi[k-1]\\big),
@@ -77,12 +77,12 @@ class KalmanSmootherParams(_SlipParams):
     q: float = Field(1e-3, gt=0, description="process noise Q (m²) of the carrier-propagated range")
     r: float = Field(1.0, gt=0, description="pseudorange noise R (m²)")
     adapter: PluginRef("noise_adapter") | None = Field(
-        None, description="noise adapter for Q, e.g. 'ml-q' (reference 001)")
+        None, description="noise adapter for Q, e.g. 'ml-q' (CN105068097 patent 2015)")
     adapter_params: dict[str, Any] = Field(default_factory=dict, description="parameters of the adapter")
 
 
 class KalmanSmoother(ChannelFilter):
-    """The Hatch filter as a Kalman filter (reference 001), optionally with adaptive Q.
+    """The Hatch filter as a Kalman filter (CN105068097 patent 2015), optionally with adaptive Q.
 
     State: the pseudorange. Prediction with the carrier-phase delta as a known input,
     update with the pseudorange:

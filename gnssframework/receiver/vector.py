@@ -11,7 +11,7 @@ coherent interval k, from $t_k$ to $t_{k+1} = t_k + T$:
    their variances (``code_error_chips``, ``code_error_var_chips2``,
    ``freq_error_hz``, ``freq_error_var_hz2``);
 4. the navigation filter takes them as pseudorange and pseudorange-rate errors of
-   the replica at mid-interval (reference 000, eqs. 35-36),
+   the replica at mid-interval (Zou et al. 2018, eqs. 35-36),
    $\\delta\\rho = \\lambda_{chip}\\, \\delta\\tau$ and $\\delta\\dot\\rho = -\\lambda_{L1}\\, \\delta f$,
    and returns the NCO command of the next interval (``nco_range_m``,
    ``nco_range_rate_m_s``);

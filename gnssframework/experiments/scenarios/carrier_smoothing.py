@@ -1,4 +1,4 @@
-"""Scenario ``carrier-smoothing``: carrier-smoothed code with cycle slips (reference 001).
+"""Scenario ``carrier-smoothing``: carrier-smoothed code with cycle slips (CN105068097 patent 2015).
 
 One satellite of the nominal constellation seen from a static receiver, epochs of 1 s.
 Pseudorange = range + white thermal noise + AR(1) code multipath; carrier phase (m) =
@@ -86,7 +86,7 @@ def slip_recovery_epochs(err: np.ndarray, slips: np.ndarray, before: int = 30, w
 
 @register_scenario
 class CarrierSmoothingScenario(Scenario):
-    """Carrier-smoothed code with random cycle slips (reference 001)."""
+    """Carrier-smoothed code with random cycle slips (CN105068097 patent 2015)."""
 
     kind = "carrier-smoothing"
     Params = CarrierSmoothingParams
