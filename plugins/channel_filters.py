@@ -129,7 +129,9 @@ class KalmanCarrierLoop(ChannelFilter):
     NCO (phase step and frequency) and the error state is reset to zero. The covariance
     runs the Kalman recursion with the user's Q (per interval) and R, so this is a PLL
     whose gains follow the Riccati equation. Q and R are given in ``angle_unit``;
-    Xia et al. do not state its unit.
+    Xia et al. do not state its unit. The filter is the ``kf`` estimator run through
+    `gnssframework.estimation.FilterStep`, so its failures name the loop, the channel
+    and the interval. T and the correlator spacing come from the harness's run context.
     """
 
     name = "kf-carrier-loop"
