@@ -176,3 +176,20 @@ def test_old_reset_signature_warns_and_still_gets_the_context_values():
         warnings.simplefilter("error")
         f.reset((1,), gf.RunContext(coherent_time_s=0.01, cn0_dbhz=45.0))
     assert set(f.seen) == {"coherent_time_s", "cn0_dbhz"} and f.seen["coherent_time_s"] == 0.01
+
+
+def test_position_ca_takes_its_epoch_interval_from_the_harness():
+    f = create("nav_filter", "position-ca", dt_s=1.0)
+    with pytest.raises(gf.ConfigError, match=r"position-ca'.epoch_interval_s: is 1.0 but the harness runs with 0.5"):
+        f.reset((2,), gf.RunContext(epoch_interval_s=0.5))
+    f.reset((2,), gf.RunContext(epoch_interval_s=1.0))
+    z = np.array([[1.0, 2.0], [1.5, 2.5], [2.0, 3.0]])
+    outs = [f.checked_step({"position_m": zk})["position_m"] for zk in z]
+    # Streaming equals filter_sequence from the first fix (the same FilterStep underneath).
+    model = f.model(1.0)
+    mean0 = np.zeros((2, 3))
+    mean0[:, 0] = z[0]
+    state = gf.Gaussian(mean0, np.diag(f.params.p0))
+    ref = gf.filter_sequence(create("estimator", "kf"), model, z[1:, :, None], state)
+    np.testing.assert_allclose(np.stack(outs[1:]), ref.mean[..., 0], rtol=1e-12)
+    assert f.filter_step.step_index == 3  # epochs 1 and 2 were filter steps; epoch 0 initialised
