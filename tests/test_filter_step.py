@@ -193,3 +193,21 @@ def test_position_ca_takes_its_epoch_interval_from_the_harness():
     ref = gf.filter_sequence(create("estimator", "kf"), model, z[1:, :, None], state)
     np.testing.assert_allclose(np.stack(outs[1:]), ref.mean[..., 0], rtol=1e-12)
     assert f.filter_step.step_index == 3  # epochs 1 and 2 were filter steps; epoch 0 initialised
+
+
+def test_restarting_the_adapter_keeps_the_estimate_in_force_and_restarts_its_warmup(rng):
+    F, H, Q = ca_matrices(q=0.01)
+    _, zs = simulate_linear(rng, F, H, Q, np.array([[4.0]]), np.zeros(3), 30, (2,))
+    model = gf.LinearModel(F, H, Q, [[1.0]])
+    fs = FilterStep(create("estimator", "kf"), create("noise_adapter", "innovation", window=5, warmup=3))
+    state = fs.start(gf.Gaussian(np.zeros(3), 10 * np.eye(3)), model)
+    for z in zs[:20]:
+        state = fs(state, z, model).posterior
+    adapted = fs.in_force(model).R.copy()
+    assert not np.allclose(adapted, 1.0)
+    fs.restart_adapter(model)
+    for z in zs[20:23]:  # inside the new warm-up: the estimate in force does not move
+        state = fs(state, z, model).posterior
+        np.testing.assert_array_equal(fs.in_force(model).R, adapted)
+    state = fs(state, zs[23], model).posterior
+    assert not np.array_equal(fs.in_force(model).R, adapted)

@@ -233,6 +233,15 @@ class FilterStep:
             self._run = self.adapter.start(model.Q, model.R)
         return initial
 
+    def restart_adapter(self, model: Model) -> None:
+        """Restart the noise adapter (its window, recursion and warm-up) from the Q and R
+        now in force, e.g. when a filter resets part of its state and its past innovations
+        no longer describe the noise. Does nothing without an adapter."""
+        if self.adapter is not None:
+            current = self.in_force(model)
+            self._run = self.adapter.start(current.Q, current.R)
+            self._adapted = 0
+
     def in_force(self, model: Model) -> Model:
         """``model`` with the adapter's latest Q and R (unchanged before it has estimated)."""
         return model if self._Q is None else model.with_noise(Q=self._Q, R=self._R)
