@@ -125,7 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output directory (default: results/<name>)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_compare)
-    p = sub.add_parser("filter-positions", help="filter an NMEA position log (the filters of Liu et al. 2020)")
+    p = sub.add_parser("filter-positions", help="filter an NMEA position log (reference 004's filters)")
     p.add_argument("file", help="NMEA log with GGA and/or RMC sentences")
     p.add_argument("--out", required=True, help="output CSV")
     p.add_argument("--filter", default="AUKF1", choices=["UKF", "UKF1", "AUKF", "AUKF1"])
