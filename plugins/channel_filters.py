@@ -30,15 +30,16 @@ _HARNESS_D = ("deprecated, leave out: the harness's correlator spacing (RunConte
 
 class ScalarParams(PluginParams):
     coherent_time_s: Optional[float] = Field(None, gt=0, le=0.02, description=_HARNESS_T)
-    pll_bandwidth_hz: float = Field(15.0, gt=0)
-    pll_order: Literal[2, 3] = 3
+    pll_bandwidth_hz: float = Field(15.0, gt=0, description="PLL noise bandwidth B_L")
+    pll_order: Literal[2, 3] = Field(3, description="PLL order (2 tracks a frequency step, 3 a Doppler ramp)")
     fll_bandwidth_hz: float = Field(5.0, ge=0, description="FLL assist bandwidth; 0 switches the assist off")
-    dll_bandwidth_hz: float = Field(1.0, gt=0)
-    dll_order: Literal[1, 2] = 1
+    dll_bandwidth_hz: float = Field(1.0, gt=0, description="DLL noise bandwidth B_L (carrier aided)")
+    dll_order: Literal[1, 2] = Field(1, description="DLL loop order")
     early_late_spacing_chips: Optional[float] = Field(None, gt=0, le=1.0, description=_HARNESS_D)
-    code_discriminator: PluginRef("discriminator", unit="chips") = "eml-envelope"
-    phase_discriminator: PluginRef("discriminator", unit="rad") = "costas-atan"
-    freq_discriminator: PluginRef("discriminator", unit="Hz") = "atan2-fll"
+    code_discriminator: PluginRef("discriminator", unit="chips") = Field("eml-envelope", description="DLL discriminator")
+    phase_discriminator: PluginRef("discriminator", unit="rad") = Field("costas-atan", description="PLL discriminator")
+    freq_discriminator: PluginRef("discriminator", unit="Hz") = Field(
+        "atan2-fll", description="FLL-assist discriminator (on consecutive prompts)")
 
 
 class _CarrierAidedDll:
@@ -102,11 +103,12 @@ class KalmanLoopParams(PluginParams):
     r: float = Field(5.0, gt=0, description="variance R of the phase measurement")
     angle_unit: Literal["rad", "deg", "cycles"] = Field(
         "rad", description="unit of the phase in q and r (frequency: the same unit per second)")
-    phase_discriminator: PluginRef("discriminator", unit="rad") = "costas-atan"
-    dll_bandwidth_hz: float = Field(1.0, gt=0)
-    dll_order: Literal[1, 2] = 1
+    phase_discriminator: PluginRef("discriminator", unit="rad") = Field(
+        "costas-atan", description="phase discriminator: the filter's measurement z")
+    dll_bandwidth_hz: float = Field(1.0, gt=0, description="DLL noise bandwidth B_L (carrier aided)")
+    dll_order: Literal[1, 2] = Field(1, description="DLL loop order")
     early_late_spacing_chips: Optional[float] = Field(None, gt=0, le=1.0, description=_HARNESS_D)
-    code_discriminator: PluginRef("discriminator", unit="chips") = "eml-envelope"
+    code_discriminator: PluginRef("discriminator", unit="chips") = Field("eml-envelope", description="DLL discriminator")
     initial_std: list[float] = Field([0.5, 5.0, 1.0], description="initial std: phase (unit), freq (unit/s), rate")
 
 
