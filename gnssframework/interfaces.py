@@ -211,11 +211,14 @@ class SequentialFilter(Plugin, abc.ABC):
         params = list(inspect.signature(reset).parameters.values())
         positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
         if any(p.kind == p.VAR_KEYWORD for p in params) and len(positional) < 3:
-            warnings.warn(f"{cls.__module__}.{cls.__qualname__}.reset(self, batch_shape, **context) is the old "
-                          "signature; write reset(self, batch_shape, context) and read the harness's values from "
-                          "the frozen gnssframework.RunContext (context.coherent_time_s, "
-                          "context.require('cn0_dbhz', ...)). The old form gets the context's fields as keywords "
-                          "and will be removed.", DeprecationWarning, stacklevel=2)
+            code = getattr(reset, "__code__", None)
+            # Attributed to the plugin's own reset, so the warning points at the line to change.
+            warnings.warn_explicit(
+                f"{cls.__module__}.{cls.__qualname__}.reset(self, batch_shape, **context) is the old signature; "
+                "write reset(self, batch_shape, context) and read the harness's values from the frozen "
+                "gnssframework.RunContext (context.coherent_time_s, context.require('cn0_dbhz', ...)). The old "
+                "form gets the context's fields as keywords and will be removed.", DeprecationWarning,
+                code.co_filename if code else "<unknown>", code.co_firstlineno if code else 0, module=cls.__module__)
             cls.reset = _legacy_reset(reset)
 
     #: Names of the inputs ``step`` needs.
