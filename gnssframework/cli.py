@@ -76,6 +76,7 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .experiments.files import atomic_open
+    from .interfaces import RunContext
     from .io.rinex import read_code_carrier
     from .io.skipped import exit_status, print_skipped, write_skipped_report
 
@@ -89,7 +90,9 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
     if args.slip_threshold:
         kw["slip_threshold_m"] = args.slip_threshold
     smoother = registry.create("channel_filter", name, **kw)
-    smoother.reset(())
+    steps = np.diff(np.asarray(data.time_s, float))
+    interval = float(np.median(steps)) if steps.size and np.median(steps) > 0 else None
+    smoother.reset((), RunContext(epoch_interval_s=interval))
     rows = [smoother.checked_step({"pseudorange_m": np.asarray(r), "carrier_m": np.asarray(c)})
             for r, c in zip(data.pseudorange_m, data.carrier_m)]
     with atomic_open(args.out, "w", newline="") as fh:  # a killed run leaves no half CSV

@@ -5,7 +5,7 @@ import pytest
 
 import gnssframework as gf
 from gnssframework.experiments import get_scenario
-from gnssframework.interfaces import ChannelFilter
+from gnssframework.interfaces import ChannelFilter, RunContext
 from gnssframework.receiver.vector import run_vector_loop
 from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 
@@ -25,7 +25,7 @@ class OracleChannel(ChannelFilter):
         super().__init__()
         self.rng, self.sc, self.sf = rng, sigma_code, sigma_freq
 
-    def reset(self, batch_shape, **context):
+    def reset(self, batch_shape, context):
         self.shape = batch_shape
 
     def step(self, inputs):
@@ -176,7 +176,7 @@ def test_ekf_pv_converts_channel_errors_to_range_units():
     sat_pos = x0[:3] + 2.0e7 * dirs
     sat_vel = np.cross(dirs, [0.0, 0.0, 1.0]) * 3000.0
     nav = gf.registry.create("nav_filter", "ekf-pv", clock="ocxo")
-    nav.reset((), coherent_time_s=0.01, initial_state=x0, initial_cov=np.diag([1e-8] * 6 + [1e8, 1e8]))
+    nav.reset((), gf.RunContext(coherent_time_s=0.01, initial_state=x0, initial_cov=np.diag([1e-8] * 6 + [1e8, 1e8])))
     rho, rate, _ = predicted_range(x0, sat_pos, sat_vel)
     ones = np.ones(len(dirs))
     out = nav.step({"replica_range_m": rho, "replica_rate_m_s": rate,
@@ -218,6 +218,6 @@ def test_vector_metrics_on_hand_built_series():
 def test_split_output_without_a_cn0_says_what_to_do():
     f = gf.registry.create("channel_filter", "iq-filter")
     with pytest.raises(gf.errors.ConfigError, match="split_code = 'new-information'"):
-        f.reset((2, 3), coherent_time_s=0.01)
+        f.reset((2, 3), RunContext(coherent_time_s=0.01))
     f = gf.registry.create("channel_filter", "iq-filter", split_code="new-information")
-    f.reset((2, 3), coherent_time_s=0.01)  # needs no C/N0
+    f.reset((2, 3), RunContext(coherent_time_s=0.01))  # needs no C/N0

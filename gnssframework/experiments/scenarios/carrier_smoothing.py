@@ -1,4 +1,4 @@
-"""Scenario ``carrier-smoothing``: carrier-smoothed code with cycle slips (reference 001).
+"""Scenario ``carrier-smoothing``: carrier-smoothed code with cycle slips (CN105068097 patent 2015).
 
 One satellite of the nominal constellation seen from a static receiver, epochs of 1 s.
 Pseudorange = range + white thermal noise + AR(1) code multipath; carrier phase (m) =
@@ -17,6 +17,7 @@ import pymap3d
 from pydantic import Field, ValidationInfo, field_validator
 
 from ...errors import ConfigError
+from ...interfaces import RunContext
 from ...signal.constants import L1_WAVELENGTH_M
 from ...simulation.constellation import nominal_constellation
 from ...simulation.impairments import ar1_noise, cycle_slips
@@ -125,7 +126,7 @@ def false_resets(detected: np.ndarray, slips: np.ndarray) -> np.ndarray:
 
 @register_scenario
 class CarrierSmoothingScenario(Scenario):
-    """Carrier-smoothed code with random cycle slips (reference 001)."""
+    """Carrier-smoothed code with random cycle slips (CN105068097 patent 2015)."""
 
     kind = "carrier-smoothing"
     Params = CarrierSmoothingParams
@@ -170,7 +171,7 @@ class CarrierSmoothingScenario(Scenario):
         if ch is None:
             smoothed, detected = code, np.zeros_like(slips)
         else:
-            ch.reset((runs,))
+            ch.reset((runs,), RunContext(epoch_interval_s=p.dt_s))
             outs = [ch.checked_step({"pseudorange_m": code[k], "carrier_m": carrier[k]}) for k in range(p.epochs)]
             smoothed = np.stack([o["smoothed_m"] for o in outs])
             detected = np.stack([np.broadcast_to(o.get("slip_detected", False), (runs,)) for o in outs])

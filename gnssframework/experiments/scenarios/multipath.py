@@ -1,4 +1,4 @@
-"""Scenario ``multipath``: position-domain filtering with AR(1) colored noise (reference 004).
+"""Scenario ``multipath``: position-domain filtering with AR(1) colored noise (Liu et al. 2020).
 
 A static receiver's latitude and longitude (local metres) are measured every epoch with
 AR(1) colored multipath noise plus white noise. Candidates compose a ``nav_filter``
@@ -52,7 +52,7 @@ def convergence_epoch(err: np.ndarray, window: int) -> np.ndarray:
 
 @register_scenario
 class MultipathScenario(Scenario):
-    """Position filtering with AR(1) colored multipath noise (reference 004)."""
+    """Position filtering with AR(1) colored multipath noise (Liu et al. 2020)."""
 
     kind = "multipath"
     Params = MultipathParams
@@ -87,7 +87,7 @@ class MultipathScenario(Scenario):
         if aug is None or getattr(aug.params, "psi", 0.0) is not None:
             return plugins
         return {**plugins, "augmentation": registry.create("augmentation", aug.name,
-                                                           **{**aug.params.model_dump(), "psi": psi})}
+                                                           **{**dict(aug.params), "psi": psi})}
 
     def _filter(self, plugins: dict, zs: np.ndarray, q_scale: float = 1.0, r_scale: float = 1.0):
         """Errors ``(K', runs, 2)`` of the candidate's filter (Q and R scaled for the oracle) and epochs."""
@@ -95,7 +95,7 @@ class MultipathScenario(Scenario):
             return zs, np.arange(zs.shape[0])
         nav, adapter = plugins["nav_filter"], plugins.get("noise_adapter")
         if q_scale != 1.0 or r_scale != 1.0:
-            params = nav.params.model_dump()
+            params = dict(nav.params)  # shallow: nested plugin references stay resolved
             nav = registry.create("nav_filter", nav.name, **{**params, "q0": [q * q_scale for q in params["q0"]],
                                                             "r0": params["r0"] * r_scale})
         res = nav.filter(zs, plugins["estimator"], adapter=adapter, augmentation=plugins.get("augmentation"))
