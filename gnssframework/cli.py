@@ -73,6 +73,7 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from .interfaces import RunContext
     from .io.rinex import read_code_carrier
 
     data = read_code_carrier(args.file, args.prn)
@@ -84,7 +85,9 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
     if args.slip_threshold:
         kw["slip_threshold_m"] = args.slip_threshold
     smoother = registry.create("channel_filter", name, **kw)
-    smoother.reset(())
+    steps = np.diff(np.asarray(data.time_s, float))
+    interval = float(np.median(steps)) if steps.size and np.median(steps) > 0 else None
+    smoother.reset((), RunContext(epoch_interval_s=interval))
     rows = [smoother.checked_step({"pseudorange_m": np.asarray(r), "carrier_m": np.asarray(c)})
             for r, c in zip(data.pseudorange_m, data.carrier_m)]
     with open(args.out, "w", newline="") as fh:
@@ -122,7 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output directory (default: results/<name>)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_compare)
-    p = sub.add_parser("filter-positions", help="filter an NMEA position log (reference 004's filters)")
+    p = sub.add_parser("filter-positions", help="filter an NMEA position log (the filters of Liu et al. 2020)")
     p.add_argument("file", help="NMEA log with GGA and/or RMC sentences")
     p.add_argument("--out", required=True, help="output CSV")
     p.add_argument("--filter", default="AUKF1", choices=["UKF", "UKF1", "AUKF", "AUKF1"])

@@ -34,7 +34,7 @@ class _Window:
         return self.total / len(self.items)
 
 
-# -- innovation (reference 000, eq. 31) --------------------------------------------
+# -- innovation (Zou et al. 2018, eq. 31) --------------------------------------------
 
 
 class InnovationParams(SafeguardParams):
@@ -57,7 +57,7 @@ class _InnovationRun(_WindowedRun):
 
 
 class InnovationAdapter(NoiseAdapter):
-    r"""Windowed innovation-based estimate of R (reference 000, eq. 31).
+    r"""Windowed innovation-based estimate of R (Zou et al. 2018, eq. 31).
 
     $$
     \hat R_k = \frac{1}{L} \sum_{j=k-L+1}^{k} v_j v_j^T
@@ -69,14 +69,14 @@ class InnovationAdapter(NoiseAdapter):
     """
 
     name = "innovation"
-    description = "Windowed innovation-matching estimate of R (reference 000, eq. 31)"
+    description = "Windowed innovation-matching estimate of R (Zou et al. 2018, eq. 31)"
     Params = InnovationParams
 
     def start(self, Q0, R0) -> AdapterRun:
         return _InnovationRun(self.params, Q0, R0)
 
 
-# -- Sage-Husa (classic; improved of reference 004) ---------------------------------
+# -- Sage-Husa (classic; improved of Liu et al. 2020) ---------------------------------
 
 
 class SageHusaParams(SafeguardParams):
@@ -128,10 +128,9 @@ class SageHusaAdapter(NoiseAdapter):
     Q_k = (1-d_k) Q_{k-1} + d_k (K_k e_k e_k^T K_k^T + P_k - \Phi P_{k-1} \Phi^T)
     $$
 
-    ``variant="improved"`` (reference 004, "adaptive UKF with colored noise",
-    eqs. 28-29): a convex combination of the *initial* covariance and the current
-    instantaneous estimate, weights ``alpha_r`` and ``alpha_q`` (0 switches that side
-    off):
+    ``variant="improved"`` (Liu et al. 2020, eqs. 28-29): a convex combination of the
+    *initial* covariance and the current instantaneous estimate, weights ``alpha_r`` and
+    ``alpha_q`` (0 switches that side off):
 
     $$
     R_k = (1-\alpha_1) R_0 + \alpha_1 (e_k e_k^T - H P_{k|k-1} H^T) \\
@@ -145,14 +144,14 @@ class SageHusaAdapter(NoiseAdapter):
     """
 
     name = "sage-husa"
-    description = "Sage-Husa Q/R estimation, classic (forgetting factor) or improved (reference 004)"
+    description = "Sage-Husa Q/R estimation, classic (forgetting factor) or improved (Liu et al. 2020)"
     Params = SageHusaParams
 
     def start(self, Q0, R0) -> AdapterRun:
         return _SageHusaRun(self.params, Q0, R0)
 
 
-# -- maximum-likelihood Q (reference 001) ------------------------------------------
+# -- maximum-likelihood Q (CN105068097 patent, 2015) ------------------------------------------
 
 
 class MlQParams(SafeguardParams):
@@ -174,12 +173,12 @@ class MaximumLikelihoodQAdapter(NoiseAdapter):
     + P_k - \Phi P_{k-1} \Phi^T, \qquad \Delta x_j = K_j v_j
     $$
 
-    Reference 001 (adaptive carrier-smoothed code) uses it with R fixed; the formula is
+    The CN105068097 patent (2015, adaptive carrier-smoothed code) uses it with R fixed; the formula is
     the standard one its text lost.
     """
 
     name = "ml-q"
-    description = "Windowed maximum-likelihood estimate of Q (reference 001)"
+    description = "Windowed maximum-likelihood estimate of Q (CN105068097 patent 2015)"
     Params = MlQParams
 
     def start(self, Q0, R0) -> AdapterRun:

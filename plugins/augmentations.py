@@ -23,7 +23,7 @@ class ColoredAR1Params(PluginParams):
     cross_covariance: Literal["exact", "paper"] = Field(
         "exact",
         description="'exact' keeps the w/V* cross covariance M = Q H^T (decorrelated transition); "
-        "'paper' drops it as reference 004 does (M = 0: Q' = Q, no J term)",
+        "'paper' drops it as Liu et al. (2020) do (M = 0: Q' = Q, no J term)",
     )
 
 
@@ -69,7 +69,7 @@ class ColoredAR1(Augmentation):
 
     Model: $x_{k+1} = F x_k + w_k$, $z_k = H x_k + V_k$,
     $V_k = \psi V_{k-1} + \xi_k$, $w \sim N(0, Q)$, $\xi \sim N(0, R)$.
-    The differenced measurement (reference 004, eqs. 8-11)
+    The differenced measurement (Liu et al. 2020, eqs. 8-11)
 
     $$
     z^*_k = z_{k+1} - \psi z_k = H^* x_k + V^*_k, \quad H^* = H F - \psi H, \\
@@ -117,7 +117,7 @@ class ColoredAR1(Augmentation):
 
         def decorrelation(Q: np.ndarray, R_star: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             """J and Q' from the (raw) process noise Q and the differenced R*."""
-            if self.params.cross_covariance == "paper":  # reference 004 drops M
+            if self.params.cross_covariance == "paper":  # Liu et al. (2020) drop M
                 return np.zeros(Q.shape[:-2] + (Q.shape[-1], H.shape[-2])), Q
             M = Q @ np.swapaxes(H, -1, -2)  # E[w V*^T]
             J = np.swapaxes(np.linalg.solve(R_star, np.swapaxes(M, -1, -2)), -1, -2)

@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal, Mapping
+from typing import Any, Literal, Mapping, Optional
 
 import numpy as np
 from pydantic import Field
 
+from gnssframework import registry
 from gnssframework.errors import ConfigError
-from gnssframework.estimation import AdaptationStep, Gaussian, NonlinearModel
-from gnssframework.interfaces import ChannelFilter
+from gnssframework.estimation import FilterStep, Gaussian, LinearModel, NonlinearModel
+from gnssframework.interfaces import ChannelFilter, RunContext
 from gnssframework.signal.channel_model import channel_iq, channel_transition
 from gnssframework.signal.correlator_model import tap_noise_cov
 from gnssframework.signal.navdata import wipe_off
@@ -21,14 +22,20 @@ from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 __all__ = ["ScalarTrackingLoop", "KalmanCarrierLoop", "DiscriminatorChannel", "IqFilter"]
 
 
+_HARNESS_T = ("deprecated, leave out: the harness's coherent time (RunContext.coherent_time_s) is used; "
+              "a value here must equal it")
+_HARNESS_D = ("deprecated, leave out: the harness's correlator spacing (RunContext.early_late_spacing_chips) is "
+              "used; a value here must equal it")
+
+
 class ScalarParams(PluginParams):
-    coherent_time_s: float = Field(0.001, gt=0, le=0.02)
+    coherent_time_s: Optional[float] = Field(None, gt=0, le=0.02, description=_HARNESS_T)
     pll_bandwidth_hz: float = Field(15.0, gt=0)
     pll_order: Literal[2, 3] = 3
     fll_bandwidth_hz: float = Field(5.0, ge=0, description="FLL assist bandwidth; 0 switches the assist off")
     dll_bandwidth_hz: float = Field(1.0, gt=0)
     dll_order: Literal[1, 2] = 1
-    early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0)
+    early_late_spacing_chips: Optional[float] = Field(None, gt=0, le=1.0, description=_HARNESS_D)
     code_discriminator: PluginRef("discriminator", unit="chips") = "eml-envelope"
     phase_discriminator: PluginRef("discriminator", unit="rad") = "costas-atan"
     freq_discriminator: PluginRef("discriminator", unit="Hz") = "atan2-fll"
@@ -37,10 +44,9 @@ class ScalarParams(PluginParams):
 class _CarrierAidedDll:
     """Carrier-aided DLL: code rate = chip rate (1 + f_carrier / f_L1) + loop correction."""
 
-    def __init__(self, p, batch_shape):
-        self.disc = p.code_discriminator.create(coherent_time_s=p.coherent_time_s,
-                                                early_late_spacing_chips=p.early_late_spacing_chips)
-        self.filter = LoopFilter(p.dll_order, p.dll_bandwidth_hz, p.coherent_time_s)
+    def __init__(self, p, batch_shape, T: float, spacing_chips: float):
+        self.disc = p.code_discriminator.create(coherent_time_s=T, early_late_spacing_chips=spacing_chips)
+        self.filter = LoopFilter(p.dll_order, p.dll_bandwidth_hz, T)
         self.filter.reset(batch_shape)
 
     def __call__(self, corr, carrier_freq_hz):
@@ -65,13 +71,16 @@ class ScalarTrackingLoop(ChannelFilter):
     requires = ("correlators",)
     provides = ("carrier_freq_hz", "code_freq_hz", "code_disc_chips", "phase_disc_rad", "freq_disc_hz")
 
-    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
+    def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         p = self.params
-        self.phase_disc = p.phase_discriminator.create(coherent_time_s=p.coherent_time_s)
-        self.freq_disc = p.freq_discriminator.create(coherent_time_s=p.coherent_time_s)
-        self.carrier = LoopFilter(p.pll_order, p.pll_bandwidth_hz, p.coherent_time_s, p.fll_bandwidth_hz)
+        who = f"channel_filter {self.name!r}"
+        T = context.resolve("coherent_time_s", p.coherent_time_s, who)
+        d = context.resolve("early_late_spacing_chips", p.early_late_spacing_chips, who)
+        self.phase_disc = p.phase_discriminator.create(coherent_time_s=T)
+        self.freq_disc = p.freq_discriminator.create(coherent_time_s=T)
+        self.carrier = LoopFilter(p.pll_order, p.pll_bandwidth_hz, T, p.fll_bandwidth_hz)
         self.carrier.reset(batch_shape, rate0=context.get("doppler_hz", 0.0))
-        self.dll = _CarrierAidedDll(p, batch_shape)
+        self.dll = _CarrierAidedDll(p, batch_shape, T, d)
         self.previous = None
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -87,7 +96,7 @@ class ScalarTrackingLoop(ChannelFilter):
 
 
 class KalmanLoopParams(PluginParams):
-    coherent_time_s: float = Field(0.001, gt=0, le=0.02)
+    coherent_time_s: Optional[float] = Field(None, gt=0, le=0.02, description=_HARNESS_T)
     states: Literal[2, 3] = Field(2, description="phase and frequency (2), or also frequency rate (3)")
     q: list[float] = Field([0.01, 0.1], description="diagonal of Q per interval: phase, frequency(, rate)")
     r: float = Field(5.0, gt=0, description="variance R of the phase measurement")
@@ -96,7 +105,7 @@ class KalmanLoopParams(PluginParams):
     phase_discriminator: PluginRef("discriminator", unit="rad") = "costas-atan"
     dll_bandwidth_hz: float = Field(1.0, gt=0)
     dll_order: Literal[1, 2] = 1
-    early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0)
+    early_late_spacing_chips: Optional[float] = Field(None, gt=0, le=1.0, description=_HARNESS_D)
     code_discriminator: PluginRef("discriminator", unit="chips") = "eml-envelope"
     initial_std: list[float] = Field([0.5, 5.0, 1.0], description="initial std: phase (unit), freq (unit/s), rate")
 
@@ -105,7 +114,7 @@ _TO_RAD = {"rad": 1.0, "deg": np.pi / 180, "cycles": 2 * np.pi}
 
 
 class KalmanCarrierLoop(ChannelFilter):
-    """Kalman-filter carrier loop (reference 003, Kalman tracking under scintillation).
+    """Kalman-filter carrier loop (Xia et al., Kalman tracking under scintillation, undated).
 
     Error state $x = [\\delta\\theta, \\delta\\omega(, \\dot{\\delta\\omega})]$ of the carrier
     relative to the NCO, in ``angle_unit`` (and per second). With T the interval:
@@ -120,11 +129,13 @@ class KalmanCarrierLoop(ChannelFilter):
     NCO (phase step and frequency) and the error state is reset to zero. The covariance
     runs the Kalman recursion with the user's Q (per interval) and R, so this is a PLL
     whose gains follow the Riccati equation. Q and R are given in ``angle_unit``;
-    reference 003 does not state its unit.
+    Xia et al. do not state its unit. The filter is the ``kf`` estimator run through
+    `gnssframework.estimation.FilterStep`, so its failures name the loop, the channel
+    and the interval. T and the correlator spacing come from the harness's run context.
     """
 
     name = "kf-carrier-loop"
-    description = "Kalman carrier tracking loop on the two-quadrant arctangent (reference 003)"
+    description = "Kalman carrier tracking loop on the two-quadrant arctangent (Xia et al.)"
     Params = KalmanLoopParams
     requires = ("correlators",)
     provides = ("carrier_freq_hz", "code_freq_hz", "carrier_phase_step_rad", "phase_disc_rad", "code_disc_chips")
@@ -135,43 +146,47 @@ class KalmanCarrierLoop(ChannelFilter):
         n = p.states
         if len(p.q) != n:
             raise ConfigError("channel_filter 'kf-carrier-loop'.q", f"needs {n} values for states={n}, got {p.q}")
-        T = p.coherent_time_s
-        self.F = np.array([[1.0, T, T * T / 2], [0.0, 1.0, T], [0.0, 0.0, 1.0]])[:n, :n]
-        self.H = np.array([1.0, T / 2, T * T / 6])[:n]
         self.Q = np.diag(p.q)
         self.unit = _TO_RAD[p.angle_unit]
+        self.filter_step = FilterStep(registry.create("estimator", "kf"), name=f"{self.name} (kf)")
 
-    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
+    def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         p = self.params
-        self.phase_disc = p.phase_discriminator.create(coherent_time_s=p.coherent_time_s)
+        who = f"channel_filter {self.name!r}"
+        T = context.resolve("coherent_time_s", p.coherent_time_s, who)
+        d = context.resolve("early_late_spacing_chips", p.early_late_spacing_chips, who)
         n = p.states
-        self.P = np.broadcast_to(np.diag(np.array(p.initial_std[:n]) ** 2), batch_shape + (n, n)).copy()
+        self.T = T
+        F = np.array([[1.0, T, T * T / 2], [0.0, 1.0, T], [0.0, 0.0, 1.0]])[:n, :n]
+        H = np.array([[1.0, T / 2, T * T / 6]])[:, :n]
+        self.model = LinearModel(F, H, self.Q, np.array([[p.r]]))
+        self.phase_disc = p.phase_discriminator.create(coherent_time_s=T)
+        P0 = np.diag(np.array(p.initial_std[:n]) ** 2)
+        self.state = self.filter_step.start(Gaussian(np.zeros(batch_shape + (n,)), P0), self.model)
         # Frequency and its rate of the NCO, in angle_unit/s (and /s^2).
         self.freq = np.broadcast_to(2 * np.pi * np.asarray(context.get("doppler_hz", 0.0), float) / self.unit,
                                     batch_shape).copy()
         self.rate = np.zeros(batch_shape)
-        self.dll = _CarrierAidedDll(p, batch_shape)
+        self.dll = _CarrierAidedDll(p, batch_shape, T, d)
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         corr = inputs["correlators"]
         p = self.params
         z_rad = self.phase_disc(corr)
         z = z_rad / self.unit
-        # Update: the prior error state is zero after the previous feedback.
-        PH = self.P @ self.H
-        S = PH @ self.H + p.r
-        K = PH / S[..., None]
-        dx = K * z[..., None]
-        self.P = self.P - K[..., :, None] * PH[..., None, :]
-        # Feedback: move the NCO to the estimate, propagated to the next interval's start.
-        T = p.coherent_time_s
+        # The error state is zero after the previous feedback; the first epoch updates P0.
+        res = self.filter_step(self.state, z[..., None], self.model, predict=self.filter_step.step_index > 0)
+        dx = res.posterior.mean
+        # Feedback: move the NCO to the estimate, propagated to the next interval's start;
+        # the error state restarts at zero with the posterior covariance.
+        T = self.T
         phase_step = dx[..., 0] + T * dx[..., 1] + (0.5 * T * T * dx[..., 2] if p.states == 3 else 0.0)
         if p.states == 3:
             self.rate = self.rate + dx[..., 2]
             self.freq = self.freq + dx[..., 1] + T * dx[..., 2] + T * self.rate
         else:
             self.freq = self.freq + dx[..., 1]
-        self.P = self.F @ self.P @ self.F.T + self.Q
+        self.state = Gaussian(np.zeros_like(dx), res.posterior.cov)
         f_hz = self.freq * self.unit / (2 * np.pi)
         code_err, code_freq = self.dll(corr, f_hz)
         return {"carrier_freq_hz": f_hz, "code_freq_hz": code_freq, "carrier_phase_step_rad": phase_step * self.unit,
@@ -191,7 +206,7 @@ class DiscriminatorChannelParams(PluginParams):
 
 
 class DiscriminatorChannel(ChannelFilter):
-    """Discriminators as a vector-loop channel filter: the classic baseline of reference 000.
+    """Discriminators as a vector-loop channel filter: the classic baseline of Zou et al. (2018).
 
     Outputs the code discriminator (``eml-envelope``) and the frequency discriminator
     (``cross-product`` on consecutive prompts) with their thermal-noise variances at the
@@ -206,15 +221,16 @@ class DiscriminatorChannel(ChannelFilter):
     requires = ("correlators",)
     provides = VECTOR_OUTPUTS
 
-    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
-        T = context["coherent_time_s"]
+    def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
+        who = f"channel_filter {self.name!r}"
+        T = context.require("coherent_time_s", who)
         spacing = context.get("early_late_spacing_chips", 1.0)
         self.code = self.params.code_discriminator.create(coherent_time_s=T, early_late_spacing_chips=spacing)
         self.freq = self.params.freq_discriminator.create(coherent_time_s=T)
         if self.code.unit != "chips" or self.freq.unit != "Hz":
             raise ConfigError("channel_filter 'discriminator'", "needs a code discriminator (chips) and a frequency "
                               f"discriminator (Hz), got {self.code.unit} and {self.freq.unit}")
-        cn0 = np.broadcast_to(np.asarray(context["cn0_dbhz"], float), batch_shape)
+        cn0 = np.broadcast_to(np.asarray(context.require("cn0_dbhz", who), float), batch_shape)
         self.var_code = np.broadcast_to(self.code.noise_variance(cn0), batch_shape)
         self.var_freq = np.broadcast_to(self.freq.noise_variance(cn0), batch_shape)
         self.previous = None
@@ -276,7 +292,7 @@ def _equivalent_measurement(prior: Gaussian, post: Gaussian, idx: list[int]):
 
 
 class IqFilter(ChannelFilter):
-    """Reference 000's per-channel filter on the six correlator outputs.
+    """The per-channel filter of Zou et al. (2018) on the six correlator outputs.
 
     State $x = [A, \\delta\\tau, \\delta\\theta, \\delta f, \\dot{\\delta f}]$, transition of
     `gnssframework.signal.channel_model.channel_transition`, measurements
@@ -298,7 +314,7 @@ class IqFilter(ChannelFilter):
     """
 
     name = "iq-filter"
-    description = "CKF on the six I/Q correlator outputs with adaptive R (reference 000)"
+    description = "CKF on the six I/Q correlator outputs with adaptive R (Zou et al. 2018)"
     Params = IqFilterParams
     requires = ("correlators",)
     provides = VECTOR_OUTPUTS + ("amplitude", "phase_error_rad")
@@ -313,9 +329,10 @@ class IqFilter(ChannelFilter):
         if p.adapter:
             # window and warmup are this filter's; the adapter's own params win over them.
             self.adapter = p.adapter.create(warmup=p.warmup, window=p.window, **p.adapter.params)
+        self.filter_step = FilterStep(self.engine, self.adapter, name=f"{self.name} ({self.engine.name})")
 
-    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
-        T = context["coherent_time_s"]
+    def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
+        T = context.require("coherent_time_s", f"channel_filter {self.name!r}")
         d = context.get("early_late_spacing_chips", 1.0) / 2
         F = channel_transition(T)
         taps = tap_noise_cov(np.array([-d, 0.0, d]))
@@ -324,9 +341,7 @@ class IqFilter(ChannelFilter):
         self.model = NonlinearModel(lambda x: x @ F.T, lambda x: channel_iq(x, d, T), np.diag(self.params.q), R0)
         self.batch_shape = batch_shape
         self.state = None
-        self.run = self.adapter.start(self.model.Q, R0) if self.adapter is not None else None
         self.T = T
-        self.k = 0
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         corr = inputs["correlators"]
@@ -337,33 +352,28 @@ class IqFilter(ChannelFilter):
             mean = np.zeros(self.batch_shape + (5,))
             mean[..., 0] = np.abs(p0)
             mean[..., 2] = np.angle(p0)
-            self.state = Gaussian(mean, np.diag(np.square(self.params.initial_std)))
-            prior = self.state
+            previous = prior = self.filter_step.start(
+                Gaussian(mean, np.diag(np.square(self.params.initial_std))), self.model)
         else:
             mean = self.state.mean.copy()
             mean[..., 1] -= inputs["nco_shift_chips"]
             mean[..., 3] -= inputs["nco_shift_hz"]
             previous = Gaussian(mean, self.state.cov)
-            prior = self.engine.predict(previous, self.model)
+            prior = self.filter_step.predict(previous, self.model)
         if "data_bit" not in inputs:  # decision-directed wipe-off
             phase = prior.mean[..., 2] + np.pi * prior.mean[..., 3] * self.T
             bit = np.where(np.real(corr.prompt * np.exp(-1j * phase)) >= 0, 1.0, -1.0)
             corr = wipe_off(corr, bit)
-        upd = self.engine.update(prior, corr.as_iq(), self.model)
-        if self.run is not None:
-            previous = self.state
-            _, R = self.run.step(AdaptationStep(self.k, previous, prior, upd, self.model))
-            self.model = self.model.with_noise(R=R)
-        self.k += 1
-        first = self.k == 1
-        self.state = upd.state
-        x, P = upd.state.mean, upd.state.cov
+        first = self.filter_step.step_index == 0
+        upd = self.filter_step.update(prior, corr.as_iq(), self.model, previous=previous)
+        self.state = upd.posterior
+        x, P = upd.posterior.mean, upd.posterior.cov
         out = {"amplitude": x[..., 0], "phase_error_rad": x[..., 2]}
         if self.params.output == "filtered" or first:
             out.update(code_error_chips=x[..., 1], code_error_var_chips2=P[..., 1, 1], freq_error_hz=x[..., 3],
                        freq_error_var_hz2=P[..., 3, 3])
         else:
-            z, R = _equivalent_measurement(prior, upd.state, [1, 3])
+            z, R = _equivalent_measurement(prior, upd.posterior, [1, 3])
             out.update(code_error_chips=z[..., 0], code_error_var_chips2=R[..., 0, 0], freq_error_hz=z[..., 1],
                        freq_error_var_hz2=R[..., 1, 1])
         return out

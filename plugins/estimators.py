@@ -127,7 +127,7 @@ class UnscentedKalmanFilter(SigmaPointEstimator):
     $$
 
     (van der Merwe, *Sigma-Point Kalman Filters*, PhD thesis, 2004). These are the
-    weights reference 004 means; its printed eq. 14 has two typos.
+    weights Liu et al. (2020) mean; its printed eq. 14 has two typos.
     """
 
     name = "ukf"
@@ -196,16 +196,16 @@ class SvdCubatureKalmanFilter(CubatureKalmanFilter):
     r"""Cubature Kalman filter with the square root of P from its SVD.
 
     $P = U \operatorname{diag}(s) V^T$ gives the root $U \operatorname{diag}(\sqrt{s})$
-    (reference 000, "Vector tracking with an adaptive cubature Kalman filter",
-    eqs. 11-25). Unlike Cholesky it exists for every symmetric P, so the filter keeps
-    running on the nearly singular covariances that rounding produces. For a PSD P
+    (Zou, Lian and Dan 2018, eqs. 11-25). Unlike Cholesky it exists for every symmetric
+    P, so the filter keeps running on the nearly singular covariances that rounding
+    produces. For a PSD P
     the root differs from Cholesky's by an orthogonal rotation: the cubature points
     differ, so on a *nonlinear* model the two filters agree only to the rule's third
     degree of accuracy, while on a linear model both return the Kalman filter's numbers.
     """
 
     name = "svd-ckf"
-    description = "Cubature Kalman filter with an SVD square root (reference 000)"
+    description = "Cubature Kalman filter with an SVD square root (Zou et al. 2018)"
 
     def square_root(self, cov: np.ndarray) -> np.ndarray:
         finite = np.isfinite(cov).all(axis=(-2, -1))

@@ -16,7 +16,7 @@ RNX = Path(__file__).resolve().parents[1] / "examples" / "data" / "simulated_pas
 
 def _run(name, code, carrier, **params):
     f = gf.registry.create("channel_filter", name, **params)
-    f.reset(code.shape[1:])
+    f.reset(code.shape[1:], gf.RunContext(epoch_interval_s=1.0))
     return np.stack([f.step({"pseudorange_m": r, "carrier_m": c})["smoothed_m"] for r, c in zip(code, carrier)])
 
 

@@ -25,7 +25,7 @@ class OracleChannel(ChannelFilter):
         super().__init__()
         self.rng, self.sc, self.sf = rng, sigma_code, sigma_freq
 
-    def reset(self, batch_shape, **context):
+    def reset(self, batch_shape, context):
         self.shape = batch_shape
 
     def step(self, inputs):
@@ -127,7 +127,7 @@ def test_ekf_pv_converts_channel_errors_to_range_units():
     sat_pos = x0[:3] + 2.0e7 * dirs
     sat_vel = np.cross(dirs, [0.0, 0.0, 1.0]) * 3000.0
     nav = gf.registry.create("nav_filter", "ekf-pv", clock="ocxo")
-    nav.reset((), coherent_time_s=0.01, initial_state=x0, initial_cov=np.diag([1e-8] * 6 + [1e8, 1e8]))
+    nav.reset((), gf.RunContext(coherent_time_s=0.01, initial_state=x0, initial_cov=np.diag([1e-8] * 6 + [1e8, 1e8])))
     rho, rate, _ = predicted_range(x0, sat_pos, sat_vel)
     ones = np.ones(len(dirs))
     out = nav.step({"replica_range_m": rho, "replica_rate_m_s": rate,

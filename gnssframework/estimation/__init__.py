@@ -12,7 +12,8 @@ from .adaptation import (
     SafeguardParams,
 )
 from .estimator import Estimator, SigmaPointEstimator
-from .sequence import RECOVERIES, FilterResult, filter_sequence
+from .sequence import FilterResult, filter_sequence
+from .step import RECOVERIES, FilterStep, StepResult
 from .types import Gaussian, LinearModel, Model, NonlinearModel, Update, numerical_jacobian
 
 __all__ = [
@@ -22,6 +23,7 @@ __all__ = [
     "AugmentedProblem",
     "Estimator",
     "FilterResult",
+    "FilterStep",
     "Gaussian",
     "LinearModel",
     "Model",
@@ -30,6 +32,7 @@ __all__ = [
     "RECOVERIES",
     "SafeguardParams",
     "SigmaPointEstimator",
+    "StepResult",
     "Update",
     "filter_sequence",
     "numerical_jacobian",

@@ -13,7 +13,7 @@ from .nmea import NmeaFixes
 
 __all__ = ["CANDIDATES", "filter_positions", "write_positions_csv"]
 
-#: The four filters of reference 004, as plugin compositions around ``position-ca``.
+#: The four filters of Liu et al. (2020), as plugin compositions around ``position-ca``.
 CANDIDATES = {
     "UKF": {},
     "UKF1": {"colored": True},

@@ -11,7 +11,7 @@ coherent interval k, from $t_k$ to $t_{k+1} = t_k + T$:
    their variances (``code_error_chips``, ``code_error_var_chips2``,
    ``freq_error_hz``, ``freq_error_var_hz2``);
 4. the navigation filter takes them as pseudorange and pseudorange-rate errors of
-   the replica at mid-interval (reference 000, eqs. 35-36),
+   the replica at mid-interval (Zou et al. 2018, eqs. 35-36),
    $\\delta\\rho = \\lambda_{chip}\\, \\delta\\tau$ and $\\delta\\dot\\rho = -\\lambda_{L1}\\, \\delta f$,
    and returns the NCO command of the next interval (``nco_range_m``,
    ``nco_range_rate_m_s``);
@@ -30,7 +30,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigError
-from ..interfaces import ChannelFilter, NavFilter
+from ..interfaces import ChannelFilter, NavFilter, RunContext
 from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ..signal.correlator_model import simulate_correlators
 from ..signal.navdata import BIT_PERIOD_S, random_nav_bits
@@ -171,8 +171,10 @@ def run_vector_loop(
     theta0 = rng.uniform(-np.pi, np.pi, batch)  # unknown initial carrier phase per channel
     bits = random_nav_bits(int(np.ceil(K * T / BIT_PERIOD_S)) + 1, rng, batch) if data_bits != "none" else None
 
-    channel.reset(batch, cn0_dbhz=cn0, coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips)
-    nav.reset((runs,), initial_state=initial_state, initial_cov=initial_cov, coherent_time_s=T)
+    context = RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips, epoch_interval_s=T,
+                         cn0_dbhz=cn0, initial_state=initial_state, initial_cov=initial_cov)
+    channel.reset(batch, context)
+    nav.reset((runs,), context)
 
     # First NCO command from the initial estimate, propagated back to t_0.
     s_mid, sv_mid = truth.sat_state(np.asarray(T / 2))

@@ -1,4 +1,4 @@
-"""The correlator-domain channel model of reference 000 (vector tracking with an ACKF).
+"""The correlator-domain channel model of Zou et al. (2018), vector tracking with an ACKF.
 
 State of one channel, ``x = [A, dtau, dtheta, df, dfdot]``: correlator amplitude,
 code phase error (chips), carrier phase error (rad), carrier frequency error (Hz) and
@@ -22,7 +22,7 @@ CODE_TO_CARRIER = CA_CHIP_RATE_HZ / L1_FREQ_HZ
 def channel_iq(
     x: np.ndarray, spacing_chips: float, coherent_time_s: float, data_bit: np.ndarray | float = 1.0
 ) -> np.ndarray:
-    r"""The six correlator outputs of reference 000, eqs. 2-7, vectorised.
+    r"""The six correlator outputs of Zou et al. (2018), eqs. 2-7, vectorised.
 
     $$
     I_E = A\, R(\delta\tau + d)\, D\, \mathrm{sinc}(\delta f T) \cos(\pi \delta f T + \delta\theta)
@@ -56,7 +56,7 @@ def channel_iq(
 
 
 def channel_transition(coherent_time_s: float, code_to_carrier: float = CODE_TO_CARRIER) -> np.ndarray:
-    r"""Transition matrix of the channel state over one coherent interval (reference 000, eq. 9).
+    r"""Transition matrix of the channel state over one coherent interval (Zou et al. 2018, eq. 9).
 
     $$
     \delta\tau' = \delta\tau - \tfrac{f_{code}}{f_{carrier}} T \delta f, \quad

@@ -1,4 +1,4 @@
-"""Scenario ``carrier-smoothing``: carrier-smoothed code with cycle slips (reference 001).
+"""Scenario ``carrier-smoothing``: carrier-smoothed code with cycle slips (CN105068097 patent 2015).
 
 One satellite of the nominal constellation seen from a static receiver, epochs of 1 s.
 Pseudorange = range + white thermal noise + AR(1) code multipath; carrier phase (m) =
@@ -15,6 +15,7 @@ import pymap3d
 from pydantic import Field, ValidationInfo, field_validator
 
 from ...errors import ConfigError
+from ...interfaces import RunContext
 from ...signal.constants import L1_WAVELENGTH_M
 from ...simulation.constellation import nominal_constellation
 from ...simulation.impairments import ar1_noise, cycle_slips
@@ -85,7 +86,7 @@ def slip_recovery_epochs(err: np.ndarray, slips: np.ndarray, before: int = 30, w
 
 @register_scenario
 class CarrierSmoothingScenario(Scenario):
-    """Carrier-smoothed code with random cycle slips (reference 001)."""
+    """Carrier-smoothed code with random cycle slips (CN105068097 patent 2015)."""
 
     kind = "carrier-smoothing"
     Params = CarrierSmoothingParams
@@ -126,7 +127,7 @@ class CarrierSmoothingScenario(Scenario):
         if ch is None:
             smoothed = code
         else:
-            ch.reset((runs,))
+            ch.reset((runs,), RunContext(epoch_interval_s=p.dt_s))
             smoothed = np.stack([ch.checked_step({"pseudorange_m": code[k], "carrier_m": carrier[k]})["smoothed_m"]
                                  for k in range(p.epochs)])
         err = smoothed - truth

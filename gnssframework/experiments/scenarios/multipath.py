@@ -1,4 +1,4 @@
-"""Scenario ``multipath``: position-domain filtering with AR(1) colored noise (reference 004).
+"""Scenario ``multipath``: position-domain filtering with AR(1) colored noise (Liu et al. 2020).
 
 A static receiver's latitude and longitude (local metres) are measured every epoch with
 AR(1) colored multipath noise plus white noise. Candidates compose a ``nav_filter``
@@ -47,7 +47,7 @@ def convergence_epoch(err: np.ndarray, window: int) -> np.ndarray:
 
 @register_scenario
 class MultipathScenario(Scenario):
-    """Position filtering with AR(1) colored multipath noise (reference 004)."""
+    """Position filtering with AR(1) colored multipath noise (Liu et al. 2020)."""
 
     kind = "multipath"
     Params = MultipathParams

@@ -1,4 +1,4 @@
-"""Scenario ``scintillation``: carrier tracking under ionospheric scintillation (reference 003).
+"""Scenario ``scintillation``: carrier tracking under ionospheric scintillation (Xia et al.).
 
 One channel per run tracks a GPS L1 C/A signal whose amplitude and phase are modulated by
 a scintillation process (AJ-Stanford or Cornell). The candidate is a ``channel_filter``
@@ -44,7 +44,7 @@ class ScintillationCase(ScenarioParams):
 
 @register_scenario
 class ScintillationScenario(Scenario):
-    """Carrier tracking under amplitude and phase scintillation (reference 003)."""
+    """Carrier tracking under amplitude and phase scintillation (Xia et al.)."""
 
     kind = "scintillation"
     Params = ScintillationParams

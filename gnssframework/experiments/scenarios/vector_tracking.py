@@ -1,4 +1,4 @@
-"""Scenario ``vector-tracking``: reference 000's experiment (adaptive CKF vector tracking).
+"""Scenario ``vector-tracking``: the experiment of Zou et al. (2018) (adaptive CKF vector tracking).
 
 GPS L1 C/A satellites of the nominal constellation, a static receiver (or one moving at
 constant velocity), a receiver clock from h-parameters, and N channels tracked in a
@@ -54,7 +54,7 @@ class VectorTrackingCase(ScenarioParams):
 
 @register_scenario
 class VectorTrackingScenario(Scenario):
-    """Vector tracking (reference 000). Candidates compose a ``channel_filter`` and a ``nav_filter``."""
+    """Vector tracking (Zou et al. 2018). Candidates compose a ``channel_filter`` and a ``nav_filter``."""
 
     kind = "vector-tracking"
     Params = VectorTrackingParams
