@@ -76,10 +76,12 @@ def _run(est, backend, state, z, model, **kw):
     batch=st.sampled_from([(), (1,), (3,), (2, 3)]),
     seed=st.integers(0, 2**32 - 1),
     alpha=st.floats(0.3, 1.0),
+    linear_model=st.booleans(),
 )
-def test_kernel_path_equals_the_numpy_path(name, n, m, batch, seed, alpha):
+def test_kernel_path_equals_the_numpy_path(name, n, m, batch, seed, alpha, linear_model):
+    # A LinearModel carries compiled F x / H x: sigma-point engines then run fused.
     nonlinear, linear, state, z = _problem(seed, n, m, batch)
-    model = linear if name == "kf" else nonlinear
+    model = linear if (name == "kf" or linear_model) else nonlinear
     est = _engine(name, alpha)
     ref_prior, ref = _run(est, "numpy", state, z, model)
     prior, upd = _run(est, "numba", state, z, model)
@@ -105,10 +107,11 @@ def test_parallel_kernels_equal_the_numpy_path_on_a_large_batch(name):
     _close(ref.gain, upd.gain)
 
 
+@pytest.mark.parametrize("linear_model", (False, True))
 @pytest.mark.parametrize("name", ENGINES)
-def test_missing_measurements_skip_the_same_elements_in_both_paths(name):
+def test_missing_measurements_skip_the_same_elements_in_both_paths(name, linear_model):
     nonlinear, linear, state, z = _problem(3, 4, 3, (5,))
-    model = linear if name == "kf" else nonlinear
+    model = linear if (name == "kf" or linear_model) else nonlinear
     z = z.copy()
     z[[1, 3], 0] = np.nan
     est = _engine(name)
@@ -122,9 +125,11 @@ def test_missing_measurements_skip_the_same_elements_in_both_paths(name):
     assert np.all(upd.innovation[[1, 3]] == 0.0)
 
 
+@pytest.mark.parametrize("linear_model", (False, True))
 @pytest.mark.parametrize("name", ("ukf", "ckf"))
-def test_a_covariance_that_is_not_pd_is_named_alike_in_both_paths(name):
-    nonlinear, _, state, _ = _problem(5, 3, 2, (4,))
+def test_a_covariance_that_is_not_pd_is_named_alike_in_both_paths(name, linear_model):
+    nonlinear, linear, state, z = _problem(5, 3, 2, (4,))
+    model = linear if linear_model else nonlinear
     cov = state.cov.copy()
     cov[2] = -np.eye(3)
     bad = gf.Gaussian(state.mean, cov)
@@ -132,7 +137,10 @@ def test_a_covariance_that_is_not_pd_is_named_alike_in_both_paths(name):
     for backend in ("numpy", "numba"):
         est.backend = backend
         with pytest.raises(NotPositiveDefiniteError) as err:
-            est.predict(bad, nonlinear)
+            est.predict(bad, model)
+        assert err.value.batch_indices == [(2,)], backend
+        with pytest.raises(NotPositiveDefiniteError) as err:
+            est.update(bad, z, model)
         assert err.value.batch_indices == [(2,)], backend
 
 
@@ -179,3 +187,29 @@ def test_backend_selection_is_validated_and_falls_back_to_numpy(monkeypatch):
     assert kernels.get_backend() == "numba"
     monkeypatch.setattr(kernels, "HAVE_NUMBA", False)
     assert kernels.get_backend() == "numpy"
+
+
+@pytest.mark.parametrize("name", ("ukf", "ckf", "svd-ckf"))
+def test_compiled_channel_model_equals_the_numpy_channel_model(name):
+    from gnssframework.signal.channel_model import channel_model
+
+    rng = np.random.default_rng(11)
+    Q = np.diag([1e-4, 1e-6, 1e-3, 1e-2, 1e-1])
+    R = np.eye(6) + 0.2  # correlated taps
+    compiled = channel_model(0.01, 0.5, Q, R)
+    assert compiled.compiled is not None
+    plain = gf.NonlinearModel(compiled.f, compiled.h, Q, R)  # same NumPy functions, no twins
+    x = np.array([40.0, 0.05, 0.1, 2.0, 0.0]) + rng.standard_normal((6, 5)) * [1.0, 0.3, 1.0, 5.0, 1.0]
+    x[0, 3] = 0.0  # sinc's removable singularity
+    x[1, 1] = 1.2  # beyond the triangle's support on every tap
+    state = gf.Gaussian(x, np.diag([4.0, 0.01, 0.1, 4.0, 1.0]))
+    z = compiled.h(x) + rng.standard_normal((6, 6))
+    est = _engine(name)
+    ref_prior, ref = _run(est, "numpy", state, z, plain)
+    prior, upd = _run(est, "numba", state, z, compiled)
+    _close(ref_prior.mean, prior.mean)
+    _close(ref_prior.cov, prior.cov)
+    for field in ("innovation", "innovation_cov", "gain", "cross_cov", "predicted_measurement"):
+        _close(getattr(ref, field), getattr(upd, field))
+    _close(ref.state.mean, upd.state.mean)
+    _close(ref.state.cov, upd.state.cov)

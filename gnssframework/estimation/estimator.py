@@ -64,6 +64,10 @@ class Estimator(Plugin, abc.ABC):
         the state-measurement cross covariance."""
 
     # -- shared -------------------------------------------------------------------
+    def _fused_update(self, prior: Gaussian, z: np.ndarray, bad_z: np.ndarray, model: Model):
+        """A whole compiled update, or ``None`` (the engine has none for this model)."""
+        return None
+
     def posterior_cov(self, prior: Gaussian, gain: np.ndarray, S: np.ndarray, model: Model) -> np.ndarray:
         """``P - K S K^T``, symmetrised. Engines may override (Joseph form)."""
         return symmetrize(prior.cov - gain @ S @ np.swapaxes(gain, -1, -2))
@@ -96,15 +100,22 @@ class Estimator(Plugin, abc.ABC):
             or ``"skip"`` the update of that element (a missing measurement).
         """
         z = np.asarray(z, dtype=float)
-        batch = np.broadcast_shapes(prior.batch_shape, z.shape[:-1])
-        if prior.batch_shape != batch:
-            prior = Gaussian(np.broadcast_to(prior.mean, batch + prior.mean.shape[-1:]), prior.cov)
-        z = np.broadcast_to(z, batch + z.shape[-1:])
+        if z.shape[:-1] != prior.batch_shape:
+            batch = np.broadcast_shapes(prior.batch_shape, z.shape[:-1])
+            if prior.batch_shape != batch:
+                prior = Gaussian(np.broadcast_to(prior.mean, batch + prior.mean.shape[-1:]), prior.cov)
+            z = np.broadcast_to(z, batch + z.shape[-1:])
 
         bad_z = ~np.isfinite(z).all(axis=-1)
         if bad_z.any():
             if missing != "skip":
                 raise InvalidMeasurementError(self.name, failing_indices(~bad_z))
+        fused = self._fused_update(prior, z, bad_z, model)
+        if fused is not None:
+            mean, cov, gain, innovation, z_hat, S, C, ok = fused
+            if not ok.all() and on_failure == "raise":
+                raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
+            return Update(Gaussian(mean, cov), innovation, S, gain, C, z_hat, bad_z | ~ok)
         z_hat, S, C = self.measurement_moments(prior, model)
         form = self._kernel_posterior() if self._use_kernels() else None
         if form is not None:
@@ -176,6 +187,25 @@ class SigmaPointEstimator(Estimator):
         """
         return None
 
+    def _fused_rule(self, state: Gaussian, model: Model):
+        """The point rule if predict/update can run fused with the model's compiled f/h."""
+        if getattr(model, "compiled", None) is None or not self._use_kernels():
+            return None
+        return self.kernel_rule(state.ndim_state)
+
+    def _raise_root_failure(self, status: np.ndarray, root_kind: int) -> None:
+        detail = "state covariance P is not finite" if root_kind == 1 else "state covariance P (Cholesky)"
+        raise NotPositiveDefiniteError(self.name, failing_indices(status == 0), detail=detail)
+
+    def _fused_update(self, prior: Gaussian, z: np.ndarray, bad_z: np.ndarray, model: Model):
+        rule = self._fused_rule(prior, model)
+        if rule is None:
+            return None
+        *out, status, ok = kernels.fused_update(prior.mean, prior.cov, z, bad_z, rule, model.compiled, model.R)
+        if status.any():
+            self._raise_root_failure(status, rule[0])
+        return (*out, ok)
+
     def _kernel_points(self, state: Gaussian):
         """``(X, wm, wc)`` from the kernels, or ``None`` where the NumPy path applies."""
         if not self._use_kernels():
@@ -186,12 +216,7 @@ class SigmaPointEstimator(Estimator):
         root_kind, scale, center, wm, wc = rule
         X, status = kernels.sigma_points(state.mean, state.cov, root_kind, scale, center)
         if status.any():
-            bad = status != 0
-            if root_kind == 1:
-                detail = "state covariance P is not finite"
-            else:
-                detail = "state covariance P (Cholesky)"
-            raise NotPositiveDefiniteError(self.name, failing_indices(~bad), detail=detail)
+            self._raise_root_failure(status, root_kind)
         return X, wm, wc
 
     def square_root(self, cov: np.ndarray) -> np.ndarray:
@@ -224,6 +249,12 @@ class SigmaPointEstimator(Estimator):
         return (a_last * wc) @ b_mid
 
     def predict(self, state: Gaussian, model: Model) -> Gaussian:
+        rule = self._fused_rule(state, model)
+        if rule is not None:
+            mean, cov, status = kernels.fused_predict(state.mean, state.cov, rule, model.compiled, model.Q)
+            if status.any():
+                self._raise_root_failure(status, rule[0])
+            return Gaussian(mean, cov)
         points = self._kernel_points(state)
         if points is not None:
             X, wm, wc = points

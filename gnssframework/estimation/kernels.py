@@ -423,10 +423,230 @@ def _update_body(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph, H, R, mea
                     cov[b, j, i] = v
 
 
+# -- compiled model functions ----------------------------------------------------------
+
+#: Codes of the model functions the fused kernels evaluate themselves.
+F_LINEAR = 0  # x' = F x, params F (n, n)
+H_LINEAR = 0  # z = H x, params H (m, n)
+H_CHANNEL_IQ = 1  # Zou et al. (2018) eqs. 2-7, params [[spacing_chips, coherent_time_s, data_bit]]
+
+
+@_jit
+def _apply_f(code, params, x, out):
+    n = x.shape[0]
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += params[i, j] * x[j]
+        out[i] = acc
+
+
+@_jit
+def _triangle(tau):
+    a = abs(tau)
+    return 1.0 - a if a < 1.0 else 0.0
+
+
+@_jit
+def _apply_h(code, params, x, out):
+    if code == H_LINEAR:
+        m, n = params.shape
+        for i in range(m):
+            acc = 0.0
+            for j in range(n):
+                acc += params[i, j] * x[j]
+            out[i] = acc
+        return
+    # H_CHANNEL_IQ: the ideal (unfiltered) triangle autocorrelation, as channel_iq.
+    d = params[0, 0]
+    T = params[0, 1]
+    u = x[3] * T
+    if u == 0.0:
+        u = 1e-20  # numpy.sinc's guard, so the two paths agree at df = 0 too
+    sinc = math.sin(math.pi * u) / (math.pi * u)
+    common = x[0] * params[0, 2] * sinc
+    phase = math.pi * x[3] * T + x[2]
+    c = common * math.cos(phase)
+    s_ = common * math.sin(phase)
+    r_e = _triangle(x[1] + d)
+    r_p = _triangle(x[1])
+    r_l = _triangle(x[1] - d)
+    out[0] = c * r_e
+    out[1] = c * r_p
+    out[2] = c * r_l
+    out[3] = s_ * r_e
+    out[4] = s_ * r_p
+    out[5] = s_ * r_l
+
+
+def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_params, Q, out_mean, out_cov, status):
+    """One predict per element: root, points, compiled ``f``, moments + Q."""
+    B, n = mean.shape
+    N = 2 * n + (1 if center else 0)
+    off = 1 if center else 0
+    shared_q = Q.shape[0] == 1
+    for b in prange(B):
+        P = cov[b]
+        R = np.zeros((n, n))
+        if not _all_finite(P):
+            status[b] = 1
+            continue
+        if root_kind == 0:
+            if not _cholesky(P, R):
+                status[b] = 2
+                continue
+        else:
+            w = np.empty(n)
+            V = np.empty((n, n))
+            _jacobi_eigh(P, w, V)
+            for i in range(n):
+                sw = math.sqrt(abs(w[i]))
+                for j in range(n):
+                    R[j, i] = V[j, i] * sw
+        status[b] = 0
+        X = np.empty((N, n))
+        if center:
+            for j in range(n):
+                X[0, j] = mean[b, j]
+        for i in range(n):
+            for j in range(n):
+                dd = R[j, i] * scale
+                X[off + i, j] = mean[b, j] + dd
+                X[off + n + i, j] = mean[b, j] - dd
+        Y = np.empty((N, n))
+        for k in range(N):
+            _apply_f(f_code, f_params, X[k], Y[k])
+        q = 0 if shared_q else np.int64(b)
+        mu = np.zeros(n)
+        for k in range(N):
+            for j in range(n):
+                mu[j] += wm[k] * Y[k, j]
+        for k in range(N):
+            for j in range(n):
+                Y[k, j] -= mu[j]
+        for i in range(n):
+            out_mean[b, i] = mu[i]
+            for j in range(i + 1):
+                acc = 0.0
+                for k in range(N):
+                    acc += wc[k] * Y[k, i] * Y[k, j]
+                cij = acc + 0.5 * (Q[q, i, j] + Q[q, j, i])
+                out_cov[b, i, j] = cij
+                out_cov[b, j, i] = cij
+
+
+def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_code, h_params, R,
+                       out_mean, out_cov, gain, innovation, z_hat, S, C, status, ok):
+    """One measurement update per element: root, points, compiled ``h``, moments, gain, posterior."""
+    B, n = mean.shape
+    m = z.shape[1]
+    N = 2 * n + (1 if center else 0)
+    off = 1 if center else 0
+    shared_r = R.shape[0] == 1
+    for b in prange(B):
+        P = cov[b]
+        Rt = np.zeros((n, n))
+        ok[b] = False
+        if not _all_finite(P):
+            status[b] = 1
+            continue
+        if root_kind == 0:
+            if not _cholesky(P, Rt):
+                status[b] = 2
+                continue
+        else:
+            w = np.empty(n)
+            V = np.empty((n, n))
+            _jacobi_eigh(P, w, V)
+            for i in range(n):
+                sw = math.sqrt(abs(w[i]))
+                for j in range(n):
+                    Rt[j, i] = V[j, i] * sw
+        status[b] = 0
+        X = np.empty((N, n))
+        if center:
+            for j in range(n):
+                X[0, j] = mean[b, j]
+        for i in range(n):
+            for j in range(n):
+                dd = Rt[j, i] * scale
+                X[off + i, j] = mean[b, j] + dd
+                X[off + n + i, j] = mean[b, j] - dd
+        Z = np.empty((N, m))
+        for k in range(N):
+            _apply_h(h_code, h_params, X[k], Z[k])
+        r = 0 if shared_r else np.int64(b)
+        mu = np.zeros(m)
+        for k in range(N):
+            for j in range(m):
+                mu[j] += wm[k] * Z[k, j]
+        for k in range(N):
+            for j in range(m):
+                Z[k, j] -= mu[j]
+        Sb = S[b]
+        for i in range(m):
+            z_hat[b, i] = mu[i]
+            for j in range(i + 1):
+                acc = 0.0
+                for k in range(N):
+                    acc += wc[k] * Z[k, i] * Z[k, j]
+                sij = acc + 0.5 * (R[r, i, j] + R[r, j, i])
+                Sb[i, j] = sij
+                Sb[j, i] = sij
+        Cb = C[b]
+        for i in range(n):
+            for j in range(m):
+                acc = 0.0
+                for k in range(N):
+                    acc += wc[k] * (X[k, i] - mean[b, i]) * Z[k, j]
+                Cb[i, j] = acc
+        L = np.zeros((m, m))
+        good = _all_finite(Sb) and _cholesky(Sb, L)
+        ok[b] = good
+        K = gain[b]
+        if bad_z[b] or not good:
+            for i in range(m):
+                innovation[b, i] = 0.0
+            for i in range(n):
+                out_mean[b, i] = mean[b, i]
+                for j in range(m):
+                    K[i, j] = Cb[i, j]
+                for j in range(n):
+                    out_cov[b, i, j] = P[i, j]
+            continue
+        _chol_solve_rows(L, Cb, K)
+        for i in range(m):
+            innovation[b, i] = z[b, i] - mu[i]
+        for i in range(n):
+            acc = 0.0
+            for j in range(m):
+                acc += K[i, j] * innovation[b, j]
+            out_mean[b, i] = mean[b, i] + acc
+        KS = np.zeros((n, m))
+        for i in range(n):
+            for j in range(m):
+                acc = 0.0
+                for k in range(m):
+                    acc += K[i, k] * Sb[k, j]
+                KS[i, j] = acc
+        for i in range(n):
+            for j in range(i + 1):
+                a1 = 0.0
+                a2 = 0.0
+                for k in range(m):
+                    a1 += KS[i, k] * K[j, k]
+                    a2 += KS[j, k] * K[i, k]
+                v = 0.5 * ((P[i, j] - a1) + (P[j, i] - a2))
+                out_cov[b, i, j] = v
+                out_cov[b, j, i] = v
+
+
 _sigma_points_kernels = _jit_pair(_sigma_points_body)
 _predict_moments_kernels = _jit_pair(_predict_moments_body)
 _measurement_moments_kernels = _jit_pair(_measurement_moments_body)
 _update_kernels = _jit_pair(_update_body)
+_fused_predict_kernels = _jit_pair(_fused_predict_body)
+_fused_update_kernels = _jit_pair(_fused_update_body)
 
 
 def _pick(pair, batch: int):
@@ -438,6 +658,8 @@ def _pick(pair, batch: int):
 
 def _flat(a: np.ndarray, batch: tuple[int, ...], tail: int) -> np.ndarray:
     """``a`` broadcast to ``batch + tail dims`` as a C-contiguous ``(B, ...)`` float array."""
+    if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.shape[:-tail] == batch:
+        return a.reshape((-1,) + a.shape[a.ndim - tail:])
     a = np.asarray(a, dtype=float)
     shape = batch + a.shape[a.ndim - tail:]
     if a.shape != shape:
@@ -529,6 +751,47 @@ def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H
     )
 
 
+def fused_predict(mean, cov, rule, compiled, Q):
+    """Whole sigma-point predict with the model's compiled ``f``: mean, cov, status."""
+    root_kind, scale, center, wm, wc = rule
+    batch = mean.shape[:-1]
+    n = mean.shape[-1]
+    m_ = _flat(mean, batch, 1)
+    B = m_.shape[0]
+    out_mean = np.empty((B, n))
+    out_cov = np.empty((B, n, n))
+    status = np.empty(B, dtype=np.int8)
+    _pick(_fused_predict_kernels, B)(
+        m_, _flat(cov, batch, 2), root_kind, float(scale), bool(center), wm, wc,
+        compiled.f_code, compiled.f_params, _flat_shared(Q, batch), out_mean, out_cov, status,
+    )
+    return out_mean.reshape(batch + (n,)), out_cov.reshape(batch + (n, n)), status.reshape(batch)
+
+
+def fused_update(mean, cov, z, bad_z, rule, compiled, R):
+    """Whole sigma-point update with the model's compiled ``h``.
+
+    Returns ``(mean, cov, gain, innovation, z_hat, S, C, status, ok)``, batch-first.
+    """
+    root_kind, scale, center, wm, wc = rule
+    batch = mean.shape[:-1]
+    n = mean.shape[-1]
+    m = z.shape[-1]
+    m_ = _flat(mean, batch, 1)
+    B = m_.shape[0]
+    outs = (np.empty((B, n)), np.empty((B, n, n)), np.empty((B, n, m)), np.empty((B, m)),
+            np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m)))
+    status = np.empty(B, dtype=np.int8)
+    ok = np.empty(B, dtype=np.bool_)
+    _pick(_fused_update_kernels, B)(
+        m_, _flat(cov, batch, 2), _flat(z, batch, 1), np.ascontiguousarray(np.broadcast_to(bad_z, batch)).reshape(-1),
+        root_kind, float(scale), bool(center), wm, wc, compiled.h_code, compiled.h_params, _flat_shared(R, batch),
+        *outs, status, ok,
+    )
+    tails = ((n,), (n, n), (n, m), (m,), (m,), (m, m), (n, m))
+    return tuple(o.reshape(batch + t) for o, t in zip(outs, tails)) + (status.reshape(batch), ok.reshape(batch))
+
+
 def warm_up() -> float:
     """Compile (or load from the disk cache) every kernel on a tiny problem; seconds taken.
 
@@ -550,4 +813,11 @@ def warm_up() -> float:
         z_hat, S, C = measurement_moments(X, X, mean, w, w, np.eye(2))
         for joseph in (False, True):
             update(mean, cov, mean, z_hat, S, C, np.zeros(B, bool), joseph, np.eye(2), np.eye(2))
+        from .types import CompiledFunctions
+
+        compiled = CompiledFunctions(F_LINEAR, np.eye(2), H_LINEAR, np.eye(2))
+        for kind in (0, 1):
+            rule = (kind, 1.0, kind == 0, np.full(4 + (kind == 0), 0.25), np.full(4 + (kind == 0), 0.25))
+            fused_predict(mean, cov, rule, compiled, np.eye(2))
+            fused_update(mean, cov, mean, np.zeros(B, bool), rule, compiled, np.eye(2))
     return time.perf_counter() - t0
