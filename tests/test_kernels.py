@@ -213,3 +213,34 @@ def test_compiled_channel_model_equals_the_numpy_channel_model(name):
         _close(getattr(ref, field), getattr(upd, field))
     _close(ref.state.mean, upd.state.mean)
     _close(ref.state.cov, upd.state.cov)
+
+
+def _parallel_update_in_child(seed):
+    _, linear, state, z = _problem(seed, 3, 2, (kernels.PARALLEL_MIN_BATCH,))
+    est = _engine("ckf")
+    est.backend = "numba"
+    return est.update(est.predict(state, linear), z, linear).state.mean
+
+
+def test_a_process_forked_after_a_parallel_kernel_runs_parallel_kernels():
+    # GNU OpenMP aborts such a child; `compare` forks its workers from a parent that may
+    # have filtered a large batch already. Also checks the child computes the same thing.
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    here = _parallel_update_in_child(1)
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork")) as pool:
+        there = pool.submit(_parallel_update_in_child, 1).result(timeout=120)
+    assert np.array_equal(here, there)
+
+
+def test_parallel_kernels_are_not_used_off_the_main_thread():
+    import threading
+
+    picked = []
+    t = threading.Thread(target=lambda: picked.append(kernels._pick(("serial", "parallel"), 10**6)))
+    t.start()
+    t.join()
+    assert picked == ["serial"]
+    assert kernels._pick(("serial", "parallel"), 10**6) == "parallel"
+    assert kernels._pick(("serial", "parallel"), 1) == "serial"

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import types as _types
 
 import numpy as np
@@ -54,6 +55,12 @@ try:  # numba is a dependency, but the NumPy path must keep working without it.
     from numba import prange
 
     HAVE_NUMBA = True
+    if "NUMBA_THREADING_LAYER" not in os.environ:
+        # GNU OpenMP (numba's default where present) aborts a process that forks after a
+        # parallel kernel ran, which is what `gnssframework compare`'s process pool does.
+        # The workqueue layer is fork-safe; parallel kernels run only from the main
+        # thread (it is not thread-safe), see _pick.
+        numba.config.THREADING_LAYER = "workqueue"
 except ImportError:  # pragma: no cover - exercised only where numba is missing
     numba = None
     prange = range
@@ -650,7 +657,9 @@ _fused_update_kernels = _jit_pair(_fused_update_body)
 
 
 def _pick(pair, batch: int):
-    return pair[1] if batch >= PARALLEL_MIN_BATCH else pair[0]
+    if batch >= PARALLEL_MIN_BATCH and threading.current_thread() is threading.main_thread():
+        return pair[1]
+    return pair[0]
 
 
 # -- array-level wrappers ---------------------------------------------------------------
@@ -665,6 +674,13 @@ def _flat(a: np.ndarray, batch: tuple[int, ...], tail: int) -> np.ndarray:
     if a.shape != shape:
         a = np.broadcast_to(a, shape)
     return np.ascontiguousarray(a).reshape((-1,) + shape[len(batch):])
+
+
+def _flat_mask(mask: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
+    """A boolean batch mask as a contiguous ``(B,)`` array."""
+    if type(mask) is np.ndarray and mask.shape == batch and mask.flags.c_contiguous:
+        return mask.reshape(-1)
+    return np.ascontiguousarray(np.broadcast_to(mask, batch)).reshape(-1)
 
 
 def _flat_shared(a: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
@@ -739,7 +755,7 @@ def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H
     ok = np.empty(B, dtype=np.bool_)
     _pick(_update_kernels, B)(
         pm, _flat(prior_cov, batch, 2), _flat(z, batch, 1), _flat(z_hat, batch, 1), _flat(S, batch, 2),
-        _flat(C, batch, 2), np.ascontiguousarray(np.broadcast_to(bad_z, batch)).reshape(-1), bool(joseph),
+        _flat(C, batch, 2), _flat_mask(bad_z, batch), bool(joseph),
         Hf, Rf, mean, cov, gain, innovation, ok,
     )
     return (
@@ -784,7 +800,7 @@ def fused_update(mean, cov, z, bad_z, rule, compiled, R):
     status = np.empty(B, dtype=np.int8)
     ok = np.empty(B, dtype=np.bool_)
     _pick(_fused_update_kernels, B)(
-        m_, _flat(cov, batch, 2), _flat(z, batch, 1), np.ascontiguousarray(np.broadcast_to(bad_z, batch)).reshape(-1),
+        m_, _flat(cov, batch, 2), _flat(z, batch, 1), _flat_mask(bad_z, batch),
         root_kind, float(scale), bool(center), wm, wc, compiled.h_code, compiled.h_params, _flat_shared(R, batch),
         *outs, status, ok,
     )

@@ -134,6 +134,12 @@ def _execute(config: ComparisonConfig, tasks: list[Task]) -> Iterable[tuple]:
         for t in tasks:
             yield run_task(data, t)
         return
+    # Compile or load the numba kernels once here: the forked workers inherit them
+    # instead of each loading them from the disk cache (or compiling them).
+    from ..estimation import kernels
+
+    if kernels.get_backend() == "numba":
+        kernels.warm_up()
     with ProcessPoolExecutor(max_workers=min(workers, len(tasks))) as pool:
         futures = {pool.submit(run_task_in_worker, data, t): t for t in tasks}
         for fut in as_completed(futures):
