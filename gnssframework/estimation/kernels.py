@@ -68,6 +68,8 @@ except ImportError:  # pragma: no cover - exercised only where numba is missing
 
 #: Batch size from which the ``parallel=True`` kernels are used.
 PARALLEL_MIN_BATCH = 256
+#: Most chunks a fused kernel splits its batch into (scratch arrays are per chunk).
+_CHUNKS = 64
 
 _BACKENDS = ("numba", "numpy")
 _ENV = "GNSSFRAMEWORK_BACKEND"
@@ -169,15 +171,21 @@ def _cholesky(A, L):
 
 @_jit
 def _jacobi_eigh(A, w, V):
+    """``A = V diag(w) V^T`` (see `_jacobi_eigh_into`)."""
+    _jacobi_eigh_into(A, w, V, np.empty(A.shape))
+
+
+@_jit
+def _jacobi_eigh_into(A, w, V, B):
     """Eigen-decomposition of the symmetric part of ``A`` by cyclic Jacobi rotations.
 
     ``A = V diag(w) V^T``. Jacobi's method is accurate to rounding in every
     eigenvalue relative to ``||A||`` and converges quadratically; for the 2-10 state
     matrices of a tracking filter a handful of sweeps beat LAPACK's call overhead
-    (Golub & Van Loan, *Matrix Computations*, 4th ed., sec. 8.5).
+    (Golub & Van Loan, *Matrix Computations*, 4th ed., sec. 8.5). Each rotation
+    updates only the two affected rows/columns of the symmetric matrix.
     """
     n = A.shape[0]
-    B = np.empty((n, n))
     for i in range(n):
         for j in range(n):
             B[i, j] = 0.5 * (A[i, j] + A[j, i])
@@ -201,16 +209,18 @@ def _jacobi_eigh(A, w, V):
                 c = 1.0 / math.sqrt(t * t + 1.0)
                 s = t * c
                 for k in range(n):
-                    bkp = B[k, p]
-                    bkq = B[k, q]
-                    B[k, p] = c * bkp - s * bkq
-                    B[k, q] = s * bkp + c * bkq
-                for k in range(n):
-                    bpk = B[p, k]
-                    bqk = B[q, k]
-                    B[p, k] = c * bpk - s * bqk
-                    B[q, k] = s * bpk + c * bqk
-                # The rotation annihilates (p, q); store the exact zero, not its rounding.
+                    if k != p and k != q:
+                        bkp = B[k, p]
+                        bkq = B[k, q]
+                        nkp = c * bkp - s * bkq
+                        nkq = s * bkp + c * bkq
+                        B[k, p] = nkp
+                        B[p, k] = nkp
+                        B[k, q] = nkq
+                        B[q, k] = nkq
+                # The rotation annihilates (p, q) (Golub & Van Loan's symmetric Schur form).
+                B[p, p] -= t * bpq
+                B[q, q] += t * bpq
                 B[p, q] = 0.0
                 B[q, p] = 0.0
                 for k in range(n):
@@ -225,8 +235,12 @@ def _jacobi_eigh(A, w, V):
 @_jit
 def _chol_solve_rows(L, C, K):
     """``K = C S^{-1}`` row by row with ``S = L L^T`` (forward then back substitution)."""
+    _chol_solve_rows_into(L, C, K, np.empty(C.shape[1]))
+
+
+@_jit
+def _chol_solve_rows_into(L, C, K, y):
     n, m = C.shape
-    y = np.empty(m)
     for r in range(n):
         for i in range(m):
             t = C[r, i]
@@ -492,9 +506,19 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
     N = 2 * n + (1 if center else 0)
     off = 1 if center else 0
     shared_q = Q.shape[0] == 1
-    for b in prange(B):
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+      # Scratch allocated once per chunk of elements, not once per element.
+      R = np.zeros((n, n))
+      w = np.empty(n)
+      V = np.empty((n, n))
+      Wk = np.empty((n, n))
+      X = np.empty((N, n))
+      Y = np.empty((N, n))
+      mu = np.empty(n)
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
         P = cov[b]
-        R = np.zeros((n, n))
+        R[:, :] = 0.0
         if not _all_finite(P):
             status[b] = 1
             continue
@@ -503,15 +527,12 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
                 status[b] = 2
                 continue
         else:
-            w = np.empty(n)
-            V = np.empty((n, n))
-            _jacobi_eigh(P, w, V)
+            _jacobi_eigh_into(P, w, V, Wk)
             for i in range(n):
                 sw = math.sqrt(abs(w[i]))
                 for j in range(n):
                     R[j, i] = V[j, i] * sw
         status[b] = 0
-        X = np.empty((N, n))
         if center:
             for j in range(n):
                 X[0, j] = mean[b, j]
@@ -520,11 +541,10 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
                 dd = R[j, i] * scale
                 X[off + i, j] = mean[b, j] + dd
                 X[off + n + i, j] = mean[b, j] - dd
-        Y = np.empty((N, n))
         for k in range(N):
             _apply_f(f_code, f_params, X[k], Y[k])
         q = 0 if shared_q else np.int64(b)
-        mu = np.zeros(n)
+        mu[:] = 0.0
         for k in range(N):
             for j in range(n):
                 mu[j] += wm[k] * Y[k, j]
@@ -550,9 +570,21 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
     N = 2 * n + (1 if center else 0)
     off = 1 if center else 0
     shared_r = R.shape[0] == 1
-    for b in prange(B):
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+      Rt = np.zeros((n, n))
+      w = np.empty(n)
+      V = np.empty((n, n))
+      Wk = np.empty((n, n))
+      X = np.empty((N, n))
+      Z = np.empty((N, m))
+      mu = np.empty(m)
+      L = np.zeros((m, m))
+      KS = np.empty((n, m))
+      ysolve = np.empty(m)
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
         P = cov[b]
-        Rt = np.zeros((n, n))
+        Rt[:, :] = 0.0
         ok[b] = False
         if not _all_finite(P):
             status[b] = 1
@@ -562,15 +594,12 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
                 status[b] = 2
                 continue
         else:
-            w = np.empty(n)
-            V = np.empty((n, n))
-            _jacobi_eigh(P, w, V)
+            _jacobi_eigh_into(P, w, V, Wk)
             for i in range(n):
                 sw = math.sqrt(abs(w[i]))
                 for j in range(n):
                     Rt[j, i] = V[j, i] * sw
         status[b] = 0
-        X = np.empty((N, n))
         if center:
             for j in range(n):
                 X[0, j] = mean[b, j]
@@ -579,11 +608,10 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
                 dd = Rt[j, i] * scale
                 X[off + i, j] = mean[b, j] + dd
                 X[off + n + i, j] = mean[b, j] - dd
-        Z = np.empty((N, m))
         for k in range(N):
             _apply_h(h_code, h_params, X[k], Z[k])
         r = 0 if shared_r else np.int64(b)
-        mu = np.zeros(m)
+        mu[:] = 0.0
         for k in range(N):
             for j in range(m):
                 mu[j] += wm[k] * Z[k, j]
@@ -607,7 +635,6 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
                 for k in range(N):
                     acc += wc[k] * (X[k, i] - mean[b, i]) * Z[k, j]
                 Cb[i, j] = acc
-        L = np.zeros((m, m))
         good = _all_finite(Sb) and _cholesky(Sb, L)
         ok[b] = good
         K = gain[b]
@@ -621,7 +648,7 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
                 for j in range(n):
                     out_cov[b, i, j] = P[i, j]
             continue
-        _chol_solve_rows(L, Cb, K)
+        _chol_solve_rows_into(L, Cb, K, ysolve)
         for i in range(m):
             innovation[b, i] = z[b, i] - mu[i]
         for i in range(n):
@@ -629,7 +656,6 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
             for j in range(m):
                 acc += K[i, j] * innovation[b, j]
             out_mean[b, i] = mean[b, i] + acc
-        KS = np.zeros((n, m))
         for i in range(n):
             for j in range(m):
                 acc = 0.0
