@@ -11,7 +11,7 @@ from gnssframework import registry
 from gnssframework.errors import ConfigError
 from gnssframework.estimation import FilterStep, Gaussian, LinearModel, NonlinearModel
 from gnssframework.interfaces import ChannelFilter, RunContext
-from gnssframework.signal.channel_model import channel_iq, channel_transition
+from gnssframework.signal.channel_model import channel_model
 from gnssframework.signal.correlator_model import tap_noise_cov
 from gnssframework.signal.navdata import wipe_off
 from gnssframework.plugin import PluginParams
@@ -391,11 +391,11 @@ class IqFilter(ChannelFilter):
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         T = context.require("coherent_time_s", f"channel_filter {self.name!r}")
         d = context.get("early_late_spacing_chips", 1.0) / 2
-        F = channel_transition(T)
         taps = tap_noise_cov(np.array([-d, 0.0, d]))
         R0 = np.zeros((6, 6))
         R0[:3, :3] = R0[3:, 3:] = taps + 1e-6 * np.eye(3)  # E/P/L share noise; a touch of jitter keeps it PD
-        self.model = NonlinearModel(lambda x: x @ F.T, lambda x: channel_iq(x, d, T), self.process_noise(T), R0)
+        # Same f/h as channel_iq/channel_transition, plus compiled twins (one fused kernel per step).
+        self.model = channel_model(T, d, self.process_noise(T), R0)
         self.batch_shape = batch_shape
         self.state = None
         self.T = T

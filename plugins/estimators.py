@@ -60,6 +60,9 @@ class KalmanFilter(Estimator):
         C = prior.cov @ _transpose(H)
         return mat_vec(H, prior.mean), symmetrize(H @ C + model.R), C
 
+    def _kernel_posterior(self):
+        return "joseph" if type(self).posterior_cov is KalmanFilter.posterior_cov else None
+
     def posterior_cov(self, prior, gain, S, model) -> np.ndarray:
         IKH = np.eye(prior.ndim_state) - gain @ model.H
         return symmetrize(IKH @ prior.cov @ _transpose(IKH) + gain @ model.R @ _transpose(gain))
@@ -140,6 +143,16 @@ class UnscentedKalmanFilter(SigmaPointEstimator):
         X = self._scaled_points(state.mean, self.square_root(state.cov), scale)
         return X, wm, wc
 
+    def kernel_rule(self, n: int):
+        cls = type(self)
+        if cls.sigma_points is not UnscentedKalmanFilter.sigma_points or cls.square_root is not SigmaPointEstimator.square_root:
+            return None
+        p = self.params
+        if n + p.kappa <= 0:
+            raise ConfigError("estimator 'ukf'.kappa", f"n + kappa must be > 0 (n = {n}, kappa = {p.kappa})")
+        scale, wm, wc = _merwe_weights(n, p.alpha, p.beta, p.kappa)
+        return 0, scale, True, wm, wc
+
 
 @lru_cache(maxsize=64)
 def _cubature_weights(n: int) -> np.ndarray:
@@ -164,6 +177,19 @@ class CubatureKalmanFilter(SigmaPointEstimator):
         w = _cubature_weights(n)
         X = self._scaled_points(state.mean, self.square_root(state.cov), np.sqrt(n))[1:]
         return X, w, w
+
+    def kernel_rule(self, n: int):
+        cls = type(self)
+        if cls.sigma_points is not CubatureKalmanFilter.sigma_points:
+            return None
+        if cls.square_root is SigmaPointEstimator.square_root:
+            root = 0
+        elif cls.square_root is SvdCubatureKalmanFilter.square_root:
+            root = 1
+        else:
+            return None
+        w = _cubature_weights(n)
+        return root, float(np.sqrt(n)), False, w, w
 
 
 class SvdCubatureKalmanFilter(CubatureKalmanFilter):

@@ -14,7 +14,7 @@ from .adaptation import (
 from .estimator import Estimator, SigmaPointEstimator
 from .sequence import FilterResult, filter_sequence
 from .step import RECOVERIES, FilterStep, StepResult
-from .types import Gaussian, LinearModel, Model, NonlinearModel, Update, numerical_jacobian
+from .types import CompiledFunctions, Gaussian, LinearModel, Model, NonlinearModel, Update, numerical_jacobian
 
 __all__ = [
     "AdaptationStep",
@@ -24,6 +24,7 @@ __all__ = [
     "Estimator",
     "FilterResult",
     "FilterStep",
+    "CompiledFunctions",
     "Gaussian",
     "LinearModel",
     "Model",

@@ -157,6 +157,12 @@ def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tupl
         for i, (d, t) in enumerate(jobs):
             yield i, run_task(d, t)
         return
+    # Compile or load the numba kernels once here: the forked workers inherit them
+    # instead of each loading them from the disk cache (or compiling them).
+    from ..estimation import kernels
+
+    if kernels.get_backend() == "numba":
+        kernels.warm_up()
     with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
         futures = {pool.submit(run_task_in_worker, d, t): i for i, (d, t) in enumerate(jobs)}
         for fut in as_completed(futures):
