@@ -1,0 +1,227 @@
+"""Deep integration (reference 002): NCO aiding, between-channel differences, new information.
+
+Each test checks against an independent truth: a line of sight whose range is an exact
+cubic, finite differences of the satellite constellation's exact kinematics, a 17-state
+filter that keeps the clock (unobservable) instead of differencing, Gaussian conditioning
+written out, and Monte Carlo NEES against the chi-square law.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gnssframework.errors import ConfigError, NumericalError
+from gnssframework.receiver.deep_aiding import line_of_sight_kinematics, nco_schedule
+from gnssframework.receiver.deep_measurements import (
+    difference,
+    difference_operator,
+    linear_update,
+    new_information,
+    reference_channel,
+)
+from gnssframework.simulation.constellation import nominal_constellation
+
+G = 9.80665
+
+
+# --- NCO aiding --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("accel_aiding", [True, False])
+def test_constant_jerk_line_of_sight_leaves_the_predicted_residual(accel_aiding):
+    # Receiver moving straight at a fixed satellite: the range is an exact cubic in time,
+    # rho(t) = rho0 - (v t + a t^2/2 + j t^3/6), so the aiding's residual is known in closed form.
+    e = np.array([0.48, -0.6, 0.64])
+    sat = 2.2e7 * e
+    v, a, j = 300.0, 30 * G, 50 * G  # m/s, m/s^2, m/s^3 along the line of sight (the paper's extremes)
+    rho0 = 2.2e7
+    r_pos, r_vel, r_acc = np.zeros((1, 3)), (v * e)[None], (a * e)[None]
+    zero = np.zeros((1, 3))
+    rho, rate, acc, los = line_of_sight_kinematics(r_pos, r_vel, r_acc, sat[None], zero, zero, 12.0, -3.0)
+    np.testing.assert_allclose(los[0, 0], e, atol=1e-12)
+    assert rho[0, 0] == pytest.approx(rho0 + 12.0, abs=1e-6)
+    assert rate[0, 0] == pytest.approx(-v - 3.0, abs=1e-9)
+    assert acc[0, 0] == pytest.approx(-a, abs=1e-9)
+
+    dt, n = 1e-3, 100  # 1 ms NCO over a 100 ms integration interval
+    ranges, rates = nco_schedule(rho, rate, acc, dt, n, accel_aiding=accel_aiding)
+    tau = np.arange(n + 1) * dt
+    true = rho0 + 12.0 - 3.0 * tau - (v * tau + 0.5 * a * tau**2 + j * tau**3 / 6)
+    replica_knots = np.append(ranges[:, 0, 0], ranges[-1, 0, 0] + rates[-1, 0, 0] * dt)
+    expected = -j * tau**3 / 6 - (0.0 if accel_aiding else 0.5 * a * tau**2)
+    np.testing.assert_allclose(true - replica_knots, expected, atol=1e-6)
+    # At 100 ms: 8 mm left with acceleration aiding, 1.48 m (about 1.5 cycles... of code: 0.005 chip) without.
+    assert abs(expected[-1]) == pytest.approx(j * 0.1**3 / 6 + (0 if accel_aiding else 0.5 * a * 0.01), rel=1e-12)
+
+
+def test_range_acceleration_matches_finite_differences_of_the_constellation():
+    # General (non-radial) geometry: the centripetal term of the norm's second derivative matters.
+    const = nominal_constellation()
+    t0, h = 100.0, 1e-2
+    rx0 = np.array([-1.7e6, 4.9e6, 3.6e6])
+    rv, ra = np.array([250.0, -120.0, 400.0]), np.array([10 * G, 3 * G, -20 * G])
+
+    def rng_at(t):
+        s, sv, sa = const.state(np.asarray(t))
+        r = rx0 + rv * (t - t0) + 0.5 * ra * (t - t0) ** 2
+        return np.linalg.norm(s - r, axis=-1)
+
+    s, sv, sa = const.state(np.asarray(t0))
+    rho, rate, acc, _ = line_of_sight_kinematics(rx0[None], rv[None], ra[None], s, sv, sa)
+    fd_rate = (rng_at(t0 + h) - rng_at(t0 - h)) / (2 * h)
+    fd_acc = (rng_at(t0 + h) - 2 * rng_at(t0) + rng_at(t0 - h)) / h**2
+    np.testing.assert_allclose(rate[0], fd_rate, atol=1e-5)
+    np.testing.assert_allclose(acc[0], fd_acc, atol=2e-3)  # FD truncation + rounding of 2e7 m ranges
+    # Dropping the centripetal term would be visible at this tolerance.
+    s_minus_r = s - rx0
+    e = s_minus_r / np.linalg.norm(s_minus_r, axis=-1)[:, None]
+    assert np.max(np.abs(np.sum(e * (sa - ra), -1) - fd_acc)) > 1e-2
+
+
+def test_nco_schedule_refuses_bad_intervals():
+    with pytest.raises(ConfigError, match="nco_interval_s"):
+        nco_schedule(np.zeros(2), np.zeros(2), np.zeros(2), 0.0, 3)
+    with pytest.raises(ConfigError, match="n_intervals"):
+        nco_schedule(np.zeros(2), np.zeros(2), np.zeros(2), 1e-3, 0)
+
+
+# --- differencing ------------------------------------------------------------------------
+
+def _random_problem(rng, runs=3, n_ch=6, m=15):
+    A = rng.normal(size=(m, m)) * 0.05
+    F = np.eye(m) + A
+    L = rng.normal(size=(m, m)) * 0.1
+    Q = L @ L.T + 1e-3 * np.eye(m)
+    L0 = rng.normal(size=(m, m))
+    P0 = L0 @ L0.T + np.eye(m)
+    H = rng.normal(size=(runs, n_ch, m))
+    r_diag = rng.uniform(0.5, 4.0, size=(runs, n_ch))
+    return F, Q, P0, H, r_diag
+
+
+def _run_differenced(F, Q, P0, H, r_diag, zs, ref, correlated=True):
+    runs, m = H.shape[0], F.shape[0]
+    x, P = np.zeros((runs, m)), np.broadcast_to(P0, (runs, m, m)).copy()
+    for z in zs:
+        x, P = x @ F.T, F @ P @ F.T + Q
+        dz, dH, dR = difference(z, H, r_diag, ref)
+        if not correlated:
+            dR = dR * np.eye(dR.shape[-1])
+        x, P = linear_update(x, P, dz, dH, dR)
+    return x, P
+
+
+def _run_with_clock(F, Q, P0, H, r_diag, zs, clock_var=1e10):
+    # 17 states: the 15 plus a clock bias and drift whose variance is re-diffused every
+    # step, so nothing about the clock carries from one epoch to the next (unobservable).
+    runs, m = H.shape[0], F.shape[0]
+    n = H.shape[1]
+    Fa = np.zeros((m + 2, m + 2))
+    Fa[:m, :m] = F
+    Fa[m:, m:] = [[1.0, 0.1], [0.0, 1.0]]
+    Qa = np.zeros_like(Fa)
+    Qa[:m, :m] = Q
+    Qa[m:, m:] = clock_var * np.eye(2)
+    Ha = np.concatenate([H, np.ones((runs, n, 1)), np.zeros((runs, n, 1))], axis=-1)
+    Ra = r_diag[..., None] * np.eye(n)
+    x = np.zeros((runs, m + 2))
+    P = np.zeros((runs, m + 2, m + 2))
+    P[:, :m, :m] = P0
+    P[:, m:, m:] = clock_var * np.eye(2)
+    for z in zs:
+        x, P = x @ Fa.T, Fa @ P @ Fa.T + Qa
+        # Standard (non-Joseph) update written out, independent of linear_update.
+        S = Ha @ P @ np.swapaxes(Ha, 1, 2) + Ra
+        K = P @ np.swapaxes(Ha, 1, 2) @ np.linalg.inv(S)
+        x = x + np.einsum("rij,rj->ri", K, z - np.einsum("rij,rj->ri", Ha, x))
+        P = P - K @ S @ np.swapaxes(K, 1, 2)
+    return x[:, :m], P[:, :m, :m]
+
+
+def test_differenced_15_state_filter_equals_17_state_filter_with_unobservable_clock():
+    rng = np.random.default_rng(12)
+    F, Q, P0, H, r_diag = _random_problem(rng)
+    runs, n_ch = r_diag.shape
+    ref = reference_channel(-r_diag)  # highest C/N0 = smallest variance
+    zs = [rng.normal(size=(runs, n_ch)) * 3 + rng.normal(size=(runs, 1)) * 1e2 for _ in range(5)]  # big clock
+    x_d, P_d = _run_differenced(F, Q, P0, H, r_diag, zs, ref)
+    x_c, P_c = _run_with_clock(F, Q, P0, H, r_diag, zs)
+    np.testing.assert_allclose(x_d, x_c, rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(P_d, P_c, rtol=1e-5, atol=1e-5)
+    # A diagonal R on the differences is a different (wrong) filter; the test would catch it.
+    x_w, P_w = _run_differenced(F, Q, P0, H, r_diag, zs, ref, correlated=False)
+    assert np.max(np.abs(P_w - P_c)) > 1e-2
+    assert np.max(np.abs(x_w - x_c)) > 1e-2
+
+
+def test_the_choice_of_reference_channel_does_not_change_the_correlated_filter():
+    rng = np.random.default_rng(3)
+    F, Q, P0, H, r_diag = _random_problem(rng, runs=2)
+    zs = [rng.normal(size=r_diag.shape) for _ in range(3)]
+    x0, P0_ = _run_differenced(F, Q, P0, H, r_diag, zs, np.array([0, 0]))
+    x1, P1 = _run_differenced(F, Q, P0, H, r_diag, zs, np.array([4, 2]))
+    np.testing.assert_allclose(x0, x1, atol=1e-9)
+    np.testing.assert_allclose(P0_, P1, atol=1e-9)
+
+
+def test_difference_operator_rows():
+    D = difference_operator(4, np.array([2, 0]))
+    np.testing.assert_array_equal(D[0], [[1, 0, -1, 0], [0, 1, -1, 0], [0, 0, -1, 1]])
+    np.testing.assert_array_equal(D[1], [[-1, 1, 0, 0], [-1, 0, 1, 0], [-1, 0, 0, 1]])
+    assert reference_channel(np.array([[40.0, 45.0, 45.0]]))[0] == 1
+
+
+def test_differenced_filter_nees_is_consistent_with_its_dimension():
+    # Linear-Gaussian 15-state truth with a common clock of huge variance in every
+    # measurement; NEES over 400 runs must sit within the chi-square band around 15.
+    rng = np.random.default_rng(2026)
+    runs, n_ch, m = 400, 8, 15
+    F, Q, P0, H1, r1 = _random_problem(rng, runs=1, n_ch=n_ch, m=m)
+    H = np.broadcast_to(H1, (runs, n_ch, m)).copy()
+    r_diag = np.broadcast_to(r1, (runs, n_ch)).copy()
+    ref = reference_channel(-r_diag)
+    x_true = rng.multivariate_normal(np.zeros(m), P0, size=runs)
+    x, P = np.zeros((runs, m)), np.broadcast_to(P0, (runs, m, m)).copy()
+    Lq = np.linalg.cholesky(Q)
+    nees = []
+    for _ in range(10):
+        x_true = x_true @ F.T + rng.normal(size=(runs, m)) @ Lq.T
+        z = (np.einsum("rij,rj->ri", H, x_true) + rng.normal(size=(runs, n_ch)) * np.sqrt(r_diag)
+             + rng.normal(size=(runs, 1)) * 1e4)
+        x, P = x @ F.T, F @ P @ F.T + Q
+        x, P = linear_update(x, P, *difference(z, H, r_diag, ref))
+        err = x - x_true
+        nees.append(np.mean(np.einsum("ri,rij,rj->r", err, np.linalg.inv(P), err)))
+    nees = np.array(nees)
+    band = 4 * np.sqrt(2 * m / runs)  # 4 sigma of the run mean of a chi-square(15)
+    assert np.all(np.abs(nees - m) < band), nees
+
+
+# --- new information of a prefilter interval -----------------------------------------------
+
+def test_new_information_reproduces_the_posterior_and_counts_measurements_once():
+    rng = np.random.default_rng(5)
+    m = 3
+    L = rng.normal(size=(m, m))
+    P_prior = L @ L.T + np.eye(m)
+    x_prior = rng.normal(size=m)
+    # Ten direct measurements of the static state with noise sigma^2 = 0.2.
+    Hm, r = np.eye(m), 0.2
+    x, P = x_prior[None], P_prior[None]
+    for _ in range(10):
+        x, P = linear_update(x, P, rng.normal(size=(1, m)), Hm[None], r * np.eye(m)[None])
+    z, R = new_information(x_prior[None], P_prior[None], x, P)
+    np.testing.assert_allclose(R[0], r / 10 * np.eye(m), rtol=1e-9, atol=1e-12)
+    x2, P2 = linear_update(x_prior[None], P_prior[None], z, np.eye(m)[None], R)
+    np.testing.assert_allclose(x2, x, atol=1e-10)
+    np.testing.assert_allclose(P2, P, atol=1e-10)
+    # A reset prefilter (no prior) hands over its posterior itself.
+    z0, R0 = new_information(np.zeros((1, m)), np.full((1, m, m), np.inf), x, P)
+    np.testing.assert_allclose(R0, P, atol=1e-12)
+    np.testing.assert_allclose(z0, x, atol=1e-10)
+
+
+def test_new_information_refuses_an_interval_without_information():
+    P = np.eye(2)[None]
+    with pytest.raises(NumericalError, match="prefilter.*batch element \\(0,\\).*no new information"):
+        new_information(np.zeros((1, 2)), P, np.zeros((1, 2)), P * 2.0)
