@@ -225,3 +225,38 @@ def test_new_information_refuses_an_interval_without_information():
     P = np.eye(2)[None]
     with pytest.raises(NumericalError, match="prefilter.*batch element \\(0,\\).*no new information"):
         new_information(np.zeros((1, 2)), P, np.zeros((1, 2)), P * 2.0)
+
+
+# --- metrics ------------------------------------------------------------------------------
+
+def test_enu_errors_against_the_closed_form_local_axes():
+    from gnssframework.receiver.deep_metrics import enu_errors
+    import pymap3d
+
+    lat, lon = np.radians(34.23), np.radians(108.3576)
+    east = np.array([-np.sin(lon), np.cos(lon), 0.0])
+    north = np.array([-np.sin(lat) * np.cos(lon), -np.sin(lat) * np.sin(lon), np.cos(lat)])
+    up = np.array([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)])
+    true = np.array(pymap3d.geodetic2ecef(34.23, 108.3576, 590.6))[None]
+    vel = np.array([[50.0, 50.0, 50.0]])
+    pe, ve = enu_errors(true + 2 * north - 3 * up, true, vel + 0.5 * east, vel)
+    np.testing.assert_allclose(pe[0], [0, 2, -3], atol=1e-9)
+    np.testing.assert_allclose(ve[0], [0.5, 0, 0], atol=1e-12)
+
+
+def test_attitude_errors_wrap_and_order_roll_pitch_yaw():
+    from gnssframework.receiver.deep_metrics import attitude_errors_deg
+    from scipy.spatial.transform import Rotation
+
+    true = Rotation.from_euler("ZYX", [[179.9, 10.0, -5.0]], degrees=True).as_matrix()
+    est = Rotation.from_euler("ZYX", [[-179.8, 10.2, -5.3]], degrees=True).as_matrix()
+    np.testing.assert_allclose(attitude_errors_deg(est, true)[0], [-0.3, 0.2, 0.3], atol=1e-9)
+
+
+def test_post_settle_rmse_and_max():
+    from gnssframework.receiver.deep_metrics import post_settle_rmse_and_max
+
+    t = np.arange(5.0)
+    err = np.array([[100.0], [3.0], [-4.0], [0.0], [0.0]])
+    rmse, mx = post_settle_rmse_and_max(err, t, settle_s=1.0)
+    assert rmse[0] == pytest.approx(np.sqrt(25 / 4)) and mx[0] == 4.0
