@@ -365,3 +365,24 @@ def test_aided_tracking_refuses_rates_that_are_not_multiples():
     with pytest.raises(ConfigError, match="update_interval_s"):
         run_aided_tracking(_iq_filter(), nav, truth, np.random.default_rng(0), nco_interval_s=0.003,
                            update_interval_s=0.1)
+
+
+def test_integration_measurement_signs_and_clock_recovery_noise_free():
+    from gnssframework.receiver.deep_measurements import clock_measurement, integration_measurement
+
+    rng = np.random.default_rng(9)
+    runs, n = 2, 5
+    los = rng.normal(size=(runs, n, 3))
+    los /= np.linalg.norm(los, axis=-1, keepdims=True)
+    dx = rng.normal(size=(runs, 15))
+    db, dd = np.array([30.0, -7.0]), np.array([0.4, 2.0])
+    res = np.stack([np.einsum("rcj,rj->rc", los, dx[:, 6:9]) - db[:, None],
+                    np.einsum("rcj,rj->rc", los, dx[:, 3:6]) - dd[:, None]], -1)
+    cov = np.broadcast_to(np.diag([4.0, 0.01]), (runs, n, 2, 2)) * rng.uniform(1, 3, (runs, n, 1, 1))
+    ref = np.array([0, 3])
+    z, H, R = integration_measurement(res, cov, los, ref)
+    np.testing.assert_allclose(z, np.einsum("rij,rj->ri", H, dx), atol=1e-10)  # clock gone
+    assert z.shape == (runs, 2 * (n - 1)) and np.all(np.linalg.eigvalsh(R) > 0)
+    assert np.count_nonzero(R[0] - np.diag(np.diagonal(R[0]))) > 0  # correlated, not diagonal
+    zc, Rc = clock_measurement(res, cov, los, dx[:, 6:9], dx[:, 3:6])
+    np.testing.assert_allclose(zc, np.stack([db, dd], -1), atol=1e-10)

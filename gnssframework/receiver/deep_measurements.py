@@ -29,7 +29,8 @@ import numpy as np
 
 from ..errors import NotPositiveDefiniteError, NumericalError
 
-__all__ = ["reference_channel", "difference_operator", "difference", "linear_update", "new_information"]
+__all__ = ["reference_channel", "difference_operator", "difference", "linear_update", "new_information",
+           "integration_measurement", "clock_measurement", "ATTITUDE", "VELOCITY", "POSITION", "ACCEL_BIAS", "GYRO_BIAS"]
 
 
 def reference_channel(cn0_dbhz: np.ndarray) -> np.ndarray:
@@ -131,4 +132,69 @@ def new_information(x_prior: np.ndarray, P_prior: np.ndarray, x_post: np.ndarray
     R = np.linalg.inv(info_new)
     z = np.einsum("...ij,...j->...i", R, np.einsum("...ij,...j->...i", info_post, x_post)
                   - np.einsum("...ij,...j->...i", info_prior, x_prior))
+    return z, R
+
+
+#: Error-state layout of the 15-state integration filter (Groves 2013, section 14.2.1):
+#: attitude (rad), velocity (m/s), position (m), accelerometer bias, gyro bias; ECEF axes.
+ATTITUDE, VELOCITY, POSITION, ACCEL_BIAS, GYRO_BIAS = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12),
+                                                       slice(12, 15))
+
+
+def integration_measurement(residual_m: np.ndarray, residual_cov: np.ndarray, los: np.ndarray,
+                            reference: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Differenced range and rate residuals as a measurement of the 15-state error.
+
+    With the error state $\\delta x$ = estimate minus truth, channel i's residual (true
+    minus predicted) is $[e_i\\cdot\\delta r - \\delta b,\\; e_i\\cdot\\delta v - \\delta d]$
+    (reference 002, eqs. 9-11, with the attitude and sensor biases unseen by one
+    update). Differencing against the reference channel removes the clock.
+
+    Parameters
+    ----------
+    residual_m, residual_cov
+        ``(runs, ch, 2)`` and ``(runs, ch, 2, 2)`` prefilter outputs (`deep.run_aided_tracking`).
+    los
+        ``(runs, ch, 3)`` unit lines of sight (ECEF).
+    reference
+        ``(runs,)`` reference channel.
+
+    Returns
+    -------
+    z ``(runs, 2(n-1))`` ordered [ranges..., rates...], H ``(runs, 2(n-1), 15)`` and the
+    correlated covariance ``(runs, 2(n-1), 2(n-1))``.
+    """
+    runs, n, _ = residual_m.shape
+    z = np.concatenate([residual_m[..., 0], residual_m[..., 1]], axis=-1)  # (runs, 2n)
+    R = np.zeros((runs, 2 * n, 2 * n))
+    idx = np.arange(n)
+    for a in range(2):
+        for b in range(2):
+            R[:, a * n + idx, b * n + idx] = residual_cov[..., a, b]
+    H = np.zeros((runs, 2 * n, 15))
+    H[:, :n, POSITION] = los
+    H[:, n:, VELOCITY] = los
+    D1 = difference_operator(n, reference)
+    D = np.zeros((runs, 2 * (n - 1), 2 * n))
+    D[:, : n - 1, :n] = D1
+    D[:, n - 1:, n:] = D1
+    return (np.einsum("rij,rj->ri", D, z), np.einsum("rij,rjk->rik", D, H), np.einsum("rij,rjk,rlk->ril", D, R, D))
+
+
+def clock_measurement(residual_m: np.ndarray, residual_cov: np.ndarray, los: np.ndarray,
+                      pos_error_m: np.ndarray, vel_error_m_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Clock bias and drift errors seen by all channels once the navigation error is known.
+
+    Generalised least squares over channels of $[e_i\\cdot\\delta\\hat r, e_i\\cdot\\delta\\hat v] - r_i
+    = [\\delta b, \\delta d] + n_i$ with each channel's 2x2 covariance; this feeds the
+    small clock filter that keeps the NCOs' clock terms (reference 002 removes the clock
+    from the integration filter by differencing, so it is estimated beside it).
+
+    Returns ``(z (runs, 2), R (runs, 2, 2))`` for a measurement of [bias error m, drift error m/s].
+    """
+    pred = np.stack([np.einsum("rcj,rj->rc", los, pos_error_m), np.einsum("rcj,rj->rc", los, vel_error_m_s)], -1)
+    y = pred - residual_m
+    W = np.linalg.inv(residual_cov)
+    R = np.linalg.inv(W.sum(axis=1))
+    z = np.einsum("rij,rj->ri", R, np.einsum("rcij,rcj->ri", W, y))
     return z, R
