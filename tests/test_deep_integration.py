@@ -386,3 +386,39 @@ def test_integration_measurement_signs_and_clock_recovery_noise_free():
     assert np.count_nonzero(R[0] - np.diag(np.diagonal(R[0]))) > 0  # correlated, not diagonal
     zc, Rc = clock_measurement(res, cov, los, dx[:, 6:9], dx[:, 3:6])
     np.testing.assert_allclose(zc, np.stack([db, dd], -1), atol=1e-10)
+
+
+# --- scalar loops under the paper's jerk -----------------------------------------------------
+
+def _jerk_signal(jerk_g_s, runs, T=1e-3, t_on=0.2, t_ramp=0.6, duration_s=1.4):
+    """Range with a 300 m/s closing rate, then a constant jerk for ``t_ramp`` s, then constant acceleration."""
+    from gnssframework.receiver.tracking import SignalTruth
+    from gnssframework.signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, L1_WAVELENGTH_M
+
+    t = np.arange(int(round(duration_s / T)) + 1) * T
+    ramp, after = np.clip(t - t_on, 0, t_ramp), np.clip(t - t_on - t_ramp, 0, None)
+    j = jerk_g_s * G
+    delta = -300 * t - j * ramp**3 / 6 - (j * t_ramp * after**2 / 2 + j * t_ramp**2 / 2 * after)
+    delta = np.broadcast_to(delta[:, None], (len(t), runs))
+    code = CA_CHIP_RATE_HZ * t[:, None] - delta / CA_CHIP_LENGTH_M
+    truth = SignalTruth(code, -2 * np.pi * delta / L1_WAVELENGTH_M, 45.0, T)
+    return truth, 300 / L1_WAVELENGTH_M, 2 * np.pi * j / L1_WAVELENGTH_M
+
+
+def test_third_order_pll_follows_the_jerk_law_and_slips_under_50_g_per_s():
+    from gnssframework.receiver.tracking import run_closed_loop
+
+    # Third-order PLL (Kaplan and Hegarty 2017, table 8.23): steady phase error
+    # jerk / w0^3 with B_L = 0.7845 w0; 5 g/s along the line of sight at B_L = 15 Hz: 0.23 rad.
+    truth, f0, jerk_rad_s3 = _jerk_signal(5.0, 8)
+    rec = run_closed_loop(create("channel_filter", "scalar", fll_bandwidth_hz=0.0), truth, np.random.default_rng(3),
+                          initial_doppler_hz=f0)
+    phase = (rec.phase_error_rad + np.pi / 2) % np.pi - np.pi / 2  # Costas: modulo half a cycle
+    expected = jerk_rad_s3 / (15.0 / 0.7845) ** 3
+    assert np.mean(phase[500:800]) == pytest.approx(expected, rel=0.05)
+    # 50 g/s: 2.3 rad of dynamic error, beyond the Costas limit of pi/2: the default
+    # FLL-assisted scalar loop slips cycles in every run.
+    truth, f0, _ = _jerk_signal(50.0, 8)
+    rec = run_closed_loop(create("channel_filter", "scalar"), truth, np.random.default_rng(4), initial_doppler_hz=f0)
+    net = np.unwrap(rec.phase_error_rad, axis=0)
+    assert np.all(np.abs(net[-1] - net[0]) > np.pi / 2)
