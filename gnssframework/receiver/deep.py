@@ -18,8 +18,9 @@ Each coherent interval k:
    outputs, e.g. ``iq-filter`` with ``output = "equivalent"``) returns this interval's
    *new* code-phase and frequency information (so nothing is counted twice);
 4. the harness accumulates those per channel as a weighted least-squares fit of the
-   range residual $\\delta\\rho(t) = \\delta\\rho_u + \\delta\\dot\\rho\\,(t - t_u)$ and its
-   rate over the integration interval, with
+   range residual $\\delta\\rho(t) = \\delta\\rho_u + \\delta\\dot\\rho_u\\,(t - t_u)
+   + \\tfrac12\\delta\\ddot\\rho\\,(t - t_u)^2$ and its rate over the integration interval
+   (the marginal of range and rate at $t_u$ is handed over), with
    $\\delta\\rho = \\lambda_{chip}\\,\\delta\\tau$, $\\delta\\dot\\rho = -\\lambda_{L1}\\,\\delta f$;
 5. at an integration instant $t_u$ the fit (mean and 2x2 covariance per channel, the
    interval's new information only) goes to the navigator's ``update`` and the
@@ -156,8 +157,8 @@ def run_aided_tracking(
     carrier_rep = np.zeros(batch)
     rep_end = None
     rate_prev = None
-    normal = np.zeros(batch + (2, 2))
-    rhs = np.zeros(batch + (2,))
+    normal = np.zeros(batch + (3, 3))
+    rhs = np.zeros(batch + (3,))
     s, _, _ = truth.sat_state(0.0)
     true_rho = truth.pseudorange(0.0, 0, s)
     for k in range(K):
@@ -187,21 +188,22 @@ def run_aided_tracking(
         rec["code"].append(code_err)
         rec["freq"].append(freq_err)
 
-        # Weighted least squares of [dr(t_u), dr_dot] from this interval's new information.
+        # Weighted least squares of [dr(t_u), dr_dot(t_u), dr_ddot] from this interval's new
+        # information: range residual quadratic in time, rate residual linear. The rate
+        # residual grows through the interval when the navigator's acceleration is off; a
+        # constant-rate fit would hand over its mid-interval value as t_u's (a lag).
         dt = (k + 0.5) * T - (k // n_upd + 1) * n_upd * T  # mid-interval minus the coming update instant
         w_rho = 1.0 / (out["code_error_var_chips2"] * CA_CHIP_LENGTH_M**2)
         w_rate = 1.0 / (out["freq_error_var_hz2"] * L1_WAVELENGTH_M**2)
         z_rho = out["code_error_chips"] * CA_CHIP_LENGTH_M
         z_rate = -out["freq_error_hz"] * L1_WAVELENGTH_M
-        normal[..., 0, 0] += w_rho
-        normal[..., 0, 1] += w_rho * dt
-        normal[..., 1, 0] += w_rho * dt
-        normal[..., 1, 1] += w_rho * dt * dt + w_rate
-        rhs[..., 0] += w_rho * z_rho
-        rhs[..., 1] += w_rho * dt * z_rho + w_rate * z_rate
+        h_rho = np.array([1.0, dt, 0.5 * dt * dt])
+        h_rate = np.array([0.0, 1.0, dt])
+        normal += w_rho[..., None, None] * np.outer(h_rho, h_rho) + w_rate[..., None, None] * np.outer(h_rate, h_rate)
+        rhs += (w_rho * z_rho)[..., None] * h_rho + (w_rate * z_rate)[..., None] * h_rate
         if (k + 1) % n_upd == 0:
-            cov = np.linalg.inv(normal)
-            res = np.einsum("...ij,...j->...i", cov, rhs)
+            cov = np.linalg.inv(normal)[..., :2, :2]  # marginal of [range, rate] at t_u
+            res = np.einsum("...ij,...j->...i", np.linalg.inv(normal), rhs)[..., :2]
             rec["tu"].append(t1)
             rec["res"].append(res)
             rec["cov"].append(cov)

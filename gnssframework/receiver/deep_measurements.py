@@ -142,7 +142,8 @@ ATTITUDE, VELOCITY, POSITION, ACCEL_BIAS, GYRO_BIAS = (slice(0, 3), slice(3, 6),
 
 
 def integration_measurement(residual_m: np.ndarray, residual_cov: np.ndarray, los: np.ndarray,
-                            reference: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                            reference: np.ndarray, *, n_states: int = 15, position: slice = POSITION,
+                            velocity: slice = VELOCITY) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Differenced range and rate residuals as a measurement of the 15-state error.
 
     With the error state $\\delta x$ = estimate minus truth, channel i's residual (true
@@ -158,10 +159,12 @@ def integration_measurement(residual_m: np.ndarray, residual_cov: np.ndarray, lo
         ``(runs, ch, 3)`` unit lines of sight (ECEF).
     reference
         ``(runs,)`` reference channel.
+    n_states, position, velocity
+        Error-state size and where position and velocity sit (15-state layout by default).
 
     Returns
     -------
-    z ``(runs, 2(n-1))`` ordered [ranges..., rates...], H ``(runs, 2(n-1), 15)`` and the
+    z ``(runs, 2(n-1))`` ordered [ranges..., rates...], H ``(runs, 2(n-1), n_states)`` and the
     correlated covariance ``(runs, 2(n-1), 2(n-1))``.
     """
     runs, n, _ = residual_m.shape
@@ -171,9 +174,9 @@ def integration_measurement(residual_m: np.ndarray, residual_cov: np.ndarray, lo
     for a in range(2):
         for b in range(2):
             R[:, a * n + idx, b * n + idx] = residual_cov[..., a, b]
-    H = np.zeros((runs, 2 * n, 15))
-    H[:, :n, POSITION] = los
-    H[:, n:, VELOCITY] = los
+    H = np.zeros((runs, 2 * n, n_states))
+    H[:, :n, position] = los
+    H[:, n:, velocity] = los
     D1 = difference_operator(n, reference)
     D = np.zeros((runs, 2 * (n - 1), 2 * n))
     D[:, : n - 1, :n] = D1
