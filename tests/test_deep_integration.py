@@ -454,3 +454,24 @@ def test_pva_navigator_closes_the_loop_with_consistent_nees():
     # The loop converges from 5 m per axis to about a metre.
     assert np.sqrt(np.mean(pos[-5:] ** 2)) < 0.5 * np.sqrt(np.mean(pos[0] ** 2)) + 2.0
     assert np.sqrt(np.mean(pos[-5:] ** 2)) < 2.5
+
+
+def test_bad_numbers_get_library_errors_naming_filter_element_and_step():
+    from gnssframework.errors import InvalidMeasurementError, NotPositiveDefiniteError
+    from gnssframework.receiver.deep import run_aided_tracking
+
+    x, P = np.zeros((3, 2)), np.broadcast_to(np.eye(2), (3, 2, 2)).copy()
+    H = np.broadcast_to(np.eye(2), (3, 2, 2))
+    z = np.zeros((3, 2))
+    z[1, 0] = np.nan
+    with pytest.raises(InvalidMeasurementError, match=r"ins-ekf.*batch element \(1,\), step 7"):
+        linear_update(x, P, z, H, np.broadcast_to(np.eye(2), (3, 2, 2)), step=7)
+    R = np.broadcast_to(np.eye(2), (3, 2, 2)).copy()
+    R[2] = -5 * np.eye(2)
+    with pytest.raises(NotPositiveDefiniteError, match=r"batch element \(2,\)"):
+        linear_update(x, P, np.zeros((3, 2)), H, R)
+
+    truth, rx = _aided_setup(2, 0.02)
+    nav = _OffsetNavigator(rx, np.array([[0.0, 0, 0], [np.nan, 0, 0]]), 0.0, 0.0, 0.0, (100.0, 0.0))
+    with pytest.raises(NumericalError, match=r"_OffsetNavigator.*batch element \(1,\), step 0.*not finite"):
+        run_aided_tracking(_iq_filter(), nav, truth, np.random.default_rng(0))

@@ -37,7 +37,7 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, NumericalError
 from ..interfaces import ChannelFilter
 from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ..signal.correlator_model import simulate_correlators
@@ -166,6 +166,7 @@ def run_aided_tracking(
         j = k % n_nco
         if j == 0:  # re-aid the NCOs from the navigator
             p, v, a, b, d = navigator.kinematics(t0)
+            _check_finite(type(navigator).__name__, k, p, v, a, b, d)
             s, sv, sa = truth.sat_state(t0)
             rho, rate, acc, los = line_of_sight_kinematics(p, v, a, s, sv, sa, b, d)
             sched_range, sched_rate = nco_schedule(rho, rate, acc, T, n_nco, accel_aiding=accel_aiding)
@@ -218,6 +219,17 @@ def run_aided_tracking(
         true_rho = next_rho
     return DeepRecord(np.stack(rec["code"]), np.stack(rec["freq"]), (np.arange(K) + 0.5) * T,
                       np.asarray(rec["tu"]), np.stack(rec["res"]), np.stack(rec["cov"]))
+
+
+def _check_finite(name: str, step: int, *arrays: np.ndarray) -> None:
+    """Refuse a navigator output holding NaN or inf (it would silently poison every channel)."""
+    bad = np.zeros(np.shape(arrays[0])[:1], bool)
+    for a in arrays:
+        a = np.asarray(a, float)
+        bad |= ~np.isfinite(a).reshape(a.shape[0], -1).all(axis=1) if a.ndim else ~np.isfinite(a)
+    if bad.any():
+        raise NumericalError(name, [(int(i),) for i in np.flatnonzero(bad)], step,
+                             "navigator kinematics (position, velocity, acceleration or clock) not finite")
 
 
 def loss_of_lock(code_error_chips: np.ndarray, freq_error_hz: np.ndarray, coherent_time_s: float) -> np.ndarray:

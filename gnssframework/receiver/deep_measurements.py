@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import NotPositiveDefiniteError, NumericalError
+from ..errors import InvalidMeasurementError, NotPositiveDefiniteError, NumericalError
 
 __all__ = ["reference_channel", "difference_operator", "difference", "linear_update", "new_information",
            "integration_measurement", "clock_measurement", "ATTITUDE", "VELOCITY", "POSITION", "ACCEL_BIAS", "GYRO_BIAS"]
@@ -86,9 +86,14 @@ def linear_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R:
 
     Raises
     ------
-    NumericalError
+    InvalidMeasurementError
+        When a batch element's measurement holds NaN or inf.
+    NotPositiveDefiniteError
         When the innovation covariance of some batch element is not positive definite.
     """
+    bad = ~np.isfinite(z).all(axis=-1)
+    if bad.any():
+        raise InvalidMeasurementError(name, [(int(i),) for i in np.flatnonzero(bad)], step)
     S = H @ P @ np.swapaxes(H, -1, -2) + R
     try:
         L = np.linalg.cholesky(S)
