@@ -475,3 +475,25 @@ def test_bad_numbers_get_library_errors_naming_filter_element_and_step():
     nav = _OffsetNavigator(rx, np.array([[0.0, 0, 0], [np.nan, 0, 0]]), 0.0, 0.0, 0.0, (100.0, 0.0))
     with pytest.raises(NumericalError, match=r"_OffsetNavigator.*batch element \(1,\), step 0.*not finite"):
         run_aided_tracking(_iq_filter(), nav, truth, np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("estimator", ["ukf", "ckf", "ekf"])
+def test_pva_navigator_update_with_a_registry_estimator_equals_the_kalman_update(estimator):
+    from gnssframework.receiver.deep_navigators import PvaNavigator
+
+    rng = np.random.default_rng(21)
+    runs, n = 3, 6
+    los = rng.normal(size=(runs, n, 3))
+    los /= np.linalg.norm(los, axis=-1, keepdims=True)
+    res = rng.normal(size=(runs, n, 2)) * [3.0, 0.2]
+    cov = np.broadcast_to(np.diag([4.0, 0.04]), (runs, n, 2, 2)) * rng.uniform(1, 2, (runs, n, 1, 1))
+    cn0 = rng.uniform(35, 50, (runs, n))
+    P0 = np.diag([25.0] * 3 + [1.0] * 3 + [4.0] * 3)
+    x0 = rng.normal(size=(runs, 9)) * 1e3
+    navs = [PvaNavigator(x0[:, :3], x0[:, 3:6], x0[:, 6:], P0, np.zeros((runs, 2)), np.eye(2), estimator=e)
+            for e in (None, estimator)]
+    for nav in navs:
+        nav.update(0.1, res, cov, los, cn0)
+    np.testing.assert_allclose(navs[1].x, navs[0].x, atol=1e-8)
+    np.testing.assert_allclose(navs[1].P, navs[0].P, atol=1e-8)
+    assert np.max(np.abs(navs[0].x - x0)) > 0.1  # the update moved the state

@@ -12,8 +12,12 @@ the kinematic model (Groves 2013, sections 14.2 and 16.2).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from .. import registry
+from ..estimation import Gaussian, LinearModel
 from .deep_measurements import clock_measurement, integration_measurement, linear_update, reference_channel
 
 __all__ = ["PvaNavigator"]
@@ -43,10 +47,18 @@ class PvaNavigator:
         White-jerk power spectral density per axis.
     clock_psd
         ``(bias, drift)`` white-noise PSDs of the two-state clock (m^2/s, m^2/s^3).
+    estimator
+        ``None`` for the Joseph-form Kalman update, or an ``estimator`` plugin (name or
+        instance: ``ekf``, ``ukf``, ``ckf`` ...) for the navigation update; on this linear
+        measurement every one of them must give the Kalman update.
     """
 
     def __init__(self, position_m, velocity_m_s, acceleration_m_s2, cov, clock_m, clock_cov, *,
-                 jerk_psd_m2_s5: float = 100.0, clock_psd: tuple[float, float] = (0.1, 0.1)) -> None:
+                 jerk_psd_m2_s5: float = 100.0, clock_psd: tuple[float, float] = (0.1, 0.1),
+                 estimator: Any = None) -> None:
+        if isinstance(estimator, str):
+            estimator = registry.create("estimator", estimator)
+        self.estimator = estimator
         self.x = np.concatenate([position_m, velocity_m_s, acceleration_m_s2], axis=-1).astype(float)
         runs = self.x.shape[0]
         self.P = np.broadcast_to(np.asarray(cov, float), (runs, 9, 9)).copy()
@@ -84,7 +96,12 @@ class PvaNavigator:
         runs = self.x.shape[0]
         z, H, R = integration_measurement(residual_m, residual_cov, los, reference_channel(cn0_dbhz), n_states=9,
                                           position=slice(0, 3), velocity=slice(3, 6))
-        dx, self.P = linear_update(np.zeros((runs, 9)), self.P, z, H, R, name="pva-navigator", step=self.steps)
+        if self.estimator is None:
+            dx, self.P = linear_update(np.zeros((runs, 9)), self.P, z, H, R, name="pva-navigator", step=self.steps)
+        else:
+            model = LinearModel(F=np.eye(9), H=H, Q=np.zeros((9, 9)), R=R)
+            upd = self.estimator.update(Gaussian(np.zeros((runs, 9)), self.P), z, model)
+            dx, self.P = upd.state.mean, upd.state.cov
         self.x = self.x - dx
         zc, Rc = clock_measurement(residual_m, residual_cov, los, dx[:, 0:3], dx[:, 3:6])
         dc, self.Pc = linear_update(np.zeros((runs, 2)), self.Pc, zc, np.broadcast_to(np.eye(2), (runs, 2, 2)), Rc,
