@@ -280,7 +280,7 @@ class _OffsetNavigator:
         self.updates.append((t, los))
 
 
-def _aided_setup(runs, seconds, T=1e-3, cn0=45.0, jerk=False):
+def _aided_setup(runs, seconds, T=1e-3, cn0=45.0, jerk=False, accel_g=0.0):
     import pymap3d
     from gnssframework.receiver.deep import DeepTruth
 
@@ -291,11 +291,12 @@ def _aided_setup(runs, seconds, T=1e-3, cn0=45.0, jerk=False):
     v0 = np.array(pymap3d.enu2uvw(50.0, 50.0, 50.0, lat, lon))
     up = np.array(pymap3d.enu2uvw(0.0, 0.0, 1.0, lat, lon))
     j = 50 * G * up if jerk else np.zeros(3)
+    a0 = accel_g * G * up
 
     def rx(t):
-        p = r0 + v0 * t + j * t**3 / 6
-        return (np.broadcast_to(p, (runs, 3)), np.broadcast_to(v0 + j * t**2 / 2, (runs, 3)),
-                np.broadcast_to(j * t, (runs, 3)))
+        p = r0 + v0 * t + a0 * t**2 / 2 + j * t**3 / 6
+        return (np.broadcast_to(p, (runs, 3)), np.broadcast_to(v0 + a0 * t + j * t**2 / 2, (runs, 3)),
+                np.broadcast_to(a0 + j * t, (runs, 3)))
 
     K = int(round(seconds / T))
     clock = np.zeros((K + 1, runs, 2))
@@ -309,11 +310,11 @@ def _iq_filter():
                                  output="equivalent")
 
 
-def _aided_nees(output):
+def _aided_nees(output, jerk=False, accel_g=0.0, **harness):
     from gnssframework.receiver.deep import run_aided_tracking
 
     runs = 16
-    truth, rx = _aided_setup(runs, 0.6)
+    truth, rx = _aided_setup(runs, 0.6, jerk=jerk, accel_g=accel_g)
     gen = np.random.default_rng(77)
     dr = gen.normal(size=(runs, 3)) * 5.0
     dv = gen.normal(size=(runs, 3)) * 0.5
@@ -321,8 +322,7 @@ def _aided_nees(output):
     dd = gen.normal(size=runs) * 0.3
     nav = _OffsetNavigator(rx, dr, dv, db, dd, (100.0, 0.0))
     channel = create("channel_filter", "iq-filter", adapter=None, estimator="ukf", output=output)
-    rec = run_aided_tracking(channel, nav, truth, np.random.default_rng(1), nco_interval_s=0.005,
-                             update_interval_s=0.1)
+    rec = run_aided_tracking(channel, nav, truth, np.random.default_rng(1), **{"nco_interval_s": 0.005, **harness})
     assert rec.residual_m.shape == (6, runs, 6, 2)
     nees, errs = [], []
     for (t, los), res, cov in zip(nav.updates, rec.residual_m, rec.residual_cov):
@@ -346,6 +346,46 @@ def test_aided_tracking_prefilter_output_recovers_the_navigator_error_with_consi
     # its frequency-rate process noise enters each interval's information).
     assert 1.0 < nees.mean() < 2.8, nees.mean()
     assert np.sqrt(np.mean(np.square(rec.code_error_chips[100:]))) < 0.1
+
+
+class _OraclePrefilter:
+    """Hands over the replica's true code and frequency errors (noise-free), to test the harness alone."""
+
+    name = "oracle"
+    provides = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", "freq_error_var_hz2")
+
+    def reset(self, batch_shape, **context):
+        pass
+
+    def checked_step(self, inputs):
+        code, freq = inputs["correlators"]
+        return {"code_error_chips": code, "code_error_var_chips2": np.full(code.shape, 1e-4),
+                "freq_error_hz": freq, "freq_error_var_hz2": np.full(freq.shape, 1.0)}
+
+
+@pytest.mark.parametrize("accel_aiding", [False, True])
+def test_residuals_are_taken_against_the_navigator_not_the_replica(monkeypatch, accel_aiding):
+    # A constant 10 g climb, NCO re-aided only at the 10 Hz update: without acceleration
+    # aiding the replica departs from the navigator's prediction by up to 0.5 m and
+    # 9.8 m/s within an interval. Residuals taken against the replica were biased by that
+    # (the bug this catches); against the navigator they recover its known error. The
+    # prefilter is an oracle (true errors, no noise), so only the harness is tested.
+    import gnssframework.receiver.deep as deep
+
+    monkeypatch.setattr(deep, "simulate_correlators", lambda code, ph0, freq, *a, **k: (code, freq))
+    runs = 3
+    truth, rx = _aided_setup(runs, 0.3, accel_g=10.0)
+    gen = np.random.default_rng(4)
+    dr, dv = gen.normal(size=(runs, 3)) * 5.0, gen.normal(size=(runs, 3)) * 0.5
+    db, dd = gen.normal(size=runs) * 3.0, gen.normal(size=runs) * 0.3
+    nav = _OffsetNavigator(rx, dr, dv, db, dd, (100.0, 0.0))
+    rec = deep.run_aided_tracking(_OraclePrefilter(), nav, truth, np.random.default_rng(0), nco_interval_s=0.1,
+                                  accel_aiding=accel_aiding)
+    for (t, los), res in zip(nav.updates, rec.residual_m):
+        want_rho = np.einsum("rcj,rj->rc", los, dr + dv * t) - db[:, None]
+        want_rate = np.einsum("rcj,rj->rc", los, dv) - dd[:, None]
+        np.testing.assert_allclose(res[..., 0], want_rho, atol=0.05)
+        np.testing.assert_allclose(res[..., 1], want_rate, atol=0.05)
 
 
 def test_aided_tracking_filtered_prefilter_output_counts_old_information_again():

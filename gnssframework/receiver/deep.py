@@ -22,11 +22,13 @@ Each coherent interval k:
    + \\tfrac12\\delta\\ddot\\rho\\,(t - t_u)^2$ and its rate over the integration interval
    (the marginal of range and rate at $t_u$ is handed over), with
    $\\delta\\rho = \\lambda_{chip}\\,\\delta\\tau$, $\\delta\\dot\\rho = -\\lambda_{L1}\\,\\delta f$;
+   both taken against the navigator's prediction along the line of sight (the replica
+   departs from it without acceleration aiding, by the known $\\tfrac12\\ddot\\rho\\tau^2$);
 5. at an integration instant $t_u$ the fit (mean and 2x2 covariance per channel, the
    interval's new information only) goes to the navigator's ``update`` and the
    accumulator is reset (Groves 2013, section 16.3.3).
 
-Residual sign: true minus replica (the replica being the navigator's prediction), so a
+Residual sign: true minus the navigator's prediction, so a
 navigator position error $\\delta r$ shows as $\\delta\\rho_i = e_i\\cdot\\delta r - \\delta b$.
 """
 
@@ -170,6 +172,7 @@ def run_aided_tracking(
             s, sv, sa = truth.sat_state(t0)
             rho, rate, acc, los = line_of_sight_kinematics(p, v, a, s, sv, sa, b, d)
             sched_range, sched_rate = nco_schedule(rho, rate, acc, T, n_nco, accel_aiding=accel_aiding)
+            t_aid = t0
         nco_range, nco_rate = sched_range[j], sched_rate[j]
         shift_chips = np.zeros(batch) if rep_end is None else (nco_range - rep_end) / CA_CHIP_LENGTH_M
         shift_hz = np.zeros(batch) if rate_prev is None else -(nco_rate - rate_prev) / L1_WAVELENGTH_M
@@ -196,8 +199,13 @@ def run_aided_tracking(
         dt = (k + 0.5) * T - (k // n_upd + 1) * n_upd * T  # mid-interval minus the coming update instant
         w_rho = 1.0 / (out["code_error_var_chips2"] * CA_CHIP_LENGTH_M**2)
         w_rate = 1.0 / (out["freq_error_var_hz2"] * L1_WAVELENGTH_M**2)
-        z_rho = out["code_error_chips"] * CA_CHIP_LENGTH_M
-        z_rate = -out["freq_error_hz"] * L1_WAVELENGTH_M
+        # Residuals against the navigator's own prediction (a smooth function of time),
+        # not against the replica: without acceleration aiding, or between re-aidings,
+        # the replica departs from the prediction by a known amount.
+        tau = t0 + T / 2 - t_aid
+        z_rho = (out["code_error_chips"] * CA_CHIP_LENGTH_M
+                 + (nco_range + nco_rate * T / 2) - (rho + rate * tau + 0.5 * acc * tau**2))
+        z_rate = -out["freq_error_hz"] * L1_WAVELENGTH_M + nco_rate - (rate + acc * tau)
         h_rho = np.array([1.0, dt, 0.5 * dt * dt])
         h_rate = np.array([0.0, 1.0, dt])
         normal += w_rho[..., None, None] * np.outer(h_rho, h_rho) + w_rate[..., None, None] * np.outer(h_rate, h_rate)
