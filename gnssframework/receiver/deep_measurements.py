@@ -41,12 +41,11 @@ def reference_channel(cn0_dbhz: np.ndarray) -> np.ndarray:
 def difference_operator(n_channels: int, reference: np.ndarray) -> np.ndarray:
     """Batched single-difference operator ``D`` ``(runs, n-1, n)``: rows ``e_i - e_ref``, i != ref, in order."""
     ref = np.atleast_1d(np.asarray(reference, int))
-    eye = np.eye(n_channels)
-    # For run r, keep rows i != ref[r] of the identity and subtract the reference column.
-    idx = np.arange(n_channels)
-    keep = idx[None, :] != ref[:, None]
-    rows = np.stack([eye[k] for k in keep])  # (runs, n-1, n)
-    rows[np.arange(len(ref))[:, None], np.arange(n_channels - 1)[None, :], ref[:, None]] -= 1.0
+    # Channels other than the reference, in order: i < ref stays, i >= ref shifts by one.
+    idx = np.arange(n_channels - 1)[None, :]
+    others = idx + (idx >= ref[:, None])  # (runs, n-1)
+    rows = np.eye(n_channels)[others]  # (runs, n-1, n)
+    rows[np.arange(len(ref))[:, None], idx, ref[:, None]] -= 1.0
     return rows
 
 
