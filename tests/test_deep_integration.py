@@ -537,3 +537,12 @@ def test_pva_navigator_update_with_a_registry_estimator_equals_the_kalman_update
     np.testing.assert_allclose(navs[1].x, navs[0].x, atol=1e-8)
     np.testing.assert_allclose(navs[1].P, navs[0].P, atol=1e-8)
     assert np.max(np.abs(navs[0].x - x0)) > 0.1  # the update moved the state
+
+
+def test_loss_of_lock_thresholds():
+    from gnssframework.receiver.deep import loss_of_lock
+
+    code = np.array([0.49, 0.51, 0.0, 0.0, -0.6])
+    freq = np.array([0.0, 0.0, 499.0, -501.0, 0.0])
+    np.testing.assert_array_equal(loss_of_lock(code, freq, 1e-3), [False, True, False, True, True])
+    assert loss_of_lock(np.array([0.0]), np.array([30.0]), 0.02)[0]  # 1/(2T) = 25 Hz at 20 ms
