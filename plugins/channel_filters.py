@@ -451,8 +451,10 @@ class IqFilter(ChannelFilter):
             cov = self.state.cov
             if self.pending_reset:
                 mean, cov = self._reset_prefilter(mean, cov)
-                # The innovation window restarts from the correlators' own R with the reset;
-                # the step count runs on, so the adapter keeps adapting between resets.
+                # The innovation window restarts from the correlators' own R with the reset.
+                # The adapter's warm-up counts the updates of its new run, so with a reset
+                # every interval it never leaves warm-up: R stays the correlators' true
+                # covariance (the running step count does not change that).
                 self.filter_step.restart_adapter(self.model, from_model_noise=True, restart_warmup=False)
             previous = Gaussian(mean, cov)
             prior = self.filter_step.predict(previous, self.model)

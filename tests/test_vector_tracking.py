@@ -221,3 +221,27 @@ def test_split_output_without_a_cn0_says_what_to_do():
         f.reset((2, 3), RunContext(coherent_time_s=0.01))
     f = gf.registry.create("channel_filter", "iq-filter", split_code="new-information")
     f.reset((2, 3), RunContext(coherent_time_s=0.01))  # needs no C/N0
+
+
+def test_reset_mode_keeps_r_at_the_correlators_covariance_while_split_adapts_it():
+    # The reset mode restarts the innovation window after every interval. A window of one
+    # innovation never leaves the adapter's warm-up (20 updates), so R stays the
+    # correlators' true covariance: without the restart, the post-reset spread drives
+    # eq. 31's R towards its floor (docs/experiments/vector-tracking.md). The split mode's
+    # window is never restarted: after its warm-up R has moved away from its start.
+    scen = get_scenario({**SCEN, "duration_s": 1.0, "settle_s": 0.2, "steady_state_s": 0.5})
+    in_force = {}
+    for mode in ("reset", "split"):
+        rng = np.random.default_rng(3)
+        truth, x0, P0 = scen.truth(35.0, 2, rng)
+        plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"output": mode}},
+                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+        run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng)
+        ch = plugins["channel_filter"]
+        assert ch.filter_step.step_index == 100  # 1 s of 10-ms intervals
+        in_force[mode] = (ch.filter_step.in_force(ch.model).R, ch.model.R)
+    R, R0 = in_force["reset"]
+    np.testing.assert_array_equal(np.broadcast_to(R, R.shape), np.broadcast_to(R0, R.shape))
+    R, R0 = in_force["split"]
+    diag = np.diagonal(R, axis1=-2, axis2=-1) / np.diagonal(R0, axis1=-2, axis2=-1)
+    assert np.max(np.abs(diag - 1.0)) > 0.05
