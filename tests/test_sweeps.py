@@ -260,3 +260,52 @@ nav_filter = { name = "ekf-pv" }
         _load(tmp_path, '[[sweeps]]\npath = "candidates.iq.channel_filter.params.estimator.params.alfa"\n'
                         'values = [0.5]\n', base)
     assert err.value.field == "sweeps[0].values[0]" and "alfa" in str(err.value)
+
+
+def test_the_vector_tracking_examples_cn0_sweep_resumes_with_identical_numbers(tmp_path, monkeypatch):
+    # examples/vector_tracking_sweep.toml as shipped (its candidates, its [[sweeps]] over
+    # cases.cn0_dbhz), shrunk to 0.6-s runs, two runs and the sweep's two end points.
+    # Plots are drawn by the tests above; here they would take most of the time.
+    from pathlib import Path
+
+    from gnssframework.experiments import report, sweeps
+    from gnssframework.experiments.config import ComparisonConfig
+
+    monkeypatch.setattr(report, "_plots", lambda *a, **k: None)
+    monkeypatch.setattr(sweeps, "_plot", lambda *a, **k: None)
+
+    data = tomllib.loads((Path(__file__).resolve().parents[1] / "examples" / "vector_tracking_sweep.toml").read_text())
+    (sweep,) = data["sweeps"]
+    assert sweep["path"] == "cases.cn0_dbhz" and (sweep["start"], sweep["stop"]) == (25.0, 50.0)
+    data.update(runs=2, batch_size=2, executor={"workers": 1})
+    data["scenario"].update(duration_s=0.6, settle_s=0.2, steady_state_s=0.4)
+    data["sweeps"] = [{"name": sweep["name"], "path": sweep["path"], "values": [sweep["start"], sweep["stop"]]}]
+    config = ComparisonConfig.model_validate(data)
+    n_cand = len(config.candidates)
+    done = []
+
+    def interrupt(task):
+        done.append(task)
+        if len(done) == n_cand + 1:  # the comparison and one batch of the first point
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_comparison(config, tmp_path / "out", progress=False, on_batch=interrupt)
+    resumed = []
+    summary = _strict(run_comparison(config, tmp_path / "out", progress=False, on_batch=resumed.append))
+    # Comparison (45 dB-Hz) + 2 points, one batch per candidate each, each batch run once.
+    assert len(resumed) == 3 * n_cand - len(done)
+    fresh = _strict(run_comparison(config, tmp_path / "fresh", progress=False))
+    assert summary["sweeps"] == fresh["sweeps"] and summary["rows"] == fresh["rows"]
+    (cn0,) = summary["sweeps"]
+    assert cn0["values"] == [25.0, 50.0]
+    rows = {(r["value"], r["candidate"], r["metric"]): r for r in cn0["rows"]}
+    for value in (25.0, 50.0):
+        for cand in ("ackf", "ackf-literal", "discriminator", "discriminator-fixed-r"):
+            assert rows[(value, cand, "freq_output_rmse")]["n"] == 2
+    # Every candidate is paired with the example's reference at every point.
+    paired = {(p["value"], p["candidate"]) for p in cn0["paired"] if p["metric"] == "velocity_error_rmse"}
+    assert paired == {(v, c) for v in (25.0, 50.0) for c in ("ackf", "ackf-literal", "discriminator-fixed-r")}
+    # Lower C/N0, larger FLL output error: the point's C/N0 reached the simulation.
+    assert (rows[(25.0, "discriminator", "freq_output_rmse")]["mean"]
+            > 3 * rows[(50.0, "discriminator", "freq_output_rmse")]["mean"])
