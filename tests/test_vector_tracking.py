@@ -245,3 +245,20 @@ def test_reset_mode_keeps_r_at_the_correlators_covariance_while_split_adapts_it(
     R, R0 = in_force["split"]
     diag = np.diagonal(R, axis1=-2, axis2=-1) / np.diagonal(R0, axis1=-2, axis2=-1)
     assert np.max(np.abs(diag - 1.0)) > 0.05
+
+
+def test_readme_describes_the_main_job_the_example_runs():
+    # README's main-job sentence: runs, duration, cases and candidates of the example.
+    import re
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    readme = " ".join((root / "README.md").read_text().split())
+    example = tomllib.loads((root / "examples" / "vector_tracking.toml").read_text())
+    assert "gnssframework compare examples/vector_tracking.toml" in readme
+    found = re.search(r"runs (\d+) Monte Carlo runs of (\d+) s x (\d+) C/N0 cases x (\d+) candidates", readme)
+    assert found, "README lost its main-job sentence"
+    runs, duration, cases, candidates = map(int, found.groups())
+    assert (runs, duration, cases, candidates) == (example["runs"], example["scenario"]["duration_s"],
+                                                   len(example["cases"]), len(example["candidates"]))
