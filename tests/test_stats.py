@@ -125,6 +125,9 @@ def test_summary_and_report_carry_the_hand_computed_paired_statistics(tmp_path):
     assert len(summary["paired"]) == len(config.metric_names)  # the reference is not paired with itself
     report = (tmp_path / "report.md").read_text()
     assert "Paired differences to `b`" in report and "+0.625 ± 0.125 (×1.33) **\\*** n=4" in report
+    # The first table is mean ± standard deviation over runs (X: 2.5, sqrt(5/3)), and says
+    # so; its ± is not the standard error (0.645), which only the paired table reports.
+    assert "| 2.5 ± 1.291 |" in report and "mean ± standard deviation over the runs" in report
 
 
 def test_reference_defaults_to_the_first_candidate_and_is_validated(tmp_path):

@@ -88,7 +88,9 @@ def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | N
     if config.description:
         lines += [config.description.strip(), ""]
     lines += [f"{config.runs} Monte Carlo runs per case and candidate, seed {config.seed}, "
-              f"batches of {config.batch_size}.", ""]
+              f"batches of {config.batch_size}. Each case's first table gives mean ± standard deviation "
+              "over the runs (the spread of one run's metric, not the standard error of the mean); "
+              "orderings are read from the paired differences below it.", ""]
     for case in config.cases:
         lines += [f"## {case.name}", "", "| metric | unit | " + " | ".join(c.name for c in config.candidates) + " |",
                   "| --- | --- | " + " | ".join("---" for _ in config.candidates) + " |"]
