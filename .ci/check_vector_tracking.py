@@ -11,6 +11,7 @@ runs, every statement the docs page makes about the example:
   discriminator baselines (significant); against ``discriminator-fixed-r`` its velocity is
   lower and its position higher (significant), the ordering docs/experiments/vector-tracking.md
   states; its position NEES is far above its dimension.
+- ``ckf`` (no adapter): replica frequency error lower than ``ackf``'s (significant).
 
 Exits 1 naming every failed statement. Usage: ``python .ci/check_vector_tracking.py [DIR]``.
 """
@@ -66,6 +67,11 @@ def main(out: Path) -> int:
             check(p.significant and (p.diff < 0) == lower,
                   f"{case}: ackf-literal {metric} {'below' if lower else 'above'} discriminator-fixed-r's "
                   f"({p.diff:+.3g} +- {p.se:.2g})")
+        # The adaptive R costs frequency accuracy: ckf (R fixed at the true covariance) is lower.
+        p = paired_difference(values(case, "ckf", "carrier_freq_error_rmse"),
+                              values(case, "ackf", "carrier_freq_error_rmse"))
+        check(p.significant and p.diff < 0,
+              f"{case}: ckf carrier_freq_error_rmse below ackf's ({p.diff:+.3g} +- {p.se:.2g})")
         m = float(np.mean(values(case, "ackf-literal", "nees_position")))
         check(m > 100.0, f"{case}: ackf-literal nees_position {m:.0f} far above 3 (double-counted code)")
     if failures:
