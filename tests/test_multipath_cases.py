@@ -110,3 +110,17 @@ def test_the_papers_adaptive_ukf1_is_worse_than_ukf1():
     aukf1 = _run({**UKF1, **_sage_husa(0.5)}, case, runs=10, epochs=300).metrics["horizontal_error_rmse"]
     d = aukf1 - ukf1
     assert np.mean(d) > 4 * np.std(d, ddof=1) / np.sqrt(d.size)
+
+
+def test_the_batched_oracle_grid_chooses_what_the_loop_over_pairs_chooses():
+    scen = get_scenario({"kind": "multipath", "epochs": 150})
+    colored = {**BASE, "augmentation": {"name": "colored-ar1", "params": {"psi": 0.8}}}
+    grid = {"q_scales": [1e-6, 1e-2, 1.0], "r_scales": [0.3, 3.0, 30.0], "training_runs": 3}
+    plugins = scen.build({**colored, "noise_adapter": {"name": "oracle-grid", "params": grid}})
+    chosen = scen._oracle(plugins, 5, 0.8, np.random.default_rng(7))
+    train = scen.simulate(3, np.random.default_rng(7), 0.8)  # the same training draw
+    plain = scen.build(colored)
+    score = {(sq, sr): np.mean(scen._filter(plain, train, sq, sr)[0] ** 2)
+             for sq in grid["q_scales"] for sr in grid["r_scales"]}
+    assert chosen == min(score, key=score.get)
+    assert chosen != (1.0, 0.3)  # the grid matters: not its corner
