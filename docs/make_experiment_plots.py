@@ -17,7 +17,8 @@ from gnssframework.experiments import load_config, run_comparison
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "img" / "experiments"
-EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath", "sweep_demo")
+EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath", "sweep_demo",
+            "carrier_smoothing_sweep", "scintillation_sweep")
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep",)
 

@@ -120,8 +120,9 @@ def test_nonlinear_measurement_is_refused():
         create("augmentation", "colored-ar1", psi=0.5).apply(model, np.zeros((3, 1)))
 
 
+@pytest.mark.parametrize("cross_covariance", ["exact", "paper"])
 @pytest.mark.parametrize("name", ["kf", "ukf"])
-def test_adapter_with_zero_weight_leaves_colored_ar1_unchanged(rng, name):
+def test_adapter_with_zero_weight_leaves_colored_ar1_unchanged(rng, name, cross_covariance):
     """AUKF1 with the adapter's weights at 0 is UKF1 exactly (issue 10: the adapted Q used
     to replace the decorrelated Q' = Q - M R*^-1 M^T by the raw Q from step 1 on)."""
     n, m, K = 3, 2, 30
@@ -133,7 +134,7 @@ def test_adapter_with_zero_weight_leaves_colored_ar1_unchanged(rng, name):
     if name != "kf":
         model = gf.NonlinearModel(lambda x: x @ F.T, lambda x: x @ H.T, Q, R)
     est = create("estimator", name)
-    aug = create("augmentation", "colored-ar1", psi=[0.5, 0.8])
+    aug = create("augmentation", "colored-ar1", psi=[0.5, 0.8], cross_covariance=cross_covariance)
     init = gf.Gaussian(np.zeros(n), P0)
     plain = gf.filter_sequence(est, model, zs, init, augmentation=aug)
     adapter = create("noise_adapter", "sage-husa", variant="improved", alpha_q=0.0, alpha_r=0.0, warmup=0)

@@ -77,3 +77,50 @@ def test_the_papers_ukf_follows_the_measurements_with_slow_multipath():
                    runs=10, epochs=300).metrics["horizontal_error_rmse"]
     d = colored - filtered
     assert np.mean(d) < -3 * np.std(d, ddof=1) / np.sqrt(d.size)
+
+
+UKF1 = {"nav_filter": {"name": "position-ca", "params": {}},
+        "estimator": {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}},
+        "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": "paper"}}}
+
+
+def _sage_husa(weight):
+    return {"noise_adapter": {"name": "sage-husa", "params": {"variant": "improved", "alpha_r": weight,
+                                                              "alpha_q": weight}}}
+
+
+@pytest.mark.parametrize("cross_covariance", ["paper", "exact"])
+def test_aukf1_with_the_adapters_weight_at_0_is_ukf1_in_the_multipath_scenario(cross_covariance):
+    # Issue 10's check, end to end as the example builds them: before the fix the adapter
+    # replaced the decorrelated noise by the raw Q0 from step 1 on (2.262 m against 2.291 m).
+    case = {"psi": 0.5}
+    colored = {"name": "colored-ar1", "params": {"cross_covariance": cross_covariance}}
+    ukf1 = _run({**UKF1, "augmentation": colored}, case, runs=4).metrics
+    aukf1_0 = _run({**UKF1, "augmentation": colored, **_sage_husa(0.0)}, case, runs=4).metrics
+    for name in ("lat_error_rmse", "lon_error_rmse", "horizontal_error_rmse"):
+        np.testing.assert_array_equal(aukf1_0[name], ukf1[name])
+
+
+def test_the_papers_adaptive_ukf1_is_worse_than_ukf1():
+    # Reference 004's AUKF1 < UKF1 does not hold here: the one-sample Q estimates keep Q at
+    # or above Q0 while a static receiver needs a smaller Q (docs/experiments/multipath.md).
+    # Paired over the same runs, the difference is many standard errors above 0.
+    case = {"psi": 0.5}
+    ukf1 = _run(UKF1, case, runs=10, epochs=300).metrics["horizontal_error_rmse"]
+    aukf1 = _run({**UKF1, **_sage_husa(0.5)}, case, runs=10, epochs=300).metrics["horizontal_error_rmse"]
+    d = aukf1 - ukf1
+    assert np.mean(d) > 4 * np.std(d, ddof=1) / np.sqrt(d.size)
+
+
+def test_the_batched_oracle_grid_chooses_what_the_loop_over_pairs_chooses():
+    scen = get_scenario({"kind": "multipath", "epochs": 150})
+    colored = {**BASE, "augmentation": {"name": "colored-ar1", "params": {"psi": 0.8}}}
+    grid = {"q_scales": [1e-6, 1e-2, 1.0], "r_scales": [0.3, 3.0, 30.0], "training_runs": 3}
+    plugins = scen.build({**colored, "noise_adapter": {"name": "oracle-grid", "params": grid}})
+    chosen = scen._oracle(plugins, 5, 0.8, np.random.default_rng(7))
+    train = scen.simulate(3, np.random.default_rng(7), 0.8)  # the same training draw
+    plain = scen.build(colored)
+    score = {(sq, sr): np.mean(scen._filter(plain, train, sq, sr)[0] ** 2)
+             for sq in grid["q_scales"] for sr in grid["r_scales"]}
+    assert chosen == min(score, key=score.get)
+    assert chosen != (1.0, 0.3)  # the grid matters: not its corner
