@@ -244,3 +244,95 @@ def test_parallel_kernels_are_not_used_off_the_main_thread():
     assert picked == ["serial"]
     assert kernels._pick(("serial", "parallel"), 10**6) == "parallel"
     assert kernels._pick(("serial", "parallel"), 1) == "serial"
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(1, 8), seed=st.integers(0, 2**32 - 1), batch=st.sampled_from([(), (5,), (2, 3), (300,)]))
+def test_pd_mask_kernel_agrees_with_lapack_eigenvalues(n, seed, batch):
+    # Truth from LAPACK's eigenvalues: each matrix has its smallest eigenvalue set to
+    # +-(0.01..1) of its largest, far from rounding level, or holds a NaN/inf.
+    rng = np.random.default_rng(seed)
+    q, _ = np.linalg.qr(rng.standard_normal(batch + (n, n)))
+    w = rng.uniform(0.5, 2.0, batch + (n,))
+    w[..., 0] = rng.uniform(0.01, 1.0, batch) * rng.choice([-1.0, 1.0], batch)
+    a = (q * w[..., None, :]) @ np.swapaxes(q, -1, -2)
+    a = 0.5 * (a + np.swapaxes(a, -1, -2))
+    spoil = rng.random(batch) < 0.1
+    a[spoil, n - 1, 0] = rng.choice([np.nan, np.inf])
+    truth = (w[..., 0] > 0) & ~spoil
+    assert np.array_equal(kernels.pd_mask(a), truth)
+    from gnssframework.estimation.linalg import cholesky_masked
+
+    assert np.array_equal(cholesky_masked(a)[1], truth)
+
+
+def _count_lapack(monkeypatch):
+    calls = []
+    for fn in ("cholesky", "eigvalsh", "eigh", "solve", "inv"):
+        real = getattr(np.linalg, fn)
+        monkeypatch.setattr(np.linalg, fn, lambda *a, _r=real, _n=fn, **k: (calls.append(_n), _r(*a, **k))[1])
+    return calls
+
+
+@pytest.mark.parametrize("estimator", ("ckf", "svd-ckf"))
+def test_the_step_of_iq_filter_makes_no_lapack_call(monkeypatch, estimator):
+    # The lean step: with the compiled kernels and the channel model's compiled h, a
+    # filter step (boundary checks, predict, update, posterior check) runs without
+    # NumPy's batched LAPACK wrappers. Counting the calls is what a per-step
+    # re-validation (a Cholesky of P only to test it) would break; time is never asserted.
+    from gnssframework import registry
+    from gnssframework.interfaces import RunContext
+    from gnssframework.signal.correlators import Correlators
+
+    kernels.set_backend("numba")
+    try:
+        ch = registry.create("channel_filter", "iq-filter", estimator=estimator, adaptive=False)
+        batch = (4, 3)
+        ch.reset(batch, RunContext(coherent_time_s=0.01, early_late_spacing_chips=1.0, epoch_interval_s=0.01,
+                                   cn0_dbhz=np.full(batch, 45.0)))
+        rng = np.random.default_rng(3)
+        x_true = np.array([10.0, 0.0, 0.3, 0.0, 0.0])
+
+        def inputs():
+            iq = ch.model.h(np.broadcast_to(x_true, batch + (5,))) + rng.standard_normal(batch + (6,))
+            corr = Correlators(early=iq[..., 0] + 1j * iq[..., 3], prompt=iq[..., 1] + 1j * iq[..., 4],
+                               late=iq[..., 2] + 1j * iq[..., 5])
+            return {"correlators": corr, "nco_shift_chips": np.zeros(batch), "nco_shift_hz": np.zeros(batch),
+                    "data_bit": 1.0}
+
+        ch.step(inputs())  # the first step starts the sequence (boundary checks)
+        calls = _count_lapack(monkeypatch)
+        outs = [ch.step(inputs()) for _ in range(3)]
+        monkeypatch.undo()
+        assert calls == []
+        assert np.isfinite(outs[-1]["code_error_chips"]).all()
+    finally:
+        kernels.set_backend(None)
+
+
+def test_adapter_guard_pays_eigh_only_for_estimates_outside_the_bounds(monkeypatch):
+    # Estimates that are PSD and inside [floor, ceiling] x R0 pass unchanged with no
+    # LAPACK call (compiled PD tests, the reference's eigen-decomposition kept); one
+    # estimate above the ceiling costs one eigh on that element alone.
+    from gnssframework import registry
+
+    kernels.set_backend("numba")
+    try:
+        rng = np.random.default_rng(5)
+        R0 = _separated_pd(rng, 4, ())
+        R0 = 0.5 * (R0 + R0.T)  # exactly symmetric: the guard's symmetrisation leaves it bitwise
+        run = registry.create("noise_adapter", "innovation").start(np.eye(2), R0)
+        raw = np.broadcast_to(2.0 * R0, (50, 4, 4)).copy()
+        run.guard(raw, R0, 0.01, 100.0)  # first call: the reference's eigen-decomposition
+        calls = _count_lapack(monkeypatch)
+        out = run.guard(raw, R0, 0.01, 100.0)
+        assert calls == []
+        assert np.array_equal(out, raw)
+        raw[7] = 1e3 * R0
+        out = run.guard(raw, R0, 0.01, 100.0)
+        monkeypatch.undo()
+        assert calls == ["eigh"]
+        np.testing.assert_allclose(out[7], 100.0 * R0, rtol=1e-10)  # clamped onto the ceiling
+        assert np.array_equal(out[:7], raw[:7])
+    finally:
+        kernels.set_backend(None)

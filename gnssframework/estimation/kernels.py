@@ -47,6 +47,7 @@ __all__ = [
     "predict_moments",
     "measurement_moments",
     "update",
+    "pd_mask",
     "warm_up",
 ]
 
@@ -674,12 +675,23 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
                 out_cov[b, j, i] = v
 
 
+def _pd_mask_body(A, ok):
+    """``ok[b]``: ``A[b]`` finite and its lower triangle Cholesky-factorable (PD)."""
+    B, n, _ = A.shape
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+        L = np.empty((n, n))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            ok[b] = _all_finite(A[b]) and _cholesky(A[b], L)
+
+
 _sigma_points_kernels = _jit_pair(_sigma_points_body)
 _predict_moments_kernels = _jit_pair(_predict_moments_body)
 _measurement_moments_kernels = _jit_pair(_measurement_moments_body)
 _update_kernels = _jit_pair(_update_body)
 _fused_predict_kernels = _jit_pair(_fused_predict_body)
 _fused_update_kernels = _jit_pair(_fused_update_body)
+_pd_mask_kernels = _jit_pair(_pd_mask_body)
 
 
 def _pick(pair, batch: int):
@@ -793,6 +805,17 @@ def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H
     )
 
 
+def pd_mask(a: np.ndarray) -> np.ndarray:
+    """Boolean ``(...)``: True where the matrix ``a[...]`` ``(..., n, n)`` is finite and
+    positive definite (its lower triangle has a Cholesky factor). A test only: no factor
+    is returned, so nothing is allocated per element."""
+    batch = a.shape[:-2]
+    A = _flat(a, batch, 2)
+    ok = np.empty(A.shape[0], dtype=np.bool_)
+    _pick(_pd_mask_kernels, A.shape[0])(A, ok)
+    return ok.reshape(batch)
+
+
 def fused_predict(mean, cov, rule, compiled, Q):
     """Whole sigma-point predict with the model's compiled ``f``: mean, cov, status."""
     root_kind, scale, center, wm, wc = rule
@@ -862,4 +885,5 @@ def warm_up() -> float:
             rule = (kind, 1.0, kind == 0, np.full(4 + (kind == 0), 0.25), np.full(4 + (kind == 0), 0.25))
             fused_predict(mean, cov, rule, compiled, np.eye(2))
             fused_update(mean, cov, mean, np.zeros(B, bool), rule, compiled, np.eye(2))
+        pd_mask(cov)
     return time.perf_counter() - t0
