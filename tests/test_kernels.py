@@ -336,3 +336,60 @@ def test_adapter_guard_pays_eigh_only_for_estimates_outside_the_bounds(monkeypat
         assert np.array_equal(out[:7], raw[:7])
     finally:
         kernels.set_backend(None)
+
+
+def _range_rate_problem(seed, name, r0, sat_range_m, sat_speed_m_s, pos_std_m):
+    from gnssframework import registry
+    from gnssframework.interfaces import RunContext
+
+    rng = np.random.default_rng(seed)
+    n_ch, runs = 6, 5
+    u = rng.standard_normal((n_ch, 3))
+    sat_pos = r0 + sat_range_m * u / np.linalg.norm(u, axis=-1, keepdims=True)
+    sat_vel = sat_speed_m_s * rng.standard_normal((n_ch, 3))
+    x = np.concatenate([r0 + pos_std_m * rng.standard_normal((runs, 3)), rng.standard_normal((runs, 3)),
+                        10.0 + rng.standard_normal((runs, 1)), rng.standard_normal((runs, 1))], axis=-1)
+    # Eigenvalues 0.3 apart: svd-ckf's eigenvectors (and so its points) are well defined.
+    P = np.diag(np.linspace(1.0, 3.1, 8)) * pos_std_m**2
+    nav = registry.create("nav_filter", "ekf-pv", estimator=name)
+    nav.reset((runs,), RunContext(coherent_time_s=0.01, initial_state=x, initial_cov=P))
+    R = np.diag([pos_std_m**2] * n_ch + [0.01] * n_ch)
+    model = nav._model(sat_pos, sat_vel, R)
+    z = model.h(x) + rng.standard_normal((runs, 2 * n_ch)) * np.sqrt(np.diag(R))
+    return model, gf.Gaussian(x, P), z, sat_pos, sat_vel
+
+
+def test_compiled_range_rate_h_equals_predicted_range_at_gps_distances():
+    from gnssframework.receiver.vector import predicted_range
+
+    model, state, _, sat_pos, sat_vel = _range_rate_problem(21, "ckf", np.array([4.2e6, 1.7e5, 4.78e6]),
+                                                            2.02e7, 3.9e3, 30.0)
+    assert model.compiled is not None and model.compiled.h_code == kernels.H_RANGE_RATE
+    X = state.mean[0] + 10.0 * np.random.default_rng(2).standard_normal((17, 8))
+    for x in X:
+        zc = np.empty(12)
+        kernels._apply_h(kernels.H_RANGE_RATE, model.compiled.h_params, x, zc)
+        rho, rate, _ = predicted_range(x, sat_pos, sat_vel)
+        _close(rho, zc[:6])
+        _close(rate, zc[6:])
+
+
+@pytest.mark.parametrize("name", ("ukf", "ckf", "svd-ckf"))
+def test_compiled_range_rate_model_of_ekf_pv_equals_its_numpy_model(name):
+    # ekf-pv's model carries a compiled pseudorange/rate h (and its linear f): the fused
+    # sigma-point step must equal the step on the NumPy functions. A small geometry
+    # (satellites 100 m away): at GPS distances the sigma-point deviations Z - z_hat
+    # cancel 2e7 m to a few metres, so *both* paths carry ~1e-9 relative rounding in S
+    # and C and no 1e-12 agreement can be asserted between them.
+    model, state, z, _, _ = _range_rate_problem(21, name, np.array([10.0, -5.0, 3.0]), 100.0, 10.0, 1.0)
+    assert model.compiled is not None
+    plain = gf.NonlinearModel(model.f, model.h, model.Q, model.R)
+    est = _engine(name)
+    ref_prior, ref = _run(est, "numpy", state, z, plain)
+    prior, upd = _run(est, "numba", state, z, model)
+    _close(ref_prior.mean, prior.mean)
+    _close(ref_prior.cov, prior.cov)
+    for field in ("innovation", "innovation_cov", "gain", "cross_cov", "predicted_measurement"):
+        _close(getattr(ref, field), getattr(upd, field))
+    _close(ref.state.mean, upd.state.mean)
+    _close(ref.state.cov, upd.state.cov)

@@ -451,6 +451,9 @@ def _update_body(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph, H, R, mea
 F_LINEAR = 0  # x' = F x, params F (n, n)
 H_LINEAR = 0  # z = H x, params H (m, n)
 H_CHANNEL_IQ = 1  # Zou et al. (2018) eqs. 2-7, params [[spacing_chips, coherent_time_s, data_bit]]
+#: Pseudorange and rate of [x, y, z, vx, vy, vz, b, d] to ch satellites (Zou et al. 2018,
+#: eqs. 35-36), params (ch, 6): satellite ECEF position and velocity per row.
+H_RANGE_RATE = 2
 
 
 @_jit
@@ -478,6 +481,18 @@ def _apply_h(code, params, x, out):
             for j in range(n):
                 acc += params[i, j] * x[j]
             out[i] = acc
+        return
+    if code == H_RANGE_RATE:
+        # As receiver.vector.predicted_range: rho = |s - r| + b, rate = (v_s - v) . e + d.
+        n_ch = params.shape[0]
+        for c in range(n_ch):
+            lx = params[c, 0] - x[0]
+            ly = params[c, 1] - x[1]
+            lz = params[c, 2] - x[2]
+            dist = math.sqrt(lx * lx + ly * ly + lz * lz)
+            out[c] = dist + x[6]
+            out[n_ch + c] = ((params[c, 3] - x[3]) * (lx / dist) + (params[c, 4] - x[4]) * (ly / dist)
+                             + (params[c, 5] - x[5]) * (lz / dist)) + x[7]
         return
     # H_CHANNEL_IQ: the ideal (unfiltered) triangle autocorrelation, as channel_iq.
     d = params[0, 0]

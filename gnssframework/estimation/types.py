@@ -122,10 +122,12 @@ class CompiledFunctions:
     ----------
     f_code, h_code
         Codes from ``gnssframework.estimation.kernels`` (``F_LINEAR``; ``H_LINEAR``,
-        ``H_CHANNEL_IQ``).
+        ``H_CHANNEL_IQ``, ``H_RANGE_RATE``).
     f_params, h_params
-        2-D float arrays shared by the batch: F ``(n, n)``; H ``(m, n)`` or the
-        channel model's ``[[spacing_chips, coherent_time_s, data_bit]]``.
+        2-D float arrays shared by the batch: F ``(n, n)``; H ``(m, n)``, the
+        channel model's ``[[spacing_chips, coherent_time_s, data_bit]]``, or the
+        satellites' ECEF positions and velocities ``(channels, 6)`` of the
+        pseudorange/rate measurement.
     """
 
     f_code: int
