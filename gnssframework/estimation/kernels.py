@@ -516,6 +516,110 @@ def _apply_h(code, params, x, out):
     out[5] = s_ * r_l
 
 
+@_jit
+def _apply_h_jacobian(code, params, x, J):
+    """``dh/dx`` of the codes with an analytic Jacobian (H_LINEAR, H_RANGE_RATE) into ``J``.
+
+    H_RANGE_RATE's is the one ``ekf-pv`` gives its NumPy model: ``-e`` in the position
+    (range) and velocity (rate) columns, 1 for the clock bias and drift; the rate's
+    dependence on the position through ``e`` is neglected, as there.
+    """
+    if code == H_LINEAR:
+        m, n = params.shape
+        for i in range(m):
+            for j in range(n):
+                J[i, j] = params[i, j]
+        return
+    if code != H_RANGE_RATE:
+        return
+    n_ch = params.shape[0]
+    J[:, :] = 0.0
+    for c in range(n_ch):
+        lx = params[c, 0] - x[0]
+        ly = params[c, 1] - x[1]
+        lz = params[c, 2] - x[2]
+        dist = math.sqrt(lx * lx + ly * ly + lz * lz)
+        e0 = lx / dist
+        e1 = ly / dist
+        e2 = lz / dist
+        J[c, 0] = -e0
+        J[c, 1] = -e1
+        J[c, 2] = -e2
+        J[c, 6] = 1.0
+        J[n_ch + c, 3] = -e0
+        J[n_ch + c, 4] = -e1
+        J[n_ch + c, 5] = -e2
+        J[n_ch + c, 7] = 1.0
+
+
+def _linear_predict_body(mean, cov, F, Q, out_mean, out_cov):
+    """``F x`` and ``sym(F P F^T + Q)`` per element (the KF/EKF prediction, F shared)."""
+    B, n = mean.shape
+    shared_q = Q.shape[0] == 1
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+        FP = np.empty((n, n))
+        M = np.empty((n, n))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            q = 0 if shared_q else np.int64(b)
+            P = cov[b]
+            for i in range(n):
+                acc = 0.0
+                for j in range(n):
+                    acc += F[i, j] * mean[b, j]
+                out_mean[b, i] = acc
+                for k in range(n):
+                    acc = 0.0
+                    for j in range(n):
+                        acc += F[i, j] * P[j, k]
+                    FP[i, k] = acc
+            for i in range(n):
+                for l in range(n):
+                    acc = 0.0
+                    for k in range(n):
+                        acc += FP[i, k] * F[l, k]
+                    M[i, l] = acc + Q[q, i, l]
+            for i in range(n):
+                for l in range(i + 1):
+                    v = 0.5 * (M[i, l] + M[l, i])
+                    out_cov[b, i, l] = v
+                    out_cov[b, l, i] = v
+
+
+def _ekf_moments_body(mean, cov, h_code, h_params, R, z_hat, S, C):
+    """``h(x)``, ``S = sym(H P H^T + R)`` and ``C = P H^T`` with H the Jacobian at x."""
+    B, n = mean.shape
+    m = z_hat.shape[1]
+    shared_r = R.shape[0] == 1
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+        J = np.empty((m, n))
+        M = np.empty((m, m))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            r = 0 if shared_r else np.int64(b)
+            _apply_h(h_code, h_params, mean[b], z_hat[b])
+            _apply_h_jacobian(h_code, h_params, mean[b], J)
+            P = cov[b]
+            Cb = C[b]
+            for i in range(n):
+                for j in range(m):
+                    acc = 0.0
+                    for k in range(n):
+                        acc += P[i, k] * J[j, k]
+                    Cb[i, j] = acc
+            for i in range(m):
+                for j in range(m):
+                    acc = 0.0
+                    for k in range(n):
+                        acc += J[i, k] * Cb[k, j]
+                    M[i, j] = acc + R[r, i, j]
+            for i in range(m):
+                for j in range(i + 1):
+                    v = 0.5 * (M[i, j] + M[j, i])
+                    S[b, i, j] = v
+                    S[b, j, i] = v
+
+
 def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_params, Q, out_mean, out_cov, status):
     """One predict per element: root, points, compiled ``f``, moments + Q."""
     B, n = mean.shape
@@ -707,6 +811,11 @@ _update_kernels = _jit_pair(_update_body)
 _fused_predict_kernels = _jit_pair(_fused_predict_body)
 _fused_update_kernels = _jit_pair(_fused_update_body)
 _pd_mask_kernels = _jit_pair(_pd_mask_body)
+_linear_predict_kernels = _jit_pair(_linear_predict_body)
+_ekf_moments_kernels = _jit_pair(_ekf_moments_body)
+
+#: h codes whose Jacobian the kernels compute (the EKF's compiled path).
+H_WITH_JACOBIAN = (H_LINEAR, H_RANGE_RATE)
 
 
 def _pick(pair, batch: int):
@@ -831,6 +940,32 @@ def pd_mask(a: np.ndarray) -> np.ndarray:
     return ok.reshape(batch)
 
 
+def linear_predict(mean, cov, F, Q):
+    """``(F x, sym(F P F^T + Q))`` batch-first, F ``(n, n)`` shared by the batch."""
+    batch = mean.shape[:-1]
+    n = mean.shape[-1]
+    m_ = _flat(mean, batch, 1)
+    B = m_.shape[0]
+    out_mean = np.empty((B, n))
+    out_cov = np.empty((B, n, n))
+    _pick(_linear_predict_kernels, B)(m_, _flat(cov, batch, 2), np.ascontiguousarray(F, dtype=float),
+                                      _flat_shared(Q, batch), out_mean, out_cov)
+    return out_mean.reshape(batch + (n,)), out_cov.reshape(batch + (n, n))
+
+
+def ekf_moments(mean, cov, compiled, R):
+    """The EKF's ``(z_hat, S, C)`` with the compiled h and its analytic Jacobian at the mean."""
+    batch = mean.shape[:-1]
+    n = mean.shape[-1]
+    m = R.shape[-1]
+    m_ = _flat(mean, batch, 1)
+    B = m_.shape[0]
+    z_hat, S, C = np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m))
+    _pick(_ekf_moments_kernels, B)(m_, _flat(cov, batch, 2), compiled.h_code, compiled.h_params,
+                                   _flat_shared(R, batch), z_hat, S, C)
+    return z_hat.reshape(batch + (m,)), S.reshape(batch + (m, m)), C.reshape(batch + (n, m))
+
+
 def fused_predict(mean, cov, rule, compiled, Q):
     """Whole sigma-point predict with the model's compiled ``f``: mean, cov, status."""
     root_kind, scale, center, wm, wc = rule
@@ -901,4 +1036,6 @@ def warm_up() -> float:
             fused_predict(mean, cov, rule, compiled, np.eye(2))
             fused_update(mean, cov, mean, np.zeros(B, bool), rule, compiled, np.eye(2))
         pd_mask(cov)
+        linear_predict(mean, cov, np.eye(2), np.eye(2))
+        ekf_moments(mean, cov, compiled, np.eye(2))
     return time.perf_counter() - t0

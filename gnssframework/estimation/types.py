@@ -115,8 +115,10 @@ class CompiledFunctions:
     """Model functions the compiled kernels evaluate themselves (no call back to Python).
 
     A model that carries one lets a sigma-point filter run a whole predict or update in
-    one compiled pass per batch element. The model's NumPy ``f``/``h`` stay the
-    reference: both must compute the same function (tests hold them to 1e-12).
+    one compiled pass per batch element, and the KF/EKF (linear f, h with a compiled
+    Jacobian: ``H_LINEAR``, ``H_RANGE_RATE``) run theirs in compiled code. The model's
+    NumPy ``f``/``h`` (and its Jacobians) stay the reference: both must compute the same
+    functions (tests hold them to 1e-12).
 
     Parameters
     ----------
