@@ -395,3 +395,40 @@ def test_compiled_range_rate_model_of_ekf_pv_equals_its_numpy_model(name):
         _close(getattr(ref, field), getattr(upd, field))
     _close(ref.state.mean, upd.state.mean)
     _close(ref.state.cov, upd.state.cov)
+
+
+def _kernel_signatures():
+    return {(name, i): len(d.signatures) for name in dir(kernels)
+            if name.endswith("_kernels") and isinstance(getattr(kernels, name), tuple)
+            for i, d in enumerate(getattr(kernels, name))}
+
+
+def test_warm_up_compiles_every_specialisation_a_run_uses():
+    # `compare` warms the kernels up once before forking its workers; a run that needed
+    # another numba specialisation (readonly or writable operands, another layout) would
+    # compile it again in every worker. Runs every built-in engine on shared and
+    # per-element operands, below and above the parallel threshold, and a vector loop.
+    from gnssframework.experiments import get_scenario
+
+    kernels.set_backend("numba")
+    try:
+        kernels.warm_up()
+        before = _kernel_signatures()
+        for batch in ((3,), (kernels.PARALLEL_MIN_BATCH + 1,)):
+            nonlinear, linear, state, z = _problem(4, 5, 6, batch)
+            z = z.copy()
+            z[0, 0] = np.nan
+            for name in ENGINES:
+                for model in ((linear,) if name == "kf" else (linear, nonlinear)):
+                    est = _engine(name)
+                    est.update(est.predict(state, model), z, model, missing="skip")
+        scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.03, "channels": 8, "settle_s": 0.0})
+        for est_name in ("svd-ckf", "ukf"):
+            for runs in (1, 40):
+                plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": est_name}},
+                                      "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+                scen.run_batch({"cn0_dbhz": 45.0}, plugins, runs, np.random.default_rng(0))
+        after = _kernel_signatures()
+        assert {k: (before[k], after[k]) for k in after if after[k] != before[k]} == {}
+    finally:
+        kernels.set_backend(None)

@@ -827,29 +827,45 @@ def _pick(pair, batch: int):
 # -- array-level wrappers ---------------------------------------------------------------
 
 
+def _ro(a: np.ndarray) -> np.ndarray:
+    """A read-only view of a kernel *input*. numba compiles one specialisation per
+    writeable flag; handing every input read-only (outputs are always fresh writable
+    arrays) gives each kernel a single signature, the one `warm_up` compiles, so no
+    forked worker compiles again whatever arrays a filter passes."""
+    if a.flags.writeable:
+        a = a.view()
+        a.flags.writeable = False
+    return a
+
+
+def _vec(a) -> np.ndarray:
+    """A small shared operand (weights, model parameters) as a read-only contiguous float array."""
+    return _ro(np.ascontiguousarray(a, dtype=float))
+
+
 def _flat(a: np.ndarray, batch: tuple[int, ...], tail: int) -> np.ndarray:
-    """``a`` broadcast to ``batch + tail dims`` as a C-contiguous ``(B, ...)`` float array."""
+    """``a`` broadcast to ``batch + tail dims`` as a read-only C-contiguous ``(B, ...)`` float array."""
     if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.shape[:-tail] == batch:
-        return a.reshape((-1,) + a.shape[a.ndim - tail:])
+        return _ro(a.reshape((-1,) + a.shape[a.ndim - tail:]))
     a = np.asarray(a, dtype=float)
     shape = batch + a.shape[a.ndim - tail:]
     if a.shape != shape:
         a = np.broadcast_to(a, shape)
-    return np.ascontiguousarray(a).reshape((-1,) + shape[len(batch):])
+    return _ro(np.ascontiguousarray(a).reshape((-1,) + shape[len(batch):]))
 
 
 def _flat_mask(mask: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
-    """A boolean batch mask as a contiguous ``(B,)`` array."""
+    """A boolean batch mask as a read-only contiguous ``(B,)`` array."""
     if type(mask) is np.ndarray and mask.shape == batch and mask.flags.c_contiguous:
-        return mask.reshape(-1)
-    return np.ascontiguousarray(np.broadcast_to(mask, batch)).reshape(-1)
+        return _ro(mask.reshape(-1))
+    return _ro(np.ascontiguousarray(np.broadcast_to(mask, batch)).reshape(-1))
 
 
 def _flat_shared(a: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
     """A matrix operand ``(k, l)`` shared by the batch as ``(1, k, l)``, else ``(B, k, l)``."""
     a = np.asarray(a, dtype=float)
     if a.ndim == 2:
-        return np.ascontiguousarray(a)[None]
+        return _ro(np.ascontiguousarray(a)[None])
     return _flat(a, batch, 2)
 
 
@@ -876,7 +892,7 @@ def predict_moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray, Q: np.ndarray
     B = Yf.shape[1]
     mean = np.empty((B, p))
     cov = np.empty((B, p, p))
-    _pick(_predict_moments_kernels, B)(Yf, np.asarray(wm, float), np.asarray(wc, float), _flat_shared(Q, batch), mean, cov)
+    _pick(_predict_moments_kernels, B)(_ro(Yf), _vec(wm), _vec(wc), _flat_shared(Q, batch), mean, cov)
     return mean.reshape(batch + (p,)), cov.reshape(batch + (p, p))
 
 
@@ -893,7 +909,7 @@ def measurement_moments(X: np.ndarray, Z: np.ndarray, prior_mean: np.ndarray, wm
     S = np.empty((B, m, m))
     C = np.empty((B, n, m))
     _pick(_measurement_moments_kernels, B)(
-        Xf, Zf, _flat(prior_mean, batch, 1), np.asarray(wm, float), np.asarray(wc, float),
+        _ro(Xf), _ro(Zf), _flat(prior_mean, batch, 1), _vec(wm), _vec(wc),
         _flat_shared(R, batch), z_hat, S, C,
     )
     return z_hat.reshape(batch + (m,)), S.reshape(batch + (m, m)), C.reshape(batch + (n, m))
@@ -909,7 +925,7 @@ def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H
     if joseph:
         Hf, Rf = _flat_shared(H, batch), _flat_shared(R, batch)
     else:
-        Hf, Rf = np.zeros((1, m, n)), np.zeros((1, m, m))
+        Hf, Rf = _ro(np.zeros((1, m, n))), _ro(np.zeros((1, m, m)))
     mean = np.empty((B, n))
     cov = np.empty((B, n, n))
     gain = np.empty((B, n, m))
@@ -948,7 +964,7 @@ def linear_predict(mean, cov, F, Q):
     B = m_.shape[0]
     out_mean = np.empty((B, n))
     out_cov = np.empty((B, n, n))
-    _pick(_linear_predict_kernels, B)(m_, _flat(cov, batch, 2), np.ascontiguousarray(F, dtype=float),
+    _pick(_linear_predict_kernels, B)(m_, _flat(cov, batch, 2), _vec(F),
                                       _flat_shared(Q, batch), out_mean, out_cov)
     return out_mean.reshape(batch + (n,)), out_cov.reshape(batch + (n, n))
 
@@ -961,7 +977,7 @@ def ekf_moments(mean, cov, compiled, R):
     m_ = _flat(mean, batch, 1)
     B = m_.shape[0]
     z_hat, S, C = np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m))
-    _pick(_ekf_moments_kernels, B)(m_, _flat(cov, batch, 2), compiled.h_code, compiled.h_params,
+    _pick(_ekf_moments_kernels, B)(m_, _flat(cov, batch, 2), int(compiled.h_code), _vec(compiled.h_params),
                                    _flat_shared(R, batch), z_hat, S, C)
     return z_hat.reshape(batch + (m,)), S.reshape(batch + (m, m)), C.reshape(batch + (n, m))
 
@@ -977,8 +993,8 @@ def fused_predict(mean, cov, rule, compiled, Q):
     out_cov = np.empty((B, n, n))
     status = np.empty(B, dtype=np.int8)
     _pick(_fused_predict_kernels, B)(
-        m_, _flat(cov, batch, 2), root_kind, float(scale), bool(center), wm, wc,
-        compiled.f_code, compiled.f_params, _flat_shared(Q, batch), out_mean, out_cov, status,
+        m_, _flat(cov, batch, 2), int(root_kind), float(scale), bool(center), _vec(wm), _vec(wc),
+        int(compiled.f_code), _vec(compiled.f_params), _flat_shared(Q, batch), out_mean, out_cov, status,
     )
     return out_mean.reshape(batch + (n,)), out_cov.reshape(batch + (n, n)), status.reshape(batch)
 
@@ -1000,7 +1016,8 @@ def fused_update(mean, cov, z, bad_z, rule, compiled, R):
     ok = np.empty(B, dtype=np.bool_)
     _pick(_fused_update_kernels, B)(
         m_, _flat(cov, batch, 2), _flat(z, batch, 1), _flat_mask(bad_z, batch),
-        root_kind, float(scale), bool(center), wm, wc, compiled.h_code, compiled.h_params, _flat_shared(R, batch),
+        int(root_kind), float(scale), bool(center), _vec(wm), _vec(wc), int(compiled.h_code), _vec(compiled.h_params),
+        _flat_shared(R, batch),
         *outs, status, ok,
     )
     tails = ((n,), (n, n), (n, m), (m,), (m,), (m, m), (n, m))
