@@ -9,11 +9,20 @@ Python wrappers of NumPy's batched calls on tiny matrices. They cover
 * the weighted moments of transformed points (predicted mean and covariance + Q, or
   predicted measurement, innovation covariance + R and cross covariance);
 * the measurement update: Cholesky of S, gain ``K = C S^{-1}``, posterior mean and
-  covariance (``P - K S K^T`` or Joseph's form), with the skip/failure mask.
+  covariance (``P - K S K^T`` or Joseph's form), with the skip/failure mask;
+* a positive-definiteness test without the factor (`pd_mask`), which the filter step's
+  posterior check and the noise adapters' bound tests use every step.
 
-The model functions ``f`` and ``h`` stay Python (NumPy) callables evaluated between
-the kernels. Results equal the NumPy path to rounding (a Hypothesis test holds them to
-1e-12 relative on random models).
+A model's NumPy ``f`` and ``h`` are evaluated between these kernels. A model that also
+carries compiled twins (`gnssframework.estimation.CompiledFunctions`: linear ``F x``
+and ``H x``, the correlator channel model of Zou et al. 2018, the pseudorange/rate
+measurement) runs a whole sigma-point predict or update in one compiled pass per
+element (``fused_predict``, ``fused_update``), and the KF/EKF predict and measurement
+moments in compiled code (``linear_predict``, ``ekf_moments``). Results equal the NumPy
+path to rounding (a Hypothesis test holds them to 1e-12 relative on random models).
+
+Every input array reaches a kernel read-only, so each kernel has one numba
+specialisation: the one `warm_up` compiles (a test checks that runs add none).
 
 Backend choice: ``GNSSFRAMEWORK_BACKEND=numpy`` (environment) or :func:`set_backend`
 selects the NumPy path everywhere; an estimator's ``backend`` attribute overrides it
