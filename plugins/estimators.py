@@ -8,7 +8,7 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework.errors import ConfigError, NotPositiveDefiniteError
-from gnssframework.estimation import Estimator, Gaussian, LinearModel, SigmaPointEstimator
+from gnssframework.estimation import Estimator, Gaussian, LinearModel, SigmaPointEstimator, kernels
 from gnssframework.estimation.linalg import failing_indices, mat_vec, symmetrize
 from gnssframework.plugin import PluginParams
 
@@ -23,6 +23,17 @@ __all__ = [
 
 def _transpose(a: np.ndarray) -> np.ndarray:
     return np.swapaxes(a, -1, -2)
+
+
+def _compiled_for_kernels(est: Estimator, model):
+    """The model's compiled functions where the kernels can run a KF/EKF step on them:
+    linear f and an h whose Jacobian the kernels know (``kernels.H_WITH_JACOBIAN``); the
+    model's own Jacobians must be those of its compiled twins (``CompiledFunctions``)."""
+    compiled = getattr(model, "compiled", None)
+    if (compiled is None or compiled.f_code != kernels.F_LINEAR or compiled.h_code not in kernels.H_WITH_JACOBIAN
+            or not est._use_kernels()):
+        return None
+    return compiled
 
 
 class KalmanFilter(Estimator):
@@ -51,11 +62,17 @@ class KalmanFilter(Estimator):
 
     def predict(self, state: Gaussian, model) -> Gaussian:
         model = self._require_linear(model)
+        compiled = _compiled_for_kernels(self, model)
+        if compiled is not None:
+            return Gaussian(*kernels.linear_predict(state.mean, state.cov, compiled.f_params, model.Q))
         F = model.F
         return Gaussian(model.f(state.mean), symmetrize(F @ state.cov @ _transpose(F) + model.Q))
 
     def measurement_moments(self, prior: Gaussian, model):
         model = self._require_linear(model)
+        compiled = _compiled_for_kernels(self, model)
+        if compiled is not None:
+            return kernels.ekf_moments(prior.mean, prior.cov, compiled, model.R)
         H = model.H
         C = prior.cov @ _transpose(H)
         return mat_vec(H, prior.mean), symmetrize(H @ C + model.R), C
@@ -85,10 +102,16 @@ class ExtendedKalmanFilter(Estimator):
     description = "Extended Kalman filter (analytic or central-difference Jacobians)"
 
     def predict(self, state: Gaussian, model) -> Gaussian:
+        compiled = _compiled_for_kernels(self, model)
+        if compiled is not None:
+            return Gaussian(*kernels.linear_predict(state.mean, state.cov, compiled.f_params, model.Q))
         F = model.jacobian_f(state.mean)
         return Gaussian(model.f(state.mean), symmetrize(F @ state.cov @ _transpose(F) + model.Q))
 
     def measurement_moments(self, prior: Gaussian, model):
+        compiled = _compiled_for_kernels(self, model)
+        if compiled is not None:
+            return kernels.ekf_moments(prior.mean, prior.cov, compiled, model.R)
         H = model.jacobian_h(prior.mean)
         C = prior.cov @ _transpose(H)
         return model.h(prior.mean), symmetrize(H @ C + model.R), C

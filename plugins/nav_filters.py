@@ -8,7 +8,8 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework.errors import ConfigError
-from gnssframework.estimation import FilterStep, Gaussian, LinearModel, NonlinearModel, filter_sequence
+from gnssframework.estimation import (CompiledFunctions, FilterStep, Gaussian, LinearModel, NonlinearModel,
+                                     filter_sequence, kernels)
 from gnssframework.interfaces import NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
@@ -108,8 +109,14 @@ class EkfPositionVelocity(NavFilter):
             H[..., n_ch:, 7] = 1.0
             return H
 
+        # Compiled twins of f (linear) and h (pseudorange/rate) when the satellites are
+        # shared by the batch, as in the vector loop: sigma-point engines then run fused.
+        compiled = None
+        if np.ndim(sat_pos) == 2 and np.ndim(sat_vel) == 2:
+            compiled = CompiledFunctions(kernels.F_LINEAR, F, kernels.H_RANGE_RATE,
+                                         np.concatenate([sat_pos, sat_vel], axis=-1))
         return NonlinearModel(f, h, self.Q, R, f_jacobian=lambda x: np.broadcast_to(F, x.shape[:-1] + (8, 8)),
-                              h_jacobian=h_jac)
+                              h_jacobian=h_jac, compiled=compiled)
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         p = self.params

@@ -244,3 +244,191 @@ def test_parallel_kernels_are_not_used_off_the_main_thread():
     assert picked == ["serial"]
     assert kernels._pick(("serial", "parallel"), 10**6) == "parallel"
     assert kernels._pick(("serial", "parallel"), 1) == "serial"
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(1, 8), seed=st.integers(0, 2**32 - 1), batch=st.sampled_from([(), (5,), (2, 3), (300,)]))
+def test_pd_mask_kernel_agrees_with_lapack_eigenvalues(n, seed, batch):
+    # Truth from LAPACK's eigenvalues: each matrix has its smallest eigenvalue set to
+    # +-(0.01..1) of its largest, far from rounding level, or holds a NaN/inf.
+    rng = np.random.default_rng(seed)
+    q, _ = np.linalg.qr(rng.standard_normal(batch + (n, n)))
+    w = rng.uniform(0.5, 2.0, batch + (n,))
+    w[..., 0] = rng.uniform(0.01, 1.0, batch) * rng.choice([-1.0, 1.0], batch)
+    a = (q * w[..., None, :]) @ np.swapaxes(q, -1, -2)
+    a = 0.5 * (a + np.swapaxes(a, -1, -2))
+    spoil = rng.random(batch) < 0.1
+    a[spoil, n - 1, 0] = rng.choice([np.nan, np.inf])
+    truth = (w[..., 0] > 0) & ~spoil
+    assert np.array_equal(kernels.pd_mask(a), truth)
+    from gnssframework.estimation.linalg import cholesky_masked
+
+    assert np.array_equal(cholesky_masked(a)[1], truth)
+
+
+def _count_lapack(monkeypatch):
+    calls = []
+    for fn in ("cholesky", "eigvalsh", "eigh", "solve", "inv"):
+        real = getattr(np.linalg, fn)
+        monkeypatch.setattr(np.linalg, fn, lambda *a, _r=real, _n=fn, **k: (calls.append(_n), _r(*a, **k))[1])
+    return calls
+
+
+@pytest.mark.parametrize("estimator", ("ckf", "svd-ckf"))
+def test_the_step_of_iq_filter_makes_no_lapack_call(monkeypatch, estimator):
+    # The lean step: with the compiled kernels and the channel model's compiled h, a
+    # filter step (boundary checks, predict, update, posterior check) runs without
+    # NumPy's batched LAPACK wrappers. Counting the calls is what a per-step
+    # re-validation (a Cholesky of P only to test it) would break; time is never asserted.
+    from gnssframework import registry
+    from gnssframework.interfaces import RunContext
+    from gnssframework.signal.correlators import Correlators
+
+    kernels.set_backend("numba")
+    try:
+        ch = registry.create("channel_filter", "iq-filter", estimator=estimator, adaptive=False)
+        batch = (4, 3)
+        ch.reset(batch, RunContext(coherent_time_s=0.01, early_late_spacing_chips=1.0, epoch_interval_s=0.01,
+                                   cn0_dbhz=np.full(batch, 45.0)))
+        rng = np.random.default_rng(3)
+        x_true = np.array([10.0, 0.0, 0.3, 0.0, 0.0])
+
+        def inputs():
+            iq = ch.model.h(np.broadcast_to(x_true, batch + (5,))) + rng.standard_normal(batch + (6,))
+            corr = Correlators(early=iq[..., 0] + 1j * iq[..., 3], prompt=iq[..., 1] + 1j * iq[..., 4],
+                               late=iq[..., 2] + 1j * iq[..., 5])
+            return {"correlators": corr, "nco_shift_chips": np.zeros(batch), "nco_shift_hz": np.zeros(batch),
+                    "data_bit": 1.0}
+
+        ch.step(inputs())  # the first step starts the sequence (boundary checks)
+        calls = _count_lapack(monkeypatch)
+        outs = [ch.step(inputs()) for _ in range(3)]
+        monkeypatch.undo()
+        assert calls == []
+        assert np.isfinite(outs[-1]["code_error_chips"]).all()
+    finally:
+        kernels.set_backend(None)
+
+
+def test_adapter_guard_pays_eigh_only_for_estimates_outside_the_bounds(monkeypatch):
+    # Estimates that are PSD and inside [floor, ceiling] x R0 pass unchanged with no
+    # LAPACK call (compiled PD tests, the reference's eigen-decomposition kept); one
+    # estimate above the ceiling costs one eigh on that element alone.
+    from gnssframework import registry
+
+    kernels.set_backend("numba")
+    try:
+        rng = np.random.default_rng(5)
+        R0 = _separated_pd(rng, 4, ())
+        R0 = 0.5 * (R0 + R0.T)  # exactly symmetric: the guard's symmetrisation leaves it bitwise
+        run = registry.create("noise_adapter", "innovation").start(np.eye(2), R0)
+        raw = np.broadcast_to(2.0 * R0, (50, 4, 4)).copy()
+        run.guard(raw, R0, 0.01, 100.0)  # first call: the reference's eigen-decomposition
+        calls = _count_lapack(monkeypatch)
+        out = run.guard(raw, R0, 0.01, 100.0)
+        assert calls == []
+        assert np.array_equal(out, raw)
+        raw[7] = 1e3 * R0
+        out = run.guard(raw, R0, 0.01, 100.0)
+        monkeypatch.undo()
+        assert calls == ["eigh"]
+        np.testing.assert_allclose(out[7], 100.0 * R0, rtol=1e-10)  # clamped onto the ceiling
+        assert np.array_equal(out[:7], raw[:7])
+    finally:
+        kernels.set_backend(None)
+
+
+def _range_rate_problem(seed, name, r0, sat_range_m, sat_speed_m_s, pos_std_m):
+    from gnssframework import registry
+    from gnssframework.interfaces import RunContext
+
+    rng = np.random.default_rng(seed)
+    n_ch, runs = 6, 5
+    u = rng.standard_normal((n_ch, 3))
+    sat_pos = r0 + sat_range_m * u / np.linalg.norm(u, axis=-1, keepdims=True)
+    sat_vel = sat_speed_m_s * rng.standard_normal((n_ch, 3))
+    x = np.concatenate([r0 + pos_std_m * rng.standard_normal((runs, 3)), rng.standard_normal((runs, 3)),
+                        10.0 + rng.standard_normal((runs, 1)), rng.standard_normal((runs, 1))], axis=-1)
+    # Eigenvalues 0.3 apart: svd-ckf's eigenvectors (and so its points) are well defined.
+    P = np.diag(np.linspace(1.0, 3.1, 8)) * pos_std_m**2
+    nav = registry.create("nav_filter", "ekf-pv", estimator=name)
+    nav.reset((runs,), RunContext(coherent_time_s=0.01, initial_state=x, initial_cov=P))
+    R = np.diag([pos_std_m**2] * n_ch + [0.01] * n_ch)
+    model = nav._model(sat_pos, sat_vel, R)
+    z = model.h(x) + rng.standard_normal((runs, 2 * n_ch)) * np.sqrt(np.diag(R))
+    return model, gf.Gaussian(x, P), z, sat_pos, sat_vel
+
+
+def test_compiled_range_rate_h_equals_predicted_range_at_gps_distances():
+    from gnssframework.receiver.vector import predicted_range
+
+    model, state, _, sat_pos, sat_vel = _range_rate_problem(21, "ckf", np.array([4.2e6, 1.7e5, 4.78e6]),
+                                                            2.02e7, 3.9e3, 30.0)
+    assert model.compiled is not None and model.compiled.h_code == kernels.H_RANGE_RATE
+    X = state.mean[0] + 10.0 * np.random.default_rng(2).standard_normal((17, 8))
+    for x in X:
+        zc = np.empty(12)
+        kernels._apply_h(kernels.H_RANGE_RATE, model.compiled.h_params, x, zc)
+        rho, rate, _ = predicted_range(x, sat_pos, sat_vel)
+        _close(rho, zc[:6])
+        _close(rate, zc[6:])
+
+
+@pytest.mark.parametrize("name", ("ekf", "ukf", "ckf", "svd-ckf"))
+def test_compiled_range_rate_model_of_ekf_pv_equals_its_numpy_model(name):
+    # ekf-pv's model carries a compiled pseudorange/rate h (and its linear f): the fused
+    # sigma-point step must equal the step on the NumPy functions. A small geometry
+    # (satellites 100 m away): at GPS distances the sigma-point deviations Z - z_hat
+    # cancel 2e7 m to a few metres, so *both* paths carry ~1e-9 relative rounding in S
+    # and C and no 1e-12 agreement can be asserted between them.
+    model, state, z, _, _ = _range_rate_problem(21, name, np.array([10.0, -5.0, 3.0]), 100.0, 10.0, 1.0)
+    assert model.compiled is not None
+    from dataclasses import replace
+
+    plain = replace(model, compiled=None)  # the same NumPy f, h and analytic Jacobians
+    est = _engine(name)
+    ref_prior, ref = _run(est, "numpy", state, z, plain)
+    prior, upd = _run(est, "numba", state, z, model)
+    _close(ref_prior.mean, prior.mean)
+    _close(ref_prior.cov, prior.cov)
+    for field in ("innovation", "innovation_cov", "gain", "cross_cov", "predicted_measurement"):
+        _close(getattr(ref, field), getattr(upd, field))
+    _close(ref.state.mean, upd.state.mean)
+    _close(ref.state.cov, upd.state.cov)
+
+
+def _kernel_signatures():
+    return {(name, i): len(d.signatures) for name in dir(kernels)
+            if name.endswith("_kernels") and isinstance(getattr(kernels, name), tuple)
+            for i, d in enumerate(getattr(kernels, name))}
+
+
+def test_warm_up_compiles_every_specialisation_a_run_uses():
+    # `compare` warms the kernels up once before forking its workers; a run that needed
+    # another numba specialisation (readonly or writable operands, another layout) would
+    # compile it again in every worker. Runs every built-in engine on shared and
+    # per-element operands, below and above the parallel threshold, and a vector loop.
+    from gnssframework.experiments import get_scenario
+
+    kernels.set_backend("numba")
+    try:
+        kernels.warm_up()
+        before = _kernel_signatures()
+        for batch in ((3,), (kernels.PARALLEL_MIN_BATCH + 1,)):
+            nonlinear, linear, state, z = _problem(4, 5, 6, batch)
+            z = z.copy()
+            z[0, 0] = np.nan
+            for name in ENGINES:
+                for model in ((linear,) if name == "kf" else (linear, nonlinear)):
+                    est = _engine(name)
+                    est.update(est.predict(state, model), z, model, missing="skip")
+        scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.03, "channels": 8, "settle_s": 0.0})
+        for est_name in ("svd-ckf", "ukf"):
+            for runs in (1, 40):
+                plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": est_name}},
+                                      "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+                scen.run_batch({"cn0_dbhz": 45.0}, plugins, runs, np.random.default_rng(0))
+        after = _kernel_signatures()
+        assert {k: (before[k], after[k]) for k in after if after[k] != before[k]} == {}
+    finally:
+        kernels.set_backend(None)

@@ -34,7 +34,7 @@ import numpy as np
 from pydantic import Field
 
 from ..plugin import Plugin, PluginParams
-from .linalg import cholesky_masked, clamp_relative, project_psd, symmetrize
+from .linalg import clamp_relative, pd_mask, project_psd, regularised, symmetrize
 from .types import Gaussian, Model, Update
 
 __all__ = [
@@ -109,11 +109,16 @@ class AdapterRun(abc.ABC):
         projection's ``eigh`` runs only on the others (a Cholesky test finds them).
         """
         raw = symmetrize(raw)
-        psd = cholesky_masked(raw)[1]
+        psd = pd_mask(raw)
         if not psd.all():
             raw = raw.copy()
             raw[~psd] = project_psd(raw[~psd])
-        return clamp_relative(raw, reference, floor, ceiling)
+        # The reference (Q0 or R0) is fixed for the run: its eigen-decomposition is kept.
+        cache = self.__dict__.setdefault("_reference_eig", {})
+        kept = cache.get(id(reference))
+        if kept is None or kept[0] is not reference:
+            kept = cache[id(reference)] = (reference, regularised(reference))
+        return clamp_relative(raw, reference, floor, ceiling, reference_eig=kept[1])
 
     def step(self, ctx: AdaptationStep) -> tuple[np.ndarray, np.ndarray]:
         """Take step ``k``'s innovation; return the ``(Q, R)`` to use from step ``k+1``."""

@@ -45,7 +45,7 @@ from ..errors import (ConfigError, InvalidInitialStateError, InvalidInputError, 
                       NumericalError)
 from .adaptation import AdapterRun, AdaptationStep, NoiseAdapter
 from .estimator import Estimator, OnFailure, OnMissing
-from .linalg import cholesky_masked, clip_eigenvalues, failing_indices, symmetrize
+from .linalg import cholesky_masked, clip_eigenvalues, failing_indices, pd_mask, symmetrize
 from .types import Gaussian, Model, Update
 
 __all__ = ["FilterStep", "StepResult", "RECOVERIES", "POLICIES", "check_initial"]
@@ -92,7 +92,7 @@ def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, count
                       filter_name: str) -> Gaussian:
     """Check the posterior of every batch element; apply ``policy`` where it fails."""
     finite_mean = np.isfinite(state.mean).all(axis=-1)
-    ok = cholesky_masked(state.cov)[1] & finite_mean
+    ok = pd_mask(state.cov) & finite_mean  # compiled test, no factor kept (the lean step)
     if ok.all():
         return state
     bad = ~ok
@@ -116,7 +116,7 @@ def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, count
         floor = 1e-9 * np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
         cov = np.where(bad[..., None, None], clip_eigenvalues(np.nan_to_num(cov), floor), cov)
         counts["clip_eigenvalues"] += int(bad.sum())
-    ok = cholesky_masked(cov)[1]
+    ok = pd_mask(cov)
     if not ok.all():
         raise NotPositiveDefiniteError(
             filter_name, failing_indices(ok), detail=f"posterior covariance P, still after recovery {policy!r}"

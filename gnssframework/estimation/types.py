@@ -115,17 +115,21 @@ class CompiledFunctions:
     """Model functions the compiled kernels evaluate themselves (no call back to Python).
 
     A model that carries one lets a sigma-point filter run a whole predict or update in
-    one compiled pass per batch element. The model's NumPy ``f``/``h`` stay the
-    reference: both must compute the same function (tests hold them to 1e-12).
+    one compiled pass per batch element, and the KF/EKF (linear f, h with a compiled
+    Jacobian: ``H_LINEAR``, ``H_RANGE_RATE``) run theirs in compiled code. The model's
+    NumPy ``f``/``h`` (and its Jacobians) stay the reference: both must compute the same
+    functions (tests hold them to 1e-12).
 
     Parameters
     ----------
     f_code, h_code
         Codes from ``gnssframework.estimation.kernels`` (``F_LINEAR``; ``H_LINEAR``,
-        ``H_CHANNEL_IQ``).
+        ``H_CHANNEL_IQ``, ``H_RANGE_RATE``).
     f_params, h_params
-        2-D float arrays shared by the batch: F ``(n, n)``; H ``(m, n)`` or the
-        channel model's ``[[spacing_chips, coherent_time_s, data_bit]]``.
+        2-D float arrays shared by the batch: F ``(n, n)``; H ``(m, n)``, the
+        channel model's ``[[spacing_chips, coherent_time_s, data_bit]]``, or the
+        satellites' ECEF positions and velocities ``(channels, 6)`` of the
+        pseudorange/rate measurement.
     """
 
     f_code: int

@@ -56,7 +56,8 @@ class DeepTruth:
     Attributes
     ----------
     sat_state
-        ``sat_state(t) -> (pos, vel, acc)``, each ``(channels, 3)`` ECEF at scalar t.
+        ``sat_state(t) -> (pos, vel, acc)``, each ``(*t.shape, channels, 3)`` ECEF at the
+        times t (a scalar or an array: the loop asks for a block of epochs at once).
     receiver_state
         ``receiver_state(t) -> (pos, vel, acc)``, each ``(runs, 3)`` ECEF at scalar t.
     clock_m
@@ -67,7 +68,7 @@ class DeepTruth:
         T.
     """
 
-    sat_state: Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
+    sat_state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
     receiver_state: Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
     clock_m: np.ndarray
     cn0_dbhz: np.ndarray
@@ -149,7 +150,8 @@ def run_aided_tracking(
         raise ConfigError("update_interval_s", f"must be a multiple of nco_interval_s ({nco_interval_s} s)")
     K = truth.epochs
     runs = truth.clock_m.shape[1]
-    n_ch = truth.sat_state(0.0)[0].shape[0]
+    sat_at = _EdgeStates(truth.sat_state, T, K)
+    n_ch = sat_at(0)[0].shape[0]
     batch = (runs, n_ch)
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
     theta0 = rng.uniform(-np.pi, np.pi, batch)
@@ -162,7 +164,7 @@ def run_aided_tracking(
     rate_prev = None
     normal = np.zeros(batch + (3, 3))
     rhs = np.zeros(batch + (3,))
-    s, _, _ = truth.sat_state(0.0)
+    s, _, _ = sat_at(0)
     true_rho = truth.pseudorange(0.0, 0, s)
     for k in range(K):
         t0, t1 = k * T, (k + 1) * T
@@ -170,14 +172,14 @@ def run_aided_tracking(
         if j == 0:  # re-aid the NCOs from the navigator
             p, v, a, b, d = navigator.kinematics(t0)
             _check_finite(type(navigator).__name__, k, p, v, a, b, d)
-            s, sv, sa = truth.sat_state(t0)
+            s, sv, sa = sat_at(k)
             rho, rate, acc, los = line_of_sight_kinematics(p, v, a, s, sv, sa, b, d)
             sched_range, sched_rate = nco_schedule(rho, rate, acc, T, n_nco, accel_aiding=accel_aiding)
             t_aid = t0
         nco_range, nco_rate = sched_range[j], sched_rate[j]
         shift_chips = np.zeros(batch) if rep_end is None else (nco_range - rep_end) / CA_CHIP_LENGTH_M
         shift_hz = np.zeros(batch) if rate_prev is None else -(nco_rate - rate_prev) / L1_WAVELENGTH_M
-        s1 = truth.sat_state(t1)[0]
+        s1 = sat_at(k + 1)[0]
         next_rho = truth.pseudorange(t1, k + 1, s1)
         rep_end = nco_range + nco_rate * T
         code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
@@ -217,7 +219,7 @@ def run_aided_tracking(
             rec["tu"].append(t1)
             rec["res"].append(res)
             rec["cov"].append(cov)
-            s_u, sv_u, sa_u = truth.sat_state(t1)
+            s_u, sv_u, sa_u = sat_at(k + 1)
             p, v, a, b, d = navigator.kinematics(t1)
             _, _, _, los_u = line_of_sight_kinematics(p, v, a, s_u, sv_u, sa_u, b, d)
             navigator.update(t1, res, cov, los_u, cn0)
@@ -228,6 +230,24 @@ def run_aided_tracking(
         true_rho = next_rho
     return DeepRecord(np.stack(rec["code"]), np.stack(rec["freq"]), (np.arange(K) + 0.5) * T,
                       np.asarray(rec["tu"]), np.stack(rec["res"]), np.stack(rec["cov"]))
+
+
+class _EdgeStates:
+    """Satellite states at the epoch edges kT, one vectorised orbit evaluation per block
+    of epochs instead of one or two per epoch (memory stays bounded on long runs)."""
+
+    def __init__(self, sat_state: Callable, T: float, K: int, block: int = 1000) -> None:
+        self.sat_state, self.T, self.K, self.block = sat_state, T, K, block
+        self.start = -block  # nothing evaluated yet
+        self.states: tuple[np.ndarray, ...] = ()
+
+    def __call__(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if not self.start <= k < self.start + self.block:
+            self.start = k
+            stop = min(k + self.block, self.K + 1)
+            self.states = tuple(np.asarray(a) for a in self.sat_state(np.arange(k, stop) * self.T))
+        i = k - self.start
+        return self.states[0][i], self.states[1][i], self.states[2][i]
 
 
 def _check_finite(name: str, step: int, *arrays: np.ndarray) -> None:

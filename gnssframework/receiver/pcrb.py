@@ -141,7 +141,8 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
     Parameters
     ----------
     sat_pos
-        ``sat_pos(t) -> (channels, 3)`` ECEF satellite positions at time t.
+        ``sat_pos(t) -> (*t.shape, channels, 3)`` ECEF satellite positions at the
+        times t (called once, on all mid-interval times).
     receiver_pos, receiver_vel
         ECEF position at t = 0 and the constant velocity.
     clock_q_m
@@ -177,10 +178,11 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
     Pfull[8:, 8:] = 1e6 * np.eye(n_ch)
     times = np.arange(epochs) * T + T / 2
     r0, v = np.asarray(receiver_pos, float), np.asarray(receiver_vel, float)
+    sats = np.asarray(sat_pos(times))  # (K, ch, 3): one orbit evaluation for all epochs
 
     def sqrt_info(k):
         t = times[k]
-        los = np.asarray(sat_pos(np.asarray(t))) - (r0 + v * t)
+        los = sats[k] - (r0 + v * t)
         e = los / np.linalg.norm(los, axis=-1, keepdims=True)
         drho = np.zeros((n_ch, n))
         drho[:, 0:3] = -e

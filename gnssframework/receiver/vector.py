@@ -197,7 +197,7 @@ def run_vector_loop(
     shift_chips = np.zeros(batch)
     shift_hz = np.zeros(batch)
 
-    true_rho = truth.pseudorange(np.asarray(0.0), 0)
+    true_rho = truth.pseudorange(np.asarray(0.0), 0, sat_pos=s0)
     rec: dict[str, list] = {k: [] for k in ("code", "freq", "pos", "vel", "nees", "nees_pos", "nees_vel", "code_out",
                                             "freq_out")}
     for k in range(K):

@@ -1,0 +1,46 @@
+"""Startup cost of the compiled kernels: import, cold compile, and load from the disk cache.
+
+Each measurement runs in a fresh interpreter (``python -c``) with its own numba cache
+directory: the first run compiles every kernel and writes the cache, the second loads
+it. ``gnssframework compare`` pays this once in the parent before forking its workers
+(`gnssframework.estimation.kernels.warm_up`); forked workers inherit the loaded kernels.
+
+    python benchmarks/startup.py
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+_PROBE = """
+import json, time
+t0 = time.perf_counter()
+from gnssframework.estimation import kernels
+t1 = time.perf_counter()
+warm = kernels.warm_up()
+print(json.dumps({"import_s": t1 - t0, "warm_up_s": warm}))
+"""
+
+
+def _probe(cache_dir: str) -> dict:
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
+    out = subprocess.run([sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    print(f"load average {os.getloadavg()[0]:.1f} at start, {os.cpu_count()} cores")
+    with tempfile.TemporaryDirectory() as cache:
+        cold = _probe(cache)
+        warm = _probe(cache)
+    print(f"{'':28s} {'import s':>9s} {'warm_up s':>10s}")
+    print(f"{'cold (compile, write cache)':28s} {cold['import_s']:9.2f} {cold['warm_up_s']:10.2f}")
+    print(f"{'cached (load from disk)':28s} {warm['import_s']:9.2f} {warm['warm_up_s']:10.2f}")
+
+
+if __name__ == "__main__":
+    main()
