@@ -8,16 +8,17 @@ Python loop (in :func:`integrate`) is over time.
 References
 ----------
 Groves, *Principles of GNSS, Inertial and Multisensor Integrated Navigation Systems*,
-2nd ed., sec. 5.2 (ECEF mechanisation, eqs. 5.27-5.38) and sec. 5.5 (precise
-attitude and specific-force transformation, eqs. 5.73, 5.84-5.87, coning/sculling
-5.96-5.101). Savage, "Strapdown inertial navigation integration algorithm design,
+2nd ed., sec. 5.2 (ECEF-frame navigation equations: attitude, specific-force
+transformation, velocity and position updates) and sec. 5.5 (precise attitude and
+specific-force transformation from increments, coning and sculling). Equation numbers
+are not quoted: they could not be checked against the book here. Savage, "Strapdown inertial navigation integration algorithm design,
 parts 1-2", J. Guid. Control Dyn. 21(1-2), 1998 (two-sample coning and sculling).
 Titterton & Weston, *Strapdown Inertial Navigation Technology*, 2nd ed., sec. 11.2.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -83,15 +84,15 @@ class MechanisationOptions:
     ----------
     coning
         Two-sample coning correction ``(1/12) dtheta_{k-1} x dtheta_k`` (Savage part 1,
-        eq. 40 with the previous interval; Groves eq. 5.98).
+        two-sample form with the previous interval; Groves sec. 5.5).
     sculling
         Two-sample sculling correction ``(1/12)(dtheta_{k-1} x dv_k + dv_{k-1} x dtheta_k)``
-        (Savage part 2; Groves eq. 5.99).
+        (Savage part 2; Groves sec. 5.5).
     rotation_term
-        Velocity-rotation compensation: ``"exact"`` applies Groves eq. 5.86's average
+        Velocity-rotation compensation: ``"exact"`` applies the average
         attitude ``I + (1-cos a)/a^2 [alpha x] + (1 - sin a / a)/a^2 [alpha x]^2`` to the
         velocity increment (exact for constant rate and force), ``"first-order"`` the
-        classical ``1/2 alpha x dv`` (Savage part 2, eq. 25), ``"none"`` drops it (for the
+        classical ``1/2 alpha x dv`` (Savage part 2), ``"none"`` drops it (for the
         test that shows it matters).
     earth
         Earth model (rotation rate, J2 gravity).
@@ -131,9 +132,8 @@ def body_increments(
     Returns
     -------
     alpha, dv_body
-        Rotation vector ``alpha_ib^b`` (body at end relative to body at start, Groves
-        eq. 5.97-5.98) and the specific-force velocity increment resolved in the start
-        body frame (Groves eqs. 5.86, 5.99-5.101).
+        Rotation vector ``alpha_ib^b`` (body at end relative to body at start) and the specific-force velocity increment resolved in the start
+        body frame (Groves sec. 5.5).
     """
     alpha = dtheta_rad
     dv = dv_mps
@@ -167,18 +167,18 @@ def strapdown_step(
 ) -> NavState:
     """Advance the ECEF navigation state by one IMU interval.
 
-    Attitude (Groves eq. 5.73, quaternion form)::
+    Attitude (Groves sec. 5.2/5.5, ECEF form with the Earth rotation over the interval)::
 
         q_b^e(+) = q_z(-omega_ie dt) (x) q_b^e(-) (x) q(alpha)
 
-    Velocity (Groves eqs. 5.36, 5.84-5.85): the body velocity increment is resolved
+    Velocity (Groves sec. 5.2 and 5.5): the body velocity increment is resolved
     with the start attitude and rotated by half the Earth rotation of the interval;
     gravity (J2, at the predicted mid-interval position) and the Coriolis term (at the
     predicted mid-interval velocity) are integrated with the midpoint rule::
 
         v(+) = v(-) + R_z(-omega_ie dt/2) C_b^e(-) dv_body + (g(r_mid) - 2 omega_ie x v_mid) dt
 
-    Position (Groves eq. 5.38): trapezoid ``r(+) = r(-) + (v(-) + v(+)) dt / 2``.
+    Position (Groves sec. 5.2): trapezoid ``r(+) = r(-) + (v(-) + v(+)) dt / 2``.
 
     Parameters
     ----------
@@ -281,7 +281,7 @@ def integrate(
 def kinematic_acceleration_ecef(
     state: NavState, specific_force_b_mps2: np.ndarray, earth: EarthModel = WGS84
 ) -> np.ndarray:
-    """ECEF acceleration ``a_eb^e = C_b^e f_ib^b + g^e - 2 Omega_ie v_eb^e`` (Groves eq. 5.35).
+    """ECEF acceleration ``a_eb^e = C_b^e f_ib^b + g^e - 2 Omega_ie v_eb^e`` (Groves sec. 5.2).
 
     Used by NCO aiding (range acceleration along the line of sight); the specific force
     is e.g. the last velocity increment divided by the interval.
