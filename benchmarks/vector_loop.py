@@ -1,8 +1,9 @@
 """Epochs per second of the whole vector tracking loop at 8 channels, 1 and 100 batched runs.
 
 Real time is 100 epochs per second (T = 10 ms), so "x real time per run" is
-epochs/s x runs / 100. Times the `discriminator` and `iq-filter` (svd-ckf + innovation)
-channel filters, both with ekf-pv, on the vector-tracking scenario.
+epochs/s x runs / 100. Times the `discriminator` and `iq-filter` (svd-ckf, ckf, ukf, each
+with the innovation adapter) channel filters, all with ekf-pv, on the vector-tracking
+scenario. A short warm-up run first, so kernel compile/load time is not counted.
 
     python benchmarks/vector_loop.py [--duration 2]
 """
@@ -10,6 +11,8 @@ channel filters, both with ekf-pv, on the vector-tracking scenario.
 from __future__ import annotations
 
 import argparse
+import os
+import platform
 import time
 
 import numpy as np
@@ -23,12 +26,19 @@ def main() -> None:
     args = parser.parse_args()
     scen = get_scenario({"kind": "vector-tracking", "duration_s": args.duration, "channels": 8, "settle_s": 0.0})
     epochs = int(round(args.duration / scen.params.coherent_time_s))
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, load average "
+          f"{os.getloadavg()[0]:.1f} at start")
     print(f"{'channel filter':18s} {'runs':>5s} {'epochs/s':>10s} {'x real time per run':>20s}")
-    for name, params in (("discriminator", {}), ("iq-filter", {}), ("iq-filter", {"estimator": "ckf"})):
+    for name, params in (("discriminator", {}), ("iq-filter", {}), ("iq-filter", {"estimator": "ckf"}),
+                         ("iq-filter", {"estimator": "ukf"})):
         label = name + (f" ({params['estimator']})" if params else "")
         for runs in (1, 100):
             plugins = scen.build({"channel_filter": {"name": name, "params": params},
                                   "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+            short = get_scenario({"kind": "vector-tracking", "duration_s": 0.05, "channels": 8, "settle_s": 0.0})
+            short.run_batch({"cn0_dbhz": 45.0}, short.build({"channel_filter": {"name": name, "params": params},
+                            "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}}), runs,
+                            np.random.default_rng(1))  # warm-up
             t0 = time.perf_counter()
             scen.run_batch({"cn0_dbhz": 45.0}, plugins, runs, np.random.default_rng(0))
             dt = time.perf_counter() - t0

@@ -12,7 +12,10 @@ from .errors import (
     ConfigError,
     DataFileError,
     GnssFrameworkError,
+    InvalidInitialStateError,
+    InvalidInputError,
     InvalidMeasurementError,
+    NonFiniteError,
     NotPositiveDefiniteError,
     NumericalError,
     PluginError,
@@ -25,6 +28,7 @@ from .estimation import (
     AugmentedProblem,
     Estimator,
     FilterResult,
+    FilterStep,
     Gaussian,
     LinearModel,
     NoiseAdapter,
@@ -34,7 +38,7 @@ from .estimation import (
     filter_sequence,
 )
 from .hookspecs import hookimpl
-from .interfaces import ChannelFilter, Discriminator, NavFilter
+from .interfaces import ChannelFilter, Discriminator, NavFilter, RunContext
 from .plugin import Plugin, PluginParams
 from .signal import Correlators
 
@@ -55,18 +59,23 @@ __all__ = [
     "Discriminator",
     "Estimator",
     "FilterResult",
+    "FilterStep",
     "Gaussian",
     "GnssFrameworkError",
+    "InvalidInitialStateError",
+    "InvalidInputError",
     "InvalidMeasurementError",
     "LinearModel",
     "NavFilter",
     "NoiseAdapter",
+    "NonFiniteError",
     "NonlinearModel",
     "NotPositiveDefiniteError",
     "NumericalError",
     "Plugin",
     "PluginError",
     "PluginParams",
+    "RunContext",
     "SigmaPointEstimator",
     "Update",
     "WorkerError",

@@ -8,6 +8,9 @@ from typing import Sequence
 
 from . import registry
 from .errors import ConfigError, GnssFrameworkError
+from .io.nmea import MAX_SPEED_MPS
+from .io.rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M
+from .io.skipped import EXIT_STATUS_HELP
 
 __all__ = ["main"]
 
@@ -55,17 +58,16 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _cmd_filter_positions(args: argparse.Namespace) -> int:
     from .io.nmea import read_nmea
     from .io.positions import filter_positions, write_positions_csv
+    from .io.skipped import exit_status, print_skipped, write_skipped_report
 
-    fixes = read_nmea(args.file)
+    fixes = read_nmea(args.file, max_speed_mps=args.max_speed, strict=args.strict)
     lat, lon, _, _ = filter_positions(fixes, args.filter, args.psi)
     write_positions_csv(args.out, fixes, lat, lon)
+    sidecar = write_skipped_report(args.out, args.file, fixes.skipped)
     print(f"{args.file}: {fixes.time_s.size} fixes filtered with {args.filter}, {len(fixes.skipped)} sentences "
-          f"skipped; wrote {args.out}")
-    for line, reason in fixes.skipped[:20]:
-        print(f"  skipped line {line}: {reason}")
-    if len(fixes.skipped) > 20:
-        print(f"  ... and {len(fixes.skipped) - 20} more")
-    return 0
+          f"skipped; wrote {args.out}" + (f" and {sidecar}" if fixes.skipped else ""))
+    print_skipped(fixes.skipped)
+    return exit_status(fixes.skipped)
 
 
 def _cmd_smooth(args: argparse.Namespace) -> int:
@@ -73,9 +75,13 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from .experiments.files import atomic_open
+    from .interfaces import RunContext
     from .io.rinex import read_code_carrier
+    from .io.skipped import exit_status, print_skipped, write_skipped_report
 
-    data = read_code_carrier(args.file, args.prn)
+    data = read_code_carrier(args.file, args.prn, pseudorange_min_m=args.pseudorange_min,
+                             pseudorange_max_m=args.pseudorange_max, strict=args.strict)
     params = {"hatch": ("hatch", {"window": args.window}),
               "kf": ("kf-smoother", {"q": args.q, "r": args.r}),
               "adaptive-kf": ("kf-smoother", {"q": args.q, "r": args.r, "adapter": "ml-q",
@@ -84,19 +90,27 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
     if args.slip_threshold:
         kw["slip_threshold_m"] = args.slip_threshold
     smoother = registry.create("channel_filter", name, **kw)
-    smoother.reset(())
+    steps = np.diff(np.asarray(data.time_s, float))
+    interval = float(np.median(steps)) if steps.size and np.median(steps) > 0 else None
+    smoother.reset((), RunContext(epoch_interval_s=interval))
     rows = [smoother.checked_step({"pseudorange_m": np.asarray(r), "carrier_m": np.asarray(c)})
             for r, c in zip(data.pseudorange_m, data.carrier_m)]
-    with open(args.out, "w", newline="") as fh:
+    with atomic_open(args.out, "w", newline="") as fh:  # a killed run leaves no half CSV
         w = csv.writer(fh)
         w.writerow(["epoch", "time_s", "pseudorange_m", "carrier_m", "smoothed_m", "slip_detected"])
         for ep, t, r, c, out in zip(data.epoch, data.time_s, data.pseudorange_m, data.carrier_m, rows):
             w.writerow([str(ep), f"{t:.3f}", f"{r:.3f}", f"{c:.4f}", f"{float(out['smoothed_m']):.4f}",
                         int(bool(out["slip_detected"]))])
+    sidecar = write_skipped_report(args.out, args.file, data.skipped)
     slips = sum(int(bool(o["slip_detected"])) for o in rows)
     print(f"{args.file} {args.prn}: {len(rows)} epochs smoothed with {args.filter}"
-          + (f", {slips} slips detected" if args.slip_threshold else "") + f"; wrote {args.out}")
-    return 0
+          + (f", {slips} slips detected" if args.slip_threshold else "")
+          + f", {len(data.skipped)} epochs or observations skipped; wrote {args.out}"
+          + (f" and {sidecar}" if data.skipped else ""))
+    if data.truncated:
+        print(f"  TRUNCATED FILE: {data.truncated}; the output covers the epochs before the cut")
+    print_skipped(data.skipped)
+    return exit_status(data.skipped, truncated=data.truncated is not None)
 
 
 def _cmd_schema(args: argparse.Namespace) -> int:
@@ -122,13 +136,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output directory (default: results/<name>)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_compare)
-    p = sub.add_parser("filter-positions", help="filter an NMEA position log (reference 004's filters)")
+    p = sub.add_parser("filter-positions", help="filter an NMEA position log (reference 004's filters)",
+                       description="Filter the horizontal track of an NMEA log. Corrupted sentences, impossible "
+                                   "positions, duplicated or backwards timestamps and implausible jumps are skipped "
+                                   "and listed (line and reason) on stdout and in <out>.skipped.csv.",
+                       epilog=EXIT_STATUS_HELP)
     p.add_argument("file", help="NMEA log with GGA and/or RMC sentences")
     p.add_argument("--out", required=True, help="output CSV")
     p.add_argument("--filter", default="AUKF1", choices=["UKF", "UKF1", "AUKF", "AUKF1"])
     p.add_argument("--psi", type=float, default=0.95, help="AR(1) coefficient for the colored filters")
+    p.add_argument("--max-speed", type=float, default=MAX_SPEED_MPS, metavar="M/S",
+                   help="jump check: skip a fix further from the last accepted one than this speed allows "
+                        "(default %(default)g m/s)")
+    p.add_argument("--strict", action="store_true", help="refuse the file at the first bad sentence (exit 2)")
     p.set_defaults(func=_cmd_filter_positions)
-    p = sub.add_parser("smooth", help="carrier-smooth one satellite's code from a RINEX observation file")
+    p = sub.add_parser("smooth", help="carrier-smooth one satellite's code from a RINEX observation file",
+                       description="Carrier-smooth one satellite's C1C with its L1C. Duplicated and backwards epochs, "
+                                   "pseudoranges outside the plausibility bounds and an epoch cut by a truncated "
+                                   "file are skipped and listed (line and reason) on stdout and in "
+                                   "<out>.skipped.csv.",
+                       epilog=EXIT_STATUS_HELP)
     p.add_argument("file", help="RINEX 3 observation file with C1C and L1C")
     p.add_argument("--prn", required=True, help="satellite, e.g. G08")
     p.add_argument("--out", required=True, help="output CSV")
@@ -137,6 +164,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--q", type=float, default=1e-3, help="Kalman smoother Q (m^2)")
     p.add_argument("--r", type=float, default=1.25, help="Kalman smoother R (m^2)")
     p.add_argument("--slip-threshold", type=float, default=0.0, help="code-minus-carrier slip test (m), 0: off")
+    p.add_argument("--pseudorange-min", type=float, default=PSEUDORANGE_MIN_M, metavar="M",
+                   help="skip a pseudorange below this (default %(default)g m)")
+    p.add_argument("--pseudorange-max", type=float, default=PSEUDORANGE_MAX_M, metavar="M",
+                   help="skip a pseudorange above this (default %(default)g m)")
+    p.add_argument("--strict", action="store_true",
+                   help="refuse the file at the first bad epoch or observation, or a truncation (exit 2)")
     p.set_defaults(func=_cmd_smooth)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
     p.set_defaults(func=_cmd_schema)

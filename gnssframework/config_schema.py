@@ -45,4 +45,10 @@ def comparison_schema() -> dict[str, Any]:
             prop.pop("anyOf", None)
             prop.pop("$ref", None)
             prop["anyOf"] = [plugin_ref_schema(kind), {"type": "null"}]
+    sweep = schema["$defs"].get("Sweep")
+    if sweep is not None:  # a list of values, or a range with exactly one of step and num
+        sweep["oneOf"] = [{"required": ["values"], "not": {"anyOf": [{"required": [k]} for k in
+                                                                   ("start", "stop", "step", "num")]}},
+                          {"required": ["start", "stop", "step"], "not": {"required": ["num"]}},
+                          {"required": ["start", "stop", "num"], "not": {"required": ["step"]}}]
     return schema

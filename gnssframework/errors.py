@@ -17,6 +17,9 @@ __all__ = [
     "NumericalError",
     "NotPositiveDefiniteError",
     "InvalidMeasurementError",
+    "InvalidInitialStateError",
+    "NonFiniteError",
+    "InvalidInputError",
     "WorkerError",
 ]
 
@@ -122,6 +125,42 @@ class InvalidMeasurementError(NumericalError):
     """A measurement holds NaN or inf and was not declared missing."""
 
     what = "measurement is NaN or inf"
+
+
+class InvalidInitialStateError(NumericalError):
+    """The initial mean is NaN/inf, or the initial covariance is not finite, symmetric and
+    positive definite; ``detail`` says which."""
+
+    what = "invalid initial state"
+
+
+class NonFiniteError(NumericalError):
+    """A prediction or posterior became NaN or inf (an overflow); ``detail`` says which."""
+
+    what = "result is NaN or inf"
+
+
+class InvalidInputError(GnssFrameworkError, ValueError):
+    """An array given to a filter has the wrong shape or length; names the filter and the input.
+
+    Parameters
+    ----------
+    filter_name
+        The filter that refused it (``"ukf"``).
+    input_name
+        The offending input (``"zs"``, ``"initial mean"``, ``"measurement z"``).
+    message
+        What is wrong and what is expected.
+    """
+
+    def __init__(self, filter_name: str, input_name: str, message: str) -> None:
+        self.filter_name = filter_name
+        self.input_name = input_name
+        self.detail = message
+        super().__init__(f"{filter_name}: {input_name}: {message}")
+
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.filter_name, self.input_name, self.detail))
 
 
 class WorkerError(GnssFrameworkError):

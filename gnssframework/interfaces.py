@@ -18,16 +18,21 @@ outputs it cannot use is refused before anything runs.
 from __future__ import annotations
 
 import abc
-from typing import Any, ClassVar, Mapping
+import dataclasses
+import functools
+import inspect
+import warnings
+from dataclasses import dataclass
+from typing import Any, ClassVar, Mapping, Optional
 
 import numpy as np
 from pydantic import Field
 
-from .errors import PluginError
+from .errors import ConfigError, PluginError
 from .plugin import Plugin, PluginParams
 from .signal.correlators import Correlators
 
-__all__ = ["Discriminator", "DiscriminatorParams", "SequentialFilter", "ChannelFilter", "NavFilter"]
+__all__ = ["Discriminator", "DiscriminatorParams", "RunContext", "SequentialFilter", "ChannelFilter", "NavFilter"]
 
 
 class DiscriminatorParams(PluginParams):
@@ -58,13 +63,163 @@ class Discriminator(Plugin, abc.ABC):
         """Thermal-noise variance of one output (``unit``^2) at the given C/N0."""
 
 
+def _unset(value: Any) -> bool:
+    return value is None or (isinstance(value, tuple) and not value)
+
+
+def _frozen_array(value: Any) -> Optional[np.ndarray]:
+    if value is None:
+        return None
+    arr = np.array(value, dtype=float)  # a copy: the harness's later edits cannot leak in
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True)
+class RunContext:
+    """What the harness owns and tells a sequential filter when a run starts.
+
+    The harness (closed-loop tracking, the vector loop, a scenario, the CLI) builds one
+    frozen context per run and passes it to ``reset(batch_shape, context)``. A value the
+    harness owns comes *only* from here: a filter must not keep its own copy of the
+    coherent time or the correlator spacing, so the harness and the filter cannot
+    disagree. A field the harness does not know is ``None``; a plugin that needs it calls
+    `require`, which fails at ``reset`` (before the first epoch) naming the plugin and
+    the field. Arrays are read-only copies.
+
+    Attributes
+    ----------
+    coherent_time_s
+        Coherent integration time T of one correlator interval (tracking harnesses).
+    early_late_spacing_chips
+        Early-to-late correlator spacing d of the simulated correlators.
+    epoch_interval_s
+        Interval between two epochs of observables or positions (smoothing, position
+        filters); equals ``coherent_time_s`` in tracking harnesses.
+    cn0_dbhz
+        C/N0 of each channel, broadcastable to the batch shape (a receiver would use
+        its C/N0 estimate).
+    doppler_hz
+        The acquisition's Doppler estimate per channel: the carrier NCO at the start.
+    satellites
+        PRNs of the channels on the last batch axis (vector loop), ``()`` if unknown.
+    initial_state, initial_cov
+        A navigation filter's initial estimate ``(..., n)`` and covariance ``(..., n, n)``
+        (vector loop: at the middle of the first interval).
+
+    Examples
+    --------
+    >>> ctx = RunContext(coherent_time_s=0.01, cn0_dbhz=45.0)
+    >>> ctx.require("coherent_time_s", "channel_filter 'iq-filter'")
+    0.01
+    >>> ctx.require("doppler_hz", "channel_filter 'scalar'")
+    Traceback (most recent call last):
+    ...
+    gnssframework.errors.ConfigError: run context.doppler_hz: channel_filter 'scalar' needs it, but this harness does not provide it (it provides: coherent_time_s, cn0_dbhz)
+    """
+
+    coherent_time_s: Optional[float] = None
+    early_late_spacing_chips: Optional[float] = None
+    epoch_interval_s: Optional[float] = None
+    cn0_dbhz: Optional[np.ndarray] = None
+    doppler_hz: Optional[np.ndarray] = None
+    satellites: tuple[int, ...] = ()
+    initial_state: Optional[np.ndarray] = None
+    initial_cov: Optional[np.ndarray] = None
+
+    def __post_init__(self) -> None:
+        for name in ("cn0_dbhz", "doppler_hz", "initial_state", "initial_cov"):
+            object.__setattr__(self, name, _frozen_array(getattr(self, name)))
+        for name in ("coherent_time_s", "early_late_spacing_chips", "epoch_interval_s"):
+            value = getattr(self, name)
+            if value is not None and not (np.isfinite(value) and value > 0):
+                raise ConfigError(f"run context.{name}", f"must be a finite number > 0, got {value!r}")
+        object.__setattr__(self, "satellites", tuple(int(s) for s in self.satellites))
+
+    def provided(self) -> tuple[str, ...]:
+        """Names of the fields this harness set."""
+        return tuple(f.name for f in dataclasses.fields(self) if not _unset(getattr(self, f.name)))
+
+    def require(self, name: str, who: str) -> Any:
+        """The value of field ``name``; a `ConfigError` naming ``who`` if the harness did not set it."""
+        if name not in {f.name for f in dataclasses.fields(self)}:
+            raise ConfigError("run context", f"has no field {name!r}; fields: "
+                              f"{', '.join(f.name for f in dataclasses.fields(self))}")
+        value = getattr(self, name)
+        if _unset(value):
+            raise ConfigError(f"run context.{name}", f"{who} needs it, but this harness does not provide it "
+                              f"(it provides: {', '.join(self.provided()) or 'nothing'})")
+        return value
+
+    def resolve(self, name: str, own_value: Any, who: str) -> Any:
+        """The harness's value of ``name``, checked against a plugin parameter that repeats it.
+
+        Some built-in plugins still accept a parameter of the same name (deprecated, for
+        old configs). It may be left out (``None``); if given it must equal the
+        harness's value, else a `ConfigError` names the parameter.
+        """
+        if own_value is None:
+            return self.require(name, who)
+        value = self.get(name)
+        if value is None:
+            return own_value
+        if not np.allclose(value, own_value, rtol=1e-12, atol=0):
+            raise ConfigError(f"{who}.{name}", f"is {own_value} but the harness runs with {value}; leave the "
+                              "parameter out (the harness's value is used)")
+        return value
+
+    def get(self, name: str, default: Any = None) -> Any:
+        """The value of field ``name``, or ``default`` where the harness did not set it."""
+        value = getattr(self, name)
+        return default if _unset(value) else value
+
+    def as_kwargs(self) -> dict[str, Any]:
+        """The fields that are set, as keywords (what the old ``reset(**context)`` got)."""
+        return {name: getattr(self, name) for name in self.provided()}
+
+
+def _legacy_reset(reset):
+    """Wrap a ``reset(self, batch_shape, **context)`` of the old signature (deprecated)."""
+
+    @functools.wraps(reset)
+    def wrapper(self, batch_shape, context: RunContext | None = None, **kwargs):
+        merged = {**(context.as_kwargs() if context is not None else {}), **kwargs}
+        return reset(self, batch_shape, **merged)
+
+    wrapper._legacy_reset = True  # type: ignore[attr-defined]
+    return wrapper
+
+
 class SequentialFilter(Plugin, abc.ABC):
     """A plugin that processes a sequence epoch by epoch, batch-first.
 
-    ``reset`` starts it for a batch; ``step`` takes one epoch's inputs (named arrays) and
-    returns named outputs. ``requires`` and ``provides`` name them, so a composition that
-    cannot work is refused before a run.
+    ``reset(batch_shape, context)`` starts it for a batch with the harness's frozen
+    `RunContext`; ``step`` takes one epoch's inputs (named arrays) and returns named
+    outputs. ``requires`` and ``provides`` name them, so a composition that cannot work
+    is refused before a run.
+
+    A plugin written for the old signature ``reset(self, batch_shape, **context)`` still
+    runs: it gets the context's set fields as keywords, and defining it emits a
+    ``DeprecationWarning`` that says how to change it.
     """
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        reset = cls.__dict__.get("reset")
+        if reset is None or getattr(reset, "__isabstractmethod__", False):
+            return
+        params = list(inspect.signature(reset).parameters.values())
+        positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+        if any(p.kind == p.VAR_KEYWORD for p in params) and len(positional) < 3:
+            code = getattr(reset, "__code__", None)
+            # Attributed to the plugin's own reset, so the warning points at the line to change.
+            warnings.warn_explicit(
+                f"{cls.__module__}.{cls.__qualname__}.reset(self, batch_shape, **context) is the old signature; "
+                "write reset(self, batch_shape, context) and read the harness's values from the frozen "
+                "gnssframework.RunContext (context.coherent_time_s, context.require('cn0_dbhz', ...)). The old "
+                "form gets the context's fields as keywords and will be removed.", DeprecationWarning,
+                code.co_filename if code else "<unknown>", code.co_firstlineno if code else 0, module=cls.__module__)
+            cls.reset = _legacy_reset(reset)
 
     #: Names of the inputs ``step`` needs.
     requires: ClassVar[tuple[str, ...]] = ()
@@ -72,8 +227,9 @@ class SequentialFilter(Plugin, abc.ABC):
     provides: ClassVar[tuple[str, ...]] = ()
 
     @abc.abstractmethod
-    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
-        """Start a new sequence for ``batch_shape`` (channels, runs, ...)."""
+    def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
+        """Start a new sequence for ``batch_shape`` (runs, channels, ...) with the
+        harness's `RunContext`."""
 
     @abc.abstractmethod
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:

@@ -76,13 +76,20 @@ def parameter_rows(params_model: type[BaseModel]) -> list[ParameterRow]:
     return rows
 
 
+def _cell(text: str) -> str:
+    """A table cell: a bare ``|`` (``float | list[float]``) would split the row."""
+    return text.replace("|", "\\|")
+
+
 def parameter_table(params_model: type[BaseModel]) -> str:
     """The parameter table as Markdown (also readable as plain text in ``help()``)."""
     rows = parameter_rows(params_model)
     if not rows:
         return "(no parameters)"
     out = ["| name | type | default | bounds | description |", "|---|---|---|---|---|"]
-    out += [f"| `{r.name}` | {r.type} | `{r.default}` | {r.bounds} | {r.description} |" for r in rows]
+    cell = _cell
+    out += [f"| `{r.name}` | {cell(r.type)} | `{cell(r.default)}` | {cell(r.bounds)} | {cell(r.description)} |"
+            for r in rows]
     return "\n".join(out)
 
 

@@ -218,30 +218,6 @@ def _core_version() -> str:
         return ""
 
 
-_TABLE_MARK = "Parameter table (generated from ``Params``)"
-
-
-def _document_parameters(cls: type) -> None:
-    """Append the parameter table to the class docstring, so ``help(cls)`` shows it."""
-    params = getattr(cls, "Params", None)
-    doc = cls.__dict__.get("__doc__") or ""
-    if _TABLE_MARK in doc or not (isinstance(params, type) and hasattr(params, "model_fields")):
-        return
-    from .plugin_docs import parameter_table
-
-    try:
-        cls.__doc__ = f"{doc.rstrip()}\n\n{_TABLE_MARK}\n\n{parameter_table(params)}\n"
-    except (AttributeError, TypeError):  # a class whose __doc__ cannot be set keeps its own
-        pass
-
-
-def _core_version() -> str:
-    try:
-        return md.version("gnssframework")
-    except md.PackageNotFoundError:
-        return ""
-
-
 _REGISTRY = _Registry()
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from gnssframework import hookimpl
 
-from .adapters import InnovationAdapter, MaximumLikelihoodQAdapter, SageHusaAdapter
+from .adapters import InnovationAdapter, MaximumLikelihoodQAdapter, OracleGrid, SageHusaAdapter
 from .augmentations import ColoredAR1
 from .channel_filters import DiscriminatorChannel, IqFilter, KalmanCarrierLoop, ScalarTrackingLoop
 from .smoothers import HatchFilter, KalmanSmoother
@@ -40,7 +40,7 @@ def register_estimator(register):
 
 @hookimpl
 def register_noise_adapter(register):
-    for cls in (InnovationAdapter, SageHusaAdapter, MaximumLikelihoodQAdapter):
+    for cls in (InnovationAdapter, SageHusaAdapter, MaximumLikelihoodQAdapter, OracleGrid):
         register(cls)
 
 

@@ -17,13 +17,14 @@ __all__ = ["ColoredAR1"]
 
 
 class ColoredAR1Params(PluginParams):
-    psi: float | list[float] = Field(
-        ..., description="AR(1) coefficient of the measurement noise, one value or one per component, |psi| < 1"
+    psi: float | list[float] | None = Field(
+        None, description="AR(1) coefficient of the measurement noise, one value or one per component, |psi| < 1; "
+        "unset: the true coefficient, which a scenario that simulates the noise supplies (multipath)"
     )
     cross_covariance: Literal["exact", "paper"] = Field(
         "exact",
         description="'exact' keeps the w/V* cross covariance M = Q H^T (decorrelated transition); "
-        "'paper' drops it as reference 004 does (M = 0: Q' = Q, no J term)",
+        "'paper' drops it as Liu et al. (2020) do (M = 0: Q' = Q, no J term)",
     )
 
 
@@ -69,7 +70,7 @@ class ColoredAR1(Augmentation):
 
     Model: $x_{k+1} = F x_k + w_k$, $z_k = H x_k + V_k$,
     $V_k = \psi V_{k-1} + \xi_k$, $w \sim N(0, Q)$, $\xi \sim N(0, R)$.
-    The differenced measurement (reference 004, eqs. 8-11)
+    The differenced measurement (Liu et al. 2020, eqs. 8-11)
 
     $$
     z^*_k = z_{k+1} - \psi z_k = H^* x_k + V^*_k, \quad H^* = H F - \psi H, \\
@@ -107,6 +108,9 @@ class ColoredAR1(Augmentation):
         if zs.shape[0] < 2:
             raise ConfigError("zs", "colored-ar1 needs at least two epochs")
         m = model.dim_meas
+        if self.params.psi is None:
+            raise ConfigError("augmentation 'colored-ar1'.psi", "is not set; give the AR(1) coefficient (only a "
+                              "scenario that simulates the noise, e.g. multipath, fills in the true one)")
         psi = np.broadcast_to(np.asarray(self.params.psi, dtype=float), (m,))
         if np.any(np.abs(psi) >= 1):
             raise ConfigError("augmentation 'colored-ar1'.psi", f"must satisfy |psi| < 1, got {self.params.psi}")
@@ -117,7 +121,7 @@ class ColoredAR1(Augmentation):
 
         def decorrelation(Q: np.ndarray, R_star: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             """J and Q' from the (raw) process noise Q and the differenced R*."""
-            if self.params.cross_covariance == "paper":  # reference 004 drops M
+            if self.params.cross_covariance == "paper":  # Liu et al. (2020) drop M
                 return np.zeros(Q.shape[:-2] + (Q.shape[-1], H.shape[-2])), Q
             M = Q @ np.swapaxes(H, -1, -2)  # E[w V*^T]
             J = np.swapaxes(np.linalg.solve(R_star, np.swapaxes(M, -1, -2)), -1, -2)

@@ -60,6 +60,9 @@ class KalmanFilter(Estimator):
         C = prior.cov @ _transpose(H)
         return mat_vec(H, prior.mean), symmetrize(H @ C + model.R), C
 
+    def _kernel_posterior(self):
+        return "joseph" if type(self).posterior_cov is KalmanFilter.posterior_cov else None
+
     def posterior_cov(self, prior, gain, S, model) -> np.ndarray:
         IKH = np.eye(prior.ndim_state) - gain @ model.H
         return symmetrize(IKH @ prior.cov @ _transpose(IKH) + gain @ model.R @ _transpose(gain))
@@ -124,7 +127,7 @@ class UnscentedKalmanFilter(SigmaPointEstimator):
     $$
 
     (van der Merwe, *Sigma-Point Kalman Filters*, PhD thesis, 2004). These are the
-    weights reference 004 means; its printed eq. 14 has two typos.
+    weights Liu et al. (2020) mean; its printed eq. 14 has two typos.
     """
 
     name = "ukf"
@@ -139,6 +142,16 @@ class UnscentedKalmanFilter(SigmaPointEstimator):
         scale, wm, wc = _merwe_weights(n, p.alpha, p.beta, p.kappa)
         X = self._scaled_points(state.mean, self.square_root(state.cov), scale)
         return X, wm, wc
+
+    def kernel_rule(self, n: int):
+        cls = type(self)
+        if cls.sigma_points is not UnscentedKalmanFilter.sigma_points or cls.square_root is not SigmaPointEstimator.square_root:
+            return None
+        p = self.params
+        if n + p.kappa <= 0:
+            raise ConfigError("estimator 'ukf'.kappa", f"n + kappa must be > 0 (n = {n}, kappa = {p.kappa})")
+        scale, wm, wc = _merwe_weights(n, p.alpha, p.beta, p.kappa)
+        return 0, scale, True, wm, wc
 
 
 @lru_cache(maxsize=64)
@@ -165,21 +178,34 @@ class CubatureKalmanFilter(SigmaPointEstimator):
         X = self._scaled_points(state.mean, self.square_root(state.cov), np.sqrt(n))[1:]
         return X, w, w
 
+    def kernel_rule(self, n: int):
+        cls = type(self)
+        if cls.sigma_points is not CubatureKalmanFilter.sigma_points:
+            return None
+        if cls.square_root is SigmaPointEstimator.square_root:
+            root = 0
+        elif cls.square_root is SvdCubatureKalmanFilter.square_root:
+            root = 1
+        else:
+            return None
+        w = _cubature_weights(n)
+        return root, float(np.sqrt(n)), False, w, w
+
 
 class SvdCubatureKalmanFilter(CubatureKalmanFilter):
     r"""Cubature Kalman filter with the square root of P from its SVD.
 
     $P = U \operatorname{diag}(s) V^T$ gives the root $U \operatorname{diag}(\sqrt{s})$
-    (reference 000, "Vector tracking with an adaptive cubature Kalman filter",
-    eqs. 11-25). Unlike Cholesky it exists for every symmetric P, so the filter keeps
-    running on the nearly singular covariances that rounding produces. For a PSD P
+    (Zou, Lian and Dan 2018, eqs. 11-25). Unlike Cholesky it exists for every symmetric
+    P, so the filter keeps running on the nearly singular covariances that rounding
+    produces. For a PSD P
     the root differs from Cholesky's by an orthogonal rotation: the cubature points
     differ, so on a *nonlinear* model the two filters agree only to the rule's third
     degree of accuracy, while on a linear model both return the Kalman filter's numbers.
     """
 
     name = "svd-ckf"
-    description = "Cubature Kalman filter with an SVD square root (reference 000)"
+    description = "Cubature Kalman filter with an SVD square root (Zou et al. 2018)"
 
     def square_root(self, cov: np.ndarray) -> np.ndarray:
         finite = np.isfinite(cov).all(axis=(-2, -1))

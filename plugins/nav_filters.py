@@ -1,4 +1,4 @@
-"""Built-in navigation filter ``ekf-pv`` (reference 000's vector-tracking EKF)."""
+"""Built-in navigation filter ``ekf-pv`` (the vector-tracking EKF of Zou et al. 2018)."""
 
 from __future__ import annotations
 
@@ -7,10 +7,9 @@ from typing import Any, Mapping
 import numpy as np
 from pydantic import Field
 
-from gnssframework import registry
 from gnssframework.errors import ConfigError
-from gnssframework.estimation import Gaussian, LinearModel, NonlinearModel, filter_sequence
-from gnssframework.interfaces import NavFilter
+from gnssframework.estimation import FilterStep, Gaussian, LinearModel, NonlinearModel, filter_sequence
+from gnssframework.interfaces import NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.vector import predicted_range
@@ -45,7 +44,7 @@ class EkfPvParams(PluginParams):
 
 
 class EkfPositionVelocity(NavFilter):
-    """8-state position/velocity/clock filter of reference 000 (eqs. 32-38).
+    """8-state position/velocity/clock filter of Zou et al. (2018, eqs. 32-38).
 
     State, in one order throughout (the paper's printed H uses
     ``[x, y, z, vx, vy, vz, b, d]`` while its state interleaves them; we use the
@@ -69,7 +68,7 @@ class EkfPositionVelocity(NavFilter):
     """
 
     name = "ekf-pv"
-    description = "8-state position/velocity/clock EKF for vector tracking (reference 000)"
+    description = "8-state position/velocity/clock EKF for vector tracking (Zou et al. 2018)"
     Params = EkfPvParams
     requires = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", "freq_error_var_hz2")
     provides = ("position_m", "velocity_m_s", "clock_m", "cov", "nco_range_m", "nco_range_rate_m_s")
@@ -79,13 +78,15 @@ class EkfPositionVelocity(NavFilter):
         if self.params.clock not in PRESETS:
             raise ConfigError("nav_filter 'ekf-pv'.clock", f"got {self.params.clock!r}; allowed: {', '.join(PRESETS)}")
         self.engine = self.params.estimator.create()
+        self.filter_step = FilterStep(self.engine, name=f"{self.name} ({self.engine.name})")
 
-    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
-        T = context["coherent_time_s"]
+    def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
+        who = f"nav_filter {self.name!r}"
+        T = context.require("coherent_time_s", who)
         self.T = T
         self.F, self.Q = cv_clock_model(T, self.params.accel_psd, self.params.clock)
-        self.state = Gaussian(np.asarray(context["initial_state"], float), np.asarray(context["initial_cov"], float))
-        self.first = True
+        initial = Gaussian(context.require("initial_state", who), context.require("initial_cov", who))
+        self.state = self.filter_step.start(initial)
 
     def _model(self, sat_pos, sat_vel, R) -> NonlinearModel:
         F = self.F
@@ -121,9 +122,7 @@ class EkfPositionVelocity(NavFilter):
                             inputs["replica_rate_m_s"] - L1_WAVELENGTH_M * inputs["freq_error_hz"]], axis=-1)
         model = self._model(inputs["sat_pos_m"], inputs["sat_vel_m_s"], R)
         # The initial estimate is already at the first mid-interval: no prediction then.
-        prior = self.state if self.first else self.engine.predict(self.state, model)
-        self.first = False
-        self.state = self.engine.update(prior, z, model).state
+        self.state = self.filter_step(self.state, z, model, predict=self.filter_step.step_index > 0).posterior
         x = self.state.mean
         # NCO command for the next interval: range at its start (t + T/2), rate.
         ahead = x.copy()
@@ -135,14 +134,17 @@ class EkfPositionVelocity(NavFilter):
 
 
 class PositionCaParams(PluginParams):
-    dt_s: float = Field(1.0, gt=0, description="epoch interval")
+    dt_s: float = Field(1.0, gt=0, description="epoch interval of filter(); in step() the harness's "
+                        "RunContext.epoch_interval_s is used and must equal it")
     q0: list[float] = Field([1.0, 0.1, 0.01], description="diagonal of Q per coordinate: position, velocity, acceleration")
     r0: float = Field(1.0, gt=0, description="measurement noise variance R0 (m²)")
     p0: list[float] = Field([10.0, 1.0, 0.1], description="initial variances of position, velocity, acceleration")
+    estimator: PluginRef("estimator") = Field(
+        "kf", description="estimator of the streaming step(); filter() takes the candidate's estimator")
 
 
 class PositionConstantAcceleration(NavFilter):
-    """Position-domain filter with a constant-acceleration model per coordinate (reference 004).
+    """Position-domain filter with a constant-acceleration model per coordinate (Liu et al. 2020).
 
     Each coordinate (latitude and longitude in local metres) has the state
     $X = [n, \\dot n, \\ddot n]$, $\\Phi = \\begin{bmatrix}1 & t & t^2/2\\\\ 0 & 1 & t\\\\ 0 & 0 & 1\\end{bmatrix}$,
@@ -153,14 +155,15 @@ class PositionConstantAcceleration(NavFilter):
     """
 
     name = "position-ca"
-    description = "Constant-acceleration position filter per coordinate (reference 004)"
+    description = "Constant-acceleration position filter per coordinate (Liu et al. 2020)"
     Params = PositionCaParams
     requires = ("position_m",)
     provides = ("position_m",)
 
-    def model(self):
+    def model(self, dt_s: float | None = None):
+        """The constant-acceleration model at epoch interval ``dt_s`` (default: ``params.dt_s``)."""
         p = self.params
-        t = p.dt_s
+        t = p.dt_s if dt_s is None else dt_s
         F = np.array([[1.0, t, t * t / 2], [0.0, 1.0, t], [0.0, 0.0, 1.0]])
         return LinearModel(F, np.array([[1.0, 0.0, 0.0]]), np.diag(p.q0), np.array([[p.r0]]))
 
@@ -174,19 +177,20 @@ class PositionConstantAcceleration(NavFilter):
         return filter_sequence(estimator, self.model(), zs[..., None], initial, adapter=adapter,
                                augmentation=augmentation, **policies)
 
-    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
-        self.engine = context.get("estimator") or registry.create("estimator", "kf")
+    def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
+        p = self.params
+        self.filter_step = FilterStep(p.estimator.create(), name=f"{self.name} ({p.estimator.name})")
+        self.dt_s = context.resolve("epoch_interval_s", p.dt_s, f"nav_filter {self.name!r}")
         self.state = None
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Streaming use without augmentation or adapter: one epoch of positions ``(..., n_coord)``."""
         z = np.asarray(inputs["position_m"], dtype=float)
-        model = self.model()
+        model = self.model(self.dt_s)
         if self.state is None:
             mean = np.zeros(z.shape + (3,))
             mean[..., 0] = z
-            self.state = Gaussian(mean, np.diag(self.params.p0))
+            self.state = self.filter_step.start(Gaussian(mean, np.diag(self.params.p0)), model, first_step=1)
             return {"position_m": z}
-        prior = self.engine.predict(self.state, model)
-        self.state = self.engine.update(prior, z[..., None], model).state
+        self.state = self.filter_step(self.state, z[..., None], model).posterior
         return {"position_m": self.state.mean[..., 0]}

@@ -1,4 +1,4 @@
-"""Carrier-smoothed code channel filters: ``hatch`` and ``kf-smoother`` (reference 001)."""
+"""Carrier-smoothed code channel filters: ``hatch`` and ``kf-smoother`` (CN105068097 patent 2015)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework import registry
-from gnssframework.estimation import AdaptationStep, Gaussian, LinearModel
-from gnssframework.interfaces import ChannelFilter
+from gnssframework.estimation import FilterStep, Gaussian, LinearModel
+from gnssframework.interfaces import ChannelFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef
 
@@ -37,7 +37,7 @@ class HatchParams(_SlipParams):
 
 
 class HatchFilter(ChannelFilter):
-    """Hatch filter (reference 001, adaptive carrier-smoothed code patent).
+    """Hatch filter (Hatch 1982; the form of the CN105068097 patent, 2015).
 
     $$
     \\rho_s[k] = \\frac{1}{n}\\rho[k] + \\frac{n-1}{n}\\big(\\rho_s[k-1] + \\varphi[k] - \\varphi[k-1]\\big),
@@ -56,7 +56,7 @@ class HatchFilter(ChannelFilter):
     requires = ("pseudorange_m", "carrier_m")
     provides = ("smoothed_m", "slip_detected")
 
-    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
+    def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         self.smoothed = None
         self.n = np.zeros(batch_shape)
 
@@ -77,12 +77,12 @@ class KalmanSmootherParams(_SlipParams):
     q: float = Field(1e-3, gt=0, description="process noise Q (m²) of the carrier-propagated range")
     r: float = Field(1.0, gt=0, description="pseudorange noise R (m²)")
     adapter: PluginRef("noise_adapter") | None = Field(
-        None, description="noise adapter for Q, e.g. 'ml-q' (reference 001)")
+        None, description="noise adapter for Q, e.g. 'ml-q' (CN105068097 patent 2015)")
     adapter_params: dict[str, Any] = Field(default_factory=dict, description="parameters of the adapter")
 
 
 class KalmanSmoother(ChannelFilter):
-    """The Hatch filter as a Kalman filter (reference 001), optionally with adaptive Q.
+    """The Hatch filter as a Kalman filter (CN105068097 patent 2015), optionally with adaptive Q.
 
     State: the pseudorange. Prediction with the carrier-phase delta as a known input,
     update with the pseudorange:
@@ -110,33 +110,28 @@ class KalmanSmoother(ChannelFilter):
         p = self.params
         self.engine = registry.create("estimator", "kf")
         self.adapter = p.adapter.create(**{**p.adapter.params, **p.adapter_params}) if p.adapter else None
+        self.filter_step = FilterStep(self.engine, self.adapter, name=f"{self.name} (kf)")
 
-    def reset(self, batch_shape: tuple[int, ...], **context: Any) -> None:
+    def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         p = self.params
         self.base = LinearModel(np.eye(1), np.eye(1), np.array([[p.q]]), np.array([[p.r]]))
         self.state = None
-        self.run = self.adapter.start(self.base.Q, self.base.R) if self.adapter else None
-        self.Q = self.base.Q
-        self.k = 0
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         rho, phi = np.asarray(inputs["pseudorange_m"], float), np.asarray(inputs["carrier_m"], float)
         if self.state is None:
-            self.state = Gaussian(rho[..., None], np.broadcast_to(self.base.R, rho.shape + (1, 1)))
+            # The first epoch only initialises (from the code): filter steps start at epoch 1.
+            self.state = self.filter_step.start(
+                Gaussian(rho[..., None], np.broadcast_to(self.base.R, rho.shape + (1, 1))), self.base, first_step=1)
             self.phi = phi
             return {"smoothed_m": rho.copy(), "slip_detected": np.zeros(rho.shape, bool)}
-        model = LinearModel(self.base.F, self.base.H, self.Q, self.base.R, u=(phi - self.phi)[..., None])
-        prior = self.engine.predict(self.state, model)
+        model = LinearModel(self.base.F, self.base.H, self.base.Q, self.base.R, u=(phi - self.phi)[..., None])
+        prior = self.filter_step.predict(self.state, model)
         slip = _slip(rho, prior.mean[..., 0], self.params.slip_threshold_m)
-        upd = self.engine.update(prior, rho[..., None], model)
-        post = upd.state
+        post = self.filter_step.update(prior, rho[..., None], model, previous=self.state).posterior
         if slip.any():  # restart from the code alone
             mean = np.where(slip[..., None], rho[..., None], post.mean)
             cov = np.where(slip[..., None, None], self.base.R, post.cov)
             post = Gaussian(mean, cov)
-        if self.run is not None:
-            Q, _ = self.run.step(AdaptationStep(self.k, self.state, prior, upd, model))
-            self.Q = Q
-        self.k += 1
         self.state, self.phi = post, phi
         return {"smoothed_m": post.mean[..., 0], "slip_detected": slip}

@@ -21,6 +21,9 @@ ERRORS = [
     errors.NumericalError("ckf", [(1, 2), (3, 4)], 5, "detail"),
     errors.NotPositiveDefiniteError("ukf", [(0,)], 7),
     errors.InvalidMeasurementError("kf", [(2,)]),
+    errors.InvalidInitialStateError("ekf", [(3,)], None, "initial mean is NaN or inf"),
+    errors.NonFiniteError("ukf", [(0,)], 4, "prediction"),
+    errors.InvalidInputError("ckf", "zs", "is a zero-length measurement sequence"),
     errors.WorkerError("case 'a', candidate 'b', batch 0", "TypeError: boom", "Traceback ..."),
 ]
 

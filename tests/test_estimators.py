@@ -146,7 +146,7 @@ def test_svd_square_root_reproduces_p_and_differs_from_cholesky_by_a_rotation(rn
 
 
 @settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), deficit=st.floats(1e-16, 1e-9))
+@given(seed=st.integers(0, 2**32 - 1), deficit=st.floats(1e-12, 1e-9))  # 1e-16 is within rounding: Cholesky may pass
 def test_svd_ckf_survives_nearly_singular_priors_where_ckf_raises_the_library_error(seed, deficit):
     rng = np.random.default_rng(seed)
     n = 5

@@ -53,7 +53,9 @@ def _rows(path):
 def test_summary_report_plots_and_published_values(tmp_path):
     summary = run_comparison(load_config(_write(tmp_path)), tmp_path / "out", progress=False)
     rows = _rows(summary)
-    assert len(rows) == 1 * 2 * 5
+    from gnssframework.experiments.scenarios.vector_tracking import VectorTrackingScenario
+
+    assert len(rows) == 1 * 2 * len(VectorTrackingScenario.metrics)
     r = rows[("c45", "disc", "code_phase_error_rmse")]
     assert set(r) == {"case", "candidate", "metric", "mean", "std", "runs", "unit", "published"}
     assert r["runs"] == 4 and r["unit"] == "chips" and r["published"] == 0.01 and r["mean"] > 0
@@ -135,7 +137,7 @@ def test_config_errors_name_the_field_and_the_allowed_values(tmp_path, change, f
     (TINY.replace('kind = "vector-tracking"', 'kind = "vector"'), "scenario.kind: got 'vector'; allowed: "),
     (TINY.replace("duration_s = 0.4", "duration_s = -1"), "scenario.duration_s"),
     (TINY.replace("cn0_dbhz = 45.0", "cn0_dbhz = 90.0"), "cases[0].cn0_dbhz"),
-    ('metrics = ["rmse"]\n' + TINY, "metrics: unknown 'rmse'; allowed: code_phase_error_rmse"),
+    ('metrics = ["rmse"]\n' + TINY, "metrics[0]: unknown 'rmse'; allowed: code_phase_error_rmse"),
     (TINY.replace("[published.c45.disc]", "[published.c45.dsc]"), "published.c45.dsc: unknown candidate"),
     (TINY.replace('kind = "local"', 'kind = "cloud"'), "executor.kind"),
 ])

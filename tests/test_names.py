@@ -30,10 +30,10 @@ def test_harness_refuses_a_step_that_breaks_the_provides_declaration(scratch_reg
             return out
 
     f = Forgetful()
-    f.reset(())
+    f.reset((), gf.RunContext())
     with pytest.raises(gf.PluginError, match="'forgetful-hatch': step\\(\\) did not return slip_detected"):
         f.checked_step({names.PSEUDORANGE_M: np.array(2.0e7), names.CARRIER_M: np.array(2.0e7)})
     plain = hatch_cls()
-    plain.reset(())
+    plain.reset((), gf.RunContext())
     out = plain.checked_step({names.PSEUDORANGE_M: np.array(2.0e7), names.CARRIER_M: np.array(2.0e7)})
     assert set(plain.provides) <= set(out)

@@ -65,7 +65,8 @@ def test_nested_plugin_parameters_are_listed():
         "freq_discriminator": ("discriminator", "Hz"),
     }
     assert plugin_refs(gf.registry.get("channel_filter", "iq-filter").Params) == {
-        "estimator": ("estimator", None), "adapter": ("noise_adapter", None)}
+        "estimator": ("estimator", None), "adapter": ("noise_adapter", None),
+        "code_discriminator": ("discriminator", "chips")}
 
 
 def test_a_default_name_is_resolved_too():

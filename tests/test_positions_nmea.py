@@ -71,7 +71,7 @@ def test_cli_filter_positions_writes_csv_and_lists_skipped_lines(tmp_path):
     out = tmp_path / "filtered.csv"
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "filter-positions", str(_corrupt(tmp_path)),
                            "--out", str(out), "--filter", "AUKF1"], capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 3, proc.stderr  # output written, lines skipped
     assert "3 sentences skipped" in proc.stdout and "skipped line 10:" in proc.stdout
     rows = out.read_text().splitlines()
     assert rows[0].startswith("time_s,nmea_line,lat_deg") and len(rows) == 501

@@ -61,6 +61,19 @@ def test_adaptive_ukf_does_not_diverge_in_its_first_30_epochs():
     # Reference 004's adaptive UKF diverges for ~30 epochs; with the safeguards it must not.
     plain = _multipath({})
     adaptive = _multipath({**ADAPTIVE, "augmentation": {"name": "colored-ar1", "params": {"psi": 0.95}}})
-    first = lambda r: np.sqrt(np.mean(np.sum(r.series["convergence_epoch"][:30] ** 2, axis=0)))  # noqa: E731
+    first = lambda r: np.sqrt(np.mean(r.series["horizontal_error_rmse"][:30] ** 2))  # noqa: E731
     assert first(adaptive) < 1.2 * first(plain)
-    assert np.all(np.isfinite(adaptive.series["convergence_epoch"]))
+    assert np.all(np.isfinite(adaptive.series["horizontal_error_rmse"]))
+
+
+def test_smaller_q_helps_where_thermal_noise_dominates_and_hurts_where_phase_scintillation_does():
+    # Reference 003's "smaller Q is better" is a bandwidth trade-off (kf-3 is a 1.5 Hz
+    # loop, kf-2 a 2.2 Hz one): paired over the same runs, kf-3 wins at 35 dB-Hz and
+    # loses at 45 dB-Hz under 0.1 rad of AJ-Stanford phase scintillation.
+    kf3 = {"name": "kf-carrier-loop", "params": {**KF2["params"], "q": [0.01, 0.01]}}
+    case = {"model": "aj-stanford", "s4": 0.9, "sigma_phi_rad": 0.1}
+    for cn0, sign in ((35.0, -1), (45.0, +1)):
+        c = {**case, "cn0_dbhz": cn0}
+        d = (_scint(c, kf3, runs=12, duration=20.0)["phase_error_rmse"]
+             - _scint(c, KF2, runs=12, duration=20.0)["phase_error_rmse"])
+        assert sign * np.mean(d) > 2 * np.std(d, ddof=1) / np.sqrt(d.size), (cn0, d)

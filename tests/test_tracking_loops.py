@@ -112,7 +112,7 @@ def test_closed_loop_refuses_a_channel_filter_that_cannot_steer_ncos():
         requires = ("correlators",)
         provides = ("code_error_chips",)
 
-        def reset(self, batch_shape, **context):
+        def reset(self, batch_shape, context):
             pass
 
         def step(self, inputs):

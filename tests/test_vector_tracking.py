@@ -5,11 +5,11 @@ import pytest
 
 import gnssframework as gf
 from gnssframework.experiments import get_scenario
-from gnssframework.interfaces import ChannelFilter
+from gnssframework.interfaces import ChannelFilter, RunContext
 from gnssframework.receiver.vector import run_vector_loop
 from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 
-SCEN = {"kind": "vector-tracking", "duration_s": 3.0, "channels": 8, "settle_s": 0.5}
+SCEN = {"kind": "vector-tracking", "duration_s": 3.0, "channels": 8, "settle_s": 0.5, "steady_state_s": 1.5}
 
 
 class OracleChannel(ChannelFilter):
@@ -25,7 +25,7 @@ class OracleChannel(ChannelFilter):
         super().__init__()
         self.rng, self.sc, self.sf = rng, sigma_code, sigma_freq
 
-    def reset(self, batch_shape, **context):
+    def reset(self, batch_shape, context):
         self.shape = batch_shape
 
     def step(self, inputs):
@@ -60,6 +60,12 @@ def test_ekf_pv_is_consistent_when_fed_measurements_with_the_stated_noise(monkey
     rec = run_vector_loop(oracle, nav, truth, x0, P0, rng)
     nees = rec.nees[100:].mean()
     assert 7.0 < nees < 9.5
+    # The 3-dim blocks average 3 each (measured 2.6 and 3.0), and the output errors the
+    # harness records are exactly the oracle's added noise: RMS 0.01 chips and 0.5 Hz.
+    assert 2.3 < rec.nees_position[100:].mean() < 3.7
+    assert 2.3 < rec.nees_velocity[100:].mean() < 3.7
+    assert np.sqrt(np.mean(rec.code_output_error_chips**2)) == pytest.approx(0.01, rel=0.02)
+    assert np.sqrt(np.mean(rec.freq_output_error_hz**2)) == pytest.approx(0.5, rel=0.02)
 
 
 @pytest.fixture(scope="module")
@@ -90,15 +96,58 @@ def test_vector_loop_tracks_at_45_dbhz(vector_results, name):
     assert 8 / 3 < np.mean(m["nees"]) < 8 * 3
 
 
-def test_iq_filter_equivalent_measurement_is_consistent_and_filtered_is_not():
+@pytest.fixture(scope="module")
+def mode_records():
+    """run_vector_loop records of iq-filter's output modes at 40 dB-Hz (common random numbers)."""
     scen = get_scenario(SCEN)
-    nees = {}
-    for output in ("equivalent", "filtered"):
-        plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"output": output}},
+    out = {}
+    for mode in ("split", "equivalent", "filtered", "reset"):
+        rng = np.random.default_rng(2)
+        truth, x0, P0 = scen.truth(40.0, 4, rng)
+        plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"output": mode}},
                               "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
-        nees[output] = np.mean(scen.run_batch({"cn0_dbhz": 40.0}, plugins, 4, np.random.default_rng(2)).metrics["nees"])
-    assert 8 / 3 < nees["equivalent"] < 8 * 3
-    assert nees["filtered"] > 10 * nees["equivalent"]
+        out[mode] = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng)
+    return out
+
+
+def _lag1(x):
+    x = x - x.mean(axis=0)
+    return float(np.sum(x[1:] * x[:-1]) / np.sum(x * x))
+
+
+def test_filtered_output_double_counts_the_code_channel_only(mode_records):
+    # The filtered code estimate is a slowly varying error (lag-1 autocorrelation about
+    # 0.99), fed as white every interval: the position NEES explodes (measured ~2000 over
+    # 3 dims) while the velocity NEES stays near its dimension 3. The split output takes
+    # the code from the discriminator (white) and keeps the filtered frequency.
+    filt, split = mode_records["filtered"], mode_records["split"]
+    s = slice(50, None)
+    assert _lag1(filt.code_output_error_chips[s]) > 0.9
+    assert abs(_lag1(split.code_output_error_chips[s])) < 0.1
+    assert np.mean(filt.nees_position[s]) > 30 * np.mean(split.nees_position[s])
+    for rec in (filt, split):
+        assert 1.0 < np.mean(rec.nees_velocity[s]) < 3 * 3
+    # The same frequency output in both modes (up to the loops' different NCO histories).
+    rms = [np.sqrt(np.mean(r.freq_output_error_hz[s] ** 2)) for r in (split, filt)]
+    assert rms[0] == pytest.approx(rms[1], rel=0.1)
+
+
+@pytest.mark.parametrize("mode", ["split", "equivalent"])
+def test_consistent_modes_have_position_and_velocity_nees_near_their_dimension(mode_records, mode):
+    # A consistent filter's NEES averages 3 on each 3-dim block. Over 2.5 s of strongly
+    # correlated epochs and 4 runs the mean scatters: held to a factor-3 band.
+    rec = mode_records[mode]
+    for nees in (rec.nees_position[50:], rec.nees_velocity[50:]):
+        assert 1.0 < np.mean(nees) < 9.0
+
+
+def test_reset_mode_forgets_the_frequency_between_intervals(mode_records):
+    # After a reset the frequency comes from two intervals of phase, like an FLL: its
+    # output error is much larger than the filtered estimate's and far less correlated.
+    reset, filt = mode_records["reset"], mode_records["filtered"]
+    s = slice(50, None)
+    assert np.sqrt(np.mean(reset.freq_output_error_hz[s] ** 2)) > 3 * np.sqrt(np.mean(filt.freq_output_error_hz[s] ** 2))
+    assert _lag1(reset.code_output_error_chips[s]) < 0.5
 
 
 def test_decision_directed_bits_track_like_known_bits():
@@ -127,7 +176,7 @@ def test_ekf_pv_converts_channel_errors_to_range_units():
     sat_pos = x0[:3] + 2.0e7 * dirs
     sat_vel = np.cross(dirs, [0.0, 0.0, 1.0]) * 3000.0
     nav = gf.registry.create("nav_filter", "ekf-pv", clock="ocxo")
-    nav.reset((), coherent_time_s=0.01, initial_state=x0, initial_cov=np.diag([1e-8] * 6 + [1e8, 1e8]))
+    nav.reset((), gf.RunContext(coherent_time_s=0.01, initial_state=x0, initial_cov=np.diag([1e-8] * 6 + [1e8, 1e8])))
     rho, rate, _ = predicted_range(x0, sat_pos, sat_vel)
     ones = np.ones(len(dirs))
     out = nav.step({"replica_range_m": rho, "replica_rate_m_s": rate,
@@ -139,3 +188,36 @@ def test_ekf_pv_converts_channel_errors_to_range_units():
     assert out["clock_m"][1] - x0[7] == pytest.approx(-c / f_l1 * df_hz, rel=1e-4)
     assert CA_CHIP_LENGTH_M == pytest.approx(c / f_code, rel=1e-12)
     assert L1_WAVELENGTH_M == pytest.approx(c / f_l1, rel=1e-12)
+
+
+def test_vector_metrics_on_hand_built_series():
+    from gnssframework.experiments.scenarios.vector_tracking import vector_metrics
+
+    t = np.array([0.5, 1.5, 2.5, 3.5])  # settle 1 s: the last three epochs; steady 3 s: the last one
+    one = np.ones((4, 2))
+    pos = np.array([[100.0, 100.0], [3.0, 0.0], [4.0, 0.0], [0.0, 6.0]])
+    nees = np.array([[1e6, 1e6], [1.0, 2.0], [2.0, 4.0], [3.0, 6.0]])
+    series = {"code_phase_error_rmse": 0.01 * one, "carrier_freq_error_rmse": 2.0 * one,
+              "position_error_rmse": pos, "velocity_error_rmse": pos / 10, "nees": nees, "nees_position": nees / 2,
+              "nees_velocity": nees / 4, "code_output_rmse": 0.03 * one, "freq_output_rmse": 5.0 * one,
+              "pcrb_position": one}
+    m = vector_metrics(series, t, settle_s=1.0, steady_state_s=3.0)
+    # RMS over epochs 2-4: sqrt((9 + 16 + 0) / 3) and sqrt(36 / 3); NEES: plain means.
+    np.testing.assert_allclose(m["position_error_rmse"], [np.sqrt(25 / 3), np.sqrt(12.0)])
+    np.testing.assert_allclose(m["velocity_error_rmse"], [np.sqrt(25 / 3) / 10, np.sqrt(12.0) / 10])
+    np.testing.assert_allclose(m["position_steady_error_rmse"], [0.0, 6.0])
+    np.testing.assert_allclose(m["nees"], [2.0, 4.0])
+    np.testing.assert_allclose(m["nees_position"], [1.0, 2.0])
+    np.testing.assert_allclose(m["nees_velocity"], [0.5, 1.0])
+    np.testing.assert_allclose(m["code_output_rmse"], [0.03, 0.03])
+    np.testing.assert_allclose(m["freq_output_rmse"], [5.0, 5.0])
+    np.testing.assert_allclose(m["pcrb_position"], [1.0, 1.0])
+    assert "pcrb_velocity" not in m
+
+
+def test_split_output_without_a_cn0_says_what_to_do():
+    f = gf.registry.create("channel_filter", "iq-filter")
+    with pytest.raises(gf.errors.ConfigError, match="split_code = 'new-information'"):
+        f.reset((2, 3), RunContext(coherent_time_s=0.01))
+    f = gf.registry.create("channel_filter", "iq-filter", split_code="new-information")
+    f.reset((2, 3), RunContext(coherent_time_s=0.01))  # needs no C/N0

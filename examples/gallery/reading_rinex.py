@@ -14,7 +14,7 @@ DATA = pathlib.Path(__file__).resolve().parents[1] / "data" / "simulated_pass.rn
 
 obs = read_code_carrier(DATA, "G08")
 hatch = gf.registry.create("channel_filter", "hatch")
-hatch.reset(())
+hatch.reset((), gf.RunContext(epoch_interval_s=float(np.median(np.diff(obs.time_s)))))
 smoothed = np.array([hatch.step({"pseudorange_m": np.asarray(r), "carrier_m": np.asarray(c)})["smoothed_m"]
                      for r, c in zip(obs.pseudorange_m, obs.carrier_m)])
 # Code minus carrier removes the geometry; its scatter is the code noise (plus a constant).

@@ -12,8 +12,9 @@ from .adaptation import (
     SafeguardParams,
 )
 from .estimator import Estimator, SigmaPointEstimator
-from .sequence import RECOVERIES, FilterResult, filter_sequence
-from .types import Gaussian, LinearModel, Model, NonlinearModel, Update, numerical_jacobian
+from .sequence import FilterResult, filter_sequence
+from .step import RECOVERIES, FilterStep, StepResult
+from .types import CompiledFunctions, Gaussian, LinearModel, Model, NonlinearModel, Update, numerical_jacobian
 
 __all__ = [
     "AdaptationStep",
@@ -22,6 +23,8 @@ __all__ = [
     "AugmentedProblem",
     "Estimator",
     "FilterResult",
+    "FilterStep",
+    "CompiledFunctions",
     "Gaussian",
     "LinearModel",
     "Model",
@@ -30,6 +33,7 @@ __all__ = [
     "RECOVERIES",
     "SafeguardParams",
     "SigmaPointEstimator",
+    "StepResult",
     "Update",
     "filter_sequence",
     "numerical_jacobian",

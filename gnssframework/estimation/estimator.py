@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import InvalidMeasurementError, NotPositiveDefiniteError
 from ..plugin import Plugin
+from . import kernels
 from .linalg import cholesky_masked, failing_indices, mat_vec, symmetrize
 from .types import Gaussian, Model, Update
 
@@ -35,6 +36,21 @@ class Estimator(Plugin, abc.ABC):
 
     kind = "estimator"
 
+    #: ``"numba"`` (compiled kernels) or ``"numpy"`` (reference path) for this instance;
+    #: ``None`` follows :func:`gnssframework.estimation.kernels.get_backend`.
+    backend: str | None = None
+
+    def _use_kernels(self) -> bool:
+        return kernels.resolve_backend(self.backend) == "numba"
+
+    def _kernel_posterior(self) -> str | None:
+        """Which posterior the update kernel may compute for this engine (``None``: NumPy).
+
+        ``"standard"`` is ``P - K S K^T``; an engine that overrides ``posterior_cov``
+        gets the NumPy path unless it names its form (the KF: ``"joseph"``).
+        """
+        return "standard" if type(self).posterior_cov is Estimator.posterior_cov else None
+
     # -- to implement -------------------------------------------------------------
     @abc.abstractmethod
     def predict(self, state: Gaussian, model: Model) -> Gaussian:
@@ -48,6 +64,10 @@ class Estimator(Plugin, abc.ABC):
         the state-measurement cross covariance."""
 
     # -- shared -------------------------------------------------------------------
+    def _fused_update(self, prior: Gaussian, z: np.ndarray, bad_z: np.ndarray, model: Model):
+        """A whole compiled update, or ``None`` (the engine has none for this model)."""
+        return None
+
     def posterior_cov(self, prior: Gaussian, gain: np.ndarray, S: np.ndarray, model: Model) -> np.ndarray:
         """``P - K S K^T``, symmetrised. Engines may override (Joseph form)."""
         return symmetrize(prior.cov - gain @ S @ np.swapaxes(gain, -1, -2))
@@ -80,16 +100,41 @@ class Estimator(Plugin, abc.ABC):
             or ``"skip"`` the update of that element (a missing measurement).
         """
         z = np.asarray(z, dtype=float)
-        batch = np.broadcast_shapes(prior.batch_shape, z.shape[:-1])
-        if prior.batch_shape != batch:
-            prior = Gaussian(np.broadcast_to(prior.mean, batch + prior.mean.shape[-1:]), prior.cov)
-        z = np.broadcast_to(z, batch + z.shape[-1:])
+        if z.shape[:-1] != prior.batch_shape:
+            batch = np.broadcast_shapes(prior.batch_shape, z.shape[:-1])
+            if prior.batch_shape != batch:
+                prior = Gaussian(np.broadcast_to(prior.mean, batch + prior.mean.shape[-1:]), prior.cov)
+            z = np.broadcast_to(z, batch + z.shape[-1:])
 
         bad_z = ~np.isfinite(z).all(axis=-1)
         if bad_z.any():
             if missing != "skip":
                 raise InvalidMeasurementError(self.name, failing_indices(~bad_z))
+        fused = self._fused_update(prior, z, bad_z, model)
+        if fused is not None:
+            mean, cov, gain, innovation, z_hat, S, C, ok = fused
+            if not ok.all() and on_failure == "raise":
+                raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
+            return Update(Gaussian(mean, cov), innovation, S, gain, C, z_hat, bad_z | ~ok)
         z_hat, S, C = self.measurement_moments(prior, model)
+        form = self._kernel_posterior() if self._use_kernels() else None
+        if form is not None:
+            joseph = form == "joseph"
+            mean, cov, gain, innovation, ok = kernels.update(
+                prior.mean, prior.cov, z, z_hat, S, C, bad_z, joseph,
+                model.H if joseph else None, model.R if joseph else None,
+            )
+            if not ok.all() and on_failure == "raise":
+                raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
+            return Update(
+                state=Gaussian(mean, cov),
+                innovation=innovation,
+                innovation_cov=S,
+                gain=gain,
+                cross_cov=C,
+                predicted_measurement=z_hat,
+                skipped=bad_z | ~ok,
+            )
         L, ok = cholesky_masked(S)
         skip = bad_z | ~ok
         if not ok.all() and on_failure == "raise":
@@ -133,6 +178,47 @@ class SigmaPointEstimator(Estimator):
     def sigma_points(self, state: Gaussian) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return ``(X, wm, wc)``: points ``(N, ..., n)``, mean and covariance weights ``(N,)``."""
 
+    def kernel_rule(self, n: int) -> tuple[int, float, bool, np.ndarray, np.ndarray] | None:
+        """The point rule in the compiled kernels' terms, or ``None`` (NumPy path).
+
+        Returns ``(root_kind, scale, center, wm, wc)``: root 0 = Cholesky, 1 = symmetric
+        eigen-decomposition; points ``[m], m +/- scale * S_i``. An engine returns a rule
+        only when its ``sigma_points``/``square_root`` are the ones the rule describes.
+        """
+        return None
+
+    def _fused_rule(self, state: Gaussian, model: Model):
+        """The point rule if predict/update can run fused with the model's compiled f/h."""
+        if getattr(model, "compiled", None) is None or not self._use_kernels():
+            return None
+        return self.kernel_rule(state.ndim_state)
+
+    def _raise_root_failure(self, status: np.ndarray, root_kind: int) -> None:
+        detail = "state covariance P is not finite" if root_kind == 1 else "state covariance P (Cholesky)"
+        raise NotPositiveDefiniteError(self.name, failing_indices(status == 0), detail=detail)
+
+    def _fused_update(self, prior: Gaussian, z: np.ndarray, bad_z: np.ndarray, model: Model):
+        rule = self._fused_rule(prior, model)
+        if rule is None:
+            return None
+        *out, status, ok = kernels.fused_update(prior.mean, prior.cov, z, bad_z, rule, model.compiled, model.R)
+        if status.any():
+            self._raise_root_failure(status, rule[0])
+        return (*out, ok)
+
+    def _kernel_points(self, state: Gaussian):
+        """``(X, wm, wc)`` from the kernels, or ``None`` where the NumPy path applies."""
+        if not self._use_kernels():
+            return None
+        rule = self.kernel_rule(state.ndim_state)
+        if rule is None:
+            return None
+        root_kind, scale, center, wm, wc = rule
+        X, status = kernels.sigma_points(state.mean, state.cov, root_kind, scale, center)
+        if status.any():
+            self._raise_root_failure(status, root_kind)
+        return X, wm, wc
+
     def square_root(self, cov: np.ndarray) -> np.ndarray:
         """Matrix square root ``S`` with ``S S^T = P`` (lower Cholesky by default).
 
@@ -163,6 +249,17 @@ class SigmaPointEstimator(Estimator):
         return (a_last * wc) @ b_mid
 
     def predict(self, state: Gaussian, model: Model) -> Gaussian:
+        rule = self._fused_rule(state, model)
+        if rule is not None:
+            mean, cov, status = kernels.fused_predict(state.mean, state.cov, rule, model.compiled, model.Q)
+            if status.any():
+                self._raise_root_failure(status, rule[0])
+            return Gaussian(mean, cov)
+        points = self._kernel_points(state)
+        if points is not None:
+            X, wm, wc = points
+            mean, cov = kernels.predict_moments(model.f(X), wm, wc, model.Q)
+            return Gaussian(mean, cov)
         X, wm, wc = self.sigma_points(state)
         Y = model.f(X)
         mean, dY = self._moments(Y, wm, wc)
@@ -170,6 +267,10 @@ class SigmaPointEstimator(Estimator):
         return Gaussian(mean, cov)
 
     def measurement_moments(self, prior: Gaussian, model: Model):
+        points = self._kernel_points(prior)
+        if points is not None:
+            X, wm, wc = points
+            return kernels.measurement_moments(X, model.h(X), prior.mean, wm, wc, model.R)
         X, wm, wc = self.sigma_points(prior)
         Z = model.h(X)
         z_hat, dZ = self._moments(Z, wm, wc)

@@ -2,24 +2,18 @@
 
 from __future__ import annotations
 
-from collections import Counter
 from dataclasses import dataclass, field
 from typing import Callable, Union
 
 import numpy as np
 
-from ..errors import ConfigError, NotPositiveDefiniteError, NumericalError
-from .adaptation import AdaptationStep, Augmentation, NoiseAdapter
+from ..errors import ConfigError, InvalidInputError
+from .adaptation import Augmentation, NoiseAdapter
 from .estimator import Estimator, OnFailure, OnMissing
-from .linalg import clip_eigenvalues, cholesky_masked, failing_indices, symmetrize
+from .step import RECOVERIES, FilterStep
 from .types import Gaussian, Model
 
 __all__ = ["filter_sequence", "FilterResult", "RECOVERIES"]
-
-#: Names of the recoveries counted in ``FilterResult.recoveries``.
-RECOVERIES = ("missing", "skip_update", "symmetrize", "clip_eigenvalues")
-
-_POLICIES = ("raise", "skip", "symmetrize", "clip")
 
 
 @dataclass
@@ -53,45 +47,6 @@ class FilterResult:
     skipped: np.ndarray
     epochs: np.ndarray
     recoveries: dict[str, int] = field(default_factory=dict)
-
-
-def _check_policy(name: str, value: str, allowed: tuple[str, ...]) -> None:
-    if value not in allowed:
-        raise ConfigError(name, f"got {value!r}; allowed: {', '.join(allowed)}")
-
-
-def _repair_posterior(
-    state: Gaussian, prior: Gaussian, policy: OnFailure, counts: Counter, filter_name: str
-) -> Gaussian:
-    """Check the posterior of every batch element; apply ``policy`` where it fails."""
-    finite_mean = np.isfinite(state.mean).all(axis=-1)
-    ok = cholesky_masked(state.cov)[1] & finite_mean
-    if ok.all():
-        return state
-    bad = ~ok
-    if policy == "raise":
-        raise NotPositiveDefiniteError(filter_name, failing_indices(ok), detail="posterior covariance P")
-    mean, cov = state.mean, state.cov
-    if policy == "skip" or not finite_mean.all():
-        revert = bad if policy == "skip" else ~finite_mean
-        counts["skip_update"] += int(revert.sum())
-        mean = np.where(revert[..., None], prior.mean, mean)
-        cov = np.where(revert[..., None, None], prior.cov, cov)
-        bad = bad & ~revert
-    if bad.any() and policy == "symmetrize":
-        cov = np.where(bad[..., None, None], symmetrize(cov), cov)
-        counts["symmetrize"] += int(bad.sum())
-    elif bad.any() and policy == "clip":
-        scale = np.abs(np.trace(cov, axis1=-2, axis2=-1)) / cov.shape[-1]
-        floor = 1e-9 * np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
-        cov = np.where(bad[..., None, None], clip_eigenvalues(np.nan_to_num(cov), floor), cov)
-        counts["clip_eigenvalues"] += int(bad.sum())
-    ok = cholesky_masked(cov)[1]
-    if not ok.all():
-        raise NotPositiveDefiniteError(
-            filter_name, failing_indices(ok), detail=f"posterior covariance P, still after recovery {policy!r}"
-        )
-    return Gaussian(mean, cov)
 
 
 def filter_sequence(
@@ -134,14 +89,28 @@ def filter_sequence(
 
     Raises
     ------
+    InvalidInputError
+        ``zs`` is not ``(K, ..., m)`` with K >= 1 and the model's m, or the initial mean
+        does not have the model's dimension (names the input).
+    InvalidInitialStateError
+        The initial mean is NaN/inf or its covariance is not finite and positive
+        definite (names which, and the batch element).
     NumericalError
         Naming the filter, the batch element and the step.
+
+    Notes
+    -----
+    Each step is one call of `gnssframework.estimation.step.FilterStep`, the step every
+    sequential plugin runs, so a plugin and ``filter_sequence`` fail, recover and adapt
+    the same way.
     """
-    _check_policy("on_failure", on_failure, _POLICIES)
-    _check_policy("missing", missing, ("raise", "skip"))
+    step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
     zs = np.asarray(zs, dtype=float)
     if zs.ndim < 2:
-        raise ConfigError("zs", f"needs shape (K, ..., m), got {zs.shape}")
+        raise InvalidInputError(estimator.name, "zs", f"needs shape (K, ..., m), got {zs.shape}")
+    if zs.shape[0] == 0:
+        raise InvalidInputError(estimator.name, "zs", f"is a zero-length measurement sequence (shape {zs.shape}): "
+                                "there is nothing to filter")
     if augmentation is not None:
         if callable(model):  # models are dataclasses, not callables
             raise ConfigError("augmentation", "needs a fixed model, not a callable")
@@ -151,39 +120,30 @@ def filter_sequence(
         model_at = model if callable(model) else (lambda k: model)
         epochs = np.arange(zs.shape[0])
 
-    counts: Counter = Counter({k: 0 for k in RECOVERIES})
-    state = _repair_posterior(initial, initial, on_failure, counts, estimator.name)
-    run = None
-    Q_est = R_est = None
-    if adapter is not None:
-        m0 = model_at(0)
-        run = adapter.start(m0.Q, m0.R)
+    m0 = model_at(0)
+    m = m0.R.shape[-1]
+    if zs.shape[-1] != m:
+        raise InvalidInputError(estimator.name, "zs", f"has {zs.shape[-1]} measurements per step (shape {zs.shape}) "
+                                f"but the model's R is {m}x{m}")
+    try:
+        np.broadcast_shapes(initial.batch_shape, zs.shape[1:-1])
+    except ValueError:
+        raise InvalidInputError(estimator.name, "zs", f"batch shape {zs.shape[1:-1]} does not broadcast with the "
+                                f"initial state's {initial.batch_shape}") from None
+    state = step.start(initial, m0)
     out: dict[str, list] = {k: [] for k in ("mean", "cov", "innovation", "innovation_cov", "Q", "R", "skipped")}
     for k in range(zs.shape[0]):
-        mk = model_at(k)
-        if Q_est is not None:
-            mk = mk.with_noise(Q=Q_est, R=R_est)
-        try:
-            prior = estimator.predict(state, mk)
-            upd = estimator.update(prior, zs[k], mk, on_failure=on_failure, missing=missing)
-            posterior = _repair_posterior(upd.state, prior, on_failure, counts, estimator.name)
-        except NumericalError as exc:
-            raise exc.at_step(k) from None
-        skipped = np.asarray(upd.skipped)
-        missing_now = ~np.isfinite(zs[k]).all(axis=-1) if missing == "skip" else np.zeros_like(skipped)
-        counts["missing"] += int(np.sum(missing_now & skipped))
-        counts["skip_update"] += int(np.sum(skipped & ~missing_now))
+        r = step(state, zs[k], m0 if k == 0 else model_at(k))
+        posterior, mk = r.posterior, r.model
         out["mean"].append(posterior.mean)
         if store_cov:
             out["cov"].append(posterior.cov)
-        out["innovation"].append(upd.innovation)
-        out["innovation_cov"].append(upd.innovation_cov)
+        out["innovation"].append(r.update.innovation)
+        out["innovation_cov"].append(r.update.innovation_cov)
         batch = posterior.batch_shape
         out["Q"].append(np.broadcast_to(mk.Q, batch + mk.Q.shape[-2:]))
         out["R"].append(np.broadcast_to(mk.R, batch + mk.R.shape[-2:]))
-        out["skipped"].append(np.broadcast_to(skipped, batch))
-        if run is not None:
-            Q_est, R_est = run.step(AdaptationStep(k, state, prior, upd, mk))
+        out["skipped"].append(r.skipped)
         state = posterior
     return FilterResult(
         mean=np.stack(out["mean"]),
@@ -194,5 +154,5 @@ def filter_sequence(
         R=np.stack(out["R"]),
         skipped=np.stack(out["skipped"]),
         epochs=np.asarray(epochs),
-        recoveries=dict(counts),
+        recoveries=dict(step.recoveries),
     )

@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import ConfigError
 from .linalg import mat_vec
 
-__all__ = ["Gaussian", "Update", "LinearModel", "NonlinearModel", "Model", "numerical_jacobian"]
+__all__ = ["Gaussian", "Update", "LinearModel", "NonlinearModel", "Model", "CompiledFunctions", "numerical_jacobian"]
 
 ArrayFn = Callable[[np.ndarray], np.ndarray]
 
@@ -42,8 +42,16 @@ class Gaussian:
     cov: np.ndarray
 
     def __post_init__(self) -> None:
-        mean = np.asarray(self.mean, dtype=float)
-        cov = np.asarray(self.cov, dtype=float)
+        mean, cov = self.mean, self.cov
+        # Fast path (every filter step): float arrays whose shapes already agree.
+        if (
+            type(mean) is np.ndarray and type(cov) is np.ndarray
+            and mean.dtype == np.float64 and cov.dtype == np.float64
+            and mean.ndim >= 1 and cov.shape == mean.shape + mean.shape[-1:]
+        ):
+            return
+        mean = np.asarray(mean, dtype=float)
+        cov = np.asarray(cov, dtype=float)
         if mean.ndim < 1:
             raise ConfigError("Gaussian.mean", "needs shape (..., n), got a scalar")
         n = mean.shape[-1]
@@ -102,6 +110,37 @@ class Update:
     skipped: np.ndarray = field(default_factory=lambda: np.zeros((), dtype=bool))
 
 
+@dataclass(frozen=True)
+class CompiledFunctions:
+    """Model functions the compiled kernels evaluate themselves (no call back to Python).
+
+    A model that carries one lets a sigma-point filter run a whole predict or update in
+    one compiled pass per batch element. The model's NumPy ``f``/``h`` stay the
+    reference: both must compute the same function (tests hold them to 1e-12).
+
+    Parameters
+    ----------
+    f_code, h_code
+        Codes from ``gnssframework.estimation.kernels`` (``F_LINEAR``; ``H_LINEAR``,
+        ``H_CHANNEL_IQ``).
+    f_params, h_params
+        2-D float arrays shared by the batch: F ``(n, n)``; H ``(m, n)`` or the
+        channel model's ``[[spacing_chips, coherent_time_s, data_bit]]``.
+    """
+
+    f_code: int
+    f_params: np.ndarray
+    h_code: int
+    h_params: np.ndarray
+
+    def __post_init__(self) -> None:
+        for name in ("f_params", "h_params"):
+            a = np.ascontiguousarray(getattr(self, name), dtype=float)
+            if a.ndim != 2:
+                raise ConfigError(f"CompiledFunctions.{name}", f"must be a 2-D array, got shape {a.shape}")
+            object.__setattr__(self, name, a)
+
+
 def _check_square(name: str, a: np.ndarray) -> np.ndarray:
     a = np.asarray(a, dtype=float)
     if a.ndim < 2 or a.shape[-1] != a.shape[-2]:
@@ -144,6 +183,17 @@ class LinearModel:
     @property
     def dim_meas(self) -> int:
         return self.R.shape[-1]
+
+    @property
+    def compiled(self) -> "CompiledFunctions | None":
+        """``F x`` and ``H x`` for the fused kernels when F and H are shared and ``u`` is None."""
+        if self.u is not None or self.F.ndim != 2 or self.H.ndim != 2:
+            return None
+        cached = self.__dict__.get("_compiled")
+        if cached is None:
+            cached = CompiledFunctions(0, self.F, 0, self.H)
+            object.__setattr__(self, "_compiled", cached)
+        return cached
 
     def f(self, x: np.ndarray) -> np.ndarray:
         fx = mat_vec(self.F, x)
@@ -209,6 +259,8 @@ class NonlinearModel:
     R: np.ndarray
     f_jacobian: Optional[ArrayFn] = None
     h_jacobian: Optional[ArrayFn] = None
+    #: Optional compiled twins of ``f`` and ``h`` (see ``CompiledFunctions``).
+    compiled: Optional[CompiledFunctions] = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "Q", _check_square("NonlinearModel.Q", self.Q))

@@ -14,13 +14,14 @@ import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator, model_validator
 
 from ..errors import ConfigError, DataFileError
 from ..hookspecs import COMPONENT_KINDS
 from ..plugin import validation_message
+from .sweeps import Sweep, check_unique_labels, expand_sweep
 
-__all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "load_config"]
+__all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "load_config"]
 
 
 class _Strict(BaseModel):
@@ -80,6 +81,10 @@ class ComparisonConfig(_Strict):
     cases: list[Case] = Field(..., min_length=1)
     candidates: list[Candidate] = Field(..., min_length=1)
     metrics: list[str] = Field(default_factory=list, description="metrics to report (default: all of the scenario)")
+    reference: str | None = Field(None, description="candidate the others are compared with (paired differences); "
+                                  "default: the first candidate")
+    sweeps: list[Sweep] = Field(default_factory=list, description="parameters varied one at a time over a list "
+                                "or range of values (each point runs every case and candidate)")
     published: dict[str, dict[str, dict[str, float]]] = Field(
         default_factory=dict, description="published values: case -> candidate -> metric -> value")
 
@@ -97,15 +102,19 @@ class ComparisonConfig(_Strict):
         from .scenarios import get_scenario
 
         scenario = get_scenario(self.scenario)  # raises ConfigError naming scenario.kind / field
-        unknown = [m for m in self.metrics if m not in scenario.metrics]
-        if unknown:
-            raise ConfigError("metrics", f"unknown {', '.join(map(repr, unknown))}; allowed: {', '.join(scenario.metrics)}")
+        from .metrics import check_metric
+
+        for i, metric in enumerate(self.metrics):  # the scenario's own or a metric component's
+            check_metric(metric, scenario, f"metrics[{i}]")
         for i, case in enumerate(self.cases):
             scenario.check_case(case.params(), f"cases[{i}]")
         for i, cand in enumerate(self.candidates):
             scenario.check_candidate(cand.components(), f"candidates[{i}]")
         case_names = {c.name for c in self.cases}
         cand_names = {c.name for c in self.candidates}
+        if self.reference is not None and self.reference not in cand_names:
+            raise ConfigError("reference", f"got {self.reference!r}; allowed: the candidates' names "
+                              f"{', '.join(c.name for c in self.candidates)}")
         for case, per_cand in self.published.items():
             if case not in case_names:
                 raise ConfigError(f"published.{case}", f"unknown case; allowed: {', '.join(sorted(case_names))}")
@@ -114,10 +123,26 @@ class ComparisonConfig(_Strict):
                     raise ConfigError(f"published.{case}.{cand}",
                                       f"unknown candidate; allowed: {', '.join(sorted(cand_names))}")
                 for metric in values:
-                    if metric not in scenario.metrics:
+                    if metric not in self.metric_names:
                         raise ConfigError(f"published.{case}.{cand}.{metric}",
-                                          f"unknown metric; allowed: {', '.join(scenario.metrics)}")
+                                          f"unknown metric; allowed: {', '.join(self.metric_names)}")
+        if self.sweeps:
+            check_unique_labels(self.sweeps)
+            self._points = {i: expand_sweep(self, i) for i in range(len(self.sweeps))}  # validates every value
         return self
+
+    _points: dict[int, list] = PrivateAttr(default_factory=dict)
+
+    def sweep_points(self, index: int) -> list[tuple[Any, "ComparisonConfig"]]:
+        """``(value, config)`` of every point of ``sweeps[index]`` (see ``sweeps.expand_sweep``)."""
+        if index not in self._points:
+            self._points[index] = expand_sweep(self, index)
+        return self._points[index]
+
+    @property
+    def reference_name(self) -> str:
+        """The candidate paired differences are taken against (``reference``, default the first)."""
+        return self.reference or self.candidates[0].name
 
     @property
     def metric_names(self) -> list[str]:
@@ -125,12 +150,32 @@ class ComparisonConfig(_Strict):
 
         return self.metrics or list(get_scenario(self.scenario).metrics)
 
+    @property
+    def metric_units(self) -> dict[str, str]:
+        """Unit of every reported metric (the scenario's or the metric component's)."""
+        from .metrics import check_metric
+        from .scenarios import get_scenario
+
+        scenario = get_scenario(self.scenario)
+        return {m: check_metric(m, scenario, "metrics") for m in self.metric_names}
+
+    def component_metrics(self) -> list[str]:
+        """The reported metrics computed by metric components (not by the scenario itself)."""
+        from .scenarios import get_scenario
+
+        own = get_scenario(self.scenario).metrics
+        return [m for m in self.metric_names if m not in own]
+
     def identity(self) -> str:
         """Hash of everything that changes the numbers (not runs, executor or description).
 
         A store keyed by it lets a longer or interrupted comparison reuse finished batches.
         """
-        data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name"})
+        data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
+                                        "reference", "sweeps"})
+        extra = self.component_metrics()
+        if extra:  # the stored rows must hold them; a config without components keeps its old key
+            data["metric_components"] = sorted(extra)
         return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 

@@ -2,20 +2,29 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from .config import ComparisonConfig
+from .files import atomic_open, atomic_write_text, write_json
 from .scenarios import get_scenario
+from .stats import SIGNIFICANCE_RULE, paired_rows
 from .store import ResultStore
+from .sweeps import write_sweeps
 
 __all__ = ["write_report", "summary_rows"]
 
 
 def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
-    """One row per case, candidate and metric: mean and std over runs, unit, published value."""
+    """One row per case, candidate and metric: mean and std over the runs where the metric is
+    defined (``runs`` counts them), unit, published value.
+
+    A metric undefined in every run (NaN, e.g. a recovery time in runs without slips) has
+    ``mean`` and ``std`` ``None`` and an ``undefined`` reason: the scenario's
+    ``undefined_reasons[metric]`` when it gives one.
+    """
+    units = config.metric_units
     scenario = get_scenario(config.scenario)
     key = config.identity()
     rows = []
@@ -23,6 +32,7 @@ def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
         for cand in config.candidates:
             for metric in config.metric_names:
                 v = store.values(key, case.name, cand.name, metric, config.runs)
+                v = v[np.isfinite(v)]  # a metric may be undefined in a run (e.g. no isolated slip): NaN
                 rows.append({
                     "case": case.name,
                     "candidate": cand.name,
@@ -30,10 +40,17 @@ def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
                     "mean": float(np.mean(v)) if v.size else None,
                     "std": float(np.std(v, ddof=1)) if v.size > 1 else 0.0,
                     "runs": int(v.size),
-                    "unit": scenario.metrics[metric],
+                    "unit": units[metric],
                     "published": config.published.get(case.name, {}).get(cand.name, {}).get(metric),
                 })
+                if not v.size:
+                    rows[-1].update(std=None, undefined=_undefined_reason(scenario, metric))
     return rows
+
+
+def _undefined_reason(scenario, metric: str) -> str:
+    reasons = getattr(scenario, "undefined_reasons", {}) or {}
+    return reasons.get(metric, "undefined in every run")
 
 
 def _fmt(x: float | None) -> str:
@@ -42,7 +59,31 @@ def _fmt(x: float | None) -> str:
     return f"{x:.4g}"
 
 
-def _markdown(config: ComparisonConfig, rows: list[dict]) -> str:
+def _paired_markdown(config: ComparisonConfig, paired: list[dict], case: str, units: dict[str, str]) -> list[str]:
+    """The case's paired-difference table (candidate minus reference, per metric)."""
+    others = [c.name for c in config.candidates if c.name != config.reference_name]
+    if not others:
+        return []
+    lines = [f"Paired differences to `{config.reference_name}` (candidate minus reference, mean ± SE over "
+             "the n common-random-number runs; ×: ratio of means; **\\***: significant, the 95 % paired "
+             "t-interval excludes 0):", "",
+             "| metric | unit | " + " | ".join(others) + " |", "| --- | --- | " + " | ".join("---" for _ in others) + " |"]
+    for metric in config.metric_names:
+        cells = []
+        for cand in others:
+            r = next(r for r in paired if r["case"] == case and r["candidate"] == cand and r["metric"] == metric)
+            if r["diff"] is None:
+                cells.append(f"– ({r['reason']})")
+                continue
+            cell = f"{r['diff']:+.3g} ± {_fmt(r['se'])}"
+            if r["ratio"] is not None:
+                cell += f" (×{r['ratio']:.3g})"
+            cells.append(cell + (" **\\***" if r["significant"] else "") + f" n={r['n']}")
+        lines.append(f"| {metric} | {units.get(metric, '')} | " + " | ".join(cells) + " |")
+    return lines + [""]
+
+
+def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | None = None) -> str:
     lines = [f"# {config.name}", ""]
     if config.description:
         lines += [config.description.strip(), ""]
@@ -58,12 +99,13 @@ def _markdown(config: ComparisonConfig, rows: list[dict]) -> str:
                 r = next(r for r in rows if r["case"] == case.name and r["candidate"] == cand.name
                          and r["metric"] == metric)
                 unit = r["unit"]
-                cell = f"{_fmt(r['mean'])} ± {_fmt(r['std'])}"
+                cell = r["undefined"] if r.get("undefined") else f"{_fmt(r['mean'])} ± {_fmt(r['std'])}"
                 if r["published"] is not None:
                     cell += f" (paper {_fmt(r['published'])})"
                 cells.append(cell)
             lines.append(f"| {metric} | {unit} | " + " | ".join(cells) + " |")
-        lines += ["", f"![time series](plots/{case.name}-series.png)", "",
+        lines += [""] + _paired_markdown(config, paired or [], case.name, {r["metric"]: r["unit"] for r in rows})
+        lines += [f"![time series](plots/{case.name}-series.png)", "",
                   f"![CDFs over runs](plots/{case.name}-cdf.png)", ""]
     return "\n".join(lines) + "\n"
 
@@ -78,6 +120,11 @@ def _load_series(out: Path, case: str, cand: str) -> tuple[np.ndarray | None, di
     return time_s, {k: np.concatenate([p[k] for p in parts], axis=-1) for k in keys}
 
 
+def _savefig(fig, path: Path) -> None:
+    with atomic_open(path, "wb") as fh:  # a killed run leaves no half PNG
+        fig.savefig(fh, format="png", dpi=90)
+
+
 def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: Path) -> None:
     import matplotlib
 
@@ -90,20 +137,29 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
     for case in config.cases:
         # Time series: the median over runs of each metric's per-epoch error.
         fig, axes = plt.subplots(len(metrics), 1, figsize=(7, 2.0 * len(metrics)), sharex=True, squeeze=False)
+        bounds = getattr(get_scenario(config.scenario), "bounds", {})
         for cand in config.candidates:
             time_s, series = _load_series(out, case.name, cand.name)
             for ax, metric in zip(axes[:, 0], metrics):
                 if metric in series and time_s is not None and time_s.size:
                     ax.plot(time_s, np.median(series[metric], axis=-1), lw=0.8, label=cand.name)
+        # A scenario's lower bound of an error metric (e.g. the PCRB) as a dashed line.
+        time_s, series = _load_series(out, case.name, config.candidates[0].name)
+        for ax, metric in zip(axes[:, 0], metrics):
+            bound = bounds.get(metric)
+            if bound in series and time_s is not None and time_s.size:
+                ax.plot(time_s, np.median(series[bound], axis=-1), "k--", lw=0.8, label=bound)
+                ax.legend(fontsize=6)
         for ax, metric in zip(axes[:, 0], metrics):
             unit = next(r["unit"] for r in rows if r["metric"] == metric)
             ax.set_ylabel(f"{metric}\n({unit})", fontsize=7)
             ax.grid(alpha=0.3)
-        axes[0, 0].legend(fontsize=7)
+        if axes[0, 0].get_legend_handles_labels()[0]:
+            axes[0, 0].legend(fontsize=7)
         axes[-1, 0].set_xlabel("time (s)")
         axes[0, 0].set_title(f"{config.name} - {case.name}: median over runs")
         fig.tight_layout()
-        fig.savefig(plot_dir / f"{case.name}-series.png", dpi=90)
+        _savefig(fig, plot_dir / f"{case.name}-series.png")
         plt.close(fig)
         # CDFs over runs of every metric.
         fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics), 2.8), squeeze=False)
@@ -117,15 +173,19 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
         axes[0, 0].set_ylabel("CDF over runs")
         axes[0, 0].legend(fontsize=7)
         fig.tight_layout()
-        fig.savefig(plot_dir / f"{case.name}-cdf.png", dpi=90)
+        _savefig(fig, plot_dir / f"{case.name}-cdf.png")
         plt.close(fig)
 
 
 def write_report(config: ComparisonConfig, store: ResultStore, out: Path) -> Path:
     """Write ``summary.json``, ``report.md`` and ``plots/`` into ``out``."""
     rows = summary_rows(config, store)
+    paired = paired_rows(config, store)
+    sweeps, sweep_lines = write_sweeps(config, store, out)
     summary = out / "summary.json"
-    summary.write_text(json.dumps({"name": config.name, "seed": config.seed, "rows": rows}, indent=2))
-    (out / "report.md").write_text(_markdown(config, rows))
+    write_json(summary, {"name": config.name, "seed": config.seed, "rows": rows,  # strict JSON, atomic
+                         "reference": config.reference_name, "significance_rule": SIGNIFICANCE_RULE,
+                         "paired": paired, "sweeps": sweeps})
+    atomic_write_text(out / "report.md", _markdown(config, rows, paired) + "\n".join(sweep_lines))
     _plots(config, rows, store, out)
     return summary

@@ -5,6 +5,10 @@ every random number from ``numpy.random.default_rng(SeedSequence([seed, i, b]))`
 every candidate of that case and batch gets the same generator (common random numbers:
 the candidates see the same signals and noise). So the same seed and batch size give the
 same numbers on any executor, in any order of completion, and after a resume.
+
+Sweeps (``[[sweeps]]``): every point is the comparison with one value changed, run with
+the same seed, so the points share their random numbers too; each point is stored under
+its own identity in the same store and resumes like the comparison.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import numpy as np
 
 from ..errors import ConfigError, GnssFrameworkError, WorkerError
 from .config import ComparisonConfig
+from .files import atomic_open, atomic_write_text
 from .scenarios import get_scenario
 from .store import ResultStore
 
@@ -65,7 +70,24 @@ def run_task(config_data: dict[str, Any], task: Task) -> tuple[Task, dict[str, n
     plugins = scenario.build({k: v.model_dump() for k, v in candidate.components().items()})
     rng = batch_rng(config.seed, task.case_index, task.batch)
     result = scenario.run_batch({"name": case.name, **case.params()}, plugins, task.runs, rng)
-    return task, result.metrics, result.series, result.time_s
+    missing = [m for m in config.metric_names if m in scenario.metrics and m not in result.metrics]
+    wrong = [f"{m} {np.shape(v)}" for m, v in result.metrics.items() if np.shape(v) != (task.runs,)]
+    if missing or wrong:  # a scenario's declared metrics and its run_batch must agree
+        raise GnssFrameworkError(f"scenario {scenario.kind!r}: run_batch " + "; ".join(
+            ([f"did not return the declared metrics {', '.join(missing)}"] if missing else [])
+            + ([f"returned metrics not of shape ({task.runs},): {', '.join(wrong)}"] if wrong else [])))
+    metrics, series = dict(result.metrics), dict(result.series)
+    for name in config.component_metrics():  # metric components: computed once, here
+        from .metrics import metric_plugin
+
+        value = metric_plugin(name)().compute(result.series, result.time_s, scenario)
+        metrics[name] = np.asarray(value.value, dtype=float)
+        if metrics[name].shape != (task.runs,):
+            raise GnssFrameworkError(f"metric {name!r} returned shape {metrics[name].shape}, expected "
+                                     f"({task.runs},) (one value per run)")
+        if value.series is not None:
+            series[name] = value.series
+    return task, metrics, series, result.time_s
 
 
 def _where(config_data: dict[str, Any], task: Task) -> str:
@@ -98,15 +120,16 @@ def _save_series(out: Path, config: ComparisonConfig, task: Task, series: dict[s
     cand = config.candidates[task.candidate_index].name
     path = out / "raw" / case / cand
     path.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(path / f"batch{task.batch:04d}.npz", time_s=np.array([]) if time_s is None else time_s,
-                        first_run=task.first_run, **series)
+    with atomic_open(path / f"batch{task.batch:04d}.npz", "wb") as fh:  # a kill leaves no half npz
+        np.savez_compressed(fh, time_s=np.array([]) if time_s is None else time_s, first_run=task.first_run,
+                            **series)
 
 
-def _execute(config: ComparisonConfig, tasks: list[Task]) -> Iterable[tuple]:
-    if not tasks:  # everything already in the store
+def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tuple[int, tuple]]:
+    """Run ``(config data, task)`` jobs; yields ``(job index, run_task's result)`` as they finish."""
+    if not jobs:  # everything already in the store
         return
-    data = config.model_dump(mode="json")
-    ex = config.executor
+    ex = executor
     if ex.kind == "dask":
         try:
             from dask.distributed import Client, LocalCluster, as_completed as dask_completed
@@ -121,31 +144,46 @@ def _execute(config: ComparisonConfig, tasks: list[Task]) -> Iterable[tuple]:
                                    processes=False, dashboard_address=None)
             client = Client(cluster)
         try:
-            futures = [client.submit(run_task, data, t, pure=False) for t in tasks]
-            for fut in dask_completed(futures):
-                yield fut.result()
+            futures = {client.submit(run_task, d, t, pure=False): i for i, (d, t) in enumerate(jobs)}
+            for fut in dask_completed(list(futures)):
+                yield futures[fut], fut.result()
         finally:
             client.close()
             if cluster is not None:
                 cluster.close()
         return
     workers = ex.workers or os.cpu_count() or 1
-    if workers == 1 or len(tasks) == 1:
-        for t in tasks:
-            yield run_task(data, t)
+    if workers == 1 or len(jobs) == 1:
+        for i, (d, t) in enumerate(jobs):
+            yield i, run_task(d, t)
         return
-    with ProcessPoolExecutor(max_workers=min(workers, len(tasks))) as pool:
-        futures = {pool.submit(run_task_in_worker, data, t): t for t in tasks}
+    # Compile or load the numba kernels once here: the forked workers inherit them
+    # instead of each loading them from the disk cache (or compiling them).
+    from ..estimation import kernels
+
+    if kernels.get_backend() == "numba":
+        kernels.warm_up()
+    with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
+        futures = {pool.submit(run_task_in_worker, d, t): i for i, (d, t) in enumerate(jobs)}
         for fut in as_completed(futures):
+            i = futures[fut]
             try:
                 result = fut.result()
             except BrokenProcessPool as exc:
                 # A worker died without raising (killed, out of memory, a crash in
                 # compiled code): say which batch and how to see the real failure.
                 raise GnssFrameworkError(
-                    f"{_where(data, futures[fut])}: a worker process died ({exc}); "
+                    f"{_where(jobs[i][0], jobs[i][1])}: a worker process died ({exc}); "
                     "run with executor.workers = 1 to see the failure in this process") from None
-            yield result
+            yield i, result
+
+
+def comparison_points(config: ComparisonConfig) -> list[tuple[str | None, ComparisonConfig]]:
+    """The comparison itself (label ``None``) and every sweep point (label ``"<sweep>=<value>"``)."""
+    points: list[tuple[str | None, ComparisonConfig]] = [(None, config)]
+    for i, sweep in enumerate(config.sweeps):
+        points += [(f"{sweep.label}={value}", point) for value, point in config.sweep_points(i)]
+    return points
 
 
 def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = True,
@@ -161,21 +199,34 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "config.json").write_text(config.model_dump_json(indent=2))
+    atomic_write_text(out / "config.json", config.model_dump_json(indent=2))
     store = ResultStore(out / "results.sqlite")
-    key = config.identity()
-    done = store.finished_batches(key)
-    tasks = [t for t in plan(config)
-             if (config.cases[t.case_index].name, config.candidates[t.candidate_index].name, t.batch) not in done]
+    # Every unfinished batch of the comparison and of its sweep points, the comparison's
+    # first; a point equal to another (same identity) runs once.
+    jobs, where = [], []
+    seen: set[tuple[str, str, str, int]] = set()
+    for label, point in comparison_points(config):
+        key = point.identity()
+        done = store.finished_batches(key)
+        data = point.model_dump(mode="json", exclude={"sweeps"})  # workers need no sweep expansion
+        for t in plan(point):
+            ident = (key, point.cases[t.case_index].name, point.candidates[t.candidate_index].name, t.batch)
+            if ident[1:] in done or ident in seen:
+                continue
+            seen.add(ident)
+            jobs.append((data, t))
+            where.append((label, point, key))
     bar = None
-    if progress and tasks:
+    if progress and jobs:
         from tqdm import tqdm
 
-        bar = tqdm(total=len(tasks), desc=config.name, unit="batch")
-    for task, metrics, series, time_s in _execute(config, tasks):
-        case = config.cases[task.case_index].name
-        cand = config.candidates[task.candidate_index].name
-        _save_series(out, config, task, series, time_s)
+        bar = tqdm(total=len(jobs), desc=config.name, unit="batch")
+    for i, (task, metrics, series, time_s) in _execute(jobs, config.executor):
+        label, point, key = where[i]
+        case = point.cases[task.case_index].name
+        cand = point.candidates[task.candidate_index].name
+        if label is None:  # sweep points keep their metrics only (the store), not the time series
+            _save_series(out, point, task, series, time_s)
         store.add_batch(key, case, cand, task.batch, task.first_run, metrics)
         if on_batch is not None:
             on_batch(task)

@@ -8,8 +8,14 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError
+from .skipped import refuse_or_keep
 
-__all__ = ["NmeaFixes", "read_nmea"]
+__all__ = ["NmeaFixes", "read_nmea", "MAX_SPEED_MPS"]
+
+#: Default speed threshold of the jump check: faster than any airliner, yet a longitude
+#: jump of 0.01 deg in 1 s (about 1 km at mid latitudes) already exceeds it.
+MAX_SPEED_MPS = 1000.0
+_EARTH_RADIUS_M = 6_371_008.8  # mean radius: the jump check needs metres, not millimetres
 
 
 @dataclass
@@ -26,7 +32,8 @@ class NmeaFixes:
         Line number of the sentence each fix came from.
     skipped
         ``(line, reason)`` of every sentence that was corrupted (bad checksum, truncated,
-        unparseable) or not a valid fix.
+        unparseable), not a valid fix, or refused by the plausibility and time-order
+        checks of :func:`read_nmea`; in line order.
     """
 
     time_s: np.ndarray
@@ -41,27 +48,85 @@ def _seconds(t) -> float:
     return t.hour * 3600 + t.minute * 60 + t.second + t.microsecond * 1e-6
 
 
-def read_nmea(path: str | Path) -> NmeaFixes:
-    """Read GGA and RMC fixes from an NMEA log.
+def _clock(t_s: float) -> str:
+    t = t_s % 86400.0
+    return f"{int(t // 3600):02d}:{int(t % 3600 // 60):02d}:{t % 60:06.3f}"
 
-    Corrupted sentences (bad or missing checksum, truncated, unparseable) and sentences
-    that are not a valid fix (GGA quality 0, RMC status V) are skipped and listed with
-    their line numbers in ``skipped``. Other sentence types are ignored silently.
+
+def _coordinate(msg, kind: str) -> tuple[float, float] | str:
+    """``(lat_deg, lon_deg)`` of a GGA/RMC sentence, or the reason it is not a position."""
+    for name, field, limit, width in (("latitude", msg.lat, 90.0, 2), ("longitude", msg.lon, 180.0, 3)):
+        if not field.strip():
+            return f"{kind} with an empty {name}"
+        try:
+            minutes = float(field[width:])
+        except ValueError:
+            return f"{kind} {name} {field!r} is not ddmm.mmmm"
+        if not 0.0 <= minutes < 60.0:
+            return f"{kind} {name} {field!r}: minutes {minutes:g} outside [0, 60)"
+    lat, lon = float(msg.latitude), float(msg.longitude)
+    if not -90.0 <= lat <= 90.0:
+        return f"latitude {lat:.6f} deg outside +-90 deg"
+    if not -180.0 <= lon <= 180.0:
+        return f"longitude {lon:.6f} deg outside +-180 deg"
+    return lat, lon
+
+
+def _distance_m(lat0: float, lon0: float, lat1: float, lon1: float) -> float:
+    """Great-circle distance (haversine on the mean sphere; the jump test is coarse)."""
+    p0, p1, dl = np.radians(lat0), np.radians(lat1), np.radians(lon1 - lon0)
+    h = np.sin((p1 - p0) / 2) ** 2 + np.cos(p0) * np.cos(p1) * np.sin(dl / 2) ** 2
+    return float(2 * _EARTH_RADIUS_M * np.arcsin(min(1.0, np.sqrt(h))))
+
+
+def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bool = False) -> NmeaFixes:
+    """Read GGA and RMC fixes from an NMEA log, with integrity checks.
+
+    A sentence is skipped, and listed with its line number and the reason in ``skipped``,
+    when it is
+
+    - corrupted: bad or missing checksum, truncated, unparseable (pynmea2 decides);
+    - not a valid fix: GGA quality 0, RMC status V;
+    - not a position: an empty latitude or longitude field (even under a valid checksum),
+      minutes outside [0, 60), a latitude outside +-90 deg or a longitude outside +-180 deg;
+    - out of time order: a timestamp already seen for that sentence type (duplicate), or
+      earlier than the last accepted epoch (backwards). A GGA and an RMC with the same
+      timestamp are one epoch (GGA preferred). A step back of more than 12 h is read as
+      the UTC day rolling over midnight, not as going backwards;
+    - an implausible jump: the great-circle distance to the last accepted epoch divided by
+      the time between them exceeds ``max_speed_mps``. The first fix is trusted, so a
+      wrong first fix shows as every later fix skipped.
+
+    Other sentence types are ignored silently.
+
+    Parameters
+    ----------
+    path
+        The log.
+    max_speed_mps
+        Threshold of the jump check (m/s), default :data:`MAX_SPEED_MPS`.
+    strict
+        Refuse the file at the first problem instead of skipping.
 
     Raises
     ------
     DataFileError
-        If the file cannot be read or holds no valid fix.
+        If the file cannot be read or holds no valid fix; with ``strict``, at the first
+        line that would be skipped (naming the line and the reason).
     """
     import pynmea2
 
+    if not max_speed_mps > 0:
+        raise ValueError(f"max_speed_mps must be positive, got {max_speed_mps!r}")
     path = Path(path)
     try:
         text = path.read_text(errors="replace")
     except OSError as exc:
         raise DataFileError(str(path), None, f"cannot read: {exc.strerror}") from None
-    fixes: dict[float, tuple] = {}
+    # epochs: absolute time (s since 00:00 of the first day) -> {kind: (lat, lon, h, line)}
+    epochs: dict[float, dict[str, tuple[float, float, float, int]]] = {}
     skipped: list[tuple[int, str]] = []
+    day, last_t = 0, None
     for no, raw in enumerate(text.splitlines(), 1):
         line = raw.strip()
         if not line:
@@ -82,23 +147,54 @@ def read_nmea(path: str | Path) -> NmeaFixes:
         if kind not in ("GGA", "RMC"):
             continue
         try:
-            if kind == "GGA":
-                if not msg.gps_qual or int(msg.gps_qual) == 0:
-                    skipped.append((no, "GGA without a fix (quality 0)"))
-                    continue
-                t = _seconds(msg.timestamp)
-                fixes[t] = (msg.latitude, msg.longitude, float(msg.altitude), no)
-            else:
-                if msg.status != "A":
-                    skipped.append((no, "RMC status V (no fix)"))
-                    continue
-                t = _seconds(msg.timestamp)
-                fixes.setdefault(t, (msg.latitude, msg.longitude, np.nan, no))
+            if kind == "GGA" and (not msg.gps_qual or int(msg.gps_qual) == 0):
+                skipped.append((no, "GGA without a fix (quality 0)"))
+                continue
+            if kind == "RMC" and msg.status != "A":
+                skipped.append((no, "RMC status V (no fix)"))
+                continue
+            if msg.timestamp is None:
+                skipped.append((no, f"{kind} without a timestamp"))
+                continue
+            pos = _coordinate(msg, kind)
+            if isinstance(pos, str):
+                skipped.append((no, pos))
+                continue
+            height = float(msg.altitude) if kind == "GGA" else np.nan
+            tod = _seconds(msg.timestamp)
         except (TypeError, ValueError, AttributeError) as exc:
             skipped.append((no, f"incomplete {kind}: {exc}"))
-    if not fixes:
+            continue
+        t = day * 86400.0 + tod
+        if last_t is not None and t < last_t - 43200.0:  # midnight rollover
+            day += 1
+            t += 86400.0
+        if t in epochs and kind in epochs[t]:
+            first = epochs[t][kind][3]
+            skipped.append((no, f"duplicate {kind} timestamp {_clock(t)} (first at line {first})"))
+            continue
+        if last_t is not None and t < last_t:
+            skipped.append((no, f"timestamp {_clock(t)} goes backwards (after {_clock(last_t)})"))
+            continue
+        epochs.setdefault(t, {})[kind] = (*pos, height, no)
+        last_t = t
+    # Jump check, epoch by epoch against the last accepted one.
+    rows, prev = [], None
+    for t, sentences in epochs.items():  # insertion order is time order
+        lat, lon, h, no = sentences.get("GGA", sentences.get("RMC"))
+        if prev is not None:
+            dist = _distance_m(prev[1], prev[2], lat, lon)
+            speed = dist / (t - prev[0])
+            if speed > max_speed_mps:
+                for k, s in sentences.items():
+                    skipped.append((s[3], f"{k} position jumps {dist / 1e3:.3f} km in {t - prev[0]:g} s "
+                                           f"({speed:.0f} m/s > max_speed_mps {max_speed_mps:g})"))
+                continue
+        prev = (t, lat, lon)
+        rows.append((t, lat, lon, h, no))
+    skipped.sort()
+    refuse_or_keep(path, skipped, strict)
+    if not rows:
         raise DataFileError(str(path), None, f"no valid GGA or RMC fix ({len(skipped)} sentences skipped)")
-    times = np.array(sorted(fixes))
-    rows = np.array([fixes[t] for t in times], dtype=float)
-    t_rel = np.unwrap(times - times[0], period=86400.0)  # a log may run past midnight
-    return NmeaFixes(t_rel, rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3].astype(int), skipped)
+    arr = np.array(rows, dtype=float)
+    return NmeaFixes(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], arr[:, 3], arr[:, 4].astype(int), skipped)

@@ -13,7 +13,7 @@ from .nmea import NmeaFixes
 
 __all__ = ["CANDIDATES", "filter_positions", "write_positions_csv"]
 
-#: The four filters of reference 004, as plugin compositions around ``position-ca``.
+#: The four filters of Liu et al. (2020), as plugin compositions around ``position-ca``.
 CANDIDATES = {
     "UKF": {},
     "UKF1": {"colored": True},
@@ -56,8 +56,10 @@ def filter_positions(fixes: NmeaFixes, candidate: str = "AUKF1", psi: float = 0.
 
 
 def write_positions_csv(path: str | Path, fixes: NmeaFixes, lat: np.ndarray, lon: np.ndarray) -> None:
-    """CSV with time, line, raw and filtered latitude/longitude."""
-    with open(path, "w", newline="") as fh:
+    """CSV with time, line, raw and filtered latitude/longitude (written atomically)."""
+    from ..experiments.files import atomic_open
+
+    with atomic_open(path, "w", newline="") as fh:  # a killed run leaves no half CSV
         w = csv.writer(fh)
         w.writerow(["time_s", "nmea_line", "lat_deg", "lon_deg", "filtered_lat_deg", "filtered_lon_deg"])
         for row in zip(fixes.time_s, fixes.line, fixes.lat_deg, fixes.lon_deg, lat, lon):

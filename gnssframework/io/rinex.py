@@ -9,7 +9,7 @@ from __future__ import annotations
 import datetime as dt
 import re
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +17,8 @@ import numpy as np
 from ..errors import DataFileError
 from ..signal.constants import L1_WAVELENGTH_M
 
-__all__ = ["CodeCarrier", "read_code_carrier", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs"]
+__all__ = ["CodeCarrier", "RinexScan", "read_code_carrier", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs",
+           "PSEUDORANGE_MIN_M", "PSEUDORANGE_MAX_M"]
 
 
 @dataclass
@@ -28,6 +29,8 @@ class CodeCarrier:
     epoch: np.ndarray  # numpy datetime64
     pseudorange_m: np.ndarray
     carrier_m: np.ndarray  # carrier phase times the L1 wavelength
+    skipped: list[tuple[int, str]] = field(default_factory=list)  # (line, reason), see check_rinex3_obs
+    truncated: str | None = None  # why the file looks cut, or None
 
 
 def write_rinex3_obs(path: str | Path, start: dt.datetime, interval_s: float,
@@ -72,12 +75,75 @@ def write_rinex3_obs(path: str | Path, start: dt.datetime, interval_s: float,
 _EPOCH = re.compile(r"^> \d{4} [ \d]\d [ \d]\d [ \d]\d [ \d]\d [ \d]\d\.\d{7}  \d[ \d]{2}\d")
 _OBS = re.compile(r"^[GRECJIS][ \d]\d")
 
+#: Plausibility bounds of a GPS pseudorange (m), for a receiver on or near the Earth:
+#: geometric ranges to GPS satellites lie between about 20,000 and 26,000 km, and a receiver
+#: clock offset of up to 1 ms adds +-300 km. Receivers that let their clock run further, or
+#: in orbit, need other bounds (``read_code_carrier``'s parameters).
+PSEUDORANGE_MIN_M = 1.0e7
+PSEUDORANGE_MAX_M = 5.0e7
 
-def check_rinex3_obs(path: str | Path) -> None:
-    """Find the first malformed line of a RINEX 3 observation file.
 
-    georinex reports parse failures without a line number; this pass does, for the
-    header (labels, END OF HEADER), epoch lines and observation lines.
+@dataclass
+class RinexScan:
+    """What :func:`check_rinex3_obs` found in a RINEX 3 observation file.
+
+    Attributes
+    ----------
+    lines
+        The file's lines, with skipped epochs removed and skipped observations blanked:
+        what georinex is given.
+    line_numbers
+        Original line number of each entry of ``lines``.
+    epoch_starts
+        Index into ``lines`` of each kept epoch's header line.
+    header_end
+        Index into ``lines`` of END OF HEADER.
+    skipped
+        ``(line, reason)`` of every epoch or observation skipped, in line order.
+    truncated
+        Why the file looks cut (an epoch with fewer observation lines than it declares,
+        or a last line without its newline), or ``None``.
+    """
+
+    lines: list[str]
+    line_numbers: list[int]
+    epoch_starts: list[int]
+    header_end: int
+    skipped: list[tuple[int, str]] = field(default_factory=list)
+    truncated: str | None = None
+
+    @property
+    def changed(self) -> bool:
+        return bool(self.skipped)
+
+
+def _epoch_time(line: str) -> tuple[dt.datetime, float]:
+    """``(minute, seconds)`` of an epoch line; columns of RINEX 3.04 table A13."""
+    minute = dt.datetime(int(line[2:6]), int(line[7:9]), int(line[10:12]), int(line[13:15]), int(line[16:18]))
+    return minute, float(line[18:29])
+
+
+def _fmt_time(t: tuple[dt.datetime, float]) -> str:
+    return f"{t[0]:%Y-%m-%d %H:%M}:{t[1]:010.7f}"
+
+
+def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MIN_M,
+                     pseudorange_max_m: float = PSEUDORANGE_MAX_M) -> RinexScan:
+    """Check a RINEX 3 observation file line by line, before georinex reads it.
+
+    georinex reports parse failures without a line number and accepts epochs out of order;
+    this pass names the line of every problem:
+
+    - malformed header, epoch or observation lines are refused (:class:`DataFileError`);
+    - a file cut inside an epoch (fewer observation lines than the epoch declares, or a
+      last line without its newline) is marked ``truncated`` and the cut epoch skipped;
+    - an epoch with the time of an earlier one (duplicate) or before the last kept epoch
+      (backwards) is skipped with its observations;
+    - a GPS pseudorange (``C`` observation types) outside
+      [``pseudorange_min_m``, ``pseudorange_max_m``] is blanked (read as missing) and
+      counted as skipped. An epoch declaring fewer observation lines than it has is refused.
+
+    Epochs with event flags 2-5 (header records inside the data) are passed over.
 
     Raises
     ------
@@ -85,7 +151,8 @@ def check_rinex3_obs(path: str | Path) -> None:
         Naming the file and the line.
     """
     path = Path(path)
-    lines = path.read_text(errors="replace").splitlines()
+    text = path.read_text(errors="replace")
+    lines = text.splitlines()
     if not lines or "RINEX VERSION / TYPE" not in lines[0]:
         raise DataFileError(str(path), 1, "not a RINEX file: first line lacks 'RINEX VERSION / TYPE'")
     if not lines[0][:9].strip().startswith("3"):
@@ -94,59 +161,203 @@ def check_rinex3_obs(path: str | Path) -> None:
         end = next(i for i, line in enumerate(lines) if "END OF HEADER" in line)
     except StopIteration:
         raise DataFileError(str(path), len(lines), "no END OF HEADER line") from None
-    n_obs = None
+    types: list[str] = []
+    system = ""
     for i, line in enumerate(lines[1:end], 2):
-        if "SYS / # / OBS TYPES" in line and line.startswith("G"):
+        if "SYS / # / OBS TYPES" not in line:
+            continue
+        system = line[0] if line[0] != " " else system  # continuation lines start blank
+        if system != "G":
+            continue
+        if line[0] == "G":
             try:
-                n_obs = int(line[3:6])
+                int(line[3:6])
             except ValueError:
                 raise DataFileError(str(path), i, "bad number of observation types") from None
-    expected = 0
-    for i in range(end + 1, len(lines)):
+        types += line[7:60].split()
+    code_fields = [j for j, t in enumerate(types) if t.startswith("C")]
+
+    # Group the data part into epochs: (header index, declared count, observation indices).
+    epochs: list[tuple[int, int, list[int]]] = []
+    i = end + 1
+    cut: str | None = None
+    if lines[-1:] and not text.endswith(("\n", "\r")) and len(lines) - 1 > end:
+        cut = f"the last line ({len(lines)}) has no newline: the file was cut inside it"
+    while i < len(lines):
         line, no = lines[i], i + 1
         if not line.strip():
+            i += 1
             continue
-        if line.startswith(">"):
-            if not _EPOCH.match(line):
-                raise DataFileError(str(path), no, f"malformed epoch line {line!r}")
-            expected = int(line[32:35])
-            continue
-        if expected <= 0:
+        if not line.startswith(">"):
             raise DataFileError(str(path), no, "observation line outside an epoch (or more than its count)")
-        if not _OBS.match(line):
-            raise DataFileError(str(path), no, f"bad satellite id {line[:3]!r}")
-        if line.startswith("G") and n_obs:
-            for j in range(n_obs):
-                field = line[3 + 16 * j: 3 + 16 * j + 14]
-                if field.strip():
-                    try:
-                        float(field)
-                    except ValueError:
-                        raise DataFileError(str(path), no, f"observation {j + 1} is not a number: {field!r}") \
-                            from None
-        expected -= 1
+        if not _EPOCH.match(line):
+            if cut and i == len(lines) - 1:
+                epochs.append((i, -1, []))  # the cut epoch line itself: dropped as truncated below
+                break
+            raise DataFileError(str(path), no, f"malformed epoch line {line!r}")
+        flag, count = int(line[31]), int(line[32:35])
+        body = list(range(i + 1, min(i + 1 + count, len(lines))))
+        if flag > 1:  # event records: header lines, no observations
+            i += 1 + count
+            continue
+        # The epoch ends early if the next epoch line comes before its count is reached.
+        for k, j in enumerate(body):
+            if lines[j].startswith(">"):
+                if j < len(lines) - 1 or not cut:
+                    raise DataFileError(str(path), no, f"epoch declares {count} satellites but has only {k} "
+                                                       f"observation lines (next epoch at line {j + 1})")
+                body = body[:k]
+                break
+        epochs.append((i, count, body))
+        i += 1 + len(body)
+
+    skipped: list[tuple[int, str]] = []
+    drop: set[int] = set()
+    blank: dict[int, list[int]] = {}
+    truncated = None
+    kept_times: dict[tuple, int] = {}
+    last = None
+    for n_epoch, (h, count, body) in enumerate(epochs):
+        is_last = n_epoch == len(epochs) - 1
+        if is_last and (len(body) < count or cut):
+            truncated = cut or (f"the file ends inside the epoch at line {h + 1}: it declares {count} satellites, "
+                                f"the file holds {len(body)}")
+            skipped.append((h + 1, f"truncated epoch dropped: {truncated}"))
+            drop.update([h, *body])
+            break
+        for j in body:
+            line = lines[j]
+            if not _OBS.match(line):
+                raise DataFileError(str(path), j + 1, f"bad satellite id {line[:3]!r}")
+            if not line.startswith("G"):
+                continue
+            for f in range(len(types)):
+                value = line[3 + 16 * f: 3 + 16 * f + 14]
+                if not value.strip():
+                    continue
+                try:
+                    x = float(value)
+                except ValueError:
+                    raise DataFileError(str(path), j + 1, f"observation {f + 1} is not a number: {value!r}") from None
+                if f in code_fields and not pseudorange_min_m <= x <= pseudorange_max_m:
+                    blank.setdefault(j, []).append(f)
+                    skipped.append((j + 1, f"{line[:3]} {types[f]} = {x:.6g} m outside [{pseudorange_min_m:g}, "
+                                           f"{pseudorange_max_m:g}] m (pseudorange_min_m/pseudorange_max_m): "
+                                           "observation skipped"))
+        t = _epoch_time(lines[h])
+        if t in kept_times:
+            skipped.append((h + 1, f"duplicate epoch {_fmt_time(t)} (first at line {kept_times[t]}): "
+                                   f"epoch skipped"))
+        elif last is not None and t < last:
+            skipped.append((h + 1, f"epoch {_fmt_time(t)} goes backwards (after {_fmt_time(last)}): epoch skipped"))
+        else:
+            kept_times[t] = h + 1
+            last = t
+            continue
+        drop.update([h, *body])
+        for j in body:  # observations of a skipped epoch are not counted again
+            if j in blank:
+                del blank[j]
+                skipped[:] = [s for s in skipped if s[0] != j + 1]
+    out_lines, numbers, starts = [], [], []
+    epoch_heads = {h for h, _, _ in epochs}
+    for idx, line in enumerate(lines):
+        if idx in drop:
+            continue
+        if idx in blank:
+            chars = list(line.ljust(3 + 16 * len(types)))
+            for f in blank[idx]:
+                chars[3 + 16 * f: 3 + 16 * f + 16] = " " * 16
+            line = "".join(chars).rstrip()
+        if idx in epoch_heads:
+            starts.append(len(out_lines))
+        out_lines.append(line)
+        numbers.append(idx + 1)
+    skipped.sort()
+    return RinexScan(out_lines, numbers, starts, end, skipped, truncated)
 
 
-def read_code_carrier(path: str | Path, prn: str) -> CodeCarrier:
+def _georinex_load(path: Path):
+    import georinex
+
+    with warnings.catch_warnings():  # georinex's xarray calls emit FutureWarnings
+        warnings.simplefilter("ignore", FutureWarning)
+        return georinex.load(path, use="G", meas=["C1C", "L1C"])
+
+
+def _locate_georinex_failure(scan: RinexScan, tmp: Path) -> int | None:
+    """Original line of the first epoch georinex fails on, or ``None`` if no single epoch
+    makes it fail. Chunks of epochs are loaded one by one (about the cost of one full
+    load), then the failing chunk is bisected."""
+    head = scan.lines[:scan.header_end + 1]
+    starts = scan.epoch_starts + [len(scan.lines)]
+
+    def fails(a: int, b: int) -> bool:  # epochs a .. b-1 with the header
+        tmp.write_text("\n".join(head + scan.lines[starts[a]:starts[b]]) + "\n")
+        try:
+            _georinex_load(tmp)
+        except Exception:  # noqa: BLE001 - any failure counts
+            return True
+        return False
+
+    n, size = len(scan.epoch_starts), 64
+    for a in range(0, n, size):
+        b = min(a + size, n)
+        if fails(a, b):
+            lo, hi = a + 1, b  # the shortest failing prefix a .. hi-1 ends with the culprit
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if fails(a, mid):
+                    hi = mid
+                else:
+                    lo = mid + 1
+            return scan.line_numbers[starts[lo - 1]]
+    return None
+
+
+def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSEUDORANGE_MIN_M,
+                      pseudorange_max_m: float = PSEUDORANGE_MAX_M, strict: bool = False) -> CodeCarrier:
     """L1 C/A pseudorange and carrier (metres) of satellite ``prn`` (``"G08"``), via georinex.
+
+    The file is first checked by :func:`check_rinex3_obs`: duplicated, backwards and
+    truncated epochs and implausible pseudoranges are skipped and listed in the result's
+    ``skipped`` (``truncated`` says why the file looks cut); georinex reads the rest.
+
+    Parameters
+    ----------
+    pseudorange_min_m, pseudorange_max_m
+        Plausibility bounds of a GPS pseudorange (defaults :data:`PSEUDORANGE_MIN_M`,
+        :data:`PSEUDORANGE_MAX_M`).
+    strict
+        Refuse the file at the first skipped line (or truncation) instead.
 
     Raises
     ------
     DataFileError
-        For a malformed file (naming the line), or when ``prn`` has no C1C/L1C data.
+        For a malformed file (naming the line), an error inside georinex (naming the first
+        epoch line it fails on), or when ``prn`` has no C1C/L1C data.
     """
-    import georinex
+    import tempfile
+
+    from .skipped import refuse_or_keep
 
     path = Path(path)
     if not path.exists():
         raise DataFileError(str(path), None, "no such file")
-    check_rinex3_obs(path)
-    try:
-        with warnings.catch_warnings():  # georinex's xarray calls emit FutureWarnings
-            warnings.simplefilter("ignore", FutureWarning)
-            obs = georinex.load(path, use="G", meas=["C1C", "L1C"])
-    except Exception as exc:  # noqa: BLE001 - georinex raises many types; report them as file errors
-        raise DataFileError(str(path), None, f"georinex could not read it: {type(exc).__name__}: {exc}") from None
+    scan = check_rinex3_obs(path, pseudorange_min_m, pseudorange_max_m)
+    refuse_or_keep(path, scan.skipped, strict)
+    with tempfile.TemporaryDirectory(prefix="gnssframework-rinex-") as tmpdir:
+        source = path
+        if scan.changed:  # georinex reads a copy without the skipped epochs and observations
+            source = Path(tmpdir) / path.name
+            source.write_text("\n".join(scan.lines) + "\n")
+        try:
+            obs = _georinex_load(source)
+        except Exception as exc:  # noqa: BLE001 - georinex raises many types; report them as file errors
+            line = _locate_georinex_failure(scan, Path(tmpdir) / ("probe-" + path.name))
+            where = "in the epoch starting at this line" if line else "(no single epoch reproduces it)"
+            raise DataFileError(str(path), line, f"georinex could not read it {where}: "
+                                                 f"{type(exc).__name__}: {exc}") from None
     if prn not in obs.sv.values:
         raise DataFileError(str(path), None, f"no observations of {prn}; satellites: {', '.join(obs.sv.values)}")
     sat = obs.sel(sv=prn)
@@ -157,7 +368,7 @@ def read_code_carrier(path: str | Path, prn: str) -> CodeCarrier:
         raise DataFileError(str(path), None, f"{prn} has no epoch with both C1C and L1C")
     times = sat.time.values[ok]
     t = (times - times[0]) / np.timedelta64(1, "s")
-    return CodeCarrier(t.astype(float), times, code[ok], phase[ok] * L1_WAVELENGTH_M)
+    return CodeCarrier(t.astype(float), times, code[ok], phase[ok] * L1_WAVELENGTH_M, scan.skipped, scan.truncated)
 
 
 def _d19(x: float) -> str:

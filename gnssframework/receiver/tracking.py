@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
-from ..interfaces import ChannelFilter
+from ..interfaces import ChannelFilter, RunContext
 from ..signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 from ..signal.correlator_model import amplitude_from_cn0, simulate_correlators
 
@@ -155,7 +155,8 @@ def run_closed_loop(
     code_nco = (truth.code_phase_chips[0] if initial_code_phase_chips is None
                 else np.broadcast_to(np.asarray(initial_code_phase_chips, float), batch)).copy()
     carrier_nco = np.zeros(batch)
-    channel.reset(batch, doppler_hz=f_nco, coherent_time_s=T)
+    channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
+                                    epoch_interval_s=T, cn0_dbhz=truth.cn0_dbhz, doppler_hz=f_nco))
     amp0 = amplitude_from_cn0(truth.cn0_dbhz, T)
     scale = np.asarray(truth.amplitude_scale)
     rec: dict[str, list] = {k: [] for k in ("code", "phase", "freq", "fnco", *record)}

@@ -11,7 +11,7 @@ coherent interval k, from $t_k$ to $t_{k+1} = t_k + T$:
    their variances (``code_error_chips``, ``code_error_var_chips2``,
    ``freq_error_hz``, ``freq_error_var_hz2``);
 4. the navigation filter takes them as pseudorange and pseudorange-rate errors of
-   the replica at mid-interval (reference 000, eqs. 35-36),
+   the replica at mid-interval (Zou et al. 2018, eqs. 35-36),
    $\\delta\\rho = \\lambda_{chip}\\, \\delta\\tau$ and $\\delta\\dot\\rho = -\\lambda_{L1}\\, \\delta f$,
    and returns the NCO command of the next interval (``nco_range_m``,
    ``nco_range_rate_m_s``);
@@ -30,7 +30,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigError
-from ..interfaces import ChannelFilter, NavFilter
+from ..interfaces import ChannelFilter, NavFilter, RunContext
 from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ..signal.correlator_model import simulate_correlators
 from ..signal.navdata import BIT_PERIOD_S, random_nav_bits
@@ -98,6 +98,14 @@ class VectorRecord:
     nees: np.ndarray  # (K, runs) normalised estimation error squared of the 8 nav states
     time_s: np.ndarray  # (K,) mid-interval times
     extra: dict[str, np.ndarray] = field(default_factory=dict)
+    #: (K, runs) NEES of the position (3 states) and the velocity (3 states), each on
+    #: its marginal covariance.
+    nees_position: np.ndarray | None = None
+    nees_velocity: np.ndarray | None = None
+    #: (K, runs, ch) error of what the channel filter handed the nav filter: its output
+    #: code (chips) and frequency (Hz) errors minus the true replica errors.
+    code_output_error_chips: np.ndarray | None = None
+    freq_output_error_hz: np.ndarray | None = None
 
 
 #: Inputs the vector loop itself gives the nav filter (besides the channel outputs).
@@ -163,7 +171,11 @@ def run_vector_loop(
     K = truth.epochs
     t_edges = np.arange(K + 1) * T
     runs = truth.clock_m.shape[1]
-    s0, _ = truth.sat_state(np.asarray(0.0))
+    # Satellite states at every epoch edge and mid-interval, in two vectorised calls
+    # instead of two orbit evaluations per epoch.
+    sat_edges = truth.sat_state(t_edges)
+    sat_mids = truth.sat_state(t_edges[:-1] + T / 2)
+    s0 = sat_edges[0][0]
     n_ch = s0.shape[0]
     batch = (runs, n_ch)
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
@@ -171,8 +183,10 @@ def run_vector_loop(
     theta0 = rng.uniform(-np.pi, np.pi, batch)  # unknown initial carrier phase per channel
     bits = random_nav_bits(int(np.ceil(K * T / BIT_PERIOD_S)) + 1, rng, batch) if data_bits != "none" else None
 
-    channel.reset(batch, cn0_dbhz=cn0, coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips)
-    nav.reset((runs,), initial_state=initial_state, initial_cov=initial_cov, coherent_time_s=T)
+    context = RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips, epoch_interval_s=T,
+                         cn0_dbhz=cn0, initial_state=initial_state, initial_cov=initial_cov)
+    channel.reset(batch, context)
+    nav.reset((runs,), context)
 
     # First NCO command from the initial estimate, propagated back to t_0.
     s_mid, sv_mid = truth.sat_state(np.asarray(T / 2))
@@ -184,10 +198,11 @@ def run_vector_loop(
     shift_hz = np.zeros(batch)
 
     true_rho = truth.pseudorange(np.asarray(0.0), 0)
-    rec: dict[str, list] = {k: [] for k in ("code", "freq", "pos", "vel", "nees")}
+    rec: dict[str, list] = {k: [] for k in ("code", "freq", "pos", "vel", "nees", "nees_pos", "nees_vel", "code_out",
+                                            "freq_out")}
     for k in range(K):
         t1, tm = t_edges[k + 1], t_edges[k] + T / 2
-        s_next, sv_next = truth.sat_state(np.asarray(t1))
+        s_next, sv_next = sat_edges[0][k + 1], sat_edges[1][k + 1]
         next_rho = truth.pseudorange(np.asarray(t1), k + 1, sat_pos=s_next)
         rep_end = nco_range + nco_rate * T
         code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
@@ -204,7 +219,7 @@ def run_vector_loop(
             inputs["data_bit"] = bit
         ch_out = channel.checked_step(inputs)
 
-        s_mid, sv_mid = truth.sat_state(np.asarray(tm))
+        s_mid, sv_mid = sat_mids[0][k], sat_mids[1][k]
         nav_out = nav.checked_step({**ch_out, "sat_pos_m": s_mid, "sat_vel_m_s": sv_mid, "next_sat_pos_m": s_next,
                             "next_sat_vel_m_s": sv_next, "replica_range_m": nco_range + nco_rate * T / 2,
                             "replica_rate_m_s": np.broadcast_to(nco_rate, batch)})
@@ -216,7 +231,12 @@ def run_vector_loop(
         rec["freq"].append(freq_err)
         rec["pos"].append(err[:, :3])
         rec["vel"].append(err[:, 3:6])
-        rec["nees"].append(np.einsum("ri,rij,rj->r", err, np.linalg.inv(nav_out["cov"]), err))
+        cov = nav_out["cov"]
+        rec["nees"].append(np.einsum("ri,rij,rj->r", err, np.linalg.inv(cov), err))
+        rec["nees_pos"].append(_nees(err[:, 0:3], cov[..., 0:3, 0:3]))
+        rec["nees_vel"].append(_nees(err[:, 3:6], cov[..., 3:6, 3:6]))
+        rec["code_out"].append(ch_out["code_error_chips"] - code_err)
+        rec["freq_out"].append(ch_out["freq_error_hz"] - freq_err)
 
         new_range, new_rate = nav_out["nco_range_m"], nav_out["nco_range_rate_m_s"]
         shift_chips = (new_range - rep_end) / CA_CHIP_LENGTH_M
@@ -226,7 +246,13 @@ def run_vector_loop(
         true_rho = next_rho
     stack = {k: np.stack(v) for k, v in rec.items()}
     return VectorRecord(stack["code"], stack["freq"], stack["pos"], stack["vel"], stack["nees"],
-                        t_edges[:-1] + T / 2)
+                        t_edges[:-1] + T / 2, nees_position=stack["nees_pos"], nees_velocity=stack["nees_vel"],
+                        code_output_error_chips=stack["code_out"], freq_output_error_hz=stack["freq_out"])
+
+
+def _nees(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """$e^T P^{-1} e$ batched over the leading axes (``err (..., n)``, ``cov (..., n, n)``)."""
+    return np.einsum("...i,...i->...", err, np.linalg.solve(cov, err[..., None])[..., 0])
 
 
 def predicted_range(x: np.ndarray, sat_pos: np.ndarray, sat_vel: np.ndarray

@@ -1,4 +1,4 @@
-"""The correlator-domain channel model of reference 000 (vector tracking with an ACKF).
+"""The correlator-domain channel model of Zou et al. (2018), vector tracking with an ACKF.
 
 State of one channel, ``x = [A, dtau, dtheta, df, dfdot]``: correlator amplitude,
 code phase error (chips), carrier phase error (rad), carrier frequency error (Hz) and
@@ -13,7 +13,7 @@ import numpy as np
 from .constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 from .correlator_model import correlator_mean
 
-__all__ = ["channel_iq", "channel_transition", "CODE_TO_CARRIER"]
+__all__ = ["channel_iq", "channel_transition", "channel_model", "CODE_TO_CARRIER"]
 
 #: Code chipping rate over carrier frequency, f_code / f_carrier = 1 / 1540 for GPS L1 C/A.
 CODE_TO_CARRIER = CA_CHIP_RATE_HZ / L1_FREQ_HZ
@@ -22,7 +22,7 @@ CODE_TO_CARRIER = CA_CHIP_RATE_HZ / L1_FREQ_HZ
 def channel_iq(
     x: np.ndarray, spacing_chips: float, coherent_time_s: float, data_bit: np.ndarray | float = 1.0
 ) -> np.ndarray:
-    r"""The six correlator outputs of reference 000, eqs. 2-7, vectorised.
+    r"""The six correlator outputs of Zou et al. (2018), eqs. 2-7, vectorised.
 
     $$
     I_E = A\, R(\delta\tau + d)\, D\, \mathrm{sinc}(\delta f T) \cos(\pi \delta f T + \delta\theta)
@@ -56,7 +56,7 @@ def channel_iq(
 
 
 def channel_transition(coherent_time_s: float, code_to_carrier: float = CODE_TO_CARRIER) -> np.ndarray:
-    r"""Transition matrix of the channel state over one coherent interval (reference 000, eq. 9).
+    r"""Transition matrix of the channel state over one coherent interval (Zou et al. 2018, eq. 9).
 
     $$
     \delta\tau' = \delta\tau - \tfrac{f_{code}}{f_{carrier}} T \delta f, \quad
@@ -74,3 +74,21 @@ def channel_transition(coherent_time_s: float, code_to_carrier: float = CODE_TO_
     F[2, 4] = np.pi * T**2
     F[3, 4] = T
     return F
+
+
+def channel_model(
+    coherent_time_s: float, spacing_chips: float, Q: np.ndarray, R: np.ndarray, code_to_carrier: float = CODE_TO_CARRIER
+):
+    """The channel filter's model (eq. 9 transition, eqs. 2-7 correlators) with compiled twins.
+
+    ``f`` and ``h`` are the NumPy functions above; the model also carries their compiled
+    versions (``CompiledFunctions``) so a sigma-point filter runs each predict and update
+    in one compiled pass. Data bit 1 (after wipe-off), ideal triangle autocorrelation.
+    """
+    from ..estimation.kernels import F_LINEAR, H_CHANNEL_IQ
+    from ..estimation.types import CompiledFunctions, NonlinearModel
+
+    F = channel_transition(coherent_time_s, code_to_carrier)
+    d, T = float(spacing_chips), float(coherent_time_s)
+    compiled = CompiledFunctions(F_LINEAR, F, H_CHANNEL_IQ, np.array([[d, T, 1.0]]))
+    return NonlinearModel(lambda x: x @ F.T, lambda x: channel_iq(x, d, T), Q, R, compiled=compiled)

@@ -23,7 +23,7 @@ Conventions
   ``o`` sees ``R(code_error - o)``.
 - ``carrier_phase_rad`` is the phase error at the start of the interval. With a
   frequency error ``df`` the output is rotated by its mean over the interval,
-  ``pi df T + phase``, and scaled by ``sinc(df T)`` (reference 000, eqs. 2-7).
+  ``pi df T + phase``, and scaled by ``sinc(df T)`` (Zou et al. 2018, eqs. 2-7).
 """
 
 from __future__ import annotations

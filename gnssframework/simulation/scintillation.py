@@ -116,7 +116,7 @@ def aj_stanford(
     intensity_phase_corr: float = -0.6,
     batch_shape: tuple[int, ...] = (),
 ) -> np.ndarray:
-    """AJ-Stanford scintillation model, as used by reference 003 (Kalman carrier tracking).
+    """AJ-Stanford scintillation model, as used by Xia et al. (Kalman carrier tracking, undated).
 
     $z = \\sqrt{I}\\, e^{j\\phi}$ with:
 

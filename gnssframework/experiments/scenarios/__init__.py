@@ -45,6 +45,9 @@ class Scenario(abc.ABC):
     components: ClassVar[dict[str, bool]]
     #: metric name -> unit.
     metrics: ClassVar[dict[str, str]]
+    #: further per-epoch series of ``BatchResult.series`` (name -> unit) that metric
+    #: components (``gnssframework.experiments.metrics``) may read, beside the metrics' own.
+    outputs: ClassVar[dict[str, str]] = {}
 
     def __init__(self, params: ScenarioParams) -> None:
         self.params = params

@@ -1,9 +1,12 @@
-"""Scenario ``multipath``: position-domain filtering with AR(1) colored noise (reference 004).
+"""Scenario ``multipath``: position-domain filtering with AR(1) colored noise (Liu et al. 2020).
 
 A static receiver's latitude and longitude (local metres) are measured every epoch with
 AR(1) colored multipath noise plus white noise. Candidates compose a ``nav_filter``
 (``position-ca``), an ``estimator``, and optionally a ``colored-ar1`` augmentation and a
-``noise_adapter``.
+``noise_adapter``; a candidate with none of these reports the measurement itself (``raw``).
+A ``colored-ar1`` without ``psi`` gets the case's true psi. A candidate whose
+``noise_adapter`` is ``oracle-grid`` is scored with the best fixed Q and R of its grid,
+chosen against the truth on independent training runs (an oracle bound).
 """
 
 from __future__ import annotations
@@ -11,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
+from ... import registry
 from ...errors import ConfigError
 from ...simulation.impairments import ar1_noise
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
@@ -29,6 +33,7 @@ class MultipathParams(ScenarioParams):
 
 class MultipathCase(ScenarioParams):
     name: str | None = None
+    psi: float | None = Field(None, gt=-1, lt=1, description="AR(1) coefficient of this case (default: the scenario's)")
 
 
 def convergence_epoch(err: np.ndarray, window: int) -> np.ndarray:
@@ -39,7 +44,7 @@ def convergence_epoch(err: np.ndarray, window: int) -> np.ndarray:
     cs = np.cumsum(err**2, axis=0)
     lagged = np.concatenate([np.zeros((min(window, K),) + err.shape[1:]), cs[: max(K - window, 0)]], axis=0)
     running = np.sqrt((cs - lagged) / window)
-    bound = 2 * np.sqrt(np.mean(err[K // 2:] ** 2, axis=0))
+    bound = 2.0 * np.sqrt(np.mean(err[K // 2:] ** 2, axis=0))
     above = running > bound
     last = np.where(above.any(axis=0), K - 1 - np.argmax(above[::-1], axis=0), -1)
     return (last + 1).astype(float)
@@ -47,42 +52,91 @@ def convergence_epoch(err: np.ndarray, window: int) -> np.ndarray:
 
 @register_scenario
 class MultipathScenario(Scenario):
-    """Position filtering with AR(1) colored multipath noise (reference 004)."""
+    """Position filtering with AR(1) colored multipath noise (Liu et al. 2020)."""
 
     kind = "multipath"
     Params = MultipathParams
     CaseParams = MultipathCase
-    components = {"nav_filter": True, "estimator": True, "augmentation": False, "noise_adapter": False}
+    components = {"nav_filter": False, "estimator": False, "augmentation": False, "noise_adapter": False}
     metrics = {"lat_error_mean": "m", "lat_error_rmse": "m", "lon_error_mean": "m", "lon_error_rmse": "m",
-               "convergence_epoch": "epochs"}
+               "horizontal_error_rmse": "m", "convergence_epoch": "epochs"}
 
     def check_composition(self, plugins, where: str) -> None:
+        if plugins and ("nav_filter" not in plugins or "estimator" not in plugins):
+            missing = "nav_filter" if "nav_filter" not in plugins else "estimator"
+            raise ConfigError(f"{where}.{missing}", "a filtering candidate composes a nav_filter and an estimator "
+                              "(a candidate with no plugins reports the raw measurement)")
+        if not plugins:
+            return
         if not hasattr(plugins["nav_filter"], "filter"):
             raise ConfigError(f"{where}.nav_filter.name", f"{plugins['nav_filter'].name!r} cannot filter a position "
                               "sequence; use 'position-ca'")
 
-    def simulate(self, runs: int, rng: np.random.Generator) -> np.ndarray:
+    def simulate(self, runs: int, rng: np.random.Generator, psi: float | None = None) -> np.ndarray:
         """Measured (lat, lon) errors in metres, ``(K, runs, 2)``; the truth is 0."""
         p = self.params
-        xi_std = p.multipath_std_m * np.sqrt(1 - p.psi**2)
-        colored = ar1_noise(p.psi, xi_std, p.epochs, rng, batch_shape=(runs, 2))
+        psi = p.psi if psi is None else psi
+        xi_std = p.multipath_std_m * np.sqrt(1 - psi**2)
+        colored = ar1_noise(psi, xi_std, p.epochs, rng, batch_shape=(runs, 2))
         return colored + p.white_std_m * rng.standard_normal((p.epochs, runs, 2))
+
+    @staticmethod
+    def _with_true_psi(plugins: dict, psi: float) -> dict:
+        """A ``colored-ar1`` without psi gets the simulated one (the paper assumes psi known)."""
+        aug = plugins.get("augmentation")
+        if aug is None or getattr(aug.params, "psi", 0.0) is not None:
+            return plugins
+        return {**plugins, "augmentation": registry.create("augmentation", aug.name,
+                                                           **{**dict(aug.params), "psi": psi})}
+
+    def _filter(self, plugins: dict, zs: np.ndarray, q_scale: float = 1.0, r_scale: float = 1.0):
+        """Errors ``(K', runs, 2)`` of the candidate's filter (Q and R scaled for the oracle) and epochs."""
+        if "nav_filter" not in plugins:  # raw: the measurement itself
+            return zs, np.arange(zs.shape[0])
+        nav, adapter = plugins["nav_filter"], plugins.get("noise_adapter")
+        if q_scale != 1.0 or r_scale != 1.0:
+            params = dict(nav.params)  # shallow: nested plugin references stay resolved
+            nav = registry.create("nav_filter", nav.name, **{**params, "q0": [q * q_scale for q in params["q0"]],
+                                                            "r0": params["r0"] * r_scale})
+        res = nav.filter(zs, plugins["estimator"], adapter=adapter, augmentation=plugins.get("augmentation"))
+        return res.mean[..., 0], res.epochs  # the truth is the origin
+
+    def _oracle(self, plugins: dict, runs: int, psi: float, rng: np.random.Generator) -> tuple[float, float]:
+        """The (Q, R) scales of the grid with the lowest RMS error on independent training runs."""
+        grid = plugins["noise_adapter"].params
+        train = self.simulate(grid.training_runs or runs, rng, psi)
+        plain = {k: v for k, v in plugins.items() if k != "noise_adapter"}
+        score = {(sq, sr): float(np.mean(self._filter(plain, train, sq, sr)[0] ** 2))
+                 for sq in grid.q_scales for sr in grid.r_scales}
+        return min(score, key=score.get)
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         p = self.params
-        zs = self.simulate(runs, rng)
-        res = plugins["nav_filter"].filter(zs, plugins["estimator"], adapter=plugins.get("noise_adapter"),
-                                           augmentation=plugins.get("augmentation"))
-        err = res.mean[..., 0]  # (K', runs, 2): the truth is the origin
+        psi = p.psi if case.get("psi") is None else case["psi"]
+        zs = self.simulate(runs, rng, psi)  # first: every candidate sees the same measurements
+        plugins = self._with_true_psi(plugins, psi)
+        oracle = getattr(plugins.get("noise_adapter"), "name", None) == "oracle-grid"
+        scales = self._oracle(plugins, runs, psi, rng) if oracle else (1.0, 1.0)
+        if oracle:
+            plugins = {k: v for k, v in plugins.items() if k != "noise_adapter"}
+        err, epochs = self._filter(plugins, zs, *scales)
         lat, lon = err[..., 0], err[..., 1]
+        horizontal = np.hypot(lat, lon)
+        conv = convergence_epoch(horizontal, p.convergence_window)
         metrics = {
             "lat_error_mean": np.mean(np.abs(lat), axis=0),
             "lat_error_rmse": np.sqrt(np.mean(lat**2, axis=0)),
             "lon_error_mean": np.mean(np.abs(lon), axis=0),
             "lon_error_rmse": np.sqrt(np.mean(lon**2, axis=0)),
-            "convergence_epoch": convergence_epoch(np.hypot(lat, lon), p.convergence_window),
+            "horizontal_error_rmse": np.sqrt(np.mean(horizontal**2, axis=0)),
+            "convergence_epoch": conv,
         }
-        t = res.epochs * p.dt_s
+        t = epochs * p.dt_s
+        # convergence_epoch's series: 1 while a run has not yet converged (its mean over
+        # runs is the fraction still unconverged at each epoch, its median drops to 0 when
+        # half the runs have converged).
+        unconverged = (np.arange(horizontal.shape[0])[:, None] < conv[None, :]).astype(float)
         series = {"lat_error_mean": np.abs(lat), "lat_error_rmse": np.abs(lat), "lon_error_mean": np.abs(lon),
-                  "lon_error_rmse": np.abs(lon), "convergence_epoch": np.hypot(lat, lon)}
+                  "lon_error_rmse": np.abs(lon), "horizontal_error_rmse": horizontal,
+                  "convergence_epoch": unconverged}
         return BatchResult(metrics, series, t)

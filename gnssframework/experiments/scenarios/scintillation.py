@@ -1,9 +1,12 @@
-"""Scenario ``scintillation``: carrier tracking under ionospheric scintillation (reference 003).
+"""Scenario ``scintillation``: carrier tracking under ionospheric scintillation (Xia et al.).
 
 One channel per run tracks a GPS L1 C/A signal whose amplitude and phase are modulated by
 a scintillation process (AJ-Stanford or Cornell). The candidate is a ``channel_filter``
 that closes the carrier loop (``scalar`` PLL, ``kf-carrier-loop``), run in closed loop
-on the correlator model.
+on the correlator model. A case may set its own C/N0, interval T and duration; with its
+own T, every candidate's loop is re-created at that T with its other parameters as given
+(Q and R per interval, bandwidths in Hz). ``equivalent_bandwidth_hz`` is each loop's
+steady-state noise bandwidth (``gnssframework.receiver.loop_bandwidth``).
 """
 
 from __future__ import annotations
@@ -13,7 +16,9 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
+from ... import registry
 from ...errors import ConfigError
+from ...receiver.loop_bandwidth import equivalent_bandwidth_hz
 from ...receiver.tracking import NCO_COMMANDS, SignalTruth, check_closed_loop, run_closed_loop
 from ...simulation import scintillation as scint
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
@@ -40,17 +45,31 @@ class ScintillationCase(ScenarioParams):
     tau0_s: float = Field(0.8, gt=0, description="Cornell decorrelation time")
     p: float = Field(2.5, ge=1.5, le=4.0, description="AJ-Stanford spectral slope")
     corner_hz: float = Field(0.1, gt=0, description="AJ-Stanford corner frequency")
+    cn0_dbhz: float | None = Field(None, ge=20, le=60, description="C/N0 of this case (default: the scenario's)")
+    coherent_time_s: float | None = Field(None, gt=0, le=0.02, description="interval T of this case (default: the "
+                                          "scenario's); the candidates' loops are re-created at this T")
+    duration_s: float | None = Field(None, gt=0, le=3600, description="duration of this case (default: the scenario's)")
+
+
+def _ref_free(value):
+    """A plugin's dumped parameters as config input again (nested references without 'kind')."""
+    if isinstance(value, dict):
+        if {"kind", "name", "params"} <= set(value):
+            return {"name": value["name"], "params": _ref_free(value["params"])}
+        return {k: _ref_free(v) for k, v in value.items()}
+    return value
 
 
 @register_scenario
 class ScintillationScenario(Scenario):
-    """Carrier tracking under amplitude and phase scintillation (reference 003)."""
+    """Carrier tracking under amplitude and phase scintillation (Xia et al.)."""
 
     kind = "scintillation"
     Params = ScintillationParams
     CaseParams = ScintillationCase
     components = {"channel_filter": True}
-    metrics = {"phase_error_rmse": "rad", "discriminator_std": "rad", "loss_of_lock_fraction": "-"}
+    metrics = {"phase_error_rmse": "rad", "discriminator_std": "rad", "loss_of_lock_fraction": "-",
+               "equivalent_bandwidth_hz": "Hz"}
 
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins["channel_filter"]
@@ -63,39 +82,51 @@ class ScintillationScenario(Scenario):
             raise ConfigError(f"{where}.channel_filter.params.coherent_time_s",
                               f"is {T} but the scenario integrates over {self.params.coherent_time_s} s; make them equal")
 
-    def _scintillation(self, case: dict, runs: int, rng: np.random.Generator) -> np.ndarray:
-        p = self.params
-        fs = 1.0 / p.coherent_time_s
-        duration = p.duration_s + p.coherent_time_s  # K+1 boundary samples
+    def _scintillation(self, case: dict, runs: int, rng: np.random.Generator, T: float, duration_s: float) -> np.ndarray:
+        fs = 1.0 / T
+        duration = duration_s + T  # K+1 boundary samples
         if case.get("model", "aj-stanford") == "cornell":
             return scint.cornell(case["s4"], case.get("tau0_s", 0.8), duration, fs, rng, batch_shape=(runs,))
         return scint.aj_stanford(case["s4"], case.get("sigma_phi_rad", 0.1), duration, fs, rng,
                                  p=case.get("p", 2.5), corner_hz=case.get("corner_hz", 0.1), batch_shape=(runs,))
 
+    @staticmethod
+    def at_interval(channel, T: float):
+        """``channel`` re-created with interval ``T`` (itself if it already has it)."""
+        if abs(getattr(channel.params, "coherent_time_s", T) - T) < 1e-12:
+            return channel
+        params = _ref_free(channel.params.model_dump(mode="json"))
+        return registry.create("channel_filter", channel.name, **{**params, "coherent_time_s": T})
+
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         p = self.params
         c = self.CaseParams.model_validate(case).model_dump()
-        K = int(round(p.duration_s / p.coherent_time_s))
-        z = self._scintillation(c, runs, rng)[: K + 1]
+        T = c["coherent_time_s"] or p.coherent_time_s
+        duration_s = c["duration_s"] or p.duration_s
+        cn0_dbhz = p.cn0_dbhz if c["cn0_dbhz"] is None else c["cn0_dbhz"]
+        channel = self.at_interval(plugins["channel_filter"], T)
+        K = int(round(duration_s / T))
+        z = self._scintillation(c, runs, rng, T, duration_s)[: K + 1]
         phase = np.unwrap(np.angle(z), axis=0)
-        truth = SignalTruth.from_dynamics(p.duration_s, p.coherent_time_s, p.cn0_dbhz,
+        truth = SignalTruth.from_dynamics(duration_s, T, cn0_dbhz,
                                           doppler_hz=np.full(runs, p.doppler_hz),
                                           doppler_rate_hz_s=p.doppler_rate_hz_s,
                                           extra_phase_rad=phase - phase[0], amplitude_scale=np.abs(z[:K]))
-        rec = run_closed_loop(plugins["channel_filter"], truth, rng, initial_doppler_hz=p.doppler_hz,
-                              record=("phase_disc_rad",))
-        t = (np.arange(K) + 0.5) * p.coherent_time_s
+        rec = run_closed_loop(channel, truth, rng, initial_doppler_hz=p.doppler_hz, record=("phase_disc_rad",))
+        t = (np.arange(K) + 0.5) * T
         s = t >= p.settle_s
         # Costas loops are blind to half cycles: wrap errors to (-pi/2, pi/2].
         err = (rec.phase_error_rad + np.pi / 2) % np.pi - np.pi / 2
-        block = max(1, int(round(p.lock_window_s / p.coherent_time_s)))
+        block = max(1, int(round(p.lock_window_s / T)))
         n_blocks = int(s.sum()) // block
         pli = np.cos(2 * err[s][: n_blocks * block]).reshape(n_blocks, block, runs).mean(axis=1)
         metrics = {
             "phase_error_rmse": np.sqrt(np.mean(err[s] ** 2, axis=0)),
             "discriminator_std": np.std(rec.outputs["phase_disc_rad"][s], axis=0),
             "loss_of_lock_fraction": np.mean(pli < p.lock_threshold, axis=0),
+            "equivalent_bandwidth_hz": np.full(runs, equivalent_bandwidth_hz(channel, T)),
         }
         series = {"phase_error_rmse": np.abs(err), "discriminator_std": np.abs(rec.outputs["phase_disc_rad"]),
-                  "loss_of_lock_fraction": (np.cos(2 * err) < p.lock_threshold).astype(float)}
+                  "loss_of_lock_fraction": (np.cos(2 * err) < p.lock_threshold).astype(float),
+                  "equivalent_bandwidth_hz": np.full((K, runs), equivalent_bandwidth_hz(channel, T))}
         return BatchResult(metrics, series, t)

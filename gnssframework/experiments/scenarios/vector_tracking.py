@@ -1,4 +1,4 @@
-"""Scenario ``vector-tracking``: reference 000's experiment (adaptive CKF vector tracking).
+"""Scenario ``vector-tracking``: the experiment of Zou et al. (2018) (adaptive CKF vector tracking).
 
 GPS L1 C/A satellites of the nominal constellation, a static receiver (or one moving at
 constant velocity), a receiver clock from h-parameters, and N channels tracked in a
@@ -18,13 +18,14 @@ from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
+from ..metrics import nees_mean, rmse, settled
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["VectorTrackingScenario"]
+__all__ = ["VectorTrackingScenario", "vector_metrics"]
 
 
 class VectorTrackingParams(ScenarioParams):
-    duration_s: float = Field(10.0, gt=0, le=3600)
+    duration_s: float = Field(30.0, gt=0, le=3600)
     coherent_time_s: float = Field(0.01, gt=0, le=0.02, description="T; with 20 ms bits, 10 ms intervals stay in a bit")
     channels: int = Field(8, ge=4, le=12)
     elevation_mask_deg: float = Field(10.0, ge=0, lt=90)
@@ -45,6 +46,12 @@ class VectorTrackingParams(ScenarioParams):
     initial_position_std_m: float = Field(3.0, gt=0)
     initial_velocity_std_m_s: float = Field(0.3, gt=0)
     settle_s: float = Field(1.0, ge=0, description="metrics ignore the first settle_s seconds")
+    pcrb: bool | None = Field(None, description="compute the posterior Cramér-Rao bound (pcrb_position, "
+                              "pcrb_velocity); it assumes a static or constant-velocity receiver. null: yes, "
+                              "unless a trajectory_file is given")
+    steady_state_s: float | None = Field(None, ge=0, description="position_steady_error_rmse counts from this "
+                                         "time on (after the nav filter's position has converged); null: a third "
+                                         "of the run, at least settle_s")
 
 
 class VectorTrackingCase(ScenarioParams):
@@ -54,7 +61,7 @@ class VectorTrackingCase(ScenarioParams):
 
 @register_scenario
 class VectorTrackingScenario(Scenario):
-    """Vector tracking (reference 000). Candidates compose a ``channel_filter`` and a ``nav_filter``."""
+    """Vector tracking (Zou et al. 2018). Candidates compose a ``channel_filter`` and a ``nav_filter``."""
 
     kind = "vector-tracking"
     Params = VectorTrackingParams
@@ -65,13 +72,28 @@ class VectorTrackingScenario(Scenario):
         "carrier_freq_error_rmse": "Hz",
         "position_error_rmse": "m",
         "velocity_error_rmse": "m/s",
+        "position_steady_error_rmse": "m",
         "nees": "-",
+        "nees_position": "-",
+        "nees_velocity": "-",
+        "code_output_rmse": "chips",
+        "freq_output_rmse": "Hz",
+        "pcrb_position": "m",
+        "pcrb_velocity": "m/s",
     }
+    #: Error metric -> the bound drawn beside it in the report's time-series plot.
+    bounds = {"position_error_rmse": "pcrb_position", "velocity_error_rmse": "pcrb_velocity"}
 
     def __init__(self, params: VectorTrackingParams) -> None:
         super().__init__(params)
         if params.clock not in PRESETS:
             raise ConfigError("scenario.clock", f"got {params.clock!r}; allowed: {', '.join(PRESETS)}")
+        if params.pcrb is True and params.trajectory_file:
+            raise ConfigError("scenario.pcrb", "the bound assumes a static or constant-velocity receiver; set "
+                              "pcrb = false with a trajectory_file")
+        if params.steady_state_s is not None and not params.settle_s <= params.steady_state_s < params.duration_s:
+            raise ConfigError("scenario.steady_state_s", f"must be at least settle_s = {params.settle_s} and less "
+                              f"than duration_s = {params.duration_s} (got {params.steady_state_s})")
 
     def check_composition(self, plugins: dict[str, Any], where: str) -> None:
         try:
@@ -134,13 +156,56 @@ class VectorTrackingScenario(Scenario):
         freq = np.sqrt(np.mean(rec.freq_error_hz**2, axis=-1))
         pos = np.linalg.norm(rec.position_error_m, axis=-1)
         vel = np.linalg.norm(rec.velocity_error_m_s, axis=-1)
-        metrics = {
-            "code_phase_error_rmse": np.sqrt(np.mean(code[s] ** 2, axis=0)),
-            "carrier_freq_error_rmse": np.sqrt(np.mean(freq[s] ** 2, axis=0)),
-            "position_error_rmse": np.sqrt(np.mean(pos[s] ** 2, axis=0)),
-            "velocity_error_rmse": np.sqrt(np.mean(vel[s] ** 2, axis=0)),
-            "nees": np.mean(rec.nees[s], axis=0),
-        }
+        code_out = np.sqrt(np.mean(rec.code_output_error_chips**2, axis=-1))
+        freq_out = np.sqrt(np.mean(rec.freq_output_error_hz**2, axis=-1))
         series = {"code_phase_error_rmse": code, "carrier_freq_error_rmse": freq, "position_error_rmse": pos,
-                  "velocity_error_rmse": vel, "nees": rec.nees}
-        return BatchResult(metrics, series, rec.time_s)
+                  "velocity_error_rmse": vel, "nees": rec.nees, "nees_position": rec.nees_position,
+                  "nees_velocity": rec.nees_velocity, "code_output_rmse": code_out, "freq_output_rmse": freq_out}
+        if p.pcrb or (p.pcrb is None and not p.trajectory_file):
+            _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0)
+            series["pcrb_position"] = np.repeat(bound_pos[:, None], runs, axis=1)
+            series["pcrb_velocity"] = np.repeat(bound_vel[:, None], runs, axis=1)
+        steady = p.steady_state_s if p.steady_state_s is not None else max(p.settle_s, p.duration_s / 3)
+        return BatchResult(vector_metrics(series, rec.time_s, p.settle_s, steady), series, rec.time_s)
+
+    def bound(self, cn0_dbhz: float, P0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The PCRB of this scenario at ``cn0_dbhz`` (`gnssframework.receiver.pcrb.vector_tracking_pcrb`):
+        times, RMS position bound (m) and RMS velocity bound (m/s), each ``(K,)``."""
+        from ...receiver.pcrb import vector_tracking_pcrb
+
+        p = self.params
+        T = p.coherent_time_s
+        K = int(round(p.duration_s / T))
+        truth, _, _ = self.truth(cn0_dbhz, 1, np.random.default_rng(0))  # geometry only; the draws are unused
+        r0, v = truth.receiver_state(np.asarray(0.0))
+        clock_q = SPEED_OF_LIGHT_M_S**2 * PRESETS[p.clock].process_noise(T)
+        return vector_tracking_pcrb(lambda t: truth.sat_state(t)[0], r0[0], v[0], clock_q, P0,
+                                    np.full(p.channels, cn0_dbhz), T, K, p.early_late_spacing_chips)
+
+
+def vector_metrics(series: dict[str, np.ndarray], time_s: np.ndarray, settle_s: float,
+                   steady_state_s: float) -> dict[str, np.ndarray]:
+    """Per-run metrics ``(runs,)`` from the per-epoch series ``(K, runs)`` of `run_batch`.
+
+    Error series (RMS over channels, or norms of 3-vectors) become RMS over the epochs
+    from ``settle_s`` on; NEES series become means over the same epochs (a consistent
+    filter averages the dimension: 8, 3 and 3). ``position_steady_error_rmse`` is the
+    position RMS from ``steady_state_s`` on. ``code_output_rmse`` and ``freq_output_rmse``
+    are the RMS errors of what the channel filters hand the nav filter (the quantity
+    reference 000 plots as code and frequency error).
+    """
+    s = settled(time_s, settle_s, len(time_s))
+    steady = settled(time_s, steady_state_s, len(time_s))
+    if not s.any() or not steady.any():
+        raise ConfigError("scenario.settle_s", f"settle_s = {settle_s} and steady_state_s = {steady_state_s} "
+                          f"must be below the run's last epoch at {time_s[-1]:.3f} s")
+    out = {name: rmse(series[name], s) for name in ("code_phase_error_rmse", "carrier_freq_error_rmse",
+                                                   "position_error_rmse", "velocity_error_rmse",
+                                                   "code_output_rmse", "freq_output_rmse")}
+    out["position_steady_error_rmse"] = rmse(series["position_error_rmse"], steady)
+    for name in ("nees", "nees_position", "nees_velocity"):
+        out[name] = nees_mean(series[name], mask=s)
+    for name in ("pcrb_position", "pcrb_velocity"):  # RMS bound over the same window as the errors
+        if name in series:
+            out[name] = rmse(series[name], s)
+    return out

@@ -1,0 +1,865 @@
+"""Compiled (numba) kernels behind the Gaussian filter engines.
+
+The NumPy code in ``estimator.py`` is the reference implementation; these kernels do
+the same arithmetic in one pass per batch element, without the temporaries and the
+Python wrappers of NumPy's batched calls on tiny matrices. They cover
+
+* the square root of P (lower Cholesky, or the symmetric eigen-decomposition by cyclic
+  Jacobi rotations for ``svd-ckf``) and the sigma/cubature points built from it;
+* the weighted moments of transformed points (predicted mean and covariance + Q, or
+  predicted measurement, innovation covariance + R and cross covariance);
+* the measurement update: Cholesky of S, gain ``K = C S^{-1}``, posterior mean and
+  covariance (``P - K S K^T`` or Joseph's form), with the skip/failure mask.
+
+The model functions ``f`` and ``h`` stay Python (NumPy) callables evaluated between
+the kernels. Results equal the NumPy path to rounding (a Hypothesis test holds them to
+1e-12 relative on random models).
+
+Backend choice: ``GNSSFRAMEWORK_BACKEND=numpy`` (environment) or :func:`set_backend`
+selects the NumPy path everywhere; an estimator's ``backend`` attribute overrides it
+for that instance. The default is ``"numba"`` when numba imports, else ``"numpy"``.
+
+Every kernel is compiled twice: a serial version for small batches (no thread launch)
+and a ``parallel=True`` version whose ``prange`` splits the batch across cores from
+:data:`PARALLEL_MIN_BATCH` elements on. Both are cached on disk (``cache=True``), so
+only the first import on a machine pays the compile time.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import threading
+import types as _types
+
+import numpy as np
+
+from ..errors import ConfigError
+
+__all__ = [
+    "HAVE_NUMBA",
+    "PARALLEL_MIN_BATCH",
+    "available",
+    "get_backend",
+    "set_backend",
+    "resolve_backend",
+    "sigma_points",
+    "predict_moments",
+    "measurement_moments",
+    "update",
+    "warm_up",
+]
+
+try:  # numba is a dependency, but the NumPy path must keep working without it.
+    import numba
+    from numba import prange
+
+    HAVE_NUMBA = True
+    if "NUMBA_THREADING_LAYER" not in os.environ:
+        # GNU OpenMP (numba's default where present) aborts a process that forks after a
+        # parallel kernel ran, which is what `gnssframework compare`'s process pool does.
+        # The workqueue layer is fork-safe; parallel kernels run only from the main
+        # thread (it is not thread-safe), see _pick.
+        numba.config.THREADING_LAYER = "workqueue"
+except ImportError:  # pragma: no cover - exercised only where numba is missing
+    numba = None
+    prange = range
+    HAVE_NUMBA = False
+
+#: Batch size from which the ``parallel=True`` kernels are used.
+PARALLEL_MIN_BATCH = 256
+#: Most chunks a fused kernel splits its batch into (scratch arrays are per chunk).
+_CHUNKS = 64
+
+_BACKENDS = ("numba", "numpy")
+_ENV = "GNSSFRAMEWORK_BACKEND"
+_backend: str | None = None
+
+
+def _check_backend(value: str, field: str) -> str:
+    if value not in _BACKENDS:
+        raise ConfigError(field, f"must be one of {list(_BACKENDS)}, got {value!r}")
+    return value
+
+
+def available() -> bool:
+    """True where the compiled kernels can run (numba imports)."""
+    return HAVE_NUMBA
+
+
+def set_backend(value: str | None) -> None:
+    """Select ``"numba"`` or ``"numpy"`` for every estimator (``None``: back to the default)."""
+    global _backend
+    _backend = None if value is None else _check_backend(value, "backend")
+
+
+def get_backend() -> str:
+    """The process-wide backend: :func:`set_backend`, else ``$GNSSFRAMEWORK_BACKEND``, else numba."""
+    if _backend is not None:
+        chosen = _backend
+    else:
+        env = os.environ.get(_ENV)
+        chosen = _check_backend(env, _ENV) if env else "numba"
+    return chosen if (chosen == "numpy" or HAVE_NUMBA) else "numpy"
+
+
+def resolve_backend(override: str | None) -> str:
+    """An estimator's own choice if set, else the process-wide one (numpy without numba)."""
+    if override is None:
+        return get_backend()
+    _check_backend(override, "estimator.backend")
+    return override if (override == "numpy" or HAVE_NUMBA) else "numpy"
+
+
+# -- compilation helpers ----------------------------------------------------------------
+
+
+def _twin(fn, suffix: str):
+    """A copy of ``fn`` with its own qualified name, so its disk cache entry is its own."""
+    twin = _types.FunctionType(fn.__code__, fn.__globals__, fn.__name__ + suffix, fn.__defaults__, fn.__closure__)
+    twin.__qualname__ = fn.__qualname__ + suffix
+    return twin
+
+
+def _jit(fn):
+    if not HAVE_NUMBA:
+        return fn
+    return numba.njit(cache=True, fastmath=False, nogil=True)(fn)
+
+
+def _jit_pair(fn):
+    """(serial, parallel) compiled versions of a batch driver that loops with prange."""
+    if not HAVE_NUMBA:
+        return fn, fn
+    serial = numba.njit(cache=True, nogil=True)(_twin(fn, "_serial"))
+    parallel = numba.njit(cache=True, nogil=True, parallel=True)(_twin(fn, "_parallel"))
+    return serial, parallel
+
+
+# -- per-element building blocks --------------------------------------------------------
+
+
+@_jit
+def _all_finite(a):
+    for v in a.ravel():
+        if not math.isfinite(v):
+            return False
+    return True
+
+
+@_jit
+def _cholesky(A, L):
+    """Lower Cholesky factor of the lower triangle of ``A`` into ``L``; False if not PD."""
+    n = A.shape[0]
+    for j in range(n):
+        s = A[j, j]
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if not (s > 0.0):
+            return False
+        d = math.sqrt(s)
+        L[j, j] = d
+        for i in range(j):
+            L[i, j] = 0.0
+        for i in range(j + 1, n):
+            t = A[i, j]
+            for k in range(j):
+                t -= L[i, k] * L[j, k]
+            L[i, j] = t / d
+    return True
+
+
+@_jit
+def _jacobi_eigh(A, w, V):
+    """``A = V diag(w) V^T`` (see `_jacobi_eigh_into`)."""
+    _jacobi_eigh_into(A, w, V, np.empty(A.shape))
+
+
+@_jit
+def _jacobi_eigh_into(A, w, V, B):
+    """Eigen-decomposition of the symmetric part of ``A`` by cyclic Jacobi rotations.
+
+    ``A = V diag(w) V^T``. Jacobi's method is accurate to rounding in every
+    eigenvalue relative to ``||A||`` and converges quadratically; for the 2-10 state
+    matrices of a tracking filter a handful of sweeps beat LAPACK's call overhead
+    (Golub & Van Loan, *Matrix Computations*, 4th ed., sec. 8.5). Each rotation
+    updates only the two affected rows/columns of the symmetric matrix.
+    """
+    n = A.shape[0]
+    for i in range(n):
+        for j in range(n):
+            B[i, j] = 0.5 * (A[i, j] + A[j, i])
+            V[i, j] = 1.0 if i == j else 0.0
+    for _sweep in range(60):
+        off = 0.0
+        diag = 0.0
+        for i in range(n):
+            diag += B[i, i] * B[i, i]
+            for j in range(i + 1, n):
+                off += B[i, j] * B[i, j]
+        if off <= 1e-34 * diag or off == 0.0:
+            break
+        for p in range(n - 1):
+            for q in range(p + 1, n):
+                bpq = B[p, q]
+                if bpq == 0.0:
+                    continue
+                theta = (B[q, q] - B[p, p]) / (2.0 * bpq)
+                t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+                c = 1.0 / math.sqrt(t * t + 1.0)
+                s = t * c
+                for k in range(n):
+                    if k != p and k != q:
+                        bkp = B[k, p]
+                        bkq = B[k, q]
+                        nkp = c * bkp - s * bkq
+                        nkq = s * bkp + c * bkq
+                        B[k, p] = nkp
+                        B[p, k] = nkp
+                        B[k, q] = nkq
+                        B[q, k] = nkq
+                # The rotation annihilates (p, q) (Golub & Van Loan's symmetric Schur form).
+                B[p, p] -= t * bpq
+                B[q, q] += t * bpq
+                B[p, q] = 0.0
+                B[q, p] = 0.0
+                for k in range(n):
+                    vkp = V[k, p]
+                    vkq = V[k, q]
+                    V[k, p] = c * vkp - s * vkq
+                    V[k, q] = s * vkp + c * vkq
+    for i in range(n):
+        w[i] = B[i, i]
+
+
+@_jit
+def _chol_solve_rows(L, C, K):
+    """``K = C S^{-1}`` row by row with ``S = L L^T`` (forward then back substitution)."""
+    _chol_solve_rows_into(L, C, K, np.empty(C.shape[1]))
+
+
+@_jit
+def _chol_solve_rows_into(L, C, K, y):
+    n, m = C.shape
+    for r in range(n):
+        for i in range(m):
+            t = C[r, i]
+            for k in range(i):
+                t -= L[i, k] * y[k]
+            y[i] = t / L[i, i]
+        for i in range(m - 1, -1, -1):
+            t = y[i]
+            for k in range(i + 1, m):
+                t -= L[k, i] * K[r, k]
+            K[r, i] = t / L[i, i]
+
+
+# -- batch drivers ----------------------------------------------------------------------
+
+
+def _sigma_points_body(mean, cov, root_kind, scale, center, X, status):
+    """Points ``(N, B, n)`` for every element: ``[m], m + scale*S_i, m - scale*S_i``.
+
+    ``root_kind`` 0: lower Cholesky; 1: ``V sqrt(|w|)`` from the eigen-decomposition.
+    ``status[b]``: 0 ok, 1 P not finite, 2 P not positive definite (Cholesky).
+    """
+    B, n = mean.shape
+    off = 1 if center else 0
+    for b in prange(B):
+        P = cov[b]
+        R = np.zeros((n, n))
+        if not _all_finite(P):
+            status[b] = 1
+            continue
+        if root_kind == 0:
+            if not _cholesky(P, R):
+                status[b] = 2
+                continue
+        else:
+            w = np.empty(n)
+            V = np.empty((n, n))
+            _jacobi_eigh(P, w, V)
+            for i in range(n):
+                sw = math.sqrt(abs(w[i]))
+                for j in range(n):
+                    R[j, i] = V[j, i] * sw
+        status[b] = 0
+        if center:
+            for j in range(n):
+                X[0, b, j] = mean[b, j]
+        for i in range(n):
+            for j in range(n):
+                d = R[j, i] * scale
+                X[off + i, b, j] = mean[b, j] + d
+                X[off + n + i, b, j] = mean[b, j] - d
+
+
+def _predict_moments_body(Y, wm, wc, Q, mean, cov):
+    """Weighted mean and ``sum wc dY dY^T + Q`` (symmetrised) of points ``(N, B, p)``."""
+    N, B, p = Y.shape
+    shared_q = Q.shape[0] == 1
+    for b in prange(B):
+        q = 0 if shared_q else np.int64(b)
+        mu = np.zeros(p)
+        for k in range(N):
+            for j in range(p):
+                mu[j] += wm[k] * Y[k, b, j]
+        d = np.empty((N, p))
+        for k in range(N):
+            for j in range(p):
+                d[k, j] = Y[k, b, j] - mu[j]
+        for i in range(p):
+            mean[b, i] = mu[i]
+            for j in range(i + 1):
+                acc = 0.0
+                for k in range(N):
+                    acc += wc[k] * d[k, i] * d[k, j]
+                cij = acc + 0.5 * (Q[q, i, j] + Q[q, j, i])
+                cov[b, i, j] = cij
+                cov[b, j, i] = cij
+
+
+def _measurement_moments_body(X, Z, prior_mean, wm, wc, R, z_hat, S, C):
+    """``z_hat``, ``S = sum wc dZ dZ^T + R`` (symmetrised) and ``C = sum wc (X - m) dZ^T``."""
+    N, B, m = Z.shape
+    n = X.shape[2]
+    shared_r = R.shape[0] == 1
+    for b in prange(B):
+        r = 0 if shared_r else np.int64(b)
+        mu = np.zeros(m)
+        for k in range(N):
+            for j in range(m):
+                mu[j] += wm[k] * Z[k, b, j]
+        d = np.empty((N, m))
+        for k in range(N):
+            for j in range(m):
+                d[k, j] = Z[k, b, j] - mu[j]
+        for i in range(m):
+            z_hat[b, i] = mu[i]
+            for j in range(i + 1):
+                acc = 0.0
+                for k in range(N):
+                    acc += wc[k] * d[k, i] * d[k, j]
+                sij = acc + 0.5 * (R[r, i, j] + R[r, j, i])
+                S[b, i, j] = sij
+                S[b, j, i] = sij
+        for i in range(n):
+            for j in range(m):
+                acc = 0.0
+                for k in range(N):
+                    acc += wc[k] * (X[k, b, i] - prior_mean[b, i]) * d[k, j]
+                C[b, i, j] = acc
+
+
+def _update_body(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph, H, R, mean, cov, gain, innovation, ok):
+    """Gain, posterior and skip mask; ``ok[b]`` False where S is not finite/PD.
+
+    Skipped elements (``bad_z`` or not ok) keep the prior and report the NumPy path's
+    values: zero innovation and ``K = C`` (the update solved against S = I).
+    """
+    B, n = prior_mean.shape
+    m = z.shape[1]
+    shared_h = H.shape[0] == 1
+    shared_r = R.shape[0] == 1
+    for b in prange(B):
+        L = np.zeros((m, m))
+        good = _all_finite(S[b]) and _cholesky(S[b], L)
+        ok[b] = good
+        K = gain[b]
+        if bad_z[b] or not good:
+            for i in range(m):
+                innovation[b, i] = 0.0
+            for i in range(n):
+                mean[b, i] = prior_mean[b, i]
+                for j in range(m):
+                    K[i, j] = C[b, i, j]
+                for j in range(n):
+                    cov[b, i, j] = prior_cov[b, i, j]
+            continue
+        _chol_solve_rows(L, C[b], K)
+        for i in range(m):
+            innovation[b, i] = z[b, i] - z_hat[b, i]
+        for i in range(n):
+            acc = 0.0
+            for j in range(m):
+                acc += K[i, j] * innovation[b, j]
+            mean[b, i] = prior_mean[b, i] + acc
+        P = prior_cov[b]
+        if not joseph:
+            KS = np.zeros((n, m))
+            for i in range(n):
+                for j in range(m):
+                    acc = 0.0
+                    for k in range(m):
+                        acc += K[i, k] * S[b, k, j]
+                    KS[i, j] = acc
+            for i in range(n):
+                for j in range(i + 1):
+                    a1 = 0.0
+                    a2 = 0.0
+                    for k in range(m):
+                        a1 += KS[i, k] * K[j, k]
+                        a2 += KS[j, k] * K[i, k]
+                    v = 0.5 * ((P[i, j] - a1) + (P[j, i] - a2))
+                    cov[b, i, j] = v
+                    cov[b, j, i] = v
+        else:
+            h = 0 if shared_h else np.int64(b)
+            r = 0 if shared_r else np.int64(b)
+            A = np.empty((n, n))  # I - K H
+            for i in range(n):
+                for j in range(n):
+                    acc = 0.0
+                    for k in range(m):
+                        acc += K[i, k] * H[h, k, j]
+                    A[i, j] = (1.0 if i == j else 0.0) - acc
+            AP = np.zeros((n, n))
+            for i in range(n):
+                for j in range(n):
+                    acc = 0.0
+                    for k in range(n):
+                        acc += A[i, k] * P[k, j]
+                    AP[i, j] = acc
+            KR = np.zeros((n, m))
+            for i in range(n):
+                for j in range(m):
+                    acc = 0.0
+                    for k in range(m):
+                        acc += K[i, k] * R[r, k, j]
+                    KR[i, j] = acc
+            M = np.empty((n, n))
+            for i in range(n):
+                for j in range(n):
+                    a1 = 0.0
+                    for k in range(n):
+                        a1 += AP[i, k] * A[j, k]
+                    a2 = 0.0
+                    for k in range(m):
+                        a2 += KR[i, k] * K[j, k]
+                    M[i, j] = a1 + a2
+            for i in range(n):
+                for j in range(i + 1):
+                    v = 0.5 * (M[i, j] + M[j, i])
+                    cov[b, i, j] = v
+                    cov[b, j, i] = v
+
+
+# -- compiled model functions ----------------------------------------------------------
+
+#: Codes of the model functions the fused kernels evaluate themselves.
+F_LINEAR = 0  # x' = F x, params F (n, n)
+H_LINEAR = 0  # z = H x, params H (m, n)
+H_CHANNEL_IQ = 1  # Zou et al. (2018) eqs. 2-7, params [[spacing_chips, coherent_time_s, data_bit]]
+
+
+@_jit
+def _apply_f(code, params, x, out):
+    n = x.shape[0]
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += params[i, j] * x[j]
+        out[i] = acc
+
+
+@_jit
+def _triangle(tau):
+    a = abs(tau)
+    return 1.0 - a if a < 1.0 else 0.0
+
+
+@_jit
+def _apply_h(code, params, x, out):
+    if code == H_LINEAR:
+        m, n = params.shape
+        for i in range(m):
+            acc = 0.0
+            for j in range(n):
+                acc += params[i, j] * x[j]
+            out[i] = acc
+        return
+    # H_CHANNEL_IQ: the ideal (unfiltered) triangle autocorrelation, as channel_iq.
+    d = params[0, 0]
+    T = params[0, 1]
+    u = x[3] * T
+    if u == 0.0:
+        u = 1e-20  # numpy.sinc's guard, so the two paths agree at df = 0 too
+    sinc = math.sin(math.pi * u) / (math.pi * u)
+    common = x[0] * params[0, 2] * sinc
+    phase = math.pi * x[3] * T + x[2]
+    c = common * math.cos(phase)
+    s_ = common * math.sin(phase)
+    r_e = _triangle(x[1] + d)
+    r_p = _triangle(x[1])
+    r_l = _triangle(x[1] - d)
+    out[0] = c * r_e
+    out[1] = c * r_p
+    out[2] = c * r_l
+    out[3] = s_ * r_e
+    out[4] = s_ * r_p
+    out[5] = s_ * r_l
+
+
+def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_params, Q, out_mean, out_cov, status):
+    """One predict per element: root, points, compiled ``f``, moments + Q."""
+    B, n = mean.shape
+    N = 2 * n + (1 if center else 0)
+    off = 1 if center else 0
+    shared_q = Q.shape[0] == 1
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+      # Scratch allocated once per chunk of elements, not once per element.
+      R = np.zeros((n, n))
+      w = np.empty(n)
+      V = np.empty((n, n))
+      Wk = np.empty((n, n))
+      X = np.empty((N, n))
+      Y = np.empty((N, n))
+      mu = np.empty(n)
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+        P = cov[b]
+        R[:, :] = 0.0
+        if not _all_finite(P):
+            status[b] = 1
+            continue
+        if root_kind == 0:
+            if not _cholesky(P, R):
+                status[b] = 2
+                continue
+        else:
+            _jacobi_eigh_into(P, w, V, Wk)
+            for i in range(n):
+                sw = math.sqrt(abs(w[i]))
+                for j in range(n):
+                    R[j, i] = V[j, i] * sw
+        status[b] = 0
+        if center:
+            for j in range(n):
+                X[0, j] = mean[b, j]
+        for i in range(n):
+            for j in range(n):
+                dd = R[j, i] * scale
+                X[off + i, j] = mean[b, j] + dd
+                X[off + n + i, j] = mean[b, j] - dd
+        for k in range(N):
+            _apply_f(f_code, f_params, X[k], Y[k])
+        q = 0 if shared_q else np.int64(b)
+        mu[:] = 0.0
+        for k in range(N):
+            for j in range(n):
+                mu[j] += wm[k] * Y[k, j]
+        for k in range(N):
+            for j in range(n):
+                Y[k, j] -= mu[j]
+        for i in range(n):
+            out_mean[b, i] = mu[i]
+            for j in range(i + 1):
+                acc = 0.0
+                for k in range(N):
+                    acc += wc[k] * Y[k, i] * Y[k, j]
+                cij = acc + 0.5 * (Q[q, i, j] + Q[q, j, i])
+                out_cov[b, i, j] = cij
+                out_cov[b, j, i] = cij
+
+
+def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_code, h_params, R,
+                       out_mean, out_cov, gain, innovation, z_hat, S, C, status, ok):
+    """One measurement update per element: root, points, compiled ``h``, moments, gain, posterior."""
+    B, n = mean.shape
+    m = z.shape[1]
+    N = 2 * n + (1 if center else 0)
+    off = 1 if center else 0
+    shared_r = R.shape[0] == 1
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+      Rt = np.zeros((n, n))
+      w = np.empty(n)
+      V = np.empty((n, n))
+      Wk = np.empty((n, n))
+      X = np.empty((N, n))
+      Z = np.empty((N, m))
+      mu = np.empty(m)
+      L = np.zeros((m, m))
+      KS = np.empty((n, m))
+      ysolve = np.empty(m)
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+        P = cov[b]
+        Rt[:, :] = 0.0
+        ok[b] = False
+        if not _all_finite(P):
+            status[b] = 1
+            continue
+        if root_kind == 0:
+            if not _cholesky(P, Rt):
+                status[b] = 2
+                continue
+        else:
+            _jacobi_eigh_into(P, w, V, Wk)
+            for i in range(n):
+                sw = math.sqrt(abs(w[i]))
+                for j in range(n):
+                    Rt[j, i] = V[j, i] * sw
+        status[b] = 0
+        if center:
+            for j in range(n):
+                X[0, j] = mean[b, j]
+        for i in range(n):
+            for j in range(n):
+                dd = Rt[j, i] * scale
+                X[off + i, j] = mean[b, j] + dd
+                X[off + n + i, j] = mean[b, j] - dd
+        for k in range(N):
+            _apply_h(h_code, h_params, X[k], Z[k])
+        r = 0 if shared_r else np.int64(b)
+        mu[:] = 0.0
+        for k in range(N):
+            for j in range(m):
+                mu[j] += wm[k] * Z[k, j]
+        for k in range(N):
+            for j in range(m):
+                Z[k, j] -= mu[j]
+        Sb = S[b]
+        for i in range(m):
+            z_hat[b, i] = mu[i]
+            for j in range(i + 1):
+                acc = 0.0
+                for k in range(N):
+                    acc += wc[k] * Z[k, i] * Z[k, j]
+                sij = acc + 0.5 * (R[r, i, j] + R[r, j, i])
+                Sb[i, j] = sij
+                Sb[j, i] = sij
+        Cb = C[b]
+        for i in range(n):
+            for j in range(m):
+                acc = 0.0
+                for k in range(N):
+                    acc += wc[k] * (X[k, i] - mean[b, i]) * Z[k, j]
+                Cb[i, j] = acc
+        good = _all_finite(Sb) and _cholesky(Sb, L)
+        ok[b] = good
+        K = gain[b]
+        if bad_z[b] or not good:
+            for i in range(m):
+                innovation[b, i] = 0.0
+            for i in range(n):
+                out_mean[b, i] = mean[b, i]
+                for j in range(m):
+                    K[i, j] = Cb[i, j]
+                for j in range(n):
+                    out_cov[b, i, j] = P[i, j]
+            continue
+        _chol_solve_rows_into(L, Cb, K, ysolve)
+        for i in range(m):
+            innovation[b, i] = z[b, i] - mu[i]
+        for i in range(n):
+            acc = 0.0
+            for j in range(m):
+                acc += K[i, j] * innovation[b, j]
+            out_mean[b, i] = mean[b, i] + acc
+        for i in range(n):
+            for j in range(m):
+                acc = 0.0
+                for k in range(m):
+                    acc += K[i, k] * Sb[k, j]
+                KS[i, j] = acc
+        for i in range(n):
+            for j in range(i + 1):
+                a1 = 0.0
+                a2 = 0.0
+                for k in range(m):
+                    a1 += KS[i, k] * K[j, k]
+                    a2 += KS[j, k] * K[i, k]
+                v = 0.5 * ((P[i, j] - a1) + (P[j, i] - a2))
+                out_cov[b, i, j] = v
+                out_cov[b, j, i] = v
+
+
+_sigma_points_kernels = _jit_pair(_sigma_points_body)
+_predict_moments_kernels = _jit_pair(_predict_moments_body)
+_measurement_moments_kernels = _jit_pair(_measurement_moments_body)
+_update_kernels = _jit_pair(_update_body)
+_fused_predict_kernels = _jit_pair(_fused_predict_body)
+_fused_update_kernels = _jit_pair(_fused_update_body)
+
+
+def _pick(pair, batch: int):
+    if batch >= PARALLEL_MIN_BATCH and threading.current_thread() is threading.main_thread():
+        return pair[1]
+    return pair[0]
+
+
+# -- array-level wrappers ---------------------------------------------------------------
+
+
+def _flat(a: np.ndarray, batch: tuple[int, ...], tail: int) -> np.ndarray:
+    """``a`` broadcast to ``batch + tail dims`` as a C-contiguous ``(B, ...)`` float array."""
+    if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.shape[:-tail] == batch:
+        return a.reshape((-1,) + a.shape[a.ndim - tail:])
+    a = np.asarray(a, dtype=float)
+    shape = batch + a.shape[a.ndim - tail:]
+    if a.shape != shape:
+        a = np.broadcast_to(a, shape)
+    return np.ascontiguousarray(a).reshape((-1,) + shape[len(batch):])
+
+
+def _flat_mask(mask: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
+    """A boolean batch mask as a contiguous ``(B,)`` array."""
+    if type(mask) is np.ndarray and mask.shape == batch and mask.flags.c_contiguous:
+        return mask.reshape(-1)
+    return np.ascontiguousarray(np.broadcast_to(mask, batch)).reshape(-1)
+
+
+def _flat_shared(a: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
+    """A matrix operand ``(k, l)`` shared by the batch as ``(1, k, l)``, else ``(B, k, l)``."""
+    a = np.asarray(a, dtype=float)
+    if a.ndim == 2:
+        return np.ascontiguousarray(a)[None]
+    return _flat(a, batch, 2)
+
+
+def sigma_points(mean: np.ndarray, cov: np.ndarray, root_kind: int, scale: float, center: bool):
+    """Sigma points ``(N, ..., n)`` and a status ``(...)`` (0 ok, 1 not finite, 2 not PD)."""
+    batch = mean.shape[:-1]
+    n = mean.shape[-1]
+    m = _flat(mean, batch, 1)
+    P = _flat(cov, batch, 2)
+    B = m.shape[0]
+    N = 2 * n + (1 if center else 0)
+    X = np.empty((N, B, n))
+    status = np.empty(B, dtype=np.int8)
+    _pick(_sigma_points_kernels, B)(m, P, root_kind, float(scale), bool(center), X, status)
+    return X.reshape((N,) + batch + (n,)), status.reshape(batch)
+
+
+def predict_moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray, Q: np.ndarray):
+    """Mean ``(..., p)`` and covariance ``(..., p, p)`` of points ``(N, ..., p)`` plus Q."""
+    N = Y.shape[0]
+    batch = Y.shape[1:-1]
+    p = Y.shape[-1]
+    Yf = np.ascontiguousarray(Y, dtype=float).reshape(N, -1, p)
+    B = Yf.shape[1]
+    mean = np.empty((B, p))
+    cov = np.empty((B, p, p))
+    _pick(_predict_moments_kernels, B)(Yf, np.asarray(wm, float), np.asarray(wc, float), _flat_shared(Q, batch), mean, cov)
+    return mean.reshape(batch + (p,)), cov.reshape(batch + (p, p))
+
+
+def measurement_moments(X: np.ndarray, Z: np.ndarray, prior_mean: np.ndarray, wm, wc, R: np.ndarray):
+    """``(z_hat, S, C)`` of points X ``(N, ..., n)`` and their images Z ``(N, ..., m)``."""
+    N = X.shape[0]
+    batch = X.shape[1:-1]
+    n = X.shape[-1]
+    m = Z.shape[-1]
+    Xf = np.ascontiguousarray(X, dtype=float).reshape(N, -1, n)
+    Zf = np.ascontiguousarray(np.broadcast_to(Z, (N,) + batch + (m,)), dtype=float).reshape(N, -1, m)
+    B = Xf.shape[1]
+    z_hat = np.empty((B, m))
+    S = np.empty((B, m, m))
+    C = np.empty((B, n, m))
+    _pick(_measurement_moments_kernels, B)(
+        Xf, Zf, _flat(prior_mean, batch, 1), np.asarray(wm, float), np.asarray(wc, float),
+        _flat_shared(R, batch), z_hat, S, C,
+    )
+    return z_hat.reshape(batch + (m,)), S.reshape(batch + (m, m)), C.reshape(batch + (n, m))
+
+
+def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H=None, R=None):
+    """Posterior mean, covariance, gain, innovation and the S-is-PD mask, batch-first."""
+    batch = prior_mean.shape[:-1]
+    n = prior_mean.shape[-1]
+    m = z.shape[-1]
+    pm = _flat(prior_mean, batch, 1)
+    B = pm.shape[0]
+    if joseph:
+        Hf, Rf = _flat_shared(H, batch), _flat_shared(R, batch)
+    else:
+        Hf, Rf = np.zeros((1, m, n)), np.zeros((1, m, m))
+    mean = np.empty((B, n))
+    cov = np.empty((B, n, n))
+    gain = np.empty((B, n, m))
+    innovation = np.empty((B, m))
+    ok = np.empty(B, dtype=np.bool_)
+    _pick(_update_kernels, B)(
+        pm, _flat(prior_cov, batch, 2), _flat(z, batch, 1), _flat(z_hat, batch, 1), _flat(S, batch, 2),
+        _flat(C, batch, 2), _flat_mask(bad_z, batch), bool(joseph),
+        Hf, Rf, mean, cov, gain, innovation, ok,
+    )
+    return (
+        mean.reshape(batch + (n,)),
+        cov.reshape(batch + (n, n)),
+        gain.reshape(batch + (n, m)),
+        innovation.reshape(batch + (m,)),
+        ok.reshape(batch),
+    )
+
+
+def fused_predict(mean, cov, rule, compiled, Q):
+    """Whole sigma-point predict with the model's compiled ``f``: mean, cov, status."""
+    root_kind, scale, center, wm, wc = rule
+    batch = mean.shape[:-1]
+    n = mean.shape[-1]
+    m_ = _flat(mean, batch, 1)
+    B = m_.shape[0]
+    out_mean = np.empty((B, n))
+    out_cov = np.empty((B, n, n))
+    status = np.empty(B, dtype=np.int8)
+    _pick(_fused_predict_kernels, B)(
+        m_, _flat(cov, batch, 2), root_kind, float(scale), bool(center), wm, wc,
+        compiled.f_code, compiled.f_params, _flat_shared(Q, batch), out_mean, out_cov, status,
+    )
+    return out_mean.reshape(batch + (n,)), out_cov.reshape(batch + (n, n)), status.reshape(batch)
+
+
+def fused_update(mean, cov, z, bad_z, rule, compiled, R):
+    """Whole sigma-point update with the model's compiled ``h``.
+
+    Returns ``(mean, cov, gain, innovation, z_hat, S, C, status, ok)``, batch-first.
+    """
+    root_kind, scale, center, wm, wc = rule
+    batch = mean.shape[:-1]
+    n = mean.shape[-1]
+    m = z.shape[-1]
+    m_ = _flat(mean, batch, 1)
+    B = m_.shape[0]
+    outs = (np.empty((B, n)), np.empty((B, n, n)), np.empty((B, n, m)), np.empty((B, m)),
+            np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m)))
+    status = np.empty(B, dtype=np.int8)
+    ok = np.empty(B, dtype=np.bool_)
+    _pick(_fused_update_kernels, B)(
+        m_, _flat(cov, batch, 2), _flat(z, batch, 1), _flat_mask(bad_z, batch),
+        root_kind, float(scale), bool(center), wm, wc, compiled.h_code, compiled.h_params, _flat_shared(R, batch),
+        *outs, status, ok,
+    )
+    tails = ((n,), (n, n), (n, m), (m,), (m,), (m, m), (n, m))
+    return tuple(o.reshape(batch + t) for o, t in zip(outs, tails)) + (status.reshape(batch), ok.reshape(batch))
+
+
+def warm_up() -> float:
+    """Compile (or load from the disk cache) every kernel on a tiny problem; seconds taken.
+
+    Worker processes call it once at start so no filter step pays the compile time.
+    """
+    import time
+
+    if not HAVE_NUMBA:
+        return 0.0
+    t0 = time.perf_counter()
+    for B in (1, PARALLEL_MIN_BATCH):
+        mean = np.zeros((B, 2))
+        cov = np.broadcast_to(np.eye(2), (B, 2, 2))
+        for kind in (0, 1):
+            X, _ = sigma_points(mean, cov, kind, 1.0, kind == 0)
+        X, _ = sigma_points(mean, cov, 0, 1.0, False)
+        w = np.full(4, 0.25)
+        predict_moments(X, w, w, np.eye(2))
+        z_hat, S, C = measurement_moments(X, X, mean, w, w, np.eye(2))
+        for joseph in (False, True):
+            update(mean, cov, mean, z_hat, S, C, np.zeros(B, bool), joseph, np.eye(2), np.eye(2))
+        from .types import CompiledFunctions
+
+        compiled = CompiledFunctions(F_LINEAR, np.eye(2), H_LINEAR, np.eye(2))
+        for kind in (0, 1):
+            rule = (kind, 1.0, kind == 0, np.full(4 + (kind == 0), 0.25), np.full(4 + (kind == 0), 0.25))
+            fused_predict(mean, cov, rule, compiled, np.eye(2))
+            fused_update(mean, cov, mean, np.zeros(B, bool), rule, compiled, np.eye(2))
+    return time.perf_counter() - t0

@@ -1,0 +1,195 @@
+"""Metric components and the shared metric helpers.
+
+A scenario reports its own metrics (``Scenario.metrics``: name -> unit) and per-epoch
+series (``BatchResult.series``). A :class:`Metric` component adds a metric computed from
+those series, once per batch in the worker, stored in the result store beside the
+scenario's own; a config names it in ``metrics`` like any other::
+
+    from gnssframework import hookimpl
+    from gnssframework.experiments.metrics import Metric, MetricValue, max_after_settle
+
+    class PeakCodeError(Metric):
+        name = "code_phase_error_peak"
+        unit = "chips"
+        description = "largest code error after the settle time"
+        requires = ("code_phase_error_rmse",)      # series of the scenario it reads
+
+        def compute(self, series, time_s, scenario):
+            err = series["code_phase_error_rmse"]  # (K, runs)
+            return MetricValue(max_after_settle(err, time_s, scenario.params.settle_s))
+
+    @hookimpl
+    def register_metric(register):
+        register(PeakCodeError)
+
+The helpers (:func:`rmse`, :func:`max_after_settle`, :func:`nees_mean`, :func:`fraction`,
+:func:`settled`) reduce a ``(K, runs, ...)`` series over time (axis 0) to ``(runs,)``;
+scenarios use them instead of writing the reductions inline.
+"""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..plugin import Plugin
+
+__all__ = ["Metric", "MetricValue", "rmse", "max_after_settle", "nees_mean", "fraction", "settled",
+           "metric_plugin", "plugin_metrics"]
+
+
+def settled(time_s: np.ndarray | None, settle_s: float, k: int) -> np.ndarray:
+    """Boolean mask ``(K,)`` of the epochs at or after ``settle_s`` (all epochs if there is
+    no time axis)."""
+    if time_s is None or np.size(time_s) == 0:
+        return np.ones(k, dtype=bool)
+    t = np.asarray(time_s, dtype=float)
+    if t.shape != (k,):
+        raise ValueError(f"time_s has shape {t.shape}, the series has {k} epochs")
+    return t >= settle_s
+
+
+def _select(x: np.ndarray, mask: np.ndarray | None, what: str) -> np.ndarray:
+    x = np.asarray(x, dtype=float)
+    if mask is None:
+        out = x
+    else:
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != x.shape[:1]:
+            raise ValueError(f"{what}: the epoch mask has shape {mask.shape}, the series {x.shape}")
+        out = x[mask]
+    if out.shape[0] == 0:
+        raise ValueError(f"{what}: no epoch selected (settle time at or beyond the end of the run?)")
+    return out
+
+
+def rmse(err: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+    """Root mean square over time (axis 0) of the selected epochs.
+
+    ``err`` is ``(K, runs)``; a vector error ``(K, runs, d)`` is reduced with its norm
+    first, ``sqrt(mean_k |e_k|^2)``. Returns ``(runs,)``.
+
+    Examples
+    --------
+    >>> rmse(np.array([[3.0], [4.0]])).round(4).tolist()
+    [3.5355]
+    """
+    e = _select(err, mask, "rmse")
+    sq = e**2 if e.ndim <= 2 else np.sum(e**2, axis=tuple(range(2, e.ndim)))
+    return np.sqrt(np.mean(sq, axis=0))
+
+
+def max_after_settle(err: np.ndarray, time_s: np.ndarray | None, settle_s: float) -> np.ndarray:
+    """Largest absolute error (norm for vector errors) at or after ``settle_s``, ``(runs,)``."""
+    e = np.asarray(err, dtype=float)
+    e = _select(e, settled(time_s, settle_s, e.shape[0]), "max_after_settle")
+    mag = np.abs(e) if e.ndim <= 2 else np.sqrt(np.sum(e**2, axis=tuple(range(2, e.ndim))))
+    return np.max(mag, axis=0)
+
+
+def nees_mean(err: np.ndarray, cov: np.ndarray | None = None, mask: np.ndarray | None = None) -> np.ndarray:
+    """Mean normalized estimation error squared over time, ``(runs,)``.
+
+    With ``cov`` (``(K, runs, n, n)``) and ``err`` (``(K, runs, n)``): ``mean_k e_k^T P_k^-1 e_k``
+    (Bar-Shalom, Li and Kirubarajan 2001, sec. 5.4; its expectation is ``n`` for a
+    consistent filter). Without ``cov``, ``err`` is the per-epoch NEES ``(K, runs)``.
+    """
+    if cov is None:
+        return np.mean(_select(err, mask, "nees_mean"), axis=0)
+    e = _select(err, mask, "nees_mean")
+    P = _select(cov, mask, "nees_mean")
+    sol = np.linalg.solve(P, e[..., None])[..., 0]
+    return np.mean(np.sum(e * sol, axis=-1), axis=0)
+
+
+def fraction(flags: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+    """Fraction of the selected epochs where ``flags`` is true (e.g. loss of lock), ``(runs,)``."""
+    return np.mean(_select(np.asarray(flags, dtype=bool), mask, "fraction"), axis=0)
+
+
+@dataclass
+class MetricValue:
+    """A metric of one batch: ``value`` ``(runs,)`` and optionally a per-epoch ``series`` ``(K, runs)``."""
+
+    value: np.ndarray
+    series: np.ndarray | None = None
+
+
+class Metric(Plugin, abc.ABC):
+    """Base class of metric components (plugin kind ``metric``).
+
+    Attributes
+    ----------
+    name
+        The metric's name in configs, reports and ``summary.json`` (snake_case).
+    unit
+        Its unit (``"m"``, ``"chips"``, ``"-"``).
+    description
+        One line for ``gnssframework plugins`` and the docs.
+    requires
+        Names of the scenario series the metric reads (``Scenario.metrics`` keys or
+        ``Scenario.outputs`` keys); a config naming the metric with a scenario that lacks
+        one is refused when it is loaded.
+    scenarios
+        Scenario kinds the metric applies to (empty: any scenario providing ``requires``).
+    """
+
+    kind = "metric"
+    unit: ClassVar[str] = "-"
+    requires: ClassVar[tuple[str, ...]] = ()
+    scenarios: ClassVar[tuple[str, ...]] = ()
+
+    @abc.abstractmethod
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        """The metric of one batch from the scenario's series ``(K, runs, ...)``.
+
+        Called once per batch, in the worker that simulated it; the value is stored.
+        """
+
+    def applies_to(self, scenario: Any) -> str:
+        """Why the metric cannot be computed in ``scenario`` (``""`` if it can)."""
+        if self.scenarios and scenario.kind not in self.scenarios:
+            return f"applies to scenarios {', '.join(self.scenarios)}, not {scenario.kind!r}"
+        available = set(scenario.metrics) | set(getattr(scenario, "outputs", {}) or {})
+        missing = [r for r in self.requires if r not in available]
+        if missing:
+            return f"needs series {', '.join(missing)}, which scenario {scenario.kind!r} does not provide"
+        return ""
+
+
+def metric_plugin(name: str) -> type[Metric] | None:
+    """The registered metric component called ``name`` (``None`` if there is none)."""
+    from .. import registry
+
+    return registry.get("metric", name) if name in registry.names("metric") else None
+
+
+def plugin_metrics(scenario: Any) -> dict[str, type[Metric]]:
+    """Registered metric components that ``scenario`` can compute, by name."""
+    from .. import registry
+
+    out = {}
+    for name in registry.names("metric"):
+        cls = registry.get("metric", name)
+        if not cls().applies_to(scenario):
+            out[name] = cls
+    return out
+
+
+def check_metric(name: str, scenario: Any, field: str) -> str:
+    """Unit of metric ``name`` in ``scenario`` (its own or a component's); a ``ConfigError``
+    naming ``field`` and the allowed metrics otherwise."""
+    if name in scenario.metrics:
+        return scenario.metrics[name]
+    cls = metric_plugin(name)
+    allowed = ", ".join(list(scenario.metrics) + [m for m in plugin_metrics(scenario) if m not in scenario.metrics])
+    if cls is None:
+        raise ConfigError(field, f"unknown {name!r}; allowed: {allowed}")
+    why = cls().applies_to(scenario)
+    if why:
+        raise ConfigError(field, f"metric {name!r} {why}; allowed: {allowed}")
+    return cls.unit

@@ -1,0 +1,392 @@
+"""Parameter sweeps: ``[[sweeps]]`` tables that vary one scenario, case or candidate parameter.
+
+::
+
+    [[sweeps]]
+    name = "cn0"                       # optional; default: the path's last part
+    path = "cases.cn0_dbhz"            # every case; or "cases.45dBHz.cn0_dbhz" for one
+    start = 25.0
+    stop = 50.0                        # inclusive
+    step = 5.0                         # or: num = 6 (evenly spaced, like numpy.linspace)
+
+    [[sweeps]]
+    path = "candidates.ackf.channel_filter.params.window"
+    values = [10, 20, 40]
+
+Paths: ``scenario.<field>``, ``cases.<field>`` (every case), ``cases.<case>.<field>``,
+``candidates.<candidate>.<kind>.params.<field>`` (``kind`` may be left out when exactly
+one of the candidate's plugins has that parameter), and further into a nested plugin's
+parameters, ``...params.estimator.params.alpha`` (a nested plugin given by name is
+rewritten as ``{name, params}``). The path must name a parameter of the
+target's model, and every value is validated by that model when the config is loaded
+(a bad value is refused naming the sweep, the path and the field's rule).
+
+Each point is the comparison with that one value changed (sweeps are one at a time, not
+a grid). Every point runs every case and candidate with the same seed, so the points
+share their random numbers (common random numbers along the sweep as well as between
+candidates), and is stored in the comparison's result store under the point's own
+identity: an interrupted sweep resumes where it stopped, with identical numbers.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from ..errors import ConfigError
+from .files import atomic_open, write_json
+from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
+
+__all__ = ["Sweep", "expand_sweep", "sweep_rows", "write_sweeps"]
+
+
+class Sweep(BaseModel):
+    """One swept parameter: a dotted path and a list (``values``) or a range
+    (``start``, ``stop`` and ``step`` or ``num``) of values."""
+
+    model_config = ConfigDict(extra="forbid")
+    path: str = Field(..., description="dotted path of the parameter: scenario.<field>, cases.<field>, "
+                      "cases.<case>.<field> or candidates.<candidate>.<kind>.params.<field>")
+    name: str | None = Field(None, pattern=r"^[A-Za-z0-9_.+-]+$",
+                             description="name in reports and file names (default: the path's last part)")
+    values: list[Any] | None = Field(None, min_length=1, description="the values, in order")
+    start: float | None = Field(None, description="first value of a range")
+    stop: float | None = Field(None, description="last value of a range (inclusive)")
+    step: float | None = Field(None, description="spacing of a range (with start and stop)")
+    num: int | None = Field(None, ge=2, le=1000, description="number of evenly spaced values of a range")
+    cases: list[str] | None = Field(None, min_length=1, description="the cases the sweep's points run "
+                                    "(default: every case)")
+
+    @model_validator(mode="after")
+    def _one_form(self) -> "Sweep":
+        ranged = [k for k in ("start", "stop", "step", "num") if getattr(self, k) is not None]
+        if self.values is not None:
+            if ranged:
+                raise ValueError(f"give either values or a range (start, stop, step or num), not both "
+                                 f"(got values and {', '.join(ranged)})")
+            return self
+        if self.start is None or self.stop is None or (self.step is None) == (self.num is None):
+            raise ValueError("give values = [...], or start and stop with exactly one of step and num")
+        if self.step is not None:
+            if self.step == 0 or (self.stop - self.start) / self.step < 0:
+                raise ValueError(f"step = {self.step} does not lead from start = {self.start} to stop = {self.stop}")
+            if (self.stop - self.start) / self.step > 1000:
+                raise ValueError("more than 1000 points; use a larger step")
+        return self
+
+    @property
+    def label(self) -> str:
+        return self.name or self.path.rsplit(".", 1)[-1]
+
+    def points(self) -> list[Any]:
+        """The swept values, in order."""
+        if self.values is not None:
+            return list(self.values)
+        if self.num is not None:
+            pts = np.linspace(self.start, self.stop, self.num)
+        else:
+            n = int(math.floor((self.stop - self.start) / self.step + 1e-9)) + 1
+            pts = self.start + self.step * np.arange(n)
+        whole = all(float(v).is_integer() for v in (self.start, self.stop, self.step or 1.0)) and self.num is None
+        # Round away the float noise of start + k * step (0.1 + 2 * 0.1 -> 0.3).
+        return [int(round(v)) if whole else float(np.round(v, 12)) for v in pts]
+
+
+def _model_fields(model: type[BaseModel] | None) -> list[str]:
+    return [] if model is None else [f for f in model.model_fields if f not in ("name", "kind")]
+
+
+def _resolve(config, sweep: Sweep, where: str) -> list[tuple[Any, ...]]:
+    """The locations in the config's data the path names, as key tuples; refuses a path
+    that names no parameter (listing the allowed ones)."""
+    from .. import registry
+    from .scenarios import get_scenario
+
+    parts = sweep.path.split(".")
+    head, rest = parts[0], parts[1:]
+    field = f"{where}.path"
+    scenario = get_scenario(config.scenario)
+    if head == "scenario":
+        allowed = _model_fields(type(scenario).Params)
+        if len(rest) != 1 or rest[0] not in allowed:
+            raise ConfigError(field, f"{sweep.path!r} names no parameter of scenario {scenario.kind!r}; "
+                              f"allowed: {', '.join('scenario.' + a for a in allowed)}")
+        return [("scenario", rest[0])]
+    if head == "cases":
+        allowed = _model_fields(type(scenario).CaseParams)
+        names = [c.name for c in config.cases]
+        if len(rest) == 1 and rest[0] in allowed:
+            return [("cases", i, rest[0]) for i in range(len(config.cases))]
+        if len(rest) == 2 and rest[0] in names and rest[1] in allowed:
+            return [("cases", names.index(rest[0]), rest[1])]
+        raise ConfigError(field, f"{sweep.path!r} names no case parameter; allowed: "
+                          f"{', '.join('cases.' + a for a in allowed)} or cases.<case>.<parameter> "
+                          f"with a case among {', '.join(names)}")
+    if head == "candidates":
+        names = [c.name for c in config.candidates]
+        if not rest or rest[0] not in names:
+            raise ConfigError(field, f"{sweep.path!r}: the second part must be a candidate; allowed: "
+                              f"{', '.join(names)}")
+        i = names.index(rest[0])
+        comps = config.candidates[i].components()
+        tail = rest[1:]
+        if tail[:1] == ["params"] and len(tail) >= 2:  # kind left out: the one plugin having the parameter
+            kinds = [k for k, ref in comps.items() if tail[1] in _model_fields(registry.get(k, ref.name).Params)]
+            if len(kinds) != 1:
+                raise ConfigError(field, f"{sweep.path!r}: {'no' if not kinds else 'more than one'} plugin of "
+                                  f"candidate {rest[0]!r} has a parameter {tail[1]!r}; write "
+                                  f"candidates.{rest[0]}.<kind>.params.{tail[1]} with a kind among "
+                                  f"{', '.join(comps)}")
+            tail = [kinds[0]] + tail
+        if len(tail) < 3 or tail[0] not in comps or tail[1] != "params":
+            raise ConfigError(field, f"{sweep.path!r}: write candidates.{rest[0]}.<kind>.params.<parameter> with "
+                              f"a kind among {', '.join(comps)}")
+        allowed = _model_fields(registry.get(tail[0], comps[tail[0]].name).Params)
+        if tail[2] not in allowed:
+            raise ConfigError(field, f"{sweep.path!r}: {comps[tail[0]].name!r} has no parameter {tail[2]!r}; "
+                              f"allowed: {', '.join(allowed)}")
+        return [("candidates", i, tail[0], "params", *tail[2:])]
+    raise ConfigError(field, f"{sweep.path!r} must start with scenario, cases or candidates")
+
+
+def _set(data: dict, keys: tuple[Any, ...], value: Any, path: str, field: str) -> None:
+    node = data
+    for i, k in enumerate(keys[:-1]):
+        if isinstance(node, dict) and k not in node and isinstance(k, str):
+            node[k] = {}
+        if isinstance(node, dict) and isinstance(node.get(k), str) and keys[i + 1] == "params":
+            node[k] = {"name": node[k], "params": {}}  # a nested plugin given by name: its table form
+        try:
+            node = node[k]
+        except (KeyError, IndexError, TypeError):
+            raise ConfigError(field, f"{path!r} does not exist in the config (at {k!r})") from None
+        if not isinstance(node, (dict, list)):
+            raise ConfigError(field, f"{path!r} does not exist in the config: {k!r} is a value "
+                              f"({node!r}), not a table; write it as {{ name = ..., params = {{ ... }} }}")
+    node[keys[-1]] = value
+
+
+def expand_sweep(config, index: int) -> list[tuple[Any, Any]]:
+    """The points of ``config.sweeps[index]``: ``(value, ComparisonConfig)`` pairs, each the
+    config with that value set and no sweeps, validated (a bad value raises a
+    ``ConfigError`` naming ``sweeps[index].values[j]``, the path and the field's rule)."""
+    from .config import ComparisonConfig
+
+    sweep = config.sweeps[index]
+    where = f"sweeps[{index}]"
+    names = [c.name for c in config.cases]
+    for j, case in enumerate(sweep.cases or []):
+        if case not in names:
+            raise ConfigError(f"{where}.cases[{j}]", f"unknown case {case!r}; allowed: {', '.join(names)}")
+    locations = _resolve(config, sweep, where)
+    base = config.model_dump(mode="json", exclude={"sweeps"}, exclude_none=True)
+    out = []
+    for j, value in enumerate(sweep.points()):
+        data = copy.deepcopy(base)
+        for keys in locations:
+            _set(data, keys, value, sweep.path, f"{where}.path")
+        data["name"] = f"{config.name}-{sweep.label}={value}"
+        if sweep.cases:
+            data["cases"] = [c for c in data["cases"] if c["name"] in sweep.cases]
+            data["published"] = {k: v for k, v in data.get("published", {}).items() if k in sweep.cases}
+        try:
+            point = ComparisonConfig.model_validate(data)
+        except ConfigError as exc:
+            raise ConfigError(f"{where}.values[{j}]", f"{sweep.path} = {value!r}: {exc}") from None
+        except Exception as exc:  # pydantic's ValidationError, made one line by the config loader
+            from pydantic import ValidationError
+
+            from ..plugin import validation_message
+
+            if isinstance(exc, ValidationError):
+                raise ConfigError(f"{where}.values[{j}]",
+                                  f"{sweep.path} = {value!r}: {validation_message(exc, model=ComparisonConfig)}") \
+                    from None
+            raise
+        out.append((value, point))
+    return out
+
+
+# -- report ---------------------------------------------------------------------------------
+
+def sweep_rows(config, store) -> list[dict]:
+    """Per sweep: ``{"name", "path", "values", "rows", "paired"}``; ``rows`` hold each
+    point's mean, SE and n per case, candidate and metric; ``paired`` each point's paired
+    difference to the reference candidate (see :mod:`gnssframework.experiments.stats`)."""
+    out = []
+    ref = config.reference_name
+    units = config.metric_units
+    for i, sweep in enumerate(config.sweeps):
+        rows, paired = [], []
+        for value, point in config.sweep_points(i):
+            key = point.identity()
+            for case in point.cases:
+                for metric in point.metric_names:
+                    y = store.run_values(key, case.name, ref, metric, point.runs)
+                    for cand in point.candidates:
+                        x = store.run_values(key, case.name, cand.name, metric, point.runs)
+                        mean, se, n = mean_and_se(np.array([x[r] for r in sorted(x)]))
+                        rows.append({"value": value, "case": case.name, "candidate": cand.name, "metric": metric,
+                                     "mean": finite_or_none(mean), "se": finite_or_none(se), "n": n,
+                                     "unit": units[metric]})
+                        if cand.name != ref:
+                            pd = paired_difference(*paired_values(x, y))
+                            paired.append({"value": value, "case": case.name, "candidate": cand.name,
+                                           "metric": metric, "reference": ref, **pd.to_json()})
+        out.append({"name": sweep.label, "path": sweep.path, "values": sweep.points(),
+                    "cases": [c.name for c in config.cases if not sweep.cases or c.name in sweep.cases],
+                    "rows": rows, "paired": paired})
+    return out
+
+
+def _write_csv(path: Path, sweep: dict) -> None:
+    paired = {(p["value"], p["case"], p["candidate"], p["metric"]): p for p in sweep["paired"]}
+    with atomic_open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow([sweep["name"], "case", "candidate", "metric", "unit", "mean", "se", "n",
+                    "diff_to_reference", "diff_se", "significant"])
+        for r in sweep["rows"]:
+            p = paired.get((r["value"], r["case"], r["candidate"], r["metric"]), {})
+            w.writerow([r["value"], r["case"], r["candidate"], r["metric"], r["unit"],
+                        "" if r["mean"] is None else r["mean"], "" if r["se"] is None else r["se"], r["n"],
+                        "" if p.get("diff") is None else p["diff"], "" if p.get("se") is None else p["se"],
+                        p.get("significant", "")])
+
+
+def _plot(path: Path, config, sweep: dict, case: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    values = sweep["values"]
+    numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+    xs = np.array(values, dtype=float) if numeric else np.arange(len(values), dtype=float)
+    metrics = config.metric_names
+    fig, axes = plt.subplots(len(metrics), 1, figsize=(6.5, 2.2 * len(metrics)), sharex=True, squeeze=False)
+    for ax, metric in zip(axes[:, 0], metrics):
+        for cand in config.candidates:
+            rows = {r["value"]: r for r in sweep["rows"]
+                    if r["case"] == case and r["candidate"] == cand.name and r["metric"] == metric}
+            mean = np.array([np.nan if rows[v]["mean"] is None else rows[v]["mean"] for v in values], dtype=float)
+            se = np.array([np.nan if rows[v]["se"] is None else rows[v]["se"] for v in values], dtype=float)
+            line, = ax.plot(xs, mean, marker="o", ms=3, lw=1.0, label=cand.name)
+            ax.fill_between(xs, mean - 1.96 * se, mean + 1.96 * se, color=line.get_color(), alpha=0.2, lw=0)
+        ax.set_ylabel(f"{metric}\n({config.metric_units[metric]})", fontsize=7)
+        ax.grid(alpha=0.3)
+    if not numeric:
+        axes[-1, 0].set_xticks(xs, [str(v) for v in values])
+    axes[-1, 0].set_xlabel(sweep["path"])
+    axes[0, 0].legend(fontsize=7)
+    axes[0, 0].set_title(f"{config.name} - {case}: mean ± 1.96 SE over runs", fontsize=9)
+    fig.tight_layout()
+    with atomic_open(path, "wb") as fh:
+        fig.savefig(fh, format="png", dpi=90)
+    plt.close(fig)
+
+
+def _plot_paired(path: Path, config, sweep: dict, case: str) -> None:
+    """Each metric's paired difference to the reference against the parameter, with its
+    95 % paired t-interval (the interval the significance mark uses)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    values = sweep["values"]
+    numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+    xs = np.array(values, dtype=float) if numeric else np.arange(len(values), dtype=float)
+    metrics = config.metric_names
+    fig, axes = plt.subplots(len(metrics), 1, figsize=(6.5, 2.2 * len(metrics)), sharex=True, squeeze=False)
+    for ax, metric in zip(axes[:, 0], metrics):
+        for cand in config.candidates:
+            if cand.name == config.reference_name:
+                continue
+            rows = {p["value"]: p for p in sweep["paired"]
+                    if p["case"] == case and p["candidate"] == cand.name and p["metric"] == metric}
+            diff = np.array([np.nan if rows[v]["diff"] is None else rows[v]["diff"] for v in values], dtype=float)
+            lo = np.array([np.nan if rows[v]["ci95"] is None or rows[v]["ci95"][0] is None else rows[v]["ci95"][0]
+                           for v in values], dtype=float)
+            hi = np.array([np.nan if rows[v]["ci95"] is None or rows[v]["ci95"][1] is None else rows[v]["ci95"][1]
+                           for v in values], dtype=float)
+            line, = ax.plot(xs, diff, marker="o", ms=3, lw=1.0, label=f"{cand.name} - {config.reference_name}")
+            ax.fill_between(xs, lo, hi, color=line.get_color(), alpha=0.2, lw=0)
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_ylabel(f"Δ {metric}\n({config.metric_units[metric]})", fontsize=7)
+        ax.grid(alpha=0.3)
+    if not numeric:
+        axes[-1, 0].set_xticks(xs, [str(v) for v in values])
+    axes[-1, 0].set_xlabel(sweep["path"])
+    if axes[0, 0].get_legend_handles_labels()[0]:
+        axes[0, 0].legend(fontsize=7)
+    axes[0, 0].set_title(f"{config.name} - {case}: paired difference to {config.reference_name}, "
+                         "95 % paired t-interval", fontsize=9)
+    fig.tight_layout()
+    with atomic_open(path, "wb") as fh:
+        fig.savefig(fh, format="png", dpi=90)
+    plt.close(fig)
+
+
+def _markdown(config, sweep: dict) -> list[str]:
+    ref = config.reference_name
+    paired = {(p["value"], p["case"], p["candidate"], p["metric"]): p for p in sweep["paired"]}
+    means = {(r["value"], r["case"], r["candidate"], r["metric"]): r for r in sweep["rows"]}
+    names = [c.name for c in config.candidates]
+    lines = [f"## Sweep `{sweep['name']}`: {sweep['path']}", "",
+             f"Mean ± SE over runs; for candidates other than `{ref}`, the paired difference to it "
+             "(**\\***: significant). Table: `sweeps/" + sweep["name"] + ".csv`.", ""]
+    for case in sweep["cases"]:
+        lines += [f"### {case}", "", f"![sweep {sweep['name']}](plots/sweep-{sweep['name']}-{case}.png)", ""]
+        if len(names) > 1:
+            lines += [f"![paired differences](plots/sweep-{sweep['name']}-{case}-paired.png)", ""]
+        lines += [f"| {sweep['name']} | metric | " + " | ".join(names) + " |",
+                  "| --- | --- | " + " | ".join("---" for _ in names) + " |"]
+        for metric in config.metric_names:
+            for v in sweep["values"]:
+                cells = []
+                for cand in names:
+                    r = means[(v, case, cand, metric)]
+                    cell = "–" if r["mean"] is None else f"{r['mean']:.4g}" + (
+                        "" if r["se"] is None else f" ± {r['se']:.2g}")
+                    p = paired.get((v, case, cand, metric))
+                    if p is not None and p["diff"] is not None:
+                        cell += f" (Δ {p['diff']:+.3g}" + ("" if p["se"] is None else f" ± {p['se']:.2g}") + (
+                            " **\\***" if p["significant"] else "") + ")"
+                    cells.append(cell)
+                lines.append(f"| {v} | {metric} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return lines
+
+
+def write_sweeps(config, store, out: Path) -> tuple[list[dict], list[str]]:
+    """Write each sweep's table (``sweeps/<name>.csv`` and ``.json``) and plots
+    (``plots/sweep-<name>-<case>.png``); return the summary entries and report lines."""
+    if not config.sweeps:
+        return [], []
+    sweeps = sweep_rows(config, store)
+    (out / "sweeps").mkdir(exist_ok=True)
+    (out / "plots").mkdir(exist_ok=True)
+    lines: list[str] = []
+    for sweep in sweeps:
+        _write_csv(out / "sweeps" / f"{sweep['name']}.csv", sweep)
+        write_json(out / "sweeps" / f"{sweep['name']}.json", sweep)  # strict JSON, atomic
+        for case in sweep["cases"]:
+            _plot(out / "plots" / f"sweep-{sweep['name']}-{case}.png", config, sweep, case)
+            if len(config.candidates) > 1:
+                _plot_paired(out / "plots" / f"sweep-{sweep['name']}-{case}-paired.png", config, sweep, case)
+        lines += _markdown(config, sweep)
+    return sweeps, lines
+
+
+def check_unique_labels(sweeps: list[Sweep]) -> None:
+    labels = [s.label for s in sweeps]
+    dup = sorted({n for n in labels if labels.count(n) > 1})
+    if dup:
+        raise ConfigError("sweeps", f"sweep names must be unique, repeated: {', '.join(dup)} (set name = ...)")
+

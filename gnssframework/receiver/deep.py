@@ -1,0 +1,251 @@
+"""Multi-rate aided tracking harness of deep integration (reference 002), batched over runs and channels.
+
+Rates (reference 002, section 3.1): correlators and the code/frequency prefilter every
+coherent interval T (1 ms); the NCOs re-aided every ``nco_interval_s`` from the
+navigator (the corrected INS at 200 Hz in deep integration); the integration filter
+updated every ``update_interval_s`` (10 Hz).
+
+Each coherent interval k:
+
+1. at an aiding instant, the navigator's receiver position, velocity and acceleration
+   and clock give each channel's pseudorange, rate and acceleration along the line of
+   sight (`deep_aiding.line_of_sight_kinematics`), from which the replica of the next
+   NCO interval is laid out (`deep_aiding.nco_schedule`; ``accel_aiding=False`` is the
+   ``deep-no-accel`` candidate);
+2. the correlators of the replica's true code, phase and frequency errors are drawn
+   (`simulate_correlators`, as the vector loop does);
+3. the channel prefilter (a ``channel_filter`` plugin providing the vector loop's
+   outputs, e.g. ``iq-filter`` with ``output = "equivalent"``) returns this interval's
+   *new* code-phase and frequency information (so nothing is counted twice);
+4. the harness accumulates those per channel as a weighted least-squares fit of the
+   range residual $\\delta\\rho(t) = \\delta\\rho_u + \\delta\\dot\\rho_u\\,(t - t_u)
+   + \\tfrac12\\delta\\ddot\\rho\\,(t - t_u)^2$ and its rate over the integration interval
+   (the marginal of range and rate at $t_u$ is handed over), with
+   $\\delta\\rho = \\lambda_{chip}\\,\\delta\\tau$, $\\delta\\dot\\rho = -\\lambda_{L1}\\,\\delta f$;
+   both taken against the navigator's prediction along the line of sight (the replica
+   departs from it without acceleration aiding, by the known $\\tfrac12\\ddot\\rho\\tau^2$);
+5. at an integration instant $t_u$ the fit (mean and 2x2 covariance per channel, the
+   interval's new information only) goes to the navigator's ``update`` and the
+   accumulator is reset (Groves 2013, section 16.3.3).
+
+Residual sign: true minus the navigator's prediction, so a
+navigator position error $\\delta r$ shows as $\\delta\\rho_i = e_i\\cdot\\delta r - \\delta b$.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Protocol
+
+import numpy as np
+
+from ..errors import ConfigError, NumericalError
+from ..interfaces import ChannelFilter, RunContext
+from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
+from ..signal.correlator_model import simulate_correlators
+from .deep_aiding import line_of_sight_kinematics, nco_schedule
+from .vector import CHANNEL_OUTPUTS
+
+__all__ = ["DeepTruth", "Navigator", "DeepRecord", "run_aided_tracking", "loss_of_lock"]
+
+
+@dataclass(frozen=True)
+class DeepTruth:
+    """Truth of an aided-tracking run.
+
+    Attributes
+    ----------
+    sat_state
+        ``sat_state(t) -> (pos, vel, acc)``, each ``(channels, 3)`` ECEF at scalar t.
+    receiver_state
+        ``receiver_state(t) -> (pos, vel, acc)``, each ``(runs, 3)`` ECEF at scalar t.
+    clock_m
+        ``(K+1, runs, 2)``: receiver clock bias (m) and drift (m/s) at the epochs kT.
+    cn0_dbhz
+        ``(runs, channels)`` or broadcastable.
+    coherent_time_s
+        T.
+    """
+
+    sat_state: Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
+    receiver_state: Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
+    clock_m: np.ndarray
+    cn0_dbhz: np.ndarray
+    coherent_time_s: float
+
+    @property
+    def epochs(self) -> int:
+        return self.clock_m.shape[0] - 1
+
+    def pseudorange(self, t: float, k: int, sat_pos: np.ndarray) -> np.ndarray:
+        r = self.receiver_state(t)[0]
+        return np.linalg.norm(sat_pos[None] - r[:, None], axis=-1) + self.clock_m[k, :, 0][:, None]
+
+
+class Navigator(Protocol):
+    """What aids the NCOs and takes the prefilters' output (the INS + integration filter slot)."""
+
+    def kinematics(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Receiver position, velocity, acceleration ``(runs, 3)`` and clock bias, drift ``(runs,)``."""
+
+    def update(self, t_s: float, residual_m: np.ndarray, residual_cov: np.ndarray, los: np.ndarray,
+               cn0_dbhz: np.ndarray) -> None:
+        """Integration update: residuals ``(runs, ch, 2)`` [range m, rate m/s], covariance ``(runs, ch, 2, 2)``."""
+
+
+@dataclass
+class DeepRecord:
+    """Series of an aided-tracking run. Tracking errors every T, prefilter outputs every update."""
+
+    code_error_chips: np.ndarray  # (K, runs, ch) true code error of the replica
+    freq_error_hz: np.ndarray  # (K, runs, ch) true frequency error
+    time_s: np.ndarray  # (K,) mid-interval times
+    update_time_s: np.ndarray  # (U,)
+    residual_m: np.ndarray  # (U, runs, ch, 2) prefilter output at each update
+    residual_cov: np.ndarray  # (U, runs, ch, 2, 2)
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def _steps(interval_s: float, T: float, name: str) -> int:
+    n = int(round(interval_s / T))
+    if n < 1 or abs(n * T - interval_s) > 1e-9 * max(1.0, interval_s):
+        raise ConfigError(name, f"must be a positive multiple of the coherent time {T} s, got {interval_s}")
+    return n
+
+
+def run_aided_tracking(
+    channel: ChannelFilter,
+    navigator: Navigator,
+    truth: DeepTruth,
+    rng: np.random.Generator,
+    *,
+    nco_interval_s: float = 0.005,
+    update_interval_s: float = 0.1,
+    accel_aiding: bool = True,
+    early_late_spacing_chips: float = 1.0,
+) -> DeepRecord:
+    """Run the aided tracking loop over all epochs of ``truth`` (data bits wiped off).
+
+    Parameters
+    ----------
+    channel
+        Code/frequency prefilter providing `gnssframework.receiver.vector.CHANNEL_OUTPUTS`
+        as each interval's new information (``iq-filter`` with ``output = "equivalent"``).
+    navigator
+        Aids the NCOs and takes the integration updates (`Navigator`).
+    nco_interval_s, update_interval_s
+        Multiples of T; ``update_interval_s`` a multiple of ``nco_interval_s``.
+    accel_aiding
+        Use the line-of-sight acceleration in the replica (reference 002, section 2.3).
+    """
+    missing = [n for n in CHANNEL_OUTPUTS if n not in channel.provides]
+    if missing:
+        raise ConfigError("channel_filter", f"{channel.name!r} cannot feed deep integration: it does not provide "
+                          f"{', '.join(missing)}")
+    T = truth.coherent_time_s
+    n_nco = _steps(nco_interval_s, T, "nco_interval_s")
+    n_upd = _steps(update_interval_s, T, "update_interval_s")
+    if n_upd % n_nco:
+        raise ConfigError("update_interval_s", f"must be a multiple of nco_interval_s ({nco_interval_s} s)")
+    K = truth.epochs
+    runs = truth.clock_m.shape[1]
+    n_ch = truth.sat_state(0.0)[0].shape[0]
+    batch = (runs, n_ch)
+    cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
+    theta0 = rng.uniform(-np.pi, np.pi, batch)
+    channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
+                                    epoch_interval_s=T, cn0_dbhz=cn0))
+
+    rec: dict[str, list] = {k: [] for k in ("code", "freq", "tu", "res", "cov")}
+    carrier_rep = np.zeros(batch)
+    rep_end = None
+    rate_prev = None
+    normal = np.zeros(batch + (3, 3))
+    rhs = np.zeros(batch + (3,))
+    s, _, _ = truth.sat_state(0.0)
+    true_rho = truth.pseudorange(0.0, 0, s)
+    for k in range(K):
+        t0, t1 = k * T, (k + 1) * T
+        j = k % n_nco
+        if j == 0:  # re-aid the NCOs from the navigator
+            p, v, a, b, d = navigator.kinematics(t0)
+            _check_finite(type(navigator).__name__, k, p, v, a, b, d)
+            s, sv, sa = truth.sat_state(t0)
+            rho, rate, acc, los = line_of_sight_kinematics(p, v, a, s, sv, sa, b, d)
+            sched_range, sched_rate = nco_schedule(rho, rate, acc, T, n_nco, accel_aiding=accel_aiding)
+            t_aid = t0
+        nco_range, nco_rate = sched_range[j], sched_rate[j]
+        shift_chips = np.zeros(batch) if rep_end is None else (nco_range - rep_end) / CA_CHIP_LENGTH_M
+        shift_hz = np.zeros(batch) if rate_prev is None else -(nco_rate - rate_prev) / L1_WAVELENGTH_M
+        s1 = truth.sat_state(t1)[0]
+        next_rho = truth.pseudorange(t1, k + 1, s1)
+        rep_end = nco_range + nco_rate * T
+        code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
+        f_rep = -nco_rate / L1_WAVELENGTH_M
+        ph0 = theta0 - 2 * np.pi * true_rho / L1_WAVELENGTH_M - carrier_rep
+        carrier_rep_end = carrier_rep + 2 * np.pi * f_rep * T
+        ph1 = theta0 - 2 * np.pi * next_rho / L1_WAVELENGTH_M - carrier_rep_end
+        freq_err = (ph1 - ph0) / (2 * np.pi * T)
+        corr = simulate_correlators(code_err, ph0, freq_err, cn0, T, rng,
+                                    early_late_spacing_chips=early_late_spacing_chips)
+        out = channel.checked_step({"correlators": corr, "nco_shift_chips": shift_chips, "nco_shift_hz": shift_hz,
+                                    "data_bit": 1.0})
+        rec["code"].append(code_err)
+        rec["freq"].append(freq_err)
+
+        # Weighted least squares of [dr(t_u), dr_dot(t_u), dr_ddot] from this interval's new
+        # information: range residual quadratic in time, rate residual linear. The rate
+        # residual grows through the interval when the navigator's acceleration is off; a
+        # constant-rate fit would hand over its mid-interval value as t_u's (a lag).
+        dt = (k + 0.5) * T - (k // n_upd + 1) * n_upd * T  # mid-interval minus the coming update instant
+        w_rho = 1.0 / (out["code_error_var_chips2"] * CA_CHIP_LENGTH_M**2)
+        w_rate = 1.0 / (out["freq_error_var_hz2"] * L1_WAVELENGTH_M**2)
+        # Residuals against the navigator's own prediction (a smooth function of time),
+        # not against the replica: without acceleration aiding, or between re-aidings,
+        # the replica departs from the prediction by a known amount.
+        tau = t0 + T / 2 - t_aid
+        z_rho = (out["code_error_chips"] * CA_CHIP_LENGTH_M
+                 + (nco_range + nco_rate * T / 2) - (rho + rate * tau + 0.5 * acc * tau**2))
+        z_rate = -out["freq_error_hz"] * L1_WAVELENGTH_M + nco_rate - (rate + acc * tau)
+        h_rho = np.array([1.0, dt, 0.5 * dt * dt])
+        h_rate = np.array([0.0, 1.0, dt])
+        normal += w_rho[..., None, None] * np.outer(h_rho, h_rho) + w_rate[..., None, None] * np.outer(h_rate, h_rate)
+        rhs += (w_rho * z_rho)[..., None] * h_rho + (w_rate * z_rate)[..., None] * h_rate
+        if (k + 1) % n_upd == 0:
+            cov = np.linalg.inv(normal)[..., :2, :2]  # marginal of [range, rate] at t_u
+            res = np.einsum("...ij,...j->...i", np.linalg.inv(normal), rhs)[..., :2]
+            rec["tu"].append(t1)
+            rec["res"].append(res)
+            rec["cov"].append(cov)
+            s_u, sv_u, sa_u = truth.sat_state(t1)
+            p, v, a, b, d = navigator.kinematics(t1)
+            _, _, _, los_u = line_of_sight_kinematics(p, v, a, s_u, sv_u, sa_u, b, d)
+            navigator.update(t1, res, cov, los_u, cn0)
+            normal[:] = 0.0
+            rhs[:] = 0.0
+        rate_prev = nco_rate
+        carrier_rep = carrier_rep_end
+        true_rho = next_rho
+    return DeepRecord(np.stack(rec["code"]), np.stack(rec["freq"]), (np.arange(K) + 0.5) * T,
+                      np.asarray(rec["tu"]), np.stack(rec["res"]), np.stack(rec["cov"]))
+
+
+def _check_finite(name: str, step: int, *arrays: np.ndarray) -> None:
+    """Refuse a navigator output holding NaN or inf (it would silently poison every channel)."""
+    bad = np.zeros(np.shape(arrays[0])[:1], bool)
+    for a in arrays:
+        a = np.asarray(a, float)
+        bad |= ~np.isfinite(a).reshape(a.shape[0], -1).all(axis=1) if a.ndim else ~np.isfinite(a)
+    if bad.any():
+        raise NumericalError(name, [(int(i),) for i in np.flatnonzero(bad)], step,
+                             "navigator kinematics (position, velocity, acceleration or clock) not finite")
+
+
+def loss_of_lock(code_error_chips: np.ndarray, freq_error_hz: np.ndarray, coherent_time_s: float) -> np.ndarray:
+    """Loss-of-lock flags: |code error| > 0.5 chip or |frequency error| > 1/(2T).
+
+    At 1/(2T) the coherent sum has lost 36 % of its amplitude (sinc) and half a chip
+    takes the prompt halfway down the correlation triangle; both are choices, stated in
+    the docs.
+    """
+    return (np.abs(code_error_chips) > 0.5) | (np.abs(freq_error_hz) > 0.5 / coherent_time_s)

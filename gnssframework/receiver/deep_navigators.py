@@ -1,0 +1,110 @@
+"""Navigators for the aided-tracking harness that need no INS.
+
+`PvaNavigator` is GNSS-only vector tracking at the integration rate: a constant-
+acceleration (white-jerk) filter of ECEF position, velocity and acceleration, updated
+every integration interval with the prefilters' differenced range and rate residuals
+(`deep_measurements.integration_measurement`, correlated covariance) and correcting its
+state in closed loop, plus the small clock filter that keeps the NCOs' clock terms
+(`deep_measurements.clock_measurement`). Between updates it extrapolates its state to
+aid the NCOs. The ``ins-ekf`` navigator has the same structure with the INS in place of
+the kinematic model (Groves 2013, sections 14.2 and 16.2).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import registry
+from ..estimation import Gaussian, LinearModel
+from .deep_measurements import clock_measurement, integration_measurement, linear_update, reference_channel
+
+__all__ = ["PvaNavigator"]
+
+
+def _pva_transition(dt: float, jerk_psd: float) -> tuple[np.ndarray, np.ndarray]:
+    """Constant-acceleration transition and white-jerk process noise per axis (Bar-Shalom et al. 2001, 6.2.3)."""
+    F1 = np.array([[1.0, dt, dt * dt / 2], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
+    Q1 = jerk_psd * np.array([[dt**5 / 20, dt**4 / 8, dt**3 / 6], [dt**4 / 8, dt**3 / 3, dt**2 / 2],
+                              [dt**3 / 6, dt**2 / 2, dt]])
+    # State order [p(3), v(3), a(3)]: kron of the per-axis model with I3.
+    return np.kron(F1, np.eye(3)), np.kron(Q1, np.eye(3))
+
+
+class PvaNavigator:
+    """GNSS-only navigator of the harness (vector tracking at the integration rate).
+
+    Parameters
+    ----------
+    position_m, velocity_m_s, acceleration_m_s2
+        Initial estimates ``(runs, 3)`` ECEF.
+    cov
+        Initial covariance ``(9, 9)`` of [p, v, a].
+    clock_m, clock_cov
+        Initial clock [bias m, drift m/s] ``(runs, 2)`` and covariance ``(2, 2)``.
+    jerk_psd_m2_s5
+        White-jerk power spectral density per axis.
+    clock_psd
+        ``(bias, drift)`` white-noise PSDs of the two-state clock (m^2/s, m^2/s^3).
+    estimator
+        ``None`` for the Joseph-form Kalman update, or an ``estimator`` plugin (name or
+        instance: ``ekf``, ``ukf``, ``ckf`` ...) for the navigation update; on this linear
+        measurement every one of them must give the Kalman update.
+    """
+
+    def __init__(self, position_m, velocity_m_s, acceleration_m_s2, cov, clock_m, clock_cov, *,
+                 jerk_psd_m2_s5: float = 100.0, clock_psd: tuple[float, float] = (0.1, 0.1),
+                 estimator: Any = None) -> None:
+        if isinstance(estimator, str):
+            estimator = registry.create("estimator", estimator)
+        self.estimator = estimator
+        self.x = np.concatenate([position_m, velocity_m_s, acceleration_m_s2], axis=-1).astype(float)
+        runs = self.x.shape[0]
+        self.P = np.broadcast_to(np.asarray(cov, float), (runs, 9, 9)).copy()
+        self.c = np.asarray(clock_m, float).copy()
+        self.Pc = np.broadcast_to(np.asarray(clock_cov, float), (runs, 2, 2)).copy()
+        self.t = 0.0
+        self.jerk_psd = jerk_psd_m2_s5
+        self.clock_psd = clock_psd
+        self.steps = 0
+
+    def _predicted(self, t_s: float):
+        dt = t_s - self.t
+        F, _ = _pva_transition(dt, 0.0)
+        x = self.x @ F.T
+        return x, self.c[:, 0] + self.c[:, 1] * dt, self.c[:, 1]
+
+    def kinematics(self, t_s: float):
+        """Extrapolated position, velocity, acceleration and clock at ``t_s``."""
+        x, b, d = self._predicted(t_s)
+        return x[:, 0:3], x[:, 3:6], x[:, 6:9], b, d
+
+    def update(self, t_s: float, residual_m, residual_cov, los, cn0_dbhz) -> None:
+        """Predict to ``t_s``, then correct with the differenced residuals and the clock measurement."""
+        dt = t_s - self.t
+        F, Q = _pva_transition(dt, self.jerk_psd)
+        self.x = self.x @ F.T
+        self.P = F @ self.P @ F.T + Q
+        Fc = np.array([[1.0, dt], [0.0, 1.0]])
+        qb, qd = self.clock_psd
+        Qc = np.array([[qb * dt + qd * dt**3 / 3, qd * dt**2 / 2], [qd * dt**2 / 2, qd * dt]])
+        self.c = self.c @ Fc.T
+        self.Pc = Fc @ self.Pc @ Fc.T + Qc
+        self.t = t_s
+        # Error state dx = estimate - truth; the residuals measure dx (closed loop: subtract it).
+        runs = self.x.shape[0]
+        z, H, R = integration_measurement(residual_m, residual_cov, los, reference_channel(cn0_dbhz), n_states=9,
+                                          position=slice(0, 3), velocity=slice(3, 6))
+        if self.estimator is None:
+            dx, self.P = linear_update(np.zeros((runs, 9)), self.P, z, H, R, name="pva-navigator", step=self.steps)
+        else:
+            model = LinearModel(F=np.eye(9), H=H, Q=np.zeros((9, 9)), R=R)
+            upd = self.estimator.update(Gaussian(np.zeros((runs, 9)), self.P), z, model)
+            dx, self.P = upd.state.mean, upd.state.cov
+        self.x = self.x - dx
+        zc, Rc = clock_measurement(residual_m, residual_cov, los, dx[:, 0:3], dx[:, 3:6])
+        dc, self.Pc = linear_update(np.zeros((runs, 2)), self.Pc, zc, np.broadcast_to(np.eye(2), (runs, 2, 2)), Rc,
+                                    name="clock filter", step=self.steps)
+        self.c = self.c - dc
+        self.steps += 1

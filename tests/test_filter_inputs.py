@@ -1,0 +1,105 @@
+"""Bad filter inputs are refused at the boundary with a library error that names the input."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import gnssframework as gf
+from conftest import create
+
+#: Every built-in estimator (a new one is covered without editing this file).
+ESTIMATORS = sorted(i.name for i in gf.registry.describe()
+                    if i.kind == "estimator" and i.distribution == "gnssframework")
+F = np.array([[1.0, 1.0], [0.0, 1.0]])
+MODEL = gf.LinearModel(F, np.array([[1.0, 0.0]]), 0.01 * np.eye(2), np.eye(1))
+
+
+def _run(name, mean, cov, zs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no raw NumPy RuntimeWarning may reach the user
+        return gf.filter_sequence(create("estimator", name), MODEL, zs, gf.Gaussian(mean, cov))
+
+
+@pytest.mark.parametrize("name", ESTIMATORS)
+def test_nan_initial_mean_is_named_with_its_batch_element(name):
+    assert set(ESTIMATORS) >= {"kf", "ekf", "ukf", "ckf", "svd-ckf"}
+    mean = np.zeros((4, 2))
+    mean[2, 1] = np.nan
+    with pytest.raises(gf.InvalidInitialStateError, match=r"batch element \(2,\): initial mean is NaN or inf"):
+        _run(name, mean, np.eye(2), np.zeros((5, 4, 1)))
+
+
+@pytest.mark.parametrize("bad", [np.diag([1.0, -1.0]), np.full((2, 2), np.nan), np.array([[1.0, 2.0], [0.0, 1.0]])])
+def test_indefinite_nan_or_asymmetric_initial_covariance_is_named_with_its_batch_element(bad):
+    cov = np.broadcast_to(np.eye(2), (3, 2, 2)).copy()
+    cov[1] = bad
+    with pytest.raises(gf.InvalidInitialStateError, match=r"batch element \(1,\): initial covariance"):
+        _run("ckf", np.zeros((3, 2)), cov, np.zeros((5, 3, 1)))
+
+
+def test_zero_length_measurement_sequence_is_refused_naming_zs():
+    with pytest.raises(gf.InvalidInputError, match=r"kf: zs: is a zero-length measurement sequence"):
+        _run("kf", np.zeros(2), np.eye(2), np.zeros((0, 1)))
+
+
+def test_ukf_on_1e300_measurements_fails_by_name_without_a_numpy_warning():
+    zs = np.full((5, 1), 1e300)
+    with pytest.raises(gf.NonFiniteError) as err:
+        _run("ukf", np.zeros(2), np.eye(2), zs)
+    assert err.value.filter_name == "ukf" and err.value.step is not None and "magnitude up to" in str(err.value)
+    # The filters whose arithmetic stays finite return finite results.
+    res = _run("kf", np.zeros(2), np.eye(2), zs)
+    assert np.isfinite(res.mean).all()
+
+
+# -- Hypothesis: random bad inputs to every estimator ----------------------------------------
+
+BAD_KINDS = ["nan_mean", "inf_mean", "nan_cov", "indefinite_cov", "mean_dim", "cov_shape", "zs_dim",
+             "zs_batch", "zero_length", "nan_measurement", "zs_rank"]
+#: What the error message must name for each kind.
+NAMED = {"nan_mean": "initial mean", "inf_mean": "initial mean", "nan_cov": "initial covariance",
+         "indefinite_cov": "initial covariance", "mean_dim": "initial mean", "cov_shape": "Gaussian.cov",
+         "zs_dim": "zs", "zs_batch": "zs", "zero_length": "zs", "nan_measurement": "measurement is NaN",
+         "zs_rank": "zs"}
+
+
+@settings(max_examples=100, deadline=None)
+@given(name=st.sampled_from(ESTIMATORS), kind=st.sampled_from(BAD_KINDS), batch=st.integers(1, 4),
+       data=st.data())
+def test_random_bad_inputs_get_a_library_error_naming_the_input(name, kind, batch, data):
+    bad = data.draw(st.integers(0, batch - 1), label="bad element")
+    steps = data.draw(st.integers(1, 6), label="steps")
+    mean, cov = np.zeros((batch, 2)), np.broadcast_to(np.eye(2), (batch, 2, 2)).copy()
+    zs = np.zeros((steps, batch, 1))
+    if kind == "nan_mean":
+        mean[bad, data.draw(st.integers(0, 1))] = np.nan
+    elif kind == "inf_mean":
+        mean[bad, 0] = data.draw(st.sampled_from([np.inf, -np.inf]))
+    elif kind == "nan_cov":
+        cov[bad, 1, 1] = data.draw(st.sampled_from([np.nan, np.inf]))
+    elif kind == "indefinite_cov":
+        cov[bad] = np.diag([1.0, -data.draw(st.floats(1e-6, 1e6))])
+    elif kind == "mean_dim":
+        mean, cov = np.zeros((batch, 3)), np.eye(3)
+    elif kind == "cov_shape":
+        cov = np.eye(3)
+    elif kind == "zs_dim":
+        zs = np.zeros((steps, batch, data.draw(st.integers(2, 3))))
+    elif kind == "zs_batch":  # batches of 2+ and 3+ elements do not broadcast
+        mean, cov, zs = np.zeros((batch + 1, 2)), np.eye(2), np.zeros((steps, batch + 2, 1))
+    elif kind == "zero_length":
+        zs = np.zeros((0, batch, 1))
+    elif kind == "nan_measurement":
+        zs[data.draw(st.integers(0, steps - 1)), bad, 0] = np.nan
+    elif kind == "zs_rank":
+        zs = np.zeros(steps)
+    with pytest.raises(gf.GnssFrameworkError) as err:
+        _run(name, mean, cov, zs)
+    message = str(err.value)
+    assert NAMED[kind] in message, message
+    if kind in ("nan_mean", "inf_mean", "nan_cov", "indefinite_cov", "nan_measurement"):
+        assert f"batch element ({bad},)" in message, message

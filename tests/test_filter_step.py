@@ -1,0 +1,213 @@
+"""The one public filter step (FilterStep), the frozen run context, and the adapter's hold."""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+
+import gnssframework as gf
+from conftest import ca_matrices, create, simulate_linear
+from gnssframework.estimation import FilterStep
+from gnssframework.signal.correlator_model import simulate_correlators
+
+
+# -- FilterStep --------------------------------------------------------------------------
+
+def test_filter_step_equals_the_kalman_filter_written_out(rng):
+    """Independent truth: the KF recursion of Kalman (1960) in plain numpy."""
+    F, H, Q = ca_matrices(q=0.05)
+    R = np.array([[2.0]])
+    _, zs = simulate_linear(rng, F, H, Q, R, np.zeros(3), 20, (3,))
+    fs = FilterStep(create("estimator", "kf"))
+    model = gf.LinearModel(F, H, Q, R)
+    state = fs.start(gf.Gaussian(np.zeros(3), 5 * np.eye(3)), model)
+    x, P = np.zeros((3, 3)), np.broadcast_to(5 * np.eye(3), (3, 3, 3))
+    for z in zs:
+        state = fs(state, z, model).posterior
+        x, P = x @ F.T, F @ P @ F.T + Q
+        S = H @ P @ H.T + R
+        K = P @ H.T / S
+        x = x + (K * (z - x @ H.T)[:, None, :])[..., 0]
+        P = P - K @ H @ P
+        np.testing.assert_allclose(state.mean, x, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(state.cov, P, rtol=1e-9, atol=1e-12)
+    assert fs.step_index == 20 and sum(fs.recoveries.values()) == 0
+
+
+def test_plugin_failures_name_the_plugin_the_batch_element_and_the_step():
+    f = create("channel_filter", "kf-smoother")
+    f.reset((3,), gf.RunContext(epoch_interval_s=1.0))
+    rho = 2e7 + np.arange(3.0)
+    for k in range(3):
+        f.step({"pseudorange_m": rho + k, "carrier_m": rho + k})
+    r = rho + 3
+    r[1] = np.nan
+    with pytest.raises(gf.InvalidMeasurementError) as err:
+        f.step({"pseudorange_m": r, "carrier_m": rho + 3})
+    assert err.value.filter_name == "kf-smoother (kf)" and err.value.batch_indices == [(1,)]
+    assert err.value.step == 3  # the epoch: the first epoch only initialises
+
+
+def test_plugin_refuses_a_bad_initial_state_from_the_harness_by_name():
+    nav = create("nav_filter", "ekf-pv")
+    x0 = np.zeros((2, 8))
+    x0[1, 6] = np.nan
+    with pytest.raises(gf.InvalidInitialStateError, match=r"ekf-pv \(ekf\): .*batch element \(1,\): initial mean"):
+        nav.reset((2,), gf.RunContext(coherent_time_s=0.01, initial_state=x0, initial_cov=np.eye(8)))
+
+
+def _costas_atan(corr):
+    return create("discriminator", "costas-atan", coherent_time_s=0.001)(corr)
+
+
+def test_kf_carrier_loop_through_the_kf_estimator_equals_the_hand_written_recursion():
+    """The loop used to hand-roll its KF (update, feedback, then P = F P F^T + Q); it now
+    runs the ``kf`` estimator through FilterStep. Fed the same correlators (open loop),
+    both give the same NCO commands to rounding."""
+    rng = np.random.default_rng(3)
+    T, n_ep, batch = 0.001, 300, (5,)
+    q, r, std, unit = [1e-4, 1e-2, 1.0], 0.05, [0.5, 5.0, 1.0], np.pi / 180  # angle_unit deg
+    loop = create("channel_filter", "kf-carrier-loop", states=3, q=q, r=r, angle_unit="deg", initial_std=std)
+    f0 = np.array([100.0, -50.0, 0.0, 10.0, 300.0])
+    loop.reset(batch, gf.RunContext(coherent_time_s=T, early_late_spacing_chips=1.0, doppler_hz=f0))
+    phase = np.cumsum(rng.normal(0, 0.05, (n_ep,) + batch), axis=0)
+    F = np.array([[1.0, T, T * T / 2], [0.0, 1.0, T], [0.0, 0.0, 1.0]])
+    H = np.array([1.0, T / 2, T * T / 6])
+    P = np.broadcast_to(np.diag(np.square(std)), batch + (3, 3)).copy()
+    freq, rate = 2 * np.pi * f0 / unit, np.zeros(batch)
+    for k in range(n_ep):
+        corr = simulate_correlators(np.zeros(batch), phase[k], np.zeros(batch), 40.0, T, rng)
+        out = loop.step({"correlators": corr})
+        z = _costas_atan(corr) / unit
+        PH = P @ H
+        K = PH / (PH @ H + r)[..., None]
+        dx = K * z[..., None]
+        P = P - K[..., :, None] * PH[..., None, :]
+        step = dx[..., 0] + T * dx[..., 1] + 0.5 * T * T * dx[..., 2]
+        rate = rate + dx[..., 2]
+        freq = freq + dx[..., 1] + T * dx[..., 2] + T * rate
+        P = F @ P @ F.T + np.diag(q)
+        np.testing.assert_allclose(out["carrier_phase_step_rad"], step * unit, rtol=1e-9, atol=1e-13)
+        np.testing.assert_allclose(out["carrier_freq_hz"], freq * unit / (2 * np.pi), rtol=1e-12)
+
+
+# -- the adapter's hold on skipped updates ------------------------------------------------
+
+@pytest.mark.parametrize("adapter, which", [("innovation", "R"), ("ml-q", "Q")])
+def test_adapter_holds_its_estimate_on_elements_whose_update_was_skipped(rng, adapter, which):
+    """A skipped update carries no information: where element 1 misses its measurements,
+    the adapted R (or Q) in force must not move, while the other elements keep adapting.
+    Removing the hold in AdapterRun.step lets a skipped step's zero innovation pull the
+    estimate down and fails this test (checked by removing it)."""
+    F, H, Q = ca_matrices(q=0.01)
+    _, zs = simulate_linear(rng, F, H, 4 * Q, np.array([[4.0]]), np.zeros(3), 60, (3,))
+    zs[30:45, 1] = np.nan
+    res = gf.filter_sequence(create("estimator", "kf"), gf.LinearModel(F, H, Q, [[1.0]]), zs,
+                             gf.Gaussian(np.zeros(3), 10 * np.eye(3)),
+                             adapter=create("noise_adapter", adapter, window=5, warmup=3), missing="skip")
+    assert res.skipped[30:45, 1].all() and res.recoveries["missing"] == 15
+    used = getattr(res, which)[..., 0, 0]
+    np.testing.assert_array_equal(used[31:46, 1], used[30, 1])  # in force after each skipped step
+    assert np.ptp(used[31:46, 0]) > 0 and np.ptp(used[31:46, 2]) > 0
+
+
+def test_iq_filter_gets_the_adapter_and_its_recovery_counts_from_the_step():
+    f = create("channel_filter", "iq-filter", warmup=2, window=4)
+    batch = (4,)
+    f.reset(batch, gf.RunContext(coherent_time_s=0.001, early_late_spacing_chips=1.0, cn0_dbhz=45.0))
+    rng = np.random.default_rng(0)
+    zero = np.zeros(batch)
+    for _ in range(8):
+        corr = simulate_correlators(zero, 0.2 + zero, zero, 45.0, 0.001, rng)
+        f.step({"correlators": corr, "nco_shift_chips": zero, "nco_shift_hz": zero, "data_bit": 1.0})
+    assert f.filter_step.step_index == 8 and f.filter_step.recoveries["skip_update"] == 0
+    R = f.filter_step.in_force(f.model).R
+    assert R.shape == batch + (6, 6) and not np.allclose(R, f.model.R)  # adapted after the warm-up
+
+
+# -- the run context ----------------------------------------------------------------------
+
+def test_run_context_is_frozen_and_its_arrays_are_read_only_copies():
+    cn0 = np.array([45.0, 40.0])
+    ctx = gf.RunContext(coherent_time_s=0.01, cn0_dbhz=cn0)
+    cn0[0] = 0.0
+    assert ctx.cn0_dbhz[0] == 45.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        ctx.coherent_time_s = 0.02
+    with pytest.raises(ValueError):
+        ctx.cn0_dbhz[0] = 1.0
+    with pytest.raises(gf.ConfigError, match="run context.coherent_time_s: must be a finite number > 0"):
+        gf.RunContext(coherent_time_s=-1.0)
+
+
+def test_a_plugin_needing_a_value_the_harness_lacks_fails_at_reset_naming_both():
+    ch = create("channel_filter", "discriminator")
+    with pytest.raises(gf.ConfigError, match=r"run context.cn0_dbhz: channel_filter 'discriminator' needs it.*"
+                                             r"provides: coherent_time_s"):
+        ch.reset((2,), gf.RunContext(coherent_time_s=0.01))
+
+
+def test_a_deprecated_plugin_parameter_must_agree_with_the_harness():
+    loop = create("channel_filter", "kf-carrier-loop", coherent_time_s=0.02)
+    with pytest.raises(gf.ConfigError, match=r"kf-carrier-loop'.coherent_time_s: is 0.02 but the harness runs "
+                                             r"with 0.01"):
+        loop.reset((1,), gf.RunContext(coherent_time_s=0.01, early_late_spacing_chips=1.0))
+    create("channel_filter", "scalar", coherent_time_s=0.01).reset(
+        (1,), gf.RunContext(coherent_time_s=0.01, early_late_spacing_chips=1.0))
+
+
+def test_old_reset_signature_warns_and_still_gets_the_context_values():
+    with pytest.warns(DeprecationWarning, match=r"reset\(self, batch_shape, \*\*context\) is the old signature"):
+        class Old(gf.ChannelFilter):
+            name = "old-style"
+            provides = ("code_error_chips",)
+
+            def reset(self, batch_shape, **context):
+                self.seen = context
+
+            def step(self, inputs):
+                return {"code_error_chips": np.zeros(1)}
+
+    f = Old()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        f.reset((1,), gf.RunContext(coherent_time_s=0.01, cn0_dbhz=45.0))
+    assert set(f.seen) == {"coherent_time_s", "cn0_dbhz"} and f.seen["coherent_time_s"] == 0.01
+
+
+def test_position_ca_takes_its_epoch_interval_from_the_harness():
+    f = create("nav_filter", "position-ca", dt_s=1.0)
+    with pytest.raises(gf.ConfigError, match=r"position-ca'.epoch_interval_s: is 1.0 but the harness runs with 0.5"):
+        f.reset((2,), gf.RunContext(epoch_interval_s=0.5))
+    f.reset((2,), gf.RunContext(epoch_interval_s=1.0))
+    z = np.array([[1.0, 2.0], [1.5, 2.5], [2.0, 3.0]])
+    outs = [f.checked_step({"position_m": zk})["position_m"] for zk in z]
+    # Streaming equals filter_sequence from the first fix (the same FilterStep underneath).
+    model = f.model(1.0)
+    mean0 = np.zeros((2, 3))
+    mean0[:, 0] = z[0]
+    state = gf.Gaussian(mean0, np.diag(f.params.p0))
+    ref = gf.filter_sequence(create("estimator", "kf"), model, z[1:, :, None], state)
+    np.testing.assert_allclose(np.stack(outs[1:]), ref.mean[..., 0], rtol=1e-12)
+    assert f.filter_step.step_index == 3  # epochs 1 and 2 were filter steps; epoch 0 initialised
+
+
+def test_restarting_the_adapter_keeps_the_estimate_in_force_and_restarts_its_warmup(rng):
+    F, H, Q = ca_matrices(q=0.01)
+    _, zs = simulate_linear(rng, F, H, Q, np.array([[4.0]]), np.zeros(3), 30, (2,))
+    model = gf.LinearModel(F, H, Q, [[1.0]])
+    fs = FilterStep(create("estimator", "kf"), create("noise_adapter", "innovation", window=5, warmup=3))
+    state = fs.start(gf.Gaussian(np.zeros(3), 10 * np.eye(3)), model)
+    for z in zs[:20]:
+        state = fs(state, z, model).posterior
+    adapted = fs.in_force(model).R.copy()
+    assert not np.allclose(adapted, 1.0)
+    fs.restart_adapter(model)
+    for z in zs[20:23]:  # inside the new warm-up: the estimate in force does not move
+        state = fs(state, z, model).posterior
+        np.testing.assert_array_equal(fs.in_force(model).R, adapted)
+    state = fs(state, zs[23], model).posterior
+    assert not np.array_equal(fs.in_force(model).R, adapted)

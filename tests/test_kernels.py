@@ -1,0 +1,246 @@
+"""The compiled kernels against the NumPy reference path and against LAPACK.
+
+The NumPy path of every estimator is the reference; the kernels must reproduce it to
+1e-12 relative on random nonlinear models (Hypothesis draws the dimensions, the batch
+shape and the seed of the model). The UKF is drawn with alpha in [0.3, 1]: at alpha =
+1e-3 its centre weight is about -n/alpha^2 and the weighted mean cancels ~1e6-sized
+terms, so *both* paths carry ~1e-10 relative rounding and no bitwise order can be
+asserted between them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import gnssframework as gf
+from gnssframework.errors import NotPositiveDefiniteError
+from gnssframework.estimation import kernels
+from conftest import create
+
+
+ENGINES = ("kf", "ekf", "ukf", "ckf", "svd-ckf")
+REL = 1e-12
+
+
+def _separated_pd(rng, n, batch):
+    """PD matrices whose eigenvalues are at least 0.3 apart (eigenvectors well defined)."""
+    q, _ = np.linalg.qr(rng.standard_normal(batch + (n, n)))
+    w = 0.5 + 0.4 * np.arange(n) + 0.1 * rng.random(batch + (n,))
+    return (q * w[..., None, :]) @ np.swapaxes(q, -1, -2)
+
+
+def _problem(seed, n, m, batch):
+    rng = np.random.default_rng(seed)
+    F = np.eye(n) + 0.2 * rng.standard_normal((n, n))
+    H = rng.standard_normal((m, n))
+    Q = _separated_pd(rng, n, ()) * 0.1
+    R = _separated_pd(rng, m, batch)  # per element: exercises the batched operand
+    c = rng.standard_normal(m)
+
+    def f(x):
+        return np.sin(x) @ F.T + 0.1 * x
+
+    def h(x):
+        return np.tanh(x @ H.T) + c * x[..., :1] ** 2
+
+    state = gf.Gaussian(rng.standard_normal(batch + (n,)), _separated_pd(rng, n, batch))
+    z = rng.standard_normal(batch + (m,))
+    return gf.NonlinearModel(f, h, Q, R), gf.LinearModel(F, H, Q, R), state, z
+
+
+def _engine(name, alpha=0.5):
+    return create("estimator", name, alpha=alpha) if name == "ukf" else create("estimator", name)
+
+
+def _close(a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape
+    scale = max(np.max(np.abs(a)), 1e-300)
+    assert np.max(np.abs(a - b)) <= REL * scale
+
+
+def _run(est, backend, state, z, model, **kw):
+    est.backend = backend
+    prior = est.predict(state, model)
+    upd = est.update(prior, z, model, **kw)
+    return prior, upd
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    name=st.sampled_from(ENGINES),
+    n=st.integers(1, 6),
+    m=st.integers(1, 6),
+    batch=st.sampled_from([(), (1,), (3,), (2, 3)]),
+    seed=st.integers(0, 2**32 - 1),
+    alpha=st.floats(0.3, 1.0),
+    linear_model=st.booleans(),
+)
+def test_kernel_path_equals_the_numpy_path(name, n, m, batch, seed, alpha, linear_model):
+    # A LinearModel carries compiled F x / H x: sigma-point engines then run fused.
+    nonlinear, linear, state, z = _problem(seed, n, m, batch)
+    model = linear if (name == "kf" or linear_model) else nonlinear
+    est = _engine(name, alpha)
+    ref_prior, ref = _run(est, "numpy", state, z, model)
+    prior, upd = _run(est, "numba", state, z, model)
+    _close(ref_prior.mean, prior.mean)
+    _close(ref_prior.cov, prior.cov)
+    for field in ("innovation", "innovation_cov", "gain", "cross_cov", "predicted_measurement"):
+        _close(getattr(ref, field), getattr(upd, field))
+    _close(ref.state.mean, upd.state.mean)
+    _close(ref.state.cov, upd.state.cov)
+    assert np.array_equal(ref.skipped, upd.skipped)
+
+
+@pytest.mark.parametrize("name", ENGINES)
+def test_parallel_kernels_equal_the_numpy_path_on_a_large_batch(name):
+    batch = (kernels.PARALLEL_MIN_BATCH + 7,)
+    nonlinear, linear, state, z = _problem(7, 5, 6, batch)
+    model = linear if name == "kf" else nonlinear
+    est = _engine(name)
+    _, ref = _run(est, "numpy", state, z, model)
+    _, upd = _run(est, "numba", state, z, model)
+    _close(ref.state.mean, upd.state.mean)
+    _close(ref.state.cov, upd.state.cov)
+    _close(ref.gain, upd.gain)
+
+
+@pytest.mark.parametrize("linear_model", (False, True))
+@pytest.mark.parametrize("name", ENGINES)
+def test_missing_measurements_skip_the_same_elements_in_both_paths(name, linear_model):
+    nonlinear, linear, state, z = _problem(3, 4, 3, (5,))
+    model = linear if (name == "kf" or linear_model) else nonlinear
+    z = z.copy()
+    z[[1, 3], 0] = np.nan
+    est = _engine(name)
+    _, ref = _run(est, "numpy", state, z, model, missing="skip")
+    _, upd = _run(est, "numba", state, z, model, missing="skip")
+    assert upd.skipped.tolist() == [False, True, False, True, False]
+    assert np.array_equal(ref.skipped, upd.skipped)
+    _close(ref.state.mean, upd.state.mean)
+    _close(ref.state.cov, upd.state.cov)
+    _close(ref.gain, upd.gain)
+    assert np.all(upd.innovation[[1, 3]] == 0.0)
+
+
+@pytest.mark.parametrize("linear_model", (False, True))
+@pytest.mark.parametrize("name", ("ukf", "ckf"))
+def test_a_covariance_that_is_not_pd_is_named_alike_in_both_paths(name, linear_model):
+    nonlinear, linear, state, z = _problem(5, 3, 2, (4,))
+    model = linear if linear_model else nonlinear
+    cov = state.cov.copy()
+    cov[2] = -np.eye(3)
+    bad = gf.Gaussian(state.mean, cov)
+    est = _engine(name)
+    for backend in ("numpy", "numba"):
+        est.backend = backend
+        with pytest.raises(NotPositiveDefiniteError) as err:
+            est.predict(bad, model)
+        assert err.value.batch_indices == [(2,)], backend
+        with pytest.raises(NotPositiveDefiniteError) as err:
+            est.update(bad, z, model)
+        assert err.value.batch_indices == [(2,)], backend
+
+
+def test_innovation_covariance_not_pd_is_named_or_skipped_like_numpy():
+    _, linear, state, z = _problem(9, 3, 2, (4,))
+    R = np.array(linear.R)
+    R[1] = -100.0 * np.eye(2)
+    model = gf.LinearModel(linear.F, linear.H, linear.Q, R)
+    est = create("estimator", "kf")
+    for backend in ("numpy", "numba"):
+        est.backend = backend
+        with pytest.raises(NotPositiveDefiniteError) as err:
+            est.update(state, z, model)
+        assert err.value.batch_indices == [(1,)], backend
+    _, ref = _run(est, "numpy", state, z, model, on_failure="skip")
+    _, upd = _run(est, "numba", state, z, model, on_failure="skip")
+    assert upd.skipped.tolist() == [False, True, False, False]
+    _close(ref.state.cov, upd.state.cov)
+
+
+@settings(max_examples=30, deadline=None)
+@given(n=st.integers(1, 8), seed=st.integers(0, 2**32 - 1))
+def test_jacobi_eigensolver_reproduces_lapack_eigenvalues_and_the_matrix(n, seed):
+    rng = np.random.default_rng(seed)
+    a = rng.standard_normal((n, n))
+    sym = a + a.T  # indefinite in general: the svd-ckf root takes |w|
+    w = np.empty(n)
+    v = np.empty((n, n))
+    kernels._jacobi_eigh(sym, w, v)
+    scale = np.max(np.abs(sym))
+    assert np.max(np.abs(np.sort(w) - np.linalg.eigvalsh(sym))) <= 1e-13 * scale
+    assert np.max(np.abs((v * w) @ v.T - sym)) <= 1e-13 * scale
+    assert np.max(np.abs(v.T @ v - np.eye(n))) <= 1e-13
+
+
+def test_backend_selection_is_validated_and_falls_back_to_numpy(monkeypatch):
+    from gnssframework.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="numba"):
+        kernels.set_backend("fortran")
+    monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", "numpy")
+    assert kernels.get_backend() == "numpy"
+    monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", "numba")
+    assert kernels.get_backend() == "numba"
+    monkeypatch.setattr(kernels, "HAVE_NUMBA", False)
+    assert kernels.get_backend() == "numpy"
+
+
+@pytest.mark.parametrize("name", ("ukf", "ckf", "svd-ckf"))
+def test_compiled_channel_model_equals_the_numpy_channel_model(name):
+    from gnssframework.signal.channel_model import channel_model
+
+    rng = np.random.default_rng(11)
+    Q = np.diag([1e-4, 1e-6, 1e-3, 1e-2, 1e-1])
+    R = np.eye(6) + 0.2  # correlated taps
+    compiled = channel_model(0.01, 0.5, Q, R)
+    assert compiled.compiled is not None
+    plain = gf.NonlinearModel(compiled.f, compiled.h, Q, R)  # same NumPy functions, no twins
+    x = np.array([40.0, 0.05, 0.1, 2.0, 0.0]) + rng.standard_normal((6, 5)) * [1.0, 0.3, 1.0, 5.0, 1.0]
+    x[0, 3] = 0.0  # sinc's removable singularity
+    x[1, 1] = 1.2  # beyond the triangle's support on every tap
+    state = gf.Gaussian(x, np.diag([4.0, 0.01, 0.1, 4.0, 1.0]))
+    z = compiled.h(x) + rng.standard_normal((6, 6))
+    est = _engine(name)
+    ref_prior, ref = _run(est, "numpy", state, z, plain)
+    prior, upd = _run(est, "numba", state, z, compiled)
+    _close(ref_prior.mean, prior.mean)
+    _close(ref_prior.cov, prior.cov)
+    for field in ("innovation", "innovation_cov", "gain", "cross_cov", "predicted_measurement"):
+        _close(getattr(ref, field), getattr(upd, field))
+    _close(ref.state.mean, upd.state.mean)
+    _close(ref.state.cov, upd.state.cov)
+
+
+def _parallel_update_in_child(seed):
+    _, linear, state, z = _problem(seed, 3, 2, (kernels.PARALLEL_MIN_BATCH,))
+    est = _engine("ckf")
+    est.backend = "numba"
+    return est.update(est.predict(state, linear), z, linear).state.mean
+
+
+def test_a_process_forked_after_a_parallel_kernel_runs_parallel_kernels():
+    # GNU OpenMP aborts such a child; `compare` forks its workers from a parent that may
+    # have filtered a large batch already. Also checks the child computes the same thing.
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    here = _parallel_update_in_child(1)
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork")) as pool:
+        there = pool.submit(_parallel_update_in_child, 1).result(timeout=120)
+    assert np.array_equal(here, there)
+
+
+def test_parallel_kernels_are_not_used_off_the_main_thread():
+    import threading
+
+    picked = []
+    t = threading.Thread(target=lambda: picked.append(kernels._pick(("serial", "parallel"), 10**6)))
+    t.start()
+    t.join()
+    assert picked == ["serial"]
+    assert kernels._pick(("serial", "parallel"), 10**6) == "parallel"
+    assert kernels._pick(("serial", "parallel"), 1) == "serial"

@@ -1,0 +1,79 @@
+"""Reference 004 (multipath): psi per case, raw and oracle rows, convergence_epoch."""
+
+import numpy as np
+import pytest
+
+import gnssframework as gf
+from gnssframework.experiments import get_scenario
+from gnssframework.experiments.config import ComparisonConfig
+from gnssframework.experiments.scenarios.multipath import convergence_epoch
+
+BASE = {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": {"name": "kf", "params": {}}}
+
+
+def _run(components, case, runs=4, seed=2, epochs=120):
+    scen = get_scenario({"kind": "multipath", "epochs": epochs})
+    return scen.run_batch(case, scen.build(components), runs, np.random.default_rng(seed))
+
+
+def test_convergence_epoch_against_a_hand_built_sequence():
+    # err = 10 (k < 20), 3 (20 <= k < 40), 1 afterwards; window 10; second-half RMS 1, bound 2.
+    # At k = 40 + j the window holds 9 - j threes and 1 + j ones: mean square (82 - 8j)/10 <= 4
+    # first for j = 6, so the last epoch above the bound is 45 and the run converges at 46.
+    # (A 5x bound would give 28: the tens leave the window at 20 + j with (659 - 91j)/10 <= 0.)
+    err = np.concatenate([np.full(20, 10.0), np.full(20, 3.0), np.ones(60)])[:, None]
+    assert convergence_epoch(err, 10)[0] == 46
+    assert convergence_epoch(np.ones((50, 1)), 10)[0] == 0
+
+
+def test_raw_candidate_reports_the_measurement_itself():
+    scen = get_scenario({"kind": "multipath", "epochs": 120})
+    zs = scen.simulate(4, np.random.default_rng(2), psi=0.8)
+    raw = _run({}, {"psi": 0.8}).metrics
+    np.testing.assert_allclose(raw["lat_error_rmse"], np.sqrt(np.mean(zs[..., 0] ** 2, axis=0)))
+    np.testing.assert_allclose(raw["horizontal_error_rmse"], np.sqrt(np.mean(np.sum(zs**2, axis=-1), axis=0)))
+
+
+def test_colored_ar1_without_psi_takes_the_case_psi():
+    auto = _run({**BASE, "augmentation": {"name": "colored-ar1", "params": {}}}, {"psi": 0.5}).metrics
+    given = _run({**BASE, "augmentation": {"name": "colored-ar1", "params": {"psi": 0.5}}}, {"psi": 0.5}).metrics
+    wrong = _run({**BASE, "augmentation": {"name": "colored-ar1", "params": {"psi": 0.9}}}, {"psi": 0.5}).metrics
+    np.testing.assert_array_equal(auto["lat_error_rmse"], given["lat_error_rmse"])
+    assert not np.allclose(auto["lat_error_rmse"], wrong["lat_error_rmse"])
+    model = gf.registry.create("nav_filter", "position-ca").model()
+    with pytest.raises(gf.ConfigError, match="colored-ar1'.psi"):
+        gf.registry.create("augmentation", "colored-ar1").apply(model, np.zeros((5, 1)))
+
+
+def test_oracle_with_a_one_point_grid_is_the_plain_filter_and_a_full_grid_beats_it():
+    colored = {**BASE, "augmentation": {"name": "colored-ar1", "params": {}}}
+    plain = _run(colored, {"psi": 0.5}).metrics["horizontal_error_rmse"]
+    one = _run({**colored, "noise_adapter": {"name": "oracle-grid", "params": {"q_scales": [1.0], "r_scales": [1.0]}}},
+               {"psi": 0.5}).metrics["horizontal_error_rmse"]
+    np.testing.assert_array_equal(one, plain)  # same measurements (common random numbers), same filter
+    full = _run({**colored, "noise_adapter": {"name": "oracle-grid"}}, {"psi": 0.5}).metrics["horizontal_error_rmse"]
+    assert np.mean(full) < 0.8 * np.mean(plain)
+    with pytest.raises(gf.ConfigError, match="oracle-grid"):
+        gf.registry.create("noise_adapter", "oracle-grid").start(np.eye(1), np.eye(1))
+
+
+def test_a_filtering_candidate_needs_both_nav_filter_and_estimator():
+    with pytest.raises(gf.ConfigError, match=r"candidates\[0\]\.estimator"):
+        ComparisonConfig.model_validate({"scenario": {"kind": "multipath"}, "cases": [{"name": "a"}],
+                                          "candidates": [{"name": "x", "nav_filter": {"name": "position-ca"}}]})
+
+
+def test_the_papers_ukf_follows_the_measurements_with_slow_multipath():
+    # Q0 = diag(1, 0.1, 0.01) against R0 = 1: steady position gain 0.77, so with slow
+    # multipath the UKF's error is the raw measurement's (the paper's UKF row).
+    ukf = {"nav_filter": {"name": "position-ca", "params": {}},
+           "estimator": {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}}}
+    case = {"psi": 0.95}
+    raw = _run({}, case, runs=10, epochs=300).metrics["horizontal_error_rmse"]
+    filtered = _run(ukf, case, runs=10, epochs=300).metrics["horizontal_error_rmse"]
+    assert np.mean(filtered) == pytest.approx(np.mean(raw), rel=0.01)
+    # ... while the colored model does lower it (paired: same measurements).
+    colored = _run({**ukf, "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": "paper"}}}, case,
+                   runs=10, epochs=300).metrics["horizontal_error_rmse"]
+    d = colored - filtered
+    assert np.mean(d) < -3 * np.std(d, ddof=1) / np.sqrt(d.size)
