@@ -154,3 +154,15 @@ def test_bad_options_raise_library_errors():
         error_state_transition(state, np.zeros(3), 0.1, ImuGrade(), bias_model="walk")
     with pytest.raises(ConfigError, match="gravity_gradient"):
         error_state_transition(state, np.zeros(3), 0.1, ImuGrade(), gravity_gradient="j4")
+
+
+def test_batched_matrix_exponential_equals_scipy():
+    from scipy.linalg import expm
+
+    from gnssframework.inertial.error_model import _expm
+
+    rng = np.random.default_rng(8)
+    for scale in (1e-4, 0.1, 1.0, 20.0):
+        M = rng.normal(size=(3, 30, 30)) * scale / 5
+        ref = np.stack([expm(m) for m in M])
+        np.testing.assert_allclose(_expm(M), ref, rtol=0, atol=1e-12 * np.abs(ref).max())

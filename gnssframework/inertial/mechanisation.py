@@ -24,6 +24,7 @@ from typing import Literal
 import numpy as np
 
 from gnssframework.errors import ConfigError
+from gnssframework.inertial._kernels import HAVE_NUMBA, integrate_kernel
 from gnssframework.inertial.earth import WGS84, EarthModel
 from gnssframework.inertial.quaternion import (
     cross,
@@ -96,16 +97,23 @@ class MechanisationOptions:
         test that shows it matters).
     earth
         Earth model (rotation rate, J2 gravity).
+    backend
+        :func:`integrate`'s loop: ``"numba"`` (compiled, the default when numba imports)
+        or ``"numpy"`` (the reference, :func:`strapdown_step` per time step); a test
+        holds them equal to rounding.
     """
 
     coning: bool = True
     sculling: bool = True
     rotation_term: RotationTerm = "exact"
     earth: EarthModel = WGS84
+    backend: Literal["numba", "numpy"] = "numba" if HAVE_NUMBA else "numpy"
 
     def __post_init__(self) -> None:
         if self.rotation_term not in ("exact", "first-order", "none"):
             raise ConfigError("rotation_term", f"got {self.rotation_term!r}; allowed: 'exact', 'first-order', 'none'")
+        if self.backend not in ("numba", "numpy") or (self.backend == "numba" and not HAVE_NUMBA):
+            raise ConfigError("backend", f"got {self.backend!r}; allowed: 'numpy'" + (", 'numba'" if HAVE_NUMBA else ""))
 
 
 def _z_rotation_quat(angle_rad: float) -> np.ndarray:
@@ -266,6 +274,19 @@ def integrate(
     n = dtheta_rad.shape[0]
     batch = np.broadcast_shapes(state0.q_b_e.shape[:-1], dtheta_rad.shape[1:-1])
     state = state0.broadcast(batch)
+    if options.backend == "numba":
+        nb = int(np.prod(batch, dtype=int))
+        flat = lambda x, lead=(): np.ascontiguousarray(np.broadcast_to(x, lead + batch + (x.shape[-1],))).reshape(lead + (nb, x.shape[-1]))  # noqa: E731
+        has_prev = prev_dtheta_rad is not None
+        pth = np.zeros(3) if prev_dtheta_rad is None else np.asarray(prev_dtheta_rad, dtype=float)
+        pdv = np.zeros(3) if prev_dv_mps is None else np.asarray(prev_dv_mps, dtype=float)
+        qs, vs, rs = integrate_kernel(
+            flat(state.q_b_e), flat(state.velocity_ecef_mps), flat(state.position_ecef_m),
+            flat(dtheta_rad, (n,)), flat(dv_mps, (n,)), flat(pth), flat(pdv), has_prev, dt_s,
+            options.coning, options.sculling, options.rotation_term, options.earth,
+        )
+        return NavSeries(qs.reshape((n + 1,) + batch + (4,)), vs.reshape((n + 1,) + batch + (3,)),
+                         rs.reshape((n + 1,) + batch + (3,)))
     qs = np.empty((n + 1,) + batch + (4,))
     vs = np.empty((n + 1,) + batch + (3,))
     rs = np.empty((n + 1,) + batch + (3,))
