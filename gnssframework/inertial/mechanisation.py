@@ -200,8 +200,18 @@ def strapdown_step(
     prev_dtheta_rad, prev_dv_mps
         Previous interval's raw increments for coning and sculling (``None``: first step).
     options
-        Algorithm switches and Earth model.
+        Algorithm switches, Earth model and backend (``"numba"`` runs the compiled
+        kernel for this one step; ``"numpy"`` is the reference below).
     """
+    if options.backend == "numba":
+        dtheta_rad = np.asarray(dtheta_rad, dtype=float)
+        dv_mps = np.asarray(dv_mps, dtype=float)
+        series = integrate(state, dtheta_rad[None], dv_mps[None], dt_s, options, prev_dtheta_rad, prev_dv_mps)
+        return series.at(1)
+    return _strapdown_step_numpy(state, dtheta_rad, dv_mps, dt_s, prev_dtheta_rad, prev_dv_mps, options)
+
+
+def _strapdown_step_numpy(state, dtheta_rad, dv_mps, dt_s, prev_dtheta_rad, prev_dv_mps, options):
     earth = options.earth
     alpha, dv_body = body_increments(dtheta_rad, dv_mps, prev_dtheta_rad, prev_dv_mps, options)
     omega = earth.rate_rad_s
@@ -293,7 +303,7 @@ def integrate(
     qs[0], vs[0], rs[0] = state.q_b_e, state.velocity_ecef_mps, state.position_ecef_m
     pth, pdv = prev_dtheta_rad, prev_dv_mps
     for k in range(n):
-        state = strapdown_step(state, dtheta_rad[k], dv_mps[k], dt_s, pth, pdv, options)
+        state = _strapdown_step_numpy(state, dtheta_rad[k], dv_mps[k], dt_s, pth, pdv, options)
         pth, pdv = dtheta_rad[k], dv_mps[k]
         qs[k + 1], vs[k + 1], rs[k + 1] = state.q_b_e, state.velocity_ecef_mps, state.position_ecef_m
     return NavSeries(qs, vs, rs)
