@@ -212,6 +212,9 @@ def test_bad_inputs_raise_library_errors():
         integrate(state, np.full((2, 3), np.nan), np.zeros((2, 3)), 0.01)
     with pytest.raises(ConfigError, match="dt_s"):
         integrate(state, np.zeros((2, 3)), np.zeros((2, 3)), 0.0)
+    bad = NavState(np.array([[1.0, 0, 0, 0], [np.nan, 0, 0, 0]]), np.zeros(3), np.array([6378137.0, 0, 0]))
+    with pytest.raises(ConfigError, match=r"state0.q_b_e.*\(1,\)"):
+        integrate(bad, np.zeros((2, 3)), np.zeros((2, 3)), 0.01)
 
 
 def test_compiled_loop_equals_the_numpy_reference(flight):

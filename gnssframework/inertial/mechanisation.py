@@ -281,6 +281,11 @@ def integrate(
         raise ConfigError("increments", "non-finite angle or velocity increment")
     if not dt_s > 0:
         raise ConfigError("dt_s", f"must be > 0, got {dt_s}")
+    for name, x in (("q_b_e", state0.q_b_e), ("velocity_ecef_mps", state0.velocity_ecef_mps),
+                    ("position_ecef_m", state0.position_ecef_m)):
+        if not np.all(np.isfinite(x)):
+            bad = np.argwhere(~np.isfinite(x))[0][:-1]
+            raise ConfigError(f"state0.{name}", f"non-finite at batch element {tuple(int(i) for i in bad)}")
     n = dtheta_rad.shape[0]
     batch = np.broadcast_shapes(state0.q_b_e.shape[:-1], dtheta_rad.shape[1:-1])
     state = state0.broadcast(batch)
