@@ -76,3 +76,14 @@ def test_profile_errors_name_the_field():
         TrajectoryModel(TrajectoryProfile(start_lat_deg=0, start_lon_deg=0, duration_s=5.0))
     with pytest.raises(Exception, match="rise_s"):
         AccelerationPulse(start_s=0.0, rise_s=0.0, hold_s=0.0, accel_enu_mps2=(1, 0, 0))
+
+
+def test_kinematic_acceleration_for_nco_aiding():
+    """C f + g - 2 Omega v from the truth's attitude, specific force and velocity is the
+    truth's ECEF acceleration (30 g pull-up included)."""
+    from gnssframework.inertial import kinematic_acceleration_ecef
+
+    tr = TrajectoryModel(paper_profile()).evaluate(np.array([5.0, 12.0, 17.3, 40.0]))
+    state = NavState(tr.q_b_e, tr.velocity_ecef_mps, tr.position_ecef_m)
+    np.testing.assert_allclose(kinematic_acceleration_ecef(state, tr.specific_force_b_mps2),
+                               tr.acceleration_ecef_mps2, atol=1e-9)

@@ -143,6 +143,11 @@ def body_increments(
         Rotation vector ``alpha_ib^b`` (body at end relative to body at start) and the specific-force velocity increment resolved in the start
         body frame (Groves sec. 5.5).
     """
+    dtheta_rad = np.asarray(dtheta_rad, dtype=float)
+    dv_mps = np.asarray(dv_mps, dtype=float)
+    if prev_dtheta_rad is not None:
+        prev_dtheta_rad = np.asarray(prev_dtheta_rad, dtype=float)
+        prev_dv_mps = np.asarray(prev_dv_mps, dtype=float)
     alpha = dtheta_rad
     dv = dv_mps
     if prev_dtheta_rad is not None and options.coning:

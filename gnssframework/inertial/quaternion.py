@@ -46,6 +46,7 @@ def quat_conjugate(q: np.ndarray) -> np.ndarray:
 def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors: ``q (x) v (x) q*`` without forming the matrix."""
     q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
     w = q[..., :1]
     u = q[..., 1:]
     t = 2.0 * cross(u, v)
