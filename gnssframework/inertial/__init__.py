@@ -22,6 +22,16 @@ error_model
 """
 
 from gnssframework.inertial.earth import STANDARD_GRAVITY_MPS2, WGS84, EarthModel
+from gnssframework.inertial.error_model import (
+    ERROR_STATE_LABELS,
+    apply_navigation_error,
+    compensate_increments,
+    correct_state,
+    error_state_matrices,
+    error_state_transition,
+    navigation_error,
+)
+from gnssframework.inertial.imu import ImuErrors, ImuGrade, simulate_imu
 from gnssframework.inertial.mechanisation import (
     MechanisationOptions,
     NavSeries,
@@ -41,6 +51,16 @@ from gnssframework.inertial.trajectory import (
 )
 
 __all__ = [
+    "ERROR_STATE_LABELS",
+    "apply_navigation_error",
+    "compensate_increments",
+    "correct_state",
+    "error_state_matrices",
+    "error_state_transition",
+    "navigation_error",
+    "ImuErrors",
+    "ImuGrade",
+    "simulate_imu",
     "STANDARD_GRAVITY_MPS2",
     "WGS84",
     "EarthModel",
