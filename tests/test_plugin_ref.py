@@ -83,3 +83,26 @@ def test_a_linear_only_estimator_is_refused_where_the_model_is_nonlinear():
         assert "estimator 'kf' does not fit: it is linear-only" in msg
         fit = msg.split("estimators that do: ")[1].split(", ")
         assert "kf" not in fit and {"ekf", "ukf", "ckf"} <= set(fit)
+
+
+def test_a_candidate_component_may_be_a_bare_name_like_a_nested_reference(tmp_path):
+    bare = _load(tmp_path, 'channel_filter = { name = "discriminator" }', 'channel_filter = "discriminator"')
+    table = load_config(_write(tmp_path, TINY, "table.toml"))
+    assert bare.candidates[0].channel_filter.model_dump() == {"name": "discriminator", "params": {}}
+    assert bare.identity() == table.identity()  # the same comparison, the same stored results
+    with pytest.raises(gf.ConfigError) as err:
+        _load(tmp_path, 'channel_filter = { name = "discriminator" }', 'channel_filter = "discriminatr"')
+    assert str(err.value).startswith("candidates[0].channel_filter.name: ") and "'discriminator'" in str(err.value)
+
+
+def test_the_json_schema_takes_a_bare_name_and_refuses_an_unknown_one():
+    import jsonschema  # test-only oracle: an independent JSON-schema validator
+    import tomllib
+
+    from gnssframework.config_schema import comparison_schema
+
+    validator = jsonschema.Draft202012Validator(comparison_schema())
+    data = tomllib.loads(TINY.replace('channel_filter = { name = "discriminator" }', 'channel_filter = "discriminator"'))
+    assert not list(validator.iter_errors(data))
+    data["candidates"][0]["channel_filter"] = "discriminatr"
+    assert list(validator.iter_errors(data))
