@@ -290,3 +290,33 @@ def test_every_gaussian_plugin_names_a_bad_measurement_through_the_filter_step(r
             run()
     assert err.value.filter_name == filter_name
     assert err.value.batch_indices == [element] and err.value.step == 3
+
+
+def test_the_deep_integration_navigator_updates_through_the_filter_step(monkeypatch):
+    """PvaNavigator's navigation and clock updates (deep_measurements.linear_update) are
+    FilterStep updates: they are seen there, by name, and a NaN residual is refused by it."""
+    from gnssframework.receiver.deep_navigators import PvaNavigator
+
+    rng = np.random.default_rng(21)
+    runs, n = 3, 6
+    los = rng.normal(size=(runs, n, 3))
+    los /= np.linalg.norm(los, axis=-1, keepdims=True)
+    res = rng.normal(size=(runs, n, 2)) * [3.0, 0.2]
+    cov = np.broadcast_to(np.diag([4.0, 0.04]), (runs, n, 2, 2)).copy()
+    cn0 = rng.uniform(35, 50, (runs, n))
+    P0 = np.diag([25.0] * 3 + [1.0] * 3 + [4.0] * 3)
+    x0 = rng.normal(size=(runs, 9)) * 1e3
+    seen = []
+    real = FilterStep.update
+
+    def spy(self, *args, **kwargs):
+        seen.append((self.name, self.step_index))
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(FilterStep, "update", spy)
+    nav = PvaNavigator(x0[:, :3], x0[:, 3:6], x0[:, 6:], P0, np.zeros((runs, 2)), np.eye(2))
+    nav.update(0.1, res, cov, los, cn0)
+    assert seen == [("pva-navigator", 0), ("clock filter", 0)]
+    res[2, 4, 0] = np.nan
+    with pytest.raises(gf.InvalidMeasurementError, match=r"pva-navigator: .*batch element \(2,\), step 1"):
+        nav.update(0.2, res, cov, los, cn0)
