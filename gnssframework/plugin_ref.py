@@ -30,6 +30,7 @@ import typing
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Callable
 
+import numpy as np
 from pydantic import BeforeValidator, ValidationError, WithJsonSchema
 
 __all__ = ["PluginSpec", "PluginRef", "plugin_refs", "handles_nonlinear"]
@@ -60,13 +61,41 @@ class PluginSpec:
 
         return registry.get(self.kind, self.name)
 
-    def create(self, **owned: Any) -> Any:
-        """Instantiate the plugin with its parameters plus the values its owner fixes
-        (``coherent_time_s``, ``early_late_spacing_chips`` ...); an owned value the
-        nested plugin does not take is dropped, and owned values win."""
+    def create(self, defaults: dict[str, Any] | None = None, **owned: Any) -> Any:
+        """Instantiate the plugin with its parameters.
+
+        Parameters
+        ----------
+        defaults
+            Values the owner suggests (an adapter's window...); the reference's own
+            parameters override them. Those the plugin does not take are dropped.
+        **owned
+            Values the owner fixes because its harness owns them (``coherent_time_s``,
+            ``early_late_spacing_chips`` ...); those the plugin does not take are dropped.
+            A parameter of the reference that repeats one must equal it.
+
+        Raises
+        ------
+        ConfigError
+            If the reference sets an owned value to something else, naming the parameter.
+        """
+        from .errors import ConfigError
+
         cls = self.cls
         fields = cls.Params.model_fields
-        return cls(**{**self.params, **{k: v for k, v in owned.items() if k in fields}})
+        for key, value in owned.items():
+            if key in fields and key in self.params and not _same(self.params[key], value):
+                raise ConfigError(f"{self.kind} {self.name!r}.{key}", f"is {self.params[key]!r} but its owner runs "
+                                  f"with {value!r} (the harness's value); leave the parameter out")
+        chosen = {k: v for k, v in (defaults or {}).items() if k in fields}
+        return cls(**{**chosen, **self.params, **{k: v for k, v in owned.items() if k in fields}})
+
+
+def _same(a: Any, b: Any) -> bool:
+    try:
+        return bool(np.allclose(a, b, rtol=1e-12, atol=0))
+    except (TypeError, ValueError):
+        return a == b
 
 
 @dataclass(frozen=True)
