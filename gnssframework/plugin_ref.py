@@ -33,7 +33,7 @@ from typing import Annotated, Any, Callable
 import numpy as np
 from pydantic import BeforeValidator, ValidationError, WithJsonSchema
 
-__all__ = ["PluginSpec", "PluginRef", "plugin_refs", "handles_nonlinear"]
+__all__ = ["PluginSpec", "PluginRef", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
 
 
 def handles_nonlinear(cls: type) -> str:
@@ -41,6 +41,9 @@ def handles_nonlinear(cls: type) -> str:
     declares ``linear_only = True`` (the linear Kalman filter)."""
     return "it is linear-only (linear_only = True) and this model is nonlinear" \
         if getattr(cls, "linear_only", False) else ""
+
+
+handles_nonlinear.label = "handles nonlinear models (not linear-only)"  # type: ignore[attr-defined]
 
 
 @dataclass(frozen=True)
@@ -187,8 +190,7 @@ def PluginRef(kind: str, *, unit: str | None = None, provides: tuple[str, ...] =
     return Annotated[PluginSpec, BeforeValidator(lambda v: _resolve(rule, v)), WithJsonSchema(schema), rule]
 
 
-def plugin_refs(params_model: type) -> dict[str, tuple[str, str | None]]:
-    """The nested-plugin parameters of a ``Params`` model: field -> (kind, unit)."""
+def _field_rules(params_model: type) -> dict[str, _Rule]:
     def rules(obj: Any) -> list[_Rule]:
         found = [m for m in getattr(obj, "__metadata__", ()) if isinstance(m, _Rule)]
         for arg in typing.get_args(obj):
@@ -199,5 +201,26 @@ def plugin_refs(params_model: type) -> dict[str, tuple[str, str | None]]:
     for fname, info in params_model.model_fields.items():
         found = [m for m in info.metadata if isinstance(m, _Rule)] + rules(info.annotation)
         if found:
-            out[fname] = (found[0].kind, found[0].unit)
+            out[fname] = found[0]
+    return out
+
+
+def plugin_refs(params_model: type) -> dict[str, tuple[str, str | None]]:
+    """The nested-plugin parameters of a ``Params`` model: field -> (kind, unit)."""
+    return {f: (r.kind, r.unit) for f, r in _field_rules(params_model).items()}
+
+
+def plugin_ref_constraints(params_model: type) -> dict[str, str]:
+    """What each nested-plugin parameter of ``params_model`` demands, in words
+    (``"discriminator, unit 'chips'"``, ``"estimator, handles nonlinear models"``)."""
+    out = {}
+    for fname, rule in _field_rules(params_model).items():
+        parts = [rule.kind]
+        if rule.unit:
+            parts.append(f"unit {rule.unit!r}")
+        if rule.provides:
+            parts.append(f"provides {', '.join(rule.provides)}")
+        if rule.check is not None:
+            parts.append(getattr(rule.check, "label", rule.check.__name__.replace("_", " ")))
+        out[fname] = ", ".join(parts)
     return out
