@@ -62,6 +62,15 @@ else:
 gf.registry.register_module(types.SimpleNamespace(
     register_estimator=gf.hookimpl(lambda register: register(FadingKalmanFilter))), name="fading-example")
 
+# It inherits kf's `linear_only = True`: filters on nonlinear models refuse it when the
+# config is loaded, naming the estimators that would fit.
+try:
+    gf.registry.create("channel_filter", "iq-filter", estimator="fading-kf")
+except gf.ConfigError as exc:
+    assert "linear-only" in str(exc), exc
+else:
+    raise AssertionError("iq-filter took a linear-only estimator")
+
 # -- 4. the comparison ------------------------------------------------------------------------
 CONFIG = """
 name = "fading-vs-kf"
