@@ -24,13 +24,14 @@ def _params_schema(cls: type) -> dict[str, Any]:
 
 
 def plugin_ref_schema(kind: str) -> dict[str, Any]:
-    """``{name, params}`` of any registered plugin of ``kind``, params checked by name."""
-    branches = []
+    """``{name, params}`` of any registered plugin of ``kind``, params checked by name, or
+    its bare name."""
+    branches: list[dict[str, Any]] = [{"enum": registry.names(kind)}] if registry.names(kind) else []
     for name in registry.names(kind):
         params = _params_schema(registry.get(kind, name))
         branches.append({"type": "object", "additionalProperties": False, "required": ["name"],
                          "properties": {"name": {"const": name}, "params": params}})
-    return {"oneOf": branches, "description": f"a {kind} plugin: {{name, params}}"}
+    return {"oneOf": branches, "description": f"a {kind} plugin: its name, or {{name, params}}"}
 
 
 def comparison_schema() -> dict[str, Any]:

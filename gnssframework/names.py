@@ -1,4 +1,5 @@
-"""The names sequential filters exchange: every ``requires`` and ``provides`` entry.
+"""The names sequential filters exchange: every ``requires`` and ``provides`` entry, and
+the further inputs a harness hands a ``step()`` (NCO shifts, satellite states).
 
 One module, so a plugin and a harness cannot spell a name two ways; a plugin declares
 ``requires = (names.CORRELATORS,)`` and the harness checks that ``step()`` returned
@@ -20,6 +21,11 @@ CORRELATORS = "correlators"  #: gnssframework.Correlators of one coherent interv
 PSEUDORANGE_M = "pseudorange_m"
 CARRIER_M = "carrier_m"  #: carrier phase times the wavelength
 
+# -- inputs a vector or aided-tracking harness adds to a channel filter's step ---------
+NCO_SHIFT_CHIPS = "nco_shift_chips"  #: code NCO shift since the last interval, by the nav filter's command
+NCO_SHIFT_HZ = "nco_shift_hz"  #: carrier NCO frequency shift since the last interval
+DATA_BIT = "data_bit"  #: the navigation data bit (+-1), only where the harness knows it
+
 # -- scalar / carrier loop outputs ---------------------------------------------------
 CARRIER_FREQ_HZ = "carrier_freq_hz"
 CODE_FREQ_HZ = "code_freq_hz"
@@ -35,6 +41,14 @@ FREQ_ERROR_HZ = "freq_error_hz"
 FREQ_ERROR_VAR_HZ2 = "freq_error_var_hz2"
 AMPLITUDE = "amplitude"
 PHASE_ERROR_RAD = "phase_error_rad"
+
+# -- inputs the vector loop adds to a nav filter's step ----------------------------------
+SAT_POS_M = "sat_pos_m"  #: satellite ECEF positions at mid-interval, (..., channels, 3)
+SAT_VEL_M_S = "sat_vel_m_s"
+NEXT_SAT_POS_M = "next_sat_pos_m"  #: at the start of the next interval (for the NCO command)
+NEXT_SAT_VEL_M_S = "next_sat_vel_m_s"
+REPLICA_RANGE_M = "replica_range_m"  #: the replica's range at mid-interval
+REPLICA_RATE_M_S = "replica_rate_m_s"
 
 # -- carrier smoothing outputs ---------------------------------------------------------
 SMOOTHED_M = "smoothed_m"

@@ -20,9 +20,9 @@ from typing import Any
 from pydantic import BaseModel
 from pydantic_core import PydanticUndefined
 
-from .plugin_ref import PluginSpec, plugin_refs
+from .plugin_ref import PluginSpec, plugin_ref_constraints, plugin_refs
 
-__all__ = ["ParameterRow", "parameter_rows", "parameter_table", "describe_plugin"]
+__all__ = ["ParameterRow", "parameter_rows", "parameter_table", "describe_plugin", "nested_plugins_table"]
 
 _BOUNDS = (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<="), ("min_length", "length >="),
            ("max_length", "length <="))
@@ -107,4 +107,22 @@ def describe_plugin(kind: str, cls: type) -> str:
     params = getattr(cls, "Params", None)
     if isinstance(params, type) and issubclass(params, BaseModel):
         lines += ["", "Parameters:", parameter_table(params)]
+    return "\n".join(lines)
+
+
+def nested_plugins_table(distribution: str | None = "gnssframework") -> str:
+    """Markdown table of the registered plugins that take nested plugins: plugin, kind,
+    each nested parameter with its default and what it demands (generated, so the docs
+    cannot fall behind the code). ``distribution`` limits it to one package (``None``: all)."""
+    from . import registry
+
+    lines = ["| plugin | kind | nested parameter | default | takes |", "|---|---|---|---|---|"]
+    for info in registry.describe():
+        if distribution is not None and info.distribution != distribution:
+            continue
+        params = info.cls.Params
+        for field, demand in plugin_ref_constraints(params).items():
+            default = params.model_fields[field].default
+            default = default.name if isinstance(default, PluginSpec) else ("null" if default is None else default)
+            lines.append(f"| `{info.name}` | {info.kind} | `{field}` | `{default}` | {demand} |")
     return "\n".join(lines)

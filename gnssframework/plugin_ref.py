@@ -30,9 +30,10 @@ import typing
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Callable
 
+import numpy as np
 from pydantic import BeforeValidator, ValidationError, WithJsonSchema
 
-__all__ = ["PluginSpec", "PluginRef", "plugin_refs", "handles_nonlinear"]
+__all__ = ["PluginSpec", "PluginRef", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
 
 
 def handles_nonlinear(cls: type) -> str:
@@ -40,6 +41,9 @@ def handles_nonlinear(cls: type) -> str:
     declares ``linear_only = True`` (the linear Kalman filter)."""
     return "it is linear-only (linear_only = True) and this model is nonlinear" \
         if getattr(cls, "linear_only", False) else ""
+
+
+handles_nonlinear.label = "handles nonlinear models (not linear-only)"  # type: ignore[attr-defined]
 
 
 @dataclass(frozen=True)
@@ -60,13 +64,41 @@ class PluginSpec:
 
         return registry.get(self.kind, self.name)
 
-    def create(self, **owned: Any) -> Any:
-        """Instantiate the plugin with its parameters plus the values its owner fixes
-        (``coherent_time_s``, ``early_late_spacing_chips`` ...); an owned value the
-        nested plugin does not take is dropped, and owned values win."""
+    def create(self, defaults: dict[str, Any] | None = None, **owned: Any) -> Any:
+        """Instantiate the plugin with its parameters.
+
+        Parameters
+        ----------
+        defaults
+            Values the owner suggests (an adapter's window...); the reference's own
+            parameters override them. Those the plugin does not take are dropped.
+        **owned
+            Values the owner fixes because its harness owns them (``coherent_time_s``,
+            ``early_late_spacing_chips`` ...); those the plugin does not take are dropped.
+            A parameter of the reference that repeats one must equal it.
+
+        Raises
+        ------
+        ConfigError
+            If the reference sets an owned value to something else, naming the parameter.
+        """
+        from .errors import ConfigError
+
         cls = self.cls
         fields = cls.Params.model_fields
-        return cls(**{**self.params, **{k: v for k, v in owned.items() if k in fields}})
+        for key, value in owned.items():
+            if key in fields and key in self.params and not _same(self.params[key], value):
+                raise ConfigError(f"{self.kind} {self.name!r}.{key}", f"is {self.params[key]!r} but its owner runs "
+                                  f"with {value!r} (the harness's value); leave the parameter out")
+        chosen = {k: v for k, v in (defaults or {}).items() if k in fields}
+        return cls(**{**chosen, **self.params, **{k: v for k, v in owned.items() if k in fields}})
+
+
+def _same(a: Any, b: Any) -> bool:
+    try:
+        return bool(np.allclose(a, b, rtol=1e-12, atol=0))
+    except (TypeError, ValueError):
+        return a == b
 
 
 @dataclass(frozen=True)
@@ -158,8 +190,7 @@ def PluginRef(kind: str, *, unit: str | None = None, provides: tuple[str, ...] =
     return Annotated[PluginSpec, BeforeValidator(lambda v: _resolve(rule, v)), WithJsonSchema(schema), rule]
 
 
-def plugin_refs(params_model: type) -> dict[str, tuple[str, str | None]]:
-    """The nested-plugin parameters of a ``Params`` model: field -> (kind, unit)."""
+def _field_rules(params_model: type) -> dict[str, _Rule]:
     def rules(obj: Any) -> list[_Rule]:
         found = [m for m in getattr(obj, "__metadata__", ()) if isinstance(m, _Rule)]
         for arg in typing.get_args(obj):
@@ -170,5 +201,26 @@ def plugin_refs(params_model: type) -> dict[str, tuple[str, str | None]]:
     for fname, info in params_model.model_fields.items():
         found = [m for m in info.metadata if isinstance(m, _Rule)] + rules(info.annotation)
         if found:
-            out[fname] = (found[0].kind, found[0].unit)
+            out[fname] = found[0]
+    return out
+
+
+def plugin_refs(params_model: type) -> dict[str, tuple[str, str | None]]:
+    """The nested-plugin parameters of a ``Params`` model: field -> (kind, unit)."""
+    return {f: (r.kind, r.unit) for f, r in _field_rules(params_model).items()}
+
+
+def plugin_ref_constraints(params_model: type) -> dict[str, str]:
+    """What each nested-plugin parameter of ``params_model`` demands, in words
+    (``"discriminator, unit 'chips'"``, ``"estimator, handles nonlinear models"``)."""
+    out = {}
+    for fname, rule in _field_rules(params_model).items():
+        parts = [rule.kind]
+        if rule.unit:
+            parts.append(f"unit {rule.unit!r}")
+        if rule.provides:
+            parts.append(f"provides {', '.join(rule.provides)}")
+        if rule.check is not None:
+            parts.append(getattr(rule.check, "label", rule.check.__name__.replace("_", " ")))
+        out[fname] = ", ".join(parts)
     return out

@@ -385,7 +385,7 @@ class IqFilter(ChannelFilter):
         self.adapter = None
         if p.adapter and p.adaptive:
             # window and warmup are this filter's; the adapter's own params win over them.
-            self.adapter = p.adapter.create(warmup=p.warmup, window=p.window, **p.adapter.params)
+            self.adapter = p.adapter.create(defaults={"warmup": p.warmup, "window": p.window})
         self.filter_step = FilterStep(self.engine, self.adapter, name=f"{self.name} ({self.engine.name})")
 
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:

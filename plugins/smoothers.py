@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, Mapping
 
 import numpy as np
@@ -109,7 +110,9 @@ class KalmanSmoother(ChannelFilter):
         super().__init__(**params)
         p = self.params
         self.engine = registry.create("estimator", "kf")
-        self.adapter = p.adapter.create(**{**p.adapter.params, **p.adapter_params}) if p.adapter else None
+        # adapter_params (the flat form) win over the reference's own params.
+        self.adapter = (dataclasses.replace(p.adapter, params={**p.adapter.params, **p.adapter_params}).create()
+                        if p.adapter else None)
         self.filter_step = FilterStep(self.engine, self.adapter, name=f"{self.name} (kf)")
 
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:

@@ -211,3 +211,112 @@ def test_restarting_the_adapter_keeps_the_estimate_in_force_and_restarts_its_war
         np.testing.assert_array_equal(fs.in_force(model).R, adapted)
     state = fs(state, zs[23], model).posterior
     assert not np.array_equal(fs.in_force(model).R, adapted)
+
+
+# -- every built-in sequential filter with a Gaussian filter runs it through FilterStep ----
+
+def _nan_at(arr, index):
+    arr = np.array(arr, dtype=complex if np.iscomplexobj(arr) else float)
+    arr[index] = np.nan
+    return arr
+
+
+def _carrier_loop_epochs(name, **params):
+    f = create("channel_filter", name, **params)
+    f.reset((3,), gf.RunContext(coherent_time_s=0.001, early_late_spacing_chips=1.0, cn0_dbhz=45.0))
+    rng, zero = np.random.default_rng(0), np.zeros(3)
+    for k in range(4):
+        corr = simulate_correlators(zero, 0.1 + zero, zero, 45.0, 0.001, rng)
+        if k == 3:  # the fourth interval: element 1's prompt is lost
+            corr = type(corr)(corr.early, _nan_at(corr.prompt, 1), corr.late)
+        f.step({"correlators": corr, "nco_shift_chips": zero, "nco_shift_hz": zero, "data_bit": 1.0})
+
+
+def _position_ca_epochs():
+    f = create("nav_filter", "position-ca")
+    f.reset((3,), gf.RunContext(epoch_interval_s=1.0))
+    for k in range(4):
+        z = np.full((3, 2), float(k))
+        f.step({"position_m": _nan_at(z, (1, 0)) if k == 3 else z})
+
+
+def _smoother_epochs():
+    f = create("channel_filter", "kf-smoother")
+    f.reset((3,), gf.RunContext(epoch_interval_s=1.0))
+    rho = 2e7 + np.arange(3.0)
+    for k in range(4):
+        f.step({"pseudorange_m": _nan_at(rho + k, 1) if k == 3 else rho + k, "carrier_m": rho + k})
+
+
+def _ekf_pv_epochs():
+    from gnssframework.experiments import get_scenario
+    from gnssframework.receiver.vector import run_vector_loop
+
+    base = gf.registry.get("channel_filter", "discriminator")
+
+    class LosesOneChannel(base):
+        name = "loses-one-channel"
+
+        def reset(self, batch_shape, context):
+            super().reset(batch_shape, context)
+            self.k = 0
+
+        def step(self, inputs):
+            out = dict(super().step(inputs))
+            if self.k == 3:  # the fourth interval: run 1, channel 2 gives NaN
+                out["code_error_chips"] = _nan_at(out["code_error_chips"], (1, 2))
+            self.k += 1
+            return out
+
+    scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.05, "channels": 5, "settle_s": 0.01})
+    rng = np.random.default_rng(1)
+    truth, x0, P0 = scen.truth(45.0, 3, rng)
+    run_vector_loop(LosesOneChannel(), create("nav_filter", "ekf-pv"), truth, x0, P0, rng)
+
+
+@pytest.mark.parametrize("run, filter_name, element", [
+    (lambda: _carrier_loop_epochs("kf-carrier-loop"), "kf-carrier-loop (kf)", (1,)),
+    (lambda: _carrier_loop_epochs("iq-filter"), "iq-filter (svd-ckf)", (1,)),
+    (_smoother_epochs, "kf-smoother (kf)", (1,)),
+    (_position_ca_epochs, "position-ca (kf)", (1, 0)),  # batch (runs, coordinate)
+    (_ekf_pv_epochs, "ekf-pv (ekf)", (1,)),
+], ids=["kf-carrier-loop", "iq-filter", "kf-smoother", "position-ca", "ekf-pv"])
+def test_every_gaussian_plugin_names_a_bad_measurement_through_the_filter_step(run, filter_name, element):
+    """A NaN in batch element 1 at the fourth epoch: each plugin's FilterStep refuses it by
+    name (the plugin and its engine), element and step, with no NumPy warning on the way."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(gf.InvalidMeasurementError) as err:
+            run()
+    assert err.value.filter_name == filter_name
+    assert err.value.batch_indices == [element] and err.value.step == 3
+
+
+def test_the_deep_integration_navigator_updates_through_the_filter_step(monkeypatch):
+    """PvaNavigator's navigation and clock updates (deep_measurements.linear_update) are
+    FilterStep updates: they are seen there, by name, and a NaN residual is refused by it."""
+    from gnssframework.receiver.deep_navigators import PvaNavigator
+
+    rng = np.random.default_rng(21)
+    runs, n = 3, 6
+    los = rng.normal(size=(runs, n, 3))
+    los /= np.linalg.norm(los, axis=-1, keepdims=True)
+    res = rng.normal(size=(runs, n, 2)) * [3.0, 0.2]
+    cov = np.broadcast_to(np.diag([4.0, 0.04]), (runs, n, 2, 2)).copy()
+    cn0 = rng.uniform(35, 50, (runs, n))
+    P0 = np.diag([25.0] * 3 + [1.0] * 3 + [4.0] * 3)
+    x0 = rng.normal(size=(runs, 9)) * 1e3
+    seen = []
+    real = FilterStep.update
+
+    def spy(self, *args, **kwargs):
+        seen.append((self.name, self.step_index))
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(FilterStep, "update", spy)
+    nav = PvaNavigator(x0[:, :3], x0[:, 3:6], x0[:, 6:], P0, np.zeros((runs, 2)), np.eye(2))
+    nav.update(0.1, res, cov, los, cn0)
+    assert seen == [("pva-navigator", 0), ("clock filter", 0)]
+    res[2, 4, 0] = np.nan
+    with pytest.raises(gf.InvalidMeasurementError, match=r"pva-navigator: .*batch element \(2,\), step 1"):
+        nav.update(0.2, res, cov, los, cn0)

@@ -12,9 +12,9 @@ GALLERY = pathlib.Path(__file__).resolve().parents[1] / "examples" / "gallery"
 SCRIPTS = sorted(GALLERY.glob("*.py"))
 
 
-def test_the_gallery_holds_the_five_examples():
+def test_the_gallery_holds_the_six_examples():
     assert [p.stem for p in SCRIPTS] == ["comparison_sweep", "custom_channel_filter", "custom_discriminator",
-                                         "first_filter", "reading_rinex"]
+                                         "first_filter", "plugin_to_comparison", "reading_rinex"]
 
 
 @pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)

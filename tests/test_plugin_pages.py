@@ -42,3 +42,30 @@ def test_every_built_in_plugin_has_a_page_that_gets_its_table():
         if directive not in text:
             missing.append(f"{info.kind} {info.name!r}: add a docs page with `{directive}`")
     assert not missing, "\n".join(missing)
+
+
+def test_the_tutorial_lists_every_nested_plugin_parameter_of_the_built_ins():
+    """The table of nested references is generated into the tutorial, so it holds every
+    built-in PluginRef parameter with its kind and unit (a hand-written table had fallen
+    behind: iq-filter's code_discriminator and position-ca's estimator were missing)."""
+    from gnssframework.plugin_ref import plugin_refs
+
+    hook = _hook()
+    page = (DOCS / "tutorial" / "from-plugin-to-comparison.md").read_text()
+    assert hook.NESTED_MARKER in page
+    rendered = hook.on_page_markdown(page, None, None, None)
+    table = rendered.split("| plugin | kind | nested parameter | default | takes |")[1].split("\n\n")[0]
+    rows = {tuple(c.strip().strip("`") for c in line.strip("|").split("|"))
+            for line in table.splitlines() if line.startswith("| `")}
+    expected = set()
+    for info in gf.registry.describe():
+        if info.distribution != "gnssframework":
+            continue
+        for field, (kind, unit) in plugin_refs(info.cls.Params).items():
+            expected.add((info.name, field))
+            row = next(r for r in rows if r[0] == info.name and r[2] == field)
+            assert row[4].startswith(kind) and (unit is None or f"unit '{unit}'" in row[4]), row
+    assert {(r[0], r[2]) for r in rows} == expected
+    assert ("iq-filter", "code_discriminator") in expected and ("position-ca", "estimator") in expected
+    ekf = next(r for r in rows if r[0] == "ekf-pv")
+    assert ekf[3] == "ekf" and "handles nonlinear models" in ekf[4]

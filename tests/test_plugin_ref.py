@@ -83,3 +83,55 @@ def test_a_linear_only_estimator_is_refused_where_the_model_is_nonlinear():
         assert "estimator 'kf' does not fit: it is linear-only" in msg
         fit = msg.split("estimators that do: ")[1].split(", ")
         assert "kf" not in fit and {"ekf", "ukf", "ckf"} <= set(fit)
+
+
+def test_a_candidate_component_may_be_a_bare_name_like_a_nested_reference(tmp_path):
+    bare = _load(tmp_path, 'channel_filter = { name = "discriminator" }', 'channel_filter = "discriminator"')
+    table = load_config(_write(tmp_path, TINY, "table.toml"))
+    assert bare.candidates[0].channel_filter.model_dump() == {"name": "discriminator", "params": {}}
+    assert bare.identity() == table.identity()  # the same comparison, the same stored results
+    with pytest.raises(gf.ConfigError) as err:
+        _load(tmp_path, 'channel_filter = { name = "discriminator" }', 'channel_filter = "discriminatr"')
+    assert str(err.value).startswith("candidates[0].channel_filter.name: ") and "'discriminator'" in str(err.value)
+
+
+def test_the_json_schema_takes_a_bare_name_and_refuses_an_unknown_one():
+    import jsonschema  # test-only oracle: an independent JSON-schema validator
+    import tomllib
+
+    from gnssframework.config_schema import comparison_schema
+
+    validator = jsonschema.Draft202012Validator(comparison_schema())
+    data = tomllib.loads(TINY.replace('channel_filter = { name = "discriminator" }', 'channel_filter = "discriminator"'))
+    assert not list(validator.iter_errors(data))
+    data["candidates"][0]["channel_filter"] = "discriminatr"
+    assert list(validator.iter_errors(data))
+
+
+def test_a_nested_adapter_takes_its_own_window_over_the_owners(tmp_path):
+    # It used to crash with a raw TypeError (the window passed twice), at load_config.
+    config = _load(tmp_path, IQ, 'name = "iq-filter", params = { window = 30, adapter = { name = "innovation", '
+                                 'params = { window = 5 } } }')
+    ref = config.candidates[1].channel_filter
+    assert gf.registry.create("channel_filter", ref.name, **ref.params).adapter.params.window == 5
+    assert gf.registry.create("channel_filter", "iq-filter", window=30).adapter.params.window == 30
+
+
+def test_a_nested_value_the_harness_owns_must_agree_with_it():
+    """The owner's harness value is used; a nested parameter that says otherwise is refused,
+    naming it, instead of being silently replaced."""
+    ctx = gf.RunContext(coherent_time_s=0.001, early_late_spacing_chips=1.0)
+    loop = gf.registry.create("channel_filter", "scalar",
+                              phase_discriminator={"name": "costas-atan", "params": {"coherent_time_s": 0.02}})
+    with pytest.raises(gf.ConfigError) as err:
+        loop.reset((1,), ctx)
+    assert str(err.value).startswith("discriminator 'costas-atan'.coherent_time_s: is 0.02 but its owner runs "
+                                     "with 0.001")
+    same = gf.registry.create("channel_filter", "scalar",
+                              phase_discriminator={"name": "costas-atan", "params": {"coherent_time_s": 0.001}})
+    same.reset((1,), ctx)
+    assert same.phase_disc.params.coherent_time_s == 0.001
+    loop = gf.registry.create("channel_filter", "scalar")
+    loop.reset((1,), gf.RunContext(coherent_time_s=0.004, early_late_spacing_chips=0.5))
+    assert loop.phase_disc.params.coherent_time_s == 0.004  # unset: the harness's value
+    assert loop.dll.disc.params.early_late_spacing_chips == 0.5

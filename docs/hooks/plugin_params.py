@@ -14,7 +14,10 @@ from __future__ import annotations
 import re
 
 from gnssframework import registry
-from gnssframework.plugin_docs import parameter_table
+from gnssframework.plugin_docs import nested_plugins_table, parameter_table
+
+#: A line that a page holds where the generated table of nested-plugin parameters goes.
+NESTED_MARKER = "<!-- nested-plugins-table -->"
 
 _DIRECTIVE = re.compile(r"^::: plugins\.(?P<module>[\w.]+)\.(?P<cls>\w+)\s*$")
 
@@ -43,6 +46,8 @@ def plugin_section(info) -> str:
 
 
 def on_page_markdown(markdown: str, page, config, files) -> str:
+    if NESTED_MARKER in markdown:
+        markdown = markdown.replace(NESTED_MARKER, nested_plugins_table())
     plugins = _plugins_by_path()
     lines = markdown.split("\n")
     out: list[str] = []

@@ -29,10 +29,16 @@ class _Strict(BaseModel):
 
 
 class PluginRef(_Strict):
-    """One plugin of a candidate: its registry name and parameters."""
+    """One plugin of a candidate: its registry name and parameters; a bare name stands
+    for ``{ name = "...", params = {} }``, as in nested plugin references."""
 
     name: str = Field(..., description="registered name, e.g. 'iq-filter'")
     params: dict[str, Any] = Field(default_factory=dict, description="parameters of the plugin's model")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _bare_name(cls, value: Any) -> Any:
+        return {"name": value} if isinstance(value, str) else value
 
 
 class Candidate(_Strict):

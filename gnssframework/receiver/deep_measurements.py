@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidMeasurementError, NotPositiveDefiniteError, NumericalError
+from ..errors import NumericalError
 
 __all__ = ["reference_channel", "difference_operator", "difference", "linear_update", "new_information",
            "integration_measurement", "clock_measurement", "ATTITUDE", "VELOCITY", "POSITION", "ACCEL_BIAS", "GYRO_BIAS"]
@@ -82,6 +82,9 @@ def linear_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R:
     """Batched Kalman measurement update in Joseph form (Groves 2013, eqs. 3.24-3.27).
 
     ``x (runs, m)``, ``P (runs, m, m)``, ``z (runs, p)``, ``H (runs, p, m)``, ``R (runs, p, p)``.
+    It is the update half of the library's one filter step
+    (`gnssframework.estimation.FilterStep` with the ``kf`` estimator), so the navigators
+    that call it fail, by name, as every other filter does.
 
     Raises
     ------
@@ -89,23 +92,18 @@ def linear_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R:
         When a batch element's measurement holds NaN or inf.
     NotPositiveDefiniteError
         When the innovation covariance of some batch element is not positive definite.
+    NumericalError
+        When the posterior of some batch element is not finite or not positive definite.
     """
-    bad = ~np.isfinite(z).all(axis=-1)
-    if bad.any():
-        raise InvalidMeasurementError(name, [(int(i),) for i in np.flatnonzero(bad)], step)
-    S = H @ P @ np.swapaxes(H, -1, -2) + R
-    try:
-        L = np.linalg.cholesky(S)
-    except np.linalg.LinAlgError:
-        bad = [(int(i),) for i in range(S.shape[0]) if np.any(np.linalg.eigvalsh(S[i]) <= 0)]
-        raise NotPositiveDefiniteError(name, bad, step, "innovation covariance") from None
-    PHt = P @ np.swapaxes(H, -1, -2)
-    K = np.swapaxes(np.linalg.solve(np.swapaxes(L, -1, -2), np.linalg.solve(L, np.swapaxes(PHt, -1, -2))), -1, -2)
-    v = z - np.einsum("rij,rj->ri", H, x)
-    x_new = x + np.einsum("rij,rj->ri", K, v)
-    IKH = np.eye(P.shape[-1]) - K @ H
-    P_new = IKH @ P @ np.swapaxes(IKH, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
-    return x_new, 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
+    from .. import registry
+    from ..estimation import FilterStep, Gaussian, LinearModel
+
+    n = P.shape[-1]
+    fs = FilterStep(registry.create("estimator", "kf"), name=name)
+    fs.step_index = 0 if step is None else step
+    model = LinearModel(np.eye(n), np.asarray(H, float), np.zeros((n, n)), np.asarray(R, float))
+    post = fs.update(Gaussian(np.asarray(x, float), np.asarray(P, float)), z, model).posterior
+    return post.mean, post.cov
 
 
 def new_information(x_prior: np.ndarray, P_prior: np.ndarray, x_post: np.ndarray, P_post: np.ndarray,

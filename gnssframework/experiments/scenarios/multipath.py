@@ -18,9 +18,10 @@ from ... import registry
 from ...errors import ConfigError
 from ...estimation import Gaussian, LinearModel, filter_sequence
 from ...simulation.impairments import ar1_noise
+from ..metric_components import ConvergenceEpoch, MeanAbs, Rmse, convergence_epoch, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["MultipathScenario", "convergence_epoch"]
+__all__ = ["MultipathScenario", "METRICS", "convergence_epoch"]
 
 
 class MultipathParams(ScenarioParams):
@@ -37,18 +38,18 @@ class MultipathCase(ScenarioParams):
     psi: float | None = Field(None, gt=-1, lt=1, description="AR(1) coefficient of this case (default: the scenario's)")
 
 
-def convergence_epoch(err: np.ndarray, window: int) -> np.ndarray:
-    """First epoch after which the running RMS error (``window`` epochs) stays below twice
-    the RMS error of the second half of the run. ``err`` is ``(K, runs)``; returns ``(runs,)``."""
-    K = err.shape[0]
-    # Trailing sum of the last `window` squared errors (fewer at the start), over all runs at once.
-    cs = np.cumsum(err**2, axis=0)
-    lagged = np.concatenate([np.zeros((min(window, K),) + err.shape[1:]), cs[: max(K - window, 0)]], axis=0)
-    running = np.sqrt((cs - lagged) / window)
-    bound = 2.0 * np.sqrt(np.mean(err[K // 2:] ** 2, axis=0))
-    above = running > bound
-    last = np.where(above.any(axis=0), K - 1 - np.argmax(above[::-1], axis=0), -1)
-    return (last + 1).astype(float)
+#: The scenario's metrics, each declared once as a component (name, unit, the series it
+#: reduces); ``run_batch`` computes them all once with `evaluate`.
+METRICS = (
+    MeanAbs("lat_error_mean", "m", of="lat_error_m", description="mean absolute latitude error"),
+    Rmse("lat_error_rmse", "m", of="lat_error_m", description="RMS latitude error"),
+    MeanAbs("lon_error_mean", "m", of="lon_error_m", description="mean absolute longitude error"),
+    Rmse("lon_error_rmse", "m", of="lon_error_m", description="RMS longitude error"),
+    Rmse("horizontal_error_rmse", "m", of="horizontal_error_m", description="RMS horizontal error"),
+    ConvergenceEpoch("convergence_epoch", of="horizontal_error_m", window="convergence_window", factor=2.0,
+                     description="epoch after which the running RMS horizontal error stays below twice "
+                     "the second half's"),
+)
 
 
 @register_scenario
@@ -59,8 +60,10 @@ class MultipathScenario(Scenario):
     Params = MultipathParams
     CaseParams = MultipathCase
     components = {"nav_filter": False, "estimator": False, "augmentation": False, "noise_adapter": False}
-    metrics = {"lat_error_mean": "m", "lat_error_rmse": "m", "lon_error_mean": "m", "lon_error_rmse": "m",
-               "horizontal_error_rmse": "m", "convergence_epoch": "epochs"}
+    metrics = units(METRICS)
+    #: The raw per-epoch errors (signed, truth 0) the metrics reduce; metric components
+    #: of other packages may read them too.
+    outputs = {"lat_error_m": "m", "lon_error_m": "m", "horizontal_error_m": "m"}
 
     def check_composition(self, plugins, where: str) -> None:
         if plugins and ("nav_filter" not in plugins or "estimator" not in plugins):
@@ -138,22 +141,5 @@ class MultipathScenario(Scenario):
             plugins = {k: v for k, v in plugins.items() if k != "noise_adapter"}
         err, epochs = self._filter(plugins, zs, *scales)
         lat, lon = err[..., 0], err[..., 1]
-        horizontal = np.hypot(lat, lon)
-        conv = convergence_epoch(horizontal, p.convergence_window)
-        metrics = {
-            "lat_error_mean": np.mean(np.abs(lat), axis=0),
-            "lat_error_rmse": np.sqrt(np.mean(lat**2, axis=0)),
-            "lon_error_mean": np.mean(np.abs(lon), axis=0),
-            "lon_error_rmse": np.sqrt(np.mean(lon**2, axis=0)),
-            "horizontal_error_rmse": np.sqrt(np.mean(horizontal**2, axis=0)),
-            "convergence_epoch": conv,
-        }
-        t = epochs * p.dt_s
-        # convergence_epoch's series: 1 while a run has not yet converged (its mean over
-        # runs is the fraction still unconverged at each epoch, its median drops to 0 when
-        # half the runs have converged).
-        unconverged = (np.arange(horizontal.shape[0])[:, None] < conv[None, :]).astype(float)
-        series = {"lat_error_mean": np.abs(lat), "lat_error_rmse": np.abs(lat), "lon_error_mean": np.abs(lon),
-                  "lon_error_rmse": np.abs(lon), "horizontal_error_rmse": horizontal,
-                  "convergence_epoch": unconverged}
-        return BatchResult(metrics, series, t)
+        return evaluate(METRICS, {"lat_error_m": lat, "lon_error_m": lon, "horizontal_error_m": np.hypot(lat, lon)},
+                        epochs * p.dt_s, self)
