@@ -246,8 +246,10 @@ class FilterStep:
             Start from the model's own Q and R (the adapted ones are dropped at once)
             instead of the Q and R now in force.
         restart_warmup
-            Count the adapter's warm-up again from 0; ``False`` keeps the step count, so a
-            filter that restarts every few steps still adapts.
+            Count the step index handed to the adapter from 0 again; ``False`` keeps it
+            running. The built-in adapters count their warm-up in the updates of each run,
+            so a filter that restarts them more often than their warm-up never adapts
+            either way (the ``iq-filter`` reset mode relies on that: R stays the model's).
         """
         if self.adapter is not None:
             current = model if from_model_noise else self.in_force(model)
