@@ -151,3 +151,28 @@ def test_any_cut_is_reported_or_falls_on_an_epoch_boundary(tmp_path):
         else:
             assert data.truncated is not None and data.time_s.size == complete, cut
             assert data.skipped[-1][1].startswith("truncated epoch dropped")
+
+
+@pytest.mark.parametrize("epoch_line, why", [
+    ("> 2020 13 01 10 30 30.0000000  0  2", "month must be in 1..12"),
+    ("> 2020 05 32 10 30 30.0000000  0  2", "day is out of range"),
+    ("> 2020 05 01 24 30 30.0000000  0  2", "hour must be in 0..23"),
+    ("> 2020 05 01 10 30 61.5000000  0  2", r"seconds 61.5 outside \[0, 61\)"),
+])
+def test_an_impossible_epoch_time_is_refused_with_its_line(tmp_path, epoch_line, why):
+    lines = LINES.copy()
+    lines[_epoch(30)] = epoch_line  # was: a raw ValueError traceback from datetime
+    with pytest.raises(gf.DataFileError, match=rf"obs.rnx:{_epoch(30) + 1}: impossible epoch time .*{why}"):
+        read_code_carrier(_write(tmp_path, lines), "G08")
+
+
+def test_an_epoch_georinex_silently_stops_at_is_refused_with_its_line(tmp_path):
+    """A leap-second epoch (seconds 60.0) is valid RINEX; georinex stops reading there
+    without an error, so the epochs after it would vanish uncounted."""
+    lines = LINES[:_epoch(31)] + LINES[_epoch(61):_epoch(90)]  # epochs 0-30, then 61-89 (10:31:01 on)
+    lines[_epoch(30)] = "> 2020 05 01 10 30 60.0000000  0  2"  # in time order: 10:30:29 < 10:30:60 < 10:31:01
+    path = _write(tmp_path, lines)
+    assert not gf.io.rinex.check_rinex3_obs(path).skipped  # the line-level pass accepts every epoch
+    with pytest.raises(gf.DataFileError, match=rf"obs.rnx:{_epoch(30) + 1}: georinex did not return the epoch at "
+                                               r"this line \(2020-05-01 10:30:60.0000000\), nor 29 later epochs"):
+        read_code_carrier(path, "G08")
