@@ -176,3 +176,12 @@ def test_an_epoch_georinex_silently_stops_at_is_refused_with_its_line(tmp_path):
     with pytest.raises(gf.DataFileError, match=rf"obs.rnx:{_epoch(30) + 1}: georinex did not return the epoch at "
                                                r"this line \(2020-05-01 10:30:60.0000000\), nor 29 later epochs"):
         read_code_carrier(path, "G08")
+
+
+@pytest.mark.parametrize("bounds", [["--pseudorange-min", "5e7", "--pseudorange-max", "1e7"],
+                                    ["--pseudorange-min", "nan"]])
+def test_bad_plausibility_bounds_are_a_config_error_naming_them(tmp_path, capsys, bounds):
+    # was: "G08 has no epoch with both C1C and L1C", blaming the file for the option
+    assert main(["smooth", str(RNX), "--prn", "G08", "--out", str(tmp_path / "s.csv"), *bounds]) == 2
+    assert "error: pseudorange_min_m/pseudorange_max_m (--pseudorange-min/--pseudorange-max): need 0 <= min < max" \
+        in capsys.readouterr().err

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataFileError
+from ..errors import ConfigError, DataFileError
 from ..signal.constants import L1_WAVELENGTH_M
 
 __all__ = ["CodeCarrier", "RinexScan", "read_code_carrier", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs",
@@ -153,6 +153,9 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
     DataFileError
         Naming the file and the line.
     """
+    if not 0 <= pseudorange_min_m < pseudorange_max_m:  # also NaN
+        raise ConfigError("pseudorange_min_m/pseudorange_max_m (--pseudorange-min/--pseudorange-max)",
+                          f"need 0 <= min < max, got [{pseudorange_min_m!r}, {pseudorange_max_m!r}] m")
     path = Path(path)
     text = path.read_text(errors="replace")
     lines = text.splitlines()
