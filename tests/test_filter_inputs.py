@@ -163,7 +163,8 @@ def test_colored_ar1_skips_a_missing_measurement_and_its_decorrelation(name, bad
 
 
 STEP_BAD = {  # kind -> (z for a batch of 3, model, what the message must name)
-    "z non-numeric": (np.array([["a"], ["b"], ["c"]]), MODEL, "measurement z: is not numeric"),
+    "z non-numeric": (np.array([["a"], ["b"], ["c"]]), MODEL, "measurement z: is not a numeric array"),
+    "z complex": (np.ones((3, 1)) * 1j, MODEL, "measurement z: is complex"),
     "z wrong length": (np.zeros((3, 2)), MODEL, "measurement z: has shape (3, 2)"),
     "z scalar": (np.array(0.0), MODEL, "measurement z: has shape ()"),
     "z wrong batch": (np.zeros((4, 1)), MODEL, "measurement z: has batch shape (4,)"),
@@ -184,3 +185,20 @@ def test_filter_step_refuses_bad_step_inputs_naming_them(name, kind):
             state = step.start(gf.Gaussian(np.zeros((3, 2)), np.eye(2)), model)
             step(state, z, model)
     assert named in str(err.value) and str(err.value).startswith(f"{name}: "), str(err.value)
+
+
+@pytest.mark.parametrize("where, value, named", [
+    ("zs", np.array([["a"], ["b"]]), "zs: is not a numeric array"),
+    ("zs", [[1.0], [1.0, 2.0]], "zs: is not a numeric array"),  # ragged
+    ("zs", np.zeros((3, 1)) + 1j, "zs: is complex"),  # NumPy would drop the imaginary part with a warning
+    ("mean", np.array(["a", "b"]), "Gaussian.mean: is not a numeric array"),
+    ("cov", np.ones((3, 2, 2)), "Gaussian.cov: batch shape (3,) does not broadcast with the mean's (2,)"),
+])
+def test_non_numeric_ragged_or_complex_input_is_named(where, value, named):
+    mean, cov, zs = (np.zeros((2, 2)) if where == "cov" else np.zeros(2)), np.eye(2), np.zeros((3, 1))
+    with pytest.raises(gf.GnssFrameworkError) as err:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            _run("kf", value if where == "mean" else mean, value if where == "cov" else cov,
+                 value if where == "zs" else zs)
+    assert named in str(err.value), str(err.value)

@@ -14,7 +14,30 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["as_measurement"]
+__all__ = ["as_measurement", "as_sequence", "to_float"]
+
+
+def to_float(value) -> np.ndarray:
+    """``np.asarray(value, dtype=float)`` that refuses what it would mangle: complex
+    values (NumPy drops the imaginary part with a ``ComplexWarning``), text and ragged
+    nests raise ``ValueError`` with a short reason."""
+    try:
+        arr = np.asarray(value)
+        complex_ = np.iscomplexobj(arr)
+        out = None if complex_ else arr.astype(float, copy=False)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"is not a numeric array ({exc})") from None
+    if complex_:
+        raise ValueError("is complex; give the real and imaginary parts as separate measurements")
+    return out
+
+
+def as_sequence(zs, filter_name: str) -> np.ndarray:
+    """A measurement sequence as a float array, or `InvalidInputError` naming ``zs``."""
+    try:
+        return to_float(zs)
+    except ValueError as exc:
+        raise InvalidInputError(filter_name, "zs", str(exc)) from None
 
 
 def as_measurement(z, m: int, batch_shape: tuple[int, ...], filter_name: str, step: int) -> np.ndarray:
@@ -27,9 +50,9 @@ def as_measurement(z, m: int, batch_shape: tuple[int, ...], filter_name: str, st
         broadcast with the state's.
     """
     try:
-        z = np.asarray(z, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(filter_name, "measurement z", f"is not numeric at step {step} ({exc})") from None
+        z = to_float(z)
+    except ValueError as exc:
+        raise InvalidInputError(filter_name, "measurement z", f"{exc} at step {step}") from None
     if z.ndim < 1 or z.shape[-1] != m:
         raise InvalidInputError(filter_name, "measurement z", f"has shape {z.shape} at step {step}; "
                                 f"the model's R is {m}x{m}, so z needs shape (..., {m})")
