@@ -178,3 +178,10 @@ def test_a_bad_threshold_is_a_config_error_naming_it(tmp_path, capsys, option):
     assert main(["filter-positions", str(LOG), "--out", str(tmp_path / "t.csv"), *option]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: max_") and f"({option[0]}): must be a positive number" in err, err
+
+
+def test_a_log_with_no_usable_fix_says_what_was_skipped_first(tmp_path):
+    lines = [_edit(line, lat_dir="Q") if line.startswith("$GNGGA") else line[:-2] + "00" for line in LINES[:20]]
+    with pytest.raises(gf.DataFileError, match=r"log.nmea: no valid GGA or RMC fix \(20 sentences skipped, the first "
+                                               r"at line 1: GGA latitude hemisphere 'Q' is not N or S\)"):
+        read_nmea(_write(tmp_path, lines))

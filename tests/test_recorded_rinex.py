@@ -185,3 +185,9 @@ def test_bad_plausibility_bounds_are_a_config_error_naming_them(tmp_path, capsys
     assert main(["smooth", str(RNX), "--prn", "G08", "--out", str(tmp_path / "s.csv"), *bounds]) == 2
     assert "error: pseudorange_min_m/pseudorange_max_m (--pseudorange-min/--pseudorange-max): need 0 <= min < max" \
         in capsys.readouterr().err
+
+
+def test_no_data_left_after_the_checks_says_what_was_skipped(tmp_path):
+    with pytest.raises(gf.DataFileError, match=r"G08 has no epoch with both C1C and L1C left after the checks: 200 "
+                                               r"epochs or observations skipped, the first at line 14: G08 C1C"):
+        read_code_carrier(_write(tmp_path, LINES), "G08", pseudorange_max_m=1.1e7)  # every range is above

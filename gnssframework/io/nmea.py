@@ -217,6 +217,7 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
     skipped.sort()
     refuse_or_keep(path, skipped, strict)
     if not rows:
-        raise DataFileError(str(path), None, f"no valid GGA or RMC fix ({len(skipped)} sentences skipped)")
+        first = f", the first at line {skipped[0][0]}: {skipped[0][1]}" if skipped else ""
+        raise DataFileError(str(path), None, f"no valid GGA or RMC fix ({len(skipped)} sentences skipped{first})")
     arr = np.array(rows, dtype=float)
     return NmeaFixes(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], arr[:, 3], arr[:, 4].astype(int), skipped)

@@ -375,10 +375,18 @@ def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSE
     phase = sat["L1C"].values.astype(float)
     ok = np.isfinite(code) & np.isfinite(phase)
     if not ok.any():
-        raise DataFileError(str(path), None, f"{prn} has no epoch with both C1C and L1C")
+        raise DataFileError(str(path), None, f"{prn} has no epoch with both C1C and L1C" + _first_skipped(scan.skipped))
     times = sat.time.values[ok]
     t = (times - times[0]) / np.timedelta64(1, "s")
     return CodeCarrier(t.astype(float), times, code[ok], phase[ok] * L1_WAVELENGTH_M, scan.skipped, scan.truncated)
+
+
+def _first_skipped(skipped: list[tuple[int, str]]) -> str:
+    """What was skipped, for an error that would otherwise blame the file's content alone."""
+    if not skipped:
+        return ""
+    line, reason = skipped[0]
+    return f" left after the checks: {len(skipped)} epochs or observations skipped, the first at line {line}: {reason}"
 
 
 def _check_georinex_kept_every_epoch(path: Path, scan: RinexScan, times: np.ndarray) -> None:
