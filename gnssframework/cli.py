@@ -8,7 +8,7 @@ from typing import Sequence
 
 from . import registry
 from .errors import ConfigError, GnssFrameworkError
-from .io.nmea import MAX_SPEED_MPS
+from .io.nmea import MAX_ABS_HEIGHT_M, MAX_SPEED_MPS
 from .io.rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M
 from .io.skipped import EXIT_STATUS_HELP
 
@@ -60,7 +60,7 @@ def _cmd_filter_positions(args: argparse.Namespace) -> int:
     from .io.positions import filter_positions, write_positions_csv
     from .io.skipped import exit_status, print_skipped, write_skipped_report
 
-    fixes = read_nmea(args.file, max_speed_mps=args.max_speed, strict=args.strict)
+    fixes = read_nmea(args.file, max_speed_mps=args.max_speed, strict=args.strict, max_abs_height_m=args.max_height)
     lat, lon, _, _ = filter_positions(fixes, args.filter, args.psi)
     write_positions_csv(args.out, fixes, lat, lon)
     sidecar = write_skipped_report(args.out, args.file, fixes.skipped)
@@ -148,6 +148,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-speed", type=float, default=MAX_SPEED_MPS, metavar="M/S",
                    help="jump check: skip a fix further from the last accepted one than this speed allows "
                         "(default %(default)g m/s)")
+    p.add_argument("--max-height", type=float, default=MAX_ABS_HEIGHT_M, metavar="M",
+                   help="skip a GGA whose altitude is not a number or above this in magnitude (default %(default)g m)")
     p.add_argument("--strict", action="store_true", help="refuse the file at the first bad sentence (exit 2)")
     p.set_defaults(func=_cmd_filter_positions)
     p = sub.add_parser("smooth", help="carrier-smooth one satellite's code from a RINEX observation file",

@@ -119,12 +119,17 @@ class ColoredAR1(Augmentation):
         zs_star = zs[1:] - psi * zs[:-1]
         R_star0 = symmetrize(H @ model.Q @ np.swapaxes(H, -1, -2) + model.R)
 
-        def decorrelation(Q: np.ndarray, R_star: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            """J and Q' from the (raw) process noise Q and the differenced R*."""
+        def decorrelation(Q: np.ndarray, R_star: np.ndarray, z_prev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            """J and Q' from the (raw) process noise Q and the differenced R*. Where the
+            previous differenced measurement is missing (NaN/inf: its update is skipped
+            under ``missing="skip"``) there is nothing to decorrelate with: J = 0, Q' = Q."""
             if self.params.cross_covariance == "paper":  # Liu et al. (2020) drop M
                 return np.zeros(Q.shape[:-2] + (Q.shape[-1], H.shape[-2])), Q
             M = Q @ np.swapaxes(H, -1, -2)  # E[w V*^T]
             J = np.swapaxes(np.linalg.solve(R_star, np.swapaxes(M, -1, -2)), -1, -2)
+            seen = np.isfinite(z_prev).all(axis=-1)
+            if not seen.all():
+                J = np.where(seen[..., None, None], J, 0.0)
             return J, symmetrize(Q - J @ np.swapaxes(M, -1, -2))
 
         if isinstance(model, LinearModel):
@@ -134,8 +139,8 @@ class ColoredAR1(Augmentation):
             def build(k: int, Q: np.ndarray, R_star: np.ndarray) -> LinearModel:
                 if k == 0:  # predicting into epoch 0: w_{-1} is not correlated with V*_0
                     return _Decorrelated(F, H_star, Q, R_star, u=model.u, rebuild=lambda Q, R: build(0, Q, R), raw_Q=Q)
-                J, Q_dec = decorrelation(Q, R_star)
-                u = mat_vec(J, zs_star[k - 1])
+                J, Q_dec = decorrelation(Q, R_star, zs_star[k - 1])
+                u = mat_vec(J, np.nan_to_num(zs_star[k - 1], nan=0.0, posinf=0.0, neginf=0.0))
                 u = u if model.u is None else u + model.u
                 return _Decorrelated(
                     F - J @ H_star, H_star, Q_dec, R_star, u=u, rebuild=lambda Q, R: build(k, Q, R), raw_Q=Q
@@ -150,8 +155,8 @@ class ColoredAR1(Augmentation):
             def build(k: int, Q: np.ndarray, R_star: np.ndarray) -> NonlinearModel:
                 if k == 0:
                     return _DecorrelatedNonlinear(f, h_star, Q, R_star, rebuild=lambda Q, R: build(0, Q, R), raw_Q=Q)
-                z_prev = zs_star[k - 1]
-                J, Q_dec = decorrelation(Q, R_star)
+                J, Q_dec = decorrelation(Q, R_star, zs_star[k - 1])
+                z_prev = np.nan_to_num(zs_star[k - 1], nan=0.0, posinf=0.0, neginf=0.0)
 
                 def f_dec(x: np.ndarray) -> np.ndarray:
                     return f(x) + mat_vec(J, z_prev - h_star(x))

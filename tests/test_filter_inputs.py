@@ -103,3 +103,102 @@ def test_random_bad_inputs_get_a_library_error_naming_the_input(name, kind, batc
     assert NAMED[kind] in message, message
     if kind in ("nan_mean", "inf_mean", "nan_cov", "indefinite_cov", "nan_measurement"):
         assert f"batch element ({bad},)" in message, message
+
+
+# -- noise adapters, augmentations and FilterStep itself ---------------------------------------
+
+#: Every built-in noise adapter that runs inside a filter (oracle-grid is chosen by a scenario).
+ADAPTERS = sorted(i.name for i in gf.registry.describe() if i.kind == "noise_adapter"
+                  and i.distribution == "gnssframework" and i.name != "oracle-grid")
+
+
+@pytest.mark.parametrize("adapter", ADAPTERS)
+@pytest.mark.parametrize("name", ESTIMATORS)
+def test_an_adapter_overflow_is_refused_naming_filter_adapter_element_and_step(name, adapter):
+    assert set(ADAPTERS) >= {"sage-husa", "innovation", "ml-q"}
+    zs = np.zeros((40, 3, 1))
+    zs[3, 1, 0] = 1e300  # one corrupted sample in element 1; the adapter squares its innovation
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # was: RuntimeWarning overflow, then LinAlgError from eigh
+        try:
+            res = gf.filter_sequence(create("estimator", name), MODEL, zs, gf.Gaussian(np.zeros((3, 2)), np.eye(2)),
+                                     adapter=create("noise_adapter", adapter))
+        except gf.NonFiniteError as err:
+            e = err
+        else:
+            e = None
+    if name in ("kf", "ekf"):  # finite arithmetic until the adapter squares the innovation
+        assert e is not None and f"noise adapter {adapter!r}: its Q or R estimate is not finite" in str(e)
+    if e is None:  # a sigma-point filter may keep finite numbers (the adapter clamps at its ceiling)
+        assert np.isfinite(res.mean).all() and np.isfinite(res.R).all()
+        return
+    assert e.filter_name == name and e.batch_indices == [(1,)] and e.step is not None and e.step >= 3, str(e)
+    assert "noise adapter" in str(e) or "prediction" in str(e), str(e)  # where the overflow surfaced
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+@pytest.mark.parametrize("name", ["kf", "ckf"])
+def test_colored_ar1_skips_a_missing_measurement_and_its_decorrelation(name, bad):
+    """With ``missing="skip"`` a NaN/inf sample is a missing measurement: both differenced
+    measurements that contain it are skipped, and the step after it predicts without the
+    w/V* decorrelation (J = 0), instead of failing (NaN) or warning (inf)."""
+    rng = np.random.default_rng(4)
+    zs = rng.normal(size=(30, 2, 1))
+    gap = zs.copy()
+    gap[10, 1, 0] = bad  # element 1 only
+    kw = dict(augmentation=create("augmentation", "colored-ar1", psi=0.8), missing="skip")
+    init = gf.Gaussian(np.zeros((2, 2)), np.eye(2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        full = gf.filter_sequence(create("estimator", name), MODEL, zs, init, **kw)
+        res = gf.filter_sequence(create("estimator", name), MODEL, gap, init, **kw)
+    assert np.isfinite(res.mean).all() and np.isfinite(res.cov).all()
+    assert res.recoveries["missing"] == 2  # z*_9 = z_10 - psi z_9 and z*_10 = z_11 - psi z_10
+    assert res.skipped[:, 1].nonzero()[0].tolist() == [9, 10] and not res.skipped[:, 0].any()
+    np.testing.assert_array_equal(res.mean[:, 0], full.mean[:, 0])  # the other element is untouched
+    np.testing.assert_array_equal(res.mean[:9, 1], full.mean[:9, 1])  # causal: nothing before the gap moves
+    # The prediction over the gap is the plain model's, with the raw Q: P grows by F P F' + Q.
+    P9, P10 = res.cov[9, 1], res.cov[10, 1]
+    np.testing.assert_allclose(P10, F @ P9 @ F.T + 0.01 * np.eye(2), rtol=1e-12)
+
+
+STEP_BAD = {  # kind -> (z for a batch of 3, model, what the message must name)
+    "z non-numeric": (np.array([["a"], ["b"], ["c"]]), MODEL, "measurement z: is not a numeric array"),
+    "z complex": (np.ones((3, 1)) * 1j, MODEL, "measurement z: is complex"),
+    "z wrong length": (np.zeros((3, 2)), MODEL, "measurement z: has shape (3, 2)"),
+    "z scalar": (np.array(0.0), MODEL, "measurement z: has shape ()"),
+    "z wrong batch": (np.zeros((4, 1)), MODEL, "measurement z: has batch shape (4,)"),
+    "z empty batch": (np.zeros((0, 1)), MODEL, "measurement z: has batch shape (0,)"),
+    "z NaN": (np.array([[0.0], [np.nan], [0.0]]), MODEL, "measurement is NaN or inf at batch element (1,)"),
+}
+
+
+@settings(max_examples=60, deadline=None)
+@given(name=st.sampled_from(ESTIMATORS), kind=st.sampled_from(sorted(STEP_BAD)))
+def test_filter_step_refuses_bad_step_inputs_naming_them(name, kind):
+    """The same inputs through `FilterStep` directly, as a plugin calls it."""
+    z, model, named = STEP_BAD[kind]
+    step = gf.estimation.FilterStep(create("estimator", name))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(gf.GnssFrameworkError) as err:
+            state = step.start(gf.Gaussian(np.zeros((3, 2)), np.eye(2)), model)
+            step(state, z, model)
+    assert named in str(err.value) and str(err.value).startswith(f"{name}: "), str(err.value)
+
+
+@pytest.mark.parametrize("where, value, named", [
+    ("zs", np.array([["a"], ["b"]]), "zs: is not a numeric array"),
+    ("zs", [[1.0], [1.0, 2.0]], "zs: is not a numeric array"),  # ragged
+    ("zs", np.zeros((3, 1)) + 1j, "zs: is complex"),  # NumPy would drop the imaginary part with a warning
+    ("mean", np.array(["a", "b"]), "Gaussian.mean: is not a numeric array"),
+    ("cov", np.ones((3, 2, 2)), "Gaussian.cov: batch shape (3,) does not broadcast with the mean's (2,)"),
+])
+def test_non_numeric_ragged_or_complex_input_is_named(where, value, named):
+    mean, cov, zs = (np.zeros((2, 2)) if where == "cov" else np.zeros(2)), np.eye(2), np.zeros((3, 1))
+    with pytest.raises(gf.GnssFrameworkError) as err:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            _run("kf", value if where == "mean" else mean, value if where == "cov" else cov,
+                 value if where == "zs" else zs)
+    assert named in str(err.value), str(err.value)

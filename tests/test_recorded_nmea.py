@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -142,3 +143,45 @@ def test_no_gga_line_disappears_silently_under_random_damage(tmp_path):
         for no, sentence in enumerate(lines, 1):
             if sentence.startswith("$GNGGA"):
                 assert (no in used) != (no in skipped), (trial, no, sentence)
+
+
+@pytest.mark.parametrize("fields, reason", [
+    ({"lat_dir": "X"}, "GGA latitude hemisphere 'X' is not N or S"),  # pynmea2 reads it as 0 deg
+    ({"lon_dir": ""}, "GGA longitude hemisphere '' is not E or W"),
+    ({"timestamp": "250005.00"}, "GGA timestamp '250005.00' is not a time hhmmss.ss"),
+    ({"timestamp": "03a005.00"}, "GGA timestamp '03a005.00' is not a time hhmmss.ss"),
+    ({"altitude": "nan"}, r"GGA altitude nan m outside \+-100000 m \(max_abs_height_m\)"),
+    ({"altitude": "1e300"}, r"GGA altitude 1e\+300 m outside \+-100000 m"),  # was: LinAlgError in the filter
+])
+def test_a_gga_with_an_impossible_field_is_skipped_with_its_line_and_reason(tmp_path, fields, reason):
+    lines = LINES[:60]
+    lines[10] = _edit(lines[10], **fields)  # epoch 5's GGA; its RMC (line 12) stands in for it
+    fixes = read_nmea(_write(tmp_path, lines))
+    assert len(fixes.skipped) == 1 and fixes.skipped[0][0] == 11, fixes.skipped
+    assert re.match(reason, fixes.skipped[0][1]), fixes.skipped
+    assert fixes.time_s.size == 30 and fixes.line[5] == 12  # the epoch is kept, from its RMC
+
+
+def test_the_altitude_bound_is_a_parameter_and_a_corrupted_altitude_cannot_break_the_filter(tmp_path, capsys):
+    lines = LINES[:60]
+    lines[10] = _edit(lines[10], altitude="1e300")
+    lines[20] = _edit(lines[20], altitude="2500.0")
+    path = _write(tmp_path, lines)
+    assert [s[0] for s in read_nmea(path, max_abs_height_m=1000.0).skipped] == [11, 21]
+    out = tmp_path / "track.csv"
+    assert main(["filter-positions", str(path), "--out", str(out)]) == 3  # AUKF1: was a raw LinAlgError
+    assert "skipped line 11: GGA altitude 1e+300 m" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("option", [["--max-speed", "0"], ["--max-height", "-1"], ["--max-speed", "nan"]])
+def test_a_bad_threshold_is_a_config_error_naming_it(tmp_path, capsys, option):
+    assert main(["filter-positions", str(LOG), "--out", str(tmp_path / "t.csv"), *option]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: max_") and f"({option[0]}): must be a positive number" in err, err
+
+
+def test_a_log_with_no_usable_fix_says_what_was_skipped_first(tmp_path):
+    lines = [_edit(line, lat_dir="Q") if line.startswith("$GNGGA") else line[:-2] + "00" for line in LINES[:20]]
+    with pytest.raises(gf.DataFileError, match=r"log.nmea: no valid GGA or RMC fix \(20 sentences skipped, the first "
+                                               r"at line 1: GGA latitude hemisphere 'Q' is not N or S\)"):
+        read_nmea(_write(tmp_path, lines))

@@ -151,3 +151,43 @@ def test_any_cut_is_reported_or_falls_on_an_epoch_boundary(tmp_path):
         else:
             assert data.truncated is not None and data.time_s.size == complete, cut
             assert data.skipped[-1][1].startswith("truncated epoch dropped")
+
+
+@pytest.mark.parametrize("epoch_line, why", [
+    ("> 2020 13 01 10 30 30.0000000  0  2", "month must be in 1..12"),
+    ("> 2020 05 32 10 30 30.0000000  0  2", "day is out of range"),
+    ("> 2020 05 01 24 30 30.0000000  0  2", "hour must be in 0..23"),
+    ("> 2020 05 01 10 30 61.5000000  0  2", r"seconds 61.5 outside \[0, 61\)"),
+])
+def test_an_impossible_epoch_time_is_refused_with_its_line(tmp_path, epoch_line, why):
+    lines = LINES.copy()
+    lines[_epoch(30)] = epoch_line  # was: a raw ValueError traceback from datetime
+    with pytest.raises(gf.DataFileError, match=rf"obs.rnx:{_epoch(30) + 1}: impossible epoch time .*{why}"):
+        read_code_carrier(_write(tmp_path, lines), "G08")
+
+
+def test_an_epoch_georinex_silently_stops_at_is_refused_with_its_line(tmp_path):
+    """A leap-second epoch (seconds 60.0) is valid RINEX; georinex stops reading there
+    without an error, so the epochs after it would vanish uncounted."""
+    lines = LINES[:_epoch(31)] + LINES[_epoch(61):_epoch(90)]  # epochs 0-30, then 61-89 (10:31:01 on)
+    lines[_epoch(30)] = "> 2020 05 01 10 30 60.0000000  0  2"  # in time order: 10:30:29 < 10:30:60 < 10:31:01
+    path = _write(tmp_path, lines)
+    assert not gf.io.rinex.check_rinex3_obs(path).skipped  # the line-level pass accepts every epoch
+    with pytest.raises(gf.DataFileError, match=rf"obs.rnx:{_epoch(30) + 1}: georinex did not return the epoch at "
+                                               r"this line \(2020-05-01 10:30:60.0000000\), nor 29 later epochs"):
+        read_code_carrier(path, "G08")
+
+
+@pytest.mark.parametrize("bounds", [["--pseudorange-min", "5e7", "--pseudorange-max", "1e7"],
+                                    ["--pseudorange-min", "nan"]])
+def test_bad_plausibility_bounds_are_a_config_error_naming_them(tmp_path, capsys, bounds):
+    # was: "G08 has no epoch with both C1C and L1C", blaming the file for the option
+    assert main(["smooth", str(RNX), "--prn", "G08", "--out", str(tmp_path / "s.csv"), *bounds]) == 2
+    assert "error: pseudorange_min_m/pseudorange_max_m (--pseudorange-min/--pseudorange-max): need 0 <= min < max" \
+        in capsys.readouterr().err
+
+
+def test_no_data_left_after_the_checks_says_what_was_skipped(tmp_path):
+    with pytest.raises(gf.DataFileError, match=r"G08 has no epoch with both C1C and L1C left after the checks: 200 "
+                                               r"epochs or observations skipped, the first at line 14: G08 C1C"):
+        read_code_carrier(_write(tmp_path, LINES), "G08", pseudorange_max_m=1.1e7)  # every range is above

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import signal
@@ -151,6 +152,10 @@ def _check_every_file_parses(out: Path) -> None:
             with np.load(path) as npz:
                 for key in npz.files:
                     npz[key]
+        elif path.suffix == ".csv":  # whole: every row has the header's columns
+            with path.open(newline="") as fh:
+                rows = list(csv.reader(fh))
+            assert rows and all(len(r) == len(rows[0]) for r in rows), path
         elif path.suffix == ".md":
             assert path.read_text().endswith("\n"), path
         elif path.suffix == ".sqlite":
@@ -225,3 +230,65 @@ def test_compare_killed_inside_each_kind_of_write_resumes_to_the_uninterrupted_r
         assert {p: p.read_bytes() for p in out.rglob(f"*{target}")} == before, target
     assert loads_strict(run_comparison(load_config(config), out, progress=False).read_text()) == expected
     assert (out / "report.md").read_text() == (tmp_path / "whole" / "report.md").read_text()
+
+
+# -- the outputs merged from other issues: sweeps (CSV, JSON, plots) and paired rows -------------
+
+SWEEP = """
+[[sweeps]]
+path = "candidates.hatch.channel_filter.params.window"
+values = [50, 100]
+"""
+
+
+def _no_slips_with_a_sweep(tmp_path: Path, runs: int) -> Path:
+    config = tmp_path / "sweep.toml"
+    config.write_text(KILL_CONFIG.replace("runs = 8", f"runs = {runs}").replace("slip_probability = 0.01",
+                                                                                "slip_probability = 0.0") + SWEEP)
+    return config
+
+
+def test_sweep_tables_and_paired_rows_are_strict_with_null_and_a_reason(tmp_path):
+    """A metric undefined in every run (no slips) goes through summary rows, paired rows and
+    the sweep's JSON and CSV as null/empty with a reason, never as NaN."""
+    out = tmp_path / "out"
+    summary = loads_strict(run_comparison(load_config(_no_slips_with_a_sweep(tmp_path, 2)), out,
+                                          progress=False).read_text())
+    undefined = [p for p in summary["paired"] if p["metric"] == "slip_recovery_epochs"]
+    assert undefined and all(p["diff"] is None and p["se"] is None and p["reason"] for p in undefined)
+    defined = [p for p in summary["paired"] if p["metric"] == "error_rmse"]
+    assert defined and all(isinstance(p["diff"], float) for p in defined)
+    sweep = loads_strict((out / "sweeps" / "window.json").read_text())
+    assert sweep["values"] == [50, 100] and summary["sweeps"][0] == sweep
+    rows = [r for r in sweep["rows"] if r["metric"] == "slip_recovery_epochs"]
+    assert len(rows) == 4 and all(r["mean"] is None and r["se"] is None and r["n"] == 0 for r in rows)
+    assert all(p["diff"] is None and p["reason"] for p in sweep["paired"] if p["metric"] == "slip_recovery_epochs")
+    with (out / "sweeps" / "window.csv").open(newline="") as fh:
+        table = list(csv.DictReader(fh))
+    assert len(table) == 2 * 2 * len(CarrierSmoothingScenario.metrics)
+    for row in table:  # every cell is a number, empty, text or a boolean: never nan/inf
+        for value in row.values():
+            assert value.strip().lower() not in ("nan", "inf", "-inf", "infinity"), row
+        if row["metric"] == "slip_recovery_epochs":
+            assert row["mean"] == "" and row["se"] == "" and row["n"] == "0"
+        else:
+            assert math.isfinite(float(row["mean"]))
+    for png in (out / "plots").glob("sweep-window-*.png"):
+        assert png.read_bytes()[-8:-4] == b"IEND"
+
+
+def test_compare_killed_inside_each_sweep_write_resumes_to_the_uninterrupted_results(tmp_path):
+    config = _no_slips_with_a_sweep(tmp_path, 2)
+    whole = tmp_path / "whole"
+    expected = loads_strict(run_comparison(load_config(config), whole, progress=False).read_text())
+    out = tmp_path / "killed"
+    for target in ("window.csv", "window.json", "sweep-window-c-paired.png"):
+        before = {p: p.read_bytes() for p in out.rglob(f"*{target}")} if out.exists() else {}
+        proc = subprocess.run([sys.executable, "-c", _KILL_AT, str(config), str(out), target],
+                              capture_output=True, text=True, timeout=120)
+        assert proc.returncode == -signal.SIGKILL, (target, proc.stderr)
+        _check_every_file_parses(out)
+        assert {p: p.read_bytes() for p in out.rglob(f"*{target}")} == before, target
+    assert loads_strict(run_comparison(load_config(config), out, progress=False).read_text()) == expected
+    for name in ("sweeps/window.csv", "sweeps/window.json", "report.md"):
+        assert (out / name).read_text() == (whole / name).read_text(), name

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import ConfigError, InvalidInputError
 from .adaptation import Augmentation, NoiseAdapter
+from .boundary import as_sequence
 from .estimator import Estimator, OnFailure, OnMissing
 from .step import RECOVERIES, FilterStep
 from .types import Gaussian, Model
@@ -105,7 +106,7 @@ def filter_sequence(
     the same way.
     """
     step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
-    zs = np.asarray(zs, dtype=float)
+    zs = as_sequence(zs, estimator.name)  # text, ragged or complex: named, not a raw ValueError
     if zs.ndim < 2:
         raise InvalidInputError(estimator.name, "zs", f"needs shape (K, ..., m), got {zs.shape}")
     if zs.shape[0] == 0:

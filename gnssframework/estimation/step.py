@@ -44,6 +44,8 @@ import numpy as np
 from ..errors import (ConfigError, InvalidInitialStateError, InvalidInputError, NonFiniteError, NotPositiveDefiniteError,
                       NumericalError)
 from .adaptation import AdapterRun, AdaptationStep, NoiseAdapter
+from .adapter_guard import adapt_checked
+from .boundary import as_measurement
 from .estimator import Estimator, OnFailure, OnMissing
 from .linalg import cholesky_masked, clip_eigenvalues, failing_indices, pd_mask, symmetrize
 from .types import Gaussian, Model, Update
@@ -295,11 +297,7 @@ class FilterStep:
             If ``z`` does not have the model's measurement length.
         """
         mk = self.in_force(model)
-        z = np.asarray(z, dtype=float)
-        m = mk.R.shape[-1]
-        if z.ndim < 1 or z.shape[-1] != m:
-            raise InvalidInputError(self.name, "measurement z", f"has shape {z.shape} at step {self.step_index}; "
-                                    f"the model's R is {m}x{m}, so z needs shape (..., {m})")
+        z = as_measurement(z, mk.R.shape[-1], prior.batch_shape, self.name, self.step_index)
         try:
             with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
                 upd = self.estimator.update(prior, z, mk, on_failure=self.on_failure, missing=self.missing)
@@ -313,7 +311,9 @@ class FilterStep:
         self.recoveries["skip_update"] += int(np.sum(skipped & ~missing_now))
         if self._run is not None:
             previous = prior if previous is None else previous
-            self._Q, self._R = self._run.step(AdaptationStep(self._adapted, previous, prior, upd, mk))
+            # Overflow in the adapter (an innovation of 1e300) is refused by name, not a NumPy warning.
+            self._Q, self._R = adapt_checked(self._run, AdaptationStep(self._adapted, previous, prior, upd, mk),
+                                             self.name, self.adapter.name, self.step_index)
             self._adapted += 1
         self.step_index += 1
         return StepResult(prior, upd, posterior, mk, np.broadcast_to(skipped, posterior.batch_shape))

@@ -19,6 +19,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..errors import ConfigError
+from .boundary import to_float
 from .linalg import mat_vec
 
 __all__ = ["Gaussian", "Update", "LinearModel", "NonlinearModel", "Model", "CompiledFunctions", "numerical_jacobian"]
@@ -50,14 +51,24 @@ class Gaussian:
             and mean.ndim >= 1 and cov.shape == mean.shape + mean.shape[-1:]
         ):
             return
-        mean = np.asarray(mean, dtype=float)
-        cov = np.asarray(cov, dtype=float)
+        try:  # text, ragged or complex input is named, not a raw ValueError
+            mean = to_float(mean)
+        except ValueError as exc:
+            raise ConfigError("Gaussian.mean", str(exc)) from None
+        try:
+            cov = to_float(cov)
+        except ValueError as exc:
+            raise ConfigError("Gaussian.cov", str(exc)) from None
         if mean.ndim < 1:
             raise ConfigError("Gaussian.mean", "needs shape (..., n), got a scalar")
         n = mean.shape[-1]
         if cov.ndim < 2 or cov.shape[-2:] != (n, n):
             raise ConfigError("Gaussian.cov", f"needs shape (..., {n}, {n}) to match the mean, got {cov.shape}")
-        batch = np.broadcast_shapes(mean.shape[:-1], cov.shape[:-2])
+        try:
+            batch = np.broadcast_shapes(mean.shape[:-1], cov.shape[:-2])
+        except ValueError:
+            raise ConfigError("Gaussian.cov", f"batch shape {cov.shape[:-2]} does not broadcast with the mean's "
+                              f"{mean.shape[:-1]}") from None
         object.__setattr__(self, "mean", np.broadcast_to(mean, batch + (n,)))
         object.__setattr__(self, "cov", np.broadcast_to(cov, batch + (n, n)))
 

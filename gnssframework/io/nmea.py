@@ -2,19 +2,24 @@
 
 from __future__ import annotations
 
+import datetime as dt
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataFileError
+from ..errors import ConfigError, DataFileError
 from .skipped import refuse_or_keep
 
-__all__ = ["NmeaFixes", "read_nmea", "MAX_SPEED_MPS"]
+__all__ = ["NmeaFixes", "read_nmea", "MAX_SPEED_MPS", "MAX_ABS_HEIGHT_M"]
 
 #: Default speed threshold of the jump check: faster than any airliner, yet a longitude
 #: jump of 0.01 deg in 1 s (about 1 km at mid latitudes) already exceeds it.
 MAX_SPEED_MPS = 1000.0
+#: Default bound of a GGA altitude above mean sea level: no land receiver or aircraft is
+#: near 100 km (the Karman line); the Dead Sea shore is at -430 m. A receiver in orbit needs
+#: another bound.
+MAX_ABS_HEIGHT_M = 1.0e5
 _EARTH_RADIUS_M = 6_371_008.8  # mean radius: the jump check needs metres, not millimetres
 
 
@@ -55,9 +60,12 @@ def _clock(t_s: float) -> str:
 
 def _coordinate(msg, kind: str) -> tuple[float, float] | str:
     """``(lat_deg, lon_deg)`` of a GGA/RMC sentence, or the reason it is not a position."""
-    for name, field, limit, width in (("latitude", msg.lat, 90.0, 2), ("longitude", msg.lon, 180.0, 3)):
+    for name, field, hemi, allowed, width in (("latitude", msg.lat, msg.lat_dir, "NS", 2),
+                                              ("longitude", msg.lon, msg.lon_dir, "EW", 3)):
         if not field.strip():
             return f"{kind} with an empty {name}"
+        if hemi not in tuple(allowed):  # pynmea2 reads any other letter as 0 deg
+            return f"{kind} {name} hemisphere {hemi!r} is not {' or '.join(allowed)}"
         try:
             minutes = float(field[width:])
         except ValueError:
@@ -79,7 +87,8 @@ def _distance_m(lat0: float, lon0: float, lat1: float, lon1: float) -> float:
     return float(2 * _EARTH_RADIUS_M * np.arcsin(min(1.0, np.sqrt(h))))
 
 
-def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bool = False) -> NmeaFixes:
+def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bool = False,
+              max_abs_height_m: float = MAX_ABS_HEIGHT_M) -> NmeaFixes:
     """Read GGA and RMC fixes from an NMEA log, with integrity checks.
 
     A sentence is skipped, and listed with its line number and the reason in ``skipped``,
@@ -88,7 +97,9 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
     - corrupted: bad or missing checksum, truncated, unparseable (pynmea2 decides);
     - not a valid fix: GGA quality 0, RMC status V;
     - not a position: an empty latitude or longitude field (even under a valid checksum),
-      minutes outside [0, 60), a latitude outside +-90 deg or a longitude outside +-180 deg;
+      a hemisphere other than N/S or E/W, minutes outside [0, 60), a latitude outside
+      +-90 deg or a longitude outside +-180 deg, a GGA altitude that is not a number or
+      outside +-``max_abs_height_m``; a timestamp that is not a time of day;
     - out of time order: a timestamp already seen for that sentence type (duplicate), or
       earlier than the last accepted epoch (backwards). A GGA and an RMC with the same
       timestamp are one epoch (GGA preferred). A step back of more than 12 h is read as
@@ -107,6 +118,8 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
         Threshold of the jump check (m/s), default :data:`MAX_SPEED_MPS`.
     strict
         Refuse the file at the first problem instead of skipping.
+    max_abs_height_m
+        Plausibility bound of the GGA altitude (m), default :data:`MAX_ABS_HEIGHT_M`.
 
     Raises
     ------
@@ -116,8 +129,10 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
     """
     import pynmea2
 
-    if not max_speed_mps > 0:
-        raise ValueError(f"max_speed_mps must be positive, got {max_speed_mps!r}")
+    if not 0 < max_speed_mps < np.inf:
+        raise ConfigError("max_speed_mps (--max-speed)", f"must be a positive number of m/s, got {max_speed_mps!r}")
+    if not 0 < max_abs_height_m < np.inf:
+        raise ConfigError("max_abs_height_m (--max-height)", f"must be a positive number of m, got {max_abs_height_m!r}")
     path = Path(path)
     try:
         text = path.read_text(errors="replace")
@@ -156,11 +171,18 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
             if msg.timestamp is None:
                 skipped.append((no, f"{kind} without a timestamp"))
                 continue
+            if not isinstance(msg.timestamp, dt.time):  # pynmea2 hands back the text it cannot read
+                skipped.append((no, f"{kind} timestamp {msg.timestamp!r} is not a time hhmmss.ss"))
+                continue
             pos = _coordinate(msg, kind)
             if isinstance(pos, str):
                 skipped.append((no, pos))
                 continue
             height = float(msg.altitude) if kind == "GGA" else np.nan
+            if kind == "GGA" and not abs(height) <= max_abs_height_m:  # also NaN
+                skipped.append((no, f"GGA altitude {height:g} m outside +-{max_abs_height_m:g} m "
+                                    "(max_abs_height_m)"))
+                continue
             tod = _seconds(msg.timestamp)
         except (TypeError, ValueError, AttributeError) as exc:
             skipped.append((no, f"incomplete {kind}: {exc}"))
@@ -195,6 +217,7 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
     skipped.sort()
     refuse_or_keep(path, skipped, strict)
     if not rows:
-        raise DataFileError(str(path), None, f"no valid GGA or RMC fix ({len(skipped)} sentences skipped)")
+        first = f", the first at line {skipped[0][0]}: {skipped[0][1]}" if skipped else ""
+        raise DataFileError(str(path), None, f"no valid GGA or RMC fix ({len(skipped)} sentences skipped{first})")
     arr = np.array(rows, dtype=float)
     return NmeaFixes(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], arr[:, 3], arr[:, 4].astype(int), skipped)

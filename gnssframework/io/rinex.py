@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataFileError
+from ..errors import ConfigError, DataFileError
 from ..signal.constants import L1_WAVELENGTH_M
 
 __all__ = ["CodeCarrier", "RinexScan", "read_code_carrier", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs",
@@ -120,7 +120,10 @@ class RinexScan:
 def _epoch_time(line: str) -> tuple[dt.datetime, float]:
     """``(minute, seconds)`` of an epoch line; columns of RINEX 3.04 table A13."""
     minute = dt.datetime(int(line[2:6]), int(line[7:9]), int(line[10:12]), int(line[13:15]), int(line[16:18]))
-    return minute, float(line[18:29])
+    seconds = float(line[18:29])
+    if not 0.0 <= seconds < 61.0:  # 60.x only in a leap second
+        raise ValueError(f"seconds {seconds:g} outside [0, 61)")
+    return minute, seconds
 
 
 def _fmt_time(t: tuple[dt.datetime, float]) -> str:
@@ -150,6 +153,9 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
     DataFileError
         Naming the file and the line.
     """
+    if not 0 <= pseudorange_min_m < pseudorange_max_m:  # also NaN
+        raise ConfigError("pseudorange_min_m/pseudorange_max_m (--pseudorange-min/--pseudorange-max)",
+                          f"need 0 <= min < max, got [{pseudorange_min_m!r}, {pseudorange_max_m!r}] m")
     path = Path(path)
     text = path.read_text(errors="replace")
     lines = text.splitlines()
@@ -244,7 +250,10 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
                     skipped.append((j + 1, f"{line[:3]} {types[f]} = {x:.6g} m outside [{pseudorange_min_m:g}, "
                                            f"{pseudorange_max_m:g}] m (pseudorange_min_m/pseudorange_max_m): "
                                            "observation skipped"))
-        t = _epoch_time(lines[h])
+        try:
+            t = _epoch_time(lines[h])
+        except ValueError as exc:  # month 13, day 32, hour 24, ...: a corrupted epoch line
+            raise DataFileError(str(path), h + 1, f"impossible epoch time {lines[h][2:29].strip()!r}: {exc}") from None
         if t in kept_times:
             skipped.append((h + 1, f"duplicate epoch {_fmt_time(t)} (first at line {kept_times[t]}): "
                                    f"epoch skipped"))
@@ -358,6 +367,7 @@ def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSE
             where = "in the epoch starting at this line" if line else "(no single epoch reproduces it)"
             raise DataFileError(str(path), line, f"georinex could not read it {where}: "
                                                  f"{type(exc).__name__}: {exc}") from None
+    _check_georinex_kept_every_epoch(path, scan, obs.time.values)
     if prn not in obs.sv.values:
         raise DataFileError(str(path), None, f"no observations of {prn}; satellites: {', '.join(obs.sv.values)}")
     sat = obs.sel(sv=prn)
@@ -365,10 +375,41 @@ def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSE
     phase = sat["L1C"].values.astype(float)
     ok = np.isfinite(code) & np.isfinite(phase)
     if not ok.any():
-        raise DataFileError(str(path), None, f"{prn} has no epoch with both C1C and L1C")
+        raise DataFileError(str(path), None, f"{prn} has no epoch with both C1C and L1C" + _first_skipped(scan.skipped))
     times = sat.time.values[ok]
     t = (times - times[0]) / np.timedelta64(1, "s")
     return CodeCarrier(t.astype(float), times, code[ok], phase[ok] * L1_WAVELENGTH_M, scan.skipped, scan.truncated)
+
+
+def _first_skipped(skipped: list[tuple[int, str]]) -> str:
+    """What was skipped, for an error that would otherwise blame the file's content alone."""
+    if not skipped:
+        return ""
+    line, reason = skipped[0]
+    return f" left after the checks: {len(skipped)} epochs or observations skipped, the first at line {line}: {reason}"
+
+
+def _check_georinex_kept_every_epoch(path: Path, scan: RinexScan, times: np.ndarray) -> None:
+    """Refuse the file if georinex returned fewer epochs than the scan kept.
+
+    georinex stops reading, without an error, at an epoch it cannot parse (seconds of
+    60.0, a leap second, for one): the rest of the file would vanish uncounted. Every kept
+    epoch with a GPS observation line must come back; the first one missing is named.
+    """
+    have = set(np.asarray(times, dtype="datetime64[ns]").astype(np.int64).tolist())
+    missing = []
+    for n, start in enumerate(scan.epoch_starts):
+        end = scan.epoch_starts[n + 1] if n + 1 < len(scan.epoch_starts) else len(scan.lines)
+        if not any(line.startswith("G") and line[3:].strip() for line in scan.lines[start + 1:end]):
+            continue  # georinex reads GPS only (use="G")
+        minute, seconds = _epoch_time(scan.lines[start])
+        t = np.datetime64(minute, "ns") + np.timedelta64(int(round(seconds * 1e9)), "ns")
+        if int(t.astype(np.int64)) not in have:
+            missing.append((scan.line_numbers[start], _fmt_time((minute, seconds))))
+    if missing:
+        line, when = missing[0]
+        raise DataFileError(str(path), line, f"georinex did not return the epoch at this line ({when}), nor "
+                            f"{len(missing) - 1} later epochs: it stops without an error at an epoch it cannot parse")
 
 
 def _d19(x: float) -> str:

@@ -1,0 +1,64 @@
+"""Boundary check of the measurement a caller hands to `FilterStep`, refused with a
+library error that names it.
+
+`FilterStep.start` checks the initial state (`gnssframework.estimation.step.check_initial`);
+`FilterStep.update` checks each measurement's type and shape here. NaN/inf measurements
+are left to the estimators' ``missing`` policy. A model with an indefinite ``R`` is not
+refused here: it shows as a non-positive-definite innovation covariance, which the
+``on_failure`` policies may recover.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InvalidInputError
+
+__all__ = ["as_measurement", "as_sequence", "to_float"]
+
+
+def to_float(value) -> np.ndarray:
+    """``np.asarray(value, dtype=float)`` that refuses what it would mangle: complex
+    values (NumPy drops the imaginary part with a ``ComplexWarning``), text and ragged
+    nests raise ``ValueError`` with a short reason."""
+    try:
+        arr = np.asarray(value)
+        complex_ = np.iscomplexobj(arr)
+        out = None if complex_ else arr.astype(float, copy=False)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"is not a numeric array ({exc})") from None
+    if complex_:
+        raise ValueError("is complex; give the real and imaginary parts as separate measurements")
+    return out
+
+
+def as_sequence(zs, filter_name: str) -> np.ndarray:
+    """A measurement sequence as a float array, or `InvalidInputError` naming ``zs``."""
+    try:
+        return to_float(zs)
+    except ValueError as exc:
+        raise InvalidInputError(filter_name, "zs", str(exc)) from None
+
+
+def as_measurement(z, m: int, batch_shape: tuple[int, ...], filter_name: str, step: int) -> np.ndarray:
+    """``z`` as a float array of shape ``(..., m)`` whose batch broadcasts with the state's.
+
+    Raises
+    ------
+    InvalidInputError
+        Naming ``measurement z``: not numeric, wrong length or a batch shape that does not
+        broadcast with the state's.
+    """
+    try:
+        z = to_float(z)
+    except ValueError as exc:
+        raise InvalidInputError(filter_name, "measurement z", f"{exc} at step {step}") from None
+    if z.ndim < 1 or z.shape[-1] != m:
+        raise InvalidInputError(filter_name, "measurement z", f"has shape {z.shape} at step {step}; "
+                                f"the model's R is {m}x{m}, so z needs shape (..., {m})")
+    try:
+        np.broadcast_shapes(z.shape[:-1], batch_shape)
+    except ValueError:
+        raise InvalidInputError(filter_name, "measurement z", f"has batch shape {z.shape[:-1]} at step {step}, which "
+                                f"does not broadcast with the state's batch shape {batch_shape}") from None
+    return z
