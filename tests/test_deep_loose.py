@@ -49,21 +49,22 @@ def test_pv_fix_recovers_the_truth_and_its_covariance_is_consistent():
 
 def test_scalar_loops_read_the_range_within_their_thermal_variance():
     # Constant-rate lines of sight (a 50 m/s flight): the scalar loops' pseudorange and rate errors
-    # have the thermal variances of scalar_measurement_variances to within 30 % (loops at steady state).
+    # have the thermal variances of scalar_measurement_variances (code to 30 %, rate below 2x;
+    # the rate's formula takes the window's end points as independent).
     s, sv, r, v = _geometry()
     runs, T, K = 8, 1e-3, 1500
     t = np.arange(K + 1) * T
     rho = np.stack([_true(s, sv, r + v * tk, v, 100.0, 0.0)[0] for tk in t])[:, None, :].repeat(runs, 1)
     rec = scalar_tracking(create("channel_filter", "scalar"), rho, 45.0, T, np.random.default_rng(9))
-    k = np.arange(500, K)
-    tm = (k + 0.5) * T
-    true_rho = np.interp(tm, t, rho[:, 0, 0])
-    rate = (rho[1:] - rho[:-1])[k] / T
-    meas_rho, meas_rate = scalar_measurements(rec, np.interp(tm, t, rho[:, 0, 0])[:, None, None], rate,
-                                              k)
-    var_code, var_rate = scalar_measurement_variances(45.0, T, 1.0, 15.0)
-    err_rho = meas_rho[..., 0] - true_rho[:, None]
+    err_rho, err_rate = [], []
+    for k in range(500, K - 20, 10):
+        true_rate = (rho[k + 2] - rho[k]) / (2 * T)
+        m_rho, m_rate = scalar_measurements(rec, rho[k + 1], true_rate, k, 20)
+        err_rho.append(m_rho - rho[k + 1])
+        err_rate.append(m_rate - true_rate)
+    err_rho, err_rate = np.array(err_rho), np.array(err_rate)
+    var_code, var_rate = scalar_measurement_variances(45.0, T, 1.0, 15.0, 0.02)
     assert 0.7 < np.var(err_rho) / var_code < 1.3, np.var(err_rho) / var_code
-    assert abs(np.mean(err_rho)) < 1.0  # 1 Hz DLL: about 30 independent samples, SE 0.2 m
-    err_rate = (meas_rate - rate)
-    assert np.var(err_rate) < 2.0 * var_rate, np.var(err_rate) / var_rate
+    assert abs(np.mean(err_rho)) < 1.0  # 1 Hz DLL: about 30 independent samples per channel, SE 0.2 m
+    assert 0.3 < np.var(err_rate) / var_rate < 2.0, np.var(err_rate) / var_rate
+    assert abs(np.mean(err_rate)) < 4 * np.sqrt(var_rate / err_rate.size * 2)

@@ -55,21 +55,23 @@ def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz:
 
 
 def scalar_measurement_variances(cn0_dbhz: np.ndarray, coherent_time_s: float, dll_bandwidth_hz: float,
-                                 pll_bandwidth_hz: float, early_late_spacing_chips: float = 1.0
+                                 pll_bandwidth_hz: float, rate_window_s: float, early_late_spacing_chips: float = 1.0
                                  ) -> tuple[np.ndarray, np.ndarray]:
     """Thermal-noise variances of a scalar loop's pseudorange (m^2) and range rate (m^2/s^2).
 
     Code: the early-minus-late envelope DLL, $\\sigma_\\tau^2 = \\frac{B_L d}{2 c}\\left(1 +
     \\frac{2}{(2-d) T c}\\right)$ chips^2 (Kaplan and Hegarty 2017, eq. 8.44; $c = C/N_0$).
-    Rate: the PLL's thermal phase jitter $\\sigma_\\theta^2 = \\frac{B_L}{c}(1 + \\frac{1}{2Tc})$
-    read as a frequency error over the loop's correlation time $1/(2B_L)$:
-    $\\sigma_f = 2 B_L \\sigma_\\theta / (2\\pi)$ (a choice: the docs page says so).
+    Rate: the carrier phase advance over a window $\\Delta$ (the NCO's own frequency is
+    far noisier: its proportional path passes every discriminator sample), whose two end
+    points carry the PLL's thermal jitter $\\sigma_\\theta^2 = \\frac{B_L}{c}(1 +
+    \\frac{1}{2Tc})$ (Kaplan and Hegarty 2017, eq. 8.35), taken as independent:
+    $\\sigma_{\\dot\\rho}^2 = 2\\sigma_\\theta^2 \\lambda^2 / (2\\pi\\Delta)^2$.
     """
     c = 10.0 ** (np.asarray(cn0_dbhz, float) / 10.0)
     T, d = coherent_time_s, early_late_spacing_chips
     var_code = dll_bandwidth_hz * d / (2 * c) * (1 + 2 / ((2 - d) * T * c)) * CA_CHIP_LENGTH_M**2
     var_phase = pll_bandwidth_hz / c * (1 + 1 / (2 * T * c))
-    var_rate = var_phase * (2 * pll_bandwidth_hz / (2 * np.pi)) ** 2 * L1_WAVELENGTH_M**2
+    var_rate = 2 * var_phase * (L1_WAVELENGTH_M / (2 * np.pi * rate_window_s)) ** 2
     return var_code, var_rate
 
 
@@ -125,9 +127,17 @@ def pv_fix(range_m: np.ndarray, rate_m_s: np.ndarray, var_range: np.ndarray, var
     return r, v, cov
 
 
-def scalar_measurements(record: TrackingRecord, pseudorange_m: np.ndarray, rate_m_s: np.ndarray, k: int
-                        ) -> tuple[np.ndarray, np.ndarray]:
-    """Pseudorange and rate the scalar loops read at interval ``k`` from the true ones at its middle."""
-    return (pseudorange_m + CA_CHIP_LENGTH_M * record.code_error_chips[k],
-            rate_m_s + L1_WAVELENGTH_M * record.freq_error_hz[k])
+def scalar_measurements(record: TrackingRecord, pseudorange_m: np.ndarray, rate_m_s: np.ndarray, k: int,
+                        rate_window: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pseudorange and range rate the scalar loops read at the edge after interval ``k``.
 
+    ``pseudorange_m`` and ``rate_m_s`` ``(runs, ch)`` are the true values there. The
+    pseudorange is the code NCO's; the rate is the carrier phase advance over the
+    ``rate_window`` intervals centred on the edge (the mean frequency error of those
+    intervals), whose mean rate equals the rate at the centre up to $j\\Delta^2/24$.
+    """
+    code = 0.5 * (record.code_error_chips[k] + record.code_error_chips[min(k + 1, len(record.code_error_chips) - 1)])
+    lo = max(k + 1 - rate_window // 2, 0)
+    hi = min(lo + rate_window, len(record.freq_error_hz))
+    return (pseudorange_m + CA_CHIP_LENGTH_M * code,
+            rate_m_s + L1_WAVELENGTH_M * np.mean(record.freq_error_hz[lo:hi], axis=0))
