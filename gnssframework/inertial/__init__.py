@@ -1,0 +1,60 @@
+"""Strapdown inertial navigation, IMU errors and reference trajectories (reference 002).
+
+Batched over Monte Carlo runs: states are ``(..., n)`` arrays with the run axes leading;
+time series put time first, ``(T, ..., n)``, as everywhere in the framework.
+
+Modules
+-------
+earth
+    WGS-84 constants, J2 gravity and its gradient.
+quaternion
+    Batched quaternion helpers for the hot path.
+frames
+    ENU/NED frames and Euler angles (pymap3d for the geodesy).
+mechanisation
+    ECEF strapdown mechanisation from angle/velocity increments.
+imu
+    IMU error model (random constant + Gauss-Markov + white noise, scale factor).
+trajectory
+    Smooth reference trajectories and their exact increments.
+error_model
+    15-state error-state model (transition matrix, process noise, closed-loop correction).
+"""
+
+from gnssframework.inertial.earth import STANDARD_GRAVITY_MPS2, WGS84, EarthModel
+from gnssframework.inertial.mechanisation import (
+    MechanisationOptions,
+    NavSeries,
+    NavState,
+    integrate,
+    kinematic_acceleration_ecef,
+    strapdown_step,
+)
+from gnssframework.inertial.trajectory import (
+    AccelerationPulse,
+    Trajectory,
+    TrajectoryModel,
+    TrajectoryProfile,
+    constant_velocity_profile,
+    paper_profile,
+    static_profile,
+)
+
+__all__ = [
+    "STANDARD_GRAVITY_MPS2",
+    "WGS84",
+    "EarthModel",
+    "MechanisationOptions",
+    "NavSeries",
+    "NavState",
+    "integrate",
+    "kinematic_acceleration_ecef",
+    "strapdown_step",
+    "AccelerationPulse",
+    "Trajectory",
+    "TrajectoryModel",
+    "TrajectoryProfile",
+    "constant_velocity_profile",
+    "paper_profile",
+    "static_profile",
+]
