@@ -33,7 +33,7 @@ from typing import Any, Mapping
 import numpy as np
 from pydantic import Field
 
-from gnssframework.errors import ConfigError, InvalidInputError
+from gnssframework.errors import InvalidInputError
 from gnssframework.estimation import FilterStep, Gaussian, LinearModel
 from gnssframework.interfaces import NavFilter, RunContext
 from gnssframework.plugin import PluginParams
@@ -51,10 +51,6 @@ class InsEkfParams(PluginParams):
         "kf", description="estimator plugin that runs the error-state filter (kf, ekf, ukf, ckf, svd-ckf)")
     accel_aiding: bool = Field(True, description="deep integration: predict the NCOs with the line-of-sight "
                                "acceleration from the corrected INS (false: the deep-no-accel candidate)")
-    nco_interval_s: float = Field(0.005, gt=0, description="deep integration: interval at which the NCOs are "
-                                  "re-aided from the corrected INS (a multiple of the coherent time)")
-    update_interval_s: float = Field(0.1, gt=0, description="interval of the integration updates (10 Hz in "
-                                     "reference 002)")
     clock_psd: tuple[float, float] = Field((0.1, 0.1), description="white-noise PSDs of the NCO clock filter's "
                                            "bias (m^2/s) and drift (m^2/s^3)")
 
@@ -86,9 +82,6 @@ class InsEkf(NavFilter):
     def __init__(self, **params: Any) -> None:
         super().__init__(**params)
         p = self.params
-        if p.update_interval_s < p.nco_interval_s:
-            raise ConfigError("nav_filter 'ins-ekf'.update_interval_s",
-                              f"must be at least nco_interval_s = {p.nco_interval_s} (got {p.update_interval_s})")
         self.engine = p.estimator.create()
         self.filter_step = FilterStep(self.engine, name=f"{self.name} ({self.engine.name})")
 

@@ -56,13 +56,20 @@ class InsNavigator:
         The NCOs' clock filter.
     on_update
         Optional callback ``(t_s, navigator)`` after each update (records for metrics).
+    pull_in_updates
+        First updates whose prefilter output is not used (the INS runs free, the
+        covariance propagates): the prefilters pull in from acquisition then. The harness's
+        own ``pull_in_updates`` does the same without calling ``update`` at all.
     """
 
-    def __init__(self, ins: StrapdownSolution, ekf: Any, clock: ClockFilter, on_update=None) -> None:
+    def __init__(self, ins: StrapdownSolution, ekf: Any, clock: ClockFilter, on_update=None,
+                 pull_in_updates: int = 0) -> None:
         self.ins = ins
         self.ekf = ekf
         self.clock = clock
         self.on_update = on_update
+        self.pull_in_updates = pull_in_updates
+        self.updates = 0
         self.t = 0.0
 
     def kinematics(self, t_s: float):
@@ -79,6 +86,13 @@ class InsNavigator:
         """Differenced integration update, closed-loop INS correction, clock correction."""
         self.ins.advance(t_s)
         self.t = t_s
+        self.updates += 1
+        if self.updates <= self.pull_in_updates:
+            self.ekf.propagate(*self.ins.take_error_model())
+            self.clock.predict(t_s)
+            if self.on_update is not None:
+                self.on_update(t_s, self)
+            return
         Phi, Qd = self.ins.take_error_model()
         out = self.ekf.step({"transition": Phi, "process_noise": Qd, "residual_m": residual_m,
                              "residual_cov": residual_cov, "los": los, "cn0_dbhz": cn0_dbhz})
