@@ -20,7 +20,6 @@ from ..interfaces import RunContext
 from .deep import DeepTruth, run_aided_tracking
 from .deep_ins import InsNavigator, loose_update
 from .deep_loose import pv_fix, scalar_measurement_variances, scalar_measurements, scalar_tracking
-from .deep_measurements import ACCEL_BIAS, ATTITUDE, GYRO_BIAS, POSITION, VELOCITY
 from .deep_navigators import ClockFilter
 
 __all__ = ["Flight", "make_flight", "StrapdownIns", "run_deep", "run_loose"]
@@ -79,23 +78,19 @@ def _body_to_ned(q_b_e: np.ndarray, position_ecef_m: np.ndarray) -> np.ndarray:
 
 def make_flight(profile: str, lat_deg: float, lon_deg: float, height_m: float, duration_s: float) -> Flight:
     """Reference 002's pull-up (`inertial.trajectory.paper_profile`, moved to the given start) or straight flight."""
-    ins = _inertial()
+    _inertial()
     from ..inertial.trajectory import TrajectoryModel, constant_velocity_profile, paper_profile
 
     if profile == "pull-up":
+        # The whole 50 s flight is defined; a shorter duration_s simulates its first part.
         base = paper_profile()
-        end = max(p.end_s for p in base.pulses)
-        if duration_s < end:
-            raise ConfigError("scenario.duration_s", f"the pull-up profile's manoeuvre ends at {end:.3f} s; "
-                              f"duration_s must be at least that (got {duration_s}); use profile = 'straight' for "
-                              "a shorter run")
         prof = base.model_copy(update={"start_lat_deg": lat_deg, "start_lon_deg": lon_deg,
-                                       "start_height_m": height_m, "duration_s": duration_s})
+                                       "start_height_m": height_m,
+                                       "duration_s": max(duration_s, base.duration_s)})
     elif profile == "straight":
         prof = constant_velocity_profile(lat_deg, lon_deg, height_m, (50.0, 50.0, 50.0), duration_s)
     else:
         raise ConfigError("scenario.profile", f"got {profile!r}; allowed: pull-up, straight")
-    del ins
     return Flight(TrajectoryModel(prof))
 
 
@@ -107,32 +102,37 @@ class StrapdownIns:
     state0
         Initial (erroneous) `inertial.mechanisation.NavState`, batch ``(runs,)``.
     dtheta_rad, dv_mps
-        Measured IMU increments ``(N, runs, 3)`` (or ``(N, 3)`` for all runs).
+        Measured IMU increments ``(N, runs, 3)``.
     imu_interval_s
         IMU interval.
-    error_model
-        ``error_model(state, specific_force_b, angular_rate_b, dt) -> (Phi, Qd)`` of the
-        15-state error (layout of `deep_measurements`) over one IMU interval.
-    apply_correction
-        ``apply_correction(state, dx) -> NavState``: removes an estimated error (estimate
-        minus truth) from the navigation state; the sensor-bias part is kept here and
-        subtracted from later increments.
+    grade
+        `inertial.imu.ImuGrade` whose noise the error model propagates.
+
+    The error state is `inertial.error_model`'s: its transition over each IMU interval is
+    the second-order series (``error_state_transition(method="second-order")``; Van Loan
+    per 5 ms step and run costs too much), accumulated until the integration update.
+    Closed-loop corrections go through `inertial.error_model.correct_state`, which keeps
+    the bias estimates that `compensate_increments` removes from later increments.
     """
 
-    def __init__(self, state0, dtheta_rad, dv_mps, imu_interval_s: float, error_model, apply_correction) -> None:
-        self.mech = _inertial().mechanisation
+    def __init__(self, state0, dtheta_rad, dv_mps, imu_interval_s: float, grade) -> None:
+        inertial = _inertial()
+        from ..inertial import error_model, mechanisation
+
+        self.mech = mechanisation
+        self.em = error_model
+        del inertial
         self.state = state0
         self.dtheta = np.asarray(dtheta_rad, float)
         self.dv = np.asarray(dv_mps, float)
         self.dt = imu_interval_s
-        self.error_model = error_model
-        self.apply_correction = apply_correction
+        self.grade = grade
         runs = state0.position_ecef_m.shape[0]
         self.runs = runs
         self.k = 0
         self.prev = (None, None)
-        self.accel_bias = np.zeros((runs, 3))  # estimated sensor biases, removed from the increments
-        self.gyro_bias = np.zeros((runs, 3))
+        self.gyro_bias = np.zeros((runs, 3))  # bias estimates removed from the increments
+        self.accel_bias = np.zeros((runs, 3))
         self.f_b = np.zeros((runs, 3))
         self._reset_model()
 
@@ -141,15 +141,16 @@ class StrapdownIns:
         self.Qd = np.zeros((self.runs, 15, 15))
 
     def advance(self, t_s: float) -> None:
+        """Mechanise to ``t_s`` and accumulate the error model's transition and noise."""
         n = int(round(t_s / self.dt))
         if n > self.dtheta.shape[0]:
             raise ConfigError("StrapdownIns", f"no IMU increments beyond {self.dtheta.shape[0] * self.dt} s "
                               f"(asked {t_s} s)")
         while self.k < n:
-            dth = self.dtheta[self.k] - self.gyro_bias * self.dt
-            dv = self.dv[self.k] - self.accel_bias * self.dt
+            dth, dv = self.em.compensate_increments(self.dtheta[self.k], self.dv[self.k], self.gyro_bias,
+                                                    self.accel_bias, self.dt)
             self.f_b = dv / self.dt
-            Phi, Qd = self.error_model(self.state, self.f_b, dth / self.dt, self.dt)
+            Phi, Qd = self.em.error_state_transition(self.state, self.f_b, self.dt, self.grade, method="second-order")
             self.Phi = Phi @ self.Phi
             self.Qd = Phi @ self.Qd @ np.swapaxes(Phi, -1, -2) + Qd
             self.state = self.mech.strapdown_step(self.state, dth, dv, self.dt, *self.prev)
@@ -157,6 +158,7 @@ class StrapdownIns:
             self.k += 1
 
     def kinematics(self):
+        """Position, velocity and the ECEF acceleration from the last specific force (Groves 2013, eq. 5.35)."""
         s = self.state
         return (s.position_ecef_m, s.velocity_ecef_mps, self.mech.kinematic_acceleration_ecef(s, self.f_b))
 
@@ -166,35 +168,35 @@ class StrapdownIns:
         return out
 
     def correct(self, dx: np.ndarray) -> None:
-        self.state = self.apply_correction(self.state, dx)
-        # Every error state is estimate minus truth, the bias estimates too: subtract.
-        self.accel_bias = self.accel_bias - dx[:, ACCEL_BIAS]
-        self.gyro_bias = self.gyro_bias - dx[:, GYRO_BIAS]
+        self.state, self.gyro_bias, self.accel_bias = self.em.correct_state(self.state, dx, self.gyro_bias,
+                                                                            self.accel_bias)
 
 
 def _initial_cov(p) -> np.ndarray:
-    """Initial covariance of the 15-state error (scenario parameters; the IMU's bias levels)."""
-    from ..inertial.earth import STANDARD_GRAVITY_MPS2 as g0
-
+    """Initial covariance of the 15-state error: the scenario's initial errors and the IMU's bias levels
+    (random constant plus Gauss-Markov deviation)."""
+    g = p.imu
     std = np.concatenate([np.full(3, np.radians(p.initial_attitude_std_deg)), np.full(3, p.initial_velocity_std_m_s),
-                          np.full(3, p.initial_position_std_m), np.full(3, max(p.accel_bias_mg, 1e-3) * 1e-3 * g0),
-                          np.full(3, np.radians(max(p.gyro_bias_deg_h, 1e-3)) / 3600.0)])
-    return np.diag(std**2)
+                          np.full(3, p.initial_position_std_m),
+                          np.full(3, np.hypot(g.gyro_bias_rad_s, g.gyro_markov_sigma_rad_s)),
+                          np.full(3, np.hypot(g.accel_bias_mps2, g.accel_markov_sigma_mps2))])
+    return np.diag(np.maximum(std, 1e-12) ** 2)
 
 
 def _setup_ins(scenario, flight: Flight, runs: int, rng: np.random.Generator):
     """Measured increments, the INS started from the truth plus drawn initial errors, and P0."""
+    from ..inertial.error_model import apply_navigation_error
+    from ..inertial.imu import simulate_imu
+
     p = scenario.params
     n = int(round(p.duration_s / p.imu_interval_s))
     dtheta, dv = flight.model.increments(p.imu_interval_s, n)
-    dtheta_m, dv_m = _imu_measurements(p, dtheta, dv, runs, rng)
+    dtheta_m, dv_m, _ = simulate_imu(dtheta[:, None, :], dv[:, None, :], p.imu_interval_s, p.imu, rng, (runs,))
     P0 = _initial_cov(p)
-    err0 = rng.standard_normal((runs, 15)) * np.sqrt(np.diag(P0))
-    err0[:, 9:] = 0.0  # the sensor biases are in the IMU's draw; the filter's bias estimates start at zero
+    err0 = rng.standard_normal((runs, 9)) * np.sqrt(np.diag(P0)[:9])
     truth0 = flight.model.evaluate(np.array([0.0])).nav_state(0)
-    state0 = _perturbed_state(truth0.broadcast((runs,)), err0)
-    ins = StrapdownIns(state0, dtheta_m, dv_m, p.imu_interval_s, _error_model, _apply_correction)
-    return ins, P0
+    state0 = apply_navigation_error(truth0.broadcast((runs,)), err0)
+    return StrapdownIns(state0, dtheta_m, dv_m, p.imu_interval_s, p.imu), P0
 
 
 def _nav_record(flight: Flight, t_s: float, ins: StrapdownIns, cov: np.ndarray) -> dict[str, np.ndarray]:
@@ -280,27 +282,3 @@ def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTrut
         times.append(t_u)
     return _stack(records, times, {"code_error_chips": track.code_error_chips, "freq_error_hz": track.freq_error_hz,
                                    "phase_error_rad": track.phase_error_rad})
-
-
-# --- the IMU and the INS error model of gnssframework.inertial ------------------------------------
-
-
-def _missing(what: str):
-    raise ConfigError("scenario.kind", f"deep-integration's INS candidates need {what} from gnssframework.inertial, "
-                      "which this build does not have yet")
-
-
-def _imu_measurements(p, dtheta, dv, runs, rng):
-    _missing("the IMU error model (inertial.imu)")
-
-
-def _perturbed_state(state, err):
-    _missing("the closed-loop correction (inertial.error_model)")
-
-
-def _apply_correction(state, dx):
-    _missing("the closed-loop correction (inertial.error_model)")
-
-
-def _error_model(state, f_b, w_b, dt):
-    _missing("the 15-state error model (inertial.error_model)")

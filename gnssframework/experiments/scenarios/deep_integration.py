@@ -27,6 +27,7 @@ import pymap3d
 from pydantic import Field
 
 from ...errors import ConfigError
+from ...inertial.imu import ImuGrade
 from ...receiver.deep import DeepTruth, loss_of_lock, run_aided_tracking
 from ...receiver.deep_metrics import attitude_errors_deg, enu_errors
 from ...receiver.tracking import NCO_COMMANDS
@@ -70,8 +71,8 @@ class DeepIntegrationParams(ScenarioParams):
     initial_attitude_std_deg: float = Field(0.5, gt=0)
     initial_clock_std_m: tuple[float, float] = Field((3.0, 0.3), description="initial clock bias (m) and drift "
                                                      "(m/s) errors")
-    gyro_bias_deg_h: float = Field(0.1, ge=0, description="IMU: gyro bias (random constant and Gauss-Markov)")
-    accel_bias_mg: float = Field(0.1, ge=0, description="IMU: accelerometer bias")
+    imu: ImuGrade = Field(default_factory=ImuGrade, description="IMU error levels (reference 002's as defaults; "
+                          "see gnssframework.inertial.imu for the reading of its white-noise units)")
     settle_s: float = Field(5.0, ge=0, description="metrics (and their _max) count from here on")
     rate_window_s: float = Field(0.02, gt=0, description="loose: window of the scalar loops' carrier-phase rate")
 
@@ -114,6 +115,12 @@ class DeepIntegrationScenario(Scenario):
         "loss_of_lock_fraction": "-",
         "nees": "-",
     }
+
+    #: Why a metric can be undefined in a run (summary.json and report.md say it).
+    undefined_reasons = {"attitude_error_rmse": "no attitude estimate (vector tracking has no INS)",
+                         "attitude_error_max": "no attitude estimate (vector tracking has no INS)",
+                         "phase_tracking_error_rmse": "carrier phase not tracked (only the scalar loops of loose "
+                         "have a PLL; the carrier-phase prefilter is not built)"}
 
     def __init__(self, params: DeepIntegrationParams) -> None:
         super().__init__(params)
@@ -212,7 +219,8 @@ class DeepIntegrationScenario(Scenario):
         lol = loss_of_lock(code, freq, p.coherent_time_s)[: U * n_upd].reshape(U, n_upd, runs, -1)
         series["loss_of_lock"] = lol.mean(axis=(1, 3))
         if "phase_error_rad" in out:
-            ph = out["phase_error_rad"][: U * n_upd].reshape(U, n_upd, runs, -1)
+            # A Costas loop locks at either of two phases half a cycle apart: the error modulo pi.
+            ph = np.angle(np.exp(2j * out["phase_error_rad"][: U * n_upd])).reshape(U, n_upd, runs, -1) / 2
             series["phase_tracking_error"] = np.sqrt(np.mean(ph**2, axis=(1, 3)))
         series["nees"] = out["nees"]
         s = settled(t_u, p.settle_s, U)
