@@ -180,9 +180,17 @@ def run_aided_tracking(
             rho, rate, acc, los = line_of_sight_kinematics(p, v, a, s, sv, sa, b, d)
             sched_range, sched_rate = nco_schedule(rho, rate, acc, T, n_nco, accel_aiding=accel_aiding)
             t_aid = t0
+            slope_new = acc if accel_aiding else np.zeros_like(rate)
         nco_range, nco_rate = sched_range[j], sched_rate[j]
         shift_chips = np.zeros(batch) if rep_end is None else (nco_range - rep_end) / CA_CHIP_LENGTH_M
-        shift_hz = np.zeros(batch) if rate_prev is None else -(nco_rate - rate_prev) / L1_WAVELENGTH_M
+        # The prefilter's states are errors relative to the aided replica, driven by the
+        # navigator's errors: its frequency state moves only by the replica's departure from
+        # the ramp it was following (a re-aiding), not by the aided ramp itself. Handing it
+        # the whole replica change made its frequency-rate state learn the absolute line-of-
+        # sight acceleration from a zero prior: rate information biased by tens of standard
+        # deviations during a 20 g boost even with a perfect navigator.
+        shift_hz = (np.zeros(batch) if rate_prev is None
+                    else -(nco_rate - (rate_prev + slope_prev * T)) / L1_WAVELENGTH_M)
         s1 = truth.sat_state(t1)[0]
         next_rho = truth.pseudorange(t1, k + 1, s1)
         rep_end = nco_range + nco_rate * T
@@ -231,6 +239,7 @@ def run_aided_tracking(
             normal[:] = 0.0
             rhs[:] = 0.0
         rate_prev = nco_rate
+        slope_prev = slope_new
         carrier_rep = carrier_rep_end
         true_rho = next_rho
     return DeepRecord(np.stack(rec["code"]), np.stack(rec["freq"]), (np.arange(K) + 0.5) * T,
