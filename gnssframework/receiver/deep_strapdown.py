@@ -25,15 +25,6 @@ from .deep_navigators import ClockFilter
 __all__ = ["Flight", "make_flight", "StrapdownIns", "run_deep", "run_loose"]
 
 
-def _inertial():
-    try:
-        from .. import inertial
-    except ImportError:  # pragma: no cover - the package ships with the framework once merged
-        raise ConfigError("scenario.kind", "deep-integration needs gnssframework.inertial (the strapdown INS), "
-                          "which is not installed in this build") from None
-    return inertial
-
-
 class Flight:
     """Truth of the flight: kinematics at any time and the exact IMU increments."""
 
@@ -50,8 +41,6 @@ class Flight:
 
     def body_to_ned(self, t_s) -> np.ndarray:
         """Body-to-local-level (NED at the true position) DCM ``(T, 3, 3)``."""
-        from scipy.spatial.transform import Rotation
-
         tr = self.model.evaluate(np.atleast_1d(np.asarray(t_s, float)))
         return _body_to_ned(tr.q_b_e, tr.position_ecef_m)
 
@@ -60,25 +49,19 @@ class Flight:
 
 
 def _body_to_ned(q_b_e: np.ndarray, position_ecef_m: np.ndarray) -> np.ndarray:
+    """C_b^n = C_e^n C_b^e with the NED frame at each position (geodetic latitude, pymap3d)."""
     import pymap3d
-    from scipy.spatial.transform import Rotation
 
-    shape = q_b_e.shape[:-1]
-    q = q_b_e.reshape(-1, 4)
-    r = np.broadcast_to(position_ecef_m, shape + (3,)).reshape(-1, 3)
-    lat, lon, _ = pymap3d.ecef2geodetic(r[:, 0], r[:, 1], r[:, 2])
-    la, lo = np.radians(lat), np.radians(lon)
-    sl, cl, so, co = np.sin(la), np.cos(la), np.sin(lo), np.cos(lo)
-    # C_e^n (Groves 2013, eq. 2.150)
-    c_e_n = np.stack([np.stack([-sl * co, -sl * so, cl], -1), np.stack([-so, co, np.zeros_like(so)], -1),
-                      np.stack([-cl * co, -cl * so, -sl], -1)], -2)
-    c_b_e = Rotation.from_quat(q, scalar_first=True).as_matrix()
-    return (c_e_n @ c_b_e).reshape(shape + (3, 3))
+    from ..inertial.frames import ned_to_ecef_matrix
+    from ..inertial.quaternion import quat_to_dcm
+
+    r = np.broadcast_to(position_ecef_m, q_b_e.shape[:-1] + (3,))
+    lat, lon, _ = pymap3d.ecef2geodetic(r[..., 0], r[..., 1], r[..., 2])
+    return np.swapaxes(ned_to_ecef_matrix(lat, lon), -1, -2) @ quat_to_dcm(q_b_e)
 
 
 def make_flight(profile: str, lat_deg: float, lon_deg: float, height_m: float, duration_s: float) -> Flight:
     """Reference 002's pull-up (`inertial.trajectory.paper_profile`, moved to the given start) or straight flight."""
-    _inertial()
     from ..inertial.trajectory import TrajectoryModel, constant_velocity_profile, paper_profile
 
     if profile == "pull-up":
@@ -116,12 +99,10 @@ class StrapdownIns:
     """
 
     def __init__(self, state0, dtheta_rad, dv_mps, imu_interval_s: float, grade) -> None:
-        inertial = _inertial()
         from ..inertial import error_model, mechanisation
 
         self.mech = mechanisation
         self.em = error_model
-        del inertial
         self.state = state0
         self.dtheta = np.asarray(dtheta_rad, float)
         self.dv = np.asarray(dv_mps, float)
