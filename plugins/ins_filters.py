@@ -1,10 +1,10 @@
 """Built-in navigation filter ``ins-ekf``: the 15-state error-state integration filter of deep
 integration (reference 002, Cai and Guo 2017) and of its loose-coupling baseline.
 
-The filter estimates the error of a strapdown INS (estimate minus truth), ordered as
-`gnssframework.receiver.deep_measurements` lays it out: attitude (rad), velocity (m/s),
-position (m), accelerometer bias (m/s^2), gyro bias (rad/s), all ECEF axes (Groves 2013,
-section 14.2.1). It is a closed-loop filter: every update returns the estimated error,
+The filter estimates the error of a strapdown INS in the layout and sign convention of
+`gnssframework.inertial.error_model`: attitude (rad), velocity (m/s), position (m), ECEF
+(estimate minus truth), then the residual gyro (rad/s) and accelerometer (m/s^2) biases of
+the compensated IMU output, body axes (Groves 2013, section 14.2.1). It is a closed-loop filter: every update returns the estimated error,
 the caller corrects the INS with it and the filter's error estimate restarts from zero
 (Groves 2013, section 14.1.1), so its mean never carries old corrections.
 
@@ -42,7 +42,7 @@ from gnssframework.receiver.deep_measurements import POSITION, VELOCITY, integra
 
 __all__ = ["InsEkf", "N_ERROR_STATES"]
 
-#: Size of the error state: attitude, velocity, position, accelerometer bias, gyro bias.
+#: Size of the error state: attitude, velocity, position, gyro bias, accelerometer bias.
 N_ERROR_STATES = 15
 
 
@@ -56,7 +56,7 @@ class InsEkfParams(PluginParams):
 
 
 class InsEkf(NavFilter):
-    """15-state closed-loop error-state filter (attitude, velocity, position, accelerometer and gyro biases).
+    """15-state closed-loop error-state filter (attitude, velocity, position, gyro and accelerometer biases).
 
     ``reset`` needs the initial error covariance ``initial_cov`` (15x15) in the run
     context; the initial error estimate is zero (the INS's own initial estimate is the
