@@ -18,6 +18,7 @@ from gnssframework.receiver.deep_strapdown import make_flight
 
 OUT = Path(__file__).parent / "img"
 CANDIDATES = ("deep", "deep-no-accel", "vector", "loose")
+COLORS = dict(zip(CANDIDATES, ("C0", "C1", "C2", "C3")))
 
 
 def _series(run: Path, case: str, cand: str):
@@ -66,7 +67,7 @@ def error_figure(run: Path, case: str) -> None:
             continue
         for a, (n, lab) in zip(ax, names):
             if n in s and np.isfinite(s[n]).any():
-                a.semilogy(t, np.sqrt(np.nanmean(s[n] ** 2, axis=-1)), label=cand)
+                a.semilogy(t, np.sqrt(np.nanmean(s[n] ** 2, axis=-1)), label=cand, color=COLORS[cand])
             a.set_ylabel(lab, fontsize=8)
     for a in ax:
         a.grid(alpha=0.3)

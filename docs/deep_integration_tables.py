@@ -23,8 +23,8 @@ PAPER = {"horizontal_position_error_max": "< 2", "height_error_max": "< 8", "hor
          "vertical_velocity_error_max": "< 1", "attitude_error_max": "< 0.5"}
 
 
-def _fmt(x: float) -> str:
-    if not np.isfinite(x):
+def _fmt(x: float | None) -> str:
+    if x is None or not np.isfinite(x):
         return "—"
     return f"{x:.3g}" if abs(x) < 1000 else f"{x:.3e}"
 
@@ -42,7 +42,10 @@ def tables(config_path: Path, run: Path) -> str:
                   "| metric | " + " | ".join(f"`{c}`" for c in CANDIDATES) + " | paper (deep) |",
                   "| --- |" + " --- |" * (len(CANDIDATES) + 1)]
         for m in metrics:
-            means = [np.nanmean(list(vals[(c, m)].values())) if vals[(c, m)] else np.nan for c in CANDIDATES]
+            means = []
+            for c in CANDIDATES:
+                v = np.array(list(vals[(c, m)].values()), float)
+                means.append(float(np.mean(v[np.isfinite(v)])) if np.isfinite(v).any() else np.nan)
             lines.append(f"| {m} | " + " | ".join(_fmt(x) for x in means) + f" | {PAPER.get(m, '')} |")
         lines += ["", f"Paired differences against `deep` ({case.name}; mean ± standard error over runs):", "",
                   "| metric | " + " | ".join(f"`{c}` − `deep`" for c in CANDIDATES[1:]) + " |",
