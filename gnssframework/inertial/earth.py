@@ -20,7 +20,8 @@ class EarthModel:
     """Earth constants used by the mechanisation and the trajectory generator.
 
     Defaults are WGS-84 (Groves, *Principles of GNSS, Inertial and Multisensor
-    Integrated Navigation Systems*, 2nd ed., sec. 2.4, Table 2.1 and eq. 2.142).
+    Integrated Navigation Systems*, 2nd ed., sec. 2.4: WGS-84 constants and the J2
+    gravitation model).
     ``rate_rad_s = 0`` gives a non-rotating Earth, used by the closed-form Schuler test.
 
     Attributes
@@ -48,7 +49,7 @@ class EarthModel:
     def gravitation_ecef(self, r_ecef_m: np.ndarray) -> np.ndarray:
         """Gravitational acceleration gamma^e (mass attraction only) with the J2 term.
 
-        Groves 2nd ed. eq. 2.142::
+        Groves 2nd ed. sec. 2.4 (J2 gravitation model in ECEF)::
 
             gamma = -mu/r^3 [ r + 1.5 J2 (R0/r)^2 (x (1-5z^2/r^2), y (1-5z^2/r^2), z (3-5z^2/r^2)) ]
         """
@@ -67,7 +68,7 @@ class EarthModel:
     def gravity_ecef(self, r_ecef_m: np.ndarray) -> np.ndarray:
         """Gravity g^e = gamma^e - Omega_ie Omega_ie r^e (gravitation plus centrifugal).
 
-        Groves 2nd ed. eq. 2.133 (ECEF form).
+        Groves 2nd ed. sec. 2.4 (gravity as gravitation plus centrifugal, ECEF form).
         """
         r = np.asarray(r_ecef_m, dtype=float)
         g = self.gravitation_ecef(r)
@@ -80,7 +81,7 @@ class EarthModel:
         ``"full"``: point-mass gradient ``mu/r^3 (3 u u^T - I)`` plus the centrifugal
         Jacobian ``omega_ie^2 diag(1, 1, 0)``; its horizontal ``-g/r`` terms are what
         close the Schuler loop in an ECEF error model. ``"radial"``: Groves 2nd ed.
-        eq. 14.49's simplification ``2 g / r u u^T`` (vertical only), adequate under
+        sec. 14.2.3's simplification ``2 g / r u u^T`` (vertical only), adequate under
         frequent aiding but without the Schuler loop. J2's share of the gradient
         (about 0.1 %) is neglected in both.
         """

@@ -21,14 +21,14 @@ def enu_to_ecef_matrix(lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
 
 
 def ned_to_ecef_matrix(lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
-    """``C_n^e`` for the north-east-down frame (Groves eq. 2.150 transposed)."""
+    """``C_n^e`` for the north-east-down frame."""
     return enu_to_ecef_matrix(lat_deg, lon_deg) @ NED_FROM_ENU
 
 
 def euler_ned_deg(q_b_e: np.ndarray, position_ecef_m: np.ndarray) -> np.ndarray:
     """Roll, pitch, yaw (deg) of the body (x forward, y right, z down) w.r.t. local NED.
 
-    ``C_b^n = R_z(yaw) R_y(pitch) R_x(roll)`` (Groves eq. 2.22); ``(..., 3)``.
+    ``C_b^n = R_z(yaw) R_y(pitch) R_x(roll)`` (Groves sec. 2.2); ``(..., 3)``.
     """
     r = np.asarray(position_ecef_m, dtype=float)
     lat, lon, _ = pymap3d.ecef2geodetic(r[..., 0], r[..., 1], r[..., 2])

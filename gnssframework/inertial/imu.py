@@ -157,6 +157,9 @@ def simulate_imu(
     dtheta_true_rad = np.asarray(dtheta_true_rad, dtype=float)
     dv_true_mps = np.asarray(dv_true_mps, dtype=float)
     n = dtheta_true_rad.shape[0]
+    if dtheta_true_rad.ndim == 2:  # one trajectory for every run: add the run axes
+        dtheta_true_rad = dtheta_true_rad.reshape((n,) + (1,) * len(batch_shape) + (3,))
+        dv_true_mps = dv_true_mps.reshape((n,) + (1,) * len(batch_shape) + (3,))
     shape = (n,) + tuple(batch_shape) + (3,)
     const_shape = tuple(batch_shape) + (3,)
 

@@ -8,21 +8,23 @@ Python loop (in :func:`integrate`) is over time.
 References
 ----------
 Groves, *Principles of GNSS, Inertial and Multisensor Integrated Navigation Systems*,
-2nd ed., sec. 5.2 (ECEF mechanisation, eqs. 5.27-5.38) and sec. 5.5 (precise
-attitude and specific-force transformation, eqs. 5.73, 5.84-5.87, coning/sculling
-5.96-5.101). Savage, "Strapdown inertial navigation integration algorithm design,
+2nd ed., sec. 5.2 (ECEF-frame navigation equations: attitude, specific-force
+transformation, velocity and position updates) and sec. 5.5 (precise attitude and
+specific-force transformation from increments, coning and sculling). Equation numbers
+are not quoted: they could not be checked against the book here. Savage, "Strapdown inertial navigation integration algorithm design,
 parts 1-2", J. Guid. Control Dyn. 21(1-2), 1998 (two-sample coning and sculling).
 Titterton & Weston, *Strapdown Inertial Navigation Technology*, 2nd ed., sec. 11.2.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 
 from gnssframework.errors import ConfigError
+from gnssframework.inertial._kernels import HAVE_NUMBA, integrate_kernel
 from gnssframework.inertial.earth import WGS84, EarthModel
 from gnssframework.inertial.quaternion import (
     cross,
@@ -83,28 +85,35 @@ class MechanisationOptions:
     ----------
     coning
         Two-sample coning correction ``(1/12) dtheta_{k-1} x dtheta_k`` (Savage part 1,
-        eq. 40 with the previous interval; Groves eq. 5.98).
+        two-sample form with the previous interval; Groves sec. 5.5).
     sculling
         Two-sample sculling correction ``(1/12)(dtheta_{k-1} x dv_k + dv_{k-1} x dtheta_k)``
-        (Savage part 2; Groves eq. 5.99).
+        (Savage part 2; Groves sec. 5.5).
     rotation_term
-        Velocity-rotation compensation: ``"exact"`` applies Groves eq. 5.86's average
+        Velocity-rotation compensation: ``"exact"`` applies the average
         attitude ``I + (1-cos a)/a^2 [alpha x] + (1 - sin a / a)/a^2 [alpha x]^2`` to the
         velocity increment (exact for constant rate and force), ``"first-order"`` the
-        classical ``1/2 alpha x dv`` (Savage part 2, eq. 25), ``"none"`` drops it (for the
+        classical ``1/2 alpha x dv`` (Savage part 2), ``"none"`` drops it (for the
         test that shows it matters).
     earth
         Earth model (rotation rate, J2 gravity).
+    backend
+        :func:`integrate`'s loop: ``"numba"`` (compiled, the default when numba imports)
+        or ``"numpy"`` (the reference, :func:`strapdown_step` per time step); a test
+        holds them equal to rounding.
     """
 
     coning: bool = True
     sculling: bool = True
     rotation_term: RotationTerm = "exact"
     earth: EarthModel = WGS84
+    backend: Literal["numba", "numpy"] = "numba" if HAVE_NUMBA else "numpy"
 
     def __post_init__(self) -> None:
         if self.rotation_term not in ("exact", "first-order", "none"):
             raise ConfigError("rotation_term", f"got {self.rotation_term!r}; allowed: 'exact', 'first-order', 'none'")
+        if self.backend not in ("numba", "numpy") or (self.backend == "numba" and not HAVE_NUMBA):
+            raise ConfigError("backend", f"got {self.backend!r}; allowed: 'numpy'" + (", 'numba'" if HAVE_NUMBA else ""))
 
 
 def _z_rotation_quat(angle_rad: float) -> np.ndarray:
@@ -131,10 +140,14 @@ def body_increments(
     Returns
     -------
     alpha, dv_body
-        Rotation vector ``alpha_ib^b`` (body at end relative to body at start, Groves
-        eq. 5.97-5.98) and the specific-force velocity increment resolved in the start
-        body frame (Groves eqs. 5.86, 5.99-5.101).
+        Rotation vector ``alpha_ib^b`` (body at end relative to body at start) and the specific-force velocity increment resolved in the start
+        body frame (Groves sec. 5.5).
     """
+    dtheta_rad = np.asarray(dtheta_rad, dtype=float)
+    dv_mps = np.asarray(dv_mps, dtype=float)
+    if prev_dtheta_rad is not None:
+        prev_dtheta_rad = np.asarray(prev_dtheta_rad, dtype=float)
+        prev_dv_mps = np.asarray(prev_dv_mps, dtype=float)
     alpha = dtheta_rad
     dv = dv_mps
     if prev_dtheta_rad is not None and options.coning:
@@ -167,18 +180,18 @@ def strapdown_step(
 ) -> NavState:
     """Advance the ECEF navigation state by one IMU interval.
 
-    Attitude (Groves eq. 5.73, quaternion form)::
+    Attitude (Groves sec. 5.2/5.5, ECEF form with the Earth rotation over the interval)::
 
         q_b^e(+) = q_z(-omega_ie dt) (x) q_b^e(-) (x) q(alpha)
 
-    Velocity (Groves eqs. 5.36, 5.84-5.85): the body velocity increment is resolved
+    Velocity (Groves sec. 5.2 and 5.5): the body velocity increment is resolved
     with the start attitude and rotated by half the Earth rotation of the interval;
     gravity (J2, at the predicted mid-interval position) and the Coriolis term (at the
     predicted mid-interval velocity) are integrated with the midpoint rule::
 
         v(+) = v(-) + R_z(-omega_ie dt/2) C_b^e(-) dv_body + (g(r_mid) - 2 omega_ie x v_mid) dt
 
-    Position (Groves eq. 5.38): trapezoid ``r(+) = r(-) + (v(-) + v(+)) dt / 2``.
+    Position (Groves sec. 5.2): trapezoid ``r(+) = r(-) + (v(-) + v(+)) dt / 2``.
 
     Parameters
     ----------
@@ -192,8 +205,18 @@ def strapdown_step(
     prev_dtheta_rad, prev_dv_mps
         Previous interval's raw increments for coning and sculling (``None``: first step).
     options
-        Algorithm switches and Earth model.
+        Algorithm switches, Earth model and backend (``"numba"`` runs the compiled
+        kernel for this one step; ``"numpy"`` is the reference below).
     """
+    if options.backend == "numba":
+        dtheta_rad = np.asarray(dtheta_rad, dtype=float)
+        dv_mps = np.asarray(dv_mps, dtype=float)
+        series = integrate(state, dtheta_rad[None], dv_mps[None], dt_s, options, prev_dtheta_rad, prev_dv_mps)
+        return series.at(1)
+    return _strapdown_step_numpy(state, dtheta_rad, dv_mps, dt_s, prev_dtheta_rad, prev_dv_mps, options)
+
+
+def _strapdown_step_numpy(state, dtheta_rad, dv_mps, dt_s, prev_dtheta_rad, prev_dv_mps, options):
     earth = options.earth
     alpha, dv_body = body_increments(dtheta_rad, dv_mps, prev_dtheta_rad, prev_dv_mps, options)
     omega = earth.rate_rad_s
@@ -263,16 +286,34 @@ def integrate(
         raise ConfigError("increments", "non-finite angle or velocity increment")
     if not dt_s > 0:
         raise ConfigError("dt_s", f"must be > 0, got {dt_s}")
+    for name, x in (("q_b_e", state0.q_b_e), ("velocity_ecef_mps", state0.velocity_ecef_mps),
+                    ("position_ecef_m", state0.position_ecef_m)):
+        if not np.all(np.isfinite(x)):
+            bad = np.argwhere(~np.isfinite(x))[0][:-1]
+            raise ConfigError(f"state0.{name}", f"non-finite at batch element {tuple(int(i) for i in bad)}")
     n = dtheta_rad.shape[0]
     batch = np.broadcast_shapes(state0.q_b_e.shape[:-1], dtheta_rad.shape[1:-1])
     state = state0.broadcast(batch)
+    if options.backend == "numba":
+        nb = int(np.prod(batch, dtype=int))
+        flat = lambda x, lead=(): np.ascontiguousarray(np.broadcast_to(x, lead + batch + (x.shape[-1],))).reshape(lead + (nb, x.shape[-1]))  # noqa: E731
+        has_prev = prev_dtheta_rad is not None
+        pth = np.zeros(3) if prev_dtheta_rad is None else np.asarray(prev_dtheta_rad, dtype=float)
+        pdv = np.zeros(3) if prev_dv_mps is None else np.asarray(prev_dv_mps, dtype=float)
+        qs, vs, rs = integrate_kernel(
+            flat(state.q_b_e), flat(state.velocity_ecef_mps), flat(state.position_ecef_m),
+            flat(dtheta_rad, (n,)), flat(dv_mps, (n,)), flat(pth), flat(pdv), has_prev, dt_s,
+            options.coning, options.sculling, options.rotation_term, options.earth,
+        )
+        return NavSeries(qs.reshape((n + 1,) + batch + (4,)), vs.reshape((n + 1,) + batch + (3,)),
+                         rs.reshape((n + 1,) + batch + (3,)))
     qs = np.empty((n + 1,) + batch + (4,))
     vs = np.empty((n + 1,) + batch + (3,))
     rs = np.empty((n + 1,) + batch + (3,))
     qs[0], vs[0], rs[0] = state.q_b_e, state.velocity_ecef_mps, state.position_ecef_m
     pth, pdv = prev_dtheta_rad, prev_dv_mps
     for k in range(n):
-        state = strapdown_step(state, dtheta_rad[k], dv_mps[k], dt_s, pth, pdv, options)
+        state = _strapdown_step_numpy(state, dtheta_rad[k], dv_mps[k], dt_s, pth, pdv, options)
         pth, pdv = dtheta_rad[k], dv_mps[k]
         qs[k + 1], vs[k + 1], rs[k + 1] = state.q_b_e, state.velocity_ecef_mps, state.position_ecef_m
     return NavSeries(qs, vs, rs)
@@ -281,7 +322,7 @@ def integrate(
 def kinematic_acceleration_ecef(
     state: NavState, specific_force_b_mps2: np.ndarray, earth: EarthModel = WGS84
 ) -> np.ndarray:
-    """ECEF acceleration ``a_eb^e = C_b^e f_ib^b + g^e - 2 Omega_ie v_eb^e`` (Groves eq. 5.35).
+    """ECEF acceleration ``a_eb^e = C_b^e f_ib^b + g^e - 2 Omega_ie v_eb^e`` (Groves sec. 5.2).
 
     Used by NCO aiding (range acceleration along the line of sight); the specific force
     is e.g. the last velocity increment divided by the interval.

@@ -3,7 +3,7 @@
 The hot path of the mechanisation needs these on batches of runs; scipy's
 ``Rotation`` (used as the oracle in the tests) covers everything else. A quaternion
 ``q_b^e`` rotates body vectors into ECEF: ``v^e = q (x) v^b (x) q*`` (Groves 2nd ed.
-appendix E.6, eq. E.51).
+appendix E, quaternion attitude).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product ``p (x) q`` (Groves eq. E.48), broadcasting over leading axes."""
+    """Hamilton product ``p (x) q``, broadcasting over leading axes."""
     pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
     qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     out = np.empty(np.broadcast_shapes(p.shape, q.shape))
@@ -46,6 +46,7 @@ def quat_conjugate(q: np.ndarray) -> np.ndarray:
 def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors: ``q (x) v (x) q*`` without forming the matrix."""
     q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
     w = q[..., :1]
     u = q[..., 1:]
     t = 2.0 * cross(u, v)
@@ -53,7 +54,7 @@ def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def quat_from_rotvec(phi: np.ndarray) -> np.ndarray:
-    """Quaternion of a rotation vector (Groves eq. E.37), series near zero angle."""
+    """Quaternion of a rotation vector, series near zero angle."""
     phi = np.asarray(phi, dtype=float)
     a2 = np.sum(phi * phi, axis=-1, keepdims=True)
     a = np.sqrt(a2)
@@ -82,7 +83,7 @@ def quat_normalize(q: np.ndarray) -> np.ndarray:
 
 
 def quat_to_dcm(q: np.ndarray) -> np.ndarray:
-    """Direction cosine matrix ``C`` with ``C v = q (x) v (x) q*`` (Groves eq. E.43)."""
+    """Direction cosine matrix ``C`` with ``C v = q (x) v (x) q*``."""
     w, x, y, z = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
     return np.stack(
         [

@@ -251,7 +251,7 @@ class TrajectoryModel:
         c_e_b = np.swapaxes(c_b_e, -1, -2)
         w_ie = self.earth.rate_vector
         w_ib_b = w_eb_b + c_e_b @ w_ie
-        # f = a + 2 omega_ie x v - g (Groves eq. 5.35 rearranged)
+        # f = a + 2 omega_ie x v - g (Groves sec. 5.2, rearranged)
         f_e = a_e + 2.0 * np.cross(w_ie, v_e) - self.earth.gravity_ecef(r_e)
         f_b = np.einsum("tij,tj->ti", c_e_b, f_e)
         q = Rotation.from_matrix(c_b_e).as_quat(scalar_first=True)
