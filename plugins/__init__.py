@@ -13,6 +13,7 @@ from .augmentations import ColoredAR1
 from .channel_filters import DiscriminatorChannel, IqFilter, KalmanCarrierLoop, ScalarTrackingLoop
 from .smoothers import HatchFilter, KalmanSmoother
 from .nav_filters import EkfPositionVelocity, PositionConstantAcceleration
+from .ins_filters import InsEkf
 from .discriminators import (
     Atan2FLL,
     Atan2PLL,
@@ -66,3 +67,4 @@ def register_channel_filter(register):
 def register_nav_filter(register):
     register(EkfPositionVelocity)
     register(PositionConstantAcceleration)
+    register(InsEkf)

@@ -137,9 +137,10 @@ def new_information(x_prior: np.ndarray, P_prior: np.ndarray, x_post: np.ndarray
     return z, R
 
 
-#: Error-state layout of the 15-state integration filter (Groves 2013, section 14.2.1):
-#: attitude (rad), velocity (m/s), position (m), accelerometer bias, gyro bias; ECEF axes.
-ATTITUDE, VELOCITY, POSITION, ACCEL_BIAS, GYRO_BIAS = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12),
+#: Error-state layout of the 15-state integration filter, that of `gnssframework.inertial.error_model`
+#: (Groves 2013, section 14.2.1): attitude (rad), velocity (m/s), position (m), ECEF, then the
+#: residual gyro and accelerometer biases of the compensated IMU output (body axes).
+ATTITUDE, VELOCITY, POSITION, GYRO_BIAS, ACCEL_BIAS = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12),
                                                        slice(12, 15))
 
 

@@ -20,7 +20,7 @@ from .. import registry
 from ..estimation import Gaussian, LinearModel
 from .deep_measurements import clock_measurement, integration_measurement, linear_update, reference_channel
 
-__all__ = ["PvaNavigator"]
+__all__ = ["PvaNavigator", "ClockFilter"]
 
 
 def _pva_transition(dt: float, jerk_psd: float) -> tuple[np.ndarray, np.ndarray]:
@@ -30,6 +30,51 @@ def _pva_transition(dt: float, jerk_psd: float) -> tuple[np.ndarray, np.ndarray]
                               [dt**3 / 6, dt**2 / 2, dt]])
     # State order [p(3), v(3), a(3)]: kron of the per-axis model with I3.
     return np.kron(F1, np.eye(3)), np.kron(Q1, np.eye(3))
+
+
+class ClockFilter:
+    """Two-state receiver clock filter that keeps the NCOs' clock terms (bias m, drift m/s).
+
+    The integration filter removes the clock by differencing (reference 002, section
+    2.2); the NCOs still need it. After each integration update the clock error common
+    to all channels is measured by generalised least squares over the channels
+    (`deep_measurements.clock_measurement`) and corrected here in closed loop. Model:
+    bias driven by the drift plus white noise, drift a random walk (Groves 2013,
+    section 9.4.2), PSDs ``clock_psd`` = (bias m^2/s, drift m^2/s^3).
+    """
+
+    def __init__(self, clock_m: np.ndarray, clock_cov: np.ndarray, clock_psd: tuple[float, float] = (0.1, 0.1)
+                 ) -> None:
+        self.c = np.asarray(clock_m, float).copy()
+        runs = self.c.shape[0]
+        self.Pc = np.broadcast_to(np.asarray(clock_cov, float), (runs, 2, 2)).copy()
+        self.clock_psd = clock_psd
+        self.t = 0.0
+        self.steps = 0
+
+    def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Extrapolated bias (m) and drift (m/s) at ``t_s``, each ``(runs,)``."""
+        dt = t_s - self.t
+        return self.c[:, 0] + self.c[:, 1] * dt, self.c[:, 1]
+
+    def predict(self, t_s: float) -> None:
+        """Propagate bias and drift with their process noise to ``t_s``."""
+        dt = t_s - self.t
+        Fc = np.array([[1.0, dt], [0.0, 1.0]])
+        qb, qd = self.clock_psd
+        Qc = np.array([[qb * dt + qd * dt**3 / 3, qd * dt**2 / 2], [qd * dt**2 / 2, qd * dt]])
+        self.c = self.c @ Fc.T
+        self.Pc = Fc @ self.Pc @ Fc.T + Qc
+        self.t = t_s
+
+    def correct(self, residual_m, residual_cov, los, pos_error_m, vel_error_m_s) -> None:
+        """Measure the clock error once the navigation error is known, and remove it."""
+        runs = self.c.shape[0]
+        zc, Rc = clock_measurement(residual_m, residual_cov, los, pos_error_m, vel_error_m_s)
+        dc, self.Pc = linear_update(np.zeros((runs, 2)), self.Pc, zc, np.broadcast_to(np.eye(2), (runs, 2, 2)), Rc,
+                                    name="clock filter", step=self.steps)
+        self.c = self.c - dc
+        self.steps += 1
 
 
 class PvaNavigator:
@@ -62,18 +107,16 @@ class PvaNavigator:
         self.x = np.concatenate([position_m, velocity_m_s, acceleration_m_s2], axis=-1).astype(float)
         runs = self.x.shape[0]
         self.P = np.broadcast_to(np.asarray(cov, float), (runs, 9, 9)).copy()
-        self.c = np.asarray(clock_m, float).copy()
-        self.Pc = np.broadcast_to(np.asarray(clock_cov, float), (runs, 2, 2)).copy()
+        self.clock = ClockFilter(clock_m, clock_cov, clock_psd)
         self.t = 0.0
         self.jerk_psd = jerk_psd_m2_s5
-        self.clock_psd = clock_psd
         self.steps = 0
 
     def _predicted(self, t_s: float):
         dt = t_s - self.t
         F, _ = _pva_transition(dt, 0.0)
         x = self.x @ F.T
-        return x, self.c[:, 0] + self.c[:, 1] * dt, self.c[:, 1]
+        return (x, *self.clock.at(t_s))
 
     def kinematics(self, t_s: float):
         """Extrapolated position, velocity, acceleration and clock at ``t_s``."""
@@ -86,11 +129,7 @@ class PvaNavigator:
         F, Q = _pva_transition(dt, self.jerk_psd)
         self.x = self.x @ F.T
         self.P = F @ self.P @ F.T + Q
-        Fc = np.array([[1.0, dt], [0.0, 1.0]])
-        qb, qd = self.clock_psd
-        Qc = np.array([[qb * dt + qd * dt**3 / 3, qd * dt**2 / 2], [qd * dt**2 / 2, qd * dt]])
-        self.c = self.c @ Fc.T
-        self.Pc = Fc @ self.Pc @ Fc.T + Qc
+        self.clock.predict(t_s)
         self.t = t_s
         # Error state dx = estimate - truth; the residuals measure dx (closed loop: subtract it).
         runs = self.x.shape[0]
@@ -103,8 +142,5 @@ class PvaNavigator:
             upd = self.estimator.update(Gaussian(np.zeros((runs, 9)), self.P), z, model)
             dx, self.P = upd.state.mean, upd.state.cov
         self.x = self.x - dx
-        zc, Rc = clock_measurement(residual_m, residual_cov, los, dx[:, 0:3], dx[:, 3:6])
-        dc, self.Pc = linear_update(np.zeros((runs, 2)), self.Pc, zc, np.broadcast_to(np.eye(2), (runs, 2, 2)), Rc,
-                                    name="clock filter", step=self.steps)
-        self.c = self.c - dc
+        self.clock.correct(residual_m, residual_cov, los, dx[:, 0:3], dx[:, 3:6])
         self.steps += 1

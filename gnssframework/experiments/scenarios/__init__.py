@@ -164,4 +164,4 @@ def get_scenario(config: dict[str, Any]) -> Scenario:
 
 
 # The built-in kinds register themselves on import (at the end: they import the base above).
-from . import carrier_smoothing, multipath, scintillation, vector_tracking  # noqa: E402,F401
+from . import carrier_smoothing, deep_integration, multipath, scintillation, vector_tracking  # noqa: E402,F401

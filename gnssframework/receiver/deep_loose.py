@@ -1,0 +1,143 @@
+"""The loose-coupling baseline of the deep-integration experiment: scalar loops, then position/velocity fixes.
+
+Loose coupling (Groves 2013, section 14.1.2): each channel tracks on its own (scalar
+loops, no aiding), the receiver forms a position/velocity/clock solution from the loops'
+pseudoranges and range rates, and that fix updates the INS's error-state filter. The
+loops do not see the INS, so they run first over the whole flight
+(`scalar_tracking`), then the fixes are formed at the integration rate (`pv_fix`) and fed
+to ``ins-ekf`` (`deep_ins.loose_update`).
+
+Measurements from a scalar loop (its replica is what the receiver reads):
+$\\rho_m = \\rho + \\lambda_{chip}\\,\\delta\\tau$ (the code NCO lags the true code by
+$\\delta\\tau$ chips, code phase decreasing with range) and
+$\\dot\\rho_m = \\dot\\rho + \\lambda_{L1}\\,\\delta f$ (the carrier NCO reads
+$f - \\delta f$, range rate $-\\lambda f$).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import NumericalError
+from ..interfaces import ChannelFilter
+from ..signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, L1_WAVELENGTH_M
+from .tracking import SignalTruth, TrackingRecord, run_closed_loop
+
+__all__ = ["scalar_tracking", "pv_fix", "scalar_measurement_variances", "scalar_measurements"]
+
+
+def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz: np.ndarray, coherent_time_s: float,
+                    rng: np.random.Generator, *, initial_doppler_error_hz: np.ndarray | float = 0.0,
+                    early_late_spacing_chips: float = 1.0) -> TrackingRecord:
+    """Track every channel with its own scalar loop.
+
+    Parameters
+    ----------
+    pseudorange_m
+        ``(K+1, runs, ch)`` true pseudorange at the epoch edges (clock included).
+    initial_doppler_error_hz
+        Acquisition's Doppler error added to the true initial Doppler.
+
+    Returns
+    -------
+    The `TrackingRecord` of `run_closed_loop` (code, phase and frequency errors of the
+    replicas, ``(K, runs, ch)``).
+    """
+    rho = np.asarray(pseudorange_m, float)
+    rho0 = rho[0]
+    carrier = -2 * np.pi * (rho - rho0) / L1_WAVELENGTH_M + rng.uniform(-np.pi, np.pi, rho0.shape)
+    t = np.arange(rho.shape[0]).reshape((-1,) + (1,) * (rho.ndim - 1)) * coherent_time_s
+    code = CA_CHIP_RATE_HZ * t - (rho - rho0) / CA_CHIP_LENGTH_M
+    truth = SignalTruth(code, carrier, np.broadcast_to(np.asarray(cn0_dbhz, float), rho0.shape), coherent_time_s)
+    doppler0 = -(rho[1] - rho[0]) / coherent_time_s / L1_WAVELENGTH_M
+    return run_closed_loop(channel, truth, rng, initial_doppler_hz=doppler0 + initial_doppler_error_hz,
+                           early_late_spacing_chips=early_late_spacing_chips)
+
+
+def scalar_measurement_variances(cn0_dbhz: np.ndarray, coherent_time_s: float, dll_bandwidth_hz: float,
+                                 pll_bandwidth_hz: float, rate_window_s: float, early_late_spacing_chips: float = 1.0
+                                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Thermal-noise variances of a scalar loop's pseudorange (m^2) and range rate (m^2/s^2).
+
+    Code: the early-minus-late envelope DLL, $\\sigma_\\tau^2 = \\frac{B_L d}{2 c}\\left(1 +
+    \\frac{2}{(2-d) T c}\\right)$ chips^2 (Kaplan and Hegarty 2017, eq. 8.44; $c = C/N_0$).
+    Rate: the carrier phase advance over a window $\\Delta$ (the NCO's own frequency is
+    far noisier: its proportional path passes every discriminator sample), whose two end
+    points carry the PLL's thermal jitter $\\sigma_\\theta^2 = \\frac{B_L}{c}(1 +
+    \\frac{1}{2Tc})$ (Kaplan and Hegarty 2017, eq. 8.35), taken as independent:
+    $\\sigma_{\\dot\\rho}^2 = 2\\sigma_\\theta^2 \\lambda^2 / (2\\pi\\Delta)^2$.
+    """
+    c = 10.0 ** (np.asarray(cn0_dbhz, float) / 10.0)
+    T, d = coherent_time_s, early_late_spacing_chips
+    var_code = dll_bandwidth_hz * d / (2 * c) * (1 + 2 / ((2 - d) * T * c)) * CA_CHIP_LENGTH_M**2
+    var_phase = pll_bandwidth_hz / c * (1 + 1 / (2 * T * c))
+    var_rate = 2 * var_phase * (L1_WAVELENGTH_M / (2 * np.pi * rate_window_s)) ** 2
+    return var_code, var_rate
+
+
+def pv_fix(range_m: np.ndarray, rate_m_s: np.ndarray, var_range: np.ndarray, var_rate: np.ndarray,
+           sat_pos_m: np.ndarray, sat_vel_m_s: np.ndarray, pos0_m: np.ndarray, vel0_m_s: np.ndarray,
+           *, iterations: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Weighted least-squares position/velocity/clock fix (Groves 2013, sections 9.4.1-9.4.2).
+
+    Parameters
+    ----------
+    range_m, rate_m_s, var_range, var_rate
+        ``(runs, ch)`` pseudoranges and range rates and their variances.
+    sat_pos_m, sat_vel_m_s
+        ``(ch, 3)`` or ``(runs, ch, 3)``.
+    pos0_m, vel0_m_s
+        ``(runs, 3)`` linearisation point (the INS, or the previous fix).
+
+    Returns
+    -------
+    position ``(runs, 3)``, velocity ``(runs, 3)`` and the 6x6 covariance ``(runs, 6, 6)`` of
+    [position, velocity] (the clock marginalised out).
+    """
+    runs, n = range_m.shape
+    r = np.asarray(pos0_m, float).copy()
+    v = np.asarray(vel0_m_s, float).copy()
+    b = np.zeros(runs)
+    d = np.zeros(runs)
+    w_r, w_v = 1.0 / var_range, 1.0 / var_rate
+    for _ in range(iterations):
+        dp = sat_pos_m - r[:, None, :]
+        rng_g = np.linalg.norm(dp, axis=-1)
+        e = dp / rng_g[..., None]
+        pred_rho = rng_g + b[:, None]
+        pred_rate = np.sum(e * (sat_vel_m_s - v[:, None, :]), axis=-1) + d[:, None]
+        H = np.zeros((runs, n, 4))
+        H[..., :3] = -e
+        H[..., 3] = 1.0
+        N_r = np.einsum("rci,rc,rcj->rij", H, w_r, H)
+        N_v = np.einsum("rci,rc,rcj->rij", H, w_v, H)
+        try:
+            dx_r = np.linalg.solve(N_r, np.einsum("rci,rc->ri", H, w_r * (range_m - pred_rho))[..., None])[..., 0]
+            dx_v = np.linalg.solve(N_v, np.einsum("rci,rc->ri", H, w_v * (rate_m_s - pred_rate))[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            raise NumericalError("pv-fix", [], None, "singular geometry (fewer than 4 independent lines of sight)") \
+                from None
+        r += dx_r[:, :3]
+        b += dx_r[:, 3]
+        v += dx_v[:, :3]
+        d += dx_v[:, 3]
+    cov = np.zeros((runs, 6, 6))
+    cov[:, :3, :3] = np.linalg.inv(N_r)[:, :3, :3]
+    cov[:, 3:, 3:] = np.linalg.inv(N_v)[:, :3, :3]
+    return r, v, cov
+
+
+def scalar_measurements(record: TrackingRecord, pseudorange_m: np.ndarray, rate_m_s: np.ndarray, k: int,
+                        rate_window: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pseudorange and range rate the scalar loops read at the edge after interval ``k``.
+
+    ``pseudorange_m`` and ``rate_m_s`` ``(runs, ch)`` are the true values there. The
+    pseudorange is the code NCO's; the rate is the carrier phase advance over the
+    ``rate_window`` intervals centred on the edge (the mean frequency error of those
+    intervals), whose mean rate equals the rate at the centre up to $j\\Delta^2/24$.
+    """
+    code = 0.5 * (record.code_error_chips[k] + record.code_error_chips[min(k + 1, len(record.code_error_chips) - 1)])
+    lo = max(k + 1 - rate_window // 2, 0)
+    hi = min(lo + rate_window, len(record.freq_error_hz))
+    return (pseudorange_m + CA_CHIP_LENGTH_M * code,
+            rate_m_s + L1_WAVELENGTH_M * np.mean(record.freq_error_hz[lo:hi], axis=0))
