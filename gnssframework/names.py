@@ -62,5 +62,10 @@ COV = "cov"
 NCO_RANGE_M = "nco_range_m"
 NCO_RANGE_RATE_M_S = "nco_range_rate_m_s"
 
+# deep GNSS/INS integration (``ins-ekf``)
+RESIDUAL_M = "residual_m"  #: per channel range (m) and rate (m/s) residual against the INS, (runs, ch, 2)
+RESIDUAL_COV = "residual_cov"  #: their 2x2 covariances, (runs, ch, 2, 2)
+ERROR_STATE = "error_state"  #: the 15-state error estimate to subtract from the INS, (runs, 15)
+
 #: Every name above.
 ALL = frozenset(v for k, v in dict(globals()).items() if k.isupper() and isinstance(v, str))
