@@ -91,6 +91,8 @@ class StrapdownIns:
     grade
         `inertial.imu.ImuGrade` whose noise the error model propagates.
 
+    Notes
+    -----
     The error state is `inertial.error_model`'s: its transition over each IMU interval is
     the second-order series (``error_state_transition(method="second-order")``; Van Loan
     per 5 ms step and run costs too much), accumulated until the integration update.
