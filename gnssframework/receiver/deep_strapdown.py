@@ -216,10 +216,13 @@ def run_deep(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth
         times.append(t_s)
 
     nav = InsNavigator(ins, ekf, clock, on_update=record, pull_in_updates=p.pull_in_updates)
+    spec = ekf.params.carrier_filter
     rec = run_aided_tracking(plugins["channel_filter"], nav, truth, rng, nco_interval_s=p.nco_interval_s,
                              update_interval_s=p.update_interval_s, accel_aiding=ekf.params.accel_aiding,
-                             early_late_spacing_chips=p.early_late_spacing_chips)
-    return _stack(records, times, {"code_error_chips": rec.code_error_chips, "freq_error_hz": rec.freq_error_hz})
+                             early_late_spacing_chips=p.early_late_spacing_chips,
+                             carrier_filter=None if spec is None else spec.create())
+    return _stack(records, times, {"code_error_chips": rec.code_error_chips, "freq_error_hz": rec.freq_error_hz,
+                                   **rec.extra})
 
 
 def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int,

@@ -119,8 +119,8 @@ class DeepIntegrationScenario(Scenario):
     #: Why a metric can be undefined in a run (summary.json and report.md say it).
     undefined_reasons = {"attitude_error_rmse": "no attitude estimate (vector tracking has no INS)",
                          "attitude_error_max": "no attitude estimate (vector tracking has no INS)",
-                         "phase_tracking_error_rmse": "carrier phase not tracked (only the scalar loops of loose "
-                         "have a PLL; the carrier-phase prefilter is not built)"}
+                         "phase_tracking_error_rmse": "carrier phase not tracked (deep tracks it only with ins-ekf's "
+                         "carrier_filter set; vector has no carrier loop)"}
 
     def __init__(self, params: DeepIntegrationParams) -> None:
         super().__init__(params)
@@ -251,6 +251,8 @@ class DeepIntegrationScenario(Scenario):
         named.update({"code_tracking_error_rmse": series["code_tracking_error"],
                       "freq_tracking_error_rmse": series["freq_tracking_error"],
                       "loss_of_lock_fraction": series["loss_of_lock"], "nees": series["nees"]})
+        if "phase_tracking_error" in series:
+            named["phase_tracking_error_rmse"] = series["phase_tracking_error"]
         return BatchResult(metrics, named, t_u)
 
     def _run_vector(self, plugins, truth: DeepTruth, runs: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
