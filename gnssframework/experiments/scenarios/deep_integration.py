@@ -35,7 +35,7 @@ from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_ve
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
-from ..metrics import nees_mean, rmse, settled
+from ..metric_components import PostSettleMax, Rmse, TimeMean, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["DeepIntegrationScenario"]
@@ -44,6 +44,29 @@ ERRORS = ("horizontal_position_error", "height_error", "horizontal_velocity_erro
           "attitude_error")
 UNITS = {"horizontal_position_error": "m", "height_error": "m", "horizontal_velocity_error": "m/s",
          "vertical_velocity_error": "m/s", "attitude_error": "deg"}
+_WHAT = {"horizontal_position_error": "horizontal position error (ENU at the true position)",
+         "height_error": "height error", "horizontal_velocity_error": "horizontal velocity error",
+         "vertical_velocity_error": "vertical velocity error",
+         "attitude_error": "attitude error, the largest of |roll|, |pitch|, |yaw| errors"}
+
+#: The scenario's metrics, each declared once as a component (name, unit, the per-update series
+#: it reduces, from settle_s on); ``run_batch`` computes them all once with `evaluate`.
+METRICS = (
+    *(Rmse(f"{e}_rmse", UNITS[e], of=e, settle="settle_s", description=f"RMS {_WHAT[e]} after settle_s")
+      for e in ERRORS),
+    *(PostSettleMax(f"{e}_max", UNITS[e], of=e, settle="settle_s", description=f"largest {_WHAT[e]} after settle_s")
+      for e in ERRORS),
+    Rmse("code_tracking_error_rmse", "chips", of="code_tracking_error", settle="settle_s",
+         description="replica code error, RMS over channels and coherent intervals"),
+    Rmse("freq_tracking_error_rmse", "Hz", of="freq_tracking_error", settle="settle_s",
+         description="replica frequency error, RMS over channels and coherent intervals"),
+    Rmse("phase_tracking_error_rmse", "rad", of="phase_tracking_error", settle="settle_s",
+         description="carrier phase error modulo pi (Costas), RMS over channels and coherent intervals"),
+    TimeMean("loss_of_lock_fraction", "-", of="loss_of_lock", settle="settle_s",
+             description="fraction of channel-epochs out of lock (code > 0.5 chip or frequency > 1/(2T))"),
+    TimeMean("nees", "-", of="nees_pv", settle="settle_s",
+             description="NEES of the 6 position and velocity states, mean over updates"),
+)
 
 
 class DeepIntegrationParams(ScenarioParams):
@@ -106,15 +129,11 @@ class DeepIntegrationScenario(Scenario):
     Params = DeepIntegrationParams
     CaseParams = DeepIntegrationCase
     components = {"channel_filter": True, "nav_filter": True}
-    metrics = {
-        **{f"{e}_rmse": UNITS[e] for e in ERRORS},
-        **{f"{e}_max": UNITS[e] for e in ERRORS},
-        "code_tracking_error_rmse": "chips",
-        "freq_tracking_error_rmse": "Hz",
-        "phase_tracking_error_rmse": "rad",
-        "loss_of_lock_fraction": "-",
-        "nees": "-",
-    }
+    metrics = units(METRICS)
+    #: The raw per-update series (RMS over channels and the coherent intervals of each update
+    #: interval for the tracking errors) that the metrics reduce.
+    outputs = {**UNITS, "code_tracking_error": "chips", "freq_tracking_error": "Hz", "phase_tracking_error": "rad",
+               "loss_of_lock": "-", "nees_pv": "-"}
 
     #: Why a metric can be undefined in a run (summary.json and report.md say it).
     undefined_reasons = {"attitude_error_rmse": "no attitude estimate (vector tracking has no INS)",
@@ -235,25 +254,10 @@ class DeepIntegrationScenario(Scenario):
             # A Costas loop locks at either of two phases half a cycle apart: the error modulo pi.
             ph = np.angle(np.exp(2j * out["phase_error_rad"][: U * n_upd])).reshape(U, n_upd, runs, -1) / 2
             series["phase_tracking_error"] = np.sqrt(np.mean(ph**2, axis=(1, 3)))
-        series["nees"] = out["nees"]
-        s = settled(t_u, p.settle_s, U)
-        metrics = {}
-        for e in ERRORS:
-            metrics[f"{e}_rmse"] = rmse(series[e], s)
-            metrics[f"{e}_max"] = np.max(series[e][s], axis=0)
-        metrics["code_tracking_error_rmse"] = rmse(series["code_tracking_error"], s)
-        metrics["freq_tracking_error_rmse"] = rmse(series["freq_tracking_error"], s)
-        metrics["phase_tracking_error_rmse"] = (rmse(series["phase_tracking_error"], s)
-                                                if "phase_tracking_error" in series else np.full(runs, np.nan))
-        metrics["loss_of_lock_fraction"] = np.mean(series["loss_of_lock"][s], axis=0)
-        metrics["nees"] = nees_mean(series["nees"], mask=s)
-        named = {f"{e}_rmse": series[e] for e in ERRORS}
-        named.update({"code_tracking_error_rmse": series["code_tracking_error"],
-                      "freq_tracking_error_rmse": series["freq_tracking_error"],
-                      "loss_of_lock_fraction": series["loss_of_lock"], "nees": series["nees"]})
-        if "phase_tracking_error" in series:
-            named["phase_tracking_error_rmse"] = series["phase_tracking_error"]
-        return BatchResult(metrics, named, t_u)
+        else:
+            series["phase_tracking_error"] = np.full((U, runs), np.nan)  # undefined: no carrier loop
+        series["nees_pv"] = out["nees"]
+        return evaluate(METRICS, series, t_u, self)
 
     def _run_vector(self, plugins, truth: DeepTruth, runs: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
         """Vector tracking without INS (``run_vector_loop``), decimated to the integration grid."""
