@@ -60,9 +60,14 @@ def _body_to_ned(q_b_e: np.ndarray, position_ecef_m: np.ndarray) -> np.ndarray:
     return np.swapaxes(ned_to_ecef_matrix(lat, lon), -1, -2) @ quat_to_dcm(q_b_e)
 
 
-def make_flight(profile: str, lat_deg: float, lon_deg: float, height_m: float, duration_s: float) -> Flight:
-    """Reference 002's pull-up (`inertial.trajectory.paper_profile`, moved to the given start) or straight flight."""
-    from ..inertial.trajectory import TrajectoryModel, constant_velocity_profile, paper_profile
+def make_flight(profile: str, lat_deg: float, lon_deg: float, height_m: float, duration_s: float, *,
+                pulse: dict | None = None) -> Flight:
+    """Reference 002's pull-up (`inertial.trajectory.paper_profile`, moved to the given start), straight
+    flight, or a ``jerk-pulse``: straight flight at (50, 50, 50) m/s ENU with one smooth acceleration
+    pulse ``pulse`` = {accel_g, jerk_g_s, start_s, hold_s, direction_enu}, whose rise takes
+    ``1.875 * accel / jerk`` so that its peak jerk is ``jerk_g_s`` (`inertial.trajectory`)."""
+    from ..inertial.earth import STANDARD_GRAVITY_MPS2
+    from ..inertial.trajectory import AccelerationPulse, TrajectoryModel, constant_velocity_profile, paper_profile
 
     if profile == "pull-up":
         # The whole 50 s flight is defined; a shorter duration_s simulates its first part.
@@ -72,8 +77,21 @@ def make_flight(profile: str, lat_deg: float, lon_deg: float, height_m: float, d
                                        "duration_s": max(duration_s, base.duration_s)})
     elif profile == "straight":
         prof = constant_velocity_profile(lat_deg, lon_deg, height_m, (50.0, 50.0, 50.0), duration_s)
+    elif profile == "jerk-pulse":
+        q = pulse or {}
+        u = np.asarray(q.get("direction_enu", (0.0, 0.0, 1.0)), float)
+        u = u / np.linalg.norm(u)
+        accel = q.get("accel_g", 20.0) * STANDARD_GRAVITY_MPS2
+        rise = 1.875 * q.get("accel_g", 20.0) / q.get("jerk_g_s", 50.0)
+        p = AccelerationPulse(start_s=q.get("start_s", 2.0), rise_s=rise, hold_s=q.get("hold_s", 1.0),
+                              accel_enu_mps2=tuple(accel * u))
+        if p.end_s > duration_s:
+            raise ConfigError("scenario.duration_s", f"the jerk pulse ends at {p.end_s:.3f} s (start, 2 x rise "
+                              f"1.875 accel/jerk = {rise:.3f} s, hold); got duration_s = {duration_s}")
+        prof = constant_velocity_profile(lat_deg, lon_deg, height_m, (50.0, 50.0, 50.0), duration_s)
+        prof = prof.model_copy(update={"pulses": (p,)})
     else:
-        raise ConfigError("scenario.profile", f"got {profile!r}; allowed: pull-up, straight")
+        raise ConfigError("scenario.profile", f"got {profile!r}; allowed: pull-up, straight, jerk-pulse")
     return Flight(TrajectoryModel(prof))
 
 

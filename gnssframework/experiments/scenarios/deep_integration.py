@@ -66,13 +66,19 @@ METRICS = (
              description="fraction of channel-epochs out of lock (code > 0.5 chip or frequency > 1/(2T))"),
     TimeMean("nees", "-", of="nees_pv", settle="settle_s",
              description="NEES of the 6 position and velocity states, mean over updates"),
+    TimeMean("phase_lock_loss_fraction", "-", of="phase_unlocked", settle="settle_s",
+             description="fraction of channel-epochs whose carrier phase error modulo pi exceeds pi/4 (45 deg, "
+             "the Costas tracking threshold of Kaplan and Hegarty 2017)"),
+    TimeMean("cycle_slip_rate", "1/s", of="cycle_slips", settle="settle_s",
+             description="half-cycle slips of the carrier phase error per channel and second"),
 )
 
 
 class DeepIntegrationParams(ScenarioParams):
     duration_s: float = Field(50.0, gt=0, le=600, description="flight length (reference 002: 50 s)")
-    profile: Literal["pull-up", "straight"] = Field(
-        "pull-up", description="reference 002's flight (level 10 s, then a pull-up) or straight and level")
+    profile: Literal["pull-up", "straight", "jerk-pulse"] = Field(
+        "pull-up", description="reference 002's flight (level 10 s, then a pull-up), straight flight, or straight "
+        "flight with one smooth acceleration pulse (pulse_* parameters)")
     coherent_time_s: float = Field(0.001, gt=0, le=0.02, description="T of correlators and prefilters")
     imu_interval_s: float = Field(0.005, gt=0, description="IMU increment interval (200 Hz in reference 002)")
     nco_interval_s: float = Field(0.005, gt=0, description="interval at which the NCOs are re-aided (deep)")
@@ -98,11 +104,40 @@ class DeepIntegrationParams(ScenarioParams):
                           "see gnssframework.inertial.imu for the reading of its white-noise units)")
     settle_s: float = Field(5.0, ge=0, description="metrics (and their _max) count from here on")
     rate_window_s: float = Field(0.02, gt=0, description="loose: window of the scalar loops' carrier-phase rate")
+    pulse_accel_g: float = Field(20.0, gt=0, le=100, description="jerk-pulse profile: peak acceleration (g)")
+    pulse_jerk_g_s: float = Field(50.0, gt=0, le=1000, description="jerk-pulse profile: peak jerk (g/s); the "
+                                  "smooth rise lasts 1.875 pulse_accel_g / pulse_jerk_g_s")
+    pulse_start_s: float = Field(2.0, ge=0, description="jerk-pulse profile: start of the pulse")
+    pulse_hold_s: float = Field(1.0, ge=0, description="jerk-pulse profile: time at peak acceleration")
+    pulse_direction_enu: tuple[float, float, float] = Field((0.0, 0.0, 1.0), description="jerk-pulse profile: "
+                                                            "direction of the acceleration (ENU at the start)")
 
 
 class DeepIntegrationCase(ScenarioParams):
     name: str | None = None
     cn0_dbhz: float = Field(..., ge=15, le=60)
+
+
+def phase_lock_series(phase_error_rad: np.ndarray, n_upd: int, update_interval_s: float) -> dict[str, np.ndarray]:
+    """Per-update carrier-phase series from the phase errors ``(U * n_upd, runs, ch)`` of a Costas loop.
+
+    A Costas loop locks at either of two phases half a cycle apart, so the error counts
+    modulo pi: ``phase_tracking_error`` is its RMS over channels and the coherent intervals
+    of each update interval; ``phase_unlocked`` the fraction of those channel-epochs beyond
+    pi/4 (45 deg: the rule-of-thumb Costas tracking threshold, Kaplan and Hegarty 2017,
+    section 8.6); ``cycle_slips`` the half-cycle slips per channel and second, from the
+    error unwrapped modulo pi (a slip: its nearest multiple of pi changes).
+    """
+    K, runs = phase_error_rad.shape[:2]
+    U = K // n_upd
+    doubled = np.unwrap(2.0 * phase_error_rad, axis=0)
+    wrapped = np.angle(np.exp(1j * doubled)) / 2
+    cycles = np.rint(doubled / (2 * np.pi))
+    slips = np.abs(np.diff(cycles, axis=0, prepend=cycles[:1]))
+    by_update = (U, n_upd, runs, -1)
+    return {"phase_tracking_error": np.sqrt(np.mean(wrapped.reshape(by_update) ** 2, axis=(1, 3))),
+            "phase_unlocked": np.mean(np.abs(wrapped.reshape(by_update)) > np.pi / 4, axis=(1, 3)),
+            "cycle_slips": np.sum(slips.reshape(by_update), axis=1).mean(axis=-1) / update_interval_s}
 
 
 def _kind(plugins: dict[str, Any]) -> str:
@@ -133,10 +168,14 @@ class DeepIntegrationScenario(Scenario):
     #: The raw per-update series (RMS over channels and the coherent intervals of each update
     #: interval for the tracking errors) that the metrics reduce.
     outputs = {**UNITS, "code_tracking_error": "chips", "freq_tracking_error": "Hz", "phase_tracking_error": "rad",
-               "loss_of_lock": "-", "nees_pv": "-"}
+               "loss_of_lock": "-", "nees_pv": "-", "phase_unlocked": "-", "cycle_slips": "1/s"}
 
     #: Why a metric can be undefined in a run (summary.json and report.md say it).
-    undefined_reasons = {"attitude_error_rmse": "no attitude estimate (vector tracking has no INS)",
+    undefined_reasons = {"phase_lock_loss_fraction": "carrier phase not tracked (deep tracks it only with "
+                         "ins-ekf's carrier_filter set; vector has no carrier loop)",
+                         "cycle_slip_rate": "carrier phase not tracked (deep tracks it only with ins-ekf's "
+                         "carrier_filter set; vector has no carrier loop)",
+                         "attitude_error_rmse": "no attitude estimate (vector tracking has no INS)",
                          "attitude_error_max": "no attitude estimate (vector tracking has no INS)",
                          "phase_tracking_error_rmse": "carrier phase not tracked (deep tracks it only with ins-ekf's "
                          "carrier_filter set; vector has no carrier loop)"}
@@ -175,7 +214,9 @@ class DeepIntegrationScenario(Scenario):
         from ...receiver.deep_strapdown import make_flight
 
         p = self.params
-        return make_flight(p.profile, p.lat_deg, p.lon_deg, p.height_m, p.duration_s)
+        pulse = {"accel_g": p.pulse_accel_g, "jerk_g_s": p.pulse_jerk_g_s, "start_s": p.pulse_start_s,
+                 "hold_s": p.pulse_hold_s, "direction_enu": p.pulse_direction_enu}
+        return make_flight(p.profile, p.lat_deg, p.lon_deg, p.height_m, p.duration_s, pulse=pulse)
 
     def _truth(self, flight, cn0_dbhz: float, runs: int, rng: np.random.Generator):
         p = self.params
@@ -251,11 +292,10 @@ class DeepIntegrationScenario(Scenario):
         lol = loss_of_lock(code, freq, p.coherent_time_s)[: U * n_upd].reshape(U, n_upd, runs, -1)
         series["loss_of_lock"] = lol.mean(axis=(1, 3))
         if "phase_error_rad" in out:
-            # A Costas loop locks at either of two phases half a cycle apart: the error modulo pi.
-            ph = np.angle(np.exp(2j * out["phase_error_rad"][: U * n_upd])).reshape(U, n_upd, runs, -1) / 2
-            series["phase_tracking_error"] = np.sqrt(np.mean(ph**2, axis=(1, 3)))
-        else:
-            series["phase_tracking_error"] = np.full((U, runs), np.nan)  # undefined: no carrier loop
+            series.update(phase_lock_series(out["phase_error_rad"][: U * n_upd], n_upd, p.update_interval_s))
+        else:  # undefined: no carrier loop
+            for name in ("phase_tracking_error", "phase_unlocked", "cycle_slips"):
+                series[name] = np.full((U, runs), np.nan)
         series["nees_pv"] = out["nees"]
         return evaluate(METRICS, series, t_u, self)
 
