@@ -35,8 +35,14 @@ nothing of it goes to the navigator. Its correlators are the same draw rotated b
 corrections' mid-interval phase (a replica offset by a phase $\\varphi_c$ and a frequency
 $f_c$ multiplies the prompt's mean by $e^{-j(\\varphi_c + \\pi f_c T)}$; circular noise
 keeps its law; the sinc loss of $f_c$, $1 - (\\pi f_c T)^2/6$, is below $10^{-4}$ for
-$f_c$ under 10 Hz and is left out). Its tracking error, the true carrier phase minus
-that replica's at mid-interval, is recorded as ``extra["phase_error_rad"]``.
+$f_c$ under 10 Hz and is left out). An integration update moves the aided replica's
+frequency by the navigator's correction projected on the line of sight; the carrier loop
+had already absorbed that error, so the harness moves its correction the other way at the
+next re-aiding (the carrier replica stays continuous; without it the loop took each
+correction as a frequency step: a 0.5 m/s correction is a 2.6 Hz step, about 1 rad of
+transient in a 6 Hz loop, and slipped cycles after the first update). Its tracking error,
+the true carrier phase minus that replica's at mid-interval, is recorded as
+``extra["phase_error_rad"]``.
 
 Residual sign: true minus the navigator's prediction, so a
 navigator position error $\\delta r$ shows as $\\delta\\rho_i = e_i\\cdot\\delta r - \\delta b$.
@@ -189,7 +195,9 @@ def run_aided_tracking(
         carrier_filter.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
                                                epoch_interval_s=T, cn0_dbhz=cn0, doppler_hz=0.0))
         corr_phase_rad = np.zeros(batch)
-        corr_freq_hz = np.zeros(batch)
+        corr_freq_hz = np.zeros(batch)  # the loop's own NCO frequency
+        transfer_hz = np.zeros(batch)  # navigator corrections taken back out of the aided replica
+    rate_before_update = None
     rec: dict[str, list] = {k: [] for k in ("code", "freq", "tu", "res", "cov", "phase")}
     carrier_rep = np.zeros(batch)
     rep_end = None
@@ -207,6 +215,10 @@ def run_aided_tracking(
             s, sv, sa = sat_at(k)
             rho, rate, acc, los = line_of_sight_kinematics(p, v, a, s, sv, sa, b, d)
             sched_range, sched_rate = nco_schedule(rho, rate, acc, T, n_nco, accel_aiding=accel_aiding)
+            if carrier_filter is not None and rate_before_update is not None:
+                # The update's correction of the predicted rate (f = -rate / lambda), undone on the carrier side.
+                transfer_hz -= -(rate - rate_before_update) / L1_WAVELENGTH_M
+                rate_before_update = None
             t_aid = t0
             slope_new = acc if accel_aiding else np.zeros_like(rate)
         nco_range, nco_rate = sched_range[j], sched_rate[j]
@@ -235,10 +247,11 @@ def run_aided_tracking(
         rec["code"].append(code_err)
         rec["freq"].append(freq_err)
         if carrier_filter is not None:
-            rot_rad = corr_phase_rad + np.pi * corr_freq_hz * T  # corrections at mid-interval
+            f_c = corr_freq_hz + transfer_hz
+            rot_rad = corr_phase_rad + np.pi * f_c * T  # corrections at mid-interval
             rec["phase"].append(np.angle(np.exp(1j * (ph0 + np.pi * freq_err * T - rot_rad))))
             c_out = carrier_filter.checked_step({"correlators": _rotated(corr, rot_rad)})
-            corr_phase_rad = (corr_phase_rad + 2 * np.pi * corr_freq_hz * T
+            corr_phase_rad = (corr_phase_rad + 2 * np.pi * f_c * T
                               + np.asarray(c_out.get("carrier_phase_step_rad", 0.0), float))
             corr_freq_hz = np.broadcast_to(np.asarray(c_out["carrier_freq_hz"], float), batch)
 
@@ -268,9 +281,10 @@ def run_aided_tracking(
             rec["cov"].append(cov)
             s_u, sv_u, sa_u = sat_at(k + 1)
             p, v, a, b, d = navigator.kinematics(t1)
-            _, _, _, los_u = line_of_sight_kinematics(p, v, a, s_u, sv_u, sa_u, b, d)
+            _, rate_u, _, los_u = line_of_sight_kinematics(p, v, a, s_u, sv_u, sa_u, b, d)
             if len(rec["tu"]) > pull_in_updates:
                 navigator.update(t1, res, cov, los_u, cn0)
+                rate_before_update = rate_u
             normal[:] = 0.0
             rhs[:] = 0.0
         rate_prev = nco_rate
