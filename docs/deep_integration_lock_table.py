@@ -1,38 +1,51 @@
 """Markdown table of the lock sweep in docs/experiments/deep-integration.md.
 
-Run: ``gnssframework compare examples/deep_integration_lock.toml --out results/deep_lock`` (about 3 min
+Run: ``gnssframework compare examples/deep_integration_lock.toml --out results/deep_lock`` (about 4 min
 on the shared 2-core machine), then ``python docs/deep_integration_lock_table.py results/deep_lock``.
-Reads the sweep's CSV (mean and standard error over runs per point, and the paired difference of
-``deep`` minus ``loose`` with its standard error, common random numbers).
+Per C/N0 and peak jerk: the mean ± standard error over runs of each candidate's loss-of-lock fraction
+(code/frequency), phase-lock loss fraction and cycle-slip rate, and the paired differences (mean ±
+standard error over the common-random-number runs) of ``deep`` against both scalar candidates.
 """
 
 from __future__ import annotations
 
-import csv
 import sys
 from pathlib import Path
 
-METRICS = ("phase_lock_loss_fraction", "cycle_slip_rate", "loss_of_lock_fraction", "phase_tracking_error_rmse",
-           "vertical_velocity_error_max")
+import numpy as np
+
+from gnssframework.experiments.config import load_config
+from gnssframework.experiments.store import ResultStore
+from gnssframework.experiments.sweeps import expand_sweep
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "deep_integration_lock.toml"
+CANDIDATES = ("loose", "loose-no-fll", "deep")
+METRICS = {"loss_of_lock_fraction": "code/frequency loss of lock", "phase_lock_loss_fraction": "phase beyond 45°",
+           "cycle_slip_rate": "half-cycle slips per channel-second"}
 
 
-def _f(x: str) -> str:
-    v = float(x)
-    return "0" if v == 0 else f"{v:.3g}"
+def _ms(v: np.ndarray) -> str:
+    m, se = float(np.mean(v)), float(np.std(v, ddof=1) / np.sqrt(len(v)))
+    return "0" if m == 0 and se == 0 else f"{m:.3g} ± {se:.2g}"
 
 
 def table(run: Path) -> str:
-    rows = list(csv.DictReader((run / "sweeps" / "jerk.csv").open()))
-    at = {(r["jerk"], r["case"], r["candidate"], r["metric"]): r for r in rows}
-    lines = ["| C/N0 | peak jerk (g/s) | metric | `loose` | `deep` | `deep` − `loose` |", "| --- | --- | --- | --- | --- | --- |"]
-    cases = list(dict.fromkeys(r["case"] for r in rows))
-    jerks = list(dict.fromkeys(r["jerk"] for r in rows))
-    for case in cases:
-        for j in jerks:
-            for m in METRICS:
-                lo, de = at[(j, case, "loose", m)], at[(j, case, "deep", m)]
-                lines.append(f"| {case} | {float(j):g} | {m} | {_f(lo['mean'])} ± {_f(lo['se'])} | "
-                             f"{_f(de['mean'])} ± {_f(de['se'])} | {_f(de['diff_to_reference'])} ± {_f(de['diff_se'])} |")
+    config = load_config(EXAMPLE)
+    store = ResultStore(run / "results.sqlite")
+    lines = []
+    for metric, what in METRICS.items():
+        lines += [f"**{metric}** ({what}; mean ± SE over {config.runs} runs; differences paired)", "",
+                  "| C/N0 | peak jerk (g/s) | `loose` | `loose-no-fll` | `deep` | `deep` − `loose` | "
+                  "`deep` − `loose-no-fll` |", "| --- | --- | --- | --- | --- | --- | --- |"]
+        for case in config.cases:
+            for value, point in expand_sweep(config, 0):
+                key = point.identity()
+                v = {c: np.array([x for _, x in sorted(store.run_values(key, case.name, c, metric,
+                                                                         config.runs).items())])
+                     for c in CANDIDATES}
+                lines.append(f"| {case.name} | {value:g} | " + " | ".join(_ms(v[c]) for c in CANDIDATES)
+                             + f" | {_ms(v['deep'] - v['loose'])} | {_ms(v['deep'] - v['loose-no-fll'])} |")
+        lines.append("")
     return "\n".join(lines)
 
 
