@@ -73,3 +73,10 @@ def test_carrier_prefilter_without_carrier_outputs_is_refused():
     with pytest.raises(ConfigError, match="carrier_filter"):
         run_aided_tracking(iq, _OffsetNavigator(rx, zero3, zero3, zero, zero, (100.0, 0.0)), truth,
                            np.random.default_rng(0), carrier_filter=iq)
+
+
+def test_ins_ekf_refuses_a_carrier_filter_that_cannot_close_a_carrier_loop():
+    with pytest.raises(ConfigError, match=r"ins-ekf'\.carrier_filter.*'iq-filter'.*carrier_freq_hz.*kf-carrier-loop"):
+        create("nav_filter", "ins-ekf", carrier_filter="iq-filter")
+    assert create("nav_filter", "ins-ekf", carrier_filter="kf-carrier-loop").params.carrier_filter.name == \
+        "kf-carrier-loop"
