@@ -1,13 +1,16 @@
 """Scenario ``deep-integration``: coherent deep GNSS/INS integration (reference 002, Cai and Guo 2017).
 
 GPS L1 C/A channels of the nominal constellation seen from an aircraft flying reference
-002's pull-up (`gnssframework.inertial`), a receiver clock from h-parameters, and
-four kinds of candidate, told apart by what they compose:
+002's pull-up (`gnssframework.inertial`; or straight flight, or straight flight with one
+smooth acceleration pulse of given peak jerk, ``profile = "jerk-pulse"``), a receiver
+clock from h-parameters, and four kinds of candidate, told apart by what they compose:
 
 * ``deep`` / ``deep-no-accel``: a prefilter ``channel_filter`` that hands over each
   interval's new information (``iq-filter`` with ``output = "equivalent"``) and the
   ``ins-ekf`` nav_filter; the corrected INS aids the NCOs (`receiver.deep`), with or
-  without the line-of-sight acceleration (``ins-ekf``'s ``accel_aiding``).
+  without the line-of-sight acceleration (``ins-ekf``'s ``accel_aiding``), and with or
+  without a carrier-phase prefilter closing only the carrier loop (``ins-ekf``'s
+  ``carrier_filter``).
 * ``vector``: a vector-loop channel filter and a GNSS-only nav filter that closes the
   loop (``iq-filter`` + ``ekf-pv``; `receiver.vector.run_vector_loop`), no INS.
 * ``loose``: a scalar loop per channel (a ``channel_filter`` that closes its own loop,
@@ -15,7 +18,9 @@ four kinds of candidate, told apart by what they compose:
   (`receiver.deep_loose`).
 
 Every series is on the integration filter's grid (10 Hz); errors are in local axes at the
-true position (ENU via pymap3d), attitude as roll/pitch/yaw.
+true position (ENU via pymap3d), attitude as roll/pitch/yaw. Each metric is declared once
+as a component (`METRICS`, from `gnssframework.experiments.metric_components`) over one of
+these series, computed once by `evaluate`.
 """
 
 from __future__ import annotations
