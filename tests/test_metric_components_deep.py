@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gnssframework.experiments.metric_components import MeanAbs, PostSettleMax, Rmse, TimeMean, evaluate, units
+from gnssframework.experiments.metric_components import PostSettleMax, evaluate, units
 from gnssframework.experiments.scenarios import deep_integration
 
 
@@ -31,17 +31,6 @@ def test_post_settle_max_against_hand_values():
     assert PostSettleMax("m", "m", of="v").compute({"v": v}, None, None).value.tolist() == [5.0]
     nan = np.array([[np.nan], [np.nan], [np.nan]])  # no estimate (vector tracking's attitude)
     assert np.isnan(PostSettleMax("m", "deg", of="a").compute({"a": nan}, None, None).value[0])
-
-
-def test_time_mean_is_signed_and_settles():
-    x = np.array([[5.0, 0.0], [-1.0, 0.25], [3.0, 0.75]])
-    assert TimeMean("t", "-", of="x").compute({"x": x}, None, None).value.tolist() == [7 / 3, 1 / 3]
-    late = TimeMean("t", "-", of="x", settle="settle_s").compute({"x": x}, T3, _Scen)
-    assert late.value.tolist() == [1.0, 0.5]
-    # Not the mean magnitude: MeanAbs of the same epochs is 2 for the first run.
-    assert MeanAbs("a", "-", of="x", settle="settle_s").compute({"x": x}, T3, _Scen).value.tolist()[0] == 2.0
-    with pytest.raises(ValueError, match=r"'t'.*\(K, runs\)"):
-        TimeMean("t", "-", of="x").compute({"x": np.zeros((3, 2, 2))}, None, None)
 
 
 def test_deep_integration_metrics_are_declared_once_and_read_declared_series():

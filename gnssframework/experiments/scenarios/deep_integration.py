@@ -40,7 +40,7 @@ from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_ve
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
-from ..metric_components import PostSettleMax, Rmse, TimeMean, evaluate, units
+from ..metric_components import Mean, PostSettleMax, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["DeepIntegrationScenario"]
@@ -67,15 +67,15 @@ METRICS = (
          description="replica frequency error, RMS over channels and coherent intervals"),
     Rmse("phase_tracking_error_rmse", "rad", of="phase_tracking_error", settle="settle_s",
          description="carrier phase error modulo pi (Costas), RMS over channels and coherent intervals"),
-    TimeMean("loss_of_lock_fraction", "-", of="loss_of_lock", settle="settle_s",
-             description="fraction of channel-epochs out of lock (code > 0.5 chip or frequency > 1/(2T))"),
-    TimeMean("nees", "-", of="nees_pv", settle="settle_s",
-             description="NEES of the 6 position and velocity states, mean over updates"),
-    TimeMean("phase_lock_loss_fraction", "-", of="phase_unlocked", settle="settle_s",
-             description="fraction of channel-epochs whose carrier phase error modulo pi exceeds pi/4 (45 deg, "
-             "the Costas tracking threshold of Kaplan and Hegarty 2017)"),
-    TimeMean("cycle_slip_rate", "1/s", of="cycle_slips", settle="settle_s",
-             description="half-cycle slips of the carrier phase error per channel and second"),
+    Mean("loss_of_lock_fraction", "-", of="loss_of_lock", settle="settle_s",
+         description="fraction of channel-epochs out of lock (code > 0.5 chip or frequency > 1/(2T))"),
+    Mean("nees", "-", of="nees_pv", settle="settle_s",
+         description="NEES of the 6 position and velocity states, mean over updates"),
+    Mean("phase_lock_loss_fraction", "-", of="phase_unlocked", settle="settle_s",
+         description="fraction of channel-epochs whose carrier phase error modulo pi exceeds pi/4 (45 deg, "
+         "the Costas tracking threshold of Kaplan and Hegarty 2017)"),
+    Mean("cycle_slip_rate", "1/s", of="cycle_slips", settle="settle_s",
+         description="half-cycle slips of the carrier phase error per channel and second"),
 )
 
 
