@@ -423,3 +423,46 @@ def evaluate(components: Sequence[Metric], series: dict[str, np.ndarray], time_s
                 raise ValueError(f"metric {c.name!r}: a raw series has the same name")
             out_series[c.name] = value.series
     return BatchResult(metrics, out_series, time_s)
+
+
+# --- Components added for the deep-integration scenario (issue 12) ---------------------------
+
+__all__ += ["PostSettleMax", "TimeMean"]
+
+
+class PostSettleMax(SeriesMetric):
+    """Largest absolute value over time of the series (its norm per epoch for a vector
+    error), from ``settle`` on: the ``_max`` metrics of reference 002's bounds.
+
+    A run whose series holds NaN after settling (no estimate of that quantity) gets NaN.
+
+    Examples
+    --------
+    >>> PostSettleMax("e_max", "m", of="e").compute({"e": np.array([[3.0, -1.0], [-4.0, 0.5]])}, None,
+    ...                                             None).value.tolist()
+    [4.0, 1.0]
+    """
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        mag = _magnitude(series[self.of])
+        mask = self._mask(mag.shape[0], time_s, scenario)
+        return MetricValue(np.max(mag if mask is None else mag[mask], axis=0), mag)
+
+
+class TimeMean(SeriesMetric):
+    """Mean over time of the series itself (signed, not its magnitude), from ``settle`` on:
+    a per-epoch fraction (loss of lock) or a per-epoch NEES, whose time mean is the metric
+    (`gnssframework.experiments.metrics.nees_mean` without a covariance).
+
+    Examples
+    --------
+    >>> TimeMean("lol", "-", of="f").compute({"f": np.array([[0.0, 1.0], [0.5, 1.0]])}, None, None).value.tolist()
+    [0.25, 1.0]
+    """
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        x = np.asarray(series[self.of], dtype=float)
+        if x.ndim != 2:
+            raise ValueError(f"metric {self.name!r}: series {self.of!r} must be (K, runs), got {x.shape}")
+        mask = self._mask(x.shape[0], time_s, scenario)
+        return MetricValue(np.mean(x if mask is None else x[mask], axis=0), x)
