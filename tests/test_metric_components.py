@@ -175,6 +175,8 @@ def test_slip_recovery_components_against_hand_values_through_the_scenarios_decl
     np.testing.assert_array_equal(rec.value, [3.0, np.nan, 0.0])
     np.testing.assert_array_equal(rec.series, slips.astype(float))
     assert comps["censored_slips"].compute(series, None, scen).value.tolist() == [0.0, 1.0, 0.0]
+    # Only the mean can be undefined (NaN); the scenario's table of reasons comes from the components.
+    assert carrier_smoothing.CarrierSmoothingScenario.undefined_reasons == {"slip_recovery_epochs": "no isolated slips"}
     wide = SlipRecovery("r", of="range_error_m", slips="slip", band=4.0, isolation=10, start=5)
     assert wide.compute(series, None, scen).value[0] == 2.0
     # The reference window must start at or after settle_epochs: with 11 the slip at 40
