@@ -175,6 +175,8 @@ def test_slip_recovery_components_against_hand_values_through_the_scenarios_decl
     np.testing.assert_array_equal(rec.value, [3.0, np.nan, 0.0])
     np.testing.assert_array_equal(rec.series, slips.astype(float))
     assert comps["censored_slips"].compute(series, None, scen).value.tolist() == [0.0, 1.0, 0.0]
+    # Only the mean can be undefined (NaN); the scenario's table of reasons comes from the components.
+    assert carrier_smoothing.CarrierSmoothingScenario.undefined_reasons == {"slip_recovery_epochs": "no isolated slips"}
     wide = SlipRecovery("r", of="range_error_m", slips="slip", band=4.0, isolation=10, start=5)
     assert wide.compute(series, None, scen).value[0] == 2.0
     # The reference window must start at or after settle_epochs: with 11 the slip at 40
@@ -242,3 +244,32 @@ def test_scintillation_reports_the_hand_reductions():
     for name, value in hand.items():
         np.testing.assert_allclose(res.metrics[name], value, rtol=1e-12, err_msg=name)
     assert np.all(res.series["loop_noise_bandwidth_hz"] == res.series["loop_noise_bandwidth_hz"][0, 0])
+
+
+def test_vector_tracking_reports_the_hand_reductions():
+    scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.3, "channels": 4, "settle_s": 0.1,
+                         "steady_state_s": 0.2})
+    plugins = scen.build({"channel_filter": {"name": "discriminator"}, "nav_filter": {"name": "ekf-pv"}})
+    res = scen.run_batch({"cn0_dbhz": 40.0}, plugins, 2, np.random.default_rng(8))
+    t, sr = res.time_s, res.series
+    s, steady = t >= 0.1, t >= 0.2
+    assert s.sum() == 20 and steady.sum() == 10
+
+    def rms(x, m):
+        return np.sqrt(np.mean(x[m] ** 2, axis=0))
+
+    hand = {"code_phase_error_rmse": rms(sr["code_error_chips"], s),
+            "carrier_freq_error_rmse": rms(sr["freq_error_hz"], s),
+            "position_error_rmse": rms(sr["position_error_m"], s),
+            "velocity_error_rmse": rms(sr["velocity_error_m_s"], s),
+            "position_steady_error_rmse": rms(sr["position_error_m"], steady),
+            "nees": np.mean(sr["nav_nees"][s], axis=0), "nees_position": np.mean(sr["nav_nees_position"][s], axis=0),
+            "nees_velocity": np.mean(sr["nav_nees_velocity"][s], axis=0),
+            "code_output_rmse": rms(sr["code_output_error_chips"], s),
+            "freq_output_rmse": rms(sr["freq_output_error_hz"], s),
+            "pcrb_position": rms(sr["pcrb_position_m"], s), "pcrb_velocity": rms(sr["pcrb_velocity_m_s"], s)}
+    assert set(res.metrics) == set(hand) == set(scen.metrics)
+    for name, value in hand.items():
+        np.testing.assert_allclose(res.metrics[name], value, rtol=1e-12, err_msg=name)
+    assert sr["code_error_chips"].shape == (30, 2) and np.all(sr["nav_nees"] > 0)
+    np.testing.assert_array_equal(sr["pcrb_position"], sr["pcrb_position_m"])  # the bound drawn beside the error

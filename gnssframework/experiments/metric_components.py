@@ -32,7 +32,8 @@ import numpy as np
 from .metrics import Metric, MetricValue, rmse, settled
 
 __all__ = ["SeriesMetric", "Rmse", "MeanAbs", "ConvergenceEpoch", "convergence_epoch", "evaluate", "units",
-           "Mean", "Std", "LockLossFraction", "SlipRecovery", "FalseResets", "slip_recovery", "false_resets"]
+           "Mean", "Std", "LockLossFraction", "SlipRecovery", "FalseResets", "slip_recovery", "false_resets",
+           "undefined_reasons"]
 
 
 def _magnitude(x: np.ndarray) -> np.ndarray:
@@ -76,13 +77,18 @@ class SeriesMetric(Metric):
     optional
         If true, `evaluate` leaves the metric out of a batch whose series lack ``of``
         (a metric the scenario computes only in some configurations).
+    undefined
+        Why the value can be undefined (NaN) in a run, for ``summary.json`` and the
+        report (see `undefined_reasons`).
     description
         One line for the docs.
     """
 
     def __init__(self, name: str, unit: str, of: str, *, settle: float | str | Callable[[Any], float] | None = None,
-                 skip_epochs: int | str | None = None, optional: bool = False, description: str = "") -> None:
+                 skip_epochs: int | str | None = None, optional: bool = False, undefined: str = "",
+                 description: str = "") -> None:
         super().__init__()
+        self.undefined = undefined
         self.name = name
         self.unit = unit
         self.of = of
@@ -343,7 +349,8 @@ class SlipRecovery(SeriesMetric):
                  start: int | str = 0, band: float = 2.0, description: str = "") -> None:
         if output not in ("mean", "censored"):
             raise ValueError(f"output must be 'mean' or 'censored', not {output!r}")
-        super().__init__(name, "epochs" if output == "mean" else "slips/run", of, description=description)
+        super().__init__(name, "epochs" if output == "mean" else "slips/run", of, description=description,
+                         undefined="no isolated slips" if output == "mean" else "")
         self.slips, self.output, self.isolation, self.start, self.band = slips, output, isolation, start, band
         self.requires = (of, slips)
 
@@ -391,6 +398,12 @@ def units(components: Sequence[Metric]) -> dict[str, str]:
             raise ValueError(f"two metric components are named {c.name!r}")
         out[c.name] = c.unit
     return out
+
+
+def undefined_reasons(components: Sequence[Metric]) -> dict[str, str]:
+    """The ``Scenario.undefined_reasons`` table (name -> why the value can be NaN) of the
+    components that declare one."""
+    return {c.name: c.undefined for c in components if getattr(c, "undefined", "")}
 
 
 def evaluate(components: Sequence[Metric], series: dict[str, np.ndarray], time_s: np.ndarray | None,

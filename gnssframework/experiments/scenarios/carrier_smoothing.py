@@ -22,6 +22,7 @@ from ...signal.constants import L1_WAVELENGTH_M
 from ...simulation.constellation import nominal_constellation
 from ...simulation.impairments import ar1_noise, cycle_slips
 from ..metric_components import FalseResets, Rmse, SlipRecovery, evaluate, false_resets, slip_recovery, units
+from ..metric_components import undefined_reasons as _undefined_reasons
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["CarrierSmoothingScenario", "METRICS", "slip_recovery", "slip_recovery_epochs", "false_resets"]
@@ -93,7 +94,7 @@ class CarrierSmoothingScenario(Scenario):
     #: may read them too): signed range error, true slip epochs, slip detections.
     outputs = {"range_error_m": "m", "slip": "-", "slip_detected": "-"}
     #: Why a metric can be undefined (NaN) in a run; summary.json and report.md say it.
-    undefined_reasons = {"slip_recovery_epochs": "no isolated slips"}
+    undefined_reasons = _undefined_reasons(METRICS)
 
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins.get("channel_filter")

@@ -189,7 +189,8 @@ class VectorTrackingScenario(Scenario):
         def channel_rms(x: np.ndarray) -> np.ndarray:  # (K, runs, channels) -> (K, runs)
             return np.sqrt(np.mean(x**2, axis=-1))
 
-        series = {"code_error_chips": channel_rms(rec.code_error_chips), "freq_error_hz": channel_rms(rec.freq_error_hz),
+        series = {"code_error_chips": channel_rms(rec.code_error_chips),
+                  "freq_error_hz": channel_rms(rec.freq_error_hz),
                   "position_error_m": np.linalg.norm(rec.position_error_m, axis=-1),
                   "velocity_error_m_s": np.linalg.norm(rec.velocity_error_m_s, axis=-1),
                   "nav_nees": rec.nees, "nav_nees_position": rec.nees_position, "nav_nees_velocity": rec.nees_velocity,
