@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import InvalidMeasurementError, NotPositiveDefiniteError
 from ..plugin import Plugin
 from . import kernels
-from .linalg import cholesky_masked, failing_indices, mat_vec, symmetrize
+from .linalg import all_true, any_true, cholesky_masked, failing_indices, mat_vec, symmetrize
 from .types import Gaussian, Model, Update
 
 __all__ = ["Estimator", "SigmaPointEstimator", "OnFailure", "OnMissing"]
@@ -121,8 +121,9 @@ class Estimator(Plugin, abc.ABC):
             if n_not_pd and on_failure == "raise":
                 raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
             return Update(Gaussian(mean, cov), innovation, S, gain, C, z_hat, skipped)
-        bad_z = ~np.isfinite(z).all(axis=-1)
-        if bad_z.any():
+        finite_z = np.isfinite(z)
+        bad_z = np.zeros(z.shape[:-1], dtype=bool) if all_true(finite_z) else ~finite_z.all(axis=-1)
+        if any_true(bad_z):
             if missing != "skip":
                 raise InvalidMeasurementError(self.name, failing_indices(~bad_z))
         z_hat, S, C = self.measurement_moments(prior, model)
@@ -133,7 +134,7 @@ class Estimator(Plugin, abc.ABC):
                 prior.mean, prior.cov, z, z_hat, S, C, bad_z, joseph,
                 model.H if joseph else None, model.R if joseph else None,
             )
-            if not ok.all() and on_failure == "raise":
+            if on_failure == "raise" and not all_true(ok):
                 raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
             return Update(
                 state=Gaussian(mean, cov),
@@ -146,9 +147,9 @@ class Estimator(Plugin, abc.ABC):
             )
         L, ok = cholesky_masked(S)
         skip = bad_z | ~ok
-        if not ok.all() and on_failure == "raise":
+        if on_failure == "raise" and not all_true(ok):
             raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
-        if skip.any():
+        if any_true(skip):
             eye = np.eye(S.shape[-1])
             S_safe = np.where(skip[..., None, None], eye, S)
             z = np.where(skip[..., None], z_hat, z)
@@ -159,7 +160,7 @@ class Estimator(Plugin, abc.ABC):
         innovation = z - z_hat
         mean = prior.mean + mat_vec(gain, innovation)
         cov = self.posterior_cov(prior, gain, S_safe, model)
-        if skip.any():
+        if any_true(skip):
             mean = np.where(skip[..., None], prior.mean, mean)
             cov = np.where(skip[..., None, None], prior.cov, cov)
         return Update(
@@ -229,7 +230,7 @@ class SigmaPointEstimator(Estimator):
             return None
         root_kind, scale, center, wm, wc = rule
         X, status = kernels.sigma_points(state.mean, state.cov, root_kind, scale, center)
-        if status.any():
+        if any_true(status):
             self._raise_root_failure(status, root_kind)
         return X, wm, wc
 
@@ -242,7 +243,7 @@ class SigmaPointEstimator(Estimator):
             Naming this filter and the batch elements whose P is not PD.
         """
         L, ok = cholesky_masked(cov)
-        if not ok.all():
+        if not all_true(ok):
             raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="state covariance P (Cholesky)")
         return L
 
