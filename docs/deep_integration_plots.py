@@ -2,7 +2,7 @@
 
 Run (after ``gnssframework compare examples/deep_integration.toml --out results/deep_integration``):
 ``MPLBACKEND=Agg python docs/deep_integration_plots.py [results/deep_integration]``. Not in CI:
-the example takes tens of minutes (see the page).
+the example takes about 3 minutes (see the page).
 """
 
 from __future__ import annotations

@@ -51,6 +51,10 @@ class InsEkfParams(PluginParams):
         "kf", description="estimator plugin that runs the error-state filter (kf, ekf, ukf, ckf, svd-ckf)")
     accel_aiding: bool = Field(True, description="deep integration: predict the NCOs with the line-of-sight "
                                "acceleration from the corrected INS (false: the deep-no-accel candidate)")
+    carrier_filter: PluginRef("channel_filter", provides=("carrier_freq_hz",)) | None = Field(
+        None, description="deep integration: a carrier-phase prefilter per channel on a phase discriminator that "
+        "closes only the carrier loop on top of the aided replica (e.g. kf-carrier-loop; reference 002's "
+        "carrier-phase filter); nothing of it reaches this filter. Unset: the carrier phase is not tracked")
     clock_psd: tuple[float, float] = Field((0.1, 0.1), description="white-noise PSDs of the NCO clock filter's "
                                            "bias (m^2/s) and drift (m^2/s^3)")
 

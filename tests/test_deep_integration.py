@@ -539,6 +539,29 @@ def test_pva_navigator_update_with_a_registry_estimator_equals_the_kalman_update
     assert np.max(np.abs(navs[0].x - x0)) > 0.1  # the update moved the state
 
 
+def test_pva_navigator_estimator_runs_through_the_filter_step_and_names_itself():
+    from gnssframework.errors import InvalidInitialStateError, InvalidMeasurementError
+    from gnssframework.receiver.deep_navigators import PvaNavigator
+
+    runs, n = 2, 5
+    x0 = np.zeros((runs, 9))
+    P0 = np.diag([25.0] * 3 + [1.0] * 3 + [4.0] * 3)
+    bad = P0.copy()
+    bad[0, 0] = -1.0
+    with pytest.raises(InvalidInitialStateError, match=r"pva-navigator \(ukf\).*initial covariance"):
+        PvaNavigator(x0[:, :3], x0[:, 3:6], x0[:, 6:], bad, np.zeros((runs, 2)), np.eye(2), estimator="ukf")
+    nav = PvaNavigator(x0[:, :3], x0[:, 3:6], x0[:, 6:], P0, np.zeros((runs, 2)), np.eye(2), estimator="ukf")
+    rng = np.random.default_rng(0)
+    los = rng.normal(size=(runs, n, 3))
+    los /= np.linalg.norm(los, axis=-1, keepdims=True)
+    cov = np.broadcast_to(np.diag([4.0, 0.04]), (runs, n, 2, 2))
+    nav.update(0.1, rng.normal(size=(runs, n, 2)), cov, los, np.full((runs, n), 45.0))
+    res = rng.normal(size=(runs, n, 2))
+    res[1, 2, 0] = np.inf
+    with pytest.raises(InvalidMeasurementError, match=r"pva-navigator \(ukf\).*batch element \(1,\), step 1"):
+        nav.update(0.2, res, cov, los, np.full((runs, n), 45.0))
+
+
 def test_loss_of_lock_thresholds():
     from gnssframework.receiver.deep import loss_of_lock
 

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from gnssframework.experiments import get_scenario
-from gnssframework.experiments.metric_components import ConvergenceEpoch, MeanAbs, Rmse, evaluate, units
-from gnssframework.experiments.scenarios import multipath
+from gnssframework.experiments.metric_components import (ConvergenceEpoch, LockLossFraction, Mean, MeanAbs, Rmse,
+                                                         SlipRecovery, Std, evaluate, slip_recovery, units)
+from gnssframework.experiments.scenarios import carrier_smoothing, multipath, scintillation, vector_tracking
 
 
 def _hand_convergence(err: np.ndarray, window: int, factor: float) -> float:
@@ -99,3 +100,145 @@ def test_names_are_unique_and_values_one_per_run():
         evaluate([Bad("bad", "m", of="e")], {"e": np.zeros((4, 2))}, None, None)
     with pytest.raises(ValueError, match="a raw series has the same name"):
         evaluate([Rmse("e", "m", of="e")], {"e": np.zeros((4, 2))}, None, None)
+
+
+# --- The components of carrier-smoothing, scintillation and vector-tracking ----------------
+
+
+class _Scen:
+    """A stand-in scenario: only the parameters the components read."""
+
+    kind = "hand"
+
+    def __init__(self, **params):
+        self.params = type("Params", (), params)()
+
+
+def test_mean_and_std_against_hand_values_after_settle_time_or_leading_epochs():
+    x = np.array([[1.0, 2.0], [3.0, -2.0], [5.0, 4.0]])
+    t = np.array([0.0, 1.0, 2.0])
+    scen = _Scen(settle_s=1.0, settle_epochs=2)
+    mean = Mean("m", "-", of="x", settle="settle_s").compute({"x": x}, t, scen)
+    assert mean.value.tolist() == [4.0, 1.0]  # (3 + 5) / 2, (-2 + 4) / 2
+    np.testing.assert_array_equal(mean.series, x)  # signed: a NEES series is itself
+    std = Std("s", "-", of="x", settle="settle_s").compute({"x": x}, t, scen)
+    assert std.value.tolist() == [1.0, 3.0]  # {3, 5} and {-2, 4} about their means
+    np.testing.assert_array_equal(std.series, np.abs(x))
+    assert Mean("m", "-", of="x", skip_epochs="settle_epochs").compute({"x": x}, None, scen).value.tolist() == [5, 4]
+    assert Rmse("r", "-", of="x", skip_epochs=1).compute({"x": x}, None, scen).value == pytest.approx(
+        [np.sqrt(17.0), np.sqrt(10.0)])
+    # A derived settle time (a function of the scenario), as vector-tracking's steady state.
+    late = Mean("m", "-", of="x", settle=lambda s: 2 * s.params.settle_s).compute({"x": x}, t, scen)
+    assert late.value.tolist() == [5.0, 4.0]
+    with pytest.raises(ValueError, match="no epoch selected"):
+        Mean("m", "-", of="x", settle=3.0).compute({"x": x}, t, scen)
+
+
+def test_lock_loss_fraction_against_hand_blocks():
+    # T = 0.1 s, epochs at 0.05 ... 0.55 s; settle 0.1 s leaves epochs 1-5; blocks of 0.2 s =
+    # 2 epochs: (1, 2) and (3, 4), epoch 5 is a partial block and left out, as is epoch 0.
+    h = np.pi / 2  # cos(2 h) = -1
+    err = np.array([[h, h], [0, 0], [0, 0], [h, np.pi / 4], [h, 0], [h, h]])
+    t = (np.arange(6) + 0.5) * 0.1
+    comp = LockLossFraction("lol", of="e", window="lock_window_s", threshold="lock_threshold", settle="settle_s")
+    out = comp.compute({"e": err}, t, _Scen(lock_window_s=0.2, lock_threshold=0.5, settle_s=0.1))
+    # run 0: block means 1 and -1 -> one of two out of lock; run 1: 1 and (0 + 1) / 2 = 0.5,
+    # not below the threshold -> none.
+    assert out.value.tolist() == [0.5, 0.0]
+    assert out.series[:, 0].tolist() == [1, 0, 0, 1, 1, 1] and out.series[:, 1].tolist() == [1, 0, 0, 1, 0, 1]
+    # Blocks of one epoch (0.1 s): of the 5 settled epochs, run 0 has 3 out of lock
+    # (cos(2 h) = -1) and run 1 two (cos(pi / 2) = 0 and -1).
+    one = comp.compute({"e": err}, t, _Scen(lock_window_s=0.1, lock_threshold=0.5, settle_s=0.1))
+    assert one.value.tolist() == [0.6, 0.4]
+
+
+def _slip_runs():
+    """Three hand-built runs of 60 epochs, errors +-1 (reference sigma exactly 1) except:
+    run 0: a slip at 40 leaving 10, 10, 5 -> running RMS over 5 epochs 6.7, 5.06, 2.41, 1:
+    recovered (2 sigma) after 3 epochs (after 2 with a 4-sigma band);
+    run 1: a slip at 40 leaving 10 to the end -> censored;
+    run 2: slips at 35 and 40 -> 40 is not isolated (5 <= 10 epochs), 35 recovers at once."""
+    err = np.where(np.arange(60) % 2, 1.0, -1.0)[:, None].repeat(3, axis=1)
+    err[40:43, 0] = [10.0, 10.0, 5.0]
+    err[40:, 1] = 10.0
+    slips = np.zeros((60, 3), bool)
+    slips[40, 0] = slips[40, 1] = slips[35, 2] = slips[40, 2] = True
+    return err, slips
+
+
+def test_slip_recovery_components_against_hand_values_through_the_scenarios_declaration():
+    err, slips = _slip_runs()
+    scen = _Scen(recovery_isolation_epochs=10, settle_epochs=5)
+    comps = {m.name: m for m in carrier_smoothing.METRICS}
+    series = {"range_error_m": err, "slip": slips}
+    rec = comps["slip_recovery_epochs"].compute(series, None, scen)
+    np.testing.assert_array_equal(rec.value, [3.0, np.nan, 0.0])
+    np.testing.assert_array_equal(rec.series, slips.astype(float))
+    assert comps["censored_slips"].compute(series, None, scen).value.tolist() == [0.0, 1.0, 0.0]
+    wide = SlipRecovery("r", of="range_error_m", slips="slip", band=4.0, isolation=10, start=5)
+    assert wide.compute(series, None, scen).value[0] == 2.0
+    # The reference window must start at or after settle_epochs: with 11 the slip at 40
+    # (reference from 10) is not measured, nor 35.
+    late = comps["slip_recovery_epochs"].compute(series, None, _Scen(recovery_isolation_epochs=10, settle_epochs=11))
+    np.testing.assert_array_equal(late.value, [np.nan, np.nan, np.nan])
+
+
+def test_false_resets_component_against_hand_values():
+    # run 0: a detection before any slip (false), then a slip caught two epochs late (true);
+    # run 1: a slip caught at once, then a second detection with no new slip (false).
+    detected = np.array([[1, 0], [0, 1], [0, 1], [1, 0]], bool)
+    slips = np.array([[0, 0], [1, 1], [0, 0], [0, 0]], bool)
+    comp = next(m for m in carrier_smoothing.METRICS if m.name == "false_reset_rate")
+    out = comp.compute({"slip_detected": detected, "slip": slips}, None, None)
+    assert out.value.tolist() == [1.0, 1.0]
+    assert out.series.tolist() == [[1, 0], [0, 0], [0, 1], [1, 0]]
+
+
+def test_an_optional_component_is_left_out_without_its_series_and_a_required_one_is_not():
+    comps = [Rmse("a", "m", of="x"), Rmse("b", "m", of="y", optional=True)]
+    res = evaluate(comps, {"x": np.ones((3, 2))}, None, None)
+    assert set(res.metrics) == {"a"}
+    with pytest.raises(KeyError):
+        evaluate([Rmse("b", "m", of="y")], {"x": np.ones((3, 2))}, None, None)
+
+
+@pytest.mark.parametrize("module", [multipath, carrier_smoothing, scintillation, vector_tracking])
+def test_each_scenario_derives_its_metric_table_from_its_components(module):
+    cls = next(c for c in vars(module).values() if isinstance(c, type) and getattr(c, "METRICS", None) is None
+               and hasattr(c, "run_batch") and c.__module__ == module.__name__)
+    assert cls.metrics == {m.name: m.unit for m in module.METRICS}
+    # Every series a component reads is a declared output: a third-party metric may read it too.
+    assert {r for m in module.METRICS for r in m.requires} <= set(cls.outputs)
+
+
+def test_carrier_smoothing_reports_the_hand_reductions():
+    scen = get_scenario({"kind": "carrier-smoothing", "epochs": 300, "settle_epochs": 20, "slip_probability": 0.02,
+                         "recovery_isolation_epochs": 40})
+    truth, code, _, slips = scen.simulate(3, np.random.default_rng(5))
+    res = scen.run_batch({}, {}, 3, np.random.default_rng(5))  # raw: the pseudorange itself
+    err = code - truth
+    np.testing.assert_allclose(res.metrics["error_rmse"], np.sqrt(np.mean(err[20:] ** 2, axis=0)), rtol=1e-12)
+    assert res.metrics["false_reset_rate"].tolist() == [0.0, 0.0, 0.0]  # raw never detects
+    np.testing.assert_array_equal(res.series["range_error_m"], err)
+    np.testing.assert_array_equal(res.series["slip"], slips)
+    rec, cens = slip_recovery(err, slips, isolation=40, start=20)  # the scenario's parameters reach it
+    np.testing.assert_array_equal(res.metrics["slip_recovery_epochs"], rec)
+    np.testing.assert_array_equal(res.metrics["censored_slips"], cens)
+    assert slips.sum() > 3  # the draw has slips to measure
+
+
+def test_scintillation_reports_the_hand_reductions():
+    scen = get_scenario({"kind": "scintillation", "duration_s": 1.0, "settle_s": 0.3, "lock_window_s": 0.1})
+    ch = scen.build({"channel_filter": {"name": "scalar", "params": {"coherent_time_s": 0.01,
+                                                                     "pll_bandwidth_hz": 10.0}}})
+    res = scen.run_batch({"s4": 0.6, "cn0_dbhz": 30.0}, ch, 2, np.random.default_rng(3))
+    err, disc, t = res.series["phase_error_rad"], res.series["phase_disc_rad"], res.time_s
+    assert np.all(np.abs(err) <= np.pi / 2) and t[0] == pytest.approx(0.005)
+    s = t >= 0.3  # 70 epochs: 7 blocks of 10
+    hand_lol = [np.mean([np.mean(np.cos(2 * err[s][10 * b:10 * b + 10, r])) < 0.5 for b in range(7)]) for r in range(2)]
+    hand = {"phase_error_rmse": np.sqrt(np.mean(err[s] ** 2, axis=0)), "discriminator_std": np.std(disc[s], axis=0),
+            "loss_of_lock_fraction": hand_lol, "equivalent_bandwidth_hz": res.series["loop_noise_bandwidth_hz"][0]}
+    assert set(res.metrics) == set(hand)
+    for name, value in hand.items():
+        np.testing.assert_allclose(res.metrics[name], value, rtol=1e-12, err_msg=name)
+    assert np.all(res.series["loop_noise_bandwidth_hz"] == res.series["loop_noise_bandwidth_hz"][0, 0])

@@ -191,17 +191,19 @@ def test_ekf_pv_converts_channel_errors_to_range_units():
 
 
 def test_vector_metrics_on_hand_built_series():
-    from gnssframework.experiments.scenarios.vector_tracking import vector_metrics
+    from gnssframework.experiments.metric_components import evaluate
+    from gnssframework.experiments.scenarios.vector_tracking import METRICS
 
     t = np.array([0.5, 1.5, 2.5, 3.5])  # settle 1 s: the last three epochs; steady 3 s: the last one
     one = np.ones((4, 2))
     pos = np.array([[100.0, 100.0], [3.0, 0.0], [4.0, 0.0], [0.0, 6.0]])
     nees = np.array([[1e6, 1e6], [1.0, 2.0], [2.0, 4.0], [3.0, 6.0]])
-    series = {"code_phase_error_rmse": 0.01 * one, "carrier_freq_error_rmse": 2.0 * one,
-              "position_error_rmse": pos, "velocity_error_rmse": pos / 10, "nees": nees, "nees_position": nees / 2,
-              "nees_velocity": nees / 4, "code_output_rmse": 0.03 * one, "freq_output_rmse": 5.0 * one,
-              "pcrb_position": one}
-    m = vector_metrics(series, t, settle_s=1.0, steady_state_s=3.0)
+    series = {"code_error_chips": 0.01 * one, "freq_error_hz": 2.0 * one,
+              "position_error_m": pos, "velocity_error_m_s": pos / 10, "nav_nees": nees, "nav_nees_position": nees / 2,
+              "nav_nees_velocity": nees / 4, "code_output_error_chips": 0.03 * one, "freq_output_error_hz": 5.0 * one,
+              "pcrb_position_m": one}
+    scen = get_scenario({"kind": "vector-tracking", "duration_s": 4.0, "settle_s": 1.0, "steady_state_s": 3.0})
+    m = evaluate(METRICS, series, t, scen).metrics
     # RMS over epochs 2-4: sqrt((9 + 16 + 0) / 3) and sqrt(36 / 3); NEES: plain means.
     np.testing.assert_allclose(m["position_error_rmse"], [np.sqrt(25 / 3), np.sqrt(12.0)])
     np.testing.assert_allclose(m["velocity_error_rmse"], [np.sqrt(25 / 3) / 10, np.sqrt(12.0) / 10])

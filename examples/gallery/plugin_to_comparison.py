@@ -6,9 +6,10 @@ The path of the tutorial (docs/tutorial/from-plugin-to-comparison.md) in one scr
    ``P- = alpha^2 F P F^T + Q``, which weighs recent measurements more);
 2. test it with ``gnssframework.testing`` (alpha = 1 is the Kalman filter exactly);
 3. register it (a package does this with an entry point, see examples/plugin-template);
-4. run a comparison on the ``multipath`` scenario: every candidate sees the same
-   measurements (common random numbers), so the per-run difference to the reference
-   candidate carries the comparison;
+4. add a ``metric`` plugin (the 95th percentile of the late horizontal error) and run a
+   comparison on the ``multipath`` scenario naming it beside the built-in metrics: every
+   candidate sees the same measurements (common random numbers), so the per-run
+   difference to the reference candidate carries the comparison;
 5. read the paired differences with their standard errors from ``summary.json`` and
    state the result the way it is published: difference ± SE, n, significant or not.
 
@@ -26,6 +27,7 @@ from pydantic import Field
 import gnssframework as gf
 from gnssframework import testing
 from gnssframework.experiments import load_config, run_comparison
+from gnssframework.experiments.metrics import Metric, MetricValue
 from gnssframework.plugin import PluginParams
 
 KF = gf.registry.get("estimator", "kf")
@@ -71,7 +73,23 @@ except gf.ConfigError as exc:
 else:
     raise AssertionError("iq-filter took a linear-only estimator")
 
-# -- 4. the comparison ------------------------------------------------------------------------
+# -- 4. a metric of your own, and the comparison -----------------------------------------------
+class LateErrorP95(Metric):
+    """95th percentile of the horizontal error over the second half of the run."""
+
+    name = "late_horizontal_error_p95"
+    unit = "m"
+    description = "95th percentile of the horizontal error, second half of the run"
+    requires = ("horizontal_error_m",)  # a series the multipath scenario declares in `outputs`
+
+    def compute(self, series, time_s, scenario):
+        h = series["horizontal_error_m"]  # (K, runs)
+        return MetricValue(np.percentile(h[h.shape[0] // 2:], 95, axis=0))
+
+
+gf.registry.register_module(types.SimpleNamespace(
+    register_metric=gf.hookimpl(lambda register: register(LateErrorP95))), name="p95-example")
+
 CONFIG = """
 name = "fading-vs-kf"
 description = "Fading-memory KF against the KF on a static receiver with AR(1) multipath"
@@ -79,7 +97,7 @@ runs = 40
 batch_size = 20
 seed = 11
 reference = "kf"
-metrics = ["horizontal_error_rmse", "convergence_epoch"]
+metrics = ["horizontal_error_rmse", "convergence_epoch", "late_horizontal_error_p95"]
 [executor]
 workers = 1            # a plugin registered in this script lives in this process only
 [scenario]
@@ -112,6 +130,16 @@ with tempfile.TemporaryDirectory() as tmp:
     out = pathlib.Path(tmp) / "out"
     summary = json.loads(run_comparison(load_config(path), out, progress=False).read_text())
     report = (out / "report.md").read_text()
+    # The new metric was computed once per batch from the stored series: check it by hand.
+    p95 = {(r["case"], r["candidate"]): r for r in summary["rows"] if r["metric"] == "late_horizontal_error_p95"}
+    for (case, cand), row in p95.items():
+        h = np.concatenate([np.load(f)["horizontal_error_m"] for f in sorted((out / "raw" / case / cand).glob("*.npz"))],
+                           axis=1)
+        # 150 late values; the linear-interpolation percentile sits at rank 0.95 * 149 = 141.55
+        assert h.shape == (300, 40), h.shape
+        hand = [np.sort(h[150:, r])[[141, 142]] @ [0.45, 0.55] for r in range(40)]
+        assert row["unit"] == "m" and row["runs"] == 40 and np.isclose(row["mean"], np.mean(hand), rtol=1e-12), row
+    assert len(p95) == 6 and "| late_horizontal_error_p95 | m |" in report
 
 # -- 5. the paired differences, as published ----------------------------------------------------
 paired = {(p["case"], p["candidate"], p["metric"]): p for p in summary["paired"]}
@@ -133,3 +161,8 @@ for case in ("white", "colored"):
 white = paired[("white", "fading-1.05", "horizontal_error_rmse")]
 assert white["diff"] > 0 and white["significant"]
 assert "fading-1.05" in report and "Paired differences" in report
+for case in ("white", "colored"):
+    d = paired[(case, "fading-1.05", "late_horizontal_error_p95")]
+    print(f"{case}: late 95th percentile, fading-1.05 - kf: {d['diff']:+.4f} ± {d['se']:.4f} m (n = {d['n']}, "
+          f"{'significant' if d['significant'] else 'not significant'})")
+    assert paired[(case, "fading-1.00", "late_horizontal_error_p95")]["diff"] == 0.0

@@ -25,13 +25,14 @@ while the run has not yet converged.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from .metrics import Metric, MetricValue, rmse, settled
 
-__all__ = ["SeriesMetric", "Rmse", "MeanAbs", "ConvergenceEpoch", "convergence_epoch", "evaluate", "units"]
+__all__ = ["SeriesMetric", "Rmse", "MeanAbs", "ConvergenceEpoch", "convergence_epoch", "evaluate", "units",
+           "Mean", "Std", "LockLossFraction", "SlipRecovery", "FalseResets", "slip_recovery", "false_resets"]
 
 
 def _magnitude(x: np.ndarray) -> np.ndarray:
@@ -41,7 +42,10 @@ def _magnitude(x: np.ndarray) -> np.ndarray:
 
 
 def _scenario_value(value: Any, scenario: Any, what: str) -> Any:
-    """``value``, or the scenario parameter it names (a string)."""
+    """``value``, the scenario parameter it names (a string), or what it returns for the
+    scenario (a callable, for a value derived from several parameters)."""
+    if callable(value):
+        return value(scenario)
     if not isinstance(value, str):
         return value
     try:
@@ -64,18 +68,27 @@ class SeriesMetric(Metric):
         The name of the series it reads, ``(K, runs)`` or ``(K, runs, d)``.
     settle
         Optional: epochs before this time (seconds; or the name of the scenario parameter
-        holding it, e.g. ``"settle_s"``) are left out of the value.
+        holding it, e.g. ``"settle_s"``; or a function of the scenario) are left out of the
+        value.
+    skip_epochs
+        Optional: this many leading epochs (or the scenario parameter holding the number)
+        are left out of the value; for scenarios that count settling in epochs.
+    optional
+        If true, `evaluate` leaves the metric out of a batch whose series lack ``of``
+        (a metric the scenario computes only in some configurations).
     description
         One line for the docs.
     """
 
-    def __init__(self, name: str, unit: str, of: str, *, settle: float | str | None = None,
-                 description: str = "") -> None:
+    def __init__(self, name: str, unit: str, of: str, *, settle: float | str | Callable[[Any], float] | None = None,
+                 skip_epochs: int | str | None = None, optional: bool = False, description: str = "") -> None:
         super().__init__()
         self.name = name
         self.unit = unit
         self.of = of
         self.settle = settle
+        self.skip_epochs = skip_epochs
+        self.optional = optional
         self.description = description
         self.requires = (of,)
 
@@ -83,9 +96,13 @@ class SeriesMetric(Metric):
         return f"{type(self).__name__}({self.name!r}, {self.unit!r}, of={self.of!r})"
 
     def _mask(self, k: int, time_s: np.ndarray | None, scenario: Any) -> np.ndarray | None:
-        if self.settle is None:
-            return None
-        return settled(time_s, float(_scenario_value(self.settle, scenario, self.name)), k)
+        mask = None
+        if self.settle is not None:
+            mask = settled(time_s, float(_scenario_value(self.settle, scenario, self.name)), k)
+        if self.skip_epochs is not None:
+            late = np.arange(k) >= int(_scenario_value(self.skip_epochs, scenario, self.name))
+            mask = late if mask is None else mask & late
+        return mask
 
 
 class Rmse(SeriesMetric):
@@ -167,6 +184,199 @@ class ConvergenceEpoch(SeriesMetric):
         return MetricValue(conv, unconverged)
 
 
+# --- Reductions of the tracking and smoothing scenarios (carrier-smoothing, scintillation,
+# vector-tracking): each metric declared once in its scenario's METRICS.
+
+
+def _selected(x: np.ndarray, mask: np.ndarray | None, what: str) -> np.ndarray:
+    if mask is not None:
+        x = x[mask]
+    if x.shape[0] == 0:
+        raise ValueError(f"{what}: no epoch selected (settle time at or beyond the end of the run?)")
+    return x
+
+
+class Mean(SeriesMetric):
+    """Mean over time of the series itself (signed), e.g. a per-epoch NEES whose mean a
+    consistent filter keeps at the state dimension (Bar-Shalom, Li and Kirubarajan 2001,
+    sec. 5.4), or a per-run constant. Its series is the series itself.
+
+    Examples
+    --------
+    >>> Mean("nees", "-", of="e").compute({"e": np.array([[1.0], [2.0], [6.0]])}, None, None).value.tolist()
+    [3.0]
+    """
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        x = np.asarray(series[self.of], dtype=float)
+        return MetricValue(np.mean(_selected(x, self._mask(x.shape[0], time_s, scenario), self.name), axis=0), x)
+
+
+class Std(SeriesMetric):
+    """Standard deviation over time (about the run's own mean, ``1/n``) of the series,
+    e.g. a discriminator's output noise. Its series is ``|x_k|``.
+
+    Examples
+    --------
+    >>> Std("d_std", "rad", of="d").compute({"d": np.array([[1.0], [3.0]])}, None, None).value.tolist()
+    [1.0]
+    """
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        x = np.asarray(series[self.of], dtype=float)
+        return MetricValue(np.std(_selected(x, self._mask(x.shape[0], time_s, scenario), self.name), axis=0),
+                           np.abs(x))
+
+
+class LockLossFraction(SeriesMetric):
+    """Fraction of blocks out of phase lock, from the phase error ``of`` (rad).
+
+    The settled epochs are cut into blocks of ``window`` seconds (whole blocks only, at
+    least one epoch each; the epoch interval is read from ``time_s``); a block is out of
+    lock when its mean ``cos(2 e_k)``, the phase lock indicator of a Costas loop (Van
+    Dierendonck 1996), is below ``threshold``. Its series is the same test epoch by epoch
+    (1 out of lock).
+
+    Parameters
+    ----------
+    window, threshold
+        Seconds per block and the lock threshold, or the scenario parameters holding them.
+    """
+
+    def __init__(self, name: str, of: str, *, window: float | str, threshold: float | str,
+                 settle: float | str | None = None, description: str = "") -> None:
+        super().__init__(name, "-", of, settle=settle, description=description)
+        self.window = window
+        self.threshold = threshold
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        err = np.asarray(series[self.of], dtype=float)
+        threshold = float(_scenario_value(self.threshold, scenario, self.name))
+        if time_s is None or len(time_s) < 2:
+            raise ValueError(f"{self.name}: needs the epochs' times (two or more) for the block length")
+        interval_s = (time_s[-1] - time_s[0]) / (len(time_s) - 1)
+        block = max(1, int(round(float(_scenario_value(self.window, scenario, self.name)) / interval_s)))
+        e = _selected(err, self._mask(err.shape[0], time_s, scenario), self.name)
+        n_blocks = e.shape[0] // block
+        pli = np.cos(2 * e[: n_blocks * block]).reshape((n_blocks, block) + e.shape[1:]).mean(axis=1)
+        return MetricValue(np.mean(pli < threshold, axis=0), (np.cos(2 * err) < threshold).astype(float))
+
+
+def slip_recovery(err: np.ndarray, slips: np.ndarray, before: int = 30, window: int = 5, band: float = 2.0,
+                  isolation: int = 400, start: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Recovery after isolated cycle slips, per run: (mean epochs to recover, censored slips).
+
+    A slip at epoch s is *measured* if its ``before`` epochs of reference start at or
+    after ``start`` and no earlier slip lies within ``isolation`` epochs before s (so the
+    reference level is not the tail of an earlier slip). Its reference sigma is the RMS
+    error over ``[s - before, s)``; it has recovered at the first j where the RMS over
+    ``[s+j, s+j+window)`` is at most ``band`` sigma. A measured slip that has not
+    recovered before the next slip or the end of the run is *censored*: it is left out
+    of the mean (counting the epochs until the next slip would bias the mean low) and
+    counted in the second output. The mean is NaN for a run without an uncensored
+    measured slip.
+
+    For a Hatch filter of window tau, a slip of N cycles leaves an error
+    N lambda a^(j+1), a = 1 - 1/tau, on top of the smoothing noise sigma; with the 2-sigma
+    band it recovers after about tau ln(N lambda / (sqrt(3) sigma)) epochs (the noise
+    takes sigma^2 of the 4 sigma^2 budget), which the tests check.
+
+    ``err`` and ``slips`` (boolean, True at a slip epoch) are ``(K, runs)``.
+    """
+    K, runs = err.shape
+    mean = np.full(runs, np.nan)
+    censored = np.zeros(runs)
+    for r in range(runs):  # slips are rare events: a loop over runs and slips, not over epochs
+        at = np.flatnonzero(slips[:, r])
+        rec = []
+        for i, s in enumerate(at):
+            prev_slip = at[i - 1] if i else -10**9
+            if s - before < start or s - prev_slip <= isolation:
+                continue
+            sigma = np.sqrt(np.mean(err[s - before:s, r] ** 2))
+            end = at[i + 1] if i + 1 < at.size else K
+            sq = err[s:end, r] ** 2
+            run_rms = np.sqrt(np.convolve(sq, np.ones(window) / window, mode="valid")) if sq.size >= window else sq[:0]
+            ok = np.flatnonzero(run_rms <= band * sigma)
+            if ok.size:
+                rec.append(ok[0])
+            else:
+                censored[r] += 1
+        if rec:
+            mean[r] = float(np.mean(rec))
+    return mean, censored
+
+
+def false_resets(detected: np.ndarray, slips: np.ndarray) -> np.ndarray:
+    """False resets per run, ``(runs,)``, from ``(K, runs)`` booleans (detections, true slips).
+
+    A detection is true if a slip happened since the previous detection (or the start),
+    which counts a slip caught a few epochs late (a slip below the threshold whose
+    decaying error later crosses it) as caught, not as a false alarm.
+    """
+    slips = np.asarray(slips, dtype=bool)
+    detected = np.asarray(detected, dtype=bool)
+    pending = np.zeros(slips.shape[1], bool)
+    false = np.zeros(slips.shape[1])
+    for k in range(slips.shape[0]):  # a scan over epochs, vectorised over runs
+        pending |= slips[k]
+        false += detected[k] & ~pending
+        pending &= ~detected[k]
+    return false
+
+
+class SlipRecovery(SeriesMetric):
+    """Recovery after isolated cycle slips (`slip_recovery`) of the error ``of``, given the
+    slip epochs ``slips`` (a boolean series): ``output="mean"`` is the mean epochs to
+    recover (NaN for a run without a measured, uncensored slip), ``"censored"`` the number
+    of censored slips. Its series is the slip indicator.
+
+    Parameters
+    ----------
+    isolation, start
+        As for `slip_recovery`, in epochs, or the scenario parameters holding them.
+    band
+        Recovered within ``band`` times the reference sigma.
+    """
+
+    def __init__(self, name: str, of: str, *, slips: str, output: str = "mean", isolation: int | str = 400,
+                 start: int | str = 0, band: float = 2.0, description: str = "") -> None:
+        if output not in ("mean", "censored"):
+            raise ValueError(f"output must be 'mean' or 'censored', not {output!r}")
+        super().__init__(name, "epochs" if output == "mean" else "slips/run", of, description=description)
+        self.slips, self.output, self.isolation, self.start, self.band = slips, output, isolation, start, band
+        self.requires = (of, slips)
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        slips = np.asarray(series[self.slips], dtype=bool)
+        mean, censored = slip_recovery(np.asarray(series[self.of], dtype=float), slips, band=self.band,
+                                       isolation=int(_scenario_value(self.isolation, scenario, self.name)),
+                                       start=int(_scenario_value(self.start, scenario, self.name)))
+        return MetricValue(mean if self.output == "mean" else censored, slips.astype(float))
+
+
+class FalseResets(SeriesMetric):
+    """False resets per run (`false_resets`) from the detections ``of`` and the true slips
+    ``slips`` (boolean series). Its series is 1 at a detection without a slip at that epoch.
+
+    Examples
+    --------
+    >>> d = np.array([[True], [False], [True]]); s = np.array([[False], [True], [False]])
+    >>> FalseResets("fr", of="d", slips="s").compute({"d": d, "s": s}, None, None).value.tolist()
+    [1.0]
+    """
+
+    def __init__(self, name: str, of: str, *, slips: str, description: str = "") -> None:
+        super().__init__(name, "resets/run", of, description=description)
+        self.slips = slips
+        self.requires = (of, slips)
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        detected = np.asarray(series[self.of], dtype=bool)
+        slips = np.asarray(series[self.slips], dtype=bool)
+        return MetricValue(false_resets(detected, slips), (detected & ~slips).astype(float))
+
+
 def units(components: Sequence[Metric]) -> dict[str, str]:
     """The ``Scenario.metrics`` table (name -> unit) of a list of components.
 
@@ -200,6 +410,8 @@ def evaluate(components: Sequence[Metric], series: dict[str, np.ndarray], time_s
     metrics: dict[str, np.ndarray] = {}
     out_series = dict(series)
     for c in components:
+        if getattr(c, "optional", False) and any(r not in series for r in c.requires):
+            continue  # a metric this configuration of the scenario does not compute
         value = c.compute(series, time_s, scenario)
         v = np.asarray(value.value, dtype=float)
         runs = np.shape(series[c.requires[0]])[1] if c.requires else v.shape[0]
@@ -211,3 +423,46 @@ def evaluate(components: Sequence[Metric], series: dict[str, np.ndarray], time_s
                 raise ValueError(f"metric {c.name!r}: a raw series has the same name")
             out_series[c.name] = value.series
     return BatchResult(metrics, out_series, time_s)
+
+
+# --- Components added for the deep-integration scenario (issue 12) ---------------------------
+
+__all__ += ["PostSettleMax", "TimeMean"]
+
+
+class PostSettleMax(SeriesMetric):
+    """Largest absolute value over time of the series (its norm per epoch for a vector
+    error), from ``settle`` on: the ``_max`` metrics of reference 002's bounds.
+
+    A run whose series holds NaN after settling (no estimate of that quantity) gets NaN.
+
+    Examples
+    --------
+    >>> PostSettleMax("e_max", "m", of="e").compute({"e": np.array([[3.0, -1.0], [-4.0, 0.5]])}, None,
+    ...                                             None).value.tolist()
+    [4.0, 1.0]
+    """
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        mag = _magnitude(series[self.of])
+        mask = self._mask(mag.shape[0], time_s, scenario)
+        return MetricValue(np.max(mag if mask is None else mag[mask], axis=0), mag)
+
+
+class TimeMean(SeriesMetric):
+    """Mean over time of the series itself (signed, not its magnitude), from ``settle`` on:
+    a per-epoch fraction (loss of lock) or a per-epoch NEES, whose time mean is the metric
+    (`gnssframework.experiments.metrics.nees_mean` without a covariance).
+
+    Examples
+    --------
+    >>> TimeMean("lol", "-", of="f").compute({"f": np.array([[0.0, 1.0], [0.5, 1.0]])}, None, None).value.tolist()
+    [0.25, 1.0]
+    """
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        x = np.asarray(series[self.of], dtype=float)
+        if x.ndim != 2:
+            raise ValueError(f"metric {self.name!r}: series {self.of!r} must be (K, runs), got {x.shape}")
+        mask = self._mask(x.shape[0], time_s, scenario)
+        return MetricValue(np.mean(x if mask is None else x[mask], axis=0), x)

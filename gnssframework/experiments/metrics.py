@@ -12,10 +12,10 @@ scenario's own; a config names it in ``metrics`` like any other::
         name = "code_phase_error_peak"
         unit = "chips"
         description = "largest code error after the settle time"
-        requires = ("code_phase_error_rmse",)      # series of the scenario it reads
+        requires = ("code_error_chips",)          # series of the scenario it reads
 
         def compute(self, series, time_s, scenario):
-            err = series["code_phase_error_rmse"]  # (K, runs)
+            err = series["code_error_chips"]       # (K, runs)
             return MetricValue(max_after_settle(err, time_s, scenario.params.settle_s))
 
     @hookimpl

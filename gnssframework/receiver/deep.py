@@ -28,6 +28,22 @@ Each coherent interval k:
    interval's new information only) goes to the navigator's ``update`` and the
    accumulator is reset (Groves 2013, section 16.3.3).
 
+Optionally (``carrier_filter``) a carrier-phase prefilter per channel, on a phase
+discriminator, closes only the carrier loop (reference 002's carrier-phase filter): its carrier
+replica is the aided one plus the filter's own phase and frequency corrections, and
+nothing of it goes to the navigator. Its correlators are the same draw rotated by the
+corrections' mid-interval phase (a replica offset by a phase $\\varphi_c$ and a frequency
+$f_c$ multiplies the prompt's mean by $e^{-j(\\varphi_c + \\pi f_c T)}$; circular noise
+keeps its law; the sinc loss of $f_c$, $1 - (\\pi f_c T)^2/6$, is below $10^{-4}$ for
+$f_c$ under 10 Hz and is left out). An integration update moves the aided replica's
+frequency by the navigator's correction projected on the line of sight; the carrier loop
+had already absorbed that error, so the harness moves its correction the other way at the
+next re-aiding (the carrier replica stays continuous; without it the loop took each
+correction as a frequency step: a 0.5 m/s correction is a 2.6 Hz step, about 1 rad of
+transient in a 6 Hz loop, and slipped cycles after the first update). Its tracking error,
+the true carrier phase minus that replica's at mid-interval, is recorded as
+``extra["phase_error_rad"]``.
+
 Residual sign: true minus the navigator's prediction, so a
 navigator position error $\\delta r$ shows as $\\delta\\rho_i = e_i\\cdot\\delta r - \\delta b$.
 """
@@ -125,6 +141,7 @@ def run_aided_tracking(
     accel_aiding: bool = True,
     early_late_spacing_chips: float = 1.0,
     pull_in_updates: int = 0,
+    carrier_filter: ChannelFilter | None = None,
 ) -> DeepRecord:
     """Run the aided tracking loop over all epochs of ``truth`` (data bits wiped off).
 
@@ -144,11 +161,20 @@ def run_aided_tracking(
         handed to the navigator: the prefilters pull in from their acquisition prior then,
         and that first output is overconfident (the closed loop's position NEES went from
         3.6 to 7.8 for 3 states with it; ``tests/test_deep_ins.py``).
+    carrier_filter
+        Optional carrier-phase prefilter (a ``channel_filter`` on ``correlators`` that
+        provides ``carrier_freq_hz`` and may provide ``carrier_phase_step_rad``, e.g.
+        ``kf-carrier-loop``): it closes only the carrier loop on top of the aided
+        replica; its outputs are frequency and phase corrections to that replica.
     """
     missing = [n for n in CHANNEL_OUTPUTS if n not in channel.provides]
     if missing:
         raise ConfigError("channel_filter", f"{channel.name!r} cannot feed deep integration: it does not provide "
                           f"{', '.join(missing)}")
+    if carrier_filter is not None and ("correlators" not in carrier_filter.requires
+                                       or "carrier_freq_hz" not in carrier_filter.provides):
+        raise ConfigError("carrier_filter", f"{carrier_filter.name!r} cannot close a carrier loop: it must take "
+                          "correlators and provide carrier_freq_hz (e.g. kf-carrier-loop)")
     T = truth.coherent_time_s
     n_nco = _steps(nco_interval_s, T, "nco_interval_s")
     n_upd = _steps(update_interval_s, T, "update_interval_s")
@@ -164,7 +190,15 @@ def run_aided_tracking(
     channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
                                     epoch_interval_s=T, cn0_dbhz=cn0))
 
-    rec: dict[str, list] = {k: [] for k in ("code", "freq", "tu", "res", "cov")}
+    if carrier_filter is not None:
+        # Its NCO starts on the aided replica: frequency correction 0 (doppler_hz), phase correction 0.
+        carrier_filter.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
+                                               epoch_interval_s=T, cn0_dbhz=cn0, doppler_hz=0.0))
+        corr_phase_rad = np.zeros(batch)
+        corr_freq_hz = np.zeros(batch)  # the loop's own NCO frequency
+        transfer_hz = np.zeros(batch)  # navigator corrections taken back out of the aided replica
+    rate_before_update = None
+    rec: dict[str, list] = {k: [] for k in ("code", "freq", "tu", "res", "cov", "phase")}
     carrier_rep = np.zeros(batch)
     rep_end = None
     rate_prev = None
@@ -181,6 +215,10 @@ def run_aided_tracking(
             s, sv, sa = sat_at(k)
             rho, rate, acc, los = line_of_sight_kinematics(p, v, a, s, sv, sa, b, d)
             sched_range, sched_rate = nco_schedule(rho, rate, acc, T, n_nco, accel_aiding=accel_aiding)
+            if carrier_filter is not None and rate_before_update is not None:
+                # The update's correction of the predicted rate (f = -rate / lambda), undone on the carrier side.
+                transfer_hz -= -(rate - rate_before_update) / L1_WAVELENGTH_M
+                rate_before_update = None
             t_aid = t0
             slope_new = acc if accel_aiding else np.zeros_like(rate)
         nco_range, nco_rate = sched_range[j], sched_rate[j]
@@ -208,6 +246,14 @@ def run_aided_tracking(
                                     "data_bit": 1.0})
         rec["code"].append(code_err)
         rec["freq"].append(freq_err)
+        if carrier_filter is not None:
+            f_c = corr_freq_hz + transfer_hz
+            rot_rad = corr_phase_rad + np.pi * f_c * T  # corrections at mid-interval
+            rec["phase"].append(np.angle(np.exp(1j * (ph0 + np.pi * freq_err * T - rot_rad))))
+            c_out = carrier_filter.checked_step({"correlators": _rotated(corr, rot_rad)})
+            corr_phase_rad = (corr_phase_rad + 2 * np.pi * f_c * T
+                              + np.asarray(c_out.get("carrier_phase_step_rad", 0.0), float))
+            corr_freq_hz = np.broadcast_to(np.asarray(c_out["carrier_freq_hz"], float), batch)
 
         # Weighted least squares of [dr(t_u), dr_dot(t_u), dr_ddot] from this interval's new
         # information: range residual quadratic in time, rate residual linear. The rate
@@ -235,17 +281,26 @@ def run_aided_tracking(
             rec["cov"].append(cov)
             s_u, sv_u, sa_u = sat_at(k + 1)
             p, v, a, b, d = navigator.kinematics(t1)
-            _, _, _, los_u = line_of_sight_kinematics(p, v, a, s_u, sv_u, sa_u, b, d)
+            _, rate_u, _, los_u = line_of_sight_kinematics(p, v, a, s_u, sv_u, sa_u, b, d)
             if len(rec["tu"]) > pull_in_updates:
                 navigator.update(t1, res, cov, los_u, cn0)
+                rate_before_update = rate_u
             normal[:] = 0.0
             rhs[:] = 0.0
         rate_prev = nco_rate
         slope_prev = slope_new
         carrier_rep = carrier_rep_end
         true_rho = next_rho
+    extra = {"phase_error_rad": np.stack(rec["phase"])} if carrier_filter is not None else {}
     return DeepRecord(np.stack(rec["code"]), np.stack(rec["freq"]), (np.arange(K) + 0.5) * T,
-                      np.asarray(rec["tu"]), np.stack(rec["res"]), np.stack(rec["cov"]))
+                      np.asarray(rec["tu"]), np.stack(rec["res"]), np.stack(rec["cov"]), extra)
+
+
+def _rotated(corr, phase_rad: np.ndarray):
+    """The correlators of a replica advanced in phase by ``phase_rad`` (every tap rotated by its negative)."""
+    rot = np.exp(-1j * phase_rad)
+    return type(corr)(corr.early * rot, corr.prompt * rot, corr.late * rot,
+                      {k: v * rot for k, v in corr.extra.items()})
 
 
 class _EdgeStates:

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .. import registry
-from ..estimation import Gaussian, LinearModel
+from ..estimation import FilterStep, Gaussian, LinearModel
 from .deep_measurements import clock_measurement, integration_measurement, linear_update, reference_channel
 
 __all__ = ["PvaNavigator", "ClockFilter"]
@@ -94,7 +94,9 @@ class PvaNavigator:
         ``(bias, drift)`` white-noise PSDs of the two-state clock (m^2/s, m^2/s^3).
     estimator
         ``None`` for the Joseph-form Kalman update, or an ``estimator`` plugin (name or
-        instance: ``ekf``, ``ukf``, ``ckf`` ...) for the navigation update; on this linear
+        instance: ``ekf``, ``ukf``, ``ckf`` ...) for the navigation update, run through the
+        library's one filter step (`gnssframework.estimation.FilterStep`: boundary checks,
+        failures naming the navigator, the run and the update); on this linear
         measurement every one of them must give the Kalman update.
     """
 
@@ -107,6 +109,12 @@ class PvaNavigator:
         self.x = np.concatenate([position_m, velocity_m_s, acceleration_m_s2], axis=-1).astype(float)
         runs = self.x.shape[0]
         self.P = np.broadcast_to(np.asarray(cov, float), (runs, 9, 9)).copy()
+        self.filter_step = None
+        if estimator is not None:
+            # The closed-loop error state restarts at zero after every correction; FilterStep checks
+            # the initial covariance here and names this navigator in any numerical failure.
+            self.filter_step = FilterStep(estimator, name=f"pva-navigator ({estimator.name})")
+            self.filter_step.start(Gaussian(np.zeros((runs, 9)), self.P))
         self.clock = ClockFilter(clock_m, clock_cov, clock_psd)
         self.t = 0.0
         self.jerk_psd = jerk_psd_m2_s5
@@ -139,8 +147,8 @@ class PvaNavigator:
             dx, self.P = linear_update(np.zeros((runs, 9)), self.P, z, H, R, name="pva-navigator", step=self.steps)
         else:
             model = LinearModel(F=np.eye(9), H=H, Q=np.zeros((9, 9)), R=R)
-            upd = self.estimator.update(Gaussian(np.zeros((runs, 9)), self.P), z, model)
-            dx, self.P = upd.state.mean, upd.state.cov
+            post = self.filter_step.update(Gaussian(np.zeros((runs, 9)), self.P), z, model).posterior
+            dx, self.P = post.mean, post.cov
         self.x = self.x - dx
         self.clock.correct(residual_m, residual_cov, los, dx[:, 0:3], dx[:, 3:6])
         self.steps += 1

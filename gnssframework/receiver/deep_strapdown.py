@@ -60,9 +60,14 @@ def _body_to_ned(q_b_e: np.ndarray, position_ecef_m: np.ndarray) -> np.ndarray:
     return np.swapaxes(ned_to_ecef_matrix(lat, lon), -1, -2) @ quat_to_dcm(q_b_e)
 
 
-def make_flight(profile: str, lat_deg: float, lon_deg: float, height_m: float, duration_s: float) -> Flight:
-    """Reference 002's pull-up (`inertial.trajectory.paper_profile`, moved to the given start) or straight flight."""
-    from ..inertial.trajectory import TrajectoryModel, constant_velocity_profile, paper_profile
+def make_flight(profile: str, lat_deg: float, lon_deg: float, height_m: float, duration_s: float, *,
+                pulse: dict | None = None) -> Flight:
+    """Reference 002's pull-up (`inertial.trajectory.paper_profile`, moved to the given start), straight
+    flight, or a ``jerk-pulse``: straight flight at (50, 50, 50) m/s ENU with one smooth acceleration
+    pulse ``pulse`` = {accel_g, jerk_g_s, start_s, hold_s, direction_enu}, whose rise takes
+    ``1.875 * accel / jerk`` so that its peak jerk is ``jerk_g_s`` (`inertial.trajectory`)."""
+    from ..inertial.earth import STANDARD_GRAVITY_MPS2
+    from ..inertial.trajectory import AccelerationPulse, TrajectoryModel, constant_velocity_profile, paper_profile
 
     if profile == "pull-up":
         # The whole 50 s flight is defined; a shorter duration_s simulates its first part.
@@ -72,8 +77,19 @@ def make_flight(profile: str, lat_deg: float, lon_deg: float, height_m: float, d
                                        "duration_s": max(duration_s, base.duration_s)})
     elif profile == "straight":
         prof = constant_velocity_profile(lat_deg, lon_deg, height_m, (50.0, 50.0, 50.0), duration_s)
+    elif profile == "jerk-pulse":
+        q = pulse or {}
+        u = np.asarray(q.get("direction_enu", (0.0, 0.0, 1.0)), float)
+        u = u / np.linalg.norm(u)
+        accel = q.get("accel_g", 20.0) * STANDARD_GRAVITY_MPS2
+        rise = 1.875 * q.get("accel_g", 20.0) / q.get("jerk_g_s", 50.0)
+        p = AccelerationPulse(start_s=q.get("start_s", 2.0), rise_s=rise, hold_s=q.get("hold_s", 1.0),
+                              accel_enu_mps2=tuple(accel * u))
+        # As for the pull-up, the whole flight is defined; a shorter duration_s simulates its first part.
+        prof = constant_velocity_profile(lat_deg, lon_deg, height_m, (50.0, 50.0, 50.0), max(duration_s, p.end_s))
+        prof = prof.model_copy(update={"pulses": (p,)})
     else:
-        raise ConfigError("scenario.profile", f"got {profile!r}; allowed: pull-up, straight")
+        raise ConfigError("scenario.profile", f"got {profile!r}; allowed: pull-up, straight, jerk-pulse")
     return Flight(TrajectoryModel(prof))
 
 
@@ -189,7 +205,8 @@ def _nav_record(flight: Flight, t_s: float, ins: StrapdownIns, cov: np.ndarray) 
                          -1)
     nees = np.einsum("ri,rij,rj->r", err, np.linalg.inv(cov[:, 3:9, 3:9]), err)
     return {"position_m": s.position_ecef_m.copy(), "velocity_m_s": s.velocity_ecef_mps.copy(),
-            "body_to_ned": _body_to_ned(s.q_b_e, s.position_ecef_m), "nees": nees}
+            "body_to_ned": _body_to_ned(s.q_b_e, s.position_ecef_m), "nees": nees,
+            "attitude_cov_ecef": cov[:, 0:3, 0:3].copy()}
 
 
 def _stack(records: list[dict[str, np.ndarray]], times: list[float], extra: dict[str, np.ndarray]) -> dict:
@@ -216,10 +233,13 @@ def run_deep(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth
         times.append(t_s)
 
     nav = InsNavigator(ins, ekf, clock, on_update=record, pull_in_updates=p.pull_in_updates)
+    spec = ekf.params.carrier_filter
     rec = run_aided_tracking(plugins["channel_filter"], nav, truth, rng, nco_interval_s=p.nco_interval_s,
                              update_interval_s=p.update_interval_s, accel_aiding=ekf.params.accel_aiding,
-                             early_late_spacing_chips=p.early_late_spacing_chips)
-    return _stack(records, times, {"code_error_chips": rec.code_error_chips, "freq_error_hz": rec.freq_error_hz})
+                             early_late_spacing_chips=p.early_late_spacing_chips,
+                             carrier_filter=None if spec is None else spec.create())
+    return _stack(records, times, {"code_error_chips": rec.code_error_chips, "freq_error_hz": rec.freq_error_hz,
+                                   **rec.extra})
 
 
 def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int,

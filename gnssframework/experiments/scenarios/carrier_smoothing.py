@@ -21,9 +21,10 @@ from ...interfaces import RunContext
 from ...signal.constants import L1_WAVELENGTH_M
 from ...simulation.constellation import nominal_constellation
 from ...simulation.impairments import ar1_noise, cycle_slips
+from ..metric_components import FalseResets, Rmse, SlipRecovery, evaluate, false_resets, slip_recovery, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["CarrierSmoothingScenario", "slip_recovery", "slip_recovery_epochs", "false_resets"]
+__all__ = ["CarrierSmoothingScenario", "METRICS", "slip_recovery", "slip_recovery_epochs", "false_resets"]
 
 
 class CarrierSmoothingParams(ScenarioParams):
@@ -58,70 +59,25 @@ class CarrierSmoothingCase(ScenarioParams):
                                            "case (default: the scenario's)")
 
 
-def slip_recovery(err: np.ndarray, slips: np.ndarray, before: int = 30, window: int = 5, band: float = 2.0,
-                  isolation: int = 400, start: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Recovery after isolated cycle slips, per run: (mean epochs to recover, censored slips).
-
-    A slip at epoch s is *measured* if its ``before`` epochs of reference start at or
-    after ``start`` and no earlier slip lies within ``isolation`` epochs before s (so the
-    reference level is not the tail of an earlier slip). Its reference sigma is the RMS
-    error over ``[s - before, s)``; it has recovered at the first j where the RMS over
-    ``[s+j, s+j+window)`` is at most ``band`` sigma. A measured slip that has not
-    recovered before the next slip or the end of the run is *censored*: it is left out
-    of the mean (counting the epochs until the next slip would bias the mean low) and
-    counted in the second output. The mean is NaN for a run without an uncensored
-    measured slip.
-
-    For a Hatch filter of window tau, a slip of N cycles leaves an error
-    N lambda a^(j+1), a = 1 - 1/tau, on top of the smoothing noise sigma; with the 2-sigma
-    band it recovers after about tau ln(N lambda / (sqrt(3) sigma)) epochs (the noise
-    takes sigma^2 of the 4 sigma^2 budget), which the tests check.
-
-    ``err`` and ``slips`` (boolean, True at a slip epoch) are ``(K, runs)``.
-    """
-    K, runs = err.shape
-    mean = np.full(runs, np.nan)
-    censored = np.zeros(runs)
-    for r in range(runs):  # slips are rare events: a loop over runs and slips, not over epochs
-        at = np.flatnonzero(slips[:, r])
-        rec = []
-        for i, s in enumerate(at):
-            prev_slip = at[i - 1] if i else -10**9
-            if s - before < start or s - prev_slip <= isolation:
-                continue
-            sigma = np.sqrt(np.mean(err[s - before:s, r] ** 2))
-            end = at[i + 1] if i + 1 < at.size else K
-            sq = err[s:end, r] ** 2
-            run_rms = np.sqrt(np.convolve(sq, np.ones(window) / window, mode="valid")) if sq.size >= window else sq[:0]
-            ok = np.flatnonzero(run_rms <= band * sigma)
-            if ok.size:
-                rec.append(ok[0])
-            else:
-                censored[r] += 1
-        if rec:
-            mean[r] = float(np.mean(rec))
-    return mean, censored
-
-
 def slip_recovery_epochs(err: np.ndarray, slips: np.ndarray, **kwargs) -> np.ndarray:
     """Mean epochs, per run, to recover from isolated, uncensored slips (see ``slip_recovery``)."""
     return slip_recovery(err, slips, **kwargs)[0]
 
 
-def false_resets(detected: np.ndarray, slips: np.ndarray) -> np.ndarray:
-    """False resets per run, ``(runs,)``, from ``(K, runs)`` booleans (detections, true slips).
-
-    A detection is true if a slip happened since the previous detection (or the start),
-    which counts a slip caught a few epochs late (a slip below the threshold whose
-    decaying error later crosses it) as caught, not as a false alarm.
-    """
-    pending = np.zeros(slips.shape[1], bool)
-    false = np.zeros(slips.shape[1])
-    for k in range(slips.shape[0]):  # a scan over epochs, vectorised over runs
-        pending |= slips[k]
-        false += detected[k] & ~pending
-        pending &= ~detected[k]
-    return false
+#: The scenario's metrics, each declared once as a component (name, unit, the series it
+#: reduces); ``run_batch`` computes them all once with `evaluate`.
+METRICS = (
+    Rmse("error_rmse", "m", of="range_error_m", skip_epochs="settle_epochs",
+         description="RMS range error of the (smoothed) pseudorange after settle_epochs"),
+    SlipRecovery("slip_recovery_epochs", of="range_error_m", slips="slip", output="mean",
+                 isolation="recovery_isolation_epochs", start="settle_epochs",
+                 description="mean epochs to recover (2 sigma) from isolated, uncensored slips"),
+    SlipRecovery("censored_slips", of="range_error_m", slips="slip", output="censored",
+                 isolation="recovery_isolation_epochs", start="settle_epochs",
+                 description="isolated slips not recovered before the next slip or the end"),
+    FalseResets("false_reset_rate", of="slip_detected", slips="slip",
+                description="slip detections with no slip since the previous detection"),
+)
 
 
 @register_scenario
@@ -132,8 +88,10 @@ class CarrierSmoothingScenario(Scenario):
     Params = CarrierSmoothingParams
     CaseParams = CarrierSmoothingCase
     components = {"channel_filter": False}
-    metrics = {"error_rmse": "m", "slip_recovery_epochs": "epochs", "censored_slips": "slips/run",
-               "false_reset_rate": "resets/run"}
+    metrics = units(METRICS)
+    #: The raw per-epoch series the metrics reduce (metric components of other packages
+    #: may read them too): signed range error, true slip epochs, slip detections.
+    outputs = {"range_error_m": "m", "slip": "-", "slip_detected": "-"}
     #: Why a metric can be undefined (NaN) in a run; summary.json and report.md say it.
     undefined_reasons = {"slip_recovery_epochs": "no isolated slips"}
 
@@ -175,11 +133,5 @@ class CarrierSmoothingScenario(Scenario):
             outs = [ch.checked_step({"pseudorange_m": code[k], "carrier_m": carrier[k]}) for k in range(p.epochs)]
             smoothed = np.stack([o["smoothed_m"] for o in outs])
             detected = np.stack([np.broadcast_to(o.get("slip_detected", False), (runs,)) for o in outs])
-        err = smoothed - truth
-        s = slice(p.settle_epochs, None)
-        recovery, censored = slip_recovery(err, slips, isolation=p.recovery_isolation_epochs, start=p.settle_epochs)
-        metrics = {"error_rmse": np.sqrt(np.mean(err[s] ** 2, axis=0)), "slip_recovery_epochs": recovery,
-                   "censored_slips": censored, "false_reset_rate": false_resets(detected, slips)}
-        series = {"error_rmse": np.abs(err), "slip_recovery_epochs": slips.astype(float),
-                  "censored_slips": slips.astype(float), "false_reset_rate": (detected & ~slips).astype(float)}
-        return BatchResult(metrics, series, np.arange(p.epochs) * p.dt_s)
+        return evaluate(METRICS, {"range_error_m": smoothed - truth, "slip": slips, "slip_detected": detected},
+                        np.arange(p.epochs) * p.dt_s, self)

@@ -1,13 +1,16 @@
 """Scenario ``deep-integration``: coherent deep GNSS/INS integration (reference 002, Cai and Guo 2017).
 
 GPS L1 C/A channels of the nominal constellation seen from an aircraft flying reference
-002's pull-up (`gnssframework.inertial`), a receiver clock from h-parameters, and
-four kinds of candidate, told apart by what they compose:
+002's pull-up (`gnssframework.inertial`; or straight flight, or straight flight with one
+smooth acceleration pulse of given peak jerk, ``profile = "jerk-pulse"``), a receiver
+clock from h-parameters, and four kinds of candidate, told apart by what they compose:
 
 * ``deep`` / ``deep-no-accel``: a prefilter ``channel_filter`` that hands over each
   interval's new information (``iq-filter`` with ``output = "equivalent"``) and the
   ``ins-ekf`` nav_filter; the corrected INS aids the NCOs (`receiver.deep`), with or
-  without the line-of-sight acceleration (``ins-ekf``'s ``accel_aiding``).
+  without the line-of-sight acceleration (``ins-ekf``'s ``accel_aiding``), and with or
+  without a carrier-phase prefilter closing only the carrier loop (``ins-ekf``'s
+  ``carrier_filter``).
 * ``vector``: a vector-loop channel filter and a GNSS-only nav filter that closes the
   loop (``iq-filter`` + ``ekf-pv``; `receiver.vector.run_vector_loop`), no INS.
 * ``loose``: a scalar loop per channel (a ``channel_filter`` that closes its own loop,
@@ -15,7 +18,9 @@ four kinds of candidate, told apart by what they compose:
   (`receiver.deep_loose`).
 
 Every series is on the integration filter's grid (10 Hz); errors are in local axes at the
-true position (ENU via pymap3d), attitude as roll/pitch/yaw.
+true position (ENU via pymap3d), attitude as roll/pitch/yaw. Each metric is declared once
+as a component (`METRICS`, from `gnssframework.experiments.metric_components`) over one of
+these series, computed once by `evaluate`.
 """
 
 from __future__ import annotations
@@ -35,7 +40,7 @@ from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_ve
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
-from ..metrics import nees_mean, rmse, settled
+from ..metric_components import PostSettleMax, Rmse, TimeMean, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["DeepIntegrationScenario"]
@@ -44,12 +49,41 @@ ERRORS = ("horizontal_position_error", "height_error", "horizontal_velocity_erro
           "attitude_error")
 UNITS = {"horizontal_position_error": "m", "height_error": "m", "horizontal_velocity_error": "m/s",
          "vertical_velocity_error": "m/s", "attitude_error": "deg"}
+_WHAT = {"horizontal_position_error": "horizontal position error (ENU at the true position)",
+         "height_error": "height error", "horizontal_velocity_error": "horizontal velocity error",
+         "vertical_velocity_error": "vertical velocity error",
+         "attitude_error": "attitude error, the largest of |roll|, |pitch|, |yaw| errors"}
+
+#: The scenario's metrics, each declared once as a component (name, unit, the per-update series
+#: it reduces, from settle_s on); ``run_batch`` computes them all once with `evaluate`.
+METRICS = (
+    *(Rmse(f"{e}_rmse", UNITS[e], of=e, settle="settle_s", description=f"RMS {_WHAT[e]} after settle_s")
+      for e in ERRORS),
+    *(PostSettleMax(f"{e}_max", UNITS[e], of=e, settle="settle_s", description=f"largest {_WHAT[e]} after settle_s")
+      for e in ERRORS),
+    Rmse("code_tracking_error_rmse", "chips", of="code_tracking_error", settle="settle_s",
+         description="replica code error, RMS over channels and coherent intervals"),
+    Rmse("freq_tracking_error_rmse", "Hz", of="freq_tracking_error", settle="settle_s",
+         description="replica frequency error, RMS over channels and coherent intervals"),
+    Rmse("phase_tracking_error_rmse", "rad", of="phase_tracking_error", settle="settle_s",
+         description="carrier phase error modulo pi (Costas), RMS over channels and coherent intervals"),
+    TimeMean("loss_of_lock_fraction", "-", of="loss_of_lock", settle="settle_s",
+             description="fraction of channel-epochs out of lock (code > 0.5 chip or frequency > 1/(2T))"),
+    TimeMean("nees", "-", of="nees_pv", settle="settle_s",
+             description="NEES of the 6 position and velocity states, mean over updates"),
+    TimeMean("phase_lock_loss_fraction", "-", of="phase_unlocked", settle="settle_s",
+             description="fraction of channel-epochs whose carrier phase error modulo pi exceeds pi/4 (45 deg, "
+             "the Costas tracking threshold of Kaplan and Hegarty 2017)"),
+    TimeMean("cycle_slip_rate", "1/s", of="cycle_slips", settle="settle_s",
+             description="half-cycle slips of the carrier phase error per channel and second"),
+)
 
 
 class DeepIntegrationParams(ScenarioParams):
     duration_s: float = Field(50.0, gt=0, le=600, description="flight length (reference 002: 50 s)")
-    profile: Literal["pull-up", "straight"] = Field(
-        "pull-up", description="reference 002's flight (level 10 s, then a pull-up) or straight and level")
+    profile: Literal["pull-up", "straight", "jerk-pulse"] = Field(
+        "pull-up", description="reference 002's flight (level 10 s, then a pull-up), straight flight, or straight "
+        "flight with one smooth acceleration pulse (pulse_* parameters)")
     coherent_time_s: float = Field(0.001, gt=0, le=0.02, description="T of correlators and prefilters")
     imu_interval_s: float = Field(0.005, gt=0, description="IMU increment interval (200 Hz in reference 002)")
     nco_interval_s: float = Field(0.005, gt=0, description="interval at which the NCOs are re-aided (deep)")
@@ -75,11 +109,40 @@ class DeepIntegrationParams(ScenarioParams):
                           "see gnssframework.inertial.imu for the reading of its white-noise units)")
     settle_s: float = Field(5.0, ge=0, description="metrics (and their _max) count from here on")
     rate_window_s: float = Field(0.02, gt=0, description="loose: window of the scalar loops' carrier-phase rate")
+    pulse_accel_g: float = Field(20.0, gt=0, le=100, description="jerk-pulse profile: peak acceleration (g)")
+    pulse_jerk_g_s: float = Field(50.0, gt=0, le=1000, description="jerk-pulse profile: peak jerk (g/s); the "
+                                  "smooth rise lasts 1.875 pulse_accel_g / pulse_jerk_g_s")
+    pulse_start_s: float = Field(2.0, ge=0, description="jerk-pulse profile: start of the pulse")
+    pulse_hold_s: float = Field(1.0, ge=0, description="jerk-pulse profile: time at peak acceleration")
+    pulse_direction_enu: tuple[float, float, float] = Field((0.0, 0.0, 1.0), description="jerk-pulse profile: "
+                                                            "direction of the acceleration (ENU at the start)")
 
 
 class DeepIntegrationCase(ScenarioParams):
     name: str | None = None
     cn0_dbhz: float = Field(..., ge=15, le=60)
+
+
+def phase_lock_series(phase_error_rad: np.ndarray, n_upd: int, update_interval_s: float) -> dict[str, np.ndarray]:
+    """Per-update carrier-phase series from the phase errors ``(U * n_upd, runs, ch)`` of a Costas loop.
+
+    A Costas loop locks at either of two phases half a cycle apart, so the error counts
+    modulo pi: ``phase_tracking_error`` is its RMS over channels and the coherent intervals
+    of each update interval; ``phase_unlocked`` the fraction of those channel-epochs beyond
+    pi/4 (45 deg: the rule-of-thumb Costas tracking threshold, Kaplan and Hegarty 2017,
+    section 8.6); ``cycle_slips`` the half-cycle slips per channel and second, from the
+    error unwrapped modulo pi (a slip: its nearest multiple of pi changes).
+    """
+    K, runs = phase_error_rad.shape[:2]
+    U = K // n_upd
+    doubled = np.unwrap(2.0 * phase_error_rad, axis=0)
+    wrapped = np.angle(np.exp(1j * doubled)) / 2
+    cycles = np.rint(doubled / (2 * np.pi))
+    slips = np.abs(np.diff(cycles, axis=0, prepend=cycles[:1]))
+    by_update = (U, n_upd, runs, -1)
+    return {"phase_tracking_error": np.sqrt(np.mean(wrapped.reshape(by_update) ** 2, axis=(1, 3))),
+            "phase_unlocked": np.mean(np.abs(wrapped.reshape(by_update)) > np.pi / 4, axis=(1, 3)),
+            "cycle_slips": np.sum(slips.reshape(by_update), axis=1).mean(axis=-1) / update_interval_s}
 
 
 def _kind(plugins: dict[str, Any]) -> str:
@@ -106,21 +169,21 @@ class DeepIntegrationScenario(Scenario):
     Params = DeepIntegrationParams
     CaseParams = DeepIntegrationCase
     components = {"channel_filter": True, "nav_filter": True}
-    metrics = {
-        **{f"{e}_rmse": UNITS[e] for e in ERRORS},
-        **{f"{e}_max": UNITS[e] for e in ERRORS},
-        "code_tracking_error_rmse": "chips",
-        "freq_tracking_error_rmse": "Hz",
-        "phase_tracking_error_rmse": "rad",
-        "loss_of_lock_fraction": "-",
-        "nees": "-",
-    }
+    metrics = units(METRICS)
+    #: The raw per-update series (RMS over channels and the coherent intervals of each update
+    #: interval for the tracking errors) that the metrics reduce.
+    outputs = {**UNITS, "code_tracking_error": "chips", "freq_tracking_error": "Hz", "phase_tracking_error": "rad",
+               "loss_of_lock": "-", "nees_pv": "-", "phase_unlocked": "-", "cycle_slips": "1/s"}
 
     #: Why a metric can be undefined in a run (summary.json and report.md say it).
-    undefined_reasons = {"attitude_error_rmse": "no attitude estimate (vector tracking has no INS)",
+    undefined_reasons = {"phase_lock_loss_fraction": "carrier phase not tracked (deep tracks it only with "
+                         "ins-ekf's carrier_filter set; vector has no carrier loop)",
+                         "cycle_slip_rate": "carrier phase not tracked (deep tracks it only with ins-ekf's "
+                         "carrier_filter set; vector has no carrier loop)",
+                         "attitude_error_rmse": "no attitude estimate (vector tracking has no INS)",
                          "attitude_error_max": "no attitude estimate (vector tracking has no INS)",
-                         "phase_tracking_error_rmse": "carrier phase not tracked (only the scalar loops of loose "
-                         "have a PLL; the carrier-phase prefilter is not built)"}
+                         "phase_tracking_error_rmse": "carrier phase not tracked (deep tracks it only with ins-ekf's "
+                         "carrier_filter set; vector has no carrier loop)"}
 
     def __init__(self, params: DeepIntegrationParams) -> None:
         super().__init__(params)
@@ -156,7 +219,9 @@ class DeepIntegrationScenario(Scenario):
         from ...receiver.deep_strapdown import make_flight
 
         p = self.params
-        return make_flight(p.profile, p.lat_deg, p.lon_deg, p.height_m, p.duration_s)
+        pulse = {"accel_g": p.pulse_accel_g, "jerk_g_s": p.pulse_jerk_g_s, "start_s": p.pulse_start_s,
+                 "hold_s": p.pulse_hold_s, "direction_enu": p.pulse_direction_enu}
+        return make_flight(p.profile, p.lat_deg, p.lon_deg, p.height_m, p.duration_s, pulse=pulse)
 
     def _truth(self, flight, cn0_dbhz: float, runs: int, rng: np.random.Generator):
         p = self.params
@@ -232,26 +297,12 @@ class DeepIntegrationScenario(Scenario):
         lol = loss_of_lock(code, freq, p.coherent_time_s)[: U * n_upd].reshape(U, n_upd, runs, -1)
         series["loss_of_lock"] = lol.mean(axis=(1, 3))
         if "phase_error_rad" in out:
-            # A Costas loop locks at either of two phases half a cycle apart: the error modulo pi.
-            ph = np.angle(np.exp(2j * out["phase_error_rad"][: U * n_upd])).reshape(U, n_upd, runs, -1) / 2
-            series["phase_tracking_error"] = np.sqrt(np.mean(ph**2, axis=(1, 3)))
-        series["nees"] = out["nees"]
-        s = settled(t_u, p.settle_s, U)
-        metrics = {}
-        for e in ERRORS:
-            metrics[f"{e}_rmse"] = rmse(series[e], s)
-            metrics[f"{e}_max"] = np.max(series[e][s], axis=0)
-        metrics["code_tracking_error_rmse"] = rmse(series["code_tracking_error"], s)
-        metrics["freq_tracking_error_rmse"] = rmse(series["freq_tracking_error"], s)
-        metrics["phase_tracking_error_rmse"] = (rmse(series["phase_tracking_error"], s)
-                                                if "phase_tracking_error" in series else np.full(runs, np.nan))
-        metrics["loss_of_lock_fraction"] = np.mean(series["loss_of_lock"][s], axis=0)
-        metrics["nees"] = nees_mean(series["nees"], mask=s)
-        named = {f"{e}_rmse": series[e] for e in ERRORS}
-        named.update({"code_tracking_error_rmse": series["code_tracking_error"],
-                      "freq_tracking_error_rmse": series["freq_tracking_error"],
-                      "loss_of_lock_fraction": series["loss_of_lock"], "nees": series["nees"]})
-        return BatchResult(metrics, named, t_u)
+            series.update(phase_lock_series(out["phase_error_rad"][: U * n_upd], n_upd, p.update_interval_s))
+        else:  # undefined: no carrier loop
+            for name in ("phase_tracking_error", "phase_unlocked", "cycle_slips"):
+                series[name] = np.full((U, runs), np.nan)
+        series["nees_pv"] = out["nees"]
+        return evaluate(METRICS, series, t_u, self)
 
     def _run_vector(self, plugins, truth: DeepTruth, runs: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
         """Vector tracking without INS (``run_vector_loop``), decimated to the integration grid."""

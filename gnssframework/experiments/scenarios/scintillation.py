@@ -21,9 +21,10 @@ from ...errors import ConfigError
 from ...receiver.loop_bandwidth import equivalent_bandwidth_hz
 from ...receiver.tracking import NCO_COMMANDS, SignalTruth, check_closed_loop, run_closed_loop
 from ...simulation import scintillation as scint
+from ..metric_components import LockLossFraction, Mean, Rmse, Std, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["ScintillationScenario"]
+__all__ = ["ScintillationScenario", "METRICS"]
 
 
 class ScintillationParams(ScenarioParams):
@@ -60,6 +61,22 @@ def _ref_free(value):
     return value
 
 
+#: The scenario's metrics, each declared once as a component (name, unit, the series it
+#: reduces); ``run_batch`` computes them all once with `evaluate`.
+METRICS = (
+    Rmse("phase_error_rmse", "rad", of="phase_error_rad", settle="settle_s",
+         description="RMS carrier phase error (wrapped to half a cycle) after settle_s"),
+    Std("discriminator_std", "rad", of="phase_disc_rad", settle="settle_s",
+        description="standard deviation of the phase discriminator's output after settle_s"),
+    LockLossFraction("loss_of_lock_fraction", of="phase_error_rad", window="lock_window_s",
+                     threshold="lock_threshold", settle="settle_s",
+                     description="fraction of lock_window_s blocks whose mean cos(2 phase error) is below "
+                     "lock_threshold"),
+    Mean("equivalent_bandwidth_hz", "Hz", of="loop_noise_bandwidth_hz",
+         description="the loop's steady-state noise bandwidth (gnssframework.receiver.loop_bandwidth)"),
+)
+
+
 @register_scenario
 class ScintillationScenario(Scenario):
     """Carrier tracking under amplitude and phase scintillation (Xia et al.)."""
@@ -68,8 +85,10 @@ class ScintillationScenario(Scenario):
     Params = ScintillationParams
     CaseParams = ScintillationCase
     components = {"channel_filter": True}
-    metrics = {"phase_error_rmse": "rad", "discriminator_std": "rad", "loss_of_lock_fraction": "-",
-               "equivalent_bandwidth_hz": "Hz"}
+    metrics = units(METRICS)
+    #: The raw per-epoch series the metrics reduce (metric components of other packages
+    #: may read them too).
+    outputs = {"phase_error_rad": "rad", "phase_disc_rad": "rad", "loop_noise_bandwidth_hz": "Hz"}
 
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins["channel_filter"]
@@ -114,19 +133,8 @@ class ScintillationScenario(Scenario):
                                           extra_phase_rad=phase - phase[0], amplitude_scale=np.abs(z[:K]))
         rec = run_closed_loop(channel, truth, rng, initial_doppler_hz=p.doppler_hz, record=("phase_disc_rad",))
         t = (np.arange(K) + 0.5) * T
-        s = t >= p.settle_s
         # Costas loops are blind to half cycles: wrap errors to (-pi/2, pi/2].
         err = (rec.phase_error_rad + np.pi / 2) % np.pi - np.pi / 2
-        block = max(1, int(round(p.lock_window_s / T)))
-        n_blocks = int(s.sum()) // block
-        pli = np.cos(2 * err[s][: n_blocks * block]).reshape(n_blocks, block, runs).mean(axis=1)
-        metrics = {
-            "phase_error_rmse": np.sqrt(np.mean(err[s] ** 2, axis=0)),
-            "discriminator_std": np.std(rec.outputs["phase_disc_rad"][s], axis=0),
-            "loss_of_lock_fraction": np.mean(pli < p.lock_threshold, axis=0),
-            "equivalent_bandwidth_hz": np.full(runs, equivalent_bandwidth_hz(channel, T)),
-        }
-        series = {"phase_error_rmse": np.abs(err), "discriminator_std": np.abs(rec.outputs["phase_disc_rad"]),
-                  "loss_of_lock_fraction": (np.cos(2 * err) < p.lock_threshold).astype(float),
-                  "equivalent_bandwidth_hz": np.full((K, runs), equivalent_bandwidth_hz(channel, T))}
-        return BatchResult(metrics, series, t)
+        return evaluate(METRICS, {"phase_error_rad": err, "phase_disc_rad": rec.outputs["phase_disc_rad"],
+                                  "loop_noise_bandwidth_hz": np.full((K, runs), equivalent_bandwidth_hz(channel, T))},
+                        t, self)

@@ -18,10 +18,10 @@ from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
-from ..metrics import nees_mean, rmse, settled
+from ..metric_components import Mean, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["VectorTrackingScenario", "vector_metrics"]
+__all__ = ["VectorTrackingScenario", "METRICS", "steady_state_start_s"]
 
 
 class VectorTrackingParams(ScenarioParams):
@@ -59,6 +59,42 @@ class VectorTrackingCase(ScenarioParams):
     cn0_dbhz: float = Field(..., ge=15, le=60)
 
 
+def steady_state_start_s(scenario: Any) -> float:
+    """Where ``position_steady_error_rmse`` starts counting (s): ``steady_state_s``, or a
+    third of the run (at least ``settle_s``)."""
+    p = scenario.params
+    return p.steady_state_s if p.steady_state_s is not None else max(p.settle_s, p.duration_s / 3)
+
+
+#: The scenario's metrics, each declared once as a component (name, unit, the series it
+#: reduces); ``run_batch`` computes them all once with `evaluate`. Errors become RMS over
+#: the epochs from ``settle_s`` on; NEES means over the same epochs (a consistent filter
+#: averages the dimension: 8, 3 and 3); the bounds their RMS over the same window.
+#: ``code_output_rmse`` and ``freq_output_rmse`` are the errors of what the channel
+#: filters hand the nav filter (the quantity Zou et al. 2018 plot as code and frequency error).
+METRICS = (
+    Rmse("code_phase_error_rmse", "chips", of="code_error_chips", settle="settle_s",
+         description="RMS code phase error of the channels' estimates"),
+    Rmse("carrier_freq_error_rmse", "Hz", of="freq_error_hz", settle="settle_s",
+         description="RMS carrier frequency error of the channels' estimates"),
+    Rmse("position_error_rmse", "m", of="position_error_m", settle="settle_s", description="RMS position error"),
+    Rmse("velocity_error_rmse", "m/s", of="velocity_error_m_s", settle="settle_s", description="RMS velocity error"),
+    Rmse("position_steady_error_rmse", "m", of="position_error_m", settle=steady_state_start_s,
+         description="RMS position error from steady_state_s on"),
+    Mean("nees", "-", of="nav_nees", settle="settle_s", description="mean NEES of the 8 nav states"),
+    Mean("nees_position", "-", of="nav_nees_position", settle="settle_s", description="mean NEES of the position"),
+    Mean("nees_velocity", "-", of="nav_nees_velocity", settle="settle_s", description="mean NEES of the velocity"),
+    Rmse("code_output_rmse", "chips", of="code_output_error_chips", settle="settle_s",
+         description="RMS error of the code measurement handed to the nav filter"),
+    Rmse("freq_output_rmse", "Hz", of="freq_output_error_hz", settle="settle_s",
+         description="RMS error of the frequency measurement handed to the nav filter"),
+    Rmse("pcrb_position", "m", of="pcrb_position_m", settle="settle_s", optional=True,
+         description="posterior Cramér-Rao bound of the position error (RMS over the same window)"),
+    Rmse("pcrb_velocity", "m/s", of="pcrb_velocity_m_s", settle="settle_s", optional=True,
+         description="posterior Cramér-Rao bound of the velocity error (RMS over the same window)"),
+)
+
+
 @register_scenario
 class VectorTrackingScenario(Scenario):
     """Vector tracking (Zou et al. 2018). Candidates compose a ``channel_filter`` and a ``nav_filter``."""
@@ -67,20 +103,14 @@ class VectorTrackingScenario(Scenario):
     Params = VectorTrackingParams
     CaseParams = VectorTrackingCase
     components = {"channel_filter": True, "nav_filter": True}
-    metrics = {
-        "code_phase_error_rmse": "chips",
-        "carrier_freq_error_rmse": "Hz",
-        "position_error_rmse": "m",
-        "velocity_error_rmse": "m/s",
-        "position_steady_error_rmse": "m",
-        "nees": "-",
-        "nees_position": "-",
-        "nees_velocity": "-",
-        "code_output_rmse": "chips",
-        "freq_output_rmse": "Hz",
-        "pcrb_position": "m",
-        "pcrb_velocity": "m/s",
-    }
+    metrics = units(METRICS)
+    #: The raw per-epoch series the metrics reduce (metric components of other packages
+    #: may read them too): code and frequency errors RMS over the channels, position and
+    #: velocity error norms, the per-epoch NEES, and the bound (if computed).
+    outputs = {"code_error_chips": "chips", "freq_error_hz": "Hz", "position_error_m": "m",
+               "velocity_error_m_s": "m/s", "nav_nees": "-", "nav_nees_position": "-", "nav_nees_velocity": "-",
+               "code_output_error_chips": "chips", "freq_output_error_hz": "Hz", "pcrb_position_m": "m",
+               "pcrb_velocity_m_s": "m/s"}
     #: Error metric -> the bound drawn beside it in the report's time-series plot.
     bounds = {"position_error_rmse": "pcrb_position", "velocity_error_rmse": "pcrb_velocity"}
 
@@ -151,22 +181,25 @@ class VectorTrackingScenario(Scenario):
         truth, x0, P0 = self.truth(float(case["cn0_dbhz"]), runs, rng)
         rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng,
                               early_late_spacing_chips=p.early_late_spacing_chips, data_bits=p.data_bits)
-        s = rec.time_s >= p.settle_s
-        code = np.sqrt(np.mean(rec.code_error_chips**2, axis=-1))  # (K, runs), RMS over channels
-        freq = np.sqrt(np.mean(rec.freq_error_hz**2, axis=-1))
-        pos = np.linalg.norm(rec.position_error_m, axis=-1)
-        vel = np.linalg.norm(rec.velocity_error_m_s, axis=-1)
-        code_out = np.sqrt(np.mean(rec.code_output_error_chips**2, axis=-1))
-        freq_out = np.sqrt(np.mean(rec.freq_output_error_hz**2, axis=-1))
-        series = {"code_phase_error_rmse": code, "carrier_freq_error_rmse": freq, "position_error_rmse": pos,
-                  "velocity_error_rmse": vel, "nees": rec.nees, "nees_position": rec.nees_position,
-                  "nees_velocity": rec.nees_velocity, "code_output_rmse": code_out, "freq_output_rmse": freq_out}
+        last_s = rec.time_s[-1]
+        if not (p.settle_s <= last_s and steady_state_start_s(self) <= last_s):
+            raise ConfigError("scenario.settle_s", f"settle_s = {p.settle_s} and steady_state_s = "
+                              f"{steady_state_start_s(self)} must be below the run's last epoch at {last_s:.3f} s")
+
+        def channel_rms(x: np.ndarray) -> np.ndarray:  # (K, runs, channels) -> (K, runs)
+            return np.sqrt(np.mean(x**2, axis=-1))
+
+        series = {"code_error_chips": channel_rms(rec.code_error_chips), "freq_error_hz": channel_rms(rec.freq_error_hz),
+                  "position_error_m": np.linalg.norm(rec.position_error_m, axis=-1),
+                  "velocity_error_m_s": np.linalg.norm(rec.velocity_error_m_s, axis=-1),
+                  "nav_nees": rec.nees, "nav_nees_position": rec.nees_position, "nav_nees_velocity": rec.nees_velocity,
+                  "code_output_error_chips": channel_rms(rec.code_output_error_chips),
+                  "freq_output_error_hz": channel_rms(rec.freq_output_error_hz)}
         if p.pcrb or (p.pcrb is None and not p.trajectory_file):
             _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0)
-            series["pcrb_position"] = np.repeat(bound_pos[:, None], runs, axis=1)
-            series["pcrb_velocity"] = np.repeat(bound_vel[:, None], runs, axis=1)
-        steady = p.steady_state_s if p.steady_state_s is not None else max(p.settle_s, p.duration_s / 3)
-        return BatchResult(vector_metrics(series, rec.time_s, p.settle_s, steady), series, rec.time_s)
+            series["pcrb_position_m"] = np.repeat(bound_pos[:, None], runs, axis=1)
+            series["pcrb_velocity_m_s"] = np.repeat(bound_vel[:, None], runs, axis=1)
+        return evaluate(METRICS, series, rec.time_s, self)
 
     def bound(self, cn0_dbhz: float, P0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The PCRB of this scenario at ``cn0_dbhz`` (`gnssframework.receiver.pcrb.vector_tracking_pcrb`):
@@ -182,30 +215,3 @@ class VectorTrackingScenario(Scenario):
         return vector_tracking_pcrb(lambda t: truth.sat_state(t)[0], r0[0], v[0], clock_q, P0,
                                     np.full(p.channels, cn0_dbhz), T, K, p.early_late_spacing_chips)
 
-
-def vector_metrics(series: dict[str, np.ndarray], time_s: np.ndarray, settle_s: float,
-                   steady_state_s: float) -> dict[str, np.ndarray]:
-    """Per-run metrics ``(runs,)`` from the per-epoch series ``(K, runs)`` of `run_batch`.
-
-    Error series (RMS over channels, or norms of 3-vectors) become RMS over the epochs
-    from ``settle_s`` on; NEES series become means over the same epochs (a consistent
-    filter averages the dimension: 8, 3 and 3). ``position_steady_error_rmse`` is the
-    position RMS from ``steady_state_s`` on. ``code_output_rmse`` and ``freq_output_rmse``
-    are the RMS errors of what the channel filters hand the nav filter (the quantity
-    reference 000 plots as code and frequency error).
-    """
-    s = settled(time_s, settle_s, len(time_s))
-    steady = settled(time_s, steady_state_s, len(time_s))
-    if not s.any() or not steady.any():
-        raise ConfigError("scenario.settle_s", f"settle_s = {settle_s} and steady_state_s = {steady_state_s} "
-                          f"must be below the run's last epoch at {time_s[-1]:.3f} s")
-    out = {name: rmse(series[name], s) for name in ("code_phase_error_rmse", "carrier_freq_error_rmse",
-                                                   "position_error_rmse", "velocity_error_rmse",
-                                                   "code_output_rmse", "freq_output_rmse")}
-    out["position_steady_error_rmse"] = rmse(series["position_error_rmse"], steady)
-    for name in ("nees", "nees_position", "nees_velocity"):
-        out[name] = nees_mean(series[name], mask=s)
-    for name in ("pcrb_position", "pcrb_velocity"):  # RMS bound over the same window as the errors
-        if name in series:
-            out[name] = rmse(series[name], s)
-    return out
