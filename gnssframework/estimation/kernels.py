@@ -926,6 +926,8 @@ def sigma_points(mean: np.ndarray, cov: np.ndarray, root_kind: int, scale: float
     X = np.empty((N, B, n))
     status = np.empty(B, dtype=np.int8)
     _pick(_sigma_points_kernels, B)(m, P, root_kind, float(scale), bool(center), X, status)
+    if len(batch) == 1:
+        return X, status
     return X.reshape((N,) + batch + (n,)), status.reshape(batch)
 
 
@@ -939,6 +941,8 @@ def predict_moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray, Q: np.ndarray
     mean = np.empty((B, p))
     cov = np.empty((B, p, p))
     _pick(_predict_moments_kernels, B)(_ro(Yf), _vec(wm), _vec(wc), _flat_shared(Q, batch), mean, cov)
+    if len(batch) == 1:
+        return mean, cov
     return mean.reshape(batch + (p,)), cov.reshape(batch + (p, p))
 
 
@@ -958,7 +962,14 @@ def measurement_moments(X: np.ndarray, Z: np.ndarray, prior_mean: np.ndarray, wm
         _ro(Xf), _ro(Zf), _flat(prior_mean, batch, 1), _vec(wm), _vec(wc),
         _flat_shared(R, batch), z_hat, S, C,
     )
+    if len(batch) == 1:
+        return z_hat, S, C
     return z_hat.reshape(batch + (m,)), S.reshape(batch + (m, m)), C.reshape(batch + (n, m))
+
+
+#: Zero (1, m, n) / (1, m, m) operands standing for H and R where the update does not
+#: read them (posterior ``P - K S K^T``), by size: allocated once, never written.
+_unused_operands: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
 
 
 def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H=None, R=None):
@@ -971,7 +982,8 @@ def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H
     if joseph:
         Hf, Rf = _flat_shared(H, batch), _flat_shared(R, batch)
     else:
-        Hf, Rf = _ro(np.zeros((1, m, n))), _ro(np.zeros((1, m, m)))
+        Hf, Rf = _unused_operands.get((m, n)) or _unused_operands.setdefault(
+            (m, n), (np.zeros((1, m, n)), np.zeros((1, m, m))))
     mean = np.empty((B, n))
     cov = np.empty((B, n, n))
     gain = np.empty((B, n, m))
@@ -982,6 +994,8 @@ def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H
         _flat(C, batch, 2), _flat_mask(bad_z, batch), bool(joseph),
         Hf, Rf, mean, cov, gain, innovation, ok,
     )
+    if len(batch) == 1:
+        return mean, cov, gain, innovation, ok
     return (
         mean.reshape(batch + (n,)),
         cov.reshape(batch + (n, n)),
