@@ -204,8 +204,8 @@ class SigmaPointEstimator(Estimator):
         return self._cached_rule(state.ndim_state)
 
     def _cached_rule(self, n: int):
-        """`kernel_rule` with read-only weights, computed once per state size and parameter
-        set (the kernels then take the weights as they are, every step)."""
+        """`kernel_rule` with its weights as kernel operands, computed once per state size
+        and parameter set (the kernels then take the weights as they are, every step)."""
         key = (n, id(getattr(self, "params", None)))
         cache = self.__dict__.setdefault("_rule_cache", {})
         hit = cache.get(key)

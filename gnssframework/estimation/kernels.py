@@ -853,7 +853,7 @@ def _pick(pair, batch: int):
 # -- array-level wrappers ---------------------------------------------------------------
 
 
-def _ro(a: np.ndarray) -> np.ndarray:
+def _operand(a: np.ndarray) -> np.ndarray:
     """A kernel *input* as a writable array (a copy only where it is read-only).
 
     numba compiles one specialisation per writeable flag; handing every input writable
@@ -869,26 +869,26 @@ def _vec(a) -> np.ndarray:
     """A small shared operand (weights, model parameters) as a contiguous float array."""
     if type(a) is np.ndarray and a.flags.writeable and a.dtype == np.float64 and a.flags.c_contiguous:
         return a
-    return _ro(np.ascontiguousarray(a, dtype=float))
+    return _operand(np.ascontiguousarray(a, dtype=float))
 
 
 def _flat(a: np.ndarray, batch: tuple[int, ...], tail: int) -> np.ndarray:
-    """``a`` broadcast to ``batch + tail dims`` as a read-only C-contiguous ``(B, ...)`` float array."""
+    """``a`` broadcast to ``batch + tail dims`` as a C-contiguous ``(B, ...)`` kernel operand."""
     if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.shape[:-tail] == batch:
         # The common case, a (B, ...) array straight from the previous step: no reshape.
-        return _ro(a if a.ndim == tail + 1 else a.reshape((-1,) + a.shape[a.ndim - tail:]))
+        return _operand(a if a.ndim == tail + 1 else a.reshape((-1,) + a.shape[a.ndim - tail:]))
     a = np.asarray(a, dtype=float)
     shape = batch + a.shape[a.ndim - tail:]
     if a.shape != shape:
         a = np.broadcast_to(a, shape)
-    return _ro(np.ascontiguousarray(a).reshape((-1,) + shape[len(batch):]))
+    return _operand(np.ascontiguousarray(a).reshape((-1,) + shape[len(batch):]))
 
 
 def _flat_mask(mask: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
-    """A boolean batch mask as a read-only contiguous ``(B,)`` array."""
+    """A boolean batch mask as a contiguous ``(B,)`` kernel operand."""
     if type(mask) is np.ndarray and mask.shape == batch and mask.flags.c_contiguous:
-        return _ro(mask.reshape(-1))
-    return _ro(np.ascontiguousarray(np.broadcast_to(mask, batch)).reshape(-1))
+        return _operand(mask.reshape(-1))
+    return _operand(np.ascontiguousarray(np.broadcast_to(mask, batch)).reshape(-1))
 
 
 #: ``(1, k, l)`` kernel views of shared matrix operands (a model's Q and R), by id; each
@@ -904,14 +904,14 @@ def _flat_shared(a: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
     if hit is not None and hit[0] is a:
         return hit[1]
     if type(a) is np.ndarray and a.ndim == 2 and a.dtype == np.float64 and a.flags.c_contiguous:
-        view = _ro(a[None])
+        view = _operand(a[None])
         if len(_shared_views) >= _SHARED_VIEWS_MAX:
             _shared_views.clear()
         _shared_views[id(a)] = (a, view)
         return view
     a = np.asarray(a, dtype=float)
     if a.ndim == 2:
-        return _ro(np.ascontiguousarray(a)[None])
+        return _operand(np.ascontiguousarray(a)[None])
     return _flat(a, batch, 2)
 
 
@@ -940,7 +940,7 @@ def predict_moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray, Q: np.ndarray
     B = Yf.shape[1]
     mean = np.empty((B, p))
     cov = np.empty((B, p, p))
-    _pick(_predict_moments_kernels, B)(_ro(Yf), _vec(wm), _vec(wc), _flat_shared(Q, batch), mean, cov)
+    _pick(_predict_moments_kernels, B)(_operand(Yf), _vec(wm), _vec(wc), _flat_shared(Q, batch), mean, cov)
     if len(batch) == 1:
         return mean, cov
     return mean.reshape(batch + (p,)), cov.reshape(batch + (p, p))
@@ -959,7 +959,7 @@ def measurement_moments(X: np.ndarray, Z: np.ndarray, prior_mean: np.ndarray, wm
     S = np.empty((B, m, m))
     C = np.empty((B, n, m))
     _pick(_measurement_moments_kernels, B)(
-        _ro(Xf), _ro(Zf), _flat(prior_mean, batch, 1), _vec(wm), _vec(wc),
+        _operand(Xf), _operand(Zf), _flat(prior_mean, batch, 1), _vec(wm), _vec(wc),
         _flat_shared(R, batch), z_hat, S, C,
     )
     if len(batch) == 1:
