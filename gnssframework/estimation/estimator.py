@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import InvalidMeasurementError, NotPositiveDefiniteError
 from ..plugin import Plugin
 from . import kernels
-from .linalg import cholesky_masked, failing_indices, mat_vec, symmetrize
+from .linalg import all_true, any_true, cholesky_masked, failing_indices, mat_vec, symmetrize
 from .types import Gaussian, Model, Update
 
 __all__ = ["Estimator", "SigmaPointEstimator", "OnFailure", "OnMissing"]
@@ -64,8 +64,9 @@ class Estimator(Plugin, abc.ABC):
         the state-measurement cross covariance."""
 
     # -- shared -------------------------------------------------------------------
-    def _fused_update(self, prior: Gaussian, z: np.ndarray, bad_z: np.ndarray, model: Model):
-        """A whole compiled update, or ``None`` (the engine has none for this model)."""
+    def _fused_rule(self, state: Gaussian, model: Model):
+        """The point rule of a whole compiled predict/update with the model's compiled
+        f/h, or ``None`` (this engine has none for this model)."""
         return None
 
     def posterior_cov(self, prior: Gaussian, gain: np.ndarray, S: np.ndarray, model: Model) -> np.ndarray:
@@ -106,16 +107,25 @@ class Estimator(Plugin, abc.ABC):
                 prior = Gaussian(np.broadcast_to(prior.mean, batch + prior.mean.shape[-1:]), prior.cov)
             z = np.broadcast_to(z, batch + z.shape[-1:])
 
-        bad_z = ~np.isfinite(z).all(axis=-1)
-        if bad_z.any():
+        rule = self._fused_rule(prior, model)
+        if rule is not None:
+            # The lean path: one compiled pass finds the missing measurements, the failed
+            # roots and the non-PD S, and reports them as three counts.
+            (mean, cov, gain, innovation, z_hat, S, C, status, ok, skipped,
+             (n_bad_z, n_root, n_not_pd)) = kernels.fused_update(prior.mean, prior.cov, z, None, rule,
+                                                                model.compiled, model.R)
+            if n_bad_z and missing != "skip":
+                raise InvalidMeasurementError(self.name, failing_indices(np.isfinite(z).all(axis=-1)))
+            if n_root:
+                self._raise_root_failure(status, rule[0])
+            if n_not_pd and on_failure == "raise":
+                raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
+            return Update(Gaussian(mean, cov), innovation, S, gain, C, z_hat, skipped)
+        finite_z = np.isfinite(z)
+        bad_z = np.zeros(z.shape[:-1], dtype=bool) if all_true(finite_z) else ~finite_z.all(axis=-1)
+        if any_true(bad_z):
             if missing != "skip":
                 raise InvalidMeasurementError(self.name, failing_indices(~bad_z))
-        fused = self._fused_update(prior, z, bad_z, model)
-        if fused is not None:
-            mean, cov, gain, innovation, z_hat, S, C, ok = fused
-            if not ok.all() and on_failure == "raise":
-                raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
-            return Update(Gaussian(mean, cov), innovation, S, gain, C, z_hat, bad_z | ~ok)
         z_hat, S, C = self.measurement_moments(prior, model)
         form = self._kernel_posterior() if self._use_kernels() else None
         if form is not None:
@@ -124,7 +134,7 @@ class Estimator(Plugin, abc.ABC):
                 prior.mean, prior.cov, z, z_hat, S, C, bad_z, joseph,
                 model.H if joseph else None, model.R if joseph else None,
             )
-            if not ok.all() and on_failure == "raise":
+            if on_failure == "raise" and not all_true(ok):
                 raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
             return Update(
                 state=Gaussian(mean, cov),
@@ -137,9 +147,9 @@ class Estimator(Plugin, abc.ABC):
             )
         L, ok = cholesky_masked(S)
         skip = bad_z | ~ok
-        if not ok.all() and on_failure == "raise":
+        if on_failure == "raise" and not all_true(ok):
             raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
-        if skip.any():
+        if any_true(skip):
             eye = np.eye(S.shape[-1])
             S_safe = np.where(skip[..., None, None], eye, S)
             z = np.where(skip[..., None], z_hat, z)
@@ -150,7 +160,7 @@ class Estimator(Plugin, abc.ABC):
         innovation = z - z_hat
         mean = prior.mean + mat_vec(gain, innovation)
         cov = self.posterior_cov(prior, gain, S_safe, model)
-        if skip.any():
+        if any_true(skip):
             mean = np.where(skip[..., None], prior.mean, mean)
             cov = np.where(skip[..., None, None], prior.cov, cov)
         return Update(
@@ -191,31 +201,36 @@ class SigmaPointEstimator(Estimator):
         """The point rule if predict/update can run fused with the model's compiled f/h."""
         if getattr(model, "compiled", None) is None or not self._use_kernels():
             return None
-        return self.kernel_rule(state.ndim_state)
+        return self._cached_rule(state.ndim_state)
+
+    def _cached_rule(self, n: int):
+        """`kernel_rule` with its weights as kernel operands, computed once per state size
+        and parameter set (the kernels then take the weights as they are, every step)."""
+        key = (n, id(getattr(self, "params", None)))
+        cache = self.__dict__.setdefault("_rule_cache", {})
+        hit = cache.get(key)
+        if hit is None:
+            rule = self.kernel_rule(n)
+            if rule is not None:
+                root_kind, scale, center, wm, wc = rule
+                rule = (int(root_kind), float(scale), bool(center), kernels._vec(wm), kernels._vec(wc))
+            hit = cache[key] = (rule, getattr(self, "params", None))  # holds params: its id stays unique
+        return hit[0]
 
     def _raise_root_failure(self, status: np.ndarray, root_kind: int) -> None:
         detail = "state covariance P is not finite" if root_kind == 1 else "state covariance P (Cholesky)"
         raise NotPositiveDefiniteError(self.name, failing_indices(status == 0), detail=detail)
 
-    def _fused_update(self, prior: Gaussian, z: np.ndarray, bad_z: np.ndarray, model: Model):
-        rule = self._fused_rule(prior, model)
-        if rule is None:
-            return None
-        *out, status, ok = kernels.fused_update(prior.mean, prior.cov, z, bad_z, rule, model.compiled, model.R)
-        if status.any():
-            self._raise_root_failure(status, rule[0])
-        return (*out, ok)
-
     def _kernel_points(self, state: Gaussian):
         """``(X, wm, wc)`` from the kernels, or ``None`` where the NumPy path applies."""
         if not self._use_kernels():
             return None
-        rule = self.kernel_rule(state.ndim_state)
+        rule = self._cached_rule(state.ndim_state)
         if rule is None:
             return None
         root_kind, scale, center, wm, wc = rule
         X, status = kernels.sigma_points(state.mean, state.cov, root_kind, scale, center)
-        if status.any():
+        if any_true(status):
             self._raise_root_failure(status, root_kind)
         return X, wm, wc
 
@@ -228,7 +243,7 @@ class SigmaPointEstimator(Estimator):
             Naming this filter and the batch elements whose P is not PD.
         """
         L, ok = cholesky_masked(cov)
-        if not ok.all():
+        if not all_true(ok):
             raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="state covariance P (Cholesky)")
         return L
 
@@ -252,7 +267,7 @@ class SigmaPointEstimator(Estimator):
         rule = self._fused_rule(state, model)
         if rule is not None:
             mean, cov, status = kernels.fused_predict(state.mean, state.cov, rule, model.compiled, model.Q)
-            if status.any():
+            if status is not None:  # some root failed
                 self._raise_root_failure(status, rule[0])
             return Gaussian(mean, cov)
         points = self._kernel_points(state)

@@ -21,8 +21,8 @@ element (``fused_predict``, ``fused_update``), and the KF/EKF predict and measur
 moments in compiled code (``linear_predict``, ``ekf_moments``). Results equal the NumPy
 path to rounding (a Hypothesis test holds them to 1e-12 relative on random models).
 
-Every input array reaches a kernel read-only, so each kernel has one numba
-specialisation: the one `warm_up` compiles (a test checks that runs add none).
+Every input array reaches a kernel writable (read-only ones are copied), so each kernel
+has one numba specialisation: the one `warm_up` compiles (a test checks that runs add none).
 
 Backend choice: ``GNSSFRAMEWORK_BACKEND=numpy`` (environment) or :func:`set_backend`
 selects the NumPy path everywhere; an estimator's ``backend`` attribute overrides it
@@ -629,8 +629,10 @@ def _ekf_moments_body(mean, cov, h_code, h_params, R, z_hat, S, C):
                     S[b, j, i] = v
 
 
-def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_params, Q, out_mean, out_cov, status):
-    """One predict per element: root, points, compiled ``f``, moments + Q."""
+def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_params, Q, out_mean, out_cov, status,
+                        counts):
+    """One predict per element: root, points, compiled ``f``, moments + Q; ``counts[0]``:
+    elements whose root failed (``status`` not 0)."""
     B, n = mean.shape
     N = 2 * n + (1 if center else 0)
     off = 1 if center else 0
@@ -689,11 +691,19 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
                 cij = acc + 0.5 * (Q[q, i, j] + Q[q, j, i])
                 out_cov[b, i, j] = cij
                 out_cov[b, j, i] = cij
+    counts[0] = 0
+    for b in range(B):
+        counts[0] += status[b] != 0
 
 
 def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_code, h_params, R,
-                       out_mean, out_cov, gain, innovation, z_hat, S, C, status, ok):
-    """One measurement update per element: root, points, compiled ``h``, moments, gain, posterior."""
+                       out_mean, out_cov, gain, innovation, z_hat, S, C, status, ok, skipped, counts):
+    """One measurement update per element: root, points, compiled ``h``, moments, gain, posterior.
+
+    An element whose ``z`` is not finite counts as ``bad_z`` too. ``skipped[b]``: bad z
+    or S not PD; ``counts``: elements with bad z, a failed root (``status``), S not PD
+    (so the caller tests three integers instead of reducing three masks).
+    """
     B, n = mean.shape
     m = z.shape[1]
     N = 2 * n + (1 if center else 0)
@@ -767,7 +777,7 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
         good = _all_finite(Sb) and _cholesky(Sb, L)
         ok[b] = good
         K = gain[b]
-        if bad_z[b] or not good:
+        if bad_z[b] or not good or not _all_finite(z[b]):
             for i in range(m):
                 innovation[b, i] = 0.0
             for i in range(n):
@@ -801,6 +811,13 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
                 v = 0.5 * ((P[i, j] - a1) + (P[j, i] - a2))
                 out_cov[b, i, j] = v
                 out_cov[b, j, i] = v
+    counts[:] = 0
+    for b in range(B):  # serial, after the parallel loop
+        bz = bad_z[b] or not _all_finite(z[b])
+        skipped[b] = bz or not ok[b]
+        counts[0] += bz
+        counts[1] += status[b] != 0
+        counts[2] += status[b] == 0 and not ok[b]
 
 
 def _pd_mask_body(A, ok):
@@ -836,45 +853,65 @@ def _pick(pair, batch: int):
 # -- array-level wrappers ---------------------------------------------------------------
 
 
-def _ro(a: np.ndarray) -> np.ndarray:
-    """A read-only view of a kernel *input*. numba compiles one specialisation per
-    writeable flag; handing every input read-only (outputs are always fresh writable
-    arrays) gives each kernel a single signature, the one `warm_up` compiles, so no
-    forked worker compiles again whatever arrays a filter passes."""
-    if a.flags.writeable:
-        a = a.view()
-        a.flags.writeable = False
-    return a
+def _operand(a: np.ndarray) -> np.ndarray:
+    """A kernel *input* as a writable array (a copy only where it is read-only).
+
+    numba compiles one specialisation per writeable flag; handing every input writable
+    (outputs are fresh writable arrays too) gives each kernel a single signature, the
+    one `warm_up` compiles, so no forked worker compiles again whatever arrays a filter
+    passes. Writable is the cheap side: a filter's state comes writable from the
+    previous step's kernel, so the check costs one flag read (a read-only view per
+    operand cost about a microsecond per call). No kernel writes an input."""
+    return a if a.flags.writeable else a.copy()
 
 
 def _vec(a) -> np.ndarray:
-    """A small shared operand (weights, model parameters) as a read-only contiguous float array."""
-    return _ro(np.ascontiguousarray(a, dtype=float))
+    """A small shared operand (weights, model parameters) as a contiguous float array."""
+    if type(a) is np.ndarray and a.flags.writeable and a.dtype == np.float64 and a.flags.c_contiguous:
+        return a
+    return _operand(np.ascontiguousarray(a, dtype=float))
 
 
 def _flat(a: np.ndarray, batch: tuple[int, ...], tail: int) -> np.ndarray:
-    """``a`` broadcast to ``batch + tail dims`` as a read-only C-contiguous ``(B, ...)`` float array."""
+    """``a`` broadcast to ``batch + tail dims`` as a C-contiguous ``(B, ...)`` kernel operand."""
     if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.shape[:-tail] == batch:
-        return _ro(a.reshape((-1,) + a.shape[a.ndim - tail:]))
+        # The common case, a (B, ...) array straight from the previous step: no reshape.
+        return _operand(a if a.ndim == tail + 1 else a.reshape((-1,) + a.shape[a.ndim - tail:]))
     a = np.asarray(a, dtype=float)
     shape = batch + a.shape[a.ndim - tail:]
     if a.shape != shape:
         a = np.broadcast_to(a, shape)
-    return _ro(np.ascontiguousarray(a).reshape((-1,) + shape[len(batch):]))
+    return _operand(np.ascontiguousarray(a).reshape((-1,) + shape[len(batch):]))
 
 
 def _flat_mask(mask: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
-    """A boolean batch mask as a read-only contiguous ``(B,)`` array."""
+    """A boolean batch mask as a contiguous ``(B,)`` kernel operand."""
     if type(mask) is np.ndarray and mask.shape == batch and mask.flags.c_contiguous:
-        return _ro(mask.reshape(-1))
-    return _ro(np.ascontiguousarray(np.broadcast_to(mask, batch)).reshape(-1))
+        return _operand(mask.reshape(-1))
+    return _operand(np.ascontiguousarray(np.broadcast_to(mask, batch)).reshape(-1))
+
+
+#: ``(1, k, l)`` kernel views of shared matrix operands (a model's Q and R), by id; each
+#: entry holds its array, so an id is never reused while cached. A view shares the array's
+#: memory, so an in-place change of Q or R is seen as before.
+_shared_views: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+_SHARED_VIEWS_MAX = 256
 
 
 def _flat_shared(a: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
     """A matrix operand ``(k, l)`` shared by the batch as ``(1, k, l)``, else ``(B, k, l)``."""
+    hit = _shared_views.get(id(a))
+    if hit is not None and hit[0] is a:
+        return hit[1]
+    if type(a) is np.ndarray and a.ndim == 2 and a.dtype == np.float64 and a.flags.c_contiguous:
+        view = _operand(a[None])
+        if len(_shared_views) >= _SHARED_VIEWS_MAX:
+            _shared_views.clear()
+        _shared_views[id(a)] = (a, view)
+        return view
     a = np.asarray(a, dtype=float)
     if a.ndim == 2:
-        return _ro(np.ascontiguousarray(a)[None])
+        return _operand(np.ascontiguousarray(a)[None])
     return _flat(a, batch, 2)
 
 
@@ -889,6 +926,8 @@ def sigma_points(mean: np.ndarray, cov: np.ndarray, root_kind: int, scale: float
     X = np.empty((N, B, n))
     status = np.empty(B, dtype=np.int8)
     _pick(_sigma_points_kernels, B)(m, P, root_kind, float(scale), bool(center), X, status)
+    if len(batch) == 1:
+        return X, status
     return X.reshape((N,) + batch + (n,)), status.reshape(batch)
 
 
@@ -901,7 +940,9 @@ def predict_moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray, Q: np.ndarray
     B = Yf.shape[1]
     mean = np.empty((B, p))
     cov = np.empty((B, p, p))
-    _pick(_predict_moments_kernels, B)(_ro(Yf), _vec(wm), _vec(wc), _flat_shared(Q, batch), mean, cov)
+    _pick(_predict_moments_kernels, B)(_operand(Yf), _vec(wm), _vec(wc), _flat_shared(Q, batch), mean, cov)
+    if len(batch) == 1:
+        return mean, cov
     return mean.reshape(batch + (p,)), cov.reshape(batch + (p, p))
 
 
@@ -918,10 +959,17 @@ def measurement_moments(X: np.ndarray, Z: np.ndarray, prior_mean: np.ndarray, wm
     S = np.empty((B, m, m))
     C = np.empty((B, n, m))
     _pick(_measurement_moments_kernels, B)(
-        _ro(Xf), _ro(Zf), _flat(prior_mean, batch, 1), _vec(wm), _vec(wc),
+        _operand(Xf), _operand(Zf), _flat(prior_mean, batch, 1), _vec(wm), _vec(wc),
         _flat_shared(R, batch), z_hat, S, C,
     )
+    if len(batch) == 1:
+        return z_hat, S, C
     return z_hat.reshape(batch + (m,)), S.reshape(batch + (m, m)), C.reshape(batch + (n, m))
+
+
+#: Zero (1, m, n) / (1, m, m) operands standing for H and R where the update does not
+#: read them (posterior ``P - K S K^T``), by size: allocated once, never written.
+_unused_operands: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
 
 
 def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H=None, R=None):
@@ -934,7 +982,8 @@ def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H
     if joseph:
         Hf, Rf = _flat_shared(H, batch), _flat_shared(R, batch)
     else:
-        Hf, Rf = _ro(np.zeros((1, m, n))), _ro(np.zeros((1, m, m)))
+        Hf, Rf = _unused_operands.get((m, n)) or _unused_operands.setdefault(
+            (m, n), (np.zeros((1, m, n)), np.zeros((1, m, m))))
     mean = np.empty((B, n))
     cov = np.empty((B, n, n))
     gain = np.empty((B, n, m))
@@ -945,6 +994,8 @@ def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H
         _flat(C, batch, 2), _flat_mask(bad_z, batch), bool(joseph),
         Hf, Rf, mean, cov, gain, innovation, ok,
     )
+    if len(batch) == 1:
+        return mean, cov, gain, innovation, ok
     return (
         mean.reshape(batch + (n,)),
         cov.reshape(batch + (n, n)),
@@ -1001,17 +1052,27 @@ def fused_predict(mean, cov, rule, compiled, Q):
     out_mean = np.empty((B, n))
     out_cov = np.empty((B, n, n))
     status = np.empty(B, dtype=np.int8)
+    counts = np.empty(1, dtype=np.int64)
     _pick(_fused_predict_kernels, B)(
-        m_, _flat(cov, batch, 2), int(root_kind), float(scale), bool(center), _vec(wm), _vec(wc),
-        int(compiled.f_code), _vec(compiled.f_params), _flat_shared(Q, batch), out_mean, out_cov, status,
+        m_, _flat(cov, batch, 2), root_kind, scale, center, _vec(wm), _vec(wc),
+        compiled.f_code, _vec(compiled.f_params), _flat_shared(Q, batch), out_mean, out_cov, status, counts,
     )
-    return out_mean.reshape(batch + (n,)), out_cov.reshape(batch + (n, n)), status.reshape(batch)
+    if counts[0] == 0:
+        status = None  # every root exists
+    elif len(batch) != 1:
+        status = status.reshape(batch)
+    if len(batch) == 1:
+        return out_mean, out_cov, status
+    return out_mean.reshape(batch + (n,)), out_cov.reshape(batch + (n, n)), status
 
 
 def fused_update(mean, cov, z, bad_z, rule, compiled, R):
     """Whole sigma-point update with the model's compiled ``h``.
 
-    Returns ``(mean, cov, gain, innovation, z_hat, S, C, status, ok)``, batch-first.
+    ``bad_z``: elements to skip (``None``: none given); an element whose ``z`` is not
+    finite is skipped too. Returns ``(mean, cov, gain, innovation, z_hat, S, C, status,
+    ok, skipped, counts)``, batch-first; ``counts`` = ``(bad z, failed root, S not PD)``
+    as Python integers.
     """
     root_kind, scale, center, wm, wc = rule
     batch = mean.shape[:-1]
@@ -1023,14 +1084,20 @@ def fused_update(mean, cov, z, bad_z, rule, compiled, R):
             np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m)))
     status = np.empty(B, dtype=np.int8)
     ok = np.empty(B, dtype=np.bool_)
+    skipped = np.empty(B, dtype=np.bool_)
+    counts = np.empty(3, dtype=np.int64)
+    bad = np.zeros(B, dtype=np.bool_) if bad_z is None else _flat_mask(bad_z, batch)
     _pick(_fused_update_kernels, B)(
-        m_, _flat(cov, batch, 2), _flat(z, batch, 1), _flat_mask(bad_z, batch),
-        int(root_kind), float(scale), bool(center), _vec(wm), _vec(wc), int(compiled.h_code), _vec(compiled.h_params),
+        m_, _flat(cov, batch, 2), _flat(z, batch, 1), bad,
+        root_kind, scale, center, _vec(wm), _vec(wc), compiled.h_code, _vec(compiled.h_params),
         _flat_shared(R, batch),
-        *outs, status, ok,
+        *outs, status, ok, skipped, counts,
     )
+    if len(batch) == 1:
+        return (*outs, status, ok, skipped, counts.tolist())
     tails = ((n,), (n, n), (n, m), (m,), (m,), (m, m), (n, m))
-    return tuple(o.reshape(batch + t) for o, t in zip(outs, tails)) + (status.reshape(batch), ok.reshape(batch))
+    return tuple(o.reshape(batch + t) for o, t in zip(outs, tails)) + (
+        status.reshape(batch), ok.reshape(batch), skipped.reshape(batch), counts.tolist())
 
 
 def warm_up() -> float:

@@ -47,7 +47,7 @@ from .adaptation import AdapterRun, AdaptationStep, NoiseAdapter
 from .adapter_guard import adapt_checked
 from .boundary import as_measurement
 from .estimator import Estimator, OnFailure, OnMissing
-from .linalg import cholesky_masked, clip_eigenvalues, failing_indices, pd_mask, symmetrize
+from .linalg import all_true, any_true, cholesky_masked, clip_eigenvalues, failing_indices, pd_mask, symmetrize
 from .types import Gaussian, Model, Update
 
 __all__ = ["FilterStep", "StepResult", "RECOVERIES", "POLICIES", "check_initial"]
@@ -93,10 +93,11 @@ def check_initial(initial: Gaussian, filter_name: str, model: Model | None = Non
 def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, counts: Counter,
                       filter_name: str) -> Gaussian:
     """Check the posterior of every batch element; apply ``policy`` where it fails."""
-    finite_mean = np.isfinite(state.mean).all(axis=-1)
-    ok = pd_mask(state.cov) & finite_mean  # compiled test, no factor kept (the lean step)
-    if ok.all():
+    pd = pd_mask(state.cov)  # compiled test, no factor kept (the lean step)
+    if all_true(pd) and all_true(np.isfinite(state.mean)):
         return state
+    finite_mean = np.isfinite(state.mean).all(axis=-1)
+    ok = pd & finite_mean
     bad = ~ok
     if policy == "raise":
         if not finite_mean.all():
@@ -129,8 +130,10 @@ def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, count
 def _check_prior(prior: Gaussian, state: Gaussian, filter_name: str) -> None:
     """A prediction from a finite state that is not finite is an overflow in f, Q or the
     sigma-point weights (a state of magnitude 1e300 after a 1e300 measurement)."""
+    if all_true(np.isfinite(prior.mean)) and all_true(np.isfinite(prior.cov)):
+        return  # the per-element mask only when something is not finite
     ok = np.isfinite(prior.mean).all(axis=-1) & np.isfinite(prior.cov).all(axis=(-2, -1))
-    if not ok.all():
+    if not all_true(ok):
         bad = failing_indices(ok)
         size = float(np.max(np.abs(state.mean)))
         raise NonFiniteError(filter_name, bad, detail=f"prediction, from a finite state of magnitude up to {size:.3g}: "
@@ -306,9 +309,10 @@ class FilterStep:
         except NumericalError as exc:
             raise self._named(exc) from None
         skipped = np.asarray(upd.skipped)
-        missing_now = (~np.isfinite(z).all(axis=-1) if self.missing == "skip" else np.zeros((), bool))
-        self.recoveries["missing"] += int(np.sum(missing_now & skipped))
-        self.recoveries["skip_update"] += int(np.sum(skipped & ~missing_now))
+        if any_true(skipped):  # nothing to count on the common step
+            missing_now = (~np.isfinite(z).all(axis=-1) if self.missing == "skip" else np.zeros((), bool))
+            self.recoveries["missing"] += int(np.sum(missing_now & skipped))
+            self.recoveries["skip_update"] += int(np.sum(skipped & ~missing_now))
         if self._run is not None:
             previous = prior if previous is None else previous
             # Overflow in the adapter (an innovation of 1e300) is refused by name, not a NumPy warning.
@@ -316,7 +320,9 @@ class FilterStep:
                                              self.name, self.adapter.name, self.step_index)
             self._adapted += 1
         self.step_index += 1
-        return StepResult(prior, upd, posterior, mk, np.broadcast_to(skipped, posterior.batch_shape))
+        if skipped.shape != posterior.batch_shape:
+            skipped = np.broadcast_to(skipped, posterior.batch_shape)
+        return StepResult(prior, upd, posterior, mk, skipped)
 
     def __call__(self, state: Gaussian, z: np.ndarray, model: Model, *, predict: bool = True) -> StepResult:
         """One whole step: `predict` ``state`` (unless ``predict=False``: the state is
