@@ -152,8 +152,20 @@ def _jit_pair(fn):
 
 @_jit
 def _all_finite(a):
-    for v in a.ravel():
-        if not math.isfinite(v):
+    """Every entry of the matrix ``a`` finite (explicit loops: ``ravel`` would make a
+    view, and every view costs an atomic reference-count increment and decrement)."""
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            if not math.isfinite(a[i, j]):
+                return False
+    return True
+
+
+@_jit
+def _row_finite(a, b):
+    """Every entry of row ``b`` of ``a`` finite (no view)."""
+    for j in range(a.shape[1]):
+        if not math.isfinite(a[b, j]):
             return False
     return True
 
@@ -431,23 +443,39 @@ def _tridiagonal_eigh_into(A, w, V, W):
 @_jit
 def _chol_solve_rows(L, C, K):
     """``K = C S^{-1}`` row by row with ``S = L L^T`` (forward then back substitution)."""
-    _chol_solve_rows_into(L, C, K, np.empty(C.shape[1]))
+    _chol_solve_rows_into(L, C, K, np.empty((C.shape[0], C.shape[1] + 1)))
 
 
 @_jit
-def _chol_solve_rows_into(L, C, K, y):
+def _chol_solve_rows_into(L, C, K, Y):
+    """`_chol_solve_rows` with scratch ``Y`` ``(n, m + 1)``.
+
+    Every row's substitutions run together (the row index innermost), so the n
+    independent dependency chains overlap in the CPU's pipeline; each entry still
+    sums its terms in the textbook order, so the result is bitwise that of solving the
+    rows one after the other.
+    """
     n, m = C.shape
-    for r in range(n):
-        for i in range(m):
-            t = C[r, i]
-            for k in range(i):
-                t -= L[i, k] * y[k]
-            y[i] = t / L[i, i]
-        for i in range(m - 1, -1, -1):
-            t = y[i]
-            for k in range(i + 1, m):
-                t -= L[k, i] * K[r, k]
-            K[r, i] = t / L[i, i]
+    for i in range(m):
+        for r in range(n):
+            Y[r, m] = C[r, i]
+        for k in range(i):
+            lik = L[i, k]
+            for r in range(n):
+                Y[r, m] -= lik * Y[r, k]
+        d = L[i, i]
+        for r in range(n):
+            Y[r, i] = Y[r, m] / d
+    for i in range(m - 1, -1, -1):
+        for r in range(n):
+            Y[r, m] = Y[r, i]
+        for k in range(i + 1, m):
+            lki = L[k, i]
+            for r in range(n):
+                Y[r, m] -= lki * K[r, k]
+        d = L[i, i]
+        for r in range(n):
+            K[r, i] = Y[r, m] / d
 
 
 # -- batch drivers ----------------------------------------------------------------------
@@ -652,13 +680,15 @@ H_RANGE_RATE = 2
 
 
 @_jit
-def _apply_f(code, params, x, out):
-    n = x.shape[0]
+def _apply_f_row(code, params, X, k, Y):
+    """``Y[k] = f(X[k])`` (rows addressed by index: a row view would cost two atomic
+    reference-count updates per point)."""
+    n = X.shape[1]
     for i in range(n):
         acc = 0.0
         for j in range(n):
-            acc += params[i, j] * x[j]
-        out[i] = acc
+            acc += params[i, j] * X[k, j]
+        Y[k, i] = acc
 
 
 @_jit
@@ -668,47 +698,54 @@ def _triangle(tau):
 
 
 @_jit
-def _apply_h(code, params, x, out):
+def _apply_h_row(code, params, X, k, Z, kz):
+    """``Z[kz] = h(X[k])`` for the compiled h ``code`` (rows by index, as `_apply_f_row`)."""
     if code == H_LINEAR:
         m, n = params.shape
         for i in range(m):
             acc = 0.0
             for j in range(n):
-                acc += params[i, j] * x[j]
-            out[i] = acc
+                acc += params[i, j] * X[k, j]
+            Z[kz, i] = acc
         return
     if code == H_RANGE_RATE:
         # As receiver.vector.predicted_range: rho = |s - r| + b, rate = (v_s - v) . e + d.
         n_ch = params.shape[0]
         for c in range(n_ch):
-            lx = params[c, 0] - x[0]
-            ly = params[c, 1] - x[1]
-            lz = params[c, 2] - x[2]
+            lx = params[c, 0] - X[k, 0]
+            ly = params[c, 1] - X[k, 1]
+            lz = params[c, 2] - X[k, 2]
             dist = math.sqrt(lx * lx + ly * ly + lz * lz)
-            out[c] = dist + x[6]
-            out[n_ch + c] = ((params[c, 3] - x[3]) * (lx / dist) + (params[c, 4] - x[4]) * (ly / dist)
-                             + (params[c, 5] - x[5]) * (lz / dist)) + x[7]
+            Z[kz, c] = dist + X[k, 6]
+            Z[kz, n_ch + c] = ((params[c, 3] - X[k, 3]) * (lx / dist) + (params[c, 4] - X[k, 4]) * (ly / dist)
+                               + (params[c, 5] - X[k, 5]) * (lz / dist)) + X[k, 7]
         return
     # H_CHANNEL_IQ: the ideal (unfiltered) triangle autocorrelation, as channel_iq.
     d = params[0, 0]
     T = params[0, 1]
-    u = x[3] * T
+    u = X[k, 3] * T
     if u == 0.0:
         u = 1e-20  # numpy.sinc's guard, so the two paths agree at df = 0 too
     sinc = math.sin(math.pi * u) / (math.pi * u)
-    common = x[0] * params[0, 2] * sinc
-    phase = math.pi * x[3] * T + x[2]
+    common = X[k, 0] * params[0, 2] * sinc
+    phase = math.pi * X[k, 3] * T + X[k, 2]
     c = common * math.cos(phase)
     s_ = common * math.sin(phase)
-    r_e = _triangle(x[1] + d)
-    r_p = _triangle(x[1])
-    r_l = _triangle(x[1] - d)
-    out[0] = c * r_e
-    out[1] = c * r_p
-    out[2] = c * r_l
-    out[3] = s_ * r_e
-    out[4] = s_ * r_p
-    out[5] = s_ * r_l
+    r_e = _triangle(X[k, 1] + d)
+    r_p = _triangle(X[k, 1])
+    r_l = _triangle(X[k, 1] - d)
+    Z[kz, 0] = c * r_e
+    Z[kz, 1] = c * r_p
+    Z[kz, 2] = c * r_l
+    Z[kz, 3] = s_ * r_e
+    Z[kz, 4] = s_ * r_p
+    Z[kz, 5] = s_ * r_l
+
+
+@_jit
+def _apply_h(code, params, x, out):
+    """``out = h(x)`` for one contiguous state ``x`` (see `_apply_h_row`)."""
+    _apply_h_row(code, params, x.reshape((1, x.shape[0])), 0, out.reshape((1, out.shape[0])), 0)
 
 
 @_jit
@@ -792,7 +829,7 @@ def _ekf_moments_body(mean, cov, h_code, h_params, R, z_hat, S, C):
         M = np.empty((m, m))
         for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
             r = 0 if shared_r else np.int64(b)
-            _apply_h(h_code, h_params, mean[b], z_hat[b])
+            _apply_h_row(h_code, h_params, mean, b, z_hat, b)
             _apply_h_jacobian(h_code, h_params, mean[b], J)
             P = cov[b]
             Cb = C[b]
@@ -833,6 +870,7 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
       X = np.empty((N, n))
       Y = np.empty((N, n))
       mu = np.empty(n)
+      Acc = np.empty((n, n))
       for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
         P = cov[b]
         R[:, :] = 0.0
@@ -859,7 +897,7 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
                 X[off + i, j] = mean[b, j] + dd
                 X[off + n + i, j] = mean[b, j] - dd
         for k in range(N):
-            _apply_f(f_code, f_params, X[k], Y[k])
+            _apply_f_row(f_code, f_params, X, k, Y)
         q = 0 if shared_q else np.int64(b)
         mu[:] = 0.0
         for k in range(N):
@@ -868,13 +906,20 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
         for k in range(N):
             for j in range(n):
                 Y[k, j] -= mu[j]
+        # Point by point into the lower triangle: each entry sums in the order k = 0..N-1
+        # (as a dot product would), but the entries' chains interleave in the pipeline.
+        for i in range(n):
+            for j in range(i + 1):
+                Acc[i, j] = 0.0
+        for k in range(N):
+            for i in range(n):
+                wy = wc[k] * Y[k, i]
+                for j in range(i + 1):
+                    Acc[i, j] += wy * Y[k, j]
         for i in range(n):
             out_mean[b, i] = mu[i]
             for j in range(i + 1):
-                acc = 0.0
-                for k in range(N):
-                    acc += wc[k] * Y[k, i] * Y[k, j]
-                cij = acc + 0.5 * (Q[q, i, j] + Q[q, j, i])
+                cij = Acc[i, j] + 0.5 * (Q[q, i, j] + Q[q, j, i])
                 out_cov[b, i, j] = cij
                 out_cov[b, j, i] = cij
     counts[0] = 0
@@ -906,7 +951,10 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
       mu = np.empty(m)
       L = np.zeros((m, m))
       KS = np.empty((n, m))
-      ysolve = np.empty(m)
+      ysolve = np.empty((n, m + 1))
+      SAcc = np.empty((m, m))
+      CAcc = np.empty((n, m))
+      KSK = np.empty((n, n))
       for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
         P = cov[b]
         Rt[:, :] = 0.0
@@ -934,7 +982,7 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
                 X[off + i, j] = mean[b, j] + dd
                 X[off + n + i, j] = mean[b, j] - dd
         for k in range(N):
-            _apply_h(h_code, h_params, X[k], Z[k])
+            _apply_h_row(h_code, h_params, X, k, Z, k)
         r = 0 if shared_r else np.int64(b)
         mu[:] = 0.0
         for k in range(N):
@@ -943,27 +991,39 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
         for k in range(N):
             for j in range(m):
                 Z[k, j] -= mu[j]
+        # S (lower triangle) and C point by point: each entry sums in the order
+        # k = 0..N-1 with the same products as a dot product would, so the values are
+        # bitwise those of one dot product per entry, but the chains interleave.
+        for i in range(m):
+            for j in range(i + 1):
+                SAcc[i, j] = 0.0
+        for i in range(n):
+            for j in range(m):
+                CAcc[i, j] = 0.0
+        for k in range(N):
+            for i in range(m):
+                wz = wc[k] * Z[k, i]
+                for j in range(i + 1):
+                    SAcc[i, j] += wz * Z[k, j]
+            for i in range(n):
+                wx = wc[k] * (X[k, i] - mean[b, i])
+                for j in range(m):
+                    CAcc[i, j] += wx * Z[k, j]
         Sb = S[b]
         for i in range(m):
             z_hat[b, i] = mu[i]
             for j in range(i + 1):
-                acc = 0.0
-                for k in range(N):
-                    acc += wc[k] * Z[k, i] * Z[k, j]
-                sij = acc + 0.5 * (R[r, i, j] + R[r, j, i])
+                sij = SAcc[i, j] + 0.5 * (R[r, i, j] + R[r, j, i])
                 Sb[i, j] = sij
                 Sb[j, i] = sij
         Cb = C[b]
         for i in range(n):
             for j in range(m):
-                acc = 0.0
-                for k in range(N):
-                    acc += wc[k] * (X[k, i] - mean[b, i]) * Z[k, j]
-                Cb[i, j] = acc
+                Cb[i, j] = CAcc[i, j]
         good = _all_finite(Sb) and _cholesky(Sb, L)
         ok[b] = good
         K = gain[b]
-        if bad_z[b] or not good or not _all_finite(z[b]):
+        if bad_z[b] or not good or not _row_finite(z, b):
             for i in range(m):
                 innovation[b, i] = 0.0
             for i in range(n):
@@ -981,25 +1041,30 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
             for j in range(m):
                 acc += K[i, j] * innovation[b, j]
             out_mean[b, i] = mean[b, i] + acc
+        # K S, then (K S) K^T in full (both triangles are needed for the symmetrised
+        # posterior); k outermost within a row, so the chains interleave, same sums.
         for i in range(n):
             for j in range(m):
-                acc = 0.0
-                for k in range(m):
-                    acc += K[i, k] * Sb[k, j]
-                KS[i, j] = acc
+                KS[i, j] = 0.0
+            for k in range(m):
+                kik = K[i, k]
+                for j in range(m):
+                    KS[i, j] += kik * Sb[k, j]
+        for i in range(n):
+            for j in range(n):
+                KSK[i, j] = 0.0
+            for k in range(m):
+                ksik = KS[i, k]
+                for j in range(n):
+                    KSK[i, j] += ksik * K[j, k]
         for i in range(n):
             for j in range(i + 1):
-                a1 = 0.0
-                a2 = 0.0
-                for k in range(m):
-                    a1 += KS[i, k] * K[j, k]
-                    a2 += KS[j, k] * K[i, k]
-                v = 0.5 * ((P[i, j] - a1) + (P[j, i] - a2))
+                v = 0.5 * ((P[i, j] - KSK[i, j]) + (P[j, i] - KSK[j, i]))
                 out_cov[b, i, j] = v
                 out_cov[b, j, i] = v
     counts[:] = 0
     for b in range(B):  # serial, after the parallel loop
-        bz = bad_z[b] or not _all_finite(z[b])
+        bz = bad_z[b] or not _row_finite(z, b)
         skipped[b] = bz or not ok[b]
         counts[0] += bz
         counts[1] += status[b] != 0
