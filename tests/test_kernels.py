@@ -247,7 +247,8 @@ def test_parallel_kernels_are_not_used_off_the_main_thread():
 
 
 @settings(max_examples=40, deadline=None)
-@given(n=st.integers(1, 8), seed=st.integers(0, 2**32 - 1), batch=st.sampled_from([(), (5,), (2, 3), (300,)]))
+@given(n=st.integers(1, 8), seed=st.integers(0, 2**32 - 1),
+       batch=st.sampled_from([(), (5,), (2, 3), (300,), (kernels.PD_MASK_PARALLEL_MIN_BATCH + 52,)]))
 def test_pd_mask_kernel_agrees_with_lapack_eigenvalues(n, seed, batch):
     # Truth from LAPACK's eigenvalues: each matrix has its smallest eigenvalue set to
     # +-(0.01..1) of its largest, far from rounding level, or holds a NaN/inf.
