@@ -49,6 +49,7 @@ from ..errors import ConfigError
 __all__ = [
     "HAVE_NUMBA",
     "PARALLEL_MIN_BATCH",
+    "PD_MASK_PARALLEL_MIN_BATCH",
     "available",
     "get_backend",
     "set_backend",
@@ -302,6 +303,12 @@ def _eigh_into(A, w, V, W):
         _jacobi_eigh_into(A, w, V, W)
 
 
+#: ``max|A|`` range in which `_tridiagonal_eigh_into` needs no scaling: squares of
+#: entries (and sums of n of them) neither overflow nor leave the normal range.
+_TINY = 2.0 ** -400
+_HUGE = 2.0 ** 400
+
+
 @_jit
 def _tridiagonal_eigh_into(A, w, V, W):
     """Householder tridiagonalisation and implicit symmetric QR with Wilkinson shifts.
@@ -310,8 +317,9 @@ def _tridiagonal_eigh_into(A, w, V, W):
     form, backward accumulation of the Householder product) and 8.3.2 (implicit QR step
     with the Wilkinson shift), deflating where ``|e_i| <= eps sqrt(|d_i| |d_i+1|)`` (the
     test of LAPACK's ``dsteqr``, which keeps small eigenvalues of graded matrices
-    accurate) or ``|e_i| <= eps^2 max|A|`` (so exactly singular blocks deflate). The
-    matrix is scaled by a power of two to ``max|A| ~ 1`` first (exact), so squares of
+    accurate) or ``|e_i| <= eps^2 max|A|`` (so exactly singular blocks deflate). A
+    matrix with ``max|A|`` outside ``[2^-400, 2^400]`` is scaled by a power of two to
+    ``max|A| ~ 1`` first (exact, so the result is the same as unscaled), so squares of
     entries neither overflow nor underflow. ``W`` ``(n + 2, n)``: rows ``0..n-1`` the
     working matrix (Householder vectors below its diagonal), row ``n`` the off-diagonal
     ``e``, row ``n + 1`` the Householder scalars. Returns False if it has not
@@ -325,8 +333,9 @@ def _tridiagonal_eigh_into(A, w, V, W):
             if a > amax:
                 amax = a
     scale = 1.0
-    if amax > 0.0 and math.isfinite(amax):
+    if amax > 0.0 and math.isfinite(amax) and not (_TINY < amax < _HUGE):
         scale = math.ldexp(1.0, -math.frexp(amax)[1])  # 2**-k, max|A| * scale in [0.5, 1)
+    top = amax * scale
     for i in range(n):
         for j in range(n):
             W[i, j] = 0.5 * (A[i, j] + A[j, i]) * scale
@@ -384,7 +393,7 @@ def _tridiagonal_eigh_into(A, w, V, W):
         w[i] = W[i, i]
     # -- implicit QR on (d = w, e = W[n]); rotations accumulate into V's columns
     eps2 = 2.220446049250313e-16 ** 2
-    floor2 = eps2 * eps2
+    floor2 = eps2 * eps2 * top * top
     hi = n - 1
     steps = 0
     while hi > 0:
