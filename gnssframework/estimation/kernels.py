@@ -518,9 +518,16 @@ def _sigma_points_body(mean, cov, root_kind, scale, center, X, status):
     """
     B, n = mean.shape
     off = 1 if center else 0
-    for b in prange(B):
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+      # Scratch allocated once per chunk of elements, not once per element.
+      R = np.zeros((n, n))
+      w = np.empty(n)
+      V = np.empty((n, n))
+      Wk = np.empty((n + 2, n))
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
         P = cov[b]
-        R = np.zeros((n, n))
+        R[:, :] = 0.0
         if not _all_finite(P):
             status[b] = 1
             continue
@@ -529,9 +536,7 @@ def _sigma_points_body(mean, cov, root_kind, scale, center, X, status):
                 status[b] = 2
                 continue
         else:
-            w = np.empty(n)
-            V = np.empty((n, n))
-            _eigh(P, w, V)
+            _eigh_into(P, w, V, Wk)
             for i in range(n):
                 sw = math.sqrt(abs(w[i]))
                 for j in range(n):
@@ -548,60 +553,87 @@ def _sigma_points_body(mean, cov, root_kind, scale, center, X, status):
 
 
 def _predict_moments_body(Y, wm, wc, Q, mean, cov):
-    """Weighted mean and ``sum wc dY dY^T + Q`` (symmetrised) of points ``(N, B, p)``."""
+    """Weighted mean and ``sum wc dY dY^T + Q`` (symmetrised) of points ``(N, B, p)``.
+
+    The covariance accumulates point by point (each entry sums over k = 0..N-1 in
+    order, as a dot product would: the same values, with the chains interleaved)."""
     N, B, p = Y.shape
     shared_q = Q.shape[0] == 1
-    for b in prange(B):
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+      mu = np.empty(p)
+      d = np.empty((N, p))
+      Acc = np.empty((p, p))
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
         q = 0 if shared_q else np.int64(b)
-        mu = np.zeros(p)
+        mu[:] = 0.0
         for k in range(N):
             for j in range(p):
                 mu[j] += wm[k] * Y[k, b, j]
-        d = np.empty((N, p))
         for k in range(N):
             for j in range(p):
                 d[k, j] = Y[k, b, j] - mu[j]
         for i in range(p):
+            for j in range(i + 1):
+                Acc[i, j] = 0.0
+        for k in range(N):
+            for i in range(p):
+                wd = wc[k] * d[k, i]
+                for j in range(i + 1):
+                    Acc[i, j] += wd * d[k, j]
+        for i in range(p):
             mean[b, i] = mu[i]
             for j in range(i + 1):
-                acc = 0.0
-                for k in range(N):
-                    acc += wc[k] * d[k, i] * d[k, j]
-                cij = acc + 0.5 * (Q[q, i, j] + Q[q, j, i])
+                cij = Acc[i, j] + 0.5 * (Q[q, i, j] + Q[q, j, i])
                 cov[b, i, j] = cij
                 cov[b, j, i] = cij
 
 
 def _measurement_moments_body(X, Z, prior_mean, wm, wc, R, z_hat, S, C):
-    """``z_hat``, ``S = sum wc dZ dZ^T + R`` (symmetrised) and ``C = sum wc (X - m) dZ^T``."""
+    """``z_hat``, ``S = sum wc dZ dZ^T + R`` (symmetrised) and ``C = sum wc (X - m) dZ^T``
+    (accumulated point by point, as `_predict_moments_body`)."""
     N, B, m = Z.shape
     n = X.shape[2]
     shared_r = R.shape[0] == 1
-    for b in prange(B):
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+      mu = np.empty(m)
+      d = np.empty((N, m))
+      SAcc = np.empty((m, m))
+      CAcc = np.empty((n, m))
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
         r = 0 if shared_r else np.int64(b)
-        mu = np.zeros(m)
+        mu[:] = 0.0
         for k in range(N):
             for j in range(m):
                 mu[j] += wm[k] * Z[k, b, j]
-        d = np.empty((N, m))
         for k in range(N):
             for j in range(m):
                 d[k, j] = Z[k, b, j] - mu[j]
         for i in range(m):
+            for j in range(i + 1):
+                SAcc[i, j] = 0.0
+        for i in range(n):
+            for j in range(m):
+                CAcc[i, j] = 0.0
+        for k in range(N):
+            for i in range(m):
+                wd = wc[k] * d[k, i]
+                for j in range(i + 1):
+                    SAcc[i, j] += wd * d[k, j]
+            for i in range(n):
+                wx = wc[k] * (X[k, b, i] - prior_mean[b, i])
+                for j in range(m):
+                    CAcc[i, j] += wx * d[k, j]
+        for i in range(m):
             z_hat[b, i] = mu[i]
             for j in range(i + 1):
-                acc = 0.0
-                for k in range(N):
-                    acc += wc[k] * d[k, i] * d[k, j]
-                sij = acc + 0.5 * (R[r, i, j] + R[r, j, i])
+                sij = SAcc[i, j] + 0.5 * (R[r, i, j] + R[r, j, i])
                 S[b, i, j] = sij
                 S[b, j, i] = sij
         for i in range(n):
             for j in range(m):
-                acc = 0.0
-                for k in range(N):
-                    acc += wc[k] * (X[k, b, i] - prior_mean[b, i]) * d[k, j]
-                C[b, i, j] = acc
+                C[b, i, j] = CAcc[i, j]
 
 
 def _update_body(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph, H, R, mean, cov, gain, innovation, ok):
