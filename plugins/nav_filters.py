@@ -9,7 +9,7 @@ from pydantic import Field
 
 from gnssframework.errors import ConfigError
 from gnssframework.estimation import (CompiledFunctions, FilterStep, Gaussian, LinearModel, NonlinearModel,
-                                     filter_sequence, kernels)
+                                     filter_sequence, kernels, kernels_loop)
 from gnssframework.interfaces import NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
@@ -88,6 +88,10 @@ class EkfPositionVelocity(NavFilter):
         self.F, self.Q = cv_clock_model(T, self.params.accel_psd, self.params.clock)
         initial = Gaussian(context.require("initial_state", who), context.require("initial_cov", who))
         self.state = self.filter_step.start(initial)
+        # Measurement assembly and NCO command in one compiled call each under the numba
+        # backend (chosen once per run); the NumPy lines of `_measurements`/`_nco_command`
+        # are the reference.
+        self._compiled = kernels.get_backend() == "numba" and kernels.available()
 
     def _model(self, sat_pos, sat_vel, R) -> NonlinearModel:
         F = self.F
@@ -118,7 +122,8 @@ class EkfPositionVelocity(NavFilter):
         return NonlinearModel(f, h, self.Q, R, f_jacobian=lambda x: np.broadcast_to(F, x.shape[:-1] + (8, 8)),
                               h_jacobian=h_jac, compiled=compiled)
 
-    def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    def _measurements(self, inputs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """z and R (Zou et al. 2018, eqs. 35-36) from the channel outputs: NumPy reference."""
         p = self.params
         var_code = np.maximum(inputs["code_error_var_chips2"], p.min_code_var_chips2) * CA_CHIP_LENGTH_M**2
         var_rate = np.maximum(inputs["freq_error_var_hz2"], p.min_freq_var_hz2) * L1_WAVELENGTH_M**2
@@ -127,15 +132,35 @@ class EkfPositionVelocity(NavFilter):
         R[..., idx, idx] = np.concatenate([var_code, var_rate], axis=-1)
         z = np.concatenate([inputs["replica_range_m"] + CA_CHIP_LENGTH_M * inputs["code_error_chips"],
                             inputs["replica_rate_m_s"] - L1_WAVELENGTH_M * inputs["freq_error_hz"]], axis=-1)
+        return z, R
+
+    def _nco_command(self, x: np.ndarray, sat_pos: np.ndarray, sat_vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """NCO command for the next interval: range at its start (t + T/2), rate. NumPy reference."""
+        ahead = x.copy()
+        ahead[..., 0:3] += x[..., 3:6] * self.T / 2
+        ahead[..., 6] += x[..., 7] * self.T / 2
+        rho, rate, _ = predicted_range(ahead, sat_pos, sat_vel)
+        return rho, rate
+
+    def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        p = self.params
+        code = inputs["code_error_chips"]
+        if self._compiled and np.ndim(code) >= 1:
+            z, R = kernels_loop.pv_measurements(
+                inputs["replica_range_m"], code, inputs["code_error_var_chips2"], inputs["replica_rate_m_s"],
+                inputs["freq_error_hz"], inputs["freq_error_var_hz2"], p.min_code_var_chips2, p.min_freq_var_hz2,
+                CA_CHIP_LENGTH_M, L1_WAVELENGTH_M)
+        else:
+            z, R = self._measurements(inputs)
         model = self._model(inputs["sat_pos_m"], inputs["sat_vel_m_s"], R)
         # The initial estimate is already at the first mid-interval: no prediction then.
         self.state = self.filter_step(self.state, z, model, predict=self.filter_step.step_index > 0).posterior
         x = self.state.mean
-        # NCO command for the next interval: range at its start (t + T/2), rate.
-        ahead = x.copy()
-        ahead[..., 0:3] += x[..., 3:6] * self.T / 2
-        ahead[..., 6] += x[..., 7] * self.T / 2
-        rho, rate, _ = predicted_range(ahead, inputs["next_sat_pos_m"], inputs["next_sat_vel_m_s"])
+        sp, sv = inputs["next_sat_pos_m"], inputs["next_sat_vel_m_s"]
+        if self._compiled and np.ndim(sp) == 2 and np.ndim(sv) == 2 and x.shape[-1] == 8:
+            rho, rate = kernels_loop.pv_nco_command(x, self.T / 2, sp, sv)
+        else:
+            rho, rate = self._nco_command(x, sp, sv)
         return {"position_m": x[..., 0:3], "velocity_m_s": x[..., 3:6], "clock_m": x[..., 6:8],
                 "cov": self.state.cov, "nco_range_m": rho, "nco_range_rate_m_s": rate}
 

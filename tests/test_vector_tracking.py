@@ -46,13 +46,13 @@ def test_ekf_pv_is_consistent_when_fed_measurements_with_the_stated_noise(monkey
     truth, x0, P0 = scen.truth(45.0, 40, rng)
     oracle = OracleChannel(np.random.default_rng(4))
     captured = {}
-    real = vec.simulate_correlators
+    real = vec.CorrelatorSimulator.draw
 
-    def spy(code_error_chips, carrier_phase_rad, freq_error_hz, *a, **k):
+    def spy(self, code_error_chips, carrier_phase_rad, freq_error_hz, *a, **k):
         captured["code"], captured["freq"] = code_error_chips, freq_error_hz
-        return real(code_error_chips, carrier_phase_rad, freq_error_hz, *a, **k)
+        return real(self, code_error_chips, carrier_phase_rad, freq_error_hz, *a, **k)
 
-    monkeypatch.setattr(vec, "simulate_correlators", spy)
+    monkeypatch.setattr(vec.CorrelatorSimulator, "draw", spy)
     oracle.truth = lambda: (captured["code"], captured["freq"])
     # The truth is static: a matching model has (almost) no acceleration noise. The
     # default 0.1 m^2/s^3 makes the filter conservative (NEES about 6.4).

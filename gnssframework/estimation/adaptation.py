@@ -34,7 +34,8 @@ import numpy as np
 from pydantic import Field
 
 from ..plugin import Plugin, PluginParams
-from .linalg import clamp_relative, pd_mask, project_psd, regularised, symmetrize
+from . import kernels, kernels_loop
+from .linalg import any_true, clamp_relative, pd_mask, project_psd, regularised, symmetrize
 from .types import Gaussian, Model, Update
 
 __all__ = [
@@ -107,17 +108,28 @@ class AdapterRun(abc.ABC):
 
         Elements that are already PSD and inside the bounds pass unchanged; the
         projection's ``eigh`` runs only on the others (a Cholesky test finds them).
+        Under the ``numba`` backend one compiled pass tests the common case (every element
+        PD and inside the bounds) and returns the same symmetrised estimate; the steps
+        below run only when some element fails it.
         """
+        # The reference (Q0 or R0) is fixed for the run: its eigen-decomposition and the
+        # matrix clamp_relative rebuilds from it are kept.
+        cache = self.__dict__.setdefault("_reference_eig", {})
+        kept = cache.get(id(reference))
+        if kept is None or kept[0] is not reference:
+            eig = regularised(reference)
+            w, v = eig
+            kept = cache[id(reference)] = (reference, eig, (v * w[..., None, :]) @ np.swapaxes(v, -1, -2),
+                                           kernels.get_backend() == "numba")
+        if kept[3]:
+            lean = kernels_loop.guard_bad_count(raw, kept[2], floor, ceiling)
+            if lean is not None and lean[1] == 0:
+                return lean[0]
         raw = symmetrize(raw)
         psd = pd_mask(raw)
         if not psd.all():
             raw = raw.copy()
             raw[~psd] = project_psd(raw[~psd])
-        # The reference (Q0 or R0) is fixed for the run: its eigen-decomposition is kept.
-        cache = self.__dict__.setdefault("_reference_eig", {})
-        kept = cache.get(id(reference))
-        if kept is None or kept[0] is not reference:
-            kept = cache[id(reference)] = (reference, regularised(reference))
         return clamp_relative(raw, reference, floor, ceiling, reference_eig=kept[1])
 
     def step(self, ctx: AdaptationStep) -> tuple[np.ndarray, np.ndarray]:
@@ -126,13 +138,14 @@ class AdapterRun(abc.ABC):
         Q, R = self.estimate(ctx)
         if self.updates > self.params.warmup:
             skipped = np.asarray(ctx.update.skipped)
+            any_skipped = any_true(skipped)
             # A skipped update carries no information: keep the old estimate there.
             if Q is not None:
                 Q = self.guard(Q, self.Q0, self.params.q_floor, self.params.q_ceiling)
-                self.Q = np.where(skipped[..., None, None], self.Q, Q) if skipped.any() else Q
+                self.Q = np.where(skipped[..., None, None], self.Q, Q) if any_skipped else Q
             if R is not None:
                 R = self.guard(R, self.R0, self.params.r_floor, self.params.r_ceiling)
-                self.R = np.where(skipped[..., None, None], self.R, R) if skipped.any() else R
+                self.R = np.where(skipped[..., None, None], self.R, R) if any_skipped else R
         return self.Q, self.R
 
     @abc.abstractmethod

@@ -43,6 +43,7 @@ import numpy as np
 
 from ..errors import (ConfigError, InvalidInitialStateError, InvalidInputError, NonFiniteError, NotPositiveDefiniteError,
                       NumericalError)
+from . import kernels, kernels_loop
 from .adaptation import AdapterRun, AdaptationStep, NoiseAdapter
 from .adapter_guard import adapt_checked
 from .boundary import as_measurement
@@ -91,8 +92,13 @@ def check_initial(initial: Gaussian, filter_name: str, model: Model | None = Non
 
 
 def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, counts: Counter,
-                      filter_name: str) -> Gaussian:
-    """Check the posterior of every batch element; apply ``policy`` where it fails."""
+                      filter_name: str, lean: bool = False) -> Gaussian:
+    """Check the posterior of every batch element; apply ``policy`` where it fails.
+
+    ``lean`` (the ``numba`` backend): one compiled test of the whole posterior first; the
+    per-element masks below only when it finds a failing element."""
+    if lean and kernels_loop.state_bad_count(state.mean, state.cov, True) == 0:
+        return state
     pd = pd_mask(state.cov)  # compiled test, no factor kept (the lean step)
     if all_true(pd) and all_true(np.isfinite(state.mean)):
         return state
@@ -127,9 +133,11 @@ def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, count
     return Gaussian(mean, cov)
 
 
-def _check_prior(prior: Gaussian, state: Gaussian, filter_name: str) -> None:
+def _check_prior(prior: Gaussian, state: Gaussian, filter_name: str, lean: bool = False) -> None:
     """A prediction from a finite state that is not finite is an overflow in f, Q or the
     sigma-point weights (a state of magnitude 1e300 after a 1e300 measurement)."""
+    if lean and kernels_loop.state_bad_count(prior.mean, prior.cov, False) == 0:
+        return
     if all_true(np.isfinite(prior.mean)) and all_true(np.isfinite(prior.cov)):
         return  # the per-element mask only when something is not finite
     ok = np.isfinite(prior.mean).all(axis=-1) & np.isfinite(prior.cov).all(axis=(-2, -1))
@@ -206,6 +214,8 @@ class FilterStep:
         self._adapted = 0
         self._run: AdapterRun | None = None
         self._Q = self._R = None
+        self._in_force_cache: tuple | None = None
+        self._lean = kernels.get_backend() == "numba"
 
     def start(self, initial: Gaussian, model: Model | None = None, *, first_step: int = 0) -> Gaussian:
         """Begin a sequence from ``initial``: check it, reset the counts, start the adapter.
@@ -227,6 +237,8 @@ class FilterStep:
             Naming the initial mean or covariance (and the batch element).
         """
         check_initial(initial, self.name, model)
+        # The backend of the step's compiled checks, chosen once per sequence.
+        self._lean = kernels.get_backend() == "numba"
         self.recoveries = Counter({k: 0 for k in RECOVERIES})
         self.step_index = first_step
         self._adapted = 0
@@ -266,7 +278,15 @@ class FilterStep:
 
     def in_force(self, model: Model) -> Model:
         """``model`` with the adapter's latest Q and R (unchanged before it has estimated)."""
-        return model if self._Q is None else model.with_noise(Q=self._Q, R=self._R)
+        if self._Q is None:
+            return model
+        # predict and update of one step use the same model: build it once.
+        hit = self._in_force_cache
+        if hit is not None and hit[0] is model and hit[1] is self._Q and hit[2] is self._R:
+            return hit[3]
+        out = model.with_noise(Q=self._Q, R=self._R)
+        self._in_force_cache = (model, self._Q, self._R, out)
+        return out
 
     def _named(self, exc: NumericalError) -> NumericalError:
         return type(exc)(self.name, exc.batch_indices, self.step_index, exc.detail)
@@ -280,7 +300,7 @@ class FilterStep:
             # NumPy RuntimeWarning would say neither which filter nor which element.
             with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
                 prior = self.estimator.predict(state, self.in_force(model))
-                _check_prior(prior, state, self.estimator.name)
+                _check_prior(prior, state, self.estimator.name, self._lean)
         except NumericalError as exc:
             raise self._named(exc) from None
         return prior
@@ -300,12 +320,16 @@ class FilterStep:
             If ``z`` does not have the model's measurement length.
         """
         mk = self.in_force(model)
-        z = as_measurement(z, mk.R.shape[-1], prior.batch_shape, self.name, self.step_index)
+        m = mk.R.shape[-1]
+        if not (type(z) is np.ndarray and z.dtype == np.float64 and z.ndim == len(prior.batch_shape) + 1
+                and z.shape[-1] == m and z.shape[:-1] == prior.batch_shape):
+            # Anything but a float array of exactly the state's batch shape is checked here.
+            z = as_measurement(z, m, prior.batch_shape, self.name, self.step_index)
         try:
             with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
                 upd = self.estimator.update(prior, z, mk, on_failure=self.on_failure, missing=self.missing)
                 posterior = _repair_posterior(upd.state, prior, self.on_failure, self.recoveries,
-                                              self.estimator.name)
+                                              self.estimator.name, self._lean)
         except NumericalError as exc:
             raise self._named(exc) from None
         skipped = np.asarray(upd.skipped)

@@ -163,6 +163,9 @@ def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tupl
 
     if kernels.get_backend() == "numba":
         kernels.warm_up()
+        from ..estimation import kernels_loop
+
+        kernels_loop.warm_up()
     with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
         futures = {pool.submit(run_task_in_worker, d, t): i for i, (d, t) in enumerate(jobs)}
         for fut in as_completed(futures):

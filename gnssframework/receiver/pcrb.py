@@ -180,19 +180,18 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
     r0, v = np.asarray(receiver_pos, float), np.asarray(receiver_vel, float)
     sats = np.asarray(sat_pos(times))  # (K, ch, 3): one orbit evaluation for all epochs
 
-    def sqrt_info(k):
-        t = times[k]
-        los = sats[k] - (r0 + v * t)
-        e = los / np.linalg.norm(los, axis=-1, keepdims=True)
-        drho = np.zeros((n_ch, n))
-        drho[:, 0:3] = -e
-        drho[:, 6] = 1.0
-        code = drho / CA_CHIP_LENGTH_M
-        phase = -2 * np.pi * drho / L1_WAVELENGTH_M
-        phase[:, 8:] = np.eye(n_ch)
-        return np.concatenate([sq[:, :1] * code, sq[:, 1:] * phase])
+    # The measurement square roots of every epoch in one vectorised pass (issue 11).
+    los = sats.reshape(epochs, n_ch, 3) - (r0 + v * times[:, None])[:, None, :]
+    e = los / np.linalg.norm(los, axis=-1, keepdims=True)
+    drho = np.zeros((epochs, n_ch, n))
+    drho[..., 0:3] = -e
+    drho[..., 6] = 1.0
+    code = drho / CA_CHIP_LENGTH_M
+    phase = -2 * np.pi * drho / L1_WAVELENGTH_M
+    phase[..., 8:] = np.eye(n_ch)
+    roots = np.concatenate([sq[:, :1] * code, sq[:, 1:] * phase], axis=1)  # (K, 2 ch, n)
 
-    P = pcrb_linear(F, Q, sqrt_info, Pfull, epochs)
+    P = pcrb_linear(F, Q, roots.__getitem__, Pfull, epochs)
     pos = np.sqrt(np.trace(P[:, 0:3, 0:3], axis1=1, axis2=2))
     vel = np.sqrt(np.trace(P[:, 3:6, 3:6], axis1=1, axis2=2))
     return times, pos, vel

@@ -32,7 +32,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..interfaces import ChannelFilter, NavFilter, RunContext
 from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
-from ..signal.correlator_model import simulate_correlators
+from ..signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from ..signal.navdata import BIT_PERIOD_S, random_nav_bits
 
 __all__ = ["VectorTruth", "VectorRecord", "run_vector_loop", "check_composition", "predicted_range",
@@ -182,11 +182,15 @@ def run_vector_loop(
 
     theta0 = rng.uniform(-np.pi, np.pi, batch)  # unknown initial carrier phase per channel
     bits = random_nav_bits(int(np.ceil(K * T / BIT_PERIOD_S)) + 1, rng, batch) if data_bits != "none" else None
+    bits_f = bits.astype(float) if bits is not None else None
 
     context = RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips, epoch_interval_s=T,
                          cn0_dbhz=cn0, initial_state=initial_state, initial_cov=initial_cov)
     channel.reset(batch, context)
     nav.reset((runs,), context)
+    # Per-run constants of the correlator draws (tap offsets, noise root, amplitude).
+    simulator = CorrelatorSimulator(T, early_late_spacing_chips)
+    amplitude = amplitude_from_cn0(cn0, T)
 
     # First NCO command from the initial estimate, propagated back to t_0.
     s_mid, sv_mid = truth.sat_state(np.asarray(T / 2))
@@ -197,57 +201,85 @@ def run_vector_loop(
     shift_chips = np.zeros(batch)
     shift_hz = np.zeros(batch)
 
-    true_rho = truth.pseudorange(np.asarray(0.0), 0, sat_pos=s0)
-    rec: dict[str, list] = {k: [] for k in ("code", "freq", "pos", "vel", "nees", "nees_pos", "nees_vel", "code_out",
-                                            "freq_out")}
-    for k in range(K):
-        t1, tm = t_edges[k + 1], t_edges[k] + T / 2
-        s_next, sv_next = sat_edges[0][k + 1], sat_edges[1][k + 1]
-        next_rho = truth.pseudorange(np.asarray(t1), k + 1, sat_pos=s_next)
-        rep_end = nco_range + nco_rate * T
-        code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
-        f_rep = -nco_rate / L1_WAVELENGTH_M
-        ph0 = theta0 - 2 * np.pi * true_rho / L1_WAVELENGTH_M - carrier_rep
-        carrier_rep_end = carrier_rep + 2 * np.pi * f_rep * T
-        ph1 = theta0 - 2 * np.pi * next_rho / L1_WAVELENGTH_M - carrier_rep_end
-        freq_err = (ph1 - ph0) / (2 * np.pi * T)
-        bit = bits[int(tm // BIT_PERIOD_S)] if bits is not None else 1.0
-        corr = simulate_correlators(code_err, ph0, freq_err, cn0, T, rng,
-                                    early_late_spacing_chips=early_late_spacing_chips, data_bit=bit)
-        inputs = {"correlators": corr, "nco_shift_chips": shift_chips, "nco_shift_hz": shift_hz}
-        if data_bits == "known":
-            inputs["data_bit"] = bit
-        ch_out = channel.checked_step(inputs)
+    code_rec, freq_rec, code_out_rec, freq_out_rec = (np.empty((K,) + batch) for _ in range(4))
+    err_rec = np.empty((K, runs, 8))
+    nees_rec, nees_pos_rec, nees_vel_rec = (np.empty((K, runs)) for _ in range(3))
+    block = max(1, min(K, _BLOCK))
+    cov_buf = np.empty((block, runs, 8, 8))
+    for k0 in range(0, K, block):
+        k1 = min(K, k0 + block)
+        # The truth of a block of epochs in a few vectorised calls: true pseudoranges and
+        # carrier phases at the edges, the true navigation state at the mid-intervals.
+        rho_edges, x_true = _truth_block(truth, sat_edges[0], t_edges, k0, k1)
+        phase_true = theta0 - 2 * np.pi * rho_edges / L1_WAVELENGTH_M
+        for k in range(k0, k1):
+            j = k - k0
+            true_rho, next_rho = rho_edges[j], rho_edges[j + 1]
+            tm = t_edges[k] + T / 2
+            rep_end = nco_range + nco_rate * T
+            code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
+            f_rep = -nco_rate / L1_WAVELENGTH_M
+            ph0 = phase_true[j] - carrier_rep
+            carrier_rep_end = carrier_rep + 2 * np.pi * f_rep * T
+            ph1 = phase_true[j + 1] - carrier_rep_end
+            freq_err = (ph1 - ph0) / (2 * np.pi * T)
+            i_bit = int(tm // BIT_PERIOD_S)
+            corr = simulator.draw(code_err, ph0, freq_err, amplitude, rng,
+                                  bits_f[i_bit] if bits_f is not None else 1.0)
+            inputs = {"correlators": corr, "nco_shift_chips": shift_chips, "nco_shift_hz": shift_hz}
+            if data_bits == "known":
+                inputs["data_bit"] = bits[i_bit]
+            ch_out = channel.checked_step(inputs)
 
-        s_mid, sv_mid = sat_mids[0][k], sat_mids[1][k]
-        nav_out = nav.checked_step({**ch_out, "sat_pos_m": s_mid, "sat_vel_m_s": sv_mid, "next_sat_pos_m": s_next,
-                            "next_sat_vel_m_s": sv_next, "replica_range_m": nco_range + nco_rate * T / 2,
-                            "replica_rate_m_s": np.broadcast_to(nco_rate, batch)})
+            nav_in = dict(ch_out)
+            nav_in.update(sat_pos_m=sat_mids[0][k], sat_vel_m_s=sat_mids[1][k], next_sat_pos_m=sat_edges[0][k + 1],
+                          next_sat_vel_m_s=sat_edges[1][k + 1], replica_range_m=nco_range + nco_rate * T / 2,
+                          replica_rate_m_s=nco_rate if nco_rate.shape == batch else np.broadcast_to(nco_rate, batch))
+            nav_out = nav.checked_step(nav_in)
 
-        x_true = truth.nav_truth(tm, k)
-        est = np.concatenate([nav_out["position_m"], nav_out["velocity_m_s"], nav_out["clock_m"]], axis=-1)
-        err = est - x_true
-        rec["code"].append(code_err)
-        rec["freq"].append(freq_err)
-        rec["pos"].append(err[:, :3])
-        rec["vel"].append(err[:, 3:6])
-        cov = nav_out["cov"]
-        rec["nees"].append(_nees(err, cov))  # per epoch; the scenario's Mean components average it
-        rec["nees_pos"].append(_nees(err[:, 0:3], cov[..., 0:3, 0:3]))
-        rec["nees_vel"].append(_nees(err[:, 3:6], cov[..., 3:6, 3:6]))
-        rec["code_out"].append(ch_out["code_error_chips"] - code_err)
-        rec["freq_out"].append(ch_out["freq_error_hz"] - freq_err)
+            est = np.concatenate([nav_out["position_m"], nav_out["velocity_m_s"], nav_out["clock_m"]], axis=-1)
+            np.subtract(est, x_true[j], out=err_rec[k])
+            cov_buf[j] = nav_out["cov"]  # a copy: a nav filter may reuse its array
+            code_rec[k] = code_err
+            freq_rec[k] = freq_err
+            code_out_rec[k] = ch_out["code_error_chips"] - code_err
+            freq_out_rec[k] = ch_out["freq_error_hz"] - freq_err
 
-        new_range, new_rate = nav_out["nco_range_m"], nav_out["nco_range_rate_m_s"]
-        shift_chips = (new_range - rep_end) / CA_CHIP_LENGTH_M
-        shift_hz = -(new_rate - nco_rate) / L1_WAVELENGTH_M
-        nco_range, nco_rate = new_range, new_rate
-        carrier_rep = carrier_rep_end
-        true_rho = next_rho
-    stack = {k: np.stack(v) for k, v in rec.items()}
-    return VectorRecord(stack["code"], stack["freq"], stack["pos"], stack["vel"], stack["nees"],
-                        t_edges[:-1] + T / 2, nees_position=stack["nees_pos"], nees_velocity=stack["nees_vel"],
-                        code_output_error_chips=stack["code_out"], freq_output_error_hz=stack["freq_out"])
+            new_range, new_rate = nav_out["nco_range_m"], nav_out["nco_range_rate_m_s"]
+            shift_chips = (new_range - rep_end) / CA_CHIP_LENGTH_M
+            shift_hz = -(new_rate - nco_rate) / L1_WAVELENGTH_M
+            nco_range, nco_rate = new_range, new_rate
+            carrier_rep = carrier_rep_end
+        # NEES of the block's epochs in three batched solves instead of three per epoch.
+        err, cov = err_rec[k0:k1], cov_buf[:k1 - k0]
+        nees_rec[k0:k1] = _nees(err, cov)
+        nees_pos_rec[k0:k1] = _nees(err[..., 0:3], cov[..., 0:3, 0:3])
+        nees_vel_rec[k0:k1] = _nees(err[..., 3:6], cov[..., 3:6, 3:6])
+    return VectorRecord(code_rec, freq_rec, err_rec[..., 0:3], err_rec[..., 3:6], nees_rec,
+                        t_edges[:-1] + T / 2, nees_position=nees_pos_rec, nees_velocity=nees_vel_rec,
+                        code_output_error_chips=code_out_rec, freq_output_error_hz=freq_out_rec)
+
+
+#: Epochs whose truth (and NEES) the loop computes in one vectorised pass.
+_BLOCK = 256
+
+
+def _truth_block(truth: VectorTruth, sat_pos_edges: np.ndarray, t_edges: np.ndarray, k0: int, k1: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """True pseudoranges at the edges ``k0..k1`` ``(k1-k0+1, runs, ch)`` and the true
+    navigation states at the mid-intervals ``k0..k1-1`` ``(k1-k0, runs, 8)``: the values of
+    `VectorTruth.pseudorange` and `VectorTruth.nav_truth` at each epoch, in one call each."""
+    T = truth.coherent_time_s
+    edges = np.arange(k0, k1 + 1)
+    r, _ = truth.receiver_state(t_edges[k0:k1 + 1])
+    s = sat_pos_edges[k0:k1 + 1]
+    rho = np.linalg.norm(s[:, None] - r[:, :, None], axis=-1) + truth.clock_m[edges, :, 0][..., None]
+    tm = t_edges[k0:k1] + T / 2
+    ks = edges[:-1]
+    r, v = truth.receiver_state(tm)
+    frac = ((tm / T) - ks)[:, None, None]
+    clock = (1 - frac) * truth.clock_m[ks] + frac * truth.clock_m[np.minimum(ks + 1, truth.epochs)]
+    return rho, np.concatenate([r, v, clock], axis=-1)
 
 
 def _nees(err: np.ndarray, cov: np.ndarray) -> np.ndarray:

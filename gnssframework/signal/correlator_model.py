@@ -43,6 +43,7 @@ __all__ = [
     "correlator_mean",
     "tap_noise_cov",
     "simulate_correlators",
+    "CorrelatorSimulator",
 ]
 
 
@@ -168,16 +169,48 @@ def simulate_correlators(
     Correlators
         With unit-variance I and Q noise, correlated across taps as ``R(o_i - o_j)``.
     """
-    offsets = tap_offsets(early_late_spacing_chips, extra_taps)
-    names = list(offsets)
-    o = np.array([offsets[n] for n in names])
+    sim = CorrelatorSimulator(coherent_time_s, early_late_spacing_chips, bandwidth_hz, extra_taps)
     amp = amplitude_from_cn0(cn0_dbhz, coherent_time_s) if amplitude is None else np.asarray(amplitude, float)
-    mean = correlator_mean(amp, code_error_chips, carrier_phase_rad, freq_error_hz, coherent_time_s, o, data_bit,
-                           bandwidth_hz)
-    w, v = np.linalg.eigh(tap_noise_cov(o, bandwidth_hz))
-    root = v * np.sqrt(np.clip(w, 0.0, None))  # PSD root: taps may be (nearly) coincident
-    shape = mean.shape
-    noise = rng.standard_normal(shape) @ root.T + 1j * (rng.standard_normal(shape) @ root.T)
-    out = mean + noise
-    taps = {n: out[..., i] for i, n in enumerate(names)}
-    return Correlators(taps.pop("early"), taps.pop("prompt"), taps.pop("late"), extra=taps)
+    return sim.draw(code_error_chips, carrier_phase_rad, freq_error_hz, amp, rng, data_bit)
+
+
+class CorrelatorSimulator:
+    """`simulate_correlators` with its per-run constants computed once.
+
+    A harness that draws correlators every interval (the vector and deep-integration
+    loops) builds one per run: the tap offsets and the noise covariance's root (an
+    ``eigh``) do not change between intervals, so only the draw remains per interval.
+    The draws and the arithmetic are those of `simulate_correlators`, which is this
+    class used once.
+
+    Parameters
+    ----------
+    coherent_time_s, early_late_spacing_chips, bandwidth_hz, extra_taps
+        As in `simulate_correlators`.
+    """
+
+    def __init__(self, coherent_time_s: float, early_late_spacing_chips: float = 1.0,
+                 bandwidth_hz: float | None = None, extra_taps: dict[str, float] | None = None) -> None:
+        offsets = tap_offsets(early_late_spacing_chips, extra_taps)
+        self.names = list(offsets)
+        self.offsets_chips = np.array([offsets[n] for n in self.names])
+        self.coherent_time_s = float(coherent_time_s)
+        self.bandwidth_hz = bandwidth_hz
+        w, v = np.linalg.eigh(tap_noise_cov(self.offsets_chips, bandwidth_hz))
+        root = v * np.sqrt(np.clip(w, 0.0, None))  # PSD root: taps may be (nearly) coincident
+        self.root_t = root.T
+
+    def draw(self, code_error_chips: np.ndarray, carrier_phase_rad: np.ndarray, freq_error_hz: np.ndarray,
+             amplitude: np.ndarray, rng: np.random.Generator, data_bit: np.ndarray | float = 1.0) -> Correlators:
+        """One interval of correlator outputs (`simulate_correlators`, with the amplitude
+        ``A = sqrt(2 c T)`` given: `amplitude_from_cn0`)."""
+        mean = correlator_mean(amplitude, code_error_chips, carrier_phase_rad, freq_error_hz, self.coherent_time_s,
+                               self.offsets_chips, data_bit, self.bandwidth_hz)
+        shape = mean.shape
+        root_t = self.root_t
+        noise = rng.standard_normal(shape) @ root_t + 1j * (rng.standard_normal(shape) @ root_t)
+        out = mean + noise
+        if len(self.names) == 3:
+            return Correlators.trusted(out[..., 0], out[..., 1], out[..., 2])
+        taps = {n: out[..., i] for i, n in enumerate(self.names)}
+        return Correlators(taps.pop("early"), taps.pop("prompt"), taps.pop("late"), extra=taps)

@@ -34,5 +34,8 @@ def bit_at(time_s: np.ndarray, bits: np.ndarray, first_edge_s: float | np.ndarra
 def wipe_off(correlators: Correlators, bit: np.ndarray) -> Correlators:
     """Remove known data bits: multiply every tap by the (±1) bit."""
     b = np.asarray(bit, dtype=float)
+    if not correlators.extra and b.shape == correlators.shape:
+        # Same shapes, complex taps times real bits: the result needs no checks.
+        return Correlators.trusted(correlators.early * b, correlators.prompt * b, correlators.late * b)
     extra = {k: v * b for k, v in correlators.extra.items()}
     return Correlators(correlators.early * b, correlators.prompt * b, correlators.late * b, extra=extra)

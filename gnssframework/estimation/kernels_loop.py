@@ -1,0 +1,218 @@
+"""Compiled checks of the filter step's lean path (issue 11: the single-run vector loop).
+
+A filter step at small batch (one run of a vector loop: 8 channel filters, one
+navigation filter) is bound by Python-level calls, each about a microsecond whatever
+the array size. The checks `FilterStep` and the noise adapters' safeguards make every
+step (is the prediction finite, is the posterior PD, is the adapted R PSD and inside its
+bounds) cost three to eight NumPy calls each; here each is one compiled call returning
+a count of failing batch elements.
+
+Every kernel is a *test* that decides whether the step may take its common path; where
+a count is not zero the caller runs the NumPy reference path, which finds the failing
+elements, applies the recovery policy and names the failure. The tests themselves are
+those of the reference path: the positive-definiteness test is the Cholesky test of
+`gnssframework.estimation.kernels.pd_mask` (the ``numba`` backend's), finiteness is
+exact, and the symmetrisation and bound differences are the same floating-point
+operations as `gnssframework.estimation.linalg.symmetrize` and ``clamp_relative``, so
+the lean path returns bitwise what the reference path returns.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import kernels
+from .kernels import _all_finite, _cholesky, _jit
+
+__all__ = ["all_finite", "state_bad_count", "guard_bad_count", "pv_measurements", "pv_nco_command", "warm_up"]
+
+
+@_jit
+def _all_finite_body(a):
+    return _all_finite(a)
+
+
+@_jit
+def _state_bad_count_body(mean, cov, test_pd):
+    """Elements whose mean or covariance is not finite, or (``test_pd``) whose covariance
+    has no Cholesky factor of its lower triangle."""
+    B, n = mean.shape
+    L = np.empty((n, n))
+    bad = 0
+    for b in range(B):
+        ok = _all_finite(mean[b]) and _all_finite(cov[b])
+        if ok and test_pd:
+            ok = _cholesky(cov[b], L)
+        bad += not ok
+    return bad
+
+
+@_jit
+def _guard_bad_count_body(raw, ref, floor, ceiling, out):
+    """``out[b] = (raw[b] + raw[b]^T) / 2``; counts the elements where ``out[b]`` is not
+    finite and PD, or ``out[b] - floor ref`` or ``ceiling ref - out[b]`` is not PD."""
+    B, k, _ = raw.shape
+    D = np.empty((k, k))
+    L = np.empty((k, k))
+    bad = 0
+    for b in range(B):
+        A = raw[b]
+        S = out[b]
+        for i in range(k):
+            for j in range(k):
+                S[i, j] = 0.5 * (A[i, j] + A[j, i])
+        ok = _all_finite(S) and _cholesky(S, L)
+        if ok:
+            for i in range(k):
+                for j in range(k):
+                    D[i, j] = S[i, j] - floor * ref[i, j]
+            ok = _all_finite(D) and _cholesky(D, L)
+        if ok:
+            for i in range(k):
+                for j in range(k):
+                    D[i, j] = ceiling * ref[i, j] - S[i, j]
+            ok = _all_finite(D) and _cholesky(D, L)
+        bad += not ok
+    return bad
+
+
+@_jit
+def _pv_measurements_body(rep_range, code, var_code, rep_rate, freq, var_freq, min_code, min_freq, chip_m, wave_m,
+                          z, R):
+    B, c = code.shape
+    for b in range(B):
+        for j in range(2 * c):
+            for i in range(2 * c):
+                R[b, j, i] = 0.0
+        for i in range(c):
+            z[b, i] = rep_range[b, i] + chip_m * code[b, i]
+            z[b, c + i] = rep_rate[b, i] - wave_m * freq[b, i]
+            vc, vf = var_code[b, i], var_freq[b, i]
+            # np.maximum: a NaN variance stays NaN (the filter then names it).
+            vc = vc if (vc > min_code or vc != vc) else min_code
+            vf = vf if (vf > min_freq or vf != vf) else min_freq
+            R[b, i, i] = vc * (chip_m * chip_m)
+            R[b, c + i, c + i] = vf * (wave_m * wave_m)
+
+
+@_jit
+def _pv_nco_body(x, half_t, sat_pos, sat_vel, rho, rate):
+    B = x.shape[0]
+    c = sat_pos.shape[0]
+    for b in range(B):
+        r0 = x[b, 0] + x[b, 3] * half_t
+        r1 = x[b, 1] + x[b, 4] * half_t
+        r2 = x[b, 2] + x[b, 5] * half_t
+        bias = x[b, 6] + x[b, 7] * half_t
+        for i in range(c):
+            l0 = sat_pos[i, 0] - r0
+            l1 = sat_pos[i, 1] - r1
+            l2 = sat_pos[i, 2] - r2
+            dist = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
+            e0, e1, e2 = l0 / dist, l1 / dist, l2 / dist
+            rate[b, i] = ((sat_vel[i, 0] - x[b, 3]) * e0 + (sat_vel[i, 1] - x[b, 4]) * e1
+                          + (sat_vel[i, 2] - x[b, 5]) * e2) + x[b, 7]
+            rho[b, i] = dist + bias
+
+
+def _as_rows(a, shape: tuple[int, ...]) -> np.ndarray:
+    """``a`` broadcast to ``shape`` as a writable C-contiguous float64 array (a copy only
+    where it is not one already)."""
+    if (type(a) is np.ndarray and a.shape == shape and a.dtype == np.float64 and a.flags.c_contiguous
+            and a.flags.writeable):
+        return a
+    return np.array(np.broadcast_to(np.asarray(a, dtype=float), shape), dtype=float, order="C")
+
+
+def pv_measurements(rep_range, code, var_code, rep_rate, freq, var_freq, min_code: float, min_freq: float,
+                    chip_m: float, wave_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """``ekf-pv``'s measurement and its diagonal R from the channel outputs in one pass:
+    ``z = [range + chip_m code, rate - wave_m freq]``, ``R = diag(max(var_code, min_code)
+    chip_m^2, max(var_freq, min_freq) wave_m^2)``, each ``(..., 2 ch)``."""
+    shape = np.shape(code)
+    c = shape[-1]
+    ops = [_as_rows(a, shape).reshape(-1, c) for a in (rep_range, code, var_code, rep_rate, freq, var_freq)]
+    B = ops[0].shape[0]
+    z = np.empty((B, 2 * c))
+    R = np.empty((B, 2 * c, 2 * c))
+    _pv_measurements_body(*ops, float(min_code), float(min_freq), float(chip_m), float(wave_m), z, R)
+    return z.reshape(shape[:-1] + (2 * c,)), R.reshape(shape[:-1] + (2 * c, 2 * c))
+
+
+def pv_nco_command(x: np.ndarray, half_t: float, sat_pos: np.ndarray, sat_vel: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Range and rate of the states ``x (..., 8)`` moved ``half_t`` ahead (position by
+    velocity, bias by drift) to satellites ``(ch, 3)``: ``ekf-pv``'s NCO command."""
+    lead = x.shape[:-1]
+    xr = _as_rows(x, x.shape).reshape(-1, 8)
+    sp, sv = _as_rows(sat_pos, np.shape(sat_pos)), _as_rows(sat_vel, np.shape(sat_vel))
+    c = sp.shape[0]
+    rho = np.empty((xr.shape[0], c))
+    rate = np.empty((xr.shape[0], c))
+    _pv_nco_body(xr, float(half_t), sp, sv, rho, rate)
+    return rho.reshape(lead + (c,)), rate.reshape(lead + (c,))
+
+
+def _rows(a: np.ndarray, tail: int) -> np.ndarray | None:
+    """``a`` as a C-contiguous float64 ``(B, ...)`` view, or ``None`` (caller: NumPy path)."""
+    if type(a) is not np.ndarray or a.dtype != np.float64 or not a.flags.c_contiguous or not a.flags.writeable:
+        return None
+    if a.ndim == tail + 1:
+        return a
+    if a.ndim < tail:
+        return None
+    return a.reshape((-1,) + a.shape[a.ndim - tail:])
+
+
+def all_finite(a: np.ndarray) -> bool:
+    """``bool(np.isfinite(a).all())`` in one compiled call (contiguous float64 input;
+    anything else goes through NumPy)."""
+    if (kernels.HAVE_NUMBA and type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous
+            and a.flags.writeable):
+        return bool(_all_finite_body(a.reshape(-1)))
+    return bool(np.isfinite(a).all())
+
+
+def state_bad_count(mean: np.ndarray, cov: np.ndarray, test_pd: bool) -> int | None:
+    """How many batch elements of a Gaussian state have a non-finite mean or covariance
+    (and, with ``test_pd``, a covariance that is not positive definite), or ``None`` when
+    the arrays are not the kernel's layout (mean ``(..., n)``, covariance ``(..., n, n)``
+    of the same batch, contiguous float64): the caller then tests with NumPy."""
+    m = _rows(mean, 1)
+    P = _rows(cov, 2)
+    if m is None or P is None or m.shape[0] != P.shape[0] or P.shape[1:] != (m.shape[1], m.shape[1]):
+        return None
+    return int(_state_bad_count_body(m, P, bool(test_pd)))
+
+
+def guard_bad_count(raw: np.ndarray, ref: np.ndarray, floor: float, ceiling: float
+                    ) -> tuple[np.ndarray, int] | None:
+    """The common case of an adapter's safeguard (`AdapterRun.guard`) in one pass.
+
+    Returns ``(symmetrised raw, count)``: the count of elements that are not finite and
+    PD or not inside ``[floor ref, ceiling ref]`` (Loewner order, Cholesky tests); where
+    it is 0 the symmetrised estimate is what the reference path returns. ``None`` where
+    the operands are not the kernel's layout (``raw (..., k, k)``, ``ref (k, k)`` shared).
+    """
+    R = _rows(raw, 2)
+    if R is None or type(ref) is not np.ndarray or ref.shape != R.shape[1:] or ref.dtype != np.float64:
+        return None
+    out = np.empty(raw.shape)
+    bad = _guard_bad_count_body(R, ref, float(floor), float(ceiling), out.reshape(R.shape))
+    return out, int(bad)
+
+
+def warm_up() -> None:
+    """Compile (or load from the disk cache) every kernel of this module once, with the
+    operand types the filter step hands them (so forked workers compile nothing)."""
+    if not kernels.HAVE_NUMBA:
+        return
+    m, P = np.zeros((2, 2)), np.broadcast_to(np.eye(2), (2, 2, 2)).copy()
+    all_finite(m)
+    state_bad_count(m, P, True)
+    guard_bad_count(P, np.eye(2), 0.5, 2.0)
+    pv_measurements(*([m] * 6), 1e-6, 1e-4, 300.0, 0.19)
+    x = np.ones((2, 8))
+    pv_nco_command(x, 0.005, m + 1e7, m)
