@@ -30,8 +30,17 @@ __all__ = ["all_finite", "state_bad_count", "guard_bad_count", "pv_measurements"
 
 
 @_jit
+def _vector_finite(a):
+    """Every entry of the 1-D array ``a`` finite (``kernels._all_finite`` takes matrices)."""
+    for i in range(a.shape[0]):
+        if not math.isfinite(a[i]):
+            return False
+    return True
+
+
+@_jit
 def _all_finite_body(a):
-    return _all_finite(a)
+    return _vector_finite(a)
 
 
 @_jit
@@ -42,7 +51,7 @@ def _state_bad_count_body(mean, cov, test_pd):
     L = np.empty((n, n))
     bad = 0
     for b in range(B):
-        ok = _all_finite(mean[b]) and _all_finite(cov[b])
+        ok = _vector_finite(mean[b]) and _all_finite(cov[b])
         if ok and test_pd:
             ok = _cholesky(cov[b], L)
         bad += not ok
