@@ -50,6 +50,41 @@ def test_compiled_guard_decides_and_returns_what_the_reference_guard_does(seed, 
         np.testing.assert_array_equal(out, clamp_relative(sym, ref, 0.01, 100.0, reference_eig=(w, v)))
 
 
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), batch=st.sampled_from([(1,), (7,), (2, 4)]), k=st.integers(1, 6),
+       log_spread=st.floats(-4.0, 4.0), noise=st.floats(0.0, 1.0), bounds=st.sampled_from([(0.01, 100.0),
+                                                                                          (0.25, 4.0)]))
+def test_compiled_whole_guard_equals_the_numpy_guard(seed, batch, k, log_spread, noise, bounds):
+    # Estimates spread over eight decades around the reference, with indefinite ones
+    # (projected), ones below the floor and above the ceiling (clamped) and ones inside
+    # (passed): the compiled guard must return the NumPy backend's guard to 1e-12,
+    # relative to each matrix's largest entry (its eigen-decompositions are not LAPACK's).
+    rng = np.random.default_rng(seed)
+    ref = _spd(rng, (), k)
+    raw = 10.0 ** log_spread * _spd(rng, batch, k) / k + noise * rng.standard_normal(batch + (k, k))
+    outs = []
+    for backend in ("numba", "numpy"):
+        kernels.set_backend(backend)
+        try:
+            outs.append(_Raw(raw, ref).guard(raw, ref, *bounds))
+        finally:
+            kernels.set_backend(None)
+    lean, reference = outs
+    scale = np.max(np.abs(reference), axis=(-2, -1))
+    assert (np.max(np.abs(lean - reference), axis=(-2, -1)) <= 1e-12 * scale).all()
+    w, v = regularised(ref)
+    assert kernels_loop.guard(raw, (v * w) @ v.T, (w, v), *bounds) is not None  # the compiled pass ran
+
+
+def test_compiled_guard_hands_non_finite_estimates_to_the_reference_path():
+    rng = np.random.default_rng(3)
+    ref = _spd(rng, (), 3)
+    w, v = regularised(ref)
+    raw = _spd(rng, (4,), 3)
+    raw[2, 0, 1] = np.inf
+    assert kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0) is None
+
+
 class _Raw(AdapterRun):
     def __init__(self, raw, R0):
         super().__init__(registry.create("noise_adapter", "innovation").params, R0, R0)

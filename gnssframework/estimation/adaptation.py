@@ -108,9 +108,9 @@ class AdapterRun(abc.ABC):
 
         Elements that are already PSD and inside the bounds pass unchanged; the
         projection's ``eigh`` runs only on the others (a Cholesky test finds them).
-        Under the ``numba`` backend one compiled pass tests the common case (every element
-        PD and inside the bounds) and returns the same symmetrised estimate; the steps
-        below run only when some element fails it.
+        Under the ``numba`` backend one compiled pass does all of it
+        (`gnssframework.estimation.kernels_loop.guard`, equal to these steps to rounding);
+        the steps below run under ``numpy`` and where an estimate is not finite.
         """
         # The reference (Q0 or R0) is fixed for the run: its eigen-decomposition and the
         # matrix clamp_relative rebuilds from it are kept.
@@ -122,9 +122,9 @@ class AdapterRun(abc.ABC):
             kept = cache[id(reference)] = (reference, eig, (v * w[..., None, :]) @ np.swapaxes(v, -1, -2),
                                            kernels.get_backend() == "numba")
         if kept[3]:
-            lean = kernels_loop.guard_bad_count(raw, kept[2], floor, ceiling)
-            if lean is not None and lean[1] == 0:
-                return lean[0]
+            lean = kernels_loop.guard(raw, kept[2], kept[1], floor, ceiling)
+            if lean is not None:
+                return lean
         raw = symmetrize(raw)
         psd = pd_mask(raw)
         if not psd.all():
