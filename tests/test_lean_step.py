@@ -13,7 +13,7 @@ from hypothesis import given, settings, strategies as st
 
 import gnssframework as gf
 from gnssframework.errors import InvalidMeasurementError, NumericalError
-from gnssframework.estimation import kernels
+from gnssframework.estimation import CompiledFunctions, kernels
 from gnssframework.estimation.linalg import all_true, any_true
 from test_kernels import _close, _engine, _kernel_signatures, _problem
 
@@ -38,21 +38,25 @@ def _outcome(est, backend, state, z, model, **kw):
     bad_r=st.sets(st.integers(0, 5), max_size=2),
     missing=st.sampled_from(["raise", "skip"]),
     on_failure=st.sampled_from(["raise", "skip"]),
+    dims=st.sampled_from([(4, 3), (5, 6)]),
 )
-def test_lean_update_fails_and_skips_like_the_numpy_path(name, batch, seed, nan_z, bad_r, missing, on_failure):
-    # A LinearModel carries compiled F x / H x, so the numba backend takes the lean path.
-    _, linear, state, z = _problem(seed, 4, 3, batch)
+def test_lean_update_fails_and_skips_like_the_numpy_path(name, batch, seed, nan_z, bad_r, missing, on_failure,
+                                                         dims):
+    # A LinearModel carries compiled F x / H x, so the numba backend takes the lean path;
+    # 5 states / 6 measurements take the kernels specialised to those sizes.
+    n, m = dims
+    _, linear, state, z = _problem(seed, n, m, batch)
     size = int(np.prod(batch))
-    z = z.copy().reshape(-1, 3)
-    R = np.array(linear.R).reshape(-1, 3, 3)
+    z = z.copy().reshape(-1, m)
+    R = np.array(linear.R).reshape(-1, m, m)
     for i in nan_z:
         if i < size:
-            z[i, i % 3] = np.nan if i % 2 else np.inf
+            z[i, i % m] = np.nan if i % 2 else np.inf
     for i in bad_r:
         if i < size:
-            R[i] = -1e3 * np.eye(3)  # S = H P H^T + R not PD there
-    model = gf.LinearModel(linear.F, linear.H, linear.Q, R.reshape(batch + (3, 3)))
-    z = z.reshape(batch + (3,))
+            R[i] = -1e3 * np.eye(m)  # S = H P H^T + R not PD there
+    model = gf.LinearModel(linear.F, linear.H, linear.Q, R.reshape(batch + (m, m)))
+    z = z.reshape(batch + (m,))
     est = _engine(name)
     ref = _outcome(est, "numpy", state, z, model, missing=missing, on_failure=on_failure)
     got = _outcome(est, "numba", state, z, model, missing=missing, on_failure=on_failure)
@@ -67,6 +71,61 @@ def test_lean_update_fails_and_skips_like_the_numpy_path(name, batch, seed, nan_
         _close(getattr(ref, field), getattr(upd, field))
     _close(ref.state.mean, upd.state.mean)
     _close(ref.state.cov, upd.state.cov)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), root_kind=st.sampled_from([0, 1]), batch=st.sampled_from([3, 300]),
+       poison=st.sampled_from(["none", "nan-z", "nan-P", "indefinite-P", "S-not-PD"]), channel=st.booleans())
+def test_size_specialised_fused_kernels_are_bitwise_the_generic_ones(seed, root_kind, batch, poison, channel):
+    # The twins compiled for 5 states / 6 measurements run the generic kernels' code with
+    # the sizes as constants: the same operations in the same order, so bitwise the same
+    # results, statuses and counts (serial below the parallel threshold, parallel above).
+    rng = np.random.default_rng(seed)
+    n, m = 5, 6
+    A = rng.standard_normal((batch, n, n))
+    P = A @ np.swapaxes(A, -1, -2) * 1e-2 + 1e-3 * np.eye(n)
+    mean = np.array([1.0, 0.1, 0.2, 5.0, 0.0]) + 0.1 * rng.standard_normal((batch, n))
+    z = rng.standard_normal((batch, m))
+    R = np.broadcast_to(0.5 * np.eye(m), (batch, m, m)).copy()
+    i = int(rng.integers(batch))
+    if poison == "nan-z":
+        z[i, 2] = np.nan
+    elif poison == "nan-P":
+        P[i, 1, 1] = np.nan
+    elif poison == "indefinite-P":
+        P[i] = -P[i]
+    elif poison == "S-not-PD":
+        R[i] = -1e3 * np.eye(m)
+    if channel:  # the correlator model of the iq-filter
+        compiled = CompiledFunctions(kernels.F_LINEAR, np.eye(n) + 0.01 * rng.standard_normal((n, n)),
+                                        kernels.H_CHANNEL_IQ, np.array([[0.5, 0.01, 1.0]]))
+    else:
+        compiled = CompiledFunctions(kernels.F_LINEAR, rng.standard_normal((n, n)), kernels.H_LINEAR,
+                                        rng.standard_normal((m, n)))
+    N = 2 * n + (root_kind == 0)
+    w = rng.uniform(0.5, 1.5, N) / N
+    rule = (root_kind, float(np.sqrt(n)), root_kind == 0, w, w[::-1].copy())
+    Q = 1e-3 * np.eye(n)
+    outs = []
+    for specialised in (True, False):
+        saved = dict(kernels._SPECIALISED_PREDICT), dict(kernels._SPECIALISED_UPDATE)
+        if not specialised:
+            kernels._SPECIALISED_PREDICT.clear()
+            kernels._SPECIALISED_UPDATE.clear()
+        try:
+            outs.append(kernels.fused_predict(mean, P, rule, compiled, Q)
+                        + kernels.fused_update(mean, P, z, None, rule, compiled, R))
+        finally:
+            kernels._SPECIALISED_PREDICT.update(saved[0])
+            kernels._SPECIALISED_UPDATE.update(saved[1])
+    got, ref = outs
+    assert (got[2] is None) == (ref[2] is None)
+    rooted = ref[10] == 0  # elements whose root failed leave their outputs unset
+    for a, b in zip(got[10:13], ref[10:13]):  # status, ok, skipped
+        assert np.array_equal(a, b)
+    assert got[13] == ref[13]  # counts
+    for a, b in zip(got[:2] + got[3:10], ref[:2] + ref[3:10]):
+        assert np.array_equal(a[rooted], b[rooted], equal_nan=True)
 
 
 @pytest.mark.parametrize("name", SIGMA)

@@ -133,6 +133,29 @@ def _twin(fn, suffix: str):
     return twin
 
 
+#: Sizes of a specialised twin (0: read from the operands): state n, measurement m, and
+#: the size k of a helper's square operand.
+_FIXED_N = 0
+_FIXED_M = 0
+_FIXED_K = 0
+
+
+def _with_globals(fn, suffix: str, **overrides):
+    """A twin of the plain function ``fn`` whose globals are the module's with
+    ``overrides``. numba freezes a global's value when it compiles, so an override of
+    ``_FIXED_N``/``_FIXED_M``/``_FIXED_K`` makes that size a compile-time constant (LLVM
+    then unrolls and keeps in registers what the generic code indexes at run time), and
+    an override of a helper's name calls that helper's specialised twin. The arithmetic
+    and its order are the generic code's own, so results are bitwise the same. The
+    suffix gives the twin its own disk cache entry."""
+    env = dict(fn.__globals__)
+    env.update(overrides)
+    twin = _types.FunctionType(fn.__code__, env, fn.__name__ + suffix, fn.__defaults__, fn.__closure__)
+    twin.__qualname__ = fn.__qualname__ + suffix
+    twin.__module__ = fn.__module__
+    return twin
+
+
 def _jit(fn):
     if not HAVE_NUMBA:
         return fn
@@ -155,8 +178,9 @@ def _jit_pair(fn):
 def _all_finite(a):
     """Every entry of the matrix ``a`` finite (explicit loops: ``ravel`` would make a
     view, and every view costs an atomic reference-count increment and decrement)."""
-    for i in range(a.shape[0]):
-        for j in range(a.shape[1]):
+    k = _FIXED_K if _FIXED_K > 0 else a.shape[0]  # square in a specialised twin
+    for i in range(k):
+        for j in range(k if _FIXED_K > 0 else a.shape[1]):
             if not math.isfinite(a[i, j]):
                 return False
     return True
@@ -174,7 +198,7 @@ def _row_finite(a, b):
 @_jit
 def _cholesky(A, L):
     """Lower Cholesky factor of the lower triangle of ``A`` into ``L``; False if not PD."""
-    n = A.shape[0]
+    n = _FIXED_K if _FIXED_K > 0 else A.shape[0]
     for j in range(n):
         s = A[j, j]
         for k in range(j):
@@ -325,7 +349,7 @@ def _tridiagonal_eigh_into(A, w, V, W):
     ``e``, row ``n + 1`` the Householder scalars. Returns False if it has not
     converged after ``30 n`` QR steps (``w``, ``V`` then undefined).
     """
-    n = A.shape[0]
+    n = _FIXED_K if _FIXED_K > 0 else A.shape[0]
     amax = 0.0
     for i in range(n):
         for j in range(n):
@@ -464,7 +488,8 @@ def _chol_solve_rows_into(L, C, K, Y):
     sums its terms in the textbook order, so the result is bitwise that of solving the
     rows one after the other.
     """
-    n, m = C.shape
+    n = _FIXED_N if _FIXED_N > 0 else C.shape[0]
+    m = _FIXED_M if _FIXED_M > 0 else C.shape[1]
     for i in range(m):
         for r in range(n):
             Y[r, m] = C[r, i]
@@ -508,6 +533,11 @@ def _mul_into(A, Bm, out, transpose_b):
 
 
 # -- batch drivers ----------------------------------------------------------------------
+
+# The fused drivers test the state covariance (n x n) and the innovation covariance
+# (m x m) through these names, so that a specialised twin can bind each to its own size.
+_all_finite_n = _all_finite_m = _all_finite
+_cholesky_n = _cholesky_m = _cholesky
 
 
 def _sigma_points_body(mean, cov, root_kind, scale, center, X, status):
@@ -721,7 +751,7 @@ H_RANGE_RATE = 2
 def _apply_f_row(code, params, X, k, Y):
     """``Y[k] = f(X[k])`` (rows addressed by index: a row view would cost two atomic
     reference-count updates per point)."""
-    n = X.shape[1]
+    n = _FIXED_K if _FIXED_K > 0 else X.shape[1]
     for i in range(n):
         acc = 0.0
         for j in range(n):
@@ -894,7 +924,9 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
                         counts):
     """One predict per element: root, points, compiled ``f``, moments + Q; ``counts[0]``:
     elements whose root failed (``status`` not 0)."""
-    B, n = mean.shape
+    B = mean.shape[0]
+    # A specialised twin (`_specialise`) has the state dimension as a compile-time constant.
+    n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]
     N = 2 * n + (1 if center else 0)
     off = 1 if center else 0
     shared_q = Q.shape[0] == 1
@@ -912,11 +944,11 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
       for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
         P = cov[b]
         R[:, :] = 0.0
-        if not _all_finite(P):
+        if not _all_finite_n(P):
             status[b] = 1
             continue
         if root_kind == 0:
-            if not _cholesky(P, R):
+            if not _cholesky_n(P, R):
                 status[b] = 2
                 continue
         else:
@@ -973,8 +1005,9 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
     or S not PD; ``counts``: elements with bad z, a failed root (``status``), S not PD
     (so the caller tests three integers instead of reducing three masks).
     """
-    B, n = mean.shape
-    m = z.shape[1]
+    B = mean.shape[0]
+    n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]  # constants in a specialised twin
+    m = _FIXED_M if _FIXED_M > 0 else z.shape[1]
     N = 2 * n + (1 if center else 0)
     off = 1 if center else 0
     shared_r = R.shape[0] == 1
@@ -997,11 +1030,11 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
         P = cov[b]
         Rt[:, :] = 0.0
         ok[b] = False
-        if not _all_finite(P):
+        if not _all_finite_n(P):
             status[b] = 1
             continue
         if root_kind == 0:
-            if not _cholesky(P, Rt):
+            if not _cholesky_n(P, Rt):
                 status[b] = 2
                 continue
         else:
@@ -1058,7 +1091,7 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
         for i in range(n):
             for j in range(m):
                 Cb[i, j] = CAcc[i, j]
-        good = _all_finite(Sb) and _cholesky(Sb, L)
+        good = _all_finite_m(Sb) and _cholesky_m(Sb, L)
         ok[b] = good
         K = gain[b]
         if bad_z[b] or not good or not _row_finite(z, b):
@@ -1125,6 +1158,46 @@ _measurement_moments_kernels = _jit_pair(_measurement_moments_body)
 _update_kernels = _jit_pair(_update_body)
 _fused_predict_kernels = _jit_pair(_fused_predict_body)
 _fused_update_kernels = _jit_pair(_fused_update_body)
+
+
+def _helpers_of_size(k: int) -> dict:
+    """The per-element helpers on ``k x k`` operands, specialised to that size."""
+    if not HAVE_NUMBA:
+        return {}
+    size = {"_FIXED_K": k}
+    tri = _jit(_with_globals(_tridiagonal_eigh_into.py_func, f"_{k}", **size))
+    return {
+        "all_finite": _jit(_with_globals(_all_finite.py_func, f"_{k}", **size)),
+        "cholesky": _jit(_with_globals(_cholesky.py_func, f"_{k}", **size)),
+        "eigh_into": _jit(_with_globals(_eigh_into.py_func, f"_{k}", _tridiagonal_eigh_into=tri)),
+        "apply_f_row": _jit(_with_globals(_apply_f_row.py_func, f"_{k}", **size)),
+    }
+
+
+def _specialised_pair(fn, n: int, m: int = 0):
+    """(serial, parallel) twins of a fused driver for ``n`` states (and ``m`` measurements)."""
+    if not HAVE_NUMBA:
+        return fn, fn
+    hn = _helpers_of_size(n)
+    over = {"_FIXED_N": n, "_all_finite_n": hn["all_finite"], "_cholesky_n": hn["cholesky"],
+            "_eigh_into": hn["eigh_into"], "_apply_f_row": hn["apply_f_row"]}
+    suffix = f"_{n}"
+    if m:
+        hm = _helpers_of_size(m)
+        solve = _jit(_with_globals(_chol_solve_rows_into.py_func, f"_{n}_{m}", _FIXED_N=n, _FIXED_M=m))
+        over.update({"_FIXED_M": m, "_all_finite_m": hm["all_finite"], "_cholesky_m": hm["cholesky"],
+                     "_chol_solve_rows_into": solve})
+        suffix += f"_{m}"
+    return _jit_pair(_with_globals(fn, suffix, **over))
+
+
+# Twins for the sizes of the built-in channel filter (5 states, 6 correlator outputs):
+# the vector loop's hot path.
+_fused_predict_5_kernels = _specialised_pair(_fused_predict_body, 5)
+_fused_update_5_6_kernels = _specialised_pair(_fused_update_body, 5, 6)
+#: State size -> its specialised fused predict; (states, measurements) -> fused update.
+_SPECIALISED_PREDICT = {5: _fused_predict_5_kernels}
+_SPECIALISED_UPDATE = {(5, 6): _fused_update_5_6_kernels}
 _pd_mask_kernels = _jit_pair(_pd_mask_body)
 _linear_predict_kernels = _jit_pair(_linear_predict_body)
 _ekf_moments_kernels = _jit_pair(_ekf_moments_body)
@@ -1360,7 +1433,7 @@ def fused_predict(mean, cov, rule, compiled, Q):
     out_cov = np.empty((B, n, n))
     status = np.empty(B, dtype=np.int8)
     counts = np.empty(1, dtype=np.int64)
-    _pick(_fused_predict_kernels, B)(
+    _pick(_SPECIALISED_PREDICT.get(n, _fused_predict_kernels), B)(
         m_, _flat(cov, batch, 2), root_kind, scale, center, _vec(wm), _vec(wc),
         compiled.f_code, _vec(compiled.f_params), _flat_shared(Q, batch), out_mean, out_cov, status, counts,
     )
@@ -1407,7 +1480,7 @@ def fused_update(mean, cov, z, bad_z, rule, compiled, R):
     skipped = np.empty(B, dtype=np.bool_)
     counts = np.empty(3, dtype=np.int64)
     bad = _no_bad_z(B) if bad_z is None else _flat_mask(bad_z, batch)
-    _pick(_fused_update_kernels, B)(
+    _pick(_SPECIALISED_UPDATE.get((n, m), _fused_update_kernels), B)(
         m_, _flat(cov, batch, 2), _flat(z, batch, 1), bad,
         root_kind, scale, center, _vec(wm), _vec(wc), compiled.h_code, _vec(compiled.h_params),
         _flat_shared(R, batch),
@@ -1448,6 +1521,14 @@ def warm_up() -> float:
             rule = (kind, 1.0, kind == 0, np.full(4 + (kind == 0), 0.25), np.full(4 + (kind == 0), 0.25))
             fused_predict(mean, cov, rule, compiled, np.eye(2))
             fused_update(mean, cov, mean, np.zeros(B, bool), rule, compiled, np.eye(2))
+        for (n, m) in _SPECIALISED_UPDATE:  # the twins specialised to a filter's sizes
+            compiled_nm = CompiledFunctions(F_LINEAR, np.eye(n), H_LINEAR, np.eye(m, n))
+            mean_n, cov_n = np.zeros((B, n)), np.broadcast_to(np.eye(n), (B, n, n))
+            for kind in (0, 1):
+                w = np.full(2 * n + (kind == 0), 0.5 / n)
+                rule = (kind, 1.0, kind == 0, w, w)
+                fused_predict(mean_n, cov_n, rule, compiled_nm, np.eye(n))
+                fused_update(mean_n, cov_n, np.zeros((B, m)), np.zeros(B, bool), rule, compiled_nm, np.eye(m))
         pd_mask(cov)
         pd_mask(np.broadcast_to(np.eye(2), (max(B, PD_MASK_PARALLEL_MIN_BATCH), 2, 2)))  # its parallel twin
         linear_predict(mean, cov, np.eye(2), np.eye(2))
