@@ -305,6 +305,28 @@ def guard_bad_count(raw: np.ndarray, ref: np.ndarray, floor: float, ceiling: flo
     return out, int(bad)
 
 
+#: Per reference (by the id of its ``(w, v)`` tuple, which an adapter keeps for the run):
+#: ``(ref_eig, ref, G, G^-1, ref as a kernel operand)``; each entry holds its keys.
+_guard_operands: dict[int, tuple] = {}
+
+
+def _guard_operands_of(ref, ref_eig) -> tuple:
+    """The kernel operands of a reference: ``G = v sqrt(w)`` and ``G^-1 = v^T / sqrt(w)``
+    as ``clamp_relative`` forms them; ``G`` is ``None`` where the reference is not one
+    shared ``(k, k)`` matrix (the caller then runs the reference path)."""
+    w, v = ref_eig
+    entry = (ref_eig, ref, None, None, None)
+    if (type(ref) is np.ndarray and ref.ndim == 2 and ref.dtype == np.float64 and np.shape(w) == ref.shape[:1]
+            and np.shape(v) == ref.shape):
+        root = np.sqrt(w)
+        entry = (ref_eig, ref, np.ascontiguousarray(v * root[None, :]), np.ascontiguousarray(v.T / root[:, None]),
+                 _as_rows(ref, ref.shape))
+    if len(_guard_operands) >= 256:
+        _guard_operands.clear()
+    _guard_operands[id(ref_eig)] = entry
+    return entry
+
+
 def guard(raw: np.ndarray, ref: np.ndarray, ref_eig: tuple[np.ndarray, np.ndarray], floor: float,
           ceiling: float) -> np.ndarray | None:
     """An adapter's whole safeguard (`AdapterRun.guard`) in one compiled pass.
@@ -316,15 +338,16 @@ def guard(raw: np.ndarray, ref: np.ndarray, ref_eig: tuple[np.ndarray, np.ndarra
     (the caller then runs the reference path, which names the failure).
     """
     R = _rows(raw, 2)
-    w, v = ref_eig
-    if (R is None or type(ref) is not np.ndarray or ref.shape != R.shape[1:] or ref.dtype != np.float64
-            or np.shape(w) != R.shape[1:2] or np.shape(v) != R.shape[1:]):
+    if R is None:
         return None
-    root = np.sqrt(w)
-    G = np.ascontiguousarray(v * root[None, :])  # as clamp_relative: v sqrt(w), v^T / sqrt(w)
-    G_inv = np.ascontiguousarray(v.T / root[:, None])
+    hit = _guard_operands.get(id(ref_eig))
+    if hit is None or hit[0] is not ref_eig or hit[1] is not ref:
+        hit = _guard_operands_of(ref, ref_eig)
+    if hit[2] is None or hit[2].shape != R.shape[1:]:
+        return None
+    G, G_inv, ref_rows = hit[2:]
     out = np.empty(raw.shape)
-    if _guard_body(R, _as_rows(ref, ref.shape), G, G_inv, float(floor), float(ceiling), out.reshape(R.shape)):
+    if _guard_body(R, ref_rows, G, G_inv, float(floor), float(ceiling), out.reshape(R.shape)):
         return None
     return out
 
