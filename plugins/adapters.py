@@ -13,7 +13,7 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework.errors import ConfigError
-from gnssframework.estimation import AdaptationStep, AdapterRun, NoiseAdapter, SafeguardParams
+from gnssframework.estimation import AdaptationStep, AdapterRun, NoiseAdapter, SafeguardParams, kernels, kernels_loop
 from gnssframework.plugin import PluginParams
 from gnssframework.estimation.linalg import outer, project_psd
 
@@ -52,8 +52,23 @@ class _WindowedRun(AdapterRun):
 
 
 class _InnovationRun(_WindowedRun):
+    def __init__(self, params, Q0, R0) -> None:
+        super().__init__(params, Q0, R0)
+        # Under the numba backend the window and the estimate are one compiled pass
+        # (bitwise these NumPy lines); the choice is made once per run.
+        self.compiled = kernels_loop.InnovationWindow(params.window) if kernels.get_backend() == "numba" else None
+
     def estimate(self, ctx: AdaptationStep):
         v = ctx.update.innovation
+        if self.compiled is not None:
+            out = self.compiled.push(v, ctx.update.innovation_cov, ctx.model.R)
+            if out is not None:
+                return None, out
+            # Operands the kernel does not take: the NumPy lines carry on with the window.
+            items, total = self.compiled.as_items()
+            self.window.items.extend(items)
+            self.window.total = total
+            self.compiled = None
         mean_vv = self.window.push(outer(v, v))
         return None, mean_vv - ctx.predicted_measurement_spread
 

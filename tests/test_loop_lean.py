@@ -85,6 +85,40 @@ def test_compiled_guard_hands_non_finite_estimates_to_the_reference_path():
     assert kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0) is None
 
 
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), window=st.integers(2, 6), steps=st.integers(1, 14),
+       batch=st.sampled_from([(1,), (3,), (2, 4)]), m=st.integers(1, 6), per_element_r=st.booleans(),
+       nan_step=st.integers(-1, 13), hand_over=st.integers(0, 14))
+def test_compiled_innovation_window_is_bitwise_the_numpy_lines(seed, window, steps, batch, m, per_element_r,
+                                                                 nan_step, hand_over):
+    # The innovation adapter's estimate, mean of the last L v v^T minus (S - R), from the
+    # compiled ring and from the deque of the NumPy lines, step by step: bitwise equal,
+    # also after a NaN innovation and after handing the window over to the NumPy lines.
+    from gnssframework_plugins.adapters import _Window
+    from gnssframework.estimation.linalg import outer
+
+    rng = np.random.default_rng(seed)
+    ring, deque_window = kernels_loop.InnovationWindow(window), _Window(window)
+    for k in range(steps):
+        v = rng.standard_normal(batch + (m,)) * 10.0 ** rng.uniform(-3, 3)
+        if k == nan_step:
+            v.reshape(-1, m)[0, 0] = np.nan
+        S = _spd(rng, batch, m)
+        R = _spd(rng, batch if per_element_r else (), m) * 0.1
+        reference = deque_window.push(outer(v, v)) - (S - R)
+        if k == hand_over:
+            items, total = ring.as_items()
+            continued = _Window(window)
+            continued.items.extend(items)
+            continued.total = total
+            got = continued.push(outer(v, v)) - (S - R)
+            np.testing.assert_array_equal(got, reference)
+            return
+        got = ring.push(v, S, R)
+        np.testing.assert_array_equal(got, reference)
+    assert ring.push(np.zeros((5, m)), np.zeros((5, m, m)), np.eye(m)) is None  # another batch: NumPy lines
+
+
 class _Raw(AdapterRun):
     def __init__(self, raw, R0):
         super().__init__(registry.create("noise_adapter", "innovation").params, R0, R0)

@@ -37,7 +37,7 @@ import numpy as np
 from . import kernels
 from .kernels import _all_finite, _cholesky, _eigh_into, _jit
 
-__all__ = ["all_finite", "state_bad_count", "guard_bad_count", "guard", "pv_measurements", "pv_nco_command", "warm_up"]
+__all__ = ["all_finite", "state_bad_count", "guard_bad_count", "guard", "InnovationWindow", "pv_measurements", "pv_nco_command", "warm_up"]
 
 
 @_jit
@@ -177,6 +177,30 @@ def _guard_body(raw, ref, G, G_inv, floor, ceiling, out):
             for j in range(k):
                 S[i, j] = 0.5 * (T[i, j] + T[j, i])
     return bad
+
+
+@_jit
+def _innovation_window_body(v, S, R, ring, slot, pushes, total, out):
+    """Push ``v v^T`` into the window (ring ``(L, B, m, m)``, slot ``slot``, ``pushes``
+    made before) and write ``mean(window) - (S - R)`` into ``out``: the NumPy lines of the
+    innovation adapter (``total + item``, then ``- oldest`` once full, ``/ count``), the
+    same operations in the same order on every entry, so bitwise their result."""
+    B, m = v.shape
+    size = ring.shape[0]
+    full = pushes >= size
+    count = pushes + 1 if pushes + 1 < size else size
+    shared_r = R.shape[0] == 1
+    for b in range(B):
+        r = 0 if shared_r else b
+        for i in range(m):
+            for j in range(m):
+                item = v[b, i] * v[b, j]
+                t = total[b, i, j] + item
+                if full:
+                    t = t - ring[slot, b, i, j]
+                ring[slot, b, i, j] = item
+                total[b, i, j] = t
+                out[b, i, j] = t / count - (S[b, i, j] - R[r, i, j])
 
 
 @_jit
@@ -352,6 +376,58 @@ def guard(raw: np.ndarray, ref: np.ndarray, ref_eig: tuple[np.ndarray, np.ndarra
     return out
 
 
+class InnovationWindow:
+    """The innovation adapter's window (Zou et al. 2018, eq. 31) in one compiled pass per
+    step: ``mean of the last L v v^T - (S - R)``, bitwise what the NumPy lines give
+    (``outer``, a running total over a deque, ``S - R``), with the window kept as a ring
+    of ``L`` arrays instead of a deque. `push` returns ``None`` where the operands do
+    not fit (another batch shape than the first step's); `as_items` then hands the
+    window over to the NumPy lines.
+    """
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self.pushes = 0
+        self.ring: np.ndarray | None = None
+        self.total: np.ndarray | None = None
+
+    def push(self, v: np.ndarray, S: np.ndarray, R: np.ndarray) -> np.ndarray | None:
+        """``mean_vv - (S - R)`` after pushing ``v v^T`` (``v (..., m)``, ``S (..., m, m)``,
+        ``R (m, m)`` or ``(..., m, m)``); ``None`` (nothing pushed) where they do not fit."""
+        shape = np.shape(v)
+        m = shape[-1]
+        if self.ring is None:
+            B = int(np.prod(shape[:-1], dtype=np.int64))
+            self.ring = np.empty((self.size, B, m, m))
+            self.total = np.zeros((B, m, m))
+            self.batch = shape[:-1]
+        if shape[:-1] != self.batch or np.shape(S) != shape + (m,) or np.shape(R)[-2:] != (m, m):
+            return None
+        vr = _as_rows(v, shape).reshape(-1, m)
+        Sr = _as_rows(S, shape + (m,)).reshape(-1, m, m)
+        if np.ndim(R) == 2:
+            Rr = _as_rows(R, (m, m)).reshape(1, m, m)
+        elif np.shape(R) == shape + (m,):
+            Rr = _as_rows(R, shape + (m,)).reshape(-1, m, m)
+        else:
+            Rr = _as_rows(R, shape + (m,)).reshape(-1, m, m)  # broadcast to the batch
+        out = np.empty(shape + (m,))
+        _innovation_window_body(vr, Sr, Rr, self.ring, self.pushes % self.size, self.pushes, self.total,
+                                out.reshape(-1, m, m))
+        self.pushes += 1
+        return out
+
+    def as_items(self) -> tuple[list[np.ndarray], np.ndarray | float]:
+        """The window's items, oldest first, and its running total, as the NumPy lines
+        keep them (to continue there)."""
+        if self.ring is None:
+            return [], 0.0
+        count = min(self.pushes, self.size)
+        items = [self.ring[(self.pushes - count + i) % self.size].reshape(self.batch + self.ring.shape[2:]).copy()
+                 for i in range(count)]
+        return items, self.total.reshape(self.batch + self.ring.shape[2:]).copy()
+
+
 def warm_up() -> None:
     """Compile (or load from the disk cache) every kernel of this module once, with the
     operand types the filter step hands them (so forked workers compile nothing)."""
@@ -362,6 +438,9 @@ def warm_up() -> None:
     state_bad_count(m, P, True)
     guard_bad_count(P, np.eye(2), 0.5, 2.0)
     guard(P, np.eye(2), (np.ones(2), np.eye(2)), 0.5, 2.0)
+    window = InnovationWindow(2)
+    for R in (np.eye(2), P):  # a shared R and one per element
+        window.push(m, P, R)
     pv_measurements(*([m] * 6), 1e-6, 1e-4, 300.0, 0.19)
     x = np.ones((2, 8))
     pv_nco_command(x, 0.005, m + 1e7, m)
