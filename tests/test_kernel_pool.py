@@ -1,0 +1,106 @@
+"""The split of a fused kernel between the calling thread and a helper thread
+(`gnssframework.estimation.kernel_pool`, issue 11) against one serial call: bitwise the
+same results, statuses and counts, every chunk run once, and a working helper again in
+a forked child. Time is never asserted."""
+
+from __future__ import annotations
+
+import multiprocessing
+import threading
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from gnssframework.estimation import CompiledFunctions, kernel_pool, kernels
+
+
+def _problem(seed, batch, poison):
+    rng = np.random.default_rng(seed)
+    n, m = 5, 6
+    A = rng.standard_normal((batch, n, n))
+    P = A @ np.swapaxes(A, -1, -2) * 1e-2 + 1e-3 * np.eye(n)
+    mean = np.array([1.0, 0.1, 0.2, 5.0, 0.0]) + 0.1 * rng.standard_normal((batch, n))
+    z = rng.standard_normal((batch, m))
+    R = np.broadcast_to(0.5 * np.eye(m), (batch, m, m)).copy()
+    for i in rng.integers(batch, size=3):
+        if poison == "nan-z":
+            z[i, 2] = np.nan
+        elif poison == "indefinite-P":
+            P[i] = -P[i]
+        elif poison == "S-not-PD":
+            R[i] = -1e3 * np.eye(m)
+    compiled = CompiledFunctions(kernels.F_LINEAR, np.eye(n) + 0.01 * rng.standard_normal((n, n)),
+                                 kernels.H_CHANNEL_IQ, np.array([[0.5, 0.01, 1.0]]))
+    return mean, P, z, R, compiled
+
+
+def _step(mean, P, z, R, compiled, root_kind, shared_r):
+    n = mean.shape[-1]
+    N = 2 * n + (root_kind == 0)
+    w = np.full(N, 1.0 / N)
+    rule = (root_kind, float(np.sqrt(n)), root_kind == 0, w, w)
+    return (kernels.fused_predict(mean, P, rule, compiled, 1e-3 * np.eye(n))
+            + kernels.fused_update(mean, P, z, None, rule, compiled, R[0] if shared_r else R))
+
+
+def _assert_same(got, ref):
+    status = ref[10]
+    rooted = status == 0  # elements whose root failed leave their outputs unset
+    assert (got[2] is None) == (ref[2] is None)
+    for a, b in zip(got[10:13], ref[10:13]):
+        assert np.array_equal(a, b)
+    assert got[13] == ref[13]
+    for a, b in zip(got[:2] + got[3:10], ref[:2] + ref[3:10]):
+        assert np.array_equal(a[rooted], b[rooted], equal_nan=True)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), batch=st.integers(kernels.PARALLEL_MIN_BATCH, 1100),
+       root_kind=st.sampled_from([0, 1]), shared_r=st.booleans(),
+       poison=st.sampled_from(["none", "nan-z", "indefinite-P", "S-not-PD"]),
+       chunks=st.sampled_from([2, 8, 13]))
+def test_split_fused_kernels_are_bitwise_one_serial_call(seed, batch, root_kind, shared_r, poison, chunks):
+    args = _problem(seed, batch, poison)
+    assert kernels.SPLIT == "pool"
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(kernels, "_SPLIT_CHUNKS", chunks)
+        split = _step(*args, root_kind, shared_r)
+        m.setattr(kernels, "_pick", lambda pair, batch, min_batch=None: pair[0])
+        serial = _step(*args, root_kind, shared_r)
+    _assert_same(split, serial)
+    if poison != "none" and not (shared_r and poison == "S-not-PD"):  # a shared R is R[0], maybe clean
+        assert sum(split[13]) + (split[2] is not None) > 0  # the failures were seen and counted
+
+
+def test_every_chunk_runs_once_on_either_thread():
+    for n_chunks in (1, 2, 7, 64):
+        for _ in range(20):
+            seen, threads = [], set()
+
+            def run(i):
+                seen.append(i)
+                threads.add(threading.current_thread().name)
+
+            kernel_pool.run_chunks(n_chunks, run)
+            assert sorted(seen) == list(range(n_chunks))
+            assert threads <= {threading.current_thread().name, "gnssframework-kernel-helper"}
+
+
+def _child(queue):
+    queue.put(_step(*_problem(7, 600, "nan-z"), 1, False))
+
+
+@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs fork")
+def test_a_forked_child_splits_with_a_helper_of_its_own():
+    # `compare` forks its workers after warm-up; the parent's helper thread does not
+    # exist in the child, which must start its own instead of waiting for it.
+    parent = _step(*_problem(7, 600, "nan-z"), 1, False)  # the parent's helper runs
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    proc = ctx.Process(target=_child, args=(queue,))
+    proc.start()
+    child = queue.get(timeout=60)
+    proc.join(timeout=60)
+    assert proc.exitcode == 0
+    _assert_same(child, parent)
