@@ -20,6 +20,13 @@ from gnssframework.estimation.linalg import outer, project_psd
 __all__ = ["InnovationAdapter", "SageHusaAdapter", "MaximumLikelihoodQAdapter", "OracleGrid"]
 
 
+def _load_compiled_guard() -> None:
+    """Load the compiled safeguard when an adapter starts under numba, not at the first
+    step past its warm-up (a one-time cost per process)."""
+    if kernels.get_backend() == "numba":
+        kernels_loop.load_guard()
+
+
 class _Window:
     """Running mean of the last ``size`` arrays (O(1) per step, batch-first)."""
 
@@ -90,6 +97,7 @@ class InnovationAdapter(NoiseAdapter):
     Params = InnovationParams
 
     def start(self, Q0, R0) -> AdapterRun:
+        _load_compiled_guard()
         return _InnovationRun(self.params, Q0, R0)
 
 
@@ -165,6 +173,7 @@ class SageHusaAdapter(NoiseAdapter):
     Params = SageHusaParams
 
     def start(self, Q0, R0) -> AdapterRun:
+        _load_compiled_guard()
         return _SageHusaRun(self.params, Q0, R0)
 
 
@@ -211,6 +220,7 @@ class MaximumLikelihoodQAdapter(NoiseAdapter):
     Params = MlQParams
 
     def start(self, Q0, R0) -> AdapterRun:
+        _load_compiled_guard()
         return _MlQRun(self.params, Q0, R0)
 
 

@@ -428,6 +428,19 @@ class InnovationWindow:
         return items, self.total.reshape(self.batch + self.ring.shape[2:]).copy()
 
 
+_guard_loaded = False
+
+
+def load_guard() -> None:
+    """Compile or load `guard`'s kernel now (once per process): an adapter calls it when
+    it starts, so the first step past its warm-up does not pay the load (about 10 ms)."""
+    global _guard_loaded
+    if not _guard_loaded and kernels.HAVE_NUMBA:
+        P = np.broadcast_to(np.eye(2), (2, 2, 2)).copy()
+        guard(P, np.eye(2), (np.ones(2), np.eye(2)), 0.5, 2.0)
+        _guard_loaded = True
+
+
 def warm_up() -> None:
     """Compile (or load from the disk cache) every kernel of this module once, with the
     operand types the filter step hands them (so forked workers compile nothing)."""
