@@ -69,7 +69,8 @@ def test_split_fused_kernels_are_bitwise_one_serial_call(seed, batch, root_kind,
         m.setattr(kernels, "_pick", lambda pair, batch, min_batch=None: pair[0])
         serial = _step(*args, root_kind, shared_r)
     _assert_same(split, serial)
-    if poison != "none" and not (shared_r and poison == "S-not-PD"):  # a shared R is R[0], maybe clean
+    # (A shared R is R[0], maybe clean; the eigen-decomposition root takes an indefinite P.)
+    if poison != "none" and not (shared_r and poison == "S-not-PD") and not (root_kind and poison == "indefinite-P"):
         assert sum(split[13]) + (split[2] is not None) > 0  # the failures were seen and counted
 
 
@@ -104,3 +105,63 @@ def test_a_forked_child_splits_with_a_helper_of_its_own():
     proc.join(timeout=60)
     assert proc.exitcode == 0
     _assert_same(child, parent)
+
+
+def _serial(m):
+    """Patch every split decision to one serial call."""
+    m.setattr(kernels, "_pick", lambda pair, batch, min_batch=None: pair[0])
+    m.setattr(kernels, "_split_by_work", lambda B, n, mm: None)
+    m.setattr(kernels, "SPLIT", "numba")
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), batch=st.sampled_from([60, 100, 300]), joseph=st.booleans(),
+       bad=st.integers(0, 3))
+def test_split_kf_update_and_ekf_moments_are_bitwise_one_serial_call(seed, batch, joseph, bad):
+    # ekf-pv's sizes (8 states, 16 measurements): split from about 45 elements on.
+    rng = np.random.default_rng(seed)
+    n, m = 8, 16
+    assert kernels._split_by_work(batch, n, m) or batch >= kernels.PARALLEL_MIN_BATCH
+    mean = rng.standard_normal((batch, n)) * 100 + np.array([6.4e6, 0, 0, 0, 0, 0, 0, 0])
+    A = rng.standard_normal((batch, n, n))
+    P = A @ np.swapaxes(A, -1, -2) + np.eye(n)
+    R = np.broadcast_to(np.eye(m), (batch, m, m)).copy()
+    R[:bad] = -1e9 * np.eye(m)  # S not PD there
+    sat = np.concatenate([2e7 * rng.standard_normal((m // 2, 3)), 1e3 * rng.standard_normal((m // 2, 3))], axis=1)
+    compiled = CompiledFunctions(kernels.F_LINEAR, np.eye(n), kernels.H_RANGE_RATE, sat)
+    z = rng.standard_normal((batch, m))
+    bad_z = np.zeros(batch, bool)
+    bad_z[-1] = True
+    H = rng.standard_normal((m, n))
+
+    def run():
+        zh, S, C = kernels.ekf_moments(mean, P, compiled, R)
+        return (zh, S, C) + kernels.update(mean, P, z, zh, S, C, bad_z, joseph, H, R)
+
+    split = run()
+    with pytest.MonkeyPatch.context() as mp:
+        _serial(mp)
+        serial = run()
+    for a, b in zip(split, serial):
+        assert np.array_equal(a, b, equal_nan=True)
+    assert (~split[-1]).sum() == bad
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), batch=st.sampled_from([256, 801]), spread=st.floats(-3.0, 3.0))
+def test_split_guard_is_bitwise_one_serial_call(seed, batch, spread):
+    from gnssframework.estimation import kernels_loop
+    from gnssframework.estimation.linalg import regularised
+
+    rng = np.random.default_rng(seed)
+    k = 6
+    A = rng.standard_normal((k, k))
+    ref = A @ A.T + 0.1 * np.eye(k)
+    w, v = regularised(ref)
+    B_ = rng.standard_normal((batch, k, k))
+    raw = 10.0 ** spread * (B_ @ np.swapaxes(B_, -1, -2)) / k + 0.5 * rng.standard_normal((batch, k, k))
+    split = kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0)
+    with pytest.MonkeyPatch.context() as mp:
+        _serial(mp)
+        serial = kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0)
+    assert split is not None and np.array_equal(split, serial)

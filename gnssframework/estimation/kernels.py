@@ -1229,25 +1229,56 @@ SPLIT = "pool"
 _SPLIT_CHUNKS = 8
 
 
-def _run_split(pair, B: int, args: tuple, batched: tuple[int, ...], counts: np.ndarray) -> None:
-    """``kernel(*args, counts)`` of a fused driver pair: serial below the parallel
-    threshold; above it split by `SPLIT`. ``batched``: indices of the arguments whose
-    first axis is the batch (sliced per chunk); ``counts`` is summed over the chunks.
-    Every element runs the same serial code whichever thread takes it (bitwise)."""
-    kernel = _pick(pair, B)
-    if kernel is pair[0] or SPLIT != "pool":
-        kernel(*args, counts)
+#: Work (batch x n x m^2) from which the KF/EKF update and moments split their batch
+#: like the fused kernels: that of `PARALLEL_MIN_BATCH` channel-filter elements (5
+#: states, 6 measurements). ``ekf-pv``'s 100 runs x (8 states, 16 measurements) pass it.
+SPLIT_MIN_WORK = PARALLEL_MIN_BATCH * 5 * 6 * 6
+
+
+def _run_split(pair, B: int, args: tuple, batched: tuple[int, ...], counts: np.ndarray | None = None,
+               split: bool | None = None, chunks: int | None = None) -> None:
+    """``kernel(*args[, counts])`` of a driver pair: serial below the parallel threshold
+    (or where ``split`` is False); above it (or where ``split`` is True) split by `SPLIT`.
+    ``batched``: indices of the arguments whose first axis is the batch (sliced per
+    chunk); ``counts`` is summed over the chunks. Every element runs the same serial code
+    whichever thread takes it (bitwise)."""
+    if split is None:
+        kernel = _pick(pair, B)
+        split = kernel is pair[1]
+    elif split and threading.current_thread() is not threading.main_thread():
+        split = False
+    if not split or SPLIT != "pool":
+        kernel = pair[1] if split else pair[0]
+        kernel(*args) if counts is None else kernel(*args, counts)
         return
-    n = _SPLIT_CHUNKS
-    per_chunk = np.zeros((n, counts.shape[0]), dtype=np.int64)
+    n = min(_SPLIT_CHUNKS, B) if chunks is None else chunks
+    per_chunk = None if counts is None else np.zeros((n, counts.shape[0]), dtype=np.int64)
     serial = pair[0]
 
     def run_chunk(i: int) -> None:
         lo, hi = (i * B) // n, ((i + 1) * B) // n
-        serial(*[a[lo:hi] if j in batched else a for j, a in enumerate(args)], per_chunk[i])
+        chunk = [a[lo:hi] if j in batched else a for j, a in enumerate(args)]
+        serial(*chunk) if per_chunk is None else serial(*chunk, per_chunk[i])
 
     kernel_pool.run_chunks(n, run_chunk)
-    counts[:] = per_chunk.sum(axis=0)
+    if counts is not None:
+        counts[:] = per_chunk.sum(axis=0)
+
+
+def _split_by_work(B: int, n: int, m: int) -> bool | None:
+    """True where a batch of ``B`` updates of ``n`` states / ``m`` measurements is worth
+    splitting below `PARALLEL_MIN_BATCH` (see `SPLIT_MIN_WORK`); else None (the usual rule)."""
+    return True if (B < PARALLEL_MIN_BATCH and B >= 2 and B * n * m * m >= SPLIT_MIN_WORK) else None
+
+
+def _work_chunks(B: int, n: int, m: int) -> int | None:
+    """Chunks for a split by work: about twice `SPLIT_MIN_WORK` each (each chunk costs a
+    kernel call and a few slices, so small work is not cut finer; measured on ``ekf-pv``
+    at 100 runs, 2 to 8 chunks ran alike), 2 to `_SPLIT_CHUNKS`; None (the default) from
+    `PARALLEL_MIN_BATCH` on."""
+    if B >= PARALLEL_MIN_BATCH:
+        return None
+    return max(2, min(_SPLIT_CHUNKS, B * n * m * m // (2 * SPLIT_MIN_WORK)))
 
 
 def _pick(pair, batch: int, min_batch: int | None = None):
@@ -1407,11 +1438,11 @@ def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H
     gain = np.empty((B, n, m))
     innovation = np.empty((B, m))
     ok = np.empty(B, dtype=np.bool_)
-    _pick(_update_kernels, B)(
-        pm, _flat(prior_cov, batch, 2), _flat(z, batch, 1), _flat(z_hat, batch, 1), _flat(S, batch, 2),
-        _flat(C, batch, 2), _flat_mask(bad_z, batch), bool(joseph),
-        Hf, Rf, mean, cov, gain, innovation, ok,
-    )
+    args = (pm, _flat(prior_cov, batch, 2), _flat(z, batch, 1), _flat(z_hat, batch, 1), _flat(S, batch, 2),
+            _flat(C, batch, 2), _flat_mask(bad_z, batch), bool(joseph), Hf, Rf, mean, cov, gain, innovation, ok)
+    per_element = (0, 1, 2, 3, 4, 5, 6) + tuple(i for i in (8, 9) if args[i].shape[0] == B and B > 1) + tuple(
+        range(10, 15))
+    _run_split(_update_kernels, B, args, per_element, split=_split_by_work(B, n, m), chunks=_work_chunks(B, n, m))
     if len(batch) == 1:
         return mean, cov, gain, innovation, ok
     return (
@@ -1455,8 +1486,11 @@ def ekf_moments(mean, cov, compiled, R):
     m_ = _flat(mean, batch, 1)
     B = m_.shape[0]
     z_hat, S, C = np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m))
-    _pick(_ekf_moments_kernels, B)(m_, _flat(cov, batch, 2), int(compiled.h_code), _vec(compiled.h_params),
-                                   _flat_shared(R, batch), z_hat, S, C)
+    Rf = _flat_shared(R, batch)
+    args = (m_, _flat(cov, batch, 2), int(compiled.h_code), _vec(compiled.h_params), Rf, z_hat, S, C)
+    per_element = (0, 1) + ((4,) if Rf.shape[0] == B and B > 1 else ()) + (5, 6, 7)
+    _run_split(_ekf_moments_kernels, B, args, per_element, split=_split_by_work(B, n, m),
+               chunks=_work_chunks(B, n, m))
     return z_hat.reshape(batch + (m,)), S.reshape(batch + (m, m)), C.reshape(batch + (n, m))
 
 

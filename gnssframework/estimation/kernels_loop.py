@@ -31,10 +31,11 @@ the whole call back to the reference, which names the failure.
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
-from . import kernels
+from . import kernel_pool, kernels
 from .kernels import _all_finite, _cholesky, _eigh_into, _jit
 
 __all__ = ["all_finite", "state_bad_count", "guard_bad_count", "guard", "InnovationWindow", "pv_measurements", "pv_nco_command", "warm_up"]
@@ -371,7 +372,22 @@ def guard(raw: np.ndarray, ref: np.ndarray, ref_eig: tuple[np.ndarray, np.ndarra
         return None
     G, G_inv, ref_rows = hit[2:]
     out = np.empty(raw.shape)
-    if _guard_body(R, ref_rows, G, G_inv, float(floor), float(ceiling), out.reshape(R.shape)):
+    rows = out.reshape(R.shape)
+    floor, ceiling = float(floor), float(ceiling)
+    B = R.shape[0]
+    if (B >= kernels.PARALLEL_MIN_BATCH and kernels.SPLIT == "pool"
+            and threading.current_thread() is threading.main_thread()):
+        # As the fused kernels: chunks for the calling thread and the helper (bitwise).
+        n = kernels._SPLIT_CHUNKS
+        bad = [0] * n
+
+        def run_chunk(i: int) -> None:
+            lo, hi = (i * B) // n, ((i + 1) * B) // n
+            bad[i] = _guard_body(R[lo:hi], ref_rows, G, G_inv, floor, ceiling, rows[lo:hi])
+
+        kernel_pool.run_chunks(n, run_chunk)
+        return None if any(bad) else out
+    if _guard_body(R, ref_rows, G, G_inv, floor, ceiling, rows):
         return None
     return out
 
