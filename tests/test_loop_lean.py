@@ -161,6 +161,12 @@ def test_state_check_counts_the_elements_the_numpy_masks_find(seed, batch, n, po
     finite = np.isfinite(mean).all(axis=-1) & np.isfinite(cov).all(axis=(-2, -1))
     assert kernels_loop.state_bad_count(mean, cov, False) == int((~finite).sum())
     assert kernels_loop.state_bad_count(mean, cov, True) == int((~(finite & pd_mask(cov))).sum())
+    # A batch large enough to be split between two threads counts the same elements.
+    reps = -(-kernels.PARALLEL_MIN_BATCH // flat_m.shape[0])
+    big_m, big_c = np.concatenate([flat_m] * reps), np.concatenate([flat_c] * reps)
+    assert big_m.shape[0] >= kernels.PARALLEL_MIN_BATCH
+    big_ok = np.isfinite(big_m).all(axis=-1) & np.isfinite(big_c).all(axis=(-2, -1)) & pd_mask(big_c)
+    assert kernels_loop.state_bad_count(big_m, big_c, True) == int((~big_ok).sum())
     assert kernels_loop.all_finite(mean) == bool(np.isfinite(mean).all())
 
 

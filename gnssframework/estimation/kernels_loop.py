@@ -310,7 +310,31 @@ def state_bad_count(mean: np.ndarray, cov: np.ndarray, test_pd: bool) -> int | N
     P = _rows(cov, 2)
     if m is None or P is None or m.shape[0] != P.shape[0] or P.shape[1:] != (m.shape[1], m.shape[1]):
         return None
-    return int(_state_bad_count_body(m, P, bool(test_pd)))
+    test_pd = bool(test_pd)
+    if test_pd and _split_here(m.shape[0]):  # the posterior test of a large batch: chunks, as the guard
+        bad = _split_counts(m.shape[0], lambda lo, hi: _state_bad_count_body(m[lo:hi], P[lo:hi], True))
+        return int(sum(bad))
+    return int(_state_bad_count_body(m, P, test_pd))
+
+
+def _split_here(B: int) -> bool:
+    """Split a batch kernel between the calling thread and the helper (as the fused
+    kernels do, `gnssframework.estimation.kernels.SPLIT`)?"""
+    return (B >= kernels.PARALLEL_MIN_BATCH and kernels.SPLIT == "pool"
+            and threading.current_thread() is threading.main_thread())
+
+
+def _split_counts(B: int, run) -> list[int]:
+    """``run(lo, hi)`` over `kernels._SPLIT_CHUNKS` chunks of ``[0, B)`` on the calling
+    thread and the helper (`gnssframework.estimation.kernel_pool`); the chunks' returns."""
+    n = kernels._SPLIT_CHUNKS
+    out = [0] * n
+
+    def run_chunk(i: int) -> None:
+        out[i] = run((i * B) // n, ((i + 1) * B) // n)
+
+    kernel_pool.run_chunks(n, run_chunk)
+    return out
 
 
 def guard_bad_count(raw: np.ndarray, ref: np.ndarray, floor: float, ceiling: float
@@ -375,17 +399,8 @@ def guard(raw: np.ndarray, ref: np.ndarray, ref_eig: tuple[np.ndarray, np.ndarra
     rows = out.reshape(R.shape)
     floor, ceiling = float(floor), float(ceiling)
     B = R.shape[0]
-    if (B >= kernels.PARALLEL_MIN_BATCH and kernels.SPLIT == "pool"
-            and threading.current_thread() is threading.main_thread()):
-        # As the fused kernels: chunks for the calling thread and the helper (bitwise).
-        n = kernels._SPLIT_CHUNKS
-        bad = [0] * n
-
-        def run_chunk(i: int) -> None:
-            lo, hi = (i * B) // n, ((i + 1) * B) // n
-            bad[i] = _guard_body(R[lo:hi], ref_rows, G, G_inv, floor, ceiling, rows[lo:hi])
-
-        kernel_pool.run_chunks(n, run_chunk)
+    if _split_here(B):  # as the fused kernels: chunks for the calling thread and the helper (bitwise)
+        bad = _split_counts(B, lambda lo, hi: _guard_body(R[lo:hi], ref_rows, G, G_inv, floor, ceiling, rows[lo:hi]))
         return None if any(bad) else out
     if _guard_body(R, ref_rows, G, G_inv, floor, ceiling, rows):
         return None
