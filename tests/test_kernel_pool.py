@@ -110,7 +110,7 @@ def test_a_forked_child_splits_with_a_helper_of_its_own():
 def _serial(m):
     """Patch every split decision to one serial call."""
     m.setattr(kernels, "_pick", lambda pair, batch, min_batch=None: pair[0])
-    m.setattr(kernels, "_split_by_work", lambda B, n, mm: None)
+    m.setattr(kernels, "_split_by_work", lambda B, n, mm: False)
     m.setattr(kernels, "SPLIT", "numba")
 
 

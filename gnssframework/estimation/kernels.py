@@ -1235,29 +1235,33 @@ _SPLIT_CHUNKS = 8
 SPLIT_MIN_WORK = PARALLEL_MIN_BATCH * 5 * 6 * 6
 
 
-def _run_split(pair, B: int, args: tuple, batched: tuple[int, ...], counts: np.ndarray | None = None,
-               split: bool | None = None, chunks: int | None = None) -> None:
-    """``kernel(*args[, counts])`` of a driver pair: serial below the parallel threshold
-    (or where ``split`` is False); above it (or where ``split`` is True) split by `SPLIT`.
-    ``batched``: indices of the arguments whose first axis is the batch (sliced per
-    chunk); ``counts`` is summed over the chunks. Every element runs the same serial code
-    whichever thread takes it (bitwise)."""
-    if split is None:
-        kernel = _pick(pair, B)
-        split = kernel is pair[1]
-    elif split and threading.current_thread() is not threading.main_thread():
-        split = False
-    if not split or SPLIT != "pool":
-        kernel = pair[1] if split else pair[0]
+def _run_split(pair, B: int, args: tuple, batched, counts: np.ndarray | None = None, by_work: bool = False,
+               chunks: int | None = None) -> None:
+    """``kernel(*args[, counts])`` of a driver pair: serial below `PARALLEL_MIN_BATCH`
+    (unless ``by_work``), above it split by `SPLIT` (``"pool"``: chunks on the calling
+    thread and the helper; ``"numba"``: the parallel twin; only from the main thread).
+    ``batched()``: indices of the arguments whose first axis is the batch (sliced per
+    chunk; asked only when splitting); ``counts`` is summed over the chunks. Every
+    element runs the same serial code whichever thread takes it (bitwise)."""
+    if B < PARALLEL_MIN_BATCH and not by_work:  # the common small batch: no more tests
+        kernel = pair[0]
+    elif SPLIT != "pool":
+        kernel = pair[0] if by_work and B < PARALLEL_MIN_BATCH else _pick(pair, B)
+    elif threading.current_thread() is not threading.main_thread():
+        kernel = pair[0]
+    else:
+        kernel = None
+    if kernel is not None:
         kernel(*args) if counts is None else kernel(*args, counts)
         return
+    idx = batched()
     n = min(_SPLIT_CHUNKS, B) if chunks is None else chunks
     per_chunk = None if counts is None else np.zeros((n, counts.shape[0]), dtype=np.int64)
     serial = pair[0]
 
     def run_chunk(i: int) -> None:
         lo, hi = (i * B) // n, ((i + 1) * B) // n
-        chunk = [a[lo:hi] if j in batched else a for j, a in enumerate(args)]
+        chunk = [a[lo:hi] if j in idx else a for j, a in enumerate(args)]
         serial(*chunk) if per_chunk is None else serial(*chunk, per_chunk[i])
 
     kernel_pool.run_chunks(n, run_chunk)
@@ -1265,10 +1269,10 @@ def _run_split(pair, B: int, args: tuple, batched: tuple[int, ...], counts: np.n
         counts[:] = per_chunk.sum(axis=0)
 
 
-def _split_by_work(B: int, n: int, m: int) -> bool | None:
+def _split_by_work(B: int, n: int, m: int) -> bool:
     """True where a batch of ``B`` updates of ``n`` states / ``m`` measurements is worth
-    splitting below `PARALLEL_MIN_BATCH` (see `SPLIT_MIN_WORK`); else None (the usual rule)."""
-    return True if (B < PARALLEL_MIN_BATCH and B >= 2 and B * n * m * m >= SPLIT_MIN_WORK) else None
+    splitting below `PARALLEL_MIN_BATCH` (see `SPLIT_MIN_WORK`)."""
+    return 2 <= B < PARALLEL_MIN_BATCH and B * n * m * m >= SPLIT_MIN_WORK
 
 
 def _work_chunks(B: int, n: int, m: int) -> int | None:
@@ -1440,9 +1444,10 @@ def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H
     ok = np.empty(B, dtype=np.bool_)
     args = (pm, _flat(prior_cov, batch, 2), _flat(z, batch, 1), _flat(z_hat, batch, 1), _flat(S, batch, 2),
             _flat(C, batch, 2), _flat_mask(bad_z, batch), bool(joseph), Hf, Rf, mean, cov, gain, innovation, ok)
-    per_element = (0, 1, 2, 3, 4, 5, 6) + tuple(i for i in (8, 9) if args[i].shape[0] == B and B > 1) + tuple(
-        range(10, 15))
-    _run_split(_update_kernels, B, args, per_element, split=_split_by_work(B, n, m), chunks=_work_chunks(B, n, m))
+    by_work = _split_by_work(B, n, m)
+    _run_split(_update_kernels, B, args, lambda: (0, 1, 2, 3, 4, 5, 6) + tuple(
+        i for i in (8, 9) if args[i].shape[0] == B) + tuple(range(10, 15)), by_work=by_work,
+        chunks=_work_chunks(B, n, m) if by_work else None)
     if len(batch) == 1:
         return mean, cov, gain, innovation, ok
     return (
@@ -1488,9 +1493,9 @@ def ekf_moments(mean, cov, compiled, R):
     z_hat, S, C = np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m))
     Rf = _flat_shared(R, batch)
     args = (m_, _flat(cov, batch, 2), int(compiled.h_code), _vec(compiled.h_params), Rf, z_hat, S, C)
-    per_element = (0, 1) + ((4,) if Rf.shape[0] == B and B > 1 else ()) + (5, 6, 7)
-    _run_split(_ekf_moments_kernels, B, args, per_element, split=_split_by_work(B, n, m),
-               chunks=_work_chunks(B, n, m))
+    by_work = _split_by_work(B, n, m)
+    _run_split(_ekf_moments_kernels, B, args, lambda: (0, 1) + ((4,) if Rf.shape[0] == B else ()) + (5, 6, 7),
+               by_work=by_work, chunks=_work_chunks(B, n, m) if by_work else None)
     return z_hat.reshape(batch + (m,)), S.reshape(batch + (m, m)), C.reshape(batch + (n, m))
 
 
@@ -1509,7 +1514,7 @@ def fused_predict(mean, cov, rule, compiled, Q):
     args = (m_, _flat(cov, batch, 2), root_kind, scale, center, _vec(wm), _vec(wc),
             compiled.f_code, _vec(compiled.f_params), Qf, out_mean, out_cov, status)
     _run_split(_SPECIALISED_PREDICT.get(n, _fused_predict_kernels), B, args,
-               (0, 1, 9, 10, 11, 12) if Qf.shape[0] == B else (0, 1, 10, 11, 12), counts)
+               lambda: (0, 1, 9, 10, 11, 12) if Qf.shape[0] == B else (0, 1, 10, 11, 12), counts)
     if counts[0] == 0:
         status = None  # every root exists
     elif len(batch) != 1:
@@ -1557,8 +1562,8 @@ def fused_update(mean, cov, z, bad_z, rule, compiled, R):
     args = (m_, _flat(cov, batch, 2), _flat(z, batch, 1), bad,
             root_kind, scale, center, _vec(wm), _vec(wc), compiled.h_code, _vec(compiled.h_params),
             Rf, *outs, status, ok, skipped)
-    per_element = (0, 1, 2, 3) + ((11,) if Rf.shape[0] == B else ()) + tuple(range(12, 22))
-    _run_split(_SPECIALISED_UPDATE.get((n, m), _fused_update_kernels), B, args, per_element, counts)
+    _run_split(_SPECIALISED_UPDATE.get((n, m), _fused_update_kernels), B, args,
+               lambda: (0, 1, 2, 3) + ((11,) if Rf.shape[0] == B else ()) + tuple(range(12, 22)), counts)
     if len(batch) == 1:
         return (*outs, status, ok, skipped, counts.tolist())
     tails = ((n,), (n, n), (n, m), (m,), (m,), (m, m), (n, m))
