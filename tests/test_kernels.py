@@ -408,9 +408,15 @@ def test_compiled_range_rate_model_of_ekf_pv_equals_its_numpy_model(name):
 
 
 def _kernel_signatures():
-    return {(name, i): len(d.signatures) for name in dir(kernels)
+    from gnssframework.estimation import kernels_loop
+
+    sigs = {(name, i): len(d.signatures) for name in dir(kernels)
             if name.endswith("_kernels") and isinstance(getattr(kernels, name), tuple)
             for i, d in enumerate(getattr(kernels, name))}
+    # The loop checks' kernels (kernels_loop.warm_up), the adapter guard and window among them.
+    sigs.update({("kernels_loop", name): len(getattr(kernels_loop, name).signatures) for name in dir(kernels_loop)
+                 if name.endswith("_body") and hasattr(getattr(kernels_loop, name), "signatures")})
+    return sigs
 
 
 def test_warm_up_compiles_every_specialisation_a_run_uses():
@@ -420,9 +426,12 @@ def test_warm_up_compiles_every_specialisation_a_run_uses():
     # per-element operands, below and above the parallel threshold, and a vector loop.
     from gnssframework.experiments import get_scenario
 
+    from gnssframework.estimation import kernels_loop
+
     kernels.set_backend("numba")
     try:
         kernels.warm_up()
+        kernels_loop.warm_up()
         before = _kernel_signatures()
         for batch in ((3,), (kernels.PARALLEL_MIN_BATCH + 1,)):
             nonlinear, linear, state, z = _problem(4, 5, 6, batch)
@@ -432,7 +441,9 @@ def test_warm_up_compiles_every_specialisation_a_run_uses():
                 for model in ((linear,) if name == "kf" else (linear, nonlinear)):
                     est = _engine(name)
                     est.update(est.predict(state, model), z, model, missing="skip")
-        scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.03, "channels": 8, "settle_s": 0.0})
+        # Long enough (0.3 s) for the innovation adapter to pass its warm-up: its compiled
+        # guard runs too, split between two threads at 40 runs.
+        scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.3, "channels": 8, "settle_s": 0.0})
         for est_name in ("svd-ckf", "ukf"):
             for runs in (1, 40):
                 plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": est_name}},

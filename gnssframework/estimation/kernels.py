@@ -934,7 +934,7 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
     """One predict per element: root, points, compiled ``f``, moments + Q; ``counts[0]``:
     elements whose root failed (``status`` not 0)."""
     B = mean.shape[0]
-    # A specialised twin (`_specialise`) has the state dimension as a compile-time constant.
+    # A specialised twin (`_specialised_pair`) has the state dimension as a compile-time constant.
     n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]
     N = 2 * n + (1 if center else 0)
     off = 1 if center else 0
