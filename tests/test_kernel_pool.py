@@ -165,3 +165,26 @@ def test_split_guard_is_bitwise_one_serial_call(seed, batch, spread):
         _serial(mp)
         serial = kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0)
     assert split is not None and np.array_equal(split, serial)
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), batch=st.sampled_from([1, 9, 300]), spread=st.floats(-3.0, 3.0))
+def test_size_specialised_guard_is_bitwise_the_generic_one(seed, batch, spread):
+    # The 6 x 6 guard (the channel filter's R) compiled with its size as a constant runs
+    # the generic kernel's operations in the same order: bitwise the same estimates.
+    from gnssframework.estimation import kernels_loop
+    from gnssframework.estimation.linalg import regularised
+
+    rng = np.random.default_rng(seed)
+    k = 6
+    A = rng.standard_normal((k, k))
+    ref = A @ A.T + 0.1 * np.eye(k)
+    w, v = regularised(ref)
+    B_ = rng.standard_normal((batch, k, k))
+    raw = 10.0 ** spread * (B_ @ np.swapaxes(B_, -1, -2)) / k + 0.5 * rng.standard_normal((batch, k, k))
+    assert k in kernels_loop._GUARD_BY_SIZE
+    special = kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(kernels_loop, "_GUARD_BY_SIZE", {})
+        generic = kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0)
+    assert special is not None and np.array_equal(special, generic)

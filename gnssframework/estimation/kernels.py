@@ -1169,18 +1169,25 @@ _fused_predict_kernels = _jit_pair(_fused_predict_body)
 _fused_update_kernels = _jit_pair(_fused_update_body)
 
 
+_helpers_by_size: dict[int, dict] = {}
+
+
 def _helpers_of_size(k: int) -> dict:
-    """The per-element helpers on ``k x k`` operands, specialised to that size."""
+    """The per-element helpers on ``k x k`` operands, specialised to that size (one set
+    per size and process, shared by every driver that uses it)."""
     if not HAVE_NUMBA:
         return {}
-    size = {"_FIXED_K": k}
-    tri = _jit(_with_globals(_tridiagonal_eigh_into.py_func, f"_{k}", **size))
-    return {
-        "all_finite": _jit(_with_globals(_all_finite.py_func, f"_{k}", **size)),
-        "cholesky": _jit(_with_globals(_cholesky.py_func, f"_{k}", **size)),
-        "eigh_into": _jit(_with_globals(_eigh_into.py_func, f"_{k}", _tridiagonal_eigh_into=tri)),
-        "apply_f_row": _jit(_with_globals(_apply_f_row.py_func, f"_{k}", **size)),
-    }
+    hit = _helpers_by_size.get(k)
+    if hit is None:
+        size = {"_FIXED_K": k}
+        tri = _jit(_with_globals(_tridiagonal_eigh_into.py_func, f"_{k}", **size))
+        hit = _helpers_by_size[k] = {
+            "all_finite": _jit(_with_globals(_all_finite.py_func, f"_{k}", **size)),
+            "cholesky": _jit(_with_globals(_cholesky.py_func, f"_{k}", **size)),
+            "eigh_into": _jit(_with_globals(_eigh_into.py_func, f"_{k}", _tridiagonal_eigh_into=tri)),
+            "apply_f_row": _jit(_with_globals(_apply_f_row.py_func, f"_{k}", **size)),
+        }
+    return hit
 
 
 def _specialised_pair(fn, n: int, m: int = 0):

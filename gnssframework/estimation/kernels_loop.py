@@ -41,6 +41,11 @@ from .kernels import _all_finite, _cholesky, _eigh_into, _jit
 __all__ = ["all_finite", "state_bad_count", "guard_bad_count", "guard", "InnovationWindow", "pv_measurements", "pv_nco_command", "warm_up"]
 
 
+#: The size of a specialised twin's matrices (0: read from the operands), see
+#: `_guard_of_size`.
+_FIXED_K = 0
+
+
 @_jit
 def _vector_finite(a):
     """Every entry of the 1-D array ``a`` finite (``kernels._all_finite`` takes matrices)."""
@@ -104,7 +109,7 @@ def _clipped_spectrum_into(A, low, high, w, V, W, out):
     """``out = V clip(w, low, high) V^T`` with ``V diag(w) V^T`` the symmetric part of
     ``A`` (`gnssframework.estimation.linalg._clip_spectrum`: ``(v * w) @ v^T``, each
     entry summed over the eigenvalue index in order). ``W``: ``(k + 2, k)`` scratch."""
-    k = A.shape[0]
+    k = _FIXED_K if _FIXED_K > 0 else A.shape[0]
     _eigh_into(A, w, V, W)
     for i in range(k):
         w[i] = min(max(w[i], low), high)  # np.clip
@@ -119,7 +124,7 @@ def _clipped_spectrum_into(A, low, high, w, V, W, out):
 @_jit
 def _mat_mul_into(A, B, out, transpose_b):
     """``out = A B`` (or ``A B^T``), each entry summed over the inner index in order."""
-    k = A.shape[0]
+    k = _FIXED_K if _FIXED_K > 0 else A.shape[0]
     for i in range(k):
         for j in range(k):
             acc = 0.0
@@ -136,7 +141,8 @@ def _guard_body(raw, ref, G, G_inv, floor, ceiling, out):
     ``G^{-1}`` (``ref = G G^T``), its eigenvalues clipped to ``[floor, ceiling]`` and
     coloured back (``clamp_relative``). Returns the number of elements not finite (then
     ``out`` is not usable and the caller runs the reference)."""
-    B, k, _ = raw.shape
+    B = raw.shape[0]
+    k = _FIXED_K if _FIXED_K > 0 else raw.shape[1]  # a constant in a size's twin
     D = np.empty((k, k))
     L = np.empty((k, k))
     T = np.empty((k, k))
@@ -178,6 +184,26 @@ def _guard_body(raw, ref, G, G_inv, floor, ceiling, out):
             for j in range(k):
                 S[i, j] = 0.5 * (T[i, j] + T[j, i])
     return bad
+
+
+def _guard_of_size(k: int):
+    """`_guard_body` compiled for ``k x k`` estimates (the size as a compile-time constant,
+    the helpers specialised too: `gnssframework.estimation.kernels._with_globals`), bitwise
+    the generic kernel; the channel filter's 6 correlator outputs are the hot case."""
+    if not kernels.HAVE_NUMBA:
+        return _guard_body
+    h = kernels._helpers_of_size(k)
+    size = {"_FIXED_K": k}
+    spectrum = _jit(kernels._with_globals(_clipped_spectrum_into.py_func, f"_{k}", _eigh_into=h["eigh_into"], **size))
+    return _jit(kernels._with_globals(
+        _guard_body.py_func, f"_{k}", _all_finite=h["all_finite"], _cholesky=h["cholesky"],
+        _clipped_spectrum_into=spectrum, _mat_mul_into=_jit(kernels._with_globals(_mat_mul_into.py_func, f"_{k}", **size)),
+        **size))
+
+
+_guard_6_body = _guard_of_size(6)
+#: Estimate size -> its specialised guard kernel.
+_GUARD_BY_SIZE = {6: _guard_6_body}
 
 
 @_jit
@@ -399,10 +425,11 @@ def guard(raw: np.ndarray, ref: np.ndarray, ref_eig: tuple[np.ndarray, np.ndarra
     rows = out.reshape(R.shape)
     floor, ceiling = float(floor), float(ceiling)
     B = R.shape[0]
+    body = _GUARD_BY_SIZE.get(R.shape[1], _guard_body)
     if _split_here(B):  # as the fused kernels: chunks for the calling thread and the helper (bitwise)
-        bad = _split_counts(B, lambda lo, hi: _guard_body(R[lo:hi], ref_rows, G, G_inv, floor, ceiling, rows[lo:hi]))
+        bad = _split_counts(B, lambda lo, hi: body(R[lo:hi], ref_rows, G, G_inv, floor, ceiling, rows[lo:hi]))
         return None if any(bad) else out
-    if _guard_body(R, ref_rows, G, G_inv, floor, ceiling, rows):
+    if body(R, ref_rows, G, G_inv, floor, ceiling, rows):
         return None
     return out
 
@@ -467,8 +494,8 @@ def load_guard() -> None:
     it starts, so the first step past its warm-up does not pay the load (about 10 ms)."""
     global _guard_loaded
     if not _guard_loaded and kernels.HAVE_NUMBA:
-        P = np.broadcast_to(np.eye(2), (2, 2, 2)).copy()
-        guard(P, np.eye(2), (np.ones(2), np.eye(2)), 0.5, 2.0)
+        for k in (2, *_GUARD_BY_SIZE):
+            guard(np.broadcast_to(np.eye(k), (2, k, k)).copy(), np.eye(k), (np.ones(k), np.eye(k)), 0.5, 2.0)
         _guard_loaded = True
 
 
@@ -482,6 +509,8 @@ def warm_up() -> None:
     state_bad_count(m, P, True)
     guard_bad_count(P, np.eye(2), 0.5, 2.0)
     guard(P, np.eye(2), (np.ones(2), np.eye(2)), 0.5, 2.0)
+    for k in _GUARD_BY_SIZE:  # the size-specialised guards
+        guard(np.broadcast_to(np.eye(k), (2, k, k)).copy(), np.eye(k), (np.ones(k), np.eye(k)), 0.5, 2.0)
     window = InnovationWindow(2)
     for R in (np.eye(2), P):  # a shared R and one per element
         window.push(m, P, R)
