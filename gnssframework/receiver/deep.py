@@ -58,7 +58,8 @@ import numpy as np
 from ..errors import ConfigError, NumericalError
 from ..interfaces import ChannelFilter, RunContext
 from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
-from ..signal.correlator_model import simulate_correlators
+from ..signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
+from ..signal.correlators import Correlators
 from .deep_aiding import line_of_sight_kinematics, nco_schedule
 from .vector import CHANNEL_OUTPUTS
 
@@ -82,6 +83,10 @@ class DeepTruth:
         ``(runs, channels)`` or broadcastable.
     coherent_time_s
         T.
+    receiver_positions
+        Optional ``receiver_positions(t) -> (*t.shape, runs, 3)``: the receiver's ECEF
+        position at an array of times, equal to ``receiver_state`` at each time (the loop
+        asks for a block of epochs at once). ``None``: ``receiver_state`` is called per epoch.
     """
 
     sat_state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -89,6 +94,7 @@ class DeepTruth:
     clock_m: np.ndarray
     cn0_dbhz: np.ndarray
     coherent_time_s: float
+    receiver_positions: Callable[[np.ndarray], np.ndarray] | None = None
 
     @property
     def epochs(self) -> int:
@@ -97,6 +103,19 @@ class DeepTruth:
     def pseudorange(self, t: float, k: int, sat_pos: np.ndarray) -> np.ndarray:
         r = self.receiver_state(t)[0]
         return np.linalg.norm(sat_pos[None] - r[:, None], axis=-1) + self.clock_m[k, :, 0][:, None]
+
+    def pseudoranges(self, k0: int, k1: int, sat_pos: np.ndarray) -> np.ndarray:
+        """`pseudorange` at the epoch edges ``k0 .. k1 - 1`` at once, ``(k1 - k0, runs, ch)``.
+
+        ``sat_pos`` ``(k1 - k0, ch, 3)``: the satellites at those edges. The same arithmetic
+        per element as `pseudorange` (so the same bits), on a block of epochs.
+        """
+        t = np.arange(k0, k1) * self.coherent_time_s
+        if self.receiver_positions is not None:
+            r = np.asarray(self.receiver_positions(t), float)
+        else:
+            r = np.stack([np.asarray(self.receiver_state(ti)[0], float) for ti in t])
+        return np.linalg.norm(sat_pos[:, None] - r[:, :, None], axis=-1) + self.clock_m[k0:k1, :, 0][..., None]
 
 
 class Navigator(Protocol):
@@ -182,10 +201,23 @@ def run_aided_tracking(
         raise ConfigError("update_interval_s", f"must be a multiple of nco_interval_s ({nco_interval_s} s)")
     K = truth.epochs
     runs = truth.clock_m.shape[1]
-    sat_at = _EdgeStates(truth.sat_state, T, K)
+    sat_at = _EdgeStates(truth, K)
     n_ch = sat_at(0)[0].shape[0]
     batch = (runs, n_ch)
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
+    # Per-run constants of the correlator draws (tap noise root, amplitude) once, not per interval:
+    # the same draws and arithmetic as simulate_correlators.
+    correlators = CorrelatorSimulator(T, early_late_spacing_chips)
+    amplitude = amplitude_from_cn0(cn0, T)
+    # Rows of the least-squares fit of each interval (they depend only on the interval's place in
+    # the integration interval): dt and the normal-matrix terms of all K intervals, as the loop had them.
+    ks = np.arange(K)
+    fit_dt = (ks + 0.5) * T - (ks // n_upd + 1) * n_upd * T
+    h_rho_all = np.stack([np.ones(K), fit_dt, 0.5 * fit_dt * fit_dt], -1)
+    h_rate_all = np.stack([np.zeros(K), np.ones(K), fit_dt], -1)
+    outer_rho_all = h_rho_all[:, :, None] * h_rho_all[:, None, :]
+    outer_rate_all = h_rate_all[:, :, None] * h_rate_all[:, None, :]
+    zeros = np.zeros(batch)
     theta0 = rng.uniform(-np.pi, np.pi, batch)
     channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
                                     epoch_interval_s=T, cn0_dbhz=cn0))
@@ -204,8 +236,7 @@ def run_aided_tracking(
     rate_prev = None
     normal = np.zeros(batch + (3, 3))
     rhs = np.zeros(batch + (3,))
-    s, _, _ = sat_at(0)
-    true_rho = truth.pseudorange(0.0, 0, s)
+    true_rho = sat_at.pseudorange(0)
     for k in range(K):
         t0, t1 = k * T, (k + 1) * T
         j = k % n_nco
@@ -222,17 +253,16 @@ def run_aided_tracking(
             t_aid = t0
             slope_new = acc if accel_aiding else np.zeros_like(rate)
         nco_range, nco_rate = sched_range[j], sched_rate[j]
-        shift_chips = np.zeros(batch) if rep_end is None else (nco_range - rep_end) / CA_CHIP_LENGTH_M
+        shift_chips = zeros if rep_end is None else (nco_range - rep_end) / CA_CHIP_LENGTH_M
         # The prefilter's states are errors relative to the aided replica, driven by the
         # navigator's errors: its frequency state moves only by the replica's departure from
         # the ramp it was following (a re-aiding), not by the aided ramp itself. Handing it
         # the whole replica change made its frequency-rate state learn the absolute line-of-
         # sight acceleration from a zero prior: rate information biased by tens of standard
         # deviations during a 20 g boost even with a perfect navigator.
-        shift_hz = (np.zeros(batch) if rate_prev is None
+        shift_hz = (zeros if rate_prev is None
                     else -(nco_rate - (rate_prev + slope_prev * T)) / L1_WAVELENGTH_M)
-        s1 = sat_at(k + 1)[0]
-        next_rho = truth.pseudorange(t1, k + 1, s1)
+        next_rho = sat_at.pseudorange(k + 1)
         rep_end = nco_range + nco_rate * T
         code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
         f_rep = -nco_rate / L1_WAVELENGTH_M
@@ -240,8 +270,7 @@ def run_aided_tracking(
         carrier_rep_end = carrier_rep + 2 * np.pi * f_rep * T
         ph1 = theta0 - 2 * np.pi * next_rho / L1_WAVELENGTH_M - carrier_rep_end
         freq_err = (ph1 - ph0) / (2 * np.pi * T)
-        corr = simulate_correlators(code_err, ph0, freq_err, cn0, T, rng,
-                                    early_late_spacing_chips=early_late_spacing_chips)
+        corr = correlators.draw(code_err, ph0, freq_err, amplitude, rng)
         out = channel.checked_step({"correlators": corr, "nco_shift_chips": shift_chips, "nco_shift_hz": shift_hz,
                                     "data_bit": 1.0})
         rec["code"].append(code_err)
@@ -259,7 +288,6 @@ def run_aided_tracking(
         # information: range residual quadratic in time, rate residual linear. The rate
         # residual grows through the interval when the navigator's acceleration is off; a
         # constant-rate fit would hand over its mid-interval value as t_u's (a lag).
-        dt = (k + 0.5) * T - (k // n_upd + 1) * n_upd * T  # mid-interval minus the coming update instant
         w_rho = 1.0 / (out["code_error_var_chips2"] * CA_CHIP_LENGTH_M**2)
         w_rate = 1.0 / (out["freq_error_var_hz2"] * L1_WAVELENGTH_M**2)
         # Residuals against the navigator's own prediction (a smooth function of time),
@@ -269,10 +297,8 @@ def run_aided_tracking(
         z_rho = (out["code_error_chips"] * CA_CHIP_LENGTH_M
                  + (nco_range + nco_rate * T / 2) - (rho + rate * tau + 0.5 * acc * tau**2))
         z_rate = -out["freq_error_hz"] * L1_WAVELENGTH_M + nco_rate - (rate + acc * tau)
-        h_rho = np.array([1.0, dt, 0.5 * dt * dt])
-        h_rate = np.array([0.0, 1.0, dt])
-        normal += w_rho[..., None, None] * np.outer(h_rho, h_rho) + w_rate[..., None, None] * np.outer(h_rate, h_rate)
-        rhs += (w_rho * z_rho)[..., None] * h_rho + (w_rate * z_rate)[..., None] * h_rate
+        normal += w_rho[..., None, None] * outer_rho_all[k] + w_rate[..., None, None] * outer_rate_all[k]
+        rhs += (w_rho * z_rho)[..., None] * h_rho_all[k] + (w_rate * z_rate)[..., None] * h_rate_all[k]
         if (k + 1) % n_upd == 0:
             cov = np.linalg.inv(normal)[..., :2, :2]  # marginal of [range, rate] at t_u
             res = np.einsum("...ij,...j->...i", np.linalg.inv(normal), rhs)[..., :2]
@@ -299,26 +325,41 @@ def run_aided_tracking(
 def _rotated(corr, phase_rad: np.ndarray):
     """The correlators of a replica advanced in phase by ``phase_rad`` (every tap rotated by its negative)."""
     rot = np.exp(-1j * phase_rad)
+    if not corr.extra and isinstance(corr, Correlators):  # complex taps of one shape: no re-validation
+        return Correlators.trusted(corr.early * rot, corr.prompt * rot, corr.late * rot)
     return type(corr)(corr.early * rot, corr.prompt * rot, corr.late * rot,
                       {k: v * rot for k, v in corr.extra.items()})
 
 
 class _EdgeStates:
-    """Satellite states at the epoch edges kT, one vectorised orbit evaluation per block
-    of epochs instead of one or two per epoch (memory stays bounded on long runs)."""
+    """Satellite states and true pseudoranges at the epoch edges kT, one vectorised orbit
+    evaluation (and one receiver-position evaluation) per block of epochs instead of one or
+    two per epoch (memory stays bounded on long runs)."""
 
-    def __init__(self, sat_state: Callable, T: float, K: int, block: int = 1000) -> None:
-        self.sat_state, self.T, self.K, self.block = sat_state, T, K, block
+    def __init__(self, truth: DeepTruth, K: int, block: int = 1000) -> None:
+        self.truth, self.T, self.K, self.block = truth, truth.coherent_time_s, K, block
         self.start = -block  # nothing evaluated yet
         self.states: tuple[np.ndarray, ...] = ()
+        self.rho: np.ndarray | None = None
 
-    def __call__(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _load(self, k: int) -> int:
         if not self.start <= k < self.start + self.block:
             self.start = k
             stop = min(k + self.block, self.K + 1)
-            self.states = tuple(np.asarray(a) for a in self.sat_state(np.arange(k, stop) * self.T))
-        i = k - self.start
+            self.states = tuple(np.asarray(a) for a in self.truth.sat_state(np.arange(k, stop) * self.T))
+            self.rho = None
+        return k - self.start
+
+    def __call__(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        i = self._load(k)
         return self.states[0][i], self.states[1][i], self.states[2][i]
+
+    def pseudorange(self, k: int) -> np.ndarray:
+        """True pseudorange ``(runs, ch)`` at edge k (`DeepTruth.pseudorange`, computed per block)."""
+        i = self._load(k)
+        if self.rho is None:
+            self.rho = self.truth.pseudoranges(self.start, self.start + len(self.states[0]), self.states[0])
+        return self.rho[i]
 
 
 def _check_finite(name: str, step: int, *arrays: np.ndarray) -> None:
