@@ -218,6 +218,9 @@ def run_aided_tracking(
     outer_rho_all = h_rho_all[:, :, None] * h_rho_all[:, None, :]
     outer_rate_all = h_rate_all[:, :, None] * h_rate_all[:, None, :]
     zeros = np.zeros(batch)
+    # Data bits are wiped off (1 everywhere): as an array of the batch's shape the prefilter's
+    # wipe-off takes its unchecked path (the same products as with a scalar 1).
+    ones = np.ones(batch)
     theta0 = rng.uniform(-np.pi, np.pi, batch)
     channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
                                     epoch_interval_s=T, cn0_dbhz=cn0))
@@ -236,11 +239,11 @@ def run_aided_tracking(
     rate_prev = None
     normal = np.zeros(batch + (3, 3))
     rhs = np.zeros(batch + (3,))
-    true_rho = sat_at.pseudorange(0)
     for k in range(K):
-        t0, t1 = k * T, (k + 1) * T
+        t1 = (k + 1) * T
         j = k % n_nco
         if j == 0:  # re-aid the NCOs from the navigator
+            t0 = k * T
             p, v, a, b, d = navigator.kinematics(t0)
             _check_finite(type(navigator).__name__, k, p, v, a, b, d)
             s, sv, sa = sat_at(k)
@@ -252,29 +255,19 @@ def run_aided_tracking(
                 rate_before_update = None
             t_aid = t0
             slope_new = acc if accel_aiding else np.zeros_like(rate)
+            # The replica is laid out until the next re-aiding and the truth is known, so the true
+            # tracking errors and the navigator's predictions of this NCO interval's coherent
+            # intervals are computed at once (the same arithmetic per element as interval by interval).
+            blk = _aided_block(sat_at, k, min(n_nco, K - k), T, sched_range, sched_rate, rho, rate, acc, t_aid,
+                               theta0, carrier_rep, rep_end, rate_prev, slope_prev if rate_prev is not None else None,
+                               slope_new, zeros)
+            rec["code"].append(blk.code_err)
+            rec["freq"].append(blk.freq_err)
         nco_range, nco_rate = sched_range[j], sched_rate[j]
-        shift_chips = zeros if rep_end is None else (nco_range - rep_end) / CA_CHIP_LENGTH_M
-        # The prefilter's states are errors relative to the aided replica, driven by the
-        # navigator's errors: its frequency state moves only by the replica's departure from
-        # the ramp it was following (a re-aiding), not by the aided ramp itself. Handing it
-        # the whole replica change made its frequency-rate state learn the absolute line-of-
-        # sight acceleration from a zero prior: rate information biased by tens of standard
-        # deviations during a 20 g boost even with a perfect navigator.
-        shift_hz = (zeros if rate_prev is None
-                    else -(nco_rate - (rate_prev + slope_prev * T)) / L1_WAVELENGTH_M)
-        next_rho = sat_at.pseudorange(k + 1)
-        rep_end = nco_range + nco_rate * T
-        code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
-        f_rep = -nco_rate / L1_WAVELENGTH_M
-        ph0 = theta0 - 2 * np.pi * true_rho / L1_WAVELENGTH_M - carrier_rep
-        carrier_rep_end = carrier_rep + 2 * np.pi * f_rep * T
-        ph1 = theta0 - 2 * np.pi * next_rho / L1_WAVELENGTH_M - carrier_rep_end
-        freq_err = (ph1 - ph0) / (2 * np.pi * T)
+        code_err, ph0, freq_err = blk.code_err[j], blk.ph0[j], blk.freq_err[j]
         corr = correlators.draw(code_err, ph0, freq_err, amplitude, rng)
-        out = channel.checked_step({"correlators": corr, "nco_shift_chips": shift_chips, "nco_shift_hz": shift_hz,
-                                    "data_bit": 1.0})
-        rec["code"].append(code_err)
-        rec["freq"].append(freq_err)
+        out = channel.checked_step({"correlators": corr, "nco_shift_chips": blk.shift_chips[j],
+                                    "nco_shift_hz": blk.shift_hz[j], "data_bit": ones})
         if carrier_filter is not None:
             f_c = corr_freq_hz + transfer_hz
             rot_rad = corr_phase_rad + np.pi * f_c * T  # corrections at mid-interval
@@ -293,10 +286,8 @@ def run_aided_tracking(
         # Residuals against the navigator's own prediction (a smooth function of time),
         # not against the replica: without acceleration aiding, or between re-aidings,
         # the replica departs from the prediction by a known amount.
-        tau = t0 + T / 2 - t_aid
-        z_rho = (out["code_error_chips"] * CA_CHIP_LENGTH_M
-                 + (nco_range + nco_rate * T / 2) - (rho + rate * tau + 0.5 * acc * tau**2))
-        z_rate = -out["freq_error_hz"] * L1_WAVELENGTH_M + nco_rate - (rate + acc * tau)
+        z_rho = out["code_error_chips"] * CA_CHIP_LENGTH_M + blk.replica_mid_m[j] - blk.predicted_range_m[j]
+        z_rate = -out["freq_error_hz"] * L1_WAVELENGTH_M + nco_rate - blk.predicted_rate_m_s[j]
         normal += w_rho[..., None, None] * outer_rho_all[k] + w_rate[..., None, None] * outer_rate_all[k]
         rhs += (w_rho * z_rho)[..., None] * h_rho_all[k] + (w_rate * z_rate)[..., None] * h_rate_all[k]
         if (k + 1) % n_upd == 0:
@@ -313,13 +304,63 @@ def run_aided_tracking(
                 rate_before_update = rate_u
             normal[:] = 0.0
             rhs[:] = 0.0
+        rep_end = blk.rep_end[j]
         rate_prev = nco_rate
         slope_prev = slope_new
-        carrier_rep = carrier_rep_end
-        true_rho = next_rho
+        carrier_rep = blk.carrier_rep_end[j]
     extra = {"phase_error_rad": np.stack(rec["phase"])} if carrier_filter is not None else {}
-    return DeepRecord(np.stack(rec["code"]), np.stack(rec["freq"]), (np.arange(K) + 0.5) * T,
+    return DeepRecord(np.concatenate(rec["code"]), np.concatenate(rec["freq"]), (np.arange(K) + 0.5) * T,
                       np.asarray(rec["tu"]), np.stack(rec["res"]), np.stack(rec["cov"]), extra)
+
+
+@dataclass(frozen=True)
+class _AidedBlock:
+    """The coherent intervals of one NCO interval, ``(n, runs, ch)`` each (see `_aided_block`)."""
+
+    code_err: np.ndarray  # true code error of the replica (chips)
+    ph0: np.ndarray  # true carrier phase minus the aided replica's at the interval's start (rad)
+    freq_err: np.ndarray  # true frequency error of the aided replica (Hz)
+    rep_end: np.ndarray  # replica range at the interval's end (m)
+    carrier_rep_end: np.ndarray  # aided replica's carrier phase at the interval's end (rad)
+    shift_chips: np.ndarray  # NCO shifts handed to the prefilter
+    shift_hz: np.ndarray
+    replica_mid_m: np.ndarray  # replica range at mid-interval
+    predicted_range_m: np.ndarray  # the navigator's predicted range at mid-interval
+    predicted_rate_m_s: np.ndarray  # and rate
+
+
+def _aided_block(sat_at, k0: int, n: int, T: float, sched_range, sched_rate, rho, rate, acc, t_aid: float,
+                 theta0, carrier_rep, rep_end_prev, rate_prev, slope_prev, slope, zeros) -> _AidedBlock:
+    """Truth and replica of the ``n`` coherent intervals from ``k0`` (one NCO interval), at once.
+
+    Each line is the per-interval formula of `run_aided_tracking` evaluated on a stack of
+    intervals, in the same order of operations (so the same bits): the replica's chords
+    ``sched_range``, ``sched_rate`` are fixed until the next re-aiding and the truth is known.
+    ``rep_end_prev``, ``rate_prev``, ``slope_prev``: the previous NCO interval's last replica
+    end, rate and slope (``None`` at the start: no shift).
+    """
+    true_rho = np.stack([sat_at.pseudorange(k0 + i) for i in range(n + 1)])
+    nco_range, nco_rate = sched_range[:n], sched_rate[:n]
+    rep_end = nco_range + nco_rate * T
+    code_err = 0.5 * ((true_rho[:-1] - nco_range) + (true_rho[1:] - rep_end)) / CA_CHIP_LENGTH_M
+    f_rep = -nco_rate / L1_WAVELENGTH_M
+    # carrier_rep + the increments one after the other (accumulate adds in sequence, as the loop did).
+    carrier = np.add.accumulate(np.concatenate([carrier_rep[None], 2 * np.pi * f_rep * T]), axis=0)
+    ph0 = theta0 - 2 * np.pi * true_rho[:-1] / L1_WAVELENGTH_M - carrier[:-1]
+    ph1 = theta0 - 2 * np.pi * true_rho[1:] / L1_WAVELENGTH_M - carrier[1:]
+    freq_err = (ph1 - ph0) / (2 * np.pi * T)
+    shift_chips = np.empty_like(nco_range)
+    shift_chips[0] = zeros if rep_end_prev is None else (nco_range[0] - rep_end_prev) / CA_CHIP_LENGTH_M
+    shift_chips[1:] = (nco_range[1:] - rep_end[:-1]) / CA_CHIP_LENGTH_M
+    shift_hz = np.empty_like(nco_rate)
+    shift_hz[0] = zeros if rate_prev is None else -(nco_rate[0] - (rate_prev + slope_prev * T)) / L1_WAVELENGTH_M
+    shift_hz[1:] = -(nco_rate[1:] - (nco_rate[:-1] + slope * T)) / L1_WAVELENGTH_M
+    # Mid-interval times since the aiding instant as Python floats, squared as the loop squared them.
+    tau_list = [(k0 + i) * T + T / 2 - t_aid for i in range(n)]
+    tau = np.array(tau_list)[:, None, None]
+    tau2 = np.array([t**2 for t in tau_list])[:, None, None]
+    return _AidedBlock(code_err, ph0, freq_err, rep_end, carrier[1:], shift_chips, shift_hz,
+                       nco_range + nco_rate * T / 2, rho + rate * tau + 0.5 * acc * tau2, rate + acc * tau)
 
 
 def _rotated(corr, phase_rad: np.ndarray):
