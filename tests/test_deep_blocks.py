@@ -1,0 +1,158 @@
+"""The deep loop's block evaluations equal the per-interval ones they replaced (issue 11).
+
+`DeepTruth.pseudoranges` (true pseudoranges of a block of epochs), `_aided_block` (truth
+and replica of one NCO interval) and `StrapdownIns`'s deferred error-state transitions are
+held bit for bit to the per-epoch formulas, written out here as the loop had them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
+from test_deep_integration import _aided_setup
+
+
+def _scenario_truth(runs=2, duration_s=0.3):
+    from gnssframework.experiments import get_scenario
+
+    scen = get_scenario({"kind": "deep-integration", "duration_s": duration_s, "update_interval_s": 0.1,
+                         "settle_s": 0.0, "channels": 6})
+    return scen, scen._truth(scen.flight(), 45.0, runs, np.random.default_rng(3))
+
+
+@pytest.mark.parametrize("vectorised", [False, True])
+def test_block_pseudoranges_equal_the_per_epoch_pseudorange(vectorised):
+    if vectorised:  # the scenario's truth, which gives receiver_positions
+        _, truth = _scenario_truth()
+        assert truth.receiver_positions is not None
+    else:  # receiver_state at scalar times only: called per epoch
+        truth, _ = _aided_setup(3, 0.05, accel_g=10.0)
+        assert truth.receiver_positions is None
+    T, K = truth.coherent_time_s, truth.epochs
+    k0, k1 = 7, K + 1
+    sat = truth.sat_state(np.arange(k0, k1) * T)[0]
+    block = truth.pseudoranges(k0, k1, sat)
+    want = np.stack([truth.pseudorange(k * T, k, sat[k - k0]) for k in range(k0, k1)])
+    assert block.shape == want.shape
+    np.testing.assert_array_equal(block, want)
+
+
+def test_edge_states_pseudorange_across_block_boundaries():
+    from gnssframework.receiver.deep import _EdgeStates
+
+    truth, _ = _aided_setup(2, 0.05)
+    T, K = truth.coherent_time_s, truth.epochs
+    edges = _EdgeStates(truth, K, block=7)  # blocks that end inside NCO intervals
+    for k in range(K + 1):
+        s = truth.sat_state(np.asarray(k * T))[0]
+        np.testing.assert_array_equal(edges(k)[0], s)
+        np.testing.assert_array_equal(edges.pseudorange(k), truth.pseudorange(k * T, k, s))
+
+
+@pytest.mark.parametrize("first", [True, False])
+def test_aided_block_equals_the_per_interval_formulas(first):
+    from gnssframework.receiver.deep import _aided_block, _EdgeStates
+    from gnssframework.receiver.deep_aiding import nco_schedule
+
+    truth, _ = _aided_setup(3, 0.05, accel_g=20.0, jerk=True)
+    T, K = truth.coherent_time_s, truth.epochs
+    g = np.random.default_rng(5)
+    batch = (3, 6)
+    rho = truth.pseudorange(0.01, 10, truth.sat_state(np.asarray(0.01))[0]) + g.normal(size=batch) * 5
+    rate, acc = g.normal(size=batch) * 300, g.normal(size=batch) * 50
+    n_nco, k0 = 5, 10
+    sched_range, sched_rate = nco_schedule(rho, rate, acc, T, n_nco)
+    theta0 = g.uniform(-np.pi, np.pi, batch)
+    carrier_rep = g.normal(size=batch) * 1e4
+    rep_end = None if first else rho + g.normal(size=batch)
+    rate_prev = None if first else rate + g.normal(size=batch)
+    slope_prev = None if first else acc + g.normal(size=batch)
+    t_aid = k0 * T
+    zeros = np.zeros(batch)
+    blk = _aided_block(_EdgeStates(truth, K), k0, n_nco, T, sched_range, sched_rate, rho, rate, acc, t_aid, theta0,
+                       carrier_rep, rep_end, rate_prev, slope_prev, acc, zeros)
+    # The loop before issue 11's block evaluation, interval by interval:
+    true_rho = truth.pseudorange(k0 * T, k0, truth.sat_state(np.asarray(k0 * T))[0])
+    slope = slope_prev
+    for j in range(n_nco):
+        k = k0 + j
+        t0, t1 = k * T, (k + 1) * T
+        nco_range, nco_rate = sched_range[j], sched_rate[j]
+        shift_chips = np.zeros(batch) if rep_end is None else (nco_range - rep_end) / CA_CHIP_LENGTH_M
+        shift_hz = np.zeros(batch) if rate_prev is None else -(nco_rate - (rate_prev + slope * T)) / L1_WAVELENGTH_M
+        next_rho = truth.pseudorange(t1, k + 1, truth.sat_state(np.asarray(t1))[0])
+        rep_end = nco_range + nco_rate * T
+        code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
+        f_rep = -nco_rate / L1_WAVELENGTH_M
+        ph0 = theta0 - 2 * np.pi * true_rho / L1_WAVELENGTH_M - carrier_rep
+        carrier_rep_end = carrier_rep + 2 * np.pi * f_rep * T
+        ph1 = theta0 - 2 * np.pi * next_rho / L1_WAVELENGTH_M - carrier_rep_end
+        freq_err = (ph1 - ph0) / (2 * np.pi * T)
+        tau = t0 + T / 2 - t_aid
+        for got, want in ((blk.code_err[j], code_err), (blk.ph0[j], ph0), (blk.freq_err[j], freq_err),
+                          (blk.rep_end[j], rep_end), (blk.carrier_rep_end[j], carrier_rep_end),
+                          (blk.shift_chips[j], shift_chips), (blk.shift_hz[j], shift_hz),
+                          (blk.replica_mid_m[j], nco_range + nco_rate * T / 2),
+                          (blk.predicted_range_m[j], rho + rate * tau + 0.5 * acc * tau**2),
+                          (blk.predicted_rate_m_s[j], rate + acc * tau)):
+            np.testing.assert_array_equal(got, want)
+        rate_prev, slope, carrier_rep, true_rho = nco_rate, acc, carrier_rep_end, next_rho
+
+
+def test_aided_tracking_same_record_with_and_without_vectorised_receiver_positions():
+    from gnssframework.receiver.deep import run_aided_tracking
+    from gnssframework.registry import create
+    from test_deep_integration import _OffsetNavigator
+
+    _, truth = _scenario_truth(runs=2, duration_s=0.2)
+    zero = np.zeros((2, 3))
+
+    def run(tr):
+        nav = _OffsetNavigator(lambda t: tr.receiver_state(t), zero + 3.0, zero + 0.1, np.zeros(2), np.zeros(2),
+                               (0.0, 0.0))
+        channel = create("channel_filter", "iq-filter", adapter=None, estimator="ukf", output="equivalent")
+        carrier = create("channel_filter", "kf-carrier-loop", states=2, q=[0.0, 0.001], r=0.05)
+        return run_aided_tracking(channel, nav, tr, np.random.default_rng(4), carrier_filter=carrier)
+
+    a, b = run(truth), run(replace(truth, receiver_positions=None))
+    for name in ("code_error_chips", "freq_error_hz", "residual_m", "residual_cov"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    np.testing.assert_array_equal(a.extra["phase_error_rad"], b.extra["phase_error_rad"])
+    assert np.all(np.isfinite(a.residual_m))
+
+
+def test_strapdown_deferred_transitions_equal_the_per_interval_accumulation():
+    from gnssframework.inertial import error_model
+    from gnssframework.receiver.deep_strapdown import _setup_ins
+
+    scen, _ = _scenario_truth(runs=2, duration_s=0.3)
+    ins, _ = _setup_ins(scen, scen.flight(), 2, np.random.default_rng(6))
+    ref, _ = _setup_ins(scen, scen.flight(), 2, np.random.default_rng(6))
+    Phi, Qd = np.broadcast_to(np.eye(15), (2, 15, 15)).copy(), np.zeros((2, 15, 15))
+    dx = np.random.default_rng(7).normal(size=(2, 15)) * 1e-3
+    for t_s, correct in ((0.05, False), (0.1, True), (0.2, False)):
+        ins.advance(t_s)
+        # Reference: one transition per IMU interval, multiplied up as it goes (the loop before).
+        n = int(round(t_s / ref.dt))
+        while ref.k < n:
+            dth, dv = error_model.compensate_increments(ref.dtheta[ref.k], ref.dv[ref.k], ref.gyro_bias,
+                                                        ref.accel_bias, ref.dt)
+            f_b = dv / ref.dt
+            P, Q = error_model.error_state_transition(ref.state, f_b, ref.dt, ref.grade, method="second-order")
+            Phi, Qd = P @ Phi, P @ Qd @ np.swapaxes(P, -1, -2) + Q
+            ref.state = ref.mech.strapdown_step(ref.state, dth, dv, ref.dt, *ref.prev)
+            ref.prev = (dth, dv)
+            ref.k += 1
+        got_Phi, got_Qd = ins.take_error_model()
+        np.testing.assert_array_equal(got_Phi, Phi)
+        np.testing.assert_array_equal(got_Qd, Qd)
+        Phi, Qd = np.broadcast_to(np.eye(15), (2, 15, 15)).copy(), np.zeros((2, 15, 15))
+        assert not np.array_equal(got_Phi, np.broadcast_to(np.eye(15), got_Phi.shape))
+        if correct:
+            ins.correct(dx)
+            ref.correct(dx)
+        np.testing.assert_array_equal(ins.state.position_ecef_m, ref.state.position_ecef_m)
