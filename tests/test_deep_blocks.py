@@ -73,7 +73,8 @@ def test_aided_block_equals_the_per_interval_formulas(first):
     slope_prev = None if first else acc + g.normal(size=batch)
     t_aid = k0 * T
     zeros = np.zeros(batch)
-    blk = _aided_block(_EdgeStates(truth, K), k0, n_nco, T, sched_range, sched_rate, rho, rate, acc, t_aid, theta0,
+    n_upd = 20
+    blk = _aided_block(_EdgeStates(truth, K), k0, n_nco, T, n_upd, sched_range, sched_rate, rho, rate, acc, t_aid, theta0,
                        carrier_rep, rep_end, rate_prev, slope_prev, acc, zeros)
     # The loop before issue 11's block evaluation, interval by interval:
     true_rho = truth.pseudorange(k0 * T, k0, truth.sat_state(np.asarray(k0 * T))[0])
@@ -93,6 +94,11 @@ def test_aided_block_equals_the_per_interval_formulas(first):
         ph1 = theta0 - 2 * np.pi * next_rho / L1_WAVELENGTH_M - carrier_rep_end
         freq_err = (ph1 - ph0) / (2 * np.pi * T)
         tau = t0 + T / 2 - t_aid
+        dt = (k + 0.5) * T - (k // n_upd + 1) * n_upd * T
+        h_rho, h_rate = np.array([1.0, dt, 0.5 * dt * dt]), np.array([0.0, 1.0, dt])
+        for got, want in ((blk.h_rho[j], h_rho), (blk.h_rate[j], h_rate), (blk.outer_rho[j], np.outer(h_rho, h_rho)),
+                          (blk.outer_rate[j], np.outer(h_rate, h_rate))):
+            np.testing.assert_array_equal(got, want)
         for got, want in ((blk.code_err[j], code_err), (blk.ph0[j], ph0), (blk.freq_err[j], freq_err),
                           (blk.rep_end[j], rep_end), (blk.carrier_rep_end[j], carrier_rep_end),
                           (blk.shift_chips[j], shift_chips), (blk.shift_hz[j], shift_hz),

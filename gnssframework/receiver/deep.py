@@ -209,14 +209,6 @@ def run_aided_tracking(
     # the same draws and arithmetic as simulate_correlators.
     correlators = CorrelatorSimulator(T, early_late_spacing_chips)
     amplitude = amplitude_from_cn0(cn0, T)
-    # Rows of the least-squares fit of each interval (they depend only on the interval's place in
-    # the integration interval): dt and the normal-matrix terms of all K intervals, as the loop had them.
-    ks = np.arange(K)
-    fit_dt = (ks + 0.5) * T - (ks // n_upd + 1) * n_upd * T
-    h_rho_all = np.stack([np.ones(K), fit_dt, 0.5 * fit_dt * fit_dt], -1)
-    h_rate_all = np.stack([np.zeros(K), np.ones(K), fit_dt], -1)
-    outer_rho_all = h_rho_all[:, :, None] * h_rho_all[:, None, :]
-    outer_rate_all = h_rate_all[:, :, None] * h_rate_all[:, None, :]
     zeros = np.zeros(batch)
     # Data bits are wiped off (1 everywhere): as an array of the batch's shape the prefilter's
     # wipe-off takes its unchecked path (the same products as with a scalar 1).
@@ -258,7 +250,7 @@ def run_aided_tracking(
             # The replica is laid out until the next re-aiding and the truth is known, so the true
             # tracking errors and the navigator's predictions of this NCO interval's coherent
             # intervals are computed at once (the same arithmetic per element as interval by interval).
-            blk = _aided_block(sat_at, k, min(n_nco, K - k), T, sched_range, sched_rate, rho, rate, acc, t_aid,
+            blk = _aided_block(sat_at, k, min(n_nco, K - k), T, n_upd, sched_range, sched_rate, rho, rate, acc, t_aid,
                                theta0, carrier_rep, rep_end, rate_prev, slope_prev if rate_prev is not None else None,
                                slope_new, zeros)
             rec["code"].append(blk.code_err)
@@ -288,8 +280,8 @@ def run_aided_tracking(
         # the replica departs from the prediction by a known amount.
         z_rho = out["code_error_chips"] * CA_CHIP_LENGTH_M + blk.replica_mid_m[j] - blk.predicted_range_m[j]
         z_rate = -out["freq_error_hz"] * L1_WAVELENGTH_M + nco_rate - blk.predicted_rate_m_s[j]
-        normal += w_rho[..., None, None] * outer_rho_all[k] + w_rate[..., None, None] * outer_rate_all[k]
-        rhs += (w_rho * z_rho)[..., None] * h_rho_all[k] + (w_rate * z_rate)[..., None] * h_rate_all[k]
+        normal += w_rho[..., None, None] * blk.outer_rho[j] + w_rate[..., None, None] * blk.outer_rate[j]
+        rhs += (w_rho * z_rho)[..., None] * blk.h_rho[j] + (w_rate * z_rate)[..., None] * blk.h_rate[j]
         if (k + 1) % n_upd == 0:
             cov = np.linalg.inv(normal)[..., :2, :2]  # marginal of [range, rate] at t_u
             res = np.einsum("...ij,...j->...i", np.linalg.inv(normal), rhs)[..., :2]
@@ -327,9 +319,13 @@ class _AidedBlock:
     replica_mid_m: np.ndarray  # replica range at mid-interval
     predicted_range_m: np.ndarray  # the navigator's predicted range at mid-interval
     predicted_rate_m_s: np.ndarray  # and rate
+    h_rho: np.ndarray  # (n, 3) rows of the least-squares fit of [dr(t_u), dr_dot(t_u), dr_ddot]: range
+    h_rate: np.ndarray  # and rate
+    outer_rho: np.ndarray  # (n, 3, 3) their outer products (normal-matrix terms)
+    outer_rate: np.ndarray
 
 
-def _aided_block(sat_at, k0: int, n: int, T: float, sched_range, sched_rate, rho, rate, acc, t_aid: float,
+def _aided_block(sat_at, k0: int, n: int, T: float, n_upd: int, sched_range, sched_rate, rho, rate, acc, t_aid: float,
                  theta0, carrier_rep, rep_end_prev, rate_prev, slope_prev, slope, zeros) -> _AidedBlock:
     """Truth and replica of the ``n`` coherent intervals from ``k0`` (one NCO interval), at once.
 
@@ -352,6 +348,12 @@ def _aided_block(sat_at, k0: int, n: int, T: float, sched_range, sched_rate, rho
     shift_chips = np.empty_like(nco_range)
     shift_chips[0] = zeros if rep_end_prev is None else (nco_range[0] - rep_end_prev) / CA_CHIP_LENGTH_M
     shift_chips[1:] = (nco_range[1:] - rep_end[:-1]) / CA_CHIP_LENGTH_M
+    # The prefilter's states are errors relative to the aided replica, driven by the
+    # navigator's errors: its frequency state moves only by the replica's departure from
+    # the ramp it was following (a re-aiding), not by the aided ramp itself. Handing it
+    # the whole replica change made its frequency-rate state learn the absolute line-of-
+    # sight acceleration from a zero prior: rate information biased by tens of standard
+    # deviations during a 20 g boost even with a perfect navigator.
     shift_hz = np.empty_like(nco_rate)
     shift_hz[0] = zeros if rate_prev is None else -(nco_rate[0] - (rate_prev + slope_prev * T)) / L1_WAVELENGTH_M
     shift_hz[1:] = -(nco_rate[1:] - (nco_rate[:-1] + slope * T)) / L1_WAVELENGTH_M
@@ -359,8 +361,14 @@ def _aided_block(sat_at, k0: int, n: int, T: float, sched_range, sched_rate, rho
     tau_list = [(k0 + i) * T + T / 2 - t_aid for i in range(n)]
     tau = np.array(tau_list)[:, None, None]
     tau2 = np.array([t**2 for t in tau_list])[:, None, None]
+    # Fit rows: dt is mid-interval minus the coming update instant.
+    ks = np.arange(k0, k0 + n)
+    fit_dt = (ks + 0.5) * T - (ks // n_upd + 1) * n_upd * T
+    h_rho = np.stack([np.ones(n), fit_dt, 0.5 * fit_dt * fit_dt], -1)
+    h_rate = np.stack([np.zeros(n), np.ones(n), fit_dt], -1)
     return _AidedBlock(code_err, ph0, freq_err, rep_end, carrier[1:], shift_chips, shift_hz,
-                       nco_range + nco_rate * T / 2, rho + rate * tau + 0.5 * acc * tau2, rate + acc * tau)
+                       nco_range + nco_rate * T / 2, rho + rate * tau + 0.5 * acc * tau2, rate + acc * tau,
+                       h_rho, h_rate, h_rho[:, :, None] * h_rho[:, None, :], h_rate[:, :, None] * h_rate[:, None, :])
 
 
 def _rotated(corr, phase_rad: np.ndarray):
