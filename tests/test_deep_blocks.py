@@ -162,3 +162,24 @@ def test_strapdown_deferred_transitions_equal_the_per_interval_accumulation():
             ins.correct(dx)
             ref.correct(dx)
         np.testing.assert_array_equal(ins.state.position_ecef_m, ref.state.position_ecef_m)
+
+
+@pytest.mark.parametrize("with_prev", [False, True])
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+def test_trusted_strapdown_step_equals_the_checked_step(with_prev, backend):
+    from gnssframework.inertial.mechanisation import (MechanisationOptions, NavState, strapdown_step,
+                                                      strapdown_step_trusted)
+
+    g = np.random.default_rng(11)
+    runs = 3
+    q = g.normal(size=(runs, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    state = NavState(q, g.normal(size=(runs, 3)) * 200, np.array([-1.7e6, 4.9e6, 3.6e6]) + g.normal(size=(runs, 3)))
+    dth, dv = g.normal(size=(runs, 3)) * 1e-3, g.normal(size=(runs, 3)) * 0.05
+    prev = (g.normal(size=(runs, 3)) * 1e-3, g.normal(size=(runs, 3)) * 0.05) if with_prev else (None, None)
+    opts = MechanisationOptions(backend=backend)
+    a = strapdown_step_trusted(state, dth, dv, 0.005, *prev, options=opts)
+    b = strapdown_step(state, dth, dv, 0.005, *prev, options=opts)
+    for x, y in ((a.q_b_e, b.q_b_e), (a.velocity_ecef_mps, b.velocity_ecef_mps), (a.position_ecef_m, b.position_ecef_m)):
+        np.testing.assert_array_equal(x, y)
+    assert not np.array_equal(a.position_ecef_m, state.position_ecef_m)
