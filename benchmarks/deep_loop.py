@@ -48,7 +48,8 @@ def main() -> None:
     specs = candidates()
     base = {"kind": "deep-integration", "profile": "pull-up", "channels": 8, "settle_s": 0.0}
     scen = get_scenario({**base, "duration_s": args.duration})
-    short = get_scenario({**base, "duration_s": 0.2})
+    # Warm-up long enough that every path runs (loose: its first fix comes after the pull-in update).
+    short = get_scenario({**base, "duration_s": 0.5})
     epochs = int(round(args.duration / scen.params.coherent_time_s))
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, load average "
           f"{os.getloadavg()[0]:.1f} at start; {args.duration} s simulated per run")
