@@ -183,3 +183,41 @@ def test_trusted_strapdown_step_equals_the_checked_step(with_prev, backend):
     for x, y in ((a.q_b_e, b.q_b_e), (a.velocity_ecef_mps, b.velocity_ecef_mps), (a.position_ecef_m, b.position_ecef_m)):
         np.testing.assert_array_equal(x, y)
     assert not np.array_equal(a.position_ecef_m, state.position_ecef_m)
+
+
+def test_interval_fit_equals_the_running_sum_of_the_loop():
+    from gnssframework.receiver.deep import _aided_block, _EdgeStates, _interval_fit
+    from gnssframework.receiver.deep_aiding import nco_schedule
+
+    truth, _ = _aided_setup(2, 0.05, accel_g=20.0)
+    T, K = truth.coherent_time_s, truth.epochs
+    g = np.random.default_rng(12)
+    batch = (2, 6)
+    n_nco, n_upd = 5, 10
+    blocks = []
+    carrier_rep, rep_end, rate_prev, slope = np.zeros(batch), None, None, None
+    for k0 in (10, 15):
+        rho = truth.pseudorange(k0 * T, k0, truth.sat_state(np.asarray(k0 * T))[0]) + g.normal(size=batch)
+        rate, acc = g.normal(size=batch) * 300, g.normal(size=batch) * 50
+        sr, sv = nco_schedule(rho, rate, acc, T, n_nco)
+        blk = _aided_block(_EdgeStates(truth, K), k0, n_nco, T, n_upd, sr, sv, rho, rate, acc, k0 * T, np.zeros(batch),
+                           carrier_rep, rep_end, rate_prev, slope, acc, np.zeros(batch))
+        blocks.append(blk)
+        carrier_rep, rep_end, rate_prev, slope = blk.carrier_rep_end[-1], blk.rep_end[-1], sv[-1], acc
+    outputs = np.stack([g.normal(size=(n_upd,) + batch) * 0.05, g.normal(size=(n_upd,) + batch) * 3,
+                        g.uniform(1e-4, 1e-2, (n_upd,) + batch), g.uniform(1.0, 50.0, (n_upd,) + batch)])
+    normal, rhs = _interval_fit(outputs, blocks)
+    # The loop before: a running sum, one coherent interval after the other.
+    want_n, want_r = np.zeros(batch + (3, 3)), np.zeros(batch + (3,))
+    for i in range(n_upd):
+        blk, j = blocks[i // n_nco], i % n_nco
+        w_rho = 1.0 / (outputs[2, i] * CA_CHIP_LENGTH_M**2)
+        w_rate = 1.0 / (outputs[3, i] * L1_WAVELENGTH_M**2)
+        z_rho = outputs[0, i] * CA_CHIP_LENGTH_M + blk.replica_mid_m[j] - blk.predicted_range_m[j]
+        z_rate = -outputs[1, i] * L1_WAVELENGTH_M + blk.nco_rate[j] - blk.predicted_rate_m_s[j]
+        want_n += w_rho[..., None, None] * np.outer(blk.h_rho[j], blk.h_rho[j]) + \
+            w_rate[..., None, None] * np.outer(blk.h_rate[j], blk.h_rate[j])
+        want_r += (w_rho * z_rho)[..., None] * blk.h_rho[j] + (w_rate * z_rate)[..., None] * blk.h_rate[j]
+    np.testing.assert_array_equal(normal, want_n)
+    np.testing.assert_array_equal(rhs, want_r)
+    np.testing.assert_array_equal(blocks[1].nco_rate, sv)  # the block keeps the chords it was given
