@@ -229,8 +229,10 @@ def run_aided_tracking(
     carrier_rep = np.zeros(batch)
     rep_end = None
     rate_prev = None
-    normal = np.zeros(batch + (3, 3))
-    rhs = np.zeros(batch + (3,))
+    # The prefilter outputs of the current integration interval (copied: a plugin may reuse its
+    # output arrays) and the NCO blocks they belong to; the fit is formed at the update instant.
+    fit_out = np.empty((4, n_upd) + batch)  # code error, frequency error and their variances
+    fit_blocks: list[_AidedBlock] = []
     for k in range(K):
         t1 = (k + 1) * T
         j = k % n_nco
@@ -253,6 +255,7 @@ def run_aided_tracking(
             blk = _aided_block(sat_at, k, min(n_nco, K - k), T, n_upd, sched_range, sched_rate, rho, rate, acc, t_aid,
                                theta0, carrier_rep, rep_end, rate_prev, slope_prev if rate_prev is not None else None,
                                slope_new, zeros)
+            fit_blocks.append(blk)
             rec["code"].append(blk.code_err)
             rec["freq"].append(blk.freq_err)
         nco_range, nco_rate = sched_range[j], sched_rate[j]
@@ -263,26 +266,18 @@ def run_aided_tracking(
         if carrier_filter is not None:
             f_c = corr_freq_hz + transfer_hz
             rot_rad = corr_phase_rad + np.pi * f_c * T  # corrections at mid-interval
-            rec["phase"].append(np.angle(np.exp(1j * (ph0 + np.pi * freq_err * T - rot_rad))))
+            rec["phase"].append(ph0 + np.pi * freq_err * T - rot_rad)  # wrapped once at the end
             c_out = carrier_filter.checked_step({"correlators": _rotated(corr, rot_rad)})
             corr_phase_rad = (corr_phase_rad + 2 * np.pi * f_c * T
                               + np.asarray(c_out.get("carrier_phase_step_rad", 0.0), float))
             corr_freq_hz = np.broadcast_to(np.asarray(c_out["carrier_freq_hz"], float), batch)
 
-        # Weighted least squares of [dr(t_u), dr_dot(t_u), dr_ddot] from this interval's new
-        # information: range residual quadratic in time, rate residual linear. The rate
-        # residual grows through the interval when the navigator's acceleration is off; a
-        # constant-rate fit would hand over its mid-interval value as t_u's (a lag).
-        w_rho = 1.0 / (out["code_error_var_chips2"] * CA_CHIP_LENGTH_M**2)
-        w_rate = 1.0 / (out["freq_error_var_hz2"] * L1_WAVELENGTH_M**2)
-        # Residuals against the navigator's own prediction (a smooth function of time),
-        # not against the replica: without acceleration aiding, or between re-aidings,
-        # the replica departs from the prediction by a known amount.
-        z_rho = out["code_error_chips"] * CA_CHIP_LENGTH_M + blk.replica_mid_m[j] - blk.predicted_range_m[j]
-        z_rate = -out["freq_error_hz"] * L1_WAVELENGTH_M + nco_rate - blk.predicted_rate_m_s[j]
-        normal += w_rho[..., None, None] * blk.outer_rho[j] + w_rate[..., None, None] * blk.outer_rate[j]
-        rhs += (w_rho * z_rho)[..., None] * blk.h_rho[j] + (w_rate * z_rate)[..., None] * blk.h_rate[j]
+        i = k % n_upd
+        fit_out[0, i], fit_out[1, i] = out["code_error_chips"], out["freq_error_hz"]
+        fit_out[2, i], fit_out[3, i] = out["code_error_var_chips2"], out["freq_error_var_hz2"]
         if (k + 1) % n_upd == 0:
+            normal, rhs = _interval_fit(fit_out, fit_blocks)
+            fit_blocks = []
             cov = np.linalg.inv(normal)[..., :2, :2]  # marginal of [range, rate] at t_u
             res = np.einsum("...ij,...j->...i", np.linalg.inv(normal), rhs)[..., :2]
             rec["tu"].append(t1)
@@ -294,13 +289,11 @@ def run_aided_tracking(
             if len(rec["tu"]) > pull_in_updates:
                 navigator.update(t1, res, cov, los_u, cn0)
                 rate_before_update = rate_u
-            normal[:] = 0.0
-            rhs[:] = 0.0
         rep_end = blk.rep_end[j]
         rate_prev = nco_rate
         slope_prev = slope_new
         carrier_rep = blk.carrier_rep_end[j]
-    extra = {"phase_error_rad": np.stack(rec["phase"])} if carrier_filter is not None else {}
+    extra = {"phase_error_rad": np.angle(np.exp(1j * np.stack(rec["phase"])))} if carrier_filter is not None else {}
     return DeepRecord(np.concatenate(rec["code"]), np.concatenate(rec["freq"]), (np.arange(K) + 0.5) * T,
                       np.asarray(rec["tu"]), np.stack(rec["res"]), np.stack(rec["cov"]), extra)
 
@@ -323,6 +316,36 @@ class _AidedBlock:
     h_rate: np.ndarray  # and rate
     outer_rho: np.ndarray  # (n, 3, 3) their outer products (normal-matrix terms)
     outer_rate: np.ndarray
+    nco_rate: np.ndarray  # (n, runs, ch) the replica's rate over each interval
+
+
+def _interval_fit(outputs: np.ndarray, blocks: list[_AidedBlock]) -> tuple[np.ndarray, np.ndarray]:
+    """Normal matrix ``(runs, ch, 3, 3)`` and right-hand side of one integration interval's fit.
+
+    Weighted least squares of [dr(t_u), dr_dot(t_u), dr_ddot] from the interval's new
+    information: range residual quadratic in time, rate residual linear. The rate
+    residual grows through the interval when the navigator's acceleration is off; a
+    constant-rate fit would hand over its mid-interval value as t_u's (a lag). Residuals
+    are taken against the navigator's own prediction (a smooth function of time), not
+    against the replica: without acceleration aiding, or between re-aidings, the replica
+    departs from the prediction by a known amount.
+
+    ``outputs`` ``(4, n_upd, runs, ch)``: the prefilter's code and frequency errors and their
+    variances per coherent interval; ``blocks``: the NCO intervals they fall in. All
+    intervals' terms at once, summed over the intervals in their order from zero (``add``
+    reduced along the first axis adds one interval after the other, as a running sum would).
+    """
+    code, freq, var_code, var_freq = outputs
+    cat = lambda name: np.concatenate([getattr(b, name) for b in blocks])  # noqa: E731
+    w_rho = 1.0 / (var_code * CA_CHIP_LENGTH_M**2)
+    w_rate = 1.0 / (var_freq * L1_WAVELENGTH_M**2)
+    z_rho = code * CA_CHIP_LENGTH_M + cat("replica_mid_m") - cat("predicted_range_m")
+    z_rate = -freq * L1_WAVELENGTH_M + cat("nco_rate") - cat("predicted_rate_m_s")
+    h_rho, h_rate = cat("h_rho")[:, None, None], cat("h_rate")[:, None, None]
+    normal_terms = (w_rho[..., None, None] * cat("outer_rho")[:, None, None]
+                    + w_rate[..., None, None] * cat("outer_rate")[:, None, None])
+    rhs_terms = (w_rho * z_rho)[..., None] * h_rho + (w_rate * z_rate)[..., None] * h_rate
+    return np.add.reduce(normal_terms, axis=0, initial=0.0), np.add.reduce(rhs_terms, axis=0, initial=0.0)
 
 
 def _aided_block(sat_at, k0: int, n: int, T: float, n_upd: int, sched_range, sched_rate, rho, rate, acc, t_aid: float,
@@ -368,7 +391,8 @@ def _aided_block(sat_at, k0: int, n: int, T: float, n_upd: int, sched_range, sch
     h_rate = np.stack([np.zeros(n), np.ones(n), fit_dt], -1)
     return _AidedBlock(code_err, ph0, freq_err, rep_end, carrier[1:], shift_chips, shift_hz,
                        nco_range + nco_rate * T / 2, rho + rate * tau + 0.5 * acc * tau2, rate + acc * tau,
-                       h_rho, h_rate, h_rho[:, :, None] * h_rho[:, None, :], h_rate[:, :, None] * h_rate[:, None, :])
+                       h_rho, h_rate, h_rho[:, :, None] * h_rho[:, None, :], h_rate[:, :, None] * h_rate[:, None, :],
+                       nco_rate)
 
 
 def _rotated(corr, phase_rad: np.ndarray):

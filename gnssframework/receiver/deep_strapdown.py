@@ -170,7 +170,9 @@ class StrapdownIns:
                                                     self.accel_bias, self.dt)
             self.f_b = dv / self.dt
             self._pending.append((self.state, self.f_b))
-            self.state = self.mech.strapdown_step(self.state, dth, dv, self.dt, *self.prev)
+            # Increments (from simulate_imu) and state are checked once; a non-finite INS output
+            # is caught, named, at the harness's next re-aiding (deep._check_finite).
+            self.state = self.mech.strapdown_step_trusted(self.state, dth, dv, self.dt, *self.prev)
             self.prev = (dth, dv)
             self.k += 1
 
