@@ -372,7 +372,14 @@ def test_residuals_are_taken_against_the_navigator_not_the_replica(monkeypatch, 
     # prefilter is an oracle (true errors, no noise), so only the harness is tested.
     import gnssframework.receiver.deep as deep
 
-    monkeypatch.setattr(deep, "simulate_correlators", lambda code, ph0, freq, *a, **k: (code, freq))
+    class _TrueErrors:  # stands in for the correlator draws: hands the oracle the true errors
+        def __init__(self, *a, **k):
+            pass
+
+        def draw(self, code, ph0, freq, *a, **k):
+            return code, freq
+
+    monkeypatch.setattr(deep, "CorrelatorSimulator", _TrueErrors)
     runs = 3
     truth, rx = _aided_setup(runs, 0.3, accel_g=10.0)
     gen = np.random.default_rng(4)

@@ -34,7 +34,7 @@ from gnssframework.inertial.quaternion import (
     quat_rotate,
 )
 
-__all__ = ["NavState", "MechanisationOptions", "strapdown_step", "integrate", "NavSeries",
+__all__ = ["NavState", "MechanisationOptions", "strapdown_step", "strapdown_step_trusted", "integrate", "NavSeries",
            "kinematic_acceleration_ecef"]
 
 RotationTerm = Literal["exact", "first-order", "none"]
@@ -214,6 +214,35 @@ def strapdown_step(
         series = integrate(state, dtheta_rad[None], dv_mps[None], dt_s, options, prev_dtheta_rad, prev_dv_mps)
         return series.at(1)
     return _strapdown_step_numpy(state, dtheta_rad, dv_mps, dt_s, prev_dtheta_rad, prev_dv_mps, options)
+
+
+def strapdown_step_trusted(
+    state: NavState,
+    dtheta_rad: np.ndarray,
+    dv_mps: np.ndarray,
+    dt_s: float,
+    prev_dtheta_rad: np.ndarray | None = None,
+    prev_dv_mps: np.ndarray | None = None,
+    options: MechanisationOptions = MechanisationOptions(),
+) -> NavState:
+    """`strapdown_step` for a caller that has validated its inputs once (a harness stepping
+    an INS every IMU interval): the compiled kernel without `integrate`'s per-call checks.
+
+    The state and increments must be finite, of one batch shape ``(B, 4)`` / ``(B, 3)``
+    (a flat batch), ``dt_s > 0``. The arithmetic is `strapdown_step`'s (the same kernel,
+    the same bits); with the ``"numpy"`` backend it is `strapdown_step` itself.
+    """
+    if options.backend != "numba":
+        return strapdown_step(state, dtheta_rad, dv_mps, dt_s, prev_dtheta_rad, prev_dv_mps, options)
+    has_prev = prev_dtheta_rad is not None
+    zero = np.zeros_like(state.velocity_ecef_mps) if not has_prev else None
+    qs, vs, rs = integrate_kernel(
+        np.ascontiguousarray(state.q_b_e), np.ascontiguousarray(state.velocity_ecef_mps),
+        np.ascontiguousarray(state.position_ecef_m), np.ascontiguousarray(dtheta_rad)[None],
+        np.ascontiguousarray(dv_mps)[None], zero if zero is not None else np.ascontiguousarray(prev_dtheta_rad),
+        zero if zero is not None else np.ascontiguousarray(prev_dv_mps), has_prev, dt_s,
+        options.coning, options.sculling, options.rotation_term, options.earth)
+    return NavState(qs[1], vs[1], rs[1])
 
 
 def _strapdown_step_numpy(state, dtheta_rad, dv_mps, dt_s, prev_dtheta_rad, prev_dv_mps, options):

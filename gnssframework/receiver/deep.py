@@ -58,7 +58,8 @@ import numpy as np
 from ..errors import ConfigError, NumericalError
 from ..interfaces import ChannelFilter, RunContext
 from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
-from ..signal.correlator_model import simulate_correlators
+from ..signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
+from ..signal.correlators import Correlators
 from .deep_aiding import line_of_sight_kinematics, nco_schedule
 from .vector import CHANNEL_OUTPUTS
 
@@ -82,6 +83,10 @@ class DeepTruth:
         ``(runs, channels)`` or broadcastable.
     coherent_time_s
         T.
+    receiver_positions
+        Optional ``receiver_positions(t) -> (*t.shape, runs, 3)``: the receiver's ECEF
+        position at an array of times, equal to ``receiver_state`` at each time (the loop
+        asks for a block of epochs at once). ``None``: ``receiver_state`` is called per epoch.
     """
 
     sat_state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -89,6 +94,7 @@ class DeepTruth:
     clock_m: np.ndarray
     cn0_dbhz: np.ndarray
     coherent_time_s: float
+    receiver_positions: Callable[[np.ndarray], np.ndarray] | None = None
 
     @property
     def epochs(self) -> int:
@@ -97,6 +103,19 @@ class DeepTruth:
     def pseudorange(self, t: float, k: int, sat_pos: np.ndarray) -> np.ndarray:
         r = self.receiver_state(t)[0]
         return np.linalg.norm(sat_pos[None] - r[:, None], axis=-1) + self.clock_m[k, :, 0][:, None]
+
+    def pseudoranges(self, k0: int, k1: int, sat_pos: np.ndarray) -> np.ndarray:
+        """`pseudorange` at the epoch edges ``k0 .. k1 - 1`` at once, ``(k1 - k0, runs, ch)``.
+
+        ``sat_pos`` ``(k1 - k0, ch, 3)``: the satellites at those edges. The same arithmetic
+        per element as `pseudorange` (so the same bits), on a block of epochs.
+        """
+        t = np.arange(k0, k1) * self.coherent_time_s
+        if self.receiver_positions is not None:
+            r = np.asarray(self.receiver_positions(t), float)
+        else:
+            r = np.stack([np.asarray(self.receiver_state(ti)[0], float) for ti in t])
+        return np.linalg.norm(sat_pos[:, None] - r[:, :, None], axis=-1) + self.clock_m[k0:k1, :, 0][..., None]
 
 
 class Navigator(Protocol):
@@ -182,10 +201,18 @@ def run_aided_tracking(
         raise ConfigError("update_interval_s", f"must be a multiple of nco_interval_s ({nco_interval_s} s)")
     K = truth.epochs
     runs = truth.clock_m.shape[1]
-    sat_at = _EdgeStates(truth.sat_state, T, K)
+    sat_at = _EdgeStates(truth, K)
     n_ch = sat_at(0)[0].shape[0]
     batch = (runs, n_ch)
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
+    # Per-run constants of the correlator draws (tap noise root, amplitude) once, not per interval:
+    # the same draws and arithmetic as simulate_correlators.
+    correlators = CorrelatorSimulator(T, early_late_spacing_chips)
+    amplitude = amplitude_from_cn0(cn0, T)
+    zeros = np.zeros(batch)
+    # Data bits are wiped off (1 everywhere): as an array of the batch's shape the prefilter's
+    # wipe-off takes its unchecked path (the same products as with a scalar 1).
+    ones = np.ones(batch)
     theta0 = rng.uniform(-np.pi, np.pi, batch)
     channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
                                     epoch_interval_s=T, cn0_dbhz=cn0))
@@ -202,14 +229,15 @@ def run_aided_tracking(
     carrier_rep = np.zeros(batch)
     rep_end = None
     rate_prev = None
-    normal = np.zeros(batch + (3, 3))
-    rhs = np.zeros(batch + (3,))
-    s, _, _ = sat_at(0)
-    true_rho = truth.pseudorange(0.0, 0, s)
+    # The prefilter outputs of the current integration interval (copied: a plugin may reuse its
+    # output arrays) and the NCO blocks they belong to; the fit is formed at the update instant.
+    fit_out = np.empty((4, n_upd) + batch)  # code error, frequency error and their variances
+    fit_blocks: list[_AidedBlock] = []
     for k in range(K):
-        t0, t1 = k * T, (k + 1) * T
+        t1 = (k + 1) * T
         j = k % n_nco
         if j == 0:  # re-aid the NCOs from the navigator
+            t0 = k * T
             p, v, a, b, d = navigator.kinematics(t0)
             _check_finite(type(navigator).__name__, k, p, v, a, b, d)
             s, sv, sa = sat_at(k)
@@ -221,59 +249,35 @@ def run_aided_tracking(
                 rate_before_update = None
             t_aid = t0
             slope_new = acc if accel_aiding else np.zeros_like(rate)
+            # The replica is laid out until the next re-aiding and the truth is known, so the true
+            # tracking errors and the navigator's predictions of this NCO interval's coherent
+            # intervals are computed at once (the same arithmetic per element as interval by interval).
+            blk = _aided_block(sat_at, k, min(n_nco, K - k), T, n_upd, sched_range, sched_rate, rho, rate, acc, t_aid,
+                               theta0, carrier_rep, rep_end, rate_prev, slope_prev if rate_prev is not None else None,
+                               slope_new, zeros)
+            fit_blocks.append(blk)
+            rec["code"].append(blk.code_err)
+            rec["freq"].append(blk.freq_err)
         nco_range, nco_rate = sched_range[j], sched_rate[j]
-        shift_chips = np.zeros(batch) if rep_end is None else (nco_range - rep_end) / CA_CHIP_LENGTH_M
-        # The prefilter's states are errors relative to the aided replica, driven by the
-        # navigator's errors: its frequency state moves only by the replica's departure from
-        # the ramp it was following (a re-aiding), not by the aided ramp itself. Handing it
-        # the whole replica change made its frequency-rate state learn the absolute line-of-
-        # sight acceleration from a zero prior: rate information biased by tens of standard
-        # deviations during a 20 g boost even with a perfect navigator.
-        shift_hz = (np.zeros(batch) if rate_prev is None
-                    else -(nco_rate - (rate_prev + slope_prev * T)) / L1_WAVELENGTH_M)
-        s1 = sat_at(k + 1)[0]
-        next_rho = truth.pseudorange(t1, k + 1, s1)
-        rep_end = nco_range + nco_rate * T
-        code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
-        f_rep = -nco_rate / L1_WAVELENGTH_M
-        ph0 = theta0 - 2 * np.pi * true_rho / L1_WAVELENGTH_M - carrier_rep
-        carrier_rep_end = carrier_rep + 2 * np.pi * f_rep * T
-        ph1 = theta0 - 2 * np.pi * next_rho / L1_WAVELENGTH_M - carrier_rep_end
-        freq_err = (ph1 - ph0) / (2 * np.pi * T)
-        corr = simulate_correlators(code_err, ph0, freq_err, cn0, T, rng,
-                                    early_late_spacing_chips=early_late_spacing_chips)
-        out = channel.checked_step({"correlators": corr, "nco_shift_chips": shift_chips, "nco_shift_hz": shift_hz,
-                                    "data_bit": 1.0})
-        rec["code"].append(code_err)
-        rec["freq"].append(freq_err)
+        code_err, ph0, freq_err = blk.code_err[j], blk.ph0[j], blk.freq_err[j]
+        corr = correlators.draw(code_err, ph0, freq_err, amplitude, rng)
+        out = channel.checked_step({"correlators": corr, "nco_shift_chips": blk.shift_chips[j],
+                                    "nco_shift_hz": blk.shift_hz[j], "data_bit": ones})
         if carrier_filter is not None:
             f_c = corr_freq_hz + transfer_hz
             rot_rad = corr_phase_rad + np.pi * f_c * T  # corrections at mid-interval
-            rec["phase"].append(np.angle(np.exp(1j * (ph0 + np.pi * freq_err * T - rot_rad))))
+            rec["phase"].append(ph0 + np.pi * freq_err * T - rot_rad)  # wrapped once at the end
             c_out = carrier_filter.checked_step({"correlators": _rotated(corr, rot_rad)})
             corr_phase_rad = (corr_phase_rad + 2 * np.pi * f_c * T
                               + np.asarray(c_out.get("carrier_phase_step_rad", 0.0), float))
             corr_freq_hz = np.broadcast_to(np.asarray(c_out["carrier_freq_hz"], float), batch)
 
-        # Weighted least squares of [dr(t_u), dr_dot(t_u), dr_ddot] from this interval's new
-        # information: range residual quadratic in time, rate residual linear. The rate
-        # residual grows through the interval when the navigator's acceleration is off; a
-        # constant-rate fit would hand over its mid-interval value as t_u's (a lag).
-        dt = (k + 0.5) * T - (k // n_upd + 1) * n_upd * T  # mid-interval minus the coming update instant
-        w_rho = 1.0 / (out["code_error_var_chips2"] * CA_CHIP_LENGTH_M**2)
-        w_rate = 1.0 / (out["freq_error_var_hz2"] * L1_WAVELENGTH_M**2)
-        # Residuals against the navigator's own prediction (a smooth function of time),
-        # not against the replica: without acceleration aiding, or between re-aidings,
-        # the replica departs from the prediction by a known amount.
-        tau = t0 + T / 2 - t_aid
-        z_rho = (out["code_error_chips"] * CA_CHIP_LENGTH_M
-                 + (nco_range + nco_rate * T / 2) - (rho + rate * tau + 0.5 * acc * tau**2))
-        z_rate = -out["freq_error_hz"] * L1_WAVELENGTH_M + nco_rate - (rate + acc * tau)
-        h_rho = np.array([1.0, dt, 0.5 * dt * dt])
-        h_rate = np.array([0.0, 1.0, dt])
-        normal += w_rho[..., None, None] * np.outer(h_rho, h_rho) + w_rate[..., None, None] * np.outer(h_rate, h_rate)
-        rhs += (w_rho * z_rho)[..., None] * h_rho + (w_rate * z_rate)[..., None] * h_rate
+        i = k % n_upd
+        fit_out[0, i], fit_out[1, i] = out["code_error_chips"], out["freq_error_hz"]
+        fit_out[2, i], fit_out[3, i] = out["code_error_var_chips2"], out["freq_error_var_hz2"]
         if (k + 1) % n_upd == 0:
+            normal, rhs = _interval_fit(fit_out, fit_blocks)
+            fit_blocks = []
             cov = np.linalg.inv(normal)[..., :2, :2]  # marginal of [range, rate] at t_u
             res = np.einsum("...ij,...j->...i", np.linalg.inv(normal), rhs)[..., :2]
             rec["tu"].append(t1)
@@ -285,40 +289,150 @@ def run_aided_tracking(
             if len(rec["tu"]) > pull_in_updates:
                 navigator.update(t1, res, cov, los_u, cn0)
                 rate_before_update = rate_u
-            normal[:] = 0.0
-            rhs[:] = 0.0
+        rep_end = blk.rep_end[j]
         rate_prev = nco_rate
         slope_prev = slope_new
-        carrier_rep = carrier_rep_end
-        true_rho = next_rho
-    extra = {"phase_error_rad": np.stack(rec["phase"])} if carrier_filter is not None else {}
-    return DeepRecord(np.stack(rec["code"]), np.stack(rec["freq"]), (np.arange(K) + 0.5) * T,
+        carrier_rep = blk.carrier_rep_end[j]
+    extra = {"phase_error_rad": np.angle(np.exp(1j * np.stack(rec["phase"])))} if carrier_filter is not None else {}
+    return DeepRecord(np.concatenate(rec["code"]), np.concatenate(rec["freq"]), (np.arange(K) + 0.5) * T,
                       np.asarray(rec["tu"]), np.stack(rec["res"]), np.stack(rec["cov"]), extra)
+
+
+@dataclass(frozen=True)
+class _AidedBlock:
+    """The coherent intervals of one NCO interval, ``(n, runs, ch)`` each (see `_aided_block`)."""
+
+    code_err: np.ndarray  # true code error of the replica (chips)
+    ph0: np.ndarray  # true carrier phase minus the aided replica's at the interval's start (rad)
+    freq_err: np.ndarray  # true frequency error of the aided replica (Hz)
+    rep_end: np.ndarray  # replica range at the interval's end (m)
+    carrier_rep_end: np.ndarray  # aided replica's carrier phase at the interval's end (rad)
+    shift_chips: np.ndarray  # NCO shifts handed to the prefilter
+    shift_hz: np.ndarray
+    replica_mid_m: np.ndarray  # replica range at mid-interval
+    predicted_range_m: np.ndarray  # the navigator's predicted range at mid-interval
+    predicted_rate_m_s: np.ndarray  # and rate
+    h_rho: np.ndarray  # (n, 3) rows of the least-squares fit of [dr(t_u), dr_dot(t_u), dr_ddot]: range
+    h_rate: np.ndarray  # and rate
+    outer_rho: np.ndarray  # (n, 3, 3) their outer products (normal-matrix terms)
+    outer_rate: np.ndarray
+    nco_rate: np.ndarray  # (n, runs, ch) the replica's rate over each interval
+
+
+def _interval_fit(outputs: np.ndarray, blocks: list[_AidedBlock]) -> tuple[np.ndarray, np.ndarray]:
+    """Normal matrix ``(runs, ch, 3, 3)`` and right-hand side of one integration interval's fit.
+
+    Weighted least squares of [dr(t_u), dr_dot(t_u), dr_ddot] from the interval's new
+    information: range residual quadratic in time, rate residual linear. The rate
+    residual grows through the interval when the navigator's acceleration is off; a
+    constant-rate fit would hand over its mid-interval value as t_u's (a lag). Residuals
+    are taken against the navigator's own prediction (a smooth function of time), not
+    against the replica: without acceleration aiding, or between re-aidings, the replica
+    departs from the prediction by a known amount.
+
+    ``outputs`` ``(4, n_upd, runs, ch)``: the prefilter's code and frequency errors and their
+    variances per coherent interval; ``blocks``: the NCO intervals they fall in. All
+    intervals' terms at once, summed over the intervals in their order from zero (``add``
+    reduced along the first axis adds one interval after the other, as a running sum would).
+    """
+    code, freq, var_code, var_freq = outputs
+    cat = lambda name: np.concatenate([getattr(b, name) for b in blocks])  # noqa: E731
+    w_rho = 1.0 / (var_code * CA_CHIP_LENGTH_M**2)
+    w_rate = 1.0 / (var_freq * L1_WAVELENGTH_M**2)
+    z_rho = code * CA_CHIP_LENGTH_M + cat("replica_mid_m") - cat("predicted_range_m")
+    z_rate = -freq * L1_WAVELENGTH_M + cat("nco_rate") - cat("predicted_rate_m_s")
+    h_rho, h_rate = cat("h_rho")[:, None, None], cat("h_rate")[:, None, None]
+    normal_terms = (w_rho[..., None, None] * cat("outer_rho")[:, None, None]
+                    + w_rate[..., None, None] * cat("outer_rate")[:, None, None])
+    rhs_terms = (w_rho * z_rho)[..., None] * h_rho + (w_rate * z_rate)[..., None] * h_rate
+    return np.add.reduce(normal_terms, axis=0, initial=0.0), np.add.reduce(rhs_terms, axis=0, initial=0.0)
+
+
+def _aided_block(sat_at, k0: int, n: int, T: float, n_upd: int, sched_range, sched_rate, rho, rate, acc, t_aid: float,
+                 theta0, carrier_rep, rep_end_prev, rate_prev, slope_prev, slope, zeros) -> _AidedBlock:
+    """Truth and replica of the ``n`` coherent intervals from ``k0`` (one NCO interval), at once.
+
+    Each line is the per-interval formula of `run_aided_tracking` evaluated on a stack of
+    intervals, in the same order of operations (so the same bits): the replica's chords
+    ``sched_range``, ``sched_rate`` are fixed until the next re-aiding and the truth is known.
+    ``rep_end_prev``, ``rate_prev``, ``slope_prev``: the previous NCO interval's last replica
+    end, rate and slope (``None`` at the start: no shift).
+    """
+    true_rho = np.stack([sat_at.pseudorange(k0 + i) for i in range(n + 1)])
+    nco_range, nco_rate = sched_range[:n], sched_rate[:n]
+    rep_end = nco_range + nco_rate * T
+    code_err = 0.5 * ((true_rho[:-1] - nco_range) + (true_rho[1:] - rep_end)) / CA_CHIP_LENGTH_M
+    f_rep = -nco_rate / L1_WAVELENGTH_M
+    # carrier_rep + the increments one after the other (accumulate adds in sequence, as the loop did).
+    carrier = np.add.accumulate(np.concatenate([carrier_rep[None], 2 * np.pi * f_rep * T]), axis=0)
+    ph0 = theta0 - 2 * np.pi * true_rho[:-1] / L1_WAVELENGTH_M - carrier[:-1]
+    ph1 = theta0 - 2 * np.pi * true_rho[1:] / L1_WAVELENGTH_M - carrier[1:]
+    freq_err = (ph1 - ph0) / (2 * np.pi * T)
+    shift_chips = np.empty_like(nco_range)
+    shift_chips[0] = zeros if rep_end_prev is None else (nco_range[0] - rep_end_prev) / CA_CHIP_LENGTH_M
+    shift_chips[1:] = (nco_range[1:] - rep_end[:-1]) / CA_CHIP_LENGTH_M
+    # The prefilter's states are errors relative to the aided replica, driven by the
+    # navigator's errors: its frequency state moves only by the replica's departure from
+    # the ramp it was following (a re-aiding), not by the aided ramp itself. Handing it
+    # the whole replica change made its frequency-rate state learn the absolute line-of-
+    # sight acceleration from a zero prior: rate information biased by tens of standard
+    # deviations during a 20 g boost even with a perfect navigator.
+    shift_hz = np.empty_like(nco_rate)
+    shift_hz[0] = zeros if rate_prev is None else -(nco_rate[0] - (rate_prev + slope_prev * T)) / L1_WAVELENGTH_M
+    shift_hz[1:] = -(nco_rate[1:] - (nco_rate[:-1] + slope * T)) / L1_WAVELENGTH_M
+    # Mid-interval times since the aiding instant as Python floats, squared as the loop squared them.
+    tau_list = [(k0 + i) * T + T / 2 - t_aid for i in range(n)]
+    tau = np.array(tau_list)[:, None, None]
+    tau2 = np.array([t**2 for t in tau_list])[:, None, None]
+    # Fit rows: dt is mid-interval minus the coming update instant.
+    ks = np.arange(k0, k0 + n)
+    fit_dt = (ks + 0.5) * T - (ks // n_upd + 1) * n_upd * T
+    h_rho = np.stack([np.ones(n), fit_dt, 0.5 * fit_dt * fit_dt], -1)
+    h_rate = np.stack([np.zeros(n), np.ones(n), fit_dt], -1)
+    return _AidedBlock(code_err, ph0, freq_err, rep_end, carrier[1:], shift_chips, shift_hz,
+                       nco_range + nco_rate * T / 2, rho + rate * tau + 0.5 * acc * tau2, rate + acc * tau,
+                       h_rho, h_rate, h_rho[:, :, None] * h_rho[:, None, :], h_rate[:, :, None] * h_rate[:, None, :],
+                       nco_rate)
 
 
 def _rotated(corr, phase_rad: np.ndarray):
     """The correlators of a replica advanced in phase by ``phase_rad`` (every tap rotated by its negative)."""
     rot = np.exp(-1j * phase_rad)
+    if not corr.extra and isinstance(corr, Correlators):  # complex taps of one shape: no re-validation
+        return Correlators.trusted(corr.early * rot, corr.prompt * rot, corr.late * rot)
     return type(corr)(corr.early * rot, corr.prompt * rot, corr.late * rot,
                       {k: v * rot for k, v in corr.extra.items()})
 
 
 class _EdgeStates:
-    """Satellite states at the epoch edges kT, one vectorised orbit evaluation per block
-    of epochs instead of one or two per epoch (memory stays bounded on long runs)."""
+    """Satellite states and true pseudoranges at the epoch edges kT, one vectorised orbit
+    evaluation (and one receiver-position evaluation) per block of epochs instead of one or
+    two per epoch (memory stays bounded on long runs)."""
 
-    def __init__(self, sat_state: Callable, T: float, K: int, block: int = 1000) -> None:
-        self.sat_state, self.T, self.K, self.block = sat_state, T, K, block
+    def __init__(self, truth: DeepTruth, K: int, block: int = 1000) -> None:
+        self.truth, self.T, self.K, self.block = truth, truth.coherent_time_s, K, block
         self.start = -block  # nothing evaluated yet
         self.states: tuple[np.ndarray, ...] = ()
+        self.rho: np.ndarray | None = None
 
-    def __call__(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _load(self, k: int) -> int:
         if not self.start <= k < self.start + self.block:
             self.start = k
             stop = min(k + self.block, self.K + 1)
-            self.states = tuple(np.asarray(a) for a in self.sat_state(np.arange(k, stop) * self.T))
-        i = k - self.start
+            self.states = tuple(np.asarray(a) for a in self.truth.sat_state(np.arange(k, stop) * self.T))
+            self.rho = None
+        return k - self.start
+
+    def __call__(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        i = self._load(k)
         return self.states[0][i], self.states[1][i], self.states[2][i]
+
+    def pseudorange(self, k: int) -> np.ndarray:
+        """True pseudorange ``(runs, ch)`` at edge k (`DeepTruth.pseudorange`, computed per block)."""
+        i = self._load(k)
+        if self.rho is None:
+            self.rho = self.truth.pseudoranges(self.start, self.start + len(self.states[0]), self.states[0])
+        return self.rho[i]
 
 
 def _check_finite(name: str, step: int, *arrays: np.ndarray) -> None:

@@ -111,7 +111,11 @@ class StrapdownIns:
     -----
     The error state is `inertial.error_model`'s: its transition over each IMU interval is
     the second-order series (``error_state_transition(method="second-order")``; Van Loan
-    per 5 ms step and run costs too much), accumulated until the integration update.
+    per 5 ms step and run costs too much), accumulated until the integration update. The
+    transitions of all IMU intervals since the last update are evaluated in one vectorised
+    call when the filter takes them (`take_error_model`), at the states and specific forces
+    each interval had, and multiplied up in order: the same arithmetic as one call per
+    interval, without its per-interval Python overhead.
     Closed-loop corrections go through `inertial.error_model.correct_state`, which keeps
     the bias estimates that `compensate_increments` removes from later increments.
     """
@@ -138,6 +142,22 @@ class StrapdownIns:
     def _reset_model(self) -> None:
         self.Phi = np.broadcast_to(np.eye(15), (self.runs, 15, 15)).copy()
         self.Qd = np.zeros((self.runs, 15, 15))
+        self._pending: list[tuple] = []  # (state, specific force) of each interval not yet in Phi, Qd
+
+    def _accumulate(self) -> None:
+        """Transition and noise of the pending IMU intervals (one batched evaluation), multiplied up in order."""
+        if not self._pending:
+            return
+        states, forces = zip(*self._pending)
+        self._pending = []
+        stacked = self.mech.NavState(np.stack([x.q_b_e for x in states]),
+                                     np.stack([x.velocity_ecef_mps for x in states]),
+                                     np.stack([x.position_ecef_m for x in states]))
+        Phi_all, Qd_all = self.em.error_state_transition(stacked, np.stack(forces), self.dt, self.grade,
+                                                         method="second-order")
+        for Phi, Qd in zip(Phi_all, Qd_all):
+            self.Phi = Phi @ self.Phi
+            self.Qd = Phi @ self.Qd @ np.swapaxes(Phi, -1, -2) + Qd
 
     def advance(self, t_s: float) -> None:
         """Mechanise to ``t_s`` and accumulate the error model's transition and noise."""
@@ -149,10 +169,10 @@ class StrapdownIns:
             dth, dv = self.em.compensate_increments(self.dtheta[self.k], self.dv[self.k], self.gyro_bias,
                                                     self.accel_bias, self.dt)
             self.f_b = dv / self.dt
-            Phi, Qd = self.em.error_state_transition(self.state, self.f_b, self.dt, self.grade, method="second-order")
-            self.Phi = Phi @ self.Phi
-            self.Qd = Phi @ self.Qd @ np.swapaxes(Phi, -1, -2) + Qd
-            self.state = self.mech.strapdown_step(self.state, dth, dv, self.dt, *self.prev)
+            self._pending.append((self.state, self.f_b))
+            # Increments (from simulate_imu) and state are checked once; a non-finite INS output
+            # is caught, named, at the harness's next re-aiding (deep._check_finite).
+            self.state = self.mech.strapdown_step_trusted(self.state, dth, dv, self.dt, *self.prev)
             self.prev = (dth, dv)
             self.k += 1
 
@@ -162,6 +182,7 @@ class StrapdownIns:
         return (s.position_ecef_m, s.velocity_ecef_mps, self.mech.kinematic_acceleration_ecef(s, self.f_b))
 
     def take_error_model(self):
+        self._accumulate()
         out = (self.Phi, self.Qd)
         self._reset_model()
         return out

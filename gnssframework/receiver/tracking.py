@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..interfaces import ChannelFilter, RunContext
 from ..signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
-from ..signal.correlator_model import amplitude_from_cn0, simulate_correlators
+from ..signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 
 __all__ = ["SignalTruth", "TrackingRecord", "run_closed_loop", "check_closed_loop", "NCO_COMMANDS"]
 
@@ -158,6 +158,7 @@ def run_closed_loop(
     channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
                                     epoch_interval_s=T, cn0_dbhz=truth.cn0_dbhz, doppler_hz=f_nco))
     amp0 = amplitude_from_cn0(truth.cn0_dbhz, T)
+    correlators = CorrelatorSimulator(T, early_late_spacing_chips)  # simulate_correlators' constants, once
     scale = np.asarray(truth.amplitude_scale)
     rec: dict[str, list] = {k: [] for k in ("code", "phase", "freq", "fnco", *record)}
     for k in range(truth.epochs):
@@ -167,8 +168,7 @@ def run_closed_loop(
         ph0 = truth.carrier_phase_rad[k] - carrier_nco
         freq_err = ((truth.carrier_phase_rad[k + 1] - carrier_end) - ph0) / (2 * np.pi * T)
         amp = amp0 * (scale[k] if scale.ndim else scale)
-        corr = simulate_correlators(code_err, ph0, freq_err, truth.cn0_dbhz, T, rng,
-                                    early_late_spacing_chips=early_late_spacing_chips, amplitude=amp)
+        corr = correlators.draw(code_err, ph0, freq_err, np.asarray(amp, float), rng)
         out = channel.checked_step({"correlators": corr})
         rec["code"].append(code_err)
         rec["phase"].append(np.angle(np.exp(1j * (ph0 + np.pi * freq_err * T))))  # mid-interval, wrapped

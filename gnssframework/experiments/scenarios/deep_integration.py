@@ -253,7 +253,8 @@ class DeepIntegrationScenario(Scenario):
             shape = np.shape(t) + (runs, 3)
             return tuple(np.broadcast_to(np.asarray(x)[..., None, :], shape) for x in (pos, vel, acc))
 
-        return DeepTruth(sat_state, receiver_state, clock, np.full((runs, p.channels), cn0_dbhz), T)
+        return DeepTruth(sat_state, receiver_state, clock, np.full((runs, p.channels), cn0_dbhz), T,
+                         receiver_positions=lambda t: receiver_state(t)[0])
 
     # --- candidates ---------------------------------------------------------------------
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
