@@ -80,11 +80,14 @@ class HoldsALock(Exception):
         self.lock = threading.Lock()
 
 EXC = {"config": gf.ConfigError("nav_filter.gain", "gain must be finite in the worker"),
-       "unpicklable": HoldsALock("exploded in step")}[sys.argv[1]]
+       "unpicklable": HoldsALock("exploded in step"), "died": None}[sys.argv[1]]
 
 class Failing(EkfPositionVelocity):
     name = "failing"
     def step(self, inputs):
+        if EXC is None:
+            import os
+            os._exit(1)  # the worker dies without raising (as a crash in compiled code would)
         raise EXC
 
 gf.registry.register_module(types.SimpleNamespace(
@@ -107,6 +110,17 @@ def test_failure_in_a_worker_reaches_the_user_with_its_message(tmp_path, which, 
     out = subprocess.run([sys.executable, "-c", SCRIPT, which, str(path), str(tmp_path / "out")],
                          capture_output=True, text=True, timeout=120)
     assert out.stdout.splitlines() == [expected_type, message], out.stderr[-2000:]
+
+
+def test_a_worker_that_dies_is_reported_with_its_batch_not_as_a_bare_broken_pool(tmp_path):
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY.replace("NAME", "failing"))
+    out = subprocess.run([sys.executable, "-c", SCRIPT, "died", str(path), str(tmp_path / "out")],
+                         capture_output=True, text=True, timeout=120)
+    lines = out.stdout.splitlines()
+    assert lines[0] == "GnssFrameworkError", out.stderr[-2000:]
+    assert lines[1].startswith("case 'c45', candidate 'bad', batch 0: a worker process died"), lines
+    assert "executor.workers = 1" in lines[1]
 
 
 def test_a_candidate_that_cannot_be_built_stops_the_config_before_any_run(tmp_path):
