@@ -136,7 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="output directory (default: results/<name>)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_compare)
-    p = sub.add_parser("filter-positions", help="filter an NMEA position log (reference 004's filters)",
+    p = sub.add_parser("filter-positions", help="filter an NMEA position log (Liu et al. 2020's filters)",
                        description="Filter the horizontal track of an NMEA log. Corrupted sentences, impossible "
                                    "positions, duplicated or backwards timestamps and implausible jumps are skipped "
                                    "and listed (line and reason) on stdout and in <out>.skipped.csv.",

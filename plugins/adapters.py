@@ -212,7 +212,7 @@ class MaximumLikelihoodQAdapter(NoiseAdapter):
     is about 1e-3 of its R; after a cycle slip the estimate must reach the order of R
     for the gain to approach 1. With a ceiling of 100 (Q up to 0.1 m² against R =
     1.25 m², gain at most ~0.25) the carrier-smoothing example's adaptive smoother has a
-    0.08 m higher RMS error with frequent slips (docs: reference 001).
+    0.08 m higher RMS error with frequent slips (docs: carrier smoothing, CN105068097).
     """
 
     name = "ml-q"

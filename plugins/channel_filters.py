@@ -221,7 +221,7 @@ class DiscriminatorChannel(ChannelFilter):
     a variance of 1e8 Hz². Known data bits are wiped off.
 
     With ``fixed_r_cn0_dbhz`` the variances are those at that C/N0 whatever the signal:
-    a fixed R tuned once (reference 000 does not state its baseline's R; a fixed R tuned
+    a fixed R tuned once (Zou et al. 2018 do not state their baseline's R; a fixed R tuned
     on a strong signal is the common practice it most likely followed). Below that C/N0
     the nav filter then trusts the discriminators too much.
     """
@@ -332,7 +332,7 @@ class IqFilter(ChannelFilter):
     stay relative to the replica actually in use.
 
     Output modes (``output``), i.e. what the nav filter is handed, and their
-    consistency in the vector loop (reference 000's scenario, 45 and 30 dB-Hz; see the
+    consistency in the vector loop (Zou et al.'s (2018) scenario, 45 and 30 dB-Hz; see the
     docs page of that experiment):
 
     - ``split`` (default): the code error from the code discriminator with its thermal

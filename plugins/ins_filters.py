@@ -1,5 +1,5 @@
 """Built-in navigation filter ``ins-ekf``: the 15-state error-state integration filter of deep
-integration (reference 002, Cai and Guo 2017) and of its loose-coupling baseline.
+integration (Cai and Guo 2017) and of its loose-coupling baseline.
 
 The filter estimates the error of a strapdown INS in the layout and sign convention of
 `gnssframework.inertial.error_model`: attitude (rad), velocity (m/s), position (m), ECEF
@@ -15,7 +15,7 @@ of two measurements:
 * ``"differenced"`` (deep and vector tracking): every channel's range and rate residual
   (true minus the navigator's prediction; a prefilter's new information of the
   interval) single-differenced against the reference channel, the highest C/N0, with
-  the correlated covariance $D R D^T$ (reference 002, eqs. 9-11; Groves 2013, section
+  the correlated covariance $D R D^T$ (Cai and Guo 2017, eqs. 9-11; Groves 2013, section
   14.3.3). The receiver clock cancels; a small clock filter beside this one keeps the
   NCOs' clock terms (`gnssframework.receiver.deep_navigators.ClockFilter`).
 * ``"position-velocity"`` (loose coupling): a position and velocity fix ``(runs, 6)``
@@ -53,7 +53,7 @@ class InsEkfParams(PluginParams):
                                "acceleration from the corrected INS (false: the deep-no-accel candidate)")
     carrier_filter: PluginRef("channel_filter", provides=("carrier_freq_hz",)) | None = Field(
         None, description="deep integration: a carrier-phase prefilter per channel on a phase discriminator that "
-        "closes only the carrier loop on top of the aided replica (e.g. kf-carrier-loop; reference 002's "
+        "closes only the carrier loop on top of the aided replica (e.g. kf-carrier-loop; Cai and Guo's (2017) "
         "carrier-phase filter); nothing of it reaches this filter. Unset: the carrier phase is not tracked")
     clock_psd: tuple[float, float] = Field((0.1, 0.1), description="white-noise PSDs of the NCO clock filter's "
                                            "bias (m^2/s) and drift (m^2/s^3)")

@@ -445,7 +445,7 @@ __all__ += ["PostSettleMax"]
 
 class PostSettleMax(SeriesMetric):
     """Largest absolute value over time of the series (its norm per epoch for a vector
-    error), from ``settle`` on: the ``_max`` metrics of reference 002's bounds.
+    error), from ``settle`` on: the ``_max`` metrics of Cai and Guo's (2017) bounds.
 
     A run whose series holds NaN after settling (no estimate of that quantity) gets NaN.
 

@@ -1,4 +1,4 @@
-"""Strapdown inertial navigation, IMU errors and reference trajectories (reference 002).
+"""Strapdown inertial navigation, IMU errors and reference trajectories (Cai and Guo 2017).
 
 Batched over Monte Carlo runs: states are ``(..., n)`` arrays with the run axes leading;
 time series put time first, ``(T, ..., n)``, as everywhere in the framework.

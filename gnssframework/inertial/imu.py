@@ -17,7 +17,7 @@ is 1.7e-5 at 200 Hz), ``N`` the angle / velocity random walk (white rate noise o
 two-sided PSD ``N^2``) and ``s`` an optional random-constant scale-factor error. Every
 draw comes from the ``numpy.random.Generator`` passed in.
 
-Reading of reference 002's values. The paper gives "random constant drift 0.1 deg/h,
+Reading of Cai and Guo's (2017) values. The paper gives "random constant drift 0.1 deg/h,
 first-order Markov with correlation time 300 s, Gaussian white noise *variance*
 0.01 deg/h" for the gyros and "0.1 mg, 300 s, white noise variance 0.01 mg" for the
 accelerometers. A variance in deg/h (or mg) is dimensionally wrong and a white-noise
@@ -46,7 +46,7 @@ _MG = 1e-3 * STANDARD_GRAVITY_MPS2  # m/s^2
 
 
 class ImuGrade(BaseModel):
-    """IMU error parameters (1-sigma), reference 002's values as defaults.
+    """IMU error parameters (1-sigma), Cai and Guo's (2017) values as defaults.
 
     Units are carried by the names; the ``*_si`` properties convert to rad, m, s.
     """

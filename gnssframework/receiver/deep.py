@@ -1,6 +1,6 @@
-"""Multi-rate aided tracking harness of deep integration (reference 002), batched over runs and channels.
+"""Multi-rate aided tracking harness of deep integration (Cai and Guo 2017), batched over runs and channels.
 
-Rates (reference 002, section 3.1): correlators and the code/frequency prefilter every
+Rates (Cai and Guo 2017, section 3.1): correlators and the code/frequency prefilter every
 coherent interval T (1 ms); the NCOs re-aided every ``nco_interval_s`` from the
 navigator (the corrected INS at 200 Hz in deep integration); the integration filter
 updated every ``update_interval_s`` (10 Hz).
@@ -29,7 +29,7 @@ Each coherent interval k:
    accumulator is reset (Groves 2013, section 16.3.3).
 
 Optionally (``carrier_filter``) a carrier-phase prefilter per channel, on a phase
-discriminator, closes only the carrier loop (reference 002's carrier-phase filter): its carrier
+discriminator, closes only the carrier loop (Cai and Guo's (2017) carrier-phase filter): its carrier
 replica is the aided one plus the filter's own phase and frequency corrections, and
 nothing of it goes to the navigator. Its correlators are the same draw rotated by the
 corrections' mid-interval phase (a replica offset by a phase $\\varphi_c$ and a frequency
@@ -174,7 +174,7 @@ def run_aided_tracking(
     nco_interval_s, update_interval_s
         Multiples of T; ``update_interval_s`` a multiple of ``nco_interval_s``.
     accel_aiding
-        Use the line-of-sight acceleration in the replica (reference 002, section 2.3).
+        Use the line-of-sight acceleration in the replica (Cai and Guo 2017, section 2.3).
     pull_in_updates
         Number of first integration intervals whose prefilter output is recorded but not
         handed to the navigator: the prefilters pull in from their acquisition prior then,

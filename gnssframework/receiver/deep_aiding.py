@@ -104,7 +104,7 @@ def nco_schedule(
     n_intervals
         Number of NCO intervals until the next aiding instant.
     accel_aiding
-        Use the range acceleration (reference 002's proposal) or not.
+        Use the range acceleration (Cai and Guo's (2017) proposal) or not.
 
     Returns
     -------

@@ -1,6 +1,6 @@
 """Measurements of the deep-integration filter: between-channel differences and new information.
 
-Two pieces of reference 002 (*Coherent deep GNSS/SINS integration on vector tracking*,
+Two pieces of Cai and Guo 2017 (*Coherent deep GNSS/SINS integration on vector tracking*,
 section 2.2, eqs. 9-11) and of the issue's rule against counting old information twice:
 
 * **Single differences** against a reference channel k (the highest C/N0):
@@ -151,7 +151,7 @@ def integration_measurement(residual_m: np.ndarray, residual_cov: np.ndarray, lo
 
     With the error state $\\delta x$ = estimate minus truth, channel i's residual (true
     minus predicted) is $[e_i\\cdot\\delta r - \\delta b,\\; e_i\\cdot\\delta v - \\delta d]$
-    (reference 002, eqs. 9-11, with the attitude and sensor biases unseen by one
+    (Cai and Guo 2017, eqs. 9-11, with the attitude and sensor biases unseen by one
     update). Differencing against the reference channel removes the clock.
 
     Parameters
@@ -193,7 +193,7 @@ def clock_measurement(residual_m: np.ndarray, residual_cov: np.ndarray, los: np.
 
     Generalised least squares over channels of $[e_i\\cdot\\delta\\hat r, e_i\\cdot\\delta\\hat v] - r_i
     = [\\delta b, \\delta d] + n_i$ with each channel's 2x2 covariance; this feeds the
-    small clock filter that keeps the NCOs' clock terms (reference 002 removes the clock
+    small clock filter that keeps the NCOs' clock terms (Cai and Guo 2017 remove the clock
     from the integration filter by differencing, so it is estimated beside it).
 
     Returns ``(z (runs, 2), R (runs, 2, 2))`` for a measurement of [bias error m, drift error m/s].

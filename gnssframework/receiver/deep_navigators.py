@@ -35,7 +35,7 @@ def _pva_transition(dt: float, jerk_psd: float) -> tuple[np.ndarray, np.ndarray]
 class ClockFilter:
     """Two-state receiver clock filter that keeps the NCOs' clock terms (bias m, drift m/s).
 
-    The integration filter removes the clock by differencing (reference 002, section
+    The integration filter removes the clock by differencing (Cai and Guo 2017, section
     2.2); the NCOs still need it. After each integration update the clock error common
     to all channels is measured by generalised least squares over the channels
     (`deep_measurements.clock_measurement`) and corrected here in closed loop. Model:

@@ -1,4 +1,4 @@
-"""Scenario ``deep-integration``: coherent deep GNSS/INS integration (reference 002, Cai and Guo 2017).
+"""Scenario ``deep-integration``: coherent deep GNSS/INS integration (Cai and Guo 2017).
 
 GPS L1 C/A channels of the nominal constellation seen from an aircraft flying reference
 002's pull-up (`gnssframework.inertial`; or straight flight, or straight flight with one
@@ -80,12 +80,12 @@ METRICS = (
 
 
 class DeepIntegrationParams(ScenarioParams):
-    duration_s: float = Field(50.0, gt=0, le=600, description="flight length (reference 002: 50 s)")
+    duration_s: float = Field(50.0, gt=0, le=600, description="flight length (Cai and Guo 2017: 50 s)")
     profile: Literal["pull-up", "straight", "jerk-pulse"] = Field(
-        "pull-up", description="reference 002's flight (level 10 s, then a pull-up), straight flight, or straight "
+        "pull-up", description="Cai and Guo's (2017) flight (level 10 s, then a pull-up), straight flight, or straight "
         "flight with one smooth acceleration pulse (pulse_* parameters)")
     coherent_time_s: float = Field(0.001, gt=0, le=0.02, description="T of correlators and prefilters")
-    imu_interval_s: float = Field(0.005, gt=0, description="IMU increment interval (200 Hz in reference 002)")
+    imu_interval_s: float = Field(0.005, gt=0, description="IMU increment interval (200 Hz in Cai and Guo 2017)")
     nco_interval_s: float = Field(0.005, gt=0, description="interval at which the NCOs are re-aided (deep)")
     update_interval_s: float = Field(0.1, gt=0, description="integration filter interval (10 Hz)")
     pull_in_updates: int = Field(1, ge=0, description="first integration intervals whose prefilter output is not "
@@ -100,12 +100,12 @@ class DeepIntegrationParams(ScenarioParams):
                        "about 16 Hz of frequency error per 1 ms interval, which no loop removes)")
     early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0)
     initial_position_std_m: float = Field(5.0, gt=0, description="initial position error per axis (not stated "
-                                          "in reference 002)")
+                                          "in Cai and Guo 2017)")
     initial_velocity_std_m_s: float = Field(0.3, gt=0)
     initial_attitude_std_deg: float = Field(0.5, gt=0)
     initial_clock_std_m: tuple[float, float] = Field((3.0, 0.3), description="initial clock bias (m) and drift "
                                                      "(m/s) errors")
-    imu: ImuGrade = Field(default_factory=ImuGrade, description="IMU error levels (reference 002's as defaults; "
+    imu: ImuGrade = Field(default_factory=ImuGrade, description="IMU error levels (Cai and Guo's (2017) as defaults; "
                           "see gnssframework.inertial.imu for the reading of its white-noise units)")
     settle_s: float = Field(5.0, ge=0, description="metrics (and their _max) count from here on")
     rate_window_s: float = Field(0.02, gt=0, description="loose: window of the scalar loops' carrier-phase rate")
