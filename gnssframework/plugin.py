@@ -75,6 +75,17 @@ def _model_at(model: type[BaseModel] | None, loc: Sequence[Any]) -> type[BaseMod
     return model
 
 
+class NestedFieldError(ValueError):
+    """A nested plugin's invalid field, raised inside a validator so that pydantic carries
+    it to `validation_message`, which appends ``field`` to the outer path (one dotted path
+    from the config's root to the offending nested parameter)."""
+
+    def __init__(self, field: str, detail: str) -> None:
+        super().__init__(f"{field}: {detail}")
+        self.field = field
+        self.detail = detail
+
+
 def validation_message(exc: ValidationError, prefix: str = "",
                        model: type[BaseModel] | None = None) -> ConfigError:
     """Turn a pydantic ``ValidationError`` into one ``ConfigError``.
@@ -98,7 +109,11 @@ def validation_message(exc: ValidationError, prefix: str = "",
                     msg += (f"; plugin parameters go under `params`: "
                             f"{{ name = ..., params = {{ {err['loc'][-1]} = ... }} }}")
         elif err["type"] == "value_error" and "error" in err.get("ctx", {}):
-            msg = str(err["ctx"]["error"])  # our own validators' messages are complete
+            error = err["ctx"]["error"]
+            if isinstance(error, NestedFieldError):  # a nested plugin's field: extend the path
+                field, msg = f"{field}.{error.field}", error.detail
+            else:
+                msg = str(error)  # our own validators' messages are complete
         elif "input" in err and err["type"] != "missing":
             msg = f"{msg} (got {err['input']!r})"
         items.append((field, msg))

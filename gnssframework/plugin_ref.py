@@ -132,7 +132,7 @@ def _article(word: str) -> str:
 def _resolve(rule: _Rule, value: Any) -> PluginSpec:
     # Raise ValueError (not ConfigError) so pydantic attaches the field path.
     from . import registry
-    from .plugin import validation_message
+    from .plugin import NestedFieldError, validation_message
 
     if isinstance(value, PluginSpec):
         return value
@@ -161,7 +161,8 @@ def _resolve(rule: _Rule, value: Any) -> PluginSpec:
     try:
         cls.Params(**params)
     except ValidationError as exc:
-        raise ValueError(str(validation_message(exc, prefix=f"{name} params", model=cls.Params))) from None
+        inner = validation_message(exc, prefix="params", model=cls.Params)
+        raise NestedFieldError(inner.field, inner.detail) from None
     return PluginSpec(rule.kind, name, params)
 
 

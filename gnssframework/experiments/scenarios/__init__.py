@@ -77,6 +77,11 @@ class Scenario(abc.ABC):
             try:
                 built[kind] = cls(**ref.params)
             except ConfigError as exc:
+                # The plugin names its field from its own root ("iq-filter".estimator...):
+                # continue the config's path instead, so the field is written one way.
+                own = f"{cls.kind or 'plugin'} {cls.name!r}"
+                if exc.field == own or exc.field.startswith((own + ".", own + "[")):
+                    raise ConfigError(f"{where}.{kind}.params{exc.field[len(own):]}", exc.detail) from None
                 raise ConfigError(f"{where}.{kind}.params", str(exc)) from None
         self.check_composition(built, where)
 
