@@ -181,12 +181,27 @@ def test_backend_selection_is_validated_and_falls_back_to_numpy(monkeypatch):
 
     with pytest.raises(ConfigError, match="numba"):
         kernels.set_backend("fortran")
-    monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", "numpy")
-    assert kernels.get_backend() == "numpy"
-    monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", "numba")
-    assert kernels.get_backend() == "numba"
-    monkeypatch.setattr(kernels, "HAVE_NUMBA", False)
-    assert kernels.get_backend() == "numpy"
+    try:
+        # The environment is read at import and by set_backend(None), not on every step.
+        before = kernels.get_backend()
+        monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", "numpy" if before == "numba" else "numba")
+        assert kernels.get_backend() == before
+        kernels.set_backend(None)
+        assert kernels.get_backend() == "numpy"
+        monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", "numba")
+        kernels.set_backend(None)
+        assert kernels.get_backend() == "numba"
+        monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", "fortran")
+        kernels.set_backend(None)
+        with pytest.raises(ConfigError, match="GNSSFRAMEWORK_BACKEND"):
+            kernels.get_backend()
+        monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", "numba")
+        kernels.set_backend(None)
+        monkeypatch.setattr(kernels, "HAVE_NUMBA", False)
+        assert kernels.get_backend() == "numpy"
+    finally:
+        monkeypatch.undo()
+        kernels.set_backend(None)
 
 
 @pytest.mark.parametrize("name", ("ukf", "ckf", "svd-ckf"))

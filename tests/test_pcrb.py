@@ -40,6 +40,57 @@ def test_pcrb_handles_a_singular_process_noise():
     np.testing.assert_allclose(bound[:, 0, 0], 1 / (1 / 2.0 + K / 0.5), rtol=1e-12)
 
 
+@pytest.mark.parametrize("update_first", [True, False])
+def test_compiled_pcrb_equals_the_numpy_recursion(update_first):
+    # Stacked square roots run in one compiled call under the numba backend; the NumPy
+    # loop is the reference (1e-12 relative). A random 9-state model with a singular Q
+    # and a poorly known state (variance 1e6, like the carrier-phase offsets).
+    from gnssframework.estimation import kernels
+
+    rng = np.random.default_rng(3)
+    n, m, steps = 9, 5, 40
+    F = np.eye(n) + 0.05 * rng.standard_normal((n, n))
+    G = rng.standard_normal((n, 3))
+    Q = 0.1 * G @ G.T
+    roots = rng.standard_normal((steps, m, n))
+    P0 = np.diag(np.r_[np.full(n - 1, 2.0), 1e6])
+    try:
+        kernels.set_backend("numpy")
+        reference = pcrb_linear(F, Q, roots.__getitem__, P0, steps, update_first)
+        assert np.array_equal(pcrb_linear(F, Q, roots, P0, steps, update_first), reference)  # same loop
+        kernels.set_backend("numba")
+        compiled = pcrb_linear(F, Q, roots, P0, steps, update_first)
+    finally:
+        kernels.set_backend(None)
+    scale = np.abs(reference).max(axis=(1, 2), keepdims=True)
+    assert np.max(np.abs(compiled - reference) / scale) <= 1e-12
+    # Not the same function by accident: a changed root changes the compiled result.
+    roots[steps // 2, 0, 0] += 1.0
+    kernels.set_backend("numba")
+    try:
+        assert np.max(np.abs(pcrb_linear(F, Q, roots, P0, steps, update_first) - compiled)) > 1e-6
+    finally:
+        kernels.set_backend(None)
+    with pytest.raises(ValueError, match="steps=40"):
+        pcrb_linear(F, Q, roots[:-1], P0, steps, update_first)
+
+
+def test_vector_tracking_bound_is_the_same_on_both_backends():
+    from gnssframework.estimation import kernels
+
+    scen = get_scenario({"kind": "vector-tracking", "duration_s": 1.0, "channels": 8, "settle_s": 0.0})
+    P0 = np.diag([100.0] * 3 + [1.0] * 3 + [100.0, 1.0])
+    out = {}
+    try:
+        for backend in ("numpy", "numba"):
+            kernels.set_backend(backend)
+            out[backend] = scen.bound(30.0, P0)
+    finally:
+        kernels.set_backend(None)
+    for ref, got in zip(out["numpy"], out["numba"]):
+        np.testing.assert_allclose(got, ref, rtol=1e-12, atol=0)
+
+
 @pytest.mark.parametrize("cn0", [30.0, 45.0])
 def test_correlator_fisher_matches_numerical_derivatives_of_the_correlator_model(cn0):
     # J = d mu^T C^-1 d mu over [I; Q], derivatives of correlator_mean taken numerically

@@ -28,6 +28,9 @@ has one numba specialisation: the one `warm_up` compiles (a test checks that run
 Backend choice: ``GNSSFRAMEWORK_BACKEND=numpy`` (environment) or :func:`set_backend`
 selects the NumPy path everywhere; an estimator's ``backend`` attribute overrides it
 for that instance. The default is ``"numba"`` when numba imports, else ``"numpy"``.
+The environment is read when this module is imported and again by
+``set_backend(None)`` (as numba reads its own ``NUMBA_*`` variables), not on every
+step: each read cost about two microseconds, five times per epoch of a vector loop.
 
 Every kernel is compiled twice: a serial version for small batches (no thread launch)
 and a ``parallel=True`` version whose ``prange`` splits the batch across cores from
@@ -95,6 +98,8 @@ _CHUNKS = 64
 _BACKENDS = ("numba", "numpy")
 _ENV = "GNSSFRAMEWORK_BACKEND"
 _backend: str | None = None
+#: ``$GNSSFRAMEWORK_BACKEND`` as last read (at import, or by ``set_backend(None)``).
+_env_value: str | None = os.environ.get(_ENV)
 
 
 def _check_backend(value: str, field: str) -> str:
@@ -109,17 +114,23 @@ def available() -> bool:
 
 
 def set_backend(value: str | None) -> None:
-    """Select ``"numba"`` or ``"numpy"`` for every estimator (``None``: back to the default)."""
-    global _backend
-    _backend = None if value is None else _check_backend(value, "backend")
+    """Select ``"numba"`` or ``"numpy"`` for every estimator (``None``: back to the default,
+    reading ``$GNSSFRAMEWORK_BACKEND`` again)."""
+    global _backend, _env_value
+    if value is None:
+        _env_value = os.environ.get(_ENV)
+        _backend = None
+    else:
+        _backend = _check_backend(value, "backend")
 
 
 def get_backend() -> str:
-    """The process-wide backend: :func:`set_backend`, else ``$GNSSFRAMEWORK_BACKEND``, else numba."""
+    """The process-wide backend: :func:`set_backend`, else ``$GNSSFRAMEWORK_BACKEND`` (as
+    read at import or by ``set_backend(None)``), else numba."""
     if _backend is not None:
         chosen = _backend
     else:
-        env = os.environ.get(_ENV)
+        env = _env_value
         chosen = _check_backend(env, _ENV) if env else "numba"
     return chosen if (chosen == "numpy" or HAVE_NUMBA) else "numpy"
 

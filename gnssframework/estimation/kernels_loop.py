@@ -38,7 +38,7 @@ import numpy as np
 from . import kernel_pool, kernels
 from .kernels import _all_finite, _cholesky, _eigh_into, _jit
 
-__all__ = ["all_finite", "state_bad_count", "guard_bad_count", "guard", "InnovationWindow", "pv_measurements", "pv_nco_command", "warm_up"]
+__all__ = ["all_finite", "state_bad_count", "guard_bad_count", "guard", "InnovationWindow", "pv_measurements", "pv_nco_command", "pcrb_stacked", "warm_up"]
 
 
 #: The size of a specialised twin's matrices (0: read from the operands), see
@@ -269,12 +269,52 @@ def _pv_nco_body(x, half_t, sat_pos, sat_vel, rho, rate):
             rho[b, i] = dist + bias
 
 
+@_jit
+def _pcrb_body(F, Q, roots, P0, update_first, out):
+    """`gnssframework.receiver.pcrb.pcrb_linear` on stacked square roots ``(K, m, n)``:
+    the same products and the same LU solve, in the same order, per step."""
+    n = F.shape[0]
+    m = roots.shape[1]
+    P = P0.copy()
+    eye = np.eye(n)
+    eye_m = np.eye(m)
+    Ft = np.ascontiguousarray(F.T)
+    for k in range(roots.shape[0]):
+        if k > 0 or not update_first:
+            P = (F @ P) @ Ft + Q
+        if m > 0:
+            L = roots[k]
+            Lt = np.ascontiguousarray(L.T)
+            PHt = P @ Lt
+            S = L @ PHt + eye_m
+            K = np.ascontiguousarray(np.linalg.solve(S, np.ascontiguousarray(PHt.T)).T)
+            A = eye - K @ L
+            P = (A @ P) @ np.ascontiguousarray(A.T) + K @ np.ascontiguousarray(K.T)
+        for i in range(n):
+            for j in range(n):
+                out[k, i, j] = 0.5 * (P[i, j] + P[j, i])
+        P = out[k].copy()
+
+
+def pcrb_stacked(F: np.ndarray, Q: np.ndarray, roots: np.ndarray, P0: np.ndarray, update_first: bool) -> np.ndarray:
+    """The PCRB covariance recursion on measurement square roots stacked ``(K, m, n)``
+    in one compiled call (`gnssframework.receiver.pcrb.pcrb_linear` is the reference)."""
+    K, n = roots.shape[0], F.shape[0]
+    out = np.empty((K, n, n))
+    _pcrb_body(*(np.array(a, dtype=float, order="C") for a in (F, Q, roots, P0)), bool(update_first), out)
+    return out
+
+
 def _as_rows(a, shape: tuple[int, ...]) -> np.ndarray:
     """``a`` broadcast to ``shape`` as a writable C-contiguous float64 array (a copy only
     where it is not one already)."""
-    if (type(a) is np.ndarray and a.shape == shape and a.dtype == np.float64 and a.flags.c_contiguous
-            and a.flags.writeable):
-        return a
+    if type(a) is np.ndarray and a.shape == shape and a.dtype == np.float64:
+        flags = a.flags
+        if flags.c_contiguous and flags.writeable:
+            return a
+        # A strided view of the right shape (a channel filter's state column): one C-order
+        # copy, not the general broadcast below (about 5 us per operand here).
+        return a.copy()
     return np.array(np.broadcast_to(np.asarray(a, dtype=float), shape), dtype=float, order="C")
 
 
@@ -517,3 +557,4 @@ def warm_up() -> None:
     pv_measurements(*([m] * 6), 1e-6, 1e-4, 300.0, 0.19)
     x = np.ones((2, 8))
     pv_nco_command(x, 0.005, m + 1e7, m)
+    pcrb_stacked(np.eye(2), np.eye(2), np.ones((2, 2, 2)), np.eye(2), True)

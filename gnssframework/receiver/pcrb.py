@@ -64,13 +64,14 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigError
+from ..estimation import kernels, kernels_loop
 from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ..signal.correlator_model import amplitude_from_cn0, tap_noise_cov
 
 __all__ = ["pcrb_linear", "correlator_fisher", "vector_tracking_pcrb"]
 
 
-def pcrb_linear(F: np.ndarray, Q: np.ndarray, sqrt_info: Callable[[int], np.ndarray], P0: np.ndarray,
+def pcrb_linear(F: np.ndarray, Q: np.ndarray, sqrt_info: Callable[[int], np.ndarray] | np.ndarray, P0: np.ndarray,
                 steps: int, update_first: bool = True) -> np.ndarray:
     """Inverse Bayesian information $J_k^{-1}$ of linear-Gaussian dynamics (module docstring).
 
@@ -80,7 +81,9 @@ def pcrb_linear(F: np.ndarray, Q: np.ndarray, sqrt_info: Callable[[int], np.ndar
         Transition and process noise per step (Q may be singular).
     sqrt_info
         ``sqrt_info(k)`` returns $L_k$ ``(m, n)`` with $J^z_k = L_k^T L_k$, the measurement
-        information at step k.
+        information at step k; or all of them stacked ``(steps, m, n)``, which the
+        ``numba`` backend runs in one compiled call
+        (`gnssframework.estimation.kernels_loop.pcrb_stacked`; this loop is its reference).
     P0
         Prior covariance (inverse prior information) before the first measurement.
     steps
@@ -93,6 +96,12 @@ def pcrb_linear(F: np.ndarray, Q: np.ndarray, sqrt_info: Callable[[int], np.ndar
     np.ndarray
         ``(steps, n, n)``: the bound on the error covariance after each step's measurement.
     """
+    if isinstance(sqrt_info, np.ndarray):
+        if sqrt_info.ndim != 3 or sqrt_info.shape[0] != steps:
+            raise ValueError(f"stacked sqrt_info must be (steps={steps}, m, n), got {sqrt_info.shape}")
+        if kernels.get_backend() == "numba":
+            return kernels_loop.pcrb_stacked(F, Q, sqrt_info, P0, update_first)
+        sqrt_info = sqrt_info.__getitem__
     n = F.shape[0]
     P = np.array(P0, dtype=float)
     out = np.empty((steps, n, n))
@@ -191,7 +200,7 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
     phase[..., 8:] = np.eye(n_ch)
     roots = np.concatenate([sq[:, :1] * code, sq[:, 1:] * phase], axis=1)  # (K, 2 ch, n)
 
-    P = pcrb_linear(F, Q, roots.__getitem__, Pfull, epochs)
+    P = pcrb_linear(F, Q, roots, Pfull, epochs)
     pos = np.sqrt(np.trace(P[:, 0:3, 0:3], axis1=1, axis2=2))
     vel = np.sqrt(np.trace(P[:, 3:6, 3:6], axis1=1, axis2=2))
     return times, pos, vel
