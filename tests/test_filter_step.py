@@ -221,14 +221,14 @@ def _nan_at(arr, index):
     return arr
 
 
-def _carrier_loop_epochs(name, **params):
+def _carrier_loop_epochs(name, batch=(3,), bad=1, **params):
     f = create("channel_filter", name, **params)
-    f.reset((3,), gf.RunContext(coherent_time_s=0.001, early_late_spacing_chips=1.0, cn0_dbhz=45.0))
-    rng, zero = np.random.default_rng(0), np.zeros(3)
+    f.reset(batch, gf.RunContext(coherent_time_s=0.001, early_late_spacing_chips=1.0, cn0_dbhz=45.0))
+    rng, zero = np.random.default_rng(0), np.zeros(batch)
     for k in range(4):
         corr = simulate_correlators(zero, 0.1 + zero, zero, 45.0, 0.001, rng)
-        if k == 3:  # the fourth interval: element 1's prompt is lost
-            corr = type(corr)(corr.early, _nan_at(corr.prompt, 1), corr.late)
+        if k == 3:  # the fourth interval: element `bad`'s prompt is lost
+            corr = type(corr)(corr.early, _nan_at(corr.prompt, bad), corr.late)
         f.step({"correlators": corr, "nco_shift_chips": zero, "nco_shift_hz": zero, "data_bit": 1.0})
 
 
@@ -277,10 +277,12 @@ def _ekf_pv_epochs():
 @pytest.mark.parametrize("run, filter_name, element", [
     (lambda: _carrier_loop_epochs("kf-carrier-loop"), "kf-carrier-loop (kf)", (1,)),
     (lambda: _carrier_loop_epochs("iq-filter"), "iq-filter (svd-ckf)", (1,)),
+    # iq-filter keeps its batch flat inside; the failure is named in the harness's (runs, channels).
+    (lambda: _carrier_loop_epochs("iq-filter", batch=(2, 3), bad=(1, 2)), "iq-filter (svd-ckf)", (1, 2)),
     (_smoother_epochs, "kf-smoother (kf)", (1,)),
     (_position_ca_epochs, "position-ca (kf)", (1, 0)),  # batch (runs, coordinate)
     (_ekf_pv_epochs, "ekf-pv (ekf)", (1,)),
-], ids=["kf-carrier-loop", "iq-filter", "kf-smoother", "position-ca", "ekf-pv"])
+], ids=["kf-carrier-loop", "iq-filter", "iq-filter-2d", "kf-smoother", "position-ca", "ekf-pv"])
 def test_every_gaussian_plugin_names_a_bad_measurement_through_the_filter_step(run, filter_name, element):
     """A NaN in batch element 1 at the fourth epoch: each plugin's FilterStep refuses it by
     name (the plugin and its engine), element and step, with no NumPy warning on the way."""
