@@ -1,0 +1,191 @@
+"""The compiled path changes closed-loop results no more than rounding does (issue 11).
+
+A step of the compiled kernels equals the NumPy reference to 1e-12 on random models
+(tests/test_kernels.py), but in the closed vector loop (channel filters steering their
+NCOs from the navigation filter) any rounding difference grows over a run. These tests
+measure that growth on the reference itself, so the compiled path is judged against
+what the arithmetic allows rather than against a bit pattern:
+
+- the NumPy path run again with the initial state nudged by one ulp, and with its
+  sigma points summed in the reverse order (the same formulas, another rounding),
+  moves the results by about as much as switching to the compiled path does;
+- the ``ukf`` at its default alpha = 1e-3 (centre weight about -1e6) loses digits to
+  cancellation in both paths: against the same update evaluated in 80-bit long double
+  the compiled path is as accurate as the NumPy path.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gnssframework.estimation import kernels
+from gnssframework.experiments import get_scenario
+from gnssframework_plugins import estimators as builtin_estimators
+
+SERIES = ("code_error_chips", "freq_error_hz", "position_error_m", "velocity_error_m_s", "nav_nees",
+          "code_output_error_chips", "freq_output_error_hz")
+
+
+def _run(estimator: str, backend: str, nudge: bool = False, reverse: bool = False, seconds: float = 5.0):
+    """The vector-tracking scenario at 30 dB-Hz, 2 runs: its time series."""
+    scen = get_scenario({"kind": "vector-tracking", "duration_s": seconds, "channels": 8, "settle_s": 1.0})
+    classes = (builtin_estimators.UnscentedKalmanFilter, builtin_estimators.CubatureKalmanFilter)
+    saved = {c: c.__dict__["sigma_points"] for c in classes}
+    truth = type(scen).truth
+    kernels.set_backend(backend)
+    try:
+        if reverse:  # the same point set, summed from the other end
+            for c, f in saved.items():
+                c.sigma_points = lambda self, state, f=f: tuple(a[::-1] for a in f(self, state))
+        if nudge:  # the initial navigation state one ulp up
+            def nudged(self, *args, **kwargs):
+                t, x0, P0 = truth(self, *args, **kwargs)
+                return t, np.nextafter(x0, np.inf), P0
+            type(scen).truth = nudged
+        plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": estimator}},
+                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+        return scen.run_batch({"cn0_dbhz": 30.0}, plugins, 2, np.random.default_rng(5)).series
+    finally:
+        kernels.set_backend(None)
+        type(scen).truth = truth
+        for c, f in saved.items():
+            c.sigma_points = f
+
+
+def _rel(a: dict, b: dict) -> dict[str, float]:
+    return {k: float(np.max(np.abs(a[k] - b[k])) / np.max(np.abs(a[k]))) for k in SERIES}
+
+
+@pytest.mark.parametrize("estimator", ["svd-ckf", "ckf"])
+def test_compiled_path_moves_closed_loop_results_no_more_than_rounding_moves_the_reference(estimator):
+    # Resolution: a compiled posterior mean biased by 1e-8 relative per step fails this
+    # (checked by mutation); 1e-10 does not, as the loop's own rounding growth covers it.
+    # Finer per-step agreement is tests/test_kernels.py's (1e-12 on random models).
+    reference = _run(estimator, "numpy")
+    compiled = _rel(reference, _run(estimator, "numba"))
+    nudged = _rel(reference, _run(estimator, "numpy", nudge=True))
+    reordered = _rel(reference, _run(estimator, "numpy", reverse=True))
+    # The loop amplifies rounding: a one-ulp nudge of the reference moves its results far
+    # beyond 1e-12 (measured 6e-9 to 3e-7 over 5 s), so no implementation that does not
+    # repeat NumPy's summation order bit for bit could stay within 1e-12 of it.
+    assert max(nudged.values()) > 1e-9
+    for name in SERIES:
+        rounding = max(nudged[name], reordered[name])
+        assert compiled[name] <= 10 * rounding + 1e-12, (name, compiled[name], nudged[name], reordered[name])
+
+
+# -- the ukf's cancellation, against an 80-bit evaluation of the same update -------------
+
+LD = np.longdouble
+
+
+def _cholesky_ld(P: np.ndarray) -> np.ndarray:
+    n = P.shape[0]
+    L = np.zeros_like(P)
+    for j in range(n):
+        L[j, j] = np.sqrt(P[j, j] - np.sum(L[j, :j] ** 2))
+        for i in range(j + 1, n):
+            L[i, j] = (P[i, j] - np.sum(L[i, :j] * L[j, :j])) / L[j, j]
+    return L
+
+
+def _solve_spd_ld(S: np.ndarray, B: np.ndarray) -> np.ndarray:
+    L = _cholesky_ld(S)
+    n = S.shape[0]
+    Y = np.zeros_like(B)
+    for i in range(n):
+        Y[i] = (B[i] - L[i, :i] @ Y[:i]) / L[i, i]
+    X = np.zeros_like(B)
+    for i in reversed(range(n)):
+        X[i] = (Y[i] - L[i + 1:, i] @ X[i + 1:]) / L[i, i]
+    return X
+
+
+def _channel_iq_ld(x: np.ndarray, d: float, T: float) -> np.ndarray:
+    """Zou et al. (2018) eqs. 2-7 in long double, written from the equations (not the
+    library's code): A R(dtau - o) sinc(df T) [cos, sin](pi df T + dtheta), o = -d, 0, d."""
+    A, dtau, theta, df = x[0], x[1], x[2], x[3]
+    r = np.maximum(LD(0), LD(1) - np.abs(dtau - np.array([-d, 0.0, d], dtype=LD)))
+    a = LD(np.pi) * df * LD(T)
+    sinc = np.sin(a) / a if a != 0 else LD(1)
+    return np.concatenate([A * r * sinc * np.cos(a + theta), A * r * sinc * np.sin(a + theta)])
+
+
+def _ukf_update_ld(m, P, z, R, d, T, alpha=1e-3, beta=2.0, kappa=0.0):
+    """Van der Merwe's scaled UKF update in long double: gain and posterior covariance."""
+    n = m.shape[0]
+    lam = LD(alpha) ** 2 * (n + LD(kappa)) - n
+    c = n + lam
+    wm = np.full(2 * n + 1, LD(1) / (2 * c))
+    wc = wm.copy()
+    wm[0] = lam / c
+    wc[0] = lam / c + 1 - LD(alpha) ** 2 + LD(beta)
+    L = _cholesky_ld(P) * np.sqrt(c)
+    X = np.concatenate([m[None], m + L.T, m - L.T])
+    Z = np.array([_channel_iq_ld(x, d, T) for x in X])
+    z_hat = wm @ Z
+    dZ, dX = Z - z_hat, X - m
+    S = (dZ.T * wc) @ dZ + R
+    K = _solve_spd_ld(S, ((dX.T * wc) @ dZ).T).T
+    return K, P - K @ S @ K.T
+
+
+def test_compiled_ukf_update_is_as_accurate_as_the_numpy_update_on_the_loops_states():
+    # The channel filter's ukf updates of a vector run (30 dB-Hz), the first 20 (P still
+    # large, the worst cancellation: relative errors of about 1e-6 in the gain in both
+    # paths, measured) and every tenth after.
+    caught = []
+    update = builtin_estimators.UnscentedKalmanFilter.update
+
+    def spy(self, prior, z, model, **kwargs):
+        caught.append((prior, np.array(z), model))
+        return update(self, prior, z, model, **kwargs)
+
+    builtin_estimators.UnscentedKalmanFilter.update = spy
+    kernels.set_backend("numpy")
+    try:
+        scen = get_scenario({"kind": "vector-tracking", "duration_s": 1.5, "channels": 8, "settle_s": 0.5})
+        plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": "ukf"}},
+                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+        scen.run_batch({"cn0_dbhz": 30.0}, plugins, 1, np.random.default_rng(5))
+    finally:
+        builtin_estimators.UnscentedKalmanFilter.update = update
+        kernels.set_backend(None)
+    channel = plugins["channel_filter"]
+    engine, T = channel.engine, channel.T
+    d = 0.5  # early-prompt spacing of the scenario's 1-chip early-late spacing
+    errors = {"numpy": [], "numba": []}
+    steps = caught[:20] + caught[20::10]
+    for k, (prior, z, model) in enumerate(steps):
+        got = {}
+        try:
+            for backend in errors:
+                kernels.set_backend(backend)
+                got[backend] = engine.update(prior, z, model)
+        finally:
+            kernels.set_backend(None)
+        means = prior.mean.reshape(-1, 5)
+        covs = np.broadcast_to(prior.cov, means.shape + (5,)).reshape(-1, 5, 5)
+        zs = z.reshape(-1, 6)
+        Rs = np.broadcast_to(model.R, (means.shape[0], 6, 6))
+        for b in range(means.shape[0]):
+            K, P = _ukf_update_ld(means[b].astype(LD), covs[b].astype(LD), zs[b].astype(LD), Rs[b].astype(LD),
+                                  LD(d), T)
+            for backend, upd in got.items():
+                gain = upd.gain.reshape(-1, 5, 6)[b]
+                cov = upd.state.cov.reshape(-1, 5, 5)[b]
+                errors[backend].append((k < 20, float(np.max(np.abs(gain - K)) / np.max(np.abs(K))),
+                                        float(np.max(np.abs(cov - P)) / np.max(np.abs(P)))))
+    ref, comp = np.array(errors["numpy"]), np.array(errors["numba"])
+    # The long-double oracle is the same update: both paths are close to it at all...
+    assert ref[:, 1:].max() < 1e-4 and comp[:, 1:].max() < 1e-4
+    # ...the cancellation is real (far above double rounding) in both...
+    assert ref[:, 1].max() > 1e-9 and comp[:, 1].max() > 1e-9
+    # ...and the compiled path loses no more to it than the reference does, on the first
+    # steps (gain errors about 1e-6) and after them (about 3e-10). A compiled gain and
+    # posterior scaled by 1 + 1e-9 fail this (checked by mutation).
+    for early in (True, False):
+        rows = ref[:, 0] == early
+        for column in (1, 2):
+            assert comp[rows, column].max() <= 2 * ref[rows, column].max(), (early, column)
