@@ -369,7 +369,9 @@ class IqFilter(ChannelFilter):
     The filter keeps its batch flat, ``(runs x channels, 5)``, so every compiled call
     of its step takes the one-axis path (no reshape per operand; about 20 us less per
     epoch of one vector-loop run); the outputs have the harness's batch shape and a
-    numerical failure names the element in it.
+    numerical failure names the element in it. Internal arrays are flat: ``state`` and
+    the adapted R in force (``filter_step.in_force(model).R``) are
+    ``(runs x channels, ...)``, in C order.
     """
 
     name = "iq-filter"
@@ -443,7 +445,8 @@ class IqFilter(ChannelFilter):
         """A batch-shaped input (or one broadcast to it) as the flat ``(runs x channels,)``."""
         if type(a) is np.ndarray and a.shape == self.batch_shape:
             return a.reshape(self._flat_shape)
-        return np.broadcast_to(np.asarray(a, dtype=float), self.batch_shape).reshape(self._flat_shape)
+        # Its own dtype: the first prompt is complex (amplitude and phase come from it).
+        return np.broadcast_to(np.asarray(a), self.batch_shape).reshape(self._flat_shape)
 
     def _named(self, exc: NumericalError) -> NumericalError:
         """The failure with its batch elements in the harness's batch shape."""
@@ -489,6 +492,8 @@ class IqFilter(ChannelFilter):
             corr = wipe_off(corr, bit)
         first = self.filter_step.step_index == 0
         iq = corr.as_iq()
+        if iq.shape[:-1] != shape:  # correlators shared by a batch dimension, as before flattening
+            iq = np.broadcast_to(iq, shape + iq.shape[-1:])
         upd = self.filter_step.update(prior, iq.reshape(flat + iq.shape[-1:]), self.model, previous=previous)
         self.state = upd.posterior
         x, P = upd.posterior.mean, upd.posterior.cov

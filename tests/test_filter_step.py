@@ -322,3 +322,36 @@ def test_the_deep_integration_navigator_updates_through_the_filter_step(monkeypa
     res[2, 4, 0] = np.nan
     with pytest.raises(gf.InvalidMeasurementError, match=r"pva-navigator: .*batch element \(2,\), step 1"):
         nav.update(0.2, res, cov, los, cn0)
+
+
+def _iq_filter_outputs(batch, draws, output, shape_of):
+    """Run iq-filter on ``draws`` (correlators of batch (3,) or ()) given at ``shape_of(corr)``."""
+    f = create("channel_filter", "iq-filter", output=output, warmup=2, window=3)
+    f.reset(batch, gf.RunContext(coherent_time_s=0.001, early_late_spacing_chips=1.0, cn0_dbhz=45.0))
+    outs = []
+    for corr in draws:
+        corr = type(corr)(*(shape_of(a) for a in (corr.early, corr.prompt, corr.late)))
+        out = f.step({"correlators": corr, "nco_shift_chips": 0.0, "nco_shift_hz": 0.0, "data_bit": 1.0})
+        outs.append({k: np.broadcast_to(v, batch) for k, v in out.items()})
+    return outs
+
+
+@pytest.mark.parametrize("output", ["split", "equivalent", "filtered", "reset"])
+def test_iq_filter_flat_batch_takes_scalar_and_shared_correlators_as_before(output):
+    # iq-filter flattens its batch inside. A batch () (complex 0-d prompt) must give what
+    # batch (1,) gives, and correlators shared across runs ((3,) for batch (2, 3)) what the
+    # same correlators repeated for each run give; a float cast of the complex first
+    # prompt (amplitude |Re p|, phase 0 or pi) fails both.
+    rng = np.random.default_rng(4)
+    zero = np.zeros(3)
+    draws = [simulate_correlators(zero + 0.05, 0.3 + zero, zero + 2.0, 45.0, 0.001, rng) for _ in range(8)]
+    single = [type(c)(c.early[0], c.prompt[0], c.late[0]) for c in draws]
+    scalar = _iq_filter_outputs((), single, output, lambda a: a)
+    one = _iq_filter_outputs((1,), single, output, lambda a: np.reshape(a, (1,)))
+    shared = _iq_filter_outputs((2, 3), draws, output, lambda a: a)
+    repeated = _iq_filter_outputs((2, 3), draws, output, lambda a: np.repeat(a[None], 2, axis=0))
+    for k in one[0]:
+        for s_out, o_out, sh, rep in zip(scalar, one, shared, repeated):
+            np.testing.assert_array_equal(s_out[k], o_out[k][0], err_msg=k)
+            np.testing.assert_array_equal(sh[k], rep[k], err_msg=k)
+    assert abs(float(scalar[0]["phase_error_rad"]) - 0.3) < 0.5  # the first prompt's phase, not 0 or pi
