@@ -15,40 +15,35 @@ largest difference from the NumPy reference relative to the series' largest valu
 from __future__ import annotations
 
 import argparse
+import contextlib
 
 import numpy as np
 
-from gnssframework.estimation import kernels
-from gnssframework.experiments import get_scenario
+from gnssframework import testing
 from gnssframework_plugins import estimators as builtin_estimators
 
 SERIES = ("code_error_chips", "freq_error_hz", "position_error_m", "velocity_error_m_s", "nav_nees",
           "code_output_error_chips", "freq_output_error_hz")
 
 
-def run(estimator: str, backend: str, duration_s: float, nudge: bool = False, reverse: bool = False) -> dict:
-    scen = get_scenario({"kind": "vector-tracking", "duration_s": duration_s, "channels": 8, "settle_s": 1.0})
+@contextlib.contextmanager
+def reversed_points():
+    """Sigma points summed from the other end (the same point set, another rounding)."""
     classes = (builtin_estimators.UnscentedKalmanFilter, builtin_estimators.CubatureKalmanFilter)
     saved = {c: c.__dict__["sigma_points"] for c in classes}
-    truth = type(scen).truth
-    kernels.set_backend(backend)
+    for c, f in saved.items():
+        c.sigma_points = lambda self, state, f=f: tuple(a[::-1] for a in f(self, state))
     try:
-        if reverse:
-            for c, f in saved.items():
-                c.sigma_points = lambda self, state, f=f: tuple(a[::-1] for a in f(self, state))
-        if nudge:
-            def nudged(self, *args, **kwargs):
-                t, x0, P0 = truth(self, *args, **kwargs)
-                return t, np.nextafter(x0, np.inf), P0
-            type(scen).truth = nudged
-        plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": estimator}},
-                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
-        return scen.run_batch({"cn0_dbhz": 30.0}, plugins, 2, np.random.default_rng(5)).series
+        yield
     finally:
-        kernels.set_backend(None)
-        type(scen).truth = truth
         for c, f in saved.items():
             c.sigma_points = f
+
+
+def run(estimator: str, backend: str, duration_s: float, nudge: bool = False, reverse: bool = False) -> dict:
+    channel = {"name": "iq-filter", "params": {"estimator": estimator}}
+    with reversed_points() if reverse else contextlib.nullcontext():
+        return testing.vector_loop_series(channel, backend=backend, nudge_initial_ulp=nudge, duration_s=duration_s)
 
 
 def main() -> None:

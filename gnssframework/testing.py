@@ -41,6 +41,7 @@ __all__ = [
     "check_batched_equals_one_by_one",
     "check_unit_slope",
     "check_noise_variance",
+    "vector_loop_series",
 ]
 
 
@@ -162,3 +163,47 @@ def check_noise_variance(disc: Any, cn0_dbhz: float, rng: np.random.Generator, r
     assert abs(mc - theory) <= rtol * theory, (
         f"{disc.name}: Monte Carlo variance {mc:.4g} vs noise_variance {theory:.4g} at {cn0_dbhz} dB-Hz "
         f"(tolerance {rtol:.0%}, {runs} draws)")
+
+
+def vector_loop_series(channel_filter: dict[str, Any], *, backend: str | None = None, nudge_initial_ulp: bool = False,
+                       duration_s: float = 5.0, cn0_dbhz: float = 30.0, runs: int = 2, seed: int = 5
+                       ) -> dict[str, np.ndarray]:
+    """Time series ``(K, runs)`` of a short closed vector-tracking run, for rounding checks.
+
+    The vector-tracking scenario (8 channels, ``settle_s = 1``) with ``channel_filter``
+    (``{"name": ..., "params": ...}``) and ``ekf-pv`` (OCXO). A closed loop lets any
+    rounding difference grow over a run, so a compiled or reordered implementation is
+    judged against how far rounding alone moves the reference: run it once as it is and
+    once with ``nudge_initial_ulp`` (the initial navigation state one ulp up,
+    ``np.nextafter``), and compare the change of interest with that one.
+
+    Parameters
+    ----------
+    backend
+        ``"numba"`` or ``"numpy"`` for this run (`gnssframework.estimation.kernels.set_backend`),
+        restored to the default afterwards; ``None`` leaves the current one.
+    duration_s, cn0_dbhz, runs, seed
+        The run: simulated seconds, C/N0 of every channel, batched runs, seed of its
+        ``numpy.random.Generator``.
+    """
+    from .estimation import kernels
+    from .experiments import get_scenario
+
+    scen = get_scenario({"kind": "vector-tracking", "duration_s": duration_s, "channels": 8, "settle_s": 1.0})
+    if nudge_initial_ulp:
+        truth = scen.truth
+
+        def nudged(*args: Any, **kwargs: Any):
+            t, x0, P0 = truth(*args, **kwargs)
+            return t, np.nextafter(x0, np.inf), P0
+
+        scen.truth = nudged  # this scenario object only
+    if backend is not None:
+        kernels.set_backend(backend)
+    try:
+        plugins = scen.build({"channel_filter": channel_filter,
+                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+        return scen.run_batch({"cn0_dbhz": cn0_dbhz}, plugins, runs, np.random.default_rng(seed)).series
+    finally:
+        if backend is not None:
+            kernels.set_backend(None)

@@ -13,6 +13,17 @@ def random_pd(rng: np.random.Generator, n: int, batch: tuple[int, ...] = (), sca
     return scale * (a @ np.swapaxes(a, -1, -2) / n + 0.1 * np.eye(n))
 
 
+def channel_step_problem(rng: np.random.Generator, batch: int):
+    """A random batch of channel-filter steps (5 states, 6 measurements): mean, P, z, R."""
+    n, m = 5, 6
+    A = rng.standard_normal((batch, n, n))
+    P = A @ np.swapaxes(A, -1, -2) * 1e-2 + 1e-3 * np.eye(n)
+    mean = np.array([1.0, 0.1, 0.2, 5.0, 0.0]) + 0.1 * rng.standard_normal((batch, n))
+    z = rng.standard_normal((batch, m))
+    R = np.broadcast_to(0.5 * np.eye(m), (batch, m, m)).copy()
+    return mean, P, z, R
+
+
 def ca_matrices(dt: float = 1.0, q: float = 0.01) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Constant-acceleration F, H (position measured) and Q (white jerk, Gamma q Gamma^T)."""
     F = np.array([[1.0, dt, dt**2 / 2], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from gnssframework import testing
 from gnssframework.estimation import kernels
 from gnssframework.experiments import get_scenario
 from gnssframework_plugins import estimators as builtin_estimators
@@ -26,23 +27,9 @@ SERIES = ("code_error_chips", "freq_error_hz", "position_error_m", "velocity_err
           "code_output_error_chips", "freq_output_error_hz")
 
 
-def _run(estimator: str, backend: str, nudge: bool = False, seconds: float = 5.0):
-    """The vector-tracking scenario at 30 dB-Hz, 2 runs: its time series."""
-    scen = get_scenario({"kind": "vector-tracking", "duration_s": seconds, "channels": 8, "settle_s": 1.0})
-    truth = type(scen).truth
-    kernels.set_backend(backend)
-    try:
-        if nudge:  # the initial navigation state one ulp up
-            def nudged(self, *args, **kwargs):
-                t, x0, P0 = truth(self, *args, **kwargs)
-                return t, np.nextafter(x0, np.inf), P0
-            type(scen).truth = nudged
-        plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": estimator}},
-                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
-        return scen.run_batch({"cn0_dbhz": 30.0}, plugins, 2, np.random.default_rng(5)).series
-    finally:
-        kernels.set_backend(None)
-        type(scen).truth = truth
+def _run(estimator: str, backend: str, nudge: bool = False):
+    return testing.vector_loop_series({"name": "iq-filter", "params": {"estimator": estimator}}, backend=backend,
+                                      nudge_initial_ulp=nudge)
 
 
 def _rel(a: dict, b: dict) -> dict[str, float]:

@@ -12,17 +12,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from conftest import channel_step_problem
 from gnssframework.estimation import CompiledFunctions, kernel_pool, kernels
 
 
 def _problem(seed, batch, poison):
     rng = np.random.default_rng(seed)
-    n, m = 5, 6
-    A = rng.standard_normal((batch, n, n))
-    P = A @ np.swapaxes(A, -1, -2) * 1e-2 + 1e-3 * np.eye(n)
-    mean = np.array([1.0, 0.1, 0.2, 5.0, 0.0]) + 0.1 * rng.standard_normal((batch, n))
-    z = rng.standard_normal((batch, m))
-    R = np.broadcast_to(0.5 * np.eye(m), (batch, m, m)).copy()
+    mean, P, z, R = channel_step_problem(rng, batch)
+    n, m = mean.shape[-1], z.shape[-1]
     for i in rng.integers(batch, size=3):
         if poison == "nan-z":
             z[i, 2] = np.nan
@@ -147,19 +144,25 @@ def test_split_kf_update_and_ekf_moments_are_bitwise_one_serial_call(seed, batch
     assert (~split[-1]).sum() == bad
 
 
+def _guard_problem(seed, batch, spread, k=6):
+    """Raw 6 x 6 estimates spread over decades around a random reference, some indefinite:
+    the raw estimates, the reference's (w, v) and k."""
+    from gnssframework.estimation.linalg import regularised
+
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((k, k))
+    ref = A @ A.T + 0.1 * np.eye(k)
+    B_ = rng.standard_normal((batch, k, k))
+    raw = 10.0 ** spread * (B_ @ np.swapaxes(B_, -1, -2)) / k + 0.5 * rng.standard_normal((batch, k, k))
+    return raw, regularised(ref), k
+
+
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), batch=st.sampled_from([256, 801]), spread=st.floats(-3.0, 3.0))
 def test_split_guard_is_bitwise_one_serial_call(seed, batch, spread):
     from gnssframework.estimation import kernels_loop
-    from gnssframework.estimation.linalg import regularised
 
-    rng = np.random.default_rng(seed)
-    k = 6
-    A = rng.standard_normal((k, k))
-    ref = A @ A.T + 0.1 * np.eye(k)
-    w, v = regularised(ref)
-    B_ = rng.standard_normal((batch, k, k))
-    raw = 10.0 ** spread * (B_ @ np.swapaxes(B_, -1, -2)) / k + 0.5 * rng.standard_normal((batch, k, k))
+    raw, (w, v), k = _guard_problem(seed, batch, spread)
     split = kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0)
     with pytest.MonkeyPatch.context() as mp:
         _serial(mp)
@@ -173,15 +176,8 @@ def test_size_specialised_guard_is_bitwise_the_generic_one(seed, batch, spread):
     # The 6 x 6 guard (the channel filter's R) compiled with its size as a constant runs
     # the generic kernel's operations in the same order: bitwise the same estimates.
     from gnssframework.estimation import kernels_loop
-    from gnssframework.estimation.linalg import regularised
 
-    rng = np.random.default_rng(seed)
-    k = 6
-    A = rng.standard_normal((k, k))
-    ref = A @ A.T + 0.1 * np.eye(k)
-    w, v = regularised(ref)
-    B_ = rng.standard_normal((batch, k, k))
-    raw = 10.0 ** spread * (B_ @ np.swapaxes(B_, -1, -2)) / k + 0.5 * rng.standard_normal((batch, k, k))
+    raw, (w, v), k = _guard_problem(seed, batch, spread)
     assert k in kernels_loop._GUARD_BY_SIZE
     special = kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0)
     with pytest.MonkeyPatch.context() as mp:

@@ -15,6 +15,7 @@ import gnssframework as gf
 from gnssframework.errors import InvalidMeasurementError, NumericalError
 from gnssframework.estimation import CompiledFunctions, kernels
 from gnssframework.estimation.linalg import all_true, any_true
+from conftest import channel_step_problem
 from test_kernels import _close, _engine, _kernel_signatures, _problem
 
 SIGMA = ("ukf", "ckf", "svd-ckf")
@@ -81,12 +82,8 @@ def test_size_specialised_fused_kernels_are_bitwise_the_generic_ones(seed, root_
     # the sizes as constants: the same operations in the same order, so bitwise the same
     # results, statuses and counts (serial below the parallel threshold, parallel above).
     rng = np.random.default_rng(seed)
-    n, m = 5, 6
-    A = rng.standard_normal((batch, n, n))
-    P = A @ np.swapaxes(A, -1, -2) * 1e-2 + 1e-3 * np.eye(n)
-    mean = np.array([1.0, 0.1, 0.2, 5.0, 0.0]) + 0.1 * rng.standard_normal((batch, n))
-    z = rng.standard_normal((batch, m))
-    R = np.broadcast_to(0.5 * np.eye(m), (batch, m, m)).copy()
+    mean, P, z, R = channel_step_problem(rng, batch)
+    n, m = mean.shape[-1], z.shape[-1]
     i = int(rng.integers(batch))
     if poison == "nan-z":
         z[i, 2] = np.nan

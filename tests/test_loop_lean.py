@@ -29,27 +29,6 @@ def _spd(rng, batch, k, scale=1.0):
     return scale * (A @ np.swapaxes(A, -1, -2) + 0.1 * np.eye(k))
 
 
-@settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2**31 - 1), batch=st.sampled_from([(1,), (3,), (2, 4)]), k=st.integers(2, 6),
-       spread=st.floats(0.05, 30.0))
-def test_compiled_guard_decides_and_returns_what_the_reference_guard_does(seed, batch, k, spread):
-    # Raw estimates around the reference, some inside [0.01, 100] x ref, some outside,
-    # some indefinite; the compiled pass must pass exactly the batches the reference
-    # passes unchanged, with the reference's symmetrised estimate.
-    rng = np.random.default_rng(seed)
-    ref = _spd(rng, (), k)
-    raw = spread * _spd(rng, batch, k) / k + 0.3 * rng.standard_normal(batch + (k, k))
-    w, v = regularised(ref)
-    ref_m = (v * w[..., None, :]) @ np.swapaxes(v, -1, -2)
-    sym = symmetrize(raw)
-    ok_ref = (pd_mask(sym) & pd_mask(sym - 0.01 * ref_m) & pd_mask(100.0 * ref_m - sym))
-    out, bad = kernels_loop.guard_bad_count(raw, ref_m, 0.01, 100.0)
-    assert bad == int((~ok_ref).sum())
-    np.testing.assert_array_equal(out, sym)
-    if bad == 0:
-        np.testing.assert_array_equal(out, clamp_relative(sym, ref, 0.01, 100.0, reference_eig=(w, v)))
-
-
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), batch=st.sampled_from([(1,), (7,), (2, 4)]), k=st.integers(1, 6),
        log_spread=st.floats(-4.0, 4.0), noise=st.floats(0.0, 1.0), bounds=st.sampled_from([(0.01, 100.0),

@@ -38,7 +38,7 @@ import numpy as np
 from . import kernel_pool, kernels
 from .kernels import _all_finite, _cholesky, _eigh_into, _jit
 
-__all__ = ["all_finite", "state_bad_count", "guard_bad_count", "guard", "InnovationWindow", "pv_measurements", "pv_nco_command", "pcrb_stacked", "warm_up"]
+__all__ = ["all_finite", "state_bad_count", "guard", "InnovationWindow", "pv_measurements", "pv_nco_command", "pcrb_stacked", "warm_up"]
 
 
 #: The size of a specialised twin's matrices (0: read from the operands), see
@@ -71,35 +71,6 @@ def _state_bad_count_body(mean, cov, test_pd):
         ok = _vector_finite(mean[b]) and _all_finite(cov[b])
         if ok and test_pd:
             ok = _cholesky(cov[b], L)
-        bad += not ok
-    return bad
-
-
-@_jit
-def _guard_bad_count_body(raw, ref, floor, ceiling, out):
-    """``out[b] = (raw[b] + raw[b]^T) / 2``; counts the elements where ``out[b]`` is not
-    finite and PD, or ``out[b] - floor ref`` or ``ceiling ref - out[b]`` is not PD."""
-    B, k, _ = raw.shape
-    D = np.empty((k, k))
-    L = np.empty((k, k))
-    bad = 0
-    for b in range(B):
-        A = raw[b]
-        S = out[b]
-        for i in range(k):
-            for j in range(k):
-                S[i, j] = 0.5 * (A[i, j] + A[j, i])
-        ok = _all_finite(S) and _cholesky(S, L)
-        if ok:
-            for i in range(k):
-                for j in range(k):
-                    D[i, j] = S[i, j] - floor * ref[i, j]
-            ok = _all_finite(D) and _cholesky(D, L)
-        if ok:
-            for i in range(k):
-                for j in range(k):
-                    D[i, j] = ceiling * ref[i, j] - S[i, j]
-            ok = _all_finite(D) and _cholesky(D, L)
         bad += not ok
     return bad
 
@@ -403,23 +374,6 @@ def _split_counts(B: int, run) -> list[int]:
     return out
 
 
-def guard_bad_count(raw: np.ndarray, ref: np.ndarray, floor: float, ceiling: float
-                    ) -> tuple[np.ndarray, int] | None:
-    """The common case of an adapter's safeguard (`AdapterRun.guard`) in one pass.
-
-    Returns ``(symmetrised raw, count)``: the count of elements that are not finite and
-    PD or not inside ``[floor ref, ceiling ref]`` (Loewner order, Cholesky tests); where
-    it is 0 the symmetrised estimate is what the reference path returns. ``None`` where
-    the operands are not the kernel's layout (``raw (..., k, k)``, ``ref (k, k)`` shared).
-    """
-    R = _rows(raw, 2)
-    if R is None or type(ref) is not np.ndarray or ref.shape != R.shape[1:] or ref.dtype != np.float64:
-        return None
-    out = np.empty(raw.shape)
-    bad = _guard_bad_count_body(R, ref, float(floor), float(ceiling), out.reshape(R.shape))
-    return out, int(bad)
-
-
 #: Per reference (by the id of its ``(w, v)`` tuple, which an adapter keeps for the run):
 #: ``(ref_eig, ref, G, G^-1, ref as a kernel operand)``; each entry holds its keys.
 _guard_operands: dict[int, tuple] = {}
@@ -547,7 +501,6 @@ def warm_up() -> None:
     m, P = np.zeros((2, 2)), np.broadcast_to(np.eye(2), (2, 2, 2)).copy()
     all_finite(m)
     state_bad_count(m, P, True)
-    guard_bad_count(P, np.eye(2), 0.5, 2.0)
     guard(P, np.eye(2), (np.ones(2), np.eye(2)), 0.5, 2.0)
     for k in _GUARD_BY_SIZE:  # the size-specialised guards
         guard(np.broadcast_to(np.eye(k), (2, k, k)).copy(), np.eye(k), (np.ones(k), np.eye(k)), 0.5, 2.0)
