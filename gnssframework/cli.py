@@ -52,7 +52,24 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     out = args.out or f"results/{config.name}"
     summary = run_comparison(config, out, progress=not args.quiet)
     print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
-    return 0
+    return _report_claims(summary, args.check)
+
+
+def _report_claims(summary, check: bool) -> int:
+    """Print the claims' outcomes (all with ``--check``, else a tally); 1 if checked and one does not hold."""
+    from .experiments.claims import claim_line
+    from .experiments.files import loads_strict
+
+    claims = loads_strict(summary.read_text()).get("claims", [])
+    if not claims:
+        if check:
+            print("no [[claims]] in this config: nothing to check")
+        return 0
+    bad = [c for c in claims if c["outcome"] != "holds"]
+    print(f"claims: {len(claims) - len(bad)} of {len(claims)} hold")
+    for c in claims if check else bad:
+        print("  " + claim_line(c))
+    return 1 if check and bad else 0
 
 
 def _cmd_filter_positions(args: argparse.Namespace) -> int:
@@ -135,6 +152,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, help="override the seed")
     p.add_argument("--out", help="output directory (default: results/<name>)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--check", action="store_true",
+                   help="print every [[claims]] outcome and exit 1 unless every claim holds")
     p.set_defaults(func=_cmd_compare)
     p = sub.add_parser("filter-positions", help="filter an NMEA position log (Liu et al. 2020's filters)",
                        description="Filter the horizontal track of an NMEA log. Corrupted sentences, impossible "

@@ -19,9 +19,10 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError,
 from ..errors import ConfigError, DataFileError
 from ..hookspecs import COMPONENT_KINDS
 from ..plugin import validation_message
+from .claims import Claim, check_claims
 from .sweeps import Sweep, check_unique_labels, expand_sweep
 
-__all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "load_config"]
+__all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "Claim", "load_config"]
 
 
 class _Strict(BaseModel):
@@ -93,6 +94,9 @@ class ComparisonConfig(_Strict):
                                 "or range of values (each point runs every case and candidate)")
     published: dict[str, dict[str, dict[str, float]]] = Field(
         default_factory=dict, description="published values: case -> candidate -> metric -> value")
+    claims: list[Claim] = Field(default_factory=list, description="orderings and bounds the results must show, "
+                                "each checked from the paired runs (holds / fails / not significant); "
+                                "`compare --check` exits 1 unless every claim holds")
 
     @field_validator("candidates", "cases")
     @classmethod
@@ -132,6 +136,7 @@ class ComparisonConfig(_Strict):
                     if metric not in self.metric_names:
                         raise ConfigError(f"published.{case}.{cand}.{metric}",
                                           f"unknown metric; allowed: {', '.join(self.metric_names)}")
+        check_claims(self.claims, sorted(case_names), [c.name for c in self.candidates], self.metric_names)
         if self.sweeps:
             check_unique_labels(self.sweeps)
             self._points = {i: expand_sweep(self, i) for i in range(len(self.sweeps))}  # validates every value
@@ -178,7 +183,7 @@ class ComparisonConfig(_Strict):
         A store keyed by it lets a longer or interrupted comparison reuse finished batches.
         """
         data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
-                                        "reference", "sweeps"})
+                                        "reference", "sweeps", "claims"})
         extra = self.component_metrics()
         if extra:  # the stored rows must hold them; a config without components keeps its old key
             data["metric_components"] = sorted(extra)

@@ -13,6 +13,7 @@ import numpy as np
 import pymap3d
 from pydantic import Field
 
+from ... import random_streams as draw
 from ...errors import ConfigError
 from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop
 from ...signal.constants import SPEED_OF_LIGHT_M_S
@@ -173,10 +174,11 @@ class VectorTrackingScenario(Scenario):
         truth = VectorTruth(sat_state, receiver_state, clock, np.full((runs, p.channels), cn0_dbhz), T)
         P0 = np.diag([p.initial_position_std_m**2] * 3 + [p.initial_velocity_std_m_s**2] * 3
                      + [p.initial_position_std_m**2, p.initial_velocity_std_m_s**2])
-        x0 = truth.nav_truth(T / 2, 0) + rng.standard_normal((runs, 8)) @ np.sqrt(P0)
+        x0 = truth.nav_truth(T / 2, 0) + draw.standard_normal(rng, (runs, 8), 0) @ np.sqrt(P0)
         return truth, x0, P0
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         truth, x0, P0 = self.truth(float(case["cn0_dbhz"]), runs, rng)
         rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng,
