@@ -21,6 +21,7 @@ from ..hookspecs import COMPONENT_KINDS
 from ..plugin import validation_message
 from .claims import Claim, check_claims
 from .sweeps import Sweep, check_unique_labels, expand_sweep
+from .tuning import Tuning, check_tuning
 
 __all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "Claim", "load_config"]
 
@@ -94,6 +95,11 @@ class ComparisonConfig(_Strict):
                                 "or range of values (each point runs every case and candidate)")
     published: dict[str, dict[str, dict[str, float]]] = Field(
         default_factory=dict, description="published values: case -> candidate -> metric -> value")
+    tuning: Tuning | None = Field(None, description="tune every candidate with free parameters by the same "
+                                  "procedure and budget on tuning streams, then evaluate them at their tuned values")
+    random_stream: Literal["evaluation", "tuning"] = Field(
+        "evaluation", description="the runs' random streams: evaluation (the default) or the disjoint tuning "
+        "streams (set by the tuner for its trials)")
     claims: list[Claim] = Field(default_factory=list, description="orderings and bounds the results must show, "
                                 "each checked from the paired runs (holds / fails / not significant); "
                                 "`compare --check` exits 1 unless every claim holds")
@@ -137,6 +143,8 @@ class ComparisonConfig(_Strict):
                         raise ConfigError(f"published.{case}.{cand}.{metric}",
                                           f"unknown metric; allowed: {', '.join(self.metric_names)}")
         check_claims(self.claims, sorted(case_names), [c.name for c in self.candidates], self.metric_names)
+        if self.tuning is not None:
+            check_tuning(self)
         if self.sweeps:
             check_unique_labels(self.sweeps)
             self._points = {i: expand_sweep(self, i) for i in range(len(self.sweeps))}  # validates every value

@@ -220,8 +220,70 @@ def _claims_markdown(claims: list[dict]) -> list[str]:
     return lines + [""]
 
 
-def write_report(config: ComparisonConfig, store: ResultStore, out: Path) -> Path:
-    """Write ``summary.json``, ``report.md`` and ``plots/`` into ``out``."""
+def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[str]:
+    """``tuning/<candidate>.csv`` (every trial), ``plots/tuning-<candidate>.png`` (objective
+    against each free parameter) and the report's tuning section."""
+    import csv
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    (out / "tuning").mkdir(exist_ok=True)
+    (out / "plots").mkdir(exist_ok=True)
+    spec = next(iter(tuning.values()), None)
+    lines = ["## Tuning", "",
+             "Every candidate with free parameters was tuned by the same procedure and budget on runs drawn from "
+             "the tuning streams (disjoint from the evaluation's), then evaluated above at its tuned values.", ""]
+    if spec is not None:
+        lines += ["| candidate | parameter | given | tuned | objective | trials (failed) |", "| --- | --- | --- | --- | --- | --- |"]
+    for cand, res in tuning.items():
+        failed = sum(not np.isfinite(t["objective"]) for t in res["trials"])
+        for i, label in enumerate(res["labels"]):
+            given, best = res["given"][label], res["best"][label]
+            first = i == 0
+            cells = [cand if first else "", f"`{label}`", "(default)" if given is None else str(given),
+                     _fmt(best) if isinstance(best, float) else str(best),
+                     _fmt(res["best_objective"]) if first else "",
+                     f"{len(res['trials'])} ({failed})" if first else ""]
+            lines.append("| " + " | ".join(cells) + " |")
+        with atomic_open(out / "tuning" / f"{cand}.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["trial", *res["labels"], "objective"])
+            for j, t in enumerate(res["trials"]):
+                w.writerow([j, *t["values"], t["objective"] if np.isfinite(t["objective"]) else ""])
+        labels = res["labels"]
+        fig, axes = plt.subplots(1, len(labels), figsize=(3.4 * len(labels), 2.8), squeeze=False)
+        obj = np.array([t["objective"] for t in res["trials"]], dtype=float)
+        for ax, label, k in zip(axes[0], labels, range(len(labels))):
+            x = [t["values"][k] for t in res["trials"]]
+            numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in x)
+            ok = np.isfinite(obj)
+            xs = np.array(x, dtype=float) if numeric else np.array([str(v) for v in x])
+            ax.plot(xs[ok], obj[ok], "o", ms=4, label="trial")
+            ax.plot([res["best"][label]] if numeric else [str(res["best"][label])], [res["best_objective"]], "r*",
+                    ms=10, label="tuned")
+            if numeric and min(x) > 0 and max(x) / min(x) > 50:
+                ax.set_xscale("log")
+            ax.set_xlabel(label, fontsize=7)
+            ax.grid(alpha=0.3)
+        axes[0, 0].set_ylabel(f"{res['metric']}\n({res['combine']} over cases)", fontsize=7)
+        axes[0, 0].legend(fontsize=6)
+        fig.suptitle(f"tuning {cand}", fontsize=9)
+        fig.tight_layout()
+        _savefig(fig, out / "plots" / f"tuning-{cand}.png")
+        plt.close(fig)
+    lines.append("")
+    lines += [f"![tuning {cand}](plots/tuning-{cand}.png)" for cand in tuning] + [""]
+    return lines
+
+
+def write_report(config: ComparisonConfig, store: ResultStore, out: Path, tuning: dict | None = None) -> Path:
+    """Write ``summary.json``, ``report.md`` and ``plots/`` into ``out`` (and the tuning's
+    tables and plots when the comparison was tuned)."""
+    from .tuning import tuning_points
+
     rows = summary_rows(config, store)
     paired = paired_rows(config, store)
     claims = evaluate_claims(config, store)
@@ -229,8 +291,10 @@ def write_report(config: ComparisonConfig, store: ResultStore, out: Path) -> Pat
     summary = out / "summary.json"
     write_json(summary, {"name": config.name, "seed": config.seed, "runs": config.runs, "rows": rows,  # strict, atomic
                          "reference": config.reference_name, "significance_rule": SIGNIFICANCE_RULE,
-                         "paired": paired, "claims": claims, "sweeps": sweeps})
+                         "paired": paired, "claims": claims, "sweeps": sweeps,
+                         "tuning": tuning_points(tuning) if tuning else None})
+    tuning_lines = _tuning_outputs(config, tuning, out) if tuning else []
     atomic_write_text(out / "report.md", _markdown(config, rows, paired) + "\n".join(_claims_markdown(claims))
-                      + "\n".join(sweep_lines))
+                      + "\n".join(tuning_lines) + "\n".join(sweep_lines))
     _plots(config, rows, store, out)
     return summary

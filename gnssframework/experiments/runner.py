@@ -38,6 +38,7 @@ from .files import atomic_open, atomic_write_text
 from .folder import claim_folder
 from .scenarios import get_scenario
 from .store import ResultStore, plan_batches
+from .tuning import TUNING_PURPOSE
 
 __all__ = ["Task", "plan", "task_streams", "run_task", "run_comparison", "series_file"]
 
@@ -69,7 +70,10 @@ def task_streams(config: ComparisonConfig, task: Task) -> RunStreams:
     """The random streams of a task's runs (see the module docstring): they depend on the
     seed, the case's name and the run indices, never on the batch or the candidate."""
     case = config.cases[task.case_index].name
-    return run_streams(config.seed, name_key(case), range(task.first_run, task.first_run + task.runs))
+    runs = range(task.first_run, task.first_run + task.runs)
+    if config.random_stream == "tuning":  # disjoint from the evaluation's: a child of every run's seed
+        return RunStreams((config.seed, *name_key(case)), runs, TUNING_PURPOSE)
+    return run_streams(config.seed, name_key(case), runs)
 
 
 def run_task(config_data: dict[str, Any], task: Task) -> tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray],
@@ -242,6 +246,12 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
 
     out = Path(out)
     with claim_folder(out, config) as store:
+        tuning = None
+        if config.tuning is not None:  # tune every candidate with free parameters, then evaluate them
+            from .tuning import tune, tuned_config
+
+            tuning = tune(config, store, out, lambda jobs: _execute(jobs, config.executor), progress=progress)
+            config = tuned_config(config, tuning)
         # Every unfinished batch of the comparison and of its sweep points, the comparison's
         # first; a point equal to another (same identity) runs once.
         jobs, where = [], []
@@ -277,4 +287,4 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
                 bar.update()
         if bar is not None:
             bar.close()
-        return write_report(config, store, out)
+        return write_report(config, store, out, tuning=tuning)

@@ -43,6 +43,9 @@ CREATE TABLE IF NOT EXISTS configs (config TEXT PRIMARY KEY, batch_size INTEGER)
 CREATE TABLE IF NOT EXISTS batches (
     config TEXT, "case" TEXT, candidate TEXT, first_run INTEGER, runs INTEGER,
     PRIMARY KEY (config, "case", candidate, first_run, runs));
+CREATE TABLE IF NOT EXISTS trials (
+    config TEXT, candidate TEXT, trial INTEGER, "values" TEXT, objective REAL,
+    PRIMARY KEY (config, candidate, trial));
 CREATE TABLE IF NOT EXISTS metrics (
     config TEXT, "case" TEXT, candidate TEXT, first_run INTEGER, batch_runs INTEGER, run INTEGER,
     metric TEXT, value REAL,
@@ -123,6 +126,21 @@ class ResultStore:
             con.executemany("INSERT OR REPLACE INTO metrics VALUES (?, ?, ?, ?, ?, ?, ?, ?)", rows)
             con.execute("INSERT OR REPLACE INTO batches VALUES (?, ?, ?, ?, ?)", (config, case, candidate, first_run,
                                                                                    runs))
+
+    def add_trial(self, config: str, candidate: str, trial: int, values_json: str, objective: float) -> None:
+        """Record a finished tuning trial (its parameter values as JSON and its objective)."""
+        with self._connect() as con:
+            con.execute("INSERT OR REPLACE INTO trials VALUES (?, ?, ?, ?, ?)",
+                        (config, candidate, int(trial), values_json, float(objective)))
+
+    def trials(self, config: str, candidate: str) -> list[tuple[list, float]]:
+        """The finished tuning trials of ``candidate`` in ``config``, in order: (values, objective)."""
+        import json
+
+        with self._connect() as con:
+            rows = con.execute('SELECT "values", objective FROM trials WHERE config = ? AND candidate = ? '
+                               "ORDER BY trial", (config, candidate)).fetchall()
+        return [(json.loads(v), float("inf") if o is None else float(o)) for v, o in rows]
 
     def run_values(self, config: str, case: str, candidate: str, metric: str, runs: int) -> dict[int, float]:
         """The metric of runs ``0 .. runs-1`` by run index (pairs runs across candidates),
