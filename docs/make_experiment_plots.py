@@ -21,6 +21,10 @@ EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath"
             "carrier_smoothing_sweep", "scintillation_sweep")
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep",)
+#: Examples whose page includes tables generated from the run (docs/experiment_tables.py).
+TABLES = {"vector_tracking": ["code_phase_error_rmse", "carrier_freq_error_rmse", "position_error_rmse",
+                              "velocity_error_rmse", "nees_position", "nees_velocity", "code_output_rmse",
+                              "freq_output_rmse"]}
 
 
 def main() -> None:
@@ -31,6 +35,11 @@ def main() -> None:
         for png in sorted((summary.parent / "plots").glob("*.png")):
             shutil.copy(png, OUT / f"{name}-{png.name}")
         print(f"{name}: figures copied")
+        if name in TABLES:
+            sys.path.insert(0, str(ROOT / "docs"))
+            from experiment_tables import write
+
+            print(f"{name}: tables written to {write(summary.parent, name, TABLES[name])}")
 
 
 if __name__ == "__main__":

@@ -209,6 +209,10 @@ class DiscriminatorChannelParams(PluginParams):
     fixed_r_cn0_dbhz: float | None = Field(
         None, ge=15, le=60, description="give the nav filter the thermal variances at this fixed C/N0 (a fixed R "
         "tuned once, e.g. at 45 dB-Hz) instead of at the channel's C/N0; null: the channel's C/N0")
+    freq_r_scale: float = Field(
+        1.0, gt=0, le=1e4, description="multiply the frequency variance handed to the nav filter by this (an R "
+        "inflation or deflation to tune: cross-product FLL errors are correlated between intervals, which a white "
+        "R at the thermal variance does not describe)")
 
 
 class DiscriminatorChannel(ChannelFilter):
@@ -245,7 +249,7 @@ class DiscriminatorChannel(ChannelFilter):
         if self.params.fixed_r_cn0_dbhz is not None:
             cn0 = np.full(batch_shape, self.params.fixed_r_cn0_dbhz)
         self.var_code = np.broadcast_to(self.code.noise_variance(cn0), batch_shape)
-        self.var_freq = np.broadcast_to(self.freq.noise_variance(cn0), batch_shape)
+        self.var_freq = np.broadcast_to(self.freq.noise_variance(cn0) * self.params.freq_r_scale, batch_shape)
         self.previous = None
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
