@@ -205,6 +205,46 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
         plt.close(fig)
 
 
+def assumption_rows(config: ComparisonConfig) -> list[dict]:
+    """Per case and candidate, what each plugin assumes (``SequentialFilter.assumptions``):
+    ``{"case", "candidate", "component", "label", "value", "unit"}``."""
+    scenario = get_scenario(config.scenario)
+    rows = []
+    for case in config.cases:
+        context = scenario.assumption_context({"name": case.name, **case.params()})
+        for cand in config.candidates:
+            plugins = scenario.build({k: v.model_dump() for k, v in cand.components().items()})
+            for kind, plugin in plugins.items():
+                declared = getattr(plugin, "assumptions", None)
+                for label, (value, unit) in (declared(context) if declared else {}).items():
+                    rows.append({"case": case.name, "candidate": cand.name, "component": kind, "label": label,
+                                 "value": value, "unit": unit})
+    return rows
+
+
+def _assumptions_markdown(config: ComparisonConfig, rows: list[dict]) -> list[str]:
+    if not rows:
+        return []
+    names = [c.name for c in config.candidates]
+    lines = ["## Assumptions", "", "What each candidate's filters assume about the dynamics and the noise, in "
+             "common units (from each plugin's `assumptions`): a mismatch here explains a ranking before the "
+             "ranking is read.", ""]
+    for case in config.cases:
+        mine = [r for r in rows if r["case"] == case.name]
+        keys = list(dict.fromkeys((r["component"], r["label"], r["unit"]) for r in mine))
+        lines += [f"### {case.name}", "", "| component | assumption | unit | " + " | ".join(names) + " |",
+                  "| --- | --- | --- | " + " | ".join("---" for _ in names) + " |"]
+        for comp, label, unit in keys:
+            cells = []
+            for name in names:
+                r = next((r for r in mine if (r["candidate"], r["component"], r["label"]) == (name, comp, label)), None)
+                v = None if r is None else r["value"]
+                cells.append("–" if v is None else f"{v:.3g}" if isinstance(v, float) else str(v))
+            lines.append(f"| {comp} | {label} | {unit} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return lines
+
+
 def _claims_markdown(claims: list[dict]) -> list[str]:
     if not claims:
         return []
@@ -287,14 +327,16 @@ def write_report(config: ComparisonConfig, store: ResultStore, out: Path, tuning
     rows = summary_rows(config, store)
     paired = paired_rows(config, store)
     claims = evaluate_claims(config, store)
+    assumptions = assumption_rows(config)
     sweeps, sweep_lines = write_sweeps(config, store, out)
     summary = out / "summary.json"
     write_json(summary, {"name": config.name, "seed": config.seed, "runs": config.runs, "rows": rows,  # strict, atomic
                          "reference": config.reference_name, "significance_rule": SIGNIFICANCE_RULE,
                          "paired": paired, "claims": claims, "sweeps": sweeps,
-                         "tuning": tuning_points(tuning) if tuning else None})
+                         "tuning": tuning_points(tuning) if tuning else None, "assumptions": assumptions})
     tuning_lines = _tuning_outputs(config, tuning, out) if tuning else []
-    atomic_write_text(out / "report.md", _markdown(config, rows, paired) + "\n".join(_claims_markdown(claims))
+    atomic_write_text(out / "report.md", _markdown(config, rows, paired) + "\n".join(_assumptions_markdown(config, assumptions))
+                      + "\n".join(_claims_markdown(claims))
                       + "\n".join(tuning_lines) + "\n".join(sweep_lines))
     _plots(config, rows, store, out)
     return summary

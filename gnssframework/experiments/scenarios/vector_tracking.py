@@ -177,6 +177,9 @@ class VectorTrackingScenario(Scenario):
         x0 = truth.nav_truth(T / 2, 0) + draw.standard_normal(rng, (runs, 8), 0) @ np.sqrt(P0)
         return truth, x0, P0
 
+    def assumption_context(self, case):
+        return {"coherent_time_s": self.params.coherent_time_s, "cn0_dbhz": float(case["cn0_dbhz"])}
+
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
