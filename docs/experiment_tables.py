@@ -3,7 +3,7 @@
     python docs/experiment_tables.py results/vector_tracking vector_tracking
 
 writes ``docs/experiments/generated/<name>.md``: per case, each metric's mean ± standard
-error over the runs for every candidate; the tuning (given and tuned values); and every
+error over the runs for every candidate; the candidates' assumptions; the tuning (given and tuned values); and every
 claim with its outcome and evidence. The experiment pages include it
 (``--8<-- "experiments/generated/<name>.md"``); ``docs/make_experiment_plots.py``
 regenerates it from the run CI makes, so the page shows that run's numbers.
@@ -49,6 +49,18 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
                   "| --- | --- | " + " | ".join("---" for _ in cands) + " |"]
         lines += [f"| {m} | {units[m]} | " + " | ".join(_cell(by[(case, c, m)]) for c in cands) + " |"
                   for m in metrics if (case, cands[0], m) in by]
+        lines.append("")
+    assumptions = [a for a in summary.get("assumptions") or [] if a["case"] == cases[0]]
+    if assumptions:
+        keys = list(dict.fromkeys((a["component"], a["label"], a["unit"]) for a in assumptions))
+        val = {(a["candidate"], a["component"], a["label"]): a["value"] for a in assumptions}
+        lines += [f"**Assumptions** ({cases[0]}: what each candidate's filters assume, in common units)", "",
+                  "| component | assumption | unit | " + " | ".join(f"`{c}`" for c in cands) + " |",
+                  "| --- | --- | --- | " + " | ".join("---" for _ in cands) + " |"]
+        for comp, label, unit in keys:
+            cells = [val.get((c, comp, label)) for c in cands]
+            lines.append(f"| {comp} | {label} | {unit} | " + " | ".join("–" if v is None else _value(v) for v in cells)
+                         + " |")
         lines.append("")
     if summary.get("tuning"):
         lines += ["**Tuning** (the same sampler and number of trials for every tuned candidate, on tuning streams)", "",
