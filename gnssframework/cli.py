@@ -140,7 +140,10 @@ def _cmd_schema(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
     parser = argparse.ArgumentParser(prog="gnssframework", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"gnssframework {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("plugins", help="list the registered plugins")
     p.add_argument("--kind", choices=registry.kinds(), help="only this kind")
