@@ -180,3 +180,45 @@ def test_bad_tuning_specs_are_refused_at_load(tmp_path, change, field, message):
 def test_resolve_free_expands_the_star_to_the_candidates_that_have_the_parameter(tmp_path):
     config = _config(tmp_path)
     assert sorted(resolve_free(config)) == ["ar1", "ar1-given", "kf"]
+
+
+def test_a_list_parameter_is_tuned_one_element_at_a_time(tmp_path):
+    text = """
+runs = 2
+batch_size = 2
+[scenario]
+kind = "vector-tracking"
+duration_s = 0.5
+settle_s = 0.1
+channels = 5
+[[cases]]
+name = "c45"
+cn0_dbhz = 45.0
+[[candidates]]
+name = "default-q"
+channel_filter = { name = "iq-filter", params = { estimator = "ckf" } }
+nav_filter = { name = "ekf-pv" }
+[[candidates]]
+name = "given-q"
+channel_filter = { name = "iq-filter", params = { estimator = "ckf", q = [1.0, 2.0, 3.0, 4.0, 5.0] } }
+nav_filter = { name = "ekf-pv" }
+[tuning]
+trials = 2
+sampler = "grid"
+metric = "velocity_error_rmse"
+[[tuning.free]]
+path = "candidates.*.channel_filter.params.q.4"
+low = 0.001
+high = 10.0
+scale = "log"
+"""
+    config = _config(tmp_path, text=text)
+    from gnssframework import registry
+
+    default = list(registry.get("channel_filter", "iq-filter").Params.model_fields["q"].default)
+    trial = trial_config(config, "default-q", [7.0])
+    assert list(trial.candidates[0].channel_filter.params["q"]) == default[:4] + [7.0]
+    trial = trial_config(config, "given-q", [7.0])
+    assert list(trial.candidates[0].channel_filter.params["q"]) == [1.0, 2.0, 3.0, 4.0, 7.0]
+    assert tuning_module._get(config, "given-q", resolve_free(config)["given-q"][0][1]) == 5.0
+    assert tuning_module._get(config, "default-q", resolve_free(config)["default-q"][0][1]) == default[4]

@@ -158,12 +158,50 @@ def resolve_free(config) -> dict[str, list[tuple[FreeParameter, tuple[Any, ...],
 
 
 def _with_values(data: dict, index: int, params: list[tuple[FreeParameter, tuple, str]], values: list[Any]) -> dict:
+    """``data`` (a config's dict) with candidate ``index``'s free parameters set; a path
+    ending in an index (``...params.q.4``) sets one element of a list parameter, whose
+    other elements keep their given (or default) values."""
     from .sweeps import _set
 
     data = copy.deepcopy(data)
     for (free, keys, label), value in zip(params, values):
-        _set(data, ("candidates", index, *keys[2:]), value, free.path, "tuning.free")
+        keys = ("candidates", index, *keys[2:])
+        if str(keys[-1]).isdigit():
+            current = _lookup(data["candidates"][index], keys[:-1])
+            element = int(keys[-1])
+            if not isinstance(current, list) or element >= len(current):
+                raise ConfigError("tuning.free", f"{free.path!r}: {label.rsplit('.', 1)[0]!r} has no element "
+                                  f"{element} (it is {current!r})")
+            value, keys = current[:element] + [value] + current[element + 1:], keys[:-1]
+        _set(data, keys, value, free.path, "tuning.free")
     return data
+
+
+def _lookup(cand_data: dict, keys: tuple) -> Any:
+    """The value at ``keys`` (from ``("candidates", i, kind, "params", field, ...)``) in a
+    candidate's dict, the plugin's default where the config leaves a first-level field out."""
+    from .. import registry
+
+    node: Any = cand_data
+    for k in keys[2:]:
+        if isinstance(node, str):  # a nested plugin given by name: its parameters are the defaults
+            node = {"name": node, "params": {}}
+        if isinstance(node, list) and str(k).isdigit() and int(k) < len(node):
+            node = node[int(k)]
+            continue
+        if isinstance(node, dict) and k in node:
+            node = node[k]
+            continue
+        if len(keys) < 5 or k != keys[4] and k != keys[3]:
+            return None
+        ref = cand_data[keys[2]]
+        info = registry.get(keys[2], ref if isinstance(ref, str) else ref["name"]).Params.model_fields.get(keys[4])
+        if info is None or info.is_required():
+            return None
+        default = info.get_default(call_default_factory=True)
+        return default[int(keys[5])] if len(keys) > 5 and isinstance(default, list) and str(keys[5]).isdigit() \
+            else list(default) if isinstance(default, (list, tuple)) and len(keys) == 5 else default
+    return list(node) if isinstance(node, tuple) else node
 
 
 def trial_config(config, candidate: str, values: list[Any]):
@@ -346,23 +384,8 @@ def tune(config, store, out: Path, execute, progress: bool = False) -> dict[str,
 def _get(config, cand: str, keys: tuple) -> Any:
     """A candidate's given value at ``keys`` (its plugin's default when the config leaves it
     out; ``None`` for a nested plugin's default)."""
-    from .. import registry
-
     data = config.model_dump(mode="json")
-    cand_data = data["candidates"][[c["name"] for c in data["candidates"]].index(cand)]
-    node: Any = cand_data
-    for k in keys[2:]:
-        if isinstance(node, str):  # a nested plugin given by name: its parameters are the defaults
-            node = {"name": node, "params": {}}
-        if isinstance(node, dict) and k in node:
-            node = node[k]
-            continue
-        if len(keys) != 5:
-            return None
-        ref = cand_data[keys[2]]
-        info = registry.get(keys[2], ref if isinstance(ref, str) else ref["name"]).Params.model_fields.get(keys[4])
-        return None if info is None or info.is_required() else info.get_default(call_default_factory=True)
-    return node
+    return _lookup(data["candidates"][[c["name"] for c in data["candidates"]].index(cand)], keys)
 
 
 def tuned_config(config, results: dict[str, dict]):
