@@ -66,6 +66,9 @@ def _cmd_filter_positions(args: argparse.Namespace) -> int:
     sidecar = write_skipped_report(args.out, args.file, fixes.skipped)
     print(f"{args.file}: {fixes.time_s.size} fixes filtered with {args.filter}, {len(fixes.skipped)} sentences "
           f"skipped; wrote {args.out}" + (f" and {sidecar}" if fixes.skipped else ""))
+    if fixes.ignored or fixes.comments:
+        kinds = ", ".join(f"{n} {kind}" for kind, n in fixes.ignored.items())
+        print(f"  not used: {kinds or 'no sentences'}; {fixes.comments} comment lines")
     print_skipped(fixes.skipped)
     return exit_status(fixes.skipped)
 
@@ -178,14 +181,58 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _QuietPipe:
+    """stdout that stops writing, without an error, once its reader has gone (``| head``).
+
+    The command still runs to its end and returns its own exit status: its output file is
+    written whatever happened to the summary on stdout.
+    """
+
+    def __init__(self, stream) -> None:
+        self.stream, self.closed_by_reader = stream, False
+
+    def _quiet(self) -> None:
+        import os
+
+        self.closed_by_reader = True
+        try:  # the interpreter flushes fd 1 again at exit: point it at /dev/null
+            os.dup2(os.open(os.devnull, os.O_WRONLY), self.stream.fileno())
+        except (OSError, ValueError):  # no real descriptor (captured output)
+            pass
+
+    def write(self, text: str) -> int:
+        if self.closed_by_reader:
+            return len(text)
+        try:
+            return self.stream.write(text)
+        except BrokenPipeError:
+            self._quiet()
+            return len(text)
+
+    def flush(self) -> None:
+        if not self.closed_by_reader:
+            try:
+                self.stream.flush()
+            except BrokenPipeError:
+                self._quiet()
+
+    def __getattr__(self, name: str):
+        return getattr(self.stream, name)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point; returns the exit code. Library errors print one line, no traceback."""
+    """Entry point; returns the exit code. Library errors print one line, no traceback;
+    a closed pipe on stdout ends the printing quietly."""
     args = build_parser().parse_args(argv)
+    stdout, sys.stdout = sys.stdout, _QuietPipe(sys.stdout)
     try:
         return int(args.func(args) or 0)
     except GnssFrameworkError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    finally:
+        sys.stdout.flush()
+        sys.stdout = stdout
 
 
 if __name__ == "__main__":  # pragma: no cover
