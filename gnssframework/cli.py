@@ -11,6 +11,7 @@ from .errors import ConfigError, GnssFrameworkError
 from .io.nmea import MAX_ABS_HEIGHT_M, MAX_SPEED_MPS
 from .io.rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M
 from .io.skipped import EXIT_STATUS_HELP
+from .io.smoothing import MAX_CMC_RATE_MPS
 
 __all__ = ["main"]
 
@@ -73,6 +74,11 @@ def _cmd_filter_positions(args: argparse.Namespace) -> int:
     return exit_status(fixes.skipped)
 
 
+def _blank_nan(value: float, digits: int) -> str:
+    """A CSV cell: the value, or empty where there is none."""
+    return f"{value:.{digits}f}" if value == value else ""
+
+
 def _cmd_smooth(args: argparse.Namespace) -> int:
     import csv
 
@@ -81,6 +87,7 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
     from .experiments.files import atomic_open
     from .io.observations import read_observations
     from .io.skipped import exit_status, print_skipped, write_skipped_report
+    from .io.skipped import EXIT_SKIPPED
     from .io.smoothing import smooth_observations
 
     obs = read_observations(args.file, args.prn, pseudorange_min_m=args.pseudorange_min,
@@ -94,7 +101,7 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
         kw["slip_threshold_m"] = args.slip_threshold
     registry.create("channel_filter", name, **kw)  # a bad parameter fails before the run
     result = smooth_observations(obs, lambda: registry.create("channel_filter", name, **kw), args.max_gap,
-                                 reset_at_lli=not args.ignore_lli)
+                                 reset_at_lli=not args.ignore_lli, max_cmc_rate_mps=args.max_cmc_rate)
     valid = obs.valid
     with atomic_open(args.out, "w", newline="") as fh:  # a killed run leaves no half CSV
         w = csv.writer(fh)
@@ -102,8 +109,8 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
                     "arc_start", "slip_detected"])
         for k, j in zip(*np.nonzero(valid)):
             w.writerow([str(obs.epoch[k]), obs.sv[j], f"{obs.time_s[k]:.7f}", f"{obs.pseudorange_m[k, j]:.3f}",
-                        f"{obs.carrier_m[k, j]:.4f}", f"{result.smoothed_m[k, j]:.4f}", int(obs.lli[k, j]),
-                        f"{obs.snr_dbhz[k, j]:.2f}", int(result.arc_start[k, j]), int(result.slip_detected[k, j])])
+                        f"{obs.carrier_m[k, j]:.4f}", _blank_nan(result.smoothed_m[k, j], 4), int(obs.lli[k, j]),
+                        _blank_nan(obs.snr_dbhz[k, j], 2), int(result.arc_start[k, j]), int(result.slip_detected[k, j])])
     sidecar = write_skipped_report(args.out, args.file, obs.skipped)
     flagged = int(((obs.lli & 1) != 0)[valid].sum())
     print(f"{args.file} {args.prn}: {int(valid.sum())} epochs of {obs.sv.size} satellites smoothed with "
@@ -114,10 +121,14 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
           + (f" and {sidecar}" if obs.skipped else ""))
     for sv, why in obs.dropped.items():
         print(f"  not read: {sv}: {why}")
+    for sv, row, rate in result.inconsistent:
+        print(f"  not smoothed (smoothed_m empty): {sv}'s arc from {obs.epoch[row]}: code minus carrier drifts "
+              f"{rate:.3g} m/s (over --max-cmc-rate {args.max_cmc_rate:g}): its carrier does not follow the code")
     if obs.truncated:
         print(f"  TRUNCATED FILE: {obs.truncated}; the output covers the epochs before the cut")
     print_skipped(obs.skipped)
-    return exit_status(obs.skipped, truncated=obs.truncated is not None)
+    status = exit_status(obs.skipped, truncated=obs.truncated is not None)
+    return EXIT_SKIPPED if status == 0 and result.inconsistent else status
 
 
 def _cmd_schema(args: argparse.Namespace) -> int:
@@ -177,6 +188,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--slip-threshold", type=float, default=0.0, help="code-minus-carrier slip test (m), 0: off")
     p.add_argument("--max-gap", type=float, default=None, metavar="S",
                    help="a longer step between a satellite's epochs ends its arc (default 1.5 epoch intervals)")
+    p.add_argument("--max-cmc-rate", type=float, default=MAX_CMC_RATE_MPS, metavar="M/S",
+                   help="leave an arc unsmoothed (and exit 3) when its code minus carrier drifts faster than this, "
+                        "least-squares slope over the arc (default %(default)g m/s; a phone's carrier can drift tens of m/s)")
     p.add_argument("--ignore-lli", action="store_true",
                    help="do not restart at the receiver's loss-of-lock flags (gaps still end arcs)")
     p.add_argument("--pseudorange-min", type=float, default=PSEUDORANGE_MIN_M, metavar="M",

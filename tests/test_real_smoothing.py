@@ -85,3 +85,22 @@ def test_cli_smooths_real_files_end_to_end(tmp_path, capsys, path, select):
     assert {r["sv"][0] for r in rows} == {sv[0] for sv in obs.sv}
     summary = capsys.readouterr().out
     assert f"{starts.sum()} arcs" in summary and "loss-of-lock flags" in summary
+
+
+def test_a_phone_carrier_that_does_not_follow_its_code_is_not_smoothed(tmp_path, capsys):
+    phone = read_observations(DATA / "pixel6.23o", "G")
+    result = smooth_observations(phone, lambda: registry.create("channel_filter", "hatch", window=100))
+    # The drift, by numpy's own least-squares fit on each satellite's data.
+    for sv, row, rate in result.inconsistent:
+        j = phone.satellite(sv)
+        ok = phone.valid[:, j] & (np.cumsum(result.arc_start[:, j]) == np.cumsum(result.arc_start[:, j])[row])
+        slope = np.polyfit(phone.time_s[ok], phone.pseudorange_m[ok, j] - phone.carrier_m[ok, j], 1)[0]
+        assert rate == pytest.approx(abs(slope), rel=1e-9) and rate > 10.0
+        assert np.all(np.isnan(result.smoothed_m[ok, j]))
+    assert len(result.inconsistent) >= 10  # every GPS satellite: tens of m/s, not the < 0.1 m/s of the ionosphere
+    # A geodetic receiver's arcs are all consistent.
+    cebr = read_observations(CEBR, "G")
+    assert smooth_observations(cebr, lambda: registry.create("channel_filter", "hatch")).inconsistent == []
+    out = tmp_path / "p.csv"
+    assert main(["smooth", str(DATA / "pixel6.23o"), "--prn", "G", "--out", str(out)]) == 3
+    assert "its carrier does not follow the code" in capsys.readouterr().out
