@@ -8,7 +8,7 @@ from typing import Any, Mapping
 import numpy as np
 from pydantic import Field
 
-from gnssframework import registry
+from gnssframework import names, registry
 from gnssframework.estimation import FilterStep, Gaussian, LinearModel
 from gnssframework.interfaces import ChannelFilter, RunContext
 from gnssframework.plugin import PluginParams
@@ -36,9 +36,9 @@ def _slip(rho, predicted, threshold: float) -> np.ndarray:
 def _arc_start(inputs: Mapping[str, np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
     """The optional ``arc_start`` input: True where the receiver flagged a loss of lock or
     the data have a gap (:func:`gnssframework.io.observations.arc_starts`)."""
-    if "arc_start" not in inputs:
+    if names.ARC_START not in inputs:
         return np.zeros(shape, dtype=bool)
-    return np.broadcast_to(np.asarray(inputs["arc_start"], bool), shape)
+    return np.broadcast_to(np.asarray(inputs[names.ARC_START], bool), shape)
 
 
 class HatchParams(_SlipParams):

@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from .. import names
 from ..interfaces import ChannelFilter, RunContext
 from .observations import Observations, arc_starts
 
@@ -88,7 +89,7 @@ def smooth_observations(obs: Observations, make_smoother: Callable[[], ChannelFi
         for k in rows:
             out = smoother.checked_step({"pseudorange_m": np.asarray(obs.pseudorange_m[k, j]),
                                          "carrier_m": np.asarray(obs.carrier_m[k, j]),
-                                         "arc_start": np.asarray(starts[k, j])})
+                                         names.ARC_START: np.asarray(starts[k, j])})
             smoothed[k, j] = float(out["smoothed_m"])
             slips[k, j] = bool(out["slip_detected"])
         arc = np.cumsum(starts[rows, j])  # arc number of each valid epoch
