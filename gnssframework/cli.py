@@ -116,7 +116,9 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
     print(f"{args.file} {args.prn}: {int(valid.sum())} epochs of {obs.sv.size} satellites smoothed with "
           f"{args.filter} in {result.arcs} arcs ({flagged} loss-of-lock flags"
           + (" ignored" if args.ignore_lli else "") + f", gaps over {result.max_gap_s:g} s)"
-          + (f", {int(result.slip_detected.sum())} slips detected by the filter" if args.slip_threshold else "")
+          + (f", {int(result.slip_detected.sum())} slips detected by the filter "
+             f"({int((result.slip_detected & (obs.lli & 1 != 0)).sum())} of them at a receiver's flag)"
+             if args.slip_threshold else "")
           + f", {len(obs.skipped)} epochs or observations skipped; wrote {args.out}"
           + (f" and {sidecar}" if obs.skipped else ""))
     for sv, why in obs.dropped.items():

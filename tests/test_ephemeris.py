@@ -19,7 +19,7 @@ import pytest
 import gnssframework as gf
 from gnssframework.io.observations import SPEED_OF_LIGHT_MPS as C
 from gnssframework.io.observations import read_observations
-from gnssframework.navigation.ephemeris import (OMEGA_EARTH_RAD_S, gps_seconds_of_week, read_rinex_nav,
+from gnssframework.navigation.ephemeris import (OMEGA_EARTH_RAD_S, Ephemerides, gps_seconds_of_week, read_rinex_nav,
                                                 satellite_state)
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -115,3 +115,21 @@ def test_gps_seconds_of_week():
 def test_an_observation_file_is_refused_as_navigation():
     with pytest.raises(gf.DataFileError, match=r"07590920.05o:1: not a navigation file"):
         read_rinex_nav(OBS)
+
+
+def test_rinex3_navigation_records_keep_health_and_clock_fields():
+    # The project's own RINEX 3.04 file: written with clock terms, TGD and health of zero.
+    nav = Path(__file__).resolve().parents[1] / "examples" / "data" / "nominal_brdc.nav"
+    eph = read_rinex_nav(nav)
+    n_records = sum(line[:1] == "G" for line in nav.read_text().splitlines())
+    assert eph.sv.size == n_records and np.all(eph.health == 0)
+    for f in ("SVclockBias", "SVclockDrift", "SVclockDriftRate", "TGD"):
+        assert np.all(eph.elements[f] == 0.0)
+
+
+def test_an_unhealthy_record_is_not_selected():
+    eph = read_rinex_nav(NAV)
+    sick = Ephemerides(eph.sv, eph.toc_s, eph.elements, np.where(eph.sv == "G03", 1.0, eph.health), eph.iode)
+    with pytest.raises(KeyError, match="no healthy ephemeris of G03"):
+        sick.select(["G03"], 518400.0)
+    assert sick.select(["G03"], 518400.0, healthy_only=False).sv.tolist() == ["G03"]

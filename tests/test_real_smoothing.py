@@ -104,3 +104,14 @@ def test_a_phone_carrier_that_does_not_follow_its_code_is_not_smoothed(tmp_path,
     out = tmp_path / "p.csv"
     assert main(["smooth", str(DATA / "pixel6.23o"), "--prn", "G", "--out", str(out)]) == 3
     assert "its carrier does not follow the code" in capsys.readouterr().out
+
+
+def test_the_filters_detections_are_reported_beside_the_receivers_flags(tmp_path, capsys):
+    out = tmp_path / "s.csv"
+    assert main(["smooth", str(CEBR), "--prn", "G", "--out", str(out), "--slip-threshold", "4"]) == 0
+    with open(out, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    detected = sum(r["slip_detected"] == "1" for r in rows)
+    at_flags = sum(r["slip_detected"] == "1" and int(r["lli"]) & 1 for r in rows)
+    assert f"{detected} slips detected by the filter ({at_flags} of them at a receiver's flag)" in \
+        capsys.readouterr().out
