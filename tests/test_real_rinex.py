@@ -147,3 +147,15 @@ def test_a_corrupt_hatanaka_archive_is_refused_in_one_line(tmp_path):
     bad.write_bytes(CEBR.read_bytes()[:5000])
     with pytest.raises(gf.DataFileError, match=r"bad.crx.gz: .*"):
         read_observations(bad)
+
+
+def test_a_rinex2_epoch_out_of_order_is_refused_with_its_line(tmp_path):
+    lines = RINEX2.read_text().splitlines()
+    starts = [i for i, line in enumerate(lines) if line.startswith(" 05  4  2")]
+    block = lines[starts[5]:starts[6]]  # epoch 5 again after epoch 6
+    edited = lines[:starts[7]] + block + lines[starts[7]:]
+    path = tmp_path / "dup.05o"
+    path.write_text("\n".join(edited) + "\n")
+    with pytest.raises(gf.DataFileError, match=rf"dup.05o:{starts[7] + 1}: epoch 2005-04-02 00:02:30.0000000 goes "
+                                               rf"backwards from the epoch at line {starts[6] + 1}"):
+        read_observations(path)

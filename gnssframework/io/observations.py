@@ -247,6 +247,15 @@ def _rinex2_epochs(text: str) -> list[tuple[int, np.datetime64, str]]:
     return out
 
 
+def _refuse_rinex2_time_order(path: Path, stated: list[tuple[int, np.datetime64, str]]) -> None:
+    """RINEX 2 files get no line-level repair: a duplicate or backwards epoch is refused."""
+    for (line0, t0, _), (line, t, when) in zip(stated, stated[1:]):
+        if t <= t0:
+            what = "repeats the epoch" if t == t0 else "goes backwards from the epoch"
+            raise DataFileError(str(path), line, f"epoch {when} {what} at line {line0} (RINEX 2 epochs are "
+                                                 "not skipped, only refused)")
+
+
 def _rinex3_epochs(scan: RinexScan, systems: set[str]) -> list[tuple[int, np.datetime64, str]]:
     """``(line, time, as written)`` of every kept epoch with an observation of a selected system."""
     from .rinex import _epoch_time, _fmt_time
@@ -347,9 +356,13 @@ def read_observations(path: str | Path, select: str = "G", pseudorange_min_m: fl
     text = _decompress(path)
     version = _version(path, text)
     scan: RinexScan | None = None
+    stated: list[tuple[int, np.datetime64, str]] = []
     if version >= 3:
         scan = check_rinex3_obs(path, pseudorange_min_m, pseudorange_max_m, text=text)
         refuse_or_keep(path, scan.skipped, strict)
+    else:  # before georinex, which fails on a repeated epoch without saying where
+        stated = _rinex2_epochs(text)
+        _refuse_rinex2_time_order(path, stated)
     width = 3 if version >= 3 else 2  # georinex matches meas by prefix: "C1" would pull C1W, C1P...
     meas = sorted(code for code in ({c for s in systems for sig in SIGNALS[s] for c in sig[:3]}
                                     | {c for s in systems for c, _ in SECOND_SIGNALS[s]}) if len(code) == width)
@@ -370,7 +383,7 @@ def read_observations(path: str | Path, select: str = "G", pseudorange_min_m: fl
             raise DataFileError(str(path), line, f"georinex could not read it {where}: "
                                                  f"{type(exc).__name__}: {exc}") from None
         channels = _glonass_channels(source) if "R" in systems else {}
-    stated = _rinex3_epochs(scan, systems) if scan is not None else _rinex2_epochs(text)
+    stated = _rinex3_epochs(scan, systems) if scan is not None else stated
     epochs = _match_epochs(path, stated, obs.time.values) if obs.time.size else np.array([], "datetime64[ns]")
     return _assemble(path, obs, epochs, version, systems, prns, channels, scan)
 
