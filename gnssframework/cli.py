@@ -122,6 +122,69 @@ def _cmd_schema(args: argparse.Namespace) -> int:
     return 0
 
 
+def _open_recording_from_args(args: argparse.Namespace):
+    from .receiver.frontend import open_recording
+
+    return open_recording(args.recording, format=args.format, sample_rate_hz=args.fs, if_hz=args.if_hz,
+                          q_sign=args.q_sign)
+
+
+def _acquisition_from_args(args: argparse.Namespace):
+    params = {k: v for k, v in (("coherent_ms", args.coherent_ms), ("noncoherent", args.noncoherent),
+                                ("doppler_max_hz", args.doppler_max), ("pfa", args.pfa)) if v is not None}
+    return registry.create("acquisition", args.acquisition, **params)
+
+
+def _prns_from_args(args: argparse.Namespace) -> tuple[int, ...]:
+    from .signal.codes import G2_TAPS
+
+    prns = tuple(args.prns) if args.prns else tuple(range(1, 33))
+    bad = [p for p in prns if p not in G2_TAPS]
+    if bad:
+        raise ConfigError("--prns", f"GPS C/A PRNs are 1-32, got {bad}")
+    return prns
+
+
+def _cmd_acquire(args: argparse.Namespace) -> int:
+    from .receiver.acquisition.report import acquire_recording, search_summary, write_acquisition_csv
+
+    rec = _open_recording_from_args(args)
+    acq = _acquisition_from_args(args)
+    prns = _prns_from_args(args)
+    results = acquire_recording(rec, acq, prns)
+    if rec.trailing_bytes:
+        print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
+    if args.verbose:
+        for r in results:
+            print(f"PRN {r.prn:2d}: statistic {r.test_statistic:8.2f} (threshold {r.threshold:.2f}) "
+                  f"{'FOUND' if r.detected else 'no'}  doppler {r.doppler_hz:8.1f} Hz  code phase "
+                  f"{r.code_phase_chips:8.3f} chips  C/N0 {r.cn0_dbhz:5.1f} dB-Hz")
+    write_acquisition_csv(args.out, results)
+    found = [r for r in results if r.detected]
+    if not found:
+        print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
+              "the format (--format) and, for a large frequency offset, --doppler-max; wrote an empty "
+              f"{args.out}")
+        return 1
+    print(f"{len(found)} satellites found ({', '.join(str(r.prn) for r in found)}); wrote {args.out}")
+    return 0
+
+
+def _add_recording_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("recording", help="sample file (a SigMF .sigmf-meta beside it gives format, rate and IF)")
+    p.add_argument("--format", help="sample format: ri8, ci8, ci16_le, cf32_le (SigMF names), ri2/ci2 (2-bit "
+                                    "packed) or a plugin's")
+    p.add_argument("--fs", type=float, metavar="HZ", help="sample rate")
+    p.add_argument("--if", dest="if_hz", type=float, metavar="HZ", help="intermediate frequency (default 0)")
+    p.add_argument("--q-sign", type=int, choices=[1, -1], help="-1 for a front end whose Q branch is inverted")
+    p.add_argument("--acquisition", default="pcps", help="acquisition plugin (default %(default)s)")
+    p.add_argument("--coherent-ms", type=int, help="coherent integration (code periods)")
+    p.add_argument("--noncoherent", type=int, help="non-coherent sums")
+    p.add_argument("--doppler-max", type=float, metavar="HZ", help="Doppler search range +-")
+    p.add_argument("--pfa", type=float, help="false-alarm probability of one PRN's search")
+    p.add_argument("--prns", type=int, nargs="+", help="PRNs to search (default 1-32)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="gnssframework", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -173,6 +236,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--strict", action="store_true",
                    help="refuse the file at the first bad epoch or observation, or a truncation (exit 2)")
     p.set_defaults(func=_cmd_smooth)
+    p = sub.add_parser("acquire", help="find the GPS L1 C/A satellites in a recording of front-end samples",
+                       description="FFT parallel code-phase search of every PRN; one CSV row per satellite found. "
+                                   "Exit 1 when nothing is found (the message says what was searched), 2 for bad "
+                                   "options or files.")
+    _add_recording_options(p)
+    p.add_argument("--out", required=True, help="output CSV")
+    p.add_argument("-v", "--verbose", action="store_true", help="a line per PRN searched")
+    p.set_defaults(func=_cmd_acquire)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
     p.set_defaults(func=_cmd_schema)
     return parser
