@@ -22,7 +22,7 @@ import numpy as np
 
 from ...estimation import kernels
 
-__all__ = ["correlate_channels", "correlate_numpy", "TABLE_BITS"]
+__all__ = ["correlate_channels", "correlate_numpy", "code_tables", "TABLE_BITS"]
 
 #: log2 of the carrier table's length.
 TABLE_BITS = 12
@@ -145,10 +145,17 @@ except ImportError:  # pragma: no cover
     HAVE_NUMBA = False
 
 
+def code_tables(codes: np.ndarray, periods: int = 3) -> np.ndarray:
+    """``codes`` repeated ``periods`` times along the chips (``float32``): the tables the
+    compiled kernel indexes without wrapping. Three periods cover one code period of
+    integration from any start phase with taps up to a period either side."""
+    return np.tile(np.ascontiguousarray(codes, np.float32), (1, periods))
+
+
 def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarray, code_phase_chips: np.ndarray,
                        code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray,
                        carrier_step_cycles: np.ndarray, codes: np.ndarray, offsets_chips: np.ndarray,
-                       backend: str | None = None) -> np.ndarray:
+                       backend: str | None = None, tables: np.ndarray | None = None) -> np.ndarray:
     """Correlate every channel over its sample range: ``(n_channels, n_taps)`` complex.
 
     Parameters
@@ -169,6 +176,9 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
     backend
         ``"numba"`` or ``"numpy"``; default: the library's backend
         (`gnssframework.estimation.kernels.get_backend`).
+    tables
+        `code_tables` of ``codes`` made once by a caller that correlates the same
+        channels many times (used when long enough for this call).
     """
     starts = np.asarray(starts, np.int64)
     counts = np.asarray(counts, np.int64)
@@ -188,13 +198,16 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
     cycles = np.asarray(carrier_phase_cycles, float)
     carrier0 = np.floor((cycles - np.floor(cycles)) * 2.0**32).astype(np.int64)
     dcarrier = np.rint(np.mod(np.asarray(carrier_step_cycles, float), 1.0) * 2.0**32).astype(np.int64)
-    base = np.mod(np.asarray(code_phase_chips, float), n_code)[:, None] + np.asarray(offsets_chips, float) + n_code
+    # The phase reduced to [-n/2, n/2): a phase just below a code epoch stays just below 0.
+    phase = np.mod(np.asarray(code_phase_chips, float) + n_code / 2, n_code) - n_code / 2
+    base = phase[:, None] + np.asarray(offsets_chips, float) + n_code
     code0 = np.floor(base * 2.0**32).astype(np.int64)
     step = np.asarray(code_step_chips, float)
     dcode = np.rint(step * 2.0**32).astype(np.int64)
     reach = base.max(initial=0.0) + float((counts * step).max(initial=0.0)) + 2
-    reps = int(np.ceil(reach / n_code)) + 1
-    tables = np.tile(np.ascontiguousarray(codes, np.float32), (1, reps))
+    reps = int(np.ceil(reach / n_code))
+    if tables is None or tables.shape[1] < reps * n_code:
+        tables = code_tables(codes, reps)
     out_r = np.empty((n_ch, n_taps))
     out_i = np.empty((n_ch, n_taps))
     kernel = _kernel3 if n_taps == 3 else _kernel

@@ -18,7 +18,7 @@ import numpy as np
 
 from ...signal.cn0 import cn0_moments, cn0_nwpr
 
-__all__ = ["phase_lock_indicator", "estimate_cn0", "BitSync", "CN0_ESTIMATORS"]
+__all__ = ["phase_lock_indicator", "estimate_cn0", "BitSync", "bit_edge_from_votes", "CN0_ESTIMATORS"]
 
 CN0_ESTIMATORS = ("nwpr", "moments")
 
@@ -43,6 +43,16 @@ def estimate_cn0(prompts: np.ndarray, estimator: str, bit_phase: int | None) -> 
     return float(cn0_moments(p, 1e-3))
 
 
+def bit_edge_from_votes(votes: np.ndarray, min_votes: int, fraction: float = 0.7) -> int | None:
+    """The bit edge (ms mod 20) once one bin of the histogram ``votes`` holds ``fraction``
+    of at least ``min_votes`` votes, else ``None``."""
+    total = int(votes.sum())
+    best = int(np.argmax(votes))
+    if total >= min_votes and votes[best] >= fraction * total:
+        return best
+    return None
+
+
 class BitSync:
     """Histogram of bit changes over the 20 milliseconds of a bit."""
 
@@ -60,8 +70,4 @@ class BitSync:
         return self.edge()
 
     def edge(self) -> int | None:
-        total = int(self.votes.sum())
-        best = int(np.argmax(self.votes))
-        if total >= self.min_votes and self.votes[best] >= self.fraction * total:
-            return best
-        return None
+        return bit_edge_from_votes(self.votes, self.min_votes, self.fraction)

@@ -5,7 +5,9 @@ epoch to code epoch (not fixed-length blocks): the number of samples of the next
 integration is what the code NCO needs to reach the next epoch. All channels advance one
 code period per iteration and are correlated by one call of the compiled multi-channel
 correlator (`correlator.correlate_channels`), on a buffer that streams the recording in
-blocks. The 1 ms correlators, scaled to unit-variance I and Q noise like the analytic
+blocks. The per-millisecond bookkeeping of every channel (NCO phases, sums, prompts,
+bit-sync votes) is done on arrays over the channels; Python runs per channel only when a
+channel's coherent interval is complete. The 1 ms correlators, scaled to unit-variance I and Q noise like the analytic
 model's (`gnssframework.signal.correlator_model`), are summed over the coherent interval
 in force and then handed to the channel filter exactly as `gnssframework.receiver.tracking`
 hands them: ``checked_step({"correlators": ...})`` once per interval, whose
@@ -20,7 +22,6 @@ component for white noise; the scale is measured on every block read.
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -38,11 +39,13 @@ from ..frontend.recording import Recording
 from ..tracking import NCO_COMMANDS
 from .closure import ERROR_OUTPUTS, ErrorFeedback
 from .config import TrackingConfig
-from .correlator import correlate_channels
-from .lock import BitSync, estimate_cn0, phase_lock_indicator
+from .correlator import code_tables, correlate_channels
+from .lock import bit_edge_from_votes, estimate_cn0, phase_lock_indicator
 
 __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
 
+#: Interval (ms) between two evaluations of a channel's lock detectors.
+DETECT_MS = 10
 #: Channel states, in the order a channel goes through them.
 STAGES = ("pull-in", "track", "extended", "lost")
 #: Columns of a channel's record (one row per channel-filter update).
@@ -90,18 +93,19 @@ def _create_filter(name: str, params: dict[str, Any], *, pll_only: bool = False)
 
 
 class _Channel:
-    """One satellite's channel: its state machine, filter and detectors."""
+    """One satellite's channel: its stage, filter and detectors (its NCOs and sums live in
+    the tracker's arrays, at slot ``prn - 1``)."""
 
     def __init__(self, prn: int, config: TrackingConfig, record: ChannelRecord) -> None:
         self.prn = prn
+        self.slot = prn - 1
         self.config = config
         self.record = record
-        self.code = ca_code(prn).astype(np.float32)
-        self.prompts: deque = deque(maxlen=config.cn0_window_ms)
         self.cn0_dbhz = 0.0
         self.pli = 0.0
+        self.locked = False
 
-    def start(self, stage: str, doppler_hz: float, coherent_ms: int, ms_index: int = 0) -> None:
+    def start(self, stage: str, doppler_hz: float, coherent_ms: int) -> None:
         c = self.config
         self.stage = stage
         self.coherent_ms = coherent_ms
@@ -114,22 +118,21 @@ class _Channel:
         cn0 = self.cn0_dbhz if self.cn0_dbhz > 0 else 40.0
         self.filter.reset((), RunContext(coherent_time_s=T, early_late_spacing_chips=c.early_late_spacing_chips,
                                          epoch_interval_s=T, cn0_dbhz=cn0, doppler_hz=doppler_hz))
-        self.acc = np.zeros(3, complex)
-        self.acc_n = 0
         self.bit_sign = 1.0
         self.last_prompt = 0j
         self.shift = (0.0, 0.0)
+        self.stage_ms = 0
         if stage == "pull-in":
-            self.ms_index = ms_index
-            self.stage_ms = 0
             self.unlocked_ms = 0
-            self.bit_sync = BitSync(c.bit_sync_votes)
             self.bit_edge: int | None = None
-            self.prompts.clear()
+            self.next_detect = 0
 
     @property
     def phase_locking(self) -> bool:
         return self.closure is None
+
+
+_SLOTS = 32  # one per GPS PRN
 
 
 class SampleTracker:
@@ -158,19 +161,55 @@ class SampleTracker:
         self.offsets = np.array(list(tap_offsets(config.early_late_spacing_chips).values()))
         _create_filter(config.channel_filter, config.channel_params)  # refuse a bad filter before any work
         _create_filter(config.pull_in_filter, config.pull_in_params)
+        self.codes = np.stack([ca_code(p) for p in range(1, _SLOTS + 1)]).astype(np.float32)
 
-    # -- channel NCO state, one slot per channel ------------------------------------
+    def _reset_state(self) -> None:
+        n, w = _SLOTS, self.config.cn0_window_ms
+        self.active = np.zeros(n, bool)
+        self.start_sample = np.zeros(n, np.int64)
+        self.code_phase = np.zeros(n)  # chips at start_sample
+        self.code_rate = np.zeros(n)  # chips/s
+        self.doppler = np.zeros(n)  # Hz
+        self.doppler_cycles = np.zeros(n)  # accumulated replica Doppler phase at start_sample
+        self.ms_index = np.zeros(n, np.int64)
+        self.acc = np.zeros((n, 3), complex)
+        self.acc_n = np.zeros(n, np.int64)
+        self.coherent = np.ones(n, np.int64)
+        self.acc_t0 = np.zeros(n)
+        self.acc_phase = np.zeros(n)
+        self.acc_cycles = np.zeros(n)
+        self.prompts = np.zeros((n, w), complex)  # ring buffers of 1 ms prompts
+        self.n_prompts = np.zeros(n, np.int64)
+        self.votes = np.zeros((n, 20), np.int64)  # bit-sync histograms
+        self.voting = np.zeros(n, bool)
+        self.previous_prompt = np.zeros(n, complex)
+
     def _add(self, prn: int, acq: AcquisitionResult, first_sample: int) -> None:
         ch = self.channels.get(prn)
         if ch is None:
             ch = self.channels[prn] = _Channel(prn, self.config, self.records.setdefault(prn, ChannelRecord(prn)))
-        ch.start_sample = first_sample + acq.code_phase_samples
-        ch.code_phase = 0.0  # chips at start_sample: a code epoch
-        ch.doppler_hz = acq.doppler_hz
-        ch.code_rate_hz = CA_CHIP_RATE_HZ * (1 + acq.doppler_hz / L1_FREQ_HZ)
-        ch.doppler_cycles = 0.0
+        i = ch.slot
+        self.active[i] = True
+        self.start_sample[i] = first_sample + acq.code_phase_samples
+        self.code_phase[i] = 0.0  # a code epoch
+        self.doppler[i] = acq.doppler_hz
+        self.code_rate[i] = CA_CHIP_RATE_HZ * (1 + acq.doppler_hz / L1_FREQ_HZ)
+        self.doppler_cycles[i] = 0.0
+        self.ms_index[i] = 0
+        self.n_prompts[i] = 0
+        self.votes[i] = 0
+        self.voting[i] = True
+        self.previous_prompt[i] = 0j
         ch.cn0_dbhz = acq.cn0_dbhz
-        ch.start("pull-in", acq.doppler_hz, 1)
+        self._start(ch, "pull-in", acq.doppler_hz, 1)
+
+    def _start(self, ch: _Channel, stage: str, doppler_hz: float, coherent_ms: int) -> None:
+        ch.start(stage, doppler_hz, coherent_ms)
+        i = ch.slot
+        self.coherent[i] = coherent_ms
+        self.acc[i] = 0.0
+        self.acc_n[i] = 0
+        self.voting[i] = stage != "extended"
 
     def _samples(self, lo: int, hi: int) -> tuple[np.ndarray, int]:
         """A buffer holding samples ``[lo, hi)``, read in blocks; ``(buffer, its first sample)``."""
@@ -191,45 +230,69 @@ class SampleTracker:
         """Track every detected satellite of ``acquisitions`` (made on the first samples)
         for ``duration_s`` (default: the whole recording)."""
         cfg = self.config
-        stop = self.rec.n_samples if duration_s is None else min(self.rec.n_samples, int(duration_s * self.fs))
+        fs = self.fs
+        stop = self.rec.n_samples if duration_s is None else min(self.rec.n_samples, int(duration_s * fs))
         self.channels: dict[int, _Channel] = {}
         self.records: dict[int, ChannelRecord] = {}
+        self._reset_state()
         self.buf = self.rec.read(0, 0)
         self.buf_start = 0
         self.power = 1.0
+        tables_for, tables = None, None
         for acq in acquisitions:
             if acq.detected:
                 self._add(acq.prn, acq, 0)
-        every = int(cfg.reacquire_every_ms * 1e-3 * self.fs)
+        every = int(cfg.reacquire_every_ms * 1e-3 * fs)
         next_reacq = every
+        window = self.prompts.shape[1]
         while True:
-            active = [c for c in self.channels.values() if c.stage != "lost"]
-            if not active:  # every channel lost: only re-acquisition can go on
+            idx = np.flatnonzero(self.active)
+            if idx.size == 0:  # every channel lost: only re-acquisition can go on
                 if not self.channels or next_reacq >= stop:
                     break
                 self._reacquire(next_reacq, stop)
                 next_reacq += every
                 continue
-            steps = np.array([c.code_rate_hz / self.fs for c in active])
-            phases = np.array([c.code_phase for c in active])
+            steps = self.code_rate[idx] / fs
+            phases = self.code_phase[idx]
             counts = np.ceil((CA_CODE_LENGTH - phases) / steps).astype(np.int64)
-            starts = np.array([c.start_sample for c in active], np.int64)
+            starts = self.start_sample[idx]
             if (starts + counts).max() > stop:
                 break
             buf, first = self._samples(int(starts.min()), int((starts + counts).max()))
-            carrier_step = np.array([(self.if_hz + c.doppler_hz) / self.fs for c in active])
-            carrier0 = np.array([self.if_hz * c.start_sample / self.fs % 1.0 + c.doppler_cycles for c in active])
-            corr = correlate_channels(buf, starts - first, counts, phases, steps, carrier0, carrier_step,
-                                      np.stack([c.code for c in active]), self.offsets, backend=self.backend)
+            dop = self.doppler[idx]
+            carrier0 = (self.if_hz * starts / fs) % 1.0 + self.doppler_cycles[idx]
+            if tables_for is None or not np.array_equal(tables_for, idx):  # channel set changed: new tables
+                tables_for, tables = idx, code_tables(self.codes[idx])
+            corr = correlate_channels(buf, starts - first, counts, phases, steps, carrier0, (self.if_hz + dop) / fs,
+                                      self.codes[idx], self.offsets, backend=self.backend, tables=tables)
             corr /= np.sqrt(counts * self.power / 2)[:, None]
-            for c, n, row in zip(active, counts, corr):
-                self._epoch(c, int(n), row)
+            # Book the code period of every channel at once.
+            fresh = self.acc_n[idx] == 0
+            self.acc_t0[idx[fresh]] = starts[fresh] / fs
+            self.acc_phase[idx[fresh]] = phases[fresh]
+            self.acc_cycles[idx[fresh]] = self.doppler_cycles[idx[fresh]]
+            self.start_sample[idx] = starts + counts
+            self.code_phase[idx] = phases + counts * steps - CA_CODE_LENGTH
+            self.doppler_cycles[idx] += counts * dop / fs
+            prompt = corr[:, 1]
+            self.prompts[idx, self.n_prompts[idx] % window] = prompt
+            self.n_prompts[idx] += 1
+            self.ms_index[idx] += 1
+            # Bit-sync votes: a prompt turned by more than 90 degrees from the previous one.
+            vote = self.voting[idx] & ((prompt * np.conj(self.previous_prompt[idx])).real < 0)
+            self.votes[idx[vote], self.ms_index[idx[vote]] % 20] += 1
+            self.previous_prompt[idx] = prompt
+            self.acc[idx] += corr
+            self.acc_n[idx] += 1
+            for i in idx[self.acc_n[idx] >= self.coherent[idx]]:
+                self._update(self.channels[int(i) + 1])
             if progress is not None:
                 progress(int(starts.min()) / stop)
             if starts.min() >= next_reacq:
                 self._reacquire(int(starts.max()), stop)
                 next_reacq += every
-        return TrackingResult(self.records, list(acquisitions), stop / self.fs, cfg.channel_filter)
+        return TrackingResult(self.records, list(acquisitions), stop / fs, cfg.channel_filter)
 
     def _reacquire(self, at: int, stop: int) -> None:
         lost = tuple(p for p, c in self.channels.items() if c.stage == "lost")
@@ -242,37 +305,26 @@ class SampleTracker:
                 self.records[acq.prn].events.append((at / self.fs, "re-acquired"))
                 self._add(acq.prn, acq, at)
 
-    def _epoch(self, c: _Channel, n: int, taps: np.ndarray) -> None:
-        """Book one code period of channel ``c``; step its filter when its interval is complete."""
-        cfg = self.config
-        t0 = c.start_sample / self.fs
-        start_phase = c.code_phase
-        c.start_sample += n
-        c.code_phase += n * c.code_rate_hz / self.fs - CA_CODE_LENGTH
-        c.doppler_cycles += n * c.doppler_hz / self.fs
-        prompt = complex(taps[1])
-        c.prompts.append(prompt)
-        c.ms_index += 1
-        c.stage_ms += 1
-        if c.stage != "extended":
-            edge = c.bit_sync.add(c.ms_index, prompt)
-            if edge is not None and c.bit_edge is None and c.stage == "track":
+    def _update(self, c: _Channel) -> None:
+        """Channel ``c``'s coherent interval is complete: step its filter, steer its NCOs,
+        run its detectors and state machine, record the row."""
+        i = c.slot
+        t0 = float(self.acc_t0[i])
+        acc = self.acc[i].copy()
+        self.acc[i] = 0.0
+        self.acc_n[i] = 0
+        if c.stage == "track" and c.bit_edge is None:
+            edge = bit_edge_from_votes(self.votes[i], self.config.bit_sync_votes)
+            if edge is not None:
                 c.bit_edge = edge
                 c.record.events.append((t0, f"bit sync (edge at ms {edge} mod 20)"))
-        if c.acc_n == 0:
-            c.acc_t0, c.acc_phase = t0, start_phase
-            c.acc_cycles = c.doppler_cycles - n * c.doppler_hz / self.fs
-        c.acc += taps
-        c.acc_n += 1
-        if c.acc_n < c.coherent_ms:
-            return
         # Decision-directed bit wipe-off: a prompt turned by more than 90 degrees from the
         # previous one (more than a residual frequency error can turn it in one interval)
         # carries the other bit. Costas loops do not care; frequency discriminators on
         # consecutive prompts (FLL assist, the vector channels' FLL) would see a jump.
-        if (c.acc[1] * c.bit_sign * np.conj(c.last_prompt)).real < 0:
+        if (acc[1] * c.bit_sign * np.conj(c.last_prompt)).real < 0:
             c.bit_sign = -c.bit_sign
-        wiped = c.acc * c.bit_sign
+        wiped = acc * c.bit_sign
         c.last_prompt = wiped[1]
         corr = Correlators.trusted(np.asarray(wiped[0]), np.asarray(wiped[1]), np.asarray(wiped[2]))
         inputs: dict[str, Any] = {"correlators": corr}
@@ -280,36 +332,45 @@ class SampleTracker:
             inputs.update(nco_shift_chips=np.asarray(c.shift[0]), nco_shift_hz=np.asarray(c.shift[1]))
         out = c.filter.checked_step(inputs)
         if c.closure is None:
-            c.doppler_hz = float(out["carrier_freq_hz"])
-            c.code_rate_hz = float(out["code_freq_hz"])
-            step = float(out.get("carrier_phase_step_rad", 0.0)) / (2 * np.pi)
-            c.doppler_cycles += step
+            self.doppler[i] = float(out["carrier_freq_hz"])
+            self.code_rate[i] = float(out["code_freq_hz"])
+            self.doppler_cycles[i] += float(out.get("carrier_phase_step_rad", 0.0)) / (2 * np.pi)
         else:
             code_step, freq_step = c.closure.moves(out)
             c.shift = (code_step, freq_step)
-            c.doppler_hz += freq_step
-            c.code_phase += code_step
-            c.code_rate_hz = CA_CHIP_RATE_HZ * (1 + c.doppler_hz / L1_FREQ_HZ)
-        prompt_sum = complex(c.acc[1])
-        c.acc[:] = 0.0
-        c.acc_n = 0
-        self._detect(c, t0)
-        c.record.rows.append((c.acc_t0, c.cn0_dbhz, c.pli, c.doppler_hz, c.acc_phase, c.acc_cycles, int(c.locked),
-                              STAGES.index(c.stage), prompt_sum.real, prompt_sum.imag, c.coherent_ms))
+            self.doppler[i] += freq_step
+            self.code_phase[i] += code_step
+            self.code_rate[i] = CA_CHIP_RATE_HZ * (1 + self.doppler[i] / L1_FREQ_HZ)
+        c.stage_ms += c.coherent_ms
+        self._detect(c)
+        c.record.rows.append((t0, c.cn0_dbhz, c.pli, float(self.doppler[i]), float(self.acc_phase[i]),
+                              float(self.acc_cycles[i]), int(c.locked), STAGES.index(c.stage), acc[1].real,
+                              acc[1].imag, c.coherent_ms))
         self._advance(c, t0)
 
-    def _detect(self, c: _Channel, t0: float) -> None:
+    def _window(self, c: _Channel, n: int) -> np.ndarray:
+        """The last ``n`` 1 ms prompts of channel ``c``, oldest first."""
+        i = c.slot
+        size = self.prompts.shape[1]
+        n = min(n, int(self.n_prompts[i]), size)
+        return self.prompts[i, (self.n_prompts[i] - n + np.arange(n)) % size]
+
+    def _detect(self, c: _Channel) -> None:
+        """Lock detectors, evaluated every `DETECT_MS` (their windows are 10-100 times longer)."""
         cfg = self.config
-        window = list(c.prompts)[-cfg.lock_window_ms:]
-        if len(window) < min(cfg.lock_window_ms, 20):
+        ms = int(self.ms_index[c.slot])
+        if self.n_prompts[c.slot] < min(cfg.lock_window_ms, 20):
             c.locked = False
             return
-        c.pli = phase_lock_indicator(window)
+        if ms < c.next_detect:
+            return
+        c.next_detect = ms + DETECT_MS
+        c.pli = phase_lock_indicator(self._window(c, cfg.lock_window_ms))
+        prompts = self._window(c, cfg.cn0_window_ms)
         bit_phase = None
         if c.bit_edge is not None:  # index in the window of the first ms of a bit
-            first_ms = c.ms_index - len(c.prompts) + 1
-            bit_phase = (c.bit_edge - first_ms) % 20
-        c.cn0_dbhz = estimate_cn0(np.array(c.prompts), cfg.cn0_estimator, bit_phase)
+            bit_phase = (c.bit_edge - (ms - prompts.size + 1)) % 20
+        c.cn0_dbhz = estimate_cn0(prompts, cfg.cn0_estimator, bit_phase)
         strong = c.cn0_dbhz > cfg.cn0_threshold_dbhz
         c.locked = strong and (c.pli > cfg.pli_threshold or not c.phase_locking)
 
@@ -320,8 +381,7 @@ class SampleTracker:
         if c.stage == "pull-in":
             if c.locked and c.stage_ms >= cfg.lock_window_ms:
                 c.record.events.append((t0, "locked: tracking with " + cfg.channel_filter))
-                c.start("track", c.doppler_hz, 1)
-                c.stage_ms = 0
+                self._start(c, "track", float(self.doppler[c.slot]), 1)
             elif c.stage_ms >= cfg.pull_in_ms:
                 self._lose(c, t0, f"no lock within {cfg.pull_in_ms} ms of pull-in")
             return
@@ -329,11 +389,12 @@ class SampleTracker:
             self._lose(c, t0, f"lock lost for {cfg.loss_ms} ms")
             return
         if (c.stage == "track" and cfg.coherent_ms > 1 and c.bit_edge is not None
-                and (c.ms_index + 1) % 20 == c.bit_edge % 20):
+                and (int(self.ms_index[c.slot]) + 1) % 20 == c.bit_edge % 20):
             # The next millisecond starts a bit: integrations from here on are bit aligned.
             c.record.events.append((t0, f"extended to {cfg.coherent_ms} ms coherent (PLL)"))
-            c.start("extended", c.doppler_hz, cfg.coherent_ms)
+            self._start(c, "extended", float(self.doppler[c.slot]), cfg.coherent_ms)
 
     def _lose(self, c: _Channel, t0: float, why: str) -> None:
         c.stage = "lost"
+        self.active[c.slot] = False
         c.record.events.append((t0, f"lost: {why}; back to acquisition"))
