@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...errors import ConfigError
 from ...estimation import kernels
 
 __all__ = ["correlate_channels", "correlate_numpy", "code_tables", "TABLE_BITS"]
@@ -183,7 +184,8 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
     starts = np.asarray(starts, np.int64)
     counts = np.asarray(counts, np.int64)
     if starts.size and (starts.min() < 0 or (starts + counts).max() > samples.shape[0]):
-        raise ValueError("a channel's sample range lies outside the block")
+        raise ConfigError("starts", f"a channel's sample range [{starts.min()}, {(starts + counts).max()}) lies "
+                          f"outside the block of {samples.shape[0]} samples")
     use = backend or kernels.get_backend()
     if use != "numba" or not HAVE_NUMBA:
         return correlate_numpy(samples, starts, counts, code_phase_chips, code_step_chips, carrier_phase_cycles,
