@@ -63,3 +63,36 @@ def test_compiled_kernel_agrees_with_correlate_if_on_generated_samples():
     for got, want in zip(raw / norm, (ref.early, ref.prompt, ref.late)):
         assert abs(got - complex(want)) <= tol
     assert abs(ref.prompt) > 10 * tol  # the comparison is on a strong signal, not on noise alone
+
+
+@pytest.mark.parametrize("cplx", [True, False])
+def test_whole_code_periods_kernel_matches_the_reference_period_by_period(cplx):
+    """Periods end at the replica's own code epochs: the kernel finds the same sample
+    counts as the reference's ceil((1023 - phase) / step), and the same sums within the
+    carrier table's bound, with the carrier running on across periods."""
+    from gnssframework.receiver.channels.correlator import correlate_periods, correlate_periods_numpy
+
+    rng = np.random.default_rng(8)
+    fs = 4e6
+    n = int(fs * 12e-3)
+    x = rng.standard_normal(n) + (1j * rng.standard_normal(n) if cplx else 0)
+    x = x.astype(np.complex64 if cplx else np.float32)
+    n_ch = 4
+    codes = np.stack([ca_code(p) for p in (3, 9, 17, 30)]).astype(np.float32)
+    periods = np.array([1, 10, 4, 7])
+    args = (rng.integers(0, 100, n_ch), periods, rng.uniform(-0.2, 0.2, n_ch),
+            1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, n_ch)), rng.uniform(-2, 2, n_ch),
+            rng.uniform(-2e-3, 2e-3, n_ch), codes, np.array([-0.5, 0.0, 0.5]))
+    sums, counts = correlate_periods(x, *args, backend="numba")
+    ref, ref_counts = correlate_periods_numpy(x.astype(complex) if cplx else x.astype(float), *args)
+    np.testing.assert_array_equal(counts, ref_counts)
+    for c in range(n_ch):
+        start = first = args[0][c]
+        for k in range(periods[c]):
+            # The kernel's carrier runs on in fixed point: after the earlier periods its phase
+            # is off by at most half a 2^-32 step per sample already run.
+            drift = 2 * np.pi * 2.0**-33 * (start - first) * np.abs(x[start:start + ref_counts[c, k]]).sum()
+            bound = _bound(x, [start], [ref_counts[c, k]])[0] + drift
+            assert np.all(np.abs(sums[c, k] - ref[c, k]) <= bound)
+            start += ref_counts[c, k]
+        assert np.all(counts[c, periods[c]:] == 0)

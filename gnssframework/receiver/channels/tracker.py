@@ -1,15 +1,16 @@
 """Sample-driven tracking: channel filters on real (or generated) samples.
 
-Each channel integrates over exactly one code period of its own replica, from code
-epoch to code epoch (not fixed-length blocks): the number of samples of the next
-integration is what the code NCO needs to reach the next epoch. All channels advance one
-code period per iteration and are correlated by one call of the compiled multi-channel
-correlator (`correlator.correlate_channels`), on a buffer that streams the recording in
-blocks. The per-millisecond bookkeeping of every channel (NCO phases, sums, prompts,
-bit-sync votes) is done on arrays over the channels; Python runs per channel only when a
-channel's coherent interval is complete. The 1 ms correlators, scaled to unit-variance I and Q noise like the analytic
-model's (`gnssframework.signal.correlator_model`), are summed over the coherent interval
-in force and then handed to the channel filter exactly as `gnssframework.receiver.tracking`
+Each channel integrates over whole code periods of its own replica, from code epoch to
+code epoch (not fixed-length blocks): a period ends on the sample at which the code NCO
+reaches the next epoch. One call of the compiled multi-channel correlator
+(`correlator.correlate_periods`) runs every channel through its whole coherent interval
+(1 ms, or ``coherent_ms`` after bit synchronisation) and returns every period's sums, on
+a buffer that streams the recording in blocks; a channel ahead of the others by more
+than `LAG_LIMIT_S` waits. The per-millisecond bookkeeping (prompts for the detectors,
+bit-sync votes) is done on arrays over the channels; Python runs per channel once per
+coherent interval, to step its filter. The 1 ms sums, scaled to unit-variance I and Q
+noise like the analytic model's (`gnssframework.signal.correlator_model`), are summed
+over the coherent interval in force and then handed to the channel filter exactly as `gnssframework.receiver.tracking`
 hands them: ``checked_step({"correlators": ...})`` once per interval, whose
 ``carrier_freq_hz`` and ``code_freq_hz`` (and optional ``carrier_phase_step_rad``) steer
 the NCOs of the next interval. Filters that output errors instead (the vector-tracking
@@ -39,11 +40,13 @@ from ..frontend.recording import Recording
 from ..tracking import NCO_COMMANDS
 from .closure import ERROR_OUTPUTS, ErrorFeedback
 from .config import TrackingConfig
-from .correlator import code_tables, correlate_channels
+from .correlator import code_tables, correlate_periods
 from .lock import bit_edge_from_votes, estimate_cn0, phase_lock_indicator
 
 __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
 
+#: How far (s) a channel may run ahead of the last one before it waits.
+LAG_LIMIT_S = 0.025
 #: Interval (ms) between two evaluations of a channel's lock detectors.
 DETECT_MS = 10
 #: Channel states, in the order a channel goes through them.
@@ -172,8 +175,6 @@ class SampleTracker:
         self.doppler = np.zeros(n)  # Hz
         self.doppler_cycles = np.zeros(n)  # accumulated replica Doppler phase at start_sample
         self.ms_index = np.zeros(n, np.int64)
-        self.acc = np.zeros((n, 3), complex)
-        self.acc_n = np.zeros(n, np.int64)
         self.coherent = np.ones(n, np.int64)
         self.acc_t0 = np.zeros(n)
         self.acc_phase = np.zeros(n)
@@ -207,8 +208,6 @@ class SampleTracker:
         ch.start(stage, doppler_hz, coherent_ms)
         i = ch.slot
         self.coherent[i] = coherent_ms
-        self.acc[i] = 0.0
-        self.acc_n[i] = 0
         self.voting[i] = stage != "extended"
 
     def _samples(self, lo: int, hi: int) -> tuple[np.ndarray, int]:
@@ -245,52 +244,63 @@ class SampleTracker:
         every = int(cfg.reacquire_every_ms * 1e-3 * fs)
         next_reacq = every
         window = self.prompts.shape[1]
+        lag_limit = int(LAG_LIMIT_S * fs)
         while True:
-            idx = np.flatnonzero(self.active)
-            if idx.size == 0:  # every channel lost: only re-acquisition can go on
+            live = np.flatnonzero(self.active)
+            if live.size == 0:  # every channel lost: only re-acquisition can go on
                 if not self.channels or next_reacq >= stop:
                     break
                 self._reacquire(next_reacq, stop)
                 next_reacq += every
                 continue
+            # Each channel runs its whole coherent interval per call; one that is ahead of
+            # the last by more than LAG_LIMIT_S waits, so the buffer stays short.
+            lead = self.start_sample[live]
+            idx = live[lead <= lead.min() + lag_limit]
             steps = self.code_rate[idx] / fs
             phases = self.code_phase[idx]
-            counts = np.ceil((CA_CODE_LENGTH - phases) / steps).astype(np.int64)
+            periods = self.coherent[idx]
             starts = self.start_sample[idx]
-            if (starts + counts).max() > stop:
+            ends = starts + np.ceil((periods * CA_CODE_LENGTH - phases) / steps + 1).astype(np.int64)
+            if ends.max() > stop:
                 break
-            buf, first = self._samples(int(starts.min()), int((starts + counts).max()))
+            buf, first = self._samples(int(starts.min()), int(ends.max()))
             dop = self.doppler[idx]
             carrier0 = (self.if_hz * starts / fs) % 1.0 + self.doppler_cycles[idx]
             if tables_for is None or not np.array_equal(tables_for, idx):  # channel set changed: new tables
                 tables_for, tables = idx, code_tables(self.codes[idx])
-            corr = correlate_channels(buf, starts - first, counts, phases, steps, carrier0, (self.if_hz + dop) / fs,
-                                      self.codes[idx], self.offsets, backend=self.backend, tables=tables)
-            corr /= np.sqrt(counts * self.power / 2)[:, None]
-            # Book the code period of every channel at once.
-            fresh = self.acc_n[idx] == 0
-            self.acc_t0[idx[fresh]] = starts[fresh] / fs
-            self.acc_phase[idx[fresh]] = phases[fresh]
-            self.acc_cycles[idx[fresh]] = self.doppler_cycles[idx[fresh]]
-            self.start_sample[idx] = starts + counts
-            self.code_phase[idx] = phases + counts * steps - CA_CODE_LENGTH
-            self.doppler_cycles[idx] += counts * dop / fs
-            prompt = corr[:, 1]
-            self.prompts[idx, self.n_prompts[idx] % window] = prompt
-            self.n_prompts[idx] += 1
-            self.ms_index[idx] += 1
+            sums, counts = correlate_periods(buf, starts - first, periods, phases, steps, carrier0,
+                                             (self.if_hz + dop) / fs, self.codes[idx], self.offsets,
+                                             backend=self.backend, tables=tables)
+            valid = counts > 0
+            sums[valid] /= np.sqrt(counts[valid] * self.power / 2)[:, None]
+            total = counts.sum(axis=1)
+            self.acc_t0[idx] = starts / fs
+            self.acc_phase[idx] = phases
+            self.acc_cycles[idx] = self.doppler_cycles[idx]
+            self.start_sample[idx] = starts + total
+            self.code_phase[idx] = phases + total * steps - periods * CA_CODE_LENGTH
+            self.doppler_cycles[idx] += total * dop / fs
+            # Every millisecond's prompt (ragged over channels: row-major, k ascending).
+            rows, ks = np.nonzero(valid)
+            ch = idx[rows]
+            prompt = sums[rows, ks, 1]
+            self.prompts[ch, (self.n_prompts[ch] + ks) % window] = prompt
+            self.n_prompts[idx] += periods
+            ms = self.ms_index[ch] + ks + 1
+            self.ms_index[idx] += periods
             # Bit-sync votes: a prompt turned by more than 90 degrees from the previous one.
-            vote = self.voting[idx] & ((prompt * np.conj(self.previous_prompt[idx])).real < 0)
-            self.votes[idx[vote], self.ms_index[idx[vote]] % 20] += 1
-            self.previous_prompt[idx] = prompt
-            self.acc[idx] += corr
-            self.acc_n[idx] += 1
-            for i in idx[self.acc_n[idx] >= self.coherent[idx]]:
-                self._update(self.channels[int(i) + 1])
+            previous = np.where(ks == 0, self.previous_prompt[ch], np.roll(prompt, 1))
+            vote = self.voting[ch] & ((prompt * np.conj(previous)).real < 0)
+            np.add.at(self.votes, (ch[vote], ms[vote] % 20), 1)
+            self.previous_prompt[idx] = sums[np.arange(idx.size), periods - 1, 1]
+            interval = sums.sum(axis=1)
+            for j, i in enumerate(idx):
+                self._update(self.channels[int(i) + 1], interval[j])
             if progress is not None:
-                progress(int(starts.min()) / stop)
-            if starts.min() >= next_reacq:
-                self._reacquire(int(starts.max()), stop)
+                progress(int(lead.min()) / stop)
+            if lead.min() >= next_reacq:
+                self._reacquire(int(lead.max()), stop)
                 next_reacq += every
         return TrackingResult(self.records, list(acquisitions), stop / fs, cfg.channel_filter)
 
@@ -305,14 +315,11 @@ class SampleTracker:
                 self.records[acq.prn].events.append((at / self.fs, "re-acquired"))
                 self._add(acq.prn, acq, at)
 
-    def _update(self, c: _Channel) -> None:
-        """Channel ``c``'s coherent interval is complete: step its filter, steer its NCOs,
-        run its detectors and state machine, record the row."""
+    def _update(self, c: _Channel, acc: np.ndarray) -> None:
+        """Channel ``c``'s coherent interval is complete (its E/P/L sums ``acc``): step its
+        filter, steer its NCOs, run its detectors and state machine, record the row."""
         i = c.slot
         t0 = float(self.acc_t0[i])
-        acc = self.acc[i].copy()
-        self.acc[i] = 0.0
-        self.acc_n[i] = 0
         if c.stage == "track" and c.bit_edge is None:
             edge = bit_edge_from_votes(self.votes[i], self.config.bit_sync_votes)
             if edge is not None:
