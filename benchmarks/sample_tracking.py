@@ -14,9 +14,9 @@ of reference 002's recording), in the same run:
   the repository: the same number of channels on a gps-sdr-sim file at 2.6 and 4 MHz,
   wall time of the whole run against the library's on the same file.
 
-Ratios above 1 mean faster than real time for that many channels (channel-seconds per
-second divided by the channel count). The machine's load is printed: other jobs on the
-same cores slow every row alike.
+Tracking rows also give the wall time as a fraction of the signal's duration: below 1 is
+faster than real time for that many channels. The machine's load is printed: other jobs
+on the same cores slow every row alike, so compare rows of one run.
 """
 
 from __future__ import annotations
@@ -87,22 +87,27 @@ def tracking_rate(path: Path, channels: int, duration_s: float | None = None) ->
 
 
 def generated(fs: float, seconds: float, channels: int, folder: Path, rng: np.random.Generator) -> Path:
-    """``channels`` satellites at 45 dB-Hz, no data bits (1 ms integrations throughout: the
-    most Python work per second), written in 0.25 s chunks so memory stays bounded."""
+    """``channels`` satellites at 45 dB-Hz with data bits, written in 0.25 s chunks so memory
+    stays bounded (each chunk draws its own bits; their edges stay on the same code epochs)."""
     from gnssframework.receiver.frontend.sigmf_meta import write_sigmf_meta
     from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 
     base = [SatelliteSignal(p, 45.0, float(rng.uniform(-4000, 4000)), float(rng.uniform(0, 1023)),
-                            float(rng.uniform(0, 2 * np.pi))) for p in range(1, channels + 1)]
+                            float(rng.uniform(0, 2 * np.pi)), first_bit_code_period=int(rng.integers(0, 20)))
+            for p in range(1, channels + 1)]
     path = folder / f"gen_{fs:.0f}.bin"
     source = registry.create("sample_source", "ci8")
     chunk = 0.25
     with open(path, "wb") as fh:
         for k in range(int(round(seconds / chunk))):
             t = k * chunk
-            sats = [SatelliteSignal(b.prn, b.cn0_dbhz, b.doppler_hz,
-                                    (b.code_phase_chips + CA_CHIP_RATE_HZ * (1 + b.doppler_hz / L1_FREQ_HZ) * t) % 1023,
-                                    b.carrier_phase_rad + 2 * np.pi * b.doppler_hz * t) for b in base]
+            sats = []
+            for b in base:
+                chips = b.code_phase_chips + CA_CHIP_RATE_HZ * (1 + b.doppler_hz / L1_FREQ_HZ) * t
+                first_epoch = int(np.ceil(chips / 1023)) - 1  # index of the chunk's first code epoch
+                sats.append(SatelliteSignal(b.prn, b.cn0_dbhz, b.doppler_hz, chips % 1023,
+                                            b.carrier_phase_rad + 2 * np.pi * b.doppler_hz * t,
+                                            first_bit_code_period=(b.first_bit_code_period - first_epoch) % 20))
             fh.write(source.encode(8.0 * synthesize_samples(sats, chunk, fs, 0.0, rng)))
     write_sigmf_meta(path.with_suffix(".sigmf-meta"), format="ci8", sigmf_datatype="ci8", sample_rate_hz=fs,
                      if_hz=0.0)
@@ -190,7 +195,8 @@ def main(argv: list[str] | None = None) -> None:
         r = correlation_rates(fs, args.channels, rng)
         print(f"{fs / 1e6:9.4f} {r['compiled']:10.1f} {r['numpy reference']:10.2f} {r['correlate_if']:13.2f} "
               f"{r['compiled'] / r['correlate_if']:12.0f}")
-    print(f"\ntracking ({args.seconds} s generated without data bits, scalar), channel-seconds per second; real time for "
+    print(f"\ntracking ({args.seconds} s generated, scalar: 1 ms until bit sync, then 10 ms), channel-seconds per "
+          f"second; real time for "
           f"{args.channels} channels = {args.channels}")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)

@@ -48,7 +48,7 @@ __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD
 #: How far (s) a channel may run ahead of the last one before it waits.
 LAG_LIMIT_S = 0.025
 #: Interval (ms) between two evaluations of a channel's lock detectors.
-DETECT_MS = 10
+DETECT_MS = 20
 #: Channel states, in the order a channel goes through them.
 STAGES = ("pull-in", "track", "extended", "lost")
 #: Columns of a channel's record (one row per channel-filter update).
