@@ -77,7 +77,8 @@ def tracking_rate(path: Path, channels: int, duration_s: float | None = None) ->
     """(channel-seconds per second, wall seconds, channels) of tracking a recording."""
     rec = open_recording(path)
     acq = registry.create("acquisition", "pcps")
-    found = [r for r in acquire_recording(rec, acq) if r.detected][:channels]
+    detected = [r for r in acquire_recording(rec, acq) if r.detected]
+    found = sorted(detected, key=lambda r: -r.test_statistic)[:channels]  # the strongest, as GNSS-SDR's channels
     tracker = SampleTracker(rec, tracking_config(), acq)
     tracker.run(found, 0.05)  # warm: compiled kernels loaded
     t = time.perf_counter()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Optional
 
 import numpy as np
@@ -25,6 +26,9 @@ class PcpsParams(PluginParams):
     fine_step_hz: Optional[float] = Field(None, gt=0, description="fine-search step around the coarse peak; "
                                           "null: 1/(20T)")
     pfa: float = Field(1e-3, gt=0, lt=1, description="false-alarm probability of one PRN's whole search")
+    xcorr_margin_db: Optional[float] = Field(
+        17.0, gt=0, description="drop a detection whose C/N0 estimate is more than this below the strongest one's: "
+        "a C/A cross-correlation sidelobe of a strong signal; null keeps every detection")
 
 
 class ParallelCodePhaseSearch(Acquisition):
@@ -84,4 +88,8 @@ class ParallelCodePhaseSearch(Acquisition):
             chips = float((-s * CA_CHIP_RATE_HZ / sample_rate_hz) % CA_CODE_LENGTH)
             results.append(AcquisitionResult(int(prn), stat > threshold, float(fine[j]), int(s % n), chips,
                                              float(10 * np.log10(c)), stat, threshold))
+        found = [r.cn0_dbhz for r in results if r.detected]
+        if p.xcorr_margin_db is not None and found:
+            floor = max(found) - p.xcorr_margin_db
+            results = [replace(r, detected=False) if r.detected and r.cn0_dbhz < floor else r for r in results]
         return results

@@ -131,3 +131,16 @@ def test_acquire_command_says_what_it_searched_when_nothing_is_found(tmp_path, c
     said = capsys.readouterr().out
     assert code == 1 and "nothing found" in said and "PRN 3, 17, 28" in said and "--fs" in said
     assert main(["acquire", str(path), "--format", "ci3", "--fs", "4e6", "--out", str(tmp_path / "a.csv")]) == 2
+
+
+def test_cross_correlation_of_a_strong_signal_is_not_reported_as_satellites():
+    """A 70 dB-Hz satellite raises other PRNs' grids at its codes' cross-correlation
+    (up to -23.9 dB): detections that the noise threshold cannot refuse. The margin drops
+    them and keeps the satellite; without it they are reported."""
+    rng = np.random.default_rng(14)
+    fs = 2.6e6
+    x = synthesize_samples([SatelliteSignal(7, 70.0, 1500.0, 200.0)], 0.008, fs, 0.0, rng)
+    raw = registry.create("acquisition", "pcps", xcorr_margin_db=None).acquire(x, fs, 0.0)
+    guarded = registry.create("acquisition", "pcps").acquire(x, fs, 0.0)
+    assert len([r for r in raw if r.detected]) > 1  # sidelobes pass the noise threshold
+    assert [r.prn for r in guarded if r.detected] == [7]

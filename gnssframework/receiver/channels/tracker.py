@@ -107,6 +107,8 @@ class _Channel:
         self.cn0_dbhz = 0.0
         self.pli = 0.0
         self.locked = False
+        self.failures = 0  # pull-ins in a row that ended without lock
+        self.retry_at = 0  # first sample at which re-acquisition may try again
 
     def start(self, stage: str, doppler_hz: float, coherent_ms: int) -> None:
         c = self.config
@@ -305,7 +307,7 @@ class SampleTracker:
         return TrackingResult(self.records, list(acquisitions), stop / fs, cfg.channel_filter)
 
     def _reacquire(self, at: int, stop: int) -> None:
-        lost = tuple(p for p, c in self.channels.items() if c.stage == "lost")
+        lost = tuple(p for p, c in self.channels.items() if c.stage == "lost" and c.retry_at <= at)
         need = self.acquisition.samples_needed(self.fs)
         if not lost or at + need > stop:
             return
@@ -387,6 +389,7 @@ class SampleTracker:
         c.unlocked_ms = 0 if c.locked else c.unlocked_ms + c.coherent_ms
         if c.stage == "pull-in":
             if c.locked and c.stage_ms >= cfg.lock_window_ms:
+                c.failures = 0
                 c.record.events.append((t0, "locked: tracking with " + cfg.channel_filter))
                 self._start(c, "track", float(self.doppler[c.slot]), 1)
             elif c.stage_ms >= cfg.pull_in_ms:
@@ -402,6 +405,13 @@ class SampleTracker:
             self._start(c, "extended", float(self.doppler[c.slot]), cfg.coherent_ms)
 
     def _lose(self, c: _Channel, t0: float, why: str) -> None:
+        """Hand the channel back to acquisition. A satellite whose pull-ins keep failing (a
+        false detection, a signal too weak to lock) is searched again after 1, 2, 4 ...
+        up to 32 re-acquisition intervals, so it does not cost a search every interval."""
+        if c.stage == "pull-in":
+            c.failures += 1
         c.stage = "lost"
         self.active[c.slot] = False
+        wait = self.config.reacquire_every_ms * 1e-3 * self.fs * 2 ** min(max(c.failures - 1, 0), 5)
+        c.retry_at = int(self.start_sample[c.slot] + wait)
         c.record.events.append((t0, f"lost: {why}; back to acquisition"))
