@@ -173,3 +173,28 @@ def test_the_real_12mhz_if_slice_gives_strong_satellites_15_ms_apart():
     assert len(strong) >= 6 and set(strong) <= set(later)
     for prn, r in strong.items():
         assert abs(later[prn].doppler_hz - r.doppler_hz) <= 250.0
+
+
+def test_the_numpy_reference_path_tracks_like_the_compiled_one(one_sat):
+    """The whole tracker on the NumPy reference correlator: the same stages and, within
+    the carrier table's effect on the loops, the same code phases and Doppler."""
+    acq = registry.create("acquisition", "pcps")
+    found = [r for r in acquire_recording(one_sat, acq) if r.detected]
+    runs = {b: SampleTracker(one_sat, tracking_config(), acq, backend=b).run(found, 0.3).channels[SAT.prn]
+            for b in ("numba", "numpy")}
+    fast, ref = runs["numba"], runs["numpy"]
+    assert [e for _, e in fast.events] == [e for _, e in ref.events]
+    np.testing.assert_array_equal(fast.column("stage"), ref.column("stage"))
+    # Same code epochs to a sample; the loops' states differ by the table's rounding only.
+    assert np.max(np.abs(fast.column("time_s") - ref.column("time_s"))) <= 1 / FS
+    assert np.max(np.abs(fast.column("doppler_hz") - ref.column("doppler_hz"))) < 0.5
+
+
+def test_track_command_refuses_a_recording_shorter_than_the_acquisition(tmp_path, capsys):
+    from gnssframework.cli import main
+
+    path = tmp_path / "short.bin"
+    path.write_bytes(bytes(2 * 4000))  # 1 ms of ci8 at 4 MHz; the search needs 8 ms
+    code = main(["track", str(path), "--format", "ci8", "--fs", "4e6", "--out", str(tmp_path / "t")])
+    err = capsys.readouterr().err
+    assert code == 2 and "acquisition needs 32000 samples" in err and err.count("\n") == 1
