@@ -189,6 +189,8 @@ def _cmd_track(args: argparse.Namespace) -> int:
         settings["coherent_ms"] = args.coherent_ms_track
     if args.cn0_estimator is not None:
         settings["cn0_estimator"] = args.cn0_estimator
+    if args.early_late_spacing is not None:
+        settings["early_late_spacing_chips"] = args.early_late_spacing
     config = tracking_config(**settings)
     if args.duration is not None and not args.duration > 0:
         raise ConfigError("--duration", f"must be > 0 s, got {args.duration}")
@@ -299,6 +301,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--coherent-ms-track", type=int, metavar="MS",
                    help="coherent integration after bit synchronisation (1, 2, 4, 5, 10 or 20; default 10)")
     p.add_argument("--cn0-estimator", choices=["nwpr", "moments"], help="C/N0 estimator (default nwpr)")
+    p.add_argument("--early-late-spacing", type=float, metavar="CHIPS",
+                   help="early-to-late correlator spacing (default 1.0)")
     p.add_argument("--no-plots", action="store_true", help="no plots")
     p.set_defaults(func=_cmd_track)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")

@@ -141,6 +141,8 @@ def test_track_command_writes_the_csv_summary_and_plots(one_sat, tmp_path, capsy
     assert (out / "plots" / "cn0_lock_doppler.png").stat().st_size > 0
     assert "locked" in (out / "events.txt").read_text()
     assert main(["track", str(one_sat.path), "--out", str(out), "--channel-params", "{bad"]) == 2
+    assert main(["track", str(one_sat.path), "--out", str(out), "--early-late-spacing", "3"]) == 2
+    assert "tracking.early_late_spacing_chips" in capsys.readouterr().err
 
 
 def test_real_if_samples_track_like_complex_ones(tmp_path):
