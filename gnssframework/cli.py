@@ -159,6 +159,112 @@ def _cmd_schema(args: argparse.Namespace) -> int:
     return 0
 
 
+def _open_recording_from_args(args: argparse.Namespace):
+    from .receiver.frontend import open_recording
+
+    return open_recording(args.recording, format=args.format, sample_rate_hz=args.fs, if_hz=args.if_hz,
+                          q_sign=args.q_sign)
+
+
+def _acquisition_from_args(args: argparse.Namespace):
+    params = {k: v for k, v in (("coherent_ms", args.coherent_ms), ("noncoherent", args.noncoherent),
+                                ("doppler_max_hz", args.doppler_max), ("pfa", args.pfa)) if v is not None}
+    return registry.create("acquisition", args.acquisition, **params)
+
+
+def _prns_from_args(args: argparse.Namespace) -> tuple[int, ...]:
+    from .signal.codes import G2_TAPS
+
+    prns = tuple(args.prns) if args.prns else tuple(range(1, 33))
+    bad = [p for p in prns if p not in G2_TAPS]
+    if bad:
+        raise ConfigError("--prns", f"GPS C/A PRNs are 1-32, got {bad}")
+    return prns
+
+
+def _cmd_acquire(args: argparse.Namespace) -> int:
+    from .receiver.acquisition.report import acquire_recording, search_summary, write_acquisition_csv
+
+    rec = _open_recording_from_args(args)
+    acq = _acquisition_from_args(args)
+    prns = _prns_from_args(args)
+    results = acquire_recording(rec, acq, prns)
+    if rec.trailing_bytes:
+        print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
+    if args.verbose:
+        for r in results:
+            print(f"PRN {r.prn:2d}: statistic {r.test_statistic:8.2f} (threshold {r.threshold:.2f}) "
+                  f"{'FOUND' if r.detected else 'no'}  doppler {r.doppler_hz:8.1f} Hz  code phase "
+                  f"{r.code_phase_chips:8.3f} chips  C/N0 {r.cn0_dbhz:5.1f} dB-Hz")
+    write_acquisition_csv(args.out, results)
+    found = [r for r in results if r.detected]
+    if not found:
+        print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
+              "the format (--format) and, for a large frequency offset, --doppler-max; wrote an empty "
+              f"{args.out}")
+        return 1
+    print(f"{len(found)} satellites found ({', '.join(str(r.prn) for r in found)}); wrote {args.out}")
+    return 0
+
+
+def _cmd_track(args: argparse.Namespace) -> int:
+    import json
+
+    from .receiver.acquisition.report import acquire_recording, search_summary
+    from .receiver.channels import SampleTracker, tracking_config
+    from .receiver.channels.report import channel_summary, write_tracking_outputs
+
+    rec = _open_recording_from_args(args)
+    acq = _acquisition_from_args(args)
+    prns = _prns_from_args(args)
+    try:
+        params = json.loads(args.channel_params) if args.channel_params else {}
+    except json.JSONDecodeError as exc:
+        raise ConfigError("--channel-params", f"not JSON: {exc.msg}") from None
+    settings = {"channel_filter": args.channel_filter, "channel_params": params}
+    if args.coherent_ms_track is not None:
+        settings["coherent_ms"] = args.coherent_ms_track
+    if args.cn0_estimator is not None:
+        settings["cn0_estimator"] = args.cn0_estimator
+    if args.early_late_spacing is not None:
+        settings["early_late_spacing_chips"] = args.early_late_spacing
+    config = tracking_config(**settings)
+    if args.duration is not None and not args.duration > 0:
+        raise ConfigError("--duration", f"must be > 0 s, got {args.duration}")
+    tracker = SampleTracker(rec, config, acq)
+    if rec.trailing_bytes:
+        print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
+    found = [r for r in acquire_recording(rec, acq, prns) if r.detected]
+    if not found:
+        print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
+              "the format (--format) and --doppler-max; nothing tracked")
+        return 1
+    result = tracker.run(found, args.duration)
+    written = write_tracking_outputs(args.out, result, plots=not args.no_plots)
+    print(f"tracked {len(found)} satellites for {result.duration_s:.3f} s with {config.channel_filter}:")
+    for s in channel_summary(result):
+        print(f"  PRN {s['prn']:2d}: locked {100 * s['locked_fraction']:5.1f} % of {s['tracked_s']:.2f} s, "
+              f"C/N0 {s['cn0_dbhz_locked']:5.1f} dB-Hz, Doppler {s['doppler_hz_last']:9.1f} Hz, "
+              f"{s['final_stage']}")
+    print(f"wrote {', '.join(str(p) for p in written)}")
+    return 0
+
+
+def _add_recording_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("recording", help="sample file (a SigMF .sigmf-meta beside it gives format, rate and IF)")
+    p.add_argument("--format", help="sample format: ri8, ci8, ci16_le, cf32_le (SigMF names), ri2/ci2 (2-bit "
+                                    "packed) or a plugin's")
+    p.add_argument("--fs", type=float, metavar="HZ", help="sample rate")
+    p.add_argument("--if", dest="if_hz", type=float, metavar="HZ", help="intermediate frequency (default 0)")
+    p.add_argument("--q-sign", type=int, choices=[1, -1], help="-1 for a front end whose Q branch is inverted")
+    p.add_argument("--acquisition", default="pcps", help="acquisition plugin (default %(default)s)")
+    p.add_argument("--coherent-ms", type=int, help="coherent integration (code periods)")
+    p.add_argument("--noncoherent", type=int, help="non-coherent sums")
+    p.add_argument("--doppler-max", type=float, metavar="HZ", help="Doppler search range +-")
+    p.add_argument("--pfa", type=float, help="false-alarm probability of one PRN's search")
+    p.add_argument("--prns", type=int, nargs="+", help="PRNs to search (default 1-32)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
@@ -224,6 +330,32 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--strict", action="store_true",
                    help="refuse the file at the first bad epoch or observation, or a truncation (exit 2)")
     p.set_defaults(func=_cmd_smooth)
+    p = sub.add_parser("acquire", help="find the GPS L1 C/A satellites in a recording of front-end samples",
+                       description="FFT parallel code-phase search of every PRN; one CSV row per satellite found. "
+                                   "Exit 1 when nothing is found (the message says what was searched), 2 for bad "
+                                   "options or files.")
+    _add_recording_options(p)
+    p.add_argument("--out", required=True, help="output CSV")
+    p.add_argument("-v", "--verbose", action="store_true", help="a line per PRN searched")
+    p.set_defaults(func=_cmd_acquire)
+    p = sub.add_parser("track", help="acquire and track the satellites of a recording with a channel filter",
+                       description="Acquire, then track every satellite found with the chosen channel_filter plugin "
+                                   "(pull-in, FLL-assisted PLL, bit synchronisation, extended integration; a channel "
+                                   "that loses lock goes back to acquisition). Writes DIR/tracking.csv, "
+                                   "DIR/summary.csv, DIR/events.txt and DIR/plots/. Exit 1 when nothing is found, 2 "
+                                   "for bad options or files.")
+    _add_recording_options(p)
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--duration", type=float, metavar="S", help="seconds of the recording to track (default: all)")
+    p.add_argument("--channel-filter", default="scalar", help="channel_filter plugin (default %(default)s)")
+    p.add_argument("--channel-params", metavar="JSON", help='its parameters, e.g. \'{"pll_bandwidth_hz": 10}\'')
+    p.add_argument("--coherent-ms-track", type=int, metavar="MS",
+                   help="coherent integration after bit synchronisation (1, 2, 4, 5, 10 or 20; default 10)")
+    p.add_argument("--cn0-estimator", choices=["nwpr", "moments"], help="C/N0 estimator (default nwpr)")
+    p.add_argument("--early-late-spacing", type=float, metavar="CHIPS",
+                   help="early-to-late correlator spacing (default 1.0)")
+    p.add_argument("--no-plots", action="store_true", help="no plots")
+    p.set_defaults(func=_cmd_track)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
     p.set_defaults(func=_cmd_schema)
     return parser

@@ -29,8 +29,9 @@ Register = Callable[[type], None]
 #: The plugin kinds a comparison candidate composes.
 COMPONENT_KINDS = ("estimator", "noise_adapter", "augmentation", "discriminator", "channel_filter", "nav_filter")
 #: Every plugin kind, in the order the CLI lists them: the components, then the metrics a
-#: scenario reports and the scenarios themselves.
-KINDS = COMPONENT_KINDS + ("metric", "scenario")
+#: scenario reports, the scenarios themselves, and the receiver's front end (sample formats
+#: and acquisition).
+KINDS = COMPONENT_KINDS + ("metric", "scenario", "sample_source", "acquisition")
 
 
 @hookspec
@@ -72,3 +73,15 @@ def register_metric(register: Register) -> None:
 def register_scenario(register: Register) -> None:
     """Register scenario kinds (subclasses of ``gnssframework.experiments.scenarios.Scenario``;
     a scenario's registry name is its ``kind``)."""
+
+
+@hookspec
+def register_sample_source(register: Register) -> None:
+    """Register recording formats (subclasses of
+    ``gnssframework.receiver.frontend.SampleSource``)."""
+
+
+@hookspec
+def register_acquisition(register: Register) -> None:
+    """Register signal acquisitions (subclasses of
+    ``gnssframework.receiver.acquisition.Acquisition``)."""

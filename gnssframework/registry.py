@@ -57,6 +57,8 @@ BASES: dict[str, type | str] = {
     # Imported when first needed (they import this module): "module:Class".
     "metric": "gnssframework.experiments.metrics:Metric",
     "scenario": "gnssframework.experiments.scenarios:Scenario",
+    "sample_source": "gnssframework.receiver.frontend.source:SampleSource",
+    "acquisition": "gnssframework.receiver.acquisition.search:Acquisition",
 }
 
 #: Modules of the core package that implement registration hooks (the core's own

@@ -8,9 +8,11 @@ from __future__ import annotations
 
 from gnssframework import hookimpl
 
+from .acquisition import ParallelCodePhaseSearch
 from .adapters import InnovationAdapter, MaximumLikelihoodQAdapter, OracleGrid, SageHusaAdapter
 from .augmentations import ColoredAR1
 from .channel_filters import DiscriminatorChannel, IqFilter, KalmanCarrierLoop, ScalarTrackingLoop
+from .sample_sources import ComplexFloat32, ComplexInt8, ComplexInt16, ComplexPacked2, RealInt8, RealPacked2
 from .smoothers import HatchFilter, KalmanSmoother
 from .nav_filters import EkfPositionVelocity, PositionConstantAcceleration
 from .ins_filters import InsEkf
@@ -68,3 +70,14 @@ def register_nav_filter(register):
     register(EkfPositionVelocity)
     register(PositionConstantAcceleration)
     register(InsEkf)
+
+
+@hookimpl
+def register_sample_source(register):
+    for cls in (RealInt8, ComplexInt8, ComplexInt16, ComplexFloat32, RealPacked2, ComplexPacked2):
+        register(cls)
+
+
+@hookimpl
+def register_acquisition(register):
+    register(ParallelCodePhaseSearch)

@@ -24,8 +24,8 @@ def builtin_names(kind: str) -> list[str]:
 
 
 def test_kinds_and_builtin_names():
-    assert registry.kinds() == ["augmentation", "channel_filter", "discriminator", "estimator",
-                                "metric", "nav_filter", "noise_adapter", "scenario"]
+    assert registry.kinds() == ["acquisition", "augmentation", "channel_filter", "discriminator", "estimator",
+                                "metric", "nav_filter", "noise_adapter", "sample_source", "scenario"]
     assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
     assert builtin_names("scenario") == ["carrier-smoothing", "deep-integration", "multipath", "scintillation",
                                          "vector-tracking"]
@@ -89,7 +89,7 @@ def test_unknown_name_lists_known_ones_and_the_closest():
         registry.create("estimator", "svdckf")
     msg = str(err.value)
     assert f"known: {', '.join(registry.names('estimator'))};" in msg and "did you mean 'svd-ckf'" in msg
-    with pytest.raises(gf.ConfigError, match="unknown plugin kind 'estimators'; allowed: augmentation"):
+    with pytest.raises(gf.ConfigError, match="unknown plugin kind 'estimators'; allowed: acquisition, augmentation"):
         registry.names("estimators")
 
 

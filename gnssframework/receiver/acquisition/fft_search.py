@@ -1,0 +1,75 @@
+r"""Parallel code-phase search: one FFT correlation per Doppler bin and coherent block.
+
+For a block :math:`x_k[n]` of :math:`N` samples (the coherent time), the circular
+correlation with the sampled code :math:`c[n]` at every lag at once is
+
+.. math:: z_k[s] = \mathrm{IFFT}\big(\mathrm{FFT}(x_k[n] e^{-j 2\pi (f_{IF} + f_D) t_n})
+          \cdot \overline{\mathrm{FFT}(c[n])}\big)[s]
+
+(Borre et al., *A Software-Defined GPS and Galileo Receiver*, 2007, sec. 6.3; van
+Nee & Coenen 1991). The Doppler-wiped blocks' FFTs do not depend on the PRN, so they are
+computed once for every satellite.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import fft
+
+from ...signal.codes import ca_code
+from ...signal.constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH
+
+__all__ = ["code_replica", "search_grid", "fine_doppler"]
+
+#: Complex elements of one Doppler chunk of wiped blocks (bounds the memory of a search).
+_CHUNK_ELEMENTS = 1 << 23
+
+
+def code_replica(prn: int, n_samples: int, sample_rate_hz: float, chip_offset: float = 0.0) -> np.ndarray:
+    """``n_samples`` of the ±1 C/A code sampled at ``sample_rate_hz``, chip 0 at sample 0 (``float32``)."""
+    chips = np.floor(chip_offset + np.arange(n_samples) * (CA_CHIP_RATE_HZ / sample_rate_hz)).astype(np.int64)
+    return ca_code(prn)[chips % CA_CODE_LENGTH].astype(np.float32)
+
+
+def _blocks(samples: np.ndarray, n: int, noncoherent: int) -> np.ndarray:
+    return np.asarray(samples[:n * noncoherent]).reshape(noncoherent, n)
+
+
+def _wiped_spectra(blocks: np.ndarray, dopplers_hz: np.ndarray, sample_rate_hz: float, if_hz: float) -> np.ndarray:
+    """``(n_doppler, K, N)`` FFTs of the blocks after carrier wipe-off (time continuous across blocks)."""
+    K, N = blocks.shape
+    t = (np.arange(K * N) / sample_rate_hz).reshape(K, N)
+    carrier = np.exp(-2j * np.pi * (if_hz + dopplers_hz[:, None, None]) * t).astype(np.complex64)
+    return fft.fft(blocks[None].astype(np.complex64) * carrier, axis=-1, workers=1)
+
+
+def search_grid(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prns: tuple[int, ...],
+                coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray) -> np.ndarray:
+    """Raw grid :math:`\\sum_k |z_k[s]|^2` per PRN, Doppler bin and code lag: ``(n_prn, n_doppler, N)``.
+
+    ``samples`` must hold ``noncoherent`` blocks of ``N = round(coherent_time_s * fs)``.
+    """
+    n = int(round(coherent_time_s * sample_rate_hz))
+    blocks = _blocks(samples, n, noncoherent)
+    codes = np.stack([fft.fft(code_replica(p, n, sample_rate_hz), workers=1).conj() for p in prns])
+    out = np.empty((len(prns), dopplers_hz.size, n), np.float32)
+    step = max(1, _CHUNK_ELEMENTS // (noncoherent * n))
+    for lo in range(0, dopplers_hz.size, step):
+        spectra = _wiped_spectra(blocks, dopplers_hz[lo:lo + step], sample_rate_hz, if_hz)
+        for i in range(len(prns)):
+            z = fft.ifft(spectra * codes[i], axis=-1, workers=1)
+            out[i, lo:lo + step] = np.sum(z.real**2 + z.imag**2, axis=1)
+    return out
+
+
+def fine_doppler(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn: int, code_start_sample: int,
+                 coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray) -> np.ndarray:
+    """Raw :math:`\\sum_k |z_k|^2` at one code lag for each of ``dopplers_hz`` (the fine search)."""
+    n = int(round(coherent_time_s * sample_rate_hz))
+    blocks = _blocks(samples, n, noncoherent)
+    replica = np.roll(code_replica(prn, n, sample_rate_hz), code_start_sample)
+    K = blocks.shape[0]
+    t = (np.arange(K * n) / sample_rate_hz).reshape(K, n)
+    z = np.einsum("kn,dkn->dk", blocks * replica,
+                  np.exp(-2j * np.pi * (if_hz + dopplers_hz[:, None, None]) * t))
+    return np.sum(np.abs(z) ** 2, axis=1)

@@ -1,0 +1,43 @@
+"""Acquisition of a recording and its CSV: what the ``acquire`` command does."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+from ...experiments.files import atomic_open
+from ..frontend.recording import Recording
+from .search import Acquisition, AcquisitionResult
+
+__all__ = ["acquire_recording", "write_acquisition_csv", "search_summary", "CSV_COLUMNS"]
+
+CSV_COLUMNS = ("prn", "doppler_hz", "code_phase_chips", "code_phase_samples", "cn0_dbhz", "test_statistic")
+
+
+def acquire_recording(recording: Recording, acquisition: Acquisition, prns: tuple[int, ...] = tuple(range(1, 33)),
+                      start_sample: int = 0) -> list[AcquisitionResult]:
+    """Run ``acquisition`` on the samples it needs from ``start_sample`` of ``recording``."""
+    fs = recording.info.sample_rate_hz
+    samples = recording.read(start_sample, acquisition.samples_needed(fs))
+    return acquisition.acquire(samples, fs, recording.info.if_hz, prns)
+
+
+def search_summary(recording: Recording, acquisition: Acquisition, prns: tuple[int, ...]) -> str:
+    """What was searched, for the "nothing found" message."""
+    p = acquisition.params
+    what = ", ".join(f"{k} {v}" for k, v in p.model_dump().items() if v is not None)
+    contiguous = list(prns) == list(range(min(prns), max(prns) + 1))
+    which = f"{min(prns)}-{max(prns)}" if contiguous else ", ".join(str(p) for p in prns)
+    return (f"searched PRN {which} ({len(prns)} PRNs) with {acquisition.name} ({what}) in "
+            f"{recording.path.name} read as {recording.info.describe()}")
+
+
+def write_acquisition_csv(path: str | Path, results: list[AcquisitionResult]) -> None:
+    """One row per detected satellite, columns `CSV_COLUMNS`."""
+    with atomic_open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(CSV_COLUMNS)
+        for r in results:
+            if r.detected:
+                w.writerow([r.prn, f"{r.doppler_hz:.1f}", f"{r.code_phase_chips:.3f}", r.code_phase_samples,
+                            f"{r.cn0_dbhz:.1f}", f"{r.test_statistic:.2f}"])

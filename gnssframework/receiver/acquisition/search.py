@@ -1,0 +1,64 @@
+"""The ``acquisition`` plugin kind and what an acquisition reports per satellite."""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...plugin import Plugin
+
+__all__ = ["Acquisition", "AcquisitionResult"]
+
+
+@dataclass(frozen=True)
+class AcquisitionResult:
+    """One PRN's search.
+
+    Attributes
+    ----------
+    prn
+        Satellite searched.
+    detected
+        Whether the test statistic crossed the threshold.
+    doppler_hz
+        Carrier Doppler (relative to the IF) of the peak, after the fine search.
+    code_phase_samples
+        First sample at which a code period starts (the replica's chip 0), in
+        ``[0, samples per code period)``: where tracking starts.
+    code_phase_chips
+        Code phase at the first sample of the searched data, in ``[0, 1023)``: chips
+        the signal had already sent at sample 0 (a generator's ``code_phase_chips``).
+    cn0_dbhz
+        C/N0 estimated from the peak power and the noise floor (biased low by the
+        residual code-phase and Doppler offsets of the grid).
+    test_statistic
+        Peak of the normalised statistic (non-coherent sum of ``|z|^2/sigma^2``).
+    threshold
+        The statistic's threshold for the stated false-alarm probability.
+    """
+
+    prn: int
+    detected: bool
+    doppler_hz: float
+    code_phase_samples: int
+    code_phase_chips: float
+    cn0_dbhz: float
+    test_statistic: float
+    threshold: float
+
+
+class Acquisition(Plugin, abc.ABC):
+    """Plugin kind ``acquisition``: find the satellites in a stretch of samples."""
+
+    kind = "acquisition"
+
+    @abc.abstractmethod
+    def samples_needed(self, sample_rate_hz: float) -> int:
+        """Samples the search reads from the start of the recording."""
+
+    @abc.abstractmethod
+    def acquire(self, samples: np.ndarray, sample_rate_hz: float, if_hz: float,
+                prns: tuple[int, ...] = tuple(range(1, 33))) -> list[AcquisitionResult]:
+        """Search ``prns`` in ``samples`` (complex, or real at ``if_hz``); one result per PRN."""

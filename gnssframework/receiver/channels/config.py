@@ -1,0 +1,55 @@
+"""Settings of sample-driven tracking (validated; errors name the field)."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from ...plugin import validation_message
+
+__all__ = ["TrackingConfig", "tracking_config"]
+
+
+class TrackingConfig(BaseModel):
+    """How channels are pulled in, tracked, declared locked or lost.
+
+    The channel state machine: ``pull-in`` (the ``pull_in_filter``, an FLL-assisted PLL
+    at 1 ms) until the lock detectors hold for ``lock_window_ms``; then ``track`` (the
+    chosen ``channel_filter`` at 1 ms) while bit synchronisation collects its histogram;
+    then ``extended`` (the same filter re-started with ``coherent_ms`` integrations
+    aligned to the bit edges, its FLL assist switched off where it has one: PLL only);
+    ``lost`` after ``loss_ms`` without lock, when the channel goes back to acquisition.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    channel_filter: str = Field("scalar", description="channel_filter plugin of the tracking stages")
+    channel_params: dict[str, Any] = Field(default_factory=dict, description="its parameters")
+    pull_in_filter: str = Field("scalar", description="channel_filter plugin of the pull-in stage")
+    pull_in_params: dict[str, Any] = Field(
+        default_factory=lambda: {"pll_bandwidth_hz": 18.0, "fll_bandwidth_hz": 10.0, "dll_bandwidth_hz": 2.0},
+        description="its parameters (an FLL-assisted PLL with wide bandwidths)")
+    early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0, description="early-to-late correlator spacing")
+    coherent_ms: Literal[1, 2, 4, 5, 10, 20] = Field(
+        10, description="coherent integration after bit synchronisation (divides a 20 ms bit)")
+    pull_in_ms: int = Field(500, ge=20, description="time allowed to reach lock before the channel is dropped")
+    lock_window_ms: int = Field(40, ge=10, description="window of the phase-lock indicator")
+    pli_threshold: float = Field(0.5, ge=-1, le=1, description="phase lock: PLI above this")
+    cn0_threshold_dbhz: float = Field(27.0, description="lock: C/N0 estimate above this")
+    cn0_estimator: Literal["nwpr", "moments"] = Field("nwpr", description="C/N0 estimator")
+    cn0_window_ms: int = Field(400, ge=40, description="window of the C/N0 estimate")
+    loss_ms: int = Field(200, ge=10, description="time out of lock after which a channel is lost")
+    bit_sync_votes: int = Field(6, ge=2, description="sign changes needed to decide the bit edge")
+    reacquire_every_ms: int = Field(1000, ge=10, description="interval of re-acquisition of lost satellites")
+    closure_fll_bandwidth_hz: float = Field(10.0, gt=0, description="FLL closing an error-output filter")
+    closure_dll_bandwidth_hz: float = Field(2.0, gt=0, description="DLL closing an error-output filter")
+    block_ms: int = Field(100, ge=10, description="samples read at a time (memory bound)")
+
+
+def tracking_config(**values: Any) -> TrackingConfig:
+    """A `TrackingConfig`; a bad value raises `ConfigError` naming the field."""
+    try:
+        return TrackingConfig(**values)
+    except ValidationError as exc:
+        raise validation_message(exc, prefix="tracking", model=TrackingConfig) from None

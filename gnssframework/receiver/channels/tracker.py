@@ -1,0 +1,417 @@
+"""Sample-driven tracking: channel filters on real (or generated) samples.
+
+Each channel integrates over whole code periods of its own replica, from code epoch to
+code epoch (not fixed-length blocks): a period ends on the sample at which the code NCO
+reaches the next epoch. One call of the compiled multi-channel correlator
+(`correlator.correlate_periods`) runs every channel through its whole coherent interval
+(1 ms, or ``coherent_ms`` after bit synchronisation) and returns every period's sums, on
+a buffer that streams the recording in blocks; a channel ahead of the others by more
+than `LAG_LIMIT_S` waits. The per-millisecond bookkeeping (prompts for the detectors,
+bit-sync votes) is done on arrays over the channels; Python runs per channel once per
+coherent interval, to step its filter. The 1 ms sums, scaled to unit-variance I and Q
+noise like the analytic model's (`gnssframework.signal.correlator_model`), are summed
+over the coherent interval in force and then handed to the channel filter exactly as `gnssframework.receiver.tracking`
+hands them: ``checked_step({"correlators": ...})`` once per interval, whose
+``carrier_freq_hz`` and ``code_freq_hz`` (and optional ``carrier_phase_step_rad``) steer
+the NCOs of the next interval. Filters that output errors instead (the vector-tracking
+channel filters) are closed by `closure.ErrorFeedback`.
+
+Noise scaling: the I and Q noise of a 1 ms sum of N samples of power P (one real or
+complex sample's mean square) against a ±1 code and a unit carrier is N P / 2 per
+component for white noise; the scale is measured on every block read.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ... import registry
+from ...errors import ConfigError
+from ...interfaces import ChannelFilter, RunContext
+from ...signal.codes import ca_code
+from ...signal.constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH, L1_FREQ_HZ
+from ...signal.correlator_model import tap_offsets
+from ...signal.correlators import Correlators
+from ..acquisition.search import Acquisition, AcquisitionResult
+from ..frontend.recording import Recording
+from ..tracking import NCO_COMMANDS
+from .closure import ERROR_OUTPUTS, ErrorFeedback
+from .config import TrackingConfig
+from .correlator import code_tables, correlate_periods
+from .lock import bit_edge_from_votes, estimate_cn0, phase_lock_indicator
+
+__all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
+
+#: How far (s) a channel may run ahead of the last one before it waits.
+LAG_LIMIT_S = 0.025
+#: Interval (ms) between two evaluations of a channel's lock detectors.
+DETECT_MS = 20
+#: Channel states, in the order a channel goes through them.
+STAGES = ("pull-in", "track", "extended", "lost")
+#: Columns of a channel's record (one row per channel-filter update).
+RECORD_FIELDS = ("time_s", "cn0_dbhz", "pli", "doppler_hz", "code_phase_chips", "carrier_phase_cycles", "lock",
+                 "stage", "prompt_i", "prompt_q", "coherent_ms")
+
+
+@dataclass
+class ChannelRecord:
+    """What one satellite's channel did: one row per channel-filter update (`RECORD_FIELDS`),
+    and the events (``(time_s, text)``: lock, bit sync, loss, re-acquisition)."""
+
+    prn: int
+    rows: list[tuple] = field(default_factory=list)
+    events: list[tuple[float, str]] = field(default_factory=list)
+
+    def column(self, name: str) -> np.ndarray:
+        i = RECORD_FIELDS.index(name)
+        return np.array([r[i] for r in self.rows])
+
+
+@dataclass
+class TrackingResult:
+    """Records per PRN, the acquisition that started them, and what the run covered."""
+
+    channels: dict[int, ChannelRecord]
+    acquisitions: list[AcquisitionResult]
+    duration_s: float
+    channel_filter: str
+
+
+def _supports(cls: type, *names: str) -> bool:
+    return all(n in cls.provides for n in names)
+
+
+def _create_filter(name: str, params: dict[str, Any], *, pll_only: bool = False) -> ChannelFilter:
+    cls = registry.get("channel_filter", name)
+    if "correlators" not in cls.requires or not (_supports(cls, *NCO_COMMANDS) or _supports(cls, *ERROR_OUTPUTS)):
+        raise ConfigError("channel_filter", f"{name!r} cannot track on samples: it must require 'correlators' and "
+                          f"provide {', '.join(NCO_COMMANDS)} or {', '.join(ERROR_OUTPUTS)}")
+    params = dict(params)
+    if pll_only and "fll_bandwidth_hz" in cls.Params.model_fields:
+        params["fll_bandwidth_hz"] = 0.0  # the PLL stage: no FLL assist
+    return registry.create("channel_filter", name, **params)
+
+
+class _Channel:
+    """One satellite's channel: its stage, filter and detectors (its NCOs and sums live in
+    the tracker's arrays, at slot ``prn - 1``)."""
+
+    def __init__(self, prn: int, config: TrackingConfig, record: ChannelRecord) -> None:
+        self.prn = prn
+        self.slot = prn - 1
+        self.config = config
+        self.record = record
+        self.cn0_dbhz = 0.0
+        self.pli = 0.0
+        self.locked = False
+        self.failures = 0  # pull-ins in a row that ended without lock
+        self.retry_at = 0  # first sample at which re-acquisition may try again
+
+    def start(self, stage: str, doppler_hz: float, coherent_ms: int) -> None:
+        c = self.config
+        self.stage = stage
+        self.coherent_ms = coherent_ms
+        name, params = (c.pull_in_filter, c.pull_in_params) if stage == "pull-in" else (c.channel_filter,
+                                                                                      c.channel_params)
+        self.filter = _create_filter(name, params, pll_only=stage == "extended")
+        T = coherent_ms * 1e-3
+        self.closure = (None if _supports(type(self.filter), *NCO_COMMANDS)
+                        else ErrorFeedback(c.closure_fll_bandwidth_hz, c.closure_dll_bandwidth_hz, T))
+        cn0 = self.cn0_dbhz if self.cn0_dbhz > 0 else 40.0
+        self.filter.reset((), RunContext(coherent_time_s=T, early_late_spacing_chips=c.early_late_spacing_chips,
+                                         epoch_interval_s=T, cn0_dbhz=cn0, doppler_hz=doppler_hz))
+        self.bit_sign = 1.0
+        self.last_prompt = 0j
+        self.shift = (0.0, 0.0)
+        self.stage_ms = 0
+        if stage == "pull-in":
+            self.unlocked_ms = 0
+            self.bit_edge: int | None = None
+            self.next_detect = 0
+
+    @property
+    def phase_locking(self) -> bool:
+        return self.closure is None
+
+
+_SLOTS = 32  # one per GPS PRN
+
+
+class SampleTracker:
+    """Track the satellites an acquisition found, on a recording's samples.
+
+    Parameters
+    ----------
+    recording
+        The samples (`gnssframework.receiver.frontend.open_recording`).
+    config
+        `TrackingConfig`.
+    acquisition
+        Used again to re-acquire lost satellites.
+    backend
+        Correlator backend (``"numba"``, ``"numpy"``; default: the library's).
+    """
+
+    def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
+                 backend: str | None = None) -> None:
+        self.rec = recording
+        self.config = config
+        self.acquisition = acquisition
+        self.backend = backend
+        self.fs = recording.info.sample_rate_hz
+        self.if_hz = recording.info.if_hz
+        self.offsets = np.array(list(tap_offsets(config.early_late_spacing_chips).values()))
+        _create_filter(config.channel_filter, config.channel_params)  # refuse a bad filter before any work
+        _create_filter(config.pull_in_filter, config.pull_in_params)
+        self.codes = np.stack([ca_code(p) for p in range(1, _SLOTS + 1)]).astype(np.float32)
+
+    def _reset_state(self) -> None:
+        n, w = _SLOTS, self.config.cn0_window_ms
+        self.active = np.zeros(n, bool)
+        self.start_sample = np.zeros(n, np.int64)
+        self.code_phase = np.zeros(n)  # chips at start_sample
+        self.code_rate = np.zeros(n)  # chips/s
+        self.doppler = np.zeros(n)  # Hz
+        self.doppler_cycles = np.zeros(n)  # accumulated replica Doppler phase at start_sample
+        self.ms_index = np.zeros(n, np.int64)
+        self.coherent = np.ones(n, np.int64)
+        self.acc_t0 = np.zeros(n)
+        self.acc_phase = np.zeros(n)
+        self.acc_cycles = np.zeros(n)
+        self.prompts = np.zeros((n, w), complex)  # ring buffers of 1 ms prompts
+        self.n_prompts = np.zeros(n, np.int64)
+        self.votes = np.zeros((n, 20), np.int64)  # bit-sync histograms
+        self.voting = np.zeros(n, bool)
+        self.previous_prompt = np.zeros(n, complex)
+
+    def _add(self, prn: int, acq: AcquisitionResult, first_sample: int) -> None:
+        ch = self.channels.get(prn)
+        if ch is None:
+            ch = self.channels[prn] = _Channel(prn, self.config, self.records.setdefault(prn, ChannelRecord(prn)))
+        i = ch.slot
+        self.active[i] = True
+        self.start_sample[i] = first_sample + acq.code_phase_samples
+        self.code_phase[i] = 0.0  # a code epoch
+        self.doppler[i] = acq.doppler_hz
+        self.code_rate[i] = CA_CHIP_RATE_HZ * (1 + acq.doppler_hz / L1_FREQ_HZ)
+        self.doppler_cycles[i] = 0.0
+        self.ms_index[i] = 0
+        self.n_prompts[i] = 0
+        self.votes[i] = 0
+        self.voting[i] = True
+        self.previous_prompt[i] = 0j
+        ch.cn0_dbhz = acq.cn0_dbhz
+        self._start(ch, "pull-in", acq.doppler_hz, 1)
+
+    def _start(self, ch: _Channel, stage: str, doppler_hz: float, coherent_ms: int) -> None:
+        ch.start(stage, doppler_hz, coherent_ms)
+        i = ch.slot
+        self.coherent[i] = coherent_ms
+        self.voting[i] = stage != "extended"
+
+    def _samples(self, lo: int, hi: int) -> tuple[np.ndarray, int]:
+        """A buffer holding samples ``[lo, hi)``, read in blocks; ``(buffer, its first sample)``."""
+        if self.buf_start <= lo and hi <= self.buf_start + self.buf.shape[0]:
+            return self.buf, self.buf_start
+        keep = self.buf[max(0, lo - self.buf_start):] if lo < self.buf_start + self.buf.shape[0] else self.buf[:0]
+        first = max(lo, self.buf_start + self.buf.shape[0]) if keep.size else lo
+        block = max(hi - first, int(self.config.block_ms * 1e-3 * self.fs))
+        new = self.rec.read(first, block)
+        self.buf = np.concatenate([keep, new]) if keep.size else new
+        self.buf_start = first - keep.shape[0]
+        x = new.astype(np.complex128) if np.iscomplexobj(new) else new.astype(float)
+        self.power = float(np.mean(np.abs(x) ** 2)) if x.size else self.power
+        return self.buf, self.buf_start
+
+    def run(self, acquisitions: list[AcquisitionResult], duration_s: float | None = None,
+            progress: Any = None) -> TrackingResult:
+        """Track every detected satellite of ``acquisitions`` (made on the first samples)
+        for ``duration_s`` (default: the whole recording)."""
+        cfg = self.config
+        fs = self.fs
+        stop = self.rec.n_samples if duration_s is None else min(self.rec.n_samples, int(duration_s * fs))
+        self.channels: dict[int, _Channel] = {}
+        self.records: dict[int, ChannelRecord] = {}
+        self._reset_state()
+        self.buf = self.rec.read(0, 0)
+        self.buf_start = 0
+        self.power = 1.0
+        tables_for, tables = None, None
+        for acq in acquisitions:
+            if acq.detected:
+                self._add(acq.prn, acq, 0)
+        every = int(cfg.reacquire_every_ms * 1e-3 * fs)
+        next_reacq = every
+        window = self.prompts.shape[1]
+        lag_limit = int(LAG_LIMIT_S * fs)
+        while True:
+            live = np.flatnonzero(self.active)
+            if live.size == 0:  # every channel lost: only re-acquisition can go on
+                if not self.channels or next_reacq >= stop:
+                    break
+                self._reacquire(next_reacq, stop)
+                next_reacq += every
+                continue
+            # Each channel runs its whole coherent interval per call; one that is ahead of
+            # the last by more than LAG_LIMIT_S waits, so the buffer stays short.
+            lead = self.start_sample[live]
+            idx = live[lead <= lead.min() + lag_limit]
+            steps = self.code_rate[idx] / fs
+            phases = self.code_phase[idx]
+            periods = self.coherent[idx]
+            starts = self.start_sample[idx]
+            ends = starts + np.ceil((periods * CA_CODE_LENGTH - phases) / steps + 1).astype(np.int64)
+            if ends.max() > stop:
+                break
+            buf, first = self._samples(int(starts.min()), int(ends.max()))
+            dop = self.doppler[idx]
+            carrier0 = (self.if_hz * starts / fs) % 1.0 + self.doppler_cycles[idx]
+            if tables_for is None or not np.array_equal(tables_for, idx):  # channel set changed: new tables
+                tables_for, tables = idx, code_tables(self.codes[idx])
+            sums, counts = correlate_periods(buf, starts - first, periods, phases, steps, carrier0,
+                                             (self.if_hz + dop) / fs, self.codes[idx], self.offsets,
+                                             backend=self.backend, tables=tables)
+            valid = counts > 0
+            sums[valid] /= np.sqrt(counts[valid] * self.power / 2)[:, None]
+            total = counts.sum(axis=1)
+            self.acc_t0[idx] = starts / fs
+            self.acc_phase[idx] = phases
+            self.acc_cycles[idx] = self.doppler_cycles[idx]
+            self.start_sample[idx] = starts + total
+            self.code_phase[idx] = phases + total * steps - periods * CA_CODE_LENGTH
+            self.doppler_cycles[idx] += total * dop / fs
+            # Every millisecond's prompt (ragged over channels: row-major, k ascending).
+            rows, ks = np.nonzero(valid)
+            ch = idx[rows]
+            prompt = sums[rows, ks, 1]
+            self.prompts[ch, (self.n_prompts[ch] + ks) % window] = prompt
+            self.n_prompts[idx] += periods
+            ms = self.ms_index[ch] + ks + 1
+            self.ms_index[idx] += periods
+            # Bit-sync votes: a prompt turned by more than 90 degrees from the previous one.
+            previous = np.where(ks == 0, self.previous_prompt[ch], np.roll(prompt, 1))
+            vote = self.voting[ch] & ((prompt * np.conj(previous)).real < 0)
+            np.add.at(self.votes, (ch[vote], ms[vote] % 20), 1)
+            self.previous_prompt[idx] = sums[np.arange(idx.size), periods - 1, 1]
+            interval = sums.sum(axis=1)
+            for j, i in enumerate(idx):
+                self._update(self.channels[int(i) + 1], interval[j])
+            if progress is not None:
+                progress(int(lead.min()) / stop)
+            if lead.min() >= next_reacq:
+                self._reacquire(int(lead.max()), stop)
+                next_reacq += every
+        return TrackingResult(self.records, list(acquisitions), stop / fs, cfg.channel_filter)
+
+    def _reacquire(self, at: int, stop: int) -> None:
+        lost = tuple(p for p, c in self.channels.items() if c.stage == "lost" and c.retry_at <= at)
+        need = self.acquisition.samples_needed(self.fs)
+        if not lost or at + need > stop:
+            return
+        found = self.acquisition.acquire(self.rec.read(at, need), self.fs, self.if_hz, lost)
+        for acq in found:
+            if acq.detected:
+                self.records[acq.prn].events.append((at / self.fs, "re-acquired"))
+                self._add(acq.prn, acq, at)
+
+    def _update(self, c: _Channel, acc: np.ndarray) -> None:
+        """Channel ``c``'s coherent interval is complete (its E/P/L sums ``acc``): step its
+        filter, steer its NCOs, run its detectors and state machine, record the row."""
+        i = c.slot
+        t0 = float(self.acc_t0[i])
+        if c.stage == "track" and c.bit_edge is None:
+            edge = bit_edge_from_votes(self.votes[i], self.config.bit_sync_votes)
+            if edge is not None:
+                c.bit_edge = edge
+                c.record.events.append((t0, f"bit sync (edge at ms {edge} mod 20)"))
+        # Decision-directed bit wipe-off: a prompt turned by more than 90 degrees from the
+        # previous one (more than a residual frequency error can turn it in one interval)
+        # carries the other bit. Costas loops do not care; frequency discriminators on
+        # consecutive prompts (FLL assist, the vector channels' FLL) would see a jump.
+        if (acc[1] * c.bit_sign * np.conj(c.last_prompt)).real < 0:
+            c.bit_sign = -c.bit_sign
+        wiped = acc * c.bit_sign
+        c.last_prompt = wiped[1]
+        corr = Correlators.trusted(np.asarray(wiped[0]), np.asarray(wiped[1]), np.asarray(wiped[2]))
+        inputs: dict[str, Any] = {"correlators": corr}
+        if c.closure is not None:
+            inputs.update(nco_shift_chips=np.asarray(c.shift[0]), nco_shift_hz=np.asarray(c.shift[1]))
+        out = c.filter.checked_step(inputs)
+        if c.closure is None:
+            self.doppler[i] = float(out["carrier_freq_hz"])
+            self.code_rate[i] = float(out["code_freq_hz"])
+            self.doppler_cycles[i] += float(out.get("carrier_phase_step_rad", 0.0)) / (2 * np.pi)
+        else:
+            code_step, freq_step = c.closure.moves(out)
+            c.shift = (code_step, freq_step)
+            self.doppler[i] += freq_step
+            self.code_phase[i] += code_step
+            self.code_rate[i] = CA_CHIP_RATE_HZ * (1 + self.doppler[i] / L1_FREQ_HZ)
+        c.stage_ms += c.coherent_ms
+        self._detect(c)
+        c.record.rows.append((t0, c.cn0_dbhz, c.pli, float(self.doppler[i]), float(self.acc_phase[i]),
+                              float(self.acc_cycles[i]), int(c.locked), STAGES.index(c.stage), acc[1].real,
+                              acc[1].imag, c.coherent_ms))
+        self._advance(c, t0)
+
+    def _window(self, c: _Channel, n: int) -> np.ndarray:
+        """The last ``n`` 1 ms prompts of channel ``c``, oldest first."""
+        i = c.slot
+        size = self.prompts.shape[1]
+        n = min(n, int(self.n_prompts[i]), size)
+        return self.prompts[i, (self.n_prompts[i] - n + np.arange(n)) % size]
+
+    def _detect(self, c: _Channel) -> None:
+        """Lock detectors, evaluated every `DETECT_MS` (their windows are 10-100 times longer)."""
+        cfg = self.config
+        ms = int(self.ms_index[c.slot])
+        if self.n_prompts[c.slot] < min(cfg.lock_window_ms, 20):
+            c.locked = False
+            return
+        if ms < c.next_detect:
+            return
+        c.next_detect = ms + DETECT_MS
+        c.pli = phase_lock_indicator(self._window(c, cfg.lock_window_ms))
+        prompts = self._window(c, cfg.cn0_window_ms)
+        bit_phase = None
+        if c.bit_edge is not None:  # index in the window of the first ms of a bit
+            bit_phase = (c.bit_edge - (ms - prompts.size + 1)) % 20
+        c.cn0_dbhz = estimate_cn0(prompts, cfg.cn0_estimator, bit_phase)
+        strong = c.cn0_dbhz > cfg.cn0_threshold_dbhz
+        c.locked = strong and (c.pli > cfg.pli_threshold or not c.phase_locking)
+
+    def _advance(self, c: _Channel, t0: float) -> None:
+        """The state machine: pull-in -> track -> extended; lost after ``loss_ms`` out of lock."""
+        cfg = self.config
+        c.unlocked_ms = 0 if c.locked else c.unlocked_ms + c.coherent_ms
+        if c.stage == "pull-in":
+            if c.locked and c.stage_ms >= cfg.lock_window_ms:
+                c.failures = 0
+                c.record.events.append((t0, "locked: tracking with " + cfg.channel_filter))
+                self._start(c, "track", float(self.doppler[c.slot]), 1)
+            elif c.stage_ms >= cfg.pull_in_ms:
+                self._lose(c, t0, f"no lock within {cfg.pull_in_ms} ms of pull-in")
+            return
+        if c.unlocked_ms >= cfg.loss_ms:
+            self._lose(c, t0, f"lock lost for {cfg.loss_ms} ms")
+            return
+        if (c.stage == "track" and cfg.coherent_ms > 1 and c.bit_edge is not None
+                and (int(self.ms_index[c.slot]) + 1) % 20 == c.bit_edge % 20):
+            # The next millisecond starts a bit: integrations from here on are bit aligned.
+            c.record.events.append((t0, f"extended to {cfg.coherent_ms} ms coherent (PLL)"))
+            self._start(c, "extended", float(self.doppler[c.slot]), cfg.coherent_ms)
+
+    def _lose(self, c: _Channel, t0: float, why: str) -> None:
+        """Hand the channel back to acquisition. A satellite whose pull-ins keep failing (a
+        false detection, a signal too weak to lock) is searched again after 1, 2, 4 ...
+        up to 32 re-acquisition intervals, so it does not cost a search every interval."""
+        if c.stage == "pull-in":
+            c.failures += 1
+        c.stage = "lost"
+        self.active[c.slot] = False
+        wait = self.config.reacquire_every_ms * 1e-3 * self.fs * 2 ** min(max(c.failures - 1, 0), 5)
+        c.retry_at = int(self.start_sample[c.slot] + wait)
+        c.record.events.append((t0, f"lost: {why}; back to acquisition"))

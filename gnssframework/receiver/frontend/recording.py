@@ -1,0 +1,138 @@
+"""Opening a recording and streaming its samples in blocks (memory bounded by the block size)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from ... import registry
+from ...errors import ConfigError
+from .sigmf_meta import SigmfInfo, meta_path_for, read_sigmf_meta
+from .source import SampleSource
+
+__all__ = ["RecordingInfo", "Recording", "open_recording"]
+
+
+@dataclass(frozen=True)
+class RecordingInfo:
+    """How to read a recording: its format and the front end's sample rate, IF and Q sign."""
+
+    format: str
+    sample_rate_hz: float
+    if_hz: float
+    q_sign: int = 1
+    start_time: str | None = None
+
+    def describe(self) -> str:
+        """One line for messages: what was assumed about the recording."""
+        return (f"format {self.format}, fs {self.sample_rate_hz:g} Hz, IF {self.if_hz:g} Hz"
+                + (", Q inverted" if self.q_sign < 0 else ""))
+
+
+class Recording:
+    """A recording on disk, read in whole chunks of its format.
+
+    Attributes
+    ----------
+    path, info, source
+        The file, how it is read, and the ``sample_source`` plugin of its format.
+    n_samples
+        Whole samples in the file.
+    trailing_bytes
+        Bytes after the last whole chunk (a truncated last sample): never read, and
+        reported by the commands.
+    """
+
+    def __init__(self, path: str | Path, info: RecordingInfo) -> None:
+        self.path = Path(path)
+        self.info = info
+        self.source: SampleSource = registry.create("sample_source", info.format)
+        size = self.path.stat().st_size
+        bpc, spc = self.source.bytes_per_chunk, self.source.samples_per_chunk
+        self.n_samples = (size // bpc) * spc
+        self.trailing_bytes = size % bpc
+
+    @property
+    def is_complex(self) -> bool:
+        return self.source.is_complex
+
+    @property
+    def duration_s(self) -> float:
+        return self.n_samples / self.info.sample_rate_hz
+
+    def read(self, start: int, count: int) -> np.ndarray:
+        """``count`` samples from sample ``start`` (fewer at the end of the file).
+
+        Complex formats return ``complex64`` with the Q sign applied, real ones ``float32``.
+        """
+        if start < 0 or count < 0:
+            raise ConfigError("start", f"sample range must be non-negative, got start {start}, count {count}")
+        count = max(0, min(count, self.n_samples - start))
+        bpc, spc = self.source.bytes_per_chunk, self.source.samples_per_chunk
+        first = start // spc
+        last = -(-(start + count) // spc)
+        raw = np.fromfile(self.path, dtype=np.uint8, count=(last - first) * bpc, offset=first * bpc)
+        x = self.source.decode(raw)[start - first * spc:start - first * spc + count]
+        if self.is_complex and self.info.q_sign < 0:
+            x = np.conj(x)
+        return x
+
+    def blocks(self, block_samples: int, start: int = 0, stop: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
+        """``(first_sample, samples)`` blocks of ``block_samples`` from ``start`` to ``stop``."""
+        if block_samples <= 0:
+            raise ConfigError("block_samples", f"must be > 0, got {block_samples}")
+        stop = self.n_samples if stop is None else min(stop, self.n_samples)
+        for first in range(start, stop, block_samples):
+            yield first, self.read(first, min(block_samples, stop - first))
+
+
+def _pick(name: str, given, from_meta, default=None):
+    if given is not None:
+        return given
+    if from_meta is not None:
+        return from_meta
+    if default is not None:
+        return default
+    raise ConfigError(name, "not given and no SigMF metadata file beside the recording states it")
+
+
+def open_recording(path: str | Path, format: str | None = None, sample_rate_hz: float | None = None,
+                   if_hz: float | None = None, q_sign: int | None = None) -> Recording:
+    """Open ``path``; what is not given comes from its SigMF metadata file if there is one.
+
+    Values given here win over the metadata's (a wrong metadata file can be overridden).
+
+    Raises
+    ------
+    ConfigError
+        Missing file, an unknown format, a value neither given nor in metadata, a rate or
+        IF a GPS L1 C/A receiver cannot use, or a file too short to hold one sample.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError("recording", f"{path}: no such file")
+    meta_file = meta_path_for(path)
+    meta = read_sigmf_meta(meta_file) if meta_file.is_file() and meta_file != path else SigmfInfo(None, None, None,
+                                                                                                   None, None)
+    fmt = _pick("--format", format, meta.format)
+    known = registry.names("sample_source")
+    if fmt not in known:
+        raise ConfigError("--format", f"unknown sample format {fmt!r}; known: {', '.join(known)}")
+    fs = float(_pick("--fs", sample_rate_hz, meta.sample_rate_hz))
+    fif = float(_pick("--if", if_hz, meta.if_hz, 0.0))
+    qs = int(_pick("--q-sign", q_sign, meta.q_sign, 1))
+    if not np.isfinite(fs) or fs < 2.046e6:
+        raise ConfigError("--fs", f"{fs:g} Hz is below the C/A main lobe (needs >= 2.046 MHz)")
+    if qs not in (1, -1):
+        raise ConfigError("--q-sign", f"must be 1 or -1, got {qs}")
+    rec = Recording(path, RecordingInfo(fmt, fs, fif, qs, meta.start_time))
+    if not rec.is_complex and not 0 < fif < fs / 2:
+        raise ConfigError("--if", f"real samples need 0 < IF < fs/2 = {fs / 2:g} Hz, got {fif:g}")
+    if rec.is_complex and abs(fif) >= fs / 2:
+        raise ConfigError("--if", f"complex samples need |IF| < fs/2 = {fs / 2:g} Hz, got {fif:g}")
+    if rec.n_samples == 0:
+        raise ConfigError("recording", f"{path}: holds no whole sample of format {fmt}")
+    return rec

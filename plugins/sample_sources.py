@@ -1,0 +1,136 @@
+"""Built-in sample formats (plugin kind ``sample_source``).
+
+SigMF datatype names where SigMF has one (SigMF specification, "Dataset Format"):
+``ri8`` (real int8), ``ci8`` (interleaved int8 I/Q), ``ci16_le`` (interleaved
+little-endian int16 I/Q), ``cf32_le`` (interleaved float32 I/Q, GNSS-SDR's
+``gr_complex``). Packed 2-bit samples (``ri2``, ``ci2``), which SigMF has no name for:
+four 2-bit values a byte, the first sample in the least significant bits, each a
+two's-complement value v in -2..1 standing for the level 2v + 1 (-3, -1, +1, +3), the
+symmetric four-level quantiser of front ends such as the MAX2771.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gnssframework.receiver.frontend.source import SampleSource
+
+__all__ = ["RealInt8", "ComplexInt8", "ComplexInt16", "ComplexFloat32", "RealPacked2", "ComplexPacked2"]
+
+
+def _to_int(x: np.ndarray, dtype) -> np.ndarray:
+    info = np.iinfo(dtype)
+    return np.clip(np.rint(x), info.min, info.max).astype(dtype)
+
+
+def _interleave(x: np.ndarray) -> np.ndarray:
+    return np.stack([x.real, x.imag], axis=-1).reshape(-1)
+
+
+class RealInt8(SampleSource):
+    """Real samples, one signed byte each (SigMF ``ri8``)."""
+
+    name = "ri8"
+    description = "real int8 samples (SigMF ri8)"
+    is_complex = False
+    bytes_per_chunk = 1
+    samples_per_chunk = 1
+    sigmf_datatype = "ri8"
+
+    def decode(self, raw: np.ndarray) -> np.ndarray:
+        return raw.view(np.int8).astype(np.float32)
+
+    def encode(self, samples: np.ndarray) -> bytes:
+        return _to_int(samples, np.int8).tobytes()
+
+
+class ComplexInt8(SampleSource):
+    """Interleaved I/Q, one signed byte each (SigMF ``ci8``; gps-sdr-sim ``-b 8``)."""
+
+    name = "ci8"
+    description = "interleaved int8 I/Q (SigMF ci8)"
+    bytes_per_chunk = 2
+    sigmf_datatype = "ci8"
+
+    def decode(self, raw: np.ndarray) -> np.ndarray:
+        iq = raw.view(np.int8).astype(np.float32)
+        return iq.view(np.complex64)
+
+    def encode(self, samples: np.ndarray) -> bytes:
+        return _to_int(_interleave(samples), np.int8).tobytes()
+
+
+class ComplexInt16(SampleSource):
+    """Interleaved I/Q, little-endian int16 each (SigMF ``ci16_le``; gps-sdr-sim ``-b 16``)."""
+
+    name = "ci16_le"
+    description = "interleaved little-endian int16 I/Q (SigMF ci16_le)"
+    bytes_per_chunk = 4
+    sigmf_datatype = "ci16_le"
+
+    def decode(self, raw: np.ndarray) -> np.ndarray:
+        return raw.view("<i2").astype(np.float32).view(np.complex64)
+
+    def encode(self, samples: np.ndarray) -> bytes:
+        return _to_int(_interleave(samples), np.int16).astype("<i2").tobytes()
+
+
+class ComplexFloat32(SampleSource):
+    """Interleaved I/Q, little-endian float32 each (SigMF ``cf32_le``; GNSS-SDR ``gr_complex``)."""
+
+    name = "cf32_le"
+    description = "interleaved float32 I/Q (SigMF cf32_le, GNSS-SDR gr_complex)"
+    bytes_per_chunk = 8
+    sigmf_datatype = "cf32_le"
+
+    def decode(self, raw: np.ndarray) -> np.ndarray:
+        return raw.view("<f4").astype(np.float32).view(np.complex64)
+
+    def encode(self, samples: np.ndarray) -> bytes:
+        return _interleave(np.asarray(samples, np.complex64)).astype("<f4").tobytes()
+
+
+_LEVELS = np.array([1.0, 3.0, -3.0, -1.0], np.float32)  # two's complement 0, 1, -2, -1 -> 2v + 1
+
+
+def _unpack2(raw: np.ndarray) -> np.ndarray:
+    codes = (raw[:, None] >> np.array([0, 2, 4, 6], np.uint8)) & 3
+    return _LEVELS[codes.reshape(-1)]
+
+
+def _pack2(values: np.ndarray) -> bytes:
+    # Nearest level: v = clip(round((x - 1) / 2), -2, 1), stored as two's complement.
+    v = np.clip(np.rint((np.asarray(values, float) - 1.0) / 2.0), -2, 1).astype(np.int8)
+    codes = (v & 3).astype(np.uint8).reshape(-1, 4)
+    return (codes[:, 0] | codes[:, 1] << 2 | codes[:, 2] << 4 | codes[:, 3] << 6).astype(np.uint8).tobytes()
+
+
+class RealPacked2(SampleSource):
+    """Real 2-bit samples, four a byte (first in the low bits), levels -3, -1, +1, +3."""
+
+    name = "ri2"
+    description = "real 2-bit samples packed four a byte (levels +-1, +-3)"
+    is_complex = False
+    bytes_per_chunk = 1
+    samples_per_chunk = 4
+
+    def decode(self, raw: np.ndarray) -> np.ndarray:
+        return _unpack2(raw)
+
+    def encode(self, samples: np.ndarray) -> bytes:
+        return _pack2(samples)
+
+
+class ComplexPacked2(SampleSource):
+    """Complex 2-bit samples: I then Q, two complex samples a byte (first in the low bits)."""
+
+    name = "ci2"
+    description = "complex 2-bit I/Q packed two samples a byte (levels +-1, +-3)"
+    bytes_per_chunk = 1
+    samples_per_chunk = 2
+
+    def decode(self, raw: np.ndarray) -> np.ndarray:
+        return _unpack2(raw).view(np.complex64)
+
+    def encode(self, samples: np.ndarray) -> bytes:
+        return _pack2(_interleave(samples))
