@@ -76,19 +76,28 @@ def test_compiled_pcrb_equals_the_numpy_recursion(update_first):
 
 
 def test_vector_tracking_bound_is_the_same_on_both_backends():
+    # Tolerates: the rounding the 100-step information recursion amplifies, measured here
+    # on the NumPy path with P0 one ulp up and one ulp down (about 1e-10 to 7e-10 relative;
+    # the compiled path differs by 0 to 4e-10 here and by 1.2e-9 on a Xeon with AVX-512,
+    # as OpenBLAS's kernels and numba's code change with the CPU). Why: a fixed 1e-12
+    # passed only on the machine that wrote it. Resolution: a compiled PCRB whose
+    # measurement square roots are scaled by 1 + 1e-7, or whose F is off by 1e-9 on the
+    # diagonal, fails this (checked by mutation: 3e-8 and 2e-8 against about 7e-9).
+    from gnssframework import testing
     from gnssframework.estimation import kernels
 
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 1.0, "channels": 8, "settle_s": 0.0})
     P0 = np.diag([100.0] * 3 + [1.0] * 3 + [100.0, 1.0])
-    out = {}
     try:
-        for backend in ("numpy", "numba"):
-            kernels.set_backend(backend)
-            out[backend] = scen.bound(30.0, P0)
+        kernels.set_backend("numpy")
+        reference = scen.bound(30.0, P0)
+        nudged = [scen.bound(30.0, p) for p in testing.ulp_nudges(P0)]
+        kernels.set_backend("numba")
+        compiled = scen.bound(30.0, P0)
     finally:
         kernels.set_backend(None)
-    for ref, got in zip(out["numpy"], out["numba"]):
-        np.testing.assert_allclose(got, ref, rtol=1e-12, atol=0)
+    np.testing.assert_array_equal(compiled[0], reference[0])  # the times
+    testing.assert_within_rounding(compiled, reference, nudged, factor=10.0, what="compiled PCRB")
 
 
 @pytest.mark.parametrize("cn0", [30.0, 45.0])
