@@ -66,6 +66,7 @@ def _open_loop_with_clock(F, Q, P0, los, cov, zs, clock_var=1e10):
     return x[:, :M], P[:, :M, :M]
 
 
+@pytest.mark.other_machines
 @pytest.mark.parametrize("estimator", ["kf", "ekf", "ukf", "ckf"])
 def test_closed_loop_differenced_filter_equals_open_loop_17_state_filter(estimator):
     rng = np.random.default_rng(12)

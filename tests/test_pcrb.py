@@ -40,6 +40,7 @@ def test_pcrb_handles_a_singular_process_noise():
     np.testing.assert_allclose(bound[:, 0, 0], 1 / (1 / 2.0 + K / 0.5), rtol=1e-12)
 
 
+@pytest.mark.other_machines
 @pytest.mark.parametrize("update_first", [True, False])
 def test_compiled_pcrb_equals_the_numpy_recursion(update_first):
     # Stacked square roots run in one compiled call under the numba backend; the NumPy
@@ -85,6 +86,7 @@ def test_compiled_pcrb_equals_the_numpy_recursion(update_first):
         pcrb_linear(F, Q, roots[:-1], P0, steps, update_first)
 
 
+@pytest.mark.other_machines
 def test_vector_tracking_bound_is_the_same_on_both_backends():
     # Tolerates: the rounding the 100-step information recursion amplifies, measured here
     # on the NumPy path with P0 one ulp up and one ulp down (about 1e-10 to 7e-10 relative;
