@@ -13,7 +13,7 @@
 # code of another target is reused. Found by this: the vector-tracking PCRB of both
 # backends (OpenBLAS SkylakeX kernel) and ins-ekf against its 17-state oracle (Prescott)
 # held to fixed tolerances below their reference's own rounding (issue 21).
-# Usage: bash .ci/other_machines.sh   (after the venv of .ci/run; about 4 minutes on 2 cores)
+# Usage: bash .ci/other_machines.sh   (after the venv of .ci/run)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=.venv/bin/python
