@@ -42,6 +42,9 @@ __all__ = [
     "check_unit_slope",
     "check_noise_variance",
     "vector_loop_series",
+    "ulp_nudges",
+    "relative_change",
+    "assert_within_rounding",
 ]
 
 
@@ -207,3 +210,66 @@ def vector_loop_series(channel_filter: dict[str, Any], *, backend: str | None = 
     finally:
         if backend is not None:
             kernels.set_backend(None)
+
+
+# -- holding two arithmetic paths together through a recursion ---------------------------
+#
+# Two implementations of the same recursion (a compiled kernel and its NumPy reference, a
+# split and a fused form, a filter and an oracle) agree to rounding at each step, but the
+# recursion can amplify rounding: how much depends on the problem, and which rounding each
+# path commits depends on the CPU (OpenBLAS picks its kernels per processor, numba compiles
+# for the host, NumPy dispatches its loops on SIMD features). A fixed tolerance such as
+# 1e-12 then passes on one machine and fails on another. Instead, these helpers measure
+# the amplification on the reference itself: run it again with an input one ulp away and
+# allow the other path a stated multiple of that change.
+
+
+def ulp_nudges(x: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``x`` moved one ulp up and one ulp down, elementwise (``np.nextafter``)."""
+    x = np.asarray(x, dtype=float)
+    return np.nextafter(x, np.inf), np.nextafter(x, -np.inf)
+
+
+def _parts(value: Any) -> list[tuple[str, np.ndarray]]:
+    if isinstance(value, dict):
+        return [(str(k), np.asarray(v, dtype=float)) for k, v in value.items()]
+    if isinstance(value, (tuple, list)):
+        return [(str(i), np.asarray(v, dtype=float)) for i, v in enumerate(value)]
+    return [("", np.asarray(value, dtype=float))]
+
+
+def relative_change(reference: Any, other: Any) -> float:
+    """``max |other - reference| / max |reference|``, the largest over the parts.
+
+    ``reference`` and ``other`` are arrays, or tuples, lists or dicts of arrays of the same
+    shapes (each part is normalised by its own largest magnitude; an all-zero part by 1).
+    """
+    worst = 0.0
+    for (name, a), (_, b) in zip(_parts(reference), _parts(other), strict=True):
+        if a.shape != b.shape:
+            raise AssertionError(f"part {name!r}: shapes differ, {a.shape} vs {b.shape}")
+        scale = float(np.max(np.abs(a))) if a.size else 0.0
+        diff = float(np.max(np.abs(b - a))) if a.size else 0.0
+        if not np.isfinite(diff):
+            return float("inf")
+        worst = max(worst, diff / (scale or 1.0))
+    return worst
+
+
+def assert_within_rounding(got: Any, reference: Any, nudged: Any, *, factor: float = 10.0,
+                           floor: float = 1e-12, what: str = "result") -> tuple[float, float]:
+    """``got`` differs from ``reference`` by at most ``factor`` times what rounding moves it.
+
+    ``nudged`` is the reference recomputed from inputs one ulp away (`ulp_nudges`), or a
+    sequence of such recomputations (a tuple of arrays counts as one result: pass a list
+    of results); the yardstick is the largest `relative_change` among them. ``floor`` is a
+    relative allowance for a recursion that does not amplify rounding (a one-ulp nudge
+    that moves nothing). Returns ``(change of got, yardstick)`` as relative numbers.
+    """
+    runs = nudged if isinstance(nudged, list) else [nudged]
+    moved = max(relative_change(reference, n) for n in runs)
+    diff = relative_change(reference, got)
+    assert diff <= factor * moved + floor, (
+        f"{what} differs from the reference by {diff:.3g} (relative), more than {factor:g} times "
+        f"the {moved:.3g} a one-ulp change of the reference's input makes, plus {floor:.0e}")
+    return diff, moved

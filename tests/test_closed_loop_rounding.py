@@ -36,6 +36,7 @@ def _rel(a: dict, b: dict) -> dict[str, float]:
     return {k: float(np.max(np.abs(a[k] - b[k])) / np.max(np.abs(a[k]))) for k in SERIES}
 
 
+@pytest.mark.other_machines
 @pytest.mark.parametrize("estimator", ["svd-ckf", "ckf"])
 def test_compiled_path_moves_closed_loop_results_no_more_than_rounding_moves_the_reference(estimator):
     # Resolution: a compiled posterior mean biased by 1e-8 relative per step fails this
@@ -111,6 +112,7 @@ def _ukf_update_ld(m, P, z, R, d, T, alpha=1e-3, beta=2.0, kappa=0.0):
     return K, P - K @ S @ K.T
 
 
+@pytest.mark.other_machines
 def test_compiled_ukf_update_is_as_accurate_as_the_numpy_update_on_the_loops_states():
     # The channel filter's ukf updates of a vector run (30 dB-Hz), the first 20 (P still
     # large, the worst cancellation: relative errors of about 1e-6 in the gain in both

@@ -3,6 +3,11 @@
 `DeepTruth.pseudoranges` (true pseudoranges of a block of epochs), `_aided_block` (truth
 and replica of one NCO interval) and `StrapdownIns`'s deferred error-state transitions are
 held bit for bit to the per-epoch formulas, written out here as the loop had them.
+
+Bitwise by construction on any machine: the block and the per-epoch forms apply the same
+elementwise operations and functions to the same values in the same order (no BLAS
+product, no reduction whose order depends on the array's length). Marked ``other_machines``: .ci/other_machines.sh checks it
+with NumPy's SIMD loops disabled and numba compiled for other targets.
 """
 
 from __future__ import annotations
@@ -14,6 +19,8 @@ import pytest
 
 from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from test_deep_integration import _aided_setup
+
+pytestmark = pytest.mark.other_machines
 
 
 def _scenario_truth(runs=2, duration_s=0.3):

@@ -63,6 +63,7 @@ def _costas_atan(corr):
     return create("discriminator", "costas-atan", coherent_time_s=0.001)(corr)
 
 
+@pytest.mark.other_machines
 def test_kf_carrier_loop_through_the_kf_estimator_equals_the_hand_written_recursion():
     """The loop used to hand-roll its KF (update, feedback, then P = F P F^T + Q); it now
     runs the ``kf`` estimator through FilterStep. Fed the same correlators (open loop),

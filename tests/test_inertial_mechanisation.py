@@ -217,6 +217,7 @@ def test_bad_inputs_raise_library_errors():
         integrate(bad, np.zeros((2, 3)), np.zeros((2, 3)), 0.01)
 
 
+@pytest.mark.other_machines
 def test_compiled_loop_equals_the_numpy_reference(flight):
     """The numba kernel (default backend) against the NumPy step, every option, a batch of
     perturbed increment series through the boost onset."""
@@ -240,6 +241,7 @@ def test_compiled_loop_equals_the_numpy_reference(flight):
     np.testing.assert_allclose(b.velocity_ecef_mps, a.velocity_ecef_mps, rtol=0, atol=1e-11)
 
 
+@pytest.mark.other_machines
 def test_single_step_backends_agree(flight):
     """strapdown_step (what a filter calls per IMU interval) on both backends, batched."""
     from gnssframework.inertial import strapdown_step

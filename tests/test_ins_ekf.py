@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from gnssframework import testing
 from gnssframework.errors import ConfigError, InvalidInputError
 from gnssframework.interfaces import RunContext
 from gnssframework.registry import create
@@ -65,6 +66,7 @@ def _open_loop_with_clock(F, Q, P0, los, cov, zs, clock_var=1e10):
     return x[:, :M], P[:, :M, :M]
 
 
+@pytest.mark.other_machines
 @pytest.mark.parametrize("estimator", ["kf", "ekf", "ukf", "ckf"])
 def test_closed_loop_differenced_filter_equals_open_loop_17_state_filter(estimator):
     rng = np.random.default_rng(12)
@@ -74,6 +76,14 @@ def test_closed_loop_differenced_filter_equals_open_loop_17_state_filter(estimat
     zs = [np.concatenate([rng.normal(size=(runs, n)) * 3 + rng.normal(size=(runs, 1)) * 1e2,
                           rng.normal(size=(runs, n)) + rng.normal(size=(runs, 1)) * 1e1], axis=-1) for _ in range(5)]
     x_ref, P_ref = _open_loop_with_clock(F, Q, P0, los, cov, zs)
+    # Tolerates: the oracle's own rounding. Its clock states (variance 1e10, re-diffused
+    # every step) make S ill-conditioned (about 1e10), so its non-Joseph update loses about
+    # 10 digits: P0 one ulp away moves it by about 4e-6 relative, and so does another
+    # OpenBLAS kernel (Prescott against SkylakeX: 5e-6). Measured here on the oracle and
+    # allowed 10 times; the differenced filter itself is well conditioned. Resolution: the
+    # filter with the range/rate cross-covariance dropped, or Q scaled by 1 + 1e-3, fails
+    # this (checked by mutation).
+    nudged = [_open_loop_with_clock(F, Q, p, los, cov, zs) for p in testing.ulp_nudges(P0)]
 
     ekf = create("nav_filter", "ins-ekf", estimator=estimator)
     ekf.reset((runs,), RunContext(initial_cov=P0))
@@ -87,8 +97,8 @@ def test_closed_loop_differenced_filter_equals_open_loop_17_state_filter(estimat
         out = ekf.step({"transition": F, "process_noise": Q, "residual_m": np.stack([zc[:, :n], zc[:, n:]], -1),
                         "residual_cov": cov, "los": los, "cn0_dbhz": cn0})
         applied = applied + out["error_state"]
-    np.testing.assert_allclose(applied, x_ref, rtol=1e-5, atol=1e-5)
-    np.testing.assert_allclose(ekf.cov, P_ref, rtol=1e-5, atol=1e-5)
+    testing.assert_within_rounding(applied, x_ref, [x for x, _ in nudged], what="corrections")
+    testing.assert_within_rounding(ekf.cov, P_ref, [P for _, P in nudged], what="covariance")
     np.testing.assert_array_equal(ekf.state.mean, 0.0)  # closed loop: nothing carried over
 
 

@@ -1,7 +1,12 @@
 """The split of a fused kernel between the calling thread and a helper thread
 (`gnssframework.estimation.kernel_pool`, issue 11) against one serial call: bitwise the
 same results, statuses and counts, every chunk run once, and a working helper again in
-a forked child. Time is never asserted."""
+a forked child. Time is never asserted.
+
+Bitwise by construction on any machine: each chunk runs the serial kernel's code on its
+own elements, so no element's operations or their order depend on the split, and numba
+compiles without fastmath (no reassociation, no FMA contraction). Marked
+``other_machines``: .ci/other_machines.sh checks that under other compile targets."""
 
 from __future__ import annotations
 
@@ -14,6 +19,8 @@ from hypothesis import given, settings, strategies as st
 
 from conftest import channel_step_problem
 from gnssframework.estimation import CompiledFunctions, kernel_pool, kernels
+
+pytestmark = pytest.mark.other_machines
 
 
 def _problem(seed, batch, poison):

@@ -74,3 +74,34 @@ def test_slope_and_noise_checks_catch_a_wrong_scale_and_a_wrong_variance():
         testing.check_unit_slope(Doubled(coherent_time_s=0.01), [0.05])
     with pytest.raises(AssertionError, match="Monte Carlo variance"):
         testing.check_noise_variance(Optimistic(coherent_time_s=0.01), 45.0, np.random.default_rng(4), runs=20_000)
+
+
+def test_rounding_yardstick_passes_a_reordered_recursion_and_catches_a_dropped_term():
+    # A scalar Riccati-like recursion with a strong dependence on its start: the same
+    # formula with its two sums reordered stays within the measured rounding, one with a
+    # term scaled by 1 + 1e-9 does not.
+    def run(p0, variant="plain"):
+        p, out = p0, []
+        for k in range(200):
+            a, b, c = 1.01 * p, 1e-3 * (k % 7), 1.1e-7 * k
+            p = a + (b + c) if variant == "reordered" else (a + b) + c
+            if variant == "biased":
+                p = a * (1 + 1e-9) + b + c
+            p = p / (1 + 1e-3 * p)
+            out.append(p)
+        return np.array(out)
+
+    p0 = np.array(123.456)
+    reference = run(p0)
+    nudged = [run(p) for p in testing.ulp_nudges(p0)]
+    diff, moved = testing.assert_within_rounding(run(p0, "reordered"), reference, nudged)
+    assert 0 < diff <= moved * 10  # the reordering does change the rounding
+    with pytest.raises(AssertionError, match="differs from the reference by"):
+        testing.assert_within_rounding(run(p0, "biased"), reference, nudged, what="biased")
+    # parts are normalised one by one; a dict or tuple of arrays is one result
+    assert testing.relative_change({"a": np.ones(3), "b": np.zeros(2)}, {"a": np.ones(3), "b": np.ones(2)}) == 1.0
+    assert testing.relative_change((np.ones(2), 2 * np.ones(2)), (np.ones(2), 3 * np.ones(2))) == 0.5
+    with pytest.raises(AssertionError, match="shapes differ"):
+        testing.relative_change(np.ones(2), np.ones(3))
+    up, down = testing.ulp_nudges(np.array([1.0, -2.0]))
+    assert np.all(up > [1.0, -2.0]) and np.all(down < [1.0, -2.0])
