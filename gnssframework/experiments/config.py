@@ -114,6 +114,7 @@ class ComparisonConfig(_Strict):
             check_metric(metric, scenario, f"metrics[{i}]")
         for i, case in enumerate(self.cases):
             scenario.check_case(case.params(), f"cases[{i}]")
+            scenario.check_memory(case.params(), min(self.batch_size, self.runs), f"cases[{i}]")
         for i, cand in enumerate(self.candidates):
             scenario.check_candidate(cand.components(), f"candidates[{i}]")
         case_names = {c.name for c in self.cases}

@@ -18,6 +18,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 from ... import registry
 from ...errors import ConfigError
 from ...plugin import validation_message
+from ..limits import check_batch_memory
 
 __all__ = ["Scenario", "BatchResult", "SCENARIOS", "get_scenario", "register_scenario", "scenario_kinds"]
 
@@ -57,6 +58,19 @@ class Scenario(abc.ABC):
             self.CaseParams.model_validate(case)
         except ValidationError as exc:
             raise validation_message(exc, prefix=where, model=self.CaseParams) from None
+
+    def batch_memory(self, case: dict[str, Any], runs: int, where: str) -> tuple[float, str, str] | None:
+        """Estimated peak memory of one batch of ``runs`` runs of ``case`` (validated case
+        parameters), for `check_memory`: ``(bytes, field path, the batch's size in words)``,
+        or ``None`` when the scenario's memory does not grow with its parameters."""
+        return None
+
+    def check_memory(self, case: dict[str, Any], runs: int, where: str) -> None:
+        """Refuse a case whose batch of ``runs`` runs would exceed the memory budget
+        (`gnssframework.experiments.limits`), before anything is allocated."""
+        estimate = self.batch_memory(self.CaseParams.model_validate(case).model_dump(), runs, where)
+        if estimate is not None:
+            check_batch_memory(*estimate)
 
     def check_candidate(self, components: dict[str, Any], where: str) -> None:
         """Every required kind present, no foreign kind, every plugin creatable, and composable."""

@@ -40,10 +40,15 @@ from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_ve
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
+from ..limits import CoherentTime
 from ..metric_components import Mean, PostSettleMax, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["DeepIntegrationScenario"]
+__all__ = ["DeepIntegrationScenario", "BYTES_PER_EPOCH_RUN_CHANNEL"]
+
+#: Peak memory of the aided tracking (or the vector loop) per coherent interval, run and
+#: channel (measured 96 to 166 B across the candidate kinds, rounded up: tests/test_limits.py).
+BYTES_PER_EPOCH_RUN_CHANNEL = 256
 
 ERRORS = ("horizontal_position_error", "height_error", "horizontal_velocity_error", "vertical_velocity_error",
           "attitude_error")
@@ -84,7 +89,8 @@ class DeepIntegrationParams(ScenarioParams):
     profile: Literal["pull-up", "straight", "jerk-pulse"] = Field(
         "pull-up", description="Cai and Guo's (2017) flight (level 10 s, then a pull-up), straight flight, or straight "
         "flight with one smooth acceleration pulse (pulse_* parameters)")
-    coherent_time_s: float = Field(0.001, gt=0, le=0.02, description="T of correlators and prefilters")
+    coherent_time_s: CoherentTime = Field(0.001, description="T of correlators and prefilters (s): whole 1 ms code "
+                                          "periods, 1 to 20 ms")
     imu_interval_s: float = Field(0.005, gt=0, description="IMU increment interval (200 Hz in Cai and Guo 2017)")
     nco_interval_s: float = Field(0.005, gt=0, description="interval at which the NCOs are re-aided (deep)")
     update_interval_s: float = Field(0.1, gt=0, description="integration filter interval (10 Hz)")
@@ -200,6 +206,12 @@ class DeepIntegrationScenario(Scenario):
                 raise ConfigError(f"scenario.{name}", f"must be a whole multiple of {small} s (got {big})")
         if p.settle_s >= p.duration_s:
             raise ConfigError("scenario.settle_s", f"must be less than duration_s = {p.duration_s}")
+
+    def batch_memory(self, case: dict[str, Any], runs: int, where: str) -> tuple[float, str, str]:
+        p = self.params
+        epochs = int(round(p.duration_s / p.coherent_time_s))
+        return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels, "scenario.coherent_time_s",
+                f"a batch of {runs} runs of {where} ({epochs} epochs x {p.channels} channels)")
 
     def check_composition(self, plugins: dict[str, Any], where: str) -> None:
         try:

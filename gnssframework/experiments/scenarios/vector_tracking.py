@@ -18,15 +18,21 @@ from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
+from ..limits import CoherentTime
 from ..metric_components import Mean, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["VectorTrackingScenario", "METRICS", "steady_state_start_s"]
+__all__ = ["VectorTrackingScenario", "METRICS", "steady_state_start_s", "BYTES_PER_EPOCH_RUN_CHANNEL"]
+
+#: Peak memory of the vector loop per epoch, run and channel (the recorded errors, NCO and
+#: truth arrays; measured about 360 B, rounded up: tests/test_limits.py).
+BYTES_PER_EPOCH_RUN_CHANNEL = 512
 
 
 class VectorTrackingParams(ScenarioParams):
     duration_s: float = Field(30.0, gt=0, le=3600)
-    coherent_time_s: float = Field(0.01, gt=0, le=0.02, description="T; with 20 ms bits, 10 ms intervals stay in a bit")
+    coherent_time_s: CoherentTime = Field(0.01, description="T (s): whole 1 ms code periods, 1 to 20 ms; with 20 ms "
+                                          "bits, 10 ms intervals stay in a bit")
     channels: int = Field(8, ge=4, le=12)
     elevation_mask_deg: float = Field(10.0, ge=0, lt=90)
     start_time_s: float = Field(37800.0, ge=0, description="seconds into the constellation's day (with an "
@@ -124,6 +130,12 @@ class VectorTrackingScenario(Scenario):
         if params.steady_state_s is not None and not params.settle_s <= params.steady_state_s < params.duration_s:
             raise ConfigError("scenario.steady_state_s", f"must be at least settle_s = {params.settle_s} and less "
                               f"than duration_s = {params.duration_s} (got {params.steady_state_s})")
+
+    def batch_memory(self, case: dict[str, Any], runs: int, where: str) -> tuple[float, str, str]:
+        p = self.params
+        epochs = int(round(p.duration_s / p.coherent_time_s))
+        return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels, "scenario.coherent_time_s",
+                f"a batch of {runs} runs of {where} ({epochs} epochs x {p.channels} channels)")
 
     def check_composition(self, plugins: dict[str, Any], where: str) -> None:
         try:
