@@ -235,6 +235,12 @@ class SequentialFilter(Plugin, abc.ABC):
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Process one epoch."""
 
+    def check_context(self, context: RunContext) -> None:  # noqa: B027 - optional hook
+        """Refuse a harness context this filter cannot run in (a loop bandwidth too large
+        for the context's coherent time...), raising `ConfigError` with the field written
+        ``"<kind> '<name>'.<parameter>"``. Scenarios call it when the config loads, so a
+        bad value is named before any batch runs. The default accepts every context."""
+
     def checked_step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """``step``, then check it returned every name the plugin ``provides`` (harnesses
         call this, so a plugin that breaks its declaration fails at its first epoch, by name)."""

@@ -117,6 +117,7 @@ class ComparisonConfig(_Strict):
             scenario.check_memory(case.params(), min(self.batch_size, self.runs), f"cases[{i}]")
         for i, cand in enumerate(self.candidates):
             scenario.check_candidate(cand.components(), f"candidates[{i}]")
+            scenario.check_contexts(cand.components(), [c.params() for c in self.cases], f"candidates[{i}]")
         case_names = {c.name for c in self.cases}
         cand_names = {c.name for c in self.candidates}
         if self.reference is not None and self.reference not in cand_names:

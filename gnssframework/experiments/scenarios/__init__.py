@@ -17,6 +17,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 
 from ... import registry
 from ...errors import ConfigError
+from ...interfaces import RunContext
 from ...plugin import validation_message
 from ..limits import check_batch_memory
 
@@ -91,13 +92,32 @@ class Scenario(abc.ABC):
             try:
                 built[kind] = cls(**ref.params)
             except ConfigError as exc:
-                # The plugin names its field from its own root ("iq-filter".estimator...):
-                # continue the config's path instead, so the field is written one way.
-                own = f"{cls.kind or 'plugin'} {cls.name!r}"
-                if exc.field == own or exc.field.startswith((own + ".", own + "[")):
-                    raise ConfigError(f"{where}.{kind}.params{exc.field[len(own):]}", exc.detail) from None
-                raise ConfigError(f"{where}.{kind}.params", str(exc)) from None
+                raise _config_path(exc, cls, f"{where}.{kind}") from None
         self.check_composition(built, where)
+
+    def run_contexts(self, cases: list[dict[str, Any]]) -> list[RunContext]:
+        """The run contexts (coherent time, correlator spacing) the candidates' filters get
+        over ``cases``, for `check_contexts`; the default says nothing (no check)."""
+        return []
+
+    def check_contexts(self, components: dict[str, Any], cases: list[dict[str, Any]], where: str) -> None:
+        """Let each of a candidate's filters refuse the harness contexts it would run in
+        (``SequentialFilter.check_context``), naming the config field, before any batch."""
+        contexts = self.run_contexts(cases)
+        if not contexts:
+            return
+        for kind, ref in components.items():
+            plugin = registry.create(kind, ref.name, **ref.params)
+            for context in contexts if hasattr(plugin, "check_context") else ():
+                try:
+                    self.in_context(plugin, context).check_context(context)
+                except ConfigError as exc:
+                    raise _config_path(exc, type(plugin), f"{where}.{kind}") from None
+
+    def in_context(self, plugin: Any, context: RunContext) -> Any:
+        """``plugin`` as the harness runs it in ``context`` (itself unless the scenario
+        re-creates it, e.g. at a case's own interval)."""
+        return plugin
 
     def _describe_components(self) -> str:
         return ", ".join(f"{k} ({'required' if r else 'optional'})" for k, r in self.components.items())
@@ -126,6 +146,16 @@ class Scenario(abc.ABC):
     def run_batch(self, case: dict[str, Any], plugins: dict[str, Any], runs: int,
                   rng: np.random.Generator) -> BatchResult:
         """Simulate ``runs`` Monte Carlo runs as one array program."""
+
+
+def _config_path(exc: ConfigError, cls: type, where: str) -> ConfigError:
+    """A plugin's error re-addressed to the config: the plugin names its field from its own
+    root (``channel_filter 'iq-filter'.estimator...``); continue the config's path ``where``
+    instead, so the field is written one way."""
+    own = f"{cls.kind or 'plugin'} {cls.name!r}"
+    if exc.field == own or exc.field.startswith((own + ".", own + "[")):
+        return ConfigError(f"{where}.params{exc.field[len(own):]}", exc.detail)
+    return ConfigError(f"{where}.params", str(exc))
 
 
 #: The core's scenario kinds (registered with the plugin registry by ``hooks``).

@@ -32,6 +32,7 @@ import pymap3d
 from pydantic import Field
 
 from ...errors import ConfigError
+from ...interfaces import RunContext
 from ...inertial.imu import ImuGrade
 from ...receiver.deep import DeepTruth, loss_of_lock, run_aided_tracking
 from ...receiver.deep_metrics import attitude_errors_deg, enu_errors
@@ -212,6 +213,11 @@ class DeepIntegrationScenario(Scenario):
         epochs = int(round(p.duration_s / p.coherent_time_s))
         return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels, "scenario.coherent_time_s",
                 f"a batch of {runs} runs of {where} ({epochs} epochs x {p.channels} channels)")
+
+    def run_contexts(self, cases: list[dict[str, Any]]) -> list[RunContext]:
+        p = self.params
+        return [RunContext(coherent_time_s=p.coherent_time_s, early_late_spacing_chips=p.early_late_spacing_chips,
+                           epoch_interval_s=p.coherent_time_s)]
 
     def check_composition(self, plugins: dict[str, Any], where: str) -> None:
         try:

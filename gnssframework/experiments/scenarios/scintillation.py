@@ -18,6 +18,7 @@ from pydantic import Field
 
 from ... import registry
 from ...errors import ConfigError
+from ...interfaces import RunContext
 from ...receiver.loop_bandwidth import equivalent_bandwidth_hz
 from ...receiver.tracking import NCO_COMMANDS, SignalTruth, check_closed_loop, run_closed_loop
 from ...simulation import scintillation as scint
@@ -118,6 +119,15 @@ class ScintillationScenario(Scenario):
         epochs = int(round((case["duration_s"] or self.params.duration_s) / T))
         field = f"{where}.coherent_time_s" if case["coherent_time_s"] else "scenario.coherent_time_s"
         return BYTES_PER_EPOCH_RUN * epochs * runs, field, f"a batch of {runs} runs of {where} ({epochs} epochs)"
+
+    def run_contexts(self, cases: list[dict]) -> list[RunContext]:
+        """One context per interval T of the scenario and its cases (loops are re-created at each)."""
+        own = {self.CaseParams.model_validate(c).coherent_time_s for c in cases}
+        intervals = sorted({self.params.coherent_time_s} | {T for T in own if T is not None})
+        return [RunContext(coherent_time_s=T, early_late_spacing_chips=1.0, epoch_interval_s=T) for T in intervals]
+
+    def in_context(self, plugin, context: RunContext):
+        return self.at_interval(plugin, context.coherent_time_s)
 
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins["channel_filter"]

@@ -14,6 +14,7 @@ import pymap3d
 from pydantic import Field
 
 from ...errors import ConfigError
+from ...interfaces import RunContext
 from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
@@ -136,6 +137,11 @@ class VectorTrackingScenario(Scenario):
         epochs = int(round(p.duration_s / p.coherent_time_s))
         return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels, "scenario.coherent_time_s",
                 f"a batch of {runs} runs of {where} ({epochs} epochs x {p.channels} channels)")
+
+    def run_contexts(self, cases: list[dict[str, Any]]) -> list[RunContext]:
+        p = self.params
+        return [RunContext(coherent_time_s=p.coherent_time_s, early_late_spacing_chips=p.early_late_spacing_chips,
+                           epoch_interval_s=p.coherent_time_s)]
 
     def check_composition(self, plugins: dict[str, Any], where: str) -> None:
         try:
