@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import ConfigError, DataFileError
 from ..signal.constants import L1_WAVELENGTH_M
+from .text import check_input_file, read_input_text
 
 __all__ = ["CodeCarrier", "RinexScan", "read_code_carrier", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs",
            "PSEUDORANGE_MIN_M", "PSEUDORANGE_MAX_M"]
@@ -157,7 +158,7 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
         raise ConfigError("pseudorange_min_m/pseudorange_max_m (--pseudorange-min/--pseudorange-max)",
                           f"need 0 <= min < max, got [{pseudorange_min_m!r}, {pseudorange_max_m!r}] m")
     path = Path(path)
-    text = path.read_text(errors="replace")
+    text = read_input_text(path, errors="replace")
     lines = text.splitlines()
     if not lines or "RINEX VERSION / TYPE" not in lines[0]:
         raise DataFileError(str(path), 1, "not a RINEX file: first line lacks 'RINEX VERSION / TYPE'")
@@ -350,9 +351,7 @@ def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSE
 
     from .skipped import refuse_or_keep
 
-    path = Path(path)
-    if not path.exists():
-        raise DataFileError(str(path), None, "no such file")
+    path = check_input_file(path)
     scan = check_rinex3_obs(path, pseudorange_min_m, pseudorange_max_m)
     refuse_or_keep(path, scan.skipped, strict)
     with tempfile.TemporaryDirectory(prefix="gnssframework-rinex-") as tmpdir:

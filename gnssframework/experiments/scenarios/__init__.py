@@ -13,19 +13,27 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from ... import registry
 from ...errors import ConfigError
 from ...interfaces import RunContext
-from ...plugin import validation_message
+from ...plugin import refuse_quiet_conversions, validation_message
 from ..limits import check_batch_memory
 
 __all__ = ["Scenario", "BatchResult", "SCENARIOS", "get_scenario", "register_scenario", "scenario_kinds"]
 
 
 class ScenarioParams(BaseModel):
+    """Base of scenario and case parameter models: unknown parameters are an error, and a
+    string or boolean for a number is refused rather than converted."""
+
     model_config = ConfigDict(extra="forbid")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_quiet_conversions(cls, data: Any) -> Any:
+        return refuse_quiet_conversions(cls, data)
 
 
 @dataclass

@@ -34,6 +34,7 @@ from pydantic import Field
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...inertial.imu import ImuGrade
+from ...inertial.trajectory import MAX_START_LAT_DEG
 from ...receiver.deep import DeepTruth, loss_of_lock, run_aided_tracking
 from ...receiver.deep_metrics import attitude_errors_deg, enu_errors
 from ...receiver.tracking import NCO_COMMANDS
@@ -100,7 +101,9 @@ class DeepIntegrationParams(ScenarioParams):
     channels: int = Field(8, ge=5, le=12)
     elevation_mask_deg: float = Field(10.0, ge=0, lt=90)
     start_time_s: float = Field(37800.0, ge=0, description="seconds into the nominal constellation's day")
-    lat_deg: float = Field(34.23, ge=-90, le=90)
+    lat_deg: float = Field(34.23, ge=-MAX_START_LAT_DEG, le=MAX_START_LAT_DEG, description="start latitude (deg), "
+                           "within 89 deg of the equator: the flights are integrated in local north/east axes, "
+                           "which degenerate at a pole")
     lon_deg: float = Field(108.3576, ge=-180, le=360)
     height_m: float = 590.6
     clock: str = Field("ocxo", description="receiver clock preset (a TCXO's white frequency noise alone gives "

@@ -11,10 +11,11 @@ from typing import Any, Literal
 
 import numpy as np
 import pymap3d
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from ...errors import ConfigError
 from ...interfaces import RunContext
+from ...io.text import check_input_file
 from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
@@ -59,6 +60,15 @@ class VectorTrackingParams(ScenarioParams):
     steady_state_s: float | None = Field(None, ge=0, description="position_steady_error_rmse counts from this "
                                          "time on (after the nav filter's position has converged); null: a third "
                                          "of the run, at least settle_s")
+
+
+    @field_validator("ephemeris_file", "trajectory_file")
+    @classmethod
+    def _regular_file(cls, path: str | None) -> str | None:
+        """Refuse a missing file, a device (/dev/zero) or a FIFO when the config loads."""
+        if path is not None:
+            check_input_file(path)  # its DataFileError (a ValueError) names the file after the field
+        return path
 
 
 class VectorTrackingCase(ScenarioParams):
