@@ -28,7 +28,7 @@ from typing import Any, ClassVar, Mapping, Optional
 import numpy as np
 from pydantic import Field
 
-from .errors import ConfigError, PluginError
+from .errors import ConfigError, InvalidArgumentError, PluginError
 from .plugin import Plugin, PluginParams
 from .signal.correlators import Correlators
 
@@ -190,6 +190,18 @@ def _legacy_reset(reset):
     return wrapper
 
 
+def _marks_reset(reset):
+    """Wrap a plugin's ``reset`` so that `SequentialFilter.checked_step` knows it ran."""
+
+    @functools.wraps(reset)
+    def wrapper(self, *args, **kwargs):
+        out = reset(self, *args, **kwargs)
+        self._reset_done = True
+        return out
+
+    return wrapper
+
+
 class SequentialFilter(Plugin, abc.ABC):
     """A plugin that processes a sequence epoch by epoch, batch-first.
 
@@ -220,6 +232,7 @@ class SequentialFilter(Plugin, abc.ABC):
                 "form gets the context's fields as keywords and will be removed.", DeprecationWarning,
                 code.co_filename if code else "<unknown>", code.co_firstlineno if code else 0, module=cls.__module__)
             cls.reset = _legacy_reset(reset)
+        cls.reset = _marks_reset(cls.reset)
 
     #: Names of the inputs ``step`` needs.
     requires: ClassVar[tuple[str, ...]] = ()
@@ -243,7 +256,18 @@ class SequentialFilter(Plugin, abc.ABC):
 
     def checked_step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """``step``, then check it returned every name the plugin ``provides`` (harnesses
-        call this, so a plugin that breaks its declaration fails at its first epoch, by name)."""
+        call this, so a plugin that breaks its declaration fails at its first epoch, by name).
+
+        Raises
+        ------
+        InvalidArgumentError
+            Before the first ``reset``.
+        PluginError
+            If ``step`` did not return every name in ``provides``.
+        """
+        if not getattr(self, "_reset_done", False):
+            raise InvalidArgumentError(f"{self.kind} {self.name!r}", "checked_step", "called before reset(batch_shape, "
+                                       "context); call reset first")
         out = self.step(inputs)
         missing = [n for n in self.provides if n not in out]
         if missing:

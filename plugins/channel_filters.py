@@ -140,7 +140,8 @@ class KalmanLoopParams(PluginParams):
         if len(self.q) != n:
             raise NestedFieldError("q", f"needs {n} values for states = {n} (got {self.q})")
         if len(self.initial_std) < n:
-            raise NestedFieldError("initial_std", f"needs at least {n} values for states = {n} (got {self.initial_std})")
+            raise NestedFieldError("initial_std", f"needs at least {n} values for states = {n} "
+                                   f"(got {self.initial_std})")
         return self
 
 

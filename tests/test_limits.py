@@ -171,8 +171,10 @@ def _peak_bytes(config) -> tuple[int, float]:
 
 
 @pytest.mark.parametrize("kind, change", [
-    ("vector-tracking", [("duration_s = 0.2", "duration_s = 1.0"), ("coherent_time_s = 0.01", "coherent_time_s = 0.001")]),
-    ("scintillation", [("duration_s = 1.0", "duration_s = 4.0"), ("coherent_time_s = 0.01", "coherent_time_s = 0.001")]),
+    ("vector-tracking",
+     [("duration_s = 0.2", "duration_s = 1.0"), ("coherent_time_s = 0.01", "coherent_time_s = 0.001")]),
+    ("scintillation",
+     [("duration_s = 1.0", "duration_s = 4.0"), ("coherent_time_s = 0.01", "coherent_time_s = 0.001")]),
     ("deep-integration", [("duration_s = 0.5", "duration_s = 1.0")]),
 ])
 def test_the_memory_estimate_is_above_the_measured_peak(tmp_path, kind, change):
