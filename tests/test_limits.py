@@ -71,6 +71,39 @@ channel_filter = { name = "iq-filter", params = { estimator = "ukf", adaptive = 
 nav_filter = "ins-ekf"
 """
 
+MULTIPATH = """
+name = "mp"
+runs = 4
+batch_size = 2
+[scenario]
+kind = "multipath"
+epochs = 500
+[[cases]]
+name = "psi"
+psi = 0.8
+[[candidates]]
+name = "ukf"
+estimator = "ukf"
+nav_filter = "position-ca"
+"""
+
+ORACLE = MULTIPATH.replace('name = "ukf"', 'name = "oracle"').replace(
+    'nav_filter = "position-ca"', 'nav_filter = "position-ca"\nnoise_adapter = "oracle-grid"')
+
+SMOOTHING = """
+name = "cs"
+runs = 4
+batch_size = 2
+[scenario]
+kind = "carrier-smoothing"
+epochs = 500
+[[cases]]
+name = "slips"
+[[candidates]]
+name = "kf"
+channel_filter = "kf-smoother"
+"""
+
 CONFIGS = {"vector-tracking": VECTOR, "scintillation": SCINT, "deep-integration": DEEP}
 
 
@@ -130,6 +163,20 @@ def test_a_batch_above_the_memory_budget_is_refused_with_its_estimate(tmp_path, 
     assert _load(tmp_path, text).batch_size == 50
 
 
+@pytest.mark.parametrize("text, passes", [(MULTIPATH, 50), (ORACLE, 50 + 30 * 50), (SMOOTHING, None)])
+def test_filter_scenarios_refuse_a_batch_above_the_budget_counting_an_oracle_grid(tmp_path, monkeypatch, text, passes):
+    monkeypatch.delenv(MEMORY_BUDGET_ENV, raising=False)
+    big = text.replace("epochs = 500", "epochs = 100000").replace("runs = 4", "runs = 100000").replace(
+        "batch_size = 2", "batch_size = 100000")
+    msg = _error(tmp_path, big)
+    assert msg.startswith("scenario.epochs: a batch of 100000 runs of cases[0] (100000 epochs")
+    small = text.replace("batch_size = 2", "batch_size = 50").replace("runs = 4", "runs = 50")
+    monkeypatch.setenv(MEMORY_BUDGET_ENV, "1e-3")  # 1 MiB: the oracle's grid shows in the count
+    msg = _error(tmp_path, small)
+    if passes is not None:
+        assert f"{passes} filtered runs with an oracle's grid" in msg
+
+
 def test_the_batch_is_sized_by_the_runs_when_there_are_fewer_than_batch_size(tmp_path, monkeypatch):
     monkeypatch.setenv(MEMORY_BUDGET_ENV, "1e-6")
     msg = _error(tmp_path, VECTOR.replace("runs = 4", "runs = 1"))
@@ -167,7 +214,7 @@ def _peak_bytes(config) -> tuple[int, float]:
     finally:
         tracemalloc.stop()
     checked = scenario.CaseParams.model_validate(case).model_dump()
-    return peak, scenario.batch_memory(checked, config.batch_size, "cases[0]")[0]
+    return peak, scenario.batch_memory(checked, config.batch_size, "cases[0]", [config.candidates[0].components()])[0]
 
 
 @pytest.mark.parametrize("kind, change", [
@@ -176,9 +223,13 @@ def _peak_bytes(config) -> tuple[int, float]:
     ("scintillation",
      [("duration_s = 1.0", "duration_s = 4.0"), ("coherent_time_s = 0.01", "coherent_time_s = 0.001")]),
     ("deep-integration", [("duration_s = 0.5", "duration_s = 1.0")]),
+    ("multipath", [("epochs = 500", "epochs = 2000")]),
+    ("oracle", [("epochs = 500", "epochs = 500")]),
+    ("carrier-smoothing", [("epochs = 500", "epochs = 5000")]),
 ])
 def test_the_memory_estimate_is_above_the_measured_peak(tmp_path, kind, change):
-    text = CONFIGS[kind].replace("batch_size = 2", "batch_size = 4").replace("runs = 2", "runs = 4")
+    text = {**CONFIGS, "multipath": MULTIPATH, "oracle": ORACLE, "carrier-smoothing": SMOOTHING}[kind]
+    text = text.replace("batch_size = 2", "batch_size = 4").replace("runs = 2", "runs = 4")
     for old, new in change:
         text = text.replace(old, new)
     peak, estimate = _peak_bytes(_load(tmp_path, text))

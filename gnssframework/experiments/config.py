@@ -123,7 +123,8 @@ class ComparisonConfig(_Strict):
             check_metric(metric, scenario, f"metrics[{i}]")
         for i, case in enumerate(self.cases):
             scenario.check_case(case.params(), f"cases[{i}]")
-            scenario.check_memory(case.params(), min(self.batch_size, self.runs), f"cases[{i}]")
+            scenario.check_memory(case.params(), min(self.batch_size, self.runs), f"cases[{i}]",
+                                  [c.components() for c in self.candidates])
         for i, cand in enumerate(self.candidates):
             scenario.check_candidate(cand.components(), f"candidates[{i}]")
             scenario.check_contexts(cand.components(), [c.params() for c in self.cases], f"candidates[{i}]")

@@ -68,16 +68,19 @@ class Scenario(abc.ABC):
         except ValidationError as exc:
             raise validation_message(exc, prefix=where, model=self.CaseParams) from None
 
-    def batch_memory(self, case: dict[str, Any], runs: int, where: str) -> tuple[float, str, str] | None:
+    def batch_memory(self, case: dict[str, Any], runs: int, where: str,
+                     candidates: list[dict[str, Any]] = ()) -> tuple[float, str, str] | None:
         """Estimated peak memory of one batch of ``runs`` runs of ``case`` (validated case
-        parameters), for `check_memory`: ``(bytes, field path, the batch's size in words)``,
-        or ``None`` when the scenario's memory does not grow with its parameters."""
+        parameters) for the most demanding of ``candidates`` (their plugin references by
+        kind), for `check_memory`: ``(bytes, field path, the batch's size in words)``, or
+        ``None`` when the scenario's memory does not grow with its parameters."""
         return None
 
-    def check_memory(self, case: dict[str, Any], runs: int, where: str) -> None:
+    def check_memory(self, case: dict[str, Any], runs: int, where: str,
+                     candidates: list[dict[str, Any]] = ()) -> None:
         """Refuse a case whose batch of ``runs`` runs would exceed the memory budget
         (`gnssframework.experiments.limits`), before anything is allocated."""
-        estimate = self.batch_memory(self.CaseParams.model_validate(case).model_dump(), runs, where)
+        estimate = self.batch_memory(self.CaseParams.model_validate(case).model_dump(), runs, where, candidates)
         if estimate is not None:
             check_batch_memory(*estimate)
 

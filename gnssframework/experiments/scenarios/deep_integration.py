@@ -211,7 +211,7 @@ class DeepIntegrationScenario(Scenario):
         if p.settle_s >= p.duration_s:
             raise ConfigError("scenario.settle_s", f"must be less than duration_s = {p.duration_s}")
 
-    def batch_memory(self, case: dict[str, Any], runs: int, where: str) -> tuple[float, str, str]:
+    def batch_memory(self, case: dict[str, Any], runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         p = self.params
         epochs = int(round(p.duration_s / p.coherent_time_s))
         return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels, "scenario.coherent_time_s",

@@ -114,7 +114,7 @@ class ScintillationScenario(Scenario):
                               f"{duration_s - p.settle_s:g} s of {where} (one whole lock-test block after "
                               f"settling; got {p.lock_window_s!r})")
 
-    def batch_memory(self, case: dict, runs: int, where: str) -> tuple[float, str, str]:
+    def batch_memory(self, case: dict, runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         T = case["coherent_time_s"] or self.params.coherent_time_s
         epochs = int(round((case["duration_s"] or self.params.duration_s) / T))
         field = f"{where}.coherent_time_s" if case["coherent_time_s"] else "scenario.coherent_time_s"

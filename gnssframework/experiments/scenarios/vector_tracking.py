@@ -142,7 +142,7 @@ class VectorTrackingScenario(Scenario):
             raise ConfigError("scenario.steady_state_s", f"must be at least settle_s = {params.settle_s} and less "
                               f"than duration_s = {params.duration_s} (got {params.steady_state_s})")
 
-    def batch_memory(self, case: dict[str, Any], runs: int, where: str) -> tuple[float, str, str]:
+    def batch_memory(self, case: dict[str, Any], runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         p = self.params
         epochs = int(round(p.duration_s / p.coherent_time_s))
         return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels, "scenario.coherent_time_s",
