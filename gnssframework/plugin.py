@@ -125,9 +125,9 @@ def validation_message(exc: ValidationError, prefix: str = "",
     """Turn a pydantic ``ValidationError`` into one ``ConfigError``.
 
     The message names every offending field (a path like ``candidates[0].estimator``,
-    with ``prefix``), what it got and what it allows, one per line. Given the validated
-    ``model``, an unknown parameter lists the valid ones, and a parameter written beside
-    a plugin's ``name`` instead of under ``params`` gets a hint.
+    with ``prefix``), what it got and what it allows, on one line (the first field
+    leads). Given the validated ``model``, an unknown parameter lists the valid ones, and
+    a parameter written beside a plugin's ``name`` instead of under ``params`` gets a hint.
     """
     items = []
     for err in exc.errors():
@@ -153,7 +153,9 @@ def validation_message(exc: ValidationError, prefix: str = "",
         items.append((field, msg))
     if len(items) == 1:
         return ConfigError(*items[0])
-    return ConfigError(items[0][0], "invalid values:\n  " + "\n  ".join(f"{f}: {m}" for f, m in items))
+    # One line, the first field leading: a CLI error is one line, and ConfigError.field names it.
+    rest = "; ".join(f"{f}: {m}" for f, m in items[1:])
+    return ConfigError(items[0][0], f"{items[0][1]}; also {rest}")
 
 
 class Plugin:
