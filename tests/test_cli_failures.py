@@ -206,3 +206,47 @@ nav_filter = "ins-ekf"
 """
     bound = "less than or equal to 89" if lat > 0 else "greater than or equal to -89"
     assert _error(tmp_path, text) == f"scenario.lat_deg: Input should be {bound} (got {lat})"
+
+
+LONG = """
+name = "long"
+runs = 2000
+batch_size = 2
+[executor]
+workers = 1
+[scenario]
+kind = "scintillation"
+duration_s = 60.0
+coherent_time_s = 0.001
+settle_s = 0.2
+[[cases]]
+name = "s4"
+s4 = 0.5
+[[candidates]]
+name = "pll"
+channel_filter = "scalar"
+"""
+
+
+def test_a_real_ctrl_c_during_a_run_ends_with_one_line_and_exit_130(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "gnssframework", "compare", str(_config(tmp_path, LONG)),
+                             "--out", str(out), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not (out / "results.sqlite").exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        time.sleep(1.0)  # computing now (the store exists before the first batch)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err[-2000:]
+    assert err.splitlines() == ["error: interrupted (Ctrl-C); finished batches are kept in --out and the same "
+                                "command resumes"]
