@@ -56,11 +56,21 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     try:
         summary = run_comparison(config, out, progress=not args.quiet)
     except sqlite3.DatabaseError as exc:  # sqlite3 does not say which file: name the store
-        store = Path(out) / "results.sqlite"
-        raise DataFileError(str(store), None, f"results store: {exc} (a corrupted store: move it away or choose "
-                            "another --out)") from None
+        raise _store_error(exc, Path(out) / "results.sqlite") from None
     print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
     return 0
+
+
+def _store_error(exc: sqlite3.DatabaseError, store: Path) -> Exception:
+    """An SQLite failure as the error that names the store: a full disk or a read-only
+    store as the OS error it is, anything else as a damaged store."""
+    text = str(exc)
+    if "full" in text:
+        return OSError(errno.ENOSPC, text, str(store))
+    if "readonly" in text or "unable to open" in text:
+        return OSError(errno.EACCES, text, str(store))
+    return DataFileError(str(store), None, f"results store: {text} (a corrupted store: move it away or choose "
+                         "another --out)")
 
 
 def _cmd_filter_positions(args: argparse.Namespace) -> int:

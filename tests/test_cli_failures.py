@@ -92,6 +92,23 @@ def test_a_corrupted_store_is_named_with_exit_2(tmp_path, capsys):
     assert err.startswith(f"error: {out / 'results.sqlite'}: results store: file is not a database")
 
 
+@pytest.mark.parametrize("sqlite_message, status, hint", [
+    ("database or disk is full", 1, "no space left on the device"),
+    ("attempt to write a readonly database", 2, "not writable or readable by this user"),
+])
+def test_sqlite_write_failures_name_the_store_as_the_os_error_they_are(tmp_path, capsys, monkeypatch, sqlite_message,
+                                                                       status, hint):
+    import sqlite3
+
+    def fail(*args, **kwargs):
+        raise sqlite3.OperationalError(sqlite_message)
+
+    monkeypatch.setattr(experiments, "run_comparison", fail)
+    got_status, err = _compare(capsys, _config(tmp_path), tmp_path / "out")
+    assert got_status == status
+    assert err.startswith(f"error: {tmp_path / 'out' / 'results.sqlite'}: {sqlite_message} ({hint}")
+
+
 def test_ctrl_c_ends_with_one_line_and_exit_130(tmp_path, capsys, monkeypatch):
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
