@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from gnssframework.experiments.config import load_config
-from gnssframework.experiments.runner import batch_rng
+from gnssframework.random_streams import name_key, run_streams
 from gnssframework.experiments.scenarios import get_scenario
 from gnssframework.inertial.frames import ned_to_ecef_matrix
 from gnssframework.receiver.deep_metrics import attitude_errors_deg
@@ -35,8 +35,8 @@ def deep_attitude(initial_attitude_std_deg: float | None = None) -> dict[str, np
     cand = next(c for c in config.candidates if c.name == "deep")
     plugins = scenario.build({k: v.model_dump() for k, v in cand.components().items()})
     case_index = next(i for i, c in enumerate(config.cases) if c.name == "45dBHz")
-    rng = batch_rng(config.seed, case_index, 0)  # the runner's first batch: the example's runs 0..3
     runs = config.runs
+    rng = run_streams(config.seed, name_key("45dBHz"), range(runs))  # the runner's streams of runs 0..runs-1
     flight = scenario.flight()
     truth = scenario._truth(flight, config.cases[case_index].params()["cn0_dbhz"], runs, rng)
     out = run_deep(scenario, plugins, flight, truth, runs, rng)

@@ -22,7 +22,7 @@ COLORS = dict(zip(CANDIDATES, ("C0", "C1", "C2", "C3")))
 
 
 def _series(run: Path, case: str, cand: str):
-    files = sorted((run / "raw" / case / cand).glob("batch*.npz"))
+    files = sorted((run / "raw" / case / cand).glob("run*.npz"))
     if not files:
         return None, {}
     parts = [np.load(f) for f in files]

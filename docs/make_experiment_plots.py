@@ -21,17 +21,41 @@ EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath"
             "carrier_smoothing_sweep", "scintillation_sweep")
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep",)
+#: Examples whose page includes tables generated from the run (docs/experiment_tables.py).
+TABLES = {"vector_tracking": ["code_phase_error_rmse", "carrier_freq_error_rmse", "position_error_rmse",
+                              "velocity_error_rmse", "nees_position", "nees_velocity", "code_output_rmse",
+                              "freq_output_rmse"]}
 
 
-def main() -> None:
+def main() -> int:
+    """Run the examples, copy their figures, and check every example's claims (exit 1 if
+    one does not hold: the pages state them)."""
+    from gnssframework.experiments.claims import claim_line
+    from gnssframework.experiments.files import loads_strict
+
     OUT.mkdir(parents=True, exist_ok=True)
+    failed = []
     for name in EXAMPLES + (SLOW_EXAMPLES if "--slow" in sys.argv[1:] else ()):
         config = load_config(ROOT / "examples" / f"{name}.toml")
         summary = run_comparison(config, ROOT / "results" / name, progress=False)
         for png in sorted((summary.parent / "plots").glob("*.png")):
             shutil.copy(png, OUT / f"{name}-{png.name}")
         print(f"{name}: figures copied")
+        claims = loads_strict(summary.read_text()).get("claims", [])
+        failed += [f"{name}: {claim_line(c)}" for c in claims if c["outcome"] != "holds"]
+        if claims:
+            print(f"{name}: {sum(c['outcome'] == 'holds' for c in claims)} of {len(claims)} claims hold")
+        if name in TABLES:
+            sys.path.insert(0, str(ROOT / "docs"))
+            from experiment_tables import write
+
+            print(f"{name}: tables written to {write(summary.parent, name, TABLES[name])}")
+
+
+    for line in failed:
+        print("claim does not hold: " + line, file=sys.stderr)
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -81,8 +81,18 @@ __all__ = [
     "SigmaPointEstimator",
     "Update",
     "WorkerError",
+    "compare",
     "errors",
     "filter_sequence",
     "hookimpl",
     "registry",
 ]
+
+
+def __getattr__(name: str):
+    # The comparison API pulls in the experiments layer (pandas, xarray when used): on demand.
+    if name in ("compare", "load_results"):
+        from .experiments import results
+
+        return getattr(results, name)
+    raise AttributeError(f"module 'gnssframework' has no attribute {name!r}")

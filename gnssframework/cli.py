@@ -14,6 +14,7 @@ from .errors import ConfigError, DataFileError, GnssFrameworkError
 from .io.nmea import MAX_ABS_HEIGHT_M, MAX_SPEED_MPS
 from .io.rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M
 from .io.skipped import EXIT_STATUS_HELP
+from .io.smoothing import MAX_CMC_RATE_MPS
 
 __all__ = ["main"]
 
@@ -58,7 +59,24 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     except sqlite3.DatabaseError as exc:  # sqlite3 does not say which file: name the store
         raise _store_error(exc, Path(out) / "results.sqlite") from None
     print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
-    return 0
+    return _report_claims(summary, args.check)
+
+
+def _report_claims(summary, check: bool) -> int:
+    """Print the claims' outcomes (all with ``--check``, else a tally); 1 if checked and one does not hold."""
+    from .experiments.claims import claim_line
+    from .experiments.files import loads_strict
+
+    claims = loads_strict(summary.read_text()).get("claims", [])
+    if not claims:
+        if check:
+            print("no [[claims]] in this config: nothing to check")
+        return 0
+    bad = [c for c in claims if c["outcome"] != "holds"]
+    print(f"claims: {len(claims) - len(bad)} of {len(claims)} hold")
+    for c in claims if check else bad:
+        print("  " + claim_line(c))
+    return 1 if check and bad else 0
 
 
 def _store_error(exc: sqlite3.DatabaseError, store: Path) -> Exception:
@@ -84,8 +102,16 @@ def _cmd_filter_positions(args: argparse.Namespace) -> int:
     sidecar = write_skipped_report(args.out, args.file, fixes.skipped)
     print(f"{args.file}: {fixes.time_s.size} fixes filtered with {args.filter}, {len(fixes.skipped)} sentences "
           f"skipped; wrote {args.out}" + (f" and {sidecar}" if fixes.skipped else ""))
+    if fixes.ignored or fixes.comments:
+        kinds = ", ".join(f"{n} {kind}" for kind, n in fixes.ignored.items())
+        print(f"  not used: {kinds or 'no sentences'}; {fixes.comments} comment lines")
     print_skipped(fixes.skipped)
     return exit_status(fixes.skipped)
+
+
+def _blank_nan(value: float, digits: int) -> str:
+    """A CSV cell: the value, or empty where there is none."""
+    return f"{value:.{digits}f}" if value == value else ""
 
 
 def _cmd_smooth(args: argparse.Namespace) -> int:
@@ -94,12 +120,13 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .experiments.files import atomic_open
-    from .interfaces import RunContext
-    from .io.rinex import read_code_carrier
+    from .io.observations import read_observations
     from .io.skipped import exit_status, print_skipped, write_skipped_report
+    from .io.skipped import EXIT_SKIPPED
+    from .io.smoothing import smooth_observations
 
-    data = read_code_carrier(args.file, args.prn, pseudorange_min_m=args.pseudorange_min,
-                             pseudorange_max_m=args.pseudorange_max, strict=args.strict)
+    obs = read_observations(args.file, args.prn, pseudorange_min_m=args.pseudorange_min,
+                            pseudorange_max_m=args.pseudorange_max, strict=args.strict)
     params = {"hatch": ("hatch", {"window": args.window}),
               "kf": ("kf-smoother", {"q": args.q, "r": args.r}),
               "adaptive-kf": ("kf-smoother", {"q": args.q, "r": args.r, "adapter": "ml-q",
@@ -107,28 +134,38 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
     name, kw = params[args.filter]
     if args.slip_threshold:
         kw["slip_threshold_m"] = args.slip_threshold
-    smoother = registry.create("channel_filter", name, **kw)
-    steps = np.diff(np.asarray(data.time_s, float))
-    interval = float(np.median(steps)) if steps.size and np.median(steps) > 0 else None
-    smoother.reset((), RunContext(epoch_interval_s=interval))
-    rows = [smoother.checked_step({"pseudorange_m": np.asarray(r), "carrier_m": np.asarray(c)})
-            for r, c in zip(data.pseudorange_m, data.carrier_m)]
+    registry.create("channel_filter", name, **kw)  # a bad parameter fails before the run
+    result = smooth_observations(obs, lambda: registry.create("channel_filter", name, **kw), args.max_gap,
+                                 reset_at_lli=not args.ignore_lli, max_cmc_rate_mps=args.max_cmc_rate)
+    valid = obs.valid
     with atomic_open(args.out, "w", newline="") as fh:  # a killed run leaves no half CSV
         w = csv.writer(fh)
-        w.writerow(["epoch", "time_s", "pseudorange_m", "carrier_m", "smoothed_m", "slip_detected"])
-        for ep, t, r, c, out in zip(data.epoch, data.time_s, data.pseudorange_m, data.carrier_m, rows):
-            w.writerow([str(ep), f"{t:.3f}", f"{r:.3f}", f"{c:.4f}", f"{float(out['smoothed_m']):.4f}",
-                        int(bool(out["slip_detected"]))])
-    sidecar = write_skipped_report(args.out, args.file, data.skipped)
-    slips = sum(int(bool(o["slip_detected"])) for o in rows)
-    print(f"{args.file} {args.prn}: {len(rows)} epochs smoothed with {args.filter}"
-          + (f", {slips} slips detected" if args.slip_threshold else "")
-          + f", {len(data.skipped)} epochs or observations skipped; wrote {args.out}"
-          + (f" and {sidecar}" if data.skipped else ""))
-    if data.truncated:
-        print(f"  TRUNCATED FILE: {data.truncated}; the output covers the epochs before the cut")
-    print_skipped(data.skipped)
-    return exit_status(data.skipped, truncated=data.truncated is not None)
+        w.writerow(["epoch", "sv", "time_s", "pseudorange_m", "carrier_m", "smoothed_m", "lli", "snr_dbhz",
+                    "arc_start", "slip_detected"])
+        for k, j in zip(*np.nonzero(valid)):
+            w.writerow([str(obs.epoch[k]), obs.sv[j], f"{obs.time_s[k]:.7f}", f"{obs.pseudorange_m[k, j]:.3f}",
+                        f"{obs.carrier_m[k, j]:.4f}", _blank_nan(result.smoothed_m[k, j], 4), int(obs.lli[k, j]),
+                        _blank_nan(obs.snr_dbhz[k, j], 2), int(result.arc_start[k, j]), int(result.slip_detected[k, j])])
+    sidecar = write_skipped_report(args.out, args.file, obs.skipped)
+    flagged = int(((obs.lli & 1) != 0)[valid].sum())
+    print(f"{args.file} {args.prn}: {int(valid.sum())} epochs of {obs.sv.size} satellites smoothed with "
+          f"{args.filter} in {result.arcs} arcs ({flagged} loss-of-lock flags"
+          + (" ignored" if args.ignore_lli else "") + f", gaps over {result.max_gap_s:g} s)"
+          + (f", {int(result.slip_detected.sum())} slips detected by the filter "
+             f"({int((result.slip_detected & (obs.lli & 1 != 0)).sum())} of them at a receiver's flag)"
+             if args.slip_threshold else "")
+          + f", {len(obs.skipped)} epochs or observations skipped; wrote {args.out}"
+          + (f" and {sidecar}" if obs.skipped else ""))
+    for sv, why in obs.dropped.items():
+        print(f"  not read: {sv}: {why}")
+    for sv, row, rate in result.inconsistent:
+        print(f"  not smoothed (smoothed_m empty): {sv}'s arc from {obs.epoch[row]}: code minus carrier drifts "
+              f"{rate:.3g} m/s (over --max-cmc-rate {args.max_cmc_rate:g}): its carrier does not follow the code")
+    if obs.truncated:
+        print(f"  TRUNCATED FILE: {obs.truncated}; the output covers the epochs before the cut")
+    print_skipped(obs.skipped)
+    status = exit_status(obs.skipped, truncated=obs.truncated is not None)
+    return EXIT_SKIPPED if status == 0 and result.inconsistent else status
 
 
 def _cmd_schema(args: argparse.Namespace) -> int:
@@ -141,7 +178,10 @@ def _cmd_schema(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
     parser = argparse.ArgumentParser(prog="gnssframework", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"gnssframework {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("plugins", help="list the registered plugins")
     p.add_argument("--kind", choices=registry.kinds(), help="only this kind")
@@ -153,6 +193,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, help="override the seed")
     p.add_argument("--out", help="output directory (default: results/<name>)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--check", action="store_true",
+                   help="print every [[claims]] outcome and exit 1 unless every claim holds")
     p.set_defaults(func=_cmd_compare, interrupt_hint="; finished batches are kept in --out and the same command "
                                                      "resumes")
     p = sub.add_parser("filter-positions", help="filter an NMEA position log (Liu et al. 2020's filters)",
@@ -171,20 +213,29 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip a GGA whose altitude is not a number or above this in magnitude (default %(default)g m)")
     p.add_argument("--strict", action="store_true", help="refuse the file at the first bad sentence (exit 2)")
     p.set_defaults(func=_cmd_filter_positions)
-    p = sub.add_parser("smooth", help="carrier-smooth one satellite's code from a RINEX observation file",
-                       description="Carrier-smooth one satellite's C1C with its L1C. Duplicated and backwards epochs, "
+    p = sub.add_parser("smooth", help="carrier-smooth code from a RINEX observation file, arc by arc",
+                       description="Carrier-smooth each selected satellite's code with its carrier (GPS C1C/L1C, "
+                                   "Galileo E1, BDS B1I, GLONASS L1), restarting at the receiver's loss-of-lock "
+                                   "flags and at gaps. Duplicated and backwards epochs, "
                                    "pseudoranges outside the plausibility bounds and an epoch cut by a truncated "
                                    "file are skipped and listed (line and reason) on stdout and in "
                                    "<out>.skipped.csv.",
                        epilog=EXIT_STATUS_HELP)
-    p.add_argument("file", help="RINEX 3 observation file with C1C and L1C")
-    p.add_argument("--prn", required=True, help="satellite, e.g. G08")
+    p.add_argument("file", help="RINEX 2.1x or 3.0x observation file (plain, .gz, Hatanaka .crx or .crx.gz)")
+    p.add_argument("--prn", required=True, help="satellites (G08 or G08,C11) or systems (G, GEC, all)")
     p.add_argument("--out", required=True, help="output CSV")
     p.add_argument("--filter", default="hatch", choices=["hatch", "kf", "adaptive-kf"])
     p.add_argument("--window", type=int, default=100, help="Hatch window (epochs)")
     p.add_argument("--q", type=float, default=1e-3, help="Kalman smoother Q (m^2)")
     p.add_argument("--r", type=float, default=1.25, help="Kalman smoother R (m^2)")
     p.add_argument("--slip-threshold", type=float, default=0.0, help="code-minus-carrier slip test (m), 0: off")
+    p.add_argument("--max-gap", type=float, default=None, metavar="S",
+                   help="a longer step between a satellite's epochs ends its arc (default 1.5 epoch intervals)")
+    p.add_argument("--max-cmc-rate", type=float, default=MAX_CMC_RATE_MPS, metavar="M/S",
+                   help="leave an arc unsmoothed (and exit 3) when its code minus carrier drifts faster than this, "
+                        "least-squares slope over the arc (default %(default)g m/s; a phone's carrier can drift tens of m/s)")
+    p.add_argument("--ignore-lli", action="store_true",
+                   help="do not restart at the receiver's loss-of-lock flags (gaps still end arcs)")
     p.add_argument("--pseudorange-min", type=float, default=PSEUDORANGE_MIN_M, metavar="M",
                    help="skip a pseudorange below this (default %(default)g m)")
     p.add_argument("--pseudorange-max", type=float, default=PSEUDORANGE_MAX_M, metavar="M",
@@ -223,11 +274,52 @@ def _fail(message: str, status: int) -> int:
     return status
 
 
+class _QuietPipe:
+    """stdout that stops writing, without an error, once its reader has gone (``| head``).
+
+    The command still runs to its end and returns its own exit status: its output file is
+    written whatever happened to the summary on stdout.
+    """
+
+    def __init__(self, stream) -> None:
+        self.stream, self.closed_by_reader = stream, False
+
+    def _quiet(self) -> None:
+        import os
+
+        self.closed_by_reader = True
+        try:  # the interpreter flushes fd 1 again at exit: point it at /dev/null
+            os.dup2(os.open(os.devnull, os.O_WRONLY), self.stream.fileno())
+        except (OSError, ValueError):  # no real descriptor (captured output)
+            pass
+
+    def write(self, text: str) -> int:
+        if self.closed_by_reader:
+            return len(text)
+        try:
+            return self.stream.write(text)
+        except BrokenPipeError:
+            self._quiet()
+            return len(text)
+
+    def flush(self) -> None:
+        if not self.closed_by_reader:
+            try:
+                self.stream.flush()
+            except BrokenPipeError:
+                self._quiet()
+
+    def __getattr__(self, name: str):
+        return getattr(self.stream, name)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit code. Library errors print one line, no traceback:
     exit 2 for configuration and input errors (a bad path included), 1 for other OS
-    failures (a full disk), 130 for Ctrl-C."""
+    failures (a full disk), 130 for Ctrl-C; a closed pipe on stdout ends the printing
+    quietly."""
     args = build_parser().parse_args(argv)
+    stdout, sys.stdout = sys.stdout, _QuietPipe(sys.stdout)
     try:
         return int(args.func(args) or 0)
     except GnssFrameworkError as exc:
@@ -236,6 +328,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _fail("interrupted (Ctrl-C)" + getattr(args, "interrupt_hint", ""), 130)
     except OSError as exc:
         return _fail(os_error_message(exc), 2 if exc.errno in _PATH_ERRNOS else 1)
+    finally:
+        sys.stdout.flush()
+        sys.stdout = stdout
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -22,6 +22,7 @@ __all__ = [
     "InvalidInputError",
     "InvalidArgumentError",
     "WorkerError",
+    "RunFailure",
 ]
 
 
@@ -213,3 +214,28 @@ class WorkerError(GnssFrameworkError):
 
     def __reduce__(self) -> tuple:
         return (type(self), (self.where, self.detail, self.traceback_text))
+
+
+class RunFailure(GnssFrameworkError):
+    """A library error raised while simulating one batch of a comparison, with where it
+    happened: candidate, case, runs and sweep point, then the original one-line message
+    (which names the filter, batch element and step of a numerical failure).
+
+    Parameters
+    ----------
+    where
+        ``"candidate 'ukf', case 'c45', runs 0-1"`` (and ``", sweep point cn0=30"``).
+    message
+        The original error's message.
+    cause
+        The original error's type name (``"NotPositiveDefiniteError"``).
+    """
+
+    def __init__(self, where: str, message: str, cause: str = "") -> None:
+        self.where = where
+        self.detail = message
+        self.cause = cause
+        super().__init__(f"{where}: {message}")
+
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.where, self.detail, self.cause))

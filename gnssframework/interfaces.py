@@ -32,7 +32,8 @@ from .errors import ConfigError, InvalidArgumentError, PluginError
 from .plugin import Plugin, PluginParams
 from .signal.correlators import Correlators
 
-__all__ = ["Discriminator", "DiscriminatorParams", "RunContext", "SequentialFilter", "ChannelFilter", "NavFilter"]
+__all__ = ["Discriminator", "DiscriminatorParams", "RunContext", "SequentialFilter", "ChannelFilter", "NavFilter",
+           "ASSUMPTION_LABELS"]
 
 
 class DiscriminatorParams(PluginParams):
@@ -202,6 +203,15 @@ def _marks_reset(reset):
     return wrapper
 
 
+#: Labels of ``SequentialFilter.assumptions`` that several plugins share (their units fixed).
+ASSUMPTION_LABELS = {
+    "line-of-sight acceleration PSD": "m²/s³",
+    "line-of-sight jerk PSD": "m²/s⁵",
+    "frequency R / thermal variance": "-",
+    "code R / thermal variance": "-",
+}
+
+
 class SequentialFilter(Plugin, abc.ABC):
     """A plugin that processes a sequence epoch by epoch, batch-first.
 
@@ -253,6 +263,15 @@ class SequentialFilter(Plugin, abc.ABC):
         for the context's coherent time...), raising `ConfigError` with the field written
         ``"<kind> '<name>'.<parameter>"``. Scenarios call it when the config loads, so a
         bad value is named before any batch runs. The default accepts every context."""
+
+    def assumptions(self, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
+        """What this filter assumes about dynamics and noise, in units common to every
+        filter of its kind, for a comparison's assumptions table: ``{label: (value,
+        unit)}``. ``context`` holds what the scenario knows (``coherent_time_s``,
+        ``cn0_dbhz``, ``wavelength_m``...). Labels shared across plugins (see
+        :data:`ASSUMPTION_LABELS`) let a reader put a mismatch side by side before reading
+        a ranking. The default declares nothing."""
+        return {}
 
     def checked_step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """``step``, then check it returned every name the plugin ``provides`` (harnesses

@@ -26,6 +26,9 @@ NCO_SHIFT_CHIPS = "nco_shift_chips"  #: code NCO shift since the last interval, 
 NCO_SHIFT_HZ = "nco_shift_hz"  #: carrier NCO frequency shift since the last interval
 DATA_BIT = "data_bit"  #: the navigation data bit (+-1), only where the harness knows it
 
+# -- input a recorded-data harness adds to a smoother's step ------------------------------
+ARC_START = "arc_start"  #: True where a carrier arc starts: the receiver's loss-of-lock flag or a gap
+
 # -- scalar / carrier loop outputs ---------------------------------------------------
 CARRIER_FREQ_HZ = "carrier_freq_hz"
 CODE_FREQ_HZ = "code_freq_hz"

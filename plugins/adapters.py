@@ -232,7 +232,8 @@ class OracleGridParams(PluginParams):
                                   description="Q = s_q Q0 for each s_q (multipliers of the model's Q0)")
     r_scales: list[float] = Field([0.3, 1.0, 3.0, 10.0, 30.0, 100.0],
                                   description="R = s_r R0 for each s_r (multipliers of the model's R0)")
-    training_runs: int = Field(0, ge=0, description="independent runs the grid is scored on (0: as many as the batch)")
+    training_runs: int = Field(10, ge=1, description="independent runs the grid is scored on, drawn from a "
+                               "stream of the case (the same in every batch)")
 
 
 class OracleGrid(NoiseAdapter):

@@ -17,7 +17,7 @@ from gnssframework.signal.navdata import wipe_off
 from gnssframework.plugin import NestedFieldError, PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.loop_filters import MAX_BANDWIDTH_TIME, LoopFilter, check_bandwidth_time
-from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
+from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ, L1_WAVELENGTH_M
 from gnssframework.simulation.clock import PRESETS
 
 __all__ = ["ScalarTrackingLoop", "KalmanCarrierLoop", "DiscriminatorChannel", "IqFilter"]
@@ -241,6 +241,10 @@ class DiscriminatorChannelParams(PluginParams):
     fixed_r_cn0_dbhz: float | None = Field(
         None, ge=15, le=60, description="give the nav filter the thermal variances at this fixed C/N0 (a fixed R "
         "tuned once, e.g. at 45 dB-Hz) instead of at the channel's C/N0; null: the channel's C/N0")
+    freq_r_scale: float = Field(
+        1.0, gt=0, le=1e4, description="multiply the frequency variance handed to the nav filter by this (an R "
+        "inflation or deflation to tune: cross-product FLL errors are correlated between intervals, which a white "
+        "R at the thermal variance does not describe)")
 
 
 class DiscriminatorChannel(ChannelFilter):
@@ -264,6 +268,22 @@ class DiscriminatorChannel(ChannelFilter):
     requires = ("correlators",)
     provides = VECTOR_OUTPUTS
 
+    def assumptions(self, context):
+        out = {"line-of-sight acceleration PSD": ("none (memoryless)", "m²/s³")}
+        cn0, T = context.get("cn0_dbhz"), context.get("coherent_time_s")
+        fixed = self.params.fixed_r_cn0_dbhz
+        if cn0 is None or T is None or fixed is None:
+            code_ratio = 1.0
+            freq_ratio = self.params.freq_r_scale
+        else:  # R at the fixed C/N0 against the thermal variance at the case's
+            code = self.params.code_discriminator.create(coherent_time_s=T)
+            freq = self.params.freq_discriminator.create(coherent_time_s=T)
+            code_ratio = float(code.noise_variance(fixed) / code.noise_variance(cn0))
+            freq_ratio = float(freq.noise_variance(fixed) / freq.noise_variance(cn0)) * self.params.freq_r_scale
+        out["code R / thermal variance"] = (code_ratio, "-")
+        out["frequency R / thermal variance"] = (freq_ratio, "-")
+        return out
+
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         who = f"channel_filter {self.name!r}"
         T = context.require("coherent_time_s", who)
@@ -277,7 +297,7 @@ class DiscriminatorChannel(ChannelFilter):
         if self.params.fixed_r_cn0_dbhz is not None:
             cn0 = np.full(batch_shape, self.params.fixed_r_cn0_dbhz)
         self.var_code = np.broadcast_to(self.code.noise_variance(cn0), batch_shape)
-        self.var_freq = np.broadcast_to(self.freq.noise_variance(cn0), batch_shape)
+        self.var_freq = np.broadcast_to(self.freq.noise_variance(cn0) * self.params.freq_r_scale, batch_shape)
         self.previous = None
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -450,6 +470,22 @@ class IqFilter(ChannelFilter):
                                   "none: use split_code = 'new-information'")
             cn0 = np.broadcast_to(np.asarray(context.get("cn0_dbhz"), float), batch_shape)
             self.code_var = np.broadcast_to(self.code_disc.noise_variance(cn0), batch_shape)
+
+    def assumptions(self, context):
+        T = context.get("coherent_time_s")
+        out = {}
+        if T is not None:
+            # The frequency state's random walk (Q[3,3] per interval, clock included) is a white
+            # line-of-sight acceleration of PSD Q33 / T * lambda^2 (df = -a / lambda); the
+            # frequency-rate state's (Q[4,4]) a white jerk of PSD Q44 / T * lambda^2.
+            Q = self.process_noise(T)
+            lam = L1_WAVELENGTH_M
+            out["line-of-sight acceleration PSD"] = (float(Q[3, 3] / T * lam**2), "m²/s³")
+            out["line-of-sight jerk PSD"] = (float(Q[4, 4] / T * lam**2), "m²/s⁵")
+        out["correlator R"] = (f"adaptive ({self.params.adapter.name}, window {self.params.window})"
+                               if self.params.adapter and self.params.adaptive else "true covariance", "")
+        out["output"] = (self.params.output, "")
+        return out
 
     def process_noise(self, coherent_time_s: float) -> np.ndarray:
         r"""Q per interval: ``diag(q)`` plus, with ``clock`` set, the clock's noise on

@@ -74,6 +74,10 @@ class EkfPositionVelocity(NavFilter):
     requires = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", "freq_error_var_hz2")
     provides = ("position_m", "velocity_m_s", "clock_m", "cov", "nco_range_m", "nco_range_rate_m_s")
 
+    def assumptions(self, context):
+        # White acceleration, the same PSD on every axis: any line of sight sees it.
+        return {"line-of-sight acceleration PSD": (self.params.accel_psd, "m²/s³")}
+
     def __init__(self, **params: Any) -> None:
         super().__init__(**params)
         if self.params.clock not in PRESETS:

@@ -8,7 +8,7 @@ from typing import Any, Mapping
 import numpy as np
 from pydantic import Field
 
-from gnssframework import registry
+from gnssframework import names, registry
 from gnssframework.estimation import FilterStep, Gaussian, LinearModel
 from gnssframework.interfaces import ChannelFilter, RunContext
 from gnssframework.plugin import PluginParams
@@ -33,6 +33,14 @@ def _slip(rho, predicted, threshold: float) -> np.ndarray:
     return np.abs(rho - predicted) > threshold
 
 
+def _arc_start(inputs: Mapping[str, np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
+    """The optional ``arc_start`` input: True where the receiver flagged a loss of lock or
+    the data have a gap (:func:`gnssframework.io.observations.arc_starts`)."""
+    if names.ARC_START not in inputs:
+        return np.zeros(shape, dtype=bool)
+    return np.broadcast_to(np.asarray(inputs[names.ARC_START], bool), shape)
+
+
 class HatchParams(_SlipParams):
     window: int = Field(100, ge=2, description="smoothing window tau (epochs)")
 
@@ -49,6 +57,10 @@ class HatchFilter(ChannelFilter):
     a start or a reset (the usual implementation; the patent writes the steady state,
     $n = \\tau$). With ``slip_threshold_m`` > 0, a code-minus-carrier jump larger than
     the threshold resets the window (beyond the paper).
+
+    An optional input ``arc_start`` (bool) restarts the window where a new carrier arc
+    begins: a receiver's loss-of-lock flag or a gap in the data. ``slip_detected``
+    reports the filter's own detections only, to be read beside the receiver's flags.
     """
 
     name = "hatch"
@@ -68,7 +80,9 @@ class HatchFilter(ChannelFilter):
             return {"smoothed_m": self.smoothed, "slip_detected": np.zeros(rho.shape, bool)}
         predicted = self.smoothed + (phi - self.phi)
         slip = _slip(rho, predicted, self.params.slip_threshold_m)
-        self.n = np.where(slip, 1.0, np.minimum(self.n + 1, self.params.window))
+        restart = slip | _arc_start(inputs, rho.shape)
+        self.n = np.where(restart, 1.0, np.minimum(self.n + 1, self.params.window))
+        predicted = np.where(restart, rho, predicted)  # an undefined carrier delta across the restart
         self.smoothed = rho / self.n + (self.n - 1) / self.n * predicted
         self.phi = phi
         return {"smoothed_m": self.smoothed, "slip_detected": slip}
@@ -98,6 +112,10 @@ class KalmanSmoother(ChannelFilter):
     delta wrong by N wavelengths, the corrections grow, and the adapted Q raises the gain
     until the error has decayed. ``slip_threshold_m`` resets the filter on a detected
     slip instead.
+
+    An optional input ``arc_start`` (bool) restarts the filter from the code where a new
+    carrier arc begins (a receiver's loss-of-lock flag or a gap in the data);
+    ``slip_detected`` reports the filter's own detections only.
     """
 
     name = "kf-smoother"
@@ -131,10 +149,11 @@ class KalmanSmoother(ChannelFilter):
         model = LinearModel(self.base.F, self.base.H, self.base.Q, self.base.R, u=(phi - self.phi)[..., None])
         prior = self.filter_step.predict(self.state, model)
         slip = _slip(rho, prior.mean[..., 0], self.params.slip_threshold_m)
+        restart = slip | _arc_start(inputs, rho.shape)
         post = self.filter_step.update(prior, rho[..., None], model, previous=self.state).posterior
-        if slip.any():  # restart from the code alone
-            mean = np.where(slip[..., None], rho[..., None], post.mean)
-            cov = np.where(slip[..., None, None], self.base.R, post.cov)
+        if restart.any():  # restart from the code alone
+            mean = np.where(restart[..., None], rho[..., None], post.mean)
+            cov = np.where(restart[..., None, None], self.base.R, post.cov)
             post = Gaussian(mean, cov)
         self.state, self.phi = post, phi
         return {"smoothed_m": post.mean[..., 0], "slip_detected": slip}

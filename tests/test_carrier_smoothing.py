@@ -167,10 +167,12 @@ def test_cli_smooth_writes_csv(tmp_path):
                            "--filter", "kf", "--slip-threshold", "4"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     rows = [r.split(",") for r in out.read_text().splitlines()]
-    assert rows[0] == ["epoch", "time_s", "pseudorange_m", "carrier_m", "smoothed_m", "slip_detected"]
-    assert len(rows) == 722 and sum(int(r[5]) for r in rows[1:]) >= 1
-    code = np.array([float(r[2]) for r in rows[1:]])
-    smooth = np.array([float(r[4]) for r in rows[1:]])
+    assert rows[0] == ["epoch", "sv", "time_s", "pseudorange_m", "carrier_m", "smoothed_m", "lli", "snr_dbhz",
+                       "arc_start", "slip_detected"]
+    assert len(rows) == 722 and sum(int(r[9]) for r in rows[1:]) >= 1
+    assert sum(int(r[8]) for r in rows[1:]) == 1  # one arc: no flags, no gaps in the simulated pass
+    code = np.array([float(r[3]) for r in rows[1:]])
+    smooth = np.array([float(r[5]) for r in rows[1:]])
     # Smoothing removes most of the code noise: the smoothed track is far less rough.
     assert np.std(np.diff(smooth, 2)) < 0.3 * np.std(np.diff(code, 2))
 

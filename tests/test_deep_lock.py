@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gnssframework.experiments.runner import batch_rng
+from gnssframework.random_streams import name_key, run_streams
 from gnssframework.experiments.scenarios import get_scenario
 
 DEEP = {"channel_filter": {"name": "iq-filter", "params": {"estimator": "ukf", "adaptive": False,
@@ -24,7 +24,8 @@ def _run(jerk_g_s: float, candidate: dict, runs: int = 2):
     sc = get_scenario({"kind": "deep-integration", "profile": "jerk-pulse", "duration_s": 2.3, "settle_s": 0.3,
                        "pulse_accel_g": 20.0, "pulse_jerk_g_s": jerk_g_s, "pulse_start_s": 0.5, "pulse_hold_s": 0.3})
     plugins = sc.build(candidate)
-    return sc.run_batch({"name": "45dBHz", "cn0_dbhz": 45.0}, plugins, runs, batch_rng(5, 0, 0)).metrics
+    return sc.run_batch({"name": "45dBHz", "cn0_dbhz": 45.0}, plugins, runs,
+                        run_streams(5, name_key("45dBHz"), range(runs))).metrics
 
 
 @pytest.mark.parametrize("jerk_g_s, scalar_loses_lock", [(50.0, True), (5.0, False)])

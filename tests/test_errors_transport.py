@@ -26,6 +26,7 @@ ERRORS = [
     errors.InvalidInputError("ckf", "zs", "is a zero-length measurement sequence"),
     errors.InvalidArgumentError("filter_sequence", "estimator", "expected an estimator plugin, got str 'ukf'"),
     errors.WorkerError("case 'a', candidate 'b', batch 0", "TypeError: boom", "Traceback ..."),
+    errors.RunFailure("candidate 'b', case 'a', runs 0-1", "ukf: invalid initial state", "InvalidInitialStateError"),
 ]
 
 
@@ -97,13 +98,13 @@ try:
     run_comparison(load_config(sys.argv[2]), sys.argv[3], progress=False)
 except Exception as exc:
     print(type(exc).__name__)
-    print(str(exc).replace("batch 1", "batch 0"))
+    print(str(exc).replace("runs 2-3", "runs 0-1"))
 """
 
 
 @pytest.mark.parametrize("which, expected_type, message", [
-    ("config", "ConfigError", "nav_filter.gain: gain must be finite in the worker"),
-    ("unpicklable", "WorkerError", "case 'c45', candidate 'bad', batch 0: HoldsALock: exploded in step"),
+    ("config", "RunFailure", "candidate 'bad', case 'c45', runs 0-1: nav_filter.gain: gain must be finite in the worker"),
+    ("unpicklable", "WorkerError", "candidate 'bad', case 'c45', runs 0-1: HoldsALock: exploded in step"),
 ])
 def test_failure_in_a_worker_reaches_the_user_with_its_message(tmp_path, which, expected_type, message):
     path = tmp_path / "tiny.toml"
@@ -119,8 +120,8 @@ def test_a_worker_that_dies_is_reported_with_its_batch_not_as_a_bare_broken_pool
     out = subprocess.run([sys.executable, "-c", SCRIPT, "died", str(path), str(tmp_path / "out")],
                          capture_output=True, text=True, timeout=120)
     lines = out.stdout.splitlines()
-    assert lines[0] == "GnssFrameworkError", out.stderr[-2000:]
-    assert lines[1].startswith("case 'c45', candidate 'bad', batch 0: a worker process died"), lines
+    assert lines[0] == "RunFailure", out.stderr[-2000:]
+    assert lines[1].startswith("candidate 'bad', case 'c45', runs 0-1: a worker process died"), lines
     assert "executor.workers = 1" in lines[1]
 
 

@@ -64,7 +64,7 @@ def test_summary_report_plots_and_published_values(tmp_path):
     assert "| code_phase_error_rmse | chips |" in report and "(paper 0.01)" in report
     for png in ("c45-series.png", "c45-cdf.png"):
         assert (tmp_path / "out" / "plots" / png).stat().st_size > 1000
-    assert len(list((tmp_path / "out" / "raw" / "c45" / "disc").glob("batch*.npz"))) == 2
+    assert len(list((tmp_path / "out" / "raw" / "c45" / "disc").glob("run*.npz"))) == 2
 
 
 def test_same_seed_same_numbers_on_every_executor(tmp_path):
@@ -113,7 +113,7 @@ def test_more_runs_reuse_the_finished_batches(tmp_path):
     ran = []
     summary = run_comparison(load_config(_write(tmp_path), runs=6), tmp_path / "out", progress=False,
                              on_batch=ran.append)
-    assert len(ran) == 2 and {t.batch for t in ran} == {2}
+    assert len(ran) == 2 and {t.first_run for t in ran} == {4}
     assert _rows(summary)[("c45", "disc", "nees")]["runs"] == 6
 
 

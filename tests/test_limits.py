@@ -163,9 +163,16 @@ def test_a_batch_above_the_memory_budget_is_refused_with_its_estimate(tmp_path, 
     assert _load(tmp_path, text).batch_size == 50
 
 
-@pytest.mark.parametrize("text, passes", [(MULTIPATH, 50), (ORACLE, 50 + 30 * 50), (SMOOTHING, None)])
-def test_filter_scenarios_refuse_a_batch_above_the_budget_counting_an_oracle_grid(tmp_path, monkeypatch, text, passes):
+def _oracle_passes(runs: int) -> int:
+    """Runs filtered with the default oracle grid: the batch, and every pair over its training runs."""
+    grid = gf.registry.create("noise_adapter", "oracle-grid").params
+    return runs + len(grid.q_scales) * len(grid.r_scales) * (grid.training_runs or runs)
+
+
+@pytest.mark.parametrize("text, oracle", [(MULTIPATH, False), (ORACLE, True), (SMOOTHING, None)])
+def test_filter_scenarios_refuse_a_batch_above_the_budget_counting_an_oracle_grid(tmp_path, monkeypatch, text, oracle):
     monkeypatch.delenv(MEMORY_BUDGET_ENV, raising=False)
+    passes = None if oracle is None else _oracle_passes(50) if oracle else 50
     big = text.replace("epochs = 500", "epochs = 100000").replace("runs = 4", "runs = 100000").replace(
         "batch_size = 2", "batch_size = 100000")
     msg = _error(tmp_path, big)

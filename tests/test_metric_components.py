@@ -9,6 +9,7 @@ from gnssframework.experiments import get_scenario
 from gnssframework.experiments.metric_components import (ConvergenceEpoch, LockLossFraction, Mean, MeanAbs, Rmse,
                                                          SlipRecovery, Std, evaluate, slip_recovery, units)
 from gnssframework.experiments.scenarios import carrier_smoothing, multipath, scintillation, vector_tracking
+from gnssframework.random_streams import as_run_streams
 
 
 def _hand_convergence(err: np.ndarray, window: int, factor: float) -> float:
@@ -69,7 +70,7 @@ def test_convergence_epoch_equals_the_definition_written_out(rng):
 def test_the_multipath_scenario_declares_each_metric_once_and_reports_the_hand_reductions():
     assert multipath.MultipathScenario.metrics == {m.name: m.unit for m in multipath.METRICS}
     scen = get_scenario({"kind": "multipath", "epochs": 60, "convergence_window": 5})
-    zs = scen.simulate(3, np.random.default_rng(4), psi=0.9)
+    zs = scen.simulate(3, as_run_streams(np.random.default_rng(4), 3), psi=0.9)  # run_batch's streams
     res = scen.run_batch({"psi": 0.9}, {}, 3, np.random.default_rng(4))  # raw: the measurement itself
     lat, lon = zs[..., 0], zs[..., 1]
     h = np.hypot(lat, lon)
@@ -225,7 +226,7 @@ def test_each_scenario_derives_its_metric_table_from_its_components(module):
 def test_carrier_smoothing_reports_the_hand_reductions():
     scen = get_scenario({"kind": "carrier-smoothing", "epochs": 300, "settle_epochs": 20, "slip_probability": 0.02,
                          "recovery_isolation_epochs": 40})
-    truth, code, _, slips = scen.simulate(3, np.random.default_rng(5))
+    truth, code, _, slips = scen.simulate(3, as_run_streams(np.random.default_rng(5), 3))  # run_batch's streams
     res = scen.run_batch({}, {}, 3, np.random.default_rng(5))  # raw: the pseudorange itself
     err = code - truth
     np.testing.assert_allclose(res.metrics["error_rmse"], np.sqrt(np.mean(err[20:] ** 2, axis=0)), rtol=1e-12)

@@ -126,7 +126,7 @@ def test_a_third_party_metric_is_named_in_a_config_and_reported(tmp_path, scratc
     assert peak["unit"] == "chips" and peak["runs"] == 2
     assert peak["mean"] > rms["mean"] > 0  # a maximum exceeds the RMS over the same epochs
     # By hand from the stored raw series (the scenario's per-epoch code error, RMS over channels).
-    raw = np.load(tmp_path / "out" / "raw" / "c" / "disc" / "batch0000.npz")
+    raw = np.load(tmp_path / "out" / "raw" / "c" / "disc" / "run000000-000001.npz")
     late = raw["code_error_chips"][raw["time_s"] >= 0.1]
     assert peak["mean"] == pytest.approx(np.mean(late.max(axis=0)), rel=1e-12)
     assert rms["mean"] == pytest.approx(np.mean(np.sqrt(np.mean(late**2, axis=0))), rel=1e-12)

@@ -7,6 +7,7 @@ import gnssframework as gf
 from gnssframework.experiments import get_scenario
 from gnssframework.experiments.config import ComparisonConfig
 from gnssframework.experiments.scenarios.multipath import convergence_epoch
+from gnssframework.random_streams import as_run_streams
 
 BASE = {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": {"name": "kf", "params": {}}}
 
@@ -28,7 +29,7 @@ def test_convergence_epoch_against_a_hand_built_sequence():
 
 def test_raw_candidate_reports_the_measurement_itself():
     scen = get_scenario({"kind": "multipath", "epochs": 120})
-    zs = scen.simulate(4, np.random.default_rng(2), psi=0.8)
+    zs = scen.simulate(4, as_run_streams(np.random.default_rng(2), 4), psi=0.8)  # run_batch's streams
     raw = _run({}, {"psi": 0.8}).metrics
     np.testing.assert_allclose(raw["lat_error_rmse"], np.sqrt(np.mean(zs[..., 0] ** 2, axis=0)))
     np.testing.assert_allclose(raw["horizontal_error_rmse"], np.sqrt(np.mean(np.sum(zs**2, axis=-1), axis=0)))
@@ -117,8 +118,9 @@ def test_the_batched_oracle_grid_chooses_what_the_loop_over_pairs_chooses():
     colored = {**BASE, "augmentation": {"name": "colored-ar1", "params": {"psi": 0.8}}}
     grid = {"q_scales": [1e-6, 1e-2, 1.0], "r_scales": [0.3, 3.0, 30.0], "training_runs": 3}
     plugins = scen.build({**colored, "noise_adapter": {"name": "oracle-grid", "params": grid}})
-    chosen = scen._oracle(plugins, 5, 0.8, np.random.default_rng(7))
-    train = scen.simulate(3, np.random.default_rng(7), 0.8)  # the same training draw
+    streams = as_run_streams(7, 5)
+    chosen = scen._oracle(plugins, 0.8, streams)
+    train = scen.simulate(3, streams.shared("oracle-training"), 0.8)  # the same training draw
     plain = scen.build(colored)
     score = {(sq, sr): np.mean(scen._filter(plain, train, sq, sr)[0] ** 2)
              for sq in grid["q_scales"] for sr in grid["r_scales"]}

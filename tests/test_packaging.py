@@ -26,3 +26,21 @@ def test_wheel_contains_every_module_and_the_entry_point(tmp_path):
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
     text = zipfile.ZipFile(wheel).read(entry_points).decode()
     assert "[gnssframework]" in text and "builtin = gnssframework_plugins" in text
+
+
+def test_version_licence_and_citation_are_in_one_place():
+    import subprocess
+    import sys
+    import tomllib
+    from pathlib import Path
+
+    import gnssframework
+
+    root = Path(__file__).resolve().parents[1]
+    version = tomllib.loads((root / "pyproject.toml").read_text())["project"]["version"]
+    assert gnssframework.__version__ == version
+    out = subprocess.run([sys.executable, "-m", "gnssframework", "--version"], capture_output=True, text=True)
+    assert out.returncode == 0 and out.stdout.strip() == f"gnssframework {version}"
+    assert "MIT License" in (root / "LICENSE").read_text()
+    assert f"version: {version}" in (root / "CITATION.cff").read_text()
+    assert (root / "gnssframework" / "py.typed").exists()

@@ -112,7 +112,7 @@ def test_cli_smooth_exit_status_summary_and_sidecar(tmp_path, capsys):
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "smooth", str(dup), "--prn", "G08", "--out",
                            str(out)], capture_output=True, text=True)
     assert proc.returncode == 3, proc.stderr
-    assert "100 epochs smoothed" in proc.stdout and "1 epochs or observations skipped" in proc.stdout
+    assert "100 epochs of 1 satellites smoothed" in proc.stdout and "1 epochs or observations skipped" in proc.stdout
     assert f"skipped line {_epoch(6) + 1}: duplicate epoch" in proc.stdout
     with open(tmp_path / "s.csv.skipped.csv", newline="") as fh:
         rows = list(csv.reader(fh))
@@ -126,7 +126,7 @@ def test_cli_smooth_exit_status_summary_and_sidecar(tmp_path, capsys):
 
     cut = _write(tmp_path, LINES[:_epoch(50) + 2], "cut.rnx")
     code, std = smooth(cut)
-    assert code == 4 and "TRUNCATED FILE" in std.out and "50 epochs smoothed" in std.out
+    assert code == 4 and "TRUNCATED FILE" in std.out and "50 epochs of 1 satellites smoothed" in std.out
     code, std = smooth(cut, "--strict")
     assert code == 2 and f"cut.rnx:{_epoch(50) + 1}: truncated" in std.err
     code, std = smooth(_write(tmp_path, LINES, "clean.rnx"))

@@ -36,6 +36,8 @@ def _shortened(path: Path, tmp_path: Path) -> Path:
         if "steady_state_s" in data["scenario"]:
             data["scenario"]["steady_state_s"] = 1.0
     data.pop("sweeps", None)  # sweeps have their own strict-JSON test
+    if "tuning" in data:  # the tuning's own tests are in test_tuning.py: the least that runs it here
+        data["tuning"].update(trials=2, runs=1)
     out = tmp_path / path.name
     out.write_text(_toml(data))
     return out
@@ -163,12 +165,12 @@ def _check_every_file_parses(out: Path) -> None:
             try:
                 assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
                 # Every batch the store calls finished has all its metric rows.
-                for config, case, cand, batch, runs in con.execute("SELECT * FROM batches"):
-                    n = con.execute("SELECT COUNT(*) FROM metrics WHERE config = ? AND case_name = ? AND "
-                                    "candidate = ? AND run >= ? AND run < ?",
-                                    (config, case, cand, batch, batch + runs)).fetchone()[0]
+                for config, case, cand, first, runs in con.execute("SELECT * FROM batches"):
+                    n = con.execute('SELECT COUNT(*) FROM metrics WHERE config = ? AND "case" = ? AND '
+                                    "candidate = ? AND first_run = ? AND batch_runs = ?",
+                                    (config, case, cand, first, runs)).fetchone()[0]
                     n_metrics = len(CarrierSmoothingScenario.metrics)  # the kill config's scenario
-                    assert n == n_metrics * runs, (case, cand, batch)  # every metric of every run
+                    assert n == n_metrics * runs, (case, cand, first)  # every metric of every run
             finally:
                 con.close()
 
@@ -220,7 +222,7 @@ def test_compare_killed_inside_each_kind_of_write_resumes_to_the_uninterrupted_r
     expected = loads_strict(run_comparison(load_config(config), tmp_path / "whole", progress=False).read_text())
     out = tmp_path / "killed"
     # One folder, one run per write site, each killed there; the next run resumes.
-    for target in ("batch0001.npz", "store-batch-2", "summary.json", "-cdf.png"):
+    for target in ("run000001-000001.npz", "store-batch-2", "summary.json", "-cdf.png"):
         before = {p: p.read_bytes() for p in out.rglob(f"*{target}")} if out.exists() else {}
         proc = subprocess.run([sys.executable, "-c", _KILL_AT, str(config), str(out), target],
                               capture_output=True, text=True, timeout=120)

@@ -112,10 +112,11 @@ def test_summary_and_report_carry_the_hand_computed_paired_statistics(tmp_path):
     config = _config(tmp_path, 'reference = "b"')
     store = ResultStore(tmp_path / "results.sqlite")
     key = config.identity()
+    store.register(key, config.batch_size)
     for name, values in (("a", X), ("b", Y)):
         for batch in range(2):
             metrics = {m: values[2 * batch: 2 * batch + 2] for m in config.metric_names}
-            store.add_batch(key, "only", name, batch, 2 * batch, metrics)
+            store.add_batch(key, "only", name, 2 * batch, metrics)
     summary = json.loads(write_report(config, store, tmp_path).read_text())
     assert summary["reference"] == "b"
     row = next(r for r in summary["paired"] if r["metric"] == "lat_error_rmse")

@@ -264,3 +264,22 @@ def test_readme_describes_the_main_job_the_example_runs():
     runs, duration, cases, candidates = map(int, found.groups())
     assert (runs, duration, cases, candidates) == (example["runs"], example["scenario"]["duration_s"],
                                                    len(example["cases"]), len(example["candidates"]))
+
+
+def test_discriminator_channel_freq_r_scale_multiplies_only_the_frequency_variance():
+    from gnssframework import registry
+    from gnssframework.interfaces import RunContext
+    from gnssframework.signal.correlator_model import simulate_correlators
+
+    ctx = RunContext(coherent_time_s=0.01, early_late_spacing_chips=1.0, epoch_interval_s=0.01, cn0_dbhz=np.full(3, 40.0))
+    outs = {}
+    for scale in (1.0, 4.0):
+        ch = registry.create("channel_filter", "discriminator", freq_r_scale=scale)
+        ch.reset((3,), ctx)
+        rng = np.random.default_rng(0)
+        for _ in range(2):  # the second interval has a previous prompt: a frequency output
+            corr = simulate_correlators(np.zeros(3), np.zeros(3), np.zeros(3), 40.0, 0.01, rng)
+            outs[scale] = ch.step({"correlators": corr})
+    np.testing.assert_array_equal(outs[4.0]["freq_error_var_hz2"], 4.0 * outs[1.0]["freq_error_var_hz2"])
+    np.testing.assert_array_equal(outs[4.0]["code_error_var_chips2"], outs[1.0]["code_error_var_chips2"])
+    np.testing.assert_array_equal(outs[4.0]["freq_error_hz"], outs[1.0]["freq_error_hz"])

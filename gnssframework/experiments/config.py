@@ -20,9 +20,11 @@ from ..errors import ConfigError, DataFileError
 from ..hookspecs import COMPONENT_KINDS
 from ..io.text import read_input_text
 from ..plugin import validation_message
+from .claims import Claim, check_claims
 from .sweeps import Sweep, check_unique_labels, expand_sweep
+from .tuning import Tuning, check_tuning
 
-__all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "load_config"]
+__all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "Claim", "load_config"]
 
 
 #: Most Monte Carlo runs of a comparison (each case and candidate): a million runs of the
@@ -102,6 +104,14 @@ class ComparisonConfig(_Strict):
                                 "or range of values (each point runs every case and candidate)")
     published: dict[str, dict[str, dict[str, float]]] = Field(
         default_factory=dict, description="published values: case -> candidate -> metric -> value")
+    tuning: Tuning | None = Field(None, description="tune every candidate with free parameters by the same "
+                                  "procedure and budget on tuning streams, then evaluate them at their tuned values")
+    random_stream: Literal["evaluation", "tuning"] = Field(
+        "evaluation", description="the runs' random streams: evaluation (the default) or the disjoint tuning "
+        "streams (set by the tuner for its trials)")
+    claims: list[Claim] = Field(default_factory=list, description="orderings and bounds the results must show, "
+                                "each checked from the paired runs (holds / fails / not significant); "
+                                "`compare --check` exits 1 unless every claim holds")
 
     @field_validator("candidates", "cases")
     @classmethod
@@ -144,6 +154,9 @@ class ComparisonConfig(_Strict):
                     if metric not in self.metric_names:
                         raise ConfigError(f"published.{case}.{cand}.{metric}",
                                           f"unknown metric; allowed: {', '.join(self.metric_names)}")
+        check_claims(self.claims, sorted(case_names), [c.name for c in self.candidates], self.metric_names)
+        if self.tuning is not None:
+            check_tuning(self)
         if self.sweeps:
             check_unique_labels(self.sweeps)
             self._points = {i: expand_sweep(self, i) for i in range(len(self.sweeps))}  # validates every value
@@ -190,7 +203,7 @@ class ComparisonConfig(_Strict):
         A store keyed by it lets a longer or interrupted comparison reuse finished batches.
         """
         data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
-                                        "reference", "sweeps"})
+                                        "reference", "sweeps", "claims"})
         extra = self.component_metrics()
         if extra:  # the stored rows must hold them; a config without components keeps its old key
             data["metric_components"] = sorted(extra)

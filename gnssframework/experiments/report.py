@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .claims import claim_line, evaluate_claims
 from .config import ComparisonConfig
 from .files import atomic_open, atomic_write_text, write_json
 from .scenarios import get_scenario
@@ -112,14 +113,39 @@ def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | N
     return "\n".join(lines) + "\n"
 
 
-def _load_series(out: Path, case: str, cand: str) -> tuple[np.ndarray | None, dict[str, np.ndarray]]:
-    files = sorted((out / "raw" / case / cand).glob("batch*.npz"))
+#: Epochs at which the report's time-series plots take the median over runs: a figure
+#: shows no more, and it bounds the report step's memory to this many values per run.
+PLOT_EPOCHS = 2000
+
+
+def _median_series(out: Path, config: ComparisonConfig, case: str, cand: str
+                   ) -> tuple[np.ndarray | None, dict[str, np.ndarray]]:
+    """Per metric, the median over runs at up to ``PLOT_EPOCHS`` evenly spaced epochs, read
+    from the batches of this comparison's plan only, one series at a time (memory bounded
+    whatever the number of runs)."""
+    from .runner import series_file
+    from .store import plan_batches
+
+    files = [series_file(out, case, cand, first, n) for first, n in plan_batches(config.runs, config.batch_size)]
+    files = [f for f in files if f.exists()]
     if not files:
         return None, {}
-    parts = [np.load(f) for f in files]
-    time_s = parts[0]["time_s"]
-    keys = [k for k in parts[0].files if k not in ("time_s", "first_run")]
-    return time_s, {k: np.concatenate([p[k] for p in parts], axis=-1) for k in keys}
+    with np.load(files[0]) as first:
+        time_s = first["time_s"]
+        keys = [k for k in first.files if k not in ("time_s", "first_run")]
+    if not time_s.size:
+        return time_s, {}
+    pick = np.unique(np.linspace(0, time_s.size - 1, min(PLOT_EPOCHS, time_s.size)).round().astype(int))
+    medians = {}
+    for key in keys:
+        parts = []
+        for f in files:
+            with np.load(f) as data:
+                if key in data.files and data[key].shape[0] == time_s.size:
+                    parts.append(data[key][pick])
+        if parts:
+            medians[key] = np.median(np.concatenate(parts, axis=-1), axis=-1)
+    return time_s[pick], medians
 
 
 def _savefig(fig, path: Path) -> None:
@@ -141,16 +167,16 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
         fig, axes = plt.subplots(len(metrics), 1, figsize=(7, 2.0 * len(metrics)), sharex=True, squeeze=False)
         bounds = getattr(get_scenario(config.scenario), "bounds", {})
         for cand in config.candidates:
-            time_s, series = _load_series(out, case.name, cand.name)
+            time_s, series = _median_series(out, config, case.name, cand.name)
             for ax, metric in zip(axes[:, 0], metrics):
                 if metric in series and time_s is not None and time_s.size:
-                    ax.plot(time_s, np.median(series[metric], axis=-1), lw=0.8, label=cand.name)
+                    ax.plot(time_s, series[metric], lw=0.8, label=cand.name)
         # A scenario's lower bound of an error metric (e.g. the PCRB) as a dashed line.
-        time_s, series = _load_series(out, case.name, config.candidates[0].name)
+        time_s, series = _median_series(out, config, case.name, config.candidates[0].name)
         for ax, metric in zip(axes[:, 0], metrics):
             bound = bounds.get(metric)
             if bound in series and time_s is not None and time_s.size:
-                ax.plot(time_s, np.median(series[bound], axis=-1), "k--", lw=0.8, label=bound)
+                ax.plot(time_s, series[bound], "k--", lw=0.8, label=bound)
                 ax.legend(fontsize=6)
         for ax, metric in zip(axes[:, 0], metrics):
             unit = next(r["unit"] for r in rows if r["metric"] == metric)
@@ -179,15 +205,138 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
         plt.close(fig)
 
 
-def write_report(config: ComparisonConfig, store: ResultStore, out: Path) -> Path:
-    """Write ``summary.json``, ``report.md`` and ``plots/`` into ``out``."""
+def assumption_rows(config: ComparisonConfig) -> list[dict]:
+    """Per case and candidate, what each plugin assumes (``SequentialFilter.assumptions``):
+    ``{"case", "candidate", "component", "label", "value", "unit"}``."""
+    scenario = get_scenario(config.scenario)
+    rows = []
+    for case in config.cases:
+        context = scenario.assumption_context({"name": case.name, **case.params()})
+        for cand in config.candidates:
+            plugins = scenario.build({k: v.model_dump() for k, v in cand.components().items()})
+            for kind, plugin in plugins.items():
+                declared = getattr(plugin, "assumptions", None)
+                for label, (value, unit) in (declared(context) if declared else {}).items():
+                    rows.append({"case": case.name, "candidate": cand.name, "component": kind, "label": label,
+                                 "value": value, "unit": unit})
+    return rows
+
+
+def _assumptions_markdown(config: ComparisonConfig, rows: list[dict]) -> list[str]:
+    if not rows:
+        return []
+    names = [c.name for c in config.candidates]
+    lines = ["## Assumptions", "", "What each candidate's filters assume about the dynamics and the noise, in "
+             "common units (from each plugin's `assumptions`): a mismatch here explains a ranking before the "
+             "ranking is read.", ""]
+    for case in config.cases:
+        mine = [r for r in rows if r["case"] == case.name]
+        keys = list(dict.fromkeys((r["component"], r["label"], r["unit"]) for r in mine))
+        lines += [f"### {case.name}", "", "| component | assumption | unit | " + " | ".join(names) + " |",
+                  "| --- | --- | --- | " + " | ".join("---" for _ in names) + " |"]
+        for comp, label, unit in keys:
+            cells = []
+            for name in names:
+                r = next((r for r in mine if (r["candidate"], r["component"], r["label"]) == (name, comp, label)), None)
+                v = None if r is None else r["value"]
+                cells.append("–" if v is None else f"{v:.3g}" if isinstance(v, float) else str(v))
+            lines.append(f"| {comp} | {label} | {unit} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return lines
+
+
+def _claims_markdown(claims: list[dict]) -> list[str]:
+    if not claims:
+        return []
+    held = sum(c["outcome"] == "holds" for c in claims)
+    lines = ["## Claims", "", f"{held} of {len(claims)} hold. Each is checked from the 95 % t-intervals of its "
+             "paired differences, ratio of means or mean (`holds`: on the claimed side; `fails`: on the other; "
+             "`not significant`: the runs cannot tell).", "", "| outcome | case | claim | evidence |",
+             "| --- | --- | --- | --- |"]
+    for c in claims:
+        line = claim_line(c)
+        evidence = line[line.index("(", len(c["outcome"]) + len(c["case"])):].strip("()")
+        lines.append(f"| {c['outcome']} | {c['case']} | {c['statement']} | {evidence} |")
+    return lines + [""]
+
+
+def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[str]:
+    """``tuning/<candidate>.csv`` (every trial), ``plots/tuning-<candidate>.png`` (objective
+    against each free parameter) and the report's tuning section."""
+    import csv
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    (out / "tuning").mkdir(exist_ok=True)
+    (out / "plots").mkdir(exist_ok=True)
+    spec = next(iter(tuning.values()), None)
+    lines = ["## Tuning", "",
+             "Every candidate with free parameters was tuned by the same procedure and budget on runs drawn from "
+             "the tuning streams (disjoint from the evaluation's), then evaluated above at its tuned values.", ""]
+    if spec is not None:
+        lines += ["| candidate | parameter | given | tuned | objective | trials (failed) |", "| --- | --- | --- | --- | --- | --- |"]
+    for cand, res in tuning.items():
+        failed = sum(not np.isfinite(t["objective"]) for t in res["trials"])
+        for i, label in enumerate(res["labels"]):
+            given, best = res["given"][label], res["best"][label]
+            first = i == 0
+            cells = [cand if first else "", f"`{label}`", "(default)" if given is None else str(given),
+                     _fmt(best) if isinstance(best, float) else str(best),
+                     _fmt(res["best_objective"]) if first else "",
+                     f"{len(res['trials'])} ({failed})" if first else ""]
+            lines.append("| " + " | ".join(cells) + " |")
+        with atomic_open(out / "tuning" / f"{cand}.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["trial", *res["labels"], "objective"])
+            for j, t in enumerate(res["trials"]):
+                w.writerow([j, *t["values"], t["objective"] if np.isfinite(t["objective"]) else ""])
+        labels = res["labels"]
+        fig, axes = plt.subplots(1, len(labels), figsize=(3.4 * len(labels), 2.8), squeeze=False)
+        obj = np.array([t["objective"] for t in res["trials"]], dtype=float)
+        for ax, label, k in zip(axes[0], labels, range(len(labels))):
+            x = [t["values"][k] for t in res["trials"]]
+            numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in x)
+            ok = np.isfinite(obj)
+            xs = np.array(x, dtype=float) if numeric else np.array([str(v) for v in x])
+            ax.plot(xs[ok], obj[ok], "o", ms=4, label="trial")
+            ax.plot([res["best"][label]] if numeric else [str(res["best"][label])], [res["best_objective"]], "r*",
+                    ms=10, label="tuned")
+            if numeric and min(x) > 0 and max(x) / min(x) > 50:
+                ax.set_xscale("log")
+            ax.set_xlabel(label, fontsize=7)
+            ax.grid(alpha=0.3)
+        axes[0, 0].set_ylabel(f"{res['metric']}\n({res['combine']} over cases)", fontsize=7)
+        axes[0, 0].legend(fontsize=6)
+        fig.suptitle(f"tuning {cand}", fontsize=9)
+        fig.tight_layout()
+        _savefig(fig, out / "plots" / f"tuning-{cand}.png")
+        plt.close(fig)
+    lines.append("")
+    lines += [f"![tuning {cand}](plots/tuning-{cand}.png)" for cand in tuning] + [""]
+    return lines
+
+
+def write_report(config: ComparisonConfig, store: ResultStore, out: Path, tuning: dict | None = None) -> Path:
+    """Write ``summary.json``, ``report.md`` and ``plots/`` into ``out`` (and the tuning's
+    tables and plots when the comparison was tuned)."""
+    from .tuning import tuning_points
+
     rows = summary_rows(config, store)
     paired = paired_rows(config, store)
+    claims = evaluate_claims(config, store)
+    assumptions = assumption_rows(config)
     sweeps, sweep_lines = write_sweeps(config, store, out)
     summary = out / "summary.json"
-    write_json(summary, {"name": config.name, "seed": config.seed, "rows": rows,  # strict JSON, atomic
+    write_json(summary, {"name": config.name, "seed": config.seed, "runs": config.runs, "rows": rows,  # strict, atomic
                          "reference": config.reference_name, "significance_rule": SIGNIFICANCE_RULE,
-                         "paired": paired, "sweeps": sweeps})
-    atomic_write_text(out / "report.md", _markdown(config, rows, paired) + "\n".join(sweep_lines))
+                         "paired": paired, "claims": claims, "sweeps": sweeps,
+                         "tuning": tuning_points(tuning) if tuning else None, "assumptions": assumptions})
+    tuning_lines = _tuning_outputs(config, tuning, out) if tuning else []
+    atomic_write_text(out / "report.md", _markdown(config, rows, paired) + "\n".join(_assumptions_markdown(config, assumptions))
+                      + "\n".join(_claims_markdown(claims))
+                      + "\n".join(tuning_lines) + "\n".join(sweep_lines))
     _plots(config, rows, store, out)
     return summary

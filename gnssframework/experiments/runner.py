@@ -1,14 +1,21 @@
 """Run a comparison: plan batches, execute them (local processes or Dask), store, report.
 
-Reproducibility: runs are simulated in batches of ``batch_size``. Batch b of case i draws
-every random number from ``numpy.random.default_rng(SeedSequence([seed, i, b]))``, and
-every candidate of that case and batch gets the same generator (common random numbers:
-the candidates see the same signals and noise). So the same seed and batch size give the
-same numbers on any executor, in any order of completion, and after a resume.
+Reproducibility: run ``r`` of case ``c`` draws every random number from its own streams,
+seeded from ``SeedSequence([seed, *name_key(c), r])`` (:mod:`gnssframework.random_streams`),
+and every candidate gets the same streams (common random numbers: the candidates see the
+same signals and noise). Runs are simulated in batches of ``batch_size`` at fixed
+boundaries (:func:`~gnssframework.experiments.store.plan_batches`); the store records
+which batches it holds, so the same seed gives the same numbers on any executor, in any
+order of completion, after a resume, and when ``runs`` grows or shrinks.
+
+A results folder holds one comparison: another configuration (other seed, scenario,
+cases, candidates or batch size) is refused with one line, and two processes never
+write into one folder at once.
 
 Sweeps (``[[sweeps]]``): every point is the comparison with one value changed, run with
-the same seed, so the points share their random numbers too; each point is stored under
-its own identity in the same store and resumes like the comparison.
+the same seed, so the points share their random numbers too (a case keeps its streams
+when a sweep runs only some cases); each point is stored under its own identity in the
+same store and resumes like the comparison.
 """
 
 from __future__ import annotations
@@ -24,52 +31,77 @@ from typing import Any, Callable, Iterable
 
 import numpy as np
 
-from ..errors import ConfigError, GnssFrameworkError, WorkerError
+from ..errors import ConfigError, GnssFrameworkError, RunFailure, WorkerError
+from ..random_streams import RunStreams, name_key, run_streams
 from .config import ComparisonConfig
 from .files import atomic_open, atomic_write_text
+from .folder import claim_folder
 from .scenarios import get_scenario
-from .store import ResultStore
+from .store import ResultStore, plan_batches
+from .tuning import TUNING_PURPOSE
 
-__all__ = ["Task", "plan", "run_task", "run_comparison"]
+__all__ = ["Task", "plan", "task_streams", "run_task", "run_comparison", "series_file"]
 
 
 @dataclass(frozen=True)
 class Task:
-    """One batch of runs of one case and candidate."""
+    """One batch of runs (``first_run`` .. ``first_run + runs - 1``) of one case and
+    candidate, of the comparison or of a sweep point (``point``, its label)."""
 
     case_index: int
     candidate_index: int
-    batch: int
     first_run: int
     runs: int
+    point: str | None = None
+
+    @property
+    def run_range(self) -> str:
+        last = self.first_run + self.runs - 1
+        return f"run {self.first_run}" if self.runs == 1 else f"runs {self.first_run}-{last}"
 
 
-def plan(config: ComparisonConfig) -> list[Task]:
+def plan(config: ComparisonConfig, point: str | None = None) -> list[Task]:
     """Every (case, candidate, batch) of the comparison, batch-major for early partial results."""
-    out = []
-    for b, first in enumerate(range(0, config.runs, config.batch_size)):
-        n = min(config.batch_size, config.runs - first)
-        for i in range(len(config.cases)):
-            for j in range(len(config.candidates)):
-                out.append(Task(i, j, b, first, n))
-    return out
+    return [Task(i, j, first, n, point) for first, n in plan_batches(config.runs, config.batch_size)
+            for i in range(len(config.cases)) for j in range(len(config.candidates))]
 
 
-def batch_rng(seed: int, case_index: int, batch: int) -> np.random.Generator:
-    """The generator of a batch (see the module docstring)."""
-    return np.random.default_rng(np.random.SeedSequence([seed, case_index, batch]))
+def task_streams(config: ComparisonConfig, task: Task) -> RunStreams:
+    """The random streams of a task's runs (see the module docstring): they depend on the
+    seed, the case's name and the run indices, never on the batch or the candidate."""
+    case = config.cases[task.case_index].name
+    runs = range(task.first_run, task.first_run + task.runs)
+    if config.random_stream == "tuning":  # disjoint from the evaluation's: a child of every run's seed
+        return RunStreams((config.seed, *name_key(case)), runs, TUNING_PURPOSE)
+    return run_streams(config.seed, name_key(case), runs)
 
 
 def run_task(config_data: dict[str, Any], task: Task) -> tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray],
                                                                 np.ndarray | None]:
-    """Execute one task in any process: rebuilds the scenario and the candidate's plugins."""
+    """Execute one task in any process: rebuilds the scenario and the candidate's plugins.
+
+    A library error raised while simulating is re-raised as a
+    :class:`~gnssframework.errors.RunFailure` naming the candidate, case, runs and sweep point.
+    """
     config = ComparisonConfig.model_validate(config_data)
+    try:
+        return _simulate(config, task)
+    except RunFailure:
+        raise
+    except GnssFrameworkError as exc:
+        raise RunFailure(_where(config_data, task), str(exc), type(exc).__name__) from None
+    except MemoryError as exc:
+        raise RunFailure(_where(config_data, task), f"out of memory ({exc or 'MemoryError'}); use a smaller "
+                         "batch_size or a shorter case", "MemoryError") from None
+
+
+def _simulate(config: ComparisonConfig, task: Task) -> tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray],
+                                                             np.ndarray | None]:
     scenario = get_scenario(config.scenario)
     case = config.cases[task.case_index]
     candidate = config.candidates[task.candidate_index]
     plugins = scenario.build({k: v.model_dump() for k, v in candidate.components().items()})
-    rng = batch_rng(config.seed, task.case_index, task.batch)
-    result = scenario.run_batch({"name": case.name, **case.params()}, plugins, task.runs, rng)
+    result = scenario.run_batch({"name": case.name, **case.params()}, plugins, task.runs, task_streams(config, task))
     missing = [m for m in config.metric_names if m in scenario.metrics and m not in result.metrics]
     wrong = [f"{m} {np.shape(v)}" for m, v in result.metrics.items() if np.shape(v) != (task.runs,)]
     if missing or wrong:  # a scenario's declared metrics and its run_batch must agree
@@ -96,7 +128,8 @@ def _where(config_data: dict[str, Any], task: Task) -> str:
         cand = config_data["candidates"][task.candidate_index]["name"]
     except (KeyError, IndexError, TypeError):
         case, cand = task.case_index, task.candidate_index
-    return f"case {case!r}, candidate {cand!r}, batch {task.batch}"
+    point = f", sweep point {task.point}" if task.point else ""
+    return f"candidate {cand!r}, case {case!r}, {task.run_range}{point}"
 
 
 def run_task_in_worker(config_data: dict[str, Any], task: Task) -> tuple:
@@ -114,13 +147,17 @@ def run_task_in_worker(config_data: dict[str, Any], task: Task) -> tuple:
         raise
 
 
+def series_file(out: Path, case: str, candidate: str, first_run: int, runs: int) -> Path:
+    """The ``.npz`` of a batch's time series: ``raw/<case>/<candidate>/run<first>-<last>.npz``."""
+    return out / "raw" / case / candidate / f"run{first_run:06d}-{first_run + runs - 1:06d}.npz"
+
+
 def _save_series(out: Path, config: ComparisonConfig, task: Task, series: dict[str, np.ndarray],
                  time_s: np.ndarray | None) -> None:
-    case = config.cases[task.case_index].name
-    cand = config.candidates[task.candidate_index].name
-    path = out / "raw" / case / cand
-    path.mkdir(parents=True, exist_ok=True)
-    with atomic_open(path / f"batch{task.batch:04d}.npz", "wb") as fh:  # a kill leaves no half npz
+    path = series_file(out, config.cases[task.case_index].name, config.candidates[task.candidate_index].name,
+                       task.first_run, task.runs)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_open(path, "wb") as fh:  # a kill leaves no half npz
         np.savez_compressed(fh, time_s=np.array([]) if time_s is None else time_s, first_run=task.first_run,
                             **series)
 
@@ -175,9 +212,9 @@ def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tupl
             except BrokenProcessPool as exc:
                 # A worker died without raising (killed, out of memory, a crash in
                 # compiled code): say which batch and how to see the real failure.
-                raise GnssFrameworkError(
-                    f"{_where(jobs[i][0], jobs[i][1])}: a worker process died ({exc}); "
-                    "run with executor.workers = 1 to see the failure in this process") from None
+                raise RunFailure(
+                    _where(jobs[i][0], jobs[i][1]), f"a worker process died ({exc}); "
+                    "run with executor.workers = 1 to see the failure in this process", "BrokenProcessPool") from None
             yield i, result
 
 
@@ -197,44 +234,57 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
     -------
     Path
         The ``summary.json`` written.
+
+    Raises
+    ------
+    ConfigError
+        If ``out`` holds another comparison's results or another process is writing it.
+    RunFailure
+        If a batch fails, naming its candidate, case, runs and sweep point.
     """
     from .report import write_report
 
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out / "config.json", config.model_dump_json(indent=2))
-    store = ResultStore(out / "results.sqlite")
-    # Every unfinished batch of the comparison and of its sweep points, the comparison's
-    # first; a point equal to another (same identity) runs once.
-    jobs, where = [], []
-    seen: set[tuple[str, str, str, int]] = set()
-    for label, point in comparison_points(config):
-        key = point.identity()
-        done = store.finished_batches(key)
-        data = point.model_dump(mode="json", exclude={"sweeps"})  # workers need no sweep expansion
-        for t in plan(point):
-            ident = (key, point.cases[t.case_index].name, point.candidates[t.candidate_index].name, t.batch)
-            if ident[1:] in done or ident in seen:
-                continue
-            seen.add(ident)
-            jobs.append((data, t))
-            where.append((label, point, key))
-    bar = None
-    if progress and jobs:
-        from tqdm import tqdm
+    with claim_folder(out, config) as store:
+        tuning = None
+        if config.tuning is not None:  # tune every candidate with free parameters, then evaluate them
+            from .tuning import tune, tuned_config
 
-        bar = tqdm(total=len(jobs), desc=config.name, unit="batch")
-    for i, (task, metrics, series, time_s) in _execute(jobs, config.executor):
-        label, point, key = where[i]
-        case = point.cases[task.case_index].name
-        cand = point.candidates[task.candidate_index].name
-        if label is None:  # sweep points keep their metrics only (the store), not the time series
-            _save_series(out, point, task, series, time_s)
-        store.add_batch(key, case, cand, task.batch, task.first_run, metrics)
-        if on_batch is not None:
-            on_batch(task)
+            tuning = tune(config, store, out, lambda jobs: _execute(jobs, config.executor), progress=progress)
+            config = tuned_config(config, tuning)
+        # Every unfinished batch of the comparison and of its sweep points, the comparison's
+        # first; a point equal to another (same identity) runs once.
+        jobs, where = [], []
+        seen: set[tuple[str, str, str, int, int]] = set()
+        for label, point in comparison_points(config):
+            key = point.identity()
+            store.register(key, point.batch_size)
+            done = store.finished_batches(key)
+            data = point.model_dump(mode="json", exclude={"sweeps"})  # workers need no sweep expansion
+            for t in plan(point, label):
+                ident = (key, point.cases[t.case_index].name, point.candidates[t.candidate_index].name, t.first_run,
+                         t.runs)
+                if ident[1:] in done or ident in seen:
+                    continue
+                seen.add(ident)
+                jobs.append((data, t))
+                where.append((label, point, key))
+        bar = None
+        if progress and jobs:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(jobs), desc=config.name, unit="batch")
+        for i, (task, metrics, series, time_s) in _execute(jobs, config.executor):
+            label, point, key = where[i]
+            case = point.cases[task.case_index].name
+            cand = point.candidates[task.candidate_index].name
+            if label is None:  # sweep points keep their metrics only (the store), not the time series
+                _save_series(out, point, task, series, time_s)
+            store.add_batch(key, case, cand, task.first_run, metrics)
+            if on_batch is not None:
+                on_batch(task)
+            if bar is not None:
+                bar.update()
         if bar is not None:
-            bar.update()
-    if bar is not None:
-        bar.close()
-    return write_report(config, store, out)
+            bar.close()
+        return write_report(config, store, out, tuning=tuning)

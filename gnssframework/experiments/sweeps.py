@@ -185,7 +185,7 @@ def expand_sweep(config, index: int) -> list[tuple[Any, Any]]:
         if case not in names:
             raise ConfigError(f"{where}.cases[{j}]", f"unknown case {case!r}; allowed: {', '.join(names)}")
     locations = _resolve(config, sweep, where)
-    base = config.model_dump(mode="json", exclude={"sweeps"}, exclude_none=True)
+    base = config.model_dump(mode="json", exclude={"sweeps", "claims", "tuning"}, exclude_none=True)
     out = []
     for j, value in enumerate(sweep.points()):
         data = copy.deepcopy(base)

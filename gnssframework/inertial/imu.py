@@ -35,6 +35,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.signal import lfilter
 
+from gnssframework import random_streams as draw
 from gnssframework.errors import ConfigError
 from gnssframework.inertial.earth import STANDARD_GRAVITY_MPS2
 
@@ -104,8 +105,8 @@ def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float,
     ``phi = exp(-dt/tau)``; the recursion runs in ``scipy.signal.lfilter`` over axis 0.
     """
     phi = np.exp(-dt_s / tau_s)
-    drive = rng.standard_normal(shape) * (sigma * np.sqrt(1.0 - phi * phi))
-    drive[0] = rng.standard_normal(shape[1:]) * sigma
+    drive = draw.standard_normal(rng, shape, 1) * (sigma * np.sqrt(1.0 - phi * phi))
+    drive[0] = draw.standard_normal(rng, shape[1:], 0) * sigma
     return lfilter([1.0], [1.0, -phi], drive, axis=0)
 
 
@@ -164,10 +165,10 @@ def simulate_imu(
     const_shape = tuple(batch_shape) + (3,)
 
     def sensor(true, bias, sigma_m, tau, white, sf_ppm):
-        b = rng.standard_normal(const_shape) * bias
+        b = draw.standard_normal(rng, const_shape, 0) * bias
         m = gauss_markov(rng, shape, sigma_m, tau, dt_s) if sigma_m > 0 else np.zeros(shape)
-        s = rng.standard_normal(const_shape) * sf_ppm * 1e-6
-        w = rng.standard_normal(shape) * (white * np.sqrt(dt_s))
+        s = draw.standard_normal(rng, const_shape, 0) * sf_ppm * 1e-6
+        w = draw.standard_normal(rng, shape, 1) * (white * np.sqrt(dt_s))
         slow = b + m
         return (1.0 + s) * true + slow * dt_s + w, slow, s
 

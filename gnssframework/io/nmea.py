@@ -1,8 +1,14 @@
-"""NMEA position logs (GGA and RMC sentences), parsed with pynmea2."""
+"""NMEA position logs (GGA and RMC sentences), parsed with pynmea2.
+
+Logs as receivers and loggers write them: ``#`` comment lines (gpsd's regression logs),
+Android GnssLogger's wrapped form ``NMEA,<sentence>,<unix ms>``, any talker (GP, GN, GL,
+GA, BD, GB, ...) and binary data (a u-blox UBX stream) between the sentences.
+"""
 
 from __future__ import annotations
 
 import datetime as dt
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -39,7 +45,13 @@ class NmeaFixes:
     skipped
         ``(line, reason)`` of every sentence that was corrupted (bad checksum, truncated,
         unparseable), not a valid fix, or refused by the plausibility and time-order
-        checks of :func:`read_nmea`; in line order.
+        checks of :func:`read_nmea`; in line order. A run of consecutive lines of binary
+        data or other non-NMEA text is one entry (its first line, its extent).
+    ignored
+        Count of the valid sentences of each type the reader does not use (``"GSV"``,
+        ``"GSA"``, a proprietary ``"PUBX"``...): read, checksum-checked, not positions.
+    comments
+        Number of ``#`` comment lines.
     """
 
     time_s: np.ndarray
@@ -48,6 +60,8 @@ class NmeaFixes:
     height_m: np.ndarray
     line: np.ndarray
     skipped: list[tuple[int, str]] = field(default_factory=list)
+    ignored: dict[str, int] = field(default_factory=dict)
+    comments: int = 0
 
 
 def _seconds(t) -> float:
@@ -109,7 +123,11 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
       the time between them exceeds ``max_speed_mps``. The first fix is trusted, so a
       wrong first fix shows as every later fix skipped.
 
-    Other sentence types are ignored silently.
+    Other sentence types (GSV, GSA, proprietary ones...) are checked, not used, and
+    counted by type in ``ignored``. Lines starting with ``#`` are comments (counted),
+    empty lines are passed over, GnssLogger's wrapped sentences are unwrapped, and bytes
+    that are no NMEA sentence (a binary protocol on the same port) are listed once per
+    run of consecutive lines.
 
     Parameters
     ----------
@@ -135,15 +153,28 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
     if not 0 < max_abs_height_m < np.inf:
         raise ConfigError("max_abs_height_m (--max-height)", f"must be a positive number of m, got {max_abs_height_m!r}")
     path = Path(path)
-    text = read_input_text(path, errors="replace")
+    text = read_input_text(path, errors="replace", encoding="ascii")
     # epochs: absolute time (s since 00:00 of the first day) -> {kind: (lat, lon, h, line)}
     epochs: dict[float, dict[str, tuple[float, float, float, int]]] = {}
     skipped: list[tuple[int, str]] = []
+    ignored: dict[str, int] = {}
+    noise = _NoiseRuns(skipped)
+    comments = 0
     day, last_t = 0, None
-    for no, raw in enumerate(text.splitlines(), 1):
+    # Lines end at "\n" alone, as editors and grep count them (binary bytes hold other separators).
+    for no, raw in enumerate(text.split("\n"), 1):
         line = raw.strip()
         if not line:
             continue
+        if line.startswith("#"):
+            comments += 1
+            continue
+        line, junk = _sentence_of(line)
+        if junk:
+            noise.add(no)
+        if not line:
+            continue
+        noise.end()
         if "*" not in line:
             skipped.append((no, "truncated (no checksum)"))
             continue
@@ -156,8 +187,9 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
             reason = "missing checksum (truncated?)" if "checksum" in str(exc).lower() else f"unparseable: {exc}"
             skipped.append((no, reason))
             continue
-        kind = getattr(msg, "sentence_type", "")
+        kind = _sentence_type(msg)
         if kind not in ("GGA", "RMC"):
+            ignored[kind] = ignored.get(kind, 0) + 1
             continue
         try:
             if kind == "GGA" and (not msg.gps_qual or int(msg.gps_qual) == 0):
@@ -198,6 +230,7 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
             continue
         epochs.setdefault(t, {})[kind] = (*pos, height, no)
         last_t = t
+    noise.end()
     # Jump check, epoch by epoch against the last accepted one.
     rows, prev = [], None
     for t, sentences in epochs.items():  # insertion order is time order
@@ -218,4 +251,53 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
         first = f", the first at line {skipped[0][0]}: {skipped[0][1]}" if skipped else ""
         raise DataFileError(str(path), None, f"no valid GGA or RMC fix ({len(skipped)} sentences skipped{first})")
     arr = np.array(rows, dtype=float)
-    return NmeaFixes(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], arr[:, 3], arr[:, 4].astype(int), skipped)
+    return NmeaFixes(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], arr[:, 3], arr[:, 4].astype(int), skipped,
+                     dict(sorted(ignored.items())), comments)
+
+
+_GNSSLOGGER = re.compile(r"^NMEA,(?P<sentence>[$!].*\*[0-9A-Fa-f]{2}),\d+$")
+
+
+def _sentence_of(line: str) -> tuple[str, bool]:
+    """``(sentence, junk_before_it)`` of a log line.
+
+    GnssLogger's ``NMEA,<sentence>,<unix ms>`` is unwrapped. Otherwise the sentence starts
+    at the first ``$`` or ``!``: bytes before it (a binary stream sharing the port) are
+    junk, and a line with no sentence start is junk as a whole (``("", True)``).
+    """
+    wrapped = _GNSSLOGGER.match(line)
+    if wrapped:
+        return wrapped["sentence"], False
+    starts = [i for i in (line.find("$"), line.find("!")) if i >= 0]
+    if not starts:
+        return "", True
+    start = min(starts)
+    return line[start:], start > 0
+
+
+def _sentence_type(msg) -> str:
+    """``"GGA"`` for any talker's GGA; a proprietary sentence as ``"P"`` + its maker (``"PUBX"``)."""
+    import pynmea2
+
+    if isinstance(msg, pynmea2.ProprietarySentence):
+        return "P" + msg.manufacturer
+    return getattr(msg, "sentence_type", "") or type(msg).__name__
+
+
+class _NoiseRuns:
+    """Collect runs of consecutive lines holding non-NMEA bytes into one skipped entry each."""
+
+    def __init__(self, skipped: list[tuple[int, str]]) -> None:
+        self.skipped, self.first, self.last = skipped, None, None
+
+    def add(self, no: int) -> None:
+        if self.first is None:
+            self.first = no
+        self.last = no
+
+    def end(self) -> None:
+        if self.first is not None:
+            n = self.last - self.first + 1
+            self.skipped.append((self.first, f"binary or non-NMEA data: {n} line{'s' if n > 1 else ''} "
+                                             f"({self.first}-{self.last})"))
+        self.first = self.last = None

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import datetime as dt
 import re
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -24,7 +24,7 @@ __all__ = ["CodeCarrier", "RinexScan", "read_code_carrier", "write_rinex3_obs", 
 
 @dataclass
 class CodeCarrier:
-    """L1 pseudorange and carrier phase of one satellite, epochs where both exist."""
+    """Pseudorange and carrier phase of one satellite, epochs where both exist."""
 
     time_s: np.ndarray  # seconds since the first epoch
     epoch: np.ndarray  # numpy datetime64
@@ -32,6 +32,9 @@ class CodeCarrier:
     carrier_m: np.ndarray  # carrier phase times the L1 wavelength
     skipped: list[tuple[int, str]] = field(default_factory=list)  # (line, reason), see check_rinex3_obs
     truncated: str | None = None  # why the file looks cut, or None
+    lli: np.ndarray | None = None  # loss-of-lock indicator of the carrier, 0 where blank
+    snr_dbhz: np.ndarray | None = None  # signal-strength observation, NaN where absent
+    wavelength_m: float = L1_WAVELENGTH_M
 
 
 def write_rinex3_obs(path: str | Path, start: dt.datetime, interval_s: float,
@@ -132,7 +135,7 @@ def _fmt_time(t: tuple[dt.datetime, float]) -> str:
 
 
 def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MIN_M,
-                     pseudorange_max_m: float = PSEUDORANGE_MAX_M) -> RinexScan:
+                     pseudorange_max_m: float = PSEUDORANGE_MAX_M, text: str | None = None) -> RinexScan:
     """Check a RINEX 3 observation file line by line, before georinex reads it.
 
     georinex reports parse failures without a line number and accepts epochs out of order;
@@ -143,11 +146,13 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
       last line without its newline) is marked ``truncated`` and the cut epoch skipped;
     - an epoch with the time of an earlier one (duplicate) or before the last kept epoch
       (backwards) is skipped with its observations;
-    - a GPS pseudorange (``C`` observation types) outside
+    - a pseudorange (``C`` observation types of any system) outside
       [``pseudorange_min_m``, ``pseudorange_max_m``] is blanked (read as missing) and
       counted as skipped. An epoch declaring fewer observation lines than it has is refused.
 
     Epochs with event flags 2-5 (header records inside the data) are passed over.
+    ``text``, when given, is the file's content (a Hatanaka file decompressed): line
+    numbers are then those of that text, and ``path`` only names it in errors.
 
     Raises
     ------
@@ -158,7 +163,8 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
         raise ConfigError("pseudorange_min_m/pseudorange_max_m (--pseudorange-min/--pseudorange-max)",
                           f"need 0 <= min < max, got [{pseudorange_min_m!r}, {pseudorange_max_m!r}] m")
     path = Path(path)
-    text = read_input_text(path, errors="replace")
+    if text is None:
+        text = read_input_text(path, errors="replace")
     lines = text.splitlines()
     if not lines or "RINEX VERSION / TYPE" not in lines[0]:
         raise DataFileError(str(path), 1, "not a RINEX file: first line lacks 'RINEX VERSION / TYPE'")
@@ -168,21 +174,19 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
         end = next(i for i, line in enumerate(lines) if "END OF HEADER" in line)
     except StopIteration:
         raise DataFileError(str(path), len(lines), "no END OF HEADER line") from None
-    types: list[str] = []
+    types_of: dict[str, list[str]] = {}  # system letter -> its observation types, in order
     system = ""
     for i, line in enumerate(lines[1:end], 2):
         if "SYS / # / OBS TYPES" not in line:
             continue
         system = line[0] if line[0] != " " else system  # continuation lines start blank
-        if system != "G":
-            continue
-        if line[0] == "G":
+        if line[0] != " ":
             try:
                 int(line[3:6])
             except ValueError:
                 raise DataFileError(str(path), i, "bad number of observation types") from None
-        types += line[7:60].split()
-    code_fields = [j for j, t in enumerate(types) if t.startswith("C")]
+        types_of.setdefault(system, []).extend(line[7:60].split())
+    code_fields_of = {sys_: {j for j, t in enumerate(ts) if t.startswith("C")} for sys_, ts in types_of.items()}
 
     # Group the data part into epochs: (header index, declared count, observation indices).
     epochs: list[tuple[int, int, list[int]]] = []
@@ -236,8 +240,8 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
             line = lines[j]
             if not _OBS.match(line):
                 raise DataFileError(str(path), j + 1, f"bad satellite id {line[:3]!r}")
-            if not line.startswith("G"):
-                continue
+            types = types_of.get(line[0], [])
+            code_fields = code_fields_of.get(line[0], set())
             for f in range(len(types)):
                 value = line[3 + 16 * f: 3 + 16 * f + 14]
                 if not value.strip():
@@ -275,7 +279,7 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
         if idx in drop:
             continue
         if idx in blank:
-            chars = list(line.ljust(3 + 16 * len(types)))
+            chars = list(line.ljust(3 + 16 * len(types_of[line[0]])))
             for f in blank[idx]:
                 chars[3 + 16 * f: 3 + 16 * f + 16] = " " * 16
             line = "".join(chars).rstrip()
@@ -287,25 +291,17 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
     return RinexScan(out_lines, numbers, starts, end, skipped, truncated)
 
 
-def _georinex_load(path: Path):
-    import georinex
-
-    with warnings.catch_warnings():  # georinex's xarray calls emit FutureWarnings
-        warnings.simplefilter("ignore", FutureWarning)
-        return georinex.load(path, use="G", meas=["C1C", "L1C"])
-
-
-def _locate_georinex_failure(scan: RinexScan, tmp: Path) -> int | None:
-    """Original line of the first epoch georinex fails on, or ``None`` if no single epoch
-    makes it fail. Chunks of epochs are loaded one by one (about the cost of one full
-    load), then the failing chunk is bisected."""
+def _locate_georinex_failure_with(scan: RinexScan, tmp: Path, load: Callable[[Path], object]) -> int | None:
+    """Original line of the first epoch ``load`` (georinex) fails on, or ``None`` if no
+    single epoch makes it fail. Chunks of epochs are loaded one by one (about the cost of
+    one full load), then the failing chunk is bisected."""
     head = scan.lines[:scan.header_end + 1]
     starts = scan.epoch_starts + [len(scan.lines)]
 
     def fails(a: int, b: int) -> bool:  # epochs a .. b-1 with the header
         tmp.write_text("\n".join(head + scan.lines[starts[a]:starts[b]]) + "\n")
         try:
-            _georinex_load(tmp)
+            load(tmp)
         except Exception:  # noqa: BLE001 - any failure counts
             return True
         return False
@@ -327,16 +323,19 @@ def _locate_georinex_failure(scan: RinexScan, tmp: Path) -> int | None:
 
 def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSEUDORANGE_MIN_M,
                       pseudorange_max_m: float = PSEUDORANGE_MAX_M, strict: bool = False) -> CodeCarrier:
-    """L1 C/A pseudorange and carrier (metres) of satellite ``prn`` (``"G08"``), via georinex.
+    """Pseudorange and carrier (metres) of satellite ``prn`` (``"G08"``, ``"C11"``...).
 
-    The file is first checked by :func:`check_rinex3_obs`: duplicated, backwards and
-    truncated epochs and implausible pseudoranges are skipped and listed in the result's
-    ``skipped`` (``truncated`` says why the file looks cut); georinex reads the rest.
+    One satellite of :func:`~gnssframework.io.observations.read_observations` (RINEX 2.1x
+    or 3.0x, plain or Hatanaka-compressed; the signal of :data:`~gnssframework.io.observations.SIGNALS`),
+    at the epochs where both code and carrier exist, with its loss-of-lock indicators and
+    signal strength. RINEX 3 files are first checked by :func:`check_rinex3_obs`:
+    duplicated, backwards and truncated epochs and implausible pseudoranges are skipped
+    and listed in the result's ``skipped`` (``truncated`` says why the file looks cut).
 
     Parameters
     ----------
     pseudorange_min_m, pseudorange_max_m
-        Plausibility bounds of a GPS pseudorange (defaults :data:`PSEUDORANGE_MIN_M`,
+        Plausibility bounds of a pseudorange (defaults :data:`PSEUDORANGE_MIN_M`,
         :data:`PSEUDORANGE_MAX_M`).
     strict
         Refuse the file at the first skipped line (or truncation) instead.
@@ -345,39 +344,17 @@ def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSE
     ------
     DataFileError
         For a malformed file (naming the line), an error inside georinex (naming the first
-        epoch line it fails on), or when ``prn`` has no C1C/L1C data.
+        epoch line it fails on), or when ``prn`` has no code and carrier.
     """
-    import tempfile
+    from .observations import read_observations
 
-    from .skipped import refuse_or_keep
-
-    path = check_input_file(path)
-    scan = check_rinex3_obs(path, pseudorange_min_m, pseudorange_max_m)
-    refuse_or_keep(path, scan.skipped, strict)
-    with tempfile.TemporaryDirectory(prefix="gnssframework-rinex-") as tmpdir:
-        source = path
-        if scan.changed:  # georinex reads a copy without the skipped epochs and observations
-            source = Path(tmpdir) / path.name
-            source.write_text("\n".join(scan.lines) + "\n")
-        try:
-            obs = _georinex_load(source)
-        except Exception as exc:  # noqa: BLE001 - georinex raises many types; report them as file errors
-            line = _locate_georinex_failure(scan, Path(tmpdir) / ("probe-" + path.name))
-            where = "in the epoch starting at this line" if line else "(no single epoch reproduces it)"
-            raise DataFileError(str(path), line, f"georinex could not read it {where}: "
-                                                 f"{type(exc).__name__}: {exc}") from None
-    _check_georinex_kept_every_epoch(path, scan, obs.time.values)
-    if prn not in obs.sv.values:
-        raise DataFileError(str(path), None, f"no observations of {prn}; satellites: {', '.join(obs.sv.values)}")
-    sat = obs.sel(sv=prn)
-    code = sat["C1C"].values.astype(float)
-    phase = sat["L1C"].values.astype(float)
-    ok = np.isfinite(code) & np.isfinite(phase)
-    if not ok.any():
-        raise DataFileError(str(path), None, f"{prn} has no epoch with both C1C and L1C" + _first_skipped(scan.skipped))
-    times = sat.time.values[ok]
+    obs = read_observations(path, prn, pseudorange_min_m, pseudorange_max_m, strict)
+    j = obs.satellite(prn)
+    ok = obs.valid[:, j]
+    times = obs.epoch[ok]
     t = (times - times[0]) / np.timedelta64(1, "s")
-    return CodeCarrier(t.astype(float), times, code[ok], phase[ok] * L1_WAVELENGTH_M, scan.skipped, scan.truncated)
+    return CodeCarrier(t.astype(float), times, obs.pseudorange_m[ok, j], obs.carrier_m[ok, j], obs.skipped,
+                       obs.truncated, obs.lli[ok, j], obs.snr_dbhz[ok, j], float(obs.wavelength_m[j]))
 
 
 def _first_skipped(skipped: list[tuple[int, str]]) -> str:
@@ -386,29 +363,6 @@ def _first_skipped(skipped: list[tuple[int, str]]) -> str:
         return ""
     line, reason = skipped[0]
     return f" left after the checks: {len(skipped)} epochs or observations skipped, the first at line {line}: {reason}"
-
-
-def _check_georinex_kept_every_epoch(path: Path, scan: RinexScan, times: np.ndarray) -> None:
-    """Refuse the file if georinex returned fewer epochs than the scan kept.
-
-    georinex stops reading, without an error, at an epoch it cannot parse (seconds of
-    60.0, a leap second, for one): the rest of the file would vanish uncounted. Every kept
-    epoch with a GPS observation line must come back; the first one missing is named.
-    """
-    have = set(np.asarray(times, dtype="datetime64[ns]").astype(np.int64).tolist())
-    missing = []
-    for n, start in enumerate(scan.epoch_starts):
-        end = scan.epoch_starts[n + 1] if n + 1 < len(scan.epoch_starts) else len(scan.lines)
-        if not any(line.startswith("G") and line[3:].strip() for line in scan.lines[start + 1:end]):
-            continue  # georinex reads GPS only (use="G")
-        minute, seconds = _epoch_time(scan.lines[start])
-        t = np.datetime64(minute, "ns") + np.timedelta64(int(round(seconds * 1e9)), "ns")
-        if int(t.astype(np.int64)) not in have:
-            missing.append((scan.line_numbers[start], _fmt_time((minute, seconds))))
-    if missing:
-        line, when = missing[0]
-        raise DataFileError(str(path), line, f"georinex did not return the epoch at this line ({when}), nor "
-                            f"{len(missing) - 1} later epochs: it stops without an error at an epoch it cannot parse")
 
 
 def _d19(x: float) -> str:

@@ -53,11 +53,13 @@ def check_input_file(path: str | Path) -> Path:
     return path
 
 
-def read_input_text(path: str | Path, errors: str = "strict") -> str:
-    """The text of input file ``path`` (UTF-8), after `check_input_file`.
+def read_input_text(path: str | Path, errors: str = "strict", encoding: str = "utf-8") -> str:
+    """The text of input file ``path``, after `check_input_file`.
 
     Parameters
     ----------
+    encoding
+        The file's encoding (``"utf-8"``; NMEA logs are ``"ascii"``).
     errors
         How undecodable bytes are handled (``"strict"``: refused naming the line;
         ``"replace"``: kept as U+FFFD for the reader's own line checks).
@@ -73,7 +75,7 @@ def read_input_text(path: str | Path, errors: str = "strict") -> str:
     except OSError as exc:
         raise DataFileError(str(path), None, f"cannot read: {exc.strerror}") from None
     try:
-        return data.decode("utf-8", errors=errors)
+        return data.decode(encoding, errors=errors)
     except UnicodeDecodeError as exc:
         line = data[: exc.start].count(b"\n") + 1
-        raise DataFileError(str(path), line, f"not UTF-8 text (byte 0x{data[exc.start]:02x})") from None
+        raise DataFileError(str(path), line, f"not {encoding.upper()} text (byte 0x{data[exc.start]:02x})") from None

@@ -55,6 +55,7 @@ from typing import Callable, Protocol
 
 import numpy as np
 
+from .. import random_streams as draw
 from ..errors import ConfigError, NumericalError
 from ..interfaces import ChannelFilter, RunContext
 from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
@@ -213,7 +214,7 @@ def run_aided_tracking(
     # Data bits are wiped off (1 everywhere): as an array of the batch's shape the prefilter's
     # wipe-off takes its unchecked path (the same products as with a scalar 1).
     ones = np.ones(batch)
-    theta0 = rng.uniform(-np.pi, np.pi, batch)
+    theta0 = draw.uniform(rng, -np.pi, np.pi, batch, 0)
     channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
                                     epoch_interval_s=T, cn0_dbhz=cn0))
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import random_streams as draw
 from ..errors import NumericalError
 from ..interfaces import ChannelFilter
 from ..signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, L1_WAVELENGTH_M
@@ -45,7 +46,7 @@ def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz:
     """
     rho = np.asarray(pseudorange_m, float)
     rho0 = rho[0]
-    carrier = -2 * np.pi * (rho - rho0) / L1_WAVELENGTH_M + rng.uniform(-np.pi, np.pi, rho0.shape)
+    carrier = -2 * np.pi * (rho - rho0) / L1_WAVELENGTH_M + draw.uniform(rng, -np.pi, np.pi, rho0.shape, 0)
     t = np.arange(rho.shape[0]).reshape((-1,) + (1,) * (rho.ndim - 1)) * coherent_time_s
     code = CA_CHIP_RATE_HZ * t - (rho - rho0) / CA_CHIP_LENGTH_M
     truth = SignalTruth(code, carrier, np.broadcast_to(np.asarray(cn0_dbhz, float), rho0.shape), coherent_time_s)

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import random_streams as draw
 from ..errors import ConfigError
 from ..interfaces import RunContext
 from .deep import DeepTruth, run_aided_tracking
@@ -213,7 +214,7 @@ def _setup_ins(scenario, flight: Flight, runs: int, rng: np.random.Generator):
     dtheta, dv = flight.model.increments(p.imu_interval_s, n)
     dtheta_m, dv_m, _ = simulate_imu(dtheta[:, None, :], dv[:, None, :], p.imu_interval_s, p.imu, rng, (runs,))
     P0 = _initial_cov(p)
-    err0 = rng.standard_normal((runs, 9)) * np.sqrt(np.diag(P0)[:9])
+    err0 = draw.standard_normal(rng, (runs, 9), 0) * np.sqrt(np.diag(P0)[:9])
     truth0 = flight.model.evaluate(np.array([0.0])).nav_state(0)
     state0 = apply_navigation_error(truth0.broadcast((runs,)), err0)
     return StrapdownIns(state0, dtheta_m, dv_m, p.imu_interval_s, p.imu), P0
@@ -245,7 +246,7 @@ def run_deep(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth
     ins, P0 = _setup_ins(scenario, flight, runs, rng)
     ekf.reset((runs,), RunContext(initial_cov=P0))
     c_std = np.asarray(p.initial_clock_std_m, float)
-    clock = ClockFilter(truth.clock_m[0] + rng.standard_normal((runs, 2)) * c_std, np.diag(c_std**2),
+    clock = ClockFilter(truth.clock_m[0] + draw.standard_normal(rng, (runs, 2), 0) * c_std, np.diag(c_std**2),
                         tuple(ekf.params.clock_psd))
     records, times = [], []
 

@@ -29,6 +29,7 @@ from typing import Callable
 
 import numpy as np
 
+from .. import random_streams as draw
 from ..errors import ConfigError
 from ..interfaces import ChannelFilter, NavFilter, RunContext
 from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
@@ -180,7 +181,7 @@ def run_vector_loop(
     batch = (runs, n_ch)
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
 
-    theta0 = rng.uniform(-np.pi, np.pi, batch)  # unknown initial carrier phase per channel
+    theta0 = draw.uniform(rng, -np.pi, np.pi, batch, 0)  # unknown initial carrier phase per channel
     bits = random_nav_bits(int(np.ceil(K * T / BIT_PERIOD_S)) + 1, rng, batch) if data_bits != "none" else None
     bits_f = bits.astype(float) if bits is not None else None
 

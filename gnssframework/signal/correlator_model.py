@@ -32,6 +32,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .. import random_streams as draw
 from ..errors import ConfigError
 from .constants import CA_CHIP_RATE_HZ
 from .correlators import Correlators
@@ -208,7 +209,7 @@ class CorrelatorSimulator:
                                self.offsets_chips, data_bit, self.bandwidth_hz)
         shape = mean.shape
         root_t = self.root_t
-        noise = rng.standard_normal(shape) @ root_t + 1j * (rng.standard_normal(shape) @ root_t)
+        noise = draw.standard_normal(rng, shape, 0) @ root_t + 1j * (draw.standard_normal(rng, shape, 0) @ root_t)
         out = mean + noise
         if len(self.names) == 3:
             return Correlators.trusted(out[..., 0], out[..., 1], out[..., 2])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import random_streams as draw
 from .constants import NAV_BIT_RATE_HZ
 from .correlators import Correlators
 
@@ -14,7 +15,7 @@ BIT_PERIOD_S = 1.0 / NAV_BIT_RATE_HZ
 
 def random_nav_bits(n_bits: int, rng: np.random.Generator, batch_shape: tuple[int, ...] = ()) -> np.ndarray:
     """Equiprobable ±1 bits, shape ``(n_bits, *batch_shape)``, ``int8``."""
-    return (1 - 2 * rng.integers(0, 2, size=(n_bits,) + tuple(batch_shape))).astype(np.int8)
+    return (1 - 2 * draw.integers(rng, 0, 2, (n_bits,) + tuple(batch_shape), run_axis=1)).astype(np.int8)
 
 
 def bit_at(time_s: np.ndarray, bits: np.ndarray, first_edge_s: float | np.ndarray = 0.0) -> np.ndarray:

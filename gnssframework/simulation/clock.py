@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import random_streams as draw
 from ..errors import ConfigError
 
 __all__ = ["ClockModel", "TCXO", "TCXO_HQ", "OCXO", "PRESETS"]
@@ -75,7 +76,7 @@ class ClockModel:
             raise ConfigError("n", "needs n >= 1 epochs and interval_s > 0")
         Q = self.process_noise(interval_s)
         L = np.linalg.cholesky(Q)
-        w = rng.standard_normal((n, *batch_shape, 2)) @ L.T
+        w = draw.standard_normal(rng, (n, *batch_shape, 2), run_axis=1) @ L.T
         drift = np.cumsum(w[..., 1], axis=0) - w[..., 1]  # drift at the start of each interval
         bias = np.cumsum(w[..., 0] + interval_s * drift, axis=0)
         return bias - bias[0], drift

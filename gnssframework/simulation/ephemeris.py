@@ -1,7 +1,7 @@
 """Satellites from GPS broadcast ephemeris (RINEX navigation files read with georinex).
 
-Positions follow the user algorithm of IS-GPS-200 (Table 20-IV): Kepler's equation,
-second-harmonic corrections, and the Earth-fixed node longitude. Velocity and
+Positions follow the user algorithm of IS-GPS-200 (Table 20-IV), in the one module that
+implements it (:mod:`gnssframework.navigation.ephemeris`). Velocity and
 acceleration are central differences of that position (velocity error below 1e-5 m/s,
 acceleration below 1e-6 m/s²). The time argument is GPS seconds of the week, as the ephemeris' ``Toe``.
 """
@@ -16,15 +16,13 @@ import numpy as np
 
 from ..errors import DataFileError
 from ..io.text import check_input_file
-from .constellation import GM_EARTH, OMEGA_EARTH, SatelliteSet
+from .constellation import SatelliteSet
 
 __all__ = ["BroadcastEphemeris", "load_rinex_nav", "EPHEMERIS_FIELDS"]
 
 #: georinex variable names of the Keplerian elements used.
 EPHEMERIS_FIELDS = ("sqrtA", "Eccentricity", "Io", "Omega0", "omega", "M0", "DeltaN", "OmegaDot", "IDOT",
                     "Cuc", "Cus", "Crc", "Crs", "Cic", "Cis", "Toe")
-
-_HALF_WEEK_S = 302_400.0
 
 
 @dataclass(frozen=True)
@@ -38,28 +36,16 @@ class BroadcastEphemeris(SatelliteSet):
         return BroadcastEphemeris(self.prn[index], {k: v[index] for k, v in self.elements.items()})
 
     def position(self, t_s: np.ndarray | float) -> np.ndarray:
-        """ECEF position (m), shape ``(*t.shape, S, 3)`` (IS-GPS-200, Table 20-IV)."""
-        e = self.elements
+        """ECEF position (m), shape ``(*t.shape, S, 3)`` (IS-GPS-200, Table 20-IV), computed
+        by :func:`gnssframework.navigation.ephemeris.satellite_state`."""
+        from ..navigation.ephemeris import CLOCK_FIELDS, Ephemerides, satellite_state
+
+        n = self.prn.size
+        zeros = np.zeros(n)
+        records = Ephemerides(self.prn.astype(str), zeros, {**self.elements, **{f: zeros for f in CLOCK_FIELDS}},
+                              zeros, zeros)
         t = np.asarray(t_s, dtype=float)[..., None]
-        A = e["sqrtA"] ** 2
-        n = np.sqrt(GM_EARTH / A**3) + e["DeltaN"]
-        tk = t - e["Toe"]
-        tk = (tk + _HALF_WEEK_S) % (2 * _HALF_WEEK_S) - _HALF_WEEK_S  # week crossover
-        M = e["M0"] + n * tk
-        ecc = e["Eccentricity"]
-        E = M.copy()
-        for _ in range(10):  # Newton on Kepler's equation; converges in 3-4 steps for GPS
-            E = E - (E - ecc * np.sin(E) - M) / (1 - ecc * np.cos(E))
-        nu = np.arctan2(np.sqrt(1 - ecc**2) * np.sin(E), np.cos(E) - ecc)
-        phi = nu + e["omega"]
-        s2, c2 = np.sin(2 * phi), np.cos(2 * phi)
-        u = phi + e["Cus"] * s2 + e["Cuc"] * c2
-        r = A * (1 - ecc * np.cos(E)) + e["Crs"] * s2 + e["Crc"] * c2
-        i = e["Io"] + e["Cis"] * s2 + e["Cic"] * c2 + e["IDOT"] * tk
-        x_orb, y_orb = r * np.cos(u), r * np.sin(u)
-        node = e["Omega0"] + (e["OmegaDot"] - OMEGA_EARTH) * tk - OMEGA_EARTH * e["Toe"]
-        cn, sn, ci = np.cos(node), np.sin(node), np.cos(i)
-        return np.stack([x_orb * cn - y_orb * ci * sn, x_orb * sn + y_orb * ci * cn, y_orb * np.sin(i)], -1)
+        return satellite_state(records, t).position_m
 
     def state(self, t_s):
         # Velocity: 10 ms central difference (truncation and rounding both below 1e-5 m/s).

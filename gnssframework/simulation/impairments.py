@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
+from .. import random_streams as draw
 from ..errors import ConfigError
 from ..signal.correlator_model import correlator_mean
 
@@ -25,7 +26,7 @@ def ar1_noise(
     if np.any(np.abs(psi) >= 1):
         raise ConfigError("psi", f"must satisfy |psi| < 1, got {psi}")
     shape = np.broadcast_shapes(tuple(batch_shape), psi.shape, np.shape(innovation_std))
-    xi = rng.standard_normal((n,) + shape) * innovation_std
+    xi = draw.standard_normal(rng, (n,) + shape, run_axis=1) * innovation_std
     if stationary:
         xi[0] = xi[0] / np.sqrt(1 - psi**2)
     if psi.ndim == 0:  # one psi: a single IIR filter over time
@@ -107,8 +108,8 @@ def cycle_slips(
     if not 1 <= min_cycles <= max_cycles:
         raise ConfigError("min_cycles", f"needs 1 <= min_cycles <= max_cycles, got {min_cycles} and {max_cycles}")
     shape = (n_epochs,) + tuple(batch_shape)
-    happens = rng.random(shape) < probability_per_epoch
+    happens = draw.random(rng, shape, run_axis=1) < probability_per_epoch
     happens[0] = False
-    size = rng.integers(min_cycles, max_cycles + 1, shape) * rng.choice([-1, 1], shape)
+    size = draw.integers(rng, min_cycles, max_cycles + 1, shape, run_axis=1) * draw.choice(rng, [-1, 1], shape, run_axis=1)
     step = np.where(happens, size, 0) * (0.5 if half_cycles else 1.0)
     return np.cumsum(step, axis=0)

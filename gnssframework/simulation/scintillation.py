@@ -13,6 +13,7 @@ from functools import lru_cache
 import numpy as np
 from scipy import optimize, signal, special, stats
 
+from .. import random_streams as draw
 from ..errors import ConfigError
 
 __all__ = ["cornell", "aj_stanford", "s4_index", "rice_k_from_s4"]
@@ -83,7 +84,7 @@ def cornell(
     b, a = signal.butter(2, wn / (2 * np.pi), fs=sample_rate_hz)
     warm = int(10 * tau0_s * sample_rate_hz)  # let the filter forget its zero state
     shape = (n + warm,) + tuple(batch_shape)
-    w = rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
+    w = draw.standard_normal(rng, shape, 1) + 1j * draw.standard_normal(rng, shape, 1)
     xi = signal.lfilter(b, a, w, axis=0)[warm:]
     xi *= np.sqrt(1.0 / (K + 1) / np.mean(np.abs(xi) ** 2, axis=0))
     return np.sqrt(K / (K + 1)) + xi
@@ -93,8 +94,8 @@ def _power_law_gaussian(n: int, shape: tuple[int, ...], fs: float, corner_hz: fl
                         rng: np.random.Generator, pair_corr: float) -> tuple[np.ndarray, np.ndarray]:
     """Two unit-variance Gaussian processes with spectrum $(1 + (f/f_c)^2)^{-p/2}$ and
     correlation ``pair_corr``, shaped by one zero-phase FFT filter."""
-    w1 = rng.standard_normal((n,) + shape)
-    w2 = pair_corr * w1 + np.sqrt(1 - pair_corr**2) * rng.standard_normal((n,) + shape)
+    w1 = draw.standard_normal(rng, (n,) + shape, 1)
+    w2 = pair_corr * w1 + np.sqrt(1 - pair_corr**2) * draw.standard_normal(rng, (n,) + shape, 1)
     f = np.fft.rfftfreq(n, 1 / fs).reshape((-1,) + (1,) * len(shape))
     gain = (1 + (f / corner_hz) ** 2) ** (-p / 4)
     out = []

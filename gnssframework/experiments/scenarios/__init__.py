@@ -149,6 +149,11 @@ class Scenario(abc.ABC):
         """Refuse compositions whose parts cannot work together (override per scenario; the
         default accepts every composition that passed the per-kind checks)."""
 
+    def assumption_context(self, case: dict[str, Any]) -> dict[str, Any]:
+        """What the plugins' ``assumptions`` need to know of a case (``coherent_time_s``,
+        ``cn0_dbhz``...) for the report's assumptions table; the default gives nothing."""
+        return {}
+
     def build(self, candidate: dict[str, Any]) -> dict[str, Any]:
         """Instantiate a candidate's plugins (fresh objects for every batch)."""
         return {kind: registry.create(kind, ref["name"], **ref.get("params", {})) for kind, ref in candidate.items()}

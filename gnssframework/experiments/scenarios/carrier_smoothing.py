@@ -16,6 +16,7 @@ import numpy as np
 import pymap3d
 from pydantic import Field, ValidationInfo, field_validator
 
+from ... import random_streams as draw
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...signal.constants import L1_WAVELENGTH_M
@@ -123,17 +124,18 @@ class CarrierSmoothingScenario(Scenario):
         rx = np.array(pymap3d.geodetic2ecef(p.lat_deg, p.lon_deg, p.height_m))
         truth = np.broadcast_to(np.linalg.norm(pos[:, 0] - rx, axis=-1)[:, None], (p.epochs, runs))
         mp_xi = p.multipath_std_m * np.sqrt(1 - p.multipath_psi**2)
-        code = truth + p.code_noise_std_m * rng.standard_normal((p.epochs, runs)) \
+        code = truth + p.code_noise_std_m * draw.standard_normal(rng, (p.epochs, runs), 1) \
             + ar1_noise(p.multipath_psi, mp_xi, p.epochs, rng, batch_shape=(runs,))
-        ambiguity = rng.integers(-10**6, 10**6, runs) * L1_WAVELENGTH_M
+        ambiguity = draw.integers(rng, -10**6, 10**6, runs, 0) * L1_WAVELENGTH_M
         slips_cycles = cycle_slips(p.epochs, slip_probability, rng, p.slip_max_cycles, (runs,),
                                    min_cycles=p.slip_min_cycles)
         happens = np.diff(slips_cycles, axis=0, prepend=0) != 0
-        carrier = truth + ambiguity + p.carrier_noise_std_m * rng.standard_normal((p.epochs, runs)) \
+        carrier = truth + ambiguity + p.carrier_noise_std_m * draw.standard_normal(rng, (p.epochs, runs), 1) \
             + slips_cycles * L1_WAVELENGTH_M
         return truth, code, carrier, happens
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         truth, code, carrier, slips = self.simulate(runs, rng, case.get("slip_probability"))
         ch = plugins.get("channel_filter")

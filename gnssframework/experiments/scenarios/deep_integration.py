@@ -31,6 +31,7 @@ import numpy as np
 import pymap3d
 from pydantic import Field
 
+from ... import random_streams as draw
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...inertial.imu import ImuGrade
@@ -279,6 +280,7 @@ class DeepIntegrationScenario(Scenario):
 
     # --- candidates ---------------------------------------------------------------------
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         kind = _kind(plugins)
         flight = self.flight()
@@ -334,7 +336,7 @@ class DeepIntegrationScenario(Scenario):
                          truth.cn0_dbhz, T)
         std = np.array([p.initial_position_std_m] * 3 + [p.initial_velocity_std_m_s] * 3 + list(p.initial_clock_std_m))
         P0 = np.diag(std**2)
-        x0 = vt.nav_truth(T / 2, 0) + rng.standard_normal((runs, 8)) * std
+        x0 = vt.nav_truth(T / 2, 0) + draw.standard_normal(rng, (runs, 8), 0) * std
         rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], vt, x0, P0, rng,
                               early_late_spacing_chips=p.early_late_spacing_chips, data_bits="none")
         n_upd = int(round(p.update_interval_s / T))

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
+from ... import random_streams as draw
 from ... import registry
 from ...errors import ConfigError
 from ...estimation import Gaussian, LinearModel, filter_sequence
@@ -106,7 +107,7 @@ class MultipathScenario(Scenario):
         psi = p.psi if psi is None else psi
         xi_std = p.multipath_std_m * np.sqrt(1 - psi**2)
         colored = ar1_noise(psi, xi_std, p.epochs, rng, batch_shape=(runs, 2))
-        return colored + p.white_std_m * rng.standard_normal((p.epochs, runs, 2))
+        return colored + p.white_std_m * draw.standard_normal(rng, (p.epochs, runs, 2), 1)
 
     @staticmethod
     def _with_true_psi(plugins: dict, psi: float) -> dict:
@@ -129,10 +130,13 @@ class MultipathScenario(Scenario):
         res = nav.filter(zs, plugins["estimator"], adapter=adapter, augmentation=plugins.get("augmentation"))
         return res.mean[..., 0], res.epochs  # the truth is the origin
 
-    def _oracle(self, plugins: dict, runs: int, psi: float, rng: np.random.Generator) -> tuple[float, float]:
-        """The (Q, R) scales of the grid with the lowest RMS error on independent training runs."""
+    def _oracle(self, plugins: dict, psi: float, rng: draw.RunStreams) -> tuple[float, float]:
+        """The (Q, R) scales of the grid with the lowest RMS error on independent training runs.
+
+        The training runs come from a stream of the case, not of the batch's runs, so every
+        batch picks the same scales (results do not depend on how runs were batched)."""
         grid = plugins["noise_adapter"].params
-        train = self.simulate(grid.training_runs or runs, rng, psi)
+        train = self.simulate(grid.training_runs, rng.shared("oracle-training"), psi)
         plain = {k: v for k, v in plugins.items() if k != "noise_adapter"}
         pairs = [(sq, sr) for sq in grid.q_scales for sr in grid.r_scales]
         nav = plain["nav_filter"]
@@ -155,12 +159,13 @@ class MultipathScenario(Scenario):
         return pairs[int(np.argmin(score))]
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         psi = p.psi if case.get("psi") is None else case["psi"]
         zs = self.simulate(runs, rng, psi)  # first: every candidate sees the same measurements
         plugins = self._with_true_psi(plugins, psi)
         oracle = getattr(plugins.get("noise_adapter"), "name", None) == "oracle-grid"
-        scales = self._oracle(plugins, runs, psi, rng) if oracle else (1.0, 1.0)
+        scales = self._oracle(plugins, psi, rng) if oracle else (1.0, 1.0)
         if oracle:
             plugins = {k: v for k, v in plugins.items() if k != "noise_adapter"}
         err, epochs = self._filter(plugins, zs, *scales)

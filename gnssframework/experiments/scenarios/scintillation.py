@@ -16,6 +16,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
+from ... import random_streams as draw
 from ... import registry
 from ...errors import ConfigError
 from ...interfaces import RunContext
@@ -158,6 +159,7 @@ class ScintillationScenario(Scenario):
         return registry.create("channel_filter", channel.name, **{**params, "coherent_time_s": T})
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         c = self.CaseParams.model_validate(case).model_dump()
         T = c["coherent_time_s"] or p.coherent_time_s

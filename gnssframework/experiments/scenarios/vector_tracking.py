@@ -13,6 +13,7 @@ import numpy as np
 import pymap3d
 from pydantic import Field, field_validator
 
+from ... import random_streams as draw
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...io.text import check_input_file
@@ -201,10 +202,14 @@ class VectorTrackingScenario(Scenario):
         truth = VectorTruth(sat_state, receiver_state, clock, np.full((runs, p.channels), cn0_dbhz), T)
         P0 = np.diag([p.initial_position_std_m**2] * 3 + [p.initial_velocity_std_m_s**2] * 3
                      + [p.initial_position_std_m**2, p.initial_velocity_std_m_s**2])
-        x0 = truth.nav_truth(T / 2, 0) + rng.standard_normal((runs, 8)) @ np.sqrt(P0)
+        x0 = truth.nav_truth(T / 2, 0) + draw.standard_normal(rng, (runs, 8), 0) @ np.sqrt(P0)
         return truth, x0, P0
 
+    def assumption_context(self, case):
+        return {"coherent_time_s": self.params.coherent_time_s, "cn0_dbhz": float(case["cn0_dbhz"])}
+
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         truth, x0, P0 = self.truth(float(case["cn0_dbhz"]), runs, rng)
         rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng,

@@ -1,0 +1,1 @@
+"""Navigation: satellite states from broadcast ephemerides, shared by simulation and receivers."""

@@ -1,0 +1,145 @@
+"""[[claims]]: orderings and bounds checked from the paired runs (hand-computed values)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from gnssframework.errors import ConfigError
+from gnssframework.experiments import load_config
+from gnssframework.experiments.claims import evaluate_claims
+from gnssframework.experiments.report import write_report
+from gnssframework.experiments.store import ResultStore
+
+CONFIG = """
+name = "claims"
+runs = 4
+batch_size = 2
+[executor]
+workers = 1
+[scenario]
+kind = "multipath"
+epochs = 40
+[[cases]]
+name = "only"
+[[candidates]]
+name = "a"
+nav_filter = {{ name = "position-ca" }}
+estimator = {{ name = "kf" }}
+[[candidates]]
+name = "b"
+nav_filter = {{ name = "position-ca" }}
+estimator = {{ name = "ckf" }}
+{claims}
+"""
+
+# Per-run values of candidate a and b: d = a - b = (0.5, 0.5, 1.0, 0.5): mean 0.625,
+# SE 0.125, t(0.975, 3) = 3.182 -> interval (0.227, 1.023): a is higher, significantly.
+A = np.array([1.0, 2.0, 3.0, 4.0])
+B = np.array([0.5, 1.5, 2.0, 3.5])
+
+
+def _evaluate(tmp_path, claims: str, a=A, b=B) -> list[dict]:
+    path = tmp_path / "c.toml"
+    path.write_text(CONFIG.format(claims=claims))
+    config = load_config(path)
+    store = ResultStore(tmp_path / "results.sqlite")
+    key = config.identity()
+    store.register(key, config.batch_size)
+    for name, values in (("a", a), ("b", b)):
+        for first in (0, 2):
+            store.add_batch(key, "only", name, first, {m: values[first:first + 2] for m in config.metric_names})
+    return evaluate_claims(config, store), config, store
+
+
+def _claim(**fields) -> str:
+    body = "\n".join(f"{k} = {json.dumps(v)}" for k, v in fields.items())
+    return f"[[claims]]\n{body}\n"
+
+
+@pytest.mark.parametrize("direction, outcome", [("higher", "holds"), ("lower", "fails")])
+def test_an_ordering_holds_or_fails_by_its_paired_interval(tmp_path, direction, outcome):
+    rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse",
+                                             direction=direction))
+    (row,) = rows
+    assert row["outcome"] == outcome
+    assert row["diff"] == pytest.approx(0.625) and row["se"] == pytest.approx(0.125) and row["n"] == 4
+
+
+def test_an_ordering_the_runs_cannot_tell_is_not_significant(tmp_path):
+    noisy = np.array([0.0, 2.5, 1.0, 4.4])  # d = (1.0, -0.5, 2.0, -0.4): mean 0.525, SE 0.59
+    rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse",
+                                             direction="higher"), b=noisy)
+    assert rows[0]["outcome"] == "not significant"
+
+
+def test_a_ratio_bound_uses_the_ratio_interval(tmp_path):
+    # ratio of means 2.5 / 1.875 = 1.333; its delta-method SE from the paired covariance.
+    c = np.cov(A, B, ddof=1)
+    r = A.mean() / B.mean()
+    se = np.sqrt(c[0, 0] - 2 * r * c[0, 1] + r**2 * c[1, 1]) / (B.mean() * 2)
+    half = stats.t.ppf(0.975, 3) * se
+    for bound, outcome in ((r + 1.01 * half, "holds"), (r - 1.01 * half, "fails"), (r, "not significant")):
+        rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse",
+                                                 ratio_max=float(bound)))
+        assert rows[0]["outcome"] == outcome, bound
+        assert rows[0]["ratio"] == pytest.approx(r)
+    # Two conditions: the worst outcome (the direction holds, the ratio bound fails).
+    rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse",
+                                             direction="higher", ratio_min=float(r + 1.01 * half)))
+    assert rows[0]["outcome"] == "fails"
+
+
+def test_a_bound_on_a_mean(tmp_path):
+    # A: mean 2.5, SE 0.645, t-interval (0.446, 4.554).
+    for within, outcome in (([0.4, 4.6], "holds"), ([5.0, 9.0], "fails"), ([1.0, 9.0], "not significant")):
+        rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", metric="lat_error_rmse", within=within))
+        assert rows[0]["outcome"] == outcome, within
+        assert rows[0]["mean"] == pytest.approx(2.5)
+
+
+def test_summary_report_and_check_carry_the_outcomes(tmp_path):
+    claims = (_claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher")
+              + _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower"))
+    _, config, store = _evaluate(tmp_path, claims)
+    summary = json.loads(write_report(config, store, tmp_path).read_text())
+    assert [c["outcome"] for c in summary["claims"]] == ["holds", "fails"]
+    report = (tmp_path / "report.md").read_text()
+    assert "## Claims" in report and "1 of 2 hold" in report
+    assert "| fails | only | a: lat_error_rmse lower than b's |" in report
+
+
+@pytest.mark.parametrize("fields, field, message", [
+    ({"candidate": "c", "reference": "b", "metric": "lat_error_rmse", "direction": "lower"}, "claims[0].candidate",
+     "unknown candidate 'c'; allowed: a, b"),
+    ({"candidate": "a", "reference": "b", "metric": "rmse", "direction": "lower"}, "claims[0].metric",
+     "unknown metric 'rmse'"),
+    ({"candidate": "a", "reference": "b", "metric": "lat_error_rmse", "direction": "lower", "case": "x"},
+     "claims[0].case", "unknown case 'x'; allowed: only"),
+    ({"candidate": "a", "reference": "b", "metric": "lat_error_rmse"}, "claims[0]", "an ordering needs direction"),
+    ({"candidate": "a", "metric": "lat_error_rmse", "direction": "lower"}, "claims[0]", "give reference"),
+    ({"candidate": "a", "metric": "lat_error_rmse", "within": [2, 1]}, "claims[0]", "low < high"),
+])
+def test_bad_claims_are_refused_at_load_naming_the_field(tmp_path, fields, field, message):
+    path = tmp_path / "c.toml"
+    path.write_text(CONFIG.format(claims=_claim(**fields)))
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert str(err.value).startswith(field) and message in str(err.value)
+
+
+def test_compare_check_exits_1_when_a_claim_does_not_hold(tmp_path):
+    claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower")
+    path = tmp_path / "c.toml"
+    path.write_text(CONFIG.format(claims=claims).replace("runs = 4", "runs = 3"))
+    proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o"),
+                           "--quiet", "--check"], capture_output=True, text=True)
+    outcome = json.loads((tmp_path / "o" / "summary.json").read_text())["claims"][0]["outcome"]
+    assert proc.returncode == (0 if outcome == "holds" else 1), proc.stderr
+    assert f"claims: {int(outcome == 'holds')} of 1 hold" in proc.stdout and "a: lat_error_rmse lower than b's" in \
+        proc.stdout
