@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import errno
+import sqlite3
 import sys
+from pathlib import Path
 from typing import Sequence
 
 from . import registry
-from .errors import ConfigError, GnssFrameworkError
+from .errors import ConfigError, DataFileError, GnssFrameworkError
 from .io.nmea import MAX_ABS_HEIGHT_M, MAX_SPEED_MPS
 from .io.rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M
 from .io.skipped import EXIT_STATUS_HELP
@@ -51,7 +54,10 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
     config = load_config(args.file, runs=args.runs, seed=args.seed)
     out = args.out or f"results/{config.name}"
-    summary = run_comparison(config, out, progress=not args.quiet)
+    try:
+        summary = run_comparison(config, out, progress=not args.quiet)
+    except sqlite3.DatabaseError as exc:  # sqlite3 does not say which file: name the store
+        raise _store_error(exc, Path(out) / "results.sqlite") from None
     print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
     return _report_claims(summary, args.check)
 
@@ -71,6 +77,18 @@ def _report_claims(summary, check: bool) -> int:
     for c in claims if check else bad:
         print("  " + claim_line(c))
     return 1 if check and bad else 0
+
+
+def _store_error(exc: sqlite3.DatabaseError, store: Path) -> Exception:
+    """An SQLite failure as the error that names the store: a full disk or a read-only
+    store as the OS error it is, anything else as a damaged store."""
+    text = str(exc)
+    if "full" in text:
+        return OSError(errno.ENOSPC, text, str(store))
+    if "readonly" in text or "unable to open" in text:
+        return OSError(errno.EACCES, text, str(store))
+    return DataFileError(str(store), None, f"results store: {text} (a corrupted store: move it away or choose "
+                         "another --out)")
 
 
 def _cmd_filter_positions(args: argparse.Namespace) -> int:
@@ -283,7 +301,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--check", action="store_true",
                    help="print every [[claims]] outcome and exit 1 unless every claim holds")
-    p.set_defaults(func=_cmd_compare)
+    p.set_defaults(func=_cmd_compare, interrupt_hint="; finished batches are kept in --out and the same command "
+                                                     "resumes")
     p = sub.add_parser("filter-positions", help="filter an NMEA position log (Liu et al. 2020's filters)",
                        description="Filter the horizontal track of an NMEA log. Corrupted sentences, impossible "
                                    "positions, duplicated or backwards timestamps and implausible jumps are skipped "
@@ -361,6 +380,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: OS errors caused by a path the user gave (exit 2, like other input errors); any other
+#: OS error (a full disk...) exits 1.
+_PATH_ERRNOS = {errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EEXIST,
+                errno.ENAMETOOLONG, errno.ELOOP}
+_HINTS = {errno.EACCES: "not writable or readable by this user; choose another path",
+          errno.EPERM: "not permitted; choose another path",
+          errno.EROFS: "on a read-only file system; choose another path",
+          errno.ENOSPC: "no space left on the device; free some or choose another --out (finished batches are "
+                        "kept and a rerun resumes)",
+          errno.EDQUOT: "disk quota exceeded; free some or choose another --out"}
+
+
+def os_error_message(exc: OSError) -> str:
+    """One line for an OS-level failure: the path, what went wrong, what to do."""
+    message = exc.strerror or str(exc) or type(exc).__name__
+    if exc.filename is not None:
+        message = f"{exc.filename}: {message}"
+    hint = _HINTS.get(exc.errno or 0)
+    return f"{message} ({hint})" if hint else message
+
+
+def _fail(message: str, status: int) -> int:
+    print(f"error: {message}", file=sys.stderr)
+    return status
+
+
 class _QuietPipe:
     """stdout that stops writing, without an error, once its reader has gone (``| head``).
 
@@ -401,15 +446,20 @@ class _QuietPipe:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point; returns the exit code. Library errors print one line, no traceback;
-    a closed pipe on stdout ends the printing quietly."""
+    """Entry point; returns the exit code. Library errors print one line, no traceback:
+    exit 2 for configuration and input errors (a bad path included), 1 for other OS
+    failures (a full disk), 130 for Ctrl-C; a closed pipe on stdout ends the printing
+    quietly."""
     args = build_parser().parse_args(argv)
     stdout, sys.stdout = sys.stdout, _QuietPipe(sys.stdout)
     try:
         return int(args.func(args) or 0)
     except GnssFrameworkError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        return _fail(str(exc), 2)
+    except KeyboardInterrupt:
+        return _fail("interrupted (Ctrl-C)" + getattr(args, "interrupt_hint", ""), 130)
+    except OSError as exc:
+        return _fail(os_error_message(exc), 2 if exc.errno in _PATH_ERRNOS else 1)
     finally:
         sys.stdout.flush()
         sys.stdout = stdout

@@ -20,6 +20,7 @@ __all__ = [
     "InvalidInitialStateError",
     "NonFiniteError",
     "InvalidInputError",
+    "InvalidArgumentError",
     "WorkerError",
     "RunFailure",
 ]
@@ -162,6 +163,31 @@ class InvalidInputError(GnssFrameworkError, ValueError):
 
     def __reduce__(self) -> tuple:
         return (type(self), (self.filter_name, self.input_name, self.detail))
+
+
+class InvalidArgumentError(GnssFrameworkError, TypeError):
+    """A library call got the wrong kind of object (a string, None or a dict where an
+    estimator, model, adapter or state is expected) or came out of order (a step before
+    ``reset``); names the call, the argument and what to pass.
+
+    Parameters
+    ----------
+    call
+        The call that refused it (``"filter_sequence"``, ``"channel_filter 'hatch'"``).
+    argument
+        The offending argument (``"estimator"``, ``"initial"``) or method.
+    message
+        What is expected and what it got.
+    """
+
+    def __init__(self, call: str, argument: str, message: str) -> None:
+        self.call = call
+        self.argument = argument
+        self.detail = message
+        super().__init__(f"{call}: {argument}: {message}")
+
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.call, self.argument, self.detail))
 
 
 class WorkerError(GnssFrameworkError):

@@ -28,7 +28,7 @@ from typing import Any, ClassVar, Mapping, Optional
 import numpy as np
 from pydantic import Field
 
-from .errors import ConfigError, PluginError
+from .errors import ConfigError, InvalidArgumentError, PluginError
 from .plugin import Plugin, PluginParams
 from .signal.correlators import Correlators
 
@@ -191,6 +191,18 @@ def _legacy_reset(reset):
     return wrapper
 
 
+def _marks_reset(reset):
+    """Wrap a plugin's ``reset`` so that `SequentialFilter.checked_step` knows it ran."""
+
+    @functools.wraps(reset)
+    def wrapper(self, *args, **kwargs):
+        out = reset(self, *args, **kwargs)
+        self._reset_done = True
+        return out
+
+    return wrapper
+
+
 #: Labels of ``SequentialFilter.assumptions`` that several plugins share (their units fixed).
 ASSUMPTION_LABELS = {
     "line-of-sight acceleration PSD": "m²/s³",
@@ -230,6 +242,7 @@ class SequentialFilter(Plugin, abc.ABC):
                 "form gets the context's fields as keywords and will be removed.", DeprecationWarning,
                 code.co_filename if code else "<unknown>", code.co_firstlineno if code else 0, module=cls.__module__)
             cls.reset = _legacy_reset(reset)
+        cls.reset = _marks_reset(cls.reset)
 
     #: Names of the inputs ``step`` needs.
     requires: ClassVar[tuple[str, ...]] = ()
@@ -245,6 +258,12 @@ class SequentialFilter(Plugin, abc.ABC):
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Process one epoch."""
 
+    def check_context(self, context: RunContext) -> None:  # noqa: B027 - optional hook
+        """Refuse a harness context this filter cannot run in (a loop bandwidth too large
+        for the context's coherent time...), raising `ConfigError` with the field written
+        ``"<kind> '<name>'.<parameter>"``. Scenarios call it when the config loads, so a
+        bad value is named before any batch runs. The default accepts every context."""
+
     def assumptions(self, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
         """What this filter assumes about dynamics and noise, in units common to every
         filter of its kind, for a comparison's assumptions table: ``{label: (value,
@@ -256,7 +275,18 @@ class SequentialFilter(Plugin, abc.ABC):
 
     def checked_step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """``step``, then check it returned every name the plugin ``provides`` (harnesses
-        call this, so a plugin that breaks its declaration fails at its first epoch, by name)."""
+        call this, so a plugin that breaks its declaration fails at its first epoch, by name).
+
+        Raises
+        ------
+        InvalidArgumentError
+            Before the first ``reset``.
+        PluginError
+            If ``step`` did not return every name in ``provides``.
+        """
+        if not getattr(self, "_reset_done", False):
+            raise InvalidArgumentError(f"{self.kind} {self.name!r}", "checked_step", "called before reset(batch_shape, "
+                                       "context); call reset first")
         out = self.step(inputs)
         missing = [n for n in self.provides if n not in out]
         if missing:

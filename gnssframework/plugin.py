@@ -18,21 +18,55 @@ is caught with the field's name before any filter runs::
 
 from __future__ import annotations
 
+import types
 import typing
 from typing import Any, ClassVar, Sequence
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from .errors import ConfigError
 
-__all__ = ["Plugin", "PluginParams", "validation_message", "field_path"]
+__all__ = ["Plugin", "PluginParams", "validation_message", "field_path", "refuse_quiet_conversions"]
+
+
+def _scalar_type(annotation: Any) -> type | None:
+    """``int``, ``float`` or ``bool`` behind ``Optional[...]``/``Annotated[...]``, else ``None``."""
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return _scalar_type(typing.get_args(annotation)[0])
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(annotation) if a is not type(None)]
+        return _scalar_type(args[0]) if len(args) == 1 else None
+    return annotation if annotation in (int, float, bool) else None
+
+
+def refuse_quiet_conversions(model: type[BaseModel], data: Any) -> Any:
+    """Refuse, naming the field, the inputs pydantic would quietly convert: a string or a
+    boolean for a number (``runs = "2"``, ``alpha = true``), a string or a number for a
+    boolean. Integers stay valid numbers (TOML's ``alpha = 1``)."""
+    if not isinstance(data, dict):
+        return data
+    for name, value in data.items():
+        field = model.model_fields.get(name) if isinstance(name, str) else None
+        kind = _scalar_type(field.annotation) if field is not None else None
+        if kind in (int, float) and isinstance(value, (bool, str)):
+            raise NestedFieldError(name, f"must be a number, not a {type(value).__name__} (got {value!r})")
+        if kind is bool and isinstance(value, (str, int, float)) and not isinstance(value, bool):
+            raise NestedFieldError(name, f"must be true or false (got {value!r})")
+    return data
 
 
 class PluginParams(BaseModel):
-    """Base of every plugin's parameter model: unknown parameters are an error, and
-    defaults are validated like given values (a nested plugin's default name is resolved)."""
+    """Base of every plugin's parameter model: unknown parameters are an error, defaults
+    are validated like given values (a nested plugin's default name is resolved), and a
+    string or boolean for a number is refused rather than converted."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_quiet_conversions(cls, data: Any) -> Any:
+        return refuse_quiet_conversions(cls, data)
 
 
 def field_path(loc: Sequence[Any], prefix: str = "") -> str:
@@ -91,9 +125,9 @@ def validation_message(exc: ValidationError, prefix: str = "",
     """Turn a pydantic ``ValidationError`` into one ``ConfigError``.
 
     The message names every offending field (a path like ``candidates[0].estimator``,
-    with ``prefix``), what it got and what it allows, one per line. Given the validated
-    ``model``, an unknown parameter lists the valid ones, and a parameter written beside
-    a plugin's ``name`` instead of under ``params`` gets a hint.
+    with ``prefix``), what it got and what it allows, on one line (the first field
+    leads). Given the validated ``model``, an unknown parameter lists the valid ones, and
+    a parameter written beside a plugin's ``name`` instead of under ``params`` gets a hint.
     """
     items = []
     for err in exc.errors():
@@ -111,7 +145,7 @@ def validation_message(exc: ValidationError, prefix: str = "",
         elif err["type"] == "value_error" and "error" in err.get("ctx", {}):
             error = err["ctx"]["error"]
             if isinstance(error, NestedFieldError):  # a nested plugin's field: extend the path
-                field, msg = f"{field}.{error.field}", error.detail
+                field, msg = f"{field}.{error.field}" if field else error.field, error.detail
             else:
                 msg = str(error)  # our own validators' messages are complete
         elif "input" in err and err["type"] != "missing":
@@ -119,7 +153,9 @@ def validation_message(exc: ValidationError, prefix: str = "",
         items.append((field, msg))
     if len(items) == 1:
         return ConfigError(*items[0])
-    return ConfigError(items[0][0], "invalid values:\n  " + "\n  ".join(f"{f}: {m}" for f, m in items))
+    # One line, the first field leading: a CLI error is one line, and ConfigError.field names it.
+    rest = "; ".join(f"{f}: {m}" for f, m in items[1:])
+    return ConfigError(items[0][0], f"{items[0][1]}; also {rest}")
 
 
 class Plugin:

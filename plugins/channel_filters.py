@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any, Literal, Mapping, Optional
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
 from gnssframework import registry
 from gnssframework.errors import ConfigError, NumericalError
@@ -14,9 +14,9 @@ from gnssframework.interfaces import ChannelFilter, RunContext
 from gnssframework.signal.channel_model import channel_model
 from gnssframework.signal.correlator_model import tap_noise_cov
 from gnssframework.signal.navdata import wipe_off
-from gnssframework.plugin import PluginParams
+from gnssframework.plugin import NestedFieldError, PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
-from gnssframework.receiver.loop_filters import LoopFilter
+from gnssframework.receiver.loop_filters import MAX_BANDWIDTH_TIME, LoopFilter, check_bandwidth_time
 from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ, L1_WAVELENGTH_M
 from gnssframework.simulation.clock import PRESETS
 
@@ -25,22 +25,37 @@ __all__ = ["ScalarTrackingLoop", "KalmanCarrierLoop", "DiscriminatorChannel", "I
 
 _HARNESS_T = ("deprecated, leave out: the harness's coherent time (RunContext.coherent_time_s) is used; "
               "a value here must equal it")
+#: Bound of every loop bandwidth: B_L T at most 0.2 at the shortest T (1 ms); the harness's
+#: T is checked against it when the config loads (`check_context`).
+_MAX_BANDWIDTH_HZ = MAX_BANDWIDTH_TIME / 0.001
+_BANDWIDTH_RULE = f"; B_L T at most {MAX_BANDWIDTH_TIME} at the harness's T (200 Hz at 1 ms, 10 Hz at 20 ms)"
 _HARNESS_D = ("deprecated, leave out: the harness's correlator spacing (RunContext.early_late_spacing_chips) is "
               "used; a value here must equal it")
 
 
 class ScalarParams(PluginParams):
     coherent_time_s: Optional[float] = Field(None, gt=0, le=0.02, description=_HARNESS_T)
-    pll_bandwidth_hz: float = Field(15.0, gt=0, description="PLL noise bandwidth B_L")
+    pll_bandwidth_hz: float = Field(15.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="PLL noise bandwidth B_L (Hz)"
+                                    + _BANDWIDTH_RULE)
     pll_order: Literal[2, 3] = Field(3, description="PLL order (2 tracks a frequency step, 3 a Doppler ramp)")
-    fll_bandwidth_hz: float = Field(5.0, ge=0, description="FLL assist bandwidth; 0 switches the assist off")
-    dll_bandwidth_hz: float = Field(1.0, gt=0, description="DLL noise bandwidth B_L (carrier aided)")
+    fll_bandwidth_hz: float = Field(5.0, ge=0, le=_MAX_BANDWIDTH_HZ, description="FLL assist bandwidth (Hz); 0 "
+                                    "switches the assist off" + _BANDWIDTH_RULE)
+    dll_bandwidth_hz: float = Field(1.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="DLL noise bandwidth B_L (Hz, "
+                                    "carrier aided)" + _BANDWIDTH_RULE)
     dll_order: Literal[1, 2] = Field(1, description="DLL loop order")
     early_late_spacing_chips: Optional[float] = Field(None, gt=0, le=1.0, description=_HARNESS_D)
     code_discriminator: PluginRef("discriminator", unit="chips") = Field("eml-envelope", description="DLL discriminator")
     phase_discriminator: PluginRef("discriminator", unit="rad") = Field("costas-atan", description="PLL discriminator")
     freq_discriminator: PluginRef("discriminator", unit="Hz") = Field(
         "atan2-fll", description="FLL-assist discriminator (on consecutive prompts)")
+
+
+def _check_bandwidths(loop: ChannelFilter, context: RunContext, fields: tuple[str, ...]) -> None:
+    """Refuse a bandwidth of ``loop`` too large for the context's T, naming the parameter."""
+    who = f"{loop.kind} {loop.name!r}"
+    T = context.resolve("coherent_time_s", loop.params.coherent_time_s, who)
+    for field in fields:
+        check_bandwidth_time(getattr(loop.params, field), T, f"{who}.{field}")
 
 
 class _CarrierAidedDll:
@@ -85,6 +100,9 @@ class ScalarTrackingLoop(ChannelFilter):
         self.dll = _CarrierAidedDll(p, batch_shape, T, d)
         self.previous = None
 
+    def check_context(self, context: RunContext) -> None:
+        _check_bandwidths(self, context, ("pll_bandwidth_hz", "fll_bandwidth_hz", "dll_bandwidth_hz"))
+
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         corr = inputs["correlators"]
         phase = self.phase_disc(corr)
@@ -100,17 +118,31 @@ class ScalarTrackingLoop(ChannelFilter):
 class KalmanLoopParams(PluginParams):
     coherent_time_s: Optional[float] = Field(None, gt=0, le=0.02, description=_HARNESS_T)
     states: Literal[2, 3] = Field(2, description="phase and frequency (2), or also frequency rate (3)")
-    q: list[float] = Field([0.01, 0.1], description="diagonal of Q per interval: phase, frequency(, rate)")
+    q: list[NonNegativeFloat] = Field([0.01, 0.1], min_length=2, max_length=3, description="diagonal of Q per "
+                                      "interval, each >= 0: phase, frequency(, rate); one value per state")
     r: float = Field(5.0, gt=0, description="variance R of the phase measurement")
     angle_unit: Literal["rad", "deg", "cycles"] = Field(
         "rad", description="unit of the phase in q and r (frequency: the same unit per second)")
     phase_discriminator: PluginRef("discriminator", unit="rad") = Field(
         "costas-atan", description="phase discriminator: the filter's measurement z")
-    dll_bandwidth_hz: float = Field(1.0, gt=0, description="DLL noise bandwidth B_L (carrier aided)")
+    dll_bandwidth_hz: float = Field(1.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="DLL noise bandwidth B_L (Hz, "
+                                    "carrier aided)" + _BANDWIDTH_RULE)
     dll_order: Literal[1, 2] = Field(1, description="DLL loop order")
     early_late_spacing_chips: Optional[float] = Field(None, gt=0, le=1.0, description=_HARNESS_D)
     code_discriminator: PluginRef("discriminator", unit="chips") = Field("eml-envelope", description="DLL discriminator")
-    initial_std: list[float] = Field([0.5, 5.0, 1.0], description="initial std: phase (unit), freq (unit/s), rate")
+    initial_std: list[PositiveFloat] = Field([0.5, 5.0, 1.0], min_length=2, max_length=3, description="initial "
+                                             "std, each > 0: phase (unit), freq (unit/s), rate; at least one value "
+                                             "per state")
+
+    @model_validator(mode="after")
+    def _one_value_per_state(self) -> "KalmanLoopParams":
+        n = self.states
+        if len(self.q) != n:
+            raise NestedFieldError("q", f"needs {n} values for states = {n} (got {self.q})")
+        if len(self.initial_std) < n:
+            raise NestedFieldError("initial_std", f"needs at least {n} values for states = {n} "
+                                   f"(got {self.initial_std})")
+        return self
 
 
 _TO_RAD = {"rad": 1.0, "deg": np.pi / 180, "cycles": 2 * np.pi}
@@ -146,12 +178,12 @@ class KalmanCarrierLoop(ChannelFilter):
     def __init__(self, **params: Any) -> None:
         super().__init__(**params)
         p = self.params
-        n = p.states
-        if len(p.q) != n:
-            raise ConfigError("channel_filter 'kf-carrier-loop'.q", f"needs {n} values for states={n}, got {p.q}")
         self.Q = np.diag(p.q)
         self.unit = _TO_RAD[p.angle_unit]
         self.filter_step = FilterStep(registry.create("estimator", "kf"), name=f"{self.name} (kf)")
+
+    def check_context(self, context: RunContext) -> None:
+        _check_bandwidths(self, context, ("dll_bandwidth_hz",))
 
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         p = self.params
@@ -292,9 +324,11 @@ class IqFilterParams(PluginParams):
                            "true noise covariance (the same as adapter = null, which TOML cannot write)")
     window: int = Field(20, ge=2, description="window L of the innovation adapter")
     warmup: int = Field(20, ge=0, description="updates before R adaptation starts")
-    q: list[float] = Field([1e-3, 1e-8, 1e-5, 1e-4, 1e-2],
-                           description="diagonal of Q per interval: A, dtau (chips), dtheta (rad), df (Hz), dfdot (Hz/s)")
-    initial_std: list[float] = Field([2.0, 0.05, 0.3, 5.0, 5.0], description="initial std of the five states")
+    q: list[NonNegativeFloat] = Field([1e-3, 1e-8, 1e-5, 1e-4, 1e-2], min_length=5, max_length=5,
+                                      description="diagonal of Q per interval, 5 values each >= 0: A, dtau (chips), "
+                                      "dtheta (rad), df (Hz), dfdot (Hz/s)")
+    initial_std: list[PositiveFloat] = Field([2.0, 0.05, 0.3, 5.0, 5.0], min_length=5, max_length=5,
+                                             description="initial std of the five states, each > 0")
     output: Literal["split", "equivalent", "filtered", "reset"] = Field(
         "split", description="what the nav filter gets: split (code from the discriminator or from this "
         "interval's new information, see split_code; frequency filtered; consistent, the default), equivalent (both from this interval's new information), "
@@ -403,8 +437,6 @@ class IqFilter(ChannelFilter):
     def __init__(self, **params: Any) -> None:
         super().__init__(**params)
         p = self.params
-        if len(p.q) != 5 or len(p.initial_std) != 5:
-            raise ConfigError("channel_filter 'iq-filter'", "q and initial_std need 5 values (A, dtau, dtheta, df, dfdot)")
         if p.clock is not None and p.clock not in PRESETS:
             raise ConfigError("channel_filter 'iq-filter'.clock", f"got {p.clock!r}; allowed: {', '.join(PRESETS)} "
                               "or null")

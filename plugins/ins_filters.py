@@ -31,9 +31,9 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, NonNegativeFloat
 
-from gnssframework.errors import InvalidInputError
+from gnssframework.errors import ConfigError, InvalidInputError
 from gnssframework.estimation import FilterStep, Gaussian, LinearModel
 from gnssframework.interfaces import NavFilter, RunContext
 from gnssframework.plugin import PluginParams
@@ -55,8 +55,9 @@ class InsEkfParams(PluginParams):
         None, description="deep integration: a carrier-phase prefilter per channel on a phase discriminator that "
         "closes only the carrier loop on top of the aided replica (e.g. kf-carrier-loop; Cai and Guo's (2017) "
         "carrier-phase filter); nothing of it reaches this filter. Unset: the carrier phase is not tracked")
-    clock_psd: tuple[float, float] = Field((0.1, 0.1), description="white-noise PSDs of the NCO clock filter's "
-                                           "bias (m^2/s) and drift (m^2/s^3)")
+    clock_psd: tuple[NonNegativeFloat, NonNegativeFloat] = Field(
+        (0.1, 0.1), description="white-noise PSDs of the NCO clock filter's bias (m^2/s) and drift (m^2/s^3), "
+        "each >= 0")
 
 
 class InsEkf(NavFilter):
@@ -88,6 +89,20 @@ class InsEkf(NavFilter):
         p = self.params
         self.engine = p.estimator.create()
         self.filter_step = FilterStep(self.engine, name=f"{self.name} ({self.engine.name})")
+
+    def check_context(self, context: RunContext) -> None:
+        """The carrier-phase prefilter runs at the harness's T: check it there, naming its
+        parameter under ``carrier_filter.params``."""
+        ref = self.params.carrier_filter
+        if ref is None:
+            return
+        inner = ref.create()
+        try:
+            inner.check_context(context)
+        except ConfigError as exc:
+            own = f"{inner.kind} {inner.name!r}"
+            tail = exc.field[len(own):] if exc.field.startswith(own) else f".{exc.field}"
+            raise ConfigError(f"nav_filter {self.name!r}.carrier_filter.params{tail}", exc.detail) from None
 
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         who = f"nav_filter {self.name!r}"

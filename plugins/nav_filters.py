@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, NonNegativeFloat, PositiveFloat
 
 from gnssframework.errors import ConfigError
 from gnssframework.estimation import (CompiledFunctions, FilterStep, Gaussian, LinearModel, NonlinearModel,
@@ -172,9 +172,11 @@ class EkfPositionVelocity(NavFilter):
 class PositionCaParams(PluginParams):
     dt_s: float = Field(1.0, gt=0, description="epoch interval of filter(); in step() the harness's "
                         "RunContext.epoch_interval_s is used and must equal it")
-    q0: list[float] = Field([1.0, 0.1, 0.01], description="diagonal of Q per coordinate: position, velocity, acceleration")
+    q0: list[NonNegativeFloat] = Field([1.0, 0.1, 0.01], min_length=3, max_length=3, description="diagonal of Q "
+                                       "per coordinate, 3 values each >= 0: position (m²), velocity, acceleration")
     r0: float = Field(1.0, gt=0, description="measurement noise variance R0 (m²)")
-    p0: list[float] = Field([10.0, 1.0, 0.1], description="initial variances of position, velocity, acceleration")
+    p0: list[PositiveFloat] = Field([10.0, 1.0, 0.1], min_length=3, max_length=3, description="initial variances, "
+                                    "3 values each > 0: position (m²), velocity, acceleration")
     estimator: PluginRef("estimator") = Field(
         "kf", description="estimator of the streaming step(); filter() takes the candidate's estimator")
 

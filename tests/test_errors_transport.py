@@ -24,6 +24,7 @@ ERRORS = [
     errors.InvalidInitialStateError("ekf", [(3,)], None, "initial mean is NaN or inf"),
     errors.NonFiniteError("ukf", [(0,)], 4, "prediction"),
     errors.InvalidInputError("ckf", "zs", "is a zero-length measurement sequence"),
+    errors.InvalidArgumentError("filter_sequence", "estimator", "expected an estimator plugin, got str 'ukf'"),
     errors.WorkerError("case 'a', candidate 'b', batch 0", "TypeError: boom", "Traceback ..."),
     errors.RunFailure("candidate 'b', case 'a', runs 0-1", "ukf: invalid initial state", "InvalidInitialStateError"),
 ]

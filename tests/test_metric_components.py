@@ -153,6 +153,15 @@ def test_lock_loss_fraction_against_hand_blocks():
     assert one.value.tolist() == [0.6, 0.4]
 
 
+def test_lock_loss_fraction_refuses_a_window_longer_than_the_settled_epochs():
+    # 5 settled epochs of 0.1 s hold no block of 0.6 s: a named error, not a NumPy warning and a NaN.
+    err = np.zeros((6, 2))
+    t = (np.arange(6) + 0.5) * 0.1
+    comp = LockLossFraction("lol", of="e", window="lock_window_s", threshold="lock_threshold", settle="settle_s")
+    with pytest.raises(ValueError, match=r"^lol: the 5 settled epochs hold no whole block of 6 epochs"):
+        comp.compute({"e": err}, t, _Scen(lock_window_s=0.6, lock_threshold=0.5, settle_s=0.1))
+
+
 def _slip_runs():
     """Three hand-built runs of 60 epochs, errors +-1 (reference sigma exactly 1) except:
     run 0: a slip at 40 leaving 10, 10, 5 -> running RMS over 5 epochs 6.7, 5.06, 2.41, 1:

@@ -12,9 +12,54 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInputError
+from typing import Any, Callable
 
-__all__ = ["as_measurement", "as_sequence", "to_float"]
+from ..errors import InvalidArgumentError, InvalidInputError
+
+__all__ = ["as_measurement", "as_sequence", "to_float", "check_argument"]
+
+
+def _has(*methods: str) -> Callable[[Any], bool]:
+    return lambda value: all(callable(getattr(value, m, None)) for m in methods)
+
+
+def _is_gaussian(value: Any) -> bool:
+    from .types import Gaussian  # types imports this module (to_float)
+
+    return isinstance(value, Gaussian)
+
+
+def _is_model(value: Any) -> bool:
+    from .types import LinearModel, NonlinearModel
+
+    return isinstance(value, (LinearModel, NonlinearModel)) or (callable(value) and not isinstance(value, type))
+
+
+#: What each object argument of the estimation calls must be: (words for the message, test).
+_ARGUMENTS: dict[str, tuple[str, Callable[[Any], bool]]] = {
+    "estimator": ("an estimator plugin, e.g. gf.registry.create('estimator', 'ukf')", _has("predict", "update")),
+    "adapter": ("a noise_adapter plugin, e.g. gf.registry.create('noise_adapter', 'innovation'), or None",
+                lambda v: v is None or _has("start")(v)),
+    "augmentation": ("an augmentation plugin, e.g. gf.registry.create('augmentation', 'colored-ar1'), or None",
+                     lambda v: v is None or _has("apply")(v)),
+    "initial": ("a gf.Gaussian(mean, cov)", _is_gaussian),
+    "model": ("a gf.LinearModel or gf.NonlinearModel, or a callable k -> model", _is_model),
+}
+
+
+def _describe(value: Any) -> str:
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
+
+
+def check_argument(value: Any, argument: str, call: str) -> None:
+    """Refuse an object argument of the wrong kind (a string, None or a dict for an
+    estimator, model, adapter, augmentation or initial state) with
+    `InvalidArgumentError` saying what to pass, instead of an ``AttributeError`` deep in
+    a filter. ``argument`` is a key of the table above, also the name in the message."""
+    expected, ok = _ARGUMENTS[argument]
+    if not ok(value):
+        raise InvalidArgumentError(call, argument, f"expected {expected}; got {_describe(value)}")
 
 
 def to_float(value) -> np.ndarray:

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import ConfigError, InvalidInputError
 from .adaptation import Augmentation, NoiseAdapter
-from .boundary import as_sequence
+from .boundary import as_sequence, check_argument
 from .estimator import Estimator, OnFailure, OnMissing
 from .step import RECOVERIES, FilterStep
 from .types import Gaussian, Model
@@ -48,6 +48,14 @@ class FilterResult:
     skipped: np.ndarray
     epochs: np.ndarray
     recoveries: dict[str, int] = field(default_factory=dict)
+
+
+def _check_arguments(estimator, model, initial, adapter, augmentation) -> None:
+    """The object arguments are of the right kind (a string or dict is named, not an
+    AttributeError deep in a filter)."""
+    for value, argument in ((estimator, "estimator"), (model, "model"), (initial, "initial"),
+                            (adapter, "adapter"), (augmentation, "augmentation")):
+        check_argument(value, argument, "filter_sequence")
 
 
 def filter_sequence(
@@ -90,8 +98,11 @@ def filter_sequence(
 
     Raises
     ------
+    InvalidArgumentError
+        An estimator, model, initial state, adapter or augmentation of the wrong kind (a
+        string, None or a dict), saying what to pass.
     InvalidInputError
-        ``zs`` is not ``(K, ..., m)`` with K >= 1 and the model's m, or the initial mean
+        ``zs`` is not ``(K, ..., m)`` with K >= 1, a non-empty batch and the model's m, or the initial mean
         does not have the model's dimension (names the input).
     InvalidInitialStateError
         The initial mean is NaN/inf or its covariance is not finite and positive
@@ -105,6 +116,7 @@ def filter_sequence(
     sequential plugin runs, so a plugin and ``filter_sequence`` fail, recover and adapt
     the same way.
     """
+    _check_arguments(estimator, model, initial, adapter, augmentation)
     step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
     zs = as_sequence(zs, estimator.name)  # text, ragged or complex: named, not a raw ValueError
     if zs.ndim < 2:
@@ -112,6 +124,9 @@ def filter_sequence(
     if zs.shape[0] == 0:
         raise InvalidInputError(estimator.name, "zs", f"is a zero-length measurement sequence (shape {zs.shape}): "
                                 "there is nothing to filter")
+    if 0 in zs.shape[1:-1]:
+        raise InvalidInputError(estimator.name, "zs", f"has an empty batch (shape {zs.shape}): there is nothing "
+                                "to filter")
     if augmentation is not None:
         if callable(model):  # models are dataclasses, not callables
             raise ConfigError("augmentation", "needs a fixed model, not a callable")

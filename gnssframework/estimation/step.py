@@ -46,7 +46,7 @@ from ..errors import (ConfigError, InvalidInitialStateError, InvalidInputError, 
 from . import kernels, kernels_loop
 from .adaptation import AdapterRun, AdaptationStep, NoiseAdapter
 from .adapter_guard import adapt_checked
-from .boundary import as_measurement
+from .boundary import as_measurement, check_argument
 from .estimator import Estimator, OnFailure, OnMissing
 from .linalg import all_true, any_true, cholesky_masked, clip_eigenvalues, failing_indices, pd_mask, symmetrize
 from .types import Gaussian, Model, Update
@@ -70,11 +70,15 @@ def check_initial(initial: Gaussian, filter_name: str, model: Model | None = Non
     Raises
     ------
     InvalidInputError
-        The initial state's dimension differs from the model's (names ``initial mean``).
+        The initial state's batch is empty or its dimension differs from the model's
+        (names ``initial mean``).
     InvalidInitialStateError
         Naming ``initial mean`` (NaN or inf) or ``initial covariance`` (not finite,
         not symmetric positive definite) and every failing batch element.
     """
+    if 0 in initial.batch_shape:
+        raise InvalidInputError(filter_name, "initial mean", f"has an empty batch (shape {initial.mean.shape}): "
+                                "there is nothing to filter")
     if model is not None and initial.ndim_state != model.Q.shape[-1]:
         raise InvalidInputError(filter_name, "initial mean",
                                 f"has {initial.ndim_state} states but the model's Q is {model.Q.shape[-2:]}")
@@ -204,6 +208,8 @@ class FilterStep:
                  on_failure: OnFailure = "raise", missing: OnMissing = "raise", name: str | None = None) -> None:
         _check_policy("on_failure", on_failure, POLICIES)
         _check_policy("missing", missing, ("raise", "skip"))
+        check_argument(estimator, "estimator", "FilterStep")
+        check_argument(adapter, "adapter", "FilterStep")
         self.estimator = estimator
         self.adapter = adapter
         self.on_failure = on_failure
@@ -236,6 +242,9 @@ class FilterStep:
         InvalidInitialStateError, InvalidInputError
             Naming the initial mean or covariance (and the batch element).
         """
+        check_argument(initial, "initial", f"{self.name}: FilterStep.start")
+        if model is not None:
+            check_argument(model, "model", f"{self.name}: FilterStep.start")
         check_initial(initial, self.name, model)
         # The backend of the step's compiled checks, chosen once per sequence.
         self._lean = kernels.get_backend() == "numba"

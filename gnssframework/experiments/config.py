@@ -18,12 +18,18 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError,
 
 from ..errors import ConfigError, DataFileError
 from ..hookspecs import COMPONENT_KINDS
+from ..io.text import read_input_text
 from ..plugin import validation_message
 from .claims import Claim, check_claims
 from .sweeps import Sweep, check_unique_labels, expand_sweep
 from .tuning import Tuning, check_tuning
 
 __all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "Claim", "load_config"]
+
+
+#: Most Monte Carlo runs of a comparison (each case and candidate): a million runs of the
+#: cheapest scenario take hours; a larger value is a typo that would only hang.
+MAX_RUNS = 1_000_000
 
 
 class _Strict(BaseModel):
@@ -72,7 +78,8 @@ class Executor(_Strict):
     """Where the runs execute."""
 
     kind: Literal["local", "dask"] = "local"
-    workers: int = Field(0, ge=0, description="local processes (0: one per core, 1: in this process)")
+    workers: int = Field(0, ge=0, le=1024, strict=True, description="local processes (0: one per core, 1: in this "
+                         "process), at most 1024")
     address: str = Field("", description="dask scheduler address; empty starts a LocalCluster")
 
 
@@ -81,9 +88,11 @@ class ComparisonConfig(_Strict):
 
     name: str = "comparison"
     description: str = ""
-    runs: int = Field(10, ge=1, description="Monte Carlo runs per case and candidate")
-    batch_size: int = Field(5, ge=1, description="runs simulated together as one array program")
-    seed: int = Field(0, ge=0)
+    runs: int = Field(10, ge=1, le=MAX_RUNS, strict=True, description="Monte Carlo runs per case and candidate, "
+                      f"1 to {MAX_RUNS}")
+    batch_size: int = Field(5, ge=1, le=MAX_RUNS, strict=True, description="runs simulated together as one array "
+                            f"program, 1 to {MAX_RUNS} (and within the memory budget, see experiments.limits)")
+    seed: int = Field(0, ge=0, lt=2**63, strict=True, description="seed of the runs' random numbers, 0 to 2^63 - 1")
     executor: Executor = Field(default_factory=Executor)
     scenario: dict[str, Any] = Field(..., description="scenario kind and its parameters (see the scenario's page)")
     cases: list[Case] = Field(..., min_length=1)
@@ -124,8 +133,11 @@ class ComparisonConfig(_Strict):
             check_metric(metric, scenario, f"metrics[{i}]")
         for i, case in enumerate(self.cases):
             scenario.check_case(case.params(), f"cases[{i}]")
+            scenario.check_memory(case.params(), min(self.batch_size, self.runs), f"cases[{i}]",
+                                  [c.components() for c in self.candidates])
         for i, cand in enumerate(self.candidates):
             scenario.check_candidate(cand.components(), f"candidates[{i}]")
+            scenario.check_contexts(cand.components(), [c.params() for c in self.cases], f"candidates[{i}]")
         case_names = {c.name for c in self.cases}
         cand_names = {c.name for c in self.candidates}
         if self.reference is not None and self.reference not in cand_names:
@@ -210,9 +222,7 @@ def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
     """
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise DataFileError(str(path), None, "no such file") from None
+        data = tomllib.loads(read_input_text(path))
     except tomllib.TOMLDecodeError as exc:
         # Python 3.11's TOMLDecodeError carries the position only in its message.
         found = re.search(r"\(at line (\d+), column \d+\)", str(exc))

@@ -264,6 +264,9 @@ class LockLossFraction(SeriesMetric):
         block = max(1, int(round(float(_scenario_value(self.window, scenario, self.name)) / interval_s)))
         e = _selected(err, self._mask(err.shape[0], time_s, scenario), self.name)
         n_blocks = e.shape[0] // block
+        if n_blocks == 0:  # the mean of no block would be a NumPy warning and a NaN
+            raise ValueError(f"{self.name}: the {e.shape[0]} settled epochs hold no whole block of {block} epochs "
+                             f"(window {self.window!r}); use a shorter window or a longer run")
         pli = np.cos(2 * e[: n_blocks * block]).reshape((n_blocks, block) + e.shape[1:]).mean(axis=1)
         return MetricValue(np.mean(pli < threshold, axis=0), (np.cos(2 * err) < threshold).astype(float))
 

@@ -38,6 +38,7 @@ from gnssframework.inertial.earth import STANDARD_GRAVITY_MPS2, WGS84, EarthMode
 from gnssframework.inertial.frames import NED_FROM_ENU, enu_to_ecef_matrix
 
 __all__ = [
+    "MAX_START_LAT_DEG",
     "AccelerationPulse",
     "TrajectoryProfile",
     "Trajectory",
@@ -63,12 +64,17 @@ class AccelerationPulse(BaseModel):
         return self.start_s + 2.0 * self.rise_s + self.hold_s
 
 
+#: Largest |start latitude| of a profile: the flights are integrated in local north/east
+#: axes, which degenerate at a pole.
+MAX_START_LAT_DEG = 89.0
+
+
 class TrajectoryProfile(BaseModel):
     """A reference flight: start point, initial ENU velocity, acceleration pulses."""
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    start_lat_deg: float = Field(ge=-89.0, le=89.0)
+    start_lat_deg: float = Field(ge=-MAX_START_LAT_DEG, le=MAX_START_LAT_DEG)
     start_lon_deg: float = Field(ge=-180.0, le=360.0)
     start_height_m: float = 0.0
     initial_velocity_enu_mps: tuple[float, float, float] = (0.0, 0.0, 0.0)

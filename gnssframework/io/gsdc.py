@@ -16,6 +16,7 @@ import numpy as np
 import pymap3d
 
 from ..errors import DataFileError
+from .text import check_input_file
 
 __all__ = ["GsdcFixes", "read_gsdc_wls", "read_gsdc_truth", "DEVICE_COLUMNS", "TRUTH_COLUMNS"]
 
@@ -39,7 +40,7 @@ class GsdcFixes:
 
 def _rows(path: Path, columns: tuple[str, ...]) -> list[tuple[int, list[float]]]:
     """``(line, values)`` of every data row; refuse a missing column or a bad number."""
-    path = Path(path)
+    path = check_input_file(path)  # a device or a pipe would be read without end
     try:
         fh = open(path, newline="")
     except OSError as exc:

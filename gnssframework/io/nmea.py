@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import ConfigError, DataFileError
 from .skipped import refuse_or_keep
+from .text import read_input_text
 
 __all__ = ["NmeaFixes", "read_nmea", "MAX_SPEED_MPS", "MAX_ABS_HEIGHT_M"]
 
@@ -152,10 +153,7 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
     if not 0 < max_abs_height_m < np.inf:
         raise ConfigError("max_abs_height_m (--max-height)", f"must be a positive number of m, got {max_abs_height_m!r}")
     path = Path(path)
-    try:
-        text = path.read_bytes().decode("ascii", errors="replace")
-    except OSError as exc:
-        raise DataFileError(str(path), None, f"cannot read: {exc.strerror}") from None
+    text = read_input_text(path, errors="replace", encoding="ascii")
     # epochs: absolute time (s since 00:00 of the first day) -> {kind: (lat, lon, h, line)}
     epochs: dict[float, dict[str, tuple[float, float, float, int]]] = {}
     skipped: list[tuple[int, str]] = []

@@ -20,6 +20,7 @@ import numpy as np
 from ..errors import ConfigError, DataFileError
 from .rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M, RinexScan, check_rinex3_obs
 from .skipped import refuse_or_keep
+from .text import check_input_file
 
 __all__ = ["Observations", "SIGNALS", "SECOND_SIGNALS", "SPEED_OF_LIGHT_MPS", "LLI_LOST_LOCK", "read_observations",
            "arc_starts", "glonass_l1_frequency_hz", "GEORINEX_TIME_TOLERANCE"]
@@ -349,9 +350,7 @@ def read_observations(path: str | Path, select: str = "G", pseudorange_min_m: fl
         georinex (naming the epoch it fails on), an epoch georinex lost, or no observation
         of the selection.
     """
-    path = Path(path)
-    if not path.exists():
-        raise DataFileError(str(path), None, "no such file")
+    path = check_input_file(path)  # not a device, a pipe or a directory: read whole below
     systems, prns = _parse_select(select)
     text = _decompress(path)
     version = _version(path, text)

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import ConfigError, DataFileError
 from ..signal.constants import L1_WAVELENGTH_M
+from .text import check_input_file, read_input_text
 
 __all__ = ["CodeCarrier", "RinexScan", "read_code_carrier", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs",
            "PSEUDORANGE_MIN_M", "PSEUDORANGE_MAX_M"]
@@ -163,7 +164,7 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
                           f"need 0 <= min < max, got [{pseudorange_min_m!r}, {pseudorange_max_m!r}] m")
     path = Path(path)
     if text is None:
-        text = path.read_text(errors="replace")
+        text = read_input_text(path, errors="replace")
     lines = text.splitlines()
     if not lines or "RINEX VERSION / TYPE" not in lines[0]:
         raise DataFileError(str(path), 1, "not a RINEX file: first line lacks 'RINEX VERSION / TYPE'")

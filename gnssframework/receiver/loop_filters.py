@@ -22,9 +22,26 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["LoopFilter", "natural_frequency"]
+__all__ = ["LoopFilter", "natural_frequency", "check_bandwidth_time", "MAX_BANDWIDTH_TIME"]
 
 _BANDWIDTH_RATIO = {1: 0.25, 2: 0.53, 3: 0.7845}
+#: Largest B_L T of a loop (main or assisting) discretised with the rectangular rule: beyond
+#: it the discrete loop no longer behaves like the analog one and soon diverges.
+MAX_BANDWIDTH_TIME = 0.2
+
+
+def check_bandwidth_time(bandwidth_hz: float, update_s: float, field: str) -> None:
+    """Refuse a loop bandwidth too large for the update interval.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``field`` when ``bandwidth_hz * update_s`` exceeds `MAX_BANDWIDTH_TIME`.
+    """
+    if bandwidth_hz * update_s > MAX_BANDWIDTH_TIME:
+        raise ConfigError(field, f"B_L T = {bandwidth_hz * update_s:.3g} at T = {update_s:g} s is too large for a "
+                          f"discretised analog loop (at most {MAX_BANDWIDTH_TIME}: {MAX_BANDWIDTH_TIME / update_s:g} "
+                          f"Hz at this T; got {bandwidth_hz!r} Hz)")
 
 
 def natural_frequency(order: int, bandwidth_hz: float) -> float:
@@ -64,11 +81,10 @@ class LoopFilter:
 
     def __post_init__(self) -> None:
         self.w0 = natural_frequency(self.order, self.bandwidth_hz)
-        if self.bandwidth_hz * self.update_s > 0.2:
-            raise ConfigError("bandwidth_hz", f"B_L T = {self.bandwidth_hz * self.update_s:.2f} is too large for a "
-                              "discretised analog loop (keep it below 0.2)")
+        check_bandwidth_time(self.bandwidth_hz, self.update_s, "bandwidth_hz")
         self.wf = 0.0
         if self.assist_bandwidth_hz:
+            check_bandwidth_time(self.assist_bandwidth_hz, self.update_s, "assist_bandwidth_hz")
             if self.order < 2:
                 raise ConfigError("order", "a frequency-assisted loop needs order 2 or 3")
             self.wf = natural_frequency(self.order - 1, self.assist_bandwidth_hz)

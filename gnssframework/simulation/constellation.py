@@ -17,6 +17,7 @@ import numpy as np
 import pymap3d
 
 from ..errors import ConfigError, DataFileError
+from ..io.text import read_input_text
 
 __all__ = ["SatelliteSet", "Constellation", "nominal_constellation", "load_almanac", "GM_EARTH", "OMEGA_EARTH"]
 
@@ -135,8 +136,8 @@ def load_almanac(path) -> Constellation:
         Naming the file and line of a missing column or a bad number.
     """
     rows = []
-    with open(path) as fh:
-        lines = [(no, line) for no, line in enumerate(fh, 1) if line.strip() and not line.startswith("#")]
+    text = read_input_text(path)
+    lines = [(no, line) for no, line in enumerate(text.splitlines(), 1) if line.strip() and not line.startswith("#")]
     if not lines:
         raise DataFileError(str(path), None, "no almanac rows")
     header = [h.strip() for h in lines[0][1].strip().split(",")]

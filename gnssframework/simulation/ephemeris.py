@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError
+from ..io.text import check_input_file
 from .constellation import SatelliteSet
 
 __all__ = ["BroadcastEphemeris", "load_rinex_nav", "EPHEMERIS_FIELDS"]
@@ -69,9 +70,7 @@ def load_rinex_nav(path: str | Path, t_s: float | None = None) -> BroadcastEphem
     """
     import georinex
 
-    path = Path(path)
-    if not path.exists():
-        raise DataFileError(str(path), None, "no such file")
+    path = check_input_file(path)
     try:
         with warnings.catch_warnings():  # georinex's xarray calls emit FutureWarnings per record
             warnings.simplefilter("ignore", FutureWarning)

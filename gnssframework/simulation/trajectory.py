@@ -10,6 +10,7 @@ import numpy as np
 import pymap3d
 
 from ..errors import DataFileError
+from ..io.text import read_input_text
 
 __all__ = ["Trajectory", "load_trajectory"]
 
@@ -55,10 +56,7 @@ def load_trajectory(path: str | Path) -> Trajectory:
         not increase.
     """
     path = Path(path)
-    try:
-        lines = path.read_text().splitlines()
-    except OSError as exc:
-        raise DataFileError(str(path), None, f"cannot read: {exc.strerror}") from None
+    lines = read_input_text(path).splitlines()
     rows = [(no, line) for no, line in enumerate(lines, 1) if line.strip() and not line.startswith("#")]
     if len(rows) < 3:
         raise DataFileError(str(path), None, "needs a header and at least two rows")

@@ -13,17 +13,27 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from ... import registry
 from ...errors import ConfigError
-from ...plugin import validation_message
+from ...interfaces import RunContext
+from ...plugin import refuse_quiet_conversions, validation_message
+from ..limits import check_batch_memory
 
 __all__ = ["Scenario", "BatchResult", "SCENARIOS", "get_scenario", "register_scenario", "scenario_kinds"]
 
 
 class ScenarioParams(BaseModel):
+    """Base of scenario and case parameter models: unknown parameters are an error, and a
+    string or boolean for a number is refused rather than converted."""
+
     model_config = ConfigDict(extra="forbid")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_quiet_conversions(cls, data: Any) -> Any:
+        return refuse_quiet_conversions(cls, data)
 
 
 @dataclass
@@ -58,6 +68,22 @@ class Scenario(abc.ABC):
         except ValidationError as exc:
             raise validation_message(exc, prefix=where, model=self.CaseParams) from None
 
+    def batch_memory(self, case: dict[str, Any], runs: int, where: str,
+                     candidates: list[dict[str, Any]] = ()) -> tuple[float, str, str] | None:
+        """Estimated peak memory of one batch of ``runs`` runs of ``case`` (validated case
+        parameters) for the most demanding of ``candidates`` (their plugin references by
+        kind), for `check_memory`: ``(bytes, field path, the batch's size in words)``, or
+        ``None`` when the scenario's memory does not grow with its parameters."""
+        return None
+
+    def check_memory(self, case: dict[str, Any], runs: int, where: str,
+                     candidates: list[dict[str, Any]] = ()) -> None:
+        """Refuse a case whose batch of ``runs`` runs would exceed the memory budget
+        (`gnssframework.experiments.limits`), before anything is allocated."""
+        estimate = self.batch_memory(self.CaseParams.model_validate(case).model_dump(), runs, where, candidates)
+        if estimate is not None:
+            check_batch_memory(*estimate)
+
     def check_candidate(self, components: dict[str, Any], where: str) -> None:
         """Every required kind present, no foreign kind, every plugin creatable, and composable."""
         for kind, required in self.components.items():
@@ -77,13 +103,32 @@ class Scenario(abc.ABC):
             try:
                 built[kind] = cls(**ref.params)
             except ConfigError as exc:
-                # The plugin names its field from its own root ("iq-filter".estimator...):
-                # continue the config's path instead, so the field is written one way.
-                own = f"{cls.kind or 'plugin'} {cls.name!r}"
-                if exc.field == own or exc.field.startswith((own + ".", own + "[")):
-                    raise ConfigError(f"{where}.{kind}.params{exc.field[len(own):]}", exc.detail) from None
-                raise ConfigError(f"{where}.{kind}.params", str(exc)) from None
+                raise _config_path(exc, cls, f"{where}.{kind}") from None
         self.check_composition(built, where)
+
+    def run_contexts(self, cases: list[dict[str, Any]]) -> list[RunContext]:
+        """The run contexts (coherent time, correlator spacing) the candidates' filters get
+        over ``cases``, for `check_contexts`; the default says nothing (no check)."""
+        return []
+
+    def check_contexts(self, components: dict[str, Any], cases: list[dict[str, Any]], where: str) -> None:
+        """Let each of a candidate's filters refuse the harness contexts it would run in
+        (``SequentialFilter.check_context``), naming the config field, before any batch."""
+        contexts = self.run_contexts(cases)
+        if not contexts:
+            return
+        for kind, ref in components.items():
+            plugin = registry.create(kind, ref.name, **ref.params)
+            for context in contexts if hasattr(plugin, "check_context") else ():
+                try:
+                    self.in_context(plugin, context).check_context(context)
+                except ConfigError as exc:
+                    raise _config_path(exc, type(plugin), f"{where}.{kind}") from None
+
+    def in_context(self, plugin: Any, context: RunContext) -> Any:
+        """``plugin`` as the harness runs it in ``context`` (itself unless the scenario
+        re-creates it, e.g. at a case's own interval)."""
+        return plugin
 
     def _describe_components(self) -> str:
         return ", ".join(f"{k} ({'required' if r else 'optional'})" for k, r in self.components.items())
@@ -117,6 +162,16 @@ class Scenario(abc.ABC):
     def run_batch(self, case: dict[str, Any], plugins: dict[str, Any], runs: int,
                   rng: np.random.Generator) -> BatchResult:
         """Simulate ``runs`` Monte Carlo runs as one array program."""
+
+
+def _config_path(exc: ConfigError, cls: type, where: str) -> ConfigError:
+    """A plugin's error re-addressed to the config: the plugin names its field from its own
+    root (``channel_filter 'iq-filter'.estimator...``); continue the config's path ``where``
+    instead, so the field is written one way."""
+    own = f"{cls.kind or 'plugin'} {cls.name!r}"
+    if exc.field == own or exc.field.startswith((own + ".", own + "[")):
+        return ConfigError(f"{where}.params{exc.field[len(own):]}", exc.detail)
+    return ConfigError(f"{where}.params", str(exc))
 
 
 #: The core's scenario kinds (registered with the plugin registry by ``hooks``).

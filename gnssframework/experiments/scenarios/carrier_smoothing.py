@@ -26,7 +26,12 @@ from ..metric_components import FalseResets, Rmse, SlipRecovery, evaluate, false
 from ..metric_components import undefined_reasons as _undefined_reasons
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["CarrierSmoothingScenario", "METRICS", "slip_recovery", "slip_recovery_epochs", "false_resets"]
+__all__ = ["CarrierSmoothingScenario", "METRICS", "slip_recovery", "slip_recovery_epochs", "false_resets",
+           "BYTES_PER_EPOCH_RUN"]
+
+#: Peak memory of one run's epoch (the simulated observables and the smoother's outputs;
+#: measured 60 to 104 B across the example's candidates, rounded up: tests/test_limits.py).
+BYTES_PER_EPOCH_RUN = 256
 
 
 class CarrierSmoothingParams(ScenarioParams):
@@ -96,6 +101,11 @@ class CarrierSmoothingScenario(Scenario):
     outputs = {"range_error_m": "m", "slip": "-", "slip_detected": "-"}
     #: Why a metric can be undefined (NaN) in a run; summary.json and report.md say it.
     undefined_reasons = _undefined_reasons(METRICS)
+
+    def batch_memory(self, case: dict, runs: int, where: str, candidates=()) -> tuple[float, str, str]:
+        epochs = self.params.epochs
+        return (BYTES_PER_EPOCH_RUN * epochs * runs, "scenario.epochs",
+                f"a batch of {runs} runs of {where} ({epochs} epochs)")
 
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins.get("channel_filter")

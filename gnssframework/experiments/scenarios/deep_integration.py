@@ -33,7 +33,9 @@ from pydantic import Field
 
 from ... import random_streams as draw
 from ...errors import ConfigError
+from ...interfaces import RunContext
 from ...inertial.imu import ImuGrade
+from ...inertial.trajectory import MAX_START_LAT_DEG
 from ...receiver.deep import DeepTruth, loss_of_lock, run_aided_tracking
 from ...receiver.deep_metrics import attitude_errors_deg, enu_errors
 from ...receiver.tracking import NCO_COMMANDS
@@ -41,10 +43,15 @@ from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_ve
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
+from ..limits import CoherentTime
 from ..metric_components import Mean, PostSettleMax, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["DeepIntegrationScenario"]
+__all__ = ["DeepIntegrationScenario", "BYTES_PER_EPOCH_RUN_CHANNEL"]
+
+#: Peak memory of the aided tracking (or the vector loop) per coherent interval, run and
+#: channel (measured 96 to 166 B across the candidate kinds, rounded up: tests/test_limits.py).
+BYTES_PER_EPOCH_RUN_CHANNEL = 256
 
 ERRORS = ("horizontal_position_error", "height_error", "horizontal_velocity_error", "vertical_velocity_error",
           "attitude_error")
@@ -85,7 +92,8 @@ class DeepIntegrationParams(ScenarioParams):
     profile: Literal["pull-up", "straight", "jerk-pulse"] = Field(
         "pull-up", description="Cai and Guo's (2017) flight (level 10 s, then a pull-up), straight flight, or straight "
         "flight with one smooth acceleration pulse (pulse_* parameters)")
-    coherent_time_s: float = Field(0.001, gt=0, le=0.02, description="T of correlators and prefilters")
+    coherent_time_s: CoherentTime = Field(0.001, description="T of correlators and prefilters (s): whole 1 ms code "
+                                          "periods, 1 to 20 ms")
     imu_interval_s: float = Field(0.005, gt=0, description="IMU increment interval (200 Hz in Cai and Guo 2017)")
     nco_interval_s: float = Field(0.005, gt=0, description="interval at which the NCOs are re-aided (deep)")
     update_interval_s: float = Field(0.1, gt=0, description="integration filter interval (10 Hz)")
@@ -94,7 +102,9 @@ class DeepIntegrationParams(ScenarioParams):
     channels: int = Field(8, ge=5, le=12)
     elevation_mask_deg: float = Field(10.0, ge=0, lt=90)
     start_time_s: float = Field(37800.0, ge=0, description="seconds into the nominal constellation's day")
-    lat_deg: float = Field(34.23, ge=-90, le=90)
+    lat_deg: float = Field(34.23, ge=-MAX_START_LAT_DEG, le=MAX_START_LAT_DEG, description="start latitude (deg), "
+                           "within 89 deg of the equator: the flights are integrated in local north/east axes, "
+                           "which degenerate at a pole")
     lon_deg: float = Field(108.3576, ge=-180, le=360)
     height_m: float = 590.6
     clock: str = Field("ocxo", description="receiver clock preset (a TCXO's white frequency noise alone gives "
@@ -201,6 +211,17 @@ class DeepIntegrationScenario(Scenario):
                 raise ConfigError(f"scenario.{name}", f"must be a whole multiple of {small} s (got {big})")
         if p.settle_s >= p.duration_s:
             raise ConfigError("scenario.settle_s", f"must be less than duration_s = {p.duration_s}")
+
+    def batch_memory(self, case: dict[str, Any], runs: int, where: str, candidates=()) -> tuple[float, str, str]:
+        p = self.params
+        epochs = int(round(p.duration_s / p.coherent_time_s))
+        return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels, "scenario.coherent_time_s",
+                f"a batch of {runs} runs of {where} ({epochs} epochs x {p.channels} channels)")
+
+    def run_contexts(self, cases: list[dict[str, Any]]) -> list[RunContext]:
+        p = self.params
+        return [RunContext(coherent_time_s=p.coherent_time_s, early_late_spacing_chips=p.early_late_spacing_chips,
+                           epoch_interval_s=p.coherent_time_s)]
 
     def check_composition(self, plugins: dict[str, Any], where: str) -> None:
         try:

@@ -11,6 +11,8 @@ chosen against the truth on independent training runs (an oracle bound).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from pydantic import Field
 
@@ -22,7 +24,21 @@ from ...simulation.impairments import ar1_noise
 from ..metric_components import ConvergenceEpoch, MeanAbs, Rmse, convergence_epoch, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["MultipathScenario", "METRICS", "convergence_epoch"]
+__all__ = ["MultipathScenario", "METRICS", "convergence_epoch", "BYTES_PER_EPOCH_RUN"]
+
+#: Peak memory of one filtered run's epoch (the measurements, the filter's means and
+#: covariances; measured 730 to 1120 B for the position filters, about 790 B per run and
+#: grid pair of the oracle, rounded up: tests/test_limits.py).
+BYTES_PER_EPOCH_RUN = 1536
+
+
+def _oracle_runs(candidate: dict[str, Any], runs: int) -> int:
+    """Runs an ``oracle-grid`` candidate filters besides the batch: grid pairs x training runs."""
+    ref = candidate.get("noise_adapter")
+    if ref is None or ref.name != "oracle-grid":
+        return 0
+    grid = registry.create("noise_adapter", ref.name, **ref.params).params
+    return len(grid.q_scales) * len(grid.r_scales) * (grid.training_runs or runs)
 
 
 class MultipathParams(ScenarioParams):
@@ -65,6 +81,14 @@ class MultipathScenario(Scenario):
     #: The raw per-epoch errors (signed, truth 0) the metrics reduce; metric components
     #: of other packages may read them too.
     outputs = {"lat_error_m": "m", "lon_error_m": "m", "horizontal_error_m": "m"}
+
+    def batch_memory(self, case: dict, runs: int, where: str, candidates=()) -> tuple[float, str, str]:
+        """One filter pass over the batch, plus an oracle's grid of passes over its
+        training runs (every (Q, R) pair is a batch axis of one filter)."""
+        epochs = self.params.epochs
+        passes = runs + max((_oracle_runs(c, runs) for c in candidates), default=0)
+        return (BYTES_PER_EPOCH_RUN * epochs * passes, "scenario.epochs",
+                f"a batch of {runs} runs of {where} ({epochs} epochs, {passes} filtered runs with an oracle's grid)")
 
     def check_composition(self, plugins, where: str) -> None:
         if plugins and ("nav_filter" not in plugins or "estimator" not in plugins):

@@ -19,18 +19,24 @@ from pydantic import Field
 from ... import random_streams as draw
 from ... import registry
 from ...errors import ConfigError
+from ...interfaces import RunContext
 from ...receiver.loop_bandwidth import equivalent_bandwidth_hz
 from ...receiver.tracking import NCO_COMMANDS, SignalTruth, check_closed_loop, run_closed_loop
 from ...simulation import scintillation as scint
+from ..limits import CoherentTime
 from ..metric_components import LockLossFraction, Mean, Rmse, Std, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["ScintillationScenario", "METRICS"]
+__all__ = ["ScintillationScenario", "METRICS", "BYTES_PER_EPOCH_RUN"]
+
+#: Peak memory of one run's epoch (the scintillation process, the truth and the closed
+#: loop's record; measured 230 to 320 B, rounded up: tests/test_limits.py).
+BYTES_PER_EPOCH_RUN = 512
 
 
 class ScintillationParams(ScenarioParams):
     duration_s: float = Field(60.0, gt=0, le=3600)
-    coherent_time_s: float = Field(0.01, gt=0, le=0.02)
+    coherent_time_s: CoherentTime = Field(0.01, description="interval T (s): whole 1 ms code periods, 1 to 20 ms")
     cn0_dbhz: float = Field(45.0, ge=20, le=60, description="C/N0 without scintillation")
     doppler_hz: float = Field(1500.0, description="constant Doppler (known at start)")
     doppler_rate_hz_s: float = Field(0.0, description="line-of-sight dynamics")
@@ -48,8 +54,9 @@ class ScintillationCase(ScenarioParams):
     p: float = Field(2.5, ge=1.5, le=4.0, description="AJ-Stanford spectral slope")
     corner_hz: float = Field(0.1, gt=0, description="AJ-Stanford corner frequency")
     cn0_dbhz: float | None = Field(None, ge=20, le=60, description="C/N0 of this case (default: the scenario's)")
-    coherent_time_s: float | None = Field(None, gt=0, le=0.02, description="interval T of this case (default: the "
-                                          "scenario's); the candidates' loops are re-created at this T")
+    coherent_time_s: CoherentTime | None = Field(None, description="interval T of this case (s; whole 1 ms code "
+                                                 "periods, 1 to 20 ms; default: the scenario's); the candidates' "
+                                                 "loops are re-created at this T")
     duration_s: float | None = Field(None, gt=0, le=3600, description="duration of this case (default: the scenario's)")
 
 
@@ -91,6 +98,38 @@ class ScintillationScenario(Scenario):
     #: may read them too).
     outputs = {"phase_error_rad": "rad", "phase_disc_rad": "rad", "loop_noise_bandwidth_hz": "Hz"}
 
+    def check_case(self, case: dict, where: str) -> None:
+        """The case's own checks, and its duration against the intervals it must hold: one
+        interval, the settling time and, after it, one whole lock-test block."""
+        super().check_case(case, where)
+        c = self.CaseParams.model_validate(case)
+        p = self.params
+        T = c.coherent_time_s or p.coherent_time_s
+        duration_s = c.duration_s or p.duration_s
+        field = f"{where}.duration_s" if c.duration_s else "scenario.duration_s"
+        for limit, name in ((T, "the interval coherent_time_s"), (p.settle_s, "settle_s")):
+            if duration_s <= limit:
+                raise ConfigError(field, f"must be longer than {name} = {limit!r} s (got {duration_s!r})")
+        if p.lock_window_s > duration_s - p.settle_s:
+            raise ConfigError("scenario.lock_window_s", f"must be at most duration_s - settle_s = "
+                              f"{duration_s - p.settle_s:g} s of {where} (one whole lock-test block after "
+                              f"settling; got {p.lock_window_s!r})")
+
+    def batch_memory(self, case: dict, runs: int, where: str, candidates=()) -> tuple[float, str, str]:
+        T = case["coherent_time_s"] or self.params.coherent_time_s
+        epochs = int(round((case["duration_s"] or self.params.duration_s) / T))
+        field = f"{where}.coherent_time_s" if case["coherent_time_s"] else "scenario.coherent_time_s"
+        return BYTES_PER_EPOCH_RUN * epochs * runs, field, f"a batch of {runs} runs of {where} ({epochs} epochs)"
+
+    def run_contexts(self, cases: list[dict]) -> list[RunContext]:
+        """One context per interval T of the scenario and its cases (loops are re-created at each)."""
+        own = {self.CaseParams.model_validate(c).coherent_time_s for c in cases}
+        intervals = sorted({self.params.coherent_time_s} | {T for T in own if T is not None})
+        return [RunContext(coherent_time_s=T, early_late_spacing_chips=1.0, epoch_interval_s=T) for T in intervals]
+
+    def in_context(self, plugin, context: RunContext):
+        return self.at_interval(plugin, context.coherent_time_s)
+
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins["channel_filter"]
         try:
@@ -113,7 +152,8 @@ class ScintillationScenario(Scenario):
     @staticmethod
     def at_interval(channel, T: float):
         """``channel`` re-created with interval ``T`` (itself if it already has it)."""
-        if abs(getattr(channel.params, "coherent_time_s", T) - T) < 1e-12:
+        own_s = getattr(channel.params, "coherent_time_s", None)
+        if own_s is None or abs(own_s - T) < 1e-12:  # None: the loop takes the harness's T
             return channel
         params = _ref_free(channel.params.model_dump(mode="json"))
         return registry.create("channel_filter", channel.name, **{**params, "coherent_time_s": T})

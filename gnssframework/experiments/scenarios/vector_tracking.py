@@ -11,23 +11,31 @@ from typing import Any, Literal
 
 import numpy as np
 import pymap3d
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from ... import random_streams as draw
 from ...errors import ConfigError
+from ...interfaces import RunContext
+from ...io.text import check_input_file
 from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
+from ..limits import CoherentTime
 from ..metric_components import Mean, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["VectorTrackingScenario", "METRICS", "steady_state_start_s"]
+__all__ = ["VectorTrackingScenario", "METRICS", "steady_state_start_s", "BYTES_PER_EPOCH_RUN_CHANNEL"]
+
+#: Peak memory of the vector loop per epoch, run and channel (the recorded errors, NCO and
+#: truth arrays; measured about 360 B, rounded up: tests/test_limits.py).
+BYTES_PER_EPOCH_RUN_CHANNEL = 512
 
 
 class VectorTrackingParams(ScenarioParams):
     duration_s: float = Field(30.0, gt=0, le=3600)
-    coherent_time_s: float = Field(0.01, gt=0, le=0.02, description="T; with 20 ms bits, 10 ms intervals stay in a bit")
+    coherent_time_s: CoherentTime = Field(0.01, description="T (s): whole 1 ms code periods, 1 to 20 ms; with 20 ms "
+                                          "bits, 10 ms intervals stay in a bit")
     channels: int = Field(8, ge=4, le=12)
     elevation_mask_deg: float = Field(10.0, ge=0, lt=90)
     start_time_s: float = Field(37800.0, ge=0, description="seconds into the constellation's day (with an "
@@ -53,6 +61,15 @@ class VectorTrackingParams(ScenarioParams):
     steady_state_s: float | None = Field(None, ge=0, description="position_steady_error_rmse counts from this "
                                          "time on (after the nav filter's position has converged); null: a third "
                                          "of the run, at least settle_s")
+
+
+    @field_validator("ephemeris_file", "trajectory_file")
+    @classmethod
+    def _regular_file(cls, path: str | None) -> str | None:
+        """Refuse a missing file, a device (/dev/zero) or a FIFO when the config loads."""
+        if path is not None:
+            check_input_file(path)  # its DataFileError (a ValueError) names the file after the field
+        return path
 
 
 class VectorTrackingCase(ScenarioParams):
@@ -125,6 +142,17 @@ class VectorTrackingScenario(Scenario):
         if params.steady_state_s is not None and not params.settle_s <= params.steady_state_s < params.duration_s:
             raise ConfigError("scenario.steady_state_s", f"must be at least settle_s = {params.settle_s} and less "
                               f"than duration_s = {params.duration_s} (got {params.steady_state_s})")
+
+    def batch_memory(self, case: dict[str, Any], runs: int, where: str, candidates=()) -> tuple[float, str, str]:
+        p = self.params
+        epochs = int(round(p.duration_s / p.coherent_time_s))
+        return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels, "scenario.coherent_time_s",
+                f"a batch of {runs} runs of {where} ({epochs} epochs x {p.channels} channels)")
+
+    def run_contexts(self, cases: list[dict[str, Any]]) -> list[RunContext]:
+        p = self.params
+        return [RunContext(coherent_time_s=p.coherent_time_s, early_late_spacing_chips=p.early_late_spacing_chips,
+                           epoch_interval_s=p.coherent_time_s)]
 
     def check_composition(self, plugins: dict[str, Any], where: str) -> None:
         try:
