@@ -13,6 +13,11 @@ comes from this code: the checks are physical.
 * Galileo I/NAV (clock for E1,E5b) and F/NAV (clock for E1,E5a) records of one epoch are
   two independent clock fits: their E1 single-frequency clocks (with the matching BGD)
   must agree, as their dual-frequency clocks need not.
+* Galileo positions agree with CODE's final MGEX orbit of the same day (another file
+  pair, BRDC00IGS_R_20201361400_02H_EN.rnx and COD0MGXFIN_..._E01E02.SP3): the check
+  that sees the time system and the Earth rotation rate. No such pair with BeiDou
+  records was at hand, so BDT = GPST - 14 s and the CGCS2000 rotation rate are applied
+  as the ICD states but not checked against a truth here.
 """
 
 from __future__ import annotations
@@ -188,3 +193,50 @@ def test_clock_terms_and_group_delays_as_the_icds_state(eph):
     state = satellite_state(c14, TUESDAY_S + 3600 + 14 + 100.0)  # BDT 01:01:40
     assert state.clock_s[0] == pytest.approx(af0 + af1 * 100.0 + af2 * 1e4 + state.relativistic_s[0], abs=1e-18)
     assert state.clock_s[0] - state.clock_l1_s[0] == pytest.approx(_field(rec, 6, 2), abs=1e-18)
+
+
+BRDC = NAV.parent / "BRDC00IGS_R_20201361400_02H_EN.rnx"
+SP3 = NAV.parent / "COD0MGXFIN_20201361420_01H_05M_ORB_E01E02.SP3"
+
+
+def _sp3_positions(path: Path) -> dict[str, np.ndarray]:
+    """``{sv: (epochs, 4)}`` of GPS seconds of week and ECEF position (m) from an SP3-d file."""
+    lines = path.read_text().splitlines()
+    assert next(line for line in lines if line.startswith("%c"))[9:12] == "GPS"  # the file's time system
+    out: dict[str, list] = {}
+    t = None
+    for line in lines:
+        if line.startswith("*  "):
+            y, mo, d, h, mi, sec = line[3:].split()[:6]
+            epoch = np.datetime64(f"{int(y):04d}-{int(mo):02d}-{int(d):02d}T{int(h):02d}:{int(mi):02d}")
+            t = ephem.gps_seconds_of_week(epoch) + float(sec)
+        elif line.startswith("P") and t is not None:
+            out.setdefault(line[1:4], []).append((t, *(float(x) * 1e3 for x in line[4:46].split())))
+    return {k: np.array(v) for k, v in out.items()}
+
+
+def _errors_to_precise_orbit(eph: Ephemerides, ref: dict[str, np.ndarray]) -> np.ndarray:
+    errors = []
+    for sv, rows in ref.items():
+        for t, *position in rows:
+            state = satellite_state(eph.select([sv], t), t)
+            errors.append(np.linalg.norm(state.position_m[0] - position))
+    return np.array(errors)
+
+
+def test_galileo_positions_against_a_precise_orbit(monkeypatch):
+    # CODE's final MGEX orbit (centre of mass, GPS time) of the same day: the broadcast
+    # orbit (antenna phase centre) agrees to the antenna offset and the broadcast error.
+    eph = read_rinex_nav(BRDC, "E")
+    ref = _sp3_positions(SP3)
+    assert sorted(ref) == ["E01", "E02"] and all(rows.shape == (17, 4) for rows in ref.values())
+    errors = _errors_to_precise_orbit(eph, ref)
+    assert errors.max() < 3.0, errors  # measured 0.83-1.30 m over 80 min
+    # That is what checks the time system and the Earth rotation rate, which consecutive
+    # records cannot (both records move together): a 1 s offset of GST from GPS time is
+    # km, BeiDou's rotation rate on Galileo records about 20 m.
+    monkeypatch.setitem(ephem.SYSTEM_TIME_OFFSET_S, "E", 1.0)
+    assert _errors_to_precise_orbit(eph, ref).min() > 1000.0
+    monkeypatch.undo()
+    monkeypatch.setattr(ephem, "OMEGA_EARTH_RAD_S", ephem.OMEGA_EARTH_BDS_RAD_S)
+    assert _errors_to_precise_orbit(eph, ref).min() > 10.0
