@@ -31,6 +31,8 @@ from gnssframework.navigation import ephemeris as ephem
 from gnssframework.navigation.ephemeris import Ephemerides, read_rinex_nav, satellite_state
 
 NAV = Path(__file__).resolve().parent / "data" / "VILL00ESP_R_20181700000_06H_MN.rnx"
+BRDC = NAV.parent / "BRDC00IGS_R_20201361400_02H_EN.rnx"
+SP3 = NAV.parent / "COD0MGXFIN_20201361420_01H_05M_ORB_E01E02.SP3"
 TUESDAY_S = 2 * 86400.0  # 2018-06-19 00:00 is 2 days into its GPS week (and its BDT week)
 C_MPS = 299_792_458.0
 
@@ -90,6 +92,15 @@ def test_the_file_is_read_per_system_and_glonass_is_refused_in_one_line(eph):
     with pytest.raises(ValueError, match=r"system 'J' \(QZSS\) is not handled"):
         eph.of_systems("J")
     assert eph.select(["G05", "E19", "C05"], TUESDAY_S + 3600).sv.tolist() == ["G05", "E19", "C05"]
+
+
+def test_a_system_missing_from_the_file_is_named():
+    gps_only = NAV.parent / "07590920.05n"  # RINEX 2: georinex returns its GPS records whatever it is asked
+    assert read_rinex_nav(gps_only, "GEC").sv.size == read_rinex_nav(gps_only).sv.size
+    with pytest.raises(ephem.DataFileError, match=r"07590920.05n: not a Galileo navigation file: it holds no Galileo"):
+        read_rinex_nav(gps_only, "E")
+    with pytest.raises(ephem.DataFileError, match=r"not a BeiDou navigation file: it holds no BeiDou \(C\) record"):
+        read_rinex_nav(BRDC, "C")
 
 
 def test_health_and_accuracy_fields_are_carried(eph):
@@ -195,9 +206,6 @@ def test_clock_terms_and_group_delays_as_the_icds_state(eph):
     assert state.clock_s[0] - state.clock_l1_s[0] == pytest.approx(_field(rec, 6, 2), abs=1e-18)
 
 
-BRDC = NAV.parent / "BRDC00IGS_R_20201361400_02H_EN.rnx"
-SP3 = NAV.parent / "COD0MGXFIN_20201361420_01H_05M_ORB_E01E02.SP3"
-
 
 def _sp3_positions(path: Path) -> dict[str, np.ndarray]:
     """``{sv: (epochs, 4)}`` of GPS seconds of week and ECEF position (m) from an SP3-d file."""
@@ -227,7 +235,11 @@ def _errors_to_precise_orbit(eph: Ephemerides, ref: dict[str, np.ndarray]) -> np
 def test_galileo_positions_against_a_precise_orbit(monkeypatch):
     # CODE's final MGEX orbit (centre of mass, GPS time) of the same day: the broadcast
     # orbit (antenna phase centre) agrees to the antenna offset and the broadcast error.
-    eph = read_rinex_nav(BRDC, "E")
+    # The IGS merge writes up to four records per epoch, some with a spare field more per line;
+    # georinex shifts the later fields of those (health 3.12, a BGD as transmission time).
+    with pytest.warns(UserWarning, match=r"BRDC00IGS_R_20201361400_02H_EN.rnx: 6 Galileo records misread by georinex"):
+        eph = read_rinex_nav(BRDC, "E")
+    assert eph.sv.size == 48 - 6 and np.all(eph.health == 0) and np.all(eph.accuracy_m == 3.12)
     ref = _sp3_positions(SP3)
     assert sorted(ref) == ["E01", "E02"] and all(rows.shape == (17, 4) for rows in ref.values())
     errors = _errors_to_precise_orbit(eph, ref)

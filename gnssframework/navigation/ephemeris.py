@@ -20,8 +20,9 @@ seconds of week, and the conversion is made there, at the boundary:
 
 * Galileo System Time is steered to GPS time (the GGTO offset, a few ns, broadcast in
   the header's GPGA/GAGP line, is not applied: under 10 ns, 3 m). Its seconds of week are
-  GPS's; its week number counts from 1999-08-22 (GPS week 1024), and RINEX writes the
-  Galileo week continuous with GPS's, so no rollover differs within a week.
+  GPS's; its 12-bit week number counts from 1999-08-22 (GPS week 1024) and rolls over at
+  4096, GPS's 10-bit one at 1024; RINEX writes the Galileo week continuous with GPS's,
+  and a seconds-of-week interface sees neither rollover.
 * BeiDou Time is BDT = GPST - 14 s (its week 0 starts 2006-01-01 00:00:00 UTC, GPS week
   1356 + 14 s), so a GPS time t is t - 14 s in BDT seconds of week; BDT weeks roll over
   at 8192, GPS's at 1024, which a seconds-of-week interface does not see.
@@ -114,7 +115,8 @@ class Ephemerides:
         ``ORBIT_FIELDS`` and ``CLOCK_FIELDS``, each ``(N,)``, as broadcast.
     health
         ``(N,)`` the SV health word (0: healthy): GPS SV health, Galileo SV health bits
-        (signal health and data validity), BeiDou SatH1.
+        (signal health and data validity of E1-B, E5a and E5b: any flag set counts as not
+        healthy), BeiDou SatH1.
     iode
         ``(N,)`` issue of data: GPS IODE, Galileo IODnav, BeiDou AODE.
     accuracy_m
@@ -331,6 +333,8 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
     5.1.5); BeiDou T_GD1 (B1I). Where a file has an I/NAV and an F/NAV record of the same
     satellite and epoch both are read (georinex's ``E19`` and ``E19_1``, both named ``E19``
     here), and :meth:`Ephemerides.select` takes the one read first (georinex: file order).
+    A record georinex misreads (its fields after BROADCAST ORBIT 5 shifted by one, seen in
+    IGS merged files) is left out with a warning naming how many.
 
     Raises
     ------
@@ -360,8 +364,14 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
                                 f"georinex could not read it: {type(exc).__name__}: {exc}") from None
         if nav.attrs.get("rinextype") != "nav":
             raise DataFileError(str(path), 1, f"not a navigation file (RINEX type {nav.attrs.get('rinextype')!r})")
-        if nav.sizes.get("sv", 0) == 0 and len(systems) > 1:
+        # A RINEX 2 file of one system comes back whatever ``use`` asked: keep this system's satellites.
+        own = [name for name in nav.sv.values.astype(str) if name[:1] == letter] if "sv" in nav.dims else []
+        if not own and len(systems) > 1:
             continue  # none of this system's records: the others may be there
+        if not own:
+            raise DataFileError(str(path), None, f"not a {_SYSTEM_NAMES[letter]} navigation file: it holds no "
+                                                 f"{_SYSTEM_NAMES[letter]} ({letter}) record")
+        nav = nav.sel(sv=own)
         delay_fields, health, iod, accuracy = _SYSTEM_FIELDS[letter]
         orbit_clock = ORBIT_FIELDS + CLOCK_FIELDS[:3]
         fields = orbit_clock + delay_fields + (health, iod)
@@ -373,6 +383,17 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
         values["TGD"] = _group_delay(letter, values)
         required = orbit_clock + ("TGD", health, iod)
         ok = np.all([np.isfinite(values[f]) for f in required], axis=0)
+        # georinex misreads a record whose orbit lines carry more fields than the file's
+        # first records (IGS merges of Galileo I/NAV and F/NAV): its later fields shift by
+        # one, so the health word takes the SISA (3.12 m) and the transmission time a BGD.
+        # (Only Galileo's are checked: a GPS or BDS transmission time may be negative by the RINEX rules.)
+        with np.errstate(invalid="ignore"):
+            misread = ok & ((values[health] != np.round(values[health])) | (values[health] < 0)) & (letter == "E")
+        if misread.any():
+            warnings.warn(f"{path.name}: {int(misread.sum())} {_SYSTEM_NAMES[letter]} records misread by georinex "
+                          f"(fields shifted after BROADCAST ORBIT 5: the health word is not an integer), not used",
+                          stacklevel=2)
+            ok &= ~misread
         ti, si = np.nonzero(ok)
         acc = nav[accuracy].values[ti, si].astype(float) if accuracy in nav.data_vars else np.full(ti.size, np.nan)
         # The record's epoch is its Toc, written in the system's own time (BDT for BeiDou);
