@@ -18,8 +18,10 @@ Times given to :func:`satellite_state` and :meth:`Ephemerides.select` are GPS se
 the week. Each record keeps its broadcast times (``toc_s``, ``Toe``) in its own system's
 seconds of week, and the conversion is made there, at the boundary:
 
-* Galileo System Time is steered to GPS time (the GGTO offset, a few ns, broadcast in
-  the header's GPGA/GAGP line, is not applied: under 10 ns, 3 m). Its seconds of week are
+* Galileo System Time is steered to GPS time. The remaining offset GGTO (RINEX header
+  line GPGA/GAGP: 22 ns and 2.3 ns in the two test files, 7 m and 0.7 m of range) is not
+  applied: it moves a satellite by under a millimetre, and a receiver mixing GPS and
+  Galileo ranges estimates it as an inter-system time offset. Its seconds of week are
   GPS's; its 12-bit week number counts from 1999-08-22 (GPS week 1024) and rolls over at
   4096, GPS's 10-bit one at 1024; RINEX writes the Galileo week continuous with GPS's,
   and a seconds-of-week interface sees neither rollover.
