@@ -12,12 +12,14 @@ from gnssframework.io.recordings import describe_recording, recording_kind
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data"
-FILES = sorted(p for p in DATA.iterdir() if p.name != "README.md")
+# Precise orbits (SP3) are a truth for tests/test_ephemeris_gnss.py, not a recording.
+FILES = sorted(p for p in DATA.iterdir() if p.name != "README.md" and p.suffix.lower() != ".sp3")
 
 KINDS = {"07590920.05n": "rinex-nav", "07590920.05o": "rinex-obs", "CEBR00ESP_R_20182002200_01H_30S_MO.crx.gz":
          "rinex-obs", "beidou-bd.log": "nmea", "gsdc2022_device_gnss.csv": "gsdc-device",
          "gsdc2022_ground_truth.csv": "gsdc-truth", "pixel6.23o": "rinex-obs", "pixel6.nmea": "nmea",
-         "ublox-zed-f9p-nmea.log": "nmea"}
+         "ublox-zed-f9p-nmea.log": "nmea", "VILL00ESP_R_20181700000_06H_MN.rnx": "rinex-nav",
+         "BRDC00IGS_R_20201361400_02H_EN.rnx": "rinex-nav"}
 
 
 def test_every_copied_recording_has_a_known_kind():

@@ -81,9 +81,19 @@ def describe_recording(path: str | Path, select: str = "all") -> str:
     if kind == "rinex-nav":
         from ..navigation.ephemeris import read_rinex_nav
 
-        eph = read_rinex_nav(path)
-        return (f"{path.name}: RINEX navigation, {eph.sv.size} GPS ephemeris records of {np.unique(eph.sv).size} "
-                f"satellites, {int((eph.health != 0).sum())} unhealthy")
+        import warnings
+
+        with warnings.catch_warnings(record=True) as caught:  # records georinex misread: said in the line
+            warnings.simplefilter("always", UserWarning)
+            eph = read_rinex_nav(path, "GEC")  # every system this framework propagates (not GLONASS)
+        misread = [str(w.message).split(": ", 1)[1].split(" (")[0] for w in caught if "misread" in str(w.message)]
+        letters = eph.sv.astype("U1")
+        counts = {s: int((letters == s).sum()) for s in "GEC" if (letters == s).any()}
+        what = ("GPS ephemeris records" if list(counts) == ["G"] else
+                f"ephemeris records ({', '.join(f'{s} {n}' for s, n in counts.items())})")
+        return (f"{path.name}: RINEX navigation, {eph.sv.size} {what} of {np.unique(eph.sv).size} "
+                f"satellites, {int((eph.health != 0).sum())} unhealthy"
+                + (f"; {', '.join(misread)}, not used" if misread else ""))
     if kind == "nmea":
         from .nmea import read_nmea
 

@@ -1,11 +1,34 @@
-"""Satellite position, velocity and clock from GPS broadcast ephemerides (IS-GPS-200).
+"""Satellite position, velocity and clock from GPS, Galileo and BeiDou broadcast ephemerides.
 
 The one place the framework turns broadcast ephemeris records into satellite states: the
 simulation's :class:`~gnssframework.simulation.ephemeris.BroadcastEphemeris` and a
 software receiver both call :func:`satellite_state`. Records come from RINEX 2 or 3
 navigation files through georinex (:func:`read_rinex_nav`).
 
-Times are GPS seconds of the week (the records' ``Toe`` and ``Toc`` scale);
+The three systems share the Keplerian user algorithm of IS-GPS-200 Table 20-IV, each with
+its own constants: GPS (WGS 84, IS-GPS-200), Galileo (Galileo OS SIS ICD 5.1.1:
+GM = 3.986004418e14 m^3/s^2, Earth rotation 7.2921151467e-5 rad/s) and BeiDou (CGCS2000,
+BDS-SIS-ICD-B1I 3.0 5.2.4: GM = 3.986004418e14, Earth rotation 7.2921150e-5 rad/s), with
+the BDS GEO satellites (C01-C05, C59-C63) in the ICD's own formula (5.2.4.12: node without
+the Earth rotation, then a -5 degree rotation about X and the rotation ωe tk about Z).
+GLONASS records are position/velocity/acceleration state vectors, which this code does
+not propagate: asking for them raises a ValueError; so does any other system.
+
+Times given to :func:`satellite_state` and :meth:`Ephemerides.select` are GPS seconds of
+the week. Each record keeps its broadcast times (``toc_s``, ``Toe``) in its own system's
+seconds of week, and the conversion is made there, at the boundary:
+
+* Galileo System Time is steered to GPS time. The remaining offset GGTO (RINEX header
+  line GPGA/GAGP: 22 ns and 2.3 ns in the two test files, 7 m and 0.7 m of range) is not
+  applied: it moves a satellite by under a millimetre, and a receiver mixing GPS and
+  Galileo ranges estimates it as an inter-system time offset. Its seconds of week are
+  GPS's; its 12-bit week number counts from 1999-08-22 (GPS week 1024) and rolls over at
+  4096, GPS's 10-bit one at 1024; RINEX writes the Galileo week continuous with GPS's,
+  and a seconds-of-week interface sees neither rollover.
+* BeiDou Time is BDT = GPST - 14 s (its week 0 starts 2006-01-01 00:00:00 UTC, GPS week
+  1356 + 14 s), so a GPS time t is t - 14 s in BDT seconds of week; BDT weeks roll over
+  at 8192, GPS's at 1024, which a seconds-of-week interface does not see.
+
 :func:`gps_seconds_of_week` converts ``datetime64`` epochs.
 """
 
@@ -20,7 +43,9 @@ import numpy as np
 from ..errors import DataFileError
 
 __all__ = ["Ephemerides", "SatelliteState", "read_rinex_nav", "satellite_state", "gps_seconds_of_week",
-           "GM_GPS_M3_S2", "OMEGA_EARTH_RAD_S", "F_RELATIVISTIC_S_SQRTM", "ORBIT_FIELDS", "CLOCK_FIELDS"]
+           "GM_GPS_M3_S2", "OMEGA_EARTH_RAD_S", "F_RELATIVISTIC_S_SQRTM", "ORBIT_FIELDS", "CLOCK_FIELDS",
+           "GM_GAL_BDS_M3_S2", "OMEGA_EARTH_BDS_RAD_S", "F_RELATIVISTIC_GAL_BDS_S_SQRTM", "SYSTEM_TIME_OFFSET_S",
+           "SYSTEMS", "is_bds_geo"]
 
 #: WGS 84 gravitational constant of IS-GPS-200 (Table 20-IV), m^3/s^2.
 GM_GPS_M3_S2 = 3.986005e14
@@ -28,6 +53,19 @@ GM_GPS_M3_S2 = 3.986005e14
 OMEGA_EARTH_RAD_S = 7.2921151467e-5
 #: Relativistic clock constant F = -2 sqrt(mu) / c^2 (IS-GPS-200 20.3.3.3.3.1), s/sqrt(m).
 F_RELATIVISTIC_S_SQRTM = -4.442807633e-10
+#: Galileo (OS SIS ICD 5.1.1) and BeiDou (CGCS2000, BDS-SIS-ICD-B1I 3.0 5.2.4) GM, m^3/s^2.
+GM_GAL_BDS_M3_S2 = 3.986004418e14
+#: CGCS2000 Earth rotation rate (BDS-SIS-ICD-B1I 3.0 5.2.4), rad/s; Galileo's is GPS's.
+OMEGA_EARTH_BDS_RAD_S = 7.2921150e-5
+#: F = -2 sqrt(mu) / c^2 with the Galileo/BeiDou mu (Galileo OS SIS ICD 5.1.4, BDS ICD 5.2.4.10), s/sqrt(m).
+F_RELATIVISTIC_GAL_BDS_S_SQRTM = -4.442807309e-10
+#: GPS time minus the system's time, s: BDT = GPST - 14 s; GST is steered to GPST.
+SYSTEM_TIME_OFFSET_S = {"G": 0.0, "E": 0.0, "C": 14.0}
+#: Systems whose records this module propagates (RINEX letters).
+SYSTEMS = ("G", "E", "C")
+_SYSTEM_NAMES = {"G": "GPS", "E": "Galileo", "C": "BeiDou", "R": "GLONASS", "J": "QZSS", "I": "NavIC/IRNSS",
+                 "S": "SBAS"}
+_GEO_TILT_RAD = np.radians(-5.0)  # BDS GEO: rotation about X of BDS-SIS-ICD-B1I 5.2.4.12
 _HALF_WEEK_S = 302_400.0
 _GPS_EPOCH = np.datetime64("1980-01-06T00:00:00", "ns")
 
@@ -35,7 +73,33 @@ _GPS_EPOCH = np.datetime64("1980-01-06T00:00:00", "ns")
 ORBIT_FIELDS = ("sqrtA", "Eccentricity", "Io", "Omega0", "omega", "M0", "DeltaN", "OmegaDot", "IDOT",
                 "Cuc", "Cus", "Crc", "Crs", "Cic", "Cis", "Toe")
 #: georinex names of the clock terms af0, af1, af2 (s, s/s, s/s^2) and the group delay T_GD (s).
+#: For Galileo and BeiDou records ``TGD`` holds the group delay of the single-frequency user
+#: (see :func:`read_rinex_nav`): BGD(E1,E5b) or BGD(E1,E5a), and T_GD1.
 CLOCK_FIELDS = ("SVclockBias", "SVclockDrift", "SVclockDriftRate", "TGD")
+
+
+def _system_error(letter: str) -> ValueError:
+    name = _SYSTEM_NAMES.get(letter, "unknown")
+    if letter == "R":
+        return ValueError("GLONASS (R) records are position/velocity/acceleration state vectors; this code does not "
+                          "propagate them (GPS G, Galileo E, BeiDou C only)")
+    return ValueError(f"system {letter!r} ({name}) is not handled by this code (GPS G, Galileo E, BeiDou C only)")
+
+
+def _letters(sv: np.ndarray) -> np.ndarray:
+    """System letter of each satellite name; a ValueError for a system not handled."""
+    letters = np.asarray(sv).astype("U1")
+    for letter in np.unique(letters):
+        if letter not in SYSTEMS:
+            raise _system_error(str(letter))
+    return letters
+
+
+def is_bds_geo(sv: np.ndarray | list[str]) -> np.ndarray:
+    """True for BeiDou GEO satellites: C01-C05 and C59-C63 (the PRNs of BDS-SIS-ICD-B1I 3.0)."""
+    sv = np.atleast_1d(np.asarray(sv).astype(str))
+    prn = np.array([int(s[1:]) if s[1:].isdigit() else 0 for s in sv])
+    return (sv.astype("U1") == "C") & ((prn <= 5) | (prn >= 59))
 
 
 @dataclass(frozen=True)
@@ -45,15 +109,21 @@ class Ephemerides:
     Attributes
     ----------
     sv
-        ``(N,)`` satellite of each record (``"G08"``).
+        ``(N,)`` satellite of each record (``"G08"``, ``"E19"``, ``"C05"``).
     toc_s
-        ``(N,)`` clock reference time, GPS seconds of week.
+        ``(N,)`` clock reference time, seconds of week in the record's own system time
+        (GPS and Galileo: GPS time; BeiDou: BDT), as ``elements["Toe"]``.
     elements
-        ``ORBIT_FIELDS`` and ``CLOCK_FIELDS``, each ``(N,)``.
+        ``ORBIT_FIELDS`` and ``CLOCK_FIELDS``, each ``(N,)``, as broadcast.
     health
-        ``(N,)`` the SV health word (0: healthy).
+        ``(N,)`` the SV health word (0: healthy): GPS SV health, Galileo SV health bits
+        (signal health and data validity of E1-B, E5a and E5b: any flag set counts as not
+        healthy), BeiDou SatH1.
     iode
-        ``(N,)`` issue of data.
+        ``(N,)`` issue of data: GPS IODE, Galileo IODnav, BeiDou AODE.
+    accuracy_m
+        ``(N,)`` broadcast accuracy, m: GPS URA and BeiDou URA (``SVacc``), Galileo SISA
+        (-1 where RINEX writes no accuracy prediction); None where not read.
     """
 
     sv: np.ndarray
@@ -61,27 +131,46 @@ class Ephemerides:
     elements: dict[str, np.ndarray]
     health: np.ndarray
     iode: np.ndarray
+    accuracy_m: np.ndarray | None = None
 
     def subset(self, index: np.ndarray) -> "Ephemerides":
         return Ephemerides(self.sv[index], self.toc_s[index], {k: v[index] for k, v in self.elements.items()},
-                           self.health[index], self.iode[index])
+                           self.health[index], self.iode[index],
+                           None if self.accuracy_m is None else self.accuracy_m[index])
+
+    def of_systems(self, systems: str) -> "Ephemerides":
+        """The records of the systems named by RINEX letters (``"E"``, ``"GEC"``).
+
+        Raises
+        ------
+        ValueError
+            For a system this code does not propagate (GLONASS ``R`` among them).
+        """
+        for letter in systems:
+            if letter not in SYSTEMS:
+                raise _system_error(letter)
+        return self.subset(np.flatnonzero(np.isin(self.sv.astype("U1"), list(systems))))
 
     def select(self, sv: np.ndarray | list[str], t_s: float, healthy_only: bool = True) -> "Ephemerides":
         """For each satellite of ``sv``, the record whose ``Toe`` is nearest ``t_s``
-        (across the week crossover); healthy records only unless ``healthy_only`` is False.
+        (GPS seconds of week, converted to the record's system time; across the week
+        crossover); healthy records only unless ``healthy_only`` is False.
 
         Raises
         ------
         KeyError
             Naming a satellite without a (healthy) record.
+        ValueError
+            Naming a satellite of a system this code does not propagate (GLONASS among them).
         """
         picks = []
+        _letters(np.atleast_1d(sv))
         for name in np.atleast_1d(sv):
             ok = (self.sv == name) & ((self.health == 0) | (not healthy_only))
             if not ok.any():
                 raise KeyError(f"no {'healthy ' if healthy_only else ''}ephemeris of {name}")
             idx = np.flatnonzero(ok)
-            dt = _wrap_week(t_s - self.elements["Toe"][idx])
+            dt = _wrap_week(t_s - SYSTEM_TIME_OFFSET_S[str(name)[0]] - self.elements["Toe"][idx])
             picks.append(idx[np.argmin(np.abs(dt))])
         return self.subset(np.array(picks, dtype=int))
 
@@ -93,6 +182,12 @@ class SatelliteState:
     ``clock_s`` is the SV clock offset of IS-GPS-200 20.3.3.3.3.1 including the
     relativistic term (``relativistic_s``), for the ionosphere-free P1/P2 combination;
     ``clock_l1_s`` subtracts T_GD, for an L1 C/A single-frequency user (20.3.3.3.3.2).
+    For a Galileo record ``clock_s`` is the clock of the record's dual-frequency pair
+    (I/NAV: E1,E5b; F/NAV: E1,E5a) and ``clock_l1_s`` the E1 single-frequency user's,
+    clock_s - BGD(E1,E5b) or clock_s - BGD(E1,E5a) (Galileo OS SIS ICD 5.1.5). For a
+    BeiDou record ``clock_s`` is the B3I clock and ``clock_l1_s`` the B1I user's,
+    clock_s - T_GD1 (BDS-SIS-ICD-B1I 5.2.4.10). Clocks are seconds, not a time scale:
+    they need no BDT conversion.
     """
 
     position_m: np.ndarray
@@ -115,12 +210,16 @@ def gps_seconds_of_week(epoch: np.ndarray) -> np.ndarray:
 
 
 def satellite_state(eph: Ephemerides, t_s: np.ndarray | float) -> SatelliteState:
-    """Position, velocity (ECEF, WGS 84) and clock of each record at GPS time ``t_s``.
+    """Position, velocity (ECEF: WGS 84, Galileo's GTRF, BeiDou's CGCS2000) and clock of
+    each record at GPS time ``t_s``.
 
     Position follows the user algorithm of IS-GPS-200 Table 20-IV (Kepler's equation by
-    Newton's method, second-harmonic corrections, Earth-fixed node longitude); velocity
-    is its time derivative (analytic); the clock is af0 + af1 (t - toc) + af2 (t - toc)^2
-    plus the relativistic term F e sqrt(A) sin E (IS-GPS-200 20.3.3.3.3.1).
+    Newton's method, second-harmonic corrections, Earth-fixed node longitude) with each
+    system's GM and Earth rotation rate; BeiDou GEO records (:func:`is_bds_geo`) take the
+    ICD's GEO formula (BDS-SIS-ICD-B1I 3.0 5.2.4.12). Velocity is the time derivative
+    (analytic); the clock is af0 + af1 (t - toc) + af2 (t - toc)^2 plus the relativistic
+    term F e sqrt(A) sin E (IS-GPS-200 20.3.3.3.3.1; Galileo ICD 5.1.4; BDS ICD 5.2.4.10),
+    in the record's system time (BDT = GPST - 14 s).
 
     Parameters
     ----------
@@ -136,9 +235,16 @@ def satellite_state(eph: Ephemerides, t_s: np.ndarray | float) -> SatelliteState
         Arrays of shape ``(..., S, 3)`` and ``(..., S)``.
     """
     e = eph.elements
-    t = np.asarray(t_s, dtype=float)
+    letters = _letters(eph.sv)
+    gps = letters == "G"
+    geo = is_bds_geo(eph.sv)
+    gm = np.where(gps, GM_GPS_M3_S2, GM_GAL_BDS_M3_S2)
+    we = np.where(letters == "C", OMEGA_EARTH_BDS_RAD_S, OMEGA_EARTH_RAD_S)
+    f_rel = np.where(gps, F_RELATIVISTIC_S_SQRTM, F_RELATIVISTIC_GAL_BDS_S_SQRTM)
+    offset = np.array([SYSTEM_TIME_OFFSET_S[str(x)] for x in letters], dtype=float).reshape(letters.shape)
+    t = np.asarray(t_s, dtype=float) - offset  # GPS time to each record's system time
     A = e["sqrtA"] ** 2
-    n0 = np.sqrt(GM_GPS_M3_S2 / A**3)
+    n0 = np.sqrt(gm / A**3)
     n = n0 + e["DeltaN"]
     tk = _wrap_week(t - e["Toe"])
     M = e["M0"] + n * tk
@@ -154,8 +260,9 @@ def satellite_state(eph: Ephemerides, t_s: np.ndarray | float) -> SatelliteState
     r = A * (1 - ecc * cosE) + e["Crs"] * s2 + e["Crc"] * c2
     i = e["Io"] + e["Cis"] * s2 + e["Cic"] * c2 + e["IDOT"] * tk
     x_orb, y_orb = r * np.cos(u), r * np.sin(u)
-    node_rate = e["OmegaDot"] - OMEGA_EARTH_RAD_S
-    node = e["Omega0"] + node_rate * tk - OMEGA_EARTH_RAD_S * e["Toe"]
+    # BDS GEO: the node in the inertial frame of the broadcast elements (no -ωe tk), BDS ICD 5.2.4.12.
+    node_rate = np.where(geo, e["OmegaDot"], e["OmegaDot"] - we)
+    node = e["Omega0"] + node_rate * tk - we * e["Toe"]
     cn, sn, ci, si = np.cos(node), np.sin(node), np.cos(i), np.sin(i)
     x = x_orb * cn - y_orb * ci * sn
     y = x_orb * sn + y_orb * ci * cn
@@ -171,47 +278,136 @@ def satellite_state(eph: Ephemerides, t_s: np.ndarray | float) -> SatelliteState
     vx = xo_dot * cn - yo_dot * ci * sn + y_orb * si * sn * i_dot - y * node_rate
     vy = xo_dot * sn + yo_dot * ci * cn - y_orb * si * cn * i_dot + x * node_rate
     vz = yo_dot * si + y_orb * ci * i_dot
+    if geo.any():
+        x, y, z, vx, vy, vz = _geo_to_earth_fixed(geo, we * tk, (x, y, z), (vx, vy, vz), we)
     dtc = _wrap_week(t - eph.toc_s)
-    rel = F_RELATIVISTIC_S_SQRTM * ecc * e["sqrtA"] * sinE
-    rel_dot = F_RELATIVISTIC_S_SQRTM * ecc * e["sqrtA"] * cosE * E_dot
+    rel = f_rel * ecc * e["sqrtA"] * sinE
+    rel_dot = f_rel * ecc * e["sqrtA"] * cosE * E_dot
     clock = e["SVclockBias"] + e["SVclockDrift"] * dtc + e["SVclockDriftRate"] * dtc**2 + rel
     drift = e["SVclockDrift"] + 2 * e["SVclockDriftRate"] * dtc + rel_dot
     return SatelliteState(np.stack([x, y, z], -1), np.stack([vx, vy, vz], -1), clock, drift, rel,
                           clock - e["TGD"])
 
 
-def read_rinex_nav(path: str | Path) -> Ephemerides:
-    """Every complete GPS ephemeris record of a RINEX 2 or 3 navigation file (georinex).
+def _geo_to_earth_fixed(geo, theta, pos, vel, we):
+    """BDS GEO: [X Y Z] = Rz(ωe tk) Rx(-5 deg) [X_GK Y_GK Z_GK] and its time derivative
+    (BDS-SIS-ICD-B1I 3.0 5.2.4.12), where ``geo``; the other entries pass unchanged."""
+    gx, gy, gz = pos
+    c5, s5 = np.cos(_GEO_TILT_RAD), np.sin(_GEO_TILT_RAD)
+    ct, st = np.cos(theta), np.sin(theta)
+
+    def rotate(ax, ay, az):
+        bx, by, bz = ax, c5 * ay + s5 * az, -s5 * ay + c5 * az  # Rx(phi) = [[1,0,0],[0,c,s],[0,-s,c]]
+        return ct * bx + st * by, -st * bx + ct * by, bz  # Rz(theta) = [[c,s,0],[-s,c,0],[0,0,1]]
+
+    px, py, pz = rotate(gx, gy, gz)
+    wx, wy, wz = rotate(*vel)
+    wx, wy = wx + we * py, wy - we * px  # d/dt Rz(ωe tk) v = Rz v' + ωe ((Rz v)_y, -(Rz v)_x, 0)
+    out = [np.where(geo, new, old) for new, old in zip((px, py, pz, wx, wy, wz), (*pos, *vel))]
+    return tuple(out)
+
+
+#: Per system: georinex names of (group delay source(s), health, issue of data, accuracy).
+_SYSTEM_FIELDS = {"G": (("TGD",), "health", "IODE", "SVacc"),
+                  "E": (("BGDe5a", "BGDe5b", "DataSrc"), "health", "IODnav", "SISA"),
+                  "C": (("TGD1",), "SatH1", "AODE", "SVacc")}
+
+
+def _group_delay(letter: str, values: dict) -> np.ndarray:
+    """The single-frequency user's group delay of each record (NaN where it cannot be told)."""
+    if letter == "G":
+        return values["TGD"]
+    if letter == "C":
+        return values["TGD1"]  # B1I user: clock - T_GD1 (BDS-SIS-ICD-B1I 3.0 5.2.4.10)
+    # Galileo (OS SIS ICD 5.1.5, RINEX 3 data source bits 8 and 9): an I/NAV record's clock is
+    # for E1,E5b, so the E1 user takes BGD(E1,E5b); an F/NAV record's is for E1,E5a: BGD(E1,E5a).
+    src = np.where(np.isfinite(values["DataSrc"]), values["DataSrc"], 0).astype(np.int64)
+    return np.where(src & 512, values["BGDe5b"], np.where(src & 256, values["BGDe5a"], np.nan))
+
+
+def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
+    """Every complete ephemeris record of the ``systems`` (RINEX letters, ``"G"``,
+    ``"GEC"``) in a RINEX 2 or 3 navigation file (georinex).
+
+    ``elements["TGD"]`` holds each record's group delay for the single-frequency user:
+    GPS T_GD (L1 C/A); Galileo BGD(E1,E5b) for an I/NAV record (RINEX data source bit 9:
+    clock for E5b,E1) and BGD(E1,E5a) for an F/NAV one (bit 8), for an E1 user (OS SIS ICD
+    5.1.5); BeiDou T_GD1 (B1I). Where a file has an I/NAV and an F/NAV record of the same
+    satellite and epoch both are read (georinex's ``E19`` and ``E19_1``, both named ``E19``
+    here), and :meth:`Ephemerides.select` takes the one read first (georinex: file order).
+    A record georinex misreads (its fields after BROADCAST ORBIT 5 shifted by one, seen in
+    IGS merged files) is left out with a warning naming how many.
 
     Raises
     ------
     DataFileError
-        If the file is missing, unreadable or holds no complete GPS record (one line,
-        naming the file).
+        If the file is missing, unreadable or holds no complete record of the systems (one
+        line, naming the file).
+    ValueError
+        For a system this code does not propagate (GLONASS ``R``: state vectors).
     """
     import georinex
 
+    for letter in systems:
+        if letter not in SYSTEMS:
+            raise _system_error(letter)
     path = Path(path)
     if not path.exists():
         raise DataFileError(str(path), None, "no such file")
-    try:
-        with warnings.catch_warnings():  # georinex's xarray calls emit FutureWarnings per record
-            warnings.simplefilter("ignore", FutureWarning)
-            nav = georinex.load(path, use="G")
-    except Exception as exc:  # noqa: BLE001 - georinex raises many types
-        raise DataFileError(str(path), None, f"georinex could not read it: {type(exc).__name__}: {exc}") from None
-    if nav.attrs.get("rinextype") != "nav":
-        raise DataFileError(str(path), 1, f"not a navigation file (RINEX type {nav.attrs.get('rinextype')!r})")
-    fields = ORBIT_FIELDS + CLOCK_FIELDS + ("health", "IODE")
-    missing = [f for f in fields if f not in nav.data_vars]
-    if missing:
-        raise DataFileError(str(path), None, f"not a GPS navigation file: lacks {', '.join(missing)}")
-    values = {f: nav[f].values for f in fields}  # (time, sv)
-    ok = np.all([np.isfinite(v) for v in values.values()], axis=0)
-    if not ok.any():
-        raise DataFileError(str(path), None, "no complete GPS ephemeris record")
-    ti, si = np.nonzero(ok)
-    toc = gps_seconds_of_week(nav.time.values[ti])  # the record's epoch is its Toc
-    return Ephemerides(nav.sv.values[si].astype(str), toc, {f: values[f][ti, si].astype(float)
-                                                            for f in ORBIT_FIELDS + CLOCK_FIELDS},
-                       values["health"][ti, si].astype(float), values["IODE"][ti, si].astype(float))
+    names = "/".join(_SYSTEM_NAMES[letter] for letter in systems)
+    parts = []
+    for letter in dict.fromkeys(systems):
+        try:
+            with warnings.catch_warnings():  # georinex's xarray calls emit FutureWarnings per record
+                warnings.simplefilter("ignore", FutureWarning)
+                nav = georinex.load(path, use=letter)
+        except Exception as exc:  # noqa: BLE001 - georinex raises many types
+            raise DataFileError(str(path), None,
+                                f"georinex could not read it: {type(exc).__name__}: {exc}") from None
+        if nav.attrs.get("rinextype") != "nav":
+            raise DataFileError(str(path), 1, f"not a navigation file (RINEX type {nav.attrs.get('rinextype')!r})")
+        # A RINEX 2 file of one system comes back whatever ``use`` asked: keep this system's satellites.
+        own = [name for name in nav.sv.values.astype(str) if name[:1] == letter] if "sv" in nav.dims else []
+        if not own and len(systems) > 1:
+            continue  # none of this system's records: the others may be there
+        if not own:
+            raise DataFileError(str(path), None, f"not a {_SYSTEM_NAMES[letter]} navigation file: it holds no "
+                                                 f"{_SYSTEM_NAMES[letter]} ({letter}) record")
+        nav = nav.sel(sv=own)
+        delay_fields, health, iod, accuracy = _SYSTEM_FIELDS[letter]
+        orbit_clock = ORBIT_FIELDS + CLOCK_FIELDS[:3]
+        fields = orbit_clock + delay_fields + (health, iod)
+        missing = [f for f in fields if f not in nav.data_vars]
+        if missing:
+            raise DataFileError(str(path), None,
+                                f"not a {_SYSTEM_NAMES[letter]} navigation file: lacks {', '.join(missing)}")
+        values = {f: nav[f].values for f in fields}  # (time, sv)
+        values["TGD"] = _group_delay(letter, values)
+        required = orbit_clock + ("TGD", health, iod)
+        ok = np.all([np.isfinite(values[f]) for f in required], axis=0)
+        # georinex misreads a record whose orbit lines carry more fields than the file's
+        # first records (IGS merges of Galileo I/NAV and F/NAV): its later fields shift by
+        # one, so the health word takes the SISA (3.12 m) and the transmission time a BGD.
+        # (Only Galileo's are checked: a GPS or BDS transmission time may be negative by the RINEX rules.)
+        with np.errstate(invalid="ignore"):
+            misread = ok & ((values[health] != np.round(values[health])) | (values[health] < 0)) & (letter == "E")
+        if misread.any():
+            warnings.warn(f"{path.name}: {int(misread.sum())} {_SYSTEM_NAMES[letter]} records misread by georinex "
+                          f"(fields shifted after BROADCAST ORBIT 5: the health word is not an integer), not used",
+                          stacklevel=2)
+            ok &= ~misread
+        ti, si = np.nonzero(ok)
+        acc = nav[accuracy].values[ti, si].astype(float) if accuracy in nav.data_vars else np.full(ti.size, np.nan)
+        # The record's epoch is its Toc, written in the system's own time (BDT for BeiDou);
+        # its seconds of week are those of the calendar date, as for GPS.
+        # georinex names a second record of the same satellite and epoch "E19_1" (Galileo I/NAV and F/NAV).
+        sv = np.array([name.split("_")[0] for name in nav.sv.values[si].astype(str)], dtype=str)
+        parts.append((sv, gps_seconds_of_week(nav.time.values[ti]),
+                      {f: values[f][ti, si].astype(float) for f in ORBIT_FIELDS + CLOCK_FIELDS},
+                      values[health][ti, si].astype(float), values[iod][ti, si].astype(float), acc))
+    if not parts or sum(p[0].size for p in parts) == 0:
+        raise DataFileError(str(path), None, f"no complete {names} ephemeris record")
+    return Ephemerides(np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
+                       {f: np.concatenate([p[2][f] for p in parts]) for f in ORBIT_FIELDS + CLOCK_FIELDS},
+                       np.concatenate([p[3] for p in parts]), np.concatenate([p[4] for p in parts]),
+                       np.concatenate([p[5] for p in parts]))
