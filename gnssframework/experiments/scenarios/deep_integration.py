@@ -41,6 +41,7 @@ from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_ve
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
+from ...simulation.propagation import cn0_from_elevation, elevation_deg
 from ..metric_components import Mean, PostSettleMax, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
@@ -117,6 +118,13 @@ class DeepIntegrationParams(ScenarioParams):
     pulse_hold_s: float = Field(1.0, ge=0, description="jerk-pulse profile: time at peak acceleration")
     pulse_direction_enu: tuple[float, float, float] = Field((0.0, 0.0, 1.0), description="jerk-pulse profile: "
                                                             "direction of the acceleration (ENU at the start)")
+    cn0_model: Literal["constant", "elevation"] = Field(
+        "constant", description="constant: every channel at the case's cn0_dbhz (dB-Hz). elevation: the case's "
+        "cn0_dbhz is the zenith value and each channel loses the receiver antenna's attenuation towards its "
+        "satellite at the start (gps-sdr-sim's gain pattern, Ebinuma 2015: 0 dB at zenith, 2.44 dB at 50 deg, "
+        "7.56 dB at 10 deg; gnssframework.simulation.propagation), so deep's reference channel (the highest "
+        "C/N0, Cai and Guo 2017) is the highest satellite. Default constant (the example's pages assume one "
+        "C/N0 per case)")
 
 
 class DeepIntegrationCase(ScenarioParams):
@@ -254,8 +262,12 @@ class DeepIntegrationScenario(Scenario):
             shape = np.shape(t) + (runs, 3)
             return tuple(np.broadcast_to(np.asarray(x)[..., None, :], shape) for x in (pos, vel, acc))
 
-        return DeepTruth(sat_state, receiver_state, clock, np.full((runs, p.channels), cn0_dbhz), T,
-                         receiver_positions=lambda t: receiver_state(t)[0])
+        if p.cn0_model == "elevation":  # per channel, from the elevation at the start of the flight
+            el0 = elevation_deg(sat_grid[0][0], rx_grid[0][0], p.lat_deg, p.lon_deg)
+            cn0 = np.broadcast_to(cn0_from_elevation(cn0_dbhz, el0), (runs, p.channels)).copy()
+        else:
+            cn0 = np.full((runs, p.channels), cn0_dbhz)
+        return DeepTruth(sat_state, receiver_state, clock, cn0, T, receiver_positions=lambda t: receiver_state(t)[0])
 
     # --- candidates ---------------------------------------------------------------------
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
