@@ -257,3 +257,101 @@ def test_deep_reference_channel_is_the_highest_satellite_with_elevation_cn0(monk
                "nav_filter": gf.registry.create("nav_filter", "ins-ekf")}
     scen.run_batch({"cn0_dbhz": 45.0}, plugins, 2, draw.run_streams(1, (0,), range(2)))
     assert picked and all(np.all(p == np.argmax(el)) for p in picked)
+
+
+# --- the same residuals in the deep-integration scenario ------------------------------------
+
+class _Fixed:
+    """Code and carrier range errors fixed per channel (m)."""
+
+    def __init__(self, code, carrier=None):
+        self.code = np.asarray(code, float)
+        self.carrier = self.code if carrier is None else np.asarray(carrier, float)
+
+    def __call__(self, t):
+        shape = np.shape(t) + (2, 8)
+        return np.broadcast_to(self.code, shape).copy(), np.broadcast_to(self.carrier, shape).copy()
+
+
+DEEP = {"kind": "deep-integration", "duration_s": 1.0, "settle_s": 0.1, "profile": "straight"}
+
+
+@pytest.mark.parametrize("kind", ["deep", "loose"])
+def test_deep_and_loose_put_a_common_range_error_in_the_clock_and_a_single_one_in_the_position(kind):
+    # Independent truth: deep and loose difference or solve out the receiver clock, so an error
+    # common to all channels leaves the position; one channel's 20 m error moves it by metres.
+    import dataclasses
+
+    from gnssframework.receiver import deep_strapdown
+
+    scen = get_scenario(DEEP)
+    flight = scen.flight()
+    final = {}
+    for name, err in (("none", None), ("common", _Fixed(np.full(8, 20.0))), ("one", _Fixed([0, 0, 0, 20.0, 0, 0, 0, 0]))):
+        truth = dataclasses.replace(scen._truth(flight, 45.0, 2, draw.run_streams(1, (0,), range(2))),
+                                    range_error_m=err)
+        channel = (gf.registry.create("channel_filter", "iq-filter", output="equivalent") if kind == "deep"
+                   else gf.registry.create("channel_filter", "scalar"))
+        plugins = {"channel_filter": channel, "nav_filter": gf.registry.create("nav_filter", "ins-ekf")}
+        run = deep_strapdown.run_deep if kind == "deep" else deep_strapdown.run_loose
+        out = run(scen, plugins, flight, truth, 2, draw.run_streams(2, (0,), range(2)))
+        true_pos, _, _ = flight.kinematics(out["time_s"][-1:])
+        final[name] = np.linalg.norm(out["position_m"][-1] - true_pos[0], axis=-1)
+    assert np.all(np.abs(final["common"] - final["none"]) < 2.5)
+    assert np.all(final["one"] > final["none"] + 5.0)
+
+
+def test_deep_truth_code_and_carrier_ranges_carry_the_residuals():
+    scen = get_scenario({**DEEP, "iono_vertical_residual_std_m": 3.0, "orbit_clock_residual_std_m": 1.0})
+    flight = scen.flight()
+    noisy = scen._truth(flight, 45.0, 2, draw.run_streams(1, (0,), range(2)))
+    plain = get_scenario(DEEP)._truth(flight, 45.0, 2, draw.run_streams(1, (0,), range(2)))
+    s = noisy.sat_state(np.arange(5) * noisy.coherent_time_s)[0]
+    code, carrier = noisy.range_error_m(np.arange(5) * noisy.coherent_time_s)
+    np.testing.assert_allclose(noisy.pseudoranges(0, 5, s) - plain.pseudoranges(0, 5, s), code, atol=1e-6)
+    # Carrier minus code is minus twice the slant ionosphere (Klobuchar obliquity at pymap3d's elevations).
+    el = _elevations_pymap3d(s)
+    iono = draw_range_errors(draw.run_streams(1, (0,), range(2)).child("range-errors"), 2, 8,
+                             iono_vertical_std_m=3.0).iono_vertical_m
+    np.testing.assert_allclose(noisy.carrier_minus_code_m(0, 5), -2 * iono * klobuchar_obliquity(el)[:, None],
+                               rtol=1e-3)
+    assert plain.range_error_m is None and plain.carrier_minus_code_m(0, 5) is None
+
+
+def test_deep_scenarios_vector_candidate_gets_the_residuals(monkeypatch):
+    import gnssframework.experiments.scenarios.deep_integration as di
+
+    seen = {}
+
+    def capture(channel, nav, truth, *a, **k):
+        seen["truth"] = truth
+        raise RuntimeError("captured")
+
+    monkeypatch.setattr(di, "run_vector_loop", capture)
+    scen = get_scenario({**DEEP, "tropo_zenith_residual_std_m": 0.1})
+    plugins = {"channel_filter": gf.registry.create("channel_filter", "iq-filter"),
+               "nav_filter": gf.registry.create("nav_filter", "ekf-pv", clock="ocxo")}
+    with pytest.raises(RuntimeError, match="captured"):
+        scen.run_batch({"cn0_dbhz": 45.0}, plugins, 2, draw.run_streams(1, (0,), range(2)))
+    code, carrier = seen["truth"].range_error_m(np.array([0.0]))
+    np.testing.assert_array_equal(code, carrier)  # troposphere: code and carrier alike
+    assert np.all(np.abs(code) > 0)
+
+
+def test_scalar_loops_see_the_carrier_range_apart_from_the_code_range(monkeypatch):
+    import gnssframework.receiver.deep_loose as dl
+
+    seen = {}
+    monkeypatch.setattr(dl, "run_closed_loop", lambda channel, truth, rng, **k: seen.setdefault("truth", truth))
+    T, K = 1e-3, 10
+    rho = 2.2e7 + 500.0 * np.arange(K + 1)[:, None, None] * T * np.ones((1, 2, 3))
+    advance = -0.01 * np.arange(K + 1)[:, None, None] * np.ones((1, 2, 3))  # ionosphere: carrier range shrinking
+    dl.scalar_tracking(None, rho, 45.0, T, np.random.default_rng(0), carrier_range_m=rho + advance)
+    carrier = seen["truth"].carrier_phase_rad
+    # Phase follows the carrier range: its change is -2 pi (rho + advance) change / lambda.
+    from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
+    np.testing.assert_allclose(carrier - carrier[0], -2 * np.pi * (rho + advance - rho[0]) / L1_WAVELENGTH_M,
+                               atol=1e-6)
+    code = seen["truth"].code_phase_chips
+    np.testing.assert_allclose((code[-1] - code[0]), 1.023e6 * K * T - (rho[-1] - rho[0]) / CA_CHIP_LENGTH_M,
+                               atol=1e-6)

@@ -88,6 +88,10 @@ class DeepTruth:
         Optional ``receiver_positions(t) -> (*t.shape, runs, 3)``: the receiver's ECEF
         position at an array of times, equal to ``receiver_state`` at each time (the loop
         asks for a block of epochs at once). ``None``: ``receiver_state`` is called per epoch.
+    range_error_m
+        Optional ``range_error_m(t) -> (code_m, carrier_m)``, each ``(*t.shape, runs, ch)``:
+        errors of the true code and carrier ranges the receiver's model does not have
+        (`gnssframework.simulation.propagation`); ``None``: none.
     """
 
     sat_state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -96,6 +100,7 @@ class DeepTruth:
     cn0_dbhz: np.ndarray
     coherent_time_s: float
     receiver_positions: Callable[[np.ndarray], np.ndarray] | None = None
+    range_error_m: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
 
     @property
     def epochs(self) -> int:
@@ -103,7 +108,10 @@ class DeepTruth:
 
     def pseudorange(self, t: float, k: int, sat_pos: np.ndarray) -> np.ndarray:
         r = self.receiver_state(t)[0]
-        return np.linalg.norm(sat_pos[None] - r[:, None], axis=-1) + self.clock_m[k, :, 0][:, None]
+        rho = np.linalg.norm(sat_pos[None] - r[:, None], axis=-1) + self.clock_m[k, :, 0][:, None]
+        if self.range_error_m is not None:
+            rho = rho + self.range_error_m(np.asarray(t, float))[0]
+        return rho
 
     def pseudoranges(self, k0: int, k1: int, sat_pos: np.ndarray) -> np.ndarray:
         """`pseudorange` at the epoch edges ``k0 .. k1 - 1`` at once, ``(k1 - k0, runs, ch)``.
@@ -116,7 +124,18 @@ class DeepTruth:
             r = np.asarray(self.receiver_positions(t), float)
         else:
             r = np.stack([np.asarray(self.receiver_state(ti)[0], float) for ti in t])
-        return np.linalg.norm(sat_pos[:, None] - r[:, :, None], axis=-1) + self.clock_m[k0:k1, :, 0][..., None]
+        rho = np.linalg.norm(sat_pos[:, None] - r[:, :, None], axis=-1) + self.clock_m[k0:k1, :, 0][..., None]
+        if self.range_error_m is not None:
+            rho = rho + self.range_error_m(t)[0]
+        return rho
+
+    def carrier_minus_code_m(self, k0: int, k1: int) -> np.ndarray | None:
+        """Carrier range minus code range at the edges ``k0 .. k1 - 1`` ``(k1 - k0, runs, ch)``
+        (twice the ionospheric advance), or None without range errors."""
+        if self.range_error_m is None:
+            return None
+        code, carrier = self.range_error_m(np.arange(k0, k1) * self.coherent_time_s)
+        return carrier - code
 
 
 class Navigator(Protocol):
@@ -360,14 +379,17 @@ def _aided_block(sat_at, k0: int, n: int, T: float, n_upd: int, sched_range, sch
     end, rate and slope (``None`` at the start: no shift).
     """
     true_rho = np.stack([sat_at.pseudorange(k0 + i) for i in range(n + 1)])
+    carrier_rho = true_rho
+    if sat_at.truth.range_error_m is not None:  # the carrier range differs from the code's (ionosphere)
+        carrier_rho = true_rho + np.stack([sat_at.carrier_minus_code(k0 + i) for i in range(n + 1)])
     nco_range, nco_rate = sched_range[:n], sched_rate[:n]
     rep_end = nco_range + nco_rate * T
     code_err = 0.5 * ((true_rho[:-1] - nco_range) + (true_rho[1:] - rep_end)) / CA_CHIP_LENGTH_M
     f_rep = -nco_rate / L1_WAVELENGTH_M
     # carrier_rep + the increments one after the other (accumulate adds in sequence, as the loop did).
     carrier = np.add.accumulate(np.concatenate([carrier_rep[None], 2 * np.pi * f_rep * T]), axis=0)
-    ph0 = theta0 - 2 * np.pi * true_rho[:-1] / L1_WAVELENGTH_M - carrier[:-1]
-    ph1 = theta0 - 2 * np.pi * true_rho[1:] / L1_WAVELENGTH_M - carrier[1:]
+    ph0 = theta0 - 2 * np.pi * carrier_rho[:-1] / L1_WAVELENGTH_M - carrier[:-1]
+    ph1 = theta0 - 2 * np.pi * carrier_rho[1:] / L1_WAVELENGTH_M - carrier[1:]
     freq_err = (ph1 - ph0) / (2 * np.pi * T)
     shift_chips = np.empty_like(nco_range)
     shift_chips[0] = zeros if rep_end_prev is None else (nco_range[0] - rep_end_prev) / CA_CHIP_LENGTH_M
@@ -415,6 +437,7 @@ class _EdgeStates:
         self.start = -block  # nothing evaluated yet
         self.states: tuple[np.ndarray, ...] = ()
         self.rho: np.ndarray | None = None
+        self.divergence: np.ndarray | None = None
 
     def _load(self, k: int) -> int:
         if not self.start <= k < self.start + self.block:
@@ -422,6 +445,7 @@ class _EdgeStates:
             stop = min(k + self.block, self.K + 1)
             self.states = tuple(np.asarray(a) for a in self.truth.sat_state(np.arange(k, stop) * self.T))
             self.rho = None
+            self.divergence = None
         return k - self.start
 
     def __call__(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -434,6 +458,13 @@ class _EdgeStates:
         if self.rho is None:
             self.rho = self.truth.pseudoranges(self.start, self.start + len(self.states[0]), self.states[0])
         return self.rho[i]
+
+    def carrier_minus_code(self, k: int) -> np.ndarray:
+        """Carrier minus code range error ``(runs, ch)`` at edge k (`DeepTruth.carrier_minus_code_m`)."""
+        i = self._load(k)
+        if self.divergence is None:
+            self.divergence = self.truth.carrier_minus_code_m(self.start, self.start + len(self.states[0]))
+        return self.divergence[i]
 
 
 def _check_finite(name: str, step: int, *arrays: np.ndarray) -> None:

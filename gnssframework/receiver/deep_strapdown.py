@@ -278,9 +278,15 @@ def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTrut
     rate = np.sum(d / geo[..., None] * (sat_vel - v[:, None, :]), axis=-1)
     rho = geo[:, None, :] + truth.clock_m[..., 0:1]  # (K+1, runs, ch)
     rho_rate = rate[:, None, :] + truth.clock_m[..., 1:2]
+    carrier_rho = None
+    if truth.range_error_m is not None:  # errors of the truth the receiver's model lacks
+        code_m, carrier_m = truth.range_error_m(t_edges)
+        carrier_rho = rho + carrier_m
+        rho = rho + code_m
+        rho_rate = rho_rate + np.gradient(carrier_m, T, axis=0)  # the carrier's rate is what the loops read
     channel = plugins["channel_filter"]
     track = scalar_tracking(channel, rho, truth.cn0_dbhz, T, rng,
-                            early_late_spacing_chips=p.early_late_spacing_chips)
+                            early_late_spacing_chips=p.early_late_spacing_chips, carrier_range_m=carrier_rho)
     cp = channel.params
     window = int(round(p.rate_window_s / T))
     var_r, var_v = scalar_measurement_variances(truth.cn0_dbhz, T, getattr(cp, "dll_bandwidth_hz", 1.0),

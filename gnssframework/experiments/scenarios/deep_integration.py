@@ -38,10 +38,11 @@ from ...receiver.deep import DeepTruth, loss_of_lock, run_aided_tracking
 from ...receiver.deep_metrics import attitude_errors_deg, enu_errors
 from ...receiver.tracking import NCO_COMMANDS
 from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_vector_loop
+from .vector_tracking import SkyRealismParams, _child, draw_residuals
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import nominal_constellation
-from ...simulation.propagation import cn0_from_elevation, elevation_deg
+from ...simulation.propagation import cn0_from_elevation, elevation_deg, range_error_function
 from ..metric_components import Mean, PostSettleMax, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
@@ -81,7 +82,10 @@ METRICS = (
 )
 
 
-class DeepIntegrationParams(ScenarioParams):
+class DeepIntegrationParams(SkyRealismParams):
+    """The flight and receiver of reference 002; the C/N0 and range-residual options of
+    `SkyRealismParams` (off by default)."""
+
     duration_s: float = Field(50.0, gt=0, le=600, description="flight length (Cai and Guo 2017: 50 s)")
     profile: Literal["pull-up", "straight", "jerk-pulse"] = Field(
         "pull-up", description="Cai and Guo's (2017) flight (level 10 s, then a pull-up), straight flight, or straight "
@@ -118,13 +122,6 @@ class DeepIntegrationParams(ScenarioParams):
     pulse_hold_s: float = Field(1.0, ge=0, description="jerk-pulse profile: time at peak acceleration")
     pulse_direction_enu: tuple[float, float, float] = Field((0.0, 0.0, 1.0), description="jerk-pulse profile: "
                                                             "direction of the acceleration (ENU at the start)")
-    cn0_model: Literal["constant", "elevation"] = Field(
-        "constant", description="constant: every channel at the case's cn0_dbhz (dB-Hz). elevation: the case's "
-        "cn0_dbhz is the zenith value and each channel loses the receiver antenna's attenuation towards its "
-        "satellite at the start (gps-sdr-sim's gain pattern, Ebinuma 2015: 0 dB at zenith, 2.44 dB at 50 deg, "
-        "7.56 dB at 10 deg; gnssframework.simulation.propagation), so deep's reference channel (the highest "
-        "C/N0, Cai and Guo 2017) is the highest satellite. Default constant (the example's pages assume one "
-        "C/N0 per case)")
 
 
 class DeepIntegrationCase(ScenarioParams):
@@ -267,7 +264,12 @@ class DeepIntegrationScenario(Scenario):
             cn0 = np.broadcast_to(cn0_from_elevation(cn0_dbhz, el0), (runs, p.channels)).copy()
         else:
             cn0 = np.full((runs, p.channels), cn0_dbhz)
-        return DeepTruth(sat_state, receiver_state, clock, cn0, T, receiver_positions=lambda t: receiver_state(t)[0])
+        range_error = None
+        if p.range_residuals_on():  # errors of the truth the receiver's model lacks, from their own stream
+            range_error = range_error_function(draw_residuals(p, _child(rng, "range-errors"), runs), sat_state,
+                                               receiver_state, p.lat_deg, p.lon_deg)
+        return DeepTruth(sat_state, receiver_state, clock, cn0, T, receiver_positions=lambda t: receiver_state(t)[0],
+                         range_error_m=range_error)
 
     # --- candidates ---------------------------------------------------------------------
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
@@ -324,7 +326,7 @@ class DeepIntegrationScenario(Scenario):
         p = self.params
         T = p.coherent_time_s
         vt = VectorTruth(lambda t: truth.sat_state(t)[:2], lambda t: truth.receiver_state(t)[:2], truth.clock_m,
-                         truth.cn0_dbhz, T)
+                         truth.cn0_dbhz, T, range_error_m=truth.range_error_m)
         std = np.array([p.initial_position_std_m] * 3 + [p.initial_velocity_std_m_s] * 3 + list(p.initial_clock_std_m))
         P0 = np.diag(std**2)
         x0 = vt.nav_truth(T / 2, 0) + draw.standard_normal(rng, (runs, 8), 0) * std

@@ -23,10 +23,42 @@ from ...simulation.propagation import cn0_from_elevation, draw_range_errors, ele
 from ..metric_components import Mean, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["VectorTrackingScenario", "METRICS", "steady_state_start_s"]
+__all__ = ["VectorTrackingScenario", "SkyRealismParams", "METRICS", "steady_state_start_s", "draw_residuals"]
 
 
-class VectorTrackingParams(ScenarioParams):
+class SkyRealismParams(ScenarioParams):
+    """Scenario options shared by the vector-tracking and deep-integration scenarios: C/N0
+    from elevation, and range errors in the truth that the receiver's model lacks
+    (`gnssframework.simulation.propagation`). All off by default."""
+
+    cn0_model: Literal["constant", "elevation"] = Field(
+        "constant", description="constant: every channel at the case's cn0_dbhz (dB-Hz). elevation: the case's "
+        "cn0_dbhz is the zenith value and each channel loses the receiver antenna's attenuation towards its "
+        "satellite at the start (gps-sdr-sim's gain pattern, Ebinuma 2015: 0 dB at zenith, 2.44 dB at 50 deg, "
+        "7.56 dB at 10 deg; gnssframework.simulation.propagation). Default constant (references 000 "
+        "and 002 state one C/N0 per case)")
+    iono_vertical_residual_std_m: float = Field(
+        0.0, ge=0, le=50, description="standard deviation (m, L1) of the vertical ionospheric delay left after "
+        "the receiver's model, one Gaussian value per run common to its channels and constant over the run, "
+        "slant = the Klobuchar obliquity factor 1 + 16 (0.53 - E)^3 times it (IS-GPS-200 20.3.3.5.2.5); it "
+        "delays the code and advances the carrier. Klobuchar (1987) removes about half the delay's RMS, so "
+        "residuals of 1-5 m are common. Default 0 (off)")
+    tropo_zenith_residual_std_m: float = Field(
+        0.0, ge=0, le=2, description="standard deviation (m) of the zenith tropospheric (wet) delay left after "
+        "the receiver's model, one Gaussian value per run, constant, mapped by 1.001/sqrt(0.002001 + sin^2 E) "
+        "(RTCA DO-229; UNB3, Collins 1999, leaves a few cm). Default 0 (off)")
+    orbit_clock_residual_std_m: float = Field(
+        0.0, ge=0, le=20, description="SISRE (m): standard deviation of each satellite's broadcast orbit and "
+        "clock error along its line of sight, one Gaussian value per satellite and run, constant over the run "
+        "(GPS broadcast SISRE is below 1 m, Montenbruck et al. 2015). Default 0 (off)")
+
+    def range_residuals_on(self) -> bool:
+        """Whether any range residual is switched on."""
+        return bool(self.iono_vertical_residual_std_m or self.tropo_zenith_residual_std_m
+                    or self.orbit_clock_residual_std_m)
+
+
+class VectorTrackingParams(SkyRealismParams):
     duration_s: float = Field(30.0, gt=0, le=3600)
     coherent_time_s: float = Field(0.01, gt=0, le=0.02, description="T; with 20 ms bits, 10 ms intervals stay in a bit")
     channels: int = Field(8, ge=4, le=12)
@@ -54,36 +86,23 @@ class VectorTrackingParams(ScenarioParams):
     steady_state_s: float | None = Field(None, ge=0, description="position_steady_error_rmse counts from this "
                                          "time on (after the nav filter's position has converged); null: a third "
                                          "of the run, at least settle_s")
-    cn0_model: Literal["constant", "elevation"] = Field(
-        "constant", description="constant: every channel at the case's cn0_dbhz (dB-Hz). elevation: the case's "
-        "cn0_dbhz is the zenith value and each channel loses the receiver antenna's attenuation towards its "
-        "satellite at the start (gps-sdr-sim's gain pattern, Ebinuma 2015: 0 dB at zenith, 2.44 dB at 50 deg, "
-        "7.56 dB at 10 deg; gnssframework.simulation.propagation). Default constant (Zou et al. 2018 state one "
-        "C/N0 per case)")
     geometry: Literal["fixed", "per-run"] = Field(
         "fixed", description="fixed: every run sees the satellites at start_time_s. per-run: each run draws its "
         "start epoch from its own stream, uniform over the nominal constellation's sidereal day (86164.1 s) among "
         "the epochs with `channels` satellites above the mask, and tracks the highest ones then (no PCRB). "
         "Default fixed")
-    iono_vertical_residual_std_m: float = Field(
-        0.0, ge=0, le=50, description="standard deviation (m, L1) of the vertical ionospheric delay left after "
-        "the receiver's model, one Gaussian value per run common to its channels and constant over the run, "
-        "slant = the Klobuchar obliquity factor 1 + 16 (0.53 - E)^3 times it (IS-GPS-200 20.3.3.5.2.5); it "
-        "delays the code and advances the carrier. Klobuchar (1987) removes about half the delay's RMS, so "
-        "residuals of 1-5 m are common. Default 0 (off)")
-    tropo_zenith_residual_std_m: float = Field(
-        0.0, ge=0, le=2, description="standard deviation (m) of the zenith tropospheric (wet) delay left after "
-        "the receiver's model, one Gaussian value per run, constant, mapped by 1.001/sqrt(0.002001 + sin^2 E) "
-        "(RTCA DO-229; UNB3, Collins 1999, leaves a few cm). Default 0 (off)")
-    orbit_clock_residual_std_m: float = Field(
-        0.0, ge=0, le=20, description="SISRE (m): standard deviation of each satellite's broadcast orbit and "
-        "clock error along its line of sight, one Gaussian value per satellite and run, constant over the run "
-        "(GPS broadcast SISRE is below 1 m, Montenbruck et al. 2015). Default 0 (off)")
 
 
 class VectorTrackingCase(ScenarioParams):
     name: str | None = None
     cn0_dbhz: float = Field(..., ge=15, le=60)
+
+
+def draw_residuals(p: SkyRealismParams, rng: Any, runs: int):
+    """Each run's range residuals (`gnssframework.simulation.propagation.draw_range_errors`)
+    at the magnitudes of the scenario options ``p``."""
+    return draw_range_errors(rng, runs, p.channels, iono_vertical_std_m=p.iono_vertical_residual_std_m,
+                             tropo_zenith_std_m=p.tropo_zenith_residual_std_m, sisre_m=p.orbit_clock_residual_std_m)
 
 
 def _child(rng, purpose: str):
@@ -228,12 +247,9 @@ class VectorTrackingScenario(Scenario):
         else:
             cn0 = np.full((runs, p.channels), cn0_dbhz)
         range_error = None
-        if p.iono_vertical_residual_std_m or p.tropo_zenith_residual_std_m or p.orbit_clock_residual_std_m:
-            errors = draw_range_errors(_child(rng, "range-errors"), runs, p.channels,
-                                       iono_vertical_std_m=p.iono_vertical_residual_std_m,
-                                       tropo_zenith_std_m=p.tropo_zenith_residual_std_m,
-                                       sisre_m=p.orbit_clock_residual_std_m)
-            range_error = range_error_function(errors, sat_state, receiver_state, lat, lon)
+        if p.range_residuals_on():
+            range_error = range_error_function(draw_residuals(p, _child(rng, "range-errors"), runs), sat_state,
+                                               receiver_state, lat, lon)
         truth = VectorTruth(sat_state, receiver_state, clock, cn0, T, range_error_m=range_error)
         P0 = np.diag([p.initial_position_std_m**2] * 3 + [p.initial_velocity_std_m_s**2] * 3
                      + [p.initial_position_std_m**2, p.initial_velocity_std_m_s**2])
