@@ -355,3 +355,14 @@ def test_scalar_loops_see_the_carrier_range_apart_from_the_code_range(monkeypatc
     code = seen["truth"].code_phase_chips
     np.testing.assert_allclose((code[-1] - code[0]), 1.023e6 * K * T - (rho[-1] - rho[0]) / CA_CHIP_LENGTH_M,
                                atol=1e-6)
+
+
+def test_pcrb_uses_each_channels_cn0():
+    # Independent truth: weaker channels carry less information, so the bound with the
+    # antenna's attenuation (every channel at or below the zenith C/N0) is never below the
+    # bound with every channel at the zenith value, and above it once the prior is forgotten.
+    P0 = np.diag([9.0] * 3 + [0.09] * 3 + [9.0, 0.09])
+    _, pos_const, vel_const = get_scenario(SCEN).bound(45.0, P0)
+    _, pos_el, vel_el = get_scenario({**SCEN, "cn0_model": "elevation"}).bound(45.0, P0)
+    assert np.all(pos_el >= pos_const * (1 - 1e-9)) and np.all(vel_el >= vel_const * (1 - 1e-9))
+    assert pos_el[-1] > 1.05 * pos_const[-1]

@@ -298,5 +298,5 @@ class VectorTrackingScenario(Scenario):
         r0, v = truth.receiver_state(np.asarray(0.0))
         clock_q = SPEED_OF_LIGHT_M_S**2 * PRESETS[p.clock].process_noise(T)
         return vector_tracking_pcrb(lambda t: truth.sat_state(t)[0], r0[0], v[0], clock_q, P0,
-                                    np.full(p.channels, cn0_dbhz), T, K, p.early_late_spacing_chips)
+                                    np.asarray(truth.cn0_dbhz, float)[0], T, K, p.early_late_spacing_chips)
 
