@@ -366,3 +366,16 @@ def test_pcrb_uses_each_channels_cn0():
     _, pos_el, vel_el = get_scenario({**SCEN, "cn0_model": "elevation"}).bound(45.0, P0)
     assert np.all(pos_el >= pos_const * (1 - 1e-9)) and np.all(vel_el >= vel_const * (1 - 1e-9))
     assert pos_el[-1] > 1.05 * pos_const[-1]
+
+
+@pytest.mark.parametrize("kind, field, value", [
+    ("vector-tracking", "cn0_model", "elev"),
+    ("vector-tracking", "geometry", "random"),
+    ("vector-tracking", "orbit_clock_residual_std_m", -1.0),
+    ("deep-integration", "iono_vertical_residual_std_m", -2.0),
+    ("deep-integration", "tropo_zenith_residual_std_m", 5.0),
+])
+def test_bad_option_values_are_one_line_config_errors_naming_the_field(kind, field, value):
+    with pytest.raises(ConfigError) as exc:
+        get_scenario({"kind": kind, field: value})
+    assert exc.value.field == f"scenario.{field}" and "\n" not in str(exc.value)
