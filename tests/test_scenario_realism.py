@@ -379,3 +379,29 @@ def test_bad_option_values_are_one_line_config_errors_naming_the_field(kind, fie
     with pytest.raises(ConfigError) as exc:
         get_scenario({"kind": kind, field: value})
     assert exc.value.field == f"scenario.{field}" and "\n" not in str(exc.value)
+
+
+def test_deep_per_run_geometry_is_batch_independent_and_every_kind_runs_on_it():
+    scen = get_scenario({**DEEP, "duration_s": 0.5, "geometry": "per-run", "cn0_model": "elevation"})
+    flight = scen.flight()
+    three = scen._truth(flight, 45.0, 3, draw.run_streams(4, (9,), range(3)))
+    one = scen._truth(flight, 45.0, 1, draw.run_streams(4, (9,), [2]))
+    t = np.array([0.0, 0.25])
+    s3, s1 = three.sat_state(t)[0], one.sat_state(t)[0]
+    assert s3.shape == (2, 3, 8, 3)
+    np.testing.assert_array_equal(s3[:, 2:], s1)
+    np.testing.assert_array_equal(three.cn0_dbhz[2:], one.cn0_dbhz)
+    assert not np.allclose(s3[0, 0], s3[0, 1])
+    # Each run's reference channel is its highest satellite (pymap3d's elevations).
+    el = _elevations_pymap3d(s3[0])  # (runs, ch)
+    np.testing.assert_array_equal(reference_channel(three.cn0_dbhz), np.argmax(el, axis=-1))
+    runs = draw.run_streams(4, (9,), range(2))
+    for channel, nav in ((gf.registry.create("channel_filter", "iq-filter", output="equivalent"), "ins-ekf"),
+                         (gf.registry.create("channel_filter", "scalar"), "ins-ekf"),
+                         (gf.registry.create("channel_filter", "iq-filter"), "ekf-pv")):
+        nav_filter = (gf.registry.create("nav_filter", nav, clock="ocxo") if nav == "ekf-pv"
+                      else gf.registry.create("nav_filter", nav))
+        res = scen.run_batch({"cn0_dbhz": 45.0}, {"channel_filter": channel, "nav_filter": nav_filter}, 2, runs)
+        # Tracking: errors of the initial 5 m per axis, not of a loop that lost its satellites.
+        assert np.all(res.metrics["horizontal_position_error_rmse"] < 20.0), channel.name
+        assert np.all(res.metrics["loss_of_lock_fraction"] == 0.0), channel.name

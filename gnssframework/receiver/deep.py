@@ -62,7 +62,7 @@ from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ..signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from ..signal.correlators import Correlators
 from .deep_aiding import line_of_sight_kinematics, nco_schedule
-from .vector import CHANNEL_OUTPUTS
+from .vector import CHANNEL_OUTPUTS, _geometric_range
 
 __all__ = ["DeepTruth", "Navigator", "DeepRecord", "run_aided_tracking", "loss_of_lock"]
 
@@ -74,7 +74,8 @@ class DeepTruth:
     Attributes
     ----------
     sat_state
-        ``sat_state(t) -> (pos, vel, acc)``, each ``(*t.shape, channels, 3)`` ECEF at the
+        ``sat_state(t) -> (pos, vel, acc)``, each ``(*t.shape, channels, 3)`` (or
+        ``(*t.shape, runs, channels, 3)``, a geometry per run) ECEF at the
         times t (a scalar or an array: the loop asks for a block of epochs at once).
     receiver_state
         ``receiver_state(t) -> (pos, vel, acc)``, each ``(runs, 3)`` ECEF at scalar t.
@@ -108,7 +109,7 @@ class DeepTruth:
 
     def pseudorange(self, t: float, k: int, sat_pos: np.ndarray) -> np.ndarray:
         r = self.receiver_state(t)[0]
-        rho = np.linalg.norm(sat_pos[None] - r[:, None], axis=-1) + self.clock_m[k, :, 0][:, None]
+        rho = _geometric_range(sat_pos, r) + self.clock_m[k, :, 0][:, None]
         if self.range_error_m is not None:
             rho = rho + self.range_error_m(np.asarray(t, float))[0]
         return rho
@@ -124,7 +125,7 @@ class DeepTruth:
             r = np.asarray(self.receiver_positions(t), float)
         else:
             r = np.stack([np.asarray(self.receiver_state(ti)[0], float) for ti in t])
-        rho = np.linalg.norm(sat_pos[:, None] - r[:, :, None], axis=-1) + self.clock_m[k0:k1, :, 0][..., None]
+        rho = _geometric_range(sat_pos, r) + self.clock_m[k0:k1, :, 0][..., None]
         if self.range_error_m is not None:
             rho = rho + self.range_error_m(t)[0]
         return rho
@@ -222,7 +223,7 @@ def run_aided_tracking(
     K = truth.epochs
     runs = truth.clock_m.shape[1]
     sat_at = _EdgeStates(truth, K)
-    n_ch = sat_at(0)[0].shape[0]
+    n_ch = sat_at(0)[0].shape[-2]  # satellites (ch, 3), or (runs, ch, 3) with a geometry per run
     batch = (runs, n_ch)
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
     # Per-run constants of the correlator draws (tap noise root, amplitude) once, not per interval:

@@ -41,7 +41,7 @@ from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_ve
 from .vector_tracking import SkyRealismParams, _child, draw_residuals
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
-from ...simulation.constellation import nominal_constellation
+from ...simulation.constellation import draw_epochs, nominal_constellation
 from ...simulation.propagation import cn0_from_elevation, elevation_deg, range_error_function
 from ..metric_components import Mean, PostSettleMax, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
@@ -122,6 +122,11 @@ class DeepIntegrationParams(SkyRealismParams):
     pulse_hold_s: float = Field(1.0, ge=0, description="jerk-pulse profile: time at peak acceleration")
     pulse_direction_enu: tuple[float, float, float] = Field((0.0, 0.0, 1.0), description="jerk-pulse profile: "
                                                             "direction of the acceleration (ENU at the start)")
+    geometry: Literal["fixed", "per-run"] = Field(
+        "fixed", description="fixed: every run sees the satellites at start_time_s. per-run: each run draws its "
+        "start epoch from its own stream, uniform over the nominal constellation's sidereal day (86164.1 s) among "
+        "the epochs with `channels` satellites above the mask, and tracks the highest ones then; the truth grid "
+        "then holds every run's satellites (memory grows with runs x duration_s / coherent_time_s). Default fixed")
 
 
 class DeepIntegrationCase(ScenarioParams):
@@ -231,7 +236,19 @@ class DeepIntegrationScenario(Scenario):
 
     def _truth(self, flight, cn0_dbhz: float, runs: int, rng: np.random.Generator):
         p = self.params
-        sats = self.satellites()
+        if p.geometry == "per-run":  # each run its own epoch and satellites, from its own stream
+            const = nominal_constellation()
+            start_s, index = draw_epochs(const, _child(rng, "geometry"), runs, p.lat_deg, p.lon_deg, p.height_m,
+                                         p.elevation_mask_deg, p.channels)
+            sats, start = const.subset(index), start_s[:, None]  # satellites (runs, ch), epochs (runs, 1)
+
+            def orbit(t):  # (*t.shape, runs, ch, 3)
+                return sats.state_at(start + np.asarray(t, float)[..., None, None])
+        else:
+            sats = self.satellites()
+
+            def orbit(t):
+                return sats.state(p.start_time_s + np.asarray(t))
         T = p.coherent_time_s
         K = int(round(p.duration_s / T))
         bias_s, drift = PRESETS[p.clock].simulate(K + 1, T, rng, (runs,))
@@ -239,7 +256,7 @@ class DeepIntegrationScenario(Scenario):
         # Truth on the grid of epoch edges, computed once (vectorised): the harnesses ask for it at
         # every edge, and evaluating the flight or the orbits per epoch dominated the run time.
         grid = np.arange(K + 1) * T
-        sat_grid = sats.state(p.start_time_s + grid)
+        sat_grid = orbit(grid)
         rx_grid = flight.kinematics(grid)
 
         def _on_grid(t):
@@ -250,7 +267,7 @@ class DeepIntegrationScenario(Scenario):
         def sat_state(t):
             k = _on_grid(t)
             if k is None:
-                return sats.state(p.start_time_s + np.asarray(t))
+                return orbit(t)
             return tuple(x[k] for x in sat_grid)
 
         def receiver_state(t):
@@ -260,7 +277,7 @@ class DeepIntegrationScenario(Scenario):
             return tuple(np.broadcast_to(np.asarray(x)[..., None, :], shape) for x in (pos, vel, acc))
 
         if p.cn0_model == "elevation":  # per channel, from the elevation at the start of the flight
-            el0 = elevation_deg(sat_grid[0][0], rx_grid[0][0], p.lat_deg, p.lon_deg)
+            el0 = elevation_deg(sat_grid[0][0], rx_grid[0][0], p.lat_deg, p.lon_deg)  # (ch,) or (runs, ch)
             cn0 = np.broadcast_to(cn0_from_elevation(cn0_dbhz, el0), (runs, p.channels)).copy()
         else:
             cn0 = np.full((runs, p.channels), cn0_dbhz)
