@@ -287,7 +287,8 @@ def test_deep_and_loose_put_a_common_range_error_in_the_clock_and_a_single_one_i
     scen = get_scenario(DEEP)
     flight = scen.flight()
     final = {}
-    for name, err in (("none", None), ("common", _Fixed(np.full(8, 20.0))), ("one", _Fixed([0, 0, 0, 20.0, 0, 0, 0, 0]))):
+    one_channel = _Fixed([0, 0, 0, 20.0, 0, 0, 0, 0])
+    for name, err in (("none", None), ("common", _Fixed(np.full(8, 20.0))), ("one", one_channel)):
         truth = dataclasses.replace(scen._truth(flight, 45.0, 2, draw.run_streams(1, (0,), range(2))),
                                     range_error_m=err)
         channel = (gf.registry.create("channel_filter", "iq-filter", output="equivalent") if kind == "deep"

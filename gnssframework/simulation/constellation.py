@@ -19,7 +19,8 @@ import pymap3d
 from .. import random_streams as draw
 from ..errors import ConfigError, DataFileError
 
-__all__ = ["SatelliteSet", "Constellation", "nominal_constellation", "load_almanac", "draw_epochs", "GM_EARTH", "OMEGA_EARTH"]
+__all__ = ["SatelliteSet", "Constellation", "nominal_constellation", "load_almanac", "draw_epochs", "GM_EARTH",
+           "OMEGA_EARTH"]
 
 GM_EARTH = 3.986005e14  # m^3/s^2, WGS 84 value of IS-GPS-200
 OMEGA_EARTH = 7.2921151467e-5  # rad/s
