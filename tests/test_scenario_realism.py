@@ -94,8 +94,9 @@ def test_range_error_magnitudes_over_many_runs():
     only_tropo = draw_range_errors(rng, n, 6, tropo_zenith_std_m=0.05)
     code, carrier = only_tropo.code_and_carrier_m(el)
     np.testing.assert_array_equal(carrier, code)  # the troposphere delays both
-    assert np.std(code[:, 0], ddof=1) == pytest.approx(0.05 * 5.5817, rel=tol + 1e-3)
-    assert np.std(code[:, 1], ddof=1) == pytest.approx(0.05, rel=tol + 1e-3)
+    m10 = 1.001 / np.sqrt(0.002001 + np.sin(np.radians(10.0)) ** 2)  # DO-229 at 10 deg: 5.582
+    assert np.std(code[:, 0], ddof=1) == pytest.approx(0.05 * m10, rel=tol)
+    assert np.std(code[:, 1], ddof=1) == pytest.approx(0.05 * 1.001 / np.sqrt(1.002001), rel=tol)
 
 
 def test_range_errors_of_a_run_do_not_depend_on_its_batch():
