@@ -62,7 +62,7 @@ from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ..signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from ..signal.correlators import Correlators
 from .deep_aiding import line_of_sight_kinematics, nco_schedule
-from .vector import CHANNEL_OUTPUTS
+from .vector import CHANNEL_OUTPUTS, _geometric_range
 
 __all__ = ["DeepTruth", "Navigator", "DeepRecord", "run_aided_tracking", "loss_of_lock"]
 
@@ -74,7 +74,8 @@ class DeepTruth:
     Attributes
     ----------
     sat_state
-        ``sat_state(t) -> (pos, vel, acc)``, each ``(*t.shape, channels, 3)`` ECEF at the
+        ``sat_state(t) -> (pos, vel, acc)``, each ``(*t.shape, channels, 3)`` (or
+        ``(*t.shape, runs, channels, 3)``, a geometry per run) ECEF at the
         times t (a scalar or an array: the loop asks for a block of epochs at once).
     receiver_state
         ``receiver_state(t) -> (pos, vel, acc)``, each ``(runs, 3)`` ECEF at scalar t.
@@ -88,6 +89,10 @@ class DeepTruth:
         Optional ``receiver_positions(t) -> (*t.shape, runs, 3)``: the receiver's ECEF
         position at an array of times, equal to ``receiver_state`` at each time (the loop
         asks for a block of epochs at once). ``None``: ``receiver_state`` is called per epoch.
+    range_error_m
+        Optional ``range_error_m(t) -> (code_m, carrier_m)``, each ``(*t.shape, runs, ch)``:
+        errors of the true code and carrier ranges the receiver's model does not have
+        (`gnssframework.simulation.propagation`); ``None``: none.
     """
 
     sat_state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -96,6 +101,7 @@ class DeepTruth:
     cn0_dbhz: np.ndarray
     coherent_time_s: float
     receiver_positions: Callable[[np.ndarray], np.ndarray] | None = None
+    range_error_m: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
 
     @property
     def epochs(self) -> int:
@@ -103,7 +109,10 @@ class DeepTruth:
 
     def pseudorange(self, t: float, k: int, sat_pos: np.ndarray) -> np.ndarray:
         r = self.receiver_state(t)[0]
-        return np.linalg.norm(sat_pos[None] - r[:, None], axis=-1) + self.clock_m[k, :, 0][:, None]
+        rho = _geometric_range(sat_pos, r) + self.clock_m[k, :, 0][:, None]
+        if self.range_error_m is not None:
+            rho = rho + self.range_error_m(np.asarray(t, float))[0]
+        return rho
 
     def pseudoranges(self, k0: int, k1: int, sat_pos: np.ndarray) -> np.ndarray:
         """`pseudorange` at the epoch edges ``k0 .. k1 - 1`` at once, ``(k1 - k0, runs, ch)``.
@@ -116,7 +125,18 @@ class DeepTruth:
             r = np.asarray(self.receiver_positions(t), float)
         else:
             r = np.stack([np.asarray(self.receiver_state(ti)[0], float) for ti in t])
-        return np.linalg.norm(sat_pos[:, None] - r[:, :, None], axis=-1) + self.clock_m[k0:k1, :, 0][..., None]
+        rho = _geometric_range(sat_pos, r) + self.clock_m[k0:k1, :, 0][..., None]
+        if self.range_error_m is not None:
+            rho = rho + self.range_error_m(t)[0]
+        return rho
+
+    def carrier_minus_code_m(self, k0: int, k1: int) -> np.ndarray | None:
+        """Carrier range minus code range at the edges ``k0 .. k1 - 1`` ``(k1 - k0, runs, ch)``
+        (twice the ionospheric advance), or None without range errors."""
+        if self.range_error_m is None:
+            return None
+        code, carrier = self.range_error_m(np.arange(k0, k1) * self.coherent_time_s)
+        return carrier - code
 
 
 class Navigator(Protocol):
@@ -203,7 +223,7 @@ def run_aided_tracking(
     K = truth.epochs
     runs = truth.clock_m.shape[1]
     sat_at = _EdgeStates(truth, K)
-    n_ch = sat_at(0)[0].shape[0]
+    n_ch = sat_at(0)[0].shape[-2]  # satellites (ch, 3), or (runs, ch, 3) with a geometry per run
     batch = (runs, n_ch)
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
     # Per-run constants of the correlator draws (tap noise root, amplitude) once, not per interval:
@@ -360,14 +380,17 @@ def _aided_block(sat_at, k0: int, n: int, T: float, n_upd: int, sched_range, sch
     end, rate and slope (``None`` at the start: no shift).
     """
     true_rho = np.stack([sat_at.pseudorange(k0 + i) for i in range(n + 1)])
+    carrier_rho = true_rho
+    if sat_at.truth.range_error_m is not None:  # the carrier range differs from the code's (ionosphere)
+        carrier_rho = true_rho + np.stack([sat_at.carrier_minus_code(k0 + i) for i in range(n + 1)])
     nco_range, nco_rate = sched_range[:n], sched_rate[:n]
     rep_end = nco_range + nco_rate * T
     code_err = 0.5 * ((true_rho[:-1] - nco_range) + (true_rho[1:] - rep_end)) / CA_CHIP_LENGTH_M
     f_rep = -nco_rate / L1_WAVELENGTH_M
     # carrier_rep + the increments one after the other (accumulate adds in sequence, as the loop did).
     carrier = np.add.accumulate(np.concatenate([carrier_rep[None], 2 * np.pi * f_rep * T]), axis=0)
-    ph0 = theta0 - 2 * np.pi * true_rho[:-1] / L1_WAVELENGTH_M - carrier[:-1]
-    ph1 = theta0 - 2 * np.pi * true_rho[1:] / L1_WAVELENGTH_M - carrier[1:]
+    ph0 = theta0 - 2 * np.pi * carrier_rho[:-1] / L1_WAVELENGTH_M - carrier[:-1]
+    ph1 = theta0 - 2 * np.pi * carrier_rho[1:] / L1_WAVELENGTH_M - carrier[1:]
     freq_err = (ph1 - ph0) / (2 * np.pi * T)
     shift_chips = np.empty_like(nco_range)
     shift_chips[0] = zeros if rep_end_prev is None else (nco_range[0] - rep_end_prev) / CA_CHIP_LENGTH_M
@@ -415,6 +438,7 @@ class _EdgeStates:
         self.start = -block  # nothing evaluated yet
         self.states: tuple[np.ndarray, ...] = ()
         self.rho: np.ndarray | None = None
+        self.divergence: np.ndarray | None = None
 
     def _load(self, k: int) -> int:
         if not self.start <= k < self.start + self.block:
@@ -422,6 +446,7 @@ class _EdgeStates:
             stop = min(k + self.block, self.K + 1)
             self.states = tuple(np.asarray(a) for a in self.truth.sat_state(np.arange(k, stop) * self.T))
             self.rho = None
+            self.divergence = None
         return k - self.start
 
     def __call__(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -434,6 +459,13 @@ class _EdgeStates:
         if self.rho is None:
             self.rho = self.truth.pseudoranges(self.start, self.start + len(self.states[0]), self.states[0])
         return self.rho[i]
+
+    def carrier_minus_code(self, k: int) -> np.ndarray:
+        """Carrier minus code range error ``(runs, ch)`` at edge k (`DeepTruth.carrier_minus_code_m`)."""
+        i = self._load(k)
+        if self.divergence is None:
+            self.divergence = self.truth.carrier_minus_code_m(self.start, self.start + len(self.states[0]))
+        return self.divergence[i]
 
 
 def _check_finite(name: str, step: int, *arrays: np.ndarray) -> None:

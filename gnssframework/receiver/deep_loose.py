@@ -29,7 +29,8 @@ __all__ = ["scalar_tracking", "pv_fix", "scalar_measurement_variances", "scalar_
 
 def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz: np.ndarray, coherent_time_s: float,
                     rng: np.random.Generator, *, initial_doppler_error_hz: np.ndarray | float = 0.0,
-                    early_late_spacing_chips: float = 1.0) -> TrackingRecord:
+                    early_late_spacing_chips: float = 1.0, carrier_range_m: np.ndarray | None = None
+                    ) -> TrackingRecord:
     """Track every channel with its own scalar loop.
 
     Parameters
@@ -38,6 +39,9 @@ def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz:
         ``(K+1, runs, ch)`` true pseudorange at the epoch edges (clock included).
     initial_doppler_error_hz
         Acquisition's Doppler error added to the true initial Doppler.
+    carrier_range_m
+        ``(K+1, runs, ch)`` true range of the carrier phase when it differs from the code's
+        (the ionosphere advances one and delays the other); None: ``pseudorange_m``.
 
     Returns
     -------
@@ -46,11 +50,12 @@ def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz:
     """
     rho = np.asarray(pseudorange_m, float)
     rho0 = rho[0]
-    carrier = -2 * np.pi * (rho - rho0) / L1_WAVELENGTH_M + draw.uniform(rng, -np.pi, np.pi, rho0.shape, 0)
+    rho_c = rho if carrier_range_m is None else np.asarray(carrier_range_m, float)
+    carrier = -2 * np.pi * (rho_c - rho_c[0]) / L1_WAVELENGTH_M + draw.uniform(rng, -np.pi, np.pi, rho0.shape, 0)
     t = np.arange(rho.shape[0]).reshape((-1,) + (1,) * (rho.ndim - 1)) * coherent_time_s
     code = CA_CHIP_RATE_HZ * t - (rho - rho0) / CA_CHIP_LENGTH_M
     truth = SignalTruth(code, carrier, np.broadcast_to(np.asarray(cn0_dbhz, float), rho0.shape), coherent_time_s)
-    doppler0 = -(rho[1] - rho[0]) / coherent_time_s / L1_WAVELENGTH_M
+    doppler0 = -(rho_c[1] - rho_c[0]) / coherent_time_s / L1_WAVELENGTH_M
     return run_closed_loop(channel, truth, rng, initial_doppler_hz=doppler0 + initial_doppler_error_hz,
                            early_late_spacing_chips=early_late_spacing_chips)
 

@@ -271,16 +271,28 @@ def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTrut
     T = p.coherent_time_s
     K = truth.epochs
     t_edges = np.arange(K + 1) * T
-    sat_pos, sat_vel, _ = truth.sat_state(t_edges)  # (K+1, ch, 3)
+    sat_pos, sat_vel, _ = truth.sat_state(t_edges)  # (K+1, ch, 3), or (K+1, runs, ch, 3) per run
     r, v, _ = flight.kinematics(t_edges)  # (K+1, 3)
-    d = sat_pos - r[:, None, :]
+    if sat_pos.ndim == 4:  # a geometry per run: the receiver against each run's satellites
+        r, v = r[:, None, None, :], v[:, None, None, :]
+    else:
+        r, v = r[:, None, :], v[:, None, :]
+    d = sat_pos - r
     geo = np.linalg.norm(d, axis=-1)
-    rate = np.sum(d / geo[..., None] * (sat_vel - v[:, None, :]), axis=-1)
-    rho = geo[:, None, :] + truth.clock_m[..., 0:1]  # (K+1, runs, ch)
-    rho_rate = rate[:, None, :] + truth.clock_m[..., 1:2]
+    rate = np.sum(d / geo[..., None] * (sat_vel - v), axis=-1)
+    if sat_pos.ndim == 3:  # shared satellites: add the run axis
+        geo, rate = geo[:, None, :], rate[:, None, :]
+    rho = geo + truth.clock_m[..., 0:1]  # (K+1, runs, ch)
+    rho_rate = rate + truth.clock_m[..., 1:2]
+    carrier_rho = None
+    if truth.range_error_m is not None:  # errors of the truth the receiver's model lacks
+        code_m, carrier_m = truth.range_error_m(t_edges)
+        carrier_rho = rho + carrier_m
+        rho = rho + code_m
+        rho_rate = rho_rate + np.gradient(carrier_m, T, axis=0)  # the carrier's rate is what the loops read
     channel = plugins["channel_filter"]
     track = scalar_tracking(channel, rho, truth.cn0_dbhz, T, rng,
-                            early_late_spacing_chips=p.early_late_spacing_chips)
+                            early_late_spacing_chips=p.early_late_spacing_chips, carrier_range_m=carrier_rho)
     cp = channel.params
     window = int(round(p.rate_window_s / T))
     var_r, var_v = scalar_measurement_variances(truth.cn0_dbhz, T, getattr(cp, "dll_bandwidth_hz", 1.0),

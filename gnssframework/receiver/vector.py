@@ -52,7 +52,8 @@ class VectorTruth:
     Attributes
     ----------
     sat_state
-        ``sat_state(t) -> (pos, vel)``, each ``(*t.shape, channels, 3)`` (ECEF).
+        ``sat_state(t) -> (pos, vel)``, each ``(*t.shape, channels, 3)`` (ECEF), or
+        ``(*t.shape, runs, channels, 3)`` when every run has its own geometry.
     receiver_state
         ``receiver_state(t) -> (pos, vel)``, each ``(*t.shape, runs, 3)``.
     clock_m
@@ -61,6 +62,11 @@ class VectorTruth:
         ``(runs, channels)`` or broadcastable.
     coherent_time_s
         T.
+    range_error_m
+        Optional ``range_error_m(t) -> (code_m, carrier_m)``, each ``(*t.shape, runs,
+        channels)``: errors of the true code and carrier ranges that the receiver's model
+        does not have (ionosphere, troposphere, broadcast orbit and clock residuals,
+        `gnssframework.simulation.propagation`). None: none.
     """
 
     sat_state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -68,6 +74,7 @@ class VectorTruth:
     clock_m: np.ndarray
     cn0_dbhz: np.ndarray
     coherent_time_s: float
+    range_error_m: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
 
     @property
     def epochs(self) -> int:
@@ -78,7 +85,10 @@ class VectorTruth:
         ``sat_pos`` saves recomputing the satellite positions when the caller has them."""
         s = self.sat_state(t)[0] if sat_pos is None else sat_pos
         r, _ = self.receiver_state(t)
-        return np.linalg.norm(s[None] - r[:, None], axis=-1) + self.clock_m[k, :, 0][:, None]
+        rho = _geometric_range(s, r) + self.clock_m[k, :, 0][:, None]
+        if self.range_error_m is not None:
+            rho = rho + self.range_error_m(np.asarray(t, float))[0]
+        return rho
 
     def nav_truth(self, t: float, k: int) -> np.ndarray:
         """True navigation state ``[x, y, z, vx, vy, vz, b, d]`` at t (clock interpolated), ``(runs, 8)``."""
@@ -176,8 +186,7 @@ def run_vector_loop(
     # instead of two orbit evaluations per epoch.
     sat_edges = truth.sat_state(t_edges)
     sat_mids = truth.sat_state(t_edges[:-1] + T / 2)
-    s0 = sat_edges[0][0]
-    n_ch = s0.shape[0]
+    n_ch = sat_edges[0].shape[-2]
     batch = (runs, n_ch)
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
 
@@ -212,7 +221,11 @@ def run_vector_loop(
         # The truth of a block of epochs in a few vectorised calls: true pseudoranges and
         # carrier phases at the edges, the true navigation state at the mid-intervals.
         rho_edges, x_true = _truth_block(truth, sat_edges[0], t_edges, k0, k1)
-        phase_true = theta0 - 2 * np.pi * rho_edges / L1_WAVELENGTH_M
+        carrier_edges = rho_edges
+        if truth.range_error_m is not None:  # errors the receiver's model lacks (code and carrier differ)
+            code_m, carrier_m = truth.range_error_m(t_edges[k0:k1 + 1])
+            rho_edges, carrier_edges = rho_edges + code_m, rho_edges + carrier_m
+        phase_true = theta0 - 2 * np.pi * carrier_edges / L1_WAVELENGTH_M
         for k in range(k0, k1):
             j = k - k0
             true_rho, next_rho = rho_edges[j], rho_edges[j + 1]
@@ -274,13 +287,22 @@ def _truth_block(truth: VectorTruth, sat_pos_edges: np.ndarray, t_edges: np.ndar
     edges = np.arange(k0, k1 + 1)
     r, _ = truth.receiver_state(t_edges[k0:k1 + 1])
     s = sat_pos_edges[k0:k1 + 1]
-    rho = np.linalg.norm(s[:, None] - r[:, :, None], axis=-1) + truth.clock_m[edges, :, 0][..., None]
+    rho = _geometric_range(s, r) + truth.clock_m[edges, :, 0][..., None]
     tm = t_edges[k0:k1] + T / 2
     ks = edges[:-1]
     r, v = truth.receiver_state(tm)
     frac = ((tm / T) - ks)[:, None, None]
     clock = (1 - frac) * truth.clock_m[ks] + frac * truth.clock_m[np.minimum(ks + 1, truth.epochs)]
     return rho, np.concatenate([r, v, clock], axis=-1)
+
+
+def _geometric_range(sat_pos: np.ndarray, receiver_pos: np.ndarray) -> np.ndarray:
+    """Distances ``(..., runs, ch)`` from receivers ``(..., runs, 3)`` to satellites shared by
+    the runs ``(..., ch, 3)`` or per run ``(..., runs, ch, 3)``."""
+    s = np.asarray(sat_pos)
+    if s.ndim == np.ndim(receiver_pos):  # shared by the runs
+        s = s[..., None, :, :]
+    return np.linalg.norm(s - np.asarray(receiver_pos)[..., None, :], axis=-1)
 
 
 def _nees(err: np.ndarray, cov: np.ndarray) -> np.ndarray:

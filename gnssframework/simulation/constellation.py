@@ -16,10 +16,12 @@ from importlib import resources
 import numpy as np
 import pymap3d
 
+from .. import random_streams as draw
 from ..errors import ConfigError, DataFileError
 from ..io.text import read_input_text
 
-__all__ = ["SatelliteSet", "Constellation", "nominal_constellation", "load_almanac", "GM_EARTH", "OMEGA_EARTH"]
+__all__ = ["SatelliteSet", "Constellation", "nominal_constellation", "load_almanac", "draw_epochs", "GM_EARTH",
+           "OMEGA_EARTH"]
 
 GM_EARTH = 3.986005e14  # m^3/s^2, WGS 84 value of IS-GPS-200
 OMEGA_EARTH = 7.2921151467e-5  # rad/s
@@ -104,7 +106,13 @@ class Constellation(SatelliteSet):
         $\\Omega_0 - \\omega_E t$. Velocity and acceleration are the exact time
         derivatives of that rotating-frame position.
         """
-        t = np.asarray(t_s, dtype=float)[(...,) + (None,) * self.prn.ndim]
+        return self.state_at(np.asarray(t_s, dtype=float)[(...,) + (None,) * self.prn.ndim])
+
+    def state_at(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """As `state`, with ``t_s`` already broadcastable against the satellite arrays
+        (e.g. ``(*t.shape, runs, 1)`` for satellites ``(runs, ch)`` whose runs each have
+        their own epoch): shape ``broadcast(t_s, prn) + (3,)``."""
+        t = np.asarray(t_s, dtype=float)
         n, w, R, i = self.mean_motion_rad_s, OMEGA_EARTH, self.radius_m, self.inclination_rad
         u = self.arg_lat_rad + n * t
         lon = self.raan_rad - w * t
@@ -125,6 +133,42 @@ class Constellation(SatelliteSet):
         v = dp_rot - w * J(p)
         a = ddp_rot - 2 * w * J(dp_rot) + w * w * J(J(p))
         return p, v, a
+
+
+def draw_epochs(sats: "Constellation", rng, runs: int, lat_deg: float, lon_deg: float, height_m: float,
+                mask_deg: float, channels: int, tries: int = 64) -> tuple[np.ndarray, np.ndarray]:
+    """Each run's start epoch, uniform over the constellation's repeat period, and its satellites.
+
+    The circular-orbit constellation's geometry seen from the ground repeats every
+    sidereal day, 2 pi / omega_E = 86 164.1 s (two orbits of 11 h 58 min), so an epoch
+    uniform on that day is a geometry drawn uniformly over the day. Run r draws ``tries``
+    candidate epochs from its own stream (``draw.uniform`` with the runs on axis 0) and
+    keeps the first at which ``channels`` satellites are above ``mask_deg``: the epoch is
+    uniform over the instants with enough satellites, and run r's epoch does not depend
+    on its batch.
+
+    Returns
+    -------
+    epochs_s ``(runs,)`` and satellite indices ``(runs, channels)`` (highest first).
+
+    Raises
+    ------
+    ConfigError
+        ``scenario.channels`` when some run found no epoch with enough satellites.
+    """
+    day_s = 2 * np.pi / OMEGA_EARTH
+    cand = draw.uniform(rng, 0.0, day_s, (runs, tries), 0)
+    pos, _, _ = sats.state(cand)  # (runs, tries, S, 3)
+    _, el, _ = pymap3d.ecef2aer(pos[..., 0], pos[..., 1], pos[..., 2], lat_deg, lon_deg, height_m)
+    el = np.asarray(el)
+    enough = np.sum(el > mask_deg, axis=-1) >= channels  # (runs, tries)
+    if not np.all(enough.any(axis=1)):
+        raise ConfigError("scenario.channels", f"no epoch of {tries} drawn has {channels} satellites above the "
+                          f"{mask_deg} deg mask here; ask for fewer channels")
+    first = np.argmax(enough, axis=1)
+    rows = np.arange(runs)
+    order = np.argsort(-el[rows, first], axis=-1)
+    return cand[rows, first], order[:, :channels]
 
 
 def load_almanac(path) -> Constellation:

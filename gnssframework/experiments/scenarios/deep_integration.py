@@ -40,9 +40,11 @@ from ...receiver.deep import DeepTruth, loss_of_lock, run_aided_tracking
 from ...receiver.deep_metrics import attitude_errors_deg, enu_errors
 from ...receiver.tracking import NCO_COMMANDS
 from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_vector_loop
+from .vector_tracking import SkyRealismParams, _child, draw_residuals
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
-from ...simulation.constellation import nominal_constellation
+from ...simulation.constellation import draw_epochs, nominal_constellation
+from ...simulation.propagation import cn0_from_elevation, elevation_deg, range_error_function
 from ..limits import CoherentTime
 from ..metric_components import Mean, PostSettleMax, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
@@ -87,7 +89,10 @@ METRICS = (
 )
 
 
-class DeepIntegrationParams(ScenarioParams):
+class DeepIntegrationParams(SkyRealismParams):
+    """The flight and receiver of reference 002; the C/N0 and range-residual options of
+    `SkyRealismParams` (off by default)."""
+
     duration_s: float = Field(50.0, gt=0, le=600, description="flight length (Cai and Guo 2017: 50 s)")
     profile: Literal["pull-up", "straight", "jerk-pulse"] = Field(
         "pull-up", description="Cai and Guo's (2017) flight (level 10 s, then a pull-up), straight flight, or straight "
@@ -127,6 +132,11 @@ class DeepIntegrationParams(ScenarioParams):
     pulse_hold_s: float = Field(1.0, ge=0, description="jerk-pulse profile: time at peak acceleration")
     pulse_direction_enu: tuple[float, float, float] = Field((0.0, 0.0, 1.0), description="jerk-pulse profile: "
                                                             "direction of the acceleration (ENU at the start)")
+    geometry: Literal["fixed", "per-run"] = Field(
+        "fixed", description="fixed: every run sees the satellites at start_time_s. per-run: each run draws its "
+        "start epoch from its own stream, uniform over the nominal constellation's sidereal day (86164.1 s) among "
+        "the epochs with `channels` satellites above the mask, and tracks the highest ones then; the truth grid "
+        "then holds every run's satellites (memory grows with runs x duration_s / coherent_time_s). Default fixed")
 
 
 class DeepIntegrationCase(ScenarioParams):
@@ -247,7 +257,19 @@ class DeepIntegrationScenario(Scenario):
 
     def _truth(self, flight, cn0_dbhz: float, runs: int, rng: np.random.Generator):
         p = self.params
-        sats = self.satellites()
+        if p.geometry == "per-run":  # each run its own epoch and satellites, from its own stream
+            const = nominal_constellation()
+            start_s, index = draw_epochs(const, _child(rng, "geometry"), runs, p.lat_deg, p.lon_deg, p.height_m,
+                                         p.elevation_mask_deg, p.channels)
+            sats, start = const.subset(index), start_s[:, None]  # satellites (runs, ch), epochs (runs, 1)
+
+            def orbit(t):  # (*t.shape, runs, ch, 3)
+                return sats.state_at(start + np.asarray(t, float)[..., None, None])
+        else:
+            sats = self.satellites()
+
+            def orbit(t):
+                return sats.state(p.start_time_s + np.asarray(t))
         T = p.coherent_time_s
         K = int(round(p.duration_s / T))
         bias_s, drift = PRESETS[p.clock].simulate(K + 1, T, rng, (runs,))
@@ -255,7 +277,7 @@ class DeepIntegrationScenario(Scenario):
         # Truth on the grid of epoch edges, computed once (vectorised): the harnesses ask for it at
         # every edge, and evaluating the flight or the orbits per epoch dominated the run time.
         grid = np.arange(K + 1) * T
-        sat_grid = sats.state(p.start_time_s + grid)
+        sat_grid = orbit(grid)
         rx_grid = flight.kinematics(grid)
 
         def _on_grid(t):
@@ -266,7 +288,7 @@ class DeepIntegrationScenario(Scenario):
         def sat_state(t):
             k = _on_grid(t)
             if k is None:
-                return sats.state(p.start_time_s + np.asarray(t))
+                return orbit(t)
             return tuple(x[k] for x in sat_grid)
 
         def receiver_state(t):
@@ -275,8 +297,17 @@ class DeepIntegrationScenario(Scenario):
             shape = np.shape(t) + (runs, 3)
             return tuple(np.broadcast_to(np.asarray(x)[..., None, :], shape) for x in (pos, vel, acc))
 
-        return DeepTruth(sat_state, receiver_state, clock, np.full((runs, p.channels), cn0_dbhz), T,
-                         receiver_positions=lambda t: receiver_state(t)[0])
+        if p.cn0_model == "elevation":  # per channel, from the elevation at the start of the flight
+            el0 = elevation_deg(sat_grid[0][0], rx_grid[0][0], p.lat_deg, p.lon_deg)  # (ch,) or (runs, ch)
+            cn0 = np.broadcast_to(cn0_from_elevation(cn0_dbhz, el0), (runs, p.channels)).copy()
+        else:
+            cn0 = np.full((runs, p.channels), cn0_dbhz)
+        range_error = None
+        if p.range_residuals_on():  # errors of the truth the receiver's model lacks, from their own stream
+            range_error = range_error_function(draw_residuals(p, _child(rng, "range-errors"), runs), sat_state,
+                                               receiver_state, p.lat_deg, p.lon_deg)
+        return DeepTruth(sat_state, receiver_state, clock, cn0, T, receiver_positions=lambda t: receiver_state(t)[0],
+                         range_error_m=range_error)
 
     # --- candidates ---------------------------------------------------------------------
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
@@ -333,7 +364,7 @@ class DeepIntegrationScenario(Scenario):
         p = self.params
         T = p.coherent_time_s
         vt = VectorTruth(lambda t: truth.sat_state(t)[:2], lambda t: truth.receiver_state(t)[:2], truth.clock_m,
-                         truth.cn0_dbhz, T)
+                         truth.cn0_dbhz, T, range_error_m=truth.range_error_m)
         std = np.array([p.initial_position_std_m] * 3 + [p.initial_velocity_std_m_s] * 3 + list(p.initial_clock_std_m))
         P0 = np.diag(std**2)
         x0 = vt.nav_truth(T / 2, 0) + draw.standard_normal(rng, (runs, 8), 0) * std

@@ -20,19 +20,53 @@ from ...io.text import check_input_file
 from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
-from ...simulation.constellation import nominal_constellation
+from ...simulation.constellation import draw_epochs, nominal_constellation
+from ...simulation.propagation import cn0_from_elevation, draw_range_errors, elevation_deg, range_error_function
 from ..limits import CoherentTime
 from ..metric_components import Mean, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["VectorTrackingScenario", "METRICS", "steady_state_start_s", "BYTES_PER_EPOCH_RUN_CHANNEL"]
+__all__ = ["VectorTrackingScenario", "SkyRealismParams", "METRICS", "steady_state_start_s", "draw_residuals",
+           "BYTES_PER_EPOCH_RUN_CHANNEL"]
 
 #: Peak memory of the vector loop per epoch, run and channel (the recorded errors, NCO and
 #: truth arrays; measured about 360 B, rounded up: tests/test_limits.py).
 BYTES_PER_EPOCH_RUN_CHANNEL = 512
 
 
-class VectorTrackingParams(ScenarioParams):
+class SkyRealismParams(ScenarioParams):
+    """Scenario options shared by the vector-tracking and deep-integration scenarios: C/N0
+    from elevation, and range errors in the truth that the receiver's model lacks
+    (`gnssframework.simulation.propagation`). All off by default."""
+
+    cn0_model: Literal["constant", "elevation"] = Field(
+        "constant", description="constant: every channel at the case's cn0_dbhz (dB-Hz). elevation: the case's "
+        "cn0_dbhz is the zenith value and each channel loses the receiver antenna's attenuation towards its "
+        "satellite at the start (gps-sdr-sim's gain pattern, Ebinuma 2015: 0 dB at zenith, 2.44 dB at 50 deg, "
+        "7.56 dB at 10 deg; gnssframework.simulation.propagation). Default constant (references 000 "
+        "and 002 state one C/N0 per case)")
+    iono_vertical_residual_std_m: float = Field(
+        0.0, ge=0, le=50, description="standard deviation (m, L1) of the vertical ionospheric delay left after "
+        "the receiver's model, one Gaussian value per run common to its channels and constant over the run, "
+        "slant = the Klobuchar obliquity factor 1 + 16 (0.53 - E)^3 times it (IS-GPS-200 20.3.3.5.2.5); it "
+        "delays the code and advances the carrier. Klobuchar (1987) removes about half the delay's RMS, so "
+        "residuals of 1-5 m are common. Default 0 (off)")
+    tropo_zenith_residual_std_m: float = Field(
+        0.0, ge=0, le=2, description="standard deviation (m) of the zenith tropospheric (wet) delay left after "
+        "the receiver's model, one Gaussian value per run, constant, mapped by 1.001/sqrt(0.002001 + sin^2 E) "
+        "(RTCA DO-229; UNB3, Collins 1999, leaves a few cm). Default 0 (off)")
+    orbit_clock_residual_std_m: float = Field(
+        0.0, ge=0, le=20, description="SISRE (m): standard deviation of each satellite's broadcast orbit and "
+        "clock error along its line of sight, one Gaussian value per satellite and run, constant over the run "
+        "(GPS broadcast SISRE is below 1 m, Montenbruck et al. 2015). Default 0 (off)")
+
+    def range_residuals_on(self) -> bool:
+        """Whether any range residual is switched on."""
+        return bool(self.iono_vertical_residual_std_m or self.tropo_zenith_residual_std_m
+                    or self.orbit_clock_residual_std_m)
+
+
+class VectorTrackingParams(SkyRealismParams):
     duration_s: float = Field(30.0, gt=0, le=3600)
     coherent_time_s: CoherentTime = Field(0.01, description="T (s): whole 1 ms code periods, 1 to 20 ms; with 20 ms "
                                           "bits, 10 ms intervals stay in a bit")
@@ -56,11 +90,16 @@ class VectorTrackingParams(ScenarioParams):
     initial_velocity_std_m_s: float = Field(0.3, gt=0)
     settle_s: float = Field(1.0, ge=0, description="metrics ignore the first settle_s seconds")
     pcrb: bool | None = Field(None, description="compute the posterior Cramér-Rao bound (pcrb_position, "
-                              "pcrb_velocity); it assumes a static or constant-velocity receiver. null: yes, "
-                              "unless a trajectory_file is given")
+                              "pcrb_velocity); it assumes a static or constant-velocity receiver and one geometry. "
+                              "null: yes, unless a trajectory_file is given or geometry is per-run")
     steady_state_s: float | None = Field(None, ge=0, description="position_steady_error_rmse counts from this "
                                          "time on (after the nav filter's position has converged); null: a third "
                                          "of the run, at least settle_s")
+    geometry: Literal["fixed", "per-run"] = Field(
+        "fixed", description="fixed: every run sees the satellites at start_time_s. per-run: each run draws its "
+        "start epoch from its own stream, uniform over the nominal constellation's sidereal day (86164.1 s) among "
+        "the epochs with `channels` satellites above the mask, and tracks the highest ones then (no PCRB). "
+        "Default fixed")
 
 
     @field_validator("ephemeris_file", "trajectory_file")
@@ -75,6 +114,19 @@ class VectorTrackingParams(ScenarioParams):
 class VectorTrackingCase(ScenarioParams):
     name: str | None = None
     cn0_dbhz: float = Field(..., ge=15, le=60)
+
+
+def draw_residuals(p: SkyRealismParams, rng: Any, runs: int):
+    """Each run's range residuals (`gnssframework.simulation.propagation.draw_range_errors`)
+    at the magnitudes of the scenario options ``p``."""
+    return draw_range_errors(rng, runs, p.channels, iono_vertical_std_m=p.iono_vertical_residual_std_m,
+                             tropo_zenith_std_m=p.tropo_zenith_residual_std_m, sisre_m=p.orbit_clock_residual_std_m)
+
+
+def _child(rng, purpose: str):
+    """``rng.child(purpose)`` for per-run streams; a plain generator (the bound's geometry-only
+    truth) is used as it is."""
+    return rng.child(purpose) if isinstance(rng, draw.RunStreams) else rng
 
 
 def steady_state_start_s(scenario: Any) -> float:
@@ -139,6 +191,12 @@ class VectorTrackingScenario(Scenario):
         if params.pcrb is True and params.trajectory_file:
             raise ConfigError("scenario.pcrb", "the bound assumes a static or constant-velocity receiver; set "
                               "pcrb = false with a trajectory_file")
+        if params.geometry == "per-run" and params.ephemeris_file:
+            raise ConfigError("scenario.geometry", "per-run geometry draws epochs over the nominal constellation's "
+                              "day; a broadcast ephemeris holds only near its Toe: use geometry = \"fixed\"")
+        if params.geometry == "per-run" and params.pcrb:
+            raise ConfigError("scenario.pcrb", "the bound is computed for one geometry; set pcrb = false with "
+                              "geometry = \"per-run\"")
         if params.steady_state_s is not None and not params.settle_s <= params.steady_state_s < params.duration_s:
             raise ConfigError("scenario.steady_state_s", f"must be at least settle_s = {params.settle_s} and less "
                               f"than duration_s = {params.duration_s} (got {params.steady_state_s})")
@@ -176,7 +234,14 @@ class VectorTrackingScenario(Scenario):
             const = load_rinex_nav(p.ephemeris_file, t_s=p.start_time_s)
         else:
             const = nominal_constellation()
-        sats = const.subset(const.visible(p.start_time_s, lat, lon, height, p.elevation_mask_deg, p.channels))
+        if p.geometry == "per-run":  # each run its own epoch, from its own stream
+            start_s, index = draw_epochs(const, _child(rng, "geometry"), runs, lat, lon, height,
+                                         p.elevation_mask_deg, p.channels)
+            sats = const.subset(index)
+            start = start_s[:, None]  # (runs, 1) against the satellites (runs, ch)
+        else:
+            sats = const.subset(const.visible(p.start_time_s, lat, lon, height, p.elevation_mask_deg, p.channels))
+            start = p.start_time_s
         r0 = np.array(pymap3d.geodetic2ecef(p.lat_deg, p.lon_deg, p.height_m))
         v = np.array(pymap3d.enu2uvw(*p.velocity_enu_m_s, p.lat_deg, p.lon_deg))
         T = p.coherent_time_s
@@ -184,9 +249,14 @@ class VectorTrackingScenario(Scenario):
         bias_s, drift = PRESETS[p.clock].simulate(K + 1, T, rng, (runs,))
         clock = np.stack([bias_s, drift], -1) * SPEED_OF_LIGHT_M_S
 
-        def sat_state(t):
-            pos, vel, _ = sats.state(p.start_time_s + np.asarray(t))
-            return pos, vel
+        if p.geometry == "per-run":
+            def sat_state(t):  # (*t.shape, runs, ch, 3)
+                pos, vel, _ = sats.state_at(start + np.asarray(t, float)[..., None, None])
+                return pos, vel
+        else:
+            def sat_state(t):
+                pos, vel, _ = sats.state(start + np.asarray(t))
+                return pos, vel
 
         if traj is not None:
             def receiver_state(t):
@@ -199,7 +269,17 @@ class VectorTrackingScenario(Scenario):
                 shape = t.shape + (runs, 3)
                 return np.broadcast_to(r0 + t[..., None, None] * v, shape), np.broadcast_to(v, shape)
 
-        truth = VectorTruth(sat_state, receiver_state, clock, np.full((runs, p.channels), cn0_dbhz), T)
+        if p.cn0_model == "elevation":
+            # Elevations at the start, (runs, ch): satellites shared (ch, 3) or per run (runs, ch, 3).
+            el0 = elevation_deg(sat_state(np.asarray(0.0))[0], receiver_state(np.asarray(0.0))[0], lat, lon)
+            cn0 = cn0_from_elevation(cn0_dbhz, el0)
+        else:
+            cn0 = np.full((runs, p.channels), cn0_dbhz)
+        range_error = None
+        if p.range_residuals_on():
+            range_error = range_error_function(draw_residuals(p, _child(rng, "range-errors"), runs), sat_state,
+                                               receiver_state, lat, lon)
+        truth = VectorTruth(sat_state, receiver_state, clock, cn0, T, range_error_m=range_error)
         P0 = np.diag([p.initial_position_std_m**2] * 3 + [p.initial_velocity_std_m_s**2] * 3
                      + [p.initial_position_std_m**2, p.initial_velocity_std_m_s**2])
         x0 = truth.nav_truth(T / 2, 0) + draw.standard_normal(rng, (runs, 8), 0) @ np.sqrt(P0)
@@ -229,7 +309,7 @@ class VectorTrackingScenario(Scenario):
                   "nav_nees": rec.nees, "nav_nees_position": rec.nees_position, "nav_nees_velocity": rec.nees_velocity,
                   "code_output_error_chips": channel_rms(rec.code_output_error_chips),
                   "freq_output_error_hz": channel_rms(rec.freq_output_error_hz)}
-        if p.pcrb or (p.pcrb is None and not p.trajectory_file):
+        if p.pcrb or (p.pcrb is None and not p.trajectory_file and p.geometry == "fixed"):
             _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0)
             series["pcrb_position_m"] = np.repeat(bound_pos[:, None], runs, axis=1)
             series["pcrb_velocity_m_s"] = np.repeat(bound_vel[:, None], runs, axis=1)
@@ -247,5 +327,5 @@ class VectorTrackingScenario(Scenario):
         r0, v = truth.receiver_state(np.asarray(0.0))
         clock_q = SPEED_OF_LIGHT_M_S**2 * PRESETS[p.clock].process_noise(T)
         return vector_tracking_pcrb(lambda t: truth.sat_state(t)[0], r0[0], v[0], clock_q, P0,
-                                    np.full(p.channels, cn0_dbhz), T, K, p.early_late_spacing_chips)
+                                    np.asarray(truth.cn0_dbhz, float)[0], T, K, p.early_late_spacing_chips)
 
