@@ -245,14 +245,17 @@ channel_filter = "scalar"
 """
 
 
-def test_a_real_ctrl_c_during_a_run_ends_with_one_line_and_exit_130(tmp_path):
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_real_ctrl_c_during_a_run_ends_with_one_line_and_exit_130(tmp_path, workers):
     import signal
     import subprocess
     import sys
     import time
 
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "gnssframework", "compare", str(_config(tmp_path, LONG)),
+    # workers = 2: the pool's workers are stopped at once, not waited for (a batch takes minutes).
+    proc = subprocess.Popen([sys.executable, "-m", "gnssframework", "compare",
+                             str(_config(tmp_path, LONG.replace("workers = 1", f"workers = {workers}"))),
                              "--out", str(out), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 60

@@ -21,6 +21,7 @@ same store and resumes like the comparison.
 from __future__ import annotations
 
 import os
+from contextlib import closing
 import pickle
 import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -203,7 +204,9 @@ def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tupl
         from ..estimation import kernels_loop
 
         kernels_loop.warm_up()
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)))
+    finished = False
+    try:
         futures = {pool.submit(run_task_in_worker, d, t): i for i, (d, t) in enumerate(jobs)}
         for fut in as_completed(futures):
             i = futures[fut]
@@ -216,6 +219,19 @@ def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tupl
                     _where(jobs[i][0], jobs[i][1]), f"a worker process died ({exc}); "
                     "run with executor.workers = 1 to see the failure in this process", "BrokenProcessPool") from None
             yield i, result
+        finished = True
+    finally:
+        if finished:
+            pool.shutdown(wait=True)
+        else:  # Ctrl-C, a failure, or the consumer stopped: do not wait for the batches in flight
+            _stop(pool)
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """End a pool's workers now (their batches are lost; finished ones are in the store)."""
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
 
 
 def comparison_points(config: ComparisonConfig) -> list[tuple[str | None, ComparisonConfig]]:
@@ -274,17 +290,18 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
             from tqdm import tqdm
 
             bar = tqdm(total=len(jobs), desc=config.name, unit="batch")
-        for i, (task, metrics, series, time_s) in _execute(jobs, config.executor):
-            label, point, key = where[i]
-            case = point.cases[task.case_index].name
-            cand = point.candidates[task.candidate_index].name
-            if label is None:  # sweep points keep their metrics only (the store), not the time series
-                _save_series(out, point, task, series, time_s)
-            store.add_batch(key, case, cand, task.first_run, metrics)
-            if on_batch is not None:
-                on_batch(task)
-            if bar is not None:
-                bar.update()
+        with closing(_execute(jobs, config.executor)) as results:  # closed at once on Ctrl-C: workers stop
+            for i, (task, metrics, series, time_s) in results:
+                label, point, key = where[i]
+                case = point.cases[task.case_index].name
+                cand = point.candidates[task.candidate_index].name
+                if label is None:  # sweep points keep their metrics only (the store), not the time series
+                    _save_series(out, point, task, series, time_s)
+                store.add_batch(key, case, cand, task.first_run, metrics)
+                if on_batch is not None:
+                    on_batch(task)
+                if bar is not None:
+                    bar.update()
         if bar is not None:
             bar.close()
         return write_report(config, store, out, tuning=tuning)

@@ -44,6 +44,7 @@ every trial against each free parameter (``plots/tuning-<candidate>.png``,
 from __future__ import annotations
 
 import copy
+from contextlib import closing
 import itertools
 import json
 import math
@@ -297,9 +298,10 @@ def _run_trial(config, store, trial, execute) -> float:
             if (trial.cases[t.case_index].name, trial.candidates[t.candidate_index].name, t.first_run, t.runs)
             not in done]
     try:
-        for i, (task, metrics, _series, _time) in execute(jobs):
-            store.add_batch(key, trial.cases[task.case_index].name, trial.candidates[0].name, task.first_run,
-                            metrics)
+        with closing(execute(jobs)) as results:  # closed at once on Ctrl-C: workers stop
+            for i, (task, metrics, _series, _time) in results:
+                store.add_batch(key, trial.cases[task.case_index].name, trial.candidates[0].name, task.first_run,
+                                metrics)
     except RunFailure:
         return math.inf
     return _objective(config, store, trial)
