@@ -1,5 +1,5 @@
 """Reference 004 with psi estimated: the AR(1) estimators against their theory, and the
-multipath scenario's psi_source option."""
+multipath scenario's training record behind colored-ar1's psi_estimator."""
 
 import numpy as np
 import pytest
@@ -55,9 +55,9 @@ def test_scenario_hands_the_filter_the_training_records_estimate():
     scen = get_scenario({"kind": "multipath", "epochs": 200, "psi": 0.9, "multipath_std_m": 3.0,
                          "white_std_m": 0.5})
     rng = draw.run_streams(4, (), range(2))
-    assert scen.filter_psi({"psi": 0.8}, rng) == 0.8  # the default: the true psi
-    case = {"psi": 0.8, "psi_source": "lag1", "psi_training_epochs": 4000}
-    est = scen.filter_psi(case, rng)
+    case = {"psi": 0.8, "psi_training_epochs": 4000}
+    assert scen.filter_psi(case, rng) == 0.8  # the default: the true psi
+    est = scen.filter_psi(case, rng, "lag1")
     train = scen.simulate(1, rng.shared("psi-training"), 0.8, epochs=4000)[:, 0]
     assert est == np.mean(ar1_coefficient(train, "lag1"))
     # Theory for this record (two coordinates of 4000 epochs): rho_1 = 0.8 * 9 / 9.25,
@@ -66,15 +66,29 @@ def test_scenario_hands_the_filter_the_training_records_estimate():
     assert abs(est - rho) < 4 * np.sqrt((1 - rho**2) / 8000)
     assert abs(est - 0.8) > 0.01  # the white share's bias, 0.022, is visible
     # Same case, another batch of runs: the same estimate (the record is the case's).
-    assert scen.filter_psi(case, draw.run_streams(4, (), [1])) == est
+    assert scen.filter_psi(case, draw.run_streams(4, (), [1]), "lag1") == est
+
+
+def _candidate(estimator):
+    return {**BASE, "augmentation": {"name": "colored-ar1",
+                                     "params": {"cross_covariance": "paper", "psi_estimator": estimator}}}
 
 
 def test_estimated_psi_runs_do_not_depend_on_their_batch_and_differ_from_the_true_psi_runs():
     scen = get_scenario({"kind": "multipath", "epochs": 120, "psi": 0.9})
-    plugins = scen.build(BASE)
-    case = {"psi": 0.9, "psi_source": "lag1", "psi_training_epochs": 100}
-    three = scen.run_batch(case, plugins, 3, draw.run_streams(6, (), range(3))).metrics
-    one = scen.run_batch(case, plugins, 1, draw.run_streams(6, (), [2])).metrics
+    case = {"psi": 0.9, "psi_training_epochs": 100}
+    est = scen.build(_candidate("lag1"))
+    three = scen.run_batch(case, est, 3, draw.run_streams(6, (), range(3))).metrics
+    one = scen.run_batch(case, est, 1, draw.run_streams(6, (), [2])).metrics
     assert three["horizontal_error_rmse"][2] == pytest.approx(one["horizontal_error_rmse"][0], rel=1e-12)
-    true = scen.run_batch({"psi": 0.9}, plugins, 3, draw.run_streams(6, (), range(3))).metrics
+    true = scen.run_batch(case, scen.build(_candidate("truth")), 3, draw.run_streams(6, (), range(3))).metrics
     assert not np.allclose(true["horizontal_error_rmse"], three["horizontal_error_rmse"])
+
+
+def test_a_given_psi_ignores_the_estimator():
+    scen = get_scenario({"kind": "multipath", "epochs": 120, "psi": 0.9})
+    given = {**BASE, "augmentation": {"name": "colored-ar1", "params": {"psi": 0.7, "psi_estimator": "lag1"}}}
+    plain = {**BASE, "augmentation": {"name": "colored-ar1", "params": {"psi": 0.7}}}
+    a = scen.run_batch({}, scen.build(given), 2, draw.run_streams(1, (), range(2))).metrics
+    b = scen.run_batch({}, scen.build(plain), 2, draw.run_streams(1, (), range(2))).metrics
+    np.testing.assert_array_equal(a["horizontal_error_rmse"], b["horizontal_error_rmse"])

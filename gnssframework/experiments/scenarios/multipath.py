@@ -4,8 +4,9 @@ A static receiver's latitude and longitude (local metres) are measured every epo
 AR(1) colored multipath noise plus white noise. Candidates compose a ``nav_filter``
 (``position-ca``), an ``estimator``, and optionally a ``colored-ar1`` augmentation and a
 ``noise_adapter``; a candidate with none of these reports the measurement itself (``raw``).
-A ``colored-ar1`` without ``psi`` gets the case's true psi, or (case option
-``psi_source``) psi estimated from a training record (``gnssframework.estimation.ar1_estimate``). A candidate whose
+A ``colored-ar1`` without ``psi`` gets the case's true psi, or (its ``psi_estimator``)
+psi estimated from a training record of ``psi_training_epochs``
+(``gnssframework.estimation.ar1_estimate``). A candidate whose
 ``noise_adapter`` is ``oracle-grid`` is scored with the best fixed Q and R of its grid,
 chosen against the truth on independent training runs (an oracle bound).
 """
@@ -41,18 +42,11 @@ class MultipathParams(ScenarioParams):
 class MultipathCase(ScenarioParams):
     name: str | None = None
     psi: float | None = Field(None, gt=-1, lt=1, description="AR(1) coefficient of this case (default: the scenario's)")
-    psi_source: Literal["true", "lag1", "lag-ratio"] = Field(
-        "true",
-        description="the psi a colored-ar1 without psi is given: 'true' (default; the case's psi, the paper's "
-        "assumption), or estimated (one value, the mean over latitude and longitude) from a training record of psi_training_epochs measurements "
-        "(static receiver, the same noise law, independent of the evaluated runs): 'lag1', the lag-1 sample "
-        "autocorrelation (biased low by the white share and by (1 + 4 psi)/n; Marriott & Pope 1954), or "
-        "'lag-ratio', lag-2 over lag-1 autocovariance (consistent under added white noise, noisier; Box & "
-        "Jenkins ARMA(1,1)); see gnssframework.estimation.ar1_estimate")
     psi_training_epochs: int = Field(
         500, ge=20, le=1_000_000,
-        description="length in epochs of the training record psi is estimated from (default 500, the paper's "
-        "record length); unused when psi_source is 'true'")
+        description="length in epochs of the training record from which a colored-ar1 with psi_estimator "
+        "'lag1' or 'lag-ratio' gets psi (default 500, the paper's record length): the same noise law, drawn "
+        "independently of the evaluated runs")
 
 
 #: The scenario's metrics, each declared once as a component (name, unit, the series it
@@ -107,27 +101,29 @@ class MultipathScenario(Scenario):
     #: Bound on an estimated |psi| (measurement differencing needs |psi| < 1).
     PSI_BOUND = 0.999
 
-    def filter_psi(self, case: dict, rng: draw.RunStreams) -> float:
-        """The psi a ``colored-ar1`` without psi is given in ``case``: the true one, or
-        its estimate from a training record drawn from the case's shared stream (the same
-        for every batch, independent of the evaluated runs): the mean of the latitude
+    def filter_psi(self, case: dict, rng: draw.RunStreams, estimator: str = "truth") -> float:
+        """The psi a ``colored-ar1`` without psi is given in ``case``: the true one
+        (``estimator = "truth"``), or its estimate (``"lag1"``, ``"lag-ratio"``;
+        `gnssframework.estimation.ar1_estimate`) from a training record of
+        ``psi_training_epochs`` drawn from the case's shared stream (the same for every
+        batch and candidate, independent of the evaluated runs): the mean of the latitude
         and longitude records' estimates (the two share the noise law), clipped to
         +-``PSI_BOUND``."""
         c = self.CaseParams.model_validate(case)
         psi = self.params.psi if c.psi is None else c.psi
-        if c.psi_source == "true":
+        if estimator == "truth":
             return psi
         train = self.simulate(1, rng.shared("psi-training"), psi, epochs=c.psi_training_epochs)[:, 0]  # (n, 2)
-        est = np.mean(ar1_coefficient(train, c.psi_source))  # both coordinates share the noise law
+        est = np.mean(ar1_coefficient(train, estimator))  # both coordinates share the noise law
         return float(np.clip(est, -self.PSI_BOUND, self.PSI_BOUND))
 
-    @staticmethod
-    def _with_true_psi(plugins: dict, psi: float) -> dict:
-        """A ``colored-ar1`` without psi gets the case's (the true one unless the case's
-        ``psi_source`` estimates it)."""
+    def _with_psi(self, plugins: dict, case: dict, rng: draw.RunStreams) -> dict:
+        """A ``colored-ar1`` without psi gets the case's true psi, or its estimate when the
+        augmentation's ``psi_estimator`` asks for one (`filter_psi`)."""
         aug = plugins.get("augmentation")
         if aug is None or getattr(aug.params, "psi", 0.0) is not None:
             return plugins
+        psi = self.filter_psi(case, rng, getattr(aug.params, "psi_estimator", "truth"))
         return {**plugins, "augmentation": registry.create("augmentation", aug.name,
                                                            **{**dict(aug.params), "psi": psi})}
 
@@ -176,7 +172,7 @@ class MultipathScenario(Scenario):
         p = self.params
         psi = p.psi if case.get("psi") is None else case["psi"]
         zs = self.simulate(runs, rng, psi)  # first: every candidate sees the same measurements
-        plugins = self._with_true_psi(plugins, self.filter_psi(case, rng))
+        plugins = self._with_psi(plugins, case, rng)
         oracle = getattr(plugins.get("noise_adapter"), "name", None) == "oracle-grid"
         scales = self._oracle(plugins, psi, rng) if oracle else (1.0, 1.0)
         if oracle:
