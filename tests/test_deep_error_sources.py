@@ -44,3 +44,59 @@ def test_g_sensitivity_gives_the_closed_form_common_doppler_at_30_g():
 def test_no_g_sensitivity_by_default():
     scen = _scen()
     assert scen.g_sensitivity_frequency_error(scen.flight(), np.array([2.0])) is None
+
+
+# --- IMU cross-axis misalignment -----------------------------------------------------------
+
+from gnssframework.inertial.imu import ImuGrade, simulate_imu  # noqa: E402
+
+MISALIGNED = ImuGrade.perfect().model_copy(update={"gyro_misalignment_mrad": 1.0, "accel_misalignment_mrad": 0.5})
+
+
+def test_misaligned_triad_measures_a_known_rotation_as_the_closed_form():
+    # A rotation of theta about body x (and a specific force along z): a triad with
+    # cross-coupling M measures (I + M) times it, i.e. theta (1, M_yx, M_zx) and
+    # f (M_xz, M_yz, 1) (Groves 2nd ed. eq. 4.18 with no scale-factor error).
+    theta, f = 0.02, 9.8 * 0.005
+    dth_true = np.tile([[theta, 0.0, 0.0]], (4, 1))
+    dv_true = np.tile([[0.0, 0.0, f]], (4, 1))
+    dth, dv, e = simulate_imu(dth_true, dv_true, 0.005, MISALIGNED, draw.run_streams(3, (), range(5)), (5,))
+    m, a = e.gyro_misalignment, e.accel_misalignment
+    np.testing.assert_allclose(dth[2], theta * np.stack([np.ones(5), m[:, 1, 0], m[:, 2, 0]], -1), rtol=1e-12)
+    np.testing.assert_allclose(dv[2], f * np.stack([a[:, 0, 2], a[:, 1, 2], np.ones(5)], -1), rtol=1e-12)
+    assert np.all(np.abs(dth[2, :, 1:]) > 0)  # the coupling is there
+
+
+def test_misalignment_elements_have_the_grades_deviation_and_a_zero_diagonal():
+    runs = 4000
+    _, _, e = simulate_imu(np.zeros((2, 3)), np.zeros((2, 3)), 0.005, MISALIGNED, np.random.default_rng(1), (runs,))
+    off = ~np.eye(3, dtype=bool)
+    assert np.all(e.gyro_misalignment[:, ~off] == 0)
+    g = e.gyro_misalignment[:, off]  # 6 independent N(0, 1 mrad^2) per run
+    assert abs(g.std() / 1e-3 - 1) < 4 / np.sqrt(2 * g.size)
+    assert abs(g.mean()) < 4 * 1e-3 / np.sqrt(g.size)
+    assert abs(e.accel_misalignment[:, off].std() / 0.5e-3 - 1) < 4 / np.sqrt(2 * g.size)
+    assert abs(np.corrcoef(g[:, 0], g[:, 1])[0, 1]) < 4 / np.sqrt(runs)
+
+
+def test_misalignment_is_drawn_per_run_and_leaves_the_other_errors_unchanged():
+    dth_true = np.tile([[0.01, -0.02, 0.03]], (3, 1))
+    dv_true = np.tile([[0.05, 0.0, -0.04]], (3, 1))
+    grade = ImuGrade()  # Cai and Guo's biases and noise
+    tilted = grade.model_copy(update={"gyro_misalignment_mrad": 2.0, "accel_misalignment_mrad": 2.0})
+    three = simulate_imu(dth_true, dv_true, 0.005, tilted, draw.run_streams(9, (), range(3)), (3,))
+    one = simulate_imu(dth_true, dv_true, 0.005, tilted, draw.run_streams(9, (), [1]), (1,))
+    np.testing.assert_allclose(three[2].gyro_misalignment[1], one[2].gyro_misalignment[0], rtol=0, atol=0)
+    np.testing.assert_allclose(three[0][:, 1], one[0][:, 0], rtol=1e-12, atol=1e-18)
+    # Off: nothing drawn, no matrix, every other error the same draw as with it on.
+    plain = simulate_imu(dth_true, dv_true, 0.005, grade, draw.run_streams(9, (), range(3)), (3,))
+    assert plain[2].gyro_misalignment is None
+    np.testing.assert_allclose(three[0] - plain[0], np.einsum("rij,tj->tri", three[2].gyro_misalignment, dth_true),
+                               rtol=1e-9, atol=1e-18)
+
+
+def test_deep_scenario_takes_the_misalignment_in_its_imu_grade():
+    scen = _scen(imu={"gyro_misalignment_mrad": 1.0, "accel_misalignment_mrad": 0.3})
+    assert scen.params.imu.gyro_misalignment_mrad == 1.0
+    with pytest.raises(Exception, match="gyro_misalignment_mrad"):
+        _scen(imu={"gyro_misalignment_mrad": -1.0})
