@@ -21,6 +21,15 @@ class ColoredAR1Params(PluginParams):
         None, description="AR(1) coefficient of the measurement noise, one value or one per component, |psi| < 1; "
         "unset: the true coefficient, which a scenario that simulates the noise supplies (multipath)"
     )
+    psi_estimator: Literal["truth", "lag1", "lag-ratio"] = Field(
+        "truth",
+        description="with psi unset, what a scenario that simulates the noise (multipath) supplies: 'truth' "
+        "(default), the true coefficient (the paper's assumption); 'lag1', the lag-1 sample autocorrelation of a "
+        "training record of the case's psi_training_epochs measurements (biased low by the white-noise share and "
+        "by (1 + 4 psi)/n, Marriott & Pope 1954); 'lag-ratio', its lag-2 over lag-1 autocovariance (consistent "
+        "under added white noise, Box & Jenkins' ARMA(1,1), with a larger variance); "
+        "gnssframework.estimation.ar1_estimate. Ignored when psi is given"
+    )
     cross_covariance: Literal["exact", "paper"] = Field(
         "exact",
         description="'exact' keeps the w/V* cross covariance M = Q H^T (decorrelated transition); "

@@ -2,8 +2,8 @@
 
 For each gyro and accelerometer axis the measured increment over an interval ``dt`` is::
 
-    dtheta_meas = (1 + s_g) dtheta_true + (b_g + m_g[k]) dt + N_g sqrt(dt) w
-    dv_meas     = (1 + s_a) dv_true     + (b_a + m_a[k]) dt + N_a sqrt(dt) w'
+    dtheta_meas = (1 + s_g) dtheta_true + M_g dtheta_true + (b_g + m_g[k]) dt + N_g sqrt(dt) w
+    dv_meas     = (1 + s_a) dv_true     + M_a dv_true     + (b_a + m_a[k]) dt + N_a sqrt(dt) w'
 
 with ``b`` a random constant (turn-on bias, one draw per run), ``m`` a first-order
 Gauss-Markov process of steady-state deviation ``sigma_m`` and correlation time ``tau``
@@ -14,8 +14,12 @@ Random Signals and Applied Kalman Filtering*; Groves 2nd ed. sec. 4.4)::
 
 started from its stationary distribution, held constant within an interval (``dt/tau``
 is 1.7e-5 at 200 Hz), ``N`` the angle / velocity random walk (white rate noise of
-two-sided PSD ``N^2``) and ``s`` an optional random-constant scale-factor error. Every
-draw comes from the ``numpy.random.Generator`` passed in.
+two-sided PSD ``N^2``), ``s`` an optional random-constant scale-factor error and ``M``
+an optional random-constant cross-coupling matrix (zero diagonal, six independent
+off-diagonal small angles: axis non-orthogonality and mounting misalignment, Groves,
+*Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems*, 2nd ed.,
+sec. 4.4.3, where scale factors and cross-couplings form ``I + M``). Every draw comes
+from the ``numpy.random.Generator`` (or per-run streams) passed in.
 
 Reading of Cai and Guo's (2017) values. The paper gives "random constant drift 0.1 deg/h,
 first-order Markov with correlation time 300 s, Gaussian white noise *variance*
@@ -64,6 +68,14 @@ class ImuGrade(BaseModel):
     accel_markov_tau_s: float = Field(300.0, gt=0.0, description="Gauss-Markov correlation time")
     accel_vrw_mg_per_sqrt_hz: float = Field(0.01, ge=0.0, description="velocity random walk")
     accel_scale_factor_ppm: float = Field(0.0, ge=0.0, description="random-constant scale-factor error")
+    gyro_misalignment_mrad: float = Field(
+        0.0, ge=0.0, le=50.0,
+        description="random-constant cross-coupling of the gyro triad, 1-sigma of each of the six off-diagonal "
+        "elements of its small-angle misalignment matrix M_g in mrad (axis non-orthogonality and mounting "
+        "misalignment; Groves 2nd ed. sec. 4.4.3, eq. 4.18); default 0. 1 mrad = 206 arcsec")
+    accel_misalignment_mrad: float = Field(
+        0.0, ge=0.0, le=50.0,
+        description="the same for the accelerometer triad (M_a), in mrad; default 0")
 
     @property
     def gyro_bias_rad_s(self) -> float:
@@ -123,6 +135,8 @@ class ImuErrors:
     accel_bias_mps2: np.ndarray
     gyro_scale_factor: np.ndarray
     accel_scale_factor: np.ndarray
+    gyro_misalignment: np.ndarray | None = None
+    accel_misalignment: np.ndarray | None = None
 
 
 def simulate_imu(
@@ -176,4 +190,25 @@ def simulate_imu(
                          grade.gyro_markov_tau_s, grade.gyro_arw_rad_per_sqrt_s, grade.gyro_scale_factor_ppm)
     dv, ba, sa = sensor(dv_true_mps, grade.accel_bias_mps2, grade.accel_markov_sigma_mps2,
                         grade.accel_markov_tau_s, grade.accel_vrw_mps_per_sqrt_s, grade.accel_scale_factor_ppm)
-    return dth, dv, ImuErrors(bg, ba, sg, sa)
+    # Cross-axis coupling, drawn after every other error so that a grade without it draws
+    # the same numbers as before it existed: measured += M true, M with a zero diagonal.
+    mg = _misalignment(rng, const_shape, grade.gyro_misalignment_mrad)
+    ma = _misalignment(rng, const_shape, grade.accel_misalignment_mrad)
+    if mg is not None:
+        dth = dth + np.einsum("...ij,...j->...i", mg, np.broadcast_to(dtheta_true_rad, shape))
+    if ma is not None:
+        dv = dv + np.einsum("...ij,...j->...i", ma, np.broadcast_to(dv_true_mps, shape))
+    return dth, dv, ImuErrors(bg, ba, sg, sa, mg, ma)
+
+
+def _misalignment(rng, const_shape: tuple[int, ...], sigma_mrad: float) -> np.ndarray | None:
+    """Random-constant small-angle misalignment matrices ``(*batch, 3, 3)``: six independent
+    off-diagonal elements of deviation ``sigma_mrad`` (1e-3 rad), zero diagonal (the scale
+    factors are separate), or None when ``sigma_mrad`` is 0 (nothing drawn)."""
+    if sigma_mrad <= 0:
+        return None
+    off = draw.standard_normal(rng, const_shape[:-1] + (6,), 0) * (sigma_mrad * 1e-3)
+    m = np.zeros(const_shape[:-1] + (3, 3))
+    rows, cols = np.nonzero(~np.eye(3, dtype=bool))
+    m[..., rows, cols] = off
+    return m

@@ -68,23 +68,34 @@ class SignalTruth:
         carrier_phase0_rad: np.ndarray | float = 0.0,
         extra_phase_rad: np.ndarray | None = None,
         amplitude_scale: np.ndarray | float = 1.0,
+        doppler_jerk_hz_s2: np.ndarray | float = 0.0,
+        extra_cycles: np.ndarray | None = None,
     ) -> "SignalTruth":
-        """Constant Doppler rate (line-of-sight acceleration), code locked to the carrier.
+        """Polynomial line-of-sight dynamics, code locked to the carrier.
 
+        The carrier advances by ``f t + fdot t^2 / 2 + fddot t^3 / 6`` cycles (Doppler
+        ``f``, Doppler rate ``fdot`` = line-of-sight acceleration over the wavelength,
+        ``fddot`` = ``doppler_jerk_hz_s2``, line-of-sight jerk over the wavelength) plus
+        ``extra_cycles`` ``(K+1, ...)`` (any other line-of-sight motion, in carrier
+        cycles); the code follows the same range (code-carrier coherence).
         ``extra_phase_rad`` ``(K+1, ...)`` is added to the carrier phase only (e.g.
         scintillation phase, which does not affect the code).
         """
         K = int(round(duration_s / coherent_time_s))
         t = np.arange(K + 1) * coherent_time_s
         shape = np.broadcast_shapes(np.shape(doppler_hz), np.shape(doppler_rate_hz_s), np.shape(cn0_dbhz),
-                                    np.shape(code_phase0_chips), np.shape(carrier_phase0_rad))
+                                    np.shape(code_phase0_chips), np.shape(carrier_phase0_rad),
+                                    np.shape(doppler_jerk_hz_s2))
         tt = t.reshape((-1,) + (1,) * len(shape))
-        cycles = np.asarray(doppler_hz) * tt + 0.5 * np.asarray(doppler_rate_hz_s) * tt**2
+        cycles = (np.asarray(doppler_hz) * tt + 0.5 * np.asarray(doppler_rate_hz_s) * tt**2
+                  + np.asarray(doppler_jerk_hz_s2) * tt**3 / 6.0)
+        if extra_cycles is not None:
+            cycles = cycles + extra_cycles
         carrier = np.asarray(carrier_phase0_rad) + 2 * np.pi * cycles
         if extra_phase_rad is not None:
             carrier = carrier + extra_phase_rad
         code = np.asarray(code_phase0_chips) + CA_CHIP_RATE_HZ * (tt + cycles / L1_FREQ_HZ)
-        full = (K + 1,) + shape
+        full = np.broadcast_shapes((K + 1,) + shape, np.shape(cycles))
         return cls(np.broadcast_to(code, full), np.broadcast_to(carrier, np.broadcast_shapes(full, carrier.shape)),
                    cn0_dbhz, coherent_time_s, amplitude_scale)
 

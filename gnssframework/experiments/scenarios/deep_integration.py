@@ -33,6 +33,7 @@ from pydantic import Field
 
 from ... import random_streams as draw
 from ...errors import ConfigError
+from ...inertial.earth import STANDARD_GRAVITY_MPS2
 from ...interfaces import RunContext
 from ...inertial.imu import ImuGrade
 from ...inertial.trajectory import MAX_START_LAT_DEG
@@ -114,6 +115,12 @@ class DeepIntegrationParams(SkyRealismParams):
     height_m: float = 590.6
     clock: str = Field("ocxo", description="receiver clock preset (a TCXO's white frequency noise alone gives "
                        "about 16 Hz of frequency error per 1 ms interval, which no loop removes)")
+    oscillator_g_sensitivity_per_g: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0),
+        description="g-sensitivity vector Gamma of the receiver oscillator in body axes (forward, right, down), in "
+        "1/g; default 0 (none). The true clock's fractional frequency error gains Gamma . f_b / g0 (f_b the specific "
+        "force along the flight, IEEE Std 1193 / Filler 1988: typical crystals 1e-10 to 1e-8 per g; at 30 g and "
+        "1e-9/g that is 3e-8, about 47 Hz of common Doppler at L1); the receiver's clock model does not know it")
     early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0)
     initial_position_std_m: float = Field(5.0, gt=0, description="initial position error per axis (not stated "
                                           "in Cai and Guo 2017)")
@@ -255,6 +262,23 @@ class DeepIntegrationScenario(Scenario):
                  "hold_s": p.pulse_hold_s, "direction_enu": p.pulse_direction_enu}
         return make_flight(p.profile, p.lat_deg, p.lon_deg, p.height_m, p.duration_s, pulse=pulse)
 
+    def g_sensitivity_frequency_error(self, flight, t_s: np.ndarray) -> np.ndarray | None:
+        """The oscillator's fractional frequency error from acceleration, ``Gamma . f_b / g0``
+        at times ``t_s`` (None when ``oscillator_g_sensitivity_per_g`` is zero).
+
+        The frequency of a crystal under a specific force ``f`` shifts by
+        ``Gamma . f / g0`` (IEEE Std 1193-2003, the g-sensitivity vector ``Gamma`` in 1/g;
+        Filler, "The acceleration sensitivity of quartz crystal oscillators: a review",
+        IEEE Trans. UFFC 35(3), 1988). The truth's clock drift gains it and its bias its
+        integral (trapezoid over the grid), so every channel sees the same Doppler
+        ``f_L1 Gamma . f / g0``.
+        """
+        gamma = np.asarray(self.params.oscillator_g_sensitivity_per_g, float)
+        if not np.any(gamma):
+            return None
+        f_b = flight.truth(np.asarray(t_s, float)).specific_force_b_mps2
+        return f_b @ gamma / STANDARD_GRAVITY_MPS2
+
     def _truth(self, flight, cn0_dbhz: float, runs: int, rng: np.random.Generator):
         p = self.params
         if p.geometry == "per-run":  # each run its own epoch and satellites, from its own stream
@@ -273,6 +297,10 @@ class DeepIntegrationScenario(Scenario):
         T = p.coherent_time_s
         K = int(round(p.duration_s / T))
         bias_s, drift = PRESETS[p.clock].simulate(K + 1, T, rng, (runs,))
+        y_g = self.g_sensitivity_frequency_error(flight, np.arange(K + 1) * T)
+        if y_g is not None:  # truth only: the receiver's clock model does not know it
+            drift = drift + y_g[:, None]
+            bias_s = bias_s + np.concatenate([[0.0], np.cumsum(0.5 * T * (y_g[1:] + y_g[:-1]))])[:, None]
         clock = np.stack([bias_s, drift], -1) * SPEED_OF_LIGHT_M_S
         # Truth on the grid of epoch edges, computed once (vectorised): the harnesses ask for it at
         # every edge, and evaluating the flight or the orbits per epoch dominated the run time.

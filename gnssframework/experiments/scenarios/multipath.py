@@ -4,14 +4,16 @@ A static receiver's latitude and longitude (local metres) are measured every epo
 AR(1) colored multipath noise plus white noise. Candidates compose a ``nav_filter``
 (``position-ca``), an ``estimator``, and optionally a ``colored-ar1`` augmentation and a
 ``noise_adapter``; a candidate with none of these reports the measurement itself (``raw``).
-A ``colored-ar1`` without ``psi`` gets the case's true psi. A candidate whose
+A ``colored-ar1`` without ``psi`` gets the case's true psi, or (its ``psi_estimator``)
+psi estimated from a training record of ``psi_training_epochs``
+(``gnssframework.estimation.ar1_estimate``). A candidate whose
 ``noise_adapter`` is ``oracle-grid`` is scored with the best fixed Q and R of its grid,
 chosen against the truth on independent training runs (an oracle bound).
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -20,6 +22,7 @@ from ... import random_streams as draw
 from ... import registry
 from ...errors import ConfigError
 from ...estimation import Gaussian, LinearModel, filter_sequence
+from ...estimation.ar1_estimate import ar1_coefficient
 from ...simulation.impairments import ar1_noise
 from ..metric_components import ConvergenceEpoch, MeanAbs, Rmse, convergence_epoch, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
@@ -53,6 +56,11 @@ class MultipathParams(ScenarioParams):
 class MultipathCase(ScenarioParams):
     name: str | None = None
     psi: float | None = Field(None, gt=-1, lt=1, description="AR(1) coefficient of this case (default: the scenario's)")
+    psi_training_epochs: int = Field(
+        500, ge=20, le=1_000_000,
+        description="length in epochs of the training record from which a colored-ar1 with psi_estimator "
+        "'lag1' or 'lag-ratio' gets psi (default 500, the paper's record length): the same noise law, drawn "
+        "independently of the evaluated runs")
 
 
 #: The scenario's metrics, each declared once as a component (name, unit, the series it
@@ -101,20 +109,43 @@ class MultipathScenario(Scenario):
             raise ConfigError(f"{where}.nav_filter.name", f"{plugins['nav_filter'].name!r} cannot filter a position "
                               "sequence; use 'position-ca'")
 
-    def simulate(self, runs: int, rng: np.random.Generator, psi: float | None = None) -> np.ndarray:
-        """Measured (lat, lon) errors in metres, ``(K, runs, 2)``; the truth is 0."""
+    def simulate(self, runs: int, rng: np.random.Generator, psi: float | None = None,
+                 epochs: int | None = None) -> np.ndarray:
+        """Measured (lat, lon) errors in metres, ``(epochs, runs, 2)`` (default: the
+        scenario's epochs); the truth is 0."""
         p = self.params
         psi = p.psi if psi is None else psi
+        epochs = p.epochs if epochs is None else epochs
         xi_std = p.multipath_std_m * np.sqrt(1 - psi**2)
-        colored = ar1_noise(psi, xi_std, p.epochs, rng, batch_shape=(runs, 2))
-        return colored + p.white_std_m * draw.standard_normal(rng, (p.epochs, runs, 2), 1)
+        colored = ar1_noise(psi, xi_std, epochs, rng, batch_shape=(runs, 2))
+        return colored + p.white_std_m * draw.standard_normal(rng, (epochs, runs, 2), 1)
 
-    @staticmethod
-    def _with_true_psi(plugins: dict, psi: float) -> dict:
-        """A ``colored-ar1`` without psi gets the simulated one (the paper assumes psi known)."""
+    #: Bound on an estimated |psi| (measurement differencing needs |psi| < 1).
+    PSI_BOUND = 0.999
+
+    def filter_psi(self, case: dict, rng: draw.RunStreams, estimator: str = "truth") -> float:
+        """The psi a ``colored-ar1`` without psi is given in ``case``: the true one
+        (``estimator = "truth"``), or its estimate (``"lag1"``, ``"lag-ratio"``;
+        `gnssframework.estimation.ar1_estimate`) from a training record of
+        ``psi_training_epochs`` drawn from the case's shared stream (the same for every
+        batch and candidate, independent of the evaluated runs): the mean of the latitude
+        and longitude records' estimates (the two share the noise law), clipped to
+        +-``PSI_BOUND``."""
+        c = self.CaseParams.model_validate(case)
+        psi = self.params.psi if c.psi is None else c.psi
+        if estimator == "truth":
+            return psi
+        train = self.simulate(1, rng.shared("psi-training"), psi, epochs=c.psi_training_epochs)[:, 0]  # (n, 2)
+        est = np.mean(ar1_coefficient(train, estimator))  # both coordinates share the noise law
+        return float(np.clip(est, -self.PSI_BOUND, self.PSI_BOUND))
+
+    def _with_psi(self, plugins: dict, case: dict, rng: draw.RunStreams) -> dict:
+        """A ``colored-ar1`` without psi gets the case's true psi, or its estimate when the
+        augmentation's ``psi_estimator`` asks for one (`filter_psi`)."""
         aug = plugins.get("augmentation")
         if aug is None or getattr(aug.params, "psi", 0.0) is not None:
             return plugins
+        psi = self.filter_psi(case, rng, getattr(aug.params, "psi_estimator", "truth"))
         return {**plugins, "augmentation": registry.create("augmentation", aug.name,
                                                            **{**dict(aug.params), "psi": psi})}
 
@@ -163,7 +194,7 @@ class MultipathScenario(Scenario):
         p = self.params
         psi = p.psi if case.get("psi") is None else case["psi"]
         zs = self.simulate(runs, rng, psi)  # first: every candidate sees the same measurements
-        plugins = self._with_true_psi(plugins, psi)
+        plugins = self._with_psi(plugins, case, rng)
         oracle = getattr(plugins.get("noise_adapter"), "name", None) == "oracle-grid"
         scales = self._oracle(plugins, psi, rng) if oracle else (1.0, 1.0)
         if oracle:

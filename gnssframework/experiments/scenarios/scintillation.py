@@ -22,6 +22,7 @@ from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...receiver.loop_bandwidth import equivalent_bandwidth_hz
 from ...receiver.tracking import NCO_COMMANDS, SignalTruth, check_closed_loop, run_closed_loop
+from ...signal.constants import L1_WAVELENGTH_M
 from ...simulation import scintillation as scint
 from ..limits import CoherentTime
 from ..metric_components import LockLossFraction, Mean, Rmse, Std, evaluate, units
@@ -58,6 +59,24 @@ class ScintillationCase(ScenarioParams):
                                                  "periods, 1 to 20 ms; default: the scenario's); the candidates' "
                                                  "loops are re-created at this T")
     duration_s: float | None = Field(None, gt=0, le=3600, description="duration of this case (default: the scenario's)")
+    # Line-of-sight dynamics in the truth's carrier (and code) phase; all off by default,
+    # so a case without them is the static receiver of the reference.
+    doppler_rate_hz_s: float | None = Field(
+        None, ge=-1000, le=1000,
+        description="constant Doppler rate of this case in Hz/s (line-of-sight acceleration / L1 wavelength; "
+        "1 Hz/s = 0.19 m/s^2); default: the scenario's doppler_rate_hz_s (0). A 2nd-order loop lags it by "
+        "2 pi fdot / omega_n^2 rad (Kaplan & Hegarty, Understanding GPS/GNSS, 3rd ed., PLL steady-state errors)")
+    doppler_jerk_hz_s2: float = Field(
+        0.0, ge=-100, le=100,
+        description="constant rate of change of the Doppler rate in Hz/s^2 (line-of-sight jerk / L1 wavelength); "
+        "default 0; the carrier gains fddot t^3 / 6 cycles, a ramp error for a 2nd-order loop")
+    los_sine_amplitude_m: float = Field(
+        0.0, ge=0, le=100,
+        description="amplitude in metres of a sinusoidal platform motion along the line of sight, default 0 "
+        "(none); the carrier gains (A / lambda_L1) sin(2 pi f t) cycles")
+    los_sine_frequency_hz: float = Field(
+        0.5, gt=0, le=20,
+        description="frequency in Hz of that sinusoidal motion, default 0.5 Hz (a vibration or a sway)")
 
 
 def _ref_free(value):
@@ -158,21 +177,44 @@ class ScintillationScenario(Scenario):
         params = _ref_free(channel.params.model_dump(mode="json"))
         return registry.create("channel_filter", channel.name, **{**params, "coherent_time_s": T})
 
-    def run_batch(self, case, plugins, runs, rng) -> BatchResult:
-        rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
+    def truth(self, case: dict, runs: int, rng) -> tuple[SignalTruth, np.ndarray]:
+        """The case's signal truth and its scintillation phase ``(K+1, runs)`` (rad).
+
+        The carrier phase is the line-of-sight dynamics (constant Doppler, the case's
+        Doppler rate and jerk, its sinusoidal motion; ``SignalTruth.from_dynamics``) plus
+        the scintillation phase; the amplitude is the scintillation's.
+        """
+        rng = draw.as_run_streams(rng, runs)
         p = self.params
         c = self.CaseParams.model_validate(case).model_dump()
         T = c["coherent_time_s"] or p.coherent_time_s
         duration_s = c["duration_s"] or p.duration_s
         cn0_dbhz = p.cn0_dbhz if c["cn0_dbhz"] is None else c["cn0_dbhz"]
-        channel = self.at_interval(plugins["channel_filter"], T)
         K = int(round(duration_s / T))
         z = self._scintillation(c, runs, rng, T, duration_s)[: K + 1]
         phase = np.unwrap(np.angle(z), axis=0)
+        phase = phase - phase[0]
+        rate = p.doppler_rate_hz_s if c["doppler_rate_hz_s"] is None else c["doppler_rate_hz_s"]
+        sway = None
+        if c["los_sine_amplitude_m"] > 0:
+            t = np.arange(K + 1)[:, None] * T
+            sway = c["los_sine_amplitude_m"] / L1_WAVELENGTH_M * np.sin(2 * np.pi * c["los_sine_frequency_hz"] * t)
         truth = SignalTruth.from_dynamics(duration_s, T, cn0_dbhz,
                                           doppler_hz=np.full(runs, p.doppler_hz),
-                                          doppler_rate_hz_s=p.doppler_rate_hz_s,
-                                          extra_phase_rad=phase - phase[0], amplitude_scale=np.abs(z[:K]))
+                                          doppler_rate_hz_s=rate, doppler_jerk_hz_s2=c["doppler_jerk_hz_s2"],
+                                          extra_cycles=sway,
+                                          extra_phase_rad=phase, amplitude_scale=np.abs(z[:K]))
+        return truth, phase
+
+    def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
+        p = self.params
+        c = self.CaseParams.model_validate(case).model_dump()
+        T = c["coherent_time_s"] or p.coherent_time_s
+        channel = self.at_interval(plugins["channel_filter"], T)
+        truth, _ = self.truth(case, runs, rng)
+        K = truth.epochs
+        # The receiver knows the initial Doppler only (acquisition), not the dynamics.
         rec = run_closed_loop(channel, truth, rng, initial_doppler_hz=p.doppler_hz, record=("phase_disc_rad",))
         t = (np.arange(K) + 0.5) * T
         # Costas loops are blind to half cycles: wrap errors to (-pi/2, pi/2].

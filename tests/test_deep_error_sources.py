@@ -1,0 +1,102 @@
+"""Reference 002's error sources a reviewer expects: oscillator g-sensitivity in the truth's
+clock, IMU cross-axis misalignment; each against its closed form."""
+
+import numpy as np
+import pytest
+
+from gnssframework import random_streams as draw
+from gnssframework.experiments import get_scenario
+
+G0_M_S2, C_M_S, F_L1_HZ = 9.80665, 299_792_458.0, 1575.42e6
+PULSE = {"profile": "jerk-pulse", "duration_s": 5.0, "settle_s": 1.0, "pulse_accel_g": 30.0, "pulse_jerk_g_s": 50.0,
+         "pulse_start_s": 1.0, "pulse_hold_s": 1.5, "pulse_direction_enu": (0.0, 0.0, 1.0)}
+
+
+def _scen(**params):
+    return get_scenario({"kind": "deep-integration", **PULSE, **params})
+
+
+def test_g_sensitivity_gives_the_closed_form_common_doppler_at_30_g():
+    # 1e-9/g along the specific force at 30 g of upward acceleration: the oscillator's
+    # fractional frequency error is 1e-9 |f| / g0 with |f| = 30 g0 + local gravity
+    # (9.797 m/s^2 at 34.2 deg, 590 m), i.e. 47.3 Hz (30 g) + 1.6 Hz (gravity) at L1.
+    # Coriolis and transport terms change |f| by < 2e-4 of it.
+    base = _scen()
+    flight = base.flight()
+    t_hold = 1.0 + 1.875 * 30.0 / 50.0 + 0.75  # middle of the hold
+    f_b = flight.truth(np.array([t_hold])).specific_force_b_mps2[0]
+    gamma = 1e-9 * f_b / np.linalg.norm(f_b)
+    scen = _scen(oscillator_g_sensitivity_per_g=tuple(gamma))
+    truth0 = base._truth(flight, 45.0, 2, draw.run_streams(7, (), range(2)))
+    truth = scen._truth(flight, 45.0, 2, draw.run_streams(7, (), range(2)))
+    d_clock = truth.clock_m - truth0.clock_m  # the oscillator noise is the same draw
+    k = int(round(t_hold / base.params.coherent_time_s))
+    doppler_hz = d_clock[k, :, 1] / (C_M_S / F_L1_HZ)
+    expected = F_L1_HZ * 1e-9 * (30.0 * G0_M_S2 + 9.797) / G0_M_S2
+    assert expected == pytest.approx(48.8, abs=0.1) and F_L1_HZ * 30e-9 == pytest.approx(47.26, abs=0.01)
+    np.testing.assert_allclose(doppler_hz, expected, rtol=5e-4)
+    # The bias is the drift's integral: Gamma . (velocity increment in body axes) / g0, from
+    # the trajectory's exact (Gauss-Legendre) IMU increments, an independent integration.
+    _, dv = flight.model.increments(0.005, 1000)
+    np.testing.assert_allclose(d_clock[-1, :, 0], C_M_S * (dv.sum(axis=0) @ gamma) / G0_M_S2, rtol=1e-5)
+
+
+def test_no_g_sensitivity_by_default():
+    scen = _scen()
+    assert scen.g_sensitivity_frequency_error(scen.flight(), np.array([2.0])) is None
+
+
+# --- IMU cross-axis misalignment -----------------------------------------------------------
+
+from gnssframework.inertial.imu import ImuGrade, simulate_imu  # noqa: E402
+
+MISALIGNED = ImuGrade.perfect().model_copy(update={"gyro_misalignment_mrad": 1.0, "accel_misalignment_mrad": 0.5})
+
+
+def test_misaligned_triad_measures_a_known_rotation_as_the_closed_form():
+    # A rotation of theta about body x (and a specific force along z): a triad with
+    # cross-coupling M measures (I + M) times it, i.e. theta (1, M_yx, M_zx) and
+    # f (M_xz, M_yz, 1) (Groves 2nd ed. eq. 4.18 with no scale-factor error).
+    theta, f = 0.02, 9.8 * 0.005
+    dth_true = np.tile([[theta, 0.0, 0.0]], (4, 1))
+    dv_true = np.tile([[0.0, 0.0, f]], (4, 1))
+    dth, dv, e = simulate_imu(dth_true, dv_true, 0.005, MISALIGNED, draw.run_streams(3, (), range(5)), (5,))
+    m, a = e.gyro_misalignment, e.accel_misalignment
+    np.testing.assert_allclose(dth[2], theta * np.stack([np.ones(5), m[:, 1, 0], m[:, 2, 0]], -1), rtol=1e-12)
+    np.testing.assert_allclose(dv[2], f * np.stack([a[:, 0, 2], a[:, 1, 2], np.ones(5)], -1), rtol=1e-12)
+    assert np.all(np.abs(dth[2, :, 1:]) > 0)  # the coupling is there
+
+
+def test_misalignment_elements_have_the_grades_deviation_and_a_zero_diagonal():
+    runs = 4000
+    _, _, e = simulate_imu(np.zeros((2, 3)), np.zeros((2, 3)), 0.005, MISALIGNED, np.random.default_rng(1), (runs,))
+    off = ~np.eye(3, dtype=bool)
+    assert np.all(e.gyro_misalignment[:, ~off] == 0)
+    g = e.gyro_misalignment[:, off]  # 6 independent N(0, 1 mrad^2) per run
+    assert abs(g.std() / 1e-3 - 1) < 4 / np.sqrt(2 * g.size)
+    assert abs(g.mean()) < 4 * 1e-3 / np.sqrt(g.size)
+    assert abs(e.accel_misalignment[:, off].std() / 0.5e-3 - 1) < 4 / np.sqrt(2 * g.size)
+    assert abs(np.corrcoef(g[:, 0], g[:, 1])[0, 1]) < 4 / np.sqrt(runs)
+
+
+def test_misalignment_is_drawn_per_run_and_leaves_the_other_errors_unchanged():
+    dth_true = np.tile([[0.01, -0.02, 0.03]], (3, 1))
+    dv_true = np.tile([[0.05, 0.0, -0.04]], (3, 1))
+    grade = ImuGrade()  # Cai and Guo's biases and noise
+    tilted = grade.model_copy(update={"gyro_misalignment_mrad": 2.0, "accel_misalignment_mrad": 2.0})
+    three = simulate_imu(dth_true, dv_true, 0.005, tilted, draw.run_streams(9, (), range(3)), (3,))
+    one = simulate_imu(dth_true, dv_true, 0.005, tilted, draw.run_streams(9, (), [1]), (1,))
+    np.testing.assert_allclose(three[2].gyro_misalignment[1], one[2].gyro_misalignment[0], rtol=0, atol=0)
+    np.testing.assert_allclose(three[0][:, 1], one[0][:, 0], rtol=1e-12, atol=1e-18)
+    # Off: nothing drawn, no matrix, every other error the same draw as with it on.
+    plain = simulate_imu(dth_true, dv_true, 0.005, grade, draw.run_streams(9, (), range(3)), (3,))
+    assert plain[2].gyro_misalignment is None
+    np.testing.assert_allclose(three[0] - plain[0], np.einsum("rij,tj->tri", three[2].gyro_misalignment, dth_true),
+                               rtol=1e-9, atol=1e-18)
+
+
+def test_deep_scenario_takes_the_misalignment_in_its_imu_grade():
+    scen = _scen(imu={"gyro_misalignment_mrad": 1.0, "accel_misalignment_mrad": 0.3})
+    assert scen.params.imu.gyro_misalignment_mrad == 1.0
+    with pytest.raises(Exception, match="gyro_misalignment_mrad"):
+        _scen(imu={"gyro_misalignment_mrad": -1.0})
