@@ -10,6 +10,8 @@ of Gaussian draws, and the equivalence of a common-mode range error and a clock 
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pymap3d
 import pytest
@@ -193,7 +195,9 @@ def test_per_run_geometry_runs_the_vector_loop():
 
 @pytest.mark.parametrize("extra, field", [
     ({"geometry": "per-run", "pcrb": True}, "scenario.pcrb"),
-    ({"geometry": "per-run", "ephemeris_file": "x.rnx"}, "scenario.geometry"),
+    # a real navigation file: the file check of the field passes and the geometry rule refuses
+    ({"geometry": "per-run", "ephemeris_file": str(Path(__file__).parent / "data" / "07590920.05n")},
+     "scenario.geometry"),
 ])
 def test_per_run_geometry_refuses_what_it_cannot_do(extra, field):
     with pytest.raises(ConfigError) as exc:

@@ -42,8 +42,8 @@ class BroadcastEphemeris(SatelliteSet):
 
         n = self.prn.size
         zeros = np.zeros(n)
-        records = Ephemerides(self.prn.astype(str), zeros, {**self.elements, **{f: zeros for f in CLOCK_FIELDS}},
-                              zeros, zeros)
+        sv = np.char.add("G", np.char.zfill(self.prn.astype(int).astype(str), 2))  # GPS records: "G01"
+        records = Ephemerides(sv, zeros, {**self.elements, **{f: zeros for f in CLOCK_FIELDS}}, zeros, zeros)
         t = np.asarray(t_s, dtype=float)[..., None]
         return satellite_state(records, t).position_m
 
