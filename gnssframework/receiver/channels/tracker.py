@@ -42,6 +42,7 @@ from .batch import FilterBatch, batch_layout
 from .closure import ERROR_OUTPUTS, ErrorFeedback
 from .config import TrackingConfig
 from .correlator import code_tables, correlate_periods
+from ...signal.cn0 import cn0_moments, cn0_nwpr
 from .lock import bit_edge_from_votes, estimate_cn0, phase_lock_indicator
 
 __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
@@ -329,8 +330,12 @@ class SampleTracker:
             self.previous_prompt[idx] = sums[np.arange(idx.size), periods - 1, 1]
             interval = sums.sum(axis=1)
             self._step_filters(idx, interval)
-            for j, i in enumerate(idx):
-                self._update(self.channels[int(i) + 1], interval[j])
+            chans = [self.channels[int(i) + 1] for i in idx]
+            for c in chans:
+                self._bit_sync(c)
+            self._detect(chans)
+            for j, c in enumerate(chans):
+                self._update(c, interval[j])
             if self.batch:
                 self._join_batches(idx)
             if progress is not None:
@@ -454,18 +459,20 @@ class SampleTracker:
             b.leave(c.slot)
         c.batch = None
 
-    def _update(self, c: _Channel, acc: np.ndarray) -> None:
-        """Channel ``c``'s coherent interval is complete (its E/P/L sums ``acc``; its filter
-        has stepped): run its detectors and state machine, record the row."""
-        i = c.slot
-        t0 = float(self.acc_t0[i])
+    def _bit_sync(self, c: _Channel) -> None:
+        """Channel ``c`` in ``track``: its bit edge, once the histogram has decided it."""
         if c.stage == "track" and c.bit_edge is None:
-            edge = bit_edge_from_votes(self.votes[i], self.config.bit_sync_votes)
+            edge = bit_edge_from_votes(self.votes[c.slot], self.config.bit_sync_votes)
             if edge is not None:
                 c.bit_edge = edge
-                c.record.events.append((t0, f"bit sync (edge at ms {edge} mod 20)"))
+                c.record.events.append((float(self.acc_t0[c.slot]), f"bit sync (edge at ms {edge} mod 20)"))
+
+    def _update(self, c: _Channel, acc: np.ndarray) -> None:
+        """Channel ``c``'s coherent interval is complete (its E/P/L sums ``acc``; its filter
+        has stepped, its detectors have run): run its state machine, record the row."""
+        i = c.slot
+        t0 = float(self.acc_t0[i])
         c.stage_ms += c.coherent_ms
-        self._detect(c)
         c.record.rows.append((t0, c.cn0_dbhz, c.pli, float(self.doppler[i]), float(self.acc_phase[i]),
                               float(self.acc_cycles[i]), int(c.locked), STAGES.index(c.stage), acc[1].real,
                               acc[1].imag, c.coherent_ms))
@@ -478,24 +485,60 @@ class SampleTracker:
         n = min(n, int(self.n_prompts[i]), size)
         return self.prompts[i, (self.n_prompts[i] - n + np.arange(n)) % size]
 
-    def _detect(self, c: _Channel) -> None:
-        """Lock detectors, evaluated every `DETECT_MS` (their windows are 10-100 times longer)."""
+    def _detect(self, chans: list[_Channel]) -> None:
+        """Lock detectors of channels ``chans``, evaluated every `DETECT_MS` (their windows are
+        10-100 times longer): on arrays over the channels whose prompt window is full."""
         cfg = self.config
-        ms = int(self.ms_index[c.slot])
-        if self.n_prompts[c.slot] < min(cfg.lock_window_ms, 20):
-            c.locked = False
+        size = self.prompts.shape[1]
+        full = []
+        for c in chans:
+            ms = int(self.ms_index[c.slot])
+            if self.n_prompts[c.slot] < min(cfg.lock_window_ms, 20):
+                c.locked = False
+            elif ms >= c.next_detect:
+                c.next_detect = ms + DETECT_MS
+                if self.n_prompts[c.slot] >= size:
+                    full.append(c)
+                else:
+                    self._detect_one(c, ms)
+        if not full:
             return
-        if ms < c.next_detect:
-            return
-        c.next_detect = ms + DETECT_MS
-        c.pli = phase_lock_indicator(self._window(c, cfg.lock_window_ms))
-        prompts = self._window(c, cfg.cn0_window_ms)
-        bit_phase = None
-        if c.bit_edge is not None:  # index in the window of the first ms of a bit
-            bit_phase = (c.bit_edge - (ms - prompts.size + 1)) % 20
-        c.cn0_dbhz = estimate_cn0(prompts, cfg.cn0_estimator, bit_phase)
+        slots = np.array([c.slot for c in full])
+        win = self.prompts[slots[:, None], (self.n_prompts[slots][:, None] - size + np.arange(size)) % size]
+        lock = win[:, size - min(cfg.lock_window_ms, size):]
+        power = np.sum(lock.real**2 + lock.imag**2, axis=1)
+        pli = np.sum(lock.real**2 - lock.imag**2, axis=1) / np.where(power > 0, power, 1.0)
+        pli[power <= 0] = 0.0
+        # C/N0: the channels of one bit phase (index in the window of a bit's first ms) together.
+        phases = [self._bit_phase(c, int(self.ms_index[c.slot]), size) for c in full]
+        cn0 = np.zeros(len(full))
+        for bp in set(phases):
+            rows = [j for j, b in enumerate(phases) if b == bp]
+            if cfg.cn0_estimator == "nwpr" and bp is not None and size - bp >= 20:
+                cn0[rows] = cn0_nwpr(win[rows, bp:].T, 1e-3, m=20)
+            else:
+                cn0[rows] = cn0_moments(win[rows].T, 1e-3)
+        for j, c in enumerate(full):
+            c.pli, c.cn0_dbhz = float(pli[j]), float(cn0[j])
+            self._lock_decision(c)
+
+    @staticmethod
+    def _bit_phase(c: _Channel, ms: int, n: int) -> int | None:
+        """Index in a window of the last ``n`` prompts up to ``ms`` of the first ms of a bit."""
+        return None if c.bit_edge is None else (c.bit_edge - (ms - n + 1)) % 20
+
+    def _lock_decision(self, c: _Channel) -> None:
+        cfg = self.config
         strong = c.cn0_dbhz > cfg.cn0_threshold_dbhz
         c.locked = strong and (c.pli > cfg.pli_threshold or not c.phase_locking)
+
+    def _detect_one(self, c: _Channel, ms: int) -> None:
+        """Lock detectors of a channel whose window is not full yet."""
+        cfg = self.config
+        c.pli = phase_lock_indicator(self._window(c, cfg.lock_window_ms))
+        prompts = self._window(c, cfg.cn0_window_ms)
+        c.cn0_dbhz = estimate_cn0(prompts, cfg.cn0_estimator, self._bit_phase(c, ms, prompts.size))
+        self._lock_decision(c)
 
     def _advance(self, c: _Channel, t0: float) -> None:
         """The state machine: pull-in -> track -> extended; lost after ``loss_ms`` out of lock."""
