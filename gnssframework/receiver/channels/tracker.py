@@ -7,8 +7,10 @@ reaches the next epoch. One call of the compiled multi-channel correlator
 (1 ms, or ``coherent_ms`` after bit synchronisation) and returns every period's sums, on
 a buffer that streams the recording in blocks; a channel ahead of the others by more
 than `LAG_LIMIT_S` waits. The per-millisecond bookkeeping (prompts for the detectors,
-bit-sync votes) is done on arrays over the channels; Python runs per channel once per
-coherent interval, to step its filter. The 1 ms sums, scaled to unit-variance I and Q
+bit-sync votes), the bit wipe-off and the lock detectors are done on arrays over the
+channels, and the filters of the channels in one stage and coherent interval step as one
+batch (`batch.FilterBatch`; the channels of a batch always run together); Python runs per
+channel once per coherent interval only for its state machine and record. The 1 ms sums, scaled to unit-variance I and Q
 noise like the analytic model's (`gnssframework.signal.correlator_model`), are summed
 over the coherent interval in force and then handed to the channel filter exactly as `gnssframework.receiver.tracking`
 hands them: ``checked_step({"correlators": ...})`` once per interval, whose
