@@ -33,7 +33,8 @@ _LEAF = (np.ndarray, numbers.Number, str, bytes, type(None), bool, np.generic, t
 
 def flatten_state(obj: Any) -> dict[tuple, Any] | None:
     """``{path: leaf}`` of an object's state (attributes, dict items, list/tuple items,
-    recursively); ``None`` when it holds something that cannot be walked (a cycle)."""
+    recursively); ``None`` when an object is reached twice (a cycle, or an object shared
+    between two attributes, which merging would part)."""
     out: dict[tuple, Any] = {}
     seen: set[int] = set()
 
@@ -77,10 +78,18 @@ def batch_layout(make: Callable[[tuple[int, ...]], Any], step: Callable[[Any, in
         return None
     paths = set()
     for p, va in fa.items():
+        if p and p[-1][0] == "i" and isinstance(_get(a, p[:-1]), tuple) and _shape(va) is not None:
+            return None  # an array inside a tuple cannot be replaced
         sa, sb = _shape(va), _shape(fb[p])
         if sa is not None and sb is not None and sa[:1] == (1,) and sb == (2,) + sa[1:]:
             paths.add(p)
         elif sa != sb or (sa is None and type(va) is not type(fb[p])):
+            return None
+    # A per-channel array whose memory another path also reaches (the same array, or a view
+    # of it) would be parted by merging: such a filter steps alone.
+    arrays = [(p, v) for p, v in fa.items() if isinstance(v, np.ndarray)]
+    for p in paths:
+        if any(q != p and np.shares_memory(fa[p], v) for q, v in arrays):
             return None
     return frozenset(paths)
 
