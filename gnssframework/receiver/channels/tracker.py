@@ -286,7 +286,7 @@ class SampleTracker:
             # the last by more than LAG_LIMIT_S waits, so the buffer stays short.
             lead = self.start_sample[live]
             ok = lead <= lead.min() + lag_limit
-            if self.batches:  # a batch's channels step together: all of it runs, or none
+            if self.batches and not ok.all():  # a batch's channels step together: all of it runs, or none
                 for b in self.batches.values():
                     if len(b.slots) > 1:
                         members = np.isin(live, b.slots)
