@@ -7,8 +7,10 @@ reaches the next epoch. One call of the compiled multi-channel correlator
 (1 ms, or ``coherent_ms`` after bit synchronisation) and returns every period's sums, on
 a buffer that streams the recording in blocks; a channel ahead of the others by more
 than `LAG_LIMIT_S` waits. The per-millisecond bookkeeping (prompts for the detectors,
-bit-sync votes) is done on arrays over the channels; Python runs per channel once per
-coherent interval, to step its filter. The 1 ms sums, scaled to unit-variance I and Q
+bit-sync votes), the bit wipe-off and the lock detectors are done on arrays over the
+channels, and the filters of the channels in one stage and coherent interval step as one
+batch (`batch.FilterBatch`; the channels of a batch always run together); Python runs per
+channel once per coherent interval only for its state machine and record. The 1 ms sums, scaled to unit-variance I and Q
 noise like the analytic model's (`gnssframework.signal.correlator_model`), are summed
 over the coherent interval in force and then handed to the channel filter exactly as `gnssframework.receiver.tracking`
 hands them: ``checked_step({"correlators": ...})`` once per interval, whose
@@ -38,9 +40,11 @@ from ...signal.correlators import Correlators
 from ..acquisition.search import Acquisition, AcquisitionResult
 from ..frontend.recording import Recording
 from ..tracking import NCO_COMMANDS
+from .batch import FilterBatch, batch_layout
 from .closure import ERROR_OUTPUTS, ErrorFeedback
 from .config import TrackingConfig
 from .correlator import code_tables, correlate_periods
+from ...signal.cn0 import cn0_moments, cn0_nwpr
 from .lock import bit_edge_from_votes, estimate_cn0, phase_lock_indicator
 
 __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
@@ -95,6 +99,16 @@ def _create_filter(name: str, params: dict[str, Any], *, pll_only: bool = False)
     return registry.create("channel_filter", name, **params)
 
 
+def stage_context(c: TrackingConfig, T: float, cn0_dbhz: float, doppler_hz: float) -> RunContext:
+    """What a channel filter is reset with at the start of a stage."""
+    return RunContext(coherent_time_s=T, early_late_spacing_chips=c.early_late_spacing_chips, epoch_interval_s=T,
+                      cn0_dbhz=cn0_dbhz, doppler_hz=doppler_hz)
+
+
+def _stage_filter(c: TrackingConfig, stage: str) -> tuple[str, dict[str, Any]]:
+    return (c.pull_in_filter, c.pull_in_params) if stage == "pull-in" else (c.channel_filter, c.channel_params)
+
+
 class _Channel:
     """One satellite's channel: its stage, filter and detectors (its NCOs and sums live in
     the tracker's arrays, at slot ``prn - 1``)."""
@@ -114,18 +128,16 @@ class _Channel:
         c = self.config
         self.stage = stage
         self.coherent_ms = coherent_ms
-        name, params = (c.pull_in_filter, c.pull_in_params) if stage == "pull-in" else (c.channel_filter,
-                                                                                      c.channel_params)
+        name, params = _stage_filter(c, stage)
         self.filter = _create_filter(name, params, pll_only=stage == "extended")
         T = coherent_ms * 1e-3
         self.closure = (None if _supports(type(self.filter), *NCO_COMMANDS)
                         else ErrorFeedback(c.closure_fll_bandwidth_hz, c.closure_dll_bandwidth_hz, T))
         cn0 = self.cn0_dbhz if self.cn0_dbhz > 0 else 40.0
-        self.filter.reset((), RunContext(coherent_time_s=T, early_late_spacing_chips=c.early_late_spacing_chips,
-                                         epoch_interval_s=T, cn0_dbhz=cn0, doppler_hz=doppler_hz))
-        self.bit_sign = 1.0
-        self.last_prompt = 0j
-        self.shift = (0.0, 0.0)
+        # A batch of one: the tracker merges it into the batch of its stage (`batch`).
+        self.filter.reset((1,), stage_context(c, T, cn0, doppler_hz))
+        self.batch: FilterBatch | None = None
+        self.join_tries = 0
         self.stage_ms = 0
         if stage == "pull-in":
             self.unlocked_ms = 0
@@ -153,11 +165,16 @@ class SampleTracker:
         Used again to re-acquire lost satellites.
     backend
         Correlator backend (``"numba"``, ``"numpy"``; default: the library's).
+    batch
+        Step the filters of the channels in the same stage and coherent interval as one
+        batch (`gnssframework.receiver.channels.batch`); ``False`` steps every channel's
+        filter alone (the reference the batched stepping is tested against).
     """
 
     def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
-                 backend: str | None = None) -> None:
+                 backend: str | None = None, batch: bool = True) -> None:
         self.rec = recording
+        self.batch = batch
         self.config = config
         self.acquisition = acquisition
         self.backend = backend
@@ -186,6 +203,12 @@ class SampleTracker:
         self.votes = np.zeros((n, 20), np.int64)  # bit-sync histograms
         self.voting = np.zeros(n, bool)
         self.previous_prompt = np.zeros(n, complex)
+        self.bit_sign = np.ones(n)  # decision-directed bit wipe-off
+        self.last_prompt = np.zeros(n, complex)  # last wiped prompt handed to the filter
+        self.shift_chips = np.zeros(n)  # NCO moves of an error-output filter's closure
+        self.shift_hz = np.zeros(n)
+        self.batches: dict[tuple[str, int], FilterBatch] = {}
+        self.layouts: dict[tuple[str, int], frozenset | None] = {}
 
     def _add(self, prn: int, acq: AcquisitionResult, first_sample: int) -> None:
         ch = self.channels.get(prn)
@@ -207,8 +230,12 @@ class SampleTracker:
         self._start(ch, "pull-in", acq.doppler_hz, 1)
 
     def _start(self, ch: _Channel, stage: str, doppler_hz: float, coherent_ms: int) -> None:
+        self._leave_batch(ch)
         ch.start(stage, doppler_hz, coherent_ms)
         i = ch.slot
+        self.bit_sign[i] = 1.0
+        self.last_prompt[i] = 0j
+        self.shift_chips[i] = self.shift_hz[i] = 0.0
         self.coherent[i] = coherent_ms
         self.voting[i] = stage != "extended"
 
@@ -258,7 +285,14 @@ class SampleTracker:
             # Each channel runs its whole coherent interval per call; one that is ahead of
             # the last by more than LAG_LIMIT_S waits, so the buffer stays short.
             lead = self.start_sample[live]
-            idx = live[lead <= lead.min() + lag_limit]
+            ok = lead <= lead.min() + lag_limit
+            if self.batches and not ok.all():  # a batch's channels step together: all of it runs, or none
+                for b in self.batches.values():
+                    if len(b.slots) > 1:
+                        members = np.isin(live, b.slots)
+                        if ok[members].any():
+                            ok |= members
+            idx = live[ok]
             steps = self.code_rate[idx] / fs
             phases = self.code_phase[idx]
             periods = self.coherent[idx]
@@ -297,8 +331,15 @@ class SampleTracker:
             np.add.at(self.votes, (ch[vote], ms[vote] % 20), 1)
             self.previous_prompt[idx] = sums[np.arange(idx.size), periods - 1, 1]
             interval = sums.sum(axis=1)
-            for j, i in enumerate(idx):
-                self._update(self.channels[int(i) + 1], interval[j])
+            self._step_filters(idx, interval)
+            chans = [self.channels[int(i) + 1] for i in idx]
+            for c in chans:
+                self._bit_sync(c)
+            self._detect(chans)
+            for j, c in enumerate(chans):
+                self._update(c, interval[j])
+            if self.batch:
+                self._join_batches(idx)
             if progress is not None:
                 progress(int(lead.min()) / stop)
             if lead.min() >= next_reacq:
@@ -317,41 +358,123 @@ class SampleTracker:
                 self.records[acq.prn].events.append((at / self.fs, "re-acquired"))
                 self._add(acq.prn, acq, at)
 
-    def _update(self, c: _Channel, acc: np.ndarray) -> None:
-        """Channel ``c``'s coherent interval is complete (its E/P/L sums ``acc``): step its
-        filter, steer its NCOs, run its detectors and state machine, record the row."""
-        i = c.slot
-        t0 = float(self.acc_t0[i])
-        if c.stage == "track" and c.bit_edge is None:
-            edge = bit_edge_from_votes(self.votes[i], self.config.bit_sync_votes)
-            if edge is not None:
-                c.bit_edge = edge
-                c.record.events.append((t0, f"bit sync (edge at ms {edge} mod 20)"))
+    def _step_filters(self, idx: np.ndarray, acc: np.ndarray) -> None:
+        """The coherent intervals of channels ``idx`` are complete (their E/P/L sums ``acc``,
+        ``(len(idx), 3)``): step their filters, each batch at once, and steer their NCOs."""
         # Decision-directed bit wipe-off: a prompt turned by more than 90 degrees from the
         # previous one (more than a residual frequency error can turn it in one interval)
         # carries the other bit. Costas loops do not care; frequency discriminators on
         # consecutive prompts (FLL assist, the vector channels' FLL) would see a jump.
-        if (acc[1] * c.bit_sign * np.conj(c.last_prompt)).real < 0:
-            c.bit_sign = -c.bit_sign
-        wiped = acc * c.bit_sign
-        c.last_prompt = wiped[1]
-        corr = Correlators.trusted(np.asarray(wiped[0]), np.asarray(wiped[1]), np.asarray(wiped[2]))
-        inputs: dict[str, Any] = {"correlators": corr}
-        if c.closure is not None:
-            inputs.update(nco_shift_chips=np.asarray(c.shift[0]), nco_shift_hz=np.asarray(c.shift[1]))
-        out = c.filter.checked_step(inputs)
-        if c.closure is None:
-            self.doppler[i] = float(out["carrier_freq_hz"])
-            self.code_rate[i] = float(out["code_freq_hz"])
-            self.doppler_cycles[i] += float(out.get("carrier_phase_step_rad", 0.0)) / (2 * np.pi)
+        sign = self.bit_sign[idx]
+        sign = np.where((acc[:, 1] * sign * np.conj(self.last_prompt[idx])).real < 0, -sign, sign)
+        self.bit_sign[idx] = sign
+        wiped = acc * sign[:, None]
+        self.last_prompt[idx] = wiped[:, 1]
+        row = {int(i): j for j, i in enumerate(idx)}
+        done: set[int] = set()
+        for i in idx:
+            c = self.channels[int(i) + 1]
+            if c.batch is None:
+                self._step(c.filter, c.closure, np.array([i]), wiped[row[int(i)]][None])
+            elif id(c.batch) not in done:
+                done.add(id(c.batch))
+                slots = np.array(c.batch.slots)
+                self._step(c.batch.filter, c.closure, slots, wiped[[row[int(s)] for s in slots]])
+
+    def _step(self, filt: ChannelFilter, closure: ErrorFeedback | None, slots: np.ndarray, w: np.ndarray) -> None:
+        """One step of the filter of channels ``slots`` (its batch, in order) on their wiped sums ``w``."""
+        inputs: dict[str, Any] = {"correlators": Correlators.trusted(w[:, 0], w[:, 1], w[:, 2])}
+        if closure is not None:
+            inputs.update(nco_shift_chips=self.shift_chips[slots], nco_shift_hz=self.shift_hz[slots])
+        out = filt.checked_step(inputs)
+        if closure is None:
+            self.doppler[slots] = out["carrier_freq_hz"]
+            self.code_rate[slots] = out["code_freq_hz"]
+            if "carrier_phase_step_rad" in out:
+                self.doppler_cycles[slots] += np.asarray(out["carrier_phase_step_rad"], float) / (2 * np.pi)
         else:
-            code_step, freq_step = c.closure.moves(out)
-            c.shift = (code_step, freq_step)
-            self.doppler[i] += freq_step
-            self.code_phase[i] += code_step
-            self.code_rate[i] = CA_CHIP_RATE_HZ * (1 + self.doppler[i] / L1_FREQ_HZ)
+            code_step = closure.k_code * np.asarray(out["code_error_chips"], float)
+            freq_step = closure.k_freq * np.asarray(out["freq_error_hz"], float)
+            self.shift_chips[slots] = code_step
+            self.shift_hz[slots] = freq_step
+            self.doppler[slots] += freq_step
+            self.code_phase[slots] += code_step
+            self.code_rate[slots] = CA_CHIP_RATE_HZ * (1 + self.doppler[slots] / L1_FREQ_HZ)
+
+    def _layout(self, key: tuple[str, int]) -> frozenset | None:
+        """Per-channel state of the filter of stage ``key`` (`batch.batch_layout`), probed once."""
+        if key not in self.layouts:
+            stage, coherent_ms = key
+            cfg = self.config
+            name, params = _stage_filter(cfg, stage)
+            T = coherent_ms * 1e-3
+
+            def make(shape: tuple[int, ...]) -> ChannelFilter:
+                f = _create_filter(name, params, pll_only=stage == "extended")
+                f.reset(shape, stage_context(cfg, T, 40.0, 0.0))
+                return f
+
+            def step(f: ChannelFilter, k: int) -> None:
+                one = np.ones(k)
+                inputs: dict[str, Any] = {"correlators": Correlators.trusted((5 + 1j) * one, (10 + 2j) * one,
+                                                                              (4 - 1j) * one)}
+                if not _supports(type(f), *NCO_COMMANDS):
+                    inputs.update(nco_shift_chips=0.0 * one, nco_shift_hz=0.0 * one)
+                f.checked_step(inputs)
+
+            try:
+                self.layouts[key] = batch_layout(make, step)
+            except Exception:  # noqa: BLE001 - a filter that cannot be probed steps alone
+                self.layouts[key] = None
+        return self.layouts[key]
+
+    def _join_batches(self, idx: np.ndarray) -> None:
+        """Merge the channels of ``idx`` that step alone into the batch of their stage."""
+        for i in idx:
+            c = self.channels[int(i) + 1]
+            if c.batch is not None or not self.active[c.slot] or c.join_tries >= 3 or c.stage_ms == 0:
+                continue  # (stage_ms 0: a stage just started, its filter has not stepped yet)
+            key = (c.stage, c.coherent_ms)
+            paths = self._layout(key)
+            if paths is None:
+                c.join_tries = 3
+                continue
+            b = self.batches.get(key)
+            if b is None:
+                if not FilterBatch.fits(c.filter, paths):
+                    c.join_tries += 1
+                    continue
+                b = self.batches[key] = FilterBatch(c.filter, c.slot, paths)
+            elif not b.join(c.filter, c.slot):
+                c.join_tries += 1
+                continue
+            c.batch, c.filter = b, None
+
+    def _leave_batch(self, c: _Channel) -> None:
+        b = getattr(c, "batch", None)
+        if b is None:
+            return
+        key = next(k for k, v in self.batches.items() if v is b)
+        if len(b.slots) == 1:
+            del self.batches[key]
+        else:
+            b.leave(c.slot)
+        c.batch = None
+
+    def _bit_sync(self, c: _Channel) -> None:
+        """Channel ``c`` in ``track``: its bit edge, once the histogram has decided it."""
+        if c.stage == "track" and c.bit_edge is None:
+            edge = bit_edge_from_votes(self.votes[c.slot], self.config.bit_sync_votes)
+            if edge is not None:
+                c.bit_edge = edge
+                c.record.events.append((float(self.acc_t0[c.slot]), f"bit sync (edge at ms {edge} mod 20)"))
+
+    def _update(self, c: _Channel, acc: np.ndarray) -> None:
+        """Channel ``c``'s coherent interval is complete (its E/P/L sums ``acc``; its filter
+        has stepped, its detectors have run): run its state machine, record the row."""
+        i = c.slot
+        t0 = float(self.acc_t0[i])
         c.stage_ms += c.coherent_ms
-        self._detect(c)
         c.record.rows.append((t0, c.cn0_dbhz, c.pli, float(self.doppler[i]), float(self.acc_phase[i]),
                               float(self.acc_cycles[i]), int(c.locked), STAGES.index(c.stage), acc[1].real,
                               acc[1].imag, c.coherent_ms))
@@ -364,24 +487,60 @@ class SampleTracker:
         n = min(n, int(self.n_prompts[i]), size)
         return self.prompts[i, (self.n_prompts[i] - n + np.arange(n)) % size]
 
-    def _detect(self, c: _Channel) -> None:
-        """Lock detectors, evaluated every `DETECT_MS` (their windows are 10-100 times longer)."""
+    def _detect(self, chans: list[_Channel]) -> None:
+        """Lock detectors of channels ``chans``, evaluated every `DETECT_MS` (their windows are
+        10-100 times longer): on arrays over the channels whose prompt window is full."""
         cfg = self.config
-        ms = int(self.ms_index[c.slot])
-        if self.n_prompts[c.slot] < min(cfg.lock_window_ms, 20):
-            c.locked = False
+        size = self.prompts.shape[1]
+        full = []
+        for c in chans:
+            ms = int(self.ms_index[c.slot])
+            if self.n_prompts[c.slot] < min(cfg.lock_window_ms, 20):
+                c.locked = False
+            elif ms >= c.next_detect:
+                c.next_detect = ms + DETECT_MS
+                if self.n_prompts[c.slot] >= size:
+                    full.append(c)
+                else:
+                    self._detect_one(c, ms)
+        if not full:
             return
-        if ms < c.next_detect:
-            return
-        c.next_detect = ms + DETECT_MS
-        c.pli = phase_lock_indicator(self._window(c, cfg.lock_window_ms))
-        prompts = self._window(c, cfg.cn0_window_ms)
-        bit_phase = None
-        if c.bit_edge is not None:  # index in the window of the first ms of a bit
-            bit_phase = (c.bit_edge - (ms - prompts.size + 1)) % 20
-        c.cn0_dbhz = estimate_cn0(prompts, cfg.cn0_estimator, bit_phase)
+        slots = np.array([c.slot for c in full])
+        win = self.prompts[slots[:, None], (self.n_prompts[slots][:, None] - size + np.arange(size)) % size]
+        lock = win[:, size - min(cfg.lock_window_ms, size):]
+        power = np.sum(lock.real**2 + lock.imag**2, axis=1)
+        pli = np.sum(lock.real**2 - lock.imag**2, axis=1) / np.where(power > 0, power, 1.0)
+        pli[power <= 0] = 0.0
+        # C/N0: the channels of one bit phase (index in the window of a bit's first ms) together.
+        phases = [self._bit_phase(c, int(self.ms_index[c.slot]), size) for c in full]
+        cn0 = np.zeros(len(full))
+        for bp in set(phases):
+            rows = [j for j, b in enumerate(phases) if b == bp]
+            if cfg.cn0_estimator == "nwpr" and bp is not None and size - bp >= 20:
+                cn0[rows] = cn0_nwpr(win[rows, bp:].T, 1e-3, m=20)
+            else:
+                cn0[rows] = cn0_moments(win[rows].T, 1e-3)
+        for j, c in enumerate(full):
+            c.pli, c.cn0_dbhz = float(pli[j]), float(cn0[j])
+            self._lock_decision(c)
+
+    @staticmethod
+    def _bit_phase(c: _Channel, ms: int, n: int) -> int | None:
+        """Index in a window of the last ``n`` prompts up to ``ms`` of the first ms of a bit."""
+        return None if c.bit_edge is None else (c.bit_edge - (ms - n + 1)) % 20
+
+    def _lock_decision(self, c: _Channel) -> None:
+        cfg = self.config
         strong = c.cn0_dbhz > cfg.cn0_threshold_dbhz
         c.locked = strong and (c.pli > cfg.pli_threshold or not c.phase_locking)
+
+    def _detect_one(self, c: _Channel, ms: int) -> None:
+        """Lock detectors of a channel whose window is not full yet."""
+        cfg = self.config
+        c.pli = phase_lock_indicator(self._window(c, cfg.lock_window_ms))
+        prompts = self._window(c, cfg.cn0_window_ms)
+        c.cn0_dbhz = estimate_cn0(prompts, cfg.cn0_estimator, self._bit_phase(c, ms, prompts.size))
+        self._lock_decision(c)
 
     def _advance(self, c: _Channel, t0: float) -> None:
         """The state machine: pull-in -> track -> extended; lost after ``loss_ms`` out of lock."""
@@ -411,6 +570,7 @@ class SampleTracker:
         if c.stage == "pull-in":
             c.failures += 1
         c.stage = "lost"
+        self._leave_batch(c)
         self.active[c.slot] = False
         wait = self.config.reacquire_every_ms * 1e-3 * self.fs * 2 ** min(max(c.failures - 1, 0), 5)
         c.retry_at = int(self.start_sample[c.slot] + wait)
