@@ -452,6 +452,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     quietly."""
     args = build_parser().parse_args(argv)
     stdout, sys.stdout = sys.stdout, _QuietPipe(sys.stdout)
+    interrupted = _CtrlC()
     try:
         return int(args.func(args) or 0)
     except GnssFrameworkError as exc:
@@ -460,9 +461,44 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _fail("interrupted (Ctrl-C)" + getattr(args, "interrupt_hint", ""), 130)
     except OSError as exc:
         return _fail(os_error_message(exc), 2 if exc.errno in _PATH_ERRNOS else 1)
+    except Exception:
+        # A Ctrl-C inside a library that swallows it and fails otherwise (numba cut in the
+        # middle of compiling a kernel raises "no compiled object yet"): still an interruption.
+        if interrupted.seen:
+            return _fail("interrupted (Ctrl-C)" + getattr(args, "interrupt_hint", ""), 130)
+        raise
     finally:
+        interrupted.restore()
         sys.stdout.flush()
         sys.stdout = stdout
+
+
+class _CtrlC:
+    """Remembers a SIGINT (then raises KeyboardInterrupt as Python's default handler does)."""
+
+    def __init__(self) -> None:
+        import signal
+
+        self.seen = False
+        self._previous = None
+        if _is_main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+
+    def _handle(self, signum, frame) -> None:
+        self.seen = True
+        raise KeyboardInterrupt
+
+    def restore(self) -> None:
+        import signal
+
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+
+def _is_main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
 
 
 if __name__ == "__main__":  # pragma: no cover

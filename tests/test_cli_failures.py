@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import errno
 import os
+from pathlib import Path
 
 import pytest
 
@@ -261,6 +262,11 @@ def test_a_real_ctrl_c_during_a_run_ends_with_one_line_and_exit_130(tmp_path, wo
         deadline = time.monotonic() + 60
         while not (out / "results.sqlite").exists() and time.monotonic() < deadline:
             time.sleep(0.1)
+        if workers > 1:  # the pool's workers exist: the kernels are compiled, batches computing
+            deadline = time.monotonic() + 300
+            children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children")
+            while time.monotonic() < deadline and proc.poll() is None and not children.read_text().split():
+                time.sleep(0.2)
         time.sleep(1.0)  # computing now (the store exists before the first batch)
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=60)
