@@ -35,8 +35,8 @@ import numpy as np
 
 from .errors import ConfigError
 
-__all__ = ["RunStreams", "run_streams", "as_run_streams", "name_key", "standard_normal", "uniform", "integers",
-           "random", "choice"]
+__all__ = ["RunStreams", "run_streams", "as_run_streams", "name_key", "child", "standard_normal", "uniform",
+           "integers", "random", "choice"]
 
 
 
@@ -152,6 +152,12 @@ def as_run_streams(rng: "np.random.Generator | RunStreams | int", runs: int) -> 
 
 
 # -- draws from either kind, the runs on a named axis ----------------------------------------
+
+def child(rng: Any, purpose: str) -> Any:
+    """``rng.child(purpose)`` for :class:`RunStreams`; a plain generator is used as it is
+    (there are no per-run streams to split)."""
+    return rng.child(purpose) if isinstance(rng, RunStreams) else rng
+
 
 def standard_normal(rng: Any, size, run_axis: int = 0) -> np.ndarray:
     """``rng.standard_normal(size)``; with :class:`RunStreams`, axis ``run_axis`` holds the runs."""

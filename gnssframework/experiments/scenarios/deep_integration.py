@@ -41,7 +41,7 @@ from ...receiver.deep import DeepTruth, loss_of_lock, run_aided_tracking
 from ...receiver.deep_metrics import attitude_errors_deg, enu_errors
 from ...receiver.tracking import NCO_COMMANDS
 from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_vector_loop
-from .vector_tracking import SkyRealismParams, _child, draw_residuals
+from .vector_tracking import SkyRealismParams, draw_residuals
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import draw_epochs, nominal_constellation
@@ -283,7 +283,7 @@ class DeepIntegrationScenario(Scenario):
         p = self.params
         if p.geometry == "per-run":  # each run its own epoch and satellites, from its own stream
             const = nominal_constellation()
-            start_s, index = draw_epochs(const, _child(rng, "geometry"), runs, p.lat_deg, p.lon_deg, p.height_m,
+            start_s, index = draw_epochs(const, draw.child(rng, "geometry"), runs, p.lat_deg, p.lon_deg, p.height_m,
                                          p.elevation_mask_deg, p.channels)
             sats, start = const.subset(index), start_s[:, None]  # satellites (runs, ch), epochs (runs, 1)
 
@@ -332,7 +332,7 @@ class DeepIntegrationScenario(Scenario):
             cn0 = np.full((runs, p.channels), cn0_dbhz)
         range_error = None
         if p.range_residuals_on():  # errors of the truth the receiver's model lacks, from their own stream
-            range_error = range_error_function(draw_residuals(p, _child(rng, "range-errors"), runs), sat_state,
+            range_error = range_error_function(draw_residuals(p, draw.child(rng, "range-errors"), runs), sat_state,
                                                receiver_state, p.lat_deg, p.lon_deg)
         return DeepTruth(sat_state, receiver_state, clock, cn0, T, receiver_positions=lambda t: receiver_state(t)[0],
                          range_error_m=range_error)

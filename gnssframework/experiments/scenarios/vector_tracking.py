@@ -123,12 +123,6 @@ def draw_residuals(p: SkyRealismParams, rng: Any, runs: int):
                              tropo_zenith_std_m=p.tropo_zenith_residual_std_m, sisre_m=p.orbit_clock_residual_std_m)
 
 
-def _child(rng, purpose: str):
-    """``rng.child(purpose)`` for per-run streams; a plain generator (the bound's geometry-only
-    truth) is used as it is."""
-    return rng.child(purpose) if isinstance(rng, draw.RunStreams) else rng
-
-
 def steady_state_start_s(scenario: Any) -> float:
     """Where ``position_steady_error_rmse`` starts counting (s): ``steady_state_s``, or a
     third of the run (at least ``settle_s``)."""
@@ -235,7 +229,7 @@ class VectorTrackingScenario(Scenario):
         else:
             const = nominal_constellation()
         if p.geometry == "per-run":  # each run its own epoch, from its own stream
-            start_s, index = draw_epochs(const, _child(rng, "geometry"), runs, lat, lon, height,
+            start_s, index = draw_epochs(const, draw.child(rng, "geometry"), runs, lat, lon, height,
                                          p.elevation_mask_deg, p.channels)
             sats = const.subset(index)
             start = start_s[:, None]  # (runs, 1) against the satellites (runs, ch)
@@ -277,7 +271,7 @@ class VectorTrackingScenario(Scenario):
             cn0 = np.full((runs, p.channels), cn0_dbhz)
         range_error = None
         if p.range_residuals_on():
-            range_error = range_error_function(draw_residuals(p, _child(rng, "range-errors"), runs), sat_state,
+            range_error = range_error_function(draw_residuals(p, draw.child(rng, "range-errors"), runs), sat_state,
                                                receiver_state, lat, lon)
         truth = VectorTruth(sat_state, receiver_state, clock, cn0, T, range_error_m=range_error)
         P0 = np.diag([p.initial_position_std_m**2] * 3 + [p.initial_velocity_std_m_s**2] * 3
