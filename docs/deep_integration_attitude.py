@@ -19,8 +19,8 @@ from gnssframework.experiments.config import load_config
 from gnssframework.random_streams import name_key, run_streams
 from gnssframework.experiments.scenarios import get_scenario
 from gnssframework.inertial.frames import ned_to_ecef_matrix
-from gnssframework.receiver.deep_metrics import attitude_errors_deg
-from gnssframework.receiver.deep_strapdown import run_deep
+from gnssframework.experiments.scenarios.deep_integration_metrics import attitude_errors_deg
+from gnssframework.experiments.scenarios.deep_integration_runs import run_deep
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "deep_integration.toml"
 AXES = ("roll", "pitch", "yaw")

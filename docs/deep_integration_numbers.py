@@ -12,8 +12,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pymap3d
 
-from gnssframework.receiver.deep import DeepTruth, loss_of_lock, run_aided_tracking
-from gnssframework.receiver.deep_navigators import PvaNavigator
+from gnssframework.receiver.deep.aided_tracking import DeepTruth, loss_of_lock, run_aided_tracking
+from gnssframework.receiver.deep.navigators import PvaNavigator
 from gnssframework.registry import create
 from gnssframework.simulation.constellation import nominal_constellation
 

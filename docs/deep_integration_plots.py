@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from gnssframework.inertial.earth import STANDARD_GRAVITY_MPS2 as G0
-from gnssframework.receiver.deep_strapdown import make_flight
+from gnssframework.experiments.scenarios.deep_integration_flight import make_flight
 
 OUT = Path(__file__).parent / "img"
 CANDIDATES = ("deep", "deep-no-accel", "vector", "loose")

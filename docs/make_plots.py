@@ -16,8 +16,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import gnssframework as gf  # noqa: E402
-from gnssframework.receiver.jitter import loop_variance, pll_thermal_variance_rad2  # noqa: E402
-from gnssframework.receiver.tracking import SignalTruth, run_closed_loop  # noqa: E402
+from gnssframework.receiver.tracking.jitter import loop_variance, pll_thermal_variance_rad2  # noqa: E402
+from gnssframework.receiver.tracking.scalar import SignalTruth, run_closed_loop  # noqa: E402
 from gnssframework.signal.correlator_model import (  # noqa: E402
     amplitude_from_cn0, code_autocorrelation, correlator_mean, simulate_correlators,
 )

@@ -16,7 +16,7 @@ from gnssframework.signal.correlator_model import tap_noise_cov
 from gnssframework.signal.navdata import wipe_off
 from gnssframework.plugin import NestedFieldError, PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
-from gnssframework.receiver.loop_filters import MAX_BANDWIDTH_TIME, LoopFilter, check_bandwidth_time
+from gnssframework.receiver.tracking.loop_filters import MAX_BANDWIDTH_TIME, LoopFilter, check_bandwidth_time
 from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ, L1_WAVELENGTH_M
 from gnssframework.simulation.clock import PRESETS
 

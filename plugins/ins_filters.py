@@ -17,7 +17,7 @@ of two measurements:
   interval) single-differenced against the reference channel, the highest C/N0, with
   the correlated covariance $D R D^T$ (Cai and Guo 2017, eqs. 9-11; Groves 2013, section
   14.3.3). The receiver clock cancels; a small clock filter beside this one keeps the
-  NCOs' clock terms (`gnssframework.receiver.deep_navigators.ClockFilter`).
+  NCOs' clock terms (`gnssframework.receiver.deep.navigators.ClockFilter`).
 * ``"position-velocity"`` (loose coupling): a position and velocity fix ``(runs, 6)``
   (estimate of the GNSS solution) and its 6x6 covariance; the measurement is the INS
   minus the fix, $z = [\\delta r, \\delta v] + n$ (Groves 2013, section 14.3.1).
@@ -38,7 +38,7 @@ from gnssframework.estimation import FilterStep, Gaussian, LinearModel
 from gnssframework.interfaces import NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef
-from gnssframework.receiver.deep_measurements import POSITION, VELOCITY, integration_measurement, reference_channel
+from gnssframework.receiver.deep.measurements import POSITION, VELOCITY, integration_measurement, reference_channel
 
 __all__ = ["InsEkf", "N_ERROR_STATES"]
 

@@ -13,7 +13,7 @@ from gnssframework.estimation import (CompiledFunctions, FilterStep, Gaussian, L
 from gnssframework.interfaces import NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
-from gnssframework.receiver.vector import predicted_range
+from gnssframework.receiver.tracking.vector import predicted_range
 from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M, SPEED_OF_LIGHT_M_S
 from gnssframework.simulation.clock import PRESETS
 

@@ -49,7 +49,7 @@ def test_block_pseudoranges_equal_the_per_epoch_pseudorange(vectorised):
 
 
 def test_edge_states_pseudorange_across_block_boundaries():
-    from gnssframework.receiver.deep import _EdgeStates
+    from gnssframework.receiver.deep.aided_tracking import _EdgeStates
 
     truth, _ = _aided_setup(2, 0.05)
     T, K = truth.coherent_time_s, truth.epochs
@@ -62,8 +62,8 @@ def test_edge_states_pseudorange_across_block_boundaries():
 
 @pytest.mark.parametrize("first", [True, False])
 def test_aided_block_equals_the_per_interval_formulas(first):
-    from gnssframework.receiver.deep import _aided_block, _EdgeStates
-    from gnssframework.receiver.deep_aiding import nco_schedule
+    from gnssframework.receiver.deep.aided_tracking import _aided_block, _EdgeStates
+    from gnssframework.receiver.deep.aiding import nco_schedule
 
     truth, _ = _aided_setup(3, 0.05, accel_g=20.0, jerk=True)
     T, K = truth.coherent_time_s, truth.epochs
@@ -117,7 +117,7 @@ def test_aided_block_equals_the_per_interval_formulas(first):
 
 
 def test_aided_tracking_same_record_with_and_without_vectorised_receiver_positions():
-    from gnssframework.receiver.deep import run_aided_tracking
+    from gnssframework.receiver.deep.aided_tracking import run_aided_tracking
     from gnssframework.registry import create
     from test_deep_integration import _OffsetNavigator
 
@@ -140,7 +140,7 @@ def test_aided_tracking_same_record_with_and_without_vectorised_receiver_positio
 
 def test_strapdown_deferred_transitions_equal_the_per_interval_accumulation():
     from gnssframework.inertial import error_model
-    from gnssframework.receiver.deep_strapdown import _setup_ins
+    from gnssframework.experiments.scenarios.deep_integration_runs import _setup_ins
 
     scen, _ = _scenario_truth(runs=2, duration_s=0.3)
     ins, _ = _setup_ins(scen, scen.flight(), 2, np.random.default_rng(6))
@@ -193,8 +193,8 @@ def test_trusted_strapdown_step_equals_the_checked_step(with_prev, backend):
 
 
 def test_interval_fit_equals_the_running_sum_of_the_loop():
-    from gnssframework.receiver.deep import _aided_block, _EdgeStates, _interval_fit
-    from gnssframework.receiver.deep_aiding import nco_schedule
+    from gnssframework.receiver.deep.aided_tracking import _aided_block, _EdgeStates, _interval_fit
+    from gnssframework.receiver.deep.aiding import nco_schedule
 
     truth, _ = _aided_setup(2, 0.05, accel_g=20.0)
     T, K = truth.coherent_time_s, truth.epochs

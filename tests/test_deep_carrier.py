@@ -16,7 +16,7 @@ import pytest
 from scipy.linalg import solve_discrete_are, solve_discrete_lyapunov
 
 from gnssframework.errors import ConfigError
-from gnssframework.receiver.deep import run_aided_tracking
+from gnssframework.receiver.deep.aided_tracking import run_aided_tracking
 from gnssframework.registry import create
 from test_deep_integration import _OffsetNavigator, _aided_setup
 

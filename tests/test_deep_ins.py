@@ -14,9 +14,9 @@ import numpy as np
 from scipy.linalg import expm
 
 from gnssframework.interfaces import RunContext
-from gnssframework.receiver.deep import run_aided_tracking
-from gnssframework.receiver.deep_ins import InsNavigator, loose_update
-from gnssframework.receiver.deep_navigators import ClockFilter
+from gnssframework.receiver.deep.aided_tracking import run_aided_tracking
+from gnssframework.receiver.deep.ins_navigator import InsNavigator, loose_update
+from gnssframework.receiver.deep.navigators import ClockFilter
 from gnssframework.registry import create
 
 from test_deep_integration import _aided_setup, _iq_filter

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from gnssframework.errors import ConfigError, NumericalError
-from gnssframework.receiver.deep_aiding import line_of_sight_kinematics, nco_schedule
-from gnssframework.receiver.deep_measurements import (
+from gnssframework.receiver.deep.aiding import line_of_sight_kinematics, nco_schedule
+from gnssframework.receiver.deep.measurements import (
     difference,
     difference_operator,
     linear_update,
@@ -231,7 +231,7 @@ def test_new_information_refuses_an_interval_without_information():
 # --- metrics ------------------------------------------------------------------------------
 
 def test_enu_errors_against_the_closed_form_local_axes():
-    from gnssframework.receiver.deep_metrics import enu_errors
+    from gnssframework.experiments.scenarios.deep_integration_metrics import enu_errors
     import pymap3d
 
     lat, lon = np.radians(34.23), np.radians(108.3576)
@@ -246,7 +246,7 @@ def test_enu_errors_against_the_closed_form_local_axes():
 
 
 def test_attitude_errors_wrap_and_order_roll_pitch_yaw():
-    from gnssframework.receiver.deep_metrics import attitude_errors_deg
+    from gnssframework.experiments.scenarios.deep_integration_metrics import attitude_errors_deg
     from scipy.spatial.transform import Rotation
 
     true = Rotation.from_euler("ZYX", [[179.9, 10.0, -5.0]], degrees=True).as_matrix()
@@ -255,7 +255,7 @@ def test_attitude_errors_wrap_and_order_roll_pitch_yaw():
 
 
 def test_post_settle_rmse_and_max():
-    from gnssframework.receiver.deep_metrics import post_settle_rmse_and_max
+    from gnssframework.experiments.scenarios.deep_integration_metrics import post_settle_rmse_and_max
 
     t = np.arange(5.0)
     err = np.array([[100.0], [3.0], [-4.0], [0.0], [0.0]])
@@ -282,7 +282,7 @@ class _OffsetNavigator:
 
 def _aided_setup(runs, seconds, T=1e-3, cn0=45.0, jerk=False, accel_g=0.0):
     import pymap3d
-    from gnssframework.receiver.deep import DeepTruth
+    from gnssframework.receiver.deep.aided_tracking import DeepTruth
 
     const = nominal_constellation()
     lat, lon, h = 34.23, 108.3576, 590.6
@@ -311,7 +311,7 @@ def _iq_filter():
 
 
 def _aided_nees(output, jerk=False, accel_g=0.0, **harness):
-    from gnssframework.receiver.deep import run_aided_tracking
+    from gnssframework.receiver.deep.aided_tracking import run_aided_tracking
 
     runs = 16
     truth, rx = _aided_setup(runs, 0.6, jerk=jerk, accel_g=accel_g)
@@ -370,7 +370,7 @@ def test_residuals_are_taken_against_the_navigator_not_the_replica(monkeypatch, 
     # 9.8 m/s within an interval. Residuals taken against the replica were biased by that
     # (the bug this catches); against the navigator they recover its known error. The
     # prefilter is an oracle (true errors, no noise), so only the harness is tested.
-    import gnssframework.receiver.deep as deep
+    import gnssframework.receiver.deep.aided_tracking as deep
 
     class _TrueErrors:  # stands in for the correlator draws: hands the oracle the true errors
         def __init__(self, *a, **k):
@@ -403,7 +403,7 @@ def test_aided_tracking_filtered_prefilter_output_counts_old_information_again()
 
 
 def test_aided_tracking_refuses_rates_that_are_not_multiples():
-    from gnssframework.receiver.deep import run_aided_tracking
+    from gnssframework.receiver.deep.aided_tracking import run_aided_tracking
 
     truth, rx = _aided_setup(1, 0.01)
     nav = _OffsetNavigator(rx, 0.0, 0.0, 0.0, 0.0, (100.0, 0.0))
@@ -415,7 +415,7 @@ def test_aided_tracking_refuses_rates_that_are_not_multiples():
 
 
 def test_integration_measurement_signs_and_clock_recovery_noise_free():
-    from gnssframework.receiver.deep_measurements import clock_measurement, integration_measurement
+    from gnssframework.receiver.deep.measurements import clock_measurement, integration_measurement
 
     rng = np.random.default_rng(9)
     runs, n = 2, 5
@@ -439,7 +439,7 @@ def test_integration_measurement_signs_and_clock_recovery_noise_free():
 
 def _jerk_signal(jerk_g_s, runs, T=1e-3, t_on=0.2, t_ramp=0.6, duration_s=1.4):
     """Range with a 300 m/s closing rate, then a constant jerk for ``t_ramp`` s, then constant acceleration."""
-    from gnssframework.receiver.tracking import SignalTruth
+    from gnssframework.receiver.tracking.scalar import SignalTruth
     from gnssframework.signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, L1_WAVELENGTH_M
 
     t = np.arange(int(round(duration_s / T)) + 1) * T
@@ -453,7 +453,7 @@ def _jerk_signal(jerk_g_s, runs, T=1e-3, t_on=0.2, t_ramp=0.6, duration_s=1.4):
 
 
 def test_third_order_pll_follows_the_jerk_law_and_slips_under_50_g_per_s():
-    from gnssframework.receiver.tracking import run_closed_loop
+    from gnssframework.receiver.tracking.scalar import run_closed_loop
 
     # Third-order PLL (Kaplan and Hegarty 2017, table 8.23): steady phase error
     # jerk / w0^3 with B_L = 0.7845 w0; 5 g/s along the line of sight at B_L = 15 Hz: 0.23 rad.
@@ -474,8 +474,8 @@ def test_third_order_pll_follows_the_jerk_law_and_slips_under_50_g_per_s():
 # --- closed loop: GNSS-only navigator in the harness -------------------------------------------
 
 def test_pva_navigator_closes_the_loop_with_consistent_nees():
-    from gnssframework.receiver.deep import run_aided_tracking
-    from gnssframework.receiver.deep_navigators import PvaNavigator
+    from gnssframework.receiver.deep.aided_tracking import run_aided_tracking
+    from gnssframework.receiver.deep.navigators import PvaNavigator
 
     runs = 16
     truth, rx = _aided_setup(runs, 1.5)
@@ -505,7 +505,7 @@ def test_pva_navigator_closes_the_loop_with_consistent_nees():
 
 def test_bad_numbers_get_library_errors_naming_filter_element_and_step():
     from gnssframework.errors import InvalidMeasurementError, NotPositiveDefiniteError
-    from gnssframework.receiver.deep import run_aided_tracking
+    from gnssframework.receiver.deep.aided_tracking import run_aided_tracking
 
     x, P = np.zeros((3, 2)), np.broadcast_to(np.eye(2), (3, 2, 2)).copy()
     H = np.broadcast_to(np.eye(2), (3, 2, 2))
@@ -526,7 +526,7 @@ def test_bad_numbers_get_library_errors_naming_filter_element_and_step():
 
 @pytest.mark.parametrize("estimator", ["ukf", "ckf", "ekf"])
 def test_pva_navigator_update_with_a_registry_estimator_equals_the_kalman_update(estimator):
-    from gnssframework.receiver.deep_navigators import PvaNavigator
+    from gnssframework.receiver.deep.navigators import PvaNavigator
 
     rng = np.random.default_rng(21)
     runs, n = 3, 6
@@ -548,7 +548,7 @@ def test_pva_navigator_update_with_a_registry_estimator_equals_the_kalman_update
 
 def test_pva_navigator_estimator_runs_through_the_filter_step_and_names_itself():
     from gnssframework.errors import InvalidInitialStateError, InvalidMeasurementError
-    from gnssframework.receiver.deep_navigators import PvaNavigator
+    from gnssframework.receiver.deep.navigators import PvaNavigator
 
     runs, n = 2, 5
     x0 = np.zeros((runs, 9))
@@ -570,7 +570,7 @@ def test_pva_navigator_estimator_runs_through_the_filter_step_and_names_itself()
 
 
 def test_loss_of_lock_thresholds():
-    from gnssframework.receiver.deep import loss_of_lock
+    from gnssframework.receiver.deep.aided_tracking import loss_of_lock
 
     code = np.array([0.49, 0.51, 0.0, 0.0, -0.6])
     freq = np.array([0.0, 0.0, 499.0, -501.0, 0.0])

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pymap3d
 
-from gnssframework.receiver.deep_loose import pv_fix, scalar_measurement_variances, scalar_measurements, scalar_tracking
+from gnssframework.receiver.deep.loose import pv_fix, scalar_measurement_variances, scalar_measurements, scalar_tracking
 from gnssframework.registry import create
 from gnssframework.simulation.constellation import nominal_constellation
 

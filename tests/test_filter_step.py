@@ -251,7 +251,7 @@ def _smoother_epochs():
 
 def _ekf_pv_epochs():
     from gnssframework.experiments import get_scenario
-    from gnssframework.receiver.vector import run_vector_loop
+    from gnssframework.receiver.tracking.vector import run_vector_loop
 
     base = gf.registry.get("channel_filter", "discriminator")
 
@@ -298,7 +298,7 @@ def test_every_gaussian_plugin_names_a_bad_measurement_through_the_filter_step(r
 def test_the_deep_integration_navigator_updates_through_the_filter_step(monkeypatch):
     """PvaNavigator's navigation and clock updates (deep_measurements.linear_update) are
     FilterStep updates: they are seen there, by name, and a NaN residual is refused by it."""
-    from gnssframework.receiver.deep_navigators import PvaNavigator
+    from gnssframework.receiver.deep.navigators import PvaNavigator
 
     rng = np.random.default_rng(21)
     runs, n = 3, 6

@@ -387,7 +387,7 @@ def _range_rate_problem(seed, name, r0, sat_range_m, sat_speed_m_s, pos_std_m):
 
 
 def test_compiled_range_rate_h_equals_predicted_range_at_gps_distances():
-    from gnssframework.receiver.vector import predicted_range
+    from gnssframework.receiver.tracking.vector import predicted_range
 
     model, state, _, sat_pos, sat_vel = _range_rate_problem(21, "ckf", np.array([4.2e6, 1.7e5, 4.78e6]),
                                                             2.02e7, 3.9e3, 30.0)

@@ -5,7 +5,7 @@ import pytest
 
 import gnssframework as gf
 from gnssframework.experiments import get_scenario
-from gnssframework.receiver.loop_bandwidth import equivalent_bandwidth_hz
+from gnssframework.receiver.tracking.loop_bandwidth import equivalent_bandwidth_hz
 
 
 @pytest.mark.parametrize("order", [2, 3])

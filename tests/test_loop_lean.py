@@ -19,8 +19,8 @@ from gnssframework.estimation import kernels, kernels_loop
 from gnssframework.estimation.adaptation import AdapterRun
 from gnssframework.estimation.linalg import clamp_relative, pd_mask, regularised, symmetrize
 from gnssframework.experiments import get_scenario
-from gnssframework.receiver import vector
-from gnssframework.receiver.vector import run_vector_loop
+from gnssframework.receiver.tracking import vector
+from gnssframework.receiver.tracking.vector import run_vector_loop
 from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 
 

@@ -43,8 +43,8 @@ def test_harness_refuses_a_step_that_breaks_the_provides_declaration(scratch_reg
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
 PLUGIN_FILES = ["plugins/channel_filters.py", "plugins/nav_filters.py", "plugins/smoothers.py"]
-HARNESS_FILES = ["gnssframework/receiver/vector.py", "gnssframework/receiver/tracking.py",
-                 "gnssframework/receiver/deep.py", "gnssframework/experiments/scenarios/carrier_smoothing.py",
+HARNESS_FILES = ["gnssframework/receiver/tracking/vector.py", "gnssframework/receiver/tracking/scalar.py",
+                 "gnssframework/receiver/deep/aided_tracking.py", "gnssframework/experiments/scenarios/carrier_smoothing.py",
                  "gnssframework/io/smoothing.py"]  # the smooth command's harness
 
 
@@ -103,7 +103,7 @@ def _forgetful(kind, name, drop):
 
 
 def test_the_closed_loop_tracking_harness_refuses_a_step_that_breaks_provides():
-    from gnssframework.receiver.tracking import SignalTruth, run_closed_loop
+    from gnssframework.receiver.tracking.scalar import SignalTruth, run_closed_loop
 
     truth = SignalTruth.from_dynamics(0.01, 0.001, 45.0, doppler_hz=np.full(2, 100.0))
     with pytest.raises(gf.PluginError, match=r"channel_filter 'forgetful-scalar': step\(\) did not return "
@@ -115,7 +115,7 @@ def test_the_closed_loop_tracking_harness_refuses_a_step_that_breaks_provides():
                                               ("nav_filter", "ekf-pv", names.COV)])
 def test_the_vector_loop_refuses_a_step_that_breaks_provides(kind, name, drop):
     from gnssframework.experiments import get_scenario
-    from gnssframework.receiver.vector import run_vector_loop
+    from gnssframework.receiver.tracking.vector import run_vector_loop
 
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.05, "channels": 5, "settle_s": 0.01})
     rng = np.random.default_rng(1)

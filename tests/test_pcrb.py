@@ -6,7 +6,7 @@ import pytest
 from filterpy.kalman import KalmanFilter
 
 from gnssframework.experiments import get_scenario
-from gnssframework.receiver.pcrb import correlator_fisher, pcrb_linear
+from gnssframework.receiver.tracking.pcrb import correlator_fisher, pcrb_linear
 from gnssframework.signal.correlator_model import amplitude_from_cn0, correlator_mean, tap_noise_cov
 
 

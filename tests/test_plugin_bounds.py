@@ -9,7 +9,7 @@ import pytest
 import gnssframework as gf
 from gnssframework.cli import main
 from gnssframework.experiments import load_config
-from gnssframework.receiver.loop_filters import MAX_BANDWIDTH_TIME, LoopFilter
+from gnssframework.receiver.tracking.loop_filters import MAX_BANDWIDTH_TIME, LoopFilter
 
 MULTIPATH = """
 name = "mp"

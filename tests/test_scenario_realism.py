@@ -21,8 +21,8 @@ import gnssframework as gf
 from gnssframework import random_streams as draw
 from gnssframework.errors import ConfigError
 from gnssframework.experiments import get_scenario
-from gnssframework.receiver.deep_measurements import reference_channel
-from gnssframework.receiver.vector import VectorTruth, run_vector_loop
+from gnssframework.receiver.deep.measurements import reference_channel
+from gnssframework.receiver.tracking.vector import VectorTruth, run_vector_loop
 from gnssframework.simulation.constellation import OMEGA_EARTH, draw_epochs, nominal_constellation
 from gnssframework.simulation.propagation import (antenna_attenuation_db, cn0_from_elevation, draw_range_errors,
                                                   klobuchar_obliquity, tropo_mapping)
@@ -287,7 +287,7 @@ def test_deep_and_loose_put_a_common_range_error_in_the_clock_and_a_single_one_i
     # common to all channels leaves the position; one channel's 20 m error moves it by metres.
     import dataclasses
 
-    from gnssframework.receiver import deep_strapdown
+    from gnssframework.experiments.scenarios import deep_integration_runs
 
     scen = get_scenario(DEEP)
     flight = scen.flight()
@@ -299,7 +299,7 @@ def test_deep_and_loose_put_a_common_range_error_in_the_clock_and_a_single_one_i
         channel = (gf.registry.create("channel_filter", "iq-filter", output="equivalent") if kind == "deep"
                    else gf.registry.create("channel_filter", "scalar"))
         plugins = {"channel_filter": channel, "nav_filter": gf.registry.create("nav_filter", "ins-ekf")}
-        run = deep_strapdown.run_deep if kind == "deep" else deep_strapdown.run_loose
+        run = deep_integration_runs.run_deep if kind == "deep" else deep_integration_runs.run_loose
         out = run(scen, plugins, flight, truth, 2, draw.run_streams(2, (0,), range(2)))
         true_pos, _, _ = flight.kinematics(out["time_s"][-1:])
         final[name] = np.linalg.norm(out["position_m"][-1] - true_pos[0], axis=-1)
@@ -345,7 +345,7 @@ def test_deep_scenarios_vector_candidate_gets_the_residuals(monkeypatch):
 
 
 def test_scalar_loops_see_the_carrier_range_apart_from_the_code_range(monkeypatch):
-    import gnssframework.receiver.deep_loose as dl
+    import gnssframework.receiver.deep.loose as dl
 
     seen = {}
     monkeypatch.setattr(dl, "run_closed_loop", lambda channel, truth, rng, **k: seen.setdefault("truth", truth))

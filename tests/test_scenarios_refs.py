@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from gnssframework.experiments import get_scenario
-from gnssframework.receiver.jitter import loop_variance
+from gnssframework.receiver.tracking.jitter import loop_variance
 import gnssframework as gf
 
 PLL = {"name": "scalar", "params": {"coherent_time_s": 0.01, "pll_bandwidth_hz": 10.0, "pll_order": 2,

@@ -7,7 +7,7 @@ import pytest
 import gnssframework as gf
 from gnssframework import random_streams as draw
 from gnssframework.experiments import get_scenario
-from gnssframework.receiver.tracking import run_closed_loop
+from gnssframework.receiver.tracking.scalar import run_closed_loop
 
 C_M_S, F_L1_HZ, CHIP_RATE_HZ = 299_792_458.0, 1575.42e6, 1.023e6
 CASE = {"model": "aj-stanford", "s4": 0.5, "sigma_phi_rad": 0.1}

@@ -24,7 +24,7 @@ class _Counting:
 def test_deep_loop_evaluates_the_orbits_in_blocks_at_the_epoch_edges():
     from dataclasses import replace
 
-    from gnssframework.receiver.deep import run_aided_tracking
+    from gnssframework.receiver.deep.aided_tracking import run_aided_tracking
     from gnssframework.registry import create
 
     runs = 2
@@ -54,7 +54,7 @@ def test_vector_loop_evaluates_the_orbits_once_for_all_epochs():
     from dataclasses import replace
 
     from gnssframework.experiments import get_scenario
-    from gnssframework.receiver.vector import run_vector_loop
+    from gnssframework.receiver.tracking.vector import run_vector_loop
 
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.05, "channels": 4, "settle_s": 0.0})
     truth, x0, P0 = scen.truth(45.0, 2, np.random.default_rng(0))

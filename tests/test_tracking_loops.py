@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 import gnssframework as gf
-from gnssframework.receiver.jitter import lock_indicator, loop_variance, pll_thermal_variance_rad2
-from gnssframework.receiver.loop_filters import LoopFilter
-from gnssframework.receiver.tracking import SignalTruth, run_closed_loop
+from gnssframework.receiver.tracking.jitter import lock_indicator, loop_variance, pll_thermal_variance_rad2
+from gnssframework.receiver.tracking.loop_filters import LoopFilter
+from gnssframework.receiver.tracking.scalar import SignalTruth, run_closed_loop
 
 T = 0.001
 

@@ -6,7 +6,7 @@ import pytest
 import gnssframework as gf
 from gnssframework.experiments import get_scenario
 from gnssframework.interfaces import ChannelFilter, RunContext
-from gnssframework.receiver.vector import run_vector_loop
+from gnssframework.receiver.tracking.vector import run_vector_loop
 from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 
 SCEN = {"kind": "vector-tracking", "duration_s": 3.0, "channels": 8, "settle_s": 0.5, "steady_state_s": 1.5}
@@ -39,7 +39,7 @@ class OracleChannel(ChannelFilter):
 def test_ekf_pv_is_consistent_when_fed_measurements_with_the_stated_noise(monkeypatch):
     # Independent truth: with white measurement noise of exactly the variance it is told,
     # a correct filter's NEES averages the state dimension (8).
-    import gnssframework.receiver.vector as vec
+    import gnssframework.receiver.tracking.vector as vec
 
     scen = get_scenario(SCEN)
     rng = np.random.default_rng(3)
@@ -166,7 +166,7 @@ def test_ekf_pv_converts_channel_errors_to_range_units():
     # error common to every channel is a clock bias, a common frequency error a clock
     # drift; with a tight prior on position/velocity and a loose one on the clock, one
     # update moves the clock by exactly the converted errors. Oracle: ICD numbers.
-    from gnssframework.receiver.vector import predicted_range
+    from gnssframework.receiver.tracking.vector import predicted_range
 
     c, f_code, f_l1 = 299_792_458.0, 1.023e6, 1575.42e6
     dtau_chips, df_hz = 0.02, 3.0

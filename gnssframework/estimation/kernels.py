@@ -797,7 +797,7 @@ def _apply_h_row(code, params, X, k, Z, kz):
             Z[kz, i] = acc
         return
     if code == H_RANGE_RATE:
-        # As receiver.vector.predicted_range: rho = |s - r| + b, rate = (v_s - v) . e + d.
+        # As receiver.tracking.vector.predicted_range: rho = |s - r| + b, rate = (v_s - v) . e + d.
         n_ch = params.shape[0]
         for c in range(n_ch):
             lx = params[c, 0] - X[k, 0]

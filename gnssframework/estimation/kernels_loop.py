@@ -242,7 +242,7 @@ def _pv_nco_body(x, half_t, sat_pos, sat_vel, rho, rate):
 
 @_jit
 def _pcrb_body(F, Q, roots, P0, update_first, out):
-    """`gnssframework.receiver.pcrb.pcrb_linear` on stacked square roots ``(K, m, n)``:
+    """`gnssframework.receiver.tracking.pcrb.pcrb_linear` on stacked square roots ``(K, m, n)``:
     the same products and the same LU solve, in the same order, per step."""
     n = F.shape[0]
     m = roots.shape[1]
@@ -269,7 +269,7 @@ def _pcrb_body(F, Q, roots, P0, update_first, out):
 
 def pcrb_stacked(F: np.ndarray, Q: np.ndarray, roots: np.ndarray, P0: np.ndarray, update_first: bool) -> np.ndarray:
     """The PCRB covariance recursion on measurement square roots stacked ``(K, m, n)``
-    in one compiled call (`gnssframework.receiver.pcrb.pcrb_linear` is the reference)."""
+    in one compiled call (`gnssframework.receiver.tracking.pcrb.pcrb_linear` is the reference)."""
     K, n = roots.shape[0], F.shape[0]
     out = np.empty((K, n, n))
     _pcrb_body(*(np.array(a, dtype=float, order="C") for a in (F, Q, roots, P0)), bool(update_first), out)

@@ -1,1 +1,2 @@
-"""Receiver building blocks: loop filters, closed-loop tracking, jitter formulas."""
+"""The software receiver by role: ``frontend`` (IF samples), ``acquisition``, ``channels``, ``tracking`` (loops,
+scalar and vector tracking, bounds) and ``deep`` (INS-aided tracking)."""

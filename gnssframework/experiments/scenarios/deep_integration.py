@@ -7,15 +7,15 @@ clock from h-parameters, and four kinds of candidate, told apart by what they co
 
 * ``deep`` / ``deep-no-accel``: a prefilter ``channel_filter`` that hands over each
   interval's new information (``iq-filter`` with ``output = "equivalent"``) and the
-  ``ins-ekf`` nav_filter; the corrected INS aids the NCOs (`receiver.deep`), with or
+  ``ins-ekf`` nav_filter; the corrected INS aids the NCOs (`receiver.deep.aided_tracking`), with or
   without the line-of-sight acceleration (``ins-ekf``'s ``accel_aiding``), and with or
   without a carrier-phase prefilter closing only the carrier loop (``ins-ekf``'s
   ``carrier_filter``).
 * ``vector``: a vector-loop channel filter and a GNSS-only nav filter that closes the
-  loop (``iq-filter`` + ``ekf-pv``; `receiver.vector.run_vector_loop`), no INS.
+  loop (``iq-filter`` + ``ekf-pv``; `receiver.tracking.vector.run_vector_loop`), no INS.
 * ``loose``: a scalar loop per channel (a ``channel_filter`` that closes its own loop,
   e.g. ``scalar``) and ``ins-ekf`` fed with position/velocity fixes
-  (`receiver.deep_loose`).
+  (`receiver.deep.loose`).
 
 Every series is on the integration filter's grid (10 Hz); errors are in local axes at the
 true position (ENU via pymap3d), attitude as roll/pitch/yaw. Each metric is declared once
@@ -37,10 +37,10 @@ from ...inertial.earth import STANDARD_GRAVITY_MPS2
 from ...interfaces import RunContext
 from ...inertial.imu import ImuGrade
 from ...inertial.trajectory import MAX_START_LAT_DEG
-from ...receiver.deep import DeepTruth, loss_of_lock, run_aided_tracking
-from ...receiver.deep_metrics import attitude_errors_deg, enu_errors
-from ...receiver.tracking import NCO_COMMANDS
-from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_vector_loop
+from ...receiver.deep.aided_tracking import DeepTruth, loss_of_lock, run_aided_tracking
+from .deep_integration_metrics import attitude_errors_deg, enu_errors
+from ...receiver.tracking.scalar import NCO_COMMANDS
+from ...receiver.tracking.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_vector_loop
 from .vector_tracking import SkyRealismParams, draw_residuals
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
@@ -255,7 +255,7 @@ class DeepIntegrationScenario(Scenario):
 
     def flight(self):
         """Reference 002's flight (or a straight one) from `gnssframework.inertial`."""
-        from ...receiver.deep_strapdown import make_flight
+        from .deep_integration_flight import make_flight
 
         p = self.params
         pulse = {"accel_g": p.pulse_accel_g, "jerk_g_s": p.pulse_jerk_g_s, "start_s": p.pulse_start_s,
@@ -349,9 +349,9 @@ class DeepIntegrationScenario(Scenario):
         if kind == "vector":
             out = self._run_vector(plugins, truth, runs, rng)
         else:
-            from ...receiver import deep_strapdown
+            from . import deep_integration_runs
 
-            runner = deep_strapdown.run_deep if kind == "deep" else deep_strapdown.run_loose
+            runner = deep_integration_runs.run_deep if kind == "deep" else deep_integration_runs.run_loose
             out = runner(self, plugins, flight, truth, runs, rng)
         t_u = out["time_s"]
         pos_t, vel_t, _ = flight.kinematics(t_u)

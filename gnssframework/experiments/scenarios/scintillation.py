@@ -6,7 +6,7 @@ that closes the carrier loop (``scalar`` PLL, ``kf-carrier-loop``), run in close
 on the correlator model. A case may set its own C/N0, interval T and duration; with its
 own T, every candidate's loop is re-created at that T with its other parameters as given
 (Q and R per interval, bandwidths in Hz). ``equivalent_bandwidth_hz`` is each loop's
-steady-state noise bandwidth (``gnssframework.receiver.loop_bandwidth``).
+steady-state noise bandwidth (``gnssframework.receiver.tracking.loop_bandwidth``).
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ from ... import random_streams as draw
 from ... import registry
 from ...errors import ConfigError
 from ...interfaces import RunContext
-from ...receiver.loop_bandwidth import equivalent_bandwidth_hz
-from ...receiver.tracking import NCO_COMMANDS, SignalTruth, check_closed_loop, run_closed_loop
+from ...receiver.tracking.loop_bandwidth import equivalent_bandwidth_hz
+from ...receiver.tracking.scalar import NCO_COMMANDS, SignalTruth, check_closed_loop, run_closed_loop
 from ...signal.constants import L1_WAVELENGTH_M
 from ...simulation import scintillation as scint
 from ..limits import CoherentTime
@@ -100,7 +100,7 @@ METRICS = (
                      description="fraction of lock_window_s blocks whose mean cos(2 phase error) is below "
                      "lock_threshold"),
     Mean("equivalent_bandwidth_hz", "Hz", of="loop_noise_bandwidth_hz",
-         description="the loop's steady-state noise bandwidth (gnssframework.receiver.loop_bandwidth)"),
+         description="the loop's steady-state noise bandwidth (gnssframework.receiver.tracking.loop_bandwidth)"),
 )
 
 

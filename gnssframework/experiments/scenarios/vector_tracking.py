@@ -17,7 +17,7 @@ from ... import random_streams as draw
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...io.text import check_input_file
-from ...receiver.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop
+from ...receiver.tracking.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import draw_epochs, nominal_constellation
@@ -310,9 +310,9 @@ class VectorTrackingScenario(Scenario):
         return evaluate(METRICS, series, rec.time_s, self)
 
     def bound(self, cn0_dbhz: float, P0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The PCRB of this scenario at ``cn0_dbhz`` (`gnssframework.receiver.pcrb.vector_tracking_pcrb`):
+        """The PCRB of this scenario at ``cn0_dbhz`` (`gnssframework.receiver.tracking.pcrb.vector_tracking_pcrb`):
         times, RMS position bound (m) and RMS velocity bound (m/s), each ``(K,)``."""
-        from ...receiver.pcrb import vector_tracking_pcrb
+        from ...receiver.tracking.pcrb import vector_tracking_pcrb
 
         p = self.params
         T = p.coherent_time_s

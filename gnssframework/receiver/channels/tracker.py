@@ -12,7 +12,7 @@ channels, and the filters of the channels in one stage and coherent interval ste
 batch (`batch.FilterBatch`; the channels of a batch always run together); Python runs per
 channel once per coherent interval only for its state machine and record. The 1 ms sums, scaled to unit-variance I and Q
 noise like the analytic model's (`gnssframework.signal.correlator_model`), are summed
-over the coherent interval in force and then handed to the channel filter exactly as `gnssframework.receiver.tracking`
+over the coherent interval in force and then handed to the channel filter exactly as `gnssframework.receiver.tracking.scalar`
 hands them: ``checked_step({"correlators": ...})`` once per interval, whose
 ``carrier_freq_hz`` and ``code_freq_hz`` (and optional ``carrier_phase_step_rad``) steer
 the NCOs of the next interval. Filters that output errors instead (the vector-tracking
@@ -39,7 +39,7 @@ from ...signal.correlator_model import tap_offsets
 from ...signal.correlators import Correlators
 from ..acquisition.search import Acquisition, AcquisitionResult
 from ..frontend.recording import Recording
-from ..tracking import NCO_COMMANDS
+from ..tracking.scalar import NCO_COMMANDS
 from .batch import FilterBatch, batch_layout
 from .closure import ERROR_OUTPUTS, ErrorFeedback
 from .config import TrackingConfig

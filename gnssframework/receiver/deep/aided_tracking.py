@@ -9,8 +9,8 @@ Each coherent interval k:
 
 1. at an aiding instant, the navigator's receiver position, velocity and acceleration
    and clock give each channel's pseudorange, rate and acceleration along the line of
-   sight (`deep_aiding.line_of_sight_kinematics`), from which the replica of the next
-   NCO interval is laid out (`deep_aiding.nco_schedule`; ``accel_aiding=False`` is the
+   sight (`aiding.line_of_sight_kinematics`), from which the replica of the next
+   NCO interval is laid out (`aiding.nco_schedule`; ``accel_aiding=False`` is the
    ``deep-no-accel`` candidate);
 2. the correlators of the replica's true code, phase and frequency errors are drawn
    (`simulate_correlators`, as the vector loop does);
@@ -55,14 +55,14 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from .. import random_streams as draw
-from ..errors import ConfigError, NumericalError
-from ..interfaces import ChannelFilter, RunContext
-from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
-from ..signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
-from ..signal.correlators import Correlators
-from .deep_aiding import line_of_sight_kinematics, nco_schedule
-from .vector import CHANNEL_OUTPUTS, _geometric_range
+from ... import random_streams as draw
+from ...errors import ConfigError, NumericalError
+from ...interfaces import ChannelFilter, RunContext
+from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
+from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
+from ...signal.correlators import Correlators
+from ..tracking.vector import CHANNEL_OUTPUTS, _geometric_range
+from .aiding import line_of_sight_kinematics, nco_schedule
 
 __all__ = ["DeepTruth", "Navigator", "DeepRecord", "run_aided_tracking", "loss_of_lock"]
 
@@ -188,7 +188,7 @@ def run_aided_tracking(
     Parameters
     ----------
     channel
-        Code/frequency prefilter providing `gnssframework.receiver.vector.CHANNEL_OUTPUTS`
+        Code/frequency prefilter providing `gnssframework.receiver.tracking.vector.CHANNEL_OUTPUTS`
         as each interval's new information (``iq-filter`` with ``output = "equivalent"``).
     navigator
         Aids the NCOs and takes the integration updates (`Navigator`).

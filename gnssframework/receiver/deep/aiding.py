@@ -17,7 +17,7 @@ with $e = (s - r)/\\rho_g$ the unit line of sight from receiver to satellite,
 $\\rho_g = \\lVert s - r \\rVert$, $b$ and $d$ the receiver clock bias (m) and drift
 (m/s). The second term of $\\ddot\\rho$ is the centripetal part of the line of sight's
 rotation (exact derivative of the norm). The simulation's pseudorange has no light-time
-or Sagnac term (`gnssframework.receiver.vector.VectorTruth.pseudorange`), so neither
+or Sagnac term (`gnssframework.receiver.tracking.vector.VectorTruth.pseudorange`), so neither
 has the prediction; ionosphere and troposphere are absent from the truth, so the code
 and carrier ranges coincide here (002 eqs. 12 and 15 differ only in their sign).
 
@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigError
+from ...errors import ConfigError
 
 __all__ = ["line_of_sight_kinematics", "nco_schedule"]
 

@@ -2,12 +2,12 @@
 
 Reference 002 (Cai and Guo 2017, section 2) closes the loop of coherent deep integration
 through the INS: the corrected INS position, velocity and acceleration predict every
-channel's code and carrier (`deep_aiding`), the prefilters' new information of each
+channel's code and carrier (`aiding`), the prefilters' new information of each
 integration interval updates the 15-state error-state filter (``ins-ekf``) on
 single differences, and the estimated error is removed from the INS at once (closed
 loop, Groves 2013, sections 14.1.1 and 16.2). The receiver clock, which the differences
 cancel, is kept for the NCOs by a small clock filter beside it
-(`deep_navigators.ClockFilter`).
+(`navigators.ClockFilter`).
 
 `InsNavigator` is that adapter. It only needs an object with the `StrapdownSolution`
 methods (the INS of `gnssframework.inertial` through its adapter, or a linear
@@ -20,9 +20,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..errors import ConfigError
-from .deep_measurements import POSITION, VELOCITY
-from .deep_navigators import ClockFilter
+from ...errors import ConfigError
+from .measurements import POSITION, VELOCITY
+from .navigators import ClockFilter
 
 __all__ = ["StrapdownSolution", "InsNavigator", "loose_update"]
 
@@ -44,7 +44,7 @@ class StrapdownSolution(Protocol):
 
 
 class InsNavigator:
-    """`deep.Navigator` built from a strapdown INS, the ``ins-ekf`` filter and a clock filter.
+    """`aided_tracking.Navigator` built from a strapdown INS, the ``ins-ekf`` filter and a clock filter.
 
     Parameters
     ----------

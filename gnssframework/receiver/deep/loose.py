@@ -5,7 +5,7 @@ loops, no aiding), the receiver forms a position/velocity/clock solution from th
 pseudoranges and range rates, and that fix updates the INS's error-state filter. The
 loops do not see the INS, so they run first over the whole flight
 (`scalar_tracking`), then the fixes are formed at the integration rate (`pv_fix`) and fed
-to ``ins-ekf`` (`deep_ins.loose_update`).
+to ``ins-ekf`` (`ins_navigator.loose_update`).
 
 Measurements from a scalar loop (its replica is what the receiver reads):
 $\\rho_m = \\rho + \\lambda_{chip}\\,\\delta\\tau$ (the code NCO lags the true code by
@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import random_streams as draw
-from ..errors import NumericalError
-from ..interfaces import ChannelFilter
-from ..signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, L1_WAVELENGTH_M
-from .tracking import SignalTruth, TrackingRecord, run_closed_loop
+from ... import random_streams as draw
+from ...errors import NumericalError
+from ...interfaces import ChannelFilter
+from ...signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, L1_WAVELENGTH_M
+from ..tracking.scalar import SignalTruth, TrackingRecord, run_closed_loop
 
 __all__ = ["scalar_tracking", "pv_fix", "scalar_measurement_variances", "scalar_measurements"]
 

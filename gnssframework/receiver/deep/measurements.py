@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import NumericalError
+from ...errors import NumericalError
 
 __all__ = ["reference_channel", "difference_operator", "difference", "linear_update", "new_information",
            "integration_measurement", "clock_measurement", "ATTITUDE", "VELOCITY", "POSITION", "ACCEL_BIAS", "GYRO_BIAS"]
@@ -95,8 +95,8 @@ def linear_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R:
     NumericalError
         When the posterior of some batch element is not finite or not positive definite.
     """
-    from .. import registry
-    from ..estimation import FilterStep, Gaussian, LinearModel
+    from ... import registry
+    from ...estimation import FilterStep, Gaussian, LinearModel
 
     n = P.shape[-1]
     fs = FilterStep(registry.create("estimator", "kf"), name=name)
@@ -157,7 +157,7 @@ def integration_measurement(residual_m: np.ndarray, residual_cov: np.ndarray, lo
     Parameters
     ----------
     residual_m, residual_cov
-        ``(runs, ch, 2)`` and ``(runs, ch, 2, 2)`` prefilter outputs (`deep.run_aided_tracking`).
+        ``(runs, ch, 2)`` and ``(runs, ch, 2, 2)`` prefilter outputs (`aided_tracking.run_aided_tracking`).
     los
         ``(runs, ch, 3)`` unit lines of sight (ECEF).
     reference

@@ -3,9 +3,9 @@
 `PvaNavigator` is GNSS-only vector tracking at the integration rate: a constant-
 acceleration (white-jerk) filter of ECEF position, velocity and acceleration, updated
 every integration interval with the prefilters' differenced range and rate residuals
-(`deep_measurements.integration_measurement`, correlated covariance) and correcting its
+(`measurements.integration_measurement`, correlated covariance) and correcting its
 state in closed loop, plus the small clock filter that keeps the NCOs' clock terms
-(`deep_measurements.clock_measurement`). Between updates it extrapolates its state to
+(`measurements.clock_measurement`). Between updates it extrapolates its state to
 aid the NCOs. The ``ins-ekf`` navigator has the same structure with the INS in place of
 the kinematic model (Groves 2013, sections 14.2 and 16.2).
 """
@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from .. import registry
-from ..estimation import FilterStep, Gaussian, LinearModel
-from .deep_measurements import clock_measurement, integration_measurement, linear_update, reference_channel
+from ... import registry
+from ...estimation import FilterStep, Gaussian, LinearModel
+from .measurements import clock_measurement, integration_measurement, linear_update, reference_channel
 
 __all__ = ["PvaNavigator", "ClockFilter"]
 
@@ -38,7 +38,7 @@ class ClockFilter:
     The integration filter removes the clock by differencing (Cai and Guo 2017, section
     2.2); the NCOs still need it. After each integration update the clock error common
     to all channels is measured by generalised least squares over the channels
-    (`deep_measurements.clock_measurement`) and corrected here in closed loop. Model:
+    (`measurements.clock_measurement`) and corrected here in closed loop. Model:
     bias driven by the drift plus white noise, drift a random walk (Groves 2013,
     section 9.4.2), PSDs ``clock_psd`` = (bias m^2/s, drift m^2/s^3).
     """

@@ -23,9 +23,9 @@ import json
 
 import numpy as np
 
-from ..errors import ConfigError
-from ..interfaces import ChannelFilter
-from .tracking import SignalTruth, run_closed_loop
+from ...errors import ConfigError
+from ...interfaces import ChannelFilter
+from .scalar import SignalTruth, run_closed_loop
 
 __all__ = ["equivalent_bandwidth_hz"]
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConfigError
+from ...errors import ConfigError
 
 __all__ = ["LoopFilter", "natural_frequency", "check_bandwidth_time", "MAX_BANDWIDTH_TIME"]
 

@@ -63,10 +63,10 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import ConfigError
-from ..estimation import kernels, kernels_loop
-from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
-from ..signal.correlator_model import amplitude_from_cn0, tap_noise_cov
+from ...errors import ConfigError
+from ...estimation import kernels, kernels_loop
+from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
+from ...signal.correlator_model import amplitude_from_cn0, tap_noise_cov
 
 __all__ = ["pcrb_linear", "correlator_fisher", "vector_tracking_pcrb"]
 

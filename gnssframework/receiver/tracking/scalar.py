@@ -19,10 +19,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ConfigError
-from ..interfaces import ChannelFilter, RunContext
-from ..signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
-from ..signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
+from ...errors import ConfigError
+from ...interfaces import ChannelFilter, RunContext
+from ...signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
+from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 
 __all__ = ["SignalTruth", "TrackingRecord", "run_closed_loop", "check_closed_loop", "NCO_COMMANDS"]
 

@@ -29,12 +29,12 @@ from typing import Callable
 
 import numpy as np
 
-from .. import random_streams as draw
-from ..errors import ConfigError
-from ..interfaces import ChannelFilter, NavFilter, RunContext
-from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
-from ..signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
-from ..signal.navdata import BIT_PERIOD_S, random_nav_bits
+from ... import random_streams as draw
+from ...errors import ConfigError
+from ...interfaces import ChannelFilter, NavFilter, RunContext
+from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
+from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
+from ...signal.navdata import BIT_PERIOD_S, random_nav_bits
 
 __all__ = ["VectorTruth", "VectorRecord", "run_vector_loop", "check_composition", "predicted_range",
            "CHANNEL_OUTPUTS", "NAV_OUTPUTS", "HARNESS_INPUTS"]

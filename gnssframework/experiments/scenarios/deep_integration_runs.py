@@ -1,0 +1,150 @@
+"""The ``deep-integration`` scenario's runners of the INS candidates (``deep``, ``deep-no-accel``, ``loose``).
+
+`run_deep` closes the INS-aided tracking loop of `gnssframework.receiver.deep`;
+`run_loose` runs the scalar loops, forms position/velocity fixes and feeds them to the
+INS's error-state filter (Groves 2013, section 14.1.2).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ... import random_streams as draw
+from ...interfaces import RunContext
+from ...receiver.deep.aided_tracking import DeepTruth, run_aided_tracking
+from ...receiver.deep.ins_navigator import InsNavigator, loose_update
+from ...receiver.deep.loose import pv_fix, scalar_measurement_variances, scalar_measurements, scalar_tracking
+from ...receiver.deep.navigators import ClockFilter
+from ...receiver.deep.strapdown import StrapdownIns
+from .deep_integration_flight import Flight, body_to_ned
+
+__all__ = ["run_deep", "run_loose"]
+
+def _initial_cov(p) -> np.ndarray:
+    """Initial covariance of the 15-state error: the scenario's initial errors and the IMU's bias levels
+    (random constant plus Gauss-Markov deviation)."""
+    g = p.imu
+    std = np.concatenate([np.full(3, np.radians(p.initial_attitude_std_deg)), np.full(3, p.initial_velocity_std_m_s),
+                          np.full(3, p.initial_position_std_m),
+                          np.full(3, np.hypot(g.gyro_bias_rad_s, g.gyro_markov_sigma_rad_s)),
+                          np.full(3, np.hypot(g.accel_bias_mps2, g.accel_markov_sigma_mps2))])
+    return np.diag(np.maximum(std, 1e-12) ** 2)
+
+
+def _setup_ins(scenario, flight: Flight, runs: int, rng: np.random.Generator):
+    """Measured increments, the INS started from the truth plus drawn initial errors, and P0."""
+    from ...inertial.error_model import apply_navigation_error
+    from ...inertial.imu import simulate_imu
+
+    p = scenario.params
+    n = int(round(p.duration_s / p.imu_interval_s))
+    dtheta, dv = flight.model.increments(p.imu_interval_s, n)
+    dtheta_m, dv_m, _ = simulate_imu(dtheta[:, None, :], dv[:, None, :], p.imu_interval_s, p.imu, rng, (runs,))
+    P0 = _initial_cov(p)
+    err0 = draw.standard_normal(rng, (runs, 9), 0) * np.sqrt(np.diag(P0)[:9])
+    truth0 = flight.model.evaluate(np.array([0.0])).nav_state(0)
+    state0 = apply_navigation_error(truth0.broadcast((runs,)), err0)
+    return StrapdownIns(state0, dtheta_m, dv_m, p.imu_interval_s, p.imu), P0
+
+
+def _nav_record(flight: Flight, t_s: float, ins: StrapdownIns, cov: np.ndarray) -> dict[str, np.ndarray]:
+    tr = flight.truth(t_s)
+    s = ins.state
+    err = np.concatenate([s.velocity_ecef_mps - tr.velocity_ecef_mps[0], s.position_ecef_m - tr.position_ecef_m[0]],
+                         -1)
+    nees = np.einsum("ri,rij,rj->r", err, np.linalg.inv(cov[:, 3:9, 3:9]), err)
+    return {"position_m": s.position_ecef_m.copy(), "velocity_m_s": s.velocity_ecef_mps.copy(),
+            "body_to_ned": body_to_ned(s.q_b_e, s.position_ecef_m), "nees": nees,
+            "attitude_cov_ecef": cov[:, 0:3, 0:3].copy()}
+
+
+def _stack(records: list[dict[str, np.ndarray]], times: list[float], extra: dict[str, np.ndarray]) -> dict:
+    out = {k: np.stack([r[k] for r in records]) for k in records[0]}
+    out["time_s"] = np.asarray(times)
+    out.update(extra)
+    return out
+
+
+def run_deep(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int,
+             rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """The ``deep`` / ``deep-no-accel`` candidates: INS-aided NCOs, prefilters, ``ins-ekf`` on differences."""
+    p = scenario.params
+    ekf = plugins["nav_filter"]
+    ins, P0 = _setup_ins(scenario, flight, runs, rng)
+    ekf.reset((runs,), RunContext(initial_cov=P0))
+    c_std = np.asarray(p.initial_clock_std_m, float)
+    clock = ClockFilter(truth.clock_m[0] + draw.standard_normal(rng, (runs, 2), 0) * c_std, np.diag(c_std**2),
+                        tuple(ekf.params.clock_psd))
+    records, times = [], []
+
+    def record(t_s, nav):
+        records.append(_nav_record(flight, t_s, nav.ins, nav.ekf.cov))
+        times.append(t_s)
+
+    nav = InsNavigator(ins, ekf, clock, on_update=record, pull_in_updates=p.pull_in_updates)
+    spec = ekf.params.carrier_filter
+    rec = run_aided_tracking(plugins["channel_filter"], nav, truth, rng, nco_interval_s=p.nco_interval_s,
+                             update_interval_s=p.update_interval_s, accel_aiding=ekf.params.accel_aiding,
+                             early_late_spacing_chips=p.early_late_spacing_chips,
+                             carrier_filter=None if spec is None else spec.create())
+    return _stack(records, times, {"code_error_chips": rec.code_error_chips, "freq_error_hz": rec.freq_error_hz,
+                                   **rec.extra})
+
+
+def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int,
+              rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """The ``loose`` candidate: scalar loops, weighted least-squares fixes at the update rate, ``ins-ekf``."""
+    p = scenario.params
+    T = p.coherent_time_s
+    K = truth.epochs
+    t_edges = np.arange(K + 1) * T
+    sat_pos, sat_vel, _ = truth.sat_state(t_edges)  # (K+1, ch, 3), or (K+1, runs, ch, 3) per run
+    r, v, _ = flight.kinematics(t_edges)  # (K+1, 3)
+    if sat_pos.ndim == 4:  # a geometry per run: the receiver against each run's satellites
+        r, v = r[:, None, None, :], v[:, None, None, :]
+    else:
+        r, v = r[:, None, :], v[:, None, :]
+    d = sat_pos - r
+    geo = np.linalg.norm(d, axis=-1)
+    rate = np.sum(d / geo[..., None] * (sat_vel - v), axis=-1)
+    if sat_pos.ndim == 3:  # shared satellites: add the run axis
+        geo, rate = geo[:, None, :], rate[:, None, :]
+    rho = geo + truth.clock_m[..., 0:1]  # (K+1, runs, ch)
+    rho_rate = rate + truth.clock_m[..., 1:2]
+    carrier_rho = None
+    if truth.range_error_m is not None:  # errors of the truth the receiver's model lacks
+        code_m, carrier_m = truth.range_error_m(t_edges)
+        carrier_rho = rho + carrier_m
+        rho = rho + code_m
+        rho_rate = rho_rate + np.gradient(carrier_m, T, axis=0)  # the carrier's rate is what the loops read
+    channel = plugins["channel_filter"]
+    track = scalar_tracking(channel, rho, truth.cn0_dbhz, T, rng,
+                            early_late_spacing_chips=p.early_late_spacing_chips, carrier_range_m=carrier_rho)
+    cp = channel.params
+    window = int(round(p.rate_window_s / T))
+    var_r, var_v = scalar_measurement_variances(truth.cn0_dbhz, T, getattr(cp, "dll_bandwidth_hz", 1.0),
+                                                getattr(cp, "pll_bandwidth_hz", 15.0), window * T,
+                                                p.early_late_spacing_chips)
+    var_r = np.broadcast_to(var_r, rho.shape[1:])
+    var_v = np.broadcast_to(var_v, rho.shape[1:])
+    ekf = plugins["nav_filter"]
+    ins, P0 = _setup_ins(scenario, flight, runs, rng)
+    ekf.reset((runs,), RunContext(initial_cov=P0))
+    n_upd = int(round(p.update_interval_s / T))
+    records, times = [], []
+    for u, k_edge in enumerate(range(n_upd, K + 1, n_upd)):
+        t_u = k_edge * T
+        ins.advance(t_u)
+        if u >= p.pull_in_updates and k_edge + window // 2 <= K:
+            m_rho, m_rate = scalar_measurements(track, rho[k_edge], rho_rate[k_edge], k_edge - 1, window)
+            pos0, vel0, _ = ins.kinematics()
+            fp, fv, fcov = pv_fix(m_rho, m_rate, var_r, var_v, sat_pos[k_edge], sat_vel[k_edge], pos0, vel0)
+            loose_update(ins, ekf, fp, fv, fcov)
+        else:
+            ekf.propagate(*ins.take_error_model())
+        records.append(_nav_record(flight, t_u, ins, ekf.cov))
+        times.append(t_u)
+    return _stack(records, times, {"code_error_chips": track.code_error_chips, "freq_error_hz": track.freq_error_hz,
+                                   "phase_error_rad": track.phase_error_rad})

@@ -1,0 +1,1 @@
+"""Tracking: loop filters, scalar and vector closed-loop tracking, loop bandwidth, jitter and the PCRB."""
