@@ -33,7 +33,7 @@ def main() -> int:
     """Run the examples, copy their figures, and check every example's claims (exit 1 if
     one does not hold: the pages state them)."""
     from gnssframework.experiments.claims import claim_line
-    from gnssframework.experiments.files import loads_strict
+    from gnssframework.io.files import loads_strict
 
     OUT.mkdir(parents=True, exist_ok=True)
     failed = []

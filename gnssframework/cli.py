@@ -65,7 +65,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _report_claims(summary, check: bool) -> int:
     """Print the claims' outcomes (all with ``--check``, else a tally); 1 if checked and one does not hold."""
     from .experiments.claims import claim_line
-    from .experiments.files import loads_strict
+    from .io.files import loads_strict
 
     claims = loads_strict(summary.read_text()).get("claims", [])
     if not claims:
@@ -119,7 +119,7 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from .experiments.files import atomic_open
+    from .io.files import atomic_open
     from .io.observations import read_observations
     from .io.skipped import exit_status, print_skipped, write_skipped_report
     from .io.skipped import EXIT_SKIPPED

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from gnssframework.experiments import load_config, run_comparison
-from gnssframework.experiments.files import atomic_open, dumps_strict, loads_strict, write_json
+from gnssframework.io.files import atomic_open, dumps_strict, loads_strict, write_json
 from gnssframework.experiments.scenarios.carrier_smoothing import CarrierSmoothingScenario
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
@@ -181,7 +181,7 @@ def _check_every_file_parses(out: Path) -> None:
 # write, rather than at a chosen time, hits the write every time.
 _KILL_AT = r"""
 import os, signal, sqlite3, sys
-import gnssframework.experiments.files as files
+import gnssframework.io.files as files
 import gnssframework.experiments.store as store
 from gnssframework.cli import main
 

@@ -3,6 +3,7 @@
 from .config import Candidate, Case, ComparisonConfig, Executor, PluginRef, load_config
 from .runner import plan, run_comparison
 from .scenarios import SCENARIOS, BatchResult, Scenario, get_scenario, register_scenario
+from .scenarios import hooks as _core_scenarios  # noqa: F401 - imports (registers) the core's scenario kinds
 
 __all__ = [
     "BatchResult",

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any, Iterator
 
 from ..errors import ConfigError
-from .files import atomic_write_text
+from ..io.files import atomic_write_text
 from .store import ResultStore
 
 __all__ = ["claim_folder", "IDENTITY_FIELDS"]

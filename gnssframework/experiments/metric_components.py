@@ -29,6 +29,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from .batch import BatchResult
 from .metrics import Metric, MetricValue, rmse, settled
 
 __all__ = ["SeriesMetric", "Rmse", "MeanAbs", "ConvergenceEpoch", "convergence_epoch", "evaluate", "units",
@@ -410,7 +411,7 @@ def undefined_reasons(components: Sequence[Metric]) -> dict[str, str]:
 
 
 def evaluate(components: Sequence[Metric], series: dict[str, np.ndarray], time_s: np.ndarray | None,
-             scenario: Any) -> "BatchResult":
+             scenario: Any) -> BatchResult:
     """Compute every component once from the raw ``series`` of one batch.
 
     Returns the batch's `BatchResult`: each component's value ``(runs,)``, and the raw
@@ -421,8 +422,6 @@ def evaluate(components: Sequence[Metric], series: dict[str, np.ndarray], time_s
     ValueError
         If a component's series name clashes with a raw series, or a value is not one per run.
     """
-    from .scenarios import BatchResult
-
     metrics: dict[str, np.ndarray] = {}
     out_series = dict(series)
     for c in components:

@@ -8,7 +8,7 @@ import numpy as np
 
 from .claims import claim_line, evaluate_claims
 from .config import ComparisonConfig
-from .files import atomic_open, atomic_write_text, write_json
+from ..io.files import atomic_open, atomic_write_text, write_json
 from .scenarios import get_scenario
 from .stats import SIGNIFICANCE_RULE, paired_rows
 from .store import ResultStore

@@ -151,7 +151,7 @@ def _series_dataset(config, out: Path):
 def load_results(out: str | Path, config=None) -> ComparisonResult:
     """The results of the comparison written in ``out`` (its ``config.json`` unless given)."""
     from .config import ComparisonConfig
-    from .files import loads_strict
+    from ..io.files import loads_strict
     from .store import ResultStore
 
     out = Path(out)

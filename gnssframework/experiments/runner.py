@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import ConfigError, GnssFrameworkError, RunFailure, WorkerError
 from ..random_streams import RunStreams, name_key, run_streams
 from .config import ComparisonConfig
-from .files import atomic_open, atomic_write_text
+from ..io.files import atomic_open, atomic_write_text
 from .folder import claim_folder
 from .scenarios import get_scenario
 from .store import ResultStore, plan_batches

@@ -40,7 +40,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..errors import ConfigError
-from .files import atomic_open, write_json
+from ..io.files import atomic_open, write_json
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
 
 __all__ = ["Sweep", "expand_sweep", "sweep_rows", "write_sweeps"]

@@ -57,7 +57,7 @@ def filter_positions(fixes: NmeaFixes, candidate: str = "AUKF1", psi: float = 0.
 
 def write_positions_csv(path: str | Path, fixes: NmeaFixes, lat: np.ndarray, lon: np.ndarray) -> None:
     """CSV with time, line, raw and filtered latitude/longitude (written atomically)."""
-    from ..experiments.files import atomic_open
+    from .files import atomic_open
 
     with atomic_open(path, "w", newline="") as fh:  # a killed run leaves no half CSV
         w = csv.writer(fh)

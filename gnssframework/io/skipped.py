@@ -50,7 +50,7 @@ def sidecar_path(out: str | Path) -> Path:
 def write_skipped_report(out: str | Path, source: str | Path, skipped: Sequence[tuple[int, str]]) -> Path:
     """Write ``<out>.skipped.csv`` (``file,line,reason``; header only when nothing was skipped,
     so a stale list from an earlier run never survives)."""
-    from ..experiments.files import atomic_open
+    from .files import atomic_open
 
     path = sidecar_path(out)
     with atomic_open(path, "w", newline="") as fh:

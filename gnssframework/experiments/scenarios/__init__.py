@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import abc
 import difflib
-from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
@@ -19,6 +18,7 @@ from ... import registry
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...plugin import refuse_quiet_conversions, validation_message
+from ..batch import BatchResult
 from ..limits import check_batch_memory
 
 __all__ = ["Scenario", "BatchResult", "SCENARIOS", "get_scenario", "register_scenario", "scenario_kinds"]
@@ -34,15 +34,6 @@ class ScenarioParams(BaseModel):
     @classmethod
     def _no_quiet_conversions(cls, data: Any) -> Any:
         return refuse_quiet_conversions(cls, data)
-
-
-@dataclass
-class BatchResult:
-    """Metrics ``(runs,)`` and time series ``(K, runs)`` of one batch of runs."""
-
-    metrics: dict[str, np.ndarray]
-    series: dict[str, np.ndarray] = field(default_factory=dict)
-    time_s: np.ndarray | None = None
 
 
 class Scenario(abc.ABC):
@@ -227,6 +218,3 @@ def get_scenario(config: dict[str, Any]) -> Scenario:
     _check_ordered_fields(params, "scenario")
     return cls(params)
 
-
-# The built-in kinds register themselves on import (at the end: they import the base above).
-from . import carrier_smoothing, deep_integration, multipath, scintillation, vector_tracking  # noqa: E402,F401

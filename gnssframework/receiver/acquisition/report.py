@@ -5,7 +5,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from ...experiments.files import atomic_open
+from ...io.files import atomic_open
 from ..frontend.recording import Recording
 from .search import Acquisition, AcquisitionResult
 

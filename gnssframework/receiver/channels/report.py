@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...experiments.files import atomic_open
+from ...io.files import atomic_open
 from .tracker import STAGES, TrackingResult
 
 __all__ = ["TRACKING_COLUMNS", "SUMMARY_COLUMNS", "write_tracking_outputs", "channel_summary"]
