@@ -10,7 +10,7 @@ import pytest
 import gnssframework as gf
 from gnssframework.experiments import get_scenario
 from gnssframework.experiments.scenarios.carrier_smoothing import false_resets, slip_recovery
-from gnssframework.io.rinex import read_code_carrier
+from gnssframework.io.observations import read_code_carrier
 from gnssframework.signal.constants import L1_WAVELENGTH_M
 
 RNX = Path(__file__).resolve().parents[1] / "examples" / "data" / "simulated_pass.rnx"

@@ -16,7 +16,7 @@ import pytest
 
 import gnssframework as gf
 from gnssframework.io.observations import SPEED_OF_LIGHT_MPS, arc_starts, read_observations
-from gnssframework.io.rinex import read_code_carrier
+from gnssframework.io.observations import read_code_carrier
 
 DATA = Path(__file__).resolve().parent / "data"
 RINEX2 = DATA / "07590920.05o"

@@ -13,7 +13,7 @@ import pytest
 
 import gnssframework as gf
 from gnssframework.cli import main
-from gnssframework.io.rinex import read_code_carrier
+from gnssframework.io.observations import read_code_carrier
 
 RNX = Path(__file__).resolve().parents[1] / "examples" / "data" / "simulated_pass.rnx"
 HEAD = 12  # header lines; then epochs of 3 lines: "> ...", "G08 ...", "G16 ..."

@@ -8,7 +8,7 @@ import pathlib
 import numpy as np
 
 import gnssframework as gf
-from gnssframework.io.rinex import read_code_carrier
+from gnssframework.io.observations import read_code_carrier
 
 DATA = pathlib.Path(__file__).resolve().parents[1] / "data" / "simulated_pass.rnx"
 

@@ -18,12 +18,13 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, DataFileError
+from ..signal.constants import L1_WAVELENGTH_M
 from .rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M, RinexScan, check_rinex3_obs
 from .skipped import refuse_or_keep
 from .text import check_input_file
 
 __all__ = ["Observations", "SIGNALS", "SECOND_SIGNALS", "SPEED_OF_LIGHT_MPS", "LLI_LOST_LOCK", "read_observations",
-           "arc_starts", "glonass_l1_frequency_hz", "GEORINEX_TIME_TOLERANCE"]
+           "arc_starts", "glonass_l1_frequency_hz", "GEORINEX_TIME_TOLERANCE", "CodeCarrier", "read_code_carrier"]
 
 SPEED_OF_LIGHT_MPS = 299_792_458.0
 #: Bit 0 of the loss-of-lock indicator: "lost lock between previous and current
@@ -102,7 +103,7 @@ class Observations:
     dropped
         Satellites or systems selected but not read, with the reason.
     skipped, truncated
-        As for :func:`~gnssframework.io.rinex.read_code_carrier` (RINEX 3 files).
+        As for :func:`read_code_carrier` (RINEX 3 files).
     """
 
     epoch: np.ndarray
@@ -477,3 +478,52 @@ def _assemble(path: Path, obs, epochs: np.ndarray, version: float, systems: set[
                         stack("lli", np.int64), stack("snr"), stack("ssi", np.int64), np.array(columns["wl"]),
                         stack("phase2"), np.array(columns["wl2"], float), signal, float(interval), version,
                         _header_position(obs), dropped, skipped, scan.truncated if scan is not None else None)
+
+
+@dataclass
+class CodeCarrier:
+    """Pseudorange and carrier phase of one satellite, epochs where both exist."""
+
+    time_s: np.ndarray  # seconds since the first epoch
+    epoch: np.ndarray  # numpy datetime64
+    pseudorange_m: np.ndarray
+    carrier_m: np.ndarray  # carrier phase times the L1 wavelength
+    skipped: list[tuple[int, str]] = field(default_factory=list)  # (line, reason), see check_rinex3_obs
+    truncated: str | None = None  # why the file looks cut, or None
+    lli: np.ndarray | None = None  # loss-of-lock indicator of the carrier, 0 where blank
+    snr_dbhz: np.ndarray | None = None  # signal-strength observation, NaN where absent
+    wavelength_m: float = L1_WAVELENGTH_M
+
+
+def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSEUDORANGE_MIN_M,
+                      pseudorange_max_m: float = PSEUDORANGE_MAX_M, strict: bool = False) -> CodeCarrier:
+    """Pseudorange and carrier (metres) of satellite ``prn`` (``"G08"``, ``"C11"``...).
+
+    One satellite of :func:`read_observations` (RINEX 2.1x
+    or 3.0x, plain or Hatanaka-compressed; the signal of :data:`SIGNALS`),
+    at the epochs where both code and carrier exist, with its loss-of-lock indicators and
+    signal strength. RINEX 3 files are first checked by :func:`~gnssframework.io.rinex.check_rinex3_obs`:
+    duplicated, backwards and truncated epochs and implausible pseudoranges are skipped
+    and listed in the result's ``skipped`` (``truncated`` says why the file looks cut).
+
+    Parameters
+    ----------
+    pseudorange_min_m, pseudorange_max_m
+        Plausibility bounds of a pseudorange (defaults :data:`~gnssframework.io.rinex.PSEUDORANGE_MIN_M`,
+        :data:`~gnssframework.io.rinex.PSEUDORANGE_MAX_M`).
+    strict
+        Refuse the file at the first skipped line (or truncation) instead.
+
+    Raises
+    ------
+    DataFileError
+        For a malformed file (naming the line), an error inside georinex (naming the first
+        epoch line it fails on), or when ``prn`` has no code and carrier.
+    """
+    obs = read_observations(path, prn, pseudorange_min_m, pseudorange_max_m, strict)
+    j = obs.satellite(prn)
+    ok = obs.valid[:, j]
+    times = obs.epoch[ok]
+    t = (times - times[0]) / np.timedelta64(1, "s")
+    return CodeCarrier(t.astype(float), times, obs.pseudorange_m[ok, j], obs.carrier_m[ok, j], obs.skipped,
+                       obs.truncated, obs.lli[ok, j], obs.snr_dbhz[ok, j], float(obs.wavelength_m[j]))

@@ -1,7 +1,8 @@
-"""RINEX observation files: read with georinex, and a minimal RINEX 3.04 writer.
+"""RINEX files: the line-level check of RINEX 3 observation files, and minimal RINEX 3.04 writers.
 
-The writer exists so the project can generate its own small test file (a simulated GPS
-pass); reading goes through georinex, which handles the real-world variety of files.
+The writers exist so the project can generate its own small test files (a simulated GPS
+pass); reading goes through georinex (`gnssframework.io.observations`), which handles the
+real-world variety of files, after `check_rinex3_obs` has named every bad line.
 """
 
 from __future__ import annotations
@@ -15,26 +16,10 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigError, DataFileError
-from ..signal.constants import L1_WAVELENGTH_M
 from .text import check_input_file, read_input_text
 
-__all__ = ["CodeCarrier", "RinexScan", "read_code_carrier", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs",
+__all__ = ["RinexScan", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs",
            "PSEUDORANGE_MIN_M", "PSEUDORANGE_MAX_M"]
-
-
-@dataclass
-class CodeCarrier:
-    """Pseudorange and carrier phase of one satellite, epochs where both exist."""
-
-    time_s: np.ndarray  # seconds since the first epoch
-    epoch: np.ndarray  # numpy datetime64
-    pseudorange_m: np.ndarray
-    carrier_m: np.ndarray  # carrier phase times the L1 wavelength
-    skipped: list[tuple[int, str]] = field(default_factory=list)  # (line, reason), see check_rinex3_obs
-    truncated: str | None = None  # why the file looks cut, or None
-    lli: np.ndarray | None = None  # loss-of-lock indicator of the carrier, 0 where blank
-    snr_dbhz: np.ndarray | None = None  # signal-strength observation, NaN where absent
-    wavelength_m: float = L1_WAVELENGTH_M
 
 
 def write_rinex3_obs(path: str | Path, start: dt.datetime, interval_s: float,
@@ -319,42 +304,6 @@ def _locate_georinex_failure_with(scan: RinexScan, tmp: Path, load: Callable[[Pa
                     lo = mid + 1
             return scan.line_numbers[starts[lo - 1]]
     return None
-
-
-def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSEUDORANGE_MIN_M,
-                      pseudorange_max_m: float = PSEUDORANGE_MAX_M, strict: bool = False) -> CodeCarrier:
-    """Pseudorange and carrier (metres) of satellite ``prn`` (``"G08"``, ``"C11"``...).
-
-    One satellite of :func:`~gnssframework.io.observations.read_observations` (RINEX 2.1x
-    or 3.0x, plain or Hatanaka-compressed; the signal of :data:`~gnssframework.io.observations.SIGNALS`),
-    at the epochs where both code and carrier exist, with its loss-of-lock indicators and
-    signal strength. RINEX 3 files are first checked by :func:`check_rinex3_obs`:
-    duplicated, backwards and truncated epochs and implausible pseudoranges are skipped
-    and listed in the result's ``skipped`` (``truncated`` says why the file looks cut).
-
-    Parameters
-    ----------
-    pseudorange_min_m, pseudorange_max_m
-        Plausibility bounds of a pseudorange (defaults :data:`PSEUDORANGE_MIN_M`,
-        :data:`PSEUDORANGE_MAX_M`).
-    strict
-        Refuse the file at the first skipped line (or truncation) instead.
-
-    Raises
-    ------
-    DataFileError
-        For a malformed file (naming the line), an error inside georinex (naming the first
-        epoch line it fails on), or when ``prn`` has no code and carrier.
-    """
-    from .observations import read_observations
-
-    obs = read_observations(path, prn, pseudorange_min_m, pseudorange_max_m, strict)
-    j = obs.satellite(prn)
-    ok = obs.valid[:, j]
-    times = obs.epoch[ok]
-    t = (times - times[0]) / np.timedelta64(1, "s")
-    return CodeCarrier(t.astype(float), times, obs.pseudorange_m[ok, j], obs.carrier_m[ok, j], obs.skipped,
-                       obs.truncated, obs.lli[ok, j], obs.snr_dbhz[ok, j], float(obs.wavelength_m[j]))
 
 
 def _first_skipped(skipped: list[tuple[int, str]]) -> str:

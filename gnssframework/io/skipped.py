@@ -1,7 +1,7 @@
 """Lines a reader skipped: refusing them (strict mode), reporting them, exit statuses.
 
 Readers of recorded files (:func:`~gnssframework.io.nmea.read_nmea`,
-:func:`~gnssframework.io.rinex.read_code_carrier`) either skip a bad line and list it as
+:func:`~gnssframework.io.observations.read_code_carrier`) either skip a bad line and list it as
 ``(line, reason)``, or, with ``strict=True``, refuse the file at the first such line. The
 commands that use them (``filter-positions``, ``smooth``) print the list, write it beside
 their output as ``<out>.skipped.csv`` and say in their exit status whether anything was
