@@ -255,12 +255,13 @@ def test_attitude_errors_wrap_and_order_roll_pitch_yaw():
 
 
 def test_post_settle_rmse_and_max():
-    from gnssframework.experiments.scenarios.deep_integration_metrics import post_settle_rmse_and_max
+    # The scenario's _rmse and _max metrics reduce with the shared helpers of experiments.metrics.
+    from gnssframework.experiments.metrics import max_after_settle, rmse, settled
 
     t = np.arange(5.0)
     err = np.array([[100.0], [3.0], [-4.0], [0.0], [0.0]])
-    rmse, mx = post_settle_rmse_and_max(err, t, settle_s=1.0)
-    assert rmse[0] == pytest.approx(np.sqrt(25 / 4)) and mx[0] == 4.0
+    assert rmse(err, settled(t, 1.0, 5))[0] == pytest.approx(np.sqrt(25 / 4))
+    assert max_after_settle(err, t, 1.0)[0] == 4.0
 
 
 # --- aided tracking harness ------------------------------------------------------------------

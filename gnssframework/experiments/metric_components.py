@@ -30,17 +30,11 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from .batch import BatchResult
-from .metrics import Metric, MetricValue, rmse, settled
+from .metrics import Metric, MetricValue, magnitude, rmse, select, settled
 
 __all__ = ["SeriesMetric", "Rmse", "MeanAbs", "ConvergenceEpoch", "convergence_epoch", "evaluate", "units",
            "Mean", "Std", "LockLossFraction", "SlipRecovery", "FalseResets", "slip_recovery", "false_resets",
            "undefined_reasons"]
-
-
-def _magnitude(x: np.ndarray) -> np.ndarray:
-    """``|x|`` of a ``(K, runs)`` series; the Euclidean norm of a ``(K, runs, d)`` one."""
-    x = np.asarray(x, dtype=float)
-    return np.abs(x) if x.ndim <= 2 else np.sqrt(np.sum(x**2, axis=tuple(range(2, x.ndim))))
 
 
 def _scenario_value(value: Any, scenario: Any, what: str) -> Any:
@@ -124,7 +118,7 @@ class Rmse(SeriesMetric):
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
         x = np.asarray(series[self.of], dtype=float)
-        return MetricValue(rmse(x, self._mask(x.shape[0], time_s, scenario)), _magnitude(x))
+        return MetricValue(rmse(x, self._mask(x.shape[0], time_s, scenario)), magnitude(x))
 
 
 class MeanAbs(SeriesMetric):
@@ -138,9 +132,8 @@ class MeanAbs(SeriesMetric):
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
         x = np.asarray(series[self.of], dtype=float)
-        mag = _magnitude(x)
-        mask = self._mask(x.shape[0], time_s, scenario)
-        return MetricValue(np.mean(mag if mask is None else mag[mask], axis=0), mag)
+        mag = magnitude(x)
+        return MetricValue(np.mean(select(mag, self._mask(x.shape[0], time_s, scenario), self.name), axis=0), mag)
 
 
 def convergence_epoch(err: np.ndarray, window: int, factor: float = 2.0) -> np.ndarray:
@@ -185,7 +178,7 @@ class ConvergenceEpoch(SeriesMetric):
         self.factor = factor
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
-        mag = _magnitude(series[self.of])
+        mag = magnitude(series[self.of])
         conv = convergence_epoch(mag, int(_scenario_value(self.window, scenario, self.name)), self.factor)
         unconverged = (np.arange(mag.shape[0])[:, None] < conv[None, :]).astype(float)
         return MetricValue(conv, unconverged)
@@ -193,14 +186,6 @@ class ConvergenceEpoch(SeriesMetric):
 
 # --- Reductions of the tracking and smoothing scenarios (carrier-smoothing, scintillation,
 # vector-tracking): each metric declared once in its scenario's METRICS.
-
-
-def _selected(x: np.ndarray, mask: np.ndarray | None, what: str) -> np.ndarray:
-    if mask is not None:
-        x = x[mask]
-    if x.shape[0] == 0:
-        raise ValueError(f"{what}: no epoch selected (settle time at or beyond the end of the run?)")
-    return x
 
 
 class Mean(SeriesMetric):
@@ -216,7 +201,7 @@ class Mean(SeriesMetric):
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
         x = np.asarray(series[self.of], dtype=float)
-        return MetricValue(np.mean(_selected(x, self._mask(x.shape[0], time_s, scenario), self.name), axis=0), x)
+        return MetricValue(np.mean(select(x, self._mask(x.shape[0], time_s, scenario), self.name), axis=0), x)
 
 
 class Std(SeriesMetric):
@@ -231,7 +216,7 @@ class Std(SeriesMetric):
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
         x = np.asarray(series[self.of], dtype=float)
-        return MetricValue(np.std(_selected(x, self._mask(x.shape[0], time_s, scenario), self.name), axis=0),
+        return MetricValue(np.std(select(x, self._mask(x.shape[0], time_s, scenario), self.name), axis=0),
                            np.abs(x))
 
 
@@ -263,7 +248,7 @@ class LockLossFraction(SeriesMetric):
             raise ValueError(f"{self.name}: needs the epochs' times (two or more) for the block length")
         interval_s = (time_s[-1] - time_s[0]) / (len(time_s) - 1)
         block = max(1, int(round(float(_scenario_value(self.window, scenario, self.name)) / interval_s)))
-        e = _selected(err, self._mask(err.shape[0], time_s, scenario), self.name)
+        e = select(err, self._mask(err.shape[0], time_s, scenario), self.name)
         n_blocks = e.shape[0] // block
         if n_blocks == 0:  # the mean of no block would be a NumPy warning and a NaN
             raise ValueError(f"{self.name}: the {e.shape[0]} settled epochs hold no whole block of {block} epochs "
@@ -459,6 +444,5 @@ class PostSettleMax(SeriesMetric):
     """
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
-        mag = _magnitude(series[self.of])
-        mask = self._mask(mag.shape[0], time_s, scenario)
-        return MetricValue(np.max(mag if mask is None else mag[mask], axis=0), mag)
+        mag = magnitude(series[self.of])
+        return MetricValue(np.max(select(mag, self._mask(mag.shape[0], time_s, scenario), self.name), axis=0), mag)

@@ -24,7 +24,10 @@ scenario's own; a config names it in ``metrics`` like any other::
 
 The helpers (:func:`rmse`, :func:`max_after_settle`, :func:`nees_mean`, :func:`fraction`,
 :func:`settled`) reduce a ``(K, runs, ...)`` series over time (axis 0) to ``(runs,)``;
-scenarios use them instead of writing the reductions inline.
+:func:`select` (the epochs of a mask, refusing an empty selection) and :func:`magnitude`
+(``|e_k|``, or the norm of a vector error) are the steps they share with the metric
+components (`gnssframework.experiments.metric_components`). Scenarios use them instead
+of writing the reductions inline.
 """
 
 from __future__ import annotations
@@ -36,10 +39,11 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import ConfigError
+from ..estimation.consistency import nees
 from ..plugin import Plugin
 
-__all__ = ["Metric", "MetricValue", "rmse", "max_after_settle", "nees_mean", "fraction", "settled",
-           "metric_plugin", "plugin_metrics"]
+__all__ = ["Metric", "MetricValue", "rmse", "max_after_settle", "nees_mean", "fraction", "settled", "select",
+           "magnitude", "metric_plugin", "plugin_metrics"]
 
 
 def settled(time_s: np.ndarray | None, settle_s: float, k: int) -> np.ndarray:
@@ -53,7 +57,14 @@ def settled(time_s: np.ndarray | None, settle_s: float, k: int) -> np.ndarray:
     return t >= settle_s
 
 
-def _select(x: np.ndarray, mask: np.ndarray | None, what: str) -> np.ndarray:
+def select(x: np.ndarray, mask: np.ndarray | None, what: str) -> np.ndarray:
+    """The epochs (axis 0) of ``x`` where ``mask`` ``(K,)`` is true, all of them without a mask.
+
+    Raises
+    ------
+    ValueError
+        Naming ``what``, if the mask does not fit the series or selects no epoch.
+    """
     x = np.asarray(x, dtype=float)
     if mask is None:
         out = x
@@ -67,6 +78,12 @@ def _select(x: np.ndarray, mask: np.ndarray | None, what: str) -> np.ndarray:
     return out
 
 
+def magnitude(x: np.ndarray) -> np.ndarray:
+    """``|x|`` of a ``(K, runs)`` series; the Euclidean norm per epoch of a ``(K, runs, d...)`` one."""
+    x = np.asarray(x, dtype=float)
+    return np.abs(x) if x.ndim <= 2 else np.sqrt(np.sum(x**2, axis=tuple(range(2, x.ndim))))
+
+
 def rmse(err: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
     """Root mean square over time (axis 0) of the selected epochs.
 
@@ -78,7 +95,7 @@ def rmse(err: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
     >>> rmse(np.array([[3.0], [4.0]])).round(4).tolist()
     [3.5355]
     """
-    e = _select(err, mask, "rmse")
+    e = select(err, mask, "rmse")
     sq = e**2 if e.ndim <= 2 else np.sum(e**2, axis=tuple(range(2, e.ndim)))
     return np.sqrt(np.mean(sq, axis=0))
 
@@ -86,9 +103,7 @@ def rmse(err: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
 def max_after_settle(err: np.ndarray, time_s: np.ndarray | None, settle_s: float) -> np.ndarray:
     """Largest absolute error (norm for vector errors) at or after ``settle_s``, ``(runs,)``."""
     e = np.asarray(err, dtype=float)
-    e = _select(e, settled(time_s, settle_s, e.shape[0]), "max_after_settle")
-    mag = np.abs(e) if e.ndim <= 2 else np.sqrt(np.sum(e**2, axis=tuple(range(2, e.ndim))))
-    return np.max(mag, axis=0)
+    return np.max(magnitude(select(e, settled(time_s, settle_s, e.shape[0]), "max_after_settle")), axis=0)
 
 
 def nees_mean(err: np.ndarray, cov: np.ndarray | None = None, mask: np.ndarray | None = None) -> np.ndarray:
@@ -99,16 +114,13 @@ def nees_mean(err: np.ndarray, cov: np.ndarray | None = None, mask: np.ndarray |
     consistent filter). Without ``cov``, ``err`` is the per-epoch NEES ``(K, runs)``.
     """
     if cov is None:
-        return np.mean(_select(err, mask, "nees_mean"), axis=0)
-    e = _select(err, mask, "nees_mean")
-    P = _select(cov, mask, "nees_mean")
-    sol = np.linalg.solve(P, e[..., None])[..., 0]
-    return np.mean(np.sum(e * sol, axis=-1), axis=0)
+        return np.mean(select(err, mask, "nees_mean"), axis=0)
+    return np.mean(nees(select(err, mask, "nees_mean"), select(cov, mask, "nees_mean")), axis=0)
 
 
 def fraction(flags: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
     """Fraction of the selected epochs where ``flags`` is true (e.g. loss of lock), ``(runs,)``."""
-    return np.mean(_select(np.asarray(flags, dtype=bool), mask, "fraction"), axis=0)
+    return np.mean(select(np.asarray(flags, dtype=bool), mask, "fraction"), axis=0)
 
 
 @dataclass

@@ -1,1 +1,1 @@
-"""Navigation: satellite states from broadcast ephemerides, shared by simulation and receivers."""
+"""Navigation: satellite states from broadcast ephemerides and receiver-satellite geometry, shared by simulation and receivers."""

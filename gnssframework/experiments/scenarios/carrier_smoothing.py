@@ -19,6 +19,7 @@ from pydantic import Field, ValidationInfo, field_validator
 from ... import random_streams as draw
 from ...errors import ConfigError
 from ...interfaces import RunContext
+from ...navigation.geometry import geometric_range
 from ...signal.constants import L1_WAVELENGTH_M
 from ...simulation.constellation import nominal_constellation
 from ...simulation.impairments import ar1_noise, cycle_slips
@@ -122,7 +123,7 @@ class CarrierSmoothingScenario(Scenario):
         t = p.start_time_s + np.arange(p.epochs) * p.dt_s
         pos, _, _ = sat.state(t)
         rx = np.array(pymap3d.geodetic2ecef(p.lat_deg, p.lon_deg, p.height_m))
-        truth = np.broadcast_to(np.linalg.norm(pos[:, 0] - rx, axis=-1)[:, None], (p.epochs, runs))
+        truth = np.broadcast_to(geometric_range(pos[:, 0], rx)[:, None], (p.epochs, runs))
         mp_xi = p.multipath_std_m * np.sqrt(1 - p.multipath_psi**2)
         code = truth + p.code_noise_std_m * draw.standard_normal(rng, (p.epochs, runs), 1) \
             + ar1_noise(p.multipath_psi, mp_xi, p.epochs, rng, batch_shape=(runs,))

@@ -1,4 +1,5 @@
-"""Navigation errors of the deep-integration experiment in local axes.
+"""Navigation errors of the deep-integration experiment in local axes (its post-settle RMSE and maximum
+reduce them with the shared helpers of `gnssframework.experiments.metrics`).
 
 Reference 002 reports its errors as horizontal position, height, horizontal and vertical
 velocity and roll/pitch/yaw. They are formed here from ECEF errors rotated into the
@@ -12,7 +13,7 @@ import numpy as np
 import pymap3d
 from scipy.spatial.transform import Rotation
 
-__all__ = ["enu_errors", "attitude_errors_deg", "post_settle_rmse_and_max"]
+__all__ = ["enu_errors", "attitude_errors_deg"]
 
 
 def enu_errors(est_pos_m: np.ndarray, true_pos_m: np.ndarray, est_vel_m_s: np.ndarray, true_vel_m_s: np.ndarray
@@ -40,13 +41,3 @@ def attitude_errors_deg(est_body_to_nav: np.ndarray, true_body_to_nav: np.ndarra
     t = Rotation.from_matrix(np.reshape(true_body_to_nav, (-1, 3, 3))).as_euler("ZYX", degrees=True)
     d = (e - t + 180.0) % 360.0 - 180.0
     return d[:, ::-1].reshape(*shape, 3)
-
-
-def post_settle_rmse_and_max(err: np.ndarray, time_s: np.ndarray, settle_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """RMSE over time after ``settle_s`` and the largest magnitude, per run.
-
-    ``err`` ``(K, runs)`` (time first, as every record of the project); returns two ``(runs,)``.
-    """
-    keep = np.asarray(time_s) >= settle_s
-    e = np.asarray(err)[keep]
-    return np.sqrt(np.mean(e**2, axis=0)), np.max(np.abs(e), axis=0)

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ... import random_streams as draw
+from ...estimation.consistency import nees
 from ...interfaces import RunContext
 from ...receiver.deep.aided_tracking import DeepTruth, run_aided_tracking
 from ...receiver.deep.ins_navigator import InsNavigator, loose_update
@@ -54,9 +55,9 @@ def _nav_record(flight: Flight, t_s: float, ins: StrapdownIns, cov: np.ndarray) 
     s = ins.state
     err = np.concatenate([s.velocity_ecef_mps - tr.velocity_ecef_mps[0], s.position_ecef_m - tr.position_ecef_m[0]],
                          -1)
-    nees = np.einsum("ri,rij,rj->r", err, np.linalg.inv(cov[:, 3:9, 3:9]), err)
+    nees_vp = nees(err, cov[:, 3:9, 3:9])
     return {"position_m": s.position_ecef_m.copy(), "velocity_m_s": s.velocity_ecef_mps.copy(),
-            "body_to_ned": body_to_ned(s.q_b_e, s.position_ecef_m), "nees": nees,
+            "body_to_ned": body_to_ned(s.q_b_e, s.position_ecef_m), "nees": nees_vp,
             "attitude_cov_ecef": cov[:, 0:3, 0:3].copy()}
 
 

@@ -61,7 +61,8 @@ from ...interfaces import ChannelFilter, RunContext
 from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from ...signal.correlators import Correlators
-from ..tracking.vector import CHANNEL_OUTPUTS, _geometric_range
+from ...navigation.geometry import ranges_from_receivers as _geometric_range
+from ..tracking.vector import CHANNEL_OUTPUTS
 from .aiding import line_of_sight_kinematics, nco_schedule
 
 __all__ = ["DeepTruth", "Navigator", "DeepRecord", "run_aided_tracking", "loss_of_lock"]

@@ -65,6 +65,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...estimation import kernels, kernels_loop
+from ...navigation.geometry import line_of_sight
 from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ...signal.correlator_model import amplitude_from_cn0, tap_noise_cov
 
@@ -190,8 +191,7 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
     sats = np.asarray(sat_pos(times))  # (K, ch, 3): one orbit evaluation for all epochs
 
     # The measurement square roots of every epoch in one vectorised pass (issue 11).
-    los = sats.reshape(epochs, n_ch, 3) - (r0 + v * times[:, None])[:, None, :]
-    e = los / np.linalg.norm(los, axis=-1, keepdims=True)
+    _, e = line_of_sight(sats.reshape(epochs, n_ch, 3), (r0 + v * times[:, None])[:, None, :])
     drho = np.zeros((epochs, n_ch, n))
     drho[..., 0:3] = -e
     drho[..., 6] = 1.0

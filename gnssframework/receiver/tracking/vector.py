@@ -31,7 +31,9 @@ import numpy as np
 
 from ... import random_streams as draw
 from ...errors import ConfigError
+from ...estimation.consistency import nees
 from ...interfaces import ChannelFilter, NavFilter, RunContext
+from ...navigation.geometry import line_of_sight, range_rate, ranges_from_receivers
 from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from ...signal.navdata import BIT_PERIOD_S, random_nav_bits
@@ -85,7 +87,7 @@ class VectorTruth:
         ``sat_pos`` saves recomputing the satellite positions when the caller has them."""
         s = self.sat_state(t)[0] if sat_pos is None else sat_pos
         r, _ = self.receiver_state(t)
-        rho = _geometric_range(s, r) + self.clock_m[k, :, 0][:, None]
+        rho = ranges_from_receivers(s, r) + self.clock_m[k, :, 0][:, None]
         if self.range_error_m is not None:
             rho = rho + self.range_error_m(np.asarray(t, float))[0]
         return rho
@@ -266,9 +268,9 @@ def run_vector_loop(
             carrier_rep = carrier_rep_end
         # NEES of the block's epochs in three batched solves instead of three per epoch.
         err, cov = err_rec[k0:k1], cov_buf[:k1 - k0]
-        nees_rec[k0:k1] = _nees(err, cov)
-        nees_pos_rec[k0:k1] = _nees(err[..., 0:3], cov[..., 0:3, 0:3])
-        nees_vel_rec[k0:k1] = _nees(err[..., 3:6], cov[..., 3:6, 3:6])
+        nees_rec[k0:k1] = nees(err, cov)
+        nees_pos_rec[k0:k1] = nees(err[..., 0:3], cov[..., 0:3, 0:3])
+        nees_vel_rec[k0:k1] = nees(err[..., 3:6], cov[..., 3:6, 3:6])
     return VectorRecord(code_rec, freq_rec, err_rec[..., 0:3], err_rec[..., 3:6], nees_rec,
                         t_edges[:-1] + T / 2, nees_position=nees_pos_rec, nees_velocity=nees_vel_rec,
                         code_output_error_chips=code_out_rec, freq_output_error_hz=freq_out_rec)
@@ -287,27 +289,13 @@ def _truth_block(truth: VectorTruth, sat_pos_edges: np.ndarray, t_edges: np.ndar
     edges = np.arange(k0, k1 + 1)
     r, _ = truth.receiver_state(t_edges[k0:k1 + 1])
     s = sat_pos_edges[k0:k1 + 1]
-    rho = _geometric_range(s, r) + truth.clock_m[edges, :, 0][..., None]
+    rho = ranges_from_receivers(s, r) + truth.clock_m[edges, :, 0][..., None]
     tm = t_edges[k0:k1] + T / 2
     ks = edges[:-1]
     r, v = truth.receiver_state(tm)
     frac = ((tm / T) - ks)[:, None, None]
     clock = (1 - frac) * truth.clock_m[ks] + frac * truth.clock_m[np.minimum(ks + 1, truth.epochs)]
     return rho, np.concatenate([r, v, clock], axis=-1)
-
-
-def _geometric_range(sat_pos: np.ndarray, receiver_pos: np.ndarray) -> np.ndarray:
-    """Distances ``(..., runs, ch)`` from receivers ``(..., runs, 3)`` to satellites shared by
-    the runs ``(..., ch, 3)`` or per run ``(..., runs, ch, 3)``."""
-    s = np.asarray(sat_pos)
-    if s.ndim == np.ndim(receiver_pos):  # shared by the runs
-        s = s[..., None, :, :]
-    return np.linalg.norm(s - np.asarray(receiver_pos)[..., None, :], axis=-1)
-
-
-def _nees(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """$e^T P^{-1} e$ batched over the leading axes (``err (..., n)``, ``cov (..., n, n)``)."""
-    return np.einsum("...i,...i->...", err, np.linalg.solve(cov, err[..., None])[..., 0])
 
 
 def predicted_range(x: np.ndarray, sat_pos: np.ndarray, sat_vel: np.ndarray
@@ -322,8 +310,6 @@ def predicted_range(x: np.ndarray, sat_pos: np.ndarray, sat_vel: np.ndarray
     \\rho = \\lVert s - r \\rVert + b, \\qquad \\dot\\rho = (v_s - v) \\cdot e + d
     $$
     """
-    los = sat_pos - x[..., None, :3]
-    dist = np.linalg.norm(los, axis=-1)
-    e = los / dist[..., None]
-    rate = np.sum((sat_vel - x[..., None, 3:6]) * e, axis=-1) + x[..., None, 7]
+    dist, e = line_of_sight(sat_pos, x[..., None, :3])
+    rate = range_rate(sat_vel, x[..., None, 3:6], e) + x[..., None, 7]
     return dist + x[..., None, 6], rate, e
