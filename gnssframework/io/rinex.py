@@ -144,22 +144,43 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
     DataFileError
         Naming the file and the line.
     """
+    _check_bounds(pseudorange_min_m, pseudorange_max_m)
+    where = str(Path(path))
+    if text is None:
+        text = read_input_text(Path(path), errors="replace")
+    lines = text.splitlines()
+    end = _header_end(lines, where)
+    types_of = _observation_types(lines, end, where)
+    cut = _cut_inside_last_line(text, lines, end)
+    epochs = _group_epochs(lines, end, cut, where)
+    verdict = _judge_epochs(lines, epochs, types_of, cut, (pseudorange_min_m, pseudorange_max_m), where)
+    out_lines, numbers, starts = _kept_lines(lines, epochs, verdict, types_of)
+    return RinexScan(out_lines, numbers, starts, end, sorted(verdict.skipped), verdict.truncated)
+
+
+# -- the steps of check_rinex3_obs, in order -------------------------------------------------------
+
+def _check_bounds(pseudorange_min_m: float, pseudorange_max_m: float) -> None:
     if not 0 <= pseudorange_min_m < pseudorange_max_m:  # also NaN
         raise ConfigError("pseudorange_min_m/pseudorange_max_m (--pseudorange-min/--pseudorange-max)",
                           f"need 0 <= min < max, got [{pseudorange_min_m!r}, {pseudorange_max_m!r}] m")
-    path = Path(path)
-    if text is None:
-        text = read_input_text(path, errors="replace")
-    lines = text.splitlines()
+
+
+def _header_end(lines: list[str], where: str) -> int:
+    """Index of END OF HEADER, after checking that the file is RINEX version 3."""
     if not lines or "RINEX VERSION / TYPE" not in lines[0]:
-        raise DataFileError(str(path), 1, "not a RINEX file: first line lacks 'RINEX VERSION / TYPE'")
+        raise DataFileError(where, 1, "not a RINEX file: first line lacks 'RINEX VERSION / TYPE'")
     if not lines[0][:9].strip().startswith("3"):
-        raise DataFileError(str(path), 1, f"RINEX version {lines[0][:9].strip()!r}: this reader checks version 3")
+        raise DataFileError(where, 1, f"RINEX version {lines[0][:9].strip()!r}: this reader checks version 3")
     try:
-        end = next(i for i, line in enumerate(lines) if "END OF HEADER" in line)
+        return next(i for i, line in enumerate(lines) if "END OF HEADER" in line)
     except StopIteration:
-        raise DataFileError(str(path), len(lines), "no END OF HEADER line") from None
-    types_of: dict[str, list[str]] = {}  # system letter -> its observation types, in order
+        raise DataFileError(where, len(lines), "no END OF HEADER line") from None
+
+
+def _observation_types(lines: list[str], end: int, where: str) -> dict[str, list[str]]:
+    """System letter -> its observation types in order (SYS / # / OBS TYPES records)."""
+    types_of: dict[str, list[str]] = {}
     system = ""
     for i, line in enumerate(lines[1:end], 2):
         if "SYS / # / OBS TYPES" not in line:
@@ -169,111 +190,164 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
             try:
                 int(line[3:6])
             except ValueError:
-                raise DataFileError(str(path), i, "bad number of observation types") from None
+                raise DataFileError(where, i, "bad number of observation types") from None
         types_of.setdefault(system, []).extend(line[7:60].split())
-    code_fields_of = {sys_: {j for j, t in enumerate(ts) if t.startswith("C")} for sys_, ts in types_of.items()}
+    return types_of
 
-    # Group the data part into epochs: (header index, declared count, observation indices).
+
+def _cut_inside_last_line(text: str, lines: list[str], end: int) -> str | None:
+    """Why the file looks cut inside its last data line (no newline after it), or None."""
+    if lines[-1:] and not text.endswith(("\n", "\r")) and len(lines) - 1 > end:
+        return f"the last line ({len(lines)}) has no newline: the file was cut inside it"
+    return None
+
+
+def _group_epochs(lines: list[str], end: int, cut: str | None, where: str) -> list[tuple[int, int, list[int]]]:
+    """The data part as epochs: (header index, declared count, observation indices).
+
+    Event records (flags 2-5) are passed over; a cut last epoch line is kept with count -1
+    so that `_judge_epochs` drops it as truncated.
+    """
     epochs: list[tuple[int, int, list[int]]] = []
     i = end + 1
-    cut: str | None = None
-    if lines[-1:] and not text.endswith(("\n", "\r")) and len(lines) - 1 > end:
-        cut = f"the last line ({len(lines)}) has no newline: the file was cut inside it"
     while i < len(lines):
         line, no = lines[i], i + 1
         if not line.strip():
             i += 1
             continue
         if not line.startswith(">"):
-            raise DataFileError(str(path), no, "observation line outside an epoch (or more than its count)")
+            raise DataFileError(where, no, "observation line outside an epoch (or more than its count)")
         if not _EPOCH.match(line):
             if cut and i == len(lines) - 1:
                 epochs.append((i, -1, []))  # the cut epoch line itself: dropped as truncated below
                 break
-            raise DataFileError(str(path), no, f"malformed epoch line {line!r}")
+            raise DataFileError(where, no, f"malformed epoch line {line!r}")
         flag, count = int(line[31]), int(line[32:35])
-        body = list(range(i + 1, min(i + 1 + count, len(lines))))
         if flag > 1:  # event records: header lines, no observations
             i += 1 + count
             continue
-        # The epoch ends early if the next epoch line comes before its count is reached.
-        for k, j in enumerate(body):
-            if lines[j].startswith(">"):
-                if j < len(lines) - 1 or not cut:
-                    raise DataFileError(str(path), no, f"epoch declares {count} satellites but has only {k} "
-                                                       f"observation lines (next epoch at line {j + 1})")
-                body = body[:k]
-                break
+        body = _epoch_body(lines, i, count, cut, where)
         epochs.append((i, count, body))
         i += 1 + len(body)
+    return epochs
 
-    skipped: list[tuple[int, str]] = []
-    drop: set[int] = set()
-    blank: dict[int, list[int]] = {}
-    truncated = None
+
+def _epoch_body(lines: list[str], i: int, count: int, cut: str | None, where: str) -> list[int]:
+    """Indices of the observation lines of the epoch at ``i``: ``count`` lines, fewer only
+    where the file is cut (an earlier epoch line is refused)."""
+    body = list(range(i + 1, min(i + 1 + count, len(lines))))
+    for k, j in enumerate(body):
+        if lines[j].startswith(">"):
+            if j < len(lines) - 1 or not cut:
+                raise DataFileError(where, i + 1, f"epoch declares {count} satellites but has only {k} "
+                                                  f"observation lines (next epoch at line {j + 1})")
+            return body[:k]
+    return body
+
+
+@dataclass
+class _Verdict:
+    """What `_judge_epochs` decided: lines to drop, pseudoranges to blank, and why."""
+
+    skipped: list[tuple[int, str]] = field(default_factory=list)  # (line, reason)
+    drop: set[int] = field(default_factory=set)  # line indices
+    blank: dict[int, list[int]] = field(default_factory=dict)  # line index -> observation fields
+    truncated: str | None = None
+
+    def drop_epoch(self, head: int, body: list[int]) -> None:
+        """Drop an epoch with its observations, whose blanked values then no longer count."""
+        self.drop.update([head, *body])
+        for j in body:
+            if j in self.blank:
+                del self.blank[j]
+                self.skipped[:] = [s for s in self.skipped if s[0] != j + 1]
+
+
+def _judge_epochs(lines: list[str], epochs: list[tuple[int, int, list[int]]], types_of: dict[str, list[str]],
+                  cut: str | None, bounds_m: tuple[float, float], where: str) -> _Verdict:
+    """Drop a truncated last epoch and duplicate or backward epochs; blank implausible pseudoranges."""
+    verdict = _Verdict()
+    code_fields_of = {sys_: {j for j, t in enumerate(ts) if t.startswith("C")} for sys_, ts in types_of.items()}
     kept_times: dict[tuple, int] = {}
     last = None
     for n_epoch, (h, count, body) in enumerate(epochs):
-        is_last = n_epoch == len(epochs) - 1
-        if is_last and (len(body) < count or cut):
-            truncated = cut or (f"the file ends inside the epoch at line {h + 1}: it declares {count} satellites, "
-                                f"the file holds {len(body)}")
-            skipped.append((h + 1, f"truncated epoch dropped: {truncated}"))
-            drop.update([h, *body])
+        if n_epoch == len(epochs) - 1 and (len(body) < count or cut):
+            verdict.truncated = cut or (f"the file ends inside the epoch at line {h + 1}: it declares {count} "
+                                        f"satellites, the file holds {len(body)}")
+            verdict.skipped.append((h + 1, f"truncated epoch dropped: {verdict.truncated}"))
+            verdict.drop.update([h, *body])
             break
         for j in body:
-            line = lines[j]
-            if not _OBS.match(line):
-                raise DataFileError(str(path), j + 1, f"bad satellite id {line[:3]!r}")
-            types = types_of.get(line[0], [])
-            code_fields = code_fields_of.get(line[0], set())
-            for f in range(len(types)):
-                value = line[3 + 16 * f: 3 + 16 * f + 14]
-                if not value.strip():
-                    continue
-                try:
-                    x = float(value)
-                except ValueError:
-                    raise DataFileError(str(path), j + 1, f"observation {f + 1} is not a number: {value!r}") from None
-                if f in code_fields and not pseudorange_min_m <= x <= pseudorange_max_m:
-                    blank.setdefault(j, []).append(f)
-                    skipped.append((j + 1, f"{line[:3]} {types[f]} = {x:.6g} m outside [{pseudorange_min_m:g}, "
-                                           f"{pseudorange_max_m:g}] m (pseudorange_min_m/pseudorange_max_m): "
-                                           "observation skipped"))
-        try:
-            t = _epoch_time(lines[h])
-        except ValueError as exc:  # month 13, day 32, hour 24, ...: a corrupted epoch line
-            raise DataFileError(str(path), h + 1, f"impossible epoch time {lines[h][2:29].strip()!r}: {exc}") from None
-        if t in kept_times:
-            skipped.append((h + 1, f"duplicate epoch {_fmt_time(t)} (first at line {kept_times[t]}): "
-                                   f"epoch skipped"))
-        elif last is not None and t < last:
-            skipped.append((h + 1, f"epoch {_fmt_time(t)} goes backwards (after {_fmt_time(last)}): epoch skipped"))
-        else:
+            _check_observation_line(lines[j], j, types_of, code_fields_of, bounds_m, where, verdict)
+        t = _epoch_time_at(lines[h], h, where)
+        reason = _out_of_order(t, kept_times, last)
+        if reason is None:
             kept_times[t] = h + 1
             last = t
+        else:
+            verdict.skipped.append((h + 1, reason))
+            verdict.drop_epoch(h, body)
+    return verdict
+
+
+def _check_observation_line(line: str, j: int, types_of: dict[str, list[str]], code_fields_of: dict[str, set[int]],
+                            bounds_m: tuple[float, float], where: str, verdict: _Verdict) -> None:
+    """Refuse a bad satellite id or a value that is not a number; blank a pseudorange
+    outside ``bounds_m`` and record it as skipped."""
+    if not _OBS.match(line):
+        raise DataFileError(where, j + 1, f"bad satellite id {line[:3]!r}")
+    lo, hi = bounds_m
+    types = types_of.get(line[0], [])
+    code_fields = code_fields_of.get(line[0], set())
+    for f in range(len(types)):
+        value = line[3 + 16 * f: 3 + 16 * f + 14]
+        if not value.strip():
             continue
-        drop.update([h, *body])
-        for j in body:  # observations of a skipped epoch are not counted again
-            if j in blank:
-                del blank[j]
-                skipped[:] = [s for s in skipped if s[0] != j + 1]
+        try:
+            x = float(value)
+        except ValueError:
+            raise DataFileError(where, j + 1, f"observation {f + 1} is not a number: {value!r}") from None
+        if f in code_fields and not lo <= x <= hi:
+            verdict.blank.setdefault(j, []).append(f)
+            verdict.skipped.append((j + 1, f"{line[:3]} {types[f]} = {x:.6g} m outside [{lo:g}, {hi:g}] m "
+                                           "(pseudorange_min_m/pseudorange_max_m): observation skipped"))
+
+
+def _epoch_time_at(line: str, h: int, where: str) -> tuple[dt.datetime, float]:
+    try:
+        return _epoch_time(line)
+    except ValueError as exc:  # month 13, day 32, hour 24, ...: a corrupted epoch line
+        raise DataFileError(where, h + 1, f"impossible epoch time {line[2:29].strip()!r}: {exc}") from None
+
+
+def _out_of_order(t: tuple[dt.datetime, float], kept_times: dict[tuple, int], last: tuple | None) -> str | None:
+    """Why the epoch at time ``t`` is skipped (a duplicate, or backwards), or None to keep it."""
+    if t in kept_times:
+        return f"duplicate epoch {_fmt_time(t)} (first at line {kept_times[t]}): epoch skipped"
+    if last is not None and t < last:
+        return f"epoch {_fmt_time(t)} goes backwards (after {_fmt_time(last)}): epoch skipped"
+    return None
+
+
+def _kept_lines(lines: list[str], epochs: list[tuple[int, int, list[int]]], verdict: _Verdict,
+                types_of: dict[str, list[str]]) -> tuple[list[str], list[int], list[int]]:
+    """The lines georinex is given (dropped ones removed, implausible pseudoranges blanked),
+    their original line numbers, and the index of each kept epoch's header."""
     out_lines, numbers, starts = [], [], []
     epoch_heads = {h for h, _, _ in epochs}
     for idx, line in enumerate(lines):
-        if idx in drop:
+        if idx in verdict.drop:
             continue
-        if idx in blank:
+        if idx in verdict.blank:
             chars = list(line.ljust(3 + 16 * len(types_of[line[0]])))
-            for f in blank[idx]:
+            for f in verdict.blank[idx]:
                 chars[3 + 16 * f: 3 + 16 * f + 16] = " " * 16
             line = "".join(chars).rstrip()
         if idx in epoch_heads:
             starts.append(len(out_lines))
         out_lines.append(line)
         numbers.append(idx + 1)
-    skipped.sort()
-    return RinexScan(out_lines, numbers, starts, end, skipped, truncated)
+    return out_lines, numbers, starts
 
 
 def _locate_georinex_failure_with(scan: RinexScan, tmp: Path, load: Callable[[Path], object]) -> int | None:
