@@ -180,100 +180,161 @@ def run_vector_loop(
     check_composition(channel, nav)
     if data_bits not in ("none", "known", "unknown"):
         raise ConfigError("scenario.data_bits", f"got {data_bits!r}; allowed: none, known, unknown")
-    T = truth.coherent_time_s
-    K = truth.epochs
+    T, K = truth.coherent_time_s, truth.epochs
     t_edges = np.arange(K + 1) * T
-    runs = truth.clock_m.shape[1]
     # Satellite states at every epoch edge and mid-interval, in two vectorised calls
     # instead of two orbit evaluations per epoch.
     sat_edges = truth.sat_state(t_edges)
     sat_mids = truth.sat_state(t_edges[:-1] + T / 2)
-    n_ch = sat_edges[0].shape[-2]
+    runs, n_ch = truth.clock_m.shape[1], sat_edges[0].shape[-2]
     batch = (runs, n_ch)
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
 
     theta0 = draw.uniform(rng, -np.pi, np.pi, batch, 0)  # unknown initial carrier phase per channel
     bits = random_nav_bits(int(np.ceil(K * T / BIT_PERIOD_S)) + 1, rng, batch) if data_bits != "none" else None
-    bits_f = bits.astype(float) if bits is not None else None
-
     context = RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips, epoch_interval_s=T,
                          cn0_dbhz=cn0, initial_state=initial_state, initial_cov=initial_cov)
     channel.reset(batch, context)
     nav.reset((runs,), context)
-    # Per-run constants of the correlator draws (tap offsets, noise root, amplitude).
-    simulator = CorrelatorSimulator(T, early_late_spacing_chips)
-    amplitude = amplitude_from_cn0(cn0, T)
+    correlators = _CorrelatorSource(CorrelatorSimulator(T, early_late_spacing_chips), amplitude_from_cn0(cn0, T),
+                                    bits, data_bits == "known", rng)
+    replica = _Replica.from_estimate(truth, initial_state, batch)
+    record = _Recorder(K, runs, batch)
 
-    # First NCO command from the initial estimate, propagated back to t_0.
-    s_mid, sv_mid = truth.sat_state(np.asarray(T / 2))
-    rho0, rate0, _ = predicted_range(initial_state, s_mid, sv_mid)
-    nco_range = rho0 - rate0 * T / 2
-    nco_rate = rate0
-    carrier_rep = np.zeros(batch)
-    shift_chips = np.zeros(batch)
-    shift_hz = np.zeros(batch)
-
-    code_rec, freq_rec, code_out_rec, freq_out_rec = (np.empty((K,) + batch) for _ in range(4))
-    err_rec = np.empty((K, runs, 8))
-    nees_rec, nees_pos_rec, nees_vel_rec = (np.empty((K, runs)) for _ in range(3))
     block = max(1, min(K, _BLOCK))
-    cov_buf = np.empty((block, runs, 8, 8))
     for k0 in range(0, K, block):
         k1 = min(K, k0 + block)
-        # The truth of a block of epochs in a few vectorised calls: true pseudoranges and
-        # carrier phases at the edges, the true navigation state at the mid-intervals.
-        rho_edges, x_true = _truth_block(truth, sat_edges[0], t_edges, k0, k1)
-        carrier_edges = rho_edges
-        if truth.range_error_m is not None:  # errors the receiver's model lacks (code and carrier differ)
-            code_m, carrier_m = truth.range_error_m(t_edges[k0:k1 + 1])
-            rho_edges, carrier_edges = rho_edges + code_m, rho_edges + carrier_m
-        phase_true = theta0 - 2 * np.pi * carrier_edges / L1_WAVELENGTH_M
+        rho_edges, phase_true, x_true = _block_truth(truth, sat_edges[0], t_edges, theta0, k0, k1)
         for k in range(k0, k1):
             j = k - k0
-            true_rho, next_rho = rho_edges[j], rho_edges[j + 1]
-            tm = t_edges[k] + T / 2
-            rep_end = nco_range + nco_rate * T
-            code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
-            f_rep = -nco_rate / L1_WAVELENGTH_M
-            ph0 = phase_true[j] - carrier_rep
-            carrier_rep_end = carrier_rep + 2 * np.pi * f_rep * T
-            ph1 = phase_true[j + 1] - carrier_rep_end
-            freq_err = (ph1 - ph0) / (2 * np.pi * T)
-            i_bit = int(tm // BIT_PERIOD_S)
-            corr = simulator.draw(code_err, ph0, freq_err, amplitude, rng,
-                                  bits_f[i_bit] if bits_f is not None else 1.0)
-            inputs = {"correlators": corr, "nco_shift_chips": shift_chips, "nco_shift_hz": shift_hz}
-            if data_bits == "known":
-                inputs["data_bit"] = bits[i_bit]
-            ch_out = channel.checked_step(inputs)
+            code_err, ph0, freq_err = replica.errors(rho_edges[j], rho_edges[j + 1], phase_true[j], phase_true[j + 1],
+                                                     T)
+            ch_out = channel.checked_step(correlators.inputs(code_err, ph0, freq_err, t_edges[k] + T / 2, replica))
+            nav_out = nav.checked_step(replica.nav_inputs(ch_out, sat_mids, sat_edges, k, T, batch))
+            record.epoch(k, j, nav_out, x_true[j], ch_out, code_err, freq_err)
+            replica.steer(nav_out["nco_range_m"], nav_out["nco_range_rate_m_s"])
+        record.block_nees(k0, k1)
+    return record.result(t_edges[:-1] + T / 2)
 
-            nav_in = dict(ch_out)
-            nav_in.update(sat_pos_m=sat_mids[0][k], sat_vel_m_s=sat_mids[1][k], next_sat_pos_m=sat_edges[0][k + 1],
-                          next_sat_vel_m_s=sat_edges[1][k + 1], replica_range_m=nco_range + nco_rate * T / 2,
-                          replica_rate_m_s=nco_rate if nco_rate.shape == batch else np.broadcast_to(nco_rate, batch))
-            nav_out = nav.checked_step(nav_in)
 
-            est = np.concatenate([nav_out["position_m"], nav_out["velocity_m_s"], nav_out["clock_m"]], axis=-1)
-            np.subtract(est, x_true[j], out=err_rec[k])
-            cov_buf[j] = nav_out["cov"]  # a copy: a nav filter may reuse its array
-            code_rec[k] = code_err
-            freq_rec[k] = freq_err
-            code_out_rec[k] = ch_out["code_error_chips"] - code_err
-            freq_out_rec[k] = ch_out["freq_error_hz"] - freq_err
+class _CorrelatorSource:
+    """The correlators of each interval, drawn from the replica's true errors, with the
+    data bit of the interval (Zou et al. 2018, eqs. 2-7 through `CorrelatorSimulator`)."""
 
-            new_range, new_rate = nav_out["nco_range_m"], nav_out["nco_range_rate_m_s"]
-            shift_chips = (new_range - rep_end) / CA_CHIP_LENGTH_M
-            shift_hz = -(new_rate - nco_rate) / L1_WAVELENGTH_M
-            nco_range, nco_rate = new_range, new_rate
-            carrier_rep = carrier_rep_end
-        # NEES of the block's epochs in three batched solves instead of three per epoch.
-        err, cov = err_rec[k0:k1], cov_buf[:k1 - k0]
-        nees_rec[k0:k1] = nees(err, cov)
-        nees_pos_rec[k0:k1] = nees(err[..., 0:3], cov[..., 0:3, 0:3])
-        nees_vel_rec[k0:k1] = nees(err[..., 3:6], cov[..., 3:6, 3:6])
-    return VectorRecord(code_rec, freq_rec, err_rec[..., 0:3], err_rec[..., 3:6], nees_rec,
-                        t_edges[:-1] + T / 2, nees_position=nees_pos_rec, nees_velocity=nees_vel_rec,
-                        code_output_error_chips=code_out_rec, freq_output_error_hz=freq_out_rec)
+    def __init__(self, simulator: CorrelatorSimulator, amplitude: np.ndarray, bits: np.ndarray | None,
+                 bits_known: bool, rng: np.random.Generator) -> None:
+        self.simulator, self.amplitude, self.rng = simulator, amplitude, rng
+        self.bits, self.bits_f = bits, (bits.astype(float) if bits is not None else None)
+        self.bits_known = bits_known
+
+    def inputs(self, code_err: np.ndarray, ph0: np.ndarray, freq_err: np.ndarray, t_mid_s: float,
+               replica: _Replica) -> dict[str, np.ndarray]:
+        """The channel filter's step inputs at the interval whose middle is ``t_mid_s``."""
+        i_bit = int(t_mid_s // BIT_PERIOD_S)
+        corr = self.simulator.draw(code_err, ph0, freq_err, self.amplitude, self.rng,
+                                   self.bits_f[i_bit] if self.bits_f is not None else 1.0)
+        inputs = {"correlators": corr, "nco_shift_chips": replica.shift_chips, "nco_shift_hz": replica.shift_hz}
+        if self.bits_known:
+            inputs["data_bit"] = self.bits[i_bit]
+        return inputs
+
+
+class _Replica:
+    """The code and carrier NCOs of every channel: the range and rate they hold over the
+    current interval, the replica's carrier phase at its start, and how far the last
+    command moved them (``nco_shift_chips``, ``nco_shift_hz``)."""
+
+    def __init__(self, range_m: np.ndarray, rate_m_s: np.ndarray, batch: tuple[int, int]) -> None:
+        self.range_m, self.rate_m_s = range_m, rate_m_s
+        self.carrier_rad = np.zeros(batch)
+        self.shift_chips = np.zeros(batch)
+        self.shift_hz = np.zeros(batch)
+        self._range_end_m = self._carrier_end_rad = None
+
+    @classmethod
+    def from_estimate(cls, truth: VectorTruth, initial_state: np.ndarray, batch: tuple[int, int]) -> _Replica:
+        """The first NCO command: the initial estimate's range and rate at mid-interval,
+        propagated back to t_0."""
+        T = truth.coherent_time_s
+        s_mid, sv_mid = truth.sat_state(np.asarray(T / 2))
+        rho0, rate0, _ = predicted_range(initial_state, s_mid, sv_mid)
+        return cls(rho0 - rate0 * T / 2, rate0, batch)
+
+    def errors(self, true_rho: np.ndarray, next_rho: np.ndarray, phase_start: np.ndarray, phase_end: np.ndarray,
+               T: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """True code error (chips, mean over the interval), carrier phase error at its start
+        (rad) and frequency error (Hz) of the replica against the true signal."""
+        self._range_end_m = self.range_m + self.rate_m_s * T
+        code_err = 0.5 * ((true_rho - self.range_m) + (next_rho - self._range_end_m)) / CA_CHIP_LENGTH_M
+        f_rep = -self.rate_m_s / L1_WAVELENGTH_M
+        ph0 = phase_start - self.carrier_rad
+        self._carrier_end_rad = self.carrier_rad + 2 * np.pi * f_rep * T
+        ph1 = phase_end - self._carrier_end_rad
+        return code_err, ph0, (ph1 - ph0) / (2 * np.pi * T)
+
+    def nav_inputs(self, ch_out: dict[str, np.ndarray], sat_mids, sat_edges, k: int, T: float,
+                   batch: tuple[int, int]) -> dict[str, np.ndarray]:
+        """The nav filter's step inputs: the channel outputs, the satellites at mid-interval
+        and at the next edge, and the replica's range and rate at mid-interval."""
+        nav_in = dict(ch_out)
+        rate = self.rate_m_s
+        nav_in.update(sat_pos_m=sat_mids[0][k], sat_vel_m_s=sat_mids[1][k], next_sat_pos_m=sat_edges[0][k + 1],
+                      next_sat_vel_m_s=sat_edges[1][k + 1], replica_range_m=self.range_m + rate * T / 2,
+                      replica_rate_m_s=rate if rate.shape == batch else np.broadcast_to(rate, batch))
+        return nav_in
+
+    def steer(self, new_range_m: np.ndarray, new_rate_m_s: np.ndarray) -> None:
+        """Take the nav filter's command for the next interval (after `errors` of this one)."""
+        self.shift_chips = (new_range_m - self._range_end_m) / CA_CHIP_LENGTH_M
+        self.shift_hz = -(new_rate_m_s - self.rate_m_s) / L1_WAVELENGTH_M
+        self.range_m, self.rate_m_s = new_range_m, new_rate_m_s
+        self.carrier_rad = self._carrier_end_rad
+
+
+class _Recorder:
+    """The run's series: the replica's true errors, the channel outputs' errors, the nav
+    state's error and, per block of epochs, its NEES."""
+
+    def __init__(self, K: int, runs: int, batch: tuple[int, int]) -> None:
+        self.code, self.freq, self.code_out, self.freq_out = (np.empty((K,) + batch) for _ in range(4))
+        self.err = np.empty((K, runs, 8))
+        self.nees, self.nees_pos, self.nees_vel = (np.empty((K, runs)) for _ in range(3))
+        self.cov = np.empty((max(1, min(K, _BLOCK)), runs, 8, 8))
+
+    def epoch(self, k: int, j: int, nav_out: dict[str, np.ndarray], x_true: np.ndarray, ch_out: dict[str, np.ndarray],
+              code_err: np.ndarray, freq_err: np.ndarray) -> None:
+        est = np.concatenate([nav_out["position_m"], nav_out["velocity_m_s"], nav_out["clock_m"]], axis=-1)
+        np.subtract(est, x_true, out=self.err[k])
+        self.cov[j] = nav_out["cov"]  # a copy: a nav filter may reuse its array
+        self.code[k] = code_err
+        self.freq[k] = freq_err
+        self.code_out[k] = ch_out["code_error_chips"] - code_err
+        self.freq_out[k] = ch_out["freq_error_hz"] - freq_err
+
+    def block_nees(self, k0: int, k1: int) -> None:
+        """NEES of the block's epochs in three batched solves instead of three per epoch."""
+        err, cov = self.err[k0:k1], self.cov[:k1 - k0]
+        self.nees[k0:k1] = nees(err, cov)
+        self.nees_pos[k0:k1] = nees(err[..., 0:3], cov[..., 0:3, 0:3])
+        self.nees_vel[k0:k1] = nees(err[..., 3:6], cov[..., 3:6, 3:6])
+
+    def result(self, time_s: np.ndarray) -> VectorRecord:
+        return VectorRecord(self.code, self.freq, self.err[..., 0:3], self.err[..., 3:6], self.nees, time_s,
+                            nees_position=self.nees_pos, nees_velocity=self.nees_vel,
+                            code_output_error_chips=self.code_out, freq_output_error_hz=self.freq_out)
+
+
+def _block_truth(truth: VectorTruth, sat_pos_edges: np.ndarray, t_edges: np.ndarray, theta0: np.ndarray, k0: int,
+                 k1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The truth of epochs ``k0..k1`` in a few vectorised calls: the true code pseudoranges
+    and carrier phases (rad) at the edges, and the true nav states at the mid-intervals.
+    Errors the receiver's model lacks (`VectorTruth.range_error_m`) make code and carrier differ."""
+    rho_edges, x_true = _truth_block(truth, sat_pos_edges, t_edges, k0, k1)
+    carrier_edges = rho_edges
+    if truth.range_error_m is not None:
+        code_m, carrier_m = truth.range_error_m(t_edges[k0:k1 + 1])
+        rho_edges, carrier_edges = rho_edges + code_m, rho_edges + carrier_m
+    return rho_edges, theta0 - 2 * np.pi * carrier_edges / L1_WAVELENGTH_M, x_true
 
 
 #: Epochs whose truth (and NEES) the loop computes in one vectorised pass.
