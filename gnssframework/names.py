@@ -1,9 +1,14 @@
 """The names sequential filters exchange: every ``requires`` and ``provides`` entry, and
 the further inputs a harness hands a ``step()`` (NCO shifts, satellite states).
 
-One module, so a plugin and a harness cannot spell a name two ways; a plugin declares
-``requires = (names.CORRELATORS,)`` and the harness checks that ``step()`` returned
-everything the plugin ``provides`` (``SequentialFilter.checked_step``).
+One module, so a plugin and a harness cannot spell a name two ways: it is the contract
+between them. The harnesses spell their step inputs and the outputs they read through it
+(`gnssframework.receiver.tracking.scalar`, `gnssframework.receiver.tracking.vector`,
+`gnssframework.io.smoothing`), a plugin declares ``requires = (names.CORRELATORS,)``,
+and the harness checks that ``step()`` returned everything the plugin ``provides``
+(``SequentialFilter.checked_step``). ``tests/test_names.py`` holds every key that a
+built-in plugin or a harness reads or hands over, spelt literally or through this
+module, to the names below.
 
 Examples
 --------

@@ -59,6 +59,8 @@ def _string_keys(path, root=ROOT) -> set[str]:
         return isinstance(node, ast.Name) and node.id == "inputs"
 
     def literal(node):
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "names":
+            return getattr(names, node.attr, f"names.{node.attr} (not defined)")  # a key spelt through the contract
         return node.value if isinstance(node, ast.Constant) and isinstance(node.value, str) else None
 
     for node in ast.walk(ast.parse((root / path).read_text())):
@@ -71,6 +73,8 @@ def _string_keys(path, root=ROOT) -> set[str]:
                 keys.add(literal(node.args[0]))
             if node.func.attr == "checked_step" and node.args and isinstance(node.args[0], ast.Dict):
                 keys.update(k for k in map(literal, [k for k in node.args[0].keys if k is not None]) if k)
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "names":
+            keys.add(literal(node))  # any name read from the contract module
     return keys
 
 
@@ -79,6 +83,12 @@ def test_step_inputs_read_by_plugins_and_given_by_harnesses_are_shared_names(pat
     keys = _string_keys(path)
     assert keys, f"{path}: the scan found no step inputs (did the code move?)"
     assert keys <= names.ALL, f"{path} spells step inputs outside gnssframework.names: {sorted(keys - names.ALL)}"
+
+
+def test_the_scan_reads_names_spelt_through_the_contract(tmp_path):
+    (tmp_path / "p.py").write_text("from gnssframework import names\n"
+                                   "def step(self, inputs):\n    return inputs[names.DATA_BIT], names.NOT_A_NAME\n")
+    assert _string_keys("p.py", tmp_path) == {"data_bit", "names.NOT_A_NAME (not defined)"}
 
 
 def test_the_scan_sees_a_misspelt_input(tmp_path):

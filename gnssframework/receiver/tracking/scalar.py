@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ... import names
 from ...errors import ConfigError
 from ...interfaces import ChannelFilter, RunContext
 from ...signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
@@ -112,7 +113,7 @@ class TrackingRecord:
 
 
 #: Outputs a channel filter needs to steer the NCOs of a closed loop.
-NCO_COMMANDS = ("carrier_freq_hz", "code_freq_hz")
+NCO_COMMANDS = (names.CARRIER_FREQ_HZ, names.CODE_FREQ_HZ)
 
 
 def check_closed_loop(channel: ChannelFilter, record: tuple[str, ...] = ()) -> None:
@@ -125,7 +126,7 @@ def check_closed_loop(channel: ChannelFilter, record: tuple[str, ...] = ()) -> N
     """
     needed = NCO_COMMANDS + tuple(record)
     missing = [n for n in needed if n not in channel.provides]
-    if "correlators" not in channel.requires or missing:
+    if names.CORRELATORS not in channel.requires or missing:
         raise ConfigError("channel_filter", f"{channel.name!r} cannot close a tracking loop: it must require "
                           f"'correlators' and provide {', '.join(needed)}")
 
@@ -180,7 +181,7 @@ def run_closed_loop(
         freq_err = ((truth.carrier_phase_rad[k + 1] - carrier_end) - ph0) / (2 * np.pi * T)
         amp = amp0 * (scale[k] if scale.ndim else scale)
         corr = correlators.draw(code_err, ph0, freq_err, np.asarray(amp, float), rng)
-        out = channel.checked_step({"correlators": corr})
+        out = channel.checked_step({names.CORRELATORS: corr})
         rec["code"].append(code_err)
         rec["phase"].append(np.angle(np.exp(1j * (ph0 + np.pi * freq_err * T))))  # mid-interval, wrapped
         rec["freq"].append(freq_err)

@@ -29,6 +29,7 @@ from typing import Callable
 
 import numpy as np
 
+from ... import names
 from ... import random_streams as draw
 from ...errors import ConfigError
 from ...estimation.consistency import nees
@@ -42,9 +43,10 @@ __all__ = ["VectorTruth", "VectorRecord", "run_vector_loop", "check_composition"
            "CHANNEL_OUTPUTS", "NAV_OUTPUTS", "HARNESS_INPUTS"]
 
 #: What a channel filter must provide to feed a vector loop's nav filter.
-CHANNEL_OUTPUTS = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", "freq_error_var_hz2")
+CHANNEL_OUTPUTS = (names.CODE_ERROR_CHIPS, names.CODE_ERROR_VAR_CHIPS2, names.FREQ_ERROR_HZ, names.FREQ_ERROR_VAR_HZ2)
 #: What a nav filter must provide to close a vector loop.
-NAV_OUTPUTS = ("position_m", "velocity_m_s", "clock_m", "cov", "nco_range_m", "nco_range_rate_m_s")
+NAV_OUTPUTS = (names.POSITION_M, names.VELOCITY_M_S, names.CLOCK_M, names.COV, names.NCO_RANGE_M,
+               names.NCO_RANGE_RATE_M_S)
 
 
 @dataclass(frozen=True)
@@ -122,8 +124,8 @@ class VectorRecord:
 
 
 #: Inputs the vector loop itself gives the nav filter (besides the channel outputs).
-HARNESS_INPUTS = ("sat_pos_m", "sat_vel_m_s", "next_sat_pos_m", "next_sat_vel_m_s", "replica_range_m",
-                  "replica_rate_m_s")
+HARNESS_INPUTS = (names.SAT_POS_M, names.SAT_VEL_M_S, names.NEXT_SAT_POS_M, names.NEXT_SAT_VEL_M_S,
+                  names.REPLICA_RANGE_M, names.REPLICA_RATE_M_S)
 
 
 def check_composition(channel: ChannelFilter, nav: NavFilter) -> None:
@@ -212,7 +214,7 @@ def run_vector_loop(
             ch_out = channel.checked_step(correlators.inputs(code_err, ph0, freq_err, t_edges[k] + T / 2, replica))
             nav_out = nav.checked_step(replica.nav_inputs(ch_out, sat_mids, sat_edges, k, T, batch))
             record.epoch(k, j, nav_out, x_true[j], ch_out, code_err, freq_err)
-            replica.steer(nav_out["nco_range_m"], nav_out["nco_range_rate_m_s"])
+            replica.steer(nav_out[names.NCO_RANGE_M], nav_out[names.NCO_RANGE_RATE_M_S])
         record.block_nees(k0, k1)
     return record.result(t_edges[:-1] + T / 2)
 
@@ -233,9 +235,10 @@ class _CorrelatorSource:
         i_bit = int(t_mid_s // BIT_PERIOD_S)
         corr = self.simulator.draw(code_err, ph0, freq_err, self.amplitude, self.rng,
                                    self.bits_f[i_bit] if self.bits_f is not None else 1.0)
-        inputs = {"correlators": corr, "nco_shift_chips": replica.shift_chips, "nco_shift_hz": replica.shift_hz}
+        inputs = {names.CORRELATORS: corr, names.NCO_SHIFT_CHIPS: replica.shift_chips,
+                  names.NCO_SHIFT_HZ: replica.shift_hz}
         if self.bits_known:
-            inputs["data_bit"] = self.bits[i_bit]
+            inputs[names.DATA_BIT] = self.bits[i_bit]
         return inputs
 
 
@@ -278,9 +281,10 @@ class _Replica:
         and at the next edge, and the replica's range and rate at mid-interval."""
         nav_in = dict(ch_out)
         rate = self.rate_m_s
-        nav_in.update(sat_pos_m=sat_mids[0][k], sat_vel_m_s=sat_mids[1][k], next_sat_pos_m=sat_edges[0][k + 1],
-                      next_sat_vel_m_s=sat_edges[1][k + 1], replica_range_m=self.range_m + rate * T / 2,
-                      replica_rate_m_s=rate if rate.shape == batch else np.broadcast_to(rate, batch))
+        nav_in.update({names.SAT_POS_M: sat_mids[0][k], names.SAT_VEL_M_S: sat_mids[1][k],
+                       names.NEXT_SAT_POS_M: sat_edges[0][k + 1], names.NEXT_SAT_VEL_M_S: sat_edges[1][k + 1],
+                       names.REPLICA_RANGE_M: self.range_m + rate * T / 2,
+                       names.REPLICA_RATE_M_S: rate if rate.shape == batch else np.broadcast_to(rate, batch)})
         return nav_in
 
     def steer(self, new_range_m: np.ndarray, new_rate_m_s: np.ndarray) -> None:
@@ -303,13 +307,13 @@ class _Recorder:
 
     def epoch(self, k: int, j: int, nav_out: dict[str, np.ndarray], x_true: np.ndarray, ch_out: dict[str, np.ndarray],
               code_err: np.ndarray, freq_err: np.ndarray) -> None:
-        est = np.concatenate([nav_out["position_m"], nav_out["velocity_m_s"], nav_out["clock_m"]], axis=-1)
+        est = np.concatenate([nav_out[names.POSITION_M], nav_out[names.VELOCITY_M_S], nav_out[names.CLOCK_M]], axis=-1)
         np.subtract(est, x_true, out=self.err[k])
-        self.cov[j] = nav_out["cov"]  # a copy: a nav filter may reuse its array
+        self.cov[j] = nav_out[names.COV]  # a copy: a nav filter may reuse its array
         self.code[k] = code_err
         self.freq[k] = freq_err
-        self.code_out[k] = ch_out["code_error_chips"] - code_err
-        self.freq_out[k] = ch_out["freq_error_hz"] - freq_err
+        self.code_out[k] = ch_out[names.CODE_ERROR_CHIPS] - code_err
+        self.freq_out[k] = ch_out[names.FREQ_ERROR_HZ] - freq_err
 
     def block_nees(self, k0: int, k1: int) -> None:
         """NEES of the block's epochs in three batched solves instead of three per epoch."""
