@@ -18,7 +18,9 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import channel_step_problem
-from gnssframework.estimation import CompiledFunctions, kernel_pool, kernels
+from gnssframework.estimation import CompiledFunctions, kernel_pool, kernels, linear_f
+from gnssframework.signal.channel_model import channel_iq_row
+from gnssframework_plugins.nav_filters import range_rate_jacobian, range_rate_row
 
 pytestmark = pytest.mark.other_machines
 
@@ -34,8 +36,8 @@ def _problem(seed, batch, poison):
             P[i] = -P[i]
         elif poison == "S-not-PD":
             R[i] = -1e3 * np.eye(m)
-    compiled = CompiledFunctions(kernels.F_LINEAR, np.eye(n) + 0.01 * rng.standard_normal((n, n)),
-                                 kernels.H_CHANNEL_IQ, np.array([[0.5, 0.01, 1.0]]))
+    compiled = CompiledFunctions(linear_f, np.eye(n) + 0.01 * rng.standard_normal((n, n)),
+                                 channel_iq_row, np.array([[0.5, 0.01, 1.0]]), sizes=(n, R.shape[-1]))
     return mean, P, z, R, compiled
 
 
@@ -132,7 +134,7 @@ def test_split_kf_update_and_ekf_moments_are_bitwise_one_serial_call(seed, batch
     R = np.broadcast_to(np.eye(m), (batch, m, m)).copy()
     R[:bad] = -1e9 * np.eye(m)  # S not PD there
     sat = np.concatenate([2e7 * rng.standard_normal((m // 2, 3)), 1e3 * rng.standard_normal((m // 2, 3))], axis=1)
-    compiled = CompiledFunctions(kernels.F_LINEAR, np.eye(n), kernels.H_RANGE_RATE, sat)
+    compiled = CompiledFunctions(linear_f, np.eye(n), range_rate_row, sat, range_rate_jacobian)
     z = rng.standard_normal((batch, m))
     bad_z = np.zeros(batch, bool)
     bad_z[-1] = True

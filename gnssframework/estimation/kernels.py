@@ -52,11 +52,12 @@ import math
 import os
 import threading
 import types as _types
+import zlib
 
 import numpy as np
 
-from ..errors import ConfigError
 from . import kernel_pool
+from .compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian
 
 __all__ = [
     "HAVE_NUMBA",
@@ -74,73 +75,19 @@ __all__ = [
     "warm_up",
 ]
 
-try:  # numba is a dependency, but the NumPy path must keep working without it.
+from ..backend import HAVE_NUMBA, available, get_backend, resolve_backend, set_backend
+
+if HAVE_NUMBA:
     import numba
     from numba import prange
-
-    HAVE_NUMBA = True
-    if "NUMBA_THREADING_LAYER" not in os.environ:
-        # GNU OpenMP (numba's default where present) aborts a process that forks after a
-        # parallel kernel ran, which is what `gnssframework compare`'s process pool does.
-        # The workqueue layer is fork-safe; parallel kernels run only from the main
-        # thread (it is not thread-safe), see _pick.
-        numba.config.THREADING_LAYER = "workqueue"
-except ImportError:  # pragma: no cover - exercised only where numba is missing
+else:  # pragma: no cover - exercised only where numba is missing
     numba = None
     prange = range
-    HAVE_NUMBA = False
 
 #: Batch size from which the ``parallel=True`` kernels are used.
 PARALLEL_MIN_BATCH = 256
 #: Most chunks a fused kernel splits its batch into (scratch arrays are per chunk).
 _CHUNKS = 64
-
-_BACKENDS = ("numba", "numpy")
-_ENV = "GNSSFRAMEWORK_BACKEND"
-_backend: str | None = None
-#: ``$GNSSFRAMEWORK_BACKEND`` as last read (at import, or by ``set_backend(None)``).
-_env_value: str | None = os.environ.get(_ENV)
-
-
-def _check_backend(value: str, field: str) -> str:
-    if value not in _BACKENDS:
-        raise ConfigError(field, f"must be one of {list(_BACKENDS)}, got {value!r}")
-    return value
-
-
-def available() -> bool:
-    """True where the compiled kernels can run (numba imports)."""
-    return HAVE_NUMBA
-
-
-def set_backend(value: str | None) -> None:
-    """Select ``"numba"`` or ``"numpy"`` for every estimator (``None``: back to the default,
-    reading ``$GNSSFRAMEWORK_BACKEND`` again)."""
-    global _backend, _env_value
-    if value is None:
-        _env_value = os.environ.get(_ENV)
-        _backend = None
-    else:
-        _backend = _check_backend(value, "backend")
-
-
-def get_backend() -> str:
-    """The process-wide backend: :func:`set_backend`, else ``$GNSSFRAMEWORK_BACKEND`` (as
-    read at import or by ``set_backend(None)``), else numba."""
-    if _backend is not None:
-        chosen = _backend
-    else:
-        env = _env_value
-        chosen = _check_backend(env, _ENV) if env else "numba"
-    return chosen if (chosen == "numpy" or HAVE_NUMBA) else "numpy"
-
-
-def resolve_backend(override: str | None) -> str:
-    """An estimator's own choice if set, else the process-wide one (numpy without numba)."""
-    if override is None:
-        return get_backend()
-    _check_backend(override, "estimator.backend")
-    return override if (override == "numpy" or HAVE_NUMBA) else "numpy"
 
 
 # -- compilation helpers ----------------------------------------------------------------
@@ -756,120 +703,14 @@ def _update_body(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph, H, R, mea
                     cov[b, j, i] = v
 
 
-# -- compiled model functions ----------------------------------------------------------
+# -- the model's compiled functions ---------------------------------------------------
 
-#: Codes of the model functions the fused kernels evaluate themselves.
-F_LINEAR = 0  # x' = F x, params F (n, n)
-H_LINEAR = 0  # z = H x, params H (m, n)
-H_CHANNEL_IQ = 1  # Zou et al. (2018) eqs. 2-7, params [[spacing_chips, coherent_time_s, data_bit]]
-#: Pseudorange and rate of [x, y, z, vx, vy, vz, b, d] to ch satellites (Zou et al. 2018,
-#: eqs. 35-36), params (ch, 6): satellite ECEF position and velocity per row.
-H_RANGE_RATE = 2
-
-
-@_jit
-def _apply_f_row(code, params, X, k, Y):
-    """``Y[k] = f(X[k])`` (rows addressed by index: a row view would cost two atomic
-    reference-count updates per point)."""
-    n = _FIXED_K if _FIXED_K > 0 else X.shape[1]
-    for i in range(n):
-        acc = 0.0
-        for j in range(n):
-            acc += params[i, j] * X[k, j]
-        Y[k, i] = acc
-
-
-@_jit
-def _triangle(tau):
-    a = abs(tau)
-    return 1.0 - a if a < 1.0 else 0.0
-
-
-@_jit
-def _apply_h_row(code, params, X, k, Z, kz):
-    """``Z[kz] = h(X[k])`` for the compiled h ``code`` (rows by index, as `_apply_f_row`)."""
-    if code == H_LINEAR:
-        m, n = params.shape
-        for i in range(m):
-            acc = 0.0
-            for j in range(n):
-                acc += params[i, j] * X[k, j]
-            Z[kz, i] = acc
-        return
-    if code == H_RANGE_RATE:
-        # As receiver.vector.predicted_range: rho = |s - r| + b, rate = (v_s - v) . e + d.
-        n_ch = params.shape[0]
-        for c in range(n_ch):
-            lx = params[c, 0] - X[k, 0]
-            ly = params[c, 1] - X[k, 1]
-            lz = params[c, 2] - X[k, 2]
-            dist = math.sqrt(lx * lx + ly * ly + lz * lz)
-            Z[kz, c] = dist + X[k, 6]
-            Z[kz, n_ch + c] = ((params[c, 3] - X[k, 3]) * (lx / dist) + (params[c, 4] - X[k, 4]) * (ly / dist)
-                               + (params[c, 5] - X[k, 5]) * (lz / dist)) + X[k, 7]
-        return
-    # H_CHANNEL_IQ: the ideal (unfiltered) triangle autocorrelation, as channel_iq.
-    d = params[0, 0]
-    T = params[0, 1]
-    u = X[k, 3] * T
-    if u == 0.0:
-        u = 1e-20  # numpy.sinc's guard, so the two paths agree at df = 0 too
-    sinc = math.sin(math.pi * u) / (math.pi * u)
-    common = X[k, 0] * params[0, 2] * sinc
-    phase = math.pi * X[k, 3] * T + X[k, 2]
-    c = common * math.cos(phase)
-    s_ = common * math.sin(phase)
-    r_e = _triangle(X[k, 1] + d)
-    r_p = _triangle(X[k, 1])
-    r_l = _triangle(X[k, 1] - d)
-    Z[kz, 0] = c * r_e
-    Z[kz, 1] = c * r_p
-    Z[kz, 2] = c * r_l
-    Z[kz, 3] = s_ * r_e
-    Z[kz, 4] = s_ * r_p
-    Z[kz, 5] = s_ * r_l
-
-
-@_jit
-def _apply_h(code, params, x, out):
-    """``out = h(x)`` for one contiguous state ``x`` (see `_apply_h_row`)."""
-    _apply_h_row(code, params, x.reshape((1, x.shape[0])), 0, out.reshape((1, out.shape[0])), 0)
-
-
-@_jit
-def _apply_h_jacobian(code, params, x, J):
-    """``dh/dx`` of the codes with an analytic Jacobian (H_LINEAR, H_RANGE_RATE) into ``J``.
-
-    H_RANGE_RATE's is the one ``ekf-pv`` gives its NumPy model: ``-e`` in the position
-    (range) and velocity (rate) columns, 1 for the clock bias and drift; the rate's
-    dependence on the position through ``e`` is neglected, as there.
-    """
-    if code == H_LINEAR:
-        m, n = params.shape
-        for i in range(m):
-            for j in range(n):
-                J[i, j] = params[i, j]
-        return
-    if code != H_RANGE_RATE:
-        return
-    n_ch = params.shape[0]
-    J[:, :] = 0.0
-    for c in range(n_ch):
-        lx = params[c, 0] - x[0]
-        ly = params[c, 1] - x[1]
-        lz = params[c, 2] - x[2]
-        dist = math.sqrt(lx * lx + ly * ly + lz * lz)
-        e0 = lx / dist
-        e1 = ly / dist
-        e2 = lz / dist
-        J[c, 0] = -e0
-        J[c, 1] = -e1
-        J[c, 2] = -e2
-        J[c, 6] = 1.0
-        J[n_ch + c, 3] = -e0
-        J[n_ch + c, 4] = -e1
-        J[n_ch + c, 5] = -e2
-        J[n_ch + c, 7] = 1.0
+# The drivers below call a model's compiled f, h and Jacobian through these names; a
+# model's drivers (`_model_pair`) bind each to that model's jitted function, so numba
+# inlines it. The defaults are the linear ones (what the drivers warm up with).
+_apply_f_row = linear_f
+_apply_h_row = linear_h
+_apply_h_jacobian = linear_h_jacobian
 
 
 def _linear_predict_body(mean, cov, F, Q, out_mean, out_cov):
@@ -906,7 +747,7 @@ def _linear_predict_body(mean, cov, F, Q, out_mean, out_cov):
                     out_cov[b, l, i] = v
 
 
-def _ekf_moments_body(mean, cov, h_code, h_params, R, z_hat, S, C):
+def _ekf_moments_body(mean, cov, h_params, R, z_hat, S, C):
     """``h(x)``, ``S = sym(H P H^T + R)`` and ``C = P H^T`` with H the Jacobian at x."""
     B, n = mean.shape
     m = z_hat.shape[1]
@@ -917,8 +758,8 @@ def _ekf_moments_body(mean, cov, h_code, h_params, R, z_hat, S, C):
         M = np.empty((m, m))
         for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
             r = 0 if shared_r else np.int64(b)
-            _apply_h_row(h_code, h_params, mean, b, z_hat, b)
-            _apply_h_jacobian(h_code, h_params, mean[b], J)
+            _apply_h_row(h_params, mean, b, z_hat, b)
+            _apply_h_jacobian(h_params, mean, b, J)
             P = cov[b]
             Cb = C[b]
             for i in range(n):
@@ -940,8 +781,7 @@ def _ekf_moments_body(mean, cov, h_code, h_params, R, z_hat, S, C):
                     S[b, j, i] = v
 
 
-def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_params, Q, out_mean, out_cov, status,
-                        counts):
+def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_params, Q, out_mean, out_cov, status, counts):
     """One predict per element: root, points, compiled ``f``, moments + Q; ``counts[0]``:
     elements whose root failed (``status`` not 0)."""
     B = mean.shape[0]
@@ -987,7 +827,7 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
                 X[off + i, j] = mean[b, j] + dd
                 X[off + n + i, j] = mean[b, j] - dd
         for k in range(N):
-            _apply_f_row(f_code, f_params, X, k, Y)
+            _apply_f_row(f_params, X, k, Y)
         q = 0 if shared_q else np.int64(b)
         mu[:] = 0.0
         for k in range(N):
@@ -1017,7 +857,7 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_code, f_p
         counts[0] += status[b] != 0
 
 
-def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_code, h_params, R,
+def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_params, R,
                        out_mean, out_cov, gain, innovation, z_hat, S, C, status, ok, skipped, counts):
     """One measurement update per element: root, points, compiled ``h``, moments, gain, posterior.
 
@@ -1073,7 +913,7 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
                 X[off + i, j] = mean[b, j] + dd
                 X[off + n + i, j] = mean[b, j] - dd
         for k in range(N):
-            _apply_h_row(h_code, h_params, X, k, Z, k)
+            _apply_h_row(h_params, X, k, Z, k)
         r = 0 if shared_r else np.int64(b)
         mu[:] = 0.0
         for k in range(N):
@@ -1176,8 +1016,8 @@ _sigma_points_kernels = _jit_pair(_sigma_points_body)
 _predict_moments_kernels = _jit_pair(_predict_moments_body)
 _measurement_moments_kernels = _jit_pair(_measurement_moments_body)
 _update_kernels = _jit_pair(_update_body)
-_fused_predict_kernels = _jit_pair(_fused_predict_body)
-_fused_update_kernels = _jit_pair(_fused_update_body)
+_pd_mask_kernels = _jit_pair(_pd_mask_body)
+_linear_predict_kernels = _jit_pair(_linear_predict_body)
 
 
 _helpers_by_size: dict[int, dict] = {}
@@ -1196,41 +1036,75 @@ def _helpers_of_size(k: int) -> dict:
             "all_finite": _jit(_with_globals(_all_finite.py_func, f"_{k}", **size)),
             "cholesky": _jit(_with_globals(_cholesky.py_func, f"_{k}", **size)),
             "eigh_into": _jit(_with_globals(_eigh_into.py_func, f"_{k}", _tridiagonal_eigh_into=tri)),
-            "apply_f_row": _jit(_with_globals(_apply_f_row.py_func, f"_{k}", **size)),
+            "linear_f": _jit(_with_globals(linear_f.py_func, f"_{k}", **size)),
         }
     return hit
 
 
-def _specialised_pair(fn, n: int, m: int = 0):
-    """(serial, parallel) twins of a fused driver for ``n`` states (and ``m`` measurements)."""
+def _tag(fn) -> str:
+    """A name for a model function's drivers that changes when its code does, so their
+    disk cache entries are its own (numba's cache checks only the driver's source file)."""
+    py = getattr(fn, "py_func", fn)
+    code = py.__code__
+    consts = tuple(c.co_code if isinstance(c, _types.CodeType) else c for c in code.co_consts)
+    key = f"{py.__module__}.{py.__qualname__}".encode() + code.co_code + repr(consts).encode()
+    return "".join(ch if ch.isalnum() else "_" for ch in py.__name__) + f"_{zlib.crc32(key):08x}"
+
+
+#: (driver, model functions, sizes) -> (serial, parallel) drivers bound to them.
+_model_drivers: dict[tuple, tuple] = {}
+
+
+def _model_pair(body, functions: dict, n: int = 0, m: int = 0):
+    """(serial, parallel) twins of the driver ``body`` that call the given model functions
+    (``{"_apply_h_row": h, ...}``), compiled for ``n`` states and ``m`` measurements as
+    constants where these are not 0. One pair per driver, functions and sizes; the
+    functions are compile-time constants, so numba inlines them, and each twin inlines
+    its own size constants (separately compiled generic helpers would not see them)."""
+    key = (body.__name__, tuple(sorted(functions.items(), key=lambda kv: kv[0])), n, m)
+    hit = _model_drivers.get(key)
+    if hit is not None:
+        return hit
     if not HAVE_NUMBA:
-        return fn, fn
-    hn = _helpers_of_size(n)
-    over = {"_FIXED_N": n, "_all_finite_n": hn["all_finite"], "_cholesky_n": hn["cholesky"],
-            "_eigh_into": hn["eigh_into"], "_apply_f_row": hn["apply_f_row"]}
-    suffix = f"_{n}"
+        hit = _model_drivers[key] = (body, body) if not functions else (_with_globals(body, "", **functions),) * 2
+        return hit
+    over = dict(functions)
+    suffix = "".join("_" + _tag(fn) for _, fn in key[1])
+    if n:
+        hn = _helpers_of_size(n)
+        over.update({"_FIXED_N": n, "_all_finite_n": hn["all_finite"], "_cholesky_n": hn["cholesky"],
+                     "_eigh_into": hn["eigh_into"]})
+        if over.get("_apply_f_row") is linear_f:
+            over["_apply_f_row"] = hn["linear_f"]
+        suffix += f"_{n}"
     if m:
         hm = _helpers_of_size(m)
         solve = _jit(_with_globals(_chol_solve_rows_into.py_func, f"_{n}_{m}", _FIXED_N=n, _FIXED_M=m))
         over.update({"_FIXED_M": m, "_all_finite_m": hm["all_finite"], "_cholesky_m": hm["cholesky"],
                      "_chol_solve_rows_into": solve})
         suffix += f"_{m}"
-    return _jit_pair(_with_globals(fn, suffix, **over))
+    hit = _model_drivers[key] = _jit_pair(_with_globals(body, suffix, **over))
+    return hit
 
 
-# Twins for the sizes of the built-in channel filter (5 states, 6 correlator outputs):
-# the vector loop's hot path.
-_fused_predict_5_kernels = _specialised_pair(_fused_predict_body, 5)
-_fused_update_5_6_kernels = _specialised_pair(_fused_update_body, 5, 6)
-#: State size -> its specialised fused predict; (states, measurements) -> fused update.
-_SPECIALISED_PREDICT = {5: _fused_predict_5_kernels}
-_SPECIALISED_UPDATE = {(5, 6): _fused_update_5_6_kernels}
-_pd_mask_kernels = _jit_pair(_pd_mask_body)
-_linear_predict_kernels = _jit_pair(_linear_predict_body)
-_ekf_moments_kernels = _jit_pair(_ekf_moments_body)
+def _sizes_of(compiled: CompiledFunctions, n: int, m: int = 0) -> tuple[int, int]:
+    """The sizes a model's drivers are specialised to for this call ((0, 0): generic)."""
+    sizes = compiled.sizes
+    if sizes is None or sizes[0] != n or (m and sizes[1] != m):
+        return 0, 0
+    return n, (sizes[1] if m else 0)
 
-#: h codes whose Jacobian the kernels compute (the EKF's compiled path).
-H_WITH_JACOBIAN = (H_LINEAR, H_RANGE_RATE)
+
+def _predict_pair(compiled: CompiledFunctions, n: int):
+    return _model_pair(_fused_predict_body, {"_apply_f_row": compiled.f}, _sizes_of(compiled, n)[0])
+
+
+def _update_pair(compiled: CompiledFunctions, n: int, m: int):
+    return _model_pair(_fused_update_body, {"_apply_h_row": compiled.h}, *_sizes_of(compiled, n, m))
+
+
+def _ekf_pair(compiled: CompiledFunctions):
+    return _model_pair(_ekf_moments_body, {"_apply_h_row": compiled.h, "_apply_h_jacobian": compiled.h_jacobian})
 
 
 #: Batch size from which `pd_mask` runs in parallel: its element costs ~0.1 us, so the
@@ -1513,9 +1387,9 @@ def ekf_moments(mean, cov, compiled, R):
     B = m_.shape[0]
     z_hat, S, C = np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m))
     Rf = _flat_shared(R, batch)
-    args = (m_, _flat(cov, batch, 2), int(compiled.h_code), _vec(compiled.h_params), Rf, z_hat, S, C)
+    args = (m_, _flat(cov, batch, 2), _vec(compiled.h_params), Rf, z_hat, S, C)
     by_work = _split_by_work(B, n, m)
-    _run_split(_ekf_moments_kernels, B, args, lambda: (0, 1) + ((4,) if Rf.shape[0] == B else ()) + (5, 6, 7),
+    _run_split(_ekf_pair(compiled), B, args, lambda: (0, 1) + ((3,) if Rf.shape[0] == B else ()) + (4, 5, 6),
                by_work=by_work, chunks=_work_chunks(B, n, m) if by_work else None)
     return z_hat.reshape(batch + (m,)), S.reshape(batch + (m, m)), C.reshape(batch + (n, m))
 
@@ -1533,9 +1407,9 @@ def fused_predict(mean, cov, rule, compiled, Q):
     counts = np.empty(1, dtype=np.int64)
     Qf = _flat_shared(Q, batch)
     args = (m_, _flat(cov, batch, 2), root_kind, scale, center, _vec(wm), _vec(wc),
-            compiled.f_code, _vec(compiled.f_params), Qf, out_mean, out_cov, status)
-    _run_split(_SPECIALISED_PREDICT.get(n, _fused_predict_kernels), B, args,
-               lambda: (0, 1, 9, 10, 11, 12) if Qf.shape[0] == B else (0, 1, 10, 11, 12), counts)
+            _vec(compiled.f_params), Qf, out_mean, out_cov, status)
+    _run_split(_predict_pair(compiled, n), B, args,
+               lambda: (0, 1, 8, 9, 10, 11) if Qf.shape[0] == B else (0, 1, 9, 10, 11), counts)
     if counts[0] == 0:
         status = None  # every root exists
     elif len(batch) != 1:
@@ -1581,10 +1455,10 @@ def fused_update(mean, cov, z, bad_z, rule, compiled, R):
     bad = _no_bad_z(B) if bad_z is None else _flat_mask(bad_z, batch)
     Rf = _flat_shared(R, batch)
     args = (m_, _flat(cov, batch, 2), _flat(z, batch, 1), bad,
-            root_kind, scale, center, _vec(wm), _vec(wc), compiled.h_code, _vec(compiled.h_params),
+            root_kind, scale, center, _vec(wm), _vec(wc), _vec(compiled.h_params),
             Rf, *outs, status, ok, skipped)
-    _run_split(_SPECIALISED_UPDATE.get((n, m), _fused_update_kernels), B, args,
-               lambda: (0, 1, 2, 3) + ((11,) if Rf.shape[0] == B else ()) + tuple(range(12, 22)), counts)
+    _run_split(_update_pair(compiled, n, m), B, args,
+               lambda: (0, 1, 2, 3) + ((10,) if Rf.shape[0] == B else ()) + tuple(range(11, 21)), counts)
     if len(batch) == 1:
         return (*outs, status, ok, skipped, counts.tolist())
     tails = ((n,), (n, n), (n, m), (m,), (m,), (m, m), (n, m))
@@ -1592,16 +1466,34 @@ def fused_update(mean, cov, z, bad_z, rule, compiled, R):
         status.reshape(batch), ok.reshape(batch), skipped.reshape(batch), counts.tolist())
 
 
+def _warm_up_model(compiled: CompiledFunctions, n: int, m: int, B: int) -> None:
+    """Run every driver of ``compiled`` once at ``n`` states, ``m`` measurements, batch ``B``."""
+    mean, cov = np.zeros((B, n)), np.broadcast_to(np.eye(n), (B, n, n))
+    for kind in (0, 1):
+        w = np.full(2 * n + (kind == 0), 1.0 / (2 * n + (kind == 0)))
+        rule = (kind, 1.0, kind == 0, w, w)
+        fused_predict(mean, cov, rule, compiled, np.eye(n))
+        fused_update(mean, cov, np.zeros((B, m)), np.zeros(B, bool), rule, compiled, np.eye(m))
+    if compiled.linear_f and compiled.h_jacobian is not None:
+        ekf_moments(mean, cov, compiled, np.eye(m))
+
+
 def warm_up() -> float:
     """Compile (or load from the disk cache) every kernel on a tiny problem; seconds taken.
 
-    Worker processes call it once at start so no filter step pays the compile time.
+    Besides the generic kernels, the drivers of every model registered with
+    `gnssframework.estimation.compiled_model.register_warm_up` (the built-in channel
+    and navigation models register theirs when imported). Worker processes call it once
+    at start so no filter step pays the compile time.
     """
     import time
+
+    from .compiled_model import warm_up_models
 
     if not HAVE_NUMBA:
         return 0.0
     t0 = time.perf_counter()
+    linear = CompiledFunctions(linear_f, np.eye(2), linear_h, np.eye(2), linear_h_jacobian)
     for B in (1, PARALLEL_MIN_BATCH):
         mean = np.zeros((B, 2))
         cov = np.broadcast_to(np.eye(2), (B, 2, 2))
@@ -1613,23 +1505,10 @@ def warm_up() -> float:
         z_hat, S, C = measurement_moments(X, X, mean, w, w, np.eye(2))
         for joseph in (False, True):
             update(mean, cov, mean, z_hat, S, C, np.zeros(B, bool), joseph, np.eye(2), np.eye(2))
-        from .types import CompiledFunctions
-
-        compiled = CompiledFunctions(F_LINEAR, np.eye(2), H_LINEAR, np.eye(2))
-        for kind in (0, 1):
-            rule = (kind, 1.0, kind == 0, np.full(4 + (kind == 0), 0.25), np.full(4 + (kind == 0), 0.25))
-            fused_predict(mean, cov, rule, compiled, np.eye(2))
-            fused_update(mean, cov, mean, np.zeros(B, bool), rule, compiled, np.eye(2))
-        for (n, m) in _SPECIALISED_UPDATE:  # the twins specialised to a filter's sizes
-            compiled_nm = CompiledFunctions(F_LINEAR, np.eye(n), H_LINEAR, np.eye(m, n))
-            mean_n, cov_n = np.zeros((B, n)), np.broadcast_to(np.eye(n), (B, n, n))
-            for kind in (0, 1):
-                w = np.full(2 * n + (kind == 0), 0.5 / n)
-                rule = (kind, 1.0, kind == 0, w, w)
-                fused_predict(mean_n, cov_n, rule, compiled_nm, np.eye(n))
-                fused_update(mean_n, cov_n, np.zeros((B, m)), np.zeros(B, bool), rule, compiled_nm, np.eye(m))
+        _warm_up_model(linear, 2, 2, B)
+        for compiled, n, m in warm_up_models():
+            _warm_up_model(compiled, n, m, B)
         pd_mask(cov)
         pd_mask(np.broadcast_to(np.eye(2), (max(B, PD_MASK_PARALLEL_MIN_BATCH), 2, 2)))  # its parallel twin
         linear_predict(mean, cov, np.eye(2), np.eye(2))
-        ekf_moments(mean, cov, compiled, np.eye(2))
     return time.perf_counter() - t0

@@ -38,7 +38,7 @@ import numpy as np
 from . import kernel_pool, kernels
 from .kernels import _all_finite, _cholesky, _eigh_into, _jit
 
-__all__ = ["all_finite", "state_bad_count", "guard", "InnovationWindow", "pv_measurements", "pv_nco_command", "pcrb_stacked", "warm_up"]
+__all__ = ["all_finite", "state_bad_count", "guard", "InnovationWindow", "pcrb_stacked", "warm_up"]
 
 
 #: The size of a specialised twin's matrices (0: read from the operands), see
@@ -202,45 +202,6 @@ def _innovation_window_body(v, S, R, ring, slot, pushes, total, out):
 
 
 @_jit
-def _pv_measurements_body(rep_range, code, var_code, rep_rate, freq, var_freq, min_code, min_freq, chip_m, wave_m,
-                          z, R):
-    B, c = code.shape
-    for b in range(B):
-        for j in range(2 * c):
-            for i in range(2 * c):
-                R[b, j, i] = 0.0
-        for i in range(c):
-            z[b, i] = rep_range[b, i] + chip_m * code[b, i]
-            z[b, c + i] = rep_rate[b, i] - wave_m * freq[b, i]
-            vc, vf = var_code[b, i], var_freq[b, i]
-            # np.maximum: a NaN variance stays NaN (the filter then names it).
-            vc = vc if (vc > min_code or vc != vc) else min_code
-            vf = vf if (vf > min_freq or vf != vf) else min_freq
-            R[b, i, i] = vc * (chip_m * chip_m)
-            R[b, c + i, c + i] = vf * (wave_m * wave_m)
-
-
-@_jit
-def _pv_nco_body(x, half_t, sat_pos, sat_vel, rho, rate):
-    B = x.shape[0]
-    c = sat_pos.shape[0]
-    for b in range(B):
-        r0 = x[b, 0] + x[b, 3] * half_t
-        r1 = x[b, 1] + x[b, 4] * half_t
-        r2 = x[b, 2] + x[b, 5] * half_t
-        bias = x[b, 6] + x[b, 7] * half_t
-        for i in range(c):
-            l0 = sat_pos[i, 0] - r0
-            l1 = sat_pos[i, 1] - r1
-            l2 = sat_pos[i, 2] - r2
-            dist = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
-            e0, e1, e2 = l0 / dist, l1 / dist, l2 / dist
-            rate[b, i] = ((sat_vel[i, 0] - x[b, 3]) * e0 + (sat_vel[i, 1] - x[b, 4]) * e1
-                          + (sat_vel[i, 2] - x[b, 5]) * e2) + x[b, 7]
-            rho[b, i] = dist + bias
-
-
-@_jit
 def _pcrb_body(F, Q, roots, P0, update_first, out):
     """`gnssframework.receiver.pcrb.pcrb_linear` on stacked square roots ``(K, m, n)``:
     the same products and the same LU solve, in the same order, per step."""
@@ -287,35 +248,6 @@ def _as_rows(a, shape: tuple[int, ...]) -> np.ndarray:
         # copy, not the general broadcast below (about 5 us per operand here).
         return a.copy()
     return np.array(np.broadcast_to(np.asarray(a, dtype=float), shape), dtype=float, order="C")
-
-
-def pv_measurements(rep_range, code, var_code, rep_rate, freq, var_freq, min_code: float, min_freq: float,
-                    chip_m: float, wave_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """``ekf-pv``'s measurement and its diagonal R from the channel outputs in one pass:
-    ``z = [range + chip_m code, rate - wave_m freq]``, ``R = diag(max(var_code, min_code)
-    chip_m^2, max(var_freq, min_freq) wave_m^2)``, each ``(..., 2 ch)``."""
-    shape = np.shape(code)
-    c = shape[-1]
-    ops = [_as_rows(a, shape).reshape(-1, c) for a in (rep_range, code, var_code, rep_rate, freq, var_freq)]
-    B = ops[0].shape[0]
-    z = np.empty((B, 2 * c))
-    R = np.empty((B, 2 * c, 2 * c))
-    _pv_measurements_body(*ops, float(min_code), float(min_freq), float(chip_m), float(wave_m), z, R)
-    return z.reshape(shape[:-1] + (2 * c,)), R.reshape(shape[:-1] + (2 * c, 2 * c))
-
-
-def pv_nco_command(x: np.ndarray, half_t: float, sat_pos: np.ndarray, sat_vel: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Range and rate of the states ``x (..., 8)`` moved ``half_t`` ahead (position by
-    velocity, bias by drift) to satellites ``(ch, 3)``: ``ekf-pv``'s NCO command."""
-    lead = x.shape[:-1]
-    xr = _as_rows(x, x.shape).reshape(-1, 8)
-    sp, sv = _as_rows(sat_pos, np.shape(sat_pos)), _as_rows(sat_vel, np.shape(sat_vel))
-    c = sp.shape[0]
-    rho = np.empty((xr.shape[0], c))
-    rate = np.empty((xr.shape[0], c))
-    _pv_nco_body(xr, float(half_t), sp, sv, rho, rate)
-    return rho.reshape(lead + (c,)), rate.reshape(lead + (c,))
 
 
 def _rows(a: np.ndarray, tail: int) -> np.ndarray | None:
@@ -507,7 +439,4 @@ def warm_up() -> None:
     window = InnovationWindow(2)
     for R in (np.eye(2), P):  # a shared R and one per element
         window.push(m, P, R)
-    pv_measurements(*([m] * 6), 1e-6, 1e-4, 300.0, 0.19)
-    x = np.ones((2, 8))
-    pv_nco_command(x, 0.005, m + 1e7, m)
     pcrb_stacked(np.eye(2), np.eye(2), np.ones((2, 2, 2)), np.eye(2), True)

@@ -43,7 +43,8 @@ import numpy as np
 
 from ..errors import (ConfigError, InvalidInitialStateError, InvalidInputError, NonFiniteError, NotPositiveDefiniteError,
                       NumericalError)
-from . import kernels, kernels_loop
+from .. import backend
+from . import kernels_loop
 from .adaptation import AdapterRun, AdaptationStep, NoiseAdapter
 from .adapter_guard import adapt_checked
 from .boundary import as_measurement, check_argument
@@ -221,7 +222,7 @@ class FilterStep:
         self._run: AdapterRun | None = None
         self._Q = self._R = None
         self._in_force_cache: tuple | None = None
-        self._lean = kernels.get_backend() == "numba"
+        self._lean = backend.compiled()
 
     def start(self, initial: Gaussian, model: Model | None = None, *, first_step: int = 0) -> Gaussian:
         """Begin a sequence from ``initial``: check it, reset the counts, start the adapter.
@@ -247,7 +248,7 @@ class FilterStep:
             check_argument(model, "model", f"{self.name}: FilterStep.start")
         check_initial(initial, self.name, model)
         # The backend of the step's compiled checks, chosen once per sequence.
-        self._lean = kernels.get_backend() == "numba"
+        self._lean = backend.compiled()
         self.recoveries = Counter({k: 0 for k in RECOVERIES})
         self.step_index = first_step
         self._adapted = 0

@@ -197,9 +197,10 @@ def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tupl
         return
     # Compile or load the numba kernels once here: the forked workers inherit them
     # instead of each loading them from the disk cache (or compiling them).
+    from .. import backend
     from ..estimation import kernels
 
-    if kernels.get_backend() == "numba":
+    if backend.compiled():
         kernels.warm_up()
         from ..estimation import kernels_loop
 

@@ -64,7 +64,8 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigError
-from ..estimation import kernels, kernels_loop
+from .. import backend
+from ..estimation import kernels_loop
 from ..signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ..signal.correlator_model import amplitude_from_cn0, tap_noise_cov
 
@@ -99,7 +100,7 @@ def pcrb_linear(F: np.ndarray, Q: np.ndarray, sqrt_info: Callable[[int], np.ndar
     if isinstance(sqrt_info, np.ndarray):
         if sqrt_info.ndim != 3 or sqrt_info.shape[0] != steps:
             raise ValueError(f"stacked sqrt_info must be (steps={steps}, m, n), got {sqrt_info.shape}")
-        if kernels.get_backend() == "numba":
+        if backend.compiled():
             return kernels_loop.pcrb_stacked(F, Q, sqrt_info, P0, update_first)
         sqrt_info = sqrt_info.__getitem__
     n = F.shape[0]
