@@ -15,22 +15,21 @@ Python wrappers of NumPy's batched calls on tiny matrices. They cover
   posterior check and the noise adapters' bound tests use every step.
 
 A model's NumPy ``f`` and ``h`` are evaluated between these kernels. A model that also
-carries compiled twins (`gnssframework.estimation.CompiledFunctions`: linear ``F x``
-and ``H x``, the correlator channel model of Zou et al. 2018, the pseudorange/rate
-measurement) runs a whole sigma-point predict or update in one compiled pass per
-element (``fused_predict``, ``fused_update``), and the KF/EKF predict and measurement
-moments in compiled code (``linear_predict``, ``ekf_moments``). Results equal the NumPy
-path to rounding (a Hypothesis test holds them to 1e-12 relative on random models).
+carries compiled twins (`gnssframework.estimation.CompiledFunctions`: jitted functions
+defined next to the model, e.g. linear ``F x`` and ``H x`` here, the correlator channel
+model in `gnssframework.signal.channel_model`, a plugin's own) runs a whole sigma-point
+predict or update in one compiled pass per element (``fused_predict``,
+``fused_update``), and the KF/EKF predict and measurement moments in compiled code
+(``linear_predict``, ``ekf_moments``). The drivers of those passes are built per model
+function (`_model_pair`): the function is a compile-time constant, so numba inlines it,
+and this module knows no model. Results equal the NumPy path to rounding (a Hypothesis
+test holds them to 1e-12 relative on random models).
 
 Every input array reaches a kernel writable (read-only ones are copied), so each kernel
 has one numba specialisation: the one `warm_up` compiles (a test checks that runs add none).
 
-Backend choice: ``GNSSFRAMEWORK_BACKEND=numpy`` (environment) or :func:`set_backend`
-selects the NumPy path everywhere; an estimator's ``backend`` attribute overrides it
-for that instance. The default is ``"numba"`` when numba imports, else ``"numpy"``.
-The environment is read when this module is imported and again by
-``set_backend(None)`` (as numba reads its own ``NUMBA_*`` variables), not on every
-step: each read cost about two microseconds, five times per epoch of a vector loop.
+Backend choice: `gnssframework.backend` (``GNSSFRAMEWORK_BACKEND``, ``set_backend``; an
+estimator's ``backend`` attribute overrides it for that instance).
 
 Every kernel is compiled twice: a serial version for small batches (no thread launch)
 and a ``parallel=True`` version whose ``prange`` splits the batch across cores from
@@ -42,8 +41,9 @@ becomes free (`gnssframework.estimation.kernel_pool`), because numba's workers, 
 between the calls of a filter loop, wake too late for the static split to gain (measured
 on the 100-run vector loop: the parallel twin ran the update at about the serial speed,
 the split at about 0.65 of it when the second core is free, and at the serial speed when
-it is not). The fused kernels also have twins compiled for the channel filter's sizes
-(5 states, 6 measurements; `_specialised_pair`), bitwise the generic ones.
+it is not). A model that declares its sizes (``CompiledFunctions.sizes``, the channel
+filter's 5 states and 6 measurements) gets fused drivers with those sizes as constants,
+bitwise the generic ones.
 """
 
 from __future__ import annotations
@@ -63,19 +63,19 @@ __all__ = [
     "HAVE_NUMBA",
     "PARALLEL_MIN_BATCH",
     "PD_MASK_PARALLEL_MIN_BATCH",
-    "available",
-    "get_backend",
-    "set_backend",
-    "resolve_backend",
     "sigma_points",
     "predict_moments",
     "measurement_moments",
     "update",
     "pd_mask",
+    "linear_predict",
+    "ekf_moments",
+    "fused_predict",
+    "fused_update",
     "warm_up",
 ]
 
-from ..backend import HAVE_NUMBA, available, get_backend, resolve_backend, set_backend
+from ..backend import HAVE_NUMBA
 
 if HAVE_NUMBA:
     import numba
