@@ -18,7 +18,9 @@ from hypothesis import given, settings, strategies as st
 
 import gnssframework as gf
 from gnssframework.errors import NotPositiveDefiniteError
-from gnssframework.estimation import kernels
+from gnssframework.estimation import compiled as kernels
+from gnssframework.estimation.compiled import dense, drivers, split
+from gnssframework.estimation.compiled import loop as kernels_loop
 from conftest import create
 
 
@@ -171,7 +173,7 @@ def test_jacobi_eigensolver_reproduces_lapack_eigenvalues_and_the_matrix(n, seed
     sym = a + a.T  # indefinite in general: the svd-ckf root takes |w|
     w = np.empty(n)
     v = np.empty((n, n))
-    kernels._jacobi_eigh(sym, w, v)
+    dense.jacobi_eigh(sym, w, v)
     scale = np.max(np.abs(sym))
     assert np.max(np.abs(np.sort(w) - np.linalg.eigvalsh(sym))) <= 1e-13 * scale
     assert np.max(np.abs((v * w) @ v.T - sym)) <= 1e-13 * scale
@@ -257,12 +259,12 @@ def test_parallel_kernels_are_not_used_off_the_main_thread():
     import threading
 
     picked = []
-    t = threading.Thread(target=lambda: picked.append(kernels._pick(("serial", "parallel"), 10**6)))
+    t = threading.Thread(target=lambda: picked.append(split.pick(("serial", "parallel"), 10**6)))
     t.start()
     t.join()
     assert picked == ["serial"]
-    assert kernels._pick(("serial", "parallel"), 10**6) == "parallel"
-    assert kernels._pick(("serial", "parallel"), 1) == "serial"
+    assert split.pick(("serial", "parallel"), 10**6) == "parallel"
+    assert split.pick(("serial", "parallel"), 1) == "serial"
 
 
 @settings(max_examples=40, deadline=None)
@@ -429,13 +431,11 @@ def test_compiled_range_rate_model_of_ekf_pv_equals_its_numpy_model(name):
 
 
 def _kernel_signatures():
-    from gnssframework.estimation import kernels_loop
-
-    sigs = {(name, i): len(d.signatures) for name in dir(kernels)
-            if name.endswith("_kernels") and isinstance(getattr(kernels, name), tuple)
-            for i, d in enumerate(getattr(kernels, name))}
+    sigs = {(name, i): len(d.signatures) for name in dir(drivers)
+            if name.endswith("_kernels") and isinstance(getattr(drivers, name), tuple)
+            for i, d in enumerate(getattr(drivers, name))}
     # The drivers compiled for a model's functions (and sizes), one pair per model.
-    sigs.update({("model", key, i): len(d.signatures) for key, pair in kernels._model_drivers.items()
+    sigs.update({("model", key, i): len(d.signatures) for key, pair in drivers._model_drivers.items()
                  for i, d in enumerate(pair)})
     # The loop checks' kernels (kernels_loop.warm_up), the adapter guard and window among them.
     sigs.update({("kernels_loop", name): len(getattr(kernels_loop, name).signatures) for name in dir(kernels_loop)
@@ -449,8 +449,6 @@ def test_warm_up_compiles_every_specialisation_a_run_uses():
     # compile it again in every worker. Runs every built-in engine on shared and
     # per-element operands, below and above the parallel threshold, and a vector loop.
     from gnssframework.experiments import get_scenario
-
-    from gnssframework.estimation import kernels_loop
 
     set_backend("numba")
     try:

@@ -13,7 +13,7 @@ from hypothesis import given, settings, strategies as st
 
 import gnssframework as gf
 from gnssframework.errors import InvalidMeasurementError, NumericalError
-from gnssframework.estimation import CompiledFunctions, kernels, linear_f, linear_h
+from gnssframework.estimation import CompiledFunctions, compiled as kernels, linear_f, linear_h
 from gnssframework.signal.channel_model import channel_iq_row
 from gnssframework.estimation.linalg import all_true, any_true
 from conftest import channel_step_problem

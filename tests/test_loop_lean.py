@@ -1,6 +1,6 @@
 """The single-run vector loop's lean path (issue 11) against its NumPy reference.
 
-Every compiled helper of `gnssframework.estimation.kernels_loop` is held to the NumPy
+Every compiled helper of `gnssframework.estimation.compiled.loop` is held to the NumPy
 lines it replaces (1e-12 relative, or exactly for the tests that decide a path), the
 vector loop's per-block truth to `VectorTruth`'s per-epoch methods, and a whole vector
 run under the ``numba`` backend to the same run under ``numpy``. Nothing here times
@@ -16,7 +16,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gnssframework import registry
-from gnssframework.estimation import kernels, kernels_loop
+from gnssframework.estimation import compiled as kernels
+from gnssframework.estimation.compiled import loop as kernels_loop
 from gnssframework_plugins.nav_filters import pv_measurements, pv_nco_command
 from gnssframework.estimation.adaptation import AdapterRun
 from gnssframework.estimation.linalg import clamp_relative, pd_mask, regularised, symmetrize

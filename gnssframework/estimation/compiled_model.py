@@ -119,7 +119,7 @@ class CompiledFunctions:
         return self.f is linear_f
 
 
-#: Models whose drivers `gnssframework.estimation.kernels.warm_up` compiles, with the
+#: Models whose drivers `gnssframework.estimation.compiled.warm_up` compiles, with the
 #: state and measurement sizes to run them at.
 _warm_up: list[tuple[CompiledFunctions, int, int]] = []
 

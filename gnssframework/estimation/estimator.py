@@ -22,7 +22,7 @@ import numpy as np
 from .. import backend
 from ..errors import InvalidMeasurementError, NotPositiveDefiniteError
 from ..plugin import Plugin
-from . import kernels
+from . import compiled as kernels
 from .linalg import all_true, any_true, cholesky_masked, failing_indices, mat_vec, symmetrize
 from .types import Gaussian, Model, Update
 
@@ -274,7 +274,7 @@ class SigmaPointEstimator(Estimator):
             rule = self.kernel_rule(n) if self._kernel_rule_ok else None
             if rule is not None:
                 root_kind, scale, center, wm, wc = rule
-                rule = (int(root_kind), float(scale), bool(center), kernels._vec(wm), kernels._vec(wc))
+                rule = (int(root_kind), float(scale), bool(center), kernels.vector_operand(wm), kernels.vector_operand(wc))
             hit = cache[key] = (rule, getattr(self, "params", None))  # holds params: its id stays unique
         return hit[0]
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import backend
-from . import kernels
+from .compiled import arrays as kernels
 
 __all__ = [
     "symmetrize",

@@ -198,13 +198,10 @@ def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tupl
     # Compile or load the numba kernels once here: the forked workers inherit them
     # instead of each loading them from the disk cache (or compiling them).
     from .. import backend
-    from ..estimation import kernels
-
     if backend.compiled():
-        kernels.warm_up()
-        from ..estimation import kernels_loop
+        from ..estimation import compiled
 
-        kernels_loop.warm_up()
+        compiled.warm_up()
     pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)))
     finished = False
     try:
