@@ -29,7 +29,7 @@ import time
 import numpy as np
 
 import gnssframework as gf
-from gnssframework.estimation import kernels
+from gnssframework.estimation import compiled as compiled_kernels
 from gnssframework.signal.channel_model import channel_iq, channel_transition
 
 T = 0.01
@@ -210,7 +210,7 @@ def main() -> None:
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, numpy {np.__version__}")
     t0 = time.perf_counter()
-    print(f"kernel warm-up (compile or load from cache): {kernels.warm_up():.2f} s\n")
+    print(f"kernel warm-up (compile or load from cache): {compiled_kernels.warm_up():.2f} s\n")
 
     refs = {}
     refs["FilterPy UKF"] = _optional("FilterPy", time_filterpy, 50, args.steps, rng)

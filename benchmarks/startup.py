@@ -3,8 +3,8 @@
 Each measurement runs in a fresh interpreter (``python -c``) with its own numba cache
 directory: the first run compiles every kernel and writes the cache, the second loads
 it. ``gnssframework compare`` pays this once in the parent before forking its workers
-(`gnssframework.estimation.kernels.warm_up`, then the loop checks'
-`gnssframework.estimation.kernels_loop.warm_up`); forked workers inherit the loaded kernels.
+(`gnssframework.estimation.compiled.warm_up_kernels`, then the loop checks'
+`gnssframework.estimation.compiled.loop.warm_up`); forked workers inherit the loaded kernels.
 
     python benchmarks/startup.py
 """
@@ -20,12 +20,11 @@ import tempfile
 _PROBE = """
 import json, time
 t0 = time.perf_counter()
-from gnssframework.estimation import kernels
+from gnssframework.estimation import compiled
 t1 = time.perf_counter()
-warm = kernels.warm_up()
-from gnssframework.estimation import kernels_loop
+warm = compiled.warm_up_kernels()
 t2 = time.perf_counter()
-kernels_loop.warm_up()
+compiled.loop.warm_up()
 print(json.dumps({"import_s": t1 - t0, "warm_up_s": warm, "loop_warm_up_s": time.perf_counter() - t2}))
 """
 

@@ -183,13 +183,13 @@ def vector_loop_series(channel_filter: dict[str, Any], *, backend: str | None = 
     Parameters
     ----------
     backend
-        ``"numba"`` or ``"numpy"`` for this run (`gnssframework.estimation.kernels.set_backend`),
+        ``"numba"`` or ``"numpy"`` for this run (`gnssframework.backend.set_backend`),
         restored to the default afterwards; ``None`` leaves the current one.
     duration_s, cn0_dbhz, runs, seed
         The run: simulated seconds, C/N0 of every channel, batched runs, seed of its
         ``numpy.random.Generator``.
     """
-    from .estimation import kernels
+    from . import backend as backends
     from .experiments import get_scenario
 
     scen = get_scenario({"kind": "vector-tracking", "duration_s": duration_s, "channels": 8, "settle_s": 1.0})
@@ -202,14 +202,14 @@ def vector_loop_series(channel_filter: dict[str, Any], *, backend: str | None = 
 
         scen.truth = nudged  # this scenario object only
     if backend is not None:
-        kernels.set_backend(backend)
+        backends.set_backend(backend)
     try:
         plugins = scen.build({"channel_filter": channel_filter,
                               "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
         return scen.run_batch({"cn0_dbhz": cn0_dbhz}, plugins, runs, np.random.default_rng(seed)).series
     finally:
         if backend is not None:
-            kernels.set_backend(None)
+            backends.set_backend(None)
 
 
 # -- holding two arithmetic paths together through a recursion ---------------------------

@@ -13,7 +13,7 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework.errors import ConfigError
-from gnssframework.estimation import AdaptationStep, AdapterRun, NoiseAdapter, SafeguardParams, kernels, kernels_loop
+from gnssframework.estimation import AdaptationStep, AdapterRun, NoiseAdapter, SafeguardParams
 from gnssframework.plugin import PluginParams
 from gnssframework.estimation.linalg import outer, project_psd
 
@@ -23,8 +23,7 @@ __all__ = ["InnovationAdapter", "SageHusaAdapter", "MaximumLikelihoodQAdapter", 
 def _load_compiled_guard() -> None:
     """Load the compiled safeguard when an adapter starts under numba, not at the first
     step past its warm-up (a one-time cost per process)."""
-    if kernels.get_backend() == "numba":
-        kernels_loop.load_guard()
+    AdapterRun.load_compiled_guard()
 
 
 class _Window:
@@ -63,7 +62,7 @@ class _InnovationRun(_WindowedRun):
         super().__init__(params, Q0, R0)
         # Under the numba backend the window and the estimate are one compiled pass
         # (bitwise these NumPy lines); the choice is made once per run.
-        self.compiled = kernels_loop.InnovationWindow(params.window) if kernels.get_backend() == "numba" else None
+        self.compiled = self.compiled_innovation_window(params.window)
 
     def estimate(self, ctx: AdaptationStep):
         v = ctx.update.innovation

@@ -9,7 +9,7 @@ from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
 from gnssframework import registry
 from gnssframework.errors import ConfigError, NumericalError
-from gnssframework.estimation import FilterStep, Gaussian, LinearModel, NonlinearModel
+from gnssframework.estimation import FilterStep, Gaussian, LinearModel, NonlinearModel, register_warm_up
 from gnssframework.interfaces import ChannelFilter, RunContext
 from gnssframework.signal.channel_model import channel_model
 from gnssframework.signal.correlator_model import tap_noise_cov
@@ -21,6 +21,10 @@ from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ, L1_WAVEL
 from gnssframework.simulation.clock import PRESETS
 
 __all__ = ["ScalarTrackingLoop", "KalmanCarrierLoop", "DiscriminatorChannel", "IqFilter"]
+
+# The iq-filter's channel model: its fused drivers (5 states, 6 correlator outputs) compile
+# in the kernels' warm-up, before `compare` forks its workers.
+register_warm_up(channel_model(0.001, 0.5, np.eye(5), np.eye(6)).compiled, 5, 6)
 
 
 _HARNESS_T = ("deprecated, leave out: the harness's coherent time (RunContext.coherent_time_s) is used; "

@@ -8,7 +8,7 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework.errors import ConfigError, NotPositiveDefiniteError
-from gnssframework.estimation import Estimator, Gaussian, LinearModel, SigmaPointEstimator, kernels
+from gnssframework.estimation import Estimator, Gaussian, LinearModel, SigmaPointEstimator
 from gnssframework.estimation.linalg import failing_indices, mat_vec, symmetrize
 from gnssframework.plugin import PluginParams
 
@@ -23,17 +23,6 @@ __all__ = [
 
 def _transpose(a: np.ndarray) -> np.ndarray:
     return np.swapaxes(a, -1, -2)
-
-
-def _compiled_for_kernels(est: Estimator, model):
-    """The model's compiled functions where the kernels can run a KF/EKF step on them:
-    linear f and an h whose Jacobian the kernels know (``kernels.H_WITH_JACOBIAN``); the
-    model's own Jacobians must be those of its compiled twins (``CompiledFunctions``)."""
-    compiled = getattr(model, "compiled", None)
-    if (compiled is None or compiled.f_code != kernels.F_LINEAR or compiled.h_code not in kernels.H_WITH_JACOBIAN
-            or not est._use_kernels()):
-        return None
-    return compiled
 
 
 class KalmanFilter(Estimator):
@@ -62,17 +51,17 @@ class KalmanFilter(Estimator):
 
     def predict(self, state: Gaussian, model) -> Gaussian:
         model = self._require_linear(model)
-        compiled = _compiled_for_kernels(self, model)
+        compiled = self.compiled_linear_predict(state, model)
         if compiled is not None:
-            return Gaussian(*kernels.linear_predict(state.mean, state.cov, compiled.f_params, model.Q))
+            return compiled
         F = model.F
         return Gaussian(model.f(state.mean), symmetrize(F @ state.cov @ _transpose(F) + model.Q))
 
     def measurement_moments(self, prior: Gaussian, model):
         model = self._require_linear(model)
-        compiled = _compiled_for_kernels(self, model)
+        compiled = self.compiled_linearised_moments(prior, model)
         if compiled is not None:
-            return kernels.ekf_moments(prior.mean, prior.cov, compiled, model.R)
+            return compiled
         H = model.H
         C = prior.cov @ _transpose(H)
         return mat_vec(H, prior.mean), symmetrize(H @ C + model.R), C
@@ -102,16 +91,16 @@ class ExtendedKalmanFilter(Estimator):
     description = "Extended Kalman filter (analytic or central-difference Jacobians)"
 
     def predict(self, state: Gaussian, model) -> Gaussian:
-        compiled = _compiled_for_kernels(self, model)
+        compiled = self.compiled_linear_predict(state, model)
         if compiled is not None:
-            return Gaussian(*kernels.linear_predict(state.mean, state.cov, compiled.f_params, model.Q))
+            return compiled
         F = model.jacobian_f(state.mean)
         return Gaussian(model.f(state.mean), symmetrize(F @ state.cov @ _transpose(F) + model.Q))
 
     def measurement_moments(self, prior: Gaussian, model):
-        compiled = _compiled_for_kernels(self, model)
+        compiled = self.compiled_linearised_moments(prior, model)
         if compiled is not None:
-            return kernels.ekf_moments(prior.mean, prior.cov, compiled, model.R)
+            return compiled
         H = model.jacobian_h(prior.mean)
         C = prior.cov @ _transpose(H)
         return model.h(prior.mean), symmetrize(H @ C + model.R), C
@@ -167,14 +156,13 @@ class UnscentedKalmanFilter(SigmaPointEstimator):
         return X, wm, wc
 
     def kernel_rule(self, n: int):
-        cls = type(self)
-        if cls.sigma_points is not UnscentedKalmanFilter.sigma_points or cls.square_root is not SigmaPointEstimator.square_root:
-            return None
+        # Valid for this class's points and any subclass that declares its root
+        # (`SigmaPointEstimator.kernel_root`); others run the NumPy path.
         p = self.params
         if n + p.kappa <= 0:
             raise ConfigError("estimator 'ukf'.kappa", f"n + kappa must be > 0 (n = {n}, kappa = {p.kappa})")
         scale, wm, wc = _merwe_weights(n, p.alpha, p.beta, p.kappa)
-        return 0, scale, True, wm, wc
+        return self.kernel_root, scale, True, wm, wc
 
 
 @lru_cache(maxsize=64)
@@ -202,17 +190,8 @@ class CubatureKalmanFilter(SigmaPointEstimator):
         return X, w, w
 
     def kernel_rule(self, n: int):
-        cls = type(self)
-        if cls.sigma_points is not CubatureKalmanFilter.sigma_points:
-            return None
-        if cls.square_root is SigmaPointEstimator.square_root:
-            root = 0
-        elif cls.square_root is SvdCubatureKalmanFilter.square_root:
-            root = 1
-        else:
-            return None
         w = _cubature_weights(n)
-        return root, float(np.sqrt(n)), False, w, w
+        return self.kernel_root, float(np.sqrt(n)), False, w, w
 
 
 class SvdCubatureKalmanFilter(CubatureKalmanFilter):
@@ -229,6 +208,8 @@ class SvdCubatureKalmanFilter(CubatureKalmanFilter):
 
     name = "svd-ckf"
     description = "Cubature Kalman filter with an SVD square root (Zou et al. 2018)"
+    #: The kernels' root for this ``square_root``: ``V sqrt(|w|)`` of the eigen-decomposition.
+    kernel_root = 1
 
     def square_root(self, cov: np.ndarray) -> np.ndarray:
         finite = np.isfinite(cov).all(axis=(-2, -1))

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, Mapping
 
 import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat
 
 from gnssframework.errors import ConfigError
+from gnssframework import backend
 from gnssframework.estimation import (CompiledFunctions, FilterStep, Gaussian, LinearModel, NonlinearModel,
-                                     filter_sequence, kernels, kernels_loop)
+                                     filter_sequence, linear_f, register_warm_up)
 from gnssframework.interfaces import NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
@@ -17,7 +19,8 @@ from gnssframework.receiver.tracking.vector import predicted_range
 from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M, SPEED_OF_LIGHT_M_S
 from gnssframework.simulation.clock import PRESETS
 
-__all__ = ["EkfPositionVelocity", "PositionConstantAcceleration", "cv_clock_model"]
+__all__ = ["EkfPositionVelocity", "PositionConstantAcceleration", "cv_clock_model", "range_rate_row",
+           "range_rate_jacobian", "pv_measurements", "pv_nco_command"]
 
 
 def cv_clock_model(T: float, accel_psd: float, clock: str) -> tuple[np.ndarray, np.ndarray]:
@@ -33,6 +36,138 @@ def cv_clock_model(T: float, accel_psd: float, clock: str) -> tuple[np.ndarray, 
     Q[3:6, 3:6] = q * T * np.eye(3)
     Q[6:8, 6:8] = SPEED_OF_LIGHT_M_S**2 * PRESETS[clock].process_noise(T)
     return F, Q
+
+
+# -- ekf-pv's compiled twins (the NumPy lines of EkfPositionVelocity are the reference) --
+
+
+@backend.jit
+def range_rate_row(params, X, k, Z, kz):
+    """Pseudorange and rate of the state ``X[k]`` = ``[x, y, z, vx, vy, vz, b, d]`` to
+    ``ch`` satellites (Zou et al. 2018, eqs. 35-36) into ``Z[kz]``: ``params`` ``(ch, 6)``,
+    satellite ECEF position and velocity per row. As
+    `gnssframework.receiver.tracking.vector.predicted_range`: rho = |s - r| + b, rate = (v_s - v) . e + d."""
+    n_ch = params.shape[0]
+    for c in range(n_ch):
+        lx = params[c, 0] - X[k, 0]
+        ly = params[c, 1] - X[k, 1]
+        lz = params[c, 2] - X[k, 2]
+        dist = math.sqrt(lx * lx + ly * ly + lz * lz)
+        Z[kz, c] = dist + X[k, 6]
+        Z[kz, n_ch + c] = ((params[c, 3] - X[k, 3]) * (lx / dist) + (params[c, 4] - X[k, 4]) * (ly / dist)
+                           + (params[c, 5] - X[k, 5]) * (lz / dist)) + X[k, 7]
+
+
+@backend.jit
+def range_rate_jacobian(params, X, k, J):
+    """``dh/dx`` of `range_rate_row` at ``X[k]`` as ``ekf-pv``'s NumPy model gives it:
+    ``-e`` in the position (range) and velocity (rate) columns, 1 for the clock bias and
+    drift; the rate's dependence on the position through ``e`` is neglected, as there."""
+    n_ch = params.shape[0]
+    J[:, :] = 0.0
+    for c in range(n_ch):
+        lx = params[c, 0] - X[k, 0]
+        ly = params[c, 1] - X[k, 1]
+        lz = params[c, 2] - X[k, 2]
+        dist = math.sqrt(lx * lx + ly * ly + lz * lz)
+        e0 = lx / dist
+        e1 = ly / dist
+        e2 = lz / dist
+        J[c, 0] = -e0
+        J[c, 1] = -e1
+        J[c, 2] = -e2
+        J[c, 6] = 1.0
+        J[n_ch + c, 3] = -e0
+        J[n_ch + c, 4] = -e1
+        J[n_ch + c, 5] = -e2
+        J[n_ch + c, 7] = 1.0
+
+
+# The vector loop's navigation filter: its drivers compile in the kernels' warm-up (8
+# states, 8 channels), satellites 2e7 m out so every point is well away from them.
+register_warm_up(CompiledFunctions(linear_f, np.eye(8), range_rate_row, np.tile([2e7, 0, 0, 0, 0, 0], (8, 1)),
+                                   range_rate_jacobian), 8, 16)
+
+
+@backend.jit
+def _pv_measurements_body(rep_range, code, var_code, rep_rate, freq, var_freq, min_code, min_freq, chip_m, wave_m,
+                          z, R):
+    B, c = code.shape
+    for b in range(B):
+        for j in range(2 * c):
+            for i in range(2 * c):
+                R[b, j, i] = 0.0
+        for i in range(c):
+            z[b, i] = rep_range[b, i] + chip_m * code[b, i]
+            z[b, c + i] = rep_rate[b, i] - wave_m * freq[b, i]
+            vc, vf = var_code[b, i], var_freq[b, i]
+            # np.maximum: a NaN variance stays NaN (the filter then names it).
+            vc = vc if (vc > min_code or vc != vc) else min_code
+            vf = vf if (vf > min_freq or vf != vf) else min_freq
+            R[b, i, i] = vc * (chip_m * chip_m)
+            R[b, c + i, c + i] = vf * (wave_m * wave_m)
+
+
+@backend.jit
+def _pv_nco_body(x, half_t, sat_pos, sat_vel, rho, rate):
+    B = x.shape[0]
+    c = sat_pos.shape[0]
+    for b in range(B):
+        r0 = x[b, 0] + x[b, 3] * half_t
+        r1 = x[b, 1] + x[b, 4] * half_t
+        r2 = x[b, 2] + x[b, 5] * half_t
+        bias = x[b, 6] + x[b, 7] * half_t
+        for i in range(c):
+            l0 = sat_pos[i, 0] - r0
+            l1 = sat_pos[i, 1] - r1
+            l2 = sat_pos[i, 2] - r2
+            dist = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
+            e0, e1, e2 = l0 / dist, l1 / dist, l2 / dist
+            rate[b, i] = ((sat_vel[i, 0] - x[b, 3]) * e0 + (sat_vel[i, 1] - x[b, 4]) * e1
+                          + (sat_vel[i, 2] - x[b, 5]) * e2) + x[b, 7]
+            rho[b, i] = dist + bias
+
+
+def _as_rows(a, shape: tuple[int, ...]) -> np.ndarray:
+    """``a`` broadcast to ``shape`` as a writable C-contiguous float64 array (a copy only
+    where it is not one already)."""
+    if type(a) is np.ndarray and a.shape == shape and a.dtype == np.float64:
+        flags = a.flags
+        if flags.c_contiguous and flags.writeable:
+            return a
+        # A strided view of the right shape (a channel filter's state column): one C-order
+        # copy, not the general broadcast below (about 5 us per operand here).
+        return a.copy()
+    return np.array(np.broadcast_to(np.asarray(a, dtype=float), shape), dtype=float, order="C")
+
+
+def pv_measurements(rep_range, code, var_code, rep_rate, freq, var_freq, min_code: float, min_freq: float,
+                    chip_m: float, wave_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """``ekf-pv``'s measurement and its diagonal R from the channel outputs in one compiled
+    pass: ``z = [range + chip_m code, rate - wave_m freq]``, ``R = diag(max(var_code,
+    min_code) chip_m^2, max(var_freq, min_freq) wave_m^2)``, each ``(..., 2 ch)``."""
+    shape = np.shape(code)
+    c = shape[-1]
+    ops = [_as_rows(a, shape).reshape(-1, c) for a in (rep_range, code, var_code, rep_rate, freq, var_freq)]
+    B = ops[0].shape[0]
+    z = np.empty((B, 2 * c))
+    R = np.empty((B, 2 * c, 2 * c))
+    _pv_measurements_body(*ops, float(min_code), float(min_freq), float(chip_m), float(wave_m), z, R)
+    return z.reshape(shape[:-1] + (2 * c,)), R.reshape(shape[:-1] + (2 * c, 2 * c))
+
+
+def pv_nco_command(x: np.ndarray, half_t: float, sat_pos: np.ndarray, sat_vel: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Range and rate of the states ``x (..., 8)`` moved ``half_t`` ahead (position by
+    velocity, bias by drift) to satellites ``(ch, 3)``: ``ekf-pv``'s NCO command, compiled."""
+    lead = x.shape[:-1]
+    xr = _as_rows(x, x.shape).reshape(-1, 8)
+    sp, sv = _as_rows(sat_pos, np.shape(sat_pos)), _as_rows(sat_vel, np.shape(sat_vel))
+    c = sp.shape[0]
+    rho = np.empty((xr.shape[0], c))
+    rate = np.empty((xr.shape[0], c))
+    _pv_nco_body(xr, float(half_t), sp, sv, rho, rate)
+    return rho.reshape(lead + (c,)), rate.reshape(lead + (c,))
 
 
 class EkfPvParams(PluginParams):
@@ -95,7 +230,7 @@ class EkfPositionVelocity(NavFilter):
         # Measurement assembly and NCO command in one compiled call each under the numba
         # backend (chosen once per run); the NumPy lines of `_measurements`/`_nco_command`
         # are the reference.
-        self._compiled = kernels.get_backend() == "numba" and kernels.available()
+        self._compiled = backend.compiled()
 
     def _model(self, sat_pos, sat_vel, R) -> NonlinearModel:
         F = self.F
@@ -121,8 +256,8 @@ class EkfPositionVelocity(NavFilter):
         # shared by the batch, as in the vector loop: sigma-point engines then run fused.
         compiled = None
         if np.ndim(sat_pos) == 2 and np.ndim(sat_vel) == 2:
-            compiled = CompiledFunctions(kernels.F_LINEAR, F, kernels.H_RANGE_RATE,
-                                         np.concatenate([sat_pos, sat_vel], axis=-1))
+            compiled = CompiledFunctions(linear_f, F, range_rate_row, np.concatenate([sat_pos, sat_vel], axis=-1),
+                                         range_rate_jacobian)
         return NonlinearModel(f, h, self.Q, R, f_jacobian=lambda x: np.broadcast_to(F, x.shape[:-1] + (8, 8)),
                               h_jacobian=h_jac, compiled=compiled)
 
@@ -150,7 +285,7 @@ class EkfPositionVelocity(NavFilter):
         p = self.params
         code = inputs["code_error_chips"]
         if self._compiled and np.ndim(code) >= 1:
-            z, R = kernels_loop.pv_measurements(
+            z, R = pv_measurements(
                 inputs["replica_range_m"], code, inputs["code_error_var_chips2"], inputs["replica_rate_m_s"],
                 inputs["freq_error_hz"], inputs["freq_error_var_hz2"], p.min_code_var_chips2, p.min_freq_var_hz2,
                 CA_CHIP_LENGTH_M, L1_WAVELENGTH_M)
@@ -162,7 +297,7 @@ class EkfPositionVelocity(NavFilter):
         x = self.state.mean
         sp, sv = inputs["next_sat_pos_m"], inputs["next_sat_vel_m_s"]
         if self._compiled and np.ndim(sp) == 2 and np.ndim(sv) == 2 and x.shape[-1] == 8:
-            rho, rate = kernels_loop.pv_nco_command(x, self.T / 2, sp, sv)
+            rho, rate = pv_nco_command(x, self.T / 2, sp, sv)
         else:
             rho, rate = self._nco_command(x, sp, sv)
         return {"position_m": x[..., 0:3], "velocity_m_s": x[..., 3:6], "clock_m": x[..., 6:8],

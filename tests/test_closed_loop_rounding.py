@@ -16,10 +16,10 @@ what the arithmetic allows rather than against a bit pattern:
 from __future__ import annotations
 
 import numpy as np
+from gnssframework.backend import get_backend, set_backend
 import pytest
 
 from gnssframework import testing
-from gnssframework.estimation import kernels
 from gnssframework.experiments import get_scenario
 from gnssframework_plugins import estimators as builtin_estimators
 
@@ -125,7 +125,7 @@ def test_compiled_ukf_update_is_as_accurate_as_the_numpy_update_on_the_loops_sta
         return update(self, prior, z, model, **kwargs)
 
     builtin_estimators.UnscentedKalmanFilter.update = spy
-    kernels.set_backend("numpy")
+    set_backend("numpy")
     try:
         scen = get_scenario({"kind": "vector-tracking", "duration_s": 1.5, "channels": 8, "settle_s": 0.5})
         plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": "ukf"}},
@@ -133,7 +133,7 @@ def test_compiled_ukf_update_is_as_accurate_as_the_numpy_update_on_the_loops_sta
         scen.run_batch({"cn0_dbhz": 30.0}, plugins, 1, np.random.default_rng(5))
     finally:
         builtin_estimators.UnscentedKalmanFilter.update = update
-        kernels.set_backend(None)
+        set_backend(None)
     channel = plugins["channel_filter"]
     engine, T = channel.engine, channel.T
     d = 0.5  # early-prompt spacing of the scenario's 1-chip early-late spacing
@@ -143,10 +143,10 @@ def test_compiled_ukf_update_is_as_accurate_as_the_numpy_update_on_the_loops_sta
         got = {}
         try:
             for backend in errors:
-                kernels.set_backend(backend)
+                set_backend(backend)
                 got[backend] = engine.update(prior, z, model)
         finally:
-            kernels.set_backend(None)
+            set_backend(None)
         means = prior.mean.reshape(-1, 5)
         covs = np.broadcast_to(prior.cov, means.shape + (5,)).reshape(-1, 5, 5)
         zs = z.reshape(-1, 6)

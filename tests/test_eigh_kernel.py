@@ -1,4 +1,4 @@
-"""The compiled symmetric eigensolver behind ``svd-ckf`` (kernels._eigh_into).
+"""The compiled symmetric eigensolver behind ``svd-ckf`` (estimation.compiled.dense.eigh_into).
 
 Oracles: NumPy/LAPACK ``eigvalsh``/``eigh``, the reconstruction ``A = V diag(w) V^T``
 and ``V^T V = I``. The svd-ckf root only needs the eigenvectors up to sign and column
@@ -11,14 +11,15 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
-from gnssframework.estimation import kernels
+from gnssframework.estimation import compiled as kernels
+from gnssframework.estimation.compiled import dense
 
 
 def _eigh(a):
     n = a.shape[0]
     w = np.empty(n)
     v = np.empty((n, n))
-    kernels._eigh(np.ascontiguousarray(a), w, v)
+    dense.eigh(np.ascontiguousarray(a), w, v)
     return w, v
 
 
@@ -26,7 +27,7 @@ def _tridiagonal(a):
     n = a.shape[0]
     w = np.empty(n)
     v = np.empty((n, n))
-    ok = kernels._tridiagonal_eigh_into(np.ascontiguousarray(a), w, v, np.empty((n + 2, n)))
+    ok = dense.tridiagonal_eigh_into(np.ascontiguousarray(a), w, v, np.empty((n + 2, n)))
     return ok, w, v
 
 

@@ -1,5 +1,5 @@
 """The split of a fused kernel between the calling thread and a helper thread
-(`gnssframework.estimation.kernel_pool`, issue 11) against one serial call: bitwise the
+(`gnssframework.estimation.compiled.pool`, issue 11) against one serial call: bitwise the
 same results, statuses and counts, every chunk run once, and a working helper again in
 a forked child. Time is never asserted.
 
@@ -18,7 +18,10 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import channel_step_problem
-from gnssframework.estimation import CompiledFunctions, kernel_pool, kernels
+from gnssframework.estimation import CompiledFunctions, compiled as kernels, linear_f
+from gnssframework.estimation.compiled import loop as kernels_loop, pool as kernel_pool, split
+from gnssframework.signal.channel_model import channel_iq_row
+from gnssframework_plugins.nav_filters import range_rate_jacobian, range_rate_row
 
 pytestmark = pytest.mark.other_machines
 
@@ -34,8 +37,8 @@ def _problem(seed, batch, poison):
             P[i] = -P[i]
         elif poison == "S-not-PD":
             R[i] = -1e3 * np.eye(m)
-    compiled = CompiledFunctions(kernels.F_LINEAR, np.eye(n) + 0.01 * rng.standard_normal((n, n)),
-                                 kernels.H_CHANNEL_IQ, np.array([[0.5, 0.01, 1.0]]))
+    compiled = CompiledFunctions(linear_f, np.eye(n) + 0.01 * rng.standard_normal((n, n)),
+                                 channel_iq_row, np.array([[0.5, 0.01, 1.0]]), sizes=(n, R.shape[-1]))
     return mean, P, z, R, compiled
 
 
@@ -66,16 +69,16 @@ def _assert_same(got, ref):
        chunks=st.sampled_from([2, 8, 13]))
 def test_split_fused_kernels_are_bitwise_one_serial_call(seed, batch, root_kind, shared_r, poison, chunks):
     args = _problem(seed, batch, poison)
-    assert kernels.SPLIT == "pool"
+    assert split.SPLIT == "pool"
     with pytest.MonkeyPatch.context() as m:
-        m.setattr(kernels, "_SPLIT_CHUNKS", chunks)
-        split = _step(*args, root_kind, shared_r)
-        m.setattr(kernels, "_pick", lambda pair, batch, min_batch=None: pair[0])
+        m.setattr(split, "SPLIT_CHUNKS", chunks)
+        chunked = _step(*args, root_kind, shared_r)
+        m.setattr(split, "pick", lambda pair, batch, min_batch=None: pair[0])
         serial = _step(*args, root_kind, shared_r)
-    _assert_same(split, serial)
+    _assert_same(chunked, serial)
     # (A shared R is R[0], maybe clean; the eigen-decomposition root takes an indefinite P.)
     if poison != "none" and not (shared_r and poison == "S-not-PD") and not (root_kind and poison == "indefinite-P"):
-        assert sum(split[13]) + (split[2] is not None) > 0  # the failures were seen and counted
+        assert sum(chunked[13]) + (chunked[2] is not None) > 0  # the failures were seen and counted
 
 
 def test_every_chunk_runs_once_on_either_thread():
@@ -113,9 +116,9 @@ def test_a_forked_child_splits_with_a_helper_of_its_own():
 
 def _serial(m):
     """Patch every split decision to one serial call."""
-    m.setattr(kernels, "_pick", lambda pair, batch, min_batch=None: pair[0])
-    m.setattr(kernels, "_split_by_work", lambda B, n, mm: False)
-    m.setattr(kernels, "SPLIT", "numba")
+    m.setattr(split, "pick", lambda pair, batch, min_batch=None: pair[0])
+    m.setattr(split, "split_by_work", lambda B, n, mm: False)
+    m.setattr(split, "SPLIT", "numba")
 
 
 @settings(max_examples=15, deadline=None)
@@ -125,14 +128,14 @@ def test_split_kf_update_and_ekf_moments_are_bitwise_one_serial_call(seed, batch
     # ekf-pv's sizes (8 states, 16 measurements): split from about 45 elements on.
     rng = np.random.default_rng(seed)
     n, m = 8, 16
-    assert kernels._split_by_work(batch, n, m) or batch >= kernels.PARALLEL_MIN_BATCH
+    assert split.split_by_work(batch, n, m) or batch >= kernels.PARALLEL_MIN_BATCH
     mean = rng.standard_normal((batch, n)) * 100 + np.array([6.4e6, 0, 0, 0, 0, 0, 0, 0])
     A = rng.standard_normal((batch, n, n))
     P = A @ np.swapaxes(A, -1, -2) + np.eye(n)
     R = np.broadcast_to(np.eye(m), (batch, m, m)).copy()
     R[:bad] = -1e9 * np.eye(m)  # S not PD there
     sat = np.concatenate([2e7 * rng.standard_normal((m // 2, 3)), 1e3 * rng.standard_normal((m // 2, 3))], axis=1)
-    compiled = CompiledFunctions(kernels.F_LINEAR, np.eye(n), kernels.H_RANGE_RATE, sat)
+    compiled = CompiledFunctions(linear_f, np.eye(n), range_rate_row, sat, range_rate_jacobian)
     z = rng.standard_normal((batch, m))
     bad_z = np.zeros(batch, bool)
     bad_z[-1] = True
@@ -142,13 +145,13 @@ def test_split_kf_update_and_ekf_moments_are_bitwise_one_serial_call(seed, batch
         zh, S, C = kernels.ekf_moments(mean, P, compiled, R)
         return (zh, S, C) + kernels.update(mean, P, z, zh, S, C, bad_z, joseph, H, R)
 
-    split = run()
+    chunked = run()
     with pytest.MonkeyPatch.context() as mp:
         _serial(mp)
         serial = run()
-    for a, b in zip(split, serial):
+    for a, b in zip(chunked, serial):
         assert np.array_equal(a, b, equal_nan=True)
-    assert (~split[-1]).sum() == bad
+    assert (~chunked[-1]).sum() == bad
 
 
 def _guard_problem(seed, batch, spread, k=6):
@@ -167,14 +170,13 @@ def _guard_problem(seed, batch, spread, k=6):
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), batch=st.sampled_from([256, 801]), spread=st.floats(-3.0, 3.0))
 def test_split_guard_is_bitwise_one_serial_call(seed, batch, spread):
-    from gnssframework.estimation import kernels_loop
 
     raw, (w, v), k = _guard_problem(seed, batch, spread)
-    split = kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0)
+    chunked = kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0)
     with pytest.MonkeyPatch.context() as mp:
         _serial(mp)
         serial = kernels_loop.guard(raw, (v * w) @ v.T, (w, v), 0.01, 100.0)
-    assert split is not None and np.array_equal(split, serial)
+    assert chunked is not None and np.array_equal(chunked, serial)
 
 
 @settings(max_examples=20, deadline=None)
@@ -182,7 +184,6 @@ def test_split_guard_is_bitwise_one_serial_call(seed, batch, spread):
 def test_size_specialised_guard_is_bitwise_the_generic_one(seed, batch, spread):
     # The 6 x 6 guard (the channel filter's R) compiled with its size as a constant runs
     # the generic kernel's operations in the same order: bitwise the same estimates.
-    from gnssframework.estimation import kernels_loop
 
     raw, (w, v), k = _guard_problem(seed, batch, spread)
     assert k in kernels_loop._GUARD_BY_SIZE

@@ -11,12 +11,16 @@ asserted between them.
 from __future__ import annotations
 
 import numpy as np
+from gnssframework import backend as backend_module
+from gnssframework.backend import get_backend, set_backend
 import pytest
 from hypothesis import given, settings, strategies as st
 
 import gnssframework as gf
 from gnssframework.errors import NotPositiveDefiniteError
-from gnssframework.estimation import kernels
+from gnssframework.estimation import compiled as kernels
+from gnssframework.estimation.compiled import dense, drivers, split
+from gnssframework.estimation.compiled import loop as kernels_loop
 from conftest import create
 
 
@@ -169,7 +173,7 @@ def test_jacobi_eigensolver_reproduces_lapack_eigenvalues_and_the_matrix(n, seed
     sym = a + a.T  # indefinite in general: the svd-ckf root takes |w|
     w = np.empty(n)
     v = np.empty((n, n))
-    kernels._jacobi_eigh(sym, w, v)
+    dense.jacobi_eigh(sym, w, v)
     scale = np.max(np.abs(sym))
     assert np.max(np.abs(np.sort(w) - np.linalg.eigvalsh(sym))) <= 1e-13 * scale
     assert np.max(np.abs((v * w) @ v.T - sym)) <= 1e-13 * scale
@@ -180,30 +184,30 @@ def test_backend_selection_is_validated_and_falls_back_to_numpy(monkeypatch):
     from gnssframework.errors import ConfigError
 
     with pytest.raises(ConfigError, match="numba"):
-        kernels.set_backend("fortran")
+        set_backend("fortran")
     try:
         # The environment is read at import and by set_backend(None), not on every step.
         # (Either way round: the suite also runs under GNSSFRAMEWORK_BACKEND=numpy.)
-        before = kernels.get_backend()
+        before = get_backend()
         other = "numpy" if before == "numba" else "numba"
         monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", other)
-        assert kernels.get_backend() == before
-        kernels.set_backend(None)
-        assert kernels.get_backend() == other
+        assert get_backend() == before
+        set_backend(None)
+        assert get_backend() == other
         monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", "numba")
-        kernels.set_backend(None)
-        assert kernels.get_backend() == "numba"
+        set_backend(None)
+        assert get_backend() == "numba"
         monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", "fortran")
-        kernels.set_backend(None)
+        set_backend(None)
         with pytest.raises(ConfigError, match="GNSSFRAMEWORK_BACKEND"):
-            kernels.get_backend()
+            get_backend()
         monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", "numba")
-        kernels.set_backend(None)
-        monkeypatch.setattr(kernels, "HAVE_NUMBA", False)
-        assert kernels.get_backend() == "numpy"
+        set_backend(None)
+        monkeypatch.setattr(backend_module, "HAVE_NUMBA", False)
+        assert get_backend() == "numpy"
     finally:
         monkeypatch.undo()
-        kernels.set_backend(None)
+        set_backend(None)
 
 
 @pytest.mark.parametrize("name", ("ukf", "ckf", "svd-ckf"))
@@ -255,12 +259,12 @@ def test_parallel_kernels_are_not_used_off_the_main_thread():
     import threading
 
     picked = []
-    t = threading.Thread(target=lambda: picked.append(kernels._pick(("serial", "parallel"), 10**6)))
+    t = threading.Thread(target=lambda: picked.append(split.pick(("serial", "parallel"), 10**6)))
     t.start()
     t.join()
     assert picked == ["serial"]
-    assert kernels._pick(("serial", "parallel"), 10**6) == "parallel"
-    assert kernels._pick(("serial", "parallel"), 1) == "serial"
+    assert split.pick(("serial", "parallel"), 10**6) == "parallel"
+    assert split.pick(("serial", "parallel"), 1) == "serial"
 
 
 @settings(max_examples=40, deadline=None)
@@ -302,7 +306,7 @@ def test_the_step_of_iq_filter_makes_no_lapack_call(monkeypatch, estimator):
     from gnssframework.interfaces import RunContext
     from gnssframework.signal.correlators import Correlators
 
-    kernels.set_backend("numba")
+    set_backend("numba")
     try:
         ch = registry.create("channel_filter", "iq-filter", estimator=estimator, adaptive=False)
         batch = (4, 3)
@@ -325,7 +329,7 @@ def test_the_step_of_iq_filter_makes_no_lapack_call(monkeypatch, estimator):
         assert calls == []
         assert np.isfinite(outs[-1]["code_error_chips"]).all()
     finally:
-        kernels.set_backend(None)
+        set_backend(None)
 
 
 def test_adapter_guard_pays_eigh_only_for_estimates_outside_the_bounds(monkeypatch):
@@ -335,7 +339,7 @@ def test_adapter_guard_pays_eigh_only_for_estimates_outside_the_bounds(monkeypat
     # call (under the numpy backend it costs one eigh on that element alone).
     from gnssframework import registry
 
-    kernels.set_backend("numba")
+    set_backend("numba")
     try:
         rng = np.random.default_rng(5)
         R0 = _separated_pd(rng, 4, ())
@@ -352,7 +356,7 @@ def test_adapter_guard_pays_eigh_only_for_estimates_outside_the_bounds(monkeypat
         assert calls == []
         np.testing.assert_allclose(out[7], 100.0 * R0, rtol=1e-10)  # clamped onto the ceiling
         assert np.array_equal(out[:7], raw[:7])
-        kernels.set_backend("numpy")
+        set_backend("numpy")
         run = registry.create("noise_adapter", "innovation").start(np.eye(2), R0)
         run.guard(raw[:7], R0, 0.01, 100.0)  # first call: the reference's eigen-decomposition
         calls.clear()
@@ -362,7 +366,7 @@ def test_adapter_guard_pays_eigh_only_for_estimates_outside_the_bounds(monkeypat
         np.testing.assert_allclose(out_np[7], 100.0 * R0, rtol=1e-10)
         assert np.array_equal(out_np[:7], raw[:7])
     finally:
-        kernels.set_backend(None)
+        set_backend(None)
 
 
 def _range_rate_problem(seed, name, r0, sat_range_m, sat_speed_m_s, pos_std_m):
@@ -391,14 +395,16 @@ def test_compiled_range_rate_h_equals_predicted_range_at_gps_distances():
 
     model, state, _, sat_pos, sat_vel = _range_rate_problem(21, "ckf", np.array([4.2e6, 1.7e5, 4.78e6]),
                                                             2.02e7, 3.9e3, 30.0)
-    assert model.compiled is not None and model.compiled.h_code == kernels.H_RANGE_RATE
+    from gnssframework_plugins.nav_filters import range_rate_row
+
+    assert model.compiled is not None and model.compiled.h is range_rate_row
     X = state.mean[0] + 10.0 * np.random.default_rng(2).standard_normal((17, 8))
-    for x in X:
-        zc = np.empty(12)
-        kernels._apply_h(kernels.H_RANGE_RATE, model.compiled.h_params, x, zc)
+    for k, x in enumerate(X):
+        zc = np.empty((1, 12))
+        range_rate_row(model.compiled.h_params, X, k, zc, 0)
         rho, rate, _ = predicted_range(x, sat_pos, sat_vel)
-        _close(rho, zc[:6])
-        _close(rate, zc[6:])
+        _close(rho, zc[0, :6])
+        _close(rate, zc[0, 6:])
 
 
 @pytest.mark.parametrize("name", ("ekf", "ukf", "ckf", "svd-ckf"))
@@ -425,11 +431,12 @@ def test_compiled_range_rate_model_of_ekf_pv_equals_its_numpy_model(name):
 
 
 def _kernel_signatures():
-    from gnssframework.estimation import kernels_loop
-
-    sigs = {(name, i): len(d.signatures) for name in dir(kernels)
-            if name.endswith("_kernels") and isinstance(getattr(kernels, name), tuple)
-            for i, d in enumerate(getattr(kernels, name))}
+    sigs = {(name, i): len(d.signatures) for name in dir(drivers)
+            if name.endswith("_kernels") and isinstance(getattr(drivers, name), tuple)
+            for i, d in enumerate(getattr(drivers, name))}
+    # The drivers compiled for a model's functions (and sizes), one pair per model.
+    sigs.update({("model", key, i): len(d.signatures) for key, pair in drivers._model_drivers.items()
+                 for i, d in enumerate(pair)})
     # The loop checks' kernels (kernels_loop.warm_up), the adapter guard and window among them.
     sigs.update({("kernels_loop", name): len(getattr(kernels_loop, name).signatures) for name in dir(kernels_loop)
                  if name.endswith("_body") and hasattr(getattr(kernels_loop, name), "signatures")})
@@ -443,9 +450,7 @@ def test_warm_up_compiles_every_specialisation_a_run_uses():
     # per-element operands, below and above the parallel threshold, and a vector loop.
     from gnssframework.experiments import get_scenario
 
-    from gnssframework.estimation import kernels_loop
-
-    kernels.set_backend("numba")
+    set_backend("numba")
     try:
         kernels.warm_up()
         kernels_loop.warm_up()
@@ -469,4 +474,4 @@ def test_warm_up_compiles_every_specialisation_a_run_uses():
         after = _kernel_signatures()
         assert {k: (before[k], after[k]) for k in after if after[k] != before[k]} == {}
     finally:
-        kernels.set_backend(None)
+        set_backend(None)

@@ -13,7 +13,8 @@ from hypothesis import given, settings, strategies as st
 
 import gnssframework as gf
 from gnssframework.errors import InvalidMeasurementError, NumericalError
-from gnssframework.estimation import CompiledFunctions, kernels
+from gnssframework.estimation import CompiledFunctions, compiled as kernels, linear_f, linear_h
+from gnssframework.signal.channel_model import channel_iq_row
 from gnssframework.estimation.linalg import all_true, any_true
 from conftest import channel_step_problem
 from test_kernels import _close, _engine, _kernel_signatures, _problem
@@ -95,27 +96,19 @@ def test_size_specialised_fused_kernels_are_bitwise_the_generic_ones(seed, root_
     elif poison == "S-not-PD":
         R[i] = -1e3 * np.eye(m)
     if channel:  # the correlator model of the iq-filter
-        compiled = CompiledFunctions(kernels.F_LINEAR, np.eye(n) + 0.01 * rng.standard_normal((n, n)),
-                                        kernels.H_CHANNEL_IQ, np.array([[0.5, 0.01, 1.0]]))
+        functions = (linear_f, np.eye(n) + 0.01 * rng.standard_normal((n, n)), channel_iq_row,
+                     np.array([[0.5, 0.01, 1.0]]))
     else:
-        compiled = CompiledFunctions(kernels.F_LINEAR, rng.standard_normal((n, n)), kernels.H_LINEAR,
-                                        rng.standard_normal((m, n)))
+        functions = (linear_f, rng.standard_normal((n, n)), linear_h, rng.standard_normal((m, n)))
     N = 2 * n + (root_kind == 0)
     w = rng.uniform(0.5, 1.5, N) / N
     rule = (root_kind, float(np.sqrt(n)), root_kind == 0, w, w[::-1].copy())
     Q = 1e-3 * np.eye(n)
     outs = []
-    for specialised in (True, False):
-        saved = dict(kernels._SPECIALISED_PREDICT), dict(kernels._SPECIALISED_UPDATE)
-        if not specialised:
-            kernels._SPECIALISED_PREDICT.clear()
-            kernels._SPECIALISED_UPDATE.clear()
-        try:
-            outs.append(kernels.fused_predict(mean, P, rule, compiled, Q)
-                        + kernels.fused_update(mean, P, z, None, rule, compiled, R))
-        finally:
-            kernels._SPECIALISED_PREDICT.update(saved[0])
-            kernels._SPECIALISED_UPDATE.update(saved[1])
+    for sizes in ((n, m), None):  # drivers with the sizes as constants, then the generic ones
+        compiled = CompiledFunctions(*functions, sizes=sizes)
+        outs.append(kernels.fused_predict(mean, P, rule, compiled, Q)
+                    + kernels.fused_update(mean, P, z, None, rule, compiled, R))
     got, ref = outs
     assert (got[2] is None) == (ref[2] is None)
     rooted = ref[10] == 0  # elements whose root failed leave their outputs unset

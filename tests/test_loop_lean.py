@@ -1,6 +1,6 @@
 """The single-run vector loop's lean path (issue 11) against its NumPy reference.
 
-Every compiled helper of `gnssframework.estimation.kernels_loop` is held to the NumPy
+Every compiled helper of `gnssframework.estimation.compiled.loop` is held to the NumPy
 lines it replaces (1e-12 relative, or exactly for the tests that decide a path), the
 vector loop's per-block truth to `VectorTruth`'s per-epoch methods, and a whole vector
 run under the ``numba`` backend to the same run under ``numpy``. Nothing here times
@@ -10,12 +10,15 @@ anything; call counts stand for the work saved.
 from __future__ import annotations
 
 import numpy as np
+from gnssframework.backend import get_backend, set_backend
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gnssframework import registry
-from gnssframework.estimation import kernels, kernels_loop
+from gnssframework.estimation import compiled as kernels
+from gnssframework.estimation.compiled import loop as kernels_loop
+from gnssframework_plugins.nav_filters import pv_measurements, pv_nco_command
 from gnssframework.estimation.adaptation import AdapterRun
 from gnssframework.estimation.linalg import clamp_relative, pd_mask, regularised, symmetrize
 from gnssframework.experiments import get_scenario
@@ -43,11 +46,11 @@ def test_compiled_whole_guard_equals_the_numpy_guard(seed, batch, k, log_spread,
     raw = 10.0 ** log_spread * _spd(rng, batch, k) / k + noise * rng.standard_normal(batch + (k, k))
     outs = []
     for backend in ("numba", "numpy"):
-        kernels.set_backend(backend)
+        set_backend(backend)
         try:
             outs.append(_Raw(raw, ref).guard(raw, ref, *bounds))
         finally:
-            kernels.set_backend(None)
+            set_backend(None)
     lean, reference = outs
     scale = np.max(np.abs(reference), axis=(-2, -1))
     assert (np.max(np.abs(lean - reference), axis=(-2, -1)) <= 1e-12 * scale).all()
@@ -115,11 +118,11 @@ def test_adapter_guard_lean_and_numpy_backends_return_the_same_estimate(spread):
     raw = spread * _spd(rng, (2, 8), 6) / 6
     outs = []
     for backend in ("numba", "numpy"):
-        kernels.set_backend(backend)
+        set_backend(backend)
         try:
             outs.append(_Raw(raw, R0).guard(raw, R0, 0.01, 100.0))
         finally:
-            kernels.set_backend(None)
+            set_backend(None)
     # 1e-12 of each matrix's largest entry, as in the test above: the compiled guard's
     # eigen-decompositions are not LAPACK's (nor is LAPACK's the same on every CPU), so a
     # small off-diagonal entry carries the large entries' rounding. Elementwise 1e-12 left
@@ -172,7 +175,7 @@ def test_ekf_pv_compiled_measurements_and_nco_command_equal_the_numpy_lines(seed
               "replica_rate_m_s": 800 * rng.standard_normal(shape), "freq_error_hz": rng.standard_normal(shape),
               "freq_error_var_hz2": var[::-1].copy()}
     p = nav.params
-    z, R = kernels_loop.pv_measurements(
+    z, R = pv_measurements(
         inputs["replica_range_m"], inputs["code_error_chips"], inputs["code_error_var_chips2"],
         inputs["replica_rate_m_s"], inputs["freq_error_hz"], inputs["freq_error_var_hz2"], p.min_code_var_chips2,
         p.min_freq_var_hz2, CA_CHIP_LENGTH_M, L1_WAVELENGTH_M)
@@ -182,7 +185,7 @@ def test_ekf_pv_compiled_measurements_and_nco_command_equal_the_numpy_lines(seed
     x = np.concatenate([6.4e6 * rng.standard_normal((runs, 3)), 100 * rng.standard_normal((runs, 3)),
                         1e3 * rng.standard_normal((runs, 2))], axis=-1)
     sat_pos, sat_vel = 2.6e7 * rng.standard_normal((ch, 3)), 3e3 * rng.standard_normal((ch, 3))
-    rho, rate = kernels_loop.pv_nco_command(x, nav.T / 2, sat_pos, sat_vel)
+    rho, rate = pv_nco_command(x, nav.T / 2, sat_pos, sat_vel)
     rho_ref, rate_ref = nav._nco_command(x, sat_pos, sat_vel)
     np.testing.assert_allclose(rho, rho_ref, rtol=1e-14, atol=0)
     np.testing.assert_allclose(rate, rate_ref, rtol=1e-12, atol=1e-9)
@@ -191,7 +194,7 @@ def test_ekf_pv_compiled_measurements_and_nco_command_equal_the_numpy_lines(seed
 def test_ekf_pv_keeps_a_nan_variance_so_the_filter_names_it():
     shape = (1, 2)
     nan_var = np.array([[np.nan, 1.0]])
-    z, R = kernels_loop.pv_measurements(*(np.ones(shape),) * 2, nan_var, *(np.ones(shape),) * 3, 1e-6, 1e-4,
+    z, R = pv_measurements(*(np.ones(shape),) * 2, nan_var, *(np.ones(shape),) * 3, 1e-6, 1e-4,
                                         CA_CHIP_LENGTH_M, L1_WAVELENGTH_M)
     assert np.isnan(R[0, 0, 0]) and R[0, 1, 1] == CA_CHIP_LENGTH_M**2
 
@@ -230,7 +233,7 @@ def test_vector_loop_numba_and_numpy_backends_agree(estimator, monkeypatch):
              "nees_position", "nees_velocity", "code_output_error_chips", "freq_output_error_hz")
     recs = []
     for backend, nudge in (("numba", None), ("numpy", None), ("numpy", 0), ("numpy", 1)):
-        kernels.set_backend(backend)
+        set_backend(backend)
         try:
             truth, x0, P0 = scen.truth(40.0, 2, np.random.default_rng(3))
             if nudge is not None:
@@ -240,7 +243,7 @@ def test_vector_loop_numba_and_numpy_backends_agree(estimator, monkeypatch):
                                   np.random.default_rng(4))
             recs.append({name: getattr(rec, name) for name in names})
         finally:
-            kernels.set_backend(None)
+            set_backend(None)
     compiled, reference, *nudged = recs
     for name in names:
         testing.assert_within_rounding(compiled[name], reference[name], [n[name] for n in nudged], what=name)

@@ -2,6 +2,7 @@
 Fisher information against numerical derivatives, and the bound against the candidates."""
 
 import numpy as np
+from gnssframework.backend import get_backend, set_backend
 import pytest
 from filterpy.kalman import KalmanFilter
 
@@ -46,7 +47,6 @@ def test_compiled_pcrb_equals_the_numpy_recursion(update_first):
     # Stacked square roots run in one compiled call under the numba backend; the NumPy
     # loop is the reference (1e-12 relative). A random 9-state model with a singular Q
     # and a poorly known state (variance 1e6, like the carrier-phase offsets).
-    from gnssframework.estimation import kernels
 
     rng = np.random.default_rng(3)
     n, m, steps = 9, 5, 40
@@ -65,23 +65,23 @@ def test_compiled_pcrb_equals_the_numpy_recursion(update_first):
     from gnssframework import testing
 
     try:
-        kernels.set_backend("numpy")
+        set_backend("numpy")
         reference = pcrb_linear(F, Q, roots.__getitem__, P0, steps, update_first)
         assert np.array_equal(pcrb_linear(F, Q, roots, P0, steps, update_first), reference)  # same loop
         nudged = [list(pcrb_linear(F, Q, roots, p, steps, update_first)) for p in testing.ulp_nudges(P0)]
-        kernels.set_backend("numba")
+        set_backend("numba")
         compiled = pcrb_linear(F, Q, roots, P0, steps, update_first)
     finally:
-        kernels.set_backend(None)
+        set_backend(None)
     # each step normalised by its own largest entry (a list of steps)
     testing.assert_within_rounding(list(compiled), list(reference), nudged, what="compiled PCRB recursion")
     # Not the same function by accident: a changed root changes the compiled result.
     roots[steps // 2, 0, 0] += 1.0
-    kernels.set_backend("numba")
+    set_backend("numba")
     try:
         assert np.max(np.abs(pcrb_linear(F, Q, roots, P0, steps, update_first) - compiled)) > 1e-6
     finally:
-        kernels.set_backend(None)
+        set_backend(None)
     with pytest.raises(ValueError, match="steps=40"):
         pcrb_linear(F, Q, roots[:-1], P0, steps, update_first)
 
@@ -96,18 +96,17 @@ def test_vector_tracking_bound_is_the_same_on_both_backends():
     # measurement square roots are scaled by 1 + 1e-7, or whose F is off by 1e-9 on the
     # diagonal, fails this (checked by mutation: 3e-8 and 2e-8 against about 7e-9).
     from gnssframework import testing
-    from gnssframework.estimation import kernels
 
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 1.0, "channels": 8, "settle_s": 0.0})
     P0 = np.diag([100.0] * 3 + [1.0] * 3 + [100.0, 1.0])
     try:
-        kernels.set_backend("numpy")
+        set_backend("numpy")
         reference = scen.bound(30.0, P0)
         nudged = [scen.bound(30.0, p) for p in testing.ulp_nudges(P0)]
-        kernels.set_backend("numba")
+        set_backend("numba")
         compiled = scen.bound(30.0, P0)
     finally:
-        kernels.set_backend(None)
+        set_backend(None)
     np.testing.assert_array_equal(compiled[0], reference[0])  # the times
     testing.assert_within_rounding(compiled, reference, nudged, factor=10.0, what="compiled PCRB")
 

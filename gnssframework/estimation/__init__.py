@@ -11,10 +11,11 @@ from .adaptation import (
     NoiseAdapter,
     SafeguardParams,
 )
+from .compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian, register_warm_up
 from .estimator import Estimator, SigmaPointEstimator
 from .sequence import FilterResult, filter_sequence
 from .step import RECOVERIES, FilterStep, StepResult
-from .types import CompiledFunctions, Gaussian, LinearModel, Model, NonlinearModel, Update, numerical_jacobian
+from .types import Gaussian, LinearModel, Model, NonlinearModel, Update, numerical_jacobian
 
 __all__ = [
     "AdaptationStep",
@@ -36,5 +37,9 @@ __all__ = [
     "StepResult",
     "Update",
     "filter_sequence",
+    "linear_f",
+    "linear_h",
+    "linear_h_jacobian",
     "numerical_jacobian",
+    "register_warm_up",
 ]

@@ -34,7 +34,8 @@ import numpy as np
 from pydantic import Field
 
 from ..plugin import Plugin, PluginParams
-from . import kernels, kernels_loop
+from .. import backend
+from .compiled import loop as compiled_loop
 from .linalg import any_true, clamp_relative, pd_mask, project_psd, regularised, symmetrize
 from .types import Gaussian, Model, Update
 
@@ -103,13 +104,28 @@ class AdapterRun(abc.ABC):
         self.R = self.R0
         self.updates = 0
 
+    @staticmethod
+    def compiled_innovation_window(size: int) -> "compiled_loop.InnovationWindow | None":
+        """The compiled running mean of the last ``size`` innovation estimates
+        (`gnssframework.estimation.compiled.loop.InnovationWindow`) under the compiled
+        backend, else ``None`` (the adapter keeps its NumPy window)."""
+        return compiled_loop.InnovationWindow(size) if backend.compiled() else None
+
+    @staticmethod
+    def load_compiled_guard() -> None:
+        """Compile or load the compiled `guard` now under the compiled backend: an
+        adapter calls it when it starts, so the first step past its warm-up does not pay
+        the load (a one-time cost per process)."""
+        if backend.compiled():
+            compiled_loop.load_guard()
+
     def guard(self, raw: np.ndarray, reference: np.ndarray, floor: float, ceiling: float) -> np.ndarray:
         """PSD-project a raw estimate, then clamp it relative to ``reference``.
 
         Elements that are already PSD and inside the bounds pass unchanged; the
         projection's ``eigh`` runs only on the others (a Cholesky test finds them).
         Under the ``numba`` backend one compiled pass does all of it
-        (`gnssframework.estimation.kernels_loop.guard`, equal to these steps to rounding);
+        (`gnssframework.estimation.compiled.loop.guard`, equal to these steps to rounding);
         the steps below run under ``numpy`` and where an estimate is not finite.
         """
         # The reference (Q0 or R0) is fixed for the run: its eigen-decomposition and the
@@ -120,9 +136,9 @@ class AdapterRun(abc.ABC):
             eig = regularised(reference)
             w, v = eig
             kept = cache[id(reference)] = (reference, eig, (v * w[..., None, :]) @ np.swapaxes(v, -1, -2),
-                                           kernels.get_backend() == "numba")
+                                           backend.compiled())
         if kept[3]:
-            lean = kernels_loop.guard(raw, kept[2], kept[1], floor, ceiling)
+            lean = compiled_loop.guard(raw, kept[2], kept[1], floor, ceiling)
             if lean is not None:
                 return lean
         raw = symmetrize(raw)

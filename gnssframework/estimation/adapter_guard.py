@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import NonFiniteError
-from . import kernels_loop
+from .compiled import loop as compiled_loop
 from .adaptation import AdapterRun, AdaptationStep
 from .linalg import failing_indices
 
@@ -49,7 +49,7 @@ def adapt_checked(run: AdapterRun, ctx: AdaptationStep, filter_name: str, adapte
         except np.linalg.LinAlgError as exc:
             Q = R = None
             failed = str(exc)
-        if failed is None and (Q is None or kernels_loop.all_finite(Q)) and (R is None or kernels_loop.all_finite(R)):
+        if failed is None and (Q is None or compiled_loop.all_finite(Q)) and (R is None or compiled_loop.all_finite(R)):
             return Q, R  # the common step: no per-element masks
         ok = _finite_per_element(Q, batch_shape) & _finite_per_element(R, batch_shape)
         if failed is None and ok.all():

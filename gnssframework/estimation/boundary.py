@@ -15,6 +15,8 @@ import numpy as np
 from typing import Any, Callable
 
 from ..errors import InvalidArgumentError, InvalidInputError
+from .linalg import to_float
+from .types import Gaussian, LinearModel, NonlinearModel
 
 __all__ = ["as_measurement", "as_sequence", "to_float", "check_argument"]
 
@@ -24,14 +26,10 @@ def _has(*methods: str) -> Callable[[Any], bool]:
 
 
 def _is_gaussian(value: Any) -> bool:
-    from .types import Gaussian  # types imports this module (to_float)
-
     return isinstance(value, Gaussian)
 
 
 def _is_model(value: Any) -> bool:
-    from .types import LinearModel, NonlinearModel
-
     return isinstance(value, (LinearModel, NonlinearModel)) or (callable(value) and not isinstance(value, type))
 
 
@@ -60,21 +58,6 @@ def check_argument(value: Any, argument: str, call: str) -> None:
     expected, ok = _ARGUMENTS[argument]
     if not ok(value):
         raise InvalidArgumentError(call, argument, f"expected {expected}; got {_describe(value)}")
-
-
-def to_float(value) -> np.ndarray:
-    """``np.asarray(value, dtype=float)`` that refuses what it would mangle: complex
-    values (NumPy drops the imaginary part with a ``ComplexWarning``), text and ragged
-    nests raise ``ValueError`` with a short reason."""
-    try:
-        arr = np.asarray(value)
-        complex_ = np.iscomplexobj(arr)
-        out = None if complex_ else arr.astype(float, copy=False)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"is not a numeric array ({exc})") from None
-    if complex_:
-        raise ValueError("is complex; give the real and imaginary parts as separate measurements")
-    return out
 
 
 def as_sequence(zs, filter_name: str) -> np.ndarray:

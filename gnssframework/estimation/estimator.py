@@ -19,9 +19,10 @@ from typing import Literal
 
 import numpy as np
 
+from .. import backend
 from ..errors import InvalidMeasurementError, NotPositiveDefiniteError
 from ..plugin import Plugin
-from . import kernels
+from . import compiled as kernels
 from .linalg import all_true, any_true, cholesky_masked, failing_indices, mat_vec, symmetrize
 from .types import Gaussian, Model, Update
 
@@ -36,12 +37,42 @@ class Estimator(Plugin, abc.ABC):
 
     kind = "estimator"
 
+    #: Whether `update` may run fused (one compiled pass for the moments, gain and
+    #: posterior): False in a class that overrides ``measurement_moments`` or
+    #: ``posterior_cov`` below the engine that declares the fused rule (set per class).
+    _fused_update_ok: bool = True
+
     #: ``"numba"`` (compiled kernels) or ``"numpy"`` (reference path) for this instance;
-    #: ``None`` follows :func:`gnssframework.estimation.kernels.get_backend`.
+    #: ``None`` follows :func:`gnssframework.backend.get_backend`.
     backend: str | None = None
 
     def _use_kernels(self) -> bool:
-        return kernels.resolve_backend(self.backend) == "numba"
+        return backend.compiled(self.backend)
+
+    def _linearised_twins(self, model: Model):
+        """The model's compiled functions where a KF/EKF step can run on them (linear ``f``
+        and a compiled Jacobian of ``h``) under the compiled backend, else ``None``. The
+        model's own Jacobians must be those of its twins (``CompiledFunctions``)."""
+        compiled = getattr(model, "compiled", None)
+        if compiled is None or not compiled.linear_f or compiled.h_jacobian is None or not self._use_kernels():
+            return None
+        return compiled
+
+    def compiled_linear_predict(self, state: Gaussian, model: Model) -> Gaussian | None:
+        """``(F x, F P F^T + Q)`` in one compiled pass with F the model's compiled linear
+        ``f``, or ``None`` where that path does not apply (the caller then runs NumPy)."""
+        compiled = self._linearised_twins(model)
+        if compiled is None:
+            return None
+        return Gaussian(*kernels.linear_predict(state.mean, state.cov, compiled.f_params, model.Q))
+
+    def compiled_linearised_moments(self, prior: Gaussian, model: Model):
+        """``(h(x), H P H^T + R, P H^T)`` with the model's compiled ``h`` and Jacobian H at
+        the mean, or ``None`` where that path does not apply (the caller then runs NumPy)."""
+        compiled = self._linearised_twins(model)
+        if compiled is None:
+            return None
+        return kernels.ekf_moments(prior.mean, prior.cov, compiled, model.R)
 
     def _kernel_posterior(self) -> str | None:
         """Which posterior the update kernel may compute for this engine (``None``: NumPy).
@@ -107,7 +138,9 @@ class Estimator(Plugin, abc.ABC):
                 prior = Gaussian(np.broadcast_to(prior.mean, batch + prior.mean.shape[-1:]), prior.cov)
             z = np.broadcast_to(z, batch + z.shape[-1:])
 
-        rule = self._fused_rule(prior, model)
+        # The fused pass computes the moments and the posterior itself: an engine that
+        # overrides either of them takes the path below, which calls its overrides.
+        rule = self._fused_rule(prior, model) if self._fused_update_ok else None
         if rule is not None:
             # The lean path: one compiled pass finds the missing measurements, the failed
             # roots and the non-PD S, and reports them as three counts.
@@ -184,6 +217,31 @@ class SigmaPointEstimator(Estimator):
     on linear models.
     """
 
+    #: The square root `kernel_rule` describes: 0 the lower Cholesky factor (the default
+    #: ``square_root``), 1 ``V sqrt(|w|)`` of the symmetric eigen-decomposition. A class
+    #: that overrides ``square_root`` declares its root here.
+    kernel_root: int = 0
+    #: Whether `kernel_rule` still describes this class's points (set per class).
+    _kernel_rule_ok: bool = True
+
+    #: Methods a compiled rule stands for: overriding one without declaring the rule again
+    #: (``kernel_rule`` or ``kernel_root`` in the same class) leaves the NumPy path.
+    _RULE_METHODS = ("sigma_points", "square_root")
+    #: Methods the fused update computes itself.
+    _UPDATE_METHODS = ("measurement_moments", "posterior_cov")
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        own = vars(cls)
+        if "kernel_rule" in own or "kernel_root" in own:
+            cls._kernel_rule_ok = True
+            cls._fused_update_ok = not any(name in own for name in cls._UPDATE_METHODS)
+        else:
+            if any(name in own for name in cls._RULE_METHODS):
+                cls._kernel_rule_ok = False
+            if any(name in own for name in cls._UPDATE_METHODS):
+                cls._fused_update_ok = False
+
     @abc.abstractmethod
     def sigma_points(self, state: Gaussian) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return ``(X, wm, wc)``: points ``(N, ..., n)``, mean and covariance weights ``(N,)``."""
@@ -192,8 +250,11 @@ class SigmaPointEstimator(Estimator):
         """The point rule in the compiled kernels' terms, or ``None`` (NumPy path).
 
         Returns ``(root_kind, scale, center, wm, wc)``: root 0 = Cholesky, 1 = symmetric
-        eigen-decomposition; points ``[m], m +/- scale * S_i``. An engine returns a rule
-        only when its ``sigma_points``/``square_root`` are the ones the rule describes.
+        eigen-decomposition; points ``[m], m +/- scale * S_i``. The rule describes the
+        ``sigma_points``/``square_root`` of the class that defines it; a subclass that
+        overrides either without declaring ``kernel_rule`` or ``kernel_root`` again runs
+        the NumPy path, and one that overrides ``measurement_moments`` or
+        ``posterior_cov`` keeps its override (the update then does not run fused).
         """
         return None
 
@@ -210,10 +271,10 @@ class SigmaPointEstimator(Estimator):
         cache = self.__dict__.setdefault("_rule_cache", {})
         hit = cache.get(key)
         if hit is None:
-            rule = self.kernel_rule(n)
+            rule = self.kernel_rule(n) if self._kernel_rule_ok else None
             if rule is not None:
                 root_kind, scale, center, wm, wc = rule
-                rule = (int(root_kind), float(scale), bool(center), kernels._vec(wm), kernels._vec(wc))
+                rule = (int(root_kind), float(scale), bool(center), kernels.vector_operand(wm), kernels.vector_operand(wc))
             hit = cache[key] = (rule, getattr(self, "params", None))  # holds params: its id stays unique
         return hit[0]
 

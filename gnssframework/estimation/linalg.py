@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import kernels
+from .. import backend
+from .compiled import arrays as kernels
 
 __all__ = [
     "symmetrize",
@@ -23,7 +24,23 @@ __all__ = [
     "failing_indices",
     "mat_vec",
     "outer",
+    "to_float",
 ]
+
+
+def to_float(value) -> np.ndarray:
+    """``np.asarray(value, dtype=float)`` that refuses what it would mangle: complex
+    values (NumPy drops the imaginary part with a ``ComplexWarning``), text and ragged
+    nests raise ``ValueError`` with a short reason."""
+    try:
+        arr = np.asarray(value)
+        complex_ = np.iscomplexobj(arr)
+        out = None if complex_ else arr.astype(float, copy=False)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"is not a numeric array ({exc})") from None
+    if complex_:
+        raise ValueError("is complex; give the real and imaginary parts as separate measurements")
+    return out
 
 
 def symmetrize(a: np.ndarray) -> np.ndarray:
@@ -97,7 +114,7 @@ def pd_mask(a: np.ndarray) -> np.ndarray:
     agree except on matrices whose smallest eigenvalue is at rounding level.
     """
     a = np.asarray(a, dtype=float)
-    if kernels.get_backend() == "numba":
+    if backend.compiled():
         return kernels.pd_mask(a)
     return cholesky_masked(a)[1]
 

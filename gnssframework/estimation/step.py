@@ -43,7 +43,8 @@ import numpy as np
 
 from ..errors import (ConfigError, InvalidInitialStateError, InvalidInputError, NonFiniteError, NotPositiveDefiniteError,
                       NumericalError)
-from . import kernels, kernels_loop
+from .. import backend
+from .compiled import loop as compiled_loop
 from .adaptation import AdapterRun, AdaptationStep, NoiseAdapter
 from .adapter_guard import adapt_checked
 from .boundary import as_measurement, check_argument
@@ -101,7 +102,7 @@ def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, count
 
     ``lean`` (the ``numba`` backend): one compiled test of the whole posterior first; the
     per-element masks below only when it finds a failing element."""
-    if lean and kernels_loop.state_bad_count(state.mean, state.cov, True) == 0:
+    if lean and compiled_loop.state_bad_count(state.mean, state.cov, True) == 0:
         return state
     pd = pd_mask(state.cov)  # compiled test, no factor kept (the lean step)
     if all_true(pd) and all_true(np.isfinite(state.mean)):
@@ -140,7 +141,7 @@ def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, count
 def _check_prior(prior: Gaussian, state: Gaussian, filter_name: str, lean: bool = False) -> None:
     """A prediction from a finite state that is not finite is an overflow in f, Q or the
     sigma-point weights (a state of magnitude 1e300 after a 1e300 measurement)."""
-    if lean and kernels_loop.state_bad_count(prior.mean, prior.cov, False) == 0:
+    if lean and compiled_loop.state_bad_count(prior.mean, prior.cov, False) == 0:
         return
     if all_true(np.isfinite(prior.mean)) and all_true(np.isfinite(prior.cov)):
         return  # the per-element mask only when something is not finite
@@ -221,7 +222,7 @@ class FilterStep:
         self._run: AdapterRun | None = None
         self._Q = self._R = None
         self._in_force_cache: tuple | None = None
-        self._lean = kernels.get_backend() == "numba"
+        self._lean = backend.compiled()
 
     def start(self, initial: Gaussian, model: Model | None = None, *, first_step: int = 0) -> Gaussian:
         """Begin a sequence from ``initial``: check it, reset the counts, start the adapter.
@@ -247,7 +248,7 @@ class FilterStep:
             check_argument(model, "model", f"{self.name}: FilterStep.start")
         check_initial(initial, self.name, model)
         # The backend of the step's compiled checks, chosen once per sequence.
-        self._lean = kernels.get_backend() == "numba"
+        self._lean = backend.compiled()
         self.recoveries = Counter({k: 0 for k in RECOVERIES})
         self.step_index = first_step
         self._adapted = 0

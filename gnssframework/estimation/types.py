@@ -19,8 +19,8 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..errors import ConfigError
-from .boundary import to_float
-from .linalg import mat_vec
+from .compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian
+from .linalg import mat_vec, to_float
 
 __all__ = ["Gaussian", "Update", "LinearModel", "NonlinearModel", "Model", "CompiledFunctions", "numerical_jacobian"]
 
@@ -121,41 +121,6 @@ class Update:
     skipped: np.ndarray = field(default_factory=lambda: np.zeros((), dtype=bool))
 
 
-@dataclass(frozen=True)
-class CompiledFunctions:
-    """Model functions the compiled kernels evaluate themselves (no call back to Python).
-
-    A model that carries one lets a sigma-point filter run a whole predict or update in
-    one compiled pass per batch element, and the KF/EKF (linear f, h with a compiled
-    Jacobian: ``H_LINEAR``, ``H_RANGE_RATE``) run theirs in compiled code. The model's
-    NumPy ``f``/``h`` (and its Jacobians) stay the reference: both must compute the same
-    functions (tests hold them to 1e-12).
-
-    Parameters
-    ----------
-    f_code, h_code
-        Codes from ``gnssframework.estimation.kernels`` (``F_LINEAR``; ``H_LINEAR``,
-        ``H_CHANNEL_IQ``, ``H_RANGE_RATE``).
-    f_params, h_params
-        2-D float arrays shared by the batch: F ``(n, n)``; H ``(m, n)``, the
-        channel model's ``[[spacing_chips, coherent_time_s, data_bit]]``, or the
-        satellites' ECEF positions and velocities ``(channels, 6)`` of the
-        pseudorange/rate measurement.
-    """
-
-    f_code: int
-    f_params: np.ndarray
-    h_code: int
-    h_params: np.ndarray
-
-    def __post_init__(self) -> None:
-        for name in ("f_params", "h_params"):
-            a = np.ascontiguousarray(getattr(self, name), dtype=float)
-            if a.ndim != 2:
-                raise ConfigError(f"CompiledFunctions.{name}", f"must be a 2-D array, got shape {a.shape}")
-            object.__setattr__(self, name, a)
-
-
 def _check_square(name: str, a: np.ndarray) -> np.ndarray:
     a = np.asarray(a, dtype=float)
     if a.ndim < 2 or a.shape[-1] != a.shape[-2]:
@@ -206,7 +171,7 @@ class LinearModel:
             return None
         cached = self.__dict__.get("_compiled")
         if cached is None:
-            cached = CompiledFunctions(0, self.F, 0, self.H)
+            cached = CompiledFunctions(linear_f, self.F, linear_h, self.H, linear_h_jacobian)
             object.__setattr__(self, "_compiled", cached)
         return cached
 

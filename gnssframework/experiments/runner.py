@@ -197,13 +197,11 @@ def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tupl
         return
     # Compile or load the numba kernels once here: the forked workers inherit them
     # instead of each loading them from the disk cache (or compiling them).
-    from ..estimation import kernels
+    from .. import backend
+    if backend.compiled():
+        from ..estimation import compiled
 
-    if kernels.get_backend() == "numba":
-        kernels.warm_up()
-        from ..estimation import kernels_loop
-
-        kernels_loop.warm_up()
+        compiled.warm_up()
     pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)))
     finished = False
     try:

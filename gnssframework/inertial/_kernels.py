@@ -11,12 +11,10 @@ import math
 
 import numpy as np
 
-try:  # numba is a dependency, but the NumPy path must keep working without it
-    import numba
+from gnssframework.backend import HAVE_NUMBA
 
-    HAVE_NUMBA = True
-except ImportError:  # pragma: no cover
-    HAVE_NUMBA = False
+if HAVE_NUMBA:
+    import numba
 
 __all__ = ["HAVE_NUMBA", "integrate_kernel"]
 

@@ -24,6 +24,7 @@ from typing import Literal
 import numpy as np
 
 from gnssframework.errors import ConfigError
+from gnssframework.backend import resolve_backend
 from gnssframework.inertial._kernels import HAVE_NUMBA, integrate_kernel
 from gnssframework.inertial.earth import WGS84, EarthModel
 from gnssframework.inertial.quaternion import (
@@ -98,22 +99,30 @@ class MechanisationOptions:
     earth
         Earth model (rotation rate, J2 gravity).
     backend
-        :func:`integrate`'s loop: ``"numba"`` (compiled, the default when numba imports)
-        or ``"numpy"`` (the reference, :func:`strapdown_step` per time step); a test
-        holds them equal to rounding.
+        :func:`integrate`'s loop: ``"numba"`` (compiled) or ``"numpy"`` (the reference,
+        :func:`strapdown_step` per time step); a test holds them equal to rounding.
+        ``None`` (the default) follows the process-wide choice
+        (`gnssframework.backend.get_backend`: ``GNSSFRAMEWORK_BACKEND``, else numba).
     """
 
     coning: bool = True
     sculling: bool = True
     rotation_term: RotationTerm = "exact"
     earth: EarthModel = WGS84
-    backend: Literal["numba", "numpy"] = "numba" if HAVE_NUMBA else "numpy"
+    backend: Literal["numba", "numpy"] | None = None
 
     def __post_init__(self) -> None:
         if self.rotation_term not in ("exact", "first-order", "none"):
             raise ConfigError("rotation_term", f"got {self.rotation_term!r}; allowed: 'exact', 'first-order', 'none'")
-        if self.backend not in ("numba", "numpy") or (self.backend == "numba" and not HAVE_NUMBA):
-            raise ConfigError("backend", f"got {self.backend!r}; allowed: 'numpy'" + (", 'numba'" if HAVE_NUMBA else ""))
+        if self.backend is not None and (self.backend not in ("numba", "numpy")
+                                         or (self.backend == "numba" and not HAVE_NUMBA)):
+            raise ConfigError("backend", f"got {self.backend!r}; allowed: None, 'numpy'" + (", 'numba'" if HAVE_NUMBA else ""))
+
+    @property
+    def use_compiled(self) -> bool:
+        """Whether `integrate` runs the compiled loop: ``backend`` if set, else the
+        process-wide choice (`gnssframework.backend.get_backend`, ``GNSSFRAMEWORK_BACKEND``)."""
+        return resolve_backend(self.backend, "backend") == "numba"
 
 
 def _z_rotation_quat(angle_rad: float) -> np.ndarray:
@@ -208,7 +217,7 @@ def strapdown_step(
         Algorithm switches, Earth model and backend (``"numba"`` runs the compiled
         kernel for this one step; ``"numpy"`` is the reference below).
     """
-    if options.backend == "numba":
+    if options.use_compiled:
         dtheta_rad = np.asarray(dtheta_rad, dtype=float)
         dv_mps = np.asarray(dv_mps, dtype=float)
         series = integrate(state, dtheta_rad[None], dv_mps[None], dt_s, options, prev_dtheta_rad, prev_dv_mps)
@@ -232,7 +241,7 @@ def strapdown_step_trusted(
     (a flat batch), ``dt_s > 0``. The arithmetic is `strapdown_step`'s (the same kernel,
     the same bits); with the ``"numpy"`` backend it is `strapdown_step` itself.
     """
-    if options.backend != "numba":
+    if not options.use_compiled:
         return strapdown_step(state, dtheta_rad, dv_mps, dt_s, prev_dtheta_rad, prev_dv_mps, options)
     has_prev = prev_dtheta_rad is not None
     zero = np.zeros_like(state.velocity_ecef_mps) if not has_prev else None
@@ -323,7 +332,7 @@ def integrate(
     n = dtheta_rad.shape[0]
     batch = np.broadcast_shapes(state0.q_b_e.shape[:-1], dtheta_rad.shape[1:-1])
     state = state0.broadcast(batch)
-    if options.backend == "numba":
+    if options.use_compiled:
         nb = int(np.prod(batch, dtype=int))
         flat = lambda x, lead=(): np.ascontiguousarray(np.broadcast_to(x, lead + batch + (x.shape[-1],))).reshape(lead + (nb, x.shape[-1]))  # noqa: E731
         has_prev = prev_dtheta_rad is not None

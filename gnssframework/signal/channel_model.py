@@ -8,12 +8,15 @@ its rate (Hz/s). Measurements: the six correlator outputs
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from ..backend import jit
 from .constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 from .correlator_model import correlator_mean
 
-__all__ = ["channel_iq", "channel_transition", "channel_model", "CODE_TO_CARRIER"]
+__all__ = ["channel_iq", "channel_iq_row", "channel_transition", "channel_model", "CODE_TO_CARRIER"]
 
 #: Code chipping rate over carrier frequency, f_code / f_carrier = 1 / 1540 for GPS L1 C/A.
 CODE_TO_CARRIER = CA_CHIP_RATE_HZ / L1_FREQ_HZ
@@ -76,6 +79,39 @@ def channel_transition(coherent_time_s: float, code_to_carrier: float = CODE_TO_
     return F
 
 
+@jit
+def _triangle(tau):
+    a = abs(tau)
+    return 1.0 - a if a < 1.0 else 0.0
+
+
+@jit
+def channel_iq_row(params, X, k, Z, kz):
+    """`channel_iq` of the state ``X[k]`` into ``Z[kz]``, compiled: the model's ``h`` as
+    the fused kernels call it (`gnssframework.estimation.CompiledFunctions`). ``params``
+    ``[[spacing_chips, coherent_time_s, data_bit]]``; the ideal (unfiltered) triangle
+    autocorrelation, as `channel_iq` (a test holds the two to 1e-12)."""
+    d = params[0, 0]
+    T = params[0, 1]
+    u = X[k, 3] * T
+    if u == 0.0:
+        u = 1e-20  # numpy.sinc's guard, so the two paths agree at df = 0 too
+    sinc = math.sin(math.pi * u) / (math.pi * u)
+    common = X[k, 0] * params[0, 2] * sinc
+    phase = math.pi * X[k, 3] * T + X[k, 2]
+    c = common * math.cos(phase)
+    s_ = common * math.sin(phase)
+    r_e = _triangle(X[k, 1] + d)
+    r_p = _triangle(X[k, 1])
+    r_l = _triangle(X[k, 1] - d)
+    Z[kz, 0] = c * r_e
+    Z[kz, 1] = c * r_p
+    Z[kz, 2] = c * r_l
+    Z[kz, 3] = s_ * r_e
+    Z[kz, 4] = s_ * r_p
+    Z[kz, 5] = s_ * r_l
+
+
 def channel_model(
     coherent_time_s: float, spacing_chips: float, Q: np.ndarray, R: np.ndarray, code_to_carrier: float = CODE_TO_CARRIER
 ):
@@ -83,12 +119,14 @@ def channel_model(
 
     ``f`` and ``h`` are the NumPy functions above; the model also carries their compiled
     versions (``CompiledFunctions``) so a sigma-point filter runs each predict and update
-    in one compiled pass. Data bit 1 (after wipe-off), ideal triangle autocorrelation.
+    in one compiled pass: ``F x`` and `channel_iq_row`. Data bit 1 (after wipe-off),
+    ideal triangle autocorrelation.
     """
-    from ..estimation.kernels import F_LINEAR, H_CHANNEL_IQ
-    from ..estimation.types import CompiledFunctions, NonlinearModel
+    from ..estimation.compiled_model import CompiledFunctions, linear_f
+    from ..estimation.types import NonlinearModel
 
     F = channel_transition(coherent_time_s, code_to_carrier)
     d, T = float(spacing_chips), float(coherent_time_s)
-    compiled = CompiledFunctions(F_LINEAR, F, H_CHANNEL_IQ, np.array([[d, T, 1.0]]))
+    # Its drivers are compiled for the filter's 5 states and 6 correlator outputs.
+    compiled = CompiledFunctions(linear_f, F, channel_iq_row, np.array([[d, T, 1.0]]), sizes=(5, 6))
     return NonlinearModel(lambda x: x @ F.T, lambda x: channel_iq(x, d, T), Q, R, compiled=compiled)

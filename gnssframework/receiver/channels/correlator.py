@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import ConfigError
-from ...estimation import kernels
+from ...backend import get_backend
 
 __all__ = ["correlate_channels", "correlate_numpy", "correlate_periods", "correlate_periods_numpy", "code_tables",
            "TABLE_BITS"]
@@ -230,7 +230,7 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
         Tap offsets (early negative), added to the replica phase.
     backend
         ``"numba"`` or ``"numpy"``; default: the library's backend
-        (`gnssframework.estimation.kernels.get_backend`).
+        (`gnssframework.backend.get_backend`).
     tables
         `code_tables` of ``codes`` made once by a caller that correlates the same
         channels many times (used when long enough for this call).
@@ -240,7 +240,7 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
     if starts.size and (starts.min() < 0 or (starts + counts).max() > samples.shape[0]):
         raise ConfigError("starts", f"a channel's sample range [{starts.min()}, {(starts + counts).max()}) lies "
                           f"outside the block of {samples.shape[0]} samples")
-    use = backend or kernels.get_backend()
+    use = backend or get_backend()
     if use != "numba" or not HAVE_NUMBA:
         return correlate_numpy(samples, starts, counts, code_phase_chips, code_step_chips, carrier_phase_cycles,
                                carrier_step_cycles, codes, offsets_chips)
@@ -323,7 +323,7 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
     if starts.size and (starts.min() < 0 or need.max() > samples.shape[0]):
         raise ConfigError("starts", f"a channel's periods [{starts.min()}, {need.max()}) reach outside the block of "
                           f"{samples.shape[0]} samples")
-    use = backend or kernels.get_backend()
+    use = backend or get_backend()
     if use != "numba" or not HAVE_NUMBA:
         return correlate_periods_numpy(samples, starts, n_periods, np.asarray(code_phase_chips, float), step,
                                        np.asarray(carrier_phase_cycles, float),

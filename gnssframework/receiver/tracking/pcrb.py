@@ -63,8 +63,9 @@ from typing import Callable
 
 import numpy as np
 
+from ... import backend
 from ...errors import ConfigError
-from ...estimation import kernels, kernels_loop
+from ...estimation.compiled import loop as compiled_loop
 from ...navigation.geometry import line_of_sight
 from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ...signal.correlator_model import amplitude_from_cn0, tap_noise_cov
@@ -84,7 +85,7 @@ def pcrb_linear(F: np.ndarray, Q: np.ndarray, sqrt_info: Callable[[int], np.ndar
         ``sqrt_info(k)`` returns $L_k$ ``(m, n)`` with $J^z_k = L_k^T L_k$, the measurement
         information at step k; or all of them stacked ``(steps, m, n)``, which the
         ``numba`` backend runs in one compiled call
-        (`gnssframework.estimation.kernels_loop.pcrb_stacked`; this loop is its reference).
+        (`gnssframework.estimation.compiled.loop.pcrb_stacked`; this loop is its reference).
     P0
         Prior covariance (inverse prior information) before the first measurement.
     steps
@@ -100,8 +101,8 @@ def pcrb_linear(F: np.ndarray, Q: np.ndarray, sqrt_info: Callable[[int], np.ndar
     if isinstance(sqrt_info, np.ndarray):
         if sqrt_info.ndim != 3 or sqrt_info.shape[0] != steps:
             raise ValueError(f"stacked sqrt_info must be (steps={steps}, m, n), got {sqrt_info.shape}")
-        if kernels.get_backend() == "numba":
-            return kernels_loop.pcrb_stacked(F, Q, sqrt_info, P0, update_first)
+        if backend.compiled():
+            return compiled_loop.pcrb_stacked(F, Q, sqrt_info, P0, update_first)
         sqrt_info = sqrt_info.__getitem__
     n = F.shape[0]
     P = np.array(P0, dtype=float)

@@ -11,7 +11,7 @@ Every kernel is a *test* that decides whether the step may take its common path;
 a count is not zero the caller runs the NumPy reference path, which finds the failing
 elements, applies the recovery policy and names the failure. The tests themselves are
 those of the reference path: the positive-definiteness test is the Cholesky test of
-`gnssframework.estimation.kernels.pd_mask` (the ``numba`` backend's), finiteness is
+`gnssframework.estimation.compiled.arrays.pd_mask` (the ``numba`` backend's), finiteness is
 exact, and the symmetrisation and bound differences are the same floating-point
 operations as `gnssframework.estimation.linalg.symmetrize` and ``clamp_relative``, so
 the lean path returns bitwise what the reference path returns.
@@ -21,7 +21,7 @@ adapter's estimate (symmetrise, PSD projection, Loewner clamp between ``floor`` 
 ``ceiling`` times the reference). In a 100-run vector loop some of the 800 adapted R
 sit on a bound at nearly every step, so a test-only kernel sent every step down the
 NumPy path (about 0.9 ms per step: a dozen batched calls around the few ``eigh``).
-Its eigen-decompositions are `gnssframework.estimation.kernels._eigh_into` (the
+Its eigen-decompositions are `gnssframework.estimation.compiled.dense.eigh_into` (the
 algorithm of LAPACK's ``dsytrd`` + ``dsteqr``) instead of LAPACK's, and its products
 sum in index order, so it agrees with the reference to rounding (a test holds it to
 1e-12 relative, norm-wise per matrix); an element it cannot take (not finite) sends
@@ -35,10 +35,12 @@ import threading
 
 import numpy as np
 
-from . import kernel_pool, kernels
-from .kernels import _all_finite, _cholesky, _eigh_into, _jit
+from . import pool, split
+from .dense import all_finite as matrix_finite
+from .dense import cholesky, eigh_into, helpers_of_size
+from .specialise import HAVE_NUMBA, jit, with_globals
 
-__all__ = ["all_finite", "state_bad_count", "guard", "InnovationWindow", "pv_measurements", "pv_nco_command", "pcrb_stacked", "warm_up"]
+__all__ = ["all_finite", "state_bad_count", "guard", "InnovationWindow", "pcrb_stacked", "warm_up"]
 
 
 #: The size of a specialised twin's matrices (0: read from the operands), see
@@ -46,21 +48,21 @@ __all__ = ["all_finite", "state_bad_count", "guard", "InnovationWindow", "pv_mea
 _FIXED_K = 0
 
 
-@_jit
+@jit
 def _vector_finite(a):
-    """Every entry of the 1-D array ``a`` finite (``kernels._all_finite`` takes matrices)."""
+    """Every entry of the 1-D array ``a`` finite (``dense.all_finite`` takes matrices)."""
     for i in range(a.shape[0]):
         if not math.isfinite(a[i]):
             return False
     return True
 
 
-@_jit
+@jit
 def _all_finite_body(a):
     return _vector_finite(a)
 
 
-@_jit
+@jit
 def _state_bad_count_body(mean, cov, test_pd):
     """Elements whose mean or covariance is not finite, or (``test_pd``) whose covariance
     has no Cholesky factor of its lower triangle."""
@@ -68,20 +70,20 @@ def _state_bad_count_body(mean, cov, test_pd):
     L = np.empty((n, n))
     bad = 0
     for b in range(B):
-        ok = _vector_finite(mean[b]) and _all_finite(cov[b])
+        ok = _vector_finite(mean[b]) and matrix_finite(cov[b])
         if ok and test_pd:
-            ok = _cholesky(cov[b], L)
+            ok = cholesky(cov[b], L)
         bad += not ok
     return bad
 
 
-@_jit
+@jit
 def _clipped_spectrum_into(A, low, high, w, V, W, out):
     """``out = V clip(w, low, high) V^T`` with ``V diag(w) V^T`` the symmetric part of
     ``A`` (`gnssframework.estimation.linalg._clip_spectrum`: ``(v * w) @ v^T``, each
     entry summed over the eigenvalue index in order). ``W``: ``(k + 2, k)`` scratch."""
     k = _FIXED_K if _FIXED_K > 0 else A.shape[0]
-    _eigh_into(A, w, V, W)
+    eigh_into(A, w, V, W)
     for i in range(k):
         w[i] = min(max(w[i], low), high)  # np.clip
     for i in range(k):
@@ -92,7 +94,7 @@ def _clipped_spectrum_into(A, low, high, w, V, W, out):
             out[i, j] = acc
 
 
-@_jit
+@jit
 def _mat_mul_into(A, B, out, transpose_b):
     """``out = A B`` (or ``A B^T``), each entry summed over the inner index in order."""
     k = _FIXED_K if _FIXED_K > 0 else A.shape[0]
@@ -104,7 +106,7 @@ def _mat_mul_into(A, B, out, transpose_b):
             out[i, j] = acc
 
 
-@_jit
+@jit
 def _guard_body(raw, ref, G, G_inv, floor, ceiling, out):
     """``out[b]``: the safeguarded ``raw[b]`` (`gnssframework.estimation.adaptation.
     AdapterRun.guard`): symmetrised; PSD-projected where it has no Cholesky factor;
@@ -127,10 +129,10 @@ def _guard_body(raw, ref, G, G_inv, floor, ceiling, out):
         for i in range(k):
             for j in range(k):
                 S[i, j] = 0.5 * (A[i, j] + A[j, i])
-        if not _all_finite(S):
+        if not matrix_finite(S):
             bad += 1
             continue
-        if not _cholesky(S, L):  # project_psd, then clamp_relative's symmetrisation
+        if not cholesky(S, L):  # project_psd, then clamp_relative's symmetrisation
             _clipped_spectrum_into(S, 0.0, math.inf, w, V, W, T)
             for i in range(k):
                 for j in range(k):
@@ -138,12 +140,12 @@ def _guard_body(raw, ref, G, G_inv, floor, ceiling, out):
         for i in range(k):
             for j in range(k):
                 D[i, j] = S[i, j] - floor * ref[i, j]
-        inside = _all_finite(D) and _cholesky(D, L)
+        inside = matrix_finite(D) and cholesky(D, L)
         if inside:
             for i in range(k):
                 for j in range(k):
                     D[i, j] = ceiling * ref[i, j] - S[i, j]
-            inside = _all_finite(D) and _cholesky(D, L)
+            inside = matrix_finite(D) and cholesky(D, L)
         if inside:
             continue
         _mat_mul_into(G_inv, S, T, False)
@@ -159,16 +161,16 @@ def _guard_body(raw, ref, G, G_inv, floor, ceiling, out):
 
 def _guard_of_size(k: int):
     """`_guard_body` compiled for ``k x k`` estimates (the size as a compile-time constant,
-    the helpers specialised too: `gnssframework.estimation.kernels._with_globals`), bitwise
+    the helpers specialised too: `gnssframework.estimation.with_globals`), bitwise
     the generic kernel; the channel filter's 6 correlator outputs are the hot case."""
-    if not kernels.HAVE_NUMBA:
+    if not HAVE_NUMBA:
         return _guard_body
-    h = kernels._helpers_of_size(k)
+    h = helpers_of_size(k)
     size = {"_FIXED_K": k}
-    spectrum = _jit(kernels._with_globals(_clipped_spectrum_into.py_func, f"_{k}", _eigh_into=h["eigh_into"], **size))
-    return _jit(kernels._with_globals(
-        _guard_body.py_func, f"_{k}", _all_finite=h["all_finite"], _cholesky=h["cholesky"],
-        _clipped_spectrum_into=spectrum, _mat_mul_into=_jit(kernels._with_globals(_mat_mul_into.py_func, f"_{k}", **size)),
+    spectrum = jit(with_globals(_clipped_spectrum_into.py_func, f"_{k}", eigh_into=h["eigh_into"], **size))
+    return jit(with_globals(
+        _guard_body.py_func, f"_{k}", matrix_finite=h["all_finite"], cholesky=h["cholesky"],
+        _clipped_spectrum_into=spectrum, _mat_mul_into=jit(with_globals(_mat_mul_into.py_func, f"_{k}", **size)),
         **size))
 
 
@@ -177,7 +179,7 @@ _guard_6_body = _guard_of_size(6)
 _GUARD_BY_SIZE = {6: _guard_6_body}
 
 
-@_jit
+@jit
 def _innovation_window_body(v, S, R, ring, slot, pushes, total, out):
     """Push ``v v^T`` into the window (ring ``(L, B, m, m)``, slot ``slot``, ``pushes``
     made before) and write ``mean(window) - (S - R)`` into ``out``: the NumPy lines of the
@@ -201,46 +203,7 @@ def _innovation_window_body(v, S, R, ring, slot, pushes, total, out):
                 out[b, i, j] = t / count - (S[b, i, j] - R[r, i, j])
 
 
-@_jit
-def _pv_measurements_body(rep_range, code, var_code, rep_rate, freq, var_freq, min_code, min_freq, chip_m, wave_m,
-                          z, R):
-    B, c = code.shape
-    for b in range(B):
-        for j in range(2 * c):
-            for i in range(2 * c):
-                R[b, j, i] = 0.0
-        for i in range(c):
-            z[b, i] = rep_range[b, i] + chip_m * code[b, i]
-            z[b, c + i] = rep_rate[b, i] - wave_m * freq[b, i]
-            vc, vf = var_code[b, i], var_freq[b, i]
-            # np.maximum: a NaN variance stays NaN (the filter then names it).
-            vc = vc if (vc > min_code or vc != vc) else min_code
-            vf = vf if (vf > min_freq or vf != vf) else min_freq
-            R[b, i, i] = vc * (chip_m * chip_m)
-            R[b, c + i, c + i] = vf * (wave_m * wave_m)
-
-
-@_jit
-def _pv_nco_body(x, half_t, sat_pos, sat_vel, rho, rate):
-    B = x.shape[0]
-    c = sat_pos.shape[0]
-    for b in range(B):
-        r0 = x[b, 0] + x[b, 3] * half_t
-        r1 = x[b, 1] + x[b, 4] * half_t
-        r2 = x[b, 2] + x[b, 5] * half_t
-        bias = x[b, 6] + x[b, 7] * half_t
-        for i in range(c):
-            l0 = sat_pos[i, 0] - r0
-            l1 = sat_pos[i, 1] - r1
-            l2 = sat_pos[i, 2] - r2
-            dist = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
-            e0, e1, e2 = l0 / dist, l1 / dist, l2 / dist
-            rate[b, i] = ((sat_vel[i, 0] - x[b, 3]) * e0 + (sat_vel[i, 1] - x[b, 4]) * e1
-                          + (sat_vel[i, 2] - x[b, 5]) * e2) + x[b, 7]
-            rho[b, i] = dist + bias
-
-
-@_jit
+@jit
 def _pcrb_body(F, Q, roots, P0, update_first, out):
     """`gnssframework.receiver.tracking.pcrb.pcrb_linear` on stacked square roots ``(K, m, n)``:
     the same products and the same LU solve, in the same order, per step."""
@@ -289,35 +252,6 @@ def _as_rows(a, shape: tuple[int, ...]) -> np.ndarray:
     return np.array(np.broadcast_to(np.asarray(a, dtype=float), shape), dtype=float, order="C")
 
 
-def pv_measurements(rep_range, code, var_code, rep_rate, freq, var_freq, min_code: float, min_freq: float,
-                    chip_m: float, wave_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """``ekf-pv``'s measurement and its diagonal R from the channel outputs in one pass:
-    ``z = [range + chip_m code, rate - wave_m freq]``, ``R = diag(max(var_code, min_code)
-    chip_m^2, max(var_freq, min_freq) wave_m^2)``, each ``(..., 2 ch)``."""
-    shape = np.shape(code)
-    c = shape[-1]
-    ops = [_as_rows(a, shape).reshape(-1, c) for a in (rep_range, code, var_code, rep_rate, freq, var_freq)]
-    B = ops[0].shape[0]
-    z = np.empty((B, 2 * c))
-    R = np.empty((B, 2 * c, 2 * c))
-    _pv_measurements_body(*ops, float(min_code), float(min_freq), float(chip_m), float(wave_m), z, R)
-    return z.reshape(shape[:-1] + (2 * c,)), R.reshape(shape[:-1] + (2 * c, 2 * c))
-
-
-def pv_nco_command(x: np.ndarray, half_t: float, sat_pos: np.ndarray, sat_vel: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Range and rate of the states ``x (..., 8)`` moved ``half_t`` ahead (position by
-    velocity, bias by drift) to satellites ``(ch, 3)``: ``ekf-pv``'s NCO command."""
-    lead = x.shape[:-1]
-    xr = _as_rows(x, x.shape).reshape(-1, 8)
-    sp, sv = _as_rows(sat_pos, np.shape(sat_pos)), _as_rows(sat_vel, np.shape(sat_vel))
-    c = sp.shape[0]
-    rho = np.empty((xr.shape[0], c))
-    rate = np.empty((xr.shape[0], c))
-    _pv_nco_body(xr, float(half_t), sp, sv, rho, rate)
-    return rho.reshape(lead + (c,)), rate.reshape(lead + (c,))
-
-
 def _rows(a: np.ndarray, tail: int) -> np.ndarray | None:
     """``a`` as a C-contiguous float64 ``(B, ...)`` view, or ``None`` (caller: NumPy path)."""
     if type(a) is not np.ndarray or a.dtype != np.float64 or not a.flags.c_contiguous or not a.flags.writeable:
@@ -332,7 +266,7 @@ def _rows(a: np.ndarray, tail: int) -> np.ndarray | None:
 def all_finite(a: np.ndarray) -> bool:
     """``bool(np.isfinite(a).all())`` in one compiled call (contiguous float64 input;
     anything else goes through NumPy)."""
-    if (kernels.HAVE_NUMBA and type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous
+    if (HAVE_NUMBA and type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous
             and a.flags.writeable):
         return bool(_all_finite_body(a.reshape(-1)))
     return bool(np.isfinite(a).all())
@@ -356,21 +290,21 @@ def state_bad_count(mean: np.ndarray, cov: np.ndarray, test_pd: bool) -> int | N
 
 def _split_here(B: int) -> bool:
     """Split a batch kernel between the calling thread and the helper (as the fused
-    kernels do, `gnssframework.estimation.kernels.SPLIT`)?"""
-    return (B >= kernels.PARALLEL_MIN_BATCH and kernels.SPLIT == "pool"
+    kernels do, `gnssframework.estimation.compiled.split.SPLIT`)?"""
+    return (B >= split.PARALLEL_MIN_BATCH and split.SPLIT == "pool"
             and threading.current_thread() is threading.main_thread())
 
 
 def _split_counts(B: int, run) -> list[int]:
-    """``run(lo, hi)`` over `kernels._SPLIT_CHUNKS` chunks of ``[0, B)`` on the calling
-    thread and the helper (`gnssframework.estimation.kernel_pool`); the chunks' returns."""
-    n = kernels._SPLIT_CHUNKS
+    """``run(lo, hi)`` over `split.SPLIT_CHUNKS` chunks of ``[0, B)`` on the calling
+    thread and the helper (`gnssframework.estimation.compiled.pool`); the chunks' returns."""
+    n = split.SPLIT_CHUNKS
     out = [0] * n
 
     def run_chunk(i: int) -> None:
         out[i] = run((i * B) // n, ((i + 1) * B) // n)
 
-    kernel_pool.run_chunks(n, run_chunk)
+    pool.run_chunks(n, run_chunk)
     return out
 
 
@@ -487,7 +421,7 @@ def load_guard() -> None:
     """Compile or load `guard`'s kernel now (once per process): an adapter calls it when
     it starts, so the first step past its warm-up does not pay the load (about 10 ms)."""
     global _guard_loaded
-    if not _guard_loaded and kernels.HAVE_NUMBA:
+    if not _guard_loaded and HAVE_NUMBA:
         for k in (2, *_GUARD_BY_SIZE):
             guard(np.broadcast_to(np.eye(k), (2, k, k)).copy(), np.eye(k), (np.ones(k), np.eye(k)), 0.5, 2.0)
         _guard_loaded = True
@@ -496,7 +430,7 @@ def load_guard() -> None:
 def warm_up() -> None:
     """Compile (or load from the disk cache) every kernel of this module once, with the
     operand types the filter step hands them (so forked workers compile nothing)."""
-    if not kernels.HAVE_NUMBA:
+    if not HAVE_NUMBA:
         return
     m, P = np.zeros((2, 2)), np.broadcast_to(np.eye(2), (2, 2, 2)).copy()
     all_finite(m)
@@ -507,7 +441,4 @@ def warm_up() -> None:
     window = InnovationWindow(2)
     for R in (np.eye(2), P):  # a shared R and one per element
         window.push(m, P, R)
-    pv_measurements(*([m] * 6), 1e-6, 1e-4, 300.0, 0.19)
-    x = np.ones((2, 8))
-    pv_nco_command(x, 0.005, m + 1e7, m)
     pcrb_stacked(np.eye(2), np.eye(2), np.ones((2, 2, 2)), np.eye(2), True)

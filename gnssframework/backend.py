@@ -1,0 +1,104 @@
+"""The one switch between the compiled (numba) and the NumPy reference paths.
+
+Every part of the framework that has a compiled twin (the estimation kernels, the
+loop checks, the correlator, the strapdown loop, a model's compiled ``f``/``h``) asks
+this module, and only this module, which path to take:
+
+* ``GNSSFRAMEWORK_BACKEND=numpy`` (environment) or :func:`set_backend` selects the NumPy
+  path everywhere; an object's own ``backend`` setting overrides it for that object
+  (:func:`resolve_backend`). The default is ``"numba"`` when numba imports, else
+  ``"numpy"``. The environment is read when this module is imported and again by
+  ``set_backend(None)`` (as numba reads its own ``NUMBA_*`` variables), not on every
+  step: each read cost about two microseconds, five times per epoch of a vector loop.
+* :func:`jit` compiles a model function for the kernels (``nopython``, cached on disk,
+  GIL released); without numba it returns the function unchanged.
+
+It imports nothing of the framework but its errors, so every layer may use it.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Callable, TypeVar
+
+from .errors import ConfigError
+
+__all__ = ["HAVE_NUMBA", "available", "get_backend", "set_backend", "resolve_backend", "compiled", "jit"]
+
+try:  # numba is a dependency, but the NumPy path must keep working without it.
+    import numba
+
+    HAVE_NUMBA = True
+    if "NUMBA_THREADING_LAYER" not in os.environ:
+        # GNU OpenMP (numba's default where present) aborts a process that forks after a
+        # parallel kernel ran, which is what `gnssframework compare`'s process pool does.
+        # The workqueue layer is fork-safe; parallel kernels run only from the main
+        # thread (it is not thread-safe).
+        numba.config.THREADING_LAYER = "workqueue"
+except ImportError:  # pragma: no cover - exercised only where numba is missing
+    numba = None
+    HAVE_NUMBA = False
+
+_BACKENDS = ("numba", "numpy")
+_ENV = "GNSSFRAMEWORK_BACKEND"
+_backend: str | None = None
+#: ``$GNSSFRAMEWORK_BACKEND`` as last read (at import, or by ``set_backend(None)``).
+_env_value: str | None = os.environ.get(_ENV)
+
+F = TypeVar("F", bound=Callable)
+
+
+def _check_backend(value: str, field: str) -> str:
+    if value not in _BACKENDS:
+        raise ConfigError(field, f"must be one of {list(_BACKENDS)}, got {value!r}")
+    return value
+
+
+def available() -> bool:
+    """True where the compiled kernels can run (numba imports)."""
+    return HAVE_NUMBA
+
+
+def set_backend(value: str | None) -> None:
+    """Select ``"numba"`` or ``"numpy"`` for the whole process (``None``: back to the
+    default, reading ``$GNSSFRAMEWORK_BACKEND`` again)."""
+    global _backend, _env_value
+    if value is None:
+        _env_value = os.environ.get(_ENV)
+        _backend = None
+    else:
+        _backend = _check_backend(value, "backend")
+
+
+def get_backend() -> str:
+    """The process-wide backend: :func:`set_backend`, else ``$GNSSFRAMEWORK_BACKEND`` (as
+    read at import or by ``set_backend(None)``), else numba (numpy where numba is missing)."""
+    if _backend is not None:
+        chosen = _backend
+    else:
+        env = _env_value
+        chosen = _check_backend(env, _ENV) if env else "numba"
+    return chosen if (chosen == "numpy" or HAVE_NUMBA) else "numpy"
+
+
+def resolve_backend(override: str | None, field: str = "estimator.backend") -> str:
+    """An object's own choice if set (``field`` names it in the error), else the
+    process-wide one; numpy where numba is missing."""
+    if override is None:
+        return get_backend()
+    _check_backend(override, field)
+    return override if (override == "numpy" or HAVE_NUMBA) else "numpy"
+
+
+def compiled(override: str | None = None) -> bool:
+    """True where the compiled path applies (:func:`resolve_backend` is ``"numba"``)."""
+    return resolve_backend(override) == "numba"
+
+
+def jit(fn: F) -> F:
+    """Compile ``fn`` for the kernels: numba ``njit`` (cached on disk, no fastmath, GIL
+    released), or ``fn`` itself where numba is missing. A model's compiled ``f``/``h``
+    (`gnssframework.estimation.CompiledFunctions`) must be decorated with it."""
+    if not HAVE_NUMBA:
+        return fn
+    return numba.njit(cache=True, fastmath=False, nogil=True)(fn)

@@ -1,0 +1,513 @@
+"""Batch drivers of the compiled kernels: each runs one Gaussian rule (points, moments,
+gain and posterior, or all of them fused) over a batch, one element at a time, composed
+of the per-element functions of `gnssframework.estimation.compiled.dense`.
+
+Each is compiled as a (serial, parallel) pair (`specialise.jit_pair`); the fused
+drivers and the EKF moments are built per model function and size by `_model_pair`.
+"""
+
+
+from __future__ import annotations
+
+import math
+import types as _types
+import zlib
+
+import numpy as np
+
+from ..compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian
+from .dense import (all_finite, chol_solve_rows_into, cholesky, eigh_into, helpers_of_size, mul_into,
+                    row_finite)
+from .rules import (center_into, gain_posterior_into, keep_prior_into, measurement_moments_into, points_into,
+                    root_into, spread_into, steps_of_size)
+from .specialise import HAVE_NUMBA, jit, jit_pair, prange, with_globals
+
+#: Most chunks a driver splits its batch into (scratch arrays are per chunk).
+_CHUNKS = 64
+#: Sizes of a specialised twin (0: read from the operands): state n, measurement m.
+_FIXED_N = 0
+_FIXED_M = 0
+
+
+# -- batch drivers ----------------------------------------------------------------------
+
+# The fused drivers test the state covariance (n x n) and the innovation covariance
+# (m x m) through these names, so that a specialised twin can bind each to its own size.
+_all_finite_n = _all_finite_m = all_finite
+_cholesky_n = _cholesky_m = cholesky
+
+
+def _sigma_points_body(mean, cov, root_kind, scale, center, X, status):
+    """Points ``(N, B, n)`` for every element: ``[m], m + scale*S_i, m - scale*S_i``.
+
+    ``root_kind`` 0: lower Cholesky; 1: ``V sqrt(|w|)`` from the eigen-decomposition.
+    ``status[b]``: 0 ok, 1 P not finite, 2 P not positive definite (Cholesky).
+    """
+    B, n = mean.shape
+    off = 1 if center else 0
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+      # Scratch allocated once per chunk of elements, not once per element.
+      R = np.zeros((n, n))
+      w = np.empty(n)
+      V = np.empty((n, n))
+      Wk = np.empty((n + 2, n))
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+        P = cov[b]
+        R[:, :] = 0.0
+        if not all_finite(P):
+            status[b] = 1
+            continue
+        if root_kind == 0:
+            if not cholesky(P, R):
+                status[b] = 2
+                continue
+        else:
+            eigh_into(P, w, V, Wk)
+            for i in range(n):
+                sw = math.sqrt(abs(w[i]))
+                for j in range(n):
+                    R[j, i] = V[j, i] * sw
+        status[b] = 0
+        if center:
+            for j in range(n):
+                X[0, b, j] = mean[b, j]
+        for i in range(n):
+            for j in range(n):
+                d = R[j, i] * scale
+                X[off + i, b, j] = mean[b, j] + d
+                X[off + n + i, b, j] = mean[b, j] - d
+
+
+def _predict_moments_body(Y, wm, wc, Q, mean, cov):
+    """Weighted mean and ``sum wc dY dY^T + Q`` (symmetrised) of points ``(N, B, p)``.
+
+    The covariance accumulates point by point (each entry sums over k = 0..N-1 in
+    order, as a dot product would: the same values, with the chains interleaved)."""
+    N, B, p = Y.shape
+    shared_q = Q.shape[0] == 1
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+      mu = np.empty(p)
+      d = np.empty((N, p))
+      Acc = np.empty((p, p))
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+        q = 0 if shared_q else np.int64(b)
+        mu[:] = 0.0
+        for k in range(N):
+            for j in range(p):
+                mu[j] += wm[k] * Y[k, b, j]
+        for k in range(N):
+            for j in range(p):
+                d[k, j] = Y[k, b, j] - mu[j]
+        for i in range(p):
+            for j in range(i + 1):
+                Acc[i, j] = 0.0
+        for k in range(N):
+            for i in range(p):
+                wd = wc[k] * d[k, i]
+                for j in range(i + 1):
+                    Acc[i, j] += wd * d[k, j]
+        for i in range(p):
+            mean[b, i] = mu[i]
+            for j in range(i + 1):
+                cij = Acc[i, j] + 0.5 * (Q[q, i, j] + Q[q, j, i])
+                cov[b, i, j] = cij
+                cov[b, j, i] = cij
+
+
+def _measurement_moments_body(X, Z, prior_mean, wm, wc, R, z_hat, S, C):
+    """``z_hat``, ``S = sum wc dZ dZ^T + R`` (symmetrised) and ``C = sum wc (X - m) dZ^T``
+    (accumulated point by point, as `_predict_moments_body`)."""
+    N, B, m = Z.shape
+    n = X.shape[2]
+    shared_r = R.shape[0] == 1
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+      mu = np.empty(m)
+      d = np.empty((N, m))
+      SAcc = np.empty((m, m))
+      CAcc = np.empty((n, m))
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+        r = 0 if shared_r else np.int64(b)
+        mu[:] = 0.0
+        for k in range(N):
+            for j in range(m):
+                mu[j] += wm[k] * Z[k, b, j]
+        for k in range(N):
+            for j in range(m):
+                d[k, j] = Z[k, b, j] - mu[j]
+        for i in range(m):
+            for j in range(i + 1):
+                SAcc[i, j] = 0.0
+        for i in range(n):
+            for j in range(m):
+                CAcc[i, j] = 0.0
+        for k in range(N):
+            for i in range(m):
+                wd = wc[k] * d[k, i]
+                for j in range(i + 1):
+                    SAcc[i, j] += wd * d[k, j]
+            for i in range(n):
+                wx = wc[k] * (X[k, b, i] - prior_mean[b, i])
+                for j in range(m):
+                    CAcc[i, j] += wx * d[k, j]
+        for i in range(m):
+            z_hat[b, i] = mu[i]
+            for j in range(i + 1):
+                sij = SAcc[i, j] + 0.5 * (R[r, i, j] + R[r, j, i])
+                S[b, i, j] = sij
+                S[b, j, i] = sij
+        for i in range(n):
+            for j in range(m):
+                C[b, i, j] = CAcc[i, j]
+
+
+def _update_body(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph, H, R, mean, cov, gain, innovation, ok):
+    """Gain, posterior and skip mask; ``ok[b]`` False where S is not finite/PD.
+
+    Skipped elements (``bad_z`` or not ok) keep the prior and report the NumPy path's
+    values: zero innovation and ``K = C`` (the update solved against S = I).
+    """
+    B, n = prior_mean.shape
+    m = z.shape[1]
+    shared_h = H.shape[0] == 1
+    shared_r = R.shape[0] == 1
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+      # Scratch once per chunk of elements; every product through mul_into.
+      L = np.zeros((m, m))
+      Y = np.empty((n, m + 1))
+      KS = np.empty((n, m))
+      M = np.empty((n, n))
+      A = np.empty((n, n))
+      AP = np.empty((n, n))
+      M2 = np.empty((n, n))
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+        Sb = S[b]
+        good = all_finite(Sb) and cholesky(Sb, L)
+        ok[b] = good
+        K = gain[b]
+        if bad_z[b] or not good:
+            for i in range(m):
+                innovation[b, i] = 0.0
+            for i in range(n):
+                mean[b, i] = prior_mean[b, i]
+                for j in range(m):
+                    K[i, j] = C[b, i, j]
+                for j in range(n):
+                    cov[b, i, j] = prior_cov[b, i, j]
+            continue
+        chol_solve_rows_into(L, C[b], K, Y)
+        for i in range(m):
+            innovation[b, i] = z[b, i] - z_hat[b, i]
+        for i in range(n):
+            acc = 0.0
+            for j in range(m):
+                acc += K[i, j] * innovation[b, j]
+            mean[b, i] = prior_mean[b, i] + acc
+        P = prior_cov[b]
+        if not joseph:
+            mul_into(K, Sb, KS, False)  # K S
+            mul_into(KS, K, M, True)  # (K S) K^T; entry (j, i) is the other order's sum
+            for i in range(n):
+                for j in range(i + 1):
+                    v = 0.5 * ((P[i, j] - M[i, j]) + (P[j, i] - M[j, i]))
+                    cov[b, i, j] = v
+                    cov[b, j, i] = v
+        else:
+            h = 0 if shared_h else np.int64(b)
+            r = 0 if shared_r else np.int64(b)
+            mul_into(K, H[h], A, False)  # K H, then A = I - K H
+            for i in range(n):
+                for j in range(n):
+                    A[i, j] = (1.0 if i == j else 0.0) - A[i, j]
+            mul_into(A, P, AP, False)
+            mul_into(K, R[r], KS, False)  # K R
+            mul_into(AP, A, M, True)
+            mul_into(KS, K, M2, True)
+            for i in range(n):
+                for j in range(i + 1):
+                    v = 0.5 * ((M[i, j] + M2[i, j]) + (M[j, i] + M2[j, i]))
+                    cov[b, i, j] = v
+                    cov[b, j, i] = v
+
+
+# -- the model's compiled functions ---------------------------------------------------
+
+# The drivers below call a model's compiled f, h and Jacobian through these names; a
+# model's drivers (`_model_pair`) bind each to that model's jitted function, so numba
+# inlines it. The defaults are the linear ones (what the drivers warm up with).
+_apply_f_row = linear_f
+_apply_h_row = linear_h
+_apply_h_jacobian = linear_h_jacobian
+
+
+def _linear_predict_body(mean, cov, F, Q, out_mean, out_cov):
+    """``F x`` and ``sym(F P F^T + Q)`` per element (the KF/EKF prediction, F shared)."""
+    B, n = mean.shape
+    shared_q = Q.shape[0] == 1
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+        FP = np.empty((n, n))
+        M = np.empty((n, n))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            q = 0 if shared_q else np.int64(b)
+            P = cov[b]
+            for i in range(n):
+                acc = 0.0
+                for j in range(n):
+                    acc += F[i, j] * mean[b, j]
+                out_mean[b, i] = acc
+                for k in range(n):
+                    acc = 0.0
+                    for j in range(n):
+                        acc += F[i, j] * P[j, k]
+                    FP[i, k] = acc
+            for i in range(n):
+                for l in range(n):
+                    acc = 0.0
+                    for k in range(n):
+                        acc += FP[i, k] * F[l, k]
+                    M[i, l] = acc + Q[q, i, l]
+            for i in range(n):
+                for l in range(i + 1):
+                    v = 0.5 * (M[i, l] + M[l, i])
+                    out_cov[b, i, l] = v
+                    out_cov[b, l, i] = v
+
+
+def _ekf_moments_body(mean, cov, h_params, R, z_hat, S, C):
+    """``h(x)``, ``S = sym(H P H^T + R)`` and ``C = P H^T`` with H the Jacobian at x."""
+    B, n = mean.shape
+    m = z_hat.shape[1]
+    shared_r = R.shape[0] == 1
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+        J = np.empty((m, n))
+        M = np.empty((m, m))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            r = 0 if shared_r else np.int64(b)
+            _apply_h_row(h_params, mean, b, z_hat, b)
+            _apply_h_jacobian(h_params, mean, b, J)
+            P = cov[b]
+            Cb = C[b]
+            for i in range(n):
+                for j in range(m):
+                    acc = 0.0
+                    for k in range(n):
+                        acc += P[i, k] * J[j, k]
+                    Cb[i, j] = acc
+            for i in range(m):
+                for j in range(m):
+                    acc = 0.0
+                    for k in range(n):
+                        acc += J[i, k] * Cb[k, j]
+                    M[i, j] = acc + R[r, i, j]
+            for i in range(m):
+                for j in range(i + 1):
+                    v = 0.5 * (M[i, j] + M[j, i])
+                    S[b, i, j] = v
+                    S[b, j, i] = v
+
+
+def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_params, Q, out_mean, out_cov, status, counts):
+    """One predict per element: root, points, compiled ``f``, moments + Q; ``counts[0]``:
+    elements whose root failed (``status`` not 0)."""
+    B = mean.shape[0]
+    # A specialised twin (`_model_pair`) has the state dimension as a compile-time constant.
+    n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]
+    N = 2 * n + (1 if center else 0)
+    shared_q = Q.shape[0] == 1
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+        # Scratch allocated once per chunk of elements, not once per element.
+        R = np.zeros((n, n))
+        w = np.empty(n)
+        V = np.empty((n, n))
+        Wk = np.empty((n + 2, n))
+        X = np.empty((N, n))
+        Y = np.empty((N, n))
+        mu = np.empty(n)
+        Acc = np.empty((n, n))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            status[b] = root_into(cov[b], root_kind, R, w, V, Wk)
+            if status[b] != 0:
+                continue
+            points_into(mean, b, R, scale, center, X)
+            for k in range(N):
+                _apply_f_row(f_params, X, k, Y)
+            center_into(Y, wm, mu)
+            spread_into(Y, wc, Q, 0 if shared_q else np.int64(b), mu, Acc, b, out_mean, out_cov)
+    counts[0] = 0
+    for b in range(B):
+        counts[0] += status[b] != 0
+
+
+def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_params, R,
+                       out_mean, out_cov, gain, innovation, z_hat, S, C, status, ok, skipped, counts):
+    """One measurement update per element: root, points, compiled ``h``, moments, gain, posterior.
+
+    An element whose ``z`` is not finite counts as ``bad_z`` too. ``skipped[b]``: bad z
+    or S not PD; ``counts``: elements with bad z, a failed root (``status``), S not PD
+    (so the caller tests three integers instead of reducing three masks).
+    """
+    B = mean.shape[0]
+    n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]  # constants in a specialised twin
+    m = _FIXED_M if _FIXED_M > 0 else z.shape[1]
+    N = 2 * n + (1 if center else 0)
+    shared_r = R.shape[0] == 1
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+        Rt = np.zeros((n, n))
+        w = np.empty(n)
+        V = np.empty((n, n))
+        Wk = np.empty((n + 2, n))
+        X = np.empty((N, n))
+        Z = np.empty((N, m))
+        mu = np.empty(m)
+        L = np.zeros((m, m))
+        KS = np.empty((n, m))
+        ysolve = np.empty((n, m + 1))
+        SAcc = np.empty((m, m))
+        CAcc = np.empty((n, m))
+        KSK = np.empty((n, n))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            P = cov[b]
+            ok[b] = False
+            status[b] = root_into(P, root_kind, Rt, w, V, Wk)
+            if status[b] != 0:
+                continue
+            points_into(mean, b, Rt, scale, center, X)
+            for k in range(N):
+                _apply_h_row(h_params, X, k, Z, k)
+            center_into(Z, wm, mu)
+            Sb, Cb = S[b], C[b]
+            measurement_moments_into(X, Z, mean, b, wc, R, 0 if shared_r else np.int64(b), mu, SAcc, CAcc,
+                                     z_hat, Sb, Cb)
+            good = _all_finite_m(Sb) and _cholesky_m(Sb, L)
+            ok[b] = good
+            if bad_z[b] or not good or not row_finite(z, b):
+                keep_prior_into(mean, b, P, Cb, gain[b], innovation, out_mean, out_cov)
+            else:
+                gain_posterior_into(L, Cb, Sb, gain[b], ysolve, KS, KSK, z, mu, mean, b, P, innovation,
+                                    out_mean, out_cov)
+    counts[:] = 0
+    for b in range(B):  # serial, after the parallel loop
+        bz = bad_z[b] or not row_finite(z, b)
+        skipped[b] = bz or not ok[b]
+        counts[0] += bz
+        counts[1] += status[b] != 0
+        counts[2] += status[b] == 0 and not ok[b]
+
+
+def _pd_mask_body(A, ok):
+    """``ok[b]``: ``A[b]`` finite and its lower triangle Cholesky-factorable (PD)."""
+    B, n, _ = A.shape
+    chunks = min(B, _CHUNKS)
+    for c in prange(chunks):
+        L = np.empty((n, n))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            ok[b] = all_finite(A[b]) and cholesky(A[b], L)
+
+
+_sigma_points_kernels = jit_pair(_sigma_points_body)
+_predict_moments_kernels = jit_pair(_predict_moments_body)
+_measurement_moments_kernels = jit_pair(_measurement_moments_body)
+_update_kernels = jit_pair(_update_body)
+_pd_mask_kernels = jit_pair(_pd_mask_body)
+_linear_predict_kernels = jit_pair(_linear_predict_body)
+
+
+
+_solve_by_size: dict[tuple[int, int], object] = {}
+
+
+def _solve_of_size(n: int, m: int):
+    """`chol_solve_rows_into` with ``n`` rows and ``m`` columns as constants."""
+    hit = _solve_by_size.get((n, m))
+    if hit is None:
+        hit = _solve_by_size[(n, m)] = jit(with_globals(chol_solve_rows_into.py_func, f"_{n}_{m}", _FIXED_N=n,
+                                                        _FIXED_M=m))
+    return hit
+
+
+_linear_f_by_size: dict[int, object] = {}
+
+
+def _linear_f_of_size(n: int):
+    """`linear_f` with the state size ``n`` as a constant (one per size and process)."""
+    hit = _linear_f_by_size.get(n)
+    if hit is None:
+        hit = _linear_f_by_size[n] = jit(with_globals(linear_f.py_func, f"_{n}", _FIXED_K=n))
+    return hit
+
+
+def _tag(fn) -> str:
+    """A name for a model function's drivers that changes when its code does, so their
+    disk cache entries are its own (numba's cache checks only the driver's source file)."""
+    py = getattr(fn, "py_func", fn)
+    code = py.__code__
+    consts = tuple(c.co_code if isinstance(c, _types.CodeType) else c for c in code.co_consts)
+    key = f"{py.__module__}.{py.__qualname__}".encode() + code.co_code + repr(consts).encode()
+    return "".join(ch if ch.isalnum() else "_" for ch in py.__name__) + f"_{zlib.crc32(key):08x}"
+
+
+#: (driver, model functions, sizes) -> (serial, parallel) drivers bound to them.
+_model_drivers: dict[tuple, tuple] = {}
+
+
+def _model_pair(body, functions: dict, n: int = 0, m: int = 0):
+    """(serial, parallel) twins of the driver ``body`` that call the given model functions
+    (``{"_apply_h_row": h, ...}``), compiled for ``n`` states and ``m`` measurements as
+    constants where these are not 0. One pair per driver, functions and sizes; the
+    functions are compile-time constants, so numba inlines them, and each twin inlines
+    its own size constants (separately compiled generic helpers would not see them)."""
+    key = (body.__name__, tuple(sorted(functions.items(), key=lambda kv: kv[0])), n, m)
+    hit = _model_drivers.get(key)
+    if hit is not None:
+        return hit
+    if not HAVE_NUMBA:
+        hit = _model_drivers[key] = (body, body) if not functions else (with_globals(body, "", **functions),) * 2
+        return hit
+    over = dict(functions)
+    suffix = "".join("_" + _tag(fn) for _, fn in key[1])
+    if n:
+        hn = helpers_of_size(n)
+        over.update({"_FIXED_N": n, "_all_finite_n": hn["all_finite"], "_cholesky_n": hn["cholesky"],
+                     "eigh_into": hn["eigh_into"]})
+        if over.get("_apply_f_row") is linear_f:
+            over["_apply_f_row"] = _linear_f_of_size(n)
+        suffix += f"_{n}"
+    solve = None
+    if m:
+        hm = helpers_of_size(m)
+        solve = _solve_of_size(n, m)
+        over.update({"_FIXED_M": m, "_all_finite_m": hm["all_finite"], "_cholesky_m": hm["cholesky"],
+                     "chol_solve_rows_into": solve})
+        suffix += f"_{m}"
+    if n:  # the rule's steps with the same constants (each twin inlines its own)
+        over.update(steps_of_size(n, m, solve))
+    hit = _model_drivers[key] = jit_pair(with_globals(body, suffix, **over))
+    return hit
+
+
+def _sizes_of(compiled: CompiledFunctions, n: int, m: int = 0) -> tuple[int, int]:
+    """The sizes a model's drivers are specialised to for this call ((0, 0): generic)."""
+    sizes = compiled.sizes
+    if sizes is None or sizes[0] != n or (m and sizes[1] != m):
+        return 0, 0
+    return n, (sizes[1] if m else 0)
+
+
+def _predict_pair(compiled: CompiledFunctions, n: int):
+    return _model_pair(_fused_predict_body, {"_apply_f_row": compiled.f}, _sizes_of(compiled, n)[0])
+
+
+def _update_pair(compiled: CompiledFunctions, n: int, m: int):
+    return _model_pair(_fused_update_body, {"_apply_h_row": compiled.h}, *_sizes_of(compiled, n, m))
+
+
+def _ekf_pair(compiled: CompiledFunctions):
+    return _model_pair(_ekf_moments_body, {"_apply_h_row": compiled.h, "_apply_h_jacobian": compiled.h_jacobian})
+
