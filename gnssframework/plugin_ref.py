@@ -26,12 +26,16 @@ PluginSpec(kind='estimator', name='kf', params={})
 from __future__ import annotations
 
 import difflib
-import typing
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Callable
 
 import numpy as np
 from pydantic import BeforeValidator, ValidationError, WithJsonSchema
+
+from . import registry
+from .errors import ConfigError
+from .plugin import NestedFieldError, validation_message
+from .plugin_ref_rules import RefRule, misfit, plugin_ref_constraints, plugin_refs
 
 __all__ = ["PluginSpec", "PluginRef", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
 
@@ -60,8 +64,6 @@ class PluginSpec:
     @property
     def cls(self) -> type:
         """The registered plugin class."""
-        from . import registry
-
         return registry.get(self.kind, self.name)
 
     def create(self, defaults: dict[str, Any] | None = None, **owned: Any) -> Any:
@@ -82,8 +84,6 @@ class PluginSpec:
         ConfigError
             If the reference sets an owned value to something else, naming the parameter.
         """
-        from .errors import ConfigError
-
         cls = self.cls
         fields = cls.Params.model_fields
         for key, value in owned.items():
@@ -101,39 +101,16 @@ def _same(a: Any, b: Any) -> bool:
         return a == b
 
 
-@dataclass(frozen=True)
-class _Rule:
-    kind: str
-    unit: str | None
-    provides: tuple[str, ...]
-    check: Callable[[type], str] | None
-
-
-def _names_that_fit(rule: _Rule) -> list[str]:
-    from . import registry
-
-    return [n for n in registry.names(rule.kind) if not _misfit(rule, registry.get(rule.kind, n))]
-
-
-def _misfit(rule: _Rule, cls: type) -> str:
-    """Why ``cls`` does not fit ``rule`` ("" if it does)."""
-    if rule.unit is not None and getattr(cls, "unit", None) != rule.unit:
-        return f"its unit is {getattr(cls, 'unit', None)!r}, this parameter needs {rule.unit!r}"
-    missing = [p for p in rule.provides if p not in getattr(cls, "provides", ())]
-    if missing:
-        return f"it does not provide {', '.join(missing)}"
-    return rule.check(cls) if rule.check is not None else ""
+def _names_that_fit(rule: RefRule) -> list[str]:
+    return [n for n in registry.names(rule.kind) if not misfit(rule, registry.get(rule.kind, n))]
 
 
 def _article(word: str) -> str:
     return "an" if word[:1] in "aeiou" else "a"
 
 
-def _resolve(rule: _Rule, value: Any) -> PluginSpec:
+def _resolve(rule: RefRule, value: Any) -> PluginSpec:
     # Raise ValueError (not ConfigError) so pydantic attaches the field path.
-    from . import registry
-    from .plugin import NestedFieldError, validation_message
-
     if isinstance(value, PluginSpec):
         return value
     if isinstance(value, str):
@@ -154,7 +131,7 @@ def _resolve(rule: _Rule, value: Any) -> PluginSpec:
         hint = f"; did you mean {close[0]!r}?" if close else ""
         raise ValueError(f"unknown {rule.kind} {name!r}; known: {', '.join(known) or '(none)'}{hint}")
     cls = registry.get(rule.kind, name)
-    why = _misfit(rule, cls)
+    why = misfit(rule, cls)
     if why:
         raise ValueError(f"{rule.kind} {name!r} does not fit: {why}; {rule.kind}s that do: "
                          f"{', '.join(_names_that_fit(rule)) or '(none registered)'}")
@@ -181,7 +158,7 @@ def PluginRef(kind: str, *, unit: str | None = None, provides: tuple[str, ...] =
     check
         Extra capability test: returns why a class does not fit, or ``""``.
     """
-    rule = _Rule(kind, unit, tuple(provides), check)
+    rule = RefRule(kind, unit, tuple(provides), check)
     what = f"a {kind} plugin" + (f" with unit {unit!r}" if unit else "")
     schema = {"description": f"{what}: its name, or {{name, params}}",
               "anyOf": [{"type": "string"},
@@ -189,39 +166,3 @@ def PluginRef(kind: str, *, unit: str | None = None, provides: tuple[str, ...] =
                          "properties": {"name": {"type": "string"}, "params": {"type": "object"}}}]}
     # PluginParams validates defaults, so a default written as a name is resolved too.
     return Annotated[PluginSpec, BeforeValidator(lambda v: _resolve(rule, v)), WithJsonSchema(schema), rule]
-
-
-def _field_rules(params_model: type) -> dict[str, _Rule]:
-    def rules(obj: Any) -> list[_Rule]:
-        found = [m for m in getattr(obj, "__metadata__", ()) if isinstance(m, _Rule)]
-        for arg in typing.get_args(obj):
-            found += rules(arg)
-        return found
-
-    out = {}
-    for fname, info in params_model.model_fields.items():
-        found = [m for m in info.metadata if isinstance(m, _Rule)] + rules(info.annotation)
-        if found:
-            out[fname] = found[0]
-    return out
-
-
-def plugin_refs(params_model: type) -> dict[str, tuple[str, str | None]]:
-    """The nested-plugin parameters of a ``Params`` model: field -> (kind, unit)."""
-    return {f: (r.kind, r.unit) for f, r in _field_rules(params_model).items()}
-
-
-def plugin_ref_constraints(params_model: type) -> dict[str, str]:
-    """What each nested-plugin parameter of ``params_model`` demands, in words
-    (``"discriminator, unit 'chips'"``, ``"estimator, handles nonlinear models"``)."""
-    out = {}
-    for fname, rule in _field_rules(params_model).items():
-        parts = [rule.kind]
-        if rule.unit:
-            parts.append(f"unit {rule.unit!r}")
-        if rule.provides:
-            parts.append(f"provides {', '.join(rule.provides)}")
-        if rule.check is not None:
-            parts.append(getattr(rule.check, "label", rule.check.__name__.replace("_", " ")))
-        out[fname] = ", ".join(parts)
-    return out

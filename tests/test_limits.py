@@ -13,6 +13,7 @@ import gnssframework as gf
 from gnssframework.cli import main
 from gnssframework.experiments import load_config
 from gnssframework.experiments.limits import MEMORY_BUDGET_ENV
+from gnssframework.experiments.scenarios.multipath import OracleGrid
 
 VECTOR = """
 name = "vt"
@@ -88,7 +89,7 @@ nav_filter = "position-ca"
 """
 
 ORACLE = MULTIPATH.replace('name = "ukf"', 'name = "oracle"').replace(
-    'nav_filter = "position-ca"', 'nav_filter = "position-ca"\nnoise_adapter = "oracle-grid"')
+    'nav_filter = "position-ca"', 'nav_filter = "position-ca"\nscenario_options = { oracle = {} }')
 
 SMOOTHING = """
 name = "cs"
@@ -165,8 +166,8 @@ def test_a_batch_above_the_memory_budget_is_refused_with_its_estimate(tmp_path, 
 
 def _oracle_passes(runs: int) -> int:
     """Runs filtered with the default oracle grid: the batch, and every pair over its training runs."""
-    grid = gf.registry.create("noise_adapter", "oracle-grid").params
-    return runs + len(grid.q_scales) * len(grid.r_scales) * (grid.training_runs or runs)
+    grid = OracleGrid()
+    return runs + len(grid.q_scales) * len(grid.r_scales) * grid.training_runs
 
 
 @pytest.mark.parametrize("text, oracle", [(MULTIPATH, False), (ORACLE, True), (SMOOTHING, None)])

@@ -59,6 +59,9 @@ class Candidate(_Strict):
     discriminator: PluginRef | None = None
     channel_filter: PluginRef | None = None
     nav_filter: PluginRef | None = None
+    scenario_options: dict[str, Any] = Field(
+        default_factory=dict, description="options the scenario applies to this candidate, not plugins (see the "
+        "scenario's page; e.g. multipath's oracle)")
 
     def components(self) -> dict[str, PluginRef]:
         return {k: getattr(self, k) for k in COMPONENT_KINDS if getattr(self, k) is not None}
@@ -134,9 +137,9 @@ class ComparisonConfig(_Strict):
         for i, case in enumerate(self.cases):
             scenario.check_case(case.params(), f"cases[{i}]")
             scenario.check_memory(case.params(), min(self.batch_size, self.runs), f"cases[{i}]",
-                                  [c.components() for c in self.candidates])
+                                  [{**c.components(), "scenario_options": c.scenario_options} for c in self.candidates])
         for i, cand in enumerate(self.candidates):
-            scenario.check_candidate(cand.components(), f"candidates[{i}]")
+            scenario.check_candidate(cand.components(), f"candidates[{i}]", cand.scenario_options)
             scenario.check_contexts(cand.components(), [c.params() for c in self.cases], f"candidates[{i}]")
         case_names = {c.name for c in self.cases}
         cand_names = {c.name for c in self.candidates}
@@ -204,6 +207,9 @@ class ComparisonConfig(_Strict):
         """
         data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
                                         "reference", "sweeps", "claims"})
+        for cand in data["candidates"]:  # a candidate without options keeps its old key
+            if not cand["scenario_options"]:
+                del cand["scenario_options"]
         extra = self.component_metrics()
         if extra:  # the stored rows must hold them; a config without components keeps its old key
             data["metric_components"] = sorted(extra)

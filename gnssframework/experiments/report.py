@@ -123,8 +123,8 @@ def _median_series(out: Path, config: ComparisonConfig, case: str, cand: str
     """Per metric, the median over runs at up to ``PLOT_EPOCHS`` evenly spaced epochs, read
     from the batches of this comparison's plan only, one series at a time (memory bounded
     whatever the number of runs)."""
-    from .runner import series_file
     from .store import plan_batches
+    from .tasks import series_file
 
     files = [series_file(out, case, cand, first, n) for first, n in plan_batches(config.runs, config.batch_size)]
     files = [f for f in files if f.exists()]
@@ -213,7 +213,7 @@ def assumption_rows(config: ComparisonConfig) -> list[dict]:
     for case in config.cases:
         context = scenario.assumption_context({"name": case.name, **case.params()})
         for cand in config.candidates:
-            plugins = scenario.build({k: v.model_dump() for k, v in cand.components().items()})
+            plugins = scenario.build({k: v.model_dump() for k, v in cand.components().items()}, cand.scenario_options)
             for kind, plugin in plugins.items():
                 declared = getattr(plugin, "assumptions", None)
                 for label, (value, unit) in (declared(context) if declared else {}).items():

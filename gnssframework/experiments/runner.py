@@ -26,7 +26,6 @@ import pickle
 import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
@@ -38,33 +37,11 @@ from .config import ComparisonConfig
 from .files import atomic_open, atomic_write_text
 from .folder import claim_folder
 from .scenarios import get_scenario
-from .store import ResultStore, plan_batches
+from .store import ResultStore
+from .tasks import Task, plan, series_file
 from .tuning import TUNING_PURPOSE
 
 __all__ = ["Task", "plan", "task_streams", "run_task", "run_comparison", "series_file"]
-
-
-@dataclass(frozen=True)
-class Task:
-    """One batch of runs (``first_run`` .. ``first_run + runs - 1``) of one case and
-    candidate, of the comparison or of a sweep point (``point``, its label)."""
-
-    case_index: int
-    candidate_index: int
-    first_run: int
-    runs: int
-    point: str | None = None
-
-    @property
-    def run_range(self) -> str:
-        last = self.first_run + self.runs - 1
-        return f"run {self.first_run}" if self.runs == 1 else f"runs {self.first_run}-{last}"
-
-
-def plan(config: ComparisonConfig, point: str | None = None) -> list[Task]:
-    """Every (case, candidate, batch) of the comparison, batch-major for early partial results."""
-    return [Task(i, j, first, n, point) for first, n in plan_batches(config.runs, config.batch_size)
-            for i in range(len(config.cases)) for j in range(len(config.candidates))]
 
 
 def task_streams(config: ComparisonConfig, task: Task) -> RunStreams:
@@ -101,7 +78,8 @@ def _simulate(config: ComparisonConfig, task: Task) -> tuple[Task, dict[str, np.
     scenario = get_scenario(config.scenario)
     case = config.cases[task.case_index]
     candidate = config.candidates[task.candidate_index]
-    plugins = scenario.build({k: v.model_dump() for k, v in candidate.components().items()})
+    plugins = scenario.build({k: v.model_dump() for k, v in candidate.components().items()},
+                             candidate.scenario_options)
     result = scenario.run_batch({"name": case.name, **case.params()}, plugins, task.runs, task_streams(config, task))
     missing = [m for m in config.metric_names if m in scenario.metrics and m not in result.metrics]
     wrong = [f"{m} {np.shape(v)}" for m, v in result.metrics.items() if np.shape(v) != (task.runs,)]
@@ -146,11 +124,6 @@ def run_task_in_worker(config_data: dict[str, Any], task: Task) -> tuple:
             raise WorkerError(_where(config_data, task), f"{type(exc).__name__}: {exc}",
                               traceback.format_exc()) from None
         raise
-
-
-def series_file(out: Path, case: str, candidate: str, first_run: int, runs: int) -> Path:
-    """The ``.npz`` of a batch's time series: ``raw/<case>/<candidate>/run<first>-<last>.npz``."""
-    return out / "raw" / case / candidate / f"run{first_run:06d}-{first_run + runs - 1:06d}.npz"
 
 
 def _save_series(out: Path, config: ComparisonConfig, task: Task, series: dict[str, np.ndarray],

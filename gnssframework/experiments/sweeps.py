@@ -176,8 +176,7 @@ def expand_sweep(config, index: int) -> list[tuple[Any, Any]]:
     """The points of ``config.sweeps[index]``: ``(value, ComparisonConfig)`` pairs, each the
     config with that value set and no sweeps, validated (a bad value raises a
     ``ConfigError`` naming ``sweeps[index].values[j]``, the path and the field's rule)."""
-    from .config import ComparisonConfig
-
+    model = type(config)  # the config's own class: this module sits below experiments.config
     sweep = config.sweeps[index]
     where = f"sweeps[{index}]"
     names = [c.name for c in config.cases]
@@ -196,7 +195,7 @@ def expand_sweep(config, index: int) -> list[tuple[Any, Any]]:
             data["cases"] = [c for c in data["cases"] if c["name"] in sweep.cases]
             data["published"] = {k: v for k, v in data.get("published", {}).items() if k in sweep.cases}
         try:
-            point = ComparisonConfig.model_validate(data)
+            point = model.model_validate(data)
         except ConfigError as exc:
             raise ConfigError(f"{where}.values[{j}]", f"{sweep.path} = {value!r}: {exc}") from None
         except Exception as exc:  # pydantic's ValidationError, made one line by the config loader
@@ -206,7 +205,7 @@ def expand_sweep(config, index: int) -> list[tuple[Any, Any]]:
 
             if isinstance(exc, ValidationError):
                 raise ConfigError(f"{where}.values[{j}]",
-                                  f"{sweep.path} = {value!r}: {validation_message(exc, model=ComparisonConfig)}") \
+                                  f"{sweep.path} = {value!r}: {validation_message(exc, model=model)}") \
                     from None
             raise
         out.append((value, point))

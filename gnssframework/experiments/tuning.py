@@ -208,8 +208,6 @@ def _lookup(cand_data: dict, keys: tuple) -> Any:
 def trial_config(config, candidate: str, values: list[Any]):
     """The comparison one trial runs: the candidate alone at ``values``, the tuning's runs,
     cases and streams, no sweeps or claims."""
-    from .config import ComparisonConfig
-
     tuning = config.tuning
     params = resolve_free(config)[candidate]
     base = config.model_dump(mode="json", exclude={"sweeps", "claims", "tuning", "published"}, exclude_none=True)
@@ -219,7 +217,7 @@ def trial_config(config, candidate: str, values: list[Any]):
                 random_stream="tuning", metrics=[tuning.metric], name=f"{config.name}-tune-{candidate}")
     if tuning.cases:
         data["cases"] = [c for c in data["cases"] if c["name"] in tuning.cases]
-    return ComparisonConfig.model_validate(data)
+    return type(config).model_validate(data)  # this module sits below experiments.config
 
 
 def check_tuning(config) -> None:
@@ -288,7 +286,7 @@ def _objective(config, store, trial) -> float:
 
 def _run_trial(config, store, trial, execute) -> float:
     """Run (or reuse) a trial's batches; ``inf`` if its filter fails."""
-    from .runner import plan
+    from .tasks import plan
 
     key = trial.identity()
     store.register(key, trial.batch_size)
@@ -393,14 +391,12 @@ def _get(config, cand: str, keys: tuple) -> Any:
 def tuned_config(config, results: dict[str, dict]):
     """The comparison to evaluate: every tuned candidate at its best values (evaluation
     streams, the config's runs), the others as given; no ``[tuning]``."""
-    from .config import ComparisonConfig
-
     data = config.model_dump(mode="json", exclude={"tuning"}, exclude_none=True)
     resolved = resolve_free(config)
     names = [c["name"] for c in data["candidates"]]
     for cand, res in results.items():
         data = _with_values(data, names.index(cand), resolved[cand], [res["best"][lb] for lb in res["labels"]])
-    return ComparisonConfig.model_validate(data)
+    return type(config).model_validate(data)
 
 
 def tuning_points(results: dict[str, dict]) -> list[dict]:
