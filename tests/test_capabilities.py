@@ -37,9 +37,12 @@ class RandomWalkPosition(BatchPositionFilter):
         return dict(inputs)
 
 
-gf.registry.register_module(types.SimpleNamespace(
-    register_nav_filter=gf.hookimpl(lambda register: register(RandomWalkPosition))),
-    name="test-capabilities", distribution="third-party")
+@pytest.fixture
+def random_walk(scratch_registry):
+    scratch_registry.register_module(types.SimpleNamespace(
+        register_nav_filter=gf.hookimpl(lambda register: register(RandomWalkPosition))),
+        name="test-capabilities", distribution="third-party")
+    return RandomWalkPosition
 
 
 def _multipath(nav: str, options=None, runs: int = 3):
@@ -49,7 +52,7 @@ def _multipath(nav: str, options=None, runs: int = 3):
     return scen.run_batch({"psi": 0.8}, plugins, runs, np.random.default_rng(3)).metrics["horizontal_error_rmse"]
 
 
-def test_a_third_party_batch_position_filter_runs_in_multipath_with_and_without_the_oracle():
+def test_a_third_party_batch_position_filter_runs_in_multipath_with_and_without_the_oracle(random_walk):
     plain = _multipath("test-random-walk")
     raw = get_scenario({"kind": "multipath", "epochs": 100}).run_batch(
         {"psi": 0.8}, {}, 3, np.random.default_rng(3)).metrics["horizontal_error_rmse"]

@@ -130,6 +130,7 @@ class ComparisonConfig(_Strict):
         from .scenarios import get_scenario
 
         scenario = get_scenario(self.scenario)  # raises ConfigError naming scenario.kind / field
+        self._scenario = scenario  # resolved once: every later use reads this instance
         from .metrics import check_metric
 
         for i, metric in enumerate(self.metrics):  # the scenario's own or a metric component's
@@ -166,6 +167,17 @@ class ComparisonConfig(_Strict):
         return self
 
     _points: dict[int, list] = PrivateAttr(default_factory=dict)
+    _scenario: Any = PrivateAttr(None)
+
+    @property
+    def resolved_scenario(self) -> Any:
+        """The scenario instance (`gnssframework.experiments.scenarios.Scenario`) the config
+        was validated with."""
+        if self._scenario is None:  # a config made without validation (model_construct)
+            from .scenarios import get_scenario
+
+            self._scenario = get_scenario(self.scenario)
+        return self._scenario
 
     def sweep_points(self, index: int) -> list[tuple[Any, "ComparisonConfig"]]:
         """``(value, config)`` of every point of ``sweeps[index]`` (see ``sweeps.expand_sweep``)."""
@@ -180,24 +192,18 @@ class ComparisonConfig(_Strict):
 
     @property
     def metric_names(self) -> list[str]:
-        from .scenarios import get_scenario
-
-        return self.metrics or list(get_scenario(self.scenario).metrics)
+        return self.metrics or list(self.resolved_scenario.metrics)
 
     @property
     def metric_units(self) -> dict[str, str]:
         """Unit of every reported metric (the scenario's or the metric component's)."""
         from .metrics import check_metric
-        from .scenarios import get_scenario
 
-        scenario = get_scenario(self.scenario)
-        return {m: check_metric(m, scenario, "metrics") for m in self.metric_names}
+        return {m: check_metric(m, self.resolved_scenario, "metrics") for m in self.metric_names}
 
     def component_metrics(self) -> list[str]:
         """The reported metrics computed by metric components (not by the scenario itself)."""
-        from .scenarios import get_scenario
-
-        own = get_scenario(self.scenario).metrics
+        own = self.resolved_scenario.metrics
         return [m for m in self.metric_names if m not in own]
 
     def identity(self) -> str:

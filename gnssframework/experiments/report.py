@@ -9,7 +9,6 @@ import numpy as np
 from .claims import claim_line, evaluate_claims
 from .config import ComparisonConfig
 from .files import atomic_open, atomic_write_text, write_json
-from .scenarios import get_scenario
 from .stats import SIGNIFICANCE_RULE, paired_rows
 from .store import ResultStore
 from .sweeps import write_sweeps
@@ -26,7 +25,7 @@ def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
     ``undefined_reasons[metric]`` when it gives one.
     """
     units = config.metric_units
-    scenario = get_scenario(config.scenario)
+    scenario = config.resolved_scenario
     key = config.identity()
     rows = []
     for case in config.cases:
@@ -165,7 +164,7 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
     for case in config.cases:
         # Time series: the median over runs of each metric's per-epoch error.
         fig, axes = plt.subplots(len(metrics), 1, figsize=(7, 2.0 * len(metrics)), sharex=True, squeeze=False)
-        bounds = getattr(get_scenario(config.scenario), "bounds", {})
+        bounds = getattr(config.resolved_scenario, "bounds", {})
         for cand in config.candidates:
             time_s, series = _median_series(out, config, case.name, cand.name)
             for ax, metric in zip(axes[:, 0], metrics):
@@ -208,7 +207,7 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
 def assumption_rows(config: ComparisonConfig) -> list[dict]:
     """Per case and candidate, what each plugin assumes (``SequentialFilter.assumptions``):
     ``{"case", "candidate", "component", "label", "value", "unit"}``."""
-    scenario = get_scenario(config.scenario)
+    scenario = config.resolved_scenario
     rows = []
     for case in config.cases:
         context = scenario.assumption_context({"name": case.name, **case.params()})

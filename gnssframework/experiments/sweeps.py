@@ -106,12 +106,11 @@ def _resolve(config, sweep: Sweep, where: str) -> list[tuple[Any, ...]]:
     """The locations in the config's data the path names, as key tuples; refuses a path
     that names no parameter (listing the allowed ones)."""
     from .. import registry
-    from .scenarios import get_scenario
 
     parts = sweep.path.split(".")
     head, rest = parts[0], parts[1:]
     field = f"{where}.path"
-    scenario = get_scenario(config.scenario)
+    scenario = config.resolved_scenario
     if head == "scenario":
         allowed = _model_fields(type(scenario).Params)
         if len(rest) != 1 or rest[0] not in allowed:

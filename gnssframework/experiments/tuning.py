@@ -56,11 +56,11 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..errors import ConfigError, GnssFrameworkError, RunFailure
 from ..random_streams import name_key
+from .run_plan import TUNING_PURPOSE, resolve
+from .tasks import plan
 
 __all__ = ["Tuning", "FreeParameter", "TUNING_PURPOSE", "tuned_config", "tuning_points"]
 
-#: Spawn key of the tuning streams (``RunStreams(..., purpose=TUNING_PURPOSE)``).
-TUNING_PURPOSE = name_key("tuning")
 
 
 class FreeParameter(BaseModel):
@@ -286,13 +286,11 @@ def _objective(config, store, trial) -> float:
 
 def _run_trial(config, store, trial, execute) -> float:
     """Run (or reuse) a trial's batches; ``inf`` if its filter fails."""
-    from .tasks import plan
-
     key = trial.identity()
     store.register(key, trial.batch_size)
     done = store.finished_batches(key)
-    data = trial.model_dump(mode="json", exclude={"sweeps"})
-    jobs = [(data, t) for t in plan(trial, f"tuning trial of {trial.candidates[0].name}")
+    resolved = resolve(trial)
+    jobs = [(resolved, t) for t in plan(trial, f"tuning trial of {trial.candidates[0].name}")
             if (trial.cases[t.case_index].name, trial.candidates[t.candidate_index].name, t.first_run, t.runs)
             not in done]
     try:
