@@ -30,14 +30,14 @@ from dataclasses import dataclass, field
 from typing import Annotated, Any, Callable
 
 import numpy as np
-from pydantic import BeforeValidator, ValidationError, WithJsonSchema
+from pydantic import BeforeValidator, PlainSerializer, ValidationError, WithJsonSchema
 
 from . import registry
 from .errors import ConfigError
 from .plugin import NestedFieldError, validation_message
 from .plugin_ref_rules import RefRule, misfit, plugin_ref_constraints, plugin_refs
 
-__all__ = ["PluginSpec", "PluginRef", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
+__all__ = ["PluginSpec", "PluginRef", "ComponentRef", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
 
 
 def handles_nonlinear(cls: type) -> str:
@@ -60,6 +60,10 @@ class PluginSpec:
 
     def __hash__(self) -> int:
         return hash((self.kind, self.name, tuple(sorted(map(str, self.params.items())))))
+
+    def table(self) -> dict[str, Any]:
+        """The reference as a config writes it: ``{"name": ..., "params": {...}}``."""
+        return {"name": self.name, "params": dict(self.params)}
 
     @property
     def cls(self) -> type:
@@ -166,3 +170,41 @@ def PluginRef(kind: str, *, unit: str | None = None, provides: tuple[str, ...] =
                          "properties": {"name": {"type": "string"}, "params": {"type": "object"}}}]}
     # PluginParams validates defaults, so a default written as a name is resolved too.
     return Annotated[PluginSpec, BeforeValidator(lambda v: _resolve(rule, v)), WithJsonSchema(schema), rule]
+
+
+def _component(kind: str, value: Any) -> PluginSpec:
+    """A candidate's plugin of ``kind``: a name or ``{name, params}``, the name known to the
+    registry (its parameters are validated with the candidate, naming their path)."""
+    if isinstance(value, PluginSpec):
+        return value
+    if isinstance(value, str):
+        value = {"name": value}
+    if not isinstance(value, dict):
+        raise ValueError(f"{_article(kind)} {kind} is a name or {{ name, params }}, got {value!r}")
+    extra = sorted(set(value) - {"name", "params"})
+    if extra:
+        raise NestedFieldError(extra[0], "unknown parameter; valid: name, params; plugin parameters go under "
+                               f"`params`: {{ name = ..., params = {{ {extra[0]} = ... }} }}")
+    if not isinstance(value.get("name"), str):
+        raise NestedFieldError("name", f"required: the registered name of {_article(kind)} {kind}")
+    params = value.get("params") or {}
+    if not isinstance(params, dict):
+        raise NestedFieldError("params", f"must be a table of the plugin's parameters, got {params!r}")
+    try:
+        registry.get(kind, value["name"])
+    except ConfigError as exc:
+        raise NestedFieldError("name", exc.detail) from None
+    return PluginSpec(kind, value["name"], dict(params))
+
+
+def ComponentRef(kind: str) -> Any:  # noqa: N802 - reads as a type
+    """The type of a comparison candidate's plugin of ``kind``: a `PluginSpec` written as a
+    name or ``{name, params}`` (and dumped back that way). Unlike `PluginRef`, the
+    parameters are left to the candidate's check, which names their config path."""
+    schema = {"description": f"a {kind} plugin: its name, or {{name, params}}",
+              "anyOf": [{"type": "string"},
+                        {"type": "object", "required": ["name"], "additionalProperties": False,
+                         "properties": {"name": {"type": "string"}, "params": {"type": "object"}}}]}
+    return Annotated[PluginSpec, BeforeValidator(lambda v: _component(kind, v)),
+                     PlainSerializer(PluginSpec.table), WithJsonSchema(schema)]
+

@@ -213,16 +213,19 @@ def _peak_bytes(config) -> tuple[int, float]:
 
     scenario = get_scenario(config.scenario)
     case = config.cases[0].params()
-    comps = {k: v.model_dump() for k, v in config.candidates[0].components().items()}
-    scenario.run_batch(case, scenario.build(comps), 1, np.random.default_rng(0))  # compile and cache first
+    cand = config.candidates[0]
+    comps = {k: v.table() for k, v in cand.components().items()}
+    scenario.run_batch(case, scenario.build(comps, cand.scenario_options), 1, np.random.default_rng(0))  # compile first
     tracemalloc.start()
     try:
-        scenario.run_batch(case, scenario.build(comps), config.batch_size, np.random.default_rng(1))
+        scenario.run_batch(case, scenario.build(comps, cand.scenario_options), config.batch_size,
+                           np.random.default_rng(1))
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
     checked = scenario.CaseParams.model_validate(case).model_dump()
-    return peak, scenario.batch_memory(checked, config.batch_size, "cases[0]", [config.candidates[0].components()])[0]
+    return peak, scenario.batch_memory(checked, config.batch_size, "cases[0]",
+                                       [{**cand.components(), "scenario_options": cand.scenario_options}])[0]
 
 
 @pytest.mark.parametrize("kind, change", [

@@ -5,12 +5,13 @@ import pytest
 
 import gnssframework as gf
 from gnssframework.experiments import get_scenario
-from gnssframework.experiments.config import ComparisonConfig, PluginRef
+from gnssframework.experiments.config import ComparisonConfig
+from gnssframework.plugin_ref import PluginSpec
 from gnssframework.experiments.scenarios.multipath import convergence_epoch
 from gnssframework.random_streams import as_run_streams
 
 BASE = {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": {"name": "kf", "params": {}}}
-BASE_REFS = {k: PluginRef.model_validate(v) for k, v in BASE.items()}
+BASE_REFS = {k: PluginSpec(k, v["name"], v["params"]) for k, v in BASE.items()}
 
 
 def _run(components, case, runs=4, seed=2, epochs=120, options=None):
@@ -72,7 +73,7 @@ def test_the_oracle_is_a_scenario_option_checked_with_the_candidate():
 
 def test_a_nav_filter_that_cannot_filter_a_sequence_is_refused_naming_the_ones_that_can():
     scen = get_scenario({"kind": "multipath", "epochs": 120})
-    refs = {**BASE_REFS, "nav_filter": PluginRef.model_validate("ekf-pv")}
+    refs = {**BASE_REFS, "nav_filter": PluginSpec("nav_filter", "ekf-pv")}
     with pytest.raises(gf.ConfigError, match=r"candidates\[1\]\.nav_filter\.name: 'ekf-pv' cannot filter a "
                                              r"position sequence .*that can: position-ca"):
         scen.check_candidate(refs, "candidates[1]")

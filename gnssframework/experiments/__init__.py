@@ -1,6 +1,6 @@
 """Config-driven Monte Carlo comparisons (``gnssframework compare FILE``)."""
 
-from .config import Candidate, Case, ComparisonConfig, Executor, PluginRef, load_config
+from .config import Candidate, Case, ComparisonConfig, Executor, load_config
 from .runner import plan, run_comparison
 from .scenarios import SCENARIOS, BatchResult, Scenario, get_scenario, register_scenario
 
@@ -10,7 +10,6 @@ __all__ = [
     "Case",
     "ComparisonConfig",
     "Executor",
-    "PluginRef",
     "SCENARIOS",
     "Scenario",
     "get_scenario",

@@ -20,11 +20,12 @@ from ..errors import ConfigError, DataFileError
 from ..hookspecs import COMPONENT_KINDS
 from ..io.text import read_input_text
 from ..plugin import validation_message
+from ..plugin_ref import ComponentRef, PluginSpec
 from .claims import Claim, check_claims
 from .sweeps import Sweep, check_unique_labels, expand_sweep
 from .tuning import Tuning, check_tuning
 
-__all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "Claim", "load_config"]
+__all__ = ["Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "Claim", "load_config"]
 
 
 #: Most Monte Carlo runs of a comparison (each case and candidate): a million runs of the
@@ -36,34 +37,25 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-class PluginRef(_Strict):
-    """One plugin of a candidate: its registry name and parameters; a bare name stands
-    for ``{ name = "...", params = {} }``, as in nested plugin references."""
-
-    name: str = Field(..., description="registered name, e.g. 'iq-filter'")
-    params: dict[str, Any] = Field(default_factory=dict, description="parameters of the plugin's model")
-
-    @model_validator(mode="before")
-    @classmethod
-    def _bare_name(cls, value: Any) -> Any:
-        return {"name": value} if isinstance(value, str) else value
+_REF = "the {kind} plugin: its name, or {{ name, params }}"
 
 
 class Candidate(_Strict):
     """A named composition of plugins, one per kind the scenario uses."""
 
     name: str = Field(..., pattern=r"^[A-Za-z0-9_.+-]+$")
-    estimator: PluginRef | None = None
-    noise_adapter: PluginRef | None = None
-    augmentation: PluginRef | None = None
-    discriminator: PluginRef | None = None
-    channel_filter: PluginRef | None = None
-    nav_filter: PluginRef | None = None
+    estimator: ComponentRef("estimator") | None = Field(None, description=_REF.format(kind="estimator"))
+    noise_adapter: ComponentRef("noise_adapter") | None = Field(None, description=_REF.format(kind="noise_adapter"))
+    augmentation: ComponentRef("augmentation") | None = Field(None, description=_REF.format(kind="augmentation"))
+    discriminator: ComponentRef("discriminator") | None = Field(None, description=_REF.format(kind="discriminator"))
+    channel_filter: ComponentRef("channel_filter") | None = Field(None, description=_REF.format(kind="channel_filter"))
+    nav_filter: ComponentRef("nav_filter") | None = Field(None, description=_REF.format(kind="nav_filter"))
     scenario_options: dict[str, Any] = Field(
         default_factory=dict, description="options the scenario applies to this candidate, not plugins (see the "
         "scenario's page; e.g. multipath's oracle)")
 
-    def components(self) -> dict[str, PluginRef]:
+    def components(self) -> dict[str, PluginSpec]:
+        """The candidate's plugins by kind (`gnssframework.plugin_ref.PluginSpec`)."""
         return {k: getattr(self, k) for k in COMPONENT_KINDS if getattr(self, k) is not None}
 
 

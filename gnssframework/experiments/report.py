@@ -212,7 +212,7 @@ def assumption_rows(config: ComparisonConfig) -> list[dict]:
     for case in config.cases:
         context = scenario.assumption_context({"name": case.name, **case.params()})
         for cand in config.candidates:
-            plugins = scenario.build({k: v.model_dump() for k, v in cand.components().items()}, cand.scenario_options)
+            plugins = scenario.build({k: v.table() for k, v in cand.components().items()}, cand.scenario_options)
             for kind, plugin in plugins.items():
                 declared = getattr(plugin, "assumptions", None)
                 for label, (value, unit) in (declared(context) if declared else {}).items():

@@ -73,7 +73,7 @@ def resolve(config: Any) -> RunPlan:
     return RunPlan(
         scenario=config.resolved_scenario,
         cases=tuple(CasePlan(c.name, c.params()) for c in config.cases),
-        candidates=tuple(CandidatePlan(c.name, {k: v.model_dump() for k, v in c.components().items()},
+        candidates=tuple(CandidatePlan(c.name, {k: v.table() for k, v in c.components().items()},
                                        dict(c.scenario_options)) for c in config.candidates),
         seed=config.seed,
         random_stream=config.random_stream,
