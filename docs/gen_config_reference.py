@@ -61,6 +61,9 @@ def render() -> str:
                   "Metrics: " + ", ".join(f"`{m}` ({u})" for m, u in scen.metrics.items()) + ".", "",
                   "Scenario parameters:", ""] + _table(scen.Params.model_json_schema())
         lines += ["", "Case parameters:", ""] + _table(scen.CaseParams.model_json_schema())
+        if scen.CandidateOptions.model_fields:
+            lines += ["", "Candidate options (`scenario_options`):", ""] + _table(
+                scen.CandidateOptions.model_json_schema())
     return "\n".join(lines) + "\n"
 
 

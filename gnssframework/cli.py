@@ -14,7 +14,7 @@ from .errors import ConfigError, DataFileError, GnssFrameworkError
 from .io.nmea import MAX_ABS_HEIGHT_M, MAX_SPEED_MPS
 from .io.rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M
 from .io.skipped import EXIT_STATUS_HELP
-from .io.smoothing import MAX_CMC_RATE_MPS
+from .io.smoothing import MAX_CMC_RATE_MPS, SMOOTHERS
 
 __all__ = ["main"]
 
@@ -127,11 +127,10 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
 
     obs = read_observations(args.file, args.prn, pseudorange_min_m=args.pseudorange_min,
                             pseudorange_max_m=args.pseudorange_max, strict=args.strict)
-    params = {"hatch": ("hatch", {"window": args.window}),
-              "kf": ("kf-smoother", {"q": args.q, "r": args.r}),
-              "adaptive-kf": ("kf-smoother", {"q": args.q, "r": args.r, "adapter": "ml-q",
-                                              "adapter_params": {"window": 10, "warmup": 20, "q_ceiling": 1e4}})}
-    name, kw = params[args.filter]
+    name = SMOOTHERS[args.filter]["name"]
+    takes = registry.get("channel_filter", name).Params.model_fields
+    kw = {**{k: v for k, v in (("window", args.window), ("q", args.q), ("r", args.r)) if k in takes},
+          **SMOOTHERS[args.filter]["params"]}
     if args.slip_threshold:
         kw["slip_threshold_m"] = args.slip_threshold
     registry.create("channel_filter", name, **kw)  # a bad parameter fails before the run
@@ -330,7 +329,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", help="RINEX 2.1x or 3.0x observation file (plain, .gz, Hatanaka .crx or .crx.gz)")
     p.add_argument("--prn", required=True, help="satellites (G08 or G08,C11) or systems (G, GEC, all)")
     p.add_argument("--out", required=True, help="output CSV")
-    p.add_argument("--filter", default="hatch", choices=["hatch", "kf", "adaptive-kf"])
+    p.add_argument("--filter", default="hatch", choices=list(SMOOTHERS))
     p.add_argument("--window", type=int, default=100, help="Hatch window (epochs)")
     p.add_argument("--q", type=float, default=1e-3, help="Kalman smoother Q (m^2)")
     p.add_argument("--r", type=float, default=1.25, help="Kalman smoother R (m^2)")

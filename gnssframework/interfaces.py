@@ -10,6 +10,10 @@ into a receiver:
 - a ``NavFilter`` fuses every channel and returns the navigation state and the
   NCO commands of the next epoch.
 
+Capabilities a harness asks of a nav filter are interfaces too, so the core never picks
+a plugin by its name: an ``ErrorStateNavFilter`` (INS integration) and a
+``BatchPositionFilter`` (filtering a recorded position sequence).
+
 Channel and navigation filters declare the named quantities they ``provides`` and
 ``requires``, so a configuration that feeds a nav filter from a channel filter whose
 outputs it cannot use is refused before anything runs.
@@ -29,11 +33,12 @@ import numpy as np
 from pydantic import Field
 
 from .errors import ConfigError, InvalidArgumentError, PluginError
+from .estimation import FilterResult, Gaussian, LinearModel, filter_sequence
 from .plugin import Plugin, PluginParams
 from .signal.correlators import Correlators
 
 __all__ = ["Discriminator", "DiscriminatorParams", "RunContext", "SequentialFilter", "ChannelFilter", "NavFilter",
-           "ASSUMPTION_LABELS"]
+           "ASSUMPTION_LABELS", "ErrorStateNavFilter", "IntegrationAiding", "BatchPositionFilter"]
 
 
 class DiscriminatorParams(PluginParams):
@@ -312,3 +317,96 @@ class NavFilter(SequentialFilter):
     """
 
     kind = "nav_filter"
+
+
+# -- capabilities: what a harness asks of a nav filter, by contract rather than by name -------------
+
+@dataclass(frozen=True)
+class IntegrationAiding:
+    """What an INS integration filter asks of the deep-integration harness around it.
+
+    Attributes
+    ----------
+    accel_aiding
+        Predict the NCOs with the line-of-sight acceleration from the corrected INS.
+    carrier_filter
+        A carrier-phase prefilter per channel (a ``channel_filter`` reference,
+        :class:`~gnssframework.plugin_ref.PluginSpec`), or ``None``: the carrier phase is
+        not tracked.
+    clock_psd
+        White-noise PSDs of the NCO clock filter's bias (m^2/s) and drift (m^2/s^3).
+    """
+
+    accel_aiding: bool = True
+    carrier_filter: Any = None
+    clock_psd: tuple[float, float] = (0.1, 0.1)
+
+
+class ErrorStateNavFilter(NavFilter):
+    """A closed-loop error-state filter of a strapdown INS: the nav filter of deep and loose
+    integration (``ins-ekf``).
+
+    The contract the integration harnesses (`gnssframework.receiver.deep_ins.InsNavigator`,
+    the loose baseline) rely on:
+
+    - ``reset(batch_shape, context)`` takes the initial error covariance
+      ``context.initial_cov`` ``(..., n, n)``; the error estimate starts at zero;
+    - ``step(inputs)`` takes the error model's ``transition`` and ``process_noise`` since
+      the previous step and a measurement, and returns ``error_state`` ``(runs, n)`` (the
+      caller removes it from the INS; the filter's estimate restarts at zero) and ``cov``;
+    - ``propagate(transition, process_noise)`` carries the covariance over an interval
+      without a measurement (pull-in, outages);
+    - ``cov`` is the covariance of the INS error now;
+    - ``aiding()`` says how the harness aids the NCOs around it (`IntegrationAiding`).
+    """
+
+    #: Size of the error state (the layout of `gnssframework.inertial.error_model`).
+    error_states: ClassVar[int] = 15
+
+    @property
+    @abc.abstractmethod
+    def cov(self) -> np.ndarray:
+        """Covariance ``(runs, n, n)`` of the INS error now (after the last correction)."""
+
+    @abc.abstractmethod
+    def propagate(self, transition: np.ndarray, process_noise: np.ndarray) -> None:
+        """Propagate the covariance over an interval without a measurement."""
+
+    def aiding(self) -> IntegrationAiding:
+        """How the deep-integration harness aids the NCOs around this filter (default: the
+        `IntegrationAiding` defaults)."""
+        return IntegrationAiding()
+
+
+class BatchPositionFilter(NavFilter):
+    """A position-domain filter that filters a whole recorded sequence with a linear model
+    (``position-ca``): what the ``multipath`` scenario and ``filter-positions`` need.
+
+    The contract: ``model()`` is the linear model of one coordinate, whose state holds the
+    position at index ``position_index``; ``initial(first)`` the prior from the first
+    measurement; ``filter(zs, estimator, ...)`` filters ``zs (K, ..., n_coord)`` with
+    that model and prior through :func:`gnssframework.estimation.filter_sequence`, so a
+    scenario may run the same filter with a scaled Q and R (an oracle's grid) or batched.
+    """
+
+    #: Index of the position in the state.
+    position_index: ClassVar[int] = 0
+
+    @abc.abstractmethod
+    def model(self, dt_s: float | None = None) -> LinearModel:
+        """The linear model (`gnssframework.estimation.LinearModel`) of one coordinate."""
+
+    @abc.abstractmethod
+    def initial(self, first: np.ndarray) -> Gaussian:
+        """The prior (`gnssframework.estimation.Gaussian`) given the first measurements
+        ``(..., n_coord)``: batch shape ``(..., n_coord)``."""
+
+    def filter(self, zs: np.ndarray, estimator: Any, adapter: Any = None, augmentation: Any = None,
+               model: LinearModel | None = None, **policies: Any) -> FilterResult:
+        """Filter positions ``zs (K, ..., n_coord)`` in metres with ``estimator`` (and an
+        optional noise adapter and augmentation); ``model`` replaces `model()` (a scaled
+        Q and R). Returns the `gnssframework.estimation.FilterResult`, batch shape
+        ``(..., n_coord)``."""
+        zs = np.asarray(zs, dtype=float)
+        return filter_sequence(estimator, self.model() if model is None else model, zs[..., None],
+                               self.initial(zs[0]), adapter=adapter, augmentation=augmentation, **policies)

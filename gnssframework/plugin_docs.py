@@ -15,12 +15,12 @@ from __future__ import annotations
 
 import typing
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Iterable
 
 from pydantic import BaseModel
 from pydantic_core import PydanticUndefined
 
-from .plugin_ref import PluginSpec, plugin_ref_constraints, plugin_refs
+from .plugin_ref_rules import plugin_ref_constraints, plugin_refs
 
 __all__ = ["ParameterRow", "parameter_rows", "parameter_table", "describe_plugin", "nested_plugins_table"]
 
@@ -48,11 +48,11 @@ def _type_name(annotation: Any, refs: dict[str, tuple[str, str | None]], name: s
     return text or str(annotation).replace("typing.", "")
 
 
-def _default_text(value: Any) -> str:
+def _default_text(value: Any, is_ref: bool = False) -> str:
     if value is PydanticUndefined:
         return "(required)"
-    if isinstance(value, PluginSpec):
-        return value.name
+    if is_ref and hasattr(value, "kind") and hasattr(value, "name"):  # a resolved PluginSpec: its name
+        return str(value.name)
     return repr(value) if isinstance(value, str) else str(value)
 
 
@@ -71,7 +71,7 @@ def parameter_rows(params_model: type[BaseModel]) -> list[ParameterRow]:
             else []
         if literal:
             bounds.append("one of " + ", ".join(map(repr, literal)))
-        rows.append(ParameterRow(name, _type_name(info.annotation, refs, name), _default_text(info.default),
+        rows.append(ParameterRow(name, _type_name(info.annotation, refs, name), _default_text(info.default, name in refs),
                                  ", ".join(bounds), info.description or ""))
     return rows
 
@@ -110,19 +110,18 @@ def describe_plugin(kind: str, cls: type) -> str:
     return "\n".join(lines)
 
 
-def nested_plugins_table(distribution: str | None = "gnssframework") -> str:
-    """Markdown table of the registered plugins that take nested plugins: plugin, kind,
-    each nested parameter with its default and what it demands (generated, so the docs
-    cannot fall behind the code). ``distribution`` limits it to one package (``None``: all)."""
-    from . import registry
-
+def nested_plugins_table(plugins: Iterable[Any], distribution: str | None = "gnssframework") -> str:
+    """Markdown table of the plugins that take nested plugins: plugin, kind, each nested
+    parameter with its default and what it demands (generated, so the docs cannot fall
+    behind the code). ``plugins`` are ``registry.describe()``'s entries; ``distribution``
+    limits it to one package (``None``: all)."""
     lines = ["| plugin | kind | nested parameter | default | takes |", "|---|---|---|---|---|"]
-    for info in registry.describe():
+    for info in plugins:
         if distribution is not None and info.distribution != distribution:
             continue
         params = info.cls.Params
         for field, demand in plugin_ref_constraints(params).items():
             default = params.model_fields[field].default
-            default = default.name if isinstance(default, PluginSpec) else ("null" if default is None else default)
+            default = "null" if default is None else getattr(default, "name", default)  # a PluginSpec: its name
             lines.append(f"| `{info.name}` | {info.kind} | `{field}` | `{default}` | {demand} |")
     return "\n".join(lines)

@@ -26,14 +26,18 @@ PluginSpec(kind='estimator', name='kf', params={})
 from __future__ import annotations
 
 import difflib
-import typing
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Callable
 
 import numpy as np
-from pydantic import BeforeValidator, ValidationError, WithJsonSchema
+from pydantic import BeforeValidator, PlainSerializer, ValidationError, WithJsonSchema
 
-__all__ = ["PluginSpec", "PluginRef", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
+from . import registry
+from .errors import ConfigError
+from .plugin import NestedFieldError, validation_message
+from .plugin_ref_rules import RefRule, misfit, plugin_ref_constraints, plugin_refs
+
+__all__ = ["PluginSpec", "PluginRef", "ComponentRef", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
 
 
 def handles_nonlinear(cls: type) -> str:
@@ -57,11 +61,13 @@ class PluginSpec:
     def __hash__(self) -> int:
         return hash((self.kind, self.name, tuple(sorted(map(str, self.params.items())))))
 
+    def table(self) -> dict[str, Any]:
+        """The reference as a config writes it: ``{"name": ..., "params": {...}}``."""
+        return {"name": self.name, "params": dict(self.params)}
+
     @property
     def cls(self) -> type:
         """The registered plugin class."""
-        from . import registry
-
         return registry.get(self.kind, self.name)
 
     def create(self, defaults: dict[str, Any] | None = None, **owned: Any) -> Any:
@@ -82,8 +88,6 @@ class PluginSpec:
         ConfigError
             If the reference sets an owned value to something else, naming the parameter.
         """
-        from .errors import ConfigError
-
         cls = self.cls
         fields = cls.Params.model_fields
         for key, value in owned.items():
@@ -101,39 +105,16 @@ def _same(a: Any, b: Any) -> bool:
         return a == b
 
 
-@dataclass(frozen=True)
-class _Rule:
-    kind: str
-    unit: str | None
-    provides: tuple[str, ...]
-    check: Callable[[type], str] | None
-
-
-def _names_that_fit(rule: _Rule) -> list[str]:
-    from . import registry
-
-    return [n for n in registry.names(rule.kind) if not _misfit(rule, registry.get(rule.kind, n))]
-
-
-def _misfit(rule: _Rule, cls: type) -> str:
-    """Why ``cls`` does not fit ``rule`` ("" if it does)."""
-    if rule.unit is not None and getattr(cls, "unit", None) != rule.unit:
-        return f"its unit is {getattr(cls, 'unit', None)!r}, this parameter needs {rule.unit!r}"
-    missing = [p for p in rule.provides if p not in getattr(cls, "provides", ())]
-    if missing:
-        return f"it does not provide {', '.join(missing)}"
-    return rule.check(cls) if rule.check is not None else ""
+def _names_that_fit(rule: RefRule) -> list[str]:
+    return [n for n in registry.names(rule.kind) if not misfit(rule, registry.get(rule.kind, n))]
 
 
 def _article(word: str) -> str:
     return "an" if word[:1] in "aeiou" else "a"
 
 
-def _resolve(rule: _Rule, value: Any) -> PluginSpec:
+def _resolve(rule: RefRule, value: Any) -> PluginSpec:
     # Raise ValueError (not ConfigError) so pydantic attaches the field path.
-    from . import registry
-    from .plugin import NestedFieldError, validation_message
-
     if isinstance(value, PluginSpec):
         return value
     if isinstance(value, str):
@@ -154,7 +135,7 @@ def _resolve(rule: _Rule, value: Any) -> PluginSpec:
         hint = f"; did you mean {close[0]!r}?" if close else ""
         raise ValueError(f"unknown {rule.kind} {name!r}; known: {', '.join(known) or '(none)'}{hint}")
     cls = registry.get(rule.kind, name)
-    why = _misfit(rule, cls)
+    why = misfit(rule, cls)
     if why:
         raise ValueError(f"{rule.kind} {name!r} does not fit: {why}; {rule.kind}s that do: "
                          f"{', '.join(_names_that_fit(rule)) or '(none registered)'}")
@@ -181,7 +162,7 @@ def PluginRef(kind: str, *, unit: str | None = None, provides: tuple[str, ...] =
     check
         Extra capability test: returns why a class does not fit, or ``""``.
     """
-    rule = _Rule(kind, unit, tuple(provides), check)
+    rule = RefRule(kind, unit, tuple(provides), check)
     what = f"a {kind} plugin" + (f" with unit {unit!r}" if unit else "")
     schema = {"description": f"{what}: its name, or {{name, params}}",
               "anyOf": [{"type": "string"},
@@ -191,37 +172,39 @@ def PluginRef(kind: str, *, unit: str | None = None, provides: tuple[str, ...] =
     return Annotated[PluginSpec, BeforeValidator(lambda v: _resolve(rule, v)), WithJsonSchema(schema), rule]
 
 
-def _field_rules(params_model: type) -> dict[str, _Rule]:
-    def rules(obj: Any) -> list[_Rule]:
-        found = [m for m in getattr(obj, "__metadata__", ()) if isinstance(m, _Rule)]
-        for arg in typing.get_args(obj):
-            found += rules(arg)
-        return found
+def _component(kind: str, value: Any) -> PluginSpec:
+    """A candidate's plugin of ``kind``: a name or ``{name, params}``, the name known to the
+    registry (its parameters are validated with the candidate, naming their path)."""
+    if isinstance(value, PluginSpec):
+        return value
+    if isinstance(value, str):
+        value = {"name": value}
+    if not isinstance(value, dict):
+        raise ValueError(f"{_article(kind)} {kind} is a name or {{ name, params }}, got {value!r}")
+    extra = sorted(set(value) - {"name", "params"})
+    if extra:
+        raise NestedFieldError(extra[0], "unknown parameter; valid: name, params; plugin parameters go under "
+                               f"`params`: {{ name = ..., params = {{ {extra[0]} = ... }} }}")
+    if not isinstance(value.get("name"), str):
+        raise NestedFieldError("name", f"required: the registered name of {_article(kind)} {kind}")
+    params = value.get("params") or {}
+    if not isinstance(params, dict):
+        raise NestedFieldError("params", f"must be a table of the plugin's parameters, got {params!r}")
+    try:
+        registry.get(kind, value["name"])
+    except ConfigError as exc:
+        raise NestedFieldError("name", exc.detail) from None
+    return PluginSpec(kind, value["name"], dict(params))
 
-    out = {}
-    for fname, info in params_model.model_fields.items():
-        found = [m for m in info.metadata if isinstance(m, _Rule)] + rules(info.annotation)
-        if found:
-            out[fname] = found[0]
-    return out
 
+def ComponentRef(kind: str) -> Any:  # noqa: N802 - reads as a type
+    """The type of a comparison candidate's plugin of ``kind``: a `PluginSpec` written as a
+    name or ``{name, params}`` (and dumped back that way). Unlike `PluginRef`, the
+    parameters are left to the candidate's check, which names their config path."""
+    schema = {"description": f"a {kind} plugin: its name, or {{name, params}}",
+              "anyOf": [{"type": "string"},
+                        {"type": "object", "required": ["name"], "additionalProperties": False,
+                         "properties": {"name": {"type": "string"}, "params": {"type": "object"}}}]}
+    return Annotated[PluginSpec, BeforeValidator(lambda v: _component(kind, v)),
+                     PlainSerializer(PluginSpec.table), WithJsonSchema(schema)]
 
-def plugin_refs(params_model: type) -> dict[str, tuple[str, str | None]]:
-    """The nested-plugin parameters of a ``Params`` model: field -> (kind, unit)."""
-    return {f: (r.kind, r.unit) for f, r in _field_rules(params_model).items()}
-
-
-def plugin_ref_constraints(params_model: type) -> dict[str, str]:
-    """What each nested-plugin parameter of ``params_model`` demands, in words
-    (``"discriminator, unit 'chips'"``, ``"estimator, handles nonlinear models"``)."""
-    out = {}
-    for fname, rule in _field_rules(params_model).items():
-        parts = [rule.kind]
-        if rule.unit:
-            parts.append(f"unit {rule.unit!r}")
-        if rule.provides:
-            parts.append(f"provides {', '.join(rule.provides)}")
-        if rule.check is not None:
-            parts.append(getattr(rule.check, "label", rule.check.__name__.replace("_", " ")))
-        out[fname] = ", ".join(parts)
-    return out

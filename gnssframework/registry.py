@@ -30,6 +30,7 @@ from .estimation.adaptation import Augmentation, NoiseAdapter
 from .estimation.estimator import Estimator
 from .interfaces import ChannelFilter, Discriminator, NavFilter
 from .plugin import Plugin
+from .plugin_docs import parameter_table
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -205,8 +206,6 @@ def _document_parameters(cls: type) -> None:
     doc = cls.__dict__.get("__doc__") or ""
     if _TABLE_MARK in doc or not (isinstance(params, type) and hasattr(params, "model_fields")):
         return
-    from .plugin_docs import parameter_table
-
     try:
         cls.__doc__ = f"{doc.rstrip()}\n\n{_TABLE_MARK}\n\n{parameter_table(params)}\n"
     except (AttributeError, TypeError):  # a class whose __doc__ cannot be set keeps its own

@@ -168,6 +168,10 @@ def check_noise_variance(disc: Any, cn0_dbhz: float, rng: np.random.Generator, r
         f"(tolerance {rtol:.0%}, {runs} draws)")
 
 
+#: The nav filter of `vector_loop_series`: the vector-tracking EKF with an OCXO clock.
+VECTOR_NAV_FILTER = {"name": "ekf-pv", "params": {"clock": "ocxo"}}
+
+
 def vector_loop_series(channel_filter: dict[str, Any], *, backend: str | None = None, nudge_initial_ulp: bool = False,
                        duration_s: float = 5.0, cn0_dbhz: float = 30.0, runs: int = 2, seed: int = 5
                        ) -> dict[str, np.ndarray]:
@@ -204,8 +208,7 @@ def vector_loop_series(channel_filter: dict[str, Any], *, backend: str | None = 
     if backend is not None:
         backends.set_backend(backend)
     try:
-        plugins = scen.build({"channel_filter": channel_filter,
-                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+        plugins = scen.build({"channel_filter": channel_filter, "nav_filter": VECTOR_NAV_FILTER})
         return scen.run_batch({"cn0_dbhz": cn0_dbhz}, plugins, runs, np.random.default_rng(seed)).series
     finally:
         if backend is not None:

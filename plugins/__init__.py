@@ -9,7 +9,7 @@ from __future__ import annotations
 from gnssframework import hookimpl
 
 from .acquisition import ParallelCodePhaseSearch
-from .adapters import InnovationAdapter, MaximumLikelihoodQAdapter, OracleGrid, SageHusaAdapter
+from .adapters import InnovationAdapter, MaximumLikelihoodQAdapter, SageHusaAdapter
 from .augmentations import ColoredAR1
 from .channel_filters import DiscriminatorChannel, IqFilter, KalmanCarrierLoop, ScalarTrackingLoop
 from .sample_sources import ComplexFloat32, ComplexInt8, ComplexInt16, ComplexPacked2, RealInt8, RealPacked2
@@ -43,7 +43,7 @@ def register_estimator(register):
 
 @hookimpl
 def register_noise_adapter(register):
-    for cls in (InnovationAdapter, SageHusaAdapter, MaximumLikelihoodQAdapter, OracleGrid):
+    for cls in (InnovationAdapter, SageHusaAdapter, MaximumLikelihoodQAdapter):
         register(cls)
 
 

@@ -1,4 +1,4 @@
-"""Built-in noise adapters: ``innovation``, ``sage-husa``, ``ml-q``; and ``oracle-grid``, a tuning bound.
+"""Built-in noise adapters: ``innovation``, ``sage-husa``, ``ml-q``.
 
 All share the safeguards of ``gnssframework.estimation.adaptation`` (warm-up, PSD
 projection, bounds relative to the initial covariance).
@@ -17,7 +17,7 @@ from gnssframework.estimation import AdaptationStep, AdapterRun, NoiseAdapter, S
 from gnssframework.plugin import PluginParams
 from gnssframework.estimation.linalg import outer, project_psd
 
-__all__ = ["InnovationAdapter", "SageHusaAdapter", "MaximumLikelihoodQAdapter", "OracleGrid"]
+__all__ = ["InnovationAdapter", "SageHusaAdapter", "MaximumLikelihoodQAdapter"]
 
 
 def _load_compiled_guard() -> None:
@@ -221,35 +221,3 @@ class MaximumLikelihoodQAdapter(NoiseAdapter):
     def start(self, Q0, R0) -> AdapterRun:
         _load_compiled_guard()
         return _MlQRun(self.params, Q0, R0)
-
-
-# -- oracle grid (a tuning bound, not an adapter that runs on its own) -------------
-
-
-class OracleGridParams(PluginParams):
-    q_scales: list[float] = Field([1e-8, 1e-6, 1e-4, 1e-2, 1.0],
-                                  description="Q = s_q Q0 for each s_q (multipliers of the model's Q0)")
-    r_scales: list[float] = Field([0.3, 1.0, 3.0, 10.0, 30.0, 100.0],
-                                  description="R = s_r R0 for each s_r (multipliers of the model's R0)")
-    training_runs: int = Field(10, ge=1, description="independent runs the grid is scored on, drawn from a "
-                               "stream of the case (the same in every batch)")
-
-
-class OracleGrid(NoiseAdapter):
-    r"""The best *fixed* Q and R on a grid, chosen with the truth (an oracle bound).
-
-    Not an adapter that can run by itself: a scenario that knows the truth (``multipath``)
-    runs the candidate's filter with every $(s_q Q_0, s_r R_0)$ of the grid on
-    independent training runs, keeps the pair with the lowest RMS error, and reports that
-    filter on the common runs. Choosing on other runs keeps the bound free of selection
-    bias. Scaling Q and R together leaves the gains unchanged except through the initial
-    covariance, so the grid is effectively over Q/R.
-    """
-
-    name = "oracle-grid"
-    description = "Best fixed Q and R on a grid, chosen against the truth by a scenario (an oracle bound)"
-    Params = OracleGridParams
-
-    def start(self, Q0, R0) -> AdapterRun:
-        raise ConfigError("noise_adapter 'oracle-grid'", "chooses Q and R against the truth, so only a scenario "
-                          "that knows it runs it (multipath); it cannot adapt a filter by itself")

@@ -35,7 +35,7 @@ from pydantic import Field, NonNegativeFloat
 
 from gnssframework.errors import ConfigError, InvalidInputError
 from gnssframework.estimation import FilterStep, Gaussian, LinearModel
-from gnssframework.interfaces import NavFilter, RunContext
+from gnssframework.interfaces import ErrorStateNavFilter, IntegrationAiding, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef
 from gnssframework.receiver.deep.measurements import POSITION, VELOCITY, integration_measurement, reference_channel
@@ -60,7 +60,7 @@ class InsEkfParams(PluginParams):
         "each >= 0")
 
 
-class InsEkf(NavFilter):
+class InsEkf(ErrorStateNavFilter):
     """15-state closed-loop error-state filter (attitude, velocity, position, gyro and accelerometer biases).
 
     ``reset`` needs the initial error covariance ``initial_cov`` (15x15) in the run
@@ -83,6 +83,7 @@ class InsEkf(NavFilter):
     Params = InsEkfParams
     requires = ("residual_m", "residual_cov")
     provides = ("error_state", "cov")
+    error_states = N_ERROR_STATES
 
     def __init__(self, **params: Any) -> None:
         super().__init__(**params)
@@ -112,6 +113,12 @@ class InsEkf(NavFilter):
         runs = batch_shape[0] if batch_shape else 1
         P0 = np.broadcast_to(P0, (runs, N_ERROR_STATES, N_ERROR_STATES)).copy()
         self.state = self.filter_step.start(Gaussian(np.zeros((runs, N_ERROR_STATES)), P0))
+
+    def aiding(self) -> IntegrationAiding:
+        """The deep-integration options this filter's parameters set."""
+        p = self.params
+        return IntegrationAiding(accel_aiding=p.accel_aiding, carrier_filter=p.carrier_filter,
+                                 clock_psd=tuple(p.clock_psd))
 
     @property
     def cov(self) -> np.ndarray:

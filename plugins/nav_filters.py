@@ -12,7 +12,7 @@ from gnssframework.errors import ConfigError
 from gnssframework import backend
 from gnssframework.estimation import (CompiledFunctions, FilterStep, Gaussian, LinearModel, NonlinearModel,
                                      filter_sequence, linear_f, register_warm_up)
-from gnssframework.interfaces import NavFilter, RunContext
+from gnssframework.interfaces import BatchPositionFilter, NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.tracking.vector import predicted_range
@@ -316,7 +316,7 @@ class PositionCaParams(PluginParams):
         "kf", description="estimator of the streaming step(); filter() takes the candidate's estimator")
 
 
-class PositionConstantAcceleration(NavFilter):
+class PositionConstantAcceleration(BatchPositionFilter):
     """Position-domain filter with a constant-acceleration model per coordinate (Liu et al. 2020).
 
     Each coordinate (latitude and longitude in local metres) has the state
@@ -333,22 +333,18 @@ class PositionConstantAcceleration(NavFilter):
     requires = ("position_m",)
     provides = ("position_m",)
 
-    def model(self, dt_s: float | None = None):
+    def model(self, dt_s: float | None = None) -> LinearModel:
         """The constant-acceleration model at epoch interval ``dt_s`` (default: ``params.dt_s``)."""
         p = self.params
         t = p.dt_s if dt_s is None else dt_s
         F = np.array([[1.0, t, t * t / 2], [0.0, 1.0, t], [0.0, 0.0, 1.0]])
         return LinearModel(F, np.array([[1.0, 0.0, 0.0]]), np.diag(p.q0), np.array([[p.r0]]))
 
-    def filter(self, zs: np.ndarray, estimator, adapter=None, augmentation=None, **policies):
-        """Filter positions ``(K, ..., n_coord)`` in metres; returns the `FilterResult`
-        whose batch shape is ``(..., n_coord)`` (coordinate last) and state ``(..., 3)``."""
-        zs = np.asarray(zs, dtype=float)
-        mean0 = np.zeros(zs.shape[1:] + (3,))
-        mean0[..., 0] = zs[0]
-        initial = Gaussian(mean0, np.diag(self.params.p0))
-        return filter_sequence(estimator, self.model(), zs[..., None], initial, adapter=adapter,
-                               augmentation=augmentation, **policies)
+    def initial(self, first: np.ndarray) -> Gaussian:
+        """The prior: position at the first measurement ``(..., n_coord)``, variances ``p0``."""
+        mean0 = np.zeros(np.shape(first) + (3,))
+        mean0[..., 0] = first
+        return Gaussian(mean0, np.diag(self.params.p0))
 
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         p = self.params
@@ -361,9 +357,7 @@ class PositionConstantAcceleration(NavFilter):
         z = np.asarray(inputs["position_m"], dtype=float)
         model = self.model(self.dt_s)
         if self.state is None:
-            mean = np.zeros(z.shape + (3,))
-            mean[..., 0] = z
-            self.state = self.filter_step.start(Gaussian(mean, np.diag(self.params.p0)), model, first_step=1)
+            self.state = self.filter_step.start(self.initial(z), model, first_step=1)
             return {"position_m": z}
         self.state = self.filter_step(self.state, z[..., None], model).posterior
         return {"position_m": self.state.mean[..., 0]}

@@ -107,9 +107,9 @@ def test_random_bad_inputs_get_a_library_error_naming_the_input(name, kind, batc
 
 # -- noise adapters, augmentations and FilterStep itself ---------------------------------------
 
-#: Every built-in noise adapter that runs inside a filter (oracle-grid is chosen by a scenario).
+#: Every built-in noise adapter.
 ADAPTERS = sorted(i.name for i in gf.registry.describe() if i.kind == "noise_adapter"
-                  and i.distribution == "gnssframework" and i.name != "oracle-grid")
+                  and i.distribution == "gnssframework")
 
 
 @pytest.mark.parametrize("adapter", ADAPTERS)

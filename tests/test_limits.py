@@ -13,6 +13,7 @@ import gnssframework as gf
 from gnssframework.cli import main
 from gnssframework.experiments import load_config
 from gnssframework.experiments.limits import MEMORY_BUDGET_ENV
+from gnssframework.experiments.scenarios.multipath import OracleGrid
 
 VECTOR = """
 name = "vt"
@@ -88,7 +89,7 @@ nav_filter = "position-ca"
 """
 
 ORACLE = MULTIPATH.replace('name = "ukf"', 'name = "oracle"').replace(
-    'nav_filter = "position-ca"', 'nav_filter = "position-ca"\nnoise_adapter = "oracle-grid"')
+    'nav_filter = "position-ca"', 'nav_filter = "position-ca"\nscenario_options = { oracle = {} }')
 
 SMOOTHING = """
 name = "cs"
@@ -165,8 +166,8 @@ def test_a_batch_above_the_memory_budget_is_refused_with_its_estimate(tmp_path, 
 
 def _oracle_passes(runs: int) -> int:
     """Runs filtered with the default oracle grid: the batch, and every pair over its training runs."""
-    grid = gf.registry.create("noise_adapter", "oracle-grid").params
-    return runs + len(grid.q_scales) * len(grid.r_scales) * (grid.training_runs or runs)
+    grid = OracleGrid()
+    return runs + len(grid.q_scales) * len(grid.r_scales) * grid.training_runs
 
 
 @pytest.mark.parametrize("text, oracle", [(MULTIPATH, False), (ORACLE, True), (SMOOTHING, None)])
@@ -212,16 +213,19 @@ def _peak_bytes(config) -> tuple[int, float]:
 
     scenario = get_scenario(config.scenario)
     case = config.cases[0].params()
-    comps = {k: v.model_dump() for k, v in config.candidates[0].components().items()}
-    scenario.run_batch(case, scenario.build(comps), 1, np.random.default_rng(0))  # compile and cache first
+    cand = config.candidates[0]
+    comps = {k: v.table() for k, v in cand.components().items()}
+    scenario.run_batch(case, scenario.build(comps, cand.scenario_options), 1, np.random.default_rng(0))  # compile first
     tracemalloc.start()
     try:
-        scenario.run_batch(case, scenario.build(comps), config.batch_size, np.random.default_rng(1))
+        scenario.run_batch(case, scenario.build(comps, cand.scenario_options), config.batch_size,
+                           np.random.default_rng(1))
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
     checked = scenario.CaseParams.model_validate(case).model_dump()
-    return peak, scenario.batch_memory(checked, config.batch_size, "cases[0]", [config.candidates[0].components()])[0]
+    return peak, scenario.batch_memory(checked, config.batch_size, "cases[0]",
+                                       [{**cand.components(), "scenario_options": cand.scenario_options}])[0]
 
 
 @pytest.mark.parametrize("kind, change", [

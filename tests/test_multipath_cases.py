@@ -6,15 +6,17 @@ import pytest
 import gnssframework as gf
 from gnssframework.experiments import get_scenario
 from gnssframework.experiments.config import ComparisonConfig
+from gnssframework.plugin_ref import PluginSpec
 from gnssframework.experiments.scenarios.multipath import convergence_epoch
 from gnssframework.random_streams import as_run_streams
 
 BASE = {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": {"name": "kf", "params": {}}}
+BASE_REFS = {k: PluginSpec(k, v["name"], v["params"]) for k, v in BASE.items()}
 
 
-def _run(components, case, runs=4, seed=2, epochs=120):
+def _run(components, case, runs=4, seed=2, epochs=120, options=None):
     scen = get_scenario({"kind": "multipath", "epochs": epochs})
-    return scen.run_batch(case, scen.build(components), runs, np.random.default_rng(seed))
+    return scen.run_batch(case, scen.build(components, options), runs, np.random.default_rng(seed))
 
 
 def test_convergence_epoch_against_a_hand_built_sequence():
@@ -49,13 +51,32 @@ def test_colored_ar1_without_psi_takes_the_case_psi():
 def test_oracle_with_a_one_point_grid_is_the_plain_filter_and_a_full_grid_beats_it():
     colored = {**BASE, "augmentation": {"name": "colored-ar1", "params": {}}}
     plain = _run(colored, {"psi": 0.5}).metrics["horizontal_error_rmse"]
-    one = _run({**colored, "noise_adapter": {"name": "oracle-grid", "params": {"q_scales": [1.0], "r_scales": [1.0]}}},
-               {"psi": 0.5}).metrics["horizontal_error_rmse"]
-    np.testing.assert_array_equal(one, plain)  # same measurements (common random numbers), same filter
-    full = _run({**colored, "noise_adapter": {"name": "oracle-grid"}}, {"psi": 0.5}).metrics["horizontal_error_rmse"]
+    one = _run(colored, {"psi": 0.5}, options={"oracle": {"q_scales": [1.0], "r_scales": [1.0]}})
+    np.testing.assert_array_equal(one.metrics["horizontal_error_rmse"], plain)  # same measurements, same filter
+    full = _run(colored, {"psi": 0.5}, options={"oracle": {}}).metrics["horizontal_error_rmse"]
     assert np.mean(full) < 0.8 * np.mean(plain)
-    with pytest.raises(gf.ConfigError, match="oracle-grid"):
-        gf.registry.create("noise_adapter", "oracle-grid").start(np.eye(1), np.eye(1))
+
+
+def test_the_oracle_is_a_scenario_option_checked_with_the_candidate():
+    scen = get_scenario({"kind": "multipath", "epochs": 120})
+    with pytest.raises(gf.ConfigError, match=r"^candidates\[2\]\.scenario_options\.oracle\.q_scales"):
+        scen.check_candidate(BASE_REFS, "candidates[2]", {"oracle": {"q_scales": []}})
+    with pytest.raises(gf.ConfigError, match=r"^candidates\[0\]\.scenario_options\.oracle: the oracle scores a filter"):
+        scen.check_candidate({}, "candidates[0]", {"oracle": {}})
+    with pytest.raises(gf.ConfigError, match=r"^candidates\[0\]\.scenario_options\.grid"):
+        scen.check_candidate(BASE_REFS, "candidates[0]", {"grid": {}})
+    other = get_scenario({"kind": "carrier-smoothing"})  # a scenario without options takes none
+    with pytest.raises(gf.ConfigError, match=r"^candidates\[0\]\.scenario_options\.oracle"):
+        other.candidate_options({"oracle": {}}, "candidates[0]")
+    assert "oracle-grid" not in gf.registry.names("noise_adapter")  # not a plugin any more
+
+
+def test_a_nav_filter_that_cannot_filter_a_sequence_is_refused_naming_the_ones_that_can():
+    scen = get_scenario({"kind": "multipath", "epochs": 120})
+    refs = {**BASE_REFS, "nav_filter": PluginSpec("nav_filter", "ekf-pv")}
+    with pytest.raises(gf.ConfigError, match=r"candidates\[1\]\.nav_filter\.name: 'ekf-pv' cannot filter a "
+                                             r"position sequence .*that can: position-ca"):
+        scen.check_candidate(refs, "candidates[1]")
 
 
 def test_a_filtering_candidate_needs_both_nav_filter_and_estimator():
@@ -117,7 +138,7 @@ def test_the_batched_oracle_grid_chooses_what_the_loop_over_pairs_chooses():
     scen = get_scenario({"kind": "multipath", "epochs": 150})
     colored = {**BASE, "augmentation": {"name": "colored-ar1", "params": {"psi": 0.8}}}
     grid = {"q_scales": [1e-6, 1e-2, 1.0], "r_scales": [0.3, 3.0, 30.0], "training_runs": 3}
-    plugins = scen.build({**colored, "noise_adapter": {"name": "oracle-grid", "params": grid}})
+    plugins = scen.build(colored, {"oracle": grid})
     streams = as_run_streams(7, 5)
     chosen = scen._oracle(plugins, 0.8, streams)
     train = scen.simulate(3, streams.shared("oracle-training"), 0.8)  # the same training draw

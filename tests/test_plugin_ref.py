@@ -91,7 +91,9 @@ def test_a_linear_only_estimator_is_refused_where_the_model_is_nonlinear():
 def test_a_candidate_component_may_be_a_bare_name_like_a_nested_reference(tmp_path):
     bare = _load(tmp_path, 'channel_filter = { name = "discriminator" }', 'channel_filter = "discriminator"')
     table = load_config(_write(tmp_path, TINY, "table.toml"))
-    assert bare.candidates[0].channel_filter.model_dump() == {"name": "discriminator", "params": {}}
+    # One reference type: a candidate's plugin is a PluginSpec, as a nested reference is.
+    assert bare.candidates[0].channel_filter == PluginSpec("channel_filter", "discriminator", {})
+    assert bare.model_dump()["candidates"][0]["channel_filter"] == {"name": "discriminator", "params": {}}
     assert bare.identity() == table.identity()  # the same comparison, the same stored results
     with pytest.raises(gf.ConfigError) as err:
         _load(tmp_path, 'channel_filter = { name = "discriminator" }', 'channel_filter = "discriminatr"')

@@ -47,7 +47,7 @@ def plugin_section(info) -> str:
 
 def on_page_markdown(markdown: str, page, config, files) -> str:
     if NESTED_MARKER in markdown:
-        markdown = markdown.replace(NESTED_MARKER, nested_plugins_table())
+        markdown = markdown.replace(NESTED_MARKER, nested_plugins_table(registry.describe()))
     plugins = _plugins_by_path()
     lines = markdown.split("\n")
     out: list[str] = []

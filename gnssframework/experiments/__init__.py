@@ -1,6 +1,6 @@
 """Config-driven Monte Carlo comparisons (``gnssframework compare FILE``)."""
 
-from .config import Candidate, Case, ComparisonConfig, Executor, PluginRef, load_config
+from .config import Candidate, Case, ComparisonConfig, Executor, load_config
 from .runner import plan, run_comparison
 from .scenarios import SCENARIOS, BatchResult, Scenario, get_scenario, register_scenario
 from .scenarios import hooks as _core_scenarios  # noqa: F401 - imports (registers) the core's scenario kinds
@@ -11,7 +11,6 @@ __all__ = [
     "Case",
     "ComparisonConfig",
     "Executor",
-    "PluginRef",
     "SCENARIOS",
     "Scenario",
     "get_scenario",

@@ -20,11 +20,12 @@ from ..errors import ConfigError, DataFileError
 from ..hookspecs import COMPONENT_KINDS
 from ..io.text import read_input_text
 from ..plugin import validation_message
+from ..plugin_ref import ComponentRef, PluginSpec
 from .claims import Claim, check_claims
 from .sweeps import Sweep, check_unique_labels, expand_sweep
 from .tuning import Tuning, check_tuning
 
-__all__ = ["PluginRef", "Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "Claim", "load_config"]
+__all__ = ["Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "Claim", "load_config"]
 
 
 #: Most Monte Carlo runs of a comparison (each case and candidate): a million runs of the
@@ -36,31 +37,25 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-class PluginRef(_Strict):
-    """One plugin of a candidate: its registry name and parameters; a bare name stands
-    for ``{ name = "...", params = {} }``, as in nested plugin references."""
-
-    name: str = Field(..., description="registered name, e.g. 'iq-filter'")
-    params: dict[str, Any] = Field(default_factory=dict, description="parameters of the plugin's model")
-
-    @model_validator(mode="before")
-    @classmethod
-    def _bare_name(cls, value: Any) -> Any:
-        return {"name": value} if isinstance(value, str) else value
+_REF = "the {kind} plugin: its name, or {{ name, params }}"
 
 
 class Candidate(_Strict):
     """A named composition of plugins, one per kind the scenario uses."""
 
     name: str = Field(..., pattern=r"^[A-Za-z0-9_.+-]+$")
-    estimator: PluginRef | None = None
-    noise_adapter: PluginRef | None = None
-    augmentation: PluginRef | None = None
-    discriminator: PluginRef | None = None
-    channel_filter: PluginRef | None = None
-    nav_filter: PluginRef | None = None
+    estimator: ComponentRef("estimator") | None = Field(None, description=_REF.format(kind="estimator"))
+    noise_adapter: ComponentRef("noise_adapter") | None = Field(None, description=_REF.format(kind="noise_adapter"))
+    augmentation: ComponentRef("augmentation") | None = Field(None, description=_REF.format(kind="augmentation"))
+    discriminator: ComponentRef("discriminator") | None = Field(None, description=_REF.format(kind="discriminator"))
+    channel_filter: ComponentRef("channel_filter") | None = Field(None, description=_REF.format(kind="channel_filter"))
+    nav_filter: ComponentRef("nav_filter") | None = Field(None, description=_REF.format(kind="nav_filter"))
+    scenario_options: dict[str, Any] = Field(
+        default_factory=dict, description="options the scenario applies to this candidate, not plugins (see the "
+        "scenario's page; e.g. multipath's oracle)")
 
-    def components(self) -> dict[str, PluginRef]:
+    def components(self) -> dict[str, PluginSpec]:
+        """The candidate's plugins by kind (`gnssframework.plugin_ref.PluginSpec`)."""
         return {k: getattr(self, k) for k in COMPONENT_KINDS if getattr(self, k) is not None}
 
 
@@ -127,6 +122,7 @@ class ComparisonConfig(_Strict):
         from .scenarios import get_scenario
 
         scenario = get_scenario(self.scenario)  # raises ConfigError naming scenario.kind / field
+        self._scenario = scenario  # resolved once: every later use reads this instance
         from .metrics import check_metric
 
         for i, metric in enumerate(self.metrics):  # the scenario's own or a metric component's
@@ -134,9 +130,9 @@ class ComparisonConfig(_Strict):
         for i, case in enumerate(self.cases):
             scenario.check_case(case.params(), f"cases[{i}]")
             scenario.check_memory(case.params(), min(self.batch_size, self.runs), f"cases[{i}]",
-                                  [c.components() for c in self.candidates])
+                                  [{**c.components(), "scenario_options": c.scenario_options} for c in self.candidates])
         for i, cand in enumerate(self.candidates):
-            scenario.check_candidate(cand.components(), f"candidates[{i}]")
+            scenario.check_candidate(cand.components(), f"candidates[{i}]", cand.scenario_options)
             scenario.check_contexts(cand.components(), [c.params() for c in self.cases], f"candidates[{i}]")
         case_names = {c.name for c in self.cases}
         cand_names = {c.name for c in self.candidates}
@@ -163,6 +159,17 @@ class ComparisonConfig(_Strict):
         return self
 
     _points: dict[int, list] = PrivateAttr(default_factory=dict)
+    _scenario: Any = PrivateAttr(None)
+
+    @property
+    def resolved_scenario(self) -> Any:
+        """The scenario instance (`gnssframework.experiments.scenarios.Scenario`) the config
+        was validated with."""
+        if self._scenario is None:  # a config made without validation (model_construct)
+            from .scenarios import get_scenario
+
+            self._scenario = get_scenario(self.scenario)
+        return self._scenario
 
     def sweep_points(self, index: int) -> list[tuple[Any, "ComparisonConfig"]]:
         """``(value, config)`` of every point of ``sweeps[index]`` (see ``sweeps.expand_sweep``)."""
@@ -177,24 +184,18 @@ class ComparisonConfig(_Strict):
 
     @property
     def metric_names(self) -> list[str]:
-        from .scenarios import get_scenario
-
-        return self.metrics or list(get_scenario(self.scenario).metrics)
+        return self.metrics or list(self.resolved_scenario.metrics)
 
     @property
     def metric_units(self) -> dict[str, str]:
         """Unit of every reported metric (the scenario's or the metric component's)."""
         from .metrics import check_metric
-        from .scenarios import get_scenario
 
-        scenario = get_scenario(self.scenario)
-        return {m: check_metric(m, scenario, "metrics") for m in self.metric_names}
+        return {m: check_metric(m, self.resolved_scenario, "metrics") for m in self.metric_names}
 
     def component_metrics(self) -> list[str]:
         """The reported metrics computed by metric components (not by the scenario itself)."""
-        from .scenarios import get_scenario
-
-        own = get_scenario(self.scenario).metrics
+        own = self.resolved_scenario.metrics
         return [m for m in self.metric_names if m not in own]
 
     def identity(self) -> str:
@@ -204,6 +205,9 @@ class ComparisonConfig(_Strict):
         """
         data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
                                         "reference", "sweeps", "claims"})
+        for cand in data["candidates"]:  # a candidate without options keeps its old key
+            if not cand["scenario_options"]:
+                del cand["scenario_options"]
         extra = self.component_metrics()
         if extra:  # the stored rows must hold them; a config without components keeps its old key
             data["metric_components"] = sorted(extra)

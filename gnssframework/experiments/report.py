@@ -9,7 +9,6 @@ import numpy as np
 from .claims import claim_line, evaluate_claims
 from .config import ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text, write_json
-from .scenarios import get_scenario
 from .stats import SIGNIFICANCE_RULE, paired_rows
 from .store import ResultStore
 from .sweeps import write_sweeps
@@ -26,7 +25,7 @@ def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
     ``undefined_reasons[metric]`` when it gives one.
     """
     units = config.metric_units
-    scenario = get_scenario(config.scenario)
+    scenario = config.resolved_scenario
     key = config.identity()
     rows = []
     for case in config.cases:
@@ -123,8 +122,8 @@ def _median_series(out: Path, config: ComparisonConfig, case: str, cand: str
     """Per metric, the median over runs at up to ``PLOT_EPOCHS`` evenly spaced epochs, read
     from the batches of this comparison's plan only, one series at a time (memory bounded
     whatever the number of runs)."""
-    from .runner import series_file
     from .store import plan_batches
+    from .tasks import series_file
 
     files = [series_file(out, case, cand, first, n) for first, n in plan_batches(config.runs, config.batch_size)]
     files = [f for f in files if f.exists()]
@@ -165,7 +164,7 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
     for case in config.cases:
         # Time series: the median over runs of each metric's per-epoch error.
         fig, axes = plt.subplots(len(metrics), 1, figsize=(7, 2.0 * len(metrics)), sharex=True, squeeze=False)
-        bounds = getattr(get_scenario(config.scenario), "bounds", {})
+        bounds = getattr(config.resolved_scenario, "bounds", {})
         for cand in config.candidates:
             time_s, series = _median_series(out, config, case.name, cand.name)
             for ax, metric in zip(axes[:, 0], metrics):
@@ -208,12 +207,12 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
 def assumption_rows(config: ComparisonConfig) -> list[dict]:
     """Per case and candidate, what each plugin assumes (``SequentialFilter.assumptions``):
     ``{"case", "candidate", "component", "label", "value", "unit"}``."""
-    scenario = get_scenario(config.scenario)
+    scenario = config.resolved_scenario
     rows = []
     for case in config.cases:
         context = scenario.assumption_context({"name": case.name, **case.params()})
         for cand in config.candidates:
-            plugins = scenario.build({k: v.model_dump() for k, v in cand.components().items()})
+            plugins = scenario.build({k: v.table() for k, v in cand.components().items()}, cand.scenario_options)
             for kind, plugin in plugins.items():
                 declared = getattr(plugin, "assumptions", None)
                 for label, (value, unit) in (declared(context) if declared else {}).items():

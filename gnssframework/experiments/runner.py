@@ -26,93 +26,53 @@ import pickle
 import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Callable, Iterable
 
 import numpy as np
 
 from ..errors import ConfigError, GnssFrameworkError, RunFailure, WorkerError
-from ..random_streams import RunStreams, name_key, run_streams
 from .config import ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text
 from .folder import claim_folder
-from .scenarios import get_scenario
-from .store import ResultStore, plan_batches
-from .tuning import TUNING_PURPOSE
+from .metrics import metric_plugin
+from .run_plan import RunPlan, resolve, task_streams
+from .tasks import Task, plan, series_file
 
 __all__ = ["Task", "plan", "task_streams", "run_task", "run_comparison", "series_file"]
 
 
-@dataclass(frozen=True)
-class Task:
-    """One batch of runs (``first_run`` .. ``first_run + runs - 1``) of one case and
-    candidate, of the comparison or of a sweep point (``point``, its label)."""
-
-    case_index: int
-    candidate_index: int
-    first_run: int
-    runs: int
-    point: str | None = None
-
-    @property
-    def run_range(self) -> str:
-        last = self.first_run + self.runs - 1
-        return f"run {self.first_run}" if self.runs == 1 else f"runs {self.first_run}-{last}"
-
-
-def plan(config: ComparisonConfig, point: str | None = None) -> list[Task]:
-    """Every (case, candidate, batch) of the comparison, batch-major for early partial results."""
-    return [Task(i, j, first, n, point) for first, n in plan_batches(config.runs, config.batch_size)
-            for i in range(len(config.cases)) for j in range(len(config.candidates))]
-
-
-def task_streams(config: ComparisonConfig, task: Task) -> RunStreams:
-    """The random streams of a task's runs (see the module docstring): they depend on the
-    seed, the case's name and the run indices, never on the batch or the candidate."""
-    case = config.cases[task.case_index].name
-    runs = range(task.first_run, task.first_run + task.runs)
-    if config.random_stream == "tuning":  # disjoint from the evaluation's: a child of every run's seed
-        return RunStreams((config.seed, *name_key(case)), runs, TUNING_PURPOSE)
-    return run_streams(config.seed, name_key(case), runs)
-
-
-def run_task(config_data: dict[str, Any], task: Task) -> tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray],
-                                                                np.ndarray | None]:
-    """Execute one task in any process: rebuilds the scenario and the candidate's plugins.
+def run_task(plan: RunPlan, task: Task) -> tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray],
+                                                 np.ndarray | None]:
+    """Execute one task in any process: builds the task's candidate from the resolved plan.
 
     A library error raised while simulating is re-raised as a
     :class:`~gnssframework.errors.RunFailure` naming the candidate, case, runs and sweep point.
     """
-    config = ComparisonConfig.model_validate(config_data)
     try:
-        return _simulate(config, task)
+        return _simulate(plan, task)
     except RunFailure:
         raise
     except GnssFrameworkError as exc:
-        raise RunFailure(_where(config_data, task), str(exc), type(exc).__name__) from None
+        raise RunFailure(plan.where(task), str(exc), type(exc).__name__) from None
     except MemoryError as exc:
-        raise RunFailure(_where(config_data, task), f"out of memory ({exc or 'MemoryError'}); use a smaller "
+        raise RunFailure(plan.where(task), f"out of memory ({exc or 'MemoryError'}); use a smaller "
                          "batch_size or a shorter case", "MemoryError") from None
 
 
-def _simulate(config: ComparisonConfig, task: Task) -> tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray],
-                                                             np.ndarray | None]:
-    scenario = get_scenario(config.scenario)
-    case = config.cases[task.case_index]
-    candidate = config.candidates[task.candidate_index]
-    plugins = scenario.build({k: v.model_dump() for k, v in candidate.components().items()})
-    result = scenario.run_batch({"name": case.name, **case.params()}, plugins, task.runs, task_streams(config, task))
-    missing = [m for m in config.metric_names if m in scenario.metrics and m not in result.metrics]
+def _simulate(plan: RunPlan, task: Task) -> tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray],
+                                                  np.ndarray | None]:
+    scenario = plan.scenario
+    plugins = plan.build(task.candidate_index)
+    result = scenario.run_batch(plan.cases[task.case_index].as_case(), plugins, task.runs, task_streams(plan, task))
+    missing = [m for m in plan.metrics if m in scenario.metrics and m not in result.metrics]
     wrong = [f"{m} {np.shape(v)}" for m, v in result.metrics.items() if np.shape(v) != (task.runs,)]
     if missing or wrong:  # a scenario's declared metrics and its run_batch must agree
         raise GnssFrameworkError(f"scenario {scenario.kind!r}: run_batch " + "; ".join(
             ([f"did not return the declared metrics {', '.join(missing)}"] if missing else [])
             + ([f"returned metrics not of shape ({task.runs},): {', '.join(wrong)}"] if wrong else [])))
     metrics, series = dict(result.metrics), dict(result.series)
-    for name in config.component_metrics():  # metric components: computed once, here
-        from .metrics import metric_plugin
-
+    for name in plan.component_metrics:  # metric components: computed once, here
         value = metric_plugin(name)().compute(result.series, result.time_s, scenario)
         metrics[name] = np.asarray(value.value, dtype=float)
         if metrics[name].shape != (task.runs,):
@@ -123,34 +83,19 @@ def _simulate(config: ComparisonConfig, task: Task) -> tuple[Task, dict[str, np.
     return task, metrics, series, result.time_s
 
 
-def _where(config_data: dict[str, Any], task: Task) -> str:
-    try:
-        case = config_data["cases"][task.case_index]["name"]
-        cand = config_data["candidates"][task.candidate_index]["name"]
-    except (KeyError, IndexError, TypeError):
-        case, cand = task.case_index, task.candidate_index
-    point = f", sweep point {task.point}" if task.point else ""
-    return f"candidate {cand!r}, case {case!r}, {task.run_range}{point}"
-
-
-def run_task_in_worker(config_data: dict[str, Any], task: Task) -> tuple:
+def run_task_in_worker(plan: RunPlan, task: Task) -> tuple:
     """``run_task`` for a worker process: an exception that would not survive the trip
     back to the parent (unpicklable, or not rebuildable from its pickle) is replaced by a
     ``WorkerError`` carrying its type, message and traceback as text."""
     try:
-        return run_task(config_data, task)
+        return run_task(plan, task)
     except Exception as exc:  # noqa: BLE001 - re-raised, as is or as text
         try:
             pickle.loads(pickle.dumps(exc))
         except Exception:  # noqa: BLE001 - any failure to round-trip means: send text
-            raise WorkerError(_where(config_data, task), f"{type(exc).__name__}: {exc}",
+            raise WorkerError(plan.where(task), f"{type(exc).__name__}: {exc}",
                               traceback.format_exc()) from None
         raise
-
-
-def series_file(out: Path, case: str, candidate: str, first_run: int, runs: int) -> Path:
-    """The ``.npz`` of a batch's time series: ``raw/<case>/<candidate>/run<first>-<last>.npz``."""
-    return out / "raw" / case / candidate / f"run{first_run:06d}-{first_run + runs - 1:06d}.npz"
 
 
 def _save_series(out: Path, config: ComparisonConfig, task: Task, series: dict[str, np.ndarray],
@@ -163,8 +108,8 @@ def _save_series(out: Path, config: ComparisonConfig, task: Task, series: dict[s
                             **series)
 
 
-def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tuple[int, tuple]]:
-    """Run ``(config data, task)`` jobs; yields ``(job index, run_task's result)`` as they finish."""
+def _execute(jobs: list[tuple[RunPlan, Task]], executor) -> Iterable[tuple[int, tuple]]:
+    """Run ``(plan, task)`` jobs; yields ``(job index, run_task's result)`` as they finish."""
     if not jobs:  # everything already in the store
         return
     ex = executor
@@ -214,7 +159,7 @@ def _execute(jobs: list[tuple[dict[str, Any], Task]], executor) -> Iterable[tupl
                 # A worker died without raising (killed, out of memory, a crash in
                 # compiled code): say which batch and how to see the real failure.
                 raise RunFailure(
-                    _where(jobs[i][0], jobs[i][1]), f"a worker process died ({exc}); "
+                    jobs[i][0].where(jobs[i][1]), f"a worker process died ({exc}); "
                     "run with executor.workers = 1 to see the failure in this process", "BrokenProcessPool") from None
             yield i, result
         finished = True
@@ -274,14 +219,14 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
             key = point.identity()
             store.register(key, point.batch_size)
             done = store.finished_batches(key)
-            data = point.model_dump(mode="json", exclude={"sweeps"})  # workers need no sweep expansion
+            resolved = resolve(point)  # once per point: the workers get it, nothing to re-validate
             for t in plan(point, label):
                 ident = (key, point.cases[t.case_index].name, point.candidates[t.candidate_index].name, t.first_run,
                          t.runs)
                 if ident[1:] in done or ident in seen:
                     continue
                 seen.add(ident)
-                jobs.append((data, t))
+                jobs.append((resolved, t))
                 where.append((label, point, key))
         bar = None
         if progress and jobs:

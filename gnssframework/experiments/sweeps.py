@@ -106,12 +106,11 @@ def _resolve(config, sweep: Sweep, where: str) -> list[tuple[Any, ...]]:
     """The locations in the config's data the path names, as key tuples; refuses a path
     that names no parameter (listing the allowed ones)."""
     from .. import registry
-    from .scenarios import get_scenario
 
     parts = sweep.path.split(".")
     head, rest = parts[0], parts[1:]
     field = f"{where}.path"
-    scenario = get_scenario(config.scenario)
+    scenario = config.resolved_scenario
     if head == "scenario":
         allowed = _model_fields(type(scenario).Params)
         if len(rest) != 1 or rest[0] not in allowed:
@@ -176,8 +175,7 @@ def expand_sweep(config, index: int) -> list[tuple[Any, Any]]:
     """The points of ``config.sweeps[index]``: ``(value, ComparisonConfig)`` pairs, each the
     config with that value set and no sweeps, validated (a bad value raises a
     ``ConfigError`` naming ``sweeps[index].values[j]``, the path and the field's rule)."""
-    from .config import ComparisonConfig
-
+    model = type(config)  # the config's own class: this module sits below experiments.config
     sweep = config.sweeps[index]
     where = f"sweeps[{index}]"
     names = [c.name for c in config.cases]
@@ -196,7 +194,7 @@ def expand_sweep(config, index: int) -> list[tuple[Any, Any]]:
             data["cases"] = [c for c in data["cases"] if c["name"] in sweep.cases]
             data["published"] = {k: v for k, v in data.get("published", {}).items() if k in sweep.cases}
         try:
-            point = ComparisonConfig.model_validate(data)
+            point = model.model_validate(data)
         except ConfigError as exc:
             raise ConfigError(f"{where}.values[{j}]", f"{sweep.path} = {value!r}: {exc}") from None
         except Exception as exc:  # pydantic's ValidationError, made one line by the config loader
@@ -206,7 +204,7 @@ def expand_sweep(config, index: int) -> list[tuple[Any, Any]]:
 
             if isinstance(exc, ValidationError):
                 raise ConfigError(f"{where}.values[{j}]",
-                                  f"{sweep.path} = {value!r}: {validation_message(exc, model=ComparisonConfig)}") \
+                                  f"{sweep.path} = {value!r}: {validation_message(exc, model=model)}") \
                     from None
             raise
         out.append((value, point))

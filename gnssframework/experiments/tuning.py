@@ -56,11 +56,11 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..errors import ConfigError, GnssFrameworkError, RunFailure
 from ..random_streams import name_key
+from .run_plan import TUNING_PURPOSE, resolve
+from .tasks import plan
 
 __all__ = ["Tuning", "FreeParameter", "TUNING_PURPOSE", "tuned_config", "tuning_points"]
 
-#: Spawn key of the tuning streams (``RunStreams(..., purpose=TUNING_PURPOSE)``).
-TUNING_PURPOSE = name_key("tuning")
 
 
 class FreeParameter(BaseModel):
@@ -208,8 +208,6 @@ def _lookup(cand_data: dict, keys: tuple) -> Any:
 def trial_config(config, candidate: str, values: list[Any]):
     """The comparison one trial runs: the candidate alone at ``values``, the tuning's runs,
     cases and streams, no sweeps or claims."""
-    from .config import ComparisonConfig
-
     tuning = config.tuning
     params = resolve_free(config)[candidate]
     base = config.model_dump(mode="json", exclude={"sweeps", "claims", "tuning", "published"}, exclude_none=True)
@@ -219,7 +217,7 @@ def trial_config(config, candidate: str, values: list[Any]):
                 random_stream="tuning", metrics=[tuning.metric], name=f"{config.name}-tune-{candidate}")
     if tuning.cases:
         data["cases"] = [c for c in data["cases"] if c["name"] in tuning.cases]
-    return ComparisonConfig.model_validate(data)
+    return type(config).model_validate(data)  # this module sits below experiments.config
 
 
 def check_tuning(config) -> None:
@@ -288,13 +286,11 @@ def _objective(config, store, trial) -> float:
 
 def _run_trial(config, store, trial, execute) -> float:
     """Run (or reuse) a trial's batches; ``inf`` if its filter fails."""
-    from .runner import plan
-
     key = trial.identity()
     store.register(key, trial.batch_size)
     done = store.finished_batches(key)
-    data = trial.model_dump(mode="json", exclude={"sweeps"})
-    jobs = [(data, t) for t in plan(trial, f"tuning trial of {trial.candidates[0].name}")
+    resolved = resolve(trial)
+    jobs = [(resolved, t) for t in plan(trial, f"tuning trial of {trial.candidates[0].name}")
             if (trial.cases[t.case_index].name, trial.candidates[t.candidate_index].name, t.first_run, t.runs)
             not in done]
     try:
@@ -393,14 +389,12 @@ def _get(config, cand: str, keys: tuple) -> Any:
 def tuned_config(config, results: dict[str, dict]):
     """The comparison to evaluate: every tuned candidate at its best values (evaluation
     streams, the config's runs), the others as given; no ``[tuning]``."""
-    from .config import ComparisonConfig
-
     data = config.model_dump(mode="json", exclude={"tuning"}, exclude_none=True)
     resolved = resolve_free(config)
     names = [c["name"] for c in data["candidates"]]
     for cand, res in results.items():
         data = _with_values(data, names.index(cand), resolved[cand], [res["best"][lb] for lb in res["labels"]])
-    return ComparisonConfig.model_validate(data)
+    return type(config).model_validate(data)
 
 
 def tuning_points(results: dict[str, dict]) -> list[dict]:

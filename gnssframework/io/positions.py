@@ -4,22 +4,40 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pymap3d
 
 from .. import registry
+from ..errors import ConfigError
+from ..interfaces import BatchPositionFilter
 from .nmea import NmeaFixes
 
 __all__ = ["CANDIDATES", "filter_positions", "write_positions_csv"]
 
-#: The four filters of Liu et al. (2020), as plugin compositions around ``position-ca``.
+#: The paper's engine: the unscented Kalman filter with alpha 0.01, beta 2, kappa 0.
+_UKF = {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}}
+#: The improved Sage-Husa adapter of the adaptive filters.
+_SAGE_HUSA = {"name": "sage-husa", "params": {"variant": "improved", "alpha_r": 0.5, "alpha_q": 0.5}}
+#: The colored-noise augmentation; its ``psi`` is the command's ``--psi``.
+_COLORED = {"name": "colored-ar1", "params": {}}
+
+#: The four filters of Liu et al. (2020), as plugin compositions (kind -> ``{name, params}``)
+#: around a `~gnssframework.interfaces.BatchPositionFilter`; ``filter_positions`` sets the
+#: nav filter's ``dt_s`` and the augmentation's ``psi``.
 CANDIDATES = {
-    "UKF": {},
-    "UKF1": {"colored": True},
-    "AUKF": {"adaptive": True},
-    "AUKF1": {"colored": True, "adaptive": True},
+    "UKF": {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": _UKF},
+    "UKF1": {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": _UKF, "augmentation": _COLORED},
+    "AUKF": {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": _UKF, "noise_adapter": _SAGE_HUSA},
+    "AUKF1": {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": _UKF, "augmentation": _COLORED,
+              "noise_adapter": _SAGE_HUSA},
 }
+
+
+def _create(ref: dict | None, kind: str, **given: Any) -> Any:
+    """The plugin of a composition's ``{name, params}`` (``None`` for none), with ``given`` parameters."""
+    return None if ref is None else registry.create(kind, ref["name"], **{**ref["params"], **given})
 
 
 def filter_positions(fixes: NmeaFixes, candidate: str = "AUKF1", psi: float = 0.95
@@ -27,9 +45,9 @@ def filter_positions(fixes: NmeaFixes, candidate: str = "AUKF1", psi: float = 0.
     """Filter the horizontal track of ``fixes`` with a reference-004 candidate.
 
     Positions are converted to local east/north metres about the mean fix (pymap3d),
-    filtered per coordinate with ``position-ca`` + ``ukf`` (alpha 0.01, beta 2, kappa 0),
-    optionally ``colored-ar1`` (``psi``) and the improved ``sage-husa``, and converted
-    back. With ``colored-ar1`` the last epoch has no estimate (it needs the next
+    filtered per coordinate with the composition ``CANDIDATES[candidate]``
+    (``position-ca`` + ``ukf`` with alpha 0.01, beta 2, kappa 0, optionally ``colored-ar1``
+    with ``psi`` and the improved ``sage-husa``), and converted back. With ``colored-ar1`` the last epoch has no estimate (it needs the next
     measurement) and keeps its raw value.
 
     Returns
@@ -37,20 +55,20 @@ def filter_positions(fixes: NmeaFixes, candidate: str = "AUKF1", psi: float = 0.
     tuple
         ``(lat_deg, lon_deg, north_m, east_m)`` of the filtered track, one per fix.
     """
-    opts = CANDIDATES[candidate]
+    composition = CANDIDATES[candidate]
     lat0, lon0 = float(np.mean(fixes.lat_deg)), float(np.mean(fixes.lon_deg))
     h = np.where(np.isfinite(fixes.height_m), fixes.height_m, 0.0)
     e, n, _ = pymap3d.geodetic2enu(fixes.lat_deg, fixes.lon_deg, h, lat0, lon0, 0.0)
     zs = np.stack([n, e], axis=-1)
     dt = float(np.median(np.diff(fixes.time_s))) if fixes.time_s.size > 1 else 1.0
-    nav = registry.create("nav_filter", "position-ca", dt_s=dt)
-    est = registry.create("estimator", "ukf", alpha=0.01, beta=2.0, kappa=0.0)
-    aug = registry.create("augmentation", "colored-ar1", psi=psi) if opts.get("colored") else None
-    ada = registry.create("noise_adapter", "sage-husa", variant="improved", alpha_r=0.5, alpha_q=0.5) \
-        if opts.get("adaptive") else None
-    res = nav.filter(zs, est, adapter=ada, augmentation=aug)
+    nav = _create(composition["nav_filter"], "nav_filter", dt_s=dt)
+    if not isinstance(nav, BatchPositionFilter):
+        raise ConfigError("nav_filter", f"{nav.name!r} cannot filter a position sequence (not a BatchPositionFilter)")
+    res = nav.filter(zs, _create(composition["estimator"], "estimator"),
+                     adapter=_create(composition.get("noise_adapter"), "noise_adapter"),
+                     augmentation=_create(composition.get("augmentation"), "augmentation", psi=psi))
     out = zs.copy()
-    out[res.epochs] = res.mean[..., 0]
+    out[res.epochs] = res.mean[..., nav.position_index]
     lat, lon, _ = pymap3d.enu2geodetic(out[:, 1], out[:, 0], 0.0, lat0, lon0, 0.0)
     return np.asarray(lat), np.asarray(lon), out[:, 0], out[:, 1]
 

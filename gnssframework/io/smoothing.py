@@ -17,7 +17,16 @@ from .. import names
 from ..interfaces import ChannelFilter, RunContext
 from .observations import Observations, arc_starts
 
-__all__ = ["SmoothedObservations", "smooth_observations", "default_max_gap_s", "MAX_CMC_RATE_MPS"]
+__all__ = ["SmoothedObservations", "smooth_observations", "default_max_gap_s", "MAX_CMC_RATE_MPS", "SMOOTHERS"]
+
+#: The ``smooth`` command's ``--filter`` choices: a channel filter and its fixed parameters;
+#: the command adds its ``--window`` or ``--q`` and ``--r``, whichever the filter takes.
+SMOOTHERS = {
+    "hatch": {"name": "hatch", "params": {}},
+    "kf": {"name": "kf-smoother", "params": {}},
+    "adaptive-kf": {"name": "kf-smoother", "params": {"adapter": "ml-q", "adapter_params": {
+        "window": 10, "warmup": 20, "q_ceiling": 1e4}}},
+}
 
 #: Fastest plausible drift of code minus carrier (m/s), its least-squares slope over an
 #: arc. Physically it is twice the ionospheric delay's rate: below 0.1 m/s even in strong

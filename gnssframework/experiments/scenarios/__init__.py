@@ -36,6 +36,10 @@ class ScenarioParams(BaseModel):
         return refuse_quiet_conversions(cls, data)
 
 
+class NoCandidateOptions(ScenarioParams):
+    """A scenario without candidate options: ``scenario_options`` must stay empty."""
+
+
 class Scenario(abc.ABC):
     """Base class of scenario kinds."""
 
@@ -49,6 +53,9 @@ class Scenario(abc.ABC):
     #: further per-epoch series of ``BatchResult.series`` (name -> unit) that metric
     #: components (``gnssframework.experiments.metrics``) may read, beside the metrics' own.
     outputs: ClassVar[dict[str, str]] = {}
+    #: What a candidate's ``scenario_options`` may set: options of the scenario that apply to
+    #: one candidate and are not plugins (``multipath``'s oracle). Default: none.
+    CandidateOptions: ClassVar[type[ScenarioParams]] = NoCandidateOptions
 
     def __init__(self, params: ScenarioParams) -> None:
         self.params = params
@@ -63,7 +70,7 @@ class Scenario(abc.ABC):
                      candidates: list[dict[str, Any]] = ()) -> tuple[float, str, str] | None:
         """Estimated peak memory of one batch of ``runs`` runs of ``case`` (validated case
         parameters) for the most demanding of ``candidates`` (their plugin references by
-        kind), for `check_memory`: ``(bytes, field path, the batch's size in words)``, or
+        kind, and their ``scenario_options`` dict), for `check_memory`: ``(bytes, field path, the batch's size in words)``, or
         ``None`` when the scenario's memory does not grow with its parameters."""
         return None
 
@@ -75,8 +82,18 @@ class Scenario(abc.ABC):
         if estimate is not None:
             check_batch_memory(*estimate)
 
-    def check_candidate(self, components: dict[str, Any], where: str) -> None:
-        """Every required kind present, no foreign kind, every plugin creatable, and composable."""
+    def candidate_options(self, options: dict[str, Any] | None, where: str = "candidate") -> ScenarioParams:
+        """A candidate's ``scenario_options`` validated by `CandidateOptions` (errors name
+        ``<where>.scenario_options.<field>``)."""
+        try:
+            return self.CandidateOptions.model_validate(options or {})
+        except ValidationError as exc:
+            raise validation_message(exc, prefix=f"{where}.scenario_options", model=self.CandidateOptions) from None
+
+    def check_candidate(self, components: dict[str, Any], where: str, options: dict[str, Any] | None = None) -> None:
+        """Every required kind present, no foreign kind, every plugin creatable, composable,
+        and valid ``scenario_options``."""
+        self.candidate_options(options, where)
         for kind, required in self.components.items():
             if required and kind not in components:
                 raise ConfigError(f"{where}.{kind}", f"required by scenario {self.kind!r} "
@@ -145,8 +162,10 @@ class Scenario(abc.ABC):
         ``cn0_dbhz``...) for the report's assumptions table; the default gives nothing."""
         return {}
 
-    def build(self, candidate: dict[str, Any]) -> dict[str, Any]:
-        """Instantiate a candidate's plugins (fresh objects for every batch)."""
+    def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None) -> dict[str, Any]:
+        """Instantiate a candidate's plugins (fresh objects for every batch): what
+        `run_batch` gets. ``options`` are the candidate's ``scenario_options``; a scenario
+        with `CandidateOptions` adds what `run_batch` needs of them to the returned dict."""
         return {kind: registry.create(kind, ref["name"], **ref.get("params", {})) for kind, ref in candidate.items()}
 
     @abc.abstractmethod

@@ -34,7 +34,7 @@ from pydantic import Field
 from ... import random_streams as draw
 from ...errors import ConfigError
 from ...inertial.earth import STANDARD_GRAVITY_MPS2
-from ...interfaces import RunContext
+from ...interfaces import ErrorStateNavFilter, RunContext
 from ...inertial.imu import ImuGrade
 from ...inertial.trajectory import MAX_START_LAT_DEG
 from ...receiver.deep.aided_tracking import DeepTruth, loss_of_lock, run_aided_tracking
@@ -175,7 +175,7 @@ def phase_lock_series(phase_error_rad: np.ndarray, n_upd: int, update_interval_s
 
 def _kind(plugins: dict[str, Any]) -> str:
     ch, nav = plugins["channel_filter"], plugins["nav_filter"]
-    if nav.name == "ins-ekf":
+    if isinstance(nav, ErrorStateNavFilter):
         if all(o in ch.provides for o in CHANNEL_OUTPUTS):
             return "deep"
         if all(o in ch.provides for o in NCO_COMMANDS) and "correlators" in ch.requires:
@@ -185,8 +185,8 @@ def _kind(plugins: dict[str, Any]) -> str:
                           f"{', '.join(NCO_COMMANDS)})")
     if all(o in nav.provides for o in NAV_OUTPUTS) and all(o in ch.provides for o in CHANNEL_OUTPUTS):
         return "vector"
-    raise ConfigError("nav_filter", f"{nav.name!r} with {ch.name!r} is neither deep/loose integration (nav_filter "
-                      "ins-ekf) nor a vector loop (a nav filter providing " + ", ".join(NAV_OUTPUTS) + ")")
+    raise ConfigError("nav_filter", f"{nav.name!r} with {ch.name!r} is neither deep/loose integration (an "
+                      "error-state nav filter, e.g. ins-ekf) nor a vector loop (a nav filter providing " + ", ".join(NAV_OUTPUTS) + ")")
 
 
 @register_scenario

@@ -75,9 +75,10 @@ def run_deep(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth
     ekf = plugins["nav_filter"]
     ins, P0 = _setup_ins(scenario, flight, runs, rng)
     ekf.reset((runs,), RunContext(initial_cov=P0))
+    aiding = ekf.aiding()  # an ErrorStateNavFilter's contract
     c_std = np.asarray(p.initial_clock_std_m, float)
     clock = ClockFilter(truth.clock_m[0] + draw.standard_normal(rng, (runs, 2), 0) * c_std, np.diag(c_std**2),
-                        tuple(ekf.params.clock_psd))
+                        aiding.clock_psd)
     records, times = [], []
 
     def record(t_s, nav):
@@ -85,9 +86,9 @@ def run_deep(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth
         times.append(t_s)
 
     nav = InsNavigator(ins, ekf, clock, on_update=record, pull_in_updates=p.pull_in_updates)
-    spec = ekf.params.carrier_filter
+    spec = aiding.carrier_filter
     rec = run_aided_tracking(plugins["channel_filter"], nav, truth, rng, nco_interval_s=p.nco_interval_s,
-                             update_interval_s=p.update_interval_s, accel_aiding=ekf.params.accel_aiding,
+                             update_interval_s=p.update_interval_s, accel_aiding=aiding.accel_aiding,
                              early_late_spacing_chips=p.early_late_spacing_chips,
                              carrier_filter=None if spec is None else spec.create())
     return _stack(records, times, {"code_error_chips": rec.code_error_chips, "freq_error_hz": rec.freq_error_hz,

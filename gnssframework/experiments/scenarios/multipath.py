@@ -6,9 +6,12 @@ AR(1) colored multipath noise plus white noise. Candidates compose a ``nav_filte
 ``noise_adapter``; a candidate with none of these reports the measurement itself (``raw``).
 A ``colored-ar1`` without ``psi`` gets the case's true psi, or (its ``psi_estimator``)
 psi estimated from a training record of ``psi_training_epochs``
-(``gnssframework.estimation.ar1_estimate``). A candidate whose
-``noise_adapter`` is ``oracle-grid`` is scored with the best fixed Q and R of its grid,
-chosen against the truth on independent training runs (an oracle bound).
+(``gnssframework.estimation.ar1_estimate``). A candidate with
+``scenario_options.oracle`` (an `OracleGrid`) is scored with the best fixed Q and R of
+that grid, chosen against the truth on independent training runs (an oracle bound).
+
+The nav filter is any `~gnssframework.interfaces.BatchPositionFilter`: the scenario
+filters the whole sequence through it, with its model's Q and R scaled for the oracle.
 """
 
 from __future__ import annotations
@@ -21,13 +24,15 @@ from pydantic import Field
 from ... import random_streams as draw
 from ... import registry
 from ...errors import ConfigError
-from ...estimation import Gaussian, LinearModel, filter_sequence
+from ...estimation import LinearModel
+from ...interfaces import BatchPositionFilter
 from ...estimation.ar1_estimate import ar1_coefficient
 from ...simulation.impairments import ar1_noise
 from ..metric_components import ConvergenceEpoch, MeanAbs, Rmse, convergence_epoch, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["MultipathScenario", "METRICS", "convergence_epoch", "BYTES_PER_EPOCH_RUN"]
+__all__ = ["MultipathScenario", "OracleGrid", "MultipathCandidateOptions", "METRICS", "convergence_epoch",
+           "BYTES_PER_EPOCH_RUN"]
 
 #: Peak memory of one filtered run's epoch (the measurements, the filter's means and
 #: covariances; measured 730 to 1120 B for the position filters, about 790 B per run and
@@ -35,13 +40,39 @@ __all__ = ["MultipathScenario", "METRICS", "convergence_epoch", "BYTES_PER_EPOCH
 BYTES_PER_EPOCH_RUN = 1536
 
 
-def _oracle_runs(candidate: dict[str, Any], runs: int) -> int:
-    """Runs an ``oracle-grid`` candidate filters besides the batch: grid pairs x training runs."""
-    ref = candidate.get("noise_adapter")
-    if ref is None or ref.name != "oracle-grid":
-        return 0
-    grid = registry.create("noise_adapter", ref.name, **ref.params).params
-    return len(grid.q_scales) * len(grid.r_scales) * (grid.training_runs or runs)
+class OracleGrid(ScenarioParams):
+    r"""The best *fixed* Q and R on a grid, chosen with the truth (an oracle bound).
+
+    The scenario runs the candidate's filter with every $(s_q Q_0, s_r R_0)$ of the grid
+    on independent training runs, keeps the pair with the lowest RMS error, and reports
+    that filter on the common runs. Choosing on other runs keeps the bound free of
+    selection bias. Scaling Q and R together leaves the gains unchanged except through
+    the initial covariance, so the grid is effectively over Q/R.
+    """
+
+    q_scales: list[float] = Field([1e-8, 1e-6, 1e-4, 1e-2, 1.0], min_length=1,
+                                  description="Q = s_q Q0 for each s_q (multipliers of the model's Q0)")
+    r_scales: list[float] = Field([0.3, 1.0, 3.0, 10.0, 30.0, 100.0], min_length=1,
+                                  description="R = s_r R0 for each s_r (multipliers of the model's R0)")
+    training_runs: int = Field(10, ge=1, description="independent runs the grid is scored on, drawn from a "
+                               "stream of the case (the same in every batch)")
+
+    def passes(self) -> int:
+        """Runs filtered to choose the pair: grid pairs x training runs."""
+        return len(self.q_scales) * len(self.r_scales) * self.training_runs
+
+
+class MultipathCandidateOptions(ScenarioParams):
+    """A candidate's ``scenario_options`` in ``multipath``."""
+
+    oracle: OracleGrid | None = Field(None, description="score this candidate's filter with the best fixed Q and R "
+                                      "of a grid, chosen against the truth on training runs (an oracle bound)")
+
+
+def _oracle_runs(candidate: dict[str, Any]) -> int:
+    """Runs an oracle candidate filters besides the batch (0 for the others)."""
+    options = MultipathCandidateOptions.model_validate(candidate.get("scenario_options") or {})
+    return 0 if options.oracle is None else options.oracle.passes()
 
 
 class MultipathParams(ScenarioParams):
@@ -85,6 +116,7 @@ class MultipathScenario(Scenario):
     Params = MultipathParams
     CaseParams = MultipathCase
     components = {"nav_filter": False, "estimator": False, "augmentation": False, "noise_adapter": False}
+    CandidateOptions = MultipathCandidateOptions
     metrics = units(METRICS)
     #: The raw per-epoch errors (signed, truth 0) the metrics reduce; metric components
     #: of other packages may read them too.
@@ -94,7 +126,7 @@ class MultipathScenario(Scenario):
         """One filter pass over the batch, plus an oracle's grid of passes over its
         training runs (every (Q, R) pair is a batch axis of one filter)."""
         epochs = self.params.epochs
-        passes = runs + max((_oracle_runs(c, runs) for c in candidates), default=0)
+        passes = runs + max((_oracle_runs(c) for c in candidates), default=0)
         return (BYTES_PER_EPOCH_RUN * epochs * passes, "scenario.epochs",
                 f"a batch of {runs} runs of {where} ({epochs} epochs, {passes} filtered runs with an oracle's grid)")
 
@@ -105,9 +137,23 @@ class MultipathScenario(Scenario):
                               "(a candidate with no plugins reports the raw measurement)")
         if not plugins:
             return
-        if not hasattr(plugins["nav_filter"], "filter"):
+        if not isinstance(plugins["nav_filter"], BatchPositionFilter):
+            able = ", ".join(n for n in registry.names("nav_filter")
+                             if issubclass(registry.get("nav_filter", n), BatchPositionFilter))
             raise ConfigError(f"{where}.nav_filter.name", f"{plugins['nav_filter'].name!r} cannot filter a position "
-                              "sequence; use 'position-ca'")
+                              f"sequence (not a BatchPositionFilter); nav filters that can: {able or '(none)'}")
+
+    def check_candidate(self, components: dict[str, Any], where: str, options: dict[str, Any] | None = None) -> None:
+        super().check_candidate(components, where, options)
+        if self.candidate_options(options, where).oracle is not None and not components:
+            raise ConfigError(f"{where}.scenario_options.oracle", "the oracle scores a filter: compose a nav_filter "
+                              "and an estimator (a candidate with no plugins reports the raw measurement)")
+
+    def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None) -> dict[str, Any]:
+        """The candidate's plugins, and its oracle grid under ``"oracle"`` if it has one."""
+        plugins = super().build(candidate)
+        oracle = self.candidate_options(options).oracle
+        return plugins if oracle is None else {**plugins, "oracle": oracle}
 
     def simulate(self, runs: int, rng: np.random.Generator, psi: float | None = None,
                  epochs: int | None = None) -> np.ndarray:
@@ -153,40 +199,33 @@ class MultipathScenario(Scenario):
         """Errors ``(K', runs, 2)`` of the candidate's filter (Q and R scaled for the oracle) and epochs."""
         if "nav_filter" not in plugins:  # raw: the measurement itself
             return zs, np.arange(zs.shape[0])
-        nav, adapter = plugins["nav_filter"], plugins.get("noise_adapter")
-        if q_scale != 1.0 or r_scale != 1.0:
-            params = dict(nav.params)  # shallow: nested plugin references stay resolved
-            nav = registry.create("nav_filter", nav.name, **{**params, "q0": [q * q_scale for q in params["q0"]],
-                                                            "r0": params["r0"] * r_scale})
-        res = nav.filter(zs, plugins["estimator"], adapter=adapter, augmentation=plugins.get("augmentation"))
-        return res.mean[..., 0], res.epochs  # the truth is the origin
+        nav = plugins["nav_filter"]
+        base = nav.model()
+        res = nav.filter(zs, plugins["estimator"], adapter=plugins.get("noise_adapter"),
+                         augmentation=plugins.get("augmentation"),
+                         model=LinearModel(base.F, base.H, base.Q * q_scale, base.R * r_scale))
+        return res.mean[..., nav.position_index], res.epochs  # the truth is the origin
 
     def _oracle(self, plugins: dict, psi: float, rng: draw.RunStreams) -> tuple[float, float]:
         """The (Q, R) scales of the grid with the lowest RMS error on independent training runs.
 
         The training runs come from a stream of the case, not of the batch's runs, so every
-        batch picks the same scales (results do not depend on how runs were batched)."""
-        grid = plugins["noise_adapter"].params
+        batch picks the same scales (results do not depend on how runs were batched).
+        Every grid pair runs in one batched filter: the pair is a leading batch axis of Q, R
+        and the measurements (what the loop over pairs computes, test_multipath_cases.py)."""
+        grid = plugins["oracle"]
         train = self.simulate(grid.training_runs, rng.shared("oracle-training"), psi)
-        plain = {k: v for k, v in plugins.items() if k != "noise_adapter"}
         pairs = [(sq, sr) for sq in grid.q_scales for sr in grid.r_scales]
-        nav = plain["nav_filter"]
-        if not hasattr(nav, "model"):
-            score = [float(np.mean(self._filter(plain, train, sq, sr)[0] ** 2)) for sq, sr in pairs]
-            return pairs[int(np.argmin(score))]
-        # Every grid pair in one batched filter: the pair is a leading batch axis of Q, R and
-        # the measurements (what the loop over pairs computes, test_multipath_cases.py).
+        nav = plugins["nav_filter"]
         base = nav.model()
         sq, sr = (np.array(v, dtype=float) for v in zip(*pairs))
         batch = (len(pairs),) + train.shape[1:]
         Q = np.broadcast_to(sq[:, None, None, None, None] * base.Q, batch + base.Q.shape[-2:]).copy()
         R = np.broadcast_to(sr[:, None, None, None, None] * base.R, batch + base.R.shape[-2:]).copy()
         zs = np.ascontiguousarray(np.broadcast_to(train[:, None], (train.shape[0],) + batch))
-        mean0 = np.zeros(batch + (base.dim_state,))
-        mean0[..., 0] = zs[0]
-        res = filter_sequence(plain["estimator"], LinearModel(base.F, base.H, Q, R), zs[..., None],
-                              Gaussian(mean0, np.diag(nav.params.p0)), augmentation=plain.get("augmentation"))
-        score = np.mean(res.mean[..., 0] ** 2, axis=(0, 2, 3))  # the truth is the origin
+        res = nav.filter(zs, plugins["estimator"], augmentation=plugins.get("augmentation"),
+                         model=LinearModel(base.F, base.H, Q, R))
+        score = np.mean(res.mean[..., nav.position_index] ** 2, axis=(0, 2, 3))  # the truth is the origin
         return pairs[int(np.argmin(score))]
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
@@ -195,10 +234,7 @@ class MultipathScenario(Scenario):
         psi = p.psi if case.get("psi") is None else case["psi"]
         zs = self.simulate(runs, rng, psi)  # first: every candidate sees the same measurements
         plugins = self._with_psi(plugins, case, rng)
-        oracle = getattr(plugins.get("noise_adapter"), "name", None) == "oracle-grid"
-        scales = self._oracle(plugins, psi, rng) if oracle else (1.0, 1.0)
-        if oracle:
-            plugins = {k: v for k, v in plugins.items() if k != "noise_adapter"}
+        scales = self._oracle(plugins, psi, rng) if plugins.get("oracle") is not None else (1.0, 1.0)
         err, epochs = self._filter(plugins, zs, *scales)
         lat, lon = err[..., 0], err[..., 1]
         return evaluate(METRICS, {"lat_error_m": lat, "lon_error_m": lon, "horizontal_error_m": np.hypot(lat, lon)},

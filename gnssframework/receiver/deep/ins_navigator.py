@@ -16,11 +16,12 @@ error-state stand-in in the tests), so the loop and the mechanisation are tested
 
 from __future__ import annotations
 
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
 from ...errors import ConfigError
+from ...interfaces import ErrorStateNavFilter
 from .measurements import POSITION, VELOCITY
 from .navigators import ClockFilter
 
@@ -44,14 +45,15 @@ class StrapdownSolution(Protocol):
 
 
 class InsNavigator:
-    """`aided_tracking.Navigator` built from a strapdown INS, the ``ins-ekf`` filter and a clock filter.
+    """`aided_tracking.Navigator` built from a strapdown INS, an error-state filter (``ins-ekf``) and a clock filter.
 
     Parameters
     ----------
     ins
         The strapdown solution (`StrapdownSolution`).
     ekf
-        An ``ins-ekf`` nav_filter plugin, already ``reset`` with the initial error covariance.
+        An `~gnssframework.interfaces.ErrorStateNavFilter` (``ins-ekf``), already ``reset``
+        with the initial error covariance.
     clock
         The NCOs' clock filter.
     on_update
@@ -62,7 +64,7 @@ class InsNavigator:
         own ``pull_in_updates`` does the same without calling ``update`` at all.
     """
 
-    def __init__(self, ins: StrapdownSolution, ekf: Any, clock: ClockFilter, on_update=None,
+    def __init__(self, ins: StrapdownSolution, ekf: ErrorStateNavFilter, clock: ClockFilter, on_update=None,
                  pull_in_updates: int = 0) -> None:
         self.ins = ins
         self.ekf = ekf
@@ -104,7 +106,7 @@ class InsNavigator:
             self.on_update(t_s, self)
 
 
-def loose_update(ins: StrapdownSolution, ekf: Any, fix_pos_m: np.ndarray, fix_vel_m_s: np.ndarray,
+def loose_update(ins: StrapdownSolution, ekf: ErrorStateNavFilter, fix_pos_m: np.ndarray, fix_vel_m_s: np.ndarray,
                  fix_cov: np.ndarray) -> np.ndarray:
     """One loosely coupled update: INS minus a GNSS position/velocity fix into ``ins-ekf``, then correct.
 

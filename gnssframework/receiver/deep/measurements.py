@@ -77,6 +77,10 @@ def difference(z: np.ndarray, H: np.ndarray, R: np.ndarray, reference: np.ndarra
             np.einsum("rij,rjk,rlk->ril", D, R, D))
 
 
+#: The estimator of `linear_update`: the linear Kalman filter's update (Joseph form).
+LINEAR_ESTIMATOR = "kf"
+
+
 def linear_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray,
                   *, name: str = "ins-ekf", step: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Batched Kalman measurement update in Joseph form (Groves 2013, eqs. 3.24-3.27).
@@ -99,7 +103,7 @@ def linear_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R:
     from ...estimation import FilterStep, Gaussian, LinearModel
 
     n = P.shape[-1]
-    fs = FilterStep(registry.create("estimator", "kf"), name=name)
+    fs = FilterStep(registry.create("estimator", LINEAR_ESTIMATOR), name=name)
     fs.step_index = 0 if step is None else step
     model = LinearModel(np.eye(n), np.asarray(H, float), np.zeros((n, n)), np.asarray(R, float))
     post = fs.update(Gaussian(np.asarray(x, float), np.asarray(P, float)), z, model).posterior

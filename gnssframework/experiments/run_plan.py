@@ -1,0 +1,93 @@
+"""A comparison resolved once: what the workers receive.
+
+A :class:`RunPlan` holds the validated scenario instance, every case's parameters, every
+candidate's plugin references (validated ``{name, params}`` tables) and scenario
+options, the seed and random stream and the metrics to compute. The config is
+validated and resolved once, in the process that loads it; a worker builds only its
+task's candidate and runs it. A plan is a plain picklable value (process pool, Dask).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from ..random_streams import RunStreams, name_key, run_streams
+from .scenarios import Scenario
+from .tasks import Task
+
+__all__ = ["CasePlan", "CandidatePlan", "RunPlan", "resolve", "task_streams", "TUNING_PURPOSE"]
+
+#: Spawn key of the tuning streams (``RunStreams(..., purpose=TUNING_PURPOSE)``).
+TUNING_PURPOSE = name_key("tuning")
+
+
+@dataclass(frozen=True)
+class CasePlan:
+    """One case: its name and validated parameters (as ``run_batch`` gets them, with the name)."""
+
+    name: str
+    values: dict[str, Any]
+
+    def as_case(self) -> dict[str, Any]:
+        """What ``Scenario.run_batch`` takes as ``case``."""
+        return {"name": self.name, **self.values}
+
+
+@dataclass(frozen=True)
+class CandidatePlan:
+    """One candidate: its name, plugin references by kind and scenario options."""
+
+    name: str
+    components: dict[str, dict[str, Any]]
+    scenario_options: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    """A validated comparison resolved for the workers (see the module docstring)."""
+
+    scenario: Scenario
+    cases: tuple[CasePlan, ...]
+    candidates: tuple[CandidatePlan, ...]
+    seed: int
+    random_stream: str
+    metrics: tuple[str, ...]
+    component_metrics: tuple[str, ...]
+
+    def build(self, candidate_index: int) -> dict[str, Any]:
+        """Fresh plugins of one candidate (``Scenario.build``)."""
+        cand = self.candidates[candidate_index]
+        return self.scenario.build(cand.components, cand.scenario_options)
+
+    def where(self, task: Task) -> str:
+        """A task in words, for failures: candidate, case, runs and sweep point."""
+        point = f", sweep point {task.point}" if task.point else ""
+        return (f"candidate {self.candidates[task.candidate_index].name!r}, case "
+                f"{self.cases[task.case_index].name!r}, {task.run_range}{point}")
+
+
+def resolve(config: Any) -> RunPlan:
+    """The :class:`RunPlan` of a validated ``ComparisonConfig`` (its scenario instance is
+    the one the config was validated with)."""
+    return RunPlan(
+        scenario=config.resolved_scenario,
+        cases=tuple(CasePlan(c.name, c.params()) for c in config.cases),
+        candidates=tuple(CandidatePlan(c.name, {k: v.table() for k, v in c.components().items()},
+                                       dict(c.scenario_options)) for c in config.candidates),
+        seed=config.seed,
+        random_stream=config.random_stream,
+        metrics=tuple(config.metric_names),
+        component_metrics=tuple(config.component_metrics()),
+    )
+
+
+def task_streams(plan: Any, task: Task) -> RunStreams:
+    """The random streams of a task's runs (a `RunPlan` or a ``ComparisonConfig``): they
+    depend on the seed, the case's name and the run indices, never on the batch or the
+    candidate (see :mod:`gnssframework.experiments.runner`)."""
+    case = plan.cases[task.case_index].name
+    runs = range(task.first_run, task.first_run + task.runs)
+    if plan.random_stream == "tuning":  # disjoint from the evaluation's: a child of every run's seed
+        return RunStreams((plan.seed, *name_key(case)), runs, TUNING_PURPOSE)
+    return run_streams(plan.seed, name_key(case), runs)
