@@ -339,8 +339,10 @@ class LnavMessage:
     """What a symbol stream of one satellite decoded to.
 
     ``ephemeris`` is the last complete set of subframes 1-3 whose IODC and IODEs agree on
-    their low 8 bits (IS-GPS-200 20.3.3.4.1), as one record; ``iono_utc`` the last subframe
-    4 page 18; ``week`` the 10-bit transmission week of the last subframe 1.
+    their low 8 bits (IS-GPS-200 20.3.3.4.1), as one record; ``ephemerides`` every such set
+    as ``(bit, record)``, ``bit`` the index in the stream just after the subframe that
+    completed it (when a receiver has it); ``iono_utc`` the last subframe 4 page 18;
+    ``week`` the 10-bit transmission week of the last subframe 1.
     """
 
     prn: int
@@ -348,6 +350,7 @@ class LnavMessage:
     ephemeris: Ephemerides | None
     iono_utc: IonoUtc | None
     week: int | None
+    ephemerides: list[tuple[int, Ephemerides]] = field(default_factory=list)
 
 
 def _hard_bits(symbols: np.ndarray) -> np.ndarray:
@@ -432,7 +435,7 @@ def decode_lnav(symbols: np.ndarray, prn: int) -> LnavMessage:
     """
     subframes = find_subframes(symbols)
     last: dict[int, Subframe] = {}
-    ephemeris = None
+    ephemerides: list[tuple[int, Ephemerides]] = []
     iono_utc = None
     week = None
     for s in subframes:
@@ -441,8 +444,10 @@ def decode_lnav(symbols: np.ndarray, prn: int) -> LnavMessage:
             week = int(s.fields["week"])
         if s.subframe_id == 4 and s.fields.get("sv_id") == PAGE18_SV_ID:
             iono_utc = IonoUtc.from_fields(s.fields)
-        if all(k in last for k in (1, 2, 3)):
+        if s.subframe_id in (1, 2, 3) and all(k in last for k in (1, 2, 3)):
             iodc = int(last[1].fields["iodc"]) & 0xFF
             if last[2].fields["iode"] == iodc and last[3].fields["iode"] == iodc:
-                ephemeris = fields_to_ephemeris(prn, last[1].fields, last[2].fields, last[3].fields)
-    return LnavMessage(prn, subframes, ephemeris, iono_utc, week)
+                record = fields_to_ephemeris(prn, last[1].fields, last[2].fields, last[3].fields)
+                ephemerides.append((s.start + BITS_PER_SUBFRAME, record))
+    ephemeris = ephemerides[-1][1] if ephemerides else None
+    return LnavMessage(prn, subframes, ephemeris, iono_utc, week, ephemerides)

@@ -33,7 +33,7 @@ from ..errors import ConfigError
 from ..signal.constants import CA_CHIP_RATE_HZ
 from .bit_stream import BIT_MS, bit_runs
 from .ephemeris import Ephemerides
-from .lnav import IonoUtc, LnavMessage, decode_lnav, find_subframes
+from .lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_lnav, find_subframes
 
 __all__ = ["ChannelTiming", "Observables", "channel_timing", "observables", "SPEED_OF_LIGHT_MPS"]
 
@@ -50,7 +50,9 @@ class ChannelTiming:
 
     ``time_s`` (recording time, s from the first sample), ``transmit_s`` (satellite time of
     week, s), ``doppler_hz``, ``carrier_cycles`` (accumulated Doppler phase, cycles), ``cn0_dbhz``;
-    ``half_cycle`` True where the carrier is locked 180 degrees off; ``message`` the decoded LNAV.
+    ``half_cycle`` True where the carrier is locked 180 degrees off; ``message`` the decoded
+    LNAV; ``ephemerides`` each decoded ephemeris with the recording time at which its last
+    subframe had arrived.
     """
 
     prn: int
@@ -61,34 +63,50 @@ class ChannelTiming:
     cn0_dbhz: np.ndarray
     half_cycle: bool
     message: LnavMessage
+    ephemerides: list[tuple[float, Ephemerides]]
 
 
-def channel_timing(record) -> ChannelTiming | None:
+def _bit_time(run, time_s: np.ndarray, bit: int) -> float:
+    """Recording time at which bit ``bit`` of a run starts (its end, past the last bit)."""
+    rows = run.rows[run.bit_of_row == bit]
+    if rows.size:
+        return float(time_s[rows[0]])
+    per_bit = np.count_nonzero(run.bit_of_row == run.bit_of_row[-1])  # rows of one bit
+    return float(time_s[run.rows[-1]]) + BIT_MS * 1e-3 / per_bit
+
+
+def channel_timing(record, causal: bool = True) -> ChannelTiming | None:
     """The rows of a `ChannelRecord` whose transmit time the decoded LNAV gives, or None
-    when no subframe was decoded (too short, or never bit-aligned)."""
+    when no subframe was decoded (too short, or never bit-aligned).
+
+    ``causal``: only the rows after the first decoded subframe has arrived (as a receiver
+    running in real time has them); False also dates the rows before it, from the same TOW.
+    """
     col = record.column
     if not record.rows:
         return None
     time_s, code_chips = col("time_s"), col("code_phase_chips")
     runs = bit_runs(time_s, col("prompt_i"), col("coherent_ms"), col("stage") == _EXTENDED, min_bits=300)
-    rows, tx, inverted, messages = [], [], [], []
+    rows, tx, inverted, messages, ephemerides = [], [], [], [], []
     for run in runs:
         subframes = find_subframes(run.symbols)
         if not subframes:
             continue
         first = subframes[0]
         bit_tow = first.tow_s + (np.arange(run.symbols.size) - first.start) * BIT_MS * 1e-3
+        keep = run.bit_of_row >= (first.start + BITS_PER_SUBFRAME if causal else 0)
         tx.append((bit_tow[run.bit_of_row] + run.ms_in_bit * 1e-3
-                   + code_chips[run.rows] / CA_CHIP_RATE_HZ) % _WEEK_S)
-        rows.append(run.rows)
+                   + code_chips[run.rows] / CA_CHIP_RATE_HZ)[keep] % _WEEK_S)
+        rows.append(run.rows[keep])
         inverted.append(first.inverted)
-        messages.append(decode_lnav(run.symbols, record.prn))
-    if not rows:
+        message = decode_lnav(run.symbols, record.prn)
+        messages.append(message)
+        ephemerides += [(_bit_time(run, time_s, bit), rec) for bit, rec in message.ephemerides]
+    r = np.concatenate(rows) if rows else np.zeros(0, int)
+    if r.size == 0:
         return None
-    r = np.concatenate(rows)
-    message = _merge(record.prn, messages)
     return ChannelTiming(record.prn, time_s[r], np.concatenate(tx), col("doppler_hz")[r], col("carrier_phase_cycles")[r],
-                         col("cn0_dbhz")[r], bool(inverted[-1]), message)
+                         col("cn0_dbhz")[r], bool(inverted[-1]), _merge(record.prn, messages), ephemerides)
 
 
 def _merge(prn: int, messages: list[LnavMessage]) -> LnavMessage:
@@ -107,8 +125,8 @@ class Observables:
     the receiver clock error); ``sample_time_s`` ``(E,)`` the same instants in recording time;
     ``prn`` ``(S,)``; ``transmit_s`` satellite time of transmission; ``pseudorange_m``;
     ``doppler_hz``; ``carrier_cycles`` (RINEX sign, half cycle resolved); ``cn0_dbhz``.
-    ``ephemeris`` holds each PRN's decoded record (when decoded), ``iono_utc`` the first
-    decoded page 18, ``week`` the decoded 10-bit week.
+    ``ephemeris`` holds each PRN's decoded records with the recording time from which each
+    is known, ``iono_utc`` the first decoded page 18, ``week`` the decoded 10-bit week.
     """
 
     rx_time_s: np.ndarray
@@ -119,7 +137,7 @@ class Observables:
     doppler_hz: np.ndarray
     carrier_cycles: np.ndarray
     cn0_dbhz: np.ndarray
-    ephemeris: dict[int, Ephemerides]
+    ephemeris: dict[int, list[tuple[float, Ephemerides]]]
     iono_utc: IonoUtc | None
     week: int | None
 
@@ -175,7 +193,7 @@ def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0) -> Ob
         cyc[:, j] = -_interp(sample_t, tm.time_s, tm.carrier_cycles) + (0.5 if tm.half_cycle else 0.0)
         cn0[:, j] = _interp(sample_t, tm.time_s, tm.cn0_dbhz)
     pr = SPEED_OF_LIGHT_MPS * ((epochs[:, None] - tx + _WEEK_S / 2) % _WEEK_S - _WEEK_S / 2)
-    eph = {t.prn: t.message.ephemeris for t in timings if t.message.ephemeris is not None}
+    eph = {t.prn: t.ephemerides for t in timings if t.ephemerides}
     iono = next((t.message.iono_utc for t in timings if t.message.iono_utc is not None), None)
     week = next((t.message.week for t in timings if t.message.week is not None), None)
     return Observables(epochs % _WEEK_S, sample_t, prn, tx % _WEEK_S, pr, dop, cyc, cn0, eph, iono, week)
