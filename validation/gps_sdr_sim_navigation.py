@@ -20,8 +20,9 @@ chosen C/N0. The library then acquires, tracks, decodes and positions
 - positions from the decoded ephemerides (first fix once subframes 1-3 have arrived) and,
   separately, from the RINEX file (``--ephemeris``: first fix after the first subframe):
   every healthy simulated satellite used, horizontal RMS error under 2 m and vertical under
-  4 m against gps-sdr-sim's receiver position, speed from the Dopplers under 0.2 m/s RMS
-  (the receiver is static). gps-sdr-sim models Klobuchar and no
+  4 m against gps-sdr-sim's receiver position, velocity from the Dopplers within 0.2 m/s
+  RMS of the truth. ``--moving`` puts the receiver on a 100 m circle at 15 m/s (gps-sdr-sim's
+  user motion file) instead of the static point. gps-sdr-sim models Klobuchar and no
   troposphere: the solution applies Klobuchar (decoded page 18) and no troposphere.
 
 Exits 1 when a check fails, 2 when gps-sdr-sim cannot be built or run.
@@ -42,7 +43,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import sim_truth  # noqa: E402
-from gps_sdr_sim_tracking import AMPLITUDE_LSB, LOCATION, SIM_DIR, build_and_simulate, parse_log  # noqa: E402
+from gps_sdr_sim_tracking import AMPLITUDE_LSB, LOCATION, SIM_DIR, parse_log  # noqa: E402
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
@@ -60,8 +61,42 @@ LSB = {"SVclockBias": 2.0**-31, "SVclockDrift": 2.0**-43, "SVclockDriftRate": 2.
        "DeltaN": 2.0**-43 * PI, "M0": 2.0**-31 * PI, "Omega0": 2.0**-31 * PI, "Io": 2.0**-31 * PI,
        "omega": 2.0**-31 * PI, "OmegaDot": 2.0**-43 * PI, "IDOT": 2.0**-43 * PI, "Eccentricity": 2.0**-33,
        "sqrtA": 2.0**-19, "Toe": 16.0}
+#: The moving receiver: a horizontal circle about LOCATION (radius m, speed m/s).
+CIRCLE_RADIUS_M, CIRCLE_SPEED_MPS = 100.0, 15.0
 ALPHA_LSB = np.array([2.0**-30, 2.0**-27, 2.0**-24, 2.0**-24])
 BETA_LSB = np.array([2.0**11, 2.0**14, 2.0**16, 2.0**16])
+
+
+def circle_truth(t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """ECEF positions ``(n, 3)`` and east-north-up velocities ``(n, 3)`` of the moving receiver."""
+    import pymap3d
+
+    w = CIRCLE_SPEED_MPS / CIRCLE_RADIUS_M
+    t = np.asarray(t_s, float)
+    e, n = CIRCLE_RADIUS_M * np.cos(w * t), CIRCLE_RADIUS_M * np.sin(w * t)
+    xyz = np.stack(pymap3d.enu2ecef(e, n, np.zeros_like(t), *LOCATION), axis=-1)
+    vel = np.stack([-CIRCLE_SPEED_MPS * np.sin(w * t), CIRCLE_SPEED_MPS * np.cos(w * t), np.zeros_like(t)], axis=-1)
+    return xyz, vel
+
+
+def simulate(work: Path, duration_s: float, fs: float, moving: bool) -> tuple[Path, str]:
+    """Build gps-sdr-sim and simulate the static receiver at LOCATION or, ``moving``, the
+    circle (a user motion file of ECEF positions at 10 Hz, gps-sdr-sim's ``-u``)."""
+    binary = subprocess.run([str(SIM_DIR / "build.sh"), str(work / "bin")], check=True, capture_output=True,
+                            text=True).stdout.strip().splitlines()[-1]
+    out = work / "sim.bin"
+    if moving:
+        t = np.arange(int(np.ceil(duration_s * 10)) + 2) / 10.0
+        xyz, _ = circle_truth(t)
+        motion = work / "circle.csv"
+        motion.write_text("".join(f"{ti:.1f},{x:.4f},{y:.4f},{z:.4f}\n" for ti, (x, y, z) in zip(t, xyz)))
+        where = ["-u", str(motion)]
+    else:
+        lat, lon, h = LOCATION
+        where = ["-l", f"{lat},{lon},{h}"]
+    run = subprocess.run([binary, "-e", str(NAV), *where, "-d", f"{duration_s}", "-b", "16", "-s", f"{fs:.0f}", "-p",
+                          "128", "-o", str(out)], check=True, capture_output=True, text=True, cwd=work)
+    return out, run.stderr
 
 
 def header_klobuchar(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -95,9 +130,11 @@ def add_noise_in_blocks(src: Path, dst: Path, cn0_dbhz: float, fs: float, rng: n
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cn0", type=float, default=45.0, help="C/N0 of every satellite (dB-Hz)")
-    ap.add_argument("--duration", type=float, default=42.0, help="seconds simulated (>= 37 for subframes 1-3)")
+    ap.add_argument("--duration", type=float, default=48.0, help="seconds simulated (>= 37 for subframes 1-3)")
     ap.add_argument("--fs", type=float, default=2.6e6, help="sample rate")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--moving", action="store_true",
+                    help=f"a receiver on a {CIRCLE_RADIUS_M:.0f} m circle at {CIRCLE_SPEED_MPS:.0f} m/s instead of static")
     args = ap.parse_args(argv)
     import pymap3d
 
@@ -111,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         try:
-            sim, log = build_and_simulate(work, args.duration, args.fs)
+            sim, log = simulate(work, args.duration, args.fs, args.moving)
         except (subprocess.CalledProcessError, FileNotFoundError, OSError) as exc:
             print(f"cannot build or run gps-sdr-sim from {SIM_DIR}: {exc}", file=sys.stderr)
             return 2
@@ -123,7 +160,8 @@ def main(argv: list[str] | None = None) -> int:
         used_by_sim = rinex.select([f"G{p:02d}" for p in sats], tow0, healthy_only=False)
         healthy = sorted(p for p, h in zip(sats, used_by_sim.health) if h == 0)
         print(f"gps-sdr-sim: week {week}, tow {tow0:.0f} s, {len(sats)} satellites {sorted(sats)} ({len(healthy)} "
-              f"healthy), {args.duration} s at {args.fs:g} Hz, noise for {args.cn0} dB-Hz")
+              f"healthy), {args.duration} s at {args.fs:g} Hz, noise for {args.cn0} dB-Hz, "
+              f"{'moving on a circle' if args.moving else 'static'}")
 
         t_run = time.perf_counter()
         rec = open_recording(rec_path)
@@ -153,7 +191,7 @@ def main(argv: list[str] | None = None) -> int:
                         for k, lsb in LSB.items())
             same = (got.iode[0] == ref.iode[0] and got.toc_s[0] == ref.toc_s[0] and got.health[0] == ref.health[0])
             check(worst[0] < 1.0 and exact and same, f"PRN {prn:2d} ephemeris: every field under 1 LSB from the RINEX "
-                  f"record (largest {worst[0]:.5f} LSB, {worst[1]}), the integer gps-sdr-sim truncates to: {exact}, IODE {got.iode[0]:.0f}, toc {got.toc_s[0]:.0f} s, health "
+                  f"record (largest {np.floor(worst[0] * 1e4) / 1e4:.4f} LSB, {worst[1]}), the integer gps-sdr-sim truncates to: {exact}, IODE {got.iode[0]:.0f}, toc {got.toc_s[0]:.0f} s, health "
                   f"{got.health[0]:.0f}, decoded at {decoded[0][0]:.1f} s")
         check(obs.week == week % 1024, f"week {obs.week} (10 bits of {week})")
         if obs.iono_utc is not None:
@@ -165,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
             check(False, "no page 18 decoded")
 
         # 2. Observables: pseudorange minus truth is one clock term per epoch.
-        receiver = np.array(pymap3d.geodetic2ecef(*LOCATION))
+        static = np.array(pymap3d.geodetic2ecef(*LOCATION))
         ephs = {p: {**{k: float(v[0]) for k, v in used_by_sim.subset(np.flatnonzero(used_by_sim.sv == f"G{p:02d}"))
                       .elements.items()}, "toc_tow": float(used_by_sim.toc_s[used_by_sim.sv == f"G{p:02d}"][0])}
                 for p in sats}
@@ -175,6 +213,7 @@ def main(argv: list[str] | None = None) -> int:
             if ok.sum() < 2:
                 continue
             t_true = tow0 + obs.sample_time_s[e]  # the sample's GPS time: gps-sdr-sim starts at tow0
+            receiver = circle_truth(obs.sample_time_s[e:e + 1])[0][0] if args.moving else static
             diff = [obs.pseudorange_m[e, j] - sim_truth.pseudorange_m(ephs[p], receiver, np.array([t_true]),
                                                                       sats[p][3])[0][0]
                     for j, p in enumerate(obs.prn) if ok[j]]
@@ -189,17 +228,24 @@ def main(argv: list[str] | None = None) -> int:
             if table is None or len(table) == 0:
                 check(False, f"{name}: no fix")
                 continue
-            err = position_errors(table, LOCATION)
+            if args.moving:
+                xyz, vel_truth = circle_truth(table.sample_time_s)
+                # ENU errors at LOCATION's axes (100 m away the axes turn by 3 arc seconds).
+                d = table.ecef_m - xyz
+                err = np.stack(pymap3d.ecef2enuv(d[:, 0], d[:, 1], d[:, 2], *LOCATION[:2]), axis=-1)
+            else:
+                err = position_errors(table, LOCATION)
+                vel_truth = np.zeros((len(table), 3))
             h_rms = float(np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))))
             v_rms = float(np.sqrt(np.mean(err[:, 2] ** 2)))
             n_used = table.columns["n_sats"]
             all_used = all(set(u) == set(healthy) for u in table.used_prns)
-            speed = np.linalg.norm(np.stack([table.columns[k] for k in ("vel_e_mps", "vel_n_mps", "vel_u_mps")], 1), axis=1)
-            speed_rms = float(np.sqrt(np.mean(speed**2)))
+            vel = np.stack([table.columns[k] for k in ("vel_e_mps", "vel_n_mps", "vel_u_mps")], 1)
+            speed_rms = float(np.sqrt(np.mean(np.sum((vel - vel_truth) ** 2, axis=1))))
             check(h_rms < 2.0 and v_rms < 4.0 and all_used and speed_rms < 0.2,
                   f"{name}: {len(table)} fixes, first {table.sample_time_s[0]:.1f} s into the recording, "
                   f"{n_used.min()}-{n_used.max()} satellites (every healthy one: {all_used}), horizontal RMS "
-                  f"{h_rms:.2f} m, vertical RMS {v_rms:.2f} m, speed {speed_rms:.3f} m/s RMS (static), HDOP {np.median(table.columns['hdop']):.2f}, "
+                  f"{h_rms:.2f} m, vertical RMS {v_rms:.2f} m, velocity error {speed_rms:.3f} m/s RMS, HDOP {np.median(table.columns['hdop']):.2f}, "
                   f"VDOP {np.median(table.columns['vdop']):.2f}")
     print("PASS" if not failures else f"FAIL: {len(failures)} check(s)")
     return 0 if not failures else 1
