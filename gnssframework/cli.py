@@ -275,7 +275,9 @@ def _cmd_position(args: argparse.Namespace) -> int:
 
     from .navigation.ephemeris import read_rinex_nav
     from .navigation.fixes import write_positions_csv
+    from .navigation.nmea_out import write_nmea
     from .navigation.receive import position_errors, receive
+    from .navigation.rinex_obs import write_rinex_obs
     from .receiver.acquisition.report import search_summary
     from .receiver.channels import tracking_config
 
@@ -313,9 +315,18 @@ def _cmd_position(args: argparse.Namespace) -> int:
         print(f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
               f"{result.tracking.duration_s:.1f} s")
         return 1
-    Path(args.out).mkdir(parents=True, exist_ok=True)
-    path = write_positions_csv(Path(args.out) / "positions.csv", table)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = [write_positions_csv(out / "positions.csv", table)]
     c = table.columns
+    week = int(c["gps_week"][0])
+    if week >= 0:
+        obs = result.observables
+        leap = obs.iono_utc.dt_ls_s if obs.iono_utc is not None else 18
+        written += [write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1]),
+                    write_nmea(out / "nmea.txt", table, leap)]
+    else:
+        print("note: no subframe 1 decoded, so the GPS week is unknown: no observations.rnx or nmea.txt")
     print(f"{len(table)} fixes from {table.sample_time_s[0]:.1f} s into the recording (GPS week {int(c['gps_week'][0])}"
           f", tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} satellites; last "
           f"{c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP {c['hdop'][-1]:.2f}")
@@ -323,7 +334,7 @@ def _cmd_position(args: argparse.Namespace) -> int:
         err = position_errors(table, truth)
         print(f"against --truth: horizontal RMS {np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))):.2f} m, "
               f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m")
-    print(f"wrote {path}")
+    print(f"wrote {', '.join(str(p) for p in written)}")
     return 0
 
 
@@ -437,7 +448,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("position", help="positions from a recording: acquire, track, decode LNAV, solve each epoch",
                        description="Acquire and track (as track does), decode each satellite's LNAV (TOW, ephemeris, "
                                    "Klobuchar), form pseudoranges and Dopplers at common epochs and solve each epoch "
-                                   "(weighted least squares, one bad satellite excluded). Writes DIR/positions.csv. "
+                                   "(weighted least squares, one bad satellite excluded). Writes DIR/positions.csv, "
+                                   "DIR/observations.rnx (RINEX 3.04) and DIR/nmea.txt (GGA, RMC). "
                                    "Exit 1 when no position is found, 2 for bad options or files.")
     _add_recording_options(p)
     p.add_argument("--out", required=True, help="output directory")
