@@ -26,6 +26,7 @@ off: IS-GPS-200 sends the preamble upright).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,6 +35,9 @@ from ..signal.constants import CA_CHIP_RATE_HZ
 from .bit_stream import BIT_MS, bit_runs
 from .ephemeris import Ephemerides
 from .lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_lnav, find_subframes
+
+if TYPE_CHECKING:
+    from ..receiver.channels import ChannelRecord
 
 __all__ = ["ChannelTiming", "Observables", "channel_timing", "observables", "SPEED_OF_LIGHT_MPS"]
 
@@ -50,7 +54,8 @@ class ChannelTiming:
 
     ``time_s`` (recording time, s from the first sample), ``transmit_s`` (satellite time of
     week, s), ``doppler_hz``, ``carrier_cycles`` (accumulated Doppler phase, cycles), ``cn0_dbhz``;
-    ``half_cycle`` True where the carrier is locked 180 degrees off; ``message`` the decoded
+    ``half_cycle`` per row, True where the carrier is locked 180 degrees off (the preamble of
+    the row's run came inverted); ``message`` the decoded
     LNAV; ``ephemerides`` each decoded ephemeris with the recording time at which its last
     subframe had arrived.
     """
@@ -61,7 +66,7 @@ class ChannelTiming:
     doppler_hz: np.ndarray
     carrier_cycles: np.ndarray
     cn0_dbhz: np.ndarray
-    half_cycle: bool
+    half_cycle: np.ndarray
     message: LnavMessage
     ephemerides: list[tuple[float, Ephemerides]]
 
@@ -75,7 +80,7 @@ def _bit_time(run, time_s: np.ndarray, bit: int) -> float:
     return float(time_s[run.rows[-1]]) + BIT_MS * 1e-3 / per_bit
 
 
-def channel_timing(record, causal: bool = True) -> ChannelTiming | None:
+def channel_timing(record: ChannelRecord, causal: bool = True) -> ChannelTiming | None:
     """The rows of a `ChannelRecord` whose transmit time the decoded LNAV gives, or None
     when no subframe was decoded (too short, or never bit-aligned).
 
@@ -98,7 +103,7 @@ def channel_timing(record, causal: bool = True) -> ChannelTiming | None:
         tx.append((bit_tow[run.bit_of_row] + run.ms_in_bit * 1e-3
                    + code_chips[run.rows] / CA_CHIP_RATE_HZ)[keep] % _WEEK_S)
         rows.append(run.rows[keep])
-        inverted.append(first.inverted)
+        inverted.append(np.full(int(keep.sum()), first.inverted))
         message = decode_lnav(run.symbols, record.prn)
         messages.append(message)
         ephemerides += [(_bit_time(run, time_s, bit), rec) for bit, rec in message.ephemerides]
@@ -106,13 +111,15 @@ def channel_timing(record, causal: bool = True) -> ChannelTiming | None:
     if r.size == 0:
         return None
     return ChannelTiming(record.prn, time_s[r], np.concatenate(tx), col("doppler_hz")[r], col("carrier_phase_cycles")[r],
-                         col("cn0_dbhz")[r], bool(inverted[-1]), _merge(record.prn, messages), ephemerides)
+                         col("cn0_dbhz")[r], np.concatenate(inverted), _merge(record.prn, messages), ephemerides)
 
 
 def _merge(prn: int, messages: list[LnavMessage]) -> LnavMessage:
     """One message of a channel's runs: their subframes, the last ephemeris, page 18 and week."""
-    last = lambda name: next((getattr(m, name) for m in reversed(messages) if getattr(m, name) is not None),  # noqa: E731
-                             None)
+
+    def last(name: str):
+        return next((getattr(m, name) for m in reversed(messages) if getattr(m, name) is not None), None)
+
     return LnavMessage(prn, [s for m in messages for s in m.subframes], last("ephemeris"), last("iono_utc"),
                        last("week"))
 
@@ -190,7 +197,8 @@ def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0) -> Ob
                                                        - _WEEK_S / 2])
         tx[:, j] = _interp(sample_t, tm.time_s, unwrapped)
         dop[:, j] = _interp(sample_t, tm.time_s, tm.doppler_hz)
-        cyc[:, j] = -_interp(sample_t, tm.time_s, tm.carrier_cycles) + (0.5 if tm.half_cycle else 0.0)
+        cyc[:, j] = -_interp(sample_t, tm.time_s, tm.carrier_cycles) + 0.5 * _interp(sample_t, tm.time_s,
+                                                                                      tm.half_cycle.astype(float))
         cn0[:, j] = _interp(sample_t, tm.time_s, tm.cn0_dbhz)
     pr = SPEED_OF_LIGHT_MPS * ((epochs[:, None] - tx + _WEEK_S / 2) % _WEEK_S - _WEEK_S / 2)
     eph = {t.prn: t.ephemerides for t in timings if t.ephemerides}
