@@ -138,7 +138,8 @@ def test_any_in_range_integer_field_round_trips_exactly(m0, crs, ecc, tow_count)
     values = {"m0_sc": m0 * 2.0**-31, "crs_m": crs * 2.0**-5, "e": ecc * 2.0**-33, "iode": 1}
     bits = lnav.encode_subframe(2, (tow_count + 1) % 100_800, values)  # the week's last subframe: count 0
     (sub,) = lnav.find_subframes(1 - 2 * bits.astype(float))
-    assert (sub.fields["m0_sc"], sub.fields["crs_m"], sub.fields["e"]) == (values["m0_sc"], values["crs_m"], values["e"])
+    names = ("m0_sc", "crs_m", "e")
+    assert [sub.fields[k] for k in names] == [values[k] for k in names]
     assert sub.tow_s == tow_count * 6.0
 
 

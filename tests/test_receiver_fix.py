@@ -65,8 +65,9 @@ def recording(tmp_path_factory):
     n = int(round(CHUNK_S * FS))
     source = registry.create("sample_source", "ci16_le")
     path = tmp_path_factory.mktemp("fix") / "five.sigmf-data"
-    symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), 1316, float(_satellite_time(sats, np.array(TOW0))[k]) - 0.1,
-                                 int(DURATION_S * 50) + 20) for k in range(sats.sv.size)]
+    t_sv0 = _satellite_time(sats, np.array(TOW0))
+    symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), 1316, float(t_sv0[k]) - 0.1, int(DURATION_S * 50) + 20)
+               for k in range(sats.sv.size)]
     phase = np.zeros(sats.sv.size)
     with open(path, "wb") as out:
         for c in range(int(round(DURATION_S / CHUNK_S))):
@@ -76,7 +77,7 @@ def recording(tmp_path_factory):
             x = np.zeros(n, complex)
             for k in range(sats.sv.size):
                 bits, into = symbols[k]
-                first_tsv = float(_satellite_time(sats, np.array(TOW0))[k]) - 0.1 - into  # t_SV of the first bit edge
+                first_tsv = float(t_sv0[k]) - 0.1 - into  # t_SV of the first bit edge
                 x += generate_if_samples(int(sats.sv[k][1:]), CHUNK_S, FS, 0.0, 45.0, rng, doppler_hz=doppler[k],
                                          code_phase_chips=(start[k] * 1e3 % 1.0) * 1023, carrier_phase_rad=phase[k],
                                          complex_samples=True, data_bits=bits,

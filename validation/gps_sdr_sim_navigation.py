@@ -134,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fs", type=float, default=2.6e6, help="sample rate")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--moving", action="store_true",
-                    help=f"a receiver on a {CIRCLE_RADIUS_M:.0f} m circle at {CIRCLE_SPEED_MPS:.0f} m/s instead of static")
+                    help=f"a receiver on a {CIRCLE_RADIUS_M:.0f} m circle at {CIRCLE_SPEED_MPS:.0f} m/s, not static")
     args = ap.parse_args(argv)
     import pymap3d
 
@@ -167,7 +167,8 @@ def main(argv: list[str] | None = None) -> int:
         rec = open_recording(rec_path)
         result = receive(rec, registry.create("acquisition", "pcps"), tracking_config(), reference_week=week)
         t_run = time.perf_counter() - t_run
-        print(f"acquisition, tracking, decoding and positions: {t_run:.1f} s wall for {result.tracking.duration_s:.1f} s "
+        print(f"acquisition, tracking, decoding and positions: {t_run:.1f} s wall for "
+              f"{result.tracking.duration_s:.1f} s "
               f"of signal")
         obs = result.observables
         if obs is None:
@@ -191,13 +192,15 @@ def main(argv: list[str] | None = None) -> int:
                         for k, lsb in LSB.items())
             same = (got.iode[0] == ref.iode[0] and got.toc_s[0] == ref.toc_s[0] and got.health[0] == ref.health[0])
             check(worst[0] < 1.0 and exact and same, f"PRN {prn:2d} ephemeris: every field under 1 LSB from the RINEX "
-                  f"record (largest {np.floor(worst[0] * 1e4) / 1e4:.4f} LSB, {worst[1]}), the integer gps-sdr-sim truncates to: {exact}, IODE {got.iode[0]:.0f}, toc {got.toc_s[0]:.0f} s, health "
+                  f"record (largest {np.floor(worst[0] * 1e4) / 1e4:.4f} LSB, {worst[1]}), the integer gps-sdr-sim "
+                  f"truncates to: {exact}, IODE {got.iode[0]:.0f}, toc {got.toc_s[0]:.0f} s, health "
                   f"{got.health[0]:.0f}, decoded at {decoded[0][0]:.1f} s")
         check(obs.week == week % 1024, f"week {obs.week} (10 bits of {week})")
         if obs.iono_utc is not None:
             da = np.abs(np.array(obs.iono_utc.alpha) - alpha) / ALPHA_LSB
             db = np.abs(np.array(obs.iono_utc.beta) - beta) / BETA_LSB
-            check(bool(np.all(da <= 0.5) and np.all(db <= 0.5)), f"page 18 Klobuchar within {max(da.max(), db.max()):.2f} "
+            check(bool(np.all(da <= 0.5) and np.all(db <= 0.5)),
+                  f"page 18 Klobuchar within {max(da.max(), db.max()):.2f} "
                   f"LSB of the file's ION ALPHA/BETA")
         else:
             check(False, "no page 18 decoded")
@@ -245,7 +248,8 @@ def main(argv: list[str] | None = None) -> int:
             check(h_rms < 2.0 and v_rms < 4.0 and all_used and speed_rms < 0.2,
                   f"{name}: {len(table)} fixes, first {table.sample_time_s[0]:.1f} s into the recording, "
                   f"{n_used.min()}-{n_used.max()} satellites (every healthy one: {all_used}), horizontal RMS "
-                  f"{h_rms:.2f} m, vertical RMS {v_rms:.2f} m, velocity error {speed_rms:.3f} m/s RMS, HDOP {np.median(table.columns['hdop']):.2f}, "
+                  f"{h_rms:.2f} m, vertical RMS {v_rms:.2f} m, velocity error {speed_rms:.3f} m/s RMS, "
+                  f"HDOP {np.median(table.columns['hdop']):.2f}, "
                   f"VDOP {np.median(table.columns['vdop']):.2f}")
     print("PASS" if not failures else f"FAIL: {len(failures)} check(s)")
     return 0 if not failures else 1

@@ -110,7 +110,8 @@ def channel_timing(record: ChannelRecord, causal: bool = True) -> ChannelTiming 
     r = np.concatenate(rows) if rows else np.zeros(0, int)
     if r.size == 0:
         return None
-    return ChannelTiming(record.prn, time_s[r], np.concatenate(tx), col("doppler_hz")[r], col("carrier_phase_cycles")[r],
+    return ChannelTiming(record.prn, time_s[r], np.concatenate(tx), col("doppler_hz")[r],
+                         col("carrier_phase_cycles")[r],
                          col("cn0_dbhz")[r], np.concatenate(inverted), _merge(record.prn, messages), ephemerides)
 
 
