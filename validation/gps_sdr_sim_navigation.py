@@ -16,7 +16,8 @@ chosen C/N0. The library then acquires, tracks, decodes and positions
 - the observables: at every epoch, pseudorange minus the truth's (geometric range with
   light time and Earth rotation, minus the satellite clock, plus gps-sdr-sim's printed
   Klobuchar delay, `sim_truth`) is one common receiver clock term: its spread over the
-  satellites under 3 m RMS;
+  satellites under 3 m RMS; the RINEX 3.04 file written of them reads back through
+  georinex with the same pseudoranges (to its millimetre);
 - positions from the decoded ephemerides (first fix once subframes 1-3 have arrived) and,
   separately, from the RINEX file (``--ephemeris``: first fix after the first subframe):
   every healthy simulated satellite used, horizontal RMS error under 2 m and vertical under
@@ -49,6 +50,7 @@ from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
 from gnssframework.navigation.fixes import solve_epochs  # noqa: E402
 from gnssframework.navigation.receive import position_errors, receive  # noqa: E402
+from gnssframework.navigation.rinex_obs import write_rinex_obs  # noqa: E402
 from gnssframework.receiver.channels import tracking_config  # noqa: E402
 from gnssframework.receiver.frontend import open_recording  # noqa: E402
 from gnssframework.receiver.frontend.sigmf_meta import write_sigmf_meta  # noqa: E402
@@ -224,6 +226,22 @@ def main(argv: list[str] | None = None) -> int:
         spread_rms = float(np.sqrt(np.mean(np.square(spread)))) if spread else np.inf
         check(spread_rms < 3.0, f"pseudorange minus truth, spread over the satellites: {spread_rms:.2f} m RMS over "
               f"{len(spread)} epochs (a common clock term removed)")
+
+        # The RINEX 3.04 observation file reads back through georinex with the same pseudoranges.
+        import warnings
+
+        import georinex
+
+        rinex_path = write_rinex_obs(work / "observations.rnx", obs, week)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", FutureWarning)
+            back = georinex.load(rinex_path)
+        order = [list(back.sv.values).index(f"G{p:02d}") for p in obs.prn]
+        epochs = [e for e in range(obs.rx_time_s.size) if np.isfinite(obs.pseudorange_m[e]).any()]
+        diff = back["C1C"].values[:, order] - obs.pseudorange_m[epochs]
+        check(back.time.size == len(epochs) and np.nanmax(np.abs(diff)) <= 0.0005 + 1e-9,
+              f"observations.rnx: {back.time.size} epochs read back by georinex, C1C within "
+              f"{np.nanmax(np.abs(diff)) * 1e3:.2f} mm of the observables")
 
         # 3. Positions: decoded ephemerides, then the RINEX file.
         for name, table in (("decoded ephemerides", result.positions),
