@@ -267,6 +267,76 @@ def _cmd_track(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_position(args: argparse.Namespace) -> int:
+    import json
+
+    import numpy as np
+
+    from .navigation.ephemeris import read_rinex_nav
+    from .navigation.fixes import write_positions_csv
+    from .navigation.nmea_out import write_nmea
+    from .navigation.receive import position_errors, receive
+    from .navigation.rinex_obs import write_rinex_obs
+    from .receiver.acquisition.report import search_summary
+    from .receiver.channels import tracking_config
+
+    rec = _open_recording_from_args(args)
+    acq = _acquisition_from_args(args)
+    prns = _prns_from_args(args)
+    try:
+        params = json.loads(args.channel_params) if args.channel_params else {}
+    except json.JSONDecodeError as exc:
+        raise ConfigError("--channel-params", f"not JSON: {exc.msg}") from None
+    config = tracking_config(channel_filter=args.channel_filter, channel_params=params)
+    if args.duration is not None and not args.duration > 0:
+        raise ConfigError("--duration", f"must be > 0 s, got {args.duration}")
+    if not args.rate > 0:
+        raise ConfigError("--rate", f"must be > 0 Hz, got {args.rate}")
+    truth = None
+    if args.truth:
+        try:
+            truth = tuple(float(v) for v in args.truth.split(","))
+        except ValueError:
+            truth = ()
+        if len(truth) != 3:
+            raise ConfigError("--truth", f"LAT,LON,H in degrees and metres, got {args.truth!r}")
+    rinex = read_rinex_nav(args.ephemeris) if args.ephemeris else None
+    result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
+                     ionosphere=not args.no_iono, troposphere=args.troposphere)
+    if not result.tracking.channels:
+        print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
+              "the format (--format) and --doppler-max; no position")
+        return 1
+    table = result.positions
+    if table is None or len(table) == 0:
+        why = ("no LNAV subframe decoded (a subframe takes 6 s once a channel is locked and bit-synchronised)"
+               if table is None else "fewer than four satellites with a decoded or --ephemeris ephemeris")
+        print(f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
+              f"{result.tracking.duration_s:.1f} s")
+        return 1
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = [write_positions_csv(out / "positions.csv", table)]
+    c = table.columns
+    week = int(c["gps_week"][0])
+    if week >= 0:
+        obs = result.observables
+        leap = obs.iono_utc.dt_ls_s if obs.iono_utc is not None else 18
+        written += [write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1]),
+                    write_nmea(out / "nmea.txt", table, leap)]
+    else:
+        print("note: no subframe 1 decoded, so the GPS week is unknown: no observations.rnx or nmea.txt")
+    print(f"{len(table)} fixes from {table.sample_time_s[0]:.1f} s into the recording (GPS week {int(c['gps_week'][0])}"
+          f", tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} satellites; last "
+          f"{c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP {c['hdop'][-1]:.2f}")
+    if truth is not None:
+        err = position_errors(table, truth)
+        print(f"against --truth: horizontal RMS {np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))):.2f} m, "
+              f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m")
+    print(f"wrote {', '.join(str(p) for p in written)}")
+    return 0
+
+
 def _add_recording_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("recording", help="sample file (a SigMF .sigmf-meta beside it gives format, rate and IF)")
     p.add_argument("--format", help="sample format: ri8, ci8, ci16_le, cf32_le (SigMF names), ri2/ci2 (2-bit "
@@ -374,6 +444,23 @@ def build_parser() -> argparse.ArgumentParser:
                    help="early-to-late correlator spacing (default 1.0)")
     p.add_argument("--no-plots", action="store_true", help="no plots")
     p.set_defaults(func=_cmd_track)
+    p = sub.add_parser("position", help="positions from a recording: acquire, track, decode LNAV, solve each epoch",
+                       description="Acquire and track (as track does), decode each satellite's LNAV (TOW, ephemeris, "
+                                   "Klobuchar), form pseudoranges and Dopplers at common epochs and solve each epoch "
+                                   "(weighted least squares, one bad satellite excluded). Writes DIR/positions.csv, "
+                                   "DIR/observations.rnx (RINEX 3.04) and DIR/nmea.txt (GGA, RMC). "
+                                   "Exit 1 when no position is found, 2 for bad options or files.")
+    _add_recording_options(p)
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--duration", type=float, metavar="S", help="seconds of the recording to use (default: all)")
+    p.add_argument("--channel-filter", default="scalar", help="channel_filter plugin (default %(default)s)")
+    p.add_argument("--channel-params", metavar="JSON", help="its parameters")
+    p.add_argument("--rate", type=float, default=1.0, metavar="HZ", help="solutions per second (default 1)")
+    p.add_argument("--ephemeris", metavar="NAV", help="RINEX navigation file for satellites not yet decoded")
+    p.add_argument("--no-iono", action="store_true", help="no Klobuchar correction")
+    p.add_argument("--troposphere", action="store_true", help="apply the Saastamoinen troposphere")
+    p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print the errors")
+    p.set_defaults(func=_cmd_position)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
     p.set_defaults(func=_cmd_schema)
     return parser

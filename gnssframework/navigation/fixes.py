@@ -1,0 +1,135 @@
+"""Positions at every epoch of a receiver's observables, their table and CSV.
+
+For each epoch of :class:`~gnssframework.navigation.observables.Observables`, the
+satellites with a pseudorange and a healthy ephemeris (the one decoded from their own
+LNAV, else the nearest record of a RINEX navigation file) go to
+:func:`~gnssframework.navigation.pvt.solve_position`. The GPS week is the decoded 10-bit
+week placed in the era of the RINEX file when one is given, else in the era that began
+on 2019-04-07 (weeks 2048-3071, IS-GPS-200 20.3.3.3.1.1: the week rolls over every 1024).
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+from .ephemeris import Ephemerides
+from .lnav import IonoUtc
+from .observables import SPEED_OF_LIGHT_MPS, Observables
+from .pvt import PositionFix, solve_position
+
+__all__ = ["PositionTable", "solve_epochs", "write_positions_csv", "POSITION_COLUMNS", "full_week"]
+
+#: Columns of ``positions.csv`` (one row per solution).
+POSITION_COLUMNS = ("gps_week", "tow_s", "lat_deg", "lon_deg", "height_m", "vel_e_mps", "vel_n_mps", "vel_u_mps",
+                    "clock_bias_m", "n_sats", "hdop", "vdop")
+_ERA_START_WEEK = 2048
+
+
+@dataclass(frozen=True)
+class PositionTable:
+    """One row per epoch with a solution: the columns of `POSITION_COLUMNS` (each ``(F,)``),
+    the ECEF positions ``(F, 3)``, the recording time of each epoch ``(F,)``, the PRNs used
+    and the one excluded (0: none) per epoch."""
+
+    columns: dict[str, np.ndarray]
+    ecef_m: np.ndarray
+    sample_time_s: np.ndarray
+    used_prns: list[tuple[int, ...]]
+    excluded_prn: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.sample_time_s.size)
+
+
+def full_week(week10: int | None, reference_week: int | None = None) -> int:
+    """The full GPS week of a 10-bit week: the one nearest ``reference_week``, else in the
+    era of weeks 2048-3071."""
+    if week10 is None:
+        return -1
+    if reference_week is not None:
+        return int(reference_week + ((week10 - reference_week + 512) % 1024) - 512)
+    return _ERA_START_WEEK + week10 % 1024
+
+
+def _ephemeris_for(prns: np.ndarray, obs: Observables, rinex: Ephemerides | None, t_s: float,
+                   sample_time_s: float) -> list:
+    """Per PRN, a healthy record (the last decoded by ``sample_time_s``, else RINEX's) or None."""
+    out = []
+    for prn in prns:
+        decoded = [rec for ready_s, rec in obs.ephemeris.get(int(prn), []) if ready_s <= sample_time_s]
+        rec = decoded[-1] if decoded else None
+        if rec is None and rinex is not None:
+            try:
+                rec = rinex.select([f"G{int(prn):02d}"], t_s)
+            except KeyError:  # no healthy record of it in the file
+                rec = None
+        out.append(rec if rec is not None and rec.health[0] == 0 else None)
+    return out
+
+
+def _stack(records: list[Ephemerides]) -> Ephemerides:
+    return Ephemerides(np.concatenate([r.sv for r in records]), np.concatenate([r.toc_s for r in records]),
+                       {k: np.concatenate([r.elements[k] for r in records]) for k in records[0].elements},
+                       np.concatenate([r.health for r in records]), np.concatenate([r.iode for r in records]))
+
+
+def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphere: bool = True,
+                 troposphere: bool = False, iono: IonoUtc | None = None, sigma_m: float = 5.0,
+                 elevation_mask_deg: float = 5.0, reference_week: int | None = None) -> PositionTable:
+    """Solve every epoch of ``obs`` (see the module text).
+
+    ``iono`` overrides the decoded page 18; with ``ionosphere`` False no ionospheric
+    correction is made. Epochs with fewer than four usable satellites give no row.
+    """
+    klobuchar = (iono or obs.iono_utc) if ionosphere else None
+    week = full_week(obs.week, reference_week)
+    rows: list[PositionFix] = []
+    keep_t, used, excluded = [], [], []
+    for e in range(obs.rx_time_s.size):
+        ok = np.flatnonzero(np.isfinite(obs.pseudorange_m[e]))
+        records = _ephemeris_for(obs.prn[ok], obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]))
+        have = [j for j, r in enumerate(records) if r is not None]
+        if len(have) < 4:
+            continue
+        idx = ok[have]
+        fix = solve_position(obs.pseudorange_m[e, idx], obs.transmit_s[e, idx], _stack([records[j] for j in have]),
+                             doppler_hz=obs.doppler_hz[e, idx], iono=klobuchar, troposphere=troposphere,
+                             sigma_m=sigma_m, elevation_mask_deg=elevation_mask_deg,
+                             initial_ecef_m=rows[-1].position_ecef_m if rows else None)
+        if fix is None:
+            continue
+        rows.append(fix)
+        keep_t.append(e)
+        used.append(tuple(int(p) for p in obs.prn[idx][fix.used]))
+        excluded.append(int(obs.prn[idx][fix.excluded]) if fix.excluded is not None else 0)
+    e = np.array(keep_t, dtype=int)
+    bias = np.array([f.clock_bias_m for f in rows])
+    tow = obs.rx_time_s[e] - bias / SPEED_OF_LIGHT_MPS if rows else np.zeros(0)
+    vel = np.array([f.velocity_enu_mps for f in rows]).reshape(-1, 3)
+    columns = {"gps_week": np.full(len(rows), week), "tow_s": tow,
+               "lat_deg": np.array([f.lat_deg for f in rows]), "lon_deg": np.array([f.lon_deg for f in rows]),
+               "height_m": np.array([f.height_m for f in rows]), "vel_e_mps": vel[:, 0], "vel_n_mps": vel[:, 1],
+               "vel_u_mps": vel[:, 2], "clock_bias_m": bias, "n_sats": np.array([len(u) for u in used], dtype=int),
+               "hdop": np.array([f.hdop for f in rows]), "vdop": np.array([f.vdop for f in rows])}
+    return PositionTable(columns, np.array([f.position_ecef_m for f in rows]).reshape(-1, 3), obs.sample_time_s[e],
+                         used, np.array(excluded, dtype=int))
+
+
+def write_positions_csv(path: str | Path, table: PositionTable) -> Path:
+    """``positions.csv``: a header of `POSITION_COLUMNS` and one row per solution."""
+    path = Path(path)
+    if not set(POSITION_COLUMNS) <= set(table.columns):
+        raise ConfigError("table", f"lacks {sorted(set(POSITION_COLUMNS) - set(table.columns))}")
+    digits = {"tow_s": 3, "lat_deg": 9, "lon_deg": 9, "height_m": 3, "clock_bias_m": 3, "hdop": 2, "vdop": 2}
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(POSITION_COLUMNS)
+        for k in range(len(table)):
+            w.writerow([int(table.columns[c][k]) if c in ("gps_week", "n_sats") else
+                        f"{table.columns[c][k]:.{digits.get(c, 3)}f}" for c in POSITION_COLUMNS])
+    return path

@@ -1,0 +1,61 @@
+"""NMEA 0183 GGA and RMC sentences of a receiver's fixes (pynmea2 builds and checksums them).
+
+Times are UTC: GPS time minus the leap seconds (the decoded page 18's ΔtLS, IS-GPS-200
+20.3.3.5.2.4). GGA's altitude field holds the WGS 84 ellipsoidal height with a geoid
+separation of 0 (no geoid model is applied), so height = altitude + separation as NMEA
+defines it. RMC's speed (knots) and course come from the fix's velocity.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime, timedelta
+from pathlib import Path
+
+import numpy as np
+import pynmea2
+
+from .fixes import PositionTable
+
+__all__ = ["nmea_sentences", "write_nmea"]
+
+_GPS_EPOCH = datetime(1980, 1, 6)
+_KNOT_MPS = 1852.0 / 3600.0
+
+
+def _angle(value_deg: float, width: int, hemispheres: str) -> tuple[str, str]:
+    """NMEA (d)ddmm.mmmmm and its hemisphere letter."""
+    a = abs(value_deg)
+    degrees = int(a)
+    minutes = (a - degrees) * 60.0
+    if round(minutes, 5) >= 60.0:  # rounding up to a whole degree
+        degrees, minutes = degrees + 1, 0.0
+    return f"{degrees:0{width}d}{minutes:08.5f}", hemispheres[0] if value_deg >= 0 else hemispheres[1]
+
+
+def nmea_sentences(table: PositionTable, leap_seconds: int = 18) -> list[str]:
+    """A GGA and an RMC sentence per fix of ``table``."""
+    out = []
+    c = table.columns
+    for k in range(len(table)):
+        utc = _GPS_EPOCH + timedelta(weeks=int(c["gps_week"][k]), seconds=float(c["tow_s"][k]) - leap_seconds)
+        clock = utc.strftime("%H%M%S.") + f"{utc.microsecond // 10_000:02d}"
+        lat, ns = _angle(float(c["lat_deg"][k]), 2, "NS")
+        lon, ew = _angle(float(c["lon_deg"][k]), 3, "EW")
+        out.append(str(pynmea2.GGA("GP", "GGA", (clock, lat, ns, lon, ew, "1", f"{int(c['n_sats'][k]):02d}",
+                                                 f"{c['hdop'][k]:.2f}", f"{c['height_m'][k]:.3f}", "M", "0.0", "M",
+                                                 "", ""))))
+        ve, vn = float(c["vel_e_mps"][k]), float(c["vel_n_mps"][k])
+        speed = np.hypot(ve, vn) / _KNOT_MPS if np.isfinite(ve) and np.isfinite(vn) else np.nan
+        course = np.degrees(np.arctan2(ve, vn)) % 360.0 if np.isfinite(speed) else np.nan
+        out.append(str(pynmea2.RMC("GP", "RMC", (clock, "A", lat, ns, lon, ew,
+                                                 "" if np.isnan(speed) else f"{speed:.3f}",
+                                                 "" if np.isnan(course) else f"{course:.2f}",
+                                                 utc.strftime("%d%m%y"), "", "", "A"))))
+    return out
+
+
+def write_nmea(path: str | Path, table: PositionTable, leap_seconds: int = 18) -> Path:
+    """``nmea.txt``: the GGA and RMC sentences of every fix, one per line."""
+    path = Path(path)
+    path.write_text("".join(s + "\r\n" for s in nmea_sentences(table, leap_seconds)))
+    return path

@@ -1,0 +1,264 @@
+"""Single-point position, velocity and time from GPS L1 C/A pseudoranges and Dopplers.
+
+One epoch at a time, batch over the satellites:
+
+- the satellite's state at its transmit time: the signal carries the satellite time
+  ``t_SV``; ``t = t_SV - Δt_SV`` with the SV clock of IS-GPS-200 20.3.3.3.3.1 (polynomial and
+  relativistic term) minus T_GD for the L1 C/A user (20.3.3.3.3.2), position from the
+  ephemeris (`ephemeris.satellite_state`, Table 20-IV);
+- the Earth's rotation during the flight time ``τ``: the satellite position is rotated by
+  ``-ω_e τ`` about the z axis into the ECEF frame of the receive time (IS-GPS-200 20.3.3.4.3.3.2);
+- the ionosphere by the Klobuchar model of the broadcast alpha/beta (20.3.3.5.2.5), and a
+  troposphere (Saastamoinen's zenith delays with a standard atmosphere over 1/sin(E)),
+  each switchable: gps-sdr-sim applies Klobuchar and no troposphere;
+- weighted least squares (Gauss-Newton) on position and receiver clock bias, weights
+  ``sin^2(E) / σ^2`` once the elevations are known; DOP from the unweighted geometry in
+  the local east-north-up frame;
+- residual-based exclusion of one satellite: when the weighted sum of squared residuals
+  exceeds the chi-square bound of ``n - 4`` degrees of freedom at ``false_alarm``, the
+  solution leaving out the satellite whose removal minimises it is taken, if that one
+  passes (with six satellites or more);
+- velocity and clock drift from the Dopplers (range rate ``-λ D``) on the same geometry.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pymap3d
+from scipy.stats import chi2
+
+from ..errors import ConfigError
+from ..signal.constants import L1_FREQ_HZ
+from .ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
+from .lnav import PI_IS_GPS, IonoUtc
+from .observables import SPEED_OF_LIGHT_MPS
+
+__all__ = ["PositionFix", "klobuchar_delay_s", "troposphere_delay_m", "dop", "solve_position"]
+
+_C = SPEED_OF_LIGHT_MPS
+_L1_WAVELENGTH_M = _C / L1_FREQ_HZ
+
+
+@dataclass(frozen=True)
+class PositionFix:
+    """One epoch's solution.
+
+    ``position_ecef_m`` (3,), geodetic ``lat_deg``, ``lon_deg``, ``height_m`` (WGS 84),
+    ``clock_bias_m`` (receiver clock error times c), ``velocity_enu_mps`` (3,) and
+    ``clock_drift_mps`` (NaN without Dopplers), ``gdop``/``pdop``/``hdop``/``vdop``, per
+    satellite ``used`` (S,) and ``residuals_m`` (S,, NaN where not used), ``excluded`` the
+    index of the satellite left out by the residual test (None if none), and
+    ``elevation_deg``/``azimuth_deg`` (S,).
+    """
+
+    position_ecef_m: np.ndarray
+    lat_deg: float
+    lon_deg: float
+    height_m: float
+    clock_bias_m: float
+    velocity_enu_mps: np.ndarray
+    clock_drift_mps: float
+    gdop: float
+    pdop: float
+    hdop: float
+    vdop: float
+    used: np.ndarray
+    residuals_m: np.ndarray
+    excluded: int | None
+    elevation_deg: np.ndarray
+    azimuth_deg: np.ndarray
+
+
+def klobuchar_delay_s(alpha: np.ndarray, beta: np.ndarray, lat_deg: float, lon_deg: float, azimuth_deg: np.ndarray,
+                      elevation_deg: np.ndarray, gps_tow_s: float) -> np.ndarray:
+    """L1 ionospheric delay (s) of the Klobuchar model (IS-GPS-200 20.3.3.5.2.5, Figure 20-4).
+
+    ``alpha`` and ``beta`` as broadcast (s/semicircle^n); angles in degrees, converted to
+    semicircles as the ICD's algorithm takes them.
+    """
+    E = np.asarray(elevation_deg, float) / 180.0
+    A = np.radians(azimuth_deg)
+    phi_u, lam_u = lat_deg / 180.0, lon_deg / 180.0
+    psi = 0.0137 / (E + 0.11) - 0.022  # Earth's central angle to the pierce point
+    phi_i = np.clip(phi_u + psi * np.cos(A), -0.416, 0.416)
+    lam_i = lam_u + psi * np.sin(A) / np.cos(phi_i * PI_IS_GPS)
+    phi_m = phi_i + 0.064 * np.cos((lam_i - 1.617) * PI_IS_GPS)  # geomagnetic latitude
+    t = (4.32e4 * lam_i + gps_tow_s) % 86_400.0  # local time at the pierce point
+    F = 1.0 + 16.0 * (0.53 - E) ** 3  # obliquity factor
+    powers = phi_m[..., None] ** np.arange(4)
+    amp = np.maximum(powers @ np.asarray(alpha, float), 0.0)
+    per = np.maximum(powers @ np.asarray(beta, float), 72_000.0)
+    x = 2 * PI_IS_GPS * (t - 50_400.0) / per
+    day = F * (5e-9 + amp * (1 - x**2 / 2 + x**4 / 24))
+    return np.where(np.abs(x) < 1.57, day, F * 5e-9)
+
+
+def troposphere_delay_m(lat_deg: float, height_m: float, elevation_deg: np.ndarray,
+                        humidity: float = 0.7) -> np.ndarray:
+    """Tropospheric delay (m): Saastamoinen's hydrostatic and wet zenith delays (1972) with
+    a standard atmosphere (1013.25 hPa, 15 degC at sea level, lapse 6.5 K/km, relative
+    ``humidity``), mapped by 1/sin(E)."""
+    h = float(np.clip(height_m, 0.0, 10_000.0))
+    pressure_hpa = 1013.25 * (1 - 2.2557e-5 * h) ** 5.2568
+    temp_k = 15.0 - 6.5e-3 * h + 273.16
+    vapour_hpa = 6.108 * humidity * np.exp((17.15 * temp_k - 4684.0) / (temp_k - 38.45))
+    zenith_dry = 0.0022768 * pressure_hpa / (1 - 0.00266 * np.cos(2 * np.radians(lat_deg)) - 0.00028 * h / 1e3)
+    zenith_wet = 0.002277 * (1255.0 / temp_k + 0.05) * vapour_hpa
+    sin_e = np.sin(np.radians(np.maximum(np.asarray(elevation_deg, float), 1.0)))
+    return (zenith_dry + zenith_wet) / sin_e
+
+
+def dop(unit_enu: np.ndarray) -> tuple[float, float, float, float]:
+    """GDOP, PDOP, HDOP, VDOP of line-of-sight unit vectors ``(S, 3)`` (east, north, up from
+    the receiver to each satellite): the square roots of the diagonal of ``(HᵀH)⁻¹`` with
+    rows ``H = [-u, 1]``."""
+    H = np.hstack([-np.asarray(unit_enu, float), np.ones((len(unit_enu), 1))])
+    Q = np.linalg.inv(H.T @ H)
+    d = np.diag(Q)
+    return (float(np.sqrt(d.sum())), float(np.sqrt(d[:3].sum())), float(np.sqrt(d[:2].sum())), float(np.sqrt(d[2])))
+
+
+def _rotate_earth(pos: np.ndarray, tau_s: np.ndarray) -> np.ndarray:
+    """Satellite ECEF positions at transmit time expressed in the ECEF frame ``tau_s`` later."""
+    theta = OMEGA_EARTH_RAD_S * tau_s
+    c, s = np.cos(theta), np.sin(theta)
+    return np.stack([c * pos[:, 0] + s * pos[:, 1], -s * pos[:, 0] + c * pos[:, 1], pos[:, 2]], axis=-1)
+
+
+def _enu_rotation(lat_deg: float, lon_deg: float) -> np.ndarray:
+    """Rows: east, north, up unit vectors in ECEF."""
+    la, lo = np.radians(lat_deg), np.radians(lon_deg)
+    return np.array([[-np.sin(lo), np.cos(lo), 0.0],
+                     [-np.sin(la) * np.cos(lo), -np.sin(la) * np.sin(lo), np.cos(la)],
+                     [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)]])
+
+
+def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s, x0, mask_deg):
+    """Gauss-Newton on (x, y, z, b) with the satellites ``keep``; returns the state, the
+    weighted residuals' chi-square, residuals, unit vectors, elevations and azimuths."""
+    x = x0.copy()
+    S = pr.size
+    el = np.full(S, 90.0)
+    az = np.zeros(S)
+    corr = np.zeros(S)
+    use = keep.copy()
+    for _ in range(20):
+        near_surface = np.linalg.norm(x[:3]) > 6.0e6
+        tau = np.where(near_surface, np.linalg.norm(sat_pos - x[:3], axis=1) / _C, 0.075)
+        rot = _rotate_earth(sat_pos, tau)
+        los = rot - x[:3]
+        geo = np.linalg.norm(los, axis=1)
+        u = los / geo[:, None]
+        if near_surface:
+            lat, lon, h = pymap3d.ecef2geodetic(*x[:3])
+            az, el, _ = pymap3d.ecef2aer(rot[:, 0], rot[:, 1], rot[:, 2], lat, lon, h)
+            az, el = np.asarray(az, float), np.asarray(el, float)
+            corr = np.zeros(S)
+            if iono is not None:
+                corr = corr + _C * klobuchar_delay_s(iono.alpha, iono.beta, lat, lon, az, el, tow_s)
+            if troposphere:
+                corr = corr + troposphere_delay_m(lat, h, el)
+            use = keep & (el >= mask_deg)
+            w = np.sin(np.radians(np.maximum(el, 1.0))) ** 2 / sigma_m**2
+        else:
+            w = np.full(S, 1.0 / sigma_m**2)
+        if use.sum() < 4:
+            return None
+        dz = pr - (geo + x[3] + corr - clock_m)
+        H = np.hstack([-u, np.ones((S, 1))])
+        Hw = H[use] * w[use, None]
+        dx = np.linalg.solve(Hw.T @ H[use], Hw.T @ dz[use])
+        x = x + dx
+        if np.linalg.norm(dx) < 1e-4:
+            break
+    res = pr - (geo + x[3] + corr - clock_m)
+    stat = float(np.sum(w[use] * res[use] ** 2))
+    return x, stat, np.where(use, res, np.nan), u, el, az, use, rot
+
+
+def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris: Ephemerides, *,
+                   doppler_hz: np.ndarray | None = None, iono: IonoUtc | None = None, troposphere: bool = False,
+                   sigma_m: float = 5.0, elevation_mask_deg: float = 5.0, false_alarm: float = 1e-3,
+                   initial_ecef_m: np.ndarray | None = None) -> PositionFix | None:
+    """Position, velocity and clock of one epoch.
+
+    Parameters
+    ----------
+    pseudorange_m, transmit_s
+        ``(S,)`` pseudoranges and the satellite times of transmission (GPS seconds of week,
+        before the SV clock correction), NaN where a satellite has none.
+    ephemeris
+        ``S`` records in the same order (:meth:`Ephemerides.select`).
+    doppler_hz
+        ``(S,)`` Dopplers for the velocity (optional).
+    iono
+        Broadcast Klobuchar coefficients (None: no ionospheric correction).
+    troposphere
+        Apply `troposphere_delay_m`.
+    sigma_m
+        Pseudorange standard deviation at the zenith (weights and the residual test).
+    elevation_mask_deg
+        Satellites below are not used (once the position is known).
+    false_alarm
+        Probability of the residual test rejecting a fault-free solution.
+    initial_ecef_m
+        Starting point (default the Earth's centre).
+
+    Returns
+    -------
+    PositionFix, or None with fewer than four usable satellites.
+    """
+    pr = np.asarray(pseudorange_m, float)
+    tx = np.asarray(transmit_s, float)
+    if pr.shape != tx.shape or pr.ndim != 1 or ephemeris.sv.size != pr.size:
+        raise ConfigError("solve_position", f"pseudoranges {pr.shape}, transmit times {tx.shape} and "
+                                            f"{ephemeris.sv.size} ephemeris records must all be (S,)")
+    if sigma_m <= 0:
+        raise ConfigError("sigma_m", f"must be positive, got {sigma_m}")
+    keep = np.isfinite(pr) & np.isfinite(tx)
+    if keep.sum() < 4:
+        return None
+    t = np.where(keep, tx, 0.0)
+    clock = satellite_state(ephemeris, t).clock_l1_s
+    state = satellite_state(ephemeris, t - clock)  # t = t_SV - Δt_SV (20.3.3.3.3.1)
+    clock_m = _C * state.clock_l1_s
+    tow = float(np.nanmedian(tx)) + 0.075
+    x0 = np.zeros(4) if initial_ecef_m is None else np.r_[np.asarray(initial_ecef_m, float), 0.0]
+    prz = np.where(keep, pr, 0.0)
+    args = (prz, state.position_m, clock_m)
+    sol = _least_squares(*args, keep, sigma_m, iono, troposphere, tow, x0, elevation_mask_deg)
+    if sol is None:
+        return None
+    excluded = None
+    dof = int(sol[6].sum()) - 4
+    if dof >= 2 and sol[1] > chi2.ppf(1 - false_alarm, dof):
+        trials = {}
+        for j in np.flatnonzero(sol[6]):
+            k = keep.copy()
+            k[j] = False
+            trial = _least_squares(*args, k, sigma_m, iono, troposphere, tow, sol[0], elevation_mask_deg)
+            if trial is not None:
+                trials[int(j)] = trial
+        if trials:
+            j, best = min(trials.items(), key=lambda kv: kv[1][1])
+            if best[1] <= chi2.ppf(1 - false_alarm, int(best[6].sum()) - 4):
+                sol, excluded = best, j
+    x, _, res, u, el, az, use, rot = sol
+    lat, lon, h = (float(v) for v in pymap3d.ecef2geodetic(*x[:3]))
+    R = _enu_rotation(lat, lon)
+    gdop, pdop, hdop, vdop = dop(u[use] @ R.T)
+    vel, drift = np.full(3, np.nan), np.nan
+    if doppler_hz is not None:
+        d = np.asarray(doppler_hz, float)
+        ok = use & np.isfinite(d)
+        if ok.sum() >= 4:
+            # Range rate -λ D = u·(v_sat - v_rx) + ḃ - c Δṫ_SV (satellite velocity rotated as its position).
+            v_sat = _rotate_earth(state.velocity_mps, np.linalg.norm(rot - x[:3], axis=1) / _C)
+            y = -_L1_WAVELENGTH_M * d - np.sum(u * v_sat, axis=1) + _C * state.clock_drift_s_s
+            H = np.hstack([-u, np.ones((u.shape[0], 1))])
+            sol_v, *_ = np.linalg.lstsq(H[ok], y[ok], rcond=None)
+            vel, drift = R @ sol_v[:3], float(sol_v[3])
+    return PositionFix(x[:3], lat, lon, h, float(x[3]), vel, drift, gdop, pdop, hdop, vdop, use, res, excluded,
+                       el, az)

@@ -1,0 +1,57 @@
+"""From a recording to positions: acquisition, tracking, LNAV, observables, fixes.
+
+The software receiver's navigation half, one function: :func:`receive` acquires and tracks
+the recording (`gnssframework.receiver.channels.SampleTracker`), decodes every channel's
+LNAV and its transmit times (`observables.channel_timing`), forms the observables at
+common epochs and solves each epoch (`fixes.solve_epochs`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pymap3d
+
+from ..receiver.acquisition.report import acquire_recording
+from ..receiver.acquisition.search import Acquisition
+from ..receiver.channels import SampleTracker, TrackingConfig, TrackingResult
+from ..receiver.frontend.recording import Recording
+from .ephemeris import Ephemerides
+from .fixes import PositionTable, solve_epochs
+from .observables import Observables, channel_timing, observables
+
+__all__ = ["ReceiveResult", "receive", "position_errors"]
+
+
+@dataclass(frozen=True)
+class ReceiveResult:
+    """The tracking, the observables (None when no channel decoded a subframe) and the fixes."""
+
+    tracking: TrackingResult
+    observables: Observables | None
+    positions: PositionTable | None
+
+
+def receive(recording: Recording, acquisition: Acquisition, config: TrackingConfig, *,
+            prns: tuple[int, ...] | None = None, duration_s: float | None = None, rate_hz: float = 1.0,
+            rinex: Ephemerides | None = None, ionosphere: bool = True, troposphere: bool = False,
+            reference_week: int | None = None, progress: Any = None) -> ReceiveResult:
+    """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
+    satellites whose own have not been decoded yet."""
+    found = [r for r in acquire_recording(recording, acquisition, prns or tuple(range(1, 33))) if r.detected]
+    tracking = SampleTracker(recording, config, acquisition).run(found, duration_s, progress)
+    timings = [channel_timing(ch) for ch in tracking.channels.values()]
+    if not any(t is not None and t.time_s.size > 1 for t in timings):
+        return ReceiveResult(tracking, None, None)
+    obs = observables(timings, rate_hz)
+    table = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere, reference_week=reference_week)
+    return ReceiveResult(tracking, obs, table)
+
+
+def position_errors(table: PositionTable, truth_lat_lon_h: tuple[float, float, float]) -> np.ndarray:
+    """East, north, up errors ``(F, 3)`` (m) of the fixes against a known position."""
+    lat, lon, h = truth_lat_lon_h
+    e, n, u = pymap3d.ecef2enu(table.ecef_m[:, 0], table.ecef_m[:, 1], table.ecef_m[:, 2], lat, lon, h)
+    return np.stack([np.asarray(e), np.asarray(n), np.asarray(u)], axis=-1).reshape(-1, 3)

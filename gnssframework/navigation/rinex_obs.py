@@ -1,0 +1,92 @@
+"""RINEX 3.04 observation file of a receiver's observables (GPS L1 C/A).
+
+One epoch record per receive epoch of :class:`~gnssframework.navigation.observables.Observables`
+with the satellites that have a pseudorange, and per satellite ``C1C`` (pseudorange, m),
+``L1C`` (carrier phase, cycles), ``D1C`` (Doppler, Hz) and ``S1C`` (C/N0, dB-Hz), in the
+fixed-width fields of RINEX 3.04 (section 5 and tables A1-A3): the header labels in
+columns 61-80, epoch lines ``> yyyy mm dd hh mm ss.sssssss flag n``, observations as
+F14.3 with the loss-of-lock and strength digits. Epochs are the receiver clock's (GPS
+time biased by the receiver clock error), as RINEX defines them.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime, timedelta
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+from .observables import Observables
+
+__all__ = ["write_rinex_obs", "OBS_TYPES"]
+
+#: Observation types written, in this order.
+OBS_TYPES = ("C1C", "L1C", "D1C", "S1C")
+_GPS_EPOCH = datetime(1980, 1, 6)
+
+
+def _line(content: str, label: str) -> str:
+    return f"{content:<60.60}{label:<20}\n"
+
+
+def _calendar(week: int, tow_s: float) -> tuple[datetime, float]:
+    """Calendar time (whole seconds) and the fraction of a second of a GPS week and tow."""
+    whole = np.floor(tow_s)
+    return _GPS_EPOCH + timedelta(weeks=int(week), seconds=float(whole)), float(tow_s - whole)
+
+
+def _strength(cn0_dbhz: float) -> int:
+    """RINEX signal strength digit 1-9 from C/N0 (RINEX 3.04 5.7: 9 for >= 54 dB-Hz, 1 below 12)."""
+    return int(np.clip(np.floor(cn0_dbhz / 6.0), 1, 9))
+
+
+def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m: np.ndarray | None = None,
+                    marker: str = "GNSSFRAMEWORK") -> Path:
+    """Write ``obs`` as a RINEX 3.04 GPS observation file.
+
+    Parameters
+    ----------
+    week
+        Full GPS week of the epochs (``fixes.full_week``).
+    approx_ecef_m
+        APPROX POSITION XYZ (zeros when unknown).
+    """
+    if week < 0:
+        raise ConfigError("week", "the GPS week of the epochs is unknown (no subframe 1 decoded and no reference)")
+    path = Path(path)
+    rows = [e for e in range(obs.rx_time_s.size) if np.isfinite(obs.pseudorange_m[e]).any()]
+    if not rows:
+        raise ConfigError("observables", "no epoch holds a pseudorange: nothing to write")
+    xyz = np.zeros(3) if approx_ecef_m is None else np.asarray(approx_ecef_m, float)
+    first, frac = _calendar(week, float(obs.rx_time_s[rows[0]]))
+    # The file's date is its first epoch's, not the wall clock's: the same input gives the same bytes.
+    stamp = first.strftime("%Y%m%d %H%M%S") + " GPS"
+    header = [
+        _line(f"{'3.04':>9}{'':11}{'OBSERVATION DATA':<20}{'G':<20}", "RINEX VERSION / TYPE"),
+        _line(f"{'gnssframework':<20}{'':<20}{stamp:<20}", "PGM / RUN BY / DATE"),
+        _line(marker, "MARKER NAME"),
+        _line(f"{'':<20}{'':<40}", "OBSERVER / AGENCY"),
+        _line(f"{'0':<20}{'gnssframework SDR':<20}{'':<20}", "REC # / TYPE / VERS"),
+        _line(f"{'0':<20}{'unknown':<20}", "ANT # / TYPE"),
+        _line("".join(f"{v:14.4f}" for v in xyz), "APPROX POSITION XYZ"),
+        _line("".join(f"{v:14.4f}" for v in (0.0, 0.0, 0.0)), "ANTENNA: DELTA H/E/N"),
+        _line(f"G{len(OBS_TYPES):5d}" + "".join(f" {t}" for t in OBS_TYPES), "SYS / # / OBS TYPES"),
+        _line(f"{first.year:6d}{first.month:6d}{first.day:6d}{first.hour:6d}{first.minute:6d}"
+              f"{first.second + frac:13.7f}{'':5}GPS", "TIME OF FIRST OBS"),
+        _line("", "END OF HEADER"),
+    ]
+    body = []
+    for e in rows:
+        t, frac = _calendar(week, float(obs.rx_time_s[e]))
+        sats = np.flatnonzero(np.isfinite(obs.pseudorange_m[e]))
+        body.append(f"> {t.year:4d} {t.month:02d} {t.day:02d} {t.hour:02d} {t.minute:02d}"
+                    f"{t.second + frac:11.7f}  0{sats.size:3d}\n")
+        for j in sats:
+            ssi = _strength(float(obs.cn0_dbhz[e, j])) if np.isfinite(obs.cn0_dbhz[e, j]) else 0
+            values = (obs.pseudorange_m[e, j], obs.carrier_cycles[e, j], obs.doppler_hz[e, j], obs.cn0_dbhz[e, j])
+            fields = "".join(f"{v:14.3f} {ssi if k < 3 else ' '}" if np.isfinite(v) else " " * 16
+                             for k, v in enumerate(values))
+            body.append(f"G{int(obs.prn[j]):02d}{fields}".rstrip() + "\n")
+    path.write_text("".join(header + body))
+    return path
