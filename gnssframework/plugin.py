@@ -18,6 +18,7 @@ is caught with the field's name before any filter runs::
 
 from __future__ import annotations
 
+import re
 import types
 import typing
 from typing import Any, ClassVar, Sequence
@@ -25,6 +26,7 @@ from typing import Any, ClassVar, Sequence
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from .errors import ConfigError
+from .suggest import did_you_mean
 
 __all__ = ["Plugin", "PluginParams", "validation_message", "field_path", "refuse_quiet_conversions"]
 
@@ -138,7 +140,7 @@ def validation_message(exc: ValidationError, prefix: str = "",
             owner = _model_at(model, err["loc"])
             if owner is not None:
                 fields = sorted(owner.model_fields)
-                msg += f"; valid: {', '.join(fields) or '(none)'}"
+                msg += f"; valid: {', '.join(fields) or '(none)'}{did_you_mean(err['loc'][-1], fields)}"
                 if set(fields) == {"name", "params"}:
                     msg += (f"; plugin parameters go under `params`: "
                             f"{{ name = ..., params = {{ {err['loc'][-1]} = ... }} }}")
@@ -150,6 +152,8 @@ def validation_message(exc: ValidationError, prefix: str = "",
                 msg = str(error)  # our own validators' messages are complete
         elif "input" in err and err["type"] != "missing":
             msg = f"{msg} (got {err['input']!r})"
+            if err["type"] in ("literal_error", "enum"):  # e.g. 'OCXO' for 'ocxo'
+                msg += did_you_mean(err["input"], re.findall(r"'([^']*)'", str(err.get("ctx", {}).get("expected"))))
         items.append((field, msg))
     if len(items) == 1:
         return ConfigError(*items[0])

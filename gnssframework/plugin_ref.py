@@ -25,13 +25,14 @@ PluginSpec(kind='estimator', name='kf', params={})
 
 from __future__ import annotations
 
-import difflib
 import typing
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Callable
 
 import numpy as np
 from pydantic import BeforeValidator, ValidationError, WithJsonSchema
+
+from .suggest import did_you_mean
 
 __all__ = ["PluginSpec", "PluginRef", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
 
@@ -150,8 +151,7 @@ def _resolve(rule: _Rule, value: Any) -> PluginSpec:
         raise ValueError(f"{_article(rule.kind)} {rule.kind} reference is a name or {{ name, params }}, got {value!r}")
     known = registry.names(rule.kind)
     if name not in known:
-        close = difflib.get_close_matches(str(name), known, n=1, cutoff=0.4)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
+        hint = did_you_mean(name, known, cutoff=0.4)
         raise ValueError(f"unknown {rule.kind} {name!r}; known: {', '.join(known) or '(none)'}{hint}")
     cls = registry.get(rule.kind, name)
     why = _misfit(rule, cls)
