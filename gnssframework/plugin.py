@@ -18,6 +18,7 @@ is caught with the field's name before any filter runs::
 
 from __future__ import annotations
 
+import inspect
 import re
 import types
 import typing
@@ -162,6 +163,20 @@ def validation_message(exc: ValidationError, prefix: str = "",
     return ConfigError(items[0][0], f"{items[0][1]}; also {rest}")
 
 
+def params_signature(model: type[BaseModel]) -> inspect.Signature:
+    """The keyword-only signature ``(*, field: type = default, ...)`` of a parameter model,
+    for a plugin class whose ``__init__`` takes its ``Params`` as keywords."""
+    parameters = []
+    for name, info in model.model_fields.items():
+        default = inspect.Parameter.empty if info.is_required() else info.get_default(call_default_factory=True)
+        try:
+            parameters.append(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default,
+                                                annotation=info.annotation))
+        except ValueError:  # a field named like a Python keyword cannot be a keyword argument
+            continue
+    return inspect.Signature(parameters)
+
+
 class Plugin:
     """Base class of all plugins.
 
@@ -179,6 +194,11 @@ class Plugin:
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
     Params: ClassVar[type[PluginParams]] = PluginParams
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.__init__ is Plugin.__init__:  # its parameters are its Params' fields: say so to help() and IDEs
+            cls.__signature__ = params_signature(cls.Params)
 
     def __init__(self, **params: Any) -> None:
         try:
