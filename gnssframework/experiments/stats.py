@@ -146,7 +146,9 @@ def paired_difference(candidate: np.ndarray, reference: np.ndarray, level: float
         # t-test has nothing to test, so nothing is called significant.
         return PairedDifference(n, diff, 0.0, (diff, diff), ratio, ratio_se, False,
                                 "identical values in every run" if diff == 0.0 else
-                                "the same difference in every run (no spread): no significance test")
+                                "identical values in every run up to floating-point rounding"
+                                if at_rounding_level(abs(diff), float(np.max(np.abs(np.concatenate([x, y])))))
+                                else "the same difference in every run (no spread): no significance test")
     return PairedDifference(n, diff, se, ci, ratio, ratio_se, bool(abs(diff) > t * se))
 
 
