@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import re
 import sqlite3
 import sys
 from pathlib import Path
@@ -34,13 +35,18 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
             close = difflib.get_close_matches(args.describe, every, n=1, cutoff=0.4)
             hint = f"; did you mean {close[0]!r}?" if close else ""
             raise ConfigError("--describe", f"no plugin named {args.describe!r}{hint}")
-        print("\n\n".join(describe_plugin(k, registry.get(k, args.describe)) for k in matches))
+        print("\n\n".join(plain_text(describe_plugin(k, registry.get(k, args.describe))) for k in matches))
         return 0
     rows = [("KIND", "NAME", "DESCRIPTION", "SOURCE")]
     for info in registry.describe():
         if args.kind and info.kind != args.kind:
             continue
-        rows.append((info.kind, info.name, info.description, f"{info.distribution} {info.version}".strip()))
+        rows.append((info.kind, info.name, plain_text(info.description), f"{info.distribution} {info.version}".strip()))
+    if len(rows) == 1:
+        print(f"no {args.kind} plugin is registered" if args.kind else "no plugin is registered")
+        for failure in registry.failures():
+            print(f"failed to load: {failure}", file=sys.stderr)
+        return 0
     widths = [max(len(r[i]) for r in rows) for i in range(3)]
     for r in rows:
         print(f"{r[0]:<{widths[0]}}  {r[1]:<{widths[1]}}  {r[2]:<{widths[2]}}  {r[3]}")
@@ -55,7 +61,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     config = load_config(args.file, runs=args.runs, seed=args.seed)
     out = args.out or f"results/{config.name}"
     try:
-        summary = run_comparison(config, out, progress=not args.quiet)
+        # A progress bar is for a terminal: in a log or a pipe it is noise.
+        summary = run_comparison(config, out, progress=not args.quiet and sys.stderr.isatty())
     except sqlite3.DatabaseError as exc:  # sqlite3 does not say which file: name the store
         raise _store_error(exc, Path(out) / "results.sqlite") from None
     print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
@@ -120,11 +127,12 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .io.files import atomic_open
-    from .io.observations import read_observations
+    from .io.observations import normalise_select, read_observations
     from .io.skipped import exit_status, print_skipped, write_skipped_report
     from .io.skipped import EXIT_SKIPPED
     from .io.smoothing import smooth_observations
 
+    args.prn = normalise_select(args.prn)
     obs = read_observations(args.file, args.prn, pseudorange_min_m=args.pseudorange_min,
                             pseudorange_max_m=args.pseudorange_max, strict=args.strict)
     name = SMOOTHERS[args.filter]["name"]
@@ -179,6 +187,8 @@ def _cmd_schema(args: argparse.Namespace) -> int:
 def _open_recording_from_args(args: argparse.Namespace):
     from .receiver.frontend import open_recording
 
+    if not Path(args.recording).exists():  # the wording every command uses for a missing file
+        raise DataFileError(args.recording, None, "no such file")
     return open_recording(args.recording, format=args.format, sample_rate_hz=args.fs, if_hz=args.if_hz,
                           q_sign=args.q_sign)
 
@@ -352,12 +362,49 @@ def _add_recording_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--prns", type=int, nargs="+", help="PRNs to search (default 1-32)")
 
 
+_ROLE = re.compile(r":[a-z]+(?::[a-z]+)?:`~?([^`<]*?)\s*(?:<[^>]*>)?`")
+
+
+def plain_text(text: str) -> str:
+    """``text`` without reST inline markup, for a terminal: ````x```` -> ``x``,
+    ``:class:`~a.B``` -> ``B``, ``:func:`name <a.f>``` -> ``name``.
+
+    Examples
+    --------
+    >>> plain_text("composes a ``channel_filter`` (:class:`~gnssframework.interfaces.NavFilter`)")
+    'composes a channel_filter (NavFilter)'
+    """
+    text = _ROLE.sub(lambda m: m.group(1).rsplit(".", 1)[-1] if m.group(0).count("~") else m.group(1), text)
+    return text.replace("``", "")
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps descriptions' line breaks and shows each option's default, unless its help
+    already says it or there is none to show (a flag, an option without a default)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if ("default" in text or action.default in (None, False, argparse.SUPPRESS)
+                or action.option_strings == [] or isinstance(action, argparse._VersionAction)):
+            return text
+        return f"{text} (default: %(default)s)"
+
+
+class _Parser(argparse.ArgumentParser):
+    """A subcommand's parser: the same help formatter as the top level."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
-    parser = argparse.ArgumentParser(prog="gnssframework", description=__doc__)
+    parser = argparse.ArgumentParser(prog="gnssframework", description=plain_text(__doc__),
+                                     formatter_class=HelpFormatter)
     parser.add_argument("--version", action="version", version=f"gnssframework {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     p = sub.add_parser("plugins", help="list the registered plugins")
     p.add_argument("--kind", choices=registry.kinds(), help="only this kind")
     p.add_argument("--describe", metavar="NAME", help="one plugin's description, contract and parameter table")
@@ -379,7 +426,8 @@ def build_parser() -> argparse.ArgumentParser:
                        epilog=EXIT_STATUS_HELP)
     p.add_argument("file", help="NMEA log with GGA and/or RMC sentences")
     p.add_argument("--out", required=True, help="output CSV")
-    p.add_argument("--filter", default="AUKF1", choices=["UKF", "UKF1", "AUKF", "AUKF1"])
+    p.add_argument("--filter", default="AUKF1", choices=["UKF", "UKF1", "AUKF", "AUKF1"],
+                   help="position filter of Liu et al. 2020")
     p.add_argument("--psi", type=float, default=0.95, help="AR(1) coefficient for the colored filters")
     p.add_argument("--max-speed", type=float, default=MAX_SPEED_MPS, metavar="M/S",
                    help="jump check: skip a fix further from the last accepted one than this speed allows "
@@ -397,9 +445,11 @@ def build_parser() -> argparse.ArgumentParser:
                                    "<out>.skipped.csv.",
                        epilog=EXIT_STATUS_HELP)
     p.add_argument("file", help="RINEX 2.1x or 3.0x observation file (plain, .gz, Hatanaka .crx or .crx.gz)")
-    p.add_argument("--prn", required=True, help="satellites (G08 or G08,C11) or systems (G, GEC, all)")
+    p.add_argument("--prn", required=True, help="satellites (G08 or G08,C11; g8 and 8 mean G08) or systems (G, GEC, "
+                                                "all)")
     p.add_argument("--out", required=True, help="output CSV")
-    p.add_argument("--filter", default="hatch", choices=list(SMOOTHERS))
+    p.add_argument("--filter", default="hatch", choices=list(SMOOTHERS),
+                   help="smoother: Hatch filter, Kalman smoother, or Kalman smoother with ml-q adaptive Q")
     p.add_argument("--window", type=int, default=100, help="Hatch window (epochs)")
     p.add_argument("--q", type=float, default=1e-3, help="Kalman smoother Q (m^2)")
     p.add_argument("--r", type=float, default=1.25, help="Kalman smoother R (m^2)")

@@ -18,6 +18,8 @@ is caught with the field's name before any filter runs::
 
 from __future__ import annotations
 
+import inspect
+import re
 import types
 import typing
 from typing import Any, ClassVar, Sequence
@@ -25,6 +27,7 @@ from typing import Any, ClassVar, Sequence
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from .errors import ConfigError
+from .suggest import did_you_mean
 
 __all__ = ["Plugin", "PluginParams", "validation_message", "field_path", "refuse_quiet_conversions"]
 
@@ -46,8 +49,9 @@ def refuse_quiet_conversions(model: type[BaseModel], data: Any) -> Any:
     boolean. Integers stay valid numbers (TOML's ``alpha = 1``)."""
     if not isinstance(data, dict):
         return data
+    fields = config_fields(model)
     for name, value in data.items():
-        field = model.model_fields.get(name) if isinstance(name, str) else None
+        field = fields.get(name) if isinstance(name, str) else None
         kind = _scalar_type(field.annotation) if field is not None else None
         if kind in (int, float) and isinstance(value, (bool, str)):
             raise NestedFieldError(name, f"must be a number, not a {type(value).__name__} (got {value!r})")
@@ -56,12 +60,31 @@ def refuse_quiet_conversions(model: type[BaseModel], data: Any) -> Any:
     return data
 
 
+def config_fields(model: type[BaseModel]) -> dict[str, Any]:
+    """A model's fields by every name a config or a call may give them: the field's name
+    and, for a field with an alias, the alias (``lambda`` in TOML for the Python ``lam``)."""
+    out = dict(model.model_fields)
+    out.update({info.alias: info for info in model.model_fields.values() if info.alias})
+    return out
+
+
+def config_names(model: type[BaseModel]) -> list[str]:
+    """The parameter names a config writes: each field's alias where it has one."""
+    return [info.alias or name for name, info in model.model_fields.items()]
+
+
 class PluginParams(BaseModel):
     """Base of every plugin's parameter model: unknown parameters are an error, defaults
     are validated like given values (a nested plugin's default name is resolved), and a
-    string or boolean for a number is refused rather than converted."""
+    string or boolean for a number is refused rather than converted.
 
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    A parameter whose config name is no Python identifier (``lambda``) is a field with an
+    alias, ``lam: float = Field(1.0, alias="lambda")``: a config writes ``lambda``, Python
+    passes either (``UKF(lam=...)`` or ``**{"lambda": ...}``), and errors, ``--describe``
+    and the schema all name it ``lambda``."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, validate_by_name=True,
+                              validate_by_alias=True)
 
     @model_validator(mode="before")
     @classmethod
@@ -104,9 +127,17 @@ def _model_at(model: type[BaseModel] | None, loc: Sequence[Any]) -> type[BaseMod
             return None
         if isinstance(part, int):
             continue
-        field = model.model_fields.get(str(part))
+        field = config_fields(model).get(str(part))
         model = _submodel(field.annotation) if field is not None else None
     return model
+
+
+def _config_loc(model: type[BaseModel] | None, loc: Sequence[Any]) -> tuple:
+    """``loc`` with a field given by its Python name written as a config writes it (its
+    alias: ``lam`` -> ``lambda``), so an error names a parameter one way."""
+    owner = _model_at(model, loc) if loc and isinstance(loc[-1], str) else None
+    info = owner.model_fields.get(loc[-1]) if owner is not None else None
+    return (*loc[:-1], info.alias) if info is not None and info.alias else tuple(loc)
 
 
 class NestedFieldError(ValueError):
@@ -131,14 +162,14 @@ def validation_message(exc: ValidationError, prefix: str = "",
     """
     items = []
     for err in exc.errors():
-        field = field_path(err["loc"], prefix)
+        field = field_path(_config_loc(model, err["loc"]), prefix)
         msg = err["msg"]
         if err["type"] == "extra_forbidden":
             msg = "unknown parameter"
             owner = _model_at(model, err["loc"])
             if owner is not None:
-                fields = sorted(owner.model_fields)
-                msg += f"; valid: {', '.join(fields) or '(none)'}"
+                fields = sorted(config_names(owner))
+                msg += f"; valid: {', '.join(fields) or '(none)'}{did_you_mean(err['loc'][-1], fields)}"
                 if set(fields) == {"name", "params"}:
                     msg += (f"; plugin parameters go under `params`: "
                             f"{{ name = ..., params = {{ {err['loc'][-1]} = ... }} }}")
@@ -150,12 +181,28 @@ def validation_message(exc: ValidationError, prefix: str = "",
                 msg = str(error)  # our own validators' messages are complete
         elif "input" in err and err["type"] != "missing":
             msg = f"{msg} (got {err['input']!r})"
+            if err["type"] in ("literal_error", "enum"):  # e.g. 'OCXO' for 'ocxo'
+                msg += did_you_mean(err["input"], re.findall(r"'([^']*)'", str(err.get("ctx", {}).get("expected"))))
         items.append((field, msg))
     if len(items) == 1:
         return ConfigError(*items[0])
     # One line, the first field leading: a CLI error is one line, and ConfigError.field names it.
     rest = "; ".join(f"{f}: {m}" for f, m in items[1:])
     return ConfigError(items[0][0], f"{items[0][1]}; also {rest}")
+
+
+def params_signature(model: type[BaseModel]) -> inspect.Signature:
+    """The keyword-only signature ``(*, field: type = default, ...)`` of a parameter model,
+    for a plugin class whose ``__init__`` takes its ``Params`` as keywords."""
+    parameters = []
+    for name, info in model.model_fields.items():
+        default = inspect.Parameter.empty if info.is_required() else info.get_default(call_default_factory=True)
+        try:
+            parameters.append(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default,
+                                                annotation=info.annotation))
+        except ValueError:  # a field named like a Python keyword cannot be a keyword argument
+            continue
+    return inspect.Signature(parameters)
 
 
 class Plugin:
@@ -175,6 +222,11 @@ class Plugin:
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
     Params: ClassVar[type[PluginParams]] = PluginParams
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.__init__ is Plugin.__init__:  # its parameters are its Params' fields: say so to help() and IDEs
+            cls.__signature__ = params_signature(cls.Params)
 
     def __init__(self, **params: Any) -> None:
         try:

@@ -71,8 +71,10 @@ def parameter_rows(params_model: type[BaseModel]) -> list[ParameterRow]:
             else []
         if literal:
             bounds.append("one of " + ", ".join(map(repr, literal)))
-        rows.append(ParameterRow(name, _type_name(info.annotation, refs, name), _default_text(info.default, name in refs),
-                                 ", ".join(bounds), info.description or ""))
+        python = f" (Python keyword: {name})" if info.alias else ""  # a config name like `lambda`
+        rows.append(ParameterRow(info.alias or name, _type_name(info.annotation, refs, name),
+                                 _default_text(info.default, name in refs), ", ".join(bounds),
+                                 (info.description or "") + python))
     return rows
 
 

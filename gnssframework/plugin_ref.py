@@ -25,7 +25,6 @@ PluginSpec(kind='estimator', name='kf', params={})
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Callable
 
@@ -36,6 +35,7 @@ from . import registry
 from .errors import ConfigError
 from .plugin import NestedFieldError, validation_message
 from .plugin_ref_rules import RefRule, misfit, plugin_ref_constraints, plugin_refs
+from .suggest import did_you_mean
 
 __all__ = ["PluginSpec", "PluginRef", "ComponentRef", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
 
@@ -131,8 +131,7 @@ def _resolve(rule: RefRule, value: Any) -> PluginSpec:
         raise ValueError(f"{_article(rule.kind)} {rule.kind} reference is a name or {{ name, params }}, got {value!r}")
     known = registry.names(rule.kind)
     if name not in known:
-        close = difflib.get_close_matches(str(name), known, n=1, cutoff=0.4)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
+        hint = did_you_mean(name, known, cutoff=0.4)
         raise ValueError(f"unknown {rule.kind} {name!r}; known: {', '.join(known) or '(none)'}{hint}")
     cls = registry.get(rule.kind, name)
     why = misfit(rule, cls)

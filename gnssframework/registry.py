@@ -14,7 +14,6 @@ Loading is robust: a plugin that fails to import or to register is recorded in
 
 from __future__ import annotations
 
-import difflib
 import importlib
 import importlib.metadata as md
 import threading
@@ -26,6 +25,7 @@ import pluggy
 
 from . import hookspecs
 from .errors import ConfigError, PluginError
+from .suggest import did_you_mean
 from .estimation.adaptation import Augmentation, NoiseAdapter
 from .estimation.estimator import Estimator
 from .interfaces import ChannelFilter, Discriminator, NavFilter
@@ -190,8 +190,7 @@ class _Registry:
             return self._plugins[kind][name].cls
         except KeyError:
             known = sorted(self._plugins[kind])
-            close = difflib.get_close_matches(str(name), known, n=1, cutoff=0.4)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
+            hint = did_you_mean(name, known, cutoff=0.4)
             raise ConfigError(
                 kind, f"unknown {kind} {name!r}; known: {', '.join(known) or '(none)'}{hint}"
             ) from None

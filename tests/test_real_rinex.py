@@ -134,7 +134,7 @@ def test_a_bad_selection_is_a_config_error():
 
 
 @pytest.mark.parametrize("path, why", [
-    (NAV2, r"07590920.05n:1: RINEX file type 'N', not observations"),
+    (NAV2, r"07590920.05n:1: a navigation file \(broadcast ephemeris, RINEX type N\), not an observation file"),
     (DATA / "beidou-bd.log", r"beidou-bd.log:1: not a RINEX file"),
 ])
 def test_files_that_are_not_observations_are_refused_in_one_line(path, why):

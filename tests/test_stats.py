@@ -125,10 +125,11 @@ def test_summary_and_report_carry_the_hand_computed_paired_statistics(tmp_path):
     assert row["ratio"] == pytest.approx(4 / 3) and row["significant"] is True
     assert len(summary["paired"]) == len(config.metric_names)  # the reference is not paired with itself
     report = (tmp_path / "report.md").read_text()
-    assert "Paired differences to `b`" in report and "+0.625 ± 0.125 (×1.33) **\\*** n=4" in report
-    # The first table is mean ± standard deviation over runs (X: 2.5, sqrt(5/3)), and says
-    # so; its ± is not the standard error (0.645), which only the paired table reports.
-    assert "| 2.5 ± 1.291 |" in report and "mean ± standard deviation over the runs" in report
+    assert "Paired differences to `b`" in report and "+0.62 ± 0.12 (×1.33 ± 0.13) **\\*** n=4" in report
+    # The first table is mean ± standard deviation over runs (X: 2.5, sqrt(5/3) = 1.291), and
+    # says so; its ± is not the standard error (0.645, which sets the two decimals shown).
+    # Half-even rounding: 0.625 -> 0.62, 0.125 -> 0.12.
+    assert "| 2.50 ± 1.29 |" in report and "mean ± standard deviation over the runs" in report
 
 
 def test_reference_defaults_to_the_first_candidate_and_is_validated(tmp_path):
@@ -207,7 +208,9 @@ def test_runner_gives_every_candidate_the_same_draws_run_by_run(tmp_path, draws_
     assert np.unique(np.concatenate([x, y])).size == 12
     paired = {(r["case"], r["candidate"], r["metric"]): r for r in summary["paired"]}
     ukf = paired[("x", "ukf", "value")]
-    assert ukf["diff"] == pytest.approx(0.25) and ukf["se"] == pytest.approx(0.0, abs=1e-12) and ukf["significant"]
+    # The same difference in every run: no spread, so no t-test and nothing called significant.
+    assert ukf["diff"] == pytest.approx(0.25) and ukf["se"] == 0.0 and not ukf["significant"]
+    assert "no spread" in ukf["reason"]
     assert paired[("y", "ckf", "value")]["diff"] == pytest.approx(1.0)
 
 

@@ -140,7 +140,9 @@ class Estimator(Plugin, abc.ABC):
 
         # The fused pass computes the moments and the posterior itself: an engine that
         # overrides either of them takes the path below, which calls its overrides.
-        rule = self._fused_rule(prior, model) if self._fused_update_ok else None
+        # A model with angle-aware residual hooks takes that path too (the fused pass
+        # subtracts plainly).
+        rule = self._fused_rule(prior, model) if self._fused_update_ok and not _hooked(model) else None
         if rule is not None:
             # The lean path: one compiled pass finds the missing measurements, the failed
             # roots and the non-PD S, and reports them as three counts.
@@ -160,7 +162,7 @@ class Estimator(Plugin, abc.ABC):
             if missing != "skip":
                 raise InvalidMeasurementError(self.name, failing_indices(~bad_z))
         z_hat, S, C = self.measurement_moments(prior, model)
-        form = self._kernel_posterior() if self._use_kernels() else None
+        form = self._kernel_posterior() if self._use_kernels() and not _hooked(model) else None
         if form is not None:
             joseph = form == "joseph"
             mean, cov, gain, innovation, ok = kernels.update(
@@ -190,7 +192,7 @@ class Estimator(Plugin, abc.ABC):
             S_safe = S
         # K^T = S^{-1} C^T: one batched solve, S symmetric.
         gain = np.swapaxes(np.linalg.solve(S_safe, np.swapaxes(C, -1, -2)), -1, -2)
-        innovation = z - z_hat
+        innovation = _residual(model, "z")(z, z_hat)
         mean = prior.mean + mat_vec(gain, innovation)
         cov = self.posterior_cov(prior, gain, S_safe, model)
         if any_true(skip):
@@ -205,6 +207,20 @@ class Estimator(Plugin, abc.ABC):
             predicted_measurement=z_hat,
             skipped=skip,
         )
+
+
+def _hooked(model: Model) -> bool:
+    """Whether ``model`` has angle-aware residual or mean hooks (NumPy path only)."""
+    return bool(getattr(model, "angle_aware", False))
+
+
+def _subtract(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a - b
+
+
+def _residual(model: Model | None, space: str):
+    """The model's ``residual_x``/``residual_z`` hook, or plain subtraction."""
+    return getattr(model, f"residual_{space}", None) or _subtract
 
 
 class SigmaPointEstimator(Estimator):
@@ -260,7 +276,7 @@ class SigmaPointEstimator(Estimator):
 
     def _fused_rule(self, state: Gaussian, model: Model):
         """The point rule if predict/update can run fused with the model's compiled f/h."""
-        if getattr(model, "compiled", None) is None or not self._use_kernels():
+        if getattr(model, "compiled", None) is None or not self._use_kernels() or _hooked(model):
             return None
         return self._cached_rule(state.ndim_state)
 
@@ -309,10 +325,13 @@ class SigmaPointEstimator(Estimator):
         return L
 
     @staticmethod
-    def _moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Weighted mean and deviations of transformed points ``(N, ..., p)``."""
-        mean = (wm @ Y.reshape(Y.shape[0], -1)).reshape(Y.shape[1:])
-        return mean, Y - mean
+    def _moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray, model: Model | None = None,
+                 space: str = "x") -> tuple[np.ndarray, np.ndarray]:
+        """Weighted mean and deviations of transformed points ``(N, ..., p)``, through the
+        model's mean and residual hooks of ``space`` (``"x"`` or ``"z"``) where it has them."""
+        mean_fn = getattr(model, f"mean_{space}", None)
+        mean = mean_fn(Y, wm) if mean_fn is not None else (wm @ Y.reshape(Y.shape[0], -1)).reshape(Y.shape[1:])
+        return mean, _residual(model, space)(Y, mean)
 
     @staticmethod
     def _weighted_cov(dA: np.ndarray, dB: np.ndarray, wc: np.ndarray) -> np.ndarray:
@@ -331,27 +350,27 @@ class SigmaPointEstimator(Estimator):
             if status is not None:  # some root failed
                 self._raise_root_failure(status, rule[0])
             return Gaussian(mean, cov)
-        points = self._kernel_points(state)
+        points = None if _hooked(model) else self._kernel_points(state)
         if points is not None:
             X, wm, wc = points
             mean, cov = kernels.predict_moments(model.f(X), wm, wc, model.Q)
             return Gaussian(mean, cov)
         X, wm, wc = self.sigma_points(state)
         Y = model.f(X)
-        mean, dY = self._moments(Y, wm, wc)
+        mean, dY = self._moments(Y, wm, wc, model, "x")
         cov = symmetrize(self._weighted_cov(dY, dY, wc) + model.Q)
         return Gaussian(mean, cov)
 
     def measurement_moments(self, prior: Gaussian, model: Model):
-        points = self._kernel_points(prior)
+        points = None if _hooked(model) else self._kernel_points(prior)
         if points is not None:
             X, wm, wc = points
             return kernels.measurement_moments(X, model.h(X), prior.mean, wm, wc, model.R)
         X, wm, wc = self.sigma_points(prior)
         Z = model.h(X)
-        z_hat, dZ = self._moments(Z, wm, wc)
+        z_hat, dZ = self._moments(Z, wm, wc, model, "z")
         S = symmetrize(self._weighted_cov(dZ, dZ, wc) + model.R)
-        C = self._weighted_cov(X - prior.mean, dZ, wc)
+        C = self._weighted_cov(_residual(model, "x")(X, prior.mean), dZ, wc)
         return z_hat, S, C
 
     @staticmethod

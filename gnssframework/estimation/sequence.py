@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import ConfigError, InvalidInputError
 from .adaptation import Augmentation, NoiseAdapter
-from .boundary import as_sequence, check_argument
+from .boundary import as_sequence, check_argument, to_float
 from .estimator import Estimator, OnFailure, OnMissing
 from .step import RECOVERIES, FilterStep
 from .types import Gaussian, Model
@@ -37,6 +37,12 @@ class FilterResult:
         augmentation such as ``colored-ar1``).
     recoveries
         Count of every recovery taken, keyed by ``RECOVERIES``.
+    time_s
+        Time of each step's estimate (s), ``(K,)``: the ``time_s`` given to
+        ``filter_sequence`` at ``epochs``; ``None`` when no times were given.
+
+    Its ``repr`` is a one-line summary (shapes, times, skipped updates, recoveries), and a
+    notebook shows the same as a small table (``_repr_html_``); the arrays are attributes.
     """
 
     mean: np.ndarray
@@ -48,6 +54,40 @@ class FilterResult:
     skipped: np.ndarray
     epochs: np.ndarray
     recoveries: dict[str, int] = field(default_factory=dict)
+    time_s: np.ndarray | None = None
+
+    def summary(self) -> dict[str, str]:
+        """What the result holds, as ``{label: text}`` (``repr`` and the notebook view)."""
+        k = self.mean.shape[0]
+        batch = self.mean.shape[1:-1]
+        if self.time_s is not None and np.size(self.time_s):
+            span = f"{float(self.time_s[0]):g} to {float(self.time_s[-1]):g} s"
+        else:
+            span = f"epochs {int(self.epochs[0])} to {int(self.epochs[-1])} (no time_s given)"
+        taken = {name: n for name, n in self.recoveries.items() if n}
+        return {
+            "steps": str(k),
+            "batch": "x".join(map(str, batch)) if batch else "none",
+            "state n": str(self.mean.shape[-1]),
+            "measurement m": str(self.innovation.shape[-1]),
+            "time": span,
+            "covariances": "stored" if self.cov is not None else "not stored (store_cov=False)",
+            "skipped updates": f"{int(np.count_nonzero(self.skipped))} of {self.skipped.size}",
+            "recoveries": ", ".join(f"{name} {n}" for name, n in taken.items()) or "none",
+        }
+
+    def __repr__(self) -> str:
+        info = self.summary()
+        return (f"FilterResult({info['steps']} steps, batch {info['batch']}, n={info['state n']}, "
+                f"m={info['measurement m']}, {info['time']}, covariances {info['covariances']}, skipped updates "
+                f"{info['skipped updates']}, recoveries {info['recoveries']})")
+
+    def _repr_html_(self) -> str:
+        from html import escape
+
+        rows = "".join(f"<tr><th style='text-align:left'>{escape(label)}</th><td style='text-align:left'>"
+                       f"{escape(text)}</td></tr>" for label, text in self.summary().items())
+        return f"<table><caption>FilterResult</caption>{rows}</table>"
 
 
 def _check_arguments(estimator, model, initial, adapter, augmentation) -> None:
@@ -69,6 +109,7 @@ def filter_sequence(
     on_failure: OnFailure = "raise",
     missing: OnMissing = "raise",
     store_cov: bool = True,
+    time_s: np.ndarray | None = None,
 ) -> FilterResult:
     """Filter a batch of measurement sequences: predict then update at every step.
 
@@ -95,6 +136,9 @@ def filter_sequence(
         ``"raise"`` on NaN/inf measurements or ``"skip"`` their update (counted).
     store_cov
         Keep the posterior covariances (``(K, ..., n, n)`` can be large).
+    time_s
+        Optional time of each measurement ``zs[k]`` (s), ``(K,)``; the result carries the
+        times of its estimates (``FilterResult.time_s``).
 
     Raises
     ------
@@ -120,13 +164,15 @@ def filter_sequence(
     step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
     zs = as_sequence(zs, estimator.name)  # text, ragged or complex: named, not a raw ValueError
     if zs.ndim < 2:
-        raise InvalidInputError(estimator.name, "zs", f"needs shape (K, ..., m), got {zs.shape}")
+        raise InvalidInputError(estimator.name, "zs", f"needs shape (K, batch..., m), got {zs.shape}"
+                                + ("; K scalar measurements are zs[:, None]" if zs.ndim == 1 else ""))
     if zs.shape[0] == 0:
         raise InvalidInputError(estimator.name, "zs", f"is a zero-length measurement sequence (shape {zs.shape}): "
                                 "there is nothing to filter")
     if 0 in zs.shape[1:-1]:
         raise InvalidInputError(estimator.name, "zs", f"has an empty batch (shape {zs.shape}): there is nothing "
                                 "to filter")
+    times = None if time_s is None else _times(time_s, zs.shape[0], estimator.name)  # of the steps as given
     if augmentation is not None:
         if callable(model):  # models are dataclasses, not callables
             raise ConfigError("augmentation", "needs a fixed model, not a callable")
@@ -139,8 +185,11 @@ def filter_sequence(
     m0 = model_at(0)
     m = m0.R.shape[-1]
     if zs.shape[-1] != m:
+        hint = (f"; a batch of {zs.shape[-1]} sequences of {m} measurement{'s' if m > 1 else ''} is "
+                f"(K, batch, m) = {(zs.shape[0], zs.shape[-1], m)}" + (": zs[..., None]" if m == 1 else "")
+                if zs.ndim == 2 else "")
         raise InvalidInputError(estimator.name, "zs", f"has {zs.shape[-1]} measurements per step (shape {zs.shape}) "
-                                f"but the model's R is {m}x{m}")
+                                f"but the model's R is {m}x{m}; expected (K, batch..., m){hint}")
     try:
         np.broadcast_shapes(initial.batch_shape, zs.shape[1:-1])
     except ValueError:
@@ -171,4 +220,17 @@ def filter_sequence(
         skipped=np.stack(out["skipped"]),
         epochs=np.asarray(epochs),
         recoveries=dict(step.recoveries),
+        time_s=None if times is None else times[np.asarray(epochs)],
     )
+
+
+def _times(time_s, k: int, filter_name: str) -> np.ndarray:
+    """``time_s`` as a finite ``(K,)`` float array, or `InvalidInputError` naming it."""
+    try:
+        t = to_float(time_s)
+    except ValueError as exc:
+        raise InvalidInputError(filter_name, "time_s", str(exc)) from None
+    if t.shape != (k,) or not np.all(np.isfinite(t)):
+        raise InvalidInputError(filter_name, "time_s", f"needs one finite time per measurement step, shape ({k},); "
+                                f"got shape {t.shape}" + ("" if t.shape != (k,) else " with NaN or inf"))
+    return t

@@ -231,6 +231,10 @@ class NonlinearModel:
     f_jacobian, h_jacobian
         Optional analytic Jacobians ``(..., n) -> (..., n, n)`` / ``(..., m, n)`` for the
         EKF; central differences are used when omitted.
+    residual_x, residual_z, mean_x, mean_z
+        Optional angle-aware differences ``(a, b) -> a - b`` and weighted means
+        ``(points (N, ..., d), weights (N,)) -> (..., d)`` of states and measurements
+        (`gnssframework.estimation.angles`); plain subtraction and averaging when omitted.
     """
 
     f: ArrayFn
@@ -241,6 +245,15 @@ class NonlinearModel:
     h_jacobian: Optional[ArrayFn] = None
     #: Optional compiled twins of ``f`` and ``h`` (see ``CompiledFunctions``).
     compiled: Optional[CompiledFunctions] = None
+    residual_x: Optional[Callable[[np.ndarray, np.ndarray], np.ndarray]] = None
+    residual_z: Optional[Callable[[np.ndarray, np.ndarray], np.ndarray]] = None
+    mean_x: Optional[Callable[[np.ndarray, np.ndarray], np.ndarray]] = None
+    mean_z: Optional[Callable[[np.ndarray, np.ndarray], np.ndarray]] = None
+
+    @property
+    def angle_aware(self) -> bool:
+        """Whether the model has a residual or mean hook (the engines then run on NumPy)."""
+        return any(h is not None for h in (self.residual_x, self.residual_z, self.mean_x, self.mean_z))
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "Q", _check_square("NonlinearModel.Q", self.Q))

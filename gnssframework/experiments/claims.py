@@ -40,6 +40,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy import stats as _sps
 
 from ..errors import ConfigError
+from .number_format import format_estimate
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
 
 __all__ = ["Claim", "check_claims", "evaluate_claims", "OUTCOMES"]
@@ -167,12 +168,10 @@ def claim_line(row: dict) -> str:
     """One line of a claim's outcome and evidence, for the terminal and the report."""
     ev = []
     if row.get("diff") is not None:
-        ev.append(f"difference {row['diff']:+.3g} ± {row['se']:.2g}" if row.get("se") is not None
-                  else f"difference {row['diff']:+.3g}")
+        ev.append(f"difference {format_estimate(row['diff'], row.get('se'), sign=True)}")
     if row.get("ratio") is not None:
-        ev.append(f"ratio {row['ratio']:.3g}" + (f" ± {row['ratio_se']:.2g}" if row.get("ratio_se") is not None
-                                                 else ""))
+        ev.append(f"ratio {format_estimate(row['ratio'], row.get('ratio_se'))}")
     if row.get("mean") is not None:
-        ev.append(f"mean {row['mean']:.4g}" + (f" ± {row['mean_se']:.2g}" if row.get("mean_se") is not None else ""))
+        ev.append(f"mean {format_estimate(row['mean'], row.get('mean_se'))}")
     n = row.get("n")
     return f"{row['outcome']:<15} {row['case']}: {row['statement']} ({', '.join(ev)}{f', n={n}' if n else ''})"

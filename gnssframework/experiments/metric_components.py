@@ -25,7 +25,7 @@ while the run has not yet converged.
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, ClassVar, Sequence
 
 import numpy as np
 
@@ -34,7 +34,7 @@ from .metrics import Metric, MetricValue, magnitude, rmse, select, settled
 
 __all__ = ["SeriesMetric", "Rmse", "MeanAbs", "ConvergenceEpoch", "convergence_epoch", "evaluate", "units",
            "Mean", "Std", "LockLossFraction", "SlipRecovery", "FalseResets", "slip_recovery", "false_resets",
-           "undefined_reasons"]
+           "undefined_reasons", "MetricTable", "series_label"]
 
 
 def _scenario_value(value: Any, scenario: Any, what: str) -> Any:
@@ -79,6 +79,9 @@ class SeriesMetric(Metric):
         One line for the docs.
     """
 
+    #: What the stored per-epoch series is (``{of}``: the name of the series read).
+    series_template: ClassVar[str] = "{of}"
+
     def __init__(self, name: str, unit: str, of: str, *, settle: float | str | Callable[[Any], float] | None = None,
                  skip_epochs: int | str | None = None, optional: bool = False, undefined: str = "",
                  description: str = "") -> None:
@@ -95,6 +98,12 @@ class SeriesMetric(Metric):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r}, {self.unit!r}, of={self.of!r})"
+
+    @property
+    def series_label(self) -> str:
+        """What the metric's per-epoch series holds, for plot labels (``series_template``
+        with the series read as ``{of}``)."""
+        return self.series_template.format(of=self.of)
 
     def _mask(self, k: int, time_s: np.ndarray | None, scenario: Any) -> np.ndarray | None:
         mask = None
@@ -116,6 +125,8 @@ class Rmse(SeriesMetric):
     [3.5355, 1.0]
     """
 
+    series_template = "|{of}|"
+
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
         x = np.asarray(series[self.of], dtype=float)
         return MetricValue(rmse(x, self._mask(x.shape[0], time_s, scenario)), magnitude(x))
@@ -129,6 +140,8 @@ class MeanAbs(SeriesMetric):
     >>> MeanAbs("e_mean", "m", of="e").compute({"e": np.array([[3.0], [-5.0]])}, None, None).value.tolist()
     [4.0]
     """
+
+    series_template = "|{of}|"
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
         x = np.asarray(series[self.of], dtype=float)
@@ -172,6 +185,8 @@ class ConvergenceEpoch(SeriesMetric):
         The running RMS must stay below ``factor`` times the second half's RMS.
     """
 
+    series_template = "not yet converged (1) or converged (0)"
+
     def __init__(self, name: str, of: str, *, window: int | str, factor: float = 2.0, description: str = "") -> None:
         super().__init__(name, "epochs", of, description=description)
         self.window = window
@@ -214,6 +229,8 @@ class Std(SeriesMetric):
     [1.0]
     """
 
+    series_template = "|{of}|"
+
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
         x = np.asarray(series[self.of], dtype=float)
         return MetricValue(np.std(select(x, self._mask(x.shape[0], time_s, scenario), self.name), axis=0),
@@ -234,6 +251,8 @@ class LockLossFraction(SeriesMetric):
     window, threshold
         Seconds per block and the lock threshold, or the scenario parameters holding them.
     """
+
+    series_template = "out of phase lock (1) or in lock (0)"
 
     def __init__(self, name: str, of: str, *, window: float | str, threshold: float | str,
                  settle: float | str | None = None, description: str = "") -> None:
@@ -334,6 +353,8 @@ class SlipRecovery(SeriesMetric):
         Recovered within ``band`` times the reference sigma.
     """
 
+    series_template = "cycle slip (1) or none (0)"
+
     def __init__(self, name: str, of: str, *, slips: str, output: str = "mean", isolation: int | str = 400,
                  start: int | str = 0, band: float = 2.0, description: str = "") -> None:
         if output not in ("mean", "censored"):
@@ -362,6 +383,8 @@ class FalseResets(SeriesMetric):
     [1.0]
     """
 
+    series_template = "reset without a slip (1) or not (0)"
+
     def __init__(self, name: str, of: str, *, slips: str, description: str = "") -> None:
         super().__init__(name, "resets/run", of, description=description)
         self.slips = slips
@@ -373,7 +396,16 @@ class FalseResets(SeriesMetric):
         return MetricValue(false_resets(detected, slips), (detected & ~slips).astype(float))
 
 
-def units(components: Sequence[Metric]) -> dict[str, str]:
+class MetricTable(dict):
+    """A scenario's ``metrics`` table (name -> unit) that also holds the components by name
+    (``components``), so a report can say what each metric's series is."""
+
+    def __init__(self, units: dict[str, str], components: dict[str, Metric]) -> None:
+        super().__init__(units)
+        self.components = components
+
+
+def units(components: Sequence[Metric]) -> MetricTable:
     """The ``Scenario.metrics`` table (name -> unit) of a list of components.
 
     Raises
@@ -386,7 +418,7 @@ def units(components: Sequence[Metric]) -> dict[str, str]:
         if c.name in out:
             raise ValueError(f"two metric components are named {c.name!r}")
         out[c.name] = c.unit
-    return out
+    return MetricTable(out, {c.name: c for c in components})
 
 
 def undefined_reasons(components: Sequence[Metric]) -> dict[str, str]:
@@ -446,3 +478,15 @@ class PostSettleMax(SeriesMetric):
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
         mag = magnitude(series[self.of])
         return MetricValue(np.max(select(mag, self._mask(mag.shape[0], time_s, scenario), self.name), axis=0), mag)
+
+
+def series_label(scenario: Any, metric: str) -> str:
+    """What the per-epoch series stored for ``metric`` holds (for a plot's axis): the
+    component's ``series_label``, or the metric's name when nothing says more."""
+    component = getattr(scenario.metrics, "components", {}).get(metric)
+    if component is None:
+        from .metrics import metric_plugin
+
+        cls = metric_plugin(metric)
+        component = cls() if cls is not None else None
+    return getattr(component, "series_label", None) or f"{metric} per epoch"

@@ -9,11 +9,12 @@ import numpy as np
 from .claims import claim_line, evaluate_claims
 from .config import ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text, write_json
+from .number_format import format_estimate
 from .stats import SIGNIFICANCE_RULE, paired_rows
 from .store import ResultStore
 from .sweeps import write_sweeps
 
-__all__ = ["write_report", "summary_rows"]
+__all__ = ["write_report", "summary_rows", "series_figure", "cdf_figure"]
 
 
 def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
@@ -59,14 +60,21 @@ def _fmt(x: float | None) -> str:
     return f"{x:.4g}"
 
 
+def _mean_cell(row: dict) -> str:
+    """``mean ± std`` at the resolution of the mean's standard error ``std / sqrt(runs)``
+    (the mean alone when the runs do not spread beyond rounding)."""
+    std = row["std"] or 0.0
+    return format_estimate(row["mean"], std / np.sqrt(row["runs"]), spread=std)
+
+
 def _paired_markdown(config: ComparisonConfig, paired: list[dict], case: str, units: dict[str, str]) -> list[str]:
     """The case's paired-difference table (candidate minus reference, per metric)."""
     others = [c.name for c in config.candidates if c.name != config.reference_name]
     if not others:
         return []
     lines = [f"Paired differences to `{config.reference_name}` (candidate minus reference, mean ± SE over "
-             "the n common-random-number runs; ×: ratio of means; **\\***: significant, the 95 % paired "
-             "t-interval excludes 0):", "",
+             "the n common-random-number runs; ×: ratio of means ± its SE; **\\***: significant, the 95 % paired "
+             "t-interval excludes 0; a difference without ± has no spread over the runs and is not tested):", "",
              "| metric | unit | " + " | ".join(others) + " |", "| --- | --- | " + " | ".join("---" for _ in others) + " |"]
     for metric in config.metric_names:
         cells = []
@@ -75,9 +83,9 @@ def _paired_markdown(config: ComparisonConfig, paired: list[dict], case: str, un
             if r["diff"] is None:
                 cells.append(f"– ({r['reason']})")
                 continue
-            cell = f"{r['diff']:+.3g} ± {_fmt(r['se'])}"
+            cell = format_estimate(r["diff"], r["se"], sign=True)
             if r["ratio"] is not None:
-                cell += f" (×{r['ratio']:.3g})"
+                cell += f" (×{format_estimate(r['ratio'], r['ratio_se'])})"
             cells.append(cell + (" **\\***" if r["significant"] else "") + f" n={r['n']}")
         lines.append(f"| {metric} | {units.get(metric, '')} | " + " | ".join(cells) + " |")
     return lines + [""]
@@ -90,7 +98,9 @@ def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | N
     lines += [f"{config.runs} Monte Carlo runs per case and candidate, seed {config.seed}, "
               f"batches of {config.batch_size}. Each case's first table gives mean ± standard deviation "
               "over the runs (the spread of one run's metric, not the standard error of the mean); "
-              "orderings are read from the paired differences below it.", ""]
+              "orderings are read from the paired differences below it. Numbers are given to the second "
+              "significant figure of their standard error; a value without ± did not vary over the runs "
+              "(beyond floating-point rounding).", ""]
     for case in config.cases:
         lines += [f"## {case.name}", "", "| metric | unit | " + " | ".join(c.name for c in config.candidates) + " |",
                   "| --- | --- | " + " | ".join("---" for _ in config.candidates) + " |"]
@@ -101,7 +111,7 @@ def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | N
                 r = next(r for r in rows if r["case"] == case.name and r["candidate"] == cand.name
                          and r["metric"] == metric)
                 unit = r["unit"]
-                cell = r["undefined"] if r.get("undefined") else f"{_fmt(r['mean'])} ± {_fmt(r['std'])}"
+                cell = r["undefined"] if r.get("undefined") else _mean_cell(r)
                 if r["published"] is not None:
                     cell += f" (paper {_fmt(r['published'])})"
                 cells.append(cell)
@@ -152,7 +162,92 @@ def _savefig(fig, path: Path) -> None:
         fig.savefig(fh, format="png", dpi=90)
 
 
-def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: Path) -> None:
+def _folded_bounds(config: ComparisonConfig) -> dict[str, str]:
+    """Error metric -> its lower bound, for the bounds drawn inside their metric's panel
+    (one curve: the bound is the same for every candidate) rather than in a panel of their own."""
+    bounds = getattr(config.resolved_scenario, "bounds", {}) or {}
+    return {m: b for m, b in bounds.items() if m in config.metric_names and b in config.metric_names}
+
+
+def _candidate_styles(config: ComparisonConfig) -> dict[str, dict]:
+    """Each candidate's colour, the same in every panel and figure."""
+    import matplotlib
+
+    colours = matplotlib.colormaps["tab10"].colors
+    return {c.name: {"color": colours[i % len(colours)], "linewidth": 0.9} for i, c in enumerate(config.candidates)}
+
+
+def series_figure(config: ComparisonConfig, out: Path, case: str):
+    """The case's time series: per metric, the median over runs of the per-epoch series
+    the metric reduces (not the metric itself: the median of ``|e_k|`` is no RMSE), each
+    bound as one dashed curve in its metric's panel.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from .figures import BOUND_STYLE, Curve, Panel, panel_grid
+    from .metric_components import series_label
+
+    scenario = config.resolved_scenario
+    units = config.metric_units
+    bounds = _folded_bounds(config)
+    styles = _candidate_styles(config)
+    medians = {c.name: _median_series(out, config, case, c.name) for c in config.candidates}
+    panels = []
+    for metric in config.metric_names:
+        if metric in bounds.values():
+            continue
+        curves = [Curve(cand, t, series[metric], styles[cand]) for cand, (t, series) in medians.items()
+                  if t is not None and t.size and metric in series]
+        bound = bounds.get(metric)
+        drawn = next(((t, series[bound]) for t, series in medians.values()
+                      if bound and t is not None and t.size and bound in series), None)
+        if drawn is not None:
+            curves.append(Curve(f"{bound} (bound)", *drawn, BOUND_STYLE))
+        panels.append(Panel(metric, "time (s)", f"{series_label(scenario, metric)} ({units[metric]})", curves,
+                            note="no time series stored"))
+    return panel_grid(panels, f"{config.name} – {case}: median over {config.runs} runs of each metric's "
+                      "per-epoch series")
+
+
+def cdf_figure(config: ComparisonConfig, store: ResultStore, case: str):
+    """The case's distributions over runs: per metric, the empirical CDF of each
+    candidate's per-run values, a bound as one dashed curve in its metric's panel.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from .figures import BOUND_STYLE, Curve, Panel, panel_grid
+
+    units = config.metric_units
+    bounds = _folded_bounds(config)
+    styles = _candidate_styles(config)
+    key = config.identity()
+
+    def cdf(name: str, metric: str, style: dict) -> Curve | None:
+        v = np.sort(store.values(key, case, name, metric, config.runs))
+        v = v[np.isfinite(v)]
+        # The staircase starts at 0 at the smallest value: each run adds 1/n where it lies.
+        return Curve(name, np.r_[v[:1], v], np.arange(v.size + 1) / v.size, style, step=True) if v.size else None
+
+    panels = []
+    for metric in config.metric_names:
+        if metric in bounds.values():
+            continue
+        curves = [cdf(c.name, metric, styles[c.name]) for c in config.candidates]
+        if metric in bounds:
+            bound = cdf(config.candidates[0].name, bounds[metric], BOUND_STYLE)
+            if bound is not None:
+                bound.label = f"{bounds[metric]} (bound)"
+                curves.append(bound)
+        panels.append(Panel(metric, f"{metric} ({units[metric]})", "fraction of runs at or below (-)",
+                            [c for c in curves if c is not None], values_on="x", note="undefined in every run"))
+    return panel_grid(panels, f"{config.name} – {case}: distribution over {config.runs} runs")
+
+
+def _plots(config: ComparisonConfig, store: ResultStore, out: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -160,48 +255,11 @@ def _plots(config: ComparisonConfig, rows: list[dict], store: ResultStore, out: 
 
     plot_dir = out / "plots"
     plot_dir.mkdir(exist_ok=True)
-    metrics = config.metric_names
     for case in config.cases:
-        # Time series: the median over runs of each metric's per-epoch error.
-        fig, axes = plt.subplots(len(metrics), 1, figsize=(7, 2.0 * len(metrics)), sharex=True, squeeze=False)
-        bounds = getattr(config.resolved_scenario, "bounds", {})
-        for cand in config.candidates:
-            time_s, series = _median_series(out, config, case.name, cand.name)
-            for ax, metric in zip(axes[:, 0], metrics):
-                if metric in series and time_s is not None and time_s.size:
-                    ax.plot(time_s, series[metric], lw=0.8, label=cand.name)
-        # A scenario's lower bound of an error metric (e.g. the PCRB) as a dashed line.
-        time_s, series = _median_series(out, config, case.name, config.candidates[0].name)
-        for ax, metric in zip(axes[:, 0], metrics):
-            bound = bounds.get(metric)
-            if bound in series and time_s is not None and time_s.size:
-                ax.plot(time_s, series[bound], "k--", lw=0.8, label=bound)
-                ax.legend(fontsize=6)
-        for ax, metric in zip(axes[:, 0], metrics):
-            unit = next(r["unit"] for r in rows if r["metric"] == metric)
-            ax.set_ylabel(f"{metric}\n({unit})", fontsize=7)
-            ax.grid(alpha=0.3)
-        if axes[0, 0].get_legend_handles_labels()[0]:
-            axes[0, 0].legend(fontsize=7)
-        axes[-1, 0].set_xlabel("time (s)")
-        axes[0, 0].set_title(f"{config.name} - {case.name}: median over runs")
-        fig.tight_layout()
-        _savefig(fig, plot_dir / f"{case.name}-series.png")
-        plt.close(fig)
-        # CDFs over runs of every metric.
-        fig, axes = plt.subplots(1, len(metrics), figsize=(3.2 * len(metrics), 2.8), squeeze=False)
-        for ax, metric in zip(axes[0], metrics):
-            for cand in config.candidates:
-                v = np.sort(store.values(config.identity(), case.name, cand.name, metric, config.runs))
-                if v.size:
-                    ax.step(v, np.arange(1, v.size + 1) / v.size, where="post", label=cand.name)
-            ax.set_xlabel(metric, fontsize=7)
-            ax.grid(alpha=0.3)
-        axes[0, 0].set_ylabel("CDF over runs")
-        axes[0, 0].legend(fontsize=7)
-        fig.tight_layout()
-        _savefig(fig, plot_dir / f"{case.name}-cdf.png")
-        plt.close(fig)
+        for name, fig in ((f"{case.name}-series.png", series_figure(config, out, case.name)),
+                          (f"{case.name}-cdf.png", cdf_figure(config, store, case.name))):
+            _savefig(fig, plot_dir / name)
+            plt.close(fig)
 
 
 def assumption_rows(config: ComparisonConfig) -> list[dict]:
@@ -337,5 +395,5 @@ def write_report(config: ComparisonConfig, store: ResultStore, out: Path, tuning
     atomic_write_text(out / "report.md", _markdown(config, rows, paired) + "\n".join(_assumptions_markdown(config, assumptions))
                       + "\n".join(_claims_markdown(claims))
                       + "\n".join(tuning_lines) + "\n".join(sweep_lines))
-    _plots(config, rows, store, out)
+    _plots(config, store, out)
     return summary

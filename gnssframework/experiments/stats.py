@@ -11,6 +11,8 @@ much smaller than the unpaired ``sqrt(s_x^2/n + s_y^2/n)``.
 Significance rule (stated in every report): a difference is *significant* when the 95 %
 paired t-interval ``mean(d) ± t_{0.975, n-1} SE`` excludes zero, i.e.
 ``|mean(d)| > t_{0.975, n-1} SE`` (about 2 SE for 30 runs or more, 2.26 SE for 10).
+An SE that is zero or at floating-point rounding level of the values (the same bound in
+every run) leaves nothing to test: such a difference is never significant.
 """
 
 from __future__ import annotations
@@ -21,10 +23,13 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy import stats as _sps
 
+from .number_format import at_rounding_level
+
 __all__ = ["PairedDifference", "paired_difference", "mean_and_se", "SIGNIFICANCE_RULE", "finite_or_none"]
 
 SIGNIFICANCE_RULE = ("significant: the 95 % paired t-interval of the per-run differences excludes 0, "
-                     "|mean difference| > t(0.975, n-1) x SE, SE = std of the per-run differences / sqrt(n)")
+                     "|mean difference| > t(0.975, n-1) x SE, SE = std of the per-run differences / sqrt(n); "
+                     "a difference with no spread over the runs (SE zero or at rounding level) is not tested")
 
 
 def finite_or_none(x: float | None) -> float | None:
@@ -136,10 +141,14 @@ def paired_difference(candidate: np.ndarray, reference: np.ndarray, level: float
         c = np.cov(x, y, ddof=1)
         var_r = c[0, 0] - 2 * ratio * c[0, 1] + ratio**2 * c[1, 1]
         ratio_se = float(np.sqrt(max(var_r, 0.0)) / (np.mean(y) * np.sqrt(n)))
-    if se == 0.0:
-        # Identical spread-free differences: significant exactly when they are not zero.
-        return PairedDifference(n, diff, 0.0, ci, ratio, ratio_se, diff != 0.0,
-                                "" if diff != 0.0 else "identical values in every run")
+    if at_rounding_level(se, float(np.max(np.abs(np.concatenate([x, y]))))):
+        # No spread beyond floating-point rounding (e.g. the same bound in every run): the
+        # t-test has nothing to test, so nothing is called significant.
+        return PairedDifference(n, diff, 0.0, (diff, diff), ratio, ratio_se, False,
+                                "identical values in every run" if diff == 0.0 else
+                                "identical values in every run up to floating-point rounding"
+                                if at_rounding_level(abs(diff), float(np.max(np.abs(np.concatenate([x, y])))))
+                                else "the same difference in every run (no spread): no significance test")
     return PairedDifference(n, diff, se, ci, ratio, ratio_se, bool(abs(diff) > t * se))
 
 

@@ -41,6 +41,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..errors import ConfigError
 from ..io.files import atomic_open, write_json
+from .number_format import format_estimate
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
 
 __all__ = ["Sweep", "expand_sweep", "sweep_rows", "write_sweeps"]
@@ -350,11 +351,10 @@ def _markdown(config, sweep: dict) -> list[str]:
                 cells = []
                 for cand in names:
                     r = means[(v, case, cand, metric)]
-                    cell = "–" if r["mean"] is None else f"{r['mean']:.4g}" + (
-                        "" if r["se"] is None else f" ± {r['se']:.2g}")
+                    cell = format_estimate(r["mean"], r["se"])
                     p = paired.get((v, case, cand, metric))
                     if p is not None and p["diff"] is not None:
-                        cell += f" (Δ {p['diff']:+.3g}" + ("" if p["se"] is None else f" ± {p['se']:.2g}") + (
+                        cell += f" (Δ {format_estimate(p['diff'], p['se'], sign=True)}" + (
                             " **\\***" if p["significant"] else "") + ")"
                     cells.append(cell)
                 lines.append(f"| {v} | {metric} | " + " | ".join(cells) + " |")

@@ -23,7 +23,7 @@ from .rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M, RinexScan, check_rinex3
 from .skipped import refuse_or_keep
 from .text import check_input_file
 
-__all__ = ["Observations", "SIGNALS", "SECOND_SIGNALS", "SPEED_OF_LIGHT_MPS", "LLI_LOST_LOCK", "read_observations",
+__all__ = ["Observations", "normalise_select", "SIGNALS", "SECOND_SIGNALS", "SPEED_OF_LIGHT_MPS", "LLI_LOST_LOCK", "read_observations",
            "arc_starts", "glonass_l1_frequency_hz", "GEORINEX_TIME_TOLERANCE", "CodeCarrier", "read_code_carrier"]
 
 SPEED_OF_LIGHT_MPS = 299_792_458.0
@@ -173,9 +173,30 @@ _SYSTEMS = "GECR"
 _PRN = re.compile(r"^[GECR]\d{2}$")
 
 
+def normalise_select(select: str) -> str:
+    """A satellite selection written as the RINEX file writes it: ``"g08"``, ``"G8"`` and
+    ``"8"`` (a bare number is a GPS PRN) all become ``"G08"``; systems (``"gc"`` -> ``"GC"``)
+    and ``"all"`` are kept.
+
+    Examples
+    --------
+    >>> normalise_select("g08"), normalise_select("8"), normalise_select(" e24, c1 "), normalise_select("ALL")
+    ('G08', 'G08', 'E24,C01', 'all')
+    """
+    text = str(select).strip()
+    if text.upper() == "ALL":
+        return "all"
+    items = []
+    for item in (x.strip().upper() for x in text.split(",")):
+        m = re.fullmatch(r"([GECR]?)0*(\d{1,2})", item)
+        items.append(f"{m.group(1) or 'G'}{int(m.group(2)):02d}" if m else item)
+    return ",".join(items)
+
+
 def _parse_select(select: str) -> tuple[set[str], list[str] | None]:
-    """``"G08"`` or ``"G08,C11"`` (satellites), ``"G"``, ``"GC"`` or ``"all"`` (systems)."""
-    text = select.strip().upper()
+    """``"G08"`` or ``"G08,C11"`` (satellites), ``"G"``, ``"GC"`` or ``"all"`` (systems);
+    written as `normalise_select` accepts (``"g8"``, ``"8"``)."""
+    text = normalise_select(select).upper()
     if text == "ALL":
         return set(_SYSTEMS), None
     items = [x.strip() for x in text.split(",") if x.strip()]
@@ -203,6 +224,11 @@ def _decompress(path: Path) -> str:
     return data.decode("ascii", errors="replace") if isinstance(data, bytes) else data
 
 
+#: RINEX types other than observations, as a user would name the file.
+_OTHER_RINEX = {**dict.fromkeys("NGHLEBJ", "a navigation file (broadcast ephemeris, RINEX type N)"),
+                "M": "a meteorological file (RINEX type M)", "C": "a clock file (RINEX type C)"}
+
+
 def _version(path: Path, text: str) -> float:
     first = text.split("\n", 1)[0]
     if "RINEX VERSION / TYPE" not in first:
@@ -212,7 +238,9 @@ def _version(path: Path, text: str) -> float:
     except ValueError:
         raise DataFileError(str(path), 1, f"unreadable RINEX version {first[:9].strip()!r}") from None
     if first[20] != "O":
-        raise DataFileError(str(path), 1, f"RINEX file type {first[20]!r}, not observations (O)")
+        what = _OTHER_RINEX.get(first[20], f"a RINEX file of type {first[20]!r}")
+        raise DataFileError(str(path), 1, f"{what}, not an observation file (RINEX type O, with the code and "
+                                          "carrier this reads)")
     if not (2.0 <= version < 2.2 or 3.0 <= version < 4.0):
         raise DataFileError(str(path), 1, f"RINEX version {version:g}: this reader reads 2.1x and 3.0x")
     return version

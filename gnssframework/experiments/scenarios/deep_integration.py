@@ -33,6 +33,7 @@ from pydantic import Field
 
 from ... import random_streams as draw
 from ...errors import ConfigError
+from ...suggest import did_you_mean
 from ...inertial.earth import STANDARD_GRAVITY_MPS2
 from ...interfaces import ErrorStateNavFilter, RunContext
 from ...inertial.imu import ImuGrade
@@ -217,7 +218,8 @@ class DeepIntegrationScenario(Scenario):
         super().__init__(params)
         p = params
         if p.clock not in PRESETS:
-            raise ConfigError("scenario.clock", f"got {p.clock!r}; allowed: {', '.join(PRESETS)}")
+            raise ConfigError("scenario.clock", f"got {p.clock!r}; allowed: {', '.join(PRESETS)}"
+                              f"{did_you_mean(p.clock, PRESETS)}")
         for name, small, big in (("imu_interval_s", p.coherent_time_s, p.imu_interval_s),
                                  ("nco_interval_s", p.coherent_time_s, p.nco_interval_s),
                                  ("update_interval_s", p.imu_interval_s, p.update_interval_s),

@@ -15,6 +15,7 @@ from pydantic import Field, field_validator
 
 from ... import random_streams as draw
 from ...errors import ConfigError
+from ...suggest import did_you_mean
 from ...interfaces import RunContext
 from ...io.text import check_input_file
 from ...receiver.tracking.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop
@@ -181,7 +182,8 @@ class VectorTrackingScenario(Scenario):
     def __init__(self, params: VectorTrackingParams) -> None:
         super().__init__(params)
         if params.clock not in PRESETS:
-            raise ConfigError("scenario.clock", f"got {params.clock!r}; allowed: {', '.join(PRESETS)}")
+            raise ConfigError("scenario.clock", f"got {params.clock!r}; allowed: {', '.join(PRESETS)}"
+                              f"{did_you_mean(params.clock, PRESETS)}")
         if params.pcrb is True and params.trajectory_file:
             raise ConfigError("scenario.pcrb", "the bound assumes a static or constant-velocity receiver; set "
                               "pcrb = false with a trajectory_file")
