@@ -29,7 +29,8 @@ PACKAGE = "gnssframework"
 #: docs/design-notes.md ("Where code lives") shows the same table.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("foundation", ("gnssframework.errors", "gnssframework.random_streams", "gnssframework.plugin",
-                    "gnssframework.hookspecs", "gnssframework.names", "gnssframework.backend")),
+                    "gnssframework.hookspecs", "gnssframework.names", "gnssframework.backend",
+                    "gnssframework.suggest")),
     # Generic Gaussian estimation (nothing GNSS) sits below the physical models, which
     # build their measurement models (and compiled twins) from its types.
     ("estimation", ("gnssframework.estimation",)),
@@ -40,7 +41,9 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("receiver", ("gnssframework.receiver",)),
     ("experiments", ("gnssframework.experiments",)),
     ("application", ("gnssframework", "gnssframework.__main__", "gnssframework.cli", "gnssframework.config_schema",
-                     "gnssframework.testing")),
+                     "gnssframework.testing", "gnssframework.plugin_classes", "gnssframework.estimators",
+                     "gnssframework.discriminators", "gnssframework.channel_filters", "gnssframework.nav_filters",
+                     "gnssframework.noise_adapters", "gnssframework.augmentations")),
 )
 
 #: What ``estimation`` may import besides itself: nothing that knows GNSS.
