@@ -259,7 +259,7 @@ def test_readme_describes_the_main_job_the_example_runs():
     readme = " ".join((root / "README.md").read_text().split())
     example = tomllib.loads((root / "examples" / "vector_tracking.toml").read_text())
     assert "gnssframework compare examples/vector_tracking.toml" in readme
-    found = re.search(r"runs (\d+) Monte Carlo runs of (\d+) s x (\d+) C/N0 cases x (\d+) candidates", readme)
+    found = re.search(r"runs (\d+) Monte Carlo runs of (\d+) s x (\d+) cases \([^)]*\) x (\d+) candidates", readme)
     assert found, "README lost its main-job sentence"
     runs, duration, cases, candidates = map(int, found.groups())
     assert (runs, duration, cases, candidates) == (example["runs"], example["scenario"]["duration_s"],

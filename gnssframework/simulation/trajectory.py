@@ -1,4 +1,5 @@
-"""Receiver trajectories: static, constant velocity, or tabulated (ECEF or geodetic CSV)."""
+"""Receiver trajectories: static, constant velocity, a figure-eight vehicle track, or
+tabulated (ECEF or geodetic CSV)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import pymap3d
 from ..errors import DataFileError
 from ..io.text import read_input_text
 
-__all__ = ["Trajectory", "load_trajectory"]
+__all__ = ["Trajectory", "FigureEight", "load_trajectory"]
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,42 @@ class Trajectory:
         dh00, dh10, dh01, dh11 = 6 * s**2 - 6 * s, 3 * s**2 - 4 * s + 1, -6 * s**2 + 6 * s, 3 * s**2 - 2 * s
         vel = (dh00 * p0 + dh10 * m0 + dh01 * p1 + dh11 * m1) / h
         return pos, vel
+
+
+@dataclass(frozen=True)
+class FigureEight:
+    r"""A vehicle driving a figure-eight in the local horizontal plane: the lemniscate of
+    Gerono, one lap every ``lap_s`` seconds,
+
+    $$
+    e(t) = A \sin \omega t, \qquad n(t) = \tfrac{A}{2} \sin 2 \omega t, \qquad
+    u(t) = 0, \qquad \omega = 2 \pi / T_{lap},
+    $$
+
+    with ``A = half_length_m``. It starts at the crossing heading north-east, turns left
+    then right (each lobe half a lap), and its speed and heading change all the time:
+    speed $A\omega (\cos^2\omega t + \cos^2 2\omega t)^{1/2}$, from $\tfrac{\sqrt 7}{4} A\omega$
+    to $\sqrt{2} A\omega$ (at the crossing),
+    acceleration $A\omega^2 (\sin^2\omega t + 4 \sin^2 2\omega t)^{1/2}$, at most
+    $\tfrac{17}{8} A \omega^2$. The defaults of the vector-tracking scenario (A = 25 m,
+    20 s) give 5.2-11.1 m/s and up to 5.2 m/s² (0.53 g), a car on a 50 m by 25 m
+    figure-eight.
+    """
+
+    half_length_m: float
+    lap_s: float
+
+    def enu(self, t_s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """East/north/up position (m), velocity (m/s) and acceleration (m/s²) from the
+        start, each ``(*t.shape, 3)``: the closed form above and its derivatives."""
+        t = np.asarray(t_s, dtype=float)
+        a, w = self.half_length_m, 2 * np.pi / self.lap_s
+        s1, c1, s2, c2 = np.sin(w * t), np.cos(w * t), np.sin(2 * w * t), np.cos(2 * w * t)
+        zero = np.zeros_like(t)
+        pos = np.stack([a * s1, a / 2 * s2, zero], axis=-1)
+        vel = np.stack([a * w * c1, a * w * c2, zero], axis=-1)
+        acc = np.stack([-a * w**2 * s1, -2 * a * w**2 * s2, zero], axis=-1)
+        return pos, vel, acc
 
 
 def load_trajectory(path: str | Path) -> Trajectory:

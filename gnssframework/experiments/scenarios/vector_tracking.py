@@ -1,7 +1,7 @@
 """Scenario ``vector-tracking``: the experiment of Zou et al. (2018) (adaptive CKF vector tracking).
 
 GPS L1 C/A satellites of the nominal constellation, a static receiver (or one moving at
-constant velocity), a receiver clock from h-parameters, and N channels tracked in a
+constant velocity, or a vehicle on a figure-eight track), a receiver clock from h-parameters, and N channels tracked in a
 vector loop: a channel filter per channel and one navigation filter.
 """
 
@@ -23,6 +23,7 @@ from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import draw_epochs, nominal_constellation
 from ...simulation.propagation import cn0_from_elevation, draw_range_errors, elevation_deg, range_error_function
+from ...simulation.trajectory import FigureEight
 from ..limits import CoherentTime
 from ..metric_components import Mean, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
@@ -33,6 +34,10 @@ __all__ = ["VectorTrackingScenario", "SkyRealismParams", "METRICS", "steady_stat
 #: Peak memory of the vector loop per epoch, run and channel (the recorded errors, NCO and
 #: truth arrays; measured about 360 B, rounded up: tests/test_limits.py).
 BYTES_PER_EPOCH_RUN_CHANNEL = 512
+
+
+#: Receiver motions of the scenario (`VectorTrackingParams.motion`).
+Motion = Literal["constant-velocity", "figure-eight"]
 
 
 class SkyRealismParams(ScenarioParams):
@@ -82,6 +87,15 @@ class VectorTrackingParams(SkyRealismParams):
     height_m: float = 590.6
     velocity_enu_m_s: list[float] = Field([0.0, 0.0, 0.0], min_length=3, max_length=3,
                                           description="constant receiver velocity, east/north/up")
+    motion: Motion = Field(
+        "constant-velocity", description="constant-velocity: the receiver moves at velocity_enu_m_s (static by "
+        "default). figure-eight: a vehicle on a figure-eight (lemniscate of Gerono) in the local horizontal plane "
+        "from lat_deg, lon_deg, height_m: east = A sin(wt), north = A/2 sin(2wt), A = figure_eight_half_length_m, "
+        "w = 2 pi / figure_eight_lap_s (gnssframework.simulation.trajectory.FigureEight): speed 0.66 A w to 1.41 A w, "
+        "acceleration up to 17/8 A w^2 (defaults: 5.2-11.1 m/s, up to 5.2 m/s^2), turning left then right. A case's motion overrides it")
+    figure_eight_half_length_m: float = Field(25.0, gt=0, le=10000, description="A (m): half the figure-eight's "
+                                              "east-west extent")
+    figure_eight_lap_s: float = Field(20.0, ge=1, le=3600, description="time (s) of one lap of the figure-eight")
     trajectory_file: str | None = Field(None, description="CSV trajectory (t_s and ECEF x_m,y_m,z_m or "
                                         "lat_deg,lon_deg,height_m) replacing the static/constant-velocity receiver")
     clock: str = Field("ocxo", description="receiver clock preset: tcxo or ocxo")
@@ -92,7 +106,8 @@ class VectorTrackingParams(SkyRealismParams):
     settle_s: float = Field(1.0, ge=0, description="metrics ignore the first settle_s seconds")
     pcrb: bool | None = Field(None, description="compute the posterior Cramér-Rao bound (pcrb_position, "
                               "pcrb_velocity); it assumes a static or constant-velocity receiver and one geometry. "
-                              "null: yes, unless a trajectory_file is given or geometry is per-run")
+                              "null: yes, unless a trajectory_file or a figure-eight motion is given (in a case: "
+                              "not for that case) or geometry is per-run")
     steady_state_s: float | None = Field(None, ge=0, description="position_steady_error_rmse counts from this "
                                          "time on (after the nav filter's position has converged); null: a third "
                                          "of the run, at least settle_s")
@@ -115,6 +130,8 @@ class VectorTrackingParams(SkyRealismParams):
 class VectorTrackingCase(ScenarioParams):
     name: str | None = None
     cn0_dbhz: float = Field(..., ge=15, le=60)
+    motion: Motion | None = Field(None, description="the receiver's motion in this case (default: the "
+                                  "scenario's motion)")
 
 
 def draw_residuals(p: SkyRealismParams, rng: Any, runs: int):
@@ -193,9 +210,30 @@ class VectorTrackingScenario(Scenario):
         if params.geometry == "per-run" and params.pcrb:
             raise ConfigError("scenario.pcrb", "the bound is computed for one geometry; set pcrb = false with "
                               "geometry = \"per-run\"")
+        self._check_motion(params.motion, "scenario.motion")
         if params.steady_state_s is not None and not params.settle_s <= params.steady_state_s < params.duration_s:
             raise ConfigError("scenario.steady_state_s", f"must be at least settle_s = {params.settle_s} and less "
                               f"than duration_s = {params.duration_s} (got {params.steady_state_s})")
+
+    def check_case(self, case: dict[str, Any], where: str) -> None:
+        super().check_case(case, where)
+        if case.get("motion") is not None:
+            self._check_motion(case["motion"], f"{where}.motion")
+
+    def _check_motion(self, motion: str, field: str) -> None:
+        """Refuse a figure-eight beside another definition of the receiver's motion, or with
+        the bound (which assumes constant velocity)."""
+        p = self.params
+        if motion != "figure-eight":
+            return
+        if p.trajectory_file:
+            raise ConfigError(field, "a figure-eight replaces the trajectory_file's receiver; give one or the other")
+        if any(p.velocity_enu_m_s):
+            raise ConfigError(field, "the figure-eight sets the receiver's velocity; leave velocity_enu_m_s at "
+                              "[0, 0, 0]")
+        if p.pcrb:
+            raise ConfigError("scenario.pcrb", "the bound assumes a static or constant-velocity receiver; set "
+                              "pcrb = false with a figure-eight motion")
 
     def batch_memory(self, case: dict[str, Any], runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         p = self.params
@@ -215,8 +253,13 @@ class VectorTrackingScenario(Scenario):
             outputs = CHANNEL_OUTPUTS if exc.field == "channel_filter" else NAV_OUTPUTS
             raise self.refuse(exc, where, outputs) from None
 
-    def truth(self, cn0_dbhz: float, runs: int, rng: np.random.Generator) -> tuple[VectorTruth, np.ndarray, np.ndarray]:
+    def truth(self, cn0_dbhz: float, runs: int, rng: np.random.Generator,
+              motion: str | None = None) -> tuple[VectorTruth, np.ndarray, np.ndarray]:
+        """The truth of ``runs`` runs at ``cn0_dbhz``: satellites, receiver (``motion``,
+        default the scenario's), clock and C/N0; and the nav filter's initial estimate and
+        covariance."""
         p = self.params
+        motion = motion or p.motion
         traj = None
         lat, lon, height = p.lat_deg, p.lon_deg, p.height_m
         if p.trajectory_file:
@@ -254,7 +297,18 @@ class VectorTrackingScenario(Scenario):
                 pos, vel, _ = sats.state(start + np.asarray(t))
                 return pos, vel
 
-        if traj is not None:
+        if motion == "figure-eight":
+            eight = FigureEight(p.figure_eight_half_length_m, p.figure_eight_lap_s)
+            # Columns: the east, north and up unit vectors in ECEF at the start.
+            enu_to_ecef = np.stack(pymap3d.enu2uvw(*np.eye(3), p.lat_deg, p.lon_deg), axis=0)
+
+            def receiver_state(t):
+                t = np.asarray(t, dtype=float)
+                pos, vel, _ = eight.enu(t)
+                shape = t.shape + (runs, 3)
+                return (np.broadcast_to((r0 + pos @ enu_to_ecef.T)[..., None, :], shape),
+                        np.broadcast_to((vel @ enu_to_ecef.T)[..., None, :], shape))
+        elif traj is not None:
             def receiver_state(t):
                 pos, vel = traj.state(t)
                 shape = np.shape(t) + (runs, 3)
@@ -287,7 +341,8 @@ class VectorTrackingScenario(Scenario):
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
-        truth, x0, P0 = self.truth(float(case["cn0_dbhz"]), runs, rng)
+        motion = case.get("motion") or p.motion
+        truth, x0, P0 = self.truth(float(case["cn0_dbhz"]), runs, rng, motion)
         rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng,
                               early_late_spacing_chips=p.early_late_spacing_chips, data_bits=p.data_bits)
         last_s = rec.time_s[-1]
@@ -305,7 +360,8 @@ class VectorTrackingScenario(Scenario):
                   "nav_nees": rec.nees, "nav_nees_position": rec.nees_position, "nav_nees_velocity": rec.nees_velocity,
                   "code_output_error_chips": channel_rms(rec.code_output_error_chips),
                   "freq_output_error_hz": channel_rms(rec.freq_output_error_hz)}
-        if p.pcrb or (p.pcrb is None and not p.trajectory_file and p.geometry == "fixed"):
+        if p.pcrb or (p.pcrb is None and not p.trajectory_file and p.geometry == "fixed"
+                      and motion == "constant-velocity"):
             _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0)
             series["pcrb_position_m"] = np.repeat(bound_pos[:, None], runs, axis=1)
             series["pcrb_velocity_m_s"] = np.repeat(bound_vel[:, None], runs, axis=1)
