@@ -15,6 +15,7 @@ from .channel_filters import DiscriminatorChannel, IqFilter, KalmanCarrierLoop, 
 from .sample_sources import ComplexFloat32, ComplexInt8, ComplexInt16, ComplexPacked2, RealInt8, RealPacked2
 from .smoothers import HatchFilter, KalmanSmoother
 from .nav_filters import EkfPositionVelocity, PositionConstantAcceleration
+from .nav_filter_pva import EkfPositionVelocityAcceleration
 from .ins_filters import InsEkf
 from .discriminators import (
     Atan2FLL,
@@ -68,6 +69,7 @@ def register_channel_filter(register):
 @hookimpl
 def register_nav_filter(register):
     register(EkfPositionVelocity)
+    register(EkfPositionVelocityAcceleration)
     register(PositionConstantAcceleration)
     register(InsEkf)
 

@@ -224,13 +224,17 @@ class EkfPositionVelocity(NavFilter):
         who = f"nav_filter {self.name!r}"
         T = context.require("coherent_time_s", who)
         self.T = T
-        self.F, self.Q = cv_clock_model(T, self.params.accel_psd, self.params.clock)
+        self.F, self.Q = self.transition(T)
         initial = Gaussian(context.require("initial_state", who), context.require("initial_cov", who))
         self.state = self.filter_step.start(initial)
         # Measurement assembly and NCO command in one compiled call each under the numba
         # backend (chosen once per run); the NumPy lines of `_measurements`/`_nco_command`
         # are the reference.
         self._compiled = backend.compiled()
+
+    def transition(self, T: float) -> tuple[np.ndarray, np.ndarray]:
+        """F and Q over one interval ``T`` (s): constant velocity (`cv_clock_model`)."""
+        return cv_clock_model(T, self.params.accel_psd, self.params.clock)
 
     def _model(self, sat_pos, sat_vel, R) -> NonlinearModel:
         F = self.F
@@ -242,10 +246,12 @@ class EkfPositionVelocity(NavFilter):
             rho, rate, _ = predicted_range(x, sat_pos, sat_vel)
             return np.concatenate([rho, rate], axis=-1)
 
+        n_x = F.shape[0]  # 8, or more when a subclass appends states after the clock
+
         def h_jac(x):
             _, _, e = predicted_range(x, sat_pos, sat_vel)
             n_ch = e.shape[-2]
-            H = np.zeros(e.shape[:-2] + (2 * n_ch, 8))
+            H = np.zeros(e.shape[:-2] + (2 * n_ch, n_x))
             H[..., :n_ch, 0:3] = -e
             H[..., :n_ch, 6] = 1.0
             H[..., n_ch:, 3:6] = -e
@@ -258,7 +264,7 @@ class EkfPositionVelocity(NavFilter):
         if np.ndim(sat_pos) == 2 and np.ndim(sat_vel) == 2:
             compiled = CompiledFunctions(linear_f, F, range_rate_row, np.concatenate([sat_pos, sat_vel], axis=-1),
                                          range_rate_jacobian)
-        return NonlinearModel(f, h, self.Q, R, f_jacobian=lambda x: np.broadcast_to(F, x.shape[:-1] + (8, 8)),
+        return NonlinearModel(f, h, self.Q, R, f_jacobian=lambda x: np.broadcast_to(F, x.shape[:-1] + (n_x, n_x)),
                               h_jacobian=h_jac, compiled=compiled)
 
     def _measurements(self, inputs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

@@ -133,6 +133,16 @@ class DeepIntegrationParams(SkyRealismParams):
                           "see gnssframework.inertial.imu for the reading of its white-noise units)")
     settle_s: float = Field(5.0, ge=0, description="metrics (and their _max) count from here on")
     rate_window_s: float = Field(0.02, gt=0, description="loose: window of the scalar loops' carrier-phase rate")
+    loose_rate_window: Literal["centred", "trailing"] = Field(
+        "centred", description="loose: the rate window centred on the update instant (reaches rate_window_s/2 past "
+        "it) or trailing it (ends there; its mean rate carried to the instant with the INS's line-of-sight "
+        "acceleration)")
+    loose_dll_correlation: Literal["white", "loop"] = Field(
+        "white", description="loose: the fixes' pseudorange variance as the DLL's thermal value (white) or "
+        "inflated by (1+rho)/(1-rho), rho = exp(-4 B_L update_interval_s), the correlation of a first-order "
+        "loop's error between updates (loop)")
+    loose_gate_probability: float = Field(0.0, ge=0, lt=1, description="loose: false-alarm probability of the "
+                                          "chi-square innovation gate on each fix (0: no gate)")
     pulse_accel_g: float = Field(20.0, gt=0, le=100, description="jerk-pulse profile: peak acceleration (g)")
     pulse_jerk_g_s: float = Field(50.0, gt=0, le=1000, description="jerk-pulse profile: peak jerk (g/s); the "
                                   "smooth rise lasts 1.875 pulse_accel_g / pulse_jerk_g_s")

@@ -16,7 +16,8 @@ from ...estimation.consistency import nees
 from ...interfaces import RunContext
 from ...receiver.deep.aided_tracking import DeepTruth, run_aided_tracking
 from ...receiver.deep.ins_navigator import InsNavigator, loose_update
-from ...receiver.deep.loose import pv_fix, scalar_measurement_variances, scalar_measurements, scalar_tracking
+from ...receiver.deep.loose import (correlated_error_inflation, line_of_sight_accel, pv_fix, scalar_measurement_variances,
+                                    scalar_measurements, scalar_tracking, trailing_rate_measurement)
 from ...receiver.deep.navigators import ClockFilter
 from ...receiver.deep.strapdown import StrapdownIns
 from .deep_integration_flight import Flight, body_to_ned
@@ -102,7 +103,7 @@ def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTrut
     T = p.coherent_time_s
     K = truth.epochs
     t_edges = np.arange(K + 1) * T
-    sat_pos, sat_vel, _ = truth.sat_state(t_edges)  # (K+1, ch, 3), or (K+1, runs, ch, 3) per run
+    sat_pos, sat_vel, sat_acc = truth.sat_state(t_edges)  # (K+1, ch, 3), or (K+1, runs, ch, 3) per run
     r, v, _ = flight.kinematics(t_edges)  # (K+1, 3)
     if sat_pos.ndim == 4:  # a geometry per run: the receiver against each run's satellites
         r, v = r[:, None, None, :], v[:, None, None, :]
@@ -121,6 +122,7 @@ def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTrut
         carrier_rho = rho + carrier_m
         rho = rho + code_m
         rho_rate = rho_rate + np.gradient(carrier_m, T, axis=0)  # the carrier's rate is what the loops read
+    rho_c = rho if carrier_rho is None else carrier_rho
     channel = plugins["channel_filter"]
     track = scalar_tracking(channel, rho, truth.cn0_dbhz, T, rng,
                             early_late_spacing_chips=p.early_late_spacing_chips, carrier_range_m=carrier_rho)
@@ -129,8 +131,11 @@ def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTrut
     var_r, var_v = scalar_measurement_variances(truth.cn0_dbhz, T, getattr(cp, "dll_bandwidth_hz", 1.0),
                                                 getattr(cp, "pll_bandwidth_hz", 15.0), window * T,
                                                 p.early_late_spacing_chips)
+    if p.loose_dll_correlation == "loop":  # correlated DLL errors between fixes (deep.loose.correlated_error_inflation)
+        var_r = var_r * correlated_error_inflation(getattr(cp, "dll_bandwidth_hz", 1.0), p.update_interval_s)
     var_r = np.broadcast_to(var_r, rho.shape[1:])
     var_v = np.broadcast_to(var_v, rho.shape[1:])
+    trailing = p.loose_rate_window == "trailing"
     ekf = plugins["nav_filter"]
     ins, P0 = _setup_ins(scenario, flight, runs, rng)
     ekf.reset((runs,), RunContext(initial_cov=P0))
@@ -139,11 +144,15 @@ def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTrut
     for u, k_edge in enumerate(range(n_upd, K + 1, n_upd)):
         t_u = k_edge * T
         ins.advance(t_u)
-        if u >= p.pull_in_updates and k_edge + window // 2 <= K:
+        if u >= p.pull_in_updates and (k_edge >= window if trailing else k_edge + window // 2 <= K):
             m_rho, m_rate = scalar_measurements(track, rho[k_edge], rho_rate[k_edge], k_edge - 1, window)
-            pos0, vel0, _ = ins.kinematics()
+            pos0, vel0, acc0 = ins.kinematics()
+            if trailing:
+                m_rate = trailing_rate_measurement(
+                    track, rho_c, k_edge, window, T,
+                    line_of_sight_accel(sat_pos[k_edge], sat_acc[k_edge], pos0, acc0))
             fp, fv, fcov = pv_fix(m_rho, m_rate, var_r, var_v, sat_pos[k_edge], sat_vel[k_edge], pos0, vel0)
-            loose_update(ins, ekf, fp, fv, fcov)
+            loose_update(ins, ekf, fp, fv, fcov, p.loose_gate_probability)
         else:
             ekf.propagate(*ins.take_error_model())
         records.append(_nav_record(flight, t_u, ins, ekf.cov))

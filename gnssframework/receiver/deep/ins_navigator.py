@@ -106,15 +106,30 @@ class InsNavigator:
             self.on_update(t_s, self)
 
 
+#: Variance (m², (m/s)²) added to a fix the innovation gate rejects: its gain is then nil.
+REJECTED_FIX_VAR = 1e12
+
+
 def loose_update(ins: StrapdownSolution, ekf: ErrorStateNavFilter, fix_pos_m: np.ndarray, fix_vel_m_s: np.ndarray,
-                 fix_cov: np.ndarray) -> np.ndarray:
+                 fix_cov: np.ndarray, gate_probability: float = 0.0) -> np.ndarray:
     """One loosely coupled update: INS minus a GNSS position/velocity fix into ``ins-ekf``, then correct.
 
-    ``fix_cov`` ``(runs, 6, 6)`` over [position, velocity]. Returns the applied error estimate.
+    ``fix_cov`` ``(runs, 6, 6)`` over [position, velocity]. With ``gate_probability`` > 0 a
+    run's fix that fails the chi-square innovation gate (`deep_loose.fix_gate`, against the
+    filter's predicted covariance plus ``fix_cov``) is not used: its innovation is set to 0
+    and its covariance raised by `REJECTED_FIX_VAR`. Returns the applied error estimate.
     """
     Phi, Qd = ins.take_error_model()
     p, v, _ = ins.kinematics()
     z = np.concatenate([p - fix_pos_m, v - fix_vel_m_s], axis=-1)
+    if gate_probability > 0:
+        from .deep_loose import fix_gate
+
+        idx = np.r_[np.arange(15)[POSITION], np.arange(15)[VELOCITY]]  # z is [position, velocity]
+        P = Phi @ ekf.cov @ np.swapaxes(Phi, -1, -2) + Qd
+        accepted = fix_gate(z, P[:, idx[:, None], idx] + fix_cov, gate_probability)
+        z = np.where(accepted[:, None], z, 0.0)
+        fix_cov = np.where(accepted[:, None, None], fix_cov, fix_cov + REJECTED_FIX_VAR * np.eye(6))
     out = ekf.step({"transition": Phi, "process_noise": Qd, "position_velocity_error": z,
                     "position_velocity_cov": fix_cov})
     ins.correct(out["error_state"])

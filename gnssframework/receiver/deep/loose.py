@@ -24,7 +24,8 @@ from ...interfaces import ChannelFilter
 from ...signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, L1_WAVELENGTH_M
 from ..tracking.scalar import SignalTruth, TrackingRecord, run_closed_loop
 
-__all__ = ["scalar_tracking", "pv_fix", "scalar_measurement_variances", "scalar_measurements"]
+__all__ = ["scalar_tracking", "pv_fix", "scalar_measurement_variances", "scalar_measurements",
+           "trailing_rate_measurement", "line_of_sight_accel", "correlated_error_inflation", "fix_gate"]
 
 
 def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz: np.ndarray, coherent_time_s: float,
@@ -147,3 +148,61 @@ def scalar_measurements(record: TrackingRecord, pseudorange_m: np.ndarray, rate_
     hi = min(lo + rate_window, len(record.freq_error_hz))
     return (pseudorange_m + CA_CHIP_LENGTH_M * code,
             rate_m_s + L1_WAVELENGTH_M * np.mean(record.freq_error_hz[lo:hi], axis=0))
+
+
+def trailing_rate_measurement(record: TrackingRecord, carrier_range_m: np.ndarray, k_edge: int, window: int,
+                              coherent_time_s: float, los_accel_m_s2: np.ndarray) -> np.ndarray:
+    """Range rate at edge ``k_edge`` from the carrier phase of the ``window`` intervals before it.
+
+    The loops' carrier phase advance over the trailing window (nothing after the update
+    instant) is the mean rate over it, the true mean $(\\rho_c(t_u) - \\rho_c(t_u - \\Delta))
+    / \\Delta$ plus the mean replica frequency error times $\\lambda_{L1}$; it refers to the
+    window's middle, so it is carried to the update instant with the receiver's own
+    line-of-sight acceleration ``los_accel_m_s2`` ``(runs, ch)`` (from the INS and the
+    ephemeris): $+\\ddot\\rho\\,\\Delta/2$.
+
+    ``carrier_range_m`` ``(K+1, runs, ch)`` is the true carrier range at the epoch edges.
+    """
+    delta_s = window * coherent_time_s
+    mean_rate = (carrier_range_m[k_edge] - carrier_range_m[k_edge - window]) / delta_s
+    error = L1_WAVELENGTH_M * np.mean(record.freq_error_hz[k_edge - window:k_edge], axis=0)
+    return mean_rate + error + los_accel_m_s2 * delta_s / 2
+
+
+def line_of_sight_accel(sat_pos_m: np.ndarray, sat_acc_m_s2: np.ndarray, pos_m: np.ndarray, acc_m_s2: np.ndarray
+                        ) -> np.ndarray:
+    """Range acceleration $e\\cdot(a_s - a)$ ``(runs, ch)`` of satellites ``(ch, 3)`` or ``(runs, ch, 3)``
+    seen from receivers at ``pos_m`` with acceleration ``acc_m_s2`` ``(runs, 3)`` (the
+    turning of the line of sight, $|v_s - v|^2_\\perp / \\rho$, below 0.1 m/s², is left out)."""
+    los = sat_pos_m - pos_m[:, None, :]
+    e = los / np.linalg.norm(los, axis=-1, keepdims=True)
+    return np.sum(e * (sat_acc_m_s2 - acc_m_s2[:, None, :]), axis=-1)
+
+
+def correlated_error_inflation(loop_bandwidth_hz: float | np.ndarray, interval_s: float) -> float | np.ndarray:
+    """Factor on a loop's thermal variance for measurements taken every ``interval_s`` from it.
+
+    A first-order loop (the carrier-aided DLL) with noise bandwidth $B_L$ has gain
+    $\\omega = 4B_L$ and an error with autocorrelation $e^{-4B_L|t|}$ (Kaplan and Hegarty
+    2017, section 8.4), so samples $\\Delta t$ apart are correlated by $\\rho =
+    e^{-4B_L\\Delta t}$. The mean of many such samples has $(1+\\rho)/(1-\\rho)$ times the
+    variance it would have were they white (an AR(1) sequence); a filter that takes them
+    as white with the variance inflated by this factor weighs their long-run average
+    correctly (it still ignores the short-term correlation).
+    """
+    rho = np.exp(-4.0 * np.asarray(loop_bandwidth_hz, float) * interval_s)
+    return (1.0 + rho) / (1.0 - rho)
+
+
+def fix_gate(innovation: np.ndarray, innovation_cov: np.ndarray, false_alarm_probability: float) -> np.ndarray:
+    """Which fixes pass a chi-square innovation gate: ``(runs, m)``, ``(runs, m, m)`` -> ``(runs,)`` bool.
+
+    A fix whose normalised innovation squared $\\nu^T S^{-1} \\nu$ exceeds the chi-square
+    quantile with m degrees of freedom at ``1 - false_alarm_probability`` is rejected
+    (Groves 2013, section 17.3.1): a consistent fix is refused with that probability, one
+    carrying a cycle slip's or a lost loop's error far more often.
+    """
+    from scipy.stats import chi2
+
+    d2 = np.einsum("ri,ri->r", innovation, np.linalg.solve(innovation_cov, innovation[..., None])[..., 0])
+    return d2 <= chi2.ppf(1.0 - false_alarm_probability, innovation.shape[-1])
