@@ -346,7 +346,7 @@ class ErrorStateNavFilter(NavFilter):
     """A closed-loop error-state filter of a strapdown INS: the nav filter of deep and loose
     integration (``ins-ekf``).
 
-    The contract the integration harnesses (`gnssframework.receiver.deep_ins.InsNavigator`,
+    The contract the integration harnesses (`gnssframework.receiver.deep.ins_navigator.InsNavigator`,
     the loose baseline) rely on:
 
     - ``reset(batch_shape, context)`` takes the initial error covariance

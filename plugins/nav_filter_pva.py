@@ -12,7 +12,7 @@ from gnssframework.errors import ConfigError
 from gnssframework.interfaces import RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
-from gnssframework.receiver.vector import predicted_range
+from gnssframework.receiver.tracking.vector import predicted_range
 
 from .nav_filters import EkfPositionVelocity, cv_clock_model
 

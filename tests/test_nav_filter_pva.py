@@ -6,7 +6,7 @@ import scipy.linalg
 
 import gnssframework as gf
 from gnssframework.errors import ConfigError
-from gnssframework.receiver.vector import predicted_range
+from gnssframework.receiver.tracking.vector import predicted_range
 from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M, SPEED_OF_LIGHT_M_S
 from gnssframework.simulation.clock import PRESETS
 from gnssframework_plugins.nav_filter_pva import ca_clock_model

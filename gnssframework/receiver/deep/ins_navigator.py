@@ -115,7 +115,7 @@ def loose_update(ins: StrapdownSolution, ekf: ErrorStateNavFilter, fix_pos_m: np
     """One loosely coupled update: INS minus a GNSS position/velocity fix into ``ins-ekf``, then correct.
 
     ``fix_cov`` ``(runs, 6, 6)`` over [position, velocity]. With ``gate_probability`` > 0 a
-    run's fix that fails the chi-square innovation gate (`deep_loose.fix_gate`, against the
+    run's fix that fails the chi-square innovation gate (`loose.fix_gate`, against the
     filter's predicted covariance plus ``fix_cov``) is not used: its innovation is set to 0
     and its covariance raised by `REJECTED_FIX_VAR`. Returns the applied error estimate.
     """
@@ -123,7 +123,7 @@ def loose_update(ins: StrapdownSolution, ekf: ErrorStateNavFilter, fix_pos_m: np
     p, v, _ = ins.kinematics()
     z = np.concatenate([p - fix_pos_m, v - fix_vel_m_s], axis=-1)
     if gate_probability > 0:
-        from .deep_loose import fix_gate
+        from .loose import fix_gate
 
         idx = np.r_[np.arange(15)[POSITION], np.arange(15)[VELOCITY]]  # z is [position, velocity]
         P = Phi @ ekf.cov @ np.swapaxes(Phi, -1, -2) + Qd
