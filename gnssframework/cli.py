@@ -283,10 +283,10 @@ def _cmd_position(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .navigation.ephemeris import read_rinex_nav
-    from .navigation.fixes import write_positions_csv
-    from .navigation.nmea_out import write_nmea
-    from .navigation.receive import position_errors, receive
-    from .navigation.rinex_obs import write_rinex_obs
+    from .receiver.navigation.fixes import write_positions_csv
+    from .receiver.navigation.nmea_out import write_nmea
+    from .receiver.navigation.receive import position_errors, receive
+    from .receiver.navigation.rinex_obs import write_rinex_obs
     from .receiver.acquisition.report import search_summary
     from .receiver.channels import tracking_config
 

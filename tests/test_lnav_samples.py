@@ -12,7 +12,7 @@ import pytest
 from gnssframework import registry
 from gnssframework.navigation import lnav
 from gnssframework.navigation.ephemeris import read_rinex_nav
-from gnssframework.navigation.observables import SPEED_OF_LIGHT_MPS, channel_timing, observables
+from gnssframework.receiver.navigation.observables import SPEED_OF_LIGHT_MPS, channel_timing, observables
 from gnssframework.receiver.acquisition.report import acquire_recording
 from gnssframework.receiver.channels import SampleTracker, tracking_config
 from gnssframework.receiver.frontend import open_recording, write_recording

@@ -12,8 +12,8 @@ import pytest
 
 from gnssframework.cli import main
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
-from gnssframework.navigation.fixes import POSITION_COLUMNS, full_week, solve_epochs, write_positions_csv
-from gnssframework.navigation.observables import Observables
+from gnssframework.receiver.navigation.fixes import POSITION_COLUMNS, full_week, solve_epochs, write_positions_csv
+from gnssframework.receiver.navigation.observables import Observables
 from gnssframework.receiver.frontend import SatelliteSignal, synthesize_samples, write_recording
 
 DATA = Path(__file__).parent / "data"

@@ -16,7 +16,7 @@ from gnssframework import registry
 from gnssframework.cli import main
 from gnssframework.navigation import lnav
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
-from gnssframework.navigation.receive import receive
+from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.channels import tracking_config
 from gnssframework.receiver.frontend import open_recording, write_recording
 from gnssframework.signal.constants import L1_FREQ_HZ

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from gnssframework.errors import ConfigError
-from gnssframework.navigation.observables import Observables
-from gnssframework.navigation.rinex_obs import write_rinex_obs
+from gnssframework.receiver.navigation.observables import Observables
+from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs
 
 
 def _observables():
@@ -59,8 +59,8 @@ def test_the_same_observables_give_the_same_bytes_and_bad_input_is_refused(tmp_p
 
 def test_nmea_sentences_read_back_through_the_projects_reader(tmp_path):
     from gnssframework.io.nmea import read_nmea
-    from gnssframework.navigation.fixes import PositionTable
-    from gnssframework.navigation.nmea_out import nmea_sentences, write_nmea
+    from gnssframework.receiver.navigation.fixes import PositionTable
+    from gnssframework.receiver.navigation.nmea_out import nmea_sentences, write_nmea
 
     n = 3
     cols = {"gps_week": np.full(n, 2190), "tow_s": 518_418.0 + np.arange(n),  # 18 leap seconds: 00:00:00 UTC on

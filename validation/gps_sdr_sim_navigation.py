@@ -6,7 +6,7 @@ gps-sdr-sim (built from ``../shared/tools/gps-sdr-sim`` as `gps_sdr_sim_tracking
 encodes real LNAV from the RINEX navigation file it is given (``brdc0010.22n``) and
 simulates a static receiver at a known position; complex white noise is added for the
 chosen C/N0. The library then acquires, tracks, decodes and positions
-(`gnssframework.navigation.receive.receive`). Checks, each a line of the report:
+(`gnssframework.receiver.navigation.receive.receive`). Checks, each a line of the report:
 
 - every simulated satellite's subframes 1-3 decode to the record gps-sdr-sim used, field
   by field within one LSB of IS-GPS-200's scale factors, and exactly to the integer
@@ -48,9 +48,9 @@ from gps_sdr_sim_tracking import AMPLITUDE_LSB, LOCATION, SIM_DIR, parse_log  # 
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
-from gnssframework.navigation.fixes import solve_epochs  # noqa: E402
-from gnssframework.navigation.receive import position_errors, receive  # noqa: E402
-from gnssframework.navigation.rinex_obs import write_rinex_obs  # noqa: E402
+from gnssframework.receiver.navigation.fixes import solve_epochs  # noqa: E402
+from gnssframework.receiver.navigation.receive import position_errors, receive  # noqa: E402
+from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs  # noqa: E402
 from gnssframework.receiver.channels import tracking_config  # noqa: E402
 from gnssframework.receiver.frontend import open_recording  # noqa: E402
 from gnssframework.receiver.frontend.sigmf_meta import write_sigmf_meta  # noqa: E402

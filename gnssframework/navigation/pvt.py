@@ -33,7 +33,7 @@ from ..errors import ConfigError
 from ..signal.constants import L1_FREQ_HZ
 from .ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
 from .lnav import PI_IS_GPS, IonoUtc
-from .observables import SPEED_OF_LIGHT_MPS
+from ..signal.constants import SPEED_OF_LIGHT_M_S as SPEED_OF_LIGHT_MPS
 
 __all__ = ["PositionFix", "klobuchar_delay_s", "troposphere_delay_m", "dop", "solve_position"]
 

@@ -1,6 +1,6 @@
 """Positions at every epoch of a receiver's observables, their table and CSV.
 
-For each epoch of :class:`~gnssframework.navigation.observables.Observables`, the
+For each epoch of :class:`~gnssframework.receiver.navigation.observables.Observables`, the
 satellites with a pseudorange and a healthy ephemeris (the one decoded from their own
 LNAV, else the nearest record of a RINEX navigation file) go to
 :func:`~gnssframework.navigation.pvt.solve_position`. The GPS week is the decoded 10-bit
@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError
-from .ephemeris import Ephemerides
-from .lnav import IonoUtc
+from ...errors import ConfigError
+from ...navigation.ephemeris import Ephemerides
+from ...navigation.lnav import IonoUtc
 from .observables import SPEED_OF_LIGHT_MPS, Observables
-from .pvt import PositionFix, solve_position
+from ...navigation.pvt import PositionFix, solve_position
 
 __all__ = ["PositionTable", "solve_epochs", "write_positions_csv", "POSITION_COLUMNS", "full_week"]
 

@@ -30,14 +30,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import ConfigError
-from ..signal.constants import CA_CHIP_RATE_HZ
+from ...errors import ConfigError
+from ...signal.constants import CA_CHIP_RATE_HZ
 from .bit_stream import BIT_MS, bit_runs
-from .ephemeris import Ephemerides
-from .lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_lnav, find_subframes
+from ...navigation.ephemeris import Ephemerides
+from ...navigation.lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_lnav, find_subframes
 
 if TYPE_CHECKING:
-    from ..receiver.channels import ChannelRecord
+    from ..channels import ChannelRecord
 
 __all__ = ["ChannelTiming", "Observables", "channel_timing", "observables", "SPEED_OF_LIGHT_MPS"]
 

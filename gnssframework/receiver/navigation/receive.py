@@ -14,11 +14,11 @@ from typing import Any
 import numpy as np
 import pymap3d
 
-from ..receiver.acquisition.report import acquire_recording
-from ..receiver.acquisition.search import Acquisition
-from ..receiver.channels import SampleTracker, TrackingConfig, TrackingResult
-from ..receiver.frontend.recording import Recording
-from .ephemeris import Ephemerides
+from ..acquisition.report import acquire_recording
+from ..acquisition.search import Acquisition
+from ..channels import SampleTracker, TrackingConfig, TrackingResult
+from ..frontend.recording import Recording
+from ...navigation.ephemeris import Ephemerides
 from .fixes import PositionTable, solve_epochs
 from .observables import Observables, channel_timing, observables
 

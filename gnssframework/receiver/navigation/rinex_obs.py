@@ -1,6 +1,6 @@
 """RINEX 3.04 observation file of a receiver's observables (GPS L1 C/A).
 
-One epoch record per receive epoch of :class:`~gnssframework.navigation.observables.Observables`
+One epoch record per receive epoch of :class:`~gnssframework.receiver.navigation.observables.Observables`
 with the satellites that have a pseudorange, and per satellite ``C1C`` (pseudorange, m),
 ``L1C`` (carrier phase, cycles), ``D1C`` (Doppler, Hz) and ``S1C`` (C/N0, dB-Hz), in the
 fixed-width fields of RINEX 3.04 (section 5 and tables A1-A3): the header labels in
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError
+from ...errors import ConfigError
 from .observables import Observables
 
 __all__ = ["write_rinex_obs", "OBS_TYPES"]
