@@ -20,11 +20,13 @@ OUT = ROOT / "docs" / "img" / "experiments"
 EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath", "sweep_demo",
             "carrier_smoothing_sweep", "scintillation_sweep", "deep_integration_ci")
 #: Too slow for CI; their committed figures are regenerated with --slow.
-SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration")
+SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
 #: Examples whose page includes tables generated from the run (docs/experiment_tables.py).
-TABLES = {"vector_tracking": ["code_phase_error_rmse", "carrier_freq_error_rmse", "position_error_rmse",
-                              "velocity_error_rmse", "nees_position", "nees_velocity", "code_output_rmse",
-                              "freq_output_rmse"],
+_VECTOR_TRACKING_TABLE = ["code_phase_error_rmse", "carrier_freq_error_rmse", "position_error_rmse",
+                          "velocity_error_rmse", "nees_position", "nees_velocity", "code_output_rmse",
+                          "freq_output_rmse"]
+TABLES = {"vector_tracking": _VECTOR_TRACKING_TABLE, "vector_tracking_static": _VECTOR_TRACKING_TABLE,
+          "vector_tracking_moving": _VECTOR_TRACKING_TABLE,
           "deep_integration": ["horizontal_position_error_rmse", "height_error_rmse", "horizontal_velocity_error_rmse",
                                "vertical_velocity_error_rmse", "attitude_error_rmse", "loss_of_lock_fraction", "nees"]}
 TABLES["deep_integration_ci"] = TABLES["deep_integration"]

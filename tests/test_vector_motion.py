@@ -31,6 +31,14 @@ def test_figure_eight_derivatives_are_the_numerical_ones_and_its_extremes_the_cl
     assert speed.max() == pytest.approx(np.sqrt(2) * a * w, rel=1e-6)
     assert np.linalg.norm(acc, axis=-1).max() == pytest.approx(17 / 8 * a * w**2, rel=1e-4)
     assert np.abs(acc[:, 1]).max() == pytest.approx(2 * a * w**2, rel=1e-6)
+    # Turning right (clockwise: the vertical part of v x a negative) round the east lobe in
+    # the first half lap, left round the west one in the second: by hand from the closed
+    # form, (v x a)_up = -A^2 w^3 sin(wt) (3 - 2 sin^2 wt).
+    turn = vel[:, 0] * acc[:, 1] - vel[:, 1] * acc[:, 0]
+    np.testing.assert_allclose(turn, -a**2 * w**3 * np.sin(w * t) * (3 - 2 * np.sin(w * t) ** 2), atol=1e-9)
+    first, second = (t % 20.0 > 0.1) & (t % 20.0 < 9.9), (t % 20.0 > 10.1) & (t % 20.0 < 19.9)
+    assert np.all(turn[first] < 0) and np.all(turn[second] > 0)
+    assert np.all(pos[first, 0] > 0) and np.all(pos[second, 0] < 0)
     assert np.all(pos[:, 2] == 0)
     np.testing.assert_allclose(eight.enu(20.0)[0], [0.0, 0.0, 0.0], atol=1e-12)
     assert pos[:, 0].max() == pytest.approx(a, rel=1e-6) and pos[:, 1].max() == pytest.approx(a / 2, rel=1e-6)

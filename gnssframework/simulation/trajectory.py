@@ -55,14 +55,14 @@ class FigureEight:
     u(t) = 0, \qquad \omega = 2 \pi / T_{lap},
     $$
 
-    with ``A = half_length_m``. It starts at the crossing heading north-east, turns left
-    then right (each lobe half a lap), and its speed and heading change all the time:
-    speed $A\omega (\cos^2\omega t + \cos^2 2\omega t)^{1/2}$, from $\tfrac{\sqrt 7}{4} A\omega$
-    to $\sqrt{2} A\omega$ (at the crossing),
-    acceleration $A\omega^2 (\sin^2\omega t + 4 \sin^2 2\omega t)^{1/2}$, at most
-    $\tfrac{17}{8} A \omega^2$. The defaults of the vector-tracking scenario (A = 25 m,
-    20 s) give 5.2-11.1 m/s and up to 5.2 m/s² (0.53 g), a car on a 50 m by 25 m
-    figure-eight.
+    with ``A = half_length_m``. It starts at the crossing heading north-east, turns right
+    round the east lobe, then left round the west one (each lobe half a lap), and its
+    speed and heading change all the time: speed
+    $A\omega (\cos^2\omega t + \cos^2 2\omega t)^{1/2}$, from
+    $\tfrac{\sqrt 7}{4} A\omega$ to $\sqrt{2} A\omega$ (at the crossing), acceleration
+    $A\omega^2 (\sin^2\omega t + 4 \sin^2 2\omega t)^{1/2}$, at most $\tfrac{17}{8} A \omega^2$.
+    The defaults of the vector-tracking scenario (A = 25 m, 20 s) give 5.2-11.1 m/s and up
+    to 5.2 m/s² (0.53 g), a car on a 50 m by 25 m figure-eight.
     """
 
     half_length_m: float

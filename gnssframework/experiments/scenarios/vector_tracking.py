@@ -1,8 +1,9 @@
 """Scenario ``vector-tracking``: the experiment of Zou et al. (2018) (adaptive CKF vector tracking).
 
 GPS L1 C/A satellites of the nominal constellation, a static receiver (or one moving at
-constant velocity, or a vehicle on a figure-eight track), a receiver clock from h-parameters, and N channels tracked in a
-vector loop: a channel filter per channel and one navigation filter.
+constant velocity, or a car on a figure-eight track), a receiver clock from h-parameters,
+and N channels tracked in a vector loop: a channel filter per channel and one navigation
+filter.
 """
 
 from __future__ import annotations
@@ -91,8 +92,9 @@ class VectorTrackingParams(SkyRealismParams):
         "constant-velocity", description="constant-velocity: the receiver moves at velocity_enu_m_s (static by "
         "default). figure-eight: a vehicle on a figure-eight (lemniscate of Gerono) in the local horizontal plane "
         "from lat_deg, lon_deg, height_m: east = A sin(wt), north = A/2 sin(2wt), A = figure_eight_half_length_m, "
-        "w = 2 pi / figure_eight_lap_s (gnssframework.simulation.trajectory.FigureEight): speed 0.66 A w to 1.41 A w, "
-        "acceleration up to 17/8 A w^2 (defaults: 5.2-11.1 m/s, up to 5.2 m/s^2), turning left then right. A case's motion overrides it")
+        "w = 2 pi / figure_eight_lap_s (gnssframework.simulation.trajectory.FigureEight): speed 0.66 A w to "
+        "1.41 A w, acceleration up to 17/8 A w^2 (defaults: 5.2-11.1 m/s, up to 5.2 m/s^2), turning right round the "
+        "east lobe, then left. A case's motion overrides it")
     figure_eight_half_length_m: float = Field(25.0, gt=0, le=10000, description="A (m): half the figure-eight's "
                                               "east-west extent")
     figure_eight_lap_s: float = Field(20.0, ge=1, le=3600, description="time (s) of one lap of the figure-eight")
