@@ -500,14 +500,31 @@ def _sizes_of(compiled: CompiledFunctions, n: int, m: int = 0) -> tuple[int, int
     return n, (sizes[1] if m else 0)
 
 
+#: (driver, model functions, call sizes, declared sizes) -> its pair: the per-call lookup
+#: (one hash of a small tuple; `_model_pair`'s own key sorts and is built once).
+_pairs: dict[tuple, tuple] = {}
+
+
 def _predict_pair(compiled: CompiledFunctions, n: int):
-    return _model_pair(_fused_predict_body, {"_apply_f_row": compiled.f}, _sizes_of(compiled, n)[0])
+    key = (0, compiled.f, n, compiled.sizes)
+    hit = _pairs.get(key)
+    if hit is None:
+        hit = _pairs[key] = _model_pair(_fused_predict_body, {"_apply_f_row": compiled.f}, _sizes_of(compiled, n)[0])
+    return hit
 
 
 def _update_pair(compiled: CompiledFunctions, n: int, m: int):
-    return _model_pair(_fused_update_body, {"_apply_h_row": compiled.h}, *_sizes_of(compiled, n, m))
+    key = (1, compiled.h, n, m, compiled.sizes)
+    hit = _pairs.get(key)
+    if hit is None:
+        hit = _pairs[key] = _model_pair(_fused_update_body, {"_apply_h_row": compiled.h}, *_sizes_of(compiled, n, m))
+    return hit
 
 
 def _ekf_pair(compiled: CompiledFunctions):
-    return _model_pair(_ekf_moments_body, {"_apply_h_row": compiled.h, "_apply_h_jacobian": compiled.h_jacobian})
-
+    key = (2, compiled.h, compiled.h_jacobian)
+    hit = _pairs.get(key)
+    if hit is None:
+        hit = _pairs[key] = _model_pair(_ekf_moments_body, {"_apply_h_row": compiled.h,
+                                                            "_apply_h_jacobian": compiled.h_jacobian})
+    return hit
