@@ -18,8 +18,6 @@ import numpy as np
 from ..compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian
 from .dense import (all_finite, chol_solve_rows_into, cholesky, eigh_into, helpers_of_size, mul_into,
                     row_finite)
-from .rules import (center_into, gain_posterior_into, keep_prior_into, measurement_moments_into, points_into,
-                    root_into, spread_into, steps_of_size)
 from .specialise import HAVE_NUMBA, jit, jit_pair, prange, with_globals
 
 #: Most chunks a driver splits its batch into (scratch arrays are per chunk).
@@ -315,30 +313,73 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_params, Q
     """One predict per element: root, points, compiled ``f``, moments + Q; ``counts[0]``:
     elements whose root failed (``status`` not 0)."""
     B = mean.shape[0]
-    # A specialised twin (`_model_pair`) has the state dimension as a compile-time constant.
+    # A specialised twin (`_specialised_pair`) has the state dimension as a compile-time constant.
     n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]
     N = 2 * n + (1 if center else 0)
+    off = 1 if center else 0
     shared_q = Q.shape[0] == 1
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
-        # Scratch allocated once per chunk of elements, not once per element.
-        R = np.zeros((n, n))
-        w = np.empty(n)
-        V = np.empty((n, n))
-        Wk = np.empty((n + 2, n))
-        X = np.empty((N, n))
-        Y = np.empty((N, n))
-        mu = np.empty(n)
-        Acc = np.empty((n, n))
-        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-            status[b] = root_into(cov[b], root_kind, R, w, V, Wk)
-            if status[b] != 0:
+      # Scratch allocated once per chunk of elements, not once per element.
+      R = np.zeros((n, n))
+      w = np.empty(n)
+      V = np.empty((n, n))
+      Wk = np.empty((n + 2, n))
+      X = np.empty((N, n))
+      Y = np.empty((N, n))
+      mu = np.empty(n)
+      Acc = np.empty((n, n))
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+        P = cov[b]
+        R[:, :] = 0.0
+        if not _all_finite_n(P):
+            status[b] = 1
+            continue
+        if root_kind == 0:
+            if not _cholesky_n(P, R):
+                status[b] = 2
                 continue
-            points_into(mean, b, R, scale, center, X)
-            for k in range(N):
-                _apply_f_row(f_params, X, k, Y)
-            center_into(Y, wm, mu)
-            spread_into(Y, wc, Q, 0 if shared_q else np.int64(b), mu, Acc, b, out_mean, out_cov)
+        else:
+            eigh_into(P, w, V, Wk)
+            for i in range(n):
+                sw = math.sqrt(abs(w[i]))
+                for j in range(n):
+                    R[j, i] = V[j, i] * sw
+        status[b] = 0
+        if center:
+            for j in range(n):
+                X[0, j] = mean[b, j]
+        for i in range(n):
+            for j in range(n):
+                dd = R[j, i] * scale
+                X[off + i, j] = mean[b, j] + dd
+                X[off + n + i, j] = mean[b, j] - dd
+        for k in range(N):
+            _apply_f_row(f_params, X, k, Y)
+        q = 0 if shared_q else np.int64(b)
+        mu[:] = 0.0
+        for k in range(N):
+            for j in range(n):
+                mu[j] += wm[k] * Y[k, j]
+        for k in range(N):
+            for j in range(n):
+                Y[k, j] -= mu[j]
+        # Point by point into the lower triangle: each entry sums in the order k = 0..N-1
+        # (as a dot product would), but the entries' chains interleave in the pipeline.
+        for i in range(n):
+            for j in range(i + 1):
+                Acc[i, j] = 0.0
+        for k in range(N):
+            for i in range(n):
+                wy = wc[k] * Y[k, i]
+                for j in range(i + 1):
+                    Acc[i, j] += wy * Y[k, j]
+        for i in range(n):
+            out_mean[b, i] = mu[i]
+            for j in range(i + 1):
+                cij = Acc[i, j] + 0.5 * (Q[q, i, j] + Q[q, j, i])
+                out_cov[b, i, j] = cij
+                out_cov[b, j, i] = cij
     counts[0] = 0
     for b in range(B):
         counts[0] += status[b] != 0
@@ -356,42 +397,130 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
     n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]  # constants in a specialised twin
     m = _FIXED_M if _FIXED_M > 0 else z.shape[1]
     N = 2 * n + (1 if center else 0)
+    off = 1 if center else 0
     shared_r = R.shape[0] == 1
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
-        Rt = np.zeros((n, n))
-        w = np.empty(n)
-        V = np.empty((n, n))
-        Wk = np.empty((n + 2, n))
-        X = np.empty((N, n))
-        Z = np.empty((N, m))
-        mu = np.empty(m)
-        L = np.zeros((m, m))
-        KS = np.empty((n, m))
-        ysolve = np.empty((n, m + 1))
-        SAcc = np.empty((m, m))
-        CAcc = np.empty((n, m))
-        KSK = np.empty((n, n))
-        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-            P = cov[b]
-            ok[b] = False
-            status[b] = root_into(P, root_kind, Rt, w, V, Wk)
-            if status[b] != 0:
+      Rt = np.zeros((n, n))
+      w = np.empty(n)
+      V = np.empty((n, n))
+      Wk = np.empty((n + 2, n))
+      X = np.empty((N, n))
+      Z = np.empty((N, m))
+      mu = np.empty(m)
+      L = np.zeros((m, m))
+      KS = np.empty((n, m))
+      ysolve = np.empty((n, m + 1))
+      SAcc = np.empty((m, m))
+      CAcc = np.empty((n, m))
+      KSK = np.empty((n, n))
+      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+        P = cov[b]
+        Rt[:, :] = 0.0
+        ok[b] = False
+        if not _all_finite_n(P):
+            status[b] = 1
+            continue
+        if root_kind == 0:
+            if not _cholesky_n(P, Rt):
+                status[b] = 2
                 continue
-            points_into(mean, b, Rt, scale, center, X)
-            for k in range(N):
-                _apply_h_row(h_params, X, k, Z, k)
-            center_into(Z, wm, mu)
-            Sb, Cb = S[b], C[b]
-            measurement_moments_into(X, Z, mean, b, wc, R, 0 if shared_r else np.int64(b), mu, SAcc, CAcc,
-                                     z_hat, Sb, Cb)
-            good = _all_finite_m(Sb) and _cholesky_m(Sb, L)
-            ok[b] = good
-            if bad_z[b] or not good or not row_finite(z, b):
-                keep_prior_into(mean, b, P, Cb, gain[b], innovation, out_mean, out_cov)
-            else:
-                gain_posterior_into(L, Cb, Sb, gain[b], ysolve, KS, KSK, z, mu, mean, b, P, innovation,
-                                    out_mean, out_cov)
+        else:
+            eigh_into(P, w, V, Wk)
+            for i in range(n):
+                sw = math.sqrt(abs(w[i]))
+                for j in range(n):
+                    Rt[j, i] = V[j, i] * sw
+        status[b] = 0
+        if center:
+            for j in range(n):
+                X[0, j] = mean[b, j]
+        for i in range(n):
+            for j in range(n):
+                dd = Rt[j, i] * scale
+                X[off + i, j] = mean[b, j] + dd
+                X[off + n + i, j] = mean[b, j] - dd
+        for k in range(N):
+            _apply_h_row(h_params, X, k, Z, k)
+        r = 0 if shared_r else np.int64(b)
+        mu[:] = 0.0
+        for k in range(N):
+            for j in range(m):
+                mu[j] += wm[k] * Z[k, j]
+        for k in range(N):
+            for j in range(m):
+                Z[k, j] -= mu[j]
+        # S (lower triangle) and C point by point: each entry sums in the order
+        # k = 0..N-1 with the same products as a dot product would, so the values are
+        # bitwise those of one dot product per entry, but the chains interleave.
+        for i in range(m):
+            for j in range(i + 1):
+                SAcc[i, j] = 0.0
+        for i in range(n):
+            for j in range(m):
+                CAcc[i, j] = 0.0
+        for k in range(N):
+            for i in range(m):
+                wz = wc[k] * Z[k, i]
+                for j in range(i + 1):
+                    SAcc[i, j] += wz * Z[k, j]
+            for i in range(n):
+                wx = wc[k] * (X[k, i] - mean[b, i])
+                for j in range(m):
+                    CAcc[i, j] += wx * Z[k, j]
+        Sb = S[b]
+        for i in range(m):
+            z_hat[b, i] = mu[i]
+            for j in range(i + 1):
+                sij = SAcc[i, j] + 0.5 * (R[r, i, j] + R[r, j, i])
+                Sb[i, j] = sij
+                Sb[j, i] = sij
+        Cb = C[b]
+        for i in range(n):
+            for j in range(m):
+                Cb[i, j] = CAcc[i, j]
+        good = _all_finite_m(Sb) and _cholesky_m(Sb, L)
+        ok[b] = good
+        K = gain[b]
+        if bad_z[b] or not good or not row_finite(z, b):
+            for i in range(m):
+                innovation[b, i] = 0.0
+            for i in range(n):
+                out_mean[b, i] = mean[b, i]
+                for j in range(m):
+                    K[i, j] = Cb[i, j]
+                for j in range(n):
+                    out_cov[b, i, j] = P[i, j]
+            continue
+        chol_solve_rows_into(L, Cb, K, ysolve)
+        for i in range(m):
+            innovation[b, i] = z[b, i] - mu[i]
+        for i in range(n):
+            acc = 0.0
+            for j in range(m):
+                acc += K[i, j] * innovation[b, j]
+            out_mean[b, i] = mean[b, i] + acc
+        # K S, then (K S) K^T in full (both triangles are needed for the symmetrised
+        # posterior); k outermost within a row, so the chains interleave, same sums.
+        for i in range(n):
+            for j in range(m):
+                KS[i, j] = 0.0
+            for k in range(m):
+                kik = K[i, k]
+                for j in range(m):
+                    KS[i, j] += kik * Sb[k, j]
+        for i in range(n):
+            for j in range(n):
+                KSK[i, j] = 0.0
+            for k in range(m):
+                ksik = KS[i, k]
+                for j in range(n):
+                    KSK[i, j] += ksik * K[j, k]
+        for i in range(n):
+            for j in range(i + 1):
+                v = 0.5 * ((P[i, j] - KSK[i, j]) + (P[j, i] - KSK[j, i]))
+                out_cov[b, i, j] = v
+                out_cov[b, j, i] = v
     counts[:] = 0
     for b in range(B):  # serial, after the parallel loop
         bz = bad_z[b] or not row_finite(z, b)
@@ -418,18 +547,6 @@ _update_kernels = jit_pair(_update_body)
 _pd_mask_kernels = jit_pair(_pd_mask_body)
 _linear_predict_kernels = jit_pair(_linear_predict_body)
 
-
-
-_solve_by_size: dict[tuple[int, int], object] = {}
-
-
-def _solve_of_size(n: int, m: int):
-    """`chol_solve_rows_into` with ``n`` rows and ``m`` columns as constants."""
-    hit = _solve_by_size.get((n, m))
-    if hit is None:
-        hit = _solve_by_size[(n, m)] = jit(with_globals(chol_solve_rows_into.py_func, f"_{n}_{m}", _FIXED_N=n,
-                                                        _FIXED_M=m))
-    return hit
 
 
 _linear_f_by_size: dict[int, object] = {}
@@ -479,15 +596,12 @@ def _model_pair(body, functions: dict, n: int = 0, m: int = 0):
         if over.get("_apply_f_row") is linear_f:
             over["_apply_f_row"] = _linear_f_of_size(n)
         suffix += f"_{n}"
-    solve = None
     if m:
         hm = helpers_of_size(m)
-        solve = _solve_of_size(n, m)
+        solve = jit(with_globals(chol_solve_rows_into.py_func, f"_{n}_{m}", _FIXED_N=n, _FIXED_M=m))
         over.update({"_FIXED_M": m, "_all_finite_m": hm["all_finite"], "_cholesky_m": hm["cholesky"],
                      "chol_solve_rows_into": solve})
         suffix += f"_{m}"
-    if n:  # the rule's steps with the same constants (each twin inlines its own)
-        over.update(steps_of_size(n, m, solve))
     hit = _model_drivers[key] = jit_pair(with_globals(body, suffix, **over))
     return hit
 
@@ -500,14 +614,31 @@ def _sizes_of(compiled: CompiledFunctions, n: int, m: int = 0) -> tuple[int, int
     return n, (sizes[1] if m else 0)
 
 
+#: (driver, model functions, call sizes, declared sizes) -> its pair: the per-call lookup
+#: (one hash of a small tuple; `_model_pair`'s own key sorts and is built once).
+_pairs: dict[tuple, tuple] = {}
+
+
 def _predict_pair(compiled: CompiledFunctions, n: int):
-    return _model_pair(_fused_predict_body, {"_apply_f_row": compiled.f}, _sizes_of(compiled, n)[0])
+    key = (0, compiled.f, n, compiled.sizes)
+    hit = _pairs.get(key)
+    if hit is None:
+        hit = _pairs[key] = _model_pair(_fused_predict_body, {"_apply_f_row": compiled.f}, _sizes_of(compiled, n)[0])
+    return hit
 
 
 def _update_pair(compiled: CompiledFunctions, n: int, m: int):
-    return _model_pair(_fused_update_body, {"_apply_h_row": compiled.h}, *_sizes_of(compiled, n, m))
+    key = (1, compiled.h, n, m, compiled.sizes)
+    hit = _pairs.get(key)
+    if hit is None:
+        hit = _pairs[key] = _model_pair(_fused_update_body, {"_apply_h_row": compiled.h}, *_sizes_of(compiled, n, m))
+    return hit
 
 
 def _ekf_pair(compiled: CompiledFunctions):
-    return _model_pair(_ekf_moments_body, {"_apply_h_row": compiled.h, "_apply_h_jacobian": compiled.h_jacobian})
-
+    key = (2, compiled.h, compiled.h_jacobian)
+    hit = _pairs.get(key)
+    if hit is None:
+        hit = _pairs[key] = _model_pair(_ekf_moments_body, {"_apply_h_row": compiled.h,
+                                                            "_apply_h_jacobian": compiled.h_jacobian})
+    return hit
