@@ -30,11 +30,10 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
             if args.kind:  # the registry words it: known names of that kind, the closest one
                 registry.get(args.kind, args.describe)
             every = sorted({n for k in registry.kinds() for n in registry.names(k)})
-            import difflib
+            from .suggest import did_you_mean
 
-            close = difflib.get_close_matches(args.describe, every, n=1, cutoff=0.4)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise ConfigError("--describe", f"no plugin named {args.describe!r}{hint}")
+            raise ConfigError("--describe", f"no plugin named {args.describe!r}"
+                                            f"{did_you_mean(args.describe, every, cutoff=0.4)}")
         print("\n\n".join(plain_text(describe_plugin(k, registry.get(k, args.describe))) for k in matches))
         return 0
     rows = [("KIND", "NAME", "DESCRIPTION", "SOURCE")]

@@ -86,6 +86,9 @@ class PluginParams(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, validate_by_name=True,
                               validate_by_alias=True)
 
+    #: For a plugin without parameters: why it needs none (shown in its parameter table).
+    no_parameters: ClassVar[str] = ""
+
     @model_validator(mode="before")
     @classmethod
     def _no_quiet_conversions(cls, data: Any) -> Any:

@@ -86,8 +86,9 @@ def _cell(text: str) -> str:
 def parameter_table(params_model: type[BaseModel]) -> str:
     """The parameter table as Markdown (also readable as plain text in ``help()``)."""
     rows = parameter_rows(params_model)
-    if not rows:
-        return "(no parameters)"
+    if not rows:  # say why, where the plugin's Params does (`PluginParams.no_parameters`)
+        why = getattr(params_model, "no_parameters", "")
+        return f"(no parameters: {why})" if why else "(no parameters)"
     out = ["| name | type | default | bounds | description |", "|---|---|---|---|---|"]
     cell = _cell
     out += [f"| `{r.name}` | {cell(r.type)} | `{cell(r.default)}` | {cell(r.bounds)} | {cell(r.description)} |"

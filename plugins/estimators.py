@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import ClassVar
 
 import numpy as np
 from pydantic import Field
@@ -19,6 +20,13 @@ __all__ = [
     "CubatureKalmanFilter",
     "SvdCubatureKalmanFilter",
 ]
+
+
+class EngineParams(PluginParams):
+    """The parameters of an engine without tuning constants (none)."""
+
+    no_parameters: ClassVar[str] = ("the engine is set by the model it is given (F, H or f, h, with Q and R) and the "
+                                    "initial state; its rule has no tuning constant")
 
 
 def _transpose(a: np.ndarray) -> np.ndarray:
@@ -40,6 +48,7 @@ class KalmanFilter(Estimator):
     """
 
     name = "kf"
+    Params = EngineParams
     description = "Linear Kalman filter (Joseph-form covariance update)"
     #: Only for a LinearModel: nested-plugin parameters on nonlinear models refuse it.
     linear_only = True
@@ -88,6 +97,7 @@ class ExtendedKalmanFilter(Estimator):
     """
 
     name = "ekf"
+    Params = EngineParams
     description = "Extended Kalman filter (analytic or central-difference Jacobians)"
 
     def predict(self, state: Gaussian, model) -> Gaussian:
@@ -181,6 +191,7 @@ class CubatureKalmanFilter(SigmaPointEstimator):
     """
 
     name = "ckf"
+    Params = EngineParams
     description = "Cubature Kalman filter, 2n third-degree spherical-radial points (Cholesky root)"
 
     def sigma_points(self, state: Gaussian):

@@ -11,11 +11,21 @@ symmetric four-level quantiser of front ends such as the MAX2771.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
+from gnssframework.plugin import PluginParams
 from gnssframework.receiver.frontend.source import SampleSource
 
 __all__ = ["RealInt8", "ComplexInt8", "ComplexInt16", "ComplexFloat32", "RealPacked2", "ComplexPacked2"]
+
+
+class FormatParams(PluginParams):
+    """The parameters of a sample format (none)."""
+
+    no_parameters: ClassVar[str] = ("the format fixes the sample layout; the sample rate, IF and Q sign are the "
+                                    "recording's (its SigMF metadata or --fs, --if, --q-sign)")
 
 
 def _to_int(x: np.ndarray, dtype) -> np.ndarray:
@@ -31,6 +41,7 @@ class RealInt8(SampleSource):
     """Real samples, one signed byte each (SigMF ``ri8``)."""
 
     name = "ri8"
+    Params = FormatParams
     description = "real int8 samples (SigMF ri8)"
     is_complex = False
     bytes_per_chunk = 1
@@ -48,6 +59,7 @@ class ComplexInt8(SampleSource):
     """Interleaved I/Q, one signed byte each (SigMF ``ci8``; gps-sdr-sim ``-b 8``)."""
 
     name = "ci8"
+    Params = FormatParams
     description = "interleaved int8 I/Q (SigMF ci8)"
     bytes_per_chunk = 2
     sigmf_datatype = "ci8"
@@ -64,6 +76,7 @@ class ComplexInt16(SampleSource):
     """Interleaved I/Q, little-endian int16 each (SigMF ``ci16_le``; gps-sdr-sim ``-b 16``)."""
 
     name = "ci16_le"
+    Params = FormatParams
     description = "interleaved little-endian int16 I/Q (SigMF ci16_le)"
     bytes_per_chunk = 4
     sigmf_datatype = "ci16_le"
@@ -79,6 +92,7 @@ class ComplexFloat32(SampleSource):
     """Interleaved I/Q, little-endian float32 each (SigMF ``cf32_le``; GNSS-SDR ``gr_complex``)."""
 
     name = "cf32_le"
+    Params = FormatParams
     description = "interleaved float32 I/Q (SigMF cf32_le, GNSS-SDR gr_complex)"
     bytes_per_chunk = 8
     sigmf_datatype = "cf32_le"
@@ -109,6 +123,7 @@ class RealPacked2(SampleSource):
     """Real 2-bit samples, four a byte (first in the low bits), levels -3, -1, +1, +3."""
 
     name = "ri2"
+    Params = FormatParams
     description = "real 2-bit samples packed four a byte (levels +-1, +-3)"
     is_complex = False
     bytes_per_chunk = 1
@@ -125,6 +140,7 @@ class ComplexPacked2(SampleSource):
     """Complex 2-bit samples: I then Q, two complex samples a byte (first in the low bits)."""
 
     name = "ci2"
+    Params = FormatParams
     description = "complex 2-bit I/Q packed two samples a byte (levels +-1, +-3)"
     bytes_per_chunk = 1
     samples_per_chunk = 2

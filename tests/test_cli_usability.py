@@ -85,6 +85,11 @@ def test_a_mistyped_name_gets_did_you_mean(tmp_path, old, new, hint):
     assert str(err.value).endswith(hint)
 
 
+def test_describe_suggests_a_plugin_written_in_another_case(capsys):
+    assert main(["plugins", "--describe", "SVD-CKF"]) == 2
+    assert capsys.readouterr().err.endswith("did you mean 'svd-ckf'?\n")
+
+
 def test_closest_prefers_a_case_fold_and_suggests_nothing_far():
     assert closest("SVD-CKF", ["ckf", "svd-ckf"]) == "svd-ckf"
     assert closest("qqqq", ["window", "warmup"]) is None
@@ -135,3 +140,13 @@ def test_no_progress_bar_when_stderr_is_not_a_terminal(tmp_path, monkeypatch, ca
     path.write_text(EXAMPLE)
     assert main(["compare", str(path), "--out", str(tmp_path / "o")]) == 0
     assert seen["progress"] is False  # pytest's captured stderr is no terminal
+
+
+def test_every_built_in_without_parameters_says_why(capsys):
+    bare = [(k, n) for k in registry.kinds() for n in registry.names(k)
+            if not registry.get(k, n).Params.model_fields and registry.get(k, n).__module__.startswith("gnssframework")]
+    assert ("estimator", "kf") in bare and ("sample_source", "ci8") in bare
+    for kind, name in bare:
+        assert main(["plugins", "--kind", kind, "--describe", name]) == 0
+        out = capsys.readouterr().out
+        assert re.search(r"\(no parameters: \w[^)]*", out), (kind, name)

@@ -63,7 +63,10 @@ def test_a_difference_with_only_rounding_spread_is_not_significant():
     bound = np.full(12, 0.22803560419104105)
     noisy = bound + np.array([0, 2.8e-17] * 6)  # the same bound, summed in another order
     pd = paired_difference(noisy, bound)
-    assert pd.se == 0.0 and not pd.significant and "no spread" in pd.reason
+    assert pd.se == 0.0 and not pd.significant and pd.reason.endswith("up to floating-point rounding")
+    # The same difference in every run, well above rounding: no spread, so no t-test either.
+    shifted = paired_difference(bound + 0.25, bound)
+    assert shifted.diff == pytest.approx(0.25) and not shifted.significant and "no spread" in shifted.reason
     same = paired_difference(bound, bound)
     assert not same.significant and same.reason == "identical values in every run"
     # A spread well above rounding is tested as before.
@@ -213,3 +216,59 @@ def test_report_prints_a_bound_without_spread_or_significance(comparison):
     assert "**\\***" not in row
     paired = [line for line in report.splitlines() if line.startswith("| bound_rmse |")][-1]
     assert "±" not in paired.split("(×")[0] and "**\\***" not in paired
+
+
+VECTOR = """
+name = "vt-figures"
+runs = 2
+batch_size = 2
+seed = 5
+[executor]
+workers = 1
+[scenario]
+kind = "vector-tracking"
+duration_s = 0.3
+channels = 4
+settle_s = 0.05
+steady_state_s = 0.1
+[[cases]]
+name = "c"
+cn0_dbhz = 40.0
+[[candidates]]
+name = "discriminator"
+channel_filter = { name = "discriminator" }
+nav_filter = { name = "ekf-pv" }
+[[candidates]]
+name = "ckf"
+channel_filter = { name = "iq-filter", params = { estimator = "ckf", adaptive = false } }
+nav_filter = { name = "ekf-pv" }
+"""
+
+
+def test_the_main_jobs_scenario_gets_a_grid_with_one_bound_curve_per_bounded_metric(tmp_path):
+    path = tmp_path / "v.toml"
+    path.write_text(VECTOR)
+    config = load_config(path)
+    run_comparison(config, tmp_path / "out", progress=False)
+    store = ResultStore(tmp_path / "out" / "results.sqlite")
+    for fig in (series_figure(config, tmp_path / "out", "c"), cdf_figure(config, store, "c")):
+        try:
+            # 12 metrics, the two PCRBs drawn inside the position and velocity panels.
+            _check_common(fig, len(config.metric_names) - 2)
+            titles = [ax.get_title() for ax in fig.axes]
+            assert "pcrb_position" not in titles and "pcrb_velocity" not in titles
+            for metric, bound in (("position_error_rmse", "pcrb_position"), ("velocity_error_rmse", "pcrb_velocity")):
+                ax = fig.axes[titles.index(metric)]
+                assert [line.get_label() for line in ax.get_lines()].count(f"{bound} (bound)") == 1
+            # Each candidate keeps one colour across the panels.
+            colours = {line.get_label(): line.get_color() for ax in fig.axes for line in ax.get_lines()}
+            assert all(line.get_color() == colours[line.get_label()] for ax in fig.axes for line in ax.get_lines())
+        finally:
+            plt.close(fig)
+    series = series_figure(config, tmp_path / "out", "c")
+    try:
+        labels = {ax.get_title(): ax.get_ylabel() for ax in series.axes}
+        assert labels["position_error_rmse"] == "|position_error_m| (m)"  # what is drawn: |e_k|, not an RMSE
+        assert labels["nees"] == "nav_nees (-)"
+    finally:
+        plt.close(series)

@@ -365,10 +365,13 @@ def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[s
                 ax.set_xscale("log")
             ax.set_xlabel(label, fontsize=7)
             ax.grid(alpha=0.3)
-        axes[0, 0].set_ylabel(f"{res['metric']}\n({res['combine']} over cases)", fontsize=7)
-        axes[0, 0].legend(fontsize=6)
+        unit = config.metric_units.get(res["metric"], "-")
+        for ax in axes[0]:  # units on every axis; one legend for the figure
+            ax.set_ylabel(f"{res['metric']}, {res['combine']} over cases ({unit})", fontsize=7)
+        handles, labels = axes[0, 0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="lower center", fontsize=6, ncol=2, frameon=False)
         fig.suptitle(f"tuning {cand}", fontsize=9)
-        fig.tight_layout()
+        fig.tight_layout(rect=(0, 0.08, 1, 1))  # room for the legend below
         _savefig(fig, out / "plots" / f"tuning-{cand}.png")
         plt.close(fig)
     lines.append("")
