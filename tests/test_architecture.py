@@ -53,21 +53,10 @@ ESTIMATION_MAY_IMPORT = ("gnssframework.errors", "gnssframework.plugin", "gnssfr
 GNSS_LIBRARIES = ("georinex", "hatanaka", "pymap3d", "pynmea2")
 PLUGIN_PACKAGES = ("gnssframework_plugins", "plugins")
 
-#: Known violations being fixed on other branches of issue 23, as import arrows
-#: (importer, imported). The lead removes an entry once the branch fixing it is merged;
+#: Known violations, as import arrows (importer, imported) -> why, while a change that
+#: removes them is under way; empty since issue 23 landed.
 #: `test_every_allowed_violation_still_exists` says when one is gone.
-KNOWN_VIOLATIONS: dict[tuple[str, str], str] = {
-    # The circle estimation/kernels <-> linalg <-> types (kernels -> types -> linalg -> kernels),
-    # and boundary <-> types inside it: the "compiled seam" branch.
-    ("gnssframework.estimation.boundary", "gnssframework.estimation.types"): "compiled seam",
-    # The arrow back up: the channel model uses the estimation kernels' model codes.
-    ("gnssframework.signal.channel_model", "gnssframework.estimation.types"): "compiled seam",
-    # The circle experiments/config <-> sweeps (with tuning, runner and report in it): the
-    # "resolved plans" branch.
-    ("gnssframework.experiments.runner", "gnssframework.experiments.report"): "resolved plans",
-    # The circle registry <-> plugin_ref <-> plugin_docs: the "resolved plans" branch.
-    ("gnssframework.registry", "gnssframework.plugin_docs"): "resolved plans",
-}
+KNOWN_VIOLATIONS: dict[tuple[str, str], str] = {}
 
 
 @dataclass

@@ -39,7 +39,9 @@ def flatten_state(obj: Any) -> dict[tuple, Any] | None:
     seen: set[int] = set()
 
     def walk(v: Any, path: tuple) -> bool:
-        if isinstance(v, _LEAF):
+        # A model's jitted f/h (numba dispatchers, recognised by their ``py_func``) are
+        # leaves like plain functions: their internals are the compiler's, shared by all.
+        if isinstance(v, _LEAF) or (callable(v) and hasattr(v, "py_func")):
             out[path] = v
             return True
         if id(v) in seen:
