@@ -109,6 +109,13 @@ def test_compiled_functions_refuse_what_the_kernels_cannot_call():
         CompiledFunctions(turn_f, [DT, OMEGA], range_bearing_h, [[0.0, 0.0]])
     with pytest.raises(ConfigError, match="CompiledFunctions.sizes"):
         CompiledFunctions(turn_f, [[DT, OMEGA]], range_bearing_h, [[0.0, 0.0]], sizes=(4,))
+    # Equal (so two channels' filters holding one merge into a batch) when the functions
+    # are the same and the parameters equal; never by walking the jitted functions' state.
+    one = CompiledFunctions(turn_f, [[DT, OMEGA]], range_bearing_h, [[0.0, 0.0]])
+    assert one == CompiledFunctions(turn_f, np.array([[DT, OMEGA]]), range_bearing_h, [[0.0, 0.0]])
+    assert one != CompiledFunctions(turn_f, [[DT, 2 * OMEGA]], range_bearing_h, [[0.0, 0.0]])
+    assert one != CompiledFunctions(turn_f, [[DT, OMEGA]], range_bearing_h, [[0.0, 0.0]], sizes=(4, 2))
+    assert not hasattr(one, "__dict__")
 
 
 # -- overrides are honoured -------------------------------------------------------------

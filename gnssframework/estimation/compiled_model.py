@@ -64,7 +64,11 @@ def linear_h_jacobian(params, X, k, J):
             J[i, j] = params[i, j]
 
 
-@dataclass(frozen=True)
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.shape == b.shape and bool(np.array_equal(a, b))
+
+
+@dataclass(frozen=True, eq=False, slots=True)
 class CompiledFunctions:
     """Model functions the compiled kernels evaluate themselves (no call back to Python).
 
@@ -112,6 +116,18 @@ class CompiledFunctions:
             if len(sizes) != 2 or min(sizes) < 1:
                 raise ConfigError("CompiledFunctions.sizes", f"must be (states, measurements) >= 1, got {self.sizes!r}")
             object.__setattr__(self, "sizes", sizes)
+
+    # Equal when the functions are the same and the parameters equal (a filter holding one
+    # is compared whole when channels' filters merge into a batch: no __dict__, so the
+    # jitted functions' own state is never walked).
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, CompiledFunctions):
+            return NotImplemented
+        return (self.f is other.f and self.h is other.h and self.h_jacobian is other.h_jacobian
+                and self.sizes == other.sizes and _same(self.f_params, other.f_params)
+                and _same(self.h_params, other.h_params))
+
+    __hash__ = None  # type: ignore[assignment]  # mutable arrays inside
 
     @property
     def linear_f(self) -> bool:
