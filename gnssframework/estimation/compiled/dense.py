@@ -186,21 +186,10 @@ _HUGE = 2.0 ** 400
 
 
 @jit
-def tridiagonal_eigh_into(A, w, V, W):
-    """Householder tridiagonalisation and implicit symmetric QR with Wilkinson shifts.
-
-    Golub & Van Loan, *Matrix Computations*, 4th ed., algorithms 8.3.1 (tridiagonal
-    form, backward accumulation of the Householder product) and 8.3.2 (implicit QR step
-    with the Wilkinson shift), deflating where ``|e_i| <= eps sqrt(|d_i| |d_i+1|)`` (the
-    test of LAPACK's ``dsteqr``, which keeps small eigenvalues of graded matrices
-    accurate) or ``|e_i| <= eps^2 max|A|`` (so exactly singular blocks deflate). A
-    matrix with ``max|A|`` outside ``[2^-400, 2^400]`` is scaled by a power of two to
-    ``max|A| ~ 1`` first (exact, so the result is the same as unscaled), so squares of
-    entries neither overflow nor underflow. ``W`` ``(n + 2, n)``: rows ``0..n-1`` the
-    working matrix (Householder vectors below its diagonal), row ``n`` the off-diagonal
-    ``e``, row ``n + 1`` the Householder scalars. Returns False if it has not
-    converged after ``30 n`` QR steps (``w``, ``V`` then undefined).
-    """
+def _scaled_symmetric_into(A, V, W):
+    """``W[:n] = sym(A) * scale`` and ``V = I``; returns ``(scale, max|A| * scale)``, the
+    scale a power of two that brings ``max|A|`` to about 1 where it is outside
+    ``[2^-400, 2^400]`` (else 1)."""
     n = _FIXED_K if _FIXED_K > 0 else A.shape[0]
     amax = 0.0
     for i in range(n):
@@ -211,12 +200,19 @@ def tridiagonal_eigh_into(A, w, V, W):
     scale = 1.0
     if amax > 0.0 and math.isfinite(amax) and not (_TINY < amax < _HUGE):
         scale = math.ldexp(1.0, -math.frexp(amax)[1])  # 2**-k, max|A| * scale in [0.5, 1)
-    top = amax * scale
     for i in range(n):
         for j in range(n):
             W[i, j] = 0.5 * (A[i, j] + A[j, i]) * scale
             V[i, j] = 1.0 if i == j else 0.0
-    # -- tridiagonal form: T = Q^T A Q, Q = H_0 ... H_{n-3}, H_k = I - beta_k v_k v_k^T
+    return scale, amax * scale
+
+
+@jit
+def _householder_tridiagonal(W, w):
+    """``T = Q^T A Q`` in place in ``W``, ``Q = H_0 ... H_{n-3}``, ``H_k = I - beta_k v_k
+    v_k^T``: ``v_k`` below the diagonal of ``W``, the off-diagonal of T in row ``n``,
+    ``beta_k`` in row ``n + 1`` (``w`` scratch)."""
+    n = _FIXED_K if _FIXED_K > 0 else W.shape[1]
     for k in range(n - 2):
         tail = 0.0
         for i in range(k + 2, n):
@@ -254,7 +250,14 @@ def tridiagonal_eigh_into(A, w, V, W):
                 W[j, i] = val
     if n >= 2:
         W[n, n - 2] = W[n - 1, n - 2]
-    for k in range(n - 3, -1, -1):  # V = H_0 (H_1 (... H_{n-3}))
+
+
+@jit
+def _householder_accumulate(W, V, w):
+    """``V = H_0 (H_1 (... H_{n-3}))`` from the reflections in ``W``, and ``w`` the
+    diagonal of T."""
+    n = _FIXED_K if _FIXED_K > 0 else W.shape[1]
+    for k in range(n - 3, -1, -1):
         beta = W[n + 1, k]
         if beta == 0.0:
             continue
@@ -267,7 +270,14 @@ def tridiagonal_eigh_into(A, w, V, W):
                 V[i, j] -= acc * W[i, k]
     for i in range(n):
         w[i] = W[i, i]
-    # -- implicit QR on (d = w, e = W[n]); rotations accumulate into V's columns
+
+
+@jit
+def _implicit_qr(w, W, V, top):
+    """Implicit symmetric QR with Wilkinson shifts on T (diagonal ``w``, off-diagonal row
+    ``n`` of ``W``), rotations accumulated into ``V``'s columns; False if not converged
+    after ``30 n`` steps."""
+    n = _FIXED_K if _FIXED_K > 0 else W.shape[1]
     eps2 = 2.220446049250313e-16 ** 2
     floor2 = eps2 * eps2 * top * top
     hi = n - 1
@@ -319,6 +329,31 @@ def tridiagonal_eigh_into(A, w, V, W):
                 vk1 = V[i, k + 1]
                 V[i, k] = c * vk - s * vk1
                 V[i, k + 1] = s * vk + c * vk1
+    return True
+
+
+@jit
+def tridiagonal_eigh_into(A, w, V, W):
+    """Householder tridiagonalisation and implicit symmetric QR with Wilkinson shifts.
+
+    Golub & Van Loan, *Matrix Computations*, 4th ed., algorithms 8.3.1 (tridiagonal
+    form, backward accumulation of the Householder product) and 8.3.2 (implicit QR step
+    with the Wilkinson shift), deflating where ``|e_i| <= eps sqrt(|d_i| |d_i+1|)`` (the
+    test of LAPACK's ``dsteqr``, which keeps small eigenvalues of graded matrices
+    accurate) or ``|e_i| <= eps^2 max|A|`` (so exactly singular blocks deflate). A
+    matrix with ``max|A|`` outside ``[2^-400, 2^400]`` is scaled by a power of two to
+    ``max|A| ~ 1`` first (exact, so the result is the same as unscaled), so squares of
+    entries neither overflow nor underflow. ``W`` ``(n + 2, n)``: rows ``0..n-1`` the
+    working matrix (Householder vectors below its diagonal), row ``n`` the off-diagonal
+    ``e``, row ``n + 1`` the Householder scalars. Returns False if it has not
+    converged after ``30 n`` QR steps (``w``, ``V`` then undefined).
+    """
+    scale, top = _scaled_symmetric_into(A, V, W)
+    _householder_tridiagonal(W, w)
+    _householder_accumulate(W, V, w)
+    if not _implicit_qr(w, W, V, top):
+        return False
+    n = _FIXED_K if _FIXED_K > 0 else A.shape[0]
     inv = 1.0 / scale
     for i in range(n):
         w[i] *= inv
@@ -396,7 +431,10 @@ def helpers_of_size(k: int) -> dict:
     hit = helpers_by_size.get(k)
     if hit is None:
         size = {"_FIXED_K": k}
-        tri = jit(with_globals(tridiagonal_eigh_into.py_func, f"_{k}", **size))
+        steps = {name: jit(with_globals(fn.py_func, f"_{k}", **size)) for name, fn in (
+            ("_scaled_symmetric_into", _scaled_symmetric_into), ("_householder_tridiagonal", _householder_tridiagonal),
+            ("_householder_accumulate", _householder_accumulate), ("_implicit_qr", _implicit_qr))}
+        tri = jit(with_globals(tridiagonal_eigh_into.py_func, f"_{k}", **size, **steps))
         hit = helpers_by_size[k] = {
             "all_finite": jit(with_globals(all_finite.py_func, f"_{k}", **size)),
             "cholesky": jit(with_globals(cholesky.py_func, f"_{k}", **size)),
