@@ -99,11 +99,11 @@ def _store_error(exc: sqlite3.DatabaseError, store: Path) -> Exception:
 
 def _cmd_filter_positions(args: argparse.Namespace) -> int:
     from .io.nmea import read_nmea
-    from .io.positions import filter_positions, write_positions_csv
+    from .io.positions import composition, filter_positions, write_positions_csv
     from .io.skipped import exit_status, print_skipped, write_skipped_report
 
     fixes = read_nmea(args.file, max_speed_mps=args.max_speed, strict=args.strict, max_abs_height_m=args.max_height)
-    lat, lon, _, _ = filter_positions(fixes, args.filter, args.psi)
+    lat, lon, _, _ = filter_positions(fixes, composition(args.filter, args.noise_adapter, args.augmentation), args.psi)
     write_positions_csv(args.out, fixes, lat, lon)
     sidecar = write_skipped_report(args.out, args.file, fixes.skipped)
     print(f"{args.file}: {fixes.time_s.size} fixes filtered with {args.filter}, {len(fixes.skipped)} sentences "
@@ -425,8 +425,13 @@ def build_parser() -> argparse.ArgumentParser:
                        epilog=EXIT_STATUS_HELP)
     p.add_argument("file", help="NMEA log with GGA and/or RMC sentences")
     p.add_argument("--out", required=True, help="output CSV")
-    p.add_argument("--filter", default="AUKF1", choices=["UKF", "UKF1", "AUKF", "AUKF1"],
-                   help="position filter of Liu et al. 2020")
+    p.add_argument("--filter", default="AUKF1", metavar="NAME",
+                   help="a position filter of Liu et al. 2020 (UKF, UKF1, AUKF, AUKF1) or a registered estimator "
+                        "(`gnssframework plugins --kind estimator`) in the constant-acceleration position model")
+    p.add_argument("--noise-adapter", default=None, metavar="NAME",
+                   help="a registered noise adapter (replaces the label's own)")
+    p.add_argument("--augmentation", default=None, metavar="NAME",
+                   help="a registered augmentation, e.g. colored-ar1 with --psi (replaces the label's own)")
     p.add_argument("--psi", type=float, default=0.95, help="AR(1) coefficient for the colored filters")
     p.add_argument("--max-speed", type=float, default=MAX_SPEED_MPS, metavar="M/S",
                    help="jump check: skip a fix further from the last accepted one than this speed allows "

@@ -75,3 +75,35 @@ def test_cli_filter_positions_writes_csv_and_lists_skipped_lines(tmp_path):
     assert "3 sentences skipped" in proc.stdout and "skipped line 10:" in proc.stdout
     rows = out.read_text().splitlines()
     assert rows[0].startswith("time_s,nmea_line,lat_deg") and len(rows) == 501
+
+
+def test_filter_positions_takes_registry_names_as_well_as_the_papers_labels():
+    from gnssframework.io.positions import CANDIDATES, composition
+
+    assert composition("ukf1") == CANDIDATES["UKF1"]  # labels in any case
+    comp = composition("ckf", noise_adapter="sage-husa", augmentation="colored-ar1")
+    assert comp["estimator"]["name"] == "ckf" and comp["noise_adapter"]["name"] == "sage-husa"
+    assert comp["augmentation"]["name"] == "colored-ar1" and comp["nav_filter"]["name"] == "position-ca"
+    # On the linear position model every Gaussian engine is the Kalman filter: the registry's
+    # kf and ckf give the same track, up to rounding.
+    fixes = read_nmea(LOG)
+    lat_kf, lon_kf, _, _ = filter_positions(fixes, "kf")
+    lat_ckf, lon_ckf, _, _ = filter_positions(fixes, "ckf")
+    np.testing.assert_allclose(lat_ckf, lat_kf, rtol=0, atol=1e-9)  # 1e-9 deg ~ 0.1 mm
+    np.testing.assert_allclose(lon_ckf, lon_kf, rtol=0, atol=1e-9)
+    e, n, _ = pymap3d.geodetic2enu(fixes.lat_deg, fixes.lon_deg, 0, LAT0, LON0, 0)
+    fe, fn, _ = pymap3d.geodetic2enu(lat_kf, lon_kf, 0, LAT0, LON0, 0)
+    assert np.sqrt(np.mean(fn**2 + fe**2)) < np.sqrt(np.mean(n**2 + e**2))
+
+
+def test_filter_positions_names_the_option_of_an_unknown_name(tmp_path):
+    from gnssframework.errors import ConfigError
+    from gnssframework.io.positions import composition
+
+    with pytest.raises(ConfigError, match=r"--filter.*'ukff'.*did you mean 'UKF'"):
+        composition("ukff")
+    proc = subprocess.run([sys.executable, "-m", "gnssframework", "filter-positions", str(LOG), "--out",
+                           str(tmp_path / "f.csv"), "--filter", "ckf", "--noise-adapter", "sage-hus"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2 and "--noise-adapter" in proc.stderr and "sage-husa" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1

@@ -14,7 +14,7 @@ from ..errors import ConfigError
 from ..interfaces import BatchPositionFilter
 from .nmea import NmeaFixes
 
-__all__ = ["CANDIDATES", "filter_positions", "write_positions_csv"]
+__all__ = ["CANDIDATES", "composition", "filter_positions", "write_positions_csv"]
 
 #: The paper's engine: the unscented Kalman filter with alpha 0.01, beta 2, kappa 0.
 _UKF = {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}}
@@ -35,19 +35,60 @@ CANDIDATES = {
 }
 
 
+#: The nav filter a registry-named composition runs in (the paper's constant-acceleration
+#: position model, a `~gnssframework.interfaces.BatchPositionFilter`).
+POSITION_NAV_FILTER = {"name": "position-ca", "params": {}}
+
+
+def composition(filter_name: str, noise_adapter: str | None = None, augmentation: str | None = None) -> dict:
+    """The plugin composition of ``filter-positions``: a paper label (``UKF``, ``UKF1``,
+    ``AUKF``, ``AUKF1``; any case) or a registered estimator's name (``ckf``, ``ekf``...)
+    in ``position-ca``, plus, by registry name, a noise adapter and an augmentation
+    (which replace a label's own).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``--filter`` (the labels and estimators it takes, and the closest one),
+        ``--noise-adapter`` or ``--augmentation``.
+    """
+    from ..suggest import did_you_mean
+
+    labels = {k.casefold(): k for k in CANDIDATES}
+    if filter_name.casefold() in labels:
+        comp = dict(CANDIDATES[labels[filter_name.casefold()]])
+    elif filter_name in registry.names("estimator"):
+        comp = {"nav_filter": POSITION_NAV_FILTER, "estimator": {"name": filter_name, "params": {}}}
+    else:
+        options = [*CANDIDATES, *registry.names("estimator")]
+        raise ConfigError("--filter", f"unknown {filter_name!r}: a paper label ({', '.join(CANDIDATES)}) or an "
+                                      f"estimator ({', '.join(registry.names('estimator'))})"
+                                      f"{did_you_mean(filter_name, options)}")
+    for option, kind, name in (("--noise-adapter", "noise_adapter", noise_adapter),
+                               ("--augmentation", "augmentation", augmentation)):
+        if name is None:
+            continue
+        if name not in registry.names(kind):
+            raise ConfigError(option, f"unknown {kind} {name!r}; registered: {', '.join(registry.names(kind))}"
+                                      f"{did_you_mean(name, registry.names(kind))}")
+        comp[kind] = {"name": name, "params": {}}
+    return comp
+
+
 def _create(ref: dict | None, kind: str, **given: Any) -> Any:
     """The plugin of a composition's ``{name, params}`` (``None`` for none), with ``given`` parameters."""
     return None if ref is None else registry.create(kind, ref["name"], **{**ref["params"], **given})
 
 
-def filter_positions(fixes: NmeaFixes, candidate: str = "AUKF1", psi: float = 0.95
+def filter_positions(fixes: NmeaFixes, candidate: str | dict = "AUKF1", psi: float = 0.95
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Filter the horizontal track of ``fixes`` with a reference-004 candidate.
 
     Positions are converted to local east/north metres about the mean fix (pymap3d),
     filtered per coordinate with the composition ``CANDIDATES[candidate]``
     (``position-ca`` + ``ukf`` with alpha 0.01, beta 2, kappa 0, optionally ``colored-ar1``
-    with ``psi`` and the improved ``sage-husa``), and converted back. With ``colored-ar1`` the last epoch has no estimate (it needs the next
+    with ``psi`` and the improved ``sage-husa``), or a composition from `composition`
+    (registry names), and converted back. With ``colored-ar1`` the last epoch has no estimate (it needs the next
     measurement) and keeps its raw value.
 
     Returns
@@ -55,18 +96,18 @@ def filter_positions(fixes: NmeaFixes, candidate: str = "AUKF1", psi: float = 0.
     tuple
         ``(lat_deg, lon_deg, north_m, east_m)`` of the filtered track, one per fix.
     """
-    composition = CANDIDATES[candidate]
+    comp = candidate if isinstance(candidate, dict) else composition(candidate)
     lat0, lon0 = float(np.mean(fixes.lat_deg)), float(np.mean(fixes.lon_deg))
     h = np.where(np.isfinite(fixes.height_m), fixes.height_m, 0.0)
     e, n, _ = pymap3d.geodetic2enu(fixes.lat_deg, fixes.lon_deg, h, lat0, lon0, 0.0)
     zs = np.stack([n, e], axis=-1)
     dt = float(np.median(np.diff(fixes.time_s))) if fixes.time_s.size > 1 else 1.0
-    nav = _create(composition["nav_filter"], "nav_filter", dt_s=dt)
+    nav = _create(comp["nav_filter"], "nav_filter", dt_s=dt)
     if not isinstance(nav, BatchPositionFilter):
         raise ConfigError("nav_filter", f"{nav.name!r} cannot filter a position sequence (not a BatchPositionFilter)")
-    res = nav.filter(zs, _create(composition["estimator"], "estimator"),
-                     adapter=_create(composition.get("noise_adapter"), "noise_adapter"),
-                     augmentation=_create(composition.get("augmentation"), "augmentation", psi=psi))
+    res = nav.filter(zs, _create(comp["estimator"], "estimator"),
+                     adapter=_create(comp.get("noise_adapter"), "noise_adapter"),
+                     augmentation=_create(comp.get("augmentation"), "augmentation", psi=psi))
     out = zs.copy()
     out[res.epochs] = res.mean[..., nav.position_index]
     lat, lon, _ = pymap3d.enu2geodetic(out[:, 1], out[:, 0], 0.0, lat0, lon0, 0.0)
