@@ -125,3 +125,24 @@ def test_an_unknown_motion_is_a_one_line_config_error():
     with pytest.raises(ConfigError) as info:
         ComparisonConfig.model_validate(cfg)
     assert "motion" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_a_comparison_with_moving_and_static_cases_reports_the_bound_where_it_exists(tmp_path):
+    """The bound is declared for the whole config but exists only for the static case: the
+    moving case's runs carry it as undefined (NaN, with the scenario's reason), not a failure."""
+    import json
+
+    from gnssframework.experiments.results import compare
+
+    cfg = {"name": "bound-where-defined", "runs": 2, "seed": 3, "executor": {"kind": "local", "workers": 1},
+           "scenario": {**SCEN, "duration_s": 2.0},
+           "metrics": ["velocity_error_rmse", "pcrb_velocity"],
+           "cases": [{"name": "static", "cn0_dbhz": 45.0}, {"name": "moving", "cn0_dbhz": 45.0, "motion": "figure-eight"}],
+           "candidates": [{"name": "d", "channel_filter": {"name": "discriminator"},
+                           "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1.0}}}]}
+    compare(cfg, tmp_path)
+    rows = {(r["case"], r["metric"]): r for r in json.loads((tmp_path / "summary.json").read_text())["rows"]}
+    static, moving = rows[("static", "pcrb_velocity")], rows[("moving", "pcrb_velocity")]
+    assert np.isfinite(static["mean"]) and static["mean"] > 0
+    assert moving["mean"] is None or not np.isfinite(moving["mean"])
+    assert np.isfinite(rows[("moving", "velocity_error_rmse")]["mean"])

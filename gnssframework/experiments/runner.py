@@ -65,13 +65,19 @@ def _simulate(plan: RunPlan, task: Task) -> tuple[Task, dict[str, np.ndarray], d
     scenario = plan.scenario
     plugins = plan.build(task.candidate_index)
     result = scenario.run_batch(plan.cases[task.case_index].as_case(), plugins, task.runs, task_streams(plan, task))
-    missing = [m for m in plan.metrics if m in scenario.metrics and m not in result.metrics]
-    wrong = [f"{m} {np.shape(v)}" for m, v in result.metrics.items() if np.shape(v) != (task.runs,)]
+    metrics, series = dict(result.metrics), dict(result.series)
+    # An optional metric this case does not compute (a bound on a moving receiver) is
+    # undefined in its runs, as the scenario's undefined_reasons say, not a failure.
+    components = getattr(scenario.metrics, "components", {})
+    for m in plan.metrics:
+        if m not in metrics and getattr(components.get(m), "optional", False):
+            metrics[m] = np.full(task.runs, np.nan)
+    missing = [m for m in plan.metrics if m in scenario.metrics and m not in metrics]
+    wrong = [f"{m} {np.shape(v)}" for m, v in metrics.items() if np.shape(v) != (task.runs,)]
     if missing or wrong:  # a scenario's declared metrics and its run_batch must agree
         raise GnssFrameworkError(f"scenario {scenario.kind!r}: run_batch " + "; ".join(
             ([f"did not return the declared metrics {', '.join(missing)}"] if missing else [])
             + ([f"returned metrics not of shape ({task.runs},): {', '.join(wrong)}"] if wrong else [])))
-    metrics, series = dict(result.metrics), dict(result.series)
     for name in plan.component_metrics:  # metric components: computed once, here
         value = metric_plugin(name)().compute(result.series, result.time_s, scenario)
         metrics[name] = np.asarray(value.value, dtype=float)

@@ -173,8 +173,10 @@ METRICS = (
     Rmse("freq_output_rmse", "Hz", of="freq_output_error_hz", settle="settle_s",
          description="RMS error of the frequency measurement handed to the nav filter"),
     Rmse("pcrb_position", "m", of="pcrb_position_m", settle="settle_s", optional=True,
+         undefined="no bound for this case: a moving receiver, a per-run geometry or a trajectory file",
          description="posterior Cramér-Rao bound of the position error (RMS over the same window)"),
     Rmse("pcrb_velocity", "m/s", of="pcrb_velocity_m_s", settle="settle_s", optional=True,
+         undefined="no bound for this case: a moving receiver, a per-run geometry or a trajectory file",
          description="posterior Cramér-Rao bound of the velocity error (RMS over the same window)"),
 )
 
