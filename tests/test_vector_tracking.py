@@ -259,6 +259,12 @@ def test_readme_describes_the_main_job_the_example_runs():
     readme = " ".join((root / "README.md").read_text().split())
     example = tomllib.loads((root / "examples" / "vector_tracking.toml").read_text())
     assert "gnssframework compare examples/vector_tracking.toml" in readme
+    # The main job's install brings what the example needs on a fresh machine: a TPE or
+    # random tuner needs Optuna, the `tune` extra (the core install alone would refuse it).
+    install = re.search(r"pip install -q -e (\S+) && \.venv/bin/gnssframework compare examples/vector_tracking", readme)
+    assert install, "README lost its main-job install"
+    if example.get("tuning", {}).get("sampler", "grid") != "grid":
+        assert "tune" in install.group(1)
     found = re.search(r"runs (\d+) Monte Carlo runs of (\d+) s x (\d+) cases \([^)]*\) x (\d+) candidates", readme)
     assert found, "README lost its main-job sentence"
     runs, duration, cases, candidates = map(int, found.groups())
