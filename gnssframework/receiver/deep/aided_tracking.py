@@ -61,7 +61,7 @@ from ...interfaces import ChannelFilter, RunContext
 from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from ...signal.correlators import Correlators
-from ...navigation.geometry import ranges_from_receivers as _geometric_range
+from ...navigation.geometry import ranges_from_receivers
 from ..tracking.vector import CHANNEL_OUTPUTS
 from .aiding import line_of_sight_kinematics, nco_schedule
 
@@ -110,7 +110,7 @@ class DeepTruth:
 
     def pseudorange(self, t: float, k: int, sat_pos: np.ndarray) -> np.ndarray:
         r = self.receiver_state(t)[0]
-        rho = _geometric_range(sat_pos, r) + self.clock_m[k, :, 0][:, None]
+        rho = ranges_from_receivers(sat_pos, r) + self.clock_m[k, :, 0][:, None]
         if self.range_error_m is not None:
             rho = rho + self.range_error_m(np.asarray(t, float))[0]
         return rho
@@ -126,7 +126,7 @@ class DeepTruth:
             r = np.asarray(self.receiver_positions(t), float)
         else:
             r = np.stack([np.asarray(self.receiver_state(ti)[0], float) for ti in t])
-        rho = _geometric_range(sat_pos, r) + self.clock_m[k0:k1, :, 0][..., None]
+        rho = ranges_from_receivers(sat_pos, r) + self.clock_m[k0:k1, :, 0][..., None]
         if self.range_error_m is not None:
             rho = rho + self.range_error_m(t)[0]
         return rho
