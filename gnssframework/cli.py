@@ -233,30 +233,36 @@ def _cmd_acquire(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_track(args: argparse.Namespace) -> int:
+def _tracking_config_from_args(args: argparse.Namespace):
+    """The tracking settings of ``track`` and ``position`` (a command without an option
+    leaves its default), and ``--duration`` checked."""
     import json
 
-    from .receiver.acquisition.report import acquire_recording, search_summary
-    from .receiver.channels import SampleTracker, tracking_config
-    from .receiver.channels.report import channel_summary, write_tracking_outputs
+    from .receiver.channels import tracking_config
 
-    rec = _open_recording_from_args(args)
-    acq = _acquisition_from_args(args)
-    prns = _prns_from_args(args)
     try:
         params = json.loads(args.channel_params) if args.channel_params else {}
     except json.JSONDecodeError as exc:
         raise ConfigError("--channel-params", f"not JSON: {exc.msg}") from None
     settings = {"channel_filter": args.channel_filter, "channel_params": params}
-    if args.coherent_ms_track is not None:
-        settings["coherent_ms"] = args.coherent_ms_track
-    if args.cn0_estimator is not None:
-        settings["cn0_estimator"] = args.cn0_estimator
-    if args.early_late_spacing is not None:
-        settings["early_late_spacing_chips"] = args.early_late_spacing
-    config = tracking_config(**settings)
+    for option, key in (("coherent_ms_track", "coherent_ms"), ("cn0_estimator", "cn0_estimator"),
+                        ("early_late_spacing", "early_late_spacing_chips")):
+        if getattr(args, option, None) is not None:
+            settings[key] = getattr(args, option)
     if args.duration is not None and not args.duration > 0:
         raise ConfigError("--duration", f"must be > 0 s, got {args.duration}")
+    return tracking_config(**settings)
+
+
+def _cmd_track(args: argparse.Namespace) -> int:
+    from .receiver.acquisition.report import acquire_recording, search_summary
+    from .receiver.channels import SampleTracker
+    from .receiver.channels.report import channel_summary, write_tracking_outputs
+
+    rec = _open_recording_from_args(args)
+    acq = _acquisition_from_args(args)
+    prns = _prns_from_args(args)
+    config = _tracking_config_from_args(args)
     tracker = SampleTracker(rec, config, acq)
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
@@ -277,8 +283,6 @@ def _cmd_track(args: argparse.Namespace) -> int:
 
 
 def _cmd_position(args: argparse.Namespace) -> int:
-    import json
-
     import numpy as np
 
     from .navigation.ephemeris import read_rinex_nav
@@ -287,18 +291,11 @@ def _cmd_position(args: argparse.Namespace) -> int:
     from .receiver.navigation.receive import position_errors, receive
     from .receiver.navigation.rinex_obs import write_rinex_obs
     from .receiver.acquisition.report import search_summary
-    from .receiver.channels import tracking_config
 
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     prns = _prns_from_args(args)
-    try:
-        params = json.loads(args.channel_params) if args.channel_params else {}
-    except json.JSONDecodeError as exc:
-        raise ConfigError("--channel-params", f"not JSON: {exc.msg}") from None
-    config = tracking_config(channel_filter=args.channel_filter, channel_params=params)
-    if args.duration is not None and not args.duration > 0:
-        raise ConfigError("--duration", f"must be > 0 s, got {args.duration}")
+    config = _tracking_config_from_args(args)
     if not args.rate > 0:
         raise ConfigError("--rate", f"must be > 0 Hz, got {args.rate}")
     truth = None

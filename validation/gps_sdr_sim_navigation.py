@@ -44,7 +44,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import sim_truth  # noqa: E402
-from gps_sdr_sim_tracking import AMPLITUDE_LSB, LOCATION, SIM_DIR, parse_log  # noqa: E402
+from gps_sdr_sim_tracking import LOCATION, SIM_DIR, add_noise, parse_log  # noqa: E402
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
@@ -53,7 +53,6 @@ from gnssframework.receiver.navigation.receive import position_errors, receive  
 from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs  # noqa: E402
 from gnssframework.receiver.channels import tracking_config  # noqa: E402
 from gnssframework.receiver.frontend import open_recording  # noqa: E402
-from gnssframework.receiver.frontend.sigmf_meta import write_sigmf_meta  # noqa: E402
 
 NAV = SIM_DIR / "brdc0010.22n"
 PI = 3.1415926535898
@@ -113,22 +112,6 @@ def header_klobuchar(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return values["ION ALPHA"], values["ION BETA"]
 
 
-def add_noise_in_blocks(src: Path, dst: Path, cn0_dbhz: float, fs: float, rng: np.random.Generator) -> None:
-    """`gps_sdr_sim_tracking.add_noise` (the same noise law: a = sqrt(2 sigma^2 c / fs)) a block
-    at a time, so a 40 s file never sits in memory as floats."""
-    sigma = AMPLITUDE_LSB * np.sqrt(fs / (2 * 10 ** (cn0_dbhz / 10)))
-    raw = np.memmap(src, dtype="<i2", mode="r")
-    block = 1 << 23
-    with open(dst, "wb") as out:
-        for start in range(0, raw.size, block):
-            noisy = raw[start:start + block] + sigma * rng.standard_normal(min(block, raw.size - start))
-            if np.abs(noisy).max() > 32767:
-                raise RuntimeError("noise clips int16: choose a higher C/N0")
-            out.write(np.rint(noisy).astype("<i2").tobytes())
-    write_sigmf_meta(dst.with_suffix(".sigmf-meta"), format="ci16_le", sigmf_datatype="ci16_le", sample_rate_hz=fs,
-                     if_hz=0.0, description=f"gps-sdr-sim at {cn0_dbhz} dB-Hz with added white noise")
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cn0", type=float, default=45.0, help="C/N0 of every satellite (dB-Hz)")
@@ -156,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         week, tow0, sats = parse_log(log)
         rec_path = work / "noisy.sigmf-data"
-        add_noise_in_blocks(sim, rec_path, args.cn0, args.fs, np.random.default_rng(args.seed))
+        add_noise(sim, rec_path, args.cn0, args.fs, np.random.default_rng(args.seed))
         sim.unlink()
         rinex = read_rinex_nav(NAV)
         used_by_sim = rinex.select([f"G{p:02d}" for p in sats], tow0, healthy_only=False)

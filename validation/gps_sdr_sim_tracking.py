@@ -80,13 +80,17 @@ def parse_log(log: str) -> tuple[int, float, dict[int, tuple[float, float, float
 def add_noise(src: Path, dst: Path, cn0_dbhz: float, fs: float, rng: np.random.Generator) -> None:
     """Add complex white noise of the standard deviation that gives ``cn0_dbhz`` to every
     satellite of amplitude `AMPLITUDE_LSB`: a = sqrt(2 sigma^2 c / fs) (complex samples,
-    the law of `gnssframework.signal.if_samples`), so sigma = a sqrt(fs / (2 c))."""
+    the law of `gnssframework.signal.if_samples`), so sigma = a sqrt(fs / (2 c)). A block at
+    a time (the same draws as one call), so a 40 s file never sits in memory as floats."""
     sigma = AMPLITUDE_LSB * np.sqrt(fs / (2 * 10 ** (cn0_dbhz / 10)))
-    raw = np.fromfile(src, dtype="<i2").astype(float)
-    noisy = raw + sigma * rng.standard_normal(raw.size)
-    if np.abs(noisy).max() > 32767:
-        raise RuntimeError("noise clips int16: choose a higher C/N0")
-    np.rint(noisy).astype("<i2").tofile(dst)
+    raw = np.memmap(src, dtype="<i2", mode="r")
+    block = 1 << 23
+    with open(dst, "wb") as out:
+        for start in range(0, raw.size, block):
+            noisy = raw[start:start + block] + sigma * rng.standard_normal(min(block, raw.size - start))
+            if np.abs(noisy).max() > 32767:
+                raise RuntimeError("noise clips int16: choose a higher C/N0")
+            out.write(np.rint(noisy).astype("<i2").tobytes())
     write_sigmf_meta(dst.with_suffix(".sigmf-meta"), format="ci16_le", sigmf_datatype="ci16_le", sample_rate_hz=fs,
                      if_hz=0.0, description=f"gps-sdr-sim at {cn0_dbhz} dB-Hz with added white noise")
 
