@@ -10,7 +10,8 @@ from __future__ import annotations
 import json
 import pathlib
 
-from gnssframework.experiments import SCENARIOS, ComparisonConfig, get_scenario
+from gnssframework.experiments import ComparisonConfig, get_scenario
+from gnssframework.experiments.scenarios import declared_scenarios
 
 OUT = pathlib.Path(__file__).resolve().parent / "experiments" / "config-reference.md"
 
@@ -53,7 +54,7 @@ def render() -> str:
     lines += ["", "## Scenario kinds", "",
               "`scenario.kind` selects one; the other keys of `[scenario]` are its parameters, and each",
               "`[[cases]]` entry has a `name` plus the case parameters."]
-    for kind in sorted(SCENARIOS):
+    for kind in sorted(cls.kind for cls in declared_scenarios()):
         scen = get_scenario({"kind": kind})
         lines += ["", f"### `{kind}`", "", (type(scen).__doc__ or "").strip().splitlines()[0], "",
                   "Candidates compose: " + ", ".join(f"`{k}` ({'required' if r else 'optional'})"

@@ -10,20 +10,30 @@ too) and register their classes with pluggy hooks ``register_<kind>(register)``:
 
 Loading is robust: a plugin that fails to import or to register is recorded in
 ``failures`` (distribution, entry point, exception) and the others still load.
+
+A plugin package need not list its classes in hooks: `plugin_hooks` makes the
+``register_<kind>`` hooks of every plugin class its modules define, so adding a plugin
+is writing its class (the built-in plugins register this way)::
+
+    from gnssframework.registry import plugin_hooks, submodules
+
+    globals().update(plugin_hooks(*submodules(__name__, __path__)))
 """
 
 from __future__ import annotations
 
 import importlib
 import importlib.metadata as md
+import pkgutil
 import threading
 import types
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable, Iterable
 
 import pluggy
 
 from . import hookspecs
+from .hookspecs import Register, hookimpl
 from .errors import ConfigError, PluginError
 from .suggest import did_you_mean
 from .estimation.adaptation import Augmentation, NoiseAdapter
@@ -44,6 +54,9 @@ __all__ = [
     "failures",
     "register_module",
     "reload",
+    "defined_plugins",
+    "plugin_hooks",
+    "submodules",
 ]
 
 ENTRY_POINT_GROUP = "gnssframework"
@@ -79,9 +92,67 @@ def base_class(kind: str) -> type | None:
     return base
 
 
+def _name_attribute(kind: str) -> str:
+    return "kind" if kind == "scenario" else "name"
+
+
 def plugin_name(kind: str, cls: type) -> str:
     """A plugin class's registry name (a scenario's is its ``kind`` attribute)."""
-    return str(getattr(cls, "kind" if kind == "scenario" else "name", "") or "")
+    return str(getattr(cls, _name_attribute(kind), "") or "")
+
+
+def defined_plugins(*modules: types.ModuleType) -> dict[str, list[type]]:
+    """The plugin classes ``modules`` define, by kind, in the order they are defined.
+
+    A plugin class is one the module itself defines (not one it imports) that derives
+    from a kind's base class (`BASES`) and names itself: its own ``name`` (a scenario's
+    own ``kind``) in its class body. A shared base without a name of its own (a helper
+    such as an abstract code discriminator) is not a plugin.
+
+    Raises
+    ------
+    PluginError
+        For a named class that derives from the bases of two kinds.
+    """
+    bases = {kind: base_class(kind) for kind in hookspecs.KINDS}
+    out: dict[str, list[type]] = {}
+    for module in modules:
+        for cls in vars(module).values():
+            if not isinstance(cls, type) or cls.__module__ != module.__name__:
+                continue
+            kinds = [k for k, base in bases.items() if base is not None and issubclass(cls, base)
+                     and _name_attribute(k) in vars(cls)]
+            if len(kinds) > 1:
+                raise PluginError(f"{module.__name__}.{cls.__name__} derives from the bases of {', '.join(kinds)}; "
+                                  "a plugin class has one kind")
+            if kinds:
+                out.setdefault(kinds[0], []).append(cls)
+    return out
+
+
+def _register_hook(kind: str, classes: Iterable[type]) -> Callable[[Register], None]:
+    classes = tuple(classes)
+
+    def hook(register: Register) -> None:
+        for cls in classes:
+            register(cls)
+
+    hook.__name__ = hook.__qualname__ = f"register_{kind}"
+    return hookimpl(hook)
+
+
+def plugin_hooks(*modules: types.ModuleType) -> dict[str, Callable[[Register], None]]:
+    """``register_<kind>`` hook implementations registering every plugin class that
+    ``modules`` define (`defined_plugins`), for a plugin package's entry-point module:
+    ``globals().update(plugin_hooks(...))``. A kind none of them defines gets no hook."""
+    return {f"register_{kind}": _register_hook(kind, classes) for kind, classes in defined_plugins(*modules).items()}
+
+
+def submodules(package: str, path: Iterable[str]) -> list[types.ModuleType]:
+    """Every module of a package (``__name__`` and ``__path__`` of its ``__init__``),
+    imported, sorted by name: a new module of the package needs no list to be edited."""
+    return [importlib.import_module(f"{package}.{info.name}") for info in sorted(pkgutil.iter_modules(path),
+                                                                                 key=lambda i: i.name)]
 
 
 @dataclass(frozen=True)
@@ -164,7 +235,7 @@ class _Registry:
                               f"{getattr(base, '__name__', 'a class')}")
         name = plugin_name(kind, cls)
         if not name:
-            raise PluginError(f"{cls.__name__} registered as {kind} has no `{'kind' if kind == 'scenario' else 'name'}`")
+            raise PluginError(f"{cls.__name__} registered as {kind} has no `{_name_attribute(kind)}`")
         missing = sorted(getattr(cls, "__abstractmethods__", ()))
         if missing:
             raise PluginError(f"{kind} {name!r} ({cls.__name__}) leaves abstract methods unimplemented: "

@@ -6,14 +6,16 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import types
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+import gnssframework as gf
 from gnssframework.errors import ConfigError, DataFileError, NumericalError, RunFailure
 from gnssframework.experiments import load_config, run_comparison
-from gnssframework.experiments.scenarios import SCENARIOS, BatchResult, Scenario, ScenarioParams, register_scenario
+from gnssframework.experiments.scenarios import BatchResult, Scenario, ScenarioParams
 from gnssframework.random_streams import RunStreams, as_run_streams, name_key, run_streams
 
 # Carrier smoothing: cheap, and its "raw" candidate's metric is a plain function of the
@@ -199,10 +201,10 @@ class _Failing(Scenario):
 
 
 @pytest.fixture()
-def failing_scenario():
-    register_scenario(_Failing)
+def failing_scenario(scratch_registry):
+    module = types.SimpleNamespace(register_scenario=gf.hookimpl(lambda register: register(_Failing)))
+    scratch_registry.register_module(module, name="test-failing-scenario")
     yield
-    del SCENARIOS[_Failing.kind]
 
 
 @pytest.mark.parametrize("workers", [1, 2])

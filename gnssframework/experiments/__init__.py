@@ -2,7 +2,7 @@
 
 from .config import Candidate, Case, ComparisonConfig, Executor, load_config
 from .runner import plan, run_comparison
-from .scenarios import SCENARIOS, BatchResult, Scenario, get_scenario, register_scenario
+from .scenarios import BatchResult, Scenario, get_scenario, register_scenario
 from .scenarios import hooks as _core_scenarios  # noqa: F401 - imports (registers) the core's scenario kinds
 
 __all__ = [
@@ -11,7 +11,6 @@ __all__ = [
     "Case",
     "ComparisonConfig",
     "Executor",
-    "SCENARIOS",
     "Scenario",
     "get_scenario",
     "load_config",

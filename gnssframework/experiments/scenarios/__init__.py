@@ -8,7 +8,6 @@ plugin kinds a candidate must (or may) compose, and its metrics with their units
 from __future__ import annotations
 
 import abc
-import difflib
 from typing import Any, ClassVar
 
 import numpy as np
@@ -18,10 +17,11 @@ from ... import registry
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...plugin import refuse_quiet_conversions, validation_message
+from ...suggest import did_you_mean
 from ..batch import BatchResult
 from ..limits import check_batch_memory
 
-__all__ = ["Scenario", "BatchResult", "SCENARIOS", "get_scenario", "register_scenario", "scenario_kinds"]
+__all__ = ["Scenario", "BatchResult", "get_scenario", "register_scenario", "scenario_kinds", "declared_scenarios"]
 
 
 class ScenarioParams(BaseModel):
@@ -184,20 +184,30 @@ def _config_path(exc: ConfigError, cls: type, where: str) -> ConfigError:
     return ConfigError(f"{where}.params", str(exc))
 
 
-#: The core's scenario kinds (registered with the plugin registry by ``hooks``).
-SCENARIOS: dict[str, type[Scenario]] = {}
+#: Scenario kinds declared with `register_scenario` in this package's modules, in the order
+#: they are declared: what the package's ``register_scenario`` hook (`hooks`) hands the
+#: plugin registry. Nothing looks a scenario up here; `get_scenario` asks the registry.
+_DECLARED: list[type[Scenario]] = []
 
 
 def register_scenario(cls: type[Scenario]) -> type[Scenario]:
-    """Class decorator of the core's scenario kinds. Other packages register a scenario
-    through the ``register_scenario`` hook of the ``gnssframework`` entry-point group."""
-    SCENARIOS[cls.kind] = cls
+    """Class decorator declaring a scenario kind in a module of this package; the package's
+    ``register_scenario`` hook registers it with the plugin registry, as another package's
+    ``register_scenario`` hook (``gnssframework`` entry-point group) registers its own.
+    (At run time, e.g. in a notebook, use `gnssframework.registry.register_module`.)"""
+    if cls not in _DECLARED:
+        _DECLARED.append(cls)
     return cls
 
 
+def declared_scenarios() -> tuple[type[Scenario], ...]:
+    """The scenario kinds this package's modules declare (for its registration hook)."""
+    return tuple(_DECLARED)
+
+
 def scenario_kinds() -> dict[str, type[Scenario]]:
-    """Every scenario kind: the registry's (core and third-party) and the core's."""
-    return {**{n: registry.get("scenario", n) for n in registry.names("scenario")}, **SCENARIOS}
+    """Every registered scenario kind (the core's and other packages'), by name."""
+    return {n: registry.get("scenario", n) for n in registry.names("scenario")}
 
 
 #: Cross-field rules that hold in every scenario having both fields: (smaller, larger, strict).
@@ -224,12 +234,11 @@ def _check_ordered_fields(params: BaseModel, prefix: str) -> None:
 def get_scenario(config: dict[str, Any]) -> Scenario:
     """Instantiate the scenario named by ``config["kind"]`` with the other keys as parameters."""
     kind = config.get("kind")
-    kinds = scenario_kinds()
+    kinds = registry.names("scenario")
     if kind not in kinds:
-        close = difflib.get_close_matches(str(kind), list(kinds), n=1, cutoff=0.4)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
-        raise ConfigError("scenario.kind", f"got {kind!r}; allowed: {', '.join(sorted(kinds))}{hint}")
-    cls = kinds[kind]
+        raise ConfigError("scenario.kind", f"got {kind!r}; allowed: {', '.join(kinds)}"
+                          f"{did_you_mean(str(kind), kinds, cutoff=0.4)}")
+    cls = registry.get("scenario", kind)
     try:
         params = cls.Params.model_validate({k: v for k, v in config.items() if k != "kind"})
     except ValidationError as exc:
