@@ -37,7 +37,7 @@ from .plugin import NestedFieldError, validation_message
 from .plugin_ref_rules import RefRule, misfit, plugin_ref_constraints, plugin_refs
 from .suggest import did_you_mean
 
-__all__ = ["PluginSpec", "PluginRef", "ComponentRef", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
+__all__ = ["PluginSpec", "PluginRef", "ComponentRef", "component_spec", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
 
 
 def handles_nonlinear(cls: type) -> str:
@@ -194,6 +194,23 @@ def _component(kind: str, value: Any) -> PluginSpec:
     except ConfigError as exc:
         raise NestedFieldError("name", exc.detail) from None
     return PluginSpec(kind, value["name"], dict(params))
+
+
+def component_spec(kind: str, value: Any) -> PluginSpec:
+    """A candidate's plugin of ``kind`` as a `PluginSpec`, from a spec, a name or a
+    ``{name, params}`` table (as `ComponentRef` reads a config).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``<kind>.name`` for an unknown plugin, or the malformed part of the table.
+    """
+    try:
+        return _component(kind, value)
+    except NestedFieldError as exc:
+        raise ConfigError(f"{kind}.{exc.field}", exc.detail) from None
+    except ValueError as exc:
+        raise ConfigError(kind, str(exc)) from None
 
 
 def ComponentRef(kind: str) -> Any:  # noqa: N802 - reads as a type

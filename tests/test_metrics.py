@@ -162,3 +162,39 @@ def test_helper_inequalities_and_scaling(err, c):
     assert np.all(max_after_settle(err, None, 0.0) >= r - 1e-9)        # max >= RMS over the same epochs
     f = fraction(err > 0)
     assert np.all((f >= 0) & (f <= 1))
+
+
+def test_one_lookup_finds_a_scenario_s_own_component_and_a_registered_metric(scratch_registry):
+    from gnssframework.experiments import get_scenario
+    from gnssframework.experiments.metric_components import Rmse, series_label
+    from gnssframework.experiments.metrics import available_metrics, metric_component
+
+    _register(scratch_registry, PeakCode, NeedsOther)
+    scen = get_scenario({"kind": "vector-tracking"})
+    own = metric_component("code_phase_error_rmse", scen)
+    assert own is scen.metrics.components["code_phase_error_rmse"] and isinstance(own, Rmse)
+    assert isinstance(metric_component("code_phase_error_peak", scen), PeakCode)
+    assert metric_component("no_such_metric", scen) is None
+    names = available_metrics(scen)
+    assert names[:len(scen.metrics)] == list(scen.metrics)
+    assert "code_phase_error_peak" in names and "needs_other" not in names  # it needs a series vector-tracking lacks
+    assert series_label(scen, "code_phase_error_rmse") == own.series_label
+
+
+class WrongShape(Metric):
+    name = "wrong_shape"
+    requires = ("code_phase_error_rmse",)
+
+    def compute(self, series, time_s, scenario):
+        return MetricValue(np.zeros(7))
+
+
+def test_a_registered_metric_is_computed_like_a_scenario_s_own_and_a_wrong_shape_names_the_task(
+        tmp_path, scratch_registry):
+    from gnssframework.errors import RunFailure
+
+    _register(scratch_registry, WrongShape)
+    with pytest.raises(RunFailure) as err:
+        run_comparison(_load(tmp_path, '"wrong_shape"'), tmp_path / "out", progress=False)
+    assert "candidate 'disc', case 'c', runs 0-1" in str(err.value)
+    assert "metric 'wrong_shape' returned shape (7,), expected (2,), one value per run" in str(err.value)

@@ -80,3 +80,40 @@ def test_a_run_validates_the_config_once_and_builds_only_each_task_s_candidate(t
     # One build per task (its own candidate), plus one per case and candidate for the
     # report's assumptions table; before, every task validated every candidate again.
     assert len(built) == tasks + 2 * 3
+
+
+def test_a_candidate_is_resolved_once_at_load_into_specs_the_plan_carries(tmp_path, monkeypatch):
+    import gnssframework.experiments.config as config_module
+    from gnssframework.plugin_ref import PluginSpec
+
+    calls = []
+    real = config_module.resolve_candidate
+    monkeypatch.setattr(config_module, "resolve_candidate", lambda *a, **k: calls.append(a[1].name) or real(*a, **k))
+    config = _config(tmp_path)
+    assert calls == ["raw", "kf", "oracle"]  # each candidate once, when the config is loaded
+    resolved = resolve(config)
+    assert resolved.candidates is config.resolved_candidates  # the plan takes them as they are
+    kf = resolved.candidates[1]
+    assert kf.components == {"nav_filter": PluginSpec("nav_filter", "position-ca"),
+                             "estimator": PluginSpec("estimator", "kf")}
+    plugins = resolved.build(1)
+    assert {k: p.name for k, p in plugins.items()} == {"nav_filter": "position-ca", "estimator": "kf"}
+    assert resolved.build(1)["estimator"] is not plugins["estimator"]  # fresh plugins for every batch
+    assert calls == ["raw", "kf", "oracle"]
+
+
+def test_a_sweep_point_and_a_tuning_trial_resolve_their_candidates_the_same_way(tmp_path):
+    from gnssframework.experiments.tuning import trial_config
+
+    path = tmp_path / "sweep.toml"
+    path.write_text(CONFIG + '[[sweeps]]\npath = "candidates.kf.nav_filter.params.r0"\nvalues = [0.5, 2.0]\n'
+                    '[tuning]\ntrials = 2\nsampler = "grid"\nmetric = "lat_error_rmse"\n'
+                    '[[tuning.free]]\npath = "candidates.kf.nav_filter.params.r0"\nvalues = [0.25, 1.0]\n')
+    config = load_config(path)
+    [(value, point)] = config.sweep_points(0)[1:]
+    assert value == 2.0
+    assert point.resolved_candidates[1].components["nav_filter"].params == {"r0": 2.0}
+    trial = trial_config(config, "kf", [0.25])
+    [cand] = trial.resolved_candidates
+    assert cand.name == "kf" and cand.components["nav_filter"].params == {"r0": 0.25}
+    assert resolve(trial).candidates == trial.resolved_candidates

@@ -21,6 +21,7 @@ from ..hookspecs import COMPONENT_KINDS
 from ..io.text import read_input_text
 from ..plugin import validation_message
 from ..plugin_ref import ComponentRef, PluginSpec
+from .candidates import CandidatePlan, resolve_candidate
 from .claims import Claim, check_claims
 from .sweeps import Sweep, check_unique_labels, expand_sweep
 from .tuning import Tuning, check_tuning
@@ -131,9 +132,8 @@ class ComparisonConfig(_Strict):
             scenario.check_case(case.params(), f"cases[{i}]")
             scenario.check_memory(case.params(), min(self.batch_size, self.runs), f"cases[{i}]",
                                   [{**c.components(), "scenario_options": c.scenario_options} for c in self.candidates])
-        for i, cand in enumerate(self.candidates):
-            scenario.check_candidate(cand.components(), f"candidates[{i}]", cand.scenario_options)
-            scenario.check_contexts(cand.components(), [c.params() for c in self.cases], f"candidates[{i}]")
+        self._candidates = tuple(resolve_candidate(scenario, cand, [c.params() for c in self.cases],
+                                                   f"candidates[{i}]") for i, cand in enumerate(self.candidates))
         case_names = {c.name for c in self.cases}
         cand_names = {c.name for c in self.candidates}
         if self.reference is not None and self.reference not in cand_names:
@@ -160,6 +160,7 @@ class ComparisonConfig(_Strict):
 
     _points: dict[int, list] = PrivateAttr(default_factory=dict)
     _scenario: Any = PrivateAttr(None)
+    _candidates: tuple[CandidatePlan, ...] | None = PrivateAttr(None)
 
     @property
     def resolved_scenario(self) -> Any:
@@ -170,6 +171,16 @@ class ComparisonConfig(_Strict):
 
             self._scenario = get_scenario(self.scenario)
         return self._scenario
+
+    @property
+    def resolved_candidates(self) -> tuple[CandidatePlan, ...]:
+        """The candidates as the config was validated with them
+        (`gnssframework.experiments.candidates.resolve_candidate`), in order."""
+        if self._candidates is None:  # a config made without validation (model_construct)
+            cases = [c.params() for c in self.cases]
+            self._candidates = tuple(resolve_candidate(self.resolved_scenario, cand, cases, f"candidates[{i}]")
+                                     for i, cand in enumerate(self.candidates))
+        return self._candidates
 
     def sweep_points(self, index: int) -> list[tuple[Any, "ComparisonConfig"]]:
         """``(value, config)`` of every point of ``sweeps[index]`` (see ``sweeps.expand_sweep``)."""

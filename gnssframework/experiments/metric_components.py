@@ -30,7 +30,7 @@ from typing import Any, Callable, ClassVar, Sequence
 import numpy as np
 
 from .batch import BatchResult
-from .metrics import Metric, MetricValue, magnitude, rmse, select, settled
+from .metrics import Metric, MetricValue, magnitude, metric_component, rmse, select, settled
 
 __all__ = ["SeriesMetric", "Rmse", "MeanAbs", "ConvergenceEpoch", "convergence_epoch", "evaluate", "units",
            "Mean", "Std", "LockLossFraction", "SlipRecovery", "FalseResets", "slip_recovery", "false_resets",
@@ -428,11 +428,14 @@ def undefined_reasons(components: Sequence[Metric]) -> dict[str, str]:
 
 
 def evaluate(components: Sequence[Metric], series: dict[str, np.ndarray], time_s: np.ndarray | None,
-             scenario: Any) -> BatchResult:
-    """Compute every component once from the raw ``series`` of one batch.
+             scenario: Any, runs: int | None = None) -> BatchResult:
+    """Compute every component once from the raw ``series`` of one batch: a scenario's own
+    components in its ``run_batch``, the registered ``metric`` plugins a config adds in
+    the worker (`gnssframework.experiments.runner`), the same way.
 
     Returns the batch's `BatchResult`: each component's value ``(runs,)``, and the raw
     series together with each component's own series (under the component's name).
+    ``runs`` is the batch's number of runs (default: read from the series).
 
     Raises
     ------
@@ -446,9 +449,9 @@ def evaluate(components: Sequence[Metric], series: dict[str, np.ndarray], time_s
             continue  # a metric this configuration of the scenario does not compute
         value = c.compute(series, time_s, scenario)
         v = np.asarray(value.value, dtype=float)
-        runs = np.shape(series[c.requires[0]])[1] if c.requires else v.shape[0]
-        if v.shape != (runs,):
-            raise ValueError(f"metric {c.name!r} returned shape {v.shape}, expected ({runs},)")
+        expected = runs if runs is not None else np.shape(series[c.requires[0]])[1] if c.requires else v.shape[0]
+        if v.shape != (expected,):
+            raise ValueError(f"metric {c.name!r} returned shape {v.shape}, expected ({expected},), one value per run")
         metrics[c.name] = v
         if value.series is not None:
             if c.name in series:
@@ -483,10 +486,5 @@ class PostSettleMax(SeriesMetric):
 def series_label(scenario: Any, metric: str) -> str:
     """What the per-epoch series stored for ``metric`` holds (for a plot's axis): the
     component's ``series_label``, or the metric's name when nothing says more."""
-    component = getattr(scenario.metrics, "components", {}).get(metric)
-    if component is None:
-        from .metrics import metric_plugin
-
-        cls = metric_plugin(metric)
-        component = cls() if cls is not None else None
+    component = metric_component(metric, scenario)
     return getattr(component, "series_label", None) or f"{metric} per epoch"

@@ -43,7 +43,7 @@ from ..estimation.consistency import nees
 from ..plugin import Plugin
 
 __all__ = ["Metric", "MetricValue", "rmse", "max_after_settle", "nees_mean", "fraction", "settled", "select",
-           "magnitude", "metric_plugin", "plugin_metrics"]
+           "magnitude", "metric_component", "available_metrics", "check_metric"]
 
 
 def settled(time_s: np.ndarray | None, settle_s: float, k: int) -> np.ndarray:
@@ -173,23 +173,28 @@ class Metric(Plugin, abc.ABC):
         return ""
 
 
-def metric_plugin(name: str) -> type[Metric] | None:
-    """The registered metric component called ``name`` (``None`` if there is none)."""
+def metric_component(name: str, scenario: Any) -> Metric | None:
+    """The metric component that computes ``name`` in ``scenario``: the scenario's own
+    (a component of its ``metrics`` table, `metric_components.units`), else a registered
+    ``metric`` plugin; ``None`` for a metric the scenario computes without a component, or
+    an unknown name. The one lookup of a metric by name, for the config, the workers and
+    the report."""
+    own = getattr(scenario.metrics, "components", {}).get(name)
+    if own is not None or name in scenario.metrics:
+        return own
     from .. import registry
 
-    return registry.get("metric", name) if name in registry.names("metric") else None
+    return registry.create("metric", name) if name in registry.names("metric") else None
 
 
-def plugin_metrics(scenario: Any) -> dict[str, type[Metric]]:
-    """Registered metric components that ``scenario`` can compute, by name."""
+def available_metrics(scenario: Any) -> list[str]:
+    """Every metric ``scenario`` can report: its own, then the registered ``metric``
+    plugins that apply to it (`Metric.applies_to`)."""
     from .. import registry
 
-    out = {}
-    for name in registry.names("metric"):
-        cls = registry.get("metric", name)
-        if not cls().applies_to(scenario):
-            out[name] = cls
-    return out
+    plugins = [n for n in registry.names("metric") if n not in scenario.metrics
+               and not metric_component(n, scenario).applies_to(scenario)]
+    return list(scenario.metrics) + plugins
 
 
 def check_metric(name: str, scenario: Any, field: str) -> str:
@@ -197,11 +202,11 @@ def check_metric(name: str, scenario: Any, field: str) -> str:
     naming ``field`` and the allowed metrics otherwise."""
     if name in scenario.metrics:
         return scenario.metrics[name]
-    cls = metric_plugin(name)
-    allowed = ", ".join(list(scenario.metrics) + [m for m in plugin_metrics(scenario) if m not in scenario.metrics])
-    if cls is None:
+    component = metric_component(name, scenario)
+    allowed = ", ".join(available_metrics(scenario))
+    if component is None:
         raise ConfigError(field, f"unknown {name!r}; allowed: {allowed}")
-    why = cls().applies_to(scenario)
+    why = component.applies_to(scenario)
     if why:
         raise ConfigError(field, f"metric {name!r} {why}; allowed: {allowed}")
-    return cls.unit
+    return component.unit

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .candidates import build_candidate
 from .claims import claim_line, evaluate_claims
 from .config import ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text, write_json
@@ -269,8 +270,8 @@ def assumption_rows(config: ComparisonConfig) -> list[dict]:
     rows = []
     for case in config.cases:
         context = scenario.assumption_context({"name": case.name, **case.params()})
-        for cand in config.candidates:
-            plugins = scenario.build({k: v.table() for k, v in cand.components().items()}, cand.scenario_options)
+        for cand in config.resolved_candidates:
+            plugins = build_candidate(scenario, cand)
             for kind, plugin in plugins.items():
                 declared = getattr(plugin, "assumptions", None)
                 for label, (value, unit) in (declared(context) if declared else {}).items():

@@ -1,10 +1,10 @@
 """A comparison resolved once: what the workers receive.
 
 A :class:`RunPlan` holds the validated scenario instance, every case's parameters, every
-candidate's plugin references (validated ``{name, params}`` tables) and scenario
-options, the seed and random stream and the metrics to compute. The config is
-validated and resolved once, in the process that loads it; a worker builds only its
-task's candidate and runs it. A plan is a plain picklable value (process pool, Dask).
+candidate as the config resolved it (`gnssframework.experiments.candidates`: its
+plugins' specs and scenario options), the seed and random stream and the metrics to
+compute. The config is validated and resolved once, in the process that loads it; a
+worker builds only its task's candidate and runs it. A plan is a plain picklable value (process pool, Dask).
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..random_streams import RunStreams, name_key, run_streams
+from .candidates import CandidatePlan, build_candidate
 from .scenarios import Scenario
 from .tasks import Task
 
@@ -35,15 +36,6 @@ class CasePlan:
 
 
 @dataclass(frozen=True)
-class CandidatePlan:
-    """One candidate: its name, plugin references by kind and scenario options."""
-
-    name: str
-    components: dict[str, dict[str, Any]]
-    scenario_options: dict[str, Any]
-
-
-@dataclass(frozen=True)
 class RunPlan:
     """A validated comparison resolved for the workers (see the module docstring)."""
 
@@ -57,8 +49,7 @@ class RunPlan:
 
     def build(self, candidate_index: int) -> dict[str, Any]:
         """Fresh plugins of one candidate (``Scenario.build``)."""
-        cand = self.candidates[candidate_index]
-        return self.scenario.build(cand.components, cand.scenario_options)
+        return build_candidate(self.scenario, self.candidates[candidate_index])
 
     def where(self, task: Task) -> str:
         """A task in words, for failures: candidate, case, runs and sweep point."""
@@ -73,8 +64,7 @@ def resolve(config: Any) -> RunPlan:
     return RunPlan(
         scenario=config.resolved_scenario,
         cases=tuple(CasePlan(c.name, c.params()) for c in config.cases),
-        candidates=tuple(CandidatePlan(c.name, {k: v.table() for k, v in c.components().items()},
-                                       dict(c.scenario_options)) for c in config.candidates),
+        candidates=config.resolved_candidates,
         seed=config.seed,
         random_stream=config.random_stream,
         metrics=tuple(config.metric_names),

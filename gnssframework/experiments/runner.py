@@ -35,7 +35,8 @@ from ..errors import ConfigError, GnssFrameworkError, RunFailure, WorkerError
 from .config import ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text
 from .folder import claim_folder
-from .metrics import metric_plugin
+from .metric_components import evaluate
+from .metrics import metric_component
 from .run_plan import RunPlan, resolve, task_streams
 from .tasks import Task, plan, series_file
 
@@ -78,15 +79,14 @@ def _simulate(plan: RunPlan, task: Task) -> tuple[Task, dict[str, np.ndarray], d
         raise GnssFrameworkError(f"scenario {scenario.kind!r}: run_batch " + "; ".join(
             ([f"did not return the declared metrics {', '.join(missing)}"] if missing else [])
             + ([f"returned metrics not of shape ({task.runs},): {', '.join(wrong)}"] if wrong else [])))
-    for name in plan.component_metrics:  # metric components: computed once, here
-        value = metric_plugin(name)().compute(result.series, result.time_s, scenario)
-        metrics[name] = np.asarray(value.value, dtype=float)
-        if metrics[name].shape != (task.runs,):
-            raise GnssFrameworkError(f"metric {name!r} returned shape {metrics[name].shape}, expected "
-                                     f"({task.runs},) (one value per run)")
-        if value.series is not None:
-            series[name] = value.series
-    return task, metrics, series, result.time_s
+    # The metric plugins the config adds: computed once, here, as a scenario computes its own.
+    try:
+        added = evaluate([metric_component(m, scenario) for m in plan.component_metrics], series, result.time_s,
+                         scenario, runs=task.runs)
+    except ValueError as exc:  # a metric's own complaint (a wrong shape, no epoch selected): one line
+        raise GnssFrameworkError(str(exc)) from None
+    metrics.update(added.metrics)
+    return task, metrics, added.series, result.time_s
 
 
 def run_task_in_worker(plan: RunPlan, task: Task) -> tuple:

@@ -106,8 +106,6 @@ def _model_fields(model: type[BaseModel] | None) -> list[str]:
 def _resolve(config, sweep: Sweep, where: str) -> list[tuple[Any, ...]]:
     """The locations in the config's data the path names, as key tuples; refuses a path
     that names no parameter (listing the allowed ones)."""
-    from .. import registry
-
     parts = sweep.path.split(".")
     head, rest = parts[0], parts[1:]
     field = f"{where}.path"
@@ -134,10 +132,10 @@ def _resolve(config, sweep: Sweep, where: str) -> list[tuple[Any, ...]]:
             raise ConfigError(field, f"{sweep.path!r}: the second part must be a candidate; allowed: "
                               f"{', '.join(names)}")
         i = names.index(rest[0])
-        comps = config.candidates[i].components()
+        comps = config.resolved_candidates[i].components
         tail = rest[1:]
         if tail[:1] == ["params"] and len(tail) >= 2:  # kind left out: the one plugin having the parameter
-            kinds = [k for k, ref in comps.items() if tail[1] in _model_fields(registry.get(k, ref.name).Params)]
+            kinds = [k for k, spec in comps.items() if tail[1] in _model_fields(spec.cls.Params)]
             if len(kinds) != 1:
                 raise ConfigError(field, f"{sweep.path!r}: {'no' if not kinds else 'more than one'} plugin of "
                                   f"candidate {rest[0]!r} has a parameter {tail[1]!r}; write "
@@ -147,7 +145,7 @@ def _resolve(config, sweep: Sweep, where: str) -> list[tuple[Any, ...]]:
         if len(tail) < 3 or tail[0] not in comps or tail[1] != "params":
             raise ConfigError(field, f"{sweep.path!r}: write candidates.{rest[0]}.<kind>.params.<parameter> with "
                               f"a kind among {', '.join(comps)}")
-        allowed = _model_fields(registry.get(tail[0], comps[tail[0]].name).Params)
+        allowed = _model_fields(comps[tail[0]].cls.Params)
         if tail[2] not in allowed:
             raise ConfigError(field, f"{sweep.path!r}: {comps[tail[0]].name!r} has no parameter {tail[2]!r}; "
                               f"allowed: {', '.join(allowed)}")

@@ -17,6 +17,7 @@ from ... import registry
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...plugin import refuse_quiet_conversions, validation_message
+from ...plugin_ref import PluginSpec, component_spec
 from ...suggest import did_you_mean
 from ..batch import BatchResult
 from ..limits import check_batch_memory
@@ -90,9 +91,11 @@ class Scenario(abc.ABC):
         except ValidationError as exc:
             raise validation_message(exc, prefix=f"{where}.scenario_options", model=self.CandidateOptions) from None
 
-    def check_candidate(self, components: dict[str, Any], where: str, options: dict[str, Any] | None = None) -> None:
+    def check_candidate(self, components: dict[str, PluginSpec], where: str,
+                        options: dict[str, Any] | None = None) -> dict[str, Any]:
         """Every required kind present, no foreign kind, every plugin creatable, composable,
-        and valid ``scenario_options``."""
+        and valid ``scenario_options``; returns the plugins created to check them (for
+        `check_contexts`)."""
         self.candidate_options(options, where)
         for kind, required in self.components.items():
             if required and kind not in components:
@@ -113,20 +116,21 @@ class Scenario(abc.ABC):
             except ConfigError as exc:
                 raise _config_path(exc, cls, f"{where}.{kind}") from None
         self.check_composition(built, where)
+        return built
 
     def run_contexts(self, cases: list[dict[str, Any]]) -> list[RunContext]:
         """The run contexts (coherent time, correlator spacing) the candidates' filters get
         over ``cases``, for `check_contexts`; the default says nothing (no check)."""
         return []
 
-    def check_contexts(self, components: dict[str, Any], cases: list[dict[str, Any]], where: str) -> None:
-        """Let each of a candidate's filters refuse the harness contexts it would run in
-        (``SequentialFilter.check_context``), naming the config field, before any batch."""
+    def check_contexts(self, plugins: dict[str, Any], cases: list[dict[str, Any]], where: str) -> None:
+        """Let each of a candidate's filters (``plugins``, as `check_candidate` created them)
+        refuse the harness contexts it would run in (``SequentialFilter.check_context``),
+        naming the config field, before any batch."""
         contexts = self.run_contexts(cases)
         if not contexts:
             return
-        for kind, ref in components.items():
-            plugin = registry.create(kind, ref.name, **ref.params)
+        for kind, plugin in plugins.items():
             for context in contexts if hasattr(plugin, "check_context") else ():
                 try:
                     self.in_context(plugin, context).check_context(context)
@@ -164,9 +168,11 @@ class Scenario(abc.ABC):
 
     def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None) -> dict[str, Any]:
         """Instantiate a candidate's plugins (fresh objects for every batch): what
-        `run_batch` gets. ``options`` are the candidate's ``scenario_options``; a scenario
-        with `CandidateOptions` adds what `run_batch` needs of them to the returned dict."""
-        return {kind: registry.create(kind, ref["name"], **ref.get("params", {})) for kind, ref in candidate.items()}
+        `run_batch` gets. ``candidate`` holds each kind's `PluginSpec` (a resolved
+        candidate's, `gnssframework.experiments.candidates`), or a name or ``{name, params}``
+        table. ``options`` are the candidate's ``scenario_options``; a scenario with
+        `CandidateOptions` adds what `run_batch` needs of them to the returned dict."""
+        return {kind: component_spec(kind, ref).create() for kind, ref in candidate.items()}
 
     @abc.abstractmethod
     def run_batch(self, case: dict[str, Any], plugins: dict[str, Any], runs: int,

@@ -143,11 +143,13 @@ class MultipathScenario(Scenario):
             raise ConfigError(f"{where}.nav_filter.name", f"{plugins['nav_filter'].name!r} cannot filter a position "
                               f"sequence (not a BatchPositionFilter); nav filters that can: {able or '(none)'}")
 
-    def check_candidate(self, components: dict[str, Any], where: str, options: dict[str, Any] | None = None) -> None:
-        super().check_candidate(components, where, options)
+    def check_candidate(self, components: dict[str, Any], where: str,
+                        options: dict[str, Any] | None = None) -> dict[str, Any]:
+        plugins = super().check_candidate(components, where, options)
         if self.candidate_options(options, where).oracle is not None and not components:
             raise ConfigError(f"{where}.scenario_options.oracle", "the oracle scores a filter: compose a nav_filter "
                               "and an estimator (a candidate with no plugins reports the raw measurement)")
+        return plugins
 
     def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None) -> dict[str, Any]:
         """The candidate's plugins, and its oracle grid under ``"oracle"`` if it has one."""
