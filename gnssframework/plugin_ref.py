@@ -37,7 +37,8 @@ from .plugin import NestedFieldError, validation_message
 from .plugin_ref_rules import RefRule, misfit, plugin_ref_constraints, plugin_refs
 from .suggest import did_you_mean
 
-__all__ = ["PluginSpec", "PluginRef", "ComponentRef", "component_spec", "plugin_refs", "plugin_ref_constraints", "handles_nonlinear"]
+__all__ = ["PluginSpec", "PluginRef", "ComponentRef", "component_spec", "plugin_refs", "plugin_ref_constraints",
+           "handles_nonlinear"]
 
 
 def handles_nonlinear(cls: type) -> str:

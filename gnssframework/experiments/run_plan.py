@@ -4,7 +4,8 @@ A :class:`RunPlan` holds the validated scenario instance, every case's parameter
 candidate as the config resolved it (`gnssframework.experiments.candidates`: its
 plugins' specs and scenario options), the seed and random stream and the metrics to
 compute. The config is validated and resolved once, in the process that loads it; a
-worker builds only its task's candidate and runs it. A plan is a plain picklable value (process pool, Dask).
+worker builds only its task's candidate and runs it. A plan is a plain picklable value
+(process pool, Dask).
 """
 
 from __future__ import annotations
