@@ -33,7 +33,7 @@ def deep_attitude(initial_attitude_std_deg: float | None = None) -> dict[str, np
         params["initial_attitude_std_deg"] = initial_attitude_std_deg
     scenario = get_scenario(params)
     cand = next(c for c in config.candidates if c.name == "deep")
-    plugins = scenario.build({k: v.model_dump() for k, v in cand.components().items()})
+    plugins = scenario.build(cand.components())
     case_index = next(i for i, c in enumerate(config.cases) if c.name == "45dBHz")
     runs = config.runs
     rng = run_streams(config.seed, name_key("45dBHz"), range(runs))  # the runner's streams of runs 0..runs-1
