@@ -42,6 +42,7 @@ def package_path(tmp_path):
 
 FILTERS = """
 from gnssframework import registry
+from gnssframework.experiments.metrics import Metric, MetricValue
 from gnssframework.interfaces import Discriminator
 
 KalmanFilter = registry.get("estimator", "kf")   # imported: another module's plugin
@@ -64,6 +65,14 @@ class MyDisc(Discriminator):
 
     def noise_variance(self, cn0_dbhz):
         return 1.0 / cn0_dbhz
+
+
+class PeakCode(Metric):
+    name = "h23e_peak"
+    requires = ("code_error_chips",)
+
+    def compute(self, series, time_s, scenario):
+        return MetricValue(abs(series["code_error_chips"]).max(axis=0))
 """
 
 
@@ -72,12 +81,12 @@ def test_a_class_written_in_a_module_of_a_plugin_package_is_registered(package_p
     package = importlib.import_module("h23e_pkg")
     registry.register_module(package, name="h23e-package", distribution="h23e-package")
     by_name = {i.name: i for i in registry.describe() if i.distribution == "h23e-package"}
-    assert sorted(by_name) == ["h23e-disc", "h23e-kf"]
-    assert by_name["h23e-kf"].kind == "estimator" and by_name["h23e-disc"].kind == "discriminator"
+    assert sorted(by_name) == ["h23e-disc", "h23e-kf", "h23e_peak"]
+    assert [by_name[n].kind for n in ("h23e-kf", "h23e-disc", "h23e_peak")] == ["estimator", "discriminator", "metric"]
     assert registry.create("estimator", "h23e-kf").name == "h23e-kf"
     # Only the kinds the package defines get a hook; the base it imported stays the built-in's.
-    assert sorted(k for k in vars(package) if k.startswith("register_")) == ["register_discriminator",
-                                                                             "register_estimator"]
+    assert sorted(k for k in vars(package) if k.startswith("register_")) == [
+        "register_discriminator", "register_estimator", "register_metric"]
     assert registry.get("estimator", "kf").__module__ == "gnssframework_plugins.estimators"
 
 
