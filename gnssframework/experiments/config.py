@@ -205,7 +205,8 @@ class ComparisonConfig(_Strict):
         return {m: check_metric(m, self.resolved_scenario, "metrics") for m in self.metric_names}
 
     def component_metrics(self) -> list[str]:
-        """The reported metrics computed by metric components (not by the scenario itself)."""
+        """The reported metrics the config adds to the scenario's own: registered ``metric``
+        plugins, which the worker computes after ``run_batch`` (the same `evaluate`)."""
         own = self.resolved_scenario.metrics
         return [m for m in self.metric_names if m not in own]
 
