@@ -332,7 +332,7 @@ class SampleTracker:
             ms = self.ms_index[ch] + ks + 1
             self.ms_index[idx] += periods
             # Bit-sync votes: a prompt turned by more than 90 degrees from the previous one.
-            previous = np.where(ks == 0, self.previous_prompt[ch], np.roll(prompt, 1))
+            previous = np.where(ks == 0, self.previous_prompt[ch], np.concatenate((prompt[-1:], prompt[:-1])))
             vote = self.voting[ch] & ((prompt * np.conj(previous)).real < 0)
             np.add.at(self.votes, (ch[vote], ms[vote] % 20), 1)
             self.previous_prompt[idx] = sums[np.arange(idx.size), periods - 1, 1]
