@@ -148,3 +148,35 @@ def test_more_taps_than_a_pattern_holds_is_a_clear_error():
 
     with pytest.raises(ConfigError, match="at most"):
         code_tables(ca_code(1)[None].astype(np.float32), np.linspace(-1, 1, MAX_TAPS + 2))
+
+
+def test_channels_in_parallel_give_bit_identical_sums_whatever_the_thread_count():
+    """The parallel kernels run each channel's arithmetic whole on one thread: 1 or 2
+    threads give the same bits, and the serial kernels agree within the stated rounding."""
+    import numba
+
+    from gnssframework.receiver.channels.correlator import correlate_periods
+
+    rng = np.random.default_rng(21)
+    fs = 4e6
+    comps = rng.integers(-60, 60, 2 * int(fs * 6e-3)).astype(np.int8)
+    codes = np.stack([ca_code(p) for p in (2, 7, 11, 19, 25)]).astype(np.float32)
+    args = (rng.integers(0, 200, 5), np.array([5, 3, 4, 5, 1]), rng.uniform(-0.5, 0.5, 5),
+            1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, 5)), rng.uniform(0, 1, 5), rng.uniform(-1e-3, 1e-3, 5),
+            codes, np.array([-0.5, 0.0, 0.5]))
+    before = numba.get_num_threads()
+    try:
+        runs = []
+        for threads in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)}):
+            numba.set_num_threads(threads)
+            runs.append(correlate_periods(comps, *args, iq=True, parallel=True))
+    finally:
+        numba.set_num_threads(before)
+    for sums, counts in runs[1:]:
+        np.testing.assert_array_equal(counts, runs[0][1])
+        np.testing.assert_array_equal(sums, runs[0][0])
+    serial, counts = correlate_periods(comps, *args, iq=True, parallel=False)
+    np.testing.assert_array_equal(counts, runs[0][1])
+    z = comps[0::2] + 1j * comps[1::2].astype(float)
+    bound = 2 * correlation_error_bound(z, 0, z.size)  # each side within its bound of the exact sums
+    assert np.abs(serial - runs[0][0]).max() <= bound

@@ -35,7 +35,8 @@ from ...errors import ConfigError
 from ...backend import get_backend
 
 __all__ = ["correlate_channels", "correlate_numpy", "correlate_periods", "correlate_periods_numpy", "code_tables",
-           "correlation_error_bound", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS"]
+           "correlation_error_bound", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS",
+           "PARALLEL_MIN_SAMPLES"]
 
 #: Samples per chunk of the compiled kernel (its carrier restarts exactly every chunk).
 CHUNK = 512
@@ -147,16 +148,15 @@ def _rotations(dph, rot_r, rot_i):  # pragma: no cover - compiled
 
 def _channels(x, q_sign, starts, counts, carrier0, dcarrier, code0, dcode, pat, thr, out_r,
               out_i):  # pragma: no cover - compiled
-    # counts[c] samples of channel c from starts[c].
+    # counts[c] samples of channel c from starts[c]; channels in parallel in the parallel
+    # twin (each channel's arithmetic is the same whichever thread runs it).
     n_taps = out_r.shape[1]
-    rot_r, rot_i = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
-    br, bi = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
-    code = np.empty(CHUNK, np.int32)
-    acc_r, acc_i = np.zeros(n_taps), np.zeros(n_taps)
-    for c in range(starts.shape[0]):
+    for c in prange(starts.shape[0]):
+        rot_r, rot_i = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
+        br, bi = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
+        code = np.empty(CHUNK, np.int32)
+        acc_r, acc_i = np.zeros(n_taps), np.zeros(n_taps)
         _rotations_(dcarrier[c], rot_r, rot_i)
-        acc_r[:] = 0.0
-        acc_i[:] = 0.0
         _run_(x, q_sign, starts[c], counts[c], carrier0[c], dcarrier[c], code0[c], dcode[c], pat[c], thr, rot_r,
               rot_i, br, bi, code, acc_r, acc_i)
         out_r[c] = acc_r
@@ -169,11 +169,11 @@ def _periods(x, q_sign, starts, n_periods, carrier0, dcarrier, code0, dcode, wra
     # prompt's code word reaches ``wrap`` (the next epoch), i.e. after ceil((wrap - u) / dp)
     # samples; the word then steps back one code length, and the carrier runs on.
     n_taps = out_r.shape[2]
-    rot_r, rot_i = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
-    br, bi = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
-    code = np.empty(CHUNK, np.int32)
-    acc_r, acc_i = np.zeros(n_taps), np.zeros(n_taps)
-    for c in range(starts.shape[0]):
+    for c in prange(starts.shape[0]):
+        rot_r, rot_i = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
+        br, bi = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
+        code = np.empty(CHUNK, np.int32)
+        acc_r, acc_i = np.zeros(n_taps), np.zeros(n_taps)
         dph, dp = dcarrier[c], dcode[c]
         _rotations_(dph, rot_r, rot_i)
         s, ph, u = starts[c], carrier0[c], code0[c]
@@ -189,25 +189,37 @@ def _periods(x, q_sign, starts, n_periods, carrier0, dcarrier, code0, dcode, wra
             u -= period_word
 
 
-_KERNELS: dict[tuple[bool, int], tuple] = {}
+_KERNELS: dict[tuple[bool, int, bool], tuple] = {}
+#: Samples (all channels) of a call from which the channels run in parallel: below it a
+#: thread pool's start costs more than it saves.
+PARALLEL_MIN_SAMPLES = 200_000
 
 
-def _kernels(iq: bool, m: int) -> tuple:
-    """The (fixed-count, whole-periods) kernels for sample kind ``iq`` and ``m`` thresholds."""
-    key = (iq, m)
+def _kernels(iq: bool, m: int, parallel: bool) -> tuple:
+    """The (fixed-count, whole-periods) kernels for sample kind ``iq``, ``m`` thresholds,
+    serial or over the channels in parallel (the same body: ``prange`` is ``range`` in the
+    serial twin)."""
+    key = (iq, m, parallel)
     if key not in _KERNELS:
-        tag = f"_{'iq' if iq else 'real'}{m}"
+        tag = f"_{'iq' if iq else 'real'}{m}{'_par' if parallel else ''}"
         inline = numba.njit(inline="always", fastmath=True, nogil=True)
         run = inline(with_globals(_run, tag, _IQ=iq, _M=m))
         rotations = inline(with_globals(_rotations, tag))
-        compiled = numba.njit(cache=True, nogil=True, fastmath=True)
+        compiled = numba.njit(cache=True, nogil=True, fastmath=True, parallel=parallel)
         _KERNELS[key] = tuple(compiled(with_globals(fn, tag, _run_=run, _rotations_=rotations))
                               for fn in (_channels, _periods))
     return _KERNELS[key]
 
 
+def _parallel(n_samples: int, parallel: bool | None) -> bool:
+    if parallel is not None:
+        return parallel
+    return n_samples >= PARALLEL_MIN_SAMPLES and numba.get_num_threads() > 1
+
+
 try:
     import numba
+    from numba import prange
 
     from ...estimation.compiled.specialise import with_globals
 
@@ -249,6 +261,7 @@ class CodeTables:
     n_chips: int
 
     def fits(self, n_channels: int, offsets_chips: np.ndarray, n_chips: int) -> bool:
+        """Made for ``n_channels`` channels, these taps, and at least ``n_chips`` chips."""
         return (self.patterns.shape[0] == n_channels and self.n_chips >= n_chips
                 and np.array_equal(self.offsets_chips, np.asarray(offsets_chips, float)))
 
@@ -333,8 +346,8 @@ def _carrier_words(carrier_phase_cycles: np.ndarray, carrier_step_cycles: np.nda
 def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarray, code_phase_chips: np.ndarray,
                        code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray,
                        carrier_step_cycles: np.ndarray, codes: np.ndarray, offsets_chips: np.ndarray,
-                       backend: str | None = None, tables: np.ndarray | None = None, iq: bool = False,
-                       q_sign: int = 1) -> np.ndarray:
+                       backend: str | None = None, tables: CodeTables | None = None, iq: bool = False,
+                       q_sign: int = 1, parallel: bool | None = None) -> np.ndarray:
     """Correlate every channel over its sample range: ``(n_channels, n_taps)`` complex.
 
     Parameters
@@ -363,6 +376,10 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
     iq, q_sign
         ``samples`` are interleaved components; ``q_sign`` -1 reads them as I - jQ (a
         front end with an inverted Q branch).
+    parallel
+        Channels on numba's threads (bit-identical results whatever their number);
+        default: when the call holds at least `PARALLEL_MIN_SAMPLES` samples and numba
+        has more than one thread (``NUMBA_NUM_THREADS=1`` keeps one core).
     """
     starts = np.asarray(starts, np.int64)
     counts = np.asarray(counts, np.int64)
@@ -393,8 +410,10 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
         tables = _cached_tables(codes, offsets_chips, n_chips // n_code)
     out_r = np.empty((n_ch, n_taps))
     out_i = np.empty((n_ch, n_taps))
-    _kernels(cplx, tables.thresholds.size)[0](x, np.float32(q_sign), starts, counts, carrier0, dcarrier, code0,
-                                              dcode, tables.patterns, tables.thresholds, out_r, out_i)
+    par = _parallel(int(counts.sum()), parallel)
+    kernel = _kernels(cplx, tables.thresholds.size, par)[0]
+    kernel(x, np.float32(q_sign), starts, counts, carrier0, dcarrier, code0, dcode, tables.patterns, tables.thresholds,
+           out_r, out_i)
     return out_r + 1j * out_i
 
 
@@ -423,15 +442,16 @@ def correlate_periods_numpy(samples: np.ndarray, starts: np.ndarray, n_periods: 
 def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.ndarray, code_phase_chips: np.ndarray,
                       code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray,
                       carrier_step_cycles: np.ndarray, codes: np.ndarray, offsets_chips: np.ndarray,
-                      backend: str | None = None, tables: np.ndarray | None = None, iq: bool = False,
-                      q_sign: int = 1) -> tuple[np.ndarray, np.ndarray]:
+                      backend: str | None = None, tables: CodeTables | None = None, iq: bool = False,
+                      q_sign: int = 1, parallel: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Correlate ``n_periods[c]`` whole code periods of every channel c, each from code epoch
     to code epoch (the replica's own), with the NCOs held over them.
 
     Each period ends on the first sample at which the replica's code phase reaches the next
     epoch (1023 chips past the last), so the caller need not know the sample counts in
     advance. ``code_phase_chips`` is the phase at ``starts`` (just after an epoch, in
-    ``(-1, 1)`` chips). One tap is the prompt (offset 0); at most `MAX_TAPS` taps. ``samples``, ``iq`` and ``q_sign`` as in `correlate_channels`.
+    ``(-1, 1)`` chips). One tap is the prompt (offset 0); at most `MAX_TAPS` taps.
+    ``samples``, ``iq``, ``q_sign`` and ``parallel`` as in `correlate_channels`.
 
     Returns
     -------
@@ -472,7 +492,8 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
     out_r = np.zeros((n_ch, p_max, offsets_chips.size))
     out_i = np.zeros((n_ch, p_max, offsets_chips.size))
     counts = np.zeros((n_ch, p_max), np.int64)
-    _kernels(cplx, tables.thresholds.size)[1](x, np.float32(q_sign), starts, n_periods, carrier0, dcarrier, code0,
-                                              dcode, 2 * period_word, period_word, tables.patterns,
-                                              tables.thresholds, out_r, out_i, counts)
+    par = _parallel(int(np.sum(need - starts)), parallel)
+    kernel = _kernels(cplx, tables.thresholds.size, par)[1]
+    kernel(x, np.float32(q_sign), starts, n_periods, carrier0, dcarrier, code0, dcode, 2 * period_word, period_word,
+           tables.patterns, tables.thresholds, out_r, out_i, counts)
     return out_r + 1j * out_i, counts
