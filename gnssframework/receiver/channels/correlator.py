@@ -27,6 +27,7 @@ without numba.
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,8 +36,7 @@ from ...errors import ConfigError
 from ...backend import get_backend
 
 __all__ = ["correlate_channels", "correlate_numpy", "correlate_periods", "correlate_periods_numpy", "code_tables",
-           "correlation_error_bound", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS",
-           "PARALLEL_MIN_SAMPLES"]
+           "correlation_error_bound", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS"]
 
 #: Samples per chunk of the compiled kernel (its carrier restarts exactly every chunk).
 CHUNK = 512
@@ -190,9 +190,6 @@ def _periods(x, q_sign, starts, n_periods, carrier0, dcarrier, code0, dcode, wra
 
 
 _KERNELS: dict[tuple[bool, int, bool], tuple] = {}
-#: Samples (all channels) of a call from which the channels run in parallel: below it a
-#: thread pool's start costs more than it saves.
-PARALLEL_MIN_SAMPLES = 200_000
 
 
 def _kernels(iq: bool, m: int, parallel: bool) -> tuple:
@@ -211,10 +208,9 @@ def _kernels(iq: bool, m: int, parallel: bool) -> tuple:
     return _KERNELS[key]
 
 
-def _parallel(n_samples: int, parallel: bool | None) -> bool:
-    if parallel is not None:
-        return parallel
-    return n_samples >= PARALLEL_MIN_SAMPLES and numba.get_num_threads() > 1
+def _parallel(parallel: bool) -> bool:
+    # numba's workqueue threading layer takes parallel kernels from the main thread only.
+    return parallel and threading.current_thread() is threading.main_thread()
 
 
 try:
@@ -347,7 +343,7 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
                        code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray,
                        carrier_step_cycles: np.ndarray, codes: np.ndarray, offsets_chips: np.ndarray,
                        backend: str | None = None, tables: CodeTables | None = None, iq: bool = False,
-                       q_sign: int = 1, parallel: bool | None = None) -> np.ndarray:
+                       q_sign: int = 1, parallel: bool = False) -> np.ndarray:
     """Correlate every channel over its sample range: ``(n_channels, n_taps)`` complex.
 
     Parameters
@@ -377,9 +373,10 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
         ``samples`` are interleaved components; ``q_sign`` -1 reads them as I - jQ (a
         front end with an inverted Q branch).
     parallel
-        Channels on numba's threads (bit-identical results whatever their number);
-        default: when the call holds at least `PARALLEL_MIN_SAMPLES` samples and numba
-        has more than one thread (``NUMBA_NUM_THREADS=1`` keeps one core).
+        Channels on numba's threads (``prange``; bit-identical results whatever their
+        number), from the main thread only. Off by default: in the tracking loop, calls
+        every 1-10 ms with Python between them, it did not help on two shared cores
+        (docs/benchmarks.md, "Tracking on samples").
     """
     starts = np.asarray(starts, np.int64)
     counts = np.asarray(counts, np.int64)
@@ -410,7 +407,7 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
         tables = _cached_tables(codes, offsets_chips, n_chips // n_code)
     out_r = np.empty((n_ch, n_taps))
     out_i = np.empty((n_ch, n_taps))
-    par = _parallel(int(counts.sum()), parallel)
+    par = _parallel(parallel)
     kernel = _kernels(cplx, tables.thresholds.size, par)[0]
     kernel(x, np.float32(q_sign), starts, counts, carrier0, dcarrier, code0, dcode, tables.patterns, tables.thresholds,
            out_r, out_i)
@@ -443,7 +440,7 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
                       code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray,
                       carrier_step_cycles: np.ndarray, codes: np.ndarray, offsets_chips: np.ndarray,
                       backend: str | None = None, tables: CodeTables | None = None, iq: bool = False,
-                      q_sign: int = 1, parallel: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
+                      q_sign: int = 1, parallel: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Correlate ``n_periods[c]`` whole code periods of every channel c, each from code epoch
     to code epoch (the replica's own), with the NCOs held over them.
 
@@ -492,7 +489,7 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
     out_r = np.zeros((n_ch, p_max, offsets_chips.size))
     out_i = np.zeros((n_ch, p_max, offsets_chips.size))
     counts = np.zeros((n_ch, p_max), np.int64)
-    par = _parallel(int(np.sum(need - starts)), parallel)
+    par = _parallel(parallel)
     kernel = _kernels(cplx, tables.thresholds.size, par)[1]
     kernel(x, np.float32(q_sign), starts, n_periods, carrier0, dcarrier, code0, dcode, 2 * period_word, period_word,
            tables.patterns, tables.thresholds, out_r, out_i, counts)
