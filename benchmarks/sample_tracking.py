@@ -1,6 +1,6 @@
 """Correlation and tracking speed on samples, as channel-seconds of signal per wall second.
 
-    python benchmarks/sample_tracking.py [--seconds 4] [--channels 8]
+    python benchmarks/sample_tracking.py [--seconds 4] [--channels 8] [--repeat 2]
 
 At 2.6, 4 and 16.3676 MHz (gps-sdr-sim's default rate, the 4 MHz PocketSDR rate, the rate
 of reference 002's recording), in the same run:
@@ -11,18 +11,26 @@ of reference 002's recording), in the same run:
 - tracking: acquisition excluded, `SampleTracker` with the ``scalar`` filter on a
   generated recording of ``--channels`` satellites at 45 dB-Hz;
 - GNSS-SDR, where ``gnss-sdr`` is installed and ``../shared/tools/gps-sdr-sim`` is beside
-  the repository: the same number of channels on a gps-sdr-sim file at 2.6 and 4 MHz,
-  wall time of the whole run against the library's on the same file.
+  the repository: the same number of channels on the same gps-sdr-sim file (``5 *
+  --seconds`` long) at each rate, the whole run (acquisition, tracking; GNSS-SDR also
+  decodes telemetry and solves PVT) of both, each in its own process, interleaved
+  (ours, GNSS-SDR, ours, GNSS-SDR ...) with the load average beside every number, wall
+  and CPU time;
+- 8 channels at 16.3676 MHz on ONE core: our tracking of that file (acquisition
+  excluded) in a process pinned to one CPU (``os.sched_setaffinity``) with one numba and
+  one BLAS thread, as a fraction of real time.
 
-Tracking rows also give the wall time as a fraction of the signal's duration: below 1 is
-faster than real time for that many channels. The machine's load is printed: other jobs
-on the same cores slow every row alike, so compare rows of one run.
+Wall time over signal time below 1 is faster than real time for that many channels. The
+machine may be shared: other jobs slow every row, so compare the rows of one run, and
+read the CPU times (which the load inflates less) beside the wall times.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -166,20 +174,62 @@ def gps_sdr_sim_file(fs: float, seconds: float, folder: Path) -> Path | None:
     return out
 
 
-def gnss_sdr_wall(path: Path, fs: float, channels: int, folder: Path) -> float | None:
+def gnss_sdr_run(path: Path, fs: float, channels: int, folder: Path) -> tuple[float, float] | None:
+    """(wall, CPU) seconds of GNSS-SDR's whole run on ``path``, or None where it did not track."""
     exe = shutil.which("gnss-sdr")
     if exe is None:
         return None
     conf = folder / f"gnss-sdr_{fs:.0f}.conf"
     conf.write_text(GNSS_SDR_CONF.format(fs=fs, path=path, channels=channels, out=folder))
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
     run = subprocess.run([exe, f"--config_file={conf}"], capture_output=True, text=True, cwd=folder)
     wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     text = run.stdout + run.stderr
     if run.returncode != 0 or "Error" in text or "Tracking of GPS L1 C/A signal started" not in text:
         print(f"  gnss-sdr did not track (exit {run.returncode}): {text.strip().splitlines()[-3:]}")
         return None
-    return wall
+    return wall, (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+
+
+def worker(path: Path, fs: float, channels: int, with_acquisition: bool) -> dict[str, float]:
+    """Our run on a gps-sdr-sim file in this process: (wall, CPU) seconds of acquisition
+    plus tracking (or tracking alone), the compiled kernels loaded first."""
+    from gnssframework.receiver.frontend.sigmf_meta import write_sigmf_meta
+
+    meta = path.with_suffix(".sigmf-meta")
+    if not meta.exists():
+        write_sigmf_meta(meta, format="ci8", sigmf_datatype="ci8", sample_rate_hz=fs, if_hz=0.0)
+    rec = open_recording(path)
+    acq = registry.create("acquisition", "pcps")
+    found = sorted([r for r in acquire_recording(rec, acq) if r.detected], key=lambda r: -r.test_statistic)[:channels]
+    tracker = SampleTracker(rec, tracking_config(), acq)
+    tracker.run(found, 0.05)  # warm: compiled kernels loaded
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    if with_acquisition:
+        found = sorted([r for r in acquire_recording(rec, acq) if r.detected],
+                       key=lambda r: -r.test_statistic)[:channels]
+    result = tracker.run(found)
+    return {"wall": time.perf_counter() - wall0, "cpu": time.process_time() - cpu0, "signal": result.duration_s,
+            "channels": len(found)}
+
+
+def run_worker(path: Path, fs: float, channels: int, with_acquisition: bool, one_cpu: int | None = None) -> dict:
+    """`worker` in a fresh process (pinned to CPU ``one_cpu`` with one thread, if given)."""
+    env = dict(os.environ)
+    if one_cpu is not None:
+        env.update(NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    cmd = [sys.executable, __file__, "--worker", str(path), "--fs", str(fs), "--channels", str(channels)]
+    if with_acquisition:
+        cmd.append("--with-acquisition")
+    pin = (lambda: os.sched_setaffinity(0, {one_cpu})) if one_cpu is not None else None
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True, env=env, preexec_fn=pin)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _load() -> str:
+    return f"load {os.getloadavg()[0]:.1f}"
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -187,43 +237,67 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--seconds", type=float, default=4.0, help="signal length of the tracking runs")
     ap.add_argument("--channels", type=int, default=8)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--repeat", type=int, default=2, help="interleaved runs of ours and GNSS-SDR per rate")
+    ap.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
+    ap.add_argument("--fs", type=float, help=argparse.SUPPRESS)
+    ap.add_argument("--with-acquisition", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.worker is not None:
+        print(json.dumps(worker(args.worker, args.fs, args.channels, args.with_acquisition)))
+        return
     rng = np.random.default_rng(args.seed)
-    print(f"load average {os.getloadavg()[0]:.1f} at start, {os.cpu_count()} cores; {args.channels} channels")
+    print(f"{_load()} at start, {os.cpu_count()} cores; {args.channels} channels")
     print("\ncorrelation, channel-seconds per second (x real time per channel)")
     print(f"{'rate MHz':>9s} {'compiled':>10s} {'numpy ref':>10s} {'correlate_if':>13s} {'compiled/if':>12s}")
     for fs in RATES_HZ:
         r = correlation_rates(fs, args.channels, rng)
         print(f"{fs / 1e6:9.4f} {r['compiled']:10.1f} {r['numpy reference']:10.2f} {r['correlate_if']:13.2f} "
-              f"{r['compiled'] / r['correlate_if']:12.0f}")
+              f"{r['compiled'] / r['correlate_if']:12.0f}  ({_load()})")
     print(f"\ntracking ({args.seconds} s generated, scalar: 1 ms until bit sync, then 10 ms), channel-seconds per "
-          f"second; real time for "
-          f"{args.channels} channels = {args.channels}")
+          f"second; real time for {args.channels} channels = {args.channels}")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         for fs in RATES_HZ:
             rate, wall, n = tracking_rate(generated(fs, args.seconds, args.channels, folder, rng), args.channels)
             print(f"{fs / 1e6:9.4f} MHz: {rate:6.1f} channel-s/s ({n} channels, {wall:.1f} s wall for "
-                  f"{args.seconds} s: {wall / args.seconds:.2f} of real time)")
-        if shutil.which("gnss-sdr") is None or not SIM_DIR.exists():
-            print("\nGNSS-SDR peer: skipped (needs gnss-sdr on PATH and ../shared/tools/gps-sdr-sim)")
+                  f"{args.seconds} s: {wall / args.seconds:.2f} of real time; {_load()})")
+        if not SIM_DIR.exists():
+            print("\ngps-sdr-sim rows: skipped (needs ../shared/tools/gps-sdr-sim)")
             return
-        print("\nsame gps-sdr-sim file, whole run wall time (GNSS-SDR includes its acquisition, telemetry, PVT)")
-        for fs in (2.6e6, 4e6):
-            sim = gps_sdr_sim_file(fs, args.seconds * 5, folder)
-            meta = sim.with_suffix(".sigmf-meta")
-            from gnssframework.receiver.frontend.sigmf_meta import write_sigmf_meta
-
-            write_sigmf_meta(meta, format="ci8", sigmf_datatype="ci8", sample_rate_hz=fs, if_hz=0.0)
-            t = time.perf_counter()
-            _, wall_track, n = tracking_rate(sim, args.channels)
-            ours = time.perf_counter() - t
-            theirs = gnss_sdr_wall(sim, fs, args.channels, folder)
-            secs = args.seconds * 5
-            line = f"{fs / 1e6:6.1f} MHz, {secs:.0f} s, {n} channels: gnssframework {ours / secs:.2f} of real time"
-            if theirs is not None:
-                line += f", GNSS-SDR {theirs / secs:.2f}; ratio GNSS-SDR/gnssframework speed {ours / theirs:.2f}"
+        secs = args.seconds * 5
+        have_peer = shutil.which("gnss-sdr") is not None
+        print(f"\nsame gps-sdr-sim file ({secs:.0f} s, int8 I/Q), whole run: wall and CPU time over signal time"
+              + ("" if have_peer else " (GNSS-SDR skipped: gnss-sdr is not on PATH)"))
+        sims = {}
+        for fs in RATES_HZ:
+            sims[fs] = sim = gps_sdr_sim_file(fs, secs, folder)
+            ours, theirs = [], []
+            for _ in range(args.repeat):
+                r = run_worker(sim, fs, args.channels, True)
+                ours.append((r["wall"] / r["signal"], r["cpu"] / r["signal"], os.getloadavg()[0]))
+                print(f"  {fs / 1e6:7.4f} MHz gnssframework: wall {ours[-1][0]:.3f}, CPU {ours[-1][1]:.3f} "
+                      f"({r['channels']} channels; {_load()})")
+                if have_peer:
+                    g = gnss_sdr_run(sim, fs, args.channels, folder)
+                    if g is not None:
+                        theirs.append((g[0] / secs, g[1] / secs, os.getloadavg()[0]))
+                        print(f"  {fs / 1e6:7.4f} MHz GNSS-SDR:      wall {theirs[-1][0]:.3f}, CPU "
+                              f"{theirs[-1][1]:.3f} ({_load()})")
+            best_ours = min(o[0] for o in ours)
+            line = f"{fs / 1e6:7.4f} MHz: gnssframework best wall {best_ours:.3f} of real time"
+            if theirs:
+                best_theirs = min(t[0] for t in theirs)
+                cpu_ratio = min(t[1] for t in theirs) / min(o[1] for o in ours)
+                line += (f", GNSS-SDR {best_theirs:.3f}; GNSS-SDR time / ours: wall {best_theirs / best_ours:.2f}, "
+                         f"CPU {cpu_ratio:.2f} (above 1: ours faster)")
             print(line)
+        cpu = sorted(os.sched_getaffinity(0))[-1]
+        fs = RATES_HZ[-1]
+        runs = [run_worker(sims[fs], fs, args.channels, False, one_cpu=cpu) for _ in range(args.repeat)]
+        best = min(runs, key=lambda r: r["wall"])
+        print(f"\n{best['channels']} channels at {fs / 1e6:.4f} MHz on ONE core (CPU {cpu}, one thread), tracking: "
+              f"wall {best['wall'] / best['signal']:.3f} of real time, CPU {best['cpu'] / best['signal']:.3f} "
+              f"(best of {len(runs)}; {_load()})")
 
 
 if __name__ == "__main__":

@@ -50,6 +50,24 @@ def test_every_format_round_trips_with_its_sigmf_metadata(tmp_path, fmt, q_sign)
         assert np.max(np.abs(got - x * scale)) <= tol
 
 
+
+@pytest.mark.parametrize("fmt", sorted(FORMATS))
+def test_components_are_the_samples_as_stored_without_the_q_sign(tmp_path, fmt):
+    """`read_components` (what the correlator reads): the SigMF types' own values, not a
+    float copy, interleaved I then Q, the Q sign left to the reader; equal to `read`."""
+    rng = np.random.default_rng(2)
+    cplx = FORMATS[fmt]
+    x = synthesize_samples([SatelliteSignal(5, 60.0, 1200.0, 100.0)], 0.001, FS, 0.0 if cplx else 0.6e6, rng,
+                           complex_samples=cplx)
+    path = write_recording(tmp_path / "rec.sigmf-data", x, fmt, FS, 0.0 if cplx else 0.6e6,
+                           q_sign=-1 if cplx else 1, scale=1.0 if fmt.endswith("2") or fmt == "cf32_le" else 20.0)
+    rec = open_recording(path)
+    comps = rec.read_components(7, 300)
+    want = {"ri8": np.int8, "ci8": np.int8, "ci16_le": np.int16, "cf32_le": np.float32}.get(fmt, np.float32)
+    assert comps.dtype == want and comps.size == 300 * (2 if cplx else 1)
+    z = comps[0::2] + 1j * rec.info.q_sign * comps[1::2].astype(float) if cplx else comps
+    np.testing.assert_array_equal(z, rec.read(7, 300))
+
 def test_streaming_in_blocks_gives_the_whole_file_once_and_a_truncated_tail_is_reported(tmp_path):
     rng = np.random.default_rng(2)
     x = rng.integers(-100, 100, size=2 * 10_001).astype(np.int8)

@@ -10,13 +10,25 @@ For channel c, samples :math:`x_n`, :math:`n = s_c \dots s_c + N_c - 1`, carrier
 
 (the NCO replicas of Kaplan & Hegarty, *Understanding GPS/GNSS*, 3rd ed., sec. 8.8;
 tap offsets added to the replica phase as in `gnssframework.signal.if_samples.correlate_if`).
-The compiled kernel makes the carrier by phase accumulation and a 4096-entry sine table,
-as hardware correlators do; its phase error is at most :math:`\pi/4096` rad, so
-:math:`|C^{compiled} - C^{exact}| \le \frac{\pi}{4096} \sum_i |x_i|`. `correlate_numpy`
-is the reference (exact ``exp``), kept for tests and machines without numba.
+
+The compiled kernel keeps both NCOs as fixed-point phase words (carrier in :math:`2^{-32}`
+cycles, code in :math:`2^{-32}` chips), as hardware correlators do, and works in chunks of
+`CHUNK` samples: the carrier replica of a chunk is the exact phasor of its first sample's
+phase word times a per-channel table of :math:`e^{-j 2\pi i \Delta\phi}`, :math:`i <`
+`CHUNK` (made by recurrence in float64: the rotator of GNSS-SDR's VOLK kernels, restarted
+exactly every chunk so no error accumulates); the samples are read as recorded (``int8``, ``int16`` or ``float32``
+components, interleaved I/Q or real), without a float copy of the block. The chunk's
+products and sums are ``float32``, so :math:`|C^{compiled} - C^{exact}| \le` `ROUNDING`
+:math:`\sum_i |x_i|` beyond the fixed-point words' rounding (`correlation_error_bound`).
+`correlate_numpy` is the reference (exact ``exp``, float64), kept for tests and machines
+without numba.
 """
 
 from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,13 +36,27 @@ from ...errors import ConfigError
 from ...backend import get_backend
 
 __all__ = ["correlate_channels", "correlate_numpy", "correlate_periods", "correlate_periods_numpy", "code_tables",
-           "TABLE_BITS"]
+           "correlation_error_bound", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS"]
 
-#: log2 of the carrier table's length.
-TABLE_BITS = 12
-_N_TABLE = 1 << TABLE_BITS
-_COS = np.cos(2 * np.pi * np.arange(_N_TABLE) / _N_TABLE).astype(np.float32)
-_SIN = np.sin(2 * np.pi * np.arange(_N_TABLE) / _N_TABLE).astype(np.float32)
+#: Samples per chunk of the compiled kernel (its carrier restarts exactly every chunk).
+CHUNK = 512
+#: Relative error of the compiled kernel's float32 arithmetic, per unit of sum |x|: the
+#: carrier phasor (two float32 products, about 4 ulp of 2^-24) and a chunk's float32 sum of
+#: up to CHUNK products (Higham's gamma_n, n = CHUNK + 2 ulp of 2^-24).
+ROUNDING = (CHUNK + 8) * 2.0**-24
+_TWO_PI_2_32 = 2 * math.pi * 2.0**-32
+_MASK32 = (1 << 32) - 1
+
+
+def correlation_error_bound(samples: np.ndarray, start: int, count: int, run_before: int = 0) -> float:
+    """Largest difference allowed between the compiled and the reference sums of ``count``
+    samples from ``start``: `ROUNDING` plus the phase rounding of the NCO words (half a
+    :math:`2^{-32}` cycle of the initial word, plus one per sample of the step's rounding,
+    over the ``run_before`` samples the carrier ran before this range too), per unit of
+    each sample's magnitude."""
+    mag = np.abs(samples[start:start + count])
+    phase_err = 2 * np.pi * 2.0**-32 * (1 + run_before + np.arange(count))
+    return float(np.sum(mag * (ROUNDING + phase_err)) + 1e-9 * np.sum(mag))
 
 
 def correlate_numpy(samples: np.ndarray, starts: np.ndarray, counts: np.ndarray, code_phase_chips: np.ndarray,
@@ -49,174 +75,283 @@ def correlate_numpy(samples: np.ndarray, starts: np.ndarray, counts: np.ndarray,
     return out
 
 
+# The kernels are plain functions specialised by `with_globals` (each twin has its own
+# numba disk cache entry, which closures would not): ``_IQ`` (interleaved I/Q components or
+# real samples) and ``_M`` (the code tables' tap thresholds, `CodeTables`) are constants of
+# each twin, and both drivers inline the same per-sample function, `_run`.
+_IQ = True
+_M = 1
+
+
+def _run(x, q_sign, s, n, ph, dph, u, dp, pat, thr, rot_r, rot_i, br, bi, code, acc_r,
+         acc_i):  # pragma: no cover - compiled
+    # n samples from sample s into acc_r/acc_i (one per tap); returns the carrier and code
+    # words after them. Chunk by chunk, three loops that vectorise: the baseband (chunk's
+    # exact first phasor times the rot table) into br/bi; each sample's tap pattern (one
+    # gather: the code chip of word u and the taps' thresholds crossed in it, `CodeTables`)
+    # into code; then each tap's dot product, summed in float32, the chunk sums in float64.
+    n_taps = acc_r.shape[0]
+    done = 0
+    while done < n:
+        m = min(CHUNK, n - done)
+        theta = _TWO_PI_2_32 * (ph & _MASK32)
+        c0r = np.float32(math.cos(theta))
+        c0i = np.float32(-math.sin(theta))
+        if _IQ:
+            xs = x[2 * (s + done):2 * (s + done + m)]
+            for i in range(m):
+                cr = c0r * rot_r[i] - c0i * rot_i[i]  # exp(-j phase)
+                ci = c0r * rot_i[i] + c0i * rot_r[i]
+                a = np.float32(xs[2 * i])
+                b = q_sign * np.float32(xs[2 * i + 1])
+                br[i] = a * cr - b * ci
+                bi[i] = a * ci + b * cr
+        else:
+            xs = x[s + done:s + done + m]
+            for i in range(m):
+                a = np.float32(xs[i])
+                br[i] = a * (c0r * rot_r[i] - c0i * rot_i[i])
+                bi[i] = a * (c0r * rot_i[i] + c0i * rot_r[i])
+        for i in range(m):
+            w = u + i * dp
+            frac = w & _MASK32
+            k = (w >> 32) * (_M + 1)
+            for j in range(_M):
+                k += np.int64(frac >= thr[j])
+            code[i] = pat[k]
+        for t in range(n_taps):
+            sr = np.float32(0.0)
+            si = np.float32(0.0)
+            for i in range(m):
+                v = np.float32(1 - 2 * ((code[i] >> t) & 1))
+                sr += br[i] * v
+                si += bi[i] * v
+            acc_r[t] += sr
+            acc_i[t] += si
+        u += m * dp
+        ph += m * dph
+        done += m
+    return ph, u
+
+
+def _rotations(dph, rot_r, rot_i):  # pragma: no cover - compiled
+    # exp(-j 2 pi i dph 2^-32) for the samples i of a chunk, by recurrence in float64 (its
+    # error, about CHUNK float64 ulps, is far below the float32 cast).
+    theta = _TWO_PI_2_32 * (dph & _MASK32)
+    wr, wi = math.cos(theta), -math.sin(theta)
+    zr, zi = 1.0, 0.0
+    for i in range(CHUNK):
+        rot_r[i] = zr
+        rot_i[i] = zi
+        zr, zi = zr * wr - zi * wi, zr * wi + zi * wr
+
+
+def _channels(x, q_sign, starts, counts, carrier0, dcarrier, code0, dcode, pat, thr, out_r,
+              out_i):  # pragma: no cover - compiled
+    # counts[c] samples of channel c from starts[c]; channels in parallel in the parallel
+    # twin (each channel's arithmetic is the same whichever thread runs it).
+    n_taps = out_r.shape[1]
+    for c in prange(starts.shape[0]):
+        rot_r, rot_i = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
+        br, bi = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
+        code = np.empty(CHUNK, np.int32)
+        acc_r, acc_i = np.zeros(n_taps), np.zeros(n_taps)
+        _rotations_(dcarrier[c], rot_r, rot_i)
+        _run_(x, q_sign, starts[c], counts[c], carrier0[c], dcarrier[c], code0[c], dcode[c], pat[c], thr, rot_r,
+              rot_i, br, bi, code, acc_r, acc_i)
+        out_r[c] = acc_r
+        out_i[c] = acc_i
+
+
+def _periods(x, q_sign, starts, n_periods, carrier0, dcarrier, code0, dcode, wrap, period_word, pat, thr, out_r,
+             out_i, counts):  # pragma: no cover - compiled
+    # n_periods[c] whole code periods of channel c: a period ends on the sample where the
+    # prompt's code word reaches ``wrap`` (the next epoch), i.e. after ceil((wrap - u) / dp)
+    # samples; the word then steps back one code length, and the carrier runs on.
+    n_taps = out_r.shape[2]
+    for c in prange(starts.shape[0]):
+        rot_r, rot_i = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
+        br, bi = np.empty(CHUNK, np.float32), np.empty(CHUNK, np.float32)
+        code = np.empty(CHUNK, np.int32)
+        acc_r, acc_i = np.zeros(n_taps), np.zeros(n_taps)
+        dph, dp = dcarrier[c], dcode[c]
+        _rotations_(dph, rot_r, rot_i)
+        s, ph, u = starts[c], carrier0[c], code0[c]
+        for k in range(n_periods[c]):
+            n = (wrap - u + dp - 1) // dp
+            acc_r[:] = 0.0
+            acc_i[:] = 0.0
+            ph, u = _run_(x, q_sign, s, n, ph, dph, u, dp, pat[c], thr, rot_r, rot_i, br, bi, code, acc_r, acc_i)
+            out_r[c, k] = acc_r
+            out_i[c, k] = acc_i
+            counts[c, k] = n
+            s += n
+            u -= period_word
+
+
+_KERNELS: dict[tuple[bool, int, bool], tuple] = {}
+
+
+def _kernels(iq: bool, m: int, parallel: bool) -> tuple:
+    """The (fixed-count, whole-periods) kernels for sample kind ``iq``, ``m`` thresholds,
+    serial or over the channels in parallel (the same body: ``prange`` is ``range`` in the
+    serial twin)."""
+    key = (iq, m, parallel)
+    if key not in _KERNELS:
+        tag = f"_{'iq' if iq else 'real'}{m}{'_par' if parallel else ''}"
+        inline = numba.njit(inline="always", fastmath=True, nogil=True)
+        run = inline(with_globals(_run, tag, _IQ=iq, _M=m))
+        rotations = inline(with_globals(_rotations, tag))
+        compiled = numba.njit(cache=True, nogil=True, fastmath=True, parallel=parallel)
+        _KERNELS[key] = tuple(compiled(with_globals(fn, tag, _run_=run, _rotations_=rotations))
+                              for fn in (_channels, _periods))
+    return _KERNELS[key]
+
+
+def _parallel(parallel: bool) -> bool:
+    # numba's workqueue threading layer takes parallel kernels from the main thread only.
+    return parallel and threading.current_thread() is threading.main_thread()
+
+
 try:
     import numba
+    from numba import prange
 
-    @numba.njit(cache=True, nogil=True, fastmath=True)
-    def _kernel3(x, cplx, starts, counts, carrier0, dcarrier, code0, dcode, tables, cos_t, sin_t, out_r,
-                 out_i):  # pragma: no cover - compiled
-        # Three taps (early, prompt, late) in registers: the common case. Carrier phase is a
-        # 32-bit fraction of a cycle (table index = its top TABLE_BITS bits; the carry above
-        # bit 32 is masked off);
-        # code positions are 32.32 fixed point into a code table repeated so that no
-        # index wraps within the call.
-        shift = np.int64(32 - TABLE_BITS)
-        mask = np.int64(cos_t.shape[0] - 1)
-        for c in range(starts.shape[0]):
-            row = tables[c]
-            s = starts[c]
-            ph = carrier0[c]
-            dph = dcarrier[c]
-            p0, p1, p2 = code0[c, 0], code0[c, 1], code0[c, 2]
-            dp = dcode[c]
-            r0 = r1 = r2 = m0 = m1 = m2 = 0.0
-            for i in range(counts[c]):
-                k = (ph >> shift) & mask
-                co = cos_t[k]
-                si = sin_t[k]
-                if cplx:  # interleaved I/Q
-                    a = x[2 * (s + i)]
-                    b = x[2 * (s + i) + 1]
-                    br = a * co + b * si  # x * exp(-j phi)
-                    bi = b * co - a * si
-                else:
-                    a = x[s + i]
-                    br = a * co
-                    bi = -a * si
-                v0 = row[p0 >> 32]
-                v1 = row[p1 >> 32]
-                v2 = row[p2 >> 32]
-                r0 += br * v0
-                m0 += bi * v0
-                r1 += br * v1
-                m1 += bi * v1
-                r2 += br * v2
-                m2 += bi * v2
-                p0 += dp
-                p1 += dp
-                p2 += dp
-                ph += dph
-            out_r[c, 0], out_r[c, 1], out_r[c, 2] = r0, r1, r2
-            out_i[c, 0], out_i[c, 1], out_i[c, 2] = m0, m1, m2
-
-    @numba.njit(cache=True, nogil=True, fastmath=True)
-    def _kernel(x, cplx, starts, counts, carrier0, dcarrier, code0, dcode, tables, cos_t, sin_t, out_r,
-                out_i):  # pragma: no cover - compiled
-        # Any number of taps (extra taps beyond E/P/L), same arithmetic.
-        shift = np.int64(32 - TABLE_BITS)
-        mask = np.int64(cos_t.shape[0] - 1)
-        n_taps = code0.shape[1]
-        acc_r = np.zeros(n_taps)
-        acc_i = np.zeros(n_taps)
-        pos = np.zeros(n_taps, np.int64)
-        for c in range(starts.shape[0]):
-            row = tables[c]
-            s = starts[c]
-            ph = carrier0[c]
-            dph = dcarrier[c]
-            dp = dcode[c]
-            for t in range(n_taps):
-                acc_r[t] = 0.0
-                acc_i[t] = 0.0
-                pos[t] = code0[c, t]
-            for i in range(counts[c]):
-                k = (ph >> shift) & mask
-                co = cos_t[k]
-                si = sin_t[k]
-                if cplx:
-                    a = x[2 * (s + i)]
-                    b = x[2 * (s + i) + 1]
-                    br = a * co + b * si
-                    bi = b * co - a * si
-                else:
-                    a = x[s + i]
-                    br = a * co
-                    bi = -a * si
-                for t in range(n_taps):
-                    v = row[pos[t] >> 32]
-                    acc_r[t] += br * v
-                    acc_i[t] += bi * v
-                    pos[t] += dp
-                ph += dph
-            for t in range(n_taps):
-                out_r[c, t] = acc_r[t]
-                out_i[c, t] = acc_i[t]
-
-    @numba.njit(cache=True, nogil=True, fastmath=True)
-    def _periods3(x, cplx, starts, n_periods, carrier0, dcarrier, code0, dcode, wrap, period_word, tables, cos_t, sin_t, out_r,
-                  out_i, counts):  # pragma: no cover - compiled
-        # Like _kernel3, over n_periods[c] whole code periods of channel c: a period ends on
-        # the sample where the prompt's code position reaches ``wrap`` (the next epoch);
-        # every tap then steps back one code length, and the carrier runs on.
-        shift = np.int64(32 - TABLE_BITS)
-        mask = np.int64(cos_t.shape[0] - 1)
-        for c in range(starts.shape[0]):
-            row = tables[c]
-            i = starts[c]
-            ph = carrier0[c]
-            dph = dcarrier[c]
-            p0, p1, p2 = code0[c, 0], code0[c, 1], code0[c, 2]
-            dp = dcode[c]
-            for k in range(n_periods[c]):
-                r0 = r1 = r2 = m0 = m1 = m2 = 0.0
-                n = 0
-                while p1 < wrap:
-                    kk = (ph >> shift) & mask
-                    co = cos_t[kk]
-                    si = sin_t[kk]
-                    if cplx:
-                        a = x[2 * i]
-                        b = x[2 * i + 1]
-                        br = a * co + b * si
-                        bi = b * co - a * si
-                    else:
-                        a = x[i]
-                        br = a * co
-                        bi = -a * si
-                    v0 = row[p0 >> 32]
-                    v1 = row[p1 >> 32]
-                    v2 = row[p2 >> 32]
-                    r0 += br * v0
-                    m0 += bi * v0
-                    r1 += br * v1
-                    m1 += bi * v1
-                    r2 += br * v2
-                    m2 += bi * v2
-                    p0 += dp
-                    p1 += dp
-                    p2 += dp
-                    ph += dph
-                    i += 1
-                    n += 1
-                out_r[c, k, 0], out_r[c, k, 1], out_r[c, k, 2] = r0, r1, r2
-                out_i[c, k, 0], out_i[c, k, 1], out_i[c, k, 2] = m0, m1, m2
-                counts[c, k] = n
-                p0 -= period_word
-                p1 -= period_word
-                p2 -= period_word
+    from ...estimation.compiled.specialise import with_globals
 
     HAVE_NUMBA = True
 except ImportError:  # pragma: no cover
     HAVE_NUMBA = False
 
+#: Taps a `CodeTables` pattern holds (one bit each in an int32).
+MAX_TAPS = 31
 
-def code_tables(codes: np.ndarray, periods: int = 3) -> np.ndarray:
-    """``codes`` repeated ``periods`` times along the chips (``float32``): the tables the
-    compiled kernel indexes without wrapping. Three periods cover one code period of
-    integration from any start phase with taps up to a period either side."""
-    return np.tile(np.ascontiguousarray(codes, np.float32), (1, periods))
+
+@dataclass(frozen=True)
+class CodeTables:
+    r"""Every tap's code chip, for every position of the prompt's code word, in one lookup.
+
+    Tap t's code word is the prompt's word :math:`u` plus :math:`D_t = \mathrm{round}(o_t
+    2^{32})`, so its chip is :math:`\lfloor u / 2^{32} \rfloor + \lfloor D_t / 2^{32}
+    \rfloor + [f \ge T_t]` with :math:`f = u \bmod 2^{32}` and :math:`T_t = 2^{32} - (D_t
+    \bmod 2^{32})`: all taps' chips follow from the prompt's chip and how many of the
+    distinct thresholds :math:`T_{(1)} < \dots < T_{(M)}` the fraction has crossed. So
+    ``patterns[c, chip * (M + 1) + crossed]`` holds, bit t, whether tap t's code is -1.
+
+    Attributes
+    ----------
+    patterns
+        ``(n_channels, n_chips * (M + 1))`` ``int32``; chip k of the prompt's word is code
+        chip ``k mod 1023``.
+    thresholds
+        The :math:`M` distinct thresholds, ascending (``int64``).
+    offsets_chips
+        The taps they were made for.
+    n_chips
+        Prompt chips covered.
+    """
+
+    patterns: np.ndarray
+    thresholds: np.ndarray
+    offsets_chips: np.ndarray
+    n_chips: int
+
+    def fits(self, n_channels: int, offsets_chips: np.ndarray, n_chips: int) -> bool:
+        """Made for ``n_channels`` channels, these taps, and at least ``n_chips`` chips."""
+        return (self.patterns.shape[0] == n_channels and self.n_chips >= n_chips
+                and np.array_equal(self.offsets_chips, np.asarray(offsets_chips, float)))
+
+
+def _tap_words(offsets_chips: np.ndarray) -> np.ndarray:
+    return np.rint(np.asarray(offsets_chips, float) * 2.0**32).astype(np.int64)
+
+
+_RECENT_TABLES: dict[tuple, CodeTables] = {}
+
+
+def _cached_tables(codes: np.ndarray, offsets_chips: np.ndarray, periods: int) -> CodeTables:
+    """`code_tables` for a caller that passed none: the last few are kept (a caller that
+    correlates the same channels again need not build them again)."""
+    key = (np.ascontiguousarray(codes).tobytes(), np.asarray(offsets_chips, float).tobytes(), periods)
+    if key not in _RECENT_TABLES:
+        if len(_RECENT_TABLES) >= 8:
+            del _RECENT_TABLES[next(iter(_RECENT_TABLES))]
+        _RECENT_TABLES[key] = code_tables(codes, offsets_chips, periods)
+    return _RECENT_TABLES[key]
+
+
+def code_tables(codes: np.ndarray, offsets_chips: np.ndarray, periods: int = 3) -> CodeTables:
+    """The `CodeTables` of ``codes`` (``(n_channels, n_code)`` ±1) for taps at
+    ``offsets_chips``, over ``periods`` code lengths of the prompt's word: made once by a
+    caller that correlates the same channels many times. Three periods cover one code
+    period of integration from any start phase (the kernels start the word one code length
+    in)."""
+    offsets = np.asarray(offsets_chips, float)
+    if offsets.size > MAX_TAPS:
+        raise ConfigError("offsets_chips", f"at most {MAX_TAPS} taps, got {offsets.size}")
+    words = _tap_words(offsets)
+    rem = words & _MASK32
+    thr = np.unique(2**32 - rem[rem > 0])
+    m = thr.size
+    n_code = codes.shape[1]
+    n_chips = periods * n_code
+    chip = np.arange(n_chips)[:, None, None]
+    crossed = np.arange(m + 1)[None, :, None]
+    # Tap t has crossed its threshold in region j when T_t is among the first j thresholds.
+    ahead = (rem > 0) & (np.searchsorted(thr, 2**32 - rem) < crossed)
+    idx = (chip + (words >> 32) + ahead) % n_code  # (n_chips, m + 1, n_taps)
+    negative = np.asarray(codes)[:, idx] < 0
+    patterns = np.sum(negative.astype(np.int64) << np.arange(offsets.size), axis=-1).astype(np.int32)
+    # C order whatever the shapes (one compiled signature: a layout change recompiles).
+    return CodeTables(np.ascontiguousarray(patterns.reshape(codes.shape[0], -1)), thr.astype(np.int64),
+                      offsets.copy(), n_chips)
+
+
+def _as_complex(samples: np.ndarray, iq: bool, q_sign: int) -> np.ndarray:
+    """The samples as the reference takes them: complex128 (I/Q) or float64 (real)."""
+    if iq:
+        x = np.asarray(samples, float).reshape(-1, 2)
+        return x[:, 0] + 1j * q_sign * x[:, 1]
+    return np.asarray(samples, complex if np.iscomplexobj(samples) else float)
+
+
+def _kernel_input(samples: np.ndarray, iq: bool) -> tuple[np.ndarray, bool]:
+    """What the compiled kernel reads: interleaved components or real samples, in the type
+    they were recorded in where the kernel takes it (int8, int16, float32), and whether
+    they are I/Q."""
+    if np.iscomplexobj(samples):
+        return np.ascontiguousarray(samples, np.complex64).view(np.float32), True
+    x = np.asarray(samples)
+    if x.dtype not in (np.int8, np.int16, np.float32):
+        x = x.astype(np.float32)
+    return np.ascontiguousarray(x), bool(iq)
+
+
+def _n_samples(samples: np.ndarray, iq: bool) -> int:
+    return samples.shape[0] // 2 if iq and not np.iscomplexobj(samples) else samples.shape[0]
+
+
+def _carrier_words(carrier_phase_cycles: np.ndarray, carrier_step_cycles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Carrier NCO phase and step as 2^-32-cycle words."""
+    cycles = np.asarray(carrier_phase_cycles, float)
+    carrier0 = np.floor((cycles - np.floor(cycles)) * 2.0**32).astype(np.int64)
+    dcarrier = np.rint(np.mod(np.asarray(carrier_step_cycles, float), 1.0) * 2.0**32).astype(np.int64)
+    return carrier0, dcarrier
 
 
 def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarray, code_phase_chips: np.ndarray,
                        code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray,
                        carrier_step_cycles: np.ndarray, codes: np.ndarray, offsets_chips: np.ndarray,
-                       backend: str | None = None, tables: np.ndarray | None = None) -> np.ndarray:
+                       backend: str | None = None, tables: CodeTables | None = None, iq: bool = False,
+                       q_sign: int = 1, parallel: bool = False) -> np.ndarray:
     """Correlate every channel over its sample range: ``(n_channels, n_taps)`` complex.
 
     Parameters
     ----------
     samples
-        ``complex64`` (I/Q) or ``float32`` (real) samples of a block.
+        Samples of a block: ``complex64``/``complex128`` (I/Q) or real; or, with ``iq``,
+        interleaved I/Q components as recorded (``int8``, ``int16`` or ``float32``, I
+        first), read without a float copy.
     starts, counts
         First sample (index into ``samples``) and number of samples of each channel.
     code_phase_chips, code_step_chips
@@ -232,42 +367,50 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
         ``"numba"`` or ``"numpy"``; default: the library's backend
         (`gnssframework.backend.get_backend`).
     tables
-        `code_tables` of ``codes`` made once by a caller that correlates the same
-        channels many times (used when long enough for this call).
+        `code_tables` of ``codes`` and ``offsets_chips`` made once by a caller that
+        correlates the same channels many times (used when it fits this call).
+    iq, q_sign
+        ``samples`` are interleaved components; ``q_sign`` -1 reads them as I - jQ (a
+        front end with an inverted Q branch).
+    parallel
+        Channels on numba's threads (``prange``; bit-identical results whatever their
+        number), from the main thread only. Off by default: in the tracking loop, calls
+        every 1-10 ms with Python between them, it did not help on two shared cores
+        (docs/benchmarks.md, "Tracking on samples").
     """
     starts = np.asarray(starts, np.int64)
     counts = np.asarray(counts, np.int64)
-    if starts.size and (starts.min() < 0 or (starts + counts).max() > samples.shape[0]):
+    n_samples = _n_samples(samples, iq)
+    if starts.size and (starts.min() < 0 or (starts + counts).max() > n_samples):
         raise ConfigError("starts", f"a channel's sample range [{starts.min()}, {(starts + counts).max()}) lies "
-                          f"outside the block of {samples.shape[0]} samples")
+                          f"outside the block of {n_samples} samples")
     use = backend or get_backend()
     if use != "numba" or not HAVE_NUMBA:
-        return correlate_numpy(samples, starts, counts, code_phase_chips, code_step_chips, carrier_phase_cycles,
-                               carrier_step_cycles, codes, offsets_chips)
-    cplx = bool(np.iscomplexobj(samples))
-    x = (np.ascontiguousarray(samples, np.complex64).view(np.float32) if cplx
-         else np.ascontiguousarray(samples, np.float32))
+        return correlate_numpy(_as_complex(samples, iq and not np.iscomplexobj(samples), q_sign), starts, counts,
+                               code_phase_chips, code_step_chips, carrier_phase_cycles, carrier_step_cycles, codes,
+                               offsets_chips)
+    x, cplx = _kernel_input(samples, iq)
     n_ch, n_taps = len(starts), len(offsets_chips)
     n_code = codes.shape[1]
-    # Fixed-point NCO words: carrier in 2^-32 cycles, code in 2^-32 chips from one code
-    # period before the table's start (so early taps never index below 0).
-    cycles = np.asarray(carrier_phase_cycles, float)
-    carrier0 = np.floor((cycles - np.floor(cycles)) * 2.0**32).astype(np.int64)
-    dcarrier = np.rint(np.mod(np.asarray(carrier_step_cycles, float), 1.0) * 2.0**32).astype(np.int64)
-    # The phase reduced to [-n/2, n/2): a phase just below a code epoch stays just below 0.
+    carrier0, dcarrier = _carrier_words(carrier_phase_cycles, carrier_step_cycles)
+    # The prompt's code word (offset 0, the taps' words follow from it, `CodeTables`) in
+    # 2^-32 chips from one code period before the table's start (so early taps never
+    # index below 0); the phase reduced to [-n/2, n/2): a phase just below a code epoch
+    # stays just below 0.
     phase = np.mod(np.asarray(code_phase_chips, float) + n_code / 2, n_code) - n_code / 2
-    base = phase[:, None] + np.asarray(offsets_chips, float) + n_code
-    code0 = np.floor(base * 2.0**32).astype(np.int64)
+    code0 = np.floor((phase + n_code) * 2.0**32).astype(np.int64)
     step = np.asarray(code_step_chips, float)
     dcode = np.rint(step * 2.0**32).astype(np.int64)
-    reach = base.max(initial=0.0) + float((counts * step).max(initial=0.0)) + 2
-    reps = int(np.ceil(reach / n_code))
-    if tables is None or tables.shape[1] < reps * n_code:
-        tables = code_tables(codes, reps)
+    reach = n_code + phase.max(initial=0.0) + float((counts * step).max(initial=0.0)) + 2
+    n_chips = int(np.ceil(reach / n_code)) * n_code
+    if tables is None or not tables.fits(n_ch, offsets_chips, n_chips):
+        tables = _cached_tables(codes, offsets_chips, n_chips // n_code)
     out_r = np.empty((n_ch, n_taps))
     out_i = np.empty((n_ch, n_taps))
-    kernel = _kernel3 if n_taps == 3 else _kernel
-    kernel(x, cplx, starts, counts, carrier0, dcarrier, code0, dcode, tables, _COS, _SIN, out_r, out_i)
+    par = _parallel(parallel)
+    kernel = _kernels(cplx, tables.thresholds.size, par)[0]
+    kernel(x, np.float32(q_sign), starts, counts, carrier0, dcarrier, code0, dcode, tables.patterns, tables.thresholds,
+           out_r, out_i)
     return out_r + 1j * out_i
 
 
@@ -296,57 +439,58 @@ def correlate_periods_numpy(samples: np.ndarray, starts: np.ndarray, n_periods: 
 def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.ndarray, code_phase_chips: np.ndarray,
                       code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray,
                       carrier_step_cycles: np.ndarray, codes: np.ndarray, offsets_chips: np.ndarray,
-                      backend: str | None = None, tables: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                      backend: str | None = None, tables: CodeTables | None = None, iq: bool = False,
+                      q_sign: int = 1, parallel: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Correlate ``n_periods[c]`` whole code periods of every channel c, each from code epoch
     to code epoch (the replica's own), with the NCOs held over them.
 
     Each period ends on the first sample at which the replica's code phase reaches the next
     epoch (1023 chips past the last), so the caller need not know the sample counts in
     advance. ``code_phase_chips`` is the phase at ``starts`` (just after an epoch, in
-    ``(-1, 1)`` chips). Three taps (early, prompt, late) only.
+    ``(-1, 1)`` chips). One tap is the prompt (offset 0); at most `MAX_TAPS` taps.
+    ``samples``, ``iq``, ``q_sign`` and ``parallel`` as in `correlate_channels`.
 
     Returns
     -------
     sums, counts
-        ``(n_channels, max n_periods, 3)`` complex sums and ``(n_channels, max n_periods)``
-        samples of each period (0 past a channel's ``n_periods``).
+        ``(n_channels, max n_periods, n_taps)`` complex sums and ``(n_channels, max
+        n_periods)`` samples of each period (0 past a channel's ``n_periods``).
     """
     starts = np.asarray(starts, np.int64)
     n_periods = np.asarray(n_periods, np.int64)
     offsets_chips = np.asarray(offsets_chips, float)
-    if offsets_chips.size != 3:
-        raise ConfigError("offsets_chips", f"correlate_periods takes 3 taps (early, prompt, late), got "
-                          f"{offsets_chips.size}")
-    step = np.asarray(code_step_chips, float)
     n_code = codes.shape[1]
+    if not np.any(offsets_chips == 0.0) or offsets_chips.size > MAX_TAPS:
+        raise ConfigError("offsets_chips", f"correlate_periods needs a tap at offset 0 (the prompt, whose epochs "
+                          f"end the periods) and at most {MAX_TAPS} taps; got {offsets_chips.tolist()}")
+    step = np.asarray(code_step_chips, float)
+    n_samples = _n_samples(samples, iq)
     need = starts + np.ceil((n_periods * n_code - np.asarray(code_phase_chips, float)) / step + 1).astype(np.int64)
-    if starts.size and (starts.min() < 0 or need.max() > samples.shape[0]):
+    if starts.size and (starts.min() < 0 or need.max() > n_samples):
         raise ConfigError("starts", f"a channel's periods [{starts.min()}, {need.max()}) reach outside the block of "
-                          f"{samples.shape[0]} samples")
+                          f"{n_samples} samples")
     use = backend or get_backend()
     if use != "numba" or not HAVE_NUMBA:
-        return correlate_periods_numpy(samples, starts, n_periods, np.asarray(code_phase_chips, float), step,
+        return correlate_periods_numpy(_as_complex(samples, iq and not np.iscomplexobj(samples), q_sign), starts,
+                                       n_periods, np.asarray(code_phase_chips, float), step,
                                        np.asarray(carrier_phase_cycles, float),
                                        np.asarray(carrier_step_cycles, float), codes, offsets_chips)
-    cplx = bool(np.iscomplexobj(samples))
-    x = (np.ascontiguousarray(samples, np.complex64).view(np.float32) if cplx
-         else np.ascontiguousarray(samples, np.float32))
+    x, cplx = _kernel_input(samples, iq)
     n_ch = len(starts)
-    cycles = np.asarray(carrier_phase_cycles, float)
-    carrier0 = np.floor((cycles - np.floor(cycles)) * 2.0**32).astype(np.int64)
-    dcarrier = np.rint(np.mod(np.asarray(carrier_step_cycles, float), 1.0) * 2.0**32).astype(np.int64)
-    # Code positions in 2^-32 chips from one code length before the table's start; a period
-    # ends when the prompt reaches two code lengths (its next epoch).
-    base = np.asarray(code_phase_chips, float)[:, None] + offsets_chips + n_code
-    code0 = np.floor(base * 2.0**32).astype(np.int64)
+    carrier0, dcarrier = _carrier_words(carrier_phase_cycles, carrier_step_cycles)
+    # The prompt's code word in 2^-32 chips from one code length before the table's start;
+    # a period ends when it reaches two code lengths (its next epoch).
+    code0 = np.floor((np.asarray(code_phase_chips, float) + n_code) * 2.0**32).astype(np.int64)
     dcode = np.rint(step * 2.0**32).astype(np.int64)
     period_word = np.int64(n_code) << np.int64(32)
-    if tables is None or tables.shape[1] < 3 * n_code:
-        tables = code_tables(codes, 3)
+    if tables is None or not tables.fits(n_ch, offsets_chips, 3 * n_code):
+        tables = _cached_tables(codes, offsets_chips, 3)
     p_max = max(1, int(n_periods.max(initial=1)))
-    out_r = np.zeros((n_ch, p_max, 3))
-    out_i = np.zeros((n_ch, p_max, 3))
+    out_r = np.zeros((n_ch, p_max, offsets_chips.size))
+    out_i = np.zeros((n_ch, p_max, offsets_chips.size))
     counts = np.zeros((n_ch, p_max), np.int64)
-    _periods3(x, cplx, starts, n_periods, carrier0, dcarrier, code0, dcode, 2 * period_word, period_word, tables,
-              _COS, _SIN, out_r, out_i, counts)
+    par = _parallel(parallel)
+    kernel = _kernels(cplx, tables.thresholds.size, par)[1]
+    kernel(x, np.float32(q_sign), starts, n_periods, carrier0, dcarrier, code0, dcode, 2 * period_word, period_word,
+           tables.patterns, tables.thresholds, out_r, out_i, counts)
     return out_r + 1j * out_i, counts

@@ -240,17 +240,22 @@ class SampleTracker:
         self.voting[i] = stage != "extended"
 
     def _samples(self, lo: int, hi: int) -> tuple[np.ndarray, int]:
-        """A buffer holding samples ``[lo, hi)``, read in blocks; ``(buffer, its first sample)``."""
-        if self.buf_start <= lo and hi <= self.buf_start + self.buf.shape[0]:
+        """A buffer holding samples ``[lo, hi)``, read in blocks as the file stores them
+        (`Recording.read_components`: interleaved I/Q components or real values, no float
+        copy); ``(buffer, its first sample)``."""
+        per = 2 if self.rec.is_complex else 1  # buffer values per sample
+        held = self.buf.shape[0] // per
+        if self.buf_start <= lo and hi <= self.buf_start + held:
             return self.buf, self.buf_start
-        keep = self.buf[max(0, lo - self.buf_start):] if lo < self.buf_start + self.buf.shape[0] else self.buf[:0]
-        first = max(lo, self.buf_start + self.buf.shape[0]) if keep.size else lo
+        keep = self.buf[max(0, lo - self.buf_start) * per:] if lo < self.buf_start + held else self.buf[:0]
+        first = max(lo, self.buf_start + held) if keep.size else lo
         block = max(hi - first, int(self.config.block_ms * 1e-3 * self.fs))
-        new = self.rec.read(first, block)
+        new = self.rec.read_components(first, block)
         self.buf = np.concatenate([keep, new]) if keep.size else new
-        self.buf_start = first - keep.shape[0]
-        x = new.astype(np.complex128) if np.iscomplexobj(new) else new.astype(float)
-        self.power = float(np.mean(np.abs(x) ** 2)) if x.size else self.power
+        self.buf_start = first - keep.shape[0] // per
+        if new.size:  # mean square of a sample (|I|^2 + |Q|^2 for I/Q); no BLAS call (its threads spin)
+            x = new.astype(np.float32)
+            self.power = float(np.sum(x * x, dtype=np.float64)) * per / new.size
         return self.buf, self.buf_start
 
     def run(self, acquisitions: list[AcquisitionResult], duration_s: float | None = None,
@@ -263,7 +268,7 @@ class SampleTracker:
         self.channels: dict[int, _Channel] = {}
         self.records: dict[int, ChannelRecord] = {}
         self._reset_state()
-        self.buf = self.rec.read(0, 0)
+        self.buf = self.rec.read_components(0, 0)
         self.buf_start = 0
         self.power = 1.0
         tables_for, tables = None, None
@@ -304,10 +309,11 @@ class SampleTracker:
             dop = self.doppler[idx]
             carrier0 = (self.if_hz * starts / fs) % 1.0 + self.doppler_cycles[idx]
             if tables_for is None or not np.array_equal(tables_for, idx):  # channel set changed: new tables
-                tables_for, tables = idx, code_tables(self.codes[idx])
+                tables_for, tables = idx, code_tables(self.codes[idx], self.offsets)
             sums, counts = correlate_periods(buf, starts - first, periods, phases, steps, carrier0,
                                              (self.if_hz + dop) / fs, self.codes[idx], self.offsets,
-                                             backend=self.backend, tables=tables)
+                                             backend=self.backend, tables=tables, iq=self.rec.is_complex,
+                                             q_sign=self.rec.info.q_sign)
             valid = counts > 0
             sums[valid] /= np.sqrt(counts[valid] * self.power / 2)[:, None]
             total = counts.sum(axis=1)
@@ -326,7 +332,7 @@ class SampleTracker:
             ms = self.ms_index[ch] + ks + 1
             self.ms_index[idx] += periods
             # Bit-sync votes: a prompt turned by more than 90 degrees from the previous one.
-            previous = np.where(ks == 0, self.previous_prompt[ch], np.roll(prompt, 1))
+            previous = np.where(ks == 0, self.previous_prompt[ch], np.concatenate((prompt[-1:], prompt[:-1])))
             vote = self.voting[ch] & ((prompt * np.conj(previous)).real < 0)
             np.add.at(self.votes, (ch[vote], ms[vote] % 20), 1)
             self.previous_prompt[idx] = sums[np.arange(idx.size), periods - 1, 1]

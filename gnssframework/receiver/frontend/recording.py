@@ -15,6 +15,11 @@ from .source import SampleSource
 
 __all__ = ["RecordingInfo", "Recording", "open_recording"]
 
+#: SigMF datatypes whose bytes are the samples' components as they are (SigMF
+#: specification, "Dataset Format"): read without decoding (`Recording.read_components`).
+AS_STORED = {"ci8": np.int8, "ri8": np.int8, "ci16_le": np.dtype("<i2"), "ri16_le": np.dtype("<i2"),
+             "cf32_le": np.dtype("<f4"), "rf32_le": np.dtype("<f4")}
+
 
 @dataclass(frozen=True)
 class RecordingInfo:
@@ -79,6 +84,24 @@ class Recording:
         if self.is_complex and self.info.q_sign < 0:
             x = np.conj(x)
         return x
+
+    def read_components(self, start: int, count: int) -> np.ndarray:
+        """``count`` samples from sample ``start`` as the correlator reads them: interleaved
+        I, Q components (complex formats; ``2 * count`` values) or real values, in the type
+        the file stores them in where SigMF names it (``int8``, ``int16``, ``float32``: no
+        decoding, no float copy), else decoded to ``float32``. The Q sign is not applied
+        (``info.q_sign`` says it)."""
+        stored = AS_STORED.get(self.source.sigmf_datatype)
+        if stored is None or self.source.samples_per_chunk != 1:
+            x = self.read(start, count)
+            x = np.conj(x) if self.is_complex and self.info.q_sign < 0 else x  # undo: the caller applies it
+            return x.view(np.float32) if self.is_complex else x.astype(np.float32, copy=False)
+        if start < 0 or count < 0:
+            raise ConfigError("start", f"sample range must be non-negative, got start {start}, count {count}")
+        count = max(0, min(count, self.n_samples - start))
+        bpc = self.source.bytes_per_chunk
+        raw = np.fromfile(self.path, dtype=np.uint8, count=count * bpc, offset=start * bpc)
+        return raw.view(stored).astype(np.dtype(stored).newbyteorder("="), copy=False)
 
     def blocks(self, block_samples: int, start: int = 0, stop: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
         """``(first_sample, samples)`` blocks of ``block_samples`` from ``start`` to ``stop``."""
