@@ -34,13 +34,15 @@ _ERA_START_WEEK = 2048
 class PositionTable:
     """One row per epoch with a solution: the columns of `POSITION_COLUMNS` (each ``(F,)``),
     the ECEF positions ``(F, 3)``, the recording time of each epoch ``(F,)``, the PRNs used
-    and the one excluded (0: none) per epoch."""
+    and the one excluded (0: none) per epoch, and the receiver clock drift ``(F,)`` (m/s,
+    NaN without Dopplers; None where not solved)."""
 
     columns: dict[str, np.ndarray]
     ecef_m: np.ndarray
     sample_time_s: np.ndarray
     used_prns: list[tuple[int, ...]]
     excluded_prn: np.ndarray
+    clock_drift_mps: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.sample_time_s.size)
@@ -117,7 +119,7 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
                "vel_u_mps": vel[:, 2], "clock_bias_m": bias, "n_sats": np.array([len(u) for u in used], dtype=int),
                "hdop": np.array([f.hdop for f in rows]), "vdop": np.array([f.vdop for f in rows])}
     return PositionTable(columns, np.array([f.position_ecef_m for f in rows]).reshape(-1, 3), obs.sample_time_s[e],
-                         used, np.array(excluded, dtype=int))
+                         used, np.array(excluded, dtype=int), np.array([f.clock_drift_mps for f in rows], float))
 
 
 def write_positions_csv(path: str | Path, table: PositionTable) -> Path:
