@@ -50,9 +50,9 @@ class PositionTable:
 
 def full_week(week10: int | None, reference_week: int | None = None) -> int:
     """The full GPS week of a 10-bit week: the one nearest ``reference_week``, else in the
-    era of weeks 2048-3071."""
+    era of weeks 2048-3071; without a decoded week, ``reference_week`` itself (-1: unknown)."""
     if week10 is None:
-        return -1
+        return -1 if reference_week is None else int(reference_week)
     if reference_week is not None:
         return int(reference_week + ((week10 - reference_week + 512) % 1024) - 512)
     return _ERA_START_WEEK + week10 % 1024
