@@ -145,3 +145,33 @@ def test_a_bad_nav_filter_name_is_refused_naming_the_option(name, message):
         assert "ekf-pv" in str(info.value)  # the closest name
     else:
         assert "ekf-pv" in str(info.value).split("those that can: ")[1]
+
+
+@pytest.mark.parametrize("elevation_weights", [True, False])
+def test_least_squares_weights_satisfy_their_normal_equations(elevation_weights):
+    """The fix leaves residuals orthogonal to the weighted geometry: sum w r [-u, 1] = 0 with
+    w = sin²(E) (the default) or 1 (``elevation_weights=False``, the RTKLIB comparison's)."""
+    from gnssframework.navigation.pvt import solve_position
+
+    nav = read_rinex_nav(DATA / "07590920.05n")
+    t_rx = 518_700.0
+    sel = nav.select(np.unique(nav.sv), t_rx)
+    up = STATION / np.linalg.norm(STATION)
+    los = satellite_state(sel, t_rx).position_m - STATION
+    sel = sel.subset(np.flatnonzero(los @ up / np.linalg.norm(los, axis=1) > np.sin(np.radians(10))))
+    geometric = np.linalg.norm(satellite_state(sel, t_rx - 0.07).position_m - STATION, axis=1)
+    clock = satellite_state(sel, t_rx - 0.07).clock_l1_s
+    rng = np.random.default_rng(3)
+    pr = geometric - C * clock + 100.0 + rng.standard_normal(sel.sv.size) * 3.0
+    tx = t_rx - geometric / C + clock
+    fix = solve_position(pr, tx, sel, sigma_m=3.0, elevation_mask_deg=0.0, false_alarm=1e-12,
+                         elevation_weights=elevation_weights)
+    el, az = np.radians(fix.elevation_deg), np.radians(fix.azimuth_deg)
+    u = np.stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)], axis=1)
+    w = np.sin(el) ** 2 if elevation_weights else np.ones(el.size)
+    H = np.hstack([-u, np.ones((el.size, 1))])
+    normal = H.T @ (w * fix.residuals_m)
+    # Gauss-Newton stops at a step under 0.1 mm: the normal equations hold to about that
+    # times the weights' sum; the residuals themselves are metres.
+    assert np.all(np.abs(normal) < 1e-3 * w.sum())
+    assert np.max(np.abs(fix.residuals_m)) > 0.5

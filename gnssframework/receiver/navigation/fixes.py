@@ -82,11 +82,13 @@ def _stack(records: list[Ephemerides]) -> Ephemerides:
 
 def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphere: bool = True,
                  troposphere: bool = False, iono: IonoUtc | None = None, sigma_m: float = 5.0,
-                 elevation_mask_deg: float = 5.0, reference_week: int | None = None) -> PositionTable:
+                 elevation_mask_deg: float = 5.0, reference_week: int | None = None,
+                 elevation_weights: bool = True) -> PositionTable:
     """Solve every epoch of ``obs`` (see the module text).
 
     ``iono`` overrides the decoded page 18; with ``ionosphere`` False no ionospheric
-    correction is made. Epochs with fewer than four usable satellites give no row.
+    correction is made; ``elevation_weights`` as `solve_position`'s. Epochs with fewer
+    than four usable satellites give no row.
     """
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
     week = full_week(obs.week, reference_week)
@@ -102,7 +104,8 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
         fix = solve_position(obs.pseudorange_m[e, idx], obs.transmit_s[e, idx], _stack([records[j] for j in have]),
                              doppler_hz=obs.doppler_hz[e, idx], iono=klobuchar, troposphere=troposphere,
                              sigma_m=sigma_m, elevation_mask_deg=elevation_mask_deg,
-                             initial_ecef_m=rows[-1].position_ecef_m if rows else None)
+                             initial_ecef_m=rows[-1].position_ecef_m if rows else None,
+                             elevation_weights=elevation_weights)
         if fix is None:
             continue
         rows.append(fix)
