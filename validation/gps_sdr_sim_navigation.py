@@ -22,8 +22,10 @@ chosen C/N0. The library then acquires, tracks, decodes and positions
   separately, from the RINEX file (``--ephemeris``: first fix after the first subframe):
   every healthy simulated satellite used, horizontal RMS error under 2 m and vertical under
   4 m against gps-sdr-sim's receiver position, velocity from the Dopplers within 0.2 m/s
-  RMS of the truth. ``--moving`` puts the receiver on a 100 m circle at 15 m/s (gps-sdr-sim's
-  user motion file) instead of the static point. gps-sdr-sim models Klobuchar and no
+  RMS of the truth; the same aims for the registry's ``ekf-pv`` run on the pseudoranges and
+  Dopplers from the first decoded fix (`filtered.filter_epochs`; its acceleration noise
+  set to the circle's when moving, ``v³/R``). ``--moving`` puts the
+  receiver on a 100 m circle at 15 m/s (gps-sdr-sim's user motion file) instead of the static point. gps-sdr-sim models Klobuchar and no
   troposphere: the solution applies Klobuchar (decoded page 18) and no troposphere;
 - RTKLIB, where ``rnx2rtkp`` is on PATH (Debian package ``rtklib``): its single-point
   solution (`RTKLIB_OPTIONS`: GPS only, broadcast ephemerides, Klobuchar from the navigation
@@ -60,6 +62,7 @@ from gps_sdr_sim_tracking import LOCATION, SIM_DIR, add_noise, parse_log  # noqa
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
+from gnssframework.receiver.navigation.filtered import filter_epochs  # noqa: E402
 from gnssframework.receiver.navigation.fixes import solve_epochs  # noqa: E402
 from gnssframework.receiver.navigation.receive import position_errors, receive  # noqa: E402
 from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs  # noqa: E402
@@ -284,8 +287,15 @@ def main(argv: list[str] | None = None) -> int:
               f"observations.rnx: {back.time.size} epochs read back by georinex, C1C within "
               f"{np.nanmax(np.abs(diff)) * 1e3:.2f} mm of the observables")
 
-        # 3. Positions: decoded ephemerides, then the RINEX file.
+        # 3. Positions: decoded ephemerides, ekf-pv on them, then the RINEX file. ekf-pv's white
+        # acceleration: its default (0.1 m²/s³) for the static receiver; on the circle, the
+        # white-noise equivalent of the centripetal acceleration a = v²/R seen by a
+        # constant-velocity model, Singer's 2 σ² τ with σ² = a²/2 per horizontal axis (a
+        # sinusoid) and τ = R/v (the turn's time scale): v³/R = 34 m²/s³.
+        accel_psd = CIRCLE_SPEED_MPS**3 / CIRCLE_RADIUS_M if args.moving else 0.1
         for name, table in (("decoded ephemerides", result.positions),
+                            ("ekf-pv from the first decoded fix", filter_epochs(
+                                obs, result.positions, "ekf-pv", {"accel_psd": accel_psd}, reference_week=week)),
                             ("RINEX --ephemeris", solve_epochs(obs, rinex, reference_week=week))):
             if table is None or len(table) == 0:
                 check(False, f"{name}: no fix")
