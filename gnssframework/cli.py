@@ -341,6 +341,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=args.week,
                          progress=progress if bar is not None else None, nav_filter=filters.nav_filter)
+        if bar is not None:  # the tracker reports up to its last block's start: the run is done
+            bar.update(bar.total - bar.n)
     finally:
         if bar is not None:
             bar.close()

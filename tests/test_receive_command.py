@@ -184,3 +184,32 @@ def test_receive_refuses_bad_options_with_one_line(recording, tmp_path, capsys, 
     assert main(["receive", str(path), "--out", str(tmp_path / "p"), *options]) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
+
+
+def test_progress_bar_on_a_terminal_only(recording, tmp_path, capsys, monkeypatch):  # noqa: F811
+    import sys
+
+    path, _ = recording
+
+    def run(out):
+        return main(["receive", str(path), "--out", str(tmp_path / out), "--ephemeris", str(NAV), "--week", str(WEEK),
+                     "--rate", "10"])
+
+    assert run("a") == 0
+    assert capsys.readouterr().err == ""  # captured stderr is no terminal: no bar
+    monkeypatch.setattr(type(sys.stderr), "isatty", lambda self: True, raising=False)
+    assert run("b") == 0
+    assert "100%" in capsys.readouterr().err
+
+
+def test_a_missing_or_broken_config_file_is_named(tmp_path):
+    from gnssframework.errors import DataFileError
+
+    with pytest.raises(DataFileError) as info:
+        load_receiver_config(tmp_path / "none.toml")
+    assert "none.toml" in str(info.value)
+    broken = tmp_path / "broken.toml"
+    broken.write_text('[nav_filter]\nname = "ekf-pv"\nparams = { accel_psd = }\n')
+    with pytest.raises(DataFileError) as info:
+        load_receiver_config(broken)
+    assert "broken.toml" in str(info.value) and "line 3" in str(info.value)

@@ -175,3 +175,20 @@ def test_least_squares_weights_satisfy_their_normal_equations(elevation_weights)
     # times the weights' sum; the residuals themselves are metres.
     assert np.all(np.abs(normal) < 1e-3 * w.sum())
     assert np.max(np.abs(fix.residuals_m)) > 0.5
+
+
+def test_ekf_pva_runs_through_the_same_harness():
+    """ekf-pva (11 states, acceleration after the clock) takes the 8-state prior and the
+    same measurements: a receiver at rest is found within the noise."""
+    rng = np.random.default_rng(11)
+    az, el = np.radians([0, 60, 130, 200, 270, 320]), np.radians([70, 20, 45, 30, 15, 55])
+    u = np.stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)], axis=1)
+    sat = 2.6e7 * u
+    epochs = [EpochMeasurements(sat, np.zeros((6, 3)), np.linalg.norm(sat, axis=1) + 50.0 + rng.standard_normal(6),
+                                rng.standard_normal(6) * 0.1, np.ones(6), np.full(6, 0.01)) for _ in range(30)]
+    x0 = np.r_[3.0, -2.0, 4.0, 0.0, 0.0, 0.0, 45.0, 0.0]
+    states = run_nav_filter(registry.create("nav_filter", "ekf-pva"), 1.0, x0, np.diag([25.0] * 3 + [1.0] * 3 + [100.0, 1.0]),
+                            epochs)
+    assert states.shape == (30, 8) and np.all(np.isfinite(states))
+    # 30 epochs of 1 m ranges from six satellites: the position to about a metre.
+    assert np.linalg.norm(states[-1, :3]) < 3.0
