@@ -316,11 +316,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     except json.JSONDecodeError as exc:
         raise ConfigError("--channel-params", f"not JSON: {exc.msg}") from None
     filters = receiver_filters(args.config, args.channel_filter, channel_params, args.nav_filter)
-    if filters.channel_filter is not None:
-        args.channel_filter = filters.channel_filter.name
-        args.channel_params = json.dumps(filters.channel_filter.params)
-    else:
-        args.channel_filter = "scalar"
+    args.channel_filter = filters.channel_filter.name
+    args.channel_params = json.dumps(filters.channel_filter.params)
     config = _tracking_config_from_args(args)
     if not args.rate > 0:
         raise ConfigError("--rate", f"must be > 0 Hz, got {args.rate}")

@@ -147,7 +147,8 @@ def test_the_nav_filter_option_runs_the_filter_and_says_so(recording, tmp_path, 
     assert _run(path, tmp_path / "out", "--config", str(config)) == 0
     out = capsys.readouterr().out
     assert "channel filter scalar, nav filter ekf-pv" in out
-    assert "nav filter ekf-pv" in (tmp_path / "out" / "report.md").read_text()
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "nav filter ekf-pv" in report and "the least-squares fixes of the same run" in report
 
 
 def test_position_is_the_same_command(recording, tmp_path, capsys):  # noqa: F811
@@ -161,7 +162,8 @@ def test_position_is_the_same_command(recording, tmp_path, capsys):  # noqa: F81
     ('[nav_filter]\nname = "ekf-pv"\nparams = { accel_psd = -1 }\n', "nav_filter.params.accel_psd"),
     ('[nav_filter]\nname = "ekf-p"\n', "did you mean 'ekf-pv'"),
     ('nav_filter = "position-ca"\n', "nav_filter.name: nav_filter 'position-ca' cannot run on pseudoranges"),
-    ('[channel_filter]\nname = "scalar"\nparams = { pll_bandwidth_hz = 0 }\n', "channel_filter.params.pll_bandwidth_hz"),
+    ('[channel_filter]\nname = "scalar"\nparams = { pll_bandwidth_hz = 0 }\n',
+     "channel_filter.params.pll_bandwidth_hz"),
     ('[navfilter]\nname = "ekf-pv"\n', "navfilter: unknown parameter; valid: channel_filter, nav_filter"),
 ])
 def test_a_bad_receiver_config_names_the_field(tmp_path, text, message):

@@ -187,8 +187,8 @@ def test_ekf_pva_runs_through_the_same_harness():
     epochs = [EpochMeasurements(sat, np.zeros((6, 3)), np.linalg.norm(sat, axis=1) + 50.0 + rng.standard_normal(6),
                                 rng.standard_normal(6) * 0.1, np.ones(6), np.full(6, 0.01)) for _ in range(30)]
     x0 = np.r_[3.0, -2.0, 4.0, 0.0, 0.0, 0.0, 45.0, 0.0]
-    states = run_nav_filter(registry.create("nav_filter", "ekf-pva"), 1.0, x0, np.diag([25.0] * 3 + [1.0] * 3 + [100.0, 1.0]),
-                            epochs)
+    P0 = np.diag([25.0] * 3 + [1.0] * 3 + [100.0, 1.0])
+    states = run_nav_filter(registry.create("nav_filter", "ekf-pva"), 1.0, x0, P0, epochs)
     assert states.shape == (30, 8) and np.all(np.isfinite(states))
     # 30 epochs of 1 m ranges from six satellites: the position to about a metre.
     assert np.linalg.norm(states[-1, :3]) < 3.0

@@ -24,9 +24,10 @@ chosen C/N0. The library then acquires, tracks, decodes and positions
   4 m against gps-sdr-sim's receiver position, velocity from the Dopplers within 0.2 m/s
   RMS of the truth; the same aims for the registry's ``ekf-pv`` run on the pseudoranges and
   Dopplers from the first decoded fix (`filtered.filter_epochs`; its acceleration noise
-  set to the circle's when moving, ``v³/R``). ``--moving`` puts the
-  receiver on a 100 m circle at 15 m/s (gps-sdr-sim's user motion file) instead of the static point. gps-sdr-sim models Klobuchar and no
-  troposphere: the solution applies Klobuchar (decoded page 18) and no troposphere;
+  set to the circle's when moving, ``v³/R``). ``--moving`` puts the receiver on a 100 m
+  circle at 15 m/s (gps-sdr-sim's user motion file) instead of the static point.
+  gps-sdr-sim models Klobuchar and no troposphere: the solution applies Klobuchar (decoded
+  page 18) and no troposphere;
 - RTKLIB, where ``rnx2rtkp`` is on PATH (Debian package ``rtklib``): its single-point
   solution (`RTKLIB_OPTIONS`: GPS only, broadcast ephemerides, Klobuchar from the navigation
   file's header, no troposphere, 5 degree mask as ours, no RAIM) on the RINEX 3.04 file

@@ -169,7 +169,8 @@ def start_nav_filter(nav: NavFilter, interval_s: float, initial_state: np.ndarra
     """Reset ``nav`` for one run at ``interval_s`` between epochs from the 8-state estimate
     ``initial_state`` ``(8,)`` (at the first epoch it will be given) and ``initial_cov``."""
     context = RunContext(coherent_time_s=interval_s, epoch_interval_s=interval_s,
-                         initial_state=np.asarray(initial_state, float)[None], initial_cov=np.asarray(initial_cov, float))
+                         initial_state=np.asarray(initial_state, float)[None],
+                         initial_cov=np.asarray(initial_cov, float))
     nav.reset((1,), context)
 
 

@@ -31,6 +31,7 @@ from ...errors import ConfigError, DataFileError
 from ...io.text import read_input_text
 from ...plugin import validation_message
 from ...plugin_ref import ComponentRef, PluginSpec
+from ..channels.config import TrackingConfig
 from .filtered import check_nav_filter
 
 __all__ = ["ReceiverFilters", "load_receiver_config", "receiver_filters"]
@@ -94,7 +95,8 @@ def receiver_filters(config: str | Path | None = None, channel_filter: str | Non
                      channel_params: dict[str, Any] | None = None, nav_filter: str | None = None
                      ) -> ReceiverFilters:
     """The filters of a run: the file's, overridden by the options ``channel_filter``
-    (with ``channel_params``) and ``nav_filter`` where given.
+    (with ``channel_params``) and ``nav_filter`` where given; the channel filter defaults
+    to `TrackingConfig`'s, the nav filter to None (least squares).
 
     Raises
     ------
@@ -105,7 +107,8 @@ def receiver_filters(config: str | Path | None = None, channel_filter: str | Non
     chosen = load_receiver_config(config) if config is not None else ReceiverFilters()
     updates: dict[str, Any] = {}
     if channel_filter is not None or channel_params:
-        name = channel_filter or (chosen.channel_filter.name if chosen.channel_filter else "scalar")
+        name = channel_filter or (chosen.channel_filter.name if chosen.channel_filter else
+                                  TrackingConfig.model_fields["channel_filter"].default)
         try:
             registry.get("channel_filter", name)
         except ConfigError as exc:
@@ -117,4 +120,8 @@ def receiver_filters(config: str | Path | None = None, channel_filter: str | Non
         check_nav_filter(nav_filter, "--nav-filter")
         same = chosen.nav_filter is not None and chosen.nav_filter.name == nav_filter
         updates["nav_filter"] = chosen.nav_filter if same else PluginSpec("nav_filter", nav_filter, {})
-    return chosen.model_copy(update=updates)
+    chosen = chosen.model_copy(update=updates)
+    if chosen.channel_filter is None:  # the tracking stages' own default
+        default = PluginSpec("channel_filter", TrackingConfig.model_fields["channel_filter"].default, {})
+        chosen = chosen.model_copy(update={"channel_filter": default})
+    return chosen

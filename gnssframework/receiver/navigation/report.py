@@ -7,6 +7,8 @@ errors against a known position when one is given, and four figures in ``plots/`
 plot (each used satellite's azimuth and elevation over the run, from its ephemeris seen
 from the solutions), C/N0 and lock over time per PRN, the position track (east/north about
 the truth, else about the mean) and, with a truth, the east/north/up errors over time.
+When a navigation filter gave the positions, the least-squares fixes' errors are given
+beside its own.
 """
 
 from __future__ import annotations
@@ -59,6 +61,7 @@ def write_receive_report(out_dir: str | Path, result: ReceiveResult, table: Posi
     plots.mkdir(parents=True, exist_ok=True)
     sky = sky_tracks(result, table, rinex)
     err = position_errors(table, truth_lat_lon_h) if truth_lat_lon_h is not None else None
+    wls = result.least_squares
     figures = _figures(plots, result, table, sky, err, truth_lat_lon_h)
     c = table.columns
     used_count: dict[int, int] = {}
@@ -79,6 +82,11 @@ def write_receive_report(out_dir: str | Path, result: ReceiveResult, table: Posi
         v_rms = float(np.sqrt(np.mean(err[:, 2] ** 2)))
         lines.append(f"- against the truth {truth_lat_lon_h[0]:.7f}, {truth_lat_lon_h[1]:.7f}, "
                      f"{truth_lat_lon_h[2]:.2f} m: horizontal RMS {h_rms:.2f} m, vertical RMS {v_rms:.2f} m")
+        if wls is not None and wls is not table and len(wls):  # a nav filter ran: the least squares beside it
+            e_wls = position_errors(wls, truth_lat_lon_h)
+            lines.append(f"- the least-squares fixes of the same run ({len(wls)}): horizontal RMS "
+                         f"{np.sqrt(np.mean(np.sum(e_wls[:, :2] ** 2, axis=1))):.2f} m, vertical RMS "
+                         f"{np.sqrt(np.mean(e_wls[:, 2] ** 2)):.2f} m")
     lines += ["", "## Satellites", "",
               "| PRN | epochs used | C/N0 locked (dB-Hz) | locked | elevation (deg) | azimuth (deg) | ephemeris |",
               "|---:|---:|---:|---:|---:|---:|---|"]
@@ -91,7 +99,8 @@ def write_receive_report(out_dir: str | Path, result: ReceiveResult, table: Posi
         decoded = obs.ephemeris.get(prn) if obs is not None else None
         source = (f"decoded at {decoded[0][0]:.1f} s" if decoded else "") + \
                  (" + RINEX" if rinex is not None and prn in used_count and not decoded else "")
-        lines.append(f"| {prn} | {used_count.get(prn, 0)} | {_fmt(cn0)} | {100 * lock.mean() if lock.size else 0:.0f} % "
+        locked = 100 * lock.mean() if lock.size else 0.0
+        lines.append(f"| {prn} | {used_count.get(prn, 0)} | {_fmt(cn0)} | {locked:.0f} % "
                      f"| {_fmt(el[first[0]] if first.size else np.nan)} | "
                      f"{_fmt(az[first[0]] if first.size else np.nan)} | {source.strip(' +') or '-'} |")
     lines += ["", "## Figures", ""] + [f"![{p.stem.replace('_', ' ')}](plots/{p.name})" for p in figures] + [""]
