@@ -282,33 +282,67 @@ def _cmd_track(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_position(args: argparse.Namespace) -> int:
+def _truth_from_args(args: argparse.Namespace) -> tuple[float, float, float] | None:
+    if not args.truth:
+        return None
+    try:
+        truth = tuple(float(v) for v in args.truth.split(","))
+    except ValueError:
+        truth = ()
+    if len(truth) != 3:
+        raise ConfigError("--truth", f"LAT,LON,H in degrees and metres, got {args.truth!r}")
+    return truth
+
+
+def _cmd_receive(args: argparse.Namespace) -> int:
+    import json
+
     import numpy as np
 
     from .navigation.ephemeris import read_rinex_nav
+    from .receiver.acquisition.report import search_summary
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import write_nmea
     from .receiver.navigation.receive import position_errors, receive
+    from .receiver.navigation.receiver_config import receiver_filters
+    from .receiver.navigation.report import write_receive_report
     from .receiver.navigation.rinex_obs import write_rinex_obs
-    from .receiver.acquisition.report import search_summary
 
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     prns = _prns_from_args(args)
+    try:
+        channel_params = json.loads(args.channel_params) if args.channel_params else None
+    except json.JSONDecodeError as exc:
+        raise ConfigError("--channel-params", f"not JSON: {exc.msg}") from None
+    filters = receiver_filters(args.config, args.channel_filter, channel_params, args.nav_filter)
+    args.channel_filter = filters.channel_filter.name
+    args.channel_params = json.dumps(filters.channel_filter.params)
     config = _tracking_config_from_args(args)
     if not args.rate > 0:
         raise ConfigError("--rate", f"must be > 0 Hz, got {args.rate}")
-    truth = None
-    if args.truth:
-        try:
-            truth = tuple(float(v) for v in args.truth.split(","))
-        except ValueError:
-            truth = ()
-        if len(truth) != 3:
-            raise ConfigError("--truth", f"LAT,LON,H in degrees and metres, got {args.truth!r}")
+    if args.week is not None and not 0 <= args.week < 10_000:
+        raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
+    truth = _truth_from_args(args)
     rinex = read_rinex_nav(args.ephemeris) if args.ephemeris else None
-    result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
-                     ionosphere=not args.no_iono, troposphere=args.troposphere)
+    bar = None
+    if not args.quiet and sys.stderr.isatty():  # a progress bar is for a terminal, not a log
+        from tqdm import tqdm
+
+        bar = tqdm(total=100, desc=Path(args.recording).name, unit="%")
+
+    def progress(fraction: float) -> None:
+        bar.update(round(100 * fraction) - bar.n)
+
+    try:
+        result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
+                         ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=args.week,
+                         progress=progress if bar is not None else None, nav_filter=filters.nav_filter)
+        if bar is not None:  # the tracker reports up to its last block's start: the run is done
+            bar.update(bar.total - bar.n)
+    finally:
+        if bar is not None:
+            bar.close()
     if not result.tracking.channels:
         print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
               "the format (--format) and --doppler-max; no position")
@@ -331,15 +365,22 @@ def _cmd_position(args: argparse.Namespace) -> int:
         written += [write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1]),
                     write_nmea(out / "nmea.txt", table, leap)]
     else:
-        print("note: no subframe 1 decoded, so the GPS week is unknown: no observations.rnx or nmea.txt")
-    print(f"{len(table)} fixes from {table.sample_time_s[0]:.1f} s into the recording (GPS week {int(c['gps_week'][0])}"
-          f", tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} satellites; last "
-          f"{c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP {c['hdop'][-1]:.2f}")
+        print("note: no subframe 1 decoded, so the GPS week is unknown: no observations.rnx or nmea.txt "
+              "(give it with --week)")
+    nav_name = filters.nav_filter.name if filters.nav_filter is not None else None
+    used = (f"channel filter {config.channel_filter}, "
+            + (f"nav filter {nav_name} from the first least-squares fix" if nav_name else
+               "least squares per epoch"))
+    written += write_receive_report(out, result, table, truth, rinex, f"Filters: {used}.")
+    print(f"{len(table)} fixes ({used}) from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
+          f"{int(c['gps_week'][0])}, tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} "
+          f"satellites; last {c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP "
+          f"{c['hdop'][-1]:.2f}")
     if truth is not None:
         err = position_errors(table, truth)
         print(f"against --truth: horizontal RMS {np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))):.2f} m, "
               f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m")
-    print(f"wrote {', '.join(str(p) for p in written)}")
+    print(f"wrote {', '.join(str(p) for p in written if p.parent == out)} and {out / 'plots'}/")
     return 0
 
 
@@ -495,23 +536,33 @@ def build_parser() -> argparse.ArgumentParser:
                    help="early-to-late correlator spacing (default 1.0)")
     p.add_argument("--no-plots", action="store_true", help="no plots")
     p.set_defaults(func=_cmd_track)
-    p = sub.add_parser("position", help="positions from a recording: acquire, track, decode LNAV, solve each epoch",
+    p = sub.add_parser("receive", aliases=["position"],
+                       help="positions from a recording: acquire, track, decode LNAV, solve each epoch",
                        description="Acquire and track (as track does), decode each satellite's LNAV (TOW, ephemeris, "
                                    "Klobuchar), form pseudoranges and Dopplers at common epochs and solve each epoch "
-                                   "(weighted least squares, one bad satellite excluded). Writes DIR/positions.csv, "
-                                   "DIR/observations.rnx (RINEX 3.04) and DIR/nmea.txt (GGA, RMC). "
+                                   "(weighted least squares, one bad satellite excluded) or, with --nav-filter, run a "
+                                   "registered navigation filter on them from the first fix. Writes DIR/positions.csv, "
+                                   "DIR/observations.rnx (RINEX 3.04), DIR/nmea.txt (GGA, RMC), DIR/report.md and "
+                                   "DIR/plots/. `position` is the same command (its former name). "
                                    "Exit 1 when no position is found, 2 for bad options or files.")
     _add_recording_options(p)
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--duration", type=float, metavar="S", help="seconds of the recording to use (default: all)")
-    p.add_argument("--channel-filter", default="scalar", help="channel_filter plugin (default %(default)s)")
+    p.add_argument("--config", metavar="TOML", help="receiver config: [channel_filter] and [nav_filter], each "
+                                                    "{name, params} (the options below override it)")
+    p.add_argument("--channel-filter", metavar="NAME", help="channel_filter plugin (default scalar)")
     p.add_argument("--channel-params", metavar="JSON", help="its parameters")
+    p.add_argument("--nav-filter", metavar="NAME", help="nav_filter plugin run on the pseudoranges and Dopplers, "
+                                                        "e.g. ekf-pv (default: least squares per epoch)")
     p.add_argument("--rate", type=float, default=1.0, metavar="HZ", help="solutions per second (default 1)")
     p.add_argument("--ephemeris", metavar="NAV", help="RINEX navigation file for satellites not yet decoded")
+    p.add_argument("--week", type=int, metavar="WEEK", help="full GPS week of the recording (places the decoded "
+                                                            "10-bit week; needed without a decoded subframe 1)")
     p.add_argument("--no-iono", action="store_true", help="no Klobuchar correction")
     p.add_argument("--troposphere", action="store_true", help="apply the Saastamoinen troposphere")
-    p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print the errors")
-    p.set_defaults(func=_cmd_position)
+    p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print and report the errors")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_receive)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
     p.set_defaults(func=_cmd_schema)
     return parser

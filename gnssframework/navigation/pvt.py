@@ -135,7 +135,8 @@ def _enu_rotation(lat_deg: float, lon_deg: float) -> np.ndarray:
                      [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)]])
 
 
-def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s, x0, mask_deg):
+def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s, x0, mask_deg,
+                   elevation_weights=True):
     """Gauss-Newton on (x, y, z, b) with the satellites ``keep``; returns the state, the
     weighted residuals' chi-square, residuals, unit vectors, elevations and azimuths."""
     x = x0.copy()
@@ -161,7 +162,7 @@ def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s
             if troposphere:
                 corr = corr + troposphere_delay_m(lat, h, el)
             use = keep & (el >= mask_deg)
-            w = np.sin(np.radians(np.maximum(el, 1.0))) ** 2 / sigma_m**2
+            w = (np.sin(np.radians(np.maximum(el, 1.0))) ** 2 if elevation_weights else np.ones(S)) / sigma_m**2
         else:
             w = np.full(S, 1.0 / sigma_m**2)
         if use.sum() < 4:
@@ -181,7 +182,7 @@ def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s
 def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris: Ephemerides, *,
                    doppler_hz: np.ndarray | None = None, iono: IonoUtc | None = None, troposphere: bool = False,
                    sigma_m: float = 5.0, elevation_mask_deg: float = 5.0, false_alarm: float = 1e-3,
-                   initial_ecef_m: np.ndarray | None = None) -> PositionFix | None:
+                   initial_ecef_m: np.ndarray | None = None, elevation_weights: bool = True) -> PositionFix | None:
     """Position, velocity and clock of one epoch.
 
     Parameters
@@ -205,6 +206,10 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
         Probability of the residual test rejecting a fault-free solution.
     initial_ecef_m
         Starting point (default the Earth's centre).
+    elevation_weights
+        Weights ``sin²(E) / σ²`` (default); False: ``1 / σ²`` for every satellite (the
+        weighting of a comparison with a solver that weights nearly equally, as RTKLIB's
+        single-point solution with broadcast URA does).
 
     Returns
     -------
@@ -228,7 +233,7 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
     x0 = np.zeros(4) if initial_ecef_m is None else np.r_[np.asarray(initial_ecef_m, float), 0.0]
     prz = np.where(keep, pr, 0.0)
     args = (prz, state.position_m, clock_m)
-    sol = _least_squares(*args, keep, sigma_m, iono, troposphere, tow, x0, elevation_mask_deg)
+    sol = _least_squares(*args, keep, sigma_m, iono, troposphere, tow, x0, elevation_mask_deg, elevation_weights)
     if sol is None:
         return None
     excluded = None
@@ -238,7 +243,8 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
         for j in np.flatnonzero(sol[6]):
             k = keep.copy()
             k[j] = False
-            trial = _least_squares(*args, k, sigma_m, iono, troposphere, tow, sol[0], elevation_mask_deg)
+            trial = _least_squares(*args, k, sigma_m, iono, troposphere, tow, sol[0], elevation_mask_deg,
+                                   elevation_weights)
             if trial is not None:
                 trials[int(j)] = trial
         if trials:

@@ -34,13 +34,15 @@ _ERA_START_WEEK = 2048
 class PositionTable:
     """One row per epoch with a solution: the columns of `POSITION_COLUMNS` (each ``(F,)``),
     the ECEF positions ``(F, 3)``, the recording time of each epoch ``(F,)``, the PRNs used
-    and the one excluded (0: none) per epoch."""
+    and the one excluded (0: none) per epoch, and the receiver clock drift ``(F,)`` (m/s,
+    NaN without Dopplers; None where not solved)."""
 
     columns: dict[str, np.ndarray]
     ecef_m: np.ndarray
     sample_time_s: np.ndarray
     used_prns: list[tuple[int, ...]]
     excluded_prn: np.ndarray
+    clock_drift_mps: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.sample_time_s.size)
@@ -48,9 +50,9 @@ class PositionTable:
 
 def full_week(week10: int | None, reference_week: int | None = None) -> int:
     """The full GPS week of a 10-bit week: the one nearest ``reference_week``, else in the
-    era of weeks 2048-3071."""
+    era of weeks 2048-3071; without a decoded week, ``reference_week`` itself (-1: unknown)."""
     if week10 is None:
-        return -1
+        return -1 if reference_week is None else int(reference_week)
     if reference_week is not None:
         return int(reference_week + ((week10 - reference_week + 512) % 1024) - 512)
     return _ERA_START_WEEK + week10 % 1024
@@ -80,11 +82,13 @@ def _stack(records: list[Ephemerides]) -> Ephemerides:
 
 def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphere: bool = True,
                  troposphere: bool = False, iono: IonoUtc | None = None, sigma_m: float = 5.0,
-                 elevation_mask_deg: float = 5.0, reference_week: int | None = None) -> PositionTable:
+                 elevation_mask_deg: float = 5.0, reference_week: int | None = None,
+                 elevation_weights: bool = True) -> PositionTable:
     """Solve every epoch of ``obs`` (see the module text).
 
     ``iono`` overrides the decoded page 18; with ``ionosphere`` False no ionospheric
-    correction is made. Epochs with fewer than four usable satellites give no row.
+    correction is made; ``elevation_weights`` as `solve_position`'s. Epochs with fewer
+    than four usable satellites give no row.
     """
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
     week = full_week(obs.week, reference_week)
@@ -100,7 +104,8 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
         fix = solve_position(obs.pseudorange_m[e, idx], obs.transmit_s[e, idx], _stack([records[j] for j in have]),
                              doppler_hz=obs.doppler_hz[e, idx], iono=klobuchar, troposphere=troposphere,
                              sigma_m=sigma_m, elevation_mask_deg=elevation_mask_deg,
-                             initial_ecef_m=rows[-1].position_ecef_m if rows else None)
+                             initial_ecef_m=rows[-1].position_ecef_m if rows else None,
+                             elevation_weights=elevation_weights)
         if fix is None:
             continue
         rows.append(fix)
@@ -117,7 +122,7 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
                "vel_u_mps": vel[:, 2], "clock_bias_m": bias, "n_sats": np.array([len(u) for u in used], dtype=int),
                "hdop": np.array([f.hdop for f in rows]), "vdop": np.array([f.vdop for f in rows])}
     return PositionTable(columns, np.array([f.position_ecef_m for f in rows]).reshape(-1, 3), obs.sample_time_s[e],
-                         used, np.array(excluded, dtype=int))
+                         used, np.array(excluded, dtype=int), np.array([f.clock_drift_mps for f in rows], float))
 
 
 def write_positions_csv(path: str | Path, table: PositionTable) -> Path:

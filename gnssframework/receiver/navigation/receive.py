@@ -3,7 +3,9 @@
 The software receiver's navigation half, one function: :func:`receive` acquires and tracks
 the recording (`gnssframework.receiver.channels.SampleTracker`), decodes every channel's
 LNAV and its transmit times (`observables.channel_timing`), forms the observables at
-common epochs and solves each epoch (`fixes.solve_epochs`).
+common epochs and solves each epoch (`fixes.solve_epochs`); with a ``nav_filter`` (a
+registry reference), that filter runs on the pseudoranges and Dopplers from the first
+fix on (`filtered.filter_epochs`) and gives the positions.
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ from ..acquisition.search import Acquisition
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..frontend.recording import Recording
 from ...navigation.ephemeris import Ephemerides
+from ...plugin_ref import PluginSpec
+from .filtered import filter_epochs
 from .fixes import PositionTable, solve_epochs
 from .observables import Observables, channel_timing, observables
 
@@ -27,19 +31,24 @@ __all__ = ["ReceiveResult", "receive", "position_errors"]
 
 @dataclass(frozen=True)
 class ReceiveResult:
-    """The tracking, the observables (None when no channel decoded a subframe) and the fixes."""
+    """The tracking, the observables (None when no channel decoded a subframe) and the
+    positions: the nav filter's when one was given, else the least-squares fixes (those
+    are ``least_squares`` in both cases)."""
 
     tracking: TrackingResult
     observables: Observables | None
     positions: PositionTable | None
+    least_squares: PositionTable | None = None
 
 
 def receive(recording: Recording, acquisition: Acquisition, config: TrackingConfig, *,
             prns: tuple[int, ...] | None = None, duration_s: float | None = None, rate_hz: float = 1.0,
             rinex: Ephemerides | None = None, ionosphere: bool = True, troposphere: bool = False,
-            reference_week: int | None = None, progress: Any = None) -> ReceiveResult:
+            reference_week: int | None = None, progress: Any = None,
+            nav_filter: PluginSpec | None = None) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
-    satellites whose own have not been decoded yet."""
+    satellites whose own have not been decoded yet; ``progress`` is called with the
+    fraction of the recording tracked."""
     found = [r for r in acquire_recording(recording, acquisition, prns or tuple(range(1, 33))) if r.detected]
     tracking = SampleTracker(recording, config, acquisition).run(found, duration_s, progress)
     timings = [channel_timing(ch) for ch in tracking.channels.values()]
@@ -47,7 +56,11 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
         return ReceiveResult(tracking, None, None)
     obs = observables(timings, rate_hz)
     table = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere, reference_week=reference_week)
-    return ReceiveResult(tracking, obs, table)
+    if nav_filter is None:
+        return ReceiveResult(tracking, obs, table, table)
+    filtered = filter_epochs(obs, table, nav_filter.name, nav_filter.params, rinex, ionosphere=ionosphere,
+                             troposphere=troposphere, reference_week=reference_week)
+    return ReceiveResult(tracking, obs, filtered, table)
 
 
 def position_errors(table: PositionTable, truth_lat_lon_h: tuple[float, float, float]) -> np.ndarray:

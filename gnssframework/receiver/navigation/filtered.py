@@ -1,0 +1,296 @@
+"""Positions from a registry ``nav_filter`` run on the observables' pseudoranges and Dopplers.
+
+The weighted least squares of `fixes.solve_epochs` solves every epoch alone; a navigation
+filter (``ekf-pv`` first: its state ``[x, y, z, vx, vy, vz, b, d]`` in ECEF metres, clock
+bias and drift in metres) carries position and velocity from epoch to epoch. It is fed as
+a vector loop feeds it (`gnssframework.receiver.tracking.vector`), with the channel errors
+zero and the replica range and rate replaced by the measurements themselves, corrected as
+the least squares corrects them (`gnssframework.navigation.pvt`):
+
+- satellite time to GPS time with the SV clock (polynomial, relativity, T_GD; IS-GPS-200
+  20.3.3.3.3.1-2), the satellite's position and velocity at transmit time rotated by
+  ``-ω_e τ`` into the ECEF frame of the receive time (20.3.3.4.3.3.2);
+- Klobuchar and, switchable, the troposphere at the filter's last position, so that
+  ``ρ_c = ρ + c Δt_SV - I - T = |s - r| + b`` and ``-λ D + c Δṫ_SV = (v_s - v)·e + d``,
+  the ``h(x)`` of ``ekf-pv`` (Zou et al. 2018, eqs. 35-36);
+- variances ``(σ / sin E)²``, the least squares' weights, as the filter's R.
+
+The filter starts from the first least-squares fix (position, velocity, clock) with a
+covariance from that fix's dilution of precision, then steps at every epoch of the
+observables' grid with the satellites the least squares used there (so its residual-based
+exclusion carries over) or, at an epoch it did not solve, every satellite with a healthy
+ephemeris above the mask. An epoch without any such satellite ends the run; the filter
+restarts at the next least-squares fix.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pymap3d
+
+from ... import names, registry
+from ...errors import ConfigError
+from ...interfaces import NavFilter, RunContext
+from ...navigation.ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
+from ...navigation.lnav import IonoUtc
+from ...navigation.pvt import dop, klobuchar_delay_s, troposphere_delay_m
+from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M, SPEED_OF_LIGHT_M_S
+from .fixes import PositionTable, full_week
+from .fixes import _ephemeris_for as ephemeris_for, _stack as stack_records
+from .observables import Observables
+
+__all__ = ["EpochMeasurements", "MEASUREMENT_INPUTS", "NAV_STATE_OUTPUTS", "check_nav_filter", "corrected_measurements",
+           "run_nav_filter", "filter_epochs"]
+
+#: What this harness gives a nav filter at each epoch: the vector loop's harness inputs
+#: and a channel filter's outputs (zero errors with the measurement variances).
+MEASUREMENT_INPUTS = (names.SAT_POS_M, names.SAT_VEL_M_S, names.NEXT_SAT_POS_M, names.NEXT_SAT_VEL_M_S,
+                      names.REPLICA_RANGE_M, names.REPLICA_RATE_M_S, names.CODE_ERROR_CHIPS,
+                      names.CODE_ERROR_VAR_CHIPS2, names.FREQ_ERROR_HZ, names.FREQ_ERROR_VAR_HZ2)
+#: What it reads back: ECEF position and velocity, clock bias and drift.
+NAV_STATE_OUTPUTS = (names.POSITION_M, names.VELOCITY_M_S, names.CLOCK_M)
+
+
+@dataclass(frozen=True)
+class EpochMeasurements:
+    """One epoch's corrected measurements of ``S`` satellites.
+
+    ``sat_pos_m``, ``sat_vel_m_s`` ``(S, 3)`` in the ECEF frame of the receive time;
+    ``range_m`` ``(S,)`` the pseudorange plus the SV clock, minus ionosphere and troposphere
+    (``|s - r| + b``); ``rate_m_s`` ``(S,)`` ``-λ D`` plus the SV clock drift
+    (``(v_s - v)·e + d``); ``range_var_m2``, ``rate_var_m2_s2`` ``(S,)`` their variances.
+    """
+
+    sat_pos_m: np.ndarray
+    sat_vel_m_s: np.ndarray
+    range_m: np.ndarray
+    rate_m_s: np.ndarray
+    range_var_m2: np.ndarray
+    rate_var_m2_s2: np.ndarray
+
+
+def check_nav_filter(name: str, option: str = "--nav-filter") -> None:
+    """Refuse a registered nav_filter that cannot run on pseudoranges and Dopplers: one
+    that needs an input this harness does not give, or gives no position, velocity and
+    clock.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``option`` and the registered filters that fit.
+    """
+    try:
+        cls = registry.get("nav_filter", name)
+    except ConfigError as exc:
+        raise ConfigError(option, exc.detail) from None
+    fits = [n for n in registry.names("nav_filter") if not _misfit(registry.get("nav_filter", n))]
+    why = _misfit(cls)
+    if why:
+        raise ConfigError(option, f"nav_filter {name!r} cannot run on pseudoranges and Dopplers: {why}; those that "
+                                  f"can: {', '.join(fits) or '(none registered)'}")
+
+
+def _misfit(cls: type) -> str:
+    unmet = [n for n in getattr(cls, "requires", ()) if n not in MEASUREMENT_INPUTS]
+    if unmet:
+        return f"it needs {', '.join(unmet)}"
+    missing = [n for n in NAV_STATE_OUTPUTS if n not in getattr(cls, "provides", ())]
+    return f"it does not provide {', '.join(missing)}" if missing else ""
+
+
+def _rotate_z(v: np.ndarray, theta_rad: np.ndarray) -> np.ndarray:
+    """Rows of ``v`` rotated by ``-theta`` about the z axis (a frame ``theta / ω_e`` later)."""
+    c, s = np.cos(theta_rad), np.sin(theta_rad)
+    return np.stack([c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1], v[:, 2]], axis=-1)
+
+
+def corrected_measurements(pseudorange_m: np.ndarray, transmit_s: np.ndarray, doppler_hz: np.ndarray,
+                           ephemeris: Ephemerides, receiver_ecef_m: np.ndarray, *, iono: IonoUtc | None = None,
+                           troposphere: bool = False, sigma_m: float = 5.0, sigma_rate_m_s: float = 0.5,
+                           elevation_mask_deg: float = 5.0) -> tuple[EpochMeasurements, np.ndarray]:
+    """Correct one epoch's measurements at the receiver position ``receiver_ecef_m`` (see the
+    module text).
+
+    Parameters
+    ----------
+    pseudorange_m, transmit_s, doppler_hz
+        ``(S,)`` as `Observables` holds them (transmit time: satellite time of week).
+    ephemeris
+        ``S`` records in the same order.
+    receiver_ecef_m
+        ``(3,)`` where the light time, elevations and delays are evaluated.
+    sigma_m, sigma_rate_m_s
+        Zenith standard deviations of the pseudorange and the range rate.
+
+    Returns
+    -------
+    The measurements of the satellites above ``elevation_mask_deg`` with a Doppler, and
+    the boolean ``(S,)`` mask of those satellites.
+    """
+    pr, tx, d = (np.asarray(a, float) for a in (pseudorange_m, transmit_s, doppler_hz))
+    r = np.asarray(receiver_ecef_m, float)
+    clock = satellite_state(ephemeris, tx).clock_l1_s
+    state = satellite_state(ephemeris, tx - clock)  # t = t_SV - Δt_SV (20.3.3.3.3.1)
+    tau = np.linalg.norm(state.position_m - r, axis=1) / SPEED_OF_LIGHT_M_S
+    sat_pos = _rotate_z(state.position_m, OMEGA_EARTH_RAD_S * tau)
+    sat_vel = _rotate_z(state.velocity_mps, OMEGA_EARTH_RAD_S * tau)
+    lat, lon, h = (float(v) for v in pymap3d.ecef2geodetic(*r))
+    az, el, _ = pymap3d.ecef2aer(sat_pos[:, 0], sat_pos[:, 1], sat_pos[:, 2], lat, lon, h)
+    az, el = np.asarray(az, float), np.asarray(el, float)
+    delay = np.zeros(pr.size)
+    if iono is not None:  # at the time pvt.solve_position evaluates it
+        delay += SPEED_OF_LIGHT_M_S * klobuchar_delay_s(iono.alpha, iono.beta, lat, lon, az, el,
+                                                       float(np.median(tx)) + 0.075)
+    if troposphere:
+        delay += troposphere_delay_m(lat, h, el)
+    keep = (el >= elevation_mask_deg) & np.isfinite(pr) & np.isfinite(d)
+    inv_sin2 = 1.0 / np.sin(np.radians(np.maximum(el, 1.0))) ** 2
+    meas = EpochMeasurements(sat_pos[keep], sat_vel[keep],
+                             (pr + SPEED_OF_LIGHT_M_S * state.clock_l1_s - delay)[keep],
+                             (-L1_WAVELENGTH_M * d + SPEED_OF_LIGHT_M_S * state.clock_drift_s_s)[keep],
+                             (sigma_m**2 * inv_sin2)[keep], (sigma_rate_m_s**2 * inv_sin2)[keep])
+    return meas, keep
+
+
+def _inputs(m: EpochMeasurements) -> dict[str, np.ndarray]:
+    """The nav filter's step inputs for one run: channel outputs ``(1, S)``, satellites ``(S, 3)``."""
+    zero = np.zeros((1, m.range_m.size))
+    return {names.SAT_POS_M: m.sat_pos_m, names.SAT_VEL_M_S: m.sat_vel_m_s, names.NEXT_SAT_POS_M: m.sat_pos_m,
+            names.NEXT_SAT_VEL_M_S: m.sat_vel_m_s, names.REPLICA_RANGE_M: m.range_m[None],
+            names.REPLICA_RATE_M_S: m.rate_m_s[None], names.CODE_ERROR_CHIPS: zero,
+            names.CODE_ERROR_VAR_CHIPS2: m.range_var_m2[None] / CA_CHIP_LENGTH_M**2, names.FREQ_ERROR_HZ: zero,
+            names.FREQ_ERROR_VAR_HZ2: m.rate_var_m2_s2[None] / L1_WAVELENGTH_M**2}
+
+
+def start_nav_filter(nav: NavFilter, interval_s: float, initial_state: np.ndarray, initial_cov: np.ndarray) -> None:
+    """Reset ``nav`` for one run at ``interval_s`` between epochs from the 8-state estimate
+    ``initial_state`` ``(8,)`` (at the first epoch it will be given) and ``initial_cov``."""
+    context = RunContext(coherent_time_s=interval_s, epoch_interval_s=interval_s,
+                         initial_state=np.asarray(initial_state, float)[None],
+                         initial_cov=np.asarray(initial_cov, float))
+    nav.reset((1,), context)
+
+
+def step_nav_filter(nav: NavFilter, measurements: EpochMeasurements) -> np.ndarray:
+    """One epoch: the filter's ``[x, y, z, vx, vy, vz, b, d]`` after it."""
+    out = nav.checked_step(_inputs(measurements))
+    return np.concatenate([np.reshape(out[names.POSITION_M], 3), np.reshape(out[names.VELOCITY_M_S], 3),
+                           np.reshape(out[names.CLOCK_M], 2)])
+
+
+def run_nav_filter(nav: NavFilter, interval_s: float, initial_state: np.ndarray, initial_cov: np.ndarray,
+                   epochs: list[EpochMeasurements]) -> np.ndarray:
+    """Run ``nav`` over consecutive epochs ``interval_s`` apart; returns the states ``(E, 8)``."""
+    start_nav_filter(nav, interval_s, initial_state, initial_cov)
+    return np.array([step_nav_filter(nav, m) for m in epochs]).reshape(-1, 8)
+
+
+def _enu(lat_deg: float, lon_deg: float) -> np.ndarray:
+    """Rows: east, north, up unit vectors in ECEF."""
+    la, lo = np.radians(lat_deg), np.radians(lon_deg)
+    return np.array([[-np.sin(lo), np.cos(lo), 0.0],
+                     [-np.sin(la) * np.cos(lo), -np.sin(la) * np.sin(lo), np.cos(la)],
+                     [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)]])
+
+
+def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-pv",
+                  params: dict[str, Any] | None = None, rinex: Ephemerides | None = None, *,
+                  ionosphere: bool = True, troposphere: bool = False, iono: IonoUtc | None = None,
+                  sigma_m: float = 5.0, sigma_rate_m_s: float = 0.5, elevation_mask_deg: float = 5.0,
+                  reference_week: int | None = None) -> PositionTable:
+    """The registered ``nav_filter`` (with ``params``) on every epoch of ``obs`` from the
+    first fix of ``wls`` on (see the module text); the same columns as ``wls``.
+
+    ``wls`` is `fixes.solve_epochs` of the same observables and settings.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown or unfit filter name (field ``--nav-filter``) or bad parameters.
+    """
+    if len(wls) == 0:
+        return wls
+    check_nav_filter(nav_filter)
+    nav = registry.create("nav_filter", nav_filter, **(params or {}))
+    klobuchar = (iono or obs.iono_utc) if ionosphere else None
+    interval_s = float(np.median(np.diff(obs.rx_time_s))) if obs.rx_time_s.size > 1 else 1.0
+    wls_row = {int(np.argmin(np.abs(obs.sample_time_s - t))): k for k, t in enumerate(wls.sample_time_s)}
+    rows, states, used, dops = [], [], [], []
+    running = False
+    for e in range(obs.rx_time_s.size):
+        k = wls_row.get(e)
+        if k is not None:
+            prns = np.array(wls.used_prns[k])
+        else:
+            prns = obs.prn[np.isfinite(obs.pseudorange_m[e])]
+        j = np.flatnonzero(np.isin(obs.prn, prns))
+        records = ephemeris_for(obs.prn[j], obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]))
+        j = np.array([jj for jj, r in zip(j, records) if r is not None], dtype=int)
+        if not running and k is None:
+            continue
+        if j.size == 0:
+            running = False
+            continue
+        if not running:  # (re)start from this epoch's fix
+            x0, P0 = _prior(wls, k, sigma_m, sigma_rate_m_s)
+            start_nav_filter(nav, interval_s, x0, P0)
+            running, here = True, x0[:3]
+        meas, keep = corrected_measurements(obs.pseudorange_m[e, j], obs.transmit_s[e, j], obs.doppler_hz[e, j],
+                                            stack_records([r for r in records if r is not None]), here,
+                                            iono=klobuchar, troposphere=troposphere, sigma_m=sigma_m,
+                                            sigma_rate_m_s=sigma_rate_m_s, elevation_mask_deg=elevation_mask_deg)
+        if not keep.any():
+            running = False
+            continue
+        x = step_nav_filter(nav, meas)
+        here = x[:3]
+        rows.append(e)
+        states.append(x)
+        used.append(tuple(int(p) for p in obs.prn[j[keep]]))
+        dops.append(_dops(meas.sat_pos_m, x[:3]))
+    return _table(obs, np.array(rows, dtype=int), np.array(states).reshape(-1, 8), used, np.array(dops).reshape(-1, 2),
+                  full_week(obs.week, reference_week) if reference_week is not None or obs.week is not None
+                  else int(wls.columns["gps_week"][0]))
+
+
+def _prior(wls: PositionTable, k: int, sigma_m: float, sigma_rate_m_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The fix ``k`` as an 8-state estimate, with variances ``(σ DOP)²``."""
+    c = wls.columns
+    R = _enu(float(c["lat_deg"][k]), float(c["lon_deg"][k]))
+    vel_enu = np.array([c["vel_e_mps"][k], c["vel_n_mps"][k], c["vel_u_mps"][k]], float)
+    vel = R.T @ np.nan_to_num(vel_enu)
+    d = wls.clock_drift_mps
+    drift = float(d[k]) if d is not None and np.isfinite(d[k]) else 0.0
+    x0 = np.r_[wls.ecef_m[k], vel, float(c["clock_bias_m"][k]), drift]
+    pdop = float(np.hypot(c["hdop"][k], c["vdop"][k]))
+    var_pos, var_vel = (sigma_m * pdop) ** 2 / 3, (sigma_rate_m_s * pdop) ** 2 / 3
+    return x0, np.diag([var_pos] * 3 + [var_vel] * 3 + [(sigma_m * pdop) ** 2, (sigma_rate_m_s * pdop) ** 2])
+
+
+def _table(obs: Observables, rows: np.ndarray, states: np.ndarray, used: list[tuple[int, ...]], dops: np.ndarray,
+           week: int) -> PositionTable:
+    n = rows.size
+    lat, lon, h = (np.asarray(v, float).reshape(-1) for v in
+                   pymap3d.ecef2geodetic(states[:, 0], states[:, 1], states[:, 2]))
+    vel = np.array([_enu(lat[i], lon[i]) @ states[i, 3:6] for i in range(n)]).reshape(-1, 3)
+    hdop, vdop = dops[:, 0], dops[:, 1]
+    bias = states[:, 6]
+    columns = {"gps_week": np.full(n, week), "tow_s": obs.rx_time_s[rows] - bias / SPEED_OF_LIGHT_M_S,
+               "lat_deg": lat, "lon_deg": lon, "height_m": h, "vel_e_mps": vel[:, 0], "vel_n_mps": vel[:, 1],
+               "vel_u_mps": vel[:, 2], "clock_bias_m": bias, "n_sats": np.array([len(u) for u in used], dtype=int),
+               "hdop": hdop, "vdop": vdop}
+    return PositionTable(columns, states[:, :3].copy(), obs.sample_time_s[rows], used, np.zeros(n, dtype=int),
+                         states[:, 7].copy())
+
+
+def _dops(sat_pos_m: np.ndarray, r: np.ndarray) -> tuple[float, float]:
+    """HDOP and VDOP of satellites ``(S, 3)`` seen from ``r`` (NaN with fewer than four)."""
+    if sat_pos_m.shape[0] < 4:
+        return np.nan, np.nan
+    lat, lon, _ = pymap3d.ecef2geodetic(*r)
+    los = sat_pos_m - r
+    _, _, hdop, vdop = dop((los / np.linalg.norm(los, axis=1)[:, None]) @ _enu(float(lat), float(lon)).T)
+    return hdop, vdop

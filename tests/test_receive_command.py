@@ -1,0 +1,217 @@
+"""The `receive` command on the project's own generated recording (`test_receiver_fix`'s:
+five satellites of real broadcast records seen from a known station, with LNAV): its
+files read back by independent parsers (georinex, pynmea2), its report, its determinism,
+its filter choice by options and by a TOML config, and the ekf-pv filter on the
+recording's pseudoranges and Dopplers against the least squares."""
+
+from __future__ import annotations
+
+import csv
+import warnings
+from datetime import datetime, timedelta
+
+import numpy as np
+import pymap3d
+import pynmea2
+import pytest
+
+from gnssframework import registry
+from gnssframework.cli import main
+from gnssframework.errors import ConfigError
+from gnssframework.navigation.ephemeris import read_rinex_nav
+from gnssframework.plugin_ref import PluginSpec
+from gnssframework.receiver.channels import tracking_config
+from gnssframework.receiver.frontend import open_recording
+from gnssframework.receiver.navigation.fixes import POSITION_COLUMNS
+from gnssframework.receiver.navigation.receive import receive
+from gnssframework.receiver.navigation.receiver_config import load_receiver_config
+from test_receiver_fix import NAV, STATION, TOW0, recording  # noqa: F401 - the module's fixture
+
+WEEK = 1316  # the week the fixture's LNAV carries (no subframe 1 arrives in its 9.5 s)
+TRUTH = tuple(float(v) for v in pymap3d.ecef2geodetic(*STATION))
+
+
+def _run(path, out, *extra):
+    return main(["receive", str(path), "--out", str(out), "--ephemeris", str(NAV), "--rate", "10", "--week",
+                 str(WEEK), "--truth", ",".join(f"{v:.10f}" for v in TRUTH), "--quiet", *extra])
+
+
+@pytest.fixture(scope="module")
+def outputs(recording, tmp_path_factory):  # noqa: F811
+    path, sats = recording
+    first, second = tmp_path_factory.mktemp("first"), tmp_path_factory.mktemp("second")
+    assert _run(path, first) == 0
+    assert _run(path, second) == 0
+    return first, second, sats
+
+
+def test_positions_csv_has_the_columns_and_a_row_per_fix_near_the_station(outputs):
+    out, _, sats = outputs
+    with (out / "positions.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert tuple(rows[0]) == POSITION_COLUMNS
+    assert len(rows) >= 5
+    assert {int(r["gps_week"]) for r in rows} == {WEEK}
+    # tow is each epoch's GPS time: within the recording (from TOW0, 9.5 s), 0.1 s apart
+    # (the receiver clock's grid; its bias is constant here to well under a millisecond).
+    tow = np.array([float(r["tow_s"]) for r in rows])
+    assert np.all((tow > TOW0) & (tow < TOW0 + 9.5))
+    assert np.allclose(np.diff(tow), 0.1, atol=1e-3)
+    xyz = np.stack(pymap3d.geodetic2ecef(*(np.array([float(r[k]) for r in rows])
+                                          for k in ("lat_deg", "lon_deg", "height_m"))), axis=1)
+    # 45 dB-Hz, 1.7 m of code noise per satellite scaled by the PDOP (under 4 here).
+    assert np.all(np.linalg.norm(xyz - STATION, axis=1) < 4 * 4 * 1.7)
+    assert all(int(r["n_sats"]) == sats.sv.size for r in rows)
+
+
+def test_observations_rnx_reads_back_through_georinex(outputs):
+    import georinex
+
+    out, _, sats = outputs
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        obs = georinex.load(out / "observations.rnx")
+    assert sorted(obs.sv.values) == sorted(sats.sv)
+    assert set(obs.data_vars) >= {"C1C", "L1C", "D1C", "S1C"}
+    t = obs.time.values
+    assert np.allclose(np.diff(t).astype("timedelta64[ns]").astype(float) / 1e9, 0.1, atol=1e-6)
+    # The epochs are GPS time of week TOW0 + recording time, in the fixture's week.
+    first = datetime(1980, 1, 6) + timedelta(weeks=WEEK, seconds=float(np.floor(TOW0)))
+    assert abs((t[0] - np.datetime64(first)).astype("timedelta64[ns]").astype(float) / 1e9 - (TOW0 % 1)) < 12.0
+    pr = obs["C1C"].values
+    assert np.all((pr > 1.9e7) & (pr < 2.7e7))
+    assert np.all((obs["S1C"].values > 35) & (obs["S1C"].values < 55))
+
+
+def test_nmea_sentences_parse_and_match_positions_csv(outputs):
+    out, _, _ = outputs
+    lines = (out / "nmea.txt").read_text().splitlines()
+    parsed = [pynmea2.parse(line, check=True) for line in lines]
+    assert [p.sentence_type for p in parsed] == ["GGA", "RMC"] * (len(lines) // 2)
+    with (out / "positions.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    gga = parsed[0::2]
+    assert len(gga) == len(rows)
+    for g, r in zip(gga, rows):
+        assert g.latitude == pytest.approx(float(r["lat_deg"]), abs=1e-7)
+        assert g.longitude == pytest.approx(float(r["lon_deg"]), abs=1e-7)
+        assert int(g.num_sats) == int(r["n_sats"])
+    utc = datetime(1980, 1, 6) + timedelta(weeks=WEEK, seconds=float(rows[0]["tow_s"]) - 18)  # 18 leap seconds
+    assert parsed[1].datestamp == utc.date()
+
+
+def test_report_has_ttff_errors_satellites_and_figures(outputs):
+    out, _, sats = outputs
+    text = (out / "report.md").read_text()
+    assert "time to first fix" in text and "horizontal RMS" in text and "vertical RMS" in text
+    table = [line for line in text.splitlines() if line.startswith("| ") and line[2:4].strip().isdigit()]
+    assert sorted(int(line.split("|")[1]) for line in table) == sorted(int(s[1:]) for s in sats.sv)
+    for name in ("sky", "cn0_lock", "track", "enu_errors"):
+        assert f"plots/{name}.png" in text
+        assert (out / "plots" / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_same_recording_gives_the_same_bytes(outputs):
+    first, second, _ = outputs
+    for name in ("positions.csv", "observations.rnx", "nmea.txt", "report.md"):
+        assert (first / name).read_bytes() == (second / name).read_bytes(), name
+
+
+def test_ekf_pv_on_the_recordings_pseudoranges_is_as_accurate_and_smoother(recording):  # noqa: F811
+    path, _ = recording
+    result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=10.0,
+                     rinex=read_rinex_nav(NAV), nav_filter=PluginSpec("nav_filter", "ekf-pv", {}))
+    wls, ekf = result.least_squares, result.positions
+    assert len(wls) >= 5 and len(ekf) >= len(wls)
+    assert ekf.sample_time_s[0] == wls.sample_time_s[0]  # it starts from the first fix
+
+    def rms(table):
+        return float(np.sqrt(np.mean(np.sum((table.ecef_m - STATION) ** 2, axis=1))))
+
+    def velocity_std(table):
+        vel = np.stack([table.columns[k] for k in ("vel_e_mps", "vel_n_mps", "vel_u_mps")], 1)
+        return float(np.sqrt(np.sum(vel.var(axis=0))))
+
+    # At most the least squares' order: its error, or the PDOP-scaled code noise when that is
+    # smaller (a lucky epoch-by-epoch run), and a steadier velocity.
+    assert rms(ekf) <= max(rms(wls), 4 * 1.7)
+    assert velocity_std(ekf) < velocity_std(wls)
+    assert np.all(ekf.columns["n_sats"] == 5) and np.all(np.isfinite(ekf.columns["hdop"]))
+
+
+def test_the_nav_filter_option_runs_the_filter_and_says_so(recording, tmp_path, capsys):  # noqa: F811
+    path, _ = recording
+    config = tmp_path / "receiver.toml"
+    config.write_text('[channel_filter]\nname = "scalar"\nparams = { pll_bandwidth_hz = 12.0 }\n\n'
+                      '[nav_filter]\nname = "ekf-pv"\nparams = { accel_psd = 0.5 }\n')
+    assert _run(path, tmp_path / "out", "--config", str(config)) == 0
+    out = capsys.readouterr().out
+    assert "channel filter scalar, nav filter ekf-pv" in out
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "nav filter ekf-pv" in report and "the least-squares fixes of the same run" in report
+
+
+def test_position_is_the_same_command(recording, tmp_path, capsys):  # noqa: F811
+    path, _ = recording
+    assert main(["position", str(path), "--out", str(tmp_path / "p"), "--ephemeris", str(NAV), "--rate", "10",
+                 "--week", str(WEEK), "--quiet"]) == 0
+    assert (tmp_path / "p" / "report.md").exists()
+
+
+@pytest.mark.parametrize("text, message", [
+    ('[nav_filter]\nname = "ekf-pv"\nparams = { accel_psd = -1 }\n', "nav_filter.params.accel_psd"),
+    ('[nav_filter]\nname = "ekf-p"\n', "did you mean 'ekf-pv'"),
+    ('nav_filter = "position-ca"\n', "nav_filter.name: nav_filter 'position-ca' cannot run on pseudoranges"),
+    ('[channel_filter]\nname = "scalar"\nparams = { pll_bandwidth_hz = 0 }\n',
+     "channel_filter.params.pll_bandwidth_hz"),
+    ('[navfilter]\nname = "ekf-pv"\n', "navfilter: unknown parameter; valid: channel_filter, nav_filter"),
+])
+def test_a_bad_receiver_config_names_the_field(tmp_path, text, message):
+    path = tmp_path / "receiver.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as info:
+        load_receiver_config(path)
+    assert message in str(info.value) and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--nav-filter", "ekf-p"], "--nav-filter: unknown nav_filter 'ekf-p'; known: "),
+    (["--nav-filter", "ins-ekf"], "--nav-filter: nav_filter 'ins-ekf' cannot run on pseudoranges and Dopplers"),
+    (["--channel-filter", "scalr"], "--channel-filter: unknown channel_filter 'scalr'"),
+    (["--channel-params", '{"pll_bandwidth_hz": -1}'], "--channel-params.pll_bandwidth_hz"),
+    (["--week", "-3"], "--week: a full GPS week"),
+])
+def test_receive_refuses_bad_options_with_one_line(recording, tmp_path, capsys, options, message):  # noqa: F811
+    path, _ = recording
+    assert main(["receive", str(path), "--out", str(tmp_path / "p"), *options]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+
+
+def test_progress_bar_on_a_terminal_only(recording, tmp_path, capsys, monkeypatch):  # noqa: F811
+    import sys
+
+    path, _ = recording
+
+    def run(out):
+        return main(["receive", str(path), "--out", str(tmp_path / out), "--ephemeris", str(NAV), "--week", str(WEEK),
+                     "--rate", "10"])
+
+    assert run("a") == 0
+    assert capsys.readouterr().err == ""  # captured stderr is no terminal: no bar
+    monkeypatch.setattr(type(sys.stderr), "isatty", lambda self: True, raising=False)
+    assert run("b") == 0
+    assert "100%" in capsys.readouterr().err
+
+
+def test_a_missing_or_broken_config_file_is_named(tmp_path):
+    from gnssframework.errors import DataFileError
+
+    with pytest.raises(DataFileError) as info:
+        load_receiver_config(tmp_path / "none.toml")
+    assert "none.toml" in str(info.value)
+    broken = tmp_path / "broken.toml"
+    broken.write_text('[nav_filter]\nname = "ekf-pv"\nparams = { accel_psd = }\n')
+    with pytest.raises(DataFileError) as info:
+        load_receiver_config(broken)
+    assert "broken.toml" in str(info.value) and "line 3" in str(info.value)
