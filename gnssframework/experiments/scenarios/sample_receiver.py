@@ -137,15 +137,17 @@ class SampleReceiverScenario(Scenario):
         self.plan(case, where)
 
     def check_composition(self, plugins, where: str) -> None:
+        """A channel filter the sample tracker can run: it reads correlators and gives NCO
+        commands or the errors an FLL/DLL closes (`SampleTracker`)."""
         ch = plugins["channel_filter"]
-        if "correlators" not in ch.requires or not (set(NCO_COMMANDS) <= set(ch.provides)
-                                                    or set(ERROR_OUTPUTS) <= set(ch.provides)):
-            exc = ConfigError("channel_filter", f"{ch.name!r} cannot track on samples: it must require "
-                              f"'correlators' and provide {', '.join(NCO_COMMANDS)} or {', '.join(ERROR_OUTPUTS)}")
-            able = [n for n in registry.names("channel_filter") if n in self.capable("channel_filter", NCO_COMMANDS)
-                    or n in self.capable("channel_filter", ERROR_OUTPUTS)]
-            raise ConfigError(f"{where}.channel_filter.name", f"{exc.detail}; channel filters that do: "
-                              f"{', '.join(able)}") from None
+        provides = set(ch.provides)
+        if "correlators" not in ch.requires or not (set(NCO_COMMANDS) <= provides or set(ERROR_OUTPUTS) <= provides):
+            able = sorted(set(self.capable("channel_filter", NCO_COMMANDS)) | set(self.capable("channel_filter",
+                                                                                                ERROR_OUTPUTS)))
+            able = [n for n in able if "correlators" in registry.get("channel_filter", n).requires]
+            raise ConfigError(f"{where}.channel_filter.name", f"{ch.name!r} cannot track on samples: it must require "
+                              f"'correlators' and provide {', '.join(NCO_COMMANDS)} or {', '.join(ERROR_OUTPUTS)}; "
+                              f"channel filters that do: {', '.join(able)}")
 
     def plan(self, case: dict, where: str = "case") -> SignalPlan:
         """What the case's recordings hold (satellites, their records, the receiver)."""

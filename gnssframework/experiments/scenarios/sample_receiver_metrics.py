@@ -82,7 +82,8 @@ class FiniteRms(SeriesMetric):
 
     Examples
     --------
-    >>> FiniteRms("e", "m", of="x").compute({"x": np.array([[3.0], [np.nan], [4.0]])}, None, None).value.round(4).tolist()
+    >>> x = np.array([[3.0], [np.nan], [4.0]])
+    >>> FiniteRms("e", "m", of="x").compute({"x": x}, None, None).value.round(4).tolist()
     [3.5355]
     """
 
