@@ -67,6 +67,15 @@ class SampleReceiverParams(ScenarioParams):
     lead_s: float = Field(1.5, ge=1.0, le=5.0, description="recording time before that boundary (pull-in and bit "
                           "synchronisation happen in it)")
     coherent_ms: int = Field(10, description="coherent integration after bit synchronisation (ms; divides 20)")
+    acquisition: str = Field("pcps", description="acquisition plugin searching all 32 PRNs")
+
+    @field_validator("acquisition")
+    @classmethod
+    def _registered(cls, value: str) -> str:
+        known = registry.names("acquisition")
+        if value not in known:
+            raise ValueError(f"unknown acquisition {value!r}; known: {', '.join(known)}")
+        return value
 
     @field_validator("subframe_tow_s")
     @classmethod
@@ -174,7 +183,7 @@ class SampleReceiverScenario(Scenario):
         config = tracking_config(channel_filter=channel.name, channel_params=_as_config(channel.params.model_dump(
             mode="json")), coherent_ms=p.coherent_ms)
         recording = open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0)
-        return receive_module.receive(recording, registry.create("acquisition", "pcps"), config, rate_hz=p.rate_hz,
+        return receive_module.receive(recording, registry.create("acquisition", p.acquisition), config, rate_hz=p.rate_hz,
                                       rinex=plan.ephemerides, ionosphere=False, troposphere=False,
                                       reference_week=plan.week)
 
