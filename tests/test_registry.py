@@ -27,8 +27,8 @@ def test_kinds_and_builtin_names():
     assert registry.kinds() == ["acquisition", "augmentation", "channel_filter", "discriminator", "estimator",
                                 "metric", "nav_filter", "noise_adapter", "sample_source", "scenario"]
     assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
-    assert builtin_names("scenario") == ["carrier-smoothing", "deep-integration", "multipath", "scintillation",
-                                         "vector-tracking"]
+    assert builtin_names("scenario") == ["carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
+                                         "scintillation", "vector-tracking"]
 
 
 def test_builtin_name_sets_ignore_a_plugin_installed_beside_the_project(scratch_registry):

@@ -1,0 +1,244 @@
+"""The whole receiver, end to end, against GNSS-SDR on the same gps-sdr-sim file in the same run.
+
+    python benchmarks/receiver_end_to_end.py [--seconds 60] [--cn0 45] [--repeat 1] [--work DIR] [--profile]
+
+A static receiver simulated by gps-sdr-sim (built from ``../shared/tools/gps-sdr-sim``, its
+``brdc0010.22n``, Tokyo, as `validation/gps_sdr_sim_navigation.py`), 2.6 MHz complex int16,
+with white noise added for ``--cn0`` dB-Hz (`validation/gps_sdr_sim_tracking.add_noise`).
+Both receivers run the whole chain on that one file, each in a fresh process (start-up,
+compiled-kernel loading and file reading included), alternately (``--repeat`` rounds, the
+order swapped every round):
+
+- gnssframework: `receive` (acquisition of all 32 PRNs, tracking of every satellite found,
+  LNAV, observables, least-squares positions at 1 Hz from the decoded ephemerides,
+  Klobuchar from page 18, no troposphere: gps-sdr-sim models none);
+- GNSS-SDR 0.0.17 (``gnss-sdr`` on PATH): PCPS acquisition, DLL/PLL tracking, telemetry,
+  observables and its RTKLIB PVT (single point) at 1 Hz, 12 channels (more than the
+  satellites in view).
+
+Printed per run: wall time, CPU time (the process and its threads), x real time (signal
+seconds per wall second), the load average before the run, and, for context, each
+receiver's first-fix time (seconds into the file), fixes, satellites used and position
+errors against gps-sdr-sim's receiver position; then the ratio of wall times. Other jobs on
+the same cores slow both receivers alike: compare rows of one run. ``--profile`` prints
+where gnssframework's time goes (cProfile, cumulative).
+
+Exits 2 when gps-sdr-sim cannot be built or ``gnss-sdr`` is not installed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "validation"))
+
+from gps_sdr_sim_tracking import LOCATION, SIM_DIR, add_noise, build_and_simulate, parse_log  # noqa: E402
+
+FS_HZ = 2.6e6
+LEAP_S = 18  # GPS - UTC in 2022 (gps-sdr-sim's brdc0010.22n): GNSS-SDR prints UTC
+GNSS_SDR_CONF = """[GNSS-SDR]
+GNSS-SDR.internal_fs_sps={fs:.0f}
+SignalSource.implementation=File_Signal_Source
+SignalSource.filename={path}
+SignalSource.item_type=ishort
+SignalSource.sampling_frequency={fs:.0f}
+SignalSource.samples=0
+SignalSource.repeat=false
+SignalConditioner.implementation=Signal_Conditioner
+DataTypeAdapter.implementation=Ishort_To_Complex
+InputFilter.implementation=Pass_Through
+InputFilter.item_type=gr_complex
+Resampler.implementation=Pass_Through
+Resampler.item_type=gr_complex
+Channels_1C.count=12
+Channels.in_acquisition=1
+Channel.signal=1C
+Acquisition_1C.implementation=GPS_L1_CA_PCPS_Acquisition
+Acquisition_1C.item_type=gr_complex
+Acquisition_1C.coherent_integration_time_ms=1
+Acquisition_1C.pfa=0.01
+Acquisition_1C.doppler_max=5000
+Acquisition_1C.doppler_step=250
+Acquisition_1C.max_dwells=1
+Tracking_1C.implementation=GPS_L1_CA_DLL_PLL_Tracking
+Tracking_1C.item_type=gr_complex
+Tracking_1C.pll_bw_hz=30.0
+Tracking_1C.dll_bw_hz=2.0
+Tracking_1C.early_late_space_chips=0.5
+TelemetryDecoder_1C.implementation=GPS_L1_CA_Telemetry_Decoder
+Observables.implementation=Hybrid_Observables
+PVT.implementation=RTKLIB_PVT
+PVT.positioning_mode=Single
+PVT.iono_model=Broadcast
+PVT.trop_model=OFF
+PVT.output_rate_ms=1000
+PVT.display_rate_ms=1000
+PVT.output_path={out}
+"""
+_POSITION = re.compile(r"Position at \S+ (\d+):(\d+):([\d.]+) UTC using (\d+) observations is Lat = ([-\d.]+) "
+                       r"\[deg\], Long = ([-\d.]+) \[deg\], Height\s*=\s*([-\d.]+) \[m\]")
+
+
+def errors_m(lat_deg: np.ndarray, lon_deg: np.ndarray, h_m: np.ndarray) -> tuple[float, float]:
+    """Horizontal and vertical RMS error (m) of geodetic positions against gps-sdr-sim's."""
+    import pymap3d
+
+    e, n, u = pymap3d.geodetic2enu(lat_deg, lon_deg, h_m, *LOCATION)
+    return float(np.sqrt(np.mean(np.square(e) + np.square(n)))), float(np.sqrt(np.mean(np.square(u))))
+
+
+def simulate(work: Path, seconds: float, cn0_dbhz: float, seed: int) -> tuple[Path, float]:
+    """The noisy recording (reused from ``work`` when made with the same settings) and the
+    GPS time of week of its first sample."""
+    noisy, stamp = work / "noisy.sigmf-data", work / "settings.json"
+    settings = {"seconds": seconds, "cn0_dbhz": cn0_dbhz, "seed": seed, "fs_hz": FS_HZ}
+    if noisy.exists() and stamp.exists() and json.loads(stamp.read_text())["settings"] == settings:
+        return noisy, json.loads(stamp.read_text())["tow0_s"]
+    sim, log = build_and_simulate(work, seconds, FS_HZ)
+    _, tow0, sats = parse_log(log)
+    add_noise(sim, noisy, cn0_dbhz, FS_HZ, np.random.default_rng(seed))
+    sim.unlink()
+    stamp.write_text(json.dumps({"settings": settings, "tow0_s": tow0, "satellites": sorted(sats)}))
+    return noisy, tow0
+
+
+def ours_in_this_process(path: Path, out: Path, profile: bool) -> None:
+    """Run the library's receiver on ``path``; write what it found to ``out`` (JSON)."""
+    from gnssframework import registry
+    from gnssframework.receiver.channels import tracking_config
+    from gnssframework.receiver.frontend import open_recording
+    from gnssframework.receiver.navigation.receive import receive
+
+    def run():
+        return receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=1.0,
+                       ionosphere=True, troposphere=False)
+
+    if profile:
+        import cProfile
+        import pstats
+
+        prof = cProfile.Profile()
+        result = prof.runcall(run)
+        pstats.Stats(prof, stream=sys.stderr).sort_stats("cumulative").print_stats(25)
+    else:
+        result = run()
+    table = result.positions
+    found = {"channels": sorted(int(p) for p in result.tracking.channels)}
+    if table is not None and len(table):
+        c = table.columns
+        found |= {"first_fix_s": float(table.sample_time_s[0]), "fixes": len(table),
+                  "sats_median": float(np.median(c["n_sats"])),
+                  "errors_m": errors_m(c["lat_deg"], c["lon_deg"], c["height_m"])}
+    out.write_text(json.dumps(found))
+
+
+def timed(cmd: list[str], cwd: Path) -> tuple[subprocess.CompletedProcess, float, float, float]:
+    """Run ``cmd``: (process, wall s, CPU s of it and its threads and children, load average before)."""
+    load = os.getloadavg()[0]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    run = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return run, wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), load
+
+
+def run_ours(path: Path, work: Path, profile: bool = False) -> dict:
+    out = work / "ours.json"
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--ours-only", str(path), "--result", str(out)]
+    run, wall, cpu, load = timed(cmd + (["--profile"] if profile else []), work)
+    if run.returncode != 0:
+        raise SystemExit(f"gnssframework failed:\n{run.stderr[-3000:]}")
+    if profile:
+        print(run.stderr[-6000:])
+    return {"wall_s": wall, "cpu_s": cpu, "load": load, **json.loads(out.read_text())}
+
+
+def run_gnss_sdr(path: Path, work: Path, tow0: float) -> dict:
+    exe = shutil.which("gnss-sdr")
+    out = work / "gnss-sdr"
+    out.mkdir(exist_ok=True)
+    conf = work / "gnss-sdr.conf"
+    conf.write_text(GNSS_SDR_CONF.format(fs=FS_HZ, path=path, out=out))
+    run, wall, cpu, load = timed([exe, f"--config_file={conf}"], out)
+    text = run.stdout + run.stderr
+    (work / "gnss-sdr.log").write_text(text)
+    fixes = [m.groups() for m in _POSITION.finditer(text)]
+    found = {"wall_s": wall, "cpu_s": cpu, "load": load, "exit": run.returncode,
+             "channels": sorted({int(p) for p in re.findall(r"Tracking of GPS L1 C/A signal started on channel \d+ "
+                                                            r"for satellite GPS PRN (\d+)", text)})}
+    if fixes:
+        f = np.array(fixes, dtype=float)
+        sod = f[:, 0] * 3600 + f[:, 1] * 60 + f[:, 2]
+        found |= {"first_fix_s": float((sod[0] + LEAP_S - tow0 % 86400) % 86400), "fixes": len(f),
+                  "sats_median": float(np.median(f[:, 3])), "errors_m": errors_m(f[:, 4], f[:, 5], f[:, 6])}
+    return found
+
+
+def line(name: str, r: dict, seconds: float) -> str:
+    fix = (f"first fix {r['first_fix_s']:5.1f} s, {r['fixes']:3d} fixes, {r['sats_median']:.0f} sats, H/V RMS "
+           f"{r['errors_m'][0]:5.1f}/{r['errors_m'][1]:5.1f} m") if "fixes" in r else "no fix"
+    return (f"{name:13s} wall {r['wall_s']:6.1f} s  CPU {r['cpu_s']:6.1f} s  x{seconds / r['wall_s']:5.2f} real time  "
+            f"load {r['load']:4.1f}  {len(r['channels']):2d} channels  {fix}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=60.0, help="length of the simulated recording")
+    ap.add_argument("--cn0", type=float, default=45.0, help="C/N0 of the noise added (dB-Hz)")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--repeat", type=int, default=1, help="rounds of both receivers, alternating which goes first")
+    ap.add_argument("--work", type=Path, help="folder for the recording (kept and reused); default: a temporary one")
+    ap.add_argument("--profile", action="store_true", help="print gnssframework's cProfile (slows it)")
+    ap.add_argument("--ours-only", type=Path, help=argparse.SUPPRESS)
+    ap.add_argument("--result", type=Path, help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.ours_only:
+        ours_in_this_process(args.ours_only, args.result, args.profile)
+        return 0
+    if shutil.which("gnss-sdr") is None or not (SIM_DIR / "build.sh").exists():
+        print("needs gnss-sdr on PATH and ../shared/tools/gps-sdr-sim beside the repository", file=sys.stderr)
+        return 2
+    with tempfile.TemporaryDirectory() as tmp:
+        work = args.work or Path(tmp)
+        work.mkdir(parents=True, exist_ok=True)
+        try:
+            path, tow0 = simulate(work, args.seconds, args.cn0, args.seed)
+        except (subprocess.CalledProcessError, OSError) as exc:
+            print(f"cannot build or run gps-sdr-sim from {SIM_DIR}: {exc}", file=sys.stderr)
+            return 2
+        print(f"{args.seconds:.0f} s gps-sdr-sim at {FS_HZ / 1e6:.1f} MHz, {args.cn0:g} dB-Hz; {os.cpu_count()} cores")
+        rows = []
+        for k in range(args.repeat):
+            order = ("ours", "gnss-sdr") if k % 2 == 0 else ("gnss-sdr", "ours")
+            round_ = {}
+            for who in order:
+                round_[who] = run_ours(path, work) if who == "ours" else run_gnss_sdr(path, work, tow0)
+                print(line("gnssframework" if who == "ours" else "GNSS-SDR", round_[who], args.seconds), flush=True)
+            rows.append(round_)
+        ours = np.array([r["ours"]["wall_s"] for r in rows])
+        theirs = np.array([r["gnss-sdr"]["wall_s"] for r in rows])
+        cpu = [r["gnss-sdr"]["cpu_s"] / r["ours"]["cpu_s"] for r in rows]
+        print(f"GNSS-SDR / gnssframework: wall time {', '.join(f'{x:.2f}' for x in theirs / ours)}, CPU time "
+              f"{', '.join(f'{x:.2f}' for x in cpu)} (above 1: gnssframework faster)")
+        if args.profile:
+            print("\nwhere gnssframework's time goes (cProfile, a separate untimed run):")
+            run_ours(path, work, profile=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
