@@ -4,6 +4,8 @@ of the per-element functions of `gnssframework.estimation.compiled.dense`.
 
 Each is compiled as a (serial, parallel) pair (`specialise.jit_pair`); the fused
 drivers and the EKF moments are built per model function and size by `_model_pair`.
+The fused update composes named per-element steps (points, innovation moments, gain
+and mean, posterior), compiled per size by `element_steps` and inlined into the driver.
 """
 
 
