@@ -10,6 +10,10 @@ this module, and only this module, which path to take:
   ``"numpy"``. The environment is read when this module is imported and again by
   ``set_backend(None)`` (as numba reads its own ``NUMBA_*`` variables), not on every
   step: each read cost about two microseconds, five times per epoch of a vector loop.
+* :class:`BackendChoice` is how an engine takes the choice: once, when it is built
+  (the engines in `gnssframework.estimation` derive from it), so a later
+  :func:`set_backend` or a changed environment moves the objects built after it, never
+  one midway through its run.
 * :func:`jit` compiles a model function for the kernels (``nopython``, cached on disk,
   GIL released); without numba it returns the function unchanged.
 
@@ -23,7 +27,8 @@ from typing import Callable, TypeVar
 
 from .errors import ConfigError
 
-__all__ = ["HAVE_NUMBA", "available", "get_backend", "set_backend", "resolve_backend", "compiled", "jit"]
+__all__ = ["HAVE_NUMBA", "available", "get_backend", "set_backend", "resolve_backend", "compiled", "BackendChoice",
+           "jit"]
 
 try:  # numba is a dependency, but the NumPy path must keep working without it.
     import numba
@@ -93,6 +98,38 @@ def resolve_backend(override: str | None, field: str = "estimator.backend") -> s
 def compiled(override: str | None = None) -> bool:
     """True where the compiled path applies (:func:`resolve_backend` is ``"numba"``)."""
     return resolve_backend(override) == "numba"
+
+
+class BackendChoice:
+    """An object that chooses its path once, when it is built.
+
+    ``uses_compiled`` is fixed at construction from the process-wide backend
+    (:func:`get_backend`); assigning ``backend`` (``"numba"``, ``"numpy"``, or ``None`` for
+    the process-wide one at that moment) chooses again for this object alone. Neither
+    :func:`set_backend` nor ``GNSSFRAMEWORK_BACKEND`` moves an object already built. The
+    choice is made in ``__new__``, so a subclass's own ``__init__`` cannot skip it.
+    """
+
+    def __new__(cls, *args, **kwargs):
+        self = super().__new__(cls)
+        self._backend_override = None
+        self._uses_compiled = compiled(None)
+        return self
+
+    @property
+    def backend(self) -> str | None:
+        """This object's own choice (``None``: the process-wide one when it was built)."""
+        return self._backend_override
+
+    @backend.setter
+    def backend(self, value: str | None) -> None:
+        self._uses_compiled = compiled(value)  # checks the value before keeping it
+        self._backend_override = value
+
+    @property
+    def uses_compiled(self) -> bool:
+        """True where this object runs the compiled path (fixed when it chose)."""
+        return self._uses_compiled
 
 
 def jit(fn: F) -> F:

@@ -179,6 +179,49 @@ def test_which_class_a_compiled_rule_describes():
     assert CubatureKalmanFilter._fused_update_ok and SvdCubatureKalmanFilter._fused_update_ok
 
 
+# -- the backend is chosen once, when an engine is built ----------------------------------
+
+
+def _path_taken(est) -> str:
+    """``"numba"`` when a predict and update ran without the model's NumPy f and h."""
+    calls: list = []
+    state, z = _state(3)
+    model = _model(calls, True)
+    est.update(est.predict(state, model), z, model)
+    return "numpy" if calls == ["f", "h"] else "numba" if calls == [] else f"mixed {calls}"
+
+
+@pytest.mark.parametrize("built_under", ("numba", "numpy"))
+def test_an_engine_keeps_the_backend_it_was_built_under(monkeypatch, built_under):
+    flipped = {"numba": "numpy", "numpy": "numba"}[built_under]
+    try:
+        monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", built_under)
+        backend.set_backend(None)  # reads the environment again
+        est = CubatureKalmanFilter()
+        assert est.uses_compiled is (built_under == "numba") and est.backend is None
+        assert _path_taken(est) == built_under
+        monkeypatch.setenv("GNSSFRAMEWORK_BACKEND", flipped)
+        backend.set_backend(None)
+        assert _path_taken(est) == built_under  # the flip moves engines built after it only
+        assert _path_taken(CubatureKalmanFilter()) == flipped
+        backend.set_backend(built_under)
+        assert _path_taken(_engine("ckf")) == built_under  # built through the registry
+        est.backend = flipped  # the instance's own choice chooses again
+        assert _path_taken(est) == flipped
+    finally:
+        monkeypatch.undo()  # the environment as it was (a CI job may run under numpy)...
+        backend.set_backend(None)  # ...read again
+
+
+def test_an_engine_refuses_an_unknown_backend_naming_the_field():
+    from gnssframework.errors import ConfigError
+
+    est = CubatureKalmanFilter()
+    with pytest.raises(ConfigError, match="estimator.backend"):
+        est.backend = "fortran"
+    assert est.backend is None  # the refused value is not kept
+
+
 # -- the strapdown loop follows the process-wide backend --------------------------------
 
 

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 
 from gnssframework.estimation.consistency import nees
 from gnssframework.navigation.ephemeris import OMEGA_EARTH_RAD_S
-from gnssframework.navigation.geometry import (geometric_range, line_of_sight, range_rate, ranges_from_receivers,
-                                               sagnac_m)
+from gnssframework.navigation.geometry import (geometric_range, line_of_sight, range_acceleration, range_rate,
+                                               ranges_from_receivers, sagnac_m)
 from gnssframework.signal.constants import SPEED_OF_LIGHT_M_S
 
 SAT = np.array([15_600e3, 7_540e3, 20_140e3])
@@ -35,6 +35,42 @@ def test_line_of_sight_is_a_unit_vector_that_rebuilds_the_satellite(sat, rx):
     rho, e = line_of_sight(sat, rx)
     assert np.linalg.norm(e) == pytest.approx(1.0, abs=1e-12)
     np.testing.assert_allclose(rx + rho * e, sat, atol=1e-6)
+
+
+def test_range_acceleration_of_a_straight_pass_is_the_closed_form():
+    # A satellite passing a receiver in a straight line at miss distance a and relative speed
+    # u: rho(t) = sqrt(a^2 + u^2 t^2), so rho'' = a^2 u^2 / (a^2 + u^2 t^2)^(3/2). Both move
+    # (only the relative motion counts); a batch of instants along the pass.
+    a, u = 2.0e7, 3.9e3
+    t = np.array([-600.0, -10.0, 0.0, 250.0, 3000.0])
+    rx_vel = np.array([30.0, -12.0, 4.0])
+    rx = RX + np.outer(t, rx_vel)
+    sat_vel = rx_vel + np.array([0.0, u, 0.0])
+    sat = RX + np.array([a, 0.0, 0.0]) + np.outer(t, sat_vel)
+    rho, e = line_of_sight(sat, rx)
+    got = range_acceleration(np.zeros(3), np.zeros(3), sat_vel, rx_vel, e, rho)
+    np.testing.assert_allclose(got, a**2 * u**2 / (a**2 + u**2 * t**2) ** 1.5, rtol=1e-9)
+
+
+@pytest.mark.parametrize("radius_m, speed_m_s", [(2.0e7, 3.9e3), (1.0e3, 250.0)])
+def test_range_acceleration_of_a_circling_satellite_is_zero(radius_m, speed_m_s):
+    # Uniform circular motion about the receiver keeps the range: the centripetal
+    # acceleration -u^2/R along the line of sight cancels the turning term +u^2/R.
+    angle = np.linspace(0.0, 2 * np.pi, 7)
+    radial = np.stack([np.cos(angle), np.sin(angle), np.zeros_like(angle)], axis=-1)
+    tangential = np.stack([-np.sin(angle), np.cos(angle), np.zeros_like(angle)], axis=-1)
+    rho, e = line_of_sight(RX + radius_m * radial, RX)
+    got = range_acceleration(-speed_m_s**2 / radius_m * radial, np.zeros(3), speed_m_s * tangential,
+                             np.zeros(3), e, rho)
+    np.testing.assert_allclose(got, 0.0, atol=1e-9 * speed_m_s**2 / radius_m)
+
+
+def test_range_acceleration_along_the_line_of_sight_is_the_relative_acceleration():
+    # Motion along the line of sight does not turn it: rho'' = e . (a_s - a_r).
+    e_true = (SAT - RX) / np.linalg.norm(SAT - RX)
+    rho, e = line_of_sight(SAT, RX)
+    got = range_acceleration(0.7 * e_true, -0.2 * e_true, 900.0 * e_true, 15.0 * e_true, e, rho)
+    assert got == pytest.approx(0.9, rel=1e-9)
 
 
 def test_the_sagnac_term_is_the_earths_rotation_during_transit():

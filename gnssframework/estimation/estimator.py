@@ -32,7 +32,7 @@ OnFailure = Literal["raise", "skip", "symmetrize", "clip"]
 OnMissing = Literal["raise", "skip"]
 
 
-class Estimator(Plugin, abc.ABC):
+class Estimator(backend.BackendChoice, Plugin, abc.ABC):
     """A batched Gaussian filter: ``predict`` and ``update`` on ``Gaussian`` states."""
 
     kind = "estimator"
@@ -42,12 +42,12 @@ class Estimator(Plugin, abc.ABC):
     #: ``posterior_cov`` below the engine that declares the fused rule (set per class).
     _fused_update_ok: bool = True
 
-    #: ``"numba"`` (compiled kernels) or ``"numpy"`` (reference path) for this instance;
-    #: ``None`` follows :func:`gnssframework.backend.get_backend`.
-    backend: str | None = None
+    # The path (compiled kernels or the NumPy reference) is chosen when the engine is
+    # built (`gnssframework.backend.BackendChoice`); ``engine.backend = "numpy"`` chooses
+    # again for this instance.
 
     def _use_kernels(self) -> bool:
-        return backend.compiled(self.backend)
+        return self._uses_compiled
 
     def _linearised_twins(self, model: Model):
         """The model's compiled functions where a KF/EKF step can run on them (linear ``f``

@@ -1,4 +1,4 @@
-r"""Receiver-satellite geometry: range, line of sight, range rate and the Sagnac correction.
+r"""Receiver-satellite geometry: range, line of sight, range rate and acceleration, and the Sagnac correction.
 
 The one implementation the receiver harnesses, the simulation's truth, the navigation
 filters and the scenarios call (ECEF metres; arrays broadcast, batch first). With $s$,
@@ -8,8 +8,13 @@ Systems*, 2nd ed., sections 8.5.3 and 9.4.1):
 
 $$
 \rho_g = \lVert s - r \rVert, \qquad e = \frac{s - r}{\rho_g}, \qquad
-\dot\rho_g = e \cdot (\dot s - \dot r).
+\dot\rho_g = e \cdot (\dot s - \dot r), \qquad
+\ddot\rho_g = e \cdot (\ddot s - \ddot r)
+  + \frac{\lVert \dot s - \dot r \rVert^2 - \dot\rho_g^2}{\rho_g}.
 $$
+
+The second term of $\ddot\rho_g$ is the turning of the line of sight (the exact second
+derivative of the norm; Groves 2013, section 16.2.2, for its use in NCO aiding).
 
 The Sagnac correction adds the Earth's rotation during the signal's transit when both
 positions are in the ECEF frame of reception (IS-GPS-200, 20.3.3.4.3.3.2; Groves 2013,
@@ -25,7 +30,8 @@ import numpy as np
 from ..signal.constants import SPEED_OF_LIGHT_M_S
 from .ephemeris import OMEGA_EARTH_RAD_S
 
-__all__ = ["geometric_range", "line_of_sight", "range_rate", "ranges_from_receivers", "sagnac_m"]
+__all__ = ["geometric_range", "line_of_sight", "range_rate", "range_acceleration", "ranges_from_receivers",
+           "sagnac_m"]
 
 
 def geometric_range(sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray) -> np.ndarray:
@@ -56,6 +62,28 @@ def line_of_sight(sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray) -> tuple[np
 def range_rate(sat_vel_m_s: np.ndarray, receiver_vel_m_s: np.ndarray, los: np.ndarray) -> np.ndarray:
     """Geometric range rate $e \\cdot (\\dot s - \\dot r)$ (m/s) along the unit line of sight ``los`` ``(..., 3)``."""
     return np.sum((np.asarray(sat_vel_m_s) - np.asarray(receiver_vel_m_s)) * los, axis=-1)
+
+
+def range_acceleration(sat_acc_m_s2: np.ndarray, receiver_acc_m_s2: np.ndarray, sat_vel_m_s: np.ndarray,
+                       receiver_vel_m_s: np.ndarray, los: np.ndarray, range_m: np.ndarray) -> np.ndarray:
+    r"""Geometric range acceleration (m/s²): $e \cdot (\ddot s - \ddot r) + (\lVert \dot s -
+    \dot r \rVert^2 - \dot\rho_g^2) / \rho_g$, the second derivative of $\lVert s - r \rVert$.
+
+    ``los`` ``(..., 3)`` and ``range_m`` ``(...)`` are `line_of_sight`'s; kinematics ``(..., 3)``
+    broadcast against them.
+
+    Examples
+    --------
+    A satellite circling the receiver keeps its range: the turning cancels the acceleration.
+
+    >>> los, rho = np.array([1.0, 0.0, 0.0]), np.array(2.0)
+    >>> float(range_acceleration(np.array([-0.5, 0.0, 0.0]), np.zeros(3), np.array([0.0, 1.0, 0.0]),
+    ...                          np.zeros(3), los, rho))
+    0.0
+    """
+    dv = np.asarray(sat_vel_m_s) - np.asarray(receiver_vel_m_s)
+    rate = np.sum(los * dv, axis=-1)
+    return range_rate(sat_acc_m_s2, receiver_acc_m_s2, los) + (np.sum(dv * dv, axis=-1) - rate**2) / range_m
 
 
 def ranges_from_receivers(sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray) -> np.ndarray:

@@ -4,6 +4,8 @@ of the per-element functions of `gnssframework.estimation.compiled.dense`.
 
 Each is compiled as a (serial, parallel) pair (`specialise.jit_pair`); the fused
 drivers and the EKF moments are built per model function and size by `_model_pair`.
+The fused update composes named per-element steps (points, innovation moments, gain
+and mean, posterior), compiled per size by `element_steps` and inlined into the driver.
 """
 
 
@@ -18,7 +20,7 @@ import numpy as np
 from ..compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian
 from .dense import (all_finite, chol_solve_rows_into, cholesky, eigh_into, helpers_of_size, mul_into,
                     row_finite)
-from .specialise import HAVE_NUMBA, jit, jit_pair, prange, with_globals
+from .specialise import HAVE_NUMBA, jit, jit_pair, prange, step_jit, with_globals
 
 #: Most chunks a driver splits its batch into (scratch arrays are per chunk).
 _CHUNKS = 64
@@ -385,9 +387,156 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_params, Q
         counts[0] += status[b] != 0
 
 
+# -- per-element steps of the fused update -------------------------------------------------
+#
+# Each reads the sizes through _FIXED_N/_FIXED_M and the n x n / m x m helpers through
+# their names, as the drivers do; `element_steps` compiles a set per size with numba's
+# inlining forced, so a specialised driver composes steps that carry its constants.
+
+
+def _points_into(mean, b, P, root_kind, scale, center, Rt, w, V, Wk, X):
+    """Sigma points ``X`` ``(N, n)`` of element ``b`` from the root of ``P``; the status:
+    0 ok, 1 P not finite, 2 P not positive definite (Cholesky)."""
+    n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]
+    off = 1 if center else 0
+    Rt[:, :] = 0.0
+    if not _all_finite_n(P):
+        return 1
+    if root_kind == 0:
+        if not _cholesky_n(P, Rt):
+            return 2
+    else:
+        eigh_into(P, w, V, Wk)
+        for i in range(n):
+            sw = math.sqrt(abs(w[i]))
+            for j in range(n):
+                Rt[j, i] = V[j, i] * sw
+    if center:
+        for j in range(n):
+            X[0, j] = mean[b, j]
+    for i in range(n):
+        for j in range(n):
+            dd = Rt[j, i] * scale
+            X[off + i, j] = mean[b, j] + dd
+            X[off + n + i, j] = mean[b, j] - dd
+    return 0
+
+
+def _innovation_moments_into(X, Z, N, mean, b, wm, wc, R, r, mu, SAcc, CAcc, z_hat, Sb, Cb):
+    """``z_hat[b]`` (and ``mu``), ``S = sum wc dZ dZ^T + R`` (symmetrised) and
+    ``C = sum wc (X - m) dZ^T`` of the ``N`` transformed points ``Z`` (deviations left in Z)."""
+    n = _FIXED_N if _FIXED_N > 0 else X.shape[1]
+    m = _FIXED_M if _FIXED_M > 0 else Z.shape[1]
+    mu[:] = 0.0
+    for k in range(N):
+        for j in range(m):
+            mu[j] += wm[k] * Z[k, j]
+    for k in range(N):
+        for j in range(m):
+            Z[k, j] -= mu[j]
+    # S (lower triangle) and C point by point: each entry sums in the order
+    # k = 0..N-1 with the same products as a dot product would, so the values are
+    # bitwise those of one dot product per entry, but the chains interleave.
+    for i in range(m):
+        for j in range(i + 1):
+            SAcc[i, j] = 0.0
+    for i in range(n):
+        for j in range(m):
+            CAcc[i, j] = 0.0
+    for k in range(N):
+        for i in range(m):
+            wz = wc[k] * Z[k, i]
+            for j in range(i + 1):
+                SAcc[i, j] += wz * Z[k, j]
+        for i in range(n):
+            wx = wc[k] * (X[k, i] - mean[b, i])
+            for j in range(m):
+                CAcc[i, j] += wx * Z[k, j]
+    for i in range(m):
+        z_hat[b, i] = mu[i]
+        for j in range(i + 1):
+            sij = SAcc[i, j] + 0.5 * (R[r, i, j] + R[r, j, i])
+            Sb[i, j] = sij
+            Sb[j, i] = sij
+    for i in range(n):
+        for j in range(m):
+            Cb[i, j] = CAcc[i, j]
+
+
+def _gain_mean_into(L, Cb, K, ysolve, z, mu, mean, b, innovation, out_mean):
+    """Gain ``K = C S^{-1}`` (from the Cholesky factor L of S) and ``x + K (z - z_hat)``."""
+    n = _FIXED_N if _FIXED_N > 0 else K.shape[0]
+    m = _FIXED_M if _FIXED_M > 0 else K.shape[1]
+    chol_solve_rows_into(L, Cb, K, ysolve)
+    for i in range(m):
+        innovation[b, i] = z[b, i] - mu[i]
+    for i in range(n):
+        acc = 0.0
+        for j in range(m):
+            acc += K[i, j] * innovation[b, j]
+        out_mean[b, i] = mean[b, i] + acc
+
+
+def _posterior_into(K, Sb, P, KS, KSK, out_cov, b):
+    """``sym(P - K S K^T)`` of element ``b``."""
+    n = _FIXED_N if _FIXED_N > 0 else K.shape[0]
+    m = _FIXED_M if _FIXED_M > 0 else K.shape[1]
+    # K S, then (K S) K^T in full (both triangles are needed for the symmetrised
+    # posterior); k outermost within a row, so the chains interleave, same sums.
+    for i in range(n):
+        for j in range(m):
+            KS[i, j] = 0.0
+        for k in range(m):
+            kik = K[i, k]
+            for j in range(m):
+                KS[i, j] += kik * Sb[k, j]
+    for i in range(n):
+        for j in range(n):
+            KSK[i, j] = 0.0
+        for k in range(m):
+            ksik = KS[i, k]
+            for j in range(n):
+                KSK[i, j] += ksik * K[j, k]
+    for i in range(n):
+        for j in range(i + 1):
+            v = 0.5 * ((P[i, j] - KSK[i, j]) + (P[j, i] - KSK[j, i]))
+            out_cov[b, i, j] = v
+            out_cov[b, j, i] = v
+
+
+def _keep_prior_into(mean, b, P, Cb, K, innovation, out_mean, out_cov):
+    """A skipped element: the prior, zero innovation and ``K = C`` (the NumPy path's values)."""
+    n = _FIXED_N if _FIXED_N > 0 else K.shape[0]
+    m = _FIXED_M if _FIXED_M > 0 else K.shape[1]
+    for i in range(m):
+        innovation[b, i] = 0.0
+    for i in range(n):
+        out_mean[b, i] = mean[b, i]
+        for j in range(m):
+            K[i, j] = Cb[i, j]
+        for j in range(n):
+            out_cov[b, i, j] = P[i, j]
+
+
+_STEPS = (_points_into, _innovation_moments_into, _gain_mean_into, _posterior_into, _keep_prior_into)
+_steps_by_size: dict[tuple[int, int], dict] = {}
+
+
+def element_steps(n: int = 0, m: int = 0, helpers: dict | None = None) -> dict:
+    """The per-element steps compiled for ``n`` states and ``m`` measurements as constants
+    (0: read from the operands), calling ``helpers`` (names bound to size-specialised
+    Cholesky, eigh, solve; none: the generic ones), inlined into their caller."""
+    key = (n, m)
+    hit = _steps_by_size.get(key)
+    if hit is None:
+        over = {"_FIXED_N": n, "_FIXED_M": m, **(helpers or {})}
+        hit = _steps_by_size[key] = {fn.__name__: step_jit(with_globals(fn, f"_{n}_{m}", **over)) for fn in _STEPS}
+    return hit
+
+
 def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_params, R,
                        out_mean, out_cov, gain, innovation, z_hat, S, C, status, ok, skipped, counts):
-    """One measurement update per element: root, points, compiled ``h``, moments, gain, posterior.
+    """One measurement update per element: points, compiled ``h``, moments, gain, posterior.
 
     An element whose ``z`` is not finite counts as ``bad_z`` too. ``skipped[b]``: bad z
     or S not PD; ``counts``: elements with bad z, a failed root (``status``), S not PD
@@ -397,7 +546,6 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
     n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]  # constants in a specialised twin
     m = _FIXED_M if _FIXED_M > 0 else z.shape[1]
     N = 2 * n + (1 if center else 0)
-    off = 1 if center else 0
     shared_r = R.shape[0] == 1
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
@@ -416,111 +564,22 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
       KSK = np.empty((n, n))
       for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
         P = cov[b]
-        Rt[:, :] = 0.0
         ok[b] = False
-        if not _all_finite_n(P):
-            status[b] = 1
+        status[b] = _points_into(mean, b, P, root_kind, scale, center, Rt, w, V, Wk, X)
+        if status[b] != 0:
             continue
-        if root_kind == 0:
-            if not _cholesky_n(P, Rt):
-                status[b] = 2
-                continue
-        else:
-            eigh_into(P, w, V, Wk)
-            for i in range(n):
-                sw = math.sqrt(abs(w[i]))
-                for j in range(n):
-                    Rt[j, i] = V[j, i] * sw
-        status[b] = 0
-        if center:
-            for j in range(n):
-                X[0, j] = mean[b, j]
-        for i in range(n):
-            for j in range(n):
-                dd = Rt[j, i] * scale
-                X[off + i, j] = mean[b, j] + dd
-                X[off + n + i, j] = mean[b, j] - dd
         for k in range(N):
             _apply_h_row(h_params, X, k, Z, k)
-        r = 0 if shared_r else np.int64(b)
-        mu[:] = 0.0
-        for k in range(N):
-            for j in range(m):
-                mu[j] += wm[k] * Z[k, j]
-        for k in range(N):
-            for j in range(m):
-                Z[k, j] -= mu[j]
-        # S (lower triangle) and C point by point: each entry sums in the order
-        # k = 0..N-1 with the same products as a dot product would, so the values are
-        # bitwise those of one dot product per entry, but the chains interleave.
-        for i in range(m):
-            for j in range(i + 1):
-                SAcc[i, j] = 0.0
-        for i in range(n):
-            for j in range(m):
-                CAcc[i, j] = 0.0
-        for k in range(N):
-            for i in range(m):
-                wz = wc[k] * Z[k, i]
-                for j in range(i + 1):
-                    SAcc[i, j] += wz * Z[k, j]
-            for i in range(n):
-                wx = wc[k] * (X[k, i] - mean[b, i])
-                for j in range(m):
-                    CAcc[i, j] += wx * Z[k, j]
-        Sb = S[b]
-        for i in range(m):
-            z_hat[b, i] = mu[i]
-            for j in range(i + 1):
-                sij = SAcc[i, j] + 0.5 * (R[r, i, j] + R[r, j, i])
-                Sb[i, j] = sij
-                Sb[j, i] = sij
-        Cb = C[b]
-        for i in range(n):
-            for j in range(m):
-                Cb[i, j] = CAcc[i, j]
+        Sb, Cb, K = S[b], C[b], gain[b]
+        _innovation_moments_into(X, Z, N, mean, b, wm, wc, R, 0 if shared_r else np.int64(b), mu, SAcc, CAcc,
+                                 z_hat, Sb, Cb)
         good = _all_finite_m(Sb) and _cholesky_m(Sb, L)
         ok[b] = good
-        K = gain[b]
         if bad_z[b] or not good or not row_finite(z, b):
-            for i in range(m):
-                innovation[b, i] = 0.0
-            for i in range(n):
-                out_mean[b, i] = mean[b, i]
-                for j in range(m):
-                    K[i, j] = Cb[i, j]
-                for j in range(n):
-                    out_cov[b, i, j] = P[i, j]
+            _keep_prior_into(mean, b, P, Cb, K, innovation, out_mean, out_cov)
             continue
-        chol_solve_rows_into(L, Cb, K, ysolve)
-        for i in range(m):
-            innovation[b, i] = z[b, i] - mu[i]
-        for i in range(n):
-            acc = 0.0
-            for j in range(m):
-                acc += K[i, j] * innovation[b, j]
-            out_mean[b, i] = mean[b, i] + acc
-        # K S, then (K S) K^T in full (both triangles are needed for the symmetrised
-        # posterior); k outermost within a row, so the chains interleave, same sums.
-        for i in range(n):
-            for j in range(m):
-                KS[i, j] = 0.0
-            for k in range(m):
-                kik = K[i, k]
-                for j in range(m):
-                    KS[i, j] += kik * Sb[k, j]
-        for i in range(n):
-            for j in range(n):
-                KSK[i, j] = 0.0
-            for k in range(m):
-                ksik = KS[i, k]
-                for j in range(n):
-                    KSK[i, j] += ksik * K[j, k]
-        for i in range(n):
-            for j in range(i + 1):
-                v = 0.5 * ((P[i, j] - KSK[i, j]) + (P[j, i] - KSK[j, i]))
-                out_cov[b, i, j] = v
-                out_cov[b, j, i] = v
+        _gain_mean_into(L, Cb, K, ysolve, z, mu, mean, b, innovation, out_mean)
+        _posterior_into(K, Sb, P, KS, KSK, out_cov, b)
     counts[:] = 0
     for b in range(B):  # serial, after the parallel loop
         bz = bad_z[b] or not row_finite(z, b)
@@ -540,6 +599,8 @@ def _pd_mask_body(A, ok):
             ok[b] = all_finite(A[b]) and cholesky(A[b], L)
 
 
+if HAVE_NUMBA:  # the generic drivers call the generic steps (the plain functions without numba)
+    globals().update(element_steps())
 _sigma_points_kernels = jit_pair(_sigma_points_body)
 _predict_moments_kernels = jit_pair(_predict_moments_body)
 _measurement_moments_kernels = jit_pair(_measurement_moments_body)
@@ -602,6 +663,9 @@ def _model_pair(body, functions: dict, n: int = 0, m: int = 0):
         over.update({"_FIXED_M": m, "_all_finite_m": hm["all_finite"], "_cholesky_m": hm["cholesky"],
                      "chol_solve_rows_into": solve})
         suffix += f"_{m}"
+    if n and m and body is _fused_update_body:
+        over.update(element_steps(n, m, {k: over[k] for k in ("_all_finite_n", "_cholesky_n", "eigh_into",
+                                                              "chol_solve_rows_into")}))
     hit = _model_drivers[key] = jit_pair(with_globals(body, suffix, **over))
     return hit
 

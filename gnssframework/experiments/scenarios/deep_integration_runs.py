@@ -14,6 +14,7 @@ import numpy as np
 from ... import random_streams as draw
 from ...estimation.consistency import nees
 from ...interfaces import RunContext
+from ...navigation.geometry import line_of_sight, range_rate
 from ...receiver.deep.aided_tracking import DeepTruth, run_aided_tracking
 from ...receiver.deep.ins_navigator import InsNavigator, loose_update
 from ...receiver.deep.loose import (correlated_error_inflation, line_of_sight_accel, pv_fix, scalar_measurement_variances,
@@ -109,9 +110,8 @@ def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTrut
         r, v = r[:, None, None, :], v[:, None, None, :]
     else:
         r, v = r[:, None, :], v[:, None, :]
-    d = sat_pos - r
-    geo = np.linalg.norm(d, axis=-1)
-    rate = np.sum(d / geo[..., None] * (sat_vel - v), axis=-1)
+    geo, los = line_of_sight(sat_pos, r)
+    rate = range_rate(sat_vel, v, los)
     if sat_pos.ndim == 3:  # shared satellites: add the run axis
         geo, rate = geo[:, None, :], rate[:, None, :]
     rho = geo + truth.clock_m[..., 0:1]  # (K+1, runs, ch)

@@ -208,6 +208,30 @@ def run_aided_tracking(
         ``kf-carrier-loop``): it closes only the carrier loop on top of the aided
         replica; its outputs are frequency and phase corrections to that replica.
     """
+    _check_prefilters(channel, carrier_filter)
+    T = truth.coherent_time_s
+    n_nco = _steps(nco_interval_s, T, "nco_interval_s")
+    n_upd = _steps(update_interval_s, T, "update_interval_s")
+    if n_upd % n_nco:
+        raise ConfigError("update_interval_s", f"must be a multiple of nco_interval_s ({nco_interval_s} s)")
+    loop = _AidedLoop(channel, navigator, truth, rng, n_nco, n_upd, accel_aiding, early_late_spacing_chips,
+                      pull_in_updates, carrier_filter)
+    for k in range(truth.epochs):
+        j = k % n_nco  # coherent interval within its NCO interval
+        if j == 0:
+            loop.reaid(k)
+        corr, out = loop.prefilter_step(j)
+        if carrier_filter is not None:
+            loop.carrier_step(corr, j)
+        loop.accumulate(k % n_upd, out)
+        if (k + 1) % n_upd == 0:
+            loop.integration_update(k + 1)
+        loop.carry(j)
+    return loop.record()
+
+
+def _check_prefilters(channel: ChannelFilter, carrier_filter: ChannelFilter | None) -> None:
+    """Refuse, naming the field, prefilters that cannot feed deep integration or close a carrier loop."""
     missing = [n for n in CHANNEL_OUTPUTS if n not in channel.provides]
     if missing:
         raise ConfigError("channel_filter", f"{channel.name!r} cannot feed deep integration: it does not provide "
@@ -216,108 +240,145 @@ def run_aided_tracking(
                                        or "carrier_freq_hz" not in carrier_filter.provides):
         raise ConfigError("carrier_filter", f"{carrier_filter.name!r} cannot close a carrier loop: it must take "
                           "correlators and provide carrier_freq_hz (e.g. kf-carrier-loop)")
-    T = truth.coherent_time_s
-    n_nco = _steps(nco_interval_s, T, "nco_interval_s")
-    n_upd = _steps(update_interval_s, T, "update_interval_s")
-    if n_upd % n_nco:
-        raise ConfigError("update_interval_s", f"must be a multiple of nco_interval_s ({nco_interval_s} s)")
-    K = truth.epochs
-    runs = truth.clock_m.shape[1]
-    sat_at = _EdgeStates(truth, K)
-    n_ch = sat_at(0)[0].shape[-2]  # satellites (ch, 3), or (runs, ch, 3) with a geometry per run
-    batch = (runs, n_ch)
-    cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
-    # Per-run constants of the correlator draws (tap noise root, amplitude) once, not per interval:
-    # the same draws and arithmetic as simulate_correlators.
-    correlators = CorrelatorSimulator(T, early_late_spacing_chips)
-    amplitude = amplitude_from_cn0(cn0, T)
-    zeros = np.zeros(batch)
-    # Data bits are wiped off (1 everywhere): as an array of the batch's shape the prefilter's
-    # wipe-off takes its unchecked path (the same products as with a scalar 1).
-    ones = np.ones(batch)
-    theta0 = draw.uniform(rng, -np.pi, np.pi, batch, 0)
-    channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
-                                    epoch_interval_s=T, cn0_dbhz=cn0))
 
-    if carrier_filter is not None:
-        # Its NCO starts on the aided replica: frequency correction 0 (doppler_hz), phase correction 0.
-        carrier_filter.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
-                                               epoch_interval_s=T, cn0_dbhz=cn0, doppler_hz=0.0))
-        corr_phase_rad = np.zeros(batch)
-        corr_freq_hz = np.zeros(batch)  # the loop's own NCO frequency
-        transfer_hz = np.zeros(batch)  # navigator corrections taken back out of the aided replica
-    rate_before_update = None
-    rec: dict[str, list] = {k: [] for k in ("code", "freq", "tu", "res", "cov", "phase")}
-    carrier_rep = np.zeros(batch)
-    rep_end = None
-    rate_prev = None
-    # The prefilter outputs of the current integration interval (copied: a plugin may reuse its
-    # output arrays) and the NCO blocks they belong to; the fit is formed at the update instant.
-    fit_out = np.empty((4, n_upd) + batch)  # code error, frequency error and their variances
-    fit_blocks: list[_AidedBlock] = []
-    for k in range(K):
-        t1 = (k + 1) * T
-        j = k % n_nco
-        if j == 0:  # re-aid the NCOs from the navigator
-            t0 = k * T
-            p, v, a, b, d = navigator.kinematics(t0)
-            _check_finite(type(navigator).__name__, k, p, v, a, b, d)
-            s, sv, sa = sat_at(k)
-            rho, rate, acc, los = line_of_sight_kinematics(p, v, a, s, sv, sa, b, d)
-            sched_range, sched_rate = nco_schedule(rho, rate, acc, T, n_nco, accel_aiding=accel_aiding)
-            if carrier_filter is not None and rate_before_update is not None:
-                # The update's correction of the predicted rate (f = -rate / lambda), undone on the carrier side.
-                transfer_hz -= -(rate - rate_before_update) / L1_WAVELENGTH_M
-                rate_before_update = None
-            t_aid = t0
-            slope_new = acc if accel_aiding else np.zeros_like(rate)
-            # The replica is laid out until the next re-aiding and the truth is known, so the true
-            # tracking errors and the navigator's predictions of this NCO interval's coherent
-            # intervals are computed at once (the same arithmetic per element as interval by interval).
-            blk = _aided_block(sat_at, k, min(n_nco, K - k), T, n_upd, sched_range, sched_rate, rho, rate, acc, t_aid,
-                               theta0, carrier_rep, rep_end, rate_prev, slope_prev if rate_prev is not None else None,
-                               slope_new, zeros)
-            fit_blocks.append(blk)
-            rec["code"].append(blk.code_err)
-            rec["freq"].append(blk.freq_err)
-        nco_range, nco_rate = sched_range[j], sched_rate[j]
-        code_err, ph0, freq_err = blk.code_err[j], blk.ph0[j], blk.freq_err[j]
-        corr = correlators.draw(code_err, ph0, freq_err, amplitude, rng)
-        out = channel.checked_step({"correlators": corr, "nco_shift_chips": blk.shift_chips[j],
-                                    "nco_shift_hz": blk.shift_hz[j], "data_bit": ones})
+
+class _AidedLoop:
+    """The state `run_aided_tracking` carries between coherent intervals, and its steps.
+
+    One method per step of the module's list: `reaid` (1, and the block of true errors
+    of the coming NCO interval), `prefilter_step` (2-3), `carrier_step` (the optional
+    carrier loop), `accumulate` (4), `integration_update` (5), and `carry` (what the next
+    interval needs of this one's replica).
+    """
+
+    def __init__(self, channel: ChannelFilter, navigator: Navigator, truth: DeepTruth, rng: np.random.Generator,
+                 n_nco: int, n_upd: int, accel_aiding: bool, early_late_spacing_chips: float, pull_in_updates: int,
+                 carrier_filter: ChannelFilter | None) -> None:
+        self.channel, self.navigator, self.truth, self.rng = channel, navigator, truth, rng
+        self.carrier_filter = carrier_filter
+        self.n_nco, self.n_upd, self.accel_aiding, self.pull_in_updates = n_nco, n_upd, accel_aiding, pull_in_updates
+        T = self.T = truth.coherent_time_s
+        self.K = truth.epochs
+        runs = truth.clock_m.shape[1]
+        self.sat_at = _EdgeStates(truth, self.K)
+        n_ch = self.sat_at(0)[0].shape[-2]  # satellites (ch, 3), or (runs, ch, 3) with a geometry per run
+        batch = self.batch = (runs, n_ch)
+        self.cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
+        # Per-run constants of the correlator draws (tap noise root, amplitude) once, not per
+        # interval: the same draws and arithmetic as simulate_correlators.
+        self.correlators = CorrelatorSimulator(T, early_late_spacing_chips)
+        self.amplitude = amplitude_from_cn0(self.cn0, T)
+        self.zeros = np.zeros(batch)
+        # Data bits are wiped off (1 everywhere): as an array of the batch's shape the prefilter's
+        # wipe-off takes its unchecked path (the same products as with a scalar 1).
+        self.ones = np.ones(batch)
+        self.theta0 = draw.uniform(rng, -np.pi, np.pi, batch, 0)
+        channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
+                                        epoch_interval_s=T, cn0_dbhz=self.cn0))
         if carrier_filter is not None:
-            f_c = corr_freq_hz + transfer_hz
-            rot_rad = corr_phase_rad + np.pi * f_c * T  # corrections at mid-interval
-            rec["phase"].append(ph0 + np.pi * freq_err * T - rot_rad)  # wrapped once at the end
-            c_out = carrier_filter.checked_step({"correlators": _rotated(corr, rot_rad)})
-            corr_phase_rad = (corr_phase_rad + 2 * np.pi * f_c * T
-                              + np.asarray(c_out.get("carrier_phase_step_rad", 0.0), float))
-            corr_freq_hz = np.broadcast_to(np.asarray(c_out["carrier_freq_hz"], float), batch)
+            # Its NCO starts on the aided replica: frequency correction 0 (doppler_hz), phase correction 0.
+            carrier_filter.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
+                                                   epoch_interval_s=T, cn0_dbhz=self.cn0, doppler_hz=0.0))
+            self.corr_phase_rad = np.zeros(batch)
+            self.corr_freq_hz = np.zeros(batch)  # the loop's own NCO frequency
+            self.transfer_hz = np.zeros(batch)  # navigator corrections taken back out of the aided replica
+        self.rate_before_update: np.ndarray | None = None
+        self.rec: dict[str, list] = {k: [] for k in ("code", "freq", "tu", "res", "cov", "phase")}
+        # The replica as the previous NCO interval left it (None before the first: no shift).
+        self.carrier_rep = np.zeros(batch)
+        self.rep_end: np.ndarray | None = None
+        self.rate_prev: np.ndarray | None = None
+        self.slope_prev: np.ndarray | None = None
+        # The prefilter outputs of the current integration interval (copied: a plugin may reuse its
+        # output arrays) and the NCO blocks they belong to; the fit is formed at the update instant.
+        self.fit_out = np.empty((4, n_upd) + batch)  # code error, frequency error and their variances
+        self.fit_blocks: list[_AidedBlock] = []
 
-        i = k % n_upd
+    def reaid(self, k: int) -> None:
+        """Aid the NCOs from the navigator at edge ``k`` and lay out the replica of the coming
+        NCO interval, with its true tracking errors and the navigator's predictions."""
+        T = self.T
+        t0 = k * T
+        p, v, a, b, d = self.navigator.kinematics(t0)
+        _check_finite(type(self.navigator).__name__, k, p, v, a, b, d)
+        s, sv, sa = self.sat_at(k)
+        rho, rate, acc, los = line_of_sight_kinematics(p, v, a, s, sv, sa, b, d)
+        self.sched_range, self.sched_rate = nco_schedule(rho, rate, acc, T, self.n_nco, accel_aiding=self.accel_aiding)
+        if self.carrier_filter is not None and self.rate_before_update is not None:
+            # The update's correction of the predicted rate (f = -rate / lambda), undone on the carrier side.
+            self.transfer_hz -= -(rate - self.rate_before_update) / L1_WAVELENGTH_M
+            self.rate_before_update = None
+        self.slope_new = acc if self.accel_aiding else np.zeros_like(rate)
+        # The replica is laid out until the next re-aiding and the truth is known, so the true
+        # tracking errors and the navigator's predictions of this NCO interval's coherent
+        # intervals are computed at once (the same arithmetic per element as interval by interval).
+        blk = self.blk = _aided_block(self.sat_at, k, min(self.n_nco, self.K - k), T, self.n_upd, self.sched_range,
+                                      self.sched_rate, rho, rate, acc, t0, self.theta0, self.carrier_rep, self.rep_end,
+                                      self.rate_prev, self.slope_prev if self.rate_prev is not None else None,
+                                      self.slope_new, self.zeros)
+        self.fit_blocks.append(blk)
+        self.rec["code"].append(blk.code_err)
+        self.rec["freq"].append(blk.freq_err)
+
+    def prefilter_step(self, j: int):
+        """Draw the correlators of coherent interval ``j`` of the NCO interval and step the
+        code/frequency prefilter on them: ``(correlators, its outputs)``."""
+        blk = self.blk
+        corr = self.correlators.draw(blk.code_err[j], blk.ph0[j], blk.freq_err[j], self.amplitude, self.rng)
+        out = self.channel.checked_step({"correlators": corr, "nco_shift_chips": blk.shift_chips[j],
+                                         "nco_shift_hz": blk.shift_hz[j], "data_bit": self.ones})
+        return corr, out
+
+    def carrier_step(self, corr, j: int) -> None:
+        """Close the carrier loop on the correlators rotated by its corrections; record its phase error."""
+        T, blk = self.T, self.blk
+        f_c = self.corr_freq_hz + self.transfer_hz
+        rot_rad = self.corr_phase_rad + np.pi * f_c * T  # corrections at mid-interval
+        self.rec["phase"].append(blk.ph0[j] + np.pi * blk.freq_err[j] * T - rot_rad)  # wrapped once at the end
+        c_out = self.carrier_filter.checked_step({"correlators": _rotated(corr, rot_rad)})
+        self.corr_phase_rad = (self.corr_phase_rad + 2 * np.pi * f_c * T
+                               + np.asarray(c_out.get("carrier_phase_step_rad", 0.0), float))
+        self.corr_freq_hz = np.broadcast_to(np.asarray(c_out["carrier_freq_hz"], float), self.batch)
+
+    def accumulate(self, i: int, out) -> None:
+        """Keep the prefilter's new information of interval ``i`` of the integration interval."""
+        fit_out = self.fit_out
         fit_out[0, i], fit_out[1, i] = out["code_error_chips"], out["freq_error_hz"]
         fit_out[2, i], fit_out[3, i] = out["code_error_var_chips2"], out["freq_error_var_hz2"]
-        if (k + 1) % n_upd == 0:
-            normal, rhs = _interval_fit(fit_out, fit_blocks)
-            fit_blocks = []
-            cov = np.linalg.inv(normal)[..., :2, :2]  # marginal of [range, rate] at t_u
-            res = np.einsum("...ij,...j->...i", np.linalg.inv(normal), rhs)[..., :2]
-            rec["tu"].append(t1)
-            rec["res"].append(res)
-            rec["cov"].append(cov)
-            s_u, sv_u, sa_u = sat_at(k + 1)
-            p, v, a, b, d = navigator.kinematics(t1)
-            _, rate_u, _, los_u = line_of_sight_kinematics(p, v, a, s_u, sv_u, sa_u, b, d)
-            if len(rec["tu"]) > pull_in_updates:
-                navigator.update(t1, res, cov, los_u, cn0)
-                rate_before_update = rate_u
-        rep_end = blk.rep_end[j]
-        rate_prev = nco_rate
-        slope_prev = slope_new
-        carrier_rep = blk.carrier_rep_end[j]
-    extra = {"phase_error_rad": np.angle(np.exp(1j * np.stack(rec["phase"])))} if carrier_filter is not None else {}
-    return DeepRecord(np.concatenate(rec["code"]), np.concatenate(rec["freq"]), (np.arange(K) + 0.5) * T,
-                      np.asarray(rec["tu"]), np.stack(rec["res"]), np.stack(rec["cov"]), extra)
+
+    def integration_update(self, k_edge: int) -> None:
+        """Fit the interval's information and hand it to the navigator at edge ``k_edge`` (after the pull-in)."""
+        t1 = k_edge * self.T
+        normal, rhs = _interval_fit(self.fit_out, self.fit_blocks)
+        self.fit_blocks = []
+        cov = np.linalg.inv(normal)[..., :2, :2]  # marginal of [range, rate] at t_u
+        res = np.einsum("...ij,...j->...i", np.linalg.inv(normal), rhs)[..., :2]
+        rec = self.rec
+        rec["tu"].append(t1)
+        rec["res"].append(res)
+        rec["cov"].append(cov)
+        s_u, sv_u, sa_u = self.sat_at(k_edge)
+        p, v, a, b, d = self.navigator.kinematics(t1)
+        _, rate_u, _, los_u = line_of_sight_kinematics(p, v, a, s_u, sv_u, sa_u, b, d)
+        if len(rec["tu"]) > self.pull_in_updates:
+            self.navigator.update(t1, res, cov, los_u, self.cn0)
+            self.rate_before_update = rate_u
+
+    def carry(self, j: int) -> None:
+        """What the next interval needs of this one's replica: its end, rate, slope and carrier phase."""
+        blk = self.blk
+        self.rep_end = blk.rep_end[j]
+        self.rate_prev = self.sched_rate[j]
+        self.slope_prev = self.slope_new
+        self.carrier_rep = blk.carrier_rep_end[j]
+
+    def record(self) -> DeepRecord:
+        """The run's series (the carrier loop's phase error wrapped once, here)."""
+        rec, T = self.rec, self.T
+        extra = ({"phase_error_rad": np.angle(np.exp(1j * np.stack(rec["phase"])))}
+                 if self.carrier_filter is not None else {})
+        return DeepRecord(np.concatenate(rec["code"]), np.concatenate(rec["freq"]), (np.arange(self.K) + 0.5) * T,
+                          np.asarray(rec["tu"]), np.stack(rec["res"]), np.stack(rec["cov"]), extra)
 
 
 @dataclass(frozen=True)

@@ -34,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import ConfigError
+from ...navigation.geometry import line_of_sight, range_acceleration, range_rate
 
 __all__ = ["line_of_sight_kinematics", "nco_schedule"]
 
@@ -68,13 +69,13 @@ def line_of_sight_kinematics(
     los
         ``(runs, channels, 3)`` unit vectors from receiver to satellite.
     """
-    d = sat_pos_m - np.asarray(receiver_pos_m)[..., None, :]
-    dv = sat_vel_m_s - np.asarray(receiver_vel_m_s)[..., None, :]
-    da = sat_acc_m_s2 - np.asarray(receiver_acc_m_s2)[..., None, :]
-    rho_g = np.linalg.norm(d, axis=-1)
-    e = d / rho_g[..., None]
-    rate_g = np.sum(e * dv, axis=-1)
-    accel = np.sum(e * da, axis=-1) + (np.sum(dv * dv, axis=-1) - rate_g**2) / rho_g
+    def per_channel(receiver: np.ndarray) -> np.ndarray:  # (runs, 3) against (..., channels, 3)
+        return np.asarray(receiver)[..., None, :]
+
+    rho_g, e = line_of_sight(sat_pos_m, per_channel(receiver_pos_m))
+    rate_g = range_rate(sat_vel_m_s, per_channel(receiver_vel_m_s), e)
+    accel = range_acceleration(sat_acc_m_s2, per_channel(receiver_acc_m_s2), sat_vel_m_s,
+                               per_channel(receiver_vel_m_s), e, rho_g)
     bias = np.asarray(clock_bias_m, float)
     drift = np.asarray(clock_drift_m_s, float)
     if bias.ndim:

@@ -21,6 +21,7 @@ import numpy as np
 from ... import random_streams as draw
 from ...errors import NumericalError
 from ...interfaces import ChannelFilter
+from ...navigation.geometry import line_of_sight, range_rate
 from ...signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, L1_WAVELENGTH_M
 from ..tracking.scalar import SignalTruth, TrackingRecord, run_closed_loop
 
@@ -108,11 +109,9 @@ def pv_fix(range_m: np.ndarray, rate_m_s: np.ndarray, var_range: np.ndarray, var
     d = np.zeros(runs)
     w_r, w_v = 1.0 / var_range, 1.0 / var_rate
     for _ in range(iterations):
-        dp = sat_pos_m - r[:, None, :]
-        rng_g = np.linalg.norm(dp, axis=-1)
-        e = dp / rng_g[..., None]
+        rng_g, e = line_of_sight(sat_pos_m, r[:, None, :])
         pred_rho = rng_g + b[:, None]
-        pred_rate = np.sum(e * (sat_vel_m_s - v[:, None, :]), axis=-1) + d[:, None]
+        pred_rate = range_rate(sat_vel_m_s, v[:, None, :], e) + d[:, None]
         H = np.zeros((runs, n, 4))
         H[..., :3] = -e
         H[..., 3] = 1.0
@@ -174,9 +173,8 @@ def line_of_sight_accel(sat_pos_m: np.ndarray, sat_acc_m_s2: np.ndarray, pos_m: 
     """Range acceleration $e\\cdot(a_s - a)$ ``(runs, ch)`` of satellites ``(ch, 3)`` or ``(runs, ch, 3)``
     seen from receivers at ``pos_m`` with acceleration ``acc_m_s2`` ``(runs, 3)`` (the
     turning of the line of sight, $|v_s - v|^2_\\perp / \\rho$, below 0.1 m/s², is left out)."""
-    los = sat_pos_m - pos_m[:, None, :]
-    e = los / np.linalg.norm(los, axis=-1, keepdims=True)
-    return np.sum(e * (sat_acc_m_s2 - acc_m_s2[:, None, :]), axis=-1)
+    _, e = line_of_sight(sat_pos_m, pos_m[:, None, :])
+    return range_rate(sat_acc_m_s2, acc_m_s2[:, None, :], e)  # the same projection, of accelerations
 
 
 def correlated_error_inflation(loop_bandwidth_hz: float | np.ndarray, interval_s: float) -> float | np.ndarray:
