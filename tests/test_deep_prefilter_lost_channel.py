@@ -20,13 +20,21 @@ van der Merwe 2004 eq. 3.172 rearranged about the central point) is positive def
 A locked channel's prior is far from this regime. The independent truths: the bound
 |E[h]| <= A of a bounded measurement, the algebraic identity of the two forms (checked
 against the library at a locked prior), and the rounding bound eps * sum |W_i| |dZ_i|^2.
+
+The fix is the prefilter's: a phase is an angle, and a variance beyond a uniform phase's
+(pi^2/3) says nothing more; `iq-filter` keeps its phase variance within it (scaling the
+phase's row and column, so P stays positive definite), which brings the rounding of S a
+billion times below R on the lost channel and leaves a locked channel bitwise untouched.
 """
 
 import numpy as np
+import pytest
 
 import gnssframework as gf
 from gnssframework.estimation import Gaussian
 from gnssframework.interfaces import RunContext
+from gnssframework.signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
+from gnssframework_plugins.channel_filters import PHASE_VAR_UNIFORM_RAD2, _phase_spread_within_circle
 
 T = 0.001
 # The failing step's prior (run 6, channel 6; rounded to 7 digits): [A, dtau, dtheta, df, dfdot].
@@ -97,3 +105,39 @@ def test_a_lost_channels_innovation_covariance_is_positive_definite_only_up_to_r
     # A locked channel is nowhere near: the rounding is a billionth of R.
     _, wm_l, wc_l, Z_l = _transform(channel, LOCKED_MEAN, LOCKED_COV)
     assert _rounding_bound(Z_l, wm_l, wc_l) < 1e-9 * r_min
+
+
+def test_the_prefilter_keeps_a_lost_channels_phase_spread_within_the_circle():
+    capped = _phase_spread_within_circle(LOST_COV[None])[0]
+    assert capped[2, 2] == pytest.approx(PHASE_VAR_UNIFORM_RAD2, rel=1e-12)
+    # D P D: every correlation kept, the other variances untouched, still positive definite
+    corr = lambda P: P / np.sqrt(np.outer(np.diag(P), np.diag(P)))  # noqa: E731
+    np.testing.assert_allclose(corr(capped), corr(LOST_COV), rtol=1e-12, atol=1e-15)
+    np.testing.assert_array_equal(np.delete(np.diag(capped), 2), np.delete(np.diag(LOST_COV), 2))
+    assert np.linalg.eigvalsh(capped).min() > 0
+    # the cancellation is gone: rounding a billionth of R at the step the library refused
+    channel = _vector_prefilter()
+    prior = channel.engine.predict(Gaussian(LOST_MEAN[None], capped[None]), channel.model)
+    _, wm, wc, Z = _transform(channel, prior.mean[0], prior.cov[0])
+    assert _rounding_bound(Z, wm, wc) < 1e-6 * np.linalg.eigvalsh(channel.model.R).min()
+    # a locked channel's covariance is returned as it is
+    locked = LOCKED_COV[None]
+    assert _phase_spread_within_circle(locked) is locked
+
+
+def test_the_prefilter_steps_on_from_a_lost_channels_state():
+    # The library refused this state's next update before the fix; now the channel
+    # carries on (lost: its outputs are what the loss-of-lock metric judges).
+    channel = _vector_prefilter()
+    rng = np.random.default_rng(22)
+    simulator, amplitude = CorrelatorSimulator(T, 1.0), amplitude_from_cn0(np.full((1, 1), 27.0), T)
+    zero = np.zeros((1, 1))
+    channel.step({"correlators": simulator.draw(zero, zero, zero, amplitude, rng),
+                  "nco_shift_chips": zero, "nco_shift_hz": zero, "data_bit": np.ones((1, 1))})
+    channel.state = Gaussian(LOST_MEAN[None], LOST_COV[None])
+    for _ in range(200):
+        out = channel.step({"correlators": simulator.draw(zero, zero, rng.uniform(-500, 500, (1, 1)), amplitude,
+                                                          rng),
+                            "nco_shift_chips": zero, "nco_shift_hz": zero, "data_bit": np.ones((1, 1))})
+        assert channel.state.cov[0, 2, 2] < 1e3  # was 3.8e6 rad² and growing
+    assert np.all(np.isfinite(out["freq_error_hz"])) and np.all(out["freq_error_var_hz2"] > 0)
