@@ -8,13 +8,15 @@ HTML comment the reader does not see::
 
 (``at CASE`` only for a claim of one case). This test reads every marker of
 ``docs/experiments/*.md`` and requires that ``examples/<example>.toml`` holds that
-``[[claims]]`` entry and that ``.ci/run`` runs ``gnssframework compare`` on that example
-with ``--check``, so a claim removed, changed or no longer checked in CI breaks the build
+``[[claims]]`` entry and that CI checks that example's claims (``gnssframework compare ...
+--check`` in ``.ci/run``, or ``docs/make_experiment_plots.py``, which CI runs and which fails
+when a claim of its examples does not hold), so a claim removed, changed or no longer checked in CI breaks the build
 until the page says so too.
 """
 
 from __future__ import annotations
 
+import ast
 import re
 import tomllib
 from pathlib import Path
@@ -57,9 +59,17 @@ def _matches(claim: dict, want: dict) -> bool:
 
 
 def _checked_in_ci() -> set[str]:
-    ci = (ROOT / ".ci" / "run").read_text()
-    return {m.group(1) for line in ci.splitlines() if "--check" in line and not line.lstrip().startswith("#")
-            for m in re.finditer(r"compare\s+examples/([\w-]+)\.toml", line)}
+    """Examples CI checks the claims of: ``compare examples/X.toml ... --check`` in .ci/run,
+    and the examples ``docs/make_experiment_plots.py`` runs (it exits 1 when a claim fails)
+    when .ci/run runs it."""
+    lines = [line for line in (ROOT / ".ci" / "run").read_text().splitlines() if not line.lstrip().startswith("#")]
+    checked = {m.group(1) for line in lines if "--check" in line
+               for m in re.finditer(r"compare\s+examples/([\w-]+)\.toml", line)}
+    if any("docs/make_experiment_plots.py" in line and "--slow" not in line for line in lines):
+        tree = ast.parse((ROOT / "docs" / "make_experiment_plots.py").read_text())
+        checked |= next(set(ast.literal_eval(node.value)) for node in tree.body if isinstance(node, ast.Assign)
+                        and any(getattr(t, "id", None) == "EXAMPLES" for t in node.targets))
+    return checked
 
 
 MARKERS = _markers()
@@ -79,7 +89,13 @@ def test_every_marked_ordering_is_a_claim_ci_checks(page, line, body):
     claims = tomllib.loads(example.read_text()).get("claims", [])
     assert any(_matches(c, want) for c in claims), f"{page}:{line}: {example.name} has no claim {body!r}"
     assert want["example"] in _checked_in_ci(), \
-        f"{page}:{line}: .ci/run does not run 'gnssframework compare examples/{example.name} --check'"
+        f"{page}:{line}: CI does not check the claims of {example.name} (.ci/run's compare --check or " \
+        "docs/make_experiment_plots.py's EXAMPLES)"
+
+
+def test_ci_checks_the_reference_examples():
+    assert {"vector_tracking", "deep_integration_ci", "carrier_smoothing"} <= _checked_in_ci()
+    assert "deep_integration" not in _checked_in_ci()  # too slow for CI: its claims are not CI's
 
 
 def test_a_marker_for_a_missing_claim_is_caught():
