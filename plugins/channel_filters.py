@@ -347,6 +347,34 @@ class IqFilterParams(PluginParams):
                               "add their process noise to q; null for q alone")
 
 
+# A carrier phase known to no better than uniform over the circle: var of U(-pi, pi).
+PHASE_VAR_UNIFORM_RAD2 = np.pi**2 / 3
+
+
+def _phase_spread_within_circle(cov: np.ndarray) -> np.ndarray:
+    r"""``cov`` with the carrier phase's variance (state 2) at most that of a uniform phase.
+
+    The phase is an angle: once a channel has lost lock its variance grows without bound
+    (3.8e6 rad² measured a few seconds after a 27 dB-Hz channel was lost), which means
+    no more than "uniform over the circle", $\pi^2/3$. Beyond the measurement's
+    nonlinearity scale a sigma-point rule with a negative central weight (the UKF's
+    alpha = 1e-3: about -1e6) computes the correlators' covariance as a difference of
+    terms of size $|W_0^c|\,|z_0-\hat z|^2$ (1e15 there) whose rounding reaches R, and
+    the innovation covariance loses positive definiteness by chance
+    (`tests/test_deep_prefilter_lost_channel.py`). Scaling the phase's row and column,
+    $P \leftarrow D P D$ with $D = \mathrm{diag}(1, 1, s, 1, 1)$, keeps P positive
+    definite and every correlation; a channel in lock (tenths of a radian) is untouched.
+    """
+    var = cov[:, 2, 2]
+    if not (var > PHASE_VAR_UNIFORM_RAD2).any():
+        return cov
+    s = np.sqrt(np.minimum(1.0, PHASE_VAR_UNIFORM_RAD2 / var))
+    cov = cov * np.ones_like(s)[:, None, None]  # a batch-shaped copy (cov may be shared)
+    cov[:, 2, :] *= s[:, None]
+    cov[:, :, 2] *= s[:, None]
+    return cov
+
+
 def _equivalent_measurement(prior: Gaussian, post: Gaussian, idx: list[int]):
     """The measurement that carries exactly the information one update added.
 
@@ -418,6 +446,10 @@ class IqFilter(ChannelFilter):
 
     With ``clock`` set, Q adds the oscillator's noise on code, phase and frequency from
     its h-parameters (`process_noise`).
+
+    A lost channel's carrier phase variance is kept within a uniform phase's, $\\pi^2/3$
+    (`_phase_spread_within_circle`): beyond it the sigma points' moments of the bounded
+    correlators lose positive definiteness to rounding.
 
     Data bits: with ``data_bit`` in the inputs the correlators are wiped off.
     Otherwise the bit is decided from the sign of the prompt projected on the predicted
@@ -548,7 +580,7 @@ class IqFilter(ChannelFilter):
             mean = self.state.mean.copy()
             mean[:, 1] -= self._flat(inputs["nco_shift_chips"])
             mean[:, 3] -= self._flat(inputs["nco_shift_hz"])
-            cov = self.state.cov
+            cov = _phase_spread_within_circle(self.state.cov)
             if self.pending_reset:
                 mean, cov = self._reset_prefilter(mean, cov)
                 # The innovation window restarts from the correlators' own R with the reset.
