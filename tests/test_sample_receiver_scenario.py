@@ -191,3 +191,36 @@ def test_too_many_satellites_or_too_short_a_recording_is_refused(tmp_path):
         get_scenario({"kind": "sample-receiver", "duration_s": 5.0}).check_case({"name": "a"}, "cases[0]")
     with pytest.raises(ConfigError, match="subframe_tow_s"):
         get_scenario({"kind": "sample-receiver", "subframe_tow_s": 345613.0})
+
+
+def test_a_candidates_nav_filter_runs_on_the_run_s_pseudoranges(scenario, stored_run):
+    """A candidate's ``nav_filter`` reaches `receive`: the scenario's series are those of
+    `receive(..., nav_filter=ekf-pv)` on the same run's recording, and differ from the
+    least squares' (the run without one)."""
+    from gnssframework.experiments.scenarios.sample_receiver_metrics import run_series
+    from gnssframework.plugin_ref import PluginSpec
+
+    least_squares, plan, path = stored_run
+    streams = random_streams.run_streams(SEED_KEY[0], SEED_KEY[1:], [0])
+    plugins = {**_scalar(), "nav_filter": registry.create("nav_filter", "ekf-pv")}
+    filtered = scenario.run_batch(CASE, plugins, 1, streams)
+    by_hand = receive(open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0),
+                      registry.create("acquisition", "pcps"), _tracking(scenario), rate_hz=5.0,
+                      rinex=plan.ephemerides, ionosphere=False, troposphere=False, reference_week=plan.week,
+                      nav_filter=PluginSpec("nav_filter", "ekf-pv", {}))
+    series = run_series(by_hand, plan.prns, plan.cn0_dbhz, plan.receiver_lat_lon_h, scenario.time_s())
+    for name in ("horizontal_error_m", "vertical_error_m"):
+        e = series[name][np.isfinite(series[name])]
+        assert e.size > 0
+        metric = name.replace("_m", "_rms")
+        assert np.isclose(filtered.metrics[metric][0], np.sqrt(np.mean(e ** 2)), rtol=1e-12)
+        assert filtered.metrics[metric][0] != least_squares.metrics[metric][0]  # the filter, not the least squares
+    # the filter starts at the first least-squares fix: the same time to first fix
+    assert filtered.metrics["time_to_first_fix_s"][0] == least_squares.metrics["time_to_first_fix_s"][0]
+
+def test_a_nav_filter_that_cannot_run_on_pseudoranges_is_one_line_naming_the_field(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text(CONFIG.format(name="scalar") + 'nav_filter = { name = "ins-ekf" }\n')
+    with pytest.raises(ConfigError, match="cannot run on pseudoranges and Dopplers.*ekf-pv") as exc:
+        load_config(path)
+    assert exc.value.field == "candidates[0].nav_filter.name" and "\n" not in str(exc.value)

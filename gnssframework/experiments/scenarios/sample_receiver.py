@@ -32,10 +32,12 @@ from pydantic import Field, field_validator
 from ... import random_streams as draw
 from ... import registry
 from ...errors import ConfigError
+from ...plugin_ref import PluginSpec
 from ...receiver.channels import tracking_config
 from ...receiver.channels.closure import ERROR_OUTPUTS
 from ...receiver.frontend import open_recording
 from ...receiver.navigation import receive as receive_module
+from ...receiver.navigation.filtered import check_nav_filter
 from ...receiver.tracking.scalar import NCO_COMMANDS
 from ..metric_components import evaluate, undefined_reasons as _undefined_reasons, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
@@ -127,7 +129,7 @@ class SampleReceiverScenario(Scenario):
     kind = "sample-receiver"
     Params = SampleReceiverParams
     CaseParams = SampleReceiverCase
-    components = {"channel_filter": True}
+    components = {"channel_filter": True, "nav_filter": False}
     metrics = units(METRICS)
     #: The raw per-epoch series the metrics reduce (metric components of other packages
     #: may read them too); NaN where there is no fix (or no locked channel).
@@ -157,6 +159,9 @@ class SampleReceiverScenario(Scenario):
             raise ConfigError(f"{where}.channel_filter.name", f"{ch.name!r} cannot track on samples: it must require "
                               f"'correlators' and provide {', '.join(NCO_COMMANDS)} or {', '.join(ERROR_OUTPUTS)}; "
                               f"channel filters that do: {', '.join(able)}")
+        nav = plugins.get("nav_filter")
+        if nav is not None:  # one run on the pseudoranges and Dopplers after the first fix
+            check_nav_filter(nav.name, f"{where}.nav_filter.name")
 
     def plan(self, case: dict, where: str = "case") -> SignalPlan:
         """What the case's recordings hold (satellites, their records, the receiver)."""
@@ -177,15 +182,17 @@ class SampleReceiverScenario(Scenario):
         p = self.params
         return np.arange(int(np.floor(p.duration_s * p.rate_hz + 1e-9))) / p.rate_hz
 
-    def receive(self, plan: SignalPlan, channel, path: Path) -> receive_module.ReceiveResult:
-        """`receive` on one run's recording with ``channel`` (a channel_filter plugin)."""
+    def receive(self, plan: SignalPlan, channel, path: Path, nav=None) -> receive_module.ReceiveResult:
+        """`receive` on one run's recording with ``channel`` (a channel_filter plugin) and,
+        when given, ``nav`` (a nav_filter plugin run on the pseudoranges and Dopplers from
+        the first least-squares fix; without it the positions are the least squares')."""
         p = self.params
         config = tracking_config(channel_filter=channel.name, channel_params=_as_config(channel.params.model_dump(
             mode="json")), coherent_ms=p.coherent_ms)
         recording = open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0)
         return receive_module.receive(recording, registry.create("acquisition", p.acquisition), config, rate_hz=p.rate_hz,
                                       rinex=plan.ephemerides, ionosphere=False, troposphere=False,
-                                      reference_week=plan.week)
+                                      reference_week=plan.week, nav_filter=_spec(nav))
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
@@ -196,11 +203,18 @@ class SampleReceiverScenario(Scenario):
         with tempfile.TemporaryDirectory(prefix="gnssframework-sample-receiver-") as tmp:
             for r in range(runs):  # one recording and one receiver per run
                 path = write_run_recording(plan, noise.generators[r], Path(tmp) / f"run{r}.{SAMPLE_FORMAT}")
-                result = self.receive(plan, plugins["channel_filter"], path)
+                result = self.receive(plan, plugins["channel_filter"], path, plugins.get("nav_filter"))
                 per_run.append(run_series(result, plan.prns, plan.cn0_dbhz, plan.receiver_lat_lon_h, t))
                 path.unlink()
         series = {name: np.stack([s[name] for s in per_run], axis=1) for name in SERIES}
         return evaluate(METRICS, series, t, self)
+
+
+def _spec(nav) -> PluginSpec | None:
+    """A built nav_filter plugin as the reference `receive` takes (None stays None)."""
+    if nav is None:
+        return None
+    return PluginSpec("nav_filter", nav.name, _as_config(nav.params.model_dump(mode="json")))
 
 
 def _as_config(value):
