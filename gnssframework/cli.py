@@ -195,6 +195,8 @@ def _open_recording_from_args(args: argparse.Namespace):
 def _acquisition_from_args(args: argparse.Namespace):
     params = {k: v for k, v in (("coherent_ms", args.coherent_ms), ("noncoherent", args.noncoherent),
                                 ("doppler_max_hz", args.doppler_max), ("pfa", args.pfa)) if v is not None}
+    if getattr(args, "alternate_blocks", False):
+        params["alternate_blocks"] = True
     return registry.create("acquisition", args.acquisition, **params)
 
 
@@ -307,8 +309,16 @@ def _cmd_position(args: argparse.Namespace) -> int:
         if len(truth) != 3:
             raise ConfigError("--truth", f"LAT,LON,H in degrees and metres, got {args.truth!r}")
     rinex = read_rinex_nav(args.ephemeris) if args.ephemeris else None
+    vector = None
+    if args.tracking == "vector":
+        from .receiver.navigation.vector_tracking import vector_config
+
+        vector = vector_config(solution_rate_hz=args.rate)
     result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
-                     ionosphere=not args.no_iono, troposphere=args.troposphere)
+                     ionosphere=not args.no_iono, troposphere=args.troposphere, vector=vector)
+    if result.vector is not None and result.vector.handover_s is not None:
+        print(f"vector tracking from {result.vector.handover_s:.1f} s of PRN "
+              f"{', '.join(str(p) for p in result.vector.prns)}")
     if not result.tracking.channels:
         print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
               "the format (--format) and --doppler-max; no position")
@@ -355,6 +365,9 @@ def _add_recording_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noncoherent", type=int, help="non-coherent sums")
     p.add_argument("--doppler-max", type=float, metavar="HZ", help="Doppler search range +-")
     p.add_argument("--pfa", type=float, help="false-alarm probability of one PRN's search")
+    p.add_argument("--alternate-blocks", action="store_true",
+                   help="sum even and odd coherent blocks apart, keep the larger (with --coherent-ms 10: one of them "
+                        "is free of data-bit transitions; weak signals)")
     p.add_argument("--prns", type=int, nargs="+", help="PRNs to search (default 1-32)")
 
 
@@ -511,6 +524,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-iono", action="store_true", help="no Klobuchar correction")
     p.add_argument("--troposphere", action="store_true", help="apply the Saastamoinen troposphere")
     p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print the errors")
+    p.add_argument("--tracking", choices=("scalar", "vector"), default="scalar",
+                   help="vector: from the first fix the ekf-pv navigation filter drives every channel's code and "
+                        "carrier NCOs (default %(default)s)")
     p.set_defaults(func=_cmd_position)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
     p.set_defaults(func=_cmd_schema)
