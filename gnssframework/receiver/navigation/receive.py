@@ -15,7 +15,7 @@ import numpy as np
 import pymap3d
 
 from ..acquisition.report import acquire_recording
-from ..acquisition.search import Acquisition
+from ..acquisition.search import Acquisition, AcquisitionResult
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..frontend.recording import Recording
 from ...navigation.ephemeris import Ephemerides
@@ -41,12 +41,16 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             prns: tuple[int, ...] | None = None, duration_s: float | None = None, rate_hz: float = 1.0,
             rinex: Ephemerides | None = None, ionosphere: bool = True, troposphere: bool = False,
             reference_week: int | None = None, progress: Any = None,
-            vector: VectorConfig | None = None) -> ReceiveResult:
+            vector: VectorConfig | None = None,
+            acquisitions: list[AcquisitionResult] | None = None) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet. With ``vector`` the channels go over
     to vector tracking at the first fix (`vector_tracking.VectorSampleTracker`): the
-    positions are the scalar fixes before the hand-over, then the navigation filter's."""
-    found = [r for r in acquire_recording(recording, acquisition, prns or tuple(range(1, 33))) if r.detected]
+    positions are the scalar fixes before the hand-over, then the navigation filter's.
+    ``acquisitions`` (made on the first samples) replace the initial search."""
+    if acquisitions is None:
+        acquisitions = acquire_recording(recording, acquisition, prns or tuple(range(1, 33)))
+    found = [r for r in acquisitions if r.detected]
     if vector is not None:
         tracker = VectorSampleTracker(recording, config, acquisition, vector, rinex=rinex, ionosphere=ionosphere,
                                       reference_week=reference_week)
