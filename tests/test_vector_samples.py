@@ -157,3 +157,25 @@ def sats_los(sats, k: int, receiver_m: np.ndarray) -> np.ndarray:
 def test_a_bad_vector_setting_names_the_field():
     with pytest.raises(ConfigError, match="min_cn0_dbhz"):
         vector_config(min_cn0_dbhz="low")
+
+
+def test_position_command_tracks_vector(faded, tmp_path, capsys):
+    from gnssframework.cli import main
+
+    path, _, _ = faded
+    code = main(["position", str(path), "--out", str(tmp_path / "pos"), "--ephemeris", str(fix.NAV), "--rate", "5",
+                 "--tracking", "vector"])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "vector tracking from" in out
+    rows = (tmp_path / "pos" / "positions.csv").read_text().splitlines()[1:]
+    # Rows to the end of the file, through the fade.
+    assert len(rows) >= 5 * (DURATION_S - 9.0) - 2
+
+
+def test_an_unknown_tracking_mode_exits_2(faded, tmp_path, capsys):
+    from gnssframework.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["position", str(faded[0]), "--out", str(tmp_path), "--tracking", "deep"])
+    assert exc.value.code == 2
