@@ -353,6 +353,10 @@ def _cmd_position(args: argparse.Namespace) -> int:
     return 0
 
 
+#: ``position --tracking``: the scalar receiver, or vector tracking from the first fix.
+TRACKING_MODES = ("scalar", "vector")
+
+
 def _add_recording_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("recording", help="sample file (a SigMF .sigmf-meta beside it gives format, rate and IF)")
     p.add_argument("--format", help="sample format: ri8, ci8, ci16_le, cf32_le (SigMF names), ri2/ci2 (2-bit "
@@ -524,7 +528,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-iono", action="store_true", help="no Klobuchar correction")
     p.add_argument("--troposphere", action="store_true", help="apply the Saastamoinen troposphere")
     p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print the errors")
-    p.add_argument("--tracking", choices=("scalar", "vector"), default="scalar",
+    p.add_argument("--tracking", choices=TRACKING_MODES, default="scalar",
                    help="vector: from the first fix the ekf-pv navigation filter drives every channel's code and "
                         "carrier NCOs (default %(default)s)")
     p.set_defaults(func=_cmd_position)

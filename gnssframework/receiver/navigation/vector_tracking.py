@@ -45,26 +45,25 @@ import pymap3d
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ... import names, registry
-from ...errors import ConfigError
+from ...errors import ConfigError, NumericalError
 from ...interfaces import RunContext
 from ...navigation.ephemeris import Ephemerides, satellite_state
 from ...navigation.geometry import line_of_sight
 from ...navigation.pvt import dop, klobuchar_delay_s
 from ...plugin import validation_message
+from ...signal.correlators import Correlators
 from ...signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, CA_CODE_LENGTH, L1_FREQ_HZ, L1_WAVELENGTH_M
-from ..acquisition.search import Acquisition
+from ..acquisition.search import Acquisition, AcquisitionResult
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
-from ..channels.tracker import STAGES
 from ..frontend.recording import Recording
 from ..tracking.vector import check_composition
-from .fixes import POSITION_COLUMNS, PositionTable, full_week, solve_epochs
+from .fixes import PositionTable, full_week, solve_epochs
 from .observables import SPEED_OF_LIGHT_MPS, channel_timing, observables
 
 __all__ = ["VectorConfig", "vector_config", "VectorSampleTracker", "VectorSolution"]
 
 _C = SPEED_OF_LIGHT_MPS
 _OMEGA_E = 7.2921151467e-5  # WGS 84 Earth rotation rate (rad/s), IS-GPS-200 Table 20-IV
-_EXTENDED = STAGES.index("extended")
 #: Variance (chips², Hz²) that makes the navigation filter ignore a channel's output.
 _IGNORE_VAR = 1e8
 
@@ -123,7 +122,7 @@ class VectorSolution:
 
     def table(self, rate_hz: float = 1.0) -> PositionTable | None:
         """The epochs nearest whole multiples of ``1 / rate_hz`` of recording time as a
-        position table (`fixes.POSITION_COLUMNS`; DOPs of the vector channels), or None
+        position table (the columns of `fixes.POSITION_COLUMNS`; DOPs of the vector channels), or None
         before any epoch."""
         if not self.sample_time_s:
             return None
@@ -139,7 +138,6 @@ class VectorSolution:
         columns = {"gps_week": np.full(k.size, self.week), "tow_s": t + self.rx_offset_s - x[:, 6] / _C,
                    "lat_deg": lat, "lon_deg": lon, "height_m": h, "vel_e_mps": ve, "vel_n_mps": vn, "vel_u_mps": vu,
                    "clock_bias_m": x[:, 6], "n_sats": n_used.astype(int), "hdop": dops[:, 0], "vdop": dops[:, 1]}
-        assert set(columns) == set(POSITION_COLUMNS)
         used = [tuple(p for p, u in zip(self.prns, row) if u) for row in np.asarray(self.used)[k]]
         return PositionTable(columns, x[:, :3].copy(), t, used, np.zeros(k.size, int))
 
@@ -180,7 +178,9 @@ class VectorSampleTracker(SampleTracker):
         check_composition(registry.create("channel_filter", v.channel_filter, **v.channel_params),
                           registry.create("nav_filter", v.nav_filter, **v.nav_params))
 
-    def run(self, acquisitions, duration_s: float | None = None, progress: Any = None) -> TrackingResult:
+    def run(self, acquisitions: list[AcquisitionResult], duration_s: float | None = None,
+            progress: Any = None) -> TrackingResult:
+        """As `SampleTracker.run`; the navigation filter's states go to ``self.solution``."""
         self.solution = VectorSolution()
         self.nav = None
         self.vslots = np.zeros(0, int)
@@ -200,8 +200,6 @@ class VectorSampleTracker(SampleTracker):
         if closure is not _VECTOR:
             super()._step(filt, closure, slots, w)
             return
-        from ...signal.correlators import Correlators
-
         i = int(slots[0])
         out = filt.checked_step({"correlators": Correlators.trusted(w[:, 0], w[:, 1], w[:, 2]),
                                  "nco_shift_chips": self.shift_chips[slots], "nco_shift_hz": self.shift_hz[slots]})
@@ -404,9 +402,8 @@ class VectorSampleTracker(SampleTracker):
         out = self.nav.checked_step(inputs)
         x = np.concatenate([out[names.POSITION_M][0], out[names.VELOCITY_M_S][0], out[names.CLOCK_M][0]])
         if not np.all(np.isfinite(x)):
-            from ...errors import NumericalError
-
-            raise NumericalError(self.vector.nav_filter, "state", f"vector epoch at {self.t_nav:.3f} s")
+            raise NumericalError(self.vector.nav_filter, [(0,)], len(self.solution.sample_time_s),
+                                 f"non-finite state at the vector epoch {self.t_nav:.3f} s of the recording")
         self.x = x
         s = self.solution
         s.sample_time_s.append(self.t_nav)
