@@ -195,6 +195,8 @@ def _open_recording_from_args(args: argparse.Namespace):
 def _acquisition_from_args(args: argparse.Namespace):
     params = {k: v for k, v in (("coherent_ms", args.coherent_ms), ("noncoherent", args.noncoherent),
                                 ("doppler_max_hz", args.doppler_max), ("pfa", args.pfa)) if v is not None}
+    if getattr(args, "alternate_blocks", False):
+        params["alternate_blocks"] = True
     return registry.create("acquisition", args.acquisition, **params)
 
 
@@ -325,6 +327,14 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
     truth = _truth_from_args(args)
     rinex = read_rinex_nav(args.ephemeris) if args.ephemeris else None
+    vector = None
+    if args.tracking == "vector":
+        from .receiver.navigation.vector_tracking import vector_config
+
+        if filters.nav_filter is not None:  # the vector loop closes its own ekf-pv
+            raise ConfigError("--tracking", "vector tracking runs its own navigation filter: drop --nav-filter "
+                                            "(or the config's [nav_filter]) or use --tracking scalar")
+        vector = vector_config(solution_rate_hz=args.rate)
     bar = None
     if not args.quiet and sys.stderr.isatty():  # a progress bar is for a terminal, not a log
         from tqdm import tqdm
@@ -337,12 +347,16 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     try:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=args.week,
-                         progress=progress if bar is not None else None, nav_filter=filters.nav_filter)
+                         progress=progress if bar is not None else None, nav_filter=filters.nav_filter,
+                         vector=vector)
         if bar is not None:  # the tracker reports up to its last block's start: the run is done
             bar.update(bar.total - bar.n)
     finally:
         if bar is not None:
             bar.close()
+    if result.vector is not None and result.vector.handover_s is not None:
+        print(f"vector tracking from {result.vector.handover_s:.1f} s of PRN "
+              f"{', '.join(str(p) for p in result.vector.prns)}")
     if not result.tracking.channels:
         print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
               "the format (--format) and --doppler-max; no position")
@@ -384,6 +398,10 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     return 0
 
 
+#: ``position --tracking``: the scalar receiver, or vector tracking from the first fix.
+TRACKING_MODES = ("scalar", "vector")
+
+
 def _add_recording_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("recording", help="sample file (a SigMF .sigmf-meta beside it gives format, rate and IF)")
     p.add_argument("--format", help="sample format: ri8, ci8, ci16_le, cf32_le (SigMF names), ri2/ci2 (2-bit "
@@ -396,6 +414,9 @@ def _add_recording_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noncoherent", type=int, help="non-coherent sums")
     p.add_argument("--doppler-max", type=float, metavar="HZ", help="Doppler search range +-")
     p.add_argument("--pfa", type=float, help="false-alarm probability of one PRN's search")
+    p.add_argument("--alternate-blocks", action="store_true",
+                   help="sum even and odd coherent blocks apart, keep the larger (with --coherent-ms 10: one of them "
+                        "is free of data-bit transitions; weak signals)")
     p.add_argument("--prns", type=int, nargs="+", help="PRNs to search (default 1-32)")
 
 
@@ -561,6 +582,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-iono", action="store_true", help="no Klobuchar correction")
     p.add_argument("--troposphere", action="store_true", help="apply the Saastamoinen troposphere")
     p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print and report the errors")
+    p.add_argument("--tracking", choices=TRACKING_MODES, default="scalar",
+                   help="vector: from the first fix the ekf-pv navigation filter drives every channel's code and "
+                        "carrier NCOs (default %(default)s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_receive)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")

@@ -26,6 +26,9 @@ class PcpsParams(PluginParams):
     fine_step_hz: Optional[float] = Field(None, gt=0, description="fine-search step around the coarse peak; "
                                           "null: 1/(20T)")
     pfa: float = Field(1e-3, gt=0, lt=1, description="false-alarm probability of one PRN's whole search")
+    alternate_blocks: bool = Field(
+        False, description="sum the even and the odd coherent blocks apart and keep the larger: with 10 ms blocks "
+        "one of the two is free of data-bit transitions (needs an even noncoherent)")
     xcorr_margin_db: Optional[float] = Field(
         17.0, gt=0, description="drop a detection whose C/N0 estimate is more than this below the strongest one's: "
         "a C/A cross-correlation sidelobe of a strong signal; null keeps every detection")
@@ -69,21 +72,26 @@ class ParallelCodePhaseSearch(Acquisition):
             raise ConfigError("recording", f"acquisition needs {need} samples ({need / sample_rate_hz * 1e3:.0f} ms: "
                               f"{p.coherent_ms} ms coherent x {p.noncoherent} non-coherent), the recording holds "
                               f"{samples.shape[0]}")
+        alt = p.alternate_blocks
+        if alt and p.noncoherent % 2:
+            raise ConfigError("acquisition.noncoherent", f"alternate_blocks needs an even number of blocks, got "
+                                                         f"{p.noncoherent}")
+        blocks = p.noncoherent // 2 if alt else p.noncoherent  # summed into the statistic
         dopplers = self.dopplers_hz()
-        grid = search_grid(samples, sample_rate_hz, if_hz, tuple(prns), T, p.noncoherent, dopplers)
+        grid = search_grid(samples, sample_rate_hz, if_hz, tuple(prns), T, p.noncoherent, dopplers, alt)
         n = grid.shape[-1]
-        threshold = threshold_from_pfa(p.pfa, grid[0].size, p.noncoherent)
+        threshold = threshold_from_pfa(p.pfa, grid[0].size, blocks, alt)
         fine_step = p.fine_step_hz or 1.0 / (20 * T)
         coarse_step = dopplers[1] - dopplers[0] if dopplers.size > 1 else fine_step
         results = []
         for i, prn in enumerate(prns):
-            sigma2 = noise_floor(grid[i], p.noncoherent)
+            sigma2 = noise_floor(grid[i], blocks, alt)
             d, s = np.unravel_index(int(np.argmax(grid[i])), grid[i].shape)
             stat = float(grid[i, d, s] / sigma2)
             fine = dopplers[d] + np.arange(-coarse_step, coarse_step + fine_step / 2, fine_step)
-            power = fine_doppler(samples, sample_rate_hz, if_hz, prn, int(s), T, p.noncoherent, fine) / sigma2
+            power = fine_doppler(samples, sample_rate_hz, if_hz, prn, int(s), T, p.noncoherent, fine, alt) / sigma2
             j = int(np.argmax(power))
-            c = max((power[j] / p.noncoherent - 2.0) / (2 * T), 1e-3)
+            c = max((power[j] / blocks - 2.0) / (2 * T), 1e-3)
             # Chip 0 at sample s: the phase at sample 0 is -s samples' worth of chips.
             chips = float((-s * CA_CHIP_RATE_HZ / sample_rate_hz) % CA_CODE_LENGTH)
             results.append(AcquisitionResult(int(prn), stat > threshold, float(fine[j]), int(s % n), chips,

@@ -43,11 +43,25 @@ def _wiped_spectra(blocks: np.ndarray, dopplers_hz: np.ndarray, sample_rate_hz: 
     return fft.fft(blocks[None].astype(np.complex64) * carrier, axis=-1, workers=1)
 
 
+def _sum_blocks(power: np.ndarray, alternate: bool) -> np.ndarray:
+    """:math:`\\sum_k` over axis 1 of ``power``, or with ``alternate`` the larger of the sums
+    over the even and over the odd blocks (`search_grid`)."""
+    if not alternate:
+        return np.sum(power, axis=1)
+    return np.maximum(np.sum(power[:, 0::2], axis=1), np.sum(power[:, 1::2], axis=1))
+
+
 def search_grid(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prns: tuple[int, ...],
-                coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray) -> np.ndarray:
+                coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray,
+                alternate: bool = False) -> np.ndarray:
     """Raw grid :math:`\\sum_k |z_k[s]|^2` per PRN, Doppler bin and code lag: ``(n_prn, n_doppler, N)``.
 
     ``samples`` must hold ``noncoherent`` blocks of ``N = round(coherent_time_s * fs)``.
+
+    ``alternate`` (for a coherent time of half a data bit, 10 ms): the larger of the sums
+    over the even blocks and over the odd blocks. A 20 ms bit has one possible edge per
+    20 ms, at a fixed phase, so it falls in blocks of one parity only: the other parity's
+    blocks are free of bit transitions, and the statistic keeps their full coherent gain.
     """
     n = int(round(coherent_time_s * sample_rate_hz))
     blocks = _blocks(samples, n, noncoherent)
@@ -58,13 +72,15 @@ def search_grid(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prns: 
         spectra = _wiped_spectra(blocks, dopplers_hz[lo:lo + step], sample_rate_hz, if_hz)
         for i in range(len(prns)):
             z = fft.ifft(spectra * codes[i], axis=-1, workers=1)
-            out[i, lo:lo + step] = np.sum(z.real**2 + z.imag**2, axis=1)
+            out[i, lo:lo + step] = _sum_blocks(z.real**2 + z.imag**2, alternate)
     return out
 
 
 def fine_doppler(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn: int, code_start_sample: int,
-                 coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray) -> np.ndarray:
-    """Raw :math:`\\sum_k |z_k|^2` at one code lag for each of ``dopplers_hz`` (the fine search)."""
+                 coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray,
+                 alternate: bool = False) -> np.ndarray:
+    """Raw :math:`\\sum_k |z_k|^2` at one code lag for each of ``dopplers_hz`` (the fine
+    search; ``alternate`` as `search_grid`)."""
     n = int(round(coherent_time_s * sample_rate_hz))
     blocks = _blocks(samples, n, noncoherent)
     replica = np.roll(code_replica(prn, n, sample_rate_hz), code_start_sample)
@@ -72,4 +88,4 @@ def fine_doppler(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn: 
     t = (np.arange(K * n) / sample_rate_hz).reshape(K, n)
     z = np.einsum("kn,dkn->dk", blocks * replica,
                   np.exp(-2j * np.pi * (if_hz + dopplers_hz[:, None, None]) * t))
-    return np.sum(np.abs(z) ** 2, axis=1)
+    return _sum_blocks(np.abs(z) ** 2, alternate)

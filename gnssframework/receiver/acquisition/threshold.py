@@ -28,11 +28,24 @@ def cell_false_alarm(pfa: float, cells: int) -> float:
     return float(-np.expm1(np.log1p(-pfa) / cells))
 
 
-def threshold_from_pfa(pfa: float, cells: int, noncoherent: int) -> float:
-    """Threshold on the normalised statistic: the chi-square(2K) quantile exceeded with the per-cell probability."""
-    return float(stats.chi2.isf(cell_false_alarm(pfa, cells), 2 * noncoherent))
+def threshold_from_pfa(pfa: float, cells: int, noncoherent: int, alternate: bool = False) -> float:
+    """Threshold on the normalised statistic: the chi-square(2K) quantile exceeded with the per-cell probability.
+
+    ``alternate`` (`fft_search.search_grid`): the statistic is the larger of two independent
+    chi-square(2K) sums of ``K = noncoherent`` blocks each (the even and the odd blocks),
+    which exceeds :math:`x` with probability :math:`1 - (1 - q(x))^2`; the threshold is the
+    chi-square(2K) quantile of :math:`q = 1 - \\sqrt{1 - p}`.
+    """
+    p = cell_false_alarm(pfa, cells)
+    if alternate:
+        return float(stats.chi2.isf(-np.expm1(0.5 * np.log1p(-p)), 2 * noncoherent))
+    return float(stats.chi2.isf(p, 2 * noncoherent))
 
 
-def noise_floor(raw_grid: np.ndarray, noncoherent: int) -> float:
-    """:math:`\\sigma^2` of one correlation's I (or Q) from a grid of raw sums ``sum |z|^2``."""
+def noise_floor(raw_grid: np.ndarray, noncoherent: int, alternate: bool = False) -> float:
+    """:math:`\\sigma^2` of one correlation's I (or Q) from a grid of raw sums ``sum |z|^2``
+    (with ``alternate``, of the larger of two chi-square(2K) sums of ``K = noncoherent``
+    blocks: median at the chi-square(2K) quantile :math:`\\sqrt{1/2}`)."""
+    if alternate:
+        return float(np.median(raw_grid) / stats.chi2.ppf(np.sqrt(0.5), 2 * noncoherent))
     return float(np.median(raw_grid) / stats.chi2.median(2 * noncoherent))

@@ -54,7 +54,7 @@ LAG_LIMIT_S = 0.025
 #: Interval (ms) between two evaluations of a channel's lock detectors.
 DETECT_MS = 20
 #: Channel states, in the order a channel goes through them.
-STAGES = ("pull-in", "track", "extended", "lost")
+STAGES = ("pull-in", "track", "extended", "lost", "vector")
 #: Columns of a channel's record (one row per channel-filter update).
 RECORD_FIELDS = ("time_s", "cn0_dbhz", "pli", "doppler_hz", "code_phase_chips", "carrier_phase_cycles", "lock",
                  "stage", "prompt_i", "prompt_q", "coherent_ms")
@@ -346,12 +346,17 @@ class SampleTracker:
                 self._update(c, interval[j])
             if self.batch:
                 self._join_batches(idx)
+            self._after_interval(idx)
             if progress is not None:
                 progress(int(lead.min()) / stop)
             if lead.min() >= next_reacq:
                 self._reacquire(int(lead.max()), stop)
                 next_reacq += every
         return TrackingResult(self.records, list(acquisitions), stop / fs, cfg.channel_filter)
+
+    def _after_interval(self, idx: np.ndarray) -> None:
+        """Channels ``idx`` have completed an interval and recorded it (a subclass's hook:
+        `gnssframework.receiver.navigation.vector_tracking` closes their NCOs here)."""
 
     def _reacquire(self, at: int, stop: int) -> None:
         lost = tuple(p for p, c in self.channels.items() if c.stage == "lost" and c.retry_at <= at)

@@ -17,16 +17,18 @@ import numpy as np
 import pymap3d
 
 from ..acquisition.report import acquire_recording
-from ..acquisition.search import Acquisition
+from ..acquisition.search import Acquisition, AcquisitionResult
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..frontend.recording import Recording
+from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides
 from ...plugin_ref import PluginSpec
 from .filtered import filter_epochs
 from .fixes import PositionTable, solve_epochs
 from .observables import Observables, channel_timing, observables
+from .vector_tracking import VectorConfig, VectorSampleTracker, VectorSolution
 
-__all__ = ["ReceiveResult", "receive", "position_errors"]
+__all__ = ["ReceiveResult", "receive", "position_errors", "concatenate_tables"]
 
 
 @dataclass(frozen=True)
@@ -39,17 +41,44 @@ class ReceiveResult:
     observables: Observables | None
     positions: PositionTable | None
     least_squares: PositionTable | None = None
+    #: With ``vector``: the navigation filter's states after the hand-over.
+    vector: VectorSolution | None = None
 
 
 def receive(recording: Recording, acquisition: Acquisition, config: TrackingConfig, *,
             prns: tuple[int, ...] | None = None, duration_s: float | None = None, rate_hz: float = 1.0,
             rinex: Ephemerides | None = None, ionosphere: bool = True, troposphere: bool = False,
             reference_week: int | None = None, progress: Any = None,
-            nav_filter: PluginSpec | None = None) -> ReceiveResult:
+            nav_filter: PluginSpec | None = None, vector: VectorConfig | None = None,
+            acquisitions: list[AcquisitionResult] | None = None) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
-    fraction of the recording tracked."""
-    found = [r for r in acquire_recording(recording, acquisition, prns or tuple(range(1, 33))) if r.detected]
+    fraction of the recording tracked. With ``nav_filter`` the positions are that filter's
+    (`filtered.filter_epochs`) from the first least-squares fix on. With ``vector`` the channels go over
+    to vector tracking at the first fix (`vector_tracking.VectorSampleTracker`): the
+    positions are the scalar fixes before the hand-over, then the navigation filter's.
+    ``acquisitions`` (made on the first samples) replace the initial search."""
+    if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
+        raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
+                                        "give nav_filter or vector, not both")
+    if acquisitions is None:
+        acquisitions = acquire_recording(recording, acquisition, prns or tuple(range(1, 33)))
+    found = [r for r in acquisitions if r.detected]
+    if vector is not None:
+        tracker = VectorSampleTracker(recording, config, acquisition, vector, rinex=rinex, ionosphere=ionosphere,
+                                      reference_week=reference_week)
+        tracking = tracker.run(found, duration_s, progress)
+        solution = tracker.solution
+        timings = [channel_timing(ch) for ch in tracking.channels.values()]
+        scalar = None
+        if any(t is not None and t.time_s.size > 1 for t in timings):
+            obs = observables(timings, rate_hz)
+            scalar = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere,
+                                  reference_week=reference_week)
+        else:
+            obs = None
+        table = concatenate_tables(scalar, solution.table(vector.solution_rate_hz), solution.handover_s)
+        return ReceiveResult(tracking, obs, table, scalar, solution)
     tracking = SampleTracker(recording, config, acquisition).run(found, duration_s, progress)
     timings = [channel_timing(ch) for ch in tracking.channels.values()]
     if not any(t is not None and t.time_s.size > 1 for t in timings):
@@ -61,6 +90,21 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     filtered = filter_epochs(obs, table, nav_filter.name, nav_filter.params, rinex, ionosphere=ionosphere,
                              troposphere=troposphere, reference_week=reference_week)
     return ReceiveResult(tracking, obs, filtered, table)
+
+
+def concatenate_tables(before: PositionTable | None, after: PositionTable | None,
+                       switch_s: float | None) -> PositionTable | None:
+    """The rows of ``before`` up to ``switch_s`` (recording time), then those of ``after``."""
+    if after is None or switch_s is None:
+        return before
+    if before is None:
+        return after
+    k = before.sample_time_s < switch_s
+    return PositionTable({c: np.concatenate([before.columns[c][k], after.columns[c]]) for c in after.columns},
+                         np.concatenate([before.ecef_m[k], after.ecef_m]),
+                         np.concatenate([before.sample_time_s[k], after.sample_time_s]),
+                         [u for u, keep in zip(before.used_prns, k) if keep] + list(after.used_prns),
+                         np.concatenate([before.excluded_prn[k], after.excluded_prn]))
 
 
 def position_errors(table: PositionTable, truth_lat_lon_h: tuple[float, float, float]) -> np.ndarray:

@@ -1,0 +1,453 @@
+r"""Vector tracking on samples: the navigation filter closes every channel's NCOs.
+
+`VectorSampleTracker` is a `~gnssframework.receiver.channels.SampleTracker` that starts as
+the scalar receiver (pull-in, PLL, bit sync, LNAV). Once at least four channels run
+bit-aligned (``extended``) with a transmit time from their LNAV and an ephemeris (decoded,
+or from a RINEX file), it solves a first fix (`fixes.solve_epochs`) and hands those
+channels over: each gets an error-output channel filter (``discriminator`` or
+``iq-filter``) and a navigation filter (``ekf-pv``) starts from the fix. From then on,
+every coherent interval ``T`` (the channels' bit-aligned ``coherent_ms``):
+
+1. each channel's filter turns its correlators into a code error and a frequency error
+   with their variances (the channel parts of the vector loop of reference 000,
+   `gnssframework.receiver.tracking.vector`);
+2. the navigation filter takes them as pseudorange and rate errors of each replica at a
+   common epoch (Zou et al. 2018, eqs. 35-36): the replica's pseudorange is
+   :math:`R = c\,(t_{rx} - t_{tx})`, its receive time from the sample counter and its
+   transmit time from the chips its code NCO has generated since the fix;
+3. the filter's position, velocity and clock predict every channel's pseudorange and
+   rate at the start of its next interval,
+   :math:`\hat R = \lVert s(t_{tx}) - r \rVert + b - c\,\Delta t_{SV} + I` (satellite
+   at transmit time, rotated by the Earth's turn during the flight, its clock from the
+   ephemeris, Klobuchar :math:`I` when page 18 is known) and
+   :math:`\dot{\hat R} = (v_s - v)\cdot e + d - c\,\Delta\dot t_{SV}`: the code NCO is
+   moved by :math:`(R - \hat R)/\lambda_{chip}` and the carrier NCO set to
+   :math:`-\dot{\hat R}/\lambda_{L1}` (carrier: a vector FLL; no PLL, no carrier phase
+   tracking after the hand-over).
+
+A channel whose signal fades keeps being driven by the solution (it is never handed back
+to acquisition); its C/N0 estimate scales the variances it reports (the thermal variances
+grow as 1/C/N0), so the filter leans on the strong channels.
+
+Sign conventions: the sample tracker's error-output filters report the code error as the
+chips the replica must advance (`closure.ErrorFeedback` adds it to the code phase), the
+opposite of the analytic loop's "true minus replica delay": it is negated before the
+navigation filter. Frequency errors are true minus replica Doppler in both.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pymap3d
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from ... import names, registry
+from ...errors import ConfigError, NumericalError
+from ...interfaces import RunContext
+from ...navigation.ephemeris import Ephemerides, satellite_state
+from ...navigation.geometry import line_of_sight
+from ...navigation.pvt import dop, klobuchar_delay_s
+from ...plugin import validation_message
+from ...signal.correlators import Correlators
+from ...signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, CA_CODE_LENGTH, L1_FREQ_HZ, L1_WAVELENGTH_M
+from ..acquisition.search import Acquisition, AcquisitionResult
+from ..channels import SampleTracker, TrackingConfig, TrackingResult
+from ..frontend.recording import Recording
+from ..tracking.vector import check_composition
+from .fixes import PositionTable, full_week, solve_epochs
+from .observables import SPEED_OF_LIGHT_MPS, channel_timing, observables
+
+__all__ = ["VectorConfig", "vector_config", "VectorSampleTracker", "VectorSolution"]
+
+_C = SPEED_OF_LIGHT_MPS
+_OMEGA_E = 7.2921151467e-5  # WGS 84 Earth rotation rate (rad/s), IS-GPS-200 Table 20-IV
+#: Variance (chips², Hz²) that makes the navigation filter ignore a channel's output.
+_IGNORE_VAR = 1e8
+
+
+class VectorConfig(BaseModel):
+    """How vector tracking takes over from the scalar channels."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    nav_filter: str = Field("ekf-pv", description="nav_filter plugin closing the loop")
+    nav_params: dict[str, Any] = Field(default_factory=dict, description="its parameters")
+    channel_filter: str = Field("discriminator", description="error-output channel_filter of the vector channels")
+    channel_params: dict[str, Any] = Field(default_factory=dict, description="its parameters")
+    earliest_s: float = Field(0.0, ge=0, description="no hand-over before this recording time (s)")
+    try_every_s: float = Field(1.0, gt=0, description="interval between hand-over attempts (s)")
+    pseudorange_sigma_m: float = Field(
+        5.0, gt=0, description="pseudorange standard deviation of the first fix: its position and clock covariance is "
+        "this squared times (G^T G)^-1 of the hand-over geometry")
+    range_rate_sigma_mps: float = Field(
+        0.2, gt=0, description="range-rate standard deviation of the Dopplers the initial velocity and clock drift "
+        "are solved from")
+    min_cn0_dbhz: float = Field(18.0, description="a channel whose C/N0 estimate is below this is not used")
+    solution_rate_hz: float = Field(1.0, gt=0, description="rows of the position table per second")
+
+
+def vector_config(**values: Any) -> VectorConfig:
+    """A `VectorConfig`; a bad value raises `ConfigError` naming the field."""
+    try:
+        return VectorConfig(**values)
+    except ValidationError as exc:
+        raise validation_message(exc, prefix="vector", model=VectorConfig) from None
+
+
+@dataclass
+class VectorSolution:
+    """The navigation filter's states, one per nav epoch after the hand-over.
+
+    ``sample_time_s`` ``(K,)`` recording time of each epoch; ``state`` ``(K, 8)``
+    ``[x, y, z, vx, vy, vz, b, d]`` (ECEF m, m/s; clock in m and m/s, against the
+    receiver time ``sample_time_s + rx_offset_s``); ``cov`` ``(K, 8, 8)`` its covariance; ``prns`` the vector channels; ``used`` ``(K, len(prns))`` whether each
+    channel's output entered the update; ``dops`` ``(K, 2)`` HDOP and VDOP of the channels
+    used; ``handover_s`` the recording time of the
+    hand-over fix; ``events`` what happened (``(time_s, text)``).
+    """
+
+    prns: tuple[int, ...] = ()
+    handover_s: float | None = None
+    rx_offset_s: float = 0.0
+    week: int = -1
+    sample_time_s: list[float] = field(default_factory=list)
+    state: list[np.ndarray] = field(default_factory=list)
+    cov: list[np.ndarray] = field(default_factory=list)
+    used: list[np.ndarray] = field(default_factory=list)
+    dops: list[tuple[float, float]] = field(default_factory=list)
+    events: list[tuple[float, str]] = field(default_factory=list)
+
+    def table(self, rate_hz: float = 1.0) -> PositionTable | None:
+        """The epochs nearest whole multiples of ``1 / rate_hz`` of recording time as a
+        position table (the columns of `fixes.POSITION_COLUMNS`; DOPs of the vector channels), or None
+        before any epoch."""
+        if not self.sample_time_s:
+            return None
+        t = np.asarray(self.sample_time_s)
+        x = np.asarray(self.state)
+        grid = np.arange(np.ceil(t[0] * rate_hz), np.floor(t[-1] * rate_hz) + 1) / rate_hz
+        k = np.unique(np.clip(np.searchsorted(t, grid), 0, t.size - 1))
+        x, t = x[k], t[k]
+        lat, lon, h = (np.asarray(v, float) for v in pymap3d.ecef2geodetic(x[:, 0], x[:, 1], x[:, 2]))
+        ve, vn, vu = (np.asarray(v, float) for v in pymap3d.ecef2enuv(x[:, 3], x[:, 4], x[:, 5], lat, lon))
+        n_used = np.asarray(self.used)[k].sum(axis=1)
+        dops = np.asarray(self.dops).reshape(-1, 2)[k]
+        columns = {"gps_week": np.full(k.size, self.week), "tow_s": t + self.rx_offset_s - x[:, 6] / _C,
+                   "lat_deg": lat, "lon_deg": lon, "height_m": h, "vel_e_mps": ve, "vel_n_mps": vn, "vel_u_mps": vu,
+                   "clock_bias_m": x[:, 6], "n_sats": n_used.astype(int), "hdop": dops[:, 0], "vdop": dops[:, 1]}
+        used = [tuple(p for p, u in zip(self.prns, row) if u) for row in np.asarray(self.used)[k]]
+        return PositionTable(columns, x[:, :3].copy(), t, used, np.zeros(k.size, int))
+
+
+class _VectorClosure:
+    """Marks a channel closed by the navigation filter (the tracker's closure slot)."""
+
+
+_VECTOR = _VectorClosure()
+
+
+class VectorSampleTracker(SampleTracker):
+    """Scalar tracking, then vector tracking from the first fix (see the module text).
+
+    Parameters
+    ----------
+    recording, config, acquisition, backend
+        As `SampleTracker`.
+    vector
+        `VectorConfig`.
+    rinex
+        Ephemerides for satellites whose own have not been decoded yet (as ``--ephemeris``).
+    ionosphere
+        Apply the decoded Klobuchar model in the first fix and in the predictions.
+    reference_week
+        Full GPS week near the recording (resolves the decoded 10-bit week).
+    """
+
+    def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
+                 vector: VectorConfig | None = None, *, rinex: Ephemerides | None = None, ionosphere: bool = True,
+                 reference_week: int | None = None, backend: str | None = None) -> None:
+        super().__init__(recording, config, acquisition, backend=backend)
+        self.vector = vector or VectorConfig()
+        self.rinex = rinex
+        self.ionosphere = ionosphere
+        self.reference_week = reference_week
+        v = self.vector
+        check_composition(registry.create("channel_filter", v.channel_filter, **v.channel_params),
+                          registry.create("nav_filter", v.nav_filter, **v.nav_params))
+
+    def run(self, acquisitions: list[AcquisitionResult], duration_s: float | None = None,
+            progress: Any = None) -> TrackingResult:
+        """As `SampleTracker.run`; the navigation filter's states go to ``self.solution``."""
+        self.solution = VectorSolution()
+        self.nav = None
+        self.vslots = np.zeros(0, int)
+        self.pending: dict[int, tuple] = {}
+        self.next_try = max(self.vector.earliest_s, self.vector.try_every_s)
+        return super().run(acquisitions, duration_s, progress)
+
+    # --- the tracker's hooks -------------------------------------------------------------
+
+    def _advance(self, c, t0: float) -> None:
+        if c.stage == "vector":
+            c.unlocked_ms = 0 if c.locked else c.unlocked_ms + c.coherent_ms
+            return  # driven by the solution: never handed back to acquisition
+        super()._advance(c, t0)
+
+    def _step(self, filt, closure, slots: np.ndarray, w: np.ndarray) -> None:
+        if closure is not _VECTOR:
+            super()._step(filt, closure, slots, w)
+            return
+        i = int(slots[0])
+        out = filt.checked_step({"correlators": Correlators.trusted(w[:, 0], w[:, 1], w[:, 2]),
+                                 "nco_shift_chips": self.shift_chips[slots], "nco_shift_hz": self.shift_hz[slots]})
+        self.shift_chips[i] = self.shift_hz[i] = 0.0
+        end = int(self.start_sample[i])
+        mid = 0.5 * (self.acc_t0[i] * self.fs + end)
+        # The replica's transmit time at mid-interval: the chips its NCO generated since the
+        # hand-over, less the half interval's chips at the rate it ran.
+        tx_mid = self._replica_tx(np.array([i]))[0] - (end - mid) / self.fs * self.code_rate[i] / CA_CHIP_RATE_HZ
+        self.pending[i] = (mid / self.fs, -float(np.ravel(out["code_error_chips"])[0]),
+                           float(np.ravel(out["code_error_var_chips2"])[0]), float(np.ravel(out["freq_error_hz"])[0]),
+                           float(np.ravel(out["freq_error_var_hz2"])[0]), tx_mid, float(self.doppler[i]))
+
+    def _after_interval(self, idx: np.ndarray) -> None:
+        now = float(self.start_sample[idx].min()) / self.fs
+        if self.nav is None:
+            if now >= self.next_try:
+                self.next_try = now + self.vector.try_every_s
+                self._try_handover()
+        elif all(int(s) in self.pending for s in self.vslots):
+            self._nav_step()
+
+    # --- hand-over -----------------------------------------------------------------------
+
+    def _replica_tx(self, slots: np.ndarray) -> np.ndarray:
+        """Transmit time (GPS s of week, SV time) of the replica at each slot's start sample."""
+        chips = self.ms_index[slots] * CA_CODE_LENGTH + self.code_phase[slots]
+        return self.tx_anchor[slots] + (chips - self.chip_anchor[slots]) / CA_CHIP_RATE_HZ
+
+    def _try_handover(self) -> None:
+        ready = [c for c in self.channels.values() if c.stage == "extended" and c.locked]
+        timings = {c.prn: channel_timing(c.record) for c in ready}
+        timings = {p: t for p, t in timings.items() if t is not None and t.time_s.size > 1}
+        if len(timings) < 4:
+            return
+        try:
+            obs = observables(list(timings.values()), rate_hz=10.0)
+        except ConfigError:
+            return
+        table = solve_epochs(obs, self.rinex, ionosphere=self.ionosphere, reference_week=self.reference_week)
+        if len(table) == 0:
+            return
+        records = {p: self._ephemeris(p, obs, float(table.sample_time_s[-1])) for p in timings}
+        prns = tuple(sorted(p for p, r in records.items() if r is not None))
+        if len(prns) < 4:
+            return
+        slots = np.array([p - 1 for p in prns])
+        # Each replica's transmit time at its current start: from its last decoded row,
+        # plus the chips generated since (no code-phase jumps in the extended stage).
+        self.tx_anchor = np.zeros(len(self.active))
+        self.chip_anchor = np.zeros(len(self.active))
+        for p, i in zip(prns, slots):
+            tm, rec = timings[p], self.channels[p].record
+            t_row = rec.column("time_s")
+            j = int(np.searchsorted(t_row, tm.time_s[-1]))
+            chips = CA_CODE_LENGTH * rec.column("coherent_ms")[j:].sum() + self.code_phase[i] - rec.rows[j][4]
+            self.tx_anchor[i] = tm.transmit_s[-1] + chips / CA_CHIP_RATE_HZ
+            self.chip_anchor[i] = self.ms_index[i] * CA_CODE_LENGTH + self.code_phase[i]
+        self.eph = _stack([records[p] for p in prns])
+        self.iono = obs.iono_utc if self.ionosphere else None
+        e = len(table) - 1
+        t_fix = float(table.sample_time_s[e])
+        bias = float(table.columns["clock_bias_m"][e])
+        self.rx_offset = float(table.columns["tow_s"][e] + bias / _C - t_fix)
+        r = table.ecef_m[e]
+        # Velocity and clock drift from the channels' Dopplers (the PLL's, the best there is).
+        self.vslots = slots
+        v, d, G = self._velocity(slots, r, t_fix)
+        x0 = np.r_[r, v, bias, d]
+        # The first fix's covariance from its geometry (G = [-e, 1]), position and clock
+        # from the pseudoranges, velocity and drift from the Dopplers.
+        info = np.linalg.inv(G.T @ G)
+        vc = self.vector
+        self.cov0 = np.zeros((8, 8))
+        pc, vd = np.r_[0:3, 6], np.r_[3:6, 7]
+        self.cov0[np.ix_(pc, pc)] = vc.pseudorange_sigma_m**2 * info
+        self.cov0[np.ix_(vd, vd)] = vc.range_rate_sigma_mps**2 * info
+        self.x_fix, self.t_fix = x0, t_fix
+        self.iono_m = self._iono(slots, r, t_fix)
+        week = full_week(obs.week, self.reference_week)
+        s = self.solution
+        s.prns, s.handover_s, s.rx_offset_s, s.week = prns, t_fix, self.rx_offset, week
+        s.events.append((t_fix, f"first fix with {len(table.used_prns[e])} satellites: vector tracking of PRN "
+                                f"{', '.join(map(str, prns))}"))
+        for p, i in zip(prns, slots):
+            self._start_vector(self.channels[p])
+        self.nav = registry.create("nav_filter", self.vector.nav_filter, **self.vector.nav_params)
+        self.nav_started = False
+
+    def _ephemeris(self, prn: int, obs, sample_time_s: float) -> Ephemerides | None:
+        decoded = [rec for ready, rec in obs.ephemeris.get(prn, []) if ready <= sample_time_s]
+        rec = decoded[-1] if decoded else None
+        if rec is None and self.rinex is not None:
+            try:
+                rec = self.rinex.select([f"G{prn:02d}"], float(obs.rx_time_s[-1]))
+            except KeyError:
+                rec = None
+        return rec if rec is not None and rec.health[0] == 0 else None
+
+    def _start_vector(self, c) -> None:
+        self._leave_batch(c)
+        v, cfg = self.vector, self.config
+        T = c.coherent_ms * 1e-3
+        c.stage = "vector"
+        c.filter = registry.create("channel_filter", v.channel_filter, **v.channel_params)
+        c.cn0_ref = max(c.cn0_dbhz, 20.0)
+        c.filter.reset((1,), RunContext(coherent_time_s=T, early_late_spacing_chips=cfg.early_late_spacing_chips,
+                                        epoch_interval_s=T, cn0_dbhz=c.cn0_ref,
+                                        doppler_hz=float(self.doppler[c.slot])))
+        c.closure = _VECTOR
+        c.batch = None
+        c.join_tries = 3  # steps alone: its outputs go to the navigation filter, one channel at a time
+        c.stage_ms = 0
+        c.unlocked_ms = 0
+        self.voting[c.slot] = False
+        c.record.events.append((float(self.start_sample[c.slot]) / self.fs, "vector tracking"))
+
+    # --- the navigation model ------------------------------------------------------------
+
+    def _satellites(self, slots: np.ndarray, tx_s: np.ndarray, r: np.ndarray):
+        """Satellite position and velocity (rotated into the receive-time frame), clock (m)
+        and clock drift (m/s) at the transmit times ``tx_s`` of the channels ``slots``."""
+        eph = self.eph.subset(np.searchsorted(self.vslots, slots))
+        clock = satellite_state(eph, tx_s).clock_l1_s
+        st = satellite_state(eph, tx_s - clock)
+        tau = np.linalg.norm(st.position_m - r, axis=-1) / _C
+        return (_rotate(st.position_m, tau), _rotate(st.velocity_mps, tau), _C * st.clock_l1_s,
+                _C * st.clock_drift_s_s)
+
+    def _iono(self, slots: np.ndarray, r: np.ndarray, t_s: float) -> np.ndarray:
+        """Klobuchar delay (m) of each channel from position ``r`` (0 without page 18)."""
+        if self.iono is None:
+            return np.zeros(slots.size)
+        pos, *_ = self._satellites(slots, self._replica_tx(slots), r)
+        lat, lon, h = pymap3d.ecef2geodetic(*r)
+        az, el, _ = pymap3d.ecef2aer(pos[:, 0], pos[:, 1], pos[:, 2], lat, lon, h)
+        return _C * klobuchar_delay_s(self.iono.alpha, self.iono.beta, lat, lon, np.asarray(az), np.asarray(el),
+                                      t_s + self.rx_offset)
+
+    def _velocity(self, slots: np.ndarray, r: np.ndarray, t_s: float) -> tuple[np.ndarray, float, np.ndarray]:
+        """Least-squares velocity and clock drift from the channels' Dopplers at position ``r``:
+        :math:`-\\lambda f = (v_s - v)\\cdot e + d - c\\,\\Delta\\dot t_{SV}`; and the
+        geometry matrix ``G = [-e, 1]``."""
+        pos, vel, _, drift = self._satellites(slots, self._replica_tx(slots), r)
+        _, e = line_of_sight(pos, r)
+        y = -L1_WAVELENGTH_M * self.doppler[slots] - np.sum(vel * e, axis=1) + drift
+        H = np.hstack([-e, np.ones((slots.size, 1))])
+        sol = np.linalg.lstsq(H, y, rcond=None)[0]
+        return sol[:3], float(sol[3]), H
+
+    def _predict(self, slots: np.ndarray, x: np.ndarray, t_s: np.ndarray, tx_s: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Pseudorange (m) and its rate (m/s) of channels ``slots`` predicted by state ``x``
+        (at recording time ``t_s`` per channel, transmit times ``tx_s``)."""
+        r = x[:3] + x[3:6] * (t_s - self.t_nav)[:, None]
+        b = x[6] + x[7] * (t_s - self.t_nav)
+        pos, vel, clock, drift = self._satellites(slots, tx_s, r)
+        dist, e = line_of_sight(pos, r)
+        rate = np.sum((vel - x[3:6]) * e, axis=-1) + x[7] - drift
+        j = np.searchsorted(self.vslots, slots)
+        return dist + b - clock + self.iono_m[j], rate
+
+    # --- the loop ------------------------------------------------------------------------
+
+    def _nav_step(self) -> None:
+        slots = self.vslots
+        meas = [self.pending.pop(int(s)) for s in slots]
+        t_mid, code, var_code, freq, var_freq, tx_mid, dop = (np.array(m) for m in zip(*meas))
+        T = self.config.coherent_ms * 1e-3
+        if not self.nav_started:
+            t_nav = float(np.mean(t_mid))
+            x = self.x_fix.copy()
+            x[:3] += x[3:6] * (t_nav - self.t_fix)
+            x[6] += x[7] * (t_nav - self.t_fix)
+            self.nav.reset((1,), RunContext(coherent_time_s=T, epoch_interval_s=T, initial_state=x[None],
+                                            initial_cov=self.cov0))
+            self.nav_started = True
+            self.t_nav = t_nav
+            self.x = x
+        else:
+            self.t_nav += T
+        # Each replica's pseudorange and rate at the common epoch, in the filter's model
+        # (satellite clock and ionosphere removed: h(x) = |s - r| + b).
+        rate_rep = -L1_WAVELENGTH_M * dop
+        range_rep = _C * (t_mid + self.rx_offset - tx_mid) + rate_rep * (self.t_nav - t_mid)
+        tx_nav = tx_mid + (self.t_nav - t_mid) * (1 + dop / L1_FREQ_HZ)
+        pos, vel, clock, drift = self._satellites(slots, tx_nav, self.x[:3])
+        cn0 = np.array([self.channels[int(s) + 1].cn0_dbhz for s in slots])
+        ref = np.array([self.channels[int(s) + 1].cn0_ref for s in slots])
+        use = cn0 >= self.vector.min_cn0_dbhz
+        # The thermal variances grow as 1/(C/N0): scale the ones set at the hand-over C/N0.
+        scale = 10 ** ((ref - np.maximum(cn0, self.vector.min_cn0_dbhz)) / 10)
+        var_code = np.where(use, var_code * scale, _IGNORE_VAR)
+        var_freq = np.where(use, var_freq * scale, _IGNORE_VAR)
+        inputs = {names.CODE_ERROR_CHIPS: code[None], names.CODE_ERROR_VAR_CHIPS2: var_code[None],
+                  names.FREQ_ERROR_HZ: freq[None], names.FREQ_ERROR_VAR_HZ2: var_freq[None],
+                  names.SAT_POS_M: pos, names.SAT_VEL_M_S: vel, names.NEXT_SAT_POS_M: pos,
+                  names.NEXT_SAT_VEL_M_S: vel, names.REPLICA_RANGE_M: (range_rep + clock - self.iono_m)[None],
+                  names.REPLICA_RATE_M_S: (rate_rep + drift)[None]}
+        out = self.nav.checked_step(inputs)
+        x = np.concatenate([out[names.POSITION_M][0], out[names.VELOCITY_M_S][0], out[names.CLOCK_M][0]])
+        if not np.all(np.isfinite(x)):
+            raise NumericalError(self.vector.nav_filter, [(0,)], len(self.solution.sample_time_s),
+                                 f"non-finite state at the vector epoch {self.t_nav:.3f} s of the recording")
+        self.x = x
+        s = self.solution
+        s.sample_time_s.append(self.t_nav)
+        s.state.append(x)
+        s.cov.append(np.array(out[names.COV])[0])
+        s.used.append(use)
+        s.dops.append(_dops(pos[use], x[:3]))
+        self._command(slots, x)
+
+    def _command(self, slots: np.ndarray, x: np.ndarray) -> None:
+        """Move every vector channel's NCOs to the state's prediction at its next interval."""
+        t = self.start_sample[slots] / self.fs
+        tx = self._replica_tx(slots)
+        rho, rate = self._predict(slots, x, t, tx)
+        replica = _C * (t + self.rx_offset - tx)
+        # Fewer metres of range = more chips generated.
+        shift = (replica - rho) / CA_CHIP_LENGTH_M
+        doppler = -rate / L1_WAVELENGTH_M
+        self.code_phase[slots] += shift
+        self.shift_chips[slots] = shift
+        self.shift_hz[slots] = doppler - self.doppler[slots]
+        self.doppler[slots] = doppler
+        self.code_rate[slots] = CA_CHIP_RATE_HZ * (1 + doppler / L1_FREQ_HZ)
+
+
+def _dops(sat_pos: np.ndarray, r: np.ndarray) -> tuple[float, float]:
+    """HDOP and VDOP of satellites ``sat_pos`` seen from ``r`` (NaN with fewer than four)."""
+    if sat_pos.shape[0] < 4:
+        return np.nan, np.nan
+    _, e = line_of_sight(sat_pos, r)
+    lat, lon, _ = pymap3d.ecef2geodetic(*r)
+    east, north, up = pymap3d.ecef2enuv(e[:, 0], e[:, 1], e[:, 2], lat, lon)
+    _, _, hdop, vdop = dop(np.stack([east, north, up], axis=-1))
+    return hdop, vdop
+
+
+def _rotate(v: np.ndarray, tau_s: np.ndarray) -> np.ndarray:
+    """ECEF vectors of transmit time expressed in the ECEF frame ``tau_s`` later (Earth rotation)."""
+    th = _OMEGA_E * tau_s
+    c, s = np.cos(th), np.sin(th)
+    return np.stack([c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1], v[:, 2]], axis=-1)
+
+
+def _stack(records: list[Ephemerides]) -> Ephemerides:
+    return Ephemerides(np.concatenate([r.sv for r in records]), np.concatenate([r.toc_s for r in records]),
+                       {k: np.concatenate([r.elements[k] for r in records]) for k in records[0].elements},
+                       np.concatenate([r.health for r in records]), np.concatenate([r.iode for r in records]))

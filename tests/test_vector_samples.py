@@ -1,0 +1,181 @@
+"""Vector tracking on samples (`receiver.navigation.vector_tracking`) on the project's own
+generator: the five satellites of `test_receiver_fix` (real broadcast orbits seen from a
+known station, LNAV, light time and Earth rotation), at 45 dB-Hz for the pull-in, the LNAV
+TOW and a first fix, then faded to a C/N0 at which the scalar receiver's channels lose
+lock. The scalar receiver's failure is asserted on the same file; vector tracking keeps
+a position to the end, and every vector channel's Doppler matches the generator's."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import test_receiver_fix as fix
+from gnssframework import registry
+from gnssframework.errors import ConfigError
+from gnssframework.navigation import lnav
+from gnssframework.navigation.ephemeris import read_rinex_nav
+from gnssframework.receiver.channels import tracking_config
+from gnssframework.receiver.frontend import open_recording, write_recording
+from gnssframework.receiver.navigation.receive import receive
+from gnssframework.receiver.navigation.vector_tracking import vector_config
+from gnssframework.signal.constants import L1_FREQ_HZ
+from gnssframework.signal.if_samples import generate_if_samples
+
+DURATION_S = 13.0
+FADE_S = 10.5  # the first fix comes with TOW, 8.6 s in (see test_receiver_fix)
+STRONG_DBHZ, WEAK_DBHZ = 45.0, 24.0
+
+
+def _cn0(t_s: float) -> float:
+    return STRONG_DBHZ if t_s < FADE_S else WEAK_DBHZ
+
+
+@pytest.fixture(scope="module")
+def faded(tmp_path_factory):
+    """``fix.recording``'s signals with the C/N0 profile `_cn0`; the true Doppler per chunk."""
+    nav = read_rinex_nav(fix.NAV)
+    sats = fix._strongest(nav, fix.TOW0, 5)
+    rng = np.random.default_rng(7)
+    n = int(round(fix.CHUNK_S * fix.FS))
+    source = registry.create("sample_source", "ci16_le")
+    path = tmp_path_factory.mktemp("vector") / "faded.sigmf-data"
+    t_sv0 = fix._satellite_time(sats, np.array(fix.TOW0))
+    symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), 1316, float(t_sv0[k]) - 0.1, int(DURATION_S * 50) + 20)
+               for k in range(sats.sv.size)]
+    phase = np.zeros(sats.sv.size)
+    dopplers = []
+    with open(path, "wb") as out:
+        for c in range(int(round(DURATION_S / fix.CHUNK_S))):
+            t0 = c * fix.CHUNK_S
+            start = fix._satellite_time(sats, fix.TOW0 + t0)
+            end = fix._satellite_time(sats, fix.TOW0 + t0 + fix.CHUNK_S)
+            doppler = L1_FREQ_HZ * ((end - start) / fix.CHUNK_S - 1)
+            dopplers.append(doppler)
+            x = np.zeros(n, complex)
+            for k in range(sats.sv.size):
+                bits, into = symbols[k]
+                first_tsv = float(t_sv0[k]) - 0.1 - into
+                x += generate_if_samples(int(sats.sv[k][1:]), fix.CHUNK_S, fix.FS, 0.0, _cn0(t0), rng,
+                                         doppler_hz=doppler[k], code_phase_chips=(start[k] * 1e3 % 1.0) * 1023,
+                                         carrier_phase_rad=phase[k], complex_samples=True, data_bits=bits,
+                                         first_bit_edge_s=first_tsv - start[k], noise=False).samples
+                phase[k] += 2 * np.pi * doppler[k] * fix.CHUNK_S
+            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
+            out.write(source.encode(x * 300.0))
+    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", fix.FS, 0.0)
+    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
+    path.with_suffix(".tmp").unlink()
+    prns = [int(s[1:]) for s in sats.sv]
+    return path, prns, np.array(dopplers)
+
+
+def _receive(path, **kw):
+    return receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=5.0,
+                   rinex=read_rinex_nav(fix.NAV), **kw)
+
+
+def test_scalar_receiver_loses_every_channel_after_the_fade(faded):
+    path, prns, _ = faded
+    result = _receive(path)
+    for prn in prns:
+        events = result.tracking.channels[prn].events
+        assert any(t > FADE_S and "lost" in text for t, text in events), events
+    # No fix more than a second after the fade (lock detection and loss take 0.6 s).
+    assert result.positions is not None and result.positions.sample_time_s.max() < FADE_S + 1.0
+
+
+@pytest.fixture(scope="module")
+def vector_result(faded):
+    return _receive(faded[0], vector=vector_config(solution_rate_hz=5.0))
+
+
+def test_vector_tracking_keeps_a_fix_through_the_fade(faded, vector_result):
+    _, prns, _ = faded
+    solution = vector_result.vector
+    assert set(solution.prns) == set(prns) and solution.handover_s < FADE_S
+    table = vector_result.positions
+    after = table.sample_time_s > FADE_S + 1.0
+    # A row every 1/5 s to the end of the file, all five satellites in each.
+    assert table.sample_time_s[after].size >= (DURATION_S - FADE_S - 1.0) * 5 - 2
+    assert np.all(table.columns["n_sats"][after] == 5)
+    err = np.linalg.norm(table.ecef_m[after] - fix.STATION, axis=1)
+    # As well as the scalar receiver at 45 dB-Hz (test_receiver_fix's bound: about 1.7 m of
+    # code noise per satellite for a 2 Hz DLL, DOP-scaled), at 24 dB-Hz.
+    dops = table.columns["hdop"][after] + table.columns["vdop"][after]
+    assert np.all(np.isfinite(dops))
+    assert np.sqrt(np.mean(err**2)) < 4 * dops.max() * 1.7, (err, dops)
+    speed = np.linalg.norm(np.stack([table.columns[k] for k in ("vel_e_mps", "vel_n_mps", "vel_u_mps")], 1), axis=1)
+    assert np.all(speed[after] < 1.0)
+
+
+def test_vector_channels_follow_the_true_code_and_doppler_at_the_weak_signal(faded, vector_result):
+    """No dynamics but the satellites': at 24 dB-Hz every vector channel's code phase and
+    Doppler are the generator's within four standard deviations of the pseudorange and rate
+    the navigation filter predicts for it (its covariance projected on the line of sight:
+    the thermal noise of five discriminators through the filter), plus what the record's
+    sampling adds (the generator's Doppler is constant over each 0.5 s chunk)."""
+    _, prns, dopplers = faded
+    solution = vector_result.vector
+    nav = read_rinex_nav(fix.NAV)
+    sats = fix._strongest(nav, fix.TOW0, 5)
+    t_sol = np.asarray(solution.sample_time_s)
+    x = np.asarray(solution.state)
+    for k, prn in enumerate(prns):
+        ch = vector_result.tracking.channels[prn]
+        t, dop, stage = ch.column("time_s"), ch.column("doppler_hz"), ch.column("stage")
+        chips = ch.column("code_phase_chips")
+        weak = (t > FADE_S + 1.0) & (stage == 4)
+        assert weak.sum() > 100
+        # The filter's epoch just before each row, and its line-of-sight standard deviations.
+        j = np.clip(np.searchsorted(t_sol, t[weak]) - 1, 0, t_sol.size - 1)
+        los = sats_los(sats, k, x[j, :3])
+        h_range = np.concatenate([-los, np.ones((los.shape[0], 1))], axis=1)
+        cov = np.asarray(solution.cov)[j]
+        sigma_range = np.sqrt(np.einsum("ki,kij,kj->k", h_range, cov[:, np.r_[0:3, 6]][:, :, np.r_[0:3, 6]], h_range))
+        sigma_rate = np.sqrt(np.einsum("ki,kij,kj->k", h_range, cov[:, np.r_[3:6, 7]][:, :, np.r_[3:6, 7]], h_range))
+        truth_dop = dopplers[np.minimum((t[weak] / fix.CHUNK_S).astype(int), len(dopplers) - 1), k]
+        dop_err = dop[weak] - truth_dop
+        assert np.sqrt(np.mean(dop_err**2)) < 4 * np.sqrt(np.mean(sigma_rate**2)) / 0.1903
+        # Code: the chips the signal had sent at each row's first sample (receiver clock = GPS time).
+        t_sv = np.array([fix._satellite_time(sats, np.array(fix.TOW0 + ti))[k] for ti in t[weak]])
+        true_chips = (t_sv * 1e3 % 1.0) * 1023
+        code_err_m = ((chips[weak] - true_chips + 511.5) % 1023 - 511.5) * 293.05
+        assert np.sqrt(np.mean(code_err_m**2)) < 4 * np.sqrt(np.mean(sigma_range**2)), (
+            np.sqrt(np.mean(code_err_m**2)), np.sqrt(np.mean(sigma_range**2)))
+
+
+def sats_los(sats, k: int, receiver_m: np.ndarray) -> np.ndarray:
+    """Unit vectors ``(n, 3)`` from receivers ``receiver_m`` ``(n, 3)`` to satellite ``k`` (75 ms before)."""
+    from gnssframework.navigation.ephemeris import satellite_state
+
+    pos = satellite_state(sats.subset(np.array([k])), fix.TOW0 + 10.0).position_m[0]
+    d = pos - receiver_m
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def test_a_bad_vector_setting_names_the_field():
+    with pytest.raises(ConfigError, match="min_cn0_dbhz"):
+        vector_config(min_cn0_dbhz="low")
+
+
+def test_position_command_tracks_vector(faded, tmp_path, capsys):
+    from gnssframework.cli import main
+
+    path, _, _ = faded
+    code = main(["position", str(path), "--out", str(tmp_path / "pos"), "--ephemeris", str(fix.NAV), "--rate", "5",
+                 "--tracking", "vector"])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "vector tracking from" in out
+    rows = (tmp_path / "pos" / "positions.csv").read_text().splitlines()[1:]
+    # Rows to the end of the file, through the fade.
+    assert len(rows) >= 5 * (DURATION_S - 9.0) - 2
+
+
+def test_an_unknown_tracking_mode_exits_2(faded, tmp_path, capsys):
+    from gnssframework.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["position", str(faded[0]), "--out", str(tmp_path), "--tracking", "deep"])
+    assert exc.value.code == 2
