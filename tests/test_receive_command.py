@@ -180,6 +180,7 @@ def test_a_bad_receiver_config_names_the_field(tmp_path, text, message):
     (["--channel-filter", "scalr"], "--channel-filter: unknown channel_filter 'scalr'"),
     (["--channel-params", '{"pll_bandwidth_hz": -1}'], "--channel-params.pll_bandwidth_hz"),
     (["--week", "-3"], "--week: a full GPS week"),
+    (["--tracking", "vector", "--nav-filter", "ekf-pv"], "--tracking: vector tracking runs its own navigation filter"),
 ])
 def test_receive_refuses_bad_options_with_one_line(recording, tmp_path, capsys, options, message):  # noqa: F811
     path, _ = recording
@@ -215,3 +216,15 @@ def test_a_missing_or_broken_config_file_is_named(tmp_path):
     with pytest.raises(DataFileError) as info:
         load_receiver_config(broken)
     assert "broken.toml" in str(info.value) and "line 3" in str(info.value)
+
+
+def test_receive_takes_a_nav_filter_or_vector_tracking_not_both():
+    """The vector loop closes its own ekf-pv: a second filter on the observables would
+    be a different receiver, so the library refuses the pair before reading anything."""
+    from gnssframework.errors import ConfigError
+    from gnssframework.plugin_ref import PluginSpec
+    from gnssframework.receiver.navigation.receive import receive
+    from gnssframework.receiver.navigation.vector_tracking import vector_config
+
+    with pytest.raises(ConfigError, match="nav_filter: vector tracking runs its own navigation filter"):
+        receive(None, None, None, nav_filter=PluginSpec("nav_filter", "ekf-pv", {}), vector=vector_config())
