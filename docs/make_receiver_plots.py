@@ -20,6 +20,7 @@ from gnssframework import registry  # noqa: E402
 from gnssframework.receiver.acquisition import noise_floor, search_grid  # noqa: E402
 from gnssframework.receiver.acquisition.report import acquire_recording  # noqa: E402
 from gnssframework.receiver.channels import SampleTracker, correlate_channels, tracking_config  # noqa: E402
+from gnssframework.receiver.channels.correlator import MAX_TAPS  # noqa: E402
 from gnssframework.receiver.frontend import (SatelliteSignal, open_recording, synthesize_samples,  # noqa: E402
                                              write_recording)
 from gnssframework.signal.codes import ca_code  # noqa: E402
@@ -63,10 +64,12 @@ def acquisition_figures() -> None:
     offsets = np.linspace(-1.5, 1.5, 61)
     codes = ca_code(26)[None].astype(np.float32)
     sums = np.zeros(offsets.size)
+    chunks = np.array_split(offsets, -(-offsets.size // MAX_TAPS))  # the kernel takes at most MAX_TAPS taps
     for k in range(9):  # the whole code periods after the first epoch
-        c = correlate_channels(x, np.array([start + k * n]), np.array([n]), np.array([0.0]),
-                               np.array([1.023e6 / fs]), np.array([res.doppler_hz * (start + k * n) / fs]),
-                               np.array([res.doppler_hz / fs]), codes, offsets)[0]
+        c = np.concatenate([correlate_channels(x, np.array([start + k * n]), np.array([n]), np.array([0.0]),
+                                               np.array([1.023e6 / fs]),
+                                               np.array([res.doppler_hz * (start + k * n) / fs]),
+                                               np.array([res.doppler_hz / fs]), codes, taps)[0] for taps in chunks])
         sums += np.abs(c) ** 2
     fig, ax = plt.subplots(figsize=(5, 3.4))
     ax.plot(offsets, np.sqrt(sums / sums.max()), ".-")
