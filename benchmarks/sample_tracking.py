@@ -193,7 +193,7 @@ def gnss_sdr_run(path: Path, fs: float, channels: int, folder: Path) -> tuple[fl
     return wall, (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
 
 
-def worker(path: Path, fs: float, channels: int, with_acquisition: bool, parallel: bool = False) -> dict[str, float]:
+def worker(path: Path, fs: float, channels: int, with_acquisition: bool) -> dict[str, float]:
     """Our run on a gps-sdr-sim file in this process: (wall, CPU) seconds of acquisition
     plus tracking (or tracking alone), the compiled kernels loaded first."""
     from gnssframework.receiver.frontend.sigmf_meta import write_sigmf_meta
@@ -204,7 +204,7 @@ def worker(path: Path, fs: float, channels: int, with_acquisition: bool, paralle
     rec = open_recording(path)
     acq = registry.create("acquisition", "pcps")
     found = sorted([r for r in acquire_recording(rec, acq) if r.detected], key=lambda r: -r.test_statistic)[:channels]
-    tracker = SampleTracker(rec, tracking_config(parallel_channels=parallel), acq)
+    tracker = SampleTracker(rec, tracking_config(), acq)
     tracker.run(found, 0.05)  # warm: compiled kernels loaded
     wall0, cpu0 = time.perf_counter(), time.process_time()
     if with_acquisition:
@@ -215,8 +215,7 @@ def worker(path: Path, fs: float, channels: int, with_acquisition: bool, paralle
             "channels": len(found)}
 
 
-def run_worker(path: Path, fs: float, channels: int, with_acquisition: bool, one_cpu: int | None = None,
-               parallel: bool = False) -> dict:
+def run_worker(path: Path, fs: float, channels: int, with_acquisition: bool, one_cpu: int | None = None) -> dict:
     """`worker` in a fresh process (pinned to CPU ``one_cpu`` with one thread, if given)."""
     env = dict(os.environ)
     if one_cpu is not None:
@@ -224,8 +223,6 @@ def run_worker(path: Path, fs: float, channels: int, with_acquisition: bool, one
     cmd = [sys.executable, __file__, "--worker", str(path), "--fs", str(fs), "--channels", str(channels)]
     if with_acquisition:
         cmd.append("--with-acquisition")
-    if parallel:
-        cmd.append("--parallel")
     pin = (lambda: os.sched_setaffinity(0, {one_cpu})) if one_cpu is not None else None
     out = subprocess.run(cmd, check=True, capture_output=True, text=True, env=env, preexec_fn=pin)
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -241,14 +238,12 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--channels", type=int, default=8)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--repeat", type=int, default=2, help="interleaved runs of ours and GNSS-SDR per rate")
-    ap.add_argument("--parallel", action="store_true",
-                    help="the gps-sdr-sim rows with the channels correlated on numba's threads (parallel_channels)")
     ap.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
     ap.add_argument("--fs", type=float, help=argparse.SUPPRESS)
     ap.add_argument("--with-acquisition", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.worker is not None:
-        print(json.dumps(worker(args.worker, args.fs, args.channels, args.with_acquisition, args.parallel)))
+        print(json.dumps(worker(args.worker, args.fs, args.channels, args.with_acquisition)))
         return
     rng = np.random.default_rng(args.seed)
     print(f"{_load()} at start, {os.cpu_count()} cores; {args.channels} channels")
@@ -272,14 +267,13 @@ def main(argv: list[str] | None = None) -> None:
         secs = args.seconds * 5
         have_peer = shutil.which("gnss-sdr") is not None
         print(f"\nsame gps-sdr-sim file ({secs:.0f} s, int8 I/Q), whole run: wall and CPU time over signal time"
-              + (" (ours with parallel_channels)" if args.parallel else "")
               + ("" if have_peer else " (GNSS-SDR skipped: gnss-sdr is not on PATH)"))
         sims = {}
         for fs in RATES_HZ:
             sims[fs] = sim = gps_sdr_sim_file(fs, secs, folder)
             ours, theirs = [], []
             for _ in range(args.repeat):
-                r = run_worker(sim, fs, args.channels, True, parallel=args.parallel)
+                r = run_worker(sim, fs, args.channels, True)
                 ours.append((r["wall"] / r["signal"], r["cpu"] / r["signal"], os.getloadavg()[0]))
                 print(f"  {fs / 1e6:7.4f} MHz gnssframework: wall {ours[-1][0]:.3f}, CPU {ours[-1][1]:.3f} "
                       f"({r['channels']} channels; {_load()})")

@@ -311,19 +311,3 @@ def test_a_filter_batch_steps_like_its_channels_filters_stepped_alone(name):
     assert batch.slots == [0, 2]
     for _ in range(5):
         step_both(batch)
-
-
-def test_channels_correlated_in_parallel_track_bit_for_bit_as_serial(tmp_path):
-    """``parallel_channels`` runs each channel's correlation whole on one of numba's
-    threads: the tracking records are the serial run's, bit for bit."""
-    sats = [SatelliteSignal(3, 45.0, 1200.0, 100.5, first_bit_code_period=2),
-            SatelliteSignal(8, 43.0, -2500.0, 800.25, first_bit_code_period=11),
-            SatelliteSignal(17, 46.0, 300.0, 33.0, first_bit_code_period=17)]
-    rec = _recording(tmp_path, sats, 0.8, 29)
-    serial = _track(rec)
-    parallel = _track(rec, parallel_channels=True)
-    assert set(serial.channels) == set(parallel.channels) >= {s.prn for s in sats}
-    for prn, ch in serial.channels.items():
-        assert parallel.channels[prn].events == ch.events and len(ch.rows) > 100
-        for field in ("time_s", "prompt_i", "prompt_q", "cn0_dbhz", "doppler_hz", "code_phase_chips"):
-            np.testing.assert_array_equal(parallel.channels[prn].column(field), ch.column(field), err_msg=field)

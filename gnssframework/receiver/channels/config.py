@@ -45,8 +45,6 @@ class TrackingConfig(BaseModel):
     closure_fll_bandwidth_hz: float = Field(10.0, gt=0, description="FLL closing an error-output filter")
     closure_dll_bandwidth_hz: float = Field(2.0, gt=0, description="DLL closing an error-output filter")
     block_ms: int = Field(100, ge=10, description="samples read at a time (memory bound)")
-    parallel_channels: bool = Field(False, description="correlate the channels on numba's threads (the same bits "
-                                                       "as serial; pays on an idle multi-core machine)")
 
 
 def tracking_config(**values: Any) -> TrackingConfig:

@@ -313,7 +313,7 @@ class SampleTracker:
             sums, counts = correlate_periods(buf, starts - first, periods, phases, steps, carrier0,
                                              (self.if_hz + dop) / fs, self.codes[idx], self.offsets,
                                              backend=self.backend, tables=tables, iq=self.rec.is_complex,
-                                             q_sign=self.rec.info.q_sign, parallel=self.config.parallel_channels)
+                                             q_sign=self.rec.info.q_sign)
             valid = counts > 0
             sums[valid] /= np.sqrt(counts[valid] * self.power / 2)[:, None]
             total = counts.sum(axis=1)
