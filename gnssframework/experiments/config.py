@@ -9,16 +9,14 @@ from __future__ import annotations
 
 import hashlib
 import json
-import re
-import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator, model_validator
 
-from ..errors import ConfigError, DataFileError
+from ..errors import ConfigError
 from ..hookspecs import COMPONENT_KINDS
-from ..io.text import read_input_text
+from ..io.text import read_toml
 from ..plugin import validation_message
 from ..plugin_ref import ComponentRef, PluginSpec
 from .candidates import CandidatePlan, resolve_candidate
@@ -237,13 +235,7 @@ def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
         For any invalid field, naming it and what it allows.
     """
     path = Path(path)
-    try:
-        data = tomllib.loads(read_input_text(path))
-    except tomllib.TOMLDecodeError as exc:
-        # Python 3.11's TOMLDecodeError carries the position only in its message.
-        found = re.search(r"\(at line (\d+), column \d+\)", str(exc))
-        line = getattr(exc, "lineno", None) or (int(found.group(1)) if found else None)
-        raise DataFileError(str(path), line, f"invalid TOML: {exc}") from None
+    data = read_toml(path)
     data.update({k: v for k, v in overrides.items() if v is not None})
     try:
         return ComparisonConfig.model_validate(data)

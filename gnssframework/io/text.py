@@ -7,12 +7,14 @@ such as ``/dev/zero``, a FIFO, a directory: endless or not a file) and a file la
 
 from __future__ import annotations
 
+import re
 import stat
+import tomllib
 from pathlib import Path
 
 from ..errors import DataFileError
 
-__all__ = ["MAX_INPUT_FILE_BYTES", "check_input_file", "read_input_text"]
+__all__ = ["MAX_INPUT_FILE_BYTES", "check_input_file", "read_input_text", "read_toml"]
 
 #: Largest input file a reader holds in memory (1 GiB: a day of 1 Hz RINEX is about 50 MB).
 MAX_INPUT_FILE_BYTES = 2**30
@@ -79,3 +81,20 @@ def read_input_text(path: str | Path, errors: str = "strict", encoding: str = "u
     except UnicodeDecodeError as exc:
         line = data[: exc.start].count(b"\n") + 1
         raise DataFileError(str(path), line, f"not {encoding.upper()} text (byte 0x{data[exc.start]:02x})") from None
+
+
+def read_toml(path: str | Path) -> dict:
+    """A TOML file's table, read as `read_input_text` reads text.
+
+    Raises
+    ------
+    DataFileError
+        If the file is missing or not TOML, with the line of the first error.
+    """
+    try:
+        return tomllib.loads(read_input_text(path))
+    except tomllib.TOMLDecodeError as exc:
+        # Python 3.11's TOMLDecodeError carries the position only in its message.
+        found = re.search(r"\(at line (\d+), column \d+\)", str(exc))
+        line = getattr(exc, "lineno", None) or (int(found.group(1)) if found else None)
+        raise DataFileError(str(path), line, f"invalid TOML: {exc}") from None

@@ -19,16 +19,14 @@ parameters by the plugin's own model, and an error names the field's path
 
 from __future__ import annotations
 
-import re
-import tomllib
 from pathlib import Path
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ... import registry
-from ...errors import ConfigError, DataFileError
-from ...io.text import read_input_text
+from ...errors import ConfigError
+from ...io.text import read_toml
 from ...plugin import validation_message
 from ...plugin_ref import ComponentRef, PluginSpec
 from ..channels.config import TrackingConfig
@@ -72,12 +70,7 @@ def load_receiver_config(path: str | Path) -> ReceiverFilters:
         For an unknown key, plugin name or parameter, naming its path.
     """
     path = Path(path)
-    try:
-        data = tomllib.loads(read_input_text(path))
-    except tomllib.TOMLDecodeError as exc:
-        found = re.search(r"\(at line (\d+), column \d+\)", str(exc))
-        line = getattr(exc, "lineno", None) or (int(found.group(1)) if found else None)
-        raise DataFileError(str(path), line, f"invalid TOML: {exc}") from None
+    data = read_toml(path)
     try:
         config = ReceiverFilters.model_validate(data)
     except ValidationError as exc:
