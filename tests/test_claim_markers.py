@@ -107,3 +107,90 @@ def test_a_marker_for_a_missing_claim_is_caught():
     assert not _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse within [0, 1]"))
     with pytest.raises(AssertionError, match="unreadable claim marker"):
         _parse("x: deep beats vector")
+
+
+# --- Orderings written without a marker ------------------------------------------------
+#
+# A conservative detector of comparative statements in the pages' prose: a paragraph (lines
+# between blank lines; headings, tables, code blocks and HTML comments are not prose) that
+# says one thing beats, wins over, or is lower/better/N times smaller than another must
+# carry a claim marker, or an exemption ``<!-- not-compared: reason -->`` saying why it is
+# not an ordering CI checks (a definition, an arithmetic fact, a measurement of one run).
+
+COMPARATIVE = re.compile(
+    r"\b(?:beats?|beating|outperform(?:s|ed|ing)?|wins?|winning|loses? to"
+    r"|(?:better|worse|lower|higher|smaller|larger) than"
+    r"|\d+(?:\.\d+)?\s*(?:x|×|times)\s+(?:smaller|lower|larger|higher|better|worse))\b", re.I)
+EXEMPTION = re.compile(r"<!--\s*not-compared:(?P<reason>.*?)-->", re.S)
+_FENCE = re.compile(r"^\s*(```|~~~)")
+_COMMENT = re.compile(r"<!--.*?-->", re.S)
+_INLINE_CODE = re.compile(r"`[^`\n]*`")
+
+
+def paragraphs(text: str) -> list[tuple[int, str]]:
+    """(first line, text) of each prose paragraph of a markdown page, code blocks left out."""
+    found, block, start, fenced = [], [], 0, False
+    for number, line in enumerate(text.splitlines() + [""], start=1):
+        if _FENCE.match(line):
+            fenced = not fenced
+            continue
+        if fenced:
+            continue
+        if line.strip():
+            if not block:
+                start = number
+            block.append(line)
+        elif block:
+            found.append((start, "\n".join(block)))
+            block = []
+    return found
+
+
+def unmarked_orderings(text: str) -> list[str]:
+    """One line per paragraph of ``text`` that states a comparison without a claim marker
+    or a non-empty ``not-compared`` exemption."""
+    problems = []
+    for start, para in paragraphs(text):
+        empty = [m for m in EXEMPTION.finditer(para) if not m.group("reason").strip()]
+        if empty:
+            problems.append(f"line {start}: '<!-- not-compared: -->' needs a reason")
+            continue
+        prose = " ".join(line for line in _COMMENT.sub(" ", para).splitlines()
+                         if not line.lstrip().startswith(("|", "#", "--8<--", "![")))
+        hit = COMPARATIVE.search(_INLINE_CODE.sub(" ", prose))
+        if hit and not MARKER.search(para) and not EXEMPTION.search(para):
+            problems.append(f"line {start}: {hit.group(0)!r} states an ordering without a claim marker "
+                            "('<!-- claim: example: ... -->') or '<!-- not-compared: reason -->'")
+    return problems
+
+
+@pytest.mark.parametrize("page", PAGES, ids=[p.name for p in PAGES])
+def test_every_ordering_in_prose_is_marked(page):
+    problems = unmarked_orderings(page.read_text())
+    assert not problems, f"{page.name}: " + "; ".join(problems)
+
+
+@pytest.mark.parametrize("text", [
+    "The CKF beats the baseline.",
+    "Its error is 3.7x smaller at 45 dB-Hz.",
+    "Its error is 3.7 times lower at 45 dB-Hz.",
+    "- first item\n- `deep` is better than\n  `vector` in velocity",
+    "Narrow loops win here.",
+    "Raw code is lower than smoothing. <!-- not-compared:   -->",
+    "The ordering is stated. <!-- claim is not a marker -->\nIt outperforms the PLL.",
+])
+def test_an_unmarked_ordering_is_found(text):
+    assert unmarked_orderings(text), text
+
+
+@pytest.mark.parametrize("text", [
+    "The CKF beats the baseline.\n<!-- claim: vector_tracking: ackf velocity_error_rmse lower than discriminator -->",
+    "Its error is 3.7x smaller. <!-- not-compared: one run's measurement, no paired difference -->",
+    "| a | b |\n| --- | --- |\n| beats | 3x lower |",
+    "```python\nassert a.lower() != b  # lower than\n```",
+    "The option `better-than` is a name.",
+    "## Why the narrow loop wins",
+    "Lower bounds, higher order, the winner's window: no comparison.",
+])
+def test_what_is_not_an_unmarked_ordering_passes(text):
+    assert not unmarked_orderings(text), unmarked_orderings(text)
