@@ -12,6 +12,11 @@ HTML comment the reader does not see::
 --check`` in ``.ci/run``, or ``docs/make_experiment_plots.py``, which CI runs and which fails
 when a claim of its examples does not hold), so a claim removed, changed or no longer checked in CI breaks the build
 until the page says so too.
+
+An ordering written *without* a marker is found too: a conservative detector of comparative
+statements in the pages' prose ("beats", "lower than", "3x smaller", "wins", ...) requires a
+claim marker in the same paragraph, or an exemption ``<!-- not-compared: reason -->`` with a
+reason (a definition, a bound, a measurement no claim checks).
 """
 
 from __future__ import annotations
@@ -94,7 +99,8 @@ def test_every_marked_ordering_is_a_claim_ci_checks(page, line, body):
 
 
 def test_ci_checks_the_reference_examples():
-    assert {"vector_tracking", "deep_integration_ci", "carrier_smoothing"} <= _checked_in_ci()
+    assert {"vector_tracking", "deep_integration_ci", "carrier_smoothing", "vector_tracking_tcxo",
+            "vector_tracking_regime_static_ci", "vector_tracking_regime_moving_ci"} <= _checked_in_ci()
     assert "deep_integration" not in _checked_in_ci()  # too slow for CI: its claims are not CI's
 
 
@@ -194,3 +200,44 @@ def test_an_unmarked_ordering_is_found(text):
 ])
 def test_what_is_not_an_unmarked_ordering_passes(text):
     assert not unmarked_orderings(text), unmarked_orderings(text)
+
+
+# --- CI-sized examples evaluated at another example's tuned values -------------------------
+
+_TUNED_ROW = re.compile(r"^\|\s*(?:`(?P<candidate>[^`]+)`)?\s*\|\s*`(?P<label>[^`]+)`\s*\|[^|]*\|\s*(?P<tuned>[^|\s]+)\s*\|")
+
+
+def _tuned_values(generated: Path) -> dict[tuple[str, str], float]:
+    """(candidate, parameter label) -> tuned value, from a generated page table's tuning section."""
+    values, candidate = {}, None
+    for line in generated.read_text().split("**Tuning**", 1)[1].split("**Claims**", 1)[0].splitlines():
+        m = _TUNED_ROW.match(line)
+        if m:
+            candidate = m.group("candidate") or candidate
+            values[(candidate, m.group("label"))] = float(m.group("tuned"))
+    return values
+
+
+def _param(candidate: dict, label: str) -> float:
+    component, _, *path = label.split(".")
+    value = candidate[component]["params"]
+    for key in path:
+        value = value[int(key)] if key.isdigit() else value[key]
+    return float(value)
+
+
+@pytest.mark.parametrize("example, tuned_by", [
+    ("vector_tracking_regime_static_ci", "vector_tracking_static"),
+    ("vector_tracking_regime_moving_ci", "vector_tracking_moving"),
+    ("vector_tracking_tcxo", "vector_tracking"),
+])
+def test_ci_examples_evaluate_at_the_tuned_values(example, tuned_by):
+    # The CI examples carry the values the slow tuning selected (its generated table, 3
+    # significant digits); a retuning that moves them must move the CI example too.
+    tuned = _tuned_values(ROOT / "docs" / "experiments" / "generated" / f"{tuned_by}.md")
+    candidates = {c["name"]: c for c in tomllib.loads((ROOT / "examples" / f"{example}.toml").read_text())["candidates"]}
+    checked = [(name, label) for name, label in tuned if name in candidates]
+    assert {name for name, _ in checked} >= {"ackf", "discriminator"}
+    for name, label in checked:
+        assert _param(candidates[name], label) == pytest.approx(tuned[(name, label)], rel=5e-3), \
+            f"{example}.toml: {name} {label} is not {tuned_by}'s tuned {tuned[(name, label)]}"
