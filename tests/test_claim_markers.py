@@ -133,8 +133,12 @@ _COMMENT = re.compile(r"<!--.*?-->", re.S)
 _INLINE_CODE = re.compile(r"`[^`\n]*`")
 
 
+_ITEM = re.compile(r"^(?:[-*+]|\d+\.)\s")
+
+
 def paragraphs(text: str) -> list[tuple[int, str]]:
-    """(first line, text) of each prose paragraph of a markdown page, code blocks left out."""
+    """(first line, text) of each prose paragraph of a markdown page, code blocks left out;
+    each top-level list item is a paragraph of its own (with its nested lines)."""
     found, block, start, fenced = [], [], 0, False
     for number, line in enumerate(text.splitlines() + [""], start=1):
         if _FENCE.match(line):
@@ -142,13 +146,13 @@ def paragraphs(text: str) -> list[tuple[int, str]]:
             continue
         if fenced:
             continue
+        if block and (not line.strip() or _ITEM.match(line)):
+            found.append((start, "\n".join(block)))
+            block = []
         if line.strip():
             if not block:
                 start = number
             block.append(line)
-        elif block:
-            found.append((start, "\n".join(block)))
-            block = []
     return found
 
 
@@ -184,6 +188,7 @@ def test_every_ordering_in_prose_is_marked(page):
     "Narrow loops win here.",
     "Raw code is lower than smoothing. <!-- not-compared:   -->",
     "The ordering is stated. <!-- claim is not a marker -->\nIt outperforms the PLL.",
+    "- `a` beats `b`.\n- `c` ties `d`.\n  <!-- claim: x: c m lower than d -->",
 ])
 def test_an_unmarked_ordering_is_found(text):
     assert unmarked_orderings(text), text
