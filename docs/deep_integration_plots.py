@@ -1,8 +1,9 @@
-"""Figures of docs/experiments/deep-integration.md from a run of examples/deep_integration.toml.
+"""Figures of docs/experiments/deep-integration.md: the flight, and the errors over time of a run of
+examples/deep_integration_reduced.toml (or examples/deep_integration.toml).
 
-Run (after ``gnssframework compare examples/deep_integration.toml --out results/deep_integration``):
-``MPLBACKEND=Agg python docs/deep_integration_plots.py [results/deep_integration]``. Not in CI:
-the example takes about 3 minutes (see the page).
+Run (after ``gnssframework compare examples/deep_integration_reduced.toml --out
+results/deep_integration_reduced``): ``MPLBACKEND=Agg python docs/deep_integration_plots.py
+[results/deep_integration_reduced]``. Not in CI: the example takes too long (see the page).
 """
 
 from __future__ import annotations
@@ -17,8 +18,8 @@ from gnssframework.inertial.earth import STANDARD_GRAVITY_MPS2 as G0
 from gnssframework.experiments.scenarios.deep_integration_flight import make_flight
 
 OUT = Path(__file__).parent / "img"
-CANDIDATES = ("deep", "deep-no-accel", "vector", "loose")
-COLORS = dict(zip(CANDIDATES, ("C0", "C1", "C2", "C3")))
+CANDIDATES = ("deep", "deep-no-accel", "vector", "vector-pva", "vector-given", "loose")
+COLORS = dict(zip(CANDIDATES, ("C0", "C1", "C2", "C4", "C5", "C3")))
 
 
 def _series(run: Path, case: str, cand: str):
@@ -72,7 +73,7 @@ def error_figure(run: Path, case: str) -> None:
     for a in ax:
         a.grid(alpha=0.3)
         a.axvspan(10.0, 18.625, color="0.9", zorder=0)
-    ax[0].legend(fontsize=8, ncol=4)
+    ax[0].legend(fontsize=8, ncol=3)
     ax[-1].set_xlabel("time (s); grey: boost and pull-up")
     fig.suptitle(f"RMS over runs, {case}")
     fig.tight_layout()
@@ -80,7 +81,7 @@ def error_figure(run: Path, case: str) -> None:
 
 
 if __name__ == "__main__":
-    run = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("results/deep_integration")
+    run = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("results/deep_integration_reduced")
     trajectory_figure()
     for case in ("45dBHz", "35dBHz"):
         error_figure(run, case)
