@@ -43,7 +43,7 @@ from ..tracking.scalar import NCO_COMMANDS
 from .batch import FilterBatch, batch_layout
 from .closure import ERROR_OUTPUTS, ErrorFeedback
 from .config import TrackingConfig
-from .correlator import code_tables, correlate_periods
+from .correlator import code_tables, correlate_periods, sum_of_squares
 from ...signal.cn0 import cn0_moments
 from .lock import bit_edge_from_votes, cn0_nwpr_bits, estimate_cn0, phase_lock_indicator
 
@@ -254,8 +254,7 @@ class SampleTracker:
         self.buf = np.concatenate([keep, new]) if keep.size else new
         self.buf_start = first - keep.shape[0] // per
         if new.size:  # mean square of a sample (|I|^2 + |Q|^2 for I/Q); no BLAS call (its threads spin)
-            x = new.astype(np.float32)
-            self.power = float(np.sum(x * x, dtype=np.float64)) * per / new.size
+            self.power = sum_of_squares(new) * per / new.size
         return self.buf, self.buf_start
 
     def run(self, acquisitions: list[AcquisitionResult], duration_s: float | None = None,

@@ -1,7 +1,8 @@
-"""The lock detectors batched over channels give each channel's own estimate: the
-narrow-wide power ratio of many windows with different bit phases in one pass
+"""The tracker's batched and compiled per-interval helpers give what the per-channel code
+gives: the narrow-wide power ratio of many windows with different bit phases in one pass
 (`lock.cn0_nwpr_bits`) against `signal.cn0.cn0_nwpr` of each window from its bit phase,
-and against the C/N0 the prompts were drawn with."""
+and against the C/N0 the prompts were drawn with; a block's power
+(`correlator.sum_of_squares`) against the float sum of its squares."""
 
 from __future__ import annotations
 
@@ -40,3 +41,16 @@ def test_batched_nwpr_recovers_the_drawn_cn0():
     # 19-20 blocks of 20 per window: the mean over 200 windows has a spread of a few
     # hundredths of a dB; NWPR's own bias at 42 dB-Hz and 20 ms blocks is well under 0.3 dB.
     assert abs(np.mean(est) - cn0) < 0.3
+
+
+def test_block_power_is_the_float_sum_of_squares_for_every_stored_type():
+    from gnssframework.receiver.channels.correlator import sum_of_squares
+
+    rng = np.random.default_rng(2)
+    for dtype, hi in ((np.int8, 127), (np.int16, 32767)):
+        x = rng.integers(-hi - 1, hi + 1, 300_001).astype(dtype)
+        x[:3] = (-hi - 1, hi, 0)  # the extremes of the type
+        # Integer squares summed in float64 are exact here (below 2**53): equal, not close.
+        assert sum_of_squares(x) == float(np.sum(x.astype(np.float64) ** 2))
+    f = rng.standard_normal(1001).astype(np.float32)
+    np.testing.assert_allclose(sum_of_squares(f), np.sum(f.astype(np.float64) ** 2), rtol=1e-6)
