@@ -54,3 +54,46 @@ def test_block_power_is_the_float_sum_of_squares_for_every_stored_type():
         assert sum_of_squares(x) == float(np.sum(x.astype(np.float64) ** 2))
     f = rng.standard_normal(1001).astype(np.float32)
     np.testing.assert_allclose(sum_of_squares(f), np.sum(f.astype(np.float64) ** 2), rtol=1e-6)
+
+
+def _arrays(rng, slots=6, window=50):
+    from gnssframework.receiver.channels.intervals import ChannelArrays
+
+    return ChannelArrays(rng.uniform(0, 1, slots), rng.uniform(0, 1, slots), rng.uniform(0, 9, slots),
+                         rng.integers(0, 1000, slots), rng.uniform(-1, 1, slots), rng.uniform(0, 99, slots),
+                         rng.standard_normal((slots, window)) + 1j * rng.standard_normal((slots, window)),
+                         rng.integers(0, 500, slots), rng.integers(0, 500, slots),
+                         rng.standard_normal(slots) + 1j * rng.standard_normal(slots), rng.random(slots) < 0.7,
+                         rng.integers(0, 5, (slots, 20)))
+
+
+def test_compiled_interval_closing_is_bit_identical_to_the_numpy_reference():
+    from gnssframework.receiver.channels.intervals import close_periods, close_periods_numpy
+
+    rng = np.random.default_rng(8)
+    for trial in range(20):
+        idx = np.sort(rng.choice(6, rng.integers(1, 7), replace=False))
+        periods = rng.choice([1, 10, 20], idx.size)
+        counts = np.zeros((idx.size, periods.max()), np.int64)
+        for j, p in enumerate(periods):
+            counts[j, :p] = rng.integers(2590, 2610, p)
+        sums = (rng.standard_normal(counts.shape + (3,)) + 1j * rng.standard_normal(counts.shape + (3,))) * 900
+        sums[counts == 0] = 0
+        args = (idx, counts, rng.integers(0, 10**6, idx.size), rng.uniform(-0.5, 0.5, idx.size),
+                rng.uniform(0.39, 0.4, idx.size), periods, rng.uniform(-5e3, 5e3, idx.size), float(rng.uniform(1, 9)),
+                2.6e6, 1023)
+        a, b = _arrays(np.random.default_rng(trial)), _arrays(np.random.default_rng(trial))
+        s_ref, s_new = sums.copy(), sums.copy()
+        want = close_periods_numpy(a, args[0], s_ref, *args[1:])
+        got = close_periods(b, args[0], s_new, *args[1:], backend="numba")
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(s_new, s_ref)
+        for name in vars(a):
+            np.testing.assert_array_equal(getattr(b, name), getattr(a, name), err_msg=name)
+        # and they did something: the slots' NCO bookkeeping moved, each period's sums were
+        # scaled to unit noise (by sqrt(N P / 2)), untouched slots did not move
+        fresh = _arrays(np.random.default_rng(trial))
+        assert np.all(b.start_sample[idx] == args[2] + counts.sum(axis=1))
+        np.testing.assert_allclose(s_new[0, 0], sums[0, 0] / np.sqrt(counts[0, 0] * args[7] / 2), rtol=1e-15)
+        others = np.setdiff1d(np.arange(6), idx)
+        np.testing.assert_array_equal(b.code_phase[others], fresh.code_phase[others])

@@ -6,9 +6,10 @@ reaches the next epoch. One call of the compiled multi-channel correlator
 (`correlator.correlate_periods`) runs every channel through its whole coherent interval
 (1 ms, or ``coherent_ms`` after bit synchronisation) and returns every period's sums, on
 a buffer that streams the recording in blocks; a channel ahead of the others by more
-than `LAG_LIMIT_S` waits. The per-millisecond bookkeeping (prompts for the detectors,
-bit-sync votes), the bit wipe-off and the lock detectors are done on arrays over the
-channels, and the filters of the channels in one stage and coherent interval step as one
+than `LAG_LIMIT_S` waits. The per-millisecond bookkeeping (normalised sums, NCO
+advance, prompts for the detectors, bit-sync votes) is one compiled pass over the channels
+(`intervals.close_periods`), the bit wipe-off and the lock detectors are done on arrays
+over the channels, and the filters of the channels in one stage and coherent interval step as one
 batch (`batch.FilterBatch`; the channels of a batch always run together); Python runs per
 channel once per coherent interval only for its state machine and record. The 1 ms sums, scaled to unit-variance I and Q
 noise like the analytic model's (`gnssframework.signal.correlator_model`), are summed
@@ -44,6 +45,7 @@ from .batch import FilterBatch, batch_layout
 from .closure import ERROR_OUTPUTS, ErrorFeedback
 from .config import TrackingConfig
 from .correlator import code_tables, correlate_periods, sum_of_squares
+from .intervals import ChannelArrays, close_periods
 from ...signal.cn0 import cn0_moments
 from .lock import bit_edge_from_votes, cn0_nwpr_bits, estimate_cn0, phase_lock_indicator
 
@@ -207,6 +209,9 @@ class SampleTracker:
         self.last_prompt = np.zeros(n, complex)  # last wiped prompt handed to the filter
         self.shift_chips = np.zeros(n)  # NCO moves of an error-output filter's closure
         self.shift_hz = np.zeros(n)
+        self.arrays = ChannelArrays(self.acc_t0, self.acc_phase, self.acc_cycles, self.start_sample, self.code_phase,
+                                    self.doppler_cycles, self.prompts, self.n_prompts, self.ms_index,
+                                    self.previous_prompt, self.voting, self.votes)
         self.batches: dict[tuple[str, int], FilterBatch] = {}
         self.layouts: dict[tuple[str, int], frozenset | None] = {}
 
@@ -276,7 +281,6 @@ class SampleTracker:
                 self._add(acq.prn, acq, 0)
         every = int(cfg.reacquire_every_ms * 1e-3 * fs)
         next_reacq = every
-        window = self.prompts.shape[1]
         lag_limit = int(LAG_LIMIT_S * fs)
         while True:
             live = np.flatnonzero(self.active)
@@ -315,29 +319,9 @@ class SampleTracker:
                                              (self.if_hz + dop) / fs, self.codes[idx], self.offsets,
                                              backend=self.backend, tables=tables, iq=self.rec.is_complex,
                                              q_sign=self.rec.info.q_sign)
-            valid = counts > 0
-            sums[valid] /= np.sqrt(counts[valid] * self.power / 2)[:, None]
-            total = counts.sum(axis=1)
-            self.acc_t0[idx] = starts / fs
-            self.acc_phase[idx] = phases
-            self.acc_cycles[idx] = self.doppler_cycles[idx]
-            self.start_sample[idx] = starts + total
-            self.code_phase[idx] = phases + total * steps - periods * CA_CODE_LENGTH
-            self.doppler_cycles[idx] += total * dop / fs
-            # Every millisecond's prompt (ragged over channels: row-major, k ascending).
-            rows, ks = np.nonzero(valid)
-            ch = idx[rows]
-            prompt = sums[rows, ks, 1]
-            self.prompts[ch, (self.n_prompts[ch] + ks) % window] = prompt
-            self.n_prompts[idx] += periods
-            ms = self.ms_index[ch] + ks + 1
-            self.ms_index[idx] += periods
-            # Bit-sync votes: a prompt turned by more than 90 degrees from the previous one.
-            previous = np.where(ks == 0, self.previous_prompt[ch], np.concatenate((prompt[-1:], prompt[:-1])))
-            vote = self.voting[ch] & ((prompt * np.conj(previous)).real < 0)
-            np.add.at(self.votes, (ch[vote], ms[vote] % 20), 1)
-            self.previous_prompt[idx] = sums[np.arange(idx.size), periods - 1, 1]
-            interval = sums.sum(axis=1)
+            # Normalised sums, NCO bookkeeping, 1 ms prompts and bit-sync votes (`intervals`).
+            interval = close_periods(self.arrays, idx, sums, counts, starts, phases, steps, periods, dop, self.power,
+                                     fs, CA_CODE_LENGTH, backend=self.backend)
             self._step_filters(idx, interval)
             chans = [self.channels[i + 1] for i in idx.tolist()]
             for c in chans:
