@@ -47,47 +47,10 @@ sys.path.insert(0, str(ROOT / "validation"))
 
 from gps_sdr_sim_tracking import LOCATION, SIM_DIR, add_noise, build_and_simulate, parse_log  # noqa: E402
 
+from gnss_sdr_config import gnss_sdr_config  # noqa: E402  (beside this script)
+
 FS_HZ = 2.6e6
 LEAP_S = 18  # GPS - UTC in 2022 (gps-sdr-sim's brdc0010.22n): GNSS-SDR prints UTC
-GNSS_SDR_CONF = """[GNSS-SDR]
-GNSS-SDR.internal_fs_sps={fs:.0f}
-SignalSource.implementation=File_Signal_Source
-SignalSource.filename={path}
-SignalSource.item_type=ishort
-SignalSource.sampling_frequency={fs:.0f}
-SignalSource.samples=0
-SignalSource.repeat=false
-SignalConditioner.implementation=Signal_Conditioner
-DataTypeAdapter.implementation=Ishort_To_Complex
-InputFilter.implementation=Pass_Through
-InputFilter.item_type=gr_complex
-Resampler.implementation=Pass_Through
-Resampler.item_type=gr_complex
-Channels_1C.count=12
-Channels.in_acquisition=1
-Channel.signal=1C
-Acquisition_1C.implementation=GPS_L1_CA_PCPS_Acquisition
-Acquisition_1C.item_type=gr_complex
-Acquisition_1C.coherent_integration_time_ms=1
-Acquisition_1C.pfa=0.01
-Acquisition_1C.doppler_max=5000
-Acquisition_1C.doppler_step=250
-Acquisition_1C.max_dwells=1
-Tracking_1C.implementation=GPS_L1_CA_DLL_PLL_Tracking
-Tracking_1C.item_type=gr_complex
-Tracking_1C.pll_bw_hz=30.0
-Tracking_1C.dll_bw_hz=2.0
-Tracking_1C.early_late_space_chips=0.5
-TelemetryDecoder_1C.implementation=GPS_L1_CA_Telemetry_Decoder
-Observables.implementation=Hybrid_Observables
-PVT.implementation=RTKLIB_PVT
-PVT.positioning_mode=Single
-PVT.iono_model=Broadcast
-PVT.trop_model=OFF
-PVT.output_rate_ms=1000
-PVT.display_rate_ms=1000
-PVT.output_path={out}
-"""
 _POSITION = re.compile(r"Position at \S+ (\d+):(\d+):([\d.]+) UTC using (\d+) observations is Lat = ([-\d.]+) "
                        r"\[deg\], Long = ([-\d.]+) \[deg\], Height\s*=\s*([-\d.]+) \[m\]")
 
@@ -172,7 +135,8 @@ def run_gnss_sdr(path: Path, work: Path, tow0: float) -> dict:
     out = work / "gnss-sdr"
     out.mkdir(exist_ok=True)
     conf = work / "gnss-sdr.conf"
-    conf.write_text(GNSS_SDR_CONF.format(fs=FS_HZ, path=path, out=out))
+    conf.write_text(gnss_sdr_config(path, FS_HZ, out, channels=12, item_type="ishort", output_rate_ms=1000,
+                                      display_rate_ms=1000, pvt_models=True))
     run, wall, cpu, load = timed([exe, f"--config_file={conf}"], out)
     text = run.stdout + run.stderr
     (work / "gnss-sdr.log").write_text(text)

@@ -48,6 +48,8 @@ from gnssframework.receiver.frontend import SatelliteSignal, open_recording, syn
 from gnssframework.signal.codes import ca_code
 from gnssframework.signal.if_samples import IfSignal, correlate_if
 
+from gnss_sdr_config import gnss_sdr_config  # beside this script
+
 RATES_HZ = (2.6e6, 4e6, 16.3676e6)
 ROOT = Path(__file__).resolve().parents[1]
 SIM_DIR = ROOT.parent / "shared" / "tools" / "gps-sdr-sim"
@@ -123,45 +125,6 @@ def generated(fs: float, seconds: float, channels: int, folder: Path, rng: np.ra
     return path
 
 
-GNSS_SDR_CONF = """[GNSS-SDR]
-GNSS-SDR.internal_fs_sps={fs:.0f}
-SignalSource.implementation=File_Signal_Source
-SignalSource.filename={path}
-SignalSource.item_type=ibyte
-SignalSource.sampling_frequency={fs:.0f}
-SignalSource.samples=0
-SignalSource.repeat=false
-SignalConditioner.implementation=Signal_Conditioner
-DataTypeAdapter.implementation=Ibyte_To_Complex
-InputFilter.implementation=Pass_Through
-InputFilter.item_type=gr_complex
-Resampler.implementation=Pass_Through
-Resampler.item_type=gr_complex
-Channels_1C.count={channels}
-Channels.in_acquisition=1
-Channel.signal=1C
-Acquisition_1C.implementation=GPS_L1_CA_PCPS_Acquisition
-Acquisition_1C.item_type=gr_complex
-Acquisition_1C.coherent_integration_time_ms=1
-Acquisition_1C.pfa=0.01
-Acquisition_1C.doppler_max=5000
-Acquisition_1C.doppler_step=250
-Acquisition_1C.max_dwells=1
-Tracking_1C.implementation=GPS_L1_CA_DLL_PLL_Tracking
-Tracking_1C.item_type=gr_complex
-Tracking_1C.pll_bw_hz=30.0
-Tracking_1C.dll_bw_hz=2.0
-Tracking_1C.early_late_space_chips=0.5
-TelemetryDecoder_1C.implementation=GPS_L1_CA_Telemetry_Decoder
-Observables.implementation=Hybrid_Observables
-PVT.implementation=RTKLIB_PVT
-PVT.positioning_mode=Single
-PVT.output_rate_ms=100
-PVT.display_rate_ms=500
-PVT.output_path={out}
-"""
-
-
 def gps_sdr_sim_file(fs: float, seconds: float, folder: Path) -> Path | None:
     if not (SIM_DIR / "build.sh").exists():
         return None
@@ -180,7 +143,7 @@ def gnss_sdr_run(path: Path, fs: float, channels: int, folder: Path) -> tuple[fl
     if exe is None:
         return None
     conf = folder / f"gnss-sdr_{fs:.0f}.conf"
-    conf.write_text(GNSS_SDR_CONF.format(fs=fs, path=path, channels=channels, out=folder))
+    conf.write_text(gnss_sdr_config(path, fs, folder, channels=channels))
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
     run = subprocess.run([exe, f"--config_file={conf}"], capture_output=True, text=True, cwd=folder)

@@ -13,6 +13,8 @@ computed once for every satellite.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from scipy import fft
 
@@ -23,6 +25,8 @@ __all__ = ["code_replica", "search_grid", "fine_doppler"]
 
 #: Complex elements of one Doppler chunk of wiped blocks (bounds the memory of a search).
 _CHUNK_ELEMENTS = 1 << 23
+#: Largest fine-search carrier table kept between calls (complex elements, 64 MB).
+_FINE_TABLE_ELEMENTS = 1 << 22
 
 
 def code_replica(prn: int, n_samples: int, sample_rate_hz: float, chip_offset: float = 0.0) -> np.ndarray:
@@ -76,16 +80,41 @@ def search_grid(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prns: 
     return out
 
 
+@lru_cache(maxsize=2)
+def _offset_carriers(n: int, noncoherent: int, sample_rate_hz: float, n_offsets: int,
+                     offset_step_hz: float) -> np.ndarray:
+    """``(n_offsets, K, n)`` :math:`e^{-j 2\\pi\\, m \\delta f\\, t}` for ``m = 0 .. n_offsets - 1``:
+    the fine bins' carriers relative to the first, the same for every PRN of a search."""
+    t = (np.arange(noncoherent * n) / sample_rate_hz).reshape(noncoherent, n)
+    out = np.exp(-2j * np.pi * (np.arange(n_offsets) * offset_step_hz)[:, None, None] * t)
+    out.flags.writeable = False  # shared by every call with the same grid
+    return out
+
+
 def fine_doppler(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn: int, code_start_sample: int,
                  coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray,
                  alternate: bool = False) -> np.ndarray:
     """Raw :math:`\\sum_k |z_k|^2` at one code lag for each of ``dopplers_hz`` (the fine
-    search; ``alternate`` as `search_grid`)."""
+    search; ``alternate`` as `search_grid`).
+
+    Evenly spaced ``dopplers_hz`` (the fine grid :math:`f_0 + m\\,\\delta f`) split the
+    carrier as :math:`e^{-j2\\pi (f_{IF} + f_0) t} \\cdot e^{-j2\\pi m \\delta f t}`: the first
+    factor is one row per PRN, the second is made once for every PRN of a search
+    (`_offset_carriers`), instead of a full carrier per bin and PRN.
+    """
     n = int(round(coherent_time_s * sample_rate_hz))
     blocks = _blocks(samples, n, noncoherent)
     replica = np.roll(code_replica(prn, n, sample_rate_hz), code_start_sample)
     K = blocks.shape[0]
     t = (np.arange(K * n) / sample_rate_hz).reshape(K, n)
-    z = np.einsum("kn,dkn->dk", blocks * replica,
-                  np.exp(-2j * np.pi * (if_hz + dopplers_hz[:, None, None]) * t))
+    dopplers_hz = np.asarray(dopplers_hz, float)
+    steps = np.diff(dopplers_hz)
+    even = dopplers_hz.size > 1 and np.allclose(steps, steps[0], rtol=1e-9, atol=1e-9)
+    if even and dopplers_hz.size * K * n <= _FINE_TABLE_ELEMENTS:
+        step_hz = float(np.round((dopplers_hz[-1] - dopplers_hz[0]) / (dopplers_hz.size - 1), 9))
+        wiped = blocks * replica * np.exp(-2j * np.pi * (if_hz + dopplers_hz[0]) * t)
+        z = np.einsum("kn,dkn->dk", wiped, _offset_carriers(n, K, float(sample_rate_hz), dopplers_hz.size, step_hz))
+    else:
+        z = np.einsum("kn,dkn->dk", blocks * replica,
+                      np.exp(-2j * np.pi * (if_hz + dopplers_hz[:, None, None]) * t))
     return _sum_blocks(np.abs(z) ** 2, alternate)

@@ -36,7 +36,7 @@ from ...errors import ConfigError
 from ...backend import get_backend
 
 __all__ = ["correlate_channels", "correlate_numpy", "correlate_periods", "correlate_periods_numpy", "code_tables",
-           "correlation_error_bound", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS"]
+           "correlation_error_bound", "sum_of_squares", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS"]
 
 #: Samples per chunk of the compiled kernel (its carrier restarts exactly every chunk).
 CHUNK = 512
@@ -305,6 +305,34 @@ def code_tables(codes: np.ndarray, offsets_chips: np.ndarray, periods: int = 3) 
     # C order whatever the shapes (one compiled signature: a layout change recompiles).
     return CodeTables(np.ascontiguousarray(patterns.reshape(codes.shape[0], -1)), thr.astype(np.int64),
                       offsets.copy(), n_chips)
+
+
+def _integer_sum_of_squares(values: np.ndarray) -> int:
+    total = 0
+    for v in values:
+        w = np.int64(v)
+        total += w * w
+    return total
+
+
+_compiled_sum_of_squares = (numba.njit(cache=True, nogil=True)(_integer_sum_of_squares) if HAVE_NUMBA
+                            else None)
+
+
+def sum_of_squares(values: np.ndarray) -> float:
+    """:math:`\\sum_i x_i^2` of a block of recorded sample components (the tracker's noise
+    scale, measured on every block it reads).
+
+    ``int8`` and ``int16`` blocks in one compiled pass of exact ``int64`` arithmetic: the
+    same number as the ``float64`` sum of the squares, which is exact while below
+    :math:`2^{53}` (e.g. 5e11 ``int8`` components); other types as ``float32`` squares
+    summed in ``float64``.
+    """
+    x = np.asarray(values)
+    if _compiled_sum_of_squares is not None and x.dtype in (np.int8, np.int16) and x.ndim == 1:
+        return float(_compiled_sum_of_squares(x))
+    x = x.astype(np.float32)
+    return float(np.sum(x * x, dtype=np.float64))
 
 
 def _as_complex(samples: np.ndarray, iq: bool, q_sign: int) -> np.ndarray:

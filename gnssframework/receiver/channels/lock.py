@@ -18,7 +18,7 @@ import numpy as np
 
 from ...signal.cn0 import cn0_moments, cn0_nwpr
 
-__all__ = ["phase_lock_indicator", "estimate_cn0", "BitSync", "bit_edge_from_votes", "CN0_ESTIMATORS"]
+__all__ = ["phase_lock_indicator", "estimate_cn0", "cn0_nwpr_bits", "BitSync", "bit_edge_from_votes", "CN0_ESTIMATORS"]
 
 CN0_ESTIMATORS = ("nwpr", "moments")
 
@@ -41,6 +41,37 @@ def estimate_cn0(prompts: np.ndarray, estimator: str, bit_phase: int | None) -> 
     if estimator == "nwpr" and bit_phase is not None and p.size - bit_phase >= 20:
         return float(cn0_nwpr(p[bit_phase:], 1e-3, m=20))
     return float(cn0_moments(p, 1e-3))
+
+
+def cn0_nwpr_bits(prompts: np.ndarray, bit_phase: np.ndarray, coherent_time_s: float = 1e-3,
+                  m: int = 20) -> np.ndarray:
+    """C/N0 (dB-Hz) by the narrow-wide power ratio of many channels' windows at once, each
+    on the whole bits from its own bit phase on: `gnssframework.signal.cn0.cn0_nwpr` of
+    ``prompts[j, bit_phase[j]:]`` for every row ``j`` (Van Dierendonck 1996), in one pass.
+
+    Rows with fewer whole blocks of ``m`` than the longest are padded with blocks whose
+    ratio counts as 0 and their mean divides by their own block count (a sum that ends in
+    exact zeros is the same sum).
+
+    Parameters
+    ----------
+    prompts
+        ``(n_rows, n)`` windows of prompts, oldest first.
+    bit_phase
+        ``(n_rows,)`` index in each window of a bit's first prompt; at most ``n - m``.
+    """
+    p = np.asarray(prompts)
+    first = np.asarray(bit_phase, np.int64)
+    n = p.shape[1]
+    blocks_per_row = (n - first) // m
+    k = int(blocks_per_row.max())
+    t = np.minimum(first[:, None] + np.arange(k * m), n - 1)  # padding reads the last prompt: masked below
+    blocks = np.take_along_axis(p, t, axis=1).reshape(p.shape[0], k, m)
+    wbp = np.sum(np.abs(blocks) ** 2, axis=2)
+    nbp = np.abs(np.sum(blocks, axis=2)) ** 2
+    ratio = np.divide(nbp, wbp, out=np.zeros_like(nbp), where=np.arange(k) < blocks_per_row[:, None])
+    mu = np.sum(ratio, axis=1) / blocks_per_row
+    return 10.0 * np.log10(np.clip((mu - 1.0) / (m - mu), 1e-12, None) / coherent_time_s)
 
 
 def bit_edge_from_votes(votes: np.ndarray, min_votes: int, fraction: float = 0.7) -> int | None:

@@ -6,9 +6,10 @@ reaches the next epoch. One call of the compiled multi-channel correlator
 (`correlator.correlate_periods`) runs every channel through its whole coherent interval
 (1 ms, or ``coherent_ms`` after bit synchronisation) and returns every period's sums, on
 a buffer that streams the recording in blocks; a channel ahead of the others by more
-than `LAG_LIMIT_S` waits. The per-millisecond bookkeeping (prompts for the detectors,
-bit-sync votes), the bit wipe-off and the lock detectors are done on arrays over the
-channels, and the filters of the channels in one stage and coherent interval step as one
+than `LAG_LIMIT_S` waits. The per-millisecond bookkeeping (normalised sums, NCO
+advance, prompts for the detectors, bit-sync votes) is one compiled pass over the channels
+(`intervals.close_periods`), the bit wipe-off and the lock detectors are done on arrays
+over the channels, and the filters of the channels in one stage and coherent interval step as one
 batch (`batch.FilterBatch`; the channels of a batch always run together); Python runs per
 channel once per coherent interval only for its state machine and record. The 1 ms sums, scaled to unit-variance I and Q
 noise like the analytic model's (`gnssframework.signal.correlator_model`), are summed
@@ -43,9 +44,10 @@ from ..tracking.scalar import NCO_COMMANDS
 from .batch import FilterBatch, batch_layout
 from .closure import ERROR_OUTPUTS, ErrorFeedback
 from .config import TrackingConfig
-from .correlator import code_tables, correlate_periods
-from ...signal.cn0 import cn0_moments, cn0_nwpr
-from .lock import bit_edge_from_votes, estimate_cn0, phase_lock_indicator
+from .correlator import code_tables, correlate_periods, sum_of_squares
+from .intervals import ChannelArrays, close_periods
+from ...signal.cn0 import cn0_moments
+from .lock import bit_edge_from_votes, cn0_nwpr_bits, estimate_cn0, phase_lock_indicator
 
 __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
 
@@ -207,6 +209,9 @@ class SampleTracker:
         self.last_prompt = np.zeros(n, complex)  # last wiped prompt handed to the filter
         self.shift_chips = np.zeros(n)  # NCO moves of an error-output filter's closure
         self.shift_hz = np.zeros(n)
+        self.arrays = ChannelArrays(self.acc_t0, self.acc_phase, self.acc_cycles, self.start_sample, self.code_phase,
+                                    self.doppler_cycles, self.prompts, self.n_prompts, self.ms_index,
+                                    self.previous_prompt, self.voting, self.votes)
         self.batches: dict[tuple[str, int], FilterBatch] = {}
         self.layouts: dict[tuple[str, int], frozenset | None] = {}
 
@@ -254,8 +259,7 @@ class SampleTracker:
         self.buf = np.concatenate([keep, new]) if keep.size else new
         self.buf_start = first - keep.shape[0] // per
         if new.size:  # mean square of a sample (|I|^2 + |Q|^2 for I/Q); no BLAS call (its threads spin)
-            x = new.astype(np.float32)
-            self.power = float(np.sum(x * x, dtype=np.float64)) * per / new.size
+            self.power = sum_of_squares(new) * per / new.size
         return self.buf, self.buf_start
 
     def run(self, acquisitions: list[AcquisitionResult], duration_s: float | None = None,
@@ -277,7 +281,6 @@ class SampleTracker:
                 self._add(acq.prn, acq, 0)
         every = int(cfg.reacquire_every_ms * 1e-3 * fs)
         next_reacq = every
-        window = self.prompts.shape[1]
         lag_limit = int(LAG_LIMIT_S * fs)
         while True:
             live = np.flatnonzero(self.active)
@@ -294,7 +297,9 @@ class SampleTracker:
             if self.batches and not ok.all():  # a batch's channels step together: all of it runs, or none
                 for b in self.batches.values():
                     if len(b.slots) > 1:
-                        members = np.isin(live, b.slots)
+                        in_batch = np.zeros(_SLOTS, bool)
+                        in_batch[b.slots] = True
+                        members = in_batch[live]
                         if ok[members].any():
                             ok |= members
             idx = live[ok]
@@ -314,36 +319,19 @@ class SampleTracker:
                                              (self.if_hz + dop) / fs, self.codes[idx], self.offsets,
                                              backend=self.backend, tables=tables, iq=self.rec.is_complex,
                                              q_sign=self.rec.info.q_sign)
-            valid = counts > 0
-            sums[valid] /= np.sqrt(counts[valid] * self.power / 2)[:, None]
-            total = counts.sum(axis=1)
-            self.acc_t0[idx] = starts / fs
-            self.acc_phase[idx] = phases
-            self.acc_cycles[idx] = self.doppler_cycles[idx]
-            self.start_sample[idx] = starts + total
-            self.code_phase[idx] = phases + total * steps - periods * CA_CODE_LENGTH
-            self.doppler_cycles[idx] += total * dop / fs
-            # Every millisecond's prompt (ragged over channels: row-major, k ascending).
-            rows, ks = np.nonzero(valid)
-            ch = idx[rows]
-            prompt = sums[rows, ks, 1]
-            self.prompts[ch, (self.n_prompts[ch] + ks) % window] = prompt
-            self.n_prompts[idx] += periods
-            ms = self.ms_index[ch] + ks + 1
-            self.ms_index[idx] += periods
-            # Bit-sync votes: a prompt turned by more than 90 degrees from the previous one.
-            previous = np.where(ks == 0, self.previous_prompt[ch], np.concatenate((prompt[-1:], prompt[:-1])))
-            vote = self.voting[ch] & ((prompt * np.conj(previous)).real < 0)
-            np.add.at(self.votes, (ch[vote], ms[vote] % 20), 1)
-            self.previous_prompt[idx] = sums[np.arange(idx.size), periods - 1, 1]
-            interval = sums.sum(axis=1)
+            # Normalised sums, NCO bookkeeping, 1 ms prompts and bit-sync votes (`intervals`).
+            interval = close_periods(self.arrays, idx, sums, counts, starts, phases, steps, periods, dop, self.power,
+                                     fs, CA_CODE_LENGTH, backend=self.backend)
             self._step_filters(idx, interval)
-            chans = [self.channels[int(i) + 1] for i in idx]
+            chans = [self.channels[i + 1] for i in idx.tolist()]
             for c in chans:
                 self._bit_sync(c)
             self._detect(chans)
-            for j, c in enumerate(chans):
-                self._update(c, interval[j])
+            # The rows' values as Python floats in one conversion per column.
+            columns = zip(self.acc_t0[idx].tolist(), self.doppler[idx].tolist(), self.acc_phase[idx].tolist(),
+                          self.acc_cycles[idx].tolist(), interval[:, 1])
+            for c, values in zip(chans, columns):
+                self._update(c, *values)
             if self.batch:
                 self._join_batches(idx)
             self._after_interval(idx)
@@ -381,16 +369,15 @@ class SampleTracker:
         self.bit_sign[idx] = sign
         wiped = acc * sign[:, None]
         self.last_prompt[idx] = wiped[:, 1]
-        row = {int(i): j for j, i in enumerate(idx)}
         done: set[int] = set()
-        for i in idx:
-            c = self.channels[int(i) + 1]
+        for j, i in enumerate(idx.tolist()):
+            c = self.channels[i + 1]
             if c.batch is None:
-                self._step(c.filter, c.closure, np.array([i]), wiped[row[int(i)]][None])
+                self._step(c.filter, c.closure, idx[j:j + 1], wiped[j:j + 1])
             elif id(c.batch) not in done:
                 done.add(id(c.batch))
                 slots = np.array(c.batch.slots)
-                self._step(c.batch.filter, c.closure, slots, wiped[[row[int(s)] for s in slots]])
+                self._step(c.batch.filter, c.closure, slots, wiped[np.searchsorted(idx, slots)])  # idx ascends
 
     def _step(self, filt: ChannelFilter, closure: ErrorFeedback | None, slots: np.ndarray, w: np.ndarray) -> None:
         """One step of the filter of channels ``slots`` (its batch, in order) on their wiped sums ``w``."""
@@ -480,15 +467,14 @@ class SampleTracker:
                 c.bit_edge = edge
                 c.record.events.append((float(self.acc_t0[c.slot]), f"bit sync (edge at ms {edge} mod 20)"))
 
-    def _update(self, c: _Channel, acc: np.ndarray) -> None:
-        """Channel ``c``'s coherent interval is complete (its E/P/L sums ``acc``; its filter
-        has stepped, its detectors have run): run its state machine, record the row."""
-        i = c.slot
-        t0 = float(self.acc_t0[i])
+    def _update(self, c: _Channel, t0: float, doppler_hz: float, code_phase_chips: float, carrier_cycles: float,
+                prompt: complex) -> None:
+        """Channel ``c``'s coherent interval is complete (its start time ``t0``, its NCOs
+        then, its prompt sum; its filter has stepped, its detectors have run): run its state
+        machine, record the row."""
         c.stage_ms += c.coherent_ms
-        c.record.rows.append((t0, c.cn0_dbhz, c.pli, float(self.doppler[i]), float(self.acc_phase[i]),
-                              float(self.acc_cycles[i]), int(c.locked), STAGES.index(c.stage), acc[1].real,
-                              acc[1].imag, c.coherent_ms))
+        c.record.rows.append((t0, c.cn0_dbhz, c.pli, doppler_hz, code_phase_chips, carrier_cycles, int(c.locked),
+                              STAGES.index(c.stage), prompt.real, prompt.imag, c.coherent_ms))
         self._advance(c, t0)
 
     def _window(self, c: _Channel, n: int) -> np.ndarray:
@@ -522,15 +508,18 @@ class SampleTracker:
         power = np.sum(lock.real**2 + lock.imag**2, axis=1)
         pli = np.sum(lock.real**2 - lock.imag**2, axis=1) / np.where(power > 0, power, 1.0)
         pli[power <= 0] = 0.0
-        # C/N0: the channels of one bit phase (index in the window of a bit's first ms) together.
+        # C/N0: NWPR on each channel's whole bits from its bit phase (index in the window of
+        # a bit's first ms) on, all such channels in one pass; moments, which need no bit
+        # phase, on the others.
         phases = [self._bit_phase(c, int(self.ms_index[c.slot]), size) for c in full]
         cn0 = np.zeros(len(full))
-        for bp in set(phases):
-            rows = [j for j, b in enumerate(phases) if b == bp]
-            if cfg.cn0_estimator == "nwpr" and bp is not None and size - bp >= 20:
-                cn0[rows] = cn0_nwpr(win[rows, bp:].T, 1e-3, m=20)
-            else:
-                cn0[rows] = cn0_moments(win[rows].T, 1e-3)
+        nwpr = [j for j, bp in enumerate(phases)
+                if cfg.cn0_estimator == "nwpr" and bp is not None and size - bp >= 20]
+        rest = sorted(set(range(len(full))) - set(nwpr))
+        if rest:
+            cn0[rest] = cn0_moments(win[rest].T, 1e-3)
+        if nwpr:
+            cn0[nwpr] = cn0_nwpr_bits(win[nwpr], np.array([phases[j] for j in nwpr]), 1e-3, m=20)
         for j, c in enumerate(full):
             c.pli, c.cn0_dbhz = float(pli[j]), float(cn0[j])
             self._lock_decision(c)
