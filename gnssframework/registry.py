@@ -1,7 +1,7 @@
 """The plugin registry.
 
 Plugins are discovered through the ``gnssframework`` entry-point group (the built-ins
-too) and register their classes with pluggy hooks ``register_<kind>(register)``::
+and the core's own scenario kinds too) and register their classes with pluggy hooks ``register_<kind>(register)``::
 
     import gnssframework as gf
     gf.registry.kinds()                       # ["augmentation", "channel_filter", ...]
@@ -74,11 +74,6 @@ BASES: dict[str, type | str] = {
     "sample_source": "gnssframework.receiver.frontend.source:SampleSource",
     "acquisition": "gnssframework.receiver.acquisition.search:Acquisition",
 }
-
-#: Modules of the core package that implement registration hooks (the core's own
-#: scenarios); loaded before the entry points, without needing an installed entry point.
-CORE_HOOK_MODULES = ("gnssframework.experiments.scenarios.hooks",)
-
 
 def base_class(kind: str) -> type | None:
     """The class every plugin of ``kind`` derives from (``None`` if its module is absent)."""
@@ -195,12 +190,7 @@ class _Registry:
         with self._lock:
             if self._loaded:
                 return
-            for module_name in CORE_HOOK_MODULES:
-                try:
-                    self._add_module(importlib.import_module(module_name), module_name, "gnssframework",
-                                     _core_version())
-                except Exception as exc:  # noqa: BLE001
-                    self._failures.append(LoadFailure("gnssframework", module_name, f"{type(exc).__name__}: {exc}"))
+            # The core's own hooks (its scenario kinds) come through this group too: one path.
             for ep in md.entry_points(group=ENTRY_POINT_GROUP):
                 dist = ep.dist.name if ep.dist is not None else "unknown"
                 version = ep.dist.version if ep.dist is not None else ""
@@ -280,13 +270,6 @@ def _document_parameters(cls: type) -> None:
         cls.__doc__ = f"{doc.rstrip()}\n\n{_TABLE_MARK}\n\n{parameter_table(params)}\n"
     except (AttributeError, TypeError):  # a class whose __doc__ cannot be set keeps its own
         pass
-
-
-def _core_version() -> str:
-    try:
-        return md.version("gnssframework")
-    except md.PackageNotFoundError:
-        return ""
 
 
 _REGISTRY = _Registry()

@@ -26,6 +26,7 @@ def test_wheel_contains_every_module_and_the_entry_point(tmp_path):
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
     text = zipfile.ZipFile(wheel).read(entry_points).decode()
     assert "[gnssframework]" in text and "builtin = gnssframework_plugins" in text
+    assert "scenarios = gnssframework.experiments.scenarios.hooks" in text
 
 
 def test_version_licence_and_citation_are_in_one_place():

@@ -127,6 +127,30 @@ def test_a_plugin_that_fails_to_import_is_reported_and_the_rest_load(monkeypatch
         registry.reload()
 
 
+def test_the_core_scenarios_register_through_the_entry_point_group_only(monkeypatch):
+    # One registration path: the core's scenario hooks are an entry point of the
+    # ``gnssframework`` group (pyproject.toml), loaded like the built-in plugins; without
+    # that entry point no scenario kind is registered (there is no second, direct path).
+    hooks = "gnssframework.experiments.scenarios.hooks"
+    ours = [ep for ep in md.entry_points(group=registry.ENTRY_POINT_GROUP) if ep.value == hooks]
+    assert [(ep.name, ep.dist.name) for ep in ours] == [("scenarios", "gnssframework")]
+    infos = [i for i in registry.describe() if i.kind == "scenario" and i.distribution == "gnssframework"]
+    assert {i.name for i in infos} == set(builtin_names("scenario")) and infos
+    real = md.entry_points
+
+    def without_core_hooks(group=None, **kw):
+        return [ep for ep in real(group=group, **kw) if ep.value != hooks]
+
+    monkeypatch.setattr(md, "entry_points", without_core_hooks)
+    registry.reload()
+    try:
+        assert builtin_names("scenario") == [] and "ukf" in registry.names("estimator")
+    finally:
+        monkeypatch.undo()
+        registry.reload()
+    assert "vector-tracking" in registry.names("scenario")
+
+
 def test_a_plugin_whose_hook_raises_or_registers_garbage_is_reported():
     bad = types.ModuleType("bad_plugin")
 

@@ -46,8 +46,9 @@ filter's 5 states and 6 measurements) gets fused drivers with those sizes as con
 bitwise the generic ones.
 
 The package, from the bottom up: `specialise` (serial/parallel and size-specialised
-twins), `dense` (per-element linear algebra), `drivers` (batch drivers of the Gaussian
-rules, built per model function and size), `pool` and `split` (how a batch is split
+twins), `dense` (per-element linear algebra), `drivers` (the Gaussian rules written
+once as per-element steps, and the plain, fused and size-specialised batch drivers that
+compose them), `pool` and `split` (how a batch is split
 across threads), `arrays` (the array-level calls the engines make), `warm` (compile
 before a run), `loop` (the filter step's compiled checks and the adapters' guard).
 """

@@ -1,11 +1,15 @@
 """Batch drivers of the compiled kernels: each runs one Gaussian rule (points, moments,
-gain and posterior, or all of them fused) over a batch, one element at a time, composed
-of the per-element functions of `gnssframework.estimation.compiled.dense`.
+gain and posterior, or all of them fused) over a batch, one element at a time.
 
-Each is compiled as a (serial, parallel) pair (`specialise.jit_pair`); the fused
-drivers and the EKF moments are built per model function and size by `_model_pair`.
-The fused update composes named per-element steps (points, innovation moments, gain
-and mean, posterior), compiled per size by `element_steps` and inlined into the driver.
+The Gaussian rules are written once, as per-element steps (`_points_into`,
+`_predict_moments_into`, `_innovation_moments_into`, `_gain_mean_into`,
+`_posterior_into`, `_joseph_posterior_into`, `_keep_prior_into`), built per size by
+`element_steps` and inlined into every driver that composes them: the plain drivers
+(one rule per call, the model's f/h evaluated in NumPy between calls), the fused
+predict and update (the model's compiled f/h between the steps) and the fused drivers'
+size-specialised twins. Each driver is compiled as a (serial, parallel) pair
+(`specialise.jit_pair`); the fused drivers and the EKF moments are built per model
+function and size by `_model_pair`.
 """
 
 
@@ -28,23 +32,223 @@ _CHUNKS = 64
 _FIXED_N = 0
 _FIXED_M = 0
 
-
-# -- batch drivers ----------------------------------------------------------------------
-
-# The fused drivers test the state covariance (n x n) and the innovation covariance
-# (m x m) through these names, so that a specialised twin can bind each to its own size.
+# The steps test the state covariance (n x n) and the innovation covariance (m x m)
+# through these names, so that a specialised twin can bind each to its own size.
 _all_finite_n = _all_finite_m = all_finite
 _cholesky_n = _cholesky_m = cholesky
 
 
-def _sigma_points_body(mean, cov, root_kind, scale, center, X, status):
-    """Points ``(N, B, n)`` for every element: ``[m], m + scale*S_i, m - scale*S_i``.
+# -- the Gaussian rules, per element -----------------------------------------------------
+#
+# Each step reads the sizes through _FIXED_N/_FIXED_M and the n x n / m x m helpers
+# through their names; `element_steps` compiles a set per size with numba's inlining
+# forced, so a specialised driver composes steps that carry its constants. A step
+# addresses points as an (N, B, n) batch and an element index: a plain driver hands it
+# the batch and b, a fused driver its own (N, n) scratch viewed as a batch of one and 0
+# (no copy and no strided slice per element: both measured 5-18 % slower).
 
-    ``root_kind`` 0: lower Cholesky; 1: ``V sqrt(|w|)`` from the eigen-decomposition.
-    ``status[b]``: 0 ok, 1 P not finite, 2 P not positive definite (Cholesky).
-    """
-    B, n = mean.shape
+
+def _points_into(mean, b, P, root_kind, scale, center, Rt, w, V, Wk, X, e):
+    """Sigma points ``X[:, e]`` (``X`` is ``(N, B, n)``) of element ``b``: ``[m], m + scale*S_i, m - scale*S_i``
+    with ``S`` the root of ``P`` (``root_kind`` 0: lower Cholesky; 1: ``V sqrt(|w|)`` from
+    the eigen-decomposition). Returns the status: 0 ok, 1 P not finite, 2 P not positive
+    definite (Cholesky)."""
+    n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]
     off = 1 if center else 0
+    Rt[:, :] = 0.0
+    if not _all_finite_n(P):
+        return 1
+    if root_kind == 0:
+        if not _cholesky_n(P, Rt):
+            return 2
+    else:
+        eigh_into(P, w, V, Wk)
+        for i in range(n):
+            sw = math.sqrt(abs(w[i]))
+            for j in range(n):
+                Rt[j, i] = V[j, i] * sw
+    if center:
+        for j in range(n):
+            X[0, e, j] = mean[b, j]
+    for i in range(n):
+        for j in range(n):
+            dd = Rt[j, i] * scale
+            X[off + i, e, j] = mean[b, j] + dd
+            X[off + n + i, e, j] = mean[b, j] - dd
+    return 0
+
+
+
+
+def _predict_moments_into(Y, e, d, N, wm, wc, Q, q, mu, Acc, out_mean, out_cov, b):
+    """``out_mean[b]`` = weighted mean and ``out_cov[b] = sum wc dY dY^T + Q`` (symmetrised)
+    of the ``N`` transformed points ``Y[:, e]`` (``Y`` is ``(N, B, p)``; deviations into
+    ``d`` ``(N, p)``, which may be the same memory as the points)."""
+    p = _FIXED_N if _FIXED_N > 0 else Y.shape[2]
+    mu[:] = 0.0
+    for k in range(N):
+        for j in range(p):
+            mu[j] += wm[k] * Y[k, e, j]
+    for k in range(N):
+        for j in range(p):
+            d[k, j] = Y[k, e, j] - mu[j]
+    # Point by point into the lower triangle: each entry sums in the order k = 0..N-1
+    # (as a dot product would), but the entries' chains interleave in the pipeline.
+    for i in range(p):
+        for j in range(i + 1):
+            Acc[i, j] = 0.0
+    for k in range(N):
+        for i in range(p):
+            wy = wc[k] * d[k, i]
+            for j in range(i + 1):
+                Acc[i, j] += wy * d[k, j]
+    for i in range(p):
+        out_mean[b, i] = mu[i]
+        for j in range(i + 1):
+            cij = Acc[i, j] + 0.5 * (Q[q, i, j] + Q[q, j, i])
+            out_cov[b, i, j] = cij
+            out_cov[b, j, i] = cij
+
+
+def _innovation_moments_into(X, Z, e, d, N, mean, b, wm, wc, R, r, mu, SAcc, CAcc, z_hat, Sb, Cb):
+    """``z_hat[b]`` (and ``mu``), ``S = sum wc dZ dZ^T + R`` (symmetrised) and
+    ``C = sum wc (X - m) dZ^T`` of the ``N`` points ``X[:, e]`` and their transforms
+    ``Z[:, e]`` (``(N, B, n)`` and ``(N, B, m)``; deviations into ``d`` ``(N, m)``, which
+    may be the same memory as ``Z[:, e]``)."""
+    n = _FIXED_N if _FIXED_N > 0 else X.shape[2]
+    m = _FIXED_M if _FIXED_M > 0 else Z.shape[2]
+    mu[:] = 0.0
+    for k in range(N):
+        for j in range(m):
+            mu[j] += wm[k] * Z[k, e, j]
+    for k in range(N):
+        for j in range(m):
+            d[k, j] = Z[k, e, j] - mu[j]
+    # S (lower triangle) and C point by point: each entry sums in the order
+    # k = 0..N-1 with the same products as a dot product would, so the values are
+    # bitwise those of one dot product per entry, but the chains interleave.
+    for i in range(m):
+        for j in range(i + 1):
+            SAcc[i, j] = 0.0
+    for i in range(n):
+        for j in range(m):
+            CAcc[i, j] = 0.0
+    for k in range(N):
+        for i in range(m):
+            wz = wc[k] * d[k, i]
+            for j in range(i + 1):
+                SAcc[i, j] += wz * d[k, j]
+        for i in range(n):
+            wx = wc[k] * (X[k, e, i] - mean[b, i])
+            for j in range(m):
+                CAcc[i, j] += wx * d[k, j]
+    for i in range(m):
+        z_hat[b, i] = mu[i]
+        for j in range(i + 1):
+            sij = SAcc[i, j] + 0.5 * (R[r, i, j] + R[r, j, i])
+            Sb[i, j] = sij
+            Sb[j, i] = sij
+    for i in range(n):
+        for j in range(m):
+            Cb[i, j] = CAcc[i, j]
+
+
+def _gain_mean_into(L, Cb, K, ysolve, z, z_hat, mean, b, innovation, out_mean):
+    """Gain ``K = C S^{-1}`` (from the Cholesky factor L of S) and ``x + K (z - z_hat)``."""
+    n = _FIXED_N if _FIXED_N > 0 else K.shape[0]
+    m = _FIXED_M if _FIXED_M > 0 else K.shape[1]
+    chol_solve_rows_into(L, Cb, K, ysolve)
+    for i in range(m):
+        innovation[b, i] = z[b, i] - z_hat[b, i]
+    for i in range(n):
+        acc = 0.0
+        for j in range(m):
+            acc += K[i, j] * innovation[b, j]
+        out_mean[b, i] = mean[b, i] + acc
+
+
+def _posterior_into(K, Sb, P, KS, KSK, out_cov, b):
+    """``sym(P - K S K^T)`` of element ``b``."""
+    n = _FIXED_N if _FIXED_N > 0 else K.shape[0]
+    m = _FIXED_M if _FIXED_M > 0 else K.shape[1]
+    # K S, then (K S) K^T in full (both triangles are needed for the symmetrised
+    # posterior); k outermost within a row, so the chains interleave, same sums.
+    for i in range(n):
+        for j in range(m):
+            KS[i, j] = 0.0
+        for k in range(m):
+            kik = K[i, k]
+            for j in range(m):
+                KS[i, j] += kik * Sb[k, j]
+    for i in range(n):
+        for j in range(n):
+            KSK[i, j] = 0.0
+        for k in range(m):
+            ksik = KS[i, k]
+            for j in range(n):
+                KSK[i, j] += ksik * K[j, k]
+    for i in range(n):
+        for j in range(i + 1):
+            v = 0.5 * ((P[i, j] - KSK[i, j]) + (P[j, i] - KSK[j, i]))
+            out_cov[b, i, j] = v
+            out_cov[b, j, i] = v
+
+
+def _keep_prior_into(mean, b, P, Cb, K, innovation, out_mean, out_cov):
+    """A skipped element: the prior, zero innovation and ``K = C`` (the NumPy path's values)."""
+    n = _FIXED_N if _FIXED_N > 0 else K.shape[0]
+    m = _FIXED_M if _FIXED_M > 0 else K.shape[1]
+    for i in range(m):
+        innovation[b, i] = 0.0
+    for i in range(n):
+        out_mean[b, i] = mean[b, i]
+        for j in range(m):
+            K[i, j] = Cb[i, j]
+        for j in range(n):
+            out_cov[b, i, j] = P[i, j]
+
+
+def _joseph_posterior_into(K, Hh, Rr, P, A, AP, KR, M, M2, out_cov, b):
+    """Joseph's form ``sym((I - K H) P (I - K H)^T + K R K^T)`` of element ``b``."""
+    n = _FIXED_N if _FIXED_N > 0 else K.shape[0]
+    mul_into(K, Hh, A, False)  # K H, then A = I - K H
+    for i in range(n):
+        for j in range(n):
+            A[i, j] = (1.0 if i == j else 0.0) - A[i, j]
+    mul_into(A, P, AP, False)
+    mul_into(K, Rr, KR, False)  # K R
+    mul_into(AP, A, M, True)
+    mul_into(KR, K, M2, True)
+    for i in range(n):
+        for j in range(i + 1):
+            v = 0.5 * ((M[i, j] + M2[i, j]) + (M[j, i] + M2[j, i]))
+            out_cov[b, i, j] = v
+            out_cov[b, j, i] = v
+
+
+_STEPS = (_points_into, _predict_moments_into, _innovation_moments_into, _gain_mean_into, _posterior_into,
+          _joseph_posterior_into, _keep_prior_into)
+_steps_by_size: dict[tuple[int, int], dict] = {}
+
+
+def element_steps(n: int = 0, m: int = 0, helpers: dict | None = None) -> dict:
+    """The per-element steps compiled for ``n`` states and ``m`` measurements as constants
+    (0: read from the operands), calling ``helpers`` (names bound to size-specialised
+    Cholesky, eigh, solve; none: the generic ones), inlined into their caller."""
+    key = (n, m)
+    hit = _steps_by_size.get(key)
+    if hit is None:
+        over = {"_FIXED_N": n, "_FIXED_M": m, **(helpers or {})}
+        hit = _steps_by_size[key] = {fn.__name__: step_jit(with_globals(fn, f"_{n}_{m}", **over)) for fn in _STEPS}
+    return hit
+
+
+# -- plain drivers: one rule per call, the model's f/h evaluated in NumPy between them --
+
+
+def _sigma_points_body(mean, cov, root_kind, scale, center, X, status):
+    """Points ``(N, B, n)`` for every element (`_points_into`); ``status[b]`` its status."""
+    B, n = mean.shape
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
       # Scratch allocated once per chunk of elements, not once per element.
@@ -53,37 +257,12 @@ def _sigma_points_body(mean, cov, root_kind, scale, center, X, status):
       V = np.empty((n, n))
       Wk = np.empty((n + 2, n))
       for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-        P = cov[b]
-        R[:, :] = 0.0
-        if not all_finite(P):
-            status[b] = 1
-            continue
-        if root_kind == 0:
-            if not cholesky(P, R):
-                status[b] = 2
-                continue
-        else:
-            eigh_into(P, w, V, Wk)
-            for i in range(n):
-                sw = math.sqrt(abs(w[i]))
-                for j in range(n):
-                    R[j, i] = V[j, i] * sw
-        status[b] = 0
-        if center:
-            for j in range(n):
-                X[0, b, j] = mean[b, j]
-        for i in range(n):
-            for j in range(n):
-                d = R[j, i] * scale
-                X[off + i, b, j] = mean[b, j] + d
-                X[off + n + i, b, j] = mean[b, j] - d
+        status[b] = _points_into(mean, b, cov[b], root_kind, scale, center, R, w, V, Wk, X, b)
 
 
 def _predict_moments_body(Y, wm, wc, Q, mean, cov):
-    """Weighted mean and ``sum wc dY dY^T + Q`` (symmetrised) of points ``(N, B, p)``.
-
-    The covariance accumulates point by point (each entry sums over k = 0..N-1 in
-    order, as a dot product would: the same values, with the chains interleaved)."""
+    """Weighted mean and ``sum wc dY dY^T + Q`` (symmetrised) of points ``(N, B, p)``
+    (`_predict_moments_into`)."""
     N, B, p = Y.shape
     shared_q = Q.shape[0] == 1
     chunks = min(B, _CHUNKS)
@@ -92,33 +271,12 @@ def _predict_moments_body(Y, wm, wc, Q, mean, cov):
       d = np.empty((N, p))
       Acc = np.empty((p, p))
       for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-        q = 0 if shared_q else np.int64(b)
-        mu[:] = 0.0
-        for k in range(N):
-            for j in range(p):
-                mu[j] += wm[k] * Y[k, b, j]
-        for k in range(N):
-            for j in range(p):
-                d[k, j] = Y[k, b, j] - mu[j]
-        for i in range(p):
-            for j in range(i + 1):
-                Acc[i, j] = 0.0
-        for k in range(N):
-            for i in range(p):
-                wd = wc[k] * d[k, i]
-                for j in range(i + 1):
-                    Acc[i, j] += wd * d[k, j]
-        for i in range(p):
-            mean[b, i] = mu[i]
-            for j in range(i + 1):
-                cij = Acc[i, j] + 0.5 * (Q[q, i, j] + Q[q, j, i])
-                cov[b, i, j] = cij
-                cov[b, j, i] = cij
+        _predict_moments_into(Y, b, d, N, wm, wc, Q, 0 if shared_q else np.int64(b), mu, Acc, mean, cov, b)
 
 
 def _measurement_moments_body(X, Z, prior_mean, wm, wc, R, z_hat, S, C):
     """``z_hat``, ``S = sum wc dZ dZ^T + R`` (symmetrised) and ``C = sum wc (X - m) dZ^T``
-    (accumulated point by point, as `_predict_moments_body`)."""
+    (`_innovation_moments_into`)."""
     N, B, m = Z.shape
     n = X.shape[2]
     shared_r = R.shape[0] == 1
@@ -129,45 +287,14 @@ def _measurement_moments_body(X, Z, prior_mean, wm, wc, R, z_hat, S, C):
       SAcc = np.empty((m, m))
       CAcc = np.empty((n, m))
       for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-        r = 0 if shared_r else np.int64(b)
-        mu[:] = 0.0
-        for k in range(N):
-            for j in range(m):
-                mu[j] += wm[k] * Z[k, b, j]
-        for k in range(N):
-            for j in range(m):
-                d[k, j] = Z[k, b, j] - mu[j]
-        for i in range(m):
-            for j in range(i + 1):
-                SAcc[i, j] = 0.0
-        for i in range(n):
-            for j in range(m):
-                CAcc[i, j] = 0.0
-        for k in range(N):
-            for i in range(m):
-                wd = wc[k] * d[k, i]
-                for j in range(i + 1):
-                    SAcc[i, j] += wd * d[k, j]
-            for i in range(n):
-                wx = wc[k] * (X[k, b, i] - prior_mean[b, i])
-                for j in range(m):
-                    CAcc[i, j] += wx * d[k, j]
-        for i in range(m):
-            z_hat[b, i] = mu[i]
-            for j in range(i + 1):
-                sij = SAcc[i, j] + 0.5 * (R[r, i, j] + R[r, j, i])
-                S[b, i, j] = sij
-                S[b, j, i] = sij
-        for i in range(n):
-            for j in range(m):
-                C[b, i, j] = CAcc[i, j]
+        _innovation_moments_into(X, Z, b, d, N, prior_mean, b, wm, wc, R, 0 if shared_r else np.int64(b),
+                                 mu, SAcc, CAcc, z_hat, S[b], C[b])
 
 
 def _update_body(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph, H, R, mean, cov, gain, innovation, ok):
-    """Gain, posterior and skip mask; ``ok[b]`` False where S is not finite/PD.
-
-    Skipped elements (``bad_z`` or not ok) keep the prior and report the NumPy path's
-    values: zero innovation and ``K = C`` (the update solved against S = I).
+    """Gain, posterior (``P - K S K^T`` or Joseph's form) and skip mask; ``ok[b]`` False
+    where S is not finite/PD. Skipped elements (``bad_z`` or not ok) keep the prior and
+    report the NumPy path's values: zero innovation and ``K = C`` (`_keep_prior_into`).
     """
     B, n = prior_mean.shape
     m = z.shape[1]
@@ -175,7 +302,6 @@ def _update_body(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph, H, R, mea
     shared_r = R.shape[0] == 1
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
-      # Scratch once per chunk of elements; every product through mul_into.
       L = np.zeros((m, m))
       Y = np.empty((n, m + 1))
       KS = np.empty((n, m))
@@ -184,53 +310,19 @@ def _update_body(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph, H, R, mea
       AP = np.empty((n, n))
       M2 = np.empty((n, n))
       for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-        Sb = S[b]
-        good = all_finite(Sb) and cholesky(Sb, L)
+        Sb, Cb, K, P = S[b], C[b], gain[b], prior_cov[b]
+        good = _all_finite_m(Sb) and _cholesky_m(Sb, L)
         ok[b] = good
-        K = gain[b]
         if bad_z[b] or not good:
-            for i in range(m):
-                innovation[b, i] = 0.0
-            for i in range(n):
-                mean[b, i] = prior_mean[b, i]
-                for j in range(m):
-                    K[i, j] = C[b, i, j]
-                for j in range(n):
-                    cov[b, i, j] = prior_cov[b, i, j]
+            _keep_prior_into(prior_mean, b, P, Cb, K, innovation, mean, cov)
             continue
-        chol_solve_rows_into(L, C[b], K, Y)
-        for i in range(m):
-            innovation[b, i] = z[b, i] - z_hat[b, i]
-        for i in range(n):
-            acc = 0.0
-            for j in range(m):
-                acc += K[i, j] * innovation[b, j]
-            mean[b, i] = prior_mean[b, i] + acc
-        P = prior_cov[b]
+        _gain_mean_into(L, Cb, K, Y, z, z_hat, prior_mean, b, innovation, mean)
         if not joseph:
-            mul_into(K, Sb, KS, False)  # K S
-            mul_into(KS, K, M, True)  # (K S) K^T; entry (j, i) is the other order's sum
-            for i in range(n):
-                for j in range(i + 1):
-                    v = 0.5 * ((P[i, j] - M[i, j]) + (P[j, i] - M[j, i]))
-                    cov[b, i, j] = v
-                    cov[b, j, i] = v
+            _posterior_into(K, Sb, P, KS, M, cov, b)
         else:
-            h = 0 if shared_h else np.int64(b)
-            r = 0 if shared_r else np.int64(b)
-            mul_into(K, H[h], A, False)  # K H, then A = I - K H
-            for i in range(n):
-                for j in range(n):
-                    A[i, j] = (1.0 if i == j else 0.0) - A[i, j]
-            mul_into(A, P, AP, False)
-            mul_into(K, R[r], KS, False)  # K R
-            mul_into(AP, A, M, True)
-            mul_into(KS, K, M2, True)
-            for i in range(n):
-                for j in range(i + 1):
-                    v = 0.5 * ((M[i, j] + M2[i, j]) + (M[j, i] + M2[j, i]))
-                    cov[b, i, j] = v
-                    cov[b, j, i] = v
+            _joseph_posterior_into(K, H[0 if shared_h else np.int64(b)], R[0 if shared_r else np.int64(b)], P,
+                                   A, AP, KS, M, M2, cov, b)
+
 
 
 # -- the model's compiled functions ---------------------------------------------------
@@ -311,14 +403,16 @@ def _ekf_moments_body(mean, cov, h_params, R, z_hat, S, C):
                     S[b, j, i] = v
 
 
+# -- fused drivers: every step of a predict or update in one pass, the model's compiled f/h between them --
+
+
 def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_params, Q, out_mean, out_cov, status, counts):
-    """One predict per element: root, points, compiled ``f``, moments + Q; ``counts[0]``:
-    elements whose root failed (``status`` not 0)."""
+    """One predict per element: points (`_points_into`), compiled ``f``, moments + Q
+    (`_predict_moments_into`); ``counts[0]``: elements whose root failed (``status`` not 0)."""
     B = mean.shape[0]
-    # A specialised twin (`_specialised_pair`) has the state dimension as a compile-time constant.
+    # A specialised twin (`_model_pair`) has the state dimension as a compile-time constant.
     n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]
     N = 2 * n + (1 if center else 0)
-    off = 1 if center else 0
     shared_q = Q.shape[0] == 1
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
@@ -329,214 +423,27 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_params, Q
       Wk = np.empty((n + 2, n))
       X = np.empty((N, n))
       Y = np.empty((N, n))
+      # The steps address points as (N, B, n) batches: these views are a batch of one.
+      X1 = X.reshape((N, 1, n))
+      Y1 = Y.reshape((N, 1, n))
       mu = np.empty(n)
       Acc = np.empty((n, n))
       for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-        P = cov[b]
-        R[:, :] = 0.0
-        if not _all_finite_n(P):
-            status[b] = 1
+        status[b] = _points_into(mean, b, cov[b], root_kind, scale, center, R, w, V, Wk, X1, 0)
+        if status[b] != 0:
             continue
-        if root_kind == 0:
-            if not _cholesky_n(P, R):
-                status[b] = 2
-                continue
-        else:
-            eigh_into(P, w, V, Wk)
-            for i in range(n):
-                sw = math.sqrt(abs(w[i]))
-                for j in range(n):
-                    R[j, i] = V[j, i] * sw
-        status[b] = 0
-        if center:
-            for j in range(n):
-                X[0, j] = mean[b, j]
-        for i in range(n):
-            for j in range(n):
-                dd = R[j, i] * scale
-                X[off + i, j] = mean[b, j] + dd
-                X[off + n + i, j] = mean[b, j] - dd
         for k in range(N):
             _apply_f_row(f_params, X, k, Y)
-        q = 0 if shared_q else np.int64(b)
-        mu[:] = 0.0
-        for k in range(N):
-            for j in range(n):
-                mu[j] += wm[k] * Y[k, j]
-        for k in range(N):
-            for j in range(n):
-                Y[k, j] -= mu[j]
-        # Point by point into the lower triangle: each entry sums in the order k = 0..N-1
-        # (as a dot product would), but the entries' chains interleave in the pipeline.
-        for i in range(n):
-            for j in range(i + 1):
-                Acc[i, j] = 0.0
-        for k in range(N):
-            for i in range(n):
-                wy = wc[k] * Y[k, i]
-                for j in range(i + 1):
-                    Acc[i, j] += wy * Y[k, j]
-        for i in range(n):
-            out_mean[b, i] = mu[i]
-            for j in range(i + 1):
-                cij = Acc[i, j] + 0.5 * (Q[q, i, j] + Q[q, j, i])
-                out_cov[b, i, j] = cij
-                out_cov[b, j, i] = cij
+        _predict_moments_into(Y1, 0, Y, N, wm, wc, Q, 0 if shared_q else np.int64(b), mu, Acc, out_mean, out_cov, b)
     counts[0] = 0
     for b in range(B):
         counts[0] += status[b] != 0
 
 
-# -- per-element steps of the fused update -------------------------------------------------
-#
-# Each reads the sizes through _FIXED_N/_FIXED_M and the n x n / m x m helpers through
-# their names, as the drivers do; `element_steps` compiles a set per size with numba's
-# inlining forced, so a specialised driver composes steps that carry its constants.
-
-
-def _points_into(mean, b, P, root_kind, scale, center, Rt, w, V, Wk, X):
-    """Sigma points ``X`` ``(N, n)`` of element ``b`` from the root of ``P``; the status:
-    0 ok, 1 P not finite, 2 P not positive definite (Cholesky)."""
-    n = _FIXED_N if _FIXED_N > 0 else mean.shape[1]
-    off = 1 if center else 0
-    Rt[:, :] = 0.0
-    if not _all_finite_n(P):
-        return 1
-    if root_kind == 0:
-        if not _cholesky_n(P, Rt):
-            return 2
-    else:
-        eigh_into(P, w, V, Wk)
-        for i in range(n):
-            sw = math.sqrt(abs(w[i]))
-            for j in range(n):
-                Rt[j, i] = V[j, i] * sw
-    if center:
-        for j in range(n):
-            X[0, j] = mean[b, j]
-    for i in range(n):
-        for j in range(n):
-            dd = Rt[j, i] * scale
-            X[off + i, j] = mean[b, j] + dd
-            X[off + n + i, j] = mean[b, j] - dd
-    return 0
-
-
-def _innovation_moments_into(X, Z, N, mean, b, wm, wc, R, r, mu, SAcc, CAcc, z_hat, Sb, Cb):
-    """``z_hat[b]`` (and ``mu``), ``S = sum wc dZ dZ^T + R`` (symmetrised) and
-    ``C = sum wc (X - m) dZ^T`` of the ``N`` transformed points ``Z`` (deviations left in Z)."""
-    n = _FIXED_N if _FIXED_N > 0 else X.shape[1]
-    m = _FIXED_M if _FIXED_M > 0 else Z.shape[1]
-    mu[:] = 0.0
-    for k in range(N):
-        for j in range(m):
-            mu[j] += wm[k] * Z[k, j]
-    for k in range(N):
-        for j in range(m):
-            Z[k, j] -= mu[j]
-    # S (lower triangle) and C point by point: each entry sums in the order
-    # k = 0..N-1 with the same products as a dot product would, so the values are
-    # bitwise those of one dot product per entry, but the chains interleave.
-    for i in range(m):
-        for j in range(i + 1):
-            SAcc[i, j] = 0.0
-    for i in range(n):
-        for j in range(m):
-            CAcc[i, j] = 0.0
-    for k in range(N):
-        for i in range(m):
-            wz = wc[k] * Z[k, i]
-            for j in range(i + 1):
-                SAcc[i, j] += wz * Z[k, j]
-        for i in range(n):
-            wx = wc[k] * (X[k, i] - mean[b, i])
-            for j in range(m):
-                CAcc[i, j] += wx * Z[k, j]
-    for i in range(m):
-        z_hat[b, i] = mu[i]
-        for j in range(i + 1):
-            sij = SAcc[i, j] + 0.5 * (R[r, i, j] + R[r, j, i])
-            Sb[i, j] = sij
-            Sb[j, i] = sij
-    for i in range(n):
-        for j in range(m):
-            Cb[i, j] = CAcc[i, j]
-
-
-def _gain_mean_into(L, Cb, K, ysolve, z, mu, mean, b, innovation, out_mean):
-    """Gain ``K = C S^{-1}`` (from the Cholesky factor L of S) and ``x + K (z - z_hat)``."""
-    n = _FIXED_N if _FIXED_N > 0 else K.shape[0]
-    m = _FIXED_M if _FIXED_M > 0 else K.shape[1]
-    chol_solve_rows_into(L, Cb, K, ysolve)
-    for i in range(m):
-        innovation[b, i] = z[b, i] - mu[i]
-    for i in range(n):
-        acc = 0.0
-        for j in range(m):
-            acc += K[i, j] * innovation[b, j]
-        out_mean[b, i] = mean[b, i] + acc
-
-
-def _posterior_into(K, Sb, P, KS, KSK, out_cov, b):
-    """``sym(P - K S K^T)`` of element ``b``."""
-    n = _FIXED_N if _FIXED_N > 0 else K.shape[0]
-    m = _FIXED_M if _FIXED_M > 0 else K.shape[1]
-    # K S, then (K S) K^T in full (both triangles are needed for the symmetrised
-    # posterior); k outermost within a row, so the chains interleave, same sums.
-    for i in range(n):
-        for j in range(m):
-            KS[i, j] = 0.0
-        for k in range(m):
-            kik = K[i, k]
-            for j in range(m):
-                KS[i, j] += kik * Sb[k, j]
-    for i in range(n):
-        for j in range(n):
-            KSK[i, j] = 0.0
-        for k in range(m):
-            ksik = KS[i, k]
-            for j in range(n):
-                KSK[i, j] += ksik * K[j, k]
-    for i in range(n):
-        for j in range(i + 1):
-            v = 0.5 * ((P[i, j] - KSK[i, j]) + (P[j, i] - KSK[j, i]))
-            out_cov[b, i, j] = v
-            out_cov[b, j, i] = v
-
-
-def _keep_prior_into(mean, b, P, Cb, K, innovation, out_mean, out_cov):
-    """A skipped element: the prior, zero innovation and ``K = C`` (the NumPy path's values)."""
-    n = _FIXED_N if _FIXED_N > 0 else K.shape[0]
-    m = _FIXED_M if _FIXED_M > 0 else K.shape[1]
-    for i in range(m):
-        innovation[b, i] = 0.0
-    for i in range(n):
-        out_mean[b, i] = mean[b, i]
-        for j in range(m):
-            K[i, j] = Cb[i, j]
-        for j in range(n):
-            out_cov[b, i, j] = P[i, j]
-
-
-_STEPS = (_points_into, _innovation_moments_into, _gain_mean_into, _posterior_into, _keep_prior_into)
-_steps_by_size: dict[tuple[int, int], dict] = {}
-
-
-def element_steps(n: int = 0, m: int = 0, helpers: dict | None = None) -> dict:
-    """The per-element steps compiled for ``n`` states and ``m`` measurements as constants
-    (0: read from the operands), calling ``helpers`` (names bound to size-specialised
-    Cholesky, eigh, solve; none: the generic ones), inlined into their caller."""
-    key = (n, m)
-    hit = _steps_by_size.get(key)
-    if hit is None:
-        over = {"_FIXED_N": n, "_FIXED_M": m, **(helpers or {})}
-        hit = _steps_by_size[key] = {fn.__name__: step_jit(with_globals(fn, f"_{n}_{m}", **over)) for fn in _STEPS}
-    return hit
-
-
 def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_params, R,
                        out_mean, out_cov, gain, innovation, z_hat, S, C, status, ok, skipped, counts):
-    """One measurement update per element: points, compiled ``h``, moments, gain, posterior.
+    """One measurement update per element: points, compiled ``h``, moments, gain, posterior
+    (`_points_into`, `_innovation_moments_into`, `_gain_mean_into`, `_posterior_into`).
 
     An element whose ``z`` is not finite counts as ``bad_z`` too. ``skipped[b]``: bad z
     or S not PD; ``counts``: elements with bad z, a failed root (``status``), S not PD
@@ -555,6 +462,8 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
       Wk = np.empty((n + 2, n))
       X = np.empty((N, n))
       Z = np.empty((N, m))
+      X1 = X.reshape((N, 1, n))  # batches of one, as the steps address points
+      Z1 = Z.reshape((N, 1, m))
       mu = np.empty(m)
       L = np.zeros((m, m))
       KS = np.empty((n, m))
@@ -565,20 +474,20 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
       for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
         P = cov[b]
         ok[b] = False
-        status[b] = _points_into(mean, b, P, root_kind, scale, center, Rt, w, V, Wk, X)
+        status[b] = _points_into(mean, b, P, root_kind, scale, center, Rt, w, V, Wk, X1, 0)
         if status[b] != 0:
             continue
         for k in range(N):
             _apply_h_row(h_params, X, k, Z, k)
         Sb, Cb, K = S[b], C[b], gain[b]
-        _innovation_moments_into(X, Z, N, mean, b, wm, wc, R, 0 if shared_r else np.int64(b), mu, SAcc, CAcc,
-                                 z_hat, Sb, Cb)
+        _innovation_moments_into(X1, Z1, 0, Z, N, mean, b, wm, wc, R, 0 if shared_r else np.int64(b), mu, SAcc,
+                                 CAcc, z_hat, Sb, Cb)
         good = _all_finite_m(Sb) and _cholesky_m(Sb, L)
         ok[b] = good
         if bad_z[b] or not good or not row_finite(z, b):
             _keep_prior_into(mean, b, P, Cb, K, innovation, out_mean, out_cov)
             continue
-        _gain_mean_into(L, Cb, K, ysolve, z, mu, mean, b, innovation, out_mean)
+        _gain_mean_into(L, Cb, K, ysolve, z, z_hat, mean, b, innovation, out_mean)
         _posterior_into(K, Sb, P, KS, KSK, out_cov, b)
     counts[:] = 0
     for b in range(B):  # serial, after the parallel loop
@@ -663,9 +572,10 @@ def _model_pair(body, functions: dict, n: int = 0, m: int = 0):
         over.update({"_FIXED_M": m, "_all_finite_m": hm["all_finite"], "_cholesky_m": hm["cholesky"],
                      "chol_solve_rows_into": solve})
         suffix += f"_{m}"
-    if n and m and body is _fused_update_body:
+    if n and body in (_fused_predict_body, _fused_update_body):
+        # The steps this twin composes, compiled with its sizes and its sized helpers.
         over.update(element_steps(n, m, {k: over[k] for k in ("_all_finite_n", "_cholesky_n", "eigh_into",
-                                                              "chol_solve_rows_into")}))
+                                                              "chol_solve_rows_into") if k in over}))
     hit = _model_drivers[key] = jit_pair(with_globals(body, suffix, **over))
     return hit
 

@@ -1,6 +1,6 @@
 """The core's scenario kinds, registered through the ``register_scenario`` hook like any
-third-party scenario (the registry loads this module before the entry points, and adds
-it by the same path as an entry point's module).
+third-party scenario: this module is the ``scenarios`` entry point of the
+``gnssframework`` group in ``pyproject.toml``, which the registry loads like any other.
 
 Every module of this package is imported here, not in the package's ``__init__``: a
 scenario kind is one module with ``@register_scenario``, found without a list to edit,
