@@ -15,20 +15,17 @@ import numpy as np
 import pytest
 
 from gnssframework import registry
-from gnssframework.navigation import lnav
 from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.receiver.channels import tracking_config
-from gnssframework.receiver.frontend import open_recording, write_recording
+from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.observables import LLI_HALF_CYCLE, LLI_LOST_LOCK
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs
-from gnssframework.signal.constants import L1_FREQ_HZ
-from gnssframework.signal.if_samples import generate_if_samples
-from test_receiver_fix import C, CHUNK_S, FS, NAV, TOW0, _satellite_time, _strongest
+from lnav_recordings import WEEK, write_lnav_recording
+from test_receiver_fix import C, NAV, TOW0, _satellite_time, _strongest
 
 DURATION_S = 15.0
 BLANK_S = (9.0, 10.0)  # after the first subframe has arrived (8.6 s in)
-WEEK = 1316
 RATE_HZ = 5.0
 
 
@@ -37,36 +34,8 @@ def blanked(tmp_path_factory):
     nav = read_rinex_nav(NAV)
     sats = _strongest(nav, TOW0, 5)
     gone = 2  # index of the blanked satellite
-    rng = np.random.default_rng(77)
-    n = int(round(CHUNK_S * FS))
-    source = registry.create("sample_source", "ci16_le")
-    path = tmp_path_factory.mktemp("lli") / "blanked.sigmf-data"
-    t_sv0 = _satellite_time(sats, np.array(TOW0))
-    symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), WEEK, float(t_sv0[k]) - 0.1, int(DURATION_S * 50) + 20)
-               for k in range(sats.sv.size)]
-    phase = np.zeros(sats.sv.size)
-    with open(path, "wb") as out:
-        for c in range(int(round(DURATION_S / CHUNK_S))):
-            t0 = c * CHUNK_S
-            start, end = _satellite_time(sats, TOW0 + t0), _satellite_time(sats, TOW0 + t0 + CHUNK_S)
-            doppler = L1_FREQ_HZ * ((end - start) / CHUNK_S - 1)
-            x = np.zeros(n, complex)
-            for k in range(sats.sv.size):
-                if k == gone and BLANK_S[0] <= t0 < BLANK_S[1]:
-                    phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
-                    continue
-                bits, into = symbols[k]
-                first_tsv = float(t_sv0[k]) - 0.1 - into
-                x += generate_if_samples(int(sats.sv[k][1:]), CHUNK_S, FS, 0.0, 45.0, rng, doppler_hz=doppler[k],
-                                         code_phase_chips=(start[k] * 1e3 % 1.0) * 1023, carrier_phase_rad=phase[k],
-                                         complex_samples=True, data_bits=bits,
-                                         first_bit_edge_s=first_tsv - start[k], noise=False).samples
-                phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
-            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
-            out.write(source.encode(x * 300.0))
-    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", FS, 0.0)
-    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
-    path.with_suffix(".tmp").unlink()
+    path = write_lnav_recording(tmp_path_factory.mktemp("lli") / "blanked.sigmf-data", sats, TOW0, DURATION_S, 77,
+                                blank=(gone, *BLANK_S))
     result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=RATE_HZ,
                      rinex=nav, reference_week=WEEK)
     return result, sats, gone
