@@ -150,7 +150,6 @@ class SampleRecordingScenario(SampleReceiverScenario):
     def check_case(self, case: dict, where: str) -> None:
         """The case's own checks, the files (recording, ephemeris) and a first segment in the file."""
         super(SampleReceiverScenario, self).check_case(case, where)
-        self.open()
         segment_bounds(self.open(), self.params.start_s, self.params.segment_s, 0)
         self.ephemerides()
 
