@@ -47,6 +47,8 @@ from .sample_receiver_metrics import FiniteFraction, FiniteRms, FirstFinite, Las
 
 __all__ = ["SampleRecordingScenario", "METRICS", "SERIES", "segment_bounds"]
 
+#: Where ``validation/gps_sdr_sim_recording.py`` writes the example's recording.
+DEFAULT_RECORDING = "build/gps_sdr_sim_45dbhz.sigmf-data"
 _NO_TRUTH = "no fix in the run, or no truth_lat_lon_h given"
 _NO_FIX = "no fix in the run"
 _ALL_PRNS = tuple(range(1, 33))
@@ -57,8 +59,9 @@ SERIES = {"fix_time_s": "s", "horizontal_error_m": "m", "vertical_error_m": "m",
 
 
 class SampleRecordingParams(ScenarioParams):
-    recording: str = Field(description="the recorded file (path from the working directory); its SigMF metadata "
-                           "file, if beside it, gives what format, sample_rate_hz and if_hz leave out")
+    recording: str = Field(DEFAULT_RECORDING, description="the recorded file (path from the working directory; "
+                           "default: the one validation/gps_sdr_sim_recording.py writes for the example); its SigMF "
+                           "metadata file, if beside it, gives what format, sample_rate_hz and if_hz leave out")
     format: str | None = Field(None, description="sample format (a sample_source plugin; default: SigMF's)")
     sample_rate_hz: float | None = Field(None, gt=0, description="sample rate (default: SigMF's)")
     if_hz: float | None = Field(None, description="intermediate frequency (default: SigMF's, else 0)")
