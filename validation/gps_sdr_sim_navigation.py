@@ -2,9 +2,9 @@
 
     python validation/gps_sdr_sim_navigation.py [--cn0 45] [--duration 42] [--fs 2.6e6] [--seed 1]
 
-gps-sdr-sim (built and run by `gps_sdr_sim_run`, as for `gps_sdr_sim_tracking`) encodes real LNAV from the RINEX navigation file it is given (``brdc0010.22n``) and
-simulates a static receiver at a known position; complex white noise is added for the
-chosen C/N0. The library then acquires, tracks, decodes and positions
+gps-sdr-sim (built and run by `gps_sdr_sim_run`, as for `gps_sdr_sim_tracking`) encodes
+real LNAV from the RINEX navigation file it is given (``brdc0010.22n``) and simulates a
+static receiver at a known position; complex white noise is added for the chosen C/N0. The library then acquires, tracks, decodes and positions
 (`gnssframework.receiver.navigation.receive.receive`). Checks, each a line of the report:
 
 - every simulated satellite's subframes 1-3 decode to the record gps-sdr-sim used, field

@@ -33,6 +33,7 @@ import numpy as np
 import pymap3d
 from pydantic import Field, field_validator
 
+from ... import random_streams as draw
 from ... import registry
 from ...errors import ConfigError
 from ...navigation.ephemeris import read_rinex_nav
@@ -41,7 +42,7 @@ from ...receiver.frontend import open_recording
 from ...receiver.frontend.recording import Recording
 from ...receiver.navigation import receive as receive_module
 from ..metric_components import evaluate, undefined_reasons as _undefined_reasons, units
-from . import BatchResult, ScenarioParams, register_scenario
+from . import BatchResult, Scenario, ScenarioParams, register_scenario
 from .sample_receiver import SampleReceiverScenario, _as_config, _spec
 from .sample_receiver_metrics import FiniteFraction, FiniteRms, FirstFinite, Last, run_series
 
@@ -152,7 +153,7 @@ class SampleRecordingScenario(SampleReceiverScenario):
 
     def check_case(self, case: dict, where: str) -> None:
         """The case's own checks, the files (recording, ephemeris) and a first segment in the file."""
-        super(SampleReceiverScenario, self).check_case(case, where)
+        Scenario.check_case(self, case, where)  # the base's: the parent's needs its generated plan
         segment_bounds(self.open(), self.params.start_s, self.params.segment_s, 0)
         self.ephemerides()
 
@@ -182,8 +183,6 @@ class SampleRecordingScenario(SampleReceiverScenario):
         return np.arange(int(np.floor(p.segment_s * p.rate_hz + 1e-9))) / p.rate_hz
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
-        from ... import random_streams as draw
-
         p = self.params
         streams = draw.as_run_streams(rng, runs)  # only for the global run indices: nothing is drawn
         rec, rinex, t = self.open(), self.ephemerides(), self.time_s()
