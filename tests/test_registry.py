@@ -28,7 +28,7 @@ def test_kinds_and_builtin_names():
                                 "metric", "nav_filter", "noise_adapter", "sample_source", "scenario"]
     assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
     assert builtin_names("scenario") == ["carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
-                                         "scintillation", "vector-tracking"]
+                                         "sample-recording", "scintillation", "vector-tracking"]
 
 
 def test_builtin_name_sets_ignore_a_plugin_installed_beside_the_project(scratch_registry):

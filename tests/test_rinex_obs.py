@@ -79,3 +79,29 @@ def test_nmea_sentences_read_back_through_the_projects_reader(tmp_path):
     gga, rmc = nmea_sentences(table)[:2]
     assert gga.startswith("$GPGGA,000000.00,") and ",1,10,0.81," in gga
     assert rmc.split(",")[7:10] == [f"{np.hypot(1, 1) / (1852 / 3600):.3f}", "45.00", "010122"]
+
+
+def test_loss_of_lock_and_strength_indicators_read_back_through_georinex(tmp_path):
+    """RINEX 3.04 5.3 and 5.7: the LLI digit after the phase (bit 0 lost lock, bit 1 half
+    cycle), the strength digit 1-9 (C/N0 / 6 dB-Hz) after the range, phase and Doppler."""
+    import georinex
+
+    obs = _observables()
+    lli = np.zeros((4, 3), dtype=int)
+    lli[2, 0], lli[3, 1], lli[1, 1] = 1, 2, 3
+    obs = Observables(*(getattr(obs, f) for f in ("rx_time_s", "sample_time_s", "prn", "transmit_s", "pseudorange_m",
+                                                  "doppler_hz", "carrier_cycles", "cn0_dbhz", "ephemeris",
+                                                  "iono_utc", "week")), lli)
+    path = write_rinex_obs(tmp_path / "observations.rnx", obs, 2190)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        data = georinex.load(path, useindicators=True)
+    got_lli = np.nan_to_num(data["L1Clli"].values, nan=0.0)
+    want = np.where(np.isnan(obs.pseudorange_m), 0, lli)
+    assert np.array_equal(got_lli, want)
+    written = ~np.isnan(obs.pseudorange_m)
+    # RINEX 3.04 5.7's table: 1 below 12 dB-Hz, 2 for 12-17, ..., 8 for 48-53, 9 from 54 on.
+    strength = np.digitize(obs.cn0_dbhz, [12, 18, 24, 30, 36, 42, 48, 54]) + 1
+    for name in ("C1Cssi", "L1Cssi", "D1Cssi"):
+        assert np.array_equal(data[name].values[written], strength[written])
+    assert "C1Clli" not in data or np.all(np.nan_to_num(data["C1Clli"].values) == 0)  # LLI on the phase only

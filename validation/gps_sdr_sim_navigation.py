@@ -2,10 +2,9 @@
 
     python validation/gps_sdr_sim_navigation.py [--cn0 45] [--duration 42] [--fs 2.6e6] [--seed 1]
 
-gps-sdr-sim (built from ``../shared/tools/gps-sdr-sim`` as `gps_sdr_sim_tracking` does)
-encodes real LNAV from the RINEX navigation file it is given (``brdc0010.22n``) and
-simulates a static receiver at a known position; complex white noise is added for the
-chosen C/N0. The library then acquires, tracks, decodes and positions
+gps-sdr-sim (built and run by `gps_sdr_sim_run`, as for `gps_sdr_sim_tracking`) encodes
+real LNAV from the RINEX navigation file it is given (``brdc0010.22n``) and simulates a
+static receiver at a known position; complex white noise is added for the chosen C/N0. The library then acquires, tracks, decodes and positions
 (`gnssframework.receiver.navigation.receive.receive`). Checks, each a line of the report:
 
 - every simulated satellite's subframes 1-3 decode to the record gps-sdr-sim used, field
@@ -59,7 +58,9 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import sim_truth  # noqa: E402
-from gps_sdr_sim_tracking import LOCATION, SIM_DIR, add_noise, parse_log  # noqa: E402
+# NAV and simulate are imported from here by gps_sdr_sim_weak.
+from gps_sdr_sim_run import (CIRCLE_RADIUS_M, CIRCLE_SPEED_MPS, LOCATION, NAV, SIM_DIR, Checks,  # noqa: E402,F401
+                             SimulatorError, circle_truth, exit_unavailable, noisy_recording, simulate)
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
@@ -70,7 +71,6 @@ from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs  # noqa:
 from gnssframework.receiver.channels import tracking_config  # noqa: E402
 from gnssframework.receiver.frontend import open_recording  # noqa: E402
 
-NAV = SIM_DIR / "brdc0010.22n"
 PI = 3.1415926535898
 # One LSB of each field, typed from IS-GPS-200 Tables 20-I and 20-III (angles: semicircles x pi).
 LSB = {"SVclockBias": 2.0**-31, "SVclockDrift": 2.0**-43, "SVclockDriftRate": 2.0**-55, "TGD": 2.0**-31,
@@ -78,46 +78,12 @@ LSB = {"SVclockBias": 2.0**-31, "SVclockDrift": 2.0**-43, "SVclockDriftRate": 2.
        "DeltaN": 2.0**-43 * PI, "M0": 2.0**-31 * PI, "Omega0": 2.0**-31 * PI, "Io": 2.0**-31 * PI,
        "omega": 2.0**-31 * PI, "OmegaDot": 2.0**-43 * PI, "IDOT": 2.0**-43 * PI, "Eccentricity": 2.0**-33,
        "sqrtA": 2.0**-19, "Toe": 16.0}
-#: The moving receiver: a horizontal circle about LOCATION (radius m, speed m/s).
-CIRCLE_RADIUS_M, CIRCLE_SPEED_MPS = 100.0, 15.0
 #: rnx2rtkp's options (its configuration file): a single-point solution modelled as ours.
 RTKLIB_OPTIONS = {"pos1-posmode": "single", "pos1-navsys": "1", "pos1-elmask": "5", "pos1-ionoopt": "brdc",
                   "pos1-tropopt": "off", "pos1-sateph": "brdc", "pos1-posopt5": "off", "out-solformat": "xyz",
                   "out-timesys": "gpst", "out-timeform": "tow", "out-timendec": "3"}
 ALPHA_LSB = np.array([2.0**-30, 2.0**-27, 2.0**-24, 2.0**-24])
 BETA_LSB = np.array([2.0**11, 2.0**14, 2.0**16, 2.0**16])
-
-
-def circle_truth(t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """ECEF positions ``(n, 3)`` and east-north-up velocities ``(n, 3)`` of the moving receiver."""
-    import pymap3d
-
-    w = CIRCLE_SPEED_MPS / CIRCLE_RADIUS_M
-    t = np.asarray(t_s, float)
-    e, n = CIRCLE_RADIUS_M * np.cos(w * t), CIRCLE_RADIUS_M * np.sin(w * t)
-    xyz = np.stack(pymap3d.enu2ecef(e, n, np.zeros_like(t), *LOCATION), axis=-1)
-    vel = np.stack([-CIRCLE_SPEED_MPS * np.sin(w * t), CIRCLE_SPEED_MPS * np.cos(w * t), np.zeros_like(t)], axis=-1)
-    return xyz, vel
-
-
-def simulate(work: Path, duration_s: float, fs: float, moving: bool) -> tuple[Path, str]:
-    """Build gps-sdr-sim and simulate the static receiver at LOCATION or, ``moving``, the
-    circle (a user motion file of ECEF positions at 10 Hz, gps-sdr-sim's ``-u``)."""
-    binary = subprocess.run([str(SIM_DIR / "build.sh"), str(work / "bin")], check=True, capture_output=True,
-                            text=True).stdout.strip().splitlines()[-1]
-    out = work / "sim.bin"
-    if moving:
-        t = np.arange(int(np.ceil(duration_s * 10)) + 2) / 10.0
-        xyz, _ = circle_truth(t)
-        motion = work / "circle.csv"
-        motion.write_text("".join(f"{ti:.1f},{x:.4f},{y:.4f},{z:.4f}\n" for ti, (x, y, z) in zip(t, xyz)))
-        where = ["-u", str(motion)]
-    else:
-        lat, lon, h = LOCATION
-        where = ["-l", f"{lat},{lon},{h}"]
-    run = subprocess.run([binary, "-e", str(NAV), *where, "-d", f"{duration_s}", "-b", "16", "-s", f"{fs:.0f}", "-p",
-                          "128", "-o", str(out)], check=True, capture_output=True, text=True, cwd=work)
-    return out, run.stderr
 
 
 def rtklib_positions(obs_path: Path, nav_path: Path, work: Path) -> tuple[np.ndarray, np.ndarray] | None:
@@ -185,24 +151,14 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     import pymap3d
 
-    failures = []
-
-    def check(ok: bool, text: str) -> None:
-        print(("  ok    " if ok else "  FAIL  ") + text)
-        if not ok:
-            failures.append(text)
-
+    check = Checks()
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         try:
-            sim, log = simulate(work, args.duration, args.fs, args.moving)
-        except (subprocess.CalledProcessError, FileNotFoundError, OSError) as exc:
-            print(f"cannot build or run gps-sdr-sim from {SIM_DIR}: {exc}", file=sys.stderr)
-            return 2
-        week, tow0, sats = parse_log(log)
-        rec_path = work / "noisy.sigmf-data"
-        add_noise(sim, rec_path, args.cn0, args.fs, np.random.default_rng(args.seed))
-        sim.unlink()
+            sim = noisy_recording(work, args.duration, args.fs, args.cn0, args.seed, args.moving)
+        except SimulatorError as exc:
+            return exit_unavailable(exc)
+        week, tow0, sats, rec_path = sim.week, sim.tow0_s, sim.satellites, sim.path
         rinex = read_rinex_nav(NAV)
         used_by_sim = rinex.select([f"G{p:02d}" for p in sats], tow0, healthy_only=False)
         healthy = sorted(p for p, h in zip(sats, used_by_sim.health) if h == 0)
@@ -220,8 +176,7 @@ def main(argv: list[str] | None = None) -> int:
         obs = result.observables
         if obs is None:
             check(False, "no channel decoded a subframe")
-            print(f"FAIL: {len(failures)} check(s)")
-            return 1
+            return check.summary()
 
         # 1. Decoded ephemerides against the RINEX records gps-sdr-sim used.
         alpha, beta = header_klobuchar(NAV)
@@ -324,8 +279,7 @@ def main(argv: list[str] | None = None) -> int:
             if name == "RINEX --ephemeris":
                 rtklib_check(check, rinex_path, solve_epochs(obs, rinex, reference_week=week, elevation_weights=False),
                              work, args.moving)
-    print("PASS" if not failures else f"FAIL: {len(failures)} check(s)")
-    return 0 if not failures else 1
+    return check.summary()
 
 
 if __name__ == "__main__":

@@ -2,10 +2,9 @@
 
     python validation/gps_sdr_sim_tracking.py [--cn0 45] [--duration 6] [--fs 2.6e6] [--seed 1]
 
-Builds gps-sdr-sim from ``../shared/tools/gps-sdr-sim`` (beside the repository) into a
-temporary folder, simulates a static receiver with every satellite at one fixed power
-(``-p``: no path loss, so each has the same C/N0), adds complex white noise for the chosen
-C/N0, then acquires and tracks with the library (``pcps``, ``scalar``). The truth comes
+gps-sdr-sim simulates a static receiver with every satellite at one fixed power, with
+complex white noise added for the chosen C/N0 (`gps_sdr_sim_run.noisy_recording`); the
+library then acquires and tracks (``pcps``, ``scalar``). The truth comes
 from gps-sdr-sim's geometry (the broadcast ephemeris it used, `sim_truth`). Checks, each a
 line of the report:
 
@@ -26,8 +25,6 @@ Exits 1 when a check fails, 2 when gps-sdr-sim cannot be built or run.
 from __future__ import annotations
 
 import argparse
-import re
-import subprocess
 import sys
 import tempfile
 import time
@@ -39,67 +36,21 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import sim_truth  # noqa: E402
+# LOCATION, SIM_DIR, add_noise and parse_log are imported from here by gps_sdr_sim_weak.
+from gps_sdr_sim_run import (LOCATION, NAV, SIM_DIR, Checks, SimulatorError, add_noise,  # noqa: E402,F401
+                             exit_unavailable, noisy_recording, parse_log)
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.receiver.acquisition.report import acquire_recording  # noqa: E402
 from gnssframework.receiver.channels import SampleTracker, tracking_config  # noqa: E402
 from gnssframework.receiver.frontend import open_recording  # noqa: E402
-from gnssframework.receiver.frontend.sigmf_meta import write_sigmf_meta  # noqa: E402
-
-SIM_DIR = HERE.parent.parent / "shared" / "tools" / "gps-sdr-sim"
-#: gps-sdr-sim's per-satellite amplitude with -b 16 and -p 128: its 250-level carrier
-#: table times the gain 128, shifted right by 7 (gpssim.c, the sample loop).
-AMPLITUDE_LSB = 250.0
-LOCATION = (35.681298, 139.766247, 10.0)
-
-
-def build_and_simulate(work: Path, duration_s: float, fs: float) -> tuple[Path, str]:
-    binary = subprocess.run([str(SIM_DIR / "build.sh"), str(work / "bin")], check=True, capture_output=True,
-                            text=True).stdout.strip().splitlines()[-1]
-    out = work / "sim.bin"
-    lat, lon, h = LOCATION
-    run = subprocess.run([binary, "-e", str(SIM_DIR / "brdc0010.22n"), "-l", f"{lat},{lon},{h}", "-d",
-                          f"{duration_s}", "-b", "16", "-s", f"{fs:.0f}", "-p", "128", "-o", str(out)],
-                         check=True, capture_output=True, text=True, cwd=work)
-    return out, run.stderr
-
-
-def parse_log(log: str) -> tuple[int, float, dict[int, tuple[float, float, float, float]]]:
-    """GPS week, time of week at the start, and per PRN (azimuth, elevation, range, iono delay)."""
-    m = re.search(r"Start time = .*\((\d+):([\d.]+)\)", log)
-    if m is None:
-        raise RuntimeError(f"no start time in gps-sdr-sim's output:\n{log}")
-    sats = {}
-    for line in log[m.end():].splitlines():
-        parts = line.split()
-        if len(parts) == 5 and re.fullmatch(r"\d\d", parts[0]):
-            sats[int(parts[0])] = tuple(float(p) for p in parts[1:])
-    return int(m.group(1)), float(m.group(2)), sats
-
-
-def add_noise(src: Path, dst: Path, cn0_dbhz: float, fs: float, rng: np.random.Generator) -> None:
-    """Add complex white noise of the standard deviation that gives ``cn0_dbhz`` to every
-    satellite of amplitude `AMPLITUDE_LSB`: a = sqrt(2 sigma^2 c / fs) (complex samples,
-    the law of `gnssframework.signal.if_samples`), so sigma = a sqrt(fs / (2 c)). A block at
-    a time (the same draws as one call), so a 40 s file never sits in memory as floats."""
-    sigma = AMPLITUDE_LSB * np.sqrt(fs / (2 * 10 ** (cn0_dbhz / 10)))
-    raw = np.memmap(src, dtype="<i2", mode="r")
-    block = 1 << 23
-    with open(dst, "wb") as out:
-        for start in range(0, raw.size, block):
-            noisy = raw[start:start + block] + sigma * rng.standard_normal(min(block, raw.size - start))
-            if np.abs(noisy).max() > 32767:
-                raise RuntimeError("noise clips int16: choose a higher C/N0")
-            out.write(np.rint(noisy).astype("<i2").tobytes())
-    write_sigmf_meta(dst.with_suffix(".sigmf-meta"), format="ci16_le", sigmf_datatype="ci16_le", sample_rate_hz=fs,
-                     if_hz=0.0, description=f"gps-sdr-sim at {cn0_dbhz} dB-Hz with added white noise")
 
 
 def ephemerides(tow0: float) -> dict[int, dict]:
     """Per PRN, the navigation record gps-sdr-sim uses: toc within an hour of the start."""
     import georinex
 
-    nav = georinex.load(SIM_DIR / "brdc0010.22n")
+    nav = georinex.load(NAV)
     out = {}
     for sv in nav.sv.values:
         rec = nav.sel(sv=sv).dropna("time", how="all", subset=["sqrtA"])
@@ -125,23 +76,13 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     import pymap3d
 
-    failures = []
-
-    def check(ok: bool, text: str) -> None:
-        print(("  ok    " if ok else "  FAIL  ") + text)
-        if not ok:
-            failures.append(text)
-
+    check = Checks()
     with tempfile.TemporaryDirectory() as tmp:
-        work = Path(tmp)
         try:
-            sim, log = build_and_simulate(work, args.duration, args.fs)
-        except (subprocess.CalledProcessError, FileNotFoundError, OSError) as exc:
-            print(f"cannot build or run gps-sdr-sim from {SIM_DIR}: {exc}", file=sys.stderr)
-            return 2
-        week, tow0, sats = parse_log(log)
-        rec_path = work / "noisy.sigmf-data"
-        add_noise(sim, rec_path, args.cn0, args.fs, np.random.default_rng(args.seed))
+            sim = noisy_recording(Path(tmp), args.duration, args.fs, args.cn0, args.seed)
+        except SimulatorError as exc:
+            return exit_unavailable(exc)
+        week, tow0, sats, rec_path = sim.week, sim.tow0_s, sim.satellites, sim.path
         rec = open_recording(rec_path)
         receiver = np.array(pymap3d.geodetic2ecef(*LOCATION))
         ephs = ephemerides(tow0)
@@ -208,8 +149,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{cn0 - cn0_eff:+.2f} from C/(N0 + I0)), code error {code_rms:.4f} chips RMS "
                   f"({code_rms * 293.05:.1f} m), Doppler error {dop_rms:.2f} Hz RMS, {carrier_txt}, "
                   f"locked {100 * ch.column('lock')[last].mean() if last.any() else 0:.0f} % of the last second")
-    print("PASS" if not failures else f"FAIL: {len(failures)} check(s)")
-    return 0 if not failures else 1
+    return check.summary()
 
 
 if __name__ == "__main__":

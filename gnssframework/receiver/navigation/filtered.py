@@ -17,10 +17,21 @@ the least squares corrects them (`gnssframework.navigation.pvt`):
 
 The filter starts from the first least-squares fix (position, velocity, clock) with a
 covariance from that fix's dilution of precision, then steps at every epoch of the
-observables' grid with the satellites the least squares used there (so its residual-based
-exclusion carries over) or, at an epoch it did not solve, every satellite with a healthy
-ephemeris above the mask. An epoch without any such satellite ends the run; the filter
-restarts at the next least-squares fix.
+observables' grid. Which satellites it takes is ``exclusion``:
+
+- ``"innovation"`` (default): every satellite with a healthy ephemeris above the mask,
+  screened by the filter's own innovation test (`innovation_exclusion`): the normalised
+  innovation squared ``ν^T S^-1 ν`` of the epoch's ranges and rates against the filter's
+  prediction (``S = H P⁻ H^T + R``) is chi-square with ``2 n`` degrees of freedom when the
+  model holds (Bar-Shalom, Li & Kirubarajan 2001, sec. 5.4.2); above its ``1 - p`` quantile
+  (``p = innovation_false_alarm``) the satellite whose removal lowers the statistic most
+  is left out, and the test is repeated while more than four satellites remain;
+- ``"least-squares"``: the satellites the least squares used at that epoch (its
+  residual-based exclusion carries over), or all healthy ones at an epoch it did not solve;
+- ``"none"``: every healthy satellite, untested.
+
+An epoch without any satellite ends the run; the filter restarts at the next
+least-squares fix.
 """
 
 from __future__ import annotations
@@ -30,6 +41,7 @@ from typing import Any
 
 import numpy as np
 import pymap3d
+from scipy.stats import chi2
 
 from ... import names, registry
 from ...errors import ConfigError
@@ -42,8 +54,11 @@ from .fixes import PositionTable, full_week
 from .fixes import _ephemeris_for as ephemeris_for, _stack as stack_records
 from .observables import Observables
 
-__all__ = ["EpochMeasurements", "MEASUREMENT_INPUTS", "NAV_STATE_OUTPUTS", "check_nav_filter", "corrected_measurements",
-           "run_nav_filter", "filter_epochs"]
+__all__ = ["EpochMeasurements", "MEASUREMENT_INPUTS", "NAV_STATE_OUTPUTS", "EXCLUSIONS", "check_nav_filter",
+           "corrected_measurements", "innovation_exclusion", "run_nav_filter", "filter_epochs"]
+
+#: The satellite selections of `filter_epochs` (see the module text).
+EXCLUSIONS = ("innovation", "least-squares", "none")
 
 #: What this harness gives a nav filter at each epoch: the vector loop's harness inputs
 #: and a channel filter's outputs (zero errors with the measurement variances).
@@ -176,9 +191,76 @@ def start_nav_filter(nav: NavFilter, interval_s: float, initial_state: np.ndarra
 
 def step_nav_filter(nav: NavFilter, measurements: EpochMeasurements) -> np.ndarray:
     """One epoch: the filter's ``[x, y, z, vx, vy, vz, b, d]`` after it."""
+    return _step(nav, measurements)[0]
+
+
+def _step(nav: NavFilter, measurements: EpochMeasurements) -> tuple[np.ndarray, np.ndarray | None]:
+    """One epoch: the 8-state after it and its 8x8 covariance (None if the filter gives none)."""
     out = nav.checked_step(_inputs(measurements))
-    return np.concatenate([np.reshape(out[names.POSITION_M], 3), np.reshape(out[names.VELOCITY_M_S], 3),
-                           np.reshape(out[names.CLOCK_M], 2)])
+    x = np.concatenate([np.reshape(out[names.POSITION_M], 3), np.reshape(out[names.VELOCITY_M_S], 3),
+                        np.reshape(out[names.CLOCK_M], 2)])
+    cov = out.get(names.COV)
+    return x, None if cov is None else np.reshape(cov, np.shape(cov)[-2:])[:8, :8]
+
+
+def _subset(m: EpochMeasurements, keep: np.ndarray) -> EpochMeasurements:
+    return EpochMeasurements(m.sat_pos_m[keep], m.sat_vel_m_s[keep], m.range_m[keep], m.rate_m_s[keep],
+                             m.range_var_m2[keep], m.rate_var_m2_s2[keep])
+
+
+def innovation_exclusion(predicted_state: np.ndarray, predicted_cov: np.ndarray, measurements: EpochMeasurements,
+                         false_alarm: float = 1e-3, min_satellites: int = 4) -> tuple[np.ndarray, float]:
+    """The satellites that pass the filter's innovation test (see the module text).
+
+    Parameters
+    ----------
+    predicted_state, predicted_cov
+        The filter's 8-state prediction ``[r, v, b, d]`` ``(8,)`` at this epoch and its
+        covariance ``(8, 8)``.
+    measurements
+        The epoch's ``S`` satellites.
+    false_alarm
+        Probability ``p`` that the statistic of a fault-free epoch exceeds the threshold
+        ``chi2.ppf(1 - p, 2 n)``.
+    min_satellites
+        No satellite is left out once this many remain.
+
+    Returns
+    -------
+    The boolean ``(S,)`` mask of the satellites kept and the statistic ``ν^T S^-1 ν`` of
+    those satellites.
+    """
+    x, P, m = np.asarray(predicted_state, float), np.asarray(predicted_cov, float), measurements
+    los = m.sat_pos_m - x[:3]
+    dist = np.linalg.norm(los, axis=1)
+    e = los / dist[:, None]
+    n = dist.size
+    # Ranges then rates, as ekf-pv orders them (Zou et al. 2018, eqs. 35-36).
+    nu = np.r_[m.range_m - (dist + x[6]), m.rate_m_s - (np.sum((m.sat_vel_m_s - x[3:6]) * e, axis=1) + x[7])]
+    H = np.zeros((2 * n, 8))
+    H[:n, :3], H[:n, 6] = -e, 1.0
+    H[n:, 3:6], H[n:, 7] = -e, 1.0
+    S = H @ P @ H.T + np.diag(np.r_[m.range_var_m2, m.rate_var_m2_s2])
+
+    def statistic(sats: np.ndarray) -> float:
+        rows = np.r_[sats, sats + n]
+        return float(nu[rows] @ np.linalg.solve(S[np.ix_(rows, rows)], nu[rows]))
+
+    keep = np.ones(n, dtype=bool)
+    stat = statistic(np.flatnonzero(keep))
+    while keep.sum() > min_satellites and stat > chi2.ppf(1.0 - false_alarm, 2 * int(keep.sum())):
+        kept = np.flatnonzero(keep)
+        without = [statistic(kept[kept != i]) for i in kept]
+        keep[kept[int(np.argmin(without))]] = False
+        stat = float(min(without))
+    return keep, stat
+
+
+def _predict(nav: NavFilter, x: np.ndarray, P: np.ndarray, interval_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The filter's prediction of its 8 published states one interval ahead, from its own
+    ``transition(T)`` (their block: exact for ``ekf-pv``, whose state they are)."""
+    F, Q = (np.asarray(a, float)[:8, :8] for a in nav.transition(interval_s))
+    return F @ x, F @ P @ F.T + Q
 
 
 def run_nav_filter(nav: NavFilter, interval_s: float, initial_state: np.ndarray, initial_cov: np.ndarray,
@@ -200,29 +282,41 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
                   params: dict[str, Any] | None = None, rinex: Ephemerides | None = None, *,
                   ionosphere: bool = True, troposphere: bool = False, iono: IonoUtc | None = None,
                   sigma_m: float = 5.0, sigma_rate_m_s: float = 0.5, elevation_mask_deg: float = 5.0,
-                  reference_week: int | None = None) -> PositionTable:
+                  reference_week: int | None = None, exclusion: str = "innovation",
+                  innovation_false_alarm: float = 1e-3) -> PositionTable:
     """The registered ``nav_filter`` (with ``params``) on every epoch of ``obs`` from the
-    first fix of ``wls`` on (see the module text); the same columns as ``wls``.
+    first fix of ``wls`` on (see the module text); the same columns as ``wls``, with
+    ``excluded_prn`` the first satellite the innovation test left out at each epoch (0: none).
 
-    ``wls`` is `fixes.solve_epochs` of the same observables and settings.
+    ``wls`` is `fixes.solve_epochs` of the same observables and settings; ``exclusion``
+    one of `EXCLUSIONS`; ``innovation_false_alarm`` the test's probability ``p``.
 
     Raises
     ------
     ConfigError
-        For an unknown or unfit filter name (field ``--nav-filter``) or bad parameters.
+        For an unknown or unfit filter name (field ``--nav-filter``), bad parameters, an
+        unknown ``exclusion`` or a ``p`` outside (0, 1).
     """
+    if exclusion not in EXCLUSIONS:
+        raise ConfigError("exclusion", f"got {exclusion!r}; allowed: {', '.join(EXCLUSIONS)}")
+    if not 0.0 < innovation_false_alarm < 1.0:
+        raise ConfigError("innovation_false_alarm", f"must be a probability in (0, 1), got {innovation_false_alarm}")
     if len(wls) == 0:
         return wls
     check_nav_filter(nav_filter)
     nav = registry.create("nav_filter", nav_filter, **(params or {}))
+    gate = exclusion == "innovation"
+    if gate and not hasattr(nav, "transition"):
+        raise ConfigError("exclusion", f"the innovation test needs the filter's transition(T); nav_filter "
+                                       f"{nav_filter!r} has none: use exclusion 'least-squares' or 'none'")
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
     interval_s = float(np.median(np.diff(obs.rx_time_s))) if obs.rx_time_s.size > 1 else 1.0
     wls_row = {int(np.argmin(np.abs(obs.sample_time_s - t))): k for k, t in enumerate(wls.sample_time_s)}
-    rows, states, used, dops = [], [], [], []
+    rows, states, used, dops, excluded = [], [], [], [], []
     running = False
     for e in range(obs.rx_time_s.size):
         k = wls_row.get(e)
-        if k is not None:
+        if k is not None and exclusion == "least-squares":
             prns = np.array(wls.used_prns[k])
         else:
             prns = obs.prn[np.isfinite(obs.pseudorange_m[e])]
@@ -234,10 +328,10 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
         if j.size == 0:
             running = False
             continue
-        if not running:  # (re)start from this epoch's fix
+        if not running:  # (re)start from this epoch's fix; no prediction before the first step
             x0, P0 = _prior(wls, k, sigma_m, sigma_rate_m_s)
             start_nav_filter(nav, interval_s, x0, P0)
-            running, here = True, x0[:3]
+            running, here, predicted = True, x0[:3], (x0, P0)
         meas, keep = corrected_measurements(obs.pseudorange_m[e, j], obs.transmit_s[e, j], obs.doppler_hz[e, j],
                                             stack_records([r for r in records if r is not None]), here,
                                             iono=klobuchar, troposphere=troposphere, sigma_m=sigma_m,
@@ -245,15 +339,24 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
         if not keep.any():
             running = False
             continue
-        x = step_nav_filter(nav, meas)
+        out_prn = 0
+        if gate and predicted[1] is not None:
+            passed, _ = innovation_exclusion(*predicted, meas, innovation_false_alarm)
+            if not passed.all():
+                out_prn = int(obs.prn[j[keep]][np.flatnonzero(~passed)[0]])
+                meas = _subset(meas, passed)
+                keep[np.flatnonzero(keep)[~passed]] = False
+        x, P = _step(nav, meas)
+        predicted = _predict(nav, x, P, interval_s) if gate and P is not None else (x, None)
         here = x[:3]
         rows.append(e)
         states.append(x)
         used.append(tuple(int(p) for p in obs.prn[j[keep]]))
+        excluded.append(out_prn)
         dops.append(_dops(meas.sat_pos_m, x[:3]))
     return _table(obs, np.array(rows, dtype=int), np.array(states).reshape(-1, 8), used, np.array(dops).reshape(-1, 2),
                   full_week(obs.week, reference_week) if reference_week is not None or obs.week is not None
-                  else int(wls.columns["gps_week"][0]))
+                  else int(wls.columns["gps_week"][0]), np.array(excluded, dtype=int))
 
 
 def _prior(wls: PositionTable, k: int, sigma_m: float, sigma_rate_m_s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -271,7 +374,7 @@ def _prior(wls: PositionTable, k: int, sigma_m: float, sigma_rate_m_s: float) ->
 
 
 def _table(obs: Observables, rows: np.ndarray, states: np.ndarray, used: list[tuple[int, ...]], dops: np.ndarray,
-           week: int) -> PositionTable:
+           week: int, excluded: np.ndarray) -> PositionTable:
     n = rows.size
     lat, lon, h = (np.asarray(v, float).reshape(-1) for v in
                    pymap3d.ecef2geodetic(states[:, 0], states[:, 1], states[:, 2]))
@@ -282,7 +385,7 @@ def _table(obs: Observables, rows: np.ndarray, states: np.ndarray, used: list[tu
                "lat_deg": lat, "lon_deg": lon, "height_m": h, "vel_e_mps": vel[:, 0], "vel_n_mps": vel[:, 1],
                "vel_u_mps": vel[:, 2], "clock_bias_m": bias, "n_sats": np.array([len(u) for u in used], dtype=int),
                "hdop": hdop, "vdop": vdop}
-    return PositionTable(columns, states[:, :3].copy(), obs.sample_time_s[rows], used, np.zeros(n, dtype=int),
+    return PositionTable(columns, states[:, :3].copy(), obs.sample_time_s[rows], used, excluded,
                          states[:, 7].copy())
 
 

@@ -21,6 +21,17 @@ absorbs the rest). Doppler is the channel's carrier NCO frequency relative to th
 phase the NCO's accumulated Doppler phase with the sign of RINEX (phase grows with range),
 plus half a cycle where the preamble came inverted (the Costas loop locked 180 degrees
 off: IS-GPS-200 sends the preamble upright).
+
+A channel that loses lock and locks again starts a new run of bits. The new run is dated
+from the channel's last dated row while no subframe of its own has arrived (for gaps up to
+`MAX_BRIDGE_S`): its satellite time has advanced by the elapsed receive time times
+``1 + D / f_L1`` (the Doppler ``D`` of that row; receiver clock drift included), and its
+first bit edge is the nearest whole 20 ms of satellite time (LNAV bits start on them), so
+the bridge holds while the prediction is within 10 ms; its rows are used once the run has
+held for 50 bits (1 s), as a false lock seldom does. Until the run's own preamble is
+found the carrier's polarity is unknown. The observables flag both, per RINEX 3.04
+(section 5.3): bit 0 of ``lli`` on the first epoch of every run after a channel's first
+(lost lock: cycle slip possible), bit 1 on epochs whose carrier has a half-cycle ambiguity.
 """
 
 from __future__ import annotations
@@ -31,7 +42,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...errors import ConfigError
-from ...signal.constants import CA_CHIP_RATE_HZ
+from ...signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 from .bit_stream import BIT_MS, bit_runs
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_lnav, find_subframes
@@ -39,13 +50,20 @@ from ...navigation.lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_l
 if TYPE_CHECKING:
     from ..channels import ChannelRecord
 
-__all__ = ["ChannelTiming", "Observables", "channel_timing", "observables", "SPEED_OF_LIGHT_MPS"]
+__all__ = ["ChannelTiming", "Observables", "channel_timing", "observables", "SPEED_OF_LIGHT_MPS", "MAX_BRIDGE_S",
+           "LLI_LOST_LOCK", "LLI_HALF_CYCLE"]
 
 #: Speed of light, m/s (IS-GPS-200 20.3.4.3).
 SPEED_OF_LIGHT_MPS = 299_792_458.0
 _WEEK_S = 604_800.0
 _EXTENDED = 2  # index of "extended" in receiver.channels.STAGES: bit-aligned integrations
 _MAX_GAP_S = 0.025  # rows further apart are not interpolated between
+#: Longest gap (s) across which a run is dated from the previous one: receiver clock drift
+#: and Doppler error together stay under 1e-5, so the prediction's error is well under 10 ms.
+MAX_BRIDGE_S = 300.0
+_BRIDGE_BITS = 50  # a bridged run is dated from its second second on (its lock has held for 1 s)
+#: RINEX 3.04 loss-of-lock indicator bits (section 5.3).
+LLI_LOST_LOCK, LLI_HALF_CYCLE = 1, 2
 
 
 @dataclass(frozen=True)
@@ -55,7 +73,9 @@ class ChannelTiming:
     ``time_s`` (recording time, s from the first sample), ``transmit_s`` (satellite time of
     week, s), ``doppler_hz``, ``carrier_cycles`` (accumulated Doppler phase, cycles), ``cn0_dbhz``;
     ``half_cycle`` per row, True where the carrier is locked 180 degrees off (the preamble of
-    the row's run came inverted); ``message`` the decoded
+    the row's run came inverted); ``arc_start`` per row, True on the first row of each run;
+    ``polarity_known`` per row, False before the run's own preamble has arrived (a run
+    dated from the previous one); ``message`` the decoded
     LNAV; ``ephemerides`` each decoded ephemeris with the recording time at which its last
     subframe had arrived.
     """
@@ -69,6 +89,8 @@ class ChannelTiming:
     half_cycle: np.ndarray
     message: LnavMessage
     ephemerides: list[tuple[float, Ephemerides]]
+    arc_start: np.ndarray | None = None
+    polarity_known: np.ndarray | None = None
 
 
 def _bit_time(run, time_s: np.ndarray, bit: int) -> float:
@@ -91,28 +113,61 @@ def channel_timing(record: ChannelRecord, causal: bool = True) -> ChannelTiming 
     if not record.rows:
         return None
     time_s, code_chips = col("time_s"), col("code_phase_chips")
-    runs = bit_runs(time_s, col("prompt_i"), col("coherent_ms"), col("stage") == _EXTENDED, min_bits=300)
-    rows, tx, inverted, messages, ephemerides = [], [], [], [], []
+    runs = bit_runs(time_s, col("prompt_i"), col("coherent_ms"), col("stage") == _EXTENDED, min_bits=_BRIDGE_BITS + 1)
+    doppler = col("doppler_hz")
+    bit_s = BIT_MS * 1e-3
+    rows, tx, inverted, known, messages, ephemerides = [], [], [], [], [], []
     for run in runs:
         subframes = find_subframes(run.symbols)
-        if not subframes:
+        edge_tow = _bridge(rows, tx, time_s, doppler, run.rows[0], code_chips[run.rows[0]])
+        if subframes:
+            first = subframes[0]
+            own = first.tow_s - first.start * bit_s  # satellite time of the run's first bit edge
+            arrived = first.start + BITS_PER_SUBFRAME if causal else 0
+            # The run's own TOW rules; the bridge dates its rows before the subframe arrives.
+            agree = edge_tow is not None and abs((own - edge_tow + _WEEK_S / 2) % _WEEK_S - _WEEK_S / 2) < bit_s / 2
+            edge_tow, keep = own, run.bit_of_row >= (0 if agree else arrived)
+            polarity = run.bit_of_row[keep] >= arrived
+            is_inverted = first.inverted
+        elif edge_tow is not None:
+            keep = run.bit_of_row >= _BRIDGE_BITS
+            polarity, is_inverted = np.zeros(int(keep.sum()), dtype=bool), False
+        else:
             continue
-        first = subframes[0]
-        bit_tow = first.tow_s + (np.arange(run.symbols.size) - first.start) * BIT_MS * 1e-3
-        keep = run.bit_of_row >= (first.start + BITS_PER_SUBFRAME if causal else 0)
+        bit_tow = edge_tow + np.arange(run.symbols.size) * bit_s
         tx.append((bit_tow[run.bit_of_row] + run.ms_in_bit * 1e-3
                    + code_chips[run.rows] / CA_CHIP_RATE_HZ)[keep] % _WEEK_S)
         rows.append(run.rows[keep])
-        inverted.append(np.full(int(keep.sum()), first.inverted))
-        message = decode_lnav(run.symbols, record.prn)
-        messages.append(message)
-        ephemerides += [(_bit_time(run, time_s, bit), rec) for bit, rec in message.ephemerides]
+        inverted.append(np.full(int(keep.sum()), is_inverted))
+        known.append(polarity)
+        if subframes:
+            message = decode_lnav(run.symbols, record.prn)
+            messages.append(message)
+            ephemerides += [(_bit_time(run, time_s, bit), rec) for bit, rec in message.ephemerides]
     r = np.concatenate(rows) if rows else np.zeros(0, int)
     if r.size == 0:
         return None
-    return ChannelTiming(record.prn, time_s[r], np.concatenate(tx), col("doppler_hz")[r],
-                         col("carrier_phase_cycles")[r],
-                         col("cn0_dbhz")[r], np.concatenate(inverted), _merge(record.prn, messages), ephemerides)
+    starts = np.zeros(r.size, dtype=bool)
+    starts[np.cumsum([0] + [p.size for p in rows[:-1]])] = True
+    return ChannelTiming(record.prn, time_s[r], np.concatenate(tx), doppler[r], col("carrier_phase_cycles")[r],
+                         col("cn0_dbhz")[r], np.concatenate(inverted), _merge(record.prn, messages), ephemerides,
+                         starts, np.concatenate(known))
+
+
+def _bridge(rows: list[np.ndarray], tx: list[np.ndarray], time_s: np.ndarray, doppler_hz: np.ndarray, first_row: int,
+            code_chips: float) -> float | None:
+    """Satellite time of a new run's first bit edge predicted from the channel's last dated
+    row (see the module text), or None without one within `MAX_BRIDGE_S`."""
+    last = next((k for k in range(len(rows) - 1, -1, -1) if rows[k].size), None)
+    if last is None:
+        return None
+    last_row, last_tx = int(rows[last][-1]), float(tx[last][-1])
+    elapsed_s = float(time_s[first_row] - time_s[last_row])
+    if not 0.0 < elapsed_s <= MAX_BRIDGE_S:
+        return None
+    predicted = last_tx + elapsed_s * (1.0 + doppler_hz[last_row] / L1_FREQ_HZ) - code_chips / CA_CHIP_RATE_HZ
+    bit_s = BIT_MS * 1e-3
+    return float(np.round(predicted / bit_s) * bit_s)
 
 
 def _merge(prn: int, messages: list[LnavMessage]) -> LnavMessage:
@@ -135,6 +190,8 @@ class Observables:
     ``doppler_hz``; ``carrier_cycles`` (RINEX sign, half cycle resolved); ``cn0_dbhz``.
     ``ephemeris`` holds each PRN's decoded records with the recording time from which each
     is known, ``iono_utc`` the first decoded page 18, ``week`` the decoded 10-bit week.
+    ``lli`` ``(E, S)`` the RINEX loss-of-lock bits of the carrier phase (`LLI_LOST_LOCK`,
+    `LLI_HALF_CYCLE`; None: not known, written blank).
     """
 
     rx_time_s: np.ndarray
@@ -148,6 +205,7 @@ class Observables:
     ephemeris: dict[int, list[tuple[float, Ephemerides]]]
     iono_utc: IonoUtc | None
     week: int | None
+    lli: np.ndarray | None = None
 
 
 def _interp(t_new: np.ndarray, t: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -192,6 +250,7 @@ def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0) -> Ob
     prn = np.array([t.prn for t in timings])
     shape = (epochs.size, prn.size)
     tx, dop, cyc, cn0 = (np.full(shape, np.nan) for _ in range(4))
+    lli = np.zeros(shape, dtype=int)
     for j, tm in enumerate(timings):
         # Unwrap the week so the interpolation never straddles the rollover.
         unwrapped = tm.transmit_s[0] + np.cumsum(np.r_[0.0, (np.diff(tm.transmit_s) + _WEEK_S / 2) % _WEEK_S
@@ -201,8 +260,26 @@ def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0) -> Ob
         cyc[:, j] = -_interp(sample_t, tm.time_s, tm.carrier_cycles) + 0.5 * _interp(sample_t, tm.time_s,
                                                                                       tm.half_cycle.astype(float))
         cn0[:, j] = _interp(sample_t, tm.time_s, tm.cn0_dbhz)
+        lli[:, j] = _loss_of_lock(sample_t, tm, np.isfinite(tx[:, j]))
     pr = SPEED_OF_LIGHT_MPS * ((epochs[:, None] - tx + _WEEK_S / 2) % _WEEK_S - _WEEK_S / 2)
     eph = {t.prn: t.ephemerides for t in timings if t.ephemerides}
     iono = next((t.message.iono_utc for t in timings if t.message.iono_utc is not None), None)
     week = next((t.message.week for t in timings if t.message.week is not None), None)
-    return Observables(epochs % _WEEK_S, sample_t, prn, tx % _WEEK_S, pr, dop, cyc, cn0, eph, iono, week)
+    return Observables(epochs % _WEEK_S, sample_t, prn, tx % _WEEK_S, pr, dop, cyc, cn0, eph, iono, week, lli)
+
+
+def _loss_of_lock(sample_t: np.ndarray, tm: ChannelTiming, valid: np.ndarray) -> np.ndarray:
+    """RINEX LLI bits ``(E,)`` of one channel at the epochs (see the module text): lost lock
+    on its first valid epoch after an epoch without it or in a later run than the last
+    valid one's; half cycle where an interpolated row's polarity is not yet known."""
+    out = np.zeros(sample_t.size, dtype=int)
+    starts = tm.arc_start if tm.arc_start is not None else np.eye(1, tm.time_s.size, dtype=bool)[0]
+    arc = np.searchsorted(tm.time_s[starts], sample_t, side="right")  # runs begun by each epoch
+    e = np.flatnonzero(valid)
+    if e.size > 1:
+        lost = (np.diff(e) > 1) | (np.diff(arc[e]) != 0)
+        out[e[1:][lost]] |= LLI_LOST_LOCK
+    if tm.polarity_known is not None:
+        unknown = _interp(sample_t, tm.time_s, (~tm.polarity_known).astype(float)) > 0
+        out[valid & unknown] |= LLI_HALF_CYCLE
+    return out

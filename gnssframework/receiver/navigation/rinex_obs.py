@@ -5,7 +5,10 @@ with the satellites that have a pseudorange, and per satellite ``C1C`` (pseudora
 ``L1C`` (carrier phase, cycles), ``D1C`` (Doppler, Hz) and ``S1C`` (C/N0, dB-Hz), in the
 fixed-width fields of RINEX 3.04 (section 5 and tables A1-A3): the header labels in
 columns 61-80, epoch lines ``> yyyy mm dd hh mm ss.sssssss flag n``, observations as
-F14.3 with the loss-of-lock and strength digits. Epochs are the receiver clock's (GPS
+F14.3 with the loss-of-lock and strength digits. The loss-of-lock indicator (section 5.3)
+is the observables' ``lli`` on the carrier phase (bit 0: lock lost since the previous
+epoch, cycle slip possible; bit 1: half-cycle ambiguity), blank when zero; the signal
+strength digit (section 5.7) follows C1C, L1C and D1C. Epochs are the receiver clock's (GPS
 time biased by the receiver clock error), as RINEX defines them.
 """
 
@@ -83,10 +86,11 @@ def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m
         body.append(f"> {t.year:4d} {t.month:02d} {t.day:02d} {t.hour:02d} {t.minute:02d}"
                     f"{t.second + frac:11.7f}  0{sats.size:3d}\n")
         for j in sats:
-            ssi = _strength(float(obs.cn0_dbhz[e, j])) if np.isfinite(obs.cn0_dbhz[e, j]) else 0
+            ssi = str(_strength(float(obs.cn0_dbhz[e, j]))) if np.isfinite(obs.cn0_dbhz[e, j]) else " "
+            lli = int(obs.lli[e, j]) if obs.lli is not None else 0
             values = (obs.pseudorange_m[e, j], obs.carrier_cycles[e, j], obs.doppler_hz[e, j], obs.cn0_dbhz[e, j])
-            fields = "".join(f"{v:14.3f} {ssi if k < 3 else ' '}" if np.isfinite(v) else " " * 16
-                             for k, v in enumerate(values))
+            flags = (" " + ssi, (str(lli) if lli else " ") + ssi, " " + ssi, "  ")  # LLI on the phase only
+            fields = "".join(f"{v:14.3f}{f}" if np.isfinite(v) else " " * 16 for v, f in zip(values, flags))
             body.append(f"G{int(obs.prn[j]):02d}{fields}".rstrip() + "\n")
     path.write_text("".join(header + body))
     return path

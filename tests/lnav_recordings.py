@@ -1,0 +1,57 @@
+"""Recordings of `test_receiver_fix`'s generator for other tests: satellites of real
+broadcast records seen from its station, each carrying its LNAV with the code phase,
+Doppler and data timing of the geometry, 45 dB-Hz, complex int16 SigMF at 2.046 MHz; a
+satellite may be blanked over an interval (no signal, the noise goes on)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gnssframework import registry
+from gnssframework.navigation import lnav
+from gnssframework.receiver.frontend import write_recording
+from gnssframework.signal.constants import L1_FREQ_HZ
+from gnssframework.signal.if_samples import generate_if_samples
+from test_receiver_fix import CHUNK_S, FS, _satellite_time
+
+WEEK = 1316
+
+
+def write_lnav_recording(path: Path, sats, tow0: float, duration_s: float, seed: int,
+                         blank: tuple[int, float, float] | None = None, cn0_dbhz: float = 45.0) -> Path:
+    """Write ``duration_s`` of the satellites ``sats`` (an `Ephemerides`) from GPS time
+    ``tow0`` to ``path`` (``.sigmf-data`` with its metadata); ``blank`` = (index of a
+    satellite, start s, end s) leaves that satellite out of the chunks starting in
+    ``[start, end)``."""
+    rng = np.random.default_rng(seed)
+    n = int(round(CHUNK_S * FS))
+    source = registry.create("sample_source", "ci16_le")
+    t_sv0 = _satellite_time(sats, np.array(tow0))
+    symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), WEEK, float(t_sv0[k]) - 0.1, int(duration_s * 50) + 20)
+               for k in range(sats.sv.size)]
+    phase = np.zeros(sats.sv.size)
+    with open(path, "wb") as out:
+        for c in range(int(round(duration_s / CHUNK_S))):
+            t0 = c * CHUNK_S
+            start, end = _satellite_time(sats, tow0 + t0), _satellite_time(sats, tow0 + t0 + CHUNK_S)
+            doppler = L1_FREQ_HZ * ((end - start) / CHUNK_S - 1)
+            x = np.zeros(n, complex)
+            for k in range(sats.sv.size):
+                if blank is not None and k == blank[0] and blank[1] <= t0 < blank[2]:
+                    phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
+                    continue
+                bits, into = symbols[k]
+                first_tsv = float(t_sv0[k]) - 0.1 - into  # t_SV of the first bit edge
+                x += generate_if_samples(int(sats.sv[k][1:]), CHUNK_S, FS, 0.0, cn0_dbhz, rng, doppler_hz=doppler[k],
+                                         code_phase_chips=(start[k] * 1e3 % 1.0) * 1023, carrier_phase_rad=phase[k],
+                                         complex_samples=True, data_bits=bits,
+                                         first_bit_edge_s=first_tsv - start[k], noise=False).samples
+                phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
+            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
+            out.write(source.encode(x * 300.0))
+    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", FS, 0.0)
+    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
+    path.with_suffix(".tmp").unlink()
+    return path
