@@ -1,5 +1,6 @@
-"""Recordings of `test_receiver_fix`'s generator for other tests: satellites of real
-broadcast records seen from its station, each carrying its LNAV with the code phase,
+"""The receiver tests' LNAV recordings: satellites of real
+broadcast records (tests/data/07590920.05n) seen from the station of
+07590920.05o, each carrying its LNAV with the code phase,
 Doppler and data timing of the geometry, 45 dB-Hz, complex int16 SigMF at 2.046 MHz; a
 satellite may be blanked over an interval (no signal, the noise goes on)."""
 
@@ -14,9 +15,41 @@ from gnssframework.navigation import lnav
 from gnssframework.receiver.frontend import write_recording
 from gnssframework.signal.constants import L1_FREQ_HZ
 from gnssframework.signal.if_samples import generate_if_samples
-from test_receiver_fix import CHUNK_S, FS, _satellite_time
+from gnssframework.navigation.ephemeris import satellite_state
 
-WEEK = 1316
+WEEK = 1316  # the week the generator's LNAV carries
+DATA = Path(__file__).parent / "data"
+NAV = DATA / "07590920.05n"
+STATION = np.array([-3976219.5082, 3382372.5671, 3652512.9849])
+C = 299_792_458.0
+OMEGA_E = 7.2921151467e-5
+FS = 2.046e6
+# GPS time of the first sample: subframe 2 starts 2.6 s in and has arrived 8.6 s in (bit sync
+# needs bit transitions: the end of subframe 1 before it has them; the generator's empty page
+# 25 of subframe 5 would have none).
+TOW0 = 518_706.0 - 2.6
+CHUNK_S = 0.5
+
+
+def _satellite_time(eph, t_rx):
+    """t_SV of the signal received at true GPS time t_rx by the station (receiver clock exact)."""
+    tau = np.full(eph.sv.size, 0.07)
+    for _ in range(6):
+        st = satellite_state(eph, t_rx - tau)
+        th = OMEGA_E * tau
+        p = st.position_m
+        rot = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1],
+                        p[:, 2]], axis=1)
+        tau = np.linalg.norm(rot - STATION, axis=1) / C
+    return t_rx - tau + st.clock_l1_s
+
+
+def _strongest(nav, t, n):
+    sel = nav.select(np.unique(nav.sv), t)
+    up = STATION / np.linalg.norm(STATION)
+    los = satellite_state(sel, t).position_m - STATION
+    el = los @ up / np.linalg.norm(los, axis=1)
+    return sel.subset(np.argsort(-el)[:n])
 
 
 def write_lnav_recording(path: Path, sats, tow0: float, duration_s: float, seed: int,

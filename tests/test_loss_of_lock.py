@@ -21,8 +21,7 @@ from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.observables import LLI_HALF_CYCLE, LLI_LOST_LOCK
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs
-from lnav_recordings import WEEK, write_lnav_recording
-from test_receiver_fix import C, NAV, TOW0, _satellite_time, _strongest
+from lnav_recordings import C, NAV, TOW0, WEEK, _satellite_time, _strongest, write_lnav_recording
 
 DURATION_S = 15.0
 BLANK_S = (9.0, 10.0)  # after the first subframe has arrived (8.6 s in)

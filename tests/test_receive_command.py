@@ -25,7 +25,8 @@ from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.fixes import POSITION_COLUMNS
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.receiver_config import load_receiver_config
-from test_receiver_fix import NAV, STATION, TOW0, recording  # noqa: F401 - the module's fixture
+from lnav_recordings import NAV, STATION, TOW0
+from test_receiver_fix import recording  # noqa: F401 - the module's fixture
 
 WEEK = 1316  # the week the fixture's LNAV carries (no subframe 1 arrives in its 9.5 s)
 TRUTH = tuple(float(v) for v in pymap3d.ecef2geodetic(*STATION))

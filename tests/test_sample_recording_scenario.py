@@ -24,8 +24,7 @@ from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.receiver.channels import tracking_config
 from gnssframework.receiver.frontend import open_recording, write_recording
 from gnssframework.receiver.navigation.receive import position_errors, receive
-from lnav_recordings import WEEK, write_lnav_recording
-from test_receiver_fix import FS, NAV, STATION, TOW0, _strongest
+from lnav_recordings import FS, NAV, STATION, TOW0, WEEK, _strongest, write_lnav_recording
 
 SEGMENT_S, RATE_HZ = 12.0, 5.0
 
