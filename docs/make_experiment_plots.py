@@ -18,7 +18,8 @@ from gnssframework.experiments import load_config, run_comparison
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "img" / "experiments"
 EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath", "sweep_demo",
-            "carrier_smoothing_sweep", "scintillation_sweep", "deep_integration_ci", "deep_integration_elevation_ci")
+            "carrier_smoothing_sweep", "scintillation_sweep", "deep_integration_ci", "deep_integration_elevation_ci",
+            "deep_integration_nees_ci")
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
 #: Examples whose page includes tables generated from the run (docs/experiment_tables.py).
@@ -31,6 +32,9 @@ TABLES = {"vector_tracking": _VECTOR_TRACKING_TABLE, "vector_tracking_static": _
                                "vertical_velocity_error_rmse", "attitude_error_rmse", "loss_of_lock_fraction", "nees"]}
 TABLES["deep_integration_ci"] = TABLES["deep_integration"]
 TABLES["deep_integration_elevation_ci"] = TABLES["deep_integration"]
+TABLES["deep_integration_nees_ci"] = ["horizontal_position_error_rmse", "height_error_rmse",
+                                      "horizontal_velocity_error_rmse", "vertical_velocity_error_rmse",
+                                      "code_tracking_error_rmse", "loss_of_lock_fraction", "nees"]
 
 
 def main() -> int:

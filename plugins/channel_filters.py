@@ -534,7 +534,9 @@ class IqFilter(ChannelFilter):
             out["line-of-sight jerk PSD"] = (float(Q[4, 4] / T * lam**2), "m²/s⁵")
         out["correlator R"] = (f"adaptive ({self.params.adapter.name}, window {self.params.window})"
                                if self.params.adapter and self.params.adaptive else "true covariance", "")
-        out["output"] = (self.params.output, "")
+        p = self.params
+        code_from_disc = p.output == "equivalent" and p.equivalent_code == "discriminator"
+        out["output"] = (f"{p.output} (code from {p.code_discriminator.name})" if code_from_disc else p.output, "")
         return out
 
     def process_noise(self, coherent_time_s: float) -> np.ndarray:
