@@ -341,8 +341,15 @@ class IqFilterParams(PluginParams):
     split_code: Literal["discriminator", "new-information"] = Field(
         "discriminator", description="output split: the code error comes from the code discriminator with its "
         "thermal-noise variance at the channel's C/N0, or from this interval's new information")
+    equivalent_code: Literal["new-information", "discriminator"] = Field(
+        "new-information", description="output equivalent: the code error from this interval's new information "
+        "(default), or from the code discriminator with its thermal-noise variance at the channel's C/N0. The new "
+        "information shrinks a code error that is small against the filter's code uncertainty towards 0 (the "
+        "prompt measures |dtau| at the correlation peak, which the filter's linearisation takes as dtau with its "
+        "prior mean's sign); the discriminator does not")
     code_discriminator: PluginRef("discriminator", unit="chips") = Field(
-        "eml-envelope", description="code discriminator of the split output")
+        "eml-envelope", description="code discriminator of the split output (and of equivalent_code = "
+        "'discriminator')")
     clock: str | None = Field(None, description="receiver clock preset (tcxo, tcxo-hq, ocxo) whose h-parameters "
                               "add their process noise to q; null for q alone")
 
@@ -434,7 +441,12 @@ class IqFilter(ChannelFilter):
     - ``equivalent``: the measurement that carries exactly this interval's information
       on the $(\\delta\\tau, \\delta f)$ marginal (`_equivalent_measurement`). Consistent
       in code; one interval says almost nothing about the frequency, so the frequency
-      gain is lost.
+      gain is lost. A code error small against the filter's code uncertainty comes out
+      shrunk towards 0 (the prompt's slope changes sign at the correlation peak; 0.71 of
+      a 0.002-chip error at 45 dB-Hz, `tests/test_deep_code_shrinkage.py`);
+      ``equivalent_code = "discriminator"`` takes the code error from the code
+      discriminator with its thermal variance instead; a UKF estimator with its sigma
+      points spread over the prior (``alpha = 1``) keeps the new information without it.
     - ``reset``: after each output the filter forgets $\\delta\\tau$ and $\\delta f$ (mean
       0 relative to the new replica, initial variance, no cross-covariance) and the
       innovation adapter's window restarts, so R stays at the correlators' true
@@ -497,13 +509,16 @@ class IqFilter(ChannelFilter):
         self.T = T
         self.pending_reset = False
         self.code_disc = None
-        if self.params.output == "split" and self.params.split_code == "discriminator":
+        p = self.params
+        field = ("split_code" if p.output == "split" and p.split_code == "discriminator" else
+                 "equivalent_code" if p.output == "equivalent" and p.equivalent_code == "discriminator" else None)
+        if field is not None:
             self.code_disc = self.params.code_discriminator.create(coherent_time_s=T,
                                                                    early_late_spacing_chips=2 * d)
             if context.get("cn0_dbhz") is None:
-                raise ConfigError("channel_filter 'iq-filter'.split_code", "'discriminator' needs the channel's "
+                raise ConfigError(f"channel_filter 'iq-filter'.{field}", "'discriminator' needs the channel's "
                                   "C/N0 (run context cn0_dbhz) for the discriminator's variance; this harness gives "
-                                  "none: use split_code = 'new-information'")
+                                  f"none: use {field} = 'new-information'")
             cn0 = np.broadcast_to(np.asarray(context.get("cn0_dbhz"), float), batch_shape)
             self.code_var = np.broadcast_to(self.code_disc.noise_variance(cn0), batch_shape)
 
@@ -520,7 +535,9 @@ class IqFilter(ChannelFilter):
             out["line-of-sight jerk PSD"] = (float(Q[4, 4] / T * lam**2), "m²/s⁵")
         out["correlator R"] = (f"adaptive ({self.params.adapter.name}, window {self.params.window})"
                                if self.params.adapter and self.params.adaptive else "true covariance", "")
-        out["output"] = (self.params.output, "")
+        p = self.params
+        code_from_disc = p.output == "equivalent" and p.equivalent_code == "discriminator"
+        out["output"] = (f"{p.output} (code from {p.code_discriminator.name})" if code_from_disc else p.output, "")
         return out
 
     def process_noise(self, coherent_time_s: float) -> np.ndarray:
@@ -608,7 +625,7 @@ class IqFilter(ChannelFilter):
             out.update(code_error_chips=x[:, 1].reshape(shape), code_error_var_chips2=P[:, 1, 1].reshape(shape),
                        freq_error_hz=x[:, 3].reshape(shape), freq_error_var_hz2=P[:, 3, 3].reshape(shape))
             return out
-        if self.code_disc is not None:  # split, code from the discriminator
+        if self.code_disc is not None and mode == "split":  # split, code from the discriminator
             out.update(code_error_chips=self.code_disc(corr), code_error_var_chips2=self.code_var,
                        freq_error_hz=x[:, 3].reshape(shape), freq_error_var_hz2=P[:, 3, 3].reshape(shape))
             return out
@@ -616,6 +633,8 @@ class IqFilter(ChannelFilter):
         out.update(code_error_chips=z[:, 0].reshape(shape), code_error_var_chips2=R[:, 0, 0].reshape(shape))
         if mode == "equivalent":
             out.update(freq_error_hz=z[:, 1].reshape(shape), freq_error_var_hz2=R[:, 1, 1].reshape(shape))
+            if self.code_disc is not None:  # equivalent_code = "discriminator"
+                out.update(code_error_chips=self.code_disc(corr), code_error_var_chips2=self.code_var)
         else:  # split, code from the new information
             out.update(freq_error_hz=x[:, 3].reshape(shape), freq_error_var_hz2=P[:, 3, 3].reshape(shape))
         return out
