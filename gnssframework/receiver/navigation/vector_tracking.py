@@ -38,7 +38,7 @@ navigation filter. Frequency errors are true minus replica Doppler in both.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pymap3d
@@ -54,6 +54,7 @@ from ...navigation.pvt import dop, klobuchar_delay_s, solve_position
 from ...plugin import validation_message
 from ...signal.correlators import Correlators
 from ...signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, CA_CODE_LENGTH, L1_FREQ_HZ, L1_WAVELENGTH_M
+from ..acquisition.assisted import SearchWindow, window_search
 from ..acquisition.search import Acquisition, AcquisitionResult
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..frontend.recording import Recording
@@ -73,6 +74,11 @@ _ASSIST_EVERY_S = 0.1
 _ASSIST_SETTLE_MS = 100
 #: An assisted fix further than this from the approximate position (m) is refused (a wrong millisecond).
 _ASSIST_RADIUS_M = 300e3
+#: ... or one with a residual above this (m): pull-in code phases are within a chip (300 m), a wrong
+#: millisecond is 300 km.
+_ASSIST_MAX_RESIDUAL_M = 1000.0
+#: Resolve-and-fix rounds of an assisted hand-over.
+_ASSIST_ITERATIONS = 4
 
 
 class VectorConfig(BaseModel):
@@ -98,6 +104,13 @@ class VectorConfig(BaseModel):
     assisted_range_rate_sigma_mps: float = Field(
         5.0, gt=0, description="as range_rate_sigma_mps for an assisted start (Dopplers of acquisition or of a 1 ms "
         "loop)")
+    reacquire_coherent_ms: Literal[1, 10] = Field(
+        10, description="coherent blocks of the aided re-acquisition (10: summed by parity, as alternate_blocks)")
+    reacquire_noncoherent: int = Field(8, ge=2, le=100, description="its blocks (even)")
+    reacquire_pfa: float = Field(1e-3, gt=0, lt=1, description="its false-alarm probability over the window")
+    reacquire_sigmas: float = Field(
+        4.0, gt=0, description="half widths of its window in standard deviations of the predicted range and rate")
+    reacquire_elevation_deg: float = Field(5.0, description="satellites predicted below this are not searched")
     min_cn0_dbhz: float = Field(18.0, description="a channel whose C/N0 estimate is below this is not used")
     solution_rate_hz: float = Field(1.0, gt=0, description="rows of the position table per second")
 
@@ -145,8 +158,8 @@ class VectorSolution:
 
     ``sample_time_s`` ``(K,)`` recording time of each epoch; ``state`` ``(K, 8)``
     ``[x, y, z, vx, vy, vz, b, d]`` (ECEF m, m/s; clock in m and m/s, against the
-    receiver time ``sample_time_s + rx_offset_s``); ``cov`` ``(K, 8, 8)`` its covariance; ``prns`` the vector channels; ``used`` ``(K, len(prns))`` whether each
-    channel's output entered the update; ``dops`` ``(K, 2)`` HDOP and VDOP of the channels
+    receiver time ``sample_time_s + rx_offset_s``); ``cov`` ``(K, 8, 8)`` its covariance; ``prns`` the vector channels (those that joined later included); ``used`` ``(K, 32)``
+    whether the output of the channel of each PRN (slot ``prn - 1``) entered the update; ``dops`` ``(K, 2)`` HDOP and VDOP of the channels
     used; ``handover_s`` the recording time of the
     hand-over fix; ``events`` what happened (``(time_s, text)``).
     """
@@ -175,12 +188,12 @@ class VectorSolution:
         x, t = x[k], t[k]
         lat, lon, h = (np.asarray(v, float) for v in pymap3d.ecef2geodetic(x[:, 0], x[:, 1], x[:, 2]))
         ve, vn, vu = (np.asarray(v, float) for v in pymap3d.ecef2enuv(x[:, 3], x[:, 4], x[:, 5], lat, lon))
-        n_used = np.asarray(self.used)[k].sum(axis=1)
+        n_used = np.asarray(self.used)[k].sum(axis=1)  # (rows over the 32 PRN slots)
         dops = np.asarray(self.dops).reshape(-1, 2)[k]
         columns = {"gps_week": np.full(k.size, self.week), "tow_s": t + self.rx_offset_s - x[:, 6] / _C,
                    "lat_deg": lat, "lon_deg": lon, "height_m": h, "vel_e_mps": ve, "vel_n_mps": vn, "vel_u_mps": vu,
                    "clock_bias_m": x[:, 6], "n_sats": n_used.astype(int), "hdop": dops[:, 0], "vdop": dops[:, 1]}
-        used = [tuple(p for p, u in zip(self.prns, row) if u) for row in np.asarray(self.used)[k]]
+        used = [tuple(int(p) + 1 for p in np.flatnonzero(row)) for row in np.asarray(self.used)[k]]
         return PositionTable(columns, x[:, :3].copy(), t, used, np.zeros(k.size, int))
 
 
@@ -337,10 +350,12 @@ class VectorSampleTracker(SampleTracker):
         self._hand_over(prns, slots, table.ecef_m[e], bias, t_fix, full_week(obs.week, self.reference_week),
                         f"first fix with {len(table.used_prns[e])} satellites")
 
-    def _assisted_transmit_times(self, chans: list, now_s: float) -> tuple[list, Ephemerides, np.ndarray] | None:
+    def _assisted_transmit_times(self, chans: list, now_s: float, r0: np.ndarray
+                                 ) -> tuple[list, Ephemerides, np.ndarray] | None:
         r"""The channels of ``chans`` with a healthy RINEX record, their records and each
         replica's transmit time (s of week, satellite time) at its current start sample,
-        from the `Assistance` alone (None with fewer than four such channels).
+        from the `Assistance`'s start time and position ``r0`` (None with fewer than four
+        such channels).
 
         A replica at a code epoch has sent a whole number of milliseconds plus
         ``code_phase / 1.023 MHz``; the predicted transmit time
@@ -368,7 +383,7 @@ class VectorSampleTracker(SampleTracker):
         for _ in range(3):  # the flight time, iterated (it changes by < 1 us after two)
             st = satellite_state(eph, tx)
             pos = _rotate(st.position_m, t_rx - tx)
-            tx = t_rx - np.linalg.norm(pos - a.position_ecef_m, axis=-1) / _C + st.clock_l1_s
+            tx = t_rx - np.linalg.norm(pos - r0, axis=-1) / _C + st.clock_l1_s
         sub_ms = self.code_phase[slots] / CA_CHIP_RATE_HZ
         residual_ms = (tx - sub_ms) * 1e3
         common = np.angle(np.mean(np.exp(2j * np.pi * residual_ms))) / (2 * np.pi)
@@ -384,29 +399,41 @@ class VectorSampleTracker(SampleTracker):
         (LNAV bits start where the satellite's time is a whole multiple of 20 ms,
         IS-GPS-200 20.3.2), and a channel in 1 ms pull-in or tracking goes over at its
         next boundary of a ``coherent_ms`` interval within a bit (`_advance`)."""
-        active = [c for c in self.channels.values() if self.active[c.slot] and c.stage != "lost"]
+        active = sorted((c for c in self.channels.values() if self.active[c.slot] and c.stage != "lost"),
+                        key=lambda c: c.prn)
         if len(active) < 4 or any(self.ms_index[c.slot] < _ASSIST_SETTLE_MS for c in active):
             return
-        found = self._assisted_transmit_times(active, now_s)
-        if found is None:
-            return
-        chans, eph, tx_start = found
         a = self.assist
-        order = np.argsort([c.prn for c in chans])
-        chans, tx_start = [chans[k] for k in order], tx_start[order]
-        eph = eph.subset(order)
-        prns = tuple(c.prn for c in chans)
-        slots = np.array([c.slot for c in chans])
-        t_s = self.start_sample[slots] / self.fs
-        # Pseudoranges at a common receive epoch (the latest channel's start).
-        t_fix = float(t_s.max())
-        tx_fix = tx_start + (t_fix - t_s) * self.code_rate[slots] / CA_CHIP_RATE_HZ
-        pr = _C * (a.start_tow_s + t_fix - tx_fix)
-        fix = solve_position(pr, tx_fix, eph, iono=a.iono if self.ionosphere else None, elevation_mask_deg=0.0,
-                             initial_ecef_m=a.position_ecef_m)
-        if fix is None or np.linalg.norm(fix.position_ecef_m - a.position_ecef_m) > _ASSIST_RADIUS_M:
-            self.solution.events.append((now_s, "assisted fix failed or far from the approximate position"))
+        fix, r0, previous = None, a.position_ecef_m, None
+        # Resolve, fix, resolve again from the fix: a consistent resolution is one the fix
+        # reproduces (a misresolved millisecond moves the fix, and the next resolution).
+        for _ in range(_ASSIST_ITERATIONS):
+            found = self._assisted_transmit_times(active, now_s, r0)
+            if found is None:
+                return
+            chans, eph, tx_start = found
+            if previous is not None and np.array_equal(previous, tx_start):
+                break
+            slots = np.array([c.slot for c in chans])
+            t_s = self.start_sample[slots] / self.fs
+            # Pseudoranges at a common receive epoch (the latest channel's start).
+            t_fix = float(t_s.max())
+            tx_fix = tx_start + (t_fix - t_s) * self.code_rate[slots] / CA_CHIP_RATE_HZ
+            pr = _C * (a.start_tow_s + t_fix - tx_fix)
+            fix = solve_position(pr, tx_fix, eph, iono=a.iono if self.ionosphere else None, elevation_mask_deg=0.0,
+                                 initial_ecef_m=a.position_ecef_m)
+            if fix is None:
+                break
+            previous, r0 = tx_start, fix.position_ecef_m
+        else:
+            fix = None  # the resolution did not settle
+        if (fix is None or not np.all(fix.used) or np.nanmax(np.abs(fix.residuals_m)) > _ASSIST_MAX_RESIDUAL_M
+                or np.linalg.norm(fix.position_ecef_m - a.position_ecef_m) > _ASSIST_RADIUS_M):
+            self.solution.events.append((now_s, "assisted fix failed (no solution, a satellite excluded, residuals "
+                                                "or distance to the approximate position too large): no hand-over"))
+            self.next_assist = now_s + self.vector.try_every_s
             return
+        prns = tuple(c.prn for c in chans)
         for c, tx_s in zip(chans, tx_start):
             if c.stage != "extended":  # (an extended channel is bit-aligned already)
                 whole_ms = int(np.round((tx_s - self.code_phase[c.slot] / CA_CHIP_RATE_HZ) * 1e3))
@@ -493,6 +520,102 @@ class VectorSampleTracker(SampleTracker):
         c.unlocked_ms = 0
         self.voting[c.slot] = False
         c.record.events.append((float(self.start_sample[c.slot]) / self.fs, "vector tracking"))
+
+    # --- re-acquisition aided by the solution --------------------------------------------
+
+    def _reacquire(self, at: int, stop: int) -> None:
+        if self.nav is None or not self.nav_started or self.rinex is None:
+            super()._reacquire(at, stop)
+            return
+        p = self.vector
+        need = int(round(p.reacquire_coherent_ms * 1e-3 * self.fs)) * p.reacquire_noncoherent
+        if at + need > stop:
+            return
+        t_s = at / self.fs
+        for prn in range(1, 33):
+            c = self.channels.get(prn)
+            if (c is not None and (c.stage != "lost" or c.retry_at > at)) or prn - 1 in self.vslots:
+                continue
+            predicted = self._predict_signal(prn, t_s)
+            if predicted is None:
+                continue
+            record, window, tx_s, elevation = predicted
+            if elevation < p.reacquire_elevation_deg:
+                continue
+            acq = window_search(self.rec.read(at, need), self.fs, self.if_hz, prn, window,
+                                coherent_ms=p.reacquire_coherent_ms, noncoherent=p.reacquire_noncoherent,
+                                alternate=p.reacquire_coherent_ms == 10, pfa=p.reacquire_pfa)
+            if not acq.detected:
+                continue
+            per_code = self.fs * CA_CODE_LENGTH / CA_CHIP_RATE_HZ
+            code_off = (acq.code_phase_samples - window.code_start_samples + per_code / 2) % per_code - per_code / 2
+            self._add(prn, acq, at)
+            c = self.channels[prn]
+            c.record.events.append((t_s, f"re-acquired in the window predicted by the navigation solution "
+                                         f"({code_off:+.1f} samples, {acq.doppler_hz - window.doppler_hz:+.1f} Hz "
+                                         f"from the prediction; window +-{window.code_halfwidth_samples:.1f} samples, "
+                                         f"+-{window.doppler_halfwidth_hz:.1f} Hz)"))
+            self.solution.events.append((t_s, f"PRN {prn} re-acquired by the aided search"))
+            self._join(c, record, tx_s + acq.code_phase_samples / self.fs * (1 + window.doppler_hz / L1_FREQ_HZ))
+
+    def _predict_signal(self, prn: int, t_s: float):
+        """The solution's prediction for ``prn`` at recording time ``t_s``: its RINEX
+        record, the `SearchWindow` (the first code epoch after ``t_s``; half widths
+        ``reacquire_sigmas`` standard deviations of the predicted range and rate, from the
+        state covariance on the line of sight), the transmit time at ``t_s`` and the
+        elevation (deg); None without a healthy record."""
+        try:
+            record = self.rinex.select([f"G{prn:02d}"], t_s + self.rx_offset)
+        except KeyError:
+            return None
+        dt = t_s - self.t_nav
+        x = self.x
+        r, b = x[:3] + x[3:6] * dt, x[6] + x[7] * dt
+        t_rx = t_s + self.rx_offset
+        tx = t_rx - 0.075
+        for _ in range(3):  # the flight time, iterated
+            st = satellite_state(record, np.array([tx]))
+            pos, vel = _rotate(st.position_m, np.array([t_rx - tx])), _rotate(st.velocity_mps, np.array([t_rx - tx]))
+            dist, e = line_of_sight(pos, r)
+            tx = t_rx - (float(dist[0]) + b - _C * float(st.clock_l1_s[0])) / _C
+        e = e[0]
+        rate = float((vel[0] - x[3:6]) @ e + x[7] - _C * st.clock_drift_s_s[0])
+        doppler = -rate / L1_WAVELENGTH_M
+        h = np.r_[-e, 1.0]
+        cov = self.solution.cov[-1]
+        pc, vd = np.r_[0:3, 6], np.r_[3:6, 7]
+        sigma_range = float(np.sqrt(h @ cov[np.ix_(pc, pc)] @ h))
+        sigma_rate = float(np.sqrt(h @ cov[np.ix_(vd, vd)] @ h))
+        k = self.vector.reacquire_sigmas
+        chips = (tx * 1e3 % 1.0) * CA_CODE_LENGTH  # sent of the current period at t_s
+        code_rate = CA_CHIP_RATE_HZ * (1 + doppler / L1_FREQ_HZ)
+        window = SearchWindow((CA_CODE_LENGTH - chips) / code_rate * self.fs, doppler,
+                              k * sigma_range / CA_CHIP_LENGTH_M * self.fs / CA_CHIP_RATE_HZ,
+                              k * sigma_rate / L1_WAVELENGTH_M)
+        lat, lon, hgt = pymap3d.ecef2geodetic(*r)
+        _, elevation, _ = pymap3d.ecef2aer(*pos[0], lat, lon, hgt)
+        return record, window, tx, float(elevation)
+
+    def _join(self, c, record: Ephemerides, tx_start_s: float) -> None:
+        """Channel ``c`` (just added at a code epoch) joins the vector loop: its transmit
+        time there is a whole millisecond (the predicted one rounded), its bit edge follows,
+        and it goes over at its next aligned boundary (`_advance`)."""
+        i = c.slot
+        whole_ms = int(np.round(tx_start_s * 1e3))
+        self.tx_anchor[i] = whole_ms * 1e-3 + self.code_phase[i] / CA_CHIP_RATE_HZ
+        self.chip_anchor[i] = self.ms_index[i] * CA_CODE_LENGTH + self.code_phase[i]
+        c.bit_edge = (int(self.ms_index[i]) + 1 - whole_ms) % 20
+        records = {int(s): self.eph.subset(np.array([k])) for k, s in enumerate(self.vslots)}
+        records[i] = record
+        self.vslots = np.array(sorted(records))
+        self.eph = _stack([records[int(s)] for s in self.vslots])
+        r = self.x[:3]
+        self.iono_m = self._iono(self.vslots, r, float(self.start_sample[i]) / self.fs)
+        self.solution.prns = tuple(int(s) + 1 for s in self.vslots)
+        c.vector_pending = True
+        self._leave_batch(c)
+        c.join_tries = 3
+        self._command(np.array([i]), self.x)
 
     # --- the navigation model ------------------------------------------------------------
 
@@ -589,7 +712,9 @@ class VectorSampleTracker(SampleTracker):
         s.sample_time_s.append(self.t_nav)
         s.state.append(x)
         s.cov.append(np.array(out[names.COV])[0])
-        s.used.append(use)
+        mask = np.zeros(32, bool)
+        mask[slots] = use
+        s.used.append(mask)
         s.dops.append(_dops(pos[use], x[:3]))
         self._command(slots, x)
 
