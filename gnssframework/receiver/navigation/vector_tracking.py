@@ -420,8 +420,9 @@ class VectorSampleTracker(SampleTracker):
             t_fix = float(t_s.max())
             tx_fix = tx_start + (t_fix - t_s) * self.code_rate[slots] / CA_CHIP_RATE_HZ
             pr = _C * (a.start_tow_s + t_fix - tx_fix)
+            # The residual test at the pull-in code phases' noise, not at a tracked code's.
             fix = solve_position(pr, tx_fix, eph, iono=a.iono if self.ionosphere else None, elevation_mask_deg=0.0,
-                                 initial_ecef_m=a.position_ecef_m)
+                                 initial_ecef_m=a.position_ecef_m, sigma_m=self.vector.assisted_pseudorange_sigma_m)
             if fix is None:
                 break
             previous, r0 = tx_start, fix.position_ecef_m
