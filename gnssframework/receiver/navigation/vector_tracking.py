@@ -29,6 +29,14 @@ A channel whose signal fades keeps being driven by the solution (it is never han
 to acquisition); its C/N0 estimate scales the variances it reports (the thermal variances
 grow as 1/C/N0), so the filter leans on the strong channels.
 
+With an `Assistance` (an approximate position and the recording's start time, with RINEX
+ephemerides) the loop does not wait for LNAV: each replica's transmit time is resolved
+from the prediction (`_assisted_transmit_times`), and every acquired channel is closed
+from its pull-in on (`_try_assisted_handover`). Once the loop runs (either way, with
+RINEX ephemerides), a satellite outside it is searched in the window of code phase and
+Doppler the state predicts (`receiver.acquisition.assisted.window_search`) and joins the
+loop when found (`_reacquire`).
+
 Sign conventions: the sample tracker's error-output filters report the code error as the
 chips the replica must advance (`closure.ErrorFeedback` adds it to the code phase), the
 opposite of the analytic loop's "true minus replica delay": it is negated before the
