@@ -169,6 +169,12 @@ def test_a_far_approximate_position_gives_no_wrong_fix(weak, lat_offset_deg):
         assert np.all(np.linalg.norm(table.ecef_m - fix.STATION, axis=1) < 100.0)
 
 
+def test_an_odd_block_count_of_the_parity_search_names_the_field():
+    with pytest.raises(ConfigError, match="reacquire_noncoherent"):
+        vector_config(reacquire_noncoherent=7)
+    assert vector_config(reacquire_coherent_ms=1, reacquire_noncoherent=7).reacquire_noncoherent == 7
+
+
 def test_bad_assistance_names_the_field():
     with pytest.raises(ConfigError, match="approx_position"):
         assistance((95.0, 0.0, 0.0), WEEK, 0.0)

@@ -50,7 +50,7 @@ from typing import Any, Literal
 
 import numpy as np
 import pymap3d
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ... import names, registry
 from ...errors import ConfigError, NumericalError
@@ -121,6 +121,13 @@ class VectorConfig(BaseModel):
     reacquire_elevation_deg: float = Field(5.0, description="satellites predicted below this are not searched")
     min_cn0_dbhz: float = Field(18.0, description="a channel whose C/N0 estimate is below this is not used")
     solution_rate_hz: float = Field(1.0, gt=0, description="rows of the position table per second")
+
+    @field_validator("reacquire_noncoherent")
+    @classmethod
+    def _even_blocks(cls, value: int, info) -> int:
+        if info.data.get("reacquire_coherent_ms") == 10 and value % 2:
+            raise ValueError(f"must be even with reacquire_coherent_ms 10 (blocks summed by parity), got {value}")
+        return value
 
 
 def vector_config(**values: Any) -> VectorConfig:
