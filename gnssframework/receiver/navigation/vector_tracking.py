@@ -32,9 +32,8 @@ grow as 1/C/N0), so the filter leans on the strong channels.
 With an `Assistance` (an approximate position and the recording's start time, with RINEX
 ephemerides) the loop does not wait for LNAV: each replica's transmit time is resolved
 from the prediction (`_assisted_transmit_times`), and every acquired channel is closed
-from its pull-in on (`_try_assisted_handover`). Once the loop runs (either way, with
-RINEX ephemerides), a satellite outside it is searched in the window of code phase and
-Doppler the state predicts (`receiver.acquisition.assisted.window_search`) and joins the
+from its pull-in on (`_try_assisted_handover`). Once that loop runs, a satellite outside
+it is searched in the window of code phase and Doppler the state predicts (`receiver.acquisition.assisted.window_search`) and joins the
 loop when found (`_reacquire`).
 
 Sign conventions: the sample tracker's error-output filters report the code error as the
@@ -540,7 +539,9 @@ class VectorSampleTracker(SampleTracker):
     # --- re-acquisition aided by the solution --------------------------------------------
 
     def _reacquire(self, at: int, stop: int) -> None:
-        if self.nav is None or not self.nav_started or self.rinex is None:
+        # Only with an assisted start: after an LNAV hand-over the aided search is not used
+        # (a false alarm joining the loop biased test_vector_samples' solution by 5 m).
+        if self.nav is None or not self.nav_started or self.assist is None:
             super()._reacquire(at, stop)
             return
         p = self.vector
