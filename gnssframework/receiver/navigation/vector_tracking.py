@@ -33,8 +33,9 @@ With an `Assistance` (an approximate position and the recording's start time, wi
 ephemerides) the loop does not wait for LNAV: each replica's transmit time is resolved
 from the prediction (`_assisted_transmit_times`), and every acquired channel is closed
 from its pull-in on (`_try_assisted_handover`). Once that loop runs, a satellite outside
-it is searched in the window of code phase and Doppler the state predicts (`receiver.acquisition.assisted.window_search`) and joins the
-loop when found (`_reacquire`).
+it is searched in the window of code phase and Doppler the state predicts
+(`receiver.acquisition.assisted.window_search`) and joins the loop when found
+(`_reacquire`).
 
 Sign conventions: the sample tracker's error-output filters report the code error as the
 chips the replica must advance (`closure.ErrorFeedback` adds it to the code phase), the
