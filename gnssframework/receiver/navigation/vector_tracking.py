@@ -503,9 +503,9 @@ class VectorSampleTracker(SampleTracker):
                 c.vector_pending = True  # its scalar loop stops steering (`_step`)
                 self._leave_batch(c)
                 c.join_tries = 3
-        # Every channel's NCOs from the first state at once (a 1 ms pull-in loop may have wandered).
-        self.t_nav = t_fix
-        self._command(slots, x0)
+        if doppler_hz is not None:  # an assisted start: a 1 ms pull-in loop may have wandered
+            self.t_nav = t_fix  # every channel's NCOs from the first state at once
+            self._command(slots, x0)
         self.nav = registry.create("nav_filter", self.vector.nav_filter, **self.vector.nav_params)
         self.nav_started = False
 
