@@ -540,8 +540,8 @@ class VectorSampleTracker(SampleTracker):
     # --- re-acquisition aided by the solution --------------------------------------------
 
     def _reacquire(self, at: int, stop: int) -> None:
-        # Only with an assisted start: after an LNAV hand-over the aided search is not used
-        # (a false alarm joining the loop biased test_vector_samples' solution by 5 m).
+        # Only with an assisted start (the one tested with it); the LNAV hand-over keeps the
+        # scalar re-acquisition it had.
         if self.nav is None or not self.nav_started or self.assist is None:
             super()._reacquire(at, stop)
             return
