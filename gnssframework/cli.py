@@ -296,6 +296,31 @@ def _truth_from_args(args: argparse.Namespace) -> tuple[float, float, float] | N
     return truth
 
 
+def _assist_from_args(args: argparse.Namespace):
+    """`vector_tracking.Assistance` from ``--approx-position`` and ``--start-time`` (both or neither)."""
+    if not args.approx_position and not args.start_time:
+        return None
+    from .receiver.navigation.vector_tracking import assistance
+
+    if not (args.approx_position and args.start_time):
+        raise ConfigError("--approx-position", "give --approx-position and --start-time together")
+    if args.tracking != "vector" or not args.ephemeris:
+        raise ConfigError("--approx-position", "an assisted start is for --tracking vector with --ephemeris NAV")
+    try:
+        where = tuple(float(v) for v in args.approx_position.split(","))
+    except ValueError:
+        where = ()
+    if len(where) != 3:
+        raise ConfigError("--approx-position", f"LAT,LON,H in degrees and metres, got {args.approx_position!r}")
+    try:
+        week, tow = args.start_time.split(",")
+        when = (int(week), float(tow))
+    except ValueError:
+        raise ConfigError("--start-time", f"WEEK,TOW (full GPS week, seconds of week), got {args.start_time!r}") \
+            from None
+    return assistance(where, *when)
+
+
 def _cmd_receive(args: argparse.Namespace) -> int:
     import json
 
@@ -335,6 +360,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
             raise ConfigError("--tracking", "vector tracking runs its own navigation filter: drop --nav-filter "
                                             "(or the config's [nav_filter]) or use --tracking scalar")
         vector = vector_config(solution_rate_hz=args.rate)
+    assist = _assist_from_args(args)
     bar = None
     if not args.quiet and sys.stderr.isatty():  # a progress bar is for a terminal, not a log
         from tqdm import tqdm
@@ -348,7 +374,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=args.week,
                          progress=progress if bar is not None else None, nav_filter=filters.nav_filter,
-                         vector=vector)
+                         vector=vector, assist=assist)
         if bar is not None:  # the tracker reports up to its last block's start: the run is done
             bar.update(bar.total - bar.n)
     finally:
@@ -373,8 +399,11 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     written = [write_positions_csv(out / "positions.csv", table)]
     c = table.columns
     week = int(c["gps_week"][0])
-    if week >= 0:
-        obs = result.observables
+    obs = result.observables
+    if week >= 0 and obs is None:
+        print("note: no LNAV subframe decoded, so no pseudoranges of the scalar channels: no observations.rnx")
+        written.append(write_nmea(out / "nmea.txt", table, 18))
+    elif week >= 0:
         leap = obs.iono_utc.dt_ls_s if obs.iono_utc is not None else 18
         written += [write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1]),
                     write_nmea(out / "nmea.txt", table, leap)]
@@ -585,6 +614,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tracking", choices=TRACKING_MODES, default="scalar",
                    help="vector: from the first fix the ekf-pv navigation filter drives every channel's code and "
                         "carrier NCOs (default %(default)s)")
+    p.add_argument("--approx-position", metavar="LAT,LON,H",
+                   help="with --tracking vector and --ephemeris: approximate position (within ~100 km); with "
+                        "--start-time, vector tracking starts from acquisition, without waiting for LNAV")
+    p.add_argument("--start-time", metavar="WEEK,TOW", help="GPS week and time of week (s) of the first sample "
+                                                            "(to ~1 ms), for --approx-position")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_receive)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")

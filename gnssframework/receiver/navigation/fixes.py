@@ -58,12 +58,13 @@ def full_week(week10: int | None, reference_week: int | None = None) -> int:
     return _ERA_START_WEEK + week10 % 1024
 
 
-def _ephemeris_for(prns: np.ndarray, obs: Observables, rinex: Ephemerides | None, t_s: float,
+def _ephemeris_for(prns: np.ndarray, obs: Observables | None, rinex: Ephemerides | None, t_s: float,
                    sample_time_s: float) -> list:
     """Per PRN, a healthy record (the last decoded by ``sample_time_s``, else RINEX's) or None."""
     out = []
+    decoded_by_prn = obs.ephemeris if obs is not None else {}  # None: no LNAV decoded (an assisted start)
     for prn in prns:
-        decoded = [rec for ready_s, rec in obs.ephemeris.get(int(prn), []) if ready_s <= sample_time_s]
+        decoded = [rec for ready_s, rec in decoded_by_prn.get(int(prn), []) if ready_s <= sample_time_s]
         rec = decoded[-1] if decoded else None
         if rec is None and rinex is not None:
             try:

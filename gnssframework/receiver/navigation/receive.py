@@ -26,7 +26,7 @@ from ...plugin_ref import PluginSpec
 from .filtered import filter_epochs
 from .fixes import PositionTable, solve_epochs
 from .observables import Observables, channel_timing, observables
-from .vector_tracking import VectorConfig, VectorSampleTracker, VectorSolution
+from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
 
 __all__ = ["ReceiveResult", "receive", "position_errors", "concatenate_tables"]
 
@@ -50,14 +50,16 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             rinex: Ephemerides | None = None, ionosphere: bool = True, troposphere: bool = False,
             reference_week: int | None = None, progress: Any = None,
             nav_filter: PluginSpec | None = None, vector: VectorConfig | None = None,
-            acquisitions: list[AcquisitionResult] | None = None) -> ReceiveResult:
+            acquisitions: list[AcquisitionResult] | None = None, assist: Assistance | None = None) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
     fraction of the recording tracked. With ``nav_filter`` the positions are that filter's
     (`filtered.filter_epochs`) from the first least-squares fix on. With ``vector`` the channels go over
     to vector tracking at the first fix (`vector_tracking.VectorSampleTracker`): the
     positions are the scalar fixes before the hand-over, then the navigation filter's.
-    ``acquisitions`` (made on the first samples) replace the initial search."""
+    ``acquisitions`` (made on the first samples) replace the initial search. ``assist``
+    (with ``vector`` and ``rinex``) hands over without LNAV, from an approximate position
+    and start time (`vector_tracking.Assistance`)."""
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
                                         "give nav_filter or vector, not both")
@@ -66,7 +68,7 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     found = [r for r in acquisitions if r.detected]
     if vector is not None:
         tracker = VectorSampleTracker(recording, config, acquisition, vector, rinex=rinex, ionosphere=ionosphere,
-                                      reference_week=reference_week)
+                                      reference_week=reference_week, assist=assist)
         tracking = tracker.run(found, duration_s, progress)
         solution = tracker.solution
         timings = [channel_timing(ch) for ch in tracking.channels.values()]
@@ -79,6 +81,9 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             obs = None
         table = concatenate_tables(scalar, solution.table(vector.solution_rate_hz), solution.handover_s)
         return ReceiveResult(tracking, obs, table, scalar, solution)
+    if assist is not None:
+        raise ConfigError("approx_position", "an approximate position and start time start vector tracking: "
+                                             "give vector as well")
     tracking = SampleTracker(recording, config, acquisition).run(found, duration_s, progress)
     timings = [channel_timing(ch) for ch in tracking.channels.values()]
     if not any(t is not None and t.time_s.size > 1 for t in timings):

@@ -29,6 +29,14 @@ A channel whose signal fades keeps being driven by the solution (it is never han
 to acquisition); its C/N0 estimate scales the variances it reports (the thermal variances
 grow as 1/C/N0), so the filter leans on the strong channels.
 
+With an `Assistance` (an approximate position and the recording's start time, with RINEX
+ephemerides) the loop does not wait for LNAV: each replica's transmit time is resolved
+from the prediction (`_assisted_transmit_times`), and every acquired channel is closed
+from its pull-in on (`_try_assisted_handover`). Once that loop runs, a satellite outside
+it is searched in the window of code phase and Doppler the state predicts
+(`receiver.acquisition.assisted.window_search`) and joins the loop when found
+(`_reacquire`).
+
 Sign conventions: the sample tracker's error-output filters report the code error as the
 chips the replica must advance (`closure.ErrorFeedback` adds it to the code phase), the
 opposite of the analytic loop's "true minus replica delay": it is negated before the
@@ -38,21 +46,23 @@ navigation filter. Frequency errors are true minus replica Doppler in both.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pymap3d
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ... import names, registry
 from ...errors import ConfigError, NumericalError
 from ...interfaces import RunContext
 from ...navigation.ephemeris import Ephemerides, satellite_state
 from ...navigation.geometry import line_of_sight
-from ...navigation.pvt import dop, klobuchar_delay_s
+from ...navigation.lnav import IonoUtc
+from ...navigation.pvt import dop, klobuchar_delay_s, solve_position
 from ...plugin import validation_message
 from ...signal.correlators import Correlators
 from ...signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, CA_CODE_LENGTH, L1_FREQ_HZ, L1_WAVELENGTH_M
+from ..acquisition.assisted import SearchWindow, window_search
 from ..acquisition.search import Acquisition, AcquisitionResult
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..frontend.recording import Recording
@@ -60,12 +70,23 @@ from ..tracking.vector import check_composition
 from .fixes import PositionTable, full_week, solve_epochs
 from .observables import SPEED_OF_LIGHT_MPS, channel_timing, observables
 
-__all__ = ["VectorConfig", "vector_config", "VectorSampleTracker", "VectorSolution"]
+__all__ = ["VectorConfig", "vector_config", "VectorSampleTracker", "VectorSolution", "Assistance", "assistance"]
 
 _C = SPEED_OF_LIGHT_MPS
 _OMEGA_E = 7.2921151467e-5  # WGS 84 Earth rotation rate (rad/s), IS-GPS-200 Table 20-IV
 #: Variance (chips², Hz²) that makes the navigation filter ignore a channel's output.
 _IGNORE_VAR = 1e8
+#: Interval (s) of the assisted start's checks (bit edges, hand-over): each costs an ephemeris evaluation.
+_ASSIST_EVERY_S = 0.1
+#: Code periods every channel runs (its pull-in) before an assisted hand-over.
+_ASSIST_SETTLE_MS = 100
+#: An assisted fix further than this from the approximate position (m) is refused (a wrong millisecond).
+_ASSIST_RADIUS_M = 300e3
+#: ... or one with a residual above this (m): pull-in code phases are within a chip (300 m), a wrong
+#: millisecond is 300 km.
+_ASSIST_MAX_RESIDUAL_M = 1000.0
+#: Resolve-and-fix rounds of an assisted hand-over.
+_ASSIST_ITERATIONS = 4
 
 
 class VectorConfig(BaseModel):
@@ -85,8 +106,28 @@ class VectorConfig(BaseModel):
     range_rate_sigma_mps: float = Field(
         0.2, gt=0, description="range-rate standard deviation of the Dopplers the initial velocity and clock drift "
         "are solved from")
+    assisted_pseudorange_sigma_m: float = Field(
+        100.0, gt=0, description="as pseudorange_sigma_m for an assisted start (code phases of channels still in "
+        "pull-in: a quarter chip off)")
+    assisted_range_rate_sigma_mps: float = Field(
+        5.0, gt=0, description="as range_rate_sigma_mps for an assisted start (Dopplers of acquisition or of a 1 ms "
+        "loop)")
+    reacquire_coherent_ms: Literal[1, 10] = Field(
+        10, description="coherent blocks of the aided re-acquisition (10: summed by parity, as alternate_blocks)")
+    reacquire_noncoherent: int = Field(8, ge=2, le=100, description="its blocks (even)")
+    reacquire_pfa: float = Field(1e-3, gt=0, lt=1, description="its false-alarm probability over the window")
+    reacquire_sigmas: float = Field(
+        4.0, gt=0, description="half widths of its window in standard deviations of the predicted range and rate")
+    reacquire_elevation_deg: float = Field(5.0, description="satellites predicted below this are not searched")
     min_cn0_dbhz: float = Field(18.0, description="a channel whose C/N0 estimate is below this is not used")
     solution_rate_hz: float = Field(1.0, gt=0, description="rows of the position table per second")
+
+    @field_validator("reacquire_noncoherent")
+    @classmethod
+    def _even_blocks(cls, value: int, info) -> int:
+        if info.data.get("reacquire_coherent_ms") == 10 and value % 2:
+            raise ValueError(f"must be even with reacquire_coherent_ms 10 (blocks summed by parity), got {value}")
+        return value
 
 
 def vector_config(**values: Any) -> VectorConfig:
@@ -97,14 +138,43 @@ def vector_config(**values: Any) -> VectorConfig:
         raise validation_message(exc, prefix="vector", model=VectorConfig) from None
 
 
+@dataclass(frozen=True)
+class Assistance:
+    """What a receiver knows before any LNAV: where it roughly is and when the recording began.
+
+    ``position_ecef_m`` ``(3,)`` within ~100 km of the truth (the code phases' millisecond
+    ambiguity is resolved from it); ``week`` and ``start_tow_s`` the GPS time of the first
+    sample, to ~1 ms (a satellite moves ~4 m in 1 ms: a time error becomes a position
+    error of that order); ``iono`` Klobuchar coefficients (e.g. a RINEX header's), or None.
+    """
+
+    position_ecef_m: np.ndarray
+    week: int
+    start_tow_s: float
+    iono: IonoUtc | None = None
+
+
+def assistance(lat_lon_h: tuple[float, float, float], week: int, start_tow_s: float,
+               iono: IonoUtc | None = None) -> Assistance:
+    """An `Assistance` from a geodetic position (deg, deg, m); bad values raise `ConfigError`."""
+    lat, lon, h = (float(v) for v in lat_lon_h)
+    if not (-90 <= lat <= 90 and -180 <= lon <= 360 and -1e4 < h < 1e5):
+        raise ConfigError("approx_position", f"latitude, longitude (deg) and height (m) out of range: {lat_lon_h}")
+    if not (0 <= week < 10_000 and 0 <= start_tow_s < 604_800):
+        raise ConfigError("start_time", f"a full GPS week and a time of week in [0, 604800) s, got "
+                                        f"{week}, {start_tow_s}")
+    xyz = np.array(pymap3d.geodetic2ecef(lat, lon, h), float)
+    return Assistance(xyz, int(week), float(start_tow_s), iono)
+
+
 @dataclass
 class VectorSolution:
     """The navigation filter's states, one per nav epoch after the hand-over.
 
     ``sample_time_s`` ``(K,)`` recording time of each epoch; ``state`` ``(K, 8)``
     ``[x, y, z, vx, vy, vz, b, d]`` (ECEF m, m/s; clock in m and m/s, against the
-    receiver time ``sample_time_s + rx_offset_s``); ``cov`` ``(K, 8, 8)`` its covariance; ``prns`` the vector channels; ``used`` ``(K, len(prns))`` whether each
-    channel's output entered the update; ``dops`` ``(K, 2)`` HDOP and VDOP of the channels
+    receiver time ``sample_time_s + rx_offset_s``); ``cov`` ``(K, 8, 8)`` its covariance; ``prns`` the vector channels (those that joined later included); ``used`` ``(K, 32)``
+    whether the output of the channel of each PRN (slot ``prn - 1``) entered the update; ``dops`` ``(K, 2)`` HDOP and VDOP of the channels
     used; ``handover_s`` the recording time of the
     hand-over fix; ``events`` what happened (``(time_s, text)``).
     """
@@ -133,12 +203,12 @@ class VectorSolution:
         x, t = x[k], t[k]
         lat, lon, h = (np.asarray(v, float) for v in pymap3d.ecef2geodetic(x[:, 0], x[:, 1], x[:, 2]))
         ve, vn, vu = (np.asarray(v, float) for v in pymap3d.ecef2enuv(x[:, 3], x[:, 4], x[:, 5], lat, lon))
-        n_used = np.asarray(self.used)[k].sum(axis=1)
+        n_used = np.asarray(self.used)[k].sum(axis=1)  # (rows over the 32 PRN slots)
         dops = np.asarray(self.dops).reshape(-1, 2)[k]
         columns = {"gps_week": np.full(k.size, self.week), "tow_s": t + self.rx_offset_s - x[:, 6] / _C,
                    "lat_deg": lat, "lon_deg": lon, "height_m": h, "vel_e_mps": ve, "vel_n_mps": vn, "vel_u_mps": vu,
                    "clock_bias_m": x[:, 6], "n_sats": n_used.astype(int), "hdop": dops[:, 0], "vdop": dops[:, 1]}
-        used = [tuple(p for p, u in zip(self.prns, row) if u) for row in np.asarray(self.used)[k]]
+        used = [tuple(int(p) + 1 for p in np.flatnonzero(row)) for row in np.asarray(self.used)[k]]
         return PositionTable(columns, x[:, :3].copy(), t, used, np.zeros(k.size, int))
 
 
@@ -164,14 +234,23 @@ class VectorSampleTracker(SampleTracker):
         Apply the decoded Klobuchar model in the first fix and in the predictions.
     reference_week
         Full GPS week near the recording (resolves the decoded 10-bit week).
+    assist
+        `Assistance`: hand over without LNAV, as soon as four channels are bit-aligned,
+        each replica's transmit time from the approximate position and start time
+        (`_try_assisted_handover`).
     """
 
     def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
                  vector: VectorConfig | None = None, *, rinex: Ephemerides | None = None, ionosphere: bool = True,
-                 reference_week: int | None = None, backend: str | None = None) -> None:
+                 reference_week: int | None = None, assist: Assistance | None = None,
+                 backend: str | None = None) -> None:
         super().__init__(recording, config, acquisition, backend=backend)
+        if assist is not None and rinex is None:
+            raise ConfigError("approx_position", "an assisted start needs the ephemerides of a RINEX navigation "
+                                                 "file (--ephemeris)")
         self.vector = vector or VectorConfig()
         self.rinex = rinex
+        self.assist = assist
         self.ionosphere = ionosphere
         self.reference_week = reference_week
         v = self.vector
@@ -186,17 +265,33 @@ class VectorSampleTracker(SampleTracker):
         self.vslots = np.zeros(0, int)
         self.pending: dict[int, tuple] = {}
         self.next_try = max(self.vector.earliest_s, self.vector.try_every_s)
+        self.next_assist = self.vector.earliest_s
+        self.acq_doppler = np.zeros(32)
         return super().run(acquisitions, duration_s, progress)
 
     # --- the tracker's hooks -------------------------------------------------------------
+
+    def _add(self, prn: int, acq: AcquisitionResult, first_sample: int) -> None:
+        super()._add(prn, acq, first_sample)
+        self.acq_doppler[prn - 1] = acq.doppler_hz
 
     def _advance(self, c, t0: float) -> None:
         if c.stage == "vector":
             c.unlocked_ms = 0 if c.locked else c.unlocked_ms + c.coherent_ms
             return  # driven by the solution: never handed back to acquisition
+        if getattr(c, "vector_pending", False):  # closed by the filter at its next aligned boundary, never lost
+            n = self.config.coherent_ms
+            if (int(self.ms_index[c.slot]) + 1 - c.bit_edge) % n == 0:
+                c.vector_pending = False
+                c.record.events.append((t0, f"bit edge from the assisted transmit time (ms {c.bit_edge} mod 20)"))
+                self._start(c, "extended", float(self.doppler[c.slot]), n)
+                self._start_vector(c)
+            return
         super()._advance(c, t0)
 
     def _step(self, filt, closure, slots: np.ndarray, w: np.ndarray) -> None:
+        if slots.size == 1 and getattr(self.channels[int(slots[0]) + 1], "vector_pending", False):
+            return  # handed over, waiting for its aligned boundary: the NCOs hold the state's prediction
         if closure is not _VECTOR:
             super()._step(filt, closure, slots, w)
             return
@@ -216,7 +311,10 @@ class VectorSampleTracker(SampleTracker):
     def _after_interval(self, idx: np.ndarray) -> None:
         now = float(self.start_sample[idx].min()) / self.fs
         if self.nav is None:
-            if now >= self.next_try:
+            if self.assist is not None and now >= self.next_assist:
+                self.next_assist = now + _ASSIST_EVERY_S
+                self._try_assisted_handover(now)
+            elif self.assist is None and now >= self.next_try:
                 self.next_try = now + self.vector.try_every_s
                 self._try_handover()
         elif all(int(s) in self.pending for s in self.vslots):
@@ -264,10 +362,125 @@ class VectorSampleTracker(SampleTracker):
         t_fix = float(table.sample_time_s[e])
         bias = float(table.columns["clock_bias_m"][e])
         self.rx_offset = float(table.columns["tow_s"][e] + bias / _C - t_fix)
-        r = table.ecef_m[e]
+        self._hand_over(prns, slots, table.ecef_m[e], bias, t_fix, full_week(obs.week, self.reference_week),
+                        f"first fix with {len(table.used_prns[e])} satellites")
+
+    def _assisted_transmit_times(self, chans: list, now_s: float, r0: np.ndarray
+                                 ) -> tuple[list, Ephemerides, np.ndarray] | None:
+        r"""The channels of ``chans`` with a healthy RINEX record, their records and each
+        replica's transmit time (s of week, satellite time) at its current start sample,
+        from the `Assistance`'s start time and position ``r0`` (None with fewer than four
+        such channels).
+
+        A replica at a code epoch has sent a whole number of milliseconds plus
+        ``code_phase / 1.023 MHz``; the predicted transmit time
+        :math:`t_{rx} - \lVert s - r_0\rVert / c + \Delta t_{SV}` from the approximate
+        position :math:`r_0` and the start time picks the millisecond (the coarse-time
+        resolution of van Diggelen, *A-GPS*, 2009, ch. 4). The receiver clock's offset
+        modulo 1 ms is common to every channel: it is taken out first (the circular mean of
+        the fractional residuals), so only the geometry's error must stay under 0.5 ms
+        (~150 km of range).
+        """
+        a = self.assist
+        records = {}
+        for c in chans:
+            try:
+                records[c.prn] = self.rinex.select([f"G{c.prn:02d}"], a.start_tow_s + now_s)
+            except KeyError:  # no healthy record of it in the file
+                continue
+        chans = [c for c in chans if c.prn in records]
+        if len(chans) < 4:
+            return None
+        slots = np.array([c.slot for c in chans])
+        eph = _stack([records[c.prn] for c in chans])
+        t_rx = a.start_tow_s + self.start_sample[slots] / self.fs
+        tx = t_rx - 0.075
+        for _ in range(3):  # the flight time, iterated (it changes by < 1 us after two)
+            st = satellite_state(eph, tx)
+            pos = _rotate(st.position_m, t_rx - tx)
+            tx = t_rx - np.linalg.norm(pos - r0, axis=-1) / _C + st.clock_l1_s
+        sub_ms = self.code_phase[slots] / CA_CHIP_RATE_HZ
+        residual_ms = (tx - sub_ms) * 1e3
+        common = np.angle(np.mean(np.exp(2j * np.pi * residual_ms))) / (2 * np.pi)
+        return chans, eph, np.round(residual_ms - common) * 1e-3 + sub_ms
+
+    def _try_assisted_handover(self, now_s: float) -> None:
+        """Close every active channel from its assisted transmit time
+        (`_assisted_transmit_times`), whatever its scalar stage: the navigation filter
+        starts from a least-squares fix on these pseudoranges, once every active channel
+        has run `_ASSIST_SETTLE_MS` (its pull-in has narrowed the acquisition's Doppler).
+
+        No lock, bit sync or LNAV is needed: the bit edges follow from the transmit times
+        (LNAV bits start where the satellite's time is a whole multiple of 20 ms,
+        IS-GPS-200 20.3.2), and a channel in 1 ms pull-in or tracking goes over at its
+        next boundary of a ``coherent_ms`` interval within a bit (`_advance`)."""
+        active = sorted((c for c in self.channels.values() if self.active[c.slot] and c.stage != "lost"),
+                        key=lambda c: c.prn)
+        if len(active) < 4 or any(self.ms_index[c.slot] < _ASSIST_SETTLE_MS for c in active):
+            return
+        a = self.assist
+        fix, r0, previous = None, a.position_ecef_m, None
+        # Resolve, fix, resolve again from the fix: a consistent resolution is one the fix
+        # reproduces (a misresolved millisecond moves the fix, and the next resolution).
+        for _ in range(_ASSIST_ITERATIONS):
+            found = self._assisted_transmit_times(active, now_s, r0)
+            if found is None:
+                return
+            chans, eph, tx_start = found
+            if previous is not None and np.array_equal(previous, tx_start):
+                break
+            slots = np.array([c.slot for c in chans])
+            t_s = self.start_sample[slots] / self.fs
+            # Pseudoranges at a common receive epoch (the latest channel's start).
+            t_fix = float(t_s.max())
+            tx_fix = tx_start + (t_fix - t_s) * self.code_rate[slots] / CA_CHIP_RATE_HZ
+            pr = _C * (a.start_tow_s + t_fix - tx_fix)
+            # The residual test at the pull-in code phases' noise, not at a tracked code's.
+            fix = solve_position(pr, tx_fix, eph, iono=a.iono if self.ionosphere else None, elevation_mask_deg=0.0,
+                                 initial_ecef_m=a.position_ecef_m, sigma_m=self.vector.assisted_pseudorange_sigma_m)
+            if fix is None:
+                break
+            previous, r0 = tx_start, fix.position_ecef_m
+        else:
+            fix = None  # the resolution did not settle
+        if (fix is None or not np.all(fix.used) or np.nanmax(np.abs(fix.residuals_m)) > _ASSIST_MAX_RESIDUAL_M
+                or np.linalg.norm(fix.position_ecef_m - a.position_ecef_m) > _ASSIST_RADIUS_M):
+            self.solution.events.append((now_s, "assisted fix failed (no solution, a satellite excluded, residuals "
+                                                "or distance to the approximate position too large): no hand-over"))
+            self.next_assist = now_s + self.vector.try_every_s
+            return
+        prns = tuple(c.prn for c in chans)
+        for c, tx_s in zip(chans, tx_start):
+            if c.stage != "extended":  # (an extended channel is bit-aligned already)
+                whole_ms = int(np.round((tx_s - self.code_phase[c.slot] / CA_CHIP_RATE_HZ) * 1e3))
+                # The tracker labels the coming code period ms_index + 1 (`SampleTracker._advance`).
+                c.bit_edge = (int(self.ms_index[c.slot]) + 1 - whole_ms) % 20
+        self.tx_anchor = np.zeros(len(self.active))
+        self.chip_anchor = np.zeros(len(self.active))
+        self.tx_anchor[slots] = tx_start
+        self.chip_anchor[slots] = self.ms_index[slots] * CA_CODE_LENGTH + self.code_phase[slots]
+        self.eph = eph
+        self.iono = a.iono if self.ionosphere else None
+        self.rx_offset = a.start_tow_s
+        vc = self.vector
+        # A locked loop's Doppler (averaged over its last 20 ms), else the acquisition's: a
+        # 1 ms pull-in loop that has not locked may have wandered tens of Hz from it.
+        doppler = np.array([np.mean(c.record.column("doppler_hz")[-20:]) if c.locked else self.acq_doppler[c.slot]
+                            for c in chans])
+        self._hand_over(prns, slots, fix.position_ecef_m, fix.clock_bias_m, t_fix, a.week,
+                        f"assisted fix with {int(np.sum(fix.used))} satellites (approximate position and start "
+                        "time, RINEX ephemerides)", vc.assisted_pseudorange_sigma_m, vc.assisted_range_rate_sigma_mps,
+                        doppler)
+
+    def _hand_over(self, prns: tuple[int, ...], slots: np.ndarray, r: np.ndarray, bias: float, t_fix: float,
+                   week: int, why: str, range_sigma_m: float | None = None,
+                   rate_sigma_mps: float | None = None, doppler_hz: np.ndarray | None = None) -> None:
+        """Start the navigation filter at fix ``r``, ``bias`` (recording time ``t_fix``) and
+        close channels ``slots`` (``self.eph``, ``self.iono``, ``self.rx_offset`` and the
+        replicas' transmit-time anchors set); the sigmas of the fix default to the config's."""
         # Velocity and clock drift from the channels' Dopplers (the PLL's, the best there is).
         self.vslots = slots
-        v, d, G = self._velocity(slots, r, t_fix)
+        v, d, G = self._velocity(slots, r, t_fix, doppler_hz)
         x0 = np.r_[r, v, bias, d]
         # The first fix's covariance from its geometry (G = [-e, 1]), position and clock
         # from the pseudoranges, velocity and drift from the Dopplers.
@@ -275,17 +488,24 @@ class VectorSampleTracker(SampleTracker):
         vc = self.vector
         self.cov0 = np.zeros((8, 8))
         pc, vd = np.r_[0:3, 6], np.r_[3:6, 7]
-        self.cov0[np.ix_(pc, pc)] = vc.pseudorange_sigma_m**2 * info
-        self.cov0[np.ix_(vd, vd)] = vc.range_rate_sigma_mps**2 * info
+        self.cov0[np.ix_(pc, pc)] = (range_sigma_m or vc.pseudorange_sigma_m)**2 * info
+        self.cov0[np.ix_(vd, vd)] = (rate_sigma_mps or vc.range_rate_sigma_mps)**2 * info
         self.x_fix, self.t_fix = x0, t_fix
         self.iono_m = self._iono(slots, r, t_fix)
-        week = full_week(obs.week, self.reference_week)
         s = self.solution
         s.prns, s.handover_s, s.rx_offset_s, s.week = prns, t_fix, self.rx_offset, week
-        s.events.append((t_fix, f"first fix with {len(table.used_prns[e])} satellites: vector tracking of PRN "
-                                f"{', '.join(map(str, prns))}"))
-        for p, i in zip(prns, slots):
-            self._start_vector(self.channels[p])
+        s.events.append((t_fix, f"{why}: vector tracking of PRN {', '.join(map(str, prns))}"))
+        for p in prns:
+            c = self.channels[p]
+            if c.stage == "extended":
+                self._start_vector(c)
+            else:  # 1 ms stages: over at the next interval boundary within a bit (`_advance`)
+                c.vector_pending = True  # its scalar loop stops steering (`_step`)
+                self._leave_batch(c)
+                c.join_tries = 3
+        if doppler_hz is not None:  # an assisted start: a 1 ms pull-in loop may have wandered
+            self.t_nav = t_fix  # every channel's NCOs from the first state at once
+            self._command(slots, x0)
         self.nav = registry.create("nav_filter", self.vector.nav_filter, **self.vector.nav_params)
         self.nav_started = False
 
@@ -317,6 +537,104 @@ class VectorSampleTracker(SampleTracker):
         self.voting[c.slot] = False
         c.record.events.append((float(self.start_sample[c.slot]) / self.fs, "vector tracking"))
 
+    # --- re-acquisition aided by the solution --------------------------------------------
+
+    def _reacquire(self, at: int, stop: int) -> None:
+        # Only with an assisted start (the one tested with it); the LNAV hand-over keeps the
+        # scalar re-acquisition it had.
+        if self.nav is None or not self.nav_started or self.assist is None:
+            super()._reacquire(at, stop)
+            return
+        p = self.vector
+        need = int(round(p.reacquire_coherent_ms * 1e-3 * self.fs)) * p.reacquire_noncoherent
+        if at + need > stop:
+            return
+        t_s = at / self.fs
+        for prn in range(1, 33):
+            c = self.channels.get(prn)
+            if (c is not None and (c.stage != "lost" or c.retry_at > at)) or prn - 1 in self.vslots:
+                continue
+            predicted = self._predict_signal(prn, t_s)
+            if predicted is None:
+                continue
+            record, window, tx_s, elevation = predicted
+            if elevation < p.reacquire_elevation_deg:
+                continue
+            acq = window_search(self.rec.read(at, need), self.fs, self.if_hz, prn, window,
+                                coherent_ms=p.reacquire_coherent_ms, noncoherent=p.reacquire_noncoherent,
+                                alternate=p.reacquire_coherent_ms == 10, pfa=p.reacquire_pfa)
+            if not acq.detected:
+                continue
+            per_code = self.fs * CA_CODE_LENGTH / CA_CHIP_RATE_HZ
+            code_off = (acq.code_phase_samples - window.code_start_samples + per_code / 2) % per_code - per_code / 2
+            self._add(prn, acq, at)
+            c = self.channels[prn]
+            c.record.events.append((t_s, f"re-acquired in the window predicted by the navigation solution "
+                                         f"({code_off:+.1f} samples, {acq.doppler_hz - window.doppler_hz:+.1f} Hz "
+                                         f"from the prediction; window +-{window.code_halfwidth_samples:.1f} samples, "
+                                         f"+-{window.doppler_halfwidth_hz:.1f} Hz)"))
+            self.solution.events.append((t_s, f"PRN {prn} re-acquired by the aided search"))
+            self._join(c, record, tx_s + acq.code_phase_samples / self.fs * (1 + window.doppler_hz / L1_FREQ_HZ))
+
+    def _predict_signal(self, prn: int, t_s: float):
+        """The solution's prediction for ``prn`` at recording time ``t_s``: its RINEX
+        record, the `SearchWindow` (the first code epoch after ``t_s``; half widths
+        ``reacquire_sigmas`` standard deviations of the predicted range and rate, from the
+        state covariance on the line of sight), the transmit time at ``t_s`` and the
+        elevation (deg); None without a healthy record."""
+        try:
+            record = self.rinex.select([f"G{prn:02d}"], t_s + self.rx_offset)
+        except KeyError:
+            return None
+        dt = t_s - self.t_nav
+        x = self.x
+        r, b = x[:3] + x[3:6] * dt, x[6] + x[7] * dt
+        t_rx = t_s + self.rx_offset
+        tx = t_rx - 0.075
+        for _ in range(3):  # the flight time, iterated
+            st = satellite_state(record, np.array([tx]))
+            pos, vel = _rotate(st.position_m, np.array([t_rx - tx])), _rotate(st.velocity_mps, np.array([t_rx - tx]))
+            dist, e = line_of_sight(pos, r)
+            tx = t_rx - (float(dist[0]) + b - _C * float(st.clock_l1_s[0])) / _C
+        e = e[0]
+        rate = float((vel[0] - x[3:6]) @ e + x[7] - _C * st.clock_drift_s_s[0])
+        doppler = -rate / L1_WAVELENGTH_M
+        h = np.r_[-e, 1.0]
+        cov = self.solution.cov[-1]
+        pc, vd = np.r_[0:3, 6], np.r_[3:6, 7]
+        sigma_range = float(np.sqrt(h @ cov[np.ix_(pc, pc)] @ h))
+        sigma_rate = float(np.sqrt(h @ cov[np.ix_(vd, vd)] @ h))
+        k = self.vector.reacquire_sigmas
+        chips = (tx * 1e3 % 1.0) * CA_CODE_LENGTH  # sent of the current period at t_s
+        code_rate = CA_CHIP_RATE_HZ * (1 + doppler / L1_FREQ_HZ)
+        window = SearchWindow((CA_CODE_LENGTH - chips) / code_rate * self.fs, doppler,
+                              k * sigma_range / CA_CHIP_LENGTH_M * self.fs / CA_CHIP_RATE_HZ,
+                              k * sigma_rate / L1_WAVELENGTH_M)
+        lat, lon, hgt = pymap3d.ecef2geodetic(*r)
+        _, elevation, _ = pymap3d.ecef2aer(*pos[0], lat, lon, hgt)
+        return record, window, tx, float(elevation)
+
+    def _join(self, c, record: Ephemerides, tx_start_s: float) -> None:
+        """Channel ``c`` (just added at a code epoch) joins the vector loop: its transmit
+        time there is a whole millisecond (the predicted one rounded), its bit edge follows,
+        and it goes over at its next aligned boundary (`_advance`)."""
+        i = c.slot
+        whole_ms = int(np.round(tx_start_s * 1e3))
+        self.tx_anchor[i] = whole_ms * 1e-3 + self.code_phase[i] / CA_CHIP_RATE_HZ
+        self.chip_anchor[i] = self.ms_index[i] * CA_CODE_LENGTH + self.code_phase[i]
+        c.bit_edge = (int(self.ms_index[i]) + 1 - whole_ms) % 20
+        records = {int(s): self.eph.subset(np.array([k])) for k, s in enumerate(self.vslots)}
+        records[i] = record
+        self.vslots = np.array(sorted(records))
+        self.eph = _stack([records[int(s)] for s in self.vslots])
+        r = self.x[:3]
+        self.iono_m = self._iono(self.vslots, r, float(self.start_sample[i]) / self.fs)
+        self.solution.prns = tuple(int(s) + 1 for s in self.vslots)
+        c.vector_pending = True
+        self._leave_batch(c)
+        c.join_tries = 3
+        self._command(np.array([i]), self.x)
+
     # --- the navigation model ------------------------------------------------------------
 
     def _satellites(self, slots: np.ndarray, tx_s: np.ndarray, r: np.ndarray):
@@ -339,13 +657,16 @@ class VectorSampleTracker(SampleTracker):
         return _C * klobuchar_delay_s(self.iono.alpha, self.iono.beta, lat, lon, np.asarray(az), np.asarray(el),
                                       t_s + self.rx_offset)
 
-    def _velocity(self, slots: np.ndarray, r: np.ndarray, t_s: float) -> tuple[np.ndarray, float, np.ndarray]:
-        """Least-squares velocity and clock drift from the channels' Dopplers at position ``r``:
+    def _velocity(self, slots: np.ndarray, r: np.ndarray, t_s: float, doppler_hz: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, float, np.ndarray]:
+        """Least-squares velocity and clock drift from the channels' Dopplers (their NCOs',
+        or ``doppler_hz``) at position ``r``:
         :math:`-\\lambda f = (v_s - v)\\cdot e + d - c\\,\\Delta\\dot t_{SV}`; and the
         geometry matrix ``G = [-e, 1]``."""
         pos, vel, _, drift = self._satellites(slots, self._replica_tx(slots), r)
         _, e = line_of_sight(pos, r)
-        y = -L1_WAVELENGTH_M * self.doppler[slots] - np.sum(vel * e, axis=1) + drift
+        doppler_hz = self.doppler[slots] if doppler_hz is None else doppler_hz
+        y = -L1_WAVELENGTH_M * doppler_hz - np.sum(vel * e, axis=1) + drift
         H = np.hstack([-e, np.ones((slots.size, 1))])
         sol = np.linalg.lstsq(H, y, rcond=None)[0]
         return sol[:3], float(sol[3]), H
@@ -409,7 +730,9 @@ class VectorSampleTracker(SampleTracker):
         s.sample_time_s.append(self.t_nav)
         s.state.append(x)
         s.cov.append(np.array(out[names.COV])[0])
-        s.used.append(use)
+        mask = np.zeros(32, bool)
+        mask[slots] = use
+        s.used.append(mask)
         s.dops.append(_dops(pos[use], x[:3]))
         self._command(slots, x)
 
