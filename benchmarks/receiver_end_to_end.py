@@ -45,7 +45,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "validation"))
 
-from gps_sdr_sim_tracking import LOCATION, SIM_DIR, add_noise, build_and_simulate, parse_log  # noqa: E402
+from gps_sdr_sim_run import LOCATION, SIM_DIR, add_noise, parse_log  # noqa: E402
+from gps_sdr_sim_run import simulate as run_gps_sdr_sim  # noqa: E402
 
 from gnss_sdr_config import gnss_sdr_config  # noqa: E402  (beside this script)
 
@@ -70,7 +71,7 @@ def simulate(work: Path, seconds: float, cn0_dbhz: float, seed: int) -> tuple[Pa
     settings = {"seconds": seconds, "cn0_dbhz": cn0_dbhz, "seed": seed, "fs_hz": FS_HZ}
     if noisy.exists() and stamp.exists() and json.loads(stamp.read_text())["settings"] == settings:
         return noisy, json.loads(stamp.read_text())["tow0_s"]
-    sim, log = build_and_simulate(work, seconds, FS_HZ)
+    sim, log = run_gps_sdr_sim(work, seconds, FS_HZ)
     _, tow0, sats = parse_log(log)
     add_noise(sim, noisy, cn0_dbhz, FS_HZ, np.random.default_rng(seed))
     sim.unlink()

@@ -59,8 +59,8 @@ sys.path.insert(0, str(HERE))
 
 import sim_truth  # noqa: E402
 # NAV and simulate are imported from here by gps_sdr_sim_weak.
-from gps_sdr_sim_run import (CIRCLE_RADIUS_M, CIRCLE_SPEED_MPS, LOCATION, NAV, SIM_DIR, Checks,  # noqa: E402,F401
-                             SimulatorError, circle_truth, exit_unavailable, noisy_recording, simulate)
+from gps_sdr_sim_run import (CIRCLE_RADIUS_M, CIRCLE_SPEED_MPS, LOCATION, NAV, Checks,  # noqa: E402
+                             SimulatorError, circle_truth, exit_unavailable, noisy_recording)
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402

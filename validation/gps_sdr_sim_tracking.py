@@ -36,9 +36,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import sim_truth  # noqa: E402
-# LOCATION, SIM_DIR, add_noise and parse_log are imported from here by gps_sdr_sim_weak.
-from gps_sdr_sim_run import (LOCATION, NAV, SIM_DIR, Checks, SimulatorError, add_noise,  # noqa: E402,F401
-                             exit_unavailable, noisy_recording, parse_log)
+from gps_sdr_sim_run import LOCATION, NAV, Checks, SimulatorError, exit_unavailable, noisy_recording  # noqa: E402
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.receiver.acquisition.report import acquire_recording  # noqa: E402

@@ -40,8 +40,8 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from gps_sdr_sim_navigation import NAV, header_klobuchar, simulate  # noqa: E402
-from gps_sdr_sim_tracking import LOCATION, SIM_DIR, add_noise, parse_log  # noqa: E402
+from gps_sdr_sim_navigation import header_klobuchar  # noqa: E402
+from gps_sdr_sim_run import LOCATION, NAV, SIM_DIR, add_noise, parse_log, simulate  # noqa: E402
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
