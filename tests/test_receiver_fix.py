@@ -17,7 +17,9 @@ from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.channels import tracking_config
 from gnssframework.receiver.frontend import open_recording
 
-from lnav_recordings import NAV, STATION, TOW0, _strongest, write_lnav_recording
+# The generator's constants and helpers, used here and, through this module, by the vector tests.
+from lnav_recordings import (CHUNK_S, FS, NAV, STATION, TOW0, _satellite_time, _strongest,  # noqa: F401
+                             write_lnav_recording)
 
 DURATION_S = 9.5
 
