@@ -5,7 +5,7 @@
 gps-sdr-sim (built and run by `gps_sdr_sim_run`) simulates the static receiver at
 ``LOCATION`` from ``brdc0010.22n`` with every satellite at one power; complex white noise
 for ``--cn0`` is added from ``--seed``. Writes ``OUT.sigmf-data`` and its
-``OUT.sigmf-meta`` (ci16_le, the rate, IF 0). ``examples/sample_recording.toml`` reads
+``OUT.sigmf-meta`` (ci16_le, the rate, IF 0). ``examples/recorded/sample_recording.toml`` reads
 ``build/gps_sdr_sim_45dbhz.sigmf-data``. Exits 2 when gps-sdr-sim cannot be built or run.
 """
 
