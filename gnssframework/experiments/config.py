@@ -63,6 +63,10 @@ class Case(BaseModel):
 
     model_config = ConfigDict(extra="allow")
     name: str = Field(..., pattern=r"^[A-Za-z0-9_.+-]+$")
+    streams: str | None = Field(
+        None, pattern=r"^[A-Za-z0-9_.+-]+$", description="the random streams this case draws, named by a case "
+        "(default: its own name): cases with the same streams draw the same random numbers run by run (common "
+        "random numbers across cases, which claims with reference_case pair)")
 
     def params(self) -> dict[str, Any]:
         return dict(self.model_extra or {})
@@ -215,6 +219,9 @@ class ComparisonConfig(_Strict):
         """
         data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
                                         "reference", "sweeps", "claims"})
+        for case in data["cases"]:  # a case on its own streams keeps its old key
+            if case.get("streams") is None:
+                case.pop("streams", None)
         for cand in data["candidates"]:  # a candidate without options keeps its old key
             if not cand["scenario_options"]:
                 del cand["scenario_options"]
