@@ -117,6 +117,10 @@ def test_a_bad_streams_name_is_refused_naming_the_field(tmp_path):
     with pytest.raises(ConfigError) as err:
         _config(tmp_path, streams='streams = "no such/name"')
     assert "cases[1].streams" in str(err.value)
+    with pytest.raises(ConfigError) as err:
+        _config(tmp_path, streams='streams = "nominl"')
+    assert str(err.value).startswith("cases[1].streams") and "unknown case 'nominl'; allowed: nominal, psi9" in \
+        str(err.value)
 
 
 def test_a_case_on_another_cases_streams_draws_its_random_numbers(tmp_path):

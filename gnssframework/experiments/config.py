@@ -245,6 +245,13 @@ def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
     data = read_toml(path)
     data.update({k: v for k, v in overrides.items() if v is not None})
     try:
-        return ComparisonConfig.model_validate(data)
+        config = ComparisonConfig.model_validate(data)
     except ValidationError as exc:
         raise validation_message(exc, model=ComparisonConfig) from None
+    # Checked here, not in the model: a sweep or a tuning that runs some of the cases keeps
+    # a case's streams named after a case it leaves out.
+    names = [c.name for c in config.cases]
+    for i, case in enumerate(config.cases):
+        if case.streams is not None and case.streams not in names:
+            raise ConfigError(f"cases[{i}].streams", f"unknown case {case.streams!r}; allowed: {', '.join(names)}")
+    return config
