@@ -20,7 +20,7 @@ OUT = ROOT / "docs" / "img" / "experiments"
 EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath", "sweep_demo",
             "carrier_smoothing_sweep", "scintillation_sweep", "deep_integration_ci", "deep_integration_elevation_ci",
             "deep_integration_lock_ci", "deep_integration_lock_control_ci", "sample_receiver",
-            "deep_integration_nees_ci")
+            "deep_integration_nees_ci", "deep_integration_error_sources_ci")
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
 #: Examples whose page includes tables generated from the run (docs/experiment_tables.py).
@@ -42,6 +42,10 @@ TABLES["sample_receiver"] = ["horizontal_error_rms", "vertical_error_rms", "time
 TABLES["deep_integration_nees_ci"] = ["horizontal_position_error_rmse", "height_error_rmse",
                                       "horizontal_velocity_error_rmse", "vertical_velocity_error_rmse",
                                       "code_tracking_error_rmse", "loss_of_lock_fraction", "nees"]
+TABLES["deep_integration_error_sources_ci"] = ["horizontal_position_error_rmse", "height_error_rmse",
+                                               "horizontal_velocity_error_rmse", "vertical_velocity_error_rmse",
+                                               "attitude_error_rmse", "freq_tracking_error_rmse",
+                                               "code_tracking_error_rmse", "loss_of_lock_fraction", "nees"]
 
 
 def main() -> int:

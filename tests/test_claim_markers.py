@@ -6,7 +6,8 @@ HTML comment the reader does not see::
     <!-- claim: deep_integration_ci: deep horizontal_velocity_error_rmse lower than vector at 35dBHz -->
     <!-- claim: deep_integration_ci: vector loss_of_lock_fraction within [-0.001, 0.001] -->
 
-(``at CASE`` only for a claim of one case). This test reads every marker of
+(``at CASE`` only for a claim of one case; an ordering between cases names the reference
+case: ``... higher than deep in nominal at gsens``). This test reads every marker of
 ``docs/experiments/*.md`` and requires that ``examples/<example>.toml`` holds that
 ``[[claims]]`` entry and that CI checks that example's claims (``gnssframework compare ...
 --check`` in ``.ci/run``, or ``docs/make_experiment_plots.py``, which CI runs and which fails
@@ -32,7 +33,8 @@ ROOT = Path(__file__).resolve().parents[1]
 PAGES = sorted((ROOT / "docs" / "experiments").glob("*.md"))
 MARKER = re.compile(r"<!--\s*claim:\s*(?P<body>.*?)\s*-->", re.S)
 ORDERING = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+"
-                      r"(?P<direction>lower|higher) than\s+(?P<reference>\S+)(?:\s+at\s+(?P<case>\S+))?$")
+                      r"(?P<direction>lower|higher) than\s+(?P<reference>\S+)(?:\s+in\s+(?P<reference_case>\S+))?"
+                      r"(?:\s+at\s+(?P<case>\S+))?$")
 BOUND = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+within\s+"
                    r"\[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\](?:\s+at\s+(?P<case>\S+))?$")
 
@@ -57,8 +59,10 @@ def _parse(body: str) -> dict:
 def _matches(claim: dict, want: dict) -> bool:
     if (claim["candidate"], claim["metric"], claim.get("case")) != (want["candidate"], want["metric"], want["case"]):
         return False
-    if want.get("direction"):
-        return claim.get("direction") == want["direction"] and claim.get("reference") == want["reference"]
+    if want.get("direction"):  # an ordering between cases names its reference case ("... than deep in nominal")
+        reference = claim.get("reference") or (claim["candidate"] if claim.get("reference_case") else None)
+        return (claim.get("direction") == want["direction"] and reference == want["reference"]
+                and claim.get("reference_case") == want.get("reference_case"))
     within = claim.get("within")
     return within is not None and tuple(within) == (float(want["low"]), float(want["high"]))
 
@@ -111,6 +115,11 @@ def test_a_marker_for_a_missing_claim_is_caught():
     assert not _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse higher than vector"))
     assert not _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse lower than vector at 35dBHz"))
     assert not _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse within [0, 1]"))
+    between_cases = {"candidate": "deep", "reference_case": "nominal", "metric": "freq_tracking_error_rmse",
+                     "direction": "higher", "case": "gsens"}
+    assert _matches(between_cases, _parse("x: deep freq_tracking_error_rmse higher than deep in nominal at gsens"))
+    assert not _matches(between_cases, _parse("x: deep freq_tracking_error_rmse higher than deep at gsens"))
+    assert not _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse lower than vector in nominal"))
     with pytest.raises(AssertionError, match="unreadable claim marker"):
         _parse("x: deep beats vector")
 

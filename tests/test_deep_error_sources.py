@@ -100,3 +100,39 @@ def test_deep_scenario_takes_the_misalignment_in_its_imu_grade():
     assert scen.params.imu.gyro_misalignment_mrad == 1.0
     with pytest.raises(Exception, match="gyro_misalignment_mrad"):
         _scen(imu={"gyro_misalignment_mrad": -1.0})
+
+
+def test_misalignment_switched_on_shifts_no_later_draw_of_the_run():
+    # From its own child stream: the run's next draws are the same with it on or off, so a
+    # case with misalignment and one without share their correlator noise (common random numbers).
+    dth_true, dv_true = np.zeros((3, 3)), np.zeros((3, 3))
+    tilted = ImuGrade(gyro_misalignment_mrad=1.0, accel_misalignment_mrad=1.0)
+    after = []
+    for grade in (ImuGrade(), tilted):
+        rng = draw.run_streams(9, (), range(3))
+        simulate_imu(dth_true, dv_true, 0.005, grade, rng, (3,))
+        after.append(draw.standard_normal(rng, (3, 4), 0))
+    np.testing.assert_array_equal(after[0], after[1])
+
+
+def test_a_case_adds_the_error_sources_to_the_scenarios_truth():
+    from gnssframework.experiments.scenarios.deep_integration import DeepIntegrationCase
+
+    base = _scen()
+    case = DeepIntegrationCase.model_validate({"name": "e", "cn0_dbhz": 45.0, "gyro_misalignment_mrad": 1.0,
+                                               "oscillator_g_sensitivity_per_g": (0.0, 0.0, 1e-9)})
+    update = case.scenario_update(base.params)
+    assert update["oscillator_g_sensitivity_per_g"] == (0.0, 0.0, 1e-9)
+    imu = update["imu"]  # the scenario's grade with the case's misalignment, every other level kept
+    assert imu.gyro_misalignment_mrad == 1.0 and imu.accel_misalignment_mrad == base.params.imu.accel_misalignment_mrad
+    assert imu.model_dump(exclude={"gyro_misalignment_mrad"}) == base.params.imu.model_dump(
+        exclude={"gyro_misalignment_mrad"})
+    assert DeepIntegrationCase.model_validate({"cn0_dbhz": 45.0}).scenario_update(base.params) == {}
+    # The case's g-sensitivity gives the same truth as the scenario parameter.
+    flight = base.flight()
+    by_case = type(base)(base.params.model_copy(update=update))._truth(flight, 45.0, 2, draw.run_streams(7, (), range(2)))
+    by_scen = _scen(oscillator_g_sensitivity_per_g=(0.0, 0.0, 1e-9))._truth(flight, 45.0, 2,
+                                                                          draw.run_streams(7, (), range(2)))
+    np.testing.assert_array_equal(by_case.clock_m, by_scen.clock_m)
+    with pytest.raises(Exception, match="gyro_misalignment_mrad"):
+        DeepIntegrationCase.model_validate({"cn0_dbhz": 45.0, "gyro_misalignment_mrad": -1.0})

@@ -17,6 +17,19 @@ statements as ``[[claims]]``::
     metric = "nees_velocity"
     within = [1.0, 10.0]
 
+    [[claims]]                       # an ordering between cases: the same candidate
+    candidate = "deep"
+    metric = "freq_tracking_error_rmse"
+    reference_case = "nominal"       # paired with its own runs in case "nominal"
+    case = "g-sensitivity"           # optional: default every other case
+    direction = "higher"
+
+An ordering between cases pairs run ``r`` of one case with run ``r`` of the other; the
+pairing removes the shared noise only when the two cases draw the same random numbers
+(``streams`` of ``[[cases]]``: the case that differs by an option names the reference
+case's streams), so a case pair that differs only by a scenario option is compared on
+common random numbers, as candidates are.
+
 Each claim is evaluated per case into one of three outcomes, from the same 95 % t-
 intervals the report's significance marks use (:data:`~.stats.SIGNIFICANCE_RULE`):
 
@@ -56,7 +69,10 @@ class Claim(BaseModel):
     candidate: str = Field(..., description="the candidate the claim is about")
     metric: str = Field(..., description="a reported metric")
     case: str | None = Field(None, description="the case (default: the claim must hold in every case)")
-    reference: str | None = Field(None, description="for an ordering: the candidate compared with (paired runs)")
+    reference: str | None = Field(None, description="for an ordering: the candidate compared with (paired runs); "
+                                  "with reference_case, default the candidate itself")
+    reference_case: str | None = Field(None, description="for an ordering between cases: the case the reference's "
+                                       "runs come from (paired run by run with each claimed case)")
     direction: Literal["lower", "higher"] | None = Field(
         None, description="for an ordering: the candidate's values are lower / higher than the reference's")
     ratio_max: float | None = Field(None, gt=0, description="for an ordering: ratio of means (candidate / "
@@ -69,7 +85,15 @@ class Claim(BaseModel):
     @model_validator(mode="after")
     def _one_kind(self) -> "Claim":
         ordering = [k for k in ("direction", "ratio_max", "ratio_min") if getattr(self, k) is not None]
-        if self.reference is None:
+        if self.reference_case is not None:
+            if not ordering:
+                raise ValueError("an ordering between cases needs direction = \"lower\" or \"higher\", "
+                                 "ratio_max or ratio_min")
+            if self.within is not None:
+                raise ValueError("reference_case makes an ordering; a bound (within) is a separate claim")
+            if self.case is not None and self.case == self.reference_case:
+                raise ValueError(f"case and reference_case are both {self.case!r}: compare two cases")
+        elif self.reference is None:
             if ordering:
                 raise ValueError(f"{', '.join(ordering)} compare with a reference: give reference = \"<candidate>\"")
             if self.within is None:
@@ -87,12 +111,17 @@ class Claim(BaseModel):
     def statement(self) -> str:
         """The claim in words."""
         parts = []
+        ref = ratio_ref = f"{self.reference}'s"
+        if self.reference_case is not None:
+            own = self.reference in (None, self.candidate)
+            ref = f"in {self.reference_case}" if own else f"{self.reference}'s in {self.reference_case}"
+            ratio_ref = f"its value in {self.reference_case}" if own else ref
         if self.direction is not None:
-            parts.append(f"{self.metric} {self.direction} than {self.reference}'s")
+            parts.append(f"{self.metric} {self.direction} than {ref}")
         if self.ratio_max is not None:
-            parts.append(f"{self.metric} / {self.reference}'s < {self.ratio_max:g}")
+            parts.append(f"{self.metric} / {ratio_ref} < {self.ratio_max:g}")
         if self.ratio_min is not None:
-            parts.append(f"{self.metric} / {self.reference}'s > {self.ratio_min:g}")
+            parts.append(f"{self.metric} / {ratio_ref} > {self.ratio_min:g}")
         if self.within is not None:
             parts.append(f"mean {self.metric} in [{self.within[0]:g}, {self.within[1]:g}]")
         return f"{self.candidate}: " + " and ".join(parts)
@@ -102,7 +131,8 @@ def check_claims(claims: list[Claim], cases: list[str], candidates: list[str], m
     """Refuse claims naming an unknown case, candidate or metric (at config load)."""
     for i, c in enumerate(claims):
         for field, value, allowed in (("candidate", c.candidate, candidates), ("reference", c.reference, candidates),
-                                      ("case", c.case, cases), ("metric", c.metric, metrics)):
+                                      ("case", c.case, cases), ("reference_case", c.reference_case, cases),
+                                      ("metric", c.metric, metrics)):
             if value is not None and value not in allowed:
                 raise ConfigError(f"claims[{i}].{field}", f"unknown {field} {value!r}; allowed: {', '.join(allowed)}")
 
@@ -127,15 +157,19 @@ def evaluate_claims(config, store, key: str | None = None) -> list[dict]:
     key = key or config.identity()
     out = []
     for i, claim in enumerate(config.claims):
-        for case in [claim.case] if claim.case else [c.name for c in config.cases]:
+        cases = [claim.case] if claim.case else [c.name for c in config.cases if c.name != claim.reference_case]
+        for case in cases:
             x = store.run_values(key, case, claim.candidate, claim.metric, config.runs)
             row = {"claim": i, "statement": claim.statement(), "case": case, "candidate": claim.candidate,
                    "metric": claim.metric, "note": claim.note}
             outcomes = []
-            if claim.reference is not None:
-                y = store.run_values(key, case, claim.reference, claim.metric, config.runs)
+            reference = claim.reference or (claim.candidate if claim.reference_case else None)
+            if reference is not None:
+                y = store.run_values(key, claim.reference_case or case, reference, claim.metric, config.runs)
                 pd = paired_difference(*paired_values(x, y))
-                row.update(reference=claim.reference, **{k: v for k, v in pd.to_json().items() if k != "reason"})
+                row.update(reference=reference, **{k: v for k, v in pd.to_json().items() if k != "reason"})
+                if claim.reference_case is not None:
+                    row["reference_case"] = claim.reference_case
                 if pd.se is None or pd.n < 2:
                     outcomes.append("not significant")
                 else:

@@ -63,6 +63,10 @@ class Case(BaseModel):
 
     model_config = ConfigDict(extra="allow")
     name: str = Field(..., pattern=r"^[A-Za-z0-9_.+-]+$")
+    streams: str | None = Field(
+        None, pattern=r"^[A-Za-z0-9_.+-]+$", description="the random streams this case draws, named by a case "
+        "(default: its own name): cases with the same streams draw the same random numbers run by run (common "
+        "random numbers across cases, which claims with reference_case pair)")
 
     def params(self) -> dict[str, Any]:
         return dict(self.model_extra or {})
@@ -215,6 +219,9 @@ class ComparisonConfig(_Strict):
         """
         data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
                                         "reference", "sweeps", "claims"})
+        for case in data["cases"]:  # a case on its own streams keeps its old key
+            if case.get("streams") is None:
+                case.pop("streams", None)
         for cand in data["candidates"]:  # a candidate without options keeps its old key
             if not cand["scenario_options"]:
                 del cand["scenario_options"]
@@ -238,6 +245,13 @@ def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
     data = read_toml(path)
     data.update({k: v for k, v in overrides.items() if v is not None})
     try:
-        return ComparisonConfig.model_validate(data)
+        config = ComparisonConfig.model_validate(data)
     except ValidationError as exc:
         raise validation_message(exc, model=ComparisonConfig) from None
+    # Checked here, not in the model: a sweep or a tuning that runs some of the cases keeps
+    # a case's streams named after a case it leaves out.
+    names = [c.name for c in config.cases]
+    for i, case in enumerate(config.cases):
+        if case.streams is not None and case.streams not in names:
+            raise ConfigError(f"cases[{i}].streams", f"unknown case {case.streams!r}; allowed: {', '.join(names)}")
+    return config

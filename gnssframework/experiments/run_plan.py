@@ -30,6 +30,7 @@ class CasePlan:
 
     name: str
     values: dict[str, Any]
+    streams: str | None = None  # the case whose random streams it draws (None: its own)
 
     def as_case(self) -> dict[str, Any]:
         """What ``Scenario.run_batch`` takes as ``case``."""
@@ -64,7 +65,7 @@ def resolve(config: Any) -> RunPlan:
     the one the config was validated with)."""
     return RunPlan(
         scenario=config.resolved_scenario,
-        cases=tuple(CasePlan(c.name, c.params()) for c in config.cases),
+        cases=tuple(CasePlan(c.name, c.params(), c.streams) for c in config.cases),
         candidates=config.resolved_candidates,
         seed=config.seed,
         random_stream=config.random_stream,
@@ -75,9 +76,10 @@ def resolve(config: Any) -> RunPlan:
 
 def task_streams(plan: Any, task: Task) -> RunStreams:
     """The random streams of a task's runs (a `RunPlan` or a ``ComparisonConfig``): they
-    depend on the seed, the case's name and the run indices, never on the batch or the
-    candidate (see :mod:`gnssframework.experiments.runner`)."""
-    case = plan.cases[task.case_index].name
+    depend on the seed, the case's name (or the case its ``streams`` names) and the run
+    indices, never on the batch or the candidate (see :mod:`gnssframework.experiments.runner`)."""
+    case = plan.cases[task.case_index]
+    case = getattr(case, "streams", None) or case.name
     runs = range(task.first_run, task.first_run + task.runs)
     if plan.random_stream == "tuning":  # disjoint from the evaluation's: a child of every run's seed
         return RunStreams((plan.seed, *name_key(case)), runs, TUNING_PURPOSE)

@@ -192,8 +192,11 @@ def simulate_imu(
                         grade.accel_markov_tau_s, grade.accel_vrw_mps_per_sqrt_s, grade.accel_scale_factor_ppm)
     # Cross-axis coupling, drawn after every other error so that a grade without it draws
     # the same numbers as before it existed: measured += M true, M with a zero diagonal.
-    mg = _misalignment(rng, const_shape, grade.gyro_misalignment_mrad)
-    ma = _misalignment(rng, const_shape, grade.accel_misalignment_mrad)
+    # With per-run streams from a child stream, so that switching it on shifts no later draw
+    # of the run (a case with it and one without are then on common random numbers).
+    cross = draw.child(rng, "imu-misalignment")
+    mg = _misalignment(cross, const_shape, grade.gyro_misalignment_mrad)
+    ma = _misalignment(cross, const_shape, grade.accel_misalignment_mrad)
     if mg is not None:
         dth = dth + np.einsum("...ij,...j->...i", mg, np.broadcast_to(dtheta_true_rad, shape))
     if ma is not None:

@@ -160,6 +160,25 @@ class DeepIntegrationParams(SkyRealismParams):
 class DeepIntegrationCase(ScenarioParams):
     name: str | None = None
     cn0_dbhz: float = Field(..., ge=15, le=60)
+    # Error sources a case may add to the scenario's truth, so that a comparison can hold a
+    # case with and one without them (on common random numbers: the case's `streams`).
+    oscillator_g_sensitivity_per_g: tuple[float, float, float] | None = Field(
+        None, description="this case's oscillator g-sensitivity vector (1/g, body axes; default: the scenario's)")
+    gyro_misalignment_mrad: float | None = Field(None, ge=0, description="this case's gyro misalignment "
+                                                 "(mrad; default: the scenario's imu)")
+    accel_misalignment_mrad: float | None = Field(None, ge=0, description="this case's accelerometer "
+                                                  "misalignment (mrad; default: the scenario's imu)")
+
+    def scenario_update(self, params: "DeepIntegrationParams") -> dict[str, Any]:
+        """The scenario parameters this case replaces (empty: none)."""
+        update: dict[str, Any] = {}
+        if self.oscillator_g_sensitivity_per_g is not None:
+            update["oscillator_g_sensitivity_per_g"] = self.oscillator_g_sensitivity_per_g
+        imu = {k: getattr(self, k) for k in ("gyro_misalignment_mrad", "accel_misalignment_mrad")
+               if getattr(self, k) is not None}
+        if imu:
+            update["imu"] = params.imu.model_copy(update=imu)
+        return update
 
 
 def phase_lock_series(phase_error_rad: np.ndarray, n_upd: int, update_interval_s: float) -> dict[str, np.ndarray]:
@@ -351,6 +370,10 @@ class DeepIntegrationScenario(Scenario):
 
     # --- candidates ---------------------------------------------------------------------
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        update = DeepIntegrationCase.model_validate(case).scenario_update(self.params)
+        if update:  # the case's error sources: the same scenario with those parameters replaced
+            plain = {"name": case.get("name"), "cn0_dbhz": case["cn0_dbhz"]}
+            return type(self)(self.params.model_copy(update=update)).run_batch(plain, plugins, runs, rng)
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         kind = _kind(plugins)
