@@ -95,8 +95,8 @@ class SampleRecordingParams(ScenarioParams):
                                                 description="known receiver position: latitude, longitude (deg), "
                                                 "height (m); without it the error metrics are undefined")
     start_s: float = Field(0.0, ge=0, description="start of run 0's segment in the file (s)")
-    segment_s: float = Field(12.0, gt=0, le=120, description="length of each run's segment (s); run r starts at "
-                             "start_s + r segment_s")
+    segment_s: float = Field(12.0, gt=0, le=120, description="length of each run's segment (s); with runs_on = "
+                             "segments, run r starts at start_s + r segment_s")
     runs_on: Literal["segments", "one-segment-with-noise"] = Field(
         "segments", description="segments: run r is the segment r of the file; one-segment-with-noise: every run "
         "is the segment at start_s with its own white Gaussian noise added (cn0_reduction_db)")
