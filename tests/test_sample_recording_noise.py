@@ -6,7 +6,8 @@
   drop agrees with ``10 log10(1 + (1 + s)(10^(Δ/10) - 1))`` (``s = C / (N0 fs)``: the
   scenario takes the whole power as the noise floor) within 3 standard errors.
 - Runs differ, every candidate gets the same samples in run ``r``, and a run's samples do
-  not depend on its batch (the receiver is replaced by a probe recording what it reads).
+  not depend on its batch (the receiver is replaced by a probe recording what it reads),
+  nor on the block size it is written in; the stored samples pass unquantised.
 - On the LNAV recording of `test_sample_recording_scenario` the receiver fixes on two
   noisy copies of the first segment, with errors within the code noise at the lower C/N0.
 - Bad settings are refused naming the field.
@@ -76,6 +77,14 @@ def test_the_stored_samples_pass_unquantised(one_satellite, tmp_path):
     rec, _ = one_satellite
     path = write_noisy_segment(rec, 1000, 5000, 0.0, np.random.default_rng(0), tmp_path / "same.bin")
     np.testing.assert_array_equal(open_recording(path, "cf32_le", FS, 0.0).read(0, 5000), rec.read(1000, 5000))
+
+
+def test_a_samples_noise_does_not_depend_on_the_block_size(one_satellite, tmp_path, monkeypatch):
+    rec, _ = one_satellite
+    whole = write_noisy_segment(rec, 10, 20_000, 2.0, np.random.default_rng(4), tmp_path / "whole.bin")
+    monkeypatch.setattr(sample_recording, "_BLOCK_SAMPLES", 777)
+    blocks = write_noisy_segment(rec, 10, 20_000, 2.0, np.random.default_rng(4), tmp_path / "blocks.bin")
+    assert whole.read_bytes() == blocks.read_bytes()
 
 
 class _Probe:
