@@ -1,8 +1,8 @@
 """The navigation filter on observables leaves out a satellite with a pseudorange fault.
 
 Observables of a static station are built from real broadcast records by an independent
-light-time loop (the one of `test_receiver_nav_filter`), with white noise of the
-filter's stated variances; from epoch 20 on, one satellite's pseudorange carries a step
+light-time loop (`station_observables`, shared with `test_receiver_nav_filter`), with
+white noise of the filter's stated variances; from epoch 20 on, one satellite's pseudorange carries a step
 of 40 m. With the innovation test (`filtered.innovation_exclusion`, chi-square at
 p = 1e-4) the filter leaves out that satellite at every faulty epoch, keeps every other,
 and its position stays inside a bound at every epoch; with no test (``exclusion="none"``)
@@ -16,60 +16,34 @@ position block) with the same weights; ``e^T C^-1 e`` is then at most chi-square
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy.stats import chi2
 
 from gnssframework.errors import ConfigError
-from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
 from gnssframework.receiver.navigation.filtered import filter_epochs, innovation_exclusion, EpochMeasurements
 from gnssframework.receiver.navigation.fixes import solve_epochs
 from gnssframework.receiver.navigation.observables import Observables
+from station_observables import C, L1_WAVELENGTH_M, STATION, geometry, visible
 
-DATA = Path(__file__).parent / "data"
-STATION = np.array([-3976219.5082, 3382372.5671, 3652512.9849])
-C = 299_792_458.0
-OMEGA_E = 7.2921151467e-5
-L1_WAVELENGTH_M = C / 1575.42e6
 T0, EPOCHS, FAULT_EPOCH, FAULT_M = 518_700.0, 60, 20, 40.0
 SIGMA_M, SIGMA_RATE = 1.0, 0.05
 BIAS_M = 1500.0
 
 
-def _geometry(sel, t):
-    """Independent light-time loop: pseudorange (no noise), transmit time (satellite
-    clock), and the line-of-sight unit vectors and elevations at the station."""
-    tau = np.full(sel.sv.size, 0.07)
-    for _ in range(6):
-        st = satellite_state(sel, t - tau)
-        th = OMEGA_E * tau
-        p = st.position_m
-        rot = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1],
-                        p[:, 2]], axis=1)
-        tau = np.linalg.norm(rot - STATION, axis=1) / C
-    los = (rot - STATION) / np.linalg.norm(rot - STATION, axis=1)[:, None]
-    el = np.arcsin(los @ (STATION / np.linalg.norm(STATION)))
-    return C * tau + BIAS_M - C * st.clock_l1_s, t - tau + st.clock_l1_s, los, el
-
-
 def _scenario():
-    nav = read_rinex_nav(DATA / "07590920.05n")
-    sel = nav.select(np.unique(nav.sv), T0)
-    _, _, _, el = _geometry(sel, T0)
-    sel = sel.subset(np.flatnonzero(el > np.radians(15)))
+    sel, nav = visible(T0, 15.0)
     prn = np.array([int(s[1:]) for s in sel.sv])
     rng = np.random.default_rng(2025)
     t = T0 + np.arange(EPOCHS, dtype=float)
     pr, tx, dop = (np.zeros((EPOCHS, prn.size)) for _ in range(3))
     for k, tk in enumerate(t):
-        pr[k], tx[k], _, el = _geometry(sel, tk)
-        rate = (_geometry(sel, tk + 0.5)[0] - _geometry(sel, tk - 0.5)[0])
+        pr[k], tx[k], _, el = geometry(sel, tk, BIAS_M)
+        rate = (geometry(sel, tk + 0.5, BIAS_M)[0] - geometry(sel, tk - 0.5, BIAS_M)[0])
         sin_el = np.sin(el)
         pr[k] += rng.standard_normal(prn.size) * SIGMA_M / sin_el
         dop[k] = -(rate + rng.standard_normal(prn.size) * SIGMA_RATE / sin_el) / L1_WAVELENGTH_M
-    _, _, los, el = _geometry(sel, T0)
+    _, _, los, el = geometry(sel, T0, BIAS_M)
     obs = Observables(t + BIAS_M / C, t - T0, prn, tx, pr, dop, np.zeros_like(pr), np.full(pr.shape, 45.0), {},
                       None, None)
     return nav, obs, los, el

@@ -11,22 +11,16 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from gnssframework import registry
 from gnssframework.errors import ConfigError
-from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
+from gnssframework.navigation.ephemeris import satellite_state
 from gnssframework.receiver.navigation.filtered import (EpochMeasurements, check_nav_filter, corrected_measurements,
                                                         run_nav_filter)
 from gnssframework.simulation.clock import PRESETS
-
-DATA = Path(__file__).parent / "data"
-STATION = np.array([-3976219.5082, 3382372.5671, 3652512.9849])
-C = 299_792_458.0
-OMEGA_E = 7.2921151467e-5
+from station_observables import C, L1_WAVELENGTH_M, STATION, geometry, visible
 
 
 def _hand_ekf(x, P, epochs, T, q, clock_q):
@@ -96,29 +90,12 @@ def test_ekf_pv_on_measurements_equals_a_hand_written_kalman_filter():
 
 
 def test_corrected_ranges_are_geometry_plus_the_receiver_clock():
-    nav = read_rinex_nav(DATA / "07590920.05n")
     t_rx = 518_700.0
-    sel = nav.select(np.unique(nav.sv), t_rx)
-    up = STATION / np.linalg.norm(STATION)
-    los = satellite_state(sel, t_rx).position_m - STATION
-    sel = sel.subset(np.flatnonzero(los @ up / np.linalg.norm(los, axis=1) > np.sin(np.radians(10))))
+    sel, _ = visible(t_rx, 10.0)
     bias = 1500.0
-
-    def pseudorange(t):
-        """Independent light-time loop: range in the frame of the receive time, SV clock."""
-        tau = np.full(sel.sv.size, 0.07)
-        for _ in range(6):
-            st = satellite_state(sel, t - tau)
-            th = OMEGA_E * tau
-            p = st.position_m
-            rot = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1],
-                            p[:, 2]], axis=1)
-            tau = np.linalg.norm(rot - STATION, axis=1) / C
-        return C * tau + bias - C * st.clock_l1_s, t - tau + st.clock_l1_s
-
-    pr, tx = pseudorange(t_rx)
+    pr, tx, _, _ = geometry(sel, t_rx, bias)
     # The Doppler of a static receiver with a still clock: minus the pseudorange rate over λ.
-    doppler = -(pseudorange(t_rx + 0.5)[0] - pseudorange(t_rx - 0.5)[0]) / (C / 1575.42e6)
+    doppler = -(geometry(sel, t_rx + 0.5, bias)[0] - geometry(sel, t_rx - 0.5, bias)[0]) / L1_WAVELENGTH_M
     meas, keep = corrected_measurements(pr, tx, doppler, sel, STATION, elevation_mask_deg=10.0)
     assert keep.all()
     geometric = np.linalg.norm(meas.sat_pos_m - STATION, axis=1)
@@ -153,12 +130,8 @@ def test_least_squares_weights_satisfy_their_normal_equations(elevation_weights)
     w = sin²(E) (the default) or 1 (``elevation_weights=False``, the RTKLIB comparison's)."""
     from gnssframework.navigation.pvt import solve_position
 
-    nav = read_rinex_nav(DATA / "07590920.05n")
     t_rx = 518_700.0
-    sel = nav.select(np.unique(nav.sv), t_rx)
-    up = STATION / np.linalg.norm(STATION)
-    los = satellite_state(sel, t_rx).position_m - STATION
-    sel = sel.subset(np.flatnonzero(los @ up / np.linalg.norm(los, axis=1) > np.sin(np.radians(10))))
+    sel, _ = visible(t_rx, 10.0)
     geometric = np.linalg.norm(satellite_state(sel, t_rx - 0.07).position_m - STATION, axis=1)
     clock = satellite_state(sel, t_rx - 0.07).clock_l1_s
     rng = np.random.default_rng(3)

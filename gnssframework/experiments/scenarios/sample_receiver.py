@@ -17,8 +17,9 @@ receiver's models of both are off. The noise is drawn from each run's own stream
 (``child("samples")``): every candidate sees the same samples in the same run, so the
 comparison's paired differences are those of the receivers alone.
 
-Only the channel filter is a candidate's choice: `receive` fixes with least squares and
-takes no navigation filter yet.
+A candidate chooses the channel filter and, optionally, a navigation filter (run on the
+pseudoranges and Dopplers from the first least-squares fix; without one the positions
+are the least squares'): `receive_candidate`, which ``sample-recording`` shares.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from ...plugin_ref import PluginSpec
 from ...receiver.channels import tracking_config
 from ...receiver.channels.closure import ERROR_OUTPUTS
 from ...receiver.frontend import open_recording
+from ...receiver.frontend.recording import Recording
 from ...receiver.navigation import receive as receive_module
 from ...receiver.navigation.filtered import check_nav_filter
 from ...receiver.tracking.scalar import NCO_COMMANDS
@@ -44,7 +46,7 @@ from . import BatchResult, Scenario, ScenarioParams, register_scenario
 from .sample_receiver_metrics import SERIES, FiniteFraction, FiniteRms, FirstFinite, Last, run_series
 from .sample_receiver_signals import SAMPLE_FORMAT, SignalPlan, signal_plan, write_run_recording
 
-__all__ = ["SampleReceiverScenario", "METRICS"]
+__all__ = ["SampleReceiverScenario", "METRICS", "receive_candidate", "evaluate_runs"]
 
 _SUBFRAME_S = 6.0
 _NO_FIX = "no fix in the run"
@@ -182,17 +184,12 @@ class SampleReceiverScenario(Scenario):
         p = self.params
         return np.arange(int(np.floor(p.duration_s * p.rate_hz + 1e-9))) / p.rate_hz
 
-    def receive(self, plan: SignalPlan, channel, path: Path, nav=None) -> receive_module.ReceiveResult:
-        """`receive` on one run's recording with ``channel`` (a channel_filter plugin) and,
-        when given, ``nav`` (a nav_filter plugin run on the pseudoranges and Dopplers from
-        the first least-squares fix; without it the positions are the least squares')."""
-        p = self.params
-        config = tracking_config(channel_filter=channel.name, channel_params=_as_config(channel.params.model_dump(
-            mode="json")), coherent_ms=p.coherent_ms)
+    def receive(self, plan: SignalPlan, plugins: dict, path: Path) -> receive_module.ReceiveResult:
+        """`receive_candidate` on one run's recording, with the generator's ephemerides and
+        the receiver's ionosphere and troposphere models off (the signals have neither)."""
         recording = open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0)
-        return receive_module.receive(recording, registry.create("acquisition", p.acquisition), config, rate_hz=p.rate_hz,
-                                      rinex=plan.ephemerides, ionosphere=False, troposphere=False,
-                                      reference_week=plan.week, nav_filter=_spec(nav))
+        return receive_candidate(recording, plugins, self.params, rinex=plan.ephemerides, ionosphere=False,
+                                 troposphere=False, reference_week=plan.week)
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
@@ -203,11 +200,30 @@ class SampleReceiverScenario(Scenario):
         with tempfile.TemporaryDirectory(prefix="gnssframework-sample-receiver-") as tmp:
             for r in range(runs):  # one recording and one receiver per run
                 path = write_run_recording(plan, noise.generators[r], Path(tmp) / f"run{r}.{SAMPLE_FORMAT}")
-                result = self.receive(plan, plugins["channel_filter"], path, plugins.get("nav_filter"))
+                result = self.receive(plan, plugins, path)
                 per_run.append(run_series(result, plan.prns, plan.cn0_dbhz, plan.receiver_lat_lon_h, t))
                 path.unlink()
-        series = {name: np.stack([s[name] for s in per_run], axis=1) for name in SERIES}
-        return evaluate(METRICS, series, t, self)
+        return evaluate_runs(METRICS, per_run, t, self)
+
+
+def receive_candidate(recording: Recording, plugins: dict, params, *, rinex, ionosphere: bool, troposphere: bool,
+                      reference_week: int | None) -> receive_module.ReceiveResult:
+    """`receive` on ``recording`` as a candidate builds it: its ``channel_filter`` (with its
+    parameters) in the sample tracker and, when it names one, its ``nav_filter`` on the
+    pseudoranges and Dopplers from the first least-squares fix; ``params`` gives the
+    scenario's ``acquisition``, ``coherent_ms`` and ``rate_hz``."""
+    channel = plugins["channel_filter"]
+    config = tracking_config(channel_filter=channel.name, channel_params=_as_config(channel.params.model_dump(
+        mode="json")), coherent_ms=params.coherent_ms)
+    return receive_module.receive(recording, registry.create("acquisition", params.acquisition), config,
+                                  rate_hz=params.rate_hz, rinex=rinex, ionosphere=ionosphere, troposphere=troposphere,
+                                  reference_week=reference_week, nav_filter=_spec(plugins.get("nav_filter")))
+
+
+def evaluate_runs(metrics, per_run: list[dict[str, np.ndarray]], time_s: np.ndarray, scenario) -> BatchResult:
+    """The metrics of a batch from its runs' series (each ``(K,)``; stacked on axis 1)."""
+    series = {name: np.stack([s[name] for s in per_run], axis=1) for name in per_run[0]}
+    return evaluate(metrics, series, time_s, scenario)
 
 
 def _spec(nav) -> PluginSpec | None:

@@ -11,6 +11,24 @@ numbers: the comparison's paired differences are those of the receivers alone). 
 segment past the end of the file is refused naming ``scenario.segment_s`` and how many
 segments the file holds.
 
+With ``runs_on = "one-segment-with-noise"`` every run is instead the segment at
+``start_s`` with independent white Gaussian noise added (`write_noisy_segment`): a paired
+Monte Carlo of the recording at a C/N0 lower by ``cn0_reduction_db``. The recording's
+noise power per component ``sigma_n^2`` is taken as the segment's power about its mean
+(every GNSS signal is below the noise), and noise of variance
+``sigma_n^2 (10^(cn0_reduction_db / 10) - 1)`` per component multiplies the noise density
+``N0`` by ``10^(cn0_reduction_db / 10)``. The signals' own power in that estimate,
+``s = sum_k C_k / (N0 fs)`` (0.13 for eleven satellites at 45 dB-Hz and 2.6 MHz), makes
+the noise added slightly larger: one signal's C/N0 drops by
+``10 log10(1 + (1 + s)(10^(cn0_reduction_db / 10) - 1))`` dB, 10.5 dB for a stated 10 dB
+in that example. The noise is drawn from run ``r``'s stream (``child("added-noise")``):
+every candidate sees the same noisy samples in run ``r``, and a run's samples do not
+depend on its batch. Nothing is re-quantised: the stored samples (integers, exact in
+float32 below 2^24) plus the noise are written as complex float32 (``cf32_le``), so the
+added noise is Gaussian as stated and the recording's own quantisation is kept as it
+is; real-sample formats are refused in this mode (there is no real float format to
+write them in).
+
 Each segment goes to `gnssframework.receiver.navigation.receive.receive` (acquisition of
 all 32 PRNs, sample-driven tracking with the candidate's ``channel_filter``, LNAV,
 observables, least-squares fixes at ``rate_hz``, and the candidate's ``nav_filter`` on the
@@ -28,6 +46,7 @@ from __future__ import annotations
 
 import tempfile
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import pymap3d
@@ -37,22 +56,26 @@ from ... import random_streams as draw
 from ... import registry
 from ...errors import ConfigError
 from ...navigation.ephemeris import read_rinex_nav
-from ...receiver.channels import tracking_config
 from ...receiver.frontend import open_recording
 from ...receiver.frontend.recording import Recording
 from ...receiver.navigation import receive as receive_module
-from ..metric_components import evaluate, undefined_reasons as _undefined_reasons, units
+from ..metric_components import undefined_reasons as _undefined_reasons, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
-from .sample_receiver import SampleReceiverScenario, _as_config, _spec
+from .sample_receiver import SampleReceiverScenario, evaluate_runs, receive_candidate
 from .sample_receiver_metrics import FiniteFraction, FiniteRms, FirstFinite, Last, run_series
 
-__all__ = ["SampleRecordingScenario", "METRICS", "SERIES", "segment_bounds"]
+__all__ = ["SampleRecordingScenario", "METRICS", "SERIES", "segment_bounds", "noise_power", "write_noisy_segment",
+           "NOISY_FORMAT"]
 
 #: Where ``validation/gps_sdr_sim_recording.py`` writes the example's recording.
 DEFAULT_RECORDING = "build/gps_sdr_sim_45dbhz.sigmf-data"
 _NO_TRUTH = "no fix in the run, or no truth_lat_lon_h given"
 _NO_FIX = "no fix in the run"
 _ALL_PRNS = tuple(range(1, 33))
+#: The format the noisy segments are written in: complex float32 holds the stored integers
+#: exactly and the added noise unquantised.
+NOISY_FORMAT = "cf32_le"
+_BLOCK_SAMPLES = 1 << 20  # samples read, noised and written at a time (memory of one block)
 
 #: The raw series of one run (name -> unit), each ``(K,)`` on the segment's epochs.
 SERIES = {"fix_time_s": "s", "horizontal_error_m": "m", "vertical_error_m": "m", "horizontal_scatter_m": "m",
@@ -72,8 +95,13 @@ class SampleRecordingParams(ScenarioParams):
                                                 description="known receiver position: latitude, longitude (deg), "
                                                 "height (m); without it the error metrics are undefined")
     start_s: float = Field(0.0, ge=0, description="start of run 0's segment in the file (s)")
-    segment_s: float = Field(12.0, gt=0, le=120, description="length of each run's segment (s); run r starts at "
-                             "start_s + r segment_s")
+    segment_s: float = Field(12.0, gt=0, le=120, description="length of each run's segment (s); with runs_on = "
+                             "segments, run r starts at start_s + r segment_s")
+    runs_on: Literal["segments", "one-segment-with-noise"] = Field(
+        "segments", description="segments: run r is the segment r of the file; one-segment-with-noise: every run "
+        "is the segment at start_s with its own white Gaussian noise added (cn0_reduction_db)")
+    cn0_reduction_db: float = Field(0.0, ge=0, le=30, description="C/N0 reduction by the noise added to every run "
+                                    "(dB; one-segment-with-noise only, where it must be > 0)")
     rate_hz: float = Field(1.0, gt=0, le=50, description="position solutions per second")
     gps_week: int | None = Field(None, ge=0, description="full GPS week near the recording (the decoded 10-bit "
                                  "week is placed nearest it; needed when no subframe 1 arrives)")
@@ -154,8 +182,20 @@ class SampleRecordingScenario(SampleReceiverScenario):
     def check_case(self, case: dict, where: str) -> None:
         """The case's own checks, the files (recording, ephemeris) and a first segment in the file."""
         Scenario.check_case(self, case, where)  # the base's: the parent's needs its generated plan
-        segment_bounds(self.open(), self.params.start_s, self.params.segment_s, 0)
+        p = self.params
+        rec = self.open()
+        segment_bounds(rec, p.start_s, p.segment_s, 0)
         self.ephemerides()
+        if p.runs_on == "segments" and p.cn0_reduction_db:
+            raise ConfigError("scenario.cn0_reduction_db", f"adds noise only with runs_on = "
+                              f"'one-segment-with-noise' (runs_on is 'segments'); got {p.cn0_reduction_db:g}")
+        if p.runs_on == "one-segment-with-noise":
+            if not p.cn0_reduction_db > 0:
+                raise ConfigError("scenario.cn0_reduction_db", "must be > 0 with runs_on = "
+                                  "'one-segment-with-noise' (the runs would be the same samples)")
+            if not rec.is_complex:
+                raise ConfigError("scenario.runs_on", f"'one-segment-with-noise' writes complex float32 samples; "
+                                  f"{rec.path.name} holds real ones ({rec.info.format})")
 
     def open(self) -> Recording:
         """The recording, with the format, rate and IF of the parameters or its SigMF file."""
@@ -184,27 +224,60 @@ class SampleRecordingScenario(SampleReceiverScenario):
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         p = self.params
-        streams = draw.as_run_streams(rng, runs)  # only for the global run indices: nothing is drawn
+        streams = draw.as_run_streams(rng, runs)
+        noise = streams.child("added-noise")  # the same for every candidate: common random numbers
         rec, rinex, t = self.open(), self.ephemerides(), self.time_s()
-        channel, nav = plugins["channel_filter"], plugins.get("nav_filter")
-        config = tracking_config(channel_filter=channel.name, channel_params=_as_config(channel.params.model_dump(
-            mode="json")), coherent_ms=p.coherent_ms)
         truth = tuple(p.truth_lat_lon_h) if p.truth_lat_lon_h is not None else None
+        noisy = p.runs_on == "one-segment-with-noise"
+        if noisy:
+            first, count = segment_bounds(rec, p.start_s, p.segment_s, 0)
+            added_sigma = np.sqrt(noise_power(rec, first, count) * (10 ** (p.cn0_reduction_db / 10) - 1))
         per_run = []
         with tempfile.TemporaryDirectory(prefix="gnssframework-sample-recording-") as tmp:
-            for run in streams.runs:
-                first, count = segment_bounds(rec, p.start_s, p.segment_s, run)
-                path = _copy_segment(rec, first, count, Path(tmp) / f"run{run}.bin")
-                segment = open_recording(path, rec.info.format, rec.info.sample_rate_hz, rec.info.if_hz,
-                                         rec.info.q_sign)
-                result = receive_module.receive(segment, registry.create("acquisition", p.acquisition), config,
-                                                rate_hz=p.rate_hz, rinex=rinex, ionosphere=p.ionosphere,
-                                                troposphere=p.troposphere, reference_week=p.gps_week,
-                                                nav_filter=_spec(nav))
+            for i, run in enumerate(streams.runs):
+                path = Path(tmp) / f"run{run}.bin"
+                if noisy:
+                    write_noisy_segment(rec, first, count, added_sigma, noise.generators[i], path)
+                    segment = open_recording(path, NOISY_FORMAT, rec.info.sample_rate_hz, rec.info.if_hz, 1)
+                else:
+                    _copy_segment(rec, *segment_bounds(rec, p.start_s, p.segment_s, run), path)
+                    segment = open_recording(path, rec.info.format, rec.info.sample_rate_hz, rec.info.if_hz,
+                                             rec.info.q_sign)
+                result = receive_candidate(segment, plugins, p, rinex=rinex, ionosphere=p.ionosphere,
+                                           troposphere=p.troposphere, reference_week=p.gps_week)
                 per_run.append(_series(result, truth, t))
                 path.unlink()
-        series = {name: np.stack([s[name] for s in per_run], axis=1) for name in SERIES}
-        return evaluate(METRICS, series, t, self)
+        return evaluate_runs(METRICS, per_run, t, self)
+
+
+def noise_power(rec: Recording, first: int, count: int) -> float:
+    """Power per real component of samples ``[first, first + count)`` about their mean
+    (``E|x - mean|^2 / 2`` for complex samples): the recording's noise, whose density
+    ``N0 = 2 sigma^2 / fs`` every signal below it is measured against."""
+    total, total_sq = 0.0 + 0.0j, 0.0
+    for _, x in rec.blocks(_BLOCK_SAMPLES, first, first + count):
+        x = x.astype(np.complex128)
+        total += x.sum()
+        total_sq += float(np.vdot(x, x).real)
+    return (total_sq / count - abs(total / count) ** 2) / 2
+
+
+def write_noisy_segment(rec: Recording, first: int, count: int, sigma: float, rng: np.random.Generator,
+                        path: str | Path) -> Path:
+    """Samples ``[first, first + count)`` of ``rec`` (complex, Q sign applied) plus complex
+    white Gaussian noise of ``sigma`` per component drawn from ``rng``, written to ``path``
+    as `NOISY_FORMAT` (no metadata file: the caller gives the format).
+
+    The draws are ``(n, 2)`` normals block after block, I then Q of each sample: the
+    noise of a sample depends only on ``rng`` and its index, not on the block size.
+    """
+    source = registry.create("sample_source", NOISY_FORMAT)
+    path = Path(path)
+    with path.open("wb") as out:
+        for _, x in rec.blocks(_BLOCK_SAMPLES, first, first + count):
+            n = rng.standard_normal((x.size, 2))
+            out.write(source.encode(x + sigma * (n[:, 0] + 1j * n[:, 1])))
+    return path
 
 
 def _copy_segment(rec: Recording, first: int, count: int, path: Path) -> Path:
