@@ -23,15 +23,14 @@ import pytest
 from scipy.stats import chi2
 
 from gnssframework.errors import ConfigError
-from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
+from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.receiver.navigation.filtered import filter_epochs, innovation_exclusion, EpochMeasurements
 from gnssframework.receiver.navigation.fixes import solve_epochs
 from gnssframework.receiver.navigation.observables import Observables
+from light_time import C, signal_flight
 
 DATA = Path(__file__).parent / "data"
 STATION = np.array([-3976219.5082, 3382372.5671, 3652512.9849])
-C = 299_792_458.0
-OMEGA_E = 7.2921151467e-5
 L1_WAVELENGTH_M = C / 1575.42e6
 T0, EPOCHS, FAULT_EPOCH, FAULT_M = 518_700.0, 60, 20, 40.0
 SIGMA_M, SIGMA_RATE = 1.0, 0.05
@@ -41,17 +40,10 @@ BIAS_M = 1500.0
 def _geometry(sel, t):
     """Independent light-time loop: pseudorange (no noise), transmit time (satellite
     clock), and the line-of-sight unit vectors and elevations at the station."""
-    tau = np.full(sel.sv.size, 0.07)
-    for _ in range(6):
-        st = satellite_state(sel, t - tau)
-        th = OMEGA_E * tau
-        p = st.position_m
-        rot = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1],
-                        p[:, 2]], axis=1)
-        tau = np.linalg.norm(rot - STATION, axis=1) / C
+    tau, clock, rot = signal_flight(sel, t, STATION)
     los = (rot - STATION) / np.linalg.norm(rot - STATION, axis=1)[:, None]
     el = np.arcsin(los @ (STATION / np.linalg.norm(STATION)))
-    return C * tau + BIAS_M - C * st.clock_l1_s, t - tau + st.clock_l1_s, los, el
+    return C * tau + BIAS_M - C * clock, t - tau + clock, los, el
 
 
 def _scenario():

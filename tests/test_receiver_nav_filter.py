@@ -22,11 +22,10 @@ from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
 from gnssframework.receiver.navigation.filtered import (EpochMeasurements, check_nav_filter, corrected_measurements,
                                                         run_nav_filter)
 from gnssframework.simulation.clock import PRESETS
+from light_time import C, signal_flight
 
 DATA = Path(__file__).parent / "data"
 STATION = np.array([-3976219.5082, 3382372.5671, 3652512.9849])
-C = 299_792_458.0
-OMEGA_E = 7.2921151467e-5
 
 
 def _hand_ekf(x, P, epochs, T, q, clock_q):
@@ -105,16 +104,9 @@ def test_corrected_ranges_are_geometry_plus_the_receiver_clock():
     bias = 1500.0
 
     def pseudorange(t):
-        """Independent light-time loop: range in the frame of the receive time, SV clock."""
-        tau = np.full(sel.sv.size, 0.07)
-        for _ in range(6):
-            st = satellite_state(sel, t - tau)
-            th = OMEGA_E * tau
-            p = st.position_m
-            rot = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1],
-                            p[:, 2]], axis=1)
-            tau = np.linalg.norm(rot - STATION, axis=1) / C
-        return C * tau + bias - C * st.clock_l1_s, t - tau + st.clock_l1_s
+        """Independent light-time loop (`light_time`): range in the frame of the receive time, SV clock."""
+        tau, clock, _ = signal_flight(sel, t, STATION)
+        return C * tau + bias - C * clock, t - tau + clock
 
     pr, tx = pseudorange(t_rx)
     # The Doppler of a static receiver with a still clock: minus the pseudorange rate over λ.
