@@ -203,10 +203,8 @@ def assisted_timing(record: ChannelRecord, end_time_s: float, end_transmit_s: fl
     if not record.rows:
         return None
     stage = record.column("stage")
-    rows = np.flatnonzero(stage == _VECTOR)
-    if rows.size < 2 or rows[-1] != stage.size - 1:
-        return None
-    rows = rows[rows > (np.flatnonzero(stage != _VECTOR)[-1] if np.any(stage != _VECTOR) else -1)]
+    other = np.flatnonzero(stage != _VECTOR)
+    rows = np.arange(other[-1] + 1 if other.size else 0, stage.size)  # empty when the last row is not vector
     if rows.size < 2:
         return None
     time_s, chips = record.column("time_s")[rows], record.column("code_phase_chips")[rows]
