@@ -20,12 +20,12 @@ import pytest
 from gnssframework import registry
 from gnssframework.navigation import lnav
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
-from gnssframework.receiver.channels import STAGES, ChannelRecord, tracking_config
+from gnssframework.receiver.channels import STAGES, ChannelRecord, TrackingResult, tracking_config
 from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.observables import LLI_HALF_CYCLE, assisted_timing
-from gnssframework.receiver.navigation.receive import receive
+from gnssframework.receiver.navigation.receive import assisted_observables, receive
 from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs
-from gnssframework.receiver.navigation.vector_tracking import assistance, vector_config
+from gnssframework.receiver.navigation.vector_tracking import VectorSolution, assistance, vector_config
 from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 from lnav_recordings import C, NAV, STATION, TOW0, WEEK, _satellite_time, _strongest, write_lnav_recording
 
@@ -78,6 +78,22 @@ def test_a_decoded_tow_checks_the_assisted_time(lnav_rows):
     assert assisted_timing(rec, end_s, end_tx).tow_offset_s == pytest.approx(0.0, abs=1e-9)
     # A start time one second late dates every row a second late: the TOW says so.
     assert assisted_timing(rec, end_s, end_tx + 1.0).tow_offset_s == pytest.approx(-1.0, abs=1e-9)
+
+
+def test_a_channel_whose_tow_disagrees_is_left_out(lnav_rows):
+    rec, tx, end_s, end_tx = lnav_rows
+    tracking = TrackingResult({20: rec}, [], float(end_s), "scalar")
+    good = VectorSolution(prns=(20,), rx_offset_s=TOW0, replica_tx={20: (end_s, end_tx)})
+    obs = assisted_observables(tracking, good, 1.0)
+    assert list(obs.prn) == [20] and not good.events
+    # Pseudoranges of a receiver clock at TOW0 + recording time: c (t_rx - t_SV) at the rows.
+    k = np.searchsorted(rec.column("time_s"), obs.sample_time_s[3])
+    t0, t1 = rec.column("time_s")[k - 1:k + 1]
+    t_sv = np.interp(obs.sample_time_s[3], [t0, t1], tx[k - 1:k + 1])
+    assert obs.pseudorange_m[3, 0] == pytest.approx(C * (TOW0 + obs.sample_time_s[3] - t_sv), abs=1e-3)
+    late = VectorSolution(prns=(20,), rx_offset_s=TOW0, replica_tx={20: (end_s, end_tx + 1.0)})
+    assert assisted_observables(tracking, late, 1.0) is None
+    assert "decoded TOW is -1.000 s" in late.events[-1][1]
 
 
 def test_scalar_rows_are_not_dated(lnav_rows):
