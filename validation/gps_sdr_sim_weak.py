@@ -28,7 +28,7 @@ dB-Hz: no fix at all, even with weak-signal settings):
   hand-over; written as RINEX 3.04 and read back by georinex to the millimetre; and, where
   ``rnx2rtkp`` is on PATH, RTKLIB's single-point solution on that file within 1 m of ours
   on the same observables (static and ``--moving``);
-- with ``--positions`` (minutes of CPU: CI runs the two above), the scalar receiver and the
+- with ``--positions`` (minutes of CPU: CI runs the checks above), the scalar receiver and the
   vector receiver that hands over at the scalar receiver's first fix (``--tracking vector``
   alone), on the same acquisition and file, reported the same way.
 
