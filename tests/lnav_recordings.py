@@ -16,13 +16,12 @@ from gnssframework.receiver.frontend import write_recording
 from gnssframework.signal.constants import L1_FREQ_HZ
 from gnssframework.signal.if_samples import generate_if_samples
 from gnssframework.navigation.ephemeris import satellite_state
+from light_time import C, signal_flight  # noqa: F401 (C: the receiver tests import it from here)
 
 WEEK = 1316  # the week the generator's LNAV carries
 DATA = Path(__file__).parent / "data"
 NAV = DATA / "07590920.05n"
 STATION = np.array([-3976219.5082, 3382372.5671, 3652512.9849])
-C = 299_792_458.0
-OMEGA_E = 7.2921151467e-5
 FS = 2.046e6
 # GPS time of the first sample: subframe 2 starts 2.6 s in and has arrived 8.6 s in (bit sync
 # needs bit transitions: the end of subframe 1 before it has them; the generator's empty page
@@ -33,15 +32,8 @@ CHUNK_S = 0.5
 
 def _satellite_time(eph, t_rx):
     """t_SV of the signal received at true GPS time t_rx by the station (receiver clock exact)."""
-    tau = np.full(eph.sv.size, 0.07)
-    for _ in range(6):
-        st = satellite_state(eph, t_rx - tau)
-        th = OMEGA_E * tau
-        p = st.position_m
-        rot = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1],
-                        p[:, 2]], axis=1)
-        tau = np.linalg.norm(rot - STATION, axis=1) / C
-    return t_rx - tau + st.clock_l1_s
+    tau, clock, _ = signal_flight(eph, t_rx, STATION)
+    return t_rx - tau + clock
 
 
 def _strongest(nav, t, n):

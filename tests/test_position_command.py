@@ -12,26 +12,18 @@ import pytest
 
 from gnssframework.cli import main
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
+from light_time import C, signal_flight
 from gnssframework.receiver.navigation.fixes import POSITION_COLUMNS, full_week, solve_epochs, write_positions_csv
 from gnssframework.receiver.navigation.observables import Observables
 from gnssframework.receiver.frontend import SatelliteSignal, synthesize_samples, write_recording
 
 DATA = Path(__file__).parent / "data"
 STATION = np.array([-3976219.5082, 3382372.5671, 3652512.9849])  # 07590920.05o header, m
-C = 299_792_458.0
-OMEGA_E = 7.2921151467e-5
 
 
 def _pseudoranges(eph, t_rx, bias_m):
-    tau = np.full(eph.sv.size, 0.07)
-    for _ in range(6):
-        st = satellite_state(eph, t_rx - tau)
-        th = OMEGA_E * tau
-        p = st.position_m
-        rot = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1],
-                        p[:, 2]], axis=1)
-        tau = np.linalg.norm(rot - STATION, axis=1) / C
-    return C * tau + bias_m - C * st.clock_l1_s, t_rx - tau + st.clock_l1_s
+    tau, clock, _ = signal_flight(eph, t_rx, STATION)
+    return C * tau + bias_m - C * clock, t_rx - tau + clock
 
 
 @pytest.fixture(scope="module")

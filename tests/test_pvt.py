@@ -12,29 +12,20 @@ import pytest
 
 from gnssframework.errors import ConfigError
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
+from light_time import C, signal_flight
 from gnssframework.navigation.lnav import IonoUtc
 from gnssframework.navigation.pvt import dop, klobuchar_delay_s, solve_position, troposphere_delay_m
 
 NAV = Path(__file__).parent / "data" / "07590920.05n"
 STATION = np.array([-3976219.5082, 3382372.5671, 3652512.9849])  # its RINEX header, m
-C = 299_792_458.0
-OMEGA_E = 7.2921151467e-5
 T_RX = 518_400.0 + 300.0  # GPS seconds of week, 5 min after the records' Toe
 IONO = IonoUtc(alpha=(1.118e-08, 1.49e-08, -5.96e-08, -5.96e-08), beta=(9.011e04, 1.638e04, -1.966e05, -6.554e04))
 
 
 def _truth(eph, t_rx, receiver, bias_m):
     """Pseudoranges (no atmosphere) and satellite times of transmission at true time t_rx."""
-    tau = np.full(eph.sv.size, 0.07)
-    for _ in range(6):
-        st = satellite_state(eph, t_rx - tau)
-        th = OMEGA_E * tau
-        p = st.position_m
-        rot = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1],
-                        p[:, 2]], axis=1)
-        tau = np.linalg.norm(rot - receiver, axis=1) / C
-    t_sv = (t_rx - tau) + st.clock_l1_s  # the satellite's clock reads t + Δt_SV
-    return C * tau + bias_m - C * st.clock_l1_s, t_sv
+    tau, clock, _ = signal_flight(eph, t_rx, receiver)
+    return C * tau + bias_m - C * clock, t_rx - tau + clock  # the satellite's clock reads t + Δt_SV
 
 
 @pytest.fixture(scope="module")

@@ -204,6 +204,8 @@ def test_position_command_starts_vector_tracking_from_the_assistance(weak, tmp_p
     assert code == 0, out
     assert "vector tracking from 0.1 s" in out
     assert len((tmp_path / "pos" / "positions.csv").read_text().splitlines()) > 5
+    # No LNAV, yet observations: the vector channels dated from the assisted transmit times.
+    assert (tmp_path / "pos" / "observations.rnx").read_text().count("\n> ") >= 10
 
 
 @pytest.mark.parametrize("extra", [["--approx-position", "35,139,10"], ["--start-time", "1316,1.5"],

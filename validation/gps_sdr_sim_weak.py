@@ -1,9 +1,10 @@
 """Weak signals: acquisition, scalar and vector tracking and positions at 35 dB-Hz on gps-sdr-sim.
 
-    python validation/gps_sdr_sim_weak.py [--cn0 35] [--duration 20] [--fs 2.6e6] [--seed 1] [--positions]
+    python validation/gps_sdr_sim_weak.py [--cn0 35] [--duration 20] [--fs 2.6e6] [--seed 1] [--positions] [--moving]
 
 gps-sdr-sim (``../shared/tools/gps-sdr-sim``, as `gps_sdr_sim_navigation` runs it) simulates
-the static receiver of `gps_sdr_sim_navigation` from ``brdc0010.22n``; complex white noise
+the static receiver of `gps_sdr_sim_navigation` from ``brdc0010.22n`` (``--moving``: its
+receiver on the 100 m circle at 15 m/s, the truth at each fix's time); complex white noise
 is added for the chosen C/N0 (every satellite at it). Ephemerides come from the RINEX file
 (``--ephemeris``). Reported, beside GNSS-SDR 0.0.17's figures quoted in issue 25 (at 35
 dB-Hz: no fix at all, even with weak-signal settings):
@@ -18,8 +19,16 @@ dB-Hz: no fix at all, even with weak-signal settings):
   satellites used, time to first fix, horizontal and vertical RMS error against
   gps-sdr-sim's position; checked: a fix with every healthy satellite acquired,
   horizontal RMS under 5 m and vertical under 10 m (gps-sdr-sim models no troposphere:
-  none is applied; Klobuchar from the RINEX header, which gps-sdr-sim applies);
-- with ``--positions`` (minutes of CPU: CI runs the two above), the scalar receiver and the
+  none is applied; Klobuchar from the RINEX header, which gps-sdr-sim applies); the
+  navigation filter ``ekf-pv`` at its default white acceleration (0.1 m²/s³) when static,
+  at the circle's ``v³/R`` (34 m²/s³, as `gps_sdr_sim_navigation`) when moving;
+- the assisted receiver's observables (no LNAV: each vector channel dated from its
+  assisted transmit time, `receive.assisted_observables`): pseudorange minus gps-sdr-sim's
+  (`sim_truth`) one common term per epoch, its spread under 3 m RMS from 2 s after the
+  hand-over; written as RINEX 3.04 and read back by georinex to the millimetre; and, where
+  ``rnx2rtkp`` is on PATH, RTKLIB's single-point solution on that file within 1 m of ours
+  on the same observables (static and ``--moving``);
+- with ``--positions`` (minutes of CPU: CI runs the checks above), the scalar receiver and the
   vector receiver that hands over at the scalar receiver's first fix (``--tracking vector``
   alone), on the same acquisition and file, reported the same way.
 
@@ -40,8 +49,10 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from gps_sdr_sim_navigation import header_klobuchar  # noqa: E402
-from gps_sdr_sim_run import LOCATION, NAV, SIM_DIR, add_noise, parse_log, simulate  # noqa: E402
+import sim_truth  # noqa: E402
+from gps_sdr_sim_navigation import header_klobuchar, rtklib_check  # noqa: E402
+from gps_sdr_sim_run import (CIRCLE_RADIUS_M, CIRCLE_SPEED_MPS, LOCATION, NAV, SIM_DIR, add_noise,  # noqa: E402
+                             circle_truth, parse_log, simulate)
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
@@ -49,7 +60,9 @@ from gnssframework.navigation.lnav import IonoUtc  # noqa: E402
 from gnssframework.receiver.acquisition.report import acquire_recording  # noqa: E402
 from gnssframework.receiver.channels import tracking_config  # noqa: E402
 from gnssframework.receiver.frontend import open_recording  # noqa: E402
+from gnssframework.receiver.navigation.fixes import solve_epochs  # noqa: E402
 from gnssframework.receiver.navigation.receive import position_errors, receive  # noqa: E402
+from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs  # noqa: E402
 from gnssframework.receiver.navigation.vector_tracking import assistance, vector_config  # noqa: E402
 
 #: GNSS-SDR 0.0.17 on the same kind of file (issue 25): at 45 dB-Hz, and at 35 dB-Hz.
@@ -57,17 +70,101 @@ GNSS_SDR_45 = "6-8 satellites acquired, first fix 42-48 s, 4-5 used, horizontal 
 GNSS_SDR_35 = "no fix"
 
 
-def summary(name: str, table, healthy: list[int]) -> tuple[str, float, float, bool]:
+def truth_errors(table, moving: bool) -> tuple[np.ndarray, np.ndarray]:
+    """East, north, up position errors ``(F, 3)`` and velocity errors ``(F, 3)`` of the
+    fixes against gps-sdr-sim's receiver: the static point, or the circle at each fix's
+    recording time (ENU at LOCATION's axes: 100 m away they turn by 3 arc seconds)."""
+    import pymap3d
+
+    vel = np.stack([table.columns[k] for k in ("vel_e_mps", "vel_n_mps", "vel_u_mps")], 1)
+    if not moving:
+        return position_errors(table, LOCATION), vel
+    xyz, vel_truth = circle_truth(table.sample_time_s)
+    d = table.ecef_m - xyz
+    return np.stack(pymap3d.ecef2enuv(d[:, 0], d[:, 1], d[:, 2], *LOCATION[:2]), axis=-1), vel - vel_truth
+
+
+def summary(name: str, table, healthy: list[int], moving: bool = False) -> tuple[str, float, float, bool]:
     """One line of the report, the H and V RMS errors and whether every healthy satellite was used."""
     if table is None or len(table) == 0:
         return f"{name}: no fix", np.inf, np.inf, False
-    err = position_errors(table, LOCATION)
+    err, dvel = truth_errors(table, moving)
     h = float(np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))))
     v = float(np.sqrt(np.mean(err[:, 2] ** 2)))
+    speed = float(np.sqrt(np.mean(np.sum(dvel**2, axis=1))))
     n = table.columns["n_sats"]
     every = all(set(healthy) <= set(u) for u in table.used_prns)
     return (f"{name}: {len(table)} fixes, first {table.sample_time_s[0]:.1f} s into the recording, {n.min()}-{n.max()} "
-            f"satellites (every healthy one: {every}), horizontal RMS {h:.2f} m, vertical RMS {v:.2f} m", h, v, every)
+            f"satellites (every healthy one: {every}), horizontal RMS {h:.2f} m, vertical RMS {v:.2f} m, velocity "
+            f"error {speed:.2f} m/s RMS", h, v, every)
+
+
+def pseudorange_spread_m(obs, used_by_sim, sats: dict, tow0: float, moving: bool,
+                         from_s: float = 0.0) -> tuple[float, float, int]:
+    """RMS over the epochs from recording time ``from_s`` on of the spread over the satellites of pseudorange minus gps-sdr-sim's
+    (`sim_truth`: its geometry, satellite clock and printed Klobuchar delay), the RMS of the
+    common term (the receiver clock: zero for a start time that is gps-sdr-sim's) and the epochs."""
+    import pymap3d
+
+    static = np.array(pymap3d.geodetic2ecef(*LOCATION))
+    ephs = {}
+    for p in obs.prn:
+        k = np.flatnonzero(used_by_sim.sv == f"G{int(p):02d}")
+        ephs[int(p)] = {**{n: float(v[k[0]]) for n, v in used_by_sim.elements.items()},
+                        "toc_tow": float(used_by_sim.toc_s[k[0]])}
+    spread, common = [], []
+    for e in range(obs.rx_time_s.size):
+        ok = np.flatnonzero(np.isfinite(obs.pseudorange_m[e]))
+        if ok.size < 2 or obs.sample_time_s[e] < from_s:
+            continue
+        receiver = circle_truth(obs.sample_time_s[e:e + 1])[0][0] if moving else static
+        t_true = np.array([tow0 + obs.sample_time_s[e]])
+        diff = [obs.pseudorange_m[e, j] - sim_truth.pseudorange_m(ephs[int(obs.prn[j])], receiver, t_true,
+                                                                   sats[int(obs.prn[j])][3])[0][0] for j in ok]
+        spread.append(np.std(diff))
+        common.append(np.mean(diff))
+    rms = (lambda x: float(np.sqrt(np.mean(np.square(x)))) if x else np.inf)
+    return rms(spread), rms(common), len(spread)
+
+
+def assisted_rinex(check, result, work: Path, rinex, used_by_sim, sats: dict, week: int, tow0: float,
+                   moving: bool) -> None:
+    """The assisted receiver's observables (no LNAV: dated from the assisted transmit times)
+    against gps-sdr-sim's geometry, as observations.rnx read back by georinex, and rnx2rtkp's
+    single-point solution on that file against ours on the same observables."""
+    import warnings
+
+    import georinex
+
+    obs = result.observables
+    if obs is None:
+        check(False, "assisted observables: none (no vector channel dated)")
+        return
+    # From 2 s after the hand-over: the channels go over from pull-in a quarter chip off, which
+    # the loop steers out in about 1.5 s (all epochs printed too).
+    settled = result.vector.handover_s + 2.0
+    for since in (0.0, settled):
+        spread, common, n = pseudorange_spread_m(obs, used_by_sim, sats, tow0, moving, since)
+        text = (f"assisted pseudoranges minus gps-sdr-sim's from {since:.1f} s: spread over the satellites {spread:.2f} "
+                f"m RMS over {n} epochs, common term {common:.2f} m RMS (the receiver clock at the start time)")
+        if since == settled:
+            check(spread < 3.0, text)
+        else:
+            print("  --    " + text)
+    path = write_rinex_obs(work / "observations.rnx", obs, week)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        back = georinex.load(path)
+    order = [list(back.sv.values).index(f"G{p:02d}") for p in obs.prn]
+    epochs = [e for e in range(obs.rx_time_s.size) if np.isfinite(obs.pseudorange_m[e]).any()]
+    diff = back["C1C"].values[:, order] - obs.pseudorange_m[epochs]
+    check(back.time.size == len(epochs) and np.nanmax(np.abs(diff)) <= 0.0005 + 1e-9,
+          f"assisted observations.rnx: {back.time.size} epochs of {len(obs.prn)} satellites read back by georinex, "
+          f"C1C within {np.nanmax(np.abs(diff)) * 1e3:.2f} mm of the observables")
+    ours = solve_epochs(obs, rinex, reference_week=week, elevation_weights=False)
+    # Checked for the moving receiver too: the assisted receiver clock is the start time, so
+    # RTKLIB's epochs (receive time less its clock estimate) are ours to nanoseconds.
+    rtklib_check(check, path, ours, work, False)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -77,6 +174,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fs", type=float, default=2.6e6, help="sample rate")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--positions", action="store_true", help="also track and position, scalar and vector")
+    ap.add_argument("--moving", action="store_true",
+                    help=f"a receiver on a {CIRCLE_RADIUS_M:.0f} m circle at {CIRCLE_SPEED_MPS:.0f} m/s, not static")
     args = ap.parse_args(argv)
     failures = []
 
@@ -88,7 +187,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         try:
-            sim, log = simulate(work, args.duration, args.fs, False)
+            sim, log = simulate(work, args.duration, args.fs, args.moving)
         except (subprocess.CalledProcessError, FileNotFoundError, OSError) as exc:
             print(f"cannot build or run gps-sdr-sim from {SIM_DIR}: {exc}", file=sys.stderr)
             return 2
@@ -100,7 +199,8 @@ def main(argv: list[str] | None = None) -> int:
         used_by_sim = rinex.select([f"G{p:02d}" for p in sats], tow0, healthy_only=False)
         healthy = sorted(p for p, h in zip(sats, used_by_sim.health) if h == 0)
         print(f"gps-sdr-sim: week {week}, tow {tow0:.0f} s, {len(sats)} satellites {sorted(sats)} ({len(healthy)} "
-              f"healthy), {args.duration} s at {args.fs:g} Hz, noise for {args.cn0} dB-Hz, static")
+              f"healthy), {args.duration} s at {args.fs:g} Hz, noise for {args.cn0} dB-Hz, "
+              f"{'moving on a circle' if args.moving else 'static'}")
         print(f"GNSS-SDR 0.0.17 (issue 25): at 45 dB-Hz {GNSS_SDR_45}; at 35 dB-Hz {GNSS_SDR_35}")
         rec = open_recording(rec_path)
 
@@ -117,16 +217,24 @@ def main(argv: list[str] | None = None) -> int:
         alpha, beta = header_klobuchar(NAV)
         lat, lon, height = LOCATION
         assist = assistance((lat + 0.3, lon, height), week, tow0, IonoUtc(tuple(alpha), tuple(beta)))
-        runs = [("assisted vector", vector_config(), assist)]
+        # ekf-pv's white acceleration: its default for the static receiver; on the circle v³/R
+        # (the centripetal acceleration as white noise, as gps_sdr_sim_navigation sets it).
+        accel_psd = CIRCLE_SPEED_MPS**3 / CIRCLE_RADIUS_M if args.moving else 0.1
+        vector = vector_config(nav_params={"accel_psd": accel_psd})
+        print(f"  assistance: approximate position {lat + 0.3:.6f} {lon:.6f} {height:.1f} m (0.3 deg, 33 km, north "
+              f"of the {'circle centre' if args.moving else 'receiver'}), start time week {week} tow {tow0:.3f} s "
+              f"(gps-sdr-sim's first sample), Klobuchar from the RINEX header; ekf-pv accel_psd {accel_psd:g} m²/s³")
+        runs = [("assisted vector", vector, assist)]
         if args.positions:
-            runs += [("scalar", None, None), ("vector from the scalar fix", vector_config(), None)]
+            runs += [("scalar", None, None), ("vector from the scalar fix", vector, None)]
         for name, vector, helper in runs:
             t = time.perf_counter()
             result = receive(rec, weak, tracking_config(), rinex=rinex, reference_week=week, vector=vector,
                              acquisitions=results, assist=helper)
             t = time.perf_counter() - t
             acquired_healthy = sorted(set(healthy) & set(found))
-            line, h, v, every = summary(f"{name} tracking ({t:.0f} s wall)", result.positions, acquired_healthy)
+            line, h, v, every = summary(f"{name} tracking ({t:.0f} s wall)", result.positions, acquired_healthy,
+                                        args.moving)
             if result.vector is not None and result.vector.handover_s is not None:
                 print(f"  {name}: the loop closed at {result.vector.handover_s:.2f} s on PRN "
                       f"{', '.join(map(str, result.vector.prns))}")
@@ -134,6 +242,7 @@ def main(argv: list[str] | None = None) -> int:
                 print("  " + line)
                 continue
             check(every and h < 5.0 and v < 10.0, line)
+            assisted_rinex(check, result, work, rinex, used_by_sim, sats, week, tow0, args.moving)
     print("PASS" if not failures else f"FAIL: {len(failures)} check(s)")
     return 0 if not failures else 1
 

@@ -32,6 +32,16 @@ held for 50 bits (1 s), as a false lock seldom does. Until the run's own preambl
 found the carrier's polarity is unknown. The observables flag both, per RINEX 3.04
 (section 5.3): bit 0 of ``lli`` on the first epoch of every run after a channel's first
 (lost lock: cycle slip possible), bit 1 on epochs whose carrier has a half-cycle ambiguity.
+
+An assisted vector start (`vector_tracking.Assistance`) decodes no LNAV before its channels
+close: `assisted_timing` dates a vector channel's rows from the replica's transmit time the
+tracker resolved (from the approximate position and start time) instead. A replica's
+transmit time modulo 1 ms is its code phase (a C/A period is 1 ms of satellite time), so a
+row's time is its code phase plus the whole milliseconds nearest the tracker's time carried
+back to it; the receiver clock is then the start time plus recording time
+(`observables`' ``rx_offset_s``). Once a subframe arrives on those rows, its TOW checks the
+dating (``tow_offset_s``): the start time's error, in whole bits (a misresolved millisecond
+is refused earlier, by the assisted fix's residuals).
 """
 
 from __future__ import annotations
@@ -50,13 +60,17 @@ from ...navigation.lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_l
 if TYPE_CHECKING:
     from ..channels import ChannelRecord
 
-__all__ = ["ChannelTiming", "Observables", "channel_timing", "observables", "SPEED_OF_LIGHT_MPS", "MAX_BRIDGE_S",
-           "LLI_LOST_LOCK", "LLI_HALF_CYCLE"]
+__all__ = ["ChannelTiming", "Observables", "channel_timing", "assisted_timing", "observables", "SPEED_OF_LIGHT_MPS",
+           "MAX_BRIDGE_S", "LLI_LOST_LOCK", "LLI_HALF_CYCLE", "TOW_TOLERANCE_S"]
 
 #: Speed of light, m/s (IS-GPS-200 20.3.4.3).
 SPEED_OF_LIGHT_MPS = 299_792_458.0
 _WEEK_S = 604_800.0
 _EXTENDED = 2  # index of "extended" in receiver.channels.STAGES: bit-aligned integrations
+_VECTOR = 4  # index of "vector" in receiver.channels.STAGES: closed by the navigation filter
+#: Largest difference (s) between a decoded TOW and an assisted transmit time taken as agreement
+#: (both put the subframe's start on a whole 20 ms: any disagreement is a whole bit or more).
+TOW_TOLERANCE_S = 1e-3
 _MAX_GAP_S = 0.025  # rows further apart are not interpolated between
 #: Longest gap (s) across which a run is dated from the previous one: receiver clock drift
 #: and Doppler error together stay under 1e-5, so the prediction's error is well under 10 ms.
@@ -91,6 +105,9 @@ class ChannelTiming:
     ephemerides: list[tuple[float, Ephemerides]]
     arc_start: np.ndarray | None = None
     polarity_known: np.ndarray | None = None
+    #: `assisted_timing` only: the decoded TOW minus the assisted time at the start of the first
+    #: subframe found on the rows (None: none found).
+    tow_offset_s: float | None = None
 
 
 def _bit_time(run, time_s: np.ndarray, bit: int) -> float:
@@ -170,6 +187,61 @@ def _bridge(rows: list[np.ndarray], tx: list[np.ndarray], time_s: np.ndarray, do
     return float(np.round(predicted / bit_s) * bit_s)
 
 
+def assisted_timing(record: ChannelRecord, end_time_s: float, end_transmit_s: float) -> ChannelTiming | None:
+    r"""The vector-tracked rows of a channel closed by an assisted start, dated from the
+    replica's transmit time ``end_transmit_s`` (s of week) at recording time ``end_time_s``
+    after its last row (see the module text); None without two such rows.
+
+    The rows are the record's last unbroken stretch of the ``vector`` stage. Row ``k``'s
+    transmit time is :math:`t_k = 10^{-3}\,\mathrm{round}(10^3 (\tilde t_k - p_k / f_c)) + p_k / f_c`
+    with :math:`p_k` its code phase (chips), :math:`f_c` the chip rate and
+    :math:`\tilde t_k = t_{end} - (\tau_{end} - \tau_k)(1 + D_k / f_{L1})` the end's time
+    carried back at the row's Doppler (satellite time runs at :math:`1 + D/f_{L1}` of
+    receive time, IS-GPS-200 3.3.1.1; the error over a minute is microseconds). Carrier
+    phase carries the half-cycle flag (no preamble has fixed its polarity).
+    """
+    if not record.rows:
+        return None
+    stage = record.column("stage")
+    other = np.flatnonzero(stage != _VECTOR)
+    rows = np.arange(other[-1] + 1 if other.size else 0, stage.size)  # empty when the last row is not vector
+    if rows.size < 2:
+        return None
+    time_s, chips = record.column("time_s")[rows], record.column("code_phase_chips")[rows]
+    doppler = record.column("doppler_hz")[rows]
+    sub_ms_s = chips / CA_CHIP_RATE_HZ
+    approx = end_transmit_s - (end_time_s - time_s) * (1.0 + doppler / L1_FREQ_HZ)
+    tx = np.round((approx - sub_ms_s) * 1e3) * 1e-3 + sub_ms_s
+    n = rows.size
+    starts = np.zeros(n, dtype=bool)
+    starts[0] = True
+    return ChannelTiming(record.prn, time_s, tx % _WEEK_S, doppler, record.column("carrier_phase_cycles")[rows],
+                         record.column("cn0_dbhz")[rows], np.zeros(n, dtype=bool), LnavMessage(record.prn, [], None,
+                                                                                               None, None),
+                         [], starts, np.zeros(n, dtype=bool),
+                         _tow_offset(tx, record.column("prompt_i")[rows], record.column("coherent_ms")[rows]))
+
+
+def _tow_offset(tx_s: np.ndarray, prompt_i: np.ndarray, coherent_ms: np.ndarray) -> float | None:
+    """The decoded TOW minus the assisted time at the start of the first subframe found in
+    the rows' bits (rows summed into 20 ms bits by their transmit times; a bit not wholly
+    covered is a zero symbol, which fails parity), or None."""
+    bit_s = BIT_MS * 1e-3
+    # Each row's bit: from its transmit time at mid-interval, clear of the bit edges it starts on.
+    bit = np.floor((tx_s + 0.5 * coherent_ms * 1e-3) / bit_s).astype(np.int64)
+    first = int(bit[0])
+    k = bit - first
+    symbols = np.bincount(k, weights=prompt_i)
+    covered = np.bincount(k, weights=coherent_ms.astype(float))
+    symbols[covered != BIT_MS] = 0.0
+    subframes = find_subframes(symbols)
+    if not subframes:
+        return None
+    sub = subframes[0]
+    offset = sub.tow_s - (first + sub.start) * bit_s
+    return float((offset + _WEEK_S / 2) % _WEEK_S - _WEEK_S / 2)
+
+
 def _merge(prn: int, messages: list[LnavMessage]) -> LnavMessage:
     """One message of a channel's runs: their subframes, the last ephemeris, page 18 and week."""
 
@@ -191,7 +263,8 @@ class Observables:
     ``ephemeris`` holds each PRN's decoded records with the recording time from which each
     is known, ``iono_utc`` the first decoded page 18, ``week`` the decoded 10-bit week.
     ``lli`` ``(E, S)`` the RINEX loss-of-lock bits of the carrier phase (`LLI_LOST_LOCK`,
-    `LLI_HALF_CYCLE`; None: not known, written blank).
+    `LLI_HALF_CYCLE`; None: not known, written blank). Of an assisted start
+    (`assisted_timing`), ``iono_utc`` is the assistance's and ``week`` None.
     """
 
     rx_time_s: np.ndarray
@@ -219,7 +292,8 @@ def _interp(t_new: np.ndarray, t: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.where(ok, y[k - 1] + w * (y[k] - y[k - 1]), np.nan)
 
 
-def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0) -> Observables:
+def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0, rx_offset_s: float | None = None,
+                iono_utc: IonoUtc | None = None) -> Observables:
     """Pseudorange, Doppler and carrier phase of every channel at common receive epochs.
 
     Parameters
@@ -228,6 +302,11 @@ def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0) -> Ob
         `channel_timing` of each channel (None entries are skipped).
     rate_hz
         Epochs per second of the receiver clock (on its whole multiples of ``1 / rate_hz``).
+    rx_offset_s
+        The receiver clock at the recording's first sample (GPS s of week), when known (an
+        assisted start's start time); None: chosen to put the first pseudoranges near 75 ms.
+    iono_utc
+        Klobuchar coefficients when no channel decoded page 18 (an assistance's).
 
     Raises
     ------
@@ -241,8 +320,11 @@ def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0) -> Ob
         raise ConfigError("observables", "no channel has a decoded transmit time (no LNAV subframe decoded: track "
                                          "at least ~8 s of a locked, bit-synchronised signal)")
     # Receiver clock: recording time + offset, the offset putting the first pseudoranges near 75 ms.
-    first = [tm.transmit_s[0] - tm.time_s[0] for tm in timings]
-    offset = float(np.round((np.median(first) + 0.075) * 1e3) / 1e3)
+    if rx_offset_s is None:
+        first = [tm.transmit_s[0] - tm.time_s[0] for tm in timings]
+        offset = float(np.round((np.median(first) + 0.075) * 1e3) / 1e3)
+    else:
+        offset = float(rx_offset_s)
     t_lo = min(t.time_s[0] for t in timings) + offset
     t_hi = max(t.time_s[-1] for t in timings) + offset
     epochs = np.arange(np.ceil(t_lo * rate_hz), np.floor(t_hi * rate_hz) + 1) / rate_hz
@@ -263,7 +345,7 @@ def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0) -> Ob
         lli[:, j] = _loss_of_lock(sample_t, tm, np.isfinite(tx[:, j]))
     pr = SPEED_OF_LIGHT_MPS * ((epochs[:, None] - tx + _WEEK_S / 2) % _WEEK_S - _WEEK_S / 2)
     eph = {t.prn: t.ephemerides for t in timings if t.ephemerides}
-    iono = next((t.message.iono_utc for t in timings if t.message.iono_utc is not None), None)
+    iono = next((t.message.iono_utc for t in timings if t.message.iono_utc is not None), iono_utc)
     week = next((t.message.week for t in timings if t.message.week is not None), None)
     return Observables(epochs % _WEEK_S, sample_t, prn, tx % _WEEK_S, pr, dop, cyc, cn0, eph, iono, week, lli)
 

@@ -22,13 +22,14 @@ from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..frontend.recording import Recording
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides
+from ...navigation.lnav import IonoUtc
 from ...plugin_ref import PluginSpec
 from .filtered import filter_epochs
 from .fixes import PositionTable, solve_epochs
-from .observables import Observables, channel_timing, observables
+from .observables import TOW_TOLERANCE_S, Observables, assisted_timing, channel_timing, observables
 from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
 
-__all__ = ["ReceiveResult", "receive", "position_errors", "concatenate_tables"]
+__all__ = ["ReceiveResult", "receive", "assisted_observables", "position_errors", "concatenate_tables"]
 
 
 @dataclass(frozen=True)
@@ -59,7 +60,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     positions are the scalar fixes before the hand-over, then the navigation filter's.
     ``acquisitions`` (made on the first samples) replace the initial search. ``assist``
     (with ``vector`` and ``rinex``) hands over without LNAV, from an approximate position
-    and start time (`vector_tracking.Assistance`)."""
+    and start time (`vector_tracking.Assistance`); the observables are then the vector
+    channels' (`assisted_observables`), and ``least_squares`` the fixes of those."""
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
                                         "give nav_filter or vector, not both")
@@ -80,6 +82,12 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
         else:
             obs = None
         table = concatenate_tables(scalar, solution.table(vector.solution_rate_hz), solution.handover_s)
+        if assist is not None and solution.replica_tx:
+            assisted = assisted_observables(tracking, solution, rate_hz, assist.iono)
+            if assisted is not None:  # the vector channels' rows, dated without LNAV
+                least_squares = solve_epochs(assisted, rinex, ionosphere=ionosphere, troposphere=troposphere,
+                                             reference_week=assist.week if reference_week is None else reference_week)
+                return ReceiveResult(tracking, assisted, table, least_squares, solution)
         return ReceiveResult(tracking, obs, table, scalar, solution)
     if assist is not None:
         raise ConfigError("approx_position", "an approximate position and start time start vector tracking: "
@@ -95,6 +103,30 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     filtered = filter_epochs(obs, table, nav_filter.name, nav_filter.params, rinex, ionosphere=ionosphere,
                              troposphere=troposphere, reference_week=reference_week)
     return ReceiveResult(tracking, obs, filtered, table)
+
+
+def assisted_observables(tracking: TrackingResult, solution: VectorSolution, rate_hz: float,
+                         iono: IonoUtc | None = None) -> Observables | None:
+    """Observables of the vector channels of an assisted start (`observables.assisted_timing`),
+    the receiver clock at the start time (``solution.rx_offset_s``); None without a dated channel.
+
+    A channel whose decoded TOW disagrees with its assisted transmit time (by more than
+    `observables.TOW_TOLERANCE_S`: the start time was wrong) is left out, with an event in
+    ``solution.events``.
+    """
+    timings = []
+    for prn, (end_s, end_tx_s) in sorted(solution.replica_tx.items()):
+        tm = assisted_timing(tracking.channels[prn], end_s, end_tx_s)
+        if tm is None:
+            continue
+        if tm.tow_offset_s is not None and abs(tm.tow_offset_s) > TOW_TOLERANCE_S:
+            solution.events.append((float(tm.time_s[-1]), f"PRN {prn}: its decoded TOW is {tm.tow_offset_s:+.3f} s "
+                                    "from the assisted transmit time (a wrong start time?): left out of the observables"))
+            continue
+        timings.append(tm)
+    if not any(tm.time_s.size > 1 for tm in timings):
+        return None
+    return observables(timings, rate_hz, rx_offset_s=solution.rx_offset_s, iono_utc=iono)
 
 
 def concatenate_tables(before: PositionTable | None, after: PositionTable | None,

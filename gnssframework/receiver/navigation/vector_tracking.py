@@ -189,6 +189,9 @@ class VectorSolution:
     used: list[np.ndarray] = field(default_factory=list)
     dops: list[tuple[float, float]] = field(default_factory=list)
     events: list[tuple[float, str]] = field(default_factory=list)
+    #: Per vector channel's PRN at the end of the run: the recording time of its next
+    #: interval's start and its replica's transmit time there (s of week, SV time).
+    replica_tx: dict[int, tuple[float, float]] = field(default_factory=dict)
 
     def table(self, rate_hz: float = 1.0) -> PositionTable | None:
         """The epochs nearest whole multiples of ``1 / rate_hz`` of recording time as a
@@ -267,7 +270,12 @@ class VectorSampleTracker(SampleTracker):
         self.next_try = max(self.vector.earliest_s, self.vector.try_every_s)
         self.next_assist = self.vector.earliest_s
         self.acq_doppler = np.zeros(32)
-        return super().run(acquisitions, duration_s, progress)
+        result = super().run(acquisitions, duration_s, progress)
+        if self.nav is not None:  # what dates the vector channels' rows (`observables.assisted_timing`)
+            tx = self._replica_tx(self.vslots)
+            self.solution.replica_tx = {int(i) + 1: (float(self.start_sample[i]) / self.fs, float(t))
+                                        for i, t in zip(self.vslots, tx)}
+        return result
 
     # --- the tracker's hooks -------------------------------------------------------------
 

@@ -1,0 +1,38 @@
+"""The tests' signal geometry, independent of the library's solver: the flight time of a
+signal received at a true GPS time, light time iterated with the Earth rotated during the
+flight (IS-GPS-200 20.3.3.4.3.3.2), and the satellite clock at transmission."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from gnssframework.navigation.ephemeris import Ephemerides, satellite_state
+
+C = 299_792_458.0
+OMEGA_E = 7.2921151467e-5  # WGS 84 Earth rotation rate (rad/s)
+
+
+class Flight(NamedTuple):
+    """``tau_s`` the flight times (s), ``clock_s`` the satellites' clock offsets at
+    transmission (s: a satellite's clock reads ``t_rx - tau + clock`` when it sends) and
+    ``position_m`` ``(n, 3)`` the satellites at transmission in the ECEF frame of reception."""
+
+    tau_s: np.ndarray
+    clock_s: np.ndarray
+    position_m: np.ndarray
+
+
+def signal_flight(eph: Ephemerides, t_rx: float | np.ndarray, receiver: np.ndarray) -> Flight:
+    """The flight of each satellite's signal received at true GPS time ``t_rx`` by
+    ``receiver`` (ECEF m)."""
+    tau = np.full(eph.sv.size, 0.07)
+    for _ in range(6):
+        st = satellite_state(eph, t_rx - tau)
+        th = OMEGA_E * tau
+        p = st.position_m
+        rot = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1],
+                        p[:, 2]], axis=1)
+        tau = np.linalg.norm(rot - receiver, axis=1) / C
+    return Flight(tau, st.clock_l1_s, rot)
