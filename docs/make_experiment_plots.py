@@ -36,6 +36,8 @@ TABLES = {"vector_tracking": _VECTOR_TRACKING_TABLE, "vector_tracking_static": _
 SWEEP_TABLES = {"vector_tracking_sweep": ["carrier_freq_error_rmse", "velocity_error_rmse", "position_error_rmse",
                                           "nees_position", "nees_velocity", "freq_output_rmse", "pcrb_position",
                                           "pcrb_velocity"]}
+#: Examples whose page includes the paper's values beside theirs (docs/published_tables.py).
+PUBLISHED_TABLES = {"vector_tracking": ["ackf-literal", "discriminator-fixed-r"]}
 TABLES["deep_integration_ci"] = TABLES["deep_integration"]
 TABLES["deep_integration_elevation_ci"] = TABLES["deep_integration"]
 TABLES["deep_integration_lock_ci"] = ["loss_of_lock_fraction", "phase_lock_loss_fraction", "cycle_slip_rate",
@@ -72,6 +74,12 @@ def main() -> int:
             from experiment_tables import write
 
             print(f"{name}: tables written to {write(summary.parent, name, TABLES[name])}")
+        if name in PUBLISHED_TABLES:
+            sys.path.insert(0, str(ROOT / "docs"))
+            from published_tables import write as write_published
+
+            print(f"{name}: published values written to "
+                  f"{write_published(summary.parent, name, PUBLISHED_TABLES[name])}")
         if name in SWEEP_TABLES:
             sys.path.insert(0, str(ROOT / "docs"))
             from sweep_tables import write as write_sweep

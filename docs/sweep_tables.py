@@ -22,6 +22,8 @@ OUT = ROOT / "docs" / "experiments" / "generated"
 def _estimate(value: float | None, se: float | None, sign: bool = False) -> str:
     if value is None:
         return "–"
+    if se is not None and se <= 1e-9 * abs(value):
+        se = None  # a spread at rounding level (a bound shared by every run) is not a spread
     text = f"{value:+.3g}" if sign else f"{value:.4g}"
     return text if se is None else f"{text} ± {se:.2g}"
 
@@ -43,9 +45,17 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
         cands = list(dict.fromkeys(r["candidate"] for r in sweep["rows"]))
         names = metrics or list(dict.fromkeys(r["metric"] for r in sweep["rows"]))
         units = {r["metric"]: r["unit"] for r in sweep["rows"]}
+        # A metric every candidate shares at every point (a bound of the scenario) gets one row.
+        shared = {m for m in names if all(rows[(v, case, c, m)]["mean"] == rows[(v, case, cands[0], m)]["mean"]
+                                          for v in values for c in cands for case in sweep["cases"])}
         for case in sweep["cases"]:
             lines += [f"**Means, case `{case}`** (each metric, candidate by candidate)", "", head, rule]
             for m in names:
+                if m in shared:
+                    cells = [_estimate(rows[(v, case, cands[0], m)]["mean"], rows[(v, case, cands[0], m)]["se"])
+                             for v in values]
+                    lines.append(f"| {m} ({units[m]}), every candidate | " + " | ".join(cells) + " |")
+                    continue
                 for c in cands:
                     cells = [_estimate(rows[(v, case, c, m)]["mean"], rows[(v, case, c, m)]["se"]) for v in values]
                     lines.append(f"| {m} ({units[m]}), `{c}` | " + " | ".join(cells) + " |")
@@ -55,7 +65,7 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
                     continue
                 lines += [f"**Paired differences `{c}` − `{ref}`, case `{case}`** (mean ± SE; below it the ratio "
                           "of means ± SE)", "", head, rule]
-                for m in names:
+                for m in (m for m in names if m not in shared):
                     p = [paired.get((v, case, c, m), {}) for v in values]
                     lines.append(f"| {m} ({units[m]}) | " + " | ".join(
                         _estimate(q.get("diff"), q.get("se"), sign=True) for q in p) + " |")
