@@ -24,13 +24,20 @@ EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath"
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
 #: Examples whose page includes tables generated from the run (docs/experiment_tables.py).
+#: The main example's metrics, in its order (the slow one-motion tunings share them).
 _VECTOR_TRACKING_TABLE = ["code_phase_error_rmse", "carrier_freq_error_rmse", "position_error_rmse",
-                          "velocity_error_rmse", "nees_position", "nees_velocity", "code_output_rmse",
-                          "freq_output_rmse"]
+                          "velocity_error_rmse", "position_steady_error_rmse", "nees", "nees_position",
+                          "nees_velocity", "code_output_rmse", "freq_output_rmse"]
 TABLES = {"vector_tracking": _VECTOR_TRACKING_TABLE, "vector_tracking_static": _VECTOR_TRACKING_TABLE,
           "vector_tracking_moving": _VECTOR_TRACKING_TABLE,
           "deep_integration": ["horizontal_position_error_rmse", "height_error_rmse", "horizontal_velocity_error_rmse",
                                "vertical_velocity_error_rmse", "attitude_error_rmse", "loss_of_lock_fraction", "nees"]}
+#: Sweep examples whose page includes their sweep tables (docs/sweep_tables.py).
+SWEEP_TABLES = {"vector_tracking_sweep": ["carrier_freq_error_rmse", "velocity_error_rmse", "position_error_rmse",
+                                          "nees_position", "nees_velocity", "freq_output_rmse", "pcrb_position",
+                                          "pcrb_velocity"]}
+#: Examples whose page includes the paper's values beside theirs (docs/published_tables.py).
+PUBLISHED_TABLES = {"vector_tracking": ["ackf-literal", "discriminator-fixed-r"]}
 TABLES["deep_integration_ci"] = TABLES["deep_integration"]
 TABLES["deep_integration_elevation_ci"] = TABLES["deep_integration"]
 TABLES["deep_integration_lock_ci"] = ["loss_of_lock_fraction", "phase_lock_loss_fraction", "cycle_slip_rate",
@@ -71,6 +78,17 @@ def main() -> int:
             from experiment_tables import write
 
             print(f"{name}: tables written to {write(summary.parent, name, TABLES[name])}")
+        if name in PUBLISHED_TABLES:
+            sys.path.insert(0, str(ROOT / "docs"))
+            from published_tables import write as write_published
+
+            print(f"{name}: published values written to "
+                  f"{write_published(summary.parent, name, PUBLISHED_TABLES[name])}")
+        if name in SWEEP_TABLES:
+            sys.path.insert(0, str(ROOT / "docs"))
+            from sweep_tables import write as write_sweep
+
+            print(f"{name}: sweep tables written to {write_sweep(summary.parent, name, SWEEP_TABLES[name])}")
 
 
     for line in failed:
