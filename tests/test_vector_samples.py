@@ -13,14 +13,12 @@ import pytest
 import test_receiver_fix as fix
 from gnssframework import registry
 from gnssframework.errors import ConfigError
-from gnssframework.navigation import lnav
 from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.receiver.channels import tracking_config
-from gnssframework.receiver.frontend import open_recording, write_recording
+from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.vector_tracking import vector_config
-from gnssframework.signal.constants import L1_FREQ_HZ
-from gnssframework.signal.if_samples import generate_if_samples
+from lnav_recordings import true_dopplers, write_lnav_recording
 
 DURATION_S = 13.0
 FADE_S = 10.5  # the first fix comes with TOW, 8.6 s in (see test_receiver_fix)
@@ -34,40 +32,11 @@ def _cn0(t_s: float) -> float:
 @pytest.fixture(scope="module")
 def faded(tmp_path_factory):
     """``fix.recording``'s signals with the C/N0 profile `_cn0`; the true Doppler per chunk."""
-    nav = read_rinex_nav(fix.NAV)
-    sats = fix._strongest(nav, fix.TOW0, 5)
-    rng = np.random.default_rng(7)
-    n = int(round(fix.CHUNK_S * fix.FS))
-    source = registry.create("sample_source", "ci16_le")
-    path = tmp_path_factory.mktemp("vector") / "faded.sigmf-data"
-    t_sv0 = fix._satellite_time(sats, np.array(fix.TOW0))
-    symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), 1316, float(t_sv0[k]) - 0.1, int(DURATION_S * 50) + 20)
-               for k in range(sats.sv.size)]
-    phase = np.zeros(sats.sv.size)
-    dopplers = []
-    with open(path, "wb") as out:
-        for c in range(int(round(DURATION_S / fix.CHUNK_S))):
-            t0 = c * fix.CHUNK_S
-            start = fix._satellite_time(sats, fix.TOW0 + t0)
-            end = fix._satellite_time(sats, fix.TOW0 + t0 + fix.CHUNK_S)
-            doppler = L1_FREQ_HZ * ((end - start) / fix.CHUNK_S - 1)
-            dopplers.append(doppler)
-            x = np.zeros(n, complex)
-            for k in range(sats.sv.size):
-                bits, into = symbols[k]
-                first_tsv = float(t_sv0[k]) - 0.1 - into
-                x += generate_if_samples(int(sats.sv[k][1:]), fix.CHUNK_S, fix.FS, 0.0, _cn0(t0), rng,
-                                         doppler_hz=doppler[k], code_phase_chips=(start[k] * 1e3 % 1.0) * 1023,
-                                         carrier_phase_rad=phase[k], complex_samples=True, data_bits=bits,
-                                         first_bit_edge_s=first_tsv - start[k], noise=False).samples
-                phase[k] += 2 * np.pi * doppler[k] * fix.CHUNK_S
-            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
-            out.write(source.encode(x * 300.0))
-    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", fix.FS, 0.0)
-    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
-    path.with_suffix(".tmp").unlink()
+    sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
+    path = write_lnav_recording(tmp_path_factory.mktemp("vector") / "faded.sigmf-data", sats, fix.TOW0, DURATION_S,
+                                seed=7, cn0_dbhz=_cn0)
     prns = [int(s[1:]) for s in sats.sv]
-    return path, prns, np.array(dopplers)
+    return path, prns, true_dopplers(sats, fix.TOW0, DURATION_S)
 
 
 def _receive(path, **kw):
