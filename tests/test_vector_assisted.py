@@ -220,3 +220,20 @@ def test_a_blanked_satellite_is_reacquired_in_the_predicted_window_and_joins_the
     k = np.searchsorted(np.asarray(solution.sample_time_s), table.sample_time_s[late])
     sigma_3d = np.sqrt(np.trace(np.asarray(solution.cov)[k][:, :3, :3], axis1=1, axis2=2))
     assert np.sqrt(np.mean(err**2)) < 4 * np.sqrt(np.mean(sigma_3d**2)), (err, sigma_3d)
+
+
+#: After the assisted start, the first satellite absent from 2 s to 4 s of a 7 s, 35 dB-Hz file.
+MID_BLANK = (0, 2.0, 4.0)
+
+
+def test_a_blanked_vector_channel_is_dropped_and_reacquired_after_an_assisted_start(tmp_path):
+    from test_vector_samples import assert_dropped_and_rejoined
+
+    sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
+    path = write_lnav_recording(tmp_path / "mid.sigmf-data", sats, fix.TOW0, 7.0, 13, blank=MID_BLANK,
+                                cn0_dbhz=35.0)
+    result = _receive(path, vector=vector_config(solution_rate_hz=5.0),
+                      assist=assistance(approximate_position(), WEEK, fix.TOW0))
+    gone = int(sats.sv[0][1:])
+    assert result.vector.handover_s < 0.5 and gone in result.vector.prns
+    assert_dropped_and_rejoined(result, gone, MID_BLANK[1], MID_BLANK[2], settled_s=1.0)
