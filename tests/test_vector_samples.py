@@ -55,9 +55,12 @@ def test_scalar_receiver_loses_every_channel_after_the_fade(faded):
 
 
 #: The vector channels: the discriminators, and reference 000's I/Q filter (a CKF on the six
-#: correlators) handing the navigation filter the measurement equivalent to each
-#: interval's new information (`plugins.channel_filters.IqFilter`, output "equivalent").
-CHANNELS = {"discriminator": {}, "iq-filter": {"output": "equivalent"}}
+#: correlators) handing the navigation filter the frequency measurement equivalent to each
+#: interval's new information (`plugins.channel_filters.IqFilter`, output "equivalent"),
+#: the code error from the code discriminator (the new information's code error is shrunk
+#: towards 0, the IqFilter text says: its channels' code errors exceed four of the filter's
+#: predicted standard deviations here).
+CHANNELS = {"discriminator": {}, "iq-filter": {"output": "equivalent", "equivalent_code": "discriminator"}}
 
 
 @pytest.fixture(scope="module", params=list(CHANNELS))
@@ -155,7 +158,7 @@ def test_position_command_closes_the_loop_with_the_iq_filter(faded, tmp_path, ca
     path, _, _ = faded
     code = main(["position", str(path), "--out", str(tmp_path / "pos"), "--ephemeris", str(fix.NAV), "--rate", "5",
                  "--tracking", "vector", "--vector-channel-filter", "iq-filter", "--vector-channel-params",
-                 '{"output": "equivalent"}', "--duration", "10.5"])
+                 '{"output": "equivalent", "equivalent_code": "discriminator"}', "--duration", "10.5"])
     out = capsys.readouterr().out
     assert code == 0, out
     assert "vector tracking from" in out and "(channel filter iq-filter)" in out

@@ -191,8 +191,9 @@ class VectorSolution:
     ``sample_time_s`` ``(K,)`` recording time of each epoch; ``state`` ``(K, 8)``
     ``[x, y, z, vx, vy, vz, b, d]`` (ECEF m, m/s; clock in m and m/s, against the
     receiver time ``sample_time_s + rx_offset_s``); ``cov`` ``(K, 8, 8)`` its covariance; ``prns`` the vector channels (those that joined later included); ``used`` ``(K, 32)``
-    whether the output of the channel of each PRN (slot ``prn - 1``) entered the update; ``dops`` ``(K, 2)`` HDOP and VDOP of the channels
-    used; ``handover_s`` the recording time of the
+    whether the output of the channel of each PRN (slot ``prn - 1``) entered the update;
+    ``used_sat_pos_m`` ``(K,)`` of ``(n, 3)``: the positions of those satellites (the
+    table's HDOP and VDOP come from them, for its rows only); ``handover_s`` the recording time of the
     hand-over fix; ``events`` what happened (``(time_s, text)``).
     """
 
@@ -204,7 +205,7 @@ class VectorSolution:
     state: list[np.ndarray] = field(default_factory=list)
     cov: list[np.ndarray] = field(default_factory=list)
     used: list[np.ndarray] = field(default_factory=list)
-    dops: list[tuple[float, float]] = field(default_factory=list)
+    used_sat_pos_m: list[np.ndarray] = field(default_factory=list)
     events: list[tuple[float, str]] = field(default_factory=list)
 
     def table(self, rate_hz: float = 1.0) -> PositionTable | None:
@@ -221,7 +222,7 @@ class VectorSolution:
         lat, lon, h = (np.asarray(v, float) for v in pymap3d.ecef2geodetic(x[:, 0], x[:, 1], x[:, 2]))
         ve, vn, vu = (np.asarray(v, float) for v in pymap3d.ecef2enuv(x[:, 3], x[:, 4], x[:, 5], lat, lon))
         n_used = np.asarray(self.used)[k].sum(axis=1)  # (rows over the 32 PRN slots)
-        dops = np.asarray(self.dops).reshape(-1, 2)[k]
+        dops = np.array([_dops(self.used_sat_pos_m[j], x[i, :3]) for i, j in enumerate(k)]).reshape(-1, 2)
         columns = {"gps_week": np.full(k.size, self.week), "tow_s": t + self.rx_offset_s - x[:, 6] / _C,
                    "lat_deg": lat, "lon_deg": lon, "height_m": h, "vel_e_mps": ve, "vel_n_mps": vn, "vel_u_mps": vu,
                    "clock_bias_m": x[:, 6], "n_sats": n_used.astype(int), "hdop": dops[:, 0], "vdop": dops[:, 1]}
@@ -692,7 +693,7 @@ class VectorSampleTracker(SampleTracker):
         self.eph = _stack([records[int(s)] for s in self.vslots])
         r = self.x[:3]
         self.iono_m = self._iono(self.vslots, r, float(self.start_sample[i]) / self.fs)
-        self.solution.prns = tuple(int(s) + 1 for s in self.vslots)
+        self.solution.prns = tuple(sorted(set(self.solution.prns) | {int(s) + 1 for s in self.vslots}))
         c.vector_pending = True
         self._leave_batch(c)
         c.join_tries = 3
@@ -704,11 +705,15 @@ class VectorSampleTracker(SampleTracker):
         """Satellite position and velocity (rotated into the receive-time frame), clock (m)
         and clock drift (m/s) at the transmit times ``tx_s`` of the channels ``slots``."""
         eph = self.eph.subset(np.searchsorted(self.vslots, slots))
-        clock = satellite_state(eph, tx_s).clock_l1_s
-        st = satellite_state(eph, tx_s - clock)
-        tau = np.linalg.norm(st.position_m - r, axis=-1) / _C
-        return (_rotate(st.position_m, tau), _rotate(st.velocity_mps, tau), _C * st.clock_l1_s,
-                _C * st.clock_drift_s_s)
+        # One evaluation at the satellite-time stamp: its GPS time is ``clock`` (< 1 ms)
+        # earlier, where the position is ``vel * clock`` back (the neglected acceleration
+        # term, |a| dt^2 / 2 < 1e-6 m, and the clock's change over it are far below the
+        # loop's noise).
+        st = satellite_state(eph, tx_s)
+        clock = st.clock_l1_s
+        position = st.position_m - st.velocity_mps * clock[:, None]
+        tau = np.linalg.norm(position - r, axis=-1) / _C
+        return _rotate(position, tau), _rotate(st.velocity_mps, tau), _C * clock, _C * st.clock_drift_s_s
 
     def _iono(self, slots: np.ndarray, r: np.ndarray, t_s: float) -> np.ndarray:
         """Klobuchar delay (m) of each channel from position ``r`` (0 without page 18)."""
@@ -796,7 +801,7 @@ class VectorSampleTracker(SampleTracker):
         mask = np.zeros(32, bool)
         mask[slots] = use
         s.used.append(mask)
-        s.dops.append(_dops(pos[use], x[:3]))
+        s.used_sat_pos_m.append(pos[use])
         self._command(slots, x)
 
     def _command(self, slots: np.ndarray, x: np.ndarray) -> None:
