@@ -359,7 +359,9 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         if filters.nav_filter is not None:  # the vector loop closes its own ekf-pv
             raise ConfigError("--tracking", "vector tracking runs its own navigation filter: drop --nav-filter "
                                             "(or the config's [nav_filter]) or use --tracking scalar")
-        vector = vector_config(solution_rate_hz=args.rate)
+        vector = vector_config(solution_rate_hz=args.rate, **_vector_channel_from_args(args))
+    elif args.vector_channel_filter or args.vector_channel_params:
+        raise ConfigError("--vector-channel-filter", "the vector loop's channel filter is for --tracking vector")
     assist = _assist_from_args(args)
     bar = None
     if not args.quiet and sys.stderr.isatty():  # a progress bar is for a terminal, not a log
@@ -382,7 +384,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
             bar.close()
     if result.vector is not None and result.vector.handover_s is not None:
         print(f"vector tracking from {result.vector.handover_s:.1f} s of PRN "
-              f"{', '.join(str(p) for p in result.vector.prns)}")
+              f"{', '.join(str(p) for p in result.vector.prns)} (channel filter {vector.channel_filter})")
     if not result.tracking.channels:
         print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
               "the format (--format) and --doppler-max; no position")
@@ -425,6 +427,23 @@ def _cmd_receive(args: argparse.Namespace) -> int:
               f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m")
     print(f"wrote {', '.join(str(p) for p in written if p.parent == out)} and {out / 'plots'}/")
     return 0
+
+
+def _vector_channel_from_args(args: argparse.Namespace) -> dict:
+    """`VectorConfig` fields of ``--vector-channel-filter`` and ``--vector-channel-params``."""
+    import json
+
+    out = {}
+    if args.vector_channel_filter:
+        out["channel_filter"] = args.vector_channel_filter
+    if args.vector_channel_params:
+        try:
+            out["channel_params"] = json.loads(args.vector_channel_params)
+        except json.JSONDecodeError as exc:
+            raise ConfigError("--vector-channel-params", f"not JSON: {exc.msg}") from None
+        if not isinstance(out["channel_params"], dict):
+            raise ConfigError("--vector-channel-params", "a JSON object of the filter's parameters")
+    return out
 
 
 #: ``position --tracking``: the scalar receiver, or vector tracking from the first fix.
@@ -614,6 +633,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tracking", choices=TRACKING_MODES, default="scalar",
                    help="vector: from the first fix the ekf-pv navigation filter drives every channel's code and "
                         "carrier NCOs (default %(default)s)")
+    p.add_argument("--vector-channel-filter", metavar="NAME",
+                   help="with --tracking vector: the error-output channel_filter of the vector channels, "
+                        "discriminator (default) or iq-filter")
+    p.add_argument("--vector-channel-params", metavar="JSON", help="its parameters")
     p.add_argument("--approx-position", metavar="LAT,LON,H",
                    help="with --tracking vector and --ephemeris: approximate position (within ~100 km); with "
                         "--start-time, vector tracking starts from acquisition, without waiting for LNAV")

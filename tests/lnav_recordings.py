@@ -7,6 +7,7 @@ satellite may be blanked over an interval (no signal, the noise goes on)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -44,12 +45,27 @@ def _strongest(nav, t, n):
     return sel.subset(np.argsort(-el)[:n])
 
 
+def _chunk_doppler(sats, t_s: float) -> np.ndarray:
+    """The Doppler (Hz) the generator holds over the chunk starting at GPS time ``t_s``: the
+    satellite time's rate over the chunk."""
+    start, end = _satellite_time(sats, t_s), _satellite_time(sats, t_s + CHUNK_S)
+    return L1_FREQ_HZ * ((end - start) / CHUNK_S - 1)
+
+
+def true_dopplers(sats, tow0: float, duration_s: float) -> np.ndarray:
+    """``(chunks, satellites)`` Dopplers (Hz) of `write_lnav_recording`'s chunks, the truth
+    to compare a channel's with."""
+    return np.array([_chunk_doppler(sats, tow0 + c * CHUNK_S) for c in range(int(round(duration_s / CHUNK_S)))])
+
+
 def write_lnav_recording(path: Path, sats, tow0: float, duration_s: float, seed: int,
-                         blank: tuple[int, float, float] | None = None, cn0_dbhz: float = 45.0) -> Path:
+                         blank: tuple[int, float, float] | None = None,
+                         cn0_dbhz: float | Callable[[float], float] = 45.0) -> Path:
     """Write ``duration_s`` of the satellites ``sats`` (an `Ephemerides`) from GPS time
     ``tow0`` to ``path`` (``.sigmf-data`` with its metadata); ``blank`` = (index of a
     satellite, start s, end s) leaves that satellite out of the chunks starting in
-    ``[start, end)``."""
+    ``[start, end)``; ``cn0_dbhz`` a constant or a function of the chunk's start (s into
+    the file), every satellite's."""
     rng = np.random.default_rng(seed)
     n = int(round(CHUNK_S * FS))
     source = registry.create("sample_source", "ci16_le")
@@ -57,11 +73,12 @@ def write_lnav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
     symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), WEEK, float(t_sv0[k]) - 0.1, int(duration_s * 50) + 20)
                for k in range(sats.sv.size)]
     phase = np.zeros(sats.sv.size)
+    cn0_at = cn0_dbhz if callable(cn0_dbhz) else (lambda t_s: cn0_dbhz)
     with open(path, "wb") as out:
         for c in range(int(round(duration_s / CHUNK_S))):
             t0 = c * CHUNK_S
-            start, end = _satellite_time(sats, tow0 + t0), _satellite_time(sats, tow0 + t0 + CHUNK_S)
-            doppler = L1_FREQ_HZ * ((end - start) / CHUNK_S - 1)
+            start = _satellite_time(sats, tow0 + t0)
+            doppler = _chunk_doppler(sats, tow0 + t0)
             x = np.zeros(n, complex)
             for k in range(sats.sv.size):
                 if blank is not None and k == blank[0] and blank[1] <= t0 < blank[2]:
@@ -69,7 +86,7 @@ def write_lnav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
                     continue
                 bits, into = symbols[k]
                 first_tsv = float(t_sv0[k]) - 0.1 - into  # t_SV of the first bit edge
-                x += generate_if_samples(int(sats.sv[k][1:]), CHUNK_S, FS, 0.0, cn0_dbhz, rng, doppler_hz=doppler[k],
+                x += generate_if_samples(int(sats.sv[k][1:]), CHUNK_S, FS, 0.0, cn0_at(t0), rng, doppler_hz=doppler[k],
                                          code_phase_chips=(start[k] * 1e3 % 1.0) * 1023, carrier_phase_rad=phase[k],
                                          complex_samples=True, data_bits=bits,
                                          first_bit_edge_s=first_tsv - start[k], noise=False).samples

@@ -17,16 +17,13 @@ import pytest
 import test_receiver_fix as fix
 from gnssframework import registry
 from gnssframework.errors import ConfigError
-from gnssframework.navigation import lnav
 from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.receiver.channels import tracking_config
-from gnssframework.receiver.frontend import open_recording, write_recording
+from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.vector_tracking import assistance, vector_config
-from gnssframework.signal.constants import L1_FREQ_HZ
-from gnssframework.signal.if_samples import generate_if_samples
+from lnav_recordings import WEEK, true_dopplers, write_lnav_recording
 
-WEEK = 1316  # of tests/data/07590920.05n (2005-04-02)
 DURATION_S = 6.0
 CN0_DBHZ = 32.0
 #: The approximate position: the station moved 30 km east and 20 km north, 500 m up.
@@ -36,41 +33,10 @@ OFFSET_ENU_M = (30e3, 20e3, 500.0)
 def write_weak(path, cn0_dbhz: float, duration_s: float, seed: int, blank_until_s: tuple[int, float] | None = None):
     """`fix.recording`'s five signals at ``cn0_dbhz`` for ``duration_s``; the true Doppler per
     chunk. ``blank_until_s`` ``(k, t)``: the ``k``-th satellite's signal is absent before ``t``."""
-    nav = read_rinex_nav(fix.NAV)
-    sats = fix._strongest(nav, fix.TOW0, 5)
-    rng = np.random.default_rng(seed)
-    n = int(round(fix.CHUNK_S * fix.FS))
-    source = registry.create("sample_source", "ci16_le")
-    t_sv0 = fix._satellite_time(sats, np.array(fix.TOW0))
-    symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), WEEK, float(t_sv0[k]) - 0.1, int(duration_s * 50) + 20)
-               for k in range(sats.sv.size)]
-    phase = np.zeros(sats.sv.size)
-    dopplers = []
-    with open(path, "wb") as out:
-        for c in range(int(round(duration_s / fix.CHUNK_S))):
-            t0 = c * fix.CHUNK_S
-            start = fix._satellite_time(sats, fix.TOW0 + t0)
-            end = fix._satellite_time(sats, fix.TOW0 + t0 + fix.CHUNK_S)
-            doppler = L1_FREQ_HZ * ((end - start) / fix.CHUNK_S - 1)
-            dopplers.append(doppler)
-            x = np.zeros(n, complex)
-            for k in range(sats.sv.size):
-                bits, into = symbols[k]
-                first_tsv = float(t_sv0[k]) - 0.1 - into
-                if blank_until_s is not None and k == blank_until_s[0] and t0 < blank_until_s[1]:
-                    phase[k] += 2 * np.pi * doppler[k] * fix.CHUNK_S
-                    continue
-                x += generate_if_samples(int(sats.sv[k][1:]), fix.CHUNK_S, fix.FS, 0.0, cn0_dbhz, rng,
-                                         doppler_hz=doppler[k], code_phase_chips=(start[k] * 1e3 % 1.0) * 1023,
-                                         carrier_phase_rad=phase[k], complex_samples=True, data_bits=bits,
-                                         first_bit_edge_s=first_tsv - start[k], noise=False).samples
-                phase[k] += 2 * np.pi * doppler[k] * fix.CHUNK_S
-            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
-            out.write(source.encode(x * 300.0))
-    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", fix.FS, 0.0)
-    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
-    path.with_suffix(".tmp").unlink()
-    return [int(s[1:]) for s in sats.sv], np.array(dopplers)
+    sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
+    blank = None if blank_until_s is None else (blank_until_s[0], 0.0, blank_until_s[1])
+    write_lnav_recording(path, sats, fix.TOW0, duration_s, seed, blank=blank, cn0_dbhz=cn0_dbhz)
+    return [int(s[1:]) for s in sats.sv], true_dopplers(sats, fix.TOW0, duration_s)
 
 
 def approximate_position() -> tuple[float, float, float]:
@@ -256,3 +222,20 @@ def test_a_blanked_satellite_is_reacquired_in_the_predicted_window_and_joins_the
     k = np.searchsorted(np.asarray(solution.sample_time_s), table.sample_time_s[late])
     sigma_3d = np.sqrt(np.trace(np.asarray(solution.cov)[k][:, :3, :3], axis1=1, axis2=2))
     assert np.sqrt(np.mean(err**2)) < 4 * np.sqrt(np.mean(sigma_3d**2)), (err, sigma_3d)
+
+
+#: After the assisted start, the first satellite absent from 2 s to 4 s of a 7 s, 35 dB-Hz file.
+MID_BLANK = (0, 2.0, 4.0)
+
+
+def test_a_blanked_vector_channel_is_dropped_and_reacquired_after_an_assisted_start(tmp_path):
+    from test_vector_samples import assert_dropped_and_rejoined
+
+    sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
+    path = write_lnav_recording(tmp_path / "mid.sigmf-data", sats, fix.TOW0, 7.0, 13, blank=MID_BLANK,
+                                cn0_dbhz=35.0)
+    result = _receive(path, vector=vector_config(solution_rate_hz=5.0),
+                      assist=assistance(approximate_position(), WEEK, fix.TOW0))
+    gone = int(sats.sv[0][1:])
+    assert result.vector.handover_s < 0.5 and gone in result.vector.prns
+    assert_dropped_and_rejoined(result, gone, MID_BLANK[1], MID_BLANK[2], settled_s=1.0)

@@ -13,14 +13,12 @@ import pytest
 import test_receiver_fix as fix
 from gnssframework import registry
 from gnssframework.errors import ConfigError
-from gnssframework.navigation import lnav
 from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.receiver.channels import tracking_config
-from gnssframework.receiver.frontend import open_recording, write_recording
+from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.vector_tracking import vector_config
-from gnssframework.signal.constants import L1_FREQ_HZ
-from gnssframework.signal.if_samples import generate_if_samples
+from lnav_recordings import true_dopplers, write_lnav_recording
 
 DURATION_S = 13.0
 FADE_S = 10.5  # the first fix comes with TOW, 8.6 s in (see test_receiver_fix)
@@ -34,40 +32,11 @@ def _cn0(t_s: float) -> float:
 @pytest.fixture(scope="module")
 def faded(tmp_path_factory):
     """``fix.recording``'s signals with the C/N0 profile `_cn0`; the true Doppler per chunk."""
-    nav = read_rinex_nav(fix.NAV)
-    sats = fix._strongest(nav, fix.TOW0, 5)
-    rng = np.random.default_rng(7)
-    n = int(round(fix.CHUNK_S * fix.FS))
-    source = registry.create("sample_source", "ci16_le")
-    path = tmp_path_factory.mktemp("vector") / "faded.sigmf-data"
-    t_sv0 = fix._satellite_time(sats, np.array(fix.TOW0))
-    symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), 1316, float(t_sv0[k]) - 0.1, int(DURATION_S * 50) + 20)
-               for k in range(sats.sv.size)]
-    phase = np.zeros(sats.sv.size)
-    dopplers = []
-    with open(path, "wb") as out:
-        for c in range(int(round(DURATION_S / fix.CHUNK_S))):
-            t0 = c * fix.CHUNK_S
-            start = fix._satellite_time(sats, fix.TOW0 + t0)
-            end = fix._satellite_time(sats, fix.TOW0 + t0 + fix.CHUNK_S)
-            doppler = L1_FREQ_HZ * ((end - start) / fix.CHUNK_S - 1)
-            dopplers.append(doppler)
-            x = np.zeros(n, complex)
-            for k in range(sats.sv.size):
-                bits, into = symbols[k]
-                first_tsv = float(t_sv0[k]) - 0.1 - into
-                x += generate_if_samples(int(sats.sv[k][1:]), fix.CHUNK_S, fix.FS, 0.0, _cn0(t0), rng,
-                                         doppler_hz=doppler[k], code_phase_chips=(start[k] * 1e3 % 1.0) * 1023,
-                                         carrier_phase_rad=phase[k], complex_samples=True, data_bits=bits,
-                                         first_bit_edge_s=first_tsv - start[k], noise=False).samples
-                phase[k] += 2 * np.pi * doppler[k] * fix.CHUNK_S
-            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
-            out.write(source.encode(x * 300.0))
-    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", fix.FS, 0.0)
-    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
-    path.with_suffix(".tmp").unlink()
+    sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
+    path = write_lnav_recording(tmp_path_factory.mktemp("vector") / "faded.sigmf-data", sats, fix.TOW0, DURATION_S,
+                                seed=7, cn0_dbhz=_cn0)
     prns = [int(s[1:]) for s in sats.sv]
-    return path, prns, np.array(dopplers)
+    return path, prns, true_dopplers(sats, fix.TOW0, DURATION_S)
 
 
 def _receive(path, **kw):
@@ -85,9 +54,19 @@ def test_scalar_receiver_loses_every_channel_after_the_fade(faded):
     assert result.positions is not None and result.positions.sample_time_s.max() < FADE_S + 1.0
 
 
-@pytest.fixture(scope="module")
-def vector_result(faded):
-    return _receive(faded[0], vector=vector_config(solution_rate_hz=5.0))
+#: The vector channels: the discriminators, and reference 000's I/Q filter (a CKF on the six
+#: correlators) handing the navigation filter the frequency measurement equivalent to each
+#: interval's new information (`plugins.channel_filters.IqFilter`, output "equivalent"),
+#: the code error from the code discriminator (the new information's code error is shrunk
+#: towards 0, the IqFilter text says: its channels' code errors exceed four of the filter's
+#: predicted standard deviations here).
+CHANNELS = {"discriminator": {}, "iq-filter": {"output": "equivalent", "equivalent_code": "discriminator"}}
+
+
+@pytest.fixture(scope="module", params=list(CHANNELS))
+def vector_result(faded, request):
+    return _receive(faded[0], vector=vector_config(solution_rate_hz=5.0, channel_filter=request.param,
+                                                   channel_params=CHANNELS[request.param]))
 
 
 def test_vector_tracking_keeps_a_fix_through_the_fade(faded, vector_result):
@@ -173,9 +152,85 @@ def test_position_command_tracks_vector(faded, tmp_path, capsys):
     assert len(rows) >= 5 * (DURATION_S - 9.0) - 2
 
 
+def test_position_command_closes_the_loop_with_the_iq_filter(faded, tmp_path, capsys):
+    from gnssframework.cli import main
+
+    path, _, _ = faded
+    code = main(["position", str(path), "--out", str(tmp_path / "pos"), "--ephemeris", str(fix.NAV), "--rate", "5",
+                 "--tracking", "vector", "--vector-channel-filter", "iq-filter", "--vector-channel-params",
+                 '{"output": "equivalent", "equivalent_code": "discriminator"}', "--duration", "10.5"])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "vector tracking from" in out and "(channel filter iq-filter)" in out
+
+
+@pytest.mark.parametrize("extra", [["--tracking", "vector", "--vector-channel-filter", "scalar"],
+                                   ["--tracking", "vector", "--vector-channel-filter", "iq-filter",
+                                    "--vector-channel-params", '{"output": "sideways"}'],
+                                   ["--tracking", "vector", "--vector-channel-params", "[1]"],
+                                   ["--vector-channel-filter", "iq-filter"]])
+def test_bad_vector_channel_options_exit_2(faded, tmp_path, extra):
+    from gnssframework.cli import main
+
+    assert main(["position", str(faded[0]), "--out", str(tmp_path), "--ephemeris", str(fix.NAV), *extra]) == 2
+
+
 def test_an_unknown_tracking_mode_exits_2(faded, tmp_path, capsys):
     from gnssframework.cli import main
 
     with pytest.raises(SystemExit) as exc:
         main(["position", str(faded[0]), "--out", str(tmp_path), "--tracking", "deep"])
     assert exc.value.code == 2
+
+
+#: The first satellite absent from 10.5 s to 13 s of a 16 s, 45 dB-Hz file (hand-over at 9 s).
+BLANK = (0, 10.5, 13.0)
+
+
+@pytest.fixture(scope="module")
+def blanked(tmp_path_factory):
+    sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
+    path = write_lnav_recording(tmp_path_factory.mktemp("vblank") / "blanked.sigmf-data", sats, fix.TOW0, 16.0,
+                                seed=11, blank=BLANK)
+    return int(sats.sv[0][1:]), _receive(path, vector=vector_config(solution_rate_hz=5.0))
+
+
+def assert_dropped_and_rejoined(result, gone: int, blank_start_s: float, blank_end_s: float,
+                                settled_s: float) -> None:
+    """Vector channel ``gone``, blanked over ``[blank_start_s, blank_end_s)``: dropped by the
+    loss-of-lock rule within the time the rule states, unused from then (and from the moment
+    its C/N0 window holds noise only) until it is back, re-acquired by the aided search at
+    the first round after the signal returns, used again after; the position error from
+    ``settled_s`` on, in each phase, within four standard deviations of the filter's
+    covariance (RMS over the phase)."""
+    v, cfg = vector_config(), tracking_config()
+    events = result.tracking.channels[gone].events
+    lost = [t for t, text in events if text.startswith("lost: C/N0 estimate below")]
+    found = [t for t, text in events if "re-acquired in the window predicted by the navigation solution" in text]
+    # The estimate over cn0_window_ms is all noise cn0_window_ms after the blank starts, and is
+    # evaluated every 20 ms (DETECT_MS); the rule then needs loss_ms of it. Before loss_ms of
+    # blank it cannot fire.
+    assert len(lost) == 1, events
+    assert blank_start_s + v.loss_ms * 1e-3 <= lost[0] <= blank_start_s + (cfg.cn0_window_ms + v.loss_ms + 30) * 1e-3
+    # The aided search runs every reacquire_every_ms: the first one after the return finds it.
+    assert len(found) == 1 and blank_end_s <= found[0] <= blank_end_s + cfg.reacquire_every_ms * 1e-3 + 0.05
+    sol = result.vector
+    t, used = np.asarray(sol.sample_time_s), np.asarray(sol.used)[:, gone - 1]
+    assert not used[(t > min(lost[0], blank_start_s + cfg.cn0_window_ms * 1e-3)) & (t < found[0])].any()
+    # Back in the update once its own C/N0 estimate (a window's worth) is over min_cn0_dbhz.
+    assert used[t > found[0] + cfg.cn0_window_ms * 1e-3].all()
+    err = np.linalg.norm(np.asarray(sol.state)[:, :3] - fix.STATION, axis=1)
+    sigma_3d = np.sqrt(np.trace(np.asarray(sol.cov)[:, :3, :3], axis1=1, axis2=2))
+    for lo, hi in ((settled_s, blank_start_s), (blank_start_s, found[0]), (found[0], t[-1] + 1)):
+        m = (t >= lo) & (t < hi)
+        assert m.sum() > 20
+        assert np.sqrt(np.mean(err[m] ** 2)) < 4 * np.sqrt(np.mean(sigma_3d[m] ** 2)), (lo, hi)
+
+
+def test_a_blanked_vector_channel_is_dropped_and_reacquired_after_the_lnav_hand_over(blanked):
+    gone, result = blanked
+    assert result.vector.handover_s < BLANK[1] and gone in result.vector.prns
+    assert_dropped_and_rejoined(result, gone, BLANK[1], BLANK[2], settled_s=result.vector.handover_s + 1.0)
+    table = result.positions
+    while_gone = (table.sample_time_s > BLANK[1] + 1.0) & (table.sample_time_s < BLANK[2])
+    assert while_gone.sum() >= 5 and np.all(table.columns["n_sats"][while_gone] == 4)

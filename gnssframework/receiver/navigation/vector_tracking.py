@@ -25,17 +25,25 @@ every coherent interval ``T`` (the channels' bit-aligned ``coherent_ms``):
    :math:`-\dot{\hat R}/\lambda_{L1}` (carrier: a vector FLL; no PLL, no carrier phase
    tracking after the hand-over).
 
-A channel whose signal fades keeps being driven by the solution (it is never handed back
-to acquisition); its C/N0 estimate scales the variances it reports (the thermal variances
-grow as 1/C/N0), so the filter leans on the strong channels.
+A channel whose signal fades keeps being driven by the solution; its C/N0 estimate scales
+the variances it reports (the thermal variances grow as 1/C/N0), so the filter leans on
+the strong channels, and below ``min_cn0_dbhz`` its output is left out of the update.
+Loss of lock (`_drop`): a channel whose C/N0 estimate over a full ``cn0_window_ms`` stays
+below ``loss_cn0_dbhz`` (18 dB-Hz) for ``loss_ms`` (500 ms) leaves the loop and the
+tracker's active channels (a signal gone, not one faded to 24 dB-Hz, whose estimates stay
+above 21 dB-Hz on the project's generator).
 
 With an `Assistance` (an approximate position and the recording's start time, with RINEX
 ephemerides) the loop does not wait for LNAV: each replica's transmit time is resolved
 from the prediction (`_assisted_transmit_times`), and every acquired channel is closed
-from its pull-in on (`_try_assisted_handover`). Once that loop runs, a satellite outside
-it is searched in the window of code phase and Doppler the state predicts
+from its pull-in on (`_try_assisted_handover`).
+
+Once the loop runs (after either hand-over), a satellite outside it that the solution can
+predict (a dropped channel's ephemeris, or the RINEX file's) is searched every
+``reacquire_every_ms`` in the window of code phase and Doppler the state predicts
 (`receiver.acquisition.assisted.window_search`) and joins the loop when found
-(`_reacquire`).
+(`_reacquire`); a lost scalar channel it cannot predict gets the scalar receiver's full
+search.
 
 Sign conventions: the sample tracker's error-output filters report the code error as the
 chips the replica must advance (`closure.ErrorFeedback` adds it to the code phase), the
@@ -120,6 +128,11 @@ class VectorConfig(BaseModel):
         4.0, gt=0, description="half widths of its window in standard deviations of the predicted range and rate")
     reacquire_elevation_deg: float = Field(5.0, description="satellites predicted below this are not searched")
     min_cn0_dbhz: float = Field(18.0, description="a channel whose C/N0 estimate is below this is not used")
+    loss_cn0_dbhz: float = Field(
+        18.0, description="loss of lock of a vector channel: its C/N0 estimate (over the tracker's full "
+        "cn0_window_ms) below this ...")
+    loss_ms: int = Field(500, ge=10, description="... for this long: the channel leaves the navigation filter and "
+                         "is searched again in the window the solution predicts")
     solution_rate_hz: float = Field(1.0, gt=0, description="rows of the position table per second")
 
     @field_validator("reacquire_noncoherent")
@@ -131,11 +144,15 @@ class VectorConfig(BaseModel):
 
 
 def vector_config(**values: Any) -> VectorConfig:
-    """A `VectorConfig`; a bad value raises `ConfigError` naming the field."""
+    """A `VectorConfig`; a bad value, or a channel and navigation filter that cannot close
+    the loop together (`check_composition`), raises `ConfigError` naming the field."""
     try:
-        return VectorConfig(**values)
+        config = VectorConfig(**values)
     except ValidationError as exc:
         raise validation_message(exc, prefix="vector", model=VectorConfig) from None
+    check_composition(registry.create("channel_filter", config.channel_filter, **config.channel_params),
+                      registry.create("nav_filter", config.nav_filter, **config.nav_params))
+    return config
 
 
 @dataclass(frozen=True)
@@ -174,8 +191,9 @@ class VectorSolution:
     ``sample_time_s`` ``(K,)`` recording time of each epoch; ``state`` ``(K, 8)``
     ``[x, y, z, vx, vy, vz, b, d]`` (ECEF m, m/s; clock in m and m/s, against the
     receiver time ``sample_time_s + rx_offset_s``); ``cov`` ``(K, 8, 8)`` its covariance; ``prns`` the vector channels (those that joined later included); ``used`` ``(K, 32)``
-    whether the output of the channel of each PRN (slot ``prn - 1``) entered the update; ``dops`` ``(K, 2)`` HDOP and VDOP of the channels
-    used; ``handover_s`` the recording time of the
+    whether the output of the channel of each PRN (slot ``prn - 1``) entered the update;
+    ``used_sat_pos_m`` ``(K,)`` of ``(n, 3)``: the positions of those satellites (the
+    table's HDOP and VDOP come from them, for its rows only); ``handover_s`` the recording time of the
     hand-over fix; ``events`` what happened (``(time_s, text)``).
     """
 
@@ -187,7 +205,7 @@ class VectorSolution:
     state: list[np.ndarray] = field(default_factory=list)
     cov: list[np.ndarray] = field(default_factory=list)
     used: list[np.ndarray] = field(default_factory=list)
-    dops: list[tuple[float, float]] = field(default_factory=list)
+    used_sat_pos_m: list[np.ndarray] = field(default_factory=list)
     events: list[tuple[float, str]] = field(default_factory=list)
     #: Per vector channel's PRN at the end of the run: the recording time of its next
     #: interval's start and its replica's transmit time there (s of week, SV time).
@@ -207,7 +225,7 @@ class VectorSolution:
         lat, lon, h = (np.asarray(v, float) for v in pymap3d.ecef2geodetic(x[:, 0], x[:, 1], x[:, 2]))
         ve, vn, vu = (np.asarray(v, float) for v in pymap3d.ecef2enuv(x[:, 3], x[:, 4], x[:, 5], lat, lon))
         n_used = np.asarray(self.used)[k].sum(axis=1)  # (rows over the 32 PRN slots)
-        dops = np.asarray(self.dops).reshape(-1, 2)[k]
+        dops = np.array([_dops(self.used_sat_pos_m[j], x[i, :3]) for i, j in enumerate(k)]).reshape(-1, 2)
         columns = {"gps_week": np.full(k.size, self.week), "tow_s": t + self.rx_offset_s - x[:, 6] / _C,
                    "lat_deg": lat, "lon_deg": lon, "height_m": h, "vel_e_mps": ve, "vel_n_mps": vn, "vel_u_mps": vu,
                    "clock_bias_m": x[:, 6], "n_sats": n_used.astype(int), "hdop": dops[:, 0], "vdop": dops[:, 1]}
@@ -270,6 +288,7 @@ class VectorSampleTracker(SampleTracker):
         self.next_try = max(self.vector.earliest_s, self.vector.try_every_s)
         self.next_assist = self.vector.earliest_s
         self.acq_doppler = np.zeros(32)
+        self.held: dict[int, Ephemerides] = {}  # the records of dropped vector channels, by slot
         result = super().run(acquisitions, duration_s, progress)
         if self.nav is not None:  # what dates the vector channels' rows (`observables.assisted_timing`)
             tx = self._replica_tx(self.vslots)
@@ -286,7 +305,13 @@ class VectorSampleTracker(SampleTracker):
     def _advance(self, c, t0: float) -> None:
         if c.stage == "vector":
             c.unlocked_ms = 0 if c.locked else c.unlocked_ms + c.coherent_ms
-            return  # driven by the solution: never handed back to acquisition
+            # Only an estimate over a full window counts (a rejoined channel's first ones are short).
+            low = (self.n_prompts[c.slot] >= self.config.cn0_window_ms
+                   and c.cn0_dbhz < self.vector.loss_cn0_dbhz)
+            c.low_cn0_ms = c.low_cn0_ms + c.coherent_ms if low else 0
+            if c.low_cn0_ms >= self.vector.loss_ms:
+                self._drop(c, t0)
+            return
         if getattr(c, "vector_pending", False):  # closed by the filter at its next aligned boundary, never lost
             n = self.config.coherent_ms
             if (int(self.ms_index[c.slot]) + 1 - c.bit_edge) % n == 0:
@@ -325,7 +350,7 @@ class VectorSampleTracker(SampleTracker):
             elif self.assist is None and now >= self.next_try:
                 self.next_try = now + self.vector.try_every_s
                 self._try_handover()
-        elif all(int(s) in self.pending for s in self.vslots):
+        elif self.vslots.size and all(int(s) in self.pending for s in self.vslots):
             self._nav_step()
 
     # --- hand-over -----------------------------------------------------------------------
@@ -542,15 +567,39 @@ class VectorSampleTracker(SampleTracker):
         c.join_tries = 3  # steps alone: its outputs go to the navigation filter, one channel at a time
         c.stage_ms = 0
         c.unlocked_ms = 0
+        c.low_cn0_ms = 0
         self.voting[c.slot] = False
         c.record.events.append((float(self.start_sample[c.slot]) / self.fs, "vector tracking"))
 
     # --- re-acquisition aided by the solution --------------------------------------------
 
+    def _drop(self, c, t0: float) -> None:
+        """Loss of lock of vector channel ``c`` (`VectorConfig.loss_cn0_dbhz` for
+        ``loss_ms``): it leaves the navigation filter's updates and the tracker's active
+        channels; its ephemeris is kept for the aided search (`_reacquire`), which may try
+        it from the next re-acquisition round on."""
+        i, v = c.slot, self.vector
+        keep = self.vslots != i
+        self.held[i] = self.eph.subset(np.flatnonzero(~keep))
+        self.eph = self.eph.subset(np.flatnonzero(keep))
+        self.iono_m = self.iono_m[keep]
+        self.vslots = self.vslots[keep]
+        self.pending.pop(i, None)
+        self._leave_batch(c)
+        c.stage = "lost"
+        self.active[i] = False
+        c.retry_at = int(self.start_sample[i])
+        why = f"C/N0 estimate below {v.loss_cn0_dbhz:g} dB-Hz for {v.loss_ms} ms"
+        c.record.events.append((t0, f"lost: {why}; out of the navigation filter, re-acquisition aided by the "
+                                    "navigation solution"))
+        self.solution.events.append((t0, f"PRN {c.prn} dropped from the vector loop ({why})"))
+
     def _reacquire(self, at: int, stop: int) -> None:
-        # Only with an assisted start (the one tested with it); the LNAV hand-over keeps the
-        # scalar re-acquisition it had.
-        if self.nav is None or not self.nav_started or self.assist is None:
+        """Once the navigation filter runs, every satellite it can predict (a RINEX record,
+        or the kept record of a dropped vector channel) that is not in the loop is searched
+        in its predicted window (`window_search`) and joins the loop when found; lost
+        channels it cannot predict get the full search, as before the hand-over."""
+        if self.nav is None or not self.nav_started:
             super()._reacquire(at, stop)
             return
         p = self.vector
@@ -558,12 +607,15 @@ class VectorSampleTracker(SampleTracker):
         if at + need > stop:
             return
         t_s = at / self.fs
+        unpredicted = []
         for prn in range(1, 33):
             c = self.channels.get(prn)
             if (c is not None and (c.stage != "lost" or c.retry_at > at)) or prn - 1 in self.vslots:
                 continue
             predicted = self._predict_signal(prn, t_s)
             if predicted is None:
+                if c is not None:
+                    unpredicted.append(prn)
                 continue
             record, window, tx_s, elevation = predicted
             if elevation < p.reacquire_elevation_deg:
@@ -576,6 +628,7 @@ class VectorSampleTracker(SampleTracker):
             per_code = self.fs * CA_CODE_LENGTH / CA_CHIP_RATE_HZ
             code_off = (acq.code_phase_samples - window.code_start_samples + per_code / 2) % per_code - per_code / 2
             self._add(prn, acq, at)
+            self.held.pop(prn - 1, None)
             c = self.channels[prn]
             c.record.events.append((t_s, f"re-acquired in the window predicted by the navigation solution "
                                          f"({code_off:+.1f} samples, {acq.doppler_hz - window.doppler_hz:+.1f} Hz "
@@ -583,17 +636,28 @@ class VectorSampleTracker(SampleTracker):
                                          f"+-{window.doppler_halfwidth_hz:.1f} Hz)"))
             self.solution.events.append((t_s, f"PRN {prn} re-acquired by the aided search"))
             self._join(c, record, tx_s + acq.code_phase_samples / self.fs * (1 + window.doppler_hz / L1_FREQ_HZ))
+        need = self.acquisition.samples_needed(self.fs)
+        if unpredicted and at + need <= stop:  # (the scalar search of `SampleTracker._reacquire`)
+            for acq in self.acquisition.acquire(self.rec.read(at, need), self.fs, self.if_hz, tuple(unpredicted)):
+                if acq.detected:
+                    self.records[acq.prn].events.append((t_s, "re-acquired"))
+                    self._add(acq.prn, acq, at)
 
     def _predict_signal(self, prn: int, t_s: float):
         """The solution's prediction for ``prn`` at recording time ``t_s``: its RINEX
         record, the `SearchWindow` (the first code epoch after ``t_s``; half widths
         ``reacquire_sigmas`` standard deviations of the predicted range and rate, from the
         state covariance on the line of sight), the transmit time at ``t_s`` and the
-        elevation (deg); None without a healthy record."""
-        try:
-            record = self.rinex.select([f"G{prn:02d}"], t_s + self.rx_offset)
-        except KeyError:
-            return None
+        elevation (deg); None without a healthy record (the kept one of a dropped vector
+        channel, else the RINEX file's)."""
+        record = self.held.get(prn - 1)
+        if record is None:
+            if self.rinex is None:
+                return None
+            try:
+                record = self.rinex.select([f"G{prn:02d}"], t_s + self.rx_offset)
+            except KeyError:
+                return None
         dt = t_s - self.t_nav
         x = self.x
         r, b = x[:3] + x[3:6] * dt, x[6] + x[7] * dt
@@ -637,7 +701,7 @@ class VectorSampleTracker(SampleTracker):
         self.eph = _stack([records[int(s)] for s in self.vslots])
         r = self.x[:3]
         self.iono_m = self._iono(self.vslots, r, float(self.start_sample[i]) / self.fs)
-        self.solution.prns = tuple(int(s) + 1 for s in self.vslots)
+        self.solution.prns = tuple(sorted(set(self.solution.prns) | {int(s) + 1 for s in self.vslots}))
         c.vector_pending = True
         self._leave_batch(c)
         c.join_tries = 3
@@ -649,11 +713,15 @@ class VectorSampleTracker(SampleTracker):
         """Satellite position and velocity (rotated into the receive-time frame), clock (m)
         and clock drift (m/s) at the transmit times ``tx_s`` of the channels ``slots``."""
         eph = self.eph.subset(np.searchsorted(self.vslots, slots))
-        clock = satellite_state(eph, tx_s).clock_l1_s
-        st = satellite_state(eph, tx_s - clock)
-        tau = np.linalg.norm(st.position_m - r, axis=-1) / _C
-        return (_rotate(st.position_m, tau), _rotate(st.velocity_mps, tau), _C * st.clock_l1_s,
-                _C * st.clock_drift_s_s)
+        # One evaluation at the satellite-time stamp: its GPS time is ``clock`` (< 1 ms)
+        # earlier, where the position is ``vel * clock`` back (the neglected acceleration
+        # term, |a| dt^2 / 2 < 1e-6 m, and the clock's change over it are far below the
+        # loop's noise).
+        st = satellite_state(eph, tx_s)
+        clock = st.clock_l1_s
+        position = st.position_m - st.velocity_mps * clock[:, None]
+        tau = np.linalg.norm(position - r, axis=-1) / _C
+        return _rotate(position, tau), _rotate(st.velocity_mps, tau), _C * clock, _C * st.clock_drift_s_s
 
     def _iono(self, slots: np.ndarray, r: np.ndarray, t_s: float) -> np.ndarray:
         """Klobuchar delay (m) of each channel from position ``r`` (0 without page 18)."""
@@ -741,7 +809,7 @@ class VectorSampleTracker(SampleTracker):
         mask = np.zeros(32, bool)
         mask[slots] = use
         s.used.append(mask)
-        s.dops.append(_dops(pos[use], x[:3]))
+        s.used_sat_pos_m.append(pos[use])
         self._command(slots, x)
 
     def _command(self, slots: np.ndarray, x: np.ndarray) -> None:
