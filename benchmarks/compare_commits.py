@@ -2,8 +2,9 @@
 
 Times, in processes of each checkout's own code, (1) every compiled Gaussian-rule kernel
 alone (the serial driver called on a 5-state / 6-measurement batch of 200 elements, ns
-of CPU per element, best of several blocks), (2) ``benchmarks/estimators.py --no-numpy``
-and (3) ``benchmarks/vector_loop.py`` (both as the checkout has them), alternating
+of CPU per element, best of several blocks), (2) ``benchmarks/estimators.py --no-numpy
+--no-peers`` and (3) ``benchmarks/vector_loop.py`` (the scripts beside this one, so both
+checkouts run the same script on their own library), alternating
 BEFORE and AFTER ``--repeats`` times so that both see the same load. Prints the median
 of each number over the repeats and the ratio AFTER / BEFORE for times (above 1: AFTER
 slower) and BEFORE / AFTER for rates, and the load average before and after.
@@ -30,6 +31,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+_HERE = Path(__file__).resolve().parent
 
 #: Kernel timing: elements per call, calls per block, blocks (the best block is kept).
 _B, _CALLS, _BLOCKS = 200, 100, 7
@@ -155,8 +158,8 @@ def _measure(tree: Path, what: str) -> dict[str, float]:
     if what == "kernels":
         return json.loads(_run(tree, [__file__, "--worker"]).splitlines()[-1])
     if what == "estimators":
-        return _estimator_rows(_run(tree, ["benchmarks/estimators.py", "--no-numpy"]))
-    return _vector_rows(_run(tree, ["benchmarks/vector_loop.py"]))
+        return _estimator_rows(_run(tree, [str(_HERE / "estimators.py"), "--no-numpy", "--no-peers"]))
+    return _vector_rows(_run(tree, [str(_HERE / "vector_loop.py")]))
 
 
 def main() -> None:
