@@ -16,7 +16,7 @@ Rows for gnssframework: ``numba`` = compiled kernels with the NumPy model functi
 model supplies them); ``numpy`` = the NumPy reference path. Every time is the best of a
 few repeats after a warm-up call (compile time is reported separately).
 
-    python benchmarks/estimators.py [--steps 20] [--batches 1 8 1000 8000]
+    python benchmarks/estimators.py [--steps 20] [--batches 1 8 1000 8000] [--no-numpy] [--no-peers]
 """
 
 from __future__ import annotations
@@ -205,6 +205,8 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=20)
     parser.add_argument("--batches", type=int, nargs="+", default=[1, 8, 1000, 8000])
     parser.add_argument("--no-numpy", action="store_true", help="skip the NumPy reference rows")
+    parser.add_argument("--no-peers", action="store_true",
+                        help="skip FilterPy, Stone Soup and dynamax (our rows only, e.g. to compare two commits)")
     args = parser.parse_args()
     rng = np.random.default_rng(0)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
@@ -213,14 +215,15 @@ def main() -> None:
     print(f"kernel warm-up (compile or load from cache): {compiled_kernels.warm_up():.2f} s\n")
 
     refs = {}
-    refs["FilterPy UKF"] = _optional("FilterPy", time_filterpy, 50, args.steps, rng)
-    refs["Stone Soup UKF"] = _optional("Stone Soup", time_stonesoup, "ukf", 10, max(3, args.steps // 4), rng)
-    refs["Stone Soup CKF"] = _optional("Stone Soup", time_stonesoup, "ckf", 10, max(3, args.steps // 4), rng)
+    if not args.no_peers:
+        refs["FilterPy UKF"] = _optional("FilterPy", time_filterpy, 50, args.steps, rng)
+        refs["Stone Soup UKF"] = _optional("Stone Soup", time_stonesoup, "ukf", 10, max(3, args.steps // 4), rng)
+        refs["Stone Soup CKF"] = _optional("Stone Soup", time_stonesoup, "ckf", 10, max(3, args.steps // 4), rng)
     for label, t in refs.items():
         if t is not None:
             print(f"{label:15s}: {t * 1e6:9.1f} us per filter-step (one object per element)")
     dmx = {}
-    for batch in args.batches:
+    for batch in [] if args.no_peers else args.batches:
         dmx[batch] = _optional("dynamax", time_dynamax, batch, args.steps, rng)
         if dmx[batch] is not None:
             print(f"dynamax UKF (jit+vmap) batch {batch:5d}: {dmx[batch] * 1e6:9.2f} us per filter-step")

@@ -19,23 +19,10 @@ from gnssframework.estimation import CompiledFunctions, Gaussian, NonlinearModel
 from gnssframework_plugins.estimators import CubatureKalmanFilter, SvdCubatureKalmanFilter
 
 from test_kernels import REL, _close, _engine
+from turn_target import DT, OMEGA, Q, SENSOR, prior, turn, turn_f
 
 
 # -- a third-party model: a 2-D constant-turn target seen by range and bearing ----------
-
-OMEGA, DT = 0.2, 0.1
-
-
-@backend.jit
-def turn_f(params, X, k, Y):
-    """Constant turn of [x, y, vx, vy] over params[0, 0] seconds at params[0, 1] rad/s."""
-    dt, w = params[0, 0], params[0, 1]
-    s, c = math.sin(w * dt), math.cos(w * dt)
-    x, y, vx, vy = X[k, 0], X[k, 1], X[k, 2], X[k, 3]
-    Y[k, 0] = x + (s * vx - (1.0 - c) * vy) / w
-    Y[k, 1] = y + ((1.0 - c) * vx + s * vy) / w
-    Y[k, 2] = c * vx - s * vy
-    Y[k, 3] = s * vx + c * vy
 
 
 @backend.jit
@@ -46,19 +33,12 @@ def range_bearing_h(params, X, k, Z, kz):
     Z[kz, 1] = math.atan2(dy, dx)
 
 
-def _turn_numpy(x):
-    s, c = np.sin(OMEGA * DT), np.cos(OMEGA * DT)
-    px, py, vx, vy = np.moveaxis(x, -1, 0)
-    return np.stack([px + (s * vx - (1 - c) * vy) / OMEGA, py + ((1 - c) * vx + s * vy) / OMEGA,
-                     c * vx - s * vy, s * vx + c * vy], axis=-1)
-
-
 def _model(calls: list, compiled: bool) -> NonlinearModel:
-    sensor = np.array([-50.0, 20.0])
+    sensor = np.array(SENSOR)
 
     def f(x):
         calls.append("f")
-        return _turn_numpy(x)
+        return turn(x)
 
     def h(x):
         calls.append("h")
@@ -66,16 +46,14 @@ def _model(calls: list, compiled: bool) -> NonlinearModel:
         return np.stack([np.hypot(d[..., 0], d[..., 1]), np.arctan2(d[..., 1], d[..., 0])], axis=-1)
 
     twins = CompiledFunctions(turn_f, [[DT, OMEGA]], range_bearing_h, [sensor]) if compiled else None
-    return NonlinearModel(f, h, np.diag([0.01, 0.01, 0.1, 0.1]), np.diag([0.5, 1e-4]), compiled=twins)
+    return NonlinearModel(f, h, Q, np.diag([0.5, 1e-4]), compiled=twins)
 
 
 def _state(batch: int, seed: int = 0) -> tuple[Gaussian, np.ndarray]:
     rng = np.random.default_rng(seed)
-    mean = np.array([100.0, 40.0, 3.0, -1.0]) + rng.standard_normal((batch, 4))
-    A = rng.standard_normal((batch, 4, 4))
-    P = A @ np.swapaxes(A, -1, -2) * 0.1 + np.eye(4)
+    state = prior(batch, rng)
     z = np.stack([np.full(batch, 160.0), np.full(batch, 0.12)], axis=-1) + 0.01 * rng.standard_normal((batch, 2))
-    return Gaussian(mean, P), z
+    return state, z
 
 
 @pytest.mark.parametrize("name", ("ukf", "ckf", "svd-ckf"))

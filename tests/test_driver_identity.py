@@ -24,28 +24,12 @@ from gnssframework.estimation import compiled as kernels
 from gnssframework.estimation.compiled_model import linear_f
 
 from test_kernels import _close, _engine
+from turn_target import COS, OMEGA, SENSOR, SIN, TURN_F, prior, turn, turn_row
 
 SIGMA_ENGINES = ("ukf", "ckf", "svd-ckf")
 FIELDS = ("innovation", "innovation_cov", "gain", "cross_cov", "predicted_measurement", "skipped")
 BATCHES = (5, kernels.PARALLEL_MIN_BATCH + 3)  # serial drivers; parallel/split drivers
 STEPS = 3
-
-# A constant turn of [x, y, vx, vy] (sin and cos taken once, in Python: the NumPy and
-# jitted transitions then do the same +, -, *, / in the same order).
-OMEGA, DT = 0.2, 0.1
-SIN, COS = float(np.sin(OMEGA * DT)), float(np.cos(OMEGA * DT))
-SENSOR = (-50.0, 20.0)
-
-
-@backend.jit
-def turn_row(params, X, k, Y):
-    s, c, w = params[0, 0], params[0, 1], params[0, 2]
-    x, y, vx, vy = X[k, 0], X[k, 1], X[k, 2], X[k, 3]
-    Y[k, 0] = x + (s * vx - (1.0 - c) * vy) / w
-    Y[k, 1] = y + ((1.0 - c) * vx + s * vy) / w
-    Y[k, 2] = c * vx - s * vy
-    Y[k, 3] = s * vx + c * vy
-
 
 @backend.jit
 def range_row(params, X, k, Z, kz):
@@ -67,15 +51,6 @@ def range_jacobian(params, X, k, J):
     J[1, 0], J[1, 1], J[1, 2], J[1, 3] = -dy / (dx * dx), 1.0 / dx, 0.0, 0.0
     J[2, 0], J[2, 1] = (vx - rr * dx / r) / r, (vy - rr * dy / r) / r
     J[2, 2], J[2, 3] = dx / r, dy / r
-
-
-def turn(x):
-    px, py, vx, vy = np.moveaxis(x, -1, 0)
-    return np.stack([px + (SIN * vx - (1.0 - COS) * vy) / OMEGA, py + ((1.0 - COS) * vx + SIN * vy) / OMEGA,
-                     COS * vx - SIN * vy, SIN * vx + COS * vy], axis=-1)
-
-
-TURN_F = turn(np.eye(4)).T  # the transition is linear: columns are the images of the unit vectors
 
 
 def ranges(x):
@@ -109,12 +84,10 @@ def model(twins: str) -> NonlinearModel:
 
 def problem(batch: int, seed: int = 3):
     rng = np.random.default_rng(seed)
-    mean = np.array([100.0, 40.0, 3.0, -1.0]) + rng.standard_normal((batch, 4))
-    A = rng.standard_normal((batch, 4, 4))
-    P = A @ np.swapaxes(A, -1, -2) * 0.1 + np.eye(4)
-    z = ranges(mean) + 0.05 * rng.standard_normal((batch, 3))
+    state = prior(batch, rng)
+    z = ranges(state.mean) + 0.05 * rng.standard_normal((batch, 3))
     z[1, 0] = np.nan  # a missing measurement: that element keeps its prior
-    return Gaussian(mean, P), z
+    return state, z
 
 
 def run(name: str, backend_name: str, mdl, state: Gaussian, z: np.ndarray) -> list[dict]:
