@@ -5,8 +5,9 @@ code epoch (not fixed-length blocks): a period ends on the sample at which the c
 reaches the next epoch. One call of the compiled multi-channel correlator
 (`correlator.correlate_periods`) runs every channel through its whole coherent interval
 (1 ms, or ``coherent_ms`` after bit synchronisation) and returns every period's sums, on
-a buffer that streams the recording in blocks; a channel ahead of the others by more
-than `LAG_LIMIT_S` waits. The per-millisecond bookkeeping (normalised sums, NCO
+a buffer that streams the recording in blocks (the next one read ahead on a second
+thread, `prefetch.BlockReader`); a channel ahead of the others by more than `LAG_LIMIT_S`
+waits. The per-millisecond bookkeeping (normalised sums, NCO
 advance, prompts for the detectors, bit-sync votes) is one compiled pass over the channels
 (`intervals.close_periods`), the bit wipe-off and the lock detectors are done on arrays
 over the channels, and the filters of the channels in one stage and coherent interval step as one
