@@ -11,6 +11,7 @@ it. ``gnssframework compare`` pays this once in the parent before forking its wo
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -36,6 +37,7 @@ def _probe(cache_dir: str) -> dict:
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()  # --help: no two-minute run
     print(f"load average {os.getloadavg()[0]:.1f} at start, {os.cpu_count()} cores")
     with tempfile.TemporaryDirectory() as cache:
         cold = _probe(cache)
