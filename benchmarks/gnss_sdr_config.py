@@ -9,6 +9,20 @@ from pathlib import Path
 #: Sample type of the file (GNSS-SDR's ``item_type``) -> its data-type adapter.
 ADAPTERS = {"ibyte": "Ibyte_To_Complex", "ishort": "Ishort_To_Complex"}
 
+#: The ``Acquisition_1C`` section: PCPS, 1 ms coherent, +-5 kHz in 250 Hz steps, one dwell.
+ACQUISITION = {"implementation": "GPS_L1_CA_PCPS_Acquisition", "item_type": "gr_complex",
+               "coherent_integration_time_ms": 1, "pfa": 0.01, "doppler_max": 5000, "doppler_step": 250,
+               "max_dwells": 1}
+#: The ``Tracking_1C`` section: DLL/PLL, 30 Hz PLL, 2 Hz DLL, early-late 0.5 chip.
+TRACKING = {"implementation": "GPS_L1_CA_DLL_PLL_Tracking", "item_type": "gr_complex", "pll_bw_hz": 30.0,
+            "dll_bw_hz": 2.0, "early_late_space_chips": 0.5}
+
+
+def section(block: str, settings: dict[str, object]) -> str:
+    """GNSS-SDR config lines ``block.key=value`` of ``settings``, in their order (values as
+    Python prints them: ``30.0`` stays ``30.0``)."""
+    return "".join(f"{block}.{key}={value}\n" for key, value in settings.items())
+
 
 def gnss_sdr_config(path: Path, fs: float, out: Path, *, channels: int = 8, item_type: str = "ibyte",
                     output_rate_ms: int = 100, display_rate_ms: int = 500, pvt_models: bool = False) -> str:
@@ -37,18 +51,7 @@ Resampler.item_type=gr_complex
 Channels_1C.count={channels}
 Channels.in_acquisition=1
 Channel.signal=1C
-Acquisition_1C.implementation=GPS_L1_CA_PCPS_Acquisition
-Acquisition_1C.item_type=gr_complex
-Acquisition_1C.coherent_integration_time_ms=1
-Acquisition_1C.pfa=0.01
-Acquisition_1C.doppler_max=5000
-Acquisition_1C.doppler_step=250
-Acquisition_1C.max_dwells=1
-Tracking_1C.implementation=GPS_L1_CA_DLL_PLL_Tracking
-Tracking_1C.item_type=gr_complex
-Tracking_1C.pll_bw_hz=30.0
-Tracking_1C.dll_bw_hz=2.0
-Tracking_1C.early_late_space_chips=0.5
+{section("Acquisition_1C", ACQUISITION)}{section("Tracking_1C", TRACKING)}\
 TelemetryDecoder_1C.implementation=GPS_L1_CA_Telemetry_Decoder
 Observables.implementation=Hybrid_Observables
 PVT.implementation=RTKLIB_PVT

@@ -1,13 +1,15 @@
 """The whole receiver, end to end, against GNSS-SDR on the same gps-sdr-sim file in the same run.
 
-    python benchmarks/receiver_end_to_end.py [--seconds 60] [--cn0 45] [--repeat 1] [--work DIR] [--profile]
+    python benchmarks/receiver_end_to_end.py [--seconds 60] [--cn0 45] [--repeat 3] [--work DIR] [--profile]
 
 A static receiver simulated by gps-sdr-sim (built from ``../shared/tools/gps-sdr-sim``, its
 ``brdc0010.22n``, Tokyo, as `validation/gps_sdr_sim_navigation.py`), 2.6 MHz complex int16,
 with white noise added for ``--cn0`` dB-Hz (`validation/gps_sdr_sim_tracking.add_noise`).
 Both receivers run the whole chain on that one file, each in a fresh process (start-up,
 compiled-kernel loading and file reading included), alternately (``--repeat`` rounds, the
-order swapped every round):
+order swapped every round; the default, 3 rounds of a 60 s file, takes 2-4 minutes on an
+idle 2-core machine, the recording's simulation included; ``--work`` keeps the recording
+for the next run):
 
 - gnssframework: `receive` (acquisition of all 32 PRNs, tracking of every satellite found,
   LNAV, observables, least-squares positions at 1 Hz from the decoded ephemerides,
@@ -17,11 +19,15 @@ order swapped every round):
   satellites in view).
 
 Printed per run: wall time, CPU time (the process and its threads), x real time (signal
-seconds per wall second), the load average before the run, and, for context, each
+seconds per wall second), the load average before the run, gnssframework's start-up CPU
+(interpreter, imports, plugin registry: before the receiver starts) and, for context, each
 receiver's first-fix time (seconds into the file), fixes, satellites used and position
-errors against gps-sdr-sim's receiver position; then the ratio of wall times. Other jobs on
-the same cores slow both receivers alike: compare rows of one run. ``--profile`` prints
-where gnssframework's time goes (cProfile, cumulative).
+errors against gps-sdr-sim's receiver position; then, per round and their median, the
+ratios GNSS-SDR / gnssframework of wall and CPU time, and the load averages (1, 5, 15 min,
+as ``uptime``) before and after. Other jobs on the same cores do not slow both receivers
+alike: GNSS-SDR runs a thread per processing block, so on a loaded machine it gets a larger
+share of the cores than a one-thread process; compare wall ratios from an idle machine.
+``--profile`` prints where gnssframework's time goes (cProfile, cumulative).
 
 Exits 2 when gps-sdr-sim cannot be built or ``gnss-sdr`` is not installed.
 """
@@ -86,9 +92,12 @@ def ours_in_this_process(path: Path, out: Path, profile: bool) -> None:
     from gnssframework.receiver.frontend import open_recording
     from gnssframework.receiver.navigation.receive import receive
 
+    acquisition = registry.create("acquisition", "pcps")  # loads the plugin registry: start-up
+    startup_cpu_s = time.process_time()
+
     def run():
-        return receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=1.0,
-                       ionosphere=True, troposphere=False)
+        return receive(open_recording(path), acquisition, tracking_config(), rate_hz=1.0, ionosphere=True,
+                       troposphere=False)
 
     if profile:
         import cProfile
@@ -100,7 +109,7 @@ def ours_in_this_process(path: Path, out: Path, profile: bool) -> None:
     else:
         result = run()
     table = result.positions
-    found = {"channels": sorted(int(p) for p in result.tracking.channels)}
+    found = {"channels": sorted(int(p) for p in result.tracking.channels), "startup_cpu_s": startup_cpu_s}
     if table is not None and len(table):
         c = table.columns
         found |= {"first_fix_s": float(table.sample_time_s[0]), "fixes": len(table),
@@ -156,8 +165,14 @@ def run_gnss_sdr(path: Path, work: Path, tow0: float) -> dict:
 def line(name: str, r: dict, seconds: float) -> str:
     fix = (f"first fix {r['first_fix_s']:5.1f} s, {r['fixes']:3d} fixes, {r['sats_median']:.0f} sats, H/V RMS "
            f"{r['errors_m'][0]:5.1f}/{r['errors_m'][1]:5.1f} m") if "fixes" in r else "no fix"
-    return (f"{name:13s} wall {r['wall_s']:6.1f} s  CPU {r['cpu_s']:6.1f} s  x{seconds / r['wall_s']:5.2f} real time  "
-            f"load {r['load']:4.1f}  {len(r['channels']):2d} channels  {fix}")
+    startup = f" (start-up {r['startup_cpu_s']:.1f})" if "startup_cpu_s" in r else ""
+    return (f"{name:13s} wall {r['wall_s']:6.1f} s  CPU {r['cpu_s']:6.1f} s{startup}  x{seconds / r['wall_s']:5.2f} "
+            f"real time  load {r['load']:4.1f}  {len(r['channels']):2d} channels  {fix}")
+
+
+def uptime() -> str:
+    """The load averages over 1, 5 and 15 minutes, as ``uptime`` prints them."""
+    return "load average: " + ", ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -165,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seconds", type=float, default=60.0, help="length of the simulated recording")
     ap.add_argument("--cn0", type=float, default=45.0, help="C/N0 of the noise added (dB-Hz)")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--repeat", type=int, default=1, help="rounds of both receivers, alternating which goes first")
+    ap.add_argument("--repeat", type=int, default=3, help="rounds of both receivers, alternating which goes first")
     ap.add_argument("--work", type=Path, help="folder for the recording (kept and reused); default: a temporary one")
     ap.add_argument("--profile", action="store_true", help="print gnssframework's cProfile (slows it)")
     ap.add_argument("--ours-only", type=Path, help=argparse.SUPPRESS)
@@ -185,7 +200,8 @@ def main(argv: list[str] | None = None) -> int:
         except (subprocess.CalledProcessError, OSError) as exc:
             print(f"cannot build or run gps-sdr-sim from {SIM_DIR}: {exc}", file=sys.stderr)
             return 2
-        print(f"{args.seconds:.0f} s gps-sdr-sim at {FS_HZ / 1e6:.1f} MHz, {args.cn0:g} dB-Hz; {os.cpu_count()} cores")
+        print(f"{args.seconds:.0f} s gps-sdr-sim at {FS_HZ / 1e6:.1f} MHz, {args.cn0:g} dB-Hz; {os.cpu_count()} cores; "
+              f"before: {uptime()}")
         rows = []
         for k in range(args.repeat):
             order = ("ours", "gnss-sdr") if k % 2 == 0 else ("gnss-sdr", "ours")
@@ -194,11 +210,11 @@ def main(argv: list[str] | None = None) -> int:
                 round_[who] = run_ours(path, work) if who == "ours" else run_gnss_sdr(path, work, tow0)
                 print(line("gnssframework" if who == "ours" else "GNSS-SDR", round_[who], args.seconds), flush=True)
             rows.append(round_)
-        ours = np.array([r["ours"]["wall_s"] for r in rows])
-        theirs = np.array([r["gnss-sdr"]["wall_s"] for r in rows])
-        cpu = [r["gnss-sdr"]["cpu_s"] / r["ours"]["cpu_s"] for r in rows]
-        print(f"GNSS-SDR / gnssframework: wall time {', '.join(f'{x:.2f}' for x in theirs / ours)}, CPU time "
-              f"{', '.join(f'{x:.2f}' for x in cpu)} (above 1: gnssframework faster)")
+        wall = np.array([r["gnss-sdr"]["wall_s"] / r["ours"]["wall_s"] for r in rows])
+        cpu = np.array([r["gnss-sdr"]["cpu_s"] / r["ours"]["cpu_s"] for r in rows])
+        print(f"GNSS-SDR / gnssframework (above 1: gnssframework faster), per round: wall time "
+              f"{', '.join(f'{x:.2f}' for x in wall)}, CPU time {', '.join(f'{x:.2f}' for x in cpu)}; median: wall "
+              f"{np.median(wall):.2f}, CPU {np.median(cpu):.2f}; after: {uptime()}")
         if args.profile:
             print("\nwhere gnssframework's time goes (cProfile, a separate untimed run):")
             run_ours(path, work, profile=True)

@@ -37,10 +37,7 @@ def _probe(cache_dir: str) -> dict:
 
 
 def main() -> None:
-    # --help must return at once (tests/test_scripts_import.py starts every script so):
-    # without a parser the script would run its whole cold compile instead.
-    argparse.ArgumentParser(description="Startup cost of the compiled kernels: import, cold "
-                            "compile and cached load, each in a fresh interpreter.").parse_args()
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()  # --help: no two-minute run
     print(f"load average {os.getloadavg()[0]:.1f} at start, {os.cpu_count()} cores")
     with tempfile.TemporaryDirectory() as cache:
         cold = _probe(cache)

@@ -50,7 +50,7 @@ from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-from scipy import stats as _sps
+from scipy import special as _sc  # not scipy.stats: its import costs every run of the CLI a second
 
 from ..errors import ConfigError
 from .number_format import format_estimate
@@ -138,7 +138,7 @@ def check_claims(claims: list[Claim], cases: list[str], candidates: list[str], m
 
 
 def _t(n: int) -> float:
-    return float(_sps.t.ppf(0.975, n - 1))
+    return float(_sc.stdtrit(n - 1, 0.975))  # = scipy.stats.t.ppf(0.975, n - 1)
 
 
 def _against(low: float, high: float, bound: float, below: bool) -> str:

@@ -21,7 +21,7 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy import stats as _sps
+from scipy import special as _sc  # not scipy.stats: its import costs every run of the CLI a second
 
 from .number_format import at_rounding_level
 
@@ -135,7 +135,7 @@ def paired_difference(candidate: np.ndarray, reference: np.ndarray, level: float
     if n < 2:
         return PairedDifference(n, diff, None, None, ratio, None, False, "one pair: no standard error")
     se = float(np.std(d, ddof=1) / np.sqrt(n))
-    t = float(_sps.t.ppf(0.5 + level / 2, n - 1))
+    t = float(_sc.stdtrit(n - 1, 0.5 + level / 2))
     ci = (diff - t * se, diff + t * se)
     if ratio is not None:
         c = np.cov(x, y, ddof=1)

@@ -37,7 +37,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
-from scipy.signal import lfilter
 
 from gnssframework import random_streams as draw
 from gnssframework.errors import ConfigError
@@ -119,6 +118,8 @@ def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float,
     phi = np.exp(-dt_s / tau_s)
     drive = draw.standard_normal(rng, shape, 1) * (sigma * np.sqrt(1.0 - phi * phi))
     drive[0] = draw.standard_normal(rng, shape[1:], 0) * sigma
+    from scipy.signal import lfilter  # here: scipy.signal's import costs every run of the CLI a second
+
     return lfilter([1.0], [1.0, -phi], drive, axis=0)
 
 

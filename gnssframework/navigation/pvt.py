@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pymap3d
-from scipy.stats import chi2
+from scipy import special  # not scipy.stats: its import costs a second of every run's start-up
 
 from ..errors import ConfigError
 from ..signal.constants import L1_FREQ_HZ
@@ -38,6 +38,12 @@ from ..signal.constants import SPEED_OF_LIGHT_M_S as SPEED_OF_LIGHT_MPS
 __all__ = ["PositionFix", "klobuchar_delay_s", "troposphere_delay_m", "dop", "solve_position"]
 
 _C = SPEED_OF_LIGHT_MPS
+
+
+def chi2_ppf(q: float, dof: int) -> float:
+    """Chi-square quantile, ``scipy.stats.chi2.ppf(q, dof)`` to the bit: ``2 P^{-1}(dof/2, q)``
+    with ``P`` the regularised lower incomplete gamma function; NaN for ``dof < 1`` as scipy.stats."""
+    return float(2 * special.gammaincinv(dof / 2, q)) if dof > 0 else float("nan")
 _L1_WAVELENGTH_M = _C / L1_FREQ_HZ
 
 
@@ -238,7 +244,7 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
         return None
     excluded = None
     dof = int(sol[6].sum()) - 4
-    if dof >= 2 and sol[1] > chi2.ppf(1 - false_alarm, dof):
+    if dof >= 2 and sol[1] > chi2_ppf(1 - false_alarm, dof):
         trials = {}
         for j in np.flatnonzero(sol[6]):
             k = keep.copy()
@@ -249,7 +255,7 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
                 trials[int(j)] = trial
         if trials:
             j, best = min(trials.items(), key=lambda kv: kv[1][1])
-            if best[1] <= chi2.ppf(1 - false_alarm, int(best[6].sum()) - 4):
+            if best[1] <= chi2_ppf(1 - false_alarm, int(best[6].sum()) - 4):
                 sol, excluded = best, j
     x, _, res, u, el, az, use, rot = sol
     lat, lon, h = (float(v) for v in pymap3d.ecef2geodetic(*x[:3]))

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
 from .. import random_streams as draw
 from ..errors import ConfigError
@@ -30,6 +29,8 @@ def ar1_noise(
     if stationary:
         xi[0] = xi[0] / np.sqrt(1 - psi**2)
     if psi.ndim == 0:  # one psi: a single IIR filter over time
+        from scipy import signal  # here: scipy.signal's import costs every receiver run a second
+
         return signal.lfilter([1.0], [1.0, -float(psi)], xi, axis=0)
     out = np.empty_like(xi)
     out[0] = xi[0]

@@ -11,7 +11,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy import optimize, signal, special, stats
+from scipy import optimize, special  # signal and stats in the functions: their imports cost every run a second
 
 from .. import random_streams as draw
 from ..errors import ConfigError
@@ -79,6 +79,8 @@ def cornell(
         raise ConfigError("tau0_s", f"must be > 0, got {tau0_s}")
     if tau0_s * sample_rate_hz < 5:
         raise ConfigError("sample_rate_hz", f"needs at least 5 samples per tau0 ({tau0_s} s), got {sample_rate_hz} Hz")
+    from scipy import signal
+
     K = rice_k_from_s4(s4)
     wn = np.sqrt(2) * _butterworth2_tau0_factor() / tau0_s  # rad/s
     b, a = signal.butter(2, wn / (2 * np.pi), fs=sample_rate_hz)
@@ -143,6 +145,8 @@ def aj_stanford(
         raise ConfigError("sigma_phi_rad", f"must be >= 0, got {sigma_phi_rad}")
     if not -1 < intensity_phase_corr < 1:
         raise ConfigError("intensity_phase_corr", f"must be in (-1, 1), got {intensity_phase_corr}")
+    from scipy import stats
+
     m = 1.0 / s4**2
     gamma = stats.gamma(a=m, scale=1.0 / m)
     # E[g h(g)] for g ~ N(0,1), h = Gamma quantile of Phi(g): Gauss-Hermite quadrature.

@@ -14,7 +14,7 @@ chi-square median, which the few cells holding a signal do not move.
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
+from scipy import special  # not scipy.stats: its import costs a second of every run's start-up
 
 from ...errors import ConfigError
 
@@ -38,8 +38,8 @@ def threshold_from_pfa(pfa: float, cells: int, noncoherent: int, alternate: bool
     """
     p = cell_false_alarm(pfa, cells)
     if alternate:
-        return float(stats.chi2.isf(-np.expm1(0.5 * np.log1p(-p)), 2 * noncoherent))
-    return float(stats.chi2.isf(p, 2 * noncoherent))
+        return float(special.chdtri(2 * noncoherent, -np.expm1(0.5 * np.log1p(-p))))
+    return float(special.chdtri(2 * noncoherent, p))
 
 
 def noise_floor(raw_grid: np.ndarray, noncoherent: int, alternate: bool = False) -> float:
@@ -47,5 +47,5 @@ def noise_floor(raw_grid: np.ndarray, noncoherent: int, alternate: bool = False)
     (with ``alternate``, of the larger of two chi-square(2K) sums of ``K = noncoherent``
     blocks: median at the chi-square(2K) quantile :math:`\\sqrt{1/2}`)."""
     if alternate:
-        return float(np.median(raw_grid) / stats.chi2.ppf(np.sqrt(0.5), 2 * noncoherent))
-    return float(np.median(raw_grid) / stats.chi2.median(2 * noncoherent))
+        return float(np.median(raw_grid) / (2 * special.gammaincinv(noncoherent, np.sqrt(0.5))))
+    return float(np.median(raw_grid) / (2 * special.gammaincinv(noncoherent, 0.5)))

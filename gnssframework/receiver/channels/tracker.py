@@ -5,8 +5,9 @@ code epoch (not fixed-length blocks): a period ends on the sample at which the c
 reaches the next epoch. One call of the compiled multi-channel correlator
 (`correlator.correlate_periods`) runs every channel through its whole coherent interval
 (1 ms, or ``coherent_ms`` after bit synchronisation) and returns every period's sums, on
-a buffer that streams the recording in blocks; a channel ahead of the others by more
-than `LAG_LIMIT_S` waits. The per-millisecond bookkeeping (normalised sums, NCO
+a buffer that streams the recording in blocks (the next one read ahead on a second
+thread, `prefetch.BlockReader`); a channel ahead of the others by more than `LAG_LIMIT_S`
+waits. The per-millisecond bookkeeping (normalised sums, NCO
 advance, prompts for the detectors, bit-sync votes) is one compiled pass over the channels
 (`intervals.close_periods`), the bit wipe-off and the lock detectors are done on arrays
 over the channels, and the filters of the channels in one stage and coherent interval step as one
@@ -44,7 +45,8 @@ from ..tracking.scalar import NCO_COMMANDS
 from .batch import FilterBatch, batch_layout
 from .closure import ERROR_OUTPUTS, ErrorFeedback
 from .config import TrackingConfig
-from .correlator import code_tables, correlate_periods, sum_of_squares
+from .correlator import code_tables, correlate_periods
+from .prefetch import BlockReader
 from .intervals import ChannelArrays, close_periods
 from ...signal.cn0 import cn0_moments
 from .lock import bit_edge_from_votes, cn0_nwpr_bits, estimate_cn0, phase_lock_indicator
@@ -171,12 +173,17 @@ class SampleTracker:
         Step the filters of the channels in the same stage and coherent interval as one
         batch (`gnssframework.receiver.channels.batch`); ``False`` steps every channel's
         filter alone (the reference the batched stepping is tested against).
+    read_ahead
+        Read the next block of the recording on a second thread while the channels
+        correlate the current one (`prefetch.BlockReader`: the same samples and power);
+        ``False`` reads every block when it is needed.
     """
 
     def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
-                 backend: str | None = None, batch: bool = True) -> None:
+                 backend: str | None = None, batch: bool = True, read_ahead: bool = True) -> None:
         self.rec = recording
         self.batch = batch
+        self.read_ahead = read_ahead
         self.config = config
         self.acquisition = acquisition
         self.backend = backend
@@ -255,17 +262,26 @@ class SampleTracker:
         keep = self.buf[max(0, lo - self.buf_start) * per:] if lo < self.buf_start + held else self.buf[:0]
         first = max(lo, self.buf_start + held) if keep.size else lo
         block = max(hi - first, int(self.config.block_ms * 1e-3 * self.fs))
-        new = self.rec.read_components(first, block)
+        new, squares = self.reader.read(first, block)
         self.buf = np.concatenate([keep, new]) if keep.size else new
         self.buf_start = first - keep.shape[0] // per
         if new.size:  # mean square of a sample (|I|^2 + |Q|^2 for I/Q); no BLAS call (its threads spin)
-            self.power = sum_of_squares(new) * per / new.size
+            self.power = squares * per / new.size
         return self.buf, self.buf_start
 
     def run(self, acquisitions: list[AcquisitionResult], duration_s: float | None = None,
             progress: Any = None) -> TrackingResult:
         """Track every detected satellite of ``acquisitions`` (made on the first samples)
         for ``duration_s`` (default: the whole recording)."""
+        ahead = int(self.config.block_ms * 1e-3 * self.fs) if self.read_ahead else 0
+        self.reader = BlockReader(self.rec, ahead)
+        try:
+            return self._track(acquisitions, duration_s, progress)
+        finally:
+            self.reader.close()
+
+    def _track(self, acquisitions: list[AcquisitionResult], duration_s: float | None,
+               progress: Any) -> TrackingResult:
         cfg = self.config
         fs = self.fs
         stop = self.rec.n_samples if duration_s is None else min(self.rec.n_samples, int(duration_s * fs))

@@ -41,14 +41,13 @@ from typing import Any
 
 import numpy as np
 import pymap3d
-from scipy.stats import chi2
 
 from ... import names, registry
 from ...errors import ConfigError
 from ...interfaces import NavFilter, RunContext
 from ...navigation.ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
 from ...navigation.lnav import IonoUtc
-from ...navigation.pvt import dop, klobuchar_delay_s, troposphere_delay_m
+from ...navigation.pvt import chi2_ppf, dop, klobuchar_delay_s, troposphere_delay_m
 from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M, SPEED_OF_LIGHT_M_S
 from .fixes import PositionTable, full_week
 from .fixes import _ephemeris_for as ephemeris_for, _stack as stack_records
@@ -248,7 +247,7 @@ def innovation_exclusion(predicted_state: np.ndarray, predicted_cov: np.ndarray,
 
     keep = np.ones(n, dtype=bool)
     stat = statistic(np.flatnonzero(keep))
-    while keep.sum() > min_satellites and stat > chi2.ppf(1.0 - false_alarm, 2 * int(keep.sum())):
+    while keep.sum() > min_satellites and stat > chi2_ppf(1.0 - false_alarm, 2 * int(keep.sum())):
         kept = np.flatnonzero(keep)
         without = [statistic(kept[kept != i]) for i in kept]
         keep[kept[int(np.argmin(without))]] = False
