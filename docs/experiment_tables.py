@@ -20,13 +20,14 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "experiments" / "generated"
 
 
-def _cell(row: dict) -> str:
+def _cell(row: dict, digits: int = 4) -> str:
+    """``mean ± SE`` of a summary row (the SE left out where it is at rounding level)."""
     if row.get("mean") is None:
         return "–"
     se = row["std"] / math.sqrt(row["runs"]) if row.get("std") is not None and row["runs"] > 1 else None
     if se is not None and se <= 1e-9 * abs(row["mean"]):
         se = None  # a spread at rounding level (a bound shared by every run) is not a spread
-    return f"{row['mean']:.4g}" + ("" if se is None else f" ± {se:.2g}")
+    return f"{row['mean']:.{digits}g}" + ("" if se is None else f" ± {se:.2g}")
 
 
 def _value(v) -> str:
@@ -89,12 +90,21 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
     return "\n".join(lines)
 
 
-def write(result_dir: Path, name: str, metrics: list[str] | None = None) -> Path:
-    summary = json.loads((Path(result_dir) / "summary.json").read_text())
+def read_summary(result_dir: Path) -> dict:
+    """A run's ``summary.json``."""
+    return json.loads((Path(result_dir) / "summary.json").read_text())
+
+
+def save(file_name: str, text: str) -> Path:
+    """Write a generated table into docs/experiments/generated/."""
     OUT.mkdir(parents=True, exist_ok=True)
-    path = OUT / f"{name}.md"
-    path.write_text(render(summary, metrics))
+    path = OUT / file_name
+    path.write_text(text)
     return path
+
+
+def write(result_dir: Path, name: str, metrics: list[str] | None = None) -> Path:
+    return save(f"{name}.md", render(read_summary(result_dir), metrics))
 
 
 if __name__ == "__main__":

@@ -11,20 +11,10 @@ regenerates it from the run CI makes, so the table is never pasted.
 
 from __future__ import annotations
 
-import json
-import math
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-OUT = ROOT / "docs" / "experiments" / "generated"
-
-
-def _ours(row: dict) -> str:
-    if row.get("mean") is None:
-        return "–"
-    se = row["std"] / math.sqrt(row["runs"]) if row.get("std") is not None and row["runs"] > 1 else None
-    return f"{row['mean']:.3g}" + ("" if se is None else f" ± {se:.2g}")
+from experiment_tables import _cell, read_summary, save  # noqa: E402  (docs/ is on the path when run or imported)
 
 
 def render(summary: dict, candidates: list[str]) -> str:
@@ -45,23 +35,20 @@ def render(summary: dict, candidates: list[str]) -> str:
             row = []
             for c in candidates:
                 r = by[(case, c, m)]
-                row += ["–" if r.get("published") is None else f"{r['published']:g}", _ours(r)]
+                row += ["–" if r.get("published") is None else f"{r['published']:g}", _cell(r, digits=3)]
             lines.append(f"| {m} | {by[(case, candidates[0], m)]['unit']} | " + " | ".join(row) + " |")
         lines.append("")
     return "\n".join(lines)
 
 
 def write(result_dir: Path, name: str, candidates: list[str]) -> Path:
-    summary = json.loads((Path(result_dir) / "summary.json").read_text())
+    summary = read_summary(result_dir)
     known = {r["candidate"] for r in summary["rows"]}
     missing = [c for c in candidates if c not in known]
     if missing:
         raise SystemExit(f"{Path(result_dir) / 'summary.json'}: no candidate {', '.join(missing)} "
                          f"(candidates: {', '.join(sorted(known))})")
-    OUT.mkdir(parents=True, exist_ok=True)
-    path = OUT / f"{name}_published.md"
-    path.write_text(render(summary, candidates))
-    return path
+    return save(f"{name}_published.md", render(summary, candidates))
 
 
 if __name__ == "__main__":

@@ -11,12 +11,11 @@ at every point. The experiment pages include it (``--8<-- "experiments/generated
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-OUT = ROOT / "docs" / "experiments" / "generated"
+
+from experiment_tables import read_summary, save  # noqa: E402  (docs/ is on the path when run or imported)
 
 
 def _estimate(value: float | None, se: float | None, sign: bool = False) -> str:
@@ -76,13 +75,10 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
 
 
 def write(result_dir: Path, name: str, metrics: list[str] | None = None) -> Path:
-    summary = json.loads((Path(result_dir) / "summary.json").read_text())
+    summary = read_summary(result_dir)
     if not summary.get("sweeps"):
         raise SystemExit(f"{Path(result_dir) / 'summary.json'}: no sweeps in this summary")
-    OUT.mkdir(parents=True, exist_ok=True)
-    path = OUT / f"{name}.md"
-    path.write_text(render(summary, metrics))
-    return path
+    return save(f"{name}.md", render(summary, metrics))
 
 
 if __name__ == "__main__":
