@@ -60,7 +60,7 @@ sys.path.insert(0, str(HERE))
 import sim_truth  # noqa: E402
 # NAV and simulate are imported from here by gps_sdr_sim_weak.
 from gps_sdr_sim_run import (CIRCLE_RADIUS_M, CIRCLE_SPEED_MPS, LOCATION, NAV, Checks,  # noqa: E402
-                             SimulatorError, circle_truth, exit_unavailable, noisy_recording)
+                             SimulatorError, circle_truth, exit_unavailable, noisy_recording, rinex_read_back)
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
@@ -228,20 +228,8 @@ def main(argv: list[str] | None = None) -> int:
               f"{len(spread)} epochs (a common clock term removed)")
 
         # The RINEX 3.04 observation file reads back through georinex with the same pseudoranges.
-        import warnings
-
-        import georinex
-
         rinex_path = write_rinex_obs(work / "observations.rnx", obs, week)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", FutureWarning)
-            back = georinex.load(rinex_path)
-        order = [list(back.sv.values).index(f"G{p:02d}") for p in obs.prn]
-        epochs = [e for e in range(obs.rx_time_s.size) if np.isfinite(obs.pseudorange_m[e]).any()]
-        diff = back["C1C"].values[:, order] - obs.pseudorange_m[epochs]
-        check(back.time.size == len(epochs) and np.nanmax(np.abs(diff)) <= 0.0005 + 1e-9,
-              f"observations.rnx: {back.time.size} epochs read back by georinex, C1C within "
-              f"{np.nanmax(np.abs(diff)) * 1e3:.2f} mm of the observables")
+        rinex_read_back(check, obs, rinex_path, "observations.rnx")
 
         # 3. Positions: decoded ephemerides, ekf-pv on them, then the RINEX file. ekf-pv's white
         # acceleration: its default (0.1 m²/s³) for the static receiver; on the circle, the

@@ -156,6 +156,24 @@ def noisy_recording(work: Path, duration_s: float, fs: float, cn0_dbhz: float, s
     return SimRecording(path, week, tow0, sats)
 
 
+def rinex_read_back(check, obs, path: Path, label: str) -> None:
+    """Check that georinex reads the observation file written from ``obs`` back: every
+    epoch with a pseudorange, and C1C within the file's 1 mm resolution of ``obs``."""
+    import warnings
+
+    import georinex
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        back = georinex.load(path)
+    order = [list(back.sv.values).index(f"G{p:02d}") for p in obs.prn]
+    epochs = [e for e in range(obs.rx_time_s.size) if np.isfinite(obs.pseudorange_m[e]).any()]
+    diff = back["C1C"].values[:, order] - obs.pseudorange_m[epochs]
+    check(back.time.size == len(epochs) and np.nanmax(np.abs(diff)) <= 0.0005 + 1e-9,
+          f"{label}: {back.time.size} epochs of {len(obs.prn)} satellites read back by georinex, "
+          f"C1C within {np.nanmax(np.abs(diff)) * 1e3:.2f} mm of the observables")
+
+
 def exit_unavailable(exc: SimulatorError) -> int:
     """Report a simulator that cannot run; the scripts' exit code for it (2)."""
     print(exc, file=sys.stderr)

@@ -52,7 +52,7 @@ sys.path.insert(0, str(HERE))
 import sim_truth  # noqa: E402
 from gps_sdr_sim_navigation import header_klobuchar, rtklib_check  # noqa: E402
 from gps_sdr_sim_run import (CIRCLE_RADIUS_M, CIRCLE_SPEED_MPS, LOCATION, NAV, SIM_DIR, add_noise,  # noqa: E402
-                             circle_truth, parse_log, simulate)
+                             circle_truth, parse_log, rinex_read_back, simulate)
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
@@ -132,10 +132,6 @@ def assisted_rinex(check, result, work: Path, rinex, used_by_sim, sats: dict, we
     """The assisted receiver's observables (no LNAV: dated from the assisted transmit times)
     against gps-sdr-sim's geometry, as observations.rnx read back by georinex, and rnx2rtkp's
     single-point solution on that file against ours on the same observables."""
-    import warnings
-
-    import georinex
-
     obs = result.observables
     if obs is None:
         check(False, "assisted observables: none (no vector channel dated)")
@@ -152,15 +148,7 @@ def assisted_rinex(check, result, work: Path, rinex, used_by_sim, sats: dict, we
         else:
             print("  --    " + text)
     path = write_rinex_obs(work / "observations.rnx", obs, week)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", FutureWarning)
-        back = georinex.load(path)
-    order = [list(back.sv.values).index(f"G{p:02d}") for p in obs.prn]
-    epochs = [e for e in range(obs.rx_time_s.size) if np.isfinite(obs.pseudorange_m[e]).any()]
-    diff = back["C1C"].values[:, order] - obs.pseudorange_m[epochs]
-    check(back.time.size == len(epochs) and np.nanmax(np.abs(diff)) <= 0.0005 + 1e-9,
-          f"assisted observations.rnx: {back.time.size} epochs of {len(obs.prn)} satellites read back by georinex, "
-          f"C1C within {np.nanmax(np.abs(diff)) * 1e3:.2f} mm of the observables")
+    rinex_read_back(check, obs, path, "assisted observations.rnx")
     ours = solve_epochs(obs, rinex, reference_week=week, elevation_weights=False)
     # Checked for the moving receiver too: the assisted receiver clock is the start time, so
     # RTKLIB's epochs (receive time less its clock estimate) are ours to nanoseconds.
