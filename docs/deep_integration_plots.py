@@ -1,9 +1,9 @@
 """Figures of docs/experiments/deep-integration.md: the flight, and the errors over time of a run of
-examples/deep_integration_reduced.toml (or examples/deep_integration.toml).
+examples/deep_integration.toml.
 
-Run (after ``gnssframework compare examples/deep_integration_reduced.toml --out
-results/deep_integration_reduced``): ``MPLBACKEND=Agg python docs/deep_integration_plots.py
-[results/deep_integration_reduced]``. Not in CI: the example takes too long (see the page).
+Run (after ``gnssframework compare examples/deep_integration.toml --out
+results/deep_integration``): ``MPLBACKEND=Agg python docs/deep_integration_plots.py
+[results/deep_integration]``. Not in CI: the example takes too long (see the page).
 """
 
 from __future__ import annotations
@@ -81,7 +81,7 @@ def error_figure(run: Path, case: str) -> None:
 
 
 if __name__ == "__main__":
-    run = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("results/deep_integration_reduced")
+    run = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("results/deep_integration")
     trajectory_figure()
     for case in ("45dBHz", "35dBHz"):
         error_figure(run, case)
