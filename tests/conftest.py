@@ -2,10 +2,32 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
 import gnssframework as gf
+
+#: Resident memory one pytest-xdist worker reaches over the whole suite (its numba kernels,
+#: hypothesis, the Monte Carlo tests' arrays): the largest worker peaked at WORKER_PEAK_MB_MEASURED
+#: MB in `pytest -n 2` (2 cores, NumPy/numba as pinned by pyproject); the budget leaves room.
+WORKER_BUDGET_MB = 1500
+
+
+def pytest_xdist_auto_num_workers(config) -> int:
+    """``pytest -n auto`` (the README's command): one worker per core this process may use,
+    but no more than the available memory holds at WORKER_BUDGET_MB each, so a many-core
+    machine does not start a numba compile per core beyond its RAM.
+    PYTEST_XDIST_AUTO_NUM_WORKERS still sets the number outright, as pytest-xdist documents."""
+    if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS"):
+        return int(os.environ["PYTEST_XDIST_AUTO_NUM_WORKERS"])
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    try:
+        import psutil  # with dask[distributed], a test extra
+    except ImportError:
+        return cores
+    return max(1, min(cores, int(psutil.virtual_memory().available / 2**20 // WORKER_BUDGET_MB)))
 
 
 def random_pd(rng: np.random.Generator, n: int, batch: tuple[int, ...] = (), scale: float = 1.0) -> np.ndarray:
