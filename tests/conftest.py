@@ -9,11 +9,10 @@ import pytest
 
 import gnssframework as gf
 
-#: Memory one pytest-xdist worker may need: in `pytest -n 2` over the whole suite the larger
-#: worker peaked at 1.36 GB resident (its numba kernels, hypothesis, the Monte Carlo tests'
-#: arrays), the other at 0.9 GB, and a test's `gnssframework compare` subprocess adds about
-#: 0.4 GB while it runs.
-WORKER_BUDGET_MB = 2000
+#: Memory one pytest-xdist worker may need: in `pytest -n 2` over the whole suite the largest
+#: process peaked at 3.9 GB resident (time -v; the examples run whole in test_result_files),
+#: a worker otherwise at 0.9-1.4 GB (its numba kernels, hypothesis, Monte Carlo arrays).
+WORKER_BUDGET_MB = 4000
 
 
 def pytest_xdist_auto_num_workers(config) -> int:
