@@ -22,13 +22,32 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=.venv/bin/python
+LOGS=$(mktemp -d)
+PIDS=()
+LABELS=()
+# Each variant is one pytest process compiling the kernels for its own target: the two run at
+# the same time (one per core of CI's 2; about 1 minute saved), each into its own log, printed
+# whole when both have ended so their lines do not interleave.
 run_variant() {
     local label=$1; shift
     local cache
     cache=$(mktemp -d)
-    echo "== other machines: $label"
-    env "$@" NUMBA_CACHE_DIR="$cache" "$PY" -m pytest -q -p no:cacheprovider -m other_machines tests
-    rm -rf "$cache"
+    ( status=0
+      env "$@" NUMBA_CACHE_DIR="$cache" "$PY" -m pytest -q -p no:cacheprovider -m other_machines tests || status=$?
+      rm -rf "$cache"; exit $status ) >"$LOGS/${#PIDS[@]}.log" 2>&1 &
+    PIDS+=("$!")
+    LABELS+=("$label")
+}
+# Waits for every variant, prints its log under its label; fails if any variant failed.
+join_variants() {
+    local i failed=0
+    for i in "${!PIDS[@]}"; do
+        echo "== other machines: ${LABELS[$i]}"
+        wait "${PIDS[$i]}" || failed=1
+        cat "$LOGS/$i.log"
+    done
+    rm -rf "$LOGS"
+    return $failed
 }
 # NumPy's dispatched SIMD targets this CPU has (X86_V3, X86_V4, ... on NumPy 2), all disabled.
 SIMD=$("$PY" -c "
@@ -40,6 +59,7 @@ run_variant "generic x86-64 numba, NumPy without its dispatched SIMD loops (${SI
     NUMBA_CPU_NAME=generic NPY_DISABLE_CPU_FEATURES="$SIMD"
 # numba's second target: one this CPU can run (code for a wider one would die of SIGILL).
 if [ "$(uname -m)" != x86_64 ]; then
+    join_variants
     echo "== other machines: second variant is for x86-64 only (this is $(uname -m))"
     exit 0
 fi
@@ -55,3 +75,4 @@ else
     run_variant "$TARGET numba, OpenBLAS Prescott kernel" \
         NUMBA_CPU_NAME=$TARGET OPENBLAS_CORETYPE=Prescott
 fi
+join_variants
