@@ -11,12 +11,14 @@ case: ``... higher than deep in nominal at gsens``). A claim at a sweep's points
 ``at SWEEP=POINTS``: ``cn0_dbhz=30..50`` for ``from``/``to`` (either end may be left
 out), ``cn0_dbhz=30`` or ``cn0_dbhz=30,40`` for ``at``, ``cn0_dbhz=all`` for every point::
 
-    <!-- claim: vector_tracking_sweep_ci: ackf velocity_error_rmse lower than discriminator at cn0_dbhz=30..50 --> This test reads every marker of
-``docs/experiments/*.md`` and requires that ``examples/<example>.toml`` holds that
-``[[claims]]`` entry and that CI checks that example's claims (``gnssframework compare ...
---check`` in ``.ci/run``, or ``docs/make_experiment_plots.py``, which CI runs and which fails
-when a claim of its examples does not hold), so a claim removed, changed or no longer checked in CI breaks the build
-until the page says so too.
+    <!-- claim: vector_tracking_sweep_ci: ackf nees_velocity within [1.0, 5.0] at cn0_dbhz=all -->
+
+This test reads every marker of ``docs/experiments/*.md`` and requires that
+``examples/<example>.toml`` holds that ``[[claims]]`` entry and that CI checks that
+example's claims (``gnssframework compare ... --check`` in ``.ci/run``, or
+``docs/make_experiment_plots.py``, which CI runs and which fails when a claim of its
+examples does not hold), so a claim removed, changed or no longer checked in CI breaks
+the build until the page says so too.
 
 An ordering written *without* a marker is found too: a conservative detector of comparative
 statements in the pages' prose ("beats", "lower than", "3x smaller", "wins", ...) requires a
@@ -137,7 +139,7 @@ def test_every_marked_ordering_is_a_claim_ci_checks(page, line, body):
 def test_ci_checks_the_reference_examples():
     assert {"vector_tracking", "deep_integration_ci", "carrier_smoothing", "vector_tracking_tcxo",
             "vector_tracking_regime_static_ci", "vector_tracking_regime_moving_ci",
-            "vector_tracking_modes"} <= _checked_in_ci()
+            "vector_tracking_modes", "vector_tracking_sweep_ci"} <= _checked_in_ci()
     assert "deep_integration" not in _checked_in_ci()  # too slow for CI: its claims are not CI's
 
 
@@ -164,7 +166,8 @@ def test_a_marker_names_a_claims_sweep_points():
     assert (want["case"], want["sweep"], want["points"]) == (None, "cn0_dbhz", "30..50")
     assert _matches(claim, want)
     for other in ("at cn0_dbhz=30..45", "at cn0_dbhz=30", "at cn0_dbhz=all", "at snr=30..50", ""):
-        assert not _matches(claim, _parse(f"x: ackf velocity_error_rmse lower than discriminator {other}".strip())), other
+        body = f"x: ackf velocity_error_rmse lower than discriminator {other}".strip()
+        assert not _matches(claim, _parse(body)), other
     assert not _matches({**claim, "direction": "higher"}, want)
     listed = {**claim, "from": None, "to": None, "at": [30, 40]}
     assert _matches(listed, _parse("x: ackf velocity_error_rmse lower than discriminator at cn0_dbhz=30,40"))
@@ -301,6 +304,7 @@ def _param(candidate: dict, label: str) -> float:
     ("vector_tracking_tcxo", "vector_tracking"),
     ("vector_tracking_modes", "vector_tracking"),
     ("vector_tracking_sweep", "vector_tracking"),
+    ("vector_tracking_sweep_ci", "vector_tracking"),
 ])
 def test_ci_examples_evaluate_at_the_tuned_values(example, tuned_by):
     # The CI examples carry the values the slow tuning selected (its generated table, 3

@@ -194,7 +194,7 @@ def test_summary_and_report_name_the_points(tmp_path):
     report = (tmp_path / "report.md").read_text()
     assert "2 of 4 hold" in report
     assert "| holds | only psi=0.2 | a: lat_error_rmse higher than b's |" in report
-    assert "| not significant | only psi=0.2..0.8 (all 3) | a: lat_error_rmse higher than b's | holds at 2 of 3 " \
+    assert "| not significant | only psi=0.2,0.5,0.8 (all) | a: lat_error_rmse higher than b's | holds at 2 of 3 " \
            "points; fails at the Bonferroni level 0.017 at none |" in report
 
 

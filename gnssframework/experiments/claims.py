@@ -375,7 +375,7 @@ def claim_where(row: dict) -> str:
         return row["case"]
     point = row["point"]
     if point == "all":
-        point = f"{row['points'][0]}..{row['points'][-1]} (all {len(row['points'])})"
+        point = ",".join(str(v) for v in row["points"]) + " (all)"
     return f"{row['case']} {row['sweep']}={point}"
 
 
