@@ -75,19 +75,24 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
                          _value(tuned), _value(t["objective"]) if first else "", budget if first else ""]
                 lines.append("| " + " | ".join(cells) + " |")
         lines.append("")
-    if summary.get("claims"):
-        held = sum(c["outcome"] == "holds" for c in summary["claims"])
-        lines += [f"**Claims**: {held} of {len(summary['claims'])} hold (95 % t-intervals of the paired "
-                  "differences, ratios of means or means).", "", "| outcome | case | claim | evidence |",
-                  "| --- | --- | --- | --- |"]
-        from gnssframework.experiments.claims import claim_line
-
-        for c in summary["claims"]:
-            line = claim_line(c)
-            evidence = line[line.rindex("("):].strip("()")
-            lines.append(f"| {c['outcome']} | {c['case']} | {c['statement']} | {evidence} |")
-        lines.append("")
+    lines += claims_table(summary)
     return "\n".join(lines)
+
+
+def claims_table(summary: dict) -> list[str]:
+    """The summary's claims as markdown lines (none when it has no claims); a claim at a
+    sweep's points names the point (or all of them) beside the case."""
+    if not summary.get("claims"):
+        return []
+    from gnssframework.experiments.claims import claim_evidence, claim_where
+
+    held = sum(c["outcome"] == "holds" for c in summary["claims"])
+    lines = [f"**Claims**: {held} of {len(summary['claims'])} hold (95 % t-intervals of the paired "
+             "differences, ratios of means or means).", "", "| outcome | case | claim | evidence |",
+             "| --- | --- | --- | --- |"]
+    lines += [f"| {c['outcome']} | {claim_where(c)} | {c['statement']} | {claim_evidence(c)} |"
+              for c in summary["claims"]]
+    return lines + [""]
 
 
 def read_summary(result_dir: Path) -> dict:

@@ -5,7 +5,9 @@
 writes ``docs/experiments/generated/<name>.md``: for each sweep and case, each metric's
 mean ± standard error over the runs at every point for every candidate, then every other
 candidate's paired difference to the reference (mean ± SE, and the ratio of means ± SE)
-at every point. The experiment pages include it (``--8<-- "experiments/generated/<name>.md"``);
+at every point; then the claims' outcomes (at the sweep's points, see
+:mod:`gnssframework.experiments.claims`). The experiment pages include it
+(``--8<-- "experiments/generated/<name>.md"``);
 ``docs/make_experiment_plots.py --slow`` regenerates it from its run.
 """
 
@@ -15,7 +17,7 @@ import sys
 from pathlib import Path
 
 
-from experiment_tables import read_summary, save  # noqa: E402  (docs/ is on the path when run or imported)
+from experiment_tables import claims_table, read_summary, save  # noqa: E402  (docs/ is on the path)
 
 
 def _estimate(value: float | None, se: float | None, sign: bool = False) -> str:
@@ -71,7 +73,7 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
                     lines.append(f"| {m}, ratio | " + " | ".join(
                         _estimate(q.get("ratio"), q.get("ratio_se")) for q in p) + " |")
                 lines.append("")
-    return "\n".join(lines)
+    return "\n".join(lines + claims_table(summary))
 
 
 def write(result_dir: Path, name: str, metrics: list[str] | None = None) -> Path:

@@ -7,12 +7,18 @@ HTML comment the reader does not see::
     <!-- claim: deep_integration_ci: vector loss_of_lock_fraction within [-0.001, 0.001] -->
 
 (``at CASE`` only for a claim of one case; an ordering between cases names the reference
-case: ``... higher than deep in nominal at gsens``). This test reads every marker of
-``docs/experiments/*.md`` and requires that ``examples/<example>.toml`` holds that
-``[[claims]]`` entry and that CI checks that example's claims (``gnssframework compare ...
---check`` in ``.ci/run``, or ``docs/make_experiment_plots.py``, which CI runs and which fails
-when a claim of its examples does not hold), so a claim removed, changed or no longer checked in CI breaks the build
-until the page says so too.
+case: ``... higher than deep in nominal at gsens``). A claim at a sweep's points ends with
+``at SWEEP=POINTS``: ``cn0_dbhz=30..50`` for ``from``/``to`` (either end may be left
+out), ``cn0_dbhz=30`` or ``cn0_dbhz=30,40`` for ``at``, ``cn0_dbhz=all`` for every point::
+
+    <!-- claim: vector_tracking_sweep_ci: ackf nees_velocity within [1.0, 5.0] at cn0_dbhz=all -->
+
+This test reads every marker of ``docs/experiments/*.md`` and requires that
+``examples/<example>.toml`` holds that ``[[claims]]`` entry and that CI checks that
+example's claims (``gnssframework compare ... --check`` in ``.ci/run``, or
+``docs/make_experiment_plots.py``, which CI runs and which fails when a claim of its
+examples does not hold), so a claim removed, changed or no longer checked in CI breaks
+the build until the page says so too.
 
 An ordering written *without* a marker is found too: a conservative detector of comparative
 statements in the pages' prose ("beats", "lower than", "3x smaller", "wins", ...) requires a
@@ -32,11 +38,12 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = sorted((ROOT / "docs" / "experiments").glob("*.md"))
 MARKER = re.compile(r"<!--\s*claim:\s*(?P<body>.*?)\s*-->", re.S)
+_WHERE = r"(?:\s+at\s+(?P<case>[^\s=]+))?(?:\s+at\s+(?P<sweep>[\w.+-]+)=(?P<points>\S+))?$"
 ORDERING = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+"
-                      r"(?P<direction>lower|higher) than\s+(?P<reference>\S+)(?:\s+in\s+(?P<reference_case>\S+))?"
-                      r"(?:\s+at\s+(?P<case>\S+))?$")
+                      r"(?P<direction>lower|higher) than\s+(?P<reference>\S+)(?:\s+in\s+(?P<reference_case>[^\s=]+))?"
+                      + _WHERE)
 BOUND = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+within\s+"
-                   r"\[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\](?:\s+at\s+(?P<case>\S+))?$")
+                   r"\[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\]" + _WHERE)
 
 
 def _markers() -> list[tuple[str, int, str]]:
@@ -52,12 +59,39 @@ def _parse(body: str) -> dict:
     m = ORDERING.match(body) or BOUND.match(body)
     if m is None:
         raise AssertionError(f"unreadable claim marker {body!r}: write '<example>: <candidate> <metric> "
-                             "lower|higher than <reference> [at <case>]' or '... within [low, high] [at <case>]'")
+                             "lower|higher than <reference> [at <case>] [at <sweep>=<points>]' or '... within "
+                             "[low, high] [at <case>] [at <sweep>=<points>]'")
     return m.groupdict()
+
+
+def _point(text: str) -> float | str:
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def _same_points(claim: dict, want: dict) -> bool:
+    """Whether the claim's sweep and points are the marker's ``at SWEEP=POINTS`` (none: no sweep)."""
+    if claim.get("sweep") != want.get("sweep"):
+        return False
+    if want.get("sweep") is None:
+        return True
+    at, low, high, points = claim.get("at"), claim.get("from"), claim.get("to"), want["points"]
+    if points == "all":
+        return at is None and low is None and high is None
+    if ".." in points:
+        first, last = points.split("..", 1)
+        return (at is None and low == (_point(first) if first else None)
+                and high == (_point(last) if last else None))
+    return at is not None and [_point(str(v)) for v in (at if isinstance(at, list) else [at])] == \
+        [_point(v) for v in points.split(",")]
 
 
 def _matches(claim: dict, want: dict) -> bool:
     if (claim["candidate"], claim["metric"], claim.get("case")) != (want["candidate"], want["metric"], want["case"]):
+        return False
+    if not _same_points(claim, want):
         return False
     if want.get("direction"):  # an ordering between cases names its reference case ("... than deep in nominal")
         reference = claim.get("reference") or (claim["candidate"] if claim.get("reference_case") else None)
@@ -105,7 +139,7 @@ def test_every_marked_ordering_is_a_claim_ci_checks(page, line, body):
 def test_ci_checks_the_reference_examples():
     assert {"vector_tracking", "deep_integration_ci", "carrier_smoothing", "vector_tracking_tcxo",
             "vector_tracking_regime_static_ci", "vector_tracking_regime_moving_ci",
-            "vector_tracking_modes"} <= _checked_in_ci()
+            "vector_tracking_modes", "vector_tracking_sweep_ci"} <= _checked_in_ci()
     assert "deep_integration" not in _checked_in_ci()  # too slow for CI: its claims are not CI's
 
 
@@ -123,6 +157,29 @@ def test_a_marker_for_a_missing_claim_is_caught():
     assert not _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse lower than vector in nominal"))
     with pytest.raises(AssertionError, match="unreadable claim marker"):
         _parse("x: deep beats vector")
+
+
+def test_a_marker_names_a_claims_sweep_points():
+    claim = {"candidate": "ackf", "reference": "discriminator", "metric": "velocity_error_rmse",
+             "direction": "lower", "sweep": "cn0_dbhz", "from": 30.0, "to": 50.0}
+    want = _parse("x: ackf velocity_error_rmse lower than discriminator at cn0_dbhz=30..50")
+    assert (want["case"], want["sweep"], want["points"]) == (None, "cn0_dbhz", "30..50")
+    assert _matches(claim, want)
+    for other in ("at cn0_dbhz=30..45", "at cn0_dbhz=30", "at cn0_dbhz=all", "at snr=30..50", ""):
+        body = f"x: ackf velocity_error_rmse lower than discriminator {other}".strip()
+        assert not _matches(claim, _parse(body)), other
+    assert not _matches({**claim, "direction": "higher"}, want)
+    listed = {**claim, "from": None, "to": None, "at": [30, 40]}
+    assert _matches(listed, _parse("x: ackf velocity_error_rmse lower than discriminator at cn0_dbhz=30,40"))
+    assert not _matches(listed, _parse("x: ackf velocity_error_rmse lower than discriminator at cn0_dbhz=30"))
+    single = {**claim, "from": None, "to": None, "at": 50}
+    assert _matches(single, _parse("x: ackf velocity_error_rmse lower than discriminator at cn0_dbhz=50"))
+    every = {"candidate": "ackf", "metric": "nees_velocity", "within": [1.0, 5.0], "sweep": "cn0_dbhz"}
+    assert _matches(every, _parse("x: ackf nees_velocity within [1.0, 5.0] at cn0_dbhz=all"))
+    assert _matches({**every, "case": "cn0"}, _parse("x: ackf nees_velocity within [1.0, 5.0] at cn0 at cn0_dbhz=all"))
+    assert not _matches(every, _parse("x: ackf nees_velocity within [1.0, 5.0]"))
+    upto = {**every, "to": 40}
+    assert _matches(upto, _parse("x: ackf nees_velocity within [1.0, 5.0] at cn0_dbhz=..40"))
 
 
 # --- Orderings written without a marker ------------------------------------------------
@@ -247,6 +304,7 @@ def _param(candidate: dict, label: str) -> float:
     ("vector_tracking_tcxo", "vector_tracking"),
     ("vector_tracking_modes", "vector_tracking"),
     ("vector_tracking_sweep", "vector_tracking"),
+    ("vector_tracking_sweep_ci", "vector_tracking"),
 ])
 def test_ci_examples_evaluate_at_the_tuned_values(example, tuned_by):
     # The CI examples carry the values the slow tuning selected (its generated table, 3

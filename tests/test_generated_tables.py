@@ -75,6 +75,19 @@ def test_sweep_table_gives_means_and_paired_differences():
     assert "`ref` − `ref`" not in text
 
 
+def test_sweep_table_lists_the_claims_at_their_points():
+    summary = _sweep_summary()
+    at = {"claim": 0, "statement": "cand: err lower than ref's", "case": "c", "sweep": "cn0", "candidate": "cand",
+          "metric": "err", "reference": "ref", "se": 0.05, "n": 4, "outcome": "holds"}
+    summary["claims"] = [{**at, "point": 25.0, "diff": -25.0}, {**at, "point": 30.0, "diff": -30.0},
+                         {**at, "point": "all", "points": [25.0, 30.0], "held": 2, "corrected_level": 0.975,
+                          "failed_corrected": []}]
+    text = sweep_tables.render(summary)
+    assert "**Claims**: 3 of 3 hold" in text
+    assert "| holds | c cn0=25.0 | cand: err lower than ref's | difference -25" in text
+    assert "| holds | c cn0=25.0,30.0 (all) | cand: err lower than ref's | holds at 2 of 2 points;" in text
+
+
 def test_sweep_table_refuses_a_summary_without_sweeps(tmp_path):
     (tmp_path / "summary.json").write_text('{"name": "x", "seed": 1, "rows": []}')
     with pytest.raises(SystemExit, match="no sweeps"):

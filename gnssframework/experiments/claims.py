@@ -42,11 +42,54 @@ intervals the report's significance marks use (:data:`~.stats.SIGNIFICANCE_RULE`
 A claim with several conditions takes the worst outcome. ``summary.json`` and
 ``report.md`` list every claim's outcome with its evidence; ``gnssframework compare
 --check`` exits 1 unless every claim holds, which is how CI checks what the docs state.
+
+Claims at a sweep's points
+--------------------------
+A claim naming a ``[[sweeps]]`` entry is evaluated at that sweep's points instead of the
+example's own cases (each point is the comparison with the swept value set, see
+:mod:`.sweeps`)::
+
+    [[claims]]                       # at every point from 30 to 50 (inclusive)
+    candidate = "ackf"
+    reference = "discriminator"
+    metric = "velocity_error_rmse"
+    direction = "lower"
+    sweep = "cn0_dbhz"               # a sweep's name
+    from = 30.0                      # optional: first point (default the sweep's first)
+    to = 50.0                        # optional: last point (default its last)
+
+    [[claims]]                       # at the points listed
+    candidate = "discriminator-fixed-r"
+    reference = "discriminator"
+    metric = "velocity_error_rmse"
+    direction = "higher"
+    sweep = "cn0_dbhz"
+    at = [25.0, 30.0]                # or one value: at = 30.0
+
+``case`` then names a case the sweep varies (default each of them). Each point is one
+test, judged exactly like a case claim (the same 95 % t-intervals), and gives one
+outcome; a claim over several points adds one all-points outcome (``point`` ``"all"``):
+
+- ``holds`` when it holds at every point: an intersection-union test, whose chance of
+  wrongly saying "holds everywhere" is at most that of one point, so the
+  per-point level needs no correction for it (R. L. Berger, "Multiparameter hypothesis
+  testing and acceptance sampling", Technometrics 24(4), 1982);
+- ``fails`` when at some point the claim fails at the Bonferroni-corrected level
+  ``0.05 / N`` over the claim's ``N`` points (the t-interval at ``1 - 0.05 / N``): "fails
+  somewhere" is a union of ``N`` tests, and the correction keeps its false-alarm rate at
+  5 % (Holm's step-down, S. Holm, Scand. J. Statist. 6, 1979, gives the same answer to
+  "does any point fail": its first step is Bonferroni's);
+- ``not significant`` otherwise.
+
+The per-point outcomes keep the uncorrected 95 % rule (each is a statement of its own, as a
+claim checked in every case is), so ``compare --check``, which requires every outcome to
+hold, is the conjunction of them all.
 """
 
 from __future__ import annotations
 
-from typing import Literal
+import math
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -56,7 +99,7 @@ from ..errors import ConfigError
 from .number_format import format_estimate
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
 
-__all__ = ["Claim", "check_claims", "evaluate_claims", "OUTCOMES"]
+__all__ = ["Claim", "check_claims", "evaluate_claims", "claim_points", "OUTCOMES"]
 
 #: Outcomes from best to worst.
 OUTCOMES = ("holds", "not significant", "fails")
@@ -65,7 +108,7 @@ OUTCOMES = ("holds", "not significant", "fails")
 class Claim(BaseModel):
     """One statement about a comparison's results (see the module docstring)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", validate_by_name=True, validate_by_alias=True)
     candidate: str = Field(..., description="the candidate the claim is about")
     metric: str = Field(..., description="a reported metric")
     case: str | None = Field(None, description="the case (default: the claim must hold in every case)")
@@ -80,6 +123,14 @@ class Claim(BaseModel):
     ratio_min: float | None = Field(None, gt=0, description="for an ordering: ratio of means above this")
     within: tuple[float, float] | None = Field(None, description="for a bound: the candidate's mean lies in "
                                                "[low, high]")
+    sweep: str | None = Field(None, description="evaluate at this sweep's points (a [[sweeps]] name) instead of "
+                              "the example's cases; each point one outcome, plus one for all of them")
+    at: float | str | list[float | str] | None = Field(
+        None, description="with sweep: the point or list of points (swept values)")
+    points_from: float | None = Field(None, alias="from", description="with sweep: every point from this value "
+                                      "(inclusive; default the first)")
+    points_to: float | None = Field(None, alias="to", description="with sweep: every point up to this value "
+                                    "(inclusive; default the last)")
     note: str = Field("", description="where the claim is stated (a docs page, a paper's table)")
 
     @model_validator(mode="after")
@@ -127,18 +178,83 @@ class Claim(BaseModel):
         return f"{self.candidate}: " + " and ".join(parts)
 
 
-def check_claims(claims: list[Claim], cases: list[str], candidates: list[str], metrics: list[str]) -> None:
-    """Refuse claims naming an unknown case, candidate or metric (at config load)."""
+def check_claims(claims: list[Claim], cases: list[str], candidates: list[str], metrics: list[str],
+                 sweeps: list | tuple = ()) -> None:
+    """Refuse claims naming an unknown case, candidate, metric, sweep or sweep point (at
+    config load); ``sweeps`` are the config's :class:`~.sweeps.Sweep` entries."""
+    labels = [s.label for s in sweeps]
     for i, c in enumerate(claims):
         for field, value, allowed in (("candidate", c.candidate, candidates), ("reference", c.reference, candidates),
                                       ("case", c.case, cases), ("reference_case", c.reference_case, cases),
                                       ("metric", c.metric, metrics)):
             if value is not None and value not in allowed:
                 raise ConfigError(f"claims[{i}].{field}", f"unknown {field} {value!r}; allowed: {', '.join(allowed)}")
+        picks = [f for f, v in (("at", c.at), ("from", c.points_from), ("to", c.points_to)) if v is not None]
+        if c.sweep is None:
+            if picks:
+                raise ConfigError(f"claims[{i}].{picks[0]}", f"{picks[0]} picks points of a sweep: add sweep = "
+                                  f"\"<name>\"; allowed: {', '.join(labels) or 'none (this config has no [[sweeps]])'}")
+            continue
+        if c.sweep not in labels:
+            raise ConfigError(f"claims[{i}].sweep", f"unknown sweep {c.sweep!r}; allowed: "
+                              f"{', '.join(labels) or 'none (this config has no [[sweeps]])'}")
+        sweep = sweeps[labels.index(c.sweep)]
+        claim_points(c, sweep, f"claims[{i}]")
+        run = list(sweep.cases or cases)
+        for field, value, allowed, what in (("case", c.case, varied_cases(sweep, cases), "varies"),
+                                            ("reference_case", c.reference_case, run, "runs")):
+            if value is not None and value not in allowed:
+                raise ConfigError(f"claims[{i}].{field}", f"case {value!r} is not one sweep {c.sweep!r} {what}, so "
+                                  f"it has no value at the sweep's points; allowed: {', '.join(allowed)}")
 
 
-def _t(n: int) -> float:
-    return float(_sc.stdtrit(n - 1, 0.975))  # = scipy.stats.t.ppf(0.975, n - 1)
+def varied_cases(sweep, cases: list[str]) -> list[str]:
+    """The cases whose runs change along ``sweep``: the one its path names
+    (``cases.<case>.<field>``), else every case it runs."""
+    parts = sweep.path.split(".")
+    if parts[0] == "cases" and len(parts) == 3 and parts[1] in cases:
+        return [parts[1]]
+    return [c for c in cases if not sweep.cases or c in sweep.cases]
+
+
+def _same_point(a: Any, b: Any) -> bool:
+    numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (a, b))
+    return math.isclose(float(a), float(b), rel_tol=1e-9, abs_tol=1e-12) if numeric else a == b
+
+
+def claim_points(claim: Claim, sweep, where: str) -> list[Any]:
+    """The points of ``sweep`` a claim names (``at``, or the range ``from``..``to``, default
+    every point), in the sweep's order; a value that is not a point raises a
+    ``ConfigError`` naming ``<where>.at`` / ``.from`` / ``.to`` and the sweep's points."""
+    points = sweep.points()
+    shown = ", ".join(str(v) for v in points)
+    if claim.at is not None:
+        if claim.points_from is not None or claim.points_to is not None:
+            raise ConfigError(f"{where}.at", "give at (the points listed) or from / to (a range), not both")
+        wanted = claim.at if isinstance(claim.at, list) else [claim.at]
+        if not wanted:
+            raise ConfigError(f"{where}.at", f"an empty list names no point; allowed: {shown}")
+        for v in wanted:
+            if not any(_same_point(p, v) for p in points):
+                raise ConfigError(f"{where}.at", f"{v!r} is not a point of sweep {sweep.label!r}; allowed: {shown}")
+        return [p for p in points if any(_same_point(p, v) for v in wanted)]
+    first, last = 0, len(points) - 1
+    for field, value in (("from", claim.points_from), ("to", claim.points_to)):
+        if value is None:
+            continue
+        hit = [j for j, p in enumerate(points) if _same_point(p, value)]
+        if not hit:
+            raise ConfigError(f"{where}.{field}", f"{value:g} is not a point of sweep {sweep.label!r} (a range "
+                              f"starts and ends at points); allowed: {shown}")
+        first, last = (hit[0], last) if field == "from" else (first, hit[0])
+    if first > last:
+        raise ConfigError(f"{where}.from", f"from = {claim.points_from:g} comes after to = {claim.points_to:g} "
+                          f"in sweep {sweep.label!r} ({shown})")
+    return points[first:last + 1]
+
+
+def _t(n: int, level: float = 0.95) -> float:
+    return float(_sc.stdtrit(n - 1, 0.5 + level / 2))  # = scipy.stats.t.ppf(0.5 + level / 2, n - 1)
 
 
 def _against(low: float, high: float, bound: float, below: bool) -> str:
@@ -152,54 +268,123 @@ def _worst(outcomes: list[str]) -> str:
     return max(outcomes, key=OUTCOMES.index)
 
 
-def evaluate_claims(config, store, key: str | None = None) -> list[dict]:
-    """Every claim of ``config`` in every case it names: outcome and evidence (strict JSON)."""
-    key = key or config.identity()
+def _evidence(claim: Claim, store, key: str, case: str, runs: int) -> tuple[dict, object, np.ndarray]:
+    """The claim's evidence in one case of one comparison (a config or a sweep point):
+    the row's fields, the paired difference (``None`` for a bound) and the candidate's values."""
+    x = store.run_values(key, case, claim.candidate, claim.metric, runs)
+    row, pd = {}, None
+    reference = claim.reference or (claim.candidate if claim.reference_case else None)
+    if reference is not None:
+        y = store.run_values(key, claim.reference_case or case, reference, claim.metric, runs)
+        pd = paired_difference(*paired_values(x, y))
+        row.update(reference=reference, **{k: v for k, v in pd.to_json().items() if k != "reason"})
+        if claim.reference_case is not None:
+            row["reference_case"] = claim.reference_case
+    values = np.array([x[r] for r in sorted(x)], dtype=float)
+    if claim.within is not None:
+        mean, se, n = mean_and_se(values)
+        row.update(mean=finite_or_none(mean), mean_se=finite_or_none(se), n=n)
+    return row, pd, values
+
+
+def _outcome(claim: Claim, pd, values: np.ndarray, level: float = 0.95) -> str:
+    """The claim's outcome from its evidence, each condition judged on the ``level`` t-interval."""
+    outcomes = []
+    if pd is not None:
+        if pd.se is None or pd.n < 2:
+            outcomes.append("not significant")
+        else:
+            if claim.direction is not None:
+                # pd.significant is the 95 % rule (and refuses a spread at rounding level);
+                # a stricter level can only shrink what it calls significant.
+                half = _t(pd.n, level) * pd.se
+                outcomes.append(_against(pd.diff - half, pd.diff + half, 0.0, claim.direction == "lower")
+                                if pd.significant else "not significant")
+            for bound, below in ((claim.ratio_max, True), (claim.ratio_min, False)):
+                if bound is None:
+                    continue
+                if pd.ratio is None or pd.ratio_se is None:
+                    outcomes.append("not significant")
+                    continue
+                half = _t(pd.n, level) * pd.ratio_se
+                outcomes.append(_against(pd.ratio - half, pd.ratio + half, bound, below))
+    if claim.within is not None:
+        mean, se, n = mean_and_se(values)
+        if mean is None or se is None:
+            outcomes.append("not significant")
+        else:
+            lo, hi = mean - _t(n, level) * se, mean + _t(n, level) * se
+            outcomes += [_against(lo, hi, claim.within[0], below=False),
+                         _against(lo, hi, claim.within[1], below=True)]
+    return _worst(outcomes)
+
+
+def _sweep_rows(config, store, i: int, claim: Claim) -> list[dict]:
+    """A sweep claim's rows: one per case and point, then one all-points row per case
+    (when it names several points; see the module docstring for the levels)."""
+    index = [s.label for s in config.sweeps].index(claim.sweep)
+    sweep = config.sweeps[index]
+    pairs = config.sweep_points(index)
+    points = claim_points(claim, sweep, f"claims[{i}]")
+    names = [c.name for c in config.cases]
+    cases = [claim.case] if claim.case else [c for c in varied_cases(sweep, names) if c != claim.reference_case]
+    corrected = 1.0 - 0.05 / len(points)  # Bonferroni over the claim's points, for "fails somewhere"
     out = []
-    for i, claim in enumerate(config.claims):
-        cases = [claim.case] if claim.case else [c.name for c in config.cases if c.name != claim.reference_case]
-        for case in cases:
-            x = store.run_values(key, case, claim.candidate, claim.metric, config.runs)
-            row = {"claim": i, "statement": claim.statement(), "case": case, "candidate": claim.candidate,
-                   "metric": claim.metric, "note": claim.note}
-            outcomes = []
-            reference = claim.reference or (claim.candidate if claim.reference_case else None)
-            if reference is not None:
-                y = store.run_values(key, claim.reference_case or case, reference, claim.metric, config.runs)
-                pd = paired_difference(*paired_values(x, y))
-                row.update(reference=reference, **{k: v for k, v in pd.to_json().items() if k != "reason"})
-                if claim.reference_case is not None:
-                    row["reference_case"] = claim.reference_case
-                if pd.se is None or pd.n < 2:
-                    outcomes.append("not significant")
-                else:
-                    if claim.direction is not None:
-                        outcomes.append(("holds" if (pd.diff < 0) == (claim.direction == "lower") else "fails")
-                                        if pd.significant else "not significant")
-                    for bound, below in ((claim.ratio_max, True), (claim.ratio_min, False)):
-                        if bound is None:
-                            continue
-                        if pd.ratio is None or pd.ratio_se is None:
-                            outcomes.append("not significant")
-                            continue
-                        half = _t(pd.n) * pd.ratio_se
-                        outcomes.append(_against(pd.ratio - half, pd.ratio + half, bound, below))
-            if claim.within is not None:
-                mean, se, n = mean_and_se(np.array([x[r] for r in sorted(x)]))
-                row.update(mean=finite_or_none(mean), mean_se=finite_or_none(se), n=n)
-                if mean is None or se is None:
-                    outcomes.append("not significant")
-                else:
-                    lo, hi = mean - _t(n) * se, mean + _t(n) * se
-                    outcomes += [_against(lo, hi, claim.within[0], below=False),
-                                 _against(lo, hi, claim.within[1], below=True)]
-            row["outcome"] = _worst(outcomes)
-            out.append(row)
+    for case in cases:
+        rows, failed = [], []
+        for value in points:
+            point = next(p for v, p in pairs if _same_point(v, value))
+            evidence, pd, values = _evidence(claim, store, point.identity(), case, point.runs)
+            row = {"claim": i, "statement": claim.statement(), "case": case, "sweep": claim.sweep, "point": value,
+                   "candidate": claim.candidate, "metric": claim.metric, "note": claim.note, **evidence,
+                   "outcome": _outcome(claim, pd, values)}
+            if len(points) > 1 and _outcome(claim, pd, values, corrected) == "fails":
+                failed.append(value)
+            rows.append(row)
+        out += rows
+        if len(points) > 1:
+            held = sum(r["outcome"] == "holds" for r in rows)
+            out.append({"claim": i, "statement": claim.statement(), "case": case, "sweep": claim.sweep,
+                        "point": "all", "points": points, "candidate": claim.candidate, "metric": claim.metric,
+                        "note": claim.note, "held": held, "corrected_level": corrected, "failed_corrected": failed,
+                        "outcome": "holds" if held == len(points) else "fails" if failed else "not significant"})
     return out
 
 
-def claim_line(row: dict) -> str:
-    """One line of a claim's outcome and evidence, for the terminal and the report."""
+def evaluate_claims(config, store, key: str | None = None) -> list[dict]:
+    """Every claim of ``config`` in every case (and sweep point) it names: outcome and
+    evidence (strict JSON)."""
+    key = key or config.identity()
+    out = []
+    for i, claim in enumerate(config.claims):
+        if claim.sweep is not None:
+            out += _sweep_rows(config, store, i, claim)
+            continue
+        cases = [claim.case] if claim.case else [c.name for c in config.cases if c.name != claim.reference_case]
+        for case in cases:
+            evidence, pd, values = _evidence(claim, store, key, case, config.runs)
+            out.append({"claim": i, "statement": claim.statement(), "case": case, "candidate": claim.candidate,
+                        "metric": claim.metric, "note": claim.note, **evidence,
+                        "outcome": _outcome(claim, pd, values)})
+    return out
+
+
+def claim_where(row: dict) -> str:
+    """Where a claim's row was evaluated: its case, and its sweep point (or all its points)."""
+    if row.get("sweep") is None:
+        return row["case"]
+    point = row["point"]
+    if point == "all":
+        point = ",".join(str(v) for v in row["points"]) + " (all)"
+    return f"{row['case']} {row['sweep']}={point}"
+
+
+def claim_evidence(row: dict) -> str:
+    """A claim row's evidence in words."""
+    if row.get("point") == "all":
+        failed = row.get("failed_corrected") or []
+        return (f"holds at {row['held']} of {len(row['points'])} points; fails at the Bonferroni level "
+                f"{1 - row['corrected_level']:.2g} at {', '.join(map(str, failed)) if failed else 'none'}")
     ev = []
     if row.get("diff") is not None:
         ev.append(f"difference {format_estimate(row['diff'], row.get('se'), sign=True)}")
@@ -208,4 +393,9 @@ def claim_line(row: dict) -> str:
     if row.get("mean") is not None:
         ev.append(f"mean {format_estimate(row['mean'], row.get('mean_se'))}")
     n = row.get("n")
-    return f"{row['outcome']:<15} {row['case']}: {row['statement']} ({', '.join(ev)}{f', n={n}' if n else ''})"
+    return ", ".join(ev) + (f", n={n}" if n else "")
+
+
+def claim_line(row: dict) -> str:
+    """One line of a claim's outcome and evidence, for the terminal and the report."""
+    return f"{row['outcome']:<15} {claim_where(row)}: {row['statement']} ({claim_evidence(row)})"

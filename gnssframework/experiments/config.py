@@ -152,7 +152,8 @@ class ComparisonConfig(_Strict):
                     if metric not in self.metric_names:
                         raise ConfigError(f"published.{case}.{cand}.{metric}",
                                           f"unknown metric; allowed: {', '.join(self.metric_names)}")
-        check_claims(self.claims, sorted(case_names), [c.name for c in self.candidates], self.metric_names)
+        check_claims(self.claims, sorted(case_names), [c.name for c in self.candidates], self.metric_names,
+                     self.sweeps)
         if self.tuning is not None:
             check_tuning(self)
         if self.sweeps:

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .candidates import build_candidate
-from .claims import claim_line, evaluate_claims
+from .claims import claim_evidence, claim_where, evaluate_claims
 from .config import ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text, write_json
 from .number_format import format_estimate
@@ -309,12 +309,11 @@ def _claims_markdown(claims: list[dict]) -> list[str]:
     held = sum(c["outcome"] == "holds" for c in claims)
     lines = ["## Claims", "", f"{held} of {len(claims)} hold. Each is checked from the 95 % t-intervals of its "
              "paired differences, ratio of means or mean (`holds`: on the claimed side; `fails`: on the other; "
-             "`not significant`: the runs cannot tell).", "", "| outcome | case | claim | evidence |",
+             "`not significant`: the runs cannot tell); a claim at a sweep's points is one row per point and one for "
+             "all of them (fails only at the Bonferroni level over its points).", "", "| outcome | case | claim | evidence |",
              "| --- | --- | --- | --- |"]
     for c in claims:
-        line = claim_line(c)
-        evidence = line[line.index("(", len(c["outcome"]) + len(c["case"])):].strip("()")
-        lines.append(f"| {c['outcome']} | {c['case']} | {c['statement']} | {evidence} |")
+        lines.append(f"| {c['outcome']} | {claim_where(c)} | {c['statement']} | {claim_evidence(c)} |")
     return lines + [""]
 
 
