@@ -20,7 +20,7 @@ OUT = ROOT / "docs" / "img" / "experiments"
 EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath", "sweep_demo",
             "carrier_smoothing_sweep", "scintillation_sweep", "deep_integration_ci", "deep_integration_elevation_ci",
             "deep_integration_lock_ci", "deep_integration_lock_control_ci", "sample_receiver",
-            "deep_integration_nees_ci", "deep_integration_error_sources_ci")
+            "deep_integration_nees_ci", "deep_integration_error_sources_ci", "vector_tracking_spacing")
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
 #: Examples whose page includes tables generated from the run (docs/experiment_tables.py).
@@ -36,6 +36,8 @@ TABLES = {"vector_tracking": _VECTOR_TRACKING_TABLE, "vector_tracking_static": _
 SWEEP_TABLES = {"vector_tracking_sweep": ["carrier_freq_error_rmse", "velocity_error_rmse", "position_error_rmse",
                                           "nees_position", "nees_velocity", "freq_output_rmse", "pcrb_position",
                                           "pcrb_velocity"]}
+#: Sweeps of the correlator spacing whose page includes the theory table (docs/spacing_tables.py).
+SPACING_TABLES = ("vector_tracking_spacing",)
 #: Examples whose page includes the paper's values beside theirs (docs/published_tables.py).
 PUBLISHED_TABLES = {"vector_tracking": ["ackf-literal", "discriminator-fixed-r"]}
 TABLES["deep_integration_ci"] = TABLES["deep_integration"]
@@ -89,6 +91,11 @@ def main() -> int:
             from sweep_tables import write as write_sweep
 
             print(f"{name}: sweep tables written to {write_sweep(summary.parent, name, SWEEP_TABLES[name])}")
+        if name in SPACING_TABLES:
+            sys.path.insert(0, str(ROOT / "docs"))
+            from spacing_tables import write as write_spacing
+
+            print(f"{name}: spacing tables written to {write_spacing(summary.parent, name)}")
 
 
     for line in failed:
