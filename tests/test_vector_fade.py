@@ -185,6 +185,17 @@ def test_bad_fade_settings_are_refused_by_field(case, field):
         scen.check_case(case, "cases[0]")
 
 
+def test_a_gain_of_the_wrong_shape_is_refused_by_name():
+    import dataclasses
+
+    scen = get_scenario(SCEN)
+    truth, x0, P0 = scen.truth(40.0, 2, draw.run_streams(1, (0,), range(2)))
+    bad = dataclasses.replace(truth, noise_gain=np.ones((3, 2, 8)))
+    with pytest.raises(ConfigError, match="truth.noise_gain"):
+        run_vector_loop(_Recorder(), gf.registry.create("nav_filter", "ekf-pv"), bad, x0, P0,
+                        draw.run_streams(2, (0,), range(2)))
+
+
 def test_pcrb_is_refused_with_a_fade():
     scen = get_scenario({**SCEN, "pcrb": True})
     with pytest.raises(ConfigError, match="pcrb"):

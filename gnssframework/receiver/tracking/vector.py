@@ -199,6 +199,11 @@ def run_vector_loop(
     runs, n_ch = truth.clock_m.shape[1], sat_edges[0].shape[-2]
     batch = (runs, n_ch)
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
+    for name in ("signal_gain", "noise_gain"):
+        gain = getattr(truth, name)
+        if gain is not None and np.shape(gain) != (K,) + batch:
+            raise ConfigError(f"truth.{name}", f"must have the shape (epochs, runs, channels) = {(K,) + batch}, "
+                              f"got {np.shape(gain)}")
 
     theta0 = draw.uniform(rng, -np.pi, np.pi, batch, 0)  # unknown initial carrier phase per channel
     bits = random_nav_bits(int(np.ceil(K * T / BIT_PERIOD_S)) + 1, rng, batch) if data_bits != "none" else None
