@@ -303,6 +303,7 @@ def _param(candidate: dict, label: str) -> float:
     ("vector_tracking_regime_moving_ci", "vector_tracking_moving"),
     ("vector_tracking_tcxo", "vector_tracking"),
     ("vector_tracking_modes", "vector_tracking"),
+    ("vector_tracking_fade_ci", "vector_tracking"),
     ("vector_tracking_sweep", "vector_tracking"),
     ("vector_tracking_sweep_ci", "vector_tracking"),
 ])

@@ -23,6 +23,7 @@ from ...receiver.tracking.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTrut
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import draw_epochs, nominal_constellation
+from ...simulation.fade import CN0Fade, FadeCause, lowest_channels
 from ...simulation.propagation import cn0_from_elevation, draw_range_errors, elevation_deg, range_error_function
 from ...simulation.trajectory import FigureEight
 from ..limits import CoherentTime
@@ -134,6 +135,30 @@ class VectorTrackingCase(ScenarioParams):
     cn0_dbhz: float = Field(..., ge=15, le=60)
     motion: Motion | None = Field(None, description="the receiver's motion in this case (default: the "
                                   "scenario's motion)")
+    fade_depth_db: float = Field(
+        0.0, ge=0, le=30, description="a C/N0 fade in the truth only: the correlators' C/N0 drops by this many dB "
+        "(gnssframework.simulation.fade.CN0Fade) from fade_start_s for fade_duration_s on fade_channels, while "
+        "the channel filters are still given the case's cn0_dbhz (what the receiver knew before the fade). "
+        "Default 0 (off)")
+    fade_start_s: float = Field(0.0, ge=0, description="start (s) of the fade: intervals whose middle lies in "
+                                "[fade_start_s, fade_start_s + fade_duration_s) are faded")
+    fade_duration_s: float | None = Field(None, gt=0, description="length (s) of the fade; null: to the end "
+                                          "of the run")
+    fade_channels: int | None = Field(None, ge=1, le=12, description="how many channels the fade shadows: "
+                                      "the lowest ones at the start of each run (an obstruction near the horizon, "
+                                      "trees or a building, shadows the low satellites first); null: all")
+    fade_cause: FadeCause = Field(
+        "attenuation", description="attenuation: the signal loses fade_depth_db and the correlator noise is "
+        "unchanged (foliage or a building; also what any cause looks like to a receiver that scales its "
+        "correlators to a known noise level). noise-floor: the noise density rises by fade_depth_db at a fixed "
+        "front-end gain and the signal is unchanged (in-band interference: every channel, so fade_channels must "
+        "be null)")
+
+    def fade(self) -> CN0Fade | None:
+        """The case's fade, or None when ``fade_depth_db`` is 0."""
+        if not self.fade_depth_db:
+            return None
+        return CN0Fade(self.fade_depth_db, self.fade_start_s, self.fade_duration_s, self.fade_cause)
 
 
 def draw_residuals(p: SkyRealismParams, rng: Any, runs: int):
@@ -173,10 +198,10 @@ METRICS = (
     Rmse("freq_output_rmse", "Hz", of="freq_output_error_hz", settle="settle_s",
          description="RMS error of the frequency measurement handed to the nav filter"),
     Rmse("pcrb_position", "m", of="pcrb_position_m", settle="settle_s", optional=True,
-         undefined="no bound for this case: a moving receiver, a per-run geometry or a trajectory file",
+         undefined="no bound for this case: a moving receiver, a per-run geometry, a trajectory file or a C/N0 fade",
          description="posterior Cramér-Rao bound of the position error (RMS over the same window)"),
     Rmse("pcrb_velocity", "m/s", of="pcrb_velocity_m_s", settle="settle_s", optional=True,
-         undefined="no bound for this case: a moving receiver, a per-run geometry or a trajectory file",
+         undefined="no bound for this case: a moving receiver, a per-run geometry, a trajectory file or a C/N0 fade",
          description="posterior Cramér-Rao bound of the velocity error (RMS over the same window)"),
 )
 
@@ -223,6 +248,28 @@ class VectorTrackingScenario(Scenario):
         super().check_case(case, where)
         if case.get("motion") is not None:
             self._check_motion(case["motion"], f"{where}.motion")
+        self._check_fade(self.CaseParams.model_validate(case), where)
+
+    def _check_fade(self, c: VectorTrackingCase, where: str) -> None:
+        """Refuse fade settings that do nothing or cannot be met."""
+        p = self.params
+        given = [f for f in ("fade_start_s", "fade_duration_s", "fade_channels", "fade_cause")
+                 if f in c.model_fields_set]
+        if not c.fade_depth_db:
+            if given:
+                raise ConfigError(f"{where}.{given[0]}", "has no effect without a fade: set fade_depth_db > 0")
+            return
+        if c.fade_start_s >= p.duration_s:
+            raise ConfigError(f"{where}.fade_start_s", f"must be below duration_s = {p.duration_s} (got "
+                              f"{c.fade_start_s})")
+        if c.fade_channels is not None and c.fade_channels > p.channels:
+            raise ConfigError(f"{where}.fade_channels", f"at most channels = {p.channels} (got {c.fade_channels})")
+        if c.fade_cause == "noise-floor" and c.fade_channels is not None:
+            raise ConfigError(f"{where}.fade_channels", "a noise-floor rise is in the front end, common to every "
+                              "channel: leave fade_channels unset (null)")
+        if p.pcrb:
+            raise ConfigError("scenario.pcrb", "the bound is computed at the nominal C/N0; set pcrb = false with a "
+                              f"C/N0 fade ({where}.fade_depth_db)")
 
     def _check_motion(self, motion: str, field: str) -> None:
         """Refuse a figure-eight beside another definition of the receiver's motion, or with
@@ -257,11 +304,12 @@ class VectorTrackingScenario(Scenario):
             outputs = CHANNEL_OUTPUTS if exc.field == "channel_filter" else NAV_OUTPUTS
             raise self.refuse(exc, where, outputs) from None
 
-    def truth(self, cn0_dbhz: float, runs: int, rng: np.random.Generator,
-              motion: str | None = None) -> tuple[VectorTruth, np.ndarray, np.ndarray]:
+    def truth(self, cn0_dbhz: float, runs: int, rng: np.random.Generator, motion: str | None = None,
+              fade: CN0Fade | None = None, fade_channels: int | None = None
+              ) -> tuple[VectorTruth, np.ndarray, np.ndarray]:
         """The truth of ``runs`` runs at ``cn0_dbhz``: satellites, receiver (``motion``,
-        default the scenario's), clock and C/N0; and the nav filter's initial estimate and
-        covariance."""
+        default the scenario's), clock and C/N0 (with ``fade`` on the ``fade_channels``
+        lowest channels, None: all); and the nav filter's initial estimate and covariance."""
         p = self.params
         motion = motion or p.motion
         traj = None
@@ -323,17 +371,23 @@ class VectorTrackingScenario(Scenario):
                 shape = t.shape + (runs, 3)
                 return np.broadcast_to(r0 + t[..., None, None] * v, shape), np.broadcast_to(v, shape)
 
-        if p.cn0_model == "elevation":
+        def start_elevations() -> np.ndarray:
             # Elevations at the start, (runs, ch): satellites shared (ch, 3) or per run (runs, ch, 3).
-            el0 = elevation_deg(sat_state(np.asarray(0.0))[0], receiver_state(np.asarray(0.0))[0], lat, lon)
-            cn0 = cn0_from_elevation(cn0_dbhz, el0)
+            return elevation_deg(sat_state(np.asarray(0.0))[0], receiver_state(np.asarray(0.0))[0], lat, lon)
+
+        if p.cn0_model == "elevation":
+            cn0 = cn0_from_elevation(cn0_dbhz, start_elevations())
         else:
             cn0 = np.full((runs, p.channels), cn0_dbhz)
+        gains = {}
+        if fade is not None:  # in the correlators only: the channel filters keep the nominal cn0
+            faded = lowest_channels(np.broadcast_to(start_elevations(), (runs, p.channels)), fade_channels)
+            gains = dict(zip(("signal_gain", "noise_gain"), fade.gains(np.arange(K) * T + T / 2, faded)))
         range_error = None
         if p.range_residuals_on():
             range_error = range_error_function(draw_residuals(p, draw.child(rng, "range-errors"), runs), sat_state,
                                                receiver_state, lat, lon)
-        truth = VectorTruth(sat_state, receiver_state, clock, cn0, T, range_error_m=range_error)
+        truth = VectorTruth(sat_state, receiver_state, clock, cn0, T, range_error_m=range_error, **gains)
         P0 = np.diag([p.initial_position_std_m**2] * 3 + [p.initial_velocity_std_m_s**2] * 3
                      + [p.initial_position_std_m**2, p.initial_velocity_std_m_s**2])
         x0 = truth.nav_truth(T / 2, 0) + draw.standard_normal(rng, (runs, 8), 0) @ np.sqrt(P0)
@@ -346,7 +400,8 @@ class VectorTrackingScenario(Scenario):
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         motion = case.get("motion") or p.motion
-        truth, x0, P0 = self.truth(float(case["cn0_dbhz"]), runs, rng, motion)
+        c = self.CaseParams.model_validate(case)
+        truth, x0, P0 = self.truth(float(case["cn0_dbhz"]), runs, rng, motion, c.fade(), c.fade_channels)
         rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng,
                               early_late_spacing_chips=p.early_late_spacing_chips, data_bits=p.data_bits)
         last_s = rec.time_s[-1]
@@ -365,7 +420,7 @@ class VectorTrackingScenario(Scenario):
                   "code_output_error_chips": channel_rms(rec.code_output_error_chips),
                   "freq_output_error_hz": channel_rms(rec.freq_output_error_hz)}
         if p.pcrb or (p.pcrb is None and not p.trajectory_file and p.geometry == "fixed"
-                      and motion == "constant-velocity"):
+                      and motion == "constant-velocity" and c.fade() is None):
             _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0)
             series["pcrb_position_m"] = np.repeat(bound_pos[:, None], runs, axis=1)
             series["pcrb_velocity_m_s"] = np.repeat(bound_vel[:, None], runs, axis=1)

@@ -37,6 +37,7 @@ from ...interfaces import ChannelFilter, NavFilter, RunContext
 from ...navigation.geometry import line_of_sight, range_rate, ranges_from_receivers
 from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
+from ...signal.correlators import Correlators
 from ...signal.navdata import BIT_PERIOD_S, random_nav_bits
 
 __all__ = ["VectorTruth", "VectorRecord", "run_vector_loop", "check_composition", "predicted_range",
@@ -71,6 +72,11 @@ class VectorTruth:
         channels)``: errors of the true code and carrier ranges that the receiver's model
         does not have (ionosphere, troposphere, broadcast orbit and clock residuals,
         `gnssframework.simulation.propagation`). None: none.
+    signal_gain, noise_gain
+        Optional ``(K, runs, channels)`` amplitude factors of each interval's correlator
+        signal and noise (a C/N0 fade, `gnssframework.simulation.fade.CN0Fade.gains`):
+        the correlators' C/N0 is ``cn0_dbhz`` + 20 log10(signal_gain / noise_gain), while
+        the channel filters are still given ``cn0_dbhz``, the nominal value. None: 1.
     """
 
     sat_state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -79,6 +85,8 @@ class VectorTruth:
     cn0_dbhz: np.ndarray
     coherent_time_s: float
     range_error_m: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
+    signal_gain: np.ndarray | None = None
+    noise_gain: np.ndarray | None = None
 
     @property
     def epochs(self) -> int:
@@ -191,6 +199,11 @@ def run_vector_loop(
     runs, n_ch = truth.clock_m.shape[1], sat_edges[0].shape[-2]
     batch = (runs, n_ch)
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
+    for name in ("signal_gain", "noise_gain"):
+        gain = getattr(truth, name)
+        if gain is not None and np.shape(gain) != (K,) + batch:
+            raise ConfigError(f"truth.{name}", f"must have the shape (epochs, runs, channels) = {(K,) + batch}, "
+                              f"got {np.shape(gain)}")
 
     theta0 = draw.uniform(rng, -np.pi, np.pi, batch, 0)  # unknown initial carrier phase per channel
     bits = random_nav_bits(int(np.ceil(K * T / BIT_PERIOD_S)) + 1, rng, batch) if data_bits != "none" else None
@@ -199,7 +212,7 @@ def run_vector_loop(
     channel.reset(batch, context)
     nav.reset((runs,), context)
     correlators = _CorrelatorSource(CorrelatorSimulator(T, early_late_spacing_chips), amplitude_from_cn0(cn0, T),
-                                    bits, data_bits == "known", rng)
+                                    bits, data_bits == "known", rng, truth.signal_gain, truth.noise_gain)
     replica = _Replica.from_estimate(truth, initial_state, batch)
     record = _Recorder(K, runs, batch)
 
@@ -211,7 +224,7 @@ def run_vector_loop(
             j = k - k0
             code_err, ph0, freq_err = replica.errors(rho_edges[j], rho_edges[j + 1], phase_true[j], phase_true[j + 1],
                                                      T)
-            ch_out = channel.checked_step(correlators.inputs(code_err, ph0, freq_err, t_edges[k] + T / 2, replica))
+            ch_out = channel.checked_step(correlators.inputs(code_err, ph0, freq_err, t_edges[k] + T / 2, replica, k))
             nav_out = nav.checked_step(replica.nav_inputs(ch_out, sat_mids, sat_edges, k, T, batch))
             record.epoch(k, j, nav_out, x_true[j], ch_out, code_err, freq_err)
             replica.steer(nav_out[names.NCO_RANGE_M], nav_out[names.NCO_RANGE_RATE_M_S])
@@ -221,20 +234,29 @@ def run_vector_loop(
 
 class _CorrelatorSource:
     """The correlators of each interval, drawn from the replica's true errors, with the
-    data bit of the interval (Zou et al. 2018, eqs. 2-7 through `CorrelatorSimulator`)."""
+    data bit of the interval (Zou et al. 2018, eqs. 2-7 through `CorrelatorSimulator`),
+    and the signal and noise gains of a C/N0 fade if the truth has one."""
 
     def __init__(self, simulator: CorrelatorSimulator, amplitude: np.ndarray, bits: np.ndarray | None,
-                 bits_known: bool, rng: np.random.Generator) -> None:
+                 bits_known: bool, rng: np.random.Generator, signal_gain: np.ndarray | None = None,
+                 noise_gain: np.ndarray | None = None) -> None:
         self.simulator, self.amplitude, self.rng = simulator, amplitude, rng
         self.bits, self.bits_f = bits, (bits.astype(float) if bits is not None else None)
         self.bits_known = bits_known
+        self.signal_gain, self.noise_gain = signal_gain, noise_gain
 
     def inputs(self, code_err: np.ndarray, ph0: np.ndarray, freq_err: np.ndarray, t_mid_s: float,
-               replica: _Replica) -> dict[str, np.ndarray]:
-        """The channel filter's step inputs at the interval whose middle is ``t_mid_s``."""
+               replica: _Replica, k: int = 0) -> dict[str, np.ndarray]:
+        """The channel filter's step inputs at interval ``k``, whose middle is ``t_mid_s``."""
         i_bit = int(t_mid_s // BIT_PERIOD_S)
-        corr = self.simulator.draw(code_err, ph0, freq_err, self.amplitude, self.rng,
-                                   self.bits_f[i_bit] if self.bits_f is not None else 1.0)
+        bit = self.bits_f[i_bit] if self.bits_f is not None else 1.0
+        if self.signal_gain is None and self.noise_gain is None:
+            corr = self.simulator.draw(code_err, ph0, freq_err, self.amplitude, self.rng, bit)
+        else:  # a fade: draw at the amplitude relative to the noise, then scale both by the noise gain
+            g_s = 1.0 if self.signal_gain is None else self.signal_gain[k]
+            g_n = 1.0 if self.noise_gain is None else self.noise_gain[k]
+            c = self.simulator.draw(code_err, ph0, freq_err, self.amplitude * g_s / g_n, self.rng, bit)
+            corr = Correlators.trusted(c.early * g_n, c.prompt * g_n, c.late * g_n)
         inputs = {names.CORRELATORS: corr, names.NCO_SHIFT_CHIPS: replica.shift_chips,
                   names.NCO_SHIFT_HZ: replica.shift_hz}
         if self.bits_known:
