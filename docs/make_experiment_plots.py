@@ -22,7 +22,8 @@ EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath"
             "deep_integration_lock_ci", "deep_integration_lock_control_ci", "sample_receiver",
             "deep_integration_nees_ci", "deep_integration_error_sources_ci")
 #: Too slow for CI; their committed figures are regenerated with --slow.
-SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
+SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving",
+                 "deep_integration_error_sources")
 #: Examples whose page includes tables generated from the run (docs/experiment_tables.py).
 #: The main example's metrics, in its order (the slow one-motion tunings share them).
 _VECTOR_TRACKING_TABLE = ["code_phase_error_rmse", "carrier_freq_error_rmse", "position_error_rmse",
@@ -53,6 +54,7 @@ TABLES["deep_integration_error_sources_ci"] = ["horizontal_position_error_rmse",
                                                "horizontal_velocity_error_rmse", "vertical_velocity_error_rmse",
                                                "attitude_error_rmse", "freq_tracking_error_rmse",
                                                "code_tracking_error_rmse", "loss_of_lock_fraction", "nees"]
+TABLES["deep_integration_error_sources"] = TABLES["deep_integration_error_sources_ci"]
 
 
 def main() -> int:
