@@ -20,10 +20,9 @@ OUT = ROOT / "docs" / "img" / "experiments"
 EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath", "sweep_demo",
             "carrier_smoothing_sweep", "scintillation_sweep", "deep_integration_ci", "deep_integration_elevation_ci",
             "deep_integration_lock_ci", "deep_integration_lock_control_ci", "sample_receiver",
-            "deep_integration_nees_ci", "deep_integration_error_sources_ci")
+            "deep_integration_nees_ci", "deep_integration_error_sources_ci", "deep_integration_error_sources")
 #: Too slow for CI; their committed figures are regenerated with --slow.
-SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving",
-                 "deep_integration_error_sources")
+SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
 #: Examples whose page includes tables generated from the run (docs/experiment_tables.py).
 #: The main example's metrics, in its order (the slow one-motion tunings share them).
 _VECTOR_TRACKING_TABLE = ["code_phase_error_rmse", "carrier_freq_error_rmse", "position_error_rmse",
