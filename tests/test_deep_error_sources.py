@@ -136,3 +136,24 @@ def test_a_case_adds_the_error_sources_to_the_scenarios_truth():
     np.testing.assert_array_equal(by_case.clock_m, by_scen.clock_m)
     with pytest.raises(Exception, match="gyro_misalignment_mrad"):
         DeepIntegrationCase.model_validate({"cn0_dbhz": 45.0, "gyro_misalignment_mrad": -1.0})
+
+
+def test_a_gnss_only_candidate_has_no_imu_to_misalign_but_its_clock_sees_the_oscillator():
+    # examples/deep_integration_error_sources.toml claims vector-pva's misalignment case is its
+    # nominal case (ratio 1): a GNSS-only navigator reads no IMU, so the case changes nothing,
+    # bit for bit, on the same streams. The control: the g-sensitivity case on the same streams
+    # changes its numbers (the oscillator's 1 g of gravity alone is 1.6 Hz of common Doppler).
+    import gnssframework as gf
+
+    scen = _scen(duration_s=0.6, settle_s=0.2)
+    cases = {"nominal": {"cn0_dbhz": 45.0},
+             "misalignment": {"cn0_dbhz": 45.0, "gyro_misalignment_mrad": 1.0, "accel_misalignment_mrad": 1.0},
+             "g-sensitivity": {"cn0_dbhz": 45.0, "oscillator_g_sensitivity_per_g": (0.0, 0.0, 1e-9)}}
+    res = {}
+    for name, case in cases.items():
+        plugins = {"channel_filter": gf.registry.create("channel_filter", "iq-filter", output="equivalent"),
+                   "nav_filter": gf.registry.create("nav_filter", "ekf-pva", clock="ocxo")}
+        res[name] = scen.run_batch(case, plugins, 2, draw.run_streams(4, (0,), range(2))).metrics
+    for metric in ("horizontal_position_error_rmse", "vertical_velocity_error_rmse", "freq_tracking_error_rmse"):
+        np.testing.assert_array_equal(res["misalignment"][metric], res["nominal"][metric])
+    assert np.all(res["g-sensitivity"]["freq_tracking_error_rmse"] != res["nominal"]["freq_tracking_error_rmse"])
