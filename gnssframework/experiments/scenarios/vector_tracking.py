@@ -226,9 +226,10 @@ class VectorTrackingScenario(Scenario):
         if params.geometry == "per-run" and params.pcrb:
             raise ConfigError("scenario.pcrb", "the bound is computed for one geometry; set pcrb = false with "
                               "geometry = \"per-run\"")
-        if params.pcrb_code and (params.pcrb is False or params.trajectory_file or params.geometry == "per-run"):
+        if params.pcrb_code and (params.pcrb is False or params.trajectory_file or params.geometry == "per-run"
+                                 or params.motion == "figure-eight"):
             raise ConfigError("scenario.pcrb_code", "the code-only bound is computed where the bound is: not with "
-                              "pcrb = false, a trajectory_file or geometry = \"per-run\"")
+                              "pcrb = false, a trajectory_file, a figure-eight motion or geometry = \"per-run\"")
         self._check_motion(params.motion, "scenario.motion")
         if params.steady_state_s is not None and not params.settle_s <= params.steady_state_s < params.duration_s:
             raise ConfigError("scenario.steady_state_s", f"must be at least settle_s = {params.settle_s} and less "
