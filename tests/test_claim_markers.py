@@ -139,7 +139,7 @@ def test_every_marked_ordering_is_a_claim_ci_checks(page, line, body):
 def test_ci_checks_the_reference_examples():
     assert {"vector_tracking", "deep_integration_ci", "carrier_smoothing", "vector_tracking_tcxo",
             "vector_tracking_regime_static_ci", "vector_tracking_regime_moving_ci",
-            "vector_tracking_modes", "vector_tracking_sweep_ci"} <= _checked_in_ci()
+            "vector_tracking_modes", "vector_tracking_sweep_ci", "vector_tracking_modes_moving"} <= _checked_in_ci()
     assert "deep_integration" not in _checked_in_ci()  # too slow for CI: its claims are not CI's
 
 
@@ -304,6 +304,7 @@ def _param(candidate: dict, label: str) -> float:
     ("vector_tracking_tcxo", "vector_tracking"),
     ("vector_tracking_modes", "vector_tracking"),
     ("vector_tracking_fade_ci", "vector_tracking"),
+    ("vector_tracking_modes_moving", "vector_tracking"),
     ("vector_tracking_sweep", "vector_tracking"),
     ("vector_tracking_sweep_ci", "vector_tracking"),
 ])

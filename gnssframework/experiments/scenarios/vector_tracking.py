@@ -108,7 +108,8 @@ class VectorTrackingParams(SkyRealismParams):
     initial_velocity_std_m_s: float = Field(0.3, gt=0)
     settle_s: float = Field(1.0, ge=0, description="metrics ignore the first settle_s seconds")
     pcrb: bool | None = Field(None, description="compute the posterior Cramér-Rao bound (pcrb_position, "
-                              "pcrb_velocity); it assumes a static or constant-velocity receiver and one geometry. "
+                              "pcrb_velocity) and the same bound from the code alone (pcrb_position_code, "
+                              "pcrb_velocity_code); it assumes a static or constant-velocity receiver and one geometry. "
                               "null: yes, unless a trajectory_file or a figure-eight motion is given (in a case: "
                               "not for that case) or geometry is per-run")
     steady_state_s: float | None = Field(None, ge=0, description="position_steady_error_rmse counts from this "
@@ -203,6 +204,12 @@ METRICS = (
     Rmse("pcrb_velocity", "m/s", of="pcrb_velocity_m_s", settle="settle_s", optional=True,
          undefined="no bound for this case: a moving receiver, a per-run geometry, a trajectory file or a C/N0 fade",
          description="posterior Cramér-Rao bound of the velocity error (RMS over the same window)"),
+    Rmse("pcrb_position_code", "m", of="pcrb_position_code_m", settle="settle_s", optional=True,
+         undefined="no bound for this case: a moving receiver, a per-run geometry or a trajectory file",
+         description="posterior Cramér-Rao bound of the position error from the code alone (no carrier phase)"),
+    Rmse("pcrb_velocity_code", "m/s", of="pcrb_velocity_code_m_s", settle="settle_s", optional=True,
+         undefined="no bound for this case: a moving receiver, a per-run geometry or a trajectory file",
+         description="posterior Cramér-Rao bound of the velocity error from the code alone (no carrier phase)"),
 )
 
 
@@ -221,7 +228,7 @@ class VectorTrackingScenario(Scenario):
     outputs = {"code_error_chips": "chips", "freq_error_hz": "Hz", "position_error_m": "m",
                "velocity_error_m_s": "m/s", "nav_nees": "-", "nav_nees_position": "-", "nav_nees_velocity": "-",
                "code_output_error_chips": "chips", "freq_output_error_hz": "Hz", "pcrb_position_m": "m",
-               "pcrb_velocity_m_s": "m/s"}
+               "pcrb_velocity_m_s": "m/s", "pcrb_position_code_m": "m", "pcrb_velocity_code_m_s": "m/s"}
     #: Error metric -> the bound drawn beside it in the report's time-series plot.
     bounds = {"position_error_rmse": "pcrb_position", "velocity_error_rmse": "pcrb_velocity"}
 
@@ -424,11 +431,17 @@ class VectorTrackingScenario(Scenario):
             _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0)
             series["pcrb_position_m"] = np.repeat(bound_pos[:, None], runs, axis=1)
             series["pcrb_velocity_m_s"] = np.repeat(bound_vel[:, None], runs, axis=1)
+            # The code-only bound (carrier phase dropped): what the carrier adds (11 ms a batch).
+            _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0, "code")
+            series["pcrb_position_code_m"] = np.repeat(bound_pos[:, None], runs, axis=1)
+            series["pcrb_velocity_code_m_s"] = np.repeat(bound_vel[:, None], runs, axis=1)
         return evaluate(METRICS, series, rec.time_s, self)
 
-    def bound(self, cn0_dbhz: float, P0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The PCRB of this scenario at ``cn0_dbhz`` (`gnssframework.receiver.tracking.pcrb.vector_tracking_pcrb`):
-        times, RMS position bound (m) and RMS velocity bound (m/s), each ``(K,)``."""
+    def bound(self, cn0_dbhz: float, P0: np.ndarray, measurements: str = "code-and-carrier"
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The PCRB of this scenario at ``cn0_dbhz`` (`gnssframework.receiver.tracking.pcrb.vector_tracking_pcrb`)
+        from ``measurements`` (``"code-and-carrier"`` or ``"code"``): times, RMS position bound (m) and RMS
+        velocity bound (m/s), each ``(K,)``."""
         from ...receiver.tracking.pcrb import vector_tracking_pcrb
 
         p = self.params
@@ -438,5 +451,6 @@ class VectorTrackingScenario(Scenario):
         r0, v = truth.receiver_state(np.asarray(0.0))
         clock_q = SPEED_OF_LIGHT_M_S**2 * PRESETS[p.clock].process_noise(T)
         return vector_tracking_pcrb(lambda t: truth.sat_state(t)[0], r0[0], v[0], clock_q, P0,
-                                    np.asarray(truth.cn0_dbhz, float)[0], T, K, p.early_late_spacing_chips)
+                                    np.asarray(truth.cn0_dbhz, float)[0], T, K, p.early_late_spacing_chips,
+                                    measurements)
 

@@ -55,11 +55,21 @@ Jacobians are evaluated on the true trajectory (the usual approximation of the
 expectation in $J^z$: the posterior spread, metres, is tiny against the satellite
 distance). The dynamics are the scenario's truth: a constant-velocity receiver
 (no process noise) and the clock's two-state model from its h-parameters.
+
+Code-only bound (``measurements="code"``). Dropping the carrier phase's information
+$J_{\varphi\varphi}$ leaves $J^z_k = \sum_i J_{\tau\tau,i}\, h_{i,k}^T h_{i,k}$ with
+$h_{i,k} = [-e_{i,k}^T, 0, 1, 0] / \lambda_{chip}$ (and no phase offsets in the state).
+For a static receiver with a known velocity and clock drift and no clock noise, the
+$K$ intervals then add up to the least-squares information,
+$J_K \to \sum_k G_k^T \Sigma^{-1} G_k$, $G = [-e^T, 1]$, $\Sigma = \sigma^2 I$ with
+$\sigma^2 = \lambda_{chip}^2 / J_{\tau\tau}$: the snapshot covariance
+$\sigma^2 (G^T G)^{-1}$ divided by $K$ (tests/test_pcrb.py checks both this limit and
+the batch least-squares information of the full state).
 """
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Literal
 
 import numpy as np
 
@@ -70,7 +80,11 @@ from ...navigation.geometry import line_of_sight
 from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ...signal.correlator_model import amplitude_from_cn0, tap_noise_cov
 
-__all__ = ["pcrb_linear", "correlator_fisher", "vector_tracking_pcrb"]
+__all__ = ["pcrb_linear", "correlator_fisher", "vector_tracking_pcrb", "PCRB_MEASUREMENTS"]
+
+#: What the bound's measurements are (`vector_tracking_pcrb`'s ``measurements``).
+PcrbMeasurements = Literal["code-and-carrier", "code"]
+PCRB_MEASUREMENTS: tuple[str, ...] = ("code-and-carrier", "code")
 
 
 def pcrb_linear(F: np.ndarray, Q: np.ndarray, sqrt_info: Callable[[int], np.ndarray] | np.ndarray, P0: np.ndarray,
@@ -145,7 +159,8 @@ def correlator_fisher(cn0_dbhz: float, coherent_time_s: float, early_late_spacin
 
 def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_pos: np.ndarray,
                          receiver_vel: np.ndarray, clock_q_m: np.ndarray, P0: np.ndarray, cn0_dbhz: np.ndarray,
-                         coherent_time_s: float, epochs: int, early_late_spacing_chips: float = 1.0
+                         coherent_time_s: float, epochs: int, early_late_spacing_chips: float = 1.0,
+                         measurements: PcrbMeasurements = "code-and-carrier"
                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """PCRB of a vector-tracking run with a constant-velocity receiver (module docstring).
 
@@ -164,6 +179,12 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
         C/N0 per channel ``(channels,)``.
     coherent_time_s, epochs
         T and the number of intervals.
+    early_late_spacing_chips
+        The early-late spacing of the correlators (`correlator_fisher`).
+    measurements
+        ``"code-and-carrier"``: the correlators' code delay and carrier phase;
+        ``"code"``: the code delay only (the carrier phase's information dropped, and
+        with it the per-channel phase offsets; module docstring).
 
     Returns
     -------
@@ -171,12 +192,15 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
         Mid-interval times ``(K,)``, and the bounds on the RMS position error (m,
         $\\sqrt{\\mathrm{tr}\\, J^{-1}_{rr}}$) and RMS velocity error (m/s), each ``(K,)``.
     """
+    if measurements not in PCRB_MEASUREMENTS:
+        raise ConfigError("measurements", f"got {measurements!r}; allowed: {', '.join(PCRB_MEASUREMENTS)}")
+    carrier = measurements == "code-and-carrier"
     T = coherent_time_s
     s0 = np.asarray(sat_pos(np.asarray(T / 2)))
     n_ch = s0.shape[0]
     cn0 = np.broadcast_to(np.asarray(cn0_dbhz, float), (n_ch,))
     sq = np.array([np.sqrt(np.diag(correlator_fisher(c, T, early_late_spacing_chips))) for c in cn0])  # (ch, 2)
-    n = 8 + n_ch
+    n = 8 + (n_ch if carrier else 0)
     F = np.eye(n)
     F[0:3, 3:6] = T * np.eye(3)
     F[6, 7] = T
@@ -186,7 +210,7 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
     Pfull[:8, :8] = P0
     # Uniform initial phase: no information. A variance of 1e6 rad^2 stands for that;
     # the bound on r and v does not depend on its value once it is large.
-    Pfull[8:, 8:] = 1e6 * np.eye(n_ch)
+    Pfull[8:, 8:] = 1e6 * np.eye(n - 8)
     times = np.arange(epochs) * T + T / 2
     r0, v = np.asarray(receiver_pos, float), np.asarray(receiver_vel, float)
     sats = np.asarray(sat_pos(times))  # (K, ch, 3): one orbit evaluation for all epochs
@@ -196,10 +220,11 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
     drho = np.zeros((epochs, n_ch, n))
     drho[..., 0:3] = -e
     drho[..., 6] = 1.0
-    code = drho / CA_CHIP_LENGTH_M
-    phase = -2 * np.pi * drho / L1_WAVELENGTH_M
-    phase[..., 8:] = np.eye(n_ch)
-    roots = np.concatenate([sq[:, :1] * code, sq[:, 1:] * phase], axis=1)  # (K, 2 ch, n)
+    roots = sq[:, :1] * (drho / CA_CHIP_LENGTH_M)  # the code rows (K, ch, n)
+    if carrier:
+        phase = -2 * np.pi * drho / L1_WAVELENGTH_M
+        phase[..., 8:] = np.eye(n_ch)
+        roots = np.concatenate([roots, sq[:, 1:] * phase], axis=1)  # (K, 2 ch, n)
 
     P = pcrb_linear(F, Q, roots, Pfull, epochs)
     pos = np.sqrt(np.trace(P[:, 0:3, 0:3], axis1=1, axis2=2))
