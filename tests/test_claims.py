@@ -15,28 +15,8 @@ from gnssframework.experiments import load_config
 from gnssframework.experiments.claims import evaluate_claims
 from gnssframework.experiments.report import write_report
 from gnssframework.experiments.store import ResultStore
+from two_candidates import two_candidate_config
 
-CONFIG = """
-name = "claims"
-runs = 4
-batch_size = 2
-[executor]
-workers = 1
-[scenario]
-kind = "multipath"
-epochs = 40
-[[cases]]
-name = "only"
-[[candidates]]
-name = "a"
-nav_filter = {{ name = "position-ca" }}
-estimator = {{ name = "kf" }}
-[[candidates]]
-name = "b"
-nav_filter = {{ name = "position-ca" }}
-estimator = {{ name = "ckf" }}
-{claims}
-"""
 
 # Per-run values of candidate a and b: d = a - b = (0.5, 0.5, 1.0, 0.5): mean 0.625,
 # SE 0.125, t(0.975, 3) = 3.182 -> interval (0.227, 1.023): a is higher, significantly.
@@ -46,7 +26,7 @@ B = np.array([0.5, 1.5, 2.0, 3.5])
 
 def _evaluate(tmp_path, claims: str, a=A, b=B) -> list[dict]:
     path = tmp_path / "c.toml"
-    path.write_text(CONFIG.format(claims=claims))
+    path.write_text(two_candidate_config("claims", claims=claims))
     config = load_config(path)
     store = ResultStore(tmp_path / "results.sqlite")
     key = config.identity()
@@ -127,7 +107,7 @@ def test_summary_report_and_check_carry_the_outcomes(tmp_path):
 ])
 def test_bad_claims_are_refused_at_load_naming_the_field(tmp_path, fields, field, message):
     path = tmp_path / "c.toml"
-    path.write_text(CONFIG.format(claims=_claim(**fields)))
+    path.write_text(two_candidate_config("claims", claims=_claim(**fields)))
     with pytest.raises(ConfigError) as err:
         load_config(path)
     assert str(err.value).startswith(field) and message in str(err.value)
@@ -136,7 +116,7 @@ def test_bad_claims_are_refused_at_load_naming_the_field(tmp_path, fields, field
 def test_compare_check_exits_1_when_a_claim_does_not_hold(tmp_path):
     claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower")
     path = tmp_path / "c.toml"
-    path.write_text(CONFIG.format(claims=claims).replace("runs = 4", "runs = 3"))
+    path.write_text(two_candidate_config("claims", claims=claims).replace("runs = 4", "runs = 3"))
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o"),
                            "--quiet", "--check"], capture_output=True, text=True)
     outcome = json.loads((tmp_path / "o" / "summary.json").read_text())["claims"][0]["outcome"]

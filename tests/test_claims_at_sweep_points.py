@@ -19,33 +19,12 @@ from gnssframework.experiments import load_config
 from gnssframework.experiments.claims import evaluate_claims
 from gnssframework.experiments.report import write_report
 from gnssframework.experiments.store import ResultStore
+from two_candidates import two_candidate_config
 
-CONFIG = """
-name = "sweep-claims"
-runs = 4
-batch_size = 2
-[executor]
-workers = 1
-[scenario]
-kind = "multipath"
-epochs = 40
-[[cases]]
-name = "only"
-{cases}
-[[sweeps]]
+SWEEP = """[[sweeps]]
 name = "psi"
 path = "{path}"
-values = [0.2, 0.5, 0.8]
-[[candidates]]
-name = "a"
-nav_filter = {{ name = "position-ca" }}
-estimator = {{ name = "kf" }}
-[[candidates]]
-name = "b"
-nav_filter = {{ name = "position-ca" }}
-estimator = {{ name = "ckf" }}
-{claims}
-"""
+values = [0.2, 0.5, 0.8]"""
 
 A = np.array([1.0, 2.0, 3.0, 4.0])
 # b = a - d per point: d = (0.5, 0.5, 1.0, 0.5): mean 0.625, SE 0.125 (t = 5.0);
@@ -56,9 +35,13 @@ MIDDLING = np.array([0.5, 0.3, 1.0, 0.7])
 TIE = np.array([1.0, -0.5, 2.0, -0.4])
 
 
+def _text(claims: str, path: str = "scenario.psi", cases: str = "") -> str:
+    return two_candidate_config("sweep-claims", case_fields=cases, sweeps=SWEEP.format(path=path), claims=claims)
+
+
 def _config(tmp_path, claims: str, path: str = "scenario.psi", cases: str = ""):
     file = tmp_path / "c.toml"
-    file.write_text(CONFIG.format(claims=claims, path=path, cases=cases))
+    file.write_text(_text(claims, path, cases))
     return load_config(file)
 
 
@@ -203,7 +186,7 @@ def test_compare_check_exits_1_when_a_sweep_point_claim_does_not_hold(tmp_path):
     claims = (_claim(candidate="a", metric="lat_error_rmse", sweep="psi", within=[0.0, 1e9])
               + _claim(candidate="a", metric="lat_error_rmse", sweep="psi", at=0.5, within=[1e9, 1e10]))
     path = tmp_path / "c.toml"
-    path.write_text(CONFIG.format(claims=claims, path="scenario.psi", cases="").replace("runs = 4", "runs = 3"))
+    path.write_text(_text(claims).replace("runs = 4", "runs = 3"))
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o"),
                            "--quiet", "--check"], capture_output=True, text=True)
     assert proc.returncode == 1, proc.stderr

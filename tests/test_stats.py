@@ -17,6 +17,7 @@ from gnssframework.experiments.report import write_report
 from gnssframework.experiments.scenarios import BatchResult, Scenario, ScenarioParams
 from gnssframework.experiments.stats import paired_difference
 from gnssframework.experiments.store import ResultStore
+from two_candidates import two_candidate_config
 
 X = np.array([1.0, 2.0, 3.0, 4.0])
 Y = np.array([0.5, 1.5, 2.0, 3.5])
@@ -79,32 +80,11 @@ def test_paired_se_is_smaller_than_unpaired_when_runs_are_correlated():
     assert pd.significant and abs(np.mean(x) - np.mean(y)) < 2 * unpaired_se
 
 
-MULTIPATH = """
-name = "synthetic"
-runs = 4
-batch_size = 2
-{reference}
-[executor]
-workers = 1
-[scenario]
-kind = "multipath"
-epochs = 40
-[[cases]]
-name = "only"
-[[candidates]]
-name = "a"
-nav_filter = {{ name = "position-ca" }}
-estimator = {{ name = "kf" }}
-[[candidates]]
-name = "b"
-nav_filter = {{ name = "position-ca" }}
-estimator = {{ name = "ckf" }}
-"""
 
 
 def _config(tmp_path, reference=""):
     path = tmp_path / "c.toml"
-    path.write_text(MULTIPATH.format(reference=reference))
+    path.write_text(two_candidate_config("synthetic", top=reference))
     return load_config(path)
 
 
