@@ -182,6 +182,10 @@ def steady_state_start_s(scenario: Any) -> float:
 #: averages the dimension: 8, 3 and 3); the bounds their RMS over the same window.
 #: ``code_output_rmse`` and ``freq_output_rmse`` are the errors of what the channel
 #: filters hand the nav filter (the quantity Zou et al. 2018 plot as code and frequency error).
+#: Why a case has no bound (its metrics are then undefined rather than absent); the same for
+#: the code-and-carrier and the code-only bound, computed together.
+_NO_BOUND = "no bound for this case: a moving receiver, a per-run geometry, a trajectory file or a C/N0 fade"
+
 METRICS = (
     Rmse("code_phase_error_rmse", "chips", of="code_error_chips", settle="settle_s",
          description="RMS code phase error of the channels' estimates"),
@@ -198,17 +202,14 @@ METRICS = (
          description="RMS error of the code measurement handed to the nav filter"),
     Rmse("freq_output_rmse", "Hz", of="freq_output_error_hz", settle="settle_s",
          description="RMS error of the frequency measurement handed to the nav filter"),
-    Rmse("pcrb_position", "m", of="pcrb_position_m", settle="settle_s", optional=True,
-         undefined="no bound for this case: a moving receiver, a per-run geometry, a trajectory file or a C/N0 fade",
+    Rmse("pcrb_position", "m", of="pcrb_position_m", settle="settle_s", optional=True, undefined=_NO_BOUND,
          description="posterior Cramér-Rao bound of the position error (RMS over the same window)"),
-    Rmse("pcrb_velocity", "m/s", of="pcrb_velocity_m_s", settle="settle_s", optional=True,
-         undefined="no bound for this case: a moving receiver, a per-run geometry, a trajectory file or a C/N0 fade",
+    Rmse("pcrb_velocity", "m/s", of="pcrb_velocity_m_s", settle="settle_s", optional=True, undefined=_NO_BOUND,
          description="posterior Cramér-Rao bound of the velocity error (RMS over the same window)"),
-    Rmse("pcrb_position_code", "m", of="pcrb_position_code_m", settle="settle_s", optional=True,
-         undefined="no bound for this case: a moving receiver, a per-run geometry or a trajectory file",
+    Rmse("pcrb_position_code", "m", of="pcrb_position_code_m", settle="settle_s", optional=True, undefined=_NO_BOUND,
          description="posterior Cramér-Rao bound of the position error from the code alone (no carrier phase)"),
     Rmse("pcrb_velocity_code", "m/s", of="pcrb_velocity_code_m_s", settle="settle_s", optional=True,
-         undefined="no bound for this case: a moving receiver, a per-run geometry or a trajectory file",
+         undefined=_NO_BOUND,
          description="posterior Cramér-Rao bound of the velocity error from the code alone (no carrier phase)"),
 )
 
