@@ -310,3 +310,22 @@ def test_the_vector_tracking_examples_cn0_sweep_resumes_with_identical_numbers(t
     # Lower C/N0, larger FLL output error: the point's C/N0 reached the simulation.
     assert (rows[(25.0, "discriminator", "freq_output_rmse")]["mean"]
             > 3 * rows[(50.0, "discriminator", "freq_output_rmse")]["mean"])
+
+
+def test_a_value_is_one_key_whether_written_as_an_integer_or_a_float(tmp_path):
+    # multipath_std_m is a float field: 3 and 3.0 are one simulation, so one store key, in
+    # the scenario table and in a case; another value is another key.
+    def identity(scenario_line: str, case_line: str) -> str:
+        base = BASE.replace("psi = 0.9\n[[cases]]\nname = \"only\"\n",
+                            f"psi = 0.9\n{scenario_line}\n[[cases]]\nname = \"only\"\n{case_line}\n")
+        return _load(tmp_path, "", base).identity()
+
+    assert identity("multipath_std_m = 3", "") == identity("multipath_std_m = 3.0", "")
+    assert identity("multipath_std_m = 3", "") != identity("multipath_std_m = 2", "")
+    assert identity("", "psi_training_epochs = 500") != identity("", "psi_training_epochs = 400")
+    assert identity("", "psi = 0.5") != identity("", "psi = 0.6")
+    # A sweep's point written as a float reuses the case's runs written as an integer.
+    config = _load(tmp_path, '[[sweeps]]\npath = "scenario.multipath_std_m"\nvalues = [2.0, 3.0]\n',
+                   BASE.replace("psi = 0.9\n", "psi = 0.9\nmultipath_std_m = 3\n", 1))
+    (_, p2), (_, p3) = config.sweep_points(0)
+    assert p3.identity() == config.identity() != p2.identity()

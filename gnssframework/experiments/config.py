@@ -220,6 +220,14 @@ class ComparisonConfig(_Strict):
         """
         data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
                                         "reference", "sweeps", "claims"})
+        # The scenario's and the cases' values as their models read them, not as written:
+        # `cn0_dbhz = 45` and `= 45.0` are one case (one key), as they are one simulation.
+        scenario = self.resolved_scenario
+        data["scenario"] = {"kind": self.scenario["kind"], **_as_read(scenario.params)}
+        for case, written in zip(data["cases"], self.cases):
+            for key in written.params():
+                case.pop(key, None)
+            case.update(_as_read(scenario.CaseParams.model_validate(written.params())))
         for case in data["cases"]:  # a case on its own streams keeps its old key
             if case.get("streams") is None:
                 case.pop("streams", None)
@@ -230,6 +238,12 @@ class ComparisonConfig(_Strict):
         if extra:  # the stored rows must hold them; a config without components keeps its old key
             data["metric_components"] = sorted(extra)
         return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def _as_read(params: BaseModel) -> dict[str, Any]:
+    """The parameters a config set, as the model holds them (an integer written for a float
+    field is that float), for `ComparisonConfig.identity`."""
+    return params.model_dump(mode="json", exclude_unset=True)
 
 
 def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
