@@ -57,6 +57,12 @@ TABLES["deep_integration_error_sources_ci"] = ["horizontal_position_error_rmse",
                                                "attitude_error_rmse", "freq_tracking_error_rmse",
                                                "code_tracking_error_rmse", "loss_of_lock_fraction", "nees"]
 TABLES["deep_integration_error_sources"] = TABLES["deep_integration_error_sources_ci"]
+# Reference 004 (docs/experiments/multipath.md): its cases' tables and its psi sweep's
+# (written to multipath_sweep.md: an example in both lists gets <name>_sweep.md for its sweeps).
+_MULTIPATH_TABLE = ["horizontal_error_rmse", "lat_error_mean", "lat_error_rmse", "lon_error_mean", "lon_error_rmse",
+                    "convergence_epoch"]
+TABLES["multipath"] = _MULTIPATH_TABLE
+SWEEP_TABLES["multipath"] = ["horizontal_error_rmse"]
 
 
 def main() -> int:
@@ -92,7 +98,8 @@ def main() -> int:
             sys.path.insert(0, str(ROOT / "docs"))
             from sweep_tables import write as write_sweep
 
-            print(f"{name}: sweep tables written to {write_sweep(summary.parent, name, SWEEP_TABLES[name])}")
+            sweep_file = f"{name}_sweep" if name in TABLES else name
+            print(f"{name}: sweep tables written to {write_sweep(summary.parent, sweep_file, SWEEP_TABLES[name])}")
         if name in SPACING_TABLES:
             sys.path.insert(0, str(ROOT / "docs"))
             from spacing_tables import write as write_spacing

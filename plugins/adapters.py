@@ -171,6 +171,24 @@ class SageHusaAdapter(NoiseAdapter):
     description = "Sage-Husa Q/R estimation, classic (forgetting factor) or improved (Liu et al. 2020)"
     Params = SageHusaParams
 
+    def assumptions(self, context) -> dict[str, tuple[object, str]]:
+        r"""Which adapter, what it adapts, and its memory in epochs: the improved variant
+        mixes one one-sample estimate with the initial Q0/R0 (memory 1 epoch); the classic
+        one weights the sample $j$ epochs back by $(1-b)\,b^j$ once $d_k \to 1-b$, an
+        effective window (the weights' sum relative to the newest one's) of
+        $\sum_{j \ge 0} b^j = 1/(1-b)$ epochs."""
+        p = self.params
+        if p.variant == "improved":
+            name = f"improved Sage-Husa (alpha_r {p.alpha_r:g}, alpha_q {p.alpha_q:g})"
+            memory = 1.0
+            adapts_q, adapts_r = p.estimate_q and p.alpha_q > 0, p.estimate_r and p.alpha_r > 0
+        else:
+            name = f"classic Sage-Husa (b {p.b:g})"
+            memory = 1.0 / (1.0 - p.b)
+            adapts_q, adapts_r = p.estimate_q, p.estimate_r
+        what = " and ".join(n for n, on in (("Q", adapts_q), ("R", adapts_r)) if on) or "nothing"
+        return {"noise adapter": (f"{name}: adapts {what}", "-"), "adapter memory": (memory, "epochs")}
+
     def start(self, Q0, R0) -> AdapterRun:
         _load_compiled_guard()
         return _SageHusaRun(self.params, Q0, R0)

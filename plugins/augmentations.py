@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable, Literal
+from typing import Any, Callable, Literal, Mapping
 
 import numpy as np
 from pydantic import Field
@@ -111,6 +111,52 @@ class ColoredAR1(Augmentation):
     name = "colored-ar1"
     description = "Measurement differencing for AR(1) colored measurement noise, with the w/V* cross term"
     Params = ColoredAR1Params
+
+    def assumed_psi(self, context: Mapping[str, Any]) -> float | None:
+        r"""The AR(1) coefficient this augmentation assumes in a case: ``psi`` if given,
+        else the case's true ``psi`` (``psi_estimator = "truth"``) or what the estimator
+        converges to on a long training record: the lag-1 autocorrelation of the measured
+        AR(1) + white noise for ``lag1``,
+
+        $$
+        \rho_1 = \psi\, \frac{\sigma_c^2}{\sigma_c^2 + \sigma_w^2},
+        $$
+
+        and ``psi`` for ``lag-ratio`` (consistent under the added white noise; Box &
+        Jenkins' ARMA(1,1)). A finite record of n epochs biases ``lag1`` lower still, by
+        about $(1 + 4\rho_1)/n$ (Marriott & Pope 1954) and more near |psi| = 1, and a
+        run's estimate has its sampling error, SD $\sqrt{(1-\rho_1^2)/n}$ per record
+        (Bartlett 1946). ``None`` when the case's psi is unknown."""
+        given = self.params.psi
+        if given is not None:
+            return float(np.mean(given))
+        psi = context.get("psi")
+        if psi is None:
+            return None
+        if self.params.psi_estimator != "lag1":
+            return float(psi)
+        return float(psi * context["colored_variance_m2"] / (context["colored_variance_m2"]
+                                                             + context["white_variance_m2"]))
+
+    def assumptions(self, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
+        r"""The colored-noise model: AR(1), how psi is had (given, the case's true one, or
+        estimated), the cross-covariance form, the assumed psi against the true one, and
+        the factor $1/(1-\psi^2)$ from the driving-noise variance (the nav filter's R0)
+        to the AR(1) stationary variance the filter then assumes,
+        $\sigma^2 = \sigma_\xi^2 / (1 - \psi^2)$."""
+        p = self.params
+        how = ("given" if p.psi is not None else "true (the case's)" if p.psi_estimator == "truth"
+               else f"estimated ({p.psi_estimator}; its long-record limit)")
+        cross = "paper (dropped, M = 0)" if p.cross_covariance == "paper" else "exact (M = Q Hᵀ)"
+        out = {"measurement-noise model": (f"AR(1), psi {how}", "-"), "process/measurement cross covariance":
+               (cross, "-")}
+        psi = self.assumed_psi(context)
+        if psi is not None:
+            out["AR(1) psi"] = (psi, "-")
+            if context.get("psi"):
+                out["AR(1) psi / true psi"] = (psi / context["psi"], "-")
+            out["stationary / driving variance, 1/(1 − psi²)"] = (1.0 / (1.0 - psi**2), "-")
+        return out
 
     def apply(self, model, zs: np.ndarray) -> AugmentedProblem:
         zs = np.asarray(zs, dtype=float)

@@ -339,6 +339,22 @@ class PositionConstantAcceleration(BatchPositionFilter):
     requires = ("position_m",)
     provides = ("position_m",)
 
+    def assumptions(self, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
+        r"""Q0 per epoch and coordinate, each derivative's variance added at every step
+        (a diagonal Q0: no continuous-time PSD behind it), and R0 against the case's true
+        measurement-noise variance $\sigma_c^2 + \sigma_w^2$ (``context``'s
+        ``measurement_variance_m2``; the ratio is left out when the scenario does not
+        know it). With a ``colored-ar1`` augmentation R0 is the variance of the AR(1)
+        driving noise; its row gives the factor $1/(1-\psi^2)$ to the stationary variance."""
+        q = self.params.q0
+        out = {"position process-noise variance per epoch": (float(q[0]), "m²"),
+               "velocity process-noise variance per epoch": (float(q[1]), "m²/s²"),
+               "acceleration process-noise variance per epoch": (float(q[2]), "m²/s⁴")}
+        truth = context.get("measurement_variance_m2")
+        if truth:
+            out["R0 / true measurement variance (white + colored)"] = (self.params.r0 / truth, "-")
+        return out
+
     def model(self, dt_s: float | None = None) -> LinearModel:
         """The constant-acceleration model at epoch interval ``dt_s`` (default: ``params.dt_s``)."""
         p = self.params

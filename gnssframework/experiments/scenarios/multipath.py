@@ -57,6 +57,15 @@ class OracleGrid(ScenarioParams):
     training_runs: int = Field(10, ge=1, description="independent runs the grid is scored on, drawn from a "
                                "stream of the case (the same in every batch)")
 
+    def assumptions(self, context: dict[str, Any]) -> dict[str, tuple[Any, str]]:
+        """What the oracle row assumes beside its nav filter's Q0 and R0: they are scaled by
+        the best grid pair, chosen against the truth on training runs (the grid's range here;
+        the chosen pair depends on the training runs)."""
+        def span(v: list[float]) -> str:
+            return f"{min(v):g} to {max(v):g} ({len(v)} values, best on {self.training_runs} training runs)"
+        return {"Q scale s_q (Q = s_q Q0)": (span(self.q_scales), "-"),
+                "R scale s_r (R = s_r R0)": (span(self.r_scales), "-")}
+
     def passes(self) -> int:
         """Runs filtered to choose the pair: grid pairs x training runs."""
         return len(self.q_scales) * len(self.r_scales) * self.training_runs
@@ -167,6 +176,24 @@ class MultipathScenario(Scenario):
         xi_std = p.multipath_std_m * np.sqrt(1 - psi**2)
         colored = ar1_noise(psi, xi_std, epochs, rng, batch_shape=(runs, 2))
         return colored + p.white_std_m * draw.standard_normal(rng, (epochs, runs, 2), 1)
+
+    def assumption_context(self, case: dict[str, Any]) -> dict[str, Any]:
+        r"""What the candidates' ``assumptions`` compare against in ``case``: the true AR(1)
+        coefficient ``psi``, the true measurement-noise variance per coordinate
+
+        $$
+        \sigma_z^2 = \sigma_c^2 + \sigma_w^2
+        $$
+
+        (the AR(1) part's stationary variance $\sigma_c^2$ = ``multipath_std_m``², the white
+        part's $\sigma_w^2$ = ``white_std_m``²), both parts' variances, the epoch interval
+        and the training record's length. The truth is static: its process noise is 0."""
+        c = self.CaseParams.model_validate(case)
+        p = self.params
+        return {"psi": p.psi if c.psi is None else c.psi, "dt_s": p.dt_s,
+                "colored_variance_m2": p.multipath_std_m**2, "white_variance_m2": p.white_std_m**2,
+                "measurement_variance_m2": p.multipath_std_m**2 + p.white_std_m**2,
+                "psi_training_epochs": c.psi_training_epochs, "true_process_noise": 0.0}
 
     #: Bound on an estimated |psi| (measurement differencing needs |psi| < 1).
     PSI_BOUND = 0.999
