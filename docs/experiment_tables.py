@@ -51,18 +51,7 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
         lines += [f"| {m} | {units[m]} | " + " | ".join(_cell(by[(case, c, m)]) for c in cands) + " |"
                   for m in metrics if (case, cands[0], m) in by]
         lines.append("")
-    assumptions = [a for a in summary.get("assumptions") or [] if a["case"] == cases[0]]
-    if assumptions:
-        keys = list(dict.fromkeys((a["component"], a["label"], a["unit"]) for a in assumptions))
-        val = {(a["candidate"], a["component"], a["label"]): a["value"] for a in assumptions}
-        lines += [f"**Assumptions** ({cases[0]}: what each candidate's filters assume, in common units)", "",
-                  "| component | assumption | unit | " + " | ".join(f"`{c}`" for c in cands) + " |",
-                  "| --- | --- | --- | " + " | ".join("---" for _ in cands) + " |"]
-        for comp, label, unit in keys:
-            cells = [val.get((c, comp, label)) for c in cands]
-            lines.append(f"| {comp} | {label} | {unit} | " + " | ".join("–" if v is None else _value(v) for v in cells)
-                         + " |")
-        lines.append("")
+    lines += assumptions_table(summary.get("assumptions") or [], cands, cases)
     if summary.get("tuning"):
         lines += ["**Tuning** (the same sampler and number of trials for every tuned candidate, on tuning streams)", "",
                   "| candidate | parameter | given | tuned | objective | trials (failed) |",
@@ -77,6 +66,34 @@ def render(summary: dict, metrics: list[str] | None = None) -> str:
         lines.append("")
     lines += claims_table(summary)
     return "\n".join(lines)
+
+
+def assumptions_table(assumptions: list[dict], cands: list[str], cases: list[str]) -> list[str]:
+    """The candidates' assumptions (summary.json's ``assumptions``) as markdown lines: the
+    first case's, and below a row, that row again for each other case where some candidate
+    assumes something else there (an R fixed at one C/N0 against another case's thermal
+    noise): a mismatch that only one case shows is not hidden by showing one case."""
+    first = [a for a in assumptions if a["case"] == cases[0]]
+    if not first:
+        return []
+    keys = list(dict.fromkeys((a["component"], a["label"], a["unit"]) for a in first))
+    val = {(a["case"], a["candidate"], a["component"], a["label"]): a["value"] for a in assumptions}
+
+    def cells(case: str, comp: str, label: str) -> list[str]:
+        return ["–" if (v := val.get((case, c, comp, label), val.get((cases[0], c, comp, label)))) is None
+                else _value(v) for c in cands]
+
+    rows = []
+    for comp, label, unit in keys:
+        own = cells(cases[0], comp, label)
+        rows.append(f"| {comp} | {label} | {unit} | " + " | ".join(own) + " |")
+        rows += [f"| {comp} | {label}, in {case} | {unit} | " + " | ".join(other) + " |"
+                 for case in cases[1:] if (other := cells(case, comp, label)) != own]
+    per_case = len(rows) > len(keys)
+    head = (f"**Assumptions** ({cases[0]}: what each candidate's filters assume, in common units"
+            + ("; a row that differs in another case is repeated for it, named by the case)" if per_case else ")"))
+    return [head, "", "| component | assumption | unit | " + " | ".join(f"`{c}`" for c in cands) + " |",
+            "| --- | --- | --- | " + " | ".join("---" for _ in cands) + " |", *rows, ""]
 
 
 def claims_table(summary: dict) -> list[str]:

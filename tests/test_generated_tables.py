@@ -132,3 +132,28 @@ def test_published_table_refuses_an_unknown_candidate(tmp_path):
     (tmp_path / "summary.json").write_text(json.dumps(_published_summary()))
     with pytest.raises(SystemExit, match="no candidate z"):
         published_tables.write(tmp_path, "p", ["x", "z"])
+
+
+def _assumption(case: str, candidate: str, label: str, value) -> dict:
+    return {"case": case, "candidate": candidate, "component": "channel_filter", "label": label, "value": value,
+            "unit": "-"}
+
+
+def test_assumptions_table_repeats_a_row_for_a_case_where_an_assumption_differs():
+    import experiment_tables
+
+    # An R fixed at the first case's C/N0: its ratio to the thermal variance is 1 there and
+    # 0.03 in the other case; the adaptive candidate's R follows the case.
+    rows = [_assumption("45", "fixed", "R / thermal", 1.0), _assumption("30", "fixed", "R / thermal", 0.0316),
+            _assumption("45", "adaptive", "R / thermal", 1.0), _assumption("30", "adaptive", "R / thermal", 1.0),
+            _assumption("45", "fixed", "output", "split"), _assumption("30", "fixed", "output", "split")]
+    lines = experiment_tables.assumptions_table(rows, ["adaptive", "fixed"], ["45", "30"])
+    assert "| channel_filter | R / thermal | - | 1 | 1 |" in lines
+    assert "| channel_filter | R / thermal, in 30 | - | 1 | 0.0316 |" in lines
+    assert not any(line.startswith("| channel_filter | output, in") for line in lines)
+    assert "repeated for it" in lines[0]
+    # Nothing differs between the cases: one row per assumption, the first case's heading only.
+    same = experiment_tables.assumptions_table(rows[2:], ["adaptive", "fixed"], ["45", "30"])
+    assert [line for line in same if line.startswith("| channel_filter")] == [
+        "| channel_filter | R / thermal | - | 1 | – |", "| channel_filter | output | - | – | split |"]
+    assert same[0] == "**Assumptions** (45: what each candidate's filters assume, in common units)"
