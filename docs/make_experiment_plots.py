@@ -57,6 +57,9 @@ TABLES["deep_integration_error_sources_ci"] = ["horizontal_position_error_rmse",
                                                "attitude_error_rmse", "freq_tracking_error_rmse",
                                                "code_tracking_error_rmse", "loss_of_lock_fraction", "nees"]
 TABLES["deep_integration_error_sources"] = TABLES["deep_integration_error_sources_ci"]
+# Reference 003 (scintillation): the main example and its sweeps.
+TABLES["scintillation"] = ["phase_error_rmse", "loss_of_lock_fraction", "discriminator_std", "equivalent_bandwidth_hz"]
+SWEEP_TABLES["scintillation_sweep"] = ["phase_error_rmse", "loss_of_lock_fraction"]
 
 
 def main() -> int:
