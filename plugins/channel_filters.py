@@ -65,8 +65,8 @@ def _check_bandwidths(loop: ChannelFilter, context: RunContext, fields: tuple[st
 def _carrier_loop_at(loop: ChannelFilter, context: Mapping[str, Any]) -> tuple[ChannelFilter, float] | None:
     """``loop`` at the context's interval T (re-created with its other parameters if its
     own ``coherent_time_s`` differs, as the ``scintillation`` scenario re-creates it), and
-    T; ``None`` without a T in the context or the loop."""
-    T = context.get("coherent_time_s") or getattr(loop.params, "coherent_time_s", None)
+    T; ``None`` when the scenario gives no T (its loops may run at another)."""
+    T = context.get("coherent_time_s")
     if T is None:
         return None
     from gnssframework.experiments.scenarios.scintillation import ScintillationScenario
@@ -83,7 +83,10 @@ def _carrier_loop_bandwidth(loop: ChannelFilter, context: Mapping[str, Any]) -> 
     at = _carrier_loop_at(loop, context)
     if at is None:
         return {}
-    return {"carrier loop noise bandwidth": (equivalent_bandwidth_hz(*at), "Hz")}
+    try:
+        return {"carrier loop noise bandwidth": (equivalent_bandwidth_hz(*at), "Hz")}
+    except ConfigError:  # the probe did not settle: no bandwidth to declare
+        return {"carrier loop noise bandwidth": ("undefined (did not settle)", "Hz")}
 
 
 def _phase_thermal_variance(loop: ChannelFilter, context: Mapping[str, Any]) -> float | None:

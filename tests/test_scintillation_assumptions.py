@@ -151,6 +151,11 @@ def test_pll_declares_order_and_a_bandwidth_of_its_design():
     wide = gf.registry.create("channel_filter", "scalar", coherent_time_s=0.01, pll_bandwidth_hz=10.0, pll_order=2,
                               fll_bandwidth_hz=0.0, dll_bandwidth_hz=0.5)
     assert wide.assumptions({"coherent_time_s": 0.01})["carrier loop noise bandwidth"][0] > 11.0
+    # Without the scenario's T nothing is measured (a loop may run at another T there).
+    assert "carrier loop noise bandwidth" not in wide.assumptions({})
+    # A loop the probe cannot settle declares no number rather than failing the report.
+    slow = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=0.05, pll_order=2, fll_bandwidth_hz=0.0)
+    assert slow.assumptions({"coherent_time_s": 0.01})["carrier loop noise bandwidth"][0].startswith("undefined")
 
 
 def test_pll_acceleration_psd_makes_a_kalman_loop_of_the_pll_bandwidth():
