@@ -63,6 +63,9 @@ _MULTIPATH_TABLE = ["horizontal_error_rmse", "lat_error_mean", "lat_error_rmse",
                     "convergence_epoch"]
 TABLES["multipath"] = _MULTIPATH_TABLE
 SWEEP_TABLES["multipath"] = ["horizontal_error_rmse"]
+# Reference 003 (scintillation): the main example and its sweeps.
+TABLES["scintillation"] = ["phase_error_rmse", "loss_of_lock_fraction", "discriminator_std", "equivalent_bandwidth_hz"]
+SWEEP_TABLES["scintillation_sweep"] = ["phase_error_rmse", "loss_of_lock_fraction"]
 
 
 def main() -> int:

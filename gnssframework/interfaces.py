@@ -214,6 +214,9 @@ ASSUMPTION_LABELS = {
     "line-of-sight jerk PSD": "m²/s⁵",
     "frequency R / thermal variance": "-",
     "code R / thermal variance": "-",
+    # Reference 003 (scintillation): the carrier loops' bandwidth and phase R.
+    "carrier loop noise bandwidth": "Hz",
+    "phase R / thermal variance": "-",
 }
 
 

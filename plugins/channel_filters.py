@@ -62,6 +62,43 @@ def _check_bandwidths(loop: ChannelFilter, context: RunContext, fields: tuple[st
         check_bandwidth_time(getattr(loop.params, field), T, f"{who}.{field}")
 
 
+def _carrier_loop_at(loop: ChannelFilter, context: Mapping[str, Any]) -> tuple[ChannelFilter, float] | None:
+    """``loop`` at the context's interval T (re-created with its other parameters if its
+    own ``coherent_time_s`` differs, as the ``scintillation`` scenario re-creates it), and
+    T; ``None`` when the scenario gives no T (its loops may run at another)."""
+    T = context.get("coherent_time_s")
+    if T is None:
+        return None
+    from gnssframework.experiments.scenarios.scintillation import ScintillationScenario
+
+    return ScintillationScenario.at_interval(loop, float(T)), float(T)
+
+
+def _carrier_loop_bandwidth(loop: ChannelFilter, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
+    r"""The loop's one-sided noise bandwidth at its steady state, measured at the context's
+    T (`gnssframework.receiver.tracking.loop_bandwidth.equivalent_bandwidth_hz`:
+    $B_L = \sum h_n^2 / (2T (\sum h_n)^2)$ of its closed-loop impulse response)."""
+    from gnssframework.receiver.tracking.loop_bandwidth import equivalent_bandwidth_hz
+
+    at = _carrier_loop_at(loop, context)
+    if at is None:
+        return {}
+    try:
+        return {"carrier loop noise bandwidth": (equivalent_bandwidth_hz(*at), "Hz")}
+    except ConfigError:  # the probe did not settle: no bandwidth to declare
+        return {"carrier loop noise bandwidth": ("undefined (did not settle)", "Hz")}
+
+
+def _phase_thermal_variance(loop: ChannelFilter, context: Mapping[str, Any]) -> float | None:
+    r"""The loop's phase discriminator's thermal variance (rad² per interval) at the
+    context's C/N0 and T (``costas-atan``: $1/(2cT)\,(1 + 1/(2cT))$), or ``None``."""
+    at, cn0 = _carrier_loop_at(loop, context), context.get("cn0_dbhz")
+    if at is None or cn0 is None:
+        return None
+    disc = loop.params.phase_discriminator.create(coherent_time_s=at[1])
+    return float(disc.noise_variance(float(cn0)))
+
+
 class _CarrierAidedDll:
     """Carrier-aided DLL: code rate = chip rate (1 + f_carrier / f_L1) + loop correction."""
 
@@ -103,6 +140,33 @@ class ScalarTrackingLoop(ChannelFilter):
         self.carrier.reset(batch_shape, rate0=context.get("doppler_hz", 0.0))
         self.dll = _CarrierAidedDll(p, batch_shape, T, d)
         self.previous = None
+
+    def assumptions(self, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
+        r"""The carrier loop's order, design and measured noise bandwidths (Hz), and the
+        dynamics a 2nd-order loop is the steady-state Kalman filter for.
+
+        A 2nd-order loop with damping $\zeta = 1/\sqrt{2}$ (the design's) is the
+        steady-state Kalman-Bucy filter of a phase driven by a white angular acceleration
+        of density $q_w = \omega_0^4 r_c$ (rad²/s³) measured with white phase noise of
+        density $r_c = T \sigma_\phi^2$ (rad² s), $\sigma_\phi^2$ the discriminator's thermal
+        variance at the case's C/N0 and $\omega_0 = B_L / 0.53$ (Kaplan & Hegarty); as a
+        line-of-sight acceleration its PSD is $q_w (\lambda / 2\pi)^2$ (m²/s³). A 3rd-order
+        loop tracks a constant acceleration instead (no such PSD is declared).
+        """
+        p = self.params
+        out: dict[str, tuple[Any, str]] = {"carrier loop": (f"PLL, order {p.pll_order}", ""),
+                                           "carrier loop design bandwidth": (float(p.pll_bandwidth_hz), "Hz")}
+        out.update(_carrier_loop_bandwidth(self, context))
+        out["FLL assist bandwidth"] = (float(p.fll_bandwidth_hz), "Hz")
+        var = _phase_thermal_variance(self, context)
+        if p.pll_order == 2 and var is not None:
+            from gnssframework.receiver.tracking.loop_filters import natural_frequency
+
+            T = _carrier_loop_at(self, context)[1]
+            lam = context.get("wavelength_m", L1_WAVELENGTH_M)
+            q_w = natural_frequency(2, p.pll_bandwidth_hz) ** 4 * T * var
+            out["line-of-sight acceleration PSD"] = (float(q_w * (lam / (2 * np.pi)) ** 2), "m²/s³")
+        return out
 
     def check_context(self, context: RunContext) -> None:
         _check_bandwidths(self, context, ("pll_bandwidth_hz", "fll_bandwidth_hz", "dll_bandwidth_hz"))
@@ -185,6 +249,37 @@ class KalmanCarrierLoop(ChannelFilter):
         self.Q = np.diag(p.q)
         self.unit = _TO_RAD[p.angle_unit]
         self.filter_step = FilterStep(registry.create("estimator", "kf"), name=f"{self.name} (kf)")
+
+    def assumptions(self, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
+        r"""The loop's noise bandwidth at its steady state (Hz), the unit Q and R are read
+        in, Q and R in rad² per interval, the line-of-sight dynamics they assume, and R
+        against the discriminator's thermal variance.
+
+        With $u$ the angle unit in rad, the phase Q is $q_0 u^2$ (rad²), the frequency Q
+        $q_1 u^2$ ((rad/s)²) and R $r u^2$ (rad²), per interval. The frequency state's
+        random walk is a white angular acceleration of density $q_1 u^2 / T$ (rad²/s³),
+        a line-of-sight acceleration PSD of $q_1 u^2 / T\,(\lambda/2\pi)^2$ (m²/s³); with
+        three states the rate's, $q_2 u^2 / T\,(\lambda/2\pi)^2$, a jerk PSD (m²/s⁵).
+        """
+        p, u2 = self.params, self.unit**2
+        out: dict[str, tuple[Any, str]] = {"carrier loop": (f"Kalman, {p.states} states", "")}
+        out.update(_carrier_loop_bandwidth(self, context))
+        out["Q and R read in"] = (p.angle_unit, "")
+        out["phase Q"] = (float(p.q[0] * u2), "rad² per interval")
+        out["frequency Q"] = (float(p.q[1] * u2), "(rad/s)² per interval")
+        if p.states == 3:
+            out["frequency-rate Q"] = (float(p.q[2] * u2), "(rad/s²)² per interval")
+        out["phase R"] = (float(p.r * u2), "rad² per interval")
+        at = _carrier_loop_at(self, context)
+        if at is not None:
+            T, lam = at[1], context.get("wavelength_m", L1_WAVELENGTH_M)
+            out["line-of-sight acceleration PSD"] = (float(p.q[1] * u2 / T * (lam / (2 * np.pi)) ** 2), "m²/s³")
+            if p.states == 3:
+                out["line-of-sight jerk PSD"] = (float(p.q[2] * u2 / T * (lam / (2 * np.pi)) ** 2), "m²/s⁵")
+        var = _phase_thermal_variance(self, context)
+        if var is not None:
+            out["phase R / thermal variance"] = (float(p.r * u2 / var), "-")
+        return out
 
     def check_context(self, context: RunContext) -> None:
         _check_bandwidths(self, context, ("dll_bandwidth_hz",))

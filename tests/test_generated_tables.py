@@ -59,6 +59,23 @@ def test_committed_sweep_table_holds_the_generators_rows():
         assert f"| {metric} (" in text, metric
 
 
+def test_committed_scintillation_tables_hold_the_generators_rows():
+    # Reference 003: every case's table has TABLES["scintillation"]'s rows in that order, and
+    # the sweep file every SWEEP_TABLES metric; the assumptions include the carrier loops'
+    # bandwidth and the unit Q and R are read in (the page's "degree reading").
+    text = (GENERATED / "scintillation.md").read_text()
+    listed = make_experiment_plots.TABLES["scintillation"]
+    cases = re.findall(r"^\*\*([\w.-]+)\*\*$", text, re.M)
+    assert len(cases) == 7
+    for case in cases:
+        assert _first_table_metrics(text.split(f"**{case}**", 1)[1]) == listed, case
+    assert "| channel_filter | carrier loop noise bandwidth | Hz |" in text
+    assert "| channel_filter | Q and R read in |  | – | – | deg | deg | deg |" in text
+    sweep = (GENERATED / "scintillation_sweep.md").read_text()
+    for metric in make_experiment_plots.SWEEP_TABLES["scintillation_sweep"]:
+        assert f"| {metric} (" in sweep, metric
+
+
 def _sweep_summary() -> dict:
     rows, paired = [], []
     for value in (25.0, 30.0):

@@ -134,6 +134,14 @@ class ScintillationScenario(Scenario):
                               f"{duration_s - p.settle_s:g} s of {where} (one whole lock-test block after "
                               f"settling; got {p.lock_window_s!r})")
 
+    def assumption_context(self, case: dict) -> dict:
+        """The case's interval T (the loops are re-created at it), its C/N0 and the L1
+        wavelength, for the candidates' ``assumptions``."""
+        c = self.CaseParams.model_validate({k: v for k, v in case.items() if k != "name"} | {"name": case.get("name")})
+        p = self.params
+        return {"coherent_time_s": c.coherent_time_s or p.coherent_time_s,
+                "cn0_dbhz": p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz, "wavelength_m": L1_WAVELENGTH_M}
+
     def batch_memory(self, case: dict, runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         T = case["coherent_time_s"] or self.params.coherent_time_s
         epochs = int(round((case["duration_s"] or self.params.duration_s) / T))
