@@ -57,6 +57,9 @@ TABLES["deep_integration_error_sources_ci"] = ["horizontal_position_error_rmse",
                                                "attitude_error_rmse", "freq_tracking_error_rmse",
                                                "code_tracking_error_rmse", "loss_of_lock_fraction", "nees"]
 TABLES["deep_integration_error_sources"] = TABLES["deep_integration_error_sources_ci"]
+# Reference 001 (carrier smoothing): the main example's metrics and its slip-rate sweep's.
+TABLES["carrier_smoothing"] = ["error_rmse", "slip_recovery_epochs", "censored_slips", "false_reset_rate"]
+SWEEP_TABLES["carrier_smoothing_sweep"] = ["error_rmse", "slip_recovery_epochs", "false_reset_rate"]
 
 
 def main() -> int:
