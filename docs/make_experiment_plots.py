@@ -66,6 +66,9 @@ SWEEP_TABLES["multipath"] = ["horizontal_error_rmse"]
 # Reference 003 (scintillation): the main example and its sweeps.
 TABLES["scintillation"] = ["phase_error_rmse", "loss_of_lock_fraction", "discriminator_std", "equivalent_bandwidth_hz"]
 SWEEP_TABLES["scintillation_sweep"] = ["phase_error_rmse", "loss_of_lock_fraction"]
+# Reference 001 (carrier smoothing): the main example's metrics and its slip-rate sweep's.
+TABLES["carrier_smoothing"] = ["error_rmse", "slip_recovery_epochs", "censored_slips", "false_reset_rate"]
+SWEEP_TABLES["carrier_smoothing_sweep"] = ["error_rmse", "slip_recovery_epochs", "false_reset_rate"]
 
 
 def main() -> int:

@@ -217,6 +217,15 @@ ASSUMPTION_LABELS = {
     # Reference 003 (scintillation): the carrier loops' bandwidth and phase R.
     "carrier loop noise bandwidth": "Hz",
     "phase R / thermal variance": "-",
+    # Reference 001 (carrier-smoothed code, plugins/smoothers.py; context from the
+    # carrier-smoothing scenario): the smoothers' averaging and noise assumptions.
+    "smoothing time constant": "s",
+    "noise-equivalent window": "s",
+    "assumed code-minus-carrier drift PSD": "m²/s",
+    "true code-minus-carrier drift PSD": "m²/s",
+    "pseudorange R / code noise variance": "-",
+    "Q adapter": "",
+    "slip reset threshold": "m",
 }
 
 

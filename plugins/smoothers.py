@@ -14,7 +14,64 @@ from gnssframework.interfaces import ChannelFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef
 
-__all__ = ["HatchFilter", "KalmanSmoother"]
+__all__ = ["HatchFilter", "KalmanSmoother", "steady_state_gain", "random_walk_q_for_gain"]
+
+
+def steady_state_gain(q: float, r: float) -> float:
+    r"""Steady-state Kalman gain of a scalar random walk observed directly.
+
+    The Riccati recursion $P^-_{k} = P_{k-1} + q$, $K_k = P^-_k / (P^-_k + r)$,
+    $P_k = (1 - K_k) P^-_k$ has the fixed point $P^{-2} - q P^- - q r = 0$, so
+    $P^- = (q + \sqrt{q^2 + 4 q r}) / 2$ and, with $K = P^-/(P^- + r) = q / P^-$,
+
+    $$
+    K = \frac{-q + \sqrt{q^2 + 4 q r}}{2 r}.
+    $$
+
+    Parameters
+    ----------
+    q, r
+        Process noise per epoch and measurement noise (m²), both > 0.
+
+    Returns
+    -------
+    float
+        The gain K in (0, 1).
+    """
+    return float((np.sqrt(q * q + 4.0 * q * r) - q) / (2.0 * r))
+
+
+def random_walk_q_for_gain(gain: float, r: float) -> float:
+    r"""The random walk's q for which a fixed gain is the steady-state Kalman gain.
+
+    Inverting :func:`steady_state_gain`: $P^- = r K / (1 - K)$ and $q = K P^-$, so
+    $q = r K^2 / (1 - K)$. A Hatch filter of window $M$ ($K = 1/M$) is the steady-state
+    Kalman smoother of a code-minus-carrier random walk with $q = r / (M (M - 1))$.
+    """
+    return float(r * gain * gain / (1.0 - gain))
+
+
+def _window_assumptions(gain: float, dt: float | None) -> dict[str, tuple[Any, str]]:
+    r"""The averaging of a first-order smoother $x_k = K z_k + (1 - K)\,x^-_k$ in seconds.
+
+    Time constant $\Delta t / K$ (the Hatch window $M \Delta t$ for $K = 1/M$);
+    noise-equivalent window $(2/K - 1)\,\Delta t$: white noise of variance $\sigma^2$
+    leaves $\sigma^2 K / (2 - K)$, the variance of a mean over $2/K - 1$ epochs
+    (the Hatch filter's $\sigma^2 / (2M - 1)$).
+    """
+    if dt is None:
+        return {}
+    return {"smoothing time constant": (float(dt / gain), "s"),
+            "noise-equivalent window": (float((2.0 / gain - 1.0) * dt), "s")}
+
+
+def _slip_assumption(threshold: float) -> dict[str, tuple[Any, str]]:
+    return {"slip reset threshold": (float(threshold) if threshold > 0 else "none", "m")}
+
+
+def _truth_drift(context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
+    drift = context.get("code_minus_carrier_drift_psd_m2_s")
+    return {} if drift is None else {"true code-minus-carrier drift PSD": (float(drift), "m²/s")}
 
 
 class _SlipParams(PluginParams):
@@ -68,6 +125,21 @@ class HatchFilter(ChannelFilter):
     Params = HatchParams
     requires = ("pseudorange_m", "carrier_m")
     provides = ("smoothed_m", "slip_detected")
+
+    def assumptions(self, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
+        """Steady state (window $M$, gain $1/M$): time constant $M\\,\\Delta t$,
+        noise-equivalent window $(2M - 1)\\,\\Delta t$, and the code-minus-carrier drift for
+        which this gain is the Kalman gain given the truth's code noise variance $\\sigma^2$,
+        $\\sigma^2 / (M (M - 1)) / \\Delta t$ (`random_walk_q_for_gain`). It takes no R."""
+        gain, dt = 1.0 / self.params.window, context.get("epoch_interval_s")
+        out = _window_assumptions(gain, dt)
+        var = context.get("code_noise_variance_m2")
+        if var is not None and dt is not None:
+            out["assumed code-minus-carrier drift PSD"] = (random_walk_q_for_gain(gain, var) / dt, "m²/s")
+        out.update(_truth_drift(context))
+        out["Q adapter"] = ("none", "")
+        out.update(_slip_assumption(self.params.slip_threshold_m))
+        return out
 
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         self.smoothed = None
@@ -132,6 +204,32 @@ class KalmanSmoother(ChannelFilter):
         self.adapter = (dataclasses.replace(p.adapter, params={**p.adapter.params, **p.adapter_params}).create()
                         if p.adapter else None)
         self.filter_step = FilterStep(self.engine, self.adapter, name=f"{self.name} (kf)")
+
+    def assumptions(self, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
+        """At Q0 (an adapter moves Q): the steady-state gain K of `steady_state_gain`, its
+        time constant $\\Delta t / K$ and noise-equivalent window $(2/K - 1)\\,\\Delta t$;
+        the code-minus-carrier drift PSD $q / \\Delta t$ against the truth's; R against the
+        truth's code noise variance (white noise plus the multipath's stationary variance)."""
+        p, dt = self.params, context.get("epoch_interval_s")
+        out = _window_assumptions(steady_state_gain(p.q, p.r), dt)
+        if dt is not None:
+            out["assumed code-minus-carrier drift PSD"] = (float(p.q / dt), "m²/s")
+        out.update(_truth_drift(context))
+        var = context.get("code_noise_variance_m2")
+        if var:
+            out["pseudorange R / code noise variance"] = (float(p.r / var), "-")
+        out["Q adapter"] = (self._adapter_label(), "")
+        out.update(_slip_assumption(p.slip_threshold_m))
+        return out
+
+    def _adapter_label(self) -> str:
+        if self.adapter is None:
+            return "none"
+        ap = self.adapter.params
+        parts = [f"{label} {getattr(ap, field):g}{unit}" for field, label, unit in
+                 (("window", "window", ""), ("warmup", "warm-up", ""), ("q_ceiling", "Q ceiling", " Q0"))
+                 if hasattr(ap, field)]
+        return f"{self.adapter.name} ({', '.join(parts)})" if parts else self.adapter.name
 
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         p = self.params

@@ -174,3 +174,21 @@ def test_assumptions_table_repeats_a_row_for_a_case_where_an_assumption_differs(
     assert [line for line in same if line.startswith("| channel_filter")] == [
         "| channel_filter | R / thermal | - | 1 | – |", "| channel_filter | output | - | – | split |"]
     assert same[0] == "**Assumptions** (45: what each candidate's filters assume, in common units)"
+
+
+
+# Reference 001 (carrier smoothing): make_experiment_plots renders these with its TABLES /
+# SWEEP_TABLES entries; the committed files hold exactly those rows.
+def test_committed_carrier_smoothing_tables_hold_the_generators_rows():
+    text = (GENERATED / "carrier_smoothing.md").read_text()
+    listed = make_experiment_plots.TABLES["carrier_smoothing"]
+    for case in ("slips", "isolated-slips"):
+        assert _first_table_metrics(text.split(f"**{case}**", 1)[1]) == listed, case
+    assert "**Assumptions**" in text and "| channel_filter | noise-equivalent window | s |" in text
+
+
+def test_committed_carrier_smoothing_sweep_table_holds_the_generators_rows():
+    text = (GENERATED / "carrier_smoothing_sweep.md").read_text()
+    listed = make_experiment_plots.SWEEP_TABLES["carrier_smoothing_sweep"]
+    found = set(re.findall(r"^\| (\w+) \(", text, re.M))
+    assert found == set(listed), f"rows {sorted(found)} differ from make_experiment_plots' {listed}"

@@ -135,6 +135,14 @@ class CarrierSmoothingScenario(Scenario):
             + slips_cycles * L1_WAVELENGTH_M
         return truth, code, carrier, happens
 
+    def assumption_context(self, case: dict) -> dict:
+        """The epoch interval, the code noise variance (white noise plus the AR(1)
+        multipath's stationary variance, $\\sigma_w^2 + \\sigma_{mp}^2$) and the true
+        code-minus-carrier drift PSD (0: this scenario has no ionosphere)."""
+        p = self.params
+        return {"epoch_interval_s": p.dt_s, "code_noise_variance_m2": p.code_noise_std_m**2 + p.multipath_std_m**2,
+                "code_minus_carrier_drift_psd_m2_s": 0.0}
+
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
