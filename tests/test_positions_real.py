@@ -81,3 +81,12 @@ def test_the_example_reports_errors_against_the_stated_truths(example, tmp_path)
     err = np.hypot((fixes.lat_deg - lat0) * m_per_deg_lat, (fixes.lon_deg - lon0) * m_per_deg_lon)
     assert s["zed-f9p"]["raw"]["rms_m"] == pytest.approx(np.sqrt(np.mean(err**2)), rel=1e-3)
     assert "values only" in (tmp_path / "out" / "positions_real.md").read_text()
+
+
+def test_the_pages_table_is_what_the_script_writes_from_its_summary(example):
+    # CI regenerates both with --docs from ../shared/data; the committed table must be the
+    # script's rendering of the committed summary (never edited by hand).
+    generated = ROOT / "docs" / "experiments" / "generated"
+    summary = json.loads((generated / "positions_real.json").read_text())
+    assert (generated / "positions_real.md").read_text() == example.markdown(summary)
+    assert set(summary) == set(example.TRACKS)
