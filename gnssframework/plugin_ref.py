@@ -225,3 +225,20 @@ def ComponentRef(kind: str) -> Any:  # noqa: N802 - reads as a type
     return Annotated[PluginSpec, BeforeValidator(lambda v: _component(kind, v)),
                      PlainSerializer(PluginSpec.table), WithJsonSchema(schema)]
 
+
+
+def _as_config(value: Any) -> Any:
+    """A plugin's dumped parameters as config input again (nested references without 'kind')."""
+    if isinstance(value, dict):
+        if {"kind", "name", "params"} <= set(value):
+            return {"name": value["name"], "params": _as_config(value["params"])}
+        return {k: _as_config(v) for k, v in value.items()}
+    return value
+
+
+def recreated(plugin: Any, **changes: Any) -> Any:
+    """``plugin`` created again from its registry entry with ``changes`` to its parameters
+    (its other parameters as they are): a loop at another interval ``coherent_time_s``,
+    say. A new object, validated like any other; ``plugin`` itself is left alone."""
+    params = _as_config(plugin.params.model_dump(mode="json"))
+    return registry.create(plugin.kind, plugin.name, **{**params, **changes})

@@ -17,9 +17,9 @@ import numpy as np
 from pydantic import Field
 
 from ... import random_streams as draw
-from ... import registry
 from ...errors import ConfigError
 from ...interfaces import RunContext
+from ...plugin_ref import recreated
 from ...receiver.tracking.loop_bandwidth import equivalent_bandwidth_hz
 from ...receiver.tracking.scalar import NCO_COMMANDS, SignalTruth, check_closed_loop, run_closed_loop
 from ...signal.constants import L1_WAVELENGTH_M
@@ -77,15 +77,6 @@ class ScintillationCase(ScenarioParams):
     los_sine_frequency_hz: float = Field(
         0.5, gt=0, le=20,
         description="frequency in Hz of that sinusoidal motion, default 0.5 Hz (a vibration or a sway)")
-
-
-def _ref_free(value):
-    """A plugin's dumped parameters as config input again (nested references without 'kind')."""
-    if isinstance(value, dict):
-        if {"kind", "name", "params"} <= set(value):
-            return {"name": value["name"], "params": _ref_free(value["params"])}
-        return {k: _ref_free(v) for k, v in value.items()}
-    return value
 
 
 #: The scenario's metrics, each declared once as a component (name, unit, the series it
@@ -182,8 +173,7 @@ class ScintillationScenario(Scenario):
         own_s = getattr(channel.params, "coherent_time_s", None)
         if own_s is None or abs(own_s - T) < 1e-12:  # None: the loop takes the harness's T
             return channel
-        params = _ref_free(channel.params.model_dump(mode="json"))
-        return registry.create("channel_filter", channel.name, **{**params, "coherent_time_s": T})
+        return recreated(channel, coherent_time_s=T)
 
     def truth(self, case: dict, runs: int, rng) -> tuple[SignalTruth, np.ndarray]:
         """The case's signal truth and its scintillation phase ``(K+1, runs)`` (rad).
