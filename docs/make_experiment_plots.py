@@ -21,7 +21,7 @@ EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath"
             "carrier_smoothing_sweep", "scintillation_sweep", "deep_integration_ci", "deep_integration_elevation_ci",
             "deep_integration_lock_ci", "deep_integration_lock_control_ci", "sample_receiver",
             "deep_integration_nees_ci", "deep_integration_error_sources_ci", "vector_tracking_spacing",
-            "vector_tracking_fade_ci", "deep_integration_error_sources")
+            "vector_tracking_fade_ci", "deep_integration_error_sources", "deep_integration_lock_bandwidth")
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
 #: Examples whose page includes tables generated from the run (docs/experiment_tables.py).
@@ -47,6 +47,7 @@ TABLES["deep_integration_lock_ci"] = ["loss_of_lock_fraction", "phase_lock_loss_
                                       "phase_tracking_error_rmse", "freq_tracking_error_rmse",
                                       "code_tracking_error_rmse"]
 TABLES["deep_integration_lock_control_ci"] = TABLES["deep_integration_lock_ci"]
+TABLES["deep_integration_lock_bandwidth"] = TABLES["deep_integration_lock_ci"]
 TABLES["sample_receiver"] = ["horizontal_error_rms", "vertical_error_rms", "time_to_first_fix_s", "fix_fraction",
                              "channels_locked", "false_channels_locked", "cn0_error_rms_db"]
 TABLES["deep_integration_nees_ci"] = ["horizontal_position_error_rmse", "height_error_rmse",
