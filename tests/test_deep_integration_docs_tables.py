@@ -15,6 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 GENERATED = ROOT / "docs" / "experiments" / "generated"
 sys.path.insert(0, str(ROOT / "docs"))
 
+import deep_integration_attitude  # noqa: E402
 import deep_integration_carrier  # noqa: E402
 import deep_integration_numbers  # noqa: E402
 
@@ -32,6 +33,17 @@ def test_numbers_tables_are_what_the_script_writes_from_its_summary(md):
 def test_carrier_table_is_what_the_script_writes_from_its_summary():
     assert (GENERATED / "deep_integration_carrier.md").read_text() == \
         deep_integration_carrier.markdown(_summary("deep_integration_carrier"))
+
+
+def test_attitude_table_is_what_the_script_writes_from_its_summary():
+    assert (GENERATED / "deep_integration_attitude.md").read_text() == \
+        deep_integration_attitude.markdown(_summary("deep_integration_attitude"))
+
+
+def test_paired_difference_is_the_mean_and_standard_error_of_the_differences():
+    # d = (1, 2, 3): mean 2, sample standard deviation 1, SE 1/sqrt(3).
+    m, se = deep_integration_attitude.paired([1.0, 2.0, 4.0], [0.0, 0.0, 1.0])
+    assert m == pytest.approx(2.0) and se == pytest.approx(1 / np.sqrt(3))
 
 
 def test_predicted_phase_variance_is_that_of_the_simulated_error_recursion():
@@ -72,3 +84,18 @@ def test_a_perfect_navigator_makes_the_replica_error_the_same_in_every_run_and_a
         for k in ("accel", "no_accel"):
             assert row[k]["spread_freq_hz"] == 0.0 and row[k]["spread_code_chips"] == 0.0
         assert row["accel"]["freq_hz"] < row["no_accel"]["freq_hz"]
+
+
+def test_nees_split_table_is_what_the_script_writes_from_its_summary():
+    import deep_integration_nees_split
+
+    assert (GENERATED / "deep_integration_nees_split.md").read_text() == \
+        deep_integration_nees_split.markdown(_summary("deep_integration_nees_split"))
+
+
+def test_half_normal_moments_match_a_sample():
+    # |N(0, 0.5^2)|: mean 0.5 sqrt(2/pi) ~ 0.399, sd 0.5 sqrt(1 - 2/pi) ~ 0.301 (half-normal).
+    m, sd = deep_integration_attitude.half_normal_mean_sd(0.5)
+    x = np.abs(np.random.default_rng(1).normal(0.0, 0.5, 200_000))
+    assert m == pytest.approx(x.mean(), abs=4 * 0.301 / np.sqrt(x.size))
+    assert sd == pytest.approx(x.std(), rel=0.01)
