@@ -46,7 +46,8 @@ def deep_plugins(**channel) -> dict:
 def measure(runs: int, duration_s: float, settle_s: float, cn0_dbhz: float = 45.0, profile: str = "straight",
             seed: int = SEED, plugins: dict | None = None, replace: tuple[int, ...] = ()) -> dict[str, np.ndarray]:
     """Run ``deep`` and return, from ``settle_s`` on, per update: the handed-over errors normalised by
-    their stated standard deviation ``z (U, runs, ch, 2)`` [range, rate], the navigator's own
+    their stated standard deviation ``z (U, runs, ch, 2)`` [range, rate], the same errors ``e`` and
+    their stated variances ``var`` (m, m/s; same shape), the navigator's own
     (true minus predicted) range and rate ``x (U, runs, ch, 2)``, and the NEES after the update of
     position, velocity and both ``(U, runs)``.
 
@@ -56,7 +57,7 @@ def measure(runs: int, duration_s: float, settle_s: float, cn0_dbhz: float = 45.
     scenario = DeepIntegrationScenario(DeepIntegrationParams(
         profile=profile, duration_s=duration_s, coherent_time_s=0.001, imu_interval_s=0.005, nco_interval_s=0.005,
         update_interval_s=0.1, channels=8, clock="ocxo", settle_s=settle_s))
-    cap: dict[str, list] = {"t": [], "z": [], "x": [], "nees_pos": [], "nees_vel": [], "nees": []}
+    cap: dict[str, list] = {"t": [], "z": [], "e": [], "var": [], "x": [], "nees_pos": [], "nees_vel": [], "nees": []}
     original_run, original_update = deep_integration_runs.run_deep, InsNavigator.update
     noise = np.random.default_rng([seed, 99])
 
@@ -80,6 +81,8 @@ def measure(runs: int, duration_s: float, settle_s: float, cn0_dbhz: float = 45.
                 return
             cap["t"].append(t_s)
             cap["z"].append((residual_m - true) / sd)
+            cap["e"].append(residual_m - true)
+            cap["var"].append(sd**2)
             cap["x"].append(true)
             tr, st, P = flight.truth(t_s), self.ins.state, self.ekf.cov
             dv, dp = st.velocity_ecef_mps - tr.velocity_ecef_mps[0], st.position_ecef_m - tr.position_ecef_m[0]
@@ -125,12 +128,31 @@ def handed_over(m: dict[str, np.ndarray]) -> dict:
     return out
 
 
+def range_averaging(m: dict[str, np.ndarray]) -> dict:
+    """How the range errors average over the updates, and how they follow the navigator's.
+
+    ``mean_ratio``: per run and channel, $\\bar m = \\sum_k e_k / \\sqrt{\\sum_k \\sigma_k^2}$ over the
+    updates; for errors white and as stated $E[\\bar m^2] = 1$; returned is the mean of
+    $\\bar m^2$ over runs and channels with its standard error. ``slope``: per run the
+    least-squares slope through 0 of the error on the navigator's own range error (true minus
+    predicted), $\\sum e x / \\sum x^2$ over updates and channels (0 for a measurement that
+    reports the navigator's error in full, −1 for one that reports none); mean and SE over runs.
+    """
+    e, var, x = m["e"][..., 0], m["var"][..., 0], m["x"][..., 0]
+    mbar2 = (e.sum(0) / np.sqrt(var.sum(0))) ** 2  # (runs, ch)
+    per_run = np.sum(e * x, axis=(0, 2)) / np.sum(x * x, axis=(0, 2))
+    return {"seconds": float(m["t"][-1] - m["t"][0] + (m["t"][1] - m["t"][0])),
+            "mean_ratio": [float(mbar2.mean()), float(mbar2.std(ddof=1) / np.sqrt(mbar2.size))],
+            "slope": list(mean_se(per_run)), "slope_per_run": per_run.tolist()}
+
+
 def summary() -> dict:
     rows = []
     for label, (channel, replace) in ROWS.items():
         m = measure(RUNS, DURATION_S, SETTLE_S, plugins=deep_plugins(**channel), replace=replace)
         row = {"label": label, **{k: m[k].mean(0).tolist() for k in ("nees", "nees_pos", "nees_vel")}}
         row["handed_over"] = handed_over(m)
+        row["range_averaging"] = range_averaging(m)
         rows.append(row)
         print(label, {k: round(float(np.mean(row[k])), 3) for k in ("nees", "nees_pos", "nees_vel")}, flush=True)
     return {"runs": RUNS, "duration_s": DURATION_S, "settle_s": SETTLE_S, "seed": SEED, "rows": rows}
@@ -158,6 +180,16 @@ def markdown(s: dict) -> str:
               f"(all channels and updates): range normalised square {h['range']['normalised_square']:.2f}, lag-1 "
               f"correlation between updates {h['range']['lag1_correlation']:.3f}; rate "
               f"{h['rate']['normalised_square']:.2f} and {h['rate']['lag1_correlation']:.2f}."]
+    lines += ["", "| row | range error's mean over the updates: variance / stated | slope of the range error on the "
+              "navigator's own |", "| --- | --- | --- |"]
+    for r in s["rows"]:
+        a = r["range_averaging"]
+        lines.append(f"| {r['label']} | {a['mean_ratio'][0]:.2f} ± {a['mean_ratio'][1]:.2f} | "
+                     f"{a['slope'][0]:+.3f} ± {a['slope'][1]:.3f} |")
+    lines += ["", f"Variance ratio: per run and channel, the sum of the range errors over the "
+              f"{s['rows'][0]['range_averaging']['seconds']:g} s of updates over the square root of the sum of their "
+              "stated variances, squared (1 for white errors as stated); mean ± SE over runs × channels. Slope: least "
+              "squares through 0 per run (0: the measurement reports the navigator's error in full); mean ± SE over runs."]
     return "\n".join(lines) + "\n"
 
 

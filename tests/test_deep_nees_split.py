@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs"))
-from deep_integration_nees_split import measure  # noqa: E402  (the page's measurement, moved there)
+from deep_integration_nees_split import measure, range_averaging  # noqa: E402  (the page's measurement, moved there)
 
 RUNS, DURATION_S, SETTLE_S, SEED = 8, 10.0, 3.0, 2222
 
@@ -41,10 +41,18 @@ def measured():
 def test_replacing_the_range_by_truth_plus_stated_noise_hands_over_a_consistent_white_range():
     # The replacement is by construction N(0, stated variance), independent between updates:
     # normalised square 1 (SE sqrt(2/n)) and lag-1 correlation 0 (SE 1/sqrt(n)).
-    z = measure(2, 4.0, 2.0, seed=SEED, replace=(0,))["z"][..., 0]
+    m = measure(2, 4.0, 2.0, seed=SEED, replace=(0,))
+    z = m["z"][..., 0]
     n = z.size
     assert abs(np.mean(z**2) - 1.0) < 4 * np.sqrt(2 / n)
     assert abs(np.mean(z[1:] * z[:-1])) < 4 / np.sqrt(n)
+    # Its mean over the updates is as accurate as stated (E[m^2] = 1) and it does not follow
+    # the navigator's own error (slope 0): the page's averaging and slope columns.
+    a = range_averaging(m)
+    assert abs(a["mean_ratio"][0] - 1.0) < 4 * a["mean_ratio"][1]
+    e, x = m["e"][..., 0], m["x"][..., 0]
+    slope = np.sum(e * x) / np.sum(x * x)  # through 0; SE sqrt(sum(var x^2)) / sum(x^2) for white e
+    assert abs(slope) < 4 * np.sqrt(np.sum(m["var"][..., 0] * x**2)) / np.sum(x * x)
 
 
 def test_range_handed_to_ins_ekf_is_consistent_and_white_between_updates(measured):
