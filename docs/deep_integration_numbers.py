@@ -36,7 +36,6 @@ METRICS = {  # key: (label, digits)
 
 def flight(jerk_g_s: float, seconds: float, cn0_dbhz: float, runs: int = RUNS):
     """50 m/s per ENU axis from 34.23 N 108.3576 E 590.6 m, constant jerk straight up."""
-    RUNS = runs  # noqa: N806 (the batch size of this flight)
     const = nominal_constellation()
     lat, lon, h = 34.23, 108.3576, 590.6
     sats = const.subset(const.visible(0.0, lat, lon, h, 10.0, 6))
@@ -45,10 +44,10 @@ def flight(jerk_g_s: float, seconds: float, cn0_dbhz: float, runs: int = RUNS):
     j = jerk_g_s * G * np.array(pymap3d.enu2uvw(0.0, 0.0, 1.0, lat, lon))
 
     def rx(t):
-        return tuple(np.broadcast_to(a, (RUNS, 3)) for a in (r0 + v0 * t + j * t**3 / 6, v0 + j * t**2 / 2, j * t))
+        return tuple(np.broadcast_to(a, (runs, 3)) for a in (r0 + v0 * t + j * t**3 / 6, v0 + j * t**2 / 2, j * t))
 
     K = int(round(seconds / 1e-3))
-    clock = np.zeros((K + 1, RUNS, 2))
+    clock = np.zeros((K + 1, runs, 2))
     clock[..., 0] = 100.0
     return DeepTruth(lambda t: sats.state(np.asarray(t)), rx, clock, cn0_dbhz, 1e-3), rx
 
