@@ -2,7 +2,8 @@
 loop on the phase discriminator that closes only the carrier loop on top of the INS-aided
 replica.
 
-Oracle: the steady-state phase error variance of the loop, from its steady-state Kalman gain
+Oracle (`docs/deep_integration_carrier.predicted_phase_var`, which the page's table uses): the
+steady-state phase error variance of the loop, from its steady-state Kalman gain
 (scipy's discrete Riccati solver) and the error recursion
 $e^-_{k+1} = F(I - KH)e^-_k - FKv_k$ solved as a discrete Lyapunov equation with the
 discriminator's true thermal variance $\\frac{1}{2cT}(1 + \\frac{1}{2cT})$ (Kaplan and
@@ -11,28 +12,22 @@ Hegarty 2017, Costas loop), against the simulated mid-interval phase error.
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
-from scipy.linalg import solve_discrete_are, solve_discrete_lyapunov
 
 from gnssframework.errors import ConfigError
 from gnssframework.receiver.deep.aided_tracking import run_aided_tracking
 from gnssframework.registry import create
 from test_deep_integration import _OffsetNavigator, _aided_setup
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs"))
+from deep_integration_carrier import predicted_phase_var  # noqa: E402  (the oracle; its own test simulates the recursion)
+
 T = 1e-3
 Q_DIAG, R_FILTER = (0.0, 1e-3), 0.05  # the loop's tuning (rad^2 and (rad/s)^2 per interval, rad^2)
-
-
-def _predicted_phase_var(cn0_dbhz: float) -> float:
-    F = np.array([[1.0, T], [0.0, 1.0]])
-    H = np.array([[1.0, T / 2]])
-    P = solve_discrete_are(F.T, H.T, np.diag(Q_DIAG), np.array([[R_FILTER]]))
-    K = P @ H.T / (H @ P @ H.T + R_FILTER)
-    cT = 10 ** (cn0_dbhz / 10) * T
-    r_true = 1 / (2 * cT) * (1 + 1 / (2 * cT))
-    P_true = solve_discrete_lyapunov(F @ (np.eye(2) - K @ H), F @ K @ K.T @ F.T * r_true)
-    return float((H @ P_true @ H.T)[0, 0])
 
 
 def _carrier_run(cn0_dbhz: float, runs: int = 8, seconds: float = 1.0, seed: int = 3):
@@ -51,7 +46,7 @@ def test_carrier_prefilter_phase_error_matches_the_loop_jitter(cn0_dbhz):
     assert phase.shape == rec.code_error_chips.shape
     # A Costas loop locks at either of two phases half a cycle apart: the error modulo pi.
     e = np.angle(np.exp(2j * phase[300:])) / 2  # after the pull-in (loop time ~ 1/B_L = 0.16 s)
-    want = _predicted_phase_var(cn0_dbhz)
+    want = predicted_phase_var(cn0_dbhz, Q_DIAG, R_FILTER)
     # ~48 channels x 700 ms with a ~40 ms correlation time: about 5 % standard error.
     assert 0.85 < np.mean(e**2) / want < 1.15, (np.mean(e**2), want)
     assert np.abs(np.mean(e)) < 4 * np.sqrt(want / 800)  # no bias (800 ~ independent samples)
