@@ -13,7 +13,6 @@ initial attitude error scaled from 0.5 to 0.1 deg per axis, and the paired diffe
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -25,10 +24,10 @@ from gnssframework.experiments.scenarios import get_scenario
 from gnssframework.inertial.frames import ned_to_ecef_matrix
 from gnssframework.experiments.scenarios.deep_integration_metrics import attitude_errors_deg
 from gnssframework.experiments.scenarios.deep_integration_runs import run_deep
+from experiment_tables import save, save_summary  # noqa: E402  (docs/: the generated files' writer)
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "deep_integration.toml"
 AXES = ("roll", "pitch", "yaw")
-GENERATED = Path(__file__).resolve().parent / "experiments" / "generated"
 
 
 STORE = Path(__file__).resolve().parents[1] / "results" / "deep_integration_attitude" / "tuning.sqlite"
@@ -150,10 +149,9 @@ def main() -> None:
     cand, tuning = tuned_deep(load_config(EXAMPLE))
     summary = {"nominal_std_deg": nominal, "scaled_std_deg": 0.1, "tuned": tuning["best"],
                "nominal": summarise(deep_attitude(cand=cand)), "scaled": summarise(deep_attitude(0.1, cand=cand))}
-    GENERATED.mkdir(parents=True, exist_ok=True)
-    (GENERATED / "deep_integration_attitude.json").write_text(json.dumps(summary, indent=2) + "\n")
+    save_summary("deep_integration_attitude", summary)
     text = markdown(summary)
-    (GENERATED / "deep_integration_attitude.md").write_text(text)
+    save("deep_integration_attitude.md", text)
     sys.stdout.write(text)
 
 

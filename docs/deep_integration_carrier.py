@@ -13,7 +13,6 @@ same measurement against the same prediction (band 0.85-1.15).
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -25,11 +24,11 @@ from deep_integration_numbers import TruthNavigator, flight  # noqa: E402
 
 from gnssframework.receiver.deep.aided_tracking import run_aided_tracking  # noqa: E402
 from gnssframework.registry import create  # noqa: E402
+from experiment_tables import save, save_summary  # noqa: E402  (docs/: the generated files' writer)
 
 T = 1e-3
 Q_DIAG, R_FILTER = (0.0, 1e-3), 0.05  # the example's loop tuning (rad^2 and (rad/s)^2 per interval, rad^2)
 RUNS, SECONDS, SEED, PULL_IN = 8, 1.0, 3, 300  # 300 ms of pull-in (loop time ~ 1/B_L = 0.16 s)
-GENERATED = Path(__file__).resolve().parent / "experiments" / "generated"
 
 
 def predicted_phase_var(cn0_dbhz: float, q=Q_DIAG, r: float = R_FILTER) -> float:
@@ -86,9 +85,8 @@ def markdown(s: dict) -> str:
 
 def main() -> None:
     s = summary()
-    GENERATED.mkdir(parents=True, exist_ok=True)
-    (GENERATED / "deep_integration_carrier.json").write_text(json.dumps(s, indent=2) + "\n")
-    (GENERATED / "deep_integration_carrier.md").write_text(markdown(s))
+    save_summary("deep_integration_carrier", s)
+    save("deep_integration_carrier.md", markdown(s))
     sys.stdout.write(markdown(s))
 
 

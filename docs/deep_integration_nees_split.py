@@ -15,9 +15,7 @@ of it, ``deep_integration_nees_split.md``. ``tests/test_deep_nees_split.py`` use
 
 from __future__ import annotations
 
-import json
 import sys
-from pathlib import Path
 
 import numpy as np
 
@@ -27,10 +25,10 @@ from gnssframework.experiments.scenarios import deep_integration_runs
 from gnssframework.experiments.scenarios.deep_integration import DeepIntegrationParams, DeepIntegrationScenario
 from gnssframework.receiver.deep.aiding import line_of_sight_kinematics
 from gnssframework.receiver.deep.ins_navigator import InsNavigator
+from experiment_tables import save, save_summary  # noqa: E402  (docs/: the generated files' writer)
 
 SEED = 2222  # examples/deep_integration_ci.toml's
 RUNS, DURATION_S, SETTLE_S = 12, 20.0, 5.0
-GENERATED = Path(__file__).resolve().parent / "experiments" / "generated"
 Q = [0.001, 1e-8, 1e-5, 1e-4, 35.4]  # the CI example's tuned prefilter q
 
 
@@ -195,9 +193,8 @@ def markdown(s: dict) -> str:
 
 def main() -> None:
     s = summary()
-    GENERATED.mkdir(parents=True, exist_ok=True)
-    (GENERATED / "deep_integration_nees_split.json").write_text(json.dumps(s, indent=1) + "\n")
-    (GENERATED / "deep_integration_nees_split.md").write_text(markdown(s))
+    save_summary("deep_integration_nees_split", s, indent=1)
+    save("deep_integration_nees_split.md", markdown(s))
     sys.stdout.write(markdown(s))
 
 

@@ -11,7 +11,6 @@ and ``deep_integration_accel_first_number.md``.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -22,10 +21,10 @@ from gnssframework.receiver.deep.aided_tracking import DeepTruth, loss_of_lock, 
 from gnssframework.receiver.deep.navigators import PvaNavigator
 from gnssframework.registry import create
 from gnssframework.simulation.constellation import nominal_constellation
+from experiment_tables import save, save_summary  # noqa: E402  (docs/: the generated files' writer)
 
 G = 9.80665
 RUNS = 16
-GENERATED = Path(__file__).resolve().parent / "experiments" / "generated"
 METRICS = {  # key: (label, digits)
     "position_m": ("position error RMS per ECEF axis (m)", 3),
     "velocity_m_s": ("velocity error RMS per axis (m/s)", 3),
@@ -210,10 +209,9 @@ def main() -> None:
                                  "freq_rms_hz": float(np.sqrt(np.mean(rec.freq_error_hz[500:] ** 2))),
                                  "freq_max_hz": float(np.max(np.abs(rec.freq_error_hz[500:])))}
     summary["first_number"] = first_number()
-    GENERATED.mkdir(parents=True, exist_ok=True)
-    (GENERATED / "deep_integration_numbers.json").write_text(json.dumps(summary, indent=1) + "\n")
+    save_summary("deep_integration_numbers", summary, indent=1)
     for name, render in RENDER.items():
-        (GENERATED / name).write_text(render(summary))
+        save(name, render(summary))
         print(render(summary))
     ax[0].set(xlabel="time (s)", ylabel="velocity error (m/s), median over runs", yscale="log")
     ax[1].set(xlabel="time (s)", ylabel="|replica frequency error| (Hz), median", yscale="log")

@@ -125,6 +125,12 @@ def save(file_name: str, text: str) -> Path:
     return path
 
 
+def save_summary(name: str, summary: dict, indent: int = 2) -> Path:
+    """Write a docs script's numbers as ``docs/experiments/generated/<name>.json``, beside the
+    table it renders from them (`save`), so a test can hold the table to its numbers."""
+    return save(f"{name}.json", json.dumps(summary, indent=indent) + "\n")
+
+
 def write(result_dir: Path, name: str, metrics: list[str] | None = None) -> Path:
     return save(f"{name}.md", render(read_summary(result_dir), metrics))
 
