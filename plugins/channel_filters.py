@@ -15,7 +15,7 @@ from gnssframework.signal.channel_model import channel_model
 from gnssframework.signal.correlator_model import tap_noise_cov
 from gnssframework.signal.navdata import wipe_off
 from gnssframework.plugin import NestedFieldError, PluginParams
-from gnssframework.plugin_ref import PluginRef, handles_nonlinear, recreated
+from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.tracking.loop_filters import MAX_BANDWIDTH_TIME, LoopFilter, check_bandwidth_time
 from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ, L1_WAVELENGTH_M
 from gnssframework.simulation.clock import PRESETS
@@ -69,10 +69,9 @@ def _carrier_loop_at(loop: ChannelFilter, context: Mapping[str, Any]) -> tuple[C
     T = context.get("coherent_time_s")
     if T is None:
         return None
-    own_s = getattr(loop.params, "coherent_time_s", None)
-    if own_s is None or abs(own_s - T) < 1e-12:  # None: the loop takes the harness's T
-        return loop, float(T)
-    return recreated(loop, coherent_time_s=float(T)), float(T)
+    from gnssframework.receiver.tracking.loop_bandwidth import at_interval  # as equivalent_bandwidth_hz below
+
+    return at_interval(loop, float(T)), float(T)
 
 
 def _carrier_loop_bandwidth(loop: ChannelFilter, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:

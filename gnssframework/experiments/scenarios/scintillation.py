@@ -19,8 +19,7 @@ from pydantic import Field
 from ... import random_streams as draw
 from ...errors import ConfigError
 from ...interfaces import RunContext
-from ...plugin_ref import recreated
-from ...receiver.tracking.loop_bandwidth import equivalent_bandwidth_hz
+from ...receiver.tracking.loop_bandwidth import at_interval, equivalent_bandwidth_hz
 from ...receiver.tracking.scalar import NCO_COMMANDS, SignalTruth, check_closed_loop, run_closed_loop
 from ...signal.constants import L1_WAVELENGTH_M
 from ...simulation import scintillation as scint
@@ -167,13 +166,7 @@ class ScintillationScenario(Scenario):
         return scint.aj_stanford(case["s4"], case.get("sigma_phi_rad", 0.1), duration, fs, rng,
                                  p=case.get("p", 2.5), corner_hz=case.get("corner_hz", 0.1), batch_shape=(runs,))
 
-    @staticmethod
-    def at_interval(channel, T: float):
-        """``channel`` re-created with interval ``T`` (itself if it already has it)."""
-        own_s = getattr(channel.params, "coherent_time_s", None)
-        if own_s is None or abs(own_s - T) < 1e-12:  # None: the loop takes the harness's T
-            return channel
-        return recreated(channel, coherent_time_s=T)
+    at_interval = staticmethod(at_interval)  # the loop at the case's T (loop_bandwidth.at_interval)
 
     def truth(self, case: dict, runs: int, rng) -> tuple[SignalTruth, np.ndarray]:
         """The case's signal truth and its scintillation phase ``(K+1, runs)`` (rad).

@@ -25,11 +25,21 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...interfaces import ChannelFilter
+from ...plugin_ref import recreated
 from .scalar import SignalTruth, run_closed_loop
 
 __all__ = ["equivalent_bandwidth_hz"]
 
 _CACHE: dict[tuple, float] = {}
+
+
+def at_interval(channel: ChannelFilter, coherent_time_s: float) -> ChannelFilter:
+    """``channel`` re-created with interval ``coherent_time_s`` (itself if it already has it,
+    or takes the harness's: no ``coherent_time_s`` of its own)."""
+    own_s = getattr(channel.params, "coherent_time_s", None)
+    if own_s is None or abs(own_s - coherent_time_s) < 1e-12:
+        return channel
+    return recreated(channel, coherent_time_s=coherent_time_s)
 
 
 def equivalent_bandwidth_hz(channel: ChannelFilter, coherent_time_s: float, *, settle_s: float = 8.0,
