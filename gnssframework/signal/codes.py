@@ -7,9 +7,11 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import ConfigError
-from .constants import CA_CODE_LENGTH
 
-__all__ = ["ca_code", "G2_TAPS"]
+__all__ = ["ca_code", "G2_TAPS", "CA_CODE_LENGTH"]
+
+#: Chips in one C/A code period (IS-GPS-200, 3.3.2.3).
+CA_CODE_LENGTH = 1023
 
 #: G2 phase-selector taps (1-based register stages) per PRN, IS-GPS-200 Table 3-Ia.
 G2_TAPS: dict[int, tuple[int, int]] = {
