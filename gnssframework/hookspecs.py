@@ -29,9 +29,9 @@ Register = Callable[[type], None]
 #: The plugin kinds a comparison candidate composes.
 COMPONENT_KINDS = ("estimator", "noise_adapter", "augmentation", "discriminator", "channel_filter", "nav_filter")
 #: Every plugin kind, in the order the CLI lists them: the components, then the metrics a
-#: scenario reports, the scenarios themselves, and the receiver's front end (sample formats
-#: and acquisition).
-KINDS = COMPONENT_KINDS + ("metric", "scenario", "sample_source", "acquisition")
+#: scenario reports, the scenarios themselves, the receiver's front end (sample formats
+#: and acquisition) and the signals it receives.
+KINDS = COMPONENT_KINDS + ("metric", "scenario", "sample_source", "acquisition", "signal")
 
 
 @hookspec
@@ -85,3 +85,9 @@ def register_sample_source(register: Register) -> None:
 def register_acquisition(register: Register) -> None:
     """Register signal acquisitions (subclasses of
     ``gnssframework.receiver.acquisition.Acquisition``)."""
+
+
+@hookspec
+def register_signal(register: Register) -> None:
+    """Register ranging signals (subclasses of ``gnssframework.signal.registered.Signal``,
+    each holding one ``SignalSpec``)."""

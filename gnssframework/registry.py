@@ -41,6 +41,8 @@ from .estimation.estimator import Estimator
 from .interfaces import ChannelFilter, Discriminator, NavFilter
 from .plugin import Plugin
 from .plugin_docs import parameter_table
+from .signal.registered import Signal
+from .signal.spec import SignalSpec
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -57,6 +59,7 @@ __all__ = [
     "defined_plugins",
     "plugin_hooks",
     "submodules",
+    "signal_spec",
 ]
 
 ENTRY_POINT_GROUP = "gnssframework"
@@ -73,6 +76,7 @@ BASES: dict[str, type | str] = {
     "scenario": "gnssframework.experiments.scenarios:Scenario",
     "sample_source": "gnssframework.receiver.frontend.source:SampleSource",
     "acquisition": "gnssframework.receiver.acquisition.search:Acquisition",
+    "signal": Signal,
 }
 
 def base_class(kind: str) -> type | None:
@@ -336,3 +340,14 @@ def reload() -> None:
     """Forget everything and rediscover the entry points (after installing a plugin)."""
     global _REGISTRY
     _REGISTRY = _Registry()
+
+
+def signal_spec(name: str) -> SignalSpec:
+    """The description of the registered signal ``name`` (``"gps-l1ca"``).
+
+    Raises
+    ------
+    ConfigError
+        For an unknown signal, listing the known ones and the closest match.
+    """
+    return get("signal", name).spec

@@ -1,0 +1,16 @@
+"""Built-in signals (plugin kind ``signal``): each class holds one signal description."""
+
+from __future__ import annotations
+
+from gnssframework.signal.gps_l1ca import GPS_L1CA
+from gnssframework.signal.registered import Signal
+
+__all__ = ["GpsL1ca"]
+
+
+class GpsL1ca(Signal):
+    """GPS L1 C/A: BPSK(1) at 1575.42 MHz, 1023-chip Gold codes, 50 bit/s LNAV (IS-GPS-200)."""
+
+    name = "gps-l1ca"
+    spec = GPS_L1CA
+    description = "GPS L1 C/A: BPSK(1) at 1575.42 MHz, 1023-chip Gold codes, PRN 1-32, 50 bit/s LNAV"
