@@ -65,6 +65,57 @@ class Subcarrier:
         """Sub-carrier frequency (Hz); 0 for BPSK."""
         return self.m * F0_HZ
 
+    @property
+    def subchips_per_chip(self) -> int:
+        """Equal-length pieces of one chip on each of which the sub-carrier is constant:
+        1 for BPSK, ``2 m / n`` for BOC(m, n), the least common multiple of ``2 m / n``
+        and ``2 m2 / n`` for CBOC (12 for CBOC(6, 1, 1/11)).
+
+        Raises
+        ------
+        ConfigError
+            For a sub-carrier whose half-periods do not divide a chip (``2 m / n`` not an
+            integer).
+        """
+        if self.kind == "bpsk":
+            return 1
+        ms = (self.m,) if self.kind == "boc" else (self.m, self.m2)
+        counts = []
+        for m in ms:
+            k = 2.0 * m / self.n
+            if not (k >= 1 and abs(k - round(k)) < 1e-9):
+                raise ConfigError("subcarrier", f"2 m / n = {k:g} half-periods per chip is not a positive integer "
+                                                f"(m = {m:g}, n = {self.n:g})")
+            counts.append(int(round(k)))
+        return math.lcm(*counts)
+
+    def chip_pulse(self, sign: float = 1.0) -> np.ndarray:
+        """The sub-carrier's value on each of the `subchips_per_chip` pieces of one chip
+        (sampled at the pieces' centres, where it is constant)."""
+        s = self.subchips_per_chip
+        return self.waveform((np.arange(s) + 0.5) / s, sign)
+
+    def autocorrelation(self, tau_chips: np.ndarray, sign: float = 1.0) -> np.ndarray:
+        r"""Normalised autocorrelation of a spreading waveform of this sub-carrier with random
+        (or long) codes, at lags ``tau_chips``, infinite bandwidth.
+
+        With the chip pulse :math:`p` constant on :math:`S` pieces of width
+        :math:`\Delta = 1/S` chip (values :math:`v_0 .. v_{S-1}`), the waveform's
+        autocorrelation :math:`R(\tau) = \int p(t) p(t + \tau) dt / \int p^2` is linear
+        between the lags :math:`k\Delta`, where it is the discrete autocorrelation
+        :math:`R_k = \sum_j v_j v_{j+k} / \sum_j v_j^2`: a train of triangles (Betz 2016,
+        ch. 12: BOC(1,1) gives :math:`1 - 3|\tau|` up to half a chip, then
+        :math:`|\tau| - 1`). BPSK gives the triangle :math:`\max(0, 1 - |\tau|)`.
+        """
+        tau = np.abs(np.asarray(tau_chips, float))
+        v = self.chip_pulse(sign)
+        s = v.size
+        rk = np.array([np.dot(v[:s - k], v[k:]) for k in range(s)] + [0.0]) / np.dot(v, v)
+        x = np.minimum(tau * s, float(s))
+        k = np.minimum(np.floor(x).astype(int), s - 1)
+        f = x - k
+        return (1.0 - f) * rk[k] + f * rk[k + 1]
+
     def waveform(self, chip_phase: np.ndarray, sign: float = 1.0) -> np.ndarray:
         """The sub-carrier's value at code phase ``chip_phase`` (chips, any shape).
 
@@ -234,6 +285,42 @@ class SignalSpec:
             lo, hi = min(self.prns), max(self.prns)
             raise ConfigError("prn", f"{self.name} PRN must be an integer {lo}-{hi}, got {prn!r}")
         return int(prn)
+
+    @property
+    def subchips_per_chip(self) -> int:
+        """Pieces of a chip on which the spreading waveform is constant (1 for BPSK)."""
+        return self.subcarrier.subchips_per_chip
+
+    @property
+    def is_bpsk(self) -> bool:
+        """Whether the signal has no sub-carrier."""
+        return self.subcarrier.kind == "bpsk"
+
+    def spreading_table(self, prn: int, component: int = 0) -> np.ndarray:
+        r"""One code period of the spreading waveform (code times sub-carrier) as a table of
+        sub-chips, ``(code_length_chips * subchips_per_chip,)`` ``float64``.
+
+        Entry :math:`k` is :math:`c(\lfloor k / S \rfloor)\, q((k + 1/2) / S)`, with
+        :math:`S` = `subchips_per_chip`: a generic block that indexes a code table by
+        :math:`\lfloor S x \rfloor \bmod (L S)` at code phase :math:`x` chips (the compiled
+        correlators, the acquisition replica, the IF generator) then produces the BOC or
+        CBOC waveform exactly, and for BPSK (:math:`S = 1`) the code itself. The values are
+        ±1 except for CBOC (weighted sums).
+        """
+        code = self.code(prn, component).astype(float)
+        pulse = self.subcarrier.chip_pulse(self.components[component].subcarrier_sign)
+        return (code[:, None] * pulse[None, :]).reshape(-1)
+
+    def spreading_at(self, table: np.ndarray, chip_phase: np.ndarray) -> np.ndarray:
+        """The spreading waveform ``table`` (`spreading_table`) at code phases
+        ``chip_phase`` (chips, any shape, any real value: taken modulo the code period)."""
+        s = self.subchips_per_chip
+        return table[np.floor(np.asarray(chip_phase, float) * s).astype(np.int64) % table.size]
+
+    def autocorrelation(self, tau_chips: np.ndarray) -> np.ndarray:
+        """The tracked component's normalised code autocorrelation at ``tau_chips``
+        (`Subcarrier.autocorrelation`: the BPSK triangle, the BOC triangle train)."""
+        return self.subcarrier.autocorrelation(tau_chips, self.tracked.subcarrier_sign)
 
     def samples_per_code(self, sample_rate_hz: float) -> float:
         """Samples in one primary code period at ``sample_rate_hz``."""
