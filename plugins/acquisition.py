@@ -11,7 +11,9 @@ from pydantic import Field
 from gnssframework.errors import ConfigError
 from gnssframework.receiver.acquisition import (Acquisition, AcquisitionResult, fine_doppler, noise_floor,
                                                 search_grid, threshold_from_pfa)
-from gnssframework.signal.constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH
+from gnssframework.receiver.acquisition.search import searched_prns
+from gnssframework.signal.gps_l1ca import GPS_L1CA
+from gnssframework.signal.spec import SignalSpec
 from gnssframework.plugin import PluginParams
 
 __all__ = ["ParallelCodePhaseSearch"]
@@ -51,23 +53,25 @@ class ParallelCodePhaseSearch(Acquisition):
     description = "FFT parallel code-phase search, threshold from a false-alarm probability"
     Params = PcpsParams
 
-    def _coherent_s(self) -> float:
-        return self.params.coherent_ms * 1e-3
+    def _coherent_s(self, signal: SignalSpec = GPS_L1CA) -> float:
+        """The coherent time: ``coherent_ms`` code periods of ``signal`` (ms for L1 C/A)."""
+        return self.params.coherent_ms * signal.code_period_s
 
-    def samples_needed(self, sample_rate_hz: float) -> int:
-        return int(round(self._coherent_s() * sample_rate_hz)) * self.params.noncoherent
+    def samples_needed(self, sample_rate_hz: float, signal: SignalSpec = GPS_L1CA) -> int:
+        return int(round(self._coherent_s(signal) * sample_rate_hz)) * self.params.noncoherent
 
-    def dopplers_hz(self) -> np.ndarray:
+    def dopplers_hz(self, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
         p = self.params
-        step = p.doppler_step_hz or 1.0 / (2 * self._coherent_s())
+        step = p.doppler_step_hz or 1.0 / (2 * self._coherent_s(signal))
         half = int(np.floor(p.doppler_max_hz / step + 1e-9))
         return np.arange(-half, half + 1) * step
 
     def acquire(self, samples: np.ndarray, sample_rate_hz: float, if_hz: float,
-                prns: tuple[int, ...] = tuple(range(1, 33))) -> list[AcquisitionResult]:
+                prns: tuple[int, ...] | None = None, signal: SignalSpec = GPS_L1CA) -> list[AcquisitionResult]:
         p = self.params
-        T = self._coherent_s()
-        need = self.samples_needed(sample_rate_hz)
+        prns = searched_prns(prns, signal)
+        T = self._coherent_s(signal)
+        need = self.samples_needed(sample_rate_hz, signal)
         if samples.shape[0] < need:
             raise ConfigError("recording", f"acquisition needs {need} samples ({need / sample_rate_hz * 1e3:.0f} ms: "
                               f"{p.coherent_ms} ms coherent x {p.noncoherent} non-coherent), the recording holds "
@@ -77,8 +81,8 @@ class ParallelCodePhaseSearch(Acquisition):
             raise ConfigError("acquisition.noncoherent", f"alternate_blocks needs an even number of blocks, got "
                                                          f"{p.noncoherent}")
         blocks = p.noncoherent // 2 if alt else p.noncoherent  # summed into the statistic
-        dopplers = self.dopplers_hz()
-        grid = search_grid(samples, sample_rate_hz, if_hz, tuple(prns), T, p.noncoherent, dopplers, alt)
+        dopplers = self.dopplers_hz(signal)
+        grid = search_grid(samples, sample_rate_hz, if_hz, prns, T, p.noncoherent, dopplers, alt, signal)
         n = grid.shape[-1]
         threshold = threshold_from_pfa(p.pfa, grid[0].size, blocks, alt)
         fine_step = p.fine_step_hz or 1.0 / (20 * T)
@@ -89,11 +93,12 @@ class ParallelCodePhaseSearch(Acquisition):
             d, s = np.unravel_index(int(np.argmax(grid[i])), grid[i].shape)
             stat = float(grid[i, d, s] / sigma2)
             fine = dopplers[d] + np.arange(-coarse_step, coarse_step + fine_step / 2, fine_step)
-            power = fine_doppler(samples, sample_rate_hz, if_hz, prn, int(s), T, p.noncoherent, fine, alt) / sigma2
+            power = fine_doppler(samples, sample_rate_hz, if_hz, prn, int(s), T, p.noncoherent, fine, alt,
+                                 signal) / sigma2
             j = int(np.argmax(power))
             c = max((power[j] / blocks - 2.0) / (2 * T), 1e-3)
             # Chip 0 at sample s: the phase at sample 0 is -s samples' worth of chips.
-            chips = float((-s * CA_CHIP_RATE_HZ / sample_rate_hz) % CA_CODE_LENGTH)
+            chips = float((-s * signal.chip_rate_hz / sample_rate_hz) % signal.code_length_chips)
             results.append(AcquisitionResult(int(prn), stat > threshold, float(fine[j]), int(s % n), chips,
                                              float(10 * np.log10(c)), stat, threshold))
         found = [r.cn0_dbhz for r in results if r.detected]

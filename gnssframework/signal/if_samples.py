@@ -13,7 +13,10 @@ $$
 
 with $a = \\sqrt{4 \\sigma^2 c / f_s}$ for real and $a = \\sqrt{2 \\sigma^2 c / f_s}$ for complex
 samples ($c$ = C/N0 in Hz, $f_s$ the sample rate). The code phase advances at
-$f_{chip} (1 + f_D / f_{L1})$ (code Doppler).
+$f_{chip} (1 + f_D / f_{L})$ (code Doppler).
+
+The signal is any `SignalSpec` (GPS L1 C/A by default): $c$ is its spreading waveform
+(`SignalSpec.spreading_table`, code times sub-carrier), $D$ its data symbols.
 """
 
 from __future__ import annotations
@@ -23,11 +26,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError
-from .codes import ca_code
-from .constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH, L1_FREQ_HZ
 from .correlator_model import tap_offsets
 from .correlators import Correlators
+from .gps_l1ca import GPS_L1CA
 from .navdata import bit_at
+from .spec import SignalSpec
 
 __all__ = ["IfSignal", "generate_if_samples", "correlate_if", "SAMPLE_TYPES"]
 
@@ -44,11 +47,15 @@ class IfSignal:
     if_hz: float
     noise_std: float
     is_complex: bool
+    #: The signal the samples hold (the replica `correlate_if` makes).
+    spec: SignalSpec = GPS_L1CA
 
 
-def _check(sample_rate_hz: float, if_hz: float, is_complex: bool) -> None:
-    if sample_rate_hz <= CA_CHIP_RATE_HZ:
-        raise ConfigError("sample_rate_hz", f"must exceed the chip rate {CA_CHIP_RATE_HZ} Hz, got {sample_rate_hz}")
+def _check(sample_rate_hz: float, if_hz: float, is_complex: bool, signal: SignalSpec = GPS_L1CA) -> None:
+    rate = signal.chip_rate_hz * signal.subchips_per_chip
+    if sample_rate_hz <= rate:
+        what = "chip rate" if signal.is_bpsk else "sub-chip rate"
+        raise ConfigError("sample_rate_hz", f"must exceed the {what} {rate} Hz of {signal.name}, got {sample_rate_hz}")
     if not is_complex and not 0 < if_hz < sample_rate_hz / 2:
         raise ConfigError("if_hz", f"real sampling needs 0 < IF < fs/2 = {sample_rate_hz / 2}, got {if_hz}")
 
@@ -69,13 +76,14 @@ def generate_if_samples(
     data_bits: np.ndarray | None = None,
     first_bit_edge_s: float = 0.0,
     noise: bool = True,
+    signal: SignalSpec = GPS_L1CA,
 ) -> IfSignal:
-    """Generate IF samples of one GPS L1 C/A signal in white noise.
+    """Generate IF samples of one satellite's signal (GPS L1 C/A by default) in white noise.
 
     Parameters
     ----------
     prn
-        Satellite PRN (1-32).
+        Satellite PRN (one of ``signal.prns``: 1-32 for GPS L1 C/A).
     duration_s, sample_rate_hz, if_hz
         Length, sample rate and intermediate frequency (0 allowed for complex).
     cn0_dbhz
@@ -90,23 +98,28 @@ def generate_if_samples(
         One of ``SAMPLE_TYPES``; integers are rounded and clipped after scaling the
         noise to the listed standard deviation.
     data_bits
-        Optional ±1 navigation bits (50 bit/s from ``first_bit_edge_s``).
+        Optional ±1 navigation bits (one per ``signal.symbol_period_s`` from
+        ``first_bit_edge_s``: 50 bit/s for L1 C/A).
     noise
         False generates the noise-free signal (for checks against the analytic model).
+    signal
+        The signal's description (`SignalSpec`): code, chip rate, sub-carrier, carrier.
     """
     if sample_type not in SAMPLE_TYPES:
         raise ConfigError("sample_type", f"got {sample_type!r}; allowed: {', '.join(SAMPLE_TYPES)}")
-    _check(sample_rate_hz, if_hz, complex_samples)
+    _check(sample_rate_hz, if_hz, complex_samples, signal)
+    if data_bits is not None and signal.symbol_period_s is None:
+        raise ConfigError("data_bits", f"{signal.name} carries no data symbols")
     n = int(round(duration_s * sample_rate_hz))
     t = np.arange(n) / sample_rate_hz
     sigma = SAMPLE_TYPES[sample_type]
     c = 10.0 ** (cn0_dbhz / 10.0)
     a = np.sqrt((2.0 if complex_samples else 4.0) * sigma**2 * c / sample_rate_hz)
-    code = ca_code(prn).astype(float)
-    chips = code_phase_chips + CA_CHIP_RATE_HZ * (1.0 + doppler_hz / L1_FREQ_HZ) * t
-    sig = a * code[np.floor(chips).astype(int) % CA_CODE_LENGTH]
+    table = signal.spreading_table(prn)
+    chips = code_phase_chips + signal.chip_rate_hz * (1.0 + doppler_hz / signal.carrier_freq_hz) * t
+    sig = a * signal.spreading_at(table, chips)
     if data_bits is not None:
-        sig = sig * bit_at(t, np.asarray(data_bits), first_bit_edge_s)
+        sig = sig * bit_at(t, np.asarray(data_bits), first_bit_edge_s, signal.symbol_period_s)
     phase = 2 * np.pi * (if_hz + doppler_hz) * t + carrier_phase_rad
     if complex_samples:
         x = sig * np.exp(1j * phase)
@@ -124,7 +137,7 @@ def generate_if_samples(
     else:
         x = x.astype(np.complex128 if complex_samples and sample_type == "float64" else
                      (np.complex64 if complex_samples else sample_type))
-    return IfSignal(x, float(sample_rate_hz), float(if_hz), sigma, complex_samples)
+    return IfSignal(x, float(sample_rate_hz), float(if_hz), sigma, complex_samples, signal)
 
 
 def correlate_if(
@@ -145,7 +158,7 @@ def correlate_if(
     ----------
     signal
         From `generate_if_samples` or a recording wrapped in ``IfSignal`` (integer
-        I/Q recordings as ``(n, 2)`` arrays).
+        I/Q recordings as ``(n, 2)`` arrays); its ``spec`` makes the replica.
     prn
         Replica code.
     code_phase_chips, code_rate_hz, carrier_freq_hz, carrier_phase_rad
@@ -172,11 +185,11 @@ def correlate_if(
     carrier = np.exp(-1j * (2 * np.pi * np.asarray(carrier_freq_hz, float)[..., None] * t
                             + np.asarray(carrier_phase_rad, float)[..., None]))
     baseband = seg * carrier  # (..., n)
-    code = ca_code(prn).astype(float)
+    spec = signal.spec
+    table = spec.spreading_table(prn)
     # Real samples carry half the amplitude in each of the two mixing products.
     norm = np.sqrt(n * signal.noise_std**2 * (1.0 if signal.is_complex else 0.5))
     taps = {}
     for name, offset in tap_offsets(early_late_spacing_chips, extra_taps).items():
-        idx = np.floor(cp + offset + cr * t).astype(int) % CA_CODE_LENGTH
-        taps[name] = np.sum(baseband * code[idx], axis=-1) / norm
+        taps[name] = np.sum(baseband * spec.spreading_at(table, cp + offset + cr * t), axis=-1) / norm
     return Correlators(taps.pop("early"), taps.pop("prompt"), taps.pop("late"), extra=taps)

@@ -1,16 +1,17 @@
-"""Navigation data bits (50 bit/s) and data wipe-off."""
+"""Navigation data bits (50 bit/s on GPS L1 C/A; any signal's symbol period) and data wipe-off."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from .. import random_streams as draw
-from .constants import NAV_BIT_RATE_HZ
 from .correlators import Correlators
+from .gps_l1ca import GPS_L1CA
 
 __all__ = ["random_nav_bits", "bit_at", "wipe_off", "BIT_PERIOD_S"]
 
-BIT_PERIOD_S = 1.0 / NAV_BIT_RATE_HZ
+#: The data bit period of GPS L1 C/A (the default of `bit_at`), s.
+BIT_PERIOD_S = GPS_L1CA.symbol_period_s
 
 
 def random_nav_bits(n_bits: int, rng: np.random.Generator, batch_shape: tuple[int, ...] = ()) -> np.ndarray:
@@ -18,12 +19,14 @@ def random_nav_bits(n_bits: int, rng: np.random.Generator, batch_shape: tuple[in
     return (1 - 2 * draw.integers(rng, 0, 2, (n_bits,) + tuple(batch_shape), run_axis=1)).astype(np.int8)
 
 
-def bit_at(time_s: np.ndarray, bits: np.ndarray, first_edge_s: float | np.ndarray = 0.0) -> np.ndarray:
-    """The bit in force at ``time_s``. Bit k spans ``[first_edge + k/50, first_edge + (k+1)/50)``.
+def bit_at(time_s: np.ndarray, bits: np.ndarray, first_edge_s: float | np.ndarray = 0.0,
+           bit_period_s: float = BIT_PERIOD_S) -> np.ndarray:
+    """The bit in force at ``time_s``. Bit k spans ``[first_edge + k T_b, first_edge + (k+1) T_b)``
+    with ``T_b = bit_period_s`` (1/50 s, L1 C/A's, by default).
 
     Times before the first edge take bit 0, and times after the last bit take the last bit.
     """
-    k = np.floor((np.asarray(time_s, dtype=float) - first_edge_s) / BIT_PERIOD_S).astype(int)
+    k = np.floor((np.asarray(time_s, dtype=float) - first_edge_s) / bit_period_s).astype(int)
     k = np.clip(k, 0, bits.shape[0] - 1)
     if bits.ndim == 1:
         return bits[k]

@@ -20,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import ConfigError
-from ...signal.constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from .fft_search import search_grid
 from .search import AcquisitionResult
 from .threshold import noise_floor, threshold_from_pfa
@@ -42,7 +43,7 @@ class SearchWindow:
 
 def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn: int, window: SearchWindow, *,
                   coherent_ms: int = 10, noncoherent: int = 8, alternate: bool = True,
-                  pfa: float = 1e-3) -> AcquisitionResult:
+                  pfa: float = 1e-3, signal: SignalSpec = GPS_L1CA) -> AcquisitionResult:
     """Search ``prn`` in ``window`` only (see the module text).
 
     Parameters
@@ -55,6 +56,9 @@ def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn:
         As the ``pcps`` search's (``alternate``: 10 ms blocks summed by parity).
     pfa
         False-alarm probability over the window's cells.
+    signal
+        The searched signal's description; ``coherent_ms`` counts its code periods
+        (milliseconds for GPS L1 C/A).
 
     Returns
     -------
@@ -67,7 +71,8 @@ def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn:
                                     f"{window.doppler_halfwidth_hz} Hz")
     if alternate and noncoherent % 2:
         raise ConfigError("noncoherent", f"alternate blocks need an even number of blocks, got {noncoherent}")
-    T = coherent_ms * 1e-3
+    signal.check_prn(prn)
+    T = coherent_ms * signal.code_period_s
     n = int(round(T * sample_rate_hz))
     if samples.shape[0] < n * noncoherent:
         raise ConfigError("samples", f"the window search needs {n * noncoherent} samples, got {samples.shape[0]}")
@@ -75,10 +80,10 @@ def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn:
     half = int(np.ceil(window.doppler_halfwidth_hz / step))
     dopplers = window.doppler_hz + np.arange(-half, half + 1) * step
     blocks = noncoherent // 2 if alternate else noncoherent
-    grid = search_grid(samples, sample_rate_hz, if_hz, (prn,), T, noncoherent, dopplers, alternate)[0]
+    grid = search_grid(samples, sample_rate_hz, if_hz, (prn,), T, noncoherent, dopplers, alternate, signal)[0]
     sigma2 = noise_floor(grid, blocks, alternate)
     # Lags within the half width of the predicted start, modulo one code period.
-    per_code = sample_rate_hz * CA_CODE_LENGTH / CA_CHIP_RATE_HZ
+    per_code = sample_rate_hz * signal.code_length_chips / signal.chip_rate_hz
     lag = np.arange(n)
     offset = (lag - window.code_start_samples + per_code / 2) % per_code - per_code / 2
     inside = np.abs(offset) <= window.code_halfwidth_samples + 0.5
@@ -88,6 +93,6 @@ def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn:
     peak = float(stat[d, j])
     threshold = threshold_from_pfa(pfa, int(stat.size), blocks, alternate)
     c = max((peak / blocks - 2.0) / (2 * T), 1e-3)  # E[S] = K(2 + 2cT), as the pcps search's C/N0
-    chips = float((-s * CA_CHIP_RATE_HZ / sample_rate_hz) % CA_CODE_LENGTH)
+    chips = float((-s * signal.chip_rate_hz / sample_rate_hz) % signal.code_length_chips)
     return AcquisitionResult(int(prn), peak > threshold, float(dopplers[d]), s, chips, float(10 * np.log10(c)),
                              peak, threshold)

@@ -9,6 +9,12 @@ correlation with the sampled code :math:`c[n]` at every lag at once is
 (Borre et al., *A Software-Defined GPS and Galileo Receiver*, 2007, sec. 6.3; van
 Nee & Coenen 1991). The Doppler-wiped blocks' FFTs do not depend on the PRN, so they are
 computed once for every satellite.
+
+The replica :math:`c[n]` is the searched signal's spreading waveform
+(`SignalSpec.spreading_table`: the code for BPSK, code times sub-carrier for BOC), so
+the search is the same for every signal a `SignalSpec` describes (a BOC signal is then
+searched with its full, narrow-peaked correlation: the lag grid must resolve its peak,
+two samples a sub-chip or more).
 """
 
 from __future__ import annotations
@@ -18,8 +24,8 @@ from functools import lru_cache
 import numpy as np
 from scipy import fft
 
-from ...signal.codes import ca_code
-from ...signal.constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 
 __all__ = ["code_replica", "search_grid", "fine_doppler"]
 
@@ -29,10 +35,12 @@ _CHUNK_ELEMENTS = 1 << 23
 _FINE_TABLE_ELEMENTS = 1 << 22
 
 
-def code_replica(prn: int, n_samples: int, sample_rate_hz: float, chip_offset: float = 0.0) -> np.ndarray:
-    """``n_samples`` of the ±1 C/A code sampled at ``sample_rate_hz``, chip 0 at sample 0 (``float32``)."""
-    chips = np.floor(chip_offset + np.arange(n_samples) * (CA_CHIP_RATE_HZ / sample_rate_hz)).astype(np.int64)
-    return ca_code(prn)[chips % CA_CODE_LENGTH].astype(np.float32)
+def code_replica(prn: int, n_samples: int, sample_rate_hz: float, chip_offset: float = 0.0,
+                 signal: SignalSpec = GPS_L1CA) -> np.ndarray:
+    """``n_samples`` of ``signal``'s spreading waveform of ``prn`` (the ±1 code for BPSK)
+    sampled at ``sample_rate_hz``, chip 0 at sample 0 (``float32``)."""
+    chips = chip_offset + np.arange(n_samples) * (signal.chip_rate_hz / sample_rate_hz)
+    return signal.spreading_at(signal.spreading_table(prn), chips).astype(np.float32)
 
 
 def _blocks(samples: np.ndarray, n: int, noncoherent: int) -> np.ndarray:
@@ -57,7 +65,7 @@ def _sum_blocks(power: np.ndarray, alternate: bool) -> np.ndarray:
 
 def search_grid(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prns: tuple[int, ...],
                 coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray,
-                alternate: bool = False) -> np.ndarray:
+                alternate: bool = False, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
     """Raw grid :math:`\\sum_k |z_k[s]|^2` per PRN, Doppler bin and code lag: ``(n_prn, n_doppler, N)``.
 
     ``samples`` must hold ``noncoherent`` blocks of ``N = round(coherent_time_s * fs)``.
@@ -69,7 +77,7 @@ def search_grid(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prns: 
     """
     n = int(round(coherent_time_s * sample_rate_hz))
     blocks = _blocks(samples, n, noncoherent)
-    codes = np.stack([fft.fft(code_replica(p, n, sample_rate_hz), workers=1).conj() for p in prns])
+    codes = np.stack([fft.fft(code_replica(p, n, sample_rate_hz, signal=signal), workers=1).conj() for p in prns])
     out = np.empty((len(prns), dopplers_hz.size, n), np.float32)
     step = max(1, _CHUNK_ELEMENTS // (noncoherent * n))
     for lo in range(0, dopplers_hz.size, step):
@@ -93,7 +101,7 @@ def _offset_carriers(n: int, noncoherent: int, sample_rate_hz: float, n_offsets:
 
 def fine_doppler(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn: int, code_start_sample: int,
                  coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray,
-                 alternate: bool = False) -> np.ndarray:
+                 alternate: bool = False, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
     """Raw :math:`\\sum_k |z_k|^2` at one code lag for each of ``dopplers_hz`` (the fine
     search; ``alternate`` as `search_grid`).
 
@@ -104,7 +112,7 @@ def fine_doppler(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn: 
     """
     n = int(round(coherent_time_s * sample_rate_hz))
     blocks = _blocks(samples, n, noncoherent)
-    replica = np.roll(code_replica(prn, n, sample_rate_hz), code_start_sample)
+    replica = np.roll(code_replica(prn, n, sample_rate_hz, signal=signal), code_start_sample)
     K = blocks.shape[0]
     t = (np.arange(K * n) / sample_rate_hz).reshape(K, n)
     dopplers_hz = np.asarray(dopplers_hz, float)

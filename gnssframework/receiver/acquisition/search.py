@@ -8,8 +8,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...plugin import Plugin
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 
-__all__ = ["Acquisition", "AcquisitionResult"]
+__all__ = ["Acquisition", "AcquisitionResult", "searched_prns"]
 
 
 @dataclass(frozen=True)
@@ -28,7 +30,7 @@ class AcquisitionResult:
         First sample at which a code period starts (the replica's chip 0), in
         ``[0, samples per code period)``: where tracking starts.
     code_phase_chips
-        Code phase at the first sample of the searched data, in ``[0, 1023)``: chips
+        Code phase at the first sample of the searched data, in ``[0, code length)``: chips
         the signal had already sent at sample 0 (a generator's ``code_phase_chips``).
     cn0_dbhz
         C/N0 estimated from the peak power and the noise floor (biased low by the
@@ -50,15 +52,26 @@ class AcquisitionResult:
 
 
 class Acquisition(Plugin, abc.ABC):
-    """Plugin kind ``acquisition``: find the satellites in a stretch of samples."""
+    """Plugin kind ``acquisition``: find the satellites of one signal in a stretch of samples.
+
+    The signal is a `SignalSpec` (GPS L1 C/A by default); the PRNs searched are its
+    ``prns`` unless given.
+    """
 
     kind = "acquisition"
 
     @abc.abstractmethod
-    def samples_needed(self, sample_rate_hz: float) -> int:
-        """Samples the search reads from the start of the recording."""
+    def samples_needed(self, sample_rate_hz: float, signal: SignalSpec = GPS_L1CA) -> int:
+        """Samples the search of ``signal`` reads from the start of the recording."""
 
     @abc.abstractmethod
     def acquire(self, samples: np.ndarray, sample_rate_hz: float, if_hz: float,
-                prns: tuple[int, ...] = tuple(range(1, 33))) -> list[AcquisitionResult]:
-        """Search ``prns`` in ``samples`` (complex, or real at ``if_hz``); one result per PRN."""
+                prns: tuple[int, ...] | None = None, signal: SignalSpec = GPS_L1CA) -> list[AcquisitionResult]:
+        """Search ``prns`` of ``signal`` (all of ``signal.prns`` for ``None``) in ``samples``
+        (complex, or real at ``if_hz``); one result per PRN."""
+
+
+def searched_prns(prns: tuple[int, ...] | None, signal: SignalSpec) -> tuple[int, ...]:
+    """``prns`` checked against ``signal`` (a `ConfigError` naming a PRN it does not
+    define), or all of its PRNs for ``None``."""
+    return signal.prns if prns is None else tuple(signal.check_prn(p) for p in prns)

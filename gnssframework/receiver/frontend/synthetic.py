@@ -2,7 +2,8 @@
 
 Each satellite is `gnssframework.signal.if_samples.generate_if_samples` without noise;
 the sum gets one white noise of unit variance per real dimension, so each satellite has
-the C/N0 it was given (the generator's amplitude law with ``sigma = 1``).
+the C/N0 it was given (the generator's amplitude law with ``sigma = 1``). A satellite's
+signal is any `SignalSpec` (GPS L1 C/A by default; BPSK or BOC alike).
 """
 
 from __future__ import annotations
@@ -11,9 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...signal.constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH, L1_FREQ_HZ, NAV_BIT_RATE_HZ
+from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.if_samples import generate_if_samples
 from ...signal.navdata import random_nav_bits
+from ...signal.spec import SignalSpec
 
 __all__ = ["SatelliteSignal", "synthesize_samples"]
 
@@ -27,16 +29,19 @@ class SatelliteSignal:
     doppler_hz: float = 0.0
     code_phase_chips: float = 0.0
     carrier_phase_rad: float = 0.0
-    #: Random 50 bit/s navigation data (drawn from the generator's rng) whose first bit
-    #: edge is at the start of this code period (0: the first code epoch after t = 0);
-    #: bit edges fall on code epochs, as the satellites send them. ``None``: no data.
+    #: Random navigation data (50 bit/s on L1 C/A; drawn from the generator's rng) whose
+    #: first bit edge is at the start of this code period (0: the first code epoch after
+    #: t = 0); bit edges fall on code epochs, as the satellites send them. ``None``: no data.
     first_bit_code_period: int | None = None
+    #: The signal the satellite sends.
+    signal: SignalSpec = GPS_L1CA
 
     def first_bit_edge_s(self) -> float:
         """Time of the first bit edge: a code epoch (chip 0) after t = 0."""
-        rate = CA_CHIP_RATE_HZ * (1 + self.doppler_hz / L1_FREQ_HZ)
-        first_epoch = ((-self.code_phase_chips) % CA_CODE_LENGTH) / rate
-        return first_epoch + (self.first_bit_code_period or 0) * CA_CODE_LENGTH / rate
+        length = self.signal.code_length_chips
+        rate = float(self.signal.code_freq_hz(self.doppler_hz))
+        first_epoch = ((-self.code_phase_chips) % length) / rate
+        return first_epoch + (self.first_bit_code_period or 0) * length / rate
 
 
 def synthesize_samples(satellites: list[SatelliteSignal], duration_s: float, sample_rate_hz: float, if_hz: float,
@@ -47,12 +52,12 @@ def synthesize_samples(satellites: list[SatelliteSignal], duration_s: float, sam
     for sat in satellites:
         bits = None
         if sat.first_bit_code_period is not None:
-            bits = random_nav_bits(int(np.ceil(duration_s * NAV_BIT_RATE_HZ)) + 2, rng)
+            bits = random_nav_bits(int(np.ceil(duration_s * (1.0 / sat.signal.symbol_period_s))) + 2, rng)
         x += generate_if_samples(sat.prn, duration_s, sample_rate_hz, if_hz, sat.cn0_dbhz, rng,
                                  doppler_hz=sat.doppler_hz, code_phase_chips=sat.code_phase_chips,
                                  carrier_phase_rad=sat.carrier_phase_rad, complex_samples=complex_samples,
                                  data_bits=bits, first_bit_edge_s=sat.first_bit_edge_s() if bits is not None else 0.0,
-                                 noise=False).samples
+                                 noise=False, signal=sat.signal).samples
     if complex_samples:
         return x + rng.standard_normal(n) + 1j * rng.standard_normal(n)
     return x + rng.standard_normal(n)
