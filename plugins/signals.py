@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from gnssframework.signal.gps_l1ca import GPS_L1CA
+from gnssframework.signal.qzss_l1ca import QZSS_L1CA
 from gnssframework.signal.registered import Signal
 
-__all__ = ["GpsL1ca"]
+__all__ = ["GpsL1ca", "QzssL1ca"]
 
 
 class GpsL1ca(Signal):
@@ -14,3 +15,11 @@ class GpsL1ca(Signal):
     name = "gps-l1ca"
     spec = GPS_L1CA
     description = "GPS L1 C/A: BPSK(1) at 1575.42 MHz, 1023-chip Gold codes, PRN 1-32, 50 bit/s LNAV"
+
+
+class QzssL1ca(Signal):
+    """QZSS L1 C/A: GPS L1 C/A's structure on PRN 193-202 (IS-QZSS-PNT)."""
+
+    name = "qzss-l1ca"
+    spec = QZSS_L1CA
+    description = "QZSS L1 C/A: BPSK(1) at 1575.42 MHz, C/A-family Gold codes by G2 delay, PRN 193-202, LNAV"

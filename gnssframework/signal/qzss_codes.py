@@ -1,0 +1,67 @@
+"""QZSS L1 C/A ranging codes: GPS C/A Gold codes selected by G2 delay (IS-QZSS-PNT).
+
+QZSS L1 C/A uses the Gold-code generator of GPS C/A (IS-GPS-200, sec. 3.3.2.3: G1 =
+1 + x^3 + x^10, G2 = 1 + x^2 + x^3 + x^6 + x^8 + x^9 + x^10, both registers starting all
+ones) with the satellite's code selected by a *G2 delay* instead of two phase-selector
+taps: chip :math:`k` is :math:`G1(k) \\oplus G2(k - d)` with :math:`d` the delay in chips
+(IS-QZSS-PNT, "L1C/A code" PRN assignment table: PRN 193-202). The same rule with the
+delays of IS-GPS-200 Table 3-Ia (5, 6, 7, ... for PRN 1, 2, 3, ...) gives GPS C/A, which
+is how the tests check the delay convention.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from ..errors import ConfigError
+
+__all__ = ["QZSS_L1CA_G2_DELAY", "gold_code_by_g2_delay", "qzss_l1ca_code"]
+
+#: G2 delay (chips) per QZSS L1 C/A PRN (IS-QZSS-PNT, L1C/A PRN assignment table).
+QZSS_L1CA_G2_DELAY: dict[int, int] = {
+    193: 339, 194: 208, 195: 711, 196: 189, 197: 263, 198: 537, 199: 663, 200: 942, 201: 173, 202: 900,
+}
+
+_LENGTH = 1023
+
+
+def _m_sequence(feedback_stages: tuple[int, ...]) -> np.ndarray:
+    """One period (1023 bits) of stage 10 of a 10-stage register starting all ones, whose
+    new stage 1 is the XOR of ``feedback_stages`` (1-based)."""
+    reg = [1] * 10
+    out = np.empty(_LENGTH, np.uint8)
+    for i in range(_LENGTH):  # once per process, cached: not a hot path
+        out[i] = reg[9]
+        fb = 0
+        for stage in feedback_stages:
+            fb ^= reg[stage - 1]
+        reg = [fb] + reg[:9]
+    return out
+
+
+@lru_cache(maxsize=1)
+def _g1_g2() -> tuple[np.ndarray, np.ndarray]:
+    return _m_sequence((3, 10)), _m_sequence((2, 3, 6, 8, 9, 10))
+
+
+def gold_code_by_g2_delay(delay_chips: int) -> np.ndarray:
+    """The 1023-chip C/A-family Gold code whose G2 sequence is delayed by ``delay_chips``,
+    as ±1 ``int8`` (logic 0 -> +1, 1 -> -1)."""
+    g1, g2 = _g1_g2()
+    bits = g1 ^ np.roll(g2, int(delay_chips))
+    return (1 - 2 * bits.astype(np.int8)).astype(np.int8)
+
+
+def qzss_l1ca_code(prn: int) -> np.ndarray:
+    """The QZSS L1 C/A code of ``prn`` (193-202) as ±1 ``int8``.
+
+    Raises
+    ------
+    ConfigError
+        For a PRN outside 193-202.
+    """
+    if isinstance(prn, bool) or not isinstance(prn, (int, np.integer)) or int(prn) not in QZSS_L1CA_G2_DELAY:
+        raise ConfigError("prn", f"QZSS L1 C/A PRN must be an integer 193-202, got {prn!r}")
+    return gold_code_by_g2_delay(QZSS_L1CA_G2_DELAY[int(prn)])
