@@ -105,3 +105,22 @@ def test_loss_of_lock_and_strength_indicators_read_back_through_georinex(tmp_pat
     for name in ("C1Cssi", "L1Cssi", "D1Cssi"):
         assert np.array_equal(data[name].values[written], strength[written])
     assert "C1Clli" not in data or np.all(np.nan_to_num(data["C1Clli"].values) == 0)  # LLI on the phase only
+
+
+def test_a_qzss_file_names_its_system_and_satellites_as_rinex_does(tmp_path):
+    """QZSS L1 C/A observables: system J, PRN 193 -> J01 (RINEX 3.04 sec. 3.5), read back by georinex."""
+    import georinex
+
+    from gnssframework.signal.qzss_l1ca import QZSS_L1CA
+
+    obs = _observables()
+    obs = Observables(obs.rx_time_s, obs.sample_time_s, np.array([193, 195, 199]), obs.transmit_s, obs.pseudorange_m,
+                      obs.doppler_hz, obs.carrier_cycles, obs.cn0_dbhz, {}, None, 142)
+    path = write_rinex_obs(tmp_path / "qzss.rnx", obs, 2190, signal=QZSS_L1CA)
+    assert "J    4 C1C L1C D1C S1C" in path.read_text()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        data = georinex.load(path)
+    assert list(data.sv.values) == ["J01", "J03", "J07"]
+    got = data["C1C"].values
+    assert np.nanmax(np.abs(got - obs.pseudorange_m)) <= 0.0005 + 1e-9

@@ -193,6 +193,9 @@ class SignalSpec:
         The components, the tracked one first (a pilot where the signal has one).
     subcarrier
         The sub-carrier (`BPSK` for none).
+    rinex_prn_offset
+        What a PRN loses to become its RINEX satellite number (0 for GPS; 192 for QZSS,
+        PRN 193 being ``J01``; RINEX 3.04 section 3.5).
     """
 
     name: str
@@ -204,6 +207,7 @@ class SignalSpec:
     prns: tuple[int, ...]
     components: tuple[Component, ...]
     subcarrier: Subcarrier = field(default=BPSK)
+    rinex_prn_offset: int = 0
 
     def __post_init__(self) -> None:
         for label, value in (("carrier_freq_hz", self.carrier_freq_hz), ("chip_rate_hz", self.chip_rate_hz),
@@ -321,6 +325,16 @@ class SignalSpec:
         """The tracked component's normalised code autocorrelation at ``tau_chips``
         (`Subcarrier.autocorrelation`: the BPSK triangle, the BOC triangle train)."""
         return self.subcarrier.autocorrelation(tau_chips, self.tracked.subcarrier_sign)
+
+    def rinex_satellite(self, prn: int) -> str:
+        """The RINEX 3 satellite name of ``prn`` (``"G05"``, ``"J01"`` for QZSS PRN 193)."""
+        return f"{self.system}{int(prn) - self.rinex_prn_offset:02d}"
+
+    @property
+    def rinex_obs_types(self) -> tuple[str, str, str, str]:
+        """The RINEX 3 observation types of the tracked component: pseudorange, carrier
+        phase, Doppler, signal strength (``C1C L1C D1C S1C`` for L1 C/A)."""
+        return tuple(f"{kind}{self.rinex_code}" for kind in "CLDS")  # type: ignore[return-value]
 
     def samples_per_code(self, sample_rate_hz: float) -> float:
         """Samples in one primary code period at ``sample_rate_hz``."""

@@ -1,4 +1,4 @@
-"""RINEX 3.04 observation file of a receiver's observables (GPS L1 C/A).
+"""RINEX 3.04 observation file of a receiver's observables (GPS L1 C/A, or the signal given).
 
 One epoch record per receive epoch of :class:`~gnssframework.receiver.navigation.observables.Observables`
 with the satellites that have a pseudorange, and per satellite ``C1C`` (pseudorange, m),
@@ -9,7 +9,9 @@ F14.3 with the loss-of-lock and strength digits. The loss-of-lock indicator (sec
 is the observables' ``lli`` on the carrier phase (bit 0: lock lost since the previous
 epoch, cycle slip possible; bit 1: half-cycle ambiguity), blank when zero; the signal
 strength digit (section 5.7) follows C1C, L1C and D1C. Epochs are the receiver clock's (GPS
-time biased by the receiver clock error), as RINEX defines them.
+time biased by the receiver clock error), as RINEX defines them. Another signal's file
+takes its system letter, satellite names and observation codes from its `SignalSpec`
+(``J01 C1C ...`` for QZSS L1 C/A).
 """
 
 from __future__ import annotations
@@ -20,12 +22,14 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ConfigError
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from .observables import Observables
 
 __all__ = ["write_rinex_obs", "OBS_TYPES"]
 
-#: Observation types written, in this order.
-OBS_TYPES = ("C1C", "L1C", "D1C", "S1C")
+#: Observation types written for GPS L1 C/A, in this order (`SignalSpec.rinex_obs_types`).
+OBS_TYPES = GPS_L1CA.rinex_obs_types
 _GPS_EPOCH = datetime(1980, 1, 6)
 
 
@@ -45,8 +49,8 @@ def _strength(cn0_dbhz: float) -> int:
 
 
 def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m: np.ndarray | None = None,
-                    marker: str = "GNSSFRAMEWORK") -> Path:
-    """Write ``obs`` as a RINEX 3.04 GPS observation file.
+                    marker: str = "GNSSFRAMEWORK", signal: SignalSpec = GPS_L1CA) -> Path:
+    """Write ``obs`` as a RINEX 3.04 observation file of one signal (GPS L1 C/A by default).
 
     Parameters
     ----------
@@ -54,10 +58,13 @@ def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m
         Full GPS week of the epochs (``fixes.full_week``).
     approx_ecef_m
         APPROX POSITION XYZ (zeros when unknown).
+    signal
+        The observed signal: system letter, satellite names, observation codes.
     """
     if week < 0:
         raise ConfigError("week", "the GPS week of the epochs is unknown (no subframe 1 decoded and no reference)")
     path = Path(path)
+    types = signal.rinex_obs_types
     rows = [e for e in range(obs.rx_time_s.size) if np.isfinite(obs.pseudorange_m[e]).any()]
     if not rows:
         raise ConfigError("observables", "no epoch holds a pseudorange: nothing to write")
@@ -66,7 +73,7 @@ def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m
     # The file's date is its first epoch's, not the wall clock's: the same input gives the same bytes.
     stamp = first.strftime("%Y%m%d %H%M%S") + " GPS"
     header = [
-        _line(f"{'3.04':>9}{'':11}{'OBSERVATION DATA':<20}{'G':<20}", "RINEX VERSION / TYPE"),
+        _line(f"{'3.04':>9}{'':11}{'OBSERVATION DATA':<20}{signal.system:<20}", "RINEX VERSION / TYPE"),
         _line(f"{'gnssframework':<20}{'':<20}{stamp:<20}", "PGM / RUN BY / DATE"),
         _line(marker, "MARKER NAME"),
         _line(f"{'':<20}{'':<40}", "OBSERVER / AGENCY"),
@@ -74,7 +81,7 @@ def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m
         _line(f"{'0':<20}{'unknown':<20}", "ANT # / TYPE"),
         _line("".join(f"{v:14.4f}" for v in xyz), "APPROX POSITION XYZ"),
         _line("".join(f"{v:14.4f}" for v in (0.0, 0.0, 0.0)), "ANTENNA: DELTA H/E/N"),
-        _line(f"G{len(OBS_TYPES):5d}" + "".join(f" {t}" for t in OBS_TYPES), "SYS / # / OBS TYPES"),
+        _line(f"{signal.system}{len(types):5d}" + "".join(f" {t}" for t in types), "SYS / # / OBS TYPES"),
         _line(f"{first.year:6d}{first.month:6d}{first.day:6d}{first.hour:6d}{first.minute:6d}"
               f"{first.second + frac:13.7f}{'':5}GPS", "TIME OF FIRST OBS"),
         _line("", "END OF HEADER"),
@@ -91,6 +98,6 @@ def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m
             values = (obs.pseudorange_m[e, j], obs.carrier_cycles[e, j], obs.doppler_hz[e, j], obs.cn0_dbhz[e, j])
             flags = (" " + ssi, (str(lli) if lli else " ") + ssi, " " + ssi, "  ")  # LLI on the phase only
             fields = "".join(f"{v:14.3f}{f}" if np.isfinite(v) else " " * 16 for v, f in zip(values, flags))
-            body.append(f"G{int(obs.prn[j]):02d}{fields}".rstrip() + "\n")
+            body.append(f"{signal.rinex_satellite(obs.prn[j])}{fields}".rstrip() + "\n")
     path.write_text("".join(header + body))
     return path
