@@ -1,7 +1,8 @@
 """What a scenario can represent, checked when the config loads.
 
-Two kinds of limit: the coherent interval T must be a whole number of GPS L1 C/A code
-periods (1 ms) between 1 and 20 ms (a data bit), and one batch of runs must fit in a
+Two kinds of limit: the coherent interval T must be a whole number of the signal's code
+periods between one period and one data symbol (1 to 20 ms for GPS L1 C/A, the default;
+`coherent_time` makes the type for another `SignalSpec`), and one batch of runs must fit in a
 stated memory budget. A scenario estimates its batch's memory from its epochs, runs and
 channels (bytes per epoch, run and channel measured on the harnesses and rounded up;
 ``tests/test_limits.py`` holds each estimate above the measured peak), so a config that
@@ -16,31 +17,51 @@ from typing import Annotated
 from pydantic import AfterValidator, Field
 
 from ..errors import ConfigError
-from ..signal.constants import CA_CODE_PERIOD_S
+from ..signal.gps_l1ca import GPS_L1CA
+from ..signal.spec import SignalSpec
 
-__all__ = ["CoherentTime", "MIN_COHERENT_TIME_S", "MAX_COHERENT_TIME_S", "MEMORY_BUDGET_ENV",
-           "DEFAULT_MEMORY_BUDGET_GIB", "memory_budget_gib", "check_batch_memory"]
+__all__ = ["CoherentTime", "coherent_time", "coherent_time_bounds", "MIN_COHERENT_TIME_S", "MAX_COHERENT_TIME_S",
+           "MEMORY_BUDGET_ENV", "DEFAULT_MEMORY_BUDGET_GIB", "memory_budget_gib", "check_batch_memory"]
 
-MIN_COHERENT_TIME_S = CA_CODE_PERIOD_S
-#: One navigation data bit: a longer interval would integrate across bit edges.
-MAX_COHERENT_TIME_S = 0.02
+
+def coherent_time_bounds(signal: SignalSpec = GPS_L1CA) -> tuple[float, float]:
+    """Shortest and longest coherent interval of ``signal`` (s): one code period, and the
+    longest a known symbol or overlay boundary allows (`SignalSpec.longest_coherent_s`:
+    one data bit, 20 ms, on L1 C/A; a longer interval would integrate across bit edges)."""
+    return signal.code_period_s, signal.longest_coherent_s
+
+
+MIN_COHERENT_TIME_S, MAX_COHERENT_TIME_S = coherent_time_bounds()
 #: Environment variable that raises (or lowers) the per-batch memory budget, in GiB.
 MEMORY_BUDGET_ENV = "GNSSFRAMEWORK_MEMORY_BUDGET_GIB"
 DEFAULT_MEMORY_BUDGET_GIB = 8.0
 
 
-def _whole_code_periods(value: float) -> float:
-    """Refuse an interval that is not a whole number of 1 ms C/A code periods."""
-    periods = value / CA_CODE_PERIOD_S
-    if abs(periods - round(periods)) > 1e-9 * max(1.0, periods):
-        raise ValueError(f"must be a whole multiple of the 1 ms C/A code period, from {MIN_COHERENT_TIME_S} to "
-                         f"{MAX_COHERENT_TIME_S} s (got {value!r})")
-    return value
+def _whole_code_periods(signal: SignalSpec):
+    period_s = signal.code_period_s
+    lo, hi = coherent_time_bounds(signal)
+    what = "C/A" if signal is GPS_L1CA else signal.name
+
+    def check(value: float) -> float:
+        """Refuse an interval that is not a whole number of the signal's code periods."""
+        periods = value / period_s
+        if abs(periods - round(periods)) > 1e-9 * max(1.0, periods):
+            raise ValueError(f"must be a whole multiple of the {period_s * 1e3:g} ms {what} code period, from {lo} "
+                             f"to {hi} s (got {value!r})")
+        return value
+
+    return check
 
 
-#: A coherent integration interval T in seconds: whole code periods, 1 to 20 ms.
-CoherentTime = Annotated[float, Field(ge=MIN_COHERENT_TIME_S, le=MAX_COHERENT_TIME_S),
-                         AfterValidator(_whole_code_periods)]
+def coherent_time(signal: SignalSpec = GPS_L1CA):
+    """The type of a coherent integration interval T (s) of ``signal``: whole code periods,
+    from one period to `coherent_time_bounds`' longest."""
+    lo, hi = coherent_time_bounds(signal)
+    return Annotated[float, Field(ge=lo, le=hi), AfterValidator(_whole_code_periods(signal))]
+
+
+#: A coherent integration interval T in seconds: whole code periods, 1 to 20 ms (GPS L1 C/A).
+CoherentTime = coherent_time()
 
 
 def memory_budget_gib() -> float:

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..signal.constants import SPEED_OF_LIGHT_M_S
+from ..signal.spec import SPEED_OF_LIGHT_M_S
 from .ephemeris import OMEGA_EARTH_RAD_S
 
 __all__ = ["geometric_range", "line_of_sight", "range_rate", "range_acceleration", "ranges_from_receivers",

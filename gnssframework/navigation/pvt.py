@@ -30,10 +30,10 @@ import pymap3d
 from scipy import special  # not scipy.stats: its import costs a second of every run's start-up
 
 from ..errors import ConfigError
-from ..signal.constants import L1_FREQ_HZ
+from ..signal.gps_l1ca import GPS_L1CA
+from ..signal.spec import SPEED_OF_LIGHT_M_S as SPEED_OF_LIGHT_MPS
 from .ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
 from .lnav import PI_IS_GPS, IonoUtc
-from ..signal.constants import SPEED_OF_LIGHT_M_S as SPEED_OF_LIGHT_MPS
 
 __all__ = ["PositionFix", "klobuchar_delay_s", "troposphere_delay_m", "dop", "solve_position"]
 
@@ -44,7 +44,6 @@ def chi2_ppf(q: float, dof: int) -> float:
     """Chi-square quantile, ``scipy.stats.chi2.ppf(q, dof)`` to the bit: ``2 P^{-1}(dof/2, q)``
     with ``P`` the regularised lower incomplete gamma function; NaN for ``dof < 1`` as scipy.stats."""
     return float(2 * special.gammaincinv(dof / 2, q)) if dof > 0 else float("nan")
-_L1_WAVELENGTH_M = _C / L1_FREQ_HZ
 
 
 @dataclass(frozen=True)
@@ -188,7 +187,8 @@ def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s
 def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris: Ephemerides, *,
                    doppler_hz: np.ndarray | None = None, iono: IonoUtc | None = None, troposphere: bool = False,
                    sigma_m: float = 5.0, elevation_mask_deg: float = 5.0, false_alarm: float = 1e-3,
-                   initial_ecef_m: np.ndarray | None = None, elevation_weights: bool = True) -> PositionFix | None:
+                   initial_ecef_m: np.ndarray | None = None, elevation_weights: bool = True,
+                   wavelength_m: float = GPS_L1CA.wavelength_m) -> PositionFix | None:
     """Position, velocity and clock of one epoch.
 
     Parameters
@@ -200,6 +200,8 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
         ``S`` records in the same order (:meth:`Ephemerides.select`).
     doppler_hz
         ``(S,)`` Dopplers for the velocity (optional).
+    wavelength_m
+        Carrier wavelength of the Dopplers (`SignalSpec.wavelength_m`; L1's by default).
     iono
         Broadcast Klobuchar coefficients (None: no ionospheric correction).
     troposphere
@@ -268,7 +270,7 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
         if ok.sum() >= 4:
             # Range rate -λ D = u·(v_sat - v_rx) + ḃ - c Δṫ_SV (satellite velocity rotated as its position).
             v_sat = _rotate_earth(state.velocity_mps, np.linalg.norm(rot - x[:3], axis=1) / _C)
-            y = -_L1_WAVELENGTH_M * d - np.sum(u * v_sat, axis=1) + _C * state.clock_drift_s_s
+            y = -wavelength_m * d - np.sum(u * v_sat, axis=1) + _C * state.clock_drift_s_s
             H = np.hstack([-u, np.ones((u.shape[0], 1))])
             sol_v, *_ = np.linalg.lstsq(H[ok], y[ok], rcond=None)
             vel, drift = R @ sol_v[:3], float(sol_v[3])

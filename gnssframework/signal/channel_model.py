@@ -13,13 +13,20 @@ import math
 import numpy as np
 
 from ..backend import jit
-from .constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
+from ..errors import ConfigError
 from .correlator_model import correlator_mean
+from .gps_l1ca import GPS_L1CA
+from .spec import SignalSpec
 
-__all__ = ["channel_iq", "channel_iq_row", "channel_transition", "channel_model", "CODE_TO_CARRIER"]
+__all__ = ["channel_iq", "channel_iq_row", "channel_transition", "channel_model", "code_to_carrier", "CODE_TO_CARRIER"]
 
-#: Code chipping rate over carrier frequency, f_code / f_carrier = 1 / 1540 for GPS L1 C/A.
-CODE_TO_CARRIER = CA_CHIP_RATE_HZ / L1_FREQ_HZ
+def code_to_carrier(signal: SignalSpec = GPS_L1CA) -> float:
+    """Code chipping rate over carrier frequency, ``f_code / f_carrier`` (1/1540 for GPS L1 C/A)."""
+    return signal.chip_rate_hz / signal.carrier_freq_hz
+
+
+#: `code_to_carrier` of GPS L1 C/A, 1 / 1540.
+CODE_TO_CARRIER = code_to_carrier()
 
 
 def channel_iq(
@@ -113,7 +120,8 @@ def channel_iq_row(params, X, k, Z, kz):
 
 
 def channel_model(
-    coherent_time_s: float, spacing_chips: float, Q: np.ndarray, R: np.ndarray, code_to_carrier: float = CODE_TO_CARRIER
+    coherent_time_s: float, spacing_chips: float, Q: np.ndarray, R: np.ndarray,
+    code_to_carrier: float = CODE_TO_CARRIER, signal: SignalSpec | None = None,
 ):
     """The channel filter's model (eq. 9 transition, eqs. 2-7 correlators) with compiled twins.
 
@@ -121,7 +129,21 @@ def channel_model(
     versions (``CompiledFunctions``) so a sigma-point filter runs each predict and update
     in one compiled pass: ``F x`` and `channel_iq_row`. Data bit 1 (after wipe-off),
     ideal triangle autocorrelation.
+
+    ``signal``, when given, sets ``code_to_carrier`` from its rates; the model's triangle
+    is BPSK's, so a BOC or CBOC signal is refused (its correlation is a train of
+    triangles: `SignalSpec.autocorrelation`).
+
+    Raises
+    ------
+    ConfigError
+        For a signal with a sub-carrier.
     """
+    if signal is not None:
+        if not signal.is_bpsk:
+            raise ConfigError("signal", f"the Zou et al. channel model assumes BPSK's triangle autocorrelation; "
+                                        f"{signal.name} has a {signal.subcarrier.kind} sub-carrier")
+        code_to_carrier = signal.chip_rate_hz / signal.carrier_freq_hz
     from ..estimation.compiled_model import CompiledFunctions, linear_f
     from ..estimation.types import NonlinearModel
 

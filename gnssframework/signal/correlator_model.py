@@ -21,6 +21,8 @@ Conventions
 - Tap offsets are relative to the prompt, negative for early:
   ``offsets = (-d, 0, +d)`` with ``d = early_late_spacing_chips / 2``. A tap at offset
   ``o`` sees ``R(code_error - o)``.
+- ``R`` is the signal's (`SignalSpec.autocorrelation`, GPS L1 C/A by default): the
+  triangle ``max(0, 1 - |tau|)`` for BPSK, a train of triangles for BOC and CBOC.
 - ``carrier_phase_rad`` is the phase error at the start of the interval. With a
   frequency error ``df`` the output is rotated by its mean over the interval,
   ``pi df T + phase``, and scaled by ``sinc(df T)`` (Zou et al. 2018, eqs. 2-7).
@@ -34,8 +36,9 @@ import numpy as np
 
 from .. import random_streams as draw
 from ..errors import ConfigError
-from .constants import CA_CHIP_RATE_HZ
 from .correlators import Correlators
+from .gps_l1ca import GPS_L1CA
+from .spec import SignalSpec
 
 __all__ = [
     "amplitude_from_cn0",
@@ -54,37 +57,66 @@ def amplitude_from_cn0(cn0_dbhz: np.ndarray | float, coherent_time_s: float) -> 
 
 
 @lru_cache(maxsize=16)
-def _band_limited_table(bandwidth_hz: float, chip_rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
-    """R(tau) of a BPSK(1) code through an ideal low-pass front end of two-sided width B."""
-    f = np.linspace(-bandwidth_hz / 2, bandwidth_hz / 2, 4001)
+def _band_limited_table(bandwidth_hz: float, chip_rate_hz: float,
+                        pulse: tuple[float, ...] = (1.0,)) -> tuple[np.ndarray, np.ndarray]:
+    r"""R(tau) of a code with chip pulse ``pulse`` through an ideal low-pass front end of
+    two-sided width B: :math:`R(\tau) = \int_{-B/2}^{B/2} G(f) \cos(2\pi f \tau T_c) df`.
+
+    BPSK (``pulse = (1,)``): :math:`G(f) = T_c\,\mathrm{sinc}^2(f T_c)`. A pulse constant
+    on :math:`S` pieces of width :math:`\Delta = T_c / S` (values :math:`v_k`, unit mean
+    power; BOC, CBOC) has the spectrum :math:`G(f) = |\sum_k v_k \Delta\,\mathrm{sinc}(f
+    \Delta) e^{-j 2\pi f (k + 1/2) \Delta}|^2 / T_c` (Betz 2016, ch. 12), which is the
+    BPSK one for :math:`S = 1`.
+    """
     Tc = 1.0 / chip_rate_hz
-    psd = Tc * np.sinc(f * Tc) ** 2
     tau = np.linspace(-2.0, 2.0, 2001)  # chips
+    if pulse == (1.0,):
+        f = np.linspace(-bandwidth_hz / 2, bandwidth_hz / 2, 4001)
+        psd = Tc * np.sinc(f * Tc) ** 2
+    else:
+        s = len(pulse)
+        # Sample the spectrum finely enough for its S-times-wider main lobes.
+        f = np.linspace(-bandwidth_hz / 2, bandwidth_hz / 2, 4000 * max(1, s) + 1)
+        delta = Tc / s
+        centres = (np.arange(s) + 0.5) * delta
+        spectrum = np.sinc(f * delta) * delta * (np.exp(-2j * np.pi * f[:, None] * centres) @ np.asarray(pulse))
+        psd = np.abs(spectrum) ** 2 / Tc
     r = np.trapezoid(psd[None, :] * np.cos(2 * np.pi * f[None, :] * tau[:, None] * Tc), f, axis=1)
     return tau, r
 
 
 def code_autocorrelation(
-    tau_chips: np.ndarray, bandwidth_hz: float | None = None, chip_rate_hz: float = CA_CHIP_RATE_HZ
+    tau_chips: np.ndarray, bandwidth_hz: float | None = None, chip_rate_hz: float | None = None,
+    signal: SignalSpec = GPS_L1CA,
 ) -> np.ndarray:
-    """Code autocorrelation at ``tau_chips``.
+    """Code autocorrelation of ``signal`` (GPS L1 C/A by default) at ``tau_chips``.
 
     Parameters
     ----------
     tau_chips
         Lags in chips.
     bandwidth_hz
-        ``None`` for the ideal triangle ``max(0, 1 - |tau|)``. Otherwise the two-sided
-        bandwidth of an ideal (brick-wall) front-end filter. The peak then drops below 1
-        by the power the filter removes (0.90 at 2.046 MHz), and the triangle's corners
-        are rounded.
+        ``None`` for the ideal autocorrelation: the triangle ``max(0, 1 - |tau|)`` for
+        BPSK, the triangle train of `SignalSpec.autocorrelation` for BOC. Otherwise the
+        two-sided bandwidth of an ideal (brick-wall) front-end filter. The peak then drops
+        below 1 by the power the filter removes (0.90 at 2.046 MHz for BPSK(1)), and the
+        corners are rounded.
+    chip_rate_hz
+        The chip rate the bandwidth is measured against (``signal``'s by default).
+    signal
+        The signal whose code and sub-carrier make the correlation.
     """
     tau = np.asarray(tau_chips, dtype=float)
     if bandwidth_hz is None:
-        return np.maximum(0.0, 1.0 - np.abs(tau))
+        if signal.is_bpsk:
+            return np.maximum(0.0, 1.0 - np.abs(tau))
+        return signal.autocorrelation(tau)
     if bandwidth_hz <= 0:
         raise ConfigError("bandwidth_hz", f"must be > 0 or None, got {bandwidth_hz}")
-    grid, r = _band_limited_table(float(bandwidth_hz), float(chip_rate_hz))
+    rate = signal.chip_rate_hz if chip_rate_hz is None else chip_rate_hz
+    pulse = (1.0,) if signal.is_bpsk else tuple(float(v) for v in
+                                                signal.subcarrier.chip_pulse(signal.tracked.subcarrier_sign))
+    grid, r = _band_limited_table(float(bandwidth_hz), float(rate), pulse)
     return np.interp(tau, grid, r, left=0.0, right=0.0)
 
 
@@ -107,8 +139,10 @@ def correlator_mean(
     offsets_chips: np.ndarray,
     data_bit: np.ndarray | float = 1.0,
     bandwidth_hz: float | None = None,
+    signal: SignalSpec = GPS_L1CA,
 ) -> np.ndarray:
-    """Noise-free complex outputs of taps at ``offsets_chips``, shape ``(..., n_taps)``.
+    """Noise-free complex outputs of taps at ``offsets_chips``, shape ``(..., n_taps)``
+    (``R`` the autocorrelation of ``signal``, `code_autocorrelation`).
 
     $$
     y_o = A\\, D\\, R(\\delta\\tau - o)\\, \\mathrm{sinc}(\\delta f T)\\, e^{j(\\pi \\delta f T + \\delta\\theta)}
@@ -118,15 +152,16 @@ def correlator_mean(
     dtau = np.asarray(code_error_chips, dtype=float)
     df = np.asarray(freq_error_hz, dtype=float)
     phase = np.pi * df * coherent_time_s + np.asarray(carrier_phase_rad, dtype=float)
-    r = code_autocorrelation(dtau[..., None] - np.asarray(offsets_chips, dtype=float), bandwidth_hz)
+    r = code_autocorrelation(dtau[..., None] - np.asarray(offsets_chips, dtype=float), bandwidth_hz, signal=signal)
     common = amp * np.asarray(data_bit, dtype=float) * np.sinc(df * coherent_time_s)
     return (common * np.exp(1j * phase))[..., None] * r
 
 
-def tap_noise_cov(offsets_chips: np.ndarray, bandwidth_hz: float | None = None) -> np.ndarray:
-    """Covariance of the I (or Q) noise of the taps: ``R(o_i - o_j)``."""
+def tap_noise_cov(offsets_chips: np.ndarray, bandwidth_hz: float | None = None,
+                  signal: SignalSpec = GPS_L1CA) -> np.ndarray:
+    """Covariance of the I (or Q) noise of the taps: ``R(o_i - o_j)`` of ``signal``."""
     o = np.asarray(offsets_chips, dtype=float)
-    return code_autocorrelation(o[:, None] - o[None, :], bandwidth_hz)
+    return code_autocorrelation(o[:, None] - o[None, :], bandwidth_hz, signal=signal)
 
 
 def simulate_correlators(
@@ -141,6 +176,7 @@ def simulate_correlators(
     bandwidth_hz: float | None = None,
     extra_taps: dict[str, float] | None = None,
     amplitude: np.ndarray | None = None,
+    signal: SignalSpec = GPS_L1CA,
 ) -> Correlators:
     """Draw one coherent interval of correlator outputs for a batch of channels.
 
@@ -164,13 +200,15 @@ def simulate_correlators(
         Further taps by name and offset, e.g. ``{"very_early": -1.0, "very_late": 1.0}``.
     amplitude
         Give the amplitude directly (e.g. under scintillation) instead of C/N0.
+    signal
+        The signal whose autocorrelation shapes the taps (GPS L1 C/A by default).
 
     Returns
     -------
     Correlators
         With unit-variance I and Q noise, correlated across taps as ``R(o_i - o_j)``.
     """
-    sim = CorrelatorSimulator(coherent_time_s, early_late_spacing_chips, bandwidth_hz, extra_taps)
+    sim = CorrelatorSimulator(coherent_time_s, early_late_spacing_chips, bandwidth_hz, extra_taps, signal)
     amp = amplitude_from_cn0(cn0_dbhz, coherent_time_s) if amplitude is None else np.asarray(amplitude, float)
     return sim.draw(code_error_chips, carrier_phase_rad, freq_error_hz, amp, rng, data_bit)
 
@@ -186,18 +224,20 @@ class CorrelatorSimulator:
 
     Parameters
     ----------
-    coherent_time_s, early_late_spacing_chips, bandwidth_hz, extra_taps
+    coherent_time_s, early_late_spacing_chips, bandwidth_hz, extra_taps, signal
         As in `simulate_correlators`.
     """
 
     def __init__(self, coherent_time_s: float, early_late_spacing_chips: float = 1.0,
-                 bandwidth_hz: float | None = None, extra_taps: dict[str, float] | None = None) -> None:
+                 bandwidth_hz: float | None = None, extra_taps: dict[str, float] | None = None,
+                 signal: SignalSpec = GPS_L1CA) -> None:
         offsets = tap_offsets(early_late_spacing_chips, extra_taps)
         self.names = list(offsets)
         self.offsets_chips = np.array([offsets[n] for n in self.names])
         self.coherent_time_s = float(coherent_time_s)
         self.bandwidth_hz = bandwidth_hz
-        w, v = np.linalg.eigh(tap_noise_cov(self.offsets_chips, bandwidth_hz))
+        self.signal = signal
+        w, v = np.linalg.eigh(tap_noise_cov(self.offsets_chips, bandwidth_hz, signal))
         root = v * np.sqrt(np.clip(w, 0.0, None))  # PSD root: taps may be (nearly) coincident
         self.root_t = root.T
 
@@ -206,7 +246,7 @@ class CorrelatorSimulator:
         """One interval of correlator outputs (`simulate_correlators`, with the amplitude
         ``A = sqrt(2 c T)`` given: `amplitude_from_cn0`)."""
         mean = correlator_mean(amplitude, code_error_chips, carrier_phase_rad, freq_error_hz, self.coherent_time_s,
-                               self.offsets_chips, data_bit, self.bandwidth_hz)
+                               self.offsets_chips, data_bit, self.bandwidth_hz, self.signal)
         shape = mean.shape
         root_t = self.root_t
         noise = draw.standard_normal(rng, shape, 0) @ root_t + 1j * (draw.standard_normal(rng, shape, 0) @ root_t)

@@ -1,4 +1,4 @@
-r"""Lock detectors and bit synchronisation on a channel's 1 ms prompts.
+r"""Lock detectors and bit synchronisation on a channel's one-code-period prompts (1 ms on L1 C/A).
 
 - Phase-lock indicator (Van Dierendonck 1996; Kaplan & Hegarty, 3rd ed., sec. 8.10):
   :math:`\mathrm{PLI} = \sum (I_P^2 - Q_P^2) / \sum (I_P^2 + Q_P^2)`, the mean of
@@ -10,13 +10,19 @@ r"""Lock detectors and bit synchronisation on a channel's 1 ms prompts.
   which needs frequency lock only, not phase lock) votes for its millisecond modulo 20;
   the bit edge is the bin that holds ``fraction`` of at least ``min_votes`` votes
   (Parkinson & Spilker 1996, vol. I, ch. 8: the histogram method).
+
+The code period and the code periods per data symbol (1 ms and 20 on L1 C/A) are read
+from the channel's `SignalSpec` (GPS L1 C/A by default).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ...errors import ConfigError
 from ...signal.cn0 import cn0_moments, cn0_nwpr
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 
 __all__ = ["phase_lock_indicator", "estimate_cn0", "cn0_nwpr_bits", "BitSync", "bit_edge_from_votes", "CN0_ESTIMATORS"]
 
@@ -30,17 +36,27 @@ def phase_lock_indicator(prompts: np.ndarray) -> float:
     return float(np.sum(p.real**2 - p.imag**2) / power) if power > 0 else 0.0
 
 
-def estimate_cn0(prompts: np.ndarray, estimator: str, bit_phase: int | None) -> float:
-    """C/N0 (dB-Hz) of a window of 1 ms prompts.
+def _periods_per_symbol(signal: SignalSpec) -> int:
+    m = signal.code_periods_per_symbol
+    if m is None:
+        raise ConfigError("signal", f"{signal.name} carries no data symbols: no bit synchronisation")
+    return m
+
+
+def estimate_cn0(prompts: np.ndarray, estimator: str, bit_phase: int | None, signal: SignalSpec = GPS_L1CA) -> float:
+    """C/N0 (dB-Hz) of a window of one-code-period prompts (1 ms on L1 C/A).
 
     ``nwpr`` needs blocks free of bit edges: with the bit phase known (``bit_phase`` = the
-    index in ``prompts`` of a bit's first millisecond) it sums bit-aligned 20 ms blocks;
-    before bit synchronisation it falls back to ``moments``, which bits do not disturb.
+    index in ``prompts`` of a bit's first code period) it sums bit-aligned blocks of one
+    symbol (20 ms on L1 C/A); before bit synchronisation, or on a signal without data
+    symbols, it falls back to ``moments``, which bits do not disturb.
     """
     p = np.asarray(prompts)
-    if estimator == "nwpr" and bit_phase is not None and p.size - bit_phase >= 20:
-        return float(cn0_nwpr(p[bit_phase:], 1e-3, m=20))
-    return float(cn0_moments(p, 1e-3))
+    period_s = signal.code_period_s
+    m = signal.code_periods_per_symbol
+    if estimator == "nwpr" and m is not None and bit_phase is not None and p.size - bit_phase >= m:
+        return float(cn0_nwpr(p[bit_phase:], period_s, m=m))
+    return float(cn0_moments(p, period_s))
 
 
 def cn0_nwpr_bits(prompts: np.ndarray, bit_phase: np.ndarray, coherent_time_s: float = 1e-3,
@@ -75,7 +91,7 @@ def cn0_nwpr_bits(prompts: np.ndarray, bit_phase: np.ndarray, coherent_time_s: f
 
 
 def bit_edge_from_votes(votes: np.ndarray, min_votes: int, fraction: float = 0.7) -> int | None:
-    """The bit edge (ms mod 20) once one bin of the histogram ``votes`` holds ``fraction``
+    """The bit edge (code period modulo the periods of a bit: ms mod 20 on L1 C/A) once one bin of the histogram ``votes`` holds ``fraction``
     of at least ``min_votes`` votes, else ``None``."""
     total = int(votes.sum())
     best = int(np.argmax(votes))
@@ -85,18 +101,20 @@ def bit_edge_from_votes(votes: np.ndarray, min_votes: int, fraction: float = 0.7
 
 
 class BitSync:
-    """Histogram of bit changes over the 20 milliseconds of a bit."""
+    """Histogram of bit changes over the code periods of a bit (the 20 milliseconds of an
+    L1 C/A bit; ``signal.code_periods_per_symbol``)."""
 
-    def __init__(self, min_votes: int = 8, fraction: float = 0.7) -> None:
-        self.votes = np.zeros(20, int)
+    def __init__(self, min_votes: int = 8, fraction: float = 0.7, signal: SignalSpec = GPS_L1CA) -> None:
+        self.votes = np.zeros(_periods_per_symbol(signal), int)
         self.min_votes = min_votes
         self.fraction = fraction
         self.previous = 0j
 
     def add(self, ms_index: int, prompt: complex) -> int | None:
-        """Vote with the prompt of millisecond ``ms_index``; the edge (ms mod 20) once decided."""
+        """Vote with the prompt of code period ``ms_index``; the edge (period modulo the
+        periods of a bit) once decided."""
         if (prompt * np.conj(self.previous)).real < 0:
-            self.votes[ms_index % 20] += 1
+            self.votes[ms_index % self.votes.size] += 1
         self.previous = prompt
         return self.edge()
 

@@ -2,8 +2,9 @@
 and written with the ``sigmf`` package.
 
 SigMF's ``core:frequency`` of a capture is the radio frequency at 0 Hz of the sample
-stream; the intermediate frequency of an L1 recording is then
-``IF = f_L1 - core:frequency``. The Q-branch sign (+1, or -1 for a front end whose samples
+stream; the intermediate frequency of a recording of a signal at carrier ``f_L`` (L1,
+1575.42 MHz, by default: ``carrier_freq_hz``, a `SignalSpec`'s) is then
+``IF = f_L - core:frequency``. The Q-branch sign (+1, or -1 for a front end whose samples
 read as I - jQ) and the format of a recording SigMF has no datatype for are kept under
 this project's namespace ``gnssframework:`` in the global object.
 """
@@ -15,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...errors import DataFileError
-from ...signal.constants import L1_FREQ_HZ
+from ...signal.gps_l1ca import GPS_L1CA
 
 __all__ = ["SigmfInfo", "meta_path_for", "read_sigmf_meta", "write_sigmf_meta"]
 
@@ -41,11 +42,11 @@ def meta_path_for(recording: str | Path) -> Path:
     return p.with_suffix(".sigmf-meta")
 
 
-def read_sigmf_meta(path: str | Path) -> SigmfInfo:
+def read_sigmf_meta(path: str | Path, carrier_freq_hz: float = GPS_L1CA.carrier_freq_hz) -> SigmfInfo:
     """Read a SigMF metadata file.
 
     The JSON is validated by ``sigmf``'s schema; fields this project needs are then read
-    from the global object and the first capture.
+    from the global object and the first capture (the IF relative to ``carrier_freq_hz``).
 
     Raises
     ------
@@ -72,7 +73,7 @@ def read_sigmf_meta(path: str | Path) -> SigmfInfo:
     freq = captures[0].get("core:frequency")
     if_hz = glob.get(IF_KEY)
     if if_hz is None and freq is not None:
-        if_hz = L1_FREQ_HZ - float(freq)
+        if_hz = carrier_freq_hz - float(freq)
     q_sign = glob.get(Q_SIGN_KEY)
     if q_sign not in (None, 1, -1):
         raise DataFileError(str(path), None, f"{Q_SIGN_KEY} must be 1 or -1, got {q_sign!r}")
@@ -82,8 +83,10 @@ def read_sigmf_meta(path: str | Path) -> SigmfInfo:
 
 
 def write_sigmf_meta(path: str | Path, *, format: str, sigmf_datatype: str, sample_rate_hz: float, if_hz: float,
-                     q_sign: int = 1, start_time: str | None = None, description: str = "") -> Path:
-    """Write the metadata of a recording with ``sigmf`` (validated against its schema)."""
+                     q_sign: int = 1, start_time: str | None = None, description: str = "",
+                    carrier_freq_hz: float = GPS_L1CA.carrier_freq_hz) -> Path:
+    """Write the metadata of a recording with ``sigmf`` (validated against its schema);
+    ``core:frequency`` is ``carrier_freq_hz - if_hz``."""
     from sigmf.sigmffile import SigMFFile
 
     glob = {"core:sample_rate": float(sample_rate_hz), "core:version": "1.0.0",
@@ -96,7 +99,7 @@ def write_sigmf_meta(path: str | Path, *, format: str, sigmf_datatype: str, samp
         glob["core:datatype"] = "ru8"
         glob[FORMAT_KEY] = format
     sig = SigMFFile(global_info=glob, skip_checksum=True)
-    capture = {"core:frequency": L1_FREQ_HZ - float(if_hz)}
+    capture = {"core:frequency": carrier_freq_hz - float(if_hz)}
     if start_time:
         capture["core:datetime"] = start_time
     sig.add_capture(0, metadata=capture)

@@ -42,6 +42,10 @@ back to it; the receiver clock is then the start time plus recording time
 (`observables`' ``rx_offset_s``). Once a subframe arrives on those rows, its TOW checks the
 dating (``tow_offset_s``): the start time's error, in whole bits (a misresolved millisecond
 is refused earlier, by the assisted fix's residuals).
+
+The chip rate, the carrier frequency (code and satellite-time Doppler) and the code period
+are read from the channels' `SignalSpec` (GPS L1 C/A by default); the bit structure is
+LNAV's, which QZSS L1 C/A shares.
 """
 
 from __future__ import annotations
@@ -52,7 +56,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...errors import ConfigError
-from ...signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from .bit_stream import BIT_MS, bit_runs
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_lnav, find_subframes
@@ -119,12 +124,13 @@ def _bit_time(run, time_s: np.ndarray, bit: int) -> float:
     return float(time_s[run.rows[-1]]) + BIT_MS * 1e-3 / per_bit
 
 
-def channel_timing(record: ChannelRecord, causal: bool = True) -> ChannelTiming | None:
+def channel_timing(record: ChannelRecord, causal: bool = True, signal: SignalSpec = GPS_L1CA) -> ChannelTiming | None:
     """The rows of a `ChannelRecord` whose transmit time the decoded LNAV gives, or None
     when no subframe was decoded (too short, or never bit-aligned).
 
     ``causal``: only the rows after the first decoded subframe has arrived (as a receiver
     running in real time has them); False also dates the rows before it, from the same TOW.
+    ``signal``: the tracked signal (an LNAV-format one: GPS or QZSS L1 C/A).
     """
     col = record.column
     if not record.rows:
@@ -136,7 +142,7 @@ def channel_timing(record: ChannelRecord, causal: bool = True) -> ChannelTiming 
     rows, tx, inverted, known, messages, ephemerides = [], [], [], [], [], []
     for run in runs:
         subframes = find_subframes(run.symbols)
-        edge_tow = _bridge(rows, tx, time_s, doppler, run.rows[0], code_chips[run.rows[0]])
+        edge_tow = _bridge(rows, tx, time_s, doppler, run.rows[0], code_chips[run.rows[0]], signal)
         if subframes:
             first = subframes[0]
             own = first.tow_s - first.start * bit_s  # satellite time of the run's first bit edge
@@ -152,8 +158,8 @@ def channel_timing(record: ChannelRecord, causal: bool = True) -> ChannelTiming 
         else:
             continue
         bit_tow = edge_tow + np.arange(run.symbols.size) * bit_s
-        tx.append((bit_tow[run.bit_of_row] + run.ms_in_bit * 1e-3
-                   + code_chips[run.rows] / CA_CHIP_RATE_HZ)[keep] % _WEEK_S)
+        tx.append((bit_tow[run.bit_of_row] + run.ms_in_bit * signal.code_period_s
+                   + code_chips[run.rows] / signal.chip_rate_hz)[keep] % _WEEK_S)
         rows.append(run.rows[keep])
         inverted.append(np.full(int(keep.sum()), is_inverted))
         known.append(polarity)
@@ -172,7 +178,7 @@ def channel_timing(record: ChannelRecord, causal: bool = True) -> ChannelTiming 
 
 
 def _bridge(rows: list[np.ndarray], tx: list[np.ndarray], time_s: np.ndarray, doppler_hz: np.ndarray, first_row: int,
-            code_chips: float) -> float | None:
+            code_chips: float, signal: SignalSpec = GPS_L1CA) -> float | None:
     """Satellite time of a new run's first bit edge predicted from the channel's last dated
     row (see the module text), or None without one within `MAX_BRIDGE_S`."""
     last = next((k for k in range(len(rows) - 1, -1, -1) if rows[k].size), None)
@@ -182,19 +188,22 @@ def _bridge(rows: list[np.ndarray], tx: list[np.ndarray], time_s: np.ndarray, do
     elapsed_s = float(time_s[first_row] - time_s[last_row])
     if not 0.0 < elapsed_s <= MAX_BRIDGE_S:
         return None
-    predicted = last_tx + elapsed_s * (1.0 + doppler_hz[last_row] / L1_FREQ_HZ) - code_chips / CA_CHIP_RATE_HZ
+    predicted = (last_tx + elapsed_s * (1.0 + doppler_hz[last_row] / signal.carrier_freq_hz)
+                 - code_chips / signal.chip_rate_hz)
     bit_s = BIT_MS * 1e-3
     return float(np.round(predicted / bit_s) * bit_s)
 
 
-def assisted_timing(record: ChannelRecord, end_time_s: float, end_transmit_s: float) -> ChannelTiming | None:
+def assisted_timing(record: ChannelRecord, end_time_s: float, end_transmit_s: float,
+                    signal: SignalSpec = GPS_L1CA) -> ChannelTiming | None:
     r"""The vector-tracked rows of a channel closed by an assisted start, dated from the
     replica's transmit time ``end_transmit_s`` (s of week) at recording time ``end_time_s``
     after its last row (see the module text); None without two such rows.
 
     The rows are the record's last unbroken stretch of the ``vector`` stage. Row ``k``'s
-    transmit time is :math:`t_k = 10^{-3}\,\mathrm{round}(10^3 (\tilde t_k - p_k / f_c)) + p_k / f_c`
-    with :math:`p_k` its code phase (chips), :math:`f_c` the chip rate and
+    transmit time is :math:`t_k = T\,\mathrm{round}((\tilde t_k - p_k / f_c) / T) + p_k / f_c`
+    with :math:`p_k` its code phase (chips), :math:`f_c` the chip rate, :math:`T` the code
+    period (1 ms for L1 C/A; all three ``signal``'s) and
     :math:`\tilde t_k = t_{end} - (\tau_{end} - \tau_k)(1 + D_k / f_{L1})` the end's time
     carried back at the row's Doppler (satellite time runs at :math:`1 + D/f_{L1}` of
     receive time, IS-GPS-200 3.3.1.1; the error over a minute is microseconds). Carrier
@@ -209,9 +218,10 @@ def assisted_timing(record: ChannelRecord, end_time_s: float, end_transmit_s: fl
         return None
     time_s, chips = record.column("time_s")[rows], record.column("code_phase_chips")[rows]
     doppler = record.column("doppler_hz")[rows]
-    sub_ms_s = chips / CA_CHIP_RATE_HZ
-    approx = end_transmit_s - (end_time_s - time_s) * (1.0 + doppler / L1_FREQ_HZ)
-    tx = np.round((approx - sub_ms_s) * 1e3) * 1e-3 + sub_ms_s
+    sub_ms_s = chips / signal.chip_rate_hz
+    approx = end_transmit_s - (end_time_s - time_s) * (1.0 + doppler / signal.carrier_freq_hz)
+    period_s = signal.code_period_s
+    tx = np.round((approx - sub_ms_s) * (1.0 / period_s)) * period_s + sub_ms_s
     n = rows.size
     starts = np.zeros(n, dtype=bool)
     starts[0] = True
