@@ -122,3 +122,37 @@ def test_the_coherent_time_of_a_pilot_with_an_overlay_spans_the_overlay():
     for bad in (0.002, 0.006, 0.104):
         with pytest.raises(ValidationError):
             t.validate_python(bad)
+
+
+def test_the_compiled_correlator_runs_a_boc_signal_from_its_sub_chip_table():
+    """The kernels know no signal: a BOC(1,1) table of sub-chips, phases in sub-chips, gives
+    the closed-form BOC correlation (and agrees with correlate_if, an independent NumPy path)."""
+    from gnssframework.receiver.channels.correlator import correlate_channels, replica_codes, to_table_units
+
+    fs, T, cn0, doppler = 20.46e6, 1e-3, 45.0, 1500.0
+    sig = generate_if_samples(1, 0.003, fs, 0.0, cn0, np.random.default_rng(6), doppler_hz=doppler,
+                              code_phase_chips=100.0, complex_samples=True, noise=False, signal=BOC)
+    rate = BOC.code_freq_hz(doppler)
+    n = int(T * fs)
+    A = amplitude_from_cn0(cn0, T)
+    norm = np.sqrt(n * sig.noise_std**2)
+    codes = replica_codes(BOC, [1])
+    assert codes.shape == (1, 2046)
+    taps = np.array([-0.5, -0.25, 0.0, 0.25, 0.5])
+    phase_cycles = (sig.if_hz + doppler) * 1000 / fs  # the signal's carrier at sample 1000
+    for code_err in (0.0, 0.2, -0.35):
+        cp = 100.0 + rate * 1000 / fs - code_err  # the replica at sample 1000, code_err chips behind
+        raw = correlate_channels(sig.samples.astype(np.complex64), np.array([1000]), np.array([n]),
+                                 to_table_units(np.array([cp]), BOC), to_table_units(np.array([rate / fs]), BOC),
+                                 np.array([phase_cycles]), np.array([(sig.if_hz + doppler) / fs]), codes,
+                                 to_table_units(taps, BOC))[0] / norm
+        np.testing.assert_allclose(raw.real, A * _boc11(code_err - taps), atol=0.05 * A)
+        ref = correlate_if(sig, 1, np.array(cp), np.array(rate), np.array(sig.if_hz + doppler),
+                           np.array(2 * np.pi * phase_cycles), T,
+                           start_sample=1000, extra_taps={"e2": -0.25, "l2": 0.25})
+        np.testing.assert_allclose(raw[[0, 2, 4]], [complex(ref.early), complex(ref.prompt), complex(ref.late)],
+                                   atol=1e-3 * A)
+    cboc = SignalSpec("test-cboc", "X", "1X", 1575.42e6, 1.023e6, 1023, (1,), (Component("pilot", _code),),
+                      Subcarrier("cboc", 1.0, 1.0, 6.0, (np.sqrt(10 / 11), np.sqrt(1 / 11))))
+    with pytest.raises(ConfigError, match="not ±1"):
+        replica_codes(cboc, [1])

@@ -6,9 +6,10 @@ For channel c, samples :math:`x_n`, :math:`n = s_c \dots s_c + N_c - 1`, carrier
 (chips), :math:`i = n - s_c`, tap :math:`t` at offset :math:`o_t` chips:
 
 .. math:: C_{c,t} = \sum_i x_{s_c + i}\, e^{-j 2\pi(\phi_c + i \Delta\phi_c)}\,
-          c_c\big(\lfloor p_c + o_t + i\,\Delta p_c \rfloor \bmod 1023\big)
+          c_c\big(\lfloor p_c + o_t + i\,\Delta p_c \rfloor \bmod n\big)
 
-(the NCO replicas of Kaplan & Hegarty, *Understanding GPS/GNSS*, 3rd ed., sec. 8.8;
+with :math:`n` the table's length (1023 for L1 C/A; the NCO replicas of Kaplan & Hegarty,
+*Understanding GPS/GNSS*, 3rd ed., sec. 8.8;
 tap offsets added to the replica phase as in `gnssframework.signal.if_samples.correlate_if`).
 
 The compiled kernel keeps both NCOs as fixed-point phase words (carrier in :math:`2^{-32}`
@@ -22,6 +23,12 @@ products and sums are ``float32``, so :math:`|C^{compiled} - C^{exact}| \le` `RO
 :math:`\sum_i |x_i|` beyond the fixed-point words' rounding (`correlation_error_bound`).
 `correlate_numpy` is the reference (exact ``exp``, float64), kept for tests and machines
 without numba.
+
+The kernels know no signal: a code table is any ±1 sequence of :math:`n` entries, indexed
+by :math:`\lfloor p \rfloor \bmod n`. `replica_codes` makes the tables of a `SignalSpec`:
+the code for BPSK; for BOC the spreading waveform as a table of sub-chips (code times
+sub-carrier, `SignalSpec.spreading_table`), whose phases, steps and tap offsets are then
+in sub-chips (chips times ``signal.subchips_per_chip``, `to_table_units`).
 """
 
 from __future__ import annotations
@@ -34,8 +41,9 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...backend import get_backend
+from ...signal.spec import SignalSpec
 
-__all__ = ["correlate_channels", "correlate_numpy", "correlate_periods", "correlate_periods_numpy", "code_tables",
+__all__ = ["replica_codes", "to_table_units", "correlate_channels", "correlate_numpy", "correlate_periods", "correlate_periods_numpy", "code_tables",
            "correlation_error_bound", "sum_of_squares", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS"]
 
 #: Samples per chunk of the compiled kernel (its carrier restarts exactly every chunk).
@@ -223,6 +231,30 @@ try:
 except ImportError:  # pragma: no cover
     HAVE_NUMBA = False
 
+def replica_codes(signal: SignalSpec, prns) -> np.ndarray:
+    """``(len(prns), code_length_chips * subchips_per_chip)`` ``float32`` tables of
+    ``signal``'s spreading waveform (`SignalSpec.spreading_table`) for the kernels.
+
+    Raises
+    ------
+    ConfigError
+        For a waveform that is not ±1 (CBOC's weighted sum: the kernels keep one sign bit
+        per tap), or a PRN the signal does not define.
+    """
+    tables = np.stack([signal.spreading_table(p) for p in prns]).astype(np.float32)
+    if not np.all(np.abs(tables) == 1.0):
+        raise ConfigError("signal", f"{signal.name}'s spreading waveform is not ±1 ({signal.subcarrier.kind}): "
+                                    "the compiled correlators take ±1 tables")
+    return tables
+
+
+def to_table_units(chips, signal: SignalSpec):
+    """Code phases, steps or tap offsets in chips, in the units of `replica_codes`' tables
+    (sub-chips: times ``signal.subchips_per_chip``; unchanged for BPSK)."""
+    s = signal.subchips_per_chip
+    return chips if s == 1 else np.asarray(chips, float) * s
+
+
 #: Taps a `CodeTables` pattern holds (one bit each in an int32).
 MAX_TAPS = 31
 
@@ -242,7 +274,7 @@ class CodeTables:
     ----------
     patterns
         ``(n_channels, n_chips * (M + 1))`` ``int32``; chip k of the prompt's word is code
-        chip ``k mod 1023``.
+        chip ``k mod n_code`` (1023 for L1 C/A).
     thresholds
         The :math:`M` distinct thresholds, ascending (``int64``).
     offsets_chips
@@ -388,7 +420,8 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
         Carrier NCO phase (cycles) at the first sample and its advance per sample
         (IF + Doppler over the sample rate).
     codes
-        ``(n_channels, 1023)`` ±1 ``float32`` codes.
+        ``(n_channels, n_code)`` ±1 ``float32`` codes (``(n, 1023)`` for L1 C/A;
+        `replica_codes` of any BPSK or BOC `SignalSpec`).
     offsets_chips
         Tap offsets (early negative), added to the replica phase.
     backend
