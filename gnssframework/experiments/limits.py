@@ -37,10 +37,14 @@ MEMORY_BUDGET_ENV = "GNSSFRAMEWORK_MEMORY_BUDGET_GIB"
 DEFAULT_MEMORY_BUDGET_GIB = 8.0
 
 
+#: How the error message names a signal's code where its registry name would read oddly.
+_CODE_NAMES = {"gps-l1ca": "C/A"}
+
+
 def _whole_code_periods(signal: SignalSpec):
     period_s = signal.code_period_s
     lo, hi = coherent_time_bounds(signal)
-    what = "C/A" if signal is GPS_L1CA else signal.name
+    what = _CODE_NAMES.get(signal.name, signal.name)
 
     def check(value: float) -> float:
         """Refuse an interval that is not a whole number of the signal's code periods."""

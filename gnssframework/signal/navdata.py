@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 from .. import random_streams as draw
+from ..errors import ConfigError
 from .correlators import Correlators
 from .gps_l1ca import GPS_L1CA
+from .spec import SignalSpec
 
-__all__ = ["random_nav_bits", "bit_at", "wipe_off", "BIT_PERIOD_S"]
+__all__ = ["random_nav_bits", "bit_at", "data_bit_period_s", "wipe_off", "BIT_PERIOD_S"]
 
-#: The data bit period of GPS L1 C/A (the default of `bit_at`), s.
-BIT_PERIOD_S = GPS_L1CA.symbol_period_s
 
 
 def random_nav_bits(n_bits: int, rng: np.random.Generator, batch_shape: tuple[int, ...] = ()) -> np.ndarray:
@@ -20,7 +20,7 @@ def random_nav_bits(n_bits: int, rng: np.random.Generator, batch_shape: tuple[in
 
 
 def bit_at(time_s: np.ndarray, bits: np.ndarray, first_edge_s: float | np.ndarray = 0.0,
-           bit_period_s: float = BIT_PERIOD_S) -> np.ndarray:
+           bit_period_s: float = GPS_L1CA.symbol_period_s) -> np.ndarray:
     """The bit in force at ``time_s``. Bit k spans ``[first_edge + k T_b, first_edge + (k+1) T_b)``
     with ``T_b = bit_period_s`` (1/50 s, L1 C/A's, by default).
 
@@ -33,6 +33,17 @@ def bit_at(time_s: np.ndarray, bits: np.ndarray, first_edge_s: float | np.ndarra
     # One bit stream per batch element: pick each element's own bit.
     k = np.broadcast_to(k, bits.shape[1:])
     return np.take_along_axis(bits, k[None], axis=0)[0]
+
+
+def data_bit_period_s(signal: SignalSpec = GPS_L1CA) -> float:
+    """The data bit (symbol) period of ``signal`` (s; 20 ms for GPS L1 C/A)."""
+    if signal.symbol_period_s is None:
+        raise ConfigError("signal", f"{signal.name} carries no data symbols")
+    return signal.symbol_period_s
+
+
+#: The data bit period of GPS L1 C/A (`data_bit_period_s`), s.
+BIT_PERIOD_S = data_bit_period_s()
 
 
 def wipe_off(correlators: Correlators, bit: np.ndarray) -> Correlators:

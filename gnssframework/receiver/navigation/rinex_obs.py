@@ -28,8 +28,9 @@ from .observables import Observables
 
 __all__ = ["write_rinex_obs", "OBS_TYPES"]
 
-#: Observation types written for GPS L1 C/A, in this order (`SignalSpec.rinex_obs_types`).
-OBS_TYPES = GPS_L1CA.rinex_obs_types
+#: Observation types written for GPS L1 C/A, in this order (another signal's:
+#: `SignalSpec.rinex_obs_types`).
+OBS_TYPES = ("C1C", "L1C", "D1C", "S1C")
 _GPS_EPOCH = datetime(1980, 1, 6)
 
 
