@@ -36,6 +36,8 @@ from .errors import ConfigError, InvalidArgumentError, PluginError
 from .estimation import FilterResult, Gaussian, LinearModel, filter_sequence
 from .plugin import Plugin, PluginParams
 from .signal.correlators import Correlators
+from .signal.gps_l1ca import GPS_L1CA
+from .signal.spec import SignalSpec
 
 __all__ = ["Discriminator", "DiscriminatorParams", "RunContext", "SequentialFilter", "ChannelFilter", "NavFilter",
            "ASSUMPTION_LABELS", "ErrorStateNavFilter", "IntegrationAiding", "BatchPositionFilter"]
@@ -112,6 +114,8 @@ class RunContext:
     initial_state, initial_cov
         A navigation filter's initial estimate ``(..., n)`` and covariance ``(..., n, n)``
         (vector loop: at the middle of the first interval).
+    signal
+        The tracked signal's description (`SignalSpec`); ``None``: GPS L1 C/A (`spec`).
 
     Examples
     --------
@@ -132,6 +136,7 @@ class RunContext:
     satellites: tuple[int, ...] = ()
     initial_state: Optional[np.ndarray] = None
     initial_cov: Optional[np.ndarray] = None
+    signal: Optional[SignalSpec] = None
 
     def __post_init__(self) -> None:
         for name in ("cn0_dbhz", "doppler_hz", "initial_state", "initial_cov"):
@@ -141,6 +146,10 @@ class RunContext:
             if value is not None and not (np.isfinite(value) and value > 0):
                 raise ConfigError(f"run context.{name}", f"must be a finite number > 0, got {value!r}")
         object.__setattr__(self, "satellites", tuple(int(s) for s in self.satellites))
+
+    def spec(self, default: SignalSpec = GPS_L1CA) -> SignalSpec:
+        """The tracked signal: the harness's ``signal``, or ``default`` (GPS L1 C/A) where it set none."""
+        return default if self.signal is None else self.signal
 
     def provided(self) -> tuple[str, ...]:
         """Names of the fields this harness set."""

@@ -17,7 +17,8 @@ from gnssframework.signal.navdata import wipe_off
 from gnssframework.plugin import NestedFieldError, PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.tracking.loop_filters import MAX_BANDWIDTH_TIME, LoopFilter, check_bandwidth_time
-from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ, L1_WAVELENGTH_M
+from gnssframework.signal.gps_l1ca import GPS_L1CA
+from gnssframework.signal.spec import SignalSpec
 from gnssframework.simulation.clock import PRESETS
 
 __all__ = ["ScalarTrackingLoop", "KalmanCarrierLoop", "DiscriminatorChannel", "IqFilter"]
@@ -62,6 +63,13 @@ def _check_bandwidths(loop: ChannelFilter, context: RunContext, fields: tuple[st
         check_bandwidth_time(getattr(loop.params, field), T, f"{who}.{field}")
 
 
+def _signal_of(context: Mapping[str, Any] | RunContext | None, default: SignalSpec = GPS_L1CA) -> SignalSpec:
+    """The tracked signal of a run context (or an assumptions mapping): its ``signal``, or
+    ``default`` (GPS L1 C/A) where it names none."""
+    found = None if context is None else context.get("signal")
+    return default if found is None else found
+
+
 def _carrier_loop_at(loop: ChannelFilter, context: Mapping[str, Any]) -> tuple[ChannelFilter, float] | None:
     """``loop`` at the context's interval T (re-created with its other parameters if its
     own ``coherent_time_s`` differs, as the ``scintillation`` scenario re-creates it), and
@@ -100,16 +108,18 @@ def _phase_thermal_variance(loop: ChannelFilter, context: Mapping[str, Any]) -> 
 
 
 class _CarrierAidedDll:
-    """Carrier-aided DLL: code rate = chip rate (1 + f_carrier / f_L1) + loop correction."""
+    """Carrier-aided DLL: code rate = chip rate (1 + f_carrier / f_L) + loop correction
+    (chip rate and carrier frequency ``f_L`` the tracked signal's)."""
 
-    def __init__(self, p, batch_shape, T: float, spacing_chips: float):
+    def __init__(self, p, batch_shape, T: float, spacing_chips: float, signal: SignalSpec):
         self.disc = p.code_discriminator.create(coherent_time_s=T, early_late_spacing_chips=spacing_chips)
         self.filter = LoopFilter(p.dll_order, p.dll_bandwidth_hz, T)
         self.filter.reset(batch_shape)
+        self.chip_rate_hz, self.carrier_hz = signal.chip_rate_hz, signal.carrier_freq_hz
 
     def __call__(self, corr, carrier_freq_hz):
         err = self.disc(corr)
-        return err, CA_CHIP_RATE_HZ * (1 + carrier_freq_hz / L1_FREQ_HZ) + self.filter(err)
+        return err, self.chip_rate_hz * (1 + carrier_freq_hz / self.carrier_hz) + self.filter(err)
 
 
 class ScalarTrackingLoop(ChannelFilter):
@@ -138,7 +148,7 @@ class ScalarTrackingLoop(ChannelFilter):
         self.freq_disc = p.freq_discriminator.create(coherent_time_s=T)
         self.carrier = LoopFilter(p.pll_order, p.pll_bandwidth_hz, T, p.fll_bandwidth_hz)
         self.carrier.reset(batch_shape, rate0=context.get("doppler_hz", 0.0))
-        self.dll = _CarrierAidedDll(p, batch_shape, T, d)
+        self.dll = _CarrierAidedDll(p, batch_shape, T, d, _signal_of(context))
         self.previous = None
 
     def assumptions(self, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
@@ -163,7 +173,7 @@ class ScalarTrackingLoop(ChannelFilter):
             from gnssframework.receiver.tracking.loop_filters import natural_frequency
 
             T = _carrier_loop_at(self, context)[1]
-            lam = context.get("wavelength_m", L1_WAVELENGTH_M)
+            lam = context.get("wavelength_m", _signal_of(context).wavelength_m)
             q_w = natural_frequency(2, p.pll_bandwidth_hz) ** 4 * T * var
             out["line-of-sight acceleration PSD"] = (float(q_w * (lam / (2 * np.pi)) ** 2), "m²/s³")
         return out
@@ -272,7 +282,7 @@ class KalmanCarrierLoop(ChannelFilter):
         out["phase R"] = (float(p.r * u2), "rad² per interval")
         at = _carrier_loop_at(self, context)
         if at is not None:
-            T, lam = at[1], context.get("wavelength_m", L1_WAVELENGTH_M)
+            T, lam = at[1], context.get("wavelength_m", _signal_of(context).wavelength_m)
             out["line-of-sight acceleration PSD"] = (float(p.q[1] * u2 / T * (lam / (2 * np.pi)) ** 2), "m²/s³")
             if p.states == 3:
                 out["line-of-sight jerk PSD"] = (float(p.q[2] * u2 / T * (lam / (2 * np.pi)) ** 2), "m²/s⁵")
@@ -301,7 +311,7 @@ class KalmanCarrierLoop(ChannelFilter):
         self.freq = np.broadcast_to(2 * np.pi * np.asarray(context.get("doppler_hz", 0.0), float) / self.unit,
                                     batch_shape).copy()
         self.rate = np.zeros(batch_shape)
-        self.dll = _CarrierAidedDll(p, batch_shape, T, d)
+        self.dll = _CarrierAidedDll(p, batch_shape, T, d, _signal_of(context))
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         corr = inputs["correlators"]
@@ -597,7 +607,8 @@ class IqFilter(ChannelFilter):
         R0 = np.zeros((6, 6))
         R0[:3, :3] = R0[3:, 3:] = taps + 1e-6 * np.eye(3)  # E/P/L share noise; a touch of jitter keeps it PD
         # Same f/h as channel_iq/channel_transition, plus compiled twins (one fused kernel per step).
-        self.model = channel_model(T, d, self.process_noise(T), R0)
+        signal = _signal_of(context)
+        self.model = channel_model(T, d, self.process_noise(T, signal), R0, signal=signal)
         self.batch_shape = batch_shape
         self._flat_shape = (int(np.prod(batch_shape, dtype=np.int64)),)
         self.state = None
@@ -624,8 +635,9 @@ class IqFilter(ChannelFilter):
             # The frequency state's random walk (Q[3,3] per interval, clock included) is a white
             # line-of-sight acceleration of PSD Q33 / T * lambda^2 (df = -a / lambda); the
             # frequency-rate state's (Q[4,4]) a white jerk of PSD Q44 / T * lambda^2.
-            Q = self.process_noise(T)
-            lam = L1_WAVELENGTH_M
+            signal = _signal_of(context)
+            Q = self.process_noise(T, signal)
+            lam = signal.wavelength_m
             out["line-of-sight acceleration PSD"] = (float(Q[3, 3] / T * lam**2), "m²/s³")
             out["line-of-sight jerk PSD"] = (float(Q[4, 4] / T * lam**2), "m²/s⁵")
         out["correlator R"] = (f"adaptive ({self.params.adapter.name}, window {self.params.window})"
@@ -635,14 +647,14 @@ class IqFilter(ChannelFilter):
         out["output"] = (f"{p.output} (code from {p.code_discriminator.name})" if code_from_disc else p.output, "")
         return out
 
-    def process_noise(self, coherent_time_s: float) -> np.ndarray:
+    def process_noise(self, coherent_time_s: float, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
         r"""Q per interval: ``diag(q)`` plus, with ``clock`` set, the clock's noise on
         $(\delta\tau, \delta\theta, \delta f)$ from its h-parameters
-        (`ClockModel.tracking_process_noise`)."""
+        (`ClockModel.tracking_process_noise`, at ``signal``'s carrier and chip rate)."""
         Q = np.diag(np.asarray(self.params.q, float))
         if self.params.clock is not None:
-            Q[1:4, 1:4] += PRESETS[self.params.clock].tracking_process_noise(coherent_time_s, L1_FREQ_HZ,
-                                                                            CA_CHIP_RATE_HZ)
+            Q[1:4, 1:4] += PRESETS[self.params.clock].tracking_process_noise(coherent_time_s, signal.carrier_freq_hz,
+                                                                            signal.chip_rate_hz)
         return Q
 
     def _reset_prefilter(self, mean: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -16,7 +16,8 @@ from gnssframework.interfaces import BatchPositionFilter, NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.tracking.vector import predicted_range
-from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M, SPEED_OF_LIGHT_M_S
+from gnssframework.signal.gps_l1ca import GPS_L1CA
+from gnssframework.signal.spec import SPEED_OF_LIGHT_M_S, SignalSpec
 from gnssframework.simulation.clock import PRESETS
 
 __all__ = ["EkfPositionVelocity", "PositionConstantAcceleration", "cv_clock_model", "range_rate_row",
@@ -231,6 +232,12 @@ class EkfPositionVelocity(NavFilter):
         # backend (chosen once per run); the NumPy lines of `_measurements`/`_nco_command`
         # are the reference.
         self._compiled = backend.compiled()
+        self._use_signal(context.spec())
+
+    def _use_signal(self, signal: SignalSpec = GPS_L1CA) -> None:
+        """The chip length and carrier wavelength that turn the channels' chips and Hz into
+        metres (the tracked signal's; GPS L1 C/A's by default)."""
+        self.chip_length_m, self.wavelength_m = signal.chip_length_m, signal.wavelength_m
 
     def transition(self, T: float) -> tuple[np.ndarray, np.ndarray]:
         """F and Q over one interval ``T`` (s): constant velocity (`cv_clock_model`)."""
@@ -270,13 +277,14 @@ class EkfPositionVelocity(NavFilter):
     def _measurements(self, inputs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         """z and R (Zou et al. 2018, eqs. 35-36) from the channel outputs: NumPy reference."""
         p = self.params
-        var_code = np.maximum(inputs["code_error_var_chips2"], p.min_code_var_chips2) * CA_CHIP_LENGTH_M**2
-        var_rate = np.maximum(inputs["freq_error_var_hz2"], p.min_freq_var_hz2) * L1_WAVELENGTH_M**2
+        chip_m, lam = self.chip_length_m, self.wavelength_m
+        var_code = np.maximum(inputs["code_error_var_chips2"], p.min_code_var_chips2) * chip_m**2
+        var_rate = np.maximum(inputs["freq_error_var_hz2"], p.min_freq_var_hz2) * lam**2
         R = np.zeros(var_code.shape[:-1] + (2 * var_code.shape[-1],) * 2)
         idx = np.arange(2 * var_code.shape[-1])
         R[..., idx, idx] = np.concatenate([var_code, var_rate], axis=-1)
-        z = np.concatenate([inputs["replica_range_m"] + CA_CHIP_LENGTH_M * inputs["code_error_chips"],
-                            inputs["replica_rate_m_s"] - L1_WAVELENGTH_M * inputs["freq_error_hz"]], axis=-1)
+        z = np.concatenate([inputs["replica_range_m"] + chip_m * inputs["code_error_chips"],
+                            inputs["replica_rate_m_s"] - lam * inputs["freq_error_hz"]], axis=-1)
         return z, R
 
     def _nco_command(self, x: np.ndarray, sat_pos: np.ndarray, sat_vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -294,7 +302,7 @@ class EkfPositionVelocity(NavFilter):
             z, R = pv_measurements(
                 inputs["replica_range_m"], code, inputs["code_error_var_chips2"], inputs["replica_rate_m_s"],
                 inputs["freq_error_hz"], inputs["freq_error_var_hz2"], p.min_code_var_chips2, p.min_freq_var_hz2,
-                CA_CHIP_LENGTH_M, L1_WAVELENGTH_M)
+                self.chip_length_m, self.wavelength_m)
         else:
             z, R = self._measurements(inputs)
         model = self._model(inputs["sat_pos_m"], inputs["sat_vel_m_s"], R)
