@@ -48,7 +48,8 @@ from ...interfaces import NavFilter, RunContext
 from ...navigation.ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
 from ...navigation.lnav import IonoUtc
 from ...navigation.pvt import chi2_ppf, dop, klobuchar_delay_s, troposphere_delay_m
-from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M, SPEED_OF_LIGHT_M_S
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SPEED_OF_LIGHT_M_S
 from .fixes import PositionTable, full_week
 from .fixes import _ephemeris_for as ephemeris_for, _stack as stack_records
 from .observables import Observables
@@ -124,7 +125,8 @@ def _rotate_z(v: np.ndarray, theta_rad: np.ndarray) -> np.ndarray:
 def corrected_measurements(pseudorange_m: np.ndarray, transmit_s: np.ndarray, doppler_hz: np.ndarray,
                            ephemeris: Ephemerides, receiver_ecef_m: np.ndarray, *, iono: IonoUtc | None = None,
                            troposphere: bool = False, sigma_m: float = 5.0, sigma_rate_m_s: float = 0.5,
-                           elevation_mask_deg: float = 5.0) -> tuple[EpochMeasurements, np.ndarray]:
+                           elevation_mask_deg: float = 5.0,
+                           wavelength_m: float = GPS_L1CA.wavelength_m) -> tuple[EpochMeasurements, np.ndarray]:
     """Correct one epoch's measurements at the receiver position ``receiver_ecef_m`` (see the
     module text).
 
@@ -138,6 +140,8 @@ def corrected_measurements(pseudorange_m: np.ndarray, transmit_s: np.ndarray, do
         ``(3,)`` where the light time, elevations and delays are evaluated.
     sigma_m, sigma_rate_m_s
         Zenith standard deviations of the pseudorange and the range rate.
+    wavelength_m
+        Carrier wavelength of the Dopplers (the signal's; L1's by default).
 
     Returns
     -------
@@ -164,19 +168,21 @@ def corrected_measurements(pseudorange_m: np.ndarray, transmit_s: np.ndarray, do
     inv_sin2 = 1.0 / np.sin(np.radians(np.maximum(el, 1.0))) ** 2
     meas = EpochMeasurements(sat_pos[keep], sat_vel[keep],
                              (pr + SPEED_OF_LIGHT_M_S * state.clock_l1_s - delay)[keep],
-                             (-L1_WAVELENGTH_M * d + SPEED_OF_LIGHT_M_S * state.clock_drift_s_s)[keep],
+                             (-wavelength_m * d + SPEED_OF_LIGHT_M_S * state.clock_drift_s_s)[keep],
                              (sigma_m**2 * inv_sin2)[keep], (sigma_rate_m_s**2 * inv_sin2)[keep])
     return meas, keep
 
 
-def _inputs(m: EpochMeasurements) -> dict[str, np.ndarray]:
-    """The nav filter's step inputs for one run: channel outputs ``(1, S)``, satellites ``(S, 3)``."""
+def _inputs(m: EpochMeasurements, chip_length_m: float = GPS_L1CA.chip_length_m,
+            wavelength_m: float = GPS_L1CA.wavelength_m) -> dict[str, np.ndarray]:
+    """The nav filter's step inputs for one run: channel outputs ``(1, S)``, satellites ``(S, 3)``
+    (variances in chips and Hz of the signal whose chip length and wavelength the filter uses)."""
     zero = np.zeros((1, m.range_m.size))
     return {names.SAT_POS_M: m.sat_pos_m, names.SAT_VEL_M_S: m.sat_vel_m_s, names.NEXT_SAT_POS_M: m.sat_pos_m,
             names.NEXT_SAT_VEL_M_S: m.sat_vel_m_s, names.REPLICA_RANGE_M: m.range_m[None],
             names.REPLICA_RATE_M_S: m.rate_m_s[None], names.CODE_ERROR_CHIPS: zero,
-            names.CODE_ERROR_VAR_CHIPS2: m.range_var_m2[None] / CA_CHIP_LENGTH_M**2, names.FREQ_ERROR_HZ: zero,
-            names.FREQ_ERROR_VAR_HZ2: m.rate_var_m2_s2[None] / L1_WAVELENGTH_M**2}
+            names.CODE_ERROR_VAR_CHIPS2: m.range_var_m2[None] / chip_length_m**2, names.FREQ_ERROR_HZ: zero,
+            names.FREQ_ERROR_VAR_HZ2: m.rate_var_m2_s2[None] / wavelength_m**2}
 
 
 def start_nav_filter(nav: NavFilter, interval_s: float, initial_state: np.ndarray, initial_cov: np.ndarray) -> None:

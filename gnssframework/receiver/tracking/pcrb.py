@@ -77,7 +77,8 @@ from ... import backend
 from ...errors import ConfigError
 from ...estimation.compiled import loop as compiled_loop
 from ...navigation.geometry import line_of_sight
-from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from ...signal.correlator_model import amplitude_from_cn0, tap_noise_cov
 
 __all__ = ["pcrb_linear", "correlator_fisher", "vector_tracking_pcrb", "PCRB_MEASUREMENTS"]
@@ -138,12 +139,21 @@ def pcrb_linear(F: np.ndarray, Q: np.ndarray, sqrt_info: Callable[[int], np.ndar
     return out
 
 
-def correlator_fisher(cn0_dbhz: float, coherent_time_s: float, early_late_spacing_chips: float = 1.0) -> np.ndarray:
+def correlator_fisher(cn0_dbhz: float, coherent_time_s: float, early_late_spacing_chips: float = 1.0,
+                      signal: SignalSpec = GPS_L1CA) -> np.ndarray:
     """Fisher information of one interval's early, prompt and late correlators.
 
     Returns ``2x2`` over (code delay in chips, mid-interval carrier phase in rad) at zero
-    tracking error (module docstring).
+    tracking error (module docstring), for a BPSK signal (the triangle's slopes).
+
+    Raises
+    ------
+    ConfigError
+        For a signal with a sub-carrier (its correlation's slopes differ).
     """
+    if not signal.is_bpsk:
+        raise ConfigError("signal", f"the correlator Fisher information assumes BPSK's triangle; {signal.name} has "
+                                    f"a {signal.subcarrier.kind} sub-carrier")
     d = early_late_spacing_chips / 2
     if not 0 < d < 1:
         raise ConfigError("early_late_spacing_chips", f"must be in (0, 2), got {early_late_spacing_chips}")
@@ -160,7 +170,7 @@ def correlator_fisher(cn0_dbhz: float, coherent_time_s: float, early_late_spacin
 def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_pos: np.ndarray,
                          receiver_vel: np.ndarray, clock_q_m: np.ndarray, P0: np.ndarray, cn0_dbhz: np.ndarray,
                          coherent_time_s: float, epochs: int, early_late_spacing_chips: float = 1.0,
-                         measurements: PcrbMeasurements = "code-and-carrier"
+                         measurements: PcrbMeasurements = "code-and-carrier", signal: SignalSpec = GPS_L1CA
                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """PCRB of a vector-tracking run with a constant-velocity receiver (module docstring).
 
@@ -185,6 +195,9 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
         ``"code-and-carrier"``: the correlators' code delay and carrier phase;
         ``"code"``: the code delay only (the carrier phase's information dropped, and
         with it the per-channel phase offsets; module docstring).
+    signal
+        The tracked signal (BPSK): its chip length and wavelength turn chips and radians
+        into metres (GPS L1 C/A by default).
 
     Returns
     -------
@@ -199,7 +212,7 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
     s0 = np.asarray(sat_pos(np.asarray(T / 2)))
     n_ch = s0.shape[0]
     cn0 = np.broadcast_to(np.asarray(cn0_dbhz, float), (n_ch,))
-    sq = np.array([np.sqrt(np.diag(correlator_fisher(c, T, early_late_spacing_chips))) for c in cn0])  # (ch, 2)
+    sq = np.array([np.sqrt(np.diag(correlator_fisher(c, T, early_late_spacing_chips, signal))) for c in cn0])  # (ch, 2)
     n = 8 + (n_ch if carrier else 0)
     F = np.eye(n)
     F[0:3, 3:6] = T * np.eye(3)
@@ -220,9 +233,9 @@ def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_p
     drho = np.zeros((epochs, n_ch, n))
     drho[..., 0:3] = -e
     drho[..., 6] = 1.0
-    roots = sq[:, :1] * (drho / CA_CHIP_LENGTH_M)  # the code rows (K, ch, n)
+    roots = sq[:, :1] * (drho / signal.chip_length_m)  # the code rows (K, ch, n)
     if carrier:
-        phase = -2 * np.pi * drho / L1_WAVELENGTH_M
+        phase = -2 * np.pi * drho / signal.wavelength_m
         phase[..., 8:] = np.eye(n_ch)
         roots = np.concatenate([roots, sq[:, 1:] * phase], axis=1)  # (K, 2 ch, n)
 
