@@ -73,3 +73,22 @@ def test_a_prn_outside_the_signal_is_refused_by_the_acquisition():
     acq = registry.create("acquisition", "pcps")
     with pytest.raises(ConfigError, match="qzss-l1ca PRN must be an integer 193-202"):
         acq.acquire(np.zeros(acq.samples_needed(4e6), complex), 4e6, 0.0, (1,), signal=QZSS_L1CA)
+
+
+def test_a_written_qzss_recording_is_acquired_through_the_recording_path(tmp_path):
+    """The same, through a file: cf32 samples read back by open_recording, searched by
+    acquire_recording for the QZSS signal."""
+    from gnssframework.receiver.acquisition.report import acquire_recording
+    from gnssframework.receiver.frontend import open_recording
+
+    fs = 4e6
+    sat = SatelliteSignal(201, 46.0, -930.0, 777.7, signal=QZSS_L1CA)
+    acq = registry.create("acquisition", "pcps")
+    x = synthesize_samples([sat], acq.samples_needed(fs, QZSS_L1CA) / fs, fs, 0.0, np.random.default_rng(9))
+    path = tmp_path / "qzss.cf32"
+    path.write_bytes(registry.create("sample_source", "cf32_le").encode(x))
+    rec = open_recording(path, format="cf32_le", sample_rate_hz=fs, if_hz=0.0)
+    found = [r for r in acquire_recording(rec, acq, signal=QZSS_L1CA) if r.detected]
+    assert [r.prn for r in found] == [201]
+    d = (found[0].code_phase_chips - sat.code_phase_chips) % 1023
+    assert min(d, 1023 - d) <= QZSS_L1CA.chip_rate_hz / fs and abs(found[0].doppler_hz - sat.doppler_hz) <= 250

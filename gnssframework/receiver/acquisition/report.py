@@ -6,6 +6,8 @@ import csv
 from pathlib import Path
 
 from ...io.files import atomic_open
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from ..frontend.recording import Recording
 from .search import Acquisition, AcquisitionResult
 
@@ -14,12 +16,13 @@ __all__ = ["acquire_recording", "write_acquisition_csv", "search_summary", "CSV_
 CSV_COLUMNS = ("prn", "doppler_hz", "code_phase_chips", "code_phase_samples", "cn0_dbhz", "test_statistic")
 
 
-def acquire_recording(recording: Recording, acquisition: Acquisition, prns: tuple[int, ...] = tuple(range(1, 33)),
-                      start_sample: int = 0) -> list[AcquisitionResult]:
-    """Run ``acquisition`` on the samples it needs from ``start_sample`` of ``recording``."""
+def acquire_recording(recording: Recording, acquisition: Acquisition, prns: tuple[int, ...] | None = None,
+                      start_sample: int = 0, signal: SignalSpec = GPS_L1CA) -> list[AcquisitionResult]:
+    """Run ``acquisition`` for ``signal`` (GPS L1 C/A by default; ``prns`` None: all of its
+    PRNs) on the samples it needs from ``start_sample`` of ``recording``."""
     fs = recording.info.sample_rate_hz
-    samples = recording.read(start_sample, acquisition.samples_needed(fs))
-    return acquisition.acquire(samples, fs, recording.info.if_hz, prns)
+    samples = recording.read(start_sample, acquisition.samples_needed(fs, signal))
+    return acquisition.acquire(samples, fs, recording.info.if_hz, prns, signal)
 
 
 def search_summary(recording: Recording, acquisition: Acquisition, prns: tuple[int, ...]) -> str:
