@@ -156,3 +156,20 @@ def test_the_compiled_correlator_runs_a_boc_signal_from_its_sub_chip_table():
                       Subcarrier("cboc", 1.0, 1.0, 6.0, (np.sqrt(10 / 11), np.sqrt(1 / 11))))
     with pytest.raises(ConfigError, match="not ±1"):
         replica_codes(cboc, [1])
+
+
+def test_the_if_generator_applies_a_pilots_overlay_code_period_by_period():
+    """A pilot with a 5-chip overlay: the prompt of code period k carries overlay chip k mod 5."""
+    overlay = (1, -1, -1, 1, -1)
+    pilot = SignalSpec("test-overlay", "X", "1X", 1575.42e6, 1.023e6, 1023, (1,),
+                       (Component("pilot", _code, secondary_code=overlay),))
+    fs, cn0 = 4.092e6, 50.0
+    # 4 samples a chip, a quarter chip in: no sample sits on a chip edge (no rounding of the floor).
+    sig = generate_if_samples(1, 0.012, fs, 0.0, cn0, np.random.default_rng(0), code_phase_chips=0.125,
+                              complex_samples=True, noise=False, signal=pilot)
+    n = int(round(pilot.code_period_s * fs))
+    prompts = [complex(correlate_if(sig, 1, np.array(0.125), np.array(pilot.chip_rate_hz), np.array(0.0),
+                                    np.array(0.0), pilot.code_period_s, start_sample=k * n).prompt)
+               for k in range(12)]
+    A = amplitude_from_cn0(cn0, pilot.code_period_s)
+    np.testing.assert_allclose(np.real(prompts), A * np.array([overlay[k % 5] for k in range(12)]), atol=1e-6 * A)
