@@ -124,3 +124,25 @@ def test_a_qzss_file_names_its_system_and_satellites_as_rinex_does(tmp_path):
     assert list(data.sv.values) == ["J01", "J03", "J07"]
     got = data["C1C"].values
     assert np.nanmax(np.abs(got - obs.pseudorange_m)) <= 0.0005 + 1e-9
+
+
+def test_the_nmea_talker_follows_the_signals_systems(tmp_path):
+    """NMEA 0183 4.11 talkers: GP alone for GPS, GQ for QZSS, GN for a fix from both; a GN file
+    reads back through the project's reader (any talker)."""
+    from gnssframework.io.nmea import read_nmea
+    from gnssframework.receiver.navigation.fixes import PositionTable
+    from gnssframework.receiver.navigation.nmea_out import nmea_talker, write_nmea
+    from gnssframework.signal.gps_l1ca import GPS_L1CA
+    from gnssframework.signal.qzss_l1ca import QZSS_L1CA
+
+    assert nmea_talker() == nmea_talker(GPS_L1CA) == "GP"
+    assert nmea_talker(QZSS_L1CA) == "GQ" and nmea_talker(GPS_L1CA, QZSS_L1CA) == "GN"
+    cols = {"gps_week": np.full(1, 2190), "tow_s": np.array([518_418.0]), "lat_deg": np.array([35.681298]),
+            "lon_deg": np.array([139.766247]), "height_m": np.array([10.0]), "vel_e_mps": np.zeros(1),
+            "vel_n_mps": np.zeros(1), "vel_u_mps": np.zeros(1), "clock_bias_m": np.zeros(1), "n_sats": np.array([9]),
+            "hdop": np.array([0.9]), "vdop": np.ones(1)}
+    table = PositionTable(cols, np.zeros((1, 3)), np.zeros(1), [(1,)], np.zeros(1, int))
+    path = write_nmea(tmp_path / "nmea.txt", table, talker=nmea_talker(GPS_L1CA, QZSS_L1CA))
+    assert path.read_text().startswith("$GNGGA,000000.00,")
+    fixes = read_nmea(path)
+    assert len(fixes.time_s) == 1 and np.allclose(fixes.lat_deg, cols["lat_deg"], atol=1e-5 / 60 / 2)

@@ -4,6 +4,10 @@ Times are UTC: GPS time minus the leap seconds (the decoded page 18's ΔtLS, IS-
 20.3.3.5.2.4). GGA's altitude field holds the WGS 84 ellipsoidal height with a geoid
 separation of 0 (no geoid model is applied), so height = altitude + separation as NMEA
 defines it. RMC's speed (knots) and course come from the fix's velocity.
+
+The talker is the fix's constellation (NMEA 0183 4.11: ``GP`` GPS, ``GA`` Galileo, ``GB``
+BeiDou, ``GL`` GLONASS, ``GQ`` QZSS; ``GN`` for a fix from several), from the signals'
+RINEX system letters (`nmea_talker`).
 """
 
 from __future__ import annotations
@@ -14,9 +18,32 @@ from pathlib import Path
 import numpy as np
 import pynmea2
 
+from ...errors import ConfigError
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from .fixes import PositionTable
 
-__all__ = ["nmea_sentences", "write_nmea"]
+__all__ = ["nmea_sentences", "write_nmea", "nmea_talker"]
+
+#: NMEA talker of a RINEX system letter (NMEA 0183 4.11; SBAS fixes count as GPS).
+_TALKERS = {"G": "GP", "S": "GP", "E": "GA", "C": "GB", "R": "GL", "J": "GQ", "I": "GI"}
+
+
+def nmea_talker(*signals: SignalSpec) -> str:
+    """The talker of a fix from ``signals`` (``"GP"`` for GPS L1 C/A alone; ``"GN"`` for
+    several systems).
+
+    Raises
+    ------
+    ConfigError
+        For a system NMEA has no talker for.
+    """
+    talkers = set()
+    for signal in signals or (GPS_L1CA,):
+        if signal.system not in _TALKERS:
+            raise ConfigError("signal", f"no NMEA talker for RINEX system {signal.system!r} ({signal.name})")
+        talkers.add(_TALKERS[signal.system])
+    return talkers.pop() if len(talkers) == 1 else "GN"
 
 _GPS_EPOCH = datetime(1980, 1, 6)
 _KNOT_MPS = 1852.0 / 3600.0
@@ -32,8 +59,8 @@ def _angle(value_deg: float, width: int, hemispheres: str) -> tuple[str, str]:
     return f"{degrees:0{width}d}{minutes:08.5f}", hemispheres[0] if value_deg >= 0 else hemispheres[1]
 
 
-def nmea_sentences(table: PositionTable, leap_seconds: int = 18) -> list[str]:
-    """A GGA and an RMC sentence per fix of ``table``."""
+def nmea_sentences(table: PositionTable, leap_seconds: int = 18, talker: str = "GP") -> list[str]:
+    """A GGA and an RMC sentence per fix of ``table``, from ``talker`` (`nmea_talker`)."""
     out = []
     c = table.columns
     for k in range(len(table)):
@@ -41,21 +68,21 @@ def nmea_sentences(table: PositionTable, leap_seconds: int = 18) -> list[str]:
         clock = utc.strftime("%H%M%S.") + f"{utc.microsecond // 10_000:02d}"
         lat, ns = _angle(float(c["lat_deg"][k]), 2, "NS")
         lon, ew = _angle(float(c["lon_deg"][k]), 3, "EW")
-        out.append(str(pynmea2.GGA("GP", "GGA", (clock, lat, ns, lon, ew, "1", f"{int(c['n_sats'][k]):02d}",
+        out.append(str(pynmea2.GGA(talker, "GGA", (clock, lat, ns, lon, ew, "1", f"{int(c['n_sats'][k]):02d}",
                                                  f"{c['hdop'][k]:.2f}", f"{c['height_m'][k]:.3f}", "M", "0.0", "M",
                                                  "", ""))))
         ve, vn = float(c["vel_e_mps"][k]), float(c["vel_n_mps"][k])
         speed = np.hypot(ve, vn) / _KNOT_MPS if np.isfinite(ve) and np.isfinite(vn) else np.nan
         course = np.degrees(np.arctan2(ve, vn)) % 360.0 if np.isfinite(speed) else np.nan
-        out.append(str(pynmea2.RMC("GP", "RMC", (clock, "A", lat, ns, lon, ew,
+        out.append(str(pynmea2.RMC(talker, "RMC", (clock, "A", lat, ns, lon, ew,
                                                  "" if np.isnan(speed) else f"{speed:.3f}",
                                                  "" if np.isnan(course) else f"{course:.2f}",
                                                  utc.strftime("%d%m%y"), "", "", "A"))))
     return out
 
 
-def write_nmea(path: str | Path, table: PositionTable, leap_seconds: int = 18) -> Path:
+def write_nmea(path: str | Path, table: PositionTable, leap_seconds: int = 18, talker: str = "GP") -> Path:
     """``nmea.txt``: the GGA and RMC sentences of every fix, one per line."""
     path = Path(path)
-    path.write_text("".join(s + "\r\n" for s in nmea_sentences(table, leap_seconds)))
+    path.write_text("".join(s + "\r\n" for s in nmea_sentences(table, leap_seconds, talker)))
     return path
