@@ -107,3 +107,15 @@ def test_a_subcarrier_that_does_not_divide_a_chip_is_refused():
     with pytest.raises(ConfigError, match="subcarrier"):
         _ = Subcarrier("boc", 0.75, 1.0).subchips_per_chip
     assert BPSK.subchips_per_chip == 1
+
+
+def test_a_description_that_contradicts_itself_is_refused_naming_the_field():
+    code = _random_code(3, 1023)
+    with pytest.raises(ConfigError, match="symbol_period_s.*whole number of code periods"):
+        SignalSpec("bad", "X", "1X", 1575.42e6, 1.023e6, 1023, (1,),
+                   (Component("data", lambda prn: code, symbol_period_s=0.0105),))
+    short = SignalSpec("short", "X", "1X", 1575.42e6, 1.023e6, 2046, (1,), (Component("data", lambda prn: code),))
+    with pytest.raises(ConfigError, match="gave \\(1023,\\) chips for PRN 1, the description says 2046"):
+        short.code(1)
+    with pytest.raises(ConfigError, match="chip_rate_hz"):
+        SignalSpec("bad", "X", "1X", 1575.42e6, -1.0, 1023, (1,), (Component("data", lambda prn: code),))

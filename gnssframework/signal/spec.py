@@ -218,6 +218,14 @@ class SignalSpec:
             raise ConfigError(f"signal {self.name!r} components", "a signal needs at least one component")
         if not self.prns:
             raise ConfigError(f"signal {self.name!r} prns", "a signal needs at least one PRN")
+        for comp in self.components:
+            sym = comp.symbol_period_s
+            if sym is None:
+                continue
+            periods = sym / self.code_period_s
+            if not (math.isfinite(periods) and periods >= 1 - 1e-9 and abs(periods - round(periods)) < 1e-6):
+                raise ConfigError(f"signal {self.name!r} component {comp.name!r} symbol_period_s",
+                                  f"must be a whole number of code periods ({self.code_period_s:g} s), got {sym!r}")
 
     # --- derived quantities -------------------------------------------------------------
 
@@ -281,7 +289,11 @@ class SignalSpec:
             For a PRN the signal does not define.
         """
         self.check_prn(prn)
-        return self.components[component].code(int(prn))
+        code = np.asarray(self.components[component].code(int(prn)))
+        if code.shape != (self.code_length_chips,):
+            raise ConfigError(f"signal {self.name!r} code", f"the generator gave {code.shape} chips for PRN {prn}, "
+                                                          f"the description says {self.code_length_chips}")
+        return code
 
     def check_prn(self, prn: int) -> int:
         """``prn`` as an ``int``, or a `ConfigError` naming the signal and its PRN range."""
