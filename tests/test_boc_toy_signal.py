@@ -69,3 +69,19 @@ def test_a_toy_boc_satellite_is_acquired_at_its_doppler_and_code_phase(toy_regis
 def test_too_slow_a_sample_rate_for_the_sub_chips_is_refused():
     with pytest.raises(ConfigError, match="sub-chip rate"):
         synthesize_samples([SatelliteSignal(2, 45.0, signal=TOY_BOC)], 1e-3, 1.5e6, 0.0, np.random.default_rng(1))
+
+
+def test_a_pilot_satellite_with_data_bits_is_refused_naming_the_field():
+    with pytest.raises(ConfigError, match="first_bit_code_period.*no data symbols"):
+        SatelliteSignal(2, 45.0, first_bit_code_period=0, signal=TOY_BOC)
+
+
+def test_the_search_summary_names_the_signals_prns_when_none_are_given(tmp_path):
+    from gnssframework.receiver.acquisition.report import search_summary
+    from gnssframework.receiver.frontend import open_recording
+
+    path = tmp_path / "x.cf32"
+    path.write_bytes(np.zeros(16, np.complex64).tobytes())
+    rec = open_recording(path, format="cf32_le", sample_rate_hz=4e6, if_hz=0.0)
+    assert "searched PRN 1-8 (8 PRNs) with pcps" in search_summary(rec, registry.create("acquisition", "pcps"), None,
+                                                                   TOY_BOC)

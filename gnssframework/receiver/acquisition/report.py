@@ -25,8 +25,10 @@ def acquire_recording(recording: Recording, acquisition: Acquisition, prns: tupl
     return acquisition.acquire(samples, fs, recording.info.if_hz, prns, signal)
 
 
-def search_summary(recording: Recording, acquisition: Acquisition, prns: tuple[int, ...]) -> str:
-    """What was searched, for the "nothing found" message."""
+def search_summary(recording: Recording, acquisition: Acquisition, prns: tuple[int, ...] | None,
+                   signal: SignalSpec = GPS_L1CA) -> str:
+    """What was searched, for the "nothing found" message (``prns`` None: all of ``signal``'s)."""
+    prns = signal.prns if prns is None else prns
     p = acquisition.params
     what = ", ".join(f"{k} {v}" for k, v in p.model_dump().items() if v is not None)
     contiguous = list(prns) == list(range(min(prns), max(prns) + 1))

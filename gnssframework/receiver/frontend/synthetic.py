@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...errors import ConfigError
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.if_samples import generate_if_samples
 from ...signal.navdata import random_nav_bits
@@ -35,6 +36,11 @@ class SatelliteSignal:
     first_bit_code_period: int | None = None
     #: The signal the satellite sends.
     signal: SignalSpec = GPS_L1CA
+
+    def __post_init__(self) -> None:
+        if self.first_bit_code_period is not None and self.signal.symbol_period_s is None:
+            raise ConfigError("first_bit_code_period", f"{self.signal.name} carries no data symbols (a pilot): "
+                                                       "leave it None")
 
     def first_bit_edge_s(self) -> float:
         """Time of the first bit edge: a code epoch (chip 0) after t = 0."""
