@@ -4,7 +4,10 @@ QZSS L1 C/A uses the Gold-code generator of GPS C/A (IS-GPS-200, sec. 3.3.2.3: G
 1 + x^3 + x^10, G2 = 1 + x^2 + x^3 + x^6 + x^8 + x^9 + x^10, both registers starting all
 ones) with the satellite's code selected by a *G2 delay* instead of two phase-selector
 taps: chip :math:`k` is :math:`G1(k) \\oplus G2(k - d)` with :math:`d` the delay in chips
-(IS-QZSS-PNT, "L1C/A code" PRN assignment table: PRN 193-202). The same rule with the
+(IS-QZSS-PNT, "L1C/A code" PRN assignment table: PRN 193-202; the same delays are listed
+for PRN 193-202 in the GPS Directorate's "L1 C/A PRN code assignments", October 2019,
+https://www.gps.gov/technical/prn-codes/L1-CA-PRN-code-assignments-2019-Oct.pdf, which
+extends IS-GPS-200's table to PRN 210). The same rule with the
 delays of IS-GPS-200 Table 3-Ia (5, 6, 7, ... for PRN 1, 2, 3, ...) gives GPS C/A, which
 is how the tests check the delay convention.
 """
