@@ -29,9 +29,9 @@ __all__ = ["nmea_sentences", "write_nmea", "nmea_talker"]
 _TALKERS = {"G": "GP", "S": "GP", "E": "GA", "C": "GB", "R": "GL", "J": "GQ", "I": "GI"}
 
 
-def nmea_talker(*signals: SignalSpec) -> str:
+def nmea_talker(*signals: SignalSpec, default: SignalSpec = GPS_L1CA) -> str:
     """The talker of a fix from ``signals`` (``"GP"`` for GPS L1 C/A alone; ``"GN"`` for
-    several systems).
+    several systems; ``default``'s, GPS's, for none).
 
     Raises
     ------
@@ -39,7 +39,7 @@ def nmea_talker(*signals: SignalSpec) -> str:
         For a system NMEA has no talker for.
     """
     talkers = set()
-    for signal in signals or (GPS_L1CA,):
+    for signal in signals or (default,):
         if signal.system not in _TALKERS:
             raise ConfigError("signal", f"no NMEA talker for RINEX system {signal.system!r} ({signal.name})")
         talkers.add(_TALKERS[signal.system])
