@@ -92,3 +92,18 @@ def test_a_written_qzss_recording_is_acquired_through_the_recording_path(tmp_pat
     assert [r.prn for r in found] == [201]
     d = (found[0].code_phase_chips - sat.code_phase_chips) % 1023
     assert min(d, 1023 - d) <= QZSS_L1CA.chip_rate_hz / fs and abs(found[0].doppler_hz - sat.doppler_hz) <= 250
+
+
+def test_the_assisted_window_search_finds_a_qzss_satellite_in_its_window():
+    from gnssframework.receiver.acquisition.assisted import SearchWindow, window_search
+
+    fs = 4e6
+    sat = SatelliteSignal(196, 40.0, 1210.0, 300.0, signal=QZSS_L1CA)
+    x = synthesize_samples([sat], 0.08, fs, 0.0, np.random.default_rng(12))
+    start = (-sat.code_phase_chips % 1023) / QZSS_L1CA.chip_rate_hz * fs  # first code epoch, samples
+    r = window_search(x, fs, 0.0, 196, SearchWindow(start + 3.0, 1150.0, 10.0, 150.0), signal=QZSS_L1CA)
+    per_code = QZSS_L1CA.samples_per_code(fs)  # the lag is a code epoch in the 10 ms block: modulo one period
+    d = (r.code_phase_samples - start) % per_code
+    assert r.detected and min(d, per_code - d) <= 1.0 and abs(r.doppler_hz - sat.doppler_hz) <= 25.0
+    with pytest.raises(ConfigError, match="193-202"):
+        window_search(x, fs, 0.0, 5, SearchWindow(start, 1150.0, 10.0, 150.0), signal=QZSS_L1CA)
