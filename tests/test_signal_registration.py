@@ -10,7 +10,7 @@ import pytest
 
 import gnssframework as gf
 from gnssframework import registry
-from gnssframework.errors import ConfigError
+from gnssframework.errors import ConfigError, PluginError
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.registered import Signal
 
@@ -42,7 +42,7 @@ def test_a_third_party_signal_registers_through_the_hook(scratch_registry):
 
 
 def test_a_signal_class_whose_name_differs_from_its_spec_is_refused():
-    with pytest.raises(TypeError, match="differs from its spec's name 'gps-l1ca'"):
+    with pytest.raises(PluginError, match="differs from its spec's name 'gps-l1ca'"):
         class Wrong(Signal):  # noqa: F841
             name = "not-gps"
             spec = GPS_L1CA

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from typing import ClassVar
 
+from ..errors import PluginError
 from ..plugin import Plugin, PluginParams
 from .spec import SignalSpec
 
@@ -47,4 +48,4 @@ class Signal(Plugin):
         spec = cls.__dict__.get("spec")
         name = cls.__dict__.get("name")
         if spec is not None and name is not None and spec.name != name:
-            raise TypeError(f"{cls.__name__}: name {name!r} differs from its spec's name {spec.name!r}")
+            raise PluginError(f"{cls.__name__}: name {name!r} differs from its spec's name {spec.name!r}")
