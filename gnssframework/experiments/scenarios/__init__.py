@@ -180,6 +180,9 @@ class Scenario(abc.ABC):
         """Simulate ``runs`` Monte Carlo runs as one array program."""
 
 
+registry.register_kind("scenario", Scenario)  # this layer owns the kind's base
+
+
 def _config_path(exc: ConfigError, cls: type, where: str) -> ConfigError:
     """A plugin's error re-addressed to the config: the plugin names its field from its own
     root (``channel_filter 'iq-filter'.estimator...``); continue the config's path ``where``

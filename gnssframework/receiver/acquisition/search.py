@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ... import registry
 from ...plugin import Plugin
 
 __all__ = ["Acquisition", "AcquisitionResult"]
@@ -62,3 +63,6 @@ class Acquisition(Plugin, abc.ABC):
     def acquire(self, samples: np.ndarray, sample_rate_hz: float, if_hz: float,
                 prns: tuple[int, ...] = tuple(range(1, 33))) -> list[AcquisitionResult]:
         """Search ``prns`` in ``samples`` (complex, or real at ``if_hz``); one result per PRN."""
+
+
+registry.register_kind("acquisition", Acquisition)  # this layer owns the kind's base
