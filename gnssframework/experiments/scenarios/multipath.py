@@ -160,9 +160,10 @@ class MultipathScenario(Scenario):
                               "and an estimator (a candidate with no plugins reports the raw measurement)")
         return plugins
 
-    def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None) -> dict[str, Any]:
+    def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None,
+              case: dict[str, Any] | None = None) -> dict[str, Any]:
         """The candidate's plugins, and its oracle grid under ``"oracle"`` if it has one."""
-        plugins = super().build(candidate)
+        plugins = super().build(candidate, case=case)
         oracle = self.candidate_options(options).oracle
         return plugins if oracle is None else {**plugins, "oracle": oracle}
 
