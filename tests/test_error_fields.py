@@ -39,8 +39,8 @@ def test_the_library_names_no_error_after_a_command_line_flag():
         if path.name == "cli.py":
             continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if (isinstance(node, ast.Call) and getattr(node.func, "id", getattr(node.func, "attr", None)) == "ConfigError"
-                    and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)
+            called = getattr(node.func, "id", getattr(node.func, "attr", None)) if isinstance(node, ast.Call) else None
+            if (called == "ConfigError" and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)
                     and "--" in node.args[0].value):
                 flagged.append(f"{path.relative_to(ROOT)}:{node.lineno}: {node.args[0].value!r}")
             if (isinstance(node, ast.FunctionDef) and any(isinstance(d, ast.Constant) and isinstance(d.value, str)

@@ -243,7 +243,8 @@ def test_a_fresh_process_finds_the_bases_the_upper_layers_declare():
     code = ("import json, importlib\nfrom gnssframework import registry\n"
             "names = {k: registry.names(k) for k in ('scenario', 'sample_source', 'acquisition', 'metric')}\n"
             f"owned = {OWNED_BASES!r}\n"
-            "same = {k: registry.base_class(k) is getattr(importlib.import_module(m), c) for k, (m, c) in owned.items()}\n"
+            "same = {k: registry.base_class(k) is getattr(importlib.import_module(m), c)\n"
+            "        for k, (m, c) in owned.items()}\n"
             "print(json.dumps([names, same, [str(f) for f in registry.failures()]]))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     import json
