@@ -93,3 +93,58 @@ def test_a_case_at_the_candidates_own_interval_sets_nothing():
     assert resolved.scenario.case_parameters("channel_filter", spec, resolved.cases[0].as_case()) == {}
     assert resolved.scenario.case_parameters("channel_filter", spec, resolved.cases[1].as_case()) == {
         "coherent_time_s": 0.001}
+
+
+# -- the same for an augmentation whose psi is the case's (multipath) --------------------------
+
+@pytest.fixture()
+def counting_ar1(scratch_registry):
+    """``counting-ar1``: the built-in colored-ar1 augmentation, counting its constructions."""
+    base = registry.get("augmentation", "colored-ar1")
+
+    class CountingAr1(base):
+        name = "counting-ar1"
+
+        def __init__(self, **params):
+            BUILT[type(self).name] += 1
+            super().__init__(**params)
+
+    module = types.SimpleNamespace(register_augmentation=gf.hookimpl(lambda register: register(CountingAr1)))
+    registry.register_module(module, name="counting-ar1", distribution="test-build-once")
+    BUILT.clear()
+    yield "counting-ar1"
+
+
+def _multipath(name: str, **params) -> ComparisonConfig:
+    return ComparisonConfig.model_validate({
+        "name": "build-once-multipath", "runs": 2, "batch_size": 1, "seed": 5,
+        "scenario": {"kind": "multipath", "epochs": 60, "psi": 0.95},
+        "cases": [{"name": "psi-0.5", "psi": 0.5}, {"name": "psi-0.8", "psi": 0.8, "psi_training_epochs": 200}],
+        "candidates": [{"name": "ukf1", "nav_filter": "position-ca", "estimator": "ukf",
+                        "augmentation": {"name": name, "params": {"cross_covariance": "paper", **params}}}],
+    })
+
+
+@pytest.mark.parametrize("estimator, per_task", [("truth", 1), ("lag1", 2)])
+def test_a_task_creates_an_ar1_augmentation_with_the_case_s_psi_once(counting_ar1, estimator, per_task):
+    # The true psi is the case's: built with it. An estimated psi needs the task's random
+    # streams, which only run_batch has: that one is still re-created with its estimate.
+    config = _multipath(counting_ar1, psi_estimator=estimator)
+    resolved = resolve(config)
+    BUILT.clear()
+    for task in plan(config):
+        before = BUILT[counting_ar1]
+        run_task(resolved, task)
+        assert BUILT[counting_ar1] - before == per_task, resolved.where(task)
+
+
+def test_the_ar1_built_for_the_case_gives_the_numbers_of_the_re_created_one():
+    resolved = resolve(_multipath("colored-ar1"))
+    for i, case in enumerate(resolved.cases):
+        built = resolved.build(0, i)
+        assert built["augmentation"].params.psi == case.values["psi"]
+        direct = resolved.scenario.run_batch(case.as_case(), built, 2, random_streams.run_streams(5, (1,), [0, 1]))
+        again = resolved.scenario.run_batch(case.as_case(), resolved.build(0), 2,
+                                            random_streams.run_streams(5, (1,), [0, 1]))
+        for name in direct.metrics:
+            np.testing.assert_array_equal(direct.metrics[name], again.metrics[name], err_msg=name)

@@ -215,6 +215,19 @@ class MultipathScenario(Scenario):
         est = np.mean(ar1_coefficient(train, estimator))  # both coordinates share the noise law
         return float(np.clip(est, -self.PSI_BOUND, self.PSI_BOUND))
 
+    def case_parameters(self, kind: str, spec, case: dict) -> dict:
+        """A ``colored-ar1`` without psi that takes the case's true one (``psi_estimator =
+        "truth"``) is built with it (`_with_psi` would re-create it in `run_batch`); an
+        estimated psi needs the task's random streams, so `_with_psi` supplies that one."""
+        fields = spec.cls.Params.model_fields if kind == "augmentation" else {}
+        if "psi" not in fields or "psi_estimator" not in fields:
+            return {}
+        own = {k: spec.params.get(k, fields[k].get_default(call_default_factory=True))
+               for k in ("psi", "psi_estimator")}
+        if own["psi"] is not None or own["psi_estimator"] != "truth":
+            return {}
+        return {"psi": self.filter_psi(case, None, "truth")}
+
     def _with_psi(self, plugins: dict, case: dict, rng: draw.RunStreams) -> dict:
         """A ``colored-ar1`` without psi gets the case's true psi, or its estimate when the
         augmentation's ``psi_estimator`` asks for one (`filter_psi`)."""
