@@ -503,6 +503,12 @@ class _Parser(argparse.ArgumentParser):
         kwargs.setdefault("formatter_class", HelpFormatter)
         super().__init__(*args, **kwargs)
 
+    def parse_known_args(self, args=None, namespace=None):
+        """The command's arguments, and its options (``command_options``) for the errors' fields."""
+        namespace, extras = super().parse_known_args(args, namespace)
+        namespace.command_options = frozenset(o for a in self._actions for o in a.option_strings)
+        return namespace, extras
+
 
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
@@ -670,6 +676,56 @@ def os_error_message(exc: OSError) -> str:
     return f"{message} ({hint})" if hint else message
 
 
+#: The library names a bad value by its parameter (``sample_rate_hz``); the command line
+#: reports it by the option that gives it (``--fs``). One table for every command: a
+#: command reports an option only if it has it, and an error of a field the table does not
+#: hold (a config file's ``nav_filter.params.accel_psd``) keeps its name.
+OPTION_OF_PARAMETER = {
+    "format": "--format", "sample_rate_hz": "--fs", "if_hz": "--if", "q_sign": "--q-sign",
+    "out": "--out",
+    "channel_filter": "--channel-filter", "channel_params": "--channel-params", "nav_filter": "--nav-filter",
+    "approx_position": "--approx-position", "start_time": "--start-time", "rate_hz": "--rate",
+    "filter_name": "--filter", "noise_adapter": "--noise-adapter", "augmentation": "--augmentation", "psi": "--psi",
+    "max_speed_mps": "--max-speed", "max_abs_height_m": "--max-height",
+    "select": "--prn", "max_gap_s": "--max-gap", "pseudorange_min_m": "--pseudorange-min",
+    "pseudorange_max_m": "--pseudorange-max",
+}
+#: Parameters that take a table of values: the path below them is kept
+#: (``channel_params.pll_bandwidth_hz`` is ``--channel-params.pll_bandwidth_hz``).
+TABLE_PARAMETERS = ("channel_params",)
+
+
+def option_field(field: str, options: frozenset[str] | set[str] = frozenset(OPTION_OF_PARAMETER.values())) -> str:
+    """The field of a library error as the command line names it: each parameter of
+    ``field`` (several joined by ``/``) replaced by its option (`OPTION_OF_PARAMETER`)
+    when the command has that option (``options``); ``field`` itself otherwise.
+
+    Examples
+    --------
+    >>> option_field("sample_rate_hz"), option_field("channel_params.pll_bandwidth_hz")
+    ('--fs', '--channel-params.pll_bandwidth_hz')
+    >>> option_field("pseudorange_min_m/pseudorange_max_m"), option_field("nav_filter.name")
+    ('--pseudorange-min/--pseudorange-max', 'nav_filter.name')
+    """
+    out = []
+    for part in field.split("/"):
+        head, dot, rest = part.partition(".")
+        option = OPTION_OF_PARAMETER.get(head if (not dot or head in TABLE_PARAMETERS) else part)
+        if option is None or option not in options:
+            return field
+        out.append(option + dot + rest)
+    return "/".join(out)
+
+
+def _error_message(exc: GnssFrameworkError, options: frozenset[str]) -> str:
+    """One line for a library error: a `ConfigError` with its field named as the command's option."""
+    if isinstance(exc, ConfigError) and exc.field:
+        field = option_field(exc.field, options)
+        if field != exc.field:
+            return f"{field}: {exc.detail}"
+    return str(exc)
+
+
 def _fail(message: str, status: int) -> int:
     print(f"error: {message}", file=sys.stderr)
     return status
@@ -725,7 +781,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except GnssFrameworkError as exc:
-        return _fail(str(exc), 2)
+        return _fail(_error_message(exc, getattr(args, "command_options", frozenset())), 2)
     except KeyboardInterrupt:
         return _fail("interrupted (Ctrl-C)" + getattr(args, "interrupt_hint", ""), 130)
     except OSError as exc:

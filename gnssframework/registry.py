@@ -55,6 +55,8 @@ __all__ = [
     "describe",
     "failures",
     "register_module",
+    "register_kind",
+    "base_class",
     "reload",
     "defined_plugins",
     "plugin_hooks",
@@ -64,31 +66,57 @@ __all__ = [
 
 ENTRY_POINT_GROUP = "gnssframework"
 
-BASES: dict[str, type | str] = {
+#: The class every plugin of a kind derives from. A kind whose base lives in this layer or
+#: below is written here; a higher layer that owns a kind's base (the experiments' metrics
+#: and scenarios, the receiver's sample sources and acquisitions) declares it with
+#: `register_kind` where the base is defined, so this module never reaches up to it. A
+#: plugin of such a kind imports its base, so the base is declared before the plugin
+#: registers.
+BASES: dict[str, type] = {
     "estimator": Estimator,
     "noise_adapter": NoiseAdapter,
     "augmentation": Augmentation,
     "discriminator": Discriminator,
     "channel_filter": ChannelFilter,
     "nav_filter": NavFilter,
-    # Imported when first needed (they import this module): "module:Class".
-    "metric": "gnssframework.experiments.metrics:Metric",
-    "scenario": "gnssframework.experiments.scenarios:Scenario",
-    "sample_source": "gnssframework.receiver.frontend.source:SampleSource",
-    "acquisition": "gnssframework.receiver.acquisition.search:Acquisition",
     "signal": Signal,
 }
 
-def base_class(kind: str) -> type | None:
-    """The class every plugin of ``kind`` derives from (``None`` if its module is absent)."""
-    base = BASES[kind]
-    if isinstance(base, str):
-        module, _, attr = base.partition(":")
-        try:
-            base = getattr(importlib.import_module(module), attr)
-        except (ImportError, AttributeError):
-            return None
+
+def register_kind(kind: str, base: type) -> type:
+    """Declare ``base`` as the class every plugin of ``kind`` derives from; returns ``base``.
+
+    Called by the module that defines ``base``, right after it (``registry.register_kind(
+    "scenario", Scenario)``): the layer that owns a kind registers it, the registry imports
+    nothing above itself. ``kind`` needs its ``register_<kind>`` hook in `hookspecs`.
+
+    Raises
+    ------
+    PluginError
+        For a kind without a hook, a base that is not a class, or a second, different base
+        for a kind (a module imported again under the same name re-declares its own base).
+    """
+    if kind not in hookspecs.KINDS:
+        raise PluginError(f"plugin kind {kind!r} has no register_{kind} hook in gnssframework.hookspecs; "
+                          f"kinds: {', '.join(sorted(hookspecs.KINDS))}")
+    if not isinstance(base, type):
+        raise PluginError(f"the base of plugin kind {kind!r} must be a class, got {base!r}")
+    known = BASES.get(kind)
+    if known is not None and known is not base and _qualified(known) != _qualified(base):
+        raise PluginError(f"plugin kind {kind!r} already has the base {_qualified(known)}; "
+                          f"refused {_qualified(base)}")
+    BASES[kind] = base
     return base
+
+
+def _qualified(cls: type) -> str:
+    return f"{cls.__module__}.{cls.__qualname__}"
+
+
+def base_class(kind: str) -> type | None:
+    """The class every plugin of ``kind`` derives from (``None`` while the module that
+    declares it with `register_kind` has not been imported)."""
+    return BASES.get(kind)
 
 
 def _name_attribute(kind: str) -> str:
@@ -104,7 +132,7 @@ def defined_plugins(*modules: types.ModuleType) -> dict[str, list[type]]:
     """The plugin classes ``modules`` define, by kind, in the order they are defined.
 
     A plugin class is one the module itself defines (not one it imports) that derives
-    from a kind's base class (`BASES`) and names itself: its own ``name`` (a scenario's
+    from a kind's base class (`BASES`, `register_kind`) and names itself: its own ``name`` (a scenario's
     own ``kind``) in its class body. A shared base without a name of its own (a helper
     such as an abstract code discriminator) is not a plugin.
 
@@ -224,7 +252,11 @@ class _Registry:
 
     def _add(self, kind: str, cls: type, dist: str, version: str) -> None:
         base = base_class(kind)
-        if not isinstance(cls, type) or (base is not None and not issubclass(cls, base)):
+        if base is None:  # a class of the kind would have imported its base, declaring it
+            raise PluginError(f"{cls!r} registered as {kind}, a kind whose base class is not declared "
+                              f"(registry.register_kind({kind!r}, Base) where Base is defined); "
+                              "it cannot be one of its plugins")
+        if not isinstance(cls, type) or not issubclass(cls, base):
             raise PluginError(f"{cls!r} registered as {kind} is not a subclass of "
                               f"{getattr(base, '__name__', 'a class')}")
         name = plugin_name(kind, cls)

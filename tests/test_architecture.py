@@ -1,7 +1,10 @@
 """The import graph of ``gnssframework`` keeps the architecture of docs/design-notes.md.
 
 Every ``import`` of every module counts, at module level or inside a function (a lazy
-import is still a dependency). The rules:
+import is still a dependency), and so do the imports a module hides from the ``import``
+statement: ``importlib.import_module("gnssframework....")`` (or ``__import__``) of a
+literal name, and a literal ``"gnssframework.module:Class"`` string (what a loader imports
+by name). The rules:
 
 * no import circle;
 * no arrow from a lower layer (`LAYERS`) to a higher one, and every module in a layer;
@@ -94,16 +97,56 @@ def _imported(node: ast.Import | ast.ImportFrom, module: str, is_package: bool, 
     return [f"{prefix}.{a.name}" if f"{prefix}.{a.name}" in modules else prefix for a in node.names]
 
 
+#: Calls that import the module their first argument names.
+IMPORT_CALLS = ("importlib.import_module", "import_module", "__import__")
+#: A "module:attribute" string (an entry point, a lazily loaded class) naming a submodule
+#: of ``package`` or of the plugin packages. The module part has a dot: a bare
+#: ``gnssframework:if_hz`` is a SigMF metadata key of the ``gnssframework`` namespace.
+_MODULE_ATTRIBUTE = r"((?:{packages})(?:\.\w+)+):[A-Za-z_][\w.]*"
+
+
+def _call_name(func: ast.expr) -> str:
+    if isinstance(func, ast.Name):
+        return func.id
+    if isinstance(func, ast.Attribute) and isinstance(func.value, ast.Name):
+        return f"{func.value.id}.{func.attr}"
+    return ""
+
+
+def _hidden_imports(node: ast.AST, module: str, is_package: bool, package: str) -> list[str]:
+    """Modules a node imports without an ``import`` statement: ``importlib.import_module``
+    (or ``__import__``) of a literal name (relative to ``__package__``/``__name__`` when it
+    starts with a dot), and a literal ``"module:attribute"`` string naming one of ours."""
+    if isinstance(node, ast.Call) and _call_name(node.func) in IMPORT_CALLS and node.args:
+        first = node.args[0]
+        if isinstance(first, ast.Constant) and isinstance(first.value, str):
+            name = first.value
+            if name.startswith("."):
+                level = len(name) - len(name.lstrip("."))
+                parts = module.split(".")[: len(module.split(".")) - (level - (1 if is_package else 0))]
+                name = ".".join(parts + ([name.lstrip(".")] if name.lstrip(".") else []))
+            return [name]
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        pattern = _MODULE_ATTRIBUTE.format(packages="|".join(map(re.escape, (package, *PLUGIN_PACKAGES))))
+        hit = re.fullmatch(pattern, node.value.strip())
+        if hit:
+            return [hit.group(1)]
+    return []
+
+
 def import_graph(src_root: Path, package: str = PACKAGE) -> ImportGraph:
-    """Parse every module under ``src_root/package`` (ast, nothing imported)."""
+    """Parse every module under ``src_root/package`` (ast, nothing imported): its import
+    statements and its hidden imports (`_hidden_imports`) are its arrows."""
     files = {(_module_name(p, src_root)): p for p in sorted((src_root / package).rglob("*.py"))}
     graph = ImportGraph({name for name, _ in files})
     for (module, is_package), path in files.items():
         where = path.relative_to(src_root).as_posix()
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if not isinstance(node, (ast.Import, ast.ImportFrom)):
-                continue
-            for name in _imported(node, module, is_package, graph.modules):
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                names = _imported(node, module, is_package, graph.modules)
+            else:
+                names = _hidden_imports(node, module, is_package, package)
+            for name in names:
                 if name.split(".")[0] != package:
                     graph.external.setdefault((module, name.split(".")[0]), f"{where}:{node.lineno}")
                     continue
@@ -276,3 +319,31 @@ def test_a_from_import_of_a_module_points_at_the_module(tmp_path):
     root = _tree(tmp_path, {"__init__.py": "", "m.py": "from . import n\nfrom .n import thing\n", "n.py": ""})
     g = import_graph(root, "pkg")
     assert set(g.arrows) == {("pkg.m", "pkg.n")}
+
+
+def test_hidden_string_imports_are_arrows_too(tmp_path):
+    # A lower layer that loads a higher one's class by name, or imports it through
+    # importlib, reaches up just as an import statement would: both are caught.
+    root = _tree(tmp_path, {
+        "__init__.py": "",
+        "low/__init__.py": "",
+        "low/by_string.py": 'BASES = {"thing": "pkg.high.b:Thing"}\n',
+        "low/by_importlib.py": "import importlib\n\ndef f():\n    return importlib.import_module('pkg.high.b')\n",
+        "low/relative.py": "from importlib import import_module\n\nm = import_module('..high.b', __package__)\n",
+        "low/sigmf_key.py": 'KEY = "pkg:if_hz"\nTEXT = "see pkg.high.b:Thing for details"\n',
+        "low/plugins_by_name.py": 'import importlib\nimportlib.import_module("gnssframework_plugins.x")\n',
+        "high/__init__.py": "",
+        "high/b.py": "class Thing:\n    pass\n",
+    })
+    g = import_graph(root, "pkg")
+    layers = (("low", ("pkg.low",)), ("high", ("pkg.high",)))
+    assert upward_arrows(g, layers=layers) == [
+        "  pkg.low.by_importlib (low) -> pkg.high.b (high)   (pkg/low/by_importlib.py:4)",
+        "  pkg.low.by_string (low) -> pkg.high.b (high)   (pkg/low/by_string.py:1)",
+        "  pkg.low.relative (low) -> pkg.high.b (high)   (pkg/low/relative.py:3)",
+    ]
+    # A namespaced key and prose that mentions a module are not imports; a plugin
+    # package named by importlib is an external import (the core-never-imports check).
+    assert not [a for a in g.arrows if a[0] == "pkg.low.sigmf_key"]
+    assert ("pkg.low.plugins_by_name", "gnssframework_plugins") in g.external
+

@@ -107,11 +107,11 @@ def test_the_metadata_is_valid_sigmf_and_states_the_if_as_an_rf_frequency(tmp_pa
 
 
 @pytest.mark.parametrize("kwargs, field", [
-    ({"format": "ci4"}, "--format"),
-    ({"format": "ci8"}, "--fs"),
-    ({"format": "ci8", "sample_rate_hz": 1e6}, "--fs"),
-    ({"format": "ri8", "sample_rate_hz": FS, "if_hz": 2e6}, "--if"),
-    ({"format": "ci8", "sample_rate_hz": FS, "q_sign": 2}, "--q-sign"),
+    ({"format": "ci4"}, "format"),
+    ({"format": "ci8"}, "sample_rate_hz"),
+    ({"format": "ci8", "sample_rate_hz": 1e6}, "sample_rate_hz"),
+    ({"format": "ri8", "sample_rate_hz": FS, "if_hz": 2e6}, "if_hz"),
+    ({"format": "ci8", "sample_rate_hz": FS, "q_sign": 2}, "q_sign"),
 ])
 def test_bad_options_are_named(tmp_path, kwargs, field):
     path = tmp_path / "r.bin"

@@ -100,7 +100,7 @@ def test_filter_positions_names_the_option_of_an_unknown_name(tmp_path):
     from gnssframework.errors import ConfigError
     from gnssframework.io.positions import composition
 
-    with pytest.raises(ConfigError, match=r"--filter.*'ukff'.*did you mean 'UKF'"):
+    with pytest.raises(ConfigError, match=r"^filter_name: .*'ukff'.*did you mean 'UKF'"):
         composition("ukff")
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "filter-positions", str(LOG), "--out",
                            str(tmp_path / "f.csv"), "--filter", "ckf", "--noise-adapter", "sage-hus"],

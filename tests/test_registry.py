@@ -227,3 +227,65 @@ def test_nested_plugin_parameters_show_their_kind_and_unit():
     assert rows["phase_discriminator"].default == "'costas-atan'"
     rows = {r.name: r for r in parameter_rows(registry.get("channel_filter", "iq-filter").Params)}
     assert rows["adapter"].type == "noise_adapter plugin or null"
+
+
+# -- the layers that own a kind's base declare it (issue 36) ------------------------------------
+
+#: Kinds whose base lives above the registry's layer, and where (the owning module declares it).
+OWNED_BASES = {"metric": ("gnssframework.experiments.metrics", "Metric"),
+               "scenario": ("gnssframework.experiments.scenarios", "Scenario"),
+               "sample_source": ("gnssframework.receiver.frontend.source", "SampleSource"),
+               "acquisition": ("gnssframework.receiver.acquisition.search", "Acquisition")}
+
+
+def test_a_fresh_process_finds_the_bases_the_upper_layers_declare():
+    # Only the registry is imported: its entry points import the owning modules, which
+    # declare the bases before their plugins register (none is refused, all are listed).
+    code = ("import json, importlib\nfrom gnssframework import registry\n"
+            "names = {k: registry.names(k) for k in ('scenario', 'sample_source', 'acquisition', 'metric')}\n"
+            f"owned = {OWNED_BASES!r}\n"
+            "same = {k: registry.base_class(k) is getattr(importlib.import_module(m), c)\n"
+            "        for k, (m, c) in owned.items()}\n"
+            "print(json.dumps([names, same, [str(f) for f in registry.failures()]]))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    import json
+
+    names, same, failures = json.loads(proc.stdout)
+    assert failures == []
+    assert same == {k: True for k in OWNED_BASES}
+    assert {n for n in names["scenario"]} >= {"multipath", "sample-receiver", "scintillation", "vector-tracking"}
+    assert {"ci8", "ri8", "cf32_le"} <= set(names["sample_source"]) and "pcps" in names["acquisition"]
+
+
+def test_the_registry_holds_no_base_by_string():
+    source = (ROOT / "gnssframework" / "registry.py").read_text()
+    assert all(isinstance(base, type) for base in registry.BASES.values())
+    assert not [m for m, _ in OWNED_BASES.values() if m in source]
+
+
+def test_register_kind_refuses_an_unknown_kind_a_non_class_and_a_second_base():
+    from gnssframework.errors import PluginError
+
+    with pytest.raises(PluginError, match=r"'gadget' has no register_gadget hook"):
+        registry.register_kind("gadget", object)
+    with pytest.raises(PluginError, match=r"must be a class, got 'Metric'"):
+        registry.register_kind("metric", "Metric")
+
+    class Metric:  # another class of the same qualified name elsewhere: not the same base
+        pass
+
+    with pytest.raises(PluginError, match=r"'metric' already has the base gnssframework\.experiments\.metrics\.Metric"):
+        registry.register_kind("metric", Metric)
+    from gnssframework.experiments.metrics import Metric as real
+
+    assert registry.register_kind("metric", real) is real and registry.base_class("metric") is real
+
+
+def test_a_plugin_of_a_kind_whose_base_is_not_declared_is_refused(monkeypatch, scratch_registry):
+    registry.names("estimator")  # loaded with every base declared
+    monkeypatch.delitem(registry.BASES, "metric")
+    module = types.SimpleNamespace(register_metric=gf.hookimpl(lambda register: register(dict)))
+    registry.register_module(module, name="undeclared-kind", distribution="undeclared-dist")
+    failure = registry.failures()[-1]
+    assert failure.distribution == "undeclared-dist"
+    assert "whose base class is not declared" in failure.error and "register_kind('metric'" in failure.error

@@ -117,7 +117,7 @@ def test_another_configuration_in_the_same_folder_is_refused(tmp_path):
     out = tmp_path / "out"
     run_comparison(_config(tmp_path, 4, seed=4), out, progress=False)
     before = sorted(p.relative_to(out) for p in out.rglob("*") if p.is_file())
-    with pytest.raises(ConfigError, match=r"--out: .* holds the results of 'reuse', a different configuration "
+    with pytest.raises(ConfigError, match=r"^out: .* holds the results of 'reuse', a different configuration "
                                           r"\(it differs in: seed\)"):
         run_comparison(_config(tmp_path, 4, seed=5), out, progress=False)
     assert sorted(p.relative_to(out) for p in out.rglob("*") if p.is_file()) == before

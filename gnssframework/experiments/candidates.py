@@ -12,6 +12,7 @@ creates fresh plugins from them for a batch or the report.
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass
 from typing import Any, Sequence
 
@@ -46,7 +47,18 @@ def resolve_candidate(scenario: Scenario, candidate: Any, cases: Sequence[dict[s
     return CandidatePlan(candidate.name, specs, dict(candidate.scenario_options))
 
 
-def build_candidate(scenario: Scenario, candidate: CandidatePlan) -> dict[str, Any]:
+def build_candidate(scenario: Scenario, candidate: CandidatePlan, case: dict[str, Any] | None = None
+                    ) -> dict[str, Any]:
     """Fresh plugins of a resolved candidate, as ``scenario.run_batch`` takes them
-    (`Scenario.build`, with what the scenario adds for its options)."""
-    return scenario.build(candidate.components, candidate.scenario_options)
+    (`Scenario.build`, with what the scenario adds for its options; built for ``case``,
+    a task's, when given: each plugin once, with the parameters the case sets)."""
+    if case is None or not _takes_case(scenario.build):  # a scenario written before build took the case
+        return scenario.build(candidate.components, candidate.scenario_options)
+    return scenario.build(candidate.components, candidate.scenario_options, case=case)
+
+
+def _takes_case(build: Any) -> bool:
+    try:
+        return "case" in inspect.signature(build).parameters
+    except (TypeError, ValueError):
+        return False

@@ -40,7 +40,7 @@ def _lock(out: Path):
         fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         fh.close()
-        raise ConfigError("--out", f"{out} is being written by another gnssframework process; wait for it to "
+        raise ConfigError("out", f"{out} is being written by another gnssframework process; wait for it to "
                           "finish or choose another folder") from None
     fh.seek(0)
     fh.truncate()
@@ -61,7 +61,7 @@ def claim_folder(out: Path, config) -> Iterator[ResultStore]:
     Raises
     ------
     ConfigError
-        ``--out``: the folder holds another configuration's results, or another process
+        ``out``: the folder holds another configuration's results, or another process
         is writing it.
     """
     out = Path(out)
@@ -73,7 +73,7 @@ def claim_folder(out: Path, config) -> Iterator[ResultStore]:
         current = json.loads(config.model_dump_json())
         held = store.meta("identity")
         if held is None and (out / "raw").is_dir() and any((out / "raw").iterdir()):
-            raise ConfigError("--out", f"{out} holds time series (raw/) but no record of their comparison; "
+            raise ConfigError("out", f"{out} holds time series (raw/) but no record of their comparison; "
                               "choose an empty folder")
         if held is not None and held != identity:
             try:
@@ -82,7 +82,7 @@ def claim_folder(out: Path, config) -> Iterator[ResultStore]:
                 previous = {}
             what = ", ".join(_differences(previous, current)) or "its identity"
             name = previous.get("name", "another comparison")
-            raise ConfigError("--out", f"{out} holds the results of {name!r}, a different configuration (it differs "
+            raise ConfigError("out", f"{out} holds the results of {name!r}, a different configuration (it differs "
                               f"in: {what}); choose another folder, or delete this one to start afresh")
         if held is None:
             store.set_meta("identity", identity)

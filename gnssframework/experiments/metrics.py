@@ -38,6 +38,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from .. import registry
 from ..errors import ConfigError
 from ..estimation.consistency import nees
 from ..plugin import Plugin
@@ -173,6 +174,9 @@ class Metric(Plugin, abc.ABC):
         return ""
 
 
+registry.register_kind("metric", Metric)  # this layer owns the kind's base
+
+
 def metric_component(name: str, scenario: Any) -> Metric | None:
     """The metric component that computes ``name`` in ``scenario``: the scenario's own
     (a component of its ``metrics`` table, `metric_components.units`), else a registered
@@ -182,16 +186,12 @@ def metric_component(name: str, scenario: Any) -> Metric | None:
     own = getattr(scenario.metrics, "components", {}).get(name)
     if own is not None or name in scenario.metrics:
         return own
-    from .. import registry
-
     return registry.create("metric", name) if name in registry.names("metric") else None
 
 
 def available_metrics(scenario: Any) -> list[str]:
     """Every metric ``scenario`` can report: its own, then the registered ``metric``
     plugins that apply to it (`Metric.applies_to`)."""
-    from .. import registry
-
     plugins = [n for n in registry.names("metric") if n not in scenario.metrics
                and not metric_component(n, scenario).applies_to(scenario)]
     return list(scenario.metrics) + plugins

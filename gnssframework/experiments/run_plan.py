@@ -49,9 +49,11 @@ class RunPlan:
     metrics: tuple[str, ...]
     component_metrics: tuple[str, ...]
 
-    def build(self, candidate_index: int) -> dict[str, Any]:
-        """Fresh plugins of one candidate (``Scenario.build``)."""
-        return build_candidate(self.scenario, self.candidates[candidate_index])
+    def build(self, candidate_index: int, case_index: int | None = None) -> dict[str, Any]:
+        """Fresh plugins of one candidate (``Scenario.build``), built for the case
+        ``case_index`` when given (a task's: each plugin validated and created once)."""
+        case = None if case_index is None else self.cases[case_index].as_case()
+        return build_candidate(self.scenario, self.candidates[candidate_index], case)
 
     def where(self, task: Task) -> str:
         """A task in words, for failures: candidate, case, runs and sweep point."""

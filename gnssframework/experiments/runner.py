@@ -64,7 +64,7 @@ def run_task(plan: RunPlan, task: Task) -> tuple[Task, dict[str, np.ndarray], di
 def _simulate(plan: RunPlan, task: Task) -> tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray],
                                                   np.ndarray | None]:
     scenario = plan.scenario
-    plugins = plan.build(task.candidate_index)
+    plugins = plan.build(task.candidate_index, task.case_index)
     result = scenario.run_batch(plan.cases[task.case_index].as_case(), plugins, task.runs, task_streams(plan, task))
     metrics, series = dict(result.metrics), dict(result.series)
     # An optional metric this case does not compute (a bound on a moving receiver) is

@@ -149,9 +149,9 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
     import pynmea2
 
     if not 0 < max_speed_mps < np.inf:
-        raise ConfigError("max_speed_mps (--max-speed)", f"must be a positive number of m/s, got {max_speed_mps!r}")
+        raise ConfigError("max_speed_mps", f"must be a positive number of m/s, got {max_speed_mps!r}")
     if not 0 < max_abs_height_m < np.inf:
-        raise ConfigError("max_abs_height_m (--max-height)", f"must be a positive number of m, got {max_abs_height_m!r}")
+        raise ConfigError("max_abs_height_m", f"must be a positive number of m, got {max_abs_height_m!r}")
     path = Path(path)
     text = read_input_text(path, errors="replace", encoding="ascii")
     # epochs: absolute time (s since 00:00 of the first day) -> {kind: (lat, lon, h, line)}

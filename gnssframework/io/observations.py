@@ -158,7 +158,7 @@ def arc_starts(time_s: np.ndarray, valid: np.ndarray, lli: np.ndarray, max_gap_s
         Longest step between two valid epochs of one arc.
     """
     if not max_gap_s > 0:
-        raise ConfigError("max_gap_s (--max-gap)", f"must be a positive number of seconds, got {max_gap_s!r}")
+        raise ConfigError("max_gap_s", f"must be a positive number of seconds, got {max_gap_s!r}")
     t = np.asarray(time_s, float)
     valid = np.asarray(valid, bool)
     k = np.arange(t.size)[:, None]
@@ -204,7 +204,7 @@ def _parse_select(select: str) -> tuple[set[str], list[str] | None]:
         return {x[0] for x in items}, items
     if len(items) == 1 and items[0] and set(items[0]) <= set(_SYSTEMS):
         return set(items[0]), None
-    raise ConfigError("select (--prn)", f"{select!r} is neither satellites (G08, C11,E24) nor systems (G, GC, all) "
+    raise ConfigError("select", f"{select!r} is neither satellites (G08, C11,E24) nor systems (G, GC, all) "
                                         f"of {', '.join(_SYSTEMS)}")
 
 

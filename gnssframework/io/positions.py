@@ -49,8 +49,8 @@ def composition(filter_name: str, noise_adapter: str | None = None, augmentation
     Raises
     ------
     ConfigError
-        Naming ``--filter`` (the labels and estimators it takes, and the closest one),
-        ``--noise-adapter`` or ``--augmentation``.
+        Naming the parameter: ``filter_name`` (the labels and estimators it takes, and
+        the closest one), ``noise_adapter`` or ``augmentation``.
     """
     from ..suggest import did_you_mean
 
@@ -61,16 +61,15 @@ def composition(filter_name: str, noise_adapter: str | None = None, augmentation
         comp = {"nav_filter": POSITION_NAV_FILTER, "estimator": {"name": filter_name, "params": {}}}
     else:
         options = [*CANDIDATES, *registry.names("estimator")]
-        raise ConfigError("--filter", f"unknown {filter_name!r}: a paper label ({', '.join(CANDIDATES)}) or an "
-                                      f"estimator ({', '.join(registry.names('estimator'))})"
-                                      f"{did_you_mean(filter_name, options)}")
-    for option, kind, name in (("--noise-adapter", "noise_adapter", noise_adapter),
-                               ("--augmentation", "augmentation", augmentation)):
+        raise ConfigError("filter_name", f"unknown {filter_name!r}: a paper label ({', '.join(CANDIDATES)}) or "
+                                           f"an estimator ({', '.join(registry.names('estimator'))})"
+                                           f"{did_you_mean(filter_name, options)}")
+    for kind, name in (("noise_adapter", noise_adapter), ("augmentation", augmentation)):
         if name is None:
             continue
         if name not in registry.names(kind):
-            raise ConfigError(option, f"unknown {kind} {name!r}; registered: {', '.join(registry.names(kind))}"
-                                      f"{did_you_mean(name, registry.names(kind))}")
+            raise ConfigError(kind, f"unknown {kind} {name!r}; registered: {', '.join(registry.names(kind))}"
+                                    f"{did_you_mean(name, registry.names(kind))}")
         comp[kind] = {"name": name, "params": {}}
     return comp
 

@@ -162,7 +162,7 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
 
 def _check_bounds(pseudorange_min_m: float, pseudorange_max_m: float) -> None:
     if not 0 <= pseudorange_min_m < pseudorange_max_m:  # also NaN
-        raise ConfigError("pseudorange_min_m/pseudorange_max_m (--pseudorange-min/--pseudorange-max)",
+        raise ConfigError("pseudorange_min_m/pseudorange_max_m",
                           f"need 0 <= min < max, got [{pseudorange_min_m!r}, {pseudorange_max_m!r}] m")
 
 

@@ -166,18 +166,37 @@ class Scenario(abc.ABC):
         ``cn0_dbhz``...) for the report's assumptions table; the default gives nothing."""
         return {}
 
-    def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None) -> dict[str, Any]:
+    def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None,
+              case: dict[str, Any] | None = None) -> dict[str, Any]:
         """Instantiate a candidate's plugins (fresh objects for every batch): what
         `run_batch` gets. ``candidate`` holds each kind's `PluginSpec` (a resolved
         candidate's, `gnssframework.experiments.candidates`), or a name or ``{name, params}``
         table. ``options`` are the candidate's ``scenario_options``; a scenario with
-        `CandidateOptions` adds what `run_batch` needs of them to the returned dict."""
-        return {kind: component_spec(kind, ref).create() for kind, ref in candidate.items()}
+        `CandidateOptions` adds what `run_batch` needs of them to the returned dict.
+        ``case`` (a task's, as `run_batch` gets it) builds each plugin with the parameters
+        the case fixes (`case_parameters`), so `run_batch` need not re-create it: one
+        validation and one construction per plugin and task."""
+        plugins = {}
+        for kind, ref in candidate.items():
+            spec = component_spec(kind, ref)
+            fixed = self.case_parameters(kind, spec, case) if case is not None else {}
+            plugins[kind] = (PluginSpec(kind, spec.name, {**spec.params, **fixed}) if fixed else spec).create()
+        return plugins
+
+    def case_parameters(self, kind: str, spec: PluginSpec, case: dict[str, Any]) -> dict[str, Any]:
+        """Parameters of the plugin ``spec`` (of ``kind``) that ``case`` sets, replacing the
+        candidate's (a loop at the case's own interval); the default: none. `build` creates
+        the plugin with them; `run_batch` must give the same plugin when it gets one built
+        without the case (it re-creates it then, as `in_context` does)."""
+        return {}
 
     @abc.abstractmethod
     def run_batch(self, case: dict[str, Any], plugins: dict[str, Any], runs: int,
                   rng: np.random.Generator) -> BatchResult:
         """Simulate ``runs`` Monte Carlo runs as one array program."""
+
+
+registry.register_kind("scenario", Scenario)  # this layer owns the kind's base
 
 
 def _config_path(exc: ConfigError, cls: type, where: str) -> ConfigError:

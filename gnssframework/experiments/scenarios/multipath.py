@@ -160,9 +160,10 @@ class MultipathScenario(Scenario):
                               "and an estimator (a candidate with no plugins reports the raw measurement)")
         return plugins
 
-    def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None) -> dict[str, Any]:
+    def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None,
+              case: dict[str, Any] | None = None) -> dict[str, Any]:
         """The candidate's plugins, and its oracle grid under ``"oracle"`` if it has one."""
-        plugins = super().build(candidate)
+        plugins = super().build(candidate, case=case)
         oracle = self.candidate_options(options).oracle
         return plugins if oracle is None else {**plugins, "oracle": oracle}
 
@@ -213,6 +214,19 @@ class MultipathScenario(Scenario):
         train = self.simulate(1, rng.shared("psi-training"), psi, epochs=c.psi_training_epochs)[:, 0]  # (n, 2)
         est = np.mean(ar1_coefficient(train, estimator))  # both coordinates share the noise law
         return float(np.clip(est, -self.PSI_BOUND, self.PSI_BOUND))
+
+    def case_parameters(self, kind: str, spec, case: dict) -> dict:
+        """A ``colored-ar1`` without psi that takes the case's true one (``psi_estimator =
+        "truth"``) is built with it (`_with_psi` would re-create it in `run_batch`); an
+        estimated psi needs the task's random streams, so `_with_psi` supplies that one."""
+        fields = spec.cls.Params.model_fields if kind == "augmentation" else {}
+        if "psi" not in fields or "psi_estimator" not in fields:
+            return {}
+        own = {k: spec.params.get(k, fields[k].get_default(call_default_factory=True))
+               for k in ("psi", "psi_estimator")}
+        if own["psi"] is not None or own["psi_estimator"] != "truth":
+            return {}
+        return {"psi": self.filter_psi(case, None, "truth")}
 
     def _with_psi(self, plugins: dict, case: dict, rng: draw.RunStreams) -> dict:
         """A ``colored-ar1`` without psi gets the case's true psi, or its estimate when the

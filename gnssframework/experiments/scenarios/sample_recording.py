@@ -203,7 +203,7 @@ class SampleRecordingScenario(SampleReceiverScenario):
         try:
             return open_recording(p.recording, p.format, p.sample_rate_hz, p.if_hz)
         except ConfigError as exc:
-            field = {"--format": "format", "--fs": "sample_rate_hz", "--if": "if_hz"}.get(exc.field, "recording")
+            field = exc.field if exc.field in ("format", "sample_rate_hz", "if_hz") else "recording"
             hint = (" (a gps-sdr-sim recording is made by validation/gps_sdr_sim_recording.py)"
                     if "no such file" in exc.detail else "")
             raise ConfigError(f"scenario.{field}", exc.detail + hint) from None

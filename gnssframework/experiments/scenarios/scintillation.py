@@ -147,6 +147,17 @@ class ScintillationScenario(Scenario):
     def in_context(self, plugin, context: RunContext):
         return self.at_interval(plugin, context.coherent_time_s)
 
+    def case_parameters(self, kind: str, spec, case: dict) -> dict:
+        """The channel filter of a task is built at its case's interval T (the loop
+        `at_interval` would re-create in `run_batch`): ``coherent_time_s = T`` when its own
+        interval is another, nothing when it has none (it takes the harness's)."""
+        field = spec.cls.Params.model_fields.get("coherent_time_s") if kind == "channel_filter" else None
+        if field is None:
+            return {}
+        own_s = spec.params.get("coherent_time_s", field.get_default(call_default_factory=True))
+        T = self.CaseParams.model_validate(case).coherent_time_s or self.params.coherent_time_s
+        return {} if own_s is None or abs(own_s - T) < 1e-12 else {"coherent_time_s": T}
+
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins["channel_filter"]
         try:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ... import registry
 from ...plugin import Plugin
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
@@ -75,3 +76,6 @@ def searched_prns(prns: tuple[int, ...] | None, signal: SignalSpec) -> tuple[int
     """``prns`` checked against ``signal`` (a `ConfigError` naming a PRN it does not
     define), or all of its PRNs for ``None``."""
     return signal.prns if prns is None else tuple(signal.check_prn(p) for p in prns)
+
+
+registry.register_kind("acquisition", Acquisition)  # this layer owns the kind's base

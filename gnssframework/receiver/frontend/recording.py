@@ -140,22 +140,22 @@ def open_recording(path: str | Path, format: str | None = None, sample_rate_hz: 
     meta_file = meta_path_for(path)
     meta = read_sigmf_meta(meta_file) if meta_file.is_file() and meta_file != path else SigmfInfo(None, None, None,
                                                                                                    None, None)
-    fmt = _pick("--format", format, meta.format)
+    fmt = _pick("format", format, meta.format)
     known = registry.names("sample_source")
     if fmt not in known:
-        raise ConfigError("--format", f"unknown sample format {fmt!r}; known: {', '.join(known)}")
-    fs = float(_pick("--fs", sample_rate_hz, meta.sample_rate_hz))
-    fif = float(_pick("--if", if_hz, meta.if_hz, 0.0))
-    qs = int(_pick("--q-sign", q_sign, meta.q_sign, 1))
+        raise ConfigError("format", f"unknown sample format {fmt!r}; known: {', '.join(known)}")
+    fs = float(_pick("sample_rate_hz", sample_rate_hz, meta.sample_rate_hz))
+    fif = float(_pick("if_hz", if_hz, meta.if_hz, 0.0))
+    qs = int(_pick("q_sign", q_sign, meta.q_sign, 1))
     if not np.isfinite(fs) or fs < 2.046e6:
-        raise ConfigError("--fs", f"{fs:g} Hz is below the C/A main lobe (needs >= 2.046 MHz)")
+        raise ConfigError("sample_rate_hz", f"{fs:g} Hz is below the C/A main lobe (needs >= 2.046 MHz)")
     if qs not in (1, -1):
-        raise ConfigError("--q-sign", f"must be 1 or -1, got {qs}")
+        raise ConfigError("q_sign", f"must be 1 or -1, got {qs}")
     rec = Recording(path, RecordingInfo(fmt, fs, fif, qs, meta.start_time))
     if not rec.is_complex and not 0 < fif < fs / 2:
-        raise ConfigError("--if", f"real samples need 0 < IF < fs/2 = {fs / 2:g} Hz, got {fif:g}")
+        raise ConfigError("if_hz", f"real samples need 0 < IF < fs/2 = {fs / 2:g} Hz, got {fif:g}")
     if rec.is_complex and abs(fif) >= fs / 2:
-        raise ConfigError("--if", f"complex samples need |IF| < fs/2 = {fs / 2:g} Hz, got {fif:g}")
+        raise ConfigError("if_hz", f"complex samples need |IF| < fs/2 = {fs / 2:g} Hz, got {fif:g}")
     if rec.n_samples == 0:
         raise ConfigError("recording", f"{path}: holds no whole sample of format {fmt}")
     return rec

@@ -13,6 +13,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ... import registry
 from ...plugin import Plugin
 
 __all__ = ["SampleSource"]
@@ -54,3 +55,6 @@ class SampleSource(Plugin, abc.ABC):
     def encode(self, samples: np.ndarray) -> bytes:
         """Bytes of ``samples`` (complex or real, already scaled to the format's units;
         values are rounded and clipped to what the format holds)."""
+
+
+registry.register_kind("sample_source", SampleSource)  # this layer owns the kind's base

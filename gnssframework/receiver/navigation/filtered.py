@@ -87,7 +87,7 @@ class EpochMeasurements:
     rate_var_m2_s2: np.ndarray
 
 
-def check_nav_filter(name: str, option: str = "--nav-filter") -> None:
+def check_nav_filter(name: str, field: str = "nav_filter") -> None:
     """Refuse a registered nav_filter that cannot run on pseudoranges and Dopplers: one
     that needs an input this harness does not give, or gives no position, velocity and
     clock.
@@ -95,17 +95,17 @@ def check_nav_filter(name: str, option: str = "--nav-filter") -> None:
     Raises
     ------
     ConfigError
-        Naming ``option`` and the registered filters that fit.
+        Naming ``field`` and the registered filters that fit.
     """
     try:
         cls = registry.get("nav_filter", name)
     except ConfigError as exc:
-        raise ConfigError(option, exc.detail) from None
+        raise ConfigError(field, exc.detail) from None
     fits = [n for n in registry.names("nav_filter") if not _misfit(registry.get("nav_filter", n))]
     why = _misfit(cls)
     if why:
-        raise ConfigError(option, f"nav_filter {name!r} cannot run on pseudoranges and Dopplers: {why}; those that "
-                                  f"can: {', '.join(fits) or '(none registered)'}")
+        raise ConfigError(field, f"nav_filter {name!r} cannot run on pseudoranges and Dopplers: {why}; those that "
+                                 f"can: {', '.join(fits) or '(none registered)'}")
 
 
 def _misfit(cls: type) -> str:

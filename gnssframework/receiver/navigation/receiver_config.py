@@ -94,8 +94,8 @@ def receiver_filters(config: str | Path | None = None, channel_filter: str | Non
     Raises
     ------
     ConfigError
-        For an unknown or unfit name (field ``--channel-filter``/``--nav-filter``, the
-        known names and the closest) or a bad parameter.
+        For an unknown or unfit name (field ``channel_filter``/``nav_filter``, the
+        known names and the closest) or a bad parameter (``channel_params.<name>``).
     """
     chosen = load_receiver_config(config) if config is not None else ReceiverFilters()
     updates: dict[str, Any] = {}
@@ -105,12 +105,12 @@ def receiver_filters(config: str | Path | None = None, channel_filter: str | Non
         try:
             registry.get("channel_filter", name)
         except ConfigError as exc:
-            raise ConfigError("--channel-filter", exc.detail) from None
+            raise ConfigError("channel_filter", exc.detail) from None
         spec = PluginSpec("channel_filter", name, dict(channel_params or {}))
-        _check_params(spec, "--channel-params")
+        _check_params(spec, "channel_params")
         updates["channel_filter"] = spec
     if nav_filter is not None:
-        check_nav_filter(nav_filter, "--nav-filter")
+        check_nav_filter(nav_filter, "nav_filter")
         same = chosen.nav_filter is not None and chosen.nav_filter.name == nav_filter
         updates["nav_filter"] = chosen.nav_filter if same else PluginSpec("nav_filter", nav_filter, {})
     chosen = chosen.model_copy(update=updates)
