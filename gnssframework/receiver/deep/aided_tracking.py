@@ -88,7 +88,7 @@ class Navigator(Protocol):
 class DeepRecord:
     """Series of an aided-tracking run. Tracking errors every T, prefilter outputs every update."""
 
-    code_error_chips: np.ndarray  # (K, runs, ch) true code error of the replica
+    code_error_chips: np.ndarray  # (K, runs, ch) true code error of the replica (truth minus replica code phase)
     freq_error_hz: np.ndarray  # (K, runs, ch) true frequency error
     time_s: np.ndarray  # (K,) mid-interval times
     update_time_s: np.ndarray  # (U,)
