@@ -83,3 +83,54 @@ def test_the_former_truth_types_build_one_loop_truth():
     assert type(a) is type(b) is LoopTruth and isinstance(a, SignalTruth) and a.epochs == b.epochs == 2
     c = SignalTruth.from_dynamics(0.01, 1e-3, 45.0, doppler_hz=np.full(2, 100.0))
     assert isinstance(c, LoopTruth) and c.code_phase_chips.shape == (11, 2)
+
+
+class _FixedChannelFilter:
+    name, requires = "fixed", ("correlators",)
+    provides = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", "freq_error_var_hz2")
+
+    def reset(self, batch, context):
+        self.batch = batch
+
+    def checked_step(self, inputs):
+        self.inputs = inputs
+        return {"code_error_chips": np.full(self.batch, 0.1), "code_error_var_chips2": np.full(self.batch, 0.01),
+                "freq_error_hz": np.full(self.batch, 0.2), "freq_error_var_hz2": np.full(self.batch, 1.0)}
+
+
+class _CapturingNav:
+    name, requires = "capture", ("code_error_chips", "freq_error_hz")
+    provides = ("position_m", "velocity_m_s", "clock_m", "cov", "nco_range_m", "nco_range_rate_m_s")
+
+    def reset(self, batch, context):
+        self.batch = batch
+
+    def checked_step(self, inputs):
+        self.inputs = inputs
+        return {"nco_range_m": inputs["replica_range_m"] + 7.0, "nco_range_rate_m_s": inputs["replica_rate_m_s"]}
+
+
+def test_vector_closer_hands_the_nav_filter_range_errors_and_steers_by_range():
+    # The one sign change of the engine: the channel filter's code error (truth minus
+    # replica code phase) reaches the nav filter negated (a range error in chips); the
+    # frequency error is passed as it is; the range command moves the replica's code phase
+    # by minus its range change over the chip length.
+    from gnssframework.interfaces import RunContext
+    from gnssframework.receiver.engine.closers import VectorCloser
+
+    T, batch = 0.01, (2, 3)
+    ch = Channel.from_range(batch, np.full(batch, 2.0e7), np.full(batch, 100.0))
+    closer = VectorCloser(_FixedChannelFilter(), nav := _CapturingNav())
+    closer.reset(ch, RunContext(coherent_time_s=T, early_late_spacing_chips=1.0, epoch_interval_s=T, cn0_dbhz=45.0))
+    assert nav.batch == (2,)
+    code_end, _ = ch.run_interval(T)
+    out = closer.channel_step(ch, None)
+    closer.nav_step(ch, out, {}, T, T)
+    np.testing.assert_array_equal(nav.inputs["code_error_chips"], -0.1)
+    np.testing.assert_array_equal(nav.inputs["freq_error_hz"], 0.2)
+    np.testing.assert_allclose(nav.inputs["replica_range_m"], 2.0e7 + 100.0 * T / 2)
+    # commanded: the mid-interval replica range + 7 m, i.e. 7 m + half an interval's motion past its end
+    np.testing.assert_allclose(ch.nco_range_m, 2.0e7 + 100.0 * T / 2 + 7.0)
+    np.testing.assert_allclose(ch.shift_chips, -(7.0 - 100.0 * T / 2) / GPS_L1CA.chip_length_m, atol=1e-7)
+    np.testing.assert_allclose(ch.code_phase_chips, code_end + ch.shift_chips, atol=1e-7)
+    np.testing.assert_allclose(ch.carrier_freq_hz, -100.0 / GPS_L1CA.wavelength_m)
