@@ -158,12 +158,13 @@ class Channel:
         self.carrier_freq_hz = f_new
         self.code_rate_chips_s = np.asarray(code_freq_hz, float)
 
-    def steer_range(self, nco_range_m: np.ndarray, nco_range_rate_m_s: np.ndarray, t_s: float) -> None:
+    def steer_range(self, nco_range_m: np.ndarray, nco_range_rate_m_s: np.ndarray, t_s: float | np.ndarray) -> None:
         """Next interval, starting at ``t_s``, from a range command (a vector loop's
         ``nco_range_m`` at ``t_s`` and ``nco_range_rate_m_s``): the code NCO jumps to the
         commanded range's code phase, the carrier phase runs on (no jump) at the commanded
-        rate's Doppler :math:`-\\dot\\rho/\\lambda`."""
+        rate's Doppler :math:`-\\dot\\rho/\\lambda`. ``t_s`` may differ per channel (an array)."""
         batch = np.shape(self.code_phase_chips)
+        t_s = t_s if isinstance(t_s, float) else np.asarray(t_s, float)
         rate = np.asarray(nco_range_rate_m_s, float)
         code = _batch(self._chip_rate_hz * t_s - np.asarray(nco_range_m, float) / self._chip_m, batch)
         code_rate = _batch(self._chip_rate_hz - rate / self._chip_m, batch)
