@@ -38,12 +38,8 @@ ALLOWED = frozenset({
 #: Files that still use C/A constants (measured). The first six are the tracking
 #: harnesses being rewritten into one loop engine (issue 36), to be taken off after it.
 REMAINING = frozenset({
-    "gnssframework/receiver/tracking/scalar.py",
-    "gnssframework/receiver/tracking/vector.py",
     "gnssframework/receiver/channels/tracker.py",
     "gnssframework/receiver/navigation/vector_tracking.py",
-    "gnssframework/receiver/deep/aided_tracking.py",
-    "gnssframework/receiver/deep/loose.py",
     "gnssframework/cli.py",                                           # the --prns check (G2_TAPS)
     "gnssframework/experiments/scenarios/carrier_smoothing.py",       # simulates L1
     "gnssframework/experiments/scenarios/sample_receiver_signals.py",  # simulates L1
