@@ -1,0 +1,34 @@
+"""The tracking-loop engine: a `Channel` (a signal description and its replica's NCOs), a
+correlator source (the analytic model or IF samples) and a loop closer (scalar: a channel
+filter per channel; vector: a navigation filter over all channels).
+
+Modules: `truth` (`LoopTruth`), `channel` (`Channel`, `ReplicaErrors`, the one NCO and
+sign convention), `sources` (`CorrelatorSource`, `AnalyticSource`), `samples`
+(`SampleSource`), `closers` (`ScalarCloser`, `VectorCloser`), `loops` (`run_scalar`,
+`TrackingRecord`). Names are importable from here; the modules are loaded on first use
+(so the channel package's tracker may import the engine without a circle at import time).
+"""
+
+from __future__ import annotations
+
+import importlib
+
+_WHERE = {
+    "LoopTruth": "truth", "SignalTruth": "truth", "VectorTruth": "truth", "DeepTruth": "truth",
+    "code_phase_of_range": "truth",
+    "Channel": "channel", "ReplicaErrors": "channel",
+    "CorrelatorSource": "sources", "AnalyticSource": "sources",
+    "SampleSource": "samples",
+    "ScalarCloser": "closers", "VectorCloser": "closers", "check_closed_loop": "closers",
+    "check_composition": "closers", "NCO_COMMANDS": "closers", "CHANNEL_OUTPUTS": "closers",
+    "NAV_OUTPUTS": "closers", "HARNESS_INPUTS": "closers",
+    "TrackingRecord": "loops", "run_scalar": "loops",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        return getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

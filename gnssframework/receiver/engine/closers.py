@@ -1,0 +1,160 @@
+r"""Loop closers of the engine: what turns correlators into the next NCO command.
+
+- `ScalarCloser`: a channel filter per channel (``channel_filter`` plugin) reads its
+  correlators and commands its own NCOs by frequency (``carrier_freq_hz``,
+  ``code_freq_hz``, optional ``carrier_phase_step_rad``; `Channel.steer_frequency`).
+- `VectorCloser`: channel filters turn each channel's correlators into code and frequency
+  errors with their variances; a navigation filter over all channels of a run takes them
+  as pseudorange and rate errors of the replicas at mid-interval (Zou et al. 2018, eqs.
+  35-36) and commands every channel's NCOs by range and rate (``nco_range_m``,
+  ``nco_range_rate_m_s``; `Channel.steer_range`).
+
+A closer sees only correlators and its `Channel`: it runs unchanged on the analytic
+source and on samples (`gnssframework.receiver.engine.sources`).
+
+Signs (`gnssframework.receiver.engine.channel`): a channel filter reports errors in the
+engine's convention, truth minus replica code phase (chips) and Doppler (Hz). The
+navigation filters' ``code_error_chips`` input is a range error in chips,
+:math:`(\rho - \hat\rho)/\lambda_{chip} = -\delta\tau`, so `VectorCloser` hands them the
+channel filter's code error negated (the one place the sign changes); their
+``freq_error_hz`` is the Doppler error, :math:`\dot\rho - \dot{\hat\rho} = -\lambda\,\delta f`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ... import names
+from ...errors import ConfigError
+from ...interfaces import ChannelFilter, NavFilter, RunContext
+from ...signal.correlators import Correlators
+from .channel import Channel
+
+__all__ = ["ScalarCloser", "VectorCloser", "check_closed_loop", "check_composition", "NCO_COMMANDS",
+           "CHANNEL_OUTPUTS", "NAV_OUTPUTS", "HARNESS_INPUTS"]
+
+#: Outputs a channel filter needs to steer the NCOs of a closed loop.
+NCO_COMMANDS = (names.CARRIER_FREQ_HZ, names.CODE_FREQ_HZ)
+#: What a channel filter must provide to feed a vector loop's nav filter.
+CHANNEL_OUTPUTS = (names.CODE_ERROR_CHIPS, names.CODE_ERROR_VAR_CHIPS2, names.FREQ_ERROR_HZ, names.FREQ_ERROR_VAR_HZ2)
+#: What a nav filter must provide to close a vector loop.
+NAV_OUTPUTS = (names.POSITION_M, names.VELOCITY_M_S, names.CLOCK_M, names.COV, names.NCO_RANGE_M,
+               names.NCO_RANGE_RATE_M_S)
+#: Inputs the vector loop itself gives the nav filter (besides the channel outputs).
+HARNESS_INPUTS = (names.SAT_POS_M, names.SAT_VEL_M_S, names.NEXT_SAT_POS_M, names.NEXT_SAT_VEL_M_S,
+                  names.REPLICA_RANGE_M, names.REPLICA_RATE_M_S)
+
+
+def check_closed_loop(channel: ChannelFilter, record: tuple[str, ...] = ()) -> None:
+    """Refuse a channel filter that cannot close a tracking loop (or lacks an output to record).
+
+    Raises
+    ------
+    ConfigError
+        With field ``"channel_filter"``.
+    """
+    needed = NCO_COMMANDS + tuple(record)
+    missing = [n for n in needed if n not in channel.provides]
+    if names.CORRELATORS not in channel.requires or missing:
+        raise ConfigError("channel_filter", f"{channel.name!r} cannot close a tracking loop: it must require "
+                          f"'correlators' and provide {', '.join(needed)}")
+
+
+def check_composition(channel: ChannelFilter, nav: NavFilter) -> None:
+    """Refuse a channel/nav filter pair that cannot close a vector loop.
+
+    Raises
+    ------
+    ConfigError
+        With field ``"channel_filter"`` or ``"nav_filter"`` (the part at fault).
+    """
+    missing = [n for n in CHANNEL_OUTPUTS if n not in channel.provides]
+    if missing:
+        raise ConfigError("channel_filter", f"{channel.name!r} cannot feed a vector loop: it does not provide "
+                          f"{', '.join(missing)}")
+    unmet = [n for n in nav.requires if n not in channel.provides and n not in HARNESS_INPUTS]
+    if unmet:
+        raise ConfigError("nav_filter", f"{nav.name!r} needs {', '.join(unmet)}, which {channel.name!r} does "
+                          f"not provide (it provides {', '.join(channel.provides)})")
+    missing = [n for n in NAV_OUTPUTS if n not in nav.provides]
+    if missing:
+        raise ConfigError("nav_filter", f"{nav.name!r} cannot close a vector loop: it does not provide "
+                          f"{', '.join(missing)}")
+
+
+class ScalarCloser:
+    """One channel filter per channel, steering its own NCOs by frequency.
+
+    Parameters
+    ----------
+    channel_filter
+        Requires ``correlators``, provides ``carrier_freq_hz`` and ``code_freq_hz`` (and
+        every name in ``record``).
+    record
+        Further outputs the caller will keep (checked here).
+    """
+
+    def __init__(self, channel_filter: ChannelFilter, record: tuple[str, ...] = ()) -> None:
+        check_closed_loop(channel_filter, record)
+        self.filter = channel_filter
+
+    def reset(self, channel: Channel, coherent_time_s: float, *, early_late_spacing_chips: float = 1.0,
+              cn0_dbhz: np.ndarray | float = 45.0) -> None:
+        """Start the filter on ``channel``'s batch; its Doppler prior is the carrier NCO's."""
+        T = coherent_time_s
+        self.filter.reset(channel.batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
+                                                    epoch_interval_s=T, cn0_dbhz=cn0_dbhz,
+                                                    doppler_hz=channel.carrier_freq_hz))
+
+    def step(self, channel: Channel, correlators: Correlators) -> dict[str, np.ndarray]:
+        """Filter one interval's correlators and steer ``channel`` (after its `Channel.errors`
+        or `Channel.run_interval` of the interval); returns the filter's outputs."""
+        out = self.filter.checked_step({names.CORRELATORS: correlators})
+        channel.steer_frequency(out[names.CARRIER_FREQ_HZ], out[names.CODE_FREQ_HZ],
+                                out.get("carrier_phase_step_rad", 0.0))
+        return out
+
+
+class VectorCloser:
+    """Channel filters feeding one navigation filter per run, which steers every channel by range.
+
+    Parameters
+    ----------
+    channel_filter, nav_filter
+        A channel filter providing `CHANNEL_OUTPUTS` and a nav filter providing
+        `NAV_OUTPUTS` (`check_composition`).
+    """
+
+    def __init__(self, channel_filter: ChannelFilter, nav_filter: NavFilter) -> None:
+        check_composition(channel_filter, nav_filter)
+        self.filter, self.nav = channel_filter, nav_filter
+
+    def reset(self, channel: Channel, context: RunContext) -> None:
+        """Start the channel filters on ``channel``'s batch ``(runs, channels)`` and the nav filter on the runs."""
+        self.filter.reset(channel.batch, context)
+        self.nav.reset(channel.batch[:1], context)
+
+    def channel_step(self, channel: Channel, correlators: Correlators,
+                     data_bit: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """The channel filters on one interval (told how far the last command moved the NCOs)."""
+        inputs = {names.CORRELATORS: correlators, names.NCO_SHIFT_CHIPS: channel.shift_chips,
+                  names.NCO_SHIFT_HZ: channel.shift_hz}
+        if data_bit is not None:
+            inputs[names.DATA_BIT] = data_bit
+        return self.filter.checked_step(inputs)
+
+    def nav_step(self, channel: Channel, ch_out: dict[str, np.ndarray], geometry: dict[str, np.ndarray],
+                 coherent_time_s: float, next_start_s: float) -> dict[str, np.ndarray]:
+        """The nav filter on the channel outputs (code error as range error: negated) and
+        ``geometry`` (satellite states, `HARNESS_INPUTS` but the replica's), then the range
+        command of the interval starting at ``next_start_s`` into ``channel``."""
+        nav_in = dict(ch_out)
+        nav_in[names.CODE_ERROR_CHIPS] = -ch_out[names.CODE_ERROR_CHIPS]
+        nav_in.update(geometry)
+        rate = channel.nco_range_rate_m_s
+        batch = channel.batch
+        nav_in[names.REPLICA_RANGE_M] = channel.nco_range_m + rate * coherent_time_s / 2
+        nav_in[names.REPLICA_RATE_M_S] = rate if np.shape(rate) == batch else np.broadcast_to(rate, batch)
+        nav_out = self.nav.checked_step(nav_in)
+        channel.steer_range(nav_out[names.NCO_RANGE_M], nav_out[names.NCO_RANGE_RATE_M_S], next_start_s)
+        return nav_out
