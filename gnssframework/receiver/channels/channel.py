@@ -15,7 +15,7 @@ from ... import registry
 from ...errors import ConfigError
 from ...interfaces import ChannelFilter, RunContext
 from ...signal.spec import SignalSpec
-from ..tracking.scalar import NCO_COMMANDS
+from ..engine.closers import NCO_COMMANDS
 from .closure import ERROR_OUTPUTS, ErrorFeedback
 from .config import TrackingConfig
 

@@ -3,7 +3,7 @@
 The tracker owns the samples, the NCO arrays, the compiled correlation and interval
 bookkeeping, the lock detectors and the filter batches; a loop closer decides what the
 channel filters' outputs do to the NCOs and how a channel goes through its stages. The
-tracker calls its closer at six points of a run, and nowhere else:
+tracker calls its closer at seven points of a run, and nowhere else:
 
 ===================  ==================================================================
 ``bind(tracker)``    a run starts (the tracker's arrays and channel table are fresh)

@@ -1,23 +1,23 @@
-r"""The replica NCOs of the sample tracker's channels, and the one way they are steered.
+r"""The replica NCOs of the sample tracker's channels and how every closer steers them.
 
-Convention (one for every closer): a channel's code NCO holds the code phase it has
-generated, ``code_phase`` chips into the current code period at the sample
-``start_sample``, advancing at ``code_rate`` chips/s; its carrier NCO runs at ``doppler``
-Hz above the intermediate frequency. In range terms, a replica whose code NCO has
-generated the chips sent at transmit time :math:`t_{tx}` by receive time :math:`t_{rx}`
-holds the pseudorange :math:`R = c\,(t_{rx} - t_{tx})`, and a carrier at Doppler
-:math:`f` holds the range rate :math:`\dot R = -\lambda f`. So
+The convention is the loop engine's (`gnssframework.receiver.engine.channel`): the code
+NCO's phase is the chip index the replica generates, errors are truth minus replica, a
+range :math:`\rho` at time :math:`t` is the code phase :math:`f_{chip} t - \rho/\lambda_{chip}`
+(`engine.truth.code_phase_of_range`) and a range rate the Doppler :math:`-\dot\rho/\lambda`.
+The tracker keeps a channel's code phase as ``code_phase`` chips into the current code
+period at the sample ``start_sample`` (its whole periods counted in ``ms_index``: the
+compiled interval kernel advances them in place, per slot), ``code_rate`` chips/s and the
+carrier NCO's ``doppler`` (Hz above the intermediate frequency).
 
-- more range is fewer chips: steering a replica from range :math:`R` to :math:`\hat R`
-  moves its code phase by :math:`(R - \hat R)/\lambda_{chip}` chips, and its carrier to
-  :math:`f = -\dot{\hat R}/\lambda` (`ReplicaNCOs.steer_to_range`, the vector closer's
-  command);
-- an error-output channel filter on these NCOs reports the code phase the replica must
-  gain, :math:`\phi_{true} - \phi_{replica}` chips (`ReplicaNCOs.shift` moves it by a
-  gain times that, the scalar `closure.ErrorFeedback`); the same error in delay terms,
-  :math:`(R_{true} - R)/\lambda_{chip}` (the navigation filters' ``code_error_chips``,
-  as `gnssframework.receiver.tracking.vector` defines it), is its opposite
-  (`ReplicaNCOs.delay_error_chips`).
+`ReplicaNCOs` steers them the three ways a closer commands:
+
+- `command`: a channel filter's NCO commands (``carrier_freq_hz``, ``code_freq_hz``,
+  optional ``carrier_phase_step_rad``), as `engine.channel.Channel.steer_frequency`;
+- `shift`: the scalar closure of an error-output filter (`closure.ErrorFeedback`) moves
+  the code phase by a gain times its code error and the carrier by a gain times its
+  frequency error (truth minus replica: the replica gains them), code rate carrier-aided;
+- `steer_range`: the vector closer's range and rate command, through the engine's own
+  `Channel.steer_range` on these slots.
 
 Every move is recorded (``shift_chips``, ``shift_hz``) for the error-output filters'
 ``nco_shift_chips`` and ``nco_shift_hz`` inputs.
@@ -30,6 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...signal.spec import SignalSpec
+from ..engine.channel import Channel
+from ..engine.truth import code_phase_of_range
 
 __all__ = ["ReplicaNCOs"]
 
@@ -64,17 +66,22 @@ class ReplicaNCOs:
         self.code_phase[slots] += code_chips
         self.code_rate[slots] = self.spec.code_freq_hz(self.doppler[slots])
 
-    def steer_to_range(self, slots: np.ndarray, replica_range_m: np.ndarray, range_m: np.ndarray,
-                       range_rate_m_s: np.ndarray) -> None:
-        """Move replicas holding ``replica_range_m`` to ``range_m`` and ``range_rate_m_s``
-        (see the module text); the code rate follows the carrier."""
-        code_chips = (replica_range_m - range_m) / self.spec.chip_length_m
-        doppler_hz = self.doppler_hz(range_rate_m_s)
-        self.code_phase[slots] += code_chips
-        self.shift_chips[slots] = code_chips
-        self.shift_hz[slots] = doppler_hz - self.doppler[slots]
-        self.doppler[slots] = doppler_hz
-        self.code_rate[slots] = self.spec.code_freq_hz(doppler_hz)
+    def steer_range(self, slots: np.ndarray, replica_range_m: np.ndarray, range_m: np.ndarray,
+                    range_rate_m_s: np.ndarray, t_s: np.ndarray) -> None:
+        """Move the replicas of ``slots``, which hold the pseudoranges ``replica_range_m`` at
+        recording times ``t_s`` (their start samples), to ``range_m`` and ``range_rate_m_s``:
+        `engine.channel.Channel.steer_range` on an engine channel at their code phase
+        (`code_phase_of_range` of ``replica_range_m``), whose moves the tracker's NCOs take."""
+        n = np.size(slots)
+        ch = Channel(self.spec, code_phase_of_range(self.spec, replica_range_m, t_s), self.code_rate[slots],
+                     np.zeros(n), self.doppler[slots])
+        ch.run_interval(0.0)  # the NCOs are at the start of the interval the command is for
+        ch.steer_range(range_m, range_rate_m_s, t_s)
+        self.code_phase[slots] += ch.shift_chips
+        self.shift_chips[slots] = ch.shift_chips
+        self.shift_hz[slots] = ch.shift_hz
+        self.doppler[slots] = ch.carrier_freq_hz
+        self.code_rate[slots] = ch.code_rate_chips_s
 
     def doppler_hz(self, range_rate_m_s: np.ndarray) -> np.ndarray:
         """The carrier Doppler (Hz) of a replica at ``range_rate_m_s``."""
@@ -85,6 +92,9 @@ class ReplicaNCOs:
         return -self.spec.wavelength_m * doppler_hz
 
     @staticmethod
-    def delay_error_chips(phase_error_chips: np.ndarray | float) -> np.ndarray | float:
-        """A code error as phase to gain (these NCOs') in delay terms (true minus replica delay)."""
-        return -phase_error_chips
+    def range_error_chips(code_error_chips: np.ndarray | float) -> np.ndarray | float:
+        r"""A channel filter's code error (truth minus replica code phase, chips) as the
+        navigation filters' ``code_error_chips`` input, a range error in chips
+        :math:`(\rho - \hat\rho)/\lambda_{chip} = -\delta\tau`
+        (`gnssframework.receiver.engine.closers`)."""
+        return -code_error_chips

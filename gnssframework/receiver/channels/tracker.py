@@ -52,11 +52,11 @@ from .batch import FilterBatch, batch_layout
 from .channel import NCO_COMMANDS, SampleChannel, create_filter, stage_context, stage_filter, supports
 from .closers import LoopCloser, ScalarCloser
 from .config import TrackingConfig
-from .nco import ReplicaNCOs
-from .records import RECORD_FIELDS, STAGES, ChannelRecord, TrackingResult
 from .correlator import code_tables, correlate_periods
-from .prefetch import BlockReader
 from .intervals import ChannelArrays, close_periods
+from .nco import ReplicaNCOs
+from .prefetch import BlockReader
+from .records import RECORD_FIELDS, STAGES, ChannelRecord, TrackingResult
 from ...signal.cn0 import cn0_moments
 from .lock import bit_edge_from_votes, cn0_nwpr_bits, estimate_cn0, phase_lock_indicator
 
@@ -66,6 +66,8 @@ __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD
 LAG_LIMIT_S = 0.025
 #: Interval (ms) between two evaluations of a channel's lock detectors.
 DETECT_MS = 20
+
+
 class SampleTracker:
     """Track the satellites an acquisition found, on a recording's samples.
 
@@ -97,9 +99,9 @@ class SampleTracker:
     The channel API a closer uses: the per-slot NCO arrays (``code_phase`` chips at
     ``start_sample``, ``code_rate`` chips/s, ``doppler`` Hz, ``doppler_cycles``,
     ``shift_chips`` and ``shift_hz`` the last moves, ``ms_index`` code periods tracked,
-    ``acc_t0`` the last interval's start; ``nco`` steers them, `nco.ReplicaNCOs`), ``channels`` (`SampleChannel` by PRN),
-    ``records``, ``active``, and the methods `add`, `start_stage`, `leave_batch`,
-    `deactivate` and `search`.
+    ``acc_t0`` the last interval's start; ``nco`` steers them, `nco.ReplicaNCOs`),
+    ``channels`` (`SampleChannel` by PRN), ``records``, ``active``, and the methods `add`,
+    `start_stage`, `leave_batch`, `deactivate` and `search`.
     """
 
     def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,

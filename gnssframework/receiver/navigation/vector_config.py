@@ -19,7 +19,7 @@ from ... import registry
 from ...errors import ConfigError
 from ...navigation.lnav import IonoUtc
 from ...plugin import validation_message
-from ..tracking.vector import check_composition
+from ..engine.closers import check_composition
 
 __all__ = ["VectorConfig", "vector_config", "Assistance", "assistance"]
 

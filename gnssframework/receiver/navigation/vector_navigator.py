@@ -17,8 +17,9 @@ each replica's code NCO into a transmit time. Every coherent interval ``T``:
    at transmit time, rotated by the Earth's turn during the flight, its clock from the
    ephemeris, Klobuchar :math:`I` when page 18 is known) and
    :math:`\dot{\hat R} = (v_s - v)\cdot e + d - c\,\Delta\dot t_{SV}`, and the replicas
-   are steered to them (`gnssframework.receiver.channels.nco`; carrier: a vector FLL, no
-   PLL, no carrier phase tracking after the hand-over).
+   are steered to them by the loop engine's range command
+   (`gnssframework.receiver.channels.nco.ReplicaNCOs.steer_range`; carrier: a vector FLL,
+   no PLL, no carrier phase tracking after the hand-over).
 
 A channel whose signal fades keeps being driven by the solution; its C/N0 estimate scales
 the variances it reports (the thermal variances grow as 1/C/N0), so the filter leans on
@@ -178,7 +179,7 @@ class VectorNavigator:
         # The replica's transmit time at mid-interval: the chips its NCO generated since the
         # hand-over, less the half interval's chips at the rate it ran.
         tx_mid = self.replica_tx(np.array([i]))[0] - (end - mid) / t.fs * t.code_rate[i] / t.signal.chip_rate_hz
-        self.pending[i] = (mid / t.fs, float(nco.delay_error_chips(np.ravel(out["code_error_chips"])[0])),
+        self.pending[i] = (mid / t.fs, float(nco.range_error_chips(np.ravel(out["code_error_chips"])[0])),
                            float(np.ravel(out["code_error_var_chips2"])[0]), float(np.ravel(out["freq_error_hz"])[0]),
                            float(np.ravel(out["freq_error_var_hz2"])[0]), tx_mid, float(t.doppler[i]))
 
@@ -248,7 +249,7 @@ class VectorNavigator:
         start_s = t.start_sample[slots] / t.fs
         tx = self.replica_tx(slots)
         rho, rate = self.predict(slots, x, start_s, tx)
-        t.nco.steer_to_range(slots, _C * (start_s + self.rx_offset - tx), rho, rate)
+        t.nco.steer_range(slots, _C * (start_s + self.rx_offset - tx), rho, rate, start_s)
 
 
 def rotate(v: np.ndarray, tau_s: np.ndarray) -> np.ndarray:

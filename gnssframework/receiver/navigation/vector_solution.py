@@ -24,11 +24,13 @@ class VectorSolution:
 
     ``sample_time_s`` ``(K,)`` recording time of each epoch; ``state`` ``(K, 8)``
     ``[x, y, z, vx, vy, vz, b, d]`` (ECEF m, m/s; clock in m and m/s, against the
-    receiver time ``sample_time_s + rx_offset_s``); ``cov`` ``(K, 8, 8)`` its covariance; ``prns`` the vector channels (those that joined later included); ``used`` ``(K, slots)``
-    whether the output of the channel at each tracker slot (the PRN ``slot_prns[slot]``) entered the update;
-    ``used_sat_pos_m`` ``(K,)`` of ``(n, 3)``: the positions of those satellites (the
-    table's HDOP and VDOP come from them, for its rows only); ``handover_s`` the recording time of the
-    hand-over fix; ``events`` what happened (``(time_s, text)``).
+    receiver time ``sample_time_s + rx_offset_s``); ``cov`` ``(K, 8, 8)`` its covariance;
+    ``prns`` the vector channels (those that joined later included); ``used``
+    ``(K, slots)`` whether the output of the channel at each tracker slot (the PRN
+    ``slot_prns[slot]``) entered the update; ``used_sat_pos_m`` ``(K,)`` of ``(n, 3)``:
+    the positions of those satellites (the table's HDOP and VDOP come from them, for its
+    rows only); ``handover_s`` the recording time of the hand-over fix; ``events`` what
+    happened (``(time_s, text)``).
     """
 
     prns: tuple[int, ...] = ()

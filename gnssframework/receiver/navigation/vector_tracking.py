@@ -36,7 +36,7 @@ from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..channels.channel import SampleChannel
 from ..channels.closers import LoopCloser, ScalarCloser
 from ..frontend.recording import Recording
-from ..tracking.vector import check_composition
+from ..engine.closers import check_composition
 from .vector_config import Assistance, VectorConfig, assistance, vector_config
 from .vector_handover import VECTOR, start_vector, try_assisted_handover, try_handover
 from .vector_navigator import VectorNavigator
