@@ -10,7 +10,7 @@ import pytest
 
 from gnssframework import registry
 from gnssframework.receiver.acquisition.report import acquire_recording
-from gnssframework.receiver.channels import ReplicaNCOs, SampleTracker, ScalarCloser, tracking_config
+from gnssframework.receiver.channels import ReplicaNCOs, SampleTracker, ScalarSampleCloser, tracking_config
 from gnssframework.receiver.frontend import SatelliteSignal, open_recording, synthesize_samples, write_recording
 from gnssframework.signal.codes import ca_code
 from gnssframework.signal.gps_l1ca import GPS_L1CA
@@ -34,7 +34,7 @@ def tracked(tmp_path_factory):
     return rec, acq, found
 
 
-class _Counting(ScalarCloser):
+class _Counting(ScalarSampleCloser):
     """The scalar closer, counting the tracker's calls."""
 
     def __init__(self) -> None:

@@ -2,7 +2,7 @@
 detectors, C/N0, bit synchronisation and the channel state machine."""
 
 from .channel import SampleChannel
-from .closers import LoopCloser, ScalarCloser
+from .closers import SampleCloser, ScalarSampleCloser
 from .closure import ErrorFeedback
 from .config import TrackingConfig, tracking_config
 from .correlator import correlate_channels, correlate_numpy
@@ -12,4 +12,4 @@ from .tracker import RECORD_FIELDS, STAGES, ChannelRecord, SampleTracker, Tracki
 
 __all__ = ["ErrorFeedback", "TrackingConfig", "tracking_config", "correlate_channels", "correlate_numpy", "BitSync",
            "estimate_cn0", "phase_lock_indicator", "SampleTracker", "TrackingResult", "ChannelRecord", "STAGES",
-           "RECORD_FIELDS", "LoopCloser", "ScalarCloser", "SampleChannel", "ReplicaNCOs"]
+           "RECORD_FIELDS", "SampleCloser", "ScalarSampleCloser", "SampleChannel", "ReplicaNCOs"]

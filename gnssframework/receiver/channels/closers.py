@@ -15,11 +15,13 @@ tracker calls its closer at seven points of a run, and nowhere else:
 ``finish(result)``   the run is over
 ===================  ==================================================================
 
-`ScalarCloser` closes every channel alone: a filter's NCO commands steer its NCOs, an
-error-output filter is closed by `closure.ErrorFeedback`, the state machine is pull-in ->
+`ScalarSampleCloser` closes every channel alone: a filter's NCO commands steer its NCOs
+(the loop engine's `gnssframework.receiver.engine.closers.ScalarCloser`, the closer of the
+analytic harness, on the slots' NCOs: `nco.SlotNCOs`), an error-output filter is closed
+by `closure.ErrorFeedback`, the state machine is pull-in ->
 track -> extended (-> lost), and lost satellites get the acquisition's full search.
-A vector closer (`gnssframework.receiver.navigation.vector_tracking.VectorCloser`) keeps a
-`ScalarCloser` for the channels it has not handed over and closes the others through a
+A vector closer (`gnssframework.receiver.navigation.vector_tracking.VectorSampleCloser`) keeps a
+`ScalarSampleCloser` for the channels it has not handed over and closes the others through a
 navigation filter.
 """
 
@@ -32,14 +34,15 @@ import numpy as np
 from ...interfaces import ChannelFilter
 from ...signal.correlators import Correlators
 from ..acquisition.search import AcquisitionResult
+from ..engine.closers import ScalarCloser as EngineScalarCloser
 from .channel import SampleChannel
 from .closure import ErrorFeedback
 from .records import TrackingResult
 
-__all__ = ["LoopCloser", "ScalarCloser"]
+__all__ = ["SampleCloser", "ScalarSampleCloser"]
 
 
-class LoopCloser:
+class SampleCloser:
     """The extension points of `SampleTracker` (see the module text); every hook but
     `step` and `advance` does nothing here."""
 
@@ -72,20 +75,19 @@ class LoopCloser:
         """The run is over."""
 
 
-class ScalarCloser(LoopCloser):
+class ScalarSampleCloser(SampleCloser):
     """Every channel closed alone by its own filter (see the module text)."""
 
     def step(self, filt: ChannelFilter, closure: ErrorFeedback | None, slots: np.ndarray, w: np.ndarray) -> None:
         t = self.tracker
-        inputs: dict[str, Any] = {"correlators": Correlators.trusted(w[:, 0], w[:, 1], w[:, 2])}
-        if closure is not None:
-            inputs.update(nco_shift_chips=t.shift_chips[slots], nco_shift_hz=t.shift_hz[slots])
-        out = filt.checked_step(inputs)
-        if closure is None:
-            t.nco.command(slots, out["carrier_freq_hz"], out["code_freq_hz"], out.get("carrier_phase_step_rad"))
-        else:
-            t.nco.shift(slots, closure.k_code * np.asarray(out["code_error_chips"], float),
-                        closure.k_freq * np.asarray(out["freq_error_hz"], float))
+        correlators = Correlators.trusted(w[:, 0], w[:, 1], w[:, 2])
+        if closure is None:  # NCO commands: the loop engine's scalar closer, on these slots' NCOs
+            EngineScalarCloser(filt).step(t.nco.at(slots), correlators)
+            return
+        out = filt.checked_step({"correlators": correlators, "nco_shift_chips": t.shift_chips[slots],
+                                 "nco_shift_hz": t.shift_hz[slots]})
+        t.nco.shift(slots, closure.k_code * np.asarray(out["code_error_chips"], float),
+                    closure.k_freq * np.asarray(out["freq_error_hz"], float))
 
     def advance(self, c: SampleChannel, t0: float) -> None:
         """The state machine: pull-in -> track -> extended; lost after ``loss_ms`` out of lock."""

@@ -11,8 +11,10 @@ carrier NCO's ``doppler`` (Hz above the intermediate frequency).
 
 `ReplicaNCOs` steers them the three ways a closer commands:
 
-- `command`: a channel filter's NCO commands (``carrier_freq_hz``, ``code_freq_hz``,
-  optional ``carrier_phase_step_rad``), as `engine.channel.Channel.steer_frequency`;
+- `at(slots).steer_frequency`: a channel filter's NCO commands (``carrier_freq_hz``,
+  ``code_freq_hz``, optional ``carrier_phase_step_rad``) with the signature and meaning of
+  `engine.channel.Channel.steer_frequency`, so that the engine's own
+  `engine.closers.ScalarCloser` steps a channel filter on samples;
 - `shift`: the scalar closure of an error-output filter (`closure.ErrorFeedback`) moves
   the code phase by a gain times its code error and the carrier by a gain times its
   frequency error (truth minus replica: the replica gains them), code rate carrier-aided;
@@ -33,7 +35,7 @@ from ...signal.spec import SignalSpec
 from ..engine.channel import Channel
 from ..engine.truth import code_phase_of_range
 
-__all__ = ["ReplicaNCOs"]
+__all__ = ["ReplicaNCOs", "SlotNCOs"]
 
 
 @dataclass
@@ -48,14 +50,9 @@ class ReplicaNCOs:
     shift_chips: np.ndarray
     shift_hz: np.ndarray
 
-    def command(self, slots: np.ndarray, carrier_freq_hz: np.ndarray, code_freq_hz: np.ndarray,
-                carrier_phase_step_rad: np.ndarray | None = None) -> None:
-        """A channel filter's NCO commands: the carrier and code rates of the next interval
-        (and a carrier phase step, rad)."""
-        self.doppler[slots] = carrier_freq_hz
-        self.code_rate[slots] = code_freq_hz
-        if carrier_phase_step_rad is not None:
-            self.doppler_cycles[slots] += np.asarray(carrier_phase_step_rad, float) / (2 * np.pi)
+    def at(self, slots: np.ndarray) -> SlotNCOs:
+        """The NCOs of ``slots`` as an engine channel takes frequency commands."""
+        return SlotNCOs(self, slots)
 
     def shift(self, slots: np.ndarray, code_chips: np.ndarray, freq_hz: np.ndarray) -> None:
         """Advance the code phase by ``code_chips`` and the carrier by ``freq_hz``; the code
@@ -98,3 +95,24 @@ class ReplicaNCOs:
         :math:`(\rho - \hat\rho)/\lambda_{chip} = -\delta\tau`
         (`gnssframework.receiver.engine.closers`)."""
         return -code_error_chips
+
+
+class SlotNCOs:
+    """The NCOs of some slots of a `ReplicaNCOs`, steered by frequency as an
+    `engine.channel.Channel` is (what `engine.closers.ScalarCloser.step` calls)."""
+
+    def __init__(self, ncos: ReplicaNCOs, slots: np.ndarray) -> None:
+        self.ncos, self.slots = ncos, slots
+
+    def steer_frequency(self, carrier_freq_hz: np.ndarray, code_freq_hz: np.ndarray,
+                        carrier_phase_step_rad: np.ndarray | float = 0.0) -> None:
+        """Next interval from frequency commands: the code NCO runs on (the tracker's
+        interval kernel has advanced it), the carrier at ``carrier_freq_hz`` plus the
+        phase step; ``shift_chips`` 0 and ``shift_hz`` the frequency change, as the engine's."""
+        n, i = self.ncos, self.slots
+        f_new = np.asarray(carrier_freq_hz, float)
+        n.shift_chips[i] = 0.0
+        n.shift_hz[i] = f_new - n.doppler[i]
+        n.doppler[i] = f_new
+        n.code_rate[i] = code_freq_hz
+        n.doppler_cycles[i] += np.asarray(carrier_phase_step_rad, float) / (2 * np.pi)

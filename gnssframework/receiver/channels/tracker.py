@@ -21,8 +21,8 @@ the NCOs of the next interval. Filters that output errors instead (the vector-tr
 channel filters) are closed by `closure.ErrorFeedback`.
 
 What the filters' outputs do to the NCOs, the channels' state machine and re-acquisition
-are the tracker's loop closer's (`closers.LoopCloser`, called at documented points of the
-run): `closers.ScalarCloser` by default; vector tracking
+are the tracker's loop closer's (`closers.SampleCloser`, called at documented points of the
+run): `closers.ScalarSampleCloser` by default; vector tracking
 (`gnssframework.receiver.navigation.vector_tracking`) hands the tracker a closer that
 closes the channels through a navigation filter.
 
@@ -50,7 +50,7 @@ from ..acquisition.search import Acquisition, AcquisitionResult
 from ..frontend.recording import Recording
 from .batch import FilterBatch, batch_layout
 from .channel import NCO_COMMANDS, SampleChannel, create_filter, stage_context, stage_filter, supports
-from .closers import LoopCloser, ScalarCloser
+from .closers import SampleCloser, ScalarSampleCloser
 from .config import TrackingConfig
 from .correlator import code_tables, correlate_periods
 from .intervals import ChannelArrays, close_periods
@@ -90,7 +90,7 @@ class SampleTracker:
         correlate the current one (`prefetch.BlockReader`: the same samples and power);
         ``False`` reads every block when it is needed.
     closer
-        The loop closer (`closers.LoopCloser`); default `closers.ScalarCloser`.
+        The loop closer (`closers.SampleCloser`); default `closers.ScalarSampleCloser`.
     signal
         The signal every channel tracks (`SignalSpec`); default `GPS_L1CA`.
 
@@ -106,9 +106,9 @@ class SampleTracker:
 
     def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
                  backend: str | None = None, batch: bool = True, read_ahead: bool = True,
-                 closer: LoopCloser | None = None, signal: SignalSpec = GPS_L1CA) -> None:
+                 closer: SampleCloser | None = None, signal: SignalSpec = GPS_L1CA) -> None:
         self.signal = signal
-        self.closer = closer if closer is not None else ScalarCloser()
+        self.closer = closer if closer is not None else ScalarSampleCloser()
         self.rec = recording
         self.batch = batch
         self.read_ahead = read_ahead

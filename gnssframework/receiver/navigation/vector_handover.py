@@ -7,7 +7,7 @@ closed by it. With an `Assistance` (`try_assisted_handover`): each replica's tra
 is resolved from the approximate position and start time, and every acquired channel is
 closed from its pull-in on, without LNAV.
 
-The functions take the `vector_tracking.VectorCloser` ``v`` (annotated, not imported: it
+The functions take the `vector_tracking.VectorSampleCloser` ``v`` (annotated, not imported: it
 imports them) whose state they set: its `VectorNavigator` (``v.nav``, None before the
 hand-over) and its solution.
 """
@@ -48,7 +48,7 @@ class _VectorClosure:
 VECTOR = _VectorClosure()
 
 
-def try_handover(v: VectorCloser) -> None:
+def try_handover(v: VectorSampleCloser) -> None:
     """Hand over the locked ``extended`` channels with LNAV timing and an ephemeris, at a
     first fix with at least four of them."""
     t = v.tracker
@@ -91,7 +91,7 @@ def try_handover(v: VectorCloser) -> None:
               f"first fix with {len(table.used_prns[e])} satellites")
 
 
-def _assisted_transmit_times(v: VectorCloser, chans: list[SampleChannel], now_s: float, r0: np.ndarray
+def _assisted_transmit_times(v: VectorSampleCloser, chans: list[SampleChannel], now_s: float, r0: np.ndarray
                              ) -> tuple[list[SampleChannel], Ephemerides, np.ndarray] | None:
     r"""The channels of ``chans`` with a healthy RINEX record, their records and each
     replica's transmit time (s of week, satellite time) at its current start sample,
@@ -134,7 +134,7 @@ def _assisted_transmit_times(v: VectorCloser, chans: list[SampleChannel], now_s:
     return chans, eph, np.round(residual - common) * sp.code_period_s + sub_period
 
 
-def try_assisted_handover(v: VectorCloser, now_s: float) -> None:
+def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
     """Close every active channel from its assisted transmit time
     (`_assisted_transmit_times`), whatever its scalar stage: the navigation filter
     starts from a least-squares fix on these pseudoranges, once every active channel
@@ -143,7 +143,7 @@ def try_assisted_handover(v: VectorCloser, now_s: float) -> None:
     No lock, bit sync or LNAV is needed: the bit edges follow from the transmit times
     (LNAV bits start where the satellite's time is a whole multiple of 20 ms,
     IS-GPS-200 20.3.2), and a channel in 1 ms pull-in or tracking goes over at its
-    next boundary of a ``coherent_ms`` interval within a bit (`VectorCloser.advance`)."""
+    next boundary of a ``coherent_ms`` interval within a bit (`VectorSampleCloser.advance`)."""
     t = v.tracker
     sp = t.signal
     active = sorted((c for c in t.channels.values() if t.active[c.slot] and c.stage != "lost"),
@@ -186,7 +186,7 @@ def try_assisted_handover(v: VectorCloser, now_s: float) -> None:
     for c, tx_s in zip(chans, tx_start):
         if c.stage != "extended":  # (an extended channel is bit-aligned already)
             whole = int(np.round((tx_s - t.code_phase[c.slot] / sp.chip_rate_hz) * per_s))
-            # The tracker labels the coming code period ms_index + 1 (`ScalarCloser.advance`).
+            # The tracker labels the coming code period ms_index + 1 (`ScalarSampleCloser.advance`).
             c.bit_edge = (int(t.ms_index[c.slot]) + 1 - whole) % c.periods_per_symbol
     tx_anchor = np.zeros(len(t.active))
     chip_anchor = np.zeros(len(t.active))
@@ -204,7 +204,7 @@ def try_assisted_handover(v: VectorCloser, now_s: float) -> None:
               "time, RINEX ephemerides)", vc.assisted_pseudorange_sigma_m, vc.assisted_range_rate_sigma_mps, doppler)
 
 
-def hand_over(v: VectorCloser, prns: tuple[int, ...], r: np.ndarray, bias: float, t_fix: float, week: int, why: str,
+def hand_over(v: VectorSampleCloser, prns: tuple[int, ...], r: np.ndarray, bias: float, t_fix: float, week: int, why: str,
               range_sigma_m: float | None = None, rate_sigma_mps: float | None = None,
               doppler_hz: np.ndarray | None = None) -> None:
     """Start the navigation filter (``v.nav``, created with its channels, ephemerides and
@@ -230,8 +230,8 @@ def hand_over(v: VectorCloser, prns: tuple[int, ...], r: np.ndarray, bias: float
         c = t.channels[p]
         if c.stage == "extended":
             start_vector(v, c)
-        else:  # 1 ms stages: over at the next interval boundary within a bit (`VectorCloser.advance`)
-            c.vector_pending = True  # its scalar loop stops steering (`VectorCloser.step`)
+        else:  # 1 ms stages: over at the next interval boundary within a bit (`VectorSampleCloser.advance`)
+            c.vector_pending = True  # its scalar loop stops steering (`VectorSampleCloser.step`)
             t.leave_batch(c)
             c.join_tries = 3
     if doppler_hz is not None:  # an assisted start: a 1 ms pull-in loop may have wandered
@@ -239,7 +239,7 @@ def hand_over(v: VectorCloser, prns: tuple[int, ...], r: np.ndarray, bias: float
         nav.command(slots, x0)
 
 
-def _ephemeris(v: VectorCloser, prn: int, obs, sample_time_s: float) -> Ephemerides | None:
+def _ephemeris(v: VectorSampleCloser, prn: int, obs, sample_time_s: float) -> Ephemerides | None:
     decoded = [rec for ready, rec in obs.ephemeris.get(prn, []) if ready <= sample_time_s]
     rec = decoded[-1] if decoded else None
     if rec is None and v.rinex is not None:
@@ -250,7 +250,7 @@ def _ephemeris(v: VectorCloser, prn: int, obs, sample_time_s: float) -> Ephemeri
     return rec if rec is not None and rec.health[0] == 0 else None
 
 
-def start_vector(v: VectorCloser, c: SampleChannel) -> None:
+def start_vector(v: VectorSampleCloser, c: SampleChannel) -> None:
     """Channel ``c`` (bit-aligned) is closed by the navigation filter from now on: its
     error-output channel filter, stepped alone, hands its errors to `VectorNavigator.measure`."""
     t = v.tracker
@@ -268,5 +268,6 @@ def start_vector(v: VectorCloser, c: SampleChannel) -> None:
     c.stage_ms = 0
     c.unlocked_ms = 0
     c.low_cn0_ms = 0
+    t.shift_chips[c.slot] = t.shift_hz[c.slot] = 0.0  # its filter is new: no NCO move before it
     t.voting[c.slot] = False
     c.record.events.append((float(t.start_sample[c.slot]) / t.fs, "vector tracking"))

@@ -12,7 +12,7 @@ window of code phase and Doppler the state predicts
 (`reacquire`, `join`); a lost scalar channel it cannot predict gets the scalar receiver's
 full search.
 
-The functions take the `vector_tracking.VectorCloser` ``v`` (annotated, not imported: it
+The functions take the `vector_tracking.VectorSampleCloser` ``v`` (annotated, not imported: it
 imports them) whose navigator they read and change.
 """
 
@@ -33,7 +33,7 @@ __all__ = ["drop", "reacquire", "join"]
 _C = SPEED_OF_LIGHT_MPS
 
 
-def drop(v: VectorCloser, c: SampleChannel, t0: float) -> None:
+def drop(v: VectorSampleCloser, c: SampleChannel, t0: float) -> None:
     """Loss of lock of vector channel ``c`` (`VectorConfig.loss_cn0_dbhz` for ``loss_ms``):
     it leaves the navigation filter's updates and the tracker's active channels; its
     ephemeris is kept for the aided search (`reacquire`), which may try it from the next
@@ -52,7 +52,7 @@ def drop(v: VectorCloser, c: SampleChannel, t0: float) -> None:
     v.solution.events.append((t0, f"PRN {c.prn} dropped from the vector loop ({why})"))
 
 
-def reacquire(v: VectorCloser, at: int, stop: int) -> None:
+def reacquire(v: VectorSampleCloser, at: int, stop: int) -> None:
     """Every satellite the solution can predict (a RINEX record, or the kept record of a
     dropped vector channel) that is not in the loop is searched in its predicted window
     (`window_search`) and joins the loop when found; lost channels it cannot predict get
@@ -96,7 +96,7 @@ def reacquire(v: VectorCloser, at: int, stop: int) -> None:
     t.search(tuple(unpredicted), at, stop)
 
 
-def _predict_signal(v: VectorCloser, prn: int, t_s: float):
+def _predict_signal(v: VectorSampleCloser, prn: int, t_s: float):
     """The solution's prediction for ``prn`` at recording time ``t_s``: its RINEX
     record, the `SearchWindow` (the first code epoch after ``t_s``; half widths
     ``reacquire_sigmas`` standard deviations of the predicted range and rate, from the
@@ -142,10 +142,10 @@ def _predict_signal(v: VectorCloser, prn: int, t_s: float):
     return record, window, tx, float(elevation)
 
 
-def join(v: VectorCloser, c: SampleChannel, record: Ephemerides, tx_start_s: float) -> None:
+def join(v: VectorSampleCloser, c: SampleChannel, record: Ephemerides, tx_start_s: float) -> None:
     """Channel ``c`` (just added at a code epoch) joins the vector loop: its transmit
     time there is a whole code period (the predicted one rounded), its bit edge follows,
-    and it goes over at its next aligned boundary (`VectorCloser.advance`)."""
+    and it goes over at its next aligned boundary (`VectorSampleCloser.advance`)."""
     t, nav = v.tracker, v.nav
     sp = t.signal
     i = c.slot

@@ -1,8 +1,8 @@
 r"""Vector tracking on samples: the navigation filter closes every channel's NCOs.
 
 `VectorSampleTracker` is a `~gnssframework.receiver.channels.SampleTracker` whose loop
-closer is a `VectorCloser`: it starts as the scalar receiver (pull-in, PLL, bit sync,
-LNAV: its `~gnssframework.receiver.channels.closers.ScalarCloser` closes every channel
+closer is a `VectorSampleCloser`: it starts as the scalar receiver (pull-in, PLL, bit sync,
+LNAV: its `~gnssframework.receiver.channels.closers.ScalarSampleCloser` closes every channel
 not handed over), hands channels over to a navigation filter (``ekf-pv``) at a first fix
 (`vector_handover`), and from then on closes them through it every coherent interval
 (`vector_navigator`): each channel's error-output filter (``discriminator`` or
@@ -34,7 +34,7 @@ from ...navigation.ephemeris import Ephemerides
 from ..acquisition.search import Acquisition, AcquisitionResult
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..channels.channel import SampleChannel
-from ..channels.closers import LoopCloser, ScalarCloser
+from ..channels.closers import SampleCloser, ScalarSampleCloser
 from ..frontend.recording import Recording
 from ..engine.closers import check_composition
 from .vector_config import Assistance, VectorConfig, assistance, vector_config
@@ -43,14 +43,14 @@ from .vector_navigator import VectorNavigator
 from .vector_reacquire import drop, reacquire
 from .vector_solution import VectorSolution
 
-__all__ = ["VectorConfig", "vector_config", "VectorSampleTracker", "VectorCloser", "VectorSolution", "Assistance",
+__all__ = ["VectorConfig", "vector_config", "VectorSampleTracker", "VectorSampleCloser", "VectorSolution", "Assistance",
            "assistance"]
 
 #: Interval (s) of the assisted start's checks (bit edges, hand-over): each costs an ephemeris evaluation.
 _ASSIST_EVERY_S = 0.1
 
 
-class VectorCloser(LoopCloser):
+class VectorSampleCloser(SampleCloser):
     """Scalar closing until the hand-over, the navigation filter after it (see the module text).
 
     Parameters
@@ -63,7 +63,7 @@ class VectorCloser(LoopCloser):
     Attributes
     ----------
     scalar
-        The `ScalarCloser` of the channels not (yet) handed over.
+        The `ScalarSampleCloser` of the channels not (yet) handed over.
     nav
         The `VectorNavigator` once a hand-over has happened, else None.
     solution
@@ -77,7 +77,7 @@ class VectorCloser(LoopCloser):
         self.assist = assist
         self.ionosphere = ionosphere
         self.reference_week = reference_week
-        self.scalar = ScalarCloser()
+        self.scalar = ScalarSampleCloser()
 
     def bind(self, tracker: SampleTracker) -> None:
         super().bind(tracker)
@@ -153,7 +153,7 @@ class VectorCloser(LoopCloser):
 
 class VectorSampleTracker(SampleTracker):
     """Scalar tracking, then vector tracking from the first fix: a `SampleTracker` with a
-    `VectorCloser` (see the module text).
+    `VectorSampleCloser` (see the module text).
 
     Parameters
     ----------
@@ -185,7 +185,7 @@ class VectorSampleTracker(SampleTracker):
         check_composition(registry.create("channel_filter", v.channel_filter, **v.channel_params),
                           registry.create("nav_filter", v.nav_filter, **v.nav_params))
         self.vector = v
-        self.closer = VectorCloser(v, rinex=rinex, ionosphere=ionosphere, reference_week=reference_week,
+        self.closer = VectorSampleCloser(v, rinex=rinex, ionosphere=ionosphere, reference_week=reference_week,
                                    assist=assist)
 
     @property
