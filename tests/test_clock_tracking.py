@@ -27,8 +27,9 @@ def test_tracking_process_noise_is_the_two_state_clock_q_in_tracking_units(prese
     Qc = van_loan_clock_q(model, T)
     np.testing.assert_allclose(model.process_noise(T), Qc, rtol=1e-9)
     Qt = model.tracking_process_noise(T, F_L1, F_CODE)
-    # code (chips) = f_code b, phase (rad) = -2 pi f_L1 b, frequency (Hz) = -f_L1 d.
-    scale = np.array([F_CODE, -2 * np.pi * F_L1])
+    # code phase error (chips) = -f_code b (the code is delayed), phase (rad) = -2 pi f_L1 b,
+    # frequency (Hz) = -f_L1 d.
+    scale = np.array([-F_CODE, -2 * np.pi * F_L1])
     np.testing.assert_allclose(Qt[:2, :2], np.outer(scale, scale) * Qc[0, 0], rtol=1e-9)
     np.testing.assert_allclose(Qt[2, 2], F_L1**2 * Qc[1, 1], rtol=1e-9)
     np.testing.assert_allclose(Qt[1, 2], 2 * np.pi * F_L1**2 * Qc[0, 1], rtol=1e-9)

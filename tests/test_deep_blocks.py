@@ -90,11 +90,11 @@ def test_aided_block_equals_the_per_interval_formulas(first):
         k = k0 + j
         t0, t1 = k * T, (k + 1) * T
         nco_range, nco_rate = sched_range[j], sched_rate[j]
-        shift_chips = np.zeros(batch) if rep_end is None else (nco_range - rep_end) / CA_CHIP_LENGTH_M
+        shift_chips = np.zeros(batch) if rep_end is None else -(nco_range - rep_end) / CA_CHIP_LENGTH_M
         shift_hz = np.zeros(batch) if rate_prev is None else -(nco_rate - (rate_prev + slope * T)) / L1_WAVELENGTH_M
         next_rho = truth.pseudorange(t1, k + 1, truth.sat_state(np.asarray(t1))[0])
         rep_end = nco_range + nco_rate * T
-        code_err = 0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M
+        code_err = -0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M  # truth - replica phase
         f_rep = -nco_rate / L1_WAVELENGTH_M
         ph0 = theta0 - 2 * np.pi * true_rho / L1_WAVELENGTH_M - carrier_rep
         carrier_rep_end = carrier_rep + 2 * np.pi * f_rep * T
@@ -220,7 +220,7 @@ def test_interval_fit_equals_the_running_sum_of_the_loop():
         blk, j = blocks[i // n_nco], i % n_nco
         w_rho = 1.0 / (outputs[2, i] * CA_CHIP_LENGTH_M**2)
         w_rate = 1.0 / (outputs[3, i] * L1_WAVELENGTH_M**2)
-        z_rho = outputs[0, i] * CA_CHIP_LENGTH_M + blk.replica_mid_m[j] - blk.predicted_range_m[j]
+        z_rho = -outputs[0, i] * CA_CHIP_LENGTH_M + blk.replica_mid_m[j] - blk.predicted_range_m[j]
         z_rate = -outputs[1, i] * L1_WAVELENGTH_M + blk.nco_rate[j] - blk.predicted_rate_m_s[j]
         want_n += w_rho[..., None, None] * np.outer(blk.h_rho[j], blk.h_rho[j]) + \
             w_rate[..., None, None] * np.outer(blk.h_rate[j], blk.h_rate[j])

@@ -13,13 +13,13 @@ import math
 import numpy as np
 
 from ..backend import jit
-from .constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 from .correlator_model import correlator_mean
+from .gps_l1ca import GPS_L1CA
 
 __all__ = ["channel_iq", "channel_iq_row", "channel_transition", "channel_model", "CODE_TO_CARRIER"]
 
 #: Code chipping rate over carrier frequency, f_code / f_carrier = 1 / 1540 for GPS L1 C/A.
-CODE_TO_CARRIER = CA_CHIP_RATE_HZ / L1_FREQ_HZ
+CODE_TO_CARRIER = GPS_L1CA.chip_rate_hz / GPS_L1CA.carrier_freq_hz
 
 
 def channel_iq(
@@ -34,8 +34,9 @@ def channel_iq(
     with ``R(dtau)`` for prompt and ``R(dtau - d)`` for late, and Q with ``sin``. Here
     ``d`` is the early-prompt spacing ``spacing_chips``. The paper writes the early tap
     as ``R(dtau - d)``, i.e. with the opposite sign of ``dtau``. The library keeps the
-    convention of `gnssframework.signal.correlator_model` (``dtau`` = true minus
-    replica delay) everywhere.
+    convention of `gnssframework.signal.correlator_model` and of the loop engine
+    (`gnssframework.receiver.engine.channel`: ``dtau`` = true minus replica code phase,
+    a tap at offset o sees ``R(dtau - o)``) everywhere.
 
     Parameters
     ----------
@@ -62,17 +63,17 @@ def channel_transition(coherent_time_s: float, code_to_carrier: float = CODE_TO_
     r"""Transition matrix of the channel state over one coherent interval (Zou et al. 2018, eq. 9).
 
     $$
-    \delta\tau' = \delta\tau - \tfrac{f_{code}}{f_{carrier}} T \delta f, \quad
+    \delta\tau' = \delta\tau + \tfrac{f_{code}}{f_{carrier}} T \delta f, \quad
     \delta\theta' = \delta\theta + 2\pi T \delta f + \pi T^2 \dot{\delta f}, \quad
     \delta f' = \delta f + T \dot{\delta f}
     $$
     """
     T = coherent_time_s
     F = np.eye(5)
-    # Our code error is true minus replica delay: a positive frequency error (range
-    # shrinking faster than the replica's) makes it *decrease*. The paper's + sign
-    # goes with its opposite dtau convention.
-    F[1, 3] = -code_to_carrier * T
+    # Our code error is true minus replica code phase (the engine's convention): a
+    # positive frequency error (range shrinking faster than the replica's) advances the
+    # true code faster than the replica's, so it *grows*, as in the paper.
+    F[1, 3] = code_to_carrier * T
     F[2, 3] = 2 * np.pi * T
     F[2, 4] = np.pi * T**2
     F[3, 4] = T

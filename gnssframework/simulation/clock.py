@@ -52,14 +52,16 @@ class ClockModel:
         r"""Q of a tracking channel's ``[code (chips), carrier phase (rad), carrier frequency (Hz)]``
         driven by this clock over ``interval_s``.
 
-        A receiver clock bias b (s) delays the code by $f_{code} b$ chips and rotates the
-        carrier by $-2\pi f_c b$ rad; its drift d moves the carrier frequency by $-f_c d$ Hz.
+        A receiver clock bias b (s) delays the code by $f_{code} b$ chips, a code phase
+        error (truth minus replica, `gnssframework.receiver.engine.channel`) of
+        $-f_{code} b$, and rotates the carrier by $-2\pi f_c b$ rad; its drift d moves the
+        carrier frequency by $-f_c d$ Hz.
         With $G$ that map, $Q_{trk} = G\, Q_{clock}\, G^T$ (Q of `process_noise`), which is
         exact because the channel's code/phase/frequency transition over T is the clock's
         $[[1, T], [0, 1]]$ in these units. Used to derive a channel filter's process noise
         from the oscillator's h-parameters instead of setting it by hand.
         """
-        G = np.array([[code_rate_hz, 0.0], [-2 * np.pi * carrier_hz, 0.0], [0.0, -carrier_hz]])
+        G = np.array([[-code_rate_hz, 0.0], [-2 * np.pi * carrier_hz, 0.0], [0.0, -carrier_hz]])
         return G @ self.process_noise(interval_s) @ G.T
 
     def allan_variance(self, tau_s: np.ndarray, include_flicker: bool = True) -> np.ndarray:

@@ -13,7 +13,7 @@ Each coherent interval k:
    NCO interval is laid out (`aiding.nco_schedule`; ``accel_aiding=False`` is the
    ``deep-no-accel`` candidate);
 2. the correlators of the replica's true code, phase and frequency errors are drawn
-   (`simulate_correlators`, as the vector loop does);
+   (the engine's `AnalyticSource`, as the vector loop does);
 3. the channel prefilter (a ``channel_filter`` plugin providing the vector loop's
    outputs, e.g. ``iq-filter`` with ``output = "equivalent"``) returns this interval's
    *new* code-phase and frequency information (so nothing is counted twice);
@@ -21,7 +21,9 @@ Each coherent interval k:
    range residual $\\delta\\rho(t) = \\delta\\rho_u + \\delta\\dot\\rho_u\\,(t - t_u)
    + \\tfrac12\\delta\\ddot\\rho\\,(t - t_u)^2$ and its rate over the integration interval
    (the marginal of range and rate at $t_u$ is handed over), with
-   $\\delta\\rho = \\lambda_{chip}\\,\\delta\\tau$, $\\delta\\dot\\rho = -\\lambda_{L1}\\,\\delta f$;
+   $\\delta\\rho = -\\lambda_{chip}\\,\\delta\\tau$, $\\delta\\dot\\rho = -\\lambda_{L1}\\,\\delta f$
+   (the engine's convention, `gnssframework.receiver.engine.channel`: errors are truth minus
+   replica code phase and Doppler);
    both taken against the navigator's prediction along the line of sight (the replica
    departs from it without acceleration aiding, by the known $\\tfrac12\\ddot\\rho\\tau^2$);
 5. at an integration instant $t_u$ the fit (mean and 2x2 covariance per channel, the
@@ -51,93 +53,24 @@ navigator position error $\\delta r$ shows as $\\delta\\rho_i = e_i\\cdot\\delta
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Protocol
+from typing import Protocol
 
 import numpy as np
 
 from ... import random_streams as draw
 from ...errors import ConfigError, NumericalError
 from ...interfaces import ChannelFilter, RunContext
-from ...signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from ...signal.correlators import Correlators
-from ...navigation.geometry import ranges_from_receivers
-from ..tracking.vector import CHANNEL_OUTPUTS
+from ..engine.channel import ReplicaErrors
+from ..engine.closers import CHANNEL_OUTPUTS
+from ..engine.sources import AnalyticSource
+from ..engine.truth import DeepTruth, LoopTruth
 from .aiding import line_of_sight_kinematics, nco_schedule
 
 __all__ = ["DeepTruth", "Navigator", "DeepRecord", "run_aided_tracking", "loss_of_lock"]
-
-
-@dataclass(frozen=True)
-class DeepTruth:
-    """Truth of an aided-tracking run.
-
-    Attributes
-    ----------
-    sat_state
-        ``sat_state(t) -> (pos, vel, acc)``, each ``(*t.shape, channels, 3)`` (or
-        ``(*t.shape, runs, channels, 3)``, a geometry per run) ECEF at the
-        times t (a scalar or an array: the loop asks for a block of epochs at once).
-    receiver_state
-        ``receiver_state(t) -> (pos, vel, acc)``, each ``(runs, 3)`` ECEF at scalar t.
-    clock_m
-        ``(K+1, runs, 2)``: receiver clock bias (m) and drift (m/s) at the epochs kT.
-    cn0_dbhz
-        ``(runs, channels)`` or broadcastable.
-    coherent_time_s
-        T.
-    receiver_positions
-        Optional ``receiver_positions(t) -> (*t.shape, runs, 3)``: the receiver's ECEF
-        position at an array of times, equal to ``receiver_state`` at each time (the loop
-        asks for a block of epochs at once). ``None``: ``receiver_state`` is called per epoch.
-    range_error_m
-        Optional ``range_error_m(t) -> (code_m, carrier_m)``, each ``(*t.shape, runs, ch)``:
-        errors of the true code and carrier ranges the receiver's model does not have
-        (`gnssframework.simulation.propagation`); ``None``: none.
-    """
-
-    sat_state: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
-    receiver_state: Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
-    clock_m: np.ndarray
-    cn0_dbhz: np.ndarray
-    coherent_time_s: float
-    receiver_positions: Callable[[np.ndarray], np.ndarray] | None = None
-    range_error_m: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
-
-    @property
-    def epochs(self) -> int:
-        return self.clock_m.shape[0] - 1
-
-    def pseudorange(self, t: float, k: int, sat_pos: np.ndarray) -> np.ndarray:
-        r = self.receiver_state(t)[0]
-        rho = ranges_from_receivers(sat_pos, r) + self.clock_m[k, :, 0][:, None]
-        if self.range_error_m is not None:
-            rho = rho + self.range_error_m(np.asarray(t, float))[0]
-        return rho
-
-    def pseudoranges(self, k0: int, k1: int, sat_pos: np.ndarray) -> np.ndarray:
-        """`pseudorange` at the epoch edges ``k0 .. k1 - 1`` at once, ``(k1 - k0, runs, ch)``.
-
-        ``sat_pos`` ``(k1 - k0, ch, 3)``: the satellites at those edges. The same arithmetic
-        per element as `pseudorange` (so the same bits), on a block of epochs.
-        """
-        t = np.arange(k0, k1) * self.coherent_time_s
-        if self.receiver_positions is not None:
-            r = np.asarray(self.receiver_positions(t), float)
-        else:
-            r = np.stack([np.asarray(self.receiver_state(ti)[0], float) for ti in t])
-        rho = ranges_from_receivers(sat_pos, r) + self.clock_m[k0:k1, :, 0][..., None]
-        if self.range_error_m is not None:
-            rho = rho + self.range_error_m(t)[0]
-        return rho
-
-    def carrier_minus_code_m(self, k0: int, k1: int) -> np.ndarray | None:
-        """Carrier range minus code range at the edges ``k0 .. k1 - 1`` ``(k1 - k0, runs, ch)``
-        (twice the ionospheric advance), or None without range errors."""
-        if self.range_error_m is None:
-            return None
-        code, carrier = self.range_error_m(np.arange(k0, k1) * self.coherent_time_s)
-        return carrier - code
 
 
 class Navigator(Protocol):
@@ -155,7 +88,7 @@ class Navigator(Protocol):
 class DeepRecord:
     """Series of an aided-tracking run. Tracking errors every T, prefilter outputs every update."""
 
-    code_error_chips: np.ndarray  # (K, runs, ch) true code error of the replica
+    code_error_chips: np.ndarray  # (K, runs, ch) true code error of the replica (truth minus replica code phase)
     freq_error_hz: np.ndarray  # (K, runs, ch) true frequency error
     time_s: np.ndarray  # (K,) mid-interval times
     update_time_s: np.ndarray  # (U,)
@@ -174,7 +107,7 @@ def _steps(interval_s: float, T: float, name: str) -> int:
 def run_aided_tracking(
     channel: ChannelFilter,
     navigator: Navigator,
-    truth: DeepTruth,
+    truth: LoopTruth,
     rng: np.random.Generator,
     *,
     nco_interval_s: float = 0.005,
@@ -251,7 +184,7 @@ class _AidedLoop:
     interval needs of this one's replica).
     """
 
-    def __init__(self, channel: ChannelFilter, navigator: Navigator, truth: DeepTruth, rng: np.random.Generator,
+    def __init__(self, channel: ChannelFilter, navigator: Navigator, truth: LoopTruth, rng: np.random.Generator,
                  n_nco: int, n_upd: int, accel_aiding: bool, early_late_spacing_chips: float, pull_in_updates: int,
                  carrier_filter: ChannelFilter | None) -> None:
         self.channel, self.navigator, self.truth, self.rng = channel, navigator, truth, rng
@@ -266,8 +199,9 @@ class _AidedLoop:
         self.cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
         # Per-run constants of the correlator draws (tap noise root, amplitude) once, not per
         # interval: the same draws and arithmetic as simulate_correlators.
-        self.correlators = CorrelatorSimulator(T, early_late_spacing_chips)
-        self.amplitude = amplitude_from_cn0(self.cn0, T)
+        self.source = AnalyticSource(CorrelatorSimulator(T, early_late_spacing_chips), amplitude_from_cn0(self.cn0, T),
+                                     rng)
+        self.signal = truth.signal
         self.zeros = np.zeros(batch)
         # Data bits are wiped off (1 everywhere): as an array of the batch's shape the prefilter's
         # wipe-off takes its unchecked path (the same products as with a scalar 1).
@@ -306,7 +240,7 @@ class _AidedLoop:
         self.sched_range, self.sched_rate = nco_schedule(rho, rate, acc, T, self.n_nco, accel_aiding=self.accel_aiding)
         if self.carrier_filter is not None and self.rate_before_update is not None:
             # The update's correction of the predicted rate (f = -rate / lambda), undone on the carrier side.
-            self.transfer_hz -= -(rate - self.rate_before_update) / L1_WAVELENGTH_M
+            self.transfer_hz -= -(rate - self.rate_before_update) / self.signal.wavelength_m
             self.rate_before_update = None
         self.slope_new = acc if self.accel_aiding else np.zeros_like(rate)
         # The replica is laid out until the next re-aiding and the truth is known, so the true
@@ -324,7 +258,7 @@ class _AidedLoop:
         """Draw the correlators of coherent interval ``j`` of the NCO interval and step the
         code/frequency prefilter on them: ``(correlators, its outputs)``."""
         blk = self.blk
-        corr = self.correlators.draw(blk.code_err[j], blk.ph0[j], blk.freq_err[j], self.amplitude, self.rng)
+        corr = self.source.correlate(None, j, ReplicaErrors(blk.code_err[j], blk.ph0[j], blk.freq_err[j]))
         out = self.channel.checked_step({"correlators": corr, "nco_shift_chips": blk.shift_chips[j],
                                          "nco_shift_hz": blk.shift_hz[j], "data_bit": self.ones})
         return corr, out
@@ -349,7 +283,7 @@ class _AidedLoop:
     def integration_update(self, k_edge: int) -> None:
         """Fit the interval's information and hand it to the navigator at edge ``k_edge`` (after the pull-in)."""
         t1 = k_edge * self.T
-        normal, rhs = _interval_fit(self.fit_out, self.fit_blocks)
+        normal, rhs = _interval_fit(self.fit_out, self.fit_blocks, self.signal)
         self.fit_blocks = []
         cov = np.linalg.inv(normal)[..., :2, :2]  # marginal of [range, rate] at t_u
         res = np.einsum("...ij,...j->...i", np.linalg.inv(normal), rhs)[..., :2]
@@ -402,7 +336,8 @@ class _AidedBlock:
     nco_rate: np.ndarray  # (n, runs, ch) the replica's rate over each interval
 
 
-def _interval_fit(outputs: np.ndarray, blocks: list[_AidedBlock]) -> tuple[np.ndarray, np.ndarray]:
+def _interval_fit(outputs: np.ndarray, blocks: list[_AidedBlock], signal: SignalSpec = GPS_L1CA
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Normal matrix ``(runs, ch, 3, 3)`` and right-hand side of one integration interval's fit.
 
     Weighted least squares of [dr(t_u), dr_dot(t_u), dr_ddot] from the interval's new
@@ -419,11 +354,13 @@ def _interval_fit(outputs: np.ndarray, blocks: list[_AidedBlock]) -> tuple[np.nd
     reduced along the first axis adds one interval after the other, as a running sum would).
     """
     code, freq, var_code, var_freq = outputs
+    chip_m, wavelength_m = signal.chip_length_m, signal.wavelength_m
     cat = lambda name: np.concatenate([getattr(b, name) for b in blocks])  # noqa: E731
-    w_rho = 1.0 / (var_code * CA_CHIP_LENGTH_M**2)
-    w_rate = 1.0 / (var_freq * L1_WAVELENGTH_M**2)
-    z_rho = code * CA_CHIP_LENGTH_M + cat("replica_mid_m") - cat("predicted_range_m")
-    z_rate = -freq * L1_WAVELENGTH_M + cat("nco_rate") - cat("predicted_rate_m_s")
+    w_rho = 1.0 / (var_code * chip_m**2)
+    w_rate = 1.0 / (var_freq * wavelength_m**2)
+    # code error: truth minus replica code phase, a range error of -chip length x it (engine convention)
+    z_rho = -code * chip_m + cat("replica_mid_m") - cat("predicted_range_m")
+    z_rate = -freq * wavelength_m + cat("nco_rate") - cat("predicted_rate_m_s")
     h_rho, h_rate = cat("h_rho")[:, None, None], cat("h_rate")[:, None, None]
     normal_terms = (w_rho[..., None, None] * cat("outer_rho")[:, None, None]
                     + w_rate[..., None, None] * cat("outer_rate")[:, None, None])
@@ -441,22 +378,24 @@ def _aided_block(sat_at, k0: int, n: int, T: float, n_upd: int, sched_range, sch
     ``rep_end_prev``, ``rate_prev``, ``slope_prev``: the previous NCO interval's last replica
     end, rate and slope (``None`` at the start: no shift).
     """
+    chip_m, wavelength_m = sat_at.truth.signal.chip_length_m, sat_at.truth.signal.wavelength_m
     true_rho = np.stack([sat_at.pseudorange(k0 + i) for i in range(n + 1)])
     carrier_rho = true_rho
     if sat_at.truth.range_error_m is not None:  # the carrier range differs from the code's (ionosphere)
         carrier_rho = true_rho + np.stack([sat_at.carrier_minus_code(k0 + i) for i in range(n + 1)])
     nco_range, nco_rate = sched_range[:n], sched_rate[:n]
     rep_end = nco_range + nco_rate * T
-    code_err = 0.5 * ((true_rho[:-1] - nco_range) + (true_rho[1:] - rep_end)) / CA_CHIP_LENGTH_M
-    f_rep = -nco_rate / L1_WAVELENGTH_M
+    # Truth minus replica code phase (engine convention): the range error over the chip length, negated.
+    code_err = -0.5 * ((true_rho[:-1] - nco_range) + (true_rho[1:] - rep_end)) / chip_m
+    f_rep = -nco_rate / wavelength_m
     # carrier_rep + the increments one after the other (accumulate adds in sequence, as the loop did).
     carrier = np.add.accumulate(np.concatenate([carrier_rep[None], 2 * np.pi * f_rep * T]), axis=0)
-    ph0 = theta0 - 2 * np.pi * carrier_rho[:-1] / L1_WAVELENGTH_M - carrier[:-1]
-    ph1 = theta0 - 2 * np.pi * carrier_rho[1:] / L1_WAVELENGTH_M - carrier[1:]
+    ph0 = theta0 - 2 * np.pi * carrier_rho[:-1] / wavelength_m - carrier[:-1]
+    ph1 = theta0 - 2 * np.pi * carrier_rho[1:] / wavelength_m - carrier[1:]
     freq_err = (ph1 - ph0) / (2 * np.pi * T)
     shift_chips = np.empty_like(nco_range)
-    shift_chips[0] = zeros if rep_end_prev is None else (nco_range[0] - rep_end_prev) / CA_CHIP_LENGTH_M
-    shift_chips[1:] = (nco_range[1:] - rep_end[:-1]) / CA_CHIP_LENGTH_M
+    shift_chips[0] = zeros if rep_end_prev is None else -(nco_range[0] - rep_end_prev) / chip_m
+    shift_chips[1:] = -(nco_range[1:] - rep_end[:-1]) / chip_m
     # The prefilter's states are errors relative to the aided replica, driven by the
     # navigator's errors: its frequency state moves only by the replica's departure from
     # the ramp it was following (a re-aiding), not by the aided ramp itself. Handing it
@@ -464,8 +403,8 @@ def _aided_block(sat_at, k0: int, n: int, T: float, n_upd: int, sched_range, sch
     # sight acceleration from a zero prior: rate information biased by tens of standard
     # deviations during a 20 g boost even with a perfect navigator.
     shift_hz = np.empty_like(nco_rate)
-    shift_hz[0] = zeros if rate_prev is None else -(nco_rate[0] - (rate_prev + slope_prev * T)) / L1_WAVELENGTH_M
-    shift_hz[1:] = -(nco_rate[1:] - (nco_rate[:-1] + slope * T)) / L1_WAVELENGTH_M
+    shift_hz[0] = zeros if rate_prev is None else -(nco_rate[0] - (rate_prev + slope_prev * T)) / wavelength_m
+    shift_hz[1:] = -(nco_rate[1:] - (nco_rate[:-1] + slope * T)) / wavelength_m
     # Mid-interval times since the aiding instant as Python floats, squared as the loop squared them.
     tau_list = [(k0 + i) * T + T / 2 - t_aid for i in range(n)]
     tau = np.array(tau_list)[:, None, None]
@@ -495,7 +434,7 @@ class _EdgeStates:
     evaluation (and one receiver-position evaluation) per block of epochs instead of one or
     two per epoch (memory stays bounded on long runs)."""
 
-    def __init__(self, truth: DeepTruth, K: int, block: int = 1000) -> None:
+    def __init__(self, truth: LoopTruth, K: int, block: int = 1000) -> None:
         self.truth, self.T, self.K, self.block = truth, truth.coherent_time_s, K, block
         self.start = -block  # nothing evaluated yet
         self.states: tuple[np.ndarray, ...] = ()
@@ -516,14 +455,14 @@ class _EdgeStates:
         return self.states[0][i], self.states[1][i], self.states[2][i]
 
     def pseudorange(self, k: int) -> np.ndarray:
-        """True pseudorange ``(runs, ch)`` at edge k (`DeepTruth.pseudorange`, computed per block)."""
+        """True pseudorange ``(runs, ch)`` at edge k (`LoopTruth.pseudorange`, computed per block)."""
         i = self._load(k)
         if self.rho is None:
             self.rho = self.truth.pseudoranges(self.start, self.start + len(self.states[0]), self.states[0])
         return self.rho[i]
 
     def carrier_minus_code(self, k: int) -> np.ndarray:
-        """Carrier minus code range error ``(runs, ch)`` at edge k (`DeepTruth.carrier_minus_code_m`)."""
+        """Carrier minus code range error ``(runs, ch)`` at edge k (`LoopTruth.carrier_minus_code_m`)."""
         i = self._load(k)
         if self.divergence is None:
             self.divergence = self.truth.carrier_minus_code_m(self.start, self.start + len(self.states[0]))

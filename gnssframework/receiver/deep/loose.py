@@ -22,8 +22,11 @@ from ... import random_streams as draw
 from ...errors import NumericalError
 from ...interfaces import ChannelFilter
 from ...navigation.geometry import line_of_sight, range_rate
-from ...signal.constants import CA_CHIP_LENGTH_M, CA_CHIP_RATE_HZ, L1_WAVELENGTH_M
-from ..tracking.scalar import SignalTruth, TrackingRecord, run_closed_loop
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
+from ..engine.loops import TrackingRecord
+from ..engine.truth import SignalTruth, code_phase_of_range
+from ..tracking.scalar import run_closed_loop
 
 __all__ = ["scalar_tracking", "pv_fix", "scalar_measurement_variances", "scalar_measurements",
            "trailing_rate_measurement", "line_of_sight_accel", "correlated_error_inflation", "fix_gate"]
@@ -31,8 +34,8 @@ __all__ = ["scalar_tracking", "pv_fix", "scalar_measurement_variances", "scalar_
 
 def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz: np.ndarray, coherent_time_s: float,
                     rng: np.random.Generator, *, initial_doppler_error_hz: np.ndarray | float = 0.0,
-                    early_late_spacing_chips: float = 1.0, carrier_range_m: np.ndarray | None = None
-                    ) -> TrackingRecord:
+                    early_late_spacing_chips: float = 1.0, carrier_range_m: np.ndarray | None = None,
+                    signal: SignalSpec = GPS_L1CA) -> TrackingRecord:
     """Track every channel with its own scalar loop.
 
     Parameters
@@ -44,6 +47,8 @@ def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz:
     carrier_range_m
         ``(K+1, runs, ch)`` true range of the carrier phase when it differs from the code's
         (the ionosphere advances one and delays the other); None: ``pseudorange_m``.
+    signal
+        The tracked signal (`GPS_L1CA`).
 
     Returns
     -------
@@ -53,18 +58,19 @@ def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz:
     rho = np.asarray(pseudorange_m, float)
     rho0 = rho[0]
     rho_c = rho if carrier_range_m is None else np.asarray(carrier_range_m, float)
-    carrier = -2 * np.pi * (rho_c - rho_c[0]) / L1_WAVELENGTH_M + draw.uniform(rng, -np.pi, np.pi, rho0.shape, 0)
+    carrier = -2 * np.pi * (rho_c - rho_c[0]) / signal.wavelength_m + draw.uniform(rng, -np.pi, np.pi, rho0.shape, 0)
     t = np.arange(rho.shape[0]).reshape((-1,) + (1,) * (rho.ndim - 1)) * coherent_time_s
-    code = CA_CHIP_RATE_HZ * t - (rho - rho0) / CA_CHIP_LENGTH_M
-    truth = SignalTruth(code, carrier, np.broadcast_to(np.asarray(cn0_dbhz, float), rho0.shape), coherent_time_s)
-    doppler0 = -(rho_c[1] - rho_c[0]) / coherent_time_s / L1_WAVELENGTH_M
+    code = code_phase_of_range(signal, rho - rho0, t)
+    truth = SignalTruth(code, carrier, np.broadcast_to(np.asarray(cn0_dbhz, float), rho0.shape), coherent_time_s,
+                        signal=signal)
+    doppler0 = -(rho_c[1] - rho_c[0]) / coherent_time_s / signal.wavelength_m
     return run_closed_loop(channel, truth, rng, initial_doppler_hz=doppler0 + initial_doppler_error_hz,
                            early_late_spacing_chips=early_late_spacing_chips)
 
 
 def scalar_measurement_variances(cn0_dbhz: np.ndarray, coherent_time_s: float, dll_bandwidth_hz: float,
-                                 pll_bandwidth_hz: float, rate_window_s: float, early_late_spacing_chips: float = 1.0
-                                 ) -> tuple[np.ndarray, np.ndarray]:
+                                 pll_bandwidth_hz: float, rate_window_s: float, early_late_spacing_chips: float = 1.0,
+                                 signal: SignalSpec = GPS_L1CA) -> tuple[np.ndarray, np.ndarray]:
     """Thermal-noise variances of a scalar loop's pseudorange (m^2) and range rate (m^2/s^2).
 
     Code: the early-minus-late envelope DLL, $\\sigma_\\tau^2 = \\frac{B_L d}{2 c}\\left(1 +
@@ -77,9 +83,9 @@ def scalar_measurement_variances(cn0_dbhz: np.ndarray, coherent_time_s: float, d
     """
     c = 10.0 ** (np.asarray(cn0_dbhz, float) / 10.0)
     T, d = coherent_time_s, early_late_spacing_chips
-    var_code = dll_bandwidth_hz * d / (2 * c) * (1 + 2 / ((2 - d) * T * c)) * CA_CHIP_LENGTH_M**2
+    var_code = dll_bandwidth_hz * d / (2 * c) * (1 + 2 / ((2 - d) * T * c)) * signal.chip_length_m**2
     var_phase = pll_bandwidth_hz / c * (1 + 1 / (2 * T * c))
-    var_rate = 2 * var_phase * (L1_WAVELENGTH_M / (2 * np.pi * rate_window_s)) ** 2
+    var_rate = 2 * var_phase * (signal.wavelength_m / (2 * np.pi * rate_window_s)) ** 2
     return var_code, var_rate
 
 
@@ -134,7 +140,7 @@ def pv_fix(range_m: np.ndarray, rate_m_s: np.ndarray, var_range: np.ndarray, var
 
 
 def scalar_measurements(record: TrackingRecord, pseudorange_m: np.ndarray, rate_m_s: np.ndarray, k: int,
-                        rate_window: int) -> tuple[np.ndarray, np.ndarray]:
+                        rate_window: int, signal: SignalSpec = GPS_L1CA) -> tuple[np.ndarray, np.ndarray]:
     """Pseudorange and range rate the scalar loops read at the edge after interval ``k``.
 
     ``pseudorange_m`` and ``rate_m_s`` ``(runs, ch)`` are the true values there. The
@@ -145,12 +151,13 @@ def scalar_measurements(record: TrackingRecord, pseudorange_m: np.ndarray, rate_
     code = 0.5 * (record.code_error_chips[k] + record.code_error_chips[min(k + 1, len(record.code_error_chips) - 1)])
     lo = max(k + 1 - rate_window // 2, 0)
     hi = min(lo + rate_window, len(record.freq_error_hz))
-    return (pseudorange_m + CA_CHIP_LENGTH_M * code,
-            rate_m_s + L1_WAVELENGTH_M * np.mean(record.freq_error_hz[lo:hi], axis=0))
+    return (pseudorange_m + signal.chip_length_m * code,
+            rate_m_s + signal.wavelength_m * np.mean(record.freq_error_hz[lo:hi], axis=0))
 
 
 def trailing_rate_measurement(record: TrackingRecord, carrier_range_m: np.ndarray, k_edge: int, window: int,
-                              coherent_time_s: float, los_accel_m_s2: np.ndarray) -> np.ndarray:
+                              coherent_time_s: float, los_accel_m_s2: np.ndarray, signal: SignalSpec = GPS_L1CA
+                              ) -> np.ndarray:
     """Range rate at edge ``k_edge`` from the carrier phase of the ``window`` intervals before it.
 
     The loops' carrier phase advance over the trailing window (nothing after the update
@@ -164,7 +171,7 @@ def trailing_rate_measurement(record: TrackingRecord, carrier_range_m: np.ndarra
     """
     delta_s = window * coherent_time_s
     mean_rate = (carrier_range_m[k_edge] - carrier_range_m[k_edge - window]) / delta_s
-    error = L1_WAVELENGTH_M * np.mean(record.freq_error_hz[k_edge - window:k_edge], axis=0)
+    error = signal.wavelength_m * np.mean(record.freq_error_hz[k_edge - window:k_edge], axis=0)
     return mean_rate + error + los_accel_m_s2 * delta_s / 2
 
 

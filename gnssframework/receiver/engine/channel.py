@@ -77,12 +77,17 @@ class Channel:
     def __init__(self, signal: SignalSpec, code_phase_chips: np.ndarray, code_rate_chips_s: np.ndarray,
                  carrier_phase_rad: np.ndarray, carrier_freq_hz: np.ndarray) -> None:
         self.signal = signal
+        # The description's rates and lengths, read once (the steering runs every interval).
+        self._chip_rate_hz, self._chip_m, self._wavelength_m = (signal.chip_rate_hz, signal.chip_length_m,
+                                                                signal.wavelength_m)
         self.code_phase_chips = code_phase_chips
         self.code_rate_chips_s = code_rate_chips_s
         self.carrier_phase_rad = carrier_phase_rad
         self.carrier_freq_hz = carrier_freq_hz
         shape = np.shape(code_phase_chips)
-        self.shift_chips = np.zeros(shape)
+        self._zeros = np.zeros(shape)
+        self._zeros.flags.writeable = False  # shared by every frequency command's shift_chips
+        self.shift_chips = self._zeros
         self.shift_hz = np.zeros(shape)
         self.nco_range_m: np.ndarray | None = None
         self.nco_range_rate_m_s: np.ndarray | None = None
@@ -115,8 +120,8 @@ class Channel:
 
     @staticmethod
     def _range_nco(signal: SignalSpec, range_m, rate_m_s, t_s: float, batch) -> tuple[np.ndarray, np.ndarray]:
-        code = np.broadcast_to(code_phase_of_range(signal, range_m, t_s), batch)
-        rate = np.broadcast_to(signal.chip_rate_hz - np.asarray(rate_m_s, float) / signal.chip_length_m, batch)
+        code = _batch(code_phase_of_range(signal, range_m, t_s), batch)
+        rate = _batch(signal.chip_rate_hz - np.asarray(rate_m_s, float) / signal.chip_length_m, batch)
         return code, rate
 
     # --- one interval --------------------------------------------------------------------
@@ -146,23 +151,32 @@ class Channel:
         ``code_freq_hz`` and optional ``carrier_phase_step_rad``): the code NCO runs on
         from where it ended; the carrier too, plus the phase step."""
         f_new = np.asarray(carrier_freq_hz, float)
-        self.shift_chips = np.zeros(self.batch)
+        self.shift_chips = self._zeros
         self.shift_hz = f_new - self.carrier_freq_hz
         self.code_phase_chips = self._code_end
         self.carrier_phase_rad = self._carrier_end + carrier_phase_step_rad
         self.carrier_freq_hz = f_new
         self.code_rate_chips_s = np.asarray(code_freq_hz, float)
 
-    def steer_range(self, nco_range_m: np.ndarray, nco_range_rate_m_s: np.ndarray, t_s: float) -> None:
+    def steer_range(self, nco_range_m: np.ndarray, nco_range_rate_m_s: np.ndarray, t_s: float | np.ndarray) -> None:
         """Next interval, starting at ``t_s``, from a range command (a vector loop's
         ``nco_range_m`` at ``t_s`` and ``nco_range_rate_m_s``): the code NCO jumps to the
         commanded range's code phase, the carrier phase runs on (no jump) at the commanded
-        rate's Doppler :math:`-\\dot\\rho/\\lambda`."""
-        code, code_rate = self._range_nco(self.signal, nco_range_m, nco_range_rate_m_s, t_s, self.batch)
-        f_new = -np.asarray(nco_range_rate_m_s, float) / self.signal.wavelength_m
+        rate's Doppler :math:`-\\dot\\rho/\\lambda`. ``t_s`` may differ per channel (an array)."""
+        batch = np.shape(self.code_phase_chips)
+        t_s = t_s if isinstance(t_s, float) else np.asarray(t_s, float)
+        rate = np.asarray(nco_range_rate_m_s, float)
+        code = _batch(self._chip_rate_hz * t_s - np.asarray(nco_range_m, float) / self._chip_m, batch)
+        code_rate = _batch(self._chip_rate_hz - rate / self._chip_m, batch)
+        f_new = _batch(-rate / self._wavelength_m, batch)
         self.shift_chips = code - self._code_end
         self.shift_hz = f_new - self.carrier_freq_hz
         self.code_phase_chips, self.code_rate_chips_s = code, code_rate
         self.carrier_phase_rad = self._carrier_end
         self.carrier_freq_hz = f_new
         self.nco_range_m, self.nco_range_rate_m_s = nco_range_m, nco_range_rate_m_s
+
+
+def _batch(a: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
+    """``a`` with the batch's shape (a read-only view when it must be broadcast)."""
+    return a if np.shape(a) == batch else np.broadcast_to(a, batch)

@@ -102,9 +102,9 @@ class ScalarCloser:
               cn0_dbhz: np.ndarray | float = 45.0) -> None:
         """Start the filter on ``channel``'s batch; its Doppler prior is the carrier NCO's."""
         T = coherent_time_s
-        self.filter.reset(channel.batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
-                                                    epoch_interval_s=T, cn0_dbhz=cn0_dbhz,
-                                                    doppler_hz=channel.carrier_freq_hz))
+        context = RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips, epoch_interval_s=T,
+                             cn0_dbhz=cn0_dbhz, doppler_hz=channel.carrier_freq_hz)
+        self.filter.reset(channel.batch, context)
 
     def step(self, channel: Channel, correlators: Correlators) -> dict[str, np.ndarray]:
         """Filter one interval's correlators and steer ``channel`` (after its `Channel.errors`

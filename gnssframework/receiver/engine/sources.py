@@ -8,7 +8,8 @@ runs on any of them unchanged:
 - `AnalyticSource`: the analytic correlator model (`CorrelatorSimulator`, Zou et al. 2018,
   eqs. 2-7) at the replica's true errors (truth minus replica), as the Monte Carlo
   scenarios draw them;
-- `gnssframework.receiver.engine.samples.SampleSource`: intermediate-frequency samples (a recording, or a simulated signal from
+- `gnssframework.receiver.engine.samples.SampleSource`: intermediate-frequency samples (a
+  recording, or a simulated signal from
   `gnssframework.signal.if_samples` / `gnssframework.receiver.frontend.synthetic`)
   correlated with the channel's NCO replica by the compiled kernels
   (`gnssframework.receiver.channels.correlator.correlate_channels`).

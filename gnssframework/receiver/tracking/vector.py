@@ -1,7 +1,8 @@
 """Vector tracking: channel filters -> navigation filter -> NCO commands, every epoch.
 
 A composition of the loop engine (`gnssframework.receiver.engine`): `Channel` NCOs steered
-by range, the `AnalyticSource` and a `VectorCloser`. The loop is batched over Monte Carlo runs (axis 0) and channels (axis 1). Each
+by range, the `AnalyticSource` and a `VectorCloser`. The loop is batched over Monte Carlo
+runs (axis 0) and channels (axis 1). Each
 coherent interval k, from $t_k$ to $t_{k+1} = t_k + T$:
 
 1. the replica of channel i runs from the NCO command
@@ -55,7 +56,7 @@ __all__ = ["VectorTruth", "VectorRecord", "run_vector_loop", "check_composition"
 class VectorRecord:
     """Time series of a vector-tracking run, time on axis 0 (K intervals)."""
 
-    code_error_chips: np.ndarray  # (K, runs, ch) true code error of the replica
+    code_error_chips: np.ndarray  # (K, runs, ch) true code error of the replica (truth minus replica code phase)
     freq_error_hz: np.ndarray  # (K, runs, ch) true frequency error of the replica
     position_error_m: np.ndarray  # (K, runs, 3)
     velocity_error_m_s: np.ndarray  # (K, runs, 3)
