@@ -1,12 +1,15 @@
 """Sample-driven channels: code/carrier NCOs, the compiled multi-channel correlator, lock
 detectors, C/N0, bit synchronisation and the channel state machine."""
 
+from .channel import SampleChannel
+from .closers import SampleCloser, ScalarSampleCloser
 from .closure import ErrorFeedback
 from .config import TrackingConfig, tracking_config
 from .correlator import correlate_channels, correlate_numpy
 from .lock import BitSync, estimate_cn0, phase_lock_indicator
+from .nco import ReplicaNCOs
 from .tracker import RECORD_FIELDS, STAGES, ChannelRecord, SampleTracker, TrackingResult
 
 __all__ = ["ErrorFeedback", "TrackingConfig", "tracking_config", "correlate_channels", "correlate_numpy", "BitSync",
            "estimate_cn0", "phase_lock_indicator", "SampleTracker", "TrackingResult", "ChannelRecord", "STAGES",
-           "RECORD_FIELDS"]
+           "RECORD_FIELDS", "SampleCloser", "ScalarSampleCloser", "SampleChannel", "ReplicaNCOs"]

@@ -11,7 +11,8 @@ bit-identical results (tested).
   N P / 2 (`gnssframework.receiver.channels.tracker`), so each period's sums are divided
   by :math:`\\sqrt{N P / 2}` (as NumPy divides a complex by a real: times its reciprocal).
 - Bit synchronisation votes (`lock`): a prompt turned by more than 90 degrees from the
-  previous one, :math:`\\mathrm{Re}(P_k P_{k-1}^*) < 0`, votes for its millisecond modulo 20.
+  previous one, :math:`\\mathrm{Re}(P_k P_{k-1}^*) < 0`, votes for its code period modulo the
+  code periods of a data symbol (the histograms' length; 20 on L1 C/A).
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ class ChannelArrays:
     ms_index
         Milliseconds tracked (the bit-sync histogram's clock).
     previous_prompt, voting, votes
-        Last 1 ms prompt, whether the channel votes, the ``(slots, 20)`` histograms.
+        Last 1 ms prompt, whether the channel votes, the ``(slots, periods per symbol)`` histograms.
     """
 
     acc_t0: np.ndarray
@@ -87,7 +88,7 @@ def close_periods_numpy(a: ChannelArrays, idx: np.ndarray, sums: np.ndarray, cou
     a.ms_index[idx] += periods
     previous = np.where(ks == 0, a.previous_prompt[ch], np.concatenate((prompt[-1:], prompt[:-1])))
     vote = a.voting[ch] & ((prompt * np.conj(previous)).real < 0)
-    np.add.at(a.votes, (ch[vote], ms[vote] % 20), 1)
+    np.add.at(a.votes, (ch[vote], ms[vote] % a.votes.shape[1]), 1)
     a.previous_prompt[idx] = sums[np.arange(idx.size), periods - 1, 1]
     return sums.sum(axis=1)
 
@@ -96,6 +97,7 @@ def _close(idx, sums, counts, starts, phases, steps, periods, doppler_hz, power,
            acc_cycles, start_sample, code_phase, doppler_cycles, prompts, n_prompts, ms_index, previous_prompt, voting,
            votes, interval):  # pragma: no cover - compiled (its Python run is tested against the reference)
     window = prompts.shape[1]
+    per_bit = votes.shape[1]
     for j in range(idx.size):
         i = idx[j]
         total = 0
@@ -121,7 +123,7 @@ def _close(idx, sums, counts, starts, phases, steps, periods, doppler_hz, power,
                 p = sums[j, k, 1]
                 prompts[i, (n_prompts[i] + k) % window] = p
                 if voting[i] and (p * np.conj(previous)).real < 0:
-                    votes[i, (ms_index[i] + k + 1) % 20] += 1
+                    votes[i, (ms_index[i] + k + 1) % per_bit] += 1
                 previous = p
         n_prompts[i] += periods[j]
         ms_index[i] += periods[j]

@@ -20,6 +20,16 @@ hands them: ``checked_step({"correlators": ...})`` once per interval, whose
 the NCOs of the next interval. Filters that output errors instead (the vector-tracking
 channel filters) are closed by `closure.ErrorFeedback`.
 
+What the filters' outputs do to the NCOs, the channels' state machine and re-acquisition
+are the tracker's loop closer's (`closers.SampleCloser`, called at documented points of the
+run): `closers.ScalarSampleCloser` by default; vector tracking
+(`gnssframework.receiver.navigation.vector_tracking`) hands the tracker a closer that
+closes the channels through a navigation filter.
+
+The signal is a `gnssframework.signal.spec.SignalSpec` (default `GPS_L1CA`) held by the
+tracker and by each channel: its code generator, code length, chip rate, carrier frequency
+and code periods per data symbol (the bit-sync histogram's length) come from it.
+
 Noise scaling: the I and Q noise of a 1 ms sum of N samples of power P (one real or
 complex sample's mean square) against a ±1 code and a unit carrier is N P / 2 per
 component for white noise; the scale is measured on every block read.
@@ -27,27 +37,26 @@ component for white noise; the scale is measured on every block read.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ... import registry
-from ...errors import ConfigError
-from ...interfaces import ChannelFilter, RunContext
-from ...signal.codes import ca_code
-from ...signal.constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH, L1_FREQ_HZ
+from ...interfaces import ChannelFilter
 from ...signal.correlator_model import tap_offsets
 from ...signal.correlators import Correlators
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from ..acquisition.search import Acquisition, AcquisitionResult
 from ..frontend.recording import Recording
-from ..tracking.scalar import NCO_COMMANDS
 from .batch import FilterBatch, batch_layout
-from .closure import ERROR_OUTPUTS, ErrorFeedback
+from .channel import NCO_COMMANDS, SampleChannel, create_filter, stage_context, stage_filter, supports
+from .closers import SampleCloser, ScalarSampleCloser
 from .config import TrackingConfig
 from .correlator import code_tables, correlate_periods
-from .prefetch import BlockReader
 from .intervals import ChannelArrays, close_periods
+from .nco import ReplicaNCOs
+from .prefetch import BlockReader
+from .records import RECORD_FIELDS, STAGES, ChannelRecord, TrackingResult
 from ...signal.cn0 import cn0_moments
 from .lock import bit_edge_from_votes, cn0_nwpr_bits, estimate_cn0, phase_lock_indicator
 
@@ -57,103 +66,6 @@ __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD
 LAG_LIMIT_S = 0.025
 #: Interval (ms) between two evaluations of a channel's lock detectors.
 DETECT_MS = 20
-#: Channel states, in the order a channel goes through them.
-STAGES = ("pull-in", "track", "extended", "lost", "vector")
-#: Columns of a channel's record (one row per channel-filter update).
-RECORD_FIELDS = ("time_s", "cn0_dbhz", "pli", "doppler_hz", "code_phase_chips", "carrier_phase_cycles", "lock",
-                 "stage", "prompt_i", "prompt_q", "coherent_ms")
-
-
-@dataclass
-class ChannelRecord:
-    """What one satellite's channel did: one row per channel-filter update (`RECORD_FIELDS`),
-    and the events (``(time_s, text)``: lock, bit sync, loss, re-acquisition)."""
-
-    prn: int
-    rows: list[tuple] = field(default_factory=list)
-    events: list[tuple[float, str]] = field(default_factory=list)
-
-    def column(self, name: str) -> np.ndarray:
-        i = RECORD_FIELDS.index(name)
-        return np.array([r[i] for r in self.rows])
-
-
-@dataclass
-class TrackingResult:
-    """Records per PRN, the acquisition that started them, and what the run covered."""
-
-    channels: dict[int, ChannelRecord]
-    acquisitions: list[AcquisitionResult]
-    duration_s: float
-    channel_filter: str
-
-
-def _supports(cls: type, *names: str) -> bool:
-    return all(n in cls.provides for n in names)
-
-
-def _create_filter(name: str, params: dict[str, Any], *, pll_only: bool = False) -> ChannelFilter:
-    cls = registry.get("channel_filter", name)
-    if "correlators" not in cls.requires or not (_supports(cls, *NCO_COMMANDS) or _supports(cls, *ERROR_OUTPUTS)):
-        raise ConfigError("channel_filter", f"{name!r} cannot track on samples: it must require 'correlators' and "
-                          f"provide {', '.join(NCO_COMMANDS)} or {', '.join(ERROR_OUTPUTS)}")
-    params = dict(params)
-    if pll_only and "fll_bandwidth_hz" in cls.Params.model_fields:
-        params["fll_bandwidth_hz"] = 0.0  # the PLL stage: no FLL assist
-    return registry.create("channel_filter", name, **params)
-
-
-def stage_context(c: TrackingConfig, T: float, cn0_dbhz: float, doppler_hz: float) -> RunContext:
-    """What a channel filter is reset with at the start of a stage."""
-    return RunContext(coherent_time_s=T, early_late_spacing_chips=c.early_late_spacing_chips, epoch_interval_s=T,
-                      cn0_dbhz=cn0_dbhz, doppler_hz=doppler_hz)
-
-
-def _stage_filter(c: TrackingConfig, stage: str) -> tuple[str, dict[str, Any]]:
-    return (c.pull_in_filter, c.pull_in_params) if stage == "pull-in" else (c.channel_filter, c.channel_params)
-
-
-class _Channel:
-    """One satellite's channel: its stage, filter and detectors (its NCOs and sums live in
-    the tracker's arrays, at slot ``prn - 1``)."""
-
-    def __init__(self, prn: int, config: TrackingConfig, record: ChannelRecord) -> None:
-        self.prn = prn
-        self.slot = prn - 1
-        self.config = config
-        self.record = record
-        self.cn0_dbhz = 0.0
-        self.pli = 0.0
-        self.locked = False
-        self.failures = 0  # pull-ins in a row that ended without lock
-        self.retry_at = 0  # first sample at which re-acquisition may try again
-
-    def start(self, stage: str, doppler_hz: float, coherent_ms: int) -> None:
-        c = self.config
-        self.stage = stage
-        self.coherent_ms = coherent_ms
-        name, params = _stage_filter(c, stage)
-        self.filter = _create_filter(name, params, pll_only=stage == "extended")
-        T = coherent_ms * 1e-3
-        self.closure = (None if _supports(type(self.filter), *NCO_COMMANDS)
-                        else ErrorFeedback(c.closure_fll_bandwidth_hz, c.closure_dll_bandwidth_hz, T))
-        cn0 = self.cn0_dbhz if self.cn0_dbhz > 0 else 40.0
-        # A batch of one: the tracker merges it into the batch of its stage (`batch`).
-        self.filter.reset((1,), stage_context(c, T, cn0, doppler_hz))
-        self.batch: FilterBatch | None = None
-        self.join_tries = 0
-        self.stage_ms = 0
-        if stage == "pull-in":
-            self.unlocked_ms = 0
-            self.bit_edge: int | None = None
-            self.next_detect = 0
-
-    @property
-    def phase_locking(self) -> bool:
-        return self.closure is None
-
-
-_SLOTS = 32  # one per GPS PRN
 
 
 class SampleTracker:
@@ -177,10 +89,26 @@ class SampleTracker:
         Read the next block of the recording on a second thread while the channels
         correlate the current one (`prefetch.BlockReader`: the same samples and power);
         ``False`` reads every block when it is needed.
+    closer
+        The loop closer (`closers.SampleCloser`); default `closers.ScalarSampleCloser`.
+    signal
+        The signal every channel tracks (`SignalSpec`); default `GPS_L1CA`.
+
+    Notes
+    -----
+    The channel API a closer uses: the per-slot NCO arrays (``code_phase`` chips at
+    ``start_sample``, ``code_rate`` chips/s, ``doppler`` Hz, ``doppler_cycles``,
+    ``shift_chips`` and ``shift_hz`` the last moves, ``ms_index`` code periods tracked,
+    ``acc_t0`` the last interval's start; ``nco`` steers them, `nco.ReplicaNCOs`),
+    ``channels`` (`SampleChannel` by PRN), ``records``, ``active``, and the methods `add`,
+    `start_stage`, `leave_batch`, `deactivate` and `search`.
     """
 
     def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
-                 backend: str | None = None, batch: bool = True, read_ahead: bool = True) -> None:
+                 backend: str | None = None, batch: bool = True, read_ahead: bool = True,
+                 closer: SampleCloser | None = None, signal: SignalSpec = GPS_L1CA) -> None:
+        self.signal = signal
+        self.closer = closer if closer is not None else ScalarSampleCloser()
         self.rec = recording
         self.batch = batch
         self.read_ahead = read_ahead
@@ -190,12 +118,16 @@ class SampleTracker:
         self.fs = recording.info.sample_rate_hz
         self.if_hz = recording.info.if_hz
         self.offsets = np.array(list(tap_offsets(config.early_late_spacing_chips).values()))
-        _create_filter(config.channel_filter, config.channel_params)  # refuse a bad filter before any work
-        _create_filter(config.pull_in_filter, config.pull_in_params)
-        self.codes = np.stack([ca_code(p) for p in range(1, _SLOTS + 1)]).astype(np.float32)
+        create_filter(config.channel_filter, config.channel_params)  # refuse a bad filter before any work
+        create_filter(config.pull_in_filter, config.pull_in_params)
+        self.codes = np.stack([signal.code(p) for p in signal.prns]).astype(np.float32)  # one row per slot
+
+    def slot(self, prn: int) -> int:
+        """The index of ``prn``'s channel in the tracker's arrays."""
+        return self.signal.prns.index(prn)
 
     def _reset_state(self) -> None:
-        n, w = _SLOTS, self.config.cn0_window_ms
+        n, w = len(self.signal.prns), self.config.cn0_window_ms
         self.active = np.zeros(n, bool)
         self.start_sample = np.zeros(n, np.int64)
         self.code_phase = np.zeros(n)  # chips at start_sample
@@ -209,29 +141,33 @@ class SampleTracker:
         self.acc_cycles = np.zeros(n)
         self.prompts = np.zeros((n, w), complex)  # ring buffers of 1 ms prompts
         self.n_prompts = np.zeros(n, np.int64)
-        self.votes = np.zeros((n, 20), np.int64)  # bit-sync histograms
+        self.votes = np.zeros((n, self.signal.code_periods_per_symbol), np.int64)  # bit-sync histograms
         self.voting = np.zeros(n, bool)
         self.previous_prompt = np.zeros(n, complex)
         self.bit_sign = np.ones(n)  # decision-directed bit wipe-off
         self.last_prompt = np.zeros(n, complex)  # last wiped prompt handed to the filter
         self.shift_chips = np.zeros(n)  # NCO moves of an error-output filter's closure
         self.shift_hz = np.zeros(n)
+        self.nco = ReplicaNCOs(self.signal, self.code_phase, self.code_rate, self.doppler, self.doppler_cycles,
+                               self.shift_chips, self.shift_hz)
         self.arrays = ChannelArrays(self.acc_t0, self.acc_phase, self.acc_cycles, self.start_sample, self.code_phase,
                                     self.doppler_cycles, self.prompts, self.n_prompts, self.ms_index,
                                     self.previous_prompt, self.voting, self.votes)
         self.batches: dict[tuple[str, int], FilterBatch] = {}
         self.layouts: dict[tuple[str, int], frozenset | None] = {}
 
-    def _add(self, prn: int, acq: AcquisitionResult, first_sample: int) -> None:
+    def add(self, prn: int, acq: AcquisitionResult, first_sample: int) -> None:
+        """Start (or restart) ``prn``'s channel in ``pull-in`` at its acquisition's code epoch."""
         ch = self.channels.get(prn)
         if ch is None:
-            ch = self.channels[prn] = _Channel(prn, self.config, self.records.setdefault(prn, ChannelRecord(prn)))
+            ch = self.channels[prn] = SampleChannel(prn, self.slot(prn), self.signal, self.config,
+                                                    self.records.setdefault(prn, ChannelRecord(prn)))
         i = ch.slot
         self.active[i] = True
         self.start_sample[i] = first_sample + acq.code_phase_samples
         self.code_phase[i] = 0.0  # a code epoch
         self.doppler[i] = acq.doppler_hz
-        self.code_rate[i] = CA_CHIP_RATE_HZ * (1 + acq.doppler_hz / L1_FREQ_HZ)
+        self.code_rate[i] = self.signal.code_freq_hz(acq.doppler_hz)
         self.doppler_cycles[i] = 0.0
         self.ms_index[i] = 0
         self.n_prompts[i] = 0
@@ -239,10 +175,12 @@ class SampleTracker:
         self.voting[i] = True
         self.previous_prompt[i] = 0j
         ch.cn0_dbhz = acq.cn0_dbhz
-        self._start(ch, "pull-in", acq.doppler_hz, 1)
+        self.start_stage(ch, "pull-in", acq.doppler_hz, 1)
+        self.closer.added(ch, acq)
 
-    def _start(self, ch: _Channel, stage: str, doppler_hz: float, coherent_ms: int) -> None:
-        self._leave_batch(ch)
+    def start_stage(self, ch: SampleChannel, stage: str, doppler_hz: float, coherent_ms: int) -> None:
+        """Channel ``ch`` enters scalar ``stage`` (a new filter at ``doppler_hz``, intervals of ``coherent_ms``)."""
+        self.leave_batch(ch)
         ch.start(stage, doppler_hz, coherent_ms)
         i = ch.slot
         self.bit_sign[i] = 1.0
@@ -285,16 +223,18 @@ class SampleTracker:
         cfg = self.config
         fs = self.fs
         stop = self.rec.n_samples if duration_s is None else min(self.rec.n_samples, int(duration_s * fs))
-        self.channels: dict[int, _Channel] = {}
+        self.channels: dict[int, SampleChannel] = {}
         self.records: dict[int, ChannelRecord] = {}
         self._reset_state()
         self.buf = self.rec.read_components(0, 0)
         self.buf_start = 0
         self.power = 1.0
         tables_for, tables = None, None
+        code_length = self.signal.code_length_chips
+        self.closer.bind(self)
         for acq in acquisitions:
             if acq.detected:
-                self._add(acq.prn, acq, 0)
+                self.add(acq.prn, acq, 0)
         every = int(cfg.reacquire_every_ms * 1e-3 * fs)
         next_reacq = every
         lag_limit = int(LAG_LIMIT_S * fs)
@@ -303,7 +243,7 @@ class SampleTracker:
             if live.size == 0:  # every channel lost: only re-acquisition can go on
                 if not self.channels or next_reacq >= stop:
                     break
-                self._reacquire(next_reacq, stop)
+                self.closer.reacquire(next_reacq, stop)
                 next_reacq += every
                 continue
             # Each channel runs its whole coherent interval per call; one that is ahead of
@@ -313,7 +253,7 @@ class SampleTracker:
             if self.batches and not ok.all():  # a batch's channels step together: all of it runs, or none
                 for b in self.batches.values():
                     if len(b.slots) > 1:
-                        in_batch = np.zeros(_SLOTS, bool)
+                        in_batch = np.zeros(self.active.size, bool)
                         in_batch[b.slots] = True
                         members = in_batch[live]
                         if ok[members].any():
@@ -323,7 +263,7 @@ class SampleTracker:
             phases = self.code_phase[idx]
             periods = self.coherent[idx]
             starts = self.start_sample[idx]
-            ends = starts + np.ceil((periods * CA_CODE_LENGTH - phases) / steps + 1).astype(np.int64)
+            ends = starts + np.ceil((periods * code_length - phases) / steps + 1).astype(np.int64)
             if ends.max() > stop:
                 break
             buf, first = self._samples(int(starts.min()), int(ends.max()))
@@ -337,9 +277,9 @@ class SampleTracker:
                                              q_sign=self.rec.info.q_sign)
             # Normalised sums, NCO bookkeeping, 1 ms prompts and bit-sync votes (`intervals`).
             interval = close_periods(self.arrays, idx, sums, counts, starts, phases, steps, periods, dop, self.power,
-                                     fs, CA_CODE_LENGTH, backend=self.backend)
+                                     fs, code_length, backend=self.backend)
             self._step_filters(idx, interval)
-            chans = [self.channels[i + 1] for i in idx.tolist()]
+            chans = [self.channels[self.signal.prns[i]] for i in idx.tolist()]
             for c in chans:
                 self._bit_sync(c)
             self._detect(chans)
@@ -350,28 +290,36 @@ class SampleTracker:
                 self._update(c, *values)
             if self.batch:
                 self._join_batches(idx)
-            self._after_interval(idx)
+            self.closer.after_interval(idx)
             if progress is not None:
                 progress(int(lead.min()) / stop)
             if lead.min() >= next_reacq:
-                self._reacquire(int(lead.max()), stop)
+                self.closer.reacquire(int(lead.max()), stop)
                 next_reacq += every
-        return TrackingResult(self.records, list(acquisitions), stop / fs, cfg.channel_filter)
+        result = TrackingResult(self.records, list(acquisitions), stop / fs, cfg.channel_filter)
+        self.closer.finish(result)
+        return result
 
-    def _after_interval(self, idx: np.ndarray) -> None:
-        """Channels ``idx`` have completed an interval and recorded it (a subclass's hook:
-        `gnssframework.receiver.navigation.vector_tracking` closes their NCOs here)."""
-
-    def _reacquire(self, at: int, stop: int) -> None:
-        lost = tuple(p for p, c in self.channels.items() if c.stage == "lost" and c.retry_at <= at)
+    def search(self, prns: tuple[int, ...], at: int, stop: int) -> None:
+        """The acquisition's full search for ``prns`` on the samples from ``at``; the ones
+        found restart in ``pull-in`` (nothing when the recording ends first)."""
         need = self.acquisition.samples_needed(self.fs)
-        if not lost or at + need > stop:
+        if not prns or at + need > stop:
             return
-        found = self.acquisition.acquire(self.rec.read(at, need), self.fs, self.if_hz, lost)
+        found = self.acquisition.acquire(self.rec.read(at, need), self.fs, self.if_hz, prns)
         for acq in found:
             if acq.detected:
                 self.records[acq.prn].events.append((at / self.fs, "re-acquired"))
-                self._add(acq.prn, acq, at)
+                self.add(acq.prn, acq, at)
+
+    def deactivate(self, c: SampleChannel, retry_at: int, event: tuple[float, str]) -> None:
+        """Channel ``c`` is ``lost``: out of its batch and of the active channels until
+        re-acquisition restarts it (not before sample ``retry_at``); ``event`` recorded."""
+        c.stage = "lost"
+        self.leave_batch(c)
+        self.active[c.slot] = False
+        c.retry_at = retry_at
+        c.record.events.append(event)
 
     def _step_filters(self, idx: np.ndarray, acc: np.ndarray) -> None:
         """The coherent intervals of channels ``idx`` are complete (their E/P/L sums ``acc``,
@@ -386,45 +334,27 @@ class SampleTracker:
         wiped = acc * sign[:, None]
         self.last_prompt[idx] = wiped[:, 1]
         done: set[int] = set()
+        step = self.closer.step
+        prns = self.signal.prns
         for j, i in enumerate(idx.tolist()):
-            c = self.channels[i + 1]
+            c = self.channels[prns[i]]
             if c.batch is None:
-                self._step(c.filter, c.closure, idx[j:j + 1], wiped[j:j + 1])
+                step(c.filter, c.closure, idx[j:j + 1], wiped[j:j + 1])
             elif id(c.batch) not in done:
                 done.add(id(c.batch))
                 slots = np.array(c.batch.slots)
-                self._step(c.batch.filter, c.closure, slots, wiped[np.searchsorted(idx, slots)])  # idx ascends
-
-    def _step(self, filt: ChannelFilter, closure: ErrorFeedback | None, slots: np.ndarray, w: np.ndarray) -> None:
-        """One step of the filter of channels ``slots`` (its batch, in order) on their wiped sums ``w``."""
-        inputs: dict[str, Any] = {"correlators": Correlators.trusted(w[:, 0], w[:, 1], w[:, 2])}
-        if closure is not None:
-            inputs.update(nco_shift_chips=self.shift_chips[slots], nco_shift_hz=self.shift_hz[slots])
-        out = filt.checked_step(inputs)
-        if closure is None:
-            self.doppler[slots] = out["carrier_freq_hz"]
-            self.code_rate[slots] = out["code_freq_hz"]
-            if "carrier_phase_step_rad" in out:
-                self.doppler_cycles[slots] += np.asarray(out["carrier_phase_step_rad"], float) / (2 * np.pi)
-        else:
-            code_step = closure.k_code * np.asarray(out["code_error_chips"], float)
-            freq_step = closure.k_freq * np.asarray(out["freq_error_hz"], float)
-            self.shift_chips[slots] = code_step
-            self.shift_hz[slots] = freq_step
-            self.doppler[slots] += freq_step
-            self.code_phase[slots] += code_step
-            self.code_rate[slots] = CA_CHIP_RATE_HZ * (1 + self.doppler[slots] / L1_FREQ_HZ)
+                step(c.batch.filter, c.closure, slots, wiped[np.searchsorted(idx, slots)])  # idx ascends
 
     def _layout(self, key: tuple[str, int]) -> frozenset | None:
         """Per-channel state of the filter of stage ``key`` (`batch.batch_layout`), probed once."""
         if key not in self.layouts:
             stage, coherent_ms = key
             cfg = self.config
-            name, params = _stage_filter(cfg, stage)
-            T = coherent_ms * 1e-3
+            name, params = stage_filter(cfg, stage)
+            T = coherent_ms * self.signal.code_period_s
 
             def make(shape: tuple[int, ...]) -> ChannelFilter:
-                f = _create_filter(name, params, pll_only=stage == "extended")
+                f = create_filter(name, params, pll_only=stage == "extended")
                 f.reset(shape, stage_context(cfg, T, 40.0, 0.0))
                 return f
 
@@ -432,7 +362,7 @@ class SampleTracker:
                 one = np.ones(k)
                 inputs: dict[str, Any] = {"correlators": Correlators.trusted((5 + 1j) * one, (10 + 2j) * one,
                                                                               (4 - 1j) * one)}
-                if not _supports(type(f), *NCO_COMMANDS):
+                if not supports(type(f), *NCO_COMMANDS):
                     inputs.update(nco_shift_chips=0.0 * one, nco_shift_hz=0.0 * one)
                 f.checked_step(inputs)
 
@@ -445,7 +375,7 @@ class SampleTracker:
     def _join_batches(self, idx: np.ndarray) -> None:
         """Merge the channels of ``idx`` that step alone into the batch of their stage."""
         for i in idx:
-            c = self.channels[int(i) + 1]
+            c = self.channels[self.signal.prns[int(i)]]
             if c.batch is not None or not self.active[c.slot] or c.join_tries >= 3 or c.stage_ms == 0:
                 continue  # (stage_ms 0: a stage just started, its filter has not stepped yet)
             key = (c.stage, c.coherent_ms)
@@ -464,8 +394,9 @@ class SampleTracker:
                 continue
             c.batch, c.filter = b, None
 
-    def _leave_batch(self, c: _Channel) -> None:
-        b = getattr(c, "batch", None)
+    def leave_batch(self, c: SampleChannel) -> None:
+        """Channel ``c`` steps alone from now on (out of the batch it was in, if any)."""
+        b = c.batch
         if b is None:
             return
         key = next(k for k, v in self.batches.items() if v is b)
@@ -475,15 +406,16 @@ class SampleTracker:
             b.leave(c.slot)
         c.batch = None
 
-    def _bit_sync(self, c: _Channel) -> None:
+    def _bit_sync(self, c: SampleChannel) -> None:
         """Channel ``c`` in ``track``: its bit edge, once the histogram has decided it."""
         if c.stage == "track" and c.bit_edge is None:
             edge = bit_edge_from_votes(self.votes[c.slot], self.config.bit_sync_votes)
             if edge is not None:
                 c.bit_edge = edge
-                c.record.events.append((float(self.acc_t0[c.slot]), f"bit sync (edge at ms {edge} mod 20)"))
+                c.record.events.append((float(self.acc_t0[c.slot]),
+                                        f"bit sync (edge at ms {edge} mod {c.periods_per_symbol})"))
 
-    def _update(self, c: _Channel, t0: float, doppler_hz: float, code_phase_chips: float, carrier_cycles: float,
+    def _update(self, c: SampleChannel, t0: float, doppler_hz: float, code_phase_chips: float, carrier_cycles: float,
                 prompt: complex) -> None:
         """Channel ``c``'s coherent interval is complete (its start time ``t0``, its NCOs
         then, its prompt sum; its filter has stepped, its detectors have run): run its state
@@ -491,16 +423,16 @@ class SampleTracker:
         c.stage_ms += c.coherent_ms
         c.record.rows.append((t0, c.cn0_dbhz, c.pli, doppler_hz, code_phase_chips, carrier_cycles, int(c.locked),
                               STAGES.index(c.stage), prompt.real, prompt.imag, c.coherent_ms))
-        self._advance(c, t0)
+        self.closer.advance(c, t0)
 
-    def _window(self, c: _Channel, n: int) -> np.ndarray:
+    def _window(self, c: SampleChannel, n: int) -> np.ndarray:
         """The last ``n`` 1 ms prompts of channel ``c``, oldest first."""
         i = c.slot
         size = self.prompts.shape[1]
         n = min(n, int(self.n_prompts[i]), size)
         return self.prompts[i, (self.n_prompts[i] - n + np.arange(n)) % size]
 
-    def _detect(self, chans: list[_Channel]) -> None:
+    def _detect(self, chans: list[SampleChannel]) -> None:
         """Lock detectors of channels ``chans``, evaluated every `DETECT_MS` (their windows are
         10-100 times longer): on arrays over the channels whose prompt window is full."""
         cfg = self.config
@@ -529,65 +461,33 @@ class SampleTracker:
         # phase, on the others.
         phases = [self._bit_phase(c, int(self.ms_index[c.slot]), size) for c in full]
         cn0 = np.zeros(len(full))
+        per_bit = self.signal.code_periods_per_symbol
+        period_s = self.signal.code_period_s
         nwpr = [j for j, bp in enumerate(phases)
-                if cfg.cn0_estimator == "nwpr" and bp is not None and size - bp >= 20]
+                if cfg.cn0_estimator == "nwpr" and bp is not None and size - bp >= per_bit]
         rest = sorted(set(range(len(full))) - set(nwpr))
         if rest:
-            cn0[rest] = cn0_moments(win[rest].T, 1e-3)
+            cn0[rest] = cn0_moments(win[rest].T, period_s)
         if nwpr:
-            cn0[nwpr] = cn0_nwpr_bits(win[nwpr], np.array([phases[j] for j in nwpr]), 1e-3, m=20)
+            cn0[nwpr] = cn0_nwpr_bits(win[nwpr], np.array([phases[j] for j in nwpr]), period_s, m=per_bit)
         for j, c in enumerate(full):
             c.pli, c.cn0_dbhz = float(pli[j]), float(cn0[j])
             self._lock_decision(c)
 
     @staticmethod
-    def _bit_phase(c: _Channel, ms: int, n: int) -> int | None:
+    def _bit_phase(c: SampleChannel, ms: int, n: int) -> int | None:
         """Index in a window of the last ``n`` prompts up to ``ms`` of the first ms of a bit."""
-        return None if c.bit_edge is None else (c.bit_edge - (ms - n + 1)) % 20
+        return None if c.bit_edge is None else (c.bit_edge - (ms - n + 1)) % c.periods_per_symbol
 
-    def _lock_decision(self, c: _Channel) -> None:
+    def _lock_decision(self, c: SampleChannel) -> None:
         cfg = self.config
         strong = c.cn0_dbhz > cfg.cn0_threshold_dbhz
         c.locked = strong and (c.pli > cfg.pli_threshold or not c.phase_locking)
 
-    def _detect_one(self, c: _Channel, ms: int) -> None:
+    def _detect_one(self, c: SampleChannel, ms: int) -> None:
         """Lock detectors of a channel whose window is not full yet."""
         cfg = self.config
         c.pli = phase_lock_indicator(self._window(c, cfg.lock_window_ms))
         prompts = self._window(c, cfg.cn0_window_ms)
         c.cn0_dbhz = estimate_cn0(prompts, cfg.cn0_estimator, self._bit_phase(c, ms, prompts.size))
         self._lock_decision(c)
-
-    def _advance(self, c: _Channel, t0: float) -> None:
-        """The state machine: pull-in -> track -> extended; lost after ``loss_ms`` out of lock."""
-        cfg = self.config
-        c.unlocked_ms = 0 if c.locked else c.unlocked_ms + c.coherent_ms
-        if c.stage == "pull-in":
-            if c.locked and c.stage_ms >= cfg.lock_window_ms:
-                c.failures = 0
-                c.record.events.append((t0, "locked: tracking with " + cfg.channel_filter))
-                self._start(c, "track", float(self.doppler[c.slot]), 1)
-            elif c.stage_ms >= cfg.pull_in_ms:
-                self._lose(c, t0, f"no lock within {cfg.pull_in_ms} ms of pull-in")
-            return
-        if c.unlocked_ms >= cfg.loss_ms:
-            self._lose(c, t0, f"lock lost for {cfg.loss_ms} ms")
-            return
-        if (c.stage == "track" and cfg.coherent_ms > 1 and c.bit_edge is not None
-                and (int(self.ms_index[c.slot]) + 1) % 20 == c.bit_edge % 20):
-            # The next millisecond starts a bit: integrations from here on are bit aligned.
-            c.record.events.append((t0, f"extended to {cfg.coherent_ms} ms coherent (PLL)"))
-            self._start(c, "extended", float(self.doppler[c.slot]), cfg.coherent_ms)
-
-    def _lose(self, c: _Channel, t0: float, why: str) -> None:
-        """Hand the channel back to acquisition. A satellite whose pull-ins keep failing (a
-        false detection, a signal too weak to lock) is searched again after 1, 2, 4 ...
-        up to 32 re-acquisition intervals, so it does not cost a search every interval."""
-        if c.stage == "pull-in":
-            c.failures += 1
-        c.stage = "lost"
-        self._leave_batch(c)
-        self.active[c.slot] = False
-        wait = self.config.reacquire_every_ms * 1e-3 * self.fs * 2 ** min(max(c.failures - 1, 0), 5)
-        c.retry_at = int(self.start_sample[c.slot] + wait)
-        c.record.events.append((t0, f"lost: {why}; back to acquisition"))

@@ -1,0 +1,118 @@
+r"""The replica NCOs of the sample tracker's channels and how every closer steers them.
+
+The convention is the loop engine's (`gnssframework.receiver.engine.channel`): the code
+NCO's phase is the chip index the replica generates, errors are truth minus replica, a
+range :math:`\rho` at time :math:`t` is the code phase :math:`f_{chip} t - \rho/\lambda_{chip}`
+(`engine.truth.code_phase_of_range`) and a range rate the Doppler :math:`-\dot\rho/\lambda`.
+The tracker keeps a channel's code phase as ``code_phase`` chips into the current code
+period at the sample ``start_sample`` (its whole periods counted in ``ms_index``: the
+compiled interval kernel advances them in place, per slot), ``code_rate`` chips/s and the
+carrier NCO's ``doppler`` (Hz above the intermediate frequency).
+
+`ReplicaNCOs` steers them the three ways a closer commands:
+
+- `at(slots).steer_frequency`: a channel filter's NCO commands (``carrier_freq_hz``,
+  ``code_freq_hz``, optional ``carrier_phase_step_rad``) with the signature and meaning of
+  `engine.channel.Channel.steer_frequency`, so that the engine's own
+  `engine.closers.ScalarCloser` steps a channel filter on samples;
+- `shift`: the scalar closure of an error-output filter (`closure.ErrorFeedback`) moves
+  the code phase by a gain times its code error and the carrier by a gain times its
+  frequency error (truth minus replica: the replica gains them), code rate carrier-aided;
+- `steer_range`: the vector closer's range and rate command, through the engine's own
+  `Channel.steer_range` on these slots.
+
+Every move is recorded (``shift_chips``, ``shift_hz``) for the error-output filters'
+``nco_shift_chips`` and ``nco_shift_hz`` inputs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...signal.spec import SignalSpec
+from ..engine.channel import Channel
+from ..engine.truth import code_phase_of_range
+
+__all__ = ["ReplicaNCOs", "SlotNCOs"]
+
+
+@dataclass
+class ReplicaNCOs:
+    """The tracker's per-slot NCO arrays (views, not copies) and their steering."""
+
+    spec: SignalSpec
+    code_phase: np.ndarray
+    code_rate: np.ndarray
+    doppler: np.ndarray
+    doppler_cycles: np.ndarray
+    shift_chips: np.ndarray
+    shift_hz: np.ndarray
+
+    def at(self, slots: np.ndarray) -> SlotNCOs:
+        """The NCOs of ``slots`` as an engine channel takes frequency commands."""
+        return SlotNCOs(self, slots)
+
+    def shift(self, slots: np.ndarray, code_chips: np.ndarray, freq_hz: np.ndarray) -> None:
+        """Advance the code phase by ``code_chips`` and the carrier by ``freq_hz``; the code
+        rate follows the carrier (carrier aiding)."""
+        self.shift_chips[slots] = code_chips
+        self.shift_hz[slots] = freq_hz
+        self.doppler[slots] += freq_hz
+        self.code_phase[slots] += code_chips
+        self.code_rate[slots] = self.spec.code_freq_hz(self.doppler[slots])
+
+    def steer_range(self, slots: np.ndarray, replica_range_m: np.ndarray, range_m: np.ndarray,
+                    range_rate_m_s: np.ndarray, t_s: np.ndarray) -> None:
+        """Move the replicas of ``slots``, which hold the pseudoranges ``replica_range_m`` at
+        recording times ``t_s`` (their start samples), to ``range_m`` and ``range_rate_m_s``:
+        `engine.channel.Channel.steer_range` on an engine channel at their code phase
+        (`code_phase_of_range` of ``replica_range_m``), whose moves the tracker's NCOs take."""
+        n = np.size(slots)
+        ch = Channel(self.spec, code_phase_of_range(self.spec, replica_range_m, t_s), self.code_rate[slots],
+                     np.zeros(n), self.doppler[slots])
+        ch.run_interval(0.0)  # the NCOs are at the start of the interval the command is for
+        ch.steer_range(range_m, range_rate_m_s, t_s)
+        self.code_phase[slots] += ch.shift_chips
+        self.shift_chips[slots] = ch.shift_chips
+        self.shift_hz[slots] = ch.shift_hz
+        self.doppler[slots] = ch.carrier_freq_hz
+        self.code_rate[slots] = ch.code_rate_chips_s
+
+    def doppler_hz(self, range_rate_m_s: np.ndarray) -> np.ndarray:
+        """The carrier Doppler (Hz) of a replica at ``range_rate_m_s``."""
+        return -range_rate_m_s / self.spec.wavelength_m
+
+    def range_rate_m_s(self, doppler_hz: np.ndarray) -> np.ndarray:
+        """The range rate (m/s) a carrier at ``doppler_hz`` holds."""
+        return -self.spec.wavelength_m * doppler_hz
+
+    @staticmethod
+    def range_error_chips(code_error_chips: np.ndarray | float) -> np.ndarray | float:
+        r"""A channel filter's code error (truth minus replica code phase, chips) as the
+        navigation filters' ``code_error_chips`` input, a range error in chips
+        :math:`(\rho - \hat\rho)/\lambda_{chip} = -\delta\tau`
+        (`gnssframework.receiver.engine.closers`)."""
+        return -code_error_chips
+
+
+class SlotNCOs:
+    """The NCOs of some slots of a `ReplicaNCOs`, steered by frequency as an
+    `engine.channel.Channel` is (what `engine.closers.ScalarCloser.step` calls)."""
+
+    def __init__(self, ncos: ReplicaNCOs, slots: np.ndarray) -> None:
+        self.ncos, self.slots = ncos, slots
+
+    def steer_frequency(self, carrier_freq_hz: np.ndarray, code_freq_hz: np.ndarray,
+                        carrier_phase_step_rad: np.ndarray | float = 0.0) -> None:
+        """Next interval from frequency commands: the code NCO runs on (the tracker's
+        interval kernel has advanced it), the carrier at ``carrier_freq_hz`` plus the
+        phase step; ``shift_chips`` 0 and ``shift_hz`` the frequency change, as the engine's."""
+        n, i = self.ncos, self.slots
+        f_new = np.asarray(carrier_freq_hz, float)
+        n.shift_chips[i] = 0.0
+        n.shift_hz[i] = f_new - n.doppler[i]
+        n.doppler[i] = f_new
+        n.code_rate[i] = code_freq_hz
+        n.doppler_cycles[i] += np.asarray(carrier_phase_step_rad, float) / (2 * np.pi)
