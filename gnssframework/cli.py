@@ -362,6 +362,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         vector = vector_config(solution_rate_hz=args.rate, **_vector_channel_from_args(args))
     elif args.vector_channel_filter or args.vector_channel_params:
         raise ConfigError("--vector-channel-filter", "the vector loop's channel filter is for --tracking vector")
+    elif args.vector_accel_psd is not None:
+        raise ConfigError("--vector-accel-psd", "the vector loop's navigation filter is for --tracking vector")
     assist = _assist_from_args(args)
     bar = None
     if not args.quiet and sys.stderr.isatty():  # a progress bar is for a terminal, not a log
@@ -430,10 +432,15 @@ def _cmd_receive(args: argparse.Namespace) -> int:
 
 
 def _vector_channel_from_args(args: argparse.Namespace) -> dict:
-    """`VectorConfig` fields of ``--vector-channel-filter`` and ``--vector-channel-params``."""
+    """`VectorConfig` fields of ``--vector-channel-filter``, ``--vector-channel-params`` and
+    ``--vector-accel-psd`` (the ``ekf-pv`` navigation filter's ``accel_psd``)."""
     import json
 
     out = {}
+    if args.vector_accel_psd is not None:
+        if not args.vector_accel_psd > 0:  # also refuses nan
+            raise ConfigError("--vector-accel-psd", f"must be > 0 m²/s³, got {args.vector_accel_psd}")
+        out["nav_params"] = {"accel_psd": args.vector_accel_psd}
     if args.vector_channel_filter:
         out["channel_filter"] = args.vector_channel_filter
     if args.vector_channel_params:
@@ -637,6 +644,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --tracking vector: the error-output channel_filter of the vector channels, "
                         "discriminator (default) or iq-filter")
     p.add_argument("--vector-channel-params", metavar="JSON", help="its parameters")
+    p.add_argument("--vector-accel-psd", type=float, metavar="M2_S3",
+                   help="with --tracking vector: white-acceleration PSD (m²/s³) of the navigation filter's "
+                        "constant-velocity model; raise it for a moving receiver (default: ekf-pv's 0.1)")
     p.add_argument("--approx-position", metavar="LAT,LON,H",
                    help="with --tracking vector and --ephemeris: approximate position (within ~100 km); with "
                         "--start-time, vector tracking starts from acquisition, without waiting for LNAV")
@@ -714,12 +724,36 @@ class _QuietPipe:
         return getattr(self.stream, name)
 
 
+#: Options whose value is a list of numbers that may start with a minus sign (southern
+#: latitudes, western longitudes): argparse takes ``-33.4,-70.6,500`` for an option.
+COORDINATE_OPTIONS = ("--truth", "--approx-position")
+_NUMBER_LIST = re.compile(r"-\.?\d")
+
+
+def attach_negative_values(argv: Sequence[str]) -> list[str]:
+    """``argv`` with each `COORDINATE_OPTIONS` option followed by a value that starts with a
+    negative number joined to it (``--truth -33.4,-70.6,500`` -> ``--truth=-33.4,-70.6,500``),
+    as argparse parses it; every other token unchanged."""
+    out: list[str] = []
+    tokens = list(argv)
+    k = 0
+    while k < len(tokens):
+        if (tokens[k] in COORDINATE_OPTIONS and k + 1 < len(tokens) and "--" not in tokens[:k]
+                and _NUMBER_LIST.match(tokens[k + 1])):
+            out.append(f"{tokens[k]}={tokens[k + 1]}")
+            k += 2
+            continue
+        out.append(tokens[k])
+        k += 1
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit code. Library errors print one line, no traceback:
     exit 2 for configuration and input errors (a bad path included), 1 for other OS
     failures (a full disk), 130 for Ctrl-C; a closed pipe on stdout ends the printing
-    quietly."""
-    args = build_parser().parse_args(argv)
+    quietly. Coordinate options take negative values (`attach_negative_values`)."""
+    args = build_parser().parse_args(attach_negative_values(sys.argv[1:] if argv is None else argv))
     stdout, sys.stdout = sys.stdout, _QuietPipe(sys.stdout)
     interrupted = _CtrlC()
     try:
