@@ -18,7 +18,7 @@ from gnssframework.receiver.channels import tracking_config
 from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.vector_tracking import vector_config
-from lnav_recordings import true_dopplers, write_lnav_recording
+from lnav_recordings import WEEK, C, true_dopplers, write_lnav_recording
 
 DURATION_S = 13.0
 FADE_S = 10.5  # the first fix comes with TOW, 8.6 s in (see test_receiver_fix)
@@ -122,6 +122,33 @@ def test_vector_channels_follow_the_true_code_and_doppler_at_the_weak_signal(fad
         code_err_m = ((chips[weak] - true_chips + 511.5) % 1023 - 511.5) * 293.05
         assert np.sqrt(np.mean(code_err_m**2)) < 4 * np.sqrt(np.mean(sigma_range**2)), (
             np.sqrt(np.mean(code_err_m**2)), np.sqrt(np.mean(sigma_range**2)))
+
+
+def test_every_vector_channel_is_in_the_observables_and_rinex_after_the_hand_over(faded, vector_result, tmp_path):
+    """The observables (and so ``observations.rnx``) keep every vector-tracked satellite to
+    the end: its rows go on bit by bit from the decoded TOW through the hand-over. Each
+    transmit time is the generator's (receiver clock = GPS time) within half a chip, the
+    early-late discriminator's reach (a miscounted millisecond or bit would be 300 km or
+    more off); no carrier phase after the hand-over (no PLL closes it)."""
+    from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs
+
+    _, prns, _ = faded
+    obs, handover_s = vector_result.observables, vector_result.vector.handover_s
+    sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
+    after = obs.sample_time_s > handover_s
+    assert obs.sample_time_s[after].size >= (DURATION_S - handover_s) * 5 - 2
+    cols = [list(obs.prn).index(p) for p in prns]
+    assert np.isfinite(obs.pseudorange_m[np.ix_(after, cols)]).all()
+    t_sv = np.array([fix._satellite_time(sats, np.array(fix.TOW0 + t)) for t in obs.sample_time_s[after]])
+    err_m = (obs.transmit_s[np.ix_(after, cols)] - t_sv) * C
+    assert np.abs(err_m).max() < 0.5 * 293.05, np.abs(err_m).max(axis=0)
+    assert np.isnan(obs.carrier_cycles[np.ix_(after, cols)]).all()
+    # The RINEX file: every epoch after the hand-over lists all five satellites.
+    text = write_rinex_obs(tmp_path / "observations.rnx", obs, WEEK).read_text()
+    epochs = [line for line in text.splitlines() if line.startswith("> ")]
+    assert len(epochs) == obs.sample_time_s.size
+    counts = np.array([int(line.split()[-1]) for line in epochs])
+    assert np.all(counts[after] == 5), counts
 
 
 def sats_los(sats, k: int, receiver_m: np.ndarray) -> np.ndarray:
