@@ -128,6 +128,7 @@ class VectorConfig(BaseModel):
         4.0, gt=0, description="half widths of its window in standard deviations of the predicted range and rate")
     reacquire_elevation_deg: float = Field(5.0, description="satellites predicted below this are not searched")
     min_cn0_dbhz: float = Field(18.0, description="a channel whose C/N0 estimate is below this is not used")
+    elevation_mask_deg: float = Field(5.0, description="nor one whose satellite the state sees below this (deg)")
     loss_cn0_dbhz: float = Field(
         18.0, description="loss of lock of a vector channel: its C/N0 estimate (over the tracker's full "
         "cn0_window_ms) below this ...")
@@ -787,6 +788,9 @@ class VectorSampleTracker(SampleTracker):
         cn0 = np.array([self.channels[int(s) + 1].cn0_dbhz for s in slots])
         ref = np.array([self.channels[int(s) + 1].cn0_ref for s in slots])
         use = cn0 >= self.vector.min_cn0_dbhz
+        lat, lon, _ = pymap3d.ecef2geodetic(*self.x[:3], deg=False)  # below the mask: driven, not used
+        up = np.array([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)])
+        use &= line_of_sight(pos, self.x[:3])[1] @ up >= np.sin(np.radians(self.vector.elevation_mask_deg))
         # The thermal variances grow as 1/(C/N0): scale the ones set at the hand-over C/N0.
         scale = 10 ** ((ref - np.maximum(cn0, self.vector.min_cn0_dbhz)) / 10)
         var_code = np.where(use, var_code * scale, _IGNORE_VAR)
