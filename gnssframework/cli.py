@@ -296,8 +296,11 @@ def _truth_from_args(args: argparse.Namespace) -> tuple[float, float, float] | N
     return truth
 
 
-def _assist_from_args(args: argparse.Namespace):
-    """`vector_tracking.Assistance` from ``--approx-position`` and ``--start-time`` (both or neither)."""
+def _assist_from_args(args: argparse.Namespace, nav_info=None):
+    """`vector_tracking.Assistance` from ``--approx-position`` and ``--start-time`` (both or
+    neither), with the Klobuchar coefficients of the ``--ephemeris`` file's header
+    (``nav_info``, a `rinex_nav_header.NavFileInfo`) unless ``--no-iono``; a file whose
+    records do not cover the start time is refused."""
     if not args.approx_position and not args.start_time:
         return None
     from .receiver.navigation.vector_tracking import assistance
@@ -318,7 +321,11 @@ def _assist_from_args(args: argparse.Namespace):
     except ValueError:
         raise ConfigError("--start-time", f"WEEK,TOW (full GPS week, seconds of week), got {args.start_time!r}") \
             from None
-    return assistance(where, *when)
+    if nav_info is not None and not nav_info.covers(*when):
+        raise ConfigError("--ephemeris", f"the ephemeris does not cover the recording: its records span "
+                                         f"{nav_info.dates()}, --start-time is week {when[0]}, tow {when[1]:g} s")
+    iono = nav_info.iono if nav_info is not None and not args.no_iono else None
+    return assistance(where, *when, iono=iono)
 
 
 def _cmd_receive(args: argparse.Namespace) -> int:
@@ -332,7 +339,9 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     from .receiver.navigation.nmea_out import write_nmea
     from .receiver.navigation.receive import position_errors, receive
     from .receiver.navigation.receiver_config import receiver_filters
-    from .receiver.navigation.report import write_receive_report
+    from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
+    from .receiver.channels.report import write_tracking_outputs
+    from .receiver.navigation.report import no_position_reason, write_no_position_report, write_receive_report
     from .receiver.navigation.rinex_obs import write_rinex_obs
 
     rec = _open_recording_from_args(args)
@@ -352,6 +361,11 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
     truth = _truth_from_args(args)
     rinex = read_rinex_nav(args.ephemeris) if args.ephemeris else None
+    nav_info = read_nav_file_info(args.ephemeris) if args.ephemeris else None
+    # Without --week, the ephemeris file's (placed at the recording's tow once known, below).
+    reference_week = args.week
+    if reference_week is None and nav_info is not None:
+        reference_week = int(0.5 * (nav_info.first_s + nav_info.last_s) // WEEK_S)
     vector = None
     if args.tracking == "vector":
         from .receiver.navigation.vector_tracking import vector_config
@@ -364,7 +378,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         raise ConfigError("--vector-channel-filter", "the vector loop's channel filter is for --tracking vector")
     elif args.vector_accel_psd is not None:
         raise ConfigError("--vector-accel-psd", "the vector loop's navigation filter is for --tracking vector")
-    assist = _assist_from_args(args)
+    assist = _assist_from_args(args, nav_info)
     bar = None
     if not args.quiet and sys.stderr.isatty():  # a progress bar is for a terminal, not a log
         from tqdm import tqdm
@@ -376,7 +390,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
 
     try:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
-                         ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=args.week,
+                         ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
                          progress=progress if bar is not None else None, nav_filter=filters.nav_filter,
                          vector=vector, assist=assist)
         if bar is not None:  # the tracker reports up to its last block's start: the run is done
@@ -392,18 +406,27 @@ def _cmd_receive(args: argparse.Namespace) -> int:
               "the format (--format) and --doppler-max; no position")
         return 1
     table = result.positions
-    if table is None or len(table) == 0:
-        why = ("no LNAV subframe decoded (a subframe takes 6 s once a channel is locked and bit-synchronised)"
-               if table is None else "fewer than four satellites with a decoded or --ephemeris ephemeris")
-        print(f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
-              f"{result.tracking.duration_s:.1f} s")
-        return 1
     out = Path(args.out)
+    if table is None or len(table) == 0:
+        why = no_position_reason(result, nav_info, assist, reference_week)
+        out.mkdir(parents=True, exist_ok=True)
+        written = write_tracking_outputs(out, result.tracking, plots=True)
+        written += write_no_position_report(out, result, why, rinex)
+        print(f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
+              f"{result.tracking.duration_s:.1f} s; wrote {', '.join(str(p) for p in written if p.parent == out)}")
+        return 1
     out.mkdir(parents=True, exist_ok=True)
+    obs = result.observables
+    if args.week is None and nav_info is not None and assist is None and (obs is None or obs.week is None):
+        # No subframe 1: the week that puts the first fix's tow nearest the file's records.
+        week_now = nav_info.week_at(float(table.columns["tow_s"][0]))
+        for t in {id(t): t for t in (table, result.least_squares) if t is not None}.values():
+            t.columns["gps_week"][:] = week_now
+        print(f"note: no subframe 1 decoded: GPS week {week_now} from the --ephemeris file's records "
+              f"({nav_info.dates()})")
     written = [write_positions_csv(out / "positions.csv", table)]
     c = table.columns
     week = int(c["gps_week"][0])
-    obs = result.observables
     if week >= 0 and obs is None:
         print("note: no LNAV subframe decoded, so no pseudoranges of the scalar channels: no observations.rnx")
         written.append(write_nmea(out / "nmea.txt", table, 18))

@@ -90,3 +90,42 @@ def test_vector_accel_psd_reaches_the_navigation_filter(tiny_recording, tmp_path
 def test_a_bad_or_misplaced_vector_accel_psd_exits_2_naming_it(tiny_recording, tmp_path, capsys, extra):
     assert cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), *extra]) == 2
     assert "--vector-accel-psd" in capsys.readouterr().err
+
+
+NAV = __import__("pathlib").Path(__file__).parent / "data" / "07590920.05n"
+#: The header of NAV: ION ALPHA and ION BETA as written there.
+NAV_ALPHA = (1.1180e-08, 1.4900e-08, -5.9600e-08, -5.9600e-08)
+NAV_BETA = (8.8060e+04, 1.6380e+04, -1.9660e+05, -1.3110e+05)
+#: An assisted start in NAV's span (Saturday 2005-04-02 00:05, GPS week 1316) near its station.
+ASSISTED = ["--tracking", "vector", "--ephemeris", str(NAV), "--approx-position", "35.7,139.5,100",
+            "--start-time", "1316,518703.4"]
+
+
+def test_an_assisted_start_takes_the_ephemeris_files_klobuchar(tiny_recording, tmp_path, received):
+    seen, stop = received
+    with pytest.raises(stop):
+        cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), *ASSISTED])
+    assert seen["assist"].iono.alpha == NAV_ALPHA and seen["assist"].iono.beta == NAV_BETA
+    with pytest.raises(stop):
+        cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), *ASSISTED, "--no-iono"])
+    assert seen["assist"].iono is None and seen["ionosphere"] is False
+
+
+def test_receive_takes_the_week_of_the_ephemeris_file_without_week(tiny_recording, tmp_path, received):
+    seen, stop = received
+    with pytest.raises(stop):
+        cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--ephemeris", str(NAV)])
+    assert seen["reference_week"] == 1316  # NAV's records: 2005-04-01 23:59:44 to 2005-04-03 00:00:00
+    with pytest.raises(stop):
+        cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--ephemeris", str(NAV),
+                  "--week", "1317"])
+    assert seen["reference_week"] == 1317  # --week rules
+
+
+def test_an_ephemeris_of_another_day_is_named_as_such(tiny_recording, tmp_path, capsys, received):
+    argv = ["receive", str(tiny_recording), "--out", str(tmp_path / "o"), *ASSISTED]
+    argv[argv.index("1316,518703.4")] = "1316,300000"  # Wednesday: two days before NAV's records
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "the ephemeris does not cover the recording" in err
+    assert "2005-04-01 23:59:44 to 2005-04-03 00:00:00 GPS" in err and "no LNAV" not in err

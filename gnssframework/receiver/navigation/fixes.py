@@ -22,12 +22,15 @@ from ...navigation.lnav import IonoUtc
 from .observables import SPEED_OF_LIGHT_MPS, Observables
 from ...navigation.pvt import PositionFix, solve_position
 
-__all__ = ["PositionTable", "solve_epochs", "write_positions_csv", "POSITION_COLUMNS", "full_week"]
+__all__ = ["PositionTable", "solve_epochs", "write_positions_csv", "POSITION_COLUMNS", "full_week",
+           "ELEVATION_MASK_DEG"]
 
 #: Columns of ``positions.csv`` (one row per solution).
 POSITION_COLUMNS = ("gps_week", "tow_s", "lat_deg", "lon_deg", "height_m", "vel_e_mps", "vel_n_mps", "vel_u_mps",
                     "clock_bias_m", "n_sats", "hdop", "vdop")
 _ERA_START_WEEK = 2048
+#: Satellites below this elevation (deg) are left out of a fix.
+ELEVATION_MASK_DEG = 5.0
 
 
 @dataclass(frozen=True)
@@ -83,7 +86,7 @@ def _stack(records: list[Ephemerides]) -> Ephemerides:
 
 def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphere: bool = True,
                  troposphere: bool = False, iono: IonoUtc | None = None, sigma_m: float = 5.0,
-                 elevation_mask_deg: float = 5.0, reference_week: int | None = None,
+                 elevation_mask_deg: float = ELEVATION_MASK_DEG, reference_week: int | None = None,
                  elevation_weights: bool = True) -> PositionTable:
     """Solve every epoch of ``obs`` (see the module text).
 
