@@ -392,7 +392,9 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
                          progress=progress if bar is not None else None, nav_filter=filters.nav_filter,
-                         vector=vector, assist=assist)
+                         vector=vector, assist=assist,
+                         iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
+                         weighting=args.weighting)
         if bar is not None:  # the tracker reports up to its last block's start: the run is done
             bar.update(bar.total - bar.n)
     finally:
@@ -476,6 +478,8 @@ def _vector_channel_from_args(args: argparse.Namespace) -> dict:
     return out
 
 
+#: ``receive --weighting``: `navigation.pvt.WEIGHTINGS` (written out: that module costs 0.6 s to import).
+WEIGHTINGS = ("elevation", "uniform", "rtklib")
 #: ``position --tracking``: the scalar receiver, or vector tracking from the first fix.
 TRACKING_MODES = ("scalar", "vector")
 
@@ -659,6 +663,10 @@ def build_parser() -> argparse.ArgumentParser:
                                                             "10-bit week; needed without a decoded subframe 1)")
     p.add_argument("--no-iono", action="store_true", help="no Klobuchar correction")
     p.add_argument("--troposphere", action="store_true", help="apply the Saastamoinen troposphere")
+    p.add_argument("--weighting", choices=WEIGHTINGS, default="elevation",
+                   help="least-squares weights: elevation (sin²E/σ²), uniform, or rtklib (RTKLIB's single-point "
+                        "error model: with the same corrections, e.g. --troposphere against RTKLIB's brdc "
+                        "ionosphere and saas troposphere, its fixes agree; default %(default)s)")
     p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print and report the errors")
     p.add_argument("--tracking", choices=TRACKING_MODES, default="scalar",
                    help="vector: from the first fix the ekf-pv navigation filter drives every channel's code and "

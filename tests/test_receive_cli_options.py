@@ -129,3 +129,22 @@ def test_an_ephemeris_of_another_day_is_named_as_such(tiny_recording, tmp_path, 
     err = capsys.readouterr().err
     assert "the ephemeris does not cover the recording" in err
     assert "2005-04-01 23:59:44 to 2005-04-03 00:00:00 GPS" in err and "no LNAV" not in err
+
+
+def test_the_ephemeris_files_klobuchar_and_the_weighting_reach_the_fixes(tiny_recording, tmp_path, received):
+    """Where no channel decodes page 18, the fixes take the navigation file's header (as
+    RTKLIB does); ``--weighting rtklib`` picks RTKLIB's error model."""
+    seen, stop = received
+    with pytest.raises(stop):
+        cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--ephemeris", str(NAV),
+                  "--weighting", "rtklib"])
+    assert seen["iono_fallback"].alpha == NAV_ALPHA and seen["weighting"] == "rtklib"
+    with pytest.raises(stop):
+        cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--ephemeris", str(NAV), "--no-iono"])
+    assert seen["iono_fallback"] is None and seen["weighting"] == "elevation"
+
+
+def test_the_cli_weightings_are_the_solvers():
+    from gnssframework.navigation.pvt import WEIGHTINGS
+
+    assert cli.WEIGHTINGS == WEIGHTINGS

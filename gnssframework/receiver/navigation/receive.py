@@ -51,7 +51,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             rinex: Ephemerides | None = None, ionosphere: bool = True, troposphere: bool = False,
             reference_week: int | None = None, progress: Any = None,
             nav_filter: PluginSpec | None = None, vector: VectorConfig | None = None,
-            acquisitions: list[AcquisitionResult] | None = None, assist: Assistance | None = None) -> ReceiveResult:
+            acquisitions: list[AcquisitionResult] | None = None, assist: Assistance | None = None,
+            iono_fallback: IonoUtc | None = None, weighting: str | None = None) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
     fraction of the recording tracked. With ``nav_filter`` the positions are that filter's
@@ -61,7 +62,11 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     ``acquisitions`` (made on the first samples) replace the initial search. ``assist``
     (with ``vector`` and ``rinex``) hands over without LNAV, from an approximate position
     and start time (`vector_tracking.Assistance`); the observables are then the vector
-    channels' (`assisted_observables`), and ``least_squares`` the fixes of those."""
+    channels' (`assisted_observables`), and ``least_squares`` the fixes of those.
+    ``iono_fallback`` (a navigation file header's Klobuchar coefficients) corrects the
+    least-squares fixes and the nav filter where no channel decoded page 18 (the vector
+    loop's own predictions take the decoded page 18, or the assistance's). ``weighting``
+    that of the least-squares fixes (`pvt.solve_position`'s; ``rtklib`` for RTKLIB's SPP model)."""
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
                                         "give nav_filter or vector, not both")
@@ -78,7 +83,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
         if any(t is not None and t.time_s.size > 1 for t in timings):
             obs = observables(timings, rate_hz)
             scalar = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere,
-                                  reference_week=reference_week)
+                                  iono=_fallback(obs, iono_fallback), reference_week=reference_week,
+                                  weighting=weighting)
         else:
             obs = None
         table = concatenate_tables(scalar, solution.table(vector.solution_rate_hz), solution.handover_s)
@@ -86,7 +92,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             assisted = assisted_observables(tracking, solution, rate_hz, assist.iono)
             if assisted is not None:  # the vector channels' rows, dated without LNAV
                 least_squares = solve_epochs(assisted, rinex, ionosphere=ionosphere, troposphere=troposphere,
-                                             reference_week=assist.week if reference_week is None else reference_week)
+                                             reference_week=assist.week if reference_week is None else reference_week,
+                                             weighting=weighting)
                 return ReceiveResult(tracking, assisted, table, least_squares, solution)
         return ReceiveResult(tracking, obs, table, scalar, solution)
     if assist is not None:
@@ -97,12 +104,19 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     if not any(t is not None and t.time_s.size > 1 for t in timings):
         return ReceiveResult(tracking, None, None)
     obs = observables(timings, rate_hz)
-    table = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere, reference_week=reference_week)
+    iono = _fallback(obs, iono_fallback)
+    table = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere, iono=iono,
+                         reference_week=reference_week, weighting=weighting)
     if nav_filter is None:
         return ReceiveResult(tracking, obs, table, table)
     filtered = filter_epochs(obs, table, nav_filter.name, nav_filter.params, rinex, ionosphere=ionosphere,
-                             troposphere=troposphere, reference_week=reference_week)
+                             troposphere=troposphere, iono=iono, reference_week=reference_week)
     return ReceiveResult(tracking, obs, filtered, table)
+
+
+def _fallback(obs: Observables, iono: IonoUtc | None) -> IonoUtc | None:
+    """``iono`` where no channel decoded page 18 (None keeps the decoded one)."""
+    return iono if obs.iono_utc is None else None
 
 
 def assisted_observables(tracking: TrackingResult, solution: VectorSolution, rate_hz: float,
