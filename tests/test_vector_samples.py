@@ -261,3 +261,23 @@ def test_a_blanked_vector_channel_is_dropped_and_reacquired_after_the_lnav_hand_
     table = result.positions
     while_gone = (table.sample_time_s > BLANK[1] + 1.0) & (table.sample_time_s < BLANK[2])
     assert while_gone.sum() >= 5 and np.all(table.columns["n_sats"][while_gone] == 4)
+
+
+def test_a_rejoined_vector_channel_is_back_in_the_observables(blanked):
+    """The blanked channel, re-acquired and closed again at a boundary that may be mid-bit,
+    is dated from its replica's transmit time: in every epoch from a second after it is
+    found to the end, its transmit time the generator's within half a chip; in none while
+    it is gone."""
+    gone, result = blanked
+    events = result.tracking.channels[gone].events
+    found = [t for t, text in events if "re-acquired in the window predicted by the navigation solution" in text]
+    obs = result.observables
+    j = list(obs.prn).index(gone)
+    back = obs.sample_time_s > found[0] + 1.0
+    assert back.sum() >= 5 * (16.0 - found[0] - 1.0) - 2
+    sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
+    k = [int(s[1:]) for s in sats.sv].index(gone)
+    t_sv = np.array([fix._satellite_time(sats, np.array(fix.TOW0 + t))[k] for t in obs.sample_time_s[back]])
+    assert np.abs((obs.transmit_s[back, j] - t_sv) * C).max() < 0.5 * 293.05
+    away = (obs.sample_time_s > BLANK[1] + 1.0) & (obs.sample_time_s < BLANK[2])
+    assert away.any() and not np.isfinite(obs.pseudorange_m[away, j]).any()

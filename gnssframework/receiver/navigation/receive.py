@@ -10,7 +10,7 @@ fix on (`filtered.filter_epochs`) and gives the positions.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -26,7 +26,7 @@ from ...navigation.lnav import IonoUtc
 from ...plugin_ref import PluginSpec
 from .filtered import filter_epochs
 from .fixes import PositionTable, solve_epochs
-from .observables import TOW_TOLERANCE_S, Observables, assisted_timing, channel_timing, observables
+from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
 from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
 
 __all__ = ["ReceiveResult", "receive", "assisted_observables", "position_errors", "concatenate_tables"]
@@ -78,7 +78,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
                                       reference_week=reference_week, assist=assist)
         tracking = tracker.run(found, duration_s, progress)
         solution = tracker.solution
-        timings = [channel_timing(ch) for ch in tracking.channels.values()]
+        timings = [channel_timing(ch) if assist is not None else _with_rejoined(channel_timing(ch), ch, solution)
+                   for ch in tracking.channels.values()]  # (an assisted start's are `assisted_observables`)
         scalar = None
         if any(t is not None and t.time_s.size > 1 for t in timings):
             obs = observables(timings, rate_hz)
@@ -112,6 +113,34 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     filtered = filter_epochs(obs, table, nav_filter.name, nav_filter.params, rinex, ionosphere=ionosphere,
                              troposphere=troposphere, iono=iono, reference_week=reference_week)
     return ReceiveResult(tracking, obs, filtered, table)
+
+
+def _with_rejoined(timing: ChannelTiming | None, record, solution: VectorSolution) -> ChannelTiming | None:
+    """``timing`` (`channel_timing`'s) and, where the channel's last stretch of vector rows
+    is not in it (a channel that rejoined the loop after re-acquisition: its first row may
+    start mid-bit, so no bit run dates it), those rows dated from the replica's transmit time
+    at the end of the run (`observables.assisted_timing`), without carrier phase (no PLL
+    closes a vector channel). Rows whose decoded TOW disagrees with that dating are left out."""
+    if record.prn not in solution.replica_tx:
+        return timing
+    rejoined = assisted_timing(record, *solution.replica_tx[record.prn])
+    if rejoined is None or (timing is not None and timing.time_s[-1] >= rejoined.time_s[0]):
+        return timing
+    if rejoined.tow_offset_s is not None and abs(rejoined.tow_offset_s) > TOW_TOLERANCE_S:
+        solution.events.append((float(rejoined.time_s[0]), f"PRN {record.prn}: its decoded TOW is "
+                                f"{rejoined.tow_offset_s:+.3f} s from the replica's transmit time: its rows after "
+                                "rejoining left out of the observables"))
+        return timing
+    rejoined = replace(rejoined, carrier_cycles=np.full(rejoined.time_s.size, np.nan), tow_offset_s=None)
+    if timing is None:
+        return rejoined
+    joined = {f: np.concatenate([getattr(timing, f), getattr(rejoined, f)])
+              for f in ("time_s", "transmit_s", "doppler_hz", "carrier_cycles", "cn0_dbhz", "half_cycle")}
+    starts = np.concatenate([timing.arc_start if timing.arc_start is not None
+                             else np.eye(1, timing.time_s.size, dtype=bool)[0], rejoined.arc_start])
+    known = np.concatenate([timing.polarity_known if timing.polarity_known is not None
+                            else np.ones(timing.time_s.size, bool), rejoined.polarity_known])
+    return replace(timing, **joined, arc_start=starts, polarity_known=known)
 
 
 def _fallback(obs: Observables, iono: IonoUtc | None) -> IonoUtc | None:
