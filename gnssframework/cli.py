@@ -660,8 +660,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rate", type=float, default=1.0, metavar="HZ", help="solutions per second (default 1)")
     p.add_argument("--ephemeris", metavar="NAV", help="RINEX navigation file for satellites not yet decoded")
     p.add_argument("--week", type=int, metavar="WEEK", help="full GPS week of the recording (places the decoded "
-                                                            "10-bit week; needed without a decoded subframe 1)")
-    p.add_argument("--no-iono", action="store_true", help="no Klobuchar correction")
+                                                            "10-bit week; without it, the --ephemeris file's week; "
+                                                            "needed without either and a decoded subframe 1)")
+    p.add_argument("--no-iono", action="store_true", help="no Klobuchar correction (by default the decoded page 18's, "
+                                                          "else the --ephemeris file header's)")
     p.add_argument("--troposphere", action="store_true", help="apply the Saastamoinen troposphere")
     p.add_argument("--weighting", choices=WEIGHTINGS, default="elevation",
                    help="least-squares weights: elevation (sin²E/σ²), uniform, or rtklib (RTKLIB's single-point "
