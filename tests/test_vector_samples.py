@@ -281,3 +281,26 @@ def test_a_rejoined_vector_channel_is_back_in_the_observables(blanked):
     assert np.abs((obs.transmit_s[back, j] - t_sv) * C).max() < 0.5 * 293.05
     away = (obs.sample_time_s > BLANK[1] + 1.0) & (obs.sample_time_s < BLANK[2])
     assert away.any() and not np.isfinite(obs.pseudorange_m[away, j]).any()
+
+
+def test_the_lnav_hand_over_takes_the_navigation_files_klobuchar(faded, monkeypatch):
+    """No page 18 in the file: given the navigation file's Klobuchar coefficients (as
+    ``receive --ephemeris`` passes them), the hand-over fix and the loop's predicted ranges
+    carry the ionospheric delay (1.5 m or more: the model's night-time 5 ns at the zenith)."""
+    from gnssframework.navigation.rinex_nav_header import read_nav_file_info
+    from gnssframework.receiver.navigation import vector_tracking
+
+    trackers = []
+    run = vector_tracking.VectorSampleTracker.run
+
+    def keep(self, *args, **kwargs):
+        trackers.append(self)
+        return run(self, *args, **kwargs)
+
+    monkeypatch.setattr(vector_tracking.VectorSampleTracker, "run", keep)
+    iono = read_nav_file_info(fix.NAV).iono
+    result = _receive(faded[0], vector=vector_config(solution_rate_hz=5.0), duration_s=FADE_S, iono_fallback=iono)
+    assert result.vector.handover_s is not None and result.observables.iono_utc is None  # none decoded
+    tracker = trackers[0]
+    assert tracker.iono == iono
+    assert np.all(tracker.iono_m >= 1.5) and np.all(tracker.iono_m < 50.0)

@@ -64,8 +64,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     and start time (`vector_tracking.Assistance`); the observables are then the vector
     channels' (`assisted_observables`), and ``least_squares`` the fixes of those.
     ``iono_fallback`` (a navigation file header's Klobuchar coefficients) corrects the
-    least-squares fixes and the nav filter where no channel decoded page 18 (the vector
-    loop's own predictions take the decoded page 18, or the assistance's). ``weighting``
+    least-squares fixes, the nav filter and the vector loop's LNAV hand-over where no channel
+    decoded page 18 (an assisted start takes the assistance's). ``weighting``
     that of the least-squares fixes (`pvt.solve_position`'s; ``rtklib`` for RTKLIB's SPP model)."""
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
@@ -75,7 +75,7 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     found = [r for r in acquisitions if r.detected]
     if vector is not None:
         tracker = VectorSampleTracker(recording, config, acquisition, vector, rinex=rinex, ionosphere=ionosphere,
-                                      reference_week=reference_week, assist=assist)
+                                      reference_week=reference_week, assist=assist, iono_fallback=iono_fallback)
         tracking = tracker.run(found, duration_s, progress)
         solution = tracker.solution
         timings = [channel_timing(ch) if assist is not None else _with_rejoined(channel_timing(ch), ch, solution)

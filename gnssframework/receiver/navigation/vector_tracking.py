@@ -260,12 +260,14 @@ class VectorSampleTracker(SampleTracker):
         `Assistance`: hand over without LNAV, as soon as four channels are bit-aligned,
         each replica's transmit time from the approximate position and start time
         (`_try_assisted_handover`).
+    iono_fallback
+        Klobuchar coefficients (a RINEX header's) for the LNAV hand-over where no page 18 is decoded.
     """
 
     def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
                  vector: VectorConfig | None = None, *, rinex: Ephemerides | None = None, ionosphere: bool = True,
                  reference_week: int | None = None, assist: Assistance | None = None,
-                 backend: str | None = None) -> None:
+                 backend: str | None = None, iono_fallback: IonoUtc | None = None) -> None:
         super().__init__(recording, config, acquisition, backend=backend)
         if assist is not None and rinex is None:
             raise ConfigError("approx_position", "an assisted start needs the ephemerides of a RINEX navigation "
@@ -275,6 +277,7 @@ class VectorSampleTracker(SampleTracker):
         self.assist = assist
         self.ionosphere = ionosphere
         self.reference_week = reference_week
+        self.iono_fallback = iono_fallback  # Klobuchar where no page 18 is decoded (a RINEX header's)
         v = self.vector
         check_composition(registry.create("channel_filter", v.channel_filter, **v.channel_params),
                           registry.create("nav_filter", v.nav_filter, **v.nav_params))
@@ -371,7 +374,8 @@ class VectorSampleTracker(SampleTracker):
             obs = observables(list(timings.values()), rate_hz=10.0)
         except ConfigError:
             return
-        table = solve_epochs(obs, self.rinex, ionosphere=self.ionosphere, reference_week=self.reference_week)
+        table = solve_epochs(obs, self.rinex, ionosphere=self.ionosphere, reference_week=self.reference_week,
+                             iono=None if obs.iono_utc is not None else self.iono_fallback)
         if len(table) == 0:
             return
         records = {p: self._ephemeris(p, obs, float(table.sample_time_s[-1])) for p in timings}
@@ -391,7 +395,7 @@ class VectorSampleTracker(SampleTracker):
             self.tx_anchor[i] = tm.transmit_s[-1] + chips / CA_CHIP_RATE_HZ
             self.chip_anchor[i] = self.ms_index[i] * CA_CODE_LENGTH + self.code_phase[i]
         self.eph = _stack([records[p] for p in prns])
-        self.iono = obs.iono_utc if self.ionosphere else None
+        self.iono = (obs.iono_utc or self.iono_fallback) if self.ionosphere else None
         e = len(table) - 1
         t_fix = float(table.sample_time_s[e])
         bias = float(table.columns["clock_bias_m"][e])
