@@ -296,8 +296,11 @@ def _truth_from_args(args: argparse.Namespace) -> tuple[float, float, float] | N
     return truth
 
 
-def _assist_from_args(args: argparse.Namespace):
-    """`vector_tracking.Assistance` from ``--approx-position`` and ``--start-time`` (both or neither)."""
+def _assist_from_args(args: argparse.Namespace, nav_info=None):
+    """`vector_tracking.Assistance` from ``--approx-position`` and ``--start-time`` (both or
+    neither), with the Klobuchar coefficients of the ``--ephemeris`` file's header
+    (``nav_info``, a `rinex_nav_header.NavFileInfo`) unless ``--no-iono``; a file whose
+    records do not cover the start time is refused."""
     if not args.approx_position and not args.start_time:
         return None
     from .receiver.navigation.vector_tracking import assistance
@@ -318,7 +321,11 @@ def _assist_from_args(args: argparse.Namespace):
     except ValueError:
         raise ConfigError("--start-time", f"WEEK,TOW (full GPS week, seconds of week), got {args.start_time!r}") \
             from None
-    return assistance(where, *when)
+    if nav_info is not None and not nav_info.covers(*when):
+        raise ConfigError("--ephemeris", f"the ephemeris does not cover the recording: its records span "
+                                         f"{nav_info.dates()}, --start-time is week {when[0]}, tow {when[1]:g} s")
+    iono = nav_info.iono if nav_info is not None and not args.no_iono else None
+    return assistance(where, *when, iono=iono)
 
 
 def _cmd_receive(args: argparse.Namespace) -> int:
@@ -332,7 +339,9 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     from .receiver.navigation.nmea_out import write_nmea
     from .receiver.navigation.receive import position_errors, receive
     from .receiver.navigation.receiver_config import receiver_filters
-    from .receiver.navigation.report import write_receive_report
+    from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
+    from .receiver.channels.report import write_tracking_outputs
+    from .receiver.navigation.report import no_position_reason, write_no_position_report, write_receive_report
     from .receiver.navigation.rinex_obs import write_rinex_obs
 
     rec = _open_recording_from_args(args)
@@ -352,6 +361,11 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
     truth = _truth_from_args(args)
     rinex = read_rinex_nav(args.ephemeris) if args.ephemeris else None
+    nav_info = read_nav_file_info(args.ephemeris) if args.ephemeris else None
+    # Without --week, the ephemeris file's (placed at the recording's tow once known, below).
+    reference_week = args.week
+    if reference_week is None and nav_info is not None:
+        reference_week = int(0.5 * (nav_info.first_s + nav_info.last_s) // WEEK_S)
     vector = None
     if args.tracking == "vector":
         from .receiver.navigation.vector_tracking import vector_config
@@ -362,7 +376,9 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         vector = vector_config(solution_rate_hz=args.rate, **_vector_channel_from_args(args))
     elif args.vector_channel_filter or args.vector_channel_params:
         raise ConfigError("--vector-channel-filter", "the vector loop's channel filter is for --tracking vector")
-    assist = _assist_from_args(args)
+    elif args.vector_accel_psd is not None:
+        raise ConfigError("--vector-accel-psd", "the vector loop's navigation filter is for --tracking vector")
+    assist = _assist_from_args(args, nav_info)
     bar = None
     if not args.quiet and sys.stderr.isatty():  # a progress bar is for a terminal, not a log
         from tqdm import tqdm
@@ -374,9 +390,11 @@ def _cmd_receive(args: argparse.Namespace) -> int:
 
     try:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
-                         ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=args.week,
+                         ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
                          progress=progress if bar is not None else None, nav_filter=filters.nav_filter,
-                         vector=vector, assist=assist)
+                         vector=vector, assist=assist,
+                         iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
+                         weighting=args.weighting)
         if bar is not None:  # the tracker reports up to its last block's start: the run is done
             bar.update(bar.total - bar.n)
     finally:
@@ -390,18 +408,27 @@ def _cmd_receive(args: argparse.Namespace) -> int:
               "the format (--format) and --doppler-max; no position")
         return 1
     table = result.positions
-    if table is None or len(table) == 0:
-        why = ("no LNAV subframe decoded (a subframe takes 6 s once a channel is locked and bit-synchronised)"
-               if table is None else "fewer than four satellites with a decoded or --ephemeris ephemeris")
-        print(f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
-              f"{result.tracking.duration_s:.1f} s")
-        return 1
     out = Path(args.out)
+    if table is None or len(table) == 0:
+        why = no_position_reason(result, nav_info, assist, reference_week)
+        out.mkdir(parents=True, exist_ok=True)
+        written = write_tracking_outputs(out, result.tracking, plots=True)
+        written += write_no_position_report(out, result, why, rinex)
+        print(f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
+              f"{result.tracking.duration_s:.1f} s; wrote {', '.join(str(p) for p in written if p.parent == out)}")
+        return 1
     out.mkdir(parents=True, exist_ok=True)
+    obs = result.observables
+    if args.week is None and nav_info is not None and assist is None and (obs is None or obs.week is None):
+        # No subframe 1: the week that puts the first fix's tow nearest the file's records.
+        week_now = nav_info.week_at(float(table.columns["tow_s"][0]))
+        for t in {id(t): t for t in (table, result.least_squares) if t is not None}.values():
+            t.columns["gps_week"][:] = week_now
+        print(f"note: no subframe 1 decoded: GPS week {week_now} from the --ephemeris file's records "
+              f"({nav_info.dates()})")
     written = [write_positions_csv(out / "positions.csv", table)]
     c = table.columns
     week = int(c["gps_week"][0])
-    obs = result.observables
     if week >= 0 and obs is None:
         print("note: no LNAV subframe decoded, so no pseudoranges of the scalar channels: no observations.rnx")
         written.append(write_nmea(out / "nmea.txt", table, 18))
@@ -430,10 +457,15 @@ def _cmd_receive(args: argparse.Namespace) -> int:
 
 
 def _vector_channel_from_args(args: argparse.Namespace) -> dict:
-    """`VectorConfig` fields of ``--vector-channel-filter`` and ``--vector-channel-params``."""
+    """`VectorConfig` fields of ``--vector-channel-filter``, ``--vector-channel-params`` and
+    ``--vector-accel-psd`` (the ``ekf-pv`` navigation filter's ``accel_psd``)."""
     import json
 
     out = {}
+    if args.vector_accel_psd is not None:
+        if not args.vector_accel_psd > 0:  # also refuses nan
+            raise ConfigError("--vector-accel-psd", f"must be > 0 m²/s³, got {args.vector_accel_psd}")
+        out["nav_params"] = {"accel_psd": args.vector_accel_psd}
     if args.vector_channel_filter:
         out["channel_filter"] = args.vector_channel_filter
     if args.vector_channel_params:
@@ -446,6 +478,8 @@ def _vector_channel_from_args(args: argparse.Namespace) -> dict:
     return out
 
 
+#: ``receive --weighting``: `navigation.pvt.WEIGHTINGS` (written out: that module costs 0.6 s to import).
+WEIGHTINGS = ("elevation", "uniform", "rtklib")
 #: ``position --tracking``: the scalar receiver, or vector tracking from the first fix.
 TRACKING_MODES = ("scalar", "vector")
 
@@ -632,9 +666,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rate", type=float, default=1.0, metavar="HZ", help="solutions per second (default 1)")
     p.add_argument("--ephemeris", metavar="NAV", help="RINEX navigation file for satellites not yet decoded")
     p.add_argument("--week", type=int, metavar="WEEK", help="full GPS week of the recording (places the decoded "
-                                                            "10-bit week; needed without a decoded subframe 1)")
-    p.add_argument("--no-iono", action="store_true", help="no Klobuchar correction")
+                                                            "10-bit week; without it, the --ephemeris file's week; "
+                                                            "needed without either and a decoded subframe 1)")
+    p.add_argument("--no-iono", action="store_true", help="no Klobuchar correction (by default the decoded page 18's, "
+                                                          "else the --ephemeris file header's)")
     p.add_argument("--troposphere", action="store_true", help="apply the Saastamoinen troposphere")
+    p.add_argument("--weighting", choices=WEIGHTINGS, default="elevation",
+                   help="least-squares weights: elevation (sin²E/σ²), uniform, or rtklib (RTKLIB's single-point "
+                        "error model: with the same corrections, e.g. --troposphere against RTKLIB's brdc "
+                        "ionosphere and saas troposphere, its fixes agree; default %(default)s)")
     p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print and report the errors")
     p.add_argument("--tracking", choices=TRACKING_MODES, default="scalar",
                    help="vector: from the first fix the ekf-pv navigation filter drives every channel's code and "
@@ -643,6 +683,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --tracking vector: the error-output channel_filter of the vector channels, "
                         "discriminator (default) or iq-filter")
     p.add_argument("--vector-channel-params", metavar="JSON", help="its parameters")
+    p.add_argument("--vector-accel-psd", type=float, metavar="M2_S3",
+                   help="with --tracking vector: white-acceleration PSD (m²/s³) of the navigation filter's "
+                        "constant-velocity model; raise it for a moving receiver (default: ekf-pv's 0.1)")
     p.add_argument("--approx-position", metavar="LAT,LON,H",
                    help="with --tracking vector and --ephemeris: approximate position (within ~100 km); with "
                         "--start-time, vector tracking starts from acquisition, without waiting for LNAV")
@@ -770,12 +813,36 @@ class _QuietPipe:
         return getattr(self.stream, name)
 
 
+#: Options whose value is a list of numbers that may start with a minus sign (southern
+#: latitudes, western longitudes): argparse takes ``-33.4,-70.6,500`` for an option.
+COORDINATE_OPTIONS = ("--truth", "--approx-position")
+_NUMBER_LIST = re.compile(r"-\.?\d")
+
+
+def attach_negative_values(argv: Sequence[str]) -> list[str]:
+    """``argv`` with each `COORDINATE_OPTIONS` option followed by a value that starts with a
+    negative number joined to it (``--truth -33.4,-70.6,500`` -> ``--truth=-33.4,-70.6,500``),
+    as argparse parses it; every other token unchanged."""
+    out: list[str] = []
+    tokens = list(argv)
+    k = 0
+    while k < len(tokens):
+        if (tokens[k] in COORDINATE_OPTIONS and k + 1 < len(tokens) and "--" not in tokens[:k]
+                and _NUMBER_LIST.match(tokens[k + 1])):
+            out.append(f"{tokens[k]}={tokens[k + 1]}")
+            k += 2
+            continue
+        out.append(tokens[k])
+        k += 1
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit code. Library errors print one line, no traceback:
     exit 2 for configuration and input errors (a bad path included), 1 for other OS
     failures (a full disk), 130 for Ctrl-C; a closed pipe on stdout ends the printing
-    quietly."""
-    args = build_parser().parse_args(argv)
+    quietly. Coordinate options take negative values (`attach_negative_values`)."""
+    args = build_parser().parse_args(attach_negative_values(sys.argv[1:] if argv is None else argv))
     stdout, sys.stdout = sys.stdout, _QuietPipe(sys.stdout)
     interrupted = _CtrlC()
     try:

@@ -229,3 +229,57 @@ def test_receive_takes_a_nav_filter_or_vector_tracking_not_both():
 
     with pytest.raises(ConfigError, match="nav_filter: vector tracking runs its own navigation filter"):
         receive(None, None, None, nav_filter=PluginSpec("nav_filter", "ekf-pv", {}), vector=vector_config())
+
+
+def test_a_run_without_position_keeps_its_tracking_and_says_why(recording, tmp_path, capsys):  # noqa: F811
+    """5 s of the recording: every channel locks, but a subframe arrives 8.6 s in. The run
+    writes tracking.csv and a report of what it decoded and why no satellite was used, then
+    exits 1."""
+    path, sats = recording
+    out = tmp_path / "o"
+    assert main(["receive", str(path), "--out", str(out), "--duration", "5", "--quiet"]) == 1
+    said = capsys.readouterr().out
+    assert "no position: no LNAV subframe decoded (5 of 5 satellites found locked" in said
+    prns = sorted(int(s[1:]) for s in sats.sv)
+    with (out / "tracking.csv").open() as fh:
+        assert sorted({int(r["prn"]) for r in csv.DictReader(fh)}) == prns
+    text = (out / "report.md").read_text()
+    assert "no position" in text
+    rows = [line.split("|") for line in text.splitlines() if line.startswith("| ") and line[2:4].strip().isdigit()]
+    assert sorted(int(r[1]) for r in rows) == prns
+    assert all(r[4].strip() == "0" and r[-2].strip() == "no LNAV subframe decoded (no transmit time)" for r in rows)
+    assert not (out / "positions.csv").exists()
+
+
+@pytest.mark.parametrize("extra, start", [([], "a position"),
+                                          (["--tracking", "vector", "--approx-position",
+                                            ",".join(f"{v:.6f}" for v in TRUTH), "--start-time", f"{WEEK},{TOW0}"],
+                                           "an assisted start")])
+def test_too_few_satellites_found_is_said_with_the_count(recording, tmp_path, capsys, extra, start):  # noqa: F811
+    path, sats = recording
+    two = sorted(int(s[1:]) for s in sats.sv)[:2]
+    code = main(["receive", str(path), "--out", str(tmp_path / "o"), "--ephemeris", str(NAV), "--duration", "1",
+                 "--quiet", "--prns", *map(str, two), *extra])
+    said = capsys.readouterr().out
+    assert code == 1
+    assert f"only 2 satellites found (PRN {two[0]}, {two[1]}): {start} needs 4" in said and "LNAV" not in said
+
+
+def test_the_report_says_why_a_tracked_satellite_is_unused(recording, tmp_path):  # noqa: F811
+    """One satellite's records taken out of the ephemeris (none is decoded in the file): the
+    other four give the fixes, and the report says why it is in none."""
+    from gnssframework.receiver.navigation.report import write_receive_report
+
+    path, sats = recording
+    nav = read_rinex_nav(NAV)
+    gone = sats.sv[0]
+    rinex = nav.subset(np.flatnonzero(nav.sv != gone))
+    result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=5.0,
+                     rinex=rinex)
+    assert len(result.positions) and all(int(gone[1:]) not in u for u in result.positions.used_prns)
+    write_receive_report(tmp_path, result, result.positions, None, rinex)
+    rows = {int(r[1]): r for r in (line.split("|") for line in (tmp_path / "report.md").read_text().splitlines()
+                                   if line.startswith("| ") and line[2:4].strip().isdigit())}
+    assert rows[int(gone[1:])][2].strip() == "0"
+    assert rows[int(gone[1:])][-2].strip() == "no healthy ephemeris (none decoded, none in --ephemeris)"
+    assert all(r[-2].strip() == "-" for prn, r in rows.items() if prn != int(gone[1:]))

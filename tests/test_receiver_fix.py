@@ -56,5 +56,13 @@ def test_position_command_writes_positions_rinex_and_nmea(recording, tmp_path, c
     assert code == 0, out
     assert "against --truth: horizontal RMS" in out
     assert (tmp_path / "pos" / "positions.csv").read_text().count("\n") >= 4
-    # No subframe 1 in the file: the week is unknown, so no RINEX or NMEA, and the command says so.
-    assert "the GPS week is unknown" in out and not (tmp_path / "pos" / "nmea.txt").exists()
+    # No subframe 1 in the file: the week is the --ephemeris file's (its records are of GPS week 1316,
+    # 2005-03-27 to 2005-04-02, as RTKLIB and GNSS-SDR take it), so positions.csv carries it and
+    # the RINEX and NMEA files are written.
+    assert "GPS week 1316 from the --ephemeris file's records" in out
+    rows = (tmp_path / "pos" / "positions.csv").read_text().splitlines()
+    assert {line.split(",")[0] for line in rows[1:]} == {"1316"}
+    assert (tmp_path / "pos" / "nmea.txt").exists()
+    first_epoch = next(line for line in (tmp_path / "pos" / "observations.rnx").read_text().splitlines()
+                       if line.startswith("> "))
+    assert first_epoch.startswith("> 2005 04 02 ")  # Saturday of week 1316: TOW0 is 6 d 0 h 5 min in

@@ -239,3 +239,26 @@ def test_a_blanked_vector_channel_is_dropped_and_reacquired_after_an_assisted_st
     gone = int(sats.sv[0][1:])
     assert result.vector.handover_s < 0.5 and gone in result.vector.prns
     assert_dropped_and_rejoined(result, gone, MID_BLANK[1], MID_BLANK[2], settled_s=1.0)
+
+
+#: PRN 1 is 2.4 deg above the station's horizon at the file's start (the other five 30-68 deg).
+LOW_PRN, LOW_SET = 1, ("G01", "G11", "G19", "G20", "G24", "G28")
+
+
+def test_a_satellite_below_the_elevation_mask_is_tracked_but_not_used(tmp_path):
+    """Six signals at 45 dB-Hz, one of them 2.4 deg up: the assisted start closes all six
+    (the low one is driven by the solution) but only the five above the 5 deg mask enter
+    the navigation filter's updates, as they would a least-squares fix."""
+    nav = read_rinex_nav(fix.NAV)
+    sats = nav.select(list(LOW_SET), fix.TOW0)
+    path = write_lnav_recording(tmp_path / "low.sigmf-data", sats, fix.TOW0, 2.0, seed=5)
+    result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=5.0,
+                     rinex=nav, vector=vector_config(solution_rate_hz=5.0),
+                     assist=assistance(approximate_position(), WEEK, fix.TOW0))
+    solution = result.vector
+    assert LOW_PRN in solution.prns and len(solution.prns) == 6
+    used = np.asarray(solution.used)
+    assert used.shape[0] > 50
+    assert not used[:, LOW_PRN - 1].any()
+    assert used[:, [int(s[1:]) - 1 for s in LOW_SET[1:]]].all()
+    assert np.all(result.positions.columns["n_sats"] == 5)

@@ -18,7 +18,7 @@ from gnssframework.receiver.channels import tracking_config
 from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.vector_tracking import vector_config
-from lnav_recordings import true_dopplers, write_lnav_recording
+from lnav_recordings import WEEK, C, true_dopplers, write_lnav_recording
 
 DURATION_S = 13.0
 FADE_S = 10.5  # the first fix comes with TOW, 8.6 s in (see test_receiver_fix)
@@ -122,6 +122,33 @@ def test_vector_channels_follow_the_true_code_and_doppler_at_the_weak_signal(fad
         code_err_m = ((chips[weak] - true_chips + 511.5) % 1023 - 511.5) * 293.05
         assert np.sqrt(np.mean(code_err_m**2)) < 4 * np.sqrt(np.mean(sigma_range**2)), (
             np.sqrt(np.mean(code_err_m**2)), np.sqrt(np.mean(sigma_range**2)))
+
+
+def test_every_vector_channel_is_in_the_observables_and_rinex_after_the_hand_over(faded, vector_result, tmp_path):
+    """The observables (and so ``observations.rnx``) keep every vector-tracked satellite to
+    the end: its rows go on bit by bit from the decoded TOW through the hand-over. Each
+    transmit time is the generator's (receiver clock = GPS time) within half a chip, the
+    early-late discriminator's reach (a miscounted millisecond or bit would be 300 km or
+    more off); no carrier phase after the hand-over (no PLL closes it)."""
+    from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs
+
+    _, prns, _ = faded
+    obs, handover_s = vector_result.observables, vector_result.vector.handover_s
+    sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
+    after = obs.sample_time_s > handover_s
+    assert obs.sample_time_s[after].size >= (DURATION_S - handover_s) * 5 - 2
+    cols = [list(obs.prn).index(p) for p in prns]
+    assert np.isfinite(obs.pseudorange_m[np.ix_(after, cols)]).all()
+    t_sv = np.array([fix._satellite_time(sats, np.array(fix.TOW0 + t)) for t in obs.sample_time_s[after]])
+    err_m = (obs.transmit_s[np.ix_(after, cols)] - t_sv) * C
+    assert np.abs(err_m).max() < 0.5 * 293.05, np.abs(err_m).max(axis=0)
+    assert np.isnan(obs.carrier_cycles[np.ix_(after, cols)]).all()
+    # The RINEX file: every epoch after the hand-over lists all five satellites.
+    text = write_rinex_obs(tmp_path / "observations.rnx", obs, WEEK).read_text()
+    epochs = [line for line in text.splitlines() if line.startswith("> ")]
+    assert len(epochs) == obs.sample_time_s.size
+    counts = np.array([int(line.split()[-1]) for line in epochs])
+    assert np.all(counts[after] == 5), counts
 
 
 def sats_los(sats, k: int, receiver_m: np.ndarray) -> np.ndarray:
@@ -234,3 +261,46 @@ def test_a_blanked_vector_channel_is_dropped_and_reacquired_after_the_lnav_hand_
     table = result.positions
     while_gone = (table.sample_time_s > BLANK[1] + 1.0) & (table.sample_time_s < BLANK[2])
     assert while_gone.sum() >= 5 and np.all(table.columns["n_sats"][while_gone] == 4)
+
+
+def test_a_rejoined_vector_channel_is_back_in_the_observables(blanked):
+    """The blanked channel, re-acquired and closed again at a boundary that may be mid-bit,
+    is dated from its replica's transmit time: in every epoch from a second after it is
+    found to the end, its transmit time the generator's within half a chip; in none while
+    it is gone."""
+    gone, result = blanked
+    events = result.tracking.channels[gone].events
+    found = [t for t, text in events if "re-acquired in the window predicted by the navigation solution" in text]
+    obs = result.observables
+    j = list(obs.prn).index(gone)
+    back = obs.sample_time_s > found[0] + 1.0
+    assert back.sum() >= 5 * (16.0 - found[0] - 1.0) - 2
+    sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
+    k = [int(s[1:]) for s in sats.sv].index(gone)
+    t_sv = np.array([fix._satellite_time(sats, np.array(fix.TOW0 + t))[k] for t in obs.sample_time_s[back]])
+    assert np.abs((obs.transmit_s[back, j] - t_sv) * C).max() < 0.5 * 293.05
+    away = (obs.sample_time_s > BLANK[1] + 1.0) & (obs.sample_time_s < BLANK[2])
+    assert away.any() and not np.isfinite(obs.pseudorange_m[away, j]).any()
+
+
+def test_the_lnav_hand_over_takes_the_navigation_files_klobuchar(faded, monkeypatch):
+    """No page 18 in the file: given the navigation file's Klobuchar coefficients (as
+    ``receive --ephemeris`` passes them), the hand-over fix and the loop's predicted ranges
+    carry the ionospheric delay (1.5 m or more: the model's night-time 5 ns at the zenith)."""
+    from gnssframework.navigation.rinex_nav_header import read_nav_file_info
+    from gnssframework.receiver.navigation import vector_tracking
+
+    trackers = []
+    run = vector_tracking.VectorSampleTracker.run
+
+    def keep(self, *args, **kwargs):
+        trackers.append(self)
+        return run(self, *args, **kwargs)
+
+    monkeypatch.setattr(vector_tracking.VectorSampleTracker, "run", keep)
+    iono = read_nav_file_info(fix.NAV).iono
+    result = _receive(faded[0], vector=vector_config(solution_rate_hz=5.0), duration_s=FADE_S, iono_fallback=iono)
+    assert result.vector.handover_s is not None and result.observables.iono_utc is None  # none decoded
+    tracker = trackers[0]
+    assert tracker.iono == iono
+    assert np.all(tracker.iono_m >= 1.5) and np.all(tracker.iono_m < 50.0)

@@ -35,7 +35,15 @@ from ..signal.spec import SPEED_OF_LIGHT_M_S as SPEED_OF_LIGHT_MPS
 from .ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
 from .lnav import PI_IS_GPS, IonoUtc
 
-__all__ = ["PositionFix", "klobuchar_delay_s", "troposphere_delay_m", "dop", "solve_position"]
+__all__ = ["PositionFix", "klobuchar_delay_s", "troposphere_delay_m", "dop", "solve_position",
+           "rtklib_variance_m2", "WEIGHTINGS"]
+
+#: ``solve_position``'s weightings: ``elevation`` sin²(E)/σ², ``uniform`` 1/σ², ``rtklib``
+#: 1/`rtklib_variance_m2` (RTKLIB's single-point error model).
+WEIGHTINGS = ("elevation", "uniform", "rtklib")
+#: RTKLIB 2.4.3's URA values (m) of the broadcast URA index 0-14 (IS-GPS-200 20.3.3.3.1.3).
+_RTKLIB_URA_M = np.array([2.4, 3.4, 4.85, 6.85, 9.65, 13.65, 24.0, 48.0, 96.0, 192.0, 384.0, 768.0, 1536.0,
+                          3072.0, 6144.0])
 
 _C = SPEED_OF_LIGHT_MPS
 
@@ -140,8 +148,30 @@ def _enu_rotation(lat_deg: float, lon_deg: float) -> np.ndarray:
                      [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)]])
 
 
+def rtklib_variance_m2(elevation_deg: np.ndarray, iono_m: np.ndarray | None, troposphere: bool,
+                       ura_m: np.ndarray | None) -> np.ndarray:
+    r"""Pseudorange variance (m²) of RTKLIB 2.4.3's single-point solution (``pntpos.c``:
+    ``varerr``, ``rescode``, ``ionocorr``, ``tropcorr``, ``var_uraeph``), per satellite:
+
+    .. math:: \sigma^2 = 0.3^2 (1 + 1/\sin E) + 0.3^2 + \sigma_{URA}^2 + \sigma_{ion}^2 + \sigma_{trop}^2
+
+    (its default error ratio 100 times 0.003 m, and the 0.3 m code bias); the URA the first
+    table value at or above the broadcast accuracy ``ura_m`` (2.4 m where unknown);
+    :math:`\sigma_{ion} = 0.5 I` with the Klobuchar delay ``iono_m`` applied, else 5 m;
+    :math:`\sigma_{trop} = 0.3 / (\sin E + 0.1)` with Saastamoinen applied, else 3 m.
+    """
+    sin_e = np.sin(np.radians(np.maximum(np.asarray(elevation_deg, float), 1.0)))
+    var = 0.3**2 * (1.0 + 1.0 / sin_e) + 0.3**2
+    var = var + (np.square(0.5 * np.asarray(iono_m, float)) if iono_m is not None else 5.0**2)
+    var = var + ((0.3 / (sin_e + 0.1)) ** 2 if troposphere else 3.0**2)
+    ura = np.full(sin_e.shape, np.nan) if ura_m is None else np.asarray(ura_m, float)
+    index = np.minimum(np.searchsorted(_RTKLIB_URA_M, np.where(np.isfinite(ura) & (ura > 0), ura, 0.0)),
+                       _RTKLIB_URA_M.size - 1)
+    return var + _RTKLIB_URA_M[index] ** 2
+
+
 def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s, x0, mask_deg,
-                   elevation_weights=True):
+                   elevation_weights=True, weighting=None, ura_m=None):
     """Gauss-Newton on (x, y, z, b) with the satellites ``keep``; returns the state, the
     weighted residuals' chi-square, residuals, unit vectors, elevations and azimuths."""
     x = x0.copy()
@@ -162,12 +192,17 @@ def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s
             az, el, _ = pymap3d.ecef2aer(rot[:, 0], rot[:, 1], rot[:, 2], lat, lon, h)
             az, el = np.asarray(az, float), np.asarray(el, float)
             corr = np.zeros(S)
+            iono_m = None
             if iono is not None:
-                corr = corr + _C * klobuchar_delay_s(iono.alpha, iono.beta, lat, lon, az, el, tow_s)
+                iono_m = _C * klobuchar_delay_s(iono.alpha, iono.beta, lat, lon, az, el, tow_s)
+                corr = corr + iono_m
             if troposphere:
                 corr = corr + troposphere_delay_m(lat, h, el)
             use = keep & (el >= mask_deg)
-            w = (np.sin(np.radians(np.maximum(el, 1.0))) ** 2 if elevation_weights else np.ones(S)) / sigma_m**2
+            if weighting == "rtklib":
+                w = 1.0 / rtklib_variance_m2(el, iono_m, troposphere, ura_m)
+            else:
+                w = (np.sin(np.radians(np.maximum(el, 1.0))) ** 2 if elevation_weights else np.ones(S)) / sigma_m**2
         else:
             w = np.full(S, 1.0 / sigma_m**2)
         if use.sum() < 4:
@@ -188,7 +223,8 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
                    doppler_hz: np.ndarray | None = None, iono: IonoUtc | None = None, troposphere: bool = False,
                    sigma_m: float = 5.0, elevation_mask_deg: float = 5.0, false_alarm: float = 1e-3,
                    initial_ecef_m: np.ndarray | None = None, elevation_weights: bool = True,
-                   wavelength_m: float = GPS_L1CA.wavelength_m) -> PositionFix | None:
+                   wavelength_m: float = GPS_L1CA.wavelength_m,
+                   weighting: str | None = None) -> PositionFix | None:
     """Position, velocity and clock of one epoch.
 
     Parameters
@@ -218,6 +254,11 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
         Weights ``sin²(E) / σ²`` (default); False: ``1 / σ²`` for every satellite (the
         weighting of a comparison with a solver that weights nearly equally, as RTKLIB's
         single-point solution with broadcast URA does).
+    weighting
+        One of `WEIGHTINGS`, overriding ``elevation_weights``: ``rtklib`` weights by
+        `rtklib_variance_m2` (with the records' ``accuracy_m`` as URA), as RTKLIB's SPP
+        does, for solutions that agree with it on the same observations (``sigma_m`` is then
+        unused: the residual test takes RTKLIB's variances).
 
     Returns
     -------
@@ -230,6 +271,11 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
                                             f"{ephemeris.sv.size} ephemeris records must all be (S,)")
     if sigma_m <= 0:
         raise ConfigError("sigma_m", f"must be positive, got {sigma_m}")
+    if weighting is not None and weighting not in WEIGHTINGS:
+        raise ConfigError("weighting", f"one of {', '.join(WEIGHTINGS)}, got {weighting!r}")
+    if weighting is not None:
+        elevation_weights = weighting == "elevation"
+    ura_m = ephemeris.accuracy_m
     keep = np.isfinite(pr) & np.isfinite(tx)
     if keep.sum() < 4:
         return None
@@ -241,7 +287,8 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
     x0 = np.zeros(4) if initial_ecef_m is None else np.r_[np.asarray(initial_ecef_m, float), 0.0]
     prz = np.where(keep, pr, 0.0)
     args = (prz, state.position_m, clock_m)
-    sol = _least_squares(*args, keep, sigma_m, iono, troposphere, tow, x0, elevation_mask_deg, elevation_weights)
+    sol = _least_squares(*args, keep, sigma_m, iono, troposphere, tow, x0, elevation_mask_deg, elevation_weights,
+                         weighting, ura_m)
     if sol is None:
         return None
     excluded = None
@@ -252,7 +299,7 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
             k = keep.copy()
             k[j] = False
             trial = _least_squares(*args, k, sigma_m, iono, troposphere, tow, sol[0], elevation_mask_deg,
-                                   elevation_weights)
+                                   elevation_weights, weighting, ura_m)
             if trial is not None:
                 trials[int(j)] = trial
         if trials:

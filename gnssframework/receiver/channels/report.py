@@ -10,7 +10,7 @@ import numpy as np
 from ...io.files import atomic_open
 from .tracker import STAGES, TrackingResult
 
-__all__ = ["TRACKING_COLUMNS", "SUMMARY_COLUMNS", "write_tracking_outputs", "channel_summary"]
+__all__ = ["TRACKING_COLUMNS", "SUMMARY_COLUMNS", "write_tracking_outputs", "channel_summary", "locked_channels"]
 
 #: Columns of tracking.csv: one row per channel and integration. ``time_s`` is the
 #: integration's first sample (seconds from the recording's first sample), where the
@@ -40,6 +40,12 @@ def channel_summary(result: TrackingResult) -> list[dict]:
                     "doppler_hz_last": float(ch.column("doppler_hz")[-1]) if ch.rows else float("nan"),
                     "final_stage": STAGES[int(ch.column("stage")[-1])] if ch.rows else "pull-in"})
     return out
+
+
+def locked_channels(result: TrackingResult) -> list[tuple[int, object]]:
+    """``(prn, ChannelRecord)`` of the channels that were locked at some row, by PRN."""
+    return [(prn, ch) for prn, ch in sorted(result.channels.items())
+            if ch.rows and ch.column("lock").astype(bool).any()]
 
 
 def _fmt(v) -> str:
@@ -89,16 +95,21 @@ def _plots(folder: Path, result: TrackingResult) -> list[Path]:
     import matplotlib.pyplot as plt
 
     folder.mkdir(parents=True, exist_ok=True)
+    # A channel that never locked has a C/N0 estimate of noise (e.g. -97 dB-Hz) that would squash
+    # the others' scale: it is left out and named.
+    locked = locked_channels(result)
+    never = sorted(set(result.channels) - {prn for prn, _ in locked})
     fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
-    for prn, ch in sorted(result.channels.items()):
-        if not ch.rows:
-            continue
+    for prn, ch in locked:
         t = ch.column("time_s")
         axes[0].plot(t, ch.column("cn0_dbhz"), label=f"PRN {prn}")
         axes[1].plot(t, ch.column("pli"))
         axes[2].plot(t, ch.column("doppler_hz"))
     axes[0].set_ylabel("C/N0 (dB-Hz)")
-    axes[0].legend(fontsize=7, ncol=4)
+    axes[0].set_title("channels that locked" + (f" (never locked, not shown: PRN {', '.join(map(str, never))})"
+                                                if never else ""), fontsize=9)
+    if locked:
+        axes[0].legend(fontsize=7, ncol=4)
     axes[1].set_ylabel("phase-lock indicator")
     axes[2].set_ylabel("Doppler (Hz)")
     axes[2].set_xlabel("time (s)")
@@ -107,14 +118,15 @@ def _plots(folder: Path, result: TrackingResult) -> list[Path]:
     fig.savefig(path, dpi=90)
     plt.close(fig)
     fig, ax = plt.subplots(figsize=(5, 5))
-    for prn, ch in sorted(result.channels.items()):
-        if ch.rows:
-            lock = ch.column("lock").astype(bool)
-            ax.plot(ch.column("prompt_i")[lock], ch.column("prompt_q")[lock], ".", ms=2, label=f"PRN {prn}")
+    for prn, ch in locked:
+        lock = ch.column("lock").astype(bool)
+        ax.plot(ch.column("prompt_i")[lock], ch.column("prompt_q")[lock], ".", ms=2, label=f"PRN {prn}")
     ax.set_xlabel("prompt I")
     ax.set_ylabel("prompt Q")
     ax.set_title("prompt correlators while locked")
     ax.axis("equal")
+    if locked:
+        ax.legend(fontsize=7, markerscale=4)
     fig.tight_layout()
     path2 = folder / "prompt_iq.png"
     fig.savefig(path2, dpi=90)

@@ -22,12 +22,15 @@ from ...navigation.lnav import IonoUtc
 from .observables import SPEED_OF_LIGHT_MPS, Observables
 from ...navigation.pvt import PositionFix, solve_position
 
-__all__ = ["PositionTable", "solve_epochs", "write_positions_csv", "POSITION_COLUMNS", "full_week"]
+__all__ = ["PositionTable", "solve_epochs", "write_positions_csv", "POSITION_COLUMNS", "full_week",
+           "ELEVATION_MASK_DEG"]
 
 #: Columns of ``positions.csv`` (one row per solution).
 POSITION_COLUMNS = ("gps_week", "tow_s", "lat_deg", "lon_deg", "height_m", "vel_e_mps", "vel_n_mps", "vel_u_mps",
                     "clock_bias_m", "n_sats", "hdop", "vdop")
 _ERA_START_WEEK = 2048
+#: Satellites below this elevation (deg) are left out of a fix.
+ELEVATION_MASK_DEG = 5.0
 
 
 @dataclass(frozen=True)
@@ -76,20 +79,25 @@ def _ephemeris_for(prns: np.ndarray, obs: Observables | None, rinex: Ephemerides
 
 
 def _stack(records: list[Ephemerides]) -> Ephemerides:
+    # The broadcast accuracy where every record has one (decoded LNAV records may not).
+    accuracy = (None if any(r.accuracy_m is None for r in records)
+                else np.concatenate([r.accuracy_m for r in records]))
     return Ephemerides(np.concatenate([r.sv for r in records]), np.concatenate([r.toc_s for r in records]),
                        {k: np.concatenate([r.elements[k] for r in records]) for k in records[0].elements},
-                       np.concatenate([r.health for r in records]), np.concatenate([r.iode for r in records]))
+                       np.concatenate([r.health for r in records]), np.concatenate([r.iode for r in records]),
+                       accuracy)
 
 
 def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphere: bool = True,
                  troposphere: bool = False, iono: IonoUtc | None = None, sigma_m: float = 5.0,
-                 elevation_mask_deg: float = 5.0, reference_week: int | None = None,
-                 elevation_weights: bool = True) -> PositionTable:
+                 elevation_mask_deg: float = ELEVATION_MASK_DEG, reference_week: int | None = None,
+                 elevation_weights: bool = True, weighting: str | None = None) -> PositionTable:
     """Solve every epoch of ``obs`` (see the module text).
 
     ``iono`` overrides the decoded page 18; with ``ionosphere`` False no ionospheric
-    correction is made; ``elevation_weights`` as `solve_position`'s. Epochs with fewer
-    than four usable satellites give no row.
+    correction is made; ``elevation_weights`` and ``weighting`` as `solve_position`'s
+    (``rtklib``: RTKLIB's single-point error model). Epochs with fewer than four usable
+    satellites give no row.
     """
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
     week = full_week(obs.week, reference_week)
@@ -106,7 +114,7 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
                              doppler_hz=obs.doppler_hz[e, idx], iono=klobuchar, troposphere=troposphere,
                              sigma_m=sigma_m, elevation_mask_deg=elevation_mask_deg,
                              initial_ecef_m=rows[-1].position_ecef_m if rows else None,
-                             elevation_weights=elevation_weights)
+                             elevation_weights=elevation_weights, weighting=weighting)
         if fix is None:
             continue
         rows.append(fix)

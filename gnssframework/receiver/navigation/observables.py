@@ -136,7 +136,10 @@ def channel_timing(record: ChannelRecord, causal: bool = True, signal: SignalSpe
     if not record.rows:
         return None
     time_s, code_chips = col("time_s"), col("code_phase_chips")
-    runs = bit_runs(time_s, col("prompt_i"), col("coherent_ms"), col("stage") == _EXTENDED, min_bits=_BRIDGE_BITS + 1)
+    stage = col("stage")
+    continued = _continued_vector_rows(stage)
+    runs = bit_runs(time_s, col("prompt_i"), col("coherent_ms"), (stage == _EXTENDED) | continued,
+                    min_bits=_BRIDGE_BITS + 1)
     doppler = col("doppler_hz")
     bit_s = BIT_MS * 1e-3
     rows, tx, inverted, known, messages, ephemerides = [], [], [], [], [], []
@@ -172,9 +175,24 @@ def channel_timing(record: ChannelRecord, causal: bool = True, signal: SignalSpe
         return None
     starts = np.zeros(r.size, dtype=bool)
     starts[np.cumsum([0] + [p.size for p in rows[:-1]])] = True
-    return ChannelTiming(record.prn, time_s[r], np.concatenate(tx), doppler[r], col("carrier_phase_cycles")[r],
+    # No carrier phase is tracked after the hand-over (a vector FLL): its NCO phase is no carrier phase.
+    carrier = np.where(continued[r], np.nan, col("carrier_phase_cycles")[r])
+    return ChannelTiming(record.prn, time_s[r], np.concatenate(tx), doppler[r], carrier,
                          col("cn0_dbhz")[r], np.concatenate(inverted), _merge(record.prn, messages), ephemerides,
                          starts, np.concatenate(known))
+
+
+def _continued_vector_rows(stage: np.ndarray) -> np.ndarray:
+    """``(N,)`` True on the ``vector`` rows of a stretch that begins right after an
+    ``extended`` row: a channel handed over from its bit-aligned scalar loop, whose rows go
+    on bit by bit (same interval, same code epochs). A stretch that starts afresh (a
+    channel joined after re-acquisition, or closed from a 1 ms stage) may start mid-bit:
+    it is not continued."""
+    vector = stage == _VECTOR
+    start = np.flatnonzero(vector & ~np.r_[False, vector[:-1]])  # first row of each vector stretch
+    good = start[(start > 0) & (stage[np.maximum(start - 1, 0)] == _EXTENDED)]
+    stretch = np.cumsum(np.r_[False, vector[:-1]] != vector)  # a label per stretch of equal kind
+    return vector & np.isin(stretch, stretch[good])
 
 
 def _bridge(rows: list[np.ndarray], tx: list[np.ndarray], time_s: np.ndarray, doppler_hz: np.ndarray, first_row: int,

@@ -10,7 +10,7 @@ fix on (`filtered.filter_epochs`) and gives the positions.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -26,7 +26,7 @@ from ...navigation.lnav import IonoUtc
 from ...plugin_ref import PluginSpec
 from .filtered import filter_epochs
 from .fixes import PositionTable, solve_epochs
-from .observables import TOW_TOLERANCE_S, Observables, assisted_timing, channel_timing, observables
+from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
 from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
 
 __all__ = ["ReceiveResult", "receive", "assisted_observables", "position_errors", "concatenate_tables"]
@@ -51,7 +51,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             rinex: Ephemerides | None = None, ionosphere: bool = True, troposphere: bool = False,
             reference_week: int | None = None, progress: Any = None,
             nav_filter: PluginSpec | None = None, vector: VectorConfig | None = None,
-            acquisitions: list[AcquisitionResult] | None = None, assist: Assistance | None = None) -> ReceiveResult:
+            acquisitions: list[AcquisitionResult] | None = None, assist: Assistance | None = None,
+            iono_fallback: IonoUtc | None = None, weighting: str | None = None) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
     fraction of the recording tracked. With ``nav_filter`` the positions are that filter's
@@ -61,7 +62,11 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     ``acquisitions`` (made on the first samples) replace the initial search. ``assist``
     (with ``vector`` and ``rinex``) hands over without LNAV, from an approximate position
     and start time (`vector_tracking.Assistance`); the observables are then the vector
-    channels' (`assisted_observables`), and ``least_squares`` the fixes of those."""
+    channels' (`assisted_observables`), and ``least_squares`` the fixes of those.
+    ``iono_fallback`` (a navigation file header's Klobuchar coefficients) corrects the
+    least-squares fixes, the nav filter and the vector loop's LNAV hand-over where no channel
+    decoded page 18 (an assisted start takes the assistance's). ``weighting``
+    that of the least-squares fixes (`pvt.solve_position`'s; ``rtklib`` for RTKLIB's SPP model)."""
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
                                         "give nav_filter or vector, not both")
@@ -70,15 +75,17 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     found = [r for r in acquisitions if r.detected]
     if vector is not None:
         tracker = VectorSampleTracker(recording, config, acquisition, vector, rinex=rinex, ionosphere=ionosphere,
-                                      reference_week=reference_week, assist=assist)
+                                      reference_week=reference_week, assist=assist, iono_fallback=iono_fallback)
         tracking = tracker.run(found, duration_s, progress)
         solution = tracker.solution
-        timings = [channel_timing(ch) for ch in tracking.channels.values()]
+        timings = [channel_timing(ch) if assist is not None else _with_rejoined(channel_timing(ch), ch, solution)
+                   for ch in tracking.channels.values()]  # (an assisted start's are `assisted_observables`)
         scalar = None
         if any(t is not None and t.time_s.size > 1 for t in timings):
             obs = observables(timings, rate_hz)
             scalar = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere,
-                                  reference_week=reference_week)
+                                  iono=_fallback(obs, iono_fallback), reference_week=reference_week,
+                                  weighting=weighting)
         else:
             obs = None
         table = concatenate_tables(scalar, solution.table(vector.solution_rate_hz), solution.handover_s)
@@ -86,7 +93,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             assisted = assisted_observables(tracking, solution, rate_hz, assist.iono)
             if assisted is not None:  # the vector channels' rows, dated without LNAV
                 least_squares = solve_epochs(assisted, rinex, ionosphere=ionosphere, troposphere=troposphere,
-                                             reference_week=assist.week if reference_week is None else reference_week)
+                                             reference_week=assist.week if reference_week is None else reference_week,
+                                             weighting=weighting)
                 return ReceiveResult(tracking, assisted, table, least_squares, solution)
         return ReceiveResult(tracking, obs, table, scalar, solution)
     if assist is not None:
@@ -97,12 +105,47 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     if not any(t is not None and t.time_s.size > 1 for t in timings):
         return ReceiveResult(tracking, None, None)
     obs = observables(timings, rate_hz)
-    table = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere, reference_week=reference_week)
+    iono = _fallback(obs, iono_fallback)
+    table = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere, iono=iono,
+                         reference_week=reference_week, weighting=weighting)
     if nav_filter is None:
         return ReceiveResult(tracking, obs, table, table)
     filtered = filter_epochs(obs, table, nav_filter.name, nav_filter.params, rinex, ionosphere=ionosphere,
-                             troposphere=troposphere, reference_week=reference_week)
+                             troposphere=troposphere, iono=iono, reference_week=reference_week)
     return ReceiveResult(tracking, obs, filtered, table)
+
+
+def _with_rejoined(timing: ChannelTiming | None, record, solution: VectorSolution) -> ChannelTiming | None:
+    """``timing`` (`channel_timing`'s) and, where the channel's last stretch of vector rows
+    is not in it (a channel that rejoined the loop after re-acquisition: its first row may
+    start mid-bit, so no bit run dates it), those rows dated from the replica's transmit time
+    at the end of the run (`observables.assisted_timing`), without carrier phase (no PLL
+    closes a vector channel). Rows whose decoded TOW disagrees with that dating are left out."""
+    if record.prn not in solution.replica_tx:
+        return timing
+    rejoined = assisted_timing(record, *solution.replica_tx[record.prn])
+    if rejoined is None or (timing is not None and timing.time_s[-1] >= rejoined.time_s[0]):
+        return timing
+    if rejoined.tow_offset_s is not None and abs(rejoined.tow_offset_s) > TOW_TOLERANCE_S:
+        solution.events.append((float(rejoined.time_s[0]), f"PRN {record.prn}: its decoded TOW is "
+                                f"{rejoined.tow_offset_s:+.3f} s from the replica's transmit time: its rows after "
+                                "rejoining left out of the observables"))
+        return timing
+    rejoined = replace(rejoined, carrier_cycles=np.full(rejoined.time_s.size, np.nan), tow_offset_s=None)
+    if timing is None:
+        return rejoined
+    joined = {f: np.concatenate([getattr(timing, f), getattr(rejoined, f)])
+              for f in ("time_s", "transmit_s", "doppler_hz", "carrier_cycles", "cn0_dbhz", "half_cycle")}
+    starts = np.concatenate([timing.arc_start if timing.arc_start is not None
+                             else np.eye(1, timing.time_s.size, dtype=bool)[0], rejoined.arc_start])
+    known = np.concatenate([timing.polarity_known if timing.polarity_known is not None
+                            else np.ones(timing.time_s.size, bool), rejoined.polarity_known])
+    return replace(timing, **joined, arc_start=starts, polarity_known=known)
+
+
+def _fallback(obs: Observables, iono: IonoUtc | None) -> IonoUtc | None:
+    """``iono`` where no channel decoded page 18 (None keeps the decoded one)."""
+    return iono if obs.iono_utc is None else None
 
 
 def assisted_observables(tracking: TrackingResult, solution: VectorSolution, rate_hz: float,

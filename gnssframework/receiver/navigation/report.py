@@ -19,11 +19,19 @@ import numpy as np
 import pymap3d
 
 from ...navigation.ephemeris import Ephemerides, satellite_state
-from .fixes import PositionTable
+from ..channels.report import locked_channels
+from .fixes import ELEVATION_MASK_DEG, PositionTable, full_week
 from .fixes import _ephemeris_for as ephemeris_for
+from .observables import channel_timing
 from .receive import ReceiveResult, position_errors
 
-__all__ = ["sky_tracks", "write_receive_report"]
+__all__ = ["sky_tracks", "write_receive_report", "write_no_position_report", "no_position_reason", "why_unused",
+           "decoded_lnav"]
+
+#: Indices in receiver.channels.STAGES of the bit-aligned stages ("extended", "vector").
+_BIT_ALIGNED = (2, 4)
+#: Satellites a position needs (three coordinates and the receiver clock).
+_NEEDED = 4
 
 
 def sky_tracks(result: ReceiveResult, table: PositionTable, rinex: Ephemerides | None = None
@@ -88,8 +96,9 @@ def write_receive_report(out_dir: str | Path, result: ReceiveResult, table: Posi
                          f"{np.sqrt(np.mean(np.sum(e_wls[:, :2] ** 2, axis=1))):.2f} m, vertical RMS "
                          f"{np.sqrt(np.mean(e_wls[:, 2] ** 2)):.2f} m")
     lines += ["", "## Satellites", "",
-              "| PRN | epochs used | C/N0 locked (dB-Hz) | locked | elevation (deg) | azimuth (deg) | ephemeris |",
-              "|---:|---:|---:|---:|---:|---:|---|"]
+              "| PRN | epochs used | C/N0 locked (dB-Hz) | locked | elevation (deg) | azimuth (deg) | ephemeris "
+              "| why not used |",
+              "|---:|---:|---:|---:|---:|---:|---|---|"]
     obs = result.observables
     for prn, ch in sorted(result.tracking.channels.items()):
         lock = ch.column("lock").astype(bool) if ch.rows else np.zeros(0, bool)
@@ -102,11 +111,154 @@ def write_receive_report(out_dir: str | Path, result: ReceiveResult, table: Posi
         locked = 100 * lock.mean() if lock.size else 0.0
         lines.append(f"| {prn} | {used_count.get(prn, 0)} | {_fmt(cn0)} | {locked:.0f} % "
                      f"| {_fmt(el[first[0]] if first.size else np.nan)} | "
-                     f"{_fmt(az[first[0]] if first.size else np.nan)} | {source.strip(' +') or '-'} |")
+                     f"{_fmt(az[first[0]] if first.size else np.nan)} | {source.strip(' +') or '-'} | "
+                     f"{why_unused(prn, ch, result, table, rinex) if not used_count.get(prn) else '-'} |")
     lines += ["", "## Figures", ""] + [f"![{p.stem.replace('_', ' ')}](plots/{p.name})" for p in figures] + [""]
     report = out / "report.md"
     report.write_text("\n".join(lines))
     return [report, *figures]
+
+
+def why_unused(prn: int, ch, result: ReceiveResult, table: PositionTable | None,
+               rinex: Ephemerides | None = None) -> str:
+    """Why a tracked satellite is in no solution of ``table``: the first of never locked, no
+    LNAV bits or subframe (no transmit time), no pseudorange, no healthy ephemeris, excluded
+    by the residual test, below the elevation mask, left out of the vector loop's updates
+    (C/N0 below its ``min_cn0_dbhz``), or pseudoranges only at epochs without a solution."""
+    lock = ch.column("lock").astype(bool) if ch.rows else np.zeros(0, bool)
+    if not lock.any():
+        return "never locked"
+    obs = result.observables
+    if obs is None or prn not in obs.prn:
+        if not np.isin(ch.column("stage"), _BIT_ALIGNED).any():
+            return "never bit-synchronised (no LNAV bits, no transmit time)"
+        return "no LNAV subframe decoded (no transmit time)"
+    j = int(np.flatnonzero(obs.prn == prn)[0])
+    valid = np.flatnonzero(np.isfinite(obs.pseudorange_m[:, j]))
+    if valid.size == 0:
+        return "no pseudorange at any epoch"
+    records = [ephemeris_for(np.array([prn]), obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]))[0]
+               for e in (valid[0], valid[-1])]
+    if all(r is None for r in records):
+        return "no healthy ephemeris (none decoded" + (", none in --ephemeris)" if rinex is not None else
+                                                       ", no --ephemeris file)")
+    if table is None or len(table) == 0:
+        return "no epoch had four usable satellites"
+    excluded = int(np.count_nonzero(table.excluded_prn == prn))
+    if excluded:
+        return f"excluded by the residual test ({excluded} epochs)"
+    rec = next(r for r in records if r is not None)
+    t = float(table.columns["tow_s"][0])
+    pos = satellite_state(rec, np.array([t - 0.075])).position_m[0]
+    _, el, _ = pymap3d.ecef2aer(*pos, *(float(table.columns[k][0]) for k in ("lat_deg", "lon_deg", "height_m")))
+    if float(el) < ELEVATION_MASK_DEG:
+        return f"below the {ELEVATION_MASK_DEG:g} deg elevation mask ({float(el):.1f} deg)"
+    if result.vector is not None and prn in result.vector.prns:
+        return "left out of the vector loop's updates (C/N0 below its min_cn0_dbhz)"
+    return "its pseudoranges fall only at epochs without a solution"
+
+
+def decoded_lnav(result: ReceiveResult) -> dict[int, dict]:
+    """Per tracked PRN what its LNAV gave: ``subframes`` (count), ``first_tow_s`` (of the first
+    subframe, None without one), ``ephemeris`` (a complete one decoded), ``iono`` (page 18)
+    and ``week`` (10-bit, subframe 1; None)."""
+    out = {}
+    for prn, ch in sorted(result.tracking.channels.items()):
+        tm = channel_timing(ch) if ch.rows else None
+        msg = tm.message if tm is not None else None
+        subframes = list(msg.subframes) if msg is not None else []
+        out[prn] = {"subframes": len(subframes), "first_tow_s": subframes[0].tow_s if subframes else None,
+                    "ephemeris": bool(tm is not None and tm.ephemerides), "iono": msg is not None
+                    and msg.iono_utc is not None, "week": msg.week if msg is not None else None}
+    return out
+
+
+def no_position_reason(result: ReceiveResult, nav_info=None, assist=None, reference_week: int | None = None) -> str:
+    """Why a run gave no position, most basic first: too few satellites found, an assisted
+    start that did not hand over, no LNAV subframe, an ephemeris (``nav_info``, a
+    `rinex_nav_header.NavFileInfo`) that does not cover the recording, too few usable
+    satellites at every epoch."""
+    found = sorted(result.tracking.channels)
+    listed = f" (PRN {', '.join(map(str, found))})" if found else ""
+    if len(found) < _NEEDED:
+        start = "an assisted start" if assist is not None else "a position"
+        return f"only {len(found)} satellites found{listed}: {start} needs {_NEEDED}"
+    vector = result.vector
+    if assist is not None and (vector is None or vector.handover_s is None):
+        events = [text for _, text in vector.events] if vector is not None else []
+        return f"the assisted start did not hand over with {len(found)} satellites found" +             (f" (last: {events[-1]})" if events else "")
+    obs = result.observables
+    if obs is None:
+        locked = sum(1 for ch in result.tracking.channels.values() if ch.rows and ch.column("lock").any())
+        return (f"no LNAV subframe decoded ({locked} of {len(found)} satellites found locked; a subframe takes 6 s "
+                "once a channel is locked and bit-synchronised)")
+    week = full_week(obs.week, reference_week)
+    valid = np.flatnonzero(np.isfinite(obs.pseudorange_m).any(axis=1))
+    if nav_info is not None and week >= 0 and valid.size:
+        tow = float(obs.rx_time_s[valid[0]])
+        if not nav_info.covers(week, tow):
+            return (f"the ephemeris does not cover the recording (its records span {nav_info.dates()}; the "
+                    f"recording is at GPS week {week}, tow {tow:.0f} s)")
+    dated = [int(p) for j, p in enumerate(obs.prn) if np.isfinite(obs.pseudorange_m[:, j]).any()]
+    return (f"fewer than {_NEEDED} satellites with a pseudorange and a decoded or --ephemeris ephemeris at every "
+            f"epoch ({len(dated)} with a transmit time: PRN {', '.join(map(str, dated))})")
+
+
+def write_no_position_report(out_dir: str | Path, result: ReceiveResult, reason: str,
+                             rinex: Ephemerides | None = None) -> list[Path]:
+    """``report.md`` of a run without a position: the reason, per tracked satellite its
+    lock, what its LNAV gave (`decoded_lnav`) and why it was not used, the vector loop's
+    events, and the C/N0 figure; returns the paths written."""
+    out = Path(out_dir)
+    (out / "plots").mkdir(parents=True, exist_ok=True)
+    decoded = decoded_lnav(result)
+    lines = ["# Receiver run: no position", "", f"- reason: {reason}",
+             f"- tracked {len(result.tracking.channels)} satellites for {result.tracking.duration_s:.2f} s", "",
+             "## Satellites", "",
+             "| PRN | C/N0 locked (dB-Hz) | locked | LNAV subframes | first TOW (s) | ephemeris decoded "
+             "| page 18 | week (10-bit) | why not used |",
+             "|---:|---:|---:|---:|---:|---|---|---:|---|"]
+    for prn, ch in sorted(result.tracking.channels.items()):
+        lock = ch.column("lock").astype(bool) if ch.rows else np.zeros(0, bool)
+        cn0 = float(np.median(ch.column("cn0_dbhz")[lock])) if lock.any() else np.nan
+        d = decoded[prn]
+        tow = "-" if d["first_tow_s"] is None else f"{d['first_tow_s']:.0f}"
+        lines.append(f"| {prn} | {_fmt(cn0)} | {100 * lock.mean() if lock.size else 0.0:.0f} % | {d['subframes']} | "
+                     f"{tow} | "
+                     f"{'yes' if d['ephemeris'] else 'no'} | {'yes' if d['iono'] else 'no'} | "
+                     f"{'-' if d['week'] is None else d['week']} | {why_unused(prn, ch, result, None, rinex)} |")
+    if result.vector is not None and result.vector.events:
+        lines += ["", "## Vector tracking", ""] + [f"- {t:.2f} s: {text}" for t, text in result.vector.events]
+    figure = _cn0_figure(out / "plots" / "cn0_lock.png", result)
+    lines += ["", "## Figures", "", f"![cn0 lock](plots/{figure.name})", ""]
+    report = out / "report.md"
+    report.write_text("\n".join(lines))
+    return [report, figure]
+
+
+def _cn0_figure(path: Path, result: ReceiveResult) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    # A never-locked channel's C/N0 estimate (e.g. -97 dB-Hz) is noise and would squash the others' scale.
+    locked = locked_channels(result.tracking)
+    fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    for prn, ch in locked:
+        t = ch.column("time_s")
+        axes[0].plot(t, ch.column("cn0_dbhz"), label=f"PRN {prn}")
+        lock = ch.column("lock").astype(bool)
+        axes[1].plot(t[lock], np.full(int(lock.sum()), prn), "|", ms=6)
+    never = sorted(set(result.tracking.channels) - {prn for prn, _ in locked})
+    axes[0].set_ylabel("C/N0 (dB-Hz)")
+    axes[0].set_title("C/N0 of the channels that locked" + (f" (never locked, not shown: PRN {', '.join(map(str, never))})"
+                                                             if never else ""), fontsize=9)
+    if axes[0].lines:
+        axes[0].legend(fontsize=7, ncol=4)
+    axes[1].set_ylabel("PRN locked")
+    axes[1].set_xlabel("recording time (s)")
+    return _save(fig, path, plt)
 
 
 def _figures(folder: Path, result: ReceiveResult, table: PositionTable, sky: dict, err: np.ndarray | None,
@@ -131,19 +283,7 @@ def _figures(folder: Path, result: ReceiveResult, table: PositionTable, sky: dic
     ax.set_title("sky plot (elevation, deg)")
     written.append(_save(fig, folder / "sky.png", plt))
 
-    fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    for prn, ch in sorted(result.tracking.channels.items()):
-        if not ch.rows:
-            continue
-        t = ch.column("time_s")
-        axes[0].plot(t, ch.column("cn0_dbhz"), label=f"PRN {prn}")
-        lock = ch.column("lock").astype(bool)
-        axes[1].plot(t[lock], np.full(int(lock.sum()), prn), "|", ms=6)
-    axes[0].set_ylabel("C/N0 (dB-Hz)")
-    axes[0].legend(fontsize=7, ncol=4)
-    axes[1].set_ylabel("PRN locked")
-    axes[1].set_xlabel("recording time (s)")
-    written.append(_save(fig, folder / "cn0_lock.png", plt))
+    written.append(_cn0_figure(folder / "cn0_lock.png", result))
 
     if truth is not None:
         ref = truth

@@ -55,6 +55,7 @@ class VectorConfig(BaseModel):
         4.0, gt=0, description="half widths of its window in standard deviations of the predicted range and rate")
     reacquire_elevation_deg: float = Field(5.0, description="satellites predicted below this are not searched")
     min_cn0_dbhz: float = Field(18.0, description="a channel whose C/N0 estimate is below this is not used")
+    elevation_mask_deg: float = Field(5.0, description="nor one whose satellite the state sees below this (deg)")
     loss_cn0_dbhz: float = Field(
         18.0, description="loss of lock of a vector channel: its C/N0 estimate (over the tracker's full "
         "cn0_window_ms) below this ...")

@@ -62,7 +62,8 @@ def try_handover(v: VectorSampleCloser) -> None:
         obs = observables(list(timings.values()), rate_hz=10.0)
     except ConfigError:
         return
-    table = solve_epochs(obs, v.rinex, ionosphere=v.ionosphere, reference_week=v.reference_week)
+    table = solve_epochs(obs, v.rinex, ionosphere=v.ionosphere, reference_week=v.reference_week,
+                         iono=None if obs.iono_utc is not None else v.iono_fallback)
     if len(table) == 0:
         return
     records = {p: _ephemeris(v, p, obs, float(table.sample_time_s[-1])) for p in timings}
@@ -86,7 +87,7 @@ def try_handover(v: VectorSampleCloser) -> None:
     bias = float(table.columns["clock_bias_m"][e])
     rx_offset = float(table.columns["tow_s"][e] + bias / _C - t_fix)
     v.nav = VectorNavigator(t, v.vector, v.solution, slots, stack([records[p] for p in prns]),
-                            obs.iono_utc if v.ionosphere else None, rx_offset, tx_anchor, chip_anchor)
+                            (obs.iono_utc or v.iono_fallback) if v.ionosphere else None, rx_offset, tx_anchor, chip_anchor)
     hand_over(v, prns, table.ecef_m[e], bias, t_fix, full_week(obs.week, v.reference_week),
               f"first fix with {len(table.used_prns[e])} satellites")
 

@@ -217,6 +217,9 @@ class VectorNavigator:
         cn0 = np.array([t.channels[p].cn0_dbhz for p in prns])
         ref = np.array([t.channels[p].cn0_ref for p in prns])
         use = cn0 >= self.vector.min_cn0_dbhz
+        lat, lon, _ = pymap3d.ecef2geodetic(*self.x[:3], deg=False)  # below the mask: driven, not used
+        up = np.array([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)])
+        use &= line_of_sight(pos, self.x[:3])[1] @ up >= np.sin(np.radians(self.vector.elevation_mask_deg))
         # The thermal variances grow as 1/(C/N0): scale the ones set at the hand-over C/N0.
         scale = 10 ** ((ref - np.maximum(cn0, self.vector.min_cn0_dbhz)) / 10)
         var_code = np.where(use, var_code * scale, _IGNORE_VAR)

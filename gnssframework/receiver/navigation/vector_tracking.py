@@ -30,6 +30,7 @@ import numpy as np
 from ... import registry
 from ...errors import ConfigError
 from ...interfaces import ChannelFilter
+from ...navigation.lnav import IonoUtc
 from ...navigation.ephemeris import Ephemerides
 from ..acquisition.search import Acquisition, AcquisitionResult
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
@@ -57,7 +58,7 @@ class VectorSampleCloser(SampleCloser):
     ----------
     vector
         `VectorConfig`.
-    rinex, ionosphere, reference_week, assist
+    rinex, ionosphere, reference_week, assist, iono_fallback
         As `VectorSampleTracker`.
 
     Attributes
@@ -71,12 +72,14 @@ class VectorSampleCloser(SampleCloser):
     """
 
     def __init__(self, vector: VectorConfig, *, rinex: Ephemerides | None = None, ionosphere: bool = True,
-                 reference_week: int | None = None, assist: Assistance | None = None) -> None:
+                 reference_week: int | None = None, assist: Assistance | None = None,
+                 iono_fallback: IonoUtc | None = None) -> None:
         self.vector = vector
         self.rinex = rinex
         self.assist = assist
         self.ionosphere = ionosphere
         self.reference_week = reference_week
+        self.iono_fallback = iono_fallback  # Klobuchar where no page 18 is decoded (a RINEX header's)
         self.scalar = ScalarSampleCloser()
 
     def bind(self, tracker: SampleTracker) -> None:
@@ -171,12 +174,14 @@ class VectorSampleTracker(SampleTracker):
         `Assistance`: hand over without LNAV, as soon as four channels are bit-aligned,
         each replica's transmit time from the approximate position and start time
         (`vector_handover.try_assisted_handover`).
+    iono_fallback
+        Klobuchar coefficients (a RINEX header's) for the LNAV hand-over where no page 18 is decoded.
     """
 
     def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
                  vector: VectorConfig | None = None, *, rinex: Ephemerides | None = None, ionosphere: bool = True,
                  reference_week: int | None = None, assist: Assistance | None = None,
-                 backend: str | None = None) -> None:
+                 backend: str | None = None, iono_fallback: IonoUtc | None = None) -> None:
         super().__init__(recording, config, acquisition, backend=backend)
         if assist is not None and rinex is None:
             raise ConfigError("approx_position", "an assisted start needs the ephemerides of a RINEX navigation "
@@ -186,7 +191,7 @@ class VectorSampleTracker(SampleTracker):
                           registry.create("nav_filter", v.nav_filter, **v.nav_params))
         self.vector = v
         self.closer = VectorSampleCloser(v, rinex=rinex, ionosphere=ionosphere, reference_week=reference_week,
-                                   assist=assist)
+                                         assist=assist, iono_fallback=iono_fallback)
 
     @property
     def solution(self) -> VectorSolution:

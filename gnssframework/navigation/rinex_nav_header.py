@@ -1,0 +1,117 @@
+"""What a RINEX navigation file says besides its records: the Klobuchar coefficients of its
+header and the dates its records span.
+
+The header's ionosphere lines are RINEX 2's ``ION ALPHA`` / ``ION BETA`` (``2X,4D12.4``,
+RINEX 2.11 table A4) or RINEX 3's ``IONOSPHERIC CORR`` with ``GPSA`` / ``GPSB``
+(``A4,1X,4D12.4``, RINEX 3.04 table A5), in the units of the broadcast page 18 (s,
+s/semicircle, ...; IS-GPS-200 20.3.3.5.1.7); ``LEAP SECONDS`` (``I6``) the current
+GPS - UTC. The records' epochs (their Toc, georinex's ``gettime``) give the GPS time
+span a receiver can use them over: a record's fit interval reaches 2 h either side of
+its Toe (IS-GPS-200 20.3.4.4), so a recording is covered from 2 h before the first
+record to 2 h after the last (`NavFileInfo.covers`), and its full GPS week is the one
+that puts a time of week nearest that span (`NavFileInfo.week_at`), as RTKLIB and
+GNSS-SDR take the week from the ephemeris when the LNAV week has not been decoded.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataFileError
+from .lnav import IonoUtc
+
+__all__ = ["NavFileInfo", "read_nav_file_info", "FIT_MARGIN_S", "WEEK_S"]
+
+WEEK_S = 604_800.0
+#: Half a record's fit interval (s): a record serves from 2 h before its Toe to 2 h after.
+FIT_MARGIN_S = 7200.0
+_GPS_EPOCH = np.datetime64("1980-01-06T00:00:00", "ns")
+
+
+@dataclass(frozen=True)
+class NavFileInfo:
+    """A navigation file's header Klobuchar model (None when absent) and its records'
+    first and last epochs in GPS seconds since 1980-01-06 (GPS time, no leap seconds)."""
+
+    path: Path
+    iono: IonoUtc | None
+    first_s: float
+    last_s: float
+
+    def week_at(self, tow_s: float) -> int:
+        """The full GPS week that puts ``tow_s`` (s of week) nearest the middle of the records."""
+        middle = 0.5 * (self.first_s + self.last_s)
+        return int(np.round((middle - tow_s) / WEEK_S))
+
+    def covers(self, week: int, tow_s: float) -> bool:
+        """Whether GPS time ``(week, tow_s)`` is within the records' fit intervals' span."""
+        t = week * WEEK_S + tow_s
+        return self.first_s - FIT_MARGIN_S <= t <= self.last_s + FIT_MARGIN_S
+
+    def dates(self) -> str:
+        """The records' span, e.g. ``2005-04-01 23:59:44 to 2005-04-03 00:00:00 GPS``."""
+        return f"{_calendar(self.first_s)} to {_calendar(self.last_s)} GPS"
+
+
+def _calendar(gps_s: float) -> str:
+    t = _GPS_EPOCH + np.timedelta64(int(round(gps_s)), "s")
+    return str(t.astype("datetime64[s]")).replace("T", " ")
+
+
+def _numbers(line: str, start: int) -> list[float]:
+    return [float(line[start + 12 * k:start + 12 * k + 12].replace("D", "E").replace("d", "e")) for k in range(4)]
+
+
+def _header_iono(path: Path) -> IonoUtc | None:
+    alpha = beta = None
+    leap = None
+    with path.open(errors="replace") as fh:
+        for number, line in enumerate(fh, 1):
+            label = line[60:].strip()
+            try:
+                if label == "ION ALPHA":
+                    alpha = _numbers(line, 2)
+                elif label == "ION BETA":
+                    beta = _numbers(line, 2)
+                elif label == "IONOSPHERIC CORR" and line[:4] == "GPSA":
+                    alpha = _numbers(line, 5)
+                elif label == "IONOSPHERIC CORR" and line[:4] == "GPSB":
+                    beta = _numbers(line, 5)
+                elif label == "LEAP SECONDS":
+                    leap = int(line[:6])
+            except ValueError:
+                raise DataFileError(str(path), number, f"{label}: not four numbers") from None
+            if label == "END OF HEADER" or number > 500:
+                break
+    if alpha is None or beta is None:
+        return None
+    # Without LEAP SECONDS, GPS - UTC since 2017-01-01 (18 s), as the receiver assumes elsewhere.
+    return IonoUtc(tuple(alpha), tuple(beta), dt_ls_s=18 if leap is None else leap)
+
+
+def read_nav_file_info(path: str | Path) -> NavFileInfo:
+    """`NavFileInfo` of a RINEX 2 or 3 navigation file.
+
+    Raises
+    ------
+    DataFileError
+        If the file is missing, its ionosphere lines are malformed or it holds no record.
+    """
+    import georinex
+
+    path = Path(path)
+    if not path.exists():
+        raise DataFileError(str(path), None, "no such file")
+    iono = _header_iono(path)
+    try:
+        times = np.asarray(georinex.gettime(path), dtype="datetime64[ns]")
+    except Exception as exc:  # noqa: BLE001 - georinex raises many types
+        raise DataFileError(str(path), None, f"georinex could not read its epochs: {type(exc).__name__}: {exc}") \
+            from None
+    if times.size == 0:
+        raise DataFileError(str(path), None, "no ephemeris record")
+    seconds = (times - _GPS_EPOCH) / np.timedelta64(1, "s")
+    return NavFileInfo(path, iono, float(np.min(seconds)), float(np.max(seconds)))
