@@ -301,6 +301,6 @@ def test_the_lnav_hand_over_takes_the_navigation_files_klobuchar(faded, monkeypa
     iono = read_nav_file_info(fix.NAV).iono
     result = _receive(faded[0], vector=vector_config(solution_rate_hz=5.0), duration_s=FADE_S, iono_fallback=iono)
     assert result.vector.handover_s is not None and result.observables.iono_utc is None  # none decoded
-    tracker = trackers[0]
-    assert tracker.iono == iono
-    assert np.all(tracker.iono_m >= 1.5) and np.all(tracker.iono_m < 50.0)
+    nav = trackers[0].closer.nav  # the vector navigator the hand-over started
+    assert nav.iono == iono
+    assert np.all(nav.iono_m >= 1.5) and np.all(nav.iono_m < 50.0)
