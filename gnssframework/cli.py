@@ -211,12 +211,14 @@ def _prns_from_args(args: argparse.Namespace) -> tuple[int, ...]:
 
 
 def _cmd_acquire(args: argparse.Namespace) -> int:
+    from .receiver.acquisition.plausibility import check_acquisition
     from .receiver.acquisition.report import acquire_recording, search_summary, write_acquisition_csv
 
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     prns = _prns_from_args(args)
     results = acquire_recording(rec, acq, prns)
+    check_acquisition(results, rec)  # a wrong --format "finds" 31 satellites: refuse it
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
     if args.verbose:
@@ -257,6 +259,7 @@ def _tracking_config_from_args(args: argparse.Namespace):
 
 
 def _cmd_track(args: argparse.Namespace) -> int:
+    from .receiver.acquisition.plausibility import check_acquisition
     from .receiver.acquisition.report import acquire_recording, search_summary
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
@@ -268,7 +271,9 @@ def _cmd_track(args: argparse.Namespace) -> int:
     tracker = SampleTracker(rec, config, acq)
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
-    found = [r for r in acquire_recording(rec, acq, prns) if r.detected]
+    results = acquire_recording(rec, acq, prns)
+    check_acquisition(results, rec)
+    found = [r for r in results if r.detected]
     if not found:
         print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
               "the format (--format) and --doppler-max; nothing tracked")
