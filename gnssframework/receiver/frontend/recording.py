@@ -140,22 +140,37 @@ def open_recording(path: str | Path, format: str | None = None, sample_rate_hz: 
     meta_file = meta_path_for(path)
     meta = read_sigmf_meta(meta_file) if meta_file.is_file() and meta_file != path else SigmfInfo(None, None, None,
                                                                                                    None, None)
+
+    def field(option: str, given, meta_key: str) -> str:
+        """The option's name, or the metadata file's field where the value came from it."""
+        return option if given is not None else f"{meta_file} {meta_key} ({option} overrides it)"
+
     fmt = _pick("--format", format, meta.format)
     known = registry.names("sample_source")
     if fmt not in known:
-        raise ConfigError("--format", f"unknown sample format {fmt!r}; known: {', '.join(known)}")
+        raise ConfigError(field("--format", format, "global core:datatype"),
+                          f"unknown sample format {fmt!r}; known: {', '.join(known)}")
     fs = float(_pick("--fs", sample_rate_hz, meta.sample_rate_hz))
     fif = float(_pick("--if", if_hz, meta.if_hz, 0.0))
     qs = int(_pick("--q-sign", q_sign, meta.q_sign, 1))
+    fs_field = field("--fs", sample_rate_hz, "global core:sample_rate")
+    if_field = field("--if", if_hz, "captures[0] core:frequency")
     if not np.isfinite(fs) or fs < 2.046e6:
-        raise ConfigError("--fs", f"{fs:g} Hz is below the C/A main lobe (needs >= 2.046 MHz)")
+        raise ConfigError(fs_field, f"{fs:g} Hz is below the C/A main lobe (needs >= 2.046 MHz)")
+    if not np.isfinite(fif):
+        raise ConfigError(if_field, f"must be a finite number of Hz, got {fif:g}")
     if qs not in (1, -1):
         raise ConfigError("--q-sign", f"must be 1 or -1, got {qs}")
     rec = Recording(path, RecordingInfo(fmt, fs, fif, qs, meta.start_time))
     if not rec.is_complex and not 0 < fif < fs / 2:
-        raise ConfigError("--if", f"real samples need 0 < IF < fs/2 = {fs / 2:g} Hz, got {fif:g}")
+        raise ConfigError(if_field, f"real samples need 0 < IF < fs/2 = {fs / 2:g} Hz, got {fif:g}")
     if rec.is_complex and abs(fif) >= fs / 2:
-        raise ConfigError("--if", f"complex samples need |IF| < fs/2 = {fs / 2:g} Hz, got {fif:g}")
+        raise ConfigError(if_field, f"complex samples need |IF| < fs/2 = {fs / 2:g} Hz, got {fif:g}")
     if rec.n_samples == 0:
         raise ConfigError("recording", f"{path}: holds no whole sample of format {fmt}")
+    if meta.sample_start:  # the metadata describes the samples from there on: not read from a later start
+        where = "beyond the end of" if meta.sample_start >= rec.n_samples else "inside"
+        raise ConfigError(f"{meta_file} captures[0] core:sample_start",
+                          f"{meta.sample_start} is {where} the {rec.n_samples} samples of {path.name}: a first capture "
+                          "that does not start at sample 0 is not supported (cut the file there and set 0)")
     return rec
