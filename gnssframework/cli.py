@@ -188,6 +188,9 @@ def _open_recording_from_args(args: argparse.Namespace):
 
     if not Path(args.recording).exists():  # the wording every command uses for a missing file
         raise DataFileError(args.recording, None, "no such file")
+    if not Path(args.recording).is_file():
+        raise DataFileError(args.recording, None, "not a regular file (a device, pipe or folder): give a file of "
+                                                  "recorded samples")
     return open_recording(args.recording, format=args.format, sample_rate_hz=args.fs, if_hz=args.if_hz,
                           q_sign=args.q_sign)
 
@@ -207,6 +210,10 @@ def _prns_from_args(args: argparse.Namespace) -> tuple[int, ...]:
     bad = [p for p in prns if p not in G2_TAPS]
     if bad:
         raise ConfigError("--prns", f"GPS C/A PRNs are 1-32, got {bad}")
+    repeated = sorted({p for p in prns if prns.count(p) > 1})
+    if repeated:
+        raise ConfigError("--prns", f"PRN {', '.join(map(str, repeated))} given more than once: each PRN is "
+                                    "searched once")
     return prns
 
 
@@ -218,6 +225,7 @@ def _cmd_acquire(args: argparse.Namespace) -> int:
     acq = _acquisition_from_args(args)
     prns = _prns_from_args(args)
     results = acquire_recording(rec, acq, prns)
+    _note_nonfinite(rec)
     check_acquisition(results, rec)  # a wrong --format "finds" 31 satellites: refuse it
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
@@ -237,6 +245,13 @@ def _cmd_acquire(args: argparse.Namespace) -> int:
     return 0
 
 
+def _note_nonfinite(rec) -> None:
+    """Say how many NaN/inf values the reads so far zeroed (a float recording's gaps)."""
+    if rec.nonfinite_zeroed:
+        print(f"note: {rec.path.name}: {rec.nonfinite_zeroed} non-finite values (NaN or inf) in the samples read were "
+              "set to 0")
+
+
 def _tracking_config_from_args(args: argparse.Namespace):
     """The tracking settings of ``track`` and ``position`` (a command without an option
     leaves its default), and ``--duration`` checked."""
@@ -253,9 +268,19 @@ def _tracking_config_from_args(args: argparse.Namespace):
                         ("early_late_spacing", "early_late_spacing_chips")):
         if getattr(args, option, None) is not None:
             settings[key] = getattr(args, option)
-    if args.duration is not None and not args.duration > 0:
-        raise ConfigError("--duration", f"must be > 0 s, got {args.duration}")
+    if args.duration is not None and not args.duration >= MIN_DURATION_S:
+        raise ConfigError("--duration", f"must be at least {MIN_DURATION_S:g} s (tracking's first intervals), got "
+                                        f"{args.duration:g}")
     return tracking_config(**settings)
+
+
+#: Shortest ``--duration`` of ``track`` and ``receive``: the pull-in stage's first
+#: 1 ms intervals; less tracks nothing and reports NaN.
+MIN_DURATION_S = 0.02
+
+#: Largest ``--rate`` (solutions per second): one per 1 ms C/A code period, the shortest
+#: interval a channel delivers a measurement at.
+MAX_RATE_HZ = 1000.0
 
 
 def _cmd_track(args: argparse.Namespace) -> int:
@@ -272,6 +297,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
     results = acquire_recording(rec, acq, prns)
+    _note_nonfinite(rec)
     check_acquisition(results, rec)
     found = [r for r in results if r.detected]
     if not found:
@@ -283,10 +309,18 @@ def _cmd_track(args: argparse.Namespace) -> int:
     print(f"tracked {len(found)} satellites for {result.duration_s:.3f} s with {config.channel_filter}:")
     for s in channel_summary(result):
         print(f"  PRN {s['prn']:2d}: locked {100 * s['locked_fraction']:5.1f} % of {s['tracked_s']:.2f} s, "
-              f"C/N0 {s['cn0_dbhz_locked']:5.1f} dB-Hz, Doppler {s['doppler_hz_last']:9.1f} Hz, "
-              f"{s['final_stage']}")
+              f"C/N0 {_or_none(s['cn0_dbhz_locked'], '5.1f')} dB-Hz, Doppler {_or_none(s['doppler_hz_last'], '9.1f')} "
+              f"Hz, {s['final_stage']}")
+    _note_nonfinite(rec)
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0
+
+
+def _or_none(value: float, spec: str) -> str:
+    """``value`` formatted, or ``"none"`` (right-aligned) where it is NaN (a channel that
+    never locked has no locked C/N0): a summary line prints no ``nan``."""
+    text = format(value, spec)
+    return text if value == value and abs(value) != float("inf") else format("none", f">{len(text)}")
 
 
 def _truth_from_args(args: argparse.Namespace) -> tuple[float, float, float] | None:
@@ -298,7 +332,25 @@ def _truth_from_args(args: argparse.Namespace) -> tuple[float, float, float] | N
         truth = ()
     if len(truth) != 3:
         raise ConfigError("--truth", f"LAT,LON,H in degrees and metres, got {args.truth!r}")
-    return truth
+    return _checked_position("--truth", truth)
+
+
+#: Largest height of a --truth or --approx-position (m): above low Earth orbit is no receiver's place here.
+MAX_POSITION_HEIGHT_M = 1.0e6
+
+
+def _checked_position(option: str, where: tuple[float, float, float]) -> tuple[float, float, float]:
+    """LAT, LON, H refused unless finite, |lat| <= 90, |lon| <= 180, |H| <= 1000 km."""
+    lat, lon, h = where
+    if not all(v == v and abs(v) != float("inf") for v in where):
+        raise ConfigError(option, f"LAT,LON,H must be finite numbers, got {','.join(f'{v:g}' for v in where)}")
+    if not -90 <= lat <= 90:
+        raise ConfigError(option, f"latitude {lat:g} is outside [-90, 90] degrees")
+    if not -180 <= lon <= 180:
+        raise ConfigError(option, f"longitude {lon:g} is outside [-180, 180] degrees")
+    if not abs(h) <= MAX_POSITION_HEIGHT_M:
+        raise ConfigError(option, f"height {h:g} m is beyond +-{MAX_POSITION_HEIGHT_M:g} m")
+    return where
 
 
 def _assist_from_args(args: argparse.Namespace):
@@ -317,6 +369,7 @@ def _assist_from_args(args: argparse.Namespace):
         where = ()
     if len(where) != 3:
         raise ConfigError("--approx-position", f"LAT,LON,H in degrees and metres, got {args.approx_position!r}")
+    where = _checked_position("--approx-position", where)
     try:
         week, tow = args.start_time.split(",")
         when = (int(week), float(tow))
@@ -353,6 +406,9 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     config = _tracking_config_from_args(args)
     if not args.rate > 0:
         raise ConfigError("--rate", f"must be > 0 Hz, got {args.rate}")
+    if not args.rate <= MAX_RATE_HZ:
+        raise ConfigError("--rate", f"must be at most {MAX_RATE_HZ:g} Hz (one solution per 1 ms code period), got "
+                                    f"{args.rate:g}")
     if args.week is not None and not 0 <= args.week < 10_000:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
     truth = _truth_from_args(args)
@@ -724,7 +780,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     exit 2 for configuration and input errors (a bad path included), 1 for other OS
     failures (a full disk), 130 for Ctrl-C; a closed pipe on stdout ends the printing
     quietly."""
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    bad = _non_finite_option(parser, args)
+    if bad:
+        return _fail(bad, 2)
     stdout, sys.stdout = sys.stdout, _QuietPipe(sys.stdout)
     interrupted = _CtrlC()
     try:
@@ -745,6 +805,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         interrupted.restore()
         sys.stdout.flush()
         sys.stdout = stdout
+
+
+def _non_finite_option(parser: argparse.ArgumentParser, args: argparse.Namespace) -> str | None:
+    """``"--fs: must be a finite number, got nan"`` for the first number option given as
+    NaN or infinity (no option of any command means anything there), else ``None``."""
+    import math
+
+    flags: dict[str, str] = {}
+    stack = [parser]
+    while stack:
+        for action in stack.pop()._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                stack.extend(action.choices.values())
+            elif action.option_strings:
+                flags.setdefault(action.dest, max(action.option_strings, key=len))
+    for dest, value in vars(args).items():
+        values = value if isinstance(value, list) else [value]
+        for v in values:
+            if isinstance(v, float) and not math.isfinite(v):
+                return f"{flags.get(dest, dest)}: must be a finite number, got {v}"
+    return None
 
 
 class _CtrlC:

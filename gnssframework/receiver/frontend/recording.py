@@ -49,6 +49,10 @@ class Recording:
     trailing_bytes
         Bytes after the last whole chunk (a truncated last sample): never read, and
         reported by the commands.
+    nonfinite_zeroed
+        Non-finite values (NaN, inf) of a floating-point format set to 0 in what was
+        read so far (a sample read twice counts twice), reported by the commands: one NaN
+        would otherwise spread through a whole FFT search and hide every satellite.
     """
 
     def __init__(self, path: str | Path, info: RecordingInfo) -> None:
@@ -59,6 +63,16 @@ class Recording:
         bpc, spc = self.source.bytes_per_chunk, self.source.samples_per_chunk
         self.n_samples = (size // bpc) * spc
         self.trailing_bytes = size % bpc
+        self.nonfinite_zeroed = 0
+        self._floating = "f" in self.source.sigmf_datatype
+
+    def _zero_nonfinite(self, x: np.ndarray) -> np.ndarray:
+        """``x`` (a fresh array) with NaN/inf values set to 0, counted in `nonfinite_zeroed`."""
+        bad = ~np.isfinite(x)
+        if bad.any():
+            x = np.where(bad, np.zeros((), x.dtype), x)
+            self.nonfinite_zeroed += int(bad.sum())
+        return x
 
     @property
     def is_complex(self) -> bool:
@@ -81,6 +95,8 @@ class Recording:
         last = -(-(start + count) // spc)
         raw = np.fromfile(self.path, dtype=np.uint8, count=(last - first) * bpc, offset=first * bpc)
         x = self.source.decode(raw)[start - first * spc:start - first * spc + count]
+        if self._floating:
+            x = self._zero_nonfinite(x)
         if self.is_complex and self.info.q_sign < 0:
             x = np.conj(x)
         return x
@@ -101,7 +117,8 @@ class Recording:
         count = max(0, min(count, self.n_samples - start))
         bpc = self.source.bytes_per_chunk
         raw = np.fromfile(self.path, dtype=np.uint8, count=count * bpc, offset=start * bpc)
-        return raw.view(stored).astype(np.dtype(stored).newbyteorder("="), copy=False)
+        out = raw.view(stored).astype(np.dtype(stored).newbyteorder("="), copy=False)
+        return self._zero_nonfinite(out) if self._floating else out
 
     def blocks(self, block_samples: int, start: int = 0, stop: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
         """``(first_sample, samples)`` blocks of ``block_samples`` from ``start`` to ``stop``."""
@@ -135,6 +152,9 @@ def open_recording(path: str | Path, format: str | None = None, sample_rate_hz: 
         IF a GPS L1 C/A receiver cannot use, or a file too short to hold one sample.
     """
     path = Path(path)
+    if path.exists() and not path.is_file():
+        raise ConfigError("recording", f"{path}: not a regular file (a device, pipe or folder): give a file of "
+                                       "recorded samples")
     if not path.is_file():
         raise ConfigError("recording", f"{path}: no such file")
     meta_file = meta_path_for(path)
