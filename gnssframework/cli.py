@@ -57,8 +57,15 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
 def _cmd_compare(args: argparse.Namespace) -> int:
     from .experiments import load_config, run_comparison
 
-    config = load_config(args.file, runs=args.runs, seed=args.seed)
+    try:
+        config = load_config(args.file, runs=args.runs, seed=args.seed)
+    except ConfigError as exc:  # the case or candidate named as written, beside its index
+        from .experiments.config import with_names
+        from .io.text import read_toml
+
+        raise with_names(exc, read_toml(args.file)) from None
     out = args.out or f"results/{config.name}"
+    _print_work_estimate(config)
     try:
         # A progress bar is for a terminal: in a log or a pipe it is noise.
         summary = run_comparison(config, out, progress=not args.quiet and sys.stderr.isatty())
@@ -66,6 +73,22 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         raise _store_error(exc, Path(out) / "results.sqlite") from None
     print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
     return _report_claims(summary, args.check)
+
+
+#: A comparison of more batches than this says how much work it is before it starts.
+LONG_COMPARISON_BATCHES = 100
+
+
+def _print_work_estimate(config) -> None:
+    """One line before a long comparison: its batches and filter runs (from scratch)."""
+    from .experiments.runner import work_estimate
+
+    batches, runs = work_estimate(config)
+    if batches > LONG_COMPARISON_BATCHES:
+        print(f"work: {batches:,} batches, {runs:,} filter runs ({len(config.cases)} cases x "
+              f"{len(config.candidates)} candidates x {config.runs} runs, {len(config.sweeps)} sweeps"
+              + (", tuning" if config.tuning is not None else "") + "); finished batches are kept, Ctrl-C and the "
+              "same command resumes", flush=True)
 
 
 def _report_claims(summary, check: bool) -> int:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from pathlib import Path
 from typing import Any, Literal
 
@@ -30,6 +31,11 @@ __all__ = ["Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "Claim"
 #: Most Monte Carlo runs of a comparison (each case and candidate): a million runs of the
 #: cheapest scenario take hours; a larger value is a typo that would only hang.
 MAX_RUNS = 1_000_000
+
+#: Most cases and candidates of one comparison (their product times the batches is the
+#: work: 1000 x 1000 is already a million batches); the same bound as a sweep's points.
+MAX_CASES = 1000
+MAX_CANDIDATES = 1000
 
 
 class _Strict(BaseModel):
@@ -93,8 +99,10 @@ class ComparisonConfig(_Strict):
     seed: int = Field(0, ge=0, lt=2**63, strict=True, description="seed of the runs' random numbers, 0 to 2^63 - 1")
     executor: Executor = Field(default_factory=Executor)
     scenario: dict[str, Any] = Field(..., description="scenario kind and its parameters (see the scenario's page)")
-    cases: list[Case] = Field(..., min_length=1)
-    candidates: list[Candidate] = Field(..., min_length=1)
+    cases: list[Case] = Field(..., min_length=1, max_length=MAX_CASES,
+                              description=f"the conditions compared, 1 to {MAX_CASES}")
+    candidates: list[Candidate] = Field(..., min_length=1, max_length=MAX_CANDIDATES,
+                                        description=f"the filter compositions compared, 1 to {MAX_CANDIDATES}")
     metrics: list[str] = Field(default_factory=list, description="metrics to report (default: all of the scenario)")
     reference: str | None = Field(None, description="candidate the others are compared with (paired differences); "
                                   "default: the first candidate")
@@ -244,6 +252,25 @@ def _as_read(params: BaseModel) -> dict[str, Any]:
     """The parameters a config set, as the model holds them (an integer written for a float
     field is that float), for `ComparisonConfig.identity`."""
     return params.model_dump(mode="json", exclude_unset=True)
+
+
+_INDEXED = re.compile(r"\b(candidates|cases)\[(\d+)\]")
+
+
+def with_names(exc: ConfigError, data: Any) -> ConfigError:
+    """``exc`` whose field names a case or candidate by index (``candidates[2].nav_filter...``)
+    with the name the config gives it appended: ``... (candidates[2] is 'AUKF1')``, so the
+    user finds it as written. The field itself is unchanged."""
+    found = _INDEXED.search(exc.field or "")
+    if not found or not isinstance(data, dict):
+        return exc
+    items = data.get(found[1])
+    index = int(found[2])
+    item = items[index] if isinstance(items, list) and index < len(items) else None
+    name = item.get("name") if isinstance(item, dict) else None
+    if not isinstance(name, str) or repr(name) in exc.detail:
+        return exc
+    return type(exc)(exc.field, f"{exc.detail} ({found[0]} is {name!r})")
 
 
 def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
