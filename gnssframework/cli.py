@@ -64,6 +64,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         from .io.text import read_toml
 
         raise with_names(exc, read_toml(args.file)) from None
+    if args.dask_address:  # a scheduler address comes from the person running the comparison, not the config
+        config.executor = config.executor.model_copy(update={"kind": "dask", "address": args.dask_address})
     out = args.out or f"results/{config.name}"
     _print_work_estimate(config)
     try:
@@ -607,6 +609,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--check", action="store_true",
                    help="print every [[claims]] outcome and exit 1 unless every claim holds")
+    p.add_argument("--dask-address", metavar="ADDR",
+                   help="run on this Dask scheduler (executor kind dask; also GNSSFRAMEWORK_DASK_ADDRESS). Dask's "
+                        "protocol carries pickles: give only a scheduler you trust; a config file cannot name one")
     p.set_defaults(func=_cmd_compare, interrupt_hint="; finished batches are kept in --out and the same command "
                                                      "resumes")
     p = sub.add_parser("filter-positions", help="filter an NMEA position log (Liu et al. 2020's filters)",

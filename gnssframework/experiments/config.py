@@ -22,6 +22,7 @@ from ..plugin import validation_message
 from ..plugin_ref import ComponentRef, PluginSpec
 from .candidates import CandidatePlan, resolve_candidate
 from .claims import Claim, check_claims
+from .file_names import check_file_name
 from .sweeps import Sweep, check_unique_labels, expand_sweep
 from .tuning import Tuning, check_tuning
 
@@ -42,6 +43,8 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+
+
 _REF = "the {kind} plugin: its name, or {{ name, params }}"
 
 
@@ -59,6 +62,8 @@ class Candidate(_Strict):
         default_factory=dict, description="options the scenario applies to this candidate, not plugins (see the "
         "scenario's page; e.g. multipath's oracle)")
 
+    _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
+
     def components(self) -> dict[str, PluginSpec]:
         """The candidate's plugins by kind (`gnssframework.plugin_ref.PluginSpec`)."""
         return {k: getattr(self, k) for k in COMPONENT_KINDS if getattr(self, k) is not None}
@@ -74,8 +79,14 @@ class Case(BaseModel):
         "(default: its own name): cases with the same streams draw the same random numbers run by run (common "
         "random numbers across cases, which claims with reference_case pair)")
 
+    _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
+
     def params(self) -> dict[str, Any]:
         return dict(self.model_extra or {})
+
+
+#: Environment variable with the Dask scheduler address of ``executor.kind = "dask"``.
+DASK_ADDRESS_ENV = "GNSSFRAMEWORK_DASK_ADDRESS"
 
 
 class Executor(_Strict):
@@ -84,13 +95,17 @@ class Executor(_Strict):
     kind: Literal["local", "dask"] = "local"
     workers: int = Field(0, ge=0, le=1024, strict=True, description="local processes (0: one per core, 1: in this "
                          "process), at most 1024")
-    address: str = Field("", description="dask scheduler address; empty starts a LocalCluster")
+    address: str = Field("", description="dask scheduler address, from the Python API only: a config file may not "
+                         "set it (Dask's protocol carries pickles, so the scheduler a config names runs code here); "
+                         f"give it with `compare --dask-address` or the {DASK_ADDRESS_ENV} environment variable. "
+                         "Empty: a LocalCluster on this machine")
 
 
 class ComparisonConfig(_Strict):
     """A Monte Carlo comparison."""
 
-    name: str = "comparison"
+    name: str = Field("comparison", description="the comparison's name: its results folder results/<name> "
+                      "without --out, so a plain file name (no '/', '.', '..' or control characters)")
     description: str = ""
     runs: int = Field(10, ge=1, le=MAX_RUNS, strict=True, description="Monte Carlo runs per case and candidate, "
                       f"1 to {MAX_RUNS}")
@@ -118,6 +133,8 @@ class ComparisonConfig(_Strict):
     claims: list[Claim] = Field(default_factory=list, description="orderings and bounds the results must show, "
                                 "each checked from the paired runs (holds / fails / not significant); "
                                 "`compare --check` exits 1 unless every claim holds")
+
+    _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
 
     @field_validator("candidates", "cases")
     @classmethod
@@ -285,6 +302,14 @@ def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
     """
     path = Path(path)
     data = read_toml(path)
+    executor = data.get("executor")
+    if isinstance(executor, dict) and executor.get("address"):
+        # Dask's protocol carries pickles: a shared config that names a scheduler would make
+        # whoever runs it execute that scheduler's code and send it theirs.
+        raise ConfigError("executor.address", "a Dask scheduler address is not taken from a config file (Dask's "
+                          "protocol carries pickles: the scheduler it names would run code here); give it with "
+                          f"`gnssframework compare --dask-address ADDR` or the {DASK_ADDRESS_ENV} environment "
+                          "variable")
     data.update({k: v for k, v in overrides.items() if v is not None})
     try:
         config = ComparisonConfig.model_validate(data)

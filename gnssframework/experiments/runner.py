@@ -32,7 +32,7 @@ from typing import Callable, Iterable
 import numpy as np
 
 from ..errors import ConfigError, GnssFrameworkError, RunFailure, WorkerError
-from .config import ComparisonConfig
+from .config import DASK_ADDRESS_ENV, ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text
 from .folder import claim_folder
 from .metric_components import evaluate
@@ -127,8 +127,9 @@ def _execute(jobs: list[tuple[RunPlan, Task]], executor) -> Iterable[tuple[int, 
             raise ConfigError("executor.kind", "'dask' needs the optional extra: pip install 'gnssframework[dask]'") \
                 from None
         cluster = None
-        if ex.address:
-            client = Client(ex.address)
+        address = ex.address or os.environ.get(DASK_ADDRESS_ENV, "")  # never from a config file (see Executor)
+        if address:
+            client = Client(address)
         else:
             cluster = LocalCluster(n_workers=ex.workers or os.cpu_count() or 1, threads_per_worker=1,
                                    processes=False, dashboard_address=None)

@@ -37,10 +37,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from ..errors import ConfigError
 from ..io.files import atomic_open, write_json
+from .file_names import check_file_name
 from .number_format import format_estimate
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
 
@@ -69,6 +70,11 @@ class Sweep(BaseModel):
     num: int | None = Field(None, ge=2, le=MAX_SWEEP_POINTS, description="number of evenly spaced values of a range")
     cases: list[str] | None = Field(None, min_length=1, description="the cases the sweep's points run "
                                     "(default: every case)")
+
+    @field_validator("name")
+    @classmethod
+    def _plain_name(cls, value: str | None) -> str | None:
+        return None if value is None else check_file_name(value)
 
     @model_validator(mode="after")
     def _one_form(self) -> "Sweep":
