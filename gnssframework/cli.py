@@ -410,7 +410,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .navigation.ephemeris import read_rinex_nav
-    from .receiver.acquisition.report import search_summary
+    from .receiver.acquisition.plausibility import check_acquisition
+    from .receiver.acquisition.report import acquire_recording, search_summary
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import write_nmea
     from .receiver.navigation.receive import position_errors, receive
@@ -458,11 +459,14 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     def progress(fraction: float) -> None:
         bar.update(round(100 * fraction) - bar.n)
 
+    acquisitions = acquire_recording(rec, acq, prns)  # checked before minutes of tracking
+    _note_nonfinite(rec)
+    check_acquisition(acquisitions, rec)
     try:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=args.week,
                          progress=progress if bar is not None else None, nav_filter=filters.nav_filter,
-                         vector=vector, assist=assist)
+                         vector=vector, assist=assist, acquisitions=acquisitions)
         if bar is not None:  # the tracker reports up to its last block's start: the run is done
             bar.update(bar.total - bar.n)
     finally:

@@ -76,3 +76,11 @@ def test_format_hints_from_the_bytes(tmp_path):
     floats = tmp_path / "f.bin"
     floats.write_bytes(rng.normal(size=20_000).astype("<f4").tobytes())
     assert "check --format" in format_hint(floats, "cf32_le")
+
+
+def test_receive_refuses_the_wrong_format_before_tracking(tmp_path, capsys):
+    """On main, receive tracked the 31 'satellites' of a ci8 file read as ci16_le."""
+    code = main(["receive", str(REAL), "--format", "ci16_le", "--fs", "4e6", "--out", str(tmp_path / "r")])
+    err = capsys.readouterr().err
+    assert code == 2 and "--format ci8?" in err and err.count("\n") == 1
+    assert not (tmp_path / "r").exists()
