@@ -251,7 +251,7 @@ def _cmd_acquire(args: argparse.Namespace) -> int:
     prns = _prns_from_args(args)
     results = acquire_recording(rec, acq, prns)
     _note_nonfinite(rec)
-    check_acquisition(results, rec)  # a wrong --format "finds" 31 satellites: refuse it
+    check_acquisition(results, rec, acq)  # a wrong --format "finds" 31 satellites: refuse it
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
     if args.verbose:
@@ -323,7 +323,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
     results = acquire_recording(rec, acq, prns)
     _note_nonfinite(rec)
-    check_acquisition(results, rec)
+    check_acquisition(results, rec, acq)
     found = [r for r in results if r.detected]
     if not found:
         print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
@@ -461,7 +461,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
 
     acquisitions = acquire_recording(rec, acq, prns)  # checked before minutes of tracking
     _note_nonfinite(rec)
-    check_acquisition(acquisitions, rec)
+    check_acquisition(acquisitions, rec, acq)
     try:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=args.week,

@@ -61,21 +61,25 @@ def test_doppler_spread_beyond_satellite_motion_is_implausible():
 
 
 def test_format_hints_from_the_bytes(tmp_path):
+    from gnssframework import registry
+
+    def src(name):
+        return registry.create("sample_source", name)
+
     rng = np.random.default_rng(1)
     levels = rng.choice(np.array([-3, -1, 1, 3], np.int8), 40_000)
     eight = tmp_path / "eight.bin"
     eight.write_bytes(levels.tobytes())
-    assert "--format ci8?" in format_hint(eight, "ci16_le")
-    assert "--format ri8?" in format_hint(eight, "ri16_le")
-    assert "check --format" in format_hint(eight, "ci8")  # read right: nothing to say
+    assert "--format ci8?" in format_hint(eight, src("ci16_le"))
+    assert "check --format" in format_hint(eight, src("ci8"))  # read right: nothing to say
     sixteen = tmp_path / "sixteen.bin"
     sixteen.write_bytes(levels.astype("<i2").tobytes())  # small 16-bit values: high bytes 0 or -1
-    assert "--format ci16_le?" in format_hint(sixteen, "ci8")
-    assert "check --format" in format_hint(sixteen, "ci16_le")
-    assert "integer samples" in format_hint(eight, "cf32_le")
+    assert "--format ci16_le?" in format_hint(sixteen, src("ci8"))
+    assert "check --format" in format_hint(sixteen, src("ci16_le"))
+    assert "integer samples" in format_hint(eight, src("cf32_le"))
     floats = tmp_path / "f.bin"
     floats.write_bytes(rng.normal(size=20_000).astype("<f4").tobytes())
-    assert "check --format" in format_hint(floats, "cf32_le")
+    assert "check --format" in format_hint(floats, src("cf32_le"))
 
 
 def test_receive_refuses_the_wrong_format_before_tracking(tmp_path, capsys):
@@ -84,3 +88,20 @@ def test_receive_refuses_the_wrong_format_before_tracking(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and "--format ci8?" in err and err.count("\n") == 1
     assert not (tmp_path / "r").exists()
+
+
+def test_detections_that_do_not_recur_where_predicted_are_refused(tmp_path, capsys):
+    """Seven PRNs of the ci8 file read as ci16_le: too few for the count and noise-floor
+    checks, but none of the six "found" recurs 8 ms later (main reported 6 satellites)."""
+    code = main(["acquire", str(REAL), "--format", "ci16_le", "--fs", "4e6", "--out", str(tmp_path / "a.csv"),
+                 "--prns", "1", "2", "3", "4", "5", "6", "7"])
+    err = capsys.readouterr().err
+    assert code == 2 and "are not found again 8 ms later" in err and "--format ci8?" in err
+
+
+def test_a_sample_rate_off_by_250_ppm_drifts_the_code_and_is_refused(tmp_path, capsys):
+    """At 4.001 MHz instead of 4 MHz the code phase of every satellite moves by
+    8 ms x 1.023 Mchip/s x 250e-6 = 2 chips between the two searches (tolerance 1 chip)."""
+    code = main(["acquire", str(REAL), "--format", "ci8", "--fs", "4.001e6", "--out", str(tmp_path / "a.csv")])
+    err = capsys.readouterr().err
+    assert code == 2 and "not found again" in err and "--fs" in err

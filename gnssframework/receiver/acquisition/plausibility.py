@@ -34,7 +34,7 @@ import numpy as np
 from .search import AcquisitionResult
 
 __all__ = ["MAX_VISIBLE_GPS", "MAX_DOPPLER_SPREAD_HZ", "MIN_PRNS_FOR_FLOOR", "implausible_acquisition",
-           "format_hint", "check_acquisition"]
+           "format_hint", "check_acquisition", "unrepeated"]
 
 #: More satellites than this found at once is not a GPS sky seen from near the ground
 #: (12-14 is the most the full constellation puts above a horizon; margin for a few at
@@ -87,14 +87,34 @@ def implausible_acquisition(results: Sequence[AcquisitionResult]) -> str | None:
     return "; ".join(reasons) if reasons else None
 
 
-def format_hint(path: str | Path, format: str, offset: int = 0) -> str:
+def _component_bytes(source) -> float:
+    """Bytes of one real component (I, Q or a real sample) of a ``sample_source``."""
+    per_sample = source.bytes_per_chunk / source.samples_per_chunk
+    return per_sample / (2 if source.is_complex else 1)
+
+
+def _integer_format(is_complex: bool, width: int) -> str | None:
+    """A registered ``sample_source`` of integer components ``width`` bytes wide, one
+    sample a chunk, complex or real as asked (found by what the formats are, not by name)."""
+    from ... import registry
+
+    for name in registry.names("sample_source"):
+        cls = registry.get("sample_source", name)
+        if (cls.is_complex == is_complex and cls.samples_per_chunk == 1 and "i" in cls.sigmf_datatype
+                and _component_bytes(cls) == width):
+            return name
+    return None
+
+
+def format_hint(path: str | Path, source, offset: int = 0) -> str:
     """The likely cause of an implausible acquisition, read from the recording's bytes.
 
-    Looks at up to 64 KiB from byte ``offset``: samples of a few ADC levels (1-4 bits, as
-    front ends record) stored one byte each but declared 16-bit show few levels in *both*
-    bytes of each 16-bit word; 16-bit samples of small values declared 8-bit show every
-    second byte 0 or -1 (the sign extension); integers declared as 32-bit floats decode to
-    non-finite, huge or subnormal values.
+    Looks at up to 64 KiB from byte ``offset`` of a recording read with ``source`` (its
+    ``sample_source``): samples of a few ADC levels (1-4 bits, as front ends record)
+    stored one byte each but declared 16-bit show few levels in *both* bytes of each
+    16-bit word; 16-bit samples of small values declared 8-bit show every second byte 0
+    or -1 (the sign extension); integers declared as 32-bit floats decode to non-finite,
+    huge or subnormal values.
 
     Returns
     -------
@@ -110,27 +130,74 @@ def format_hint(path: str | Path, format: str, offset: int = 0) -> str:
     low, high = raw[0::2], raw[1::2]
     levels_low, levels_high = np.unique(low).size, np.unique(high).size
     sign_extension = np.isin(high, (0, -1)).mean()
-    if "16" in format and levels_low <= 16 and levels_high <= 16 and sign_extension < 0.9:
-        eight = "ci8" if format.startswith("c") else "ri8"
+    name, width = source.name, _component_bytes(source)
+    floating = "f" in source.sigmf_datatype
+    if not floating and width == 2 and levels_low <= 16 and levels_high <= 16 and sign_extension < 0.9:
+        eight = _integer_format(source.is_complex, 1)
         return (f"the bytes look like 8-bit samples ({levels_low} and {levels_high} levels in the low and high bytes "
-                f"of each 16-bit value, no sign extension) read as {format}: --format {eight}?")
-    if format in ("ci8", "ri8") and sign_extension > 0.99 and np.isin(low, (0, -1)).mean() < 0.5:
-        sixteen = "ci16_le" if format == "ci8" else "ri16_le"
-        return (f"every second byte is 0 or -1 (the sign bits of small 16-bit values) read as {format}: "
-                f"--format {sixteen}?")
-    if "f32" in format:
+                f"of each 16-bit value, no sign extension) read as {name}" + (f": --format {eight}?" if eight else ""))
+    if not floating and width == 1 and sign_extension > 0.99 and np.isin(low, (0, -1)).mean() < 0.5:
+        sixteen = _integer_format(source.is_complex, 2)
+        return (f"every second byte is 0 or -1 (the sign bits of small 16-bit values) read as {name}"
+                + (f": --format {sixteen}?" if sixteen else ""))
+    if floating and width == 4:
         values = raw.view("<f4").astype(np.float64)
         odd = ~np.isfinite(values) | (np.abs(values) > 1e20) | ((values != 0) & (np.abs(values) < 1e-30))
         if odd.mean() > 0.01:
-            return (f"{100 * odd.mean():.0f} % of the values read as {format} are non-finite, huge or subnormal: "
-                    "integer samples (--format ci8, ci16_le...)?")
+            return (f"{100 * odd.mean():.0f} % of the values read as {name} are non-finite, huge or subnormal: "
+                    "integer samples (an integer --format)?")
     return general
 
 
-def check_acquisition(results: Sequence[AcquisitionResult], recording) -> None:
+#: Fewest satellites found for the repeat check to judge (one or two weak ones may miss).
+MIN_FOUND_FOR_REPEAT = 3
+
+#: Largest Doppler change between the two searches of a satellite found again (Hz): the
+#: fine search's resolution, as the real recording shows (tests/test_acquisition.py).
+REPEAT_DOPPLER_TOL_HZ = 250.0
+
+#: Largest code-phase miss of a satellite found again (chips): about two samples at
+#: 2 MHz, the coarsest rate a C/A search runs at.
+REPEAT_CODE_TOL_CHIPS = 1.0
+
+
+def unrepeated(recording, acquisition, results: Sequence[AcquisitionResult]) -> str | None:
+    """Search the found satellites again on the samples right after the first search's
+    and count those not found where the first search predicts them: same Doppler, code
+    phase moved by the code Doppler, ``cp1 = cp0 + dt f_c (1 + f_d / f_L1) mod 1023``
+    (``dt`` a whole number of code periods: the ``dt f_c`` part is whole periods). A
+    satellite is there twice; a detection of noise that breaks the detector's model is
+    not. ``None`` when most are found again, or too few were found or the recording is too
+    short for a second search."""
+    from ...signal.constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH, L1_FREQ_HZ
+    from .report import acquire_recording
+
+    found = [r for r in results if r.detected]
+    fs = recording.info.sample_rate_hz
+    need = acquisition.samples_needed(fs)
+    if len(found) < MIN_FOUND_FOR_REPEAT or recording.n_samples < 2 * need:
+        return None
+    again = {r.prn: r for r in acquire_recording(recording, acquisition, tuple(r.prn for r in found), need)}
+    dt = need / fs
+    missed = []
+    for r in found:
+        s = again.get(r.prn)
+        expect = r.code_phase_chips + dt * CA_CHIP_RATE_HZ * (1.0 + r.doppler_hz / L1_FREQ_HZ)
+        miss = abs((s.code_phase_chips - expect + CA_CODE_LENGTH / 2) % CA_CODE_LENGTH - CA_CODE_LENGTH / 2)
+        if not (s.detected and miss <= REPEAT_CODE_TOL_CHIPS
+                and abs(s.doppler_hz - r.doppler_hz) <= REPEAT_DOPPLER_TOL_HZ):
+            missed.append(r.prn)
+    if 2 * len(missed) <= len(found):
+        return None
+    return (f"{len(missed)} of the {len(found)} satellites found (PRN {', '.join(map(str, missed))}) are not found "
+            f"again {1e3 * dt:.0f} ms later at the Doppler and code phase the first search predicts")
+
+
+def check_acquisition(results: Sequence[AcquisitionResult], recording, acquisition=None) -> None:
     """Refuse ``results`` of ``recording`` (a `Recording`) when `implausible_acquisition`
-    finds them impossible: a `DataFileError` naming the file, what is wrong and the likely
-    cause (`format_hint`).
+    finds them impossible or, given the ``acquisition`` that made them, `unrepeated` finds
+    most of them missing from a second search: a `DataFileError` naming the file, what is
+    wrong and the likely cause (`format_hint`).
 
     Raises
     ------
@@ -141,7 +208,9 @@ def check_acquisition(results: Sequence[AcquisitionResult], recording) -> None:
     from ...errors import DataFileError
 
     why = implausible_acquisition(results)
+    if why is None and acquisition is not None:
+        why = unrepeated(recording, acquisition, results)
     if why is not None:
         raise DataFileError(str(recording.path), None,
                             f"not a GPS sky when read as {recording.info.describe()}: {why}; "
-                            f"{format_hint(recording.path, recording.info.format)}")
+                            f"{format_hint(recording.path, recording.source)}")
