@@ -482,7 +482,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     table = result.positions
     if table is None or len(table) == 0:
         why = ("no LNAV subframe decoded (a subframe takes 6 s once a channel is locked and bit-synchronised)"
-               if table is None else "fewer than four satellites with a decoded or --ephemeris ephemeris")
+               if table is None else "fewer than four satellites with a decoded or --ephemeris ephemeris"
+               + _ephemeris_distance(rinex, result.observables))
         print(f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
               f"{result.tracking.duration_s:.1f} s")
         return 1
@@ -517,6 +518,28 @@ def _cmd_receive(args: argparse.Namespace) -> int:
               f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m")
     print(f"wrote {', '.join(str(p) for p in written if p.parent == out)} and {out / 'plots'}/")
     return 0
+
+
+def _ephemeris_distance(rinex, obs) -> str:
+    """``"; the --ephemeris records are 26.0 h from ..."`` when none of the navigation
+    file's GPS records is within the 4-hour fit of the recording's time, else ``""``."""
+    import numpy as np
+
+    from .navigation.ephemeris import _wrap_week
+    from .receiver.navigation.fixes import MAX_EPHEMERIS_AGE_S
+
+    if rinex is None or obs is None or not np.size(obs.rx_time_s):
+        return ""
+    gps = np.char.startswith(rinex.sv.astype(str), "G")
+    t0 = float(np.nanmin(obs.rx_time_s))
+    if not gps.any() or not np.isfinite(t0):
+        return ""
+    nearest = float(np.min(np.abs(_wrap_week(t0 - rinex.elements["Toe"][gps]))))
+    if nearest <= MAX_EPHEMERIS_AGE_S:
+        return ""
+    return (f"; the --ephemeris file's nearest GPS record is {nearest / 3600:.1f} h from the recording's time of week "
+            f"{t0:.0f} s (a record is used within {MAX_EPHEMERIS_AGE_S / 3600:g} h of its Toe): give the navigation "
+            "file of the recording's day")
 
 
 def _vector_channel_from_args(args: argparse.Namespace) -> dict:
