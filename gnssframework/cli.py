@@ -243,12 +243,13 @@ def _prns_from_args(args: argparse.Namespace) -> tuple[int, ...]:
 
 
 def _cmd_acquire(args: argparse.Namespace) -> int:
-    from .receiver.acquisition.plausibility import check_acquisition
+    from .receiver.acquisition.plausibility import check_acquisition, check_samples
     from .receiver.acquisition.report import acquire_recording, search_summary, write_acquisition_csv
 
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     prns = _prns_from_args(args)
+    check_samples(rec, acq)
     results = acquire_recording(rec, acq, prns)
     _note_nonfinite(rec)
     check_acquisition(results, rec, acq)  # a wrong --format "finds" 31 satellites: refuse it
@@ -309,7 +310,7 @@ MAX_RATE_HZ = 1000.0
 
 
 def _cmd_track(args: argparse.Namespace) -> int:
-    from .receiver.acquisition.plausibility import check_acquisition
+    from .receiver.acquisition.plausibility import check_acquisition, check_samples
     from .receiver.acquisition.report import acquire_recording, search_summary
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
@@ -321,6 +322,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
     tracker = SampleTracker(rec, config, acq)
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
+    check_samples(rec, acq)
     results = acquire_recording(rec, acq, prns)
     _note_nonfinite(rec)
     check_acquisition(results, rec, acq)
@@ -410,7 +412,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .navigation.ephemeris import read_rinex_nav
-    from .receiver.acquisition.plausibility import check_acquisition
+    from .receiver.acquisition.plausibility import check_acquisition, check_samples
     from .receiver.acquisition.report import acquire_recording, search_summary
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import write_nmea
@@ -459,6 +461,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     def progress(fraction: float) -> None:
         bar.update(round(100 * fraction) - bar.n)
 
+    check_samples(rec, acq)
     acquisitions = acquire_recording(rec, acq, prns)  # checked before minutes of tracking
     _note_nonfinite(rec)
     check_acquisition(acquisitions, rec, acq)

@@ -105,3 +105,13 @@ def test_a_sample_rate_off_by_250_ppm_drifts_the_code_and_is_refused(tmp_path, c
     code = main(["acquire", str(REAL), "--format", "ci8", "--fs", "4.001e6", "--out", str(tmp_path / "a.csv")])
     err = capsys.readouterr().err
     assert code == 2 and "not found again" in err and "--fs" in err
+
+
+def test_a_blank_recording_is_refused_as_such(tmp_path, capsys):
+    """All-zero samples: main divided by the zero noise floor (NumPy warnings) and said
+    nothing about the file."""
+    path = tmp_path / "zero.bin"
+    path.write_bytes(bytes(400_000))
+    assert main(["acquire", str(path), "--format", "ci8", "--fs", "4e6", "--out", str(tmp_path / "a.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "are all 0" in err and "zero-filled" in err

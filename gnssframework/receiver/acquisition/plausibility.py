@@ -34,7 +34,7 @@ import numpy as np
 from .search import AcquisitionResult
 
 __all__ = ["MAX_VISIBLE_GPS", "MAX_DOPPLER_SPREAD_HZ", "MIN_PRNS_FOR_FLOOR", "implausible_acquisition",
-           "format_hint", "check_acquisition", "unrepeated"]
+           "format_hint", "check_acquisition", "unrepeated", "check_samples"]
 
 #: More satellites than this found at once is not a GPS sky seen from near the ground
 #: (12-14 is the most the full constellation puts above a horizon; margin for a few at
@@ -214,3 +214,25 @@ def check_acquisition(results: Sequence[AcquisitionResult], recording, acquisiti
         raise DataFileError(str(recording.path), None,
                             f"not a GPS sky when read as {recording.info.describe()}: {why}; "
                             f"{format_hint(recording.path, recording.source)}")
+
+
+def check_samples(recording, acquisition) -> None:
+    """Refuse a recording whose samples the search would read are all one value (a blank,
+    zero-filled or unwritten file, a stuck ADC): there is neither signal nor the noise the
+    detector's threshold is built on, and the search would divide by a zero noise floor.
+
+    Raises
+    ------
+    DataFileError
+        ``"REC: the 32000 samples the search reads are all 0 ..."``
+    """
+    from ...errors import DataFileError
+
+    fs = recording.info.sample_rate_hz
+    counted = recording.nonfinite_zeroed
+    x = recording.read(0, acquisition.samples_needed(fs))
+    recording.nonfinite_zeroed = counted  # the search reads these again and counts them then
+    if x.size and np.all(x == x[0]):
+        raise DataFileError(str(recording.path), None, f"the {x.size} samples the search reads (read as "
+                            f"{recording.info.describe()}) are all {x[0]:g}: no noise and no signal (a blank or "
+                            "zero-filled file, or a stuck front end)")
