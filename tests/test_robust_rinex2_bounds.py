@@ -40,4 +40,4 @@ def test_bounds_that_cannot_hold_are_refused_for_rinex2(lo, hi, tmp_path, capsys
     code = main(["smooth", str(RINEX2), "--prn", "G", "--out", str(tmp_path / "s.csv"),
                  "--pseudorange-min", str(lo), "--pseudorange-max", str(hi)])
     err = capsys.readouterr().err
-    assert code == 2 and "--pseudorange-min" in err and err.count("\n") == 1
+    assert code == 2 and "--pseudorange-m" in err and err.count("\n") == 1
