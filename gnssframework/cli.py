@@ -57,8 +57,17 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
 def _cmd_compare(args: argparse.Namespace) -> int:
     from .experiments import load_config, run_comparison
 
-    config = load_config(args.file, runs=args.runs, seed=args.seed)
+    try:
+        config = load_config(args.file, runs=args.runs, seed=args.seed)
+    except ConfigError as exc:  # the case or candidate named as written, beside its index
+        from .experiments.config import with_names
+        from .io.text import read_toml
+
+        raise with_names(exc, read_toml(args.file)) from None
+    if args.dask_address:  # a scheduler address comes from the person running the comparison, not the config
+        config.executor = config.executor.model_copy(update={"kind": "dask", "address": args.dask_address})
     out = args.out or f"results/{config.name}"
+    _print_work_estimate(config)
     try:
         # A progress bar is for a terminal: in a log or a pipe it is noise.
         summary = run_comparison(config, out, progress=not args.quiet and sys.stderr.isatty())
@@ -66,6 +75,22 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         raise _store_error(exc, Path(out) / "results.sqlite") from None
     print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
     return _report_claims(summary, args.check)
+
+
+#: A comparison of more batches than this says how much work it is before it starts.
+LONG_COMPARISON_BATCHES = 100
+
+
+def _print_work_estimate(config) -> None:
+    """One line before a long comparison: its batches and filter runs (from scratch)."""
+    from .experiments.runner import work_estimate
+
+    batches, runs = work_estimate(config)
+    if batches > LONG_COMPARISON_BATCHES:
+        print(f"work: {batches:,} batches, {runs:,} filter runs ({len(config.cases)} cases x "
+              f"{len(config.candidates)} candidates x {config.runs} runs, {len(config.sweeps)} sweeps"
+              + (", tuning" if config.tuning is not None else "") + "); finished batches are kept, Ctrl-C and the "
+              "same command resumes", flush=True)
 
 
 def _report_claims(summary, check: bool) -> int:
@@ -188,6 +213,9 @@ def _open_recording_from_args(args: argparse.Namespace):
 
     if not Path(args.recording).exists():  # the wording every command uses for a missing file
         raise DataFileError(args.recording, None, "no such file")
+    if not Path(args.recording).is_file():
+        raise DataFileError(args.recording, None, "not a regular file (a device, pipe or folder): give a file of "
+                                                  "recorded samples")
     return open_recording(args.recording, format=args.format, sample_rate_hz=args.fs, if_hz=args.if_hz,
                           q_sign=args.q_sign)
 
@@ -207,16 +235,24 @@ def _prns_from_args(args: argparse.Namespace) -> tuple[int, ...]:
     bad = [p for p in prns if p not in G2_TAPS]
     if bad:
         raise ConfigError("--prns", f"GPS C/A PRNs are 1-32, got {bad}")
+    repeated = sorted({p for p in prns if prns.count(p) > 1})
+    if repeated:
+        raise ConfigError("--prns", f"PRN {', '.join(map(str, repeated))} given more than once: each PRN is "
+                                    "searched once")
     return prns
 
 
 def _cmd_acquire(args: argparse.Namespace) -> int:
+    from .receiver.acquisition.plausibility import check_acquisition, check_samples
     from .receiver.acquisition.report import acquire_recording, search_summary, write_acquisition_csv
 
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     prns = _prns_from_args(args)
+    check_samples(rec, acq)
     results = acquire_recording(rec, acq, prns)
+    _note_nonfinite(rec)
+    check_acquisition(results, rec, acq)  # a wrong --format "finds" 31 satellites: refuse it
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
     if args.verbose:
@@ -235,6 +271,13 @@ def _cmd_acquire(args: argparse.Namespace) -> int:
     return 0
 
 
+def _note_nonfinite(rec) -> None:
+    """Say how many NaN/inf values the reads so far zeroed (a float recording's gaps)."""
+    if rec.nonfinite_zeroed:
+        print(f"note: {rec.path.name}: {rec.nonfinite_zeroed} non-finite values (NaN or inf) in the samples read were "
+              "set to 0")
+
+
 def _tracking_config_from_args(args: argparse.Namespace):
     """The tracking settings of ``track`` and ``position`` (a command without an option
     leaves its default), and ``--duration`` checked."""
@@ -251,12 +294,23 @@ def _tracking_config_from_args(args: argparse.Namespace):
                         ("early_late_spacing", "early_late_spacing_chips")):
         if getattr(args, option, None) is not None:
             settings[key] = getattr(args, option)
-    if args.duration is not None and not args.duration > 0:
-        raise ConfigError("--duration", f"must be > 0 s, got {args.duration}")
+    if args.duration is not None and not args.duration >= MIN_DURATION_S:
+        raise ConfigError("--duration", f"must be at least {MIN_DURATION_S:g} s (tracking's first intervals), got "
+                                        f"{args.duration:g}")
     return tracking_config(**settings)
 
 
+#: Shortest ``--duration`` of ``track`` and ``receive``: the pull-in stage's first
+#: 1 ms intervals; less tracks nothing and reports NaN.
+MIN_DURATION_S = 0.02
+
+#: Largest ``--rate`` (solutions per second): one per 1 ms C/A code period, the shortest
+#: interval a channel delivers a measurement at.
+MAX_RATE_HZ = 1000.0
+
+
 def _cmd_track(args: argparse.Namespace) -> int:
+    from .receiver.acquisition.plausibility import check_acquisition, check_samples
     from .receiver.acquisition.report import acquire_recording, search_summary
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
@@ -268,7 +322,11 @@ def _cmd_track(args: argparse.Namespace) -> int:
     tracker = SampleTracker(rec, config, acq)
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
-    found = [r for r in acquire_recording(rec, acq, prns) if r.detected]
+    check_samples(rec, acq)
+    results = acquire_recording(rec, acq, prns)
+    _note_nonfinite(rec)
+    check_acquisition(results, rec, acq)
+    found = [r for r in results if r.detected]
     if not found:
         print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
               "the format (--format) and --doppler-max; nothing tracked")
@@ -278,10 +336,18 @@ def _cmd_track(args: argparse.Namespace) -> int:
     print(f"tracked {len(found)} satellites for {result.duration_s:.3f} s with {config.channel_filter}:")
     for s in channel_summary(result):
         print(f"  PRN {s['prn']:2d}: locked {100 * s['locked_fraction']:5.1f} % of {s['tracked_s']:.2f} s, "
-              f"C/N0 {s['cn0_dbhz_locked']:5.1f} dB-Hz, Doppler {s['doppler_hz_last']:9.1f} Hz, "
-              f"{s['final_stage']}")
+              f"C/N0 {_or_none(s['cn0_dbhz_locked'], '5.1f')} dB-Hz, Doppler {_or_none(s['doppler_hz_last'], '9.1f')} "
+              f"Hz, {s['final_stage']}")
+    _note_nonfinite(rec)
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0
+
+
+def _or_none(value: float, spec: str) -> str:
+    """``value`` formatted, or ``"none"`` (right-aligned) where it is NaN (a channel that
+    never locked has no locked C/N0): a summary line prints no ``nan``."""
+    text = format(value, spec)
+    return text if value == value and abs(value) != float("inf") else format("none", f">{len(text)}")
 
 
 def _truth_from_args(args: argparse.Namespace) -> tuple[float, float, float] | None:
@@ -293,7 +359,25 @@ def _truth_from_args(args: argparse.Namespace) -> tuple[float, float, float] | N
         truth = ()
     if len(truth) != 3:
         raise ConfigError("--truth", f"LAT,LON,H in degrees and metres, got {args.truth!r}")
-    return truth
+    return _checked_position("--truth", truth)
+
+
+#: Largest height of a --truth or --approx-position (m): above low Earth orbit is no receiver's place here.
+MAX_POSITION_HEIGHT_M = 1.0e6
+
+
+def _checked_position(option: str, where: tuple[float, float, float]) -> tuple[float, float, float]:
+    """LAT, LON, H refused unless finite, |lat| <= 90, |lon| <= 180, |H| <= 1000 km."""
+    lat, lon, h = where
+    if not all(v == v and abs(v) != float("inf") for v in where):
+        raise ConfigError(option, f"LAT,LON,H must be finite numbers, got {','.join(f'{v:g}' for v in where)}")
+    if not -90 <= lat <= 90:
+        raise ConfigError(option, f"latitude {lat:g} is outside [-90, 90] degrees")
+    if not -180 <= lon <= 180:
+        raise ConfigError(option, f"longitude {lon:g} is outside [-180, 180] degrees")
+    if not abs(h) <= MAX_POSITION_HEIGHT_M:
+        raise ConfigError(option, f"height {h:g} m is beyond +-{MAX_POSITION_HEIGHT_M:g} m")
+    return where
 
 
 def _assist_from_args(args: argparse.Namespace, nav_info=None):
@@ -315,6 +399,7 @@ def _assist_from_args(args: argparse.Namespace, nav_info=None):
         where = ()
     if len(where) != 3:
         raise ConfigError("--approx-position", f"LAT,LON,H in degrees and metres, got {args.approx_position!r}")
+    where = _checked_position("--approx-position", where)
     try:
         week, tow = args.start_time.split(",")
         when = (int(week), float(tow))
@@ -334,7 +419,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .navigation.ephemeris import read_rinex_nav
-    from .receiver.acquisition.report import search_summary
+    from .receiver.acquisition.plausibility import check_acquisition, check_samples
+    from .receiver.acquisition.report import acquire_recording, search_summary
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import write_nmea
     from .receiver.navigation.receive import position_errors, receive
@@ -357,6 +443,9 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     config = _tracking_config_from_args(args)
     if not args.rate > 0:
         raise ConfigError("--rate", f"must be > 0 Hz, got {args.rate}")
+    if not args.rate <= MAX_RATE_HZ:
+        raise ConfigError("--rate", f"must be at most {MAX_RATE_HZ:g} Hz (one solution per 1 ms code period), got "
+                                    f"{args.rate:g}")
     if args.week is not None and not 0 <= args.week < 10_000:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
     truth = _truth_from_args(args)
@@ -388,11 +477,15 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     def progress(fraction: float) -> None:
         bar.update(round(100 * fraction) - bar.n)
 
+    check_samples(rec, acq)
+    acquisitions = acquire_recording(rec, acq, prns)  # checked before minutes of tracking
+    _note_nonfinite(rec)
+    check_acquisition(acquisitions, rec, acq)
     try:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
                          progress=progress if bar is not None else None, nav_filter=filters.nav_filter,
-                         vector=vector, assist=assist,
+                         vector=vector, assist=assist, acquisitions=acquisitions,
                          iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
                          weighting=args.weighting)
         if bar is not None:  # the tracker reports up to its last block's start: the run is done
@@ -411,6 +504,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if table is None or len(table) == 0:
         why = no_position_reason(result, nav_info, assist, reference_week)
+        if table is not None:
+            why += _ephemeris_distance(rinex, result.observables)
         out.mkdir(parents=True, exist_ok=True)
         written = write_tracking_outputs(out, result.tracking, plots=True)
         written += write_no_position_report(out, result, why, rinex)
@@ -454,6 +549,28 @@ def _cmd_receive(args: argparse.Namespace) -> int:
               f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m")
     print(f"wrote {', '.join(str(p) for p in written if p.parent == out)} and {out / 'plots'}/")
     return 0
+
+
+def _ephemeris_distance(rinex, obs) -> str:
+    """``"; the --ephemeris records are 26.0 h from ..."`` when none of the navigation
+    file's GPS records is within the 4-hour fit of the recording's time, else ``""``."""
+    import numpy as np
+
+    from .navigation.ephemeris import _wrap_week
+    from .receiver.navigation.fixes import MAX_EPHEMERIS_AGE_S
+
+    if rinex is None or obs is None or not np.size(obs.rx_time_s):
+        return ""
+    gps = np.char.startswith(rinex.sv.astype(str), "G")
+    t0 = float(np.nanmin(obs.rx_time_s))
+    if not gps.any() or not np.isfinite(t0):
+        return ""
+    nearest = float(np.min(np.abs(_wrap_week(t0 - rinex.elements["Toe"][gps]))))
+    if nearest <= MAX_EPHEMERIS_AGE_S:
+        return ""
+    return (f"; the --ephemeris file's nearest GPS record is {nearest / 3600:.1f} h from the recording's time of week "
+            f"{t0:.0f} s (a record is used within {MAX_EPHEMERIS_AGE_S / 3600:g} h of its Toe): give the navigation "
+            "file of the recording's day")
 
 
 def _vector_channel_from_args(args: argparse.Namespace) -> dict:
@@ -563,6 +680,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--check", action="store_true",
                    help="print every [[claims]] outcome and exit 1 unless every claim holds")
+    p.add_argument("--dask-address", metavar="ADDR",
+                   help="run on this Dask scheduler (executor kind dask; also GNSSFRAMEWORK_DASK_ADDRESS). Dask's "
+                        "protocol carries pickles: give only a scheduler you trust; a config file cannot name one")
     p.set_defaults(func=_cmd_compare, interrupt_hint="; finished batches are kept in --out and the same command "
                                                      "resumes")
     p = sub.add_parser("filter-positions", help="filter an NMEA position log (Liu et al. 2020's filters)",
@@ -841,8 +961,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit code. Library errors print one line, no traceback:
     exit 2 for configuration and input errors (a bad path included), 1 for other OS
     failures (a full disk), 130 for Ctrl-C; a closed pipe on stdout ends the printing
-    quietly. Coordinate options take negative values (`attach_negative_values`)."""
-    args = build_parser().parse_args(attach_negative_values(sys.argv[1:] if argv is None else argv))
+    quietly. Coordinate options take negative values (`attach_negative_values`); a
+    non-finite number option is refused."""
+    parser = build_parser()
+    args = parser.parse_args(attach_negative_values(sys.argv[1:] if argv is None else argv))
+    bad = _non_finite_option(parser, args)
+    if bad:
+        return _fail(bad, 2)
     stdout, sys.stdout = sys.stdout, _QuietPipe(sys.stdout)
     interrupted = _CtrlC()
     try:
@@ -863,6 +988,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         interrupted.restore()
         sys.stdout.flush()
         sys.stdout = stdout
+
+
+def _non_finite_option(parser: argparse.ArgumentParser, args: argparse.Namespace) -> str | None:
+    """``"--fs: must be a finite number, got nan"`` for the first number option given as
+    NaN or infinity (no option of any command means anything there), else ``None``."""
+    import math
+
+    flags: dict[str, str] = {}
+    stack = [parser]
+    while stack:
+        for action in stack.pop()._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                stack.extend(action.choices.values())
+            elif action.option_strings:
+                flags.setdefault(action.dest, max(action.option_strings, key=len))
+    for dest, value in vars(args).items():
+        values = value if isinstance(value, list) else [value]
+        for v in values:
+            if isinstance(v, float) and not math.isfinite(v):
+                return f"{flags.get(dest, dest)}: must be a finite number, got {v}"
+    return None
 
 
 class _CtrlC:

@@ -32,7 +32,7 @@ from typing import Any, ClassVar, Mapping, Optional
 import numpy as np
 from pydantic import Field
 
-from .errors import ConfigError, InvalidArgumentError, PluginError
+from .errors import ConfigError, InvalidArgumentError, InvalidInputError, PluginError
 from .estimation import FilterResult, Gaussian, LinearModel, filter_sequence
 from .plugin import Plugin, PluginParams
 from .signal.correlators import Correlators
@@ -313,12 +313,42 @@ class SequentialFilter(Plugin, abc.ABC):
         if not getattr(self, "_reset_done", False):
             raise InvalidArgumentError(f"{self.kind} {self.name!r}", "checked_step", "called before reset(batch_shape, "
                                        "context); call reset first")
+        inputs = _checked_inputs(self, inputs)
         out = self.step(inputs)
         missing = [n for n in self.provides if n not in out]
         if missing:
             raise PluginError(f"{self.kind} {self.name!r}: step() did not return {', '.join(missing)} "
                               f"that it declares in `provides`")
         return out
+
+
+def _checked_inputs(filt: "SequentialFilter", inputs: Mapping[str, Any]) -> Mapping[str, Any]:
+    """``inputs`` with every name ``filt.requires`` present and numeric: a missing name or
+    text where numbers go is an `InvalidInputError` naming the filter and the input; a
+    NumPy masked array's masked entries become NaN (missing measurements, as the readers
+    give them) instead of their hidden values."""
+    who = f"{filt.kind} {filt.name!r}"
+    if not isinstance(inputs, Mapping):
+        raise InvalidArgumentError(who, "checked_step", f"inputs must be a mapping of named arrays "
+                                   f"({', '.join(filt.requires) or 'none required'}), got {type(inputs).__name__}")
+    masked = {}
+    for name in filt.requires:
+        if name not in inputs:
+            raise InvalidInputError(who, f"inputs[{name!r}]", f"missing; step needs {', '.join(filt.requires)}")
+        value = inputs[name]
+        if isinstance(value, np.ma.MaskedArray):
+            masked[name] = np.ma.filled(value.astype(float), np.nan)
+            continue
+        if isinstance(value, (str, bytes)) or value is None:
+            kind = "text" if value is not None else "None"
+        elif isinstance(value, (np.ndarray, list, tuple)):
+            arr = np.asarray(value) if not isinstance(value, np.ndarray) else value
+            kind = "text" if arr.dtype.kind in "USV" else None
+        else:
+            kind = None
+        if kind is not None:
+            raise InvalidInputError(who, f"inputs[{name!r}]", f"must be numbers, got {kind} {value!r:.40}")
+    return {**inputs, **masked} if masked else inputs
 
 
 class ChannelFilter(SequentialFilter):

@@ -19,6 +19,7 @@ is caught with the field's name before any filter runs::
 from __future__ import annotations
 
 import inspect
+import math
 import re
 import types
 import typing
@@ -43,20 +44,64 @@ def _scalar_type(annotation: Any) -> type | None:
     return annotation if annotation in (int, float, bool) else None
 
 
+def _element_type(annotation: Any) -> type | None:
+    """``int``, ``float`` or ``bool`` of ``list[...]``/``tuple[...]`` elements (behind
+    ``Optional``/``Annotated``; a tuple's elements all of one type), else ``None``."""
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return _element_type(typing.get_args(annotation)[0])
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(annotation) if a is not type(None)]
+        return _element_type(args[0]) if len(args) == 1 else None
+    if origin in (list, tuple):
+        kinds = {_scalar_type(a) for a in typing.get_args(annotation) if a is not Ellipsis}
+        return kinds.pop() if len(kinds) == 1 else None
+    return None
+
+
+#: Largest magnitude of a number parameter: beyond it a covariance's products and squares
+#: overflow double precision (1e100 cubed is 1e300) and a filter returns finite nonsense
+#: (``q0 = 1e300`` gave an error RMS of 1e136) instead of failing.
+MAX_PARAMETER_MAGNITUDE = 1e100
+
+
+def _number_problem(value: Any, kind: type | None) -> str | None:
+    """Why ``value`` is no number of ``kind`` (int or float), or ``None``."""
+    if kind not in (int, float):
+        return None
+    if isinstance(value, (bool, str)):
+        return f"must be a number, not a {type(value).__name__} (got {value!r})"
+    if isinstance(value, float) and not math.isfinite(value):
+        return f"must be a finite number (got {value!r})"
+    if isinstance(value, (int, float)) and abs(value) > MAX_PARAMETER_MAGNITUDE:
+        return (f"{value:g} is beyond +-{MAX_PARAMETER_MAGNITUDE:g}, where a filter's squares and products "
+                "overflow double precision")
+    return None
+
+
 def refuse_quiet_conversions(model: type[BaseModel], data: Any) -> Any:
     """Refuse, naming the field, the inputs pydantic would quietly convert: a string or a
-    boolean for a number (``runs = "2"``, ``alpha = true``), a string or a number for a
-    boolean. Integers stay valid numbers (TOML's ``alpha = 1``)."""
+    boolean for a number (``runs = "2"``, ``alpha = true``, also as a list's element:
+    ``q0 = [true, 0.1, 0.01]``), a string or a number for a boolean; and a number that is
+    not finite or beyond `MAX_PARAMETER_MAGNITUDE` (``dt_s = inf``, ``q0 = [1e300, ...]``).
+    Integers stay valid numbers (TOML's ``alpha = 1``)."""
     if not isinstance(data, dict):
         return data
     fields = config_fields(model)
     for name, value in data.items():
         field = fields.get(name) if isinstance(name, str) else None
         kind = _scalar_type(field.annotation) if field is not None else None
-        if kind in (int, float) and isinstance(value, (bool, str)):
-            raise NestedFieldError(name, f"must be a number, not a {type(value).__name__} (got {value!r})")
+        problem = _number_problem(value, kind)
+        if problem:
+            raise NestedFieldError(name, problem)
         if kind is bool and isinstance(value, (str, int, float)) and not isinstance(value, bool):
             raise NestedFieldError(name, f"must be true or false (got {value!r})")
+        element = _element_type(field.annotation) if field is not None and kind is None else None
+        if element is not None and isinstance(value, (list, tuple)):
+            for i, item in enumerate(value):
+                problem = _number_problem(item, element)
+                if problem:
+                    raise NestedFieldError(f"{name}[{i}]", problem)
     return data
 
 

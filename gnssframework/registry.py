@@ -334,15 +334,20 @@ def get(kind: str, name: str) -> type:
     return _REGISTRY.get(kind, name)
 
 
-def create(kind: str, name: str, **params: Any) -> Any:
+def create(kind: str, name: str, *positional: Any, **params: Any) -> Any:
     """Instantiate a plugin, validating ``params`` with its pydantic model.
 
     Raises
     ------
     ConfigError
-        Unknown kind or name (with the known names and the closest one), or a bad
-        parameter (naming it and what it allows).
+        Unknown kind or name (with the known names and the closest one), a bad
+        parameter (naming it and what it allows), or a parameter given by position.
     """
+    if positional:
+        fields = ", ".join(getattr(get(kind, name), "Params").model_fields) or "(none)"
+        raise ConfigError(f"{kind} {name!r}", f"parameters are keywords (create({kind!r}, {name!r}, field=value)), "
+                          f"got {len(positional)} by position: {', '.join(repr(p) for p in positional)[:60]}; "
+                          f"its parameters: {fields}")
     return get(kind, name)(**params)
 
 

@@ -6,7 +6,7 @@ import dataclasses
 from typing import Any, Callable, Literal, Mapping
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from gnssframework.errors import ConfigError
 from gnssframework.estimation import AugmentedProblem, Augmentation, LinearModel, NonlinearModel
@@ -35,6 +35,20 @@ class ColoredAR1Params(PluginParams):
         description="'exact' keeps the w/V* cross covariance M = Q H^T (decorrelated transition); "
         "'paper' drops it as Liu et al. (2020) do (M = 0: Q' = Q, no J term)",
     )
+
+    @field_validator("psi", mode="before")
+    @classmethod
+    def _stationary(cls, value: Any) -> Any:
+        """|psi| < 1 (a stationary AR(1)), checked when the config loads rather than after
+        a comparison's first batches (a psi of 1e6 failed only at run time)."""
+        for v in value if isinstance(value, list) else [value]:
+            if v is None:
+                continue
+            if isinstance(v, (bool, str)) or not isinstance(v, (int, float)):
+                raise ValueError(f"must be a number or a list of numbers, got {v!r}")
+            if not abs(v) < 1:  # also NaN
+                raise ValueError(f"must satisfy |psi| < 1 (a stationary AR(1)), got {v!r}")
+        return value
 
 
 def _linear_measurement(model) -> np.ndarray:

@@ -18,7 +18,8 @@ from ..errors import InvalidArgumentError, InvalidInputError
 from .linalg import to_float
 from .types import Gaussian, LinearModel, NonlinearModel
 
-__all__ = ["as_measurement", "as_sequence", "to_float", "check_argument"]
+__all__ = ["as_measurement", "as_sequence", "to_float", "check_argument", "checked_model_at",
+           "check_model_functions"]
 
 
 def _has(*methods: str) -> Callable[[Any], bool]:
@@ -56,8 +57,49 @@ def check_argument(value: Any, argument: str, call: str) -> None:
     `InvalidArgumentError` saying what to pass, instead of an ``AttributeError`` deep in
     a filter. ``argument`` is a key of the table above, also the name in the message."""
     expected, ok = _ARGUMENTS[argument]
+    if isinstance(value, type) and argument != "model":  # the plugin class, not an instance of it
+        raise InvalidArgumentError(call, argument, f"expected {expected}; got the class {value.__name__}, not an "
+                                   "instance: create one (gf.registry.create(kind, name, **params))")
     if not ok(value):
         raise InvalidArgumentError(call, argument, f"expected {expected}; got {_describe(value)}")
+
+
+def checked_model_at(model_at: Callable[[int], Any], call: str) -> Callable[[int], Any]:
+    """``model_at`` (a caller's ``k -> model``) whose every result is checked to be a
+    `LinearModel` or `NonlinearModel`: a callable that returns ``None`` (a missing
+    ``return``) or anything else is an `InvalidArgumentError` naming the step."""
+
+    def checked(k: int):
+        try:
+            model = model_at(k)
+        except TypeError as exc:  # a callable of another signature
+            raise InvalidArgumentError(call, "model", f"the callable k -> model failed at step {k}: {exc}") from None
+        if not isinstance(model, (LinearModel, NonlinearModel)):
+            raise InvalidArgumentError(call, "model", f"the callable returned {_describe(model)} at step {k}; "
+                                       "expected a gf.LinearModel or gf.NonlinearModel")
+        return model
+
+    return checked
+
+
+def check_model_functions(model: Any, mean: np.ndarray, call: str) -> None:
+    """Call a `NonlinearModel`'s ``f`` and ``h`` once on ``mean`` (the initial state) and
+    refuse, naming the function, a result that is not a numeric array of the model's
+    dimension (a function that returns ``None``, a missing ``return``), instead of an
+    ``AttributeError`` deep in an estimator. A `LinearModel` has nothing to check."""
+    if not isinstance(model, NonlinearModel):
+        return
+    for fn, size, what in ((model.f, model.Q.shape[-1], "f"), (model.h, model.R.shape[-1], "h")):
+        try:
+            out = fn(np.asarray(mean, dtype=float))
+        except Exception as exc:  # noqa: BLE001 - the caller's function: say which one failed, and how
+            raise InvalidArgumentError(call, f"model.{what}", f"failed on the initial mean: {type(exc).__name__}: "
+                                       f"{exc}") from None
+        shape = getattr(out, "shape", None)
+        if out is None or shape is None or not shape or shape[-1] != size or \
+                getattr(out, "dtype", np.dtype(object)).kind not in "biuf":
+            raise InvalidArgumentError(call, f"model.{what}", f"returned {_describe(out)} for the initial mean; "
+                                       f"expected a float array of shape (..., {size})")
 
 
 def as_sequence(zs, filter_name: str) -> np.ndarray:

@@ -31,7 +31,10 @@ __all__ = [
 def to_float(value) -> np.ndarray:
     """``np.asarray(value, dtype=float)`` that refuses what it would mangle: complex
     values (NumPy drops the imaginary part with a ``ComplexWarning``), text and ragged
-    nests raise ``ValueError`` with a short reason."""
+    nests raise ``ValueError`` with a short reason. A NumPy masked array's masked
+    entries become NaN (missing), not the values hidden under the mask."""
+    if isinstance(value, np.ma.MaskedArray):
+        value = np.ma.filled(value.astype(float) if not np.iscomplexobj(value) else value, np.nan)
     try:
         arr = np.asarray(value)
         complex_ = np.iscomplexobj(arr)

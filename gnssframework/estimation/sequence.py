@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import ConfigError, InvalidInputError
 from .adaptation import Augmentation, NoiseAdapter
-from .boundary import as_sequence, check_argument, to_float
+from .boundary import as_sequence, check_argument, check_model_functions, checked_model_at, to_float
 from .estimator import Estimator, OnFailure, OnMissing
 from .step import RECOVERIES, FilterStep
 from .types import Gaussian, Model
@@ -179,10 +179,11 @@ def filter_sequence(
         problem = augmentation.apply(model, zs)
         zs, model_at, epochs = problem.zs, problem.model_at, problem.epochs
     else:
-        model_at = model if callable(model) else (lambda k: model)
+        model_at = checked_model_at(model, "filter_sequence") if callable(model) else (lambda k: model)
         epochs = np.arange(zs.shape[0])
 
     m0 = model_at(0)
+    check_model_functions(m0, initial.mean, "filter_sequence")
     m = m0.R.shape[-1]
     if zs.shape[-1] != m:
         hint = (f"; a batch of {zs.shape[-1]} sequences of {m} measurement{'s' if m > 1 else ''} is "

@@ -155,6 +155,13 @@ class Claim(BaseModel):
                 raise ValueError("an ordering needs direction = \"lower\" or \"higher\", ratio_max or ratio_min")
             if self.reference == self.candidate:
                 raise ValueError("the reference must be another candidate")
+        for k in ("ratio_max", "ratio_min"):
+            value = getattr(self, k)
+            if value is not None and not math.isfinite(value):
+                raise ValueError(f"{k} = {value!r} must be a finite number")
+        if self.ratio_max is not None and self.ratio_min is not None and not self.ratio_min < self.ratio_max:
+            raise ValueError(f"ratio_min = {self.ratio_min:g} is not below ratio_max = {self.ratio_max:g}: the claim "
+                             "could never hold")
         if self.within is not None and not self.within[0] < self.within[1]:
             raise ValueError(f"within = {list(self.within)} must be [low, high] with low < high")
         return self

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from pathlib import Path
 from typing import Any, Literal
 
@@ -21,6 +22,7 @@ from ..plugin import validation_message
 from ..plugin_ref import ComponentRef, PluginSpec
 from .candidates import CandidatePlan, resolve_candidate
 from .claims import Claim, check_claims
+from .file_names import check_file_name
 from .sweeps import Sweep, check_unique_labels, expand_sweep
 from .tuning import Tuning, check_tuning
 
@@ -31,9 +33,16 @@ __all__ = ["Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "Claim"
 #: cheapest scenario take hours; a larger value is a typo that would only hang.
 MAX_RUNS = 1_000_000
 
+#: Most cases and candidates of one comparison (their product times the batches is the
+#: work: 1000 x 1000 is already a million batches); the same bound as a sweep's points.
+MAX_CASES = 1000
+MAX_CANDIDATES = 1000
+
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
+
+
 
 
 _REF = "the {kind} plugin: its name, or {{ name, params }}"
@@ -53,6 +62,8 @@ class Candidate(_Strict):
         default_factory=dict, description="options the scenario applies to this candidate, not plugins (see the "
         "scenario's page; e.g. multipath's oracle)")
 
+    _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
+
     def components(self) -> dict[str, PluginSpec]:
         """The candidate's plugins by kind (`gnssframework.plugin_ref.PluginSpec`)."""
         return {k: getattr(self, k) for k in COMPONENT_KINDS if getattr(self, k) is not None}
@@ -68,8 +79,14 @@ class Case(BaseModel):
         "(default: its own name): cases with the same streams draw the same random numbers run by run (common "
         "random numbers across cases, which claims with reference_case pair)")
 
+    _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
+
     def params(self) -> dict[str, Any]:
         return dict(self.model_extra or {})
+
+
+#: Environment variable with the Dask scheduler address of ``executor.kind = "dask"``.
+DASK_ADDRESS_ENV = "GNSSFRAMEWORK_DASK_ADDRESS"
 
 
 class Executor(_Strict):
@@ -78,13 +95,17 @@ class Executor(_Strict):
     kind: Literal["local", "dask"] = "local"
     workers: int = Field(0, ge=0, le=1024, strict=True, description="local processes (0: one per core, 1: in this "
                          "process), at most 1024")
-    address: str = Field("", description="dask scheduler address; empty starts a LocalCluster")
+    address: str = Field("", description="dask scheduler address, from the Python API only: a config file may not "
+                         "set it (Dask's protocol carries pickles, so the scheduler a config names runs code here); "
+                         f"give it with `compare --dask-address` or the {DASK_ADDRESS_ENV} environment variable. "
+                         "Empty: a LocalCluster on this machine")
 
 
 class ComparisonConfig(_Strict):
     """A Monte Carlo comparison."""
 
-    name: str = "comparison"
+    name: str = Field("comparison", description="the comparison's name: its results folder results/<name> "
+                      "without --out, so a plain file name (no '/', '.', '..' or control characters)")
     description: str = ""
     runs: int = Field(10, ge=1, le=MAX_RUNS, strict=True, description="Monte Carlo runs per case and candidate, "
                       f"1 to {MAX_RUNS}")
@@ -93,8 +114,10 @@ class ComparisonConfig(_Strict):
     seed: int = Field(0, ge=0, lt=2**63, strict=True, description="seed of the runs' random numbers, 0 to 2^63 - 1")
     executor: Executor = Field(default_factory=Executor)
     scenario: dict[str, Any] = Field(..., description="scenario kind and its parameters (see the scenario's page)")
-    cases: list[Case] = Field(..., min_length=1)
-    candidates: list[Candidate] = Field(..., min_length=1)
+    cases: list[Case] = Field(..., min_length=1, max_length=MAX_CASES,
+                              description=f"the conditions compared, 1 to {MAX_CASES}")
+    candidates: list[Candidate] = Field(..., min_length=1, max_length=MAX_CANDIDATES,
+                                        description=f"the filter compositions compared, 1 to {MAX_CANDIDATES}")
     metrics: list[str] = Field(default_factory=list, description="metrics to report (default: all of the scenario)")
     reference: str | None = Field(None, description="candidate the others are compared with (paired differences); "
                                   "default: the first candidate")
@@ -110,6 +133,8 @@ class ComparisonConfig(_Strict):
     claims: list[Claim] = Field(default_factory=list, description="orderings and bounds the results must show, "
                                 "each checked from the paired runs (holds / fails / not significant); "
                                 "`compare --check` exits 1 unless every claim holds")
+
+    _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
 
     @field_validator("candidates", "cases")
     @classmethod
@@ -246,6 +271,25 @@ def _as_read(params: BaseModel) -> dict[str, Any]:
     return params.model_dump(mode="json", exclude_unset=True)
 
 
+_INDEXED = re.compile(r"\b(candidates|cases)\[(\d+)\]")
+
+
+def with_names(exc: ConfigError, data: Any) -> ConfigError:
+    """``exc`` whose field names a case or candidate by index (``candidates[2].nav_filter...``)
+    with the name the config gives it appended: ``... (candidates[2] is 'AUKF1')``, so the
+    user finds it as written. The field itself is unchanged."""
+    found = _INDEXED.search(exc.field or "")
+    if not found or not isinstance(data, dict):
+        return exc
+    items = data.get(found[1])
+    index = int(found[2])
+    item = items[index] if isinstance(items, list) and index < len(items) else None
+    name = item.get("name") if isinstance(item, dict) else None
+    if not isinstance(name, str) or repr(name) in exc.detail:
+        return exc
+    return type(exc)(exc.field, f"{exc.detail} ({found[0]} is {name!r})")
+
+
 def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
     """Read and validate a comparison TOML file.
 
@@ -258,6 +302,14 @@ def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
     """
     path = Path(path)
     data = read_toml(path)
+    executor = data.get("executor")
+    if isinstance(executor, dict) and executor.get("address"):
+        # Dask's protocol carries pickles: a shared config that names a scheduler would make
+        # whoever runs it execute that scheduler's code and send it theirs.
+        raise ConfigError("executor.address", "a Dask scheduler address is not taken from a config file (Dask's "
+                          "protocol carries pickles: the scheduler it names would run code here); give it with "
+                          f"`gnssframework compare --dask-address ADDR` or the {DASK_ADDRESS_ENV} environment "
+                          "variable")
     data.update({k: v for k, v in overrides.items() if v is not None})
     try:
         config = ComparisonConfig.model_validate(data)

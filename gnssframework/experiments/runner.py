@@ -32,12 +32,13 @@ from typing import Callable, Iterable
 import numpy as np
 
 from ..errors import ConfigError, GnssFrameworkError, RunFailure, WorkerError
-from .config import ComparisonConfig
+from .config import DASK_ADDRESS_ENV, ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text
 from .folder import claim_folder
 from .metric_components import evaluate
 from .metrics import metric_component
 from .run_plan import RunPlan, resolve, task_streams
+from .store import plan_batches
 from .tasks import Task, plan, series_file
 
 __all__ = ["Task", "plan", "task_streams", "run_task", "run_comparison", "series_file"]
@@ -126,8 +127,9 @@ def _execute(jobs: list[tuple[RunPlan, Task]], executor) -> Iterable[tuple[int, 
             raise ConfigError("executor.kind", "'dask' needs the optional extra: pip install 'gnssframework[dask]'") \
                 from None
         cluster = None
-        if ex.address:
-            client = Client(ex.address)
+        address = ex.address or os.environ.get(DASK_ADDRESS_ENV, "")  # never from a config file (see Executor)
+        if address:
+            client = Client(address)
         else:
             cluster = LocalCluster(n_workers=ex.workers or os.cpu_count() or 1, threads_per_worker=1,
                                    processes=False, dashboard_address=None)
@@ -189,6 +191,33 @@ def comparison_points(config: ComparisonConfig) -> list[tuple[str | None, Compar
     for i, sweep in enumerate(config.sweeps):
         points += [(f"{sweep.label}={value}", point) for value, point in config.sweep_points(i)]
     return points
+
+
+def work_estimate(config: ComparisonConfig) -> tuple[int, int]:
+    """``(batches, runs)`` a comparison computes from scratch: every case x candidate x
+    batch of the comparison and of each sweep point (a point equal to another counted
+    once), plus every tuning trial's, each run being one candidate's filter over one case
+    (2 cases x 3 candidates x 10 runs in batches of 5: 12 batches, 60 runs)."""
+    batches = runs = 0
+    seen = set()
+    for _, point in comparison_points(config):
+        key = point.identity()
+        if key in seen:
+            continue
+        seen.add(key)
+        per = len(point.cases) * len(point.candidates)
+        batches += per * len(plan_batches(point.runs, point.batch_size))
+        runs += per * point.runs
+    tuning = config.tuning
+    if tuning is not None:
+        from .tuning import grid_points, resolve_free
+
+        cases = len(tuning.cases) if tuning.cases else len(config.cases)
+        for params in resolve_free(config).values():
+            trials = len(grid_points(params, tuning.trials)) if tuning.sampler == "grid" else tuning.trials
+            batches += trials * cases * len(plan_batches(tuning.runs, config.batch_size))
+            runs += trials * cases * tuning.runs
+    return batches, runs
 
 
 def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = True,

@@ -111,10 +111,29 @@ class ResultStore:
         return None if row is None else int(row[0])
 
     def finished_batches(self, config: str) -> set[tuple[str, str, int, int]]:
-        """``(case, candidate, first_run, runs)`` of every finished batch of ``config``."""
+        """``(case, candidate, first_run, runs)`` of every finished batch of ``config`` whose
+        metric rows are all there.
+
+        A batch's ``batches`` row says it committed; its metric rows are checked too: every
+        metric the config's batches store must have one row per run of the batch. A batch
+        with rows missing (a store edited or damaged by hand) is not finished: the
+        comparison recomputes it instead of averaging over the runs that are left.
+        """
         with self._connect() as con:
-            rows = con.execute('SELECT "case", candidate, first_run, runs FROM batches WHERE config = ?', (config,))
-            return {(c, k, int(f), int(n)) for c, k, f, n in rows}
+            rows = con.execute(
+                'SELECT b."case", b.candidate, b.first_run, b.runs, m.metric, COUNT(DISTINCT m.run) FROM batches b '
+                'LEFT JOIN metrics m ON m.config = b.config AND m."case" = b."case" AND m.candidate = b.candidate '
+                "AND m.first_run = b.first_run AND m.batch_runs = b.runs AND m.run >= b.first_run "
+                "AND m.run < b.first_run + b.runs WHERE b.config = ? "
+                'GROUP BY b."case", b.candidate, b.first_run, b.runs, m.metric', (config,)).fetchall()
+        held: dict[tuple[str, str, int, int], dict[str, int]] = {}
+        for c, k, f, n, metric, count in rows:
+            counts = held.setdefault((c, k, int(f), int(n)), {})
+            if metric is not None:
+                counts[metric] = int(count)
+        every = {m for counts in held.values() for m in counts}
+        return {batch for batch, counts in held.items()
+                if every and set(counts) == every and all(v == batch[3] for v in counts.values())}
 
     def add_batch(self, config: str, case: str, candidate: str, first_run: int,
                   metrics: dict[str, np.ndarray]) -> None:

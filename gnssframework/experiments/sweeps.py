@@ -37,14 +37,20 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from ..errors import ConfigError
 from ..io.files import atomic_open, write_json
+from .file_names import check_file_name
 from .number_format import format_estimate
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
 
 __all__ = ["Sweep", "expand_sweep", "sweep_rows", "write_sweeps"]
+
+
+#: Most points of one sweep, given as values or as a range: each point is a whole
+#: comparison's work, and validating 100,000 listed values alone took minutes.
+MAX_SWEEP_POINTS = 1000
 
 
 class Sweep(BaseModel):
@@ -56,13 +62,19 @@ class Sweep(BaseModel):
                       "cases.<case>.<field> or candidates.<candidate>.<kind>.params.<field>")
     name: str | None = Field(None, pattern=r"^[A-Za-z0-9_.+-]+$",
                              description="name in reports and file names (default: the path's last part)")
-    values: list[Any] | None = Field(None, min_length=1, description="the values, in order")
+    values: list[Any] | None = Field(None, min_length=1, max_length=MAX_SWEEP_POINTS,
+                                     description=f"the values, in order (at most {MAX_SWEEP_POINTS})")
     start: float | None = Field(None, description="first value of a range")
     stop: float | None = Field(None, description="last value of a range (inclusive)")
     step: float | None = Field(None, description="spacing of a range (with start and stop)")
-    num: int | None = Field(None, ge=2, le=1000, description="number of evenly spaced values of a range")
+    num: int | None = Field(None, ge=2, le=MAX_SWEEP_POINTS, description="number of evenly spaced values of a range")
     cases: list[str] | None = Field(None, min_length=1, description="the cases the sweep's points run "
                                     "(default: every case)")
+
+    @field_validator("name")
+    @classmethod
+    def _plain_name(cls, value: str | None) -> str | None:
+        return None if value is None else check_file_name(value)
 
     @model_validator(mode="after")
     def _one_form(self) -> "Sweep":
@@ -74,11 +86,14 @@ class Sweep(BaseModel):
             return self
         if self.start is None or self.stop is None or (self.step is None) == (self.num is None):
             raise ValueError("give values = [...], or start and stop with exactly one of step and num")
+        for k in ("start", "stop", "step"):
+            if getattr(self, k) is not None and not math.isfinite(getattr(self, k)):
+                raise ValueError(f"{k} = {getattr(self, k)!r} must be a finite number")
         if self.step is not None:
             if self.step == 0 or (self.stop - self.start) / self.step < 0:
                 raise ValueError(f"step = {self.step} does not lead from start = {self.start} to stop = {self.stop}")
-            if (self.stop - self.start) / self.step > 1000:
-                raise ValueError("more than 1000 points; use a larger step")
+            if (self.stop - self.start) / self.step > MAX_SWEEP_POINTS:
+                raise ValueError(f"more than {MAX_SWEEP_POINTS} points; use a larger step")
         return self
 
     @property

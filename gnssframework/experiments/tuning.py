@@ -79,7 +79,15 @@ class FreeParameter(BaseModel):
 
     @model_validator(mode="after")
     def _one_form(self) -> "FreeParameter":
+        for end in ("low", "high"):
+            value = getattr(self, end)
+            if value is not None and not math.isfinite(value):
+                raise ValueError(f"{end} must be a finite number, got {value!r} (a sampler cannot draw from an "
+                                 "unbounded range)")
         if self.values is not None:
+            bad = [v for v in self.values if isinstance(v, float) and not math.isfinite(v)]
+            if bad:
+                raise ValueError(f"values must be finite, got {bad[0]!r}")
             if self.low is not None or self.high is not None:
                 raise ValueError("give values = [...] or low and high, not both")
             return self
@@ -369,6 +377,11 @@ def tune(config, store, out: Path, execute, progress: bool = False) -> dict[str,
         finite = [(v, o) for v, o in history if math.isfinite(o)]
         if not finite:
             raise GnssFrameworkError(f"tuning: every trial of candidate {cand!r} failed (objective undefined); "
+                                     "narrow the ranges in tuning.free")
+        failed = len(history) - len(finite)
+        if 2 * failed > len(history):  # the "best" of a few survivors is not a tuning
+            raise GnssFrameworkError(f"tuning: {failed} of {len(history)} trials of candidate {cand!r} failed "
+                                     "(objective undefined): the tuned value would be the best of the few that ran; "
                                      "narrow the ranges in tuning.free")
         best_values, best = min(finite, key=lambda t: t[1])
         given = [_get(config, cand, keys) for _, keys, _ in params]

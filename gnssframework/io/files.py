@@ -14,6 +14,7 @@ and jq, JavaScript and most databases reject them. A float that is not finite be
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -46,7 +47,13 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO
     if mode not in ("w", "wb"):
         raise ValueError(f"atomic_open writes whole files: mode 'w' or 'wb', not {mode!r}")
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    if not path.parent.is_dir():  # mkstemp would name its temporary file, not the folder the user gave
+        raise FileNotFoundError(errno.ENOENT, f"the output folder {path.parent} does not exist (create it or "
+                                "choose another path)", str(path))
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(path)) from None
     try:
         with os.fdopen(fd, mode, **kwargs) as fh:
             yield fh
@@ -54,6 +61,12 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO
             os.fsync(fh.fileno())
         os.chmod(tmp, 0o644)  # mkstemp makes 0600; results are meant to be shared
         os.replace(tmp, path)
+    except OSError as exc:  # a full disk names no file: name the output being written
+        with suppress(FileNotFoundError):
+            os.unlink(tmp)
+        if exc.filename is None or str(exc.filename) == tmp:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+        raise
     except BaseException:
         with suppress(FileNotFoundError):
             os.unlink(tmp)

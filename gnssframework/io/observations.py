@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import ConfigError, DataFileError
 from ..signal.gps_l1ca import GPS_L1CA
-from .rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M, RinexScan, check_rinex3_obs
+from .rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M, RinexScan, _check_bounds, check_rinex3_obs
 from .skipped import refuse_or_keep
 from .text import check_input_file
 
@@ -379,6 +379,7 @@ def read_observations(path: str | Path, select: str = "G", pseudorange_min_m: fl
         georinex (naming the epoch it fails on), an epoch georinex lost, or no observation
         of the selection.
     """
+    _check_bounds(pseudorange_min_m, pseudorange_max_m)  # inverted or NaN bounds: before reading anything
     path = check_input_file(path)  # not a device, a pipe or a directory: read whole below
     systems, prns = _parse_select(select)
     text = _decompress(path)
@@ -413,7 +414,29 @@ def read_observations(path: str | Path, select: str = "G", pseudorange_min_m: fl
         channels = _glonass_channels(source) if "R" in systems else {}
     stated = _rinex3_epochs(scan, systems) if scan is not None else stated
     epochs = _match_epochs(path, stated, obs.time.values) if obs.time.size else np.array([], "datetime64[ns]")
-    return _assemble(path, obs, epochs, version, systems, prns, channels, scan)
+    out = _assemble(path, obs, epochs, version, systems, prns, channels, scan)
+    if scan is None:  # RINEX 2: the bounds RINEX 3's line checks apply, applied to the read values
+        out.skipped = _rinex2_out_of_bounds(out, stated, (pseudorange_min_m, pseudorange_max_m))
+        refuse_or_keep(path, out.skipped, strict)
+    return out
+
+
+def _rinex2_out_of_bounds(obs: Observations, stated: list[tuple[int, np.datetime64, str]],
+                          bounds_m: tuple[float, float]) -> list[tuple[int, str]]:
+    """Blank (in place) the pseudoranges of a RINEX 2 file outside ``bounds_m`` and list
+    them as ``(line of their epoch, reason)``, worded as `check_rinex3_obs` words them."""
+    lo, hi = bounds_m
+    code = obs.pseudorange_m
+    bad = np.isfinite(code) & ~((code >= lo) & (code <= hi))
+    line_of = {t: line for line, t, _ in stated}
+    skipped = []
+    for k, j in zip(*np.nonzero(bad)):
+        sv = str(obs.sv[j])
+        name = obs.signal.get(sv[0], ("code",))[0]
+        skipped.append((line_of.get(obs.epoch[k], 0), f"{sv} {name} = {code[k, j]:.6g} m outside [{lo:g}, {hi:g}] m "
+                                                      "(pseudorange_min_m/pseudorange_max_m): observation skipped"))
+    code[bad] = np.nan
+    return sorted(skipped)
 
 
 def _names(system: str, version: float) -> tuple[str, str]:

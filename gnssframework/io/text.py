@@ -92,7 +92,8 @@ def read_toml(path: str | Path) -> dict:
         If the file is missing or not TOML, with the line of the first error.
     """
     try:
-        return tomllib.loads(read_input_text(path))
+        # A UTF-8 byte-order mark (many Windows editors write one) is no TOML: dropped.
+        return tomllib.loads(read_input_text(path).removeprefix("\ufeff"))
     except tomllib.TOMLDecodeError as exc:
         # Python 3.11's TOMLDecodeError carries the position only in its message.
         found = re.search(r"\(at line (\d+), column \d+\)", str(exc))

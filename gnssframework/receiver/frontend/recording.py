@@ -49,6 +49,10 @@ class Recording:
     trailing_bytes
         Bytes after the last whole chunk (a truncated last sample): never read, and
         reported by the commands.
+    nonfinite_zeroed
+        Non-finite values (NaN, inf) of a floating-point format set to 0 in what was
+        read so far (a sample read twice counts twice), reported by the commands: one NaN
+        would otherwise spread through a whole FFT search and hide every satellite.
     """
 
     def __init__(self, path: str | Path, info: RecordingInfo) -> None:
@@ -59,6 +63,16 @@ class Recording:
         bpc, spc = self.source.bytes_per_chunk, self.source.samples_per_chunk
         self.n_samples = (size // bpc) * spc
         self.trailing_bytes = size % bpc
+        self.nonfinite_zeroed = 0
+        self._floating = "f" in self.source.sigmf_datatype
+
+    def _zero_nonfinite(self, x: np.ndarray) -> np.ndarray:
+        """``x`` (a fresh array) with NaN/inf values set to 0, counted in `nonfinite_zeroed`."""
+        bad = ~np.isfinite(x)
+        if bad.any():
+            x = np.where(bad, np.zeros((), x.dtype), x)
+            self.nonfinite_zeroed += int(bad.sum())
+        return x
 
     @property
     def is_complex(self) -> bool:
@@ -81,6 +95,8 @@ class Recording:
         last = -(-(start + count) // spc)
         raw = np.fromfile(self.path, dtype=np.uint8, count=(last - first) * bpc, offset=first * bpc)
         x = self.source.decode(raw)[start - first * spc:start - first * spc + count]
+        if self._floating:
+            x = self._zero_nonfinite(x)
         if self.is_complex and self.info.q_sign < 0:
             x = np.conj(x)
         return x
@@ -101,7 +117,8 @@ class Recording:
         count = max(0, min(count, self.n_samples - start))
         bpc = self.source.bytes_per_chunk
         raw = np.fromfile(self.path, dtype=np.uint8, count=count * bpc, offset=start * bpc)
-        return raw.view(stored).astype(np.dtype(stored).newbyteorder("="), copy=False)
+        out = raw.view(stored).astype(np.dtype(stored).newbyteorder("="), copy=False)
+        return self._zero_nonfinite(out) if self._floating else out
 
     def blocks(self, block_samples: int, start: int = 0, stop: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
         """``(first_sample, samples)`` blocks of ``block_samples`` from ``start`` to ``stop``."""
@@ -135,27 +152,44 @@ def open_recording(path: str | Path, format: str | None = None, sample_rate_hz: 
         IF a GPS L1 C/A receiver cannot use, or a file too short to hold one sample.
     """
     path = Path(path)
+    if path.exists() and not path.is_file():
+        raise ConfigError("recording", f"{path}: not a regular file (a device, pipe or folder): give a file of "
+                                       "recorded samples")
     if not path.is_file():
         raise ConfigError("recording", f"{path}: no such file")
     meta_file = meta_path_for(path)
     meta = read_sigmf_meta(meta_file) if meta_file.is_file() and meta_file != path else SigmfInfo(None, None, None,
                                                                                                    None, None)
+    def field(parameter: str, given, meta_key: str) -> str:
+        """The parameter's name, or the metadata file's field where the value came from it."""
+        return parameter if given is not None else f"{meta_file} {meta_key}"
+
     fmt = _pick("format", format, meta.format)
     known = registry.names("sample_source")
     if fmt not in known:
-        raise ConfigError("format", f"unknown sample format {fmt!r}; known: {', '.join(known)}")
+        raise ConfigError(field("format", format, "global core:datatype"),
+                          f"unknown sample format {fmt!r}; known: {', '.join(known)}")
     fs = float(_pick("sample_rate_hz", sample_rate_hz, meta.sample_rate_hz))
     fif = float(_pick("if_hz", if_hz, meta.if_hz, 0.0))
     qs = int(_pick("q_sign", q_sign, meta.q_sign, 1))
+    fs_field = field("sample_rate_hz", sample_rate_hz, "global core:sample_rate")
+    if_field = field("if_hz", if_hz, "captures[0] core:frequency")
     if not np.isfinite(fs) or fs < 2.046e6:
-        raise ConfigError("sample_rate_hz", f"{fs:g} Hz is below the C/A main lobe (needs >= 2.046 MHz)")
+        raise ConfigError(fs_field, f"{fs:g} Hz is below the C/A main lobe (needs >= 2.046 MHz)")
+    if not np.isfinite(fif):
+        raise ConfigError(if_field, f"must be a finite number of Hz, got {fif:g}")
     if qs not in (1, -1):
         raise ConfigError("q_sign", f"must be 1 or -1, got {qs}")
     rec = Recording(path, RecordingInfo(fmt, fs, fif, qs, meta.start_time))
     if not rec.is_complex and not 0 < fif < fs / 2:
-        raise ConfigError("if_hz", f"real samples need 0 < IF < fs/2 = {fs / 2:g} Hz, got {fif:g}")
+        raise ConfigError(if_field, f"real samples need 0 < IF < fs/2 = {fs / 2:g} Hz, got {fif:g}")
     if rec.is_complex and abs(fif) >= fs / 2:
-        raise ConfigError("if_hz", f"complex samples need |IF| < fs/2 = {fs / 2:g} Hz, got {fif:g}")
+        raise ConfigError(if_field, f"complex samples need |IF| < fs/2 = {fs / 2:g} Hz, got {fif:g}")
     if rec.n_samples == 0:
         raise ConfigError("recording", f"{path}: holds no whole sample of format {fmt}")
+    if meta.sample_start:  # the metadata describes the samples from there on: not read from a later start
+        where = "beyond the end of" if meta.sample_start >= rec.n_samples else "inside"
+        raise ConfigError(f"{meta_file} captures[0] core:sample_start",
+                          f"{meta.sample_start} is {where} the {rec.n_samples} samples of {path.name}: a first capture "
+                          "that does not start at sample 0 is not supported (cut the file there and set 0)")
     return rec

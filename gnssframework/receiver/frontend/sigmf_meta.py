@@ -11,7 +11,9 @@ this project's namespace ``gnssframework:`` in the global object.
 
 from __future__ import annotations
 
+import datetime as dt
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,13 +29,17 @@ FORMAT_KEY = "gnssframework:format"
 
 @dataclass(frozen=True)
 class SigmfInfo:
-    """What a SigMF metadata file says about a recording (``None`` where it says nothing)."""
+    """What a SigMF metadata file says about a recording (``None`` where it says nothing).
+
+    ``sample_start`` is the first capture's ``core:sample_start`` (the sample its
+    frequency and time apply from; ``None`` when not stated)."""
 
     format: str | None
     sample_rate_hz: float | None
     if_hz: float | None
     q_sign: int | None
     start_time: str | None
+    sample_start: int | None = None
 
 
 def meta_path_for(recording: str | Path) -> Path:
@@ -42,49 +48,142 @@ def meta_path_for(recording: str | Path) -> Path:
     return p.with_suffix(".sigmf-meta")
 
 
+#: Largest metadata file read (a SigMF file for one recording is a few kB; a larger one is
+#: not metadata of a recording: refused before parsing).
+MAX_META_BYTES = 16 * 1024 * 1024
+
+#: Largest sample rate accepted, as SigMF's schema bounds ``core:sample_rate`` (1 THz).
+MAX_SAMPLE_RATE_HZ = 1e12
+
+
+def _number(path: Path, where: str, value, *, positive: bool = False, limit: float | None = None) -> float | None:
+    """``value`` of field ``where`` as a finite float (``None`` stays ``None``), else a
+    `DataFileError` naming the file and the field."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise DataFileError(str(path), None, f"{where} must be a number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise DataFileError(str(path), None, f"{where} must be a finite number, got {value!r}")
+    if positive and not x > 0:
+        raise DataFileError(str(path), None, f"{where} must be > 0, got {value!r}")
+    if limit is not None and abs(x) > limit:
+        raise DataFileError(str(path), None, f"{where} = {value!r} is beyond {limit:g}")
+    return x
+
+
+def _load_json(path: Path) -> object:
+    """The file's JSON, or a `DataFileError` naming it: too large, not UTF-8, not JSON,
+    nested too deeply."""
+    if path.stat().st_size > MAX_META_BYTES:
+        raise DataFileError(str(path), None, f"{path.stat().st_size} bytes: too large for SigMF metadata "
+                            f"(at most {MAX_META_BYTES})")
+    data = path.read_bytes()
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise DataFileError(str(path), line, f"not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
+                            f"{exc.start}): SigMF metadata is UTF-8 JSON") from None
+    try:
+        return json.loads(text, parse_constant=lambda c: float(c))
+    except json.JSONDecodeError as exc:
+        raise DataFileError(str(path), exc.lineno, f"not JSON: {exc.msg}") from None
+    except RecursionError:
+        raise DataFileError(str(path), None, "JSON nested too deeply to be SigMF metadata") from None
+
+
+def _is_iso_datetime(value: object) -> bool:
+    """Whether ``value`` is an ISO 8601 date-time string (``Z`` for UTC accepted)."""
+    if not isinstance(value, str) or "T" not in value:
+        return False
+    try:
+        dt.datetime.fromisoformat(value.replace("Z", "+00:00"))
+    except ValueError:
+        return False
+    return True
+
+
+def _check_fields(path: Path, meta: object) -> tuple[dict, list]:
+    """The global object and the captures, each field this project reads checked for its
+    type and range (the schema is only checked when the datatype is SigMF's)."""
+    if not isinstance(meta, dict):
+        raise DataFileError(str(path), None, f"SigMF metadata is a JSON object, got a {type(meta).__name__}")
+    glob = meta.get("global", {})
+    if not isinstance(glob, dict):
+        raise DataFileError(str(path), None, f"global must be a JSON object, got {glob!r:.40}")
+    captures = meta.get("captures", [])
+    if not isinstance(captures, list) or not all(isinstance(c, dict) for c in captures):
+        raise DataFileError(str(path), None, f"captures must be a list of JSON objects, got {captures!r:.40}")
+    for key in ("core:datatype", FORMAT_KEY):
+        if key in glob and not isinstance(glob[key], str):
+            raise DataFileError(str(path), None, f"global {key} must be a string, got {glob[key]!r}")
+    if glob.get("core:datatype") is None and glob.get(FORMAT_KEY) is None:
+        raise DataFileError(str(path), None, "global core:datatype missing: the samples' format (e.g. \"ci8\")")
+    _number(path, "global core:sample_rate", glob.get("core:sample_rate"), positive=True, limit=MAX_SAMPLE_RATE_HZ)
+    _number(path, f"global {IF_KEY}", glob.get(IF_KEY), limit=MAX_SAMPLE_RATE_HZ)
+    first = captures[0] if captures else {}
+    _number(path, "captures[0] core:frequency", first.get("core:frequency"), positive=True, limit=MAX_SAMPLE_RATE_HZ)
+    start = first.get("core:sample_start")
+    if start is not None and (isinstance(start, bool) or not isinstance(start, int) or start < 0):
+        raise DataFileError(str(path), None, f"captures[0] core:sample_start must be a whole number >= 0, got "
+                            f"{start!r}")
+    when = first.get("core:datetime")
+    if when is not None and not _is_iso_datetime(when):
+        raise DataFileError(str(path), None, "captures[0] core:datetime must be an ISO 8601 date and time string "
+                            f"(2021-12-02T08:47:00Z), got {when!r}")
+    return glob, captures
+
+
 def read_sigmf_meta(path: str | Path, carrier_freq_hz: float = GPS_L1CA.carrier_freq_hz) -> SigmfInfo:
     """Read a SigMF metadata file.
 
-    The JSON is validated by ``sigmf``'s schema; fields this project needs are then read
-    from the global object and the first capture (the IF relative to ``carrier_freq_hz``).
+    The fields this project reads are checked for type and range first (each error names
+    the file and the field); the JSON is then validated by ``sigmf``'s schema when its
+    datatype is SigMF's, and the fields are read from the global object and the first
+    capture.
 
     Raises
     ------
     DataFileError
-        Naming the file, for JSON or schema errors.
+        Naming the file (and the field or line): not UTF-8, not JSON, nested too deeply,
+        a field of the wrong type or out of range, a schema error.
     """
+    from jsonschema.exceptions import ValidationError as SchemaError
     from sigmf.error import SigMFError
     from sigmf.sigmffile import SigMFFile
 
     path = Path(path)
-    try:
-        meta = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise DataFileError(str(path), exc.lineno, f"not JSON: {exc.msg}") from None
-    glob = meta.get("global", {}) if isinstance(meta, dict) else {}
+    meta = _load_json(path)
+    glob, captures = _check_fields(path, meta)
     fmt = glob.get(FORMAT_KEY)
     try:
         sig = SigMFFile(metadata=meta, skip_checksum=True)
         if fmt is None:  # a datatype SigMF knows: the schema checks it
             sig.validate()
-    except SigMFError as exc:
+    except SchemaError as exc:
+        where = " ".join(str(k) for k in exc.absolute_path) or "the metadata"
+        raise DataFileError(str(path), None, f"not valid SigMF metadata: {where}: {exc.message}") from None
+    except (SigMFError, KeyError, TypeError, ValueError, AttributeError) as exc:
         raise DataFileError(str(path), None, f"not valid SigMF metadata: {exc}") from None
-    captures = meta.get("captures") or [{}]
-    freq = captures[0].get("core:frequency")
+    first = captures[0] if captures else {}
+    freq = first.get("core:frequency")
     if_hz = glob.get(IF_KEY)
     if if_hz is None and freq is not None:
         if_hz = carrier_freq_hz - float(freq)
     q_sign = glob.get(Q_SIGN_KEY)
-    if q_sign not in (None, 1, -1):
+    if q_sign not in (None, 1, -1) or isinstance(q_sign, bool):
         raise DataFileError(str(path), None, f"{Q_SIGN_KEY} must be 1 or -1, got {q_sign!r}")
     rate = glob.get("core:sample_rate")
     return SigmfInfo(fmt or glob.get("core:datatype"), None if rate is None else float(rate),
-                     None if if_hz is None else float(if_hz), q_sign, captures[0].get("core:datetime"))
+                     None if if_hz is None else float(if_hz), q_sign, first.get("core:datetime"),
+                     first.get("core:sample_start"))
 
 
 def write_sigmf_meta(path: str | Path, *, format: str, sigmf_datatype: str, sample_rate_hz: float, if_hz: float,
                      q_sign: int = 1, start_time: str | None = None, description: str = "",
-                    carrier_freq_hz: float = GPS_L1CA.carrier_freq_hz) -> Path:
+                     carrier_freq_hz: float = GPS_L1CA.carrier_freq_hz) -> Path:
     """Write the metadata of a recording with ``sigmf`` (validated against its schema);
     ``core:frequency`` is ``carrier_freq_hz - if_hz``."""
     from sigmf.sigmffile import SigMFFile

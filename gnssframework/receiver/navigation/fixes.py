@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ConfigError
-from ...navigation.ephemeris import Ephemerides
+from ...navigation.ephemeris import Ephemerides, _wrap_week
 from ...navigation.lnav import IonoUtc
 from .observables import SPEED_OF_LIGHT_MPS, Observables
 from ...navigation.pvt import PositionFix, solve_position
@@ -61,6 +61,12 @@ def full_week(week10: int | None, reference_week: int | None = None) -> int:
     return _ERA_START_WEEK + week10 % 1024
 
 
+#: Largest distance (s) of a navigation file's record from the epoch it positions: the
+#: 4-hour curve fit of IS-GPS-200 (20.3.4.4), so a record is used at most 4 h from its Toe.
+#: The nearest record by seconds of week alone can be of another day or week.
+MAX_EPHEMERIS_AGE_S = 4 * 3600.0
+
+
 def _ephemeris_for(prns: np.ndarray, obs: Observables | None, rinex: Ephemerides | None, t_s: float,
                    sample_time_s: float) -> list:
     """Per PRN, a healthy record (the last decoded by ``sample_time_s``, else RINEX's) or None."""
@@ -74,6 +80,8 @@ def _ephemeris_for(prns: np.ndarray, obs: Observables | None, rinex: Ephemerides
                 rec = rinex.select([f"G{int(prn):02d}"], t_s)
             except KeyError:  # no healthy record of it in the file
                 rec = None
+            if rec is not None and not abs(_wrap_week(t_s - float(rec.elements["Toe"][0]))) <= MAX_EPHEMERIS_AGE_S:
+                rec = None  # a record of another time of day (or week): not this recording's orbit
         out.append(rec if rec is not None and rec.health[0] == 0 else None)
     return out
 
