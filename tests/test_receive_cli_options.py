@@ -53,8 +53,14 @@ def tiny_recording(tmp_path):
 
 @pytest.fixture
 def received(monkeypatch):
-    """The keyword arguments ``receive`` gets from the command (it is not run)."""
+    """The keyword arguments ``receive`` gets from the command (it is not run; nor are the
+    acquisition and its plausibility check, which the tiny recording is too short for)."""
+    from gnssframework.receiver.acquisition import plausibility, report
     from gnssframework.receiver.navigation import receive as receive_module
+
+    monkeypatch.setattr(plausibility, "check_samples", lambda *a, **k: None)
+    monkeypatch.setattr(plausibility, "check_acquisition", lambda *a, **k: None)
+    monkeypatch.setattr(report, "acquire_recording", lambda *a, **k: [])
 
     seen = {}
 

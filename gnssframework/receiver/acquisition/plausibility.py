@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from .search import AcquisitionResult
 
 __all__ = ["MAX_VISIBLE_GPS", "MAX_DOPPLER_SPREAD_HZ", "MIN_PRNS_FOR_FLOOR", "implausible_acquisition",
@@ -161,29 +163,32 @@ REPEAT_DOPPLER_TOL_HZ = 250.0
 REPEAT_CODE_TOL_CHIPS = 1.0
 
 
-def unrepeated(recording, acquisition, results: Sequence[AcquisitionResult]) -> str | None:
+def unrepeated(recording, acquisition, results: Sequence[AcquisitionResult],
+               signal: SignalSpec = GPS_L1CA) -> str | None:
     """Search the found satellites again on the samples right after the first search's
     and count those not found where the first search predicts them: same Doppler, code
-    phase moved by the code Doppler, ``cp1 = cp0 + dt f_c (1 + f_d / f_L1) mod 1023``
-    (``dt`` a whole number of code periods: the ``dt f_c`` part is whole periods). A
+    phase moved by the code Doppler, ``cp1 = cp0 + dt f_c (1 + f_d / f_L) mod L`` (the
+    ``signal``'s chip rate, carrier and code length; ``dt`` a whole number of code periods:
+    the ``dt f_c`` part is whole periods). A
     satellite is there twice; a detection of noise that breaks the detector's model is
     not. ``None`` when most are found again, or too few were found or the recording is too
     short for a second search."""
-    from ...signal.constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH, L1_FREQ_HZ
     from .report import acquire_recording
 
     found = [r for r in results if r.detected]
     fs = recording.info.sample_rate_hz
-    need = acquisition.samples_needed(fs)
+    need = acquisition.samples_needed(fs, signal)
     if len(found) < MIN_FOUND_FOR_REPEAT or recording.n_samples < 2 * need:
         return None
-    again = {r.prn: r for r in acquire_recording(recording, acquisition, tuple(r.prn for r in found), need)}
+    again = {r.prn: r for r in acquire_recording(recording, acquisition, tuple(r.prn for r in found), need,
+                                                 signal)}
     dt = need / fs
     missed = []
     for r in found:
         s = again.get(r.prn)
-        expect = r.code_phase_chips + dt * CA_CHIP_RATE_HZ * (1.0 + r.doppler_hz / L1_FREQ_HZ)
-        miss = abs((s.code_phase_chips - expect + CA_CODE_LENGTH / 2) % CA_CODE_LENGTH - CA_CODE_LENGTH / 2)
+        expect = r.code_phase_chips + dt * signal.code_freq_hz(r.doppler_hz)
+        length = signal.code_length_chips
+        miss = abs((s.code_phase_chips - expect + length / 2) % length - length / 2)
         if not (s.detected and miss <= REPEAT_CODE_TOL_CHIPS
                 and abs(s.doppler_hz - r.doppler_hz) <= REPEAT_DOPPLER_TOL_HZ):
             missed.append(r.prn)
@@ -193,7 +198,8 @@ def unrepeated(recording, acquisition, results: Sequence[AcquisitionResult]) -> 
             f"again {1e3 * dt:.0f} ms later at the Doppler and code phase the first search predicts")
 
 
-def check_acquisition(results: Sequence[AcquisitionResult], recording, acquisition=None) -> None:
+def check_acquisition(results: Sequence[AcquisitionResult], recording, acquisition=None,
+                      signal: SignalSpec = GPS_L1CA) -> None:
     """Refuse ``results`` of ``recording`` (a `Recording`) when `implausible_acquisition`
     finds them impossible or, given the ``acquisition`` that made them, `unrepeated` finds
     most of them missing from a second search: a `DataFileError` naming the file, what is
@@ -209,7 +215,7 @@ def check_acquisition(results: Sequence[AcquisitionResult], recording, acquisiti
 
     why = implausible_acquisition(results)
     if why is None and acquisition is not None:
-        why = unrepeated(recording, acquisition, results)
+        why = unrepeated(recording, acquisition, results, signal)
     if why is not None:
         raise DataFileError(str(recording.path), None,
                             f"not a GPS sky when read as {recording.info.describe()}: {why}; "
