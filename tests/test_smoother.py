@@ -1,0 +1,213 @@
+"""RTS smoothers (`gnssframework.estimation.smoother`) against independent truths.
+
+- the linear-Gaussian closed form: the joint Gaussian posterior over every state of a
+  small time-varying model, by dense batch least squares (no recursion);
+- FilterPy's ``KalmanFilter.rts_smoother`` and ``UnscentedKalmanFilter.rts_smoother``
+  (test-only oracles) fed the same filtered states;
+- properties: the smoothed covariance never exceeds the filtered one (Loewner order) and
+  equals it at the last step; fixed-lag against fixed-interval.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import gnssframework as gf
+from gnssframework.errors import ConfigError
+from gnssframework.estimation import Gaussian, LinearModel, NonlinearModel
+from conftest import create, random_pd
+
+ENGINES = ("kf", "ekf", "ukf", "ckf", "svd-ckf")
+
+
+def time_varying_models(rng, K: int, n: int = 2, m: int = 1):
+    """A different F, H, Q, R, u at every step (so the step indexing is checked)."""
+    models = []
+    for k in range(K):
+        F = np.eye(n) + 0.3 * rng.standard_normal((n, n))
+        H = rng.standard_normal((m, n))
+        models.append(LinearModel(F, H, random_pd(rng, n, scale=0.05), random_pd(rng, m, scale=0.3),
+                                  u=0.1 * rng.standard_normal(n)))
+    return models
+
+
+def joint_posterior(models, zs, m0, P0):
+    """Mean and covariance of (x_{-1}, x_0 .. x_{K-1}) given z_0 .. z_{K-1}, by dense weighted
+    least squares over the whole trajectory: the information matrix A^T W A of the stacked
+    prior, dynamics and measurement residuals (Särkkä 2013, sec. 8.1's batch solution)."""
+    K, n = len(models), m0.shape[0]
+    N = (K + 1) * n
+    rows, rhs, weights = [], [], []
+    A0 = np.zeros((n, N)); A0[:, :n] = np.eye(n)
+    rows.append(A0); rhs.append(m0); weights.append(np.linalg.inv(P0))
+    for k, md in enumerate(models):
+        i = (k + 1) * n  # x_k's block; x_{k-1} at i - n
+        A = np.zeros((n, N)); A[:, i:i + n] = np.eye(n); A[:, i - n:i] = -md.F
+        rows.append(A); rhs.append(md.u); weights.append(np.linalg.inv(md.Q))
+        B = np.zeros((md.H.shape[0], N)); B[:, i:i + n] = md.H
+        rows.append(B); rhs.append(zs[k]); weights.append(np.linalg.inv(md.R))
+    J = sum(A.T @ W @ A for A, W in zip(rows, weights))
+    b = sum(A.T @ W @ r for A, W, r in zip(rows, weights, rhs))
+    cov = np.linalg.inv(J)
+    mean = cov @ b
+    return mean.reshape(K + 1, n), np.stack([cov[i * n:(i + 1) * n, i * n:(i + 1) * n] for i in range(K + 1)])
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_smoother_equals_the_joint_gaussian_posterior(engine, rng):
+    K, B, n = 12, 3, 2
+    models = time_varying_models(rng, K, n)
+    zs = rng.standard_normal((K, B, 1))
+    m0, P0 = np.array([0.5, -0.2]), random_pd(rng, n)
+    result = gf.filter_sequence(create("estimator", engine), lambda k: models[k], zs, Gaussian(m0, P0),
+                                store="smoother")
+    smoothed = gf.smooth(result)
+    for b in range(B):
+        mean, cov = joint_posterior(models, zs[:, b], m0, P0)
+        np.testing.assert_allclose(smoothed.mean[:, b], mean[1:], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(smoothed.cov[:, b], cov[1:], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(smoothed.initial.mean[b], mean[0], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(smoothed.initial.cov[b], cov[0], rtol=0, atol=1e-9)
+    # the last step is the filter's own estimate
+    np.testing.assert_array_equal(smoothed.mean[-1], result.mean[-1])
+
+
+def test_a_wrong_cross_covariance_is_caught_by_the_closed_form(rng):
+    """The closed-form test can fail: a smoother fed P F (not P F^T) misses it."""
+    K, n = 8, 2
+    models = time_varying_models(rng, K, n)
+    zs = rng.standard_normal((K, 1))
+    m0, P0 = np.zeros(n), np.eye(n)
+    result = gf.filter_sequence(create("estimator", "kf"), lambda k: models[k], zs, Gaussian(m0, P0),
+                                store="smoother")
+    inputs = result.smoother_inputs
+    inputs.cross_cov = np.swapaxes(inputs.cross_cov, -1, -2)
+    mean, _ = joint_posterior(models, zs, m0, P0)
+    assert np.abs(gf.smooth(result).mean - mean[1:]).max() > 1e-6
+
+
+def pendulum_model(Q, R, dt: float = 0.1) -> NonlinearModel:
+    def f(x):
+        return np.stack([x[..., 0] + dt * x[..., 1], x[..., 1] - dt * 9.81 * np.sin(x[..., 0])], -1)
+
+    def h(x):
+        return np.stack([np.sin(x[..., 0]), x[..., 1] ** 2 / 10.0], -1)
+
+    return NonlinearModel(f, h, Q, R)
+
+
+def pendulum_data(rng, K: int, model: NonlinearModel):
+    x = np.array([0.8, 0.0])
+    zs = []
+    for _ in range(K):
+        x = model.f(x) + rng.multivariate_normal(np.zeros(2), model.Q)
+        zs.append(model.h(x) + rng.multivariate_normal(np.zeros(2), model.R))
+    return np.array(zs)
+
+
+@pytest.mark.parametrize("engine, alpha, beta, kappa", [("ukf", 0.5, 2.0, 0.0), ("ukf", 0.9, 2.0, 1.0),
+                                                        ("ckf", 1.0, 0.0, 0.0)])
+def test_sigma_point_smoother_matches_filterpy_ukf_rts_smoother(engine, alpha, beta, kappa, rng):
+    kalman = pytest.importorskip("filterpy.kalman")
+    Q, R = np.diag([1e-4, 4e-3]), np.diag([0.01, 0.02])
+    model = pendulum_model(Q, R)
+    zs = pendulum_data(rng, 40, model)
+    params = dict(alpha=alpha, beta=beta, kappa=kappa) if engine == "ukf" else {}
+    result = gf.filter_sequence(create("estimator", engine, **params), model, zs,
+                                Gaussian(np.array([0.6, 0.1]), np.diag([0.1, 0.1])), store="smoother")
+    smoothed = gf.smooth(result)
+    points = kalman.MerweScaledSigmaPoints(2, alpha=alpha, beta=beta, kappa=kappa)
+    ref = kalman.UnscentedKalmanFilter(dim_x=2, dim_z=2, dt=1.0, hx=model.h, fx=lambda x, dt: model.f(x),
+                                       points=points)
+    ref.Q = Q  # FilterPy's UKF rts_smoother uses self.Q at every step
+    xs, ps, gains = ref.rts_smoother(result.mean.copy(), result.cov.copy())
+    np.testing.assert_allclose(smoothed.mean, xs, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(smoothed.cov, ps, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(smoothed.gain, gains[:-1], rtol=0, atol=1e-9)
+    assert np.abs(smoothed.mean - result.mean).max() > 1e-3  # the backward pass did something
+
+
+@pytest.mark.parametrize("engine", ("kf", "ekf"))
+def test_linear_smoother_matches_filterpy_kalman_rts_smoother(engine, rng):
+    kalman = pytest.importorskip("filterpy.kalman")
+    K, n = 30, 2
+    models = time_varying_models(rng, K, n)
+    models = [LinearModel(md.F, md.H, md.Q, md.R) for md in models]  # FilterPy's smoother has no u
+    zs = rng.standard_normal((K, 4, 1))
+    result = gf.filter_sequence(create("estimator", engine), lambda k: models[k], zs,
+                                Gaussian(np.zeros(n), np.eye(n)), store="smoother")
+    smoothed = gf.smooth(result)
+    ref = kalman.KalmanFilter(dim_x=n, dim_z=1)
+    Fs = np.stack([md.F for md in models])
+    Qs = np.stack([md.Q for md in models])
+    for b in range(zs.shape[1]):
+        xs, ps, gains, _ = ref.rts_smoother(result.mean[:, b].copy(), result.cov[:, b].copy(), Fs=Fs, Qs=Qs)
+        np.testing.assert_allclose(smoothed.mean[:, b], xs, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(smoothed.cov[:, b], ps, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(smoothed.gain[:, b], gains[:-1], rtol=0, atol=1e-9)
+
+
+def test_svd_ckf_square_root_form_agrees_with_the_plain_form_and_stays_psd(rng):
+    """The SVD-CKF's eigh gain and PSD-sum covariance equal the plain form on a
+    well-conditioned nonlinear problem, and stay PSD where P^- is nearly singular."""
+    Q, R = np.diag([1e-4, 4e-3]), np.diag([0.01, 0.02])
+    model = pendulum_model(Q, R)
+    zs = pendulum_data(rng, 30, model)
+    result = gf.filter_sequence(create("estimator", "svd-ckf"), model, zs,
+                                Gaussian(np.array([0.6, 0.1]), np.diag([0.1, 0.1])), store="smoother")
+    assert result.smoother_inputs.gain_form == "eigh"
+    careful, plain = gf.smooth(result), gf.smooth(result, form="solve")
+    np.testing.assert_allclose(careful.mean, plain.mean, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(careful.cov, plain.cov, rtol=0, atol=1e-12)
+    # A nearly deterministic state (Q ~ 1e-14 on a constant) makes P^- nearly singular.
+    F = np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    lin = LinearModel(F, np.array([[1.0, 0.0, 1.0]]), np.diag([1e-3, 1e-3, 1e-14]), [[1e-2]])
+    z = rng.standard_normal((200, 1))
+    res = gf.filter_sequence(create("estimator", "svd-ckf"), lin, z, Gaussian(np.zeros(3), np.eye(3)),
+                             store="smoother")
+    cov = gf.smooth(res).cov
+    assert np.isfinite(cov).all()
+    np.testing.assert_array_equal(cov, np.swapaxes(cov, -1, -2))
+    assert np.linalg.eigvalsh(cov).min() >= -1e-12 * np.abs(cov).max()
+
+
+@st.composite
+def linear_problems(draw):
+    n = draw(st.integers(1, 3))
+    m = draw(st.integers(1, 2))
+    K = draw(st.integers(2, 8))
+    seed = draw(st.integers(0, 2**31 - 1))
+    engine = draw(st.sampled_from(ENGINES))
+    return n, m, K, seed, engine
+
+
+@settings(max_examples=40, deadline=None)
+@given(linear_problems())
+def test_smoothed_covariance_never_exceeds_the_filtered_one(problem):
+    n, m, K, seed, engine = problem
+    rng = np.random.default_rng(seed)
+    model = LinearModel(np.eye(n) + 0.5 * rng.standard_normal((n, n)), rng.standard_normal((m, n)),
+                        random_pd(rng, n, scale=0.1), random_pd(rng, m))
+    zs = rng.standard_normal((K, 2, m))
+    result = gf.filter_sequence(create("estimator", engine), model, zs, Gaussian(np.zeros(n), random_pd(rng, n)),
+                                store="smoother")
+    smoothed = gf.smooth(result)
+    gap = np.linalg.eigvalsh(result.cov - smoothed.cov)  # P_f - P_s >= 0 (Loewner order)
+    assert gap.min() >= -1e-10 * max(1.0, np.abs(result.cov).max())
+    np.testing.assert_array_equal(smoothed.cov[-1], result.cov[-1])
+    np.testing.assert_array_equal(smoothed.mean[-1], result.mean[-1])
+
+
+def test_smooth_refuses_a_result_without_stored_predictions(rng):
+    model = LinearModel(np.eye(1), np.eye(1), [[0.1]], [[1.0]])
+    result = gf.filter_sequence(create("estimator", "kf"), model, np.zeros((3, 1)), Gaussian(np.zeros(1), np.eye(1)))
+    with pytest.raises(ConfigError, match="store='smoother'"):
+        gf.smooth(result)
+    with pytest.raises(ConfigError, match="store"):
+        gf.filter_sequence(create("estimator", "kf"), model, np.zeros((3, 1)), Gaussian(np.zeros(1), np.eye(1)),
+                           store="everything")
+    with pytest.raises(ConfigError, match="store_cov"):
+        gf.filter_sequence(create("estimator", "kf"), model, np.zeros((3, 1)), Gaussian(np.zeros(1), np.eye(1)),
+                           store="smoother", store_cov=False)
