@@ -211,3 +211,82 @@ def test_smooth_refuses_a_result_without_stored_predictions(rng):
     with pytest.raises(ConfigError, match="store_cov"):
         gf.filter_sequence(create("estimator", "kf"), model, np.zeros((3, 1)), Gaussian(np.zeros(1), np.eye(1)),
                            store="smoother", store_cov=False)
+
+
+# -- fixed lag ------------------------------------------------------------------------------
+
+
+def _lag_problem(rng, K=25, B=3):
+    model = LinearModel(np.array([[1.0, 0.5], [0.0, 0.9]]), np.array([[1.0, 0.0]]), np.diag([0.01, 0.05]), [[0.3]])
+    return model, rng.standard_normal((K, B, 1)), Gaussian(np.zeros(2), np.eye(2))
+
+
+@pytest.mark.parametrize("engine", ("kf", "ukf", "svd-ckf"))
+def test_fixed_lag_is_the_fixed_interval_smoother_of_the_data_seen(engine, rng):
+    """E[x_j | z_0..z_{j+L}] equals the fixed-interval smoother run on z_0..z_{j+L} alone."""
+    model, zs, init = _lag_problem(rng)
+    K, lag = zs.shape[0], 4
+    full = gf.filter_sequence(create("estimator", engine), model, zs, init, store="smoother")
+    lagged = gf.fixed_lag_smooth(full, lag)
+    for j in range(K):
+        end = min(j + lag, K - 1)
+        part = gf.smooth(gf.filter_sequence(create("estimator", engine), model, zs[:end + 1], init, store="smoother"))
+        np.testing.assert_allclose(lagged.mean[j], part.mean[j], rtol=0, atol=1e-10)
+        np.testing.assert_allclose(lagged.cov[j], part.cov[j], rtol=0, atol=1e-10)
+
+
+def test_fixed_lag_spanning_the_window_is_the_fixed_interval_smoother(rng):
+    model, zs, init = _lag_problem(rng)
+    result = gf.filter_sequence(create("estimator", "ckf"), model, zs, init, store="smoother")
+    smoothed = gf.smooth(result)
+    for lag in (zs.shape[0] - 1, zs.shape[0] + 5):
+        lagged = gf.fixed_lag_smooth(result, lag)
+        np.testing.assert_allclose(lagged.mean, smoothed.mean, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(lagged.cov, smoothed.cov, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(gf.fixed_lag_smooth(result, 0).mean, result.mean)
+
+
+def test_fixed_lag_approaches_the_fixed_interval_smoother_as_the_lag_grows(rng):
+    """P_{j|j+L} decreases in the Loewner order towards P_{j|K-1} as L grows (a theorem:
+    more data), and the mean difference over 200 runs shrinks with it."""
+    model, zs, init = _lag_problem(rng, K=40, B=200)
+    result = gf.filter_sequence(create("estimator", "kf"), model, zs, init, store="smoother")
+    smoothed = gf.smooth(result)
+    early = slice(0, 25)  # windows that end before the last step for every lag below
+    previous_cov, previous_rms = None, np.inf
+    for lag in (0, 1, 2, 4, 8):
+        lagged = gf.fixed_lag_smooth(result, lag)
+        excess = lagged.cov[early] - smoothed.cov[early]
+        assert np.linalg.eigvalsh(excess).min() >= -1e-12
+        if previous_cov is not None:
+            assert np.linalg.eigvalsh(previous_cov - lagged.cov[early]).min() >= -1e-12
+        rms = np.sqrt(np.mean((lagged.mean[early] - smoothed.mean[early]) ** 2))
+        assert rms < previous_rms
+        previous_cov, previous_rms = lagged.cov[early], rms
+    assert previous_rms < 0.05 * np.sqrt(np.mean((result.mean[early] - smoothed.mean[early]) ** 2))
+
+
+@pytest.mark.parametrize("engine", ("ekf", "ukf", "svd-ckf"))
+def test_streaming_fixed_lag_smoother_matches_the_batch_one(engine, rng):
+    Q, R = np.diag([1e-4, 4e-3]), np.diag([0.01, 0.02])
+    model = pendulum_model(Q, R)
+    zs = pendulum_data(rng, 20, model)
+    init = Gaussian(np.array([0.6, 0.1]), np.diag([0.1, 0.1]))
+    lag = 3
+    batch = gf.fixed_lag_smooth(gf.filter_sequence(create("estimator", engine), model, zs, init, store="smoother"),
+                                lag)
+    fls = gf.FixedLagSmoother(create("estimator", engine), lag)
+    fls.start(init, model)
+    outputs = [fls.step(z, model) for z in zs]
+    assert outputs[:lag] == [None] * lag
+    outputs = outputs[lag:] + fls.flush()
+    assert [o.step for o in outputs] == list(range(zs.shape[0]))
+    np.testing.assert_allclose(np.stack([o.state.mean for o in outputs]), batch.mean, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.stack([o.state.cov for o in outputs]), batch.cov, rtol=0, atol=1e-12)
+
+
+def test_fixed_lag_refuses_a_bad_lag():
+    with pytest.raises(ConfigError, match="lag"):
+        gf.FixedLagSmoother(create("estimator", "kf"), -1)
+    with pytest.raises(ConfigError, match="lag"):
+        gf.FixedLagSmoother(create("estimator", "kf"), 1.5)
