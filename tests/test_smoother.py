@@ -36,7 +36,7 @@ def time_varying_models(rng, K: int, n: int = 2, m: int = 1):
 def joint_posterior(models, zs, m0, P0):
     """Mean and covariance of (x_{-1}, x_0 .. x_{K-1}) given z_0 .. z_{K-1}, by dense weighted
     least squares over the whole trajectory: the information matrix A^T W A of the stacked
-    prior, dynamics and measurement residuals (Särkkä 2013, sec. 8.1's batch solution)."""
+    prior, dynamics and measurement residuals (the batch solution of the linear-Gaussian smoothing problem)."""
     K, n = len(models), m0.shape[0]
     N = (K + 1) * n
     rows, rhs, weights = [], [], []
@@ -370,3 +370,19 @@ def test_smoother_of_a_colored_ar1_augmentation_is_the_augmented_problems_poster
     np.testing.assert_array_equal(smoothed.epochs, np.arange(13))
     np.testing.assert_allclose(smoothed.mean, mean[1:], rtol=0, atol=1e-9)
     np.testing.assert_allclose(smoothed.cov, cov[1:], rtol=0, atol=1e-9)
+
+
+def test_the_smoothers_page_shows_what_its_example_prints():
+    """docs/estimators/smoothers.md's RMSE table is docs/smoother_example.py's output, and
+    the smoother beats the fixed-lag smoother, which beats the filter, for every engine."""
+    import importlib.util
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("smoother_example", root / "docs" / "smoother_example.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    page = (root / "docs" / "estimators" / "smoothers.md").read_text(encoding="utf-8")
+    assert example.table() in page, "run: python docs/smoother_example.py and paste its table"
+    for engine, filtered, lagged, smoothed in example.rmse_rows():
+        assert smoothed < lagged < filtered, engine

@@ -104,7 +104,7 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
     def transition_cross_cov(self, state: Gaussian, model: Model, prior: Gaussian) -> np.ndarray:
         r"""Cross covariance ``C = Cov(x_k, x_{k+1}^-)`` of the prediction ``state -> prior``.
 
-        The linearised form (KF and EKF, Särkkä 2013, eq. 9.2): $C = P_k F^T$ with
+        The linearised form (KF and EKF; Särkkä 2013, ch. 8-9): $C = P_k F^T$ with
         $F = \partial f / \partial x$ at the mean ($F$ itself for a ``LinearModel``).
         Sigma-point engines override it with the points' form. ``prior`` is the
         predicted state (unused here). Computed on NumPy.
@@ -400,7 +400,7 @@ class SigmaPointEstimator(Estimator):
         r"""Cross covariance ``C = Cov(x_k, x_{k+1}^-)`` from this engine's sigma points.
 
         With points $\mathcal{X}_i$ of ``state`` and covariance weights $W_i^c$
-        (Särkkä 2013, algorithm 9.3 / eq. 9.20):
+        (Särkkä 2013, ch. 9, the unscented and general Gaussian RTS smoothers):
 
         $$
         C = \sum_i W_i^c\, (\mathcal{X}_i - m_k)\, (f(\mathcal{X}_i) - m^-_{k+1})^T

@@ -6,8 +6,8 @@ keeps what the backward pass needs at each step $k+1$: the filtered $m_k, P_k$, 
 predicted $m^-_{k+1}, P^-_{k+1}$ (with the Q in force at that step) and the cross
 covariance $C_{k+1} = \operatorname{Cov}(x_k, x^-_{k+1})$. The backward pass is then the same
 for the linear, the extended and the sigma-point forms (Särkkä, *Bayesian Filtering and
-Smoothing*, 2013, theorem 8.2, algorithms 9.1 and 9.3, the general Gaussian smoother of
-eq. 9.20):
+Smoothing*, 2013: ch. 8 for the linear RTS smoother, ch. 9 for the extended, unscented and
+general Gaussian RTS smoothers, all of this form):
 
 $$
 G_k = C_{k+1}\, (P^-_{k+1})^{-1}, \qquad
@@ -184,7 +184,7 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
 
     $m^s_k = E[x_k \mid z_0 \dots z_{K-1}]$ and its covariance for every step, batched over
     the result's batch dimensions (the equations are in the module docstring; Särkkä 2013,
-    theorem 8.2 for KF, algorithm 9.1 for the EKF, 9.3 for sigma-point filters).
+    ch. 8 for the KF, ch. 9 for the EKF and the sigma-point filters).
 
     Parameters
     ----------
