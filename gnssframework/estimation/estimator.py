@@ -407,9 +407,11 @@ class SigmaPointEstimator(Estimator):
         $$
 
         through the model's ``residual_x`` hook where it has one. The same points as the
-        prediction (this engine's rule), drawn on NumPy.
+        prediction (this engine's rule), drawn by the compiled kernels where the prediction
+        may be (`_kernel_points`), else on NumPy.
         """
-        X, wm, wc = self.sigma_points(state)
+        points = None if _hooked(model) else self._kernel_points(state)
+        X, wm, wc = points if points is not None else self.sigma_points(state)
         residual = _residual(model, "x")
         dX = residual(X, state.mean)
         dY = residual(model.f(X), prior.mean)

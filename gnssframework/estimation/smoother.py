@@ -54,6 +54,7 @@ from ..errors import ConfigError
 from .adaptation import NoiseAdapter
 from .boundary import check_argument
 from .estimator import Estimator, OnFailure, OnMissing
+from .linalg import all_true, pd_mask
 from .sequence import FilterResult, SmootherInputs
 from .step import FilterStep
 from .types import Gaussian, Model
@@ -130,9 +131,19 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
 
 
 def _psd_part(a: np.ndarray) -> np.ndarray:
-    """``a`` symmetrised with its negative eigenvalues (rounding) set to zero."""
-    w, V = np.linalg.eigh(_sym(a))
-    return _sym((V * np.maximum(w, 0.0)[..., None, :]) @ _t(V))
+    """``a`` symmetrised with its negative eigenvalues (rounding) set to zero.
+
+    One compiled positive-definiteness test first; the eigen-decomposition only for the
+    batch elements that fail it (a PD element has no negative eigenvalue to clip)."""
+    a = _sym(a)
+    ok = pd_mask(a)
+    if all_true(ok):
+        return a
+    bad = ~ok
+    w, V = np.linalg.eigh(a[bad])
+    a = a.copy()
+    a[bad] = _sym((V * np.maximum(w, 0.0)[..., None, :]) @ _t(V))
+    return a
 
 
 def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, cross_cov: np.ndarray,
