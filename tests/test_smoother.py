@@ -386,3 +386,45 @@ def test_the_smoothers_page_shows_what_its_example_prints():
     assert example.table() in page, "run: python docs/smoother_example.py and paste its table"
     for engine, filtered, lagged, smoothed in example.rmse_rows():
         assert smoothed < lagged < filtered, engine
+
+
+@pytest.mark.parametrize("engine", ("ukf", "ckf"))
+def test_smoothing_an_angle_state_across_the_wrap(engine, rng):
+    """A heading near +-pi, smoothed with the angle hooks, equals (mod 2 pi) the same
+    problem turned by pi, where no wrap occurs."""
+    from gnssframework.estimation.angles import angle_mean, angle_residual, wrap_angle
+
+    def f(x):
+        return np.stack([wrap_angle(x[..., 0] + 0.1 * x[..., 1]), x[..., 1]], -1)
+
+    def h(x):
+        return np.stack([wrap_angle(x[..., 0]), 0.5 * x[..., 1] ** 2 + x[..., 1]], -1)
+
+    Q, R = np.diag([1e-3, 1e-3]), np.diag([0.05**2, 0.1**2])
+    hooks = dict(residual_x=angle_residual(0), mean_x=angle_mean(0), residual_z=angle_residual(0),
+                 mean_z=angle_mean(0))
+    model = NonlinearModel(f, h, Q, R, **hooks)
+    K = 30
+    heading = np.pi - 0.05 + 0.01 * np.arange(K)  # crosses +pi at step 5
+    rate = 0.1 * np.ones(K)
+    noise = rng.standard_normal((K, 2)) * np.sqrt(np.diag(R))
+    z_wrapped = np.stack([wrap_angle(heading + noise[:, 0]), 0.5 * rate**2 + rate + noise[:, 1]], -1)
+    z_turned = np.stack([wrap_angle(heading - np.pi + noise[:, 0]), z_wrapped[:, 1]], -1)
+    init_w = Gaussian(np.array([np.pi - 0.06, 0.1]), np.diag([0.01, 0.01]))
+    init_t = Gaussian(np.array([-0.06, 0.1]), np.diag([0.01, 0.01]))
+    res_w = gf.filter_sequence(create("estimator", engine), model, z_wrapped, init_w, store="smoother")
+    res_t = gf.filter_sequence(create("estimator", engine), model, z_turned, init_t, store="smoother")
+    sw = gf.smooth(res_w, residual_x=angle_residual(0))
+    st_ = gf.smooth(res_t, residual_x=angle_residual(0))
+    np.testing.assert_allclose(wrap_angle(sw.mean[:, 0] - st_.mean[:, 0] - np.pi), 0.0, atol=1e-9)
+    np.testing.assert_allclose(sw.mean[:, 1], st_.mean[:, 1], atol=1e-9)
+    np.testing.assert_allclose(sw.cov, st_.cov, atol=1e-9)
+    # The same states written in [-pi, pi) (a filter may wrap its means): the hook gives the
+    # same smoothed headings mod 2 pi; plain subtraction is 2 pi off across the wrap.
+    res_w.mean[:, 0] = wrap_angle(res_w.mean[:, 0])
+    res_w.smoother_inputs.prior_mean[:, 0] = wrap_angle(res_w.smoother_inputs.prior_mean[:, 0])
+    rewrapped = gf.smooth(res_w, residual_x=angle_residual(0))
+    np.testing.assert_allclose(wrap_angle(rewrapped.mean[:, 0] - sw.mean[:, 0]), 0.0, atol=1e-9)
+    np.testing.assert_allclose(rewrapped.cov, sw.cov, atol=1e-12)
+    plain = gf.smooth(res_w)
+    assert np.abs(wrap_angle(plain.mean[:, 0] - sw.mean[:, 0])).max() > 0.5
