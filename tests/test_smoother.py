@@ -321,11 +321,8 @@ def test_adaptive_smoother_uses_the_stored_per_step_noise_and_is_consistent(rng)
     adaptive = gf.filter_sequence(create("estimator", "kf"), model, zs, init,
                                   adapter=create("noise_adapter", "innovation"), store="smoother")
     assert np.ptp(adaptive.R) > 0  # the adapter did move R, per run and step
-    # (the initial broadcast to the batch: the compiled linear predict does not broadcast an
-    # unbatched state against a per-run Q)
-    batched = Gaussian(np.broadcast_to(init.mean, (400, 2)), np.broadcast_to(init.cov, (400, 2, 2)))
     rerun = gf.filter_sequence(create("estimator", "kf"),
-                               lambda k: LinearModel(model.F, model.H, adaptive.Q[k], adaptive.R[k]), zs, batched,
+                               lambda k: LinearModel(model.F, model.H, adaptive.Q[k], adaptive.R[k]), zs, init,
                                store="smoother")
     smoothed = gf.smooth(adaptive)
     np.testing.assert_allclose(smoothed.mean, gf.smooth(rerun).mean, rtol=0, atol=1e-10)
