@@ -425,3 +425,24 @@ def test_smoothing_an_angle_state_across_the_wrap(engine, rng):
     np.testing.assert_allclose(rewrapped.cov, sw.cov, atol=1e-12)
     plain = gf.smooth(res_w)
     assert np.abs(wrap_angle(plain.mean[:, 0] - sw.mean[:, 0])).max() > 0.5
+
+
+@pytest.mark.parametrize("engine", ("kf", "ckf"))
+def test_smoother_across_missing_measurements_is_the_posterior_without_them(engine, rng):
+    """With ``missing="skip"`` a NaN measurement's update is skipped (the posterior is the
+    prior there); the smoother is then the joint posterior of the measurements present."""
+    K, n = 12, 2
+    models = time_varying_models(rng, K, n)
+    zs = rng.standard_normal((K, 2, 1))
+    zs[[3, 4, 9], 0] = np.nan  # run 0 misses three epochs, run 1 none
+    m0, P0 = np.zeros(n), np.eye(n)
+    result = gf.filter_sequence(create("estimator", engine), lambda k: models[k], zs, Gaussian(m0, P0),
+                                missing="skip", store="smoother")
+    smoothed = gf.smooth(result)
+    for b in range(2):
+        keep = [k for k in range(K) if np.isfinite(zs[k, b]).all()]
+        # no measurement at a missing epoch: an infinitely uncertain one (R -> inf) there
+        mdl = [md if k in keep else LinearModel(md.F, md.H, md.Q, [[1e30]], u=md.u) for k, md in enumerate(models)]
+        mean, cov = joint_posterior(mdl, np.nan_to_num(zs[:, b]), m0, P0)
+        np.testing.assert_allclose(smoothed.mean[:, b], mean[1:], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(smoothed.cov[:, b], cov[1:], rtol=0, atol=1e-9)
