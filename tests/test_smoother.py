@@ -446,3 +446,21 @@ def test_smoother_across_missing_measurements_is_the_posterior_without_them(engi
         mean, cov = joint_posterior(mdl, np.nan_to_num(zs[:, b]), m0, P0)
         np.testing.assert_allclose(smoothed.mean[:, b], mean[1:], rtol=0, atol=1e-9)
         np.testing.assert_allclose(smoothed.cov[:, b], cov[1:], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("lag", (0, 5))
+def test_streaming_fixed_lag_smoother_with_a_noise_adapter_matches_the_batch_one(lag, rng):
+    model = LinearModel(np.array([[1.0, 1.0], [0.0, 1.0]]), np.array([[1.0, 0.0]]), np.diag([0.01, 0.01]), [[1.0]])
+    _, zs = _simulate(rng, model, K=30, B=4, P0=np.eye(2))
+    init = Gaussian(np.zeros(2), np.eye(2))
+    result = gf.filter_sequence(create("estimator", "kf"), model, zs, init,
+                                adapter=create("noise_adapter", "sage-husa"), store="smoother")
+    assert np.ptp(result.Q) > 0
+    batch = gf.fixed_lag_smooth(result, lag)
+    fls = gf.FixedLagSmoother(create("estimator", "kf"), lag, create("noise_adapter", "sage-husa"))
+    fls.start(init, model)
+    outputs = [o for o in (fls.step(z, model) for z in zs) if o is not None] + fls.flush()
+    np.testing.assert_allclose(np.stack([o.state.mean for o in outputs]), batch.mean, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.stack([o.state.cov for o in outputs]), batch.cov, rtol=0, atol=1e-12)
+    if lag == 0:
+        np.testing.assert_allclose(batch.mean, result.mean, rtol=0, atol=0)
