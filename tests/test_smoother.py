@@ -244,6 +244,7 @@ def test_fixed_lag_spanning_the_window_is_the_fixed_interval_smoother(rng):
         np.testing.assert_allclose(lagged.mean, smoothed.mean, rtol=0, atol=1e-12)
         np.testing.assert_allclose(lagged.cov, smoothed.cov, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(gf.fixed_lag_smooth(result, 0).mean, result.mean)
+    np.testing.assert_allclose(gf.fixed_lag_smooth(result, 2).gain, smoothed.gain, rtol=0, atol=1e-14)
 
 
 def test_fixed_lag_approaches_the_fixed_interval_smoother_as_the_lag_grows(rng):

@@ -88,7 +88,8 @@ class SmoothedResult:
     gain
         Smoother gains ``G_k`` ``(K-1, ..., n, n)``, ``k = 0 .. K-2``.
     initial
-        The initial state (the one step 0 predicted from) given every measurement.
+        The initial state (the one step 0 predicted from) given every measurement (`smooth`;
+        `fixed_lag_smooth` returns it as given).
     epochs, time_s
         As in the `FilterResult` smoothed.
     """
@@ -261,12 +262,16 @@ def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | N
     Returns
     -------
     SmoothedResult
-        ``gain`` holds the gains of each window's last backward step (zeros where L = 0).
+        ``gain`` holds ``G_0 .. G_{K-2}``, which depend on the forward pass only, so they are
+        the fixed-interval smoother's (zeros where L = 0); ``initial`` is the initial state
+        as given (not smoothed).
     """
     inputs = _inputs(result, "fixed_lag_smooth")
     if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
         raise ConfigError("lag", f"must be an integer >= 0 (steps), got {lag!r}")
     form = inputs.gain_form if form is None else form
+    if form not in GAIN_FORMS:
+        raise ConfigError("form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
     K = result.mean.shape[0]
     j = np.arange(K)
     end = np.minimum(j + int(lag), K - 1)  # the last step each window sees
