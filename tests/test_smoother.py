@@ -465,3 +465,20 @@ def test_streaming_fixed_lag_smoother_with_a_noise_adapter_matches_the_batch_one
     np.testing.assert_allclose(np.stack([o.state.cov for o in outputs]), batch.cov, rtol=0, atol=1e-12)
     if lag == 0:
         np.testing.assert_allclose(batch.mean, result.mean, rtol=0, atol=0)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_storing_for_the_smoother_leaves_the_forward_pass_unchanged(engine, rng):
+    Q, R = np.diag([1e-4, 4e-3]), np.diag([0.01, 0.02])
+    model = pendulum_model(Q, R)
+    zs = pendulum_data(rng, 15, model)
+    init = Gaussian(np.array([0.6, 0.1]), np.diag([0.1, 0.1]))
+    plain = gf.filter_sequence(create("estimator", engine), model, zs, init)
+    stored = gf.filter_sequence(create("estimator", engine), model, zs, init, store="smoother")
+    assert plain.smoother_inputs is None
+    np.testing.assert_array_equal(stored.mean, plain.mean)
+    np.testing.assert_array_equal(stored.cov, plain.cov)
+    # the stored prediction of step k+1 is the engine's predict of step k's posterior
+    prior = create("estimator", engine).predict(Gaussian(stored.mean[4], stored.cov[4]), model)
+    np.testing.assert_allclose(stored.smoother_inputs.prior_mean[5], prior.mean, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(stored.smoother_inputs.prior_cov[5], prior.cov, rtol=0, atol=1e-14)
