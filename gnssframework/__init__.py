@@ -30,13 +30,17 @@ from .estimation import (
     Estimator,
     FilterResult,
     FilterStep,
+    FixedLagSmoother,
     Gaussian,
     LinearModel,
     NoiseAdapter,
     NonlinearModel,
     SigmaPointEstimator,
+    SmoothedResult,
     Update,
     filter_sequence,
+    fixed_lag_smooth,
+    smooth,
 )
 from .hookspecs import hookimpl
 from .interfaces import ChannelFilter, Discriminator, NavFilter, RunContext
@@ -61,6 +65,7 @@ __all__ = [
     "Estimator",
     "FilterResult",
     "FilterStep",
+    "FixedLagSmoother",
     "Gaussian",
     "GnssFrameworkError",
     "InvalidArgumentError",
@@ -79,13 +84,16 @@ __all__ = [
     "PluginParams",
     "RunContext",
     "SigmaPointEstimator",
+    "SmoothedResult",
     "Update",
     "WorkerError",
     "compare",
     "errors",
     "filter_sequence",
+    "fixed_lag_smooth",
     "hookimpl",
     "registry",
+    "smooth",
 ]
 
 

@@ -221,6 +221,8 @@ class SvdCubatureKalmanFilter(CubatureKalmanFilter):
     description = "Cubature Kalman filter with an SVD square root (Zou et al. 2018)"
     #: The kernels' root for this ``square_root``: ``V sqrt(|w|)`` of the eigen-decomposition.
     kernel_root = 1
+    #: The RTS smoother's gain through the eigen-decomposition of P^- (its SVD).
+    smoother_gain = "eigh"
 
     def square_root(self, cov: np.ndarray) -> np.ndarray:
         finite = np.isfinite(cov).all(axis=(-2, -1))

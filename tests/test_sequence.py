@@ -126,3 +126,30 @@ def test_time_varying_model_callable(rng):
     ref = gf.filter_sequence(create("estimator", "kf"), model, zs, gf.Gaussian(np.zeros(3), np.eye(3)))
     assert calls == list(range(10))
     np.testing.assert_array_equal(res.mean, ref.mean)
+
+
+@pytest.mark.parametrize("engine, linear", [(e, True) for e in ("kf", "ekf", "ukf", "ckf", "svd-ckf")]
+                         + [(e, False) for e in ("ekf", "ukf", "ckf", "svd-ckf")])
+def test_one_q_per_run_with_a_shared_initial_state_compiled_equals_numpy(engine, linear):
+    """A per-run Q ``(B, n, n)`` with an unbatched initial state: the compiled predict
+    broadcasts the state to Q's batch as the NumPy reference does (it raised a raw
+    ValueError in the kernels' operand flattening)."""
+    rng = np.random.default_rng(3)
+    B = 5
+    F, H = np.array([[1.0, 1.0], [0.0, 1.0]]), np.array([[1.0, 0.0]])
+    Qb = np.stack([np.eye(2) * 0.01 * (i + 1) for i in range(B)])
+    model = (gf.LinearModel(F, H, Qb, [[1.0]]) if linear else
+             gf.NonlinearModel(lambda x: x @ F.T, lambda x: x[..., :1], Qb, np.array([[1.0]]),
+                               f_jacobian=lambda x: np.broadcast_to(F, x.shape[:-1] + (2, 2)),
+                               h_jacobian=lambda x: np.broadcast_to(H, x.shape[:-1] + (1, 2))))
+    zs = rng.standard_normal((4, B, 1))
+    out = {}
+    for backend in ("numba", "numpy"):
+        # (ukf at alpha 0.5: the default 1e-3 weights amplify rounding ~1e6-fold, 1e-10 here)
+        est = gf.registry.create("estimator", engine, **({"alpha": 0.5} if engine == "ukf" else {}))
+        est.backend = backend
+        out[backend] = gf.filter_sequence(est, model, zs, gf.Gaussian(np.zeros(2), np.eye(2)))
+    np.testing.assert_allclose(out["numba"].mean, out["numpy"].mean, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(out["numba"].cov, out["numpy"].cov, rtol=0, atol=1e-12)
+    # the runs differ by their Q: a state shared by the runs did not swallow it
+    assert np.ptp(out["numpy"].cov[-1, :, 0, 0]) > 1e-3

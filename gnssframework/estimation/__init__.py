@@ -13,7 +13,8 @@ from .adaptation import (
 )
 from .compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian, register_warm_up
 from .estimator import Estimator, SigmaPointEstimator
-from .sequence import FilterResult, filter_sequence
+from .sequence import FilterResult, SmootherInputs, filter_sequence
+from .smoother import FixedLagSmoother, LagEstimate, SmoothedResult, fixed_lag_smooth, smooth
 from .step import RECOVERIES, FilterStep, StepResult
 from .types import Gaussian, LinearModel, Model, NonlinearModel, Update, numerical_jacobian
 
@@ -25,6 +26,8 @@ __all__ = [
     "Estimator",
     "FilterResult",
     "FilterStep",
+    "FixedLagSmoother",
+    "LagEstimate",
     "CompiledFunctions",
     "Gaussian",
     "LinearModel",
@@ -34,12 +37,16 @@ __all__ = [
     "RECOVERIES",
     "SafeguardParams",
     "SigmaPointEstimator",
+    "SmoothedResult",
+    "SmootherInputs",
     "StepResult",
     "Update",
     "filter_sequence",
+    "fixed_lag_smooth",
     "linear_f",
     "linear_h",
     "linear_h_jacobian",
     "numerical_jacobian",
     "register_warm_up",
+    "smooth",
 ]

@@ -94,6 +94,29 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
         """Return ``(z_hat, S, C)``: predicted measurement, its covariance with R, and
         the state-measurement cross covariance."""
 
+    # -- smoothing ----------------------------------------------------------------
+    #: How the RTS smoother solves for its gain ``G = C (P^-)^{-1}`` after this engine
+    #: (`gnssframework.estimation.smoother`): ``"solve"`` (a batched linear solve, no inverse) or
+    #: ``"eigh"`` (through the symmetric eigen-decomposition of ``P^-``, the SVD-CKF's
+    #: square root, which exists for a nearly singular ``P^-``).
+    smoother_gain: str = "solve"
+
+    def transition_cross_cov(self, state: Gaussian, model: Model, prior: Gaussian) -> np.ndarray:
+        r"""Cross covariance ``C = Cov(x_k, x_{k+1}^-)`` of the prediction ``state -> prior``.
+
+        The linearised form (KF and EKF; Särkkä 2013, ch. 8-9): $C = P_k F^T$ with
+        $F = \partial f / \partial x$ at the mean ($F$ itself for a ``LinearModel``).
+        Sigma-point engines override it with the points' form. ``prior`` is the
+        predicted state (unused here). Computed on NumPy.
+
+        Returns
+        -------
+        np.ndarray
+            ``(..., n, n)``.
+        """
+        F = model.jacobian_f(state.mean)
+        return state.cov @ np.swapaxes(F, -1, -2)
+
     # -- shared -------------------------------------------------------------------
     def _fused_rule(self, state: Gaussian, model: Model):
         """The point rule of a whole compiled predict/update with the model's compiled
@@ -372,6 +395,27 @@ class SigmaPointEstimator(Estimator):
         S = symmetrize(self._weighted_cov(dZ, dZ, wc) + model.R)
         C = self._weighted_cov(_residual(model, "x")(X, prior.mean), dZ, wc)
         return z_hat, S, C
+
+    def transition_cross_cov(self, state: Gaussian, model: Model, prior: Gaussian) -> np.ndarray:
+        r"""Cross covariance ``C = Cov(x_k, x_{k+1}^-)`` from this engine's sigma points.
+
+        With points $\mathcal{X}_i$ of ``state`` and covariance weights $W_i^c$
+        (Särkkä 2013, ch. 9, the unscented and general Gaussian RTS smoothers):
+
+        $$
+        C = \sum_i W_i^c\, (\mathcal{X}_i - m_k)\, (f(\mathcal{X}_i) - m^-_{k+1})^T
+        $$
+
+        through the model's ``residual_x`` hook where it has one. The same points as the
+        prediction (this engine's rule), drawn by the compiled kernels where the prediction
+        may be (`_kernel_points`), else on NumPy.
+        """
+        points = None if _hooked(model) else self._kernel_points(state)
+        X, wm, wc = points if points is not None else self.sigma_points(state)
+        residual = _residual(model, "x")
+        dX = residual(X, state.mean)
+        dY = residual(model.f(X), prior.mean)
+        return self._weighted_cov(dX, dY, wc)
 
     @staticmethod
     def _scaled_points(mean: np.ndarray, sqrt_cov: np.ndarray, scale: float) -> np.ndarray:

@@ -14,7 +14,41 @@ from .estimator import Estimator, OnFailure, OnMissing
 from .step import RECOVERIES, FilterStep
 from .types import Gaussian, Model
 
-__all__ = ["filter_sequence", "FilterResult", "RECOVERIES"]
+__all__ = ["filter_sequence", "FilterResult", "SmootherInputs", "RECOVERIES", "STORE_OPTIONS"]
+
+#: What ``filter_sequence(store=...)`` can keep besides the posteriors.
+STORE_OPTIONS = ("smoother",)
+
+
+@dataclass
+class SmootherInputs:
+    """What a backward (RTS) pass needs beyond the filtered posteriors, stacked over steps.
+
+    Step ``k`` predicted from the posterior of step ``k-1`` (from ``initial`` at ``k = 0``).
+
+    Attributes
+    ----------
+    prior_mean, prior_cov
+        Predicted ``x_{k|k-1}``: ``(K, ..., n)`` and ``(K, ..., n, n)``, with the Q in force
+        at step k (an adapter's estimate included).
+    cross_cov
+        ``C_k = Cov(x_{k-1|k-1}, x_{k|k-1})`` ``(K, ..., n, n)``: ``P F^T`` for KF/EKF,
+        from the sigma points for the sigma-point engines
+        (`gnssframework.estimation.Estimator.transition_cross_cov`).
+    initial
+        The initial state the first step predicted from (batch-broadcast).
+    gain_form
+        The engine's ``smoother_gain`` (``"solve"`` or ``"eigh"``).
+    estimator
+        The engine's registry name.
+    """
+
+    prior_mean: np.ndarray
+    prior_cov: np.ndarray
+    cross_cov: np.ndarray
+    initial: Gaussian
+    gain_form: str
+    estimator: str
 
 
 @dataclass
@@ -55,6 +89,9 @@ class FilterResult:
     epochs: np.ndarray
     recoveries: dict[str, int] = field(default_factory=dict)
     time_s: np.ndarray | None = None
+    #: Predictions and cross covariances for `gnssframework.estimation.smooth`
+    #: (``filter_sequence(..., store="smoother")``), else ``None``.
+    smoother_inputs: SmootherInputs | None = None
 
     def summary(self) -> dict[str, str]:
         """What the result holds, as ``{label: text}`` (``repr`` and the notebook view)."""
@@ -110,6 +147,7 @@ def filter_sequence(
     missing: OnMissing = "raise",
     store_cov: bool = True,
     time_s: np.ndarray | None = None,
+    store: str | None = None,
 ) -> FilterResult:
     """Filter a batch of measurement sequences: predict then update at every step.
 
@@ -139,6 +177,11 @@ def filter_sequence(
     time_s
         Optional time of each measurement ``zs[k]`` (s), ``(K,)``; the result carries the
         times of its estimates (``FilterResult.time_s``).
+    store
+        ``"smoother"`` also keeps the predicted means and covariances and the cross
+        covariances ``Cov(x_{k-1|k-1}, x_{k|k-1})`` (`SmootherInputs`,
+        ``FilterResult.smoother_inputs``) that `gnssframework.estimation.smooth` needs;
+        ``None`` (default) keeps only the posteriors. Needs ``store_cov=True``.
 
     Raises
     ------
@@ -161,6 +204,10 @@ def filter_sequence(
     the same way.
     """
     _check_arguments(estimator, model, initial, adapter, augmentation)
+    if store is not None and store not in STORE_OPTIONS:
+        raise ConfigError("store", f"got {store!r}; allowed: None, {', '.join(map(repr, STORE_OPTIONS))}")
+    if store == "smoother" and not store_cov:
+        raise ConfigError("store", "'smoother' needs the posterior covariances: leave store_cov=True")
     step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
     zs = as_sequence(zs, estimator.name)  # text, ragged or complex: named, not a raw ValueError
     if zs.ndim < 2:
@@ -197,10 +244,22 @@ def filter_sequence(
         raise InvalidInputError(estimator.name, "zs", f"batch shape {zs.shape[1:-1]} does not broadcast with the "
                                 f"initial state's {initial.batch_shape}") from None
     state = step.start(initial, m0)
-    out: dict[str, list] = {k: [] for k in ("mean", "cov", "innovation", "innovation_cov", "Q", "R", "skipped")}
+    out: dict[str, list] = {k: [] for k in ("mean", "cov", "innovation", "innovation_cov", "Q", "R", "skipped",
+                                            "prior_mean", "prior_cov", "cross_cov")}
+    start = state
     for k in range(zs.shape[0]):
         r = step(state, zs[k], m0 if k == 0 else model_at(k))
         posterior, mk = r.posterior, r.model
+        if store == "smoother":
+            # mk is the model the prediction used (the adapter's Q in force at step k).
+            batch = posterior.batch_shape
+            out["prior_mean"].append(np.broadcast_to(r.prior.mean, batch + r.prior.mean.shape[-1:]))
+            out["prior_cov"].append(np.broadcast_to(r.prior.cov, batch + r.prior.cov.shape[-2:]))
+            previous = state if state.batch_shape == batch else Gaussian(
+                np.broadcast_to(state.mean, batch + state.mean.shape[-1:]),
+                np.broadcast_to(state.cov, batch + state.cov.shape[-2:]))
+            cross = estimator.transition_cross_cov(previous, mk, r.prior)
+            out["cross_cov"].append(np.broadcast_to(cross, batch + cross.shape[-2:]))
         out["mean"].append(posterior.mean)
         if store_cov:
             out["cov"].append(posterior.cov)
@@ -222,6 +281,10 @@ def filter_sequence(
         epochs=np.asarray(epochs),
         recoveries=dict(step.recoveries),
         time_s=None if times is None else times[np.asarray(epochs)],
+        smoother_inputs=None if store != "smoother" else SmootherInputs(
+            prior_mean=np.stack(out["prior_mean"]), prior_cov=np.stack(out["prior_cov"]),
+            cross_cov=np.stack(out["cross_cov"]), initial=start,
+            gain_form=getattr(estimator, "smoother_gain", "solve"), estimator=estimator.name),
     )
 
 

@@ -89,6 +89,15 @@ def _flat_shared(a: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
     return _flat(a, batch, 2)
 
 
+def _noise_batch(batch: tuple[int, ...], noise) -> tuple[int, ...]:
+    """The batch of a prediction whose state has ``batch`` and whose Q ``(..., n, n)`` may
+    have leading dimensions of its own (one Q per run with a state shared by the runs)."""
+    own = np.shape(noise)[:-2]
+    if not own or own == batch:
+        return batch
+    return np.broadcast_shapes(batch, own)
+
+
 def sigma_points(mean: np.ndarray, cov: np.ndarray, root_kind: int, scale: float, center: bool):
     """Sigma points ``(N, ..., n)`` and a status ``(...)`` (0 ok, 1 not finite, 2 not PD)."""
     batch = mean.shape[:-1]
@@ -108,8 +117,11 @@ def sigma_points(mean: np.ndarray, cov: np.ndarray, root_kind: int, scale: float
 def predict_moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray, Q: np.ndarray):
     """Mean ``(..., p)`` and covariance ``(..., p, p)`` of points ``(N, ..., p)`` plus Q."""
     N = Y.shape[0]
-    batch = Y.shape[1:-1]
+    batch = _noise_batch(Y.shape[1:-1], Q)
     p = Y.shape[-1]
+    if Y.shape[1:-1] != batch:
+        own = Y.shape[1:-1]
+        Y = np.broadcast_to(Y.reshape((N,) + (1,) * (len(batch) - len(own)) + own + (p,)), (N,) + batch + (p,))
     Yf = np.ascontiguousarray(Y, dtype=float).reshape(N, -1, p)
     B = Yf.shape[1]
     mean = np.empty((B, p))
@@ -193,7 +205,7 @@ def pd_mask(a: np.ndarray) -> np.ndarray:
 
 def linear_predict(mean, cov, F, Q):
     """``(F x, sym(F P F^T + Q))`` batch-first, F ``(n, n)`` shared by the batch."""
-    batch = mean.shape[:-1]
+    batch = _noise_batch(mean.shape[:-1], Q)
     n = mean.shape[-1]
     m_ = _flat(mean, batch, 1)
     B = m_.shape[0]
@@ -223,7 +235,7 @@ def ekf_moments(mean, cov, compiled, R):
 def fused_predict(mean, cov, rule, compiled, Q):
     """Whole sigma-point predict with the model's compiled ``f``: mean, cov, status."""
     root_kind, scale, center, wm, wc = rule
-    batch = mean.shape[:-1]
+    batch = _noise_batch(mean.shape[:-1], Q)
     n = mean.shape[-1]
     m_ = _flat(mean, batch, 1)
     B = m_.shape[0]

@@ -1,0 +1,396 @@
+r"""Rauch-Tung-Striebel smoothing: fixed-interval (`smooth`) and fixed-lag (`fixed_lag_smooth`,
+`FixedLagSmoother`), for every engine, batched over runs.
+
+Every Gaussian filter's forward pass, run with ``filter_sequence(..., store="smoother")``,
+keeps what the backward pass needs at each step $k+1$: the filtered $m_k, P_k$, the
+predicted $m^-_{k+1}, P^-_{k+1}$ (with the Q in force at that step) and the cross
+covariance $C_{k+1} = \operatorname{Cov}(x_k, x^-_{k+1})$. The backward pass is then the same
+for the linear, the extended and the sigma-point forms (Särkkä, *Bayesian Filtering and
+Smoothing*, 2013: ch. 8 for the linear RTS smoother, ch. 9 for the extended, unscented and
+general Gaussian RTS smoothers, all of this form):
+
+$$
+G_k = C_{k+1}\, (P^-_{k+1})^{-1}, \qquad
+m^s_k = m_k + G_k\,(m^s_{k+1} - m^-_{k+1}), \qquad
+P^s_k = P_k + G_k\,(P^s_{k+1} - P^-_{k+1})\,G_k^T,
+$$
+
+from $m^s_{K-1} = m_{K-1}$, $P^s_{K-1} = P_{K-1}$. The engines differ only in $C$: $P_k F^T$
+for KF/EKF ($F$ the Jacobian at $m_k$), $\sum_i W^c_i (\mathcal X_i - m_k)(f(\mathcal X_i) -
+m^-_{k+1})^T$ for the UKF, CKF and SVD-CKF, from the same points as their prediction.
+
+Numerics. The gain is never formed from an inverse: ``"solve"`` (KF, EKF, UKF, CKF) solves
+$P^-_{k+1} G_k^T = C_{k+1}^T$ in one batched solve; ``"eigh"`` (the SVD-CKF,
+``Estimator.smoother_gain``) goes through $P^-_{k+1} = V \operatorname{diag}(w) V^T$, the
+eigen-decomposition the SVD-CKF takes its square root from, $G_k = C V \operatorname{diag}(1/w)
+V^T$ with eigenvalues below $n\,\epsilon\,\max w$ dropped (a pseudo-inverse where $P^-$ is
+numerically singular), and writes the covariance as the sum of two PSD terms,
+
+$$
+P^s_k = \underbrace{(P_k - G_k C_{k+1}^T)}_{\operatorname{Cov}(x_k \mid x_{k+1})}
+      + G_k P^s_{k+1} G_k^T ,
+$$
+
+the first term's rounding-negative eigenvalues set to zero (its square root exists), so
+$P^s_k$ stays symmetric PSD. In exact arithmetic both forms are the equation above. Every
+covariance is symmetrised.
+
+Time-varying and adapted noise. The smoother uses the stored per-step predictions, so a Q
+that changes with k (a callable model) or that a noise adapter estimated online (its estimate
+after step k in force from step k+1) enters the backward pass exactly as the forward filter
+used it; the smoother does not re-estimate Q or R. An augmentation (``colored-ar1``) smooths
+the augmented problem's states, at ``FilterResult.epochs``.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..errors import ConfigError
+from .adaptation import NoiseAdapter
+from .boundary import check_argument
+from .estimator import Estimator, OnFailure, OnMissing
+from .linalg import all_true, pd_mask
+from .sequence import FilterResult, SmootherInputs
+from .step import FilterStep
+from .types import Gaussian, Model
+
+__all__ = ["SmoothedResult", "LagEstimate", "FixedLagSmoother", "smooth", "fixed_lag_smooth", "smoother_gain",
+           "GAIN_FORMS"]
+
+#: The gain solves the smoother knows (``Estimator.smoother_gain``).
+GAIN_FORMS = ("solve", "eigh")
+
+Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+def _t(a: np.ndarray) -> np.ndarray:
+    return np.swapaxes(a, -1, -2)
+
+
+def _sym(a: np.ndarray) -> np.ndarray:
+    return 0.5 * (a + _t(a))
+
+
+@dataclass
+class SmoothedResult:
+    """Output of `smooth`, stacked over time on axis 0 like `FilterResult`.
+
+    Attributes
+    ----------
+    mean, cov
+        Smoothed ``m^s_k`` ``(K, ..., n)`` and ``P^s_k`` ``(K, ..., n, n)``: the state at step k
+        given every measurement of the sequence.
+    gain
+        Smoother gains ``G_k`` ``(K-1, ..., n, n)``, ``k = 0 .. K-2``.
+    initial
+        The initial state (the one step 0 predicted from) given every measurement (`smooth`;
+        `fixed_lag_smooth` returns it as given).
+    epochs, time_s
+        As in the `FilterResult` smoothed.
+    """
+
+    mean: np.ndarray
+    cov: np.ndarray
+    gain: np.ndarray
+    initial: Gaussian
+    epochs: np.ndarray
+    time_s: np.ndarray | None = None
+
+    def __repr__(self) -> str:
+        return (f"SmoothedResult({self.mean.shape[0]} steps, batch {self.mean.shape[1:-1] or 'none'}, "
+                f"n={self.mean.shape[-1]})")
+
+
+def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "solve") -> np.ndarray:
+    r"""The RTS gain $G = C (P^-)^{-1}$, batched, without forming an inverse.
+
+    Parameters
+    ----------
+    cross_cov
+        $C = \operatorname{Cov}(x_k, x^-_{k+1})$ ``(..., n, n)``.
+    prior_cov
+        $P^-_{k+1}$ ``(..., n, n)``, symmetric.
+    form
+        ``"solve"``: $G^T$ from one batched solve of $P^- G^T = C^T$. ``"eigh"``:
+        $G = C V \operatorname{diag}(1/w) V^T$ from $P^- = V \operatorname{diag}(w) V^T$, eigenvalues
+        below $n \epsilon \max w$ dropped (the pseudo-inverse of a numerically singular $P^-$).
+    """
+    if form == "solve":
+        return _t(np.linalg.solve(prior_cov, _t(cross_cov)))
+    if form == "eigh":
+        w, V = np.linalg.eigh(_sym(prior_cov))
+        n = w.shape[-1]
+        tol = n * np.finfo(float).eps * np.max(np.abs(w), axis=-1, keepdims=True)
+        inv_w = np.where(w > tol, 1.0 / np.where(w > tol, w, 1.0), 0.0)
+        return ((cross_cov @ V) * inv_w[..., None, :]) @ _t(V)
+    raise ConfigError("smoother gain form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
+
+
+def _psd_part(a: np.ndarray) -> np.ndarray:
+    """``a`` symmetrised with its negative eigenvalues (rounding) set to zero.
+
+    One compiled positive-definiteness test first; the eigen-decomposition only for the
+    batch elements that fail it (a PD element has no negative eigenvalue to clip)."""
+    a = _sym(a)
+    ok = pd_mask(a)
+    if all_true(ok):
+        return a
+    bad = ~ok
+    w, V = np.linalg.eigh(a[bad])
+    a = a.copy()
+    a[bad] = _sym((V * np.maximum(w, 0.0)[..., None, :]) @ _t(V))
+    return a
+
+
+def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, cross_cov: np.ndarray,
+             next_smoothed: Gaussian, form: str = "solve", residual_x: Residual | None = None,
+             ) -> tuple[Gaussian, np.ndarray]:
+    r"""One backward RTS step from $k+1$ to $k$ (module docstring), batched.
+
+    Parameters
+    ----------
+    filtered
+        $m_k, P_k$.
+    prior_mean, prior_cov, cross_cov
+        $m^-_{k+1}, P^-_{k+1}, C_{k+1}$ of the transition $k \to k+1$.
+    next_smoothed
+        $m^s_{k+1}, P^s_{k+1}$.
+    form
+        ``"solve"`` or ``"eigh"`` (`smoother_gain`); ``"eigh"`` also writes $P^s_k$ as a
+        sum of PSD terms.
+    residual_x
+        Angle-aware state difference ``(a, b) -> a - b`` (plain subtraction when None).
+
+    Returns
+    -------
+    (Gaussian, np.ndarray)
+        $m^s_k, P^s_k$ and the gain $G_k$.
+    """
+    G = smoother_gain(cross_cov, prior_cov, form)
+    diff = (residual_x or np.subtract)(next_smoothed.mean, prior_mean)
+    mean = filtered.mean + (G @ diff[..., None])[..., 0]
+    if form == "eigh":
+        cov = _sym(_psd_part(filtered.cov - G @ _t(cross_cov)) + G @ next_smoothed.cov @ _t(G))
+    else:
+        cov = _sym(filtered.cov + G @ (next_smoothed.cov - prior_cov) @ _t(G))
+    return Gaussian(mean, cov), G
+
+
+def _inputs(result: FilterResult, caller: str) -> SmootherInputs:
+    if not isinstance(result, FilterResult):
+        raise ConfigError("result", f"{caller} needs the FilterResult of filter_sequence(..., store='smoother'), "
+                          f"got {type(result).__name__}")
+    if result.smoother_inputs is None or result.cov is None:
+        raise ConfigError("result", f"{caller} needs the predictions and cross covariances: run "
+                          "filter_sequence(..., store='smoother')")
+    return result.smoother_inputs
+
+
+def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: str | None = None) -> SmoothedResult:
+    r"""Fixed-interval Rauch-Tung-Striebel smoothing of a stored forward pass.
+
+    $m^s_k = E[x_k \mid z_0 \dots z_{K-1}]$ and its covariance for every step, batched over
+    the result's batch dimensions (the equations are in the module docstring; Särkkä 2013,
+    ch. 8 for the KF, ch. 9 for the EKF and the sigma-point filters).
+
+    Parameters
+    ----------
+    result
+        From ``filter_sequence(..., store="smoother")`` with any engine.
+    residual_x
+        Angle-aware state difference ``(a, b) -> a - b`` for angle states (the model's
+        ``residual_x``); plain subtraction when None.
+    form
+        Override the engine's gain form (``"solve"`` or ``"eigh"``); None uses the one the
+        result stored (``Estimator.smoother_gain``: ``"eigh"`` for the SVD-CKF).
+
+    Returns
+    -------
+    SmoothedResult
+        Equal to the filtered state at the last step; the smoothed initial state too.
+
+    Raises
+    ------
+    ConfigError
+        ``result`` was not stored for smoothing, or an unknown ``form``.
+    """
+    inputs = _inputs(result, "smooth")
+    form = inputs.gain_form if form is None else form
+    if form not in GAIN_FORMS:
+        raise ConfigError("form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
+    K = result.mean.shape[0]
+    mean = np.empty_like(result.mean)
+    cov = np.empty_like(result.cov)
+    gain = np.empty((max(K - 1, 0),) + result.cov.shape[1:])
+    mean[-1], cov[-1] = result.mean[-1], result.cov[-1]
+    nxt = Gaussian(mean[-1], cov[-1])
+    for k in range(K - 2, -1, -1):
+        nxt, gain[k] = rts_step(Gaussian(result.mean[k], result.cov[k]), inputs.prior_mean[k + 1],
+                                inputs.prior_cov[k + 1], inputs.cross_cov[k + 1], nxt, form, residual_x)
+        mean[k], cov[k] = nxt.mean, nxt.cov
+    batch = result.mean.shape[1:-1]
+    n = result.mean.shape[-1]
+    start = Gaussian(np.broadcast_to(inputs.initial.mean, batch + (n,)),
+                     np.broadcast_to(inputs.initial.cov, batch + (n, n)))
+    initial, _ = rts_step(start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, form,
+                          residual_x)
+    return SmoothedResult(mean=mean, cov=cov, gain=gain, initial=initial, epochs=result.epochs, time_s=result.time_s)
+
+
+def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | None = None,
+                     form: str | None = None) -> SmoothedResult:
+    r"""Fixed-lag smoothing of a stored forward pass: $E[x_j \mid z_0 \dots z_{\min(j+L, K-1)}]$.
+
+    What a streaming fixed-lag smoother (`FixedLagSmoother`) outputs for step ``j`` once
+    step ``j + L`` has been filtered, and at the end of the stream (the last L steps) the
+    fixed-interval smoother of the final window. Each window is an RTS backward pass from
+    the filtered state at its end (module docstring); all windows run at once, batched,
+    so the cost is L backward steps whatever K.
+
+    Parameters
+    ----------
+    result
+        From ``filter_sequence(..., store="smoother")``.
+    lag
+        L >= 0 steps (0 returns the filtered states; L >= K-1 the fixed-interval smoother).
+
+    Returns
+    -------
+    SmoothedResult
+        ``gain`` holds ``G_0 .. G_{K-2}``, which depend on the forward pass only, so they are
+        the fixed-interval smoother's (zeros where L = 0); ``initial`` is the initial state
+        as given (not smoothed).
+    """
+    inputs = _inputs(result, "fixed_lag_smooth")
+    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
+        raise ConfigError("lag", f"must be an integer >= 0 (steps), got {lag!r}")
+    form = inputs.gain_form if form is None else form
+    if form not in GAIN_FORMS:
+        raise ConfigError("form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
+    K = result.mean.shape[0]
+    j = np.arange(K)
+    end = np.minimum(j + int(lag), K - 1)  # the last step each window sees
+    mean, cov = result.mean[end].copy(), result.cov[end].copy()
+    gain = np.zeros((K,) + result.cov.shape[1:])
+    shape = (K,) + (1,) * (result.mean.ndim - 1)
+    for d in range(1, min(int(lag), K - 1) + 1):
+        i = end - d  # step smoothed now in each window
+        active = i >= j
+        ic = np.maximum(i, 0)
+        out, G = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
+                          inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), form, residual_x)
+        a = active.reshape(shape)
+        mean = np.where(a, out.mean, mean)
+        cov = np.where(a[..., None], out.cov, cov)
+        gain = np.where(a[..., None], G, gain)
+    return SmoothedResult(mean=mean, cov=cov, gain=gain[:-1], initial=inputs.initial, epochs=result.epochs,
+                          time_s=result.time_s)
+
+
+@dataclass(frozen=True)
+class LagEstimate:
+    """A fixed-lag smoother's output: the state of step ``step`` given every measurement so far."""
+
+    step: int
+    state: Gaussian
+
+
+class FixedLagSmoother:
+    r"""Streaming fixed-lag RTS smoother: after filtering step k, the estimate of step k-L.
+
+    Runs a `FilterStep` (so the recovery policies and noise adapters behave as in
+    `filter_sequence`) and keeps the last L+1 filtered states with their predictions and
+    cross covariances; each step runs the RTS backward pass over that window (module
+    docstring), L batched backward steps. Its outputs equal `fixed_lag_smooth` on the same
+    sequence, and the fixed-interval smoother's where L spans the sequence.
+
+    Parameters
+    ----------
+    estimator
+        Any ``estimator`` plugin.
+    lag
+        L >= 0 steps.
+    adapter, on_failure, missing
+        As for `filter_sequence`.
+    residual_x
+        Angle-aware state difference for the backward pass.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gnssframework import registry
+    >>> from gnssframework.estimation import Gaussian, LinearModel
+    >>> model = LinearModel(np.eye(1), np.eye(1), [[0.1]], [[1.0]])
+    >>> fls = FixedLagSmoother(registry.create("estimator", "kf"), lag=2)
+    >>> fls.start(Gaussian(np.zeros(1), np.eye(1)), model)
+    >>> [fls.step(np.array([z]), model) for z in (1.0, 2.0)]
+    [None, None]
+    >>> fls.step(np.array([3.0]), model).step
+    0
+    >>> [e.step for e in fls.flush()]
+    [1, 2]
+    """
+
+    def __init__(self, estimator: Estimator, lag: int, adapter: NoiseAdapter | None = None, *,
+                 on_failure: OnFailure = "raise", missing: OnMissing = "raise",
+                 residual_x: Residual | None = None) -> None:
+        check_argument(estimator, "estimator", "FixedLagSmoother")
+        if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
+            raise ConfigError("lag", f"must be an integer >= 0 (steps), got {lag!r}")
+        self.estimator = estimator
+        self.lag = int(lag)
+        self.residual_x = residual_x
+        self.form = getattr(estimator, "smoother_gain", "solve")
+        self._step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
+        self._window: deque = deque(maxlen=self.lag + 1)
+        self._state: Gaussian | None = None
+        self._k = 0
+
+    def start(self, initial: Gaussian, model: Model) -> None:
+        """Begin a sequence from ``initial`` (the state the first step predicts from)."""
+        self._state = self._step.start(initial, model)
+        self._window.clear()
+        self._k = 0
+
+    def step(self, z: np.ndarray, model: Model) -> LagEstimate | None:
+        """Filter ``z`` ``(..., m)``; return the estimate of step ``k - lag`` (None while k < lag)."""
+        if self._state is None:
+            raise ConfigError("FixedLagSmoother", "call start(initial, model) before step")
+        previous = self._state
+        r = self._step(previous, z, model)
+        post = r.posterior
+        batch = post.batch_shape
+        if previous.batch_shape != batch:
+            previous = Gaussian(np.broadcast_to(previous.mean, batch + previous.mean.shape[-1:]),
+                                np.broadcast_to(previous.cov, batch + previous.cov.shape[-2:]))
+        cross = self.estimator.transition_cross_cov(previous, r.model, r.prior)
+        self._window.append((post, np.broadcast_to(r.prior.mean, post.mean.shape),
+                             np.broadcast_to(r.prior.cov, post.cov.shape), cross))
+        self._state = post
+        self._k += 1
+        if len(self._window) <= self.lag:
+            return None
+        return LagEstimate(self._k - 1 - self.lag, self._backward()[0])
+
+    def flush(self) -> list[LagEstimate]:
+        """The estimates not yet given (the last ``lag`` steps), each given every measurement."""
+        states = self._backward() if self._window else []
+        first = self._k - len(self._window)
+        start = 1 if len(self._window) > self.lag else 0  # the oldest was given by step()
+        return [LagEstimate(first + i, states[i]) for i in range(start, len(states))]
+
+    def _backward(self) -> list[Gaussian]:
+        """RTS over the window, oldest first."""
+        window = list(self._window)
+        nxt = window[-1][0]
+        out = [nxt]
+        for i in range(len(window) - 2, -1, -1):
+            _, prior_mean, prior_cov, cross = window[i + 1]
+            nxt, _ = rts_step(window[i][0], prior_mean, prior_cov, cross, nxt, self.form, self.residual_x)
+            out.append(nxt)
+        return out[::-1]
