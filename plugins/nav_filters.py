@@ -220,6 +220,7 @@ class EkfPositionVelocity(NavFilter):
             raise ConfigError("nav_filter 'ekf-pv'.clock", f"got {self.params.clock!r}; allowed: {', '.join(PRESETS)}")
         self.engine = self.params.estimator.create()
         self.filter_step = FilterStep(self.engine, name=f"{self.name} ({self.engine.name})")
+        self._use_signal()  # GPS L1 C/A until `reset` hands it the tracked signal
 
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         who = f"nav_filter {self.name!r}"

@@ -13,13 +13,14 @@ from gnssframework.io.recordings import describe_recording, recording_kind
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data"
 # Precise orbits (SP3) are a truth for tests/test_ephemeris_gnss.py, not a recording; raw
-# front-end samples (.bin) are read by the sample sources (tests/test_frontend.py).
-FILES = sorted(p for p in DATA.iterdir() if p.name != "README.md" and p.suffix.lower() not in (".sp3", ".bin"))
+# front-end samples (.bin) are read by the sample sources (tests/test_frontend.py); RTKLIB's
+# solution (.pos) is a peer's output that tests/test_rtklib_weighting.py compares with.
+FILES = sorted(p for p in DATA.iterdir() if p.name != "README.md" and p.suffix.lower() not in (".sp3", ".bin", ".pos"))
 
 KINDS = {"07590920.05n": "rinex-nav", "07590920.05o": "rinex-obs", "CEBR00ESP_R_20182002200_01H_30S_MO.crx.gz":
          "rinex-obs", "beidou-bd.log": "nmea", "gsdc2022_device_gnss.csv": "gsdc-device",
          "gsdc2022_ground_truth.csv": "gsdc-truth", "pixel6.23o": "rinex-obs", "pixel6.nmea": "nmea",
-         "ublox-zed-f9p-nmea.log": "nmea", "VILL00ESP_R_20181700000_06H_MN.rnx": "rinex-nav",
+         "ublox-zed-f9p-nmea.log": "nmea", "gnssframework_receive_13s.rnx": "rinex-obs", "VILL00ESP_R_20181700000_06H_MN.rnx": "rinex-nav",
          "BRDC00IGS_R_20201361400_02H_EN.rnx": "rinex-nav"}
 
 

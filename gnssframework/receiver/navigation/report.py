@@ -182,7 +182,8 @@ def no_position_reason(result: ReceiveResult, nav_info=None, assist=None, refere
     listed = f" (PRN {', '.join(map(str, found))})" if found else ""
     if len(found) < _NEEDED:
         start = "an assisted start" if assist is not None else "a position"
-        return f"only {len(found)} satellites found{listed}: {start} needs {_NEEDED}"
+        plural = "s" if len(found) != 1 else ""
+        return f"only {len(found)} satellite{plural} found{listed}: {start} needs {_NEEDED}"
     vector = result.vector
     if assist is not None and (vector is None or vector.handover_s is None):
         events = [text for _, text in vector.events] if vector is not None else []
