@@ -75,3 +75,21 @@ def test_loss_of_lock_grows_as_cn0_falls_and_runs_are_paired():
     # the same seed gives the same runs (common random numbers); another seed other ones
     again = sc.run_batch({"cn0_dbhz": 18.0}, {"channel_filter": _scalar(15.0)}, 16, 3).metrics
     np.testing.assert_array_equal(again["time_to_loss_s"], lo["time_to_loss_s"])
+
+
+def test_samples_source_tracks_at_high_cn0_and_refuses_dynamics():
+    """On IF samples (the compiled correlators) at 40 dB-Hz no run loses lock and the phase
+    jitter is that of the analytic model within 4 standard errors of their difference
+    (different noise: unpaired), both near the thermal formula."""
+    from gnssframework.errors import ConfigError
+
+    sc = get_scenario({"kind": "tracking-threshold", "duration_s": 2.0, "settle_s": 0.5})
+    ch = _scalar(10.0, dll_bandwidth_hz=0.5)
+    got = {src: sc.run_batch({"cn0_dbhz": 40.0, "source": src}, {"channel_filter": ch}, 6, 9).metrics
+           for src in ("samples", "analytic")}
+    assert got["samples"]["loss_of_lock"].sum() == 0
+    va, vs = got["analytic"]["phase_jitter_rad"] ** 2, got["samples"]["phase_jitter_rad"] ** 2
+    se = np.hypot(va.std(ddof=1) / np.sqrt(va.size), vs.std(ddof=1) / np.sqrt(vs.size))
+    assert abs(vs.mean() - va.mean()) < 4 * se, (vs.mean(), va.mean(), se)
+    with pytest.raises(ConfigError, match="cases\\[0\\].doppler_rate_hz_s"):
+        sc.check_case({"cn0_dbhz": 30.0, "source": "samples", "doppler_rate_hz_s": 1.0}, "cases[0]")

@@ -46,7 +46,7 @@ Jitter
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -84,6 +84,9 @@ class TrackingThresholdParams(ScenarioParams):
                                  "out-of-lock condition must hold (s)")
     lock_threshold: float = Field(0.5, gt=-1, lt=1, description="a block whose mean cos(2 phase error) is "
                                   "below is out of lock")
+    sample_rate_hz: float = Field(2.046e6, ge=1.1e6, le=40e6, description="sample rate of a samples case "
+                                  "(complex baseband, IF 0; T times it must be a whole number)")
+    prn: int = Field(1, ge=1, le=32, description="PRN of a samples case's signal")
     slip_capture_rad: float = Field(math.pi / 4, gt=0, lt=math.pi / 2, description="the phase error must come "
                                     "this close (rad) to a new multiple of pi to count a slip")
 
@@ -98,6 +101,9 @@ class TrackingThresholdCase(ScenarioParams):
                                      "line-of-sight acceleration / L1 wavelength: 1 Hz/s = 0.19 m/s^2)")
     doppler_jerk_hz_s2: float = Field(0.0, ge=-100, le=100, description="constant Doppler jerk (Hz/s^2; "
                                       "line-of-sight jerk / L1 wavelength)")
+    source: Literal["analytic", "samples"] = Field(
+        "analytic", description="correlators from the analytic model (all runs at once) or from IF samples "
+        "(complex, generated per run, correlated by the compiled kernels; static cases only)")
 
 
 def lock_loss(phase_error_rad: np.ndarray, code_error_chips: np.ndarray, first: int, window: int,
@@ -199,7 +205,7 @@ class TrackingThresholdScenario(Scenario):
         p = self.params
         return {"T": c.coherent_time_s or p.coherent_time_s, "duration_s": c.duration_s or p.duration_s,
                 "cn0_dbhz": p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz,
-                "rate": c.doppler_rate_hz_s, "jerk": c.doppler_jerk_hz_s2}
+                "rate": c.doppler_rate_hz_s, "jerk": c.doppler_jerk_hz_s2, "source": c.source}
 
     def check_case(self, case: dict, where: str) -> None:
         """The case's own checks, and its duration against settling and one lock-test block."""
@@ -207,6 +213,15 @@ class TrackingThresholdScenario(Scenario):
         c = self._case(case)
         p = self.params
         field = f"{where}.duration_s" if case.get("duration_s") else "scenario.duration_s"
+        if c["source"] == "samples":
+            for key, name in (("rate", "doppler_rate_hz_s"), ("jerk", "doppler_jerk_hz_s2")):
+                if c[key] != 0:
+                    raise ConfigError(f"{where}.{name}", "the samples source simulates a constant Doppler only; "
+                                      f"set it to 0 or use source = \"analytic\" (got {c[key]!r})")
+            n = c["T"] * p.sample_rate_hz
+            if abs(n - round(n)) > 1e-6:
+                raise ConfigError("scenario.sample_rate_hz", f"T = {c['T']} s times the sample rate must be a whole "
+                                  f"number of samples (got {n:g})")
         if c["duration_s"] - p.settle_s < max(p.lock_window_s, c["T"]):
             raise ConfigError(field, f"must leave one lock-test block of lock_window_s = {p.lock_window_s!r} s "
                               f"after settle_s = {p.settle_s!r} s (got {c['duration_s']!r})")
@@ -241,13 +256,40 @@ class TrackingThresholdScenario(Scenario):
         p = self.params
         c = self._case(case)
         T, d = c["T"], p.early_late_spacing_chips
+        if c["source"] == "samples":
+            parts = [self._track_samples(c, channel, stream) for stream in rng.generators]
+            return np.concatenate([q[0] for q in parts], axis=1), np.concatenate([q[1] for q in parts], axis=1), T
         truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=np.full(runs, p.doppler_hz),
                                         doppler_rate_hz_s=c["rate"], doppler_jerk_hz_s2=c["jerk"])
+        source = AnalyticSource(CorrelatorSimulator(T, d), amplitude_from_cn0(c["cn0_dbhz"], T), rng)
+        return (*self._close(channel, truth, c, source), T)
+
+    def _track_samples(self, c: dict, channel, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """One run on IF samples drawn from the run's own stream ``rng`` (complex baseband
+        at ``sample_rate_hz``; the signal's code phase and carrier phase 0 at t = 0)."""
+        from ...signal.gps_l1ca import GPS_L1CA
+        from ...signal.if_samples import generate_if_samples
+        from ...receiver.engine.samples import SampleSource
+
+        p = self.params
+        T, fs = c["T"], p.sample_rate_hz
+        x = generate_if_samples(p.prn, c["duration_s"] + 2 * T, fs, 0.0, c["cn0_dbhz"], rng, doppler_hz=p.doppler_hz,
+                                complex_samples=True, sample_type="float32")
+        truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=np.full(1, p.doppler_hz))
+        source = SampleSource(x.samples, fs, 0.0, GPS_L1CA.code(p.prn)[None, :], T,
+                              early_late_spacing_chips=p.early_late_spacing_chips, noise_std=x.noise_std)
+        return self._close(channel, truth, c, source)  # the closer resets the filter
+
+    def _close(self, channel, truth: LoopTruth, c: dict, source) -> tuple[np.ndarray, np.ndarray]:
+        """Close ``channel`` over ``truth`` on ``source``: the unwrapped mid-interval phase
+        error and the code error, ``(K, runs)``."""
+        p = self.params
+        T, d = truth.coherent_time_s, p.early_late_spacing_chips
+        runs = truth.code_phase_chips.shape[1]
         closer = ScalarCloser(channel)
         replica = Channel.start((runs,), truth.code_phase_chips[0], p.doppler_hz + p.initial_freq_error_hz,
                                 signal=truth.signal)
         closer.reset(replica, T, early_late_spacing_chips=d, cn0_dbhz=c["cn0_dbhz"])
-        source = AnalyticSource(CorrelatorSimulator(T, d), amplitude_from_cn0(c["cn0_dbhz"], T), rng)
         code, carrier = truth.code_phase_chips, truth.carrier_phase_rad
         phase_err, code_err = np.empty((truth.epochs, runs)), np.empty((truth.epochs, runs))
         for k in range(truth.epochs):
@@ -255,7 +297,7 @@ class TrackingThresholdScenario(Scenario):
             closer.step(replica, source.correlate(replica, k, err))
             phase_err[k] = err.phase_rad + np.pi * err.freq_hz * T  # mid-interval, not wrapped
             code_err[k] = err.code_chips
-        return phase_err, code_err, T
+        return phase_err, code_err
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         c = self._case(case)
