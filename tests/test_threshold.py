@@ -108,3 +108,34 @@ def test_threshold_claims_refuse_a_sweep_without_a_threshold_table():
                   "threshold": "lower"}])
     with pytest.raises(Exception, match="reference"):
         _config([{"candidate": "b", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower"}])
+
+
+def test_a_comparison_writes_its_thresholds_plot_and_claims(tmp_path):
+    import json
+
+    from gnssframework.experiments.config import ComparisonConfig
+    from gnssframework.experiments.runner import run_comparison
+
+    config = ComparisonConfig.model_validate({
+        "name": "tiny-threshold", "runs": 8, "batch_size": 8, "seed": 3, "reference": "wide",
+        "scenario": {"kind": "tracking-threshold", "duration_s": 2.0, "settle_s": 0.5},
+        "cases": [{"name": "static", "cn0_dbhz": 30.0}],
+        "candidates": [{"name": "wide", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 18.0}}},
+                       {"name": "narrow", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 5.0}}}],
+        "sweeps": [{"name": "cn0", "path": "cases.cn0_dbhz", "values": [15.0, 30.0, 45.0],
+                    "threshold": {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 200,
+                                  "time_metric": "time_to_loss_s", "plot_metrics": ["cycle_slip_rate"]}}],
+        "claims": [{"candidate": "narrow", "reference": "wide", "metric": "loss_of_lock", "sweep": "cn0",
+                    "threshold_difference": [-20.0, 20.0]}]})
+    summary = json.loads(run_comparison(config, tmp_path / "out", progress=False).read_text())
+    thr = summary["sweeps"][0]["threshold"]
+    rows = {r["candidate"]: r for r in thr["cases"][0]["rows"]}
+    # every run loses lock at 15 dB-Hz and none at 45: both thresholds lie inside the grid
+    for row in rows.values():
+        assert row["curve"][0]["p"] == 1.0 and row["curve"][-1]["p"] == 0.0
+        assert 15.0 < row["threshold"] < 45.0
+        assert row["curve"][-1]["km_restricted_mean"] == pytest.approx(1.5)  # never lost: the span
+    assert (tmp_path / "out" / "plots" / "threshold-cn0-static.png").stat().st_size > 0
+    assert (tmp_path / "out" / "sweeps" / "cn0-threshold.json").is_file()
+    assert "Thresholds along sweep" in (tmp_path / "out" / "report.md").read_text()
+    assert [c["outcome"] for c in summary["claims"]] == ["holds"]
