@@ -151,7 +151,8 @@ class Claim(BaseModel):
                 raise ValueError(f"a threshold claim is about the whole sweep; {', '.join(others)} is a separate claim")
             if self.reference == self.candidate:
                 raise ValueError("the reference must be another candidate")
-            if self.threshold_difference is not None and not self.threshold_difference[0] < self.threshold_difference[1]:
+            bounds = self.threshold_difference
+            if bounds is not None and not bounds[0] < bounds[1]:
                 raise ValueError(f"threshold_difference = {list(self.threshold_difference)} must be [low, high] with "
                                  "low < high")
             return self

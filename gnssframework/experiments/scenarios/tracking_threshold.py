@@ -29,8 +29,9 @@ Cycle slips
     changes only when the error comes within ``slip_capture_rad`` of another multiple
     :math:`m\pi`, counting :math:`|m - n|` half-cycle slips; a whole-cycle slip is counted
     each time the lock point has moved :math:`2\pi` from the last whole-cycle reference
-    (`count_slips`). Noise excursions past :math:`\pm\pi/2` that return do not count. Rates are slips over the observed span
-    after ``settle_s`` (a loop that lost lock and spins keeps slipping: its rate is high).
+    (`count_slips`). Noise excursions past :math:`\pm\pi/2` that return do not count.
+    Rates are slips over the observed span after ``settle_s`` (a loop that lost lock and
+    spins keeps slipping: its rate is high).
 
 Jitter
     ``phase_jitter_rad`` and ``code_jitter_chips``: RMS of the phase error (wrapped to
@@ -332,7 +333,8 @@ def lock_scores(phase_err: np.ndarray, code_err: np.ndarray, T: float, p: Tracki
     in_lock = np.where(lost, end - window, end)  # intervals before the first out-of-lock block
     return {"loss_of_lock": lost.astype(float), "time_to_loss_s": end * T,
             "half_cycle_slip_rate": half_slips / span_s, "cycle_slip_rate": whole_slips / span_s,
-            "phase_jitter_rad": _rms_before(wrapped, in_lock), "code_jitter_chips": _rms_before(code_err[first:], in_lock)}
+            "phase_jitter_rad": _rms_before(wrapped, in_lock),
+            "code_jitter_chips": _rms_before(code_err[first:], in_lock)}
 
 
 class LockScore(SeriesMetric):
