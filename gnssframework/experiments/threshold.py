@@ -161,22 +161,18 @@ def threshold_rows(config, store, index: int) -> dict[str, Any] | None:
               "interval": "paired bootstrap over runs, 95 % percentile", "values": [float(v) for v in x[order]],
               "cases": []}
     for case in cases:
-        outcomes, times = {}, {}
+        raw, raw_times = {}, {}
         for cand in config.candidates:
-            vals, tvals = [], []
-            for j in order:
-                _, point = pairs[j]
-                key = point.identity()
-                got = store.run_values(key, case, cand.name, spec.metric, point.runs)
-                vals.append(got)
-                if spec.time_metric is not None:
-                    tvals.append(store.run_values(key, case, cand.name, spec.time_metric, point.runs))
-            common = sorted(set.intersection(*(set(v) for v in vals)))
-            outcomes[cand.name] = np.array([[v[r] for r in common] for v in vals], float)
-            if tvals:
-                times[cand.name] = np.array([[t[r] for r in common] for t in tvals], float)
-        runs = min(o.shape[1] for o in outcomes.values())
-        outcomes = {k: v[:, :runs] for k, v in outcomes.items()}
+            raw[cand.name] = [store.run_values(pairs[j][1].identity(), case, cand.name, spec.metric, pairs[j][1].runs)
+                              for j in order]
+            if spec.time_metric is not None:
+                raw_times[cand.name] = [store.run_values(pairs[j][1].identity(), case, cand.name, spec.time_metric,
+                                                         pairs[j][1].runs) for j in order]
+        # the runs every candidate has at every point: run r is paired everywhere
+        common = sorted(set.intersection(*(set(v) for vals in raw.values() for v in vals)))
+        outcomes = {k: np.array([[v[r] for r in common] for v in vals], float) for k, vals in raw.items()}
+        times = {k: np.array([[v[r] for r in common] for v in vals], float) for k, vals in raw_times.items()}
+        runs = len(common)
         boot = bootstrap_thresholds(x[order], outcomes, spec.level, spec.bootstrap, sweep_seed(config, sweep.label))
         rows = []
         for name, (est, lo, hi) in boot["threshold"].items():
