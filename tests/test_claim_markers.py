@@ -46,10 +46,11 @@ BOUND = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)
                    r"\[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\]" + _WHERE)
 #: A threshold claim (``threshold`` / ``threshold_difference`` along a sweep with a threshold table):
 #: ``kf loss_of_lock threshold lower than pll along cn0 [within [-9, -5]]`` or
-#: ``kf loss_of_lock threshold within [-1, 1] of pll along cn0``.
+#: ``kf loss_of_lock threshold within [-1, 1] of pll along cn0`` (``at CASE`` after the sweep for a
+#: claim of one case).
 THRESHOLD = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+threshold\s+"
                        r"(?:(?P<threshold>lower|higher) than|within \[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\] of)\s+"
-                       r"(?P<reference>\S+)\s+along\s+(?P<sweep>[\w.+-]+)"
+                       r"(?P<reference>\S+)\s+along\s+(?P<sweep>[\w.+-]+)(?:\s+at\s+(?P<case>[^\s=]+))?"
                        r"(?:\s+within\s+\[(?P<dlow>[^,\]]+),\s*(?P<dhigh>[^\]]+)\])?$")
 
 
@@ -65,7 +66,7 @@ def _markers() -> list[tuple[str, int, str]]:
 def _parse(body: str) -> dict:
     t = THRESHOLD.match(body)
     if t is not None:
-        return {**t.groupdict(), "kind": "threshold", "case": None}
+        return {**t.groupdict(), "kind": "threshold"}
     m = ORDERING.match(body) or BOUND.match(body)
     if m is None:
         raise AssertionError(f"unreadable claim marker {body!r}: write '<example>: <candidate> <metric> "
@@ -104,7 +105,7 @@ def _matches(claim: dict, want: dict) -> bool:
         difference = None if low is None else (float(low), float(high))
         got = claim.get("threshold_difference")
         return ((claim["candidate"], claim["metric"], claim.get("reference"), claim.get("sweep"), claim.get("case"))
-                == (want["candidate"], want["metric"], want["reference"], want["sweep"], None)
+                == (want["candidate"], want["metric"], want["reference"], want["sweep"], want["case"])
                 and claim.get("threshold") == want["threshold"]
                 and (None if got is None else tuple(float(v) for v in got)) == difference)
     if (claim["candidate"], claim["metric"], claim.get("case")) != (want["candidate"], want["metric"], want["case"]):
@@ -347,3 +348,6 @@ def test_a_threshold_marker_names_the_claims_kind_and_interval():
     only = {**claim, "threshold": None, "threshold_difference": [-1.0, 1.0]}
     assert _matches(only, _parse("x: kf loss_of_lock threshold within [-1.0, 1.0] of pll along cn0"))
     assert not _matches(only, _parse("x: kf loss_of_lock threshold within [-1.0, 2.0] of pll along cn0"))
+    one = {**claim, "case": "accel"}
+    assert _matches(one, _parse("x: kf loss_of_lock threshold lower than pll along cn0 at accel within [-9.0, -5.5]"))
+    assert not _matches(one, _parse("x: kf loss_of_lock threshold lower than pll along cn0 within [-9.0, -5.5]"))
