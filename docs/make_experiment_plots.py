@@ -21,7 +21,8 @@ EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath"
             "carrier_smoothing_sweep", "scintillation_sweep", "deep_integration_ci", "deep_integration_elevation_ci",
             "deep_integration_lock_ci", "deep_integration_lock_control_ci", "sample_receiver",
             "deep_integration_nees_ci", "deep_integration_error_sources_ci", "vector_tracking_spacing",
-            "vector_tracking_fade_ci", "deep_integration_error_sources", "deep_integration_lock_bandwidth")
+            "vector_tracking_fade_ci", "deep_integration_error_sources", "deep_integration_lock_bandwidth",
+            "tracking_threshold")
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
 #: Examples whose page includes tables generated from the run (docs/experiment_tables.py), with the

@@ -44,6 +44,14 @@ ORDERING = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\
                       + _WHERE)
 BOUND = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+within\s+"
                    r"\[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\]" + _WHERE)
+#: A threshold claim (``threshold`` / ``threshold_difference`` along a sweep with a threshold table):
+#: ``kf loss_of_lock threshold lower than pll along cn0 [within [-9, -5]]`` or
+#: ``kf loss_of_lock threshold within [-1, 1] of pll along cn0`` (``at CASE`` after the sweep for a
+#: claim of one case).
+THRESHOLD = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+threshold\s+"
+                       r"(?:(?P<threshold>lower|higher) than|within \[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\] of)\s+"
+                       r"(?P<reference>\S+)\s+along\s+(?P<sweep>[\w.+-]+)(?:\s+at\s+(?P<case>[^\s=]+))?"
+                       r"(?:\s+within\s+\[(?P<dlow>[^,\]]+),\s*(?P<dhigh>[^\]]+)\])?$")
 
 
 def _markers() -> list[tuple[str, int, str]]:
@@ -56,6 +64,9 @@ def _markers() -> list[tuple[str, int, str]]:
 
 
 def _parse(body: str) -> dict:
+    t = THRESHOLD.match(body)
+    if t is not None:
+        return {**t.groupdict(), "kind": "threshold"}
     m = ORDERING.match(body) or BOUND.match(body)
     if m is None:
         raise AssertionError(f"unreadable claim marker {body!r}: write '<example>: <candidate> <metric> "
@@ -89,6 +100,14 @@ def _same_points(claim: dict, want: dict) -> bool:
 
 
 def _matches(claim: dict, want: dict) -> bool:
+    if want.get("kind") == "threshold":
+        low, high = (want["low"], want["high"]) if want["low"] is not None else (want["dlow"], want["dhigh"])
+        difference = None if low is None else (float(low), float(high))
+        got = claim.get("threshold_difference")
+        return ((claim["candidate"], claim["metric"], claim.get("reference"), claim.get("sweep"), claim.get("case"))
+                == (want["candidate"], want["metric"], want["reference"], want["sweep"], want["case"])
+                and claim.get("threshold") == want["threshold"]
+                and (None if got is None else tuple(float(v) for v in got)) == difference)
     if (claim["candidate"], claim["metric"], claim.get("case")) != (want["candidate"], want["metric"], want["case"]):
         return False
     if not _same_points(claim, want):
@@ -318,3 +337,17 @@ def test_ci_examples_evaluate_at_the_tuned_values(example, tuned_by):
     for name, label in checked:
         assert _param(candidates[name], label) == pytest.approx(tuned[(name, label)], rel=5e-3), \
             f"{example}.toml: {name} {label} is not {tuned_by}'s tuned {tuned[(name, label)]}"
+
+
+def test_a_threshold_marker_names_the_claims_kind_and_interval():
+    claim = {"candidate": "kf", "reference": "pll", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower",
+             "threshold_difference": [-9.0, -5.5]}
+    assert _matches(claim, _parse("x: kf loss_of_lock threshold lower than pll along cn0 within [-9.0, -5.5]"))
+    assert not _matches(claim, _parse("x: kf loss_of_lock threshold lower than pll along cn0"))
+    assert not _matches(claim, _parse("x: kf loss_of_lock threshold higher than pll along cn0 within [-9.0, -5.5]"))
+    only = {**claim, "threshold": None, "threshold_difference": [-1.0, 1.0]}
+    assert _matches(only, _parse("x: kf loss_of_lock threshold within [-1.0, 1.0] of pll along cn0"))
+    assert not _matches(only, _parse("x: kf loss_of_lock threshold within [-1.0, 2.0] of pll along cn0"))
+    one = {**claim, "case": "accel"}
+    assert _matches(one, _parse("x: kf loss_of_lock threshold lower than pll along cn0 at accel within [-9.0, -5.5]"))
+    assert not _matches(one, _parse("x: kf loss_of_lock threshold lower than pll along cn0 within [-9.0, -5.5]"))

@@ -131,10 +131,31 @@ class Claim(BaseModel):
                                       "(inclusive; default the first)")
     points_to: float | None = Field(None, alias="to", description="with sweep: every point up to this value "
                                     "(inclusive; default the last)")
+    threshold: Literal["lower", "higher"] | None = Field(
+        None, description="with sweep (one with a threshold table) and reference: the candidate's threshold is "
+        "lower / higher than the reference's (paired bootstrap 95 % interval of the difference)")
+    threshold_difference: tuple[float, float] | None = Field(
+        None, description="with sweep and reference: the candidate's threshold minus the reference's lies in "
+        "[low, high] (its paired bootstrap 95 % interval does)")
     note: str = Field("", description="where the claim is stated (a docs page, a paper's table)")
 
     @model_validator(mode="after")
     def _one_kind(self) -> "Claim":
+        if self.threshold is not None or self.threshold_difference is not None:
+            if self.reference is None or self.sweep is None:
+                raise ValueError("a threshold claim compares the candidate's threshold with a reference candidate's "
+                                 "along a sweep: give reference = \"<candidate>\" and sweep = \"<name>\"")
+            others = [k for k in ("direction", "ratio_max", "ratio_min", "within", "reference_case", "at",
+                                  "points_from", "points_to") if getattr(self, k) is not None]
+            if others:
+                raise ValueError(f"a threshold claim is about the whole sweep; {', '.join(others)} is a separate claim")
+            if self.reference == self.candidate:
+                raise ValueError("the reference must be another candidate")
+            bounds = self.threshold_difference
+            if bounds is not None and not bounds[0] < bounds[1]:
+                raise ValueError(f"threshold_difference = {list(self.threshold_difference)} must be [low, high] with "
+                                 "low < high")
+            return self
         ordering = [k for k in ("direction", "ratio_max", "ratio_min") if getattr(self, k) is not None]
         if self.reference_case is not None:
             if not ordering:
@@ -169,6 +190,11 @@ class Claim(BaseModel):
     def statement(self) -> str:
         """The claim in words."""
         parts = []
+        if self.threshold is not None:
+            parts.append(f"threshold of {self.metric} along {self.sweep} {self.threshold} than {self.reference}'s")
+        if self.threshold_difference is not None:
+            lo, hi = self.threshold_difference
+            parts.append(f"threshold of {self.metric} along {self.sweep} minus {self.reference}'s in [{lo:g}, {hi:g}]")
         ref = ratio_ref = f"{self.reference}'s"
         if self.reference_case is not None:
             own = self.reference in (None, self.candidate)
@@ -206,6 +232,14 @@ def check_claims(claims: list[Claim], cases: list[str], candidates: list[str], m
             raise ConfigError(f"claims[{i}].sweep", f"unknown sweep {c.sweep!r}; allowed: "
                               f"{', '.join(labels) or 'none (this config has no [[sweeps]])'}")
         sweep = sweeps[labels.index(c.sweep)]
+        if c.threshold is not None or c.threshold_difference is not None:
+            spec = getattr(sweep, "threshold", None)
+            if spec is None:
+                raise ConfigError(f"claims[{i}].sweep", f"sweep {c.sweep!r} has no threshold table: add threshold = "
+                                  "{ metric = \"...\", level = 0.5 } to it")
+            if c.metric != spec.metric:
+                raise ConfigError(f"claims[{i}].metric", f"sweep {c.sweep!r} finds the threshold of {spec.metric!r}; "
+                                  f"got {c.metric!r}")
         claim_points(c, sweep, f"claims[{i}]")
         run = list(sweep.cases or cases)
         for field, value, allowed, what in (("case", c.case, varied_cases(sweep, cases), "varies"),
@@ -358,12 +392,43 @@ def _sweep_rows(config, store, i: int, claim: Claim) -> list[dict]:
     return out
 
 
+def _threshold_claim_rows(config, i: int, claim: Claim, report: dict) -> list[dict]:
+    """A threshold claim's rows, one per case: the paired bootstrap 95 % interval of the
+    candidate's threshold minus the reference's (`gnssframework.experiments.threshold`)."""
+    from .threshold import _bound, difference_interval
+
+    names = [c["case"] for c in report["cases"]]
+    out = []
+    for case in [claim.case] if claim.case else names:
+        est, lo, hi = difference_interval(report, case, claim.candidate, claim.reference)
+        outcomes = []
+        if claim.threshold is not None:
+            outcomes.append(_against(lo, hi, 0.0, claim.threshold == "lower"))
+        if claim.threshold_difference is not None:
+            a, b = claim.threshold_difference
+            outcomes.append(_worst([_against(lo, hi, a, below=False), _against(lo, hi, b, below=True)]))
+        out.append({"claim": i, "statement": claim.statement(), "case": case, "sweep": claim.sweep,
+                    "point": "threshold", "candidate": claim.candidate, "reference": claim.reference,
+                    "metric": claim.metric, "note": claim.note, "threshold_difference": finite_or_none(est),
+                    "threshold_ci95": [_bound(lo), _bound(hi)], "outcome": _worst(outcomes)})
+    return out
+
+
 def evaluate_claims(config, store, key: str | None = None) -> list[dict]:
     """Every claim of ``config`` in every case (and sweep point) it names: outcome and
     evidence (strict JSON)."""
     key = key or config.identity()
     out = []
+    reports: dict[int, dict] = {}
     for i, claim in enumerate(config.claims):
+        if claim.threshold is not None or claim.threshold_difference is not None:
+            from .threshold import threshold_rows
+
+            index = [s.label for s in config.sweeps].index(claim.sweep)
+            if index not in reports:
+                reports[index] = threshold_rows(config, store, index)
+            out += _threshold_claim_rows(config, i, claim, reports[index])
+            continue
         if claim.sweep is not None:
             out += _sweep_rows(config, store, i, claim)
             continue
@@ -381,6 +446,8 @@ def claim_where(row: dict) -> str:
     if row.get("sweep") is None:
         return row["case"]
     point = row["point"]
+    if point == "threshold":
+        return f"{row['case']} {row['sweep']} threshold"
     if point == "all":
         point = ",".join(str(v) for v in row["points"]) + " (all)"
     return f"{row['case']} {row['sweep']}={point}"
@@ -388,6 +455,12 @@ def claim_where(row: dict) -> str:
 
 def claim_evidence(row: dict) -> str:
     """A claim row's evidence in words."""
+    if row.get("point") == "threshold":
+        lo, hi = row["threshold_ci95"]
+        est = row["threshold_difference"]
+        return (f"threshold difference {'undefined' if est is None else format(est, '+.2f')}, paired bootstrap "
+                f"95 % interval [{lo if isinstance(lo, str) else format(lo, '+.2f')}, "
+                f"{hi if isinstance(hi, str) else format(hi, '+.2f')}]")
     if row.get("point") == "all":
         failed = row.get("failed_corrected") or []
         return (f"holds at {row['held']} of {len(row['points'])} points; fails at the Bonferroni level "

@@ -23,7 +23,7 @@ from ..plugin_ref import ComponentRef, PluginSpec
 from .candidates import CandidatePlan, resolve_candidate
 from .claims import Claim, check_claims
 from .file_names import check_file_name
-from .sweeps import Sweep, check_unique_labels, expand_sweep
+from .sweeps import Sweep, check_thresholds, check_unique_labels, expand_sweep
 from .tuning import Tuning, check_tuning
 
 __all__ = ["Candidate", "Case", "Executor", "ComparisonConfig", "Sweep", "Claim", "load_config"]
@@ -183,6 +183,7 @@ class ComparisonConfig(_Strict):
             check_tuning(self)
         if self.sweeps:
             check_unique_labels(self.sweeps)
+            check_thresholds(self.sweeps, self.metric_names)
             self._points = {i: expand_sweep(self, i) for i in range(len(self.sweeps))}  # validates every value
         return self
 

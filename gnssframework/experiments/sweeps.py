@@ -44,8 +44,9 @@ from ..io.files import atomic_open, write_json
 from .file_names import check_file_name
 from .number_format import format_estimate
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
+from .threshold import Threshold, plot_threshold, threshold_markdown, threshold_rows
 
-__all__ = ["Sweep", "expand_sweep", "sweep_rows", "write_sweeps"]
+__all__ = ["Sweep", "expand_sweep", "sweep_rows", "write_sweeps", "check_thresholds"]
 
 
 #: Most points of one sweep, given as values or as a range: each point is a whole
@@ -70,6 +71,9 @@ class Sweep(BaseModel):
     num: int | None = Field(None, ge=2, le=MAX_SWEEP_POINTS, description="number of evenly spaced values of a range")
     cases: list[str] | None = Field(None, min_length=1, description="the cases the sweep's points run "
                                     "(default: every case)")
+    threshold: Threshold | None = Field(None, description="where a per-run 0/1 metric's mean crosses a level "
+                                        "along the sweep, with a paired bootstrap interval "
+                                        "(gnssframework.experiments.threshold)")
 
     @field_validator("name")
     @classmethod
@@ -392,7 +396,35 @@ def write_sweeps(config, store, out: Path) -> tuple[list[dict], list[str]]:
             if len(config.candidates) > 1:
                 _plot_paired(out / "plots" / f"sweep-{sweep['name']}-{case}-paired.png", config, sweep, case)
         lines += _markdown(config, sweep)
+    for i, sweep in enumerate(config.sweeps):
+        report = threshold_rows(config, store, i)
+        if report is None:
+            continue
+        for entry in report["cases"]:
+            plot_threshold(out / "plots" / f"threshold-{sweep.label}-{entry['case']}.png", config, report, entry,
+                           sweeps[i])
+        lines += threshold_markdown(config, report)
+        sweeps[i]["threshold"] = {k: v for k, v in report.items() if k != "cases"} | {
+            "cases": [{k: v for k, v in c.items() if k != "_samples"} for c in report["cases"]]}
+        write_json(out / "sweeps" / f"{sweep.label}-threshold.json", sweeps[i]["threshold"])
     return sweeps, lines
+
+
+def check_thresholds(sweeps: list[Sweep], metrics: list[str]) -> None:
+    """Refuse a sweep's threshold table naming a metric the comparison does not report."""
+    for i, sweep in enumerate(sweeps):
+        t = sweep.threshold
+        if t is None:
+            continue
+        for field in ("metric", "time_metric"):
+            value = getattr(t, field)
+            if value is not None and value not in metrics:
+                raise ConfigError(f"sweeps[{i}].threshold.{field}", f"unknown metric {value!r}; allowed: "
+                                  f"{', '.join(metrics)}")
+        for j, value in enumerate(t.plot_metrics):
+            if value not in metrics:
+                raise ConfigError(f"sweeps[{i}].threshold.plot_metrics[{j}]", f"unknown metric {value!r}; "
+                                  f"allowed: {', '.join(metrics)}")
 
 
 def check_unique_labels(sweeps: list[Sweep]) -> None:

@@ -1,0 +1,382 @@
+r"""Scenario ``tracking-threshold``: where each loop lets go, one C/N0 point per case.
+
+One channel per run tracks a GPS L1 C/A signal on the loop engine's analytic correlator
+model (`gnssframework.receiver.engine`: a `Channel` started from the acquisition, the
+`AnalyticSource`, a `ScalarCloser` around the candidate's ``channel_filter``). A case is a
+C/N0 with optional line-of-sight dynamics (Doppler rate, jerk) and its own interval T; a
+``[[sweeps]]`` entry over ``cases.cn0_dbhz`` makes the grid, and its ``threshold`` table
+(`gnssframework.experiments.threshold`) turns the grid into each candidate's threshold.
+Every run draws its correlator noise from its own stream (`gnssframework.random_streams`),
+so run ``r`` of every candidate and every C/N0 point sees the same numbers (common random
+numbers, paired across candidates and along the sweep).
+
+Every metric is read off the truth: the replica's true errors (truth minus replica) at
+every interval, the carrier phase error *unwrapped* (the engine's continuous phases, so
+cycle slips are seen as jumps of :math:`\pi` or :math:`2\pi`, not wrapped away).
+
+Loss of lock (per run, absorbing)
+    After ``settle_s``, the run is cut into blocks of ``lock_window_s``; a block is *out
+    of lock* when the mean of :math:`\cos 2\delta\phi` over it is below ``lock_threshold``
+    (0.5: an RMS phase error near 30°, or a spinning phase, whose mean is near 0; a Costas
+    loop is blind to half cycles, hence :math:`2\delta\phi`) or the mean absolute code
+    error exceeds half the early-late spacing (the DLL has left its linear range). The loss
+    is declared at the end of the first such block (the condition held for
+    ``lock_window_s``); ``time_to_loss_s`` is that time after ``settle_s``, or the
+    observed span (censored) without a loss.
+
+Cycle slips
+    The unwrapped phase error's lock point :math:`n\pi` is tracked with hysteresis: it
+    changes only when the error comes within ``slip_capture_rad`` of another multiple
+    :math:`m\pi`, counting :math:`|m - n|` half-cycle slips; a whole-cycle slip is counted
+    each time the lock point has moved :math:`2\pi` from the last whole-cycle reference
+    (`count_slips`). Noise excursions past :math:`\pm\pi/2` that return do not count.
+    Rates are slips over the observed span after ``settle_s`` (a loop that lost lock and
+    spins keeps slipping: its rate is high).
+
+Jitter
+    ``phase_jitter_rad`` and ``code_jitter_chips``: RMS of the phase error (wrapped to
+    half a cycle around the lock point) and of the code error over the intervals before
+    the loss of lock (NaN when lock is lost in the first block). Beside them the thermal
+    formulas at the case's C/N0 and T: the Costas PLL's
+    :math:`\sigma^2 = B_L/c\,(1 + 1/(2cT))` with :math:`B_L` the loop's measured
+    steady-state noise bandwidth (`loop_bandwidth.equivalent_bandwidth_hz`), and the
+    DLL's :math:`2 B_{DLL} T\,\sigma_D^2` with its code discriminator's thermal variance
+    (NaN for a channel filter without ``dll_bandwidth_hz`` and ``code_discriminator``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field
+
+from ... import random_streams as draw
+from ...errors import ConfigError
+from ...interfaces import RunContext
+from ...receiver.engine.channel import Channel
+from ...receiver.engine.closers import NCO_COMMANDS, ScalarCloser, check_closed_loop
+from ...receiver.engine.sources import AnalyticSource
+from ...receiver.engine.truth import LoopTruth
+from ...receiver.tracking.jitter import loop_variance, pll_thermal_variance_rad2
+from ...receiver.tracking.loop_bandwidth import at_interval, equivalent_bandwidth_hz
+from ...signal.constants import L1_WAVELENGTH_M
+from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
+from ..limits import CoherentTime
+from ..metric_components import Mean, SeriesMetric, evaluate, units
+from ..metrics import MetricValue
+from . import BatchResult, Scenario, ScenarioParams, register_scenario
+
+__all__ = ["TrackingThresholdScenario", "lock_loss", "count_slips", "lock_scores", "METRICS", "BYTES_PER_EPOCH_RUN"]
+
+#: Peak memory of one run's interval (truth, the record; a generous round number).
+BYTES_PER_EPOCH_RUN = 512
+
+class TrackingThresholdParams(ScenarioParams):
+    duration_s: float = Field(10.0, gt=0, le=3600, description="duration of every case (s)")
+    coherent_time_s: CoherentTime = Field(0.01, description="interval T (s): whole 1 ms code periods, 1 to 20 ms")
+    cn0_dbhz: float = Field(30.0, ge=5, le=60, description="C/N0 of a case that sets none (dB-Hz)")
+    doppler_hz: float = Field(1500.0, description="constant Doppler at start (known to the receiver)")
+    initial_freq_error_hz: float = Field(0.0, ge=-50, le=50, description="acquisition's Doppler error (Hz)")
+    early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0, description="early-late spacing d (chips)")
+    settle_s: float = Field(1.0, ge=0, description="pull-in time not scored (s)")
+    lock_window_s: float = Field(0.1, gt=0, description="block length of the lock test: how long the "
+                                 "out-of-lock condition must hold (s)")
+    lock_threshold: float = Field(0.5, gt=-1, lt=1, description="a block whose mean cos(2 phase error) is "
+                                  "below is out of lock")
+    sample_rate_hz: float = Field(2.046e6, ge=1.1e6, le=40e6, description="sample rate of a samples case "
+                                  "(complex baseband, IF 0; T times it must be a whole number)")
+    prn: int = Field(1, ge=1, le=32, description="PRN of a samples case's signal")
+    slip_capture_rad: float = Field(math.pi / 4, gt=0, lt=math.pi / 2, description="the phase error must come "
+                                    "this close (rad) to a new multiple of pi to count a slip")
+
+
+class TrackingThresholdCase(ScenarioParams):
+    name: str | None = None
+    cn0_dbhz: float | None = Field(None, ge=5, le=60, description="C/N0 of this case (dB-Hz; default the scenario's)")
+    coherent_time_s: CoherentTime | None = Field(None, description="interval T of this case (default the "
+                                                 "scenario's); the candidates' loops are re-created at it")
+    duration_s: float | None = Field(None, gt=0, le=3600, description="duration of this case (default the scenario's)")
+    doppler_rate_hz_s: float = Field(0.0, ge=-1000, le=1000, description="constant Doppler rate (Hz/s; "
+                                     "line-of-sight acceleration / L1 wavelength: 1 Hz/s = 0.19 m/s^2)")
+    doppler_jerk_hz_s2: float = Field(0.0, ge=-100, le=100, description="constant Doppler jerk (Hz/s^2; "
+                                      "line-of-sight jerk / L1 wavelength)")
+    source: Literal["analytic", "samples"] = Field(
+        "analytic", description="correlators from the analytic model (all runs at once) or from IF samples "
+        "(complex, generated per run, correlated by the compiled kernels; static cases only)")
+
+
+def lock_loss(phase_error_rad: np.ndarray, code_error_chips: np.ndarray, first: int, window: int,
+              threshold: float, half_spacing_chips: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """First out-of-lock block of every run (see the module docstring).
+
+    Parameters
+    ----------
+    phase_error_rad, code_error_chips
+        ``(K, runs)`` true errors per interval.
+    first
+        First scored interval (after settling).
+    window
+        Intervals per block.
+
+    Returns
+    -------
+    lost, end, blocks
+        ``lost (runs,)`` bool; ``end (runs,)`` the number of scored intervals up to the end
+        of the first out-of-lock block (``blocks * window`` when not lost); ``blocks`` the
+        number of whole blocks scored.
+    """
+    K, runs = phase_error_rad.shape
+    blocks = (K - first) // window
+    if blocks < 1:
+        raise ValueError(f"no whole lock-test block of {window} intervals after interval {first} of {K}")
+    stop = first + blocks * window
+    c2 = np.cos(2 * phase_error_rad[first:stop]).reshape(blocks, window, runs).mean(axis=1)
+    code = np.abs(code_error_chips[first:stop]).reshape(blocks, window, runs).mean(axis=1)
+    bad = (c2 < threshold) | (code > half_spacing_chips)
+    lost = bad.any(axis=0)
+    j = np.where(lost, np.argmax(bad, axis=0), blocks - 1)
+    return lost, (j + 1) * window, blocks
+
+
+def count_slips(phase_error_rad: np.ndarray, capture_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    r"""Half- and whole-cycle slips of the unwrapped phase error ``(K, runs)``, with hysteresis.
+
+    The lock point :math:`n\pi` moves to :math:`m\pi` only when the error comes within
+    ``capture_rad`` of it, adding :math:`|m - n|` half-cycle slips. A whole-cycle slip is
+    counted each time the lock point has moved two half cycles from the last whole-cycle
+    reference (which then moves by :math:`2\pi` towards it): a half cycle out and back is
+    two half-cycle slips and no whole one; :math:`0 \to \pi \to 3\pi` is three half-cycle
+    slips and one whole one.
+
+    Returns
+    -------
+    half, whole
+        ``(runs,)`` counts.
+    """
+    e = np.asarray(phase_error_rad, float)
+    level = np.round(e[0] / np.pi)
+    reference = level.copy()
+    half = np.zeros(e.shape[1:])
+    whole = np.zeros(e.shape[1:])
+    for k in range(1, e.shape[0]):
+        m = np.round(e[k] / np.pi)
+        move = (np.abs(e[k] - m * np.pi) < capture_rad) & (m != level)
+        half += np.where(move, np.abs(m - level), 0.0)
+        level = np.where(move, m, level)
+        cycles = np.trunc((level - reference) / 2)
+        whole += np.abs(cycles)
+        reference = reference + 2 * cycles
+    return half, whole
+
+
+def _rms_before(x: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """RMS over axis 0 of ``x (n, runs)`` of each run's first ``end`` rows (NaN for none)."""
+    keep = np.arange(x.shape[0])[:, None] < end[None, :]
+    n = keep.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, np.sqrt(np.sum(np.where(keep, x**2, 0.0), axis=0) / n), np.nan)
+
+
+def code_thermal_std_chips(channel, cn0_dbhz: float, T: float, spacing_chips: float) -> float:
+    """The DLL's thermal jitter :math:`\\sqrt{2 B T \\sigma_D^2}` (chips) of a channel filter
+    with ``dll_bandwidth_hz`` and ``code_discriminator`` parameters, else NaN."""
+    p = channel.params
+    bw, disc = getattr(p, "dll_bandwidth_hz", None), getattr(p, "code_discriminator", None)
+    if bw is None or disc is None:
+        return float("nan")
+    d = disc.create(coherent_time_s=T, early_late_spacing_chips=spacing_chips)
+    return float(np.sqrt(loop_variance(d.noise_variance(cn0_dbhz), bw, T)))
+
+
+@register_scenario
+class TrackingThresholdScenario(Scenario):
+    """Loss of lock, time to it, cycle slips and jitter of closed loops at one C/N0 per case."""
+
+    kind = "tracking-threshold"
+    Params = TrackingThresholdParams
+    CaseParams = TrackingThresholdCase
+    components = {"channel_filter": True}
+    outputs = {"phase_error_rad": "rad", "code_error_chips": "chips", "phase_thermal_std_rad": "rad",
+               "code_thermal_std_chips": "chips", "loop_noise_bandwidth_hz": "Hz"}
+
+    def _case(self, case: dict) -> dict:
+        c = self.CaseParams.model_validate(case)
+        p = self.params
+        return {"T": c.coherent_time_s or p.coherent_time_s, "duration_s": c.duration_s or p.duration_s,
+                "cn0_dbhz": p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz,
+                "rate": c.doppler_rate_hz_s, "jerk": c.doppler_jerk_hz_s2, "source": c.source}
+
+    def check_case(self, case: dict, where: str) -> None:
+        """The case's own checks, and its duration against settling and one lock-test block."""
+        super().check_case(case, where)
+        c = self._case(case)
+        p = self.params
+        field = f"{where}.duration_s" if case.get("duration_s") else "scenario.duration_s"
+        if c["source"] == "samples":
+            for key, name in (("rate", "doppler_rate_hz_s"), ("jerk", "doppler_jerk_hz_s2")):
+                if c[key] != 0:
+                    raise ConfigError(f"{where}.{name}", "the samples source simulates a constant Doppler only; "
+                                      f"set it to 0 or use source = \"analytic\" (got {c[key]!r})")
+            n = c["T"] * p.sample_rate_hz
+            if abs(n - round(n)) > 1e-6:
+                raise ConfigError("scenario.sample_rate_hz", f"T = {c['T']} s times the sample rate must be a whole "
+                                  f"number of samples (got {n:g})")
+        if c["duration_s"] - p.settle_s < max(p.lock_window_s, c["T"]):
+            raise ConfigError(field, f"must leave one lock-test block of lock_window_s = {p.lock_window_s!r} s "
+                              f"after settle_s = {p.settle_s!r} s (got {c['duration_s']!r})")
+
+    def assumption_context(self, case: dict) -> dict:
+        c = self._case(case)
+        return {"coherent_time_s": c["T"], "cn0_dbhz": c["cn0_dbhz"], "wavelength_m": L1_WAVELENGTH_M}
+
+    def batch_memory(self, case: dict, runs: int, where: str, candidates=()) -> tuple[float, str, str]:
+        c = self._case(case)
+        epochs = int(round(c["duration_s"] / c["T"]))
+        return BYTES_PER_EPOCH_RUN * epochs * runs, f"{where}.duration_s", f"a batch of {runs} runs ({epochs} epochs)"
+
+    def run_contexts(self, cases: list[dict]) -> list[RunContext]:
+        intervals = sorted({self._case(c)["T"] for c in cases} | {self.params.coherent_time_s})
+        d = self.params.early_late_spacing_chips
+        return [RunContext(coherent_time_s=T, early_late_spacing_chips=d, epoch_interval_s=T) for T in intervals]
+
+    def in_context(self, plugin, context: RunContext):
+        return at_interval(plugin, context.coherent_time_s)
+
+    def check_composition(self, plugins, where: str) -> None:
+        try:
+            check_closed_loop(plugins["channel_filter"])
+        except ConfigError as exc:
+            raise self.refuse(exc, where, NCO_COMMANDS) from None
+
+    def track(self, case: dict, channel, runs: int, rng) -> tuple[np.ndarray, np.ndarray, float]:
+        """Close ``channel`` (at the case's T) over ``runs`` runs of the case: the unwrapped
+        mid-interval phase error ``(K, runs)`` (rad), the code error (chips), and T."""
+        rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
+        p = self.params
+        c = self._case(case)
+        T, d = c["T"], p.early_late_spacing_chips
+        if c["source"] == "samples":
+            parts = [self._track_samples(c, channel, stream) for stream in rng.generators]
+            return np.concatenate([q[0] for q in parts], axis=1), np.concatenate([q[1] for q in parts], axis=1), T
+        truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=np.full(runs, p.doppler_hz),
+                                        doppler_rate_hz_s=c["rate"], doppler_jerk_hz_s2=c["jerk"])
+        source = AnalyticSource(CorrelatorSimulator(T, d), amplitude_from_cn0(c["cn0_dbhz"], T), rng)
+        return (*self._close(channel, truth, c, source), T)
+
+    def _track_samples(self, c: dict, channel, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """One run on IF samples drawn from the run's own stream ``rng`` (complex baseband
+        at ``sample_rate_hz``; the signal's code phase and carrier phase 0 at t = 0)."""
+        from ...signal.gps_l1ca import GPS_L1CA
+        from ...signal.if_samples import generate_if_samples
+        from ...receiver.engine.samples import SampleSource
+
+        p = self.params
+        T, fs = c["T"], p.sample_rate_hz
+        x = generate_if_samples(p.prn, c["duration_s"] + 2 * T, fs, 0.0, c["cn0_dbhz"], rng, doppler_hz=p.doppler_hz,
+                                complex_samples=True, sample_type="float32")
+        truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=np.full(1, p.doppler_hz))
+        source = SampleSource(x.samples, fs, 0.0, GPS_L1CA.code(p.prn)[None, :], T,
+                              early_late_spacing_chips=p.early_late_spacing_chips, noise_std=x.noise_std)
+        return self._close(channel, truth, c, source)  # the closer resets the filter
+
+    def _close(self, channel, truth: LoopTruth, c: dict, source) -> tuple[np.ndarray, np.ndarray]:
+        """Close ``channel`` over ``truth`` on ``source``: the unwrapped mid-interval phase
+        error and the code error, ``(K, runs)``."""
+        p = self.params
+        T, d = truth.coherent_time_s, p.early_late_spacing_chips
+        runs = truth.code_phase_chips.shape[1]
+        closer = ScalarCloser(channel)
+        replica = Channel.start((runs,), truth.code_phase_chips[0], p.doppler_hz + p.initial_freq_error_hz,
+                                signal=truth.signal)
+        closer.reset(replica, T, early_late_spacing_chips=d, cn0_dbhz=c["cn0_dbhz"])
+        code, carrier = truth.code_phase_chips, truth.carrier_phase_rad
+        phase_err, code_err = np.empty((truth.epochs, runs)), np.empty((truth.epochs, runs))
+        for k in range(truth.epochs):
+            err = replica.errors(code[k], code[k + 1], carrier[k], carrier[k + 1], T)
+            closer.step(replica, source.correlate(replica, k, err))
+            phase_err[k] = err.phase_rad + np.pi * err.freq_hz * T  # mid-interval, not wrapped
+            code_err[k] = err.code_chips
+        return phase_err, code_err
+
+    def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        c = self._case(case)
+        channel = at_interval(plugins["channel_filter"], c["T"])
+        phase_err, code_err, T = self.track(case, channel, runs, rng)
+        try:
+            bandwidth = equivalent_bandwidth_hz(channel, T)
+        except ConfigError:  # the bandwidth probe did not settle: no thermal formula to compare with
+            bandwidth = float("nan")
+        thermal_phase = float(np.sqrt(pll_thermal_variance_rad2(c["cn0_dbhz"], bandwidth, T)))
+        thermal_code = code_thermal_std_chips(channel, c["cn0_dbhz"], T, self.params.early_late_spacing_chips)
+        K = phase_err.shape[0]
+        series = {"phase_error_rad": phase_err, "code_error_chips": code_err,
+                  "phase_thermal_std_rad": np.full((K, runs), thermal_phase),
+                  "code_thermal_std_chips": np.full((K, runs), thermal_code),
+                  "loop_noise_bandwidth_hz": np.full((K, runs), bandwidth)}
+        return evaluate(METRICS, series, (np.arange(K) + 0.5) * T, self)
+
+
+def lock_scores(phase_err: np.ndarray, code_err: np.ndarray, T: float, p: TrackingThresholdParams) -> dict:
+    """The per-run lock statistics of one batch from its true errors ``(K, runs)`` (see the
+    module docstring): ``loss_of_lock``, ``time_to_loss_s``, the slip rates and jitters."""
+    K, runs = phase_err.shape
+    first = int(math.ceil(p.settle_s / T - 1e-9))
+    window = max(1, int(round(p.lock_window_s / T)))
+    lost, end, blocks = lock_loss(phase_err, code_err, first, window, p.lock_threshold,
+                                  p.early_late_spacing_chips / 2)
+    span_s = (K - first) * T
+    scored = phase_err[first:]
+    half_slips, whole_slips = count_slips(scored, p.slip_capture_rad)
+    wrapped = (scored + np.pi / 2) % np.pi - np.pi / 2
+    in_lock = np.where(lost, end - window, end)  # intervals before the first out-of-lock block
+    return {"loss_of_lock": lost.astype(float), "time_to_loss_s": end * T,
+            "half_cycle_slip_rate": half_slips / span_s, "cycle_slip_rate": whole_slips / span_s,
+            "phase_jitter_rad": _rms_before(wrapped, in_lock),
+            "code_jitter_chips": _rms_before(code_err[first:], in_lock)}
+
+
+class LockScore(SeriesMetric):
+    """One of `lock_scores` as a metric component (reads ``phase_error_rad`` and
+    ``code_error_chips``; the scores are computed once per batch and shared)."""
+
+    _last: tuple = (None, None, None)
+
+    def __init__(self, name: str, unit: str, *, undefined: str = "", description: str = "") -> None:
+        super().__init__(name, unit, of="phase_error_rad", undefined=undefined, description=description)
+        self.requires = ("phase_error_rad", "code_error_chips")
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        phase, code = series["phase_error_rad"], series["code_error_chips"]
+        last_phase, last_code, scores = LockScore._last
+        if last_phase is not phase or last_code is not code:
+            T = float(time_s[1] - time_s[0]) if len(time_s) > 1 else 2 * float(time_s[0])
+            scores = lock_scores(phase, code, T, scenario.params)
+            LockScore._last = (phase, code, scores)
+        return MetricValue(scores[self.name])
+
+
+#: The scenario's metrics, each declared once as a component.
+METRICS = (
+    LockScore("loss_of_lock", "", description="1 if lock was lost after settle_s (a lock_window_s block with mean "
+              "cos(2 phase error) below lock_threshold, or mean |code error| above d/2), else 0; its mean is the "
+              "probability of loss of lock within the case"),
+    LockScore("time_to_loss_s", "s", description="time after settle_s to the end of the first out-of-lock block, "
+              "or the observed span (censored); its mean is the Kaplan-Meier restricted mean time to loss of lock"),
+    LockScore("half_cycle_slip_rate", "1/s", description="half-cycle slips of the true phase error per second "
+              "after settle_s"),
+    LockScore("cycle_slip_rate", "1/s", description="whole-cycle slips of the true phase error per second after "
+              "settle_s"),
+    LockScore("phase_jitter_rad", "rad", undefined="lock lost in the first block",
+              description="RMS phase error (wrapped to half a cycle) while in lock"),
+    Mean("phase_jitter_thermal_rad", "rad", of="phase_thermal_std_rad",
+         description="Costas PLL thermal jitter B_L/c (1 + 1/(2cT)) at the loop's measured noise bandwidth"),
+    LockScore("code_jitter_chips", "chips", undefined="lock lost in the first block",
+              description="RMS code error while in lock"),
+    Mean("code_jitter_thermal_chips", "chips", of="code_thermal_std_chips",
+         description="DLL thermal jitter sqrt(2 B T sigma_D^2) (NaN without dll_bandwidth_hz)"),
+    Mean("equivalent_bandwidth_hz", "Hz", of="loop_noise_bandwidth_hz",
+         description="the carrier loop's steady-state noise bandwidth (loop_bandwidth.equivalent_bandwidth_hz)"),
+)
+TrackingThresholdScenario.metrics = units(METRICS)

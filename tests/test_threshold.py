@@ -1,0 +1,141 @@
+"""Thresholds along a sweep: interpolation, Wilson interval, and bootstrap coverage of a known threshold."""
+
+import math
+
+import numpy as np
+import pytest
+
+from gnssframework.experiments.threshold import bootstrap_thresholds, crossing, wilson
+
+
+def test_crossing_interpolates_from_the_top_and_marks_out_of_grid_curves():
+    x = np.array([15.0, 20.0, 25.0, 30.0])
+    assert crossing(x, np.array([1.0, 0.8, 0.2, 0.0]), 0.5) == pytest.approx(22.5)
+    # not monotone: the highest crossing counts
+    assert crossing(x, np.array([1.0, 0.2, 0.6, 0.0]), 0.5) == pytest.approx(25.0 + 5 * 0.1 / 0.6)
+    assert crossing(x, np.array([0.4, 0.1, 0.0, 0.0]), 0.5) == -np.inf
+    assert crossing(x, np.array([1.0, 1.0, 0.9, 0.5]), 0.5) == np.inf
+    # vectorised over curves on axis 1
+    both = crossing(x, np.array([[1.0, 0.4], [0.8, 0.1], [0.2, 0.0], [0.0, 0.0]]), 0.5)
+    np.testing.assert_allclose(both, [22.5, -np.inf])
+
+
+def test_wilson_interval_matches_its_closed_form():
+    lo, hi = wilson(0.5, 100)
+    z = 1.959964
+    half = z * math.sqrt(0.25 / 100 + z * z / 40000) / (1 + z * z / 100)
+    assert (lo, hi) == pytest.approx((0.5 - half, 0.5 + half))
+    assert wilson(0.0, 20)[0] == 0.0 and 0.1 < wilson(0.0, 20)[1] < 0.2  # 0.161 for 0 of 20
+
+
+def test_paired_bootstrap_interval_covers_a_known_threshold():
+    """Outcomes drawn from p(x) = 1 / (1 + exp((x - 25) / 2)) (threshold 25 at level 0.5) on a
+    5-point grid: the 95 % percentile interval covers the threshold of the *interpolated
+    true curve* in about 95 % of 120 replications (at least 85 %: the binomial 1 % tail)."""
+    x = np.array([15.0, 20.0, 25.0, 30.0, 35.0])
+    p = 1 / (1 + np.exp((x - 25.0) / 2.0))
+    truth = float(crossing(x, p, 0.5))
+    rng = np.random.default_rng(2)
+    covered = 0
+    reps = 120
+    for _ in range(reps):
+        u = rng.random((x.size, 60))  # one uniform per run and point, shared by both candidates
+        a = (u < p[:, None]).astype(float)
+        shift = 1 / (1 + np.exp((x - 22.0) / 2.0))  # candidate b: 3 dB lower threshold
+        b = (u < shift[:, None]).astype(float)
+        out = bootstrap_thresholds(x, {"a": a, "b": b}, 0.5, 400, rng)
+        est, lo, hi = out["threshold"]["a"]
+        covered += lo <= truth <= hi
+    assert covered >= 0.85 * reps, covered
+    # paired differences: b's threshold is below a's in every resample here
+    d = out["samples"]["b"] - out["samples"]["a"]
+    assert np.all(d < 0)
+
+
+class _Store:
+    """A result store holding given per-run outcomes (what `threshold_rows` reads)."""
+
+    def __init__(self, config, outcomes):
+        self.by_key = {point.identity(): value for value, point in config.sweep_points(0)}
+        self.outcomes = outcomes
+
+    def run_values(self, key, case, candidate, metric, runs):
+        v = self.outcomes[candidate][self.by_key[key]]
+        return {r: float(v[r]) for r in range(runs)}
+
+
+def _config(claims):
+    from gnssframework.experiments.config import ComparisonConfig
+
+    return ComparisonConfig.model_validate({
+        "name": "t", "runs": 40, "batch_size": 40, "seed": 4, "reference": "a",
+        "scenario": {"kind": "tracking-threshold", "duration_s": 3.0},
+        "cases": [{"name": "c", "cn0_dbhz": 30.0}],
+        "candidates": [{"name": "a", "channel_filter": "scalar"}, {"name": "b", "channel_filter": "kf-carrier-loop"}],
+        "sweeps": [{"name": "cn0", "path": "cases.cn0_dbhz", "values": [20.0, 25.0, 30.0, 35.0],
+                    "threshold": {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 500}}],
+        "claims": claims})
+
+
+def test_threshold_claims_are_checked_from_the_paired_bootstrap():
+    from gnssframework.experiments.claims import evaluate_claims
+
+    claims = [{"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower"},
+              {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0",
+               "threshold_difference": [-7.0, -3.0]},
+              {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "higher"},
+              {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0",
+               "threshold_difference": [-4.9, -4.8]}]
+    config = _config(claims)
+    rng = np.random.default_rng(0)
+    u = rng.random(40)
+    # a: lost below 30 (every run at 20, 25; at 30 the runs with u < 0.2); b: 5 dB better
+    a = {20.0: np.ones(40), 25.0: np.ones(40), 30.0: (u < 0.2) * 1.0, 35.0: np.zeros(40)}
+    b = {20.0: np.ones(40), 25.0: (u < 0.2) * 1.0, 30.0: np.zeros(40), 35.0: np.zeros(40)}
+    rows = evaluate_claims(config, _Store(config, {"a": a, "b": b}))
+    # both crossings interpolate from 1.0 to p = mean(u < 0.2) over 5 dB on the same runs: in
+    # every paired resample the difference is exactly -5 dB, so [-4.9, -4.8] fails
+    assert [r["outcome"] for r in rows] == ["holds", "holds", "fails", "fails"]
+    assert rows[0]["threshold_difference"] == pytest.approx(-5.0)
+    assert rows[0]["threshold_ci95"] == pytest.approx([-5.0, -5.0])
+
+
+def test_threshold_claims_refuse_a_sweep_without_a_threshold_table():
+    from gnssframework.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="claims\\[0\\].metric"):
+        _config([{"candidate": "b", "reference": "a", "metric": "cycle_slip_rate", "sweep": "cn0",
+                  "threshold": "lower"}])
+    with pytest.raises(Exception, match="reference"):
+        _config([{"candidate": "b", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower"}])
+
+
+def test_a_comparison_writes_its_thresholds_plot_and_claims(tmp_path):
+    import json
+
+    from gnssframework.experiments.config import ComparisonConfig
+    from gnssframework.experiments.runner import run_comparison
+
+    config = ComparisonConfig.model_validate({
+        "name": "tiny-threshold", "runs": 8, "batch_size": 8, "seed": 3, "reference": "wide",
+        "scenario": {"kind": "tracking-threshold", "duration_s": 2.0, "settle_s": 0.5},
+        "cases": [{"name": "static", "cn0_dbhz": 30.0}],
+        "candidates": [{"name": "wide", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 18.0}}},
+                       {"name": "narrow", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 5.0}}}],
+        "sweeps": [{"name": "cn0", "path": "cases.cn0_dbhz", "values": [15.0, 30.0, 45.0],
+                    "threshold": {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 200,
+                                  "time_metric": "time_to_loss_s", "plot_metrics": ["cycle_slip_rate"]}}],
+        "claims": [{"candidate": "narrow", "reference": "wide", "metric": "loss_of_lock", "sweep": "cn0",
+                    "threshold_difference": [-20.0, 20.0]}]})
+    summary = json.loads(run_comparison(config, tmp_path / "out", progress=False).read_text())
+    thr = summary["sweeps"][0]["threshold"]
+    rows = {r["candidate"]: r for r in thr["cases"][0]["rows"]}
+    # every run loses lock at 15 dB-Hz and none at 45: both thresholds lie inside the grid
+    for row in rows.values():
+        assert row["curve"][0]["p"] == 1.0 and row["curve"][-1]["p"] == 0.0
+        assert 15.0 < row["threshold"] < 45.0
+        assert row["curve"][-1]["km_restricted_mean"] == pytest.approx(1.5)  # never lost: the span
+    assert (tmp_path / "out" / "plots" / "threshold-cn0-static.png").stat().st_size > 0
+    assert (tmp_path / "out" / "sweeps" / "cn0-threshold.json").is_file()
+    assert "Thresholds along sweep" in (tmp_path / "out" / "report.md").read_text()
+    assert [c["outcome"] for c in summary["claims"]] == ["holds"]

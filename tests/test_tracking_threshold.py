@@ -1,0 +1,95 @@
+"""Scenario ``tracking-threshold``: its truth-based statistics against constructed truths and theory."""
+
+import numpy as np
+import pytest
+
+from gnssframework import registry
+from gnssframework.experiments.scenarios import get_scenario
+from gnssframework.experiments.scenarios.tracking_threshold import count_slips, lock_loss
+
+
+def test_count_slips_counts_settled_jumps_and_ignores_returning_excursions():
+    K = 400
+    e = np.zeros((K, 3))
+    # run 0: a half-cycle slip at 100, then a whole-cycle slip (two half cycles) at 200
+    e[100:, 0] += np.pi
+    e[200:, 0] += 2 * np.pi
+    # run 1: excursions to 0.7 pi (past pi/2, not within pi/4 of pi) that return: no slip
+    e[50:55, 1] = 0.7 * np.pi
+    e[300:305, 1] = -0.7 * np.pi
+    # run 2: spinning phase at 2 Hz for 1 s (T = 10 ms): 2 whole cycles, 4 half cycles
+    e[100:200, 2] = 2 * np.pi * 2.0 * 0.01 * np.arange(100)
+    e[200:, 2] = e[199, 2] + 2 * np.pi * 2.0 * 0.01
+    rng = np.random.default_rng(0)
+    e += 0.05 * rng.standard_normal(e.shape)
+    half, whole = count_slips(e, np.pi / 4)
+    np.testing.assert_array_equal(half, [3, 0, 4])
+    np.testing.assert_array_equal(whole, [1, 0, 2])  # run 0: 0 -> pi -> 3 pi is one whole cycle and a half
+
+
+def test_lock_loss_finds_the_first_bad_block_and_censors_the_rest():
+    K, runs = 100, 4
+    phase = np.zeros((K, runs))
+    code = np.zeros((K, runs))
+    # scored from interval 10 in blocks of 10: block j covers 10 + 10 j .. 19 + 10 j
+    phase[47:, 1] = np.pi / 2 + 0.1  # block 3 (40..49): mean cos(2 e) = (7 - 3 cos 0.2) / 10 = 0.41 < 0.5
+    code[60:, 2] = 0.6  # beyond half the spacing d = 1 from 60: block 5 (60..69)
+    phase[:, 3] = np.pi  # a Costas loop locked half a cycle off is in lock
+    lost, end, blocks = lock_loss(phase, code, 10, 10, 0.5, 0.5)
+    assert blocks == 9
+    np.testing.assert_array_equal(lost, [False, True, True, False])
+    # scored intervals up to the end of the first bad block: block j ends at (j + 1) * 10 after 10
+    np.testing.assert_array_equal(end, [90, 40, 60, 90])
+
+
+def _scalar(bw, **kw):
+    return registry.create("channel_filter", "scalar", pll_bandwidth_hz=bw, fll_bandwidth_hz=0.0, **kw)
+
+
+def test_scalar_pll_jitter_at_high_cn0_matches_the_thermal_formula():
+    """At 40 dB-Hz, T = 2 ms and a 5 Hz PLL (B_L T = 0.01, where the formula's
+    continuous-loop approximation holds), the mean squared phase error over 30 independent
+    runs agrees with B_L/c (1 + 1/(2cT)) within 3 Monte Carlo standard errors."""
+    sc = get_scenario({"kind": "tracking-threshold", "duration_s": 6.0, "settle_s": 1.0, "coherent_time_s": 0.002})
+    r = sc.run_batch({"cn0_dbhz": 40.0}, {"channel_filter": _scalar(5.0)}, 30, 11)
+    v = r.metrics["phase_jitter_rad"] ** 2
+    thermal = r.metrics["phase_jitter_thermal_rad"][0] ** 2
+    se = v.std(ddof=1) / np.sqrt(v.size)
+    assert abs(v.mean() - thermal) < 3 * se + 1e-12, (v.mean(), se, thermal)
+    assert r.metrics["loss_of_lock"].sum() == 0
+    assert r.metrics["half_cycle_slip_rate"].sum() == 0
+    c = r.metrics["code_jitter_chips"] ** 2
+    c_thermal = r.metrics["code_jitter_thermal_chips"][0] ** 2
+    assert abs(c.mean() - c_thermal) < 3 * c.std(ddof=1) / np.sqrt(c.size), (c.mean(), c_thermal)
+
+
+def test_loss_of_lock_grows_as_cn0_falls_and_runs_are_paired():
+    sc = get_scenario({"kind": "tracking-threshold", "duration_s": 4.0})
+    lost = {cn0: sc.run_batch({"cn0_dbhz": cn0}, {"channel_filter": _scalar(15.0)}, 16, 3)
+            for cn0 in (18.0, 40.0)}
+    assert lost[18.0].metrics["loss_of_lock"].mean() > 0.8
+    assert lost[40.0].metrics["loss_of_lock"].sum() == 0
+    assert np.all(lost[40.0].metrics["time_to_loss_s"] == pytest.approx(3.0))  # censored at the span
+    lo = lost[18.0].metrics
+    assert np.all(lo["time_to_loss_s"][lo["loss_of_lock"] == 1] < 3.0)
+    # the same seed gives the same runs (common random numbers); another seed other ones
+    again = sc.run_batch({"cn0_dbhz": 18.0}, {"channel_filter": _scalar(15.0)}, 16, 3).metrics
+    np.testing.assert_array_equal(again["time_to_loss_s"], lo["time_to_loss_s"])
+
+
+def test_samples_source_tracks_at_high_cn0_and_refuses_dynamics():
+    """On IF samples (the compiled correlators) at 40 dB-Hz no run loses lock and the phase
+    jitter is that of the analytic model within 4 standard errors of their difference
+    (different noise: unpaired), both near the thermal formula."""
+    from gnssframework.errors import ConfigError
+
+    sc = get_scenario({"kind": "tracking-threshold", "duration_s": 2.0, "settle_s": 0.5})
+    ch = _scalar(10.0, dll_bandwidth_hz=0.5)
+    got = {src: sc.run_batch({"cn0_dbhz": 40.0, "source": src}, {"channel_filter": ch}, 6, 9).metrics
+           for src in ("samples", "analytic")}
+    assert got["samples"]["loss_of_lock"].sum() == 0
+    va, vs = got["analytic"]["phase_jitter_rad"] ** 2, got["samples"]["phase_jitter_rad"] ** 2
+    se = np.hypot(va.std(ddof=1) / np.sqrt(va.size), vs.std(ddof=1) / np.sqrt(vs.size))
+    assert abs(vs.mean() - va.mean()) < 4 * se, (vs.mean(), va.mean(), se)
+    with pytest.raises(ConfigError, match="cases\\[0\\].doppler_rate_hz_s"):
+        sc.check_case({"cn0_dbhz": 30.0, "source": "samples", "doppler_rate_hz_s": 1.0}, "cases[0]")
