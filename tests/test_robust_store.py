@@ -36,7 +36,7 @@ def _rows(summary: Path) -> list:
     return json.loads(summary.read_text())["rows"]
 
 
-def test_deleted_metric_rows_of_a_finished_batch_are_recomputed(tmp_path):
+def test_deleted_metric_rows_of_a_finished_batch_are_recomputed(tmp_path, capsys):
     path = tmp_path / "c.toml"
     path.write_text(CONFIG)
     config = load_config(path)
@@ -51,9 +51,14 @@ def test_deleted_metric_rows_of_a_finished_batch_are_recomputed(tmp_path):
     assert deleted == 1
     assert ("clean", "hatch", 2, 2) not in store.finished_batches(key)
     assert len(store.finished_batches(key)) == 3
+    assert store.damaged_batches(key) == {("clean", "hatch", 2, 2)}
+    capsys.readouterr()
     again = _rows(run_comparison(config, out, progress=False))
     assert again == first
-    assert len(store.finished_batches(key)) == 4
+    assert len(store.finished_batches(key)) == 4 and not store.damaged_batches(key)
+    said = capsys.readouterr().err  # the repair is said, not silent
+    assert ("lacks metric rows of 1 finished batch: case 'clean', candidate 'hatch', runs 2-3; recomputing it"
+            in said), said
 
 
 def test_a_batch_with_every_metric_row_gone_is_not_finished(tmp_path):
@@ -65,6 +70,7 @@ def test_a_batch_with_every_metric_row_gone_is_not_finished(tmp_path):
     with sqlite3.connect(tmp_path / "s.sqlite") as con:
         con.execute("DELETE FROM metrics WHERE first_run = 2 AND metric = 'm2'")
     assert store.finished_batches("k") == {("c", "a", 0, 2)}  # m2 lost entirely in that batch
+    assert store.damaged_batches("k") == {("c", "a", 2, 2)}
     with sqlite3.connect(tmp_path / "s.sqlite") as con:
         con.execute("DELETE FROM metrics WHERE first_run = 2")
     assert store.finished_batches("k") == {("c", "a", 0, 2)}

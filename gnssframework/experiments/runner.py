@@ -23,6 +23,7 @@ from __future__ import annotations
 import os
 from contextlib import closing
 import pickle
+import sys
 import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
@@ -220,6 +221,18 @@ def work_estimate(config: ComparisonConfig) -> tuple[int, int]:
     return batches, runs
 
 
+def _say_recomputed(damaged: set[tuple[str, str, int, int]], label: str | None) -> None:
+    """One line on standard error for the finished batches whose metric rows are missing
+    (a store edited or damaged by hand): they are recomputed, never averaged as they are."""
+    if not damaged:
+        return
+    where = "; ".join(f"case {c!r}, candidate {k!r}, runs {f}-{f + n - 1}" for c, k, f, n in sorted(damaged)[:3])
+    more = f" and {len(damaged) - 3} more" if len(damaged) > 3 else ""
+    at = f" (sweep point {label})" if label is not None else ""
+    print(f"note: results.sqlite lacks metric rows of {len(damaged)} finished batch{'es' if len(damaged) > 1 else ''}"
+          f"{at}: {where}{more}; recomputing {'them' if len(damaged) > 1 else 'it'}", file=sys.stderr)
+
+
 def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = True,
                    on_batch: Callable[[Task], None] | None = None) -> Path:
     """Run (or resume) ``config`` and write the report into ``out``.
@@ -254,6 +267,7 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
             key = point.identity()
             store.register(key, point.batch_size)
             done = store.finished_batches(key)
+            _say_recomputed(store.damaged_batches(key), label)
             resolved = resolve(point)  # once per point: the workers get it, nothing to re-validate
             for t in plan(point, label):
                 ident = (key, point.cases[t.case_index].name, point.candidates[t.candidate_index].name, t.first_run,
