@@ -99,3 +99,26 @@ def test_a_channel_that_never_locked_prints_no_nan(tmp_path, capsys):
     said = capsys.readouterr().out
     assert code == 0 and "PRN 26" in said
     assert "nan" not in said.lower().replace("nan.bin", "")
+
+
+def test_a_never_locked_channel_leaves_its_summary_cells_empty_not_nan(tmp_path):
+    """issue 38: no non-finite number in a summary; a channel that never locked has no C/N0
+    while locked, and a channel without rows no last Doppler: empty cells, as pandas reads
+    a missing number."""
+    import csv as csv_module
+
+    from gnssframework.receiver.acquisition.search import AcquisitionResult
+    from gnssframework.receiver.channels.records import ChannelRecord, TrackingResult
+    from gnssframework.receiver.channels.report import write_tracking_outputs
+
+    acq = [AcquisitionResult(p, True, 1000.0, 10, 100.0, 40.0, 30.0, 20.0) for p in (3, 7)]
+    never = ChannelRecord(3, rows=[(0.001 * k, 20.0, 0.1, 1000.0, 5.0, 0.0, 0, 0, 1.0, 0.0, 1) for k in range(5)])
+    empty = ChannelRecord(7)
+    result = TrackingResult({3: never, 7: empty}, acq, 0.005, "scalar")
+    write_tracking_outputs(tmp_path, result, plots=False)
+    with open(tmp_path / "summary.csv", newline="") as fh:
+        rows = list(csv_module.DictReader(fh))
+    assert [r["prn"] for r in rows] == ["3", "7"]
+    assert rows[0]["cn0_dbhz_locked"] == "" and rows[0]["locked_fraction"] == "0"
+    assert rows[1]["doppler_hz_last"] == "" and rows[1]["cn0_dbhz_locked"] == ""
+    assert "nan" not in (tmp_path / "summary.csv").read_text().lower()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import math
 from pathlib import Path
 
 import numpy as np
@@ -49,7 +50,11 @@ def locked_channels(result: TrackingResult) -> list[tuple[int, object]]:
 
 
 def _fmt(v) -> str:
-    return f"{v:.6g}" if isinstance(v, float) else str(v)
+    """A summary cell: a float to 6 digits, a missing value (a never-locked channel's C/N0)
+    empty, as CSV readers (pandas) take a missing number, never the text ``nan``."""
+    if isinstance(v, float):
+        return f"{v:.6g}" if math.isfinite(v) else ""
+    return str(v)
 
 
 def write_tracking_outputs(out_dir: str | Path, result: TrackingResult, plots: bool = True) -> list[Path]:
