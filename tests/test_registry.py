@@ -29,7 +29,8 @@ def test_kinds_and_builtin_names():
     assert builtin_names("signal") == ["gps-l1ca", "qzss-l1ca"]
     assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
     assert builtin_names("scenario") == ["carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
-                                         "sample-recording", "scintillation", "vector-tracking"]
+                                         "sample-recording", "scintillation", "tracking-threshold",
+                                         "vector-tracking"]
 
 
 def test_builtin_name_sets_ignore_a_plugin_installed_beside_the_project(scratch_registry):

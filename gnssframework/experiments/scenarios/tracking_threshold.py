@@ -47,7 +47,7 @@ Jitter
 from __future__ import annotations
 
 import math
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
@@ -61,7 +61,8 @@ from ...receiver.engine.sources import AnalyticSource
 from ...receiver.engine.truth import LoopTruth
 from ...receiver.tracking.jitter import loop_variance, pll_thermal_variance_rad2
 from ...receiver.tracking.loop_bandwidth import at_interval, equivalent_bandwidth_hz
-from ...signal.constants import L1_WAVELENGTH_M
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from ..limits import CoherentTime
 from ..metric_components import Mean, SeriesMetric, evaluate, units
@@ -195,6 +196,8 @@ class TrackingThresholdScenario(Scenario):
     """Loss of lock, time to it, cycle slips and jitter of closed loops at one C/N0 per case."""
 
     kind = "tracking-threshold"
+    #: The tracked signal (its wavelength for the assumptions, its code for a samples case).
+    signal: ClassVar[SignalSpec] = GPS_L1CA
     Params = TrackingThresholdParams
     CaseParams = TrackingThresholdCase
     components = {"channel_filter": True}
@@ -229,7 +232,7 @@ class TrackingThresholdScenario(Scenario):
 
     def assumption_context(self, case: dict) -> dict:
         c = self._case(case)
-        return {"coherent_time_s": c["T"], "cn0_dbhz": c["cn0_dbhz"], "wavelength_m": L1_WAVELENGTH_M}
+        return {"coherent_time_s": c["T"], "cn0_dbhz": c["cn0_dbhz"], "wavelength_m": self.signal.wavelength_m}
 
     def batch_memory(self, case: dict, runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         c = self._case(case)
@@ -268,7 +271,6 @@ class TrackingThresholdScenario(Scenario):
     def _track_samples(self, c: dict, channel, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """One run on IF samples drawn from the run's own stream ``rng`` (complex baseband
         at ``sample_rate_hz``; the signal's code phase and carrier phase 0 at t = 0)."""
-        from ...signal.gps_l1ca import GPS_L1CA
         from ...signal.if_samples import generate_if_samples
         from ...receiver.engine.samples import SampleSource
 
@@ -277,7 +279,7 @@ class TrackingThresholdScenario(Scenario):
         x = generate_if_samples(p.prn, c["duration_s"] + 2 * T, fs, 0.0, c["cn0_dbhz"], rng, doppler_hz=p.doppler_hz,
                                 complex_samples=True, sample_type="float32")
         truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=np.full(1, p.doppler_hz))
-        source = SampleSource(x.samples, fs, 0.0, GPS_L1CA.code(p.prn)[None, :], T,
+        source = SampleSource(x.samples, fs, 0.0, self.signal.code(p.prn)[None, :], T,
                               early_late_spacing_chips=p.early_late_spacing_chips, noise_std=x.noise_std)
         return self._close(channel, truth, c, source)  # the closer resets the filter
 
