@@ -27,6 +27,7 @@ navigation filter.
 
 from __future__ import annotations
 
+import abc
 from typing import Any
 
 import numpy as np
@@ -42,9 +43,9 @@ from .records import TrackingResult
 __all__ = ["SampleCloser", "ScalarSampleCloser"]
 
 
-class SampleCloser:
+class SampleCloser(abc.ABC):
     """The extension points of `SampleTracker` (see the module text); every hook but
-    `step` and `advance` does nothing here."""
+    `step` and `advance` (which a closer must define) does nothing here."""
 
     #: The `tracker.SampleTracker` it closes (not imported here: the tracker imports its closers).
     tracker: SampleTracker
@@ -56,14 +57,14 @@ class SampleCloser:
     def added(self, c: SampleChannel, acq: AcquisitionResult) -> None:
         """Channel ``c`` was started (or restarted) from ``acq``, in ``pull-in``."""
 
+    @abc.abstractmethod
     def step(self, filt: ChannelFilter, closure: Any, slots: np.ndarray, wiped: np.ndarray) -> None:
         """Step ``filt``, the filter of channels ``slots`` (a batch, in order), on their
         bit-wiped interval sums ``wiped`` ``(len(slots), taps)``, and move their NCOs."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def advance(self, c: SampleChannel, t0: float) -> None:
         """Channel ``c``'s interval starting at ``t0`` (s) is recorded: its state machine."""
-        raise NotImplementedError
 
     def after_interval(self, idx: np.ndarray) -> None:
         """Channels at slots ``idx`` have completed an interval and recorded it."""
