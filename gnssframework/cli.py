@@ -69,8 +69,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     out = args.out or f"results/{config.name}"
     _print_work_estimate(config)
     try:
-        # A progress bar is for a terminal: in a log or a pipe it is noise.
-        summary = run_comparison(config, out, progress=not args.quiet and sys.stderr.isatty())
+        # A bar on a terminal, a line per tenth of the batches in a log or a pipe.
+        summary = run_comparison(config, out, progress=not args.quiet)
     except sqlite3.DatabaseError as exc:  # sqlite3 does not say which file: name the store
         raise _store_error(exc, Path(out) / "results.sqlite") from None
     print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
@@ -419,6 +419,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .navigation.ephemeris import read_rinex_nav
+    from .progress import Progress
     from .receiver.acquisition.plausibility import check_acquisition, check_samples
     from .receiver.acquisition.report import acquire_recording, search_summary
     from .receiver.navigation.fixes import write_positions_csv
@@ -468,14 +469,11 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     elif args.vector_accel_psd is not None:
         raise ConfigError("--vector-accel-psd", "the vector loop's navigation filter is for --tracking vector")
     assist = _assist_from_args(args, nav_info)
-    bar = None
-    if not args.quiet and sys.stderr.isatty():  # a progress bar is for a terminal, not a log
-        from tqdm import tqdm
-
-        bar = tqdm(total=100, desc=Path(args.recording).name, unit="%")
+    # A bar on a terminal, a line per tenth of the recording in a log or a pipe.
+    bar = None if args.quiet else Progress(100, Path(args.recording).name, "%")
 
     def progress(fraction: float) -> None:
-        bar.update(round(100 * fraction) - bar.n)
+        bar.set(round(100 * fraction))
 
     check_samples(rec, acq)
     acquisitions = acquire_recording(rec, acq, prns)  # checked before minutes of tracking
@@ -489,7 +487,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
                          iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
                          weighting=args.weighting)
         if bar is not None:  # the tracker reports up to its last block's start: the run is done
-            bar.update(bar.total - bar.n)
+            bar.set(bar.total)
     finally:
         if bar is not None:
             bar.close()
@@ -677,7 +675,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--runs", type=int, help="override the number of runs")
     p.add_argument("--seed", type=int, help="override the seed")
     p.add_argument("--out", help="output directory (default: results/<name>)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     p.add_argument("--check", action="store_true",
                    help="print every [[claims]] outcome and exit 1 unless every claim holds")
     p.add_argument("--dask-address", metavar="ADDR",
@@ -811,7 +809,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "--start-time, vector tracking starts from acquisition, without waiting for LNAV")
     p.add_argument("--start-time", metavar="WEEK,TOW", help="GPS week and time of week (s) of the first sample "
                                                             "(to ~1 ms), for --approx-position")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     p.set_defaults(func=_cmd_receive)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
     p.set_defaults(func=_cmd_schema)

@@ -33,7 +33,7 @@ PACKAGE = "gnssframework"
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("foundation", ("gnssframework.errors", "gnssframework.random_streams", "gnssframework.plugin",
                     "gnssframework.hookspecs", "gnssframework.names", "gnssframework.backend",
-                    "gnssframework.suggest")),
+                    "gnssframework.suggest", "gnssframework.progress")),
     # Generic Gaussian estimation (nothing GNSS) sits below the physical models, which
     # build their measurement models (and compiled twins) from its types.
     ("estimation", ("gnssframework.estimation",)),

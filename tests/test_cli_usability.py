@@ -126,7 +126,7 @@ def test_prn_written_any_usual_way_selects_the_same_satellite(tmp_path, capsys):
     assert all(o == outputs[0] for o in outputs)
 
 
-def test_no_progress_bar_when_stderr_is_not_a_terminal(tmp_path, monkeypatch, capsys):
+def test_progress_unless_quiet_the_runner_choosing_bar_or_lines(tmp_path, monkeypatch, capsys):
     seen = {}
 
     def fake_run(config, out, progress):
@@ -139,7 +139,10 @@ def test_no_progress_bar_when_stderr_is_not_a_terminal(tmp_path, monkeypatch, ca
     path = tmp_path / "c.toml"
     path.write_text(EXAMPLE)
     assert main(["compare", str(path), "--out", str(tmp_path / "o")]) == 0
-    assert seen["progress"] is False  # pytest's captured stderr is no terminal
+    # off a terminal too (a log, CI): `Progress` prints lines there, a bar on a terminal
+    assert seen["progress"] is True
+    assert main(["compare", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    assert seen["progress"] is False
 
 
 def test_every_built_in_without_parameters_says_why(capsys):

@@ -190,7 +190,7 @@ def test_receive_refuses_bad_options_with_one_line(recording, tmp_path, capsys, 
     assert message in err and len(err.strip().splitlines()) == 1
 
 
-def test_progress_bar_on_a_terminal_only(recording, tmp_path, capsys, monkeypatch):  # noqa: F811
+def test_progress_lines_off_a_terminal_a_bar_on_one(recording, tmp_path, capsys, monkeypatch):  # noqa: F811
     import sys
 
     path, _ = recording
@@ -200,7 +200,11 @@ def test_progress_bar_on_a_terminal_only(recording, tmp_path, capsys, monkeypatc
                      "--rate", "10"])
 
     assert run("a") == 0
-    assert capsys.readouterr().err == ""  # captured stderr is no terminal: no bar
+    err = capsys.readouterr().err  # captured stderr is no terminal: a line per tenth, no bar
+    assert f"{path.name}: 100/100 % (100 %)" in err and "%|" not in err
+    assert main(["receive", str(path), "--out", str(tmp_path / "q"), "--ephemeris", str(NAV), "--week", str(WEEK),
+                 "--rate", "10", "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
     monkeypatch.setattr(type(sys.stderr), "isatty", lambda self: True, raising=False)
     assert run("b") == 0
     assert "100%" in capsys.readouterr().err

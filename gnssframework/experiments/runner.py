@@ -33,6 +33,7 @@ from typing import Callable, Iterable
 import numpy as np
 
 from ..errors import ConfigError, GnssFrameworkError, RunFailure, WorkerError
+from ..progress import Progress
 from .config import DASK_ADDRESS_ENV, ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text
 from .folder import claim_folder
@@ -277,11 +278,7 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
                 seen.add(ident)
                 jobs.append((resolved, t))
                 where.append((label, point, key))
-        bar = None
-        if progress and jobs:
-            from tqdm import tqdm
-
-            bar = tqdm(total=len(jobs), desc=config.name, unit="batch")
+        bar = Progress(len(jobs), config.name, "batch") if progress and jobs else None
         with closing(_execute(jobs, config.executor)) as results:  # closed at once on Ctrl-C: workers stop
             for i, (task, metrics, series, time_s) in results:
                 label, point, key = where[i]
