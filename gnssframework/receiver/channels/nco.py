@@ -33,6 +33,7 @@ import numpy as np
 
 from ...signal.spec import SignalSpec
 from ..engine.channel import Channel
+from ..engine.closers import range_error_chips
 from ..engine.truth import code_phase_of_range
 
 __all__ = ["ReplicaNCOs", "SlotNCOs"]
@@ -88,13 +89,9 @@ class ReplicaNCOs:
         """The range rate (m/s) a carrier at ``doppler_hz`` holds."""
         return -self.spec.wavelength_m * doppler_hz
 
-    @staticmethod
-    def range_error_chips(code_error_chips: np.ndarray | float) -> np.ndarray | float:
-        r"""A channel filter's code error (truth minus replica code phase, chips) as the
-        navigation filters' ``code_error_chips`` input, a range error in chips
-        :math:`(\rho - \hat\rho)/\lambda_{chip} = -\delta\tau`
-        (`gnssframework.receiver.engine.closers`)."""
-        return -code_error_chips
+    #: A channel filter's code error as the navigation filters' range error in chips
+    #: (`engine.closers.range_error_chips`).
+    range_error_chips = staticmethod(range_error_chips)
 
 
 class SlotNCOs:

@@ -65,7 +65,7 @@ from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from ...signal.correlators import Correlators
 from ..engine.channel import ReplicaErrors
-from ..engine.closers import CHANNEL_OUTPUTS
+from ..engine.closers import CHANNEL_OUTPUTS, range_error_chips
 from ..engine.sources import AnalyticSource
 from ..engine.truth import DeepTruth, LoopTruth
 from .aiding import line_of_sight_kinematics, nco_schedule
@@ -359,7 +359,7 @@ def _interval_fit(outputs: np.ndarray, blocks: list[_AidedBlock], signal: Signal
     w_rho = 1.0 / (var_code * chip_m**2)
     w_rate = 1.0 / (var_freq * wavelength_m**2)
     # code error: truth minus replica code phase, a range error of -chip length x it (engine convention)
-    z_rho = -code * chip_m + cat("replica_mid_m") - cat("predicted_range_m")
+    z_rho = range_error_chips(code) * chip_m + cat("replica_mid_m") - cat("predicted_range_m")
     z_rate = -freq * wavelength_m + cat("nco_rate") - cat("predicted_rate_m_s")
     h_rho, h_rate = cat("h_rho")[:, None, None], cat("h_rate")[:, None, None]
     normal_terms = (w_rho[..., None, None] * cat("outer_rho")[:, None, None]

@@ -113,16 +113,11 @@ class Channel:
     def from_range(cls, batch: tuple[int, ...], range_m: np.ndarray, rate_m_s: np.ndarray, *, t_s: float = 0.0,
                    signal: SignalSpec = GPS_L1CA) -> "Channel":
         """Channels started from a range command (range at ``t_s`` and its rate), carrier phase 0."""
-        ch = cls(signal, *cls._range_nco(signal, range_m, rate_m_s, t_s, batch), np.zeros(batch),
-                 np.broadcast_to(-np.asarray(rate_m_s, float) / signal.wavelength_m, batch))
+        code, code_rate, freq = _range_nco(signal.chip_rate_hz, signal.chip_length_m, signal.wavelength_m,
+                                           range_m, rate_m_s, t_s, batch)
+        ch = cls(signal, code, code_rate, np.zeros(batch), freq)
         ch.nco_range_m, ch.nco_range_rate_m_s = range_m, rate_m_s
         return ch
-
-    @staticmethod
-    def _range_nco(signal: SignalSpec, range_m, rate_m_s, t_s: float, batch) -> tuple[np.ndarray, np.ndarray]:
-        code = _batch(code_phase_of_range(signal, range_m, t_s), batch)
-        rate = _batch(signal.chip_rate_hz - np.asarray(rate_m_s, float) / signal.chip_length_m, batch)
-        return code, rate
 
     # --- one interval --------------------------------------------------------------------
 
@@ -163,18 +158,26 @@ class Channel:
         ``nco_range_m`` at ``t_s`` and ``nco_range_rate_m_s``): the code NCO jumps to the
         commanded range's code phase, the carrier phase runs on (no jump) at the commanded
         rate's Doppler :math:`-\\dot\\rho/\\lambda`. ``t_s`` may differ per channel (an array)."""
-        batch = np.shape(self.code_phase_chips)
-        t_s = t_s if isinstance(t_s, float) else np.asarray(t_s, float)
-        rate = np.asarray(nco_range_rate_m_s, float)
-        code = _batch(self._chip_rate_hz * t_s - np.asarray(nco_range_m, float) / self._chip_m, batch)
-        code_rate = _batch(self._chip_rate_hz - rate / self._chip_m, batch)
-        f_new = _batch(-rate / self._wavelength_m, batch)
+        code, code_rate, f_new = _range_nco(self._chip_rate_hz, self._chip_m, self._wavelength_m, nco_range_m,
+                                            nco_range_rate_m_s, t_s, np.shape(self.code_phase_chips))
         self.shift_chips = code - self._code_end
         self.shift_hz = f_new - self.carrier_freq_hz
         self.code_phase_chips, self.code_rate_chips_s = code, code_rate
         self.carrier_phase_rad = self._carrier_end
         self.carrier_freq_hz = f_new
         self.nco_range_m, self.nco_range_rate_m_s = nco_range_m, nco_range_rate_m_s
+
+
+def _range_nco(chip_rate_hz: float, chip_m: float, wavelength_m: float, range_m, rate_m_s,
+               t_s: float | np.ndarray, batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""The NCOs a range command sets (`Channel.from_range`, `Channel.steer_range`): code phase
+    :math:`f_{chip} t - \rho/\lambda_{chip}` (`code_phase_of_range`), code rate
+    :math:`f_{chip} - \dot\rho/\lambda_{chip}` and Doppler :math:`-\dot\rho/\lambda`, batch shape.
+    The description's rates and lengths come in read (the steering runs every interval)."""
+    t_s = t_s if isinstance(t_s, float) else np.asarray(t_s, float)
+    rate = np.asarray(rate_m_s, float)
+    code = _batch(chip_rate_hz * t_s - np.asarray(range_m, float) / chip_m, batch)
+    return code, _batch(chip_rate_hz - rate / chip_m, batch), _batch(-rate / wavelength_m, batch)
 
 
 def _batch(a: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:

@@ -16,7 +16,7 @@ Signs (`gnssframework.receiver.engine.channel`): a channel filter reports errors
 engine's convention, truth minus replica code phase (chips) and Doppler (Hz). The
 navigation filters' ``code_error_chips`` input is a range error in chips,
 :math:`(\rho - \hat\rho)/\lambda_{chip} = -\delta\tau`, so `VectorCloser` hands them the
-channel filter's code error negated (the one place the sign changes); their
+channel filter's code error negated (`range_error_chips`, the one place the sign changes); their
 ``freq_error_hz`` is the Doppler error, :math:`\dot\rho - \dot{\hat\rho} = -\lambda\,\delta f`.
 """
 
@@ -30,8 +30,8 @@ from ...interfaces import ChannelFilter, NavFilter, RunContext
 from ...signal.correlators import Correlators
 from .channel import Channel
 
-__all__ = ["ScalarCloser", "VectorCloser", "check_closed_loop", "check_composition", "NCO_COMMANDS",
-           "CHANNEL_OUTPUTS", "NAV_OUTPUTS", "HARNESS_INPUTS"]
+__all__ = ["ScalarCloser", "VectorCloser", "check_closed_loop", "check_composition", "range_error_chips",
+           "NCO_COMMANDS", "CHANNEL_OUTPUTS", "NAV_OUTPUTS", "HARNESS_INPUTS"]
 
 #: Outputs a channel filter needs to steer the NCOs of a closed loop.
 NCO_COMMANDS = (names.CARRIER_FREQ_HZ, names.CODE_FREQ_HZ)
@@ -43,6 +43,13 @@ NAV_OUTPUTS = (names.POSITION_M, names.VELOCITY_M_S, names.CLOCK_M, names.COV, n
 #: Inputs the vector loop itself gives the nav filter (besides the channel outputs).
 HARNESS_INPUTS = (names.SAT_POS_M, names.SAT_VEL_M_S, names.NEXT_SAT_POS_M, names.NEXT_SAT_VEL_M_S,
                   names.REPLICA_RANGE_M, names.REPLICA_RATE_M_S)
+
+
+def range_error_chips(code_error_chips: np.ndarray | float) -> np.ndarray | float:
+    r"""A channel filter's code error (truth minus replica code phase, chips) as the
+    navigation filters' ``code_error_chips`` input, a range error in chips
+    :math:`(\rho - \hat\rho)/\lambda_{chip} = -\delta\tau` (see the module text)."""
+    return -code_error_chips
 
 
 def check_closed_loop(channel: ChannelFilter, record: tuple[str, ...] = ()) -> None:
@@ -149,7 +156,7 @@ class VectorCloser:
         ``geometry`` (satellite states, `HARNESS_INPUTS` but the replica's), then the range
         command of the interval starting at ``next_start_s`` into ``channel``."""
         nav_in = dict(ch_out)
-        nav_in[names.CODE_ERROR_CHIPS] = -ch_out[names.CODE_ERROR_CHIPS]
+        nav_in[names.CODE_ERROR_CHIPS] = range_error_chips(ch_out[names.CODE_ERROR_CHIPS])
         nav_in.update(geometry)
         rate = channel.nco_range_rate_m_s
         batch = channel.batch

@@ -191,43 +191,21 @@ class LoopTruth:
         return np.concatenate([r, v, clock], axis=-1)
 
 
-def _signal_truth(code_phase_chips: np.ndarray, carrier_phase_rad: np.ndarray, cn0_dbhz: np.ndarray | float,
-                  coherent_time_s: float, amplitude_scale: np.ndarray | float = 1.0,
-                  signal: SignalSpec = GPS_L1CA) -> LoopTruth:
-    """A phases-form `LoopTruth` (the scalar harness's former ``SignalTruth`` order)."""
-    return LoopTruth(code_phase_chips=code_phase_chips, carrier_phase_rad=carrier_phase_rad, cn0_dbhz=cn0_dbhz,
-                     coherent_time_s=coherent_time_s, amplitude_scale=amplitude_scale, signal=signal)
-
-
-def _vector_truth(sat_state, receiver_state, clock_m: np.ndarray, cn0_dbhz: np.ndarray, coherent_time_s: float,
-                  range_error_m=None, signal_gain: np.ndarray | None = None, noise_gain: np.ndarray | None = None,
-                  signal: SignalSpec = GPS_L1CA) -> LoopTruth:
-    """A geometry-form `LoopTruth` (the vector harness's former ``VectorTruth`` order)."""
-    return LoopTruth(sat_state=sat_state, receiver_state=receiver_state, clock_m=clock_m, cn0_dbhz=cn0_dbhz,
-                     coherent_time_s=coherent_time_s, range_error_m=range_error_m, signal_gain=signal_gain,
-                     noise_gain=noise_gain, signal=signal)
-
-
-def _deep_truth(sat_state, receiver_state, clock_m: np.ndarray, cn0_dbhz: np.ndarray, coherent_time_s: float,
-                receiver_positions=None, range_error_m=None, signal: SignalSpec = GPS_L1CA) -> LoopTruth:
-    """A geometry-form `LoopTruth` (the aided harness's former ``DeepTruth`` order; its
-    states return ``(pos, vel, acc)``)."""
-    return LoopTruth(sat_state=sat_state, receiver_state=receiver_state, clock_m=clock_m, cn0_dbhz=cn0_dbhz,
-                     coherent_time_s=coherent_time_s, receiver_positions=receiver_positions,
-                     range_error_m=range_error_m, signal=signal)
-
-
 class _Constructor:
-    """A former truth type's name: calling it builds a `LoopTruth` with its old argument
-    order; ``isinstance(x, SignalTruth)`` holds for every `LoopTruth`."""
+    """A former truth type's name: calling it builds a `LoopTruth`, its positional arguments
+    in the type's old order ``fields`` (keywords as `LoopTruth`'s); ``isinstance(x,
+    SignalTruth)`` holds for every `LoopTruth`."""
 
-    def __init__(self, name: str, build: Callable[..., LoopTruth]) -> None:
+    def __init__(self, name: str, fields: tuple[str, ...]) -> None:
         self.__name__ = self.__qualname__ = name
-        self.__doc__ = build.__doc__
-        self._build = build
+        self.fields = fields
+        self.__doc__ = f"A `LoopTruth` from ``{name}({', '.join(fields)})``, positional in that order."
 
     def __call__(self, *args, **kwargs) -> LoopTruth:
-        return self._build(*args, **kwargs)
+        if len(args) > len(self.fields):
+            raise TypeError(f"{self.__name__}() takes at most {len(self.fields)} positional arguments "
+                            f"({len(args)} given)")
+        return LoopTruth(**dict(zip(self.fields, args)), **kwargs)
 
     def __instancecheck__(self, obj: object) -> bool:
         return isinstance(obj, LoopTruth)
@@ -238,12 +216,16 @@ class _Constructor:
         return f"<LoopTruth constructor {self.__name__}>"
 
 
+_GEOMETRY = ("sat_state", "receiver_state", "clock_m", "cn0_dbhz", "coherent_time_s")
 #: Phases-form truth, ``SignalTruth(code_phase_chips, carrier_phase_rad, cn0_dbhz, coherent_time_s,
-#: amplitude_scale=1.0)``; ``SignalTruth.from_dynamics`` is `LoopTruth.from_dynamics`.
-SignalTruth = _Constructor("SignalTruth", _signal_truth)
+#: amplitude_scale=1.0)`` (the scalar harness's order); ``SignalTruth.from_dynamics`` is
+#: `LoopTruth.from_dynamics`.
+SignalTruth = _Constructor("SignalTruth", ("code_phase_chips", "carrier_phase_rad", "cn0_dbhz", "coherent_time_s",
+                                           "amplitude_scale", "signal"))
 #: Geometry-form truth, ``VectorTruth(sat_state, receiver_state, clock_m, cn0_dbhz, coherent_time_s,
-#: range_error_m=None, signal_gain=None, noise_gain=None)``.
-VectorTruth = _Constructor("VectorTruth", _vector_truth)
+#: range_error_m=None, signal_gain=None, noise_gain=None)`` (the vector harness's order).
+VectorTruth = _Constructor("VectorTruth", _GEOMETRY + ("range_error_m", "signal_gain", "noise_gain", "signal"))
 #: Geometry-form truth, ``DeepTruth(sat_state, receiver_state, clock_m, cn0_dbhz, coherent_time_s,
-#: receiver_positions=None, range_error_m=None)``.
-DeepTruth = _Constructor("DeepTruth", _deep_truth)
+#: receiver_positions=None, range_error_m=None)`` (the aided harness's order; its states return
+#: ``(pos, vel, acc)``).
+DeepTruth = _Constructor("DeepTruth", _GEOMETRY + ("receiver_positions", "range_error_m", "signal"))
