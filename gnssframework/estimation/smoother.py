@@ -54,7 +54,7 @@ from ..errors import ConfigError
 from .adaptation import NoiseAdapter
 from .boundary import check_argument
 from .estimator import Estimator, OnFailure, OnMissing
-from .linalg import all_true, pd_mask
+from .linalg import all_true, mat_vec, pd_mask, project_psd, symmetrize
 from .sequence import FilterResult, SmootherInputs
 from .step import FilterStep
 from .types import Gaussian, Model
@@ -70,10 +70,6 @@ Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 def _t(a: np.ndarray) -> np.ndarray:
     return np.swapaxes(a, -1, -2)
-
-
-def _sym(a: np.ndarray) -> np.ndarray:
-    return 0.5 * (a + _t(a))
 
 
 @dataclass
@@ -123,7 +119,7 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
     if form == "solve":
         return _t(np.linalg.solve(prior_cov, _t(cross_cov)))
     if form == "eigh":
-        w, V = np.linalg.eigh(_sym(prior_cov))
+        w, V = np.linalg.eigh(symmetrize(prior_cov))
         n = w.shape[-1]
         tol = n * np.finfo(float).eps * np.max(np.abs(w), axis=-1, keepdims=True)
         inv_w = np.where(w > tol, 1.0 / np.where(w > tol, w, 1.0), 0.0)
@@ -132,18 +128,17 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
 
 
 def _psd_part(a: np.ndarray) -> np.ndarray:
-    """``a`` symmetrised with its negative eigenvalues (rounding) set to zero.
+    """``a`` symmetrised with its negative eigenvalues (rounding) set to zero (`project_psd`).
 
     One compiled positive-definiteness test first; the eigen-decomposition only for the
     batch elements that fail it (a PD element has no negative eigenvalue to clip)."""
-    a = _sym(a)
+    a = symmetrize(a)
     ok = pd_mask(a)
     if all_true(ok):
         return a
     bad = ~ok
-    w, V = np.linalg.eigh(a[bad])
     a = a.copy()
-    a[bad] = _sym((V * np.maximum(w, 0.0)[..., None, :]) @ _t(V))
+    a[bad] = symmetrize(project_psd(a[bad]))
     return a
 
 
@@ -173,11 +168,11 @@ def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, 
     """
     G = smoother_gain(cross_cov, prior_cov, form)
     diff = (residual_x or np.subtract)(next_smoothed.mean, prior_mean)
-    mean = filtered.mean + (G @ diff[..., None])[..., 0]
+    mean = filtered.mean + mat_vec(G, diff)
     if form == "eigh":
-        cov = _sym(_psd_part(filtered.cov - G @ _t(cross_cov)) + G @ next_smoothed.cov @ _t(G))
+        cov = symmetrize(_psd_part(filtered.cov - G @ _t(cross_cov)) + G @ next_smoothed.cov @ _t(G))
     else:
-        cov = _sym(filtered.cov + G @ (next_smoothed.cov - prior_cov) @ _t(G))
+        cov = symmetrize(filtered.cov + G @ (next_smoothed.cov - prior_cov) @ _t(G))
     return Gaussian(mean, cov), G
 
 
