@@ -144,7 +144,7 @@ def _psd_part(a: np.ndarray) -> np.ndarray:
 
 def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, cross_cov: np.ndarray,
              next_smoothed: Gaussian, form: str = "solve", residual_x: Residual | None = None,
-             ) -> tuple[Gaussian, np.ndarray]:
+             gain: np.ndarray | None = None) -> tuple[Gaussian, np.ndarray]:
     r"""One backward RTS step from $k+1$ to $k$ (module docstring), batched.
 
     Parameters
@@ -160,13 +160,16 @@ def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, 
         sum of PSD terms.
     residual_x
         Angle-aware state difference ``(a, b) -> a - b`` (plain subtraction when None).
+    gain
+        $G_k$ when the caller has it (`smoother_gain` of ``cross_cov``, ``prior_cov``,
+        ``form``: it depends on the forward pass only); computed here when None.
 
     Returns
     -------
     (Gaussian, np.ndarray)
         $m^s_k, P^s_k$ and the gain $G_k$.
     """
-    G = smoother_gain(cross_cov, prior_cov, form)
+    G = smoother_gain(cross_cov, prior_cov, form) if gain is None else gain
     diff = (residual_x or np.subtract)(next_smoothed.mean, prior_mean)
     mean = filtered.mean + mat_vec(G, diff)
     if form == "eigh":
@@ -184,6 +187,21 @@ def _inputs(result: FilterResult, caller: str) -> SmootherInputs:
         raise ConfigError("result", f"{caller} needs the predictions and cross covariances: run "
                           "filter_sequence(..., store='smoother')")
     return result.smoother_inputs
+
+
+def _gain_form(inputs: SmootherInputs, form: str | None) -> str:
+    """``form``, or the engine's stored one when None; `ConfigError` for an unknown form."""
+    form = inputs.gain_form if form is None else form
+    if form not in GAIN_FORMS:
+        raise ConfigError("form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
+    return form
+
+
+def _checked_lag(lag) -> int:
+    """``lag`` as an int, or `ConfigError` unless an integer >= 0."""
+    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
+        raise ConfigError("lag", f"must be an integer >= 0 (steps), got {lag!r}")
+    return int(lag)
 
 
 def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: str | None = None) -> SmoothedResult:
@@ -215,26 +233,25 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
         ``result`` was not stored for smoothing, or an unknown ``form``.
     """
     inputs = _inputs(result, "smooth")
-    form = inputs.gain_form if form is None else form
-    if form not in GAIN_FORMS:
-        raise ConfigError("form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
+    form = _gain_form(inputs, form)
     K = result.mean.shape[0]
+    # The gains depend on the forward pass only: all K (the initial state's first) in one batched call.
+    gains = smoother_gain(inputs.cross_cov, inputs.prior_cov, form)
     mean = np.empty_like(result.mean)
     cov = np.empty_like(result.cov)
-    gain = np.empty((max(K - 1, 0),) + result.cov.shape[1:])
     mean[-1], cov[-1] = result.mean[-1], result.cov[-1]
     nxt = Gaussian(mean[-1], cov[-1])
     for k in range(K - 2, -1, -1):
-        nxt, gain[k] = rts_step(Gaussian(result.mean[k], result.cov[k]), inputs.prior_mean[k + 1],
-                                inputs.prior_cov[k + 1], inputs.cross_cov[k + 1], nxt, form, residual_x)
+        nxt, _ = rts_step(Gaussian(result.mean[k], result.cov[k]), inputs.prior_mean[k + 1], inputs.prior_cov[k + 1],
+                          inputs.cross_cov[k + 1], nxt, form, residual_x, gain=gains[k + 1])
         mean[k], cov[k] = nxt.mean, nxt.cov
     batch = result.mean.shape[1:-1]
     n = result.mean.shape[-1]
     start = Gaussian(np.broadcast_to(inputs.initial.mean, batch + (n,)),
                      np.broadcast_to(inputs.initial.cov, batch + (n, n)))
     initial, _ = rts_step(start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, form,
-                          residual_x)
-    return SmoothedResult(mean=mean, cov=cov, gain=gain, initial=initial, epochs=result.epochs, time_s=result.time_s)
+                          residual_x, gain=gains[0])
+    return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=initial, epochs=result.epochs, time_s=result.time_s)
 
 
 def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | None = None,
@@ -262,28 +279,28 @@ def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | N
         as given (not smoothed).
     """
     inputs = _inputs(result, "fixed_lag_smooth")
-    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
-        raise ConfigError("lag", f"must be an integer >= 0 (steps), got {lag!r}")
-    form = inputs.gain_form if form is None else form
-    if form not in GAIN_FORMS:
-        raise ConfigError("form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
+    lag = _checked_lag(lag)
+    form = _gain_form(inputs, form)
     K = result.mean.shape[0]
+    steps = min(lag, K - 1)  # backward steps of the longest window
+    # G_i (transition i -> i+1) depends on the forward pass only: each once, not once per window.
+    gain = (smoother_gain(inputs.cross_cov[1:], inputs.prior_cov[1:], form) if steps > 0
+            else np.zeros((max(K - 1, 0),) + result.cov.shape[1:]))
     j = np.arange(K)
-    end = np.minimum(j + int(lag), K - 1)  # the last step each window sees
+    end = np.minimum(j + lag, K - 1)  # the last step each window sees
     mean, cov = result.mean[end].copy(), result.cov[end].copy()
-    gain = np.zeros((K,) + result.cov.shape[1:])
     shape = (K,) + (1,) * (result.mean.ndim - 1)
-    for d in range(1, min(int(lag), K - 1) + 1):
+    for d in range(1, steps + 1):
         i = end - d  # step smoothed now in each window
         active = i >= j
         ic = np.maximum(i, 0)
-        out, G = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
-                          inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), form, residual_x)
+        out, _ = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
+                          inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), form, residual_x,
+                          gain=gain[ic])
         a = active.reshape(shape)
         mean = np.where(a, out.mean, mean)
         cov = np.where(a[..., None], out.cov, cov)
-        gain = np.where(a[..., None], G, gain)
-    return SmoothedResult(mean=mean, cov=cov, gain=gain[:-1], initial=inputs.initial, epochs=result.epochs,
+    return SmoothedResult(mean=mean, cov=cov, gain=gain, initial=inputs.initial, epochs=result.epochs,
                           time_s=result.time_s)
 
 
@@ -335,10 +352,8 @@ class FixedLagSmoother:
                  on_failure: OnFailure = "raise", missing: OnMissing = "raise",
                  residual_x: Residual | None = None) -> None:
         check_argument(estimator, "estimator", "FixedLagSmoother")
-        if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
-            raise ConfigError("lag", f"must be an integer >= 0 (steps), got {lag!r}")
+        self.lag = _checked_lag(lag)
         self.estimator = estimator
-        self.lag = int(lag)
         self.residual_x = residual_x
         self.form = getattr(estimator, "smoother_gain", "solve")
         self._step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
