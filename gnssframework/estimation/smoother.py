@@ -46,6 +46,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Callable
 
 import numpy as np
@@ -55,7 +56,7 @@ from .adaptation import NoiseAdapter
 from .boundary import check_argument
 from .estimator import Estimator, OnFailure, OnMissing
 from .linalg import all_true, mat_vec, pd_mask, project_psd, symmetrize
-from .sequence import FilterResult, SmootherInputs
+from .sequence import FilterResult, SmootherInputs, transition_terms
 from .step import FilterStep
 from .types import Gaussian, Model
 
@@ -312,6 +313,23 @@ class LagEstimate:
     state: Gaussian
 
 
+@dataclass
+class _Transition:
+    """One step of a streaming window: its posterior and the prediction into it."""
+
+    posterior: Gaussian
+    prior_mean: np.ndarray
+    prior_cov: np.ndarray
+    cross_cov: np.ndarray
+    form: str
+
+    @cached_property
+    def gain(self) -> np.ndarray:
+        """The gain of the transition into this step (`smoother_gain`): solved once, however
+        many windows use it."""
+        return smoother_gain(self.cross_cov, self.prior_cov, self.form)
+
+
 class FixedLagSmoother:
     r"""Streaming fixed-lag RTS smoother: after filtering step k, the estimate of step k-L.
 
@@ -371,17 +389,9 @@ class FixedLagSmoother:
         """Filter ``z`` ``(..., m)``; return the estimate of step ``k - lag`` (None while k < lag)."""
         if self._state is None:
             raise ConfigError("FixedLagSmoother", "call start(initial, model) before step")
-        previous = self._state
-        r = self._step(previous, z, model)
-        post = r.posterior
-        batch = post.batch_shape
-        if previous.batch_shape != batch:
-            previous = Gaussian(np.broadcast_to(previous.mean, batch + previous.mean.shape[-1:]),
-                                np.broadcast_to(previous.cov, batch + previous.cov.shape[-2:]))
-        cross = self.estimator.transition_cross_cov(previous, r.model, r.prior)
-        self._window.append((post, np.broadcast_to(r.prior.mean, post.mean.shape),
-                             np.broadcast_to(r.prior.cov, post.cov.shape), cross))
-        self._state = post
+        r = self._step(self._state, z, model)
+        self._window.append(_Transition(r.posterior, *transition_terms(self.estimator, self._state, r), self.form))
+        self._state = r.posterior
         self._k += 1
         if len(self._window) <= self.lag:
             return None
@@ -397,10 +407,11 @@ class FixedLagSmoother:
     def _backward(self) -> list[Gaussian]:
         """RTS over the window, oldest first."""
         window = list(self._window)
-        nxt = window[-1][0]
+        nxt = window[-1].posterior
         out = [nxt]
         for i in range(len(window) - 2, -1, -1):
-            _, prior_mean, prior_cov, cross = window[i + 1]
-            nxt, _ = rts_step(window[i][0], prior_mean, prior_cov, cross, nxt, self.form, self.residual_x)
+            t = window[i + 1]
+            nxt, _ = rts_step(window[i].posterior, t.prior_mean, t.prior_cov, t.cross_cov, nxt, self.form,
+                              self.residual_x, gain=t.gain)
             out.append(nxt)
         return out[::-1]
