@@ -39,8 +39,6 @@ class SmootherInputs:
         The initial state the first step predicted from (batch-broadcast).
     gain_form
         The engine's ``smoother_gain`` (``"solve"`` or ``"eigh"``).
-    estimator
-        The engine's registry name.
     """
 
     prior_mean: np.ndarray
@@ -48,7 +46,6 @@ class SmootherInputs:
     cross_cov: np.ndarray
     initial: Gaussian
     gain_form: str
-    estimator: str
 
 
 def transition_terms(estimator: Estimator, previous: Gaussian, r: StepResult,
@@ -299,7 +296,7 @@ def filter_sequence(
         smoother_inputs=None if store != "smoother" else SmootherInputs(
             prior_mean=np.stack(out["prior_mean"]), prior_cov=np.stack(out["prior_cov"]),
             cross_cov=np.stack(out["cross_cov"]), initial=start,
-            gain_form=getattr(estimator, "smoother_gain", "solve"), estimator=estimator.name),
+            gain_form=getattr(estimator, "smoother_gain", "solve")),
     )
 
 
