@@ -252,7 +252,8 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
                      np.broadcast_to(inputs.initial.cov, batch + (n, n)))
     initial, _ = rts_step(start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, form,
                           residual_x, gain=gains[0])
-    return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=initial, epochs=result.epochs, time_s=result.time_s)
+    return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=initial, epochs=result.epochs,
+                          time_s=result.time_s)
 
 
 def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | None = None,
