@@ -47,12 +47,13 @@ def rmse_rows(seed: int = 1, runs: int = 200, steps: int = 100) -> list[tuple[st
     for engine in ENGINES:
         result = gf.filter_sequence(gf.registry.create("estimator", engine), model, zs, initial, store="smoother")
         smoothed, lagged = gf.smooth(result), gf.fixed_lag_smooth(result, LAG)
-
-        def rmse(mean):
-            return float(np.sqrt(np.mean((mean[..., 0] - truth[..., 0]) ** 2)))
-
-        rows.append((engine, rmse(result.mean), rmse(lagged.mean), rmse(smoothed.mean)))
+        rows.append((engine, *(_angle_rmse(mean, truth) for mean in (result.mean, lagged.mean, smoothed.mean))))
     return rows
+
+
+def _angle_rmse(mean: np.ndarray, truth: np.ndarray) -> float:
+    """RMSE of the angle (rad) over runs and steps."""
+    return float(np.sqrt(np.mean((mean[..., 0] - truth[..., 0]) ** 2)))
 
 
 def table() -> str:

@@ -211,36 +211,35 @@ def mutated_lines(draw, lines: list[str]) -> str:
     return "\n".join(out) + "\n"
 
 
-def _check_observations(path: Path) -> None:
+def _check_observations(tmp_path_factory, name: str, text: str) -> None:
+    """``text`` written as the observation file ``name`` reads as plausible observations or
+    fails in one line."""
     from gnssframework.io.observations import read_observations
     from gnssframework.io.rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M
 
-    try:
-        obs = read_observations(path, "G")
-    except Exception as exc:  # noqa: BLE001
-        _one_line(exc)
-        return
-    code = obs.pseudorange_m[obs.valid]
-    assert np.all((code >= PSEUDORANGE_MIN_M) & (code <= PSEUDORANGE_MAX_M)), code
-    assert np.all(np.isfinite(obs.time_s)) and np.all(np.diff(obs.time_s) > 0)
+    with _fresh(tmp_path_factory) as folder:
+        path = folder / name
+        path.write_text(text)
+        try:
+            obs = read_observations(path, "G")
+        except Exception as exc:  # noqa: BLE001
+            _one_line(exc)
+            return
+        code = obs.pseudorange_m[obs.valid]
+        assert np.all((code >= PSEUDORANGE_MIN_M) & (code <= PSEUDORANGE_MAX_M)), code
+        assert np.all(np.isfinite(obs.time_s)) and np.all(np.diff(obs.time_s) > 0)
 
 
 @FUZZ
 @given(text=mutated_lines(RINEX2_LINES))
 def test_fuzzed_rinex2_lines_read_or_fail_in_one_line(tmp_path_factory, text):
-    with _fresh(tmp_path_factory) as folder:
-        path = folder / "f.05o"
-        path.write_text(text)
-        _check_observations(path)
+    _check_observations(tmp_path_factory, "f.05o", text)
 
 
 @FUZZ
 @given(text=mutated_lines(RINEX3_LINES))
 def test_fuzzed_rinex3_lines_read_or_fail_in_one_line(tmp_path_factory, text):
-    with _fresh(tmp_path_factory) as folder:
-        path = folder / "f.23o"
-        path.write_text(text)
-        _check_observations(path)
+    _check_observations(tmp_path_factory, "f.23o", text)
 
 
 NMEA_LINES = (DATA / "ublox-zed-f9p-nmea.log").read_text(errors="replace").splitlines()[:80]

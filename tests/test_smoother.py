@@ -325,9 +325,9 @@ def test_adaptive_smoother_uses_the_stored_per_step_noise_and_is_consistent(rng)
     rerun = gf.filter_sequence(create("estimator", "kf"),
                                lambda k: LinearModel(model.F, model.H, adaptive.Q[k], adaptive.R[k]), zs, init,
                                store="smoother")
-    smoothed = gf.smooth(adaptive)
-    np.testing.assert_allclose(smoothed.mean, gf.smooth(rerun).mean, rtol=0, atol=1e-10)
-    np.testing.assert_allclose(smoothed.cov, gf.smooth(rerun).cov, rtol=0, atol=1e-10)
+    smoothed, reference = gf.smooth(adaptive), gf.smooth(rerun)
+    np.testing.assert_allclose(smoothed.mean, reference.mean, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(smoothed.cov, reference.cov, rtol=0, atol=1e-10)
     # Consistency. 400 runs x 60 steps: sampling alone leaves the mean NEES within ~1% of n;
     # the adapter's windowed R (20 innovations: ~30 % relative error per run) inflates both
     # the filter's and the smoother's NEES by about as much, so each is held to 15 % of n

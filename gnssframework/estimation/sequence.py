@@ -11,7 +11,7 @@ from ..errors import ConfigError, InvalidInputError
 from .adaptation import Augmentation, NoiseAdapter
 from .boundary import as_sequence, check_argument, check_model_functions, checked_model_at, to_float
 from .estimator import Estimator, OnFailure, OnMissing
-from .step import RECOVERIES, FilterStep
+from .step import RECOVERIES, FilterStep, StepResult
 from .types import Gaussian, Model
 
 __all__ = ["filter_sequence", "FilterResult", "SmootherInputs", "RECOVERIES", "STORE_OPTIONS"]
@@ -39,8 +39,6 @@ class SmootherInputs:
         The initial state the first step predicted from (batch-broadcast).
     gain_form
         The engine's ``smoother_gain`` (``"solve"`` or ``"eigh"``).
-    estimator
-        The engine's registry name.
     """
 
     prior_mean: np.ndarray
@@ -48,7 +46,28 @@ class SmootherInputs:
     cross_cov: np.ndarray
     initial: Gaussian
     gain_form: str
-    estimator: str
+
+
+def transition_terms(estimator: Estimator, previous: Gaussian, r: StepResult,
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What a backward pass keeps of one step ``previous -> r``: the prediction's mean and
+    covariance and ``estimator.transition_cross_cov``, each broadcast to the posterior's batch
+    (a state shared by the runs may be predicted with a Q per run).
+
+    Returns
+    -------
+    (np.ndarray, np.ndarray, np.ndarray)
+        ``(prior_mean, prior_cov, cross_cov)``, ``(..., n)``, ``(..., n, n)``, ``(..., n, n)``.
+    """
+    batch = r.posterior.batch_shape
+    if previous.batch_shape != batch:
+        previous = Gaussian(np.broadcast_to(previous.mean, batch + previous.mean.shape[-1:]),
+                            np.broadcast_to(previous.cov, batch + previous.cov.shape[-2:]))
+    # r.model is the model the prediction used (the adapter's Q in force at this step).
+    cross = estimator.transition_cross_cov(previous, r.model, r.prior)
+    return (np.broadcast_to(r.prior.mean, batch + r.prior.mean.shape[-1:]),
+            np.broadcast_to(r.prior.cov, batch + r.prior.cov.shape[-2:]),
+            np.broadcast_to(cross, batch + cross.shape[-2:]))
 
 
 @dataclass
@@ -251,15 +270,8 @@ def filter_sequence(
         r = step(state, zs[k], m0 if k == 0 else model_at(k))
         posterior, mk = r.posterior, r.model
         if store == "smoother":
-            # mk is the model the prediction used (the adapter's Q in force at step k).
-            batch = posterior.batch_shape
-            out["prior_mean"].append(np.broadcast_to(r.prior.mean, batch + r.prior.mean.shape[-1:]))
-            out["prior_cov"].append(np.broadcast_to(r.prior.cov, batch + r.prior.cov.shape[-2:]))
-            previous = state if state.batch_shape == batch else Gaussian(
-                np.broadcast_to(state.mean, batch + state.mean.shape[-1:]),
-                np.broadcast_to(state.cov, batch + state.cov.shape[-2:]))
-            cross = estimator.transition_cross_cov(previous, mk, r.prior)
-            out["cross_cov"].append(np.broadcast_to(cross, batch + cross.shape[-2:]))
+            for key, value in zip(("prior_mean", "prior_cov", "cross_cov"), transition_terms(estimator, state, r)):
+                out[key].append(value)
         out["mean"].append(posterior.mean)
         if store_cov:
             out["cov"].append(posterior.cov)
@@ -284,7 +296,7 @@ def filter_sequence(
         smoother_inputs=None if store != "smoother" else SmootherInputs(
             prior_mean=np.stack(out["prior_mean"]), prior_cov=np.stack(out["prior_cov"]),
             cross_cov=np.stack(out["cross_cov"]), initial=start,
-            gain_form=getattr(estimator, "smoother_gain", "solve"), estimator=estimator.name),
+            gain_form=getattr(estimator, "smoother_gain", "solve")),
     )
 
 

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Callable
 
 import numpy as np
@@ -54,8 +55,8 @@ from ..errors import ConfigError
 from .adaptation import NoiseAdapter
 from .boundary import check_argument
 from .estimator import Estimator, OnFailure, OnMissing
-from .linalg import all_true, pd_mask
-from .sequence import FilterResult, SmootherInputs
+from .linalg import all_true, mat_vec, pd_mask, project_psd, symmetrize
+from .sequence import FilterResult, SmootherInputs, transition_terms
 from .step import FilterStep
 from .types import Gaussian, Model
 
@@ -70,10 +71,6 @@ Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 def _t(a: np.ndarray) -> np.ndarray:
     return np.swapaxes(a, -1, -2)
-
-
-def _sym(a: np.ndarray) -> np.ndarray:
-    return 0.5 * (a + _t(a))
 
 
 @dataclass
@@ -123,7 +120,7 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
     if form == "solve":
         return _t(np.linalg.solve(prior_cov, _t(cross_cov)))
     if form == "eigh":
-        w, V = np.linalg.eigh(_sym(prior_cov))
+        w, V = np.linalg.eigh(symmetrize(prior_cov))
         n = w.shape[-1]
         tol = n * np.finfo(float).eps * np.max(np.abs(w), axis=-1, keepdims=True)
         inv_w = np.where(w > tol, 1.0 / np.where(w > tol, w, 1.0), 0.0)
@@ -132,24 +129,23 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
 
 
 def _psd_part(a: np.ndarray) -> np.ndarray:
-    """``a`` symmetrised with its negative eigenvalues (rounding) set to zero.
+    """``a`` symmetrised with its negative eigenvalues (rounding) set to zero (`project_psd`).
 
     One compiled positive-definiteness test first; the eigen-decomposition only for the
     batch elements that fail it (a PD element has no negative eigenvalue to clip)."""
-    a = _sym(a)
+    a = symmetrize(a)
     ok = pd_mask(a)
     if all_true(ok):
         return a
     bad = ~ok
-    w, V = np.linalg.eigh(a[bad])
     a = a.copy()
-    a[bad] = _sym((V * np.maximum(w, 0.0)[..., None, :]) @ _t(V))
+    a[bad] = symmetrize(project_psd(a[bad]))
     return a
 
 
 def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, cross_cov: np.ndarray,
              next_smoothed: Gaussian, form: str = "solve", residual_x: Residual | None = None,
-             ) -> tuple[Gaussian, np.ndarray]:
+             gain: np.ndarray | None = None) -> tuple[Gaussian, np.ndarray]:
     r"""One backward RTS step from $k+1$ to $k$ (module docstring), batched.
 
     Parameters
@@ -165,19 +161,22 @@ def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, 
         sum of PSD terms.
     residual_x
         Angle-aware state difference ``(a, b) -> a - b`` (plain subtraction when None).
+    gain
+        $G_k$ when the caller has it (`smoother_gain` of ``cross_cov``, ``prior_cov``,
+        ``form``: it depends on the forward pass only); computed here when None.
 
     Returns
     -------
     (Gaussian, np.ndarray)
         $m^s_k, P^s_k$ and the gain $G_k$.
     """
-    G = smoother_gain(cross_cov, prior_cov, form)
+    G = smoother_gain(cross_cov, prior_cov, form) if gain is None else gain
     diff = (residual_x or np.subtract)(next_smoothed.mean, prior_mean)
-    mean = filtered.mean + (G @ diff[..., None])[..., 0]
+    mean = filtered.mean + mat_vec(G, diff)
     if form == "eigh":
-        cov = _sym(_psd_part(filtered.cov - G @ _t(cross_cov)) + G @ next_smoothed.cov @ _t(G))
+        cov = symmetrize(_psd_part(filtered.cov - G @ _t(cross_cov)) + G @ next_smoothed.cov @ _t(G))
     else:
-        cov = _sym(filtered.cov + G @ (next_smoothed.cov - prior_cov) @ _t(G))
+        cov = symmetrize(filtered.cov + G @ (next_smoothed.cov - prior_cov) @ _t(G))
     return Gaussian(mean, cov), G
 
 
@@ -189,6 +188,21 @@ def _inputs(result: FilterResult, caller: str) -> SmootherInputs:
         raise ConfigError("result", f"{caller} needs the predictions and cross covariances: run "
                           "filter_sequence(..., store='smoother')")
     return result.smoother_inputs
+
+
+def _gain_form(inputs: SmootherInputs, form: str | None) -> str:
+    """``form``, or the engine's stored one when None; `ConfigError` for an unknown form."""
+    form = inputs.gain_form if form is None else form
+    if form not in GAIN_FORMS:
+        raise ConfigError("form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
+    return form
+
+
+def _checked_lag(lag) -> int:
+    """``lag`` as an int, or `ConfigError` unless an integer >= 0."""
+    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
+        raise ConfigError("lag", f"must be an integer >= 0 (steps), got {lag!r}")
+    return int(lag)
 
 
 def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: str | None = None) -> SmoothedResult:
@@ -220,26 +234,26 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
         ``result`` was not stored for smoothing, or an unknown ``form``.
     """
     inputs = _inputs(result, "smooth")
-    form = inputs.gain_form if form is None else form
-    if form not in GAIN_FORMS:
-        raise ConfigError("form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
+    form = _gain_form(inputs, form)
     K = result.mean.shape[0]
+    # The gains depend on the forward pass only: all K (the initial state's first) in one batched call.
+    gains = smoother_gain(inputs.cross_cov, inputs.prior_cov, form)
     mean = np.empty_like(result.mean)
     cov = np.empty_like(result.cov)
-    gain = np.empty((max(K - 1, 0),) + result.cov.shape[1:])
     mean[-1], cov[-1] = result.mean[-1], result.cov[-1]
     nxt = Gaussian(mean[-1], cov[-1])
     for k in range(K - 2, -1, -1):
-        nxt, gain[k] = rts_step(Gaussian(result.mean[k], result.cov[k]), inputs.prior_mean[k + 1],
-                                inputs.prior_cov[k + 1], inputs.cross_cov[k + 1], nxt, form, residual_x)
+        nxt, _ = rts_step(Gaussian(result.mean[k], result.cov[k]), inputs.prior_mean[k + 1], inputs.prior_cov[k + 1],
+                          inputs.cross_cov[k + 1], nxt, form, residual_x, gain=gains[k + 1])
         mean[k], cov[k] = nxt.mean, nxt.cov
     batch = result.mean.shape[1:-1]
     n = result.mean.shape[-1]
     start = Gaussian(np.broadcast_to(inputs.initial.mean, batch + (n,)),
                      np.broadcast_to(inputs.initial.cov, batch + (n, n)))
     initial, _ = rts_step(start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, form,
-                          residual_x)
-    return SmoothedResult(mean=mean, cov=cov, gain=gain, initial=initial, epochs=result.epochs, time_s=result.time_s)
+                          residual_x, gain=gains[0])
+    return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=initial, epochs=result.epochs,
+                          time_s=result.time_s)
 
 
 def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | None = None,
@@ -267,28 +281,28 @@ def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | N
         as given (not smoothed).
     """
     inputs = _inputs(result, "fixed_lag_smooth")
-    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
-        raise ConfigError("lag", f"must be an integer >= 0 (steps), got {lag!r}")
-    form = inputs.gain_form if form is None else form
-    if form not in GAIN_FORMS:
-        raise ConfigError("form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
+    lag = _checked_lag(lag)
+    form = _gain_form(inputs, form)
     K = result.mean.shape[0]
+    steps = min(lag, K - 1)  # backward steps of the longest window
+    # G_i (transition i -> i+1) depends on the forward pass only: each once, not once per window.
+    gain = (smoother_gain(inputs.cross_cov[1:], inputs.prior_cov[1:], form) if steps > 0
+            else np.zeros((max(K - 1, 0),) + result.cov.shape[1:]))
     j = np.arange(K)
-    end = np.minimum(j + int(lag), K - 1)  # the last step each window sees
+    end = np.minimum(j + lag, K - 1)  # the last step each window sees
     mean, cov = result.mean[end].copy(), result.cov[end].copy()
-    gain = np.zeros((K,) + result.cov.shape[1:])
     shape = (K,) + (1,) * (result.mean.ndim - 1)
-    for d in range(1, min(int(lag), K - 1) + 1):
+    for d in range(1, steps + 1):
         i = end - d  # step smoothed now in each window
         active = i >= j
         ic = np.maximum(i, 0)
-        out, G = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
-                          inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), form, residual_x)
+        out, _ = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
+                          inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), form, residual_x,
+                          gain=gain[ic])
         a = active.reshape(shape)
         mean = np.where(a, out.mean, mean)
         cov = np.where(a[..., None], out.cov, cov)
-        gain = np.where(a[..., None], G, gain)
-    return SmoothedResult(mean=mean, cov=cov, gain=gain[:-1], initial=inputs.initial, epochs=result.epochs,
+    return SmoothedResult(mean=mean, cov=cov, gain=gain, initial=inputs.initial, epochs=result.epochs,
                           time_s=result.time_s)
 
 
@@ -298,6 +312,23 @@ class LagEstimate:
 
     step: int
     state: Gaussian
+
+
+@dataclass
+class _Transition:
+    """One step of a streaming window: its posterior and the prediction into it."""
+
+    posterior: Gaussian
+    prior_mean: np.ndarray
+    prior_cov: np.ndarray
+    cross_cov: np.ndarray
+    form: str
+
+    @cached_property
+    def gain(self) -> np.ndarray:
+        """The gain of the transition into this step (`smoother_gain`): solved once, however
+        many windows use it."""
+        return smoother_gain(self.cross_cov, self.prior_cov, self.form)
 
 
 class FixedLagSmoother:
@@ -340,10 +371,8 @@ class FixedLagSmoother:
                  on_failure: OnFailure = "raise", missing: OnMissing = "raise",
                  residual_x: Residual | None = None) -> None:
         check_argument(estimator, "estimator", "FixedLagSmoother")
-        if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
-            raise ConfigError("lag", f"must be an integer >= 0 (steps), got {lag!r}")
+        self.lag = _checked_lag(lag)
         self.estimator = estimator
-        self.lag = int(lag)
         self.residual_x = residual_x
         self.form = getattr(estimator, "smoother_gain", "solve")
         self._step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
@@ -361,17 +390,9 @@ class FixedLagSmoother:
         """Filter ``z`` ``(..., m)``; return the estimate of step ``k - lag`` (None while k < lag)."""
         if self._state is None:
             raise ConfigError("FixedLagSmoother", "call start(initial, model) before step")
-        previous = self._state
-        r = self._step(previous, z, model)
-        post = r.posterior
-        batch = post.batch_shape
-        if previous.batch_shape != batch:
-            previous = Gaussian(np.broadcast_to(previous.mean, batch + previous.mean.shape[-1:]),
-                                np.broadcast_to(previous.cov, batch + previous.cov.shape[-2:]))
-        cross = self.estimator.transition_cross_cov(previous, r.model, r.prior)
-        self._window.append((post, np.broadcast_to(r.prior.mean, post.mean.shape),
-                             np.broadcast_to(r.prior.cov, post.cov.shape), cross))
-        self._state = post
+        r = self._step(self._state, z, model)
+        self._window.append(_Transition(r.posterior, *transition_terms(self.estimator, self._state, r), self.form))
+        self._state = r.posterior
         self._k += 1
         if len(self._window) <= self.lag:
             return None
@@ -387,10 +408,11 @@ class FixedLagSmoother:
     def _backward(self) -> list[Gaussian]:
         """RTS over the window, oldest first."""
         window = list(self._window)
-        nxt = window[-1][0]
+        nxt = window[-1].posterior
         out = [nxt]
         for i in range(len(window) - 2, -1, -1):
-            _, prior_mean, prior_cov, cross = window[i + 1]
-            nxt, _ = rts_step(window[i][0], prior_mean, prior_cov, cross, nxt, self.form, self.residual_x)
+            t = window[i + 1]
+            nxt, _ = rts_step(window[i].posterior, t.prior_mean, t.prior_cov, t.cross_cov, nxt, self.form,
+                              self.residual_x, gain=t.gain)
             out.append(nxt)
         return out[::-1]
