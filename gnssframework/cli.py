@@ -15,6 +15,8 @@ from .errors import ConfigError, DataFileError, GnssFrameworkError
 from .io.nmea import MAX_ABS_HEIGHT_M, MAX_SPEED_MPS
 from .io.rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M
 from .io.skipped import EXIT_STATUS_HELP
+from .signal.gps_l1ca import GPS_L1CA
+from .signal.spec import SignalSpec
 from .io.smoothing import MAX_CMC_RATE_MPS, SMOOTHERS
 
 __all__ = ["main"]
@@ -228,13 +230,17 @@ def _acquisition_from_args(args: argparse.Namespace):
     return registry.create("acquisition", args.acquisition, **params)
 
 
-def _prns_from_args(args: argparse.Namespace) -> tuple[int, ...]:
-    from .signal.codes import G2_TAPS
+#: How the command line names a signal in its messages (else by `SignalSpec.name`).
+_SIGNAL_LABEL = {"gps-l1ca": "GPS C/A"}
 
-    prns = tuple(args.prns) if args.prns else tuple(range(1, 33))
-    bad = [p for p in prns if p not in G2_TAPS]
+
+def _prns_from_args(args: argparse.Namespace, signal: SignalSpec = GPS_L1CA) -> tuple[int, ...]:
+    """``--prns`` checked against ``signal``'s PRNs (all of them without the option)."""
+    prns = tuple(args.prns) if args.prns else signal.prns
+    bad = [p for p in prns if p not in signal.prns]
     if bad:
-        raise ConfigError("--prns", f"GPS C/A PRNs are 1-32, got {bad}")
+        raise ConfigError("--prns", f"{_SIGNAL_LABEL.get(signal.name, signal.name)} PRNs are {min(signal.prns)}-"
+                                    f"{max(signal.prns)}, got {bad}")
     repeated = sorted({p for p in prns if prns.count(p) > 1})
     if repeated:
         raise ConfigError("--prns", f"PRN {', '.join(map(str, repeated))} given more than once: each PRN is "
@@ -242,17 +248,28 @@ def _prns_from_args(args: argparse.Namespace) -> tuple[int, ...]:
     return prns
 
 
-def _cmd_acquire(args: argparse.Namespace) -> int:
+def _acquire_checked(rec, acq, prns: tuple[int, ...]) -> list:
+    """The acquisition of ``prns`` in ``rec`` (``acquire``, ``track`` and ``receive``),
+    refused when the samples are too few or the result is implausible (`check_samples`,
+    `check_acquisition`: a wrong --format "finds" 31 satellites), with a note of the
+    non-finite samples zeroed."""
     from .receiver.acquisition.plausibility import check_acquisition, check_samples
-    from .receiver.acquisition.report import acquire_recording, search_summary, write_acquisition_csv
+    from .receiver.acquisition.report import acquire_recording
+
+    check_samples(rec, acq)
+    results = acquire_recording(rec, acq, prns)
+    _note_nonfinite(rec)
+    check_acquisition(results, rec, acq)
+    return results
+
+
+def _cmd_acquire(args: argparse.Namespace) -> int:
+    from .receiver.acquisition.report import search_summary, write_acquisition_csv
 
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     prns = _prns_from_args(args)
-    check_samples(rec, acq)
-    results = acquire_recording(rec, acq, prns)
-    _note_nonfinite(rec)
-    check_acquisition(results, rec, acq)  # a wrong --format "finds" 31 satellites: refuse it
+    results = _acquire_checked(rec, acq, prns)
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
     if args.verbose:
@@ -310,8 +327,7 @@ MAX_RATE_HZ = 1000.0
 
 
 def _cmd_track(args: argparse.Namespace) -> int:
-    from .receiver.acquisition.plausibility import check_acquisition, check_samples
-    from .receiver.acquisition.report import acquire_recording, search_summary
+    from .receiver.acquisition.report import search_summary
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
 
@@ -322,10 +338,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
     tracker = SampleTracker(rec, config, acq)
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
-    check_samples(rec, acq)
-    results = acquire_recording(rec, acq, prns)
-    _note_nonfinite(rec)
-    check_acquisition(results, rec, acq)
+    results = _acquire_checked(rec, acq, prns)
     found = [r for r in results if r.detected]
     if not found:
         print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
@@ -419,8 +432,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .navigation.ephemeris import read_rinex_nav
-    from .receiver.acquisition.plausibility import check_acquisition, check_samples
-    from .receiver.acquisition.report import acquire_recording, search_summary
+    from .receiver.acquisition.report import search_summary
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import write_nmea
     from .receiver.navigation.receive import position_errors, receive
@@ -477,10 +489,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     def progress(fraction: float) -> None:
         bar.update(round(100 * fraction) - bar.n)
 
-    check_samples(rec, acq)
-    acquisitions = acquire_recording(rec, acq, prns)  # checked before minutes of tracking
-    _note_nonfinite(rec)
-    check_acquisition(acquisitions, rec, acq)
+    acquisitions = _acquire_checked(rec, acq, prns)  # checked before minutes of tracking
     try:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,

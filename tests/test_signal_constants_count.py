@@ -37,7 +37,6 @@ ALLOWED = frozenset({
 })
 #: Files that still use C/A constants (measured).
 REMAINING = frozenset({
-    "gnssframework/cli.py",                                           # the --prns check (G2_TAPS)
     "gnssframework/experiments/scenarios/carrier_smoothing.py",       # simulates L1
     "gnssframework/experiments/scenarios/sample_receiver_signals.py",  # simulates L1
     "gnssframework/experiments/scenarios/scintillation.py",           # simulates L1
