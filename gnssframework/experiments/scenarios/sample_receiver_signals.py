@@ -164,9 +164,10 @@ def _noise_free(key: tuple, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
     n = int(round(CHUNK_S * fs))
     out = np.zeros(n_chunks * n, np.complex64)
     t_sv0 = transmit_times(sats, rx, plan.start_tow_s)
+    bits_per_s, periods_per_s = 1.0 / signal.symbol_period_s, 1.0 / signal.code_period_s  # 50, 1000 for C/A
     # Bits from the one in force 0.1 s before the first sample's transmit time on.
     symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), plan.week, float(t_sv0[k]) - 0.1,
-                                 int(plan.duration_s * 50) + 20) for k in range(sats.sv.size)]
+                                 int(plan.duration_s * bits_per_s) + 20) for k in range(sats.sv.size)]
     phase = np.zeros(sats.sv.size)
     start = t_sv0
     for c in range(n_chunks):
@@ -177,9 +178,8 @@ def _noise_free(key: tuple, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
             first_edge_tsv = float(t_sv0[k]) - 0.1 - into
             out[c * n:(c + 1) * n] += generate_if_samples(
                 prn, CHUNK_S, fs, 0.0, plan.cn0_dbhz, None, doppler_hz=doppler_hz[k],
-                code_phase_chips=(start[k] * 1e3 % 1.0) * signal.code_length_chips, carrier_phase_rad=phase[k],
-                complex_samples=True,
-                data_bits=bits, first_bit_edge_s=first_edge_tsv - start[k], noise=False, signal=signal).samples
+                code_phase_chips=(start[k] * periods_per_s % 1.0) * signal.code_length_chips,
+                carrier_phase_rad=phase[k], complex_samples=True, data_bits=bits, first_bit_edge_s=first_edge_tsv - start[k], noise=False, signal=signal).samples
         phase += 2 * np.pi * doppler_hz * CHUNK_S
         start = end
     return out
