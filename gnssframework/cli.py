@@ -664,9 +664,11 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def parse_known_args(self, args=None, namespace=None):
-        """The command's arguments, and its options (``command_options``) for the errors' fields."""
+        """The command's arguments, its options (``command_options``) for the errors' fields
+        and the option of each argument (``command_flags``, ``dest`` -> longest option)."""
         namespace, extras = super().parse_known_args(args, namespace)
         namespace.command_options = frozenset(o for a in self._actions for o in a.option_strings)
+        namespace.command_flags = {a.dest: max(a.option_strings, key=len) for a in self._actions if a.option_strings}
         return namespace, extras
 
 
@@ -974,7 +976,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     non-finite number option is refused."""
     parser = build_parser()
     args = parser.parse_args(attach_negative_values(sys.argv[1:] if argv is None else argv))
-    bad = _non_finite_option(parser, args)
+    bad = _non_finite_option(args)
     if bad:
         return _fail(bad, 2)
     stdout, sys.stdout = sys.stdout, _QuietPipe(sys.stdout)
@@ -999,19 +1001,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stdout = stdout
 
 
-def _non_finite_option(parser: argparse.ArgumentParser, args: argparse.Namespace) -> str | None:
+def _non_finite_option(args: argparse.Namespace) -> str | None:
     """``"--fs: must be a finite number, got nan"`` for the first number option given as
-    NaN or infinity (no option of any command means anything there), else ``None``."""
+    NaN or infinity (no option of any command means anything there), else ``None``; the
+    option named as the command has it (``command_flags``, `_Parser.parse_known_args`)."""
     import math
 
-    flags: dict[str, str] = {}
-    stack = [parser]
-    while stack:
-        for action in stack.pop()._actions:
-            if isinstance(action, argparse._SubParsersAction):
-                stack.extend(action.choices.values())
-            elif action.option_strings:
-                flags.setdefault(action.dest, max(action.option_strings, key=len))
+    flags: dict[str, str] = getattr(args, "command_flags", {})
     for dest, value in vars(args).items():
         values = value if isinstance(value, list) else [value]
         for v in values:
