@@ -25,37 +25,12 @@ import time
 import numpy as np
 
 import gnssframework as gf
+from estimators import F, P0, Q, R, T, X0, f, h  # the channel model of benchmarks/estimators.py
+from estimators import make_problem as problem
 from gnssframework.estimation import Gaussian, NonlinearModel
-from gnssframework.signal.channel_model import channel_iq, channel_transition
 
-T = 0.01
-SPACING = 0.5
-F = channel_transition(T)
-Q = np.diag([1e-4, 1e-6, 1e-3, 1e-2, 1e-1])
-R = np.eye(6)
-P0 = np.diag([4.0, 0.01, 0.1, 4.0, 1.0])
-X0 = np.array([40.0, 0.05, 0.1, 2.0, 0.0])
 REPEATS = 3
-
-
-def h(x):
-    return channel_iq(x, SPACING, T)
-
-
-def f(x):
-    return x @ F.T
-
-
 MODEL = NonlinearModel(f, h, Q, R, f_jacobian=lambda x: np.broadcast_to(F, x.shape[:-1] + F.shape))
-
-
-def problem(batch: int, steps: int, rng: np.random.Generator) -> np.ndarray:
-    x = np.broadcast_to(X0, (batch, 5)).copy()
-    zs = []
-    for _ in range(steps):
-        x = f(x)
-        zs.append(h(x) + rng.standard_normal((batch, 6)))
-    return np.stack(zs)
 
 
 def _best(fn, per: int) -> float:

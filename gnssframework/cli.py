@@ -15,6 +15,8 @@ from .errors import ConfigError, DataFileError, GnssFrameworkError
 from .io.nmea import MAX_ABS_HEIGHT_M, MAX_SPEED_MPS
 from .io.rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M
 from .io.skipped import EXIT_STATUS_HELP
+from .signal.gps_l1ca import GPS_L1CA
+from .signal.spec import SignalSpec
 from .io.smoothing import MAX_CMC_RATE_MPS, SMOOTHERS
 
 __all__ = ["main"]
@@ -228,13 +230,17 @@ def _acquisition_from_args(args: argparse.Namespace):
     return registry.create("acquisition", args.acquisition, **params)
 
 
-def _prns_from_args(args: argparse.Namespace) -> tuple[int, ...]:
-    from .signal.codes import G2_TAPS
+#: How the command line names a signal in its messages (else by `SignalSpec.name`).
+_SIGNAL_LABEL = {"gps-l1ca": "GPS C/A"}
 
-    prns = tuple(args.prns) if args.prns else tuple(range(1, 33))
-    bad = [p for p in prns if p not in G2_TAPS]
+
+def _prns_from_args(args: argparse.Namespace, signal: SignalSpec = GPS_L1CA) -> tuple[int, ...]:
+    """``--prns`` checked against ``signal``'s PRNs (all of them without the option)."""
+    prns = tuple(args.prns) if args.prns else signal.prns
+    bad = [p for p in prns if p not in signal.prns]
     if bad:
-        raise ConfigError("--prns", f"GPS C/A PRNs are 1-32, got {bad}")
+        raise ConfigError("--prns", f"{_SIGNAL_LABEL.get(signal.name, signal.name)} PRNs are {min(signal.prns)}-"
+                                    f"{max(signal.prns)}, got {bad}")
     repeated = sorted({p for p in prns if prns.count(p) > 1})
     if repeated:
         raise ConfigError("--prns", f"PRN {', '.join(map(str, repeated))} given more than once: each PRN is "
@@ -242,17 +248,28 @@ def _prns_from_args(args: argparse.Namespace) -> tuple[int, ...]:
     return prns
 
 
-def _cmd_acquire(args: argparse.Namespace) -> int:
+def _acquire_checked(rec, acq, prns: tuple[int, ...]) -> list:
+    """The acquisition of ``prns`` in ``rec`` (``acquire``, ``track`` and ``receive``),
+    refused when the samples are too few or the result is implausible (`check_samples`,
+    `check_acquisition`: a wrong --format "finds" 31 satellites), with a note of the
+    non-finite samples zeroed."""
     from .receiver.acquisition.plausibility import check_acquisition, check_samples
-    from .receiver.acquisition.report import acquire_recording, search_summary, write_acquisition_csv
+    from .receiver.acquisition.report import acquire_recording
+
+    check_samples(rec, acq)
+    results = acquire_recording(rec, acq, prns)
+    _note_nonfinite(rec)
+    check_acquisition(results, rec, acq)
+    return results
+
+
+def _cmd_acquire(args: argparse.Namespace) -> int:
+    from .receiver.acquisition.report import search_summary, write_acquisition_csv
 
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     prns = _prns_from_args(args)
-    check_samples(rec, acq)
-    results = acquire_recording(rec, acq, prns)
-    _note_nonfinite(rec)
-    check_acquisition(results, rec, acq)  # a wrong --format "finds" 31 satellites: refuse it
+    results = _acquire_checked(rec, acq, prns)
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
     if args.verbose:
@@ -310,8 +327,7 @@ MAX_RATE_HZ = 1000.0
 
 
 def _cmd_track(args: argparse.Namespace) -> int:
-    from .receiver.acquisition.plausibility import check_acquisition, check_samples
-    from .receiver.acquisition.report import acquire_recording, search_summary
+    from .receiver.acquisition.report import search_summary
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
 
@@ -322,10 +338,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
     tracker = SampleTracker(rec, config, acq)
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
-    check_samples(rec, acq)
-    results = acquire_recording(rec, acq, prns)
-    _note_nonfinite(rec)
-    check_acquisition(results, rec, acq)
+    results = _acquire_checked(rec, acq, prns)
     found = [r for r in results if r.detected]
     if not found:
         print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
@@ -420,8 +433,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
 
     from .navigation.ephemeris import read_rinex_nav
     from .progress import Progress
-    from .receiver.acquisition.plausibility import check_acquisition, check_samples
-    from .receiver.acquisition.report import acquire_recording, search_summary
+    from .receiver.acquisition.report import search_summary
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import write_nmea
     from .receiver.navigation.receive import position_errors, receive
@@ -475,10 +487,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     def progress(fraction: float) -> None:
         bar.set(round(100 * fraction))
 
-    check_samples(rec, acq)
-    acquisitions = acquire_recording(rec, acq, prns)  # checked before minutes of tracking
-    _note_nonfinite(rec)
-    check_acquisition(acquisitions, rec, acq)
+    acquisitions = _acquire_checked(rec, acq, prns)  # checked before minutes of tracking
     try:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
@@ -653,9 +662,11 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def parse_known_args(self, args=None, namespace=None):
-        """The command's arguments, and its options (``command_options``) for the errors' fields."""
+        """The command's arguments, its options (``command_options``) for the errors' fields
+        and the option of each argument (``command_flags``, ``dest`` -> longest option)."""
         namespace, extras = super().parse_known_args(args, namespace)
         namespace.command_options = frozenset(o for a in self._actions for o in a.option_strings)
+        namespace.command_flags = {a.dest: max(a.option_strings, key=len) for a in self._actions if a.option_strings}
         return namespace, extras
 
 
@@ -963,7 +974,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     non-finite number option is refused."""
     parser = build_parser()
     args = parser.parse_args(attach_negative_values(sys.argv[1:] if argv is None else argv))
-    bad = _non_finite_option(parser, args)
+    bad = _non_finite_option(args)
     if bad:
         return _fail(bad, 2)
     stdout, sys.stdout = sys.stdout, _QuietPipe(sys.stdout)
@@ -988,19 +999,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stdout = stdout
 
 
-def _non_finite_option(parser: argparse.ArgumentParser, args: argparse.Namespace) -> str | None:
+def _non_finite_option(args: argparse.Namespace) -> str | None:
     """``"--fs: must be a finite number, got nan"`` for the first number option given as
-    NaN or infinity (no option of any command means anything there), else ``None``."""
+    NaN or infinity (no option of any command means anything there), else ``None``; the
+    option named as the command has it (``command_flags``, `_Parser.parse_known_args`)."""
     import math
 
-    flags: dict[str, str] = {}
-    stack = [parser]
-    while stack:
-        for action in stack.pop()._actions:
-            if isinstance(action, argparse._SubParsersAction):
-                stack.extend(action.choices.values())
-            elif action.option_strings:
-                flags.setdefault(action.dest, max(action.option_strings, key=len))
+    flags: dict[str, str] = getattr(args, "command_flags", {})
     for dest, value in vars(args).items():
         values = value if isinstance(value, list) else [value]
         for v in values:

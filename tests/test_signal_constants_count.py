@@ -36,12 +36,7 @@ ALLOWED = frozenset({
     "plugins/signals.py",                  # the registration
 })
 #: Files that still use C/A constants (measured).
-REMAINING = frozenset({
-    "gnssframework/cli.py",                                           # the --prns check (G2_TAPS)
-    "gnssframework/experiments/scenarios/carrier_smoothing.py",       # simulates L1
-    "gnssframework/experiments/scenarios/sample_receiver_signals.py",  # simulates L1
-    "gnssframework/experiments/scenarios/scintillation.py",           # simulates L1
-})
+REMAINING: frozenset[str] = frozenset()  # none left: every library block reads a SignalSpec
 
 
 def _module(path: pathlib.Path) -> tuple[str, bool]:

@@ -268,7 +268,7 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
             key = point.identity()
             store.register(key, point.batch_size)
             done = store.finished_batches(key)
-            _say_recomputed(store.damaged_batches(key), label)
+            _say_recomputed(store.damaged_batches(key, done), label)
             resolved = resolve(point)  # once per point: the workers get it, nothing to re-validate
             for t in plan(point, label):
                 ident = (key, point.cases[t.case_index].name, point.candidates[t.candidate_index].name, t.first_run,

@@ -135,14 +135,16 @@ class ResultStore:
         return {batch for batch, counts in held.items()
                 if every and set(counts) == every and all(v == batch[3] for v in counts.values())}
 
-    def damaged_batches(self, config: str) -> set[tuple[str, str, int, int]]:
+    def damaged_batches(self, config: str,
+                        finished: set[tuple[str, str, int, int]] | None = None) -> set[tuple[str, str, int, int]]:
         """``(case, candidate, first_run, runs)`` of every batch of ``config`` that committed
         (its ``batches`` row is there) but whose metric rows are not all there: what
-        `finished_batches` leaves out for the comparison to recompute."""
+        `finished_batches` leaves out for the comparison to recompute (``finished``: its
+        answer when the caller has it already, not queried again)."""
         with self._connect() as con:
             committed = {(c, k, int(f), int(n)) for c, k, f, n in con.execute(
                 'SELECT "case", candidate, first_run, runs FROM batches WHERE config = ?', (config,)).fetchall()}
-        return committed - self.finished_batches(config)
+        return committed - (self.finished_batches(config) if finished is None else finished)
 
     def add_batch(self, config: str, case: str, candidate: str, first_run: int,
                   metrics: dict[str, np.ndarray]) -> None:

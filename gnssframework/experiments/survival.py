@@ -66,9 +66,9 @@ def kaplan_meier(durations: np.ndarray, observed: np.ndarray) -> KaplanMeier:
         raise ValueError(f"durations and observed must be non-empty and of one shape (got {d.shape}, {e.shape})")
     if not np.all(np.isfinite(d)) or np.any(d < 0):
         raise ValueError("durations must be finite and non-negative")
-    times = np.unique(d[e])
-    at_risk = np.array([np.sum(d >= t) for t in times], dtype=float)
-    events = np.array([np.sum((d == t) & e) for t in times], dtype=float)
+    times, events = np.unique(d[e], return_counts=True)
+    events = events.astype(float)
+    at_risk = (d.size - np.searchsorted(np.sort(d), times, side="left")).astype(float)  # n_i = #{d >= t_i}
     factors = 1.0 - events / at_risk
     survival = np.cumprod(factors)
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from .stats import finite_or_none
 from .survival import exponential_mean_mle, kaplan_meier
 
 __all__ = ["Threshold", "crossing", "bootstrap_thresholds", "threshold_rows", "plot_threshold", "threshold_markdown",
@@ -119,10 +120,6 @@ def bootstrap_thresholds(x: np.ndarray, outcomes: dict[str, np.ndarray], level: 
     return out
 
 
-def _finite(v: float) -> float | None:
-    return float(v) if math.isfinite(v) else None
-
-
 def _bound(v: float) -> float | str:
     """An interval's end for strict JSON: the number, or "-inf" / "+inf" beyond the grid."""
     return float(v) if math.isfinite(v) else ("-inf" if v < 0 else "+inf")
@@ -184,13 +181,13 @@ def threshold_rows(config, store, index: int) -> dict[str, Any] | None:
                     km = kaplan_meier(t, o > 0.5)
                     horizon = float(np.max(t))
                     c.update(km_restricted_mean=km.restricted_mean(horizon), horizon=horizon,
-                             exponential_mean_mle=_finite(exponential_mean_mle(t, o > 0.5)))
-            row = {"candidate": name, "threshold": _finite(est), "where": _where(est),
+                             exponential_mean_mle=finite_or_none(exponential_mean_mle(t, o > 0.5)))
+            row = {"candidate": name, "threshold": finite_or_none(est), "where": _where(est),
                    "ci95": [_bound(lo), _bound(hi)], "n": runs, "curve": curve}
             if name != ref:
                 d = _differences(boot["samples"][name], boot["samples"][ref])
                 dest = est - boot["threshold"][ref][0]
-                row["difference"] = {"reference": ref, "estimate": _finite(dest),
+                row["difference"] = {"reference": ref, "estimate": finite_or_none(dest),
                                      "ci95": [_bound(v) for v in _interval(d)] if d.size else [None, None],
                                      "resamples": int(d.size)}
             rows.append(row)

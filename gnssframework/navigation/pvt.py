@@ -171,9 +171,10 @@ def rtklib_variance_m2(elevation_deg: np.ndarray, iono_m: np.ndarray | None, tro
 
 
 def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s, x0, mask_deg,
-                   elevation_weights=True, weighting=None, ura_m=None):
-    """Gauss-Newton on (x, y, z, b) with the satellites ``keep``; returns the state, the
-    weighted residuals' chi-square, residuals, unit vectors, elevations and azimuths."""
+                   weighting="elevation", ura_m=None):
+    """Gauss-Newton on (x, y, z, b) with the satellites ``keep``, weighted as ``weighting``
+    (one of `WEIGHTINGS`); returns the state, the weighted residuals' chi-square,
+    residuals, unit vectors, elevations and azimuths."""
     x = x0.copy()
     S = pr.size
     el = np.full(S, 90.0)
@@ -202,7 +203,8 @@ def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s
             if weighting == "rtklib":
                 w = 1.0 / rtklib_variance_m2(el, iono_m, troposphere, ura_m)
             else:
-                w = (np.sin(np.radians(np.maximum(el, 1.0))) ** 2 if elevation_weights else np.ones(S)) / sigma_m**2
+                elevation = weighting == "elevation"
+                w = (np.sin(np.radians(np.maximum(el, 1.0))) ** 2 if elevation else np.ones(S)) / sigma_m**2
         else:
             w = np.full(S, 1.0 / sigma_m**2)
         if use.sum() < 4:
@@ -273,8 +275,8 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
         raise ConfigError("sigma_m", f"must be positive, got {sigma_m}")
     if weighting is not None and weighting not in WEIGHTINGS:
         raise ConfigError("weighting", f"one of {', '.join(WEIGHTINGS)}, got {weighting!r}")
-    if weighting is not None:
-        elevation_weights = weighting == "elevation"
+    if weighting is None:
+        weighting = "elevation" if elevation_weights else "uniform"
     ura_m = ephemeris.accuracy_m
     keep = np.isfinite(pr) & np.isfinite(tx)
     if keep.sum() < 4:
@@ -287,8 +289,7 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
     x0 = np.zeros(4) if initial_ecef_m is None else np.r_[np.asarray(initial_ecef_m, float), 0.0]
     prz = np.where(keep, pr, 0.0)
     args = (prz, state.position_m, clock_m)
-    sol = _least_squares(*args, keep, sigma_m, iono, troposphere, tow, x0, elevation_mask_deg, elevation_weights,
-                         weighting, ura_m)
+    sol = _least_squares(*args, keep, sigma_m, iono, troposphere, tow, x0, elevation_mask_deg, weighting, ura_m)
     if sol is None:
         return None
     excluded = None
@@ -299,7 +300,7 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
             k = keep.copy()
             k[j] = False
             trial = _least_squares(*args, k, sigma_m, iono, troposphere, tow, sol[0], elevation_mask_deg,
-                                   elevation_weights, weighting, ura_m)
+                                   weighting, ura_m)
             if trial is not None:
                 trials[int(j)] = trial
         if trials:

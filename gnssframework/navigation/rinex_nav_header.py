@@ -21,14 +21,13 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError
-from .lnav import IonoUtc
+from .ephemeris import _GPS_EPOCH
+from .lnav import WEEK_S, IonoUtc
 
 __all__ = ["NavFileInfo", "read_nav_file_info", "FIT_MARGIN_S", "WEEK_S"]
 
-WEEK_S = 604_800.0
 #: Half a record's fit interval (s): a record serves from 2 h before its Toe to 2 h after.
 FIT_MARGIN_S = 7200.0
-_GPS_EPOCH = np.datetime64("1980-01-06T00:00:00", "ns")
 
 
 @dataclass(frozen=True)

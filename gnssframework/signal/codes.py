@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["ca_code", "G2_TAPS", "CA_CODE_LENGTH"]
+__all__ = ["ca_code", "G2_TAPS", "CA_CODE_LENGTH", "gold_code_by_taps", "gold_code_by_g2_delay"]
 
 #: Chips in one C/A code period (IS-GPS-200, 3.3.2.3).
 CA_CODE_LENGTH = 1023
@@ -23,20 +23,43 @@ G2_TAPS: dict[int, tuple[int, int]] = {
 }
 
 
-@lru_cache(maxsize=None)
-def _code_bits(prn: int) -> bytes:
+def _register_states(feedback_stages: tuple[int, ...]) -> np.ndarray:
+    """The ``(1023, 10)`` states (stages 1-10, before each shift) over one period of a
+    10-stage register starting all ones, whose new stage 1 is the XOR of ``feedback_stages``
+    (1-based)."""
+    reg = [1] * 10
+    out = np.empty((CA_CODE_LENGTH, 10), np.uint8)
+    for i in range(CA_CODE_LENGTH):  # once per process, cached: not a hot path
+        out[i] = reg
+        fb = 0
+        for stage in feedback_stages:
+            fb ^= reg[stage - 1]
+        reg = [fb] + reg[:9]
+    return out
+
+
+@lru_cache(maxsize=1)
+def _g1_g2_states() -> tuple[np.ndarray, np.ndarray]:
     # G1 = 1 + x^3 + x^10, G2 = 1 + x^2 + x^3 + x^6 + x^8 + x^9 + x^10, both start all ones.
-    g1 = [1] * 10
-    g2 = [1] * 10
-    t1, t2 = G2_TAPS[prn]
-    out = bytearray(CA_CODE_LENGTH)
-    for i in range(CA_CODE_LENGTH):  # once per PRN, cached: not a hot path
-        out[i] = g1[9] ^ g2[t1 - 1] ^ g2[t2 - 1]
-        fb1 = g1[2] ^ g1[9]
-        fb2 = g2[1] ^ g2[2] ^ g2[5] ^ g2[7] ^ g2[8] ^ g2[9]
-        g1 = [fb1] + g1[:9]
-        g2 = [fb2] + g2[:9]
-    return bytes(out)
+    return _register_states((3, 10)), _register_states((2, 3, 6, 8, 9, 10))
+
+
+def _to_pm1(bits: np.ndarray) -> np.ndarray:
+    return (1 - 2 * bits.astype(np.int8)).astype(np.int8)
+
+
+def gold_code_by_taps(tap1: int, tap2: int) -> np.ndarray:
+    """The 1023-chip C/A-family Gold code :math:`G1 \\oplus G2_{t_1} \\oplus G2_{t_2}`
+    (G2 phase selector on 1-based stages ``tap1``, ``tap2``; IS-GPS-200 fig. 3-10), ±1 ``int8``."""
+    g1, g2 = _g1_g2_states()
+    return _to_pm1(g1[:, 9] ^ g2[:, tap1 - 1] ^ g2[:, tap2 - 1])
+
+
+def gold_code_by_g2_delay(delay_chips: int) -> np.ndarray:
+    """The 1023-chip C/A-family Gold code whose G2 sequence is delayed by ``delay_chips``
+    (chip :math:`k` is :math:`G1(k) \\oplus G2(k - d)`), as ±1 ``int8`` (logic 0 -> +1, 1 -> -1)."""
+    g1, g2 = _g1_g2_states()
+    return _to_pm1(g1[:, 9] ^ np.roll(g2[:, 9], int(delay_chips)))
 
 
 def ca_code(prn: int) -> np.ndarray:
@@ -49,5 +72,4 @@ def ca_code(prn: int) -> np.ndarray:
     """
     if not isinstance(prn, (int, np.integer)) or int(prn) not in G2_TAPS:
         raise ConfigError("prn", f"GPS C/A PRN must be an integer 1-32, got {prn!r}")
-    bits = np.frombuffer(_code_bits(int(prn)), dtype=np.uint8)
-    return (1 - 2 * bits.astype(np.int8)).astype(np.int8)
+    return gold_code_by_taps(*G2_TAPS[int(prn)])

@@ -9,16 +9,16 @@ for PRN 193-202 in the GPS Directorate's "L1 C/A PRN code assignments", October 
 https://www.gps.gov/technical/prn-codes/L1-CA-PRN-code-assignments-2019-Oct.pdf, which
 extends IS-GPS-200's table to PRN 210). The same rule with the
 delays of IS-GPS-200 Table 3-Ia (5, 6, 7, ... for PRN 1, 2, 3, ...) gives GPS C/A, which
-is how the tests check the delay convention.
+is how the tests check the delay convention. The generator is the one of `codes`
+(`gold_code_by_g2_delay`), shared with GPS C/A.
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 
 from ..errors import ConfigError
+from .codes import gold_code_by_g2_delay
 
 __all__ = ["QZSS_L1CA_G2_DELAY", "gold_code_by_g2_delay", "qzss_l1ca_code"]
 
@@ -26,36 +26,6 @@ __all__ = ["QZSS_L1CA_G2_DELAY", "gold_code_by_g2_delay", "qzss_l1ca_code"]
 QZSS_L1CA_G2_DELAY: dict[int, int] = {
     193: 339, 194: 208, 195: 711, 196: 189, 197: 263, 198: 537, 199: 663, 200: 942, 201: 173, 202: 900,
 }
-
-_LENGTH = 1023
-
-
-def _m_sequence(feedback_stages: tuple[int, ...]) -> np.ndarray:
-    """One period (1023 bits) of stage 10 of a 10-stage register starting all ones, whose
-    new stage 1 is the XOR of ``feedback_stages`` (1-based)."""
-    reg = [1] * 10
-    out = np.empty(_LENGTH, np.uint8)
-    for i in range(_LENGTH):  # once per process, cached: not a hot path
-        out[i] = reg[9]
-        fb = 0
-        for stage in feedback_stages:
-            fb ^= reg[stage - 1]
-        reg = [fb] + reg[:9]
-    return out
-
-
-@lru_cache(maxsize=1)
-def _g1_g2() -> tuple[np.ndarray, np.ndarray]:
-    return _m_sequence((3, 10)), _m_sequence((2, 3, 6, 8, 9, 10))
-
-
-def gold_code_by_g2_delay(delay_chips: int) -> np.ndarray:
-    """The 1023-chip C/A-family Gold code whose G2 sequence is delayed by ``delay_chips``,
-    as ±1 ``int8`` (logic 0 -> +1, 1 -> -1)."""
-    g1, g2 = _g1_g2()
-    bits = g1 ^ np.roll(g2, int(delay_chips))
-    return (1 - 2 * bits.astype(np.int8)).astype(np.int8)
-
 
 def qzss_l1ca_code(prn: int) -> np.ndarray:
     """The QZSS L1 C/A code of ``prn`` (193-202) as ±1 ``int8``.

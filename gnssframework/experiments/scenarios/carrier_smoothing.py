@@ -12,6 +12,8 @@ on isolated slips only, and slips whose recovery the next slip cuts off are coun
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 import pymap3d
 from pydantic import Field, ValidationInfo, field_validator
@@ -20,7 +22,8 @@ from ... import random_streams as draw
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...navigation.geometry import geometric_range
-from ...signal.constants import L1_WAVELENGTH_M
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from ...simulation.constellation import nominal_constellation
 from ...simulation.impairments import ar1_noise, cycle_slips
 from ..metric_components import FalseResets, Rmse, SlipRecovery, evaluate, false_resets, slip_recovery, units
@@ -93,6 +96,8 @@ class CarrierSmoothingScenario(Scenario):
     """Carrier-smoothed code with random cycle slips (CN105068097 patent 2015)."""
 
     kind = "carrier-smoothing"
+    #: The simulated signal (its carrier wavelength).
+    signal: ClassVar[SignalSpec] = GPS_L1CA
     Params = CarrierSmoothingParams
     CaseParams = CarrierSmoothingCase
     components = {"channel_filter": False}
@@ -127,12 +132,12 @@ class CarrierSmoothingScenario(Scenario):
         mp_xi = p.multipath_std_m * np.sqrt(1 - p.multipath_psi**2)
         code = truth + p.code_noise_std_m * draw.standard_normal(rng, (p.epochs, runs), 1) \
             + ar1_noise(p.multipath_psi, mp_xi, p.epochs, rng, batch_shape=(runs,))
-        ambiguity = draw.integers(rng, -10**6, 10**6, runs, 0) * L1_WAVELENGTH_M
+        ambiguity = draw.integers(rng, -10**6, 10**6, runs, 0) * self.signal.wavelength_m
         slips_cycles = cycle_slips(p.epochs, slip_probability, rng, p.slip_max_cycles, (runs,),
                                    min_cycles=p.slip_min_cycles)
         happens = np.diff(slips_cycles, axis=0, prepend=0) != 0
         carrier = truth + ambiguity + p.carrier_noise_std_m * draw.standard_normal(rng, (p.epochs, runs), 1) \
-            + slips_cycles * L1_WAVELENGTH_M
+            + slips_cycles * self.signal.wavelength_m
         return truth, code, carrier, happens
 
     def assumption_context(self, case: dict) -> dict:

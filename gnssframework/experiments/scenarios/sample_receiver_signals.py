@@ -28,8 +28,9 @@ from ... import registry
 from ...errors import ConfigError
 from ...navigation import lnav
 from ...navigation.ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
-from ...signal.constants import L1_FREQ_HZ
+from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.if_samples import generate_if_samples
+from ...signal.spec import SignalSpec
 from ...simulation.constellation import nominal_constellation
 from ...simulation.propagation import elevation_deg
 
@@ -156,28 +157,29 @@ def noise_free_samples(plan: SignalPlan) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=1)
-def _noise_free(key: tuple) -> np.ndarray:
+def _noise_free(key: tuple, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
     plan = signal_plan(**dict(key))
     sats, rx = plan.ephemerides, np.array(plan.receiver_ecef_m)
     fs, n_chunks = plan.sample_rate_hz, int(round(plan.duration_s / CHUNK_S))
     n = int(round(CHUNK_S * fs))
     out = np.zeros(n_chunks * n, np.complex64)
     t_sv0 = transmit_times(sats, rx, plan.start_tow_s)
+    bits_per_s, periods_per_s = 1.0 / signal.symbol_period_s, 1.0 / signal.code_period_s  # 50, 1000 for C/A
     # Bits from the one in force 0.1 s before the first sample's transmit time on.
     symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), plan.week, float(t_sv0[k]) - 0.1,
-                                 int(plan.duration_s * 50) + 20) for k in range(sats.sv.size)]
+                                 int(plan.duration_s * bits_per_s) + 20) for k in range(sats.sv.size)]
     phase = np.zeros(sats.sv.size)
     start = t_sv0
     for c in range(n_chunks):
         end = transmit_times(sats, rx, plan.start_tow_s + (c + 1) * CHUNK_S)
-        doppler_hz = L1_FREQ_HZ * ((end - start) / CHUNK_S - 1)
+        doppler_hz = signal.carrier_freq_hz * ((end - start) / CHUNK_S - 1)
         for k, prn in enumerate(plan.prns):
             bits, into = symbols[k]
             first_edge_tsv = float(t_sv0[k]) - 0.1 - into
             out[c * n:(c + 1) * n] += generate_if_samples(
                 prn, CHUNK_S, fs, 0.0, plan.cn0_dbhz, None, doppler_hz=doppler_hz[k],
-                code_phase_chips=(start[k] * 1e3 % 1.0) * 1023, carrier_phase_rad=phase[k], complex_samples=True,
-                data_bits=bits, first_bit_edge_s=first_edge_tsv - start[k], noise=False).samples
+                code_phase_chips=(start[k] * periods_per_s % 1.0) * signal.code_length_chips,
+                carrier_phase_rad=phase[k], complex_samples=True, data_bits=bits, first_bit_edge_s=first_edge_tsv - start[k], noise=False, signal=signal).samples
         phase += 2 * np.pi * doppler_hz * CHUNK_S
         start = end
     return out

@@ -11,7 +11,7 @@ steady-state noise bandwidth (``gnssframework.receiver.tracking.loop_bandwidth``
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
@@ -21,7 +21,8 @@ from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...receiver.tracking.loop_bandwidth import at_interval, equivalent_bandwidth_hz
 from ...receiver.tracking.scalar import NCO_COMMANDS, SignalTruth, check_closed_loop, run_closed_loop
-from ...signal.constants import L1_WAVELENGTH_M
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from ...simulation import scintillation as scint
 from ..limits import CoherentTime
 from ..metric_components import LockLossFraction, Mean, Rmse, Std, evaluate, units
@@ -99,6 +100,8 @@ class ScintillationScenario(Scenario):
     """Carrier tracking under amplitude and phase scintillation (Xia et al.)."""
 
     kind = "scintillation"
+    #: The simulated signal (its carrier wavelength).
+    signal: ClassVar[SignalSpec] = GPS_L1CA
     Params = ScintillationParams
     CaseParams = ScintillationCase
     components = {"channel_filter": True}
@@ -130,7 +133,7 @@ class ScintillationScenario(Scenario):
         c = self.CaseParams.model_validate({k: v for k, v in case.items() if k != "name"} | {"name": case.get("name")})
         p = self.params
         return {"coherent_time_s": c.coherent_time_s or p.coherent_time_s,
-                "cn0_dbhz": p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz, "wavelength_m": L1_WAVELENGTH_M}
+                "cn0_dbhz": p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz, "wavelength_m": self.signal.wavelength_m}
 
     def batch_memory(self, case: dict, runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         T = case["coherent_time_s"] or self.params.coherent_time_s
@@ -200,7 +203,8 @@ class ScintillationScenario(Scenario):
         sway = None
         if c["los_sine_amplitude_m"] > 0:
             t = np.arange(K + 1)[:, None] * T
-            sway = c["los_sine_amplitude_m"] / L1_WAVELENGTH_M * np.sin(2 * np.pi * c["los_sine_frequency_hz"] * t)
+            sway = (c["los_sine_amplitude_m"] / self.signal.wavelength_m
+                    * np.sin(2 * np.pi * c["los_sine_frequency_hz"] * t))
         truth = SignalTruth.from_dynamics(duration_s, T, cn0_dbhz,
                                           doppler_hz=np.full(runs, p.doppler_hz),
                                           doppler_rate_hz_s=rate, doppler_jerk_hz_s2=c["doppler_jerk_hz_s2"],
