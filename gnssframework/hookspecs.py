@@ -30,8 +30,8 @@ Register = Callable[[type], None]
 COMPONENT_KINDS = ("estimator", "noise_adapter", "augmentation", "discriminator", "channel_filter", "nav_filter")
 #: Every plugin kind, in the order the CLI lists them: the components, then the metrics a
 #: scenario reports, the scenarios themselves, the receiver's front end (sample formats
-#: and acquisition) and the signals it receives.
-KINDS = COMPONENT_KINDS + ("metric", "scenario", "sample_source", "acquisition", "signal")
+#: and acquisition), the signals it receives and the C/N0 estimators of its lock detectors.
+KINDS = COMPONENT_KINDS + ("metric", "scenario", "sample_source", "acquisition", "signal", "cn0_estimator")
 
 
 @hookspec
@@ -91,3 +91,9 @@ def register_acquisition(register: Register) -> None:
 def register_signal(register: Register) -> None:
     """Register ranging signals (subclasses of ``gnssframework.signal.registered.Signal``,
     each holding one ``SignalSpec``)."""
+
+
+@hookspec
+def register_cn0_estimator(register: Register) -> None:
+    """Register C/N0 estimators (subclasses of
+    ``gnssframework.signal.cn0_estimator.CN0Estimator``)."""

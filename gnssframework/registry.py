@@ -41,6 +41,7 @@ from .estimation.estimator import Estimator
 from .interfaces import ChannelFilter, Discriminator, NavFilter
 from .plugin import Plugin
 from .plugin_docs import parameter_table
+from .signal.cn0_estimator import CN0Estimator
 from .signal.registered import Signal
 from .signal.spec import SignalSpec
 
@@ -80,6 +81,7 @@ BASES: dict[str, type] = {
     "channel_filter": ChannelFilter,
     "nav_filter": NavFilter,
     "signal": Signal,
+    "cn0_estimator": CN0Estimator,
 }
 
 

@@ -1,0 +1,115 @@
+r"""The ``cn0_estimator`` plugin kind: prompt correlators over K coherent intervals -> C/N0.
+
+Contract (batch-first)
+----------------------
+An estimator reads the complex prompt correlators of a window of ``K`` coherent intervals
+of ``T`` seconds on the **last** axis, shape ``(..., K)``, and returns one C/N0 per
+leading index, shape ``(...)``:
+
+- `CN0Estimator.estimate_hz` gives the linear estimate :math:`\hat c` in Hz, which may be
+  zero or negative for an estimator that is unbiased in linear terms (on pure noise it
+  then reads below zero about half the time);
+- `CN0Estimator.estimate_dbhz` (and calling the estimator) gives
+  :math:`10 \log_{10} \hat c` in dB-Hz, with :math:`\hat c T` clipped at
+  :math:`10^{-12}` as `gnssframework.signal.cn0` clips (a reading of no signal).
+
+An estimator that measures the noise on its own correlator declares ``needs = ("prompt",
+"noise")`` and takes ``noise`` of the prompt's shape: a correlator against a replica that
+holds no signal (an unused PRN, or a tap far off the correlation peak), whose noise has the
+prompt's variance and is independent of it (Groves 2008, ch. 7, measuring N0 on a noise
+channel).
+
+Normalisation is the correlator model's (`gnssframework.signal.correlator_model`): unit
+variance in I and in Q, amplitude :math:`A = \sqrt{2 c T}`, so :math:`c T = A^2 / 2` and
+:math:`E|P|^2 = A^2 + 2`. Data bits must be wiped off for estimators that sum prompts
+coherently across intervals (the narrow-wide power ratio); the others read magnitudes
+only and are insensitive to bits.
+
+The built-in estimators (``gnssframework plugins``) are in ``gnssframework_plugins``;
+docs/receiver/cn0-estimators.md tables their bias, spread and noise-only floor.
+"""
+
+from __future__ import annotations
+
+import abc
+from typing import ClassVar
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..plugin import Plugin, PluginParams
+
+__all__ = ["CN0Estimator", "CN0EstimatorParams", "linear_to_dbhz", "MIN_CN0_T"]
+
+#: The smallest :math:`\hat c T` that reads as a number of dB-Hz (as `gnssframework.signal.cn0`).
+MIN_CN0_T = 1e-12
+
+
+def linear_to_dbhz(cn0_hz: np.ndarray, coherent_time_s: float) -> np.ndarray:
+    r""":math:`10 \log_{10} \hat c` with :math:`\hat c T` clipped at `MIN_CN0_T`."""
+    ct = np.clip(np.asarray(cn0_hz, dtype=float) * coherent_time_s, MIN_CN0_T, None)
+    return 10.0 * np.log10(ct / coherent_time_s)
+
+
+class CN0EstimatorParams(PluginParams):
+    """Parameters of an estimator without any."""
+
+    no_parameters: ClassVar[str] = "the window (K intervals of T s) is its input"
+
+
+class CN0Estimator(Plugin, abc.ABC):
+    """Plugin kind ``cn0_estimator``: prompts ``(..., K)`` of coherent time T -> C/N0.
+
+    Attributes
+    ----------
+    needs
+        The correlators read: ``("prompt",)`` or ``("prompt", "noise")``.
+    min_intervals
+        The fewest intervals K a window must hold (an instance may ask more, e.g. the
+        narrow-wide ratio's block length).
+    """
+
+    kind = "cn0_estimator"
+    Params = CN0EstimatorParams
+    needs: ClassVar[tuple[str, ...]] = ("prompt",)
+    min_intervals: ClassVar[int] = 2
+
+    def required_intervals(self) -> int:
+        """The fewest intervals K this instance accepts."""
+        return self.min_intervals
+
+    @abc.abstractmethod
+    def _estimate_hz(self, prompt: np.ndarray, coherent_time_s: float, noise: np.ndarray | None) -> np.ndarray:
+        """The linear estimate (Hz) of checked input."""
+
+    def estimate_hz(self, prompt: np.ndarray, coherent_time_s: float, noise: np.ndarray | None = None) -> np.ndarray:
+        """Linear C/N0 estimate (Hz), shape ``prompt.shape[:-1]``.
+
+        Raises
+        ------
+        ConfigError
+            For a window shorter than `required_intervals`, a coherent time that is not
+            positive, or a missing or misshapen ``noise`` where the estimator needs one.
+        """
+        p = np.asarray(prompt)
+        if p.ndim < 1 or p.shape[-1] < self.required_intervals():
+            raise ConfigError("prompt", f"{self.name} needs at least {self.required_intervals()} intervals on the "
+                                        f"last axis, got shape {p.shape}")
+        if not np.isfinite(coherent_time_s) or coherent_time_s <= 0:
+            raise ConfigError("coherent_time_s", f"must be a positive number of seconds, got {coherent_time_s!r}")
+        n = None
+        if "noise" in self.needs:
+            if noise is None:
+                raise ConfigError("noise", f"{self.name} measures N0 on a noise-only correlator: pass `noise` "
+                                           "(shape of the prompt)")
+            n = np.asarray(noise)
+            if n.shape != p.shape:
+                raise ConfigError("noise", f"shape {n.shape} differs from the prompt's {p.shape}")
+        return self._estimate_hz(p.astype(complex, copy=False), float(coherent_time_s), n)
+
+    def estimate_dbhz(self, prompt: np.ndarray, coherent_time_s: float,
+                      noise: np.ndarray | None = None) -> np.ndarray:
+        """C/N0 estimate (dB-Hz), shape ``prompt.shape[:-1]`` (`linear_to_dbhz` of `estimate_hz`)."""
+        return linear_to_dbhz(self.estimate_hz(prompt, coherent_time_s, noise), coherent_time_s)
+
+    __call__ = estimate_dbhz
