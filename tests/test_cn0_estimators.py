@@ -1,0 +1,133 @@
+"""C/N0 estimators (plugin kind ``cn0_estimator``) by Monte Carlo on the correlator model.
+
+Truth: prompts drawn by `simulate_correlators` at a known C/N0 (amplitude ``sqrt(2cT)``,
+unit-variance I and Q), a noise-only correlator as a tap 10 chips off the peak (no signal,
+independent of the prompt in the model). Each estimator's mean is held to its closed-form
+expectation where one exists, within ``Z`` standard errors of the runs:
+
+- ``noise-channel``: E[c_hat] = c exactly, 15 to 50 dB-Hz and pure noise, T = 20 ms;
+- ``snv``: E[P_s] = nu^2 + (1 + a^2 - nu^2)/K (folded normal), pure noise included;
+- ``m2m4``: E[2 M2^2 - M4] = A^4 + 8(A^2 + 1)/K;
+- ``nwpr``: on pure noise NBP/WBP = m Beta(1, m-1): E[mu] = 1, Var[mu] = (m-1)/((m+1) K_b).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import norm
+
+from gnssframework import registry
+from gnssframework.errors import ConfigError
+from gnssframework.signal.cn0 import cn0_moments, cn0_nwpr
+from gnssframework.signal.correlator_model import amplitude_from_cn0, simulate_correlators
+
+#: Standard errors allowed: the tests below make about 40 such comparisons; 4.5 SE keeps the
+#: chance that a correct estimator fails one under 1e-3 (two-sided normal tail 6.8e-6 each).
+Z = 4.5
+T_S = 0.02
+K = 50
+RUNS = 4000
+CN0S = (15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
+
+
+def draw(cn0_dbhz: float | None, rng: np.random.Generator, runs: int = RUNS, k: int = K,
+         coherent_time_s: float = T_S) -> tuple[np.ndarray, np.ndarray]:
+    """Prompts and noise-only correlators ``(runs, k)``, phase-locked, bits wiped
+    (``cn0_dbhz=None``: pure noise)."""
+    amp = np.zeros((runs, k)) if cn0_dbhz is None else None
+    c = simulate_correlators(np.zeros((runs, k)), 0.0, 0.0, 0.0 if cn0_dbhz is None else cn0_dbhz,
+                             coherent_time_s, rng, extra_taps={"noise": -10.0}, amplitude=amp)
+    return c.prompt, c.extra["noise"]
+
+
+def within(values: np.ndarray, expected: float) -> tuple[bool, float]:
+    """Whether the mean of ``values`` is within Z standard errors of ``expected``; its z."""
+    z = (np.mean(values) - expected) / (np.std(values, ddof=1) / np.sqrt(values.size))
+    return abs(z) < Z, float(z)
+
+
+@pytest.mark.parametrize("cn0", CN0S + (None,))
+def test_noise_channel_is_unbiased_in_linear_terms_down_to_pure_noise(cn0, rng):
+    prompt, noise = draw(cn0, rng)
+    est = registry.create("cn0_estimator", "noise-channel").estimate_hz(prompt, T_S, noise=noise)
+    truth = 0.0 if cn0 is None else 10 ** (cn0 / 10)
+    ok, z = within(est, truth)
+    assert ok, f"{cn0} dB-Hz: mean {np.mean(est):.3f} Hz vs {truth:.3f} Hz, z = {z:.2f}"
+
+
+def _folded_mean(a: float) -> float:
+    return float(np.sqrt(2 / np.pi) * np.exp(-a * a / 2) + a * (1 - 2 * norm.cdf(-a)))
+
+
+@pytest.mark.parametrize("cn0", CN0S + (None,))
+def test_snv_signal_power_has_its_folded_normal_expectation(cn0, rng):
+    prompt, _ = draw(cn0, rng)
+    x = registry.create("cn0_estimator", "snv").estimate_hz(prompt, T_S) * T_S
+    pt = np.mean(np.abs(prompt) ** 2, axis=-1)
+    ps = x * pt / (1 + x)  # P_s / (P_t - P_s) = x
+    a = 0.0 if cn0 is None else float(amplitude_from_cn0(cn0, T_S))
+    nu = _folded_mean(a)
+    ok, z = within(ps, nu**2 + (1 + a * a - nu**2) / K)
+    assert ok, (cn0, z)
+
+
+@pytest.mark.parametrize("cn0", (30.0, 35.0, 40.0, 45.0, 50.0))
+def test_m2m4_signal_power_square_has_its_closed_form_expectation(cn0, rng):
+    prompt, _ = draw(cn0, rng)
+    x = registry.create("cn0_estimator", "m2m4").estimate_hz(prompt, T_S) * T_S
+    assert np.all(x > 0)  # 2 M2^2 - M4 > 0 in every run: P_d is read back from the output exactly
+    m2 = np.mean(np.abs(prompt) ** 2, axis=-1)
+    pd = x * m2 / (1 + x)  # P_d / (M2 - P_d) = x
+    a2 = float(amplitude_from_cn0(cn0, T_S)) ** 2
+    ok, z = within(pd**2, a2**2 + 8 * (a2 + 1) / K)
+    assert ok, (cn0, z)
+
+
+def test_nwpr_on_pure_noise_has_the_beta_mean_and_variance(rng):
+    m = 5
+    prompt, _ = draw(None, rng)
+    x = registry.create("cn0_estimator", "nwpr", m=m).estimate_hz(prompt, T_S) * T_S
+    mu = (m * x + 1) / (x + 1)  # (mu - 1)/(m - mu) = x
+    kb = K // m
+    ok, z = within(mu, 1.0)
+    assert ok, z
+    ok, z = within((mu - mu.mean()) ** 2 * RUNS / (RUNS - 1), (m - 1) / ((m + 1) * kb))
+    assert ok, z
+
+
+def test_m2m4_and_nwpr_plugins_are_the_receivers_estimators_on_the_last_axis(rng):
+    prompt, _ = draw(35.0, rng, runs=50, k=400, coherent_time_s=0.001)
+    np.testing.assert_allclose(registry.create("cn0_estimator", "m2m4")(prompt, 0.001),
+                               cn0_moments(prompt.T, 0.001), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(registry.create("cn0_estimator", "nwpr", m=20)(prompt, 0.001),
+                               cn0_nwpr(prompt.T, 0.001, m=20), rtol=0, atol=1e-9)
+
+
+def test_beaulieu_at_high_cn0_has_the_bias_of_its_inverted_mean(rng):
+    # At high SNR P_d,k -> a^2 and P_n,k -> d_k^2, d_k = n_k - n_(k-1) ~ N(0, 2), with
+    # successive d correlated by -1/2: X = mean(d_k^2) has mean 2 and variance
+    # (8(K-1) + 4(K-2))/(K-1)^2, and the dB reading 10 log10(a^2/X) has the bias
+    # -10/ln 10 * E[log(X/2)] = 10/ln 10 * Var[X]/8 to second order (+0.13 dB at K = 50).
+    # 50 dB-Hz at T = 20 ms (rho = 2000): the O(1/rho) terms are below 0.01 dB; the
+    # third-order term of the log below 0.02 dB.
+    prompt, _ = draw(50.0, rng)
+    db = registry.create("cn0_estimator", "beaulieu")(prompt, T_S)
+    var_x = (8 * (K - 1) + 4 * (K - 2)) / (K - 1) ** 2
+    expected = 50.0 + 10 / np.log(10) * var_x / 8
+    se = np.std(db, ddof=1) / np.sqrt(db.size)
+    assert abs(np.mean(db) - expected) < 0.03 + Z * se, (np.mean(db), expected, se)
+
+
+def test_bad_input_is_one_config_error_naming_the_field(rng):
+    prompt, noise = draw(40.0, rng, runs=3, k=10)
+    with pytest.raises(ConfigError, match="noise: noise-channel measures N0 on a noise-only correlator"):
+        registry.create("cn0_estimator", "noise-channel")(prompt, T_S)
+    with pytest.raises(ConfigError, match=r"noise: shape \(3, 9\) differs"):
+        registry.create("cn0_estimator", "noise-channel")(prompt, T_S, noise=noise[:, :9])
+    with pytest.raises(ConfigError, match="prompt: nwpr needs at least 20 intervals"):
+        registry.create("cn0_estimator", "nwpr")(prompt, T_S)
+    with pytest.raises(ConfigError, match="coherent_time_s: must be a positive"):
+        registry.create("cn0_estimator", "snv")(prompt, 0.0)
+    with pytest.raises(ConfigError, match="m"):
+        registry.create("cn0_estimator", "nwpr", m=1)
