@@ -152,8 +152,8 @@ class NoiseChannel(CN0Estimator):
 
     A receiver correlates against a replica that holds no signal (an unused PRN, as
     GNSS-SDR-style receivers do, or a tap far off the peak) to measure the noise power
-    (Groves 2008, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation
-    Systems*, ch. 7). With :math:`M_2 = \frac1K\sum|P_k|^2` and
+    (Groves 2013, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation
+    Systems*, 2nd ed., ch. 9, signal-to-noise measurement; ch. 7 of the 2008 1st ed.). With :math:`M_2 = \frac1K\sum|P_k|^2` and
     :math:`N_2 = \frac1K\sum|N_k|^2` of the noise correlator :math:`N_k` (the prompt's noise
     variance, independent of it):
 
@@ -171,7 +171,7 @@ class NoiseChannel(CN0Estimator):
     """
 
     name = "noise-channel"
-    description = "unbiased (linear) C/N0: N0 from a noise-only correlator, Gamma bias removed (Groves 2008)"
+    description = "unbiased (linear) C/N0: N0 from a noise-only correlator, Gamma bias removed (Groves 2013)"
     needs = ("prompt", "noise")
 
     def _estimate_hz(self, prompt, coherent_time_s, noise):

@@ -131,3 +131,25 @@ def test_bad_input_is_one_config_error_naming_the_field(rng):
         registry.create("cn0_estimator", "snv")(prompt, 0.0)
     with pytest.raises(ConfigError, match="m"):
         registry.create("cn0_estimator", "nwpr", m=1)
+
+
+def test_the_committed_docs_tables_are_what_the_generator_writes():
+    # docs/cn0_tables.py draws from a fixed seed: the committed page's numbers (bias,
+    # spread, floors) are a fresh run's, to their printed rounding (one unit of the last
+    # digit for arithmetic another machine rounds the other way).
+    import re
+    import sys
+    from pathlib import Path
+
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    sys.path.insert(0, str(docs))
+    try:
+        import cn0_tables
+    finally:
+        sys.path.remove(str(docs))
+    number = re.compile(r"[-+]?\d+\.\d+")
+    fresh = cn0_tables.render()
+    committed = cn0_tables.OUT.read_text()
+    assert number.sub("#", fresh) == number.sub("#", committed)
+    np.testing.assert_allclose([float(x) for x in number.findall(committed)],
+                               [float(x) for x in number.findall(fresh)], rtol=0, atol=0.011)

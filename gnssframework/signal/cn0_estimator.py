@@ -16,8 +16,8 @@ leading index, shape ``(...)``:
 An estimator that measures the noise on its own correlator declares ``needs = ("prompt",
 "noise")`` and takes ``noise`` of the prompt's shape: a correlator against a replica that
 holds no signal (an unused PRN, or a tap far off the correlation peak), whose noise has the
-prompt's variance and is independent of it (Groves 2008, ch. 7, measuring N0 on a noise
-channel).
+prompt's variance and is independent of it (Groves 2013, 2nd ed., ch. 9: measuring the noise
+power on a correlator that holds no signal).
 
 Normalisation is the correlator model's (`gnssframework.signal.correlator_model`): unit
 variance in I and in Q, amplitude :math:`A = \sqrt{2 c T}`, so :math:`c T = A^2 / 2` and
