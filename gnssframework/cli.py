@@ -769,7 +769,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--channel-params", metavar="JSON", help='its parameters, e.g. \'{"pll_bandwidth_hz": 10}\'')
     p.add_argument("--coherent-ms-track", type=int, metavar="MS",
                    help="coherent integration after bit synchronisation (1, 2, 4, 5, 10 or 20; default 10)")
-    p.add_argument("--cn0-estimator", choices=["nwpr", "moments"], help="C/N0 estimator (default nwpr)")
+    p.add_argument("--cn0-estimator", help="C/N0 estimator of the lock detector: nwpr (default), moments, or a "
+                   "cn0_estimator plugin reading the prompt only (snv, beaulieu, m2m4)")
     p.add_argument("--early-late-spacing", type=float, metavar="CHIPS",
                    help="early-to-late correlator spacing (default 1.0)")
     p.add_argument("--no-plots", action="store_true", help="no plots")

@@ -153,3 +153,21 @@ def test_the_committed_docs_tables_are_what_the_generator_writes():
     assert number.sub("#", fresh) == number.sub("#", committed)
     np.testing.assert_allclose([float(x) for x in number.findall(committed)],
                                [float(x) for x in number.findall(fresh)], rtol=0, atol=0.011)
+
+
+def test_the_lock_detector_takes_a_prompt_only_plugin_and_refuses_the_rest(rng):
+    from gnssframework.receiver.channels import estimate_cn0, tracking_config
+    from gnssframework.receiver.channels.lock import cn0_estimator_names
+
+    assert cn0_estimator_names()[:2] == ["nwpr", "moments"]
+    assert {"snv", "beaulieu", "m2m4"} <= set(cn0_estimator_names()) and "noise-channel" not in cn0_estimator_names()
+    assert tracking_config().cn0_estimator == "nwpr"  # the default is unchanged
+    assert tracking_config(cn0_estimator="snv").cn0_estimator == "snv"
+    with pytest.raises(ConfigError, match=r"tracking\.cn0_estimator: .*unknown C/N0 estimator 'snr'.*did you mean 'snv'"):
+        tracking_config(cn0_estimator="snr")
+    with pytest.raises(ConfigError, match=r"tracking\.cn0_estimator: .*'noise-channel'"):
+        tracking_config(cn0_estimator="noise-channel")
+    prompt, _ = draw(40.0, rng, runs=1, k=400, coherent_time_s=0.001)
+    p = prompt[0]
+    assert estimate_cn0(p, "snv", None) == pytest.approx(float(registry.create("cn0_estimator", "snv")(p, 0.001)))
+    assert estimate_cn0(p, "moments", None) == pytest.approx(float(cn0_moments(p, 0.001)))

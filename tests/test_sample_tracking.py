@@ -71,7 +71,8 @@ def test_every_channel_filter_plugin_tracks_generated_samples(one_sat, name, par
         assert np.median(ch.column("pli")[last]) > 0.8
 
 
-@pytest.mark.parametrize("estimator", ["nwpr", "moments"])
+# snv: a cn0_estimator plugin, on the whole window (docs/receiver/cn0-estimators.md).
+@pytest.mark.parametrize("estimator", ["nwpr", "moments", "snv"])
 def test_cn0_estimates_are_within_1_db_of_the_generated_cn0(tmp_path, estimator):
     sats = [SatelliteSignal(5, 46.0, 850.0, 12.5, first_bit_code_period=3),
             SatelliteSignal(23, 38.0, -2150.0, 730.0, first_bit_code_period=15)]

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ...plugin import validation_message
+from ...suggest import did_you_mean
+from .lock import cn0_estimator_names
 
 __all__ = ["TrackingConfig", "tracking_config"]
 
@@ -37,7 +39,9 @@ class TrackingConfig(BaseModel):
     lock_window_ms: int = Field(40, ge=10, description="window of the phase-lock indicator")
     pli_threshold: float = Field(0.5, ge=-1, le=1, description="phase lock: PLI above this")
     cn0_threshold_dbhz: float = Field(27.0, description="lock: C/N0 estimate above this")
-    cn0_estimator: Literal["nwpr", "moments"] = Field("nwpr", description="C/N0 estimator")
+    cn0_estimator: str = Field("nwpr", description="C/N0 estimator: nwpr (bit-aligned after bit sync, moments "
+                               "before), moments, or a cn0_estimator plugin reading the prompt only (snv, beaulieu, "
+                               "m2m4)")
     cn0_window_ms: int = Field(400, ge=40, description="window of the C/N0 estimate")
     loss_ms: int = Field(200, ge=10, description="time out of lock after which a channel is lost")
     bit_sync_votes: int = Field(6, ge=2, description="sign changes needed to decide the bit edge")
@@ -45,6 +49,15 @@ class TrackingConfig(BaseModel):
     closure_fll_bandwidth_hz: float = Field(10.0, gt=0, description="FLL closing an error-output filter")
     closure_dll_bandwidth_hz: float = Field(2.0, gt=0, description="DLL closing an error-output filter")
     block_ms: int = Field(100, ge=10, description="samples read at a time (memory bound)")
+
+    @field_validator("cn0_estimator")
+    @classmethod
+    def _known_cn0_estimator(cls, value: str) -> str:
+        names = cn0_estimator_names()
+        if value not in names:
+            raise ValueError(f"unknown C/N0 estimator {value!r}; the lock detector takes {', '.join(names)}"
+                             f"{did_you_mean(value, names)}")
+        return value
 
 
 def tracking_config(**values: Any) -> TrackingConfig:

@@ -4,7 +4,9 @@ r"""Lock detectors and bit synchronisation on a channel's one-code-period prompt
   :math:`\mathrm{PLI} = \sum (I_P^2 - Q_P^2) / \sum (I_P^2 + Q_P^2)`, the mean of
   :math:`\cos 2\phi` weighted by power; data bits do not change it. In noise it tends to
   :math:`\cos 2\phi \cdot A^2 / (A^2 + 2)` (unit-variance I and Q, :math:`A^2 = 2cT`).
-- C/N0 by the narrow-wide power ratio or by moments: `gnssframework.signal.cn0`.
+- C/N0 by the narrow-wide power ratio or by moments: `gnssframework.signal.cn0`; or by
+  any ``cn0_estimator`` plugin that reads the prompt only (`cn0_estimator_names`), on the
+  whole window (docs/receiver/cn0-estimators.md: their bias and noise floor).
 - Bit synchronisation by histogram: every bit change between consecutive 1 ms prompts
   (the prompt turned by more than 90 degrees, :math:`\mathrm{Re}(P_k P_{k-1}^*) < 0`,
   which needs frequency lock only, not phase lock) votes for its millisecond modulo 20;
@@ -17,16 +19,36 @@ from the channel's `SignalSpec` (GPS L1 C/A by default).
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
+from ... import registry
 from ...errors import ConfigError
 from ...signal.cn0 import cn0_moments, cn0_nwpr
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 
-__all__ = ["phase_lock_indicator", "estimate_cn0", "cn0_nwpr_bits", "BitSync", "bit_edge_from_votes", "CN0_ESTIMATORS"]
+__all__ = ["phase_lock_indicator", "estimate_cn0", "cn0_nwpr_bits", "BitSync", "bit_edge_from_votes", "CN0_ESTIMATORS",
+           "cn0_estimator_names", "cn0_plugin"]
 
+#: The receiver's own estimators: ``nwpr`` on bit-aligned blocks after bit synchronisation
+#: (moments before), ``moments``. Any other name is a ``cn0_estimator`` plugin.
 CN0_ESTIMATORS = ("nwpr", "moments")
+
+
+def cn0_estimator_names() -> list[str]:
+    """Every name the lock detector takes: `CN0_ESTIMATORS`, then the registered
+    ``cn0_estimator`` plugins that read the prompt only (one that needs a noise-only
+    correlator has none in the sample tracker)."""
+    plugins = [n for n in registry.names("cn0_estimator") if registry.get("cn0_estimator", n).needs == ("prompt",)]
+    return list(dict.fromkeys([*CN0_ESTIMATORS, *plugins]))
+
+
+@lru_cache(maxsize=None)
+def cn0_plugin(name: str):
+    """The ``cn0_estimator`` plugin ``name`` with its default parameters (created once)."""
+    return registry.create("cn0_estimator", name)
 
 
 def phase_lock_indicator(prompts: np.ndarray) -> float:
@@ -49,10 +71,13 @@ def estimate_cn0(prompts: np.ndarray, estimator: str, bit_phase: int | None, sig
     ``nwpr`` needs blocks free of bit edges: with the bit phase known (``bit_phase`` = the
     index in ``prompts`` of a bit's first code period) it sums bit-aligned blocks of one
     symbol (20 ms on L1 C/A); before bit synchronisation, or on a signal without data
-    symbols, it falls back to ``moments``, which bits do not disturb.
+    symbols, it falls back to ``moments``, which bits do not disturb. Any other name is a
+    ``cn0_estimator`` plugin on the whole window (`cn0_estimator_names`).
     """
     p = np.asarray(prompts)
     period_s = signal.code_period_s
+    if estimator not in CN0_ESTIMATORS:
+        return float(cn0_plugin(estimator)(p, period_s))
     m = signal.code_periods_per_symbol
     if estimator == "nwpr" and m is not None and bit_phase is not None and p.size - bit_phase >= m:
         return float(cn0_nwpr(p[bit_phase:], period_s, m=m))

@@ -58,7 +58,7 @@ from .nco import ReplicaNCOs
 from .prefetch import BlockReader
 from .records import RECORD_FIELDS, STAGES, ChannelRecord, TrackingResult
 from ...signal.cn0 import cn0_moments
-from .lock import bit_edge_from_votes, cn0_nwpr_bits, estimate_cn0, phase_lock_indicator
+from .lock import CN0_ESTIMATORS, bit_edge_from_votes, cn0_nwpr_bits, cn0_plugin, estimate_cn0, phase_lock_indicator
 
 __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
 
@@ -466,6 +466,8 @@ class SampleTracker:
         nwpr = [j for j, bp in enumerate(phases)
                 if cfg.cn0_estimator == "nwpr" and bp is not None and size - bp >= per_bit]
         rest = sorted(set(range(len(full))) - set(nwpr))
+        if cfg.cn0_estimator not in CN0_ESTIMATORS:  # a cn0_estimator plugin: every channel's whole window
+            rest, cn0 = [], cn0_plugin(cfg.cn0_estimator)(win, period_s)
         if rest:
             cn0[rest] = cn0_moments(win[rest].T, period_s)
         if nwpr:
