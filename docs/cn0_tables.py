@@ -17,15 +17,13 @@ from pathlib import Path
 import numpy as np
 
 from gnssframework import registry
-from gnssframework.signal.cn0_estimator import MIN_CN0_T
+from gnssframework.signal.cn0_estimator import FLOOR_PERCENTILE, MIN_CN0_T, noise_readings_hz
 from gnssframework.signal.correlator_model import simulate_correlators
 
 OUT = Path(__file__).resolve().parent / "receiver" / "generated" / "cn0_estimators.md"
 SEED = 20261202
 CN0S_DBHZ = (15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
 RUNS = 2000
-#: The percentile of pure-noise readings that is an estimator's floor.
-FLOOR_PERCENTILE = 95.0
 
 
 @dataclass(frozen=True)
@@ -87,10 +85,13 @@ def bias_table(window: Window = TABLE_WINDOW) -> dict[str, list[tuple[float, flo
 
 def floors() -> dict[str, list[tuple[float, float]]]:
     """Per estimator and window of `FLOOR_WINDOWS`: (median, `FLOOR_PERCENTILE`) of its
-    dB-Hz readings on pure noise (``-inf``: reads zero or below)."""
+    dB-Hz readings on pure noise (``-inf``: reads zero or below), every estimator on the
+    same windows (`gnssframework.signal.cn0_estimator.noise_readings_hz`)."""
     out: dict[str, list[tuple[float, float]]] = {}
     for j, window in enumerate(FLOOR_WINDOWS):
-        for name, hz in readings(window, None, 100 + j).items():
+        for name, est in estimators(window).items():
+            hz = noise_readings_hz(est, window.coherent_time_s, window.intervals, RUNS,
+                                   np.random.default_rng([SEED, 100 + j]))
             med, top = np.percentile(hz, [50.0, FLOOR_PERCENTILE])
             as_db = [float(10 * np.log10(v)) if v > 0 else float("-inf") for v in (med, top)]
             out.setdefault(name, []).append((as_db[0], as_db[1]))

@@ -171,3 +171,21 @@ def test_the_lock_detector_takes_a_prompt_only_plugin_and_refuses_the_rest(rng):
     p = prompt[0]
     assert estimate_cn0(p, "snv", None) == pytest.approx(float(registry.create("cn0_estimator", "snv")(p, 0.001)))
     assert estimate_cn0(p, "moments", None) == pytest.approx(float(cn0_moments(p, 0.001)))
+
+
+@pytest.mark.parametrize("coherent_time_s, k", [(0.020, 50), (0.001, 20)])
+def test_noise_floor_of_the_noise_channel_is_its_f_quantile(coherent_time_s, k):
+    # On pure noise M2/N2 is a ratio of two independent Gamma(K) means: F(2K, 2K), so
+    # c_hat T = (K-1)/K F - 1 and the floor's CDF value is known. The sample 95th
+    # percentile of n windows sits where the CDF is 0.95 within Z sqrt(0.05 0.95 / n).
+    from scipy.stats import f as f_dist
+
+    from gnssframework.signal.cn0_estimator import noise_floor_dbhz
+
+    runs = 4000
+    floor = noise_floor_dbhz(registry.create("cn0_estimator", "noise-channel"), coherent_time_s, k, runs=runs,
+                             seed=7)
+    ratio = (10 ** (floor / 10) * coherent_time_s + 1) * k / (k - 1)
+    assert abs(f_dist.cdf(ratio, 2 * k, 2 * k) - 0.95) < Z * np.sqrt(0.05 * 0.95 / runs)
+    with pytest.raises(ConfigError, match="percentile"):
+        noise_floor_dbhz(registry.create("cn0_estimator", "snv"), 0.001, 20, percentile=100.0)

@@ -38,8 +38,17 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..plugin import Plugin, PluginParams
+from .correlator_model import simulate_correlators
 
-__all__ = ["CN0Estimator", "CN0EstimatorParams", "linear_to_dbhz", "MIN_CN0_T"]
+__all__ = ["CN0Estimator", "CN0EstimatorParams", "linear_to_dbhz", "MIN_CN0_T", "noise_readings_hz",
+           "noise_floor_dbhz", "FLOOR_PERCENTILE"]
+
+#: The percentile of an estimator's readings on pure noise that is its floor.
+FLOOR_PERCENTILE = 95.0
+#: Offset (chips) of the noise-only tap the floor's draws give estimators that need one:
+#: far off the correlation peak, so it holds no signal and its noise is independent of the
+#: prompt's in the correlator model.
+NOISE_TAP_CHIPS = -10.0
 
 #: The smallest :math:`\hat c T` that reads as a number of dB-Hz (as `gnssframework.signal.cn0`).
 MIN_CN0_T = 1e-12
@@ -113,3 +122,39 @@ class CN0Estimator(Plugin, abc.ABC):
         return linear_to_dbhz(self.estimate_hz(prompt, coherent_time_s, noise), coherent_time_s)
 
     __call__ = estimate_dbhz
+
+
+def noise_readings_hz(estimator: CN0Estimator, coherent_time_s: float, intervals: int, runs: int,
+                      rng: np.random.Generator) -> np.ndarray:
+    """The linear readings (Hz) of ``estimator`` on ``runs`` windows of pure noise, K =
+    ``intervals`` prompts of T = ``coherent_time_s`` each, drawn by the correlator model
+    (`simulate_correlators` with zero amplitude; the noise-only correlator a tap
+    `NOISE_TAP_CHIPS` off the peak)."""
+    shape = (int(runs), int(intervals))
+    c = simulate_correlators(np.zeros(shape), 0.0, 0.0, 0.0, coherent_time_s, rng,
+                             extra_taps={"noise": NOISE_TAP_CHIPS}, amplitude=np.zeros(shape))
+    return estimator.estimate_hz(c.prompt, coherent_time_s, noise=c.extra["noise"])
+
+
+def noise_floor_dbhz(estimator: CN0Estimator, coherent_time_s: float, intervals: int,
+                     percentile: float = FLOOR_PERCENTILE, runs: int = 2000, seed: int = 0) -> float:
+    r"""The noise-only floor (dB-Hz) of ``estimator`` on a window of K = ``intervals``
+    intervals of T = ``coherent_time_s``: the ``percentile`` of its readings on pure noise
+    (`noise_readings_hz`, ``runs`` windows from ``seed``); ``-inf`` when that reading is
+    zero or below.
+
+    A threshold claim below this floor is void: noise alone reads it in more than
+    ``100 - percentile`` % of windows (docs/receiver/cn0-estimators.md).
+
+    Raises
+    ------
+    ConfigError
+        For ``percentile`` outside (0, 100) or fewer than 100 ``runs``.
+    """
+    if not 0 < percentile < 100:
+        raise ConfigError("percentile", f"must be in (0, 100), got {percentile!r}")
+    if runs < 100:
+        raise ConfigError("runs", f"at least 100 windows give a percentile, got {runs!r}")
+    hz = noise_readings_hz(estimator, coherent_time_s, intervals, runs, np.random.default_rng(seed))
+    value = float(np.percentile(hz, percentile))
+    return 10 * np.log10(value) if value > 0 else float("-inf")
