@@ -189,3 +189,21 @@ def test_noise_floor_of_the_noise_channel_is_its_f_quantile(coherent_time_s, k):
     assert abs(f_dist.cdf(ratio, 2 * k, 2 * k) - 0.95) < Z * np.sqrt(0.05 * 0.95 / runs)
     with pytest.raises(ConfigError, match="percentile"):
         noise_floor_dbhz(registry.create("cn0_estimator", "snv"), 0.001, 20, percentile=100.0)
+
+
+def test_batch_axes_and_data_bits(rng):
+    # Any leading batch shape; the estimators that read magnitudes (or |I|) give the same
+    # reading when data bits flip whole intervals, NWPR (coherent block sums) does not.
+    prompt, noise = draw(30.0, rng, runs=12, k=40)
+    bits = rng.choice([-1.0, 1.0], size=prompt.shape)
+    for name in ("m2m4", "snv", "beaulieu", "noise-channel", "nwpr"):
+        est = registry.create("cn0_estimator", name)
+        flat = est.estimate_hz(prompt, T_S, noise=noise)
+        assert est.estimate_hz(prompt.reshape(3, 4, 40), T_S, noise=noise.reshape(3, 4, 40)).shape == (3, 4)
+        np.testing.assert_array_equal(est.estimate_hz(prompt.reshape(3, 4, 40), T_S,
+                                                      noise=noise.reshape(3, 4, 40)).ravel(), flat)
+        flipped = est.estimate_hz(prompt * bits, T_S, noise=noise)
+        if name == "nwpr":
+            assert np.median(flipped) < 0.5 * np.median(flat)
+        else:
+            np.testing.assert_allclose(flipped, flat, rtol=1e-12)
