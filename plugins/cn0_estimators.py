@@ -42,7 +42,8 @@ class NarrowWidePowerRatio(CN0Estimator):
     `gnssframework.signal.cn0.cn0_nwpr` (time on the last axis here).
     """
 
-    name = "nwpr"
+    name = "narrow-wide"
+    bit_blind = False
     description = "narrow-wide power ratio (Van Dierendonck 1996): blocks of m coherent intervals, bits wiped"
 
     class Params(CN0EstimatorParams):

@@ -8,7 +8,7 @@ expectation where one exists, within ``Z`` standard errors of the runs:
 - ``noise-channel``: E[c_hat] = c exactly, 15 to 50 dB-Hz and pure noise, T = 20 ms;
 - ``snv``: E[P_s] = nu^2 + (1 + a^2 - nu^2)/K (folded normal), pure noise included;
 - ``m2m4``: E[2 M2^2 - M4] = A^4 + 8(A^2 + 1)/K;
-- ``nwpr``: on pure noise NBP/WBP = m Beta(1, m-1): E[mu] = 1, Var[mu] = (m-1)/((m+1) K_b).
+- ``narrow-wide``: on pure noise NBP/WBP = m Beta(1, m-1): E[mu] = 1, Var[mu] = (m-1)/((m+1) K_b).
 """
 
 from __future__ import annotations
@@ -84,10 +84,10 @@ def test_m2m4_signal_power_square_has_its_closed_form_expectation(cn0, rng):
     assert ok, (cn0, z)
 
 
-def test_nwpr_on_pure_noise_has_the_beta_mean_and_variance(rng):
+def test_narrow_wide_on_pure_noise_has_the_beta_mean_and_variance(rng):
     m = 5
     prompt, _ = draw(None, rng)
-    x = registry.create("cn0_estimator", "nwpr", m=m).estimate_hz(prompt, T_S) * T_S
+    x = registry.create("cn0_estimator", "narrow-wide", m=m).estimate_hz(prompt, T_S) * T_S
     mu = (m * x + 1) / (x + 1)  # (mu - 1)/(m - mu) = x
     kb = K // m
     ok, z = within(mu, 1.0)
@@ -96,11 +96,11 @@ def test_nwpr_on_pure_noise_has_the_beta_mean_and_variance(rng):
     assert ok, z
 
 
-def test_m2m4_and_nwpr_plugins_are_the_receivers_estimators_on_the_last_axis(rng):
+def test_m2m4_and_narrow_wide_plugins_are_the_receivers_estimators_on_the_last_axis(rng):
     prompt, _ = draw(35.0, rng, runs=50, k=400, coherent_time_s=0.001)
     np.testing.assert_allclose(registry.create("cn0_estimator", "m2m4")(prompt, 0.001),
                                cn0_moments(prompt.T, 0.001), rtol=0, atol=1e-9)
-    np.testing.assert_allclose(registry.create("cn0_estimator", "nwpr", m=20)(prompt, 0.001),
+    np.testing.assert_allclose(registry.create("cn0_estimator", "narrow-wide", m=20)(prompt, 0.001),
                                cn0_nwpr(prompt.T, 0.001, m=20), rtol=0, atol=1e-9)
 
 
@@ -125,12 +125,12 @@ def test_bad_input_is_one_config_error_naming_the_field(rng):
         registry.create("cn0_estimator", "noise-channel")(prompt, T_S)
     with pytest.raises(ConfigError, match=r"noise: shape \(3, 9\) differs"):
         registry.create("cn0_estimator", "noise-channel")(prompt, T_S, noise=noise[:, :9])
-    with pytest.raises(ConfigError, match="prompt: nwpr needs at least 20 intervals"):
-        registry.create("cn0_estimator", "nwpr")(prompt, T_S)
+    with pytest.raises(ConfigError, match="prompt: narrow-wide needs at least 20 intervals"):
+        registry.create("cn0_estimator", "narrow-wide")(prompt, T_S)
     with pytest.raises(ConfigError, match="coherent_time_s: must be a positive"):
         registry.create("cn0_estimator", "snv")(prompt, 0.0)
     with pytest.raises(ConfigError, match="m"):
-        registry.create("cn0_estimator", "nwpr", m=1)
+        registry.create("cn0_estimator", "narrow-wide", m=1)
 
 
 def test_the_committed_docs_tables_are_what_the_generator_writes():
@@ -160,7 +160,8 @@ def test_the_lock_detector_takes_a_prompt_only_plugin_and_refuses_the_rest(rng):
     from gnssframework.receiver.channels.lock import cn0_estimator_names
 
     assert cn0_estimator_names()[:2] == ["nwpr", "moments"]
-    assert {"snv", "beaulieu", "m2m4"} <= set(cn0_estimator_names()) and "noise-channel" not in cn0_estimator_names()
+    assert {"snv", "beaulieu", "m2m4"} <= set(cn0_estimator_names()) \
+        and not {"noise-channel", "narrow-wide"} & set(cn0_estimator_names())
     assert tracking_config().cn0_estimator == "nwpr"  # the default is unchanged
     assert tracking_config(cn0_estimator="snv").cn0_estimator == "snv"
     with pytest.raises(ConfigError, match=r"tracking\.cn0_estimator: .*unknown C/N0 estimator 'snr'.*did you mean 'snv'"):
@@ -196,14 +197,14 @@ def test_batch_axes_and_data_bits(rng):
     # reading when data bits flip whole intervals, NWPR (coherent block sums) does not.
     prompt, noise = draw(30.0, rng, runs=12, k=40)
     bits = rng.choice([-1.0, 1.0], size=prompt.shape)
-    for name in ("m2m4", "snv", "beaulieu", "noise-channel", "nwpr"):
+    for name in ("m2m4", "snv", "beaulieu", "noise-channel", "narrow-wide"):
         est = registry.create("cn0_estimator", name)
         flat = est.estimate_hz(prompt, T_S, noise=noise)
         assert est.estimate_hz(prompt.reshape(3, 4, 40), T_S, noise=noise.reshape(3, 4, 40)).shape == (3, 4)
         np.testing.assert_array_equal(est.estimate_hz(prompt.reshape(3, 4, 40), T_S,
                                                       noise=noise.reshape(3, 4, 40)).ravel(), flat)
         flipped = est.estimate_hz(prompt * bits, T_S, noise=noise)
-        if name == "nwpr":
+        if name == "narrow-wide":
             assert np.median(flipped) < 0.5 * np.median(flat)
         else:
             np.testing.assert_allclose(flipped, flat, rtol=1e-12)

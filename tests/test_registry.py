@@ -27,7 +27,7 @@ def test_kinds_and_builtin_names():
     assert registry.kinds() == ["acquisition", "augmentation", "channel_filter", "cn0_estimator", "discriminator",
                                 "estimator", "metric", "nav_filter", "noise_adapter", "sample_source", "scenario",
                                 "signal"]
-    assert builtin_names("cn0_estimator") == ["beaulieu", "m2m4", "noise-channel", "nwpr", "snv"]
+    assert builtin_names("cn0_estimator") == ["beaulieu", "m2m4", "narrow-wide", "noise-channel", "snv"]
     assert builtin_names("signal") == ["gps-l1ca", "qzss-l1ca"]
     assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
     assert builtin_names("scenario") == ["carrier-smoothing", "deep-integration", "multipath", "sample-receiver",

@@ -76,12 +76,16 @@ class CN0Estimator(Plugin, abc.ABC):
     min_intervals
         The fewest intervals K a window must hold (an instance may ask more, e.g. the
         narrow-wide ratio's block length).
+    bit_blind
+        True when data bits (sign flips of whole intervals) leave its reading unchanged;
+        False for one that sums prompts coherently across intervals (bits must be wiped).
     """
 
     kind = "cn0_estimator"
     Params = CN0EstimatorParams
     needs: ClassVar[tuple[str, ...]] = ("prompt",)
     min_intervals: ClassVar[int] = 2
+    bit_blind: ClassVar[bool] = True
 
     def required_intervals(self) -> int:
         """The fewest intervals K this instance accepts."""

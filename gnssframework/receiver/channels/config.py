@@ -40,8 +40,8 @@ class TrackingConfig(BaseModel):
     pli_threshold: float = Field(0.5, ge=-1, le=1, description="phase lock: PLI above this")
     cn0_threshold_dbhz: float = Field(27.0, description="lock: C/N0 estimate above this")
     cn0_estimator: str = Field("nwpr", description="C/N0 estimator: nwpr (bit-aligned after bit sync, moments "
-                               "before), moments, or a cn0_estimator plugin reading the prompt only (snv, beaulieu, "
-                               "m2m4)")
+                               "before), moments, or a bit-blind cn0_estimator plugin reading the prompt only (snv, "
+                               "beaulieu, m2m4)")
     cn0_window_ms: int = Field(400, ge=40, description="window of the C/N0 estimate")
     loss_ms: int = Field(200, ge=10, description="time out of lock after which a channel is lost")
     bit_sync_votes: int = Field(6, ge=2, description="sign changes needed to decide the bit edge")

@@ -39,9 +39,11 @@ CN0_ESTIMATORS = ("nwpr", "moments")
 
 def cn0_estimator_names() -> list[str]:
     """Every name the lock detector takes: `CN0_ESTIMATORS`, then the registered
-    ``cn0_estimator`` plugins that read the prompt only (one that needs a noise-only
-    correlator has none in the sample tracker)."""
-    plugins = [n for n in registry.names("cn0_estimator") if registry.get("cn0_estimator", n).needs == ("prompt",)]
+    ``cn0_estimator`` plugins that read the prompt only and are blind to data bits (the
+    sample tracker has no noise-only correlator, and its window's prompts keep their bits;
+    its own ``nwpr`` aligns its blocks with them)."""
+    plugins = [n for n in registry.names("cn0_estimator")
+               if (cls := registry.get("cn0_estimator", n)).needs == ("prompt",) and cls.bit_blind]
     return list(dict.fromkeys([*CN0_ESTIMATORS, *plugins]))
 
 
