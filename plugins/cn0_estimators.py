@@ -151,10 +151,10 @@ class NoiseChannel(CN0Estimator):
     r"""N0 measured on a noise-only correlator, bias-corrected: unbiased in linear terms at
     every C/N0, down to and including pure noise.
 
-    A receiver correlates against a replica that holds no signal (an unused PRN, as
-    GNSS-SDR-style receivers do, or a tap far off the peak) to measure the noise power
-    (Groves 2013, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation
-    Systems*, 2nd ed., ch. 9, signal-to-noise measurement; ch. 7 of the 2008 1st ed.). With :math:`M_2 = \frac1K\sum|P_k|^2` and
+    A receiver correlates against a replica that holds no signal (an unused PRN, or a tap
+    far off the peak) to measure the noise power (Groves 2013, *Principles of GNSS,
+    Inertial, and Multisensor Integrated Navigation Systems*, 2nd ed., ch. 9, on C/N0
+    measurement; ch. 7 of the 2008 1st ed.). With :math:`M_2 = \frac1K\sum|P_k|^2` and
     :math:`N_2 = \frac1K\sum|N_k|^2` of the noise correlator :math:`N_k` (the prompt's noise
     variance, independent of it):
 

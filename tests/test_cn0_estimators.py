@@ -164,7 +164,8 @@ def test_the_lock_detector_takes_a_prompt_only_plugin_and_refuses_the_rest(rng):
         and not {"noise-channel", "narrow-wide"} & set(cn0_estimator_names())
     assert tracking_config().cn0_estimator == "nwpr"  # the default is unchanged
     assert tracking_config(cn0_estimator="snv").cn0_estimator == "snv"
-    with pytest.raises(ConfigError, match=r"tracking\.cn0_estimator: .*unknown C/N0 estimator 'snr'.*did you mean 'snv'"):
+    with pytest.raises(ConfigError, match=r"tracking\.cn0_estimator: .*unknown C/N0 estimator 'snr'.*"
+                                          r"did you mean 'snv'"):
         tracking_config(cn0_estimator="snr")
     with pytest.raises(ConfigError, match=r"tracking\.cn0_estimator: .*'noise-channel'"):
         tracking_config(cn0_estimator="noise-channel")
