@@ -177,3 +177,53 @@ def test_a_boc11_pilot_loop_holds_the_main_peak_at_45_dbhz_with_the_thermal_code
         assert np.abs(e).max() < 1 / 6  # every run on the main peak, never near a side peak (+-1/2)
         assert abs(e.mean()) < 0.1 * bound
         assert 0.85 * bound < e.std() < 1.15 * bound, (e.std(), bound)
+
+
+def test_the_real_pilot_is_tracked_after_secondary_code_sync_on_the_4mhz_slice():
+    """E1-C of PRN 27 (the 4 MHz slice's strongest) on the compiled correlators with a
+    BOC(1,1) sub-chip table (`SampleSource(subchips_per_chip=2)`): 25 open-loop prompts'
+    consecutive products match CS25_1's at one shift only (the secondary-code phase; the
+    ICD's code is the truth here), and with it wiped off the engine's scalar loop holds
+    phase lock: every prompt after the pull-in has one sign and |I| >> |Q|.
+    validation/galileo_e1_track.py runs the same over the whole 0.5 s file."""
+    from gnssframework.receiver.channels.correlator import replica_codes
+    from gnssframework.receiver.engine.channel import Channel
+    from gnssframework.receiver.engine.closers import ScalarCloser
+    from gnssframework.receiver.engine.samples import SampleSource
+    from gnssframework.signal.correlators import Correlators
+
+    fs, T, d, prn, spec = 4e6, 4e-3, 0.2, 27, GALILEO_E1C_BOC11
+    rec = open_recording(DATA / "pocketsdr_L1_4MHz_IQ_100ms.bin", format="ci8", sample_rate_hz=fs, if_hz=0.0,
+                         q_sign=-1)
+    x = np.asarray(rec.read(0, rec.n_samples), np.complex64)
+    acq = registry.create("acquisition", "pcps", noncoherent=4, doppler_max_hz=3500.0, xcorr_margin_db=None)
+    r = acq.acquire(x[:acq.samples_needed(fs, spec)], fs, 0.0, prns=(prn,), signal=spec)[0]
+    source = SampleSource(x, fs, 0.0, replica_codes(spec, (prn,)), T, early_late_spacing_chips=d,
+                          noise_std=float(np.std(x.real)), subchips_per_chip=spec.subchips_per_chip)
+    cs = np.array(GALILEO_E1C_SECONDARY_CS25, float)
+    channel = Channel.start((1,), r.code_phase_chips, r.doppler_hz, signal=spec)
+    prompts = []
+    for k in range(25):
+        channel.run_interval(T)
+        prompts.append(complex(np.ravel(source.correlate(channel, k).prompt)[0]))
+        channel.steer_frequency(channel.carrier_freq_hz, channel.code_rate_chips_s)
+    prompts = np.array(prompts)
+    diff = prompts[1:] * prompts[:-1].conj()
+    scores = np.array([np.sum(diff * (np.roll(cs, -s)[1:] * np.roll(cs, -s)[:-1])) for s in range(25)])
+    shift = int(np.argmax(np.abs(scores)))
+    assert np.abs(scores[shift]) > 2 * np.sort(np.abs(scores))[-2]
+    doppler_hz = r.doppler_hz + np.angle(scores[shift]) / (2 * np.pi * T)
+    channel = Channel.start((1,), r.code_phase_chips, doppler_hz, signal=spec)
+    closer = ScalarCloser(registry.create("channel_filter", "scalar"))
+    closer.reset(channel, T, early_late_spacing_chips=d, cn0_dbhz=40.0)
+    tracked = []
+    for k in range(24):
+        channel.run_interval(T)
+        c = source.correlate(channel, k)
+        s = cs[(k + shift) % 25]
+        c = Correlators.trusted(c.early * s, c.prompt * s, c.late * s)
+        tracked.append(complex(np.ravel(c.prompt)[0]))
+        closer.step(channel, c)
+    after = np.array(tracked[8:])
+    assert np.all(np.sign(after.real) == np.sign(after.real[0]))
+    assert np.mean(np.abs(after.real)) > 4 * np.mean(np.abs(after.imag))
