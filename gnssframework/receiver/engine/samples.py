@@ -36,7 +36,8 @@ class SampleSource:
     sample_rate_hz, if_hz
         Sample rate and intermediate frequency.
     codes
-        ``(n_channels, code_length)`` ±1 codes of the channels (flattened batch order).
+        ``(n_channels, code_length)`` ±1 codes of the channels (flattened batch order), or
+        ``(n_channels, code_length * subchips_per_chip)`` BOC tables (`replica_codes`).
     coherent_time_s
         T.
     early_late_spacing_chips
@@ -47,11 +48,14 @@ class SampleSource:
         Sample of the first interval's start.
     backend
         ``"numba"`` or ``"numpy"`` (`correlate_channels`); default: the library's.
+    subchips_per_chip
+        Entries of ``codes`` a chip (``SignalSpec.subchips_per_chip``: 2 for BOC(1,1)); the
+        channel's code phase and rate stay in chips.
     """
 
     def __init__(self, samples: np.ndarray, sample_rate_hz: float, if_hz: float, codes: np.ndarray,
                  coherent_time_s: float, *, early_late_spacing_chips: float = 1.0, noise_std: float = 1.0,
-                 start_sample: int = 0, backend: str | None = None) -> None:
+                 start_sample: int = 0, backend: str | None = None, subchips_per_chip: int = 1) -> None:
         n = coherent_time_s * sample_rate_hz
         if abs(n - round(n)) > 1e-6:
             raise ConfigError("sample_rate_hz", f"the coherent time {coherent_time_s} s must hold a whole number of "
@@ -59,7 +63,10 @@ class SampleSource:
         self.samples, self.fs, self.if_hz = samples, float(sample_rate_hz), float(if_hz)
         self.codes = np.ascontiguousarray(codes, np.float32)
         self.n, self.start = int(round(n)), int(start_sample)
-        self.offsets = np.array(list(tap_offsets(early_late_spacing_chips).values()))
+        # A BOC table (`SignalSpec.spreading_table`) holds sub-chips: phases, rates and tap
+        # offsets go to the kernels in its units (`channels.correlator.to_table_units`).
+        self.subchips = int(subchips_per_chip)
+        self.offsets = np.array(list(tap_offsets(early_late_spacing_chips).values())) * self.subchips
         self.norm = np.sqrt(self.n * noise_std**2 * (1.0 if np.iscomplexobj(samples) else 0.5))
         self.backend = backend
 
@@ -73,7 +80,8 @@ class SampleSource:
         flat = lambda a: np.broadcast_to(np.asarray(a, float), batch).reshape(-1)  # noqa: E731
         cycles = np.mod(self.if_hz * start / self.fs, 1.0) + flat(channel.carrier_phase_rad) / (2 * np.pi)
         out = correlate_channels(self.samples, np.full(n_ch, start), np.full(n_ch, self.n),
-                                 flat(channel.code_phase_chips), flat(channel.code_rate_chips_s) / self.fs,
+                                 flat(channel.code_phase_chips) * self.subchips,
+                                 flat(channel.code_rate_chips_s) * self.subchips / self.fs,
                                  cycles, (self.if_hz + flat(channel.carrier_freq_hz)) / self.fs, self.codes,
                                  self.offsets, backend=self.backend) / self.norm
         out = out.reshape(batch + (3,))
