@@ -227,7 +227,9 @@ def _acquisition_from_args(args: argparse.Namespace):
                                 ("doppler_max_hz", args.doppler_max), ("pfa", args.pfa)) if v is not None}
     if getattr(args, "alternate_blocks", False):
         params["alternate_blocks"] = True
-    return registry.create("acquisition", args.acquisition, **params)
+    from .receiver.acquisition.search import check_contract
+
+    return check_contract(registry.create("acquisition", args.acquisition, **params))
 
 
 #: How the command line names a signal in its messages (else by `SignalSpec.name`).
@@ -248,9 +250,13 @@ def _prns_from_args(args: argparse.Namespace, signal: SignalSpec = GPS_L1CA) -> 
     return prns
 
 
+#: ``--signal``'s default: GPS L1 C/A.
+DEFAULT_SIGNAL = "gps-l1ca"
+
+
 def _signal_from_args(args: argparse.Namespace) -> SignalSpec:
     """The `SignalSpec` of ``--signal`` (a registered ``signal`` plugin; GPS L1 C/A by default)."""
-    return registry.signal_spec(args.signal) if getattr(args, "signal", None) else GPS_L1CA
+    return registry.signal_spec(getattr(args, "signal", None) or DEFAULT_SIGNAL)
 
 
 def _acquire_checked(rec, acq, prns: tuple[int, ...], signal: SignalSpec = GPS_L1CA) -> list:
@@ -635,7 +641,7 @@ def _add_recording_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--alternate-blocks", action="store_true",
                    help="sum even and odd coherent blocks apart, keep the larger (with --coherent-ms 10: one of them "
                         "is free of data-bit transitions; weak signals)")
-    p.add_argument("--signal", default="gps-l1ca", choices=registry.names("signal"), metavar="NAME",
+    p.add_argument("--signal", default=DEFAULT_SIGNAL, choices=registry.names("signal"), metavar="NAME",
                    help="the signal searched and tracked: a registered signal plugin (`gnssframework plugins --kind "
                         "signal`: %(choices)s; default %(default)s)")
     p.add_argument("--prns", type=int, nargs="+", help="PRNs to search, the signal's (default all: 1-32 on gps-l1ca)")
@@ -870,6 +876,7 @@ def os_error_message(exc: OSError) -> str:
 #: hold (a config file's ``nav_filter.params.accel_psd``) keeps its name.
 OPTION_OF_PARAMETER = {
     "format": "--format", "sample_rate_hz": "--fs", "if_hz": "--if", "q_sign": "--q-sign",
+    "acquisition": "--acquisition", "signal": "--signal",
     "out": "--out",
     "channel_filter": "--channel-filter", "channel_params": "--channel-params", "nav_filter": "--nav-filter",
     "approx_position": "--approx-position", "start_time": "--start-time", "rate_hz": "--rate",

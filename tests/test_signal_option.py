@@ -148,3 +148,46 @@ def test_stage_filters_build_each_configuration_once_and_take_a_candidates_plugi
     assert same.pull_in is same.track and same.extended is not same.track
     assert took.track.prototype is candidate and took.extended is took.track  # no FLL to switch off
     assert built == ["scalar", "scalar", "scalar"], built  # scalar twice (track, PLL-only), pull-in's scalar
+
+
+def test_an_acquisition_written_to_the_old_contract_is_named_in_one_line(qzss_recording, tmp_path, capsys,
+                                                                          scratch_registry):
+    """A plugin whose acquire() takes (samples, sample_rate_hz, if_hz, prns), as before the
+    signal was added: a one-line error naming it and the change, not a TypeError."""
+    import types
+
+    import gnssframework as gf
+    from gnssframework.errors import ConfigError
+    from gnssframework.receiver.acquisition.report import acquire_recording
+    from gnssframework.receiver.acquisition.search import Acquisition
+    from gnssframework.receiver.frontend import open_recording
+
+    pcps = registry.get("acquisition", "pcps")
+
+    class OldStyle(Acquisition):
+        name = "old-style"
+        description = "an acquisition written before the signal was passed"
+
+        def samples_needed(self, sample_rate_hz):
+            return pcps().samples_needed(sample_rate_hz)
+
+        def acquire(self, samples, sample_rate_hz, if_hz, prns=None):
+            return pcps().acquire(samples, sample_rate_hz, if_hz, prns)
+
+    module = types.SimpleNamespace(register_acquisition=gf.hookimpl(lambda register: register(OldStyle)))
+    registry.register_module(module, name="test-old-acquisition", distribution="test")
+    with pytest.raises(ConfigError, match=r"'old-style' is written to the old contract: its samples_needed\(\)"):
+        acquire_recording(open_recording(qzss_recording), registry.create("acquisition", "old-style"))
+    assert main(["acquire", str(qzss_recording), "--acquisition", "old-style", "--out", str(tmp_path / "a.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--acquisition" in err and "'old-style'" in err and "signal" in err, err
+
+    class HalfOld(OldStyle):  # samples_needed updated, acquire not yet
+        name = "half-old"
+
+        def samples_needed(self, sample_rate_hz, signal=None):
+            return pcps().samples_needed(sample_rate_hz)
+
+    with pytest.raises(ConfigError, match=r"'half-old' .*its acquire\(\) does not take \(samples, sample_rate_hz, "
+                                          r"if_hz, prns, signal\)"):
+        acquire_recording(open_recording(qzss_recording), HalfOld())

@@ -47,7 +47,7 @@ from ...signal.correlator_model import tap_offsets
 from ...signal.correlators import Correlators
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
-from ..acquisition.search import Acquisition, AcquisitionResult
+from ..acquisition.search import Acquisition, AcquisitionResult, check_contract
 from ..frontend.recording import Recording
 from .batch import FilterBatch, batch_layout
 from .channel import NCO_COMMANDS, SampleChannel, stage_context, supports
@@ -122,7 +122,7 @@ class SampleTracker:
         self.batch = batch
         self.read_ahead = read_ahead
         self.config = config
-        self.acquisition = acquisition
+        self.acquisition = check_contract(acquisition)  # re-acquisition passes it the signal
         self.backend = backend
         self.fs = recording.info.sample_rate_hz
         self.if_hz = recording.info.if_hz
