@@ -191,3 +191,43 @@ def test_an_acquisition_written_to_the_old_contract_is_named_in_one_line(qzss_re
     with pytest.raises(ConfigError, match=r"'half-old' .*its acquire\(\) does not take \(samples, sample_rate_hz, "
                                           r"if_hz, prns, signal\)"):
         acquire_recording(open_recording(qzss_recording), HalfOld())
+
+
+def test_the_trackers_full_search_is_the_signals(qzss_recording):
+    """Re-acquisition (`SampleTracker.search`) searches the tracker's signal: a lost QZSS
+    channel is found again at its Doppler (the GPS search refused PRN 195 before)."""
+    from gnssframework.receiver.channels import SampleTracker
+    from gnssframework.receiver.channels.records import ChannelRecord
+    from gnssframework.receiver.frontend import open_recording
+
+    rec = open_recording(qzss_recording)
+    t = SampleTracker(rec, tracking_config(), registry.create("acquisition", "pcps"), signal=QZSS_L1CA)
+    t.channels, t.records = {}, {195: ChannelRecord(195)}
+    t._reset_state()
+    t.closer.bind(t)
+    t.search((195,), 0, rec.n_samples)
+    assert t.active[t.slot(195)] and t.channels[195].stage == "pull-in"
+    assert abs(t.doppler[t.slot(195)] - SATS[0].doppler_hz) <= 250.0
+    assert t.records[195].events == [(0.0, "re-acquired")]
+
+
+def test_navigation_records_are_looked_up_by_the_signals_satellite_names():
+    """QZSS PRN 193-202 are RINEX J01-J10: the fixes' and the vector hand-over's lookups."""
+    from types import SimpleNamespace
+
+    from gnssframework.receiver.navigation.fixes import _ephemeris_for
+    from gnssframework.receiver.navigation.vector_handover import _ephemeris
+
+    class Rinex:
+        asked: list = []
+
+        def select(self, names, t_s):
+            self.asked.append(list(names))
+            raise KeyError(names[0])  # no such record: the caller goes on without it
+
+    rinex = Rinex()
+    assert _ephemeris_for(np.array([193, 202]), None, rinex, 0.0, 0.0, QZSS_L1CA) == [None, None]
+    v = SimpleNamespace(tracker=SimpleNamespace(signal=QZSS_L1CA), rinex=rinex)
+    assert _ephemeris(v, 195, SimpleNamespace(ephemeris={}, rx_time_s=np.array([1.0])), 2.0) is None
+    assert _ephemeris_for(np.array([7]), None, rinex, 0.0, 0.0) == [None]  # GPS by default
+    assert rinex.asked == [["J01"], ["J10"], ["J03"], ["G07"]]

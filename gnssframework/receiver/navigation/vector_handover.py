@@ -261,7 +261,8 @@ def start_vector(v: VectorSampleCloser, c: SampleChannel) -> None:
     c.filter = v.channel_filter.new()  # a copy of the configuration built once
     c.cn0_ref = max(c.cn0_dbhz, 20.0)
     c.filter.reset((1,), RunContext(coherent_time_s=T, early_late_spacing_chips=cfg.early_late_spacing_chips,
-                                    epoch_interval_s=T, cn0_dbhz=c.cn0_ref, doppler_hz=float(t.doppler[c.slot])))
+                                    epoch_interval_s=T, cn0_dbhz=c.cn0_ref, doppler_hz=float(t.doppler[c.slot]),
+                                    signal=c.spec))
     c.closure = VECTOR
     c.batch = None
     c.join_tries = 3  # steps alone: its outputs go to the navigation filter, one channel at a time
