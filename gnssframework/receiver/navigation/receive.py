@@ -78,7 +78,7 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
                                         "give nav_filter or vector, not both")
     if acquisitions is None:
-        acquisitions = acquire_recording(recording, acquisition, prns, signal=signal)
+        acquisitions = acquire_recording(recording, acquisition, prns or None, signal=signal)  # None: all
     found = [r for r in acquisitions if r.detected]
     if vector is not None:
         tracker = VectorSampleTracker(recording, config, acquisition, vector, rinex=rinex, ionosphere=ionosphere,
