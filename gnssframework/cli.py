@@ -227,7 +227,9 @@ def _acquisition_from_args(args: argparse.Namespace):
                                 ("doppler_max_hz", args.doppler_max), ("pfa", args.pfa)) if v is not None}
     if getattr(args, "alternate_blocks", False):
         params["alternate_blocks"] = True
-    return registry.create("acquisition", args.acquisition, **params)
+    from .receiver.acquisition.search import check_contract
+
+    return check_contract(registry.create("acquisition", args.acquisition, **params))
 
 
 #: How the command line names a signal in its messages (else by `SignalSpec.name`).
@@ -248,18 +250,27 @@ def _prns_from_args(args: argparse.Namespace, signal: SignalSpec = GPS_L1CA) -> 
     return prns
 
 
-def _acquire_checked(rec, acq, prns: tuple[int, ...]) -> list:
-    """The acquisition of ``prns`` in ``rec`` (``acquire``, ``track`` and ``receive``),
+#: ``--signal``'s default: GPS L1 C/A.
+DEFAULT_SIGNAL = "gps-l1ca"
+
+
+def _signal_from_args(args: argparse.Namespace) -> SignalSpec:
+    """The `SignalSpec` of ``--signal`` (a registered ``signal`` plugin; GPS L1 C/A by default)."""
+    return registry.signal_spec(getattr(args, "signal", None) or DEFAULT_SIGNAL)
+
+
+def _acquire_checked(rec, acq, prns: tuple[int, ...], signal: SignalSpec = GPS_L1CA) -> list:
+    """The acquisition of ``prns`` of ``signal`` in ``rec`` (``acquire``, ``track`` and ``receive``),
     refused when the samples are too few or the result is implausible (`check_samples`,
     `check_acquisition`: a wrong --format "finds" 31 satellites), with a note of the
     non-finite samples zeroed."""
     from .receiver.acquisition.plausibility import check_acquisition, check_samples
     from .receiver.acquisition.report import acquire_recording
 
-    check_samples(rec, acq)
-    results = acquire_recording(rec, acq, prns)
+    check_samples(rec, acq, signal)
+    results = acquire_recording(rec, acq, prns, signal=signal)
     _note_nonfinite(rec)
-    check_acquisition(results, rec, acq)
+    check_acquisition(results, rec, acq, signal)
     return results
 
 
@@ -268,8 +279,9 @@ def _cmd_acquire(args: argparse.Namespace) -> int:
 
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
-    prns = _prns_from_args(args)
-    results = _acquire_checked(rec, acq, prns)
+    signal = _signal_from_args(args)
+    prns = _prns_from_args(args, signal)
+    results = _acquire_checked(rec, acq, prns, signal)
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
     if args.verbose:
@@ -280,8 +292,8 @@ def _cmd_acquire(args: argparse.Namespace) -> int:
     write_acquisition_csv(args.out, results)
     found = [r for r in results if r.detected]
     if not found:
-        print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
-              "the format (--format) and, for a large frequency offset, --doppler-max; wrote an empty "
+        print(f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF "
+              "(--if), the format (--format) and, for a large frequency offset, --doppler-max; wrote an empty "
               f"{args.out}")
         return 1
     print(f"{len(found)} satellites found ({', '.join(str(r.prn) for r in found)}); wrote {args.out}")
@@ -333,15 +345,16 @@ def _cmd_track(args: argparse.Namespace) -> int:
 
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
-    prns = _prns_from_args(args)
+    signal = _signal_from_args(args)
+    prns = _prns_from_args(args, signal)
     config = _tracking_config_from_args(args)
-    tracker = SampleTracker(rec, config, acq)
+    tracker = SampleTracker(rec, config, acq, signal=signal)  # its stages' filters built once, here
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
-    results = _acquire_checked(rec, acq, prns)
+    results = _acquire_checked(rec, acq, prns, signal)
     found = [r for r in results if r.detected]
     if not found:
-        print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
+        print(f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF (--if), "
               "the format (--format) and --doppler-max; nothing tracked")
         return 1
     result = tracker.run(found, args.duration)
@@ -431,11 +444,11 @@ def _cmd_receive(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from .navigation.ephemeris import read_rinex_nav
+    from .navigation.ephemeris import SYSTEMS as EPHEMERIS_SYSTEMS, read_rinex_nav
     from .progress import Progress
     from .receiver.acquisition.report import search_summary
     from .receiver.navigation.fixes import write_positions_csv
-    from .receiver.navigation.nmea_out import write_nmea
+    from .receiver.navigation.nmea_out import nmea_talker, write_nmea
     from .receiver.navigation.receive import position_errors, receive
     from .receiver.navigation.receiver_config import receiver_filters
     from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
@@ -445,7 +458,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
 
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
-    prns = _prns_from_args(args)
+    signal = _signal_from_args(args)
+    prns = _prns_from_args(args, signal)
     try:
         channel_params = json.loads(args.channel_params) if args.channel_params else None
     except json.JSONDecodeError as exc:
@@ -462,7 +476,11 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     if args.week is not None and not 0 <= args.week < 10_000:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
     truth = _truth_from_args(args)
-    rinex = read_rinex_nav(args.ephemeris) if args.ephemeris else None
+    if args.ephemeris and signal.system not in EPHEMERIS_SYSTEMS:
+        raise ConfigError("--ephemeris", f"the records of {signal.name} (RINEX system {signal.system}) are not read "
+                                         f"from a navigation file (systems read: {', '.join(EPHEMERIS_SYSTEMS)}); "
+                                         "drop --ephemeris, the decoded LNAV ephemerides serve")
+    rinex = read_rinex_nav(args.ephemeris, systems=signal.system) if args.ephemeris else None
     nav_info = read_nav_file_info(args.ephemeris) if args.ephemeris else None
     # Without --week, the ephemeris file's (placed at the recording's tow once known, below).
     reference_week = args.week
@@ -487,14 +505,14 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     def progress(fraction: float) -> None:
         bar.set(round(100 * fraction))
 
-    acquisitions = _acquire_checked(rec, acq, prns)  # checked before minutes of tracking
+    acquisitions = _acquire_checked(rec, acq, prns, signal)  # checked before minutes of tracking
     try:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
                          progress=progress if bar is not None else None, nav_filter=filters.nav_filter,
                          vector=vector, assist=assist, acquisitions=acquisitions,
                          iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
-                         weighting=args.weighting)
+                         weighting=args.weighting, signal=signal)
         if bar is not None:  # the tracker reports up to its last block's start: the run is done
             bar.set(bar.total)
     finally:
@@ -504,8 +522,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         print(f"vector tracking from {result.vector.handover_s:.1f} s of PRN "
               f"{', '.join(str(p) for p in result.vector.prns)} (channel filter {vector.channel_filter})")
     if not result.tracking.channels:
-        print(f"nothing found: {search_summary(rec, acq, prns)}. Check the sample rate (--fs), the IF (--if), "
-              "the format (--format) and --doppler-max; no position")
+        print(f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF "
+              "(--if), the format (--format) and --doppler-max; no position")
         return 1
     table = result.positions
     out = Path(args.out)
@@ -533,11 +551,11 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     week = int(c["gps_week"][0])
     if week >= 0 and obs is None:
         print("note: no LNAV subframe decoded, so no pseudoranges of the scalar channels: no observations.rnx")
-        written.append(write_nmea(out / "nmea.txt", table, 18))
+        written.append(write_nmea(out / "nmea.txt", table, 18, nmea_talker(signal)))
     elif week >= 0:
         leap = obs.iono_utc.dt_ls_s if obs.iono_utc is not None else 18
-        written += [write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1]),
-                    write_nmea(out / "nmea.txt", table, leap)]
+        written += [write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1], signal=signal),
+                    write_nmea(out / "nmea.txt", table, leap, nmea_talker(signal))]
     else:
         print("note: no subframe 1 decoded, so the GPS week is unknown: no observations.rnx or nmea.txt "
               "(give it with --week)")
@@ -623,7 +641,10 @@ def _add_recording_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--alternate-blocks", action="store_true",
                    help="sum even and odd coherent blocks apart, keep the larger (with --coherent-ms 10: one of them "
                         "is free of data-bit transitions; weak signals)")
-    p.add_argument("--prns", type=int, nargs="+", help="PRNs to search (default 1-32)")
+    p.add_argument("--signal", default=DEFAULT_SIGNAL, choices=registry.names("signal"), metavar="NAME",
+                   help="the signal searched and tracked: a registered signal plugin (`gnssframework plugins --kind "
+                        "signal`: %(choices)s; default %(default)s)")
+    p.add_argument("--prns", type=int, nargs="+", help="PRNs to search, the signal's (default all: 1-32 on gps-l1ca)")
 
 
 _ROLE = re.compile(r":[a-z]+(?::[a-z]+)?:`~?([^`<]*?)\s*(?:<[^>]*>)?`")
@@ -748,7 +769,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--strict", action="store_true",
                    help="refuse the file at the first bad epoch or observation, or a truncation (exit 2)")
     p.set_defaults(func=_cmd_smooth)
-    p = sub.add_parser("acquire", help="find the GPS L1 C/A satellites in a recording of front-end samples",
+    p = sub.add_parser("acquire", help="find the satellites of a signal (GPS L1 C/A by default) in a recording of "
+                                       "front-end samples",
                        description="FFT parallel code-phase search of every PRN; one CSV row per satellite found. "
                                    "Exit 1 when nothing is found (the message says what was searched), 2 for bad "
                                    "options or files.")
@@ -855,6 +877,7 @@ def os_error_message(exc: OSError) -> str:
 #: hold (a config file's ``nav_filter.params.accel_psd``) keeps its name.
 OPTION_OF_PARAMETER = {
     "format": "--format", "sample_rate_hz": "--fs", "if_hz": "--if", "q_sign": "--q-sign",
+    "acquisition": "--acquisition", "signal": "--signal",
     "out": "--out",
     "channel_filter": "--channel-filter", "channel_params": "--channel-params", "nav_filter": "--nav-filter",
     "approx_position": "--approx-position", "start_time": "--start-time", "rate_hz": "--rate",

@@ -36,6 +36,7 @@ from ...errors import ConfigError
 from ...plugin_ref import PluginSpec
 from ...receiver.channels import tracking_config
 from ...receiver.channels.closure import ERROR_OUTPUTS
+from ...receiver.channels.factory import StageFilters
 from ...receiver.frontend import open_recording
 from ...receiver.frontend.recording import Recording
 from ...receiver.navigation import receive as receive_module
@@ -46,7 +47,7 @@ from . import BatchResult, Scenario, ScenarioParams, register_scenario
 from .sample_receiver_metrics import SERIES, FiniteFraction, FiniteRms, FirstFinite, Last, run_series
 from .sample_receiver_signals import SAMPLE_FORMAT, SignalPlan, signal_plan, write_run_recording
 
-__all__ = ["SampleReceiverScenario", "METRICS", "receive_candidate", "evaluate_runs"]
+__all__ = ["SampleReceiverScenario", "METRICS", "receive_candidate", "candidate_filters", "evaluate_runs"]
 
 _SUBFRAME_S = 6.0
 _NO_FIX = "no fix in the run"
@@ -184,12 +185,13 @@ class SampleReceiverScenario(Scenario):
         p = self.params
         return np.arange(int(np.floor(p.duration_s * p.rate_hz + 1e-9))) / p.rate_hz
 
-    def receive(self, plan: SignalPlan, plugins: dict, path: Path) -> receive_module.ReceiveResult:
+    def receive(self, plan: SignalPlan, plugins: dict, path: Path,
+                filters: StageFilters | None = None) -> receive_module.ReceiveResult:
         """`receive_candidate` on one run's recording, with the generator's ephemerides and
         the receiver's ionosphere and troposphere models off (the signals have neither)."""
         recording = open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0)
         return receive_candidate(recording, plugins, self.params, rinex=plan.ephemerides, ionosphere=False,
-                                 troposphere=False, reference_week=plan.week)
+                                 troposphere=False, reference_week=plan.week, filters=filters)
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
@@ -197,27 +199,38 @@ class SampleReceiverScenario(Scenario):
         plan = self.plan(case)
         t = self.time_s()
         per_run = []
+        filters = candidate_filters(plugins, self.params)  # the channel filters built once for the batch
         with tempfile.TemporaryDirectory(prefix="gnssframework-sample-receiver-") as tmp:
             for r in range(runs):  # one recording and one receiver per run
                 path = write_run_recording(plan, noise.generators[r], Path(tmp) / f"run{r}.{SAMPLE_FORMAT}")
-                result = self.receive(plan, plugins, path)
+                result = self.receive(plan, plugins, path, filters)
                 per_run.append(run_series(result, plan.prns, plan.cn0_dbhz, plan.receiver_lat_lon_h, t))
                 path.unlink()
         return evaluate_runs(METRICS, per_run, t, self)
 
 
-def receive_candidate(recording: Recording, plugins: dict, params, *, rinex, ionosphere: bool, troposphere: bool,
-                      reference_week: int | None) -> receive_module.ReceiveResult:
-    """`receive` on ``recording`` as a candidate builds it: its ``channel_filter`` (with its
-    parameters) in the sample tracker and, when it names one, its ``nav_filter`` on the
-    pseudoranges and Dopplers from the first least-squares fix; ``params`` gives the
-    scenario's ``acquisition``, ``coherent_ms`` and ``rate_hz``."""
+def candidate_filters(plugins: dict, params) -> StageFilters:
+    """The tracking settings of a candidate (its ``channel_filter`` and parameters, the
+    scenario's ``coherent_ms``) with their stages' filters, built once for a batch: the
+    candidate's own plugin is the ``track`` stage's prototype."""
     channel = plugins["channel_filter"]
     config = tracking_config(channel_filter=channel.name, channel_params=_as_config(channel.params.model_dump(
         mode="json")), coherent_ms=params.coherent_ms)
-    return receive_module.receive(recording, registry.create("acquisition", params.acquisition), config,
+    return StageFilters(config, channel)
+
+
+def receive_candidate(recording: Recording, plugins: dict, params, *, rinex, ionosphere: bool, troposphere: bool,
+                      reference_week: int | None, filters: StageFilters | None = None) -> receive_module.ReceiveResult:
+    """`receive` on ``recording`` as a candidate builds it: its ``channel_filter`` (with its
+    parameters) in the sample tracker and, when it names one, its ``nav_filter`` on the
+    pseudoranges and Dopplers from the first least-squares fix; ``params`` gives the
+    scenario's ``acquisition``, ``coherent_ms`` and ``rate_hz``. ``filters``: the
+    batch's `candidate_filters` (built here when None)."""
+    filters = filters if filters is not None else candidate_filters(plugins, params)
+    return receive_module.receive(recording, registry.create("acquisition", params.acquisition), filters.config,
                                   rate_hz=params.rate_hz, rinex=rinex, ionosphere=ionosphere, troposphere=troposphere,
-                                  reference_week=reference_week, nav_filter=_spec(plugins.get("nav_filter")))
+                                  reference_week=reference_week, nav_filter=_spec(plugins.get("nav_filter")),
+                                  filters=filters)
 
 
 def evaluate_runs(metrics, per_run: list[dict[str, np.ndarray]], time_s: np.ndarray, scenario) -> BatchResult:

@@ -61,7 +61,7 @@ from ...receiver.frontend.recording import Recording
 from ...receiver.navigation import receive as receive_module
 from ..metric_components import undefined_reasons as _undefined_reasons, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
-from .sample_receiver import SampleReceiverScenario, evaluate_runs, receive_candidate
+from .sample_receiver import SampleReceiverScenario, candidate_filters, evaluate_runs, receive_candidate
 from .sample_receiver_metrics import FiniteFraction, FiniteRms, FirstFinite, Last, run_series
 
 __all__ = ["SampleRecordingScenario", "METRICS", "SERIES", "segment_bounds", "noise_power", "write_noisy_segment",
@@ -233,6 +233,7 @@ class SampleRecordingScenario(SampleReceiverScenario):
             first, count = segment_bounds(rec, p.start_s, p.segment_s, 0)
             added_sigma = np.sqrt(noise_power(rec, first, count) * (10 ** (p.cn0_reduction_db / 10) - 1))
         per_run = []
+        filters = candidate_filters(plugins, p)  # the channel filters built once for the batch
         with tempfile.TemporaryDirectory(prefix="gnssframework-sample-recording-") as tmp:
             for i, run in enumerate(streams.runs):
                 path = Path(tmp) / f"run{run}.bin"
@@ -244,7 +245,7 @@ class SampleRecordingScenario(SampleReceiverScenario):
                     segment = open_recording(path, rec.info.format, rec.info.sample_rate_hz, rec.info.if_hz,
                                              rec.info.q_sign)
                 result = receive_candidate(segment, plugins, p, rinex=rinex, ionosphere=p.ionosphere,
-                                           troposphere=p.troposphere, reference_week=p.gps_week)
+                                           troposphere=p.troposphere, reference_week=p.gps_week, filters=filters)
                 per_run.append(_series(result, truth, t))
                 path.unlink()
         return evaluate_runs(METRICS, per_run, t, self)

@@ -222,10 +222,11 @@ def check_acquisition(results: Sequence[AcquisitionResult], recording, acquisiti
                             f"{format_hint(recording.path, recording.source)}")
 
 
-def check_samples(recording, acquisition) -> None:
-    """Refuse a recording whose samples the search would read are all one value (a blank,
-    zero-filled or unwritten file, a stuck ADC): there is neither signal nor the noise the
-    detector's threshold is built on, and the search would divide by a zero noise floor.
+def check_samples(recording, acquisition, signal: SignalSpec = GPS_L1CA) -> None:
+    """Refuse a recording whose samples the search of ``signal`` would read are all one
+    value (a blank, zero-filled or unwritten file, a stuck ADC): there is neither signal nor
+    the noise the detector's threshold is built on, and the search would divide by a zero
+    noise floor.
 
     Raises
     ------
@@ -235,7 +236,7 @@ def check_samples(recording, acquisition) -> None:
     from ...errors import DataFileError
 
     fs = recording.info.sample_rate_hz
-    need = acquisition.samples_needed(fs)
+    need = acquisition.samples_needed(fs, signal)
     if recording.n_samples < need:
         return  # too short: the search says so, naming what it needs
     counted = recording.nonfinite_zeroed

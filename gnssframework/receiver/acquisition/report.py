@@ -9,7 +9,7 @@ from ...io.files import atomic_open
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from ..frontend.recording import Recording
-from .search import Acquisition, AcquisitionResult
+from .search import Acquisition, AcquisitionResult, check_contract
 
 __all__ = ["acquire_recording", "write_acquisition_csv", "search_summary", "CSV_COLUMNS"]
 
@@ -20,6 +20,7 @@ def acquire_recording(recording: Recording, acquisition: Acquisition, prns: tupl
                       start_sample: int = 0, signal: SignalSpec = GPS_L1CA) -> list[AcquisitionResult]:
     """Run ``acquisition`` for ``signal`` (GPS L1 C/A by default; ``prns`` None: all of its
     PRNs) on the samples it needs from ``start_sample`` of ``recording``."""
+    check_contract(acquisition)
     fs = recording.info.sample_rate_hz
     samples = recording.read(start_sample, acquisition.samples_needed(fs, signal))
     return acquisition.acquire(samples, fs, recording.info.if_hz, prns, signal)

@@ -3,16 +3,18 @@
 from __future__ import annotations
 
 import abc
+import inspect
 from dataclasses import dataclass
 
 import numpy as np
 
 from ... import registry
+from ...errors import ConfigError
 from ...plugin import Plugin
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 
-__all__ = ["Acquisition", "AcquisitionResult", "searched_prns"]
+__all__ = ["Acquisition", "AcquisitionResult", "searched_prns", "check_contract"]
 
 
 @dataclass(frozen=True)
@@ -70,6 +72,31 @@ class Acquisition(Plugin, abc.ABC):
                 prns: tuple[int, ...] | None = None, signal: SignalSpec = GPS_L1CA) -> list[AcquisitionResult]:
         """Search ``prns`` of ``signal`` (all of ``signal.prns`` for ``None``) in ``samples``
         (complex, or real at ``if_hz``); one result per PRN."""
+
+
+#: The contract's methods and the arguments the receiver passes them, by position (the
+#: signal last: added by issue 36).
+CONTRACT = {"samples_needed": ("sample_rate_hz", "signal"),
+            "acquire": ("samples", "sample_rate_hz", "if_hz", "prns", "signal")}
+
+
+def check_contract(acquisition: Acquisition) -> Acquisition:
+    """``acquisition``, refused with a one-line `ConfigError` when one of its methods
+    cannot take the arguments the receiver passes (`CONTRACT`): a plugin written before
+    the signal was added (``acquire(samples, sample_rate_hz, if_hz, prns)``) fails here,
+    named, rather than with a ``TypeError`` deep in a search."""
+    for method, args in CONTRACT.items():
+        try:
+            inspect.signature(getattr(acquisition, method)).bind(*args)
+        except TypeError:
+            name = getattr(acquisition, "name", "") or type(acquisition).__name__
+            raise ConfigError("acquisition", f"plugin {name!r} is written to the old contract: its {method}() "
+                              f"does not take ({', '.join(args)}); the contract now passes the signal last "
+                              f"(`signal: SignalSpec = GPS_L1CA`): add it to {type(acquisition).__name__}.{method}"
+                              ) from None
+        except ValueError:  # no signature to read (a builtin): left to the call
+            continue
+    return acquisition
 
 
 def searched_prns(prns: tuple[int, ...] | None, signal: SignalSpec) -> tuple[int, ...]:

@@ -9,51 +9,28 @@ values, and the signal it tracks (`gnssframework.signal.spec.SignalSpec`).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from ... import registry
-from ...errors import ConfigError
-from ...interfaces import ChannelFilter, RunContext
+from ...interfaces import RunContext
 from ...signal.spec import SignalSpec
 from ..engine.closers import NCO_COMMANDS
-from .closure import ERROR_OUTPUTS, ErrorFeedback
+from .closure import ErrorFeedback
 from .config import TrackingConfig
+from .factory import StageFilters, supports
 
 from .records import ChannelRecord
 
 if TYPE_CHECKING:
     from .batch import FilterBatch
 
-__all__ = ["SampleChannel", "NCO_COMMANDS", "supports", "create_filter", "stage_context", "stage_filter"]
-
-def supports(cls: type, *names: str) -> bool:
-    """Whether channel filter class ``cls`` provides every output of ``names``."""
-    return all(n in cls.provides for n in names)
+__all__ = ["SampleChannel", "NCO_COMMANDS", "supports", "stage_context"]
 
 
-def create_filter(name: str, params: dict[str, Any], *, pll_only: bool = False) -> ChannelFilter:
-    """A channel filter that can track on samples: it requires ``correlators`` and outputs
-    NCO commands (`NCO_COMMANDS`) or errors (`closure.ERROR_OUTPUTS`); ``pll_only`` switches
-    off its FLL assist where it has one (the ``extended`` stage)."""
-    cls = registry.get("channel_filter", name)
-    if "correlators" not in cls.requires or not (supports(cls, *NCO_COMMANDS) or supports(cls, *ERROR_OUTPUTS)):
-        raise ConfigError("channel_filter", f"{name!r} cannot track on samples: it must require 'correlators' and "
-                          f"provide {', '.join(NCO_COMMANDS)} or {', '.join(ERROR_OUTPUTS)}")
-    params = dict(params)
-    if pll_only and "fll_bandwidth_hz" in cls.Params.model_fields:
-        params["fll_bandwidth_hz"] = 0.0  # the PLL stage: no FLL assist
-    return registry.create("channel_filter", name, **params)
-
-
-def stage_context(c: TrackingConfig, T: float, cn0_dbhz: float, doppler_hz: float) -> RunContext:
-    """What a channel filter is reset with at the start of a stage."""
+def stage_context(c: TrackingConfig, T: float, cn0_dbhz: float, doppler_hz: float,
+                  signal: SignalSpec | None = None) -> RunContext:
+    """What a channel filter is reset with at the start of a stage (``signal`` the tracked one)."""
     return RunContext(coherent_time_s=T, early_late_spacing_chips=c.early_late_spacing_chips, epoch_interval_s=T,
-                      cn0_dbhz=cn0_dbhz, doppler_hz=doppler_hz)
-
-
-def stage_filter(c: TrackingConfig, stage: str) -> tuple[str, dict[str, Any]]:
-    """The channel filter (name, parameters) of a scalar stage."""
-    return (c.pull_in_filter, c.pull_in_params) if stage == "pull-in" else (c.channel_filter, c.channel_params)
+                      cn0_dbhz=cn0_dbhz, doppler_hz=doppler_hz, signal=signal)
 
 
 class SampleChannel:
@@ -63,6 +40,8 @@ class SampleChannel:
     ----------
     prn, slot, spec
         The satellite, its index in the tracker's arrays, its signal.
+    filters
+        The task's `StageFilters`: a stage's filter is a fresh copy of its configuration.
     stage
         One of `tracker.STAGES`.
     coherent_ms
@@ -74,8 +53,10 @@ class SampleChannel:
         The lock detectors' last values.
     """
 
-    def __init__(self, prn: int, slot: int, spec: SignalSpec, config: TrackingConfig, record: ChannelRecord) -> None:
+    def __init__(self, prn: int, slot: int, spec: SignalSpec, config: TrackingConfig, record: ChannelRecord,
+                 filters: StageFilters) -> None:
         self.prn = prn
+        self.filters = filters
         self.slot = slot
         self.spec = spec
         self.config = config
@@ -97,14 +78,13 @@ class SampleChannel:
         c = self.config
         self.stage = stage
         self.coherent_ms = coherent_ms
-        name, params = stage_filter(c, stage)
-        self.filter = create_filter(name, params, pll_only=stage == "extended")
+        self.filter = self.filters.new(stage)
         T = coherent_ms * self.spec.code_period_s
         self.closure = (None if supports(type(self.filter), *NCO_COMMANDS)
                         else ErrorFeedback(c.closure_fll_bandwidth_hz, c.closure_dll_bandwidth_hz, T))
         cn0 = self.cn0_dbhz if self.cn0_dbhz > 0 else 40.0
         # A batch of one: the tracker merges it into the batch of its stage (`batch`).
-        self.filter.reset((1,), stage_context(c, T, cn0, doppler_hz))
+        self.filter.reset((1,), stage_context(c, T, cn0, doppler_hz, self.spec))
         self.batch = None
         self.join_tries = 0
         self.stage_ms = 0

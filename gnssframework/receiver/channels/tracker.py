@@ -41,15 +41,17 @@ from typing import Any
 
 import numpy as np
 
+from ...errors import ConfigError
 from ...interfaces import ChannelFilter
 from ...signal.correlator_model import tap_offsets
 from ...signal.correlators import Correlators
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
-from ..acquisition.search import Acquisition, AcquisitionResult
+from ..acquisition.search import Acquisition, AcquisitionResult, check_contract
 from ..frontend.recording import Recording
 from .batch import FilterBatch, batch_layout
-from .channel import NCO_COMMANDS, SampleChannel, create_filter, stage_context, stage_filter, supports
+from .channel import NCO_COMMANDS, SampleChannel, stage_context, supports
+from .factory import StageFilters
 from .closers import SampleCloser, ScalarSampleCloser
 from .config import TrackingConfig
 from .correlator import code_tables, correlate_periods
@@ -66,6 +68,9 @@ __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD
 LAG_LIMIT_S = 0.025
 #: Interval (ms) between two evaluations of a channel's lock detectors.
 DETECT_MS = 20
+#: Time (s) a channel of a signal without data symbols tracks before its lock detectors
+#: run (with data: one symbol, `SampleTracker.first_detect_periods`).
+FIRST_DETECT_S = 0.02
 
 
 class SampleTracker:
@@ -93,6 +98,9 @@ class SampleTracker:
         The loop closer (`closers.SampleCloser`); default `closers.ScalarSampleCloser`.
     signal
         The signal every channel tracks (`SignalSpec`); default `GPS_L1CA`.
+    filters
+        The stages' channel filters (`factory.StageFilters` of ``config``), built once for a
+        task that runs several trackers; default: built here.
 
     Notes
     -----
@@ -106,21 +114,29 @@ class SampleTracker:
 
     def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
                  backend: str | None = None, batch: bool = True, read_ahead: bool = True,
-                 closer: SampleCloser | None = None, signal: SignalSpec = GPS_L1CA) -> None:
+                 closer: SampleCloser | None = None, signal: SignalSpec = GPS_L1CA,
+                 filters: StageFilters | None = None) -> None:
         self.signal = signal
         self.closer = closer if closer is not None else ScalarSampleCloser()
         self.rec = recording
         self.batch = batch
         self.read_ahead = read_ahead
         self.config = config
-        self.acquisition = acquisition
+        self.acquisition = check_contract(acquisition)  # re-acquisition passes it the signal
         self.backend = backend
         self.fs = recording.info.sample_rate_hz
         self.if_hz = recording.info.if_hz
         self.offsets = np.array(list(tap_offsets(config.early_late_spacing_chips).values()))
-        create_filter(config.channel_filter, config.channel_params)  # refuse a bad filter before any work
-        create_filter(config.pull_in_filter, config.pull_in_params)
+        # Every stage's filter validated and built once (a bad one refused before any work);
+        # the channels take copies.
+        self.filters = filters if filters is not None else StageFilters(config)
+        if self.filters.config != config:
+            raise ConfigError("filters", "the StageFilters were built for another tracking config")
         self.codes = np.stack([signal.code(p) for p in signal.prns]).astype(np.float32)  # one row per slot
+        #: Prompts a channel holds before its lock detectors run: one data symbol's code
+        #: periods (20 on L1 C/A), or `FIRST_DETECT_S` of them on a signal without data.
+        self.first_detect_periods = signal.code_periods_per_symbol or max(
+            1, round(FIRST_DETECT_S / signal.code_period_s))
 
     def slot(self, prn: int) -> int:
         """The index of ``prn``'s channel in the tracker's arrays."""
@@ -161,7 +177,7 @@ class SampleTracker:
         ch = self.channels.get(prn)
         if ch is None:
             ch = self.channels[prn] = SampleChannel(prn, self.slot(prn), self.signal, self.config,
-                                                    self.records.setdefault(prn, ChannelRecord(prn)))
+                                                    self.records.setdefault(prn, ChannelRecord(prn)), self.filters)
         i = ch.slot
         self.active[i] = True
         self.start_sample[i] = first_sample + acq.code_phase_samples
@@ -303,10 +319,10 @@ class SampleTracker:
     def search(self, prns: tuple[int, ...], at: int, stop: int) -> None:
         """The acquisition's full search for ``prns`` on the samples from ``at``; the ones
         found restart in ``pull-in`` (nothing when the recording ends first)."""
-        need = self.acquisition.samples_needed(self.fs)
+        need = self.acquisition.samples_needed(self.fs, self.signal)
         if not prns or at + need > stop:
             return
-        found = self.acquisition.acquire(self.rec.read(at, need), self.fs, self.if_hz, prns)
+        found = self.acquisition.acquire(self.rec.read(at, need), self.fs, self.if_hz, prns, self.signal)
         for acq in found:
             if acq.detected:
                 self.records[acq.prn].events.append((at / self.fs, "re-acquired"))
@@ -350,12 +366,11 @@ class SampleTracker:
         if key not in self.layouts:
             stage, coherent_ms = key
             cfg = self.config
-            name, params = stage_filter(cfg, stage)
             T = coherent_ms * self.signal.code_period_s
 
             def make(shape: tuple[int, ...]) -> ChannelFilter:
-                f = create_filter(name, params, pll_only=stage == "extended")
-                f.reset(shape, stage_context(cfg, T, 40.0, 0.0))
+                f = self.filters.new(stage)
+                f.reset(shape, stage_context(cfg, T, 40.0, 0.0, self.signal))
                 return f
 
             def step(f: ChannelFilter, k: int) -> None:
@@ -437,10 +452,11 @@ class SampleTracker:
         10-100 times longer): on arrays over the channels whose prompt window is full."""
         cfg = self.config
         size = self.prompts.shape[1]
+        first = self.first_detect_periods
         full = []
         for c in chans:
             ms = int(self.ms_index[c.slot])
-            if self.n_prompts[c.slot] < min(cfg.lock_window_ms, 20):
+            if self.n_prompts[c.slot] < min(cfg.lock_window_ms, first):
                 c.locked = False
             elif ms >= c.next_detect:
                 c.next_detect = ms + DETECT_MS
@@ -491,5 +507,5 @@ class SampleTracker:
         cfg = self.config
         c.pli = phase_lock_indicator(self._window(c, cfg.lock_window_ms))
         prompts = self._window(c, cfg.cn0_window_ms)
-        c.cn0_dbhz = estimate_cn0(prompts, cfg.cn0_estimator, self._bit_phase(c, ms, prompts.size))
+        c.cn0_dbhz = estimate_cn0(prompts, cfg.cn0_estimator, self._bit_phase(c, ms, prompts.size), self.signal)
         self._lock_decision(c)

@@ -49,7 +49,7 @@ from ...navigation.ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_st
 from ...navigation.lnav import IonoUtc
 from ...navigation.pvt import chi2_ppf, dop, klobuchar_delay_s, troposphere_delay_m
 from ...signal.gps_l1ca import GPS_L1CA
-from ...signal.spec import SPEED_OF_LIGHT_M_S
+from ...signal.spec import SPEED_OF_LIGHT_M_S, SignalSpec
 from .fixes import PositionTable, full_week
 from .fixes import _ephemeris_for as ephemeris_for, _stack as stack_records
 from .observables import Observables
@@ -288,10 +288,11 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
                   ionosphere: bool = True, troposphere: bool = False, iono: IonoUtc | None = None,
                   sigma_m: float = 5.0, sigma_rate_m_s: float = 0.5, elevation_mask_deg: float = 5.0,
                   reference_week: int | None = None, exclusion: str = "innovation",
-                  innovation_false_alarm: float = 1e-3) -> PositionTable:
+                  innovation_false_alarm: float = 1e-3, signal: SignalSpec = GPS_L1CA) -> PositionTable:
     """The registered ``nav_filter`` (with ``params``) on every epoch of ``obs`` from the
     first fix of ``wls`` on (see the module text); the same columns as ``wls``, with
     ``excluded_prn`` the first satellite the innovation test left out at each epoch (0: none).
+    ``signal`` names the satellites in ``rinex`` (`SignalSpec.rinex_satellite`).
 
     ``wls`` is `fixes.solve_epochs` of the same observables and settings; ``exclusion``
     one of `EXCLUSIONS`; ``innovation_false_alarm`` the test's probability ``p``.
@@ -326,7 +327,8 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
         else:
             prns = obs.prn[np.isfinite(obs.pseudorange_m[e])]
         j = np.flatnonzero(np.isin(obs.prn, prns))
-        records = ephemeris_for(obs.prn[j], obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]))
+        records = ephemeris_for(obs.prn[j], obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]),
+                                signal)
         j = np.array([jj for jj, r in zip(j, records) if r is not None], dtype=int)
         if not running and k is None:
             continue

@@ -21,6 +21,8 @@ from ...navigation.ephemeris import Ephemerides, _wrap_week
 from ...navigation.lnav import IonoUtc
 from .observables import SPEED_OF_LIGHT_MPS, Observables
 from ...navigation.pvt import PositionFix, solve_position
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 
 __all__ = ["PositionTable", "solve_epochs", "write_positions_csv", "POSITION_COLUMNS", "full_week",
            "ELEVATION_MASK_DEG"]
@@ -68,8 +70,9 @@ MAX_EPHEMERIS_AGE_S = 4 * 3600.0
 
 
 def _ephemeris_for(prns: np.ndarray, obs: Observables | None, rinex: Ephemerides | None, t_s: float,
-                   sample_time_s: float) -> list:
-    """Per PRN, a healthy record (the last decoded by ``sample_time_s``, else RINEX's) or None."""
+                   sample_time_s: float, signal: SignalSpec = GPS_L1CA) -> list:
+    """Per PRN, a healthy record (the last decoded by ``sample_time_s``, else RINEX's,
+    named by ``signal``: QZSS PRN 193 is ``J01``) or None."""
     out = []
     decoded_by_prn = obs.ephemeris if obs is not None else {}  # None: no LNAV decoded (an assisted start)
     for prn in prns:
@@ -77,7 +80,7 @@ def _ephemeris_for(prns: np.ndarray, obs: Observables | None, rinex: Ephemerides
         rec = decoded[-1] if decoded else None
         if rec is None and rinex is not None:
             try:
-                rec = rinex.select([f"G{int(prn):02d}"], t_s)
+                rec = rinex.select([signal.rinex_satellite(int(prn))], t_s)
             except KeyError:  # no healthy record of it in the file
                 rec = None
             if rec is not None and not abs(_wrap_week(t_s - float(rec.elements["Toe"][0]))) <= MAX_EPHEMERIS_AGE_S:
@@ -99,8 +102,11 @@ def _stack(records: list[Ephemerides]) -> Ephemerides:
 def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphere: bool = True,
                  troposphere: bool = False, iono: IonoUtc | None = None, sigma_m: float = 5.0,
                  elevation_mask_deg: float = ELEVATION_MASK_DEG, reference_week: int | None = None,
-                 elevation_weights: bool = True, weighting: str | None = None) -> PositionTable:
+                 elevation_weights: bool = True, weighting: str | None = None,
+                 signal: SignalSpec = GPS_L1CA) -> PositionTable:
     """Solve every epoch of ``obs`` (see the module text).
+
+    ``signal`` names the satellites in ``rinex`` (its `SignalSpec.rinex_satellite`).
 
     ``iono`` overrides the decoded page 18; with ``ionosphere`` False no ionospheric
     correction is made; ``elevation_weights`` and ``weighting`` as `solve_position`'s
@@ -113,7 +119,8 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
     keep_t, used, excluded = [], [], []
     for e in range(obs.rx_time_s.size):
         ok = np.flatnonzero(np.isfinite(obs.pseudorange_m[e]))
-        records = _ephemeris_for(obs.prn[ok], obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]))
+        records = _ephemeris_for(obs.prn[ok], obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]),
+                                 signal)
         have = [j for j, r in enumerate(records) if r is not None]
         if len(have) < 4:
             continue

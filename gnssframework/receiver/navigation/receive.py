@@ -19,11 +19,14 @@ import pymap3d
 from ..acquisition.report import acquire_recording
 from ..acquisition.search import Acquisition, AcquisitionResult
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
+from ..channels.factory import StageFilters
 from ..frontend.recording import Recording
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.lnav import IonoUtc
 from ...plugin_ref import PluginSpec
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from .filtered import filter_epochs
 from .fixes import PositionTable, solve_epochs
 from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
@@ -52,7 +55,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             reference_week: int | None = None, progress: Any = None,
             nav_filter: PluginSpec | None = None, vector: VectorConfig | None = None,
             acquisitions: list[AcquisitionResult] | None = None, assist: Assistance | None = None,
-            iono_fallback: IonoUtc | None = None, weighting: str | None = None) -> ReceiveResult:
+            iono_fallback: IonoUtc | None = None, weighting: str | None = None,
+            signal: SignalSpec = GPS_L1CA, filters: StageFilters | None = None) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
     fraction of the recording tracked. With ``nav_filter`` the positions are that filter's
@@ -66,56 +70,63 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     ``iono_fallback`` (a navigation file header's Klobuchar coefficients) corrects the
     least-squares fixes, the nav filter and the vector loop's LNAV hand-over where no channel
     decoded page 18 (an assisted start takes the assistance's). ``weighting``
-    that of the least-squares fixes (`pvt.solve_position`'s; ``rtklib`` for RTKLIB's SPP model)."""
+    that of the least-squares fixes (`pvt.solve_position`'s; ``rtklib`` for RTKLIB's SPP model).
+    ``signal`` is the one searched, tracked and dated (an LNAV-format `SignalSpec`: GPS or
+    QZSS L1 C/A); ``filters`` the stages' channel filters built once for the task
+    (`channels.factory.StageFilters` of ``config``; built by the tracker when None)."""
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
                                         "give nav_filter or vector, not both")
     if acquisitions is None:
-        acquisitions = acquire_recording(recording, acquisition, prns or tuple(range(1, 33)))
+        acquisitions = acquire_recording(recording, acquisition, prns or None, signal=signal)  # None: all
     found = [r for r in acquisitions if r.detected]
     if vector is not None:
         tracker = VectorSampleTracker(recording, config, acquisition, vector, rinex=rinex, ionosphere=ionosphere,
-                                      reference_week=reference_week, assist=assist, iono_fallback=iono_fallback)
+                                      reference_week=reference_week, assist=assist, iono_fallback=iono_fallback,
+                                      signal=signal, filters=filters)
         tracking = tracker.run(found, duration_s, progress)
         solution = tracker.solution
-        timings = [channel_timing(ch) if assist is not None else _with_rejoined(channel_timing(ch), ch, solution)
+        timings = [channel_timing(ch, signal=signal) if assist is not None
+                   else _with_rejoined(channel_timing(ch, signal=signal), ch, solution, signal)
                    for ch in tracking.channels.values()]  # (an assisted start's are `assisted_observables`)
         scalar = None
         if any(t is not None and t.time_s.size > 1 for t in timings):
             obs = observables(timings, rate_hz)
             scalar = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere,
                                   iono=_fallback(obs, iono_fallback), reference_week=reference_week,
-                                  weighting=weighting)
+                                  weighting=weighting, signal=signal)
         else:
             obs = None
         table = concatenate_tables(scalar, solution.table(vector.solution_rate_hz), solution.handover_s)
         if assist is not None and solution.replica_tx:
-            assisted = assisted_observables(tracking, solution, rate_hz, assist.iono)
+            assisted = assisted_observables(tracking, solution, rate_hz, assist.iono, signal)
             if assisted is not None:  # the vector channels' rows, dated without LNAV
                 least_squares = solve_epochs(assisted, rinex, ionosphere=ionosphere, troposphere=troposphere,
                                              reference_week=assist.week if reference_week is None else reference_week,
-                                             weighting=weighting)
+                                             weighting=weighting, signal=signal)
                 return ReceiveResult(tracking, assisted, table, least_squares, solution)
         return ReceiveResult(tracking, obs, table, scalar, solution)
     if assist is not None:
         raise ConfigError("approx_position", "an approximate position and start time start vector tracking: "
                                              "give vector as well")
-    tracking = SampleTracker(recording, config, acquisition).run(found, duration_s, progress)
-    timings = [channel_timing(ch) for ch in tracking.channels.values()]
+    tracking = SampleTracker(recording, config, acquisition, signal=signal, filters=filters).run(found, duration_s,
+                                                                                                progress)
+    timings = [channel_timing(ch, signal=signal) for ch in tracking.channels.values()]
     if not any(t is not None and t.time_s.size > 1 for t in timings):
         return ReceiveResult(tracking, None, None)
     obs = observables(timings, rate_hz)
     iono = _fallback(obs, iono_fallback)
     table = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere, iono=iono,
-                         reference_week=reference_week, weighting=weighting)
+                         reference_week=reference_week, weighting=weighting, signal=signal)
     if nav_filter is None:
         return ReceiveResult(tracking, obs, table, table)
     filtered = filter_epochs(obs, table, nav_filter.name, nav_filter.params, rinex, ionosphere=ionosphere,
-                             troposphere=troposphere, iono=iono, reference_week=reference_week)
+                             troposphere=troposphere, iono=iono, reference_week=reference_week, signal=signal)
     return ReceiveResult(tracking, obs, filtered, table)
 
 
-def _with_rejoined(timing: ChannelTiming | None, record, solution: VectorSolution) -> ChannelTiming | None:
+def _with_rejoined(timing: ChannelTiming | None, record, solution: VectorSolution,
+                   signal: SignalSpec = GPS_L1CA) -> ChannelTiming | None:
     """``timing`` (`channel_timing`'s) and, where the channel's last stretch of vector rows
     is not in it (a channel that rejoined the loop after re-acquisition: its first row may
     start mid-bit, so no bit run dates it), those rows dated from the replica's transmit time
@@ -123,7 +134,7 @@ def _with_rejoined(timing: ChannelTiming | None, record, solution: VectorSolutio
     closes a vector channel). Rows whose decoded TOW disagrees with that dating are left out."""
     if record.prn not in solution.replica_tx:
         return timing
-    rejoined = assisted_timing(record, *solution.replica_tx[record.prn])
+    rejoined = assisted_timing(record, *solution.replica_tx[record.prn], signal=signal)
     if rejoined is None or (timing is not None and timing.time_s[-1] >= rejoined.time_s[0]):
         return timing
     if rejoined.tow_offset_s is not None and abs(rejoined.tow_offset_s) > TOW_TOLERANCE_S:
@@ -149,7 +160,7 @@ def _fallback(obs: Observables, iono: IonoUtc | None) -> IonoUtc | None:
 
 
 def assisted_observables(tracking: TrackingResult, solution: VectorSolution, rate_hz: float,
-                         iono: IonoUtc | None = None) -> Observables | None:
+                         iono: IonoUtc | None = None, signal: SignalSpec = GPS_L1CA) -> Observables | None:
     """Observables of the vector channels of an assisted start (`observables.assisted_timing`),
     the receiver clock at the start time (``solution.rx_offset_s``); None without a dated channel.
 
@@ -159,7 +170,7 @@ def assisted_observables(tracking: TrackingResult, solution: VectorSolution, rat
     """
     timings = []
     for prn, (end_s, end_tx_s) in sorted(solution.replica_tx.items()):
-        tm = assisted_timing(tracking.channels[prn], end_s, end_tx_s)
+        tm = assisted_timing(tracking.channels[prn], end_s, end_tx_s, signal=signal)
         if tm is None:
             continue
         if tm.tow_offset_s is not None and abs(tm.tow_offset_s) > TOW_TOLERANCE_S:

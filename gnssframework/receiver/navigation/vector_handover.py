@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ... import registry
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...navigation.ephemeris import Ephemerides, satellite_state
@@ -114,7 +113,7 @@ def _assisted_transmit_times(v: VectorSampleCloser, chans: list[SampleChannel], 
     records = {}
     for c in chans:
         try:
-            records[c.prn] = v.rinex.select([f"{sp.system}{c.prn:02d}"], a.start_tow_s + now_s)
+            records[c.prn] = v.rinex.select([sp.rinex_satellite(c.prn)], a.start_tow_s + now_s)
         except KeyError:  # no healthy record of it in the file
             continue
     chans = [c for c in chans if c.prn in records]
@@ -245,7 +244,7 @@ def _ephemeris(v: VectorSampleCloser, prn: int, obs, sample_time_s: float) -> Ep
     rec = decoded[-1] if decoded else None
     if rec is None and v.rinex is not None:
         try:
-            rec = v.rinex.select([f"{v.tracker.signal.system}{prn:02d}"], float(obs.rx_time_s[-1]))
+            rec = v.rinex.select([v.tracker.signal.rinex_satellite(prn)], float(obs.rx_time_s[-1]))
         except KeyError:
             rec = None
     return rec if rec is not None and rec.health[0] == 0 else None
@@ -259,10 +258,11 @@ def start_vector(v: VectorSampleCloser, c: SampleChannel) -> None:
     vc, cfg = v.vector, t.config
     T = c.coherent_ms * c.spec.code_period_s
     c.stage = "vector"
-    c.filter = registry.create("channel_filter", vc.channel_filter, **vc.channel_params)
+    c.filter = v.channel_filter.new()  # a copy of the configuration built once
     c.cn0_ref = max(c.cn0_dbhz, 20.0)
     c.filter.reset((1,), RunContext(coherent_time_s=T, early_late_spacing_chips=cfg.early_late_spacing_chips,
-                                    epoch_interval_s=T, cn0_dbhz=c.cn0_ref, doppler_hz=float(t.doppler[c.slot])))
+                                    epoch_interval_s=T, cn0_dbhz=c.cn0_ref, doppler_hz=float(t.doppler[c.slot]),
+                                    signal=c.spec))
     c.closure = VECTOR
     c.batch = None
     c.join_tries = 3  # steps alone: its outputs go to the navigation filter, one channel at a time

@@ -201,7 +201,7 @@ class VectorNavigator:
             x[:3] += x[3:6] * (t_nav - self.t_fix)
             x[6] += x[7] * (t_nav - self.t_fix)
             self.filter.reset((1,), RunContext(coherent_time_s=T, epoch_interval_s=T, initial_state=x[None],
-                                               initial_cov=self.cov0))
+                                               initial_cov=self.cov0, signal=sp))
             self.started = True
             self.t_nav = t_nav
             self.x = x

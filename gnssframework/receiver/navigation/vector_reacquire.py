@@ -79,7 +79,7 @@ def reacquire(v: VectorSampleCloser, at: int, stop: int) -> None:
             continue
         acq = window_search(t.rec.read(at, need), t.fs, t.if_hz, prn, window, coherent_ms=p.reacquire_coherent_ms,
                             noncoherent=p.reacquire_noncoherent, alternate=p.reacquire_coherent_ms == 10,
-                            pfa=p.reacquire_pfa)
+                            pfa=p.reacquire_pfa, signal=sp)
         if not acq.detected:
             continue
         per_code = t.fs * sp.code_length_chips / sp.chip_rate_hz
@@ -110,7 +110,7 @@ def _predict_signal(v: VectorSampleCloser, prn: int, t_s: float):
         if v.rinex is None:
             return None
         try:
-            record = v.rinex.select([f"{sp.system}{prn:02d}"], t_s + nav.rx_offset)
+            record = v.rinex.select([sp.rinex_satellite(prn)], t_s + nav.rx_offset)
         except KeyError:
             return None
     dt = t_s - nav.t_nav

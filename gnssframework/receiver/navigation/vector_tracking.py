@@ -32,10 +32,13 @@ from ...errors import ConfigError
 from ...interfaces import ChannelFilter
 from ...navigation.lnav import IonoUtc
 from ...navigation.ephemeris import Ephemerides
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from ..acquisition.search import Acquisition, AcquisitionResult
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..channels.channel import SampleChannel
 from ..channels.closers import SampleCloser, ScalarSampleCloser
+from ..channels.factory import FilterFactory, StageFilters
 from ..frontend.recording import Recording
 from ..engine.closers import check_composition
 from .vector_config import Assistance, VectorConfig, assistance, vector_config
@@ -60,6 +63,9 @@ class VectorSampleCloser(SampleCloser):
         `VectorConfig`.
     rinex, ionosphere, reference_week, assist, iono_fallback
         As `VectorSampleTracker`.
+    channel_filter
+        The vector channels' filter (`FilterFactory` of ``vector.channel_filter`` and its
+        parameters), built once; default: built here. Each hand-over takes a copy.
 
     Attributes
     ----------
@@ -73,8 +79,10 @@ class VectorSampleCloser(SampleCloser):
 
     def __init__(self, vector: VectorConfig, *, rinex: Ephemerides | None = None, ionosphere: bool = True,
                  reference_week: int | None = None, assist: Assistance | None = None,
-                 iono_fallback: IonoUtc | None = None) -> None:
+                 iono_fallback: IonoUtc | None = None, channel_filter: FilterFactory | None = None) -> None:
         self.vector = vector
+        self.channel_filter = (channel_filter if channel_filter is not None
+                               else FilterFactory("channel_filter", vector.channel_filter, vector.channel_params))
         self.rinex = rinex
         self.assist = assist
         self.ionosphere = ionosphere
@@ -160,7 +168,7 @@ class VectorSampleTracker(SampleTracker):
 
     Parameters
     ----------
-    recording, config, acquisition, backend
+    recording, config, acquisition, backend, signal, filters
         As `SampleTracker`.
     vector
         `VectorConfig`.
@@ -181,17 +189,18 @@ class VectorSampleTracker(SampleTracker):
     def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
                  vector: VectorConfig | None = None, *, rinex: Ephemerides | None = None, ionosphere: bool = True,
                  reference_week: int | None = None, assist: Assistance | None = None,
-                 backend: str | None = None, iono_fallback: IonoUtc | None = None) -> None:
-        super().__init__(recording, config, acquisition, backend=backend)
+                 backend: str | None = None, iono_fallback: IonoUtc | None = None, signal: SignalSpec = GPS_L1CA,
+                 filters: StageFilters | None = None) -> None:
+        super().__init__(recording, config, acquisition, backend=backend, signal=signal, filters=filters)
         if assist is not None and rinex is None:
             raise ConfigError("approx_position", "an assisted start needs the ephemerides of a RINEX navigation "
                                                  "file (--ephemeris)")
         v = vector or VectorConfig()
-        check_composition(registry.create("channel_filter", v.channel_filter, **v.channel_params),
-                          registry.create("nav_filter", v.nav_filter, **v.nav_params))
         self.vector = v
         self.closer = VectorSampleCloser(v, rinex=rinex, ionosphere=ionosphere, reference_week=reference_week,
                                          assist=assist, iono_fallback=iono_fallback)
+        check_composition(self.closer.channel_filter.prototype,
+                          registry.create("nav_filter", v.nav_filter, **v.nav_params))
 
     @property
     def solution(self) -> VectorSolution:
