@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 from gnssframework.signal.gps_l1ca import GPS_L1CA
+from gnssframework.signal.gps_l2c import GPS_L2C, QZSS_L2C
 from gnssframework.signal.qzss_l1ca import QZSS_L1CA
 from gnssframework.signal.registered import Signal
 from gnssframework.signal.sbas_l1 import SBAS_L1
 
-__all__ = ["GpsL1ca", "QzssL1ca", "SbasL1"]
+__all__ = ["GpsL1ca", "QzssL1ca", "SbasL1", "GpsL2c", "QzssL2c"]
 
 
 class GpsL1ca(Signal):
@@ -32,3 +33,20 @@ class SbasL1(Signal):
     name = "sbas-l1"
     spec = SBAS_L1
     description = "SBAS L1: BPSK(1) at 1575.42 MHz, C/A-family Gold codes by G2 delay, PRN 120-158, 500 sps"
+
+
+class GpsL2c(Signal):
+    """GPS L2C: L2 CM (data) and L2 CL (pilot) time-multiplexed chip by chip (IS-GPS-200)."""
+
+    name = "gps-l2c"
+    spec = GPS_L2C
+    description = ("GPS L2C: CM (10230 chips, 20 ms, 50 sps) and CL (767250 chips, 1.5 s) alternating at "
+                   "1.023 Mchip/s on 1227.6 MHz, PRN 1-32")
+
+
+class QzssL2c(Signal):
+    """QZSS L2C, its CM component (IS-QZSS-PNT)."""
+
+    name = "qzss-l2c"
+    spec = QZSS_L2C
+    description = "QZSS L2C: CM (10230 chips, 20 ms) in its time slot on 1227.6 MHz, PRN 193-202"
