@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+from gnssframework.signal.beidou_b1c import BEIDOU_B1C
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.gps_l2c import GPS_L2C, QZSS_L2C
 from gnssframework.signal.qzss_l1ca import QZSS_L1CA
 from gnssframework.signal.registered import Signal
 from gnssframework.signal.sbas_l1 import SBAS_L1
 
-__all__ = ["GpsL1ca", "QzssL1ca", "SbasL1", "GpsL2c", "QzssL2c"]
+__all__ = ["GpsL1ca", "QzssL1ca", "SbasL1", "GpsL2c", "QzssL2c", "BeidouB1c"]
 
 
 class GpsL1ca(Signal):
@@ -50,3 +51,12 @@ class QzssL2c(Signal):
     name = "qzss-l2c"
     spec = QZSS_L2C
     description = "QZSS L2C: CM (10230 chips, 20 ms) in its time slot on 1227.6 MHz, PRN 193-202"
+
+
+class BeidouB1c(Signal):
+    """BeiDou B1C: Weil-code pilot (tracked) and data, BOC(1,1) replica (BDS-SIS-ICD-B1C)."""
+
+    name = "beidou-b1c"
+    spec = BEIDOU_B1C
+    description = ("BeiDou B1C: 10230-chip Weil codes (10 ms) at 1.023 Mchip/s, BOC(1,1) replica, pilot and "
+                   "100 sps data, PRN 1-63")

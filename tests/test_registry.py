@@ -26,7 +26,7 @@ def builtin_names(kind: str) -> list[str]:
 def test_kinds_and_builtin_names():
     assert registry.kinds() == ["acquisition", "augmentation", "channel_filter", "discriminator", "estimator",
                                 "metric", "nav_filter", "noise_adapter", "sample_source", "scenario", "signal"]
-    assert builtin_names("signal") == ["gps-l1ca", "gps-l2c", "qzss-l1ca", "qzss-l2c", "sbas-l1"]
+    assert builtin_names("signal") == ["beidou-b1c", "gps-l1ca", "gps-l2c", "qzss-l1ca", "qzss-l2c", "sbas-l1"]
     assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
     assert builtin_names("scenario") == ["carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
                                          "sample-recording", "scintillation", "tracking-threshold",
