@@ -88,6 +88,10 @@ def test_a_synthetic_l2c_satellite_is_acquired_at_its_doppler_code_phase_and_cn0
     # The generator sends the tracked component (CM) at 44 dB-Hz in its slot: the search's
     # C/N0 is CM's (its replica's duty, 1/2, counted), within the grid's losses.
     assert 41.0 <= r.cn0_dbhz <= 44.5
+    # The assisted window search around it counts the duty too.
+    w = window_search(x, fs, 0.0, 12, SearchWindow(r.code_phase_samples, 615.0, 2.0, 30.0), coherent_ms=1,
+                      noncoherent=1, alternate=False, signal=GPS_L2C)
+    assert w.detected and 41.0 <= w.cn0_dbhz <= 44.5
 
 
 def _read(name):
