@@ -57,7 +57,7 @@ def test_the_description_and_its_registration():
 
 
 def test_pocketsdrs_b1c_satellites_are_found_on_pilot_and_data_at_one_code_epoch():
-    """The pilot search finds PocketSDR's satellites (its weakest, 27, and three strong ones:
+    """The pilot search finds PocketSDR's satellites (27, one of its two weakest, and three strong ones:
     a subset, to keep the test short) and not PRN 1, which it does not find; the data code
     (its own table of the ICD), searched 40 samples either side of the pilot's code phase,
     peaks on the pilot's very sample: the two components share one code epoch."""
