@@ -56,8 +56,10 @@ def test_the_description_alternates_cm_and_cl_chip_by_chip():
     assert GPS_L2C.component_code_length(1) == 767250 and GPS_L2C.code(1, 1).shape == (767250,)
     assert GPS_L2C.subchips_per_chip == 2 and not GPS_L2C.is_bpsk
     cm, cl = GPS_L2C.spreading_table(7, 0), GPS_L2C.spreading_table(7, 1)
-    np.testing.assert_array_equal(cm[0::2], GPS_L2C.code(7)) and np.testing.assert_array_equal(cm[1::2], 0)
-    np.testing.assert_array_equal(cl[1::2], GPS_L2C.code(7, 1)) and np.testing.assert_array_equal(cl[0::2], 0)
+    np.testing.assert_array_equal(cm[0::2], GPS_L2C.code(7))
+    np.testing.assert_array_equal(cm[1::2], 0)
+    np.testing.assert_array_equal(cl[1::2], GPS_L2C.code(7, 1))
+    np.testing.assert_array_equal(cl[0::2], 0)
     # At 1.023 Mchip/s the two slots make one chip stream CM0 CL0 CM1 CL1 ...
     stream = cm[:2 * 100] + cl[:2 * 100]
     np.testing.assert_array_equal(np.abs(stream), 1)
@@ -98,7 +100,8 @@ def _read(name):
     return open_recording(DATA / name, format="ci8", sample_rate_hz=4e6, if_hz=0.0, q_sign=-1).read(0, 400_000)
 
 
-@pytest.mark.parametrize("l1, l2, prns", [(GPS_L1CA, GPS_L2C, (18, 26, 29, 31)), (QZSS_L1CA, QZSS_L2C, (194, 195, 199))])
+@pytest.mark.parametrize("l1, l2, prns", [(GPS_L1CA, GPS_L2C, (18, 26, 29, 31)),
+                                          (QZSS_L1CA, QZSS_L2C, (194, 195, 199))])
 def test_pocketsdrs_l2c_satellites_are_at_their_l1_code_epoch_and_scaled_doppler(l1, l2, prns):
     """L1 C/A first (100 ms of the L1 file), then L2 CM in a Doppler window around
     1227.6/1575.42 times the L1 Doppler (40 ms of the L2 file, the same capture's second

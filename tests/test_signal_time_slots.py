@@ -24,7 +24,8 @@ def test_time_slots_cut_each_chip_and_long_components_keep_their_length():
                       (Component("a", _code(100), time_slot=(0, 2)),
                        Component("b", _code(300), time_slot=(1, 2), code_length_chips=300)))
     assert spec.subchips_per_chip == 2 and not spec.is_bpsk
-    np.testing.assert_array_equal(spec.chip_pulse(0), [1, 0]) and np.testing.assert_array_equal(spec.chip_pulse(1), [0, 1])
+    np.testing.assert_array_equal(spec.chip_pulse(0), [1, 0])
+    np.testing.assert_array_equal(spec.chip_pulse(1), [0, 1])
     assert spec.component_code_length(1) == 300 and spec.spreading_table(1, 1).shape == (600,)
     np.testing.assert_array_equal(spec.spreading_table(1, 1)[1::2], spec.code(1, 1))
     three = SignalSpec("toy-tm3", "X", "2X", 1227.6e6, 511.5e3, 100, (1,),

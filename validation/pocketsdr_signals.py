@@ -48,7 +48,8 @@ def search(folder: Path, name: str, signal, **params) -> int:
     found = sorted((r for r in res if r.detected), key=lambda r: -r.test_statistic)
     expected = POCKETSDR[(name, signal.name)]
     print(f"\n{name}, {signal.name}, pcps {params}, threshold {res[0].threshold:.1f}\n")
-    print("| PRN | PocketSDR | statistic | Doppler (Hz) | code phase (chips) | C/N0 (dB-Hz) |\n|---|---|---|---|---|---|")
+    print("| PRN | PocketSDR | statistic | Doppler (Hz) | code phase (chips) | C/N0 (dB-Hz) |")
+    print("|---|---|---|---|---|---|")
     for r in found:
         print(f"| {r.prn} | {'yes' if r.prn in expected else ''} | {r.test_statistic:.1f} | {r.doppler_hz:.1f} | "
               f"{r.code_phase_chips:.1f} | {r.cn0_dbhz:.1f} |")
