@@ -18,6 +18,10 @@ from gnssframework.plugin import PluginParams
 
 __all__ = ["ParallelCodePhaseSearch"]
 
+#: Largest raw search grid held at once (float32 elements, 256 MB): PRNs are searched in
+#: groups whose grids fit.
+_GRID_ELEMENTS = 1 << 26
+
 
 class PcpsParams(PluginParams):
     coherent_ms: int = Field(1, ge=1, le=10, description="coherent integration time (code periods)")
@@ -46,7 +50,9 @@ class ParallelCodePhaseSearch(Acquisition):
     chi-square(2K) quantile for the per-cell false-alarm probability that gives ``pfa``
     over the grid's cells. C/N0 from the fine peak: with the correlator normalisation of
     `gnssframework.signal.correlator_model`, :math:`E[S] = K(2 + 2cT)`, so
-    :math:`\\hat c = (S/K - 2)/(2T)`.
+    :math:`\\hat c = (S/K - 2)/(2T)`; for a component sent in one of two time slots (GPS L2
+    CM) a block holds its energy over :math:`T/2` only, so :math:`2T` becomes :math:`T` (the
+    replica's duty, `SignalSpec.chip_pulse`), and :math:`\\hat c` is that component's C/N0.
     """
 
     name = "pcps"
@@ -82,11 +88,34 @@ class ParallelCodePhaseSearch(Acquisition):
                                                          f"{p.noncoherent}")
         blocks = p.noncoherent // 2 if alt else p.noncoherent  # summed into the statistic
         dopplers = self.dopplers_hz(signal)
-        grid = search_grid(samples, sample_rate_hz, if_hz, prns, T, p.noncoherent, dopplers, alt, signal)
-        n = grid.shape[-1]
-        threshold = threshold_from_pfa(p.pfa, grid[0].size, blocks, alt)
+        n = int(round(T * sample_rate_hz))
+        threshold = threshold_from_pfa(p.pfa, dopplers.size * n, blocks, alt)
         fine_step = p.fine_step_hz or 1.0 / (20 * T)
         coarse_step = dopplers[1] - dopplers[0] if dopplers.size > 1 else fine_step
+        results = []
+        # PRNs in groups whose grids fit _GRID_ELEMENTS (one group for a 1 ms code; a 20 ms
+        # code such as L2 CM has 20 times the lags and 20 times the Doppler bins a PRN).
+        group = max(1, _GRID_ELEMENTS // (dopplers.size * n))
+        for lo in range(0, len(prns), group):
+            grid = search_grid(samples, sample_rate_hz, if_hz, prns[lo:lo + group], T, p.noncoherent, dopplers, alt,
+                               signal)
+            results += self._peaks(grid, prns[lo:lo + group], samples, sample_rate_hz, if_hz, T, dopplers,
+                                   threshold, blocks, fine_step, coarse_step, signal)
+        found = [r.cn0_dbhz for r in results if r.detected]
+        if p.xcorr_margin_db is not None and found:
+            floor = max(found) - p.xcorr_margin_db
+            results = [replace(r, detected=False) if r.detected and r.cn0_dbhz < floor else r for r in results]
+        return results
+
+    def _peaks(self, grid, prns, samples, sample_rate_hz, if_hz, T, dopplers, threshold, blocks, fine_step,
+               coarse_step, signal) -> list[AcquisitionResult]:
+        """Each PRN's peak of its raw ``grid``, its fine Doppler and C/N0."""
+        p = self.params
+        alt = p.alternate_blocks
+        n = grid.shape[-1]
+        # The replica's share of time sent (1; 1/2 for a component in one of two time slots,
+        # GPS L2 CM): the signal's energy in a coherent block is C T duty, not C T.
+        duty = float(np.mean(signal.chip_pulse(0) ** 2))
         results = []
         for i, prn in enumerate(prns):
             sigma2 = noise_floor(grid[i], blocks, alt)
@@ -96,13 +125,9 @@ class ParallelCodePhaseSearch(Acquisition):
             power = fine_doppler(samples, sample_rate_hz, if_hz, prn, int(s), T, p.noncoherent, fine, alt,
                                  signal) / sigma2
             j = int(np.argmax(power))
-            c = max((power[j] / blocks - 2.0) / (2 * T), 1e-3)
+            c = max((power[j] / blocks - 2.0) / (2 * T * duty), 1e-3)
             # Chip 0 at sample s: the phase at sample 0 is -s samples' worth of chips.
             chips = float((-s * signal.chip_rate_hz / sample_rate_hz) % signal.code_length_chips)
             results.append(AcquisitionResult(int(prn), stat > threshold, float(fine[j]), int(s % n), chips,
                                              float(10 * np.log10(c)), stat, threshold))
-        found = [r.cn0_dbhz for r in results if r.detected]
-        if p.xcorr_margin_db is not None and found:
-            floor = max(found) - p.xcorr_margin_db
-            results = [replace(r, detected=False) if r.detected and r.cn0_dbhz < floor else r for r in results]
         return results

@@ -28,8 +28,8 @@ def test_kinds_and_builtin_names():
                                 "estimator", "metric", "nav_filter", "noise_adapter", "sample_source", "scenario",
                                 "signal"]
     assert builtin_names("cn0_estimator") == ["beaulieu", "m2m4", "narrow-wide", "noise-channel", "snv"]
-    assert builtin_names("signal") == ["galileo-e1b", "galileo-e1b-boc11", "galileo-e1c", "galileo-e1c-boc11",
-                                       "gps-l1ca", "qzss-l1ca"]
+    assert builtin_names("signal") == ["beidou-b1c", "galileo-e1b", "galileo-e1b-boc11", "galileo-e1c",
+                                       "galileo-e1c-boc11", "gps-l1ca", "gps-l2c", "qzss-l1ca", "qzss-l2c", "sbas-l1"]
     assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
     assert builtin_names("scenario") == ["carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
                                          "sample-recording", "scintillation", "tracking-threshold",

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["SignalSpec", "Subcarrier", "Component", "BPSK", "SPEED_OF_LIGHT_M_S", "F0_HZ"]
+__all__ = ["SignalSpec", "Subcarrier", "Component", "BPSK", "SPEED_OF_LIGHT_M_S", "F0_HZ", "pulse_autocorrelation"]
 
 #: Speed of light in vacuum (m/s), IS-GPS-200 and the Galileo ICD alike.
 SPEED_OF_LIGHT_M_S = 299_792_458.0
@@ -107,14 +107,7 @@ class Subcarrier:
         ch. 12: BOC(1,1) gives :math:`1 - 3|\tau|` up to half a chip, then
         :math:`|\tau| - 1`). BPSK gives the triangle :math:`\max(0, 1 - |\tau|)`.
         """
-        tau = np.abs(np.asarray(tau_chips, float))
-        v = self.chip_pulse(sign)
-        s = v.size
-        rk = np.array([np.dot(v[:s - k], v[k:]) for k in range(s)] + [0.0]) / np.dot(v, v)
-        x = np.minimum(tau * s, float(s))
-        k = np.minimum(np.floor(x).astype(int), s - 1)
-        f = x - k
-        return (1.0 - f) * rk[k] + f * rk[k + 1]
+        return pulse_autocorrelation(self.chip_pulse(sign), tau_chips)
 
     def waveform(self, chip_phase: np.ndarray, sign: float = 1.0) -> np.ndarray:
         """The sub-carrier's value at code phase ``chip_phase`` (chips, any shape).
@@ -134,6 +127,21 @@ class Subcarrier:
             return square(self.m)
         w1, w2 = self.weights
         return w1 * square(self.m) + sign * w2 * square(self.m2)
+
+
+def pulse_autocorrelation(pulse: np.ndarray, tau_chips: np.ndarray) -> np.ndarray:
+    """Normalised autocorrelation at lags ``tau_chips`` of a spreading waveform with random
+    (or long) codes whose chip pulse is ``pulse`` (its constant values on equal pieces of one
+    chip): the discrete autocorrelation of the pieces, linear between them
+    (`Subcarrier.autocorrelation`)."""
+    tau = np.abs(np.asarray(tau_chips, float))
+    v = np.asarray(pulse, float)
+    s = v.size
+    rk = np.array([np.dot(v[:s - k], v[k:]) for k in range(s)] + [0.0]) / np.dot(v, v)
+    x = np.minimum(tau * s, float(s))
+    k = np.minimum(np.floor(x).astype(int), s - 1)
+    f = x - k
+    return (1.0 - f) * rk[k] + f * rk[k + 1]
 
 
 #: No sub-carrier.
@@ -158,6 +166,15 @@ class Component:
         Share of the signal's power this component carries.
     subcarrier_sign
         Sign of a CBOC's second term on this component.
+    code_length_chips
+        This component's primary code length where it differs from the signal's (GPS L2 CL:
+        767250 chips beside CM's 10230); ``None``: the signal's ``code_length_chips``.
+    time_slot
+        ``(slot, slots)`` of a time-multiplexed component: each chip period (at the
+        signal's ``chip_rate_hz``) is cut into ``slots`` equal parts, and this component is
+        sent in part ``slot`` only (its waveform is 0 in the others). GPS L2C alternates CM
+        and CL chip by chip at 1.023 Mchip/s: CM is ``(0, 2)``, CL ``(1, 2)`` of each
+        511.5 kHz chip period (IS-GPS-200, sec. 3.2.1.3 and 3.3.2.4). ``(0, 1)``: not multiplexed.
     """
 
     name: str
@@ -166,6 +183,8 @@ class Component:
     symbol_period_s: float | None = None
     power_fraction: float = 1.0
     subcarrier_sign: float = 1.0
+    code_length_chips: int | None = None
+    time_slot: tuple[int, int] = (0, 1)
 
 
 @dataclass(frozen=True)
@@ -219,6 +238,10 @@ class SignalSpec:
         if not self.prns:
             raise ConfigError(f"signal {self.name!r} prns", "a signal needs at least one PRN")
         for comp in self.components:
+            slot, slots = comp.time_slot
+            if not (isinstance(slots, int) and slots >= 1 and isinstance(slot, int) and 0 <= slot < slots):
+                raise ConfigError(f"signal {self.name!r} component {comp.name!r} time_slot",
+                                  f"must be (slot, slots) with 0 <= slot < slots, got {comp.time_slot!r}")
             sym = comp.symbol_period_s
             if sym is None:
                 continue
@@ -290,10 +313,16 @@ class SignalSpec:
         """
         self.check_prn(prn)
         code = np.asarray(self.components[component].code(int(prn)))
-        if code.shape != (self.code_length_chips,):
+        length = self.component_code_length(component)
+        if code.shape != (length,):
             raise ConfigError(f"signal {self.name!r} code", f"the generator gave {code.shape} chips for PRN {prn}, "
-                                                          f"the description says {self.code_length_chips}")
+                                                          f"the description says {length}")
         return code
+
+    def component_code_length(self, component: int = 0) -> int:
+        """Primary code length (chips) of a component: its own, else the signal's."""
+        own = self.components[component].code_length_chips
+        return self.code_length_chips if own is None else int(own)
 
     def check_prn(self, prn: int) -> int:
         """``prn`` as an ``int``, or a `ConfigError` naming the signal and its PRN range."""
@@ -304,13 +333,26 @@ class SignalSpec:
 
     @property
     def subchips_per_chip(self) -> int:
-        """Pieces of a chip on which the spreading waveform is constant (1 for BPSK)."""
-        return self.subcarrier.subchips_per_chip
+        """Pieces of a chip on which the spreading waveform is constant (1 for BPSK): the
+        sub-carrier's, times what the components' time slots need (2 for GPS L2C)."""
+        return math.lcm(self.subcarrier.subchips_per_chip, *(c.time_slot[1] for c in self.components))
 
     @property
     def is_bpsk(self) -> bool:
-        """Whether the signal has no sub-carrier."""
-        return self.subcarrier.kind == "bpsk"
+        """Whether the chip pulse is BPSK's full-chip rectangle: no sub-carrier and no time
+        multiplexing (the BPSK triangle is then the code's autocorrelation)."""
+        return self.subcarrier.kind == "bpsk" and self.subchips_per_chip == 1
+
+    def chip_pulse(self, component: int = 0) -> np.ndarray:
+        """A component's value on each of the `subchips_per_chip` pieces of one chip: the
+        sub-carrier (`Subcarrier.waveform` at the pieces' centres) times its time slot
+        (1 inside, 0 outside; all ones when not multiplexed)."""
+        comp = self.components[component]
+        s = self.subchips_per_chip
+        centres = (np.arange(s) + 0.5) / s
+        slot, slots = comp.time_slot
+        inside = np.floor(centres * slots) == slot
+        return self.subcarrier.waveform(centres, comp.subcarrier_sign) * inside
 
     def spreading_table(self, prn: int, component: int = 0) -> np.ndarray:
         r"""One code period of the spreading waveform (code times sub-carrier) as a table of
@@ -321,11 +363,11 @@ class SignalSpec:
         :math:`\lfloor S x \rfloor \bmod (L S)` at code phase :math:`x` chips (the compiled
         correlators, the acquisition replica, the IF generator) then produces the BOC or
         CBOC waveform exactly, and for BPSK (:math:`S = 1`) the code itself. The values are
-        ±1 except for CBOC (weighted sums).
+        ±1 except for CBOC (weighted sums) and time-multiplexed components (0 outside
+        their slot).
         """
         code = self.code(prn, component).astype(float)
-        pulse = self.subcarrier.chip_pulse(self.components[component].subcarrier_sign)
-        return (code[:, None] * pulse[None, :]).reshape(-1)
+        return (code[:, None] * self.chip_pulse(component)[None, :]).reshape(-1)
 
     def spreading_at(self, table: np.ndarray, chip_phase: np.ndarray) -> np.ndarray:
         """The spreading waveform ``table`` (`spreading_table`) at code phases
@@ -335,8 +377,9 @@ class SignalSpec:
 
     def autocorrelation(self, tau_chips: np.ndarray) -> np.ndarray:
         """The tracked component's normalised code autocorrelation at ``tau_chips``
-        (`Subcarrier.autocorrelation`: the BPSK triangle, the BOC triangle train)."""
-        return self.subcarrier.autocorrelation(tau_chips, self.tracked.subcarrier_sign)
+        (`pulse_autocorrelation` of `chip_pulse`: the BPSK triangle, the BOC triangle train,
+        a triangle of half a chip for a component in one of two time slots)."""
+        return pulse_autocorrelation(self.chip_pulse(0), tau_chips)
 
     def rinex_satellite(self, prn: int) -> str:
         """The RINEX 3 satellite name of ``prn`` (``"G05"``, ``"J01"`` for QZSS PRN 193)."""
