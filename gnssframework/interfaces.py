@@ -25,7 +25,6 @@ import abc
 import dataclasses
 import functools
 import inspect
-import warnings
 from dataclasses import dataclass
 from typing import Any, ClassVar, Mapping, Optional
 
@@ -169,9 +168,10 @@ class RunContext:
     def resolve(self, name: str, own_value: Any, who: str) -> Any:
         """The harness's value of ``name``, checked against a plugin parameter that repeats it.
 
-        Some built-in plugins still accept a parameter of the same name (deprecated, for
-        old configs). It may be left out (``None``); if given it must equal the
-        harness's value, else a `ConfigError` names the parameter.
+        For a plugin that also runs without a harness (``position-ca``'s ``dt_s`` in
+        ``filter()``): ``own_value`` is used where the harness sets none; where both are
+        set they must be equal, else a `ConfigError` names the parameter. ``None`` takes
+        the harness's value (a `ConfigError` if it has none).
         """
         if own_value is None:
             return self.require(name, who)
@@ -188,21 +188,6 @@ class RunContext:
         value = getattr(self, name)
         return default if _unset(value) else value
 
-    def as_kwargs(self) -> dict[str, Any]:
-        """The fields that are set, as keywords (what the old ``reset(**context)`` got)."""
-        return {name: getattr(self, name) for name in self.provided()}
-
-
-def _legacy_reset(reset):
-    """Wrap a ``reset(self, batch_shape, **context)`` of the old signature (deprecated)."""
-
-    @functools.wraps(reset)
-    def wrapper(self, batch_shape, context: RunContext | None = None, **kwargs):
-        merged = {**(context.as_kwargs() if context is not None else {}), **kwargs}
-        return reset(self, batch_shape, **merged)
-
-    wrapper._legacy_reset = True  # type: ignore[attr-defined]
-    return wrapper
 
 
 def _marks_reset(reset):
@@ -246,9 +231,8 @@ class SequentialFilter(Plugin, abc.ABC):
     outputs. ``requires`` and ``provides`` name them, so a composition that cannot work
     is refused before a run.
 
-    A plugin written for the old signature ``reset(self, batch_shape, **context)`` still
-    runs: it gets the context's set fields as keywords, and defining it emits a
-    ``DeprecationWarning`` that says how to change it.
+    A subclass whose ``reset`` has the pre-0.2 signature ``reset(self, batch_shape,
+    **context)`` is refused when it is defined, with a `TypeError` that says how to change it.
     """
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
@@ -259,15 +243,10 @@ class SequentialFilter(Plugin, abc.ABC):
         params = list(inspect.signature(reset).parameters.values())
         positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
         if any(p.kind == p.VAR_KEYWORD for p in params) and len(positional) < 3:
-            code = getattr(reset, "__code__", None)
-            # Attributed to the plugin's own reset, so the warning points at the line to change.
-            warnings.warn_explicit(
-                f"{cls.__module__}.{cls.__qualname__}.reset(self, batch_shape, **context) is the old signature; "
-                "write reset(self, batch_shape, context) and read the harness's values from the frozen "
-                "gnssframework.RunContext (context.coherent_time_s, context.require('cn0_dbhz', ...)). The old "
-                "form gets the context's fields as keywords and will be removed.", DeprecationWarning,
-                code.co_filename if code else "<unknown>", code.co_firstlineno if code else 0, module=cls.__module__)
-            cls.reset = _legacy_reset(reset)
+            raise TypeError(
+                f"{cls.__module__}.{cls.__qualname__}.reset(self, batch_shape, **context) is the signature "
+                "before 0.2; write reset(self, batch_shape, context) and read the harness's values from the "
+                "frozen gnssframework.RunContext (context.coherent_time_s, context.require('cn0_dbhz', ...))")
         cls.reset = _marks_reset(cls.reset)
 
     #: Names of the inputs ``step`` needs.

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal, Mapping, Optional
+from typing import Any, Literal, Mapping
 
 import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
@@ -28,18 +28,13 @@ __all__ = ["ScalarTrackingLoop", "KalmanCarrierLoop", "DiscriminatorChannel", "I
 register_warm_up(channel_model(0.001, 0.5, np.eye(5), np.eye(6)).compiled, 5, 6)
 
 
-_HARNESS_T = ("deprecated, leave out: the harness's coherent time (RunContext.coherent_time_s) is used; "
-              "a value here must equal it")
 #: Bound of every loop bandwidth: B_L T at most 0.2 at the shortest T (1 ms); the harness's
 #: T is checked against it when the config loads (`check_context`).
 _MAX_BANDWIDTH_HZ = MAX_BANDWIDTH_TIME / 0.001
 _BANDWIDTH_RULE = f"; B_L T at most {MAX_BANDWIDTH_TIME} at the harness's T (200 Hz at 1 ms, 10 Hz at 20 ms)"
-_HARNESS_D = ("deprecated, leave out: the harness's correlator spacing (RunContext.early_late_spacing_chips) is "
-              "used; a value here must equal it")
 
 
 class ScalarParams(PluginParams):
-    coherent_time_s: Optional[float] = Field(None, gt=0, le=0.02, description=_HARNESS_T)
     pll_bandwidth_hz: float = Field(15.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="PLL noise bandwidth B_L (Hz)"
                                     + _BANDWIDTH_RULE)
     pll_order: Literal[2, 3] = Field(3, description="PLL order (2 tracks a frequency step, 3 a Doppler ramp)")
@@ -48,7 +43,6 @@ class ScalarParams(PluginParams):
     dll_bandwidth_hz: float = Field(1.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="DLL noise bandwidth B_L (Hz, "
                                     "carrier aided)" + _BANDWIDTH_RULE)
     dll_order: Literal[1, 2] = Field(1, description="DLL loop order")
-    early_late_spacing_chips: Optional[float] = Field(None, gt=0, le=1.0, description=_HARNESS_D)
     code_discriminator: PluginRef("discriminator", unit="chips") = Field("eml-envelope", description="DLL discriminator")
     phase_discriminator: PluginRef("discriminator", unit="rad") = Field("costas-atan", description="PLL discriminator")
     freq_discriminator: PluginRef("discriminator", unit="Hz") = Field(
@@ -58,7 +52,7 @@ class ScalarParams(PluginParams):
 def _check_bandwidths(loop: ChannelFilter, context: RunContext, fields: tuple[str, ...]) -> None:
     """Refuse a bandwidth of ``loop`` too large for the context's T, naming the parameter."""
     who = f"{loop.kind} {loop.name!r}"
-    T = context.resolve("coherent_time_s", loop.params.coherent_time_s, who)
+    T = context.require("coherent_time_s", who)
     for field in fields:
         check_bandwidth_time(getattr(loop.params, field), T, f"{who}.{field}")
 
@@ -142,8 +136,8 @@ class ScalarTrackingLoop(ChannelFilter):
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         p = self.params
         who = f"channel_filter {self.name!r}"
-        T = context.resolve("coherent_time_s", p.coherent_time_s, who)
-        d = context.resolve("early_late_spacing_chips", p.early_late_spacing_chips, who)
+        T = context.require("coherent_time_s", who)
+        d = context.require("early_late_spacing_chips", who)
         self.phase_disc = p.phase_discriminator.create(coherent_time_s=T)
         self.freq_disc = p.freq_discriminator.create(coherent_time_s=T)
         self.carrier = LoopFilter(p.pll_order, p.pll_bandwidth_hz, T, p.fll_bandwidth_hz)
@@ -194,7 +188,6 @@ class ScalarTrackingLoop(ChannelFilter):
 
 
 class KalmanLoopParams(PluginParams):
-    coherent_time_s: Optional[float] = Field(None, gt=0, le=0.02, description=_HARNESS_T)
     states: Literal[2, 3] = Field(2, description="phase and frequency (2), or also frequency rate (3)")
     q: list[NonNegativeFloat] = Field([0.01, 0.1], min_length=2, max_length=3, description="diagonal of Q per "
                                       "interval, each >= 0: phase, frequency(, rate); one value per state")
@@ -206,7 +199,6 @@ class KalmanLoopParams(PluginParams):
     dll_bandwidth_hz: float = Field(1.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="DLL noise bandwidth B_L (Hz, "
                                     "carrier aided)" + _BANDWIDTH_RULE)
     dll_order: Literal[1, 2] = Field(1, description="DLL loop order")
-    early_late_spacing_chips: Optional[float] = Field(None, gt=0, le=1.0, description=_HARNESS_D)
     code_discriminator: PluginRef("discriminator", unit="chips") = Field("eml-envelope", description="DLL discriminator")
     initial_std: list[PositiveFloat] = Field([0.5, 5.0, 1.0], min_length=2, max_length=3, description="initial "
                                              "std, each > 0: phase (unit), freq (unit/s), rate; at least one value "
@@ -297,8 +289,8 @@ class KalmanCarrierLoop(ChannelFilter):
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         p = self.params
         who = f"channel_filter {self.name!r}"
-        T = context.resolve("coherent_time_s", p.coherent_time_s, who)
-        d = context.resolve("early_late_spacing_chips", p.early_late_spacing_chips, who)
+        T = context.require("coherent_time_s", who)
+        d = context.require("early_late_spacing_chips", who)
         n = p.states
         self.T = T
         F = np.array([[1.0, T, T * T / 2], [0.0, 1.0, T], [0.0, 0.0, 1.0]])[:n, :n]
@@ -466,12 +458,11 @@ PHASE_VAR_UNIFORM_RAD2 = np.pi**2 / 3
 def _phase_spread_within_circle(cov: np.ndarray) -> np.ndarray:
     r"""``cov`` with the carrier phase's variance (state 2) at most that of a uniform phase.
 
-    The phase is an angle: once a channel has lost lock its variance grows without bound
-    (3.8e6 rad² measured a few seconds after a 27 dB-Hz channel was lost), which means
-    no more than "uniform over the circle", $\pi^2/3$. Beyond the measurement's
+    The phase is an angle: once a channel has lost lock its variance grows without bound,
+    which means no more than "uniform over the circle", $\pi^2/3$. Beyond the measurement's
     nonlinearity scale a sigma-point rule with a negative central weight (the UKF's
     alpha = 1e-3: about -1e6) computes the correlators' covariance as a difference of
-    terms of size $|W_0^c|\,|z_0-\hat z|^2$ (1e15 there) whose rounding reaches R, and
+    terms of size $|W_0^c|\,|z_0-\hat z|^2$ whose rounding reaches R, and
     the innovation covariance loses positive definiteness by chance
     (`tests/test_deep_prefilter_lost_channel.py`). Scaling the phase's row and column,
     $P \leftarrow D P D$ with $D = \mathrm{diag}(1, 1, s, 1, 1)$, keeps P positive
@@ -556,10 +547,10 @@ class IqFilter(ChannelFilter):
       0 relative to the new replica, initial variance, no cross-covariance) and the
       innovation adapter's window restarts, so R stays at the correlators' true
       covariance (without the restart the large post-reset spread drives eq. 31's R
-      down: to 0.2-0.75 of the true variances within 5 s at 30 dB-Hz, measured, with a
-      frequency output error of 3.4 instead of 2.2 Hz). Its filtered outputs are then nearly white, but
-      the frequency comes from two intervals of phase, like an FLL, and the code output
-      still leans on the reset prior (position NEES 150 at 30 dB-Hz measured).
+      below the true variances). Its filtered outputs are then nearly white, but the
+      frequency comes from two intervals of phase, like an FLL, and the code output still
+      leans on the reset prior (docs/experiments/vector-tracking.md, "`iq-filter` output
+      modes and their consistency", gives the measured consequences).
 
     With ``clock`` set, Q adds the oscillator's noise on code, phase and frequency from
     its h-parameters (`process_noise`).

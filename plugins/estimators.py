@@ -117,7 +117,8 @@ class ExtendedKalmanFilter(Estimator):
 
 
 class UnscentedParams(PluginParams):
-    alpha: float = Field(1e-3, gt=0, le=1, description="spread of the points around the mean")
+    alpha: float = Field(1e-3, gt=0, description="spread of the points around the mean (> 1 spreads them beyond "
+                         "sqrt(n + kappa) standard deviations, as FilterPy and Stone Soup allow)")
     beta: float = Field(2.0, ge=0, description="prior knowledge of the distribution (2 is optimal for Gaussians)")
     kappa: float = Field(0.0, description="secondary scaling; n + kappa must stay positive")
 

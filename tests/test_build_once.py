@@ -43,12 +43,12 @@ def counting_loop(scratch_registry):
 
 
 def _config(name: str) -> ComparisonConfig:
-    loop = {"name": name, "params": {"coherent_time_s": 0.01, "q": [0.01, 0.1], "r": 10.0, "angle_unit": "deg",
+    loop = {"name": name, "params": {"q": [0.01, 0.1], "r": 10.0, "angle_unit": "deg",
                                      "dll_bandwidth_hz": 0.5}}
     return ComparisonConfig.model_validate({
         "name": "build-once", "runs": 2, "batch_size": 1, "seed": 3,
         "scenario": {"kind": "scintillation", "duration_s": 3.0, "coherent_time_s": 0.01, "settle_s": 1.0},
-        # the candidate's own T (10 ms) and a case at another (1 ms): the loop runs at 1 ms there
+        # the scenario's T (10 ms) and a case at another (1 ms): the loop runs at 1 ms there
         "cases": [{"name": "own-T", "s4": 0.5}, {"name": "1ms", "s4": 0.5, "coherent_time_s": 0.001}],
         "candidates": [{"name": "kf", "channel_filter": loop}],
     })
@@ -66,16 +66,16 @@ def test_a_task_creates_its_channel_filter_once(counting_loop):
     assert len(tasks) == 4 and BUILT[counting_loop] == 4
 
 
-def test_the_loop_built_for_the_case_is_the_loop_run_batch_re_creates():
-    # The same numbers whether run_batch gets the loop built for its case (the runner's
-    # path) or one built at the candidate's T that it re-creates at the case's.
+def test_the_loop_built_for_the_case_runs_as_the_candidates_loop():
+    # The loops take the harness's interval (no T of their own): the loop built for the
+    # 1 ms case is the candidate's loop, and run_batch runs either at the case's T with the
+    # same numbers.
     config = _config("kf-carrier-loop")
     resolved = resolve(config)
     scenario = resolved.scenario
     case = resolved.cases[1].as_case()
     built_for_case = resolved.build(0, 1)["channel_filter"]
-    re_created = scenario.at_interval(resolved.build(0)["channel_filter"], 0.001)
-    assert built_for_case.params == re_created.params and built_for_case.params.coherent_time_s == 0.001
+    assert built_for_case.params == resolved.build(0)["channel_filter"].params
 
     def run(plugins):
         return scenario.run_batch(case, plugins, 2, random_streams.run_streams(3, (1,), [0, 1])).metrics
@@ -84,15 +84,16 @@ def test_the_loop_built_for_the_case_is_the_loop_run_batch_re_creates():
     assert set(direct) == set(again)
     for name in direct:
         np.testing.assert_array_equal(direct[name], again[name], err_msg=name)
+    # at 1 ms the same Q and R per interval make a loop about ten times wider than at 10 ms
+    assert 7.0 < float(np.mean(direct["equivalent_bandwidth_hz"])) < 12.0
 
 
-def test_a_case_at_the_candidates_own_interval_sets_nothing():
+def test_a_loop_without_an_interval_of_its_own_gets_nothing_from_the_case():
     config = _config("kf-carrier-loop")
     resolved = resolve(config)
     spec = resolved.candidates[0].components["channel_filter"]
-    assert resolved.scenario.case_parameters("channel_filter", spec, resolved.cases[0].as_case()) == {}
-    assert resolved.scenario.case_parameters("channel_filter", spec, resolved.cases[1].as_case()) == {
-        "coherent_time_s": 0.001}
+    for case in resolved.cases:
+        assert resolved.scenario.case_parameters("channel_filter", spec, case.as_case()) == {}
 
 
 # -- the same for an augmentation whose psi is the case's (multipath) --------------------------

@@ -87,8 +87,8 @@ def test_registration_refuses_a_class_with_abstract_methods_left_naming_them(scr
 
 def test_several_invalid_fields_are_named_on_one_line_the_first_leading():
     with pytest.raises(gf.ConfigError) as err:
-        gf.registry.create("estimator", "ukf", alpha=5.0, kapa=0.0)
+        gf.registry.create("estimator", "ukf", alpha=-5.0, kapa=0.0)
     msg = str(err.value)
     assert "\n" not in msg
     assert err.value.field in ("estimator 'ukf'.alpha", "estimator 'ukf'.kapa")
-    assert "alpha: Input should be less than" in msg and "kapa: unknown parameter" in msg and "; also " in msg
+    assert "alpha: Input should be greater than" in msg and "kapa: unknown parameter" in msg and "; also " in msg

@@ -49,3 +49,32 @@ def test_problems_of_a_site(tmp_path):
     page.write_text('<span class="arithmatex">\\(x\\)</span><script src="https://cdn.x/tex-mml-chtml.js">')
     assert check.problems(tmp_path) == ['index.html: <script src="https://cdn.x/tex-mml-chtml.js']
     assert check.main([str(tmp_path)]) == 1
+
+
+def test_a_passing_site_gets_a_one_line_summary_and_a_failing_one_none(tmp_path, capsys):
+    (tmp_path / "javascripts" / "mathjax").mkdir(parents=True)
+    (tmp_path / check.MATHJAX).write_text("// MathJax")
+    (tmp_path / "index.html").write_text("<p>a</p>")
+    (tmp_path / "about.html").write_text("<p>b</p>")
+    (tmp_path / "site.css").write_text("p { color: red }")
+    assert check.main([str(tmp_path)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 1 and out[0].startswith("offline: 2 pages and 1 stylesheets load nothing from another host")
+    (tmp_path / "about.html").write_text('<script src="https://cdn.x/a.js"></script>')
+    assert check.main([str(tmp_path)]) == 1
+    captured = capsys.readouterr()
+    assert captured.out == "" and "about.html" in captured.err
+
+
+def test_source_listings_stay_out_of_the_search_index_and_scripts_out_of_the_site():
+    hook = _load("search_index", ROOT / "docs" / "hooks" / "search_index.py")
+    html = ('<details class="mkdocstrings-source"><summary>Source code in <code>a.py</code></summary>'
+            '<p>prose</p><details class="quote"><summary>Source code in')
+    marked = hook.exclude_source(html)
+    assert marked.count("data-search-exclude") == 2 and "<p>prose</p>" in marked
+    assert hook.exclude_source(marked) == marked  # once only
+    assert hook.exclude_source('<details class="note">') == '<details class="note">'
+    text = (ROOT / "mkdocs.yml").read_text()
+    assert "- docs/hooks/search_index.py" in text
+    exclude = text[text.index("exclude_docs: |"):text.index("plugins:")]
+    assert re.search(r"^\s+\*\.py$", exclude, re.M)  # check_offline.py, the table scripts...

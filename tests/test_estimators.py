@@ -167,11 +167,12 @@ def test_svd_ckf_survives_nearly_singular_priors_where_ckf_raises_the_library_er
         assert np.linalg.eigvalsh(cov).min() >= -1e-9 * np.abs(cov).max()
 
 
-def test_ukf_matches_filterpy_merwe_on_a_nonlinear_model(rng):
+@pytest.mark.parametrize("alpha", [0.3, 2.0])  # alpha > 1 as FilterPy accepts it
+def test_ukf_matches_filterpy_merwe_on_a_nonlinear_model(rng, alpha):
     filterpy_kalman = pytest.importorskip("filterpy.kalman")
     Q, R = random_pd(rng, 3, scale=0.05), random_pd(rng, 2, scale=0.05)
     model = nonlinear_model(Q, R)
-    alpha, beta, kappa = 0.3, 2.0, 0.5
+    beta, kappa = 2.0, 0.5
     points = filterpy_kalman.MerweScaledSigmaPoints(3, alpha=alpha, beta=beta, kappa=kappa)
     ref = filterpy_kalman.UnscentedKalmanFilter(
         dim_x=3, dim_z=2, dt=1.0, hx=lambda x: model.h(x), fx=lambda x, dt: model.f(x), points=points
@@ -183,8 +184,9 @@ def test_ukf_matches_filterpy_merwe_on_a_nonlinear_model(rng):
     for k in range(25):
         z = model.h(np.array([1.0 + 0.1 * k, -0.5, 0.3])) + rng.standard_normal(2) * 0.1
         ref.predict()
-        # FilterPy reuses the propagated points in update; gnssframework redraws them
-        # from the prior (exact on linear models), so redraw on FilterPy's side too.
+        # gnssframework's update redraws the points from the prior (exact on linear
+        # models); FilterPy 2.0 does the same at the end of predict, 1.4 reused the
+        # propagated points: redraw here so that either version is compared like for like.
         ref.sigmas_f = points.sigma_points(ref.x, ref.P)
         ref.update(z)
         prior = ukf.predict(state, model)
@@ -227,3 +229,16 @@ def test_kf_refuses_a_nonlinear_model_with_a_clear_error():
     model = nonlinear_model(np.eye(3), np.eye(2))
     with pytest.raises(gf.ConfigError, match="LinearModel"):
         create("estimator", "kf").predict(gf.Gaussian(np.zeros(3), np.eye(3)), model)
+
+
+def test_ukf_sigma_points_and_weights_at_alpha_2_are_filterpys():
+    filterpy_kalman = pytest.importorskip("filterpy.kalman")
+    x, P = np.array([1.0, -2.0, 0.5]), np.array([[2.0, 0.3, 0.0], [0.3, 1.0, 0.2], [0.0, 0.2, 0.5]])
+    ref = filterpy_kalman.MerweScaledSigmaPoints(3, alpha=2.0, beta=2.0, kappa=0.0)
+    X, wm, wc = create("estimator", "ukf", alpha=2.0, beta=2.0, kappa=0.0).sigma_points(gf.Gaussian(x, P))
+    np.testing.assert_allclose(wm, ref.Wm, rtol=1e-12)
+    np.testing.assert_allclose(wc, ref.Wc, rtol=1e-12)
+    # the same set of points (each rule orders its own): x and x +- sqrt(n + lambda) L e_i
+    ours = sorted(map(tuple, np.round(np.asarray(X).reshape(-1, 3), 12)))
+    theirs = sorted(map(tuple, np.round(ref.sigma_points(x, P), 12)))
+    np.testing.assert_allclose(ours, theirs, rtol=1e-12, atol=1e-12)

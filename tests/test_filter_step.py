@@ -151,17 +151,23 @@ def test_a_plugin_needing_a_value_the_harness_lacks_fails_at_reset_naming_both()
         ch.reset((2,), gf.RunContext(coherent_time_s=0.01))
 
 
-def test_a_deprecated_plugin_parameter_must_agree_with_the_harness():
-    loop = create("channel_filter", "kf-carrier-loop", coherent_time_s=0.02)
-    with pytest.raises(gf.ConfigError, match=r"kf-carrier-loop'.coherent_time_s: is 0.02 but the harness runs "
-                                             r"with 0.01"):
-        loop.reset((1,), gf.RunContext(coherent_time_s=0.01, early_late_spacing_chips=1.0))
-    create("channel_filter", "scalar", coherent_time_s=0.01).reset(
-        (1,), gf.RunContext(coherent_time_s=0.01, early_late_spacing_chips=1.0))
+def test_the_loops_take_the_harness_interval_and_spacing_and_have_no_own():
+    # 0.2 removed the loops' own coherent_time_s / early_late_spacing_chips: a config
+    # repeating them is refused by name, and the loop runs at the harness's T.
+    for name in ("scalar", "kf-carrier-loop"):
+        for field in ("coherent_time_s", "early_late_spacing_chips"):
+            with pytest.raises(gf.ConfigError, match=field):
+                create("channel_filter", name, **{field: 0.01})
+    loop = create("channel_filter", "kf-carrier-loop")
+    loop.reset((1,), gf.RunContext(coherent_time_s=0.02, early_late_spacing_chips=1.0))
+    assert loop.T == 0.02
+    with pytest.raises(gf.ConfigError, match=r"run context.early_late_spacing_chips: channel_filter 'scalar' needs it"):
+        create("channel_filter", "scalar").reset((1,), gf.RunContext(coherent_time_s=0.01))
 
 
-def test_old_reset_signature_warns_and_still_gets_the_context_values():
-    with pytest.warns(DeprecationWarning, match=r"reset\(self, batch_shape, \*\*context\) is the old signature"):
+def test_the_pre_0_2_reset_signature_is_refused_when_the_class_is_defined():
+    with pytest.raises(TypeError, match=r"Old.reset\(self, batch_shape, \*\*context\) is the signature before 0.2; "
+                                        r"write reset\(self, batch_shape, context\)"):
         class Old(gf.ChannelFilter):
             name = "old-style"
             provides = ("code_error_chips",)
@@ -171,12 +177,6 @@ def test_old_reset_signature_warns_and_still_gets_the_context_values():
 
             def step(self, inputs):
                 return {"code_error_chips": np.zeros(1)}
-
-    f = Old()
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        f.reset((1,), gf.RunContext(coherent_time_s=0.01, cn0_dbhz=45.0))
-    assert set(f.seen) == {"coherent_time_s", "cn0_dbhz"} and f.seen["coherent_time_s"] == 0.01
 
 
 def test_position_ca_takes_its_epoch_interval_from_the_harness():

@@ -85,7 +85,7 @@ def test_typed_classes_are_the_registered_plugins_with_signatures():
     assert noise_adapters.SageHusa is gf.registry.get("noise_adapter", "sage-husa")
     assert {class_name(n) for n in gf.registry.names("estimator")} <= set(dir(estimators))
     with pytest.raises(ConfigError, match="alpha"):
-        estimators.UKF(alpha=5.0)
+        estimators.UKF(alpha=-1.0)
 
 
 def test_an_unknown_class_suggests_the_closest():

@@ -241,8 +241,7 @@ def test_carrier_smoothing_reports_the_hand_reductions():
 
 def test_scintillation_reports_the_hand_reductions():
     scen = get_scenario({"kind": "scintillation", "duration_s": 1.0, "settle_s": 0.3, "lock_window_s": 0.1})
-    ch = scen.build({"channel_filter": {"name": "scalar", "params": {"coherent_time_s": 0.01,
-                                                                     "pll_bandwidth_hz": 10.0}}})
+    ch = scen.build({"channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 10.0}}})
     res = scen.run_batch({"s4": 0.6, "cn0_dbhz": 30.0}, ch, 2, np.random.default_rng(3))
     err, disc, t = res.series["phase_error_rad"], res.series["phase_disc_rad"], res.time_s
     assert np.all(np.abs(err) <= np.pi / 2) and t[0] == pytest.approx(0.005)

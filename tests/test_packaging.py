@@ -45,3 +45,45 @@ def test_version_licence_and_citation_are_in_one_place():
     assert "MIT License" in (root / "LICENSE").read_text()
     assert f"version: {version}" in (root / "CITATION.cff").read_text()
     assert (root / "gnssframework" / "py.typed").exists()
+
+
+def _citation() -> dict[str, str]:
+    """The top-level ``key: value`` lines of CITATION.cff (quotes removed)."""
+    out = {}
+    for line in (ROOT / "CITATION.cff").read_text().splitlines():
+        if ":" in line and not line.startswith((" ", "-", "#")):
+            key, value = line.split(":", 1)
+            out[key.strip()] = value.strip().strip('"')
+    return out
+
+
+def test_the_changelog_is_keep_a_changelog_and_names_the_cited_release():
+    import re
+    import tomllib
+
+    version = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+    text = (ROOT / "CHANGELOG.md").read_text()
+    releases = re.findall(r"^## \[([^\]]+)\](?: - (\d{4}-\d{2}-\d{2}))?$", text, re.M)
+    assert releases[0] == ("Unreleased", "")
+    dated = dict(releases[1:])
+    cff = _citation()
+    assert cff["version"] == version and dated.get(version) == cff["date-released"], (dated, cff)
+    # every heading is a release or one of Keep a Changelog's change types
+    for heading in re.findall(r"^(#{2,}) (.*)$", text, re.M):
+        if heading[0] == "##":
+            assert re.fullmatch(r"\[[^\]]+\]( - \d{4}-\d{2}-\d{2})?", heading[1]), heading
+        else:
+            assert heading == ("###", heading[1]) and heading[1] in {
+                "Added", "Changed", "Deprecated", "Removed", "Fixed", "Security"}, heading
+    assert "How to cite" in (ROOT / "README.md").read_text()
+
+
+def test_ci_builds_and_checks_the_wheel_and_sdist_with_the_release_extra():
+    import tomllib
+
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    assert {r.split(">")[0].split("=")[0] for r in extras["release"]} >= {"build", "twine"}
+    ci = (ROOT / ".ci" / "run").read_text()
+    release = ci[ci.index("release() {"):ci.index("lane release release")]
+    assert '.[tune,docs,release]"' in ci
+    assert "-m build" in release and "--sdist --wheel" in release and "twine check --strict" in release

@@ -22,7 +22,7 @@ def test_hook_puts_the_table_after_the_directive_and_its_options():
     out = _hook().on_page_markdown(page, None, None, None).split("\n")
     heading = out.index("## Parameters of `ukf`")
     assert out[heading - 2] == "      show_root_heading: false"  # the options block stays whole
-    assert "| `alpha` | float | `0.001` | > 0, <= 1 |" in "\n".join(out[heading:])
+    assert "| `alpha` | float | `0.001` | > 0 |" in "\n".join(out[heading:])  # no upper bound: FilterPy takes alpha > 1
     assert out[-1] == "After."
 
 

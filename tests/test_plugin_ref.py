@@ -146,11 +146,11 @@ def test_recreated_changes_only_the_named_parameters_and_keeps_nested_references
     from gnssframework import registry
     from gnssframework.plugin_ref import recreated
 
-    loop = registry.create("channel_filter", "kf-carrier-loop", coherent_time_s=0.01, q=[0.01, 0.1], r=5.0,
+    loop = registry.create("channel_filter", "kf-carrier-loop", q=[0.01, 0.1], r=5.0,
                            angle_unit="deg")
-    fast = recreated(loop, coherent_time_s=0.001)
-    assert fast is not loop and fast.params.coherent_time_s == 0.001 and loop.params.coherent_time_s == 0.01
-    rest = lambda p: {k: v for k, v in p.model_dump().items() if k != "coherent_time_s"}  # noqa: E731
+    fast = recreated(loop, r=1.0)
+    assert fast is not loop and fast.params.r == 1.0 and loop.params.r == 5.0
+    rest = lambda p: {k: v for k, v in p.model_dump().items() if k != "r"}  # noqa: E731
     assert rest(fast.params) == rest(loop.params)
     # A nested plugin reference comes back as the same reference with its own parameters.
     iq = registry.create("channel_filter", "iq-filter", estimator={"name": "ukf", "params": {"alpha": 0.5}})

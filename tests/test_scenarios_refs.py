@@ -7,9 +7,9 @@ from gnssframework.experiments import get_scenario
 from gnssframework.receiver.tracking.jitter import loop_variance
 import gnssframework as gf
 
-PLL = {"name": "scalar", "params": {"coherent_time_s": 0.01, "pll_bandwidth_hz": 10.0, "pll_order": 2,
+PLL = {"name": "scalar", "params": {"pll_bandwidth_hz": 10.0, "pll_order": 2,
                                     "fll_bandwidth_hz": 0.0, "dll_bandwidth_hz": 0.5}}
-KF2 = {"name": "kf-carrier-loop", "params": {"coherent_time_s": 0.01, "q": [0.01, 0.1], "r": 5.0,
+KF2 = {"name": "kf-carrier-loop", "params": {"q": [0.01, 0.1], "r": 5.0,
                                              "angle_unit": "deg", "dll_bandwidth_hz": 0.5}}
 
 

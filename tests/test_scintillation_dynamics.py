@@ -58,7 +58,7 @@ def test_second_order_pll_lags_a_doppler_rate_by_the_textbook_steady_state_error
     scen = _scen(cn0_dbhz=60.0)
     case = {"model": "aj-stanford", "s4": 0.01, "sigma_phi_rad": 0.0, "doppler_rate_hz_s": rate_hz_s}
     truth, _ = scen.truth(case, 4, 3)
-    loop = gf.registry.create("channel_filter", "scalar", coherent_time_s=0.01, pll_bandwidth_hz=bandwidth_hz,
+    loop = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=bandwidth_hz,
                               pll_order=2, fll_bandwidth_hz=0.0, dll_bandwidth_hz=0.5)
     rec = run_closed_loop(loop, truth, np.random.default_rng(2), initial_doppler_hz=1500.0)
     lag_rad = np.mean(rec.phase_error_rad[500:])  # after 5 s (> 5 time constants of the 1.8 Hz loop)

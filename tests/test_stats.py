@@ -105,11 +105,14 @@ def test_summary_and_report_carry_the_hand_computed_paired_statistics(tmp_path):
     assert row["ratio"] == pytest.approx(4 / 3) and row["significant"] is True
     assert len(summary["paired"]) == len(config.metric_names)  # the reference is not paired with itself
     report = (tmp_path / "report.md").read_text()
-    assert "Paired differences to `b`" in report and "+0.62 ± 0.12 (×1.33 ± 0.13) **\\*** n=4" in report
-    # The first table is mean ± standard deviation over runs (X: 2.5, sqrt(5/3) = 1.291), and
-    # says so; its ± is not the standard error (0.645, which sets the two decimals shown).
-    # Half-even rounding: 0.625 -> 0.62, 0.125 -> 0.12.
-    assert "| 2.50 ± 1.29 |" in report and "mean ± standard deviation over the runs" in report
+    # n is stated once in the paired table's header, not in every cell (all four runs paired).
+    assert "Paired differences to `b`" in report and "| +0.62 ± 0.12 (×1.33 ± 0.13) **\\*** |" in report
+    assert "the n = 4 common-random-number runs" in report
+    # The first table is mean ± standard error over runs (X: 2.5, standard deviation
+    # sqrt(5/3) = 1.291, SE 1.291 / sqrt(4) = 0.645), and the header says so, as the docs'
+    # tables do. Half-even rounding: 0.625 -> 0.62, 0.125 -> 0.12.
+    assert "| 2.50 ± 0.65 |" in report and "Every ± is a standard error" in report
+    assert "± 1.29" not in report
 
 
 def test_reference_defaults_to_the_first_candidate_and_is_validated(tmp_path):

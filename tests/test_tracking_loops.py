@@ -81,7 +81,7 @@ def test_kf_carrier_loop_error_variance_equals_its_riccati_prediction():
     phase = np.concatenate([np.zeros((1, runs)), np.cumsum(omega * T + rng.standard_normal((K, runs)) * 1e-3, 0)])
     truth = SignalTruth(code_phase_chips=np.zeros((K + 1, runs)) + np.arange(K + 1)[:, None] * 1.023e6 * T,
                         carrier_phase_rad=phase, cn0_dbhz=cn0, coherent_time_s=T)
-    loop = gf.registry.create("channel_filter", "kf-carrier-loop", coherent_time_s=T, q=q, r=r,
+    loop = gf.registry.create("channel_filter", "kf-carrier-loop", q=q, r=r,
                               initial_std=[0.1, 10.0, 1.0])
     rec = run_closed_loop(loop, truth, rng, initial_doppler_hz=200.0)
     F = np.array([[1.0, T], [0.0, 1.0]])

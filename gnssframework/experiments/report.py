@@ -62,10 +62,11 @@ def _fmt(x: float | None) -> str:
 
 
 def _mean_cell(row: dict) -> str:
-    """``mean ± std`` at the resolution of the mean's standard error ``std / sqrt(runs)``
-    (the mean alone when the runs do not spread beyond rounding)."""
+    """``mean ± SE``, the standard error of the mean ``std / sqrt(runs)``, at the resolution
+    it supports (the mean alone when the runs do not spread beyond rounding): the
+    convention of the docs' generated tables (``docs/experiment_tables.py``) too."""
     std = row["std"] or 0.0
-    return format_estimate(row["mean"], std / np.sqrt(row["runs"]), spread=std)
+    return format_estimate(row["mean"], std / np.sqrt(row["runs"]))
 
 
 def _paired_markdown(config: ComparisonConfig, paired: list[dict], case: str, units: dict[str, str]) -> list[str]:
@@ -73,8 +74,13 @@ def _paired_markdown(config: ComparisonConfig, paired: list[dict], case: str, un
     others = [c.name for c in config.candidates if c.name != config.reference_name]
     if not others:
         return []
+    mine = [r for r in paired if r["case"] == case and r["candidate"] in others and r["diff"] is not None]
+    counts = [r["n"] for r in mine]
+    n_all = max(set(counts), key=counts.count) if counts else None  # the usual n, stated once
     lines = [f"Paired differences to `{config.reference_name}` (candidate minus reference, mean ± SE over "
-             "the n common-random-number runs; ×: ratio of means ± its SE; **\\***: significant, the 95 % paired "
+             + (f"the n = {n_all} common-random-number runs, n given in a cell where it differs"
+                if n_all is not None else "the n common-random-number runs")
+             + "; ×: ratio of means ± its SE; **\\***: significant, the 95 % paired "
              "t-interval excludes 0; a difference without ± has no spread over the runs and is not tested):", "",
              "| metric | unit | " + " | ".join(others) + " |", "| --- | --- | " + " | ".join("---" for _ in others) + " |"]
     for metric in config.metric_names:
@@ -87,7 +93,7 @@ def _paired_markdown(config: ComparisonConfig, paired: list[dict], case: str, un
             cell = format_estimate(r["diff"], r["se"], sign=True)
             if r["ratio"] is not None:
                 cell += f" (×{format_estimate(r['ratio'], r['ratio_se'])})"
-            cells.append(cell + (" **\\***" if r["significant"] else "") + f" n={r['n']}")
+            cells.append(cell + (" **\\***" if r["significant"] else "") + ("" if r["n"] == n_all else f" n={r['n']}"))
         lines.append(f"| {metric} | {units.get(metric, '')} | " + " | ".join(cells) + " |")
     return lines + [""]
 
@@ -97,9 +103,10 @@ def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | N
     if config.description:
         lines += [config.description.strip(), ""]
     lines += [f"{config.runs} Monte Carlo runs per case and candidate, seed {config.seed}, "
-              f"batches of {config.batch_size}. Each case's first table gives mean ± standard deviation "
-              "over the runs (the spread of one run's metric, not the standard error of the mean); "
-              "orderings are read from the paired differences below it. Numbers are given to the second "
+              f"batches of {config.batch_size}. Every ± is a standard error: each case's first table gives "
+              "mean ± SE over the runs (SE = standard deviation / sqrt(runs), the uncertainty of the mean, "
+              "not the spread of one run's metric), as the docs' tables do; orderings are read from the "
+              "paired differences in the table below it. Numbers are given to the second "
               "significant figure of their standard error; a value without ± did not vary over the runs "
               "(beyond floating-point rounding).", ""]
     for case in config.cases:
@@ -317,6 +324,57 @@ def _claims_markdown(claims: list[dict]) -> list[str]:
     return lines + [""]
 
 
+#: Units read off a parameter's name suffix (the project names quantities with their
+#: units: ``pll_bandwidth_hz``), for the tuning plots' x axes.
+_UNIT_SUFFIXES = (("_dbhz", "dB-Hz"), ("_hz_s", "Hz/s"), ("_hz", "Hz"), ("_m2", "m²"), ("_m_s", "m/s"),
+                  ("_chips", "chips"), ("_rad", "rad"), ("_deg", "deg"), ("_db", "dB"), ("_ms", "ms"),
+                  ("_s", "s"), ("_m", "m"))
+
+
+def parameter_axis_label(label: str) -> str:
+    """A tuned parameter's axis label with its unit: from its name's suffix
+    (``pll_bandwidth_hz`` -> Hz), else the unit of the config (``q[1]``, ``window``), said so.
+
+    >>> parameter_axis_label("channel_filter.pll_bandwidth_hz")
+    'channel_filter.pll_bandwidth_hz (Hz)'
+    >>> parameter_axis_label("channel_filter.q[1]")
+    "channel_filter.q[1] (the config's unit)"
+    """
+    name = label.split(".")[-1].split("[")[0].lower()
+    unit = next((u for suffix, u in _UNIT_SUFFIXES if name.endswith(suffix)), None)
+    return f"{label} ({unit})" if unit else f"{label} (the config's unit)"
+
+
+def tuning_figure(cand: str, res: dict, unit: str):
+    """The objective against each free parameter of one candidate's tuning (a panel per
+    parameter, trials as dots, the tuned point as a star), units on both axes."""
+    import matplotlib.pyplot as plt
+
+    labels = res["labels"]
+    fig, axes = plt.subplots(1, len(labels), figsize=(3.6 * len(labels), 3.2), squeeze=False)
+    obj = np.array([t["objective"] for t in res["trials"]], dtype=float)
+    for ax, label, k in zip(axes[0], labels, range(len(labels))):
+        x = [t["values"][k] for t in res["trials"]]
+        numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in x)
+        ok = np.isfinite(obj)
+        xs = np.array(x, dtype=float) if numeric else np.array([str(v) for v in x])
+        ax.plot(xs[ok], obj[ok], "o", ms=4, label="trial")
+        ax.plot([res["best"][label]] if numeric else [str(res["best"][label])], [res["best_objective"]], "r*",
+                ms=10, label="tuned")
+        if numeric and min(x) > 0 and max(x) / min(x) > 50:
+            ax.set_xscale("log")
+        ax.set_xlabel(parameter_axis_label(label), fontsize=7)
+        ax.tick_params(labelsize=6)
+        ax.grid(alpha=0.3)
+    for ax in axes[0]:  # units on every axis, on two lines so the label fits the panel's height
+        ax.set_ylabel(f"{res['metric']} ({unit})\n{res['combine']} over cases", fontsize=7)
+    handles, names = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, names, loc="lower center", fontsize=6, ncol=2, frameon=False)
+    fig.suptitle(f"tuning {cand}", fontsize=9)
+    fig.tight_layout(rect=(0, 0.07, 1, 1))  # room for the legend below
+    return fig
+
+
 def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[str]:
     """``tuning/<candidate>.csv`` (every trial), ``plots/tuning-<candidate>.png`` (objective
     against each free parameter) and the report's tuning section."""
@@ -350,33 +408,22 @@ def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[s
             w.writerow(["trial", *res["labels"], "objective"])
             for j, t in enumerate(res["trials"]):
                 w.writerow([j, *t["values"], t["objective"] if np.isfinite(t["objective"]) else ""])
-        labels = res["labels"]
-        fig, axes = plt.subplots(1, len(labels), figsize=(3.4 * len(labels), 2.8), squeeze=False)
-        obj = np.array([t["objective"] for t in res["trials"]], dtype=float)
-        for ax, label, k in zip(axes[0], labels, range(len(labels))):
-            x = [t["values"][k] for t in res["trials"]]
-            numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in x)
-            ok = np.isfinite(obj)
-            xs = np.array(x, dtype=float) if numeric else np.array([str(v) for v in x])
-            ax.plot(xs[ok], obj[ok], "o", ms=4, label="trial")
-            ax.plot([res["best"][label]] if numeric else [str(res["best"][label])], [res["best_objective"]], "r*",
-                    ms=10, label="tuned")
-            if numeric and min(x) > 0 and max(x) / min(x) > 50:
-                ax.set_xscale("log")
-            ax.set_xlabel(label, fontsize=7)
-            ax.grid(alpha=0.3)
-        unit = config.metric_units.get(res["metric"], "-")
-        for ax in axes[0]:  # units on every axis; one legend for the figure
-            ax.set_ylabel(f"{res['metric']}, {res['combine']} over cases ({unit})", fontsize=7)
-        handles, labels = axes[0, 0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="lower center", fontsize=6, ncol=2, frameon=False)
-        fig.suptitle(f"tuning {cand}", fontsize=9)
-        fig.tight_layout(rect=(0, 0.08, 1, 1))  # room for the legend below
+        fig = tuning_figure(cand, res, config.metric_units.get(res["metric"], "-"))
         _savefig(fig, out / "plots" / f"tuning-{cand}.png")
         plt.close(fig)
     lines.append("")
     lines += [f"![tuning {cand}](plots/tuning-{cand}.png)" for cand in tuning] + [""]
     return lines
+
+
+def join_sections(sections: list[str]) -> str:
+    """Markdown sections joined with one blank line between them (a heading right after a
+    table row would be read as part of the table), empty ones left out.
+
+    >>> join_sections(["| a |\\n| - |\\n| 1 |\\n", "", "## Next\\n\\ntext\\n"])
+    '| a |\\n| - |\\n| 1 |\\n\\n## Next\\n\\ntext\\n'
+    """
+    return "\n\n".join(s.strip("\n") for s in sections if s.strip()) + "\n"
 
 
 def write_report(config: ComparisonConfig, store: ResultStore, out: Path, tuning: dict | None = None) -> Path:
@@ -395,8 +442,8 @@ def write_report(config: ComparisonConfig, store: ResultStore, out: Path, tuning
                          "paired": paired, "claims": claims, "sweeps": sweeps,
                          "tuning": tuning_points(tuning) if tuning else None, "assumptions": assumptions})
     tuning_lines = _tuning_outputs(config, tuning, out) if tuning else []
-    atomic_write_text(out / "report.md", _markdown(config, rows, paired) + "\n".join(_assumptions_markdown(config, assumptions))
-                      + "\n".join(_claims_markdown(claims))
-                      + "\n".join(tuning_lines) + "\n".join(sweep_lines))
+    sections = [_markdown(config, rows, paired), "\n".join(_assumptions_markdown(config, assumptions)),
+                "\n".join(_claims_markdown(claims)), "\n".join(tuning_lines), "\n".join(sweep_lines)]
+    atomic_write_text(out / "report.md", join_sections(sections))
     _plots(config, store, out)
     return summary

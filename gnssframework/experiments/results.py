@@ -89,6 +89,43 @@ class ComparisonResult:
         return (f"<ComparisonResult {s['name']!r}: {len(cases)} cases x {len(cands)} candidates x {s.get('runs')} runs"
                 f"{f', claims {held}/{len(claims)} hold' if claims else ''}{where}>")
 
+    def _repr_html_(self) -> str:
+        """A notebook's view: the one-line summary, then per case a table of each metric's
+        mean ± SE (standard error over the runs, as in ``report.md``) per candidate, and
+        the claims' outcomes."""
+        from html import escape
+
+        from .number_format import format_estimate
+
+        s = self.summary
+        cases = list(dict.fromkeys(r["case"] for r in s["rows"]))
+        cands = list(dict.fromkeys(r["candidate"] for r in s["rows"]))
+        metrics = list(dict.fromkeys(r["metric"] for r in s["rows"]))
+        rows = {(r["case"], r["candidate"], r["metric"]): r for r in s["rows"]}
+        left = " style='text-align:left'"
+
+        def cell(r: dict | None) -> str:
+            if r is None or r.get("mean") is None:
+                return "–" if r is None else escape(str(r.get("undefined") or "–"))
+            se = (r["std"] or 0.0) / np.sqrt(r["runs"]) if r.get("std") is not None and r["runs"] > 1 else None
+            return escape(format_estimate(r["mean"], se))
+
+        parts = [f"<p><b>{escape(repr(self))}</b>; cells: mean ± SE over the runs</p>"]
+        for case in cases:
+            head = "".join(f"<th>{escape(c)}</th>" for c in cands)
+            body = "".join(
+                f"<tr><th{left}>{escape(m)}</th><td>{escape(str(next((r['unit'] for r in s['rows'] if r['metric'] == m), '')))}"
+                f"</td>" + "".join(f"<td>{cell(rows.get((case, c, m)))}</td>" for c in cands) + "</tr>"
+                for m in metrics)
+            parts.append(f"<table><caption{left}>{escape(case)}</caption><tr><th>metric</th><th>unit</th>{head}</tr>"
+                         f"{body}</table>")
+        claims = s.get("claims") or []
+        if claims:
+            body = "".join(f"<tr><td>{escape(str(c['outcome']))}</td><td{left}>{escape(str(c.get('statement', '')))}</td>"
+                           "</tr>" for c in claims)
+            parts.append(f"<table><caption{left}>claims</caption><tr><th>outcome</th><th>claim</th></tr>{body}</table>")
+        return "".join(parts)
+
 
 def _runs_dataset(config, store):
     import xarray as xr

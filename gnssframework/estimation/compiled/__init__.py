@@ -38,10 +38,8 @@ only the first import on a machine pays the compile time. The fused predict and 
 (the hot path of a batched channel filter) split a large batch differently by default
 (`split.SPLIT`): the calling thread and one helper thread take chunks of it as each
 becomes free (`gnssframework.estimation.compiled.pool`), because numba's workers, asleep
-between the calls of a filter loop, wake too late for the static split to gain (measured
-on the 100-run vector loop: the parallel twin ran the update at about the serial speed,
-the split at about 0.65 of it when the second core is free, and at the serial speed when
-it is not). A model that declares its sizes (``CompiledFunctions.sizes``, the channel
+between the calls of a filter loop, wake too late for the static split to gain
+(docs/benchmarks.md, "Why the compiled path is built as it is"). A model that declares its sizes (``CompiledFunctions.sizes``, the channel
 filter's 5 states and 6 measurements) gets fused drivers with those sizes as constants,
 bitwise the generic ones.
 

@@ -10,7 +10,7 @@ the KF/EKF predict `_linear_predict_into`), built per size by
 predict and update (the model's compiled f/h between the steps), the KF/EKF predict and
 the fused drivers' size-specialised twins. Every driver is a loop over chunks of
 elements, scratch allocated per chunk, and steps per element; the EKF moments
-(`_ekf_moments_body`) stay a single loop: as a step they measured 12-16 % slower.
+(`_ekf_moments_body`) stay a single loop, which runs faster than the same as a step.
 Each driver is compiled as a (serial, parallel) pair
 (`specialise.jit_pair`); the fused drivers and the EKF moments are built per model
 function and size by `_model_pair`.
@@ -49,7 +49,7 @@ _cholesky_n = _cholesky_m = cholesky
 # forced, so a specialised driver composes steps that carry its constants. A step
 # addresses points as an (N, B, n) batch and an element index: a plain driver hands it
 # the batch and b, a fused driver its own (N, n) scratch viewed as a batch of one and 0
-# (no copy and no strided slice per element: both measured 5-18 % slower).
+# (no copy and no strided slice per element, both slower).
 
 
 def _points_scratch(n):
@@ -94,8 +94,8 @@ def _points_into(mean, cov, b, root_kind, scale, center, Rt, w, V, Wk, X, e):
 def _predict_moments_into(d, N, wm, wc, Q, q, mu, Acc, out_mean, out_cov, b):
     """``out_mean[b]`` = weighted mean and ``out_cov[b] = sum wc dY dY^T + Q`` (symmetrised)
     of the ``N`` transformed points in ``d`` ``(N, p)``, which it overwrites with their
-    deviations. One 2-D array for points and deviations: a (N, B, p) batch read beside a
-    2-D alias cost the fused predict 6-12 % (measured)."""
+    deviations. One 2-D array for points and deviations (faster than a (N, B, p) batch
+    read beside a 2-D alias)."""
     p = _FIXED_N if _FIXED_N > 0 else d.shape[1]
     mu[:] = 0.0
     for k in range(N):

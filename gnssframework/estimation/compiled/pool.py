@@ -4,10 +4,8 @@ numba's ``parallel=True`` kernels hand the whole batch to its worker threads in 
 static parts while the calling thread waits. In a filter loop the kernels are called
 every few milliseconds with Python work in between, the workers go to sleep in between,
 and on this project's 2-core virtual machines a sleeping worker (and its idle virtual
-CPU) takes about as long to wake as the kernel takes to run: measured on the vector
-loop's channel update at batch 800, the parallel twin ran at 1.24-1.85 us per element
-back to back but at 1.8-2.8 us after 5 ms of Python work, against 2.0 for the serial
-kernel. Here the calling thread starts on the first chunk at once and the helper takes
+CPU) can take about as long to wake as the kernel takes to run (docs/benchmarks.md,
+"Why the compiled path is built as it is"). Here the calling thread starts on the first chunk at once and the helper takes
 chunks as it wakes (claimed from a shared counter), so the call never waits for a
 sleeping thread more than one chunk and takes the second core whenever it is free.
 

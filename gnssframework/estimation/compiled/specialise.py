@@ -95,8 +95,7 @@ def step_jit(fn):
     """``fn`` compiled as a step of a driver: numba inlines its IR into each driver that
     calls it (``inline="always"``), so LLVM optimises the step with the driver's own size
     constants and operands. Steps compiled separately and linked as calls (plain
-    ``njit``, cached or not) measured 13-25 % slower on the 5x6 fused update; inlined,
-    2-4 % (docs/benchmarks.md)."""
+    ``njit``) run slower (docs/benchmarks.md)."""
     if not HAVE_NUMBA:
         return fn
     return numba.njit(inline="always", nogil=True)(fn)

@@ -17,9 +17,8 @@ __all__ = ["PARALLEL_MIN_BATCH", "PD_MASK_PARALLEL_MIN_BATCH", "SPLIT", "SPLIT_C
 PARALLEL_MIN_BATCH = 256
 
 
-#: Batch size from which `pd_mask` runs in parallel: its element costs ~0.1 us, so the
-#: ~60 us of a parallel launch pays only from a few thousand elements (measured: at 800,
-#: serial 77 us against parallel 98 us; at 8000, 714 against 365 us).
+#: Batch size from which `pd_mask` runs in parallel: an element is cheap beside the
+#: launch of a parallel kernel, which pays only from a few thousand elements.
 PD_MASK_PARALLEL_MIN_BATCH = 2048
 
 
@@ -82,8 +81,7 @@ def split_by_work(B: int, n: int, m: int) -> bool:
 
 def work_chunks(B: int, n: int, m: int) -> int | None:
     """Chunks for a split by work: about twice `SPLIT_MIN_WORK` each (each chunk costs a
-    kernel call and a few slices, so small work is not cut finer; measured on ``ekf-pv``
-    at 100 runs, 2 to 8 chunks ran alike), 2 to `SPLIT_CHUNKS`; None (the default) from
+    kernel call and a few slices, so small work is not cut finer), 2 to `SPLIT_CHUNKS`; None (the default) from
     `PARALLEL_MIN_BATCH` on."""
     if B >= PARALLEL_MIN_BATCH:
         return None

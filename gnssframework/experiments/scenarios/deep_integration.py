@@ -54,7 +54,8 @@ from . import BatchResult, Scenario, ScenarioParams, register_scenario
 __all__ = ["DeepIntegrationScenario", "BYTES_PER_EPOCH_RUN_CHANNEL"]
 
 #: Peak memory of the aided tracking (or the vector loop) per coherent interval, run and
-#: channel (measured 96 to 166 B across the candidate kinds, rounded up: tests/test_limits.py).
+#: channel, an upper bound over the candidate kinds: tests/test_limits.py holds it above
+#: the measured peak.
 BYTES_PER_EPOCH_RUN_CHANNEL = 256
 
 ERRORS = ("horizontal_position_error", "height_error", "horizontal_velocity_error", "vertical_velocity_error",

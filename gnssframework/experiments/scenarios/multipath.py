@@ -35,8 +35,8 @@ __all__ = ["MultipathScenario", "OracleGrid", "MultipathCandidateOptions", "METR
            "BYTES_PER_EPOCH_RUN"]
 
 #: Peak memory of one filtered run's epoch (the measurements, the filter's means and
-#: covariances; measured 730 to 1120 B for the position filters, about 790 B per run and
-#: grid pair of the oracle, rounded up: tests/test_limits.py).
+#: covariances, and per run and grid pair of the oracle), an upper bound:
+#: tests/test_limits.py holds it above the measured peak.
 BYTES_PER_EPOCH_RUN = 1536
 
 

@@ -31,7 +31,7 @@ from . import BatchResult, Scenario, ScenarioParams, register_scenario
 __all__ = ["ScintillationScenario", "METRICS", "BYTES_PER_EPOCH_RUN"]
 
 #: Peak memory of one run's epoch (the scintillation process, the truth and the closed
-#: loop's record; measured 230 to 320 B, rounded up: tests/test_limits.py).
+#: loop's record), an upper bound: tests/test_limits.py holds it above the measured peak.
 BYTES_PER_EPOCH_RUN = 512
 
 

@@ -34,7 +34,7 @@ __all__ = ["VectorTrackingScenario", "SkyRealismParams", "METRICS", "steady_stat
            "BYTES_PER_EPOCH_RUN_CHANNEL"]
 
 #: Peak memory of the vector loop per epoch, run and channel (the recorded errors, NCO and
-#: truth arrays; measured about 360 B, rounded up: tests/test_limits.py).
+#: truth arrays), an upper bound: tests/test_limits.py holds it above the measured peak.
 BYTES_PER_EPOCH_RUN_CHANNEL = 512
 
 
