@@ -12,15 +12,10 @@ import types
 import pytest
 
 import gnssframework as gf
+from conftest import builtin_names
 from gnssframework import registry
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-
-
-def builtin_names(kind: str) -> list[str]:
-    """Names registered by this project only: exact-set assertions must not see plugins
-    that other packages installed beside it (or that other tests registered)."""
-    return sorted(i.name for i in registry.describe() if i.kind == kind and i.distribution == "gnssframework")
 
 
 def test_kinds_and_builtin_names():
