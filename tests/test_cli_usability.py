@@ -56,6 +56,7 @@ def test_no_rest_markup_in_help_or_the_plugin_listing(capsys):
     assert plain_text("a ``b`` :class:`~x.y.Z` :func:`f <m.f>` :mod:`gnssframework.io`") == "a b Z f gnssframework.io"
 
 
+@pytest.mark.slow
 def test_schema_into_a_closed_pipe_ends_quietly():
     proc = subprocess.run(f"'{sys.executable}' -m gnssframework schema | head -n 2", shell=True,
                           capture_output=True, text=True, cwd=ROOT)
@@ -126,6 +127,7 @@ def test_prn_written_any_usual_way_selects_the_same_satellite(tmp_path, capsys):
     assert all(o == outputs[0] for o in outputs)
 
 
+@pytest.mark.slow
 def test_progress_unless_quiet_the_runner_choosing_bar_or_lines(tmp_path, monkeypatch, capsys):
     seen = {}
 
