@@ -15,6 +15,7 @@ import gnssframework as gf
 WORKER_BUDGET_MB = 4000
 
 
+@pytest.hookimpl(optionalhook=True)  # xdist's hook: `-p no:xdist` (one process) must not fail on it
 def pytest_xdist_auto_num_workers(config) -> int:
     """``pytest -n auto`` (the README's command): one worker per core this process may use,
     but no more than the available memory holds at WORKER_BUDGET_MB each, so a many-core
@@ -80,6 +81,24 @@ def rng() -> np.random.Generator:
 
 def create(kind: str, name: str, **params):
     return gf.registry.create(kind, name, **params)
+
+
+#: The distribution whose entry point registers the built-in plugins (and the core's scenarios).
+BUILTIN_DISTRIBUTION = "gnssframework"
+
+
+def builtin_plugins(kind: str | None = None) -> list:
+    """The registry's entries of this project's own distribution (of ``kind``, or every kind),
+    sorted by kind then name. A test of the built-ins selects these, never the whole registry:
+    a plugin another package installed beside the project (its ``coherent-eml``), or one a
+    test registered at run time, is not a built-in (tests/test_outside_plugin.py)."""
+    return [i for i in gf.registry.describe()
+            if i.distribution == BUILTIN_DISTRIBUTION and (kind is None or i.kind == kind)]
+
+
+def builtin_names(kind: str) -> list[str]:
+    """Names of the built-in plugins of ``kind``, sorted."""
+    return [i.name for i in builtin_plugins(kind)]
 
 
 @pytest.fixture

@@ -116,6 +116,7 @@ def assisted(tmp_path_factory):
     return result, sats
 
 
+@pytest.mark.slow
 def test_assisted_pseudoranges_are_the_generator_geometry(assisted):
     result, sats = assisted
     obs, solution = result.observables, result.vector
@@ -140,6 +141,7 @@ def test_assisted_pseudoranges_are_the_generator_geometry(assisted):
     assert checked >= (DURATION_S - SETTLED_S - 0.5) * RATE_HZ
 
 
+@pytest.mark.slow
 def test_assisted_rinex_reads_back_with_the_half_cycle_flag(assisted, tmp_path):
     import georinex
 

@@ -161,6 +161,7 @@ def test_malformed_rinex_names_the_file_and_line(tmp_path, corrupt, line, messag
         read_code_carrier(bad, "G08")
 
 
+@pytest.mark.slow
 def test_cli_smooth_writes_csv(tmp_path):
     out = tmp_path / "smoothed.csv"
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "smooth", str(RNX), "--prn", "G08", "--out", str(out),

@@ -113,6 +113,7 @@ def test_bad_claims_are_refused_at_load_naming_the_field(tmp_path, fields, field
     assert str(err.value).startswith(field) and message in str(err.value)
 
 
+@pytest.mark.slow
 def test_compare_check_exits_1_when_a_claim_does_not_hold(tmp_path):
     claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower")
     path = tmp_path / "c.toml"

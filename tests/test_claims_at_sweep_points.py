@@ -181,6 +181,7 @@ def test_summary_and_report_name_the_points(tmp_path):
            "points; fails at the Bonferroni level 0.017 at none |" in report
 
 
+@pytest.mark.slow
 def test_compare_check_exits_1_when_a_sweep_point_claim_does_not_hold(tmp_path):
     # A bound no mean can meet fails at every point; the run itself decides nothing else.
     claims = (_claim(candidate="a", metric="lat_error_rmse", sweep="psi", within=[0.0, 1e9])

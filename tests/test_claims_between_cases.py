@@ -123,6 +123,7 @@ def test_a_bad_streams_name_is_refused_naming_the_field(tmp_path):
         str(err.value)
 
 
+@pytest.mark.slow
 def test_a_case_on_another_cases_streams_draws_its_random_numbers(tmp_path):
     # psi equal to the scenario's: with the nominal case's streams the runs are the same
     # run for run, to the bit; on its own streams they are other runs.
@@ -140,6 +141,7 @@ def test_a_case_on_another_cases_streams_draws_its_random_numbers(tmp_path):
     assert all(values["own"][0][r] != values["own"][1][r] for r in range(4))
 
 
+@pytest.mark.slow
 def test_the_pairing_between_cases_is_real_on_common_random_numbers(tmp_path):
     # Two cases that differ only by an option (the AR(1) coefficient of the multipath), the
     # second on the first's streams: the paired difference's SE is far below the unpaired

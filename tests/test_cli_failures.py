@@ -54,6 +54,7 @@ def _compare(capsys, config, out) -> tuple[int, str]:
     return _cli(capsys, "compare", config, "--out", out, "--quiet")
 
 
+@pytest.mark.slow
 def test_the_fixture_config_runs(tmp_path, capsys):
     assert main(["compare", str(_config(tmp_path)), "--out", str(tmp_path / "out"), "--quiet"]) == 0
     assert (tmp_path / "out" / "results.sqlite").is_file()
@@ -65,6 +66,7 @@ def test_an_out_path_under_a_file_is_named_with_exit_2(tmp_path, capsys):
     assert _compare(capsys, _config(tmp_path), out) == (2, f"error: {out}: Not a directory")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("code, status, hint", [
     (errno.EACCES, 2, "not writable or readable by this user; choose another path"),
     (errno.EROFS, 2, "on a read-only file system; choose another path"),
@@ -93,6 +95,7 @@ def test_a_corrupted_store_is_named_with_exit_2(tmp_path, capsys):
     assert err.startswith(f"error: {out / 'results.sqlite'}: ") and "file is not a database" in err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sqlite_message, status, hint", [
     ("database or disk is full", 1, "no space left on the device"),
     ("attempt to write a readonly database", 2, "not writable or readable by this user"),
@@ -110,6 +113,7 @@ def test_sqlite_write_failures_name_the_store_as_the_os_error_they_are(tmp_path,
     assert err.startswith(f"error: {tmp_path / 'out' / 'results.sqlite'}: {sqlite_message} ({hint}")
 
 
+@pytest.mark.slow
 def test_ctrl_c_ends_with_one_line_and_exit_130(tmp_path, capsys, monkeypatch):
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
@@ -246,6 +250,7 @@ channel_filter = "scalar"
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("workers", [1, 2])
 def test_a_real_ctrl_c_during_a_run_ends_with_one_line_and_exit_130(tmp_path, workers):
     import signal

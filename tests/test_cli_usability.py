@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 import gnssframework.experiments as experiments
+from conftest import builtin_plugins
 from gnssframework import registry
 from gnssframework.cli import build_parser, main, plain_text
 from gnssframework.errors import ConfigError
@@ -48,14 +49,14 @@ def test_no_rest_markup_in_help_or_the_plugin_listing(capsys):
     texts = [build_parser().format_help()] + [p.format_help() for p in _subparsers().values()]
     assert main(["plugins"]) == 0
     texts.append(capsys.readouterr().out)
-    for kind in registry.kinds():
-        for name in registry.names(kind):
-            assert main(["plugins", "--kind", kind, "--describe", name]) == 0
-            texts.append(capsys.readouterr().out)
+    for info in builtin_plugins():
+        assert main(["plugins", "--kind", info.kind, "--describe", info.name]) == 0
+        texts.append(capsys.readouterr().out)
     assert not [t for t in texts if REST.search(t)]
     assert plain_text("a ``b`` :class:`~x.y.Z` :func:`f <m.f>` :mod:`gnssframework.io`") == "a b Z f gnssframework.io"
 
 
+@pytest.mark.slow
 def test_schema_into_a_closed_pipe_ends_quietly():
     proc = subprocess.run(f"'{sys.executable}' -m gnssframework schema | head -n 2", shell=True,
                           capture_output=True, text=True, cwd=ROOT)
@@ -126,6 +127,7 @@ def test_prn_written_any_usual_way_selects_the_same_satellite(tmp_path, capsys):
     assert all(o == outputs[0] for o in outputs)
 
 
+@pytest.mark.slow
 def test_progress_unless_quiet_the_runner_choosing_bar_or_lines(tmp_path, monkeypatch, capsys):
     seen = {}
 
@@ -146,8 +148,7 @@ def test_progress_unless_quiet_the_runner_choosing_bar_or_lines(tmp_path, monkey
 
 
 def test_every_built_in_without_parameters_says_why(capsys):
-    bare = [(k, n) for k in registry.kinds() for n in registry.names(k)
-            if not registry.get(k, n).Params.model_fields and registry.get(k, n).__module__.startswith("gnssframework")]
+    bare = [(i.kind, i.name) for i in builtin_plugins() if not i.cls.Params.model_fields]
     assert ("estimator", "kf") in bare and ("sample_source", "ci8") in bare
     for kind, name in bare:
         assert main(["plugins", "--kind", kind, "--describe", name]) == 0

@@ -93,6 +93,7 @@ def test_a_recording_error_names_the_parameter_and_the_command_its_option(tmp_pa
     assert err.startswith(f"error: {flag}: {detail}") and len(err.strip().splitlines()) == 1, err
 
 
+@pytest.mark.slow
 def test_the_filters_of_receive_name_the_parameter_and_receive_its_option(tmp_path, capsys):
     with pytest.raises(ConfigError, match=r"^channel_params\.pll_bandwidth_hz: ") as info:
         receiver_filters(channel_params={"pll_bandwidth_hz": -1})

@@ -102,6 +102,7 @@ except Exception as exc:
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("which, expected_type, message", [
     ("config", "RunFailure", "candidate 'bad', case 'c45', runs 0-1: nav_filter.gain: gain must be finite in the worker"),
     ("unpicklable", "WorkerError", "candidate 'bad', case 'c45', runs 0-1: HoldsALock: exploded in step"),
@@ -114,6 +115,7 @@ def test_failure_in_a_worker_reaches_the_user_with_its_message(tmp_path, which, 
     assert out.stdout.splitlines() == [expected_type, message], out.stderr[-2000:]
 
 
+@pytest.mark.slow
 def test_a_worker_that_dies_is_reported_with_its_batch_not_as_a_bare_broken_pool(tmp_path):
     path = tmp_path / "tiny.toml"
     path.write_text(TINY.replace("NAME", "failing"))

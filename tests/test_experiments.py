@@ -50,6 +50,7 @@ def _rows(path):
     return {(r["case"], r["candidate"], r["metric"]): r for r in json.loads(path.read_text())["rows"]}
 
 
+@pytest.mark.slow
 def test_summary_report_plots_and_published_values(tmp_path):
     summary = run_comparison(load_config(_write(tmp_path)), tmp_path / "out", progress=False)
     rows = _rows(summary)
@@ -67,6 +68,7 @@ def test_summary_report_plots_and_published_values(tmp_path):
     assert len(list((tmp_path / "out" / "raw" / "c45" / "disc").glob("run*.npz"))) == 2
 
 
+@pytest.mark.slow
 def test_same_seed_same_numbers_on_every_executor(tmp_path):
     base = run_comparison(load_config(_write(tmp_path)), tmp_path / "a", progress=False)
     pool = run_comparison(load_config(_write(tmp_path, TINY.replace("workers = 1", "workers = 2"))),
@@ -80,6 +82,7 @@ def test_same_seed_same_numbers_on_every_executor(tmp_path):
     assert _rows(other)[("c45", "disc", "position_error_rmse")]["mean"] != a[("c45", "disc", "position_error_rmse")]["mean"]
 
 
+@pytest.mark.slow
 def test_interrupted_comparison_resumes_and_loses_nothing(tmp_path):
     config = load_config(_write(tmp_path))
     done = []
@@ -98,6 +101,7 @@ def test_interrupted_comparison_resumes_and_loses_nothing(tmp_path):
     assert _rows(summary) == _rows(fresh)
 
 
+@pytest.mark.slow
 def test_rerunning_a_finished_comparison_runs_nothing_and_rewrites_the_report(tmp_path):
     text = TINY.replace("workers = 1", "workers = 2")  # the process-pool path
     first = run_comparison(load_config(_write(tmp_path, text)), tmp_path / "out", progress=False)
@@ -107,6 +111,7 @@ def test_rerunning_a_finished_comparison_runs_nothing_and_rewrites_the_report(tm
     assert ran == [] and _rows(again) == _rows(first) and (tmp_path / "out" / "report.md").exists()
 
 
+@pytest.mark.slow
 def test_more_runs_reuse_the_finished_batches(tmp_path):
     config = load_config(_write(tmp_path))
     run_comparison(config, tmp_path / "out", progress=False)
@@ -146,6 +151,7 @@ def test_more_config_errors(tmp_path, text, message):
         load_config(_write(tmp_path, text))
 
 
+@pytest.mark.slow
 def test_cli_config_error_is_one_line_without_traceback(tmp_path):
     bad = _write(tmp_path, TINY.replace('name = "discriminator"', 'name = "discriminater"'))
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(bad), "--out", str(tmp_path / "o")],
@@ -155,12 +161,14 @@ def test_cli_config_error_is_one_line_without_traceback(tmp_path):
     assert "did you mean 'discriminator'" in proc.stderr
 
 
+@pytest.mark.slow
 def test_cli_bad_toml_names_the_file_and_line(tmp_path):
     bad = _write(tmp_path, "name = \n")
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(bad)], capture_output=True, text=True)
     assert proc.returncode == 2 and f"{bad}:1: invalid TOML" in proc.stderr
 
 
+@pytest.mark.slow
 def test_cli_compare_runs_and_overrides_runs_and_seed(tmp_path):
     path = _write(tmp_path)
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--runs", "2", "--seed", "3",
@@ -170,6 +178,7 @@ def test_cli_compare_runs_and_overrides_runs_and_seed(tmp_path):
     assert summary["seed"] == 3 and all(r["runs"] == 2 for r in summary["rows"])
 
 
+@pytest.mark.slow
 def test_schema_validates_each_plugins_params_against_its_name():
     import tomllib
     from pathlib import Path

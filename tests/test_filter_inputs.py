@@ -9,11 +9,10 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import gnssframework as gf
-from conftest import create
+from conftest import builtin_names, create
 
 #: Every built-in estimator (a new one is covered without editing this file).
-ESTIMATORS = sorted(i.name for i in gf.registry.describe()
-                    if i.kind == "estimator" and i.distribution == "gnssframework")
+ESTIMATORS = builtin_names("estimator")
 F = np.array([[1.0, 1.0], [0.0, 1.0]])
 MODEL = gf.LinearModel(F, np.array([[1.0, 0.0]]), 0.01 * np.eye(2), np.eye(1))
 
@@ -108,8 +107,7 @@ def test_random_bad_inputs_get_a_library_error_naming_the_input(name, kind, batc
 # -- noise adapters, augmentations and FilterStep itself ---------------------------------------
 
 #: Every built-in noise adapter.
-ADAPTERS = sorted(i.name for i in gf.registry.describe() if i.kind == "noise_adapter"
-                  and i.distribution == "gnssframework")
+ADAPTERS = builtin_names("noise_adapter")
 
 
 @pytest.mark.parametrize("adapter", ADAPTERS)

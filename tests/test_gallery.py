@@ -17,6 +17,7 @@ def test_the_gallery_holds_the_six_examples():
                                          "first_filter", "plugin_to_comparison", "reading_rinex"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)
 def test_gallery_script_runs(script, tmp_path):
     proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, cwd=tmp_path, timeout=300)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import json
 import re
 from pathlib import Path
@@ -18,6 +19,7 @@ import gnssframework as gf  # noqa: E402
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "gallery.md"
 
 
+@pytest.mark.slow
 def test_the_gallery_page_runs_and_its_frames_match_the_summary(tmp_path, monkeypatch):
     blocks = re.findall(r"```python\n(.*?)```", PAGE.read_text(), re.S)
     assert len(blocks) == 3

@@ -12,6 +12,7 @@ import pytest
 import gnssframework as gf
 import gnssframework.estimators as estimators
 import gnssframework.noise_adapters as noise_adapters
+from conftest import builtin_names
 from gnssframework.errors import ConfigError, InvalidArgumentError, InvalidInputError
 from gnssframework.estimation import Gaussian, LinearModel, filter_sequence
 from gnssframework.plugin_classes import class_name
@@ -83,7 +84,7 @@ def test_typed_classes_are_the_registered_plugins_with_signatures():
     assert signature.parameters["alpha"].default == gf.registry.get("estimator", "ukf").Params().alpha
     assert estimators.SVDCKF is gf.registry.get("estimator", "svd-ckf")
     assert noise_adapters.SageHusa is gf.registry.get("noise_adapter", "sage-husa")
-    assert {class_name(n) for n in gf.registry.names("estimator")} <= set(dir(estimators))
+    assert {class_name(n) for n in builtin_names("estimator")} <= set(dir(estimators))
     with pytest.raises(ConfigError, match="alpha"):
         estimators.UKF(alpha=-1.0)
 

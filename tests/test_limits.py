@@ -197,6 +197,7 @@ def test_a_bad_memory_budget_is_refused_naming_the_variable(tmp_path, monkeypatc
     assert _error(tmp_path, VECTOR).startswith(f"{MEMORY_BUDGET_ENV}: must be a positive number of GiB")
 
 
+@pytest.mark.slow
 def test_the_cli_refuses_a_batch_above_the_budget_with_exit_2_and_one_line(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv(MEMORY_BUDGET_ENV, "1e-6")
     path = tmp_path / "c.toml"

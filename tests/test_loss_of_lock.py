@@ -40,6 +40,7 @@ def blanked(tmp_path_factory):
     return result, sats, gone
 
 
+@pytest.mark.slow
 def test_the_blanked_satellite_is_flagged_on_its_first_epoch_after_the_gap_and_no_other(blanked):
     result, sats, gone = blanked
     obs = result.observables
@@ -62,6 +63,7 @@ def test_the_blanked_satellite_is_flagged_on_its_first_epoch_after_the_gap_and_n
     assert not np.delete(half, j, axis=1).any()
 
 
+@pytest.mark.slow
 def test_the_bridged_pseudoranges_agree_with_the_geometry_as_before_the_gap(blanked):
     """Pseudorange minus the generator's range (light time, satellite clock) is the
     receiver clock bias, the same for every satellite: the re-acquired satellite's spread
@@ -84,6 +86,7 @@ def test_the_bridged_pseudoranges_agree_with_the_geometry_as_before_the_gap(blan
         assert np.all(np.abs(side) < 4 * np.sqrt(2) * 1.7)
 
 
+@pytest.mark.slow
 def test_the_rinex_file_carries_the_flags(blanked, tmp_path):
     import georinex
 

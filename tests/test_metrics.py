@@ -116,6 +116,7 @@ def _load(tmp_path, metrics):
     return load_config(path)
 
 
+@pytest.mark.slow
 def test_a_third_party_metric_is_named_in_a_config_and_reported(tmp_path, scratch_registry):
     _register(scratch_registry, PeakCode, NeedsOther)
     assert "code_phase_error_peak" in scratch_registry.names("metric")
@@ -189,6 +190,7 @@ class WrongShape(Metric):
         return MetricValue(np.zeros(7))
 
 
+@pytest.mark.slow
 def test_a_registered_metric_is_computed_like_a_scenario_s_own_and_a_wrong_shape_names_the_task(
         tmp_path, scratch_registry):
     from gnssframework.errors import RunFailure

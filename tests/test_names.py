@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 
 import gnssframework as gf
+from conftest import builtin_names
 from gnssframework import names
 
 
 def test_every_builtin_sequential_filter_uses_the_shared_names():
     for kind in ("channel_filter", "nav_filter"):
-        for name in gf.registry.names(kind):
+        for name in builtin_names(kind):
             cls = gf.registry.get(kind, name)
             unknown = set(cls.requires) | set(cls.provides)
             unknown -= names.ALL

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import pathlib
 import shutil
 import subprocess
@@ -11,6 +12,7 @@ import zipfile
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.slow
 def test_wheel_contains_every_module_and_the_entry_point(tmp_path):
     src = tmp_path / "src"
     shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(
@@ -29,6 +31,7 @@ def test_wheel_contains_every_module_and_the_entry_point(tmp_path):
     assert "scenarios = gnssframework.experiments.scenarios.hooks" in text
 
 
+@pytest.mark.slow
 def test_version_licence_and_citation_are_in_one_place():
     import subprocess
     import sys

@@ -200,6 +200,7 @@ def test_the_loop_filter_itself_refuses_a_too_wide_assist():
         LoopFilter(3, 10.0, 0.01, 50.0)
 
 
+@pytest.mark.slow
 def test_the_cli_exits_2_with_the_field_before_any_run(tmp_path, capsys):
     path = tmp_path / "c.toml"
     path.write_text(MULTIPATH.replace("PARAMS", "p0 = [10.0, 1.0]"))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import os
 import pathlib
 import shutil
@@ -14,6 +15,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 TEMPLATE = ROOT / "examples" / "plugin-template"
 
 
+@pytest.mark.slow
 def test_template_installs_and_registers(tmp_path):
     target = tmp_path / "site"
     source = tmp_path / "plugin-template"  # build from a copy: never write into the repository

@@ -67,6 +67,7 @@ def test_filtering_reduces_the_error_of_the_static_track():
         assert np.sqrt(np.mean(fn**2 + fe**2)) < raw
 
 
+@pytest.mark.slow
 def test_cli_filter_positions_writes_csv_and_lists_skipped_lines(tmp_path):
     out = tmp_path / "filtered.csv"
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "filter-positions", str(_corrupt(tmp_path)),
@@ -96,6 +97,7 @@ def test_filter_positions_takes_registry_names_as_well_as_the_papers_labels():
     assert np.sqrt(np.mean(fn**2 + fe**2)) < np.sqrt(np.mean(n**2 + e**2))
 
 
+@pytest.mark.slow
 def test_filter_positions_names_the_option_of_an_unknown_name(tmp_path):
     from gnssframework.errors import ConfigError
     from gnssframework.io.positions import composition

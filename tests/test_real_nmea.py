@@ -117,6 +117,7 @@ def test_cli_on_the_gpsd_log_exits_0_and_says_what_it_did_not_use(tmp_path, caps
     assert "29 fixes filtered" in out and "696 GSV" in out and "12 comment lines" in out
 
 
+@pytest.mark.slow
 def test_a_closed_pipe_ends_quietly_with_the_commands_status(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "gnssframework", "filter-positions", str(SIRF), "--out",
                              str(tmp_path / "f.csv"), "--filter", "UKF"], stdout=subprocess.PIPE,

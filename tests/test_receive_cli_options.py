@@ -19,12 +19,14 @@ def parsed(monkeypatch):
     return seen
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spelling", [["--truth", SANTIAGO], [f"--truth={SANTIAGO}"]])
 def test_truth_takes_negative_coordinates(parsed, spelling):
     assert cli.main(["receive", "rec.bin", "--out", "o", *spelling]) == 0
     assert cli._truth_from_args(parsed["args"]) == (-33.4, -70.6, 500.0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spelling", [["--approx-position", "-33.1,-70.2,-20"],
                                       ["--approx-position=-33.1,-70.2,-20"],
                                       ["--approx-position", "-.5,10,0"]])
@@ -75,6 +77,7 @@ def received(monkeypatch):
     return seen, Stop
 
 
+@pytest.mark.slow
 def test_vector_accel_psd_reaches_the_navigation_filter(tiny_recording, tmp_path, received):
     from gnssframework import registry
 
@@ -90,6 +93,7 @@ def test_vector_accel_psd_reaches_the_navigation_filter(tiny_recording, tmp_path
     assert seen["vector"].nav_params == {}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("extra", [["--tracking", "vector", "--vector-accel-psd", "0"],
                                    ["--tracking", "vector", "--vector-accel-psd", "nan"],
                                    ["--vector-accel-psd", "1"]])
@@ -107,6 +111,7 @@ ASSISTED = ["--tracking", "vector", "--ephemeris", str(NAV), "--approx-position"
             "--start-time", "1316,518703.4"]
 
 
+@pytest.mark.slow
 def test_an_assisted_start_takes_the_ephemeris_files_klobuchar(tiny_recording, tmp_path, received):
     seen, stop = received
     with pytest.raises(stop):
@@ -117,6 +122,7 @@ def test_an_assisted_start_takes_the_ephemeris_files_klobuchar(tiny_recording, t
     assert seen["assist"].iono is None and seen["ionosphere"] is False
 
 
+@pytest.mark.slow
 def test_receive_takes_the_week_of_the_ephemeris_file_without_week(tiny_recording, tmp_path, received):
     seen, stop = received
     with pytest.raises(stop):
@@ -137,6 +143,7 @@ def test_an_ephemeris_of_another_day_is_named_as_such(tiny_recording, tmp_path, 
     assert "2005-04-01 23:59:44 to 2005-04-03 00:00:00 GPS" in err and "no LNAV" not in err
 
 
+@pytest.mark.slow
 def test_the_ephemeris_files_klobuchar_and_the_weighting_reach_the_fixes(tiny_recording, tmp_path, received):
     """Where no channel decodes page 18, the fixes take the navigation file's header (as
     RTKLIB does); ``--weighting rtklib`` picks RTKLIB's error model."""

@@ -46,6 +46,7 @@ def outputs(recording, tmp_path_factory):  # noqa: F811
     return first, second, sats
 
 
+@pytest.mark.slow
 def test_positions_csv_has_the_columns_and_a_row_per_fix_near_the_station(outputs):
     out, _, sats = outputs
     with (out / "positions.csv").open() as fh:
@@ -65,6 +66,7 @@ def test_positions_csv_has_the_columns_and_a_row_per_fix_near_the_station(output
     assert all(int(r["n_sats"]) == sats.sv.size for r in rows)
 
 
+@pytest.mark.slow
 def test_observations_rnx_reads_back_through_georinex(outputs):
     import georinex
 
@@ -84,6 +86,7 @@ def test_observations_rnx_reads_back_through_georinex(outputs):
     assert np.all((obs["S1C"].values > 35) & (obs["S1C"].values < 55))
 
 
+@pytest.mark.slow
 def test_nmea_sentences_parse_and_match_positions_csv(outputs):
     out, _, _ = outputs
     lines = (out / "nmea.txt").read_text().splitlines()
@@ -101,6 +104,7 @@ def test_nmea_sentences_parse_and_match_positions_csv(outputs):
     assert parsed[1].datestamp == utc.date()
 
 
+@pytest.mark.slow
 def test_report_has_ttff_errors_satellites_and_figures(outputs):
     out, _, sats = outputs
     text = (out / "report.md").read_text()
@@ -112,12 +116,14 @@ def test_report_has_ttff_errors_satellites_and_figures(outputs):
         assert (out / "plots" / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow
 def test_the_same_recording_gives_the_same_bytes(outputs):
     first, second, _ = outputs
     for name in ("positions.csv", "observations.rnx", "nmea.txt", "report.md"):
         assert (first / name).read_bytes() == (second / name).read_bytes(), name
 
 
+@pytest.mark.slow
 def test_ekf_pv_on_the_recordings_pseudoranges_is_as_accurate_and_smoother(recording):  # noqa: F811
     path, _ = recording
     result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=10.0,
@@ -140,6 +146,7 @@ def test_ekf_pv_on_the_recordings_pseudoranges_is_as_accurate_and_smoother(recor
     assert np.all(ekf.columns["n_sats"] == 5) and np.all(np.isfinite(ekf.columns["hdop"]))
 
 
+@pytest.mark.slow
 def test_the_nav_filter_option_runs_the_filter_and_says_so(recording, tmp_path, capsys):  # noqa: F811
     path, _ = recording
     config = tmp_path / "receiver.toml"
@@ -175,6 +182,7 @@ def test_a_bad_receiver_config_names_the_field(tmp_path, text, message):
     assert message in str(info.value) and "\n" not in str(info.value)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("options, message", [
     (["--nav-filter", "ekf-p"], "--nav-filter: unknown nav_filter 'ekf-p'; known: "),
     (["--nav-filter", "ins-ekf"], "--nav-filter: nav_filter 'ins-ekf' cannot run on pseudoranges and Dopplers"),
@@ -190,6 +198,7 @@ def test_receive_refuses_bad_options_with_one_line(recording, tmp_path, capsys, 
     assert message in err and len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_progress_lines_off_a_terminal_a_bar_on_one(recording, tmp_path, capsys, monkeypatch):  # noqa: F811
     import sys
 
@@ -223,6 +232,7 @@ def test_a_missing_or_broken_config_file_is_named(tmp_path):
     assert "broken.toml" in str(info.value) and "line 3" in str(info.value)
 
 
+@pytest.mark.slow
 def test_receive_takes_a_nav_filter_or_vector_tracking_not_both():
     """The vector loop closes its own ekf-pv: a second filter on the observables would
     be a different receiver, so the library refuses the pair before reading anything."""
@@ -235,6 +245,7 @@ def test_receive_takes_a_nav_filter_or_vector_tracking_not_both():
         receive(None, None, None, nav_filter=PluginSpec("nav_filter", "ekf-pv", {}), vector=vector_config())
 
 
+@pytest.mark.slow
 def test_a_run_without_position_keeps_its_tracking_and_says_why(recording, tmp_path, capsys):  # noqa: F811
     """5 s of the recording: every channel locks, but a subframe arrives 8.6 s in. The run
     writes tracking.csv and a report of what it decoded and why no satellite was used, then
@@ -255,6 +266,7 @@ def test_a_run_without_position_keeps_its_tracking_and_says_why(recording, tmp_p
     assert not (out / "positions.csv").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("extra, start", [([], "a position"),
                                           (["--tracking", "vector", "--approx-position",
                                             ",".join(f"{v:.6f}" for v in TRUTH), "--start-time", f"{WEEK},{TOW0}"],
@@ -269,6 +281,7 @@ def test_too_few_satellites_found_is_said_with_the_count(recording, tmp_path, ca
     assert f"only 2 satellites found (PRN {two[0]}, {two[1]}): {start} needs 4" in said and "LNAV" not in said
 
 
+@pytest.mark.slow
 def test_the_report_says_why_a_tracked_satellite_is_unused(recording, tmp_path):  # noqa: F811
     """One satellite's records taken out of the ephemeris (none is decoded in the file): the
     other four give the fixes, and the report says why it is in none."""

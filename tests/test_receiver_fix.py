@@ -31,6 +31,7 @@ def recording(tmp_path_factory):
     return path, sats
 
 
+@pytest.mark.slow
 def test_receive_positions_the_generated_recording_at_the_station(recording):
     path, sats = recording
     result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=5.0,

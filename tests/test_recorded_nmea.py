@@ -96,6 +96,7 @@ def test_strict_refuses_the_file_at_the_first_bad_line(tmp_path):
         read_nmea(_write(tmp_path, lines), strict=True)
 
 
+@pytest.mark.slow
 def test_cli_exit_status_and_sidecar_say_what_was_skipped(tmp_path, capsys):
     lines = LINES[:200]
     lines[10] = _edit(lines[10], lat="9130.0000")

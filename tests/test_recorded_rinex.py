@@ -105,6 +105,7 @@ def test_strict_refuses_at_the_first_skipped_line(tmp_path):
         read_code_carrier(_write(tmp_path, lines), "G08", strict=True)
 
 
+@pytest.mark.slow
 def test_cli_smooth_exit_status_summary_and_sidecar(tmp_path, capsys):
     out = tmp_path / "s.csv"
     dup = _write(tmp_path, LINES[:_epoch(6)] + LINES[_epoch(5):_epoch(6)] + LINES[_epoch(6):], "dup.rnx")

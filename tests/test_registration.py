@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 import gnssframework as gf
+from conftest import builtin_plugins
 from gnssframework import registry
 from gnssframework.errors import PluginError
 
@@ -132,7 +133,7 @@ def test_the_builtin_plugins_are_registered_by_their_modules_alone():
 
 
 def _builtins() -> list[registry.PluginInfo]:
-    return [i for i in registry.describe() if i.distribution == "gnssframework"]
+    return builtin_plugins()
 
 
 def _module_file(module: str) -> Path:

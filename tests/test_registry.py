@@ -12,15 +12,10 @@ import types
 import pytest
 
 import gnssframework as gf
+from conftest import builtin_names
 from gnssframework import registry
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-
-
-def builtin_names(kind: str) -> list[str]:
-    """Names registered by this project only: exact-set assertions must not see plugins
-    that other packages installed beside it (or that other tests registered)."""
-    return sorted(i.name for i in registry.describe() if i.kind == kind and i.distribution == "gnssframework")
 
 
 def test_kinds_and_builtin_names():
@@ -186,6 +181,7 @@ def test_core_never_imports_the_plugins_package():
     assert offenders == []
 
 
+@pytest.mark.slow
 def test_cli_lists_kind_name_description_and_source():
     out = subprocess.run([sys.executable, "-m", "gnssframework", "plugins"], capture_output=True, text=True,
                          check=True).stdout
@@ -193,6 +189,7 @@ def test_cli_lists_kind_name_description_and_source():
     assert line.split()[0] == "estimator" and f"gnssframework {gf.__version__}" in line
 
 
+@pytest.mark.slow
 def test_cli_library_error_is_one_line_without_traceback_and_suggests_the_name():
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "plugins", "--describe", "eml-envelop"],
                           capture_output=True, text=True)
@@ -201,6 +198,7 @@ def test_cli_library_error_is_one_line_without_traceback_and_suggests_the_name()
         "error: --describe: no plugin named 'eml-envelop'; did you mean 'eml-envelope'?"]
 
 
+@pytest.mark.slow
 def test_describe_prints_the_contract_and_the_parameter_table_from_params():
     from gnssframework.plugin_docs import parameter_rows
 
@@ -242,6 +240,7 @@ OWNED_BASES = {"metric": ("gnssframework.experiments.metrics", "Metric"),
                "acquisition": ("gnssframework.receiver.acquisition.search", "Acquisition")}
 
 
+@pytest.mark.slow
 def test_a_fresh_process_finds_the_bases_the_upper_layers_declare():
     # Only the registry is imported: its entry points import the owning modules, which
     # declare the bases before their plugins register (none is refused, all are listed).

@@ -5,6 +5,7 @@ one bound curve, one legend per figure, labels saying what is drawn."""
 
 from __future__ import annotations
 
+import pytest
 import re
 import types
 
@@ -172,6 +173,7 @@ def _check_common(fig, panels: int):
     assert width / height < 4  # a grid, not a strip of panels
 
 
+@pytest.mark.slow
 def test_series_figure_is_labelled_with_what_it_draws(comparison):
     config, out = comparison
     fig = series_figure(config, out, "only")
@@ -193,6 +195,7 @@ def test_series_figure_is_labelled_with_what_it_draws(comparison):
         plt.close(fig)
 
 
+@pytest.mark.slow
 def test_cdf_figure_has_units_and_one_bound_curve(comparison):
     config, out = comparison
     fig = cdf_figure(config, ResultStore(out / "results.sqlite"), "only")
@@ -209,6 +212,7 @@ def test_cdf_figure_has_units_and_one_bound_curve(comparison):
         plt.close(fig)
 
 
+@pytest.mark.slow
 def test_report_prints_a_bound_without_spread_or_significance(comparison):
     _, out = comparison
     report = (out / "report.md").read_text()
@@ -245,6 +249,7 @@ nav_filter = { name = "ekf-pv" }
 """
 
 
+@pytest.mark.slow
 def test_the_main_jobs_scenario_gets_a_grid_with_one_bound_curve_per_bounded_metric(tmp_path):
     path = tmp_path / "v.toml"
     path.write_text(VECTOR)

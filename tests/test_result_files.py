@@ -103,6 +103,7 @@ def test_atomic_open_leaves_the_old_file_on_an_exception(tmp_path):
     assert target.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("example", EXAMPLES, ids=[p.stem for p in EXAMPLES])
 def test_every_example_writes_a_strict_json_summary(example, tmp_path):
     config = load_config(_shortened(example, tmp_path))
@@ -115,6 +116,7 @@ def test_every_example_writes_a_strict_json_summary(example, tmp_path):
             assert row["undefined"] and row["undefined"] in report
 
 
+@pytest.mark.slow
 def test_a_metric_undefined_in_every_run_is_null_with_its_reason(tmp_path):
     config = tmp_path / "noslips.toml"
     config.write_text(KILL_CONFIG.replace("slip_probability = 0.01", "slip_probability = 0.0"))
@@ -228,6 +230,7 @@ main(["compare", config, "--out", out, "--quiet"])
 """
 
 
+@pytest.mark.slow
 def test_compare_killed_inside_each_kind_of_write_resumes_to_the_uninterrupted_results(tmp_path):
     config = tmp_path / "killed.toml"
     config.write_text(KILL_CONFIG.replace("runs = 8", "runs = 3"))
@@ -262,6 +265,7 @@ def _no_slips_with_a_sweep(tmp_path: Path, runs: int) -> Path:
     return config
 
 
+@pytest.mark.slow
 def test_sweep_tables_and_paired_rows_are_strict_with_null_and_a_reason(tmp_path):
     """A metric undefined in every run (no slips) goes through summary rows, paired rows and
     the sweep's JSON and CSV as null/empty with a reason, never as NaN."""
@@ -291,6 +295,7 @@ def test_sweep_tables_and_paired_rows_are_strict_with_null_and_a_reason(tmp_path
         assert png.read_bytes()[-8:-4] == b"IEND"
 
 
+@pytest.mark.slow
 def test_compare_killed_inside_each_sweep_write_resumes_to_the_uninterrupted_results(tmp_path):
     config = _no_slips_with_a_sweep(tmp_path, 2)
     whole = tmp_path / "whole"

@@ -51,6 +51,7 @@ def on_disk(tmp_path_factory):
     return tmp, gf.compare(tmp / "c.toml", out=tmp / "out")
 
 
+@pytest.mark.slow
 def test_frames_equal_the_summary(on_disk):
     tmp, res = on_disk
     summary = json.loads((tmp / "out" / "summary.json").read_text())
@@ -60,6 +61,7 @@ def test_frames_equal_the_summary(on_disk):
     assert set(res.rows.columns) >= {"case", "candidate", "metric", "mean", "std", "runs", "unit"}
 
 
+@pytest.mark.slow
 def test_runs_dataset_holds_the_store_values_with_units(on_disk):
     tmp, res = on_disk
     ds = res.runs
@@ -74,6 +76,7 @@ def test_runs_dataset_holds_the_store_values_with_units(on_disk):
     assert row["mean"] == pytest.approx(float(ds["lat_error_rmse"].sel(case="psi-0.9", candidate="ar1").mean()))
 
 
+@pytest.mark.slow
 def test_series_dataset_has_named_dimensions_and_time(on_disk):
     tmp, res = on_disk
     s = res.series
@@ -88,6 +91,7 @@ def test_series_dataset_has_named_dimensions_and_time(on_disk):
     np.testing.assert_array_equal(s["time_s"].values[np.isfinite(ar1.isel(run=0).values)], own)
 
 
+@pytest.mark.slow
 def test_in_memory_gives_the_same_numbers_and_leaves_no_folder(on_disk, tmp_path):
     _, res = on_disk
     mem = gf.compare(gf.experiments.load_config(on_disk[0] / "c.toml"))

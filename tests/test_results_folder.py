@@ -88,6 +88,7 @@ def test_run_streams_do_not_depend_on_the_batch():
     assert isinstance(as_run_streams(np.random.default_rng(1), 3), RunStreams)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("first, second", [(3, 4), (4, 3), (2, 5)])
 def test_changing_runs_in_a_folder_gives_the_numbers_of_a_fresh_comparison(tmp_path, first, second):
     out = tmp_path / "reused"
@@ -101,6 +102,7 @@ def test_changing_runs_in_a_folder_gives_the_numbers_of_a_fresh_comparison(tmp_p
     assert f"{second} Monte Carlo runs" in report
 
 
+@pytest.mark.slow
 def test_a_run_gets_the_same_random_numbers_in_any_batch(tmp_path):
     """Run 2's noise as the "raw" candidate stores it: computed in a 1-run batch (3 runs,
     batches of 2) and in a 2-run batch (4 runs): the same bits."""
@@ -113,6 +115,7 @@ def test_a_run_gets_the_same_random_numbers_in_any_batch(tmp_path):
         assert np.array_equal(three[r], four[r]), r
 
 
+@pytest.mark.slow
 def test_another_configuration_in_the_same_folder_is_refused(tmp_path):
     out = tmp_path / "out"
     run_comparison(_config(tmp_path, 4, seed=4), out, progress=False)
@@ -125,6 +128,7 @@ def test_another_configuration_in_the_same_folder_is_refused(tmp_path):
     run_comparison(_config(tmp_path, 2, seed=4, head='metrics = ["error_rmse"]\n'), out, progress=False)
 
 
+@pytest.mark.slow
 def test_cli_refuses_another_configuration_in_one_line(tmp_path):
     out = tmp_path / "out"
     for seed, code in ((4, 0), (5, 2)):
@@ -137,6 +141,7 @@ def test_cli_refuses_another_configuration_in_one_line(tmp_path):
     assert proc.stderr.startswith("error: --out: ") and "differs in: seed" in proc.stderr
 
 
+@pytest.mark.slow
 def test_a_folder_being_written_is_refused(tmp_path):
     import fcntl
 
@@ -152,6 +157,7 @@ def test_a_folder_being_written_is_refused(tmp_path):
     run_comparison(_config(tmp_path, 2), out, progress=False)  # free again
 
 
+@pytest.mark.slow
 def test_raw_series_without_a_record_are_refused(tmp_path):
     out = tmp_path / "out"
     (out / "raw" / "x").mkdir(parents=True)
@@ -160,6 +166,7 @@ def test_raw_series_without_a_record_are_refused(tmp_path):
         run_comparison(_config(tmp_path, 2), out, progress=False)
 
 
+@pytest.mark.slow
 def test_an_older_store_is_refused_not_misread(tmp_path):
     import sqlite3
 
@@ -171,6 +178,7 @@ def test_an_older_store_is_refused_not_misread(tmp_path):
         run_comparison(_config(tmp_path, 2), out, progress=False)
 
 
+@pytest.mark.slow
 def test_a_sweep_over_some_cases_keeps_each_cases_random_numbers(tmp_path):
     """The sweep's point at the base value runs only case "slips" (the second case): it
     must equal the main table's "slips" rows (it used other numbers when cases were
@@ -207,6 +215,7 @@ def failing_scenario(scratch_registry):
     yield
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("workers", [1, 2])
 def test_a_failure_names_the_candidate_case_runs_and_sweep_point(tmp_path, failing_scenario, workers):
     path = tmp_path / "f.toml"

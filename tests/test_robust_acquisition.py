@@ -3,6 +3,7 @@ never reported as satellites found (a wrong --format once gave "31 satellites fo
 
 from __future__ import annotations
 
+import pytest
 from pathlib import Path
 
 import numpy as np
@@ -82,6 +83,7 @@ def test_format_hints_from_the_bytes(tmp_path):
     assert "check --format" in format_hint(floats, src("cf32_le"))
 
 
+@pytest.mark.slow
 def test_receive_refuses_the_wrong_format_before_tracking(tmp_path, capsys):
     """On main, receive tracked the 31 'satellites' of a ci8 file read as ci16_le."""
     code = main(["receive", str(REAL), "--format", "ci16_le", "--fs", "4e6", "--out", str(tmp_path / "r")])

@@ -79,6 +79,7 @@ def test_a_full_disk_names_the_output(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("extra, says", [
     (["--truth", "91,0,0"], "--truth: latitude 91"),
     (["--truth", "0,200,0"], "--truth: longitude 200"),

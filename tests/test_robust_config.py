@@ -61,6 +61,7 @@ def test_the_work_estimate_counts_cases_candidates_batches_and_sweep_points(tmp_
     assert work_estimate(config) == (4 * 2 * 2 * 1, 4 * 2 * 4 * 1)
 
 
+@pytest.mark.slow
 def test_a_long_comparison_prints_its_work_before_it_starts(tmp_path, capsys, monkeypatch):
     from gnssframework.experiments import runner
 
@@ -76,6 +77,7 @@ def test_a_long_comparison_prints_its_work_before_it_starts(tmp_path, capsys, mo
     assert out.startswith("work: 124 batches, 248 filter runs")
 
 
+@pytest.mark.slow
 def test_a_config_error_names_the_candidate_as_written(tmp_path, capsys):
     text = two_candidate_config("n").replace('nav_filter = { name = "position-ca" }\nestimator = { name = "ckf" }',
                                               'nav_filter = { name = "position-ca", params = { r0 = -1.0 } }\n'

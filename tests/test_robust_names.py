@@ -50,6 +50,7 @@ def test_plain_names_still_load(tmp_path):
     assert config.name == "my comparison 2.0"
 
 
+@pytest.mark.slow
 def test_a_nul_in_the_name_is_one_line_from_the_cli(tmp_path, capsys):
     path = tmp_path / "c.toml"
     path.write_text(two_candidate_config("x").replace('name = "x"', 'name = "a\\u0000b"', 1))
@@ -67,6 +68,7 @@ def test_a_config_cannot_name_a_dask_scheduler(tmp_path):
     assert "--dask-address" in str(err.value) and "GNSSFRAMEWORK_DASK_ADDRESS" in str(err.value)
 
 
+@pytest.mark.slow
 def test_the_address_comes_from_the_command_line(tmp_path, monkeypatch):
     seen = {}
 

@@ -4,6 +4,7 @@ rerun averaged one candidate over 11 runs while the report said 12)."""
 
 from __future__ import annotations
 
+import pytest
 import json
 import sqlite3
 from pathlib import Path
@@ -36,6 +37,7 @@ def _rows(summary: Path) -> list:
     return json.loads(summary.read_text())["rows"]
 
 
+@pytest.mark.slow
 def test_deleted_metric_rows_of_a_finished_batch_are_recomputed(tmp_path, capsys):
     path = tmp_path / "c.toml"
     path.write_text(CONFIG)

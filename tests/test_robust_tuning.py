@@ -34,6 +34,7 @@ def test_non_finite_free_bounds_are_refused_at_load(tmp_path, old, new):
     assert "tuning.free" in str(err.value) and "finite" in str(err.value), str(err.value)
 
 
+@pytest.mark.slow
 def test_a_tuning_whose_trials_mostly_fail_is_an_error(tmp_path, monkeypatch):
     path = tmp_path / "t.toml"
     path.write_text(_text())

@@ -3,6 +3,7 @@ config or build another candidate than their task's."""
 
 from __future__ import annotations
 
+import pytest
 import pickle
 
 import numpy as np
@@ -65,6 +66,7 @@ def test_the_plan_is_the_config_resolved_and_a_pickled_plan_gives_the_same_numbe
             np.testing.assert_array_equal(a[1][metric], b[1][metric])
 
 
+@pytest.mark.slow
 def test_a_run_validates_the_config_once_and_builds_only_each_task_s_candidate(tmp_path, monkeypatch):
     config = _config(tmp_path)
     validations, built = [], []

@@ -71,6 +71,7 @@ def test_the_generator_puts_each_code_epoch_at_the_transmit_time_of_the_geometry
     assert np.all((tau > 0.064) & (tau < 0.090))  # GPS flight times from above the mask
 
 
+@pytest.mark.slow
 def test_metrics_agree_with_a_hand_computation_on_a_stored_run(scenario, stored_run):
     batch, plan, path = stored_run
     result = receive(open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0),
@@ -167,6 +168,7 @@ channel_filter = {{ name = "{name}" }}
 """
 
 
+@pytest.mark.slow
 def test_a_bad_channel_filter_is_one_line_naming_the_field(tmp_path):
     path = tmp_path / "c.toml"
     path.write_text(CONFIG.format(name="scalr"))
@@ -193,6 +195,7 @@ def test_too_many_satellites_or_too_short_a_recording_is_refused(tmp_path):
         get_scenario({"kind": "sample-receiver", "subframe_tow_s": 345613.0})
 
 
+@pytest.mark.slow
 def test_a_candidates_nav_filter_runs_on_the_run_s_pseudoranges(scenario, stored_run):
     """A candidate's ``nav_filter`` reaches `receive`: the scenario's series are those of
     `receive(..., nav_filter=ekf-pv)` on the same run's recording, and differ from the

@@ -57,6 +57,7 @@ def _value(batch, name):
     return np.asarray(batch.metrics[name], float)
 
 
+@pytest.mark.slow
 def test_run_0_is_the_first_segment_read_by_hand(recorded):
     truth, both, _, table = recorded
     assert table is not None and len(table) > 5
@@ -71,6 +72,7 @@ def test_run_0_is_the_first_segment_read_by_hand(recorded):
     assert _value(both, "horizontal_scatter_rms")[0] <= np.sqrt(np.mean(np.sum((table.ecef_m - mean) ** 2, 1))) + 1e-9
 
 
+@pytest.mark.slow
 def test_run_1_is_the_second_segment_with_its_own_noise_and_errors_within_the_code_noise(recorded):
     _, both, _, table = recorded
     first_fix = _value(both, "time_to_first_fix_s")
@@ -84,6 +86,7 @@ def test_run_1_is_the_second_segment_with_its_own_noise_and_errors_within_the_co
     assert np.all(_value(both, "channels_locked") == 5)
 
 
+@pytest.mark.slow
 def test_without_a_truth_the_errors_are_undefined_and_the_rest_is_the_same_run(recorded):
     _, both, second, _ = recorded
     assert np.isnan(_value(second, "horizontal_error_rms")[0]) and np.isnan(_value(second, "vertical_error_rms")[0])
@@ -92,6 +95,7 @@ def test_without_a_truth_the_errors_are_undefined_and_the_rest_is_the_same_run(r
         assert _value(second, name)[0] == _value(both, name)[1], name
 
 
+@pytest.mark.slow
 def test_segments_map_to_samples_and_one_past_the_end_is_refused(recorded, tmp_path):
     rec = open_recording(write_recording(tmp_path / "short.sigmf-data", np.zeros(int(2 * SEGMENT_S * FS), complex),
                                          "ci16_le", FS, 0.0))

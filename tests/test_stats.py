@@ -176,6 +176,7 @@ estimator = { name = "ckf" }
 """
 
 
+@pytest.mark.slow
 def test_runner_gives_every_candidate_the_same_draws_run_by_run(tmp_path, draws_scenario):
     path = tmp_path / "d.toml"
     path.write_text(DRAWS)
@@ -197,6 +198,7 @@ def test_runner_gives_every_candidate_the_same_draws_run_by_run(tmp_path, draws_
     assert paired[("y", "ckf", "value")]["diff"] == pytest.approx(1.0)
 
 
+@pytest.mark.slow
 def test_common_random_numbers_in_the_vector_tracking_scenario(tmp_path):
     """Two candidates identical but for their name get identical numbers run by run (the
     scenario draws nothing that depends on the candidate)."""
@@ -268,6 +270,7 @@ class ForgetfulScenario(DrawsScenario):
     metrics = {"value": "-", "declared_only": "-"}
 
 
+@pytest.mark.slow
 def test_a_scenario_that_does_not_return_a_declared_metric_is_named(tmp_path, scratch_registry):
     from gnssframework.errors import GnssFrameworkError
 

@@ -122,6 +122,7 @@ num = 2
 """
 
 
+@pytest.mark.slow
 def test_a_sweep_runs_every_point_on_common_random_numbers_and_reports_it(tmp_path):
     config = _load(tmp_path, SWEEPS)
     summary = _strict(run_comparison(config, tmp_path / "out", progress=False))
@@ -161,6 +162,7 @@ def test_a_sweep_runs_every_point_on_common_random_numbers_and_reports_it(tmp_pa
     assert "## Sweep `psi`: scenario.psi" in report and "plots/sweep-apsi-only.png" in report
 
 
+@pytest.mark.slow
 def test_an_interrupted_sweep_resumes_with_identical_numbers(tmp_path):
     config = _load(tmp_path, SWEEPS)
     done = []
@@ -196,6 +198,7 @@ def test_the_schema_validates_sweeps(tmp_path):
         assert not validator.is_valid(data), bad
 
 
+@pytest.mark.slow
 def test_a_sweep_over_a_non_numeric_parameter_is_drawn_as_categories(tmp_path):
     text = """
 runs = 2
@@ -262,6 +265,7 @@ nav_filter = { name = "ekf-pv" }
     assert err.value.field == "sweeps[0].values[0]" and "alfa" in str(err.value)
 
 
+@pytest.mark.slow
 def test_the_vector_tracking_examples_cn0_sweep_resumes_with_identical_numbers(tmp_path, monkeypatch):
     # examples/vector_tracking_sweep.toml as shipped (its candidates, its [[sweeps]] over
     # cases.cn0_dbhz), shrunk to 0.6-s runs, two runs and the sweep's two end points.

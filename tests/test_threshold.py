@@ -110,6 +110,7 @@ def test_threshold_claims_refuse_a_sweep_without_a_threshold_table():
         _config([{"candidate": "b", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower"}])
 
 
+@pytest.mark.slow
 def test_a_comparison_writes_its_thresholds_plot_and_claims(tmp_path):
     import json
 

@@ -62,6 +62,7 @@ def _config(tmp_path, sampler="grid", trials=4, path="candidates.*.nav_filter.pa
     return load_config(file)
 
 
+@pytest.mark.slow
 def test_grid_tuning_picks_the_best_point_and_evaluates_it_on_the_evaluation_streams(tmp_path):
     config = _config(tmp_path)
     summary = json.loads(run_comparison(config, tmp_path / "out", progress=False).read_text())
@@ -107,6 +108,7 @@ def test_tuning_streams_are_disjoint_from_the_evaluation_streams(tmp_path):
     assert trial.identity() != config.identity()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sampler", ["tpe", "random"])
 def test_an_interrupted_tuning_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch, sampler):
     pytest.importorskip("optuna", reason="the 'tune' extra")  # installed by the test extra
@@ -132,6 +134,7 @@ def test_an_interrupted_tuning_resumes_to_the_uninterrupted_result(tmp_path, mon
     assert 0.1 <= values[0] <= 100.0
 
 
+@pytest.mark.slow
 def test_a_trial_that_fails_scores_inf_and_the_tuning_goes_on(tmp_path, monkeypatch):
     from gnssframework.errors import RunFailure
 

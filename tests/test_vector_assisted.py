@@ -57,6 +57,7 @@ def _receive(path, **kw):
     return receive(open_recording(path), acq, tracking_config(), rate_hz=5.0, rinex=read_rinex_nav(fix.NAV), **kw)
 
 
+@pytest.mark.slow
 def test_the_scalar_receiver_has_no_fix_at_this_cn0(weak):
     """The same signals, timing and duration as `test_receiver_fix`, whose 45 dB-Hz file
     gives a fix 8.6 s in: here the 1 ms loops lose lock before bit sync and no channel
@@ -74,6 +75,7 @@ def assisted(weak):
                     assist=assistance(approximate_position(), WEEK, fix.TOW0))
 
 
+@pytest.mark.slow
 def test_assisted_vector_tracking_positions_every_satellite(weak, assisted):
     _, prns, _ = weak
     solution = assisted.vector
@@ -91,6 +93,7 @@ def test_assisted_vector_tracking_positions_every_satellite(weak, assisted):
     assert np.allclose(table.columns["tow_s"], fix.TOW0 + table.sample_time_s, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_assisted_channels_follow_the_true_code_and_doppler(weak, assisted):
     """Every channel's code phase and Doppler in the loop against the generator's: within
     four standard deviations of the range and rate the filter predicts (its covariance on
@@ -119,6 +122,7 @@ def test_assisted_channels_follow_the_true_code_and_doppler(weak, assisted):
         assert np.sqrt(np.mean(code_err_m**2)) < 4 * np.sqrt(np.mean(sigma_range**2))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lat_offset_deg", [3.0, 15.0])
 def test_a_far_approximate_position_gives_no_wrong_fix(weak, lat_offset_deg):
     """330 km off, the range errors' differences still resolve every millisecond (the
@@ -148,6 +152,7 @@ def test_bad_assistance_names_the_field():
         assistance((45.0, 0.0, 0.0), WEEK, 700_000.0)
 
 
+@pytest.mark.slow
 def test_receive_refuses_assistance_without_vector_or_ephemeris(weak):
     rec = open_recording(weak[0])
     acq = registry.create("acquisition", "pcps")
@@ -197,6 +202,7 @@ def blanked(tmp_path_factory):
     return prns, result
 
 
+@pytest.mark.slow
 def test_a_blanked_satellite_is_reacquired_in_the_predicted_window_and_joins_the_loop(blanked):
     """The loop starts on the four others; the blanked one is searched each second in the
     window the solution predicts (4 sigma of its range and rate), not found while absent
@@ -228,6 +234,7 @@ def test_a_blanked_satellite_is_reacquired_in_the_predicted_window_and_joins_the
 MID_BLANK = (0, 2.0, 4.0)
 
 
+@pytest.mark.slow
 def test_a_blanked_vector_channel_is_dropped_and_reacquired_after_an_assisted_start(tmp_path):
     from test_vector_samples import assert_dropped_and_rejoined
 
@@ -245,6 +252,7 @@ def test_a_blanked_vector_channel_is_dropped_and_reacquired_after_an_assisted_st
 LOW_PRN, LOW_SET = 1, ("G01", "G11", "G19", "G20", "G24", "G28")
 
 
+@pytest.mark.slow
 def test_a_satellite_below_the_elevation_mask_is_tracked_but_not_used(tmp_path):
     """Six signals at 45 dB-Hz, one of them 2.4 deg up: the assisted start closes all six
     (the low one is driven by the solution) but only the five above the 5 deg mask enter

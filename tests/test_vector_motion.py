@@ -127,6 +127,7 @@ def test_an_unknown_motion_is_a_one_line_config_error():
     assert "motion" in str(info.value) and "\n" not in str(info.value)
 
 
+@pytest.mark.slow
 def test_a_comparison_with_moving_and_static_cases_reports_the_bound_where_it_exists(tmp_path):
     """The bound is declared for the whole config but exists only for the static case: the
     moving case's runs carry it as undefined (NaN, with the scenario's reason), not a failure."""

@@ -44,6 +44,7 @@ def _receive(path, **kw):
                    rinex=read_rinex_nav(fix.NAV), **kw)
 
 
+@pytest.mark.slow
 def test_scalar_receiver_loses_every_channel_after_the_fade(faded):
     path, prns, _ = faded
     result = _receive(path)
@@ -69,6 +70,7 @@ def vector_result(faded, request):
                                                    channel_params=CHANNELS[request.param]))
 
 
+@pytest.mark.slow
 def test_vector_tracking_keeps_a_fix_through_the_fade(faded, vector_result):
     _, prns, _ = faded
     solution = vector_result.vector
@@ -88,6 +90,7 @@ def test_vector_tracking_keeps_a_fix_through_the_fade(faded, vector_result):
     assert np.all(speed[after] < 1.0)
 
 
+@pytest.mark.slow
 def test_vector_channels_follow_the_true_code_and_doppler_at_the_weak_signal(faded, vector_result):
     """No dynamics but the satellites': at 24 dB-Hz every vector channel's code phase and
     Doppler are the generator's within four standard deviations of the pseudorange and rate
@@ -124,6 +127,7 @@ def test_vector_channels_follow_the_true_code_and_doppler_at_the_weak_signal(fad
             np.sqrt(np.mean(code_err_m**2)), np.sqrt(np.mean(sigma_range**2)))
 
 
+@pytest.mark.slow
 def test_every_vector_channel_is_in_the_observables_and_rinex_after_the_hand_over(faded, vector_result, tmp_path):
     """The observables (and so ``observations.rnx``) keep every vector-tracked satellite to
     the end: its rows go on bit by bit from the decoded TOW through the hand-over. Each
@@ -254,6 +258,7 @@ def assert_dropped_and_rejoined(result, gone: int, blank_start_s: float, blank_e
         assert np.sqrt(np.mean(err[m] ** 2)) < 4 * np.sqrt(np.mean(sigma_3d[m] ** 2)), (lo, hi)
 
 
+@pytest.mark.slow
 def test_a_blanked_vector_channel_is_dropped_and_reacquired_after_the_lnav_hand_over(blanked):
     gone, result = blanked
     assert result.vector.handover_s < BLANK[1] and gone in result.vector.prns
@@ -263,6 +268,7 @@ def test_a_blanked_vector_channel_is_dropped_and_reacquired_after_the_lnav_hand_
     assert while_gone.sum() >= 5 and np.all(table.columns["n_sats"][while_gone] == 4)
 
 
+@pytest.mark.slow
 def test_a_rejoined_vector_channel_is_back_in_the_observables(blanked):
     """The blanked channel, re-acquired and closed again at a boundary that may be mid-bit,
     is dated from its replica's transmit time: in every epoch from a second after it is
@@ -283,6 +289,7 @@ def test_a_rejoined_vector_channel_is_back_in_the_observables(blanked):
     assert away.any() and not np.isfinite(obs.pseudorange_m[away, j]).any()
 
 
+@pytest.mark.slow
 def test_the_lnav_hand_over_takes_the_navigation_files_klobuchar(faded, monkeypatch):
     """No page 18 in the file: given the navigation file's Klobuchar coefficients (as
     ``receive --ephemeris`` passes them), the hand-over fix and the loop's predicted ranges
