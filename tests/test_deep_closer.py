@@ -89,3 +89,41 @@ def test_the_source_gets_the_run_interval_index_and_the_truths_gains():
     n = power[K // 2:].size
     assert abs(power[K // 2:].mean() - 2.0) < 4 * 2.0 / np.sqrt(n)  # exponential law: sd = mean
     assert power[:K // 2].mean() > 50.0
+
+
+def test_the_navigator_builds_its_kf_once_and_updates_as_the_one_call_form(monkeypatch):
+    # PvaNavigator and its clock filter hold a LinearUpdate each: the kf plugin is built when
+    # the navigator is, not at every integration update (it was built twice per update).
+    from gnssframework import registry
+    from gnssframework.receiver.deep.measurements import linear_update
+    from gnssframework.receiver.deep.navigators import PvaNavigator
+
+    made = []
+    real = registry.create
+
+    def counting(kind, name, **params):
+        made.append((kind, name))
+        return real(kind, name, **params)
+
+    monkeypatch.setattr(registry, "create", counting)
+    g = np.random.default_rng(2)
+    runs, n = 2, 6
+    los = g.normal(size=(runs, n, 3))
+    los /= np.linalg.norm(los, axis=-1, keepdims=True)
+    cov = np.broadcast_to(np.diag([4.0, 0.04]), (runs, n, 2, 2)).copy()
+    cn0 = g.uniform(35, 50, (runs, n))
+    P0 = np.diag([25.0] * 3 + [1.0] * 3 + [4.0] * 3)
+    nav = PvaNavigator(np.zeros((runs, 3)), np.zeros((runs, 3)), np.zeros((runs, 3)), P0, np.zeros((runs, 2)),
+                       np.eye(2))
+    assert made == [("estimator", "kf"), ("estimator", "kf")]
+    for i in range(3):
+        P_before = nav.P.copy()
+        res = g.normal(size=(runs, n, 2)) * [3.0, 0.2]
+        nav.update(0.1 * (i + 1), res, cov, los, cn0)
+    assert len(made) == 2
+    # The held form gives the one-call form's update (a fresh kf per call).
+    z, H, R = g.normal(size=(runs, 4)), g.normal(size=(runs, 4, 9)), np.broadcast_to(np.eye(4), (runs, 4, 4))
+    a = nav._linear(np.zeros((runs, 9)), P_before, z, H, R, step=5)
+    b = linear_update(np.zeros((runs, 9)), P_before, z, H, R, name="pva-navigator", step=5)
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(a[1], b[1])
