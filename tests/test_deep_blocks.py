@@ -1,7 +1,7 @@
 """The deep loop's block evaluations equal the per-interval ones they replaced (issue 11).
 
-`DeepTruth.pseudoranges` (true pseudoranges of a block of epochs), `_aided_block` (truth
-and replica of one NCO interval) and `StrapdownIns`'s deferred error-state transitions are
+`DeepTruth.pseudoranges` (true pseudoranges of a block of epochs), the deep closer's
+fit rows and interval fit and `StrapdownIns`'s deferred error-state transitions are
 held bit for bit to the per-epoch formulas, written out here as the loop had them.
 
 Bitwise by construction on any machine: the block and the per-epoch forms apply the same
@@ -60,60 +60,85 @@ def test_edge_states_pseudorange_across_block_boundaries():
         np.testing.assert_array_equal(edges.pseudorange(k), truth.pseudorange(k * T, k, s))
 
 
-@pytest.mark.parametrize("first", [True, False])
-def test_aided_block_equals_the_per_interval_formulas(first):
-    from gnssframework.receiver.deep.aided_tracking import _aided_block, _EdgeStates
-    from gnssframework.receiver.deep.aiding import nco_schedule
+class _FixedNavigator:
+    """Given kinematics per aiding instant (a dict t -> (p, v, a, b, d)); records nothing."""
 
-    truth, _ = _aided_setup(3, 0.05, accel_g=20.0, jerk=True)
+    def __init__(self, kin):
+        self.kin = kin
+
+    def kinematics(self, t):
+        return self.kin[round(t, 9)]
+
+    def update(self, *a):
+        pass
+
+
+def test_deep_closer_channel_replica_equals_the_per_interval_range_formulas():
+    # The replica of the deep loop is an engine Channel steered by range (DeepCloser); before
+    # the engine the harness laid it out in ranges. Its true errors and NCO shifts, computed
+    # here in the range domain interval by interval as that loop had them, must agree: the
+    # carrier in the same operations (bit for bit), the code through chip phases
+    # f_chip t - rho / chip (rounding of ~1e5-chip phases: 1e-9 chip).
+    from gnssframework.receiver.deep.aiding import line_of_sight_kinematics, nco_schedule
+    from gnssframework.receiver.engine.deep_closer import DeepCloser
+    from gnssframework.receiver.engine.truth import code_phase_of_range
+    from gnssframework.registry import create
+
+    truth, rx = _aided_setup(3, 0.05, accel_g=20.0, jerk=True)
     T, K = truth.coherent_time_s, truth.epochs
     g = np.random.default_rng(5)
     batch = (3, 6)
-    rho = truth.pseudorange(0.01, 10, truth.sat_state(np.asarray(0.01))[0]) + g.normal(size=batch) * 5
-    rate, acc = g.normal(size=batch) * 300, g.normal(size=batch) * 50
-    n_nco, k0 = 5, 10
-    sched_range, sched_rate = nco_schedule(rho, rate, acc, T, n_nco)
+    n_nco, n_upd = 5, 20
+    kin = {}
+    for k0 in range(0, K, n_nco):  # a navigator off the truth by a few metres, different at each aiding
+        p, v, a = rx(k0 * T)
+        kin[round(k0 * T, 9)] = (p + g.normal(size=(3, 3)) * 5, v + g.normal(size=(3, 3)), a + g.normal(size=(3, 3)),
+                                 g.normal(size=3) * 10, g.normal(size=3))
+    closer = DeepCloser(create("channel_filter", "iq-filter", adapter=None, estimator="ukf", output="equivalent"),
+                        _FixedNavigator(kin))
+    closer.reset(batch, T, n_nco, n_upd, K, signal=truth.signal, cn0_dbhz=45.0)
+    sat = lambda k: truth.sat_state(np.asarray(k * T))  # noqa: E731
+    channel = closer.start(sat(0))
     theta0 = g.uniform(-np.pi, np.pi, batch)
-    carrier_rep = g.normal(size=batch) * 1e4
-    rep_end = None if first else rho + g.normal(size=batch)
-    rate_prev = None if first else rate + g.normal(size=batch)
-    slope_prev = None if first else acc + g.normal(size=batch)
-    t_aid = k0 * T
-    zeros = np.zeros(batch)
-    n_upd = 20
-    blk = _aided_block(_EdgeStates(truth, K), k0, n_nco, T, n_upd, sched_range, sched_rate, rho, rate, acc, t_aid, theta0,
-                       carrier_rep, rep_end, rate_prev, slope_prev, acc, zeros)
-    # The loop before issue 11's block evaluation, interval by interval:
-    true_rho = truth.pseudorange(k0 * T, k0, truth.sat_state(np.asarray(k0 * T))[0])
-    slope = slope_prev
-    for j in range(n_nco):
-        k = k0 + j
-        t0, t1 = k * T, (k + 1) * T
+    true_rho = lambda k: truth.pseudorange(k * T, k, sat(k)[0])  # noqa: E731
+    carrier_rep, rep_end, rate_prev, slope = np.zeros(batch), None, None, None
+    worst = 0.0
+    for k in range(K):
+        j = k % n_nco
+        if j == 0:  # the aiding, as the loop had it
+            p, v, a, b, d = kin[round(k * T, 9)]
+            rho, rate, acc, _ = line_of_sight_kinematics(p, v, a, *sat(k), b, d)
+            sched_range, sched_rate = nco_schedule(rho, rate, acc, T, n_nco)
+            slope_new = acc
         nco_range, nco_rate = sched_range[j], sched_rate[j]
         shift_chips = np.zeros(batch) if rep_end is None else -(nco_range - rep_end) / CA_CHIP_LENGTH_M
         shift_hz = np.zeros(batch) if rate_prev is None else -(nco_rate - (rate_prev + slope * T)) / L1_WAVELENGTH_M
-        next_rho = truth.pseudorange(t1, k + 1, truth.sat_state(np.asarray(t1))[0])
+        rho0, rho1 = true_rho(k), true_rho(k + 1)
         rep_end = nco_range + nco_rate * T
-        code_err = -0.5 * ((true_rho - nco_range) + (next_rho - rep_end)) / CA_CHIP_LENGTH_M  # truth - replica phase
+        code_err = -0.5 * ((rho0 - nco_range) + (rho1 - rep_end)) / CA_CHIP_LENGTH_M  # truth - replica phase
         f_rep = -nco_rate / L1_WAVELENGTH_M
-        ph0 = theta0 - 2 * np.pi * true_rho / L1_WAVELENGTH_M - carrier_rep
+        ph0 = theta0 - 2 * np.pi * rho0 / L1_WAVELENGTH_M - carrier_rep
         carrier_rep_end = carrier_rep + 2 * np.pi * f_rep * T
-        ph1 = theta0 - 2 * np.pi * next_rho / L1_WAVELENGTH_M - carrier_rep_end
+        ph1 = theta0 - 2 * np.pi * rho1 / L1_WAVELENGTH_M - carrier_rep_end
         freq_err = (ph1 - ph0) / (2 * np.pi * T)
-        tau = t0 + T / 2 - t_aid
-        dt = (k + 0.5) * T - (k // n_upd + 1) * n_upd * T
-        h_rho, h_rate = np.array([1.0, dt, 0.5 * dt * dt]), np.array([0.0, 1.0, dt])
-        for got, want in ((blk.h_rho[j], h_rho), (blk.h_rate[j], h_rate), (blk.outer_rho[j], np.outer(h_rho, h_rho)),
-                          (blk.outer_rate[j], np.outer(h_rate, h_rate))):
-            np.testing.assert_array_equal(got, want)
-        for got, want in ((blk.code_err[j], code_err), (blk.ph0[j], ph0), (blk.freq_err[j], freq_err),
-                          (blk.rep_end[j], rep_end), (blk.carrier_rep_end[j], carrier_rep_end),
-                          (blk.shift_chips[j], shift_chips), (blk.shift_hz[j], shift_hz),
-                          (blk.replica_mid_m[j], nco_range + nco_rate * T / 2),
-                          (blk.predicted_range_m[j], rho + rate * tau + 0.5 * acc * tau**2),
-                          (blk.predicted_rate_m_s[j], rate + acc * tau)):
-            np.testing.assert_array_equal(got, want)
-        rate_prev, slope, carrier_rep, true_rho = nco_rate, acc, carrier_rep_end, next_rho
+
+        err = channel.errors(code_phase_of_range(truth.signal, rho0, k * T),
+                             code_phase_of_range(truth.signal, rho1, (k + 1) * T),
+                             theta0 - 2 * np.pi * rho0 / L1_WAVELENGTH_M, theta0 - 2 * np.pi * rho1 / L1_WAVELENGTH_M, T)
+        np.testing.assert_array_equal(err.phase_rad, ph0)
+        np.testing.assert_array_equal(err.freq_hz, freq_err)
+        np.testing.assert_array_equal(closer.shift_hz, shift_hz)
+        np.testing.assert_array_equal(channel.nco_range_m, nco_range)
+        np.testing.assert_allclose(err.code_chips, code_err, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(channel.shift_chips, shift_chips, rtol=0, atol=1e-9)
+        worst = max(worst, np.max(np.abs(code_err)))
+        if k + 1 < K:
+            closer_slope = closer.slope
+            if (k + 1) % n_nco == 0:
+                closer.reaid(k + 1, sat(k + 1))
+            closer._command(channel, k + 1, closer_slope)
+        rate_prev, slope, carrier_rep = nco_rate, slope_new, carrier_rep_end
+    assert worst > 0.01  # the navigator's metres show: the comparison is not of zeros
 
 
 def test_aided_tracking_same_record_with_and_without_vectorised_receiver_positions():
@@ -193,38 +218,38 @@ def test_trusted_strapdown_step_equals_the_checked_step(with_prev, backend):
 
 
 def test_interval_fit_equals_the_running_sum_of_the_loop():
-    from gnssframework.receiver.deep.aided_tracking import _aided_block, _EdgeStates, _interval_fit
-    from gnssframework.receiver.deep.aiding import nco_schedule
+    from gnssframework.receiver.engine.deep_closer import fit_rows, interval_fit
+    from gnssframework.signal.gps_l1ca import GPS_L1CA
 
     truth, _ = _aided_setup(2, 0.05, accel_g=20.0)
-    T, K = truth.coherent_time_s, truth.epochs
+    T = truth.coherent_time_s
     g = np.random.default_rng(12)
     batch = (2, 6)
     n_nco, n_upd = 5, 10
-    blocks = []
-    carrier_rep, rep_end, rate_prev, slope = np.zeros(batch), None, None, None
+    rows, preds = [], []
     for k0 in (10, 15):
         rho = truth.pseudorange(k0 * T, k0, truth.sat_state(np.asarray(k0 * T))[0]) + g.normal(size=batch)
         rate, acc = g.normal(size=batch) * 300, g.normal(size=batch) * 50
-        sr, sv = nco_schedule(rho, rate, acc, T, n_nco)
-        blk = _aided_block(_EdgeStates(truth, K), k0, n_nco, T, n_upd, sr, sv, rho, rate, acc, k0 * T, np.zeros(batch),
-                           carrier_rep, rep_end, rate_prev, slope, acc, np.zeros(batch))
-        blocks.append(blk)
-        carrier_rep, rep_end, rate_prev, slope = blk.carrier_rep_end[-1], blk.rep_end[-1], sv[-1], acc
+        rows.append(fit_rows(k0, n_nco, T, n_upd, rho, rate, acc, k0 * T))
+        preds.append((rho, rate, acc, k0))
     outputs = np.stack([g.normal(size=(n_upd,) + batch) * 0.05, g.normal(size=(n_upd,) + batch) * 3,
                         g.uniform(1e-4, 1e-2, (n_upd,) + batch), g.uniform(1.0, 50.0, (n_upd,) + batch)])
-    normal, rhs = _interval_fit(outputs, blocks)
-    # The loop before: a running sum, one coherent interval after the other.
+    replica = np.stack([g.normal(size=(n_upd,) + batch) * 3 + 2e7, g.normal(size=(n_upd,) + batch) * 300])
+    normal, rhs = interval_fit(outputs, replica, rows, GPS_L1CA)
+    # The loop before: a running sum, one coherent interval after the other, its rows and
+    # predictions written out.
     want_n, want_r = np.zeros(batch + (3, 3)), np.zeros(batch + (3,))
     for i in range(n_upd):
-        blk, j = blocks[i // n_nco], i % n_nco
+        rho, rate, acc, k0 = preds[i // n_nco]
+        k = k0 + i % n_nco
+        tau = k * T + T / 2 - k0 * T
+        dt = (k + 0.5) * T - (k // n_upd + 1) * n_upd * T
+        h_rho, h_rate = np.array([1.0, dt, 0.5 * dt * dt]), np.array([0.0, 1.0, dt])
         w_rho = 1.0 / (outputs[2, i] * CA_CHIP_LENGTH_M**2)
         w_rate = 1.0 / (outputs[3, i] * L1_WAVELENGTH_M**2)
-        z_rho = -outputs[0, i] * CA_CHIP_LENGTH_M + blk.replica_mid_m[j] - blk.predicted_range_m[j]
-        z_rate = -outputs[1, i] * L1_WAVELENGTH_M + blk.nco_rate[j] - blk.predicted_rate_m_s[j]
-        want_n += w_rho[..., None, None] * np.outer(blk.h_rho[j], blk.h_rho[j]) + \
-            w_rate[..., None, None] * np.outer(blk.h_rate[j], blk.h_rate[j])
-        want_r += (w_rho * z_rho)[..., None] * blk.h_rho[j] + (w_rate * z_rate)[..., None] * blk.h_rate[j]
+        z_rho = -outputs[0, i] * CA_CHIP_LENGTH_M + replica[0, i] - (rho + rate * tau + 0.5 * acc * tau**2)
+        z_rate = -outputs[1, i] * L1_WAVELENGTH_M + replica[1, i] - (rate + acc * tau)
+        want_n += w_rho[..., None, None] * np.outer(h_rho, h_rho) + w_rate[..., None, None] * np.outer(h_rate, h_rate)
+        want_r += (w_rho * z_rho)[..., None] * h_rho + (w_rate * z_rate)[..., None] * h_rate
     np.testing.assert_array_equal(normal, want_n)
     np.testing.assert_array_equal(rhs, want_r)
-    np.testing.assert_array_equal(blocks[1].nco_rate, sv)  # the block keeps the chords it was given

@@ -29,7 +29,7 @@ import numpy as np
 
 from ...errors import NumericalError
 
-__all__ = ["reference_channel", "difference_operator", "difference", "linear_update", "new_information",
+__all__ = ["reference_channel", "difference_operator", "difference", "linear_update", "LinearUpdate", "new_information",
            "integration_measurement", "clock_measurement", "ATTITUDE", "VELOCITY", "POSITION", "ACCEL_BIAS", "GYRO_BIAS"]
 
 
@@ -81,6 +81,35 @@ def difference(z: np.ndarray, H: np.ndarray, R: np.ndarray, reference: np.ndarra
 LINEAR_ESTIMATOR = "kf"
 
 
+class LinearUpdate:
+    """The Joseph-form Kalman update of `linear_update` with its ``kf`` estimator plugin and
+    `FilterStep` built once (per navigator or clock filter of a run), not per update.
+
+    Parameters
+    ----------
+    name
+        The filter's name in its failures (e.g. ``"pva-navigator"``).
+    """
+
+    def __init__(self, name: str = "ins-ekf") -> None:
+        from ... import registry
+        from ...estimation import FilterStep
+
+        self.filter_step = FilterStep(registry.create("estimator", LINEAR_ESTIMATOR), name=name)
+
+    def __call__(self, x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray,
+                 *, step: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Updated mean and covariance (see `linear_update`); ``step`` names the update in failures."""
+        from ...estimation import Gaussian, LinearModel
+
+        n = P.shape[-1]
+        fs = self.filter_step
+        fs.step_index = 0 if step is None else step
+        model = LinearModel(np.eye(n), np.asarray(H, float), np.zeros((n, n)), np.asarray(R, float))
+        post = fs.update(Gaussian(np.asarray(x, float), np.asarray(P, float)), z, model).posterior
+        return post.mean, post.cov
+
+
 def linear_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray,
                   *, name: str = "ins-ekf", step: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Batched Kalman measurement update in Joseph form (Groves 2013, eqs. 3.24-3.27).
@@ -88,7 +117,8 @@ def linear_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R:
     ``x (runs, m)``, ``P (runs, m, m)``, ``z (runs, p)``, ``H (runs, p, m)``, ``R (runs, p, p)``.
     It is the update half of the library's one filter step
     (`gnssframework.estimation.FilterStep` with the ``kf`` estimator), so the navigators
-    that call it fail, by name, as every other filter does.
+    that call it fail, by name, as every other filter does. One call builds the estimator;
+    a filter that updates every interval holds a `LinearUpdate` instead.
 
     Raises
     ------
@@ -99,15 +129,7 @@ def linear_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R:
     NumericalError
         When the posterior of some batch element is not finite or not positive definite.
     """
-    from ... import registry
-    from ...estimation import FilterStep, Gaussian, LinearModel
-
-    n = P.shape[-1]
-    fs = FilterStep(registry.create("estimator", LINEAR_ESTIMATOR), name=name)
-    fs.step_index = 0 if step is None else step
-    model = LinearModel(np.eye(n), np.asarray(H, float), np.zeros((n, n)), np.asarray(R, float))
-    post = fs.update(Gaussian(np.asarray(x, float), np.asarray(P, float)), z, model).posterior
-    return post.mean, post.cov
+    return LinearUpdate(name)(x, P, z, H, R, step=step)
 
 
 def new_information(x_prior: np.ndarray, P_prior: np.ndarray, x_post: np.ndarray, P_post: np.ndarray,

@@ -18,7 +18,7 @@ import numpy as np
 
 from ... import registry
 from ...estimation import FilterStep, Gaussian, LinearModel
-from .measurements import clock_measurement, integration_measurement, linear_update, reference_channel
+from .measurements import LinearUpdate, clock_measurement, integration_measurement, reference_channel
 
 __all__ = ["PvaNavigator", "ClockFilter"]
 
@@ -51,6 +51,7 @@ class ClockFilter:
         self.clock_psd = clock_psd
         self.t = 0.0
         self.steps = 0
+        self._update = LinearUpdate("clock filter")  # the kf plugin, built once per run
 
     def at(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Extrapolated bias (m) and drift (m/s) at ``t_s``, each ``(runs,)``."""
@@ -71,8 +72,8 @@ class ClockFilter:
         """Measure the clock error once the navigation error is known, and remove it."""
         runs = self.c.shape[0]
         zc, Rc = clock_measurement(residual_m, residual_cov, los, pos_error_m, vel_error_m_s)
-        dc, self.Pc = linear_update(np.zeros((runs, 2)), self.Pc, zc, np.broadcast_to(np.eye(2), (runs, 2, 2)), Rc,
-                                    name="clock filter", step=self.steps)
+        dc, self.Pc = self._update(np.zeros((runs, 2)), self.Pc, zc, np.broadcast_to(np.eye(2), (runs, 2, 2)), Rc,
+                                   step=self.steps)
         self.c = self.c - dc
         self.steps += 1
 
@@ -110,6 +111,7 @@ class PvaNavigator:
         runs = self.x.shape[0]
         self.P = np.broadcast_to(np.asarray(cov, float), (runs, 9, 9)).copy()
         self.filter_step = None
+        self._linear = LinearUpdate("pva-navigator") if estimator is None else None  # built once per run
         if estimator is not None:
             # The closed-loop error state restarts at zero after every correction; FilterStep checks
             # the initial covariance here and names this navigator in any numerical failure.
@@ -144,7 +146,7 @@ class PvaNavigator:
         z, H, R = integration_measurement(residual_m, residual_cov, los, reference_channel(cn0_dbhz), n_states=9,
                                           position=slice(0, 3), velocity=slice(3, 6))
         if self.estimator is None:
-            dx, self.P = linear_update(np.zeros((runs, 9)), self.P, z, H, R, name="pva-navigator", step=self.steps)
+            dx, self.P = self._linear(np.zeros((runs, 9)), self.P, z, H, R, step=self.steps)
         else:
             model = LinearModel(F=np.eye(9), H=H, Q=np.zeros((9, 9)), R=R)
             post = self.filter_step.update(Gaussian(np.zeros((runs, 9)), self.P), z, model).posterior

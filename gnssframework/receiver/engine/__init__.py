@@ -1,10 +1,11 @@
 """The tracking-loop engine: a `Channel` (a signal description and its replica's NCOs), a
 correlator source (the analytic model or IF samples) and a loop closer (scalar: a channel
-filter per channel; vector: a navigation filter over all channels).
+filter per channel; vector: a navigation filter over all channels; deep: a navigator aiding
+every channel's NCOs, fed by prefilters).
 
 Modules: `truth` (`LoopTruth`), `channel` (`Channel`, `ReplicaErrors`, the one NCO and
 sign convention), `sources` (`CorrelatorSource`, `AnalyticSource`), `samples`
-(`SampleSource`), `closers` (`ScalarCloser`, `VectorCloser`), `loops` (`run_scalar`,
+(`SampleSource`), `closers` (`ScalarCloser`, `VectorCloser`), `deep_closer` (`DeepCloser`), `loops` (`run_scalar`,
 `TrackingRecord`). Names are importable from here; the modules are loaded on first use
 (so the channel package's tracker may import the engine without a circle at import time).
 """
@@ -22,6 +23,7 @@ _WHERE = {
     "ScalarCloser": "closers", "VectorCloser": "closers", "check_closed_loop": "closers",
     "check_composition": "closers", "NCO_COMMANDS": "closers", "CHANNEL_OUTPUTS": "closers",
     "NAV_OUTPUTS": "closers", "HARNESS_INPUTS": "closers",
+    "DeepCloser": "deep_closer", "Navigator": "deep_closer",
     "TrackingRecord": "loops", "run_scalar": "loops",
 }
 
