@@ -104,8 +104,13 @@ def claims_table(summary: dict) -> list[str]:
     from gnssframework.experiments.claims import claim_evidence, claim_where
 
     held = sum(c["outcome"] == "holds" for c in summary["claims"])
-    lines = [f"**Claims**: {held} of {len(summary['claims'])} hold (95 % t-intervals of the paired "
-             "differences, ratios of means or means).", "", "| outcome | case | claim | evidence |",
+    family = [c for c in summary["claims"] if c.get("p_adjusted") is not None]
+    adjusted = (f" {sum(bool(c.get('holds_adjusted')) for c in family)} of the {len(family)} tests hold after "
+                f"{'Holm' if summary.get('claims_adjustment') == 'holm' else 'Benjamini-Hochberg'}'s adjustment "
+                "over the example (reported only)." if family else "")
+    lines = [f"**Claims**: {held} of {len(summary['claims'])} hold (95 % intervals of the paired "
+             "differences, ratios of means or means: t unless the claim names its test)." + adjusted, "",
+             "| outcome | case | claim | evidence |",
              "| --- | --- | --- | --- |"]
     lines += [f"| {c['outcome']} | {claim_where(c)} | {c['statement']} | {claim_evidence(c)} |"
               for c in summary["claims"]]

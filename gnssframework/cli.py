@@ -72,7 +72,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     _print_work_estimate(config)
     try:
         # A bar on a terminal, a line per tenth of the batches in a log or a pipe.
-        summary = run_comparison(config, out, progress=not args.quiet)
+        summary = run_comparison(config, out, progress=not args.quiet, replicate=args.replicate)
     except sqlite3.DatabaseError as exc:  # sqlite3 does not say which file: name the store
         raise _store_error(exc, Path(out) / "results.sqlite") from None
     print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
@@ -97,7 +97,7 @@ def _print_work_estimate(config) -> None:
 
 def _report_claims(summary, check: bool) -> int:
     """Print the claims' outcomes (all with ``--check``, else a tally); 1 if checked and one does not hold."""
-    from .experiments.claims import claim_line
+    from .experiments.claims import claim_line, claim_where
     from .io.files import loads_strict
 
     claims = loads_strict(summary.read_text()).get("claims", [])
@@ -105,10 +105,14 @@ def _report_claims(summary, check: bool) -> int:
         if check:
             print("no [[claims]] in this config: nothing to check")
         return 0
-    bad = [c for c in claims if c["outcome"] != "holds"]
-    print(f"claims: {len(claims) - len(bad)} of {len(claims)} hold")
+    bad = [c for c in claims if c["outcome"] != "holds" or c.get("replicate_outcome", "holds") != "holds"]
+    print(f"claims: {len(claims) - len(bad)} of {len(claims)} hold"
+          + (" on both seed sets" if any("replicate_outcome" in c for c in claims) else ""))
     for c in claims if check else bad:
         print("  " + claim_line(c))
+    for c in claims:  # a claim that cannot be tested: one line naming it
+        if c["outcome"] == "refused":
+            print(f"error: claims[{c['claim']}] in {claim_where(c)} refused: {c.get('reason', '')}", file=sys.stderr)
     return 1 if check and bad else 0
 
 
@@ -710,6 +714,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     p.add_argument("--check", action="store_true",
                    help="print every [[claims]] outcome and exit 1 unless every claim holds")
+    p.add_argument("--replicate", action="store_true",
+                   help="also run every case and candidate on a second, disjoint set of runs (the replicate streams, "
+                        "at the tuned values) and re-check every claim there; with --check, a claim must hold on both")
     p.add_argument("--dask-address", metavar="ADDR",
                    help="run on this Dask scheduler (executor kind dask; also GNSSFRAMEWORK_DASK_ADDRESS). Dask's "
                         "protocol carries pickles: give only a scheduler you trust; a config file cannot name one")

@@ -4,7 +4,7 @@ A page states an ordering (or a bound) next to a marker naming the claim it rest
 HTML comment the reader does not see::
 
     <!-- claim: deep_integration_ci: deep horizontal_velocity_error_rmse lower than vector at 35dBHz -->
-    <!-- claim: deep_integration_ci: vector loss_of_lock_fraction within [-0.001, 0.001] -->
+    <!-- claim: deep_integration_ci: vector loss_of_lock_fraction every run within [-0.001, 0.001] -->
 
 (``at CASE`` only for a claim of one case; an ordering between cases names the reference
 case: ``... higher than deep in nominal at gsens``). A claim at a sweep's points ends with
@@ -42,7 +42,7 @@ _WHERE = r"(?:\s+at\s+(?P<case>[^\s=]+))?(?:\s+at\s+(?P<sweep>[\w.+-]+)=(?P<poin
 ORDERING = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+"
                       r"(?P<direction>lower|higher) than\s+(?P<reference>\S+)(?:\s+in\s+(?P<reference_case>[^\s=]+))?"
                       + _WHERE)
-BOUND = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+within\s+"
+BOUND = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+(?P<every>every run )?within\s+"
                    r"\[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\]" + _WHERE)
 #: A threshold claim (``threshold`` / ``threshold_difference`` along a sweep with a threshold table):
 #: ``kf loss_of_lock threshold lower than pll along cn0 [within [-9, -5]]`` or
@@ -116,7 +116,7 @@ def _matches(claim: dict, want: dict) -> bool:
         reference = claim.get("reference") or (claim["candidate"] if claim.get("reference_case") else None)
         return (claim.get("direction") == want["direction"] and reference == want["reference"]
                 and claim.get("reference_case") == want.get("reference_case"))
-    within = claim.get("within")
+    within = claim.get("every_run_within" if want.get("every") else "within")  # "every run within": every_run_within
     return within is not None and tuple(within) == (float(want["low"]), float(want["high"]))
 
 
@@ -197,6 +197,11 @@ def test_a_marker_names_a_claims_sweep_points():
     assert _matches(every, _parse("x: ackf nees_velocity within [1.0, 5.0] at cn0_dbhz=all"))
     assert _matches({**every, "case": "cn0"}, _parse("x: ackf nees_velocity within [1.0, 5.0] at cn0 at cn0_dbhz=all"))
     assert not _matches(every, _parse("x: ackf nees_velocity within [1.0, 5.0]"))
+    each = {"candidate": "deep", "metric": "loss_of_lock_fraction", "every_run_within": [-0.001, 0.001]}
+    assert _matches(each, _parse("x: deep loss_of_lock_fraction every run within [-0.001, 0.001]"))
+    assert not _matches(each, _parse("x: deep loss_of_lock_fraction within [-0.001, 0.001]"))
+    assert not _matches({"candidate": "deep", "metric": "loss_of_lock_fraction", "within": [-0.001, 0.001]},
+                        _parse("x: deep loss_of_lock_fraction every run within [-0.001, 0.001]"))
     upto = {**every, "to": 40}
     assert _matches(upto, _parse("x: ackf nees_velocity within [1.0, 5.0] at cn0_dbhz=..40"))
 

@@ -97,12 +97,24 @@ from scipy import special as _sc  # not scipy.stats: its import costs every run 
 
 from ..errors import ConfigError
 from .number_format import format_estimate
+from .claim_tests import (adjust, all_runs_bound, bootstrap_means, bootstrap_p, claim_rng, nees_band, t_p_value,
+                          tost, wilcoxon_p)
+from .number_format import at_rounding_level
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
 
-__all__ = ["Claim", "check_claims", "evaluate_claims", "claim_points", "OUTCOMES"]
+__all__ = ["Claim", "check_claims", "check_untuned_claims", "evaluate_claims", "claim_points", "OUTCOMES",
+           "untuned_candidates", "adjust_claims"]
 
-#: Outcomes from best to worst.
-OUTCOMES = ("holds", "not significant", "fails")
+#: Outcomes from best to worst (``refused``: the claim cannot be tested as stated, e.g. its
+#: metric has no spread over the runs).
+OUTCOMES = ("holds", "not significant", "fails", "refused")
+
+#: Tests a claim may ask for (``test``): the t-interval, the paired bootstrap, the
+#: Wilcoxon signed-rank test (orderings by ``direction`` only).
+TESTS = ("t", "bootstrap", "wilcoxon")
+
+#: Significance level of every claim (two-sided 95 % intervals; TOST at 5 % per side).
+ALPHA = 0.05
 
 
 class Claim(BaseModel):
@@ -137,10 +149,24 @@ class Claim(BaseModel):
     threshold_difference: tuple[float, float] | None = Field(
         None, description="with sweep and reference: the candidate's threshold minus the reference's lies in "
         "[low, high] (its paired bootstrap 95 % interval does)")
+    equivalence_margin: float | None = Field(
+        None, gt=0, description="for an ordering: the candidate and the reference are equivalent, |paired mean "
+        "difference| < margin (two one-sided tests at 5 %: the 90 % interval inside (-margin, margin))")
+    consistent_states: int | None = Field(
+        None, ge=1, le=1000, description="for a NEES metric: the candidate is consistent, its mean over the N runs "
+        "inside the two-sided 95 % chi-square band [chi2(0.025, N n) / N, chi2(0.975, N n) / N] of n states")
+    every_run_within: tuple[float, float] | None = Field(
+        None, description="every run's value lies in [low, high] (an observation over all runs, with the exact 95 % "
+        "upper bound on the chance of a run outside; for a metric that is the same in every run, e.g. no loss of lock)")
+    test: Literal["t", "bootstrap", "wilcoxon"] = Field(
+        "t", description="t: the t-interval (default); bootstrap: the paired bootstrap percentile interval "
+        "(heavy-tailed metrics: maxima, loss of lock), reproducible from the seed; wilcoxon: the signed-rank test "
+        "of the paired differences (direction only)")
     note: str = Field("", description="where the claim is stated (a docs page, a paper's table)")
 
     @model_validator(mode="after")
     def _one_kind(self) -> "Claim":
+        self._new_kinds()
         if self.threshold is not None or self.threshold_difference is not None:
             if self.reference is None or self.sweep is None:
                 raise ValueError("a threshold claim compares the candidate's threshold with a reference candidate's "
@@ -156,7 +182,10 @@ class Claim(BaseModel):
                 raise ValueError(f"threshold_difference = {list(self.threshold_difference)} must be [low, high] with "
                                  "low < high")
             return self
-        ordering = [k for k in ("direction", "ratio_max", "ratio_min") if getattr(self, k) is not None]
+        ordering = [k for k in ("direction", "ratio_max", "ratio_min", "equivalence_margin")
+                    if getattr(self, k) is not None]
+        if self.consistent_states is not None or self.every_run_within is not None:
+            return self
         if self.reference_case is not None:
             if not ordering:
                 raise ValueError("an ordering between cases needs direction = \"lower\" or \"higher\", "
@@ -169,8 +198,9 @@ class Claim(BaseModel):
             if ordering:
                 raise ValueError(f"{', '.join(ordering)} compare with a reference: give reference = \"<candidate>\"")
             if self.within is None:
-                raise ValueError("a claim is an ordering (reference with direction, ratio_max or ratio_min) or a "
-                                 "bound (within = [low, high])")
+                raise ValueError("a claim is an ordering (reference with direction, ratio_max, ratio_min or "
+                                 "equivalence_margin) or a bound (within = [low, high], consistent_states = n, "
+                                 "every_run_within = [low, high])")
         else:
             if not ordering:
                 raise ValueError("an ordering needs direction = \"lower\" or \"higher\", ratio_max or ratio_min")
@@ -186,6 +216,39 @@ class Claim(BaseModel):
         if self.within is not None and not self.within[0] < self.within[1]:
             raise ValueError(f"within = {list(self.within)} must be [low, high] with low < high")
         return self
+
+    def _new_kinds(self) -> None:
+        """The equivalence, consistency and every-run kinds, and the test, against the rest."""
+        own = [k for k in ("consistent_states", "every_run_within") if getattr(self, k) is not None]
+        if own:
+            others = [k for k in ("direction", "ratio_max", "ratio_min", "equivalence_margin", "within", "reference",
+                                  "reference_case", "threshold", "threshold_difference", "consistent_states",
+                                  "every_run_within") if k not in own[:1] and getattr(self, k) is not None]
+            if others:
+                raise ValueError(f"{own[0]} is a claim about the candidate's own runs; {', '.join(others)} is a "
+                                 "separate claim")
+            if own[0] == "consistent_states" and "nees" not in self.metric.lower():
+                raise ValueError(f"consistent_states is the chi-square band of a NEES; metric {self.metric!r} is not "
+                                 "a NEES")
+            if self.every_run_within is not None and not self.every_run_within[0] <= self.every_run_within[1]:
+                raise ValueError(f"every_run_within = {list(self.every_run_within)} must be [low, high] with "
+                                 "low <= high")
+            if self.test != "t":
+                raise ValueError(f"{own[0]} takes no test (it is not a t-interval); remove test = {self.test!r}")
+        if self.equivalence_margin is not None:
+            if self.direction is not None:
+                raise ValueError("equivalence_margin (the two are equivalent) and direction (one is lower) "
+                                 "contradict: give one")
+            if not math.isfinite(self.equivalence_margin):
+                raise ValueError(f"equivalence_margin = {self.equivalence_margin!r} must be a finite number")
+        if self.test == "wilcoxon":
+            extra = [k for k in ("ratio_max", "ratio_min", "equivalence_margin", "within")
+                     if getattr(self, k) is not None]
+            if self.direction is None or extra:
+                raise ValueError("test = \"wilcoxon\" tests the sign of the paired differences: it takes direction "
+                                 "only" + (f" ({', '.join(extra)} needs test = \"t\" or \"bootstrap\")" if extra else ""))
+        if self.test != "t" and (self.threshold is not None or self.threshold_difference is not None):
+            raise ValueError("a threshold claim is always judged by its paired bootstrap: remove test")
 
     def statement(self) -> str:
         """The claim in words."""
@@ -206,9 +269,16 @@ class Claim(BaseModel):
             parts.append(f"{self.metric} / {ratio_ref} < {self.ratio_max:g}")
         if self.ratio_min is not None:
             parts.append(f"{self.metric} / {ratio_ref} > {self.ratio_min:g}")
+        if self.equivalence_margin is not None:
+            parts.append(f"{self.metric} equivalent to {ref} within ±{self.equivalence_margin:g}")
         if self.within is not None:
             parts.append(f"mean {self.metric} in [{self.within[0]:g}, {self.within[1]:g}]")
-        return f"{self.candidate}: " + " and ".join(parts)
+        if self.consistent_states is not None:
+            parts.append(f"{self.metric} consistent ({self.consistent_states} states, chi-square 95 % band)")
+        if self.every_run_within is not None:
+            parts.append(f"{self.metric} in [{self.every_run_within[0]:g}, {self.every_run_within[1]:g}] in every run")
+        test = {"t": "", "bootstrap": " [bootstrap]", "wilcoxon": " [Wilcoxon]"}[self.test]
+        return f"{self.candidate}: " + " and ".join(parts) + test
 
 
 def check_claims(claims: list[Claim], cases: list[str], candidates: list[str], metrics: list[str],
@@ -247,6 +317,36 @@ def check_claims(claims: list[Claim], cases: list[str], candidates: list[str], m
             if value is not None and value not in allowed:
                 raise ConfigError(f"claims[{i}].{field}", f"case {value!r} is not one sweep {c.sweep!r} {what}, so "
                                   f"it has no value at the sweep's points; allowed: {', '.join(allowed)}")
+
+
+def untuned_candidates(config) -> list[str]:
+    """The candidates a config with ``[tuning]`` leaves at their given values (no free
+    parameter) while others are tuned; empty without ``[tuning]``."""
+    if getattr(config, "tuning", None) is None:
+        return []
+    from .tuning import resolve_free
+
+    tuned = set(resolve_free(config))
+    return [c.name for c in config.candidates if c.name not in tuned]
+
+
+def check_untuned_claims(config) -> None:
+    """Refuse an ordering between candidates one of which was not tuned while others were,
+    unless that candidate is marked ``as_given = true`` (deliberately as given); a
+    ``ConfigError`` naming the claim (``claims[i].reference`` or ``.candidate``)."""
+    untuned = untuned_candidates(config)
+    if not untuned:
+        return
+    given = {c.name for c in config.candidates if c.as_given}
+    for i, c in enumerate(config.claims):
+        if c.reference is None or c.reference == c.candidate:
+            continue
+        for field, name in (("reference", c.reference), ("candidate", c.candidate)):
+            if name in untuned and name not in given:
+                raise ConfigError(f"claims[{i}].{field}", f"candidate {name!r} is not tuned while others are "
+                                  f"([tuning] has no free parameter of it), so the claim {c.statement()!r} compares "
+                                  f"hands, not filters: tune it, or mark it as_given = true if it is deliberately "
+                                  "evaluated as given")
 
 
 def varied_cases(sweep, cases: list[str]) -> list[str]:
@@ -309,55 +409,174 @@ def _worst(outcomes: list[str]) -> str:
     return max(outcomes, key=OUTCOMES.index)
 
 
-def _evidence(claim: Claim, store, key: str, case: str, runs: int) -> tuple[dict, object, np.ndarray]:
+def _evidence(claim: Claim, store, key: str, case: str, runs: int) -> tuple[dict, object, np.ndarray, tuple | None]:
     """The claim's evidence in one case of one comparison (a config or a sweep point):
-    the row's fields, the paired difference (``None`` for a bound) and the candidate's values."""
+    the row's fields, the paired difference (``None`` for a bound), the candidate's values
+    and the finite pairs ``(x, y)`` (``None`` for a bound)."""
     x = store.run_values(key, case, claim.candidate, claim.metric, runs)
-    row, pd = {}, None
+    row, pd, pair = {}, None, None
     reference = claim.reference or (claim.candidate if claim.reference_case else None)
     if reference is not None:
         y = store.run_values(key, claim.reference_case or case, reference, claim.metric, runs)
-        pd = paired_difference(*paired_values(x, y))
+        xs, ys = paired_values(x, y)
+        pd = paired_difference(xs, ys)
+        ok = np.isfinite(xs) & np.isfinite(ys)
+        pair = (xs[ok], ys[ok])
         row.update(reference=reference, **{k: v for k, v in pd.to_json().items() if k != "reason"})
         if claim.reference_case is not None:
             row["reference_case"] = claim.reference_case
     values = np.array([x[r] for r in sorted(x)], dtype=float)
-    if claim.within is not None:
+    if claim.within is not None or claim.consistent_states is not None or claim.every_run_within is not None:
         mean, se, n = mean_and_se(values)
         row.update(mean=finite_or_none(mean), mean_se=finite_or_none(se), n=n)
-    return row, pd, values
+    return row, pd, values, pair
 
 
-def _outcome(claim: Claim, pd, values: np.ndarray, level: float = 0.95) -> str:
-    """The claim's outcome from its evidence, each condition judged on the ``level`` t-interval."""
-    outcomes = []
+def _no_spread(values: np.ndarray) -> bool:
+    """Whether ``values`` are the same in every run (up to floating-point rounding)."""
+    v = values[np.isfinite(values)]
+    return v.size > 1 and at_rounding_level(float(np.std(v, ddof=1)), float(np.max(np.abs(v))) if v.size else 0.0)
+
+
+def _two_sided(p_one: float) -> float:
+    """A one-sided p-value on the claimed side as the two-sided-equivalent p compared with
+    :data:`ALPHA` (holds at p < 0.05 exactly when the 95 % interval excludes the bound)."""
+    return min(1.0, 2.0 * p_one)
+
+
+def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: float = 0.95,
+           rng: np.random.Generator | None = None) -> tuple[str, float | None, str]:
+    """The claim's outcome from its evidence, its p-value (the largest of its conditions',
+    an intersection-union test; ``None`` for a claim that is not a significance test) and
+    why it was refused (``""`` otherwise). Each condition is judged on the ``level``
+    interval of the claim's test (t, bootstrap percentile, or Wilcoxon's p-value)."""
+    outcomes: list[str] = []
+    ps: list[float] = []
+    if claim.every_run_within is not None:
+        v = values[np.isfinite(values)]
+        lo, hi = claim.every_run_within
+        if v.size == 0:
+            return "not significant", None, ""
+        return ("holds" if bool(np.all((v >= lo) & (v <= hi))) else "fails"), None, ""
+    if claim.consistent_states is not None:
+        v = values[np.isfinite(values)]
+        if v.size == 0:
+            return "not significant", None, ""
+        lo, hi = nees_band(v.size, claim.consistent_states)
+        return ("holds" if lo <= float(np.mean(v)) <= hi else "fails"), None, ""
+    tail = (1.0 - level) / 2
     if pd is not None:
-        if pd.se is None or pd.n < 2:
-            outcomes.append("not significant")
-        else:
+        x, y = pair
+        d = x - y
+        if pd.n < 2:
+            return "not significant", None, ""
+        if _no_spread(d) or pd.se is None or pd.se == 0.0:
+            return ("refused", None, f"{claim.metric} minus the reference's is the same in all {pd.n} runs (no "
+                    "spread): nothing to test; state it with every_run_within on each candidate")
+        if claim.test == "t":
             if claim.direction is not None:
-                # pd.significant is the 95 % rule (and refuses a spread at rounding level);
-                # a stricter level can only shrink what it calls significant.
+                below = claim.direction == "lower"
                 half = _t(pd.n, level) * pd.se
-                outcomes.append(_against(pd.diff - half, pd.diff + half, 0.0, claim.direction == "lower")
+                # pd.significant is the 95 % rule; a stricter level can only shrink what it calls significant.
+                outcomes.append(_against(pd.diff - half, pd.diff + half, 0.0, below)
                                 if pd.significant else "not significant")
+                ps.append(_two_sided(t_p_value(pd.diff, pd.se, pd.n, 0.0, below)))
             for bound, below in ((claim.ratio_max, True), (claim.ratio_min, False)):
                 if bound is None:
                     continue
-                if pd.ratio is None or pd.ratio_se is None:
+                if pd.ratio is None or pd.ratio_se is None or pd.ratio_se == 0.0:
                     outcomes.append("not significant")
+                    ps.append(1.0)
                     continue
                 half = _t(pd.n, level) * pd.ratio_se
                 outcomes.append(_against(pd.ratio - half, pd.ratio + half, bound, below))
+                ps.append(_two_sided(t_p_value(pd.ratio, pd.ratio_se, pd.n, bound, below)))
+            if claim.equivalence_margin is not None:
+                m = claim.equivalence_margin
+                p = tost(pd.diff, pd.se, pd.n, m)
+                wide = _t(pd.n, level) * pd.se
+                outside = pd.diff - wide > m or pd.diff + wide < -m
+                outcomes.append("holds" if p < ALPHA * (1 - level) / 0.05 else "fails" if outside
+                                else "not significant")
+                ps.append(p)
+        elif claim.test == "wilcoxon":
+            below = claim.direction == "lower"
+            p_one = wilcoxon_p(d, below)
+            p_other = wilcoxon_p(d, not below)
+            outcomes.append("holds" if p_one < tail else "fails" if p_other < tail else "not significant")
+            ps.append(_two_sided(p_one))
+        else:  # the paired bootstrap, resampling runs
+            mx, my = bootstrap_means(x, y, rng if rng is not None else np.random.default_rng(0))
+            diff = mx - my
+            if claim.direction is not None:
+                below = claim.direction == "lower"
+                lo, hi = np.quantile(diff, [tail, 1 - tail])
+                outcomes.append(_against(float(lo), float(hi), 0.0, below))
+                ps.append(_two_sided(bootstrap_p(diff, 0.0, below)))
+            for bound, below in ((claim.ratio_max, True), (claim.ratio_min, False)):
+                if bound is None:
+                    continue
+                if pd.ratio is None:
+                    outcomes.append("not significant")
+                    ps.append(1.0)
+                    continue
+                ratio = mx / my
+                lo, hi = np.quantile(ratio, [tail, 1 - tail])
+                outcomes.append(_against(float(lo), float(hi), bound, below))
+                ps.append(_two_sided(bootstrap_p(ratio, bound, below)))
+            if claim.equivalence_margin is not None:
+                m = claim.equivalence_margin
+                p = max(bootstrap_p(diff, m, True), bootstrap_p(diff, -m, False))
+                lo, hi = np.quantile(diff, [tail, 1 - tail])
+                outcomes.append("holds" if p < ALPHA * (1 - level) / 0.05 else "fails"
+                                if lo > m or hi < -m else "not significant")
+                ps.append(p)
     if claim.within is not None:
-        mean, se, n = mean_and_se(values)
+        v = values[np.isfinite(values)]
+        mean, se, n = mean_and_se(v)
         if mean is None or se is None:
             outcomes.append("not significant")
+            ps.append(1.0)
+        elif _no_spread(v) or se == 0.0:
+            return ("refused", None, f"{claim.metric} is {mean:g} in all {n} runs (no spread): a mean's interval has "
+                    "nothing to test; state it with every_run_within")
         else:
-            lo, hi = mean - _t(n, level) * se, mean + _t(n, level) * se
+            if claim.test == "bootstrap":
+                draws = bootstrap_means(v, None, rng if rng is not None else np.random.default_rng(0))[0]
+                lo, hi = (float(q) for q in np.quantile(draws, [tail, 1 - tail]))
+                p_lo, p_hi = bootstrap_p(draws, claim.within[0], False), bootstrap_p(draws, claim.within[1], True)
+            else:
+                lo, hi = mean - _t(n, level) * se, mean + _t(n, level) * se
+                p_lo = t_p_value(mean, se, n, claim.within[0], below=False)
+                p_hi = t_p_value(mean, se, n, claim.within[1], below=True)
             outcomes += [_against(lo, hi, claim.within[0], below=False),
                          _against(lo, hi, claim.within[1], below=True)]
-    return _worst(outcomes)
+            ps.append(_two_sided(max(p_lo, p_hi)))
+    return _worst(outcomes), (max(ps) if ps else None), ""
+
+
+def _outcome(claim: Claim, pd, values: np.ndarray, level: float = 0.95, pair: tuple | None = None,
+             rng: np.random.Generator | None = None) -> str:
+    """The claim's outcome alone (see :func:`_judge`)."""
+    return _judge(claim, pd, values, pair, level, rng)[0]
+
+
+def _row_judgement(claim: Claim, evidence: tuple, rng: np.random.Generator) -> dict:
+    """The outcome fields of a claim row: ``outcome``, ``p_value`` and ``reason`` (refused)."""
+    _, pd, values, pair = evidence
+    outcome, p, reason = _judge(claim, pd, values, pair, rng=rng)
+    out = {"outcome": outcome, "test": claim.test, "p_value": finite_or_none(p)}
+    if reason:
+        out["reason"] = reason
+    if claim.consistent_states is not None:
+        n = int(np.isfinite(values).sum())
+        if n:
+            out["nees_band95"] = list(nees_band(n, claim.consistent_states))
+    if claim.every_run_within is not None:
+        n = int(np.isfinite(values).sum())
+        if n:
+            out["outside_bound95"] = all_runs_bound(n)
+    return out
 
 
 def _sweep_rows(config, store, i: int, claim: Claim) -> list[dict]:
@@ -375,11 +594,13 @@ def _sweep_rows(config, store, i: int, claim: Claim) -> list[dict]:
         rows, failed = [], []
         for value in points:
             point = next(p for v, p in pairs if _same_point(v, value))
-            evidence, pd, values = _evidence(claim, store, point.identity(), case, point.runs)
+            evidence = _evidence(claim, store, point.identity(), case, point.runs)
             row = {"claim": i, "statement": claim.statement(), "case": case, "sweep": claim.sweep, "point": value,
-                   "candidate": claim.candidate, "metric": claim.metric, "note": claim.note, **evidence,
-                   "outcome": _outcome(claim, pd, values)}
-            if len(points) > 1 and _outcome(claim, pd, values, corrected) == "fails":
+                   "candidate": claim.candidate, "metric": claim.metric, "note": claim.note, **evidence[0],
+                   **_row_judgement(claim, evidence, claim_rng(config.seed, i, f"{case} {claim.sweep}={value}"))}
+            _, pd, values, pair = evidence
+            if len(points) > 1 and _outcome(claim, pd, values, corrected, pair,
+                                             claim_rng(config.seed, i, f"{case} {claim.sweep}={value}")) == "fails":
                 failed.append(value)
             rows.append(row)
         out += rows
@@ -388,7 +609,8 @@ def _sweep_rows(config, store, i: int, claim: Claim) -> list[dict]:
             out.append({"claim": i, "statement": claim.statement(), "case": case, "sweep": claim.sweep,
                         "point": "all", "points": points, "candidate": claim.candidate, "metric": claim.metric,
                         "note": claim.note, "held": held, "corrected_level": corrected, "failed_corrected": failed,
-                        "outcome": "holds" if held == len(points) else "fails" if failed else "not significant"})
+                        "outcome": "refused" if any(r["outcome"] == "refused" for r in rows) else "holds"
+                        if held == len(points) else "fails" if failed else "not significant"})
     return out
 
 
@@ -434,11 +656,49 @@ def evaluate_claims(config, store, key: str | None = None) -> list[dict]:
             continue
         cases = [claim.case] if claim.case else [c.name for c in config.cases if c.name != claim.reference_case]
         for case in cases:
-            evidence, pd, values = _evidence(claim, store, key, case, config.runs)
+            evidence = _evidence(claim, store, key, case, config.runs)
             out.append({"claim": i, "statement": claim.statement(), "case": case, "candidate": claim.candidate,
-                        "metric": claim.metric, "note": claim.note, **evidence,
-                        "outcome": _outcome(claim, pd, values)})
-    return out
+                        "metric": claim.metric, "note": claim.note, **evidence[0],
+                        **_row_judgement(claim, evidence, claim_rng(config.seed, i, case))})
+    return adjust_claims(out, getattr(config, "claims_adjustment", DEFAULT_ADJUSTMENT))
+
+
+#: The multiplicity adjustment of an example's claims unless its config names another
+#: (``claims_adjustment``): Holm's step-down, which controls the family-wise error rate.
+DEFAULT_ADJUSTMENT = "holm"
+
+#: Whether the adjusted p-value decides a claim's outcome (``True``: a claim holds only if
+#: it still holds after the adjustment) or is reported beside it (``False``).
+ADJUSTED_DECIDES = False
+
+
+def in_family(row: dict) -> bool:
+    """Whether a claim row is one of the example's significance tests (the family the
+    adjustment runs over): a row with a p-value; not a sweep claim's all-points row (it
+    summarises its points' rows), a threshold row (a bootstrap interval with no p-value),
+    a consistency band or an every-run observation (no test of significance: a NEES band
+    that "holds" is a test not rejected)."""
+    return row.get("p_value") is not None and row.get("point") not in ("all", "threshold")
+
+
+def adjust_claims(rows: list[dict], method: str) -> list[dict]:
+    """``rows`` with ``p_adjusted`` (``method``'s adjusted p over the family of
+    :func:`in_family` rows), ``adjustment`` and ``holds_adjusted`` (a row that holds and
+    whose adjusted p is below :data:`ALPHA`) on every row of the family. With
+    :data:`ADJUSTED_DECIDES`, a row that holds only before the adjustment becomes
+    ``not significant``."""
+    family = [r for r in rows if in_family(r)]
+    if not family:
+        return rows
+    adjusted = adjust([r["p_value"] for r in family], method)
+    for r, p in zip(family, adjusted):
+        r["p_adjusted"] = float(p)
+        r["adjustment"] = method
+        r["family_size"] = len(family)
+        r["holds_adjusted"] = bool(r["outcome"] == "holds" and p < ALPHA)
+        if ADJUSTED_DECIDES and r["outcome"] == "holds" and not r["holds_adjusted"]:
+            r["outcome"] = "not significant"
+    return rows
 
 
 def claim_where(row: dict) -> str:
@@ -465,6 +725,8 @@ def claim_evidence(row: dict) -> str:
         failed = row.get("failed_corrected") or []
         return (f"holds at {row['held']} of {len(row['points'])} points; fails at the Bonferroni level "
                 f"{1 - row['corrected_level']:.2g} at {', '.join(map(str, failed)) if failed else 'none'}")
+    if row.get("outcome") == "refused" and row.get("reason"):
+        return f"refused: {row['reason']}"
     ev = []
     if row.get("diff") is not None:
         ev.append(f"difference {format_estimate(row['diff'], row.get('se'), sign=True)}")
@@ -472,8 +734,26 @@ def claim_evidence(row: dict) -> str:
         ev.append(f"ratio {format_estimate(row['ratio'], row.get('ratio_se'))}")
     if row.get("mean") is not None:
         ev.append(f"mean {format_estimate(row['mean'], row.get('mean_se'))}")
+    if row.get("nees_band95") is not None:
+        lo, hi = row["nees_band95"]
+        ev.append(f"chi-square 95 % band [{lo:.3g}, {hi:.3g}]")
+    if row.get("outside_bound95") is not None:
+        ev.append(f"95 % upper bound on the chance of a run outside {row['outside_bound95']:.2g}")
     n = row.get("n")
-    return ", ".join(ev) + (f", n={n}" if n else "")
+    text = ", ".join(ev) + (f", n={n}" if n else "")
+    if row.get("test") not in (None, "t"):
+        text += f", {row['test']}"
+    if row.get("p_value") is not None:
+        text += f", p={row['p_value']:.2g}"
+    if row.get("p_adjusted") is not None:
+        name = {"holm": "Holm", "benjamini-hochberg": "BH"}.get(row.get("adjustment"), row.get("adjustment"))
+        text += f", {name}-adjusted p={row['p_adjusted']:.2g} of {row['family_size']}"
+        if row["outcome"] == "holds" and not row.get("holds_adjusted"):
+            text += " (not significant after adjustment)"
+    rep = row.get("replicate_outcome")
+    if rep is not None:
+        text += f"; replicate seed set: {rep}"
+    return text
 
 
 def claim_line(row: dict) -> str:

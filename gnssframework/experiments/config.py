@@ -21,7 +21,7 @@ from ..io.text import read_toml
 from ..plugin import validation_message
 from ..plugin_ref import ComponentRef, PluginSpec
 from .candidates import CandidatePlan, resolve_candidate
-from .claims import Claim, check_claims
+from .claims import Claim, check_claims, check_untuned_claims
 from .file_names import check_file_name
 from .sweeps import Sweep, check_thresholds, check_unique_labels, expand_sweep
 from .tuning import Tuning, check_tuning
@@ -61,6 +61,9 @@ class Candidate(_Strict):
     scenario_options: dict[str, Any] = Field(
         default_factory=dict, description="options the scenario applies to this candidate, not plugins (see the "
         "scenario's page; e.g. multipath's oracle)")
+    as_given: bool = Field(False, description="the candidate is deliberately evaluated as given (e.g. a paper's "
+                           "literal settings) while others are tuned: claims against it are then accepted, and the "
+                           "report says so")
 
     _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
 
@@ -127,12 +130,15 @@ class ComparisonConfig(_Strict):
         default_factory=dict, description="published values: case -> candidate -> metric -> value")
     tuning: Tuning | None = Field(None, description="tune every candidate with free parameters by the same "
                                   "procedure and budget on tuning streams, then evaluate them at their tuned values")
-    random_stream: Literal["evaluation", "tuning"] = Field(
-        "evaluation", description="the runs' random streams: evaluation (the default) or the disjoint tuning "
-        "streams (set by the tuner for its trials)")
+    random_stream: Literal["evaluation", "tuning", "replicate"] = Field(
+        "evaluation", description="the runs' random streams: evaluation (the default), the disjoint tuning "
+        "streams (set by the tuner for its trials) or the disjoint replicate streams (set by compare --replicate)")
     claims: list[Claim] = Field(default_factory=list, description="orderings and bounds the results must show, "
                                 "each checked from the paired runs (holds / fails / not significant); "
                                 "`compare --check` exits 1 unless every claim holds")
+    claims_adjustment: Literal["holm", "benjamini-hochberg"] = Field(
+        "holm", description="multiplicity adjustment of the claims' p-values over the example: holm (family-wise "
+        "error rate) or benjamini-hochberg (false discovery rate)")
 
     _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
 
@@ -181,6 +187,7 @@ class ComparisonConfig(_Strict):
                      self.sweeps)
         if self.tuning is not None:
             check_tuning(self)
+            check_untuned_claims(self)
         if self.sweeps:
             check_unique_labels(self.sweeps)
             check_thresholds(self.sweeps, self.metric_names)
@@ -245,7 +252,7 @@ class ComparisonConfig(_Strict):
         A store keyed by it lets a longer or interrupted comparison reuse finished batches.
         """
         data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
-                                        "reference", "sweeps", "claims"})
+                                        "reference", "sweeps", "claims", "claims_adjustment"})
         # The scenario's and the cases' values as their models read them, not as written:
         # `cn0_dbhz = 45` and `= 45.0` are one case (one key), as they are one simulation.
         scenario = self.resolved_scenario
@@ -260,6 +267,7 @@ class ComparisonConfig(_Strict):
         for cand in data["candidates"]:  # a candidate without options keeps its old key
             if not cand["scenario_options"]:
                 del cand["scenario_options"]
+            del cand["as_given"]  # what the report says of it, not what it computes
         extra = self.component_metrics()
         if extra:  # the stored rows must hold them; a config without components keeps its old key
             data["metric_components"] = sorted(extra)

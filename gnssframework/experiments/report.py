@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .candidates import build_candidate
-from .claims import claim_evidence, claim_where, evaluate_claims
+from .claims import ADJUSTED_DECIDES, claim_evidence, claim_where, evaluate_claims, in_family
 from .config import ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text, write_json
 from .number_format import format_estimate
@@ -310,17 +310,43 @@ def _assumptions_markdown(config: ComparisonConfig, rows: list[dict]) -> list[st
     return lines
 
 
-def _claims_markdown(claims: list[dict]) -> list[str]:
+def _claims_markdown(claims: list[dict], adjustment: str = "holm", untuned: list[str] = (),
+                     given: set[str] = frozenset(), replicated: bool = False) -> list[str]:
+    lines = []
+    if untuned:  # the fairness rule: every candidate left as given while others were tuned, marked
+        lines += ["## Untuned candidates", "", "Tuned by `[tuning]`: every candidate but "
+                  + ", ".join(f"`{n}` ({'deliberately as given: as_given = true' if n in given else 'not tuned'})"
+                              for n in untuned)
+                  + ". A claim against a candidate that is not tuned is refused unless it is marked as given.", ""]
     if not claims:
-        return []
+        return lines
     held = sum(c["outcome"] == "holds" for c in claims)
-    lines = ["## Claims", "", f"{held} of {len(claims)} hold. Each is checked from the 95 % t-intervals of its "
-             "paired differences, ratio of means or mean (`holds`: on the claimed side; `fails`: on the other; "
-             "`not significant`: the runs cannot tell); a claim at a sweep's points is one row per point and one for "
-             "all of them (fails only at the Bonferroni level over its points).", "", "| outcome | case | claim | evidence |",
-             "| --- | --- | --- | --- |"]
+    family = [c for c in claims if in_family(c)]
+    adjusted = sum(bool(c.get("holds_adjusted")) for c in family)
+    name = {"holm": "Holm's step-down (family-wise error rate)",
+            "benjamini-hochberg": "Benjamini-Hochberg (false discovery rate)"}[adjustment]
+    lines += ["## Claims", "", f"{held} of {len(claims)} hold. Each is checked from the 95 % intervals of its test "
+              "(t by default; a claim may ask for the paired bootstrap or Wilcoxon's signed-rank test) on its "
+              "paired differences, ratio of means or mean (`holds`: on the claimed side; `fails`: on the other; "
+              "`not significant`: the runs cannot tell; `refused`: no spread over the runs, nothing to test); an "
+              "equivalence by two one-sided tests against its margin; a NEES consistency by the chi-square band of "
+              "its runs and states; a claim at a sweep's points is one row per point and one for all of them (fails "
+              "only at the Bonferroni level over its points).", "",
+              f"Multiple comparisons: {name} over the {len(family)} tests of this example; "
+              f"{adjusted} of them hold after it at 5 %. "
+              + ("The adjusted p-value decides the outcome." if ADJUSTED_DECIDES else
+                 "Reported only: the outcome above is each claim's own 95 % test."), ""]
+    if replicated:
+        both = sum(c["outcome"] == "holds" and c.get("replicate_outcome") == "holds" for c in claims)
+        one = sum((c["outcome"] == "holds") != (c.get("replicate_outcome") == "holds") for c in claims)
+        lines += [f"Replication: every claim re-checked on a second, disjoint set of runs (the replicate streams): "
+                  f"{both} hold on both, {one} on one seed set only.", ""]
+    lines += ["| outcome | case | claim | evidence |", "| --- | --- | --- | --- |"]
     for c in claims:
-        lines.append(f"| {c['outcome']} | {claim_where(c)} | {c['statement']} | {claim_evidence(c)} |")
+        outcome = c["outcome"]
+        if replicated and c.get("replicate_outcome") != outcome:
+            outcome += f" (replicate: {c.get('replicate_outcome')})"
+        lines.append(f"| {outcome} | {claim_where(c)} | {c['statement']} | {claim_evidence(c)} |")
     return lines + [""]
 
 
@@ -375,6 +401,18 @@ def tuning_figure(cand: str, res: dict, unit: str):
     return fig
 
 
+def replicate_claims(claims: list[dict], replica: list[dict]) -> None:
+    """Add each claim row's outcome on the replicate runs (``replicate_outcome``, and its
+    ``replicate_p_value``) and ``replicated``: ``both``, ``first only``, ``replicate only``
+    or ``neither``; ``replica`` is the same claims evaluated on the replicate streams."""
+    for row, rep in zip(claims, replica, strict=True):
+        row["replicate_outcome"] = rep["outcome"]
+        row["replicate_p_value"] = rep.get("p_value")
+        first, second = row["outcome"] == "holds", rep["outcome"] == "holds"
+        row["replicated"] = ("both" if first and second else "first only" if first else "replicate only" if second
+                             else "neither")
+
+
 def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[str]:
     """``tuning/<candidate>.csv`` (every trial), ``plots/tuning-<candidate>.png`` (objective
     against each free parameter) and the report's tuning section."""
@@ -426,7 +464,8 @@ def join_sections(sections: list[str]) -> str:
     return "\n\n".join(s.strip("\n") for s in sections if s.strip()) + "\n"
 
 
-def write_report(config: ComparisonConfig, store: ResultStore, out: Path, tuning: dict | None = None) -> Path:
+def write_report(config: ComparisonConfig, store: ResultStore, out: Path, tuning: dict | None = None,
+                 replicate: ComparisonConfig | None = None) -> Path:
     """Write ``summary.json``, ``report.md`` and ``plots/`` into ``out`` (and the tuning's
     tables and plots when the comparison was tuned)."""
     from .tuning import tuning_points
@@ -434,16 +473,24 @@ def write_report(config: ComparisonConfig, store: ResultStore, out: Path, tuning
     rows = summary_rows(config, store)
     paired = paired_rows(config, store)
     claims = evaluate_claims(config, store)
+    if replicate is not None:
+        replicate_claims(claims, evaluate_claims(replicate, store))
+    untuned = [c.name for c in config.candidates if c.name not in tuning] if tuning else []
+    given = {c.name for c in config.candidates if c.as_given}
     assumptions = assumption_rows(config)
     sweeps, sweep_lines = write_sweeps(config, store, out)
     summary = out / "summary.json"
     write_json(summary, {"name": config.name, "seed": config.seed, "runs": config.runs, "rows": rows,  # strict, atomic
                          "reference": config.reference_name, "significance_rule": SIGNIFICANCE_RULE,
                          "paired": paired, "claims": claims, "sweeps": sweeps,
-                         "tuning": tuning_points(tuning) if tuning else None, "assumptions": assumptions})
+                         "tuning": tuning_points(tuning) if tuning else None, "assumptions": assumptions,
+                         "untuned": [{"candidate": n, "as_given": n in given} for n in untuned],
+                         "claims_adjustment": config.claims_adjustment if claims else None,
+                         "replicated": replicate is not None})
     tuning_lines = _tuning_outputs(config, tuning, out) if tuning else []
     sections = [_markdown(config, rows, paired), "\n".join(_assumptions_markdown(config, assumptions)),
-                "\n".join(_claims_markdown(claims)), "\n".join(tuning_lines), "\n".join(sweep_lines)]
+                "\n".join(_claims_markdown(claims, config.claims_adjustment, untuned, given, replicate is not None)),
+                "\n".join(tuning_lines), "\n".join(sweep_lines)]
     atomic_write_text(out / "report.md", join_sections(sections))
     _plots(config, store, out)
     return summary

@@ -18,10 +18,14 @@ from .candidates import CandidatePlan, build_candidate
 from .scenarios import Scenario
 from .tasks import Task
 
-__all__ = ["CasePlan", "CandidatePlan", "RunPlan", "resolve", "task_streams", "TUNING_PURPOSE"]
+__all__ = ["CasePlan", "CandidatePlan", "RunPlan", "resolve", "task_streams", "TUNING_PURPOSE", "REPLICATE_PURPOSE"]
 
 #: Spawn key of the tuning streams (``RunStreams(..., purpose=TUNING_PURPOSE)``).
 TUNING_PURPOSE = name_key("tuning")
+
+#: Spawn key of the replicate streams (``compare --replicate``: every claim re-checked on
+#: runs disjoint from both the evaluation's and the tuning's).
+REPLICATE_PURPOSE = name_key("replicate")
 
 
 @dataclass(frozen=True)
@@ -85,4 +89,6 @@ def task_streams(plan: Any, task: Task) -> RunStreams:
     runs = range(task.first_run, task.first_run + task.runs)
     if plan.random_stream == "tuning":  # disjoint from the evaluation's: a child of every run's seed
         return RunStreams((plan.seed, *name_key(case)), runs, TUNING_PURPOSE)
+    if plan.random_stream == "replicate":  # disjoint from both: another child of every run's seed
+        return RunStreams((plan.seed, *name_key(case)), runs, REPLICATE_PURPOSE)
     return run_streams(plan.seed, name_key(case), runs)

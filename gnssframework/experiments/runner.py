@@ -234,9 +234,20 @@ def _say_recomputed(damaged: set[tuple[str, str, int, int]], label: str | None) 
           f"{at}: {where}{more}; recomputing {'them' if len(damaged) > 1 else 'it'}", file=sys.stderr)
 
 
+def replicate_config(config: ComparisonConfig) -> ComparisonConfig:
+    """``config`` on the replicate streams: the same candidates (at their tuned values when
+    ``config`` is the tuned one), cases, runs and seed, on runs disjoint from the
+    evaluation's and the tuning's (`gnssframework.experiments.run_plan.REPLICATE_PURPOSE`)."""
+    data = config.model_dump(mode="json", exclude={"tuning"}, exclude_none=True)
+    data["random_stream"] = "replicate"
+    return type(config).model_validate(data)
+
+
 def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = True,
-                   on_batch: Callable[[Task], None] | None = None) -> Path:
-    """Run (or resume) ``config`` and write the report into ``out``.
+                   on_batch: Callable[[Task], None] | None = None, replicate: bool = False) -> Path:
+    """Run (or resume) ``config`` and write the report into ``out``; with ``replicate``,
+    also run it on the replicate streams (a second, disjoint set of runs) and re-check
+    every claim there (each claim row's ``replicate_outcome``).
 
     Returns
     -------
@@ -260,11 +271,16 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
 
             tuning = tune(config, store, out, lambda jobs: _execute(jobs, config.executor), progress=progress)
             config = tuned_config(config, tuning)
+        replica = replicate_config(config) if replicate else None
         # Every unfinished batch of the comparison and of its sweep points, the comparison's
         # first; a point equal to another (same identity) runs once.
         jobs, where = [], []
         seen: set[tuple[str, str, str, int, int]] = set()
-        for label, point in comparison_points(config):
+        points = comparison_points(config)
+        if replica is not None:  # labelled, so its runs keep their metrics only (the series are the evaluation's)
+            points += [("replicate" if label is None else f"replicate {label}", point)
+                       for label, point in comparison_points(replica)]
+        for label, point in points:
             key = point.identity()
             store.register(key, point.batch_size)
             done = store.finished_batches(key)
@@ -293,4 +309,4 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
                     bar.update()
         if bar is not None:
             bar.close()
-        return write_report(config, store, out, tuning=tuning)
+        return write_report(config, store, out, tuning=tuning, replicate=replica)

@@ -1,0 +1,147 @@
+"""The statistics behind claims: p-values, multiplicity adjustment, equivalence, resampling, NEES bands.
+
+Every function here is a textbook procedure, written from its definition:
+
+- :func:`holm` — Holm's step-down adjusted p-values (S. Holm, "A simple sequentially
+  rejective multiple test procedure", Scand. J. Statist. 6, 1979): with the ``m``
+  p-values sorted, ``p~_(i) = max_{j <= i} min(1, (m - j + 1) p_(j))``; rejecting where
+  ``p~ < alpha`` keeps the family-wise error rate at ``alpha``.
+- :func:`benjamini_hochberg` — the Benjamini-Hochberg adjusted p-values (J. R. Statist.
+  Soc. B 57, 1995): ``p~_(i) = min_{j >= i} min(1, m p_(j) / j)``; the false discovery rate
+  at ``alpha``.
+- :func:`t_p_value` — the p-value of the one-sided t-test of a mean against a bound.
+- :func:`tost` — two one-sided tests of equivalence (D. J. Schuirmann, J. Pharmacokin.
+  Biopharm. 15, 1987): ``|mean difference| < margin`` is shown when both ``H0: d <= -margin``
+  and ``H0: d >= margin`` are rejected at ``alpha``, i.e. when the ``1 - 2 alpha``
+  t-interval lies inside ``(-margin, margin)``; its p-value is the larger of the two.
+- :func:`bootstrap_means` — the paired (case-resampling) bootstrap of means over runs
+  (B. Efron and R. Tibshirani, "An Introduction to the Bootstrap", 1993, ch. 13),
+  reproducible from a seed.
+- :func:`wilcoxon_p` — the one-sided Wilcoxon signed-rank test of the paired differences
+  (scipy's exact or normal-approximation distribution).
+- :func:`nees_band` — the two-sided 95 % chi-square band of the averaged NEES
+  (Bar-Shalom, Li and Kirubarajan 2001, sec. 5.4.2): ``N`` runs of an ``n``-state
+  consistent filter give ``N * ANEES ~ chi2(N n)``, so the band is
+  ``[chi2_{0.025}(N n) / N, chi2_{0.975}(N n) / N]``.
+- :func:`all_runs_bound` — the exact (Clopper-Pearson) one-sided 95 % upper bound on the
+  chance of a run outside a range when none of ``n`` runs was: ``1 - 0.05^(1/n)``.
+"""
+
+from __future__ import annotations
+
+import zlib
+
+import numpy as np
+from scipy import special as _sc  # not scipy.stats: its import costs every run of the CLI a second
+
+__all__ = ["holm", "benjamini_hochberg", "adjust", "ADJUSTMENTS", "t_p_value", "tost", "bootstrap_means",
+           "BOOTSTRAP_RESAMPLES", "wilcoxon_p", "nees_band", "all_runs_bound", "claim_rng"]
+
+#: Resamples of every bootstrap interval (the Monte Carlo error of a 2.5 % tail estimate
+#: from 10 000 resamples is about 0.16 %).
+BOOTSTRAP_RESAMPLES = 10_000
+
+
+def holm(p_values) -> np.ndarray:
+    """Holm's step-down adjusted p-values, in the input order.
+
+    Examples
+    --------
+    >>> holm([0.01, 0.04, 0.03]).tolist()
+    [0.03, 0.06, 0.06]
+    """
+    p = np.asarray(p_values, dtype=float)
+    m = p.size
+    if m == 0:
+        return p.copy()
+    order = np.argsort(p, kind="stable")
+    stepped = np.minimum(1.0, (m - np.arange(m)) * p[order])
+    out = np.empty(m)
+    out[order] = np.maximum.accumulate(stepped)
+    return out
+
+
+def benjamini_hochberg(p_values) -> np.ndarray:
+    """Benjamini-Hochberg adjusted p-values (false discovery rate), in the input order.
+
+    Examples
+    --------
+    >>> benjamini_hochberg([0.01, 0.04, 0.03]).tolist()
+    [0.03, 0.04, 0.04]
+    """
+    p = np.asarray(p_values, dtype=float)
+    m = p.size
+    if m == 0:
+        return p.copy()
+    order = np.argsort(p, kind="stable")
+    scaled = np.minimum(1.0, p[order] * m / np.arange(1, m + 1))
+    out = np.empty(m)
+    out[order] = np.minimum.accumulate(scaled[::-1])[::-1]
+    return out
+
+
+#: The multiplicity adjustments a config may choose (``claims_adjustment``).
+ADJUSTMENTS = {"holm": holm, "benjamini-hochberg": benjamini_hochberg}
+
+
+def adjust(p_values, method: str) -> np.ndarray:
+    """Adjusted p-values by ``method`` (a key of :data:`ADJUSTMENTS`)."""
+    return ADJUSTMENTS[method](p_values)
+
+
+def t_p_value(estimate: float, se: float, n: int, bound: float, below: bool) -> float:
+    """One-sided p-value of "the mean is below (above) ``bound``" from a t-statistic with
+    ``n - 1`` degrees of freedom: ``P(T >= t)`` under ``H0: mean >= bound`` (``below``),
+    ``t = (estimate - bound) / se`` taken with the sign that makes small p support the claim."""
+    t = (bound - estimate) / se if below else (estimate - bound) / se
+    return float(_sc.stdtr(n - 1, -t))  # = scipy.stats.t.sf(t, n - 1)
+
+
+def tost(diff: float, se: float, n: int, margin: float) -> float:
+    """The TOST p-value of ``|d| < margin`` (the larger of the two one-sided p-values)."""
+    return max(t_p_value(diff, se, n, margin, below=True), t_p_value(diff, se, n, -margin, below=False))
+
+
+def claim_rng(seed: int, claim: int, where: str) -> np.random.Generator:
+    """The generator of one claim's resampling in one case: from the comparison's seed, the
+    claim's index and where it is evaluated, so every report reproduces it."""
+    return np.random.default_rng([seed, claim, zlib.crc32(where.encode())])
+
+
+def bootstrap_means(x: np.ndarray, y: np.ndarray | None, rng: np.random.Generator,
+                    resamples: int = BOOTSTRAP_RESAMPLES) -> tuple[np.ndarray, np.ndarray | None]:
+    """Means of ``resamples`` paired resamples of the runs: ``(mean x*, mean y*)`` (``y``
+    resampled with the same run indices as ``x``; ``None`` without ``y``)."""
+    n = x.size
+    idx = rng.integers(0, n, size=(resamples, n))
+    return x[idx].mean(axis=1), (None if y is None else y[idx].mean(axis=1))
+
+
+def bootstrap_p(draws: np.ndarray, bound: float, below: bool) -> float:
+    """One-sided bootstrap p-value of "the statistic is below (above) ``bound``": the share
+    of resampled statistics on the other side (``(k + 1) / (B + 1)``, never 0)."""
+    other = np.count_nonzero(draws >= bound) if below else np.count_nonzero(draws <= bound)
+    return float((other + 1) / (draws.size + 1))
+
+
+def wilcoxon_p(d: np.ndarray, below: bool) -> float:
+    """One-sided Wilcoxon signed-rank p-value of "the differences ``d`` lie below (above) 0"
+    (their pseudo-median; zero differences dropped as Wilcoxon did)."""
+    from scipy.stats import wilcoxon  # only for claims that ask for it
+
+    return float(wilcoxon(d, alternative="less" if below else "greater", zero_method="wilcox").pvalue)
+
+
+def nees_band(runs: int, states: int, level: float = 0.95) -> tuple[float, float]:
+    """The two-sided ``level`` band of the averaged NEES of ``runs`` runs of a consistent
+    ``states``-dimensional estimate: ``[chi2_{a/2}(N n) / N, chi2_{1-a/2}(N n) / N]``."""
+    dof = runs * states
+    tail = (1.0 - level) / 2
+    # chdtri(k, q) is the chi-square quantile of the upper tail q (= scipy.stats.chi2.isf(q, k)).
+    return float(_sc.chdtri(dof, 1.0 - tail)) / runs, float(_sc.chdtri(dof, tail)) / runs
+
+
+def all_runs_bound(runs: int, level: float = 0.95) -> float:
+    """Exact one-sided ``level`` upper bound on the chance of a run outside a range when
+    none of ``runs`` runs was (Clopper-Pearson with 0 events: ``1 - (1 - level)^(1/n)``)."""
+    return float(1.0 - (1.0 - level) ** (1.0 / runs))
