@@ -8,7 +8,7 @@ Examples
 >>> from gnssframework import registry
 >>> rows = parameter_rows(registry.get("estimator", "ukf").Params)
 >>> [(r.name, r.default, r.bounds) for r in rows if r.name == "alpha"]
-[('alpha', '0.001', '> 0, <= 1')]
+[('alpha', '0.001', '> 0')]
 """
 
 from __future__ import annotations

@@ -161,6 +161,7 @@ def test_every_run_within_states_a_constant_with_its_exact_bound(tmp_path):
     assert all_runs_bound(12) == pytest.approx(1 - 0.05 ** (1 / 12))
 
 
+@pytest.mark.slow
 def test_compare_check_names_a_refused_claim_in_one_line(tmp_path):
     import subprocess
     import sys
@@ -316,6 +317,7 @@ def test_replicate_streams_are_disjoint_from_evaluation_and_tuning(tmp_path):
     assert np.array_equal(draws[1], again)
 
 
+@pytest.mark.slow
 def test_compare_replicate_rechecks_every_claim(tmp_path):
     from gnssframework.experiments.runner import run_comparison
 

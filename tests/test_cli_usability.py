@@ -131,7 +131,7 @@ def test_prn_written_any_usual_way_selects_the_same_satellite(tmp_path, capsys):
 def test_progress_unless_quiet_the_runner_choosing_bar_or_lines(tmp_path, monkeypatch, capsys):
     seen = {}
 
-    def fake_run(config, out, progress):
+    def fake_run(config, out, progress, **kwargs):
         seen["progress"] = progress
         (Path(out) / "summary.json").parent.mkdir(parents=True, exist_ok=True)
         (Path(out) / "summary.json").write_text("{}")

@@ -45,7 +45,7 @@ def test_harness_refuses_a_step_that_breaks_the_provides_declaration(scratch_reg
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
 PLUGIN_FILES = ["plugins/channel_filters.py", "plugins/nav_filters.py", "plugins/smoothers.py"]
 HARNESS_FILES = ["gnssframework/receiver/tracking/vector.py", "gnssframework/receiver/engine/closers.py",
-                 "gnssframework/receiver/deep/aided_tracking.py", "gnssframework/experiments/scenarios/carrier_smoothing.py",
+                 "gnssframework/receiver/engine/deep_closer.py", "gnssframework/experiments/scenarios/carrier_smoothing.py",
                  "gnssframework/io/smoothing.py"]  # the smooth command's harness
 
 

@@ -72,7 +72,7 @@ def test_a_config_cannot_name_a_dask_scheduler(tmp_path):
 def test_the_address_comes_from_the_command_line(tmp_path, monkeypatch):
     seen = {}
 
-    def run(config, out, progress=True):
+    def run(config, out, progress=True, **kwargs):
         seen["executor"] = config.executor
         raise KeyboardInterrupt
 

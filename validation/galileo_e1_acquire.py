@@ -12,26 +12,27 @@ ones; docs/receiver/galileo-e1.md holds the table this printed.
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 from gnssframework import registry
 from gnssframework.receiver.frontend.recording import open_recording
 from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11, GALILEO_E1C_BOC11
 
-SHARED = next(p for p in (Path(__file__).resolve().parents[2] / "shared", Path("/work/shared")) if p.is_dir())
+SHARED = Path(__file__).resolve().parents[2] / "shared"  # ../shared beside the clone (--shared)
 FILES = {
     "L1 12 MHz real": ("pocketsdr_L1_20211125_004000_12MHz_I.bin", "ri8", 12e6, 3e6, None, {3, 8, 13, 15, 25}),
     "L1 4 MHz complex": ("pocketsdr_L1_20211202_084700_4MHz_IQ.bin", "ci8", 4e6, 0.0, -1, {7, 15, 27, 30}),
 }
 
 
-def main() -> None:
+def main(shared: Path = SHARED) -> None:
     acq = registry.create("acquisition", "pcps", noncoherent=8, xcorr_margin_db=None)
     print("| file | PRN | PocketSDR | E1-B C/N0 (dB-Hz) | E1-B Doppler (Hz) | E1-B code phase (samples) "
           "| E1-C C/N0 | E1-C Doppler | E1-C code phase | E1-B stat / threshold | confirmed |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for label, (name, fmt, fs, if_hz, q_sign, listed) in FILES.items():
-        rec = open_recording(SHARED / "data" / "if" / name, format=fmt, sample_rate_hz=fs, if_hz=if_hz,
+        rec = open_recording(shared / "data" / "if" / name, format=fmt, sample_rate_hz=fs, if_hz=if_hz,
                              **({} if q_sign is None else {"q_sign": q_sign}))
         x = rec.read(0, acq.samples_needed(fs, GALILEO_E1B_BOC11))
         b = {r.prn: r for r in acq.acquire(x, fs, if_hz, signal=GALILEO_E1B_BOC11)}
@@ -49,4 +50,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--shared", type=Path, default=SHARED, help=f"the shared folder holding data/if/ (default {SHARED})")
+    main(ap.parse_args().shared)

@@ -13,7 +13,7 @@ holds what this printed.
 
 from __future__ import annotations
 
-import sys
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -28,12 +28,12 @@ from gnssframework.signal.correlators import Correlators
 from gnssframework.signal.galileo_codes import GALILEO_E1C_SECONDARY_CS25
 from gnssframework.signal.galileo_e1 import GALILEO_E1C_BOC11 as SPEC
 
-SHARED = next(p for p in (Path(__file__).resolve().parents[2] / "shared", Path("/work/shared")) if p.is_dir())
+SHARED = Path(__file__).resolve().parents[2] / "shared"  # ../shared beside the clone (--shared)
 FS, T, D = 4e6, 4e-3, 0.2
 
 
-def main(prn: int) -> None:
-    rec = open_recording(SHARED / "data" / "if" / "pocketsdr_L1_20211202_084700_4MHz_IQ.bin", format="ci8",
+def main(prn: int, shared: Path = SHARED) -> None:
+    rec = open_recording(shared / "data" / "if" / "pocketsdr_L1_20211202_084700_4MHz_IQ.bin", format="ci8",
                          sample_rate_hz=FS, if_hz=0.0, q_sign=-1)
     x = np.asarray(rec.read(0, rec.n_samples), np.complex64)
     acq = registry.create("acquisition", "pcps", noncoherent=4, doppler_max_hz=5000.0, xcorr_margin_db=None)
@@ -79,4 +79,8 @@ def main(prn: int) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 27)
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("prn", type=int, nargs="?", default=27, help="the Galileo PRN to track (default 27)")
+    ap.add_argument("--shared", type=Path, default=SHARED, help=f"the shared folder holding data/if/ (default {SHARED})")
+    args = ap.parse_args()
+    main(args.prn, args.shared)
