@@ -60,6 +60,7 @@ def test_every_seed_detected_where_theory_says_certain(cn0_dbhz):
     assert all(_trial(cn0_dbhz, seed) for seed in range(4))
 
 
+@pytest.mark.slow
 def test_detection_rate_matches_theory_near_threshold():
     cn0 = 27.0
     p_lo, p_up = _theory(cn0)

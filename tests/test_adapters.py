@@ -55,6 +55,7 @@ def adapted(ca_problem):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("label", ADAPTERS)
 def test_adapted_covariances_stay_pd_and_finite(adapted, label):
     res = adapted[label]

@@ -54,6 +54,7 @@ def test_with_the_hooks_every_engine_tracks_a_bearing_across_pi(name):
     assert _final_error_m(estimator, TARGET_BEHIND, True, [-19.0, -1.0]) < 0.5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["ekf", "ukf"])
 def test_without_the_hooks_the_same_run_goes_wrong(name):
     estimator = gf.registry.create("estimator", name)

@@ -54,6 +54,7 @@ def _config(name: str) -> ComparisonConfig:
     })
 
 
+@pytest.mark.slow
 def test_a_task_creates_its_channel_filter_once(counting_loop):
     config = _config(counting_loop)
     resolved = resolve(config)
@@ -66,6 +67,7 @@ def test_a_task_creates_its_channel_filter_once(counting_loop):
     assert len(tasks) == 4 and BUILT[counting_loop] == 4
 
 
+@pytest.mark.slow
 def test_the_loop_built_for_the_case_runs_as_the_candidates_loop():
     # The loops take the harness's interval (no T of their own): the loop built for the
     # 1 ms case is the candidate's loop, and run_batch runs either at the case's T with the

@@ -137,6 +137,7 @@ def test_slip_recovery_excludes_censored_and_non_isolated_slips():
     np.testing.assert_array_equal(censored, [0, 1, 0])
 
 
+@pytest.mark.slow
 def test_reads_the_generated_rinex_file_through_georinex():
     data = read_code_carrier(RNX, "G08")
     assert data.time_s.size == 721 and np.all(np.diff(data.time_s) == 1.0)

@@ -55,6 +55,7 @@ def test_settle_epochs_counts_to_the_band(example):
     assert example.settle_epochs(err) == 10
 
 
+@pytest.mark.slow
 def test_the_example_runs_on_the_excerpt(example, tmp_path):
     assert example.main(["--file", str(EXCERPT), "--out", str(tmp_path)]) == 0
     text = (tmp_path / "carrier_smoothing_real.md").read_text()

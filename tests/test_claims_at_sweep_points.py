@@ -167,6 +167,7 @@ def test_a_case_the_sweep_does_not_vary_is_refused(tmp_path):
     assert [(r["case"], r["point"], r["outcome"]) for r in rows] == [("only", 0.2, "holds")]
 
 
+@pytest.mark.slow
 def test_summary_and_report_name_the_points(tmp_path):
     config = _config(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher",
                                       sweep="psi"))

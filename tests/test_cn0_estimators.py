@@ -133,6 +133,7 @@ def test_bad_input_is_one_config_error_naming_the_field(rng):
         registry.create("cn0_estimator", "narrow-wide", m=1)
 
 
+@pytest.mark.slow
 def test_the_committed_docs_tables_are_what_the_generator_writes():
     # docs/cn0_tables.py draws from a fixed seed: the committed page's numbers (bias,
     # spread, floors) are a fresh run's, to their printed rounding (one unit of the last

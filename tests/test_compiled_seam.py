@@ -56,6 +56,7 @@ def _state(batch: int, seed: int = 0) -> tuple[Gaussian, np.ndarray]:
     return state, z
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ("ukf", "ckf", "svd-ckf"))
 @pytest.mark.parametrize("batch", (3, 300))
 def test_a_third_party_model_with_its_own_jitted_f_and_h_runs_fused_and_equals_numpy(name, batch):

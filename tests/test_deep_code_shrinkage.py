@@ -28,6 +28,8 @@ import gnssframework as gf
 from gnssframework.interfaces import RunContext
 from gnssframework.signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 
+pytestmark = pytest.mark.slow  # end to end (issue 37: the fast lane leaves these out)
+
 RUNS, INTERVALS, SKIP, T, CODE_ERROR_CHIPS = 800, 1100, 100, 0.001, 0.002
 
 

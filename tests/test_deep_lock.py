@@ -28,6 +28,7 @@ def _run(jerk_g_s: float, candidate: dict, runs: int = 2):
                         run_streams(5, name_key("45dBHz"), range(runs))).metrics
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("jerk_g_s, scalar_loses_lock", [(50.0, True), (5.0, False)])
 def test_scalar_pll_loses_lock_under_50_g_per_s_where_deep_keeps_it(jerk_g_s, scalar_loses_lock):
     scalar = _run(jerk_g_s, LOOSE_NO_FLL)

@@ -132,6 +132,7 @@ def test_the_model_functions_are_the_same_arithmetic_in_numpy_and_compiled():
     assert Z.tobytes() == ranges(x).tobytes()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("batch", BATCHES)
 @pytest.mark.parametrize("name", SIGMA_ENGINES)
 def test_plain_fused_and_specialised_drivers_agree_bit_for_bit(name, batch):

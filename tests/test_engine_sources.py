@@ -20,6 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs"))
 import engine_sources  # noqa: E402
 
 
+@pytest.mark.slow
 def test_the_same_scalar_closer_gives_the_same_error_statistics_on_both_sources():
     # 45 dB-Hz, constant Doppler, the registry's scalar loop started 0.05 chip and 3 Hz
     # off: per run the mean and the standard deviation of the code, phase and frequency

@@ -115,6 +115,7 @@ def test_the_filters_of_receive_name_the_parameter_and_receive_its_option(tmp_pa
         assert capsys.readouterr().err.startswith(start)
 
 
+@pytest.mark.slow
 def test_filter_positions_and_smooth_name_parameters_and_options(tmp_path, capsys):
     with pytest.raises(ConfigError, match=r"^noise_adapter: unknown noise_adapter 'sage-hus'"):
         composition("ckf", noise_adapter="sage-hus")

@@ -92,6 +92,7 @@ def _acquire(path: str, fs: float, if_hz: float, q_sign: int, prns: tuple[int, .
 ABSENT_12MHZ = (1, 4, 9)
 
 
+@pytest.mark.slow
 def test_the_12mhz_recording_shows_pocketsdrs_galileo_satellites_on_e1b_and_e1c():
     """E1-B with 4 ms coherent blocks (one symbol) x 2 non-coherent; E1-C, a different code
     family, must put each satellite at the same Doppler and code phase (one sample); PRNs

@@ -75,6 +75,7 @@ def test_lean_update_fails_and_skips_like_the_numpy_path(name, batch, seed, nan_
     _close(ref.state.cov, upd.state.cov)
 
 
+@pytest.mark.slow
 @pytest.mark.other_machines
 @settings(max_examples=30, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), root_kind=st.sampled_from([0, 1]), batch=st.sampled_from([3, 300]),

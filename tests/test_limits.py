@@ -15,6 +15,8 @@ from gnssframework.experiments import load_config
 from gnssframework.experiments.limits import MEMORY_BUDGET_ENV
 from gnssframework.experiments.scenarios.multipath import OracleGrid
 
+pytestmark = pytest.mark.slow  # end to end (issue 37: the fast lane leaves these out)
+
 VECTOR = """
 name = "vt"
 runs = 4

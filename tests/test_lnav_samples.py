@@ -62,6 +62,7 @@ def tracked(tmp_path_factory):
     return record, result
 
 
+@pytest.mark.slow
 def test_the_generated_subframe_decodes_with_its_tow_and_fields(tracked):
     record, result = tracked
     timing = channel_timing(result.channels[PRN])

@@ -37,6 +37,7 @@ def test_an_unsettled_response_is_refused():
         equivalent_bandwidth_hz(pll, 0.01, settle_s=0.1, response_s=0.5)
 
 
+@pytest.mark.slow
 def test_a_case_interval_re_creates_the_loop_with_the_same_q_and_r():
     scen = get_scenario({"kind": "scintillation", "duration_s": 2.0, "settle_s": 0.5})
     cand = {"channel_filter": {"name": "kf-carrier-loop", "params": {

@@ -83,6 +83,7 @@ def short_recording(tmp_path_factory):
     return write_recording(tmp_path_factory.mktemp("pos") / "short.sigmf-data", x, "ci16_le", 2.6e6, 0.0, scale=300.0)
 
 
+@pytest.mark.slow
 def test_position_on_a_recording_without_a_whole_subframe_says_why(short_recording, tmp_path, capsys):
     assert main(["position", str(short_recording), "--out", str(tmp_path / "p")]) == 1
     out = capsys.readouterr().out  # the most basic reason first (issue 41): too few satellites
@@ -90,6 +91,7 @@ def test_position_on_a_recording_without_a_whole_subframe_says_why(short_recordi
     assert not (tmp_path / "p" / "positions.csv").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("options, message", [
     (["--truth", "35.6,139.7"], "--truth: LAT,LON,H in degrees and metres, got '35.6,139.7'"),
     (["--rate", "0"], "--rate: must be > 0 Hz, got 0.0"),

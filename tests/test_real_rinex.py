@@ -71,6 +71,7 @@ def test_phone_glonass_wavelengths_follow_the_header_channels():
         assert obs.wavelength_m[obs.satellite(sv)] == pytest.approx(SPEED_OF_LIGHT_MPS / (1602e6 + 0.5625e6 * k))
 
 
+@pytest.mark.slow
 def test_hatanaka_multi_gnss_file_reads_every_constellation(cebr):
     systems = {sv[0] for sv in cebr.sv}
     assert systems == {"G", "E", "C", "R"} and cebr.version == 3.03

@@ -16,6 +16,8 @@ from gnssframework.interfaces import RunContext
 from gnssframework.io.observations import arc_starts, read_observations
 from gnssframework.io.smoothing import default_max_gap_s, smooth_observations
 
+pytestmark = pytest.mark.slow  # end to end (issue 37: the fast lane leaves these out)
+
 DATA = Path(__file__).resolve().parent / "data"
 CEBR = DATA / "CEBR00ESP_R_20182002200_01H_30S_MO.crx.gz"
 RINEX2 = DATA / "07590920.05o"

@@ -159,6 +159,7 @@ def _references(tree: ast.AST) -> tuple[set[str], set[str]]:
     return used, as_base | (imported - used)
 
 
+@pytest.mark.slow
 def test_every_builtin_is_defined_in_one_module_and_named_in_no_other():
     infos = _builtins()
     assert {i.kind for i in infos} >= {"estimator", "discriminator", "scenario", "channel_filter", "nav_filter"}

@@ -28,6 +28,8 @@ from gnssframework.navigation.ephemeris import satellite_state
 from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.receive import receive
 
+pytestmark = pytest.mark.slow  # end to end (issue 37: the fast lane leaves these out)
+
 SCENARIO = {"kind": "sample-receiver", "duration_s": 8.0, "satellites": 4, "rate_hz": 5.0}
 CASE = {"name": "45", "cn0_dbhz": 45.0}
 SEED_KEY = (11, 3)

@@ -31,6 +31,8 @@ from gnssframework.receiver.frontend import open_recording, write_recording
 from gnssframework.signal.if_samples import generate_if_samples
 from lnav_recordings import FS, NAV, STATION, TOW0, WEEK, _strongest, write_lnav_recording
 
+pytestmark = pytest.mark.slow  # end to end (issue 37: the fast lane leaves these out)
+
 CN0_DBHZ, DURATION_S, BLOCK_S, SCALE = 45.0, 4.0, 1e-3, 300.0
 
 

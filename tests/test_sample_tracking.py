@@ -72,6 +72,7 @@ def test_every_channel_filter_plugin_tracks_generated_samples(one_sat, name, par
 
 
 # snv: a cn0_estimator plugin, on the whole window (docs/receiver/cn0-estimators.md).
+@pytest.mark.slow
 @pytest.mark.parametrize("estimator", ["nwpr", "moments", "snv"])
 def test_cn0_estimates_are_within_1_db_of_the_generated_cn0(tmp_path, estimator):
     sats = [SatelliteSignal(5, 46.0, 850.0, 12.5, first_bit_code_period=3),
@@ -97,6 +98,7 @@ def test_bit_synchronisation_finds_the_generated_bit_edge_and_extends_the_integr
     assert np.all(np.abs(bits - np.round(bits)) < 1e-3)
 
 
+@pytest.mark.slow
 def test_a_signal_that_fades_is_lost_and_re_acquired(tmp_path):
     rng = np.random.default_rng(23)
     sat = SatelliteSignal(19, 45.0, 400.0, 100.0)
@@ -162,6 +164,7 @@ def test_real_if_samples_track_like_complex_ones(tmp_path):
     assert abs(np.median(ch.column("cn0_dbhz")[last]) - sat.cn0_dbhz) < 1.0
 
 
+@pytest.mark.slow
 def test_the_real_12mhz_if_slice_gives_strong_satellites_15_ms_apart():
     """Real samples at a 3 MHz IF: the strong detections of the first 10 ms (statistic over
     3 times the threshold) are detected again 15 ms later at the same Doppler (no truth comes
@@ -203,6 +206,7 @@ def test_track_command_refuses_a_recording_shorter_than_the_acquisition(tmp_path
     assert code == 2 and "acquisition needs 32000 samples" in err and err.count("\n") == 1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, params, coherent_ms", [
     ("scalar", {}, 10),
     ("kf-carrier-loop", {}, 1),

@@ -86,6 +86,7 @@ def _kf(q, r):
                               dll_bandwidth_hz=0.5)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(TUNINGS))
 @pytest.mark.parametrize("T", [0.01, 0.001])
 def test_kalman_loop_bandwidth_is_its_riccati_steady_state_loops(name, T):

@@ -37,6 +37,7 @@ def _boc11(tau):
     return np.where(a <= 0.5, 1 - 3 * a, np.where(a <= 1, a - 1, 0.0))
 
 
+@pytest.mark.slow
 def test_the_correlator_model_of_a_boc_signal_is_its_triangle_train():
     tau = np.linspace(-1.5, 1.5, 61)
     np.testing.assert_allclose(code_autocorrelation(tau, signal=BOC), _boc11(tau), atol=1e-12)

@@ -77,6 +77,7 @@ def test_loss_of_lock_grows_as_cn0_falls_and_runs_are_paired():
     np.testing.assert_array_equal(again["time_to_loss_s"], lo["time_to_loss_s"])
 
 
+@pytest.mark.slow
 def test_samples_source_tracks_at_high_cn0_and_refuses_dynamics():
     """On IF samples (the compiled correlators) at 40 dB-Hz no run loses lock and the phase
     jitter is that of the analytic model within 4 standard errors of their difference

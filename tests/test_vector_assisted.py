@@ -24,6 +24,8 @@ from gnssframework.receiver.navigation.receive import receive
 from gnssframework.receiver.navigation.vector_tracking import assistance, vector_config
 from lnav_recordings import WEEK, true_dopplers, write_lnav_recording
 
+pytestmark = pytest.mark.slow  # end to end (issue 37: the fast lane leaves these out)
+
 DURATION_S = 6.0
 CN0_DBHZ = 32.0
 #: The approximate position: the station moved 30 km east and 20 km north, 500 m up.

@@ -169,6 +169,7 @@ def test_a_bad_vector_setting_names_the_field():
         vector_config(min_cn0_dbhz="low")
 
 
+@pytest.mark.slow
 def test_position_command_tracks_vector(faded, tmp_path, capsys):
     from gnssframework.cli import main
 
