@@ -212,6 +212,7 @@ class _Registry:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._loaded = False
+        self._loading: tuple[int, str] | None = None  # (thread, entry point) while loading
         self._plugins: dict[str, dict[str, PluginInfo]] = {k: {} for k in hookspecs.KINDS}
         self._failures: list[LoadFailure] = []
         self._pm = pluggy.PluginManager(ENTRY_POINT_GROUP)
@@ -221,6 +222,11 @@ class _Registry:
     def ensure_loaded(self) -> None:
         if self._loaded:
             return
+        if self._loading is not None and self._loading[0] == threading.get_ident():
+            # A plugin module asking the registry while it is imported by entry point would
+            # wait on the lock its own loading holds: refuse, and the loader records it.
+            raise PluginError(f"entry point {self._loading[1]!r} looked the registry up while being loaded; "
+                              "look plugins up when they are used, not at import")
         with self._lock:
             if self._loaded:
                 return
@@ -228,11 +234,14 @@ class _Registry:
             for ep in md.entry_points(group=ENTRY_POINT_GROUP):
                 dist = ep.dist.name if ep.dist is not None else "unknown"
                 version = ep.dist.version if ep.dist is not None else ""
+                self._loading = (threading.get_ident(), ep.name)
                 try:
                     module = ep.load()
                     self._add_module(module, ep.name, dist, version)
                 except Exception as exc:  # noqa: BLE001 - any plugin error must not stop the rest
                     self._failures.append(LoadFailure(dist, ep.name, f"{type(exc).__name__}: {exc}"))
+                finally:
+                    self._loading = None
             self._loaded = True
 
     def _add_module(self, module: Any, ep_name: str, dist: str, version: str) -> None:

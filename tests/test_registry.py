@@ -292,3 +292,29 @@ def test_a_plugin_of_a_kind_whose_base_is_not_declared_is_refused(monkeypatch, s
     failure = registry.failures()[-1]
     assert failure.distribution == "undeclared-dist"
     assert "whose base class is not declared" in failure.error and "register_kind('metric'" in failure.error
+
+
+def test_a_plugin_that_looks_the_registry_up_while_loading_is_a_failure_not_a_hang(monkeypatch):
+    """An entry point whose module calls the registry at import waited forever on the lock its
+    own loading held; now it is recorded as that plugin's load failure, the rest load."""
+    import threading
+
+    import gnssframework.registry as reg
+
+    fresh = reg._Registry()
+
+    class EntryPoint:
+        name = "greedy"
+        dist = type("Dist", (), {"name": "gnssframework-greedy", "version": "0.0"})()
+
+        def load(self):
+            return fresh.get("estimator", "ukf")  # what a module body calling registry.get does
+
+    monkeypatch.setattr(reg.md, "entry_points", lambda group: [EntryPoint()])
+    done = []
+    worker = threading.Thread(target=lambda: done.append(fresh.ensure_loaded()), daemon=True)
+    worker.start()
+    worker.join(timeout=20)
+    assert done, "ensure_loaded hung on its own lock"
+    [failure] = fresh._failures
+    assert failure.entry_point == "greedy" and "while being loaded" in failure.error
