@@ -20,7 +20,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..errors import ConfigError
+from .codes import checked_prn
 
 __all__ = ["B1C_PRIMARY_LENGTH", "B1C_SECONDARY_LENGTH", "B1C_DATA_PARAMS", "B1C_PILOT_PARAMS",
            "B1C_SECONDARY_PARAMS", "legendre_sequence", "weil_code", "b1c_data_code", "b1c_pilot_code",
@@ -84,9 +84,7 @@ def weil_code(n: int, w: int, p: int, length: int) -> np.ndarray:
 
 
 def _params(prn, table: dict[int, tuple[int, int]]) -> tuple[int, int]:
-    if isinstance(prn, bool) or not isinstance(prn, (int, np.integer)) or int(prn) not in table:
-        raise ConfigError("prn", f"BeiDou B1C PRN must be an integer 1-63, got {prn!r}")
-    return table[int(prn)]
+    return table[checked_prn(prn, table, "BeiDou B1C")]
 
 
 def b1c_data_code(prn: int) -> np.ndarray:

@@ -62,6 +62,15 @@ def gold_code_by_g2_delay(delay_chips: int) -> np.ndarray:
     return _to_pm1(g1[:, 9] ^ np.roll(g2[:, 9], int(delay_chips)))
 
 
+def checked_prn(prn: object, prns, label: str) -> int:
+    """``prn`` as an ``int`` when it is an integer in ``prns`` (any container of PRNs), else a
+    `ConfigError` on ``prn`` naming ``label`` and the range (``"<label> PRN must be an integer
+    lo-hi, got ..."``); the one PRN check of every code generator and `SignalSpec.check_prn`."""
+    if isinstance(prn, bool) or not isinstance(prn, (int, np.integer)) or int(prn) not in prns:
+        raise ConfigError("prn", f"{label} PRN must be an integer {min(prns)}-{max(prns)}, got {prn!r}")
+    return int(prn)
+
+
 def ca_code(prn: int) -> np.ndarray:
     """The 1023-chip C/A code of ``prn`` (1-32) as ±1 ``int8`` (logic 0 -> +1, 1 -> -1).
 
@@ -70,6 +79,4 @@ def ca_code(prn: int) -> np.ndarray:
     ConfigError
         For a PRN outside 1-32.
     """
-    if not isinstance(prn, (int, np.integer)) or int(prn) not in G2_TAPS:
-        raise ConfigError("prn", f"GPS C/A PRN must be an integer 1-32, got {prn!r}")
-    return gold_code_by_taps(*G2_TAPS[int(prn)])
+    return gold_code_by_taps(*G2_TAPS[checked_prn(prn, G2_TAPS, "GPS C/A")])

@@ -43,6 +43,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import ConfigError
+from .codes import checked_prn
 
 __all__ = ["GALILEO_E1_PRNS", "GALILEO_E1_CODE_LENGTH_CHIPS", "GALILEO_E1C_SECONDARY_CS25",
            "galileo_e1b_code", "galileo_e1c_code", "hex_to_chips"]
@@ -64,9 +65,7 @@ def hex_to_chips(digits: str, n_chips: int) -> np.ndarray:
 
 
 def _check_prn(prn: int, which: str) -> int:
-    if isinstance(prn, bool) or not isinstance(prn, (int, np.integer)) or int(prn) not in GALILEO_E1_PRNS:
-        raise ConfigError("prn", f"Galileo {which} PRN must be an integer 1-50, got {prn!r}")
-    return int(prn)
+    return checked_prn(prn, GALILEO_E1_PRNS, f"Galileo {which}")
 
 
 @lru_cache(maxsize=None)

@@ -28,6 +28,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import ConfigError
+from .codes import checked_prn
 
 __all__ = ["L2CM_LENGTH", "L2CL_LENGTH", "L2CM_INITIAL_STATE", "L2CL_INITIAL_STATE", "QZSS_L2CM_INITIAL_STATE",
            "l2c_register_chips", "gps_l2cm_code", "gps_l2cl_code", "qzss_l2cm_code"]
@@ -96,9 +97,7 @@ def _pm1(bits: np.ndarray) -> np.ndarray:
 
 
 def _check(prn, table: dict[int, int], what: str) -> int:
-    if isinstance(prn, bool) or not isinstance(prn, (int, np.integer)) or int(prn) not in table:
-        raise ConfigError("prn", f"{what} PRN must be an integer {min(table)}-{max(table)}, got {prn!r}")
-    return int(prn)
+    return checked_prn(prn, table, what)
 
 
 @lru_cache(maxsize=None)

@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigError
-from .codes import gold_code_by_g2_delay
+from .codes import checked_prn, gold_code_by_g2_delay
 
 __all__ = ["QZSS_L1CA_G2_DELAY", "gold_code_by_g2_delay", "qzss_l1ca_code"]
 
@@ -35,6 +34,4 @@ def qzss_l1ca_code(prn: int) -> np.ndarray:
     ConfigError
         For a PRN outside 193-202.
     """
-    if isinstance(prn, bool) or not isinstance(prn, (int, np.integer)) or int(prn) not in QZSS_L1CA_G2_DELAY:
-        raise ConfigError("prn", f"QZSS L1 C/A PRN must be an integer 193-202, got {prn!r}")
-    return gold_code_by_g2_delay(QZSS_L1CA_G2_DELAY[int(prn)])
+    return gold_code_by_g2_delay(QZSS_L1CA_G2_DELAY[checked_prn(prn, QZSS_L1CA_G2_DELAY, "QZSS L1 C/A")])

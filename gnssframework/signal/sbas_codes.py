@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigError
-from .codes import gold_code_by_g2_delay
+from .codes import checked_prn, gold_code_by_g2_delay
 
 __all__ = ["SBAS_L1_G2_DELAY", "sbas_l1_code"]
 
@@ -40,6 +39,4 @@ def sbas_l1_code(prn: int) -> np.ndarray:
     ConfigError
         For a PRN outside 120-158.
     """
-    if isinstance(prn, bool) or not isinstance(prn, (int, np.integer)) or int(prn) not in SBAS_L1_G2_DELAY:
-        raise ConfigError("prn", f"SBAS L1 PRN must be an integer 120-158, got {prn!r}")
-    return gold_code_by_g2_delay(SBAS_L1_G2_DELAY[int(prn)])
+    return gold_code_by_g2_delay(SBAS_L1_G2_DELAY[checked_prn(prn, SBAS_L1_G2_DELAY, "SBAS L1")])

@@ -28,6 +28,7 @@ from typing import Callable, Literal
 import numpy as np
 
 from ..errors import ConfigError
+from .codes import checked_prn
 
 __all__ = ["SignalSpec", "Subcarrier", "Component", "BPSK", "SPEED_OF_LIGHT_M_S", "F0_HZ", "pulse_autocorrelation"]
 
@@ -326,10 +327,7 @@ class SignalSpec:
 
     def check_prn(self, prn: int) -> int:
         """``prn`` as an ``int``, or a `ConfigError` naming the signal and its PRN range."""
-        if isinstance(prn, bool) or not isinstance(prn, (int, np.integer)) or int(prn) not in self.prns:
-            lo, hi = min(self.prns), max(self.prns)
-            raise ConfigError("prn", f"{self.name} PRN must be an integer {lo}-{hi}, got {prn!r}")
-        return int(prn)
+        return checked_prn(prn, self.prns, self.name)
 
     @property
     def subchips_per_chip(self) -> int:
