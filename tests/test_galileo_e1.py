@@ -196,6 +196,7 @@ def _pilot_sync_and_track(x: np.ndarray, fs: float, prn: int, doppler_hz: float,
     from gnssframework.receiver.engine.closers import ScalarCloser
     from gnssframework.receiver.engine.samples import SampleSource
     from gnssframework.signal.correlators import Correlators
+    from gnssframework.signal.overlay import overlay_sync
 
     T, d, spec = 4e-3, 0.2, GALILEO_E1C_BOC11
     source = SampleSource(x, fs, 0.0, replica_codes(spec, (prn,)), T, early_late_spacing_chips=d,
@@ -208,12 +209,9 @@ def _pilot_sync_and_track(x: np.ndarray, fs: float, prn: int, doppler_hz: float,
         channel.run_interval(T)
         prompts.append(complex(np.ravel(source.correlate(channel, k).prompt)[0]))
         channel.steer_frequency(channel.carrier_freq_hz, channel.code_rate_chips_s)
-    diff = np.array(prompts[1:]) * np.conj(prompts[:-1])
-    pairs = lambda s: (np.roll(cs, -s)[1:] * np.roll(cs, -s)[:-1])[:diff.size]  # noqa: E731
-    scores = np.abs(np.array([np.sum(diff * pairs(s)) for s in range(25)]))
-    shift = int(np.argmax(scores))
-    z = np.sum(diff * pairs(shift))
-    channel = Channel.start((1,), 0.0, doppler_hz + np.angle(z) / (2 * np.pi * T), signal=spec)
+    sync = overlay_sync(np.array(prompts), cs, T)
+    shift = sync.shift
+    channel = Channel.start((1,), 0.0, doppler_hz + sync.freq_error_hz, signal=spec)
     closer = ScalarCloser(registry.create("channel_filter", "scalar"))
     closer.reset(channel, T, early_late_spacing_chips=d, cn0_dbhz=40.0)
     tracked = []
@@ -224,7 +222,7 @@ def _pilot_sync_and_track(x: np.ndarray, fs: float, prn: int, doppler_hz: float,
         c = Correlators.trusted(c.early * sign, c.prompt * sign, c.late * sign)
         tracked.append(complex(np.ravel(c.prompt)[0]))
         closer.step(channel, c)
-    return shift, float(scores[shift] / np.sort(scores)[-2]), np.array(tracked)
+    return shift, sync.margin, np.array(tracked)
 
 
 def test_the_generators_secondary_code_is_found_where_it_was_put():

@@ -27,6 +27,7 @@ from gnssframework.receiver.frontend.recording import open_recording
 from gnssframework.signal.correlators import Correlators
 from gnssframework.signal.galileo_codes import GALILEO_E1C_SECONDARY_CS25
 from gnssframework.signal.galileo_e1 import GALILEO_E1C_BOC11 as SPEC
+from gnssframework.signal.overlay import overlay_sync
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"  # ../shared beside the clone (--shared)
 FS, T, D = 4e6, 4e-3, 0.2
@@ -50,13 +51,10 @@ def main(prn: int, shared: Path = SHARED) -> None:
         channel.run_interval(T)
         prompts.append(complex(np.ravel(source.correlate(channel, k).prompt)[0]))
         channel.steer_frequency(channel.carrier_freq_hz, channel.code_rate_chips_s)
-    diff = np.array(prompts[1:]) * np.conj(prompts[:-1])
-    pairs = lambda s: np.roll(cs, -s)[1:] * np.roll(cs, -s)[:-1]  # noqa: E731
-    scores = np.array([np.sum(diff * pairs(s)) for s in range(25)])
-    shift = int(np.argmax(np.abs(scores)))
-    df = np.angle(scores[shift]) / (2 * np.pi * T)
-    print(f"secondary code: phase {shift}, score {np.abs(scores[shift]) / np.sort(np.abs(scores))[-2]:.2f} x the "
-          f"runner-up, frequency correction {df:+.1f} Hz")
+    sync = overlay_sync(np.array(prompts), cs, T)
+    shift, df = sync.shift, sync.freq_error_hz
+    print(f"secondary code: phase {shift}, score {sync.margin:.2f} x the runner-up, frequency correction "
+          f"{df:+.1f} Hz")
     channel = Channel.start((1,), 0.0, r.doppler_hz + df, signal=SPEC)
     closer = ScalarCloser(registry.create("channel_filter", "scalar"))
     closer.reset(channel, T, early_late_spacing_chips=D, cn0_dbhz=40.0)
