@@ -161,6 +161,23 @@ def test_every_run_within_states_a_constant_with_its_exact_bound(tmp_path):
     assert all_runs_bound(12) == pytest.approx(1 - 0.05 ** (1 / 12))
 
 
+def test_every_run_within_with_a_reference_bounds_each_runs_paired_difference(tmp_path):
+    """A candidate identical to its reference run by run (no spread: an ordering is refused)
+    is stated as every run's difference within a tolerance; a difference outside fails."""
+    same = A.copy()
+    same[2] += 0.0005  # within 1 mm of A in every run
+    claims = (_claim(candidate="a", reference="b", metric="lat_error_rmse", every_run_within=[-0.001, 0.001])
+              + _claim(candidate="a", reference="b", metric="lat_error_rmse", every_run_within=[-0.0001, 0.0001]))
+    rows, config, _ = _evaluate(tmp_path, claims, a=A, b=same)
+    assert [r["outcome"] for r in rows] == ["holds", "fails"]
+    assert "minus b's in [-0.001, 0.001] in every run" in config.claims[0].statement()
+    # the candidate's own values (A, spread 1-4) would fail the same bound: the difference is what is judged
+    (tmp_path / "own").mkdir()
+    rows, _, _ = _evaluate(tmp_path / "own", _claim(candidate="a", metric="lat_error_rmse",
+                                                     every_run_within=[-0.001, 0.001]), a=A, b=same)
+    assert rows[0]["outcome"] == "fails"
+
+
 @pytest.mark.slow
 def test_compare_check_names_a_refused_claim_in_one_line(tmp_path):
     import subprocess

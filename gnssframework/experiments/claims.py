@@ -157,7 +157,8 @@ class Claim(BaseModel):
         "inside the two-sided 95 % chi-square band [chi2(0.025, N n) / N, chi2(0.975, N n) / N] of n states")
     every_run_within: tuple[float, float] | None = Field(
         None, description="every run's value lies in [low, high] (an observation over all runs, with the exact 95 % "
-        "upper bound on the chance of a run outside; for a metric that is the same in every run, e.g. no loss of lock)")
+        "upper bound on the chance of a run outside; for a metric that is the same in every run, e.g. no loss of lock); "
+        "with reference or reference_case, every run's paired difference (the candidate's minus the reference's)")
     test: Literal["t", "bootstrap", "wilcoxon"] = Field(
         "t", description="t: the t-interval (default); bootstrap: the paired bootstrap percentile interval "
         "(heavy-tailed metrics: maxima, loss of lock), reproducible from the seed; wilcoxon: the signed-rank test "
@@ -221,9 +222,10 @@ class Claim(BaseModel):
         """The equivalence, consistency and every-run kinds, and the test, against the rest."""
         own = [k for k in ("consistent_states", "every_run_within") if getattr(self, k) is not None]
         if own:
+            paired = ("reference", "reference_case") if own[0] == "every_run_within" else ()
             others = [k for k in ("direction", "ratio_max", "ratio_min", "equivalence_margin", "within", "reference",
                                   "reference_case", "threshold", "threshold_difference", "consistent_states",
-                                  "every_run_within") if k not in own[:1] and getattr(self, k) is not None]
+                                  "every_run_within") if k not in (*own[:1], *paired) and getattr(self, k) is not None]
             if others:
                 raise ValueError(f"{own[0]} is a claim about the candidate's own runs; {', '.join(others)} is a "
                                  "separate claim")
@@ -276,7 +278,10 @@ class Claim(BaseModel):
         if self.consistent_states is not None:
             parts.append(f"{self.metric} consistent ({self.consistent_states} states, chi-square 95 % band)")
         if self.every_run_within is not None:
-            parts.append(f"{self.metric} in [{self.every_run_within[0]:g}, {self.every_run_within[1]:g}] in every run")
+            lo, hi = self.every_run_within
+            paired = ("" if self.reference is None and self.reference_case is None
+                      else f" minus {ratio_ref}")
+            parts.append(f"{self.metric}{paired} in [{lo:g}, {hi:g}] in every run")
         test = {"t": "", "bootstrap": " [bootstrap]", "wilcoxon": " [Wilcoxon]"}[self.test]
         return f"{self.candidate}: " + " and ".join(parts) + test
 
@@ -453,7 +458,7 @@ def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: floa
     outcomes: list[str] = []
     ps: list[float] = []
     if claim.every_run_within is not None:
-        v = values[np.isfinite(values)]
+        v = values[np.isfinite(values)] if pair is None else pair[0] - pair[1]
         lo, hi = claim.every_run_within
         if v.size == 0:
             return "not significant", None, ""
