@@ -7,8 +7,9 @@ import errno
 import re
 import sqlite3
 import sys
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Iterator, Sequence
 
 from . import registry
 from .errors import ConfigError, DataFileError, GnssFrameworkError
@@ -342,6 +343,23 @@ MIN_DURATION_S = 0.02
 MAX_RATE_HZ = 1000.0
 
 
+@contextmanager
+def _recording_progress(args: argparse.Namespace) -> Iterator[Callable[[float], None] | None]:
+    """The tracker's progress callback (fraction of the recording done): a bar on a terminal,
+    a line per tenth of the recording in a log or a pipe, none with ``--quiet``."""
+    from .progress import Progress
+
+    if args.quiet:
+        yield None
+        return
+    bar = Progress(100, Path(args.recording).name, "%")
+    try:
+        yield lambda fraction: bar.set(round(100 * fraction))
+        bar.set(bar.total)  # the tracker reports up to its last block's start: the run is done
+    finally:
+        bar.close()
+
+
 def _cmd_track(args: argparse.Namespace) -> int:
     from .receiver.acquisition.report import search_summary
     from .receiver.channels import SampleTracker
@@ -361,7 +379,8 @@ def _cmd_track(args: argparse.Namespace) -> int:
         print(f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF (--if), "
               "the format (--format) and --doppler-max; nothing tracked")
         return 1
-    result = tracker.run(found, args.duration)
+    with _recording_progress(args) as progress:
+        result = tracker.run(found, args.duration, progress)
     written = write_tracking_outputs(args.out, result, plots=not args.no_plots)
     print(f"tracked {len(found)} satellites for {result.duration_s:.3f} s with {config.channel_filter}:")
     for s in channel_summary(result):
@@ -449,7 +468,6 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .navigation.ephemeris import SYSTEMS as EPHEMERIS_SYSTEMS, read_rinex_nav
-    from .progress import Progress
     from .receiver.acquisition.report import search_summary
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
@@ -503,25 +521,14 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     elif args.vector_accel_psd is not None:
         raise ConfigError("--vector-accel-psd", "the vector loop's navigation filter is for --tracking vector")
     assist = _assist_from_args(args, nav_info)
-    # A bar on a terminal, a line per tenth of the recording in a log or a pipe.
-    bar = None if args.quiet else Progress(100, Path(args.recording).name, "%")
-
-    def progress(fraction: float) -> None:
-        bar.set(round(100 * fraction))
-
     acquisitions = _acquire_checked(rec, acq, prns, signal)  # checked before minutes of tracking
-    try:
+    with _recording_progress(args) as progress:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
-                         progress=progress if bar is not None else None, nav_filter=filters.nav_filter,
+                         progress=progress, nav_filter=filters.nav_filter,
                          vector=vector, assist=assist, acquisitions=acquisitions,
                          iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
                          weighting=args.weighting, signal=signal)
-        if bar is not None:  # the tracker reports up to its last block's start: the run is done
-            bar.set(bar.total)
-    finally:
-        if bar is not None:
-            bar.close()
     if result.vector is not None and result.vector.handover_s is not None:
         print(f"vector tracking from {result.vector.handover_s:.1f} s of PRN "
               f"{', '.join(str(p) for p in result.vector.prns)} (channel filter {vector.channel_filter})")
@@ -803,6 +810,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--early-late-spacing", type=float, metavar="CHIPS",
                    help="early-to-late correlator spacing (default 1.0)")
     p.add_argument("--no-plots", action="store_true", help="no plots")
+    p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     p.set_defaults(func=_cmd_track)
     p = sub.add_parser("receive", aliases=["position"],
                        help="positions from a recording: acquire, track, decode LNAV, solve each epoch",

@@ -53,7 +53,7 @@ def test_acquire_with_signal_finds_the_qzss_satellites(qzss_recording, tmp_path)
 
 
 def test_track_with_signal_tracks_the_qzss_satellites_with_one_filter_per_stage(qzss_recording, tmp_path,
-                                                                                 monkeypatch):
+                                                                                 monkeypatch, capsys):
     """Two channels through pull-in, track and extended: the channel filter plugin is
     constructed once per stage configuration (3: pull-in's, track's, extended's PLL-only),
     not per channel, stage start or layout probe (14 before)."""
@@ -70,6 +70,8 @@ def test_track_with_signal_tracks_the_qzss_satellites_with_one_filter_per_stage(
     assert main(["track", str(qzss_recording), "--signal", "qzss-l1ca", "--out", str(out), "--duration", "0.6",
                  "--no-plots"]) == 0
     assert len(built) == len(set(built)) == 3, built
+    # captured stderr is no terminal: a line per tenth of the recording, the last at 100 %
+    assert f"{qzss_recording.name}: 100/100 % (100 %)" in capsys.readouterr().err
     summary = {int(r["prn"]): r for r in _rows(out / "summary.csv")}
     assert set(summary) == {195, 199}
     rows = _rows(out / "tracking.csv")
