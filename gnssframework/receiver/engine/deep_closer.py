@@ -296,10 +296,8 @@ class DeepCloser:
     def _carrier_step(self, corr: Correlators) -> None:
         """Close the carrier loop on the correlators rotated by its corrections."""
         T = self.T
-        f_c = self.corr_freq_hz + self.transfer_hz
-        rot_rad = self.corr_phase_rad + np.pi * f_c * T  # corrections at mid-interval
-        c_out = self.carrier_filter.checked_step({names.CORRELATORS: rotated(corr, rot_rad)})
-        self.corr_phase_rad = (self.corr_phase_rad + 2 * np.pi * f_c * T
+        c_out = self.carrier_filter.checked_step({names.CORRELATORS: rotated(corr, self.rotation_rad())})
+        self.corr_phase_rad = (self.corr_phase_rad + 2 * np.pi * (self.corr_freq_hz + self.transfer_hz) * T
                                + np.asarray(c_out.get("carrier_phase_step_rad", 0.0), float))
         self.corr_freq_hz = np.broadcast_to(np.asarray(c_out[names.CARRIER_FREQ_HZ], float), self.batch)
 
