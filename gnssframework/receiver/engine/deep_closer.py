@@ -306,8 +306,9 @@ class DeepCloser:
         t1 = k_edge * self.T
         normal, rhs = interval_fit(self.fit_out, self.fit_replica, self.fit_rows, self.signal)
         self.fit_rows = []
-        cov = np.linalg.inv(normal)[..., :2, :2]  # marginal of [range, rate] at t_u
-        res = np.einsum("...ij,...j->...i", np.linalg.inv(normal), rhs)[..., :2]
+        normal_inv = np.linalg.inv(normal)
+        cov = normal_inv[..., :2, :2]  # marginal of [range, rate] at t_u
+        res = np.einsum("...ij,...j->...i", normal_inv, rhs)[..., :2]
         self.updates.append((t1, res, cov))
         p, v, a, b, d = self.navigator.kinematics(t1)
         _, rate_u, _, los_u = line_of_sight_kinematics(p, v, a, *sat_states, b, d)
