@@ -42,6 +42,8 @@ class SampleChannel:
         The satellite, its index in the tracker's arrays, its signal.
     filters
         The task's `StageFilters`: a stage's filter is a fresh copy of its configuration.
+    config
+        The `TrackingConfig` the filters were built for (``filters.config``).
     stage
         One of `tracker.STAGES`.
     coherent_ms
@@ -53,13 +55,12 @@ class SampleChannel:
         The lock detectors' last values.
     """
 
-    def __init__(self, prn: int, slot: int, spec: SignalSpec, config: TrackingConfig, record: ChannelRecord,
-                 filters: StageFilters) -> None:
+    def __init__(self, prn: int, slot: int, spec: SignalSpec, record: ChannelRecord, filters: StageFilters) -> None:
         self.prn = prn
         self.filters = filters
         self.slot = slot
         self.spec = spec
-        self.config = config
+        self.config = filters.config  # the stages' tracking configuration
         self.record = record
         self.cn0_dbhz = 0.0
         self.pli = 0.0

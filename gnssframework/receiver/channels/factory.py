@@ -31,7 +31,7 @@ from ..engine.closers import NCO_COMMANDS
 from .closure import ERROR_OUTPUTS
 from .config import TrackingConfig
 
-__all__ = ["FilterFactory", "StageFilters", "sample_filter", "sample_filter_params", "supports", "STAGE_NAMES"]
+__all__ = ["FilterFactory", "StageFilters", "sample_filter_params", "supports", "STAGE_NAMES"]
 
 #: The scalar stages whose filters a `StageFilters` holds.
 STAGE_NAMES = ("pull-in", "track", "extended")
@@ -114,12 +114,6 @@ def sample_filter_params(name: str, params: dict[str, Any], *, pll_only: bool = 
     if pll_only and "fll_bandwidth_hz" in cls.Params.model_fields:
         params["fll_bandwidth_hz"] = 0.0  # the PLL stage: no FLL assist
     return params
-
-
-def sample_filter(name: str, params: dict[str, Any], *, pll_only: bool = False) -> FilterFactory:
-    """The `FilterFactory` of a channel filter that can track on samples
-    (`sample_filter_params`)."""
-    return FilterFactory("channel_filter", name, sample_filter_params(name, params, pll_only=pll_only))
 
 
 class StageFilters:

@@ -176,7 +176,7 @@ class SampleTracker:
         """Start (or restart) ``prn``'s channel in ``pull-in`` at its acquisition's code epoch."""
         ch = self.channels.get(prn)
         if ch is None:
-            ch = self.channels[prn] = SampleChannel(prn, self.slot(prn), self.signal, self.config,
+            ch = self.channels[prn] = SampleChannel(prn, self.slot(prn), self.signal,
                                                     self.records.setdefault(prn, ChannelRecord(prn)), self.filters)
         i = ch.slot
         self.active[i] = True

@@ -296,10 +296,8 @@ class DeepCloser:
     def _carrier_step(self, corr: Correlators) -> None:
         """Close the carrier loop on the correlators rotated by its corrections."""
         T = self.T
-        f_c = self.corr_freq_hz + self.transfer_hz
-        rot_rad = self.corr_phase_rad + np.pi * f_c * T  # corrections at mid-interval
-        c_out = self.carrier_filter.checked_step({names.CORRELATORS: rotated(corr, rot_rad)})
-        self.corr_phase_rad = (self.corr_phase_rad + 2 * np.pi * f_c * T
+        c_out = self.carrier_filter.checked_step({names.CORRELATORS: rotated(corr, self.rotation_rad())})
+        self.corr_phase_rad = (self.corr_phase_rad + 2 * np.pi * (self.corr_freq_hz + self.transfer_hz) * T
                                + np.asarray(c_out.get("carrier_phase_step_rad", 0.0), float))
         self.corr_freq_hz = np.broadcast_to(np.asarray(c_out[names.CARRIER_FREQ_HZ], float), self.batch)
 
@@ -308,8 +306,9 @@ class DeepCloser:
         t1 = k_edge * self.T
         normal, rhs = interval_fit(self.fit_out, self.fit_replica, self.fit_rows, self.signal)
         self.fit_rows = []
-        cov = np.linalg.inv(normal)[..., :2, :2]  # marginal of [range, rate] at t_u
-        res = np.einsum("...ij,...j->...i", np.linalg.inv(normal), rhs)[..., :2]
+        normal_inv = np.linalg.inv(normal)
+        cov = normal_inv[..., :2, :2]  # marginal of [range, rate] at t_u
+        res = np.einsum("...ij,...j->...i", normal_inv, rhs)[..., :2]
         self.updates.append((t1, res, cov))
         p, v, a, b, d = self.navigator.kinematics(t1)
         _, rate_u, _, los_u = line_of_sight_kinematics(p, v, a, *sat_states, b, d)

@@ -17,10 +17,9 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import ConfigError
-from ...interfaces import RunContext
 from ...navigation.ephemeris import Ephemerides, satellite_state
 from ...navigation.pvt import solve_position
-from ..channels.channel import SampleChannel
+from ..channels.channel import SampleChannel, stage_context
 from .fixes import full_week, solve_epochs
 from .observables import SPEED_OF_LIGHT_MPS, channel_timing, observables
 from .vector_navigator import VectorNavigator, rotate, stack
@@ -255,14 +254,12 @@ def start_vector(v: VectorSampleCloser, c: SampleChannel) -> None:
     error-output channel filter, stepped alone, hands its errors to `VectorNavigator.measure`."""
     t = v.tracker
     t.leave_batch(c)
-    vc, cfg = v.vector, t.config
+    cfg = t.config
     T = c.coherent_ms * c.spec.code_period_s
     c.stage = "vector"
     c.filter = v.channel_filter.new()  # a copy of the configuration built once
     c.cn0_ref = max(c.cn0_dbhz, 20.0)
-    c.filter.reset((1,), RunContext(coherent_time_s=T, early_late_spacing_chips=cfg.early_late_spacing_chips,
-                                    epoch_interval_s=T, cn0_dbhz=c.cn0_ref, doppler_hz=float(t.doppler[c.slot]),
-                                    signal=c.spec))
+    c.filter.reset((1,), stage_context(cfg, T, c.cn0_ref, float(t.doppler[c.slot]), c.spec))
     c.closure = VECTOR
     c.batch = None
     c.join_tries = 3  # steps alone: its outputs go to the navigation filter, one channel at a time
