@@ -52,7 +52,7 @@ class ParallelCodePhaseSearch(Acquisition):
     `gnssframework.signal.correlator_model`, :math:`E[S] = K(2 + 2cT)`, so
     :math:`\\hat c = (S/K - 2)/(2T)`; for a component sent in one of two time slots (GPS L2
     CM) a block holds its energy over :math:`T/2` only, so :math:`2T` becomes :math:`T` (the
-    replica's duty, `SignalSpec.chip_pulse`), and :math:`\\hat c` is that component's C/N0.
+    replica's duty, `SignalSpec.replica_duty`), and :math:`\\hat c` is that component's C/N0.
     """
 
     name = "pcps"
@@ -113,9 +113,8 @@ class ParallelCodePhaseSearch(Acquisition):
         p = self.params
         alt = p.alternate_blocks
         n = grid.shape[-1]
-        # The replica's share of time sent (1; 1/2 for a component in one of two time slots,
-        # GPS L2 CM): the signal's energy in a coherent block is C T duty, not C T.
-        duty = float(np.mean(signal.chip_pulse(0) ** 2))
+        # The signal's energy in a coherent block is C T duty, not C T (`SignalSpec.replica_duty`).
+        duty = signal.replica_duty
         results = []
         for i, prn in enumerate(prns):
             sigma2 = noise_floor(grid[i], blocks, alt)

@@ -20,7 +20,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .codes import checked_prn
+from .codes import bits_to_chips, checked_prn
 
 __all__ = ["B1C_PRIMARY_LENGTH", "B1C_SECONDARY_LENGTH", "B1C_DATA_PARAMS", "B1C_PILOT_PARAMS",
            "B1C_SECONDARY_PARAMS", "legendre_sequence", "weil_code", "b1c_data_code", "b1c_pilot_code",
@@ -80,7 +80,7 @@ def weil_code(n: int, w: int, p: int, length: int) -> np.ndarray:
     """:math:`c(k; w, p) = W((k + p - 1) \\bmod n; w)` for ``k = 0 .. length - 1``, as ±1 ``int8``."""
     legendre = legendre_sequence(n)
     k = (np.arange(length) + p - 1) % n
-    return (1 - 2 * (legendre[k] ^ legendre[(k + w) % n]).astype(np.int8)).astype(np.int8)
+    return bits_to_chips(legendre[k] ^ legendre[(k + w) % n])
 
 
 def _params(prn, table: dict[int, tuple[int, int]]) -> tuple[int, int]:

@@ -6,7 +6,10 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["cn0_nwpr", "cn0_moments"]
+__all__ = ["cn0_nwpr", "cn0_moments", "MIN_CN0_T"]
+
+#: The smallest :math:`\hat c T` (and moment-estimator power) that reads as a number of dB-Hz.
+MIN_CN0_T = 1e-12
 
 
 def cn0_nwpr(prompt: np.ndarray, coherent_time_s: float, m: int = 20) -> np.ndarray:
@@ -31,7 +34,7 @@ def cn0_nwpr(prompt: np.ndarray, coherent_time_s: float, m: int = 20) -> np.ndar
     wbp = np.sum(np.abs(blocks) ** 2, axis=1)
     nbp = np.abs(np.sum(blocks, axis=1)) ** 2
     mu = np.mean(nbp / wbp, axis=0)
-    ratio = np.clip((mu - 1.0) / (m - mu), 1e-12, None)
+    ratio = np.clip((mu - 1.0) / (m - mu), MIN_CN0_T, None)
     return 10.0 * np.log10(ratio / coherent_time_s)
 
 
@@ -50,5 +53,5 @@ def cn0_moments(prompt: np.ndarray, coherent_time_s: float) -> np.ndarray:
     m2 = np.mean(np.abs(p) ** 2, axis=0)
     m4 = np.mean(np.abs(p) ** 4, axis=0)
     pd = np.sqrt(np.clip(2 * m2**2 - m4, 0.0, None))
-    pn = np.clip(m2 - pd, 1e-12, None)
-    return 10.0 * np.log10(np.clip(pd, 1e-12, None) / (pn * coherent_time_s))
+    pn = np.clip(m2 - pd, MIN_CN0_T, None)
+    return 10.0 * np.log10(np.clip(pd, MIN_CN0_T, None) / (pn * coherent_time_s))

@@ -38,6 +38,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..plugin import Plugin, PluginParams
+from .cn0 import MIN_CN0_T
 from .correlator_model import simulate_correlators
 
 __all__ = ["CN0Estimator", "CN0EstimatorParams", "linear_to_dbhz", "MIN_CN0_T", "noise_readings_hz",
@@ -50,8 +51,6 @@ FLOOR_PERCENTILE = 95.0
 #: prompt's in the correlator model.
 NOISE_TAP_CHIPS = -10.0
 
-#: The smallest :math:`\hat c T` that reads as a number of dB-Hz (as `gnssframework.signal.cn0`).
-MIN_CN0_T = 1e-12
 
 
 def linear_to_dbhz(cn0_hz: np.ndarray, coherent_time_s: float) -> np.ndarray:

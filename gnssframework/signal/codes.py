@@ -8,7 +8,8 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["ca_code", "G2_TAPS", "CA_CODE_LENGTH", "gold_code_by_taps", "gold_code_by_g2_delay"]
+__all__ = ["ca_code", "G2_TAPS", "CA_CODE_LENGTH", "gold_code_by_taps", "gold_code_by_g2_delay",
+           "bits_to_chips", "checked_prn"]
 
 #: Chips in one C/A code period (IS-GPS-200, 3.3.2.3).
 CA_CODE_LENGTH = 1023
@@ -44,7 +45,9 @@ def _g1_g2_states() -> tuple[np.ndarray, np.ndarray]:
     return _register_states((3, 10)), _register_states((2, 3, 6, 8, 9, 10))
 
 
-def _to_pm1(bits: np.ndarray) -> np.ndarray:
+def bits_to_chips(bits: np.ndarray) -> np.ndarray:
+    """Logic bits (0/1, any integer or bool dtype) as ±1 ``int8`` chips: logic 0 -> +1, 1 -> -1
+    (IS-GPS-200 and the Galileo and BeiDou ICDs alike)."""
     return (1 - 2 * bits.astype(np.int8)).astype(np.int8)
 
 
@@ -52,14 +55,14 @@ def gold_code_by_taps(tap1: int, tap2: int) -> np.ndarray:
     """The 1023-chip C/A-family Gold code :math:`G1 \\oplus G2_{t_1} \\oplus G2_{t_2}`
     (G2 phase selector on 1-based stages ``tap1``, ``tap2``; IS-GPS-200 fig. 3-10), ±1 ``int8``."""
     g1, g2 = _g1_g2_states()
-    return _to_pm1(g1[:, 9] ^ g2[:, tap1 - 1] ^ g2[:, tap2 - 1])
+    return bits_to_chips(g1[:, 9] ^ g2[:, tap1 - 1] ^ g2[:, tap2 - 1])
 
 
 def gold_code_by_g2_delay(delay_chips: int) -> np.ndarray:
     """The 1023-chip C/A-family Gold code whose G2 sequence is delayed by ``delay_chips``
     (chip :math:`k` is :math:`G1(k) \\oplus G2(k - d)`), as ±1 ``int8`` (logic 0 -> +1, 1 -> -1)."""
     g1, g2 = _g1_g2_states()
-    return _to_pm1(g1[:, 9] ^ np.roll(g2[:, 9], int(delay_chips)))
+    return bits_to_chips(g1[:, 9] ^ np.roll(g2[:, 9], int(delay_chips)))
 
 
 def checked_prn(prn: object, prns, label: str) -> int:

@@ -114,7 +114,7 @@ def code_autocorrelation(
     if bandwidth_hz <= 0:
         raise ConfigError("bandwidth_hz", f"must be > 0 or None, got {bandwidth_hz}")
     rate = signal.chip_rate_hz if chip_rate_hz is None else chip_rate_hz
-    pulse = (1.0,) if signal.is_bpsk else tuple(float(v) for v in signal.chip_pulse(0))
+    pulse = tuple(float(v) for v in signal.chip_pulse(0))  # (1.0,) for BPSK
     grid, r = _band_limited_table(float(bandwidth_hz), float(rate), pulse)
     return np.interp(tau, grid, r, left=0.0, right=0.0)
 

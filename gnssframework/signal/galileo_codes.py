@@ -43,7 +43,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import ConfigError
-from .codes import checked_prn
+from .codes import bits_to_chips, checked_prn
 
 __all__ = ["GALILEO_E1_PRNS", "GALILEO_E1_CODE_LENGTH_CHIPS", "GALILEO_E1C_SECONDARY_CS25",
            "galileo_e1b_code", "galileo_e1c_code", "hex_to_chips"]
@@ -61,23 +61,15 @@ def hex_to_chips(digits: str, n_chips: int) -> np.ndarray:
     if bits.size != n_chips:
         raise ConfigError("code", f"{len(digits)} hexadecimal digits hold {4 * len(digits)} chips, "
                                   f"{n_chips} were asked")
-    return (1 - 2 * bits.astype(np.int8)).astype(np.int8)
-
-
-def _check_prn(prn: int, which: str) -> int:
-    return checked_prn(prn, GALILEO_E1_PRNS, f"Galileo {which}")
+    return bits_to_chips(bits)
 
 
 @lru_cache(maxsize=None)
-def _e1b(prn: int) -> np.ndarray:
-    code = hex_to_chips(_E1B_HEX[prn - 1], GALILEO_E1_CODE_LENGTH_CHIPS)
-    code.flags.writeable = False
-    return code
-
-
-@lru_cache(maxsize=None)
-def _e1c(prn: int) -> np.ndarray:
-    code = hex_to_chips(_E1C_HEX[prn - 1], GALILEO_E1_CODE_LENGTH_CHIPS)
+def _e1_code(component: str, prn: int) -> np.ndarray:
+    """The primary code of ``component`` (``"E1-B"`` or ``"E1-C"``) for a checked ``prn``
+    (read-only, cached)."""
+    table = _E1B_HEX if component == "E1-B" else _E1C_HEX
+    code = hex_to_chips(table[prn - 1], GALILEO_E1_CODE_LENGTH_CHIPS)
     code.flags.writeable = False
     return code
 
@@ -90,7 +82,7 @@ def galileo_e1b_code(prn: int) -> np.ndarray:
     ConfigError
         For a PRN outside 1-50.
     """
-    return _e1b(_check_prn(prn, "E1-B"))
+    return _e1_code("E1-B", checked_prn(prn, GALILEO_E1_PRNS, "Galileo E1-B"))
 
 
 def galileo_e1c_code(prn: int) -> np.ndarray:
@@ -101,7 +93,7 @@ def galileo_e1c_code(prn: int) -> np.ndarray:
     ConfigError
         For a PRN outside 1-50.
     """
-    return _e1c(_check_prn(prn, "E1-C"))
+    return _e1_code("E1-C", checked_prn(prn, GALILEO_E1_PRNS, "Galileo E1-C"))
 
 
 #: The E1-C secondary code CS25_1 (ICD, secondary codes: hexadecimal '380AD90', first 25 bits), ±1,

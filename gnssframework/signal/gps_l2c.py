@@ -24,19 +24,22 @@ __all__ = ["GPS_L2C", "QZSS_L2C", "L2_FREQ_HZ"]
 #: The L2 carrier, 120 x 10.23 MHz (IS-GPS-200, sec. 3.3.1.1).
 L2_FREQ_HZ = 1227.60e6
 
+#: What GPS and QZSS L2C share: the carrier, the 511.5 kchip/s rate of each code alone, CM's
+#: length (the signal's code period) and RINEX code, no sub-carrier.
+_L2C_COMMON = dict(rinex_code="2S", carrier_freq_hz=L2_FREQ_HZ, chip_rate_hz=511.5e3, code_length_chips=L2CM_LENGTH,
+                   subcarrier=BPSK)
+#: CM's component keywords: one CNAV symbol a 20 ms code period, half the power, first time slot.
+_CM_COMMON = dict(symbol_period_s=0.02, power_fraction=0.5, time_slot=(0, 2))
+
 #: GPS L2C: CM (data, tracked first) and CL (pilot), time-multiplexed.
 GPS_L2C = SignalSpec(
     name="gps-l2c",
     system="G",
-    rinex_code="2S",
-    carrier_freq_hz=L2_FREQ_HZ,
-    chip_rate_hz=511.5e3,
-    code_length_chips=L2CM_LENGTH,
     prns=tuple(sorted(L2CM_INITIAL_STATE)),
-    components=(Component("CM", gps_l2cm_code, symbol_period_s=0.02, power_fraction=0.5, time_slot=(0, 2)),
+    components=(Component("CM", gps_l2cm_code, **_CM_COMMON),
                 Component("CL", gps_l2cl_code, power_fraction=0.5, code_length_chips=L2CL_LENGTH,
                           time_slot=(1, 2))),
-    subcarrier=BPSK,
+    **_L2C_COMMON,
 )
 
 #: QZSS L2C, its CM component (IS-QZSS-PNT; the CL code's initial states are not transcribed
@@ -44,12 +47,8 @@ GPS_L2C = SignalSpec(
 QZSS_L2C = SignalSpec(
     name="qzss-l2c",
     system="J",
-    rinex_code="2S",
-    carrier_freq_hz=L2_FREQ_HZ,
-    chip_rate_hz=511.5e3,
-    code_length_chips=L2CM_LENGTH,
     prns=tuple(sorted(QZSS_L2CM_INITIAL_STATE)),
-    components=(Component("CM", qzss_l2cm_code, symbol_period_s=0.02, power_fraction=0.5, time_slot=(0, 2)),),
-    subcarrier=BPSK,
+    components=(Component("CM", qzss_l2cm_code, **_CM_COMMON),),
     rinex_prn_offset=192,
+    **_L2C_COMMON,
 )

@@ -28,7 +28,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..errors import ConfigError
-from .codes import checked_prn
+from .codes import bits_to_chips, checked_prn
 
 __all__ = ["L2CM_LENGTH", "L2CL_LENGTH", "L2CM_INITIAL_STATE", "L2CL_INITIAL_STATE", "QZSS_L2CM_INITIAL_STATE",
            "l2c_register_chips", "gps_l2cm_code", "gps_l2cl_code", "qzss_l2cm_code"]
@@ -92,39 +92,31 @@ def l2c_register_chips(initial_state: int, n_chips: int) -> tuple[np.ndarray, in
     return np.frombuffer(bytes(out), np.uint8), last
 
 
-def _pm1(bits: np.ndarray) -> np.ndarray:
-    return (1 - 2 * bits.astype(np.int8)).astype(np.int8)
-
-
-def _check(prn, table: dict[int, int], what: str) -> int:
-    return checked_prn(prn, table, what)
-
-
 @lru_cache(maxsize=None)
 def _cm(state: int) -> np.ndarray:
-    code = _pm1(l2c_register_chips(state, L2CM_LENGTH)[0])
+    code = bits_to_chips(l2c_register_chips(state, L2CM_LENGTH)[0])
     code.flags.writeable = False
     return code
 
 
 @lru_cache(maxsize=4)
 def _cl(state: int) -> np.ndarray:
-    code = _pm1(l2c_register_chips(state, L2CL_LENGTH)[0])
+    code = bits_to_chips(l2c_register_chips(state, L2CL_LENGTH)[0])
     code.flags.writeable = False
     return code
 
 
 def gps_l2cm_code(prn: int) -> np.ndarray:
     """The 10230-chip L2 CM code of GPS ``prn`` (1-32), ±1 ``int8`` (read-only, cached)."""
-    return _cm(L2CM_INITIAL_STATE[_check(prn, L2CM_INITIAL_STATE, "GPS L2C")])
+    return _cm(L2CM_INITIAL_STATE[checked_prn(prn, L2CM_INITIAL_STATE, "GPS L2C")])
 
 
 def gps_l2cl_code(prn: int) -> np.ndarray:
     """The 767250-chip L2 CL code of GPS ``prn`` (1-32), ±1 ``int8`` (read-only, cached;
     about a second to generate)."""
-    return _cl(L2CL_INITIAL_STATE[_check(prn, L2CL_INITIAL_STATE, "GPS L2C")])
+    return _cl(L2CL_INITIAL_STATE[checked_prn(prn, L2CL_INITIAL_STATE, "GPS L2C")])
 
 
 def qzss_l2cm_code(prn: int) -> np.ndarray:
     """The 10230-chip L2 CM code of QZSS ``prn`` (193-202), ±1 ``int8`` (read-only, cached)."""
-    return _cm(QZSS_L2CM_INITIAL_STATE[_check(prn, QZSS_L2CM_INITIAL_STATE, "QZSS L2C")])
+    return _cm(QZSS_L2CM_INITIAL_STATE[checked_prn(prn, QZSS_L2CM_INITIAL_STATE, "QZSS L2C")])

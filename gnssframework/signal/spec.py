@@ -352,6 +352,14 @@ class SignalSpec:
         inside = np.floor(centres * slots) == slot
         return self.subcarrier.waveform(centres, comp.subcarrier_sign) * inside
 
+    @property
+    def replica_duty(self) -> float:
+        """The tracked component's mean squared `chip_pulse`: its share of time sent (1; 1/2
+        for a component in one of two time slots, GPS L2 CM). A coherent block of T s holds
+        the component's energy over :math:`T \\cdot` duty, which the acquisitions' C/N0
+        from :math:`E[S] = K(2 + 2cT\\,\\mathrm{duty})` divides out."""
+        return float(np.mean(self.chip_pulse(0) ** 2))
+
     def spreading_table(self, prn: int, component: int = 0) -> np.ndarray:
         r"""One code period of the spreading waveform (code times sub-carrier) as a table of
         sub-chips, ``(code_length_chips * subchips_per_chip,)`` ``float64``.

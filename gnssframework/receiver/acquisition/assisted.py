@@ -92,10 +92,8 @@ def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn:
     s = int(lag[inside][j])
     peak = float(stat[d, j])
     threshold = threshold_from_pfa(pfa, int(stat.size), blocks, alternate)
-    # E[S] = K(2 + 2cT duty), as the pcps search's C/N0 (duty: the replica's share of time
-    # sent, 1/2 for a component in one of two time slots such as L2 CM, else 1).
-    duty = float(np.mean(signal.chip_pulse(0) ** 2))
-    c = max((peak / blocks - 2.0) / (2 * T * duty), 1e-3)
+    # E[S] = K(2 + 2cT duty), as the pcps search's C/N0 (`SignalSpec.replica_duty`).
+    c = max((peak / blocks - 2.0) / (2 * T * signal.replica_duty), 1e-3)
     chips = float((-s * signal.chip_rate_hz / sample_rate_hz) % signal.code_length_chips)
     return AcquisitionResult(int(prn), peak > threshold, float(dopplers[d]), s, chips, float(10 * np.log10(c)),
                              peak, threshold)
