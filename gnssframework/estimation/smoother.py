@@ -55,7 +55,7 @@ from ..errors import ConfigError
 from .adaptation import NoiseAdapter
 from .boundary import check_argument
 from .estimator import Estimator, OnFailure, OnMissing
-from .linalg import all_true, mat_vec, pd_mask, project_psd, symmetrize
+from .linalg import all_true, mat_vec, pd_mask, project_psd, symmetrize, transpose
 from .sequence import FilterResult, SmootherInputs, transition_terms
 from .step import FilterStep
 from .types import Gaussian, Model
@@ -67,10 +67,6 @@ __all__ = ["SmoothedResult", "LagEstimate", "FixedLagSmoother", "smooth", "fixed
 GAIN_FORMS = ("solve", "eigh")
 
 Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
-
-
-def _t(a: np.ndarray) -> np.ndarray:
-    return np.swapaxes(a, -1, -2)
 
 
 @dataclass
@@ -118,13 +114,13 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
         below $n \epsilon \max w$ dropped (the pseudo-inverse of a numerically singular $P^-$).
     """
     if form == "solve":
-        return _t(np.linalg.solve(prior_cov, _t(cross_cov)))
+        return transpose(np.linalg.solve(prior_cov, transpose(cross_cov)))
     if form == "eigh":
         w, V = np.linalg.eigh(symmetrize(prior_cov))
         n = w.shape[-1]
         tol = n * np.finfo(float).eps * np.max(np.abs(w), axis=-1, keepdims=True)
         inv_w = np.where(w > tol, 1.0 / np.where(w > tol, w, 1.0), 0.0)
-        return ((cross_cov @ V) * inv_w[..., None, :]) @ _t(V)
+        return ((cross_cov @ V) * inv_w[..., None, :]) @ transpose(V)
     raise ConfigError("smoother gain form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
 
 
@@ -174,9 +170,9 @@ def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, 
     diff = (residual_x or np.subtract)(next_smoothed.mean, prior_mean)
     mean = filtered.mean + mat_vec(G, diff)
     if form == "eigh":
-        cov = symmetrize(_psd_part(filtered.cov - G @ _t(cross_cov)) + G @ next_smoothed.cov @ _t(G))
+        cov = symmetrize(_psd_part(filtered.cov - G @ transpose(cross_cov)) + G @ next_smoothed.cov @ transpose(G))
     else:
-        cov = symmetrize(filtered.cov + G @ (next_smoothed.cov - prior_cov) @ _t(G))
+        cov = symmetrize(filtered.cov + G @ (next_smoothed.cov - prior_cov) @ transpose(G))
     return Gaussian(mean, cov), G
 
 
@@ -374,7 +370,7 @@ class FixedLagSmoother:
         self.lag = _checked_lag(lag)
         self.estimator = estimator
         self.residual_x = residual_x
-        self.form = getattr(estimator, "smoother_gain", "solve")
+        self.form = estimator.smoother_gain
         self._step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
         self._window: deque = deque(maxlen=self.lag + 1)
         self._state: Gaussian | None = None
