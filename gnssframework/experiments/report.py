@@ -61,7 +61,7 @@ def _fmt(x: float | None) -> str:
     return f"{x:.4g}"
 
 
-def _mean_cell(row: dict) -> str:
+def mean_cell(row: dict) -> str:
     """``mean ± SE``, the standard error of the mean ``std / sqrt(runs)``, at the resolution
     it supports (the mean alone when the runs do not spread beyond rounding): the
     convention of the docs' generated tables (``docs/experiment_tables.py``) too."""
@@ -119,7 +119,7 @@ def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | N
                 r = next(r for r in rows if r["case"] == case.name and r["candidate"] == cand.name
                          and r["metric"] == metric)
                 unit = r["unit"]
-                cell = r["undefined"] if r.get("undefined") else _mean_cell(r)
+                cell = r["undefined"] if r.get("undefined") else mean_cell(r)
                 if r["published"] is not None:
                     cell += f" (paper {_fmt(r['published'])})"
                 cells.append(cell)

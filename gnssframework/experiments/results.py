@@ -95,7 +95,7 @@ class ComparisonResult:
         the claims' outcomes."""
         from html import escape
 
-        from .number_format import format_estimate
+        from .report import mean_cell
 
         s = self.summary
         cases = list(dict.fromkeys(r["case"] for r in s["rows"]))
@@ -107,8 +107,7 @@ class ComparisonResult:
         def cell(r: dict | None) -> str:
             if r is None or r.get("mean") is None:
                 return "–" if r is None else escape(str(r.get("undefined") or "–"))
-            se = (r["std"] or 0.0) / np.sqrt(r["runs"]) if r.get("std") is not None and r["runs"] > 1 else None
-            return escape(format_estimate(r["mean"], se))
+            return escape(mean_cell(r))  # report.md's cell: a zero or missing SE prints the mean alone
 
         parts = [f"<p><b>{escape(repr(self))}</b>; cells: mean ± SE over the runs</p>"]
         for case in cases:
