@@ -567,14 +567,11 @@ def _row_judgement(claim: Claim, evidence: tuple, rng: np.random.Generator) -> d
     out = {"outcome": outcome, "test": claim.test, "p_value": finite_or_none(p)}
     if reason:
         out["reason"] = reason
-    if claim.consistent_states is not None:
-        n = int(np.isfinite(values).sum())
-        if n:
-            out["nees_band95"] = list(nees_band(n, claim.consistent_states))
-    if claim.every_run_within is not None:
-        n = int(np.isfinite(values).sum())
-        if n:
-            out["outside_bound95"] = all_runs_bound(n)
+    n = int(np.isfinite(values).sum())  # the runs a band or bound is over
+    if n and claim.consistent_states is not None:
+        out["nees_band95"] = list(nees_band(n, claim.consistent_states))
+    if n and claim.every_run_within is not None:
+        out["outside_bound95"] = all_runs_bound(n)
     return out
 
 
