@@ -657,16 +657,7 @@ def evaluate_claims(config, store, key: str | None = None) -> list[dict]:
             out.append({"claim": i, "statement": claim.statement(), "case": case, "candidate": claim.candidate,
                         "metric": claim.metric, "note": claim.note, **evidence[0],
                         **_row_judgement(claim, evidence, claim_rng(config.seed, i, case))})
-    return adjust_claims(out, getattr(config, "claims_adjustment", DEFAULT_ADJUSTMENT))
-
-
-#: The multiplicity adjustment of an example's claims unless its config names another
-#: (``claims_adjustment``): Holm's step-down, which controls the family-wise error rate.
-DEFAULT_ADJUSTMENT = "holm"
-
-#: Whether the adjusted p-value decides a claim's outcome (``True``: a claim holds only if
-#: it still holds after the adjustment) or is reported beside it (``False``).
-ADJUSTED_DECIDES = False
+    return adjust_claims(out, config.claims_adjustment)
 
 
 def in_family(row: dict) -> bool:
@@ -681,9 +672,8 @@ def in_family(row: dict) -> bool:
 def adjust_claims(rows: list[dict], method: str) -> list[dict]:
     """``rows`` with ``p_adjusted`` (``method``'s adjusted p over the family of
     :func:`in_family` rows), ``adjustment`` and ``holds_adjusted`` (a row that holds and
-    whose adjusted p is below :data:`ALPHA`) on every row of the family. With
-    :data:`ADJUSTED_DECIDES`, a row that holds only before the adjustment becomes
-    ``not significant``."""
+    whose adjusted p is below :data:`ALPHA`) on every row of the family. The adjusted p
+    is reported beside the outcome; it does not change it (each claim's own 95 % test)."""
     family = [r for r in rows if in_family(r)]
     if not family:
         return rows
@@ -693,8 +683,6 @@ def adjust_claims(rows: list[dict], method: str) -> list[dict]:
         r["adjustment"] = method
         r["family_size"] = len(family)
         r["holds_adjusted"] = bool(r["outcome"] == "holds" and p < ALPHA)
-        if ADJUSTED_DECIDES and r["outcome"] == "holds" and not r["holds_adjusted"]:
-            r["outcome"] = "not significant"
     return rows
 
 
