@@ -140,8 +140,8 @@ def _psd_part(a: np.ndarray) -> np.ndarray:
 
 
 def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, cross_cov: np.ndarray,
-             next_smoothed: Gaussian, form: str = "solve", residual_x: Residual | None = None,
-             gain: np.ndarray | None = None) -> tuple[Gaussian, np.ndarray]:
+             next_smoothed: Gaussian, gain: np.ndarray, form: str = "solve",
+             residual_x: Residual | None = None) -> Gaussian:
     r"""One backward RTS step from $k+1$ to $k$ (module docstring), batched.
 
     Parameters
@@ -152,28 +152,29 @@ def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, 
         $m^-_{k+1}, P^-_{k+1}, C_{k+1}$ of the transition $k \to k+1$.
     next_smoothed
         $m^s_{k+1}, P^s_{k+1}$.
+    gain
+        $G_k$, `smoother_gain` of ``cross_cov``, ``prior_cov`` and ``form`` (it depends on
+        the forward pass only: the callers solve every step's at once, or once per step
+        however many windows use it).
     form
         ``"solve"`` or ``"eigh"`` (`smoother_gain`); ``"eigh"`` also writes $P^s_k$ as a
         sum of PSD terms.
     residual_x
         Angle-aware state difference ``(a, b) -> a - b`` (plain subtraction when None).
-    gain
-        $G_k$ when the caller has it (`smoother_gain` of ``cross_cov``, ``prior_cov``,
-        ``form``: it depends on the forward pass only); computed here when None.
 
     Returns
     -------
-    (Gaussian, np.ndarray)
-        $m^s_k, P^s_k$ and the gain $G_k$.
+    Gaussian
+        $m^s_k, P^s_k$.
     """
-    G = smoother_gain(cross_cov, prior_cov, form) if gain is None else gain
+    G = gain
     diff = (residual_x or np.subtract)(next_smoothed.mean, prior_mean)
     mean = filtered.mean + mat_vec(G, diff)
     if form == "eigh":
         cov = symmetrize(_psd_part(filtered.cov - G @ transpose(cross_cov)) + G @ next_smoothed.cov @ transpose(G))
     else:
         cov = symmetrize(filtered.cov + G @ (next_smoothed.cov - prior_cov) @ transpose(G))
-    return Gaussian(mean, cov), G
+    return Gaussian(mean, cov)
 
 
 def _inputs(result: FilterResult, caller: str) -> SmootherInputs:
@@ -239,15 +240,15 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
     mean[-1], cov[-1] = result.mean[-1], result.cov[-1]
     nxt = Gaussian(mean[-1], cov[-1])
     for k in range(K - 2, -1, -1):
-        nxt, _ = rts_step(Gaussian(result.mean[k], result.cov[k]), inputs.prior_mean[k + 1], inputs.prior_cov[k + 1],
-                          inputs.cross_cov[k + 1], nxt, form, residual_x, gain=gains[k + 1])
+        nxt = rts_step(Gaussian(result.mean[k], result.cov[k]), inputs.prior_mean[k + 1], inputs.prior_cov[k + 1],
+                       inputs.cross_cov[k + 1], nxt, gains[k + 1], form, residual_x)
         mean[k], cov[k] = nxt.mean, nxt.cov
     batch = result.mean.shape[1:-1]
     n = result.mean.shape[-1]
     start = Gaussian(np.broadcast_to(inputs.initial.mean, batch + (n,)),
                      np.broadcast_to(inputs.initial.cov, batch + (n, n)))
-    initial, _ = rts_step(start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, form,
-                          residual_x, gain=gains[0])
+    initial = rts_step(start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, gains[0], form,
+                       residual_x)
     return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=initial, epochs=result.epochs,
                           time_s=result.time_s)
 
@@ -292,9 +293,9 @@ def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | N
         i = end - d  # step smoothed now in each window
         active = i >= j
         ic = np.maximum(i, 0)
-        out, _ = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
-                          inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), form, residual_x,
-                          gain=gain[ic])
+        out = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
+                       inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), gain[ic], form,
+                       residual_x)
         a = active.reshape(shape)
         mean = np.where(a, out.mean, mean)
         cov = np.where(a[..., None], out.cov, cov)
@@ -408,7 +409,7 @@ class FixedLagSmoother:
         out = [nxt]
         for i in range(len(window) - 2, -1, -1):
             t = window[i + 1]
-            nxt, _ = rts_step(window[i].posterior, t.prior_mean, t.prior_cov, t.cross_cov, nxt, self.form,
-                              self.residual_x, gain=t.gain)
+            nxt = rts_step(window[i].posterior, t.prior_mean, t.prior_cov, t.cross_cov, nxt, t.gain, self.form,
+                           self.residual_x)
             out.append(nxt)
         return out[::-1]
