@@ -20,27 +20,17 @@ from gnssframework.experiments.claims import Claim, _judge, evaluate_claims
 from gnssframework.experiments.report import write_report
 from gnssframework.experiments.stats import paired_difference
 from gnssframework.experiments.store import ResultStore
-from two_candidates import two_candidate_config
+from two_candidates import claim_toml, evaluate_stored, two_candidate_config
 
 A = np.array([1.0, 2.0, 3.0, 4.0])
 B = np.array([0.5, 1.5, 2.0, 3.5])  # d = A - B = (0.5, 0.5, 1.0, 0.5): mean 0.625, SE 0.125
 
 
-def _claim(**fields) -> str:
-    return "[[claims]]\n" + "\n".join(f"{k} = {json.dumps(v)}" for k, v in fields.items()) + "\n"
+_claim = claim_toml
 
 
 def _evaluate(tmp_path, claims: str, a=A, b=B, top: str = ""):
-    path = tmp_path / "c.toml"
-    path.write_text(two_candidate_config("claims", claims=claims, top=top))
-    config = load_config(path)
-    store = ResultStore(tmp_path / "results.sqlite")
-    key = config.identity()
-    store.register(key, config.batch_size)
-    for name, values in (("a", a), ("b", b)):
-        for first in (0, 2):
-            store.add_batch(key, "only", name, first, {m: values[first:first + 2] for m in config.metric_names})
-    return evaluate_claims(config, store), config, store
+    return evaluate_stored(tmp_path, claims, a, b, top)
 
 
 # -- multiplicity ---------------------------------------------------------------------------------

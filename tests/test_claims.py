@@ -12,10 +12,8 @@ from scipy import stats
 
 from gnssframework.errors import ConfigError
 from gnssframework.experiments import load_config
-from gnssframework.experiments.claims import evaluate_claims
 from gnssframework.experiments.report import write_report
-from gnssframework.experiments.store import ResultStore
-from two_candidates import two_candidate_config
+from two_candidates import claim_toml, evaluate_stored, two_candidate_config
 
 
 # Per-run values of candidate a and b: d = a - b = (0.5, 0.5, 1.0, 0.5): mean 0.625,
@@ -24,22 +22,11 @@ A = np.array([1.0, 2.0, 3.0, 4.0])
 B = np.array([0.5, 1.5, 2.0, 3.5])
 
 
-def _evaluate(tmp_path, claims: str, a=A, b=B) -> list[dict]:
-    path = tmp_path / "c.toml"
-    path.write_text(two_candidate_config("claims", claims=claims))
-    config = load_config(path)
-    store = ResultStore(tmp_path / "results.sqlite")
-    key = config.identity()
-    store.register(key, config.batch_size)
-    for name, values in (("a", a), ("b", b)):
-        for first in (0, 2):
-            store.add_batch(key, "only", name, first, {m: values[first:first + 2] for m in config.metric_names})
-    return evaluate_claims(config, store), config, store
+def _evaluate(tmp_path, claims: str, a=A, b=B):
+    return evaluate_stored(tmp_path, claims, a, b)
 
 
-def _claim(**fields) -> str:
-    body = "\n".join(f"{k} = {json.dumps(v)}" for k, v in fields.items())
-    return f"[[claims]]\n{body}\n"
+_claim = claim_toml
 
 
 @pytest.mark.parametrize("direction, outcome", [("higher", "holds"), ("lower", "fails")])

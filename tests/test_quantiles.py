@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from gnssframework.experiments.claims import _t
+from gnssframework.experiments.stats import t_quantile as _t
 from gnssframework.navigation.pvt import chi2_ppf
 from gnssframework.receiver.acquisition.threshold import noise_floor, threshold_from_pfa
 

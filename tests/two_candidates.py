@@ -4,6 +4,8 @@ of 2, in this process. Tests fill its store by hand, so every number they assert
 
 from __future__ import annotations
 
+import json
+
 
 def two_candidate_config(name: str, *, top: str = "", case_fields: str = "", sweeps: str = "",
                          claims: str = "") -> str:
@@ -32,3 +34,27 @@ nav_filter = {{ name = "position-ca" }}
 estimator = {{ name = "ckf" }}
 {claims}
 """
+
+
+def claim_toml(**fields) -> str:
+    """One ``[[claims]]`` table of ``fields`` (values as JSON, which TOML reads alike)."""
+    return "[[claims]]\n" + "\n".join(f"{k} = {json.dumps(v)}" for k, v in fields.items()) + "\n"
+
+
+def evaluate_stored(tmp_path, claims: str, a, b, top: str = ""):
+    """``(rows, config, store)``: the ``claims`` of `two_candidate_config` evaluated on a store
+    holding the per-run values ``a`` of candidate a and ``b`` of b for every metric."""
+    from gnssframework.experiments import load_config
+    from gnssframework.experiments.claims import evaluate_claims
+    from gnssframework.experiments.store import ResultStore
+
+    path = tmp_path / "c.toml"
+    path.write_text(two_candidate_config("claims", claims=claims, top=top))
+    config = load_config(path)
+    store = ResultStore(tmp_path / "results.sqlite")
+    key = config.identity()
+    store.register(key, config.batch_size)
+    for name, values in (("a", a), ("b", b)):
+        for first in (0, 2):
+            store.add_batch(key, "only", name, first, {m: values[first:first + 2] for m in config.metric_names})
+    return evaluate_claims(config, store), config, store

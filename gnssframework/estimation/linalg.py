@@ -15,6 +15,7 @@ from .compiled import arrays as kernels
 
 __all__ = [
     "symmetrize",
+    "transpose",
     "cholesky_masked",
     "pd_mask",
     "clip_eigenvalues",
@@ -46,9 +47,14 @@ def to_float(value) -> np.ndarray:
     return out
 
 
+def transpose(a: np.ndarray) -> np.ndarray:
+    """Batched ``A^T``: the last two axes swapped (a view)."""
+    return np.swapaxes(a, -1, -2)
+
+
 def symmetrize(a: np.ndarray) -> np.ndarray:
     """Return ``(A + A^T) / 2`` over the last two axes."""
-    return 0.5 * (a + np.swapaxes(a, -1, -2))
+    return 0.5 * (a + transpose(a))
 
 
 def mat_vec(a: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -296,7 +296,7 @@ def filter_sequence(
         smoother_inputs=None if store != "smoother" else SmootherInputs(
             prior_mean=np.stack(out["prior_mean"]), prior_cov=np.stack(out["prior_cov"]),
             cross_cov=np.stack(out["cross_cov"]), initial=start,
-            gain_form=getattr(estimator, "smoother_gain", "solve")),
+            gain_form=estimator.smoother_gain),
     )
 
 

@@ -55,7 +55,7 @@ from ..errors import ConfigError
 from .adaptation import NoiseAdapter
 from .boundary import check_argument
 from .estimator import Estimator, OnFailure, OnMissing
-from .linalg import all_true, mat_vec, pd_mask, project_psd, symmetrize
+from .linalg import all_true, mat_vec, pd_mask, project_psd, symmetrize, transpose
 from .sequence import FilterResult, SmootherInputs, transition_terms
 from .step import FilterStep
 from .types import Gaussian, Model
@@ -67,10 +67,6 @@ __all__ = ["SmoothedResult", "LagEstimate", "FixedLagSmoother", "smooth", "fixed
 GAIN_FORMS = ("solve", "eigh")
 
 Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
-
-
-def _t(a: np.ndarray) -> np.ndarray:
-    return np.swapaxes(a, -1, -2)
 
 
 @dataclass
@@ -118,13 +114,13 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
         below $n \epsilon \max w$ dropped (the pseudo-inverse of a numerically singular $P^-$).
     """
     if form == "solve":
-        return _t(np.linalg.solve(prior_cov, _t(cross_cov)))
+        return transpose(np.linalg.solve(prior_cov, transpose(cross_cov)))
     if form == "eigh":
         w, V = np.linalg.eigh(symmetrize(prior_cov))
         n = w.shape[-1]
         tol = n * np.finfo(float).eps * np.max(np.abs(w), axis=-1, keepdims=True)
         inv_w = np.where(w > tol, 1.0 / np.where(w > tol, w, 1.0), 0.0)
-        return ((cross_cov @ V) * inv_w[..., None, :]) @ _t(V)
+        return ((cross_cov @ V) * inv_w[..., None, :]) @ transpose(V)
     raise ConfigError("smoother gain form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
 
 
@@ -144,8 +140,8 @@ def _psd_part(a: np.ndarray) -> np.ndarray:
 
 
 def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, cross_cov: np.ndarray,
-             next_smoothed: Gaussian, form: str = "solve", residual_x: Residual | None = None,
-             gain: np.ndarray | None = None) -> tuple[Gaussian, np.ndarray]:
+             next_smoothed: Gaussian, gain: np.ndarray, form: str = "solve",
+             residual_x: Residual | None = None) -> Gaussian:
     r"""One backward RTS step from $k+1$ to $k$ (module docstring), batched.
 
     Parameters
@@ -156,28 +152,29 @@ def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, 
         $m^-_{k+1}, P^-_{k+1}, C_{k+1}$ of the transition $k \to k+1$.
     next_smoothed
         $m^s_{k+1}, P^s_{k+1}$.
+    gain
+        $G_k$, `smoother_gain` of ``cross_cov``, ``prior_cov`` and ``form`` (it depends on
+        the forward pass only: the callers solve every step's at once, or once per step
+        however many windows use it).
     form
         ``"solve"`` or ``"eigh"`` (`smoother_gain`); ``"eigh"`` also writes $P^s_k$ as a
         sum of PSD terms.
     residual_x
         Angle-aware state difference ``(a, b) -> a - b`` (plain subtraction when None).
-    gain
-        $G_k$ when the caller has it (`smoother_gain` of ``cross_cov``, ``prior_cov``,
-        ``form``: it depends on the forward pass only); computed here when None.
 
     Returns
     -------
-    (Gaussian, np.ndarray)
-        $m^s_k, P^s_k$ and the gain $G_k$.
+    Gaussian
+        $m^s_k, P^s_k$.
     """
-    G = smoother_gain(cross_cov, prior_cov, form) if gain is None else gain
+    G = gain
     diff = (residual_x or np.subtract)(next_smoothed.mean, prior_mean)
     mean = filtered.mean + mat_vec(G, diff)
     if form == "eigh":
-        cov = symmetrize(_psd_part(filtered.cov - G @ _t(cross_cov)) + G @ next_smoothed.cov @ _t(G))
+        cov = symmetrize(_psd_part(filtered.cov - G @ transpose(cross_cov)) + G @ next_smoothed.cov @ transpose(G))
     else:
-        cov = symmetrize(filtered.cov + G @ (next_smoothed.cov - prior_cov) @ _t(G))
-    return Gaussian(mean, cov), G
+        cov = symmetrize(filtered.cov + G @ (next_smoothed.cov - prior_cov) @ transpose(G))
+    return Gaussian(mean, cov)
 
 
 def _inputs(result: FilterResult, caller: str) -> SmootherInputs:
@@ -243,15 +240,15 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
     mean[-1], cov[-1] = result.mean[-1], result.cov[-1]
     nxt = Gaussian(mean[-1], cov[-1])
     for k in range(K - 2, -1, -1):
-        nxt, _ = rts_step(Gaussian(result.mean[k], result.cov[k]), inputs.prior_mean[k + 1], inputs.prior_cov[k + 1],
-                          inputs.cross_cov[k + 1], nxt, form, residual_x, gain=gains[k + 1])
+        nxt = rts_step(Gaussian(result.mean[k], result.cov[k]), inputs.prior_mean[k + 1], inputs.prior_cov[k + 1],
+                       inputs.cross_cov[k + 1], nxt, gains[k + 1], form, residual_x)
         mean[k], cov[k] = nxt.mean, nxt.cov
     batch = result.mean.shape[1:-1]
     n = result.mean.shape[-1]
     start = Gaussian(np.broadcast_to(inputs.initial.mean, batch + (n,)),
                      np.broadcast_to(inputs.initial.cov, batch + (n, n)))
-    initial, _ = rts_step(start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, form,
-                          residual_x, gain=gains[0])
+    initial = rts_step(start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, gains[0], form,
+                       residual_x)
     return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=initial, epochs=result.epochs,
                           time_s=result.time_s)
 
@@ -296,9 +293,9 @@ def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | N
         i = end - d  # step smoothed now in each window
         active = i >= j
         ic = np.maximum(i, 0)
-        out, _ = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
-                          inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), form, residual_x,
-                          gain=gain[ic])
+        out = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
+                       inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), gain[ic], form,
+                       residual_x)
         a = active.reshape(shape)
         mean = np.where(a, out.mean, mean)
         cov = np.where(a[..., None], out.cov, cov)
@@ -374,7 +371,7 @@ class FixedLagSmoother:
         self.lag = _checked_lag(lag)
         self.estimator = estimator
         self.residual_x = residual_x
-        self.form = getattr(estimator, "smoother_gain", "solve")
+        self.form = estimator.smoother_gain
         self._step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
         self._window: deque = deque(maxlen=self.lag + 1)
         self._state: Gaussian | None = None
@@ -412,7 +409,7 @@ class FixedLagSmoother:
         out = [nxt]
         for i in range(len(window) - 2, -1, -1):
             t = window[i + 1]
-            nxt, _ = rts_step(window[i].posterior, t.prior_mean, t.prior_cov, t.cross_cov, nxt, self.form,
-                              self.residual_x, gain=t.gain)
+            nxt = rts_step(window[i].posterior, t.prior_mean, t.prior_cov, t.cross_cov, nxt, t.gain, self.form,
+                           self.residual_x)
             out.append(nxt)
         return out[::-1]

@@ -30,6 +30,7 @@ Every function here is a textbook procedure, written from its definition:
 from __future__ import annotations
 
 import zlib
+from typing import Callable
 
 import numpy as np
 from scipy import special as _sc  # not scipy.stats: its import costs every run of the CLI a second
@@ -42,6 +43,19 @@ __all__ = ["holm", "benjamini_hochberg", "adjust", "ADJUSTMENTS", "t_p_value", "
 BOOTSTRAP_RESAMPLES = 10_000
 
 
+def _in_input_order(p_values, adjusted_sorted: Callable[[np.ndarray, int], np.ndarray]) -> np.ndarray:
+    """``adjusted_sorted(p_sorted, m)`` (the adjusted p-values of the ``m`` p-values sorted
+    ascending, stably) put back in the input order; an empty input as is."""
+    p = np.asarray(p_values, dtype=float)
+    m = p.size
+    if m == 0:
+        return p.copy()
+    order = np.argsort(p, kind="stable")
+    out = np.empty(m)
+    out[order] = adjusted_sorted(p[order], m)
+    return out
+
+
 def holm(p_values) -> np.ndarray:
     """Holm's step-down adjusted p-values, in the input order.
 
@@ -50,15 +64,7 @@ def holm(p_values) -> np.ndarray:
     >>> holm([0.01, 0.04, 0.03]).tolist()
     [0.03, 0.06, 0.06]
     """
-    p = np.asarray(p_values, dtype=float)
-    m = p.size
-    if m == 0:
-        return p.copy()
-    order = np.argsort(p, kind="stable")
-    stepped = np.minimum(1.0, (m - np.arange(m)) * p[order])
-    out = np.empty(m)
-    out[order] = np.maximum.accumulate(stepped)
-    return out
+    return _in_input_order(p_values, lambda p, m: np.maximum.accumulate(np.minimum(1.0, (m - np.arange(m)) * p)))
 
 
 def benjamini_hochberg(p_values) -> np.ndarray:
@@ -69,15 +75,8 @@ def benjamini_hochberg(p_values) -> np.ndarray:
     >>> benjamini_hochberg([0.01, 0.04, 0.03]).tolist()
     [0.03, 0.04, 0.04]
     """
-    p = np.asarray(p_values, dtype=float)
-    m = p.size
-    if m == 0:
-        return p.copy()
-    order = np.argsort(p, kind="stable")
-    scaled = np.minimum(1.0, p[order] * m / np.arange(1, m + 1))
-    out = np.empty(m)
-    out[order] = np.minimum.accumulate(scaled[::-1])[::-1]
-    return out
+    return _in_input_order(
+        p_values, lambda p, m: np.minimum.accumulate(np.minimum(1.0, p * m / np.arange(1, m + 1))[::-1])[::-1])
 
 
 #: The multiplicity adjustments a config may choose (``claims_adjustment``).

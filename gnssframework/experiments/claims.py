@@ -93,14 +93,12 @@ from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-from scipy import special as _sc  # not scipy.stats: its import costs every run of the CLI a second
 
 from ..errors import ConfigError
-from .number_format import format_estimate
 from .claim_tests import (adjust, all_runs_bound, bootstrap_means, bootstrap_p, claim_rng, nees_band, t_p_value,
                           tost, wilcoxon_p)
-from .number_format import at_rounding_level
-from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
+from .number_format import at_rounding_level, format_estimate
+from .stats import finite_or_none, mean_and_se, paired_difference, paired_values, t_quantile
 
 __all__ = ["Claim", "check_claims", "check_untuned_claims", "evaluate_claims", "claim_points", "OUTCOMES",
            "untuned_candidates", "adjust_claims"]
@@ -399,10 +397,6 @@ def claim_points(claim: Claim, sweep, where: str) -> list[Any]:
     return points[first:last + 1]
 
 
-def _t(n: int, level: float = 0.95) -> float:
-    return float(_sc.stdtrit(n - 1, 0.5 + level / 2))  # = scipy.stats.t.ppf(0.5 + level / 2, n - 1)
-
-
 def _against(low: float, high: float, bound: float, below: bool) -> str:
     """Outcome of "the quantity is below (above) ``bound``" from its interval [low, high]."""
     if below:
@@ -440,7 +434,7 @@ def _evidence(claim: Claim, store, key: str, case: str, runs: int) -> tuple[dict
 def _no_spread(values: np.ndarray) -> bool:
     """Whether ``values`` are the same in every run (up to floating-point rounding)."""
     v = values[np.isfinite(values)]
-    return v.size > 1 and at_rounding_level(float(np.std(v, ddof=1)), float(np.max(np.abs(v))) if v.size else 0.0)
+    return v.size > 1 and at_rounding_level(float(np.std(v, ddof=1)), float(np.max(np.abs(v))))
 
 
 def _two_sided(p_one: float) -> float:
@@ -481,7 +475,7 @@ def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: floa
         if claim.test == "t":
             if claim.direction is not None:
                 below = claim.direction == "lower"
-                half = _t(pd.n, level) * pd.se
+                half = t_quantile(pd.n, level) * pd.se
                 # pd.significant is the 95 % rule; a stricter level can only shrink what it calls significant.
                 outcomes.append(_against(pd.diff - half, pd.diff + half, 0.0, below)
                                 if pd.significant else "not significant")
@@ -493,13 +487,13 @@ def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: floa
                     outcomes.append("not significant")
                     ps.append(1.0)
                     continue
-                half = _t(pd.n, level) * pd.ratio_se
+                half = t_quantile(pd.n, level) * pd.ratio_se
                 outcomes.append(_against(pd.ratio - half, pd.ratio + half, bound, below))
                 ps.append(_two_sided(t_p_value(pd.ratio, pd.ratio_se, pd.n, bound, below)))
             if claim.equivalence_margin is not None:
                 m = claim.equivalence_margin
                 p = tost(pd.diff, pd.se, pd.n, m)
-                wide = _t(pd.n, level) * pd.se
+                wide = t_quantile(pd.n, level) * pd.se
                 outside = pd.diff - wide > m or pd.diff + wide < -m
                 outcomes.append("holds" if p < ALPHA * (1 - level) / 0.05 else "fails" if outside
                                 else "not significant")
@@ -551,7 +545,7 @@ def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: floa
                 lo, hi = (float(q) for q in np.quantile(draws, [tail, 1 - tail]))
                 p_lo, p_hi = bootstrap_p(draws, claim.within[0], False), bootstrap_p(draws, claim.within[1], True)
             else:
-                lo, hi = mean - _t(n, level) * se, mean + _t(n, level) * se
+                lo, hi = mean - t_quantile(n, level) * se, mean + t_quantile(n, level) * se
                 p_lo = t_p_value(mean, se, n, claim.within[0], below=False)
                 p_hi = t_p_value(mean, se, n, claim.within[1], below=True)
             outcomes += [_against(lo, hi, claim.within[0], below=False),
@@ -573,14 +567,11 @@ def _row_judgement(claim: Claim, evidence: tuple, rng: np.random.Generator) -> d
     out = {"outcome": outcome, "test": claim.test, "p_value": finite_or_none(p)}
     if reason:
         out["reason"] = reason
-    if claim.consistent_states is not None:
-        n = int(np.isfinite(values).sum())
-        if n:
-            out["nees_band95"] = list(nees_band(n, claim.consistent_states))
-    if claim.every_run_within is not None:
-        n = int(np.isfinite(values).sum())
-        if n:
-            out["outside_bound95"] = all_runs_bound(n)
+    n = int(np.isfinite(values).sum())  # the runs a band or bound is over
+    if n and claim.consistent_states is not None:
+        out["nees_band95"] = list(nees_band(n, claim.consistent_states))
+    if n and claim.every_run_within is not None:
+        out["outside_bound95"] = all_runs_bound(n)
     return out
 
 
@@ -600,12 +591,13 @@ def _sweep_rows(config, store, i: int, claim: Claim) -> list[dict]:
         for value in points:
             point = next(p for v, p in pairs if _same_point(v, value))
             evidence = _evidence(claim, store, point.identity(), case, point.runs)
+            where = f"{case} {claim.sweep}={value}"  # each judgement resamples from a fresh generator of it
             row = {"claim": i, "statement": claim.statement(), "case": case, "sweep": claim.sweep, "point": value,
                    "candidate": claim.candidate, "metric": claim.metric, "note": claim.note, **evidence[0],
-                   **_row_judgement(claim, evidence, claim_rng(config.seed, i, f"{case} {claim.sweep}={value}"))}
+                   **_row_judgement(claim, evidence, claim_rng(config.seed, i, where))}
             _, pd, values, pair = evidence
             if len(points) > 1 and _outcome(claim, pd, values, corrected, pair,
-                                             claim_rng(config.seed, i, f"{case} {claim.sweep}={value}")) == "fails":
+                                             claim_rng(config.seed, i, where)) == "fails":
                 failed.append(value)
             rows.append(row)
         out += rows
@@ -665,16 +657,7 @@ def evaluate_claims(config, store, key: str | None = None) -> list[dict]:
             out.append({"claim": i, "statement": claim.statement(), "case": case, "candidate": claim.candidate,
                         "metric": claim.metric, "note": claim.note, **evidence[0],
                         **_row_judgement(claim, evidence, claim_rng(config.seed, i, case))})
-    return adjust_claims(out, getattr(config, "claims_adjustment", DEFAULT_ADJUSTMENT))
-
-
-#: The multiplicity adjustment of an example's claims unless its config names another
-#: (``claims_adjustment``): Holm's step-down, which controls the family-wise error rate.
-DEFAULT_ADJUSTMENT = "holm"
-
-#: Whether the adjusted p-value decides a claim's outcome (``True``: a claim holds only if
-#: it still holds after the adjustment) or is reported beside it (``False``).
-ADJUSTED_DECIDES = False
+    return adjust_claims(out, config.claims_adjustment)
 
 
 def in_family(row: dict) -> bool:
@@ -689,9 +672,8 @@ def in_family(row: dict) -> bool:
 def adjust_claims(rows: list[dict], method: str) -> list[dict]:
     """``rows`` with ``p_adjusted`` (``method``'s adjusted p over the family of
     :func:`in_family` rows), ``adjustment`` and ``holds_adjusted`` (a row that holds and
-    whose adjusted p is below :data:`ALPHA`) on every row of the family. With
-    :data:`ADJUSTED_DECIDES`, a row that holds only before the adjustment becomes
-    ``not significant``."""
+    whose adjusted p is below :data:`ALPHA`) on every row of the family. The adjusted p
+    is reported beside the outcome; it does not change it (each claim's own 95 % test)."""
     family = [r for r in rows if in_family(r)]
     if not family:
         return rows
@@ -701,8 +683,6 @@ def adjust_claims(rows: list[dict], method: str) -> list[dict]:
         r["adjustment"] = method
         r["family_size"] = len(family)
         r["holds_adjusted"] = bool(r["outcome"] == "holds" and p < ALPHA)
-        if ADJUSTED_DECIDES and r["outcome"] == "holds" and not r["holds_adjusted"]:
-            r["outcome"] = "not significant"
     return rows
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .candidates import build_candidate
-from .claims import ADJUSTED_DECIDES, claim_evidence, claim_where, evaluate_claims, in_family
+from .claims import claim_evidence, claim_where, evaluate_claims, in_family
 from .config import ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text, write_json
 from .number_format import format_estimate
@@ -61,7 +61,7 @@ def _fmt(x: float | None) -> str:
     return f"{x:.4g}"
 
 
-def _mean_cell(row: dict) -> str:
+def mean_cell(row: dict) -> str:
     """``mean ± SE``, the standard error of the mean ``std / sqrt(runs)``, at the resolution
     it supports (the mean alone when the runs do not spread beyond rounding): the
     convention of the docs' generated tables (``docs/experiment_tables.py``) too."""
@@ -119,7 +119,7 @@ def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | N
                 r = next(r for r in rows if r["case"] == case.name and r["candidate"] == cand.name
                          and r["metric"] == metric)
                 unit = r["unit"]
-                cell = r["undefined"] if r.get("undefined") else _mean_cell(r)
+                cell = r["undefined"] if r.get("undefined") else mean_cell(r)
                 if r["published"] is not None:
                     cell += f" (paper {_fmt(r['published'])})"
                 cells.append(cell)
@@ -334,8 +334,7 @@ def _claims_markdown(claims: list[dict], adjustment: str = "holm", untuned: list
               "only at the Bonferroni level over its points).", "",
               f"Multiple comparisons: {name} over the {len(family)} tests of this example; "
               f"{adjusted} of them hold after it at 5 %. "
-              + ("The adjusted p-value decides the outcome." if ADJUSTED_DECIDES else
-                 "Reported only: the outcome above is each claim's own 95 % test."), ""]
+              "Reported only: the outcome above is each claim's own 95 % test.", ""]
     if replicated:
         both = sum(c["outcome"] == "holds" and c.get("replicate_outcome") == "holds" for c in claims)
         one = sum((c["outcome"] == "holds") != (c.get("replicate_outcome") == "holds") for c in claims)

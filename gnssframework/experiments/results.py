@@ -95,28 +95,29 @@ class ComparisonResult:
         the claims' outcomes."""
         from html import escape
 
-        from .number_format import format_estimate
+        from .report import mean_cell
 
         s = self.summary
         cases = list(dict.fromkeys(r["case"] for r in s["rows"]))
         cands = list(dict.fromkeys(r["candidate"] for r in s["rows"]))
         metrics = list(dict.fromkeys(r["metric"] for r in s["rows"]))
         rows = {(r["case"], r["candidate"], r["metric"]): r for r in s["rows"]}
+        units: dict[str, str] = {}
+        for r in s["rows"]:  # a metric's unit as its first row gives it
+            units.setdefault(r["metric"], r["unit"])
         left = " style='text-align:left'"
 
         def cell(r: dict | None) -> str:
             if r is None or r.get("mean") is None:
                 return "–" if r is None else escape(str(r.get("undefined") or "–"))
-            se = (r["std"] or 0.0) / np.sqrt(r["runs"]) if r.get("std") is not None and r["runs"] > 1 else None
-            return escape(format_estimate(r["mean"], se))
+            return escape(mean_cell(r))  # report.md's cell: a zero or missing SE prints the mean alone
 
         parts = [f"<p><b>{escape(repr(self))}</b>; cells: mean ± SE over the runs</p>"]
+        head = "".join(f"<th>{escape(c)}</th>" for c in cands)
         for case in cases:
-            head = "".join(f"<th>{escape(c)}</th>" for c in cands)
             body = "".join(
-                f"<tr><th{left}>{escape(m)}</th><td>{escape(str(next((r['unit'] for r in s['rows'] if r['metric'] == m), '')))}"
-                f"</td>" + "".join(f"<td>{cell(rows.get((case, c, m)))}</td>" for c in cands) + "</tr>"
-                for m in metrics)
+                f"<tr><th{left}>{escape(m)}</th><td>{escape(str(units[m]))}</td>"
+                + "".join(f"<td>{cell(rows.get((case, c, m)))}</td>" for c in cands) + "</tr>" for m in metrics)
             parts.append(f"<table><caption{left}>{escape(case)}</caption><tr><th>metric</th><th>unit</th>{head}</tr>"
                          f"{body}</table>")
         claims = s.get("claims") or []

@@ -25,7 +25,7 @@ from scipy import special as _sc  # not scipy.stats: its import costs every run 
 
 from .number_format import at_rounding_level
 
-__all__ = ["PairedDifference", "paired_difference", "mean_and_se", "SIGNIFICANCE_RULE", "finite_or_none"]
+__all__ = ["PairedDifference", "paired_difference", "mean_and_se", "SIGNIFICANCE_RULE", "finite_or_none", "t_quantile"]
 
 SIGNIFICANCE_RULE = ("significant: the 95 % paired t-interval of the per-run differences excludes 0, "
                      "|mean difference| > t(0.975, n-1) x SE, SE = std of the per-run differences / sqrt(n); "
@@ -83,6 +83,12 @@ class PairedDifference:
         return out
 
 
+def t_quantile(n: int, level: float = 0.95) -> float:
+    """The two-sided ``level`` Student-t quantile of ``n`` values: ``t_{0.5 + level/2, n-1}``
+    (``= scipy.stats.t.ppf(0.5 + level / 2, n - 1)``), the half-width of a t-interval in SEs."""
+    return float(_sc.stdtrit(n - 1, 0.5 + level / 2))
+
+
 def mean_and_se(values: np.ndarray) -> tuple[float | None, float | None, int]:
     """Mean, standard error (std ddof 1 over sqrt(n)) and n of the finite values."""
     v = np.asarray(values, dtype=float)
@@ -135,7 +141,7 @@ def paired_difference(candidate: np.ndarray, reference: np.ndarray, level: float
     if n < 2:
         return PairedDifference(n, diff, None, None, ratio, None, False, "one pair: no standard error")
     se = float(np.std(d, ddof=1) / np.sqrt(n))
-    t = float(_sc.stdtrit(n - 1, 0.5 + level / 2))
+    t = t_quantile(n, level)
     ci = (diff - t * se, diff + t * se)
     if ratio is not None:
         c = np.cov(x, y, ddof=1)

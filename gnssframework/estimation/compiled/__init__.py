@@ -39,9 +39,9 @@ only the first import on a machine pays the compile time. The fused predict and 
 (`split.SPLIT`): the calling thread and one helper thread take chunks of it as each
 becomes free (`gnssframework.estimation.compiled.pool`), because numba's workers, asleep
 between the calls of a filter loop, wake too late for the static split to gain
-(docs/benchmarks.md, "Why the compiled path is built as it is"). A model that declares its sizes (``CompiledFunctions.sizes``, the channel
-filter's 5 states and 6 measurements) gets fused drivers with those sizes as constants,
-bitwise the generic ones.
+(docs/benchmarks.md, "Why the compiled path is built as it is"). A model that declares
+its sizes (``CompiledFunctions.sizes``, the channel filter's 5 states and 6
+measurements) gets fused drivers with those sizes as constants, bitwise the generic ones.
 
 The package, from the bottom up: `specialise` (serial/parallel and size-specialised
 twins), `dense` (per-element linear algebra), `drivers` (the Gaussian rules written

@@ -5,8 +5,8 @@ static parts while the calling thread waits. In a filter loop the kernels are ca
 every few milliseconds with Python work in between, the workers go to sleep in between,
 and on this project's 2-core virtual machines a sleeping worker (and its idle virtual
 CPU) can take about as long to wake as the kernel takes to run (docs/benchmarks.md,
-"Why the compiled path is built as it is"). Here the calling thread starts on the first chunk at once and the helper takes
-chunks as it wakes (claimed from a shared counter), so the call never waits for a
+"Why the compiled path is built as it is"). Here the calling thread starts on the first
+chunk at once and the helper takes chunks as it wakes (claimed from a shared counter), so the call never waits for a
 sleeping thread more than one chunk and takes the second core whenever it is free.
 
 Each chunk runs the *serial* kernel on a slice of the batch (a slice of a C-contiguous

@@ -81,8 +81,8 @@ def split_by_work(B: int, n: int, m: int) -> bool:
 
 def work_chunks(B: int, n: int, m: int) -> int | None:
     """Chunks for a split by work: about twice `SPLIT_MIN_WORK` each (each chunk costs a
-    kernel call and a few slices, so small work is not cut finer), 2 to `SPLIT_CHUNKS`; None (the default) from
-    `PARALLEL_MIN_BATCH` on."""
+    kernel call and a few slices, so small work is not cut finer), 2 to `SPLIT_CHUNKS`;
+    None (the default) from `PARALLEL_MIN_BATCH` on."""
     if B >= PARALLEL_MIN_BATCH:
         return None
     return max(2, min(SPLIT_CHUNKS, B * n * m * m // (2 * SPLIT_MIN_WORK)))

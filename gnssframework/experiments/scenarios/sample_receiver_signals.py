@@ -179,7 +179,8 @@ def _noise_free(key: tuple, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
             out[c * n:(c + 1) * n] += generate_if_samples(
                 prn, CHUNK_S, fs, 0.0, plan.cn0_dbhz, None, doppler_hz=doppler_hz[k],
                 code_phase_chips=(start[k] * periods_per_s % 1.0) * signal.code_length_chips,
-                carrier_phase_rad=phase[k], complex_samples=True, data_bits=bits, first_bit_edge_s=first_edge_tsv - start[k], noise=False, signal=signal).samples
+                carrier_phase_rad=phase[k], complex_samples=True, data_bits=bits,
+                first_bit_edge_s=first_edge_tsv - start[k], noise=False, signal=signal).samples
         phase += 2 * np.pi * doppler_hz * CHUNK_S
         start = end
     return out
