@@ -68,12 +68,8 @@ REMAINING: frozenset[str] = frozenset({
     # RINEX observation codes' carrier frequencies (L1 1575.42e6, shared by GPS, Galileo,
     # QZSS and SBAS): a table of the file format, not a receiver block.
     "gnssframework/io/observations.py",
-    # BIT_MS = 20: a bit is 20 ms (C/A's LNAV) in the bit-run splitter and the observables.
-    "gnssframework/receiver/navigation/bit_stream.py",
     # DETECT_MS = 20, FIRST_DETECT_S = 0.02: the tracker's bit detection (not reworked here).
     "gnssframework/receiver/channels/tracker.py",
-    # _BRIDGE_BITS = 50: a bridged bit run is dated after 1 s of 50 bit/s bits.
-    "gnssframework/receiver/navigation/observables.py",
     # CoherentTime = coherent_time(): the pydantic type of T the C/A-only scenarios annotate
     # their fields with (a type annotation needs a module-level name).
     "gnssframework/experiments/limits.py",

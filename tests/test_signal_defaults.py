@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from gnssframework.receiver.frontend.sigmf_meta import read_sigmf_meta, write_sigmf_meta
+from gnssframework.receiver.navigation.bit_stream import bit_ms, bit_runs
 from gnssframework.receiver.navigation.vector_solution import VectorSolution
 from gnssframework.signal.channel_model import channel_transition
 from gnssframework.signal.gps_l2c import GPS_L2C
@@ -51,3 +52,13 @@ def test_the_sigmf_rf_frequency_is_the_carrier_of_the_signal_recorded(tmp_path):
 def test_a_vector_solutions_slots_are_its_signals_prns():
     assert VectorSolution().slot_prns == tuple(range(1, 33))  # GPS PRNs 1-32
     assert VectorSolution(signal=QZSS_L1CA).slot_prns == tuple(range(193, 203))  # QZSS L1 C/A 193-202
+
+
+def test_bit_runs_sum_the_signals_own_bits():
+    t = np.arange(8) * 1e-3  # eight 1 ms rows, all bit-aligned
+    prompt = np.array([1.0, 1.0, -1.0, -1.0, 1.0, 1.0, -1.0, -1.0])
+    ones, aligned = np.ones(8, int), np.ones(8, bool)
+    assert (bit_ms(SBAS_L1), bit_ms()) == (2, 20)  # SBAS 500 sps; C/A LNAV 50 bit/s
+    (run,) = bit_runs(t, prompt, ones, aligned, signal=SBAS_L1)  # two rows a symbol
+    assert run.symbols.tolist() == [2.0, -2.0, 2.0, -2.0]
+    assert bit_runs(t, prompt, ones, aligned) == []  # 8 ms is not one whole 20 ms C/A bit
