@@ -20,7 +20,7 @@ from ..errors import ConfigError
 from ..signal.gps_l1ca import GPS_L1CA
 from ..signal.spec import SignalSpec
 
-__all__ = ["CoherentTime", "coherent_time", "coherent_time_bounds", "MIN_COHERENT_TIME_S", "MAX_COHERENT_TIME_S",
+__all__ = ["CoherentTime", "coherent_time", "coherent_time_bounds",
            "MEMORY_BUDGET_ENV", "DEFAULT_MEMORY_BUDGET_GIB", "memory_budget_gib", "check_batch_memory"]
 
 
@@ -31,7 +31,6 @@ def coherent_time_bounds(signal: SignalSpec = GPS_L1CA) -> tuple[float, float]:
     return signal.code_period_s, signal.longest_coherent_s
 
 
-MIN_COHERENT_TIME_S, MAX_COHERENT_TIME_S = coherent_time_bounds()
 #: Environment variable that raises (or lowers) the per-batch memory budget, in GiB.
 MEMORY_BUDGET_ENV = "GNSSFRAMEWORK_MEMORY_BUDGET_GIB"
 DEFAULT_MEMORY_BUDGET_GIB = 8.0

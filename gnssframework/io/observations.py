@@ -18,7 +18,6 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, DataFileError
-from ..signal.gps_l1ca import GPS_L1CA
 from .rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M, RinexScan, _check_bounds, check_rinex3_obs
 from .skipped import refuse_or_keep
 from .text import check_input_file
@@ -543,7 +542,7 @@ class CodeCarrier:
     truncated: str | None = None  # why the file looks cut, or None
     lli: np.ndarray | None = None  # loss-of-lock indicator of the carrier, 0 where blank
     snr_dbhz: np.ndarray | None = None  # signal-strength observation, NaN where absent
-    wavelength_m: float = GPS_L1CA.wavelength_m
+    wavelength_m: float = SPEED_OF_LIGHT_MPS / _F["L1"]  # the carrier's (read_code_carrier: the file's signal)
 
 
 def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSEUDORANGE_MIN_M,

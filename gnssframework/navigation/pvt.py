@@ -31,6 +31,7 @@ from scipy import special  # not scipy.stats: its import costs a second of every
 
 from ..errors import ConfigError
 from ..signal.gps_l1ca import GPS_L1CA
+from ..signal.spec import SignalSpec
 from ..signal.spec import SPEED_OF_LIGHT_M_S as SPEED_OF_LIGHT_MPS
 from .ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
 from .lnav import PI_IS_GPS, IonoUtc
@@ -225,7 +226,7 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
                    doppler_hz: np.ndarray | None = None, iono: IonoUtc | None = None, troposphere: bool = False,
                    sigma_m: float = 5.0, elevation_mask_deg: float = 5.0, false_alarm: float = 1e-3,
                    initial_ecef_m: np.ndarray | None = None, elevation_weights: bool = True,
-                   wavelength_m: float = GPS_L1CA.wavelength_m,
+                   wavelength_m: float | None = None, signal: SignalSpec = GPS_L1CA,
                    weighting: str | None = None) -> PositionFix | None:
     """Position, velocity and clock of one epoch.
 
@@ -239,7 +240,10 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
     doppler_hz
         ``(S,)`` Dopplers for the velocity (optional).
     wavelength_m
-        Carrier wavelength of the Dopplers (`SignalSpec.wavelength_m`; L1's by default).
+        Carrier wavelength of the Dopplers (default ``signal.wavelength_m``).
+    signal
+        The signal measured (`SignalSpec`; GPS L1 C/A by default): its wavelength is the
+        default ``wavelength_m``.
     iono
         Broadcast Klobuchar coefficients (None: no ionospheric correction).
     troposphere
@@ -318,7 +322,8 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
         if ok.sum() >= 4:
             # Range rate -λ D = u·(v_sat - v_rx) + ḃ - c Δṫ_SV (satellite velocity rotated as its position).
             v_sat = _rotate_earth(state.velocity_mps, np.linalg.norm(rot - x[:3], axis=1) / _C)
-            y = -wavelength_m * d - np.sum(u * v_sat, axis=1) + _C * state.clock_drift_s_s
+            lam = signal.wavelength_m if wavelength_m is None else wavelength_m
+            y = -lam * d - np.sum(u * v_sat, axis=1) + _C * state.clock_drift_s_s
             H = np.hstack([-u, np.ones((u.shape[0], 1))])
             sol_v, *_ = np.linalg.lstsq(H[ok], y[ok], rcond=None)
             vel, drift = R @ sol_v[:3], float(sol_v[3])

@@ -18,15 +18,11 @@ from .correlator_model import correlator_mean
 from .gps_l1ca import GPS_L1CA
 from .spec import SignalSpec
 
-__all__ = ["channel_iq", "channel_iq_row", "channel_transition", "channel_model", "code_to_carrier", "CODE_TO_CARRIER"]
+__all__ = ["channel_iq", "channel_iq_row", "channel_transition", "channel_model", "code_to_carrier"]
 
 def code_to_carrier(signal: SignalSpec = GPS_L1CA) -> float:
     """Code chipping rate over carrier frequency, ``f_code / f_carrier`` (1/1540 for GPS L1 C/A)."""
     return signal.chip_rate_hz / signal.carrier_freq_hz
-
-
-#: `code_to_carrier` of GPS L1 C/A, 1 / 1540.
-CODE_TO_CARRIER = code_to_carrier()
 
 
 def channel_iq(
@@ -66,8 +62,11 @@ def channel_iq(
     return np.concatenate([y.real, y.imag], axis=-1)
 
 
-def channel_transition(coherent_time_s: float, code_to_carrier: float = CODE_TO_CARRIER) -> np.ndarray:
+def channel_transition(coherent_time_s: float, code_to_carrier: float | None = None,
+                       signal: SignalSpec = GPS_L1CA) -> np.ndarray:
     r"""Transition matrix of the channel state over one coherent interval (Zou et al. 2018, eq. 9).
+
+    ``code_to_carrier`` is ``f_code / f_carrier``, by default ``signal``'s (`code_to_carrier`).
 
     $$
     \delta\tau' = \delta\tau + \tfrac{f_{code}}{f_{carrier}} T \delta f, \quad
@@ -75,6 +74,8 @@ def channel_transition(coherent_time_s: float, code_to_carrier: float = CODE_TO_
     \delta f' = \delta f + T \dot{\delta f}
     $$
     """
+    if code_to_carrier is None:
+        code_to_carrier = signal.chip_rate_hz / signal.carrier_freq_hz
     T = coherent_time_s
     F = np.eye(5)
     # Our code error is true minus replica code phase (the engine's convention): a
@@ -122,7 +123,7 @@ def channel_iq_row(params, X, k, Z, kz):
 
 def channel_model(
     coherent_time_s: float, spacing_chips: float, Q: np.ndarray, R: np.ndarray,
-    code_to_carrier: float = CODE_TO_CARRIER, signal: SignalSpec | None = None,
+    code_to_carrier: float | None = None, signal: SignalSpec | None = None,
 ):
     """The channel filter's model (eq. 9 transition, eqs. 2-7 correlators) with compiled twins.
 
@@ -131,7 +132,8 @@ def channel_model(
     in one compiled pass: ``F x`` and `channel_iq_row`. Data bit 1 (after wipe-off),
     ideal triangle autocorrelation.
 
-    ``signal``, when given, sets ``code_to_carrier`` from its rates; the model's triangle
+    ``signal``, when given, sets ``code_to_carrier`` from its rates (without either, GPS L1
+    C/A's, `channel_transition`'s default); the model's triangle
     is BPSK's, so a BOC or CBOC signal is refused (its correlation is a train of
     triangles: `SignalSpec.autocorrelation`).
 

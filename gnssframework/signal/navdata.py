@@ -10,7 +10,7 @@ from .correlators import Correlators
 from .gps_l1ca import GPS_L1CA
 from .spec import SignalSpec
 
-__all__ = ["random_nav_bits", "bit_at", "data_bit_period_s", "wipe_off", "BIT_PERIOD_S"]
+__all__ = ["random_nav_bits", "bit_at", "data_bit_period_s", "wipe_off"]
 
 
 
@@ -20,12 +20,15 @@ def random_nav_bits(n_bits: int, rng: np.random.Generator, batch_shape: tuple[in
 
 
 def bit_at(time_s: np.ndarray, bits: np.ndarray, first_edge_s: float | np.ndarray = 0.0,
-           bit_period_s: float = GPS_L1CA.symbol_period_s) -> np.ndarray:
+           bit_period_s: float | None = None, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
     """The bit in force at ``time_s``. Bit k spans ``[first_edge + k T_b, first_edge + (k+1) T_b)``
-    with ``T_b = bit_period_s`` (1/50 s, L1 C/A's, by default).
+    with ``T_b = bit_period_s``, by default ``signal``'s data bit period (`data_bit_period_s`;
+    1/50 s for GPS L1 C/A).
 
     Times before the first edge take bit 0, and times after the last bit take the last bit.
     """
+    if bit_period_s is None:
+        bit_period_s = data_bit_period_s(signal)
     k = np.floor((np.asarray(time_s, dtype=float) - first_edge_s) / bit_period_s).astype(int)
     k = np.clip(k, 0, bits.shape[0] - 1)
     if bits.ndim == 1:
@@ -40,10 +43,6 @@ def data_bit_period_s(signal: SignalSpec = GPS_L1CA) -> float:
     if signal.symbol_period_s is None:
         raise ConfigError("signal", f"{signal.name} carries no data symbols")
     return signal.symbol_period_s
-
-
-#: The data bit period of GPS L1 C/A (`data_bit_period_s`), s.
-BIT_PERIOD_S = data_bit_period_s()
 
 
 def wipe_off(correlators: Correlators, bit: np.ndarray) -> Correlators:

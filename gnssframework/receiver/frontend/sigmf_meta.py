@@ -19,6 +19,7 @@ from pathlib import Path
 
 from ...errors import DataFileError
 from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 
 __all__ = ["SigmfInfo", "meta_path_for", "read_sigmf_meta", "write_sigmf_meta"]
 
@@ -136,8 +137,12 @@ def _check_fields(path: Path, meta: object) -> tuple[dict, list]:
     return glob, captures
 
 
-def read_sigmf_meta(path: str | Path, carrier_freq_hz: float = GPS_L1CA.carrier_freq_hz) -> SigmfInfo:
+def read_sigmf_meta(path: str | Path, carrier_freq_hz: float | None = None,
+                    signal: SignalSpec = GPS_L1CA) -> SigmfInfo:
     """Read a SigMF metadata file.
+
+    Without the ``gnssframework`` IF key, the IF is ``carrier_freq_hz - core:frequency``, with
+    ``carrier_freq_hz`` ``signal``'s carrier frequency by default.
 
     The fields this project reads are checked for type and range first (each error names
     the file and the field); the JSON is then validated by ``sigmf``'s schema when its
@@ -171,7 +176,7 @@ def read_sigmf_meta(path: str | Path, carrier_freq_hz: float = GPS_L1CA.carrier_
     freq = first.get("core:frequency")
     if_hz = glob.get(IF_KEY)
     if if_hz is None and freq is not None:
-        if_hz = carrier_freq_hz - float(freq)
+        if_hz = (signal.carrier_freq_hz if carrier_freq_hz is None else carrier_freq_hz) - float(freq)
     q_sign = glob.get(Q_SIGN_KEY)
     if q_sign not in (None, 1, -1) or isinstance(q_sign, bool):
         raise DataFileError(str(path), None, f"{Q_SIGN_KEY} must be 1 or -1, got {q_sign!r}")
@@ -183,9 +188,11 @@ def read_sigmf_meta(path: str | Path, carrier_freq_hz: float = GPS_L1CA.carrier_
 
 def write_sigmf_meta(path: str | Path, *, format: str, sigmf_datatype: str, sample_rate_hz: float, if_hz: float,
                      q_sign: int = 1, start_time: str | None = None, description: str = "",
-                     carrier_freq_hz: float = GPS_L1CA.carrier_freq_hz) -> Path:
+                     carrier_freq_hz: float | None = None, signal: SignalSpec = GPS_L1CA) -> Path:
     """Write the metadata of a recording with ``sigmf`` (validated against its schema);
-    ``core:frequency`` is ``carrier_freq_hz - if_hz``."""
+    ``core:frequency`` is ``carrier_freq_hz - if_hz`` (``carrier_freq_hz``: ``signal``'s by default)."""
+    if carrier_freq_hz is None:
+        carrier_freq_hz = signal.carrier_freq_hz
     from sigmf.sigmffile import SigMFFile
 
     glob = {"core:sample_rate": float(sample_rate_hz), "core:version": "1.0.0",

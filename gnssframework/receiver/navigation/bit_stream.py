@@ -16,11 +16,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import ConfigError
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.navdata import data_bit_period_s
+from ...signal.spec import SignalSpec
 
-__all__ = ["BitRun", "bit_runs", "BIT_MS"]
+__all__ = ["BitRun", "bit_runs", "bit_ms"]
 
-#: Milliseconds (C/A code periods) per LNAV bit.
-BIT_MS = 20
+
+def bit_ms(signal: SignalSpec = GPS_L1CA) -> int:
+    """Milliseconds per data bit of ``signal`` (`data_bit_period_s`; 20, C/A code periods,
+    per LNAV bit of GPS L1 C/A)."""
+    return round(data_bit_period_s(signal) * 1e3)
 
 
 @dataclass(frozen=True)
@@ -32,7 +38,7 @@ class BitRun:
     symbols
         ``(B,)`` the in-phase prompt summed over each bit (soft symbols, sign = bit).
     rows
-        ``(R,)`` indices of the record rows in the run (``R = B * 20 / coherent_ms``).
+        ``(R,)`` indices of the record rows in the run (``R = B * bit_ms / coherent_ms``).
     bit_of_row
         ``(R,)`` index in ``symbols`` of the bit each row belongs to.
     ms_in_bit
@@ -46,7 +52,7 @@ class BitRun:
 
 
 def bit_runs(time_s: np.ndarray, prompt_i: np.ndarray, coherent_ms: np.ndarray, bit_aligned: np.ndarray,
-             min_bits: int = 1) -> list[BitRun]:
+             min_bits: int = 1, signal: SignalSpec = GPS_L1CA) -> list[BitRun]:
     """Split a channel's record into gap-free runs of bit-aligned rows and sum them into bits.
 
     Parameters
@@ -58,6 +64,8 @@ def bit_runs(time_s: np.ndarray, prompt_i: np.ndarray, coherent_ms: np.ndarray, 
         ``(N,)`` True for rows integrated from a bit edge on (the ``extended`` stage).
     min_bits
         Shorter runs are left out.
+    signal
+        The tracked signal: its data bit is `bit_ms` long.
     """
     time_s, prompt_i = np.asarray(time_s, float), np.asarray(prompt_i, float)
     coherent_ms, aligned = np.asarray(coherent_ms, int), np.asarray(bit_aligned, bool)
@@ -67,15 +75,16 @@ def bit_runs(time_s: np.ndarray, prompt_i: np.ndarray, coherent_ms: np.ndarray, 
     rows = np.flatnonzero(aligned)
     if rows.size == 0:
         return []
-    if np.any(BIT_MS % coherent_ms[rows]):
-        raise ConfigError("coherent_ms", f"bit-aligned integrations must divide {BIT_MS} ms")
+    per_bit_ms = bit_ms(signal)
+    if np.any(per_bit_ms % coherent_ms[rows]):
+        raise ConfigError("coherent_ms", f"bit-aligned integrations must divide {per_bit_ms} ms")
     # A new run where rows are not consecutive in the record, the integration length changes,
     # or the time step is not the integration length (half a code period of slack).
     t, c = time_s[rows], coherent_ms[rows]
     breaks = (np.diff(rows) != 1) | (np.diff(c) != 0) | (np.abs(np.diff(t) - c[:-1] * 1e-3) > 0.5e-3)
     out = []
     for part in np.split(np.arange(rows.size), np.flatnonzero(breaks) + 1):
-        per_bit = BIT_MS // int(c[part[0]])
+        per_bit = per_bit_ms // int(c[part[0]])
         n_bits = part.size // per_bit  # a last bit not wholly integrated is left out
         if n_bits < min_bits:
             continue

@@ -126,7 +126,8 @@ def corrected_measurements(pseudorange_m: np.ndarray, transmit_s: np.ndarray, do
                            ephemeris: Ephemerides, receiver_ecef_m: np.ndarray, *, iono: IonoUtc | None = None,
                            troposphere: bool = False, sigma_m: float = 5.0, sigma_rate_m_s: float = 0.5,
                            elevation_mask_deg: float = 5.0,
-                           wavelength_m: float = GPS_L1CA.wavelength_m) -> tuple[EpochMeasurements, np.ndarray]:
+                           wavelength_m: float | None = None,
+                           signal: SignalSpec = GPS_L1CA) -> tuple[EpochMeasurements, np.ndarray]:
     """Correct one epoch's measurements at the receiver position ``receiver_ecef_m`` (see the
     module text).
 
@@ -141,13 +142,17 @@ def corrected_measurements(pseudorange_m: np.ndarray, transmit_s: np.ndarray, do
     sigma_m, sigma_rate_m_s
         Zenith standard deviations of the pseudorange and the range rate.
     wavelength_m
-        Carrier wavelength of the Dopplers (the signal's; L1's by default).
+        Carrier wavelength of the Dopplers (default ``signal.wavelength_m``).
+    signal
+        The signal measured (`SignalSpec`; GPS L1 C/A by default).
 
     Returns
     -------
     The measurements of the satellites above ``elevation_mask_deg`` with a Doppler, and
     the boolean ``(S,)`` mask of those satellites.
     """
+    if wavelength_m is None:
+        wavelength_m = signal.wavelength_m
     pr, tx, d = (np.asarray(a, float) for a in (pseudorange_m, transmit_s, doppler_hz))
     r = np.asarray(receiver_ecef_m, float)
     clock = satellite_state(ephemeris, tx).clock_l1_s
@@ -173,10 +178,10 @@ def corrected_measurements(pseudorange_m: np.ndarray, transmit_s: np.ndarray, do
     return meas, keep
 
 
-def _inputs(m: EpochMeasurements, chip_length_m: float = GPS_L1CA.chip_length_m,
-            wavelength_m: float = GPS_L1CA.wavelength_m) -> dict[str, np.ndarray]:
+def _inputs(m: EpochMeasurements, signal: SignalSpec = GPS_L1CA) -> dict[str, np.ndarray]:
     """The nav filter's step inputs for one run: channel outputs ``(1, S)``, satellites ``(S, 3)``
-    (variances in chips and Hz of the signal whose chip length and wavelength the filter uses)."""
+    (variances in chips and Hz of ``signal``, whose chip length and wavelength the filter uses)."""
+    chip_length_m, wavelength_m = signal.chip_length_m, signal.wavelength_m
     zero = np.zeros((1, m.range_m.size))
     return {names.SAT_POS_M: m.sat_pos_m, names.SAT_VEL_M_S: m.sat_vel_m_s, names.NEXT_SAT_POS_M: m.sat_pos_m,
             names.NEXT_SAT_VEL_M_S: m.sat_vel_m_s, names.REPLICA_RANGE_M: m.range_m[None],
@@ -194,14 +199,16 @@ def start_nav_filter(nav: NavFilter, interval_s: float, initial_state: np.ndarra
     nav.reset((1,), context)
 
 
-def step_nav_filter(nav: NavFilter, measurements: EpochMeasurements) -> np.ndarray:
-    """One epoch: the filter's ``[x, y, z, vx, vy, vz, b, d]`` after it."""
-    return _step(nav, measurements)[0]
+def step_nav_filter(nav: NavFilter, measurements: EpochMeasurements, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
+    """One epoch: the filter's ``[x, y, z, vx, vy, vz, b, d]`` after it (measurement variances
+    in chips and Hz of ``signal``)."""
+    return _step(nav, measurements, signal)[0]
 
 
-def _step(nav: NavFilter, measurements: EpochMeasurements) -> tuple[np.ndarray, np.ndarray | None]:
+def _step(nav: NavFilter, measurements: EpochMeasurements,
+          signal: SignalSpec = GPS_L1CA) -> tuple[np.ndarray, np.ndarray | None]:
     """One epoch: the 8-state after it and its 8x8 covariance (None if the filter gives none)."""
-    out = nav.checked_step(_inputs(measurements))
+    out = nav.checked_step(_inputs(measurements, signal))
     x = np.concatenate([np.reshape(out[names.POSITION_M], 3), np.reshape(out[names.VELOCITY_M_S], 3),
                         np.reshape(out[names.CLOCK_M], 2)])
     cov = out.get(names.COV)
@@ -342,7 +349,8 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
         meas, keep = corrected_measurements(obs.pseudorange_m[e, j], obs.transmit_s[e, j], obs.doppler_hz[e, j],
                                             stack_records([r for r in records if r is not None]), here,
                                             iono=klobuchar, troposphere=troposphere, sigma_m=sigma_m,
-                                            sigma_rate_m_s=sigma_rate_m_s, elevation_mask_deg=elevation_mask_deg)
+                                            sigma_rate_m_s=sigma_rate_m_s, elevation_mask_deg=elevation_mask_deg,
+                                            signal=signal)
         if not keep.any():
             running = False
             continue
@@ -353,7 +361,7 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
                 out_prn = int(obs.prn[j[keep]][np.flatnonzero(~passed)[0]])
                 meas = _subset(meas, passed)
                 keep[np.flatnonzero(keep)[~passed]] = False
-        x, P = _step(nav, meas)
+        x, P = _step(nav, meas, signal)
         predicted = _predict(nav, x, P, interval_s) if gate and P is not None else (x, None)
         here = x[:3]
         rows.append(e)

@@ -129,7 +129,7 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
                              doppler_hz=obs.doppler_hz[e, idx], iono=klobuchar, troposphere=troposphere,
                              sigma_m=sigma_m, elevation_mask_deg=elevation_mask_deg,
                              initial_ecef_m=rows[-1].position_ecef_m if rows else None,
-                             elevation_weights=elevation_weights, weighting=weighting)
+                             elevation_weights=elevation_weights, weighting=weighting, signal=signal)
         if fix is None:
             continue
         rows.append(fix)

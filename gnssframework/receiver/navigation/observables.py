@@ -57,8 +57,9 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.navdata import data_bit_period_s
 from ...signal.spec import SignalSpec
-from .bit_stream import BIT_MS, bit_runs
+from .bit_stream import bit_ms, bit_runs
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_lnav, find_subframes
 
@@ -80,7 +81,7 @@ _MAX_GAP_S = 0.025  # rows further apart are not interpolated between
 #: Longest gap (s) across which a run is dated from the previous one: receiver clock drift
 #: and Doppler error together stay under 1e-5, so the prediction's error is well under 10 ms.
 MAX_BRIDGE_S = 300.0
-_BRIDGE_BITS = 50  # a bridged run is dated from its second second on (its lock has held for 1 s)
+_BRIDGE_S = 1.0  # a bridged run is dated from its second second on (its lock has held for 1 s)
 #: RINEX 3.04 loss-of-lock indicator bits (section 5.3).
 LLI_LOST_LOCK, LLI_HALF_CYCLE = 1, 2
 
@@ -115,13 +116,13 @@ class ChannelTiming:
     tow_offset_s: float | None = None
 
 
-def _bit_time(run, time_s: np.ndarray, bit: int) -> float:
-    """Recording time at which bit ``bit`` of a run starts (its end, past the last bit)."""
+def _bit_time(run, time_s: np.ndarray, bit: int, bit_s: float) -> float:
+    """Recording time at which bit ``bit`` (``bit_s`` long) of a run starts (its end, past the last bit)."""
     rows = run.rows[run.bit_of_row == bit]
     if rows.size:
         return float(time_s[rows[0]])
     per_bit = np.count_nonzero(run.bit_of_row == run.bit_of_row[-1])  # rows of one bit
-    return float(time_s[run.rows[-1]]) + BIT_MS * 1e-3 / per_bit
+    return float(time_s[run.rows[-1]]) + bit_s / per_bit
 
 
 def channel_timing(record: ChannelRecord, causal: bool = True, signal: SignalSpec = GPS_L1CA) -> ChannelTiming | None:
@@ -138,10 +139,11 @@ def channel_timing(record: ChannelRecord, causal: bool = True, signal: SignalSpe
     time_s, code_chips = col("time_s"), col("code_phase_chips")
     stage = col("stage")
     continued = _continued_vector_rows(stage)
+    bit_s = data_bit_period_s(signal)
+    bridge_bits = round(_BRIDGE_S / bit_s)
     runs = bit_runs(time_s, col("prompt_i"), col("coherent_ms"), (stage == _EXTENDED) | continued,
-                    min_bits=_BRIDGE_BITS + 1)
+                    min_bits=bridge_bits + 1, signal=signal)
     doppler = col("doppler_hz")
-    bit_s = BIT_MS * 1e-3
     rows, tx, inverted, known, messages, ephemerides = [], [], [], [], [], []
     for run in runs:
         subframes = find_subframes(run.symbols)
@@ -156,7 +158,7 @@ def channel_timing(record: ChannelRecord, causal: bool = True, signal: SignalSpe
             polarity = run.bit_of_row[keep] >= arrived
             is_inverted = first.inverted
         elif edge_tow is not None:
-            keep = run.bit_of_row >= _BRIDGE_BITS
+            keep = run.bit_of_row >= bridge_bits
             polarity, is_inverted = np.zeros(int(keep.sum()), dtype=bool), False
         else:
             continue
@@ -169,7 +171,7 @@ def channel_timing(record: ChannelRecord, causal: bool = True, signal: SignalSpe
         if subframes:
             message = decode_lnav(run.symbols, record.prn)
             messages.append(message)
-            ephemerides += [(_bit_time(run, time_s, bit), rec) for bit, rec in message.ephemerides]
+            ephemerides += [(_bit_time(run, time_s, bit, bit_s), rec) for bit, rec in message.ephemerides]
     r = np.concatenate(rows) if rows else np.zeros(0, int)
     if r.size == 0:
         return None
@@ -208,7 +210,7 @@ def _bridge(rows: list[np.ndarray], tx: list[np.ndarray], time_s: np.ndarray, do
         return None
     predicted = (last_tx + elapsed_s * (1.0 + doppler_hz[last_row] / signal.carrier_freq_hz)
                  - code_chips / signal.chip_rate_hz)
-    bit_s = BIT_MS * 1e-3
+    bit_s = data_bit_period_s(signal)
     return float(np.round(predicted / bit_s) * bit_s)
 
 
@@ -247,21 +249,22 @@ def assisted_timing(record: ChannelRecord, end_time_s: float, end_transmit_s: fl
                          record.column("cn0_dbhz")[rows], np.zeros(n, dtype=bool), LnavMessage(record.prn, [], None,
                                                                                                None, None),
                          [], starts, np.zeros(n, dtype=bool),
-                         _tow_offset(tx, record.column("prompt_i")[rows], record.column("coherent_ms")[rows]))
+                         _tow_offset(tx, record.column("prompt_i")[rows], record.column("coherent_ms")[rows], signal))
 
 
-def _tow_offset(tx_s: np.ndarray, prompt_i: np.ndarray, coherent_ms: np.ndarray) -> float | None:
+def _tow_offset(tx_s: np.ndarray, prompt_i: np.ndarray, coherent_ms: np.ndarray,
+                signal: SignalSpec = GPS_L1CA) -> float | None:
     """The decoded TOW minus the assisted time at the start of the first subframe found in
-    the rows' bits (rows summed into 20 ms bits by their transmit times; a bit not wholly
-    covered is a zero symbol, which fails parity), or None."""
-    bit_s = BIT_MS * 1e-3
+    the rows' bits (rows summed into ``signal``'s data bits, 20 ms on L1 C/A, by their transmit
+    times; a bit not wholly covered is a zero symbol, which fails parity), or None."""
+    bit_s = data_bit_period_s(signal)
     # Each row's bit: from its transmit time at mid-interval, clear of the bit edges it starts on.
     bit = np.floor((tx_s + 0.5 * coherent_ms * 1e-3) / bit_s).astype(np.int64)
     first = int(bit[0])
     k = bit - first
     symbols = np.bincount(k, weights=prompt_i)
     covered = np.bincount(k, weights=coherent_ms.astype(float))
-    symbols[covered != BIT_MS] = 0.0
+    symbols[covered != bit_ms(signal)] = 0.0
     subframes = find_subframes(symbols)
     if not subframes:
         return None

@@ -10,6 +10,7 @@ import pymap3d
 from ...navigation.geometry import line_of_sight
 from ...navigation.pvt import dop
 from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from .fixes import PositionTable
 from .observables import SPEED_OF_LIGHT_MPS
 
@@ -46,8 +47,13 @@ class VectorSolution:
     #: Per vector channel's PRN at the end of the run: the recording time of its next
     #: interval's start and its replica's transmit time there (s of week, SV time).
     replica_tx: dict[int, tuple[float, float]] = field(default_factory=dict)
-    #: The PRN of each tracker slot (the signal's PRN list; `used`'s columns).
-    slot_prns: tuple[int, ...] = GPS_L1CA.prns
+    #: The signal tracked: its PRN list is the PRN of each tracker slot (`slot_prns`).
+    signal: SignalSpec = GPS_L1CA
+
+    @property
+    def slot_prns(self) -> tuple[int, ...]:
+        """The PRN of each tracker slot (``signal.prns``; `used`'s columns)."""
+        return self.signal.prns
 
     def table(self, rate_hz: float = 1.0) -> PositionTable | None:
         """The epochs nearest whole multiples of ``1 / rate_hz`` of recording time as a

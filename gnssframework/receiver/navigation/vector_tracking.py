@@ -93,7 +93,7 @@ class VectorSampleCloser(SampleCloser):
     def bind(self, tracker: SampleTracker) -> None:
         super().bind(tracker)
         self.scalar.bind(tracker)
-        self.solution = VectorSolution(slot_prns=tracker.signal.prns)
+        self.solution = VectorSolution(signal=tracker.signal)
         self.nav: VectorNavigator | None = None
         self.next_try = max(self.vector.earliest_s, self.vector.try_every_s)
         self.next_assist = self.vector.earliest_s
