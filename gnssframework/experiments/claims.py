@@ -95,8 +95,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..errors import ConfigError
-from .claim_tests import (adjust, all_runs_bound, bootstrap_means, bootstrap_p, claim_rng, nees_band, t_p_value,
-                          tost, wilcoxon_p)
+from .claim_tests import (adjust, all_runs_bound, bootstrap_means, bootstrap_p, claim_rng, detectable_difference,
+                          nees_band, t_p_value, tost, wilcoxon_p)
 from .number_format import at_rounding_level, format_estimate
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values, t_quantile
 
@@ -113,6 +113,10 @@ TESTS = ("t", "bootstrap", "wilcoxon")
 
 #: Significance level of every claim (two-sided 95 % intervals; TOST at 5 % per side).
 ALPHA = 0.05
+
+#: Paired runs below which a claim row states its power: the difference its t-test detects
+#: with 80 % probability (`claim_tests.detectable_difference`), beside its evidence.
+MIN_CLAIM_RUNS = 12
 
 
 class Claim(BaseModel):
@@ -567,6 +571,8 @@ def _row_judgement(claim: Claim, evidence: tuple, rng: np.random.Generator) -> d
     out = {"outcome": outcome, "test": claim.test, "p_value": finite_or_none(p)}
     if reason:
         out["reason"] = reason
+    if pd is not None and pd.n is not None and 2 <= pd.n < MIN_CLAIM_RUNS and pd.se:
+        out["detectable80"] = detectable_difference(pd.se, pd.n)
     n = int(np.isfinite(values).sum())  # the runs a band or bound is over
     if n and claim.consistent_states is not None:
         out["nees_band95"] = list(nees_band(n, claim.consistent_states))
@@ -726,6 +732,9 @@ def claim_evidence(row: dict) -> str:
         ev.append(f"95 % upper bound on the chance of a run outside {row['outside_bound95']:.2g}")
     n = row.get("n")
     text = ", ".join(ev) + (f", n={n}" if n else "")
+    if row.get("detectable80") is not None:
+        text += (f" (fewer than {MIN_CLAIM_RUNS} runs: a difference of +-{row['detectable80']:.2g} is detected "
+                 "with 80 % power)")
     if row.get("test") not in (None, "t"):
         text += f", {row['test']}"
     if row.get("p_value") is not None:
