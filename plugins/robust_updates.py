@@ -9,11 +9,16 @@ from __future__ import annotations
 
 import numpy as np
 from pydantic import Field
+from scipy.stats import chi2
 
 from gnssframework.estimation.robust import RobustUpdate, reweighted_noise, whitened_residual
 from gnssframework.plugin import PluginParams
 
-__all__ = ["HuberUpdate", "CauchyUpdate", "StudentTUpdate", "huber_weight", "cauchy_weight"]
+__all__ = ["HuberUpdate", "CauchyUpdate", "StudentTUpdate", "InnovationGate", "huber_weight", "cauchy_weight"]
+
+#: The factor on R of a measurement a gate rejects: its gain falls by this factor, so its
+#: update is nil to rounding while the update's shapes and counts stay those of an update.
+REJECTED_R_FACTOR = 1e12
 
 
 class _IterationParams(PluginParams):
@@ -106,3 +111,35 @@ class StudentTUpdate(RobustUpdate):
         trace = np.trace(np.linalg.solve(np.broadcast_to(R, D.shape), D), axis1=-2, axis2=-1)
         lam = (nu + m) / (nu + trace)
         return R / lam[..., None, None]
+
+
+class GateParams(PluginParams):
+    false_alarm: float = Field(1e-3, gt=0, lt=1, description="probability that a measurement without an "
+                               "outlier is rejected: the gate is the chi-square quantile 1 - false_alarm with m "
+                               "degrees of freedom")
+
+
+class InnovationGate(RobustUpdate):
+    r"""Chi-square innovation gate, the rule the navigation filters exclude with today.
+
+    The whole measurement is rejected when its normalised innovation squared
+    $\nu^T S^{-1} \nu$, $\nu = z - h(m)$, $S = \operatorname{Cov}[h(x)] + R$ under the
+    prior, exceeds $\chi^2_m(1 - p_{\mathrm{fa}})$ (Bar-Shalom, Li & Kirubarajan 2001,
+    sec. 5.4). A rejected measurement gets $R_{\mathrm{eff}} = 10^{12} R$: its gain, and so
+    its update, is nil to rounding. One pass, no iteration.
+    """
+
+    name = "gate"
+    description = "Chi-square innovation gate: reject the measurement whose NIS exceeds the quantile"
+    Params = GateParams
+    gates_prior = True
+
+    @property
+    def iterations(self) -> int:
+        return 1
+
+    def effective_noise(self, residual, spread, R):
+        S = spread + R
+        nis = np.einsum("...i,...i->...", residual, np.linalg.solve(S, residual[..., None])[..., 0])
+        rejected = nis > chi2.ppf(1.0 - self.params.false_alarm, residual.shape[-1])
+        return np.where(rejected[..., None, None], REJECTED_R_FACTOR * R, R)

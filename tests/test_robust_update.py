@@ -107,3 +107,19 @@ def test_robust_update_is_a_registered_kind():
 
     with pytest.raises(ConfigError, match="robust"):
         registry.create("estimator", "ekf", robust="hubber")
+
+
+def test_the_gate_rejects_exactly_the_measurements_beyond_the_chi_square_quantile():
+    from scipy.stats import chi2
+
+    S = H @ PRIOR.cov @ H.T + R
+    gate = chi2.ppf(1 - 1e-3, 4)
+    # two measurements on either side of the gate: NIS = 0.9 and 1.1 times the quantile
+    direction = np.array([1.0, -0.5, 2.0, 0.3])
+    unit_nis = direction @ np.linalg.solve(S, direction)
+    z = np.stack([direction * np.sqrt(f * gate / unit_nis) for f in (0.9, 1.1)])
+    prior = Gaussian(np.zeros((2, 2)), np.broadcast_to(PRIOR.cov, (2, 2, 2)))
+    plain = _engine("kf").update(prior, z, MODEL).state
+    gated = _engine("kf", {"name": "gate", "params": {"false_alarm": 1e-3}}).update(prior, z, MODEL).state
+    assert np.array_equal(gated.mean[0], plain.mean[0]) and np.array_equal(gated.cov[0], plain.cov[0])
+    assert np.allclose(gated.mean[1], 0.0, atol=1e-9) and np.allclose(gated.cov[1], PRIOR.cov, rtol=1e-9)

@@ -26,7 +26,8 @@ engine's plain update. The batch iterates together: an element whose step
 $\max_j |x_{i+1,j} - x_{i,j}| / \sqrt{P_{jj}}$ falls to ``tol`` or below is frozen (its
 result no longer changes), and the loop ends when every element is frozen or after
 ``iterations`` updates. A `gnssframework.estimation.robust.RobustUpdate` replaces R by
-its effective covariance $R_i$ from iteration 1 on.
+its effective covariance $R_i$ from iteration 1 on (from iteration 0, with the innovation
+and the prior's spread, for a gate: ``gates_prior``).
 """
 
 from __future__ import annotations
@@ -124,7 +125,12 @@ def iterated_update(engine, prior: Gaussian, z: np.ndarray, model: Model, *, on_
         else:  # robust reweighting on the prior's linearisation
             residual_i = res_z(z, z_bar0) - mat_vec(A0, res_x(x, m))
             spread_i = symmetrize(A0 @ (Pi - P) @ _t(A0) + spread0)
-        R_i = R if (robust is None or it == 0) else robust.effective_noise(residual_i, spread_i, R)
+        if robust is None or (it == 0 and not robust.gates_prior):
+            R_i = R
+        elif it == 0:  # a gate: the innovation and the prior's spread (S = spread + R)
+            R_i = robust.effective_noise(res_z(z, z_bar0), spread0, R)
+        else:
+            R_i = robust.effective_noise(residual_i, spread_i, R)
         if relinearise and it > 0:
             S = symmetrize(spread_prior + R_i)
         else:  # the prior's linearisation: S0 itself, plus the change of R (exactly S0 where R is kept)

@@ -44,6 +44,9 @@ class RobustUpdate(Plugin, abc.ABC):
     """
 
     kind = "robust_update"
+    #: Whether iteration 0 consults the plugin too, with the innovation ``z - h(m)`` and
+    #: the prior's spread (an innovation gate); otherwise iteration 0 is the plain update.
+    gates_prior: bool = False
 
     @property
     def iterations(self) -> int:
