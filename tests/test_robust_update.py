@@ -123,3 +123,38 @@ def test_the_gate_rejects_exactly_the_measurements_beyond_the_chi_square_quantil
     gated = _engine("kf", {"name": "gate", "params": {"false_alarm": 1e-3}}).update(prior, z, MODEL).state
     assert np.array_equal(gated.mean[0], plain.mean[0]) and np.array_equal(gated.cov[0], plain.cov[0])
     assert np.allclose(gated.mean[1], 0.0, atol=1e-9) and np.allclose(gated.cov[1], PRIOR.cov, rtol=1e-9)
+
+
+def test_a_missing_measurement_is_skipped_by_the_iterated_update():
+    from gnssframework.errors import InvalidMeasurementError
+
+    z = np.array([[0.3, -0.2, 0.4, 0.1], [0.3, np.nan, 0.4, 0.1]])
+    prior = Gaussian(np.zeros((2, 2)), np.broadcast_to(PRIOR.cov, (2, 2, 2)))
+    engine = _engine("ekf", "huber", iterations=3)
+    out = engine.update(prior, z, MODEL, missing="skip")
+    assert out.skipped.tolist() == [False, True]
+    assert np.array_equal(out.state.mean[1], prior.mean[1]) and np.array_equal(out.state.cov[1], prior.cov[1])
+    alone = engine.update(Gaussian(np.zeros(2), PRIOR.cov), z[0], MODEL).state
+    assert np.allclose(out.state.mean[0], alone.mean, rtol=0, atol=1e-14)
+    with pytest.raises(InvalidMeasurementError):
+        engine.update(prior, z, MODEL)
+
+
+def test_a_nav_filter_takes_a_robust_update_through_its_estimator():
+    """position-ca's streaming step with robust = huber: one 50 sigma fix moves the
+    estimate far less than under the plain Kalman filter (Huber's influence is bounded,
+    not nil: the fix still moves it by the gain times about c sigma), and cauchy's, which
+    redescends, less still."""
+    from gnssframework.interfaces import RunContext
+
+    moved = {}
+    for robust in (None, "huber", "cauchy"):
+        nav = registry.create("nav_filter", "position-ca", r0=1.0,
+                              estimator={"name": "kf", "params": {"robust": robust}})
+        nav.reset((1,), RunContext(epoch_interval_s=1.0))
+        for _ in range(30):
+            out = nav.step({"position_m": np.zeros((1, 2))})
+        out = nav.step({"position_m": np.array([[50.0, 0.0]])})
+        moved[robust] = float(out["position_m"][0, 0])
+    assert moved["huber"] < 0.2 * moved[None], moved
+    assert moved["cauchy"] < 0.5 * moved["huber"], moved
