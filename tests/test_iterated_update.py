@@ -184,7 +184,8 @@ def _compiled_range_model(beacons: np.ndarray) -> NonlinearModel:
 
     compiled = CompiledFunctions(linear_f, np.eye(2), h_rows, np.array(beacons, dtype=float), h_jacobian=h_jac)
     base = range_model(beacons)
-    return NonlinearModel(base.f, base.h, base.Q, base.R, f_jacobian=lambda x: np.broadcast_to(np.eye(2), x.shape + (2,)),
+    return NonlinearModel(base.f, base.h, base.Q, base.R,
+                          f_jacobian=lambda x: np.broadcast_to(np.eye(2), x.shape + (2,)),
                           h_jacobian=base.h_jacobian, compiled=compiled)
 
 
