@@ -43,6 +43,14 @@ class IteratedParams(PluginParams):
         "none: the Gaussian update")
 
 
+class ExtendedParams(IteratedParams):
+    """The EKF's: its iterations may be damped by a line search (Gauss-Newton only)."""
+
+    line_search: bool = Field(False, description="with iterations > 1 and no robust update: halve each "
+                              "Gauss-Newton step until the MAP cost does not increase (damped IEKF, Skoglund, "
+                              "Hendeby & Axehill 2015)")
+
+
 class LinearParams(PluginParams):
     """The Kalman filter's one parameter: its robust update (a linear update needs no iteration)."""
 
@@ -119,7 +127,7 @@ class ExtendedKalmanFilter(Estimator):
     """
 
     name = "ekf"
-    Params = IteratedParams
+    Params = ExtendedParams
     description = "Extended Kalman filter (analytic or central-difference Jacobians)"
 
     def predict(self, state: Gaussian, model) -> Gaussian:

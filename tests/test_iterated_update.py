@@ -99,6 +99,16 @@ def test_iekf_is_the_gauss_newton_map():
     assert np.allclose(iekf.mean, map_least_squares(z, BEACONS), rtol=0, atol=1e-8)
 
 
+@pytest.mark.parametrize("n_ranges", [1, 2])
+def test_the_damped_iekf_reaches_the_map_on_one_range_too(n_ranges):
+    """One range: the MAP cost has a crescent of near-minima, along which the undamped
+    Gauss-Newton iteration crawls; with the line search it reaches scipy's MAP."""
+    beacons = BEACONS[:n_ranges]
+    z = _ranges(TRUE_POSITION, beacons)
+    iekf = _update("ekf", z, beacons, iterations=30, iteration_tol=0.0, line_search=True).state
+    assert np.allclose(iekf.mean, map_least_squares(z, beacons), rtol=0, atol=1e-8)
+
+
 def test_one_iteration_is_the_plain_update_bit_for_bit():
     z = _ranges(TRUE_POSITION, BEACONS)
     for name in ("ekf", "ukf", "ckf", "svd-ckf"):

@@ -186,7 +186,8 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
         if plan is not None:  # iterated and/or robust: the loop of `iterated.iterated_update`
             iterations, tol, robust = plan
             return iterated_update(self, prior, z, model, on_failure=on_failure, missing=missing,
-                                   iterations=iterations, tol=tol, iteration=self.iteration_kind, robust=robust)
+                                   iterations=iterations, tol=tol, iteration=self.iteration_kind, robust=robust,
+                                   line_search=bool(getattr(self.params, "line_search", False)))
         # The fused pass computes the moments and the posterior itself: an engine that
         # overrides either of them takes the path below, which calls its overrides.
         # A model with angle-aware residual hooks takes that path too (the fused pass

@@ -62,9 +62,43 @@ def _where(mask: np.ndarray, new: np.ndarray, old: np.ndarray) -> np.ndarray:
     return np.where(mask.reshape(mask.shape + (1,) * extra), new, old)
 
 
+#: Most step halvings of the damped Gauss-Newton iteration (a step of 2^-20 of the full one).
+LINE_SEARCH_HALVINGS = 20
+
+
+def _map_cost(engine, model: Model, prior: Gaussian, z: np.ndarray, x: np.ndarray, res_x, res_z) -> np.ndarray:
+    r"""$\tfrac12 \|x - m\|^2_{P^{-1}} + \tfrac12 \|z - h(x)\|^2_{R^{-1}}$ per batch element,
+    with $h(x)$ from the engine's moments at $N(x, P)$ (the EKF's $h$ at $x$)."""
+    h_x = engine.measurement_moments(Gaussian(x, prior.cov), model)[0]
+    d, e = res_x(x, prior.mean), res_z(z, h_x)
+    R = np.broadcast_to(model.R, e.shape + e.shape[-1:])
+    return 0.5 * (np.einsum("...i,...i->...", d, np.linalg.solve(prior.cov, d[..., None])[..., 0])
+                  + np.einsum("...i,...i->...", e, np.linalg.solve(R, e[..., None])[..., 0]))
+
+
+def _damped(engine, model, prior, z, x, x_full, active, res_x, res_z) -> np.ndarray:
+    """The Gauss-Newton step from ``x`` towards ``x_full``, halved per batch element until
+    the MAP cost does not increase (Skoglund, Hendeby & Axehill, FUSION 2015: the IEKF with
+    a backtracking line search). Elements that no step improves stay at ``x``."""
+    cost_here = _map_cost(engine, model, prior, z, x, res_x, res_z)
+    step = res_x(x_full, x)
+    alpha = np.ones(cost_here.shape)
+    searching = np.broadcast_to(active, cost_here.shape).copy()
+    for _ in range(LINE_SEARCH_HALVINGS):
+        trial = x + alpha[..., None] * step
+        worse = searching & ~(_map_cost(engine, model, prior, z, trial, res_x, res_z) <= cost_here)
+        if not any_true(worse):
+            break
+        alpha = np.where(worse, 0.5 * alpha, alpha)
+        searching = worse
+    else:
+        alpha = np.where(searching, 0.0, alpha)
+    return x + alpha[..., None] * step
+
+
 def iterated_update(engine, prior: Gaussian, z: np.ndarray, model: Model, *, on_failure: str = "raise",
                     missing: str = "raise", iterations: int = 1, tol: float = 0.0,
-                    iteration: str = "gauss-newton", robust=None) -> Update:
+                    iteration: str = "gauss-newton", robust=None, line_search: bool = False) -> Update:
     """The iterated (and optionally robust) update of ``engine`` (see the module docstring).
 
     Parameters
@@ -82,6 +116,9 @@ def iterated_update(engine, prior: Gaussian, z: np.ndarray, model: Model, *, on_
         ``"gauss-newton"`` (IEKF) or ``"posterior-linearisation"`` (IPLF).
     robust
         Optional `RobustUpdate`; the loop then runs ``max(iterations, robust.iterations)``.
+    line_search
+        Gauss-Newton only, without a robust update: damp each step by halving it (up to
+        `LINE_SEARCH_HALVINGS` times) until the MAP cost does not increase (`_map_cost`).
     """
     relinearise = iterations > 1
     n_iter = max(iterations, robust.iterations if robust is not None else 1)
@@ -142,6 +179,8 @@ def iterated_update(engine, prior: Gaussian, z: np.ndarray, model: Model, *, on_
         gain = _t(np.linalg.solve(S_safe, _t(C)))
         innovation = res_z(z, z_hat)
         x_new = m + mat_vec(gain, innovation)
+        if line_search and relinearise and robust is None and iteration == "gauss-newton":
+            x_new = _damped(engine, model, prior, z, x, x_new, active, res_x, res_z)
         # The engine's own posterior form (the KF's Joseph form, with the effective R).
         P_new = engine.posterior_cov(prior, gain, S_safe, model if R_i is R else model.with_noise(R=R_i))
         if out is None:
