@@ -31,12 +31,19 @@ COMPONENT_KINDS = ("estimator", "noise_adapter", "augmentation", "discriminator"
 #: Every plugin kind, in the order the CLI lists them: the components, then the metrics a
 #: scenario reports, the scenarios themselves, the receiver's front end (sample formats
 #: and acquisition), the signals it receives and the C/N0 estimators of its lock detectors.
-KINDS = COMPONENT_KINDS + ("metric", "scenario", "sample_source", "acquisition", "signal", "cn0_estimator")
+KINDS = COMPONENT_KINDS + ("metric", "scenario", "sample_source", "acquisition", "signal", "cn0_estimator",
+                           "robust_update")
 
 
 @hookspec
 def register_estimator(register: Register) -> None:
     """Register Gaussian filter engines (subclasses of ``Estimator``)."""
+
+
+@hookspec
+def register_robust_update(register: Register) -> None:
+    """Register robust measurement updates (subclasses of
+    ``gnssframework.estimation.robust.RobustUpdate``)."""
 
 
 @hookspec

@@ -38,6 +38,7 @@ from .errors import ConfigError, PluginError
 from .suggest import did_you_mean
 from .estimation.adaptation import Augmentation, NoiseAdapter
 from .estimation.estimator import Estimator
+from .estimation.robust import RobustUpdate
 from .interfaces import ChannelFilter, Discriminator, NavFilter
 from .plugin import Plugin
 from .plugin_docs import parameter_table
@@ -82,6 +83,7 @@ BASES: dict[str, type] = {
     "nav_filter": NavFilter,
     "signal": Signal,
     "cn0_estimator": CN0Estimator,
+    "robust_update": RobustUpdate,
 }
 
 

@@ -12,6 +12,7 @@ from gnssframework.errors import ConfigError, NotPositiveDefiniteError
 from gnssframework.estimation import Estimator, Gaussian, LinearModel, SigmaPointEstimator
 from gnssframework.estimation.linalg import failing_indices, mat_vec, symmetrize
 from gnssframework.plugin import PluginParams
+from gnssframework.plugin_ref import PluginRef
 
 __all__ = [
     "KalmanFilter",
@@ -27,6 +28,35 @@ class EngineParams(PluginParams):
 
     no_parameters: ClassVar[str] = ("the engine is set by the model it is given (F, H or f, h, with Q and R) and the "
                                     "initial state; its rule has no tuning constant")
+
+
+class IteratedParams(PluginParams):
+    """The parameters every nonlinear engine shares: its iterated and robust update."""
+
+    iterations: int = Field(1, ge=1, le=100, description="most linearisations of the measurement update: 1 is the "
+                            "plain update; > 1 iterates (ekf: Gauss-Newton IEKF, sigma points: iterated posterior "
+                            "linearisation) until the step is below iteration_tol")
+    iteration_tol: float = Field(1e-9, ge=0, description="stopping rule of the iterations: largest state step in "
+                                 "prior standard deviations (each batch element stops on its own)")
+    robust: PluginRef("robust_update") | None = Field(
+        None, description="robust_update plugin that reweights R from the residual (huber, cauchy, student-t); "
+        "none: the Gaussian update")
+
+
+class ExtendedParams(IteratedParams):
+    """The EKF's: its iterations may be damped by a line search (Gauss-Newton only)."""
+
+    line_search: bool = Field(False, description="with iterations > 1 and no robust update: halve each "
+                              "Gauss-Newton step until the MAP cost does not increase (damped IEKF, Skoglund, "
+                              "Hendeby & Axehill 2015)")
+
+
+class LinearParams(PluginParams):
+    """The Kalman filter's one parameter: its robust update (a linear update needs no iteration)."""
+
+    robust: PluginRef("robust_update") | None = Field(
+        None, description="robust_update plugin that reweights R from the residual (huber, cauchy, student-t); "
+        "none: the Gaussian update")
 
 
 def _transpose(a: np.ndarray) -> np.ndarray:
@@ -48,7 +78,7 @@ class KalmanFilter(Estimator):
     """
 
     name = "kf"
-    Params = EngineParams
+    Params = LinearParams
     description = "Linear Kalman filter (Joseph-form covariance update)"
     #: Only for a LinearModel: nested-plugin parameters on nonlinear models refuse it.
     linear_only = True
@@ -97,7 +127,7 @@ class ExtendedKalmanFilter(Estimator):
     """
 
     name = "ekf"
-    Params = EngineParams
+    Params = ExtendedParams
     description = "Extended Kalman filter (analytic or central-difference Jacobians)"
 
     def predict(self, state: Gaussian, model) -> Gaussian:
@@ -116,7 +146,7 @@ class ExtendedKalmanFilter(Estimator):
         return model.h(prior.mean), symmetrize(H @ C + model.R), C
 
 
-class UnscentedParams(PluginParams):
+class UnscentedParams(IteratedParams):
     alpha: float = Field(1e-3, gt=0, description="spread of the points around the mean (> 1 spreads them beyond "
                          "sqrt(n + kappa) standard deviations, as FilterPy and Stone Soup allow)")
     beta: float = Field(2.0, ge=0, description="prior knowledge of the distribution (2 is optimal for Gaussians)")
@@ -192,7 +222,7 @@ class CubatureKalmanFilter(SigmaPointEstimator):
     """
 
     name = "ckf"
-    Params = EngineParams
+    Params = IteratedParams
     description = "Cubature Kalman filter, 2n third-degree spherical-radial points (Cholesky root)"
 
     def sigma_points(self, state: Gaussian):

@@ -20,8 +20,9 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 def test_kinds_and_builtin_names():
     assert registry.kinds() == ["acquisition", "augmentation", "channel_filter", "cn0_estimator", "discriminator",
-                                "estimator", "metric", "nav_filter", "noise_adapter", "sample_source", "scenario",
-                                "signal"]
+                                "estimator", "metric", "nav_filter", "noise_adapter", "robust_update", "sample_source",
+                                "scenario", "signal"]
+    assert builtin_names("robust_update") == ["cauchy", "gate", "huber", "student-t"]
     assert builtin_names("cn0_estimator") == ["beaulieu", "m2m4", "narrow-wide", "noise-channel", "snv"]
     assert builtin_names("signal") == ["beidou-b1c", "galileo-e1b", "galileo-e1b-boc11", "galileo-e1c",
                                        "galileo-e1c-boc11", "gps-l1ca", "gps-l2c", "qzss-l1ca", "qzss-l2c", "sbas-l1"]

@@ -57,3 +57,42 @@ def test_every_built_in_code_discriminator_declares_its_spacing_as_the_tutorial_
         coherent_time_s=0.01, early_late_spacing_chips=0.25)
     assert d.params.early_late_spacing_chips == 0.25
     assert "declares its spacing" in (DOCS / "from-plugin-to-comparison.md").read_text()
+
+
+def test_the_robust_update_recipe_is_a_working_plugin():
+    """The tutorial's Tukey update: with a huge c it is the plain update (to rounding); a gross
+    outlier beyond c gets (almost) no weight, so the update is the one without that row."""
+    from gnssframework import registry
+    from gnssframework.estimation import Gaussian, LinearModel
+
+    namespace: dict = {}
+    exec(compile(_block("writing-a-plugin.md", "class TukeyUpdate"), "recipe", "exec"), namespace)  # noqa: S102
+    tukey = namespace["TukeyUpdate"]
+    H = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    model = LinearModel(np.eye(2), H, np.eye(2), np.eye(3))
+    prior = Gaussian(np.zeros(2), np.eye(2) * 4.0)
+    z = np.array([0.5, -0.3, 50.0])
+
+    class Engine(registry.get("estimator", "kf")):
+        name = "kf-tukey-test"
+
+    def run(threshold, rows=slice(None)):
+        engine = Engine()
+        engine.backend = "numpy"
+        engine._iteration_plan = lambda: (1, 0.0, tukey(threshold=threshold, iterations=50, tol=0.0))
+        m = LinearModel(np.eye(2), H[rows], np.eye(2), np.eye(3)[rows][:, rows])
+        return engine.update(prior, z[rows], m).state
+
+    plain = registry.create("estimator", "kf")
+    plain.backend = "numpy"
+    wide = run(1e9)
+    ref = plain.update(prior, z, model).state
+    assert np.allclose(wide.mean, ref.mean, rtol=1e-12) and np.allclose(wide.cov, ref.cov, rtol=1e-12)
+    # at the fixed point, the Kalman update with R / w(r) (r the residual there) gives the
+    # mean back, and the outlier's weight is the floor: it has no say
+    out = run(4.685)
+    r = z - H @ out.mean
+    w = np.maximum((1 - np.minimum((r / 4.685) ** 2, 1)) ** 2, 1e-12)
+    assert w[2] == 1e-12 and (w[:2] > 0.9).all()
+    S = H @ prior.cov @ H.T + np.diag(1 / w)
+    assert np.allclose(prior.cov @ H.T @ np.linalg.solve(S, z), out.mean, atol=1e-10)

@@ -24,6 +24,7 @@ from ..errors import InvalidMeasurementError, NotPositiveDefiniteError
 from ..plugin import Plugin
 from . import compiled as kernels
 from .linalg import all_true, any_true, cholesky_masked, failing_indices, mat_vec, symmetrize
+from .iterated import iterated_update
 from .types import Gaussian, Model, Update
 
 __all__ = ["Estimator", "SigmaPointEstimator", "OnFailure", "OnMissing"]
@@ -123,6 +124,26 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
         f/h, or ``None`` (this engine has none for this model)."""
         return None
 
+    #: How `iterated_update` relinearises when the engine's ``iterations`` > 1:
+    #: ``"gauss-newton"`` (IEKF) or ``"posterior-linearisation"`` (IPLF).
+    iteration_kind: str = "gauss-newton"
+
+    def _iteration_plan(self):
+        """``(iterations, tol, robust)`` when the engine's parameters ask for an iterated or
+        robust update (``iterations`` > 1 or a ``robust`` plugin), else ``None``."""
+        params = getattr(self, "params", None)
+        iterations = int(getattr(params, "iterations", 1) or 1)
+        spec = getattr(params, "robust", None)
+        if iterations <= 1 and spec is None:
+            return None
+        robust = None
+        if spec is not None:
+            cache = self.__dict__.get("_robust_cache")
+            if cache is None or cache[0] is not spec:
+                cache = self.__dict__["_robust_cache"] = (spec, spec.create())
+            robust = cache[1]
+        return iterations, float(getattr(params, "iteration_tol", 0.0)), robust
+
     def posterior_cov(self, prior: Gaussian, gain: np.ndarray, S: np.ndarray, model: Model) -> np.ndarray:
         """``P - K S K^T``, symmetrised. Engines may override (Joseph form)."""
         return symmetrize(prior.cov - gain @ S @ np.swapaxes(gain, -1, -2))
@@ -161,6 +182,12 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
                 prior = Gaussian(np.broadcast_to(prior.mean, batch + prior.mean.shape[-1:]), prior.cov)
             z = np.broadcast_to(z, batch + z.shape[-1:])
 
+        plan = self._iteration_plan()
+        if plan is not None:  # iterated and/or robust: the loop of `iterated.iterated_update`
+            iterations, tol, robust = plan
+            return iterated_update(self, prior, z, model, on_failure=on_failure, missing=missing,
+                                   iterations=iterations, tol=tol, iteration=self.iteration_kind, robust=robust,
+                                   line_search=bool(getattr(self.params, "line_search", False)))
         # The fused pass computes the moments and the posterior itself: an engine that
         # overrides either of them takes the path below, which calls its overrides.
         # A model with angle-aware residual hooks takes that path too (the fused pass
@@ -256,6 +283,7 @@ class SigmaPointEstimator(Estimator):
     on linear models.
     """
 
+    iteration_kind = "posterior-linearisation"
     #: The square root `kernel_rule` describes: 0 the lower Cholesky factor (the default
     #: ``square_root``), 1 ``V sqrt(|w|)`` of the symmetric eigen-decomposition. A class
     #: that overrides ``square_root`` declares its root here.

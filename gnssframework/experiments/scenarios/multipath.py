@@ -1,7 +1,8 @@
 """Scenario ``multipath``: position-domain filtering with AR(1) colored noise (Liu et al. 2020).
 
 A static receiver's latitude and longitude (local metres) are measured every epoch with
-AR(1) colored multipath noise plus white noise. Candidates compose a ``nav_filter``
+AR(1) colored multipath noise plus white noise, and optionally gross (NLOS-like) errors
+on a fraction ``outlier_probability`` of the epochs. Candidates compose a ``nav_filter``
 (``position-ca``), an ``estimator``, and optionally a ``colored-ar1`` augmentation and a
 ``noise_adapter``; a candidate with none of these reports the measurement itself (``raw``).
 A ``colored-ar1`` without ``psi`` gets the case's true psi, or (its ``psi_estimator``)
@@ -91,6 +92,12 @@ class MultipathParams(ScenarioParams):
     multipath_std_m: float = Field(3.0, ge=0, description="stationary std of the colored part")
     white_std_m: float = Field(0.5, ge=0, description="std of the white part")
     convergence_window: int = Field(10, ge=1, description="epochs of the running RMS in the convergence test")
+    outlier_probability: float = Field(0.0, ge=0, lt=1, description="probability that an epoch's coordinate "
+                                       "carries a gross (NLOS-like) error besides the noise (0: none; the "
+                                       "noise draws are the same either way)")
+    outlier_std_m: float = Field(30.0, ge=0, description="std of the gross errors (zero-mean Gaussian)")
+    outlier_from_epoch: int = Field(1, ge=0, description="first epoch that may carry a gross error (the filters "
+                                    "initialise on epoch 0: 1 keeps that fix clean, as a checked first fix)")
 
 
 class MultipathCase(ScenarioParams):
@@ -176,7 +183,13 @@ class MultipathScenario(Scenario):
         epochs = p.epochs if epochs is None else epochs
         xi_std = p.multipath_std_m * np.sqrt(1 - psi**2)
         colored = ar1_noise(psi, xi_std, epochs, rng, batch_shape=(runs, 2))
-        return colored + p.white_std_m * draw.standard_normal(rng, (epochs, runs, 2), 1)
+        noise = colored + p.white_std_m * draw.standard_normal(rng, (epochs, runs, 2), 1)
+        if p.outlier_probability > 0:  # a stream of its own: the noise above is unchanged
+            outliers = draw.child(rng, "gross-errors")
+            hit = draw.random(outliers, (epochs, runs, 2), 1) < p.outlier_probability
+            hit[:p.outlier_from_epoch] = False
+            noise = noise + np.where(hit, p.outlier_std_m * draw.standard_normal(outliers, (epochs, runs, 2), 1), 0.0)
+        return noise
 
     def assumption_context(self, case: dict[str, Any]) -> dict[str, Any]:
         r"""What the candidates' ``assumptions`` compare against in ``case``: the true AR(1)
