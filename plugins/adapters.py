@@ -12,9 +12,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from gnssframework.errors import ConfigError
 from gnssframework.estimation import AdaptationStep, AdapterRun, NoiseAdapter, SafeguardParams
-from gnssframework.plugin import PluginParams
 from gnssframework.estimation.linalg import outer, project_psd
 
 __all__ = ["InnovationAdapter", "SageHusaAdapter", "MaximumLikelihoodQAdapter"]

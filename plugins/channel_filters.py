@@ -9,7 +9,7 @@ from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
 from gnssframework import registry
 from gnssframework.errors import ConfigError, NumericalError
-from gnssframework.estimation import FilterStep, Gaussian, LinearModel, NonlinearModel, register_warm_up
+from gnssframework.estimation import FilterStep, Gaussian, LinearModel, register_warm_up
 from gnssframework.interfaces import ChannelFilter, RunContext
 from gnssframework.signal.channel_model import channel_model
 from gnssframework.signal.correlator_model import tap_noise_cov

@@ -11,7 +11,7 @@ from pydantic import Field, NonNegativeFloat, PositiveFloat
 from gnssframework.errors import ConfigError
 from gnssframework import backend
 from gnssframework.estimation import (CompiledFunctions, FilterStep, Gaussian, LinearModel, NonlinearModel,
-                                     filter_sequence, linear_f, register_warm_up)
+                                     linear_f, register_warm_up)
 from gnssframework.interfaces import BatchPositionFilter, NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear

@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import ConfigError, GnssFrameworkError, RunFailure, WorkerError
 from ..progress import Progress
 from .config import DASK_ADDRESS_ENV, ComparisonConfig
-from ..io.files import atomic_open, atomic_write_text
+from ..io.files import atomic_open
 from .folder import claim_folder
 from .metric_components import evaluate
 from .metrics import metric_component

@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConfigError, DataFileError
-from .text import check_input_file, read_input_text
+from .text import read_input_text
 
 __all__ = ["RinexScan", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs",
            "PSEUDORANGE_MIN_M", "PSEUDORANGE_MAX_M"]

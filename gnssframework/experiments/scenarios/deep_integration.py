@@ -28,7 +28,6 @@ from __future__ import annotations
 from typing import Any, Literal
 
 import numpy as np
-import pymap3d
 from pydantic import Field
 
 from ... import random_streams as draw
@@ -38,7 +37,7 @@ from ...inertial.earth import STANDARD_GRAVITY_MPS2
 from ...interfaces import ErrorStateNavFilter, RunContext
 from ...inertial.imu import ImuGrade
 from ...inertial.trajectory import MAX_START_LAT_DEG
-from ...receiver.deep.aided_tracking import DeepTruth, loss_of_lock, run_aided_tracking
+from ...receiver.deep.aided_tracking import DeepTruth, loss_of_lock
 from .deep_integration_metrics import attitude_errors_deg, enu_errors
 from ...receiver.tracking.scalar import NCO_COMMANDS
 from ...receiver.tracking.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_vector_loop

@@ -16,7 +16,7 @@ filters the whole sequence through it, with its model's Q and R scaled for the o
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from pydantic import Field
