@@ -123,7 +123,8 @@ def run(path: Path) -> dict:
         if spec is None:
             continue
         kind, params = spec
-        res = smooth_observations(obs_l1, lambda: gf.registry.create("channel_filter", kind, **params))
+        # B023 is a false positive below: smooth_observations calls the factory before the loop moves on
+        res = smooth_observations(obs_l1, lambda: gf.registry.create("channel_filter", kind, **params))  # noqa: B023
         smoothed[name], resets[name] = res.smoothed_m, res.slip_detected
         starts = res.arc_start  # the same for every candidate: flags and gaps
     smoothed["raw"] = obs.pseudorange_m

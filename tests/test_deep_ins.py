@@ -122,7 +122,10 @@ def test_loose_update_with_an_exact_fix_puts_the_ins_on_the_fix():
     # A perfect IMU (no process noise over a zero interval) and a fix far better than the INS:
     # the corrected INS equals the fix to the ratio of the variances.
     runs = 3
-    rx = lambda t: (np.zeros((runs, 3)) + [1e6, 2e6, 3e6], np.zeros((runs, 3)) + [50.0, 0, 0], np.zeros((runs, 3)))
+
+    def rx(t):
+        return np.zeros((runs, 3)) + [1e6, 2e6, 3e6], np.zeros((runs, 3)) + [50.0, 0, 0], np.zeros((runs, 3))
+
     g = np.random.default_rng(1)
     P0 = _P0()
     ins = _LinearErrorIns(rx, g.normal(size=(runs, 15)) @ np.linalg.cholesky(P0).T, g)

@@ -303,7 +303,7 @@ def _run_trial(config, store, trial, execute) -> float:
             not in done]
     try:
         with closing(execute(jobs)) as results:  # closed at once on Ctrl-C: workers stop
-            for i, (task, metrics, _series, _time) in results:
+            for _i, (task, metrics, _series, _time) in results:
                 store.add_batch(key, trial.cases[task.case_index].name, trial.candidates[0].name, task.first_run,
                                 metrics)
     except RunFailure:
