@@ -9,7 +9,7 @@ import sqlite3
 import sys
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 from . import registry
 from .errors import ConfigError, DataFileError, GnssFrameworkError

@@ -26,7 +26,8 @@ import dataclasses
 import functools
 import inspect
 from dataclasses import dataclass
-from typing import Any, ClassVar, Mapping, Optional
+from typing import Any, ClassVar
+from collections.abc import Mapping
 
 import numpy as np
 from pydantic import Field
@@ -74,7 +75,7 @@ def _unset(value: Any) -> bool:
     return value is None or (isinstance(value, tuple) and not value)
 
 
-def _frozen_array(value: Any) -> Optional[np.ndarray]:
+def _frozen_array(value: Any) -> np.ndarray | None:
     if value is None:
         return None
     arr = np.array(value, dtype=float)  # a copy: the harness's later edits cannot leak in
@@ -127,15 +128,15 @@ class RunContext:
     gnssframework.errors.ConfigError: run context.doppler_hz: channel_filter 'scalar' needs it, but this harness does not provide it (it provides: coherent_time_s, cn0_dbhz)
     """
 
-    coherent_time_s: Optional[float] = None
-    early_late_spacing_chips: Optional[float] = None
-    epoch_interval_s: Optional[float] = None
-    cn0_dbhz: Optional[np.ndarray] = None
-    doppler_hz: Optional[np.ndarray] = None
+    coherent_time_s: float | None = None
+    early_late_spacing_chips: float | None = None
+    epoch_interval_s: float | None = None
+    cn0_dbhz: np.ndarray | None = None
+    doppler_hz: np.ndarray | None = None
     satellites: tuple[int, ...] = ()
-    initial_state: Optional[np.ndarray] = None
-    initial_cov: Optional[np.ndarray] = None
-    signal: Optional[SignalSpec] = None
+    initial_state: np.ndarray | None = None
+    initial_cov: np.ndarray | None = None
+    signal: SignalSpec | None = None
 
     def __post_init__(self) -> None:
         for name in ("cn0_dbhz", "doppler_hz", "initial_state", "initial_cov"):
@@ -301,7 +302,7 @@ class SequentialFilter(Plugin, abc.ABC):
         return out
 
 
-def _checked_inputs(filt: "SequentialFilter", inputs: Mapping[str, Any]) -> Mapping[str, Any]:
+def _checked_inputs(filt: SequentialFilter, inputs: Mapping[str, Any]) -> Mapping[str, Any]:
     """``inputs`` with every name ``filt.requires`` present and numeric: a missing name or
     text where numbers go is an `InvalidInputError` naming the filter and the input; a
     NumPy masked array's masked entries become NaN (missing measurements, as the readers

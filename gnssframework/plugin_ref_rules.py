@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import typing
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
+from collections.abc import Callable
 
 __all__ = ["RefRule", "field_rules", "misfit", "plugin_refs", "plugin_ref_constraints"]
 

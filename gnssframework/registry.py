@@ -28,7 +28,8 @@ import pkgutil
 import threading
 import types
 from dataclasses import dataclass
-from typing import Any, Callable, Iterable
+from typing import Any
+from collections.abc import Callable, Iterable
 
 import pluggy
 

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal, Mapping
+from typing import Any, Literal
+from collections.abc import Mapping
 
 import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
@@ -205,7 +206,7 @@ class KalmanLoopParams(PluginParams):
                                              "per state")
 
     @model_validator(mode="after")
-    def _one_value_per_state(self) -> "KalmanLoopParams":
+    def _one_value_per_state(self) -> KalmanLoopParams:
         n = self.states
         if len(self.q) != n:
             raise NestedFieldError("q", f"needs {n} values for states = {n} (got {self.q})")

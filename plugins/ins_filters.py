@@ -28,7 +28,8 @@ Another ``estimator`` from the registry runs the update (``kf`` by default; ``ek
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any
+from collections.abc import Mapping
 
 import numpy as np
 from pydantic import Field, NonNegativeFloat

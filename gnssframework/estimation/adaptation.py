@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 from pydantic import Field
@@ -105,7 +105,7 @@ class AdapterRun(abc.ABC):
         self.updates = 0
 
     @staticmethod
-    def compiled_innovation_window(size: int) -> "compiled_loop.InnovationWindow | None":
+    def compiled_innovation_window(size: int) -> compiled_loop.InnovationWindow | None:
         """The compiled running mean of the last ``size`` innovation estimates
         (`gnssframework.estimation.compiled.loop.InnovationWindow`) under the compiled
         backend, else ``None`` (the adapter keeps its NumPy window)."""

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from typing import Any, Callable
+from typing import Any
+from collections.abc import Callable
 
 from ..errors import InvalidArgumentError, InvalidInputError
 from .linalg import to_float

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math  # noqa: F401  (in the globals of the jitted functions' size-specialised twins)
 from dataclasses import dataclass
-from typing import Callable, Optional
+from collections.abc import Callable
 
 import numpy as np
 
@@ -99,8 +99,8 @@ class CompiledFunctions:
     f_params: np.ndarray
     h: Callable
     h_params: np.ndarray
-    h_jacobian: Optional[Callable] = None
-    sizes: Optional[tuple[int, int]] = None
+    h_jacobian: Callable | None = None
+    sizes: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         for name in ("f", "h"):

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Union
+from collections.abc import Callable
 
 import numpy as np
 
@@ -156,7 +156,7 @@ def _check_arguments(estimator, model, initial, adapter, augmentation) -> None:
 
 def filter_sequence(
     estimator: Estimator,
-    model: Union[Model, Callable[[int], Model]],
+    model: Model | Callable[[int], Model],
     zs: np.ndarray,
     initial: Gaussian,
     adapter: NoiseAdapter | None = None,

@@ -78,7 +78,7 @@ class FreeParameter(BaseModel):
                                      "a range")
 
     @model_validator(mode="after")
-    def _one_form(self) -> "FreeParameter":
+    def _one_form(self) -> FreeParameter:
         for end in ("low", "high"):
             value = getattr(self, end)
             if value is not None and not math.isfinite(value):

@@ -69,7 +69,7 @@ class NavState:
         object.__setattr__(self, "velocity_ecef_mps", v)
         object.__setattr__(self, "position_ecef_m", r)
 
-    def broadcast(self, batch_shape: tuple[int, ...]) -> "NavState":
+    def broadcast(self, batch_shape: tuple[int, ...]) -> NavState:
         """The same state repeated over a batch of runs (copies, so runs can diverge)."""
         return NavState(
             np.broadcast_to(self.q_b_e, batch_shape + (4,)).copy(),

@@ -169,7 +169,7 @@ class DeepIntegrationCase(ScenarioParams):
     accel_misalignment_mrad: float | None = Field(None, ge=0, description="this case's accelerometer "
                                                   "misalignment (mrad; default: the scenario's imu)")
 
-    def scenario_update(self, params: "DeepIntegrationParams") -> dict[str, Any]:
+    def scenario_update(self, params: DeepIntegrationParams) -> dict[str, Any]:
         """The scenario parameters this case replaces (empty: none)."""
         update: dict[str, Any] = {}
         if self.oscillator_g_sensitivity_per_g is not None:
