@@ -26,8 +26,8 @@ import dataclasses
 import functools
 import inspect
 from dataclasses import dataclass
-from typing import Any, ClassVar
-from collections.abc import Mapping
+from typing import Any, ClassVar, TypeVar
+from collections.abc import Callable, Mapping
 
 import numpy as np
 from pydantic import Field
@@ -191,11 +191,14 @@ class RunContext:
 
 
 
-def _marks_reset(reset):
+_R = TypeVar("_R")
+
+
+def _marks_reset(reset: Callable[..., _R]) -> Callable[..., _R]:
     """Wrap a plugin's ``reset`` so that `SequentialFilter.checked_step` knows it ran."""
 
     @functools.wraps(reset)
-    def wrapper(self, *args, **kwargs):
+    def wrapper(self: Any, *args: Any, **kwargs: Any) -> _R:
         out = reset(self, *args, **kwargs)
         self._reset_done = True
         return out
@@ -248,7 +251,8 @@ class SequentialFilter(Plugin, abc.ABC):
                 f"{cls.__module__}.{cls.__qualname__}.reset(self, batch_shape, **context) is the signature "
                 "before 0.2; write reset(self, batch_shape, context) and read the harness's values from the "
                 "frozen gnssframework.RunContext (context.coherent_time_s, context.require('cn0_dbhz', ...))")
-        cls.reset = _marks_reset(cls.reset)
+        # Wraps the subclass's own reset once, when the class is made (the marker checked_step reads).
+        cls.reset = _marks_reset(cls.reset)  # type: ignore[method-assign]
 
     #: Names of the inputs ``step`` needs.
     requires: ClassVar[tuple[str, ...]] = ()
@@ -319,6 +323,7 @@ def _checked_inputs(filt: SequentialFilter, inputs: Mapping[str, Any]) -> Mappin
         if isinstance(value, np.ma.MaskedArray):
             masked[name] = np.ma.filled(value.astype(float), np.nan)
             continue
+        kind: str | None
         if isinstance(value, (str, bytes)) or value is None:
             kind = "text" if value is not None else "None"
         elif isinstance(value, (np.ndarray, list, tuple)):

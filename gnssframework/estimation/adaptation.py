@@ -75,12 +75,14 @@ class AdaptationStep:
     def predicted_measurement_spread(self) -> np.ndarray:
         """``S - R``: the spread of the predicted measurement alone (``H P H^T`` for a KF,
         ``sum w_i (Z_i - z_hat)(Z_i - z_hat)^T`` for a sigma-point filter)."""
-        return self.update.innovation_cov - self.model.R
+        spread: np.ndarray = self.update.innovation_cov - self.model.R
+        return spread
 
     @property
     def propagated_spread(self) -> np.ndarray:
         """``P[k|k-1] - Q``: ``Phi P[k-1] Phi^T`` for a KF, its sigma-point analogue otherwise."""
-        return self.prior.cov - self.model.Q
+        spread: np.ndarray = self.prior.cov - self.model.Q
+        return spread
 
 
 class SafeguardParams(PluginParams):

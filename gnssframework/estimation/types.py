@@ -16,6 +16,8 @@ import dataclasses
 from dataclasses import dataclass, field
 from collections.abc import Callable
 
+from typing import Any
+
 import numpy as np
 
 from ..errors import ConfigError
@@ -75,14 +77,15 @@ class Gaussian:
     @property
     def ndim_state(self) -> int:
         """State dimension n."""
-        return self.mean.shape[-1]
+        n: int = self.mean.shape[-1]
+        return n
 
     @property
     def batch_shape(self) -> tuple[int, ...]:
         """Leading (batch) dimensions."""
         return self.mean.shape[:-1]
 
-    def __getitem__(self, index) -> Gaussian:
+    def __getitem__(self, index: Any) -> Gaussian:
         """Select batch elements: ``state[3]``, ``state[:, 0]``."""
         if not isinstance(index, tuple):
             index = (index,)
@@ -158,11 +161,13 @@ class LinearModel:
 
     @property
     def dim_state(self) -> int:
-        return self.F.shape[-1]
+        n: int = self.F.shape[-1]
+        return n
 
     @property
     def dim_meas(self) -> int:
-        return self.R.shape[-1]
+        m: int = self.R.shape[-1]
+        return m
 
     @property
     def compiled(self) -> CompiledFunctions | None:
@@ -263,11 +268,13 @@ class NonlinearModel:
 
     @property
     def dim_state(self) -> int:
-        return self.Q.shape[-1]
+        n: int = self.Q.shape[-1]
+        return n
 
     @property
     def dim_meas(self) -> int:
-        return self.R.shape[-1]
+        m: int = self.R.shape[-1]
+        return m
 
     def jacobian_f(self, x: np.ndarray) -> np.ndarray:
         """``df/dx`` at ``x``: analytic when given, else central differences."""
