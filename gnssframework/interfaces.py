@@ -59,6 +59,7 @@ class Discriminator(Plugin, abc.ABC):
     kind = "discriminator"
     unit: ClassVar[str] = ""
     Params = DiscriminatorParams
+    params: DiscriminatorParams  # self.params, as validated
     #: True for frequency discriminators, which need the previous prompt.
     needs_previous: ClassVar[bool] = False
 

@@ -57,6 +57,7 @@ class ParallelCodePhaseSearch(Acquisition):
     name = "pcps"
     description = "FFT parallel code-phase search, threshold from a false-alarm probability"
     Params = PcpsParams
+    params: PcpsParams  # self.params, as validated
 
     def _coherent_s(self, signal: SignalSpec = GPS_L1CA) -> float:
         """The coherent time: ``coherent_ms`` code periods of ``signal`` (ms for L1 C/A)."""

@@ -131,6 +131,7 @@ class ScalarTrackingLoop(ChannelFilter):
     name = "scalar"
     description = "Scalar tracking: FLL-assisted PLL (order 2-3) + carrier-aided DLL"
     Params = ScalarParams
+    params: ScalarParams  # self.params, as validated
     requires = ("correlators",)
     provides = ("carrier_freq_hz", "code_freq_hz", "code_disc_chips", "phase_disc_rad", "freq_disc_hz")
 
@@ -243,6 +244,7 @@ class KalmanCarrierLoop(ChannelFilter):
     name = "kf-carrier-loop"
     description = "Kalman carrier tracking loop on the two-quadrant arctangent (Xia et al.)"
     Params = KalmanLoopParams
+    params: KalmanLoopParams  # self.params, as validated
     requires = ("correlators",)
     provides = ("carrier_freq_hz", "code_freq_hz", "carrier_phase_step_rad", "phase_disc_rad", "code_disc_chips")
 
@@ -367,6 +369,7 @@ class DiscriminatorChannel(ChannelFilter):
     name = "discriminator"
     description = "Code and frequency discriminators with their noise variances, for vector loops"
     Params = DiscriminatorChannelParams
+    params: DiscriminatorChannelParams  # self.params, as validated
     requires = ("correlators",)
     provides = VECTOR_OUTPUTS
 
@@ -576,6 +579,7 @@ class IqFilter(ChannelFilter):
     name = "iq-filter"
     description = "CKF on the six I/Q correlator outputs with adaptive R (Zou et al. 2018)"
     Params = IqFilterParams
+    params: IqFilterParams  # self.params, as validated
     requires = ("correlators",)
     provides = VECTOR_OUTPUTS + ("amplitude", "phase_error_rad")
 

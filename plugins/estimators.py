@@ -49,6 +49,7 @@ class KalmanFilter(Estimator):
 
     name = "kf"
     Params = EngineParams
+    params: EngineParams  # self.params, as validated
     description = "Linear Kalman filter (Joseph-form covariance update)"
     #: Only for a LinearModel: nested-plugin parameters on nonlinear models refuse it.
     linear_only = True
@@ -98,6 +99,7 @@ class ExtendedKalmanFilter(Estimator):
 
     name = "ekf"
     Params = EngineParams
+    params: EngineParams  # self.params, as validated
     description = "Extended Kalman filter (analytic or central-difference Jacobians)"
 
     def predict(self, state: Gaussian, model) -> Gaussian:
@@ -156,6 +158,7 @@ class UnscentedKalmanFilter(SigmaPointEstimator):
     name = "ukf"
     description = "Unscented Kalman filter, Merwe scaled sigma points (alpha, beta, kappa)"
     Params = UnscentedParams
+    params: UnscentedParams  # self.params, as validated
 
     def sigma_points(self, state: Gaussian):
         n = state.ndim_state
@@ -193,6 +196,7 @@ class CubatureKalmanFilter(SigmaPointEstimator):
 
     name = "ckf"
     Params = EngineParams
+    params: EngineParams  # self.params, as validated
     description = "Cubature Kalman filter, 2n third-degree spherical-radial points (Cholesky root)"
 
     def sigma_points(self, state: Gaussian):

@@ -82,6 +82,7 @@ class InsEkf(ErrorStateNavFilter):
     name = "ins-ekf"
     description = "15-state error-state INS integration filter, differenced or PV-fix updates (Cai and Guo 2017)"
     Params = InsEkfParams
+    params: InsEkfParams  # self.params, as validated
     requires = ("residual_m", "residual_cov")
     provides = ("error_state", "cov")
     error_states = N_ERROR_STATES

@@ -208,6 +208,7 @@ class EkfPositionVelocity(NavFilter):
     name = "ekf-pv"
     description = "8-state position/velocity/clock EKF for vector tracking (Zou et al. 2018)"
     Params = EkfPvParams
+    params: EkfPvParams  # self.params, as validated
     requires = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", "freq_error_var_hz2")
     provides = ("position_m", "velocity_m_s", "clock_m", "cov", "nco_range_m", "nco_range_rate_m_s")
 
@@ -346,6 +347,7 @@ class PositionConstantAcceleration(BatchPositionFilter):
     name = "position-ca"
     description = "Constant-acceleration position filter per coordinate (Liu et al. 2020)"
     Params = PositionCaParams
+    params: PositionCaParams  # self.params, as validated
     requires = ("position_m",)
     provides = ("position_m",)
 

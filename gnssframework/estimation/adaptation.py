@@ -178,6 +178,7 @@ class NoiseAdapter(Plugin, abc.ABC):
 
     kind = "noise_adapter"
     Params = SafeguardParams
+    params: SafeguardParams  # self.params, as validated
 
     @abc.abstractmethod
     def start(self, Q0: np.ndarray, R0: np.ndarray) -> AdapterRun:

@@ -225,6 +225,7 @@ class DeepIntegrationScenario(Scenario):
 
     kind = "deep-integration"
     Params = DeepIntegrationParams
+    params: DeepIntegrationParams  # self.params, as validated
     CaseParams = DeepIntegrationCase
     components = {"channel_filter": True, "nav_filter": True}
     metrics = units(METRICS)

@@ -123,6 +123,7 @@ class MultipathScenario(Scenario):
 
     kind = "multipath"
     Params = MultipathParams
+    params: MultipathParams  # self.params, as validated
     CaseParams = MultipathCase
     components = {"nav_filter": False, "estimator": False, "augmentation": False, "noise_adapter": False}
     CandidateOptions = MultipathCandidateOptions
