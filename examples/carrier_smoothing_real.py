@@ -123,8 +123,8 @@ def run(path: Path) -> dict:
         if spec is None:
             continue
         kind, params = spec
-        # B023 is a false positive below: smooth_observations calls the factory before the loop moves on
-        res = smooth_observations(obs_l1, lambda: gf.registry.create("channel_filter", kind, **params))  # noqa: B023
+        res = smooth_observations(obs_l1,
+                                  lambda kind=kind, params=params: gf.registry.create("channel_filter", kind, **params))
         smoothed[name], resets[name] = res.smoothed_m, res.slip_detected
         starts = res.arc_start  # the same for every candidate: flags and gaps
     smoothed["raw"] = obs.pseudorange_m

@@ -86,10 +86,9 @@ def test_every_chunk_runs_once_on_either_thread():
         for _ in range(20):
             seen, threads = [], set()
 
-            def run(i):
-                # B023 is a false positive below: run_chunks returns before the next iteration rebinds them
-                seen.append(i)  # noqa: B023
-                threads.add(threading.current_thread().name)  # noqa: B023
+            def run(i, seen=seen, threads=threads):
+                seen.append(i)
+                threads.add(threading.current_thread().name)
 
             kernel_pool.run_chunks(n_chunks, run)
             assert sorted(seen) == list(range(n_chunks))

@@ -203,10 +203,9 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
         form = self._kernel_posterior() if self._use_kernels() and not _hooked(model) else None
         if form is not None:
             joseph = form == "joseph"
+            H = model.H if joseph else None  # type: ignore[union-attr]  # "joseph": the KF's form, linear models
             mean, cov, gain, innovation, ok = kernels.update(
-                prior.mean, prior.cov, z, z_hat, S, C, bad_z, joseph,
-                # "joseph" is the KF's form, whose models are linear (have H)
-                model.H if joseph else None, model.R if joseph else None,  # type: ignore[union-attr]
+                prior.mean, prior.cov, z, z_hat, S, C, bad_z, joseph, H, model.R if joseph else None,
             )
             if on_failure == "raise" and not all_true(ok):
                 raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")

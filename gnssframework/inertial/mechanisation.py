@@ -334,7 +334,10 @@ def integrate(
     state = state0.broadcast(batch)
     if options.use_compiled:
         nb = int(np.prod(batch, dtype=int))
-        flat = lambda x, lead=(): np.ascontiguousarray(np.broadcast_to(x, lead + batch + (x.shape[-1],))).reshape(lead + (nb, x.shape[-1]))  # noqa: E731
+
+        def flat(x, lead=()):
+            return np.ascontiguousarray(np.broadcast_to(x, lead + batch + (x.shape[-1],))).reshape(lead + (nb, x.shape[-1]))
+
         has_prev = prev_dtheta_rad is not None
         pth = np.zeros(3) if prev_dtheta_rad is None else np.asarray(prev_dtheta_rad, dtype=float)
         pdv = np.zeros(3) if prev_dv_mps is None else np.asarray(prev_dv_mps, dtype=float)
