@@ -74,7 +74,8 @@ def sample_runs(runs: int, duration_s: float, seed: int) -> list[TrackingRecord]
                                 carrier_phase_rad=SIGNAL["carrier_phase_rad"], complex_samples=True,
                                 sample_type="float32")
         out.append(_track(_truth(duration_s, 1),
-                          lambda ch: SampleSource(x.samples, SAMPLE_RATE_HZ, IF_HZ, code, T_S, noise_std=x.noise_std)))
+                          lambda ch, x=x: SampleSource(x.samples, SAMPLE_RATE_HZ, IF_HZ, code, T_S,
+                                                       noise_std=x.noise_std)))
     return out
 
 

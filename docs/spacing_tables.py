@@ -75,7 +75,6 @@ def render(config, summary: dict, store: ResultStore) -> str:
              "plugin's thermal-noise standard deviation of one output, "
              "$\\sqrt{\\frac{D}{4cT}\\left(1 + \\frac{1}{(2-D)cT}\\right)}$ chips.", ""]
     cases = sweep["cases"]
-    heads = [f"formula, {case}" for case in cases]
     lines += [f"**{CODE_METRIC} (chips)**: the formula, then each candidate (mean ± SE); the last columns the "
               f"ratio `{cases[-1]}` / `{cases[0]}` of the formula and of the first candidate", "",
               "| spacing D (chips) | " + " | ".join(f"formula, `{case}` | " + " | ".join(f"`{c}`, `{case}`" for c in cands)
@@ -98,7 +97,7 @@ def render(config, summary: dict, store: ResultStore) -> str:
         lines.append(f"| {value:g} | " + " | ".join(cells) + " |")
     paper = [config.published.get(case, {}).get(cands[0], {}).get(CODE_METRIC) for case in cases]
     cells = []
-    for case, v in zip(cases, paper):
+    for v in paper:
         cells += ["", "–" if v is None else f"{v:g} (paper)"] + [""] * (len(cands) - 1)
     if len(cases) == 2:
         cells += ["", "–" if None in paper else f"{paper[1] / paper[0]:.3g} (paper)"]

@@ -123,7 +123,8 @@ def run(path: Path) -> dict:
         if spec is None:
             continue
         kind, params = spec
-        res = smooth_observations(obs_l1, lambda: gf.registry.create("channel_filter", kind, **params))
+        res = smooth_observations(obs_l1,
+                                  lambda kind=kind, params=params: gf.registry.create("channel_filter", kind, **params))
         smoothed[name], resets[name] = res.smoothed_m, res.slip_detected
         starts = res.arc_start  # the same for every candidate: flags and gaps
     smoothed["raw"] = obs.pseudorange_m

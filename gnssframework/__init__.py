@@ -6,6 +6,7 @@ True
 """
 
 from importlib.metadata import PackageNotFoundError, version
+from typing import Any
 
 from . import errors, registry
 from .errors import (
@@ -97,7 +98,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> Any:
     # The comparison API pulls in the experiments layer (pandas, xarray when used): on demand.
     if name in ("compare", "load_results"):
         from .experiments import results

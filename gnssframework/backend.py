@@ -23,7 +23,8 @@ It imports nothing of the framework but its errors, so every layer may use it.
 from __future__ import annotations
 
 import os
-from typing import Callable, TypeVar
+from typing import TypeVar
+from collections.abc import Callable
 
 from .errors import ConfigError
 

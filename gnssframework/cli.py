@@ -9,7 +9,7 @@ import sqlite3
 import sys
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 from . import registry
 from .errors import ConfigError, DataFileError, GnssFrameworkError
@@ -906,7 +906,11 @@ OPTION_OF_PARAMETER = {
 TABLE_PARAMETERS = ("channel_params",)
 
 
-def option_field(field: str, options: frozenset[str] | set[str] = frozenset(OPTION_OF_PARAMETER.values())) -> str:
+#: Every option `OPTION_OF_PARAMETER` names: `option_field`'s default.
+ALL_OPTIONS = frozenset(OPTION_OF_PARAMETER.values())
+
+
+def option_field(field: str, options: frozenset[str] | set[str] = ALL_OPTIONS) -> str:
     """The field of a library error as the command line names it: each parameter of
     ``field`` (several joined by ``/``) replaced by its option (`OPTION_OF_PARAMETER`)
     when the command has that option (``options``); ``field`` itself otherwise.

@@ -9,15 +9,18 @@ editor or a JSON-schema validator refuses an unknown name or a bad parameter.
 from __future__ import annotations
 
 import copy
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from . import registry
 from .hookspecs import COMPONENT_KINDS
 
+if TYPE_CHECKING:
+    from .plugin import Plugin
+
 __all__ = ["comparison_schema", "plugin_ref_schema"]
 
 
-def _params_schema(cls: type) -> dict[str, Any]:
+def _params_schema(cls: type[Plugin]) -> dict[str, Any]:
     schema = copy.deepcopy(cls.Params.model_json_schema())
     schema.pop("title", None)
     return schema

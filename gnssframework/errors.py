@@ -7,7 +7,7 @@ line, numerical failures name the filter, the batch element and the step.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 __all__ = [
     "GnssFrameworkError",
@@ -112,7 +112,7 @@ class NumericalError(GnssFrameworkError, ArithmeticError):
         tail = f": {self.detail}" if self.detail else ""
         return f"{self.filter_name}: {self.what} at {where}{when}{tail}"
 
-    def at_step(self, step: int) -> "NumericalError":
+    def at_step(self, step: int) -> NumericalError:
         """Return a copy of this error that names the time step."""
         return type(self)(self.filter_name, self.batch_indices, step, self.detail)
 

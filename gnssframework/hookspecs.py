@@ -15,7 +15,7 @@ and points the ``gnssframework`` entry-point group at that module in its
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import pluggy
 

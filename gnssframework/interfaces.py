@@ -26,7 +26,8 @@ import dataclasses
 import functools
 import inspect
 from dataclasses import dataclass
-from typing import Any, ClassVar, Mapping, Optional
+from typing import Any, ClassVar, TypeVar
+from collections.abc import Callable, Mapping
 
 import numpy as np
 from pydantic import Field
@@ -58,6 +59,7 @@ class Discriminator(Plugin, abc.ABC):
     kind = "discriminator"
     unit: ClassVar[str] = ""
     Params = DiscriminatorParams
+    params: DiscriminatorParams  # self.params, as validated
     #: True for frequency discriminators, which need the previous prompt.
     needs_previous: ClassVar[bool] = False
 
@@ -74,7 +76,7 @@ def _unset(value: Any) -> bool:
     return value is None or (isinstance(value, tuple) and not value)
 
 
-def _frozen_array(value: Any) -> Optional[np.ndarray]:
+def _frozen_array(value: Any) -> np.ndarray | None:
     if value is None:
         return None
     arr = np.array(value, dtype=float)  # a copy: the harness's later edits cannot leak in
@@ -127,15 +129,15 @@ class RunContext:
     gnssframework.errors.ConfigError: run context.doppler_hz: channel_filter 'scalar' needs it, but this harness does not provide it (it provides: coherent_time_s, cn0_dbhz)
     """
 
-    coherent_time_s: Optional[float] = None
-    early_late_spacing_chips: Optional[float] = None
-    epoch_interval_s: Optional[float] = None
-    cn0_dbhz: Optional[np.ndarray] = None
-    doppler_hz: Optional[np.ndarray] = None
+    coherent_time_s: float | None = None
+    early_late_spacing_chips: float | None = None
+    epoch_interval_s: float | None = None
+    cn0_dbhz: np.ndarray | None = None
+    doppler_hz: np.ndarray | None = None
     satellites: tuple[int, ...] = ()
-    initial_state: Optional[np.ndarray] = None
-    initial_cov: Optional[np.ndarray] = None
-    signal: Optional[SignalSpec] = None
+    initial_state: np.ndarray | None = None
+    initial_cov: np.ndarray | None = None
+    signal: SignalSpec | None = None
 
     def __post_init__(self) -> None:
         for name in ("cn0_dbhz", "doppler_hz", "initial_state", "initial_cov"):
@@ -190,11 +192,14 @@ class RunContext:
 
 
 
-def _marks_reset(reset):
+_R = TypeVar("_R")
+
+
+def _marks_reset(reset: Callable[..., _R]) -> Callable[..., _R]:
     """Wrap a plugin's ``reset`` so that `SequentialFilter.checked_step` knows it ran."""
 
     @functools.wraps(reset)
-    def wrapper(self, *args, **kwargs):
+    def wrapper(self: Any, *args: Any, **kwargs: Any) -> _R:
         out = reset(self, *args, **kwargs)
         self._reset_done = True
         return out
@@ -247,7 +252,8 @@ class SequentialFilter(Plugin, abc.ABC):
                 f"{cls.__module__}.{cls.__qualname__}.reset(self, batch_shape, **context) is the signature "
                 "before 0.2; write reset(self, batch_shape, context) and read the harness's values from the "
                 "frozen gnssframework.RunContext (context.coherent_time_s, context.require('cn0_dbhz', ...))")
-        cls.reset = _marks_reset(cls.reset)
+        # Wraps the subclass's own reset once, when the class is made (the marker checked_step reads).
+        cls.reset = _marks_reset(cls.reset)  # type: ignore[method-assign]
 
     #: Names of the inputs ``step`` needs.
     requires: ClassVar[tuple[str, ...]] = ()
@@ -301,7 +307,7 @@ class SequentialFilter(Plugin, abc.ABC):
         return out
 
 
-def _checked_inputs(filt: "SequentialFilter", inputs: Mapping[str, Any]) -> Mapping[str, Any]:
+def _checked_inputs(filt: SequentialFilter, inputs: Mapping[str, Any]) -> Mapping[str, Any]:
     """``inputs`` with every name ``filt.requires`` present and numeric: a missing name or
     text where numbers go is an `InvalidInputError` naming the filter and the input; a
     NumPy masked array's masked entries become NaN (missing measurements, as the readers
@@ -318,6 +324,7 @@ def _checked_inputs(filt: "SequentialFilter", inputs: Mapping[str, Any]) -> Mapp
         if isinstance(value, np.ma.MaskedArray):
             masked[name] = np.ma.filled(value.astype(float), np.nan)
             continue
+        kind: str | None
         if isinstance(value, (str, bytes)) or value is None:
             kind = "text" if value is not None else "None"
         elif isinstance(value, (np.ndarray, list, tuple)):

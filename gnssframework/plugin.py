@@ -23,7 +23,8 @@ import math
 import re
 import types
 import typing
-from typing import Any, ClassVar, Sequence
+from typing import Any, ClassVar
+from collections.abc import Sequence
 
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
@@ -180,7 +181,7 @@ def _model_at(model: type[BaseModel] | None, loc: Sequence[Any]) -> type[BaseMod
     return model
 
 
-def _config_loc(model: type[BaseModel] | None, loc: Sequence[Any]) -> tuple:
+def _config_loc(model: type[BaseModel] | None, loc: Sequence[Any]) -> tuple[Any, ...]:
     """``loc`` with a field given by its Python name written as a config writes it (its
     alias: ``lam`` -> ``lambda``), so an error names a parameter one way."""
     owner = _model_at(model, loc) if loc and isinstance(loc[-1], str) else None
@@ -274,7 +275,8 @@ class Plugin:
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         if cls.__init__ is Plugin.__init__:  # its parameters are its Params' fields: say so to help() and IDEs
-            cls.__signature__ = params_signature(cls.Params)
+            # inspect.signature reads __signature__ off the class; `type` declares no such attribute
+            cls.__signature__ = params_signature(cls.Params)  # type: ignore[attr-defined]
 
     def __init__(self, **params: Any) -> None:
         try:

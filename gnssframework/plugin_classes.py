@@ -11,7 +11,8 @@ is the registered class itself, whose signature lists its parameters, so
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any
+from collections.abc import Callable
 
 __all__ = ["class_name", "kind_module"]
 

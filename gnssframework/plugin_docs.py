@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import typing
 from dataclasses import dataclass
-from typing import Any, Iterable
+from typing import Any
+from collections.abc import Iterable
 
 from pydantic import BaseModel
 from pydantic_core import PydanticUndefined

@@ -26,7 +26,8 @@ PluginSpec(kind='estimator', name='kf', params={})
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Annotated, Any, Callable
+from typing import Annotated, Any
+from collections.abc import Callable
 
 import numpy as np
 from pydantic import BeforeValidator, PlainSerializer, ValidationError, WithJsonSchema

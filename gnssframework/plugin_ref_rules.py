@@ -9,7 +9,11 @@ from __future__ import annotations
 
 import typing
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+
+if TYPE_CHECKING:
+    from pydantic import BaseModel
 
 __all__ = ["RefRule", "field_rules", "misfit", "plugin_refs", "plugin_ref_constraints"]
 
@@ -35,7 +39,7 @@ def misfit(rule: RefRule, cls: type) -> str:
     return rule.check(cls) if rule.check is not None else ""
 
 
-def field_rules(params_model: type) -> dict[str, RefRule]:
+def field_rules(params_model: type[BaseModel]) -> dict[str, RefRule]:
     """The nested-plugin parameters of a ``Params`` model: field -> its rule."""
     def rules(obj: Any) -> list[RefRule]:
         found = [m for m in getattr(obj, "__metadata__", ()) if isinstance(m, RefRule)]
@@ -51,7 +55,7 @@ def field_rules(params_model: type) -> dict[str, RefRule]:
     return out
 
 
-def plugin_refs(params_model: type) -> dict[str, tuple[str, str | None]]:
+def plugin_refs(params_model: type[BaseModel]) -> dict[str, tuple[str, str | None]]:
     """The nested-plugin parameters of a ``Params`` model: field -> (kind, unit)."""
     return {f: (r.kind, r.unit) for f, r in field_rules(params_model).items()}
 

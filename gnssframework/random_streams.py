@@ -29,7 +29,8 @@ True
 from __future__ import annotations
 
 import hashlib
-from typing import Any, Callable, Sequence
+from typing import Any
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -80,7 +81,7 @@ class RunStreams:
     def __repr__(self) -> str:
         return f"RunStreams(runs {self.runs[0]}..{self.runs[-1]})"
 
-    def child(self, purpose: str) -> "RunStreams":
+    def child(self, purpose: str) -> RunStreams:
         """Streams for one purpose (``"truth"``, ``"receiver"``...): each run's child is
         seeded from the run's seed and the purpose's name, so what one purpose draws never
         shifts another's numbers (candidates that consume different amounts of receiver
@@ -135,7 +136,7 @@ def run_streams(seed: int, key: Sequence[int], runs: Sequence[int]) -> RunStream
     return RunStreams((int(seed), *map(int, key)), runs)
 
 
-def as_run_streams(rng: "np.random.Generator | RunStreams | int", runs: int) -> RunStreams:
+def as_run_streams(rng: np.random.Generator | RunStreams | int, runs: int) -> RunStreams:
     """``rng`` as per-run streams: ``RunStreams`` as given (checked against ``runs``), an int
     as a seed, a ``Generator`` by drawing a seed from it (runs ``0 .. runs-1``)."""
     if isinstance(rng, RunStreams):

@@ -28,7 +28,8 @@ import pkgutil
 import threading
 import types
 from dataclasses import dataclass
-from typing import Any, Callable, Iterable
+from typing import Any
+from collections.abc import Callable, Iterable
 
 import pluggy
 
@@ -40,7 +41,6 @@ from .estimation.adaptation import Augmentation, NoiseAdapter
 from .estimation.estimator import Estimator
 from .estimation.robust import RobustUpdate
 from .interfaces import ChannelFilter, Discriminator, NavFilter
-from .plugin import Plugin
 from .plugin_docs import parameter_table
 from .signal.cn0_estimator import CN0Estimator
 from .signal.registered import Signal
@@ -357,7 +357,7 @@ def create(kind: str, name: str, *positional: Any, **params: Any) -> Any:
         parameter (naming it and what it allows), or a parameter given by position.
     """
     if positional:
-        fields = ", ".join(getattr(get(kind, name), "Params").model_fields) or "(none)"
+        fields = ", ".join(get(kind, name).Params.model_fields) or "(none)"
         raise ConfigError(f"{kind} {name!r}", f"parameters are keywords (create({kind!r}, {name!r}, field=value)), "
                           f"got {len(positional)} by position: {', '.join(repr(p) for p in positional)[:60]}; "
                           f"its parameters: {fields}")

@@ -8,7 +8,7 @@ matched first, since ``difflib`` scores it as unrelated; then the closest name b
 from __future__ import annotations
 
 import difflib
-from typing import Iterable
+from collections.abc import Iterable
 
 __all__ = ["closest", "did_you_mean"]
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Optional
 
 import numpy as np
 from pydantic import Field
@@ -27,15 +26,15 @@ class PcpsParams(PluginParams):
     coherent_ms: int = Field(1, ge=1, le=10, description="coherent integration time (code periods)")
     noncoherent: int = Field(8, ge=1, le=100, description="non-coherent sums K of coherent blocks")
     doppler_max_hz: float = Field(5000.0, gt=0, le=50_000, description="search Doppler range +-")
-    doppler_step_hz: Optional[float] = Field(
+    doppler_step_hz: float | None = Field(
         None, gt=0, description="coarse Doppler bin spacing; null: 1/(2T), at most half a sinc lobe")
-    fine_step_hz: Optional[float] = Field(None, gt=0, description="fine-search step around the coarse peak; "
+    fine_step_hz: float | None = Field(None, gt=0, description="fine-search step around the coarse peak; "
                                           "null: 1/(20T)")
     pfa: float = Field(1e-3, gt=0, lt=1, description="false-alarm probability of one PRN's whole search")
     alternate_blocks: bool = Field(
         False, description="sum the even and the odd coherent blocks apart and keep the larger: with 10 ms blocks "
         "one of the two is free of data-bit transitions (needs an even noncoherent)")
-    xcorr_margin_db: Optional[float] = Field(
+    xcorr_margin_db: float | None = Field(
         17.0, gt=0, description="drop a detection whose C/N0 estimate is more than this below the strongest one's: "
         "a C/A cross-correlation sidelobe of a strong signal; null keeps every detection")
 
@@ -58,6 +57,7 @@ class ParallelCodePhaseSearch(Acquisition):
     name = "pcps"
     description = "FFT parallel code-phase search, threshold from a false-alarm probability"
     Params = PcpsParams
+    params: PcpsParams  # self.params, as validated
 
     def _coherent_s(self, signal: SignalSpec = GPS_L1CA) -> float:
         """The coherent time: ``coherent_ms`` code periods of ``signal`` (ms for L1 C/A)."""

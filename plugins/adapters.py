@@ -12,9 +12,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from gnssframework.errors import ConfigError
 from gnssframework.estimation import AdaptationStep, AdapterRun, NoiseAdapter, SafeguardParams
-from gnssframework.plugin import PluginParams
 from gnssframework.estimation.linalg import outer, project_psd
 
 __all__ = ["InnovationAdapter", "SageHusaAdapter", "MaximumLikelihoodQAdapter"]
@@ -94,6 +92,7 @@ class InnovationAdapter(NoiseAdapter):
     name = "innovation"
     description = "Windowed innovation-matching estimate of R (Zou et al. 2018, eq. 31)"
     Params = InnovationParams
+    params: InnovationParams  # self.params, as validated
 
     def start(self, Q0, R0) -> AdapterRun:
         _load_compiled_guard()
@@ -170,6 +169,7 @@ class SageHusaAdapter(NoiseAdapter):
     name = "sage-husa"
     description = "Sage-Husa Q/R estimation, classic (forgetting factor) or improved (Liu et al. 2020)"
     Params = SageHusaParams
+    params: SageHusaParams  # self.params, as validated
 
     def assumptions(self, context) -> dict[str, tuple[object, str]]:
         r"""Which adapter, what it adapts, and its memory in epochs: the improved variant
@@ -235,6 +235,7 @@ class MaximumLikelihoodQAdapter(NoiseAdapter):
     name = "ml-q"
     description = "Windowed maximum-likelihood estimate of Q (CN105068097 patent 2015)"
     Params = MlQParams
+    params: MlQParams  # self.params, as validated
 
     def start(self, Q0, R0) -> AdapterRun:
         _load_compiled_guard()

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable, Literal, Mapping
+from typing import Any, Literal
+from collections.abc import Callable, Mapping
 
 import numpy as np
 from pydantic import Field, field_validator
@@ -125,6 +126,7 @@ class ColoredAR1(Augmentation):
     name = "colored-ar1"
     description = "Measurement differencing for AR(1) colored measurement noise, with the w/V* cross term"
     Params = ColoredAR1Params
+    params: ColoredAR1Params  # self.params, as validated
 
     def assumed_psi(self, context: Mapping[str, Any]) -> float | None:
         r"""The AR(1) coefficient this augmentation assumes in a case: ``psi`` if given,

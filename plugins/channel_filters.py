@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal, Mapping
+from typing import Any, Literal
+from collections.abc import Mapping
 
 import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
 from gnssframework import registry
 from gnssframework.errors import ConfigError, NumericalError
-from gnssframework.estimation import FilterStep, Gaussian, LinearModel, NonlinearModel, register_warm_up
+from gnssframework.estimation import FilterStep, Gaussian, LinearModel, register_warm_up
 from gnssframework.interfaces import ChannelFilter, RunContext
 from gnssframework.signal.channel_model import channel_model
 from gnssframework.signal.correlator_model import tap_noise_cov
@@ -130,6 +131,7 @@ class ScalarTrackingLoop(ChannelFilter):
     name = "scalar"
     description = "Scalar tracking: FLL-assisted PLL (order 2-3) + carrier-aided DLL"
     Params = ScalarParams
+    params: ScalarParams  # self.params, as validated
     requires = ("correlators",)
     provides = ("carrier_freq_hz", "code_freq_hz", "code_disc_chips", "phase_disc_rad", "freq_disc_hz")
 
@@ -205,7 +207,7 @@ class KalmanLoopParams(PluginParams):
                                              "per state")
 
     @model_validator(mode="after")
-    def _one_value_per_state(self) -> "KalmanLoopParams":
+    def _one_value_per_state(self) -> KalmanLoopParams:
         n = self.states
         if len(self.q) != n:
             raise NestedFieldError("q", f"needs {n} values for states = {n} (got {self.q})")
@@ -242,6 +244,7 @@ class KalmanCarrierLoop(ChannelFilter):
     name = "kf-carrier-loop"
     description = "Kalman carrier tracking loop on the two-quadrant arctangent (Xia et al.)"
     Params = KalmanLoopParams
+    params: KalmanLoopParams  # self.params, as validated
     requires = ("correlators",)
     provides = ("carrier_freq_hz", "code_freq_hz", "carrier_phase_step_rad", "phase_disc_rad", "code_disc_chips")
 
@@ -366,6 +369,7 @@ class DiscriminatorChannel(ChannelFilter):
     name = "discriminator"
     description = "Code and frequency discriminators with their noise variances, for vector loops"
     Params = DiscriminatorChannelParams
+    params: DiscriminatorChannelParams  # self.params, as validated
     requires = ("correlators",)
     provides = VECTOR_OUTPUTS
 
@@ -575,6 +579,7 @@ class IqFilter(ChannelFilter):
     name = "iq-filter"
     description = "CKF on the six I/Q correlator outputs with adaptive R (Zou et al. 2018)"
     Params = IqFilterParams
+    params: IqFilterParams  # self.params, as validated
     requires = ("correlators",)
     provides = VECTOR_OUTPUTS + ("amplitude", "phase_error_rad")
 

@@ -51,6 +51,7 @@ class CodeParams(DiscriminatorParams):
 class _CodeDiscriminator(Discriminator):
     unit = "chips"
     Params = CodeParams
+    params: CodeParams  # self.params, as validated
 
     @property
     def half_spacing(self) -> float:

@@ -38,7 +38,7 @@ class IteratedParams(PluginParams):
                             "linearisation) until the step is below iteration_tol")
     iteration_tol: float = Field(1e-9, ge=0, description="stopping rule of the iterations: largest state step in "
                                  "prior standard deviations (each batch element stops on its own)")
-    robust: PluginRef("robust_update") | None = Field(
+    robust: PluginRef("robust_update") | None = Field(  # type: ignore[valid-type]  # an Annotated type built at run time
         None, description="robust_update plugin that reweights R from the residual (huber, cauchy, student-t); "
         "none: the Gaussian update")
 
@@ -54,7 +54,7 @@ class ExtendedParams(IteratedParams):
 class LinearParams(PluginParams):
     """The Kalman filter's one parameter: its robust update (a linear update needs no iteration)."""
 
-    robust: PluginRef("robust_update") | None = Field(
+    robust: PluginRef("robust_update") | None = Field(  # type: ignore[valid-type]  # an Annotated type built at run time
         None, description="robust_update plugin that reweights R from the residual (huber, cauchy, student-t); "
         "none: the Gaussian update")
 
@@ -79,6 +79,7 @@ class KalmanFilter(Estimator):
 
     name = "kf"
     Params = LinearParams
+    params: LinearParams  # self.params, as validated
     description = "Linear Kalman filter (Joseph-form covariance update)"
     #: Only for a LinearModel: nested-plugin parameters on nonlinear models refuse it.
     linear_only = True
@@ -128,6 +129,7 @@ class ExtendedKalmanFilter(Estimator):
 
     name = "ekf"
     Params = ExtendedParams
+    params: ExtendedParams  # self.params, as validated
     description = "Extended Kalman filter (analytic or central-difference Jacobians)"
 
     def predict(self, state: Gaussian, model) -> Gaussian:
@@ -186,6 +188,7 @@ class UnscentedKalmanFilter(SigmaPointEstimator):
     name = "ukf"
     description = "Unscented Kalman filter, Merwe scaled sigma points (alpha, beta, kappa)"
     Params = UnscentedParams
+    params: UnscentedParams  # self.params, as validated
 
     def sigma_points(self, state: Gaussian):
         n = state.ndim_state
@@ -223,6 +226,7 @@ class CubatureKalmanFilter(SigmaPointEstimator):
 
     name = "ckf"
     Params = IteratedParams
+    params: IteratedParams  # self.params, as validated
     description = "Cubature Kalman filter, 2n third-degree spherical-radial points (Cholesky root)"
 
     def sigma_points(self, state: Gaussian):

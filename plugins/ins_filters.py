@@ -28,7 +28,8 @@ Another ``estimator`` from the registry runs the update (``kf`` by default; ``ek
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any
+from collections.abc import Mapping
 
 import numpy as np
 from pydantic import Field, NonNegativeFloat
@@ -81,6 +82,7 @@ class InsEkf(ErrorStateNavFilter):
     name = "ins-ekf"
     description = "15-state error-state INS integration filter, differenced or PV-fix updates (Cai and Guo 2017)"
     Params = InsEkfParams
+    params: InsEkfParams  # self.params, as validated
     requires = ("residual_m", "residual_cov")
     provides = ("error_state", "cov")
     error_states = N_ERROR_STATES

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Mapping
+from typing import Any
+from collections.abc import Mapping
 
 import numpy as np
 from pydantic import Field
@@ -79,6 +80,7 @@ class EkfPositionVelocityAcceleration(EkfPositionVelocity):
     name = "ekf-pva"
     description = "11-state position/velocity/acceleration/clock EKF for vector tracking (white-jerk model)"
     Params = EkfPvaParams
+    params: EkfPvaParams  # self.params, as validated
 
     def assumptions(self, context):
         return {"line-of-sight jerk PSD": (self.params.jerk_psd, "m²/s⁵")}

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping
+from typing import Any
+from collections.abc import Mapping
 
 import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat
@@ -11,7 +12,7 @@ from pydantic import Field, NonNegativeFloat, PositiveFloat
 from gnssframework.errors import ConfigError
 from gnssframework import backend
 from gnssframework.estimation import (CompiledFunctions, FilterStep, Gaussian, LinearModel, NonlinearModel,
-                                     filter_sequence, linear_f, register_warm_up)
+                                     linear_f, register_warm_up)
 from gnssframework.interfaces import BatchPositionFilter, NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
@@ -207,6 +208,7 @@ class EkfPositionVelocity(NavFilter):
     name = "ekf-pv"
     description = "8-state position/velocity/clock EKF for vector tracking (Zou et al. 2018)"
     Params = EkfPvParams
+    params: EkfPvParams  # self.params, as validated
     requires = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", "freq_error_var_hz2")
     provides = ("position_m", "velocity_m_s", "clock_m", "cov", "nco_range_m", "nco_range_rate_m_s")
 
@@ -345,6 +347,7 @@ class PositionConstantAcceleration(BatchPositionFilter):
     name = "position-ca"
     description = "Constant-acceleration position filter per coordinate (Liu et al. 2020)"
     Params = PositionCaParams
+    params: PositionCaParams  # self.params, as validated
     requires = ("position_m",)
     provides = ("position_m",)
 

@@ -42,6 +42,7 @@ class RealInt8(SampleSource):
 
     name = "ri8"
     Params = FormatParams
+    params: FormatParams  # self.params, as validated
     description = "real int8 samples (SigMF ri8)"
     is_complex = False
     bytes_per_chunk = 1
@@ -60,6 +61,7 @@ class ComplexInt8(SampleSource):
 
     name = "ci8"
     Params = FormatParams
+    params: FormatParams  # self.params, as validated
     description = "interleaved int8 I/Q (SigMF ci8)"
     bytes_per_chunk = 2
     sigmf_datatype = "ci8"
@@ -77,6 +79,7 @@ class ComplexInt16(SampleSource):
 
     name = "ci16_le"
     Params = FormatParams
+    params: FormatParams  # self.params, as validated
     description = "interleaved little-endian int16 I/Q (SigMF ci16_le)"
     bytes_per_chunk = 4
     sigmf_datatype = "ci16_le"
@@ -93,6 +96,7 @@ class ComplexFloat32(SampleSource):
 
     name = "cf32_le"
     Params = FormatParams
+    params: FormatParams  # self.params, as validated
     description = "interleaved float32 I/Q (SigMF cf32_le, GNSS-SDR gr_complex)"
     bytes_per_chunk = 8
     sigmf_datatype = "cf32_le"
@@ -124,6 +128,7 @@ class RealPacked2(SampleSource):
 
     name = "ri2"
     Params = FormatParams
+    params: FormatParams  # self.params, as validated
     description = "real 2-bit samples packed four a byte (levels +-1, +-3)"
     is_complex = False
     bytes_per_chunk = 1
@@ -141,6 +146,7 @@ class ComplexPacked2(SampleSource):
 
     name = "ci2"
     Params = FormatParams
+    params: FormatParams  # self.params, as validated
     description = "complex 2-bit I/Q packed two samples a byte (levels +-1, +-3)"
     bytes_per_chunk = 1
     samples_per_chunk = 2

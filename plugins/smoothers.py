@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Mapping
+from typing import Any
+from collections.abc import Mapping
 
 import numpy as np
 from pydantic import Field
@@ -123,6 +124,7 @@ class HatchFilter(ChannelFilter):
     name = "hatch"
     description = "Hatch carrier-smoothed code filter, growing window, optional slip reset"
     Params = HatchParams
+    params: HatchParams  # self.params, as validated
     requires = ("pseudorange_m", "carrier_m")
     provides = ("smoothed_m", "slip_detected")
 
@@ -193,6 +195,7 @@ class KalmanSmoother(ChannelFilter):
     name = "kf-smoother"
     description = "Carrier-smoothed code as a Kalman filter, optional ml-q adaptive Q and slip reset"
     Params = KalmanSmootherParams
+    params: KalmanSmootherParams  # self.params, as validated
     requires = ("pseudorange_m", "carrier_m")
     provides = ("smoothed_m", "slip_detected")
 

@@ -7,7 +7,7 @@ satellite may be blanked over an interval (no signal, the noise goes on)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -5,7 +5,7 @@ code times sub-carrier), at its Doppler and code phase."""
 from __future__ import annotations
 
 import types
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
@@ -19,7 +19,7 @@ from gnssframework.signal.registered import Signal
 from gnssframework.signal.spec import Component, SignalSpec, Subcarrier
 
 
-@lru_cache(maxsize=None)
+@cache
 def _toy_code(prn: int) -> np.ndarray:
     """A random ±1 code of 1023 chips per PRN (a stand-in for a memory code)."""
     return (1 - 2 * np.random.default_rng(1000 + prn).integers(0, 2, 1023)).astype(np.int8)

@@ -16,7 +16,7 @@ what the arithmetic allows rather than against a bit pattern:
 from __future__ import annotations
 
 import numpy as np
-from gnssframework.backend import get_backend, set_backend
+from gnssframework.backend import set_backend
 import pytest
 
 from gnssframework import testing

@@ -122,7 +122,10 @@ def test_loose_update_with_an_exact_fix_puts_the_ins_on_the_fix():
     # A perfect IMU (no process noise over a zero interval) and a fix far better than the INS:
     # the corrected INS equals the fix to the ratio of the variances.
     runs = 3
-    rx = lambda t: (np.zeros((runs, 3)) + [1e6, 2e6, 3e6], np.zeros((runs, 3)) + [50.0, 0, 0], np.zeros((runs, 3)))
+
+    def rx(t):
+        return np.zeros((runs, 3)) + [1e6, 2e6, 3e6], np.zeros((runs, 3)) + [50.0, 0, 0], np.zeros((runs, 3))
+
     g = np.random.default_rng(1)
     P0 = _P0()
     ins = _LinearErrorIns(rx, g.normal(size=(runs, 15)) @ np.linalg.cholesky(P0).T, g)
@@ -145,3 +148,18 @@ def test_prefilter_output_stays_unbiased_under_a_20_g_acceleration_with_accelera
     se = z.std(axis=0) / np.sqrt(len(z) / 4)  # residuals correlated over a few updates
     assert np.all(np.abs(bias) < 4 * se + 0.2), (bias, se)
     assert 0.5 < np.mean(z[:, 1] ** 2) < 1.5
+
+
+def test_the_strapdown_ins_refuses_to_advance_beyond_its_increments_with_a_config_error():
+    # ruff F821: the refusal raised a NameError (ConfigError was not imported) instead of the
+    # one-line error; 10 increments of 5 ms reach 0.05 s, not 0.1 s.
+    import pytest
+
+    from gnssframework.errors import ConfigError
+    from gnssframework.inertial.mechanisation import NavState
+    from gnssframework.receiver.deep.strapdown import StrapdownIns
+
+    state0 = NavState(np.array([[1.0, 0.0, 0.0, 0.0]]), np.zeros((1, 3)), np.array([[6378137.0, 0.0, 0.0]]))
+    ins = StrapdownIns(state0, np.zeros((10, 1, 3)), np.zeros((10, 1, 3)), 0.005, None)
+    with pytest.raises(ConfigError, match=r"StrapdownIns: no IMU increments beyond 0\.05 s \(asked 0\.1 s\)"):
+        ins.advance(0.1)

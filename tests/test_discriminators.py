@@ -162,7 +162,7 @@ def test_the_spacing_that_fits_one_column_misses_the_other():
         return float(np.sqrt(gf.registry.create("discriminator", "eml-envelope", coherent_time_s=0.01,
                                                 early_late_spacing_chips=spacing).noise_variance(cn0)))
 
-    fit = {cn0: brentq(lambda s: formula(s, cn0) - v, 1e-4, 1.0) for cn0, v in PAPER_CODE_CHIPS.items()}
+    fit = {cn0: brentq(lambda s, cn0=cn0, v=v: formula(s, cn0) - v, 1e-4, 1.0) for cn0, v in PAPER_CODE_CHIPS.items()}
     assert fit[45] > 2.5 * fit[30]
     rng = np.random.default_rng(30)
     assert _eml_std(fit[45], 30, rng)[0] > 1.4 * PAPER_CODE_CHIPS[30]

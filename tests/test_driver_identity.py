@@ -17,7 +17,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import gnssframework as gf
 from gnssframework import backend
 from gnssframework.estimation import CompiledFunctions, Gaussian, LinearModel, NonlinearModel
 from gnssframework.estimation import compiled as kernels

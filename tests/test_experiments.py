@@ -9,7 +9,7 @@ import sys
 import pytest
 
 import gnssframework as gf
-from gnssframework.experiments import ComparisonConfig, load_config, run_comparison
+from gnssframework.experiments import load_config, run_comparison
 
 TINY = """
 name = "tiny"

@@ -96,7 +96,7 @@ def test_command_line_values_win_over_the_metadata(tmp_path):
 
 
 def test_the_metadata_is_valid_sigmf_and_states_the_if_as_an_rf_frequency(tmp_path):
-    path = write_recording(tmp_path / "a.sigmf-data", np.ones(8, complex), "ci16_le", FS, 4.092e6 - 4e6)
+    write_recording(tmp_path / "a.sigmf-data", np.ones(8, complex), "ci16_le", FS, 4.092e6 - 4e6)
     meta = json.loads((tmp_path / "a.sigmf-meta").read_text())
     assert meta["global"]["core:datatype"] == "ci16_le"
     assert meta["captures"][0]["core:frequency"] == pytest.approx(1575.42e6 - 0.092e6)

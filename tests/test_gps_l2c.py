@@ -13,7 +13,6 @@ import pytest
 
 from gnssframework import registry
 from gnssframework.errors import ConfigError
-from gnssframework.receiver.acquisition import code_replica
 from gnssframework.receiver.acquisition.assisted import SearchWindow, window_search
 from gnssframework.receiver.frontend import SatelliteSignal, open_recording, synthesize_samples
 from gnssframework.signal.gps_l1ca import GPS_L1CA

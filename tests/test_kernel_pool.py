@@ -86,7 +86,7 @@ def test_every_chunk_runs_once_on_either_thread():
         for _ in range(20):
             seen, threads = [], set()
 
-            def run(i):
+            def run(i, seen=seen, threads=threads):
                 seen.append(i)
                 threads.add(threading.current_thread().name)
 

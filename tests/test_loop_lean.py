@@ -10,7 +10,7 @@ anything; call counts stand for the work saved.
 from __future__ import annotations
 
 import numpy as np
-from gnssframework.backend import get_backend, set_backend
+from gnssframework.backend import set_backend
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -20,7 +20,7 @@ from gnssframework.estimation import compiled as kernels
 from gnssframework.estimation.compiled import loop as kernels_loop
 from gnssframework_plugins.nav_filters import pv_measurements, pv_nco_command
 from gnssframework.estimation.adaptation import AdapterRun
-from gnssframework.estimation.linalg import clamp_relative, pd_mask, regularised, symmetrize
+from gnssframework.estimation.linalg import pd_mask, regularised
 from gnssframework.experiments import get_scenario
 from gnssframework.receiver.tracking import vector
 from gnssframework.receiver.tracking.vector import run_vector_loop

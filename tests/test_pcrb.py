@@ -2,7 +2,7 @@
 Fisher information against numerical derivatives, and the bound against the candidates."""
 
 import numpy as np
-from gnssframework.backend import get_backend, set_backend
+from gnssframework.backend import set_backend
 import pytest
 from filterpy.kalman import KalmanFilter
 

@@ -65,7 +65,7 @@ def test_a_faulty_satellite_is_excluded_and_noise_stays_within_its_dop(visible):
     rng = np.random.default_rng(25)
     pr, tx = _truth(visible, T_RX, STATION, -300.0)
     errors = []
-    for trial in range(20):
+    for _trial in range(20):
         noisy = pr + rng.standard_normal(pr.size) * 1.0
         fix = solve_position(noisy, tx, visible, sigma_m=1.0, elevation_mask_deg=0.0)
         errors.append(fix.position_ecef_m - STATION)

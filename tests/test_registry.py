@@ -43,7 +43,6 @@ def test_builtin_name_sets_ignore_a_plugin_installed_beside_the_project(scratch_
 
 
 def test_a_third_party_scenario_registers_through_the_hook_and_runs_from_a_config(tmp_path, scratch_registry):
-    from gnssframework.experiments import load_config
     from gnssframework.experiments.scenarios import Scenario, get_scenario
 
     base = get_scenario({"kind": "multipath"})

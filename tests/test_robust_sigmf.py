@@ -12,7 +12,6 @@ from pathlib import Path
 import pytest
 
 from gnssframework.cli import main
-from gnssframework.errors import DataFileError
 from gnssframework.receiver.frontend.sigmf_meta import read_sigmf_meta
 
 REAL = Path(__file__).parent / "data" / "pocketsdr_L1_4MHz_IQ_100ms.bin"

@@ -5,7 +5,7 @@ refusal of a BOC signal."""
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
@@ -21,7 +21,7 @@ from gnssframework.signal.qzss_l1ca import QZSS_L1CA
 from gnssframework.signal.spec import Component, SignalSpec, Subcarrier
 
 
-@lru_cache(maxsize=None)
+@cache
 def _code(prn: int) -> np.ndarray:
     return (1 - 2 * np.random.default_rng(prn).integers(0, 2, 1023)).astype(np.int8)
 

@@ -25,7 +25,7 @@ ENGINES = ("kf", "ekf", "ukf", "ckf", "svd-ckf")
 def time_varying_models(rng, K: int, n: int = 2, m: int = 1):
     """A different F, H, Q, R, u at every step (so the step indexing is checked)."""
     models = []
-    for k in range(K):
+    for _k in range(K):
         F = np.eye(n) + 0.3 * rng.standard_normal((n, n))
         H = rng.standard_normal((m, n))
         models.append(LinearModel(F, H, random_pd(rng, n, scale=0.05), random_pd(rng, m, scale=0.3),
@@ -40,14 +40,24 @@ def joint_posterior(models, zs, m0, P0):
     K, n = len(models), m0.shape[0]
     N = (K + 1) * n
     rows, rhs, weights = [], [], []
-    A0 = np.zeros((n, N)); A0[:, :n] = np.eye(n)
-    rows.append(A0); rhs.append(m0); weights.append(np.linalg.inv(P0))
+    A0 = np.zeros((n, N))
+    A0[:, :n] = np.eye(n)
+    rows.append(A0)
+    rhs.append(m0)
+    weights.append(np.linalg.inv(P0))
     for k, md in enumerate(models):
         i = (k + 1) * n  # x_k's block; x_{k-1} at i - n
-        A = np.zeros((n, N)); A[:, i:i + n] = np.eye(n); A[:, i - n:i] = -md.F
-        rows.append(A); rhs.append(md.u); weights.append(np.linalg.inv(md.Q))
-        B = np.zeros((md.H.shape[0], N)); B[:, i:i + n] = md.H
-        rows.append(B); rhs.append(zs[k]); weights.append(np.linalg.inv(md.R))
+        A = np.zeros((n, N))
+        A[:, i:i + n] = np.eye(n)
+        A[:, i - n:i] = -md.F
+        rows.append(A)
+        rhs.append(md.u)
+        weights.append(np.linalg.inv(md.Q))
+        B = np.zeros((md.H.shape[0], N))
+        B[:, i:i + n] = md.H
+        rows.append(B)
+        rhs.append(zs[k])
+        weights.append(np.linalg.inv(md.R))
     J = sum(A.T @ W @ A for A, W in zip(rows, weights))
     b = sum(A.T @ W @ r for A, W, r in zip(rows, weights, rhs))
     cov = np.linalg.inv(J)

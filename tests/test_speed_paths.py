@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from gnssframework.simulation.constellation import nominal_constellation
 from test_deep_integration import _aided_setup, _OffsetNavigator
 
 

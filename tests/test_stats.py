@@ -243,7 +243,7 @@ def test_paired_difference_agrees_with_scipys_paired_t_test():
 
     rng = np.random.default_rng(8)
     seen = set()
-    for trial in range(200):
+    for _trial in range(200):
         n = int(rng.integers(2, 40))
         common = rng.standard_normal(n) * 3
         x = 5 + common + rng.standard_normal(n)

@@ -83,8 +83,11 @@ def test_scenario_truth_follows_the_figure_eight_and_its_range_rate_is_the_range
 
 def test_a_case_motion_overrides_the_scenarios_and_the_loop_tracks_the_vehicle():
     scen = get_scenario({**SCEN, "duration_s": 4.0})
-    plugins = lambda: scen.build({"channel_filter": {"name": "discriminator", "params": {}},  # noqa: E731
-                                  "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1.0}}})
+
+    def plugins():
+        return scen.build({"channel_filter": {"name": "discriminator", "params": {}},
+                           "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1.0}}})
+
     moving = scen.run_batch({"cn0_dbhz": 45.0, "motion": "figure-eight"}, plugins(), 3, np.random.default_rng(5))
     static = scen.run_batch({"cn0_dbhz": 45.0}, plugins(), 3, np.random.default_rng(5))
     # Tracking holds (code error a small fraction of a chip, frequency error well inside

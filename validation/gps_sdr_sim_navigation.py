@@ -180,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
 
         # 1. Decoded ephemerides against the RINEX records gps-sdr-sim used.
         alpha, beta = header_klobuchar(NAV)
-        for j, prn in enumerate(sorted(sats)):
+        for _j, prn in enumerate(sorted(sats)):
             decoded = obs.ephemeris.get(prn)
             if not decoded:
                 check(False, f"PRN {prn:2d}: no ephemeris decoded")

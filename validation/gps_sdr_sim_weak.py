@@ -123,7 +123,10 @@ def pseudorange_spread_m(obs, used_by_sim, sats: dict, tow0: float, moving: bool
                                                                    sats[int(obs.prn[j])][3])[0][0] for j in ok]
         spread.append(np.std(diff))
         common.append(np.mean(diff))
-    rms = (lambda x: float(np.sqrt(np.mean(np.square(x)))) if x else np.inf)
+
+    def rms(x):
+        return float(np.sqrt(np.mean(np.square(x)))) if x else np.inf
+
     return rms(spread), rms(common), len(spread)
 
 

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 from pydantic import Field
@@ -75,12 +75,14 @@ class AdaptationStep:
     def predicted_measurement_spread(self) -> np.ndarray:
         """``S - R``: the spread of the predicted measurement alone (``H P H^T`` for a KF,
         ``sum w_i (Z_i - z_hat)(Z_i - z_hat)^T`` for a sigma-point filter)."""
-        return self.update.innovation_cov - self.model.R
+        spread: np.ndarray = self.update.innovation_cov - self.model.R
+        return spread
 
     @property
     def propagated_spread(self) -> np.ndarray:
         """``P[k|k-1] - Q``: ``Phi P[k-1] Phi^T`` for a KF, its sigma-point analogue otherwise."""
-        return self.prior.cov - self.model.Q
+        spread: np.ndarray = self.prior.cov - self.model.Q
+        return spread
 
 
 class SafeguardParams(PluginParams):
@@ -105,7 +107,7 @@ class AdapterRun(abc.ABC):
         self.updates = 0
 
     @staticmethod
-    def compiled_innovation_window(size: int) -> "compiled_loop.InnovationWindow | None":
+    def compiled_innovation_window(size: int) -> compiled_loop.InnovationWindow | None:
         """The compiled running mean of the last ``size`` innovation estimates
         (`gnssframework.estimation.compiled.loop.InnovationWindow`) under the compiled
         backend, else ``None`` (the adapter keeps its NumPy window)."""
@@ -176,6 +178,7 @@ class NoiseAdapter(Plugin, abc.ABC):
 
     kind = "noise_adapter"
     Params = SafeguardParams
+    params: SafeguardParams  # self.params, as validated
 
     @abc.abstractmethod
     def start(self, Q0: np.ndarray, R0: np.ndarray) -> AdapterRun:

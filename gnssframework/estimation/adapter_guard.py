@@ -31,7 +31,7 @@ def _finite_per_element(a: np.ndarray | None, batch_shape: tuple[int, ...]) -> n
 
 
 def adapt_checked(run: AdapterRun, ctx: AdaptationStep, filter_name: str, adapter_name: str,
-                  step: int) -> tuple[np.ndarray, np.ndarray]:
+                  step: int) -> tuple[np.ndarray | None, np.ndarray | None]:
     """``run.step(ctx)``, refused by name where the adapter's arithmetic overflows.
 
     Raises
@@ -43,6 +43,8 @@ def adapt_checked(run: AdapterRun, ctx: AdaptationStep, filter_name: str, adapte
     """
     batch_shape = ctx.update.state.batch_shape
     failed = None
+    Q: np.ndarray | None
+    R: np.ndarray | None
     with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
         try:
             Q, R = run.step(ctx)

@@ -31,7 +31,7 @@ Examples
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -57,7 +57,7 @@ def angle_residual(*indices: int) -> Residual:
     picked = list(indices)
 
     def residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+        d: np.ndarray = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
         d[..., picked] = wrap_angle(d[..., picked])
         return d
 
@@ -72,7 +72,7 @@ def angle_mean(*indices: int) -> WeightedMean:
     def mean(points: np.ndarray, weights: np.ndarray) -> np.ndarray:
         p = np.asarray(points, dtype=float)
         w = np.asarray(weights, dtype=float).reshape((-1,) + (1,) * (p.ndim - 1))
-        out = np.sum(w * p, axis=0)
+        out: np.ndarray = np.sum(w * p, axis=0)
         angles = p[..., picked]
         out[..., picked] = np.arctan2(np.sum(w * np.sin(angles), axis=0), np.sum(w * np.cos(angles), axis=0))
         return out

@@ -52,10 +52,13 @@ def ar1_coefficient(z: np.ndarray, method: Literal["lag1", "lag-ratio"] = "lag1"
         raise ConfigError("z", f"an AR(1) estimate needs at least 3 samples in time, got {d.shape[0]}")
     d = d - d.mean(axis=0)
     c1 = np.sum(d[1:] * d[:-1], axis=0)
+    phi: np.ndarray
     if method == "lag1":
-        return c1 / np.sum(d * d, axis=0)
+        phi = c1 / np.sum(d * d, axis=0)
+        return phi
     if method == "lag-ratio":
-        return np.sum(d[2:] * d[:-2], axis=0) / c1
+        phi = np.sum(d[2:] * d[:-2], axis=0) / c1
+        return phi
     raise ConfigError("method", f"must be 'lag1' or 'lag-ratio', got {method!r}")
 
 

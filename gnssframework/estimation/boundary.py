@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from typing import Any, Callable
+from typing import Any
+from collections.abc import Callable
 
 from ..errors import InvalidArgumentError, InvalidInputError
 from .linalg import to_float
@@ -69,7 +70,7 @@ def checked_model_at(model_at: Callable[[int], Any], call: str) -> Callable[[int
     `LinearModel` or `NonlinearModel`: a callable that returns ``None`` (a missing
     ``return``) or anything else is an `InvalidArgumentError` naming the step."""
 
-    def checked(k: int):
+    def checked(k: int) -> LinearModel | NonlinearModel:
         try:
             model = model_at(k)
         except TypeError as exc:  # a callable of another signature
@@ -102,7 +103,7 @@ def check_model_functions(model: Any, mean: np.ndarray, call: str) -> None:
                                        f"expected a float array of shape (..., {size})")
 
 
-def as_sequence(zs, filter_name: str) -> np.ndarray:
+def as_sequence(zs: Any, filter_name: str) -> np.ndarray:
     """A measurement sequence as a float array, or `InvalidInputError` naming ``zs``."""
     try:
         return to_float(zs)
@@ -110,7 +111,7 @@ def as_sequence(zs, filter_name: str) -> np.ndarray:
         raise InvalidInputError(filter_name, "zs", str(exc)) from None
 
 
-def as_measurement(z, m: int, batch_shape: tuple[int, ...], filter_name: str, step: int) -> np.ndarray:
+def as_measurement(z: Any, m: int, batch_shape: tuple[int, ...], filter_name: str, step: int) -> np.ndarray:
     """``z`` as a float array of shape ``(..., m)`` whose batch broadcasts with the state's.
 
     Raises
@@ -131,4 +132,5 @@ def as_measurement(z, m: int, batch_shape: tuple[int, ...], filter_name: str, st
     except ValueError:
         raise InvalidInputError(filter_name, "measurement z", f"has batch shape {z.shape[:-1]} at step {step}, which "
                                 f"does not broadcast with the state's batch shape {batch_shape}") from None
-    return z
+    out: np.ndarray = z
+    return out

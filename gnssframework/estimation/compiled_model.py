@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math  # noqa: F401  (in the globals of the jitted functions' size-specialised twins)
 from dataclasses import dataclass
-from typing import Callable, Optional
+from collections.abc import Callable
 
 import numpy as np
 
@@ -34,7 +34,7 @@ _FIXED_K = 0
 
 
 @jit
-def linear_f(params, X, k, Y):
+def linear_f(params: np.ndarray, X: np.ndarray, k: int, Y: np.ndarray) -> None:
     """``Y[k] = F X[k]`` with ``F = params`` ``(n, n)``."""
     n = _FIXED_K if _FIXED_K > 0 else X.shape[1]
     for i in range(n):
@@ -45,7 +45,7 @@ def linear_f(params, X, k, Y):
 
 
 @jit
-def linear_h(params, X, k, Z, kz):
+def linear_h(params: np.ndarray, X: np.ndarray, k: int, Z: np.ndarray, kz: int) -> None:
     """``Z[kz] = H X[k]`` with ``H = params`` ``(m, n)``."""
     m, n = params.shape
     for i in range(m):
@@ -56,7 +56,7 @@ def linear_h(params, X, k, Z, kz):
 
 
 @jit
-def linear_h_jacobian(params, X, k, J):
+def linear_h_jacobian(params: np.ndarray, X: np.ndarray, k: int, J: np.ndarray) -> None:
     """``J = H`` (the same at every point)."""
     m, n = params.shape
     for i in range(m):
@@ -95,12 +95,12 @@ class CompiledFunctions:
         at run time; results are bitwise the same). For a filter's hot path.
     """
 
-    f: Callable
+    f: Callable[..., None]
     f_params: np.ndarray
-    h: Callable
+    h: Callable[..., None]
     h_params: np.ndarray
-    h_jacobian: Optional[Callable] = None
-    sizes: Optional[tuple[int, int]] = None
+    h_jacobian: Callable[..., None] | None = None
+    sizes: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         for name in ("f", "h"):

@@ -24,4 +24,5 @@ def nees(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
     2.0
     """
     err = np.asarray(err, dtype=float)
-    return np.einsum("...i,...i->...", err, np.linalg.solve(cov, err[..., None])[..., 0])
+    out: np.ndarray = np.einsum("...i,...i->...", err, np.linalg.solve(cov, err[..., None])[..., 0])
+    return out

@@ -15,7 +15,8 @@ Gaussian filter of Särkkä, *Bayesian Filtering and Smoothing* (2013), chapter 
 from __future__ import annotations
 
 import abc
-from typing import Literal
+from collections.abc import Callable
+from typing import Any, Literal
 
 import numpy as np
 
@@ -24,8 +25,12 @@ from ..errors import InvalidMeasurementError, NotPositiveDefiniteError
 from ..plugin import Plugin
 from . import compiled as kernels
 from .linalg import all_true, any_true, cholesky_masked, failing_indices, mat_vec, symmetrize
+from .compiled_model import CompiledFunctions
 from .iterated import iterated_update
 from .types import Gaussian, Model, Update
+
+#: A compiled point rule: (root kind, scale, centre point, mean weights, covariance weights).
+KernelRule = tuple[int, float, bool, np.ndarray, np.ndarray]
 
 __all__ = ["Estimator", "SigmaPointEstimator", "OnFailure", "OnMissing"]
 
@@ -50,14 +55,15 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
     def _use_kernels(self) -> bool:
         return self._uses_compiled
 
-    def _linearised_twins(self, model: Model):
+    def _linearised_twins(self, model: Model) -> CompiledFunctions | None:
         """The model's compiled functions where a KF/EKF step can run on them (linear ``f``
         and a compiled Jacobian of ``h``) under the compiled backend, else ``None``. The
         model's own Jacobians must be those of its twins (``CompiledFunctions``)."""
         compiled = getattr(model, "compiled", None)
         if compiled is None or not compiled.linear_f or compiled.h_jacobian is None or not self._use_kernels():
             return None
-        return compiled
+        twins: CompiledFunctions = compiled
+        return twins
 
     def compiled_linear_predict(self, state: Gaussian, model: Model) -> Gaussian | None:
         """``(F x, F P F^T + Q)`` in one compiled pass with F the model's compiled linear
@@ -67,13 +73,21 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
             return None
         return Gaussian(*kernels.linear_predict(state.mean, state.cov, compiled.f_params, model.Q))
 
-    def compiled_linearised_moments(self, prior: Gaussian, model: Model):
+    def compiled_linearised_moments(
+            self, prior: Gaussian, model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """``(h(x), H P H^T + R, P H^T)`` with the model's compiled ``h`` and Jacobian H at
         the mean, or ``None`` where that path does not apply (the caller then runs NumPy)."""
         compiled = self._linearised_twins(model)
         if compiled is None:
             return None
-        return kernels.ekf_moments(prior.mean, prior.cov, compiled, model.R)
+        moments: tuple[np.ndarray, np.ndarray, np.ndarray] = kernels.ekf_moments(prior.mean, prior.cov, compiled,
+                                                                                  model.R)
+        return moments
+
+    def _raise_root_failure(self, status: np.ndarray, root_kind: int) -> None:
+        """The fused kernels' failed square roots (``status == 0``) as the engine's error."""
+        detail = "state covariance P is not finite" if root_kind == 1 else "state covariance P (Cholesky)"
+        raise NotPositiveDefiniteError(self.name, failing_indices(status == 0), detail=detail)
 
     def _kernel_posterior(self) -> str | None:
         """Which posterior the update kernel may compute for this engine (``None``: NumPy).
@@ -116,10 +130,11 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
             ``(..., n, n)``.
         """
         F = model.jacobian_f(state.mean)
-        return state.cov @ np.swapaxes(F, -1, -2)
+        out: np.ndarray = state.cov @ np.swapaxes(F, -1, -2)
+        return out
 
     # -- shared -------------------------------------------------------------------
-    def _fused_rule(self, state: Gaussian, model: Model):
+    def _fused_rule(self, state: Gaussian, model: Model) -> KernelRule | None:
         """The point rule of a whole compiled predict/update with the model's compiled
         f/h, or ``None`` (this engine has none for this model)."""
         return None
@@ -128,7 +143,7 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
     #: ``"gauss-newton"`` (IEKF) or ``"posterior-linearisation"`` (IPLF).
     iteration_kind: str = "gauss-newton"
 
-    def _iteration_plan(self):
+    def _iteration_plan(self) -> tuple[int, float, Any] | None:
         """``(iterations, tol, robust)`` when the engine's parameters ask for an iterated or
         robust update (``iterations`` > 1 or a ``robust`` plugin), else ``None``."""
         params = getattr(self, "params", None)
@@ -215,9 +230,9 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
         form = self._kernel_posterior() if self._use_kernels() and not _hooked(model) else None
         if form is not None:
             joseph = form == "joseph"
+            H = model.H if joseph else None  # type: ignore[union-attr]  # "joseph": the KF's form, linear models
             mean, cov, gain, innovation, ok = kernels.update(
-                prior.mean, prior.cov, z, z_hat, S, C, bad_z, joseph,
-                model.H if joseph else None, model.R if joseph else None,
+                prior.mean, prior.cov, z, z_hat, S, C, bad_z, joseph, H, model.R if joseph else None,
             )
             if on_failure == "raise" and not all_true(ok):
                 raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
@@ -265,10 +280,11 @@ def _hooked(model: Model) -> bool:
 
 
 def _subtract(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a - b
+    out: np.ndarray = a - b
+    return out
 
 
-def _residual(model: Model | None, space: str):
+def _residual(model: Model | None, space: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """The model's ``residual_x``/``residual_z`` hook, or plain subtraction."""
     return getattr(model, f"residual_{space}", None) or _subtract
 
@@ -297,7 +313,7 @@ class SigmaPointEstimator(Estimator):
     #: Methods the fused update computes itself.
     _UPDATE_METHODS = ("measurement_moments", "posterior_cov")
 
-    def __init_subclass__(cls, **kwargs) -> None:
+    def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         own = vars(cls)
         if "kernel_rule" in own or "kernel_root" in own:
@@ -325,13 +341,13 @@ class SigmaPointEstimator(Estimator):
         """
         return None
 
-    def _fused_rule(self, state: Gaussian, model: Model):
+    def _fused_rule(self, state: Gaussian, model: Model) -> KernelRule | None:
         """The point rule if predict/update can run fused with the model's compiled f/h."""
         if getattr(model, "compiled", None) is None or not self._use_kernels() or _hooked(model):
             return None
         return self._cached_rule(state.ndim_state)
 
-    def _cached_rule(self, n: int):
+    def _cached_rule(self, n: int) -> KernelRule | None:
         """`kernel_rule` with its weights as kernel operands, computed once per state size
         and parameter set (the kernels then take the weights as they are, every step)."""
         key = (n, id(getattr(self, "params", None)))
@@ -343,13 +359,10 @@ class SigmaPointEstimator(Estimator):
                 root_kind, scale, center, wm, wc = rule
                 rule = (int(root_kind), float(scale), bool(center), kernels.vector_operand(wm), kernels.vector_operand(wc))
             hit = cache[key] = (rule, getattr(self, "params", None))  # holds params: its id stays unique
-        return hit[0]
+        rule_or_none: KernelRule | None = hit[0]
+        return rule_or_none
 
-    def _raise_root_failure(self, status: np.ndarray, root_kind: int) -> None:
-        detail = "state covariance P is not finite" if root_kind == 1 else "state covariance P (Cholesky)"
-        raise NotPositiveDefiniteError(self.name, failing_indices(status == 0), detail=detail)
-
-    def _kernel_points(self, state: Gaussian):
+    def _kernel_points(self, state: Gaussian) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """``(X, wm, wc)`` from the kernels, or ``None`` where the NumPy path applies."""
         if not self._use_kernels():
             return None
@@ -392,7 +405,8 @@ class SigmaPointEstimator(Estimator):
         nd = dA.ndim
         a_last = dA.transpose(tuple(range(1, nd)) + (0,))
         b_mid = dB.transpose(tuple(range(1, nd - 1)) + (0, nd - 1))
-        return (a_last * wc) @ b_mid
+        out: np.ndarray = (a_last * wc) @ b_mid
+        return out
 
     def predict(self, state: Gaussian, model: Model) -> Gaussian:
         rule = self._fused_rule(state, model)
@@ -412,11 +426,13 @@ class SigmaPointEstimator(Estimator):
         cov = symmetrize(self._weighted_cov(dY, dY, wc) + model.Q)
         return Gaussian(mean, cov)
 
-    def measurement_moments(self, prior: Gaussian, model: Model):
+    def measurement_moments(self, prior: Gaussian, model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         points = None if _hooked(model) else self._kernel_points(prior)
         if points is not None:
             X, wm, wc = points
-            return kernels.measurement_moments(X, model.h(X), prior.mean, wm, wc, model.R)
+            moments: tuple[np.ndarray, np.ndarray, np.ndarray] = kernels.measurement_moments(
+                X, model.h(X), prior.mean, wm, wc, model.R)
+            return moments
         X, wm, wc = self.sigma_points(prior)
         Z = model.h(X)
         z_hat, dZ = self._moments(Z, wm, wc, model, "z")

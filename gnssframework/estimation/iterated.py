@@ -32,11 +32,21 @@ and the prior's spread, for a gate: ``gates_prior``).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+
 import numpy as np
 
 from ..errors import InvalidMeasurementError, NotPositiveDefiniteError
 from .linalg import any_true, all_true, cholesky_masked, failing_indices, mat_vec, symmetrize
 from .types import Gaussian, Model, Update
+
+if TYPE_CHECKING:
+    from .estimator import Estimator
+    from .robust import RobustUpdate
+
+#: A model's residual hook: ``residual(a, b)`` is ``a - b`` in its space.
+Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 __all__ = ["iterated_update", "ITERATION_KINDS"]
 
@@ -45,38 +55,45 @@ ITERATION_KINDS = ("gauss-newton", "posterior-linearisation")
 
 
 def _t(a: np.ndarray) -> np.ndarray:
-    return np.swapaxes(a, -1, -2)
+    out: np.ndarray = np.swapaxes(a, -1, -2)
+    return out
 
 
 def _subtract(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a - b
+    out: np.ndarray = a - b
+    return out
 
 
-def _residual(model: Model, space: str):
+def _residual(model: Model, space: str) -> Residual:
     """The model's ``residual_x``/``residual_z`` hook, or plain subtraction (as the engines)."""
-    return getattr(model, f"residual_{space}", None) or _subtract
+    hook: Residual = getattr(model, f"residual_{space}", None) or _subtract
+    return hook
 
 
 def _where(mask: np.ndarray, new: np.ndarray, old: np.ndarray) -> np.ndarray:
     extra = new.ndim - mask.ndim
-    return np.where(mask.reshape(mask.shape + (1,) * extra), new, old)
+    out: np.ndarray = np.where(mask.reshape(mask.shape + (1,) * extra), new, old)
+    return out
 
 
 #: Most step halvings of the damped Gauss-Newton iteration (a step of 2^-20 of the full one).
 LINE_SEARCH_HALVINGS = 20
 
 
-def _map_cost(engine, model: Model, prior: Gaussian, z: np.ndarray, x: np.ndarray, res_x, res_z) -> np.ndarray:
+def _map_cost(engine: Estimator, model: Model, prior: Gaussian, z: np.ndarray, x: np.ndarray, res_x: Residual,
+              res_z: Residual) -> np.ndarray:
     r"""$\tfrac12 \|x - m\|^2_{P^{-1}} + \tfrac12 \|z - h(x)\|^2_{R^{-1}}$ per batch element,
     with $h(x)$ from the engine's moments at $N(x, P)$ (the EKF's $h$ at $x$)."""
     h_x = engine.measurement_moments(Gaussian(x, prior.cov), model)[0]
     d, e = res_x(x, prior.mean), res_z(z, h_x)
     R = np.broadcast_to(model.R, e.shape + e.shape[-1:])
-    return 0.5 * (np.einsum("...i,...i->...", d, np.linalg.solve(prior.cov, d[..., None])[..., 0])
-                  + np.einsum("...i,...i->...", e, np.linalg.solve(R, e[..., None])[..., 0]))
+    cost: np.ndarray = 0.5 * (np.einsum("...i,...i->...", d, np.linalg.solve(prior.cov, d[..., None])[..., 0])
+                              + np.einsum("...i,...i->...", e, np.linalg.solve(R, e[..., None])[..., 0]))
+    return cost
 
 
-def _damped(engine, model, prior, z, x, x_full, active, res_x, res_z) -> np.ndarray:
+def _damped(engine: Estimator, model: Model, prior: Gaussian, z: np.ndarray, x: np.ndarray, x_full: np.ndarray,
+            active: np.ndarray, res_x: Residual, res_z: Residual) -> np.ndarray:
     """The Gauss-Newton step from ``x`` towards ``x_full``, halved per batch element until
     the MAP cost does not increase (Skoglund, Hendeby & Axehill, FUSION 2015: the IEKF with
     a backtracking line search). Elements that no step improves stay at ``x``."""
@@ -93,12 +110,14 @@ def _damped(engine, model, prior, z, x, x_full, active, res_x, res_z) -> np.ndar
         searching = worse
     else:
         alpha = np.where(searching, 0.0, alpha)
-    return x + alpha[..., None] * step
+    out: np.ndarray = x + alpha[..., None] * step
+    return out
 
 
-def iterated_update(engine, prior: Gaussian, z: np.ndarray, model: Model, *, on_failure: str = "raise",
+def iterated_update(engine: Estimator, prior: Gaussian, z: np.ndarray, model: Model, *, on_failure: str = "raise",
                     missing: str = "raise", iterations: int = 1, tol: float = 0.0,
-                    iteration: str = "gauss-newton", robust=None, line_search: bool = False) -> Update:
+                    iteration: str = "gauss-newton", robust: RobustUpdate | None = None,
+                    line_search: bool = False) -> Update:
     """The iterated (and optionally robust) update of ``engine`` (see the module docstring).
 
     Parameters
@@ -140,7 +159,10 @@ def iterated_update(engine, prior: Gaussian, z: np.ndarray, model: Model, *, on_
 
     x, Pi = m, P
     active = ~bad_z
-    out = None
+    out: dict[str, Any] | None = None
+    omega: np.ndarray | float
+    residual_i: np.ndarray | None
+    spread_i: np.ndarray | None
     for it in range(n_iter):
         if it == 0:
             z_hat, spread_prior, C = z_bar0, spread0, C0
@@ -160,6 +182,7 @@ def iterated_update(engine, prior: Gaussian, z: np.ndarray, model: Model, *, on_
             C = P @ _t(A)
             residual_i = res_z(z, z_bar)
         else:  # robust reweighting on the prior's linearisation
+            assert A0 is not None  # set whenever robust reweights without relinearising
             residual_i = res_z(z, z_bar0) - mat_vec(A0, res_x(x, m))
             spread_i = symmetrize(A0 @ (Pi - P) @ _t(A0) + spread0)
         if robust is None or (it == 0 and not robust.gates_prior):
@@ -167,6 +190,7 @@ def iterated_update(engine, prior: Gaussian, z: np.ndarray, model: Model, *, on_
         elif it == 0:  # a gate: the innovation and the prior's spread (S = spread + R)
             R_i = robust.effective_noise(res_z(z, z_bar0), spread0, R)
         else:
+            assert residual_i is not None and spread_i is not None  # set from the second pass on
             R_i = robust.effective_noise(residual_i, spread_i, R)
         if relinearise and it > 0:
             S = symmetrize(spread_prior + R_i)
@@ -196,6 +220,7 @@ def iterated_update(engine, prior: Gaussian, z: np.ndarray, model: Model, *, on_
         x, Pi = out["x"], out["P"]
         if not any_true(active):
             break
+    assert out is not None  # n_iter >= 1
     skip = bad_z | ~out["ok"]
     mean, cov = out["x"], out["P"]
     if any_true(skip):

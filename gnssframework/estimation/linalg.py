@@ -8,6 +8,8 @@ turns a False into a named ``gnssframework.errors.NumericalError``.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .. import backend
@@ -29,7 +31,7 @@ __all__ = [
 ]
 
 
-def to_float(value) -> np.ndarray:
+def to_float(value: Any) -> np.ndarray:
     """``np.asarray(value, dtype=float)`` that refuses what it would mangle: complex
     values (NumPy drops the imaginary part with a ``ComplexWarning``), text and ragged
     nests raise ``ValueError`` with a short reason. A NumPy masked array's masked
@@ -42,29 +44,33 @@ def to_float(value) -> np.ndarray:
         out = None if complex_ else arr.astype(float, copy=False)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"is not a numeric array ({exc})") from None
-    if complex_:
+    if out is None:  # complex
         raise ValueError("is complex; give the real and imaginary parts as separate measurements")
     return out
 
 
 def transpose(a: np.ndarray) -> np.ndarray:
     """Batched ``A^T``: the last two axes swapped (a view)."""
-    return np.swapaxes(a, -1, -2)
+    out: np.ndarray = np.swapaxes(a, -1, -2)
+    return out
 
 
 def symmetrize(a: np.ndarray) -> np.ndarray:
     """Return ``(A + A^T) / 2`` over the last two axes."""
-    return 0.5 * (a + transpose(a))
+    out: np.ndarray = 0.5 * (a + transpose(a))
+    return out
 
 
 def mat_vec(a: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Batched ``A @ x`` for matrices ``(..., p, q)`` and vectors ``(..., q)``."""
-    return (a @ x[..., None])[..., 0]
+    out: np.ndarray = (a @ x[..., None])[..., 0]
+    return out
 
 
 def outer(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Batched outer product ``a b^T`` of ``(..., p)`` and ``(..., q)``."""
-    return a[..., :, None] * b[..., None, :]
+    out: np.ndarray = a[..., :, None] * b[..., None, :]
+    return out
 
 
 def cholesky_masked(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -155,11 +161,12 @@ def failing_indices(ok: np.ndarray) -> list[tuple[int, ...]]:
     return [tuple(int(i) for i in idx) for idx in zip(*np.nonzero(~ok))]
 
 
-def _clip_spectrum(a: np.ndarray, low, high) -> np.ndarray:
+def _clip_spectrum(a: np.ndarray, low: float | np.ndarray, high: float | np.ndarray) -> np.ndarray:
     """Symmetrise ``a`` and clip its eigenvalues into ``[low, high]`` (broadcast over the batch)."""
     w, v = np.linalg.eigh(symmetrize(a))
     w = np.clip(w, np.asarray(low)[..., None], np.asarray(high)[..., None])
-    return (v * w[..., None, :]) @ np.swapaxes(v, -1, -2)
+    out: np.ndarray = (v * w[..., None, :]) @ np.swapaxes(v, -1, -2)
+    return out
 
 
 def clip_eigenvalues(a: np.ndarray, floor: float | np.ndarray) -> np.ndarray:

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Union
+from collections.abc import Callable
+
+from typing import Any
 
 import numpy as np
 
@@ -146,7 +148,7 @@ class FilterResult:
         return f"<table><caption>FilterResult</caption>{rows}</table>"
 
 
-def _check_arguments(estimator, model, initial, adapter, augmentation) -> None:
+def _check_arguments(estimator: Any, model: Any, initial: Any, adapter: Any, augmentation: Any) -> None:
     """The object arguments are of the right kind (a string or dict is named, not an
     AttributeError deep in a filter)."""
     for value, argument in ((estimator, "estimator"), (model, "model"), (initial, "initial"),
@@ -156,7 +158,7 @@ def _check_arguments(estimator, model, initial, adapter, augmentation) -> None:
 
 def filter_sequence(
     estimator: Estimator,
-    model: Union[Model, Callable[[int], Model]],
+    model: Model | Callable[[int], Model],
     zs: np.ndarray,
     initial: Gaussian,
     adapter: NoiseAdapter | None = None,
@@ -263,7 +265,7 @@ def filter_sequence(
         raise InvalidInputError(estimator.name, "zs", f"batch shape {zs.shape[1:-1]} does not broadcast with the "
                                 f"initial state's {initial.batch_shape}") from None
     state = step.start(initial, m0)
-    out: dict[str, list] = {k: [] for k in ("mean", "cov", "innovation", "innovation_cov", "Q", "R", "skipped",
+    out: dict[str, list[Any]] = {k: [] for k in ("mean", "cov", "innovation", "innovation_cov", "Q", "R", "skipped",
                                             "prior_mean", "prior_cov", "cross_cov")}
     start = state
     for k in range(zs.shape[0]):
@@ -300,7 +302,7 @@ def filter_sequence(
     )
 
 
-def _times(time_s, k: int, filter_name: str) -> np.ndarray:
+def _times(time_s: Any, k: int, filter_name: str) -> np.ndarray:
     """``time_s`` as a finite ``(K,)`` float array, or `InvalidInputError` naming it."""
     try:
         t = to_float(time_s)

@@ -47,7 +47,9 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Callable
+from collections.abc import Callable
+
+from typing import Any
 
 import numpy as np
 
@@ -120,7 +122,8 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
         n = w.shape[-1]
         tol = n * np.finfo(float).eps * np.max(np.abs(w), axis=-1, keepdims=True)
         inv_w = np.where(w > tol, 1.0 / np.where(w > tol, w, 1.0), 0.0)
-        return ((cross_cov @ V) * inv_w[..., None, :]) @ transpose(V)
+        gain: np.ndarray = ((cross_cov @ V) * inv_w[..., None, :]) @ transpose(V)
+        return gain
     raise ConfigError("smoother gain form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
 
 
@@ -195,7 +198,7 @@ def _gain_form(inputs: SmootherInputs, form: str | None) -> str:
     return form
 
 
-def _checked_lag(lag) -> int:
+def _checked_lag(lag: Any) -> int:
     """``lag`` as an int, or `ConfigError` unless an integer >= 0."""
     if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
         raise ConfigError("lag", f"must be an integer >= 0 (steps), got {lag!r}")
@@ -231,6 +234,7 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
         ``result`` was not stored for smoothing, or an unknown ``form``.
     """
     inputs = _inputs(result, "smooth")
+    assert result.cov is not None  # _inputs refuses a result without it
     form = _gain_form(inputs, form)
     K = result.mean.shape[0]
     # The gains depend on the forward pass only: all K (the initial state's first) in one batched call.
@@ -278,6 +282,7 @@ def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | N
         as given (not smoothed).
     """
     inputs = _inputs(result, "fixed_lag_smooth")
+    assert result.cov is not None  # _inputs refuses a result without it
     lag = _checked_lag(lag)
     form = _gain_form(inputs, form)
     K = result.mean.shape[0]
@@ -373,7 +378,7 @@ class FixedLagSmoother:
         self.residual_x = residual_x
         self.form = estimator.smoother_gain
         self._step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
-        self._window: deque = deque(maxlen=self.lag + 1)
+        self._window: deque[Any] = deque(maxlen=self.lag + 1)
         self._state: Gaussian | None = None
         self._k = 0
 

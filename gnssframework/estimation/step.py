@@ -39,6 +39,8 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass
 
+from typing import Any
+
 import numpy as np
 
 from ..errors import (ConfigError, InvalidInitialStateError, InvalidInputError, NonFiniteError, NotPositiveDefiniteError,
@@ -96,7 +98,7 @@ def check_initial(initial: Gaussian, filter_name: str, model: Model | None = Non
                                        "symmetric and positive definite")
 
 
-def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, counts: Counter,
+def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, counts: Counter[str],
                       filter_name: str, lean: bool = False) -> Gaussian:
     """Check the posterior of every batch element; apply ``policy`` where it fails.
 
@@ -216,12 +218,13 @@ class FilterStep:
         self.on_failure = on_failure
         self.missing = missing
         self.name = name or estimator.name
-        self.recoveries: Counter = Counter({k: 0 for k in RECOVERIES})
+        self.recoveries: Counter[str] = Counter({k: 0 for k in RECOVERIES})
         self.step_index = 0
         self._adapted = 0
         self._run: AdapterRun | None = None
-        self._Q = self._R = None
-        self._in_force_cache: tuple | None = None
+        self._Q: np.ndarray | None = None
+        self._R: np.ndarray | None = None
+        self._in_force_cache: tuple[Any, ...] | None = None
         self._lean = backend.compiled()
 
     def start(self, initial: Gaussian, model: Model | None = None, *, first_step: int = 0) -> Gaussian:
@@ -293,7 +296,8 @@ class FilterStep:
         # predict and update of one step use the same model: build it once.
         hit = self._in_force_cache
         if hit is not None and hit[0] is model and hit[1] is self._Q and hit[2] is self._R:
-            return hit[3]
+            cached: Model = hit[3]
+            return cached
         out = model.with_noise(Q=self._Q, R=self._R)
         self._in_force_cache = (model, self._Q, self._R, out)
         return out
@@ -347,7 +351,7 @@ class FilterStep:
             missing_now = (~np.isfinite(z).all(axis=-1) if self.missing == "skip" else np.zeros((), bool))
             self.recoveries["missing"] += int(np.sum(missing_now & skipped))
             self.recoveries["skip_update"] += int(np.sum(skipped & ~missing_now))
-        if self._run is not None:
+        if self._run is not None and self.adapter is not None:  # a run only with an adapter
             previous = prior if previous is None else previous
             # Overflow in the adapter (an innovation of 1e300) is refused by name, not a NumPy warning.
             self._Q, self._R = adapt_checked(self._run, AdaptationStep(self._adapted, previous, prior, upd, mk),

@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Callable, Optional
+from collections.abc import Callable
+
+from typing import Any
 
 import numpy as np
 
@@ -75,14 +77,15 @@ class Gaussian:
     @property
     def ndim_state(self) -> int:
         """State dimension n."""
-        return self.mean.shape[-1]
+        n: int = self.mean.shape[-1]
+        return n
 
     @property
     def batch_shape(self) -> tuple[int, ...]:
         """Leading (batch) dimensions."""
         return self.mean.shape[:-1]
 
-    def __getitem__(self, index) -> "Gaussian":
+    def __getitem__(self, index: Any) -> Gaussian:
         """Select batch elements: ``state[3]``, ``state[:, 0]``."""
         if not isinstance(index, tuple):
             index = (index,)
@@ -141,7 +144,7 @@ class LinearModel:
     H: np.ndarray
     Q: np.ndarray
     R: np.ndarray
-    u: Optional[np.ndarray] = None
+    u: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         F = _check_square("LinearModel.F", self.F)
@@ -158,14 +161,16 @@ class LinearModel:
 
     @property
     def dim_state(self) -> int:
-        return self.F.shape[-1]
+        n: int = self.F.shape[-1]
+        return n
 
     @property
     def dim_meas(self) -> int:
-        return self.R.shape[-1]
+        m: int = self.R.shape[-1]
+        return m
 
     @property
-    def compiled(self) -> "CompiledFunctions | None":
+    def compiled(self) -> CompiledFunctions | None:
         """``F x`` and ``H x`` for the fused kernels when F and H are shared and ``u`` is None."""
         if self.u is not None or self.F.ndim != 2 or self.H.ndim != 2:
             return None
@@ -190,7 +195,7 @@ class LinearModel:
         """``H``, the same at every point."""
         return self.H
 
-    def with_noise(self, Q: np.ndarray | None = None, R: np.ndarray | None = None) -> "LinearModel":
+    def with_noise(self, Q: np.ndarray | None = None, R: np.ndarray | None = None) -> LinearModel:
         """Copy with new noise covariances (``None`` keeps the current one)."""
         return dataclasses.replace(self, Q=self.Q if Q is None else Q, R=self.R if R is None else R)
 
@@ -241,14 +246,14 @@ class NonlinearModel:
     h: ArrayFn
     Q: np.ndarray
     R: np.ndarray
-    f_jacobian: Optional[ArrayFn] = None
-    h_jacobian: Optional[ArrayFn] = None
+    f_jacobian: ArrayFn | None = None
+    h_jacobian: ArrayFn | None = None
     #: Optional compiled twins of ``f`` and ``h`` (see ``CompiledFunctions``).
-    compiled: Optional[CompiledFunctions] = None
-    residual_x: Optional[Callable[[np.ndarray, np.ndarray], np.ndarray]] = None
-    residual_z: Optional[Callable[[np.ndarray, np.ndarray], np.ndarray]] = None
-    mean_x: Optional[Callable[[np.ndarray, np.ndarray], np.ndarray]] = None
-    mean_z: Optional[Callable[[np.ndarray, np.ndarray], np.ndarray]] = None
+    compiled: CompiledFunctions | None = None
+    residual_x: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+    residual_z: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+    mean_x: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+    mean_z: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
 
     @property
     def angle_aware(self) -> bool:
@@ -263,11 +268,13 @@ class NonlinearModel:
 
     @property
     def dim_state(self) -> int:
-        return self.Q.shape[-1]
+        n: int = self.Q.shape[-1]
+        return n
 
     @property
     def dim_meas(self) -> int:
-        return self.R.shape[-1]
+        m: int = self.R.shape[-1]
+        return m
 
     def jacobian_f(self, x: np.ndarray) -> np.ndarray:
         """``df/dx`` at ``x``: analytic when given, else central differences."""
@@ -277,7 +284,7 @@ class NonlinearModel:
         """``dh/dx`` at ``x``: analytic when given, else central differences."""
         return self.h_jacobian(x) if self.h_jacobian is not None else numerical_jacobian(self.h, x)
 
-    def with_noise(self, Q: np.ndarray | None = None, R: np.ndarray | None = None) -> "NonlinearModel":
+    def with_noise(self, Q: np.ndarray | None = None, R: np.ndarray | None = None) -> NonlinearModel:
         """Copy with new noise covariances (``None`` keeps the current one)."""
         return dataclasses.replace(self, Q=self.Q if Q is None else Q, R=self.R if R is None else R)
 

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import inspect
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
+from collections.abc import Sequence
 
 from ..plugin_ref import PluginSpec
 from .scenarios import Scenario

@@ -37,7 +37,7 @@ Every function here is a textbook procedure, written from its definition:
 from __future__ import annotations
 
 import zlib
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 from scipy import special as _sc  # not scipy.stats: its import costs every run of the CLI a second

@@ -168,7 +168,7 @@ class Claim(BaseModel):
     note: str = Field("", description="where the claim is stated (a docs page, a paper's table)")
 
     @model_validator(mode="after")
-    def _one_kind(self) -> "Claim":
+    def _one_kind(self) -> Claim:
         self._new_kinds()
         if self.threshold is not None or self.threshold_difference is not None:
             if self.reference is None or self.sweep is None:

@@ -152,7 +152,7 @@ class ComparisonConfig(_Strict):
         return items
 
     @model_validator(mode="after")
-    def _check_against_scenario(self) -> "ComparisonConfig":
+    def _check_against_scenario(self) -> ComparisonConfig:
         from .scenarios import get_scenario
 
         scenario = get_scenario(self.scenario)  # raises ConfigError naming scenario.kind / field
@@ -218,7 +218,7 @@ class ComparisonConfig(_Strict):
                                      for i, cand in enumerate(self.candidates))
         return self._candidates
 
-    def sweep_points(self, index: int) -> list[tuple[Any, "ComparisonConfig"]]:
+    def sweep_points(self, index: int) -> list[tuple[Any, ComparisonConfig]]:
         """``(value, config)`` of every point of ``sweeps[index]`` (see ``sweeps.expand_sweep``)."""
         if index not in self._points:
             self._points[index] = expand_sweep(self, index)

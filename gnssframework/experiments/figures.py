@@ -118,7 +118,7 @@ def panel_grid(panels: list[Panel], title: str, max_columns: int = 3, panel_size
         _draw(ax, panel)
     for ax in list(axes.flat)[len(panels):]:
         fig.delaxes(ax)
-    handles = {}
+    handles: dict[str, Any] = {}
     for ax in fig.axes:
         for handle, label in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(label, handle)

@@ -25,7 +25,8 @@ while the run has not yet converged.
 
 from __future__ import annotations
 
-from typing import Any, Callable, ClassVar, Sequence
+from typing import Any, ClassVar
+from collections.abc import Callable, Sequence
 
 import numpy as np
 

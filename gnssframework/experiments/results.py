@@ -23,9 +23,13 @@ import shutil
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:  # imported where used: loading the results needs them, importing this module not
+    import pandas as pd
+    import xarray as xr
 
 __all__ = ["ComparisonResult", "compare", "load_results"]
 
@@ -48,28 +52,28 @@ class ComparisonResult:
         The results folder, or ``None`` when the comparison ran in memory.
     """
 
-    summary: dict
+    summary: dict[str, Any]
     runs: Any
     series: Any
     markdown: str
     out: Path | None = None
 
     @property
-    def rows(self):
+    def rows(self) -> pd.DataFrame:
         """Mean, std and runs per case, candidate and metric (``pandas.DataFrame``)."""
         import pandas as pd
 
         return pd.DataFrame(self.summary["rows"])
 
     @property
-    def paired(self):
+    def paired(self) -> pd.DataFrame:
         """Paired differences to the reference candidate (``pandas.DataFrame``)."""
         import pandas as pd
 
         return pd.DataFrame(self.summary["paired"])
 
     @property
-    def claims(self):
+    def claims(self) -> pd.DataFrame:
         """Each claim's outcome and evidence (``pandas.DataFrame``)."""
         import pandas as pd
 
@@ -107,7 +111,7 @@ class ComparisonResult:
             units.setdefault(r["metric"], r["unit"])
         left = " style='text-align:left'"
 
-        def cell(r: dict | None) -> str:
+        def cell(r: dict[str, Any] | None) -> str:
             if r is None or r.get("mean") is None:
                 return "–" if r is None else escape(str(r.get("undefined") or "–"))
             return escape(mean_cell(r))  # report.md's cell: a zero or missing SE prints the mean alone
@@ -128,7 +132,7 @@ class ComparisonResult:
         return "".join(parts)
 
 
-def _runs_dataset(config, store):
+def _runs_dataset(config: Any, store: Any) -> xr.Dataset:
     import xarray as xr
 
     key = config.identity()
@@ -147,7 +151,7 @@ def _runs_dataset(config, store):
                       attrs={"name": config.name, "seed": config.seed})
 
 
-def _series_dataset(config, out: Path):
+def _series_dataset(config: Any, out: Path) -> xr.Dataset:
     """Every batch file's ``(epoch, run)`` series on the union of the candidates' time axes
     (a filter that drops its first epoch, as a decorrelating augmentation does, has NaN
     there)."""
@@ -186,7 +190,7 @@ def _series_dataset(config, out: Path):
                       attrs={"time_s": "s, the union of the candidates' epochs (NaN where a filter has none)"})
 
 
-def load_results(out: str | Path, config=None) -> ComparisonResult:
+def load_results(out: str | Path, config: Any = None) -> ComparisonResult:
     """The results of the comparison written in ``out`` (its ``config.json`` unless given)."""
     from .config import ComparisonConfig
     from ..io.files import loads_strict
@@ -205,7 +209,7 @@ def load_results(out: str | Path, config=None) -> ComparisonResult:
                             (out / "report.md").read_text(), out)
 
 
-def _tuning_results(config, summary: dict) -> dict[str, dict]:
+def _tuning_results(config: Any, summary: dict[str, Any]) -> dict[str, dict[str, Any]]:
     from .tuning import resolve_free
 
     resolved = resolve_free(config)

@@ -28,14 +28,14 @@ import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
-from typing import Callable, Iterable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 
 from ..errors import ConfigError, GnssFrameworkError, RunFailure, WorkerError
 from ..progress import Progress
 from .config import DASK_ADDRESS_ENV, ComparisonConfig
-from ..io.files import atomic_open, atomic_write_text
+from ..io.files import atomic_open
 from .folder import claim_folder
 from .metric_components import evaluate
 from .metrics import metric_component

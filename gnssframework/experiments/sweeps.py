@@ -81,7 +81,7 @@ class Sweep(BaseModel):
         return None if value is None else check_file_name(value)
 
     @model_validator(mode="after")
-    def _one_form(self) -> "Sweep":
+    def _one_form(self) -> Sweep:
         ranged = [k for k in ("start", "stop", "step", "num") if getattr(self, k) is not None]
         if self.values is not None:
             if ranged:

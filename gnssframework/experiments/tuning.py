@@ -78,7 +78,7 @@ class FreeParameter(BaseModel):
                                      "a range")
 
     @model_validator(mode="after")
-    def _one_form(self) -> "FreeParameter":
+    def _one_form(self) -> FreeParameter:
         for end in ("low", "high"):
             value = getattr(self, end)
             if value is not None and not math.isfinite(value):
@@ -303,7 +303,7 @@ def _run_trial(config, store, trial, execute) -> float:
             not in done]
     try:
         with closing(execute(jobs)) as results:  # closed at once on Ctrl-C: workers stop
-            for i, (task, metrics, _series, _time) in results:
+            for _i, (task, metrics, _series, _time) in results:
                 store.add_batch(key, trial.cases[task.case_index].name, trial.candidates[0].name, task.first_run,
                                 metrics)
     except RunFailure:

@@ -103,7 +103,7 @@ class ImuGrade(BaseModel):
         return self.accel_vrw_mg_per_sqrt_hz * _MG
 
     @classmethod
-    def perfect(cls) -> "ImuGrade":
+    def perfect(cls) -> ImuGrade:
         """An error-free IMU."""
         return cls(gyro_bias_deg_per_h=0, gyro_markov_sigma_deg_per_h=0, gyro_arw_deg_per_sqrt_h=0,
                    accel_bias_mg=0, accel_markov_sigma_mg=0, accel_vrw_mg_per_sqrt_hz=0)

@@ -69,7 +69,7 @@ class NavState:
         object.__setattr__(self, "velocity_ecef_mps", v)
         object.__setattr__(self, "position_ecef_m", r)
 
-    def broadcast(self, batch_shape: tuple[int, ...]) -> "NavState":
+    def broadcast(self, batch_shape: tuple[int, ...]) -> NavState:
         """The same state repeated over a batch of runs (copies, so runs can diverge)."""
         return NavState(
             np.broadcast_to(self.q_b_e, batch_shape + (4,)).copy(),
@@ -334,7 +334,10 @@ def integrate(
     state = state0.broadcast(batch)
     if options.use_compiled:
         nb = int(np.prod(batch, dtype=int))
-        flat = lambda x, lead=(): np.ascontiguousarray(np.broadcast_to(x, lead + batch + (x.shape[-1],))).reshape(lead + (nb, x.shape[-1]))  # noqa: E731
+
+        def flat(x, lead=()):
+            return np.ascontiguousarray(np.broadcast_to(x, lead + batch + (x.shape[-1],))).reshape(lead + (nb, x.shape[-1]))
+
         has_prev = prev_dtheta_rad is not None
         pth = np.zeros(3) if prev_dtheta_rad is None else np.asarray(prev_dtheta_rad, dtype=float)
         pdv = np.zeros(3) if prev_dv_mps is None else np.asarray(prev_dv_mps, dtype=float)

@@ -84,7 +84,7 @@ class TrajectoryProfile(BaseModel):
     fixed_roll_pitch_yaw_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     @model_validator(mode="after")
-    def _check(self) -> "TrajectoryProfile":
+    def _check(self) -> TrajectoryProfile:
         for i, p in enumerate(self.pulses):
             if p.end_s > self.duration_s:
                 raise ConfigError(f"pulses[{i}].start_s", f"pulse ends at {p.end_s} s, after duration_s={self.duration_s}")

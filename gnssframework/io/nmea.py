@@ -75,18 +75,18 @@ def _clock(t_s: float) -> str:
 
 def _coordinate(msg, kind: str) -> tuple[float, float] | str:
     """``(lat_deg, lon_deg)`` of a GGA/RMC sentence, or the reason it is not a position."""
-    for name, field, hemi, allowed, width in (("latitude", msg.lat, msg.lat_dir, "NS", 2),
+    for name, value, hemi, allowed, width in (("latitude", msg.lat, msg.lat_dir, "NS", 2),
                                               ("longitude", msg.lon, msg.lon_dir, "EW", 3)):
-        if not field.strip():
+        if not value.strip():
             return f"{kind} with an empty {name}"
         if hemi not in tuple(allowed):  # pynmea2 reads any other letter as 0 deg
             return f"{kind} {name} hemisphere {hemi!r} is not {' or '.join(allowed)}"
         try:
-            minutes = float(field[width:])
+            minutes = float(value[width:])
         except ValueError:
-            return f"{kind} {name} {field!r} is not ddmm.mmmm"
+            return f"{kind} {name} {value!r} is not ddmm.mmmm"
         if not 0.0 <= minutes < 60.0:
-            return f"{kind} {name} {field!r}: minutes {minutes:g} outside [0, 60)"
+            return f"{kind} {name} {value!r}: minutes {minutes:g} outside [0, 60)"
     lat, lon = float(msg.latitude), float(msg.longitude)
     if not -90.0 <= lat <= 90.0:
         return f"latitude {lat:.6f} deg outside +-90 deg"

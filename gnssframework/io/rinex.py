@@ -11,12 +11,12 @@ import datetime as dt
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
 from ..errors import ConfigError, DataFileError
-from .text import check_input_file, read_input_text
+from .text import read_input_text
 
 __all__ = ["RinexScan", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs",
            "PSEUDORANGE_MIN_M", "PSEUDORANGE_MAX_M"]
@@ -333,7 +333,9 @@ def _kept_lines(lines: list[str], epochs: list[tuple[int, int, list[int]]], verd
                 types_of: dict[str, list[str]]) -> tuple[list[str], list[int], list[int]]:
     """The lines georinex is given (dropped ones removed, implausible pseudoranges blanked),
     their original line numbers, and the index of each kept epoch's header."""
-    out_lines, numbers, starts = [], [], []
+    out_lines: list[str] = []
+    numbers: list[int] = []
+    starts: list[int] = []
     epoch_heads = {h for h, _, _ in epochs}
     for idx, line in enumerate(lines):
         if idx in verdict.drop:

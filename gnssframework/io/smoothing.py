@@ -9,7 +9,7 @@ code. The filter's own slip detections come back beside the receiver's flags.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

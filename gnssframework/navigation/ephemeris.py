@@ -133,12 +133,12 @@ class Ephemerides:
     iode: np.ndarray
     accuracy_m: np.ndarray | None = None
 
-    def subset(self, index: np.ndarray) -> "Ephemerides":
+    def subset(self, index: np.ndarray) -> Ephemerides:
         return Ephemerides(self.sv[index], self.toc_s[index], {k: v[index] for k, v in self.elements.items()},
                            self.health[index], self.iode[index],
                            None if self.accuracy_m is None else self.accuracy_m[index])
 
-    def of_systems(self, systems: str) -> "Ephemerides":
+    def of_systems(self, systems: str) -> Ephemerides:
         """The records of the systems named by RINEX letters (``"E"``, ``"GEC"``).
 
         Raises
@@ -151,7 +151,7 @@ class Ephemerides:
                 raise _system_error(letter)
         return self.subset(np.flatnonzero(np.isin(self.sv.astype("U1"), list(systems))))
 
-    def select(self, sv: np.ndarray | list[str], t_s: float, healthy_only: bool = True) -> "Ephemerides":
+    def select(self, sv: np.ndarray | list[str], t_s: float, healthy_only: bool = True) -> Ephemerides:
         """For each satellite of ``sv``, the record whose ``Toe`` is nearest ``t_s``
         (GPS seconds of week, converted to the record's system time; across the week
         crossover); healthy records only unless ``healthy_only`` is False.

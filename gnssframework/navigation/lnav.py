@@ -144,7 +144,7 @@ class IonoUtc:
         return out
 
     @classmethod
-    def from_fields(cls, f: dict[str, float]) -> "IonoUtc":
+    def from_fields(cls, f: dict[str, float]) -> IonoUtc:
         keys = sorted(k for k in f if k.startswith("alpha")), sorted(k for k in f if k.startswith("beta"))
         return cls(tuple(f[k] for k in keys[0]), tuple(f[k] for k in keys[1]), f["a0_s"], f["a1_s_s"], f["tot_s"],
                    int(f["wnt"]), int(f["dt_ls_s"]), int(f["wn_lsf"]), int(f["dn"]), int(f["dt_lsf_s"]))

@@ -82,6 +82,7 @@ class CN0Estimator(Plugin, abc.ABC):
 
     kind = "cn0_estimator"
     Params = CN0EstimatorParams
+    params: CN0EstimatorParams  # self.params, as validated
     needs: ClassVar[tuple[str, ...]] = ("prompt",)
     min_intervals: ClassVar[int] = 2
     bit_blind: ClassVar[bool] = True

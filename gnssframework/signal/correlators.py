@@ -38,7 +38,7 @@ class Correlators:
             object.__setattr__(self, name, np.broadcast_to(tap.astype(complex, copy=False), shape))
 
     @classmethod
-    def trusted(cls, early: np.ndarray, prompt: np.ndarray, late: np.ndarray) -> "Correlators":
+    def trusted(cls, early: np.ndarray, prompt: np.ndarray, late: np.ndarray) -> Correlators:
         """Taps already of one shape and complex dtype (the library's own simulators and
         wipe-off): built without the checks of the constructor, which a harness would
         otherwise pay every interval. No extra taps."""
@@ -59,7 +59,7 @@ class Correlators:
         return np.concatenate([taps.real, taps.imag], axis=-1)
 
     @classmethod
-    def from_iq(cls, iq: np.ndarray) -> "Correlators":
+    def from_iq(cls, iq: np.ndarray) -> Correlators:
         """Inverse of ``as_iq``."""
         iq = np.asarray(iq, dtype=float)
         c = iq[..., :3] + 1j * iq[..., 3:6]

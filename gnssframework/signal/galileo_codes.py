@@ -38,7 +38,7 @@ anywhere near a code's own peak (`tests/test_galileo_e1.py`).
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -64,7 +64,7 @@ def hex_to_chips(digits: str, n_chips: int) -> np.ndarray:
     return bits_to_chips(bits)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _e1_code(component: str, prn: int) -> np.ndarray:
     """The primary code of ``component`` (``"E1-B"`` or ``"E1-C"``) for a checked ``prn``
     (read-only, cached)."""

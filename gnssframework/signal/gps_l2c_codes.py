@@ -23,7 +23,7 @@ at the period's last chip), which the tests use as the truth the generator must 
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import lru_cache, cache
 
 import numpy as np
 
@@ -92,7 +92,7 @@ def l2c_register_chips(initial_state: int, n_chips: int) -> tuple[np.ndarray, in
     return np.frombuffer(bytes(out), np.uint8), last
 
 
-@lru_cache(maxsize=None)
+@cache
 def _cm(state: int) -> np.ndarray:
     code = bits_to_chips(l2c_register_chips(state, L2CM_LENGTH)[0])
     code.flags.writeable = False

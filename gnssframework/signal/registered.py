@@ -42,6 +42,7 @@ class Signal(Plugin):
     kind = "signal"
     spec: ClassVar[SignalSpec]
     Params = SignalParams
+    params: SignalParams  # self.params, as validated
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)

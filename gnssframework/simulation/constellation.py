@@ -40,7 +40,7 @@ class SatelliteSet(abc.ABC):
         """ECEF position, velocity and acceleration, shape ``(*t.shape, *S, 3)``."""
 
     @abc.abstractmethod
-    def subset(self, index: np.ndarray) -> "SatelliteSet":
+    def subset(self, index: np.ndarray) -> SatelliteSet:
         """The satellites at ``index``."""
 
     def elevation_deg(self, t_s: float, lat_deg: float, lon_deg: float, height_m: float) -> np.ndarray:
@@ -93,7 +93,7 @@ class Constellation(SatelliteSet):
     def mean_motion_rad_s(self) -> float:
         return float(np.sqrt(GM_EARTH / self.radius_m**3))
 
-    def subset(self, index: np.ndarray) -> "Constellation":
+    def subset(self, index: np.ndarray) -> Constellation:
         """The satellites at ``index`` (any integer array shape)."""
         return Constellation(self.prn[index], self.raan_rad[index], self.arg_lat_rad[index], self.radius_m,
                              self.inclination_rad)
@@ -135,7 +135,7 @@ class Constellation(SatelliteSet):
         return p, v, a
 
 
-def draw_epochs(sats: "Constellation", rng, runs: int, lat_deg: float, lon_deg: float, height_m: float,
+def draw_epochs(sats: Constellation, rng, runs: int, lat_deg: float, lon_deg: float, height_m: float,
                 mask_deg: float, channels: int, tries: int = 64) -> tuple[np.ndarray, np.ndarray]:
     """Each run's start epoch, uniform over the constellation's repeat period, and its satellites.
 

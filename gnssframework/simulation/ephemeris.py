@@ -32,7 +32,7 @@ class BroadcastEphemeris(SatelliteSet):
     prn: np.ndarray
     elements: dict[str, np.ndarray]
 
-    def subset(self, index: np.ndarray) -> "BroadcastEphemeris":
+    def subset(self, index: np.ndarray) -> BroadcastEphemeris:
         return BroadcastEphemeris(self.prn[index], {k: v[index] for k, v in self.elements.items()})
 
     def position(self, t_s: np.ndarray | float) -> np.ndarray:

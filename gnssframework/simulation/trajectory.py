@@ -108,7 +108,7 @@ def load_trajectory(path: str | Path) -> Trajectory:
         raise DataFileError(str(path), rows[0][0], "header lacks t_s")
     vel_cols = ("vx_m_s", "vy_m_s", "vz_m_s")
     has_vel = set(vel_cols) <= set(header)
-    data = []
+    data: list[tuple[list[float], int]] = []  # (values, line number)
     for no, line in rows[1:]:
         rec = dict(zip(header, (c.strip() for c in next(csv.reader([line])))))
         try:

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..compiled_model import CompiledFunctions
 from . import drivers, split
 
 __all__ = ["sigma_points", "predict_moments", "measurement_moments", "update", "pd_mask", "linear_predict",

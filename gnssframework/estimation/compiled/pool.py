@@ -22,7 +22,7 @@ from __future__ import annotations
 import itertools
 import os
 import threading
-from typing import Callable
+from collections.abc import Callable
 
 __all__ = ["run_chunks"]
 

@@ -99,6 +99,7 @@ class CarrierSmoothingScenario(Scenario):
     #: The simulated signal (its carrier wavelength).
     signal: ClassVar[SignalSpec] = GPS_L1CA
     Params = CarrierSmoothingParams
+    params: CarrierSmoothingParams  # self.params, as validated
     CaseParams = CarrierSmoothingCase
     components = {"channel_filter": False}
     metrics = units(METRICS)

@@ -28,7 +28,6 @@ from __future__ import annotations
 from typing import Any, Literal
 
 import numpy as np
-import pymap3d
 from pydantic import Field
 
 from ... import random_streams as draw
@@ -38,7 +37,7 @@ from ...inertial.earth import STANDARD_GRAVITY_MPS2
 from ...interfaces import ErrorStateNavFilter, RunContext
 from ...inertial.imu import ImuGrade
 from ...inertial.trajectory import MAX_START_LAT_DEG
-from ...receiver.deep.aided_tracking import DeepTruth, loss_of_lock, run_aided_tracking
+from ...receiver.deep.aided_tracking import DeepTruth, loss_of_lock
 from .deep_integration_metrics import attitude_errors_deg, enu_errors
 from ...receiver.tracking.scalar import NCO_COMMANDS
 from ...receiver.tracking.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_vector_loop
@@ -170,7 +169,7 @@ class DeepIntegrationCase(ScenarioParams):
     accel_misalignment_mrad: float | None = Field(None, ge=0, description="this case's accelerometer "
                                                   "misalignment (mrad; default: the scenario's imu)")
 
-    def scenario_update(self, params: "DeepIntegrationParams") -> dict[str, Any]:
+    def scenario_update(self, params: DeepIntegrationParams) -> dict[str, Any]:
         """The scenario parameters this case replaces (empty: none)."""
         update: dict[str, Any] = {}
         if self.oscillator_g_sensitivity_per_g is not None:
@@ -226,6 +225,7 @@ class DeepIntegrationScenario(Scenario):
 
     kind = "deep-integration"
     Params = DeepIntegrationParams
+    params: DeepIntegrationParams  # self.params, as validated
     CaseParams = DeepIntegrationCase
     components = {"channel_filter": True, "nav_filter": True}
     metrics = units(METRICS)

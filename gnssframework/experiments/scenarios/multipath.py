@@ -17,7 +17,7 @@ filters the whole sequence through it, with its model's Q and R scaled for the o
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from pydantic import Field
@@ -130,6 +130,7 @@ class MultipathScenario(Scenario):
 
     kind = "multipath"
     Params = MultipathParams
+    params: MultipathParams  # self.params, as validated
     CaseParams = MultipathCase
     components = {"nav_filter": False, "estimator": False, "augmentation": False, "noise_adapter": False}
     CandidateOptions = MultipathCandidateOptions

@@ -131,6 +131,7 @@ class SampleReceiverScenario(Scenario):
 
     kind = "sample-receiver"
     Params = SampleReceiverParams
+    params: SampleReceiverParams  # self.params, as validated
     CaseParams = SampleReceiverCase
     components = {"channel_filter": True, "nav_filter": False}
     metrics = units(METRICS)

@@ -173,6 +173,7 @@ class SampleRecordingScenario(SampleReceiverScenario):
 
     kind = "sample-recording"
     Params = SampleRecordingParams
+    params: SampleRecordingParams  # self.params, as validated
     CaseParams = SampleRecordingCase
     components = {"channel_filter": True, "nav_filter": False}
     metrics = units(METRICS)

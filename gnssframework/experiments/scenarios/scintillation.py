@@ -103,6 +103,7 @@ class ScintillationScenario(Scenario):
     #: The simulated signal (its carrier wavelength).
     signal: ClassVar[SignalSpec] = GPS_L1CA
     Params = ScintillationParams
+    params: ScintillationParams  # self.params, as validated
     CaseParams = ScintillationCase
     components = {"channel_filter": True}
     metrics = units(METRICS)

@@ -199,6 +199,7 @@ class TrackingThresholdScenario(Scenario):
     #: The tracked signal (its wavelength for the assumptions, its code for a samples case).
     signal: ClassVar[SignalSpec] = GPS_L1CA
     Params = TrackingThresholdParams
+    params: TrackingThresholdParams  # self.params, as validated
     CaseParams = TrackingThresholdCase
     components = {"channel_filter": True}
     outputs = {"phase_error_rad": "rad", "code_error_chips": "chips", "phase_thermal_std_rad": "rad",

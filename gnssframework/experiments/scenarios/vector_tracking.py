@@ -220,6 +220,7 @@ class VectorTrackingScenario(Scenario):
 
     kind = "vector-tracking"
     Params = VectorTrackingParams
+    params: VectorTrackingParams  # self.params, as validated
     CaseParams = VectorTrackingCase
     components = {"channel_filter": True, "nav_filter": True}
     metrics = units(METRICS)

@@ -20,7 +20,8 @@ from __future__ import annotations
 import functools
 import numbers
 import types
-from typing import Any, Callable
+from typing import Any
+from collections.abc import Callable
 
 import numpy as np
 from pydantic import BaseModel

@@ -14,7 +14,7 @@ states stay relative to the replica in use.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 

@@ -19,7 +19,7 @@ from the channel's `SignalSpec` (GPS L1 C/A by default).
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -47,7 +47,7 @@ def cn0_estimator_names() -> list[str]:
     return list(dict.fromkeys([*CN0_ESTIMATORS, *plugins]))
 
 
-@lru_cache(maxsize=None)
+@cache
 def cn0_plugin(name: str):
     """The ``cn0_estimator`` plugin ``name`` with its default parameters (created once)."""
     return registry.create("cn0_estimator", name)

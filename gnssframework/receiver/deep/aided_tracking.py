@@ -152,7 +152,7 @@ class _TrueSignal:
     :math:`\\theta_0 - 2\\pi\\rho_c/\\lambda` of the carrier range (the code range plus the
     truth's carrier-minus-code divergence, when it has range errors)."""
 
-    def __init__(self, sat_at: "_EdgeStates", theta0: np.ndarray) -> None:
+    def __init__(self, sat_at: _EdgeStates, theta0: np.ndarray) -> None:
         self.sat_at, self.theta0 = sat_at, theta0
         self.signal = sat_at.truth.signal
         self.T = sat_at.truth.coherent_time_s

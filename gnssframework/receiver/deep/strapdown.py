@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...errors import ConfigError
+
 __all__ = ["StrapdownIns"]
 
 class StrapdownIns:

@@ -101,7 +101,7 @@ class Channel:
 
     @classmethod
     def start(cls, batch: tuple[int, ...], code_phase_chips: np.ndarray | float, doppler_hz: np.ndarray | float,
-              *, signal: SignalSpec = GPS_L1CA, carrier_phase_rad: np.ndarray | float = 0.0) -> "Channel":
+              *, signal: SignalSpec = GPS_L1CA, carrier_phase_rad: np.ndarray | float = 0.0) -> Channel:
         """Channels started from an acquisition: code phase, Doppler (carrier NCO) and the
         carrier-aided code rate :math:`f_{chip}(1 + f_D / f_L)` (`SignalSpec.code_freq_hz`)."""
         f = np.broadcast_to(np.asarray(doppler_hz, float), batch).copy()
@@ -111,7 +111,7 @@ class Channel:
 
     @classmethod
     def from_range(cls, batch: tuple[int, ...], range_m: np.ndarray, rate_m_s: np.ndarray, *, t_s: float = 0.0,
-                   signal: SignalSpec = GPS_L1CA) -> "Channel":
+                   signal: SignalSpec = GPS_L1CA) -> Channel:
         """Channels started from a range command (range at ``t_s`` and its rate), carrier phase 0."""
         code, code_rate, freq = _range_nco(signal.chip_rate_hz, signal.chip_length_m, signal.wavelength_m,
                                            range_m, rate_m_s, t_s, batch)

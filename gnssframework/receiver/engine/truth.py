@@ -23,7 +23,7 @@ constructors of a `LoopTruth` with their old positional order.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -115,7 +115,7 @@ class LoopTruth:
         doppler_jerk_hz_s2: np.ndarray | float = 0.0,
         extra_cycles: np.ndarray | None = None,
         signal: SignalSpec = GPS_L1CA,
-    ) -> "LoopTruth":
+    ) -> LoopTruth:
         """Polynomial line-of-sight dynamics, code locked to the carrier.
 
         The carrier advances by ``f t + fdot t^2 / 2 + fddot t^3 / 6`` cycles (Doppler

@@ -69,7 +69,8 @@ the batch least-squares information of the full state).
 
 from __future__ import annotations
 
-from typing import Callable, Literal
+from typing import Literal
+from collections.abc import Callable
 
 import numpy as np
 
