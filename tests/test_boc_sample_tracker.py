@@ -41,6 +41,7 @@ def _code_error_chips(ch):
     return (truth - ch.column("code_phase_chips") + n / 2) % n - n / 2
 
 
+@pytest.mark.slow
 def test_sample_tracker_tracks_a_boc11_signal_on_its_spreading_waveform(boc_recording):
     acq = registry.create("acquisition", "pcps")
     found = [r for r in acquire_recording(boc_recording, acq, prns=(SAT.prn,), signal=SAT.signal) if r.detected]
