@@ -97,6 +97,43 @@ def tracking_rate(path: Path, channels: int, duration_s: float | None = None) ->
     return len(found) * result.duration_s / wall, wall, len(found)
 
 
+def boc_cost(fs: float, seconds: float, channels: int, folder: Path, rng: np.random.Generator,
+             repeat: int = 2) -> dict[str, tuple[float, float]]:
+    """CPU and wall seconds per channel-second of tracking ``channels`` GPS L1 C/A and as
+    many Galileo E1-B (BOC(1,1) replica: code times sub-carrier, two table entries a chip)
+    channels on generated recordings at ``fs`` (45 dB-Hz, the same tracking config for
+    both: 0.2-chip spacing, one code period a coherent interval: 1 ms on C/A, 4 ms on E1-B);
+    the best of ``repeat`` runs, acquisition excluded."""
+    from gnssframework.receiver.frontend import write_recording
+    from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
+    from gnssframework.signal.gps_l1ca import GPS_L1CA
+
+    out = {}
+    for spec in (GPS_L1CA, GALILEO_E1B_BOC11):
+        sats = [SatelliteSignal(p, 45.0, float(rng.uniform(-4000, 4000)),
+                                float(rng.uniform(0, spec.code_length_chips)), float(rng.uniform(0, 2 * np.pi)),
+                                first_bit_code_period=0, signal=spec) for p in range(1, channels + 1)]
+        x = synthesize_samples(sats, seconds, fs, 0.0, rng)
+        rec = open_recording(write_recording(folder / f"{spec.name}_{fs:.0f}.sigmf-data", x, "ci16_le", fs, 0.0,
+                                             scale=300.0))
+        del x
+        acq = registry.create("acquisition", "pcps")
+        found = [r for r in acquire_recording(rec, acq, prns=tuple(range(1, channels + 1)), signal=spec)
+                 if r.detected]
+        tracker = SampleTracker(rec, tracking_config(early_late_spacing_chips=0.2, coherent_ms=1), acq, signal=spec)
+        tracker.run(found, 0.05)  # warm: compiled kernels loaded
+        best = None
+        for _ in range(repeat):
+            t, c = time.perf_counter(), time.process_time()
+            result = tracker.run(found)
+            wall, cpu = time.perf_counter() - t, time.process_time() - c
+            per = len(found) * result.duration_s
+            if best is None or cpu / per < best[0]:
+                best = (cpu / per, wall / per)
+        out[spec.name] = best + (len(found),)
+    return out
+
+
 def generated(fs: float, seconds: float, channels: int, folder: Path, rng: np.random.Generator) -> Path:
     """``channels`` satellites at 45 dB-Hz with data bits, written in 0.25 s chunks so memory
     stays bounded (each chunk draws its own bits; their edges stay on the same code epochs)."""
@@ -204,12 +241,16 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
     ap.add_argument("--fs", type=float, help=argparse.SUPPRESS)
     ap.add_argument("--with-acquisition", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--boc-only", action="store_true", help="only the BOC against C/A cost rows")
     args = ap.parse_args(argv)
     if args.worker is not None:
         print(json.dumps(worker(args.worker, args.fs, args.channels, args.with_acquisition)))
         return
     rng = np.random.default_rng(args.seed)
     print(f"{_load()} at start, {os.cpu_count()} cores; {args.channels} channels")
+    boc_rows(args, rng)
+    if args.boc_only:
+        return
     print("\ncorrelation, channel-seconds per second (x real time per channel)")
     print(f"{'rate MHz':>9s} {'compiled':>10s} {'numpy ref':>10s} {'correlate_if':>13s} {'compiled/if':>12s}")
     for fs in RATES_HZ:
@@ -261,6 +302,53 @@ def main(argv: list[str] | None = None) -> None:
         print(f"\n{best['channels']} channels at {fs / 1e6:.4f} MHz on ONE core (CPU {cpu}, one thread), tracking: "
               f"wall {best['wall'] / best['signal']:.3f} of real time, CPU {best['cpu'] / best['signal']:.3f} "
               f"(best of {len(runs)}; {_load()})")
+
+
+def boc_kernel_cost(fs: float, channels: int, rng: np.random.Generator) -> tuple[float, float]:
+    """CPU seconds per channel-second of the compiled correlator alone (4 ms of samples,
+    three taps) with C/A code tables and with Galileo E1-B BOC(1,1) sub-chip tables
+    (`replica_codes`, phases, steps and offsets in sub-chips): what the sub-carrier
+    itself costs per sample, without the per-interval work."""
+    from gnssframework.receiver.channels.correlator import replica_codes, to_table_units
+    from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
+    from gnssframework.signal.gps_l1ca import GPS_L1CA
+
+    n = int(fs * 4e-3)
+    x = (rng.standard_normal(n + 100) + 1j * rng.standard_normal(n + 100)).astype(np.complex64)
+    starts, counts = rng.integers(0, 100, channels), np.full(channels, n)
+    carrier = (rng.uniform(0, 1, channels), rng.uniform(-5e3, 5e3, channels) / fs)
+    out = []
+    for spec in (GPS_L1CA, GALILEO_E1B_BOC11):
+        codes = replica_codes(spec, range(1, channels + 1))
+        args = (starts, counts, to_table_units(rng.uniform(0, 1, channels), spec),
+                to_table_units(np.full(channels, 1.023e6 / fs), spec), *carrier, codes,
+                to_table_units(np.array([-0.1, 0.0, 0.1]), spec))
+        correlate_channels(x, *args, backend="numba")  # compile / load
+        loops = 20
+        c = time.process_time()
+        for _ in range(loops):
+            correlate_channels(x, *args, backend="numba")
+        out.append((time.process_time() - c) / (loops * channels * 4e-3))
+    return out[0], out[1]
+
+
+def boc_rows(args: argparse.Namespace, rng: np.random.Generator) -> None:
+    """Issue 39: a BOC channel costs at most twice a C/A channel of the same rate."""
+    seconds = min(args.seconds, 2.0)
+    print(f"\nBOC(1,1) against C/A, correlation alone ({args.channels} channels, 4 ms), CPU seconds per "
+          "channel-second")
+    for fs in (4e6, 16.3676e6):
+        ca, boc = boc_kernel_cost(fs, args.channels, rng)
+        print(f"{fs / 1e6:9.4f} MHz: C/A {ca:.4f}, E1-B BOC(1,1) {boc:.4f}; BOC / C/A ratio {boc / ca:.2f} "
+              f"({_load()})")
+    print(f"\nBOC(1,1) against C/A, tracking {seconds} s generated, {args.channels} channels each, "
+          "CPU (wall) seconds per channel-second")
+    with tempfile.TemporaryDirectory() as tmp:
+        for fs in (4e6, 16.3676e6):
+            r = boc_cost(fs, seconds, args.channels, Path(tmp), rng, args.repeat)
+            ca, boc = r["gps-l1ca"], r["galileo-e1b-boc11"]
+            print(f"{fs / 1e6:9.4f} MHz: C/A {ca[0]:.4f} ({ca[1]:.4f}) on {ca[2]}, E1-B BOC(1,1) {boc[0]:.4f} "
+                  f"({boc[1]:.4f}) on {boc[2]}; BOC / C/A CPU ratio {boc[0] / ca[0]:.2f} ({_load()})")
 
 
 if __name__ == "__main__":

@@ -71,6 +71,28 @@ class Discriminator(Plugin, abc.ABC):
     def noise_variance(self, cn0_dbhz: float | np.ndarray) -> np.ndarray:
         """Thermal-noise variance of one output (``unit``^2) at the given C/N0."""
 
+    def extra_taps(self) -> dict[str, float]:
+        """Correlator taps beyond early, prompt and late that ``__call__`` reads from
+        ``Correlators.extra``, by name and offset from the prompt (chips, negative = early).
+
+        A harness that builds the correlators (the analytic source's `CorrelatorSimulator`
+        ``extra_taps``) asks the code discriminator for them. Default: none.
+        """
+        return {}
+
+    def code_jump_chips(self) -> np.ndarray | float:
+        """The jump of the replica's code phase commanded by the last call (chips, the
+        sign of the output: positive moves the replica forward), 0 for none (default).
+
+        A discriminator that detects a false lock (a BOC side peak: ``bump-jumping``,
+        ``boc-vemlp``) commands a whole jump here instead of feeding it through the loop
+        filter. A DLL that honours it (the ``scalar`` and ``kf-carrier-loop`` channel
+        filters) adds ``jump / T`` to the code NCO's rate over the next interval, outside
+        its loop filter, so the filter's state is untouched. A discriminator keeping state
+        across calls (counters, windows) is created afresh at every loop reset.
+        """
+        return 0.0
+
 
 def _unset(value: Any) -> bool:
     return value is None or (isinstance(value, tuple) and not value)

@@ -114,7 +114,10 @@ class _CarrierAidedDll:
 
     def __call__(self, corr, carrier_freq_hz):
         err = self.disc(corr)
-        return err, self.chip_rate_hz * (1 + carrier_freq_hz / self.carrier_hz) + self.filter(err)
+        rate = self.chip_rate_hz * (1 + carrier_freq_hz / self.carrier_hz) + self.filter(err)
+        # A commanded code jump (`Discriminator.code_jump_chips`) moves the replica over the
+        # next interval, outside the loop filter.
+        return err, rate + self.disc.code_jump_chips() / self.disc.params.coherent_time_s
 
 
 class ScalarTrackingLoop(ChannelFilter):

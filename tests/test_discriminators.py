@@ -10,6 +10,8 @@ from gnssframework.signal.correlator_model import amplitude_from_cn0, correlator
 CODE = ("eml-envelope", "eml-power", "dot-product")
 FREQ = ("cross-product", "atan2-fll")
 PHASE = ("costas-atan", "atan2-pll")
+#: The BOC code discriminators (tests/test_boc_tracking.py): chips too, on a BOC main peak.
+BOC = ("boc-eml", "boc-vemlp", "bump-jumping")
 
 
 def _noise_free(code=0.0, phase=0.0, freq=0.0, T=0.001):
@@ -19,7 +21,7 @@ def _noise_free(code=0.0, phase=0.0, freq=0.0, T=0.001):
 
 def test_units_and_registry():
     units = {n: gf.registry.create("discriminator", n).unit for n in builtin_names("discriminator")}
-    assert units == {**{n: "chips" for n in CODE}, **{n: "Hz" for n in FREQ}, **{n: "rad" for n in PHASE}}
+    assert units == {**{n: "chips" for n in CODE + BOC}, **{n: "Hz" for n in FREQ}, **{n: "rad" for n in PHASE}}
 
 
 @pytest.mark.parametrize("name", CODE)

@@ -27,7 +27,7 @@ def test_kinds_and_builtin_names():
     assert builtin_names("signal") == ["beidou-b1c", "galileo-e1b", "galileo-e1b-boc11", "galileo-e1c",
                                        "galileo-e1c-boc11", "gps-l1ca", "gps-l2c", "qzss-l1ca", "qzss-l2c", "sbas-l1"]
     assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
-    assert builtin_names("scenario") == ["carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
+    assert builtin_names("scenario") == ["boc-tracking", "carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
                                          "sample-recording", "scintillation", "tracking-threshold",
                                          "vector-tracking"]
 
@@ -136,7 +136,7 @@ def test_the_core_scenarios_register_through_the_entry_point_group_only(monkeypa
     assert [(ep.name, ep.dist.name) for ep in ours] == [("scenarios", "gnssframework")]
     infos = [i for i in registry.describe() if i.kind == "scenario" and i.distribution == "gnssframework"]
     # the core's hooks register every built-in scenario (the list test_kinds_and_builtin_names holds)
-    assert sorted(i.name for i in infos) == ["carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
+    assert sorted(i.name for i in infos) == ["boc-tracking", "carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
                                              "sample-recording", "scintillation", "tracking-threshold",
                                              "vector-tracking"]
     real = md.entry_points

@@ -244,7 +244,8 @@ def replica_codes(signal: SignalSpec, prns) -> np.ndarray:
     tables = np.stack([signal.spreading_table(p) for p in prns]).astype(np.float32)
     if not np.all(np.abs(tables) == 1.0):
         raise ConfigError("signal", f"{signal.name}'s spreading waveform is not ±1 ({signal.subcarrier.kind}): "
-                                    "the compiled correlators take ±1 tables")
+                                    "the compiled correlators take ±1 tables (track its BOC(1,1) replica: the -boc11 "
+                                    "signals)")
     return tables
 
 

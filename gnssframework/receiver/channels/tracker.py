@@ -54,7 +54,7 @@ from .channel import NCO_COMMANDS, SampleChannel, stage_context, supports
 from .factory import StageFilters
 from .closers import SampleCloser, ScalarSampleCloser
 from .config import TrackingConfig
-from .correlator import code_tables, correlate_periods
+from .correlator import code_tables, correlate_periods, replica_codes, to_table_units
 from .intervals import ChannelArrays, close_periods
 from .nco import ReplicaNCOs
 from .prefetch import BlockReader
@@ -132,7 +132,11 @@ class SampleTracker:
         self.filters = filters if filters is not None else StageFilters(config)
         if self.filters.config != config:
             raise ConfigError("filters", "the StageFilters were built for another tracking config")
-        self.codes = np.stack([signal.code(p) for p in signal.prns]).astype(np.float32)  # one row per slot
+        # One row per slot: the spreading waveform (code times sub-carrier, `replica_codes`), in
+        # sub-chips for BOC; the kernels then take phases, steps and tap offsets in its units
+        # (`to_table_units`). A CBOC waveform is not ±1 and is refused there (its -boc11 replica is).
+        self.codes = replica_codes(signal, signal.prns)
+        self.table_offsets = to_table_units(self.offsets, signal)
         #: Prompts a channel holds before its lock detectors run: one data symbol's code
         #: periods (20 on L1 C/A), or `FIRST_DETECT_S` of them on a signal without data.
         self.first_detect_periods = signal.code_periods_per_symbol or max(
@@ -286,9 +290,10 @@ class SampleTracker:
             dop = self.doppler[idx]
             carrier0 = (self.if_hz * starts / fs) % 1.0 + self.doppler_cycles[idx]
             if tables_for is None or not np.array_equal(tables_for, idx):  # channel set changed: new tables
-                tables_for, tables = idx, code_tables(self.codes[idx], self.offsets)
-            sums, counts = correlate_periods(buf, starts - first, periods, phases, steps, carrier0,
-                                             (self.if_hz + dop) / fs, self.codes[idx], self.offsets,
+                tables_for, tables = idx, code_tables(self.codes[idx], self.table_offsets)
+            sums, counts = correlate_periods(buf, starts - first, periods, to_table_units(phases, self.signal),
+                                             to_table_units(steps, self.signal), carrier0,
+                                             (self.if_hz + dop) / fs, self.codes[idx], self.table_offsets,
                                              backend=self.backend, tables=tables, iq=self.rec.is_complex,
                                              q_sign=self.rec.info.q_sign)
             # Normalised sums, NCO bookkeeping, 1 ms prompts and bit-sync votes (`intervals`).
