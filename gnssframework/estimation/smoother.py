@@ -51,7 +51,9 @@ from typing import Callable
 
 import numpy as np
 
+from .. import backend
 from ..errors import ConfigError
+from .compiled import smoother_gain as compiled_gain
 from .adaptation import NoiseAdapter
 from .boundary import check_argument
 from .estimator import Estimator, OnFailure, OnMissing
@@ -140,6 +142,8 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
     if form == "solve":
         return transpose(np.linalg.solve(prior_cov, transpose(cross_cov)))
     if form == "eigh":
+        if backend.compiled() and np.all(np.isfinite(prior_cov)):
+            return compiled_gain.eigh_gain(cross_cov, prior_cov)  # the same arithmetic, one compiled pass
         w, V = np.linalg.eigh(symmetrize(prior_cov))
         n = w.shape[-1]
         tol = n * np.finfo(float).eps * np.max(np.abs(w), axis=-1, keepdims=True)
