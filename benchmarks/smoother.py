@@ -14,7 +14,13 @@ linear) on one element's filtered states, whose time per element-step does not d
 the batch. The ratios printed are FilterPy's time over ours (above 1: ours is faster) and
 our backward pass over our forward filter (the issue's goal: at most 1 at batch 8000).
 
-    python benchmarks/smoother.py [--steps 20] [--batches 1 100 1000] [--engines ukf ckf svd-ckf ekf]
+dynamax (where installed: ``pip install -e '.[bench]'``) has no backward pass apart from
+its filter: ``unscented_kalman_smoother`` (``ukf`` and ``ckf``: alpha 1, beta 0, kappa 0)
+and ``extended_kalman_smoother`` (``ekf``) run the whole filter + smoother under
+``jax.jit`` + ``vmap`` over the batch (float64, compile time excluded); the last column is
+its time over ours for the same work (``forward+store`` + ``smooth``).
+
+    python benchmarks/smoother.py [--steps 20] [--batches 1 100 1000] [--engines ukf ckf svd-ckf ekf] [--no-dynamax]
 """
 
 from __future__ import annotations
@@ -73,16 +79,56 @@ def time_filterpy(engine: str, result) -> float | None:
     return _best(lambda: ukf.rts_smoother(xs, ps), steps)
 
 
+def time_dynamax(engine: str, zs: np.ndarray) -> float | None:
+    """dynamax's filter + RTS smoother per element-step (jit + vmap over the batch)."""
+    if engine not in ("ukf", "ckf", "ekf"):
+        return None
+    try:
+        import jax
+        import jax.numpy as jnp
+        from dynamax.nonlinear_gaussian_ssm import (ParamsNLGSSM, UKFHyperParams, extended_kalman_smoother,
+                                                    unscented_kalman_smoother)
+    except ImportError:
+        return None
+    from estimators import SPACING
+
+    jax.config.update("jax_enable_x64", True)
+    Fj = jnp.asarray(F)
+    offsets = jnp.array([-SPACING, 0.0, SPACING])
+
+    def hj(x):
+        r = jnp.maximum(0.0, 1.0 - jnp.abs(x[1] - offsets))
+        common = x[0] * jnp.sinc(x[3] * T)
+        phase = jnp.pi * x[3] * T + x[2]
+        return jnp.concatenate([common * jnp.cos(phase) * r, common * jnp.sin(phase) * r])
+
+    # dynamax's first prior is the first step's: our initial predicted once (F linear)
+    params = ParamsNLGSSM(jnp.asarray(F @ X0), jnp.asarray(F @ P0 @ F.T + Q), lambda x: Fj @ x, jnp.asarray(Q), hj,
+                          jnp.asarray(R))
+    if engine == "ekf":
+        def one(em):
+            return extended_kalman_smoother(params, em).smoothed_means
+    else:
+        hyper = UKFHyperParams(alpha=1.0, beta=0.0, kappa=0.0)
+        def one(em):
+            return unscented_kalman_smoother(params, em, hyper).smoothed_means
+    run = jax.jit(jax.vmap(one))
+    data = jnp.asarray(np.swapaxes(zs, 0, 1))  # (batch, steps, 6)
+    return _best(lambda: run(data).block_until_ready(), zs.shape[0] * zs.shape[1])
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--batches", type=int, nargs="+", default=[1, 100, 1000])
     ap.add_argument("--engines", nargs="+", default=["ukf", "ckf", "svd-ckf", "ekf"])
+    ap.add_argument("--no-dynamax", action="store_true", help="skip dynamax's smoothers")
     args = ap.parse_args(argv)
     rng = np.random.default_rng(1)
-    print(f"time per element-step (us), {args.steps} steps; ratios: FilterPy / ours, smooth / forward")
+    print(f"time per element-step (us), {args.steps} steps; ratios: FilterPy / ours, smooth / forward, "
+          "dynamax / ours (filter + smoother)")
     print(f"{'engine':8} {'batch':>6} {'forward':>9} {'fwd+store':>9} {'smooth':>9} {'FilterPy':>9} "
-          f"{'FP/smooth':>9} {'smooth/fwd':>10}")
+          f"{'FP/smooth':>9} {'smooth/fwd':>10} {'dynamax':>9} {'dmx/ours':>8}")
     for batch in args.batches:
         zs = problem(batch, args.steps, rng)
         for engine in args.engines:
@@ -90,8 +136,11 @@ def main(argv=None) -> None:
             ref = time_filterpy(engine, result)
             ref_txt = "-" if ref is None else f"{ref * 1e6:9.1f}"
             ratio = "-" if ref is None else f"{ref / backward:9.1f}"
+            dmx = None if args.no_dynamax else time_dynamax(engine, zs)
+            dmx_txt = "-" if dmx is None else f"{dmx * 1e6:9.2f}"
+            dmx_ratio = "-" if dmx is None else f"{dmx / (stored + backward):8.2f}"
             print(f"{engine:8} {batch:6d} {forward * 1e6:9.2f} {stored * 1e6:9.2f} {backward * 1e6:9.2f} "
-                  f"{ref_txt:>9} {ratio:>9} {backward / forward:10.2f}")
+                  f"{ref_txt:>9} {ratio:>9} {backward / forward:10.2f} {dmx_txt:>9} {dmx_ratio:>8}")
 
 
 if __name__ == "__main__":

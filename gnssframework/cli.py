@@ -147,6 +147,21 @@ def _cmd_filter_positions(args: argparse.Namespace) -> int:
     return exit_status(fixes.skipped)
 
 
+def _cmd_smooth_positions(args: argparse.Namespace) -> int:
+    from .io.nmea import read_nmea
+    from .io.positions import composition, smooth_positions, write_smoothed_positions_csv
+    from .io.skipped import exit_status, print_skipped, write_skipped_report
+
+    fixes = read_nmea(args.file, max_speed_mps=args.max_speed, strict=args.strict, max_abs_height_m=args.max_height)
+    track = smooth_positions(fixes, composition(args.filter, args.noise_adapter, args.augmentation), args.psi)
+    write_smoothed_positions_csv(args.out, fixes, track)
+    sidecar = write_skipped_report(args.out, args.file, fixes.skipped)
+    print(f"{args.file}: {fixes.time_s.size} fixes smoothed (forward {args.filter}, then RTS), "
+          f"{len(fixes.skipped)} sentences skipped; wrote {args.out}" + (f" and {sidecar}" if fixes.skipped else ""))
+    print_skipped(fixes.skipped)
+    return exit_status(fixes.skipped)
+
+
 def _blank_nan(value: float, digits: int) -> str:
     """A CSV cell: the value, or empty where there is none."""
     return f"{value:.{digits}f}" if value == value else ""
@@ -751,6 +766,29 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip a GGA whose altitude is not a number or above this in magnitude (default %(default)g m)")
     p.add_argument("--strict", action="store_true", help="refuse the file at the first bad sentence (exit 2)")
     p.set_defaults(func=_cmd_filter_positions)
+    p = sub.add_parser("smooth-positions", help="smooth an NMEA position log forward-backward (filter, then RTS)",
+                       description="Run a position filter forward over an NMEA log, then the fixed-interval "
+                                   "Rauch-Tung-Striebel pass backward: each position given the whole log, with its "
+                                   "variance, beside the forward filter's. Bad sentences are skipped and listed as "
+                                   "by filter-positions.",
+                       epilog=EXIT_STATUS_HELP)
+    p.add_argument("file", help="NMEA log with GGA and/or RMC sentences")
+    p.add_argument("--out", required=True, help="output CSV (smoothed and filtered positions, variances)")
+    p.add_argument("--filter", default="UKF", metavar="NAME",
+                   help="the forward filter: a label of Liu et al. 2020 (UKF, UKF1, AUKF, AUKF1) or a registered "
+                        "estimator in the constant-acceleration position model (default %(default)s)")
+    p.add_argument("--noise-adapter", default=None, metavar="NAME",
+                   help="a registered noise adapter for the forward pass (replaces the label's own)")
+    p.add_argument("--augmentation", default=None, metavar="NAME",
+                   help="a registered augmentation, e.g. colored-ar1 with --psi (replaces the label's own)")
+    p.add_argument("--psi", type=float, default=0.95, help="AR(1) coefficient for the colored filters")
+    p.add_argument("--max-speed", type=float, default=MAX_SPEED_MPS, metavar="M/S",
+                   help="jump check: skip a fix further from the last accepted one than this speed allows "
+                        "(default %(default)g m/s)")
+    p.add_argument("--max-height", type=float, default=MAX_ABS_HEIGHT_M, metavar="M",
+                   help="skip a GGA whose altitude is not a number or above this in magnitude (default %(default)g m)")
+    p.add_argument("--strict", action="store_true", help="refuse the file at the first bad sentence (exit 2)")
+    p.set_defaults(func=_cmd_smooth_positions)
     p = sub.add_parser("smooth", help="carrier-smooth code from a RINEX observation file, arc by arc",
                        description="Carrier-smooth each selected satellite's code with its carrier (GPS C1C/L1C, "
                                    "Galileo E1, BDS B1I, GLONASS L1), restarting at the receiver's loss-of-lock "

@@ -12,6 +12,7 @@ from .adaptation import (
     SafeguardParams,
 )
 from .compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian, register_warm_up
+from .em import LearnedNoise, learn_noise
 from .estimator import Estimator, SigmaPointEstimator
 from .sequence import FilterResult, SmootherInputs, filter_sequence
 from .smoother import FixedLagSmoother, LagEstimate, SmoothedResult, fixed_lag_smooth, smooth
@@ -28,6 +29,7 @@ __all__ = [
     "FilterStep",
     "FixedLagSmoother",
     "LagEstimate",
+    "LearnedNoise",
     "CompiledFunctions",
     "Gaussian",
     "LinearModel",
@@ -43,6 +45,7 @@ __all__ = [
     "Update",
     "filter_sequence",
     "fixed_lag_smooth",
+    "learn_noise",
     "linear_f",
     "linear_h",
     "linear_h_jacobian",

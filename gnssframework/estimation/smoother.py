@@ -53,7 +53,9 @@ from typing import Any
 
 import numpy as np
 
+from .. import backend
 from ..errors import ConfigError
+from .compiled import smoother_gain as compiled_gain
 from .adaptation import NoiseAdapter
 from .boundary import check_argument
 from .estimator import Estimator, OnFailure, OnMissing
@@ -87,6 +89,9 @@ class SmoothedResult:
         `fixed_lag_smooth` returns it as given).
     epochs, time_s
         As in the `FilterResult` smoothed.
+    initial_gain
+        ``G_{-1}`` ``(..., n, n)``, the gain of the transition from the initial state into
+        step 0 (`smooth`; None from `fixed_lag_smooth`).
     """
 
     mean: np.ndarray
@@ -95,6 +100,28 @@ class SmoothedResult:
     initial: Gaussian
     epochs: np.ndarray
     time_s: np.ndarray | None = None
+    initial_gain: np.ndarray | None = None
+
+    def lag_one_cov(self) -> np.ndarray:
+        r"""Smoothed lag-one covariances $P^s_{k,k-1} = \operatorname{Cov}(x_k, x_{k-1} \mid z_0
+        \dots z_{K-1}) = P^s_k\, G_{k-1}^T$, ``(K, ..., n, n)``, row 0 against the initial state.
+
+        The cross term of the EM M-step (Särkkä 2013, ch. 12, the EM algorithm for linear
+        state-space models; Shumway & Stoffer 1982 reach it by a backward recursion, equal
+        in exact arithmetic): exact for a linear-Gaussian model, the Gaussian smoother's
+        approximation for the extended and sigma-point ones. Computed from the stored gains
+        and covariances, one batched product.
+
+        Raises
+        ------
+        ConfigError
+            The result is a fixed-lag smoother's (its windows are not one joint posterior).
+        """
+        if self.initial_gain is None:
+            raise ConfigError("lag_one_cov", "needs a fixed-interval smoother's result (smooth), not fixed_lag_smooth's")
+        gains = np.concatenate([self.initial_gain[None], self.gain], axis=0)
+        lag: np.ndarray = self.cov @ transpose(gains)
+        return lag
 
     def __repr__(self) -> str:
         return (f"SmoothedResult({self.mean.shape[0]} steps, batch {self.mean.shape[1:-1] or 'none'}, "
@@ -118,6 +145,8 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
     if form == "solve":
         return transpose(np.linalg.solve(prior_cov, transpose(cross_cov)))
     if form == "eigh":
+        if backend.compiled() and np.all(np.isfinite(prior_cov)):
+            return compiled_gain.eigh_gain(cross_cov, prior_cov)  # the same arithmetic, one compiled pass
         w, V = np.linalg.eigh(symmetrize(prior_cov))
         n = w.shape[-1]
         tol = n * np.finfo(float).eps * np.max(np.abs(w), axis=-1, keepdims=True)
@@ -254,7 +283,7 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
     initial = rts_step(start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, gains[0], form,
                        residual_x)
     return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=initial, epochs=result.epochs,
-                          time_s=result.time_s)
+                          time_s=result.time_s, initial_gain=np.broadcast_to(gains[0], cov.shape[1:]))
 
 
 def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | None = None,
