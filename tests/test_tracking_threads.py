@@ -109,3 +109,20 @@ def test_a_thread_count_below_one_is_refused():
             backend.set_threads(bad)
     backend.set_threads(None)
     assert backend.get_threads() == backend.available_cores() >= 1
+
+
+@pytest.mark.parametrize("command", ["receive", "track"])
+def test_the_threads_option_sets_the_thread_count_and_refuses_zero(tmp_path, capsys, command, monkeypatch):
+    from gnssframework import cli
+
+    seen = []
+    # the command stops at opening the recording (missing): the thread count is set before
+    monkeypatch.setattr(cli, "_open_recording_from_args", lambda args: seen.append(backend.get_threads()) or 1 / 0)
+    with pytest.raises(ZeroDivisionError):
+        cli.main([command, str(tmp_path / "rec.bin"), "--out", str(tmp_path / "o"), "--threads", "3"])
+    assert seen == [3]
+    backend.set_threads(None)
+    assert cli.main([command, str(tmp_path / "rec.bin"), "--out", str(tmp_path / "o"), "--threads", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "--threads" in err and "at least 1" in err and err.strip().count("\n") == 0
+    assert backend.get_threads() == backend.available_cores()
