@@ -234,8 +234,8 @@ def _split(n_channels: int, work_samples: int, threads: int | None) -> list[tupl
     if n_threads < 2 or n_channels < 2 or work_samples < SPLIT_SAMPLES:
         return [(0, n_channels)]
     n_groups = min(n_channels, 2 * n_threads)
-    edges = np.linspace(0, n_channels, n_groups + 1).round().astype(int)
-    return list(zip(edges[:-1].tolist(), edges[1:].tolist()))
+    edges = [k * n_channels // n_groups for k in range(n_groups + 1)]
+    return list(zip(edges[:-1], edges[1:]))
 
 
 def _run_groups(groups: list[tuple[int, int]], call, threads: int | None) -> None:
@@ -593,7 +593,7 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
     counts = np.zeros((n_ch, p_max), np.int64)
     par = _parallel(parallel)
     kernel = _kernels(cplx, tables.thresholds.size, par)[1]
-    work = int(np.sum(n_periods * n_code / step))
+    work = int(n_periods.sum()) * n_code / float(step.min(initial=1.0))
     groups = [(0, n_ch)] if par else _split(n_ch, work, threads)
     q, pat, thr = np.float32(q_sign), tables.patterns, tables.thresholds
 
