@@ -1,6 +1,7 @@
 """The whole receiver, end to end, against GNSS-SDR on the same gps-sdr-sim file in the same run.
 
-    python benchmarks/receiver_end_to_end.py [--seconds 60] [--cn0 45] [--repeat 3] [--work DIR] [--profile]
+    python benchmarks/receiver_end_to_end.py [--seconds 60] [--cn0 45] [--repeat 3] [--work DIR] [--threads N]
+                                             [--profile]
 
 A static receiver simulated by gps-sdr-sim (built from ``../shared/tools/gps-sdr-sim``, its
 ``brdc0010.22n``, Tokyo, as `validation/gps_sdr_sim_navigation.py`), 2.6 MHz complex int16,
@@ -18,7 +19,8 @@ for the next run):
   observables and its RTKLIB PVT (single point) at 1 Hz, 12 channels (more than the
   satellites in view).
 
-Printed per run: wall time, CPU time (the process and its threads), x real time (signal
+Printed per run: wall time, CPU time (the process and its threads), peak resident memory
+(``ru_maxrss`` of that process, from ``wait4``), x real time (signal
 seconds per wall second), the load average before the run, gnssframework's start-up CPU
 (interpreter, imports, plugin registry: before the receiver starts) and, for context, each
 receiver's first-fix time (seconds into the file), fixes, satellites used and position
@@ -38,7 +40,6 @@ import argparse
 import json
 import os
 import re
-import resource
 import shutil
 import subprocess
 import sys
@@ -85,9 +86,12 @@ def simulate(work: Path, seconds: float, cn0_dbhz: float, seed: int) -> tuple[Pa
     return noisy, tow0
 
 
-def ours_in_this_process(path: Path, out: Path, profile: bool) -> None:
+def ours_in_this_process(path: Path, out: Path, profile: bool, threads: int | None = None) -> None:
     """Run the library's receiver on ``path``; write what it found to ``out`` (JSON)."""
     from gnssframework import registry
+    from gnssframework.backend import set_threads
+
+    set_threads(threads)
     from gnssframework.receiver.channels import tracking_config
     from gnssframework.receiver.frontend import open_recording
     from gnssframework.receiver.navigation.receive import receive
@@ -118,26 +122,32 @@ def ours_in_this_process(path: Path, out: Path, profile: bool) -> None:
     out.write_text(json.dumps(found))
 
 
-def timed(cmd: list[str], cwd: Path) -> tuple[subprocess.CompletedProcess, float, float, float]:
-    """Run ``cmd``: (process, wall s, CPU s of it and its threads and children, load average before)."""
+def timed(cmd: list[str], cwd: Path) -> tuple[subprocess.CompletedProcess, float, float, float, float]:
+    """Run ``cmd``: (process, wall s, CPU s of it and its threads, load average before, its
+    peak resident memory in MiB), the CPU and memory from ``wait4`` (that process alone)."""
     load = os.getloadavg()[0]
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
-    run = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
-    wall = time.perf_counter() - t
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return run, wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), load
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        proc = subprocess.Popen(cmd, stdout=out, stderr=err, text=True, cwd=cwd)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - t
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        run = subprocess.CompletedProcess(cmd, proc.returncode, out.read(), err.read())
+    return run, wall, usage.ru_utime + usage.ru_stime, load, usage.ru_maxrss / 1024  # Linux: KiB
 
 
-def run_ours(path: Path, work: Path, profile: bool = False) -> dict:
+def run_ours(path: Path, work: Path, profile: bool = False, threads: int | None = None) -> dict:
     out = work / "ours.json"
     cmd = [sys.executable, str(Path(__file__).resolve()), "--ours-only", str(path), "--result", str(out)]
-    run, wall, cpu, load = timed(cmd + (["--profile"] if profile else []), work)
+    cmd += ["--threads", str(threads)] if threads is not None else []
+    run, wall, cpu, load, peak = timed(cmd + (["--profile"] if profile else []), work)
     if run.returncode != 0:
         raise SystemExit(f"gnssframework failed:\n{run.stderr[-3000:]}")
     if profile:
         print(run.stderr[-6000:])
-    return {"wall_s": wall, "cpu_s": cpu, "load": load, **json.loads(out.read_text())}
+    return {"wall_s": wall, "cpu_s": cpu, "load": load, "peak_mib": peak, **json.loads(out.read_text())}
 
 
 def run_gnss_sdr(path: Path, work: Path, tow0: float) -> dict:
@@ -147,11 +157,11 @@ def run_gnss_sdr(path: Path, work: Path, tow0: float) -> dict:
     conf = work / "gnss-sdr.conf"
     conf.write_text(gnss_sdr_config(path, FS_HZ, out, channels=12, item_type="ishort", output_rate_ms=1000,
                                       display_rate_ms=1000, pvt_models=True))
-    run, wall, cpu, load = timed([exe, f"--config_file={conf}"], out)
+    run, wall, cpu, load, peak = timed([exe, f"--config_file={conf}"], out)
     text = run.stdout + run.stderr
     (work / "gnss-sdr.log").write_text(text)
     fixes = [m.groups() for m in _POSITION.finditer(text)]
-    found = {"wall_s": wall, "cpu_s": cpu, "load": load, "exit": run.returncode,
+    found = {"wall_s": wall, "cpu_s": cpu, "load": load, "peak_mib": peak, "exit": run.returncode,
              "channels": sorted({int(p) for p in re.findall(r"Tracking of GPS L1 C/A signal started on channel \d+ "
                                                             r"for satellite GPS PRN (\d+)", text)})}
     if fixes:
@@ -166,7 +176,8 @@ def line(name: str, r: dict, seconds: float) -> str:
     fix = (f"first fix {r['first_fix_s']:5.1f} s, {r['fixes']:3d} fixes, {r['sats_median']:.0f} sats, H/V RMS "
            f"{r['errors_m'][0]:5.1f}/{r['errors_m'][1]:5.1f} m") if "fixes" in r else "no fix"
     startup = f" (start-up {r['startup_cpu_s']:.1f})" if "startup_cpu_s" in r else ""
-    return (f"{name:13s} wall {r['wall_s']:6.1f} s  CPU {r['cpu_s']:6.1f} s{startup}  x{seconds / r['wall_s']:5.2f} "
+    return (f"{name:13s} wall {r['wall_s']:6.1f} s  CPU {r['cpu_s']:6.1f} s{startup}  peak {r['peak_mib']:4.0f} MiB  "
+            f"x{seconds / r['wall_s']:5.2f} "
             f"real time  load {r['load']:4.1f}  {len(r['channels']):2d} channels  {fix}")
 
 
@@ -183,11 +194,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="rounds of both receivers, alternating which goes first")
     ap.add_argument("--work", type=Path, help="folder for the recording (kept and reused); default: a temporary one")
     ap.add_argument("--profile", action="store_true", help="print gnssframework's cProfile (slows it)")
+    ap.add_argument("--threads", type=int, help="gnssframework's threads (receive --threads; default: the cores)")
     ap.add_argument("--ours-only", type=Path, help=argparse.SUPPRESS)
     ap.add_argument("--result", type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.ours_only:
-        ours_in_this_process(args.ours_only, args.result, args.profile)
+        ours_in_this_process(args.ours_only, args.result, args.profile, args.threads)
         return 0
     if shutil.which("gnss-sdr") is None or not (SIM_DIR / "build.sh").exists():
         print("needs gnss-sdr on PATH and ../shared/tools/gps-sdr-sim beside the repository", file=sys.stderr)
@@ -207,7 +219,8 @@ def main(argv: list[str] | None = None) -> int:
             order = ("ours", "gnss-sdr") if k % 2 == 0 else ("gnss-sdr", "ours")
             round_ = {}
             for who in order:
-                round_[who] = run_ours(path, work) if who == "ours" else run_gnss_sdr(path, work, tow0)
+                round_[who] = (run_ours(path, work, threads=args.threads) if who == "ours"
+                               else run_gnss_sdr(path, work, tow0))
                 print(line("gnssframework" if who == "ours" else "GNSS-SDR", round_[who], args.seconds), flush=True)
             rows.append(round_)
         wall = np.array([r["gnss-sdr"]["wall_s"] / r["ours"]["wall_s"] for r in rows])
@@ -217,7 +230,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{np.median(wall):.2f}, CPU {np.median(cpu):.2f}; after: {uptime()}")
         if args.profile:
             print("\nwhere gnssframework's time goes (cProfile, a separate untimed run):")
-            run_ours(path, work, profile=True)
+            run_ours(path, work, profile=True, threads=args.threads)
     return 0
 
 

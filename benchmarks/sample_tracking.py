@@ -1,10 +1,14 @@
 """Correlation and tracking speed on samples, as channel-seconds of signal per wall second.
 
-    python benchmarks/sample_tracking.py [--seconds 4] [--channels 8] [--repeat 2]
+    python benchmarks/sample_tracking.py [--seconds 4] [--channels 8] [--repeat 2] [--threads 2] [--correlation-only]
 
 At 2.6, 4 and 16.3676 MHz (gps-sdr-sim's default rate, the 4 MHz PocketSDR rate, the rate
 of reference 002's recording), in the same run:
 
+- correlation alone in channel-MHz per core (channel-samples per CPU second of the process,
+  over 1e6) and per wall second, as the tracker calls it (10 ms whole periods of every
+  channel per call) on 1, 2 and ``--threads`` threads (``--correlation-only``: these rows
+  alone);
 - correlation alone: the compiled multi-channel kernel against its NumPy reference and
   against `correlate_if` (the per-channel NumPy path the issue timed at 1.9 ms per channel
   per millisecond at 16.3676 MHz);
@@ -83,17 +87,47 @@ def correlation_rates(fs: float, channels: int, rng: np.random.Generator) -> dic
             (("compiled", compiled), ("numpy reference", reference), ("correlate_if", old))}
 
 
+def channel_mhz_per_core(fs: float, channels: int, rng: np.random.Generator, threads: int,
+                         coherent_ms: int = 10, loops: int = 40) -> tuple[float, float]:
+    """Correlation alone as the tracker calls it (`correlate_periods`: ``coherent_ms`` whole
+    code periods of every channel per call, int8 I/Q as recorded, E/P/L), on ``threads``
+    threads: (channel-MHz per CPU second, channel-MHz per wall second), i.e. channel-samples
+    correlated per second of the process's CPU time (all its threads) or of wall time, over 1e6."""
+    from gnssframework.receiver.channels.correlator import code_tables, correlate_periods
+
+    n = int(fs * 1e-3 * (coherent_ms + 1)) + 400
+    comps = rng.integers(-40, 40, 2 * n).astype(np.int8)
+    codes = np.stack([ca_code(p) for p in range(1, channels + 1)]).astype(np.float32)
+    taps = np.array([-0.5, 0.0, 0.5])
+    args = (rng.integers(0, 300, channels), np.full(channels, coherent_ms), rng.uniform(-0.5, 0.5, channels),
+            1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, channels)), rng.uniform(0, 1, channels),
+            rng.uniform(-5e3, 5e3, channels) / fs, codes, taps)
+    tables = code_tables(codes, taps)
+    correlate_periods(comps, *args, iq=True, tables=tables, threads=threads)  # compile / load
+    best_cpu = best_wall = 0.0
+    for _ in range(3):
+        w, c = time.perf_counter(), time.process_time()
+        counted = 0
+        for _ in range(loops):
+            counted += int(correlate_periods(comps, *args, iq=True, tables=tables, threads=threads)[1].sum())
+        w, c = time.perf_counter() - w, time.process_time() - c
+        best_cpu, best_wall = max(best_cpu, counted / c / 1e6), max(best_wall, counted / w / 1e6)
+    return best_cpu, best_wall
+
+
 def tracking_rate(path: Path, channels: int, duration_s: float | None = None) -> tuple[float, float, int]:
-    """(channel-seconds per second, wall seconds, channels) of tracking a recording."""
+    """(channel-seconds per second, wall seconds, channels) of tracking a recording; the
+    CPU seconds of the run in ``tracking_rate.cpu_s``."""
     rec = open_recording(path)
     acq = registry.create("acquisition", "pcps")
     detected = [r for r in acquire_recording(rec, acq) if r.detected]
     found = sorted(detected, key=lambda r: -r.test_statistic)[:channels]  # the strongest, as GNSS-SDR's channels
     tracker = SampleTracker(rec, tracking_config(), acq)
     tracker.run(found, 0.05)  # warm: compiled kernels loaded
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     result = tracker.run(found, duration_s)
     wall = time.perf_counter() - t
+    tracking_rate.cpu_s = time.process_time() - c
     return len(found) * result.duration_s / wall, wall, len(found)
 
 
@@ -238,11 +272,17 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--channels", type=int, default=8)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--repeat", type=int, default=2, help="interleaved runs of ours and GNSS-SDR per rate")
+    ap.add_argument("--threads", type=int, default=2, help="threads of the correlation rows (besides 1 and 2), and "
+                                                            "of the tracking runs (default %(default)s)")
+    ap.add_argument("--correlation-only", action="store_true", help="the channel-MHz rows only")
     ap.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
     ap.add_argument("--fs", type=float, help=argparse.SUPPRESS)
     ap.add_argument("--with-acquisition", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--boc-only", action="store_true", help="only the BOC against C/A cost rows")
     args = ap.parse_args(argv)
+    from gnssframework.backend import set_threads
+
+    set_threads(args.threads)
     if args.worker is not None:
         print(json.dumps(worker(args.worker, args.fs, args.channels, args.with_acquisition)))
         return
@@ -250,6 +290,16 @@ def main(argv: list[str] | None = None) -> None:
     print(f"{_load()} at start, {os.cpu_count()} cores; {args.channels} channels")
     boc_rows(args, rng)
     if args.boc_only:
+        return
+    print("\ncorrelation alone, channel-MHz per core (per CPU second of the process) and per wall second, "
+          "10 ms whole periods per call as the tracker after bit sync")
+    for fs in RATES_HZ:
+        cells = []
+        for threads in sorted({1, 2, args.threads}):
+            cpu, wall = channel_mhz_per_core(fs, args.channels, rng, threads)
+            cells.append(f"{threads} thread{'s' if threads > 1 else ''}: {cpu:5.0f} per core, {wall:5.0f} per wall s")
+        print(f"{fs / 1e6:9.4f} MHz  " + "; ".join(cells) + f"  ({_load()})")
+    if args.correlation_only:
         return
     print("\ncorrelation, channel-seconds per second (x real time per channel)")
     print(f"{'rate MHz':>9s} {'compiled':>10s} {'numpy ref':>10s} {'correlate_if':>13s} {'compiled/if':>12s}")
@@ -263,8 +313,10 @@ def main(argv: list[str] | None = None) -> None:
         folder = Path(tmp)
         for fs in RATES_HZ:
             rate, wall, n = tracking_rate(generated(fs, args.seconds, args.channels, folder, rng), args.channels)
+            per_core = n * fs * args.seconds / tracking_rate.cpu_s / 1e6
             print(f"{fs / 1e6:9.4f} MHz: {rate:6.1f} channel-s/s ({n} channels, {wall:.1f} s wall for "
-                  f"{args.seconds} s: {wall / args.seconds:.2f} of real time; {_load()})")
+                  f"{args.seconds} s: {wall / args.seconds:.2f} of real time; {per_core:.0f} channel-MHz per core, "
+                  f"tracking included; {_load()})")
         if not SIM_DIR.exists():
             print("\ngps-sdr-sim rows: skipped (needs ../shared/tools/gps-sdr-sim)")
             return

@@ -16,6 +16,8 @@ this module, and only this module, which path to take:
   one midway through its run.
 * :func:`jit` compiles a model function for the kernels (``nopython``, cached on disk,
   GIL released); without numba it returns the function unchanged.
+* :func:`set_threads` / :func:`get_threads`: how many threads the kernels that split their
+  work by channel (the tracking correlators) may use; by default the cores available.
 
 It imports nothing of the framework but its errors, so every layer may use it.
 """
@@ -29,7 +31,7 @@ from collections.abc import Callable
 from .errors import ConfigError
 
 __all__ = ["HAVE_NUMBA", "available", "get_backend", "set_backend", "resolve_backend", "compiled", "BackendChoice",
-           "jit"]
+           "jit", "available_cores", "set_threads", "get_threads"]
 
 try:  # numba is a dependency, but the NumPy path must keep working without it.
     import numba
@@ -140,3 +142,30 @@ def jit(fn: F) -> F:
     if not HAVE_NUMBA:
         return fn
     return numba.njit(cache=True, fastmath=False, nogil=True)(fn)
+
+
+_threads: int | None = None
+
+
+def available_cores() -> int:
+    """The CPUs this process may run on (its affinity mask where the OS has one)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - no affinity on this OS
+        return max(1, os.cpu_count() or 1)
+
+
+def set_threads(value: int | None) -> None:
+    """Threads the compiled kernels that split their work by channel may use, for the whole
+    process (the calling thread and ``value - 1`` helpers; ``None``: back to the default,
+    `available_cores`). Results do not depend on it: each channel's arithmetic is the same
+    whichever thread runs it."""
+    global _threads
+    if value is not None and (isinstance(value, bool) or int(value) != value or value < 1):
+        raise ConfigError("threads", f"must be a whole number of at least 1, got {value!r}")
+    _threads = None if value is None else int(value)
+
+
+def get_threads() -> int:
+    """The thread count of :func:`set_threads`, else the cores available to the process."""
+    return _threads if _threads is not None else available_cores()

@@ -380,6 +380,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
 
+    _threads_from_args(args)
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     signal = _signal_from_args(args)
@@ -493,6 +494,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     from .receiver.navigation.report import no_position_reason, write_no_position_report, write_receive_report
     from .receiver.navigation.rinex_obs import write_rinex_obs
 
+    _threads_from_args(args)
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     signal = _signal_from_args(args)
@@ -650,6 +652,20 @@ def _vector_channel_from_args(args: argparse.Namespace) -> dict:
 WEIGHTINGS = ("elevation", "uniform", "rtklib")
 #: ``position --tracking``: the scalar receiver, or vector tracking from the first fix.
 TRACKING_MODES = ("scalar", "vector")
+
+
+def _add_threads_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--threads", type=int, metavar="N",
+                   help="threads correlating the channels (default: the cores available); the results do not "
+                        "depend on it")
+
+
+def _threads_from_args(args: argparse.Namespace) -> None:
+    from .backend import set_threads
+
+    if args.threads is not None and args.threads < 1:
+        raise ConfigError("--threads", f"must be at least 1, got {args.threads}")
+    set_threads(args.threads)
 
 
 def _add_recording_options(p: argparse.ArgumentParser) -> None:
@@ -848,6 +864,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--early-late-spacing", type=float, metavar="CHIPS",
                    help="early-to-late correlator spacing (default 1.0)")
     p.add_argument("--no-plots", action="store_true", help="no plots")
+    _add_threads_option(p)
     p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     p.set_defaults(func=_cmd_track)
     p = sub.add_parser("receive", aliases=["position"],
@@ -896,6 +913,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "--start-time, vector tracking starts from acquisition, without waiting for LNAV")
     p.add_argument("--start-time", metavar="WEEK,TOW", help="GPS week and time of week (s) of the first sample "
                                                             "(to ~1 ms), for --approx-position")
+    _add_threads_option(p)
     p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     p.set_defaults(func=_cmd_receive)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")

@@ -17,9 +17,10 @@ from gnssframework.plugin import PluginParams
 
 __all__ = ["ParallelCodePhaseSearch"]
 
-#: Largest raw search grid held at once (float32 elements, 256 MB): PRNs are searched in
-#: groups whose grids fit.
-_GRID_ELEMENTS = 1 << 26
+#: Largest raw search grid held at once (float32 elements, 64 MB): PRNs are searched in
+#: groups whose grids fit (each PRN's grid is the same whatever its group; a 1 ms code's
+#: 32 PRNs are one group; a 10 ms weak-signal search's about 3 PRNs a group).
+_GRID_ELEMENTS = 1 << 24
 
 
 class PcpsParams(PluginParams):

@@ -12,8 +12,9 @@ sleeping thread more than one chunk and takes the second core whenever it is fre
 Each chunk runs the *serial* kernel on a slice of the batch (a slice of a C-contiguous
 batch array is C-contiguous, so no new numba specialisation), and every element's
 arithmetic is the same whichever thread runs it: results are bitwise those of one serial
-call. The kernels release the GIL (``nogil=True``). One helper thread per process,
-started on first use and again after a fork (`os.getpid` changes); calls from any
+call. The kernels release the GIL (``nogil=True``). One helper thread per process by
+default (``threads=2``), more for a caller that asks for more threads, started on first
+use and again after a fork (`os.getpid` changes); calls from any
 thread but the main one run serially (the caller decides, see ``kernels._pick``).
 """
 
@@ -28,18 +29,28 @@ __all__ = ["run_chunks"]
 
 
 class _Job:
-    """One call's chunks: a shared claim counter, and whether the helper is inside a chunk."""
+    """One call's chunks: a shared claim counter, how many helpers may join it, and how
+    many are inside a chunk."""
 
-    __slots__ = ("claim", "n_chunks", "run_chunk", "lock", "idle", "busy", "errors")
+    __slots__ = ("claim", "n_chunks", "run_chunk", "lock", "idle", "busy", "errors", "seats")
 
-    def __init__(self, n_chunks: int, run_chunk: Callable[[int], None]) -> None:
+    def __init__(self, n_chunks: int, run_chunk: Callable[[int], None], helpers: int) -> None:
         self.claim = itertools.count()
         self.n_chunks = n_chunks
         self.run_chunk = run_chunk
         self.lock = threading.Lock()
         self.idle = threading.Event()
-        self.busy = False
+        self.busy = 0
+        self.seats = helpers  # helpers that may still join
         self.errors: list[BaseException] = []
+
+    def join(self) -> bool:
+        """A helper takes a seat (False when the call wants no more helpers)."""
+        with self.lock:
+            if self.seats <= 0:
+                return False
+            self.seats -= 1
+            return True
 
     def next_chunk(self, helper: bool) -> int | None:
         with self.lock:
@@ -47,24 +58,37 @@ class _Job:
             if i >= self.n_chunks:
                 return None
             if helper:
-                self.busy = True
+                self.busy += 1
                 self.idle.clear()
             return i
 
+    def done(self) -> None:
+        """A helper left its chunk."""
+        with self.lock:
+            self.busy -= 1
+            if self.busy == 0:
+                self.idle.set()
 
-class _Helper:
-    """One daemon thread that runs the chunks of the current job it can claim."""
+
+class _Helpers:
+    """Daemon threads that run the chunks of the current job they can claim (as many as
+    the largest call asked for; a call takes at most the helpers it asks for)."""
 
     def __init__(self) -> None:
         self.pid = os.getpid()
         self.cv = threading.Condition()
         self.job: _Job | None = None
         self.generation = 0
-        self.thread = threading.Thread(target=self._work, name="gnssframework-kernel-helper", daemon=True)
-        self.thread.start()
+        self.threads: list[threading.Thread] = []
 
-    def _work(self) -> None:
-        seen = 0
+    def ensure(self, n: int) -> None:
+        while len(self.threads) < n:
+            t = threading.Thread(target=self._work, args=(self.generation,),
+                                 name=f"gnssframework-kernel-helper-{len(self.threads) + 1}", daemon=True)
+            self.threads.append(t)
+            t.start()
+
+    def _work(self, seen: int) -> None:
         while True:
             with self.cv:
                 while self.generation == seen:
@@ -72,44 +96,54 @@ class _Helper:
                 seen = self.generation
                 job = self.job
             # A job whose caller already ran every chunk hands out none (late wake-up).
+            if not job.join():
+                continue
             while (i := job.next_chunk(True)) is not None:
                 try:
                     job.run_chunk(i)
                 except BaseException as exc:  # pragma: no cover - kernels do not raise
                     job.errors.append(exc)
                 finally:
-                    with job.lock:
-                        job.busy = False
-                        job.idle.set()
+                    job.done()
 
-    def run(self, n_chunks: int, run_chunk: Callable[[int], None]) -> None:
-        job = _Job(n_chunks, run_chunk)
+    def run(self, n_chunks: int, run_chunk: Callable[[int], None], helpers: int) -> None:
+        job = _Job(n_chunks, run_chunk, helpers)
         with self.cv:
             self.job = job
             self.generation += 1
-            self.cv.notify()
+            if helpers == 1:
+                self.cv.notify()
+            else:
+                self.cv.notify_all()
         while (i := job.next_chunk(False)) is not None:
             run_chunk(i)
-        with job.lock:  # wait only for a chunk the helper is inside, never for its wake-up
-            wait = job.busy
+        with job.lock:  # wait only for chunks helpers are inside, never for their wake-up
+            wait = job.busy > 0
         if wait:
             job.idle.wait()
         if job.errors:  # pragma: no cover
             raise job.errors[0]
 
 
-_helper: _Helper | None = None
+_helpers: _Helpers | None = None
 _lock = threading.Lock()
 
 
-def run_chunks(n_chunks: int, run_chunk: Callable[[int], None]) -> None:
+def run_chunks(n_chunks: int, run_chunk: Callable[[int], None], threads: int = 2) -> None:
     """Call ``run_chunk(i)`` for ``i = 0 .. n_chunks - 1``, each once, on the calling
-    thread and the helper thread as each becomes free; returns when every chunk has run."""
-    global _helper
-    helper = _helper
-    if helper is None or helper.pid != os.getpid():
+    thread and up to ``threads - 1`` helper threads as each becomes free; returns when
+    every chunk has run (``threads`` 1: all on the calling thread)."""
+    global _helpers
+    n_help = min(int(threads), n_chunks) - 1
+    if n_help < 1:
+        for i in range(n_chunks):
+            run_chunk(i)
+        return
+    helpers = _helpers
+    if helpers is None or helpers.pid != os.getpid() or len(helpers.threads) < n_help:
         with _lock:
-            if _helper is None or _helper.pid != os.getpid():
-                _helper = _Helper()
-            helper = _helper
-    helper.run(n_chunks, run_chunk)
+            if _helpers is None or _helpers.pid != os.getpid():
+                _helpers = _Helpers()
+            _helpers.ensure(n_help)
+            helpers = _helpers
+    helpers.run(n_chunks, run_chunk, n_help)

@@ -29,8 +29,10 @@ from ...signal.spec import SignalSpec
 
 __all__ = ["code_replica", "search_grid", "fine_doppler"]
 
-#: Complex elements of one Doppler chunk of wiped blocks (bounds the memory of a search).
-_CHUNK_ELEMENTS = 1 << 23
+#: Complex elements of one Doppler chunk of wiped blocks (16 MB of complex64: bounds the
+#: memory of a search, whose transients are a few times this; the FFTs of a row do not
+#: depend on the chunk).
+_CHUNK_ELEMENTS = 1 << 21
 #: Largest fine-search carrier table kept between calls (complex elements, 64 MB).
 _FINE_TABLE_ELEMENTS = 1 << 22
 

@@ -40,11 +40,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import ConfigError
-from ...backend import get_backend
+from ...backend import get_backend, get_threads
 from ...signal.spec import SignalSpec
 
 __all__ = ["replica_codes", "to_table_units", "correlate_channels", "correlate_numpy", "correlate_periods", "correlate_periods_numpy", "code_tables",
-           "correlation_error_bound", "sum_of_squares", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS"]
+           "correlation_error_bound", "sum_of_squares", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS", "SPLIT_SAMPLES"]
 
 #: Samples per chunk of the compiled kernel (its carrier restarts exactly every chunk).
 CHUNK = 512
@@ -221,10 +221,38 @@ def _parallel(parallel: bool) -> bool:
     return parallel and threading.current_thread() is threading.main_thread()
 
 
+#: Samples (all channels of a call) below which a call runs on the calling thread alone:
+#: a helper thread's hand-over costs about as much as correlating this many.
+SPLIT_SAMPLES = 20_000
+
+
+def _split(n_channels: int, work_samples: int, threads: int | None) -> list[tuple[int, int]]:
+    """Contiguous channel groups ``[lo, hi)`` of a call, for ``threads`` threads: one group
+    when one thread or a small call, else about two groups per thread (the calling thread
+    takes the groups a helper has not claimed yet, `pool.run_chunks`)."""
+    n_threads = get_threads() if threads is None else int(threads)
+    if n_threads < 2 or n_channels < 2 or work_samples < SPLIT_SAMPLES:
+        return [(0, n_channels)]
+    n_groups = min(n_channels, 2 * n_threads)
+    edges = [k * n_channels // n_groups for k in range(n_groups + 1)]
+    return list(zip(edges[:-1], edges[1:]))
+
+
+def _run_groups(groups: list[tuple[int, int]], call, threads: int | None) -> None:
+    """``call(lo, hi)`` for every channel group: each runs the serial kernel on slices of the
+    per-channel arrays (C-contiguous slices: the same compiled specialisation), so every
+    channel's sums are those of one call over all channels, whichever thread ran its group."""
+    if len(groups) == 1:
+        call(*groups[0])
+    else:
+        pool.run_chunks(len(groups), lambda g: call(*groups[g]), get_threads() if threads is None else int(threads))
+
+
 try:
     import numba
     from numba import prange
 
+    from ...estimation.compiled import pool
     from ...estimation.compiled.specialise import with_globals
 
     HAVE_NUMBA = True
@@ -404,7 +432,7 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
                        code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray,
                        carrier_step_cycles: np.ndarray, codes: np.ndarray, offsets_chips: np.ndarray,
                        backend: str | None = None, tables: CodeTables | None = None, iq: bool = False,
-                       q_sign: int = 1, parallel: bool = False) -> np.ndarray:
+                       q_sign: int = 1, parallel: bool = False, threads: int | None = None) -> np.ndarray:
     """Correlate every channel over its sample range: ``(n_channels, n_taps)`` complex.
 
     Parameters
@@ -439,6 +467,12 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
         number), from the main thread only. Off by default: in the tracking loop, calls
         every 1-10 ms with Python between them, it did not help on two shared cores
         (docs/benchmarks.md, "Tracking on samples").
+    threads
+        Without ``parallel``: the channels in contiguous groups on the calling thread and
+        up to ``threads - 1`` helper threads (`gnssframework.estimation.compiled.pool`: the
+        calling thread starts at once and never waits for a helper to wake), for calls of
+        at least `SPLIT_SAMPLES` samples; results bit-identical whatever the number.
+        Default: `gnssframework.backend.get_threads` (the cores available).
     """
     starts = np.asarray(starts, np.int64)
     counts = np.asarray(counts, np.int64)
@@ -471,8 +505,14 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
     out_i = np.empty((n_ch, n_taps))
     par = _parallel(parallel)
     kernel = _kernels(cplx, tables.thresholds.size, par)[0]
-    kernel(x, np.float32(q_sign), starts, counts, carrier0, dcarrier, code0, dcode, tables.patterns, tables.thresholds,
-           out_r, out_i)
+    groups = [(0, n_ch)] if par else _split(n_ch, int(counts.sum()), threads)
+    q, pat, thr = np.float32(q_sign), tables.patterns, tables.thresholds
+
+    def call(lo: int, hi: int) -> None:
+        kernel(x, q, starts[lo:hi], counts[lo:hi], carrier0[lo:hi], dcarrier[lo:hi], code0[lo:hi], dcode[lo:hi],
+               pat[lo:hi], thr, out_r[lo:hi], out_i[lo:hi])
+
+    _run_groups(groups, call, threads)
     return out_r + 1j * out_i
 
 
@@ -502,7 +542,8 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
                       code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray,
                       carrier_step_cycles: np.ndarray, codes: np.ndarray, offsets_chips: np.ndarray,
                       backend: str | None = None, tables: CodeTables | None = None, iq: bool = False,
-                      q_sign: int = 1, parallel: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                      q_sign: int = 1, parallel: bool = False, threads: int | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
     """Correlate ``n_periods[c]`` whole code periods of every channel c, each from code epoch
     to code epoch (the replica's own), with the NCOs held over them.
 
@@ -510,7 +551,7 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
     epoch (1023 chips past the last), so the caller need not know the sample counts in
     advance. ``code_phase_chips`` is the phase at ``starts`` (just after an epoch, in
     ``(-1, 1)`` chips). One tap is the prompt (offset 0); at most `MAX_TAPS` taps.
-    ``samples``, ``iq``, ``q_sign`` and ``parallel`` as in `correlate_channels`.
+    ``samples``, ``iq``, ``q_sign``, ``parallel`` and ``threads`` as in `correlate_channels`.
 
     Returns
     -------
@@ -553,6 +594,13 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
     counts = np.zeros((n_ch, p_max), np.int64)
     par = _parallel(parallel)
     kernel = _kernels(cplx, tables.thresholds.size, par)[1]
-    kernel(x, np.float32(q_sign), starts, n_periods, carrier0, dcarrier, code0, dcode, 2 * period_word, period_word,
-           tables.patterns, tables.thresholds, out_r, out_i, counts)
+    work = int(n_periods.sum()) * n_code / float(step.min(initial=1.0))
+    groups = [(0, n_ch)] if par else _split(n_ch, work, threads)
+    q, pat, thr = np.float32(q_sign), tables.patterns, tables.thresholds
+
+    def call(lo: int, hi: int) -> None:
+        kernel(x, q, starts[lo:hi], n_periods[lo:hi], carrier0[lo:hi], dcarrier[lo:hi], code0[lo:hi], dcode[lo:hi],
+               2 * period_word, period_word, pat[lo:hi], thr, out_r[lo:hi], out_i[lo:hi], counts[lo:hi])
+
+    _run_groups(groups, call, threads)
     return out_r + 1j * out_i, counts
