@@ -70,7 +70,7 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["IntegrityResult", "raim", "detection_noncentrality", "covariance_protection_levels",
+__all__ = ["IntegrityResult", "RaimOptions", "raim", "detection_noncentrality", "covariance_protection_levels",
            "enu_geometry", "RAIM_METHODS"]
 
 #: The detection tests `raim` can apply: ``chi2`` the residual test (with slope PLs),
@@ -289,3 +289,28 @@ def covariance_protection_levels(cov_enu_m2: np.ndarray, integrity_risk: float =
     lam_max = 0.5 * (a + d) + np.sqrt(0.25 * (a - d) ** 2 + b**2)
     hpl = np.sqrt(-2.0 * np.log(integrity_risk)) * np.sqrt(np.maximum(lam_max, 0.0))
     return hpl, vpl
+
+
+@dataclass(frozen=True)
+class RaimOptions:
+    """Integrity monitoring of a receiver's fixes: ``method`` (one of `RAIM_METHODS`) at
+    ``false_alarm`` (also the nav filters' innovation test), ``missed_detection`` and the
+    fault-free ``integrity_risk`` of the protection levels.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown method or a probability outside (0, 1).
+    """
+
+    method: str = "chi2"
+    false_alarm: float = 1e-5
+    missed_detection: float = 1e-3
+    integrity_risk: float = 1e-7
+
+    def __post_init__(self) -> None:
+        if self.method not in RAIM_METHODS:
+            raise ConfigError("--raim", f"one of {', '.join(RAIM_METHODS)}, got {self.method!r}")
+        for name, p in (("--raim-pfa", self.false_alarm), ("--raim-pmd", self.missed_detection),
+                        ("--integrity-risk", self.integrity_risk)):
+            _check_probability(name, p)
