@@ -16,7 +16,8 @@ import pymap3d
 import pytest
 
 from gnssframework.receiver.navigation.filtered import filter_epochs
-from gnssframework.receiver.navigation.fixes import INTEGRITY_COLUMNS, POSITION_COLUMNS, solve_epochs, write_positions_csv
+from gnssframework.receiver.navigation.fixes import (INTEGRITY_COLUMNS, POSITION_COLUMNS, solve_epochs,
+                                                     write_positions_csv)
 from station_observables import STATION
 from test_receiver_nav_exclusion import FAULT_EPOCH, SIGMA_M, SIGMA_RATE, _faulty, _scenario
 

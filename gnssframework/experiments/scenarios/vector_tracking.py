@@ -268,9 +268,11 @@ class VectorTrackingScenario(Scenario):
     metrics = units(METRICS)
     #: The raw per-epoch series the metrics reduce (metric components of other packages
     #: may read them too): code and frequency errors RMS over the channels, position and
-    #: velocity error norms, the per-epoch NEES, and the bound (if computed).
+    #: velocity error norms, the channels the monitor excluded (with one), the per-epoch NEES,
+    #: and the bound (if computed).
     outputs = {"code_error_chips": "chips", "freq_error_hz": "Hz", "position_error_m": "m",
-               "velocity_error_m_s": "m/s", "excluded_channel_count": "-", "nav_nees": "-", "nav_nees_position": "-", "nav_nees_velocity": "-",
+               "velocity_error_m_s": "m/s", "excluded_channel_count": "-", "nav_nees": "-", "nav_nees_position": "-",
+               "nav_nees_velocity": "-",
                "code_output_error_chips": "chips", "freq_output_error_hz": "Hz", "pcrb_position_m": "m",
                "pcrb_velocity_m_s": "m/s", "pcrb_position_code_m": "m", "pcrb_velocity_code_m_s": "m/s"}
     #: Error metric -> the bound drawn beside it in the report's time-series plot.
