@@ -529,7 +529,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         if filters.nav_filter is not None:  # the vector loop closes its own ekf-pv
             raise ConfigError("--tracking", "vector tracking runs its own navigation filter: drop --nav-filter "
                                             "(or the config's [nav_filter]) or use --tracking scalar")
-        vector = vector_config(solution_rate_hz=args.rate, **_vector_channel_from_args(args))
+        monitor = {} if raim is None else {"monitor_false_alarm": raim.false_alarm}  # the channel fault monitor
+        vector = vector_config(solution_rate_hz=args.rate, **_vector_channel_from_args(args), **monitor)
     elif args.vector_channel_filter or args.vector_channel_params:
         raise ConfigError("--vector-channel-filter", "the vector loop's channel filter is for --tracking vector")
     elif args.vector_accel_psd is not None:
@@ -862,7 +863,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="integrity monitoring of the fixes: fault detection and exclusion and protection levels "
                         "(positions.csv columns hpl_m, vpl_m, raim); chi2 (the residual test, slope levels; the "
                         "default method) or ss (solution separation); with --nav-filter: its innovation test and "
-                        "levels from its covariance")
+                        "levels from its covariance; with --tracking vector: also the vector loop's channel fault "
+                        "monitor at --raim-pfa (the vector rows carry no protection levels)")
     p.add_argument("--raim-pfa", type=float, metavar="P", help="with --raim: false-alarm probability of its tests "
                                                                "(default 1e-5)")
     p.add_argument("--raim-pmd", type=float, metavar="P", help="with --raim: missed-detection probability of the "

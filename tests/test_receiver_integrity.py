@@ -62,3 +62,17 @@ def test_positions_csv_gets_the_integrity_columns(faulty_run, tmp_path):
     assert tuple(rows[0]) == POSITION_COLUMNS + INTEGRITY_COLUMNS
     assert rows[-1]["raim"] == "excluded" and float(rows[-1]["hpl_m"]) == pytest.approx(wls.columns["hpl_m"][-1],
                                                                                             abs=0.005)
+
+
+def test_rows_without_levels_after_a_hand_over_say_so(faulty_run):
+    from gnssframework.receiver.navigation.fixes import PositionTable
+    from gnssframework.receiver.navigation.receive import concatenate_tables
+
+    _, wls, _ = faulty_run
+    plain = PositionTable({c: wls.columns[c] for c in POSITION_COLUMNS}, wls.ecef_m, wls.sample_time_s + 2000.0,
+                          wls.used_prns, wls.excluded_prn)
+    joined = concatenate_tables(wls, plain, 1000.0)  # every row of wls before the switch
+    n = len(wls)
+    assert len(joined) == 2 * n
+    assert list(joined.columns["raim"][:n]) == list(wls.columns["raim"])
+    assert np.all(joined.columns["raim"][n:] == "unavailable") and np.all(np.isinf(joined.columns["hpl_m"][n:]))

@@ -29,7 +29,7 @@ from ...plugin_ref import PluginSpec
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .filtered import filter_epochs
-from .fixes import PositionTable, solve_epochs
+from .fixes import INTEGRITY_COLUMNS, PositionTable, solve_epochs
 from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
 from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
 
@@ -201,13 +201,19 @@ def assisted_observables(tracking: TrackingResult, solution: VectorSolution, rat
 
 def concatenate_tables(before: PositionTable | None, after: PositionTable | None,
                        switch_s: float | None) -> PositionTable | None:
-    """The rows of ``before`` up to ``switch_s`` (recording time), then those of ``after``."""
+    """The rows of ``before`` up to ``switch_s`` (recording time), then those of ``after``
+    (its integrity columns, where ``before`` has them and it has none, inf and ``unavailable``)."""
     if after is None or switch_s is None:
         return before
     if before is None:
         return after
     k = before.sample_time_s < switch_s
-    return PositionTable({c: np.concatenate([before.columns[c][k], after.columns[c]]) for c in after.columns},
+    after_columns = dict(after.columns)
+    for c in INTEGRITY_COLUMNS:  # the vector rows have no protection levels: inf, "unavailable"
+        if c in before.columns and c not in after_columns:
+            after_columns[c] = np.full(len(after), "unavailable" if c == "raim" else np.inf,
+                                       dtype=before.columns[c].dtype)
+    return PositionTable({c: np.concatenate([before.columns[c][k], after_columns[c]]) for c in after_columns},
                          np.concatenate([before.ecef_m[k], after.ecef_m]),
                          np.concatenate([before.sample_time_s[k], after.sample_time_s]),
                          [u for u, keep in zip(before.used_prns, k) if keep] + list(after.used_prns),
