@@ -415,6 +415,19 @@ def _or_none(value: float, spec: str) -> str:
     return text if value == value and abs(value) != float("inf") else format("none", f">{len(text)}")
 
 
+def _raim_from_args(args: argparse.Namespace):
+    """``receive --raim [--raim-pfa P --raim-pmd P]`` as `integrity.RaimOptions` (None without --raim)."""
+    if args.raim is None:
+        for flag in ("raim_pfa", "raim_pmd"):
+            if getattr(args, flag) is not None:
+                raise ConfigError(f"--{flag.replace('_', '-')}", "is a setting of --raim: add --raim or drop it")
+        return None
+    from .navigation.integrity import RaimOptions
+
+    given = {k: v for k, v in (("false_alarm", args.raim_pfa), ("missed_detection", args.raim_pmd)) if v is not None}
+    return RaimOptions(method=args.raim, **given)
+
+
 def _truth_from_args(args: argparse.Namespace) -> tuple[float, float, float] | None:
     if not args.truth:
         return None
@@ -515,6 +528,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     if args.week is not None and not 0 <= args.week < 10_000:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
     truth = _truth_from_args(args)
+    raim = _raim_from_args(args)
     if args.ephemeris and signal.system not in EPHEMERIS_SYSTEMS:
         raise ConfigError("--ephemeris", f"the records of {signal.name} (RINEX system {signal.system}) are not read "
                                          f"from a navigation file (systems read: {', '.join(EPHEMERIS_SYSTEMS)}); "
@@ -532,7 +546,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         if filters.nav_filter is not None:  # the vector loop closes its own ekf-pv
             raise ConfigError("--tracking", "vector tracking runs its own navigation filter: drop --nav-filter "
                                             "(or the config's [nav_filter]) or use --tracking scalar")
-        vector = vector_config(solution_rate_hz=args.rate, **_vector_channel_from_args(args))
+        monitor = {} if raim is None else {"monitor_false_alarm": raim.false_alarm}  # the channel fault monitor
+        vector = vector_config(solution_rate_hz=args.rate, **_vector_channel_from_args(args), **monitor)
     elif args.vector_channel_filter or args.vector_channel_params:
         raise ConfigError("--vector-channel-filter", "the vector loop's channel filter is for --tracking vector")
     elif args.vector_accel_psd is not None:
@@ -545,7 +560,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
                          progress=progress, nav_filter=filters.nav_filter,
                          vector=vector, assist=assist, acquisitions=acquisitions,
                          iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
-                         weighting=args.weighting, signal=signal)
+                         weighting=args.weighting, signal=signal, raim=raim)
     if result.vector is not None and result.vector.handover_s is not None:
         print(f"vector tracking from {result.vector.handover_s:.1f} s of PRN "
               f"{', '.join(str(p) for p in result.vector.prns)} (channel filter {vector.channel_filter})")
@@ -650,6 +665,8 @@ def _vector_channel_from_args(args: argparse.Namespace) -> dict:
 
 #: ``receive --weighting``: `navigation.pvt.WEIGHTINGS` (written out: that module costs 0.6 s to import).
 WEIGHTINGS = ("elevation", "uniform", "rtklib")
+#: ``receive --raim``: `navigation.integrity.RAIM_METHODS` (written out, as WEIGHTINGS).
+RAIM_METHODS = ("chi2", "ss")
 #: ``position --tracking``: the scalar receiver, or vector tracking from the first fix.
 TRACKING_MODES = ("scalar", "vector")
 
@@ -897,6 +914,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="least-squares weights: elevation (sin²E/σ²), uniform, or rtklib (RTKLIB's single-point "
                         "error model: with the same corrections, e.g. --troposphere against RTKLIB's brdc "
                         "ionosphere and saas troposphere, its fixes agree; default %(default)s)")
+    p.add_argument("--raim", nargs="?", const="chi2", choices=RAIM_METHODS, metavar="METHOD",
+                   help="integrity monitoring of the fixes: fault detection and exclusion and protection levels "
+                        "(positions.csv columns hpl_m, vpl_m, raim); chi2 (the residual test, slope levels; the "
+                        "default method) or ss (solution separation); with --nav-filter: its innovation test and "
+                        "levels from its covariance; with --tracking vector: also the vector loop's channel fault "
+                        "monitor at --raim-pfa (the vector rows carry no protection levels)")
+    p.add_argument("--raim-pfa", type=float, metavar="P", help="with --raim: false-alarm probability of its tests "
+                                                               "(default 1e-5)")
+    p.add_argument("--raim-pmd", type=float, metavar="P", help="with --raim: missed-detection probability of the "
+                                                          "protection levels (default 1e-3)")
     p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print and report the errors")
     p.add_argument("--tracking", choices=TRACKING_MODES, default="scalar",
                    help="vector: from the first fix the ekf-pv navigation filter drives every channel's code and "

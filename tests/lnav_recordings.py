@@ -60,12 +60,15 @@ def true_dopplers(sats, tow0: float, duration_s: float) -> np.ndarray:
 
 def write_lnav_recording(path: Path, sats, tow0: float, duration_s: float, seed: int,
                          blank: tuple[int, float, float] | None = None,
-                         cn0_dbhz: float | Callable[[float], float] = 45.0) -> Path:
+                         cn0_dbhz: float | Callable[[float], float] = 45.0,
+                         code_delay: tuple[int, float, float] | None = None) -> Path:
     """Write ``duration_s`` of the satellites ``sats`` (an `Ephemerides`) from GPS time
     ``tow0`` to ``path`` (``.sigmf-data`` with its metadata); ``blank`` = (index of a
     satellite, start s, end s) leaves that satellite out of the chunks starting in
     ``[start, end)``; ``cn0_dbhz`` a constant or a function of the chunk's start (s into
-    the file), every satellite's."""
+    the file), every satellite's; ``code_delay`` = (index of a satellite, start s, metres)
+    delays that satellite's code (not its carrier) by that many metres in the chunks from
+    start on (a code fault: multipath-like or spoofed)."""
     rng = np.random.default_rng(seed)
     n = int(round(CHUNK_S * FS))
     source = registry.create("sample_source", "ci16_le")
@@ -86,8 +89,11 @@ def write_lnav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
                     continue
                 bits, into = symbols[k]
                 first_tsv = float(t_sv0[k]) - 0.1 - into  # t_SV of the first bit edge
+                tsv = start[k]
+                if code_delay is not None and k == code_delay[0] and t0 >= code_delay[1]:
+                    tsv = tsv - code_delay[2] / C  # the code transmitted that much earlier
                 x += generate_if_samples(int(sats.sv[k][1:]), CHUNK_S, FS, 0.0, cn0_at(t0), rng, doppler_hz=doppler[k],
-                                         code_phase_chips=(start[k] * 1e3 % 1.0) * 1023, carrier_phase_rad=phase[k],
+                                         code_phase_chips=(tsv * 1e3 % 1.0) * 1023, carrier_phase_rad=phase[k],
                                          complex_samples=True, data_bits=bits,
                                          first_bit_edge_s=first_tsv - start[k], noise=False).samples
                 phase[k] += 2 * np.pi * doppler[k] * CHUNK_S

@@ -129,3 +129,32 @@ def test_too_few_satellites_and_mismatched_shapes(visible):
     assert solve_position(pr, tx, visible) is None
     with pytest.raises(ConfigError, match="solve_position"):
         solve_position(pr[:3], tx, visible)
+
+
+@pytest.mark.parametrize("method", ["chi2", "ss"])
+def test_raim_excludes_a_faulty_satellite_and_its_levels_bound_the_error(visible, method):
+    rng = np.random.default_rng(43)
+    pr, tx = _truth(visible, T_RX, STATION, 100.0)
+    import pymap3d
+
+    lat, lon, h = pymap3d.ecef2geodetic(*STATION)
+    for _ in range(30):  # fault-free: the same solution as without raim, inside its levels
+        noisy = pr + rng.standard_normal(pr.size) * 1.0
+        plain = solve_position(noisy, tx, visible, sigma_m=1.0, elevation_mask_deg=0.0, false_alarm=1e-5)
+        fix = solve_position(noisy, tx, visible, sigma_m=1.0, elevation_mask_deg=0.0, false_alarm=1e-5, raim=method)
+        assert plain.raim == "" and np.isnan(plain.hpl_m)
+        if fix.raim != "ok":
+            continue
+        assert fix.position_ecef_m == pytest.approx(plain.position_ecef_m, abs=1e-9)
+        e, n, u = pymap3d.ecef2enu(*fix.position_ecef_m, lat, lon, h)
+        assert np.hypot(e, n) < fix.hpl_m and abs(u) < fix.vpl_m
+        assert fix.test_statistic == pytest.approx(np.nansum(fix.residuals_m**2 * np.sin(np.radians(
+            np.maximum(fix.elevation_deg, 1.0)))**2), rel=1e-6)  # weights of the last iteration
+    bad = pr + rng.standard_normal(pr.size) * 1.0
+    bad[2] += 150.0
+    fix = solve_position(bad, tx, visible, sigma_m=1.0, elevation_mask_deg=0.0, false_alarm=1e-5, raim=method)
+    assert fix.fault_detected and fix.raim == "excluded" and fix.excluded == 2 and not fix.used[2]
+    e, n, u = pymap3d.ecef2enu(*fix.position_ecef_m, lat, lon, h)
+    assert np.hypot(e, n) < fix.hpl_m < 100 and abs(u) < fix.vpl_m < 100
+    with pytest.raises(ConfigError, match="raim"):
+        solve_position(pr, tx, visible, raim="both")

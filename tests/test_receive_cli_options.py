@@ -161,3 +161,33 @@ def test_the_cli_weightings_are_the_solvers():
     from gnssframework.navigation.pvt import WEIGHTINGS
 
     assert cli.WEIGHTINGS == WEIGHTINGS
+
+
+def test_the_cli_raim_methods_are_the_modules():
+    from gnssframework.navigation.integrity import RAIM_METHODS
+
+    assert cli.RAIM_METHODS == RAIM_METHODS
+
+
+def test_raim_options_are_read_and_checked(parsed):
+    parsed.clear()
+    assert cli.main(["receive", "rec.bin", "--out", "o", "--raim", "--raim-pmd", "1e-2"]) == 0
+    options = cli._raim_from_args(parsed["args"])
+    assert (options.method, options.false_alarm, options.missed_detection) == ("chi2", 1e-5, 1e-2)
+    parsed.clear()
+    assert cli.main(["receive", "rec.bin", "--out", "o", "--raim", "ss", "--raim-pfa", "1e-3"]) == 0
+    options = cli._raim_from_args(parsed["args"])
+    assert (options.method, options.false_alarm) == ("ss", 1e-3)
+    parsed.clear()
+    assert cli.main(["receive", "rec.bin", "--out", "o"]) == 0
+    assert cli._raim_from_args(parsed["args"]) is None
+    from gnssframework.errors import ConfigError
+
+    parsed.clear()
+    assert cli.main(["receive", "rec.bin", "--out", "o", "--raim-pfa", "1e-3"]) == 0
+    with pytest.raises(ConfigError, match="--raim-pfa"):
+        cli._raim_from_args(parsed["args"])
+    parsed.clear()
+    assert cli.main(["receive", "rec.bin", "--out", "o", "--raim", "--raim-pfa", "2"]) == 0
+    with pytest.raises(ConfigError, match="--raim-pfa"):
+        cli._raim_from_args(parsed["args"])

@@ -52,9 +52,10 @@ def _shortened(path: Path, tmp_path: Path) -> Path:
             section["epochs"] = 60
         if "duration_s" in section:
             section["duration_s"] = min(section["duration_s"], 1.5)
-    for case in data.get("cases", []):  # a C/N0 fade starts inside the shortened run
-        if "fade_start_s" in case:
-            case["fade_start_s"] = 0.75
+    for case in data.get("cases", []):  # a C/N0 fade (or a channel fault) starts inside the shortened run
+        for start in ("fade_start_s", "fault_start_s"):
+            if start in case:
+                case[start] = 0.75
     if "duration_s" in data["scenario"]:
         data["scenario"]["settle_s"] = 0.5
         if "steady_state_s" in data["scenario"]:

@@ -18,6 +18,8 @@ One epoch at a time, batch over the satellites:
   exceeds the chi-square bound of ``n - 4`` degrees of freedom at ``false_alarm``, the
   solution leaving out the satellite whose removal minimises it is taken, if that one
   passes (with six satellites or more);
+- or, with ``raim`` (`integrity.raim`), fault detection and exclusion by its residual or
+  solution-separation test and horizontal and vertical protection levels per epoch;
 - velocity and clock drift from the Dopplers (range rate ``-λ D``) on the same geometry.
 """
 
@@ -36,7 +38,7 @@ from ..signal.spec import SPEED_OF_LIGHT_M_S as SPEED_OF_LIGHT_MPS
 from .ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
 from .lnav import PI_IS_GPS, IonoUtc
 
-__all__ = ["PositionFix", "klobuchar_delay_s", "troposphere_delay_m", "dop", "solve_position",
+__all__ = ["PositionFix", "RAIM_STATUSES", "klobuchar_delay_s", "troposphere_delay_m", "dop", "solve_position",
            "rtklib_variance_m2", "WEIGHTINGS"]
 
 #: ``solve_position``'s weightings: ``elevation`` sin²(E)/σ², ``uniform`` 1/σ², ``rtklib``
@@ -64,7 +66,11 @@ class PositionFix:
     ``clock_drift_mps`` (NaN without Dopplers), ``gdop``/``pdop``/``hdop``/``vdop``, per
     satellite ``used`` (S,) and ``residuals_m`` (S,, NaN where not used), ``excluded`` the
     index of the satellite left out by the residual test (None if none), and
-    ``elevation_deg``/``azimuth_deg`` (S,).
+    ``elevation_deg``/``azimuth_deg`` (S,). With ``raim`` (`solve_position`): ``raim`` the
+    outcome, one of `RAIM_STATUSES` (``""`` without), ``test_statistic`` the solution's
+    weighted sum of squared residuals, ``fault_detected`` whether the test of the
+    all-satellite solution fired, ``hpl_m``/``vpl_m`` the protection levels of the solution
+    given (inf on an alert or with too few satellites, NaN without ``raim``).
     """
 
     position_ecef_m: np.ndarray
@@ -83,6 +89,17 @@ class PositionFix:
     excluded: int | None
     elevation_deg: np.ndarray
     azimuth_deg: np.ndarray
+    raim: str = ""
+    test_statistic: float = float("nan")
+    fault_detected: bool = False
+    hpl_m: float = float("nan")
+    vpl_m: float = float("nan")
+
+
+#: ``PositionFix.raim``: no fault detected; one satellite excluded (and the remaining ones
+#: pass); a fault detected and not excluded (protection levels inf); too few satellites
+#: for a protection level (``n < m + 2``; inf).
+RAIM_STATUSES = ("ok", "excluded", "alert", "unavailable")
 
 
 def klobuchar_delay_s(alpha: np.ndarray, beta: np.ndarray, lat_deg: float, lon_deg: float, azimuth_deg: np.ndarray,
@@ -219,7 +236,7 @@ def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s
             break
     res = pr - (geo + x[3] + corr - clock_m)
     stat = float(np.sum(w[use] * res[use] ** 2))
-    return x, stat, np.where(use, res, np.nan), u, el, az, use, rot
+    return x, stat, np.where(use, res, np.nan), u, el, az, use, rot, w
 
 
 def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris: Ephemerides, *,
@@ -227,7 +244,8 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
                    sigma_m: float = 5.0, elevation_mask_deg: float = 5.0, false_alarm: float = 1e-3,
                    initial_ecef_m: np.ndarray | None = None, elevation_weights: bool = True,
                    wavelength_m: float | None = None, signal: SignalSpec = GPS_L1CA,
-                   weighting: str | None = None) -> PositionFix | None:
+                   weighting: str | None = None, raim: str | None = None, missed_detection: float = 1e-3,
+                   integrity_risk: float = 1e-7) -> PositionFix | None:
     """Position, velocity and clock of one epoch.
 
     Parameters
@@ -265,6 +283,14 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
         `rtklib_variance_m2` (with the records' ``accuracy_m`` as URA), as RTKLIB's SPP
         does, for solutions that agree with it on the same observations (``sigma_m`` is then
         unused: the residual test takes RTKLIB's variances).
+    raim
+        None (default): the residual exclusion above. One of `integrity.RAIM_METHODS`
+        (``chi2`` the residual test with slope protection levels, ``ss`` solution separation
+        with its own): `integrity.raim` at ``false_alarm``, ``missed_detection`` and
+        ``integrity_risk`` decides the exclusion (the satellite it names is left out and
+        the solution solved again) and gives the fix's protection levels.
+    missed_detection, integrity_risk
+        ``P_md`` and the fault-free integrity risk of the protection levels (with ``raim``).
 
     Returns
     -------
@@ -298,7 +324,12 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
         return None
     excluded = None
     dof = int(sol[6].sum()) - 4
-    if dof >= 2 and sol[1] > chi2_ppf(1 - false_alarm, dof):
+    checks = {}
+    if raim is not None:
+        sol, excluded, checks = _raim_solution(sol, args, keep, (sigma_m, iono, troposphere, tow),
+                                               (elevation_mask_deg, weighting, ura_m), raim, false_alarm,
+                                               missed_detection, integrity_risk)
+    elif dof >= 2 and sol[1] > chi2_ppf(1 - false_alarm, dof):
         trials = {}
         for j in np.flatnonzero(sol[6]):
             k = keep.copy()
@@ -311,7 +342,7 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
             j, best = min(trials.items(), key=lambda kv: kv[1][1])
             if best[1] <= chi2_ppf(1 - false_alarm, int(best[6].sum()) - 4):
                 sol, excluded = best, j
-    x, _, res, u, el, az, use, rot = sol
+    x, _, res, u, el, az, use, rot, _ = sol
     lat, lon, h = (float(v) for v in pymap3d.ecef2geodetic(*x[:3]))
     R = _enu_rotation(lat, lon)
     gdop, pdop, hdop, vdop = dop(u[use] @ R.T)
@@ -328,4 +359,47 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
             sol_v, *_ = np.linalg.lstsq(H[ok], y[ok], rcond=None)
             vel, drift = R @ sol_v[:3], float(sol_v[3])
     return PositionFix(x[:3], lat, lon, h, float(x[3]), vel, drift, gdop, pdop, hdop, vdop, use, res, excluded,
-                       el, az)
+                       el, az, **checks)
+
+
+def _integrity_of(sol, method: str, false_alarm: float, missed_detection: float, integrity_risk: float):
+    """`integrity.raim` of one least-squares solution (its geometry in east-north-up at the
+    solution, its weights and post-fit residuals)."""
+    from .integrity import enu_geometry, raim
+
+    x, _, res, u, _, _, use, _, w = sol
+    lat, lon, _ = pymap3d.ecef2geodetic(*x[:3])
+    with np.errstate(divide="ignore"):
+        sigma = 1.0 / np.sqrt(w)
+    return raim(enu_geometry(u @ _enu_rotation(float(lat), float(lon)).T), sigma, res, use,
+                false_alarm=false_alarm, missed_detection=missed_detection, integrity_risk=integrity_risk,
+                method=method)
+
+
+def _raim_solution(sol, args, keep, model, options, method, false_alarm, missed_detection, integrity_risk):
+    """The solution after `integrity.raim`'s exclusion, the index excluded (None) and the
+    `PositionFix` integrity fields."""
+    from .integrity import RAIM_METHODS
+
+    if method not in RAIM_METHODS:
+        raise ConfigError("raim", f"one of {', '.join(RAIM_METHODS)}, got {method!r}")
+    first = _integrity_of(sol, method, false_alarm, missed_detection, integrity_risk)
+    result, excluded, status = first, None, "ok"
+    if bool(first.detected):
+        status = "alert"
+        j = int(first.excluded)
+        if j >= 0:
+            k = keep.copy()
+            k[j] = False
+            trial = _least_squares(*args, k, *model, sol[0], *options)
+            if trial is not None:
+                again = _integrity_of(trial, method, false_alarm, missed_detection, integrity_risk)
+                if not bool(again.detected):
+                    sol, excluded, result, status = trial, j, again, "excluded"
+    hpl, vpl = float(result.hpl_m), float(result.vpl_m)
+    if status == "alert":
+        hpl = vpl = float("inf")
+    elif not np.isfinite(hpl):
+        status = "unavailable"
+    return sol, excluded, {"raim": status, "test_statistic": float(result.wsse), "fault_detected": bool(first.detected),
+                           "hpl_m": hpl, "vpl_m": vpl}

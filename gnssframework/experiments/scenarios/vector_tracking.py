@@ -155,6 +155,21 @@ class VectorTrackingCase(ScenarioParams):
         "front-end gain and the signal is unchanged (in-band interference: every channel, so fade_channels must "
         "be null)")
 
+    fault_channel: int | None = Field(
+        None, ge=0, le=11, description="a range fault in the truth only, on this channel (0: the first of the "
+        "satellites above the mask; null: no fault): from fault_start_s, the channel's code range gains "
+        "fault_step_m plus fault_ramp_m_s per second since the start (its carrier unchanged: a multipath-like or "
+        "spoofed code delay the receiver's model lacks). Default null (off)")
+    fault_start_s: float = Field(0.0, ge=0, description="start (s) of the fault")
+    fault_step_m: float = Field(0.0, ge=-3000, le=3000, description="code range step (m) of the fault")
+    fault_ramp_m_s: float = Field(0.0, ge=-300, le=300, description="code range ramp (m/s) of the fault")
+
+    def fault(self) -> tuple[int, float, float, float] | None:
+        """``(channel, start_s, step_m, ramp_m_s)`` of the case's fault, or None."""
+        if self.fault_channel is None:
+            return None
+        return self.fault_channel, self.fault_start_s, self.fault_step_m, self.fault_ramp_m_s
+
     def fade(self) -> CN0Fade | None:
         """The case's fade, or None when ``fade_depth_db`` is 0."""
         if not self.fade_depth_db:
@@ -202,6 +217,9 @@ METRICS = (
          description="RMS error of the code measurement handed to the nav filter"),
     Rmse("freq_output_rmse", "Hz", of="freq_output_error_hz", settle="settle_s",
          description="RMS error of the frequency measurement handed to the nav filter"),
+    Mean("excluded_channels", "-", of="excluded_channel_count", settle="settle_s", optional=True,
+         undefined="no channel monitor (scenario_options.channel_monitor) in this candidate",
+         description="mean number of channels the channel monitor excludes from the navigation update"),
     Rmse("pcrb_position", "m", of="pcrb_position_m", settle="settle_s", optional=True, undefined=_NO_BOUND,
          description="posterior Cramér-Rao bound of the position error (RMS over the same window)"),
     Rmse("pcrb_velocity", "m/s", of="pcrb_velocity_m_s", settle="settle_s", optional=True, undefined=_NO_BOUND,
@@ -214,6 +232,30 @@ METRICS = (
 )
 
 
+class ChannelMonitorParams(ScenarioParams):
+    """`gnssframework.receiver.engine.channel_monitor.ChannelMonitor`'s settings."""
+
+    false_alarm: float = Field(1e-3, gt=0, lt=1, description="probability that a healthy channel's interval "
+                               "fails the innovation test (chi-square, 1 degree of freedom)")
+    consecutive: int = Field(3, ge=1, le=1000, description="failed intervals in a row that exclude a channel "
+                             "from the navigation update")
+    readmit: int | None = Field(None, ge=1, le=100000, description="passed intervals in a row that readmit it "
+                                "(null: consecutive)")
+
+    def create(self):
+        from ...receiver.engine.channel_monitor import ChannelMonitor
+
+        return ChannelMonitor(self.false_alarm, self.consecutive, self.readmit)
+
+
+class VectorCandidateOptions(ScenarioParams):
+    """A candidate's ``scenario_options`` in ``vector-tracking``."""
+
+    channel_monitor: ChannelMonitorParams | None = Field(
+        None, description="screen each channel's innovation and exclude a faulty channel from the navigation "
+        "update (gnssframework.receiver.engine.channel_monitor); null: every channel always used")
+
+
 @register_scenario
 class VectorTrackingScenario(Scenario):
     """Vector tracking (Zou et al. 2018). Candidates compose a ``channel_filter`` and a ``nav_filter``."""
@@ -223,12 +265,15 @@ class VectorTrackingScenario(Scenario):
     params: VectorTrackingParams  # self.params, as validated
     CaseParams = VectorTrackingCase
     components = {"channel_filter": True, "nav_filter": True}
+    CandidateOptions = VectorCandidateOptions
     metrics = units(METRICS)
     #: The raw per-epoch series the metrics reduce (metric components of other packages
     #: may read them too): code and frequency errors RMS over the channels, position and
-    #: velocity error norms, the per-epoch NEES, and the bound (if computed).
+    #: velocity error norms, the channels the monitor excluded (with one), the per-epoch NEES,
+    #: and the bound (if computed).
     outputs = {"code_error_chips": "chips", "freq_error_hz": "Hz", "position_error_m": "m",
-               "velocity_error_m_s": "m/s", "nav_nees": "-", "nav_nees_position": "-", "nav_nees_velocity": "-",
+               "velocity_error_m_s": "m/s", "excluded_channel_count": "-", "nav_nees": "-", "nav_nees_position": "-",
+               "nav_nees_velocity": "-",
                "code_output_error_chips": "chips", "freq_output_error_hz": "Hz", "pcrb_position_m": "m",
                "pcrb_velocity_m_s": "m/s", "pcrb_position_code_m": "m", "pcrb_velocity_code_m_s": "m/s"}
     #: Error metric -> the bound drawn beside it in the report's time-series plot.
@@ -253,7 +298,8 @@ class VectorTrackingScenario(Scenario):
             raise ConfigError("scenario.steady_state_s", f"must be at least settle_s = {params.settle_s} and less "
                               f"than duration_s = {params.duration_s} (got {params.steady_state_s})")
 
-    def check_case(self, case: dict[str, Any], where: str) -> None:
+    def _check_case_before_fault(self, case: dict[str, Any], where: str) -> None:
+        """The case's motion and fade (`check_case` adds the fault's checks)."""
         super().check_case(case, where)
         if case.get("motion") is not None:
             self._check_motion(case["motion"], f"{where}.motion")
@@ -313,12 +359,21 @@ class VectorTrackingScenario(Scenario):
             outputs = CHANNEL_OUTPUTS if exc.field == "channel_filter" else NAV_OUTPUTS
             raise self.refuse(exc, where, outputs) from None
 
+    def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None,
+              case: dict[str, Any] | None = None) -> dict[str, Any]:
+        """The candidate's plugins, and its channel monitor under ``"channel_monitor"`` if it has one."""
+        plugins = super().build(candidate, case=case)
+        monitor = self.candidate_options(options).channel_monitor
+        return plugins if monitor is None else {**plugins, "channel_monitor": monitor}
+
     def truth(self, cn0_dbhz: float, runs: int, rng: np.random.Generator, motion: str | None = None,
-              fade: CN0Fade | None = None, fade_channels: int | None = None
+              fade: CN0Fade | None = None, fade_channels: int | None = None,
+              fault: tuple[int, float, float, float] | None = None
               ) -> tuple[VectorTruth, np.ndarray, np.ndarray]:
         """The truth of ``runs`` runs at ``cn0_dbhz``: satellites, receiver (``motion``,
         default the scenario's), clock and C/N0 (with ``fade`` on the ``fade_channels``
-        lowest channels, None: all); and the nav filter's initial estimate and covariance."""
+        lowest channels, None: all), with ``fault`` (`VectorTrackingCase.fault`) on one
+        channel's code range; and the nav filter's initial estimate and covariance."""
         p = self.params
         motion = motion or p.motion
         traj = None
@@ -396,6 +451,8 @@ class VectorTrackingScenario(Scenario):
         if p.range_residuals_on():
             range_error = range_error_function(draw_residuals(p, draw.child(rng, "range-errors"), runs), sat_state,
                                                receiver_state, lat, lon)
+        if fault is not None:
+            range_error = _with_fault(range_error, fault, runs, p.channels)
         truth = VectorTruth(sat_state, receiver_state, clock, cn0, T, range_error_m=range_error, **gains)
         P0 = np.diag([p.initial_position_std_m**2] * 3 + [p.initial_velocity_std_m_s**2] * 3
                      + [p.initial_position_std_m**2, p.initial_velocity_std_m_s**2])
@@ -410,9 +467,11 @@ class VectorTrackingScenario(Scenario):
         p = self.params
         motion = case.get("motion") or p.motion
         c = self.CaseParams.model_validate(case)
-        truth, x0, P0 = self.truth(float(case["cn0_dbhz"]), runs, rng, motion, c.fade(), c.fade_channels)
+        truth, x0, P0 = self.truth(float(case["cn0_dbhz"]), runs, rng, motion, c.fade(), c.fade_channels, c.fault())
+        monitor = plugins.get("channel_monitor")
         rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng,
-                              early_late_spacing_chips=p.early_late_spacing_chips, data_bits=p.data_bits)
+                              early_late_spacing_chips=p.early_late_spacing_chips, data_bits=p.data_bits,
+                              monitor=None if monitor is None else monitor.create())
         last_s = rec.time_s[-1]
         if not (p.settle_s <= last_s and steady_state_start_s(self) <= last_s):
             raise ConfigError("scenario.settle_s", f"settle_s = {p.settle_s} and steady_state_s = "
@@ -428,8 +487,10 @@ class VectorTrackingScenario(Scenario):
                   "nav_nees": rec.nees, "nav_nees_position": rec.nees_position, "nav_nees_velocity": rec.nees_velocity,
                   "code_output_error_chips": channel_rms(rec.code_output_error_chips),
                   "freq_output_error_hz": channel_rms(rec.freq_output_error_hz)}
+        if "excluded" in rec.extra:
+            series["excluded_channel_count"] = rec.extra["excluded"].sum(axis=-1).astype(float)
         if p.pcrb or (p.pcrb is None and not p.trajectory_file and p.geometry == "fixed"
-                      and motion == "constant-velocity" and c.fade() is None):
+                      and motion == "constant-velocity" and c.fade() is None and c.fault() is None):
             _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0)
             series["pcrb_position_m"] = np.repeat(bound_pos[:, None], runs, axis=1)
             series["pcrb_velocity_m_s"] = np.repeat(bound_vel[:, None], runs, axis=1)
@@ -438,6 +499,22 @@ class VectorTrackingScenario(Scenario):
             series["pcrb_position_code_m"] = np.repeat(bound_pos[:, None], runs, axis=1)
             series["pcrb_velocity_code_m_s"] = np.repeat(bound_vel[:, None], runs, axis=1)
         return evaluate(METRICS, series, rec.time_s, self)
+
+    def check_case(self, case: dict[str, Any], where: str) -> None:
+        self._check_case_before_fault(case, where)
+        c = self.CaseParams.model_validate(case)
+        given = [f for f in ("fault_start_s", "fault_step_m", "fault_ramp_m_s") if f in c.model_fields_set]
+        if c.fault_channel is None:
+            if given:
+                raise ConfigError(f"{where}.{given[0]}", "has no effect without a fault: set fault_channel")
+            return
+        if c.fault_channel >= self.params.channels:
+            raise ConfigError(f"{where}.fault_channel", f"must be below channels = {self.params.channels} (got "
+                              f"{c.fault_channel})")
+        if not (c.fault_step_m or c.fault_ramp_m_s):
+            raise ConfigError(f"{where}.fault_step_m", "a fault needs fault_step_m or fault_ramp_m_s")
+        if self.params.pcrb:
+            raise ConfigError("scenario.pcrb", f"the bound knows no fault; set pcrb = false with {where}.fault_channel")
 
     def bound(self, cn0_dbhz: float, P0: np.ndarray, measurements: str = "code-and-carrier"
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -456,3 +533,24 @@ class VectorTrackingScenario(Scenario):
                                     np.asarray(truth.cn0_dbhz, float)[0], T, K, p.early_late_spacing_chips,
                                     measurements)
 
+
+
+def _with_fault(range_error, fault: tuple[int, float, float, float], runs: int, channels: int):
+    """``range_error`` (`LoopTruth.range_error_m`, or None) with the case's fault added to
+    one channel's code range: ``step + ramp (t - start)`` from ``start`` (s) on."""
+    channel, start_s, step_m, ramp_m_s = fault
+
+    def f(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        t = np.asarray(t, float)
+        if range_error is None:
+            code = carrier = np.zeros(t.shape + (runs, channels))
+        else:
+            code, carrier = range_error(t)
+            code = np.array(np.broadcast_to(code, t.shape + (runs, channels)))
+        on = t >= start_s
+        bias = np.where(on, step_m + ramp_m_s * (t - start_s), 0.0)
+        code = np.array(code, float)
+        code[..., channel] += bias[..., None]
+        return code, carrier
+
+    return f

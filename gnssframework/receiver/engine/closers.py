@@ -29,6 +29,7 @@ from ...errors import ConfigError
 from ...interfaces import ChannelFilter, NavFilter, RunContext
 from ...signal.correlators import Correlators
 from .channel import Channel
+from .channel_monitor import IGNORE_VAR, ChannelMonitor
 
 __all__ = ["ScalarCloser", "VectorCloser", "check_closed_loop", "check_composition", "range_error_chips",
            "NCO_COMMANDS", "CHANNEL_OUTPUTS", "NAV_OUTPUTS", "HARNESS_INPUTS"]
@@ -130,16 +131,42 @@ class VectorCloser:
     channel_filter, nav_filter
         A channel filter providing `CHANNEL_OUTPUTS` and a nav filter providing
         `NAV_OUTPUTS` (`check_composition`).
+    monitor
+        A `ChannelMonitor` that tests each channel's innovation before the nav filter's
+        update and leaves excluded channels out of it (None: every channel used). It works
+        for any nav filter: from the channel outputs, the filter's published position and
+        covariance and its ``transition(T)`` if it has one.
     """
 
-    def __init__(self, channel_filter: ChannelFilter, nav_filter: NavFilter) -> None:
+    def __init__(self, channel_filter: ChannelFilter, nav_filter: NavFilter,
+                 monitor: ChannelMonitor | None = None) -> None:
         check_composition(channel_filter, nav_filter)
-        self.filter, self.nav = channel_filter, nav_filter
+        self.filter, self.nav, self.monitor = channel_filter, nav_filter, monitor
 
     def reset(self, channel: Channel, context: RunContext) -> None:
         """Start the channel filters on ``channel``'s batch ``(runs, channels)`` and the nav filter on the runs."""
         self.filter.reset(channel.batch, context)
         self.nav.reset(channel.batch[:1], context)
+        if self.monitor is not None:
+            self.monitor.reset(channel.batch)
+            self._position = np.asarray(context.initial_state, float)[..., 0:3]
+            self._cov = np.asarray(context.initial_cov, float)[..., :8, :8]
+            self._predict = False  # the initial estimate is at the first mid-interval
+
+    def _screen(self, nav_in: dict[str, np.ndarray], chip_length_m: float, coherent_time_s: float) -> None:
+        """The monitor's test on this interval's innovations; excluded channels' variances
+        raised to `IGNORE_VAR` in ``nav_in``."""
+        P = self._cov
+        if self._predict and hasattr(self.nav, "transition"):
+            F, Q = (np.asarray(a, float)[:8, :8] for a in self.nav.transition(coherent_time_s))
+            P = F @ P @ F.T + Q
+        los = np.asarray(nav_in[names.SAT_POS_M], float) - self._position[..., None, :]
+        los = los / np.linalg.norm(los, axis=-1, keepdims=True)
+        innovation = chip_length_m * np.asarray(nav_in[names.CODE_ERROR_CHIPS], float)
+        variance = chip_length_m**2 * np.asarray(nav_in[names.CODE_ERROR_VAR_CHIPS2], float)
+        out = self.monitor.screen(innovation, variance, los, P)
+        for name in (names.CODE_ERROR_VAR_CHIPS2, names.FREQ_ERROR_VAR_HZ2):
+            nav_in[name] = np.where(out, IGNORE_VAR, nav_in[name])
 
     def channel_step(self, channel: Channel, correlators: Correlators,
                      data_bit: np.ndarray | None = None) -> dict[str, np.ndarray]:
@@ -162,6 +189,12 @@ class VectorCloser:
         batch = channel.batch
         nav_in[names.REPLICA_RANGE_M] = channel.nco_range_m + rate * coherent_time_s / 2
         nav_in[names.REPLICA_RATE_M_S] = rate if np.shape(rate) == batch else np.broadcast_to(rate, batch)
+        if self.monitor is not None:
+            self._screen(nav_in, channel.signal.chip_length_m, coherent_time_s)
         nav_out = self.nav.checked_step(nav_in)
+        if self.monitor is not None:
+            self._position = np.asarray(nav_out[names.POSITION_M], float).reshape(batch[0], 3)
+            self._cov = np.array(np.asarray(nav_out[names.COV], float)[..., :8, :8])
+            self._predict = True
         channel.steer_range(nav_out[names.NCO_RANGE_M], nav_out[names.NCO_RANGE_RATE_M_S], next_start_s)
         return nav_out

@@ -32,6 +32,14 @@ observables' grid. Which satellites it takes is ``exclusion``:
 
 An epoch without any satellite ends the run; the filter restarts at the next
 least-squares fix.
+
+With ``integrity_risk`` every row also gets protection levels from the filter's own
+covariance (`integrity.covariance_protection_levels` of its position covariance rotated
+to east-north-up: fault-free bounds, as honest as the filter's covariance) and the
+outcome of the innovation test (``ok``, ``excluded``; ``unavailable`` for a filter that
+publishes no covariance): the columns `fixes.INTEGRITY_COLUMNS`. This is the one
+integrity mechanism of every nav filter: the test, the exclusion and the levels are the
+harness's, from the filter's ``transition`` and covariance, not each plugin's.
 """
 
 from __future__ import annotations
@@ -295,14 +303,16 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
                   ionosphere: bool = True, troposphere: bool = False, iono: IonoUtc | None = None,
                   sigma_m: float = 5.0, sigma_rate_m_s: float = 0.5, elevation_mask_deg: float = 5.0,
                   reference_week: int | None = None, exclusion: str = "innovation",
-                  innovation_false_alarm: float = 1e-3, signal: SignalSpec = GPS_L1CA) -> PositionTable:
+                  innovation_false_alarm: float = 1e-3, signal: SignalSpec = GPS_L1CA,
+                  integrity_risk: float | None = None) -> PositionTable:
     """The registered ``nav_filter`` (with ``params``) on every epoch of ``obs`` from the
     first fix of ``wls`` on (see the module text); the same columns as ``wls``, with
     ``excluded_prn`` the first satellite the innovation test left out at each epoch (0: none).
     ``signal`` names the satellites in ``rinex`` (`SignalSpec.rinex_satellite`).
 
     ``wls`` is `fixes.solve_epochs` of the same observables and settings; ``exclusion``
-    one of `EXCLUSIONS`; ``innovation_false_alarm`` the test's probability ``p``.
+    one of `EXCLUSIONS`; ``innovation_false_alarm`` the test's probability ``p``;
+    ``integrity_risk`` (None: none) adds the protection levels (see the module text).
 
     Raises
     ------
@@ -325,7 +335,7 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
     interval_s = float(np.median(np.diff(obs.rx_time_s))) if obs.rx_time_s.size > 1 else 1.0
     wls_row = {int(np.argmin(np.abs(obs.sample_time_s - t))): k for k, t in enumerate(wls.sample_time_s)}
-    rows, states, used, dops, excluded = [], [], [], [], []
+    rows, states, used, dops, excluded, levels = [], [], [], [], [], []
     running = False
     for e in range(obs.rx_time_s.size):
         k = wls_row.get(e)
@@ -369,9 +379,30 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
         used.append(tuple(int(p) for p in obs.prn[j[keep]]))
         excluded.append(out_prn)
         dops.append(_dops(meas.sat_pos_m, x[:3]))
-    return _table(obs, np.array(rows, dtype=int), np.array(states).reshape(-1, 8), used, np.array(dops).reshape(-1, 2),
-                  full_week(obs.week, reference_week) if reference_week is not None or obs.week is not None
-                  else int(wls.columns["gps_week"][0]), np.array(excluded, dtype=int))
+        if integrity_risk is not None:
+            levels.append(_levels(x, P, integrity_risk))
+    table = _table(obs, np.array(rows, dtype=int), np.array(states).reshape(-1, 8), used,
+                   np.array(dops).reshape(-1, 2), full_week(obs.week, reference_week)
+                   if reference_week is not None or obs.week is not None else int(wls.columns["gps_week"][0]),
+                   np.array(excluded, dtype=int))
+    if integrity_risk is not None:
+        pl = np.array(levels, float).reshape(-1, 2)
+        status = np.where(np.isnan(pl[:, 0]), "unavailable", np.where(table.excluded_prn > 0, "excluded", "ok"))
+        table.columns.update(hpl_m=pl[:, 0], vpl_m=pl[:, 1], raim=status.astype("<U11"))
+    return table
+
+
+def _levels(x: np.ndarray, P: np.ndarray | None, integrity_risk: float) -> tuple[float, float]:
+    """HPL, VPL of the filter's position covariance (ECEF ``P[:3, :3]``) in east-north-up
+    at ``x`` (NaN without a covariance)."""
+    if P is None:
+        return np.nan, np.nan
+    from ...navigation.integrity import covariance_protection_levels
+
+    lat, lon, _ = pymap3d.ecef2geodetic(*x[:3])
+    R = _enu(float(lat), float(lon))
+    hpl, vpl = covariance_protection_levels(R @ P[:3, :3] @ R.T, integrity_risk)
+    return float(hpl), float(vpl)
 
 
 def _prior(wls: PositionTable, k: int, sigma_m: float, sigma_rate_m_s: float) -> tuple[np.ndarray, np.ndarray]:

@@ -6,6 +6,8 @@ LNAV, else the nearest record of a RINEX navigation file) go to
 :func:`~gnssframework.navigation.pvt.solve_position`. The GPS week is the decoded 10-bit
 week placed in the era of the RINEX file when one is given, else in the era that began
 on 2019-04-07 (weeks 2048-3071, IS-GPS-200 20.3.3.3.1.1: the week rolls over every 1024).
+With ``raim`` each fix carries its integrity (`navigation.integrity`): the table and
+``positions.csv`` then add the columns `INTEGRITY_COLUMNS`.
 """
 
 from __future__ import annotations
@@ -24,12 +26,15 @@ from ...navigation.pvt import PositionFix, solve_position
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 
-__all__ = ["PositionTable", "solve_epochs", "write_positions_csv", "POSITION_COLUMNS", "full_week",
+__all__ = ["PositionTable", "solve_epochs", "write_positions_csv", "POSITION_COLUMNS", "INTEGRITY_COLUMNS", "full_week",
            "ELEVATION_MASK_DEG"]
 
 #: Columns of ``positions.csv`` (one row per solution).
 POSITION_COLUMNS = ("gps_week", "tow_s", "lat_deg", "lon_deg", "height_m", "vel_e_mps", "vel_n_mps", "vel_u_mps",
                     "clock_bias_m", "n_sats", "hdop", "vdop")
+#: Columns added with integrity monitoring: horizontal and vertical protection levels (m;
+#: inf on an alert or with too few satellites) and the outcome (`pvt.RAIM_STATUSES`).
+INTEGRITY_COLUMNS = ("hpl_m", "vpl_m", "raim")
 _ERA_START_WEEK = 2048
 #: Satellites below this elevation (deg) are left out of a fix.
 ELEVATION_MASK_DEG = 5.0
@@ -103,7 +108,8 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
                  troposphere: bool = False, iono: IonoUtc | None = None, sigma_m: float = 5.0,
                  elevation_mask_deg: float = ELEVATION_MASK_DEG, reference_week: int | None = None,
                  elevation_weights: bool = True, weighting: str | None = None,
-                 signal: SignalSpec = GPS_L1CA) -> PositionTable:
+                 signal: SignalSpec = GPS_L1CA, raim: str | None = None, false_alarm: float = 1e-3,
+                 missed_detection: float = 1e-3, integrity_risk: float = 1e-7) -> PositionTable:
     """Solve every epoch of ``obs`` (see the module text).
 
     ``signal`` names the satellites in ``rinex`` (its `SignalSpec.rinex_satellite`).
@@ -111,7 +117,8 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
     ``iono`` overrides the decoded page 18; with ``ionosphere`` False no ionospheric
     correction is made; ``elevation_weights`` and ``weighting`` as `solve_position`'s
     (``rtklib``: RTKLIB's single-point error model). Epochs with fewer than four usable
-    satellites give no row.
+    satellites give no row. ``raim``, ``false_alarm``, ``missed_detection`` and
+    ``integrity_risk`` as `solve_position`'s: with ``raim`` the columns `INTEGRITY_COLUMNS`.
     """
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
     week = full_week(obs.week, reference_week)
@@ -129,7 +136,9 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
                              doppler_hz=obs.doppler_hz[e, idx], iono=klobuchar, troposphere=troposphere,
                              sigma_m=sigma_m, elevation_mask_deg=elevation_mask_deg,
                              initial_ecef_m=rows[-1].position_ecef_m if rows else None,
-                             elevation_weights=elevation_weights, weighting=weighting, signal=signal)
+                             elevation_weights=elevation_weights, weighting=weighting, signal=signal,
+                             raim=raim, false_alarm=false_alarm, missed_detection=missed_detection,
+                             integrity_risk=integrity_risk)
         if fix is None:
             continue
         rows.append(fix)
@@ -145,20 +154,26 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
                "height_m": np.array([f.height_m for f in rows]), "vel_e_mps": vel[:, 0], "vel_n_mps": vel[:, 1],
                "vel_u_mps": vel[:, 2], "clock_bias_m": bias, "n_sats": np.array([len(u) for u in used], dtype=int),
                "hdop": np.array([f.hdop for f in rows]), "vdop": np.array([f.vdop for f in rows])}
+    if raim is not None:
+        columns.update(hpl_m=np.array([f.hpl_m for f in rows], float), vpl_m=np.array([f.vpl_m for f in rows], float),
+                       raim=np.array([f.raim for f in rows], dtype="<U11"))
     return PositionTable(columns, np.array([f.position_ecef_m for f in rows]).reshape(-1, 3), obs.sample_time_s[e],
                          used, np.array(excluded, dtype=int), np.array([f.clock_drift_mps for f in rows], float))
 
 
 def write_positions_csv(path: str | Path, table: PositionTable) -> Path:
-    """``positions.csv``: a header of `POSITION_COLUMNS` and one row per solution."""
+    """``positions.csv``: a header of `POSITION_COLUMNS` (then `INTEGRITY_COLUMNS` where the
+    table has them) and one row per solution."""
     path = Path(path)
     if not set(POSITION_COLUMNS) <= set(table.columns):
         raise ConfigError("table", f"lacks {sorted(set(POSITION_COLUMNS) - set(table.columns))}")
-    digits = {"tow_s": 3, "lat_deg": 9, "lon_deg": 9, "height_m": 3, "clock_bias_m": 3, "hdop": 2, "vdop": 2}
+    digits = {"tow_s": 3, "lat_deg": 9, "lon_deg": 9, "height_m": 3, "clock_bias_m": 3, "hdop": 2, "vdop": 2,
+              "hpl_m": 2, "vpl_m": 2}
+    names = POSITION_COLUMNS + (INTEGRITY_COLUMNS if set(INTEGRITY_COLUMNS) <= set(table.columns) else ())
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(POSITION_COLUMNS)
+        w.writerow(names)
         for k in range(len(table)):
-            w.writerow([int(table.columns[c][k]) if c in ("gps_week", "n_sats") else
-                        f"{table.columns[c][k]:.{digits.get(c, 3)}f}" for c in POSITION_COLUMNS])
+            w.writerow([int(table.columns[c][k]) if c in ("gps_week", "n_sats") else str(table.columns[c][k])
+                        if c == "raim" else f"{table.columns[c][k]:.{digits.get(c, 3)}f}" for c in names])
     return path

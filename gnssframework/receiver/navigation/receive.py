@@ -23,12 +23,13 @@ from ..channels.factory import StageFilters
 from ..frontend.recording import Recording
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides
+from ...navigation.integrity import RaimOptions
 from ...navigation.lnav import IonoUtc
 from ...plugin_ref import PluginSpec
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .filtered import filter_epochs
-from .fixes import PositionTable, solve_epochs
+from .fixes import INTEGRITY_COLUMNS, PositionTable, solve_epochs
 from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
 from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
 
@@ -56,7 +57,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             nav_filter: PluginSpec | None = None, vector: VectorConfig | None = None,
             acquisitions: list[AcquisitionResult] | None = None, assist: Assistance | None = None,
             iono_fallback: IonoUtc | None = None, weighting: str | None = None,
-            signal: SignalSpec = GPS_L1CA, filters: StageFilters | None = None) -> ReceiveResult:
+            signal: SignalSpec = GPS_L1CA, filters: StageFilters | None = None,
+            raim: RaimOptions | None = None) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
     fraction of the recording tracked. With ``nav_filter`` the positions are that filter's
@@ -73,7 +75,10 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     that of the least-squares fixes (`pvt.solve_position`'s; ``rtklib`` for RTKLIB's SPP model).
     ``signal`` is the one searched, tracked and dated (an LNAV-format `SignalSpec`: GPS or
     QZSS L1 C/A); ``filters`` the stages' channel filters built once for the task
-    (`channels.factory.StageFilters` of ``config``; built by the tracker when None)."""
+    (`channels.factory.StageFilters` of ``config``; built by the tracker when None).
+    ``raim`` monitors the least-squares fixes' integrity (`pvt.solve_position`'s ``raim``)
+    and gives the nav filter's rows protection levels from its covariance, its innovation
+    test at ``raim.false_alarm`` (`filtered.filter_epochs`); the vector loop's rows have none."""
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
                                         "give nav_filter or vector, not both")
@@ -94,7 +99,7 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             obs = observables(timings, rate_hz)
             scalar = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere,
                                   iono=_fallback(obs, iono_fallback), reference_week=reference_week,
-                                  weighting=weighting, signal=signal)
+                                  weighting=weighting, signal=signal, **_raim_args(raim))
         else:
             obs = None
         table = concatenate_tables(scalar, solution.table(vector.solution_rate_hz), solution.handover_s)
@@ -117,12 +122,23 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     obs = observables(timings, rate_hz)
     iono = _fallback(obs, iono_fallback)
     table = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere, iono=iono,
-                         reference_week=reference_week, weighting=weighting, signal=signal)
+                         reference_week=reference_week, weighting=weighting, signal=signal, **_raim_args(raim))
     if nav_filter is None:
         return ReceiveResult(tracking, obs, table, table)
+    checks = {} if raim is None else {"innovation_false_alarm": raim.false_alarm,
+                                      "integrity_risk": raim.integrity_risk}
     filtered = filter_epochs(obs, table, nav_filter.name, nav_filter.params, rinex, ionosphere=ionosphere,
-                             troposphere=troposphere, iono=iono, reference_week=reference_week, signal=signal)
+                             troposphere=troposphere, iono=iono, reference_week=reference_week, signal=signal,
+                             **checks)
     return ReceiveResult(tracking, obs, filtered, table)
+
+
+def _raim_args(raim: RaimOptions | None) -> dict[str, Any]:
+    """`fixes.solve_epochs`'s integrity arguments of ``raim`` (none without)."""
+    if raim is None:
+        return {}
+    return {"raim": raim.method, "false_alarm": raim.false_alarm, "missed_detection": raim.missed_detection,
+            "integrity_risk": raim.integrity_risk}
 
 
 def _with_rejoined(timing: ChannelTiming | None, record, solution: VectorSolution,
@@ -185,13 +201,19 @@ def assisted_observables(tracking: TrackingResult, solution: VectorSolution, rat
 
 def concatenate_tables(before: PositionTable | None, after: PositionTable | None,
                        switch_s: float | None) -> PositionTable | None:
-    """The rows of ``before`` up to ``switch_s`` (recording time), then those of ``after``."""
+    """The rows of ``before`` up to ``switch_s`` (recording time), then those of ``after``
+    (its integrity columns, where ``before`` has them and it has none, inf and ``unavailable``)."""
     if after is None or switch_s is None:
         return before
     if before is None:
         return after
     k = before.sample_time_s < switch_s
-    return PositionTable({c: np.concatenate([before.columns[c][k], after.columns[c]]) for c in after.columns},
+    after_columns = dict(after.columns)
+    for c in INTEGRITY_COLUMNS:  # the vector rows have no protection levels: inf, "unavailable"
+        if c in before.columns and c not in after_columns:
+            after_columns[c] = np.full(len(after), "unavailable" if c == "raim" else np.inf,
+                                       dtype=before.columns[c].dtype)
+    return PositionTable({c: np.concatenate([before.columns[c][k], after_columns[c]]) for c in after_columns},
                          np.concatenate([before.ecef_m[k], after.ecef_m]),
                          np.concatenate([before.sample_time_s[k], after.sample_time_s]),
                          [u for u, keep in zip(before.used_prns, k) if keep] + list(after.used_prns),

@@ -62,6 +62,11 @@ class VectorConfig(BaseModel):
     loss_ms: int = Field(500, ge=10, description="... for this long: the channel leaves the navigation filter and "
                          "is searched again in the window the solution predicts")
     solution_rate_hz: float = Field(1.0, gt=0, description="rows of the position table per second")
+    monitor_false_alarm: float | None = Field(
+        None, gt=0, lt=1, description="channel fault monitor (gnssframework.receiver.engine.channel_monitor): "
+        "probability that a healthy channel's interval fails its innovation test; null: no monitor")
+    monitor_consecutive: int = Field(3, ge=1, le=1000, description="failed intervals in a row that leave a channel "
+                                     "out of the navigation update (as many passed ones bring it back)")
 
     @field_validator("reacquire_noncoherent")
     @classmethod

@@ -24,6 +24,9 @@ each replica's code NCO into a transmit time. Every coherent interval ``T``:
 A channel whose signal fades keeps being driven by the solution; its C/N0 estimate scales
 the variances it reports (the thermal variances grow as 1/C/N0), so the filter leans on
 the strong channels, and below ``min_cn0_dbhz`` its output is left out of the update.
+With ``monitor_false_alarm`` (`VectorConfig`) a `ChannelMonitor` tests each channel's
+innovation every interval and leaves a faulty channel out of the update (still driven by
+the solution) until its innovations agree again; each exclusion and return is an event.
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ from ...navigation.geometry import line_of_sight
 from ...navigation.lnav import IonoUtc
 from ...navigation.pvt import klobuchar_delay_s
 from ...signal.correlators import Correlators
+from ..engine.channel_monitor import ChannelMonitor
 from .observables import SPEED_OF_LIGHT_MPS
 from .vector_config import VectorConfig
 from .vector_solution import VectorSolution
@@ -94,6 +98,11 @@ class VectorNavigator:
         self.started = False
         self.pending: dict[int, tuple] = {}
         self.iono_m = np.zeros(slots.size)
+        self.monitor = None
+        self._cov = None
+        if vector.monitor_false_alarm is not None:
+            self.monitor = ChannelMonitor(vector.monitor_false_alarm, vector.monitor_consecutive)
+            self.monitor.reset((1, len(tracker.signal.prns)))
 
     def start_at(self, x0: np.ndarray, cov0: np.ndarray, t_fix: float) -> None:
         """The first state ``x0`` (covariance ``cov0``) at recording time ``t_fix``; the
@@ -222,6 +231,8 @@ class VectorNavigator:
         use &= line_of_sight(pos, self.x[:3])[1] @ up >= np.sin(np.radians(self.vector.elevation_mask_deg))
         # The thermal variances grow as 1/(C/N0): scale the ones set at the hand-over C/N0.
         scale = 10 ** ((ref - np.maximum(cn0, self.vector.min_cn0_dbhz)) / 10)
+        if self.monitor is not None:
+            use &= ~self._screen(slots, code, var_code * scale, pos, T)
         var_code = np.where(use, var_code * scale, _IGNORE_VAR)
         var_freq = np.where(use, var_freq * scale, _IGNORE_VAR)
         inputs: dict[str, Any] = {
@@ -236,6 +247,8 @@ class VectorNavigator:
             raise NumericalError(self.vector.nav_filter, [(0,)], len(self.solution.sample_time_s),
                                  f"non-finite state at the vector epoch {self.t_nav:.3f} s of the recording")
         self.x = x
+        if self.monitor is not None:
+            self._cov = np.array(np.asarray(out[names.COV])[0][:8, :8])
         s = self.solution
         s.sample_time_s.append(self.t_nav)
         s.state.append(x)
@@ -245,6 +258,33 @@ class VectorNavigator:
         s.used.append(mask)
         s.used_sat_pos_m.append(pos[use])
         self.command(slots, x)
+
+    def _screen(self, slots: np.ndarray, code_chips: np.ndarray, var_chips2: np.ndarray, sat_pos: np.ndarray,
+                T: float) -> np.ndarray:
+        """The channel monitor's verdict on ``slots`` this interval (True: left out): their
+        range innovations (the code errors, in metres) against ``R + h P⁻ hᵀ``, ``P⁻`` the
+        filter's last covariance carried over ``T`` by its ``transition`` (the hand-over
+        covariance at the first step); an event for each channel excluded or readmitted."""
+        sp = self.tracker.signal
+        if self._cov is None:
+            P = np.asarray(self.cov0, float)[:8, :8]
+        else:
+            F, Q = (np.asarray(a, float)[:8, :8] for a in self.filter.transition(T))
+            P = F @ self._cov @ F.T + Q
+        n = len(sp.prns)
+        innovation, variance, los = np.zeros((1, n)), np.ones((1, n)), np.zeros((1, n, 3))
+        innovation[0, slots] = sp.chip_length_m * code_chips
+        variance[0, slots] = sp.chip_length_m**2 * var_chips2
+        los[0, slots] = line_of_sight(sat_pos, self.x[:3])[1]
+        before = self.monitor.excluded[0, slots].copy()
+        out = self.monitor.screen(innovation, variance, los, P)[0, slots]
+        for s, was, now in zip(slots, before, out):
+            if was != now:
+                self.solution.events.append((self.t_nav, f"PRN {sp.prns[int(s)]}: " + (
+                    f"left out of the navigation update by the channel monitor ({self.monitor.consecutive} "
+                    "intervals in a row failed its innovation test)" if now else
+                    "back in the navigation update (its innovations pass the channel monitor again)")))
+        return out
 
     def command(self, slots: np.ndarray, x: np.ndarray) -> None:
         """Steer every channel of ``slots`` to the state's prediction at its next interval."""

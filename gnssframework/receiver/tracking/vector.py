@@ -44,6 +44,7 @@ from ...navigation.geometry import line_of_sight, range_rate, ranges_from_receiv
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from ...signal.navdata import random_nav_bits
 from ..engine.channel import Channel
+from ..engine.channel_monitor import ChannelMonitor
 from ..engine.closers import CHANNEL_OUTPUTS, HARNESS_INPUTS, NAV_OUTPUTS, VectorCloser, check_composition
 from ..engine.sources import AnalyticSource
 from ..engine.truth import LoopTruth, VectorTruth, code_phase_of_range
@@ -83,6 +84,7 @@ def run_vector_loop(
     *,
     early_late_spacing_chips: float = 1.0,
     data_bits: str = "known",
+    monitor: ChannelMonitor | None = None,
 ) -> VectorRecord:
     """Run the vector tracking loop over all epochs of ``truth``.
 
@@ -101,8 +103,11 @@ def run_vector_loop(
     data_bits
         ``"none"``, or 50 bit/s navigation data that is ``"known"`` (the channel filter
         gets ``data_bit`` and wipes it off) or ``"unknown"`` (it must decide).
+    monitor
+        A `ChannelMonitor` screening each channel's innovation (`VectorCloser`); its
+        exclusions per interval are recorded in ``extra["excluded"]`` ``(K, runs, ch)``.
     """
-    closer = VectorCloser(channel, nav)
+    closer = VectorCloser(channel, nav, monitor)
     if data_bits not in ("none", "known", "unknown"):
         raise ConfigError("scenario.data_bits", f"got {data_bits!r}; allowed: none, known, unknown")
     T, K = truth.coherent_time_s, truth.epochs
@@ -136,6 +141,7 @@ def run_vector_loop(
     source = AnalyticSource(CorrelatorSimulator(T, early_late_spacing_chips), amplitude_from_cn0(cn0, T), rng,
                             signal_gain=truth.signal_gain, noise_gain=truth.noise_gain)
     record = _Recorder(K, runs, batch)
+    excluded = np.zeros((K,) + batch, bool) if monitor is not None else None
 
     block = max(1, min(K, _BLOCK))
     for k0 in range(0, K, block):
@@ -151,8 +157,13 @@ def run_vector_loop(
                         names.NEXT_SAT_POS_M: sat_edges[0][k + 1], names.NEXT_SAT_VEL_M_S: sat_edges[1][k + 1]}
             nav_out = closer.nav_step(replica, ch_out, geometry, T, t_edges[k + 1])
             record.epoch(k, j, nav_out, x_true[j], ch_out, err.code_chips, err.freq_hz)
+            if monitor is not None:
+                excluded[k] = monitor.excluded
         record.block_nees(k0, k1)
-    return record.result(t_edges[:-1] + T / 2)
+    result = record.result(t_edges[:-1] + T / 2)
+    if excluded is not None:
+        result.extra["excluded"] = excluded
+    return result
 
 
 class _Recorder:

@@ -1,0 +1,106 @@
+r"""A vector loop's channel fault monitor: each channel's innovation tested every interval.
+
+In a vector loop each replica runs at the navigation filter's predicted range, so a
+channel filter's code error is the innovation of that channel's pseudorange,
+:math:`\nu_i = \rho_i - h_i(x^-)` (m). Its variance when the channel is healthy is
+
+.. math:: s_i = R_i + h_i P^- h_i^T,\qquad h_i = [-e_i^T,\ 0_3,\ 1,\ 0]
+
+(``R_i`` the variance the channel filter reports, ``P^-`` the filter's predicted
+covariance of its 8 states ``[r, v, b, d]``, ``e_i`` the line of sight), and
+:math:`z_i = \nu_i^2 / s_i` is :math:`\chi^2_1` (the normalised innovation squared of one
+measurement: Bar-Shalom, Li & Kirubarajan 2001, sec. 5.4.2). The monitor:
+
+- flags channel ``i`` at an interval where :math:`z_i` exceeds the :math:`1 - P_{fa}` quantile;
+- excludes it from the navigation update after ``consecutive`` flagged intervals in a row
+  (its code and frequency variances set to `IGNORE_VAR`: the filter's gain on it is then
+  nil), so one noisy interval does not cost a channel, while a fault cannot pull the
+  solution for more than ``consecutive`` intervals before it is cut off;
+- readmits it after ``readmit`` unflagged intervals in a row.
+
+An excluded channel is neither re-acquired nor handed to a scalar loop: its replica keeps
+being steered by the navigation solution from the other channels (vector tracking's own
+coasting), so its innovation stays measured against where the signal should be and the
+channel returns as soon as that agrees again (a fault that ends, a multipath that fades).
+
+``P^-`` is the last published covariance carried over one interval by the filter's own
+``transition(T)`` (its 8-state block); for a filter without one, the last covariance
+itself (the interval's process noise left out: a slightly smaller ``s_i``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import ConfigError
+
+__all__ = ["ChannelMonitor", "IGNORE_VAR"]
+
+#: Variance (chips², Hz²) given the navigation filter for an excluded channel's outputs.
+IGNORE_VAR = 1e8
+
+
+class ChannelMonitor:
+    """The per-channel innovation test and exclusion of a vector loop (see the module text).
+
+    Parameters
+    ----------
+    false_alarm
+        Probability that a healthy channel's interval is flagged.
+    consecutive
+        Flagged intervals in a row that exclude a channel.
+    readmit
+        Unflagged intervals in a row that readmit it (default ``consecutive``).
+    """
+
+    def __init__(self, false_alarm: float = 1e-3, consecutive: int = 3, readmit: int | None = None) -> None:
+        if not 0.0 < false_alarm < 1.0:
+            raise ConfigError("channel_monitor.false_alarm", f"must be a probability in (0, 1), got {false_alarm}")
+        if consecutive < 1:
+            raise ConfigError("channel_monitor.consecutive", f"must be at least 1, got {consecutive}")
+        readmit = consecutive if readmit is None else readmit
+        if readmit < 1:
+            raise ConfigError("channel_monitor.readmit", f"must be at least 1, got {readmit}")
+        from scipy.special import chdtri
+
+        self.false_alarm, self.consecutive, self.readmit = false_alarm, int(consecutive), int(readmit)
+        self.threshold = float(chdtri(1, false_alarm))  # chi2.isf(false_alarm, 1)
+        self.reset((0, 0))
+
+    def reset(self, batch: tuple[int, int]) -> None:
+        """Every channel of ``batch`` ``(runs, channels)`` admitted, no history."""
+        self.flagged_run = np.zeros(batch, int)
+        self.clear_run = np.zeros(batch, int)
+        self.excluded = np.zeros(batch, bool)
+        self.statistic = np.zeros(batch)
+
+    def screen(self, innovation_m: np.ndarray, variance_m2: np.ndarray, unit_los: np.ndarray,
+               predicted_cov: np.ndarray) -> np.ndarray:
+        """One interval: update the counts and return the channels excluded ``(runs, channels)``.
+
+        Parameters
+        ----------
+        innovation_m, variance_m2
+            ``(runs, channels)`` range innovations and their measurement variances.
+        unit_los
+            ``(runs, channels, 3)`` or ``(channels, 3)`` lines of sight (receiver to satellite).
+        predicted_cov
+            ``(runs, 8, 8)`` or ``(8, 8)`` predicted covariance of ``[r, v, b, d]``.
+        """
+        e = np.asarray(unit_los, float)
+        P = np.asarray(predicted_cov, float)[..., :8, :8]
+        if P.ndim == 2:
+            P = P[None]
+        if e.ndim == 2:
+            e = e[None]
+        # h P h^T with h = [-e, 0, 0, 0, 1, 0]: the position block, the bias and their cross terms.
+        Ppp, Ppb, Pbb = P[:, None, 0:3, 0:3], P[:, None, 0:3, 6], P[:, None, 6, 6]
+        hph = np.einsum("...i,...ij,...j->...", e, Ppp, e) - 2 * np.einsum("...i,...i->...", e, Ppb) + Pbb
+        s = np.asarray(variance_m2, float) + hph
+        z = np.asarray(innovation_m, float) ** 2 / s
+        self.statistic = z
+        flagged = ~(z <= self.threshold)  # NaN flags
+        self.flagged_run = np.where(flagged, self.flagged_run + 1, 0)
+        self.clear_run = np.where(flagged, 0, self.clear_run + 1)
+        self.excluded = np.where(self.excluded, self.clear_run < self.readmit, self.flagged_run >= self.consecutive)
+        return self.excluded
