@@ -477,7 +477,9 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     from .receiver.channels.report import write_tracking_outputs
     from .receiver.navigation.report import no_position_reason, write_no_position_report, write_receive_report
     from .receiver.navigation.rinex_obs import write_rinex_obs
+    from .receiver.navigation.receive_outputs import parse_outputs, sky_views, write_extra_outputs
 
+    outputs = parse_outputs(args.outputs)
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     signal = _signal_from_args(args)
@@ -560,16 +562,21 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     written = [write_positions_csv(out / "positions.csv", table)]
     c = table.columns
     week = int(c["gps_week"][0])
+    leap = obs.iono_utc.dt_ls_s if obs is not None and obs.iono_utc is not None else 18
+    sky = sky_views(result, table, rinex) if "gsv" in outputs else None
     if week >= 0 and obs is None:
         print("note: no LNAV subframe decoded, so no pseudoranges of the scalar channels: no observations.rnx")
-        written.append(write_nmea(out / "nmea.txt", table, 18, nmea_talker(signal)))
+        written.append(write_nmea(out / "nmea.txt", table, 18, nmea_talker(signal), sky, "gsa" in outputs))
     elif week >= 0:
-        leap = obs.iono_utc.dt_ls_s if obs.iono_utc is not None else 18
         written += [write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1], signal=signal),
-                    write_nmea(out / "nmea.txt", table, leap, nmea_talker(signal))]
+                    write_nmea(out / "nmea.txt", table, leap, nmea_talker(signal), sky, "gsa" in outputs)]
     else:
         print("note: no subframe 1 decoded, so the GPS week is unknown: no observations.rnx or nmea.txt "
               "(give it with --week)")
+    extra, notes = write_extra_outputs(out, result, table, outputs, week, leap, signal)
+    written += extra
+    for note in notes:
+        print(f"note: {note}")
     nav_name = filters.nav_filter.name if filters.nav_filter is not None else None
     used = (f"channel filter {config.channel_filter}, "
             + (f"nav filter {nav_name} from the first least-squares fix" if nav_name else
@@ -818,8 +825,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "Klobuchar), form pseudoranges and Dopplers at common epochs and solve each epoch "
                                    "(weighted least squares, one bad satellite excluded) or, with --nav-filter, run a "
                                    "registered navigation filter on them from the first fix. Writes DIR/positions.csv, "
-                                   "DIR/observations.rnx (RINEX 3.04), DIR/nmea.txt (GGA, RMC), DIR/report.md and "
-                                   "DIR/plots/. `position` is the same command (its former name). "
+                                   "DIR/observations.rnx (RINEX 3.04), DIR/nmea.txt (GGA, RMC; GSA, GSV), "
+                                   "DIR/navigation.rnx (the decoded ephemerides), DIR/track.geojson, DIR/report.md "
+                                   "and DIR/plots/, and the --outputs asked for. `position` is the same command (its former name). "
                                    "Exit 1 when no position is found, 2 for bad options or files.")
     _add_recording_options(p)
     p.add_argument("--out", required=True, help="output directory")
@@ -858,6 +866,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "--start-time, vector tracking starts from acquisition, without waiting for LNAV")
     p.add_argument("--start-time", metavar="WEEK,TOW", help="GPS week and time of week (s) of the first sample "
                                                             "(to ~1 ms), for --approx-position")
+    p.add_argument("--outputs", metavar="LIST",
+                   help="comma-separated files for other tools: rinex-nav (navigation.rnx), gsa, gsv (in nmea.txt), "
+                        "geojson (track.geojson), kml (track.kml), parquet (tracking.parquet, needs pyarrow), rtcm "
+                        "(observations.rtcm3, RTCM 3 MSM7 observations); default stands for "
+                        "rinex-nav,gsa,gsv,geojson, the set written without this option")
     p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     p.set_defaults(func=_cmd_receive)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
