@@ -344,15 +344,19 @@ MAX_RATE_HZ = 1000.0
 
 
 @contextmanager
-def _recording_progress(args: argparse.Namespace) -> Iterator[Callable[[float], None] | None]:
+def _recording_progress(args: argparse.Namespace, rec=None) -> Iterator[Callable[[float], None] | None]:
     """The tracker's progress callback (fraction of the recording done): a bar on a terminal,
-    a line per tenth of the recording in a log or a pipe, none with ``--quiet``."""
+    a line per tenth of the recording in a log or a pipe, none with ``--quiet``; with the
+    recording ``rec``, the signal time processed and the real-time factor too."""
     from .progress import Progress
 
     if args.quiet:
         yield None
         return
-    bar = Progress(100, Path(args.recording).name, "%")
+    signal_s = None
+    if rec is not None:
+        signal_s = rec.duration_s if args.duration is None else min(float(args.duration), rec.duration_s)
+    bar = Progress(100, Path(args.recording).name, "%", signal_s=signal_s)
     try:
         yield lambda fraction: bar.set(round(100 * fraction))
         bar.set(bar.total)  # the tracker reports up to its last block's start: the run is done
@@ -379,7 +383,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
         print(f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF (--if), "
               "the format (--format) and --doppler-max; nothing tracked")
         return 1
-    with _recording_progress(args) as progress:
+    with _recording_progress(args, rec) as progress:
         result = tracker.run(found, args.duration, progress)
     written = write_tracking_outputs(args.out, result, plots=not args.no_plots)
     print(f"tracked {len(found)} satellites for {result.duration_s:.3f} s with {config.channel_filter}:")
@@ -464,6 +468,7 @@ def _assist_from_args(args: argparse.Namespace, nav_info=None):
 
 def _cmd_receive(args: argparse.Namespace) -> int:
     import json
+    import time
 
     import numpy as np
 
@@ -478,6 +483,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     from .receiver.navigation.report import no_position_reason, write_no_position_report, write_receive_report
     from .receiver.navigation.rinex_obs import write_rinex_obs
     from .receiver.navigation.receive_outputs import parse_outputs, sky_views, write_extra_outputs
+    from .progress import phase
 
     outputs = parse_outputs(args.outputs)
     rec = _open_recording_from_args(args)
@@ -523,8 +529,15 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     elif args.vector_accel_psd is not None:
         raise ConfigError("--vector-accel-psd", "the vector loop's navigation filter is for --tracking vector")
     assist = _assist_from_args(args, nav_info)
+    started = time.monotonic()
+    name = Path(args.recording).name
+    if not args.quiet:  # a line per phase (the tracking's progress is the bar or its tenths)
+        phase(name, "acquisition of " + (f"{len(prns)} PRNs" if prns else f"every {signal.name} PRN"), started)
     acquisitions = _acquire_checked(rec, acq, prns, signal)  # checked before minutes of tracking
-    with _recording_progress(args) as progress:
+    if not args.quiet:
+        phase(name, f"tracking {sum(r.detected for r in acquisitions)} satellites, decoding LNAV, positioning",
+              started)
+    with _recording_progress(args, rec) as progress:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
                          progress=progress, nav_filter=filters.nav_filter,
@@ -551,6 +564,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
               f"{result.tracking.duration_s:.1f} s; wrote {', '.join(str(p) for p in written if p.parent == out)}")
         return 1
     out.mkdir(parents=True, exist_ok=True)
+    if not args.quiet:
+        phase(name, f"{len(table)} fixes: writing the outputs", started)
     obs = result.observables
     if args.week is None and nav_info is not None and assist is None and (obs is None or obs.week is None):
         # No subframe 1: the week that puts the first fix's tow nearest the file's records.
