@@ -37,7 +37,16 @@ static receiver at a known position; complex white noise is added for the chosen
   weights, so ours are equal here too (``elevation_weights=False``); with our sin²(E)
   weights the two differ by about 2 m RMS at 45 dB-Hz with a mean difference of
   centimetres: a weighting difference, not one of the observables or their time tags.
-  Without ``rnx2rtkp`` the check is said not to run, which is not a failure.
+  Without ``rnx2rtkp`` the check is said not to run, which is not a failure;
+- the files for other tools (issue 41): the navigation file of the decoded ephemerides
+  (``navigation.rnx``, `rinex_nav`) in place of gps-sdr-sim's: rnx2rtkp's solution on
+  observations.rnx with it within 5 cm of rnx2rtkp's with gps-sdr-sim's file, epoch by
+  epoch (the records are the same to the LSB the file was truncated to, the Klobuchar
+  header to D12.4's five digits); the RTCM 3 MSM7 stream (``observations.rtcm3``,
+  `rtcm_out`) converted back to RINEX by RTKLIB's ``convbin``: every pseudorange within
+  1 mm of ours moved to the message's millisecond with its Doppler and, where convbin
+  writes them, the Doppler within 1 mHz and the C/N0 within 0.1 dB-Hz. Each is said not
+  to run without its RTKLIB tool.
 
 Exits 1 when a check fails, 2 when gps-sdr-sim cannot be built or run.
 """
@@ -67,7 +76,9 @@ from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
 from gnssframework.receiver.navigation.filtered import filter_epochs  # noqa: E402
 from gnssframework.receiver.navigation.fixes import solve_epochs  # noqa: E402
 from gnssframework.receiver.navigation.receive import position_errors, receive  # noqa: E402
+from gnssframework.receiver.navigation.rinex_nav import decoded_records, write_rinex_nav  # noqa: E402
 from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs  # noqa: E402
+from gnssframework.receiver.navigation.rtcm_out import write_rtcm  # noqa: E402
 from gnssframework.receiver.channels import tracking_config  # noqa: E402
 from gnssframework.receiver.frontend import open_recording  # noqa: E402
 
@@ -99,6 +110,77 @@ def rtklib_positions(obs_path: Path, nav_path: Path, work: Path) -> tuple[np.nda
     rows = [line.split() for line in out.read_text().splitlines() if line.strip() and not line.startswith("%")]
     tow = np.array([float(r[1]) for r in rows])
     return tow, np.array([[float(v) for v in r[2:5]] for r in rows]).reshape(-1, 3)
+
+
+def navigation_file_check(check, obs, week: int, rinex_path: Path, work: Path) -> None:
+    """rnx2rtkp on observations.rnx with our navigation.rnx against with gps-sdr-sim's file."""
+    nav_path = write_rinex_nav(work / "navigation.rnx", decoded_records(obs.ephemeris, obs.sample_time_s,
+                                                                        obs.rx_time_s, week), obs.iono_utc)
+    ours_dir, theirs_dir = work / "rtk_ours", work / "rtk_theirs"
+    ours_dir.mkdir(exist_ok=True)
+    theirs_dir.mkdir(exist_ok=True)
+    ours, theirs = rtklib_positions(rinex_path, nav_path, ours_dir), rtklib_positions(rinex_path, NAV, theirs_dir)
+    if ours is None:
+        print("  --    navigation.rnx check not run: rnx2rtkp is not on PATH (Debian package rtklib)")
+        return
+    common, i, j = np.intersect1d(np.round(ours[0], 3), np.round(theirs[0], 3), return_indices=True)
+    if not common.size:
+        check(False, f"rnx2rtkp with navigation.rnx: no epoch in common ({ours[0].size} solutions with ours, "
+                     f"{theirs[0].size} with gps-sdr-sim's file)")
+        return
+    d = np.linalg.norm(ours[1][i] - theirs[1][j], axis=1)
+    check(bool(d.max() <= 0.05 and common.size >= 0.9 * theirs[0].size),
+          f"rnx2rtkp on observations.rnx with our navigation.rnx ({len(obs.ephemeris)} satellites' decoded records) "
+          f"against with gps-sdr-sim's file: {common.size} of {theirs[0].size} epochs, 3-D difference max "
+          f"{d.max() * 100:.2f} cm (aim: within 5 cm)")
+
+
+def rtcm_check(check, obs, week: int, work: Path) -> None:
+    """The MSM7 stream through RTKLIB's convbin back to RINEX against our observables."""
+    import georinex
+
+    rtcm_path = write_rtcm(work / "observations.rtcm3", obs, week)
+    exe = shutil.which("convbin")
+    if exe is None:
+        print("  --    RTCM check not run: convbin is not on PATH (Debian package rtklib)")
+        return
+    first = np.datetime64("1980-01-06") + np.timedelta64(int(week * 604800 + obs.rx_time_s[0]), "s")
+    approx = str(first.astype("datetime64[s]")).replace("-", "/").replace("T", " ")
+    out_dir = work / "convbin"
+    out_dir.mkdir(exist_ok=True)
+    subprocess.run([exe, "-r", "rtcm3", "-tr", approx, "-od", "-os", "-d", str(out_dir), "-o", "rtcm.obs",
+                    str(rtcm_path)], check=True, capture_output=True, text=True)
+    back = georinex.load(out_dir / "rtcm.obs")
+    wavelength = 299_792_458.0 / 1575.42e6
+    t_ms = np.round(obs.rx_time_s * 1e3)
+    dt = t_ms * 1e-3 - obs.rx_time_s
+    tow_back = np.round(((back.time.values - np.datetime64("1980-01-06")) / np.timedelta64(1, "ms"))
+                        % 604_800_000).astype(np.int64)
+    # convbin writes D1C and S1C only where asked and able (rtklib 2.4.3 b34 left D1C out here):
+    # those it wrote are compared too.
+    kinds = [k for k in ("C1C", "D1C", "S1C") if k in back.data_vars]
+    worst = dict.fromkeys(kinds, 0.0)
+    n = 0
+    for e in range(obs.rx_time_s.size):
+        k = np.flatnonzero(tow_back == int(t_ms[e]) % 604_800_000)
+        for j, prn in enumerate(obs.prn):
+            if not np.isfinite(obs.pseudorange_m[e, j]):
+                continue
+            if not k.size or f"G{prn:02d}" not in back.sv.values:
+                worst["C1C"] = np.inf
+                continue
+            one = back.isel(time=int(k[0])).sel(sv=f"G{prn:02d}")
+            expected = {"C1C": obs.pseudorange_m[e, j] - wavelength * obs.doppler_hz[e, j] * dt[e],
+                        "D1C": obs.doppler_hz[e, j], "S1C": obs.cn0_dbhz[e, j]}
+            for kind in kinds:
+                worst[kind] = max(worst[kind], abs(float(one[kind]) - expected[kind]))
+            n += 1
+    aims = {"C1C": 1e-3, "D1C": 1e-3, "S1C": 0.1}
+    units = {"C1C": (1e3, "mm"), "D1C": (1e3, "mHz"), "S1C": (1.0, "dB-Hz")}
+    text = ", ".join(f"{k} within {worst[k] * units[k][0]:.2f} {units[k][1]} (aim {aims[k] * units[k][0]:g})"
+                     for k in kinds)
+    check(bool(n > 0 and all(worst[k] <= aims[k] for k in kinds)),
+          f"observations.rtcm3 (MSM7) through convbin back to RINEX: {n} pseudoranges; {text}")
 
 
 def header_klobuchar(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -230,6 +312,8 @@ def main(argv: list[str] | None = None) -> int:
         # The RINEX 3.04 observation file reads back through georinex with the same pseudoranges.
         rinex_path = write_rinex_obs(work / "observations.rnx", obs, week)
         rinex_read_back(check, obs, rinex_path, "observations.rnx")
+        rtcm_check(check, obs, week, work)
+        navigation_file_check(check, obs, week, rinex_path, work)
 
         # 3. Positions: decoded ephemerides, ekf-pv on them, then the RINEX file. ekf-pv's white
         # acceleration: its default (0.1 m²/s³) for the static receiver; on the circle, the
