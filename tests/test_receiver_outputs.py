@@ -336,3 +336,37 @@ def test_no_msm_for_a_signal_without_one_and_no_file_without_a_pseudorange(tmp_p
                       obs.doppler_hz, obs.carrier_cycles, obs.cn0_dbhz, {}, None, None, obs.lli)
     with pytest.raises(ConfigError, match="no epoch holds a pseudorange"):
         write_rtcm(tmp_path / "o.rtcm3", empty)
+
+
+def test_write_extra_outputs_writes_what_is_asked_and_notes_what_it_cannot(decoded, tmp_path):
+    import json
+
+    import pandas as pd
+
+    from gnssframework.receiver.channels.records import ChannelRecord, TrackingResult
+    from gnssframework.receiver.navigation.receive import ReceiveResult
+    from gnssframework.receiver.navigation.receive_outputs import OUTPUTS, write_extra_outputs
+
+    records, iono, first = decoded
+    obs, _, _, _ = _rtcm_observables(first + 1.0 + np.arange(3.0))
+    obs = type(obs)(*(getattr(obs, f) for f in ("rx_time_s", "sample_time_s", "prn", "transmit_s", "pseudorange_m",
+                                                "doppler_hz", "carrier_cycles", "cn0_dbhz")),
+                    {prn: [(0.5, rec)] for prn, rec in records.items()}, iono, WEEK % 1024, obs.lli)
+    tracking = TrackingResult({5: ChannelRecord(5, [(0.001, 45.0, 0.9, -2500.0, 10.0, 0.5, True, 1, 1.0, 0.0, 1)])},
+                              [], 3.0, "scalar")
+    table = _table()
+    result = ReceiveResult(tracking, obs, table, table)
+    written, notes = write_extra_outputs(tmp_path, result, table, frozenset(OUTPUTS), WEEK)
+    assert sorted(p.name for p in written) == ["navigation.rnx", "observations.rtcm3", "track.geojson", "track.kml",
+                                               "tracking.parquet"] and notes == []
+    assert sorted(_read_back(tmp_path / "navigation.rnx").sv.values) == sorted(f"G{p:02d}" for p in records)
+    assert len(_msm_cells([(tmp_path / "observations.rtcm3").read_bytes()])) == 3
+    assert len(json.loads((tmp_path / "track.geojson").read_text())["features"]) == 4
+    assert pd.read_parquet(tmp_path / "tracking.parquet")["prn"].tolist() == [5]
+    # Without observables (an assisted start's vector positions alone) or a known week: notes.
+    bare = ReceiveResult(tracking, None, table, table)
+    written, notes = write_extra_outputs(tmp_path / "b", bare, table, frozenset({"rinex-nav", "rtcm"}), WEEK)
+    assert written == [] and notes == ["no ephemeris decoded from LNAV: no navigation.rnx",
+                                       "no pseudoranges dated in a known week: no observations.rtcm3"]
+    written, notes = write_extra_outputs(tmp_path / "c", result, table, frozenset({"rinex-nav"}), -1)
+    assert written == [] and notes == ["the GPS week is unknown: no navigation.rnx"]
