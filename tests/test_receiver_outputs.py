@@ -370,3 +370,19 @@ def test_write_extra_outputs_writes_what_is_asked_and_notes_what_it_cannot(decod
                                        "no pseudoranges dated in a known week: no observations.rtcm3"]
     written, notes = write_extra_outputs(tmp_path / "c", result, table, frozenset({"rinex-nav"}), -1)
     assert written == [] and notes == ["the GPS week is unknown: no navigation.rnx"]
+
+
+def test_a_qzss_navigation_file_names_its_system_and_writes_the_fit_flag(decoded, tmp_path):
+    from gnssframework.signal.qzss_l1ca import QZSS_L1CA
+
+    records, iono, first = decoded
+    rec = next(iter(records.values()))
+    path = write_rinex_nav(tmp_path / "navigation.rnx", [NavRecord(193, rec, WEEK, first)], iono, QZSS_L1CA)
+    assert path.read_text().splitlines()[0][40:60].rstrip() == "J: QZSS"
+    data = _read_back(path)
+    assert list(data.sv.values) == ["J01"]
+    one = data.sel(sv="J01").dropna("time", how="all")
+    assert float(one["sqrtA"].values[0]) == pytest.approx(float(rec.elements["sqrtA"][0]), rel=5e-13)
+    # RINEX 3.04 table A14: QZSS's BROADCAST ORBIT 7 holds the fit interval flag (0: 2 hours).
+    fit = [v for v in one.data_vars if v.lower().startswith("fit")]
+    assert fit and float(one[fit[0]].values[0]) == 0.0

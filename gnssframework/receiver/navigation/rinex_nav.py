@@ -10,8 +10,9 @@ and ``LEAP SECONDS`` (ΔtLS).
 
 What the decoded record does not keep is written as RINEX allows: IODC as the IODE (the
 low 8 bits of IODC, which LNAV requires to equal IODE: IS-GPS-200 20.3.3.4.1), the codes
-on L2 and the L2 P data flag as 0, the fit interval as 4 hours (the fit interval flag 0
-of 20.3.3.4.3.1), and the transmission time of message as the GPS time of week at which
+on L2 and the L2 P data flag as 0, the fit interval as 4 hours for GPS (the fit interval
+flag 0 of 20.3.3.4.3.1) and as the flag 0 (2 hours) for QZSS, whose records hold the flag
+(RINEX 3.04 table A14), and the transmission time of message as the GPS time of week at which
 the receiver had the record (its last subframe's end, 6 s after that subframe's HOW
 time). The GPS week (continuous, not modulo 1024) is the one that puts Toe (and Toc) within
 half a week of that time. The system letter and satellite names come from the signal's
@@ -38,8 +39,9 @@ __all__ = ["NavRecord", "decoded_records", "write_rinex_nav", "RINEX_NAV_SYSTEMS
 #: Systems whose records have the GPS LNAV layout of RINEX 3.04 (GPS, QZSS).
 RINEX_NAV_SYSTEMS = {"G": "GPS", "J": "QZSS"}
 _GPS_EPOCH = datetime(1980, 1, 6)
-#: Fit interval written (h): the flag 0 of IS-GPS-200 20.3.3.4.3.1.
-FIT_INTERVAL_H = 4.0
+#: The last field of BROADCAST ORBIT 7 per system: GPS's fit interval in hours (4: the flag
+#: 0 of IS-GPS-200 20.3.3.4.3.1), QZSS's fit interval flag itself (0: 2 hours; RINEX 3.04 A14).
+FIT_INTERVAL = {"G": 4.0, "J": 0.0}
 
 
 @dataclass(frozen=True)
@@ -102,7 +104,7 @@ def decoded_records(ephemeris: dict[int, list[tuple[float, Ephemerides]]], sampl
     return out
 
 
-def _orbit_lines(nav: NavRecord) -> list[str]:
+def _orbit_lines(nav: NavRecord, system: str) -> list[str]:
     rec = nav.record
     e = {k: float(v[0]) for k, v in rec.elements.items()}
     toe_week = _week_near(nav.week, nav.tow_s, e["Toe"])
@@ -114,7 +116,7 @@ def _orbit_lines(nav: NavRecord) -> list[str]:
             (e["Io"], e["Crc"], e["omega"], e["OmegaDot"]),
             (e["IDOT"], 0.0, float(toe_week), 0.0),  # codes on L2, week, L2 P data flag
             (accuracy, float(rec.health[0]), e["TGD"], iode),  # IODC: see the module text
-            (nav.tow_s, FIT_INTERVAL_H))
+            (nav.tow_s, FIT_INTERVAL[system]))
     return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
 
 
@@ -159,6 +161,6 @@ def write_rinex_nav(path: str | Path, records: list[NavRecord], iono: IonoUtc | 
         body.append(f"{signal.rinex_satellite(nav.prn)} {toc:%Y %m %d %H %M %S}"
                     + "".join(_d19(rec.elements[k][0]) for k in ("SVclockBias", "SVclockDrift", "SVclockDriftRate"))
                     + "\n")
-        body += _orbit_lines(nav)
+        body += _orbit_lines(nav, signal.system)
     path.write_text("".join(_header(records, iono, signal) + body))
     return path
