@@ -531,12 +531,10 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     assist = _assist_from_args(args, nav_info)
     started = time.monotonic()
     name = Path(args.recording).name
-    if not args.quiet:  # a line per phase (the tracking's progress is the bar or its tenths)
-        phase(name, "acquisition of " + (f"{len(prns)} PRNs" if prns else f"every {signal.name} PRN"), started)
     acquisitions = _acquire_checked(rec, acq, prns, signal)  # checked before minutes of tracking
-    if not args.quiet:
-        phase(name, f"tracking {sum(r.detected for r in acquisitions)} satellites, decoding LNAV, positioning",
-              started)
+    if not args.quiet:  # a line as each phase ends (a refused one leaves its one error line alone)
+        phase(name, f"acquisition found {sum(r.detected for r in acquisitions)} of {len(acquisitions)} PRNs; "
+                    "tracking, decoding LNAV, positioning", started)
     with _recording_progress(args, rec) as progress:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
@@ -565,7 +563,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
         return 1
     out.mkdir(parents=True, exist_ok=True)
     if not args.quiet:
-        phase(name, f"{len(table)} fixes: writing the outputs", started)
+        phase(name, f"{len(table)} fixes; writing the outputs", started)
     obs = result.observables
     if args.week is None and nav_info is not None and assist is None and (obs is None or obs.week is None):
         # No subframe 1: the week that puts the first fix's tow nearest the file's records.
