@@ -42,7 +42,7 @@ def outputs(recording, tmp_path_factory):  # noqa: F811
     path, sats = recording
     first, second = tmp_path_factory.mktemp("first"), tmp_path_factory.mktemp("second")
     assert _run(path, first) == 0
-    assert _run(path, second) == 0
+    assert _run(path, second, "--outputs", "default,kml,parquet,rtcm") == 0  # the defaults' bytes the same
     return first, second, sats
 
 
@@ -143,6 +143,54 @@ def test_track_geojson_is_written_by_default_and_no_navigation_rnx_without_a_dec
     # The fixture's 9.5 s hold no subframe 1 (its records come from --ephemeris): nothing
     # decoded, so no navigation file (test_receiver_outputs checks one of decoded records).
     assert not (out / "navigation.rnx").exists()
+
+
+@pytest.mark.slow
+def test_the_outputs_asked_for_read_back_through_their_own_readers(outputs):
+    """KML (ElementTree), Parquet (pandas) and RTCM MSM7 (pyrtcm) of the run with
+    ``--outputs default,kml,parquet,rtcm``, against positions.csv, the recording and the
+    pseudoranges of observations.rnx (georinex)."""
+    import io
+    import xml.etree.ElementTree as ET
+
+    import georinex
+    import pandas as pd
+    from pyrtcm import RTCMReader, parse_msm
+
+    _, out, sats = outputs
+    with (out / "positions.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    ns = {"k": "http://www.opengis.net/kml/2.2"}
+    line = ET.parse(out / "track.kml").getroot().find(".//k:LineString/k:coordinates", ns).text.split()
+    assert np.allclose([[float(v) for v in c.split(",")[:2]] for c in line],
+                       [[float(r["lon_deg"]), float(r["lat_deg"])] for r in rows], atol=1e-9)
+    frame = pd.read_parquet(out / "tracking.parquet")
+    assert set(frame["prn"]) == {int(s[1:]) for s in sats.sv}
+    assert frame["time_s"].is_monotonic_increasing and 9.0 < frame["time_s"].max() <= 9.5  # the 9.5 s recording
+    locked = frame[frame["lock"]]
+    for _, one in locked.groupby("prn"):  # the recording's 45 dB-Hz, each channel's own estimate
+        assert 42.0 < one["cn0_dbhz"].median() < 48.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        rnx = georinex.load(out / "observations.rnx")
+    # GPS seconds of week of the epochs from the file's own epoch lines: georinex's times are
+    # truncated to the microsecond (12.1000000 s reads as 12.099999), and a microsecond is
+    # half a millimetre of range at 2.5 kHz of Doppler.
+    epochs = [line.split() for line in (out / "observations.rnx").read_text().splitlines() if line.startswith(">")]
+    tow_rnx = np.array([(datetime(*map(int, e[1:6])) - datetime(1980, 1, 6)).total_seconds() % 604_800
+                        + float(e[6]) for e in epochs])
+    messages = [msg for _, msg in RTCMReader(io.BytesIO((out / "observations.rtcm3").read_bytes()), validate=1)]
+    assert len(messages) == rnx.time.size and all(m.identity == "1077" for m in messages)
+    for k, msg in enumerate(messages):
+        meta, sat_rows, cells = parse_msm(msg)
+        dt = meta["epoch"] / 1e3 - tow_rnx[k]  # to the message's whole millisecond
+        assert abs(dt) <= 0.5e-3
+        for sat, cell in zip(sat_rows, cells):
+            one = rnx.isel(time=k).sel(sv=f"G{cell['CELLPRN'][-2:]}")
+            pr = (sat["DF397"] + sat["DF398"] + cell["DF405"]) * 299_792.458
+            # RINEX's millimetre and MSM7's 2^-29 ms (0.56 mm), after the Doppler's move over dt.
+            moved = float(one["C1C"]) - 299_792_458.0 / 1575.42e6 * float(one["D1C"]) * dt
+            assert pr == pytest.approx(moved, abs=1e-3)
 
 
 @pytest.mark.slow
