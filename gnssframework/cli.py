@@ -359,15 +359,19 @@ MAX_RATE_HZ = 1000.0
 
 
 @contextmanager
-def _recording_progress(args: argparse.Namespace) -> Iterator[Callable[[float], None] | None]:
+def _recording_progress(args: argparse.Namespace, rec=None) -> Iterator[Callable[[float], None] | None]:
     """The tracker's progress callback (fraction of the recording done): a bar on a terminal,
-    a line per tenth of the recording in a log or a pipe, none with ``--quiet``."""
+    a line per tenth of the recording in a log or a pipe, none with ``--quiet``; with the
+    recording ``rec``, the signal time processed and the real-time factor too."""
     from .progress import Progress
 
     if args.quiet:
         yield None
         return
-    bar = Progress(100, Path(args.recording).name, "%")
+    signal_s = None
+    if rec is not None:
+        signal_s = rec.duration_s if args.duration is None else min(float(args.duration), rec.duration_s)
+    bar = Progress(100, Path(args.recording).name, "%", signal_s=signal_s)
     try:
         yield lambda fraction: bar.set(round(100 * fraction))
         bar.set(bar.total)  # the tracker reports up to its last block's start: the run is done
@@ -395,7 +399,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
         print(f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF (--if), "
               "the format (--format) and --doppler-max; nothing tracked")
         return 1
-    with _recording_progress(args) as progress:
+    with _recording_progress(args, rec) as progress:
         result = tracker.run(found, args.duration, progress)
     written = write_tracking_outputs(args.out, result, plots=not args.no_plots)
     print(f"tracked {len(found)} satellites for {result.duration_s:.3f} s with {config.channel_filter}:")
@@ -493,6 +497,7 @@ def _assist_from_args(args: argparse.Namespace, nav_info=None):
 
 def _cmd_receive(args: argparse.Namespace) -> int:
     import json
+    import time
 
     import numpy as np
 
@@ -506,8 +511,11 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     from .receiver.channels.report import write_tracking_outputs
     from .receiver.navigation.report import no_position_reason, write_no_position_report, write_receive_report
     from .receiver.navigation.rinex_obs import write_rinex_obs
+    from .receiver.navigation.receive_outputs import parse_outputs, sky_views, write_extra_outputs
+    from .progress import phase
 
     _threads_from_args(args)
+    outputs = parse_outputs(args.outputs)
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     signal = _signal_from_args(args)
@@ -553,8 +561,13 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     elif args.vector_accel_psd is not None:
         raise ConfigError("--vector-accel-psd", "the vector loop's navigation filter is for --tracking vector")
     assist = _assist_from_args(args, nav_info)
+    started = time.monotonic()
+    name = Path(args.recording).name
     acquisitions = _acquire_checked(rec, acq, prns, signal)  # checked before minutes of tracking
-    with _recording_progress(args) as progress:
+    if not args.quiet:  # a line as each phase ends (a refused one leaves its one error line alone)
+        phase(name, f"acquisition found {sum(r.detected for r in acquisitions)} of {len(acquisitions)} PRNs; "
+                    "tracking, decoding LNAV, positioning", started)
+    with _recording_progress(args, rec) as progress:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
                          progress=progress, nav_filter=filters.nav_filter,
@@ -581,6 +594,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
               f"{result.tracking.duration_s:.1f} s; wrote {', '.join(str(p) for p in written if p.parent == out)}")
         return 1
     out.mkdir(parents=True, exist_ok=True)
+    if not args.quiet:
+        phase(name, f"{len(table)} fixes; writing the outputs", started)
     obs = result.observables
     if args.week is None and nav_info is not None and assist is None and (obs is None or obs.week is None):
         # No subframe 1: the week that puts the first fix's tow nearest the file's records.
@@ -592,16 +607,21 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     written = [write_positions_csv(out / "positions.csv", table)]
     c = table.columns
     week = int(c["gps_week"][0])
+    leap = obs.iono_utc.dt_ls_s if obs is not None and obs.iono_utc is not None else 18
+    sky = sky_views(result, table, rinex) if "gsv" in outputs else None
     if week >= 0 and obs is None:
         print("note: no LNAV subframe decoded, so no pseudoranges of the scalar channels: no observations.rnx")
-        written.append(write_nmea(out / "nmea.txt", table, 18, nmea_talker(signal)))
+        written.append(write_nmea(out / "nmea.txt", table, 18, nmea_talker(signal), sky, "gsa" in outputs))
     elif week >= 0:
-        leap = obs.iono_utc.dt_ls_s if obs.iono_utc is not None else 18
         written += [write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1], signal=signal),
-                    write_nmea(out / "nmea.txt", table, leap, nmea_talker(signal))]
+                    write_nmea(out / "nmea.txt", table, leap, nmea_talker(signal), sky, "gsa" in outputs)]
     else:
         print("note: no subframe 1 decoded, so the GPS week is unknown: no observations.rnx or nmea.txt "
               "(give it with --week)")
+    extra, notes = write_extra_outputs(out, result, table, outputs, week, leap, signal)
+    written += extra
+    for note in notes:
+        print(f"note: {note}")
     nav_name = filters.nav_filter.name if filters.nav_filter is not None else None
     used = (f"channel filter {config.channel_filter}, "
             + (f"nav filter {nav_name} from the first least-squares fix" if nav_name else
@@ -890,8 +910,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "Klobuchar), form pseudoranges and Dopplers at common epochs and solve each epoch "
                                    "(weighted least squares, one bad satellite excluded) or, with --nav-filter, run a "
                                    "registered navigation filter on them from the first fix. Writes DIR/positions.csv, "
-                                   "DIR/observations.rnx (RINEX 3.04), DIR/nmea.txt (GGA, RMC), DIR/report.md and "
-                                   "DIR/plots/. `position` is the same command (its former name). "
+                                   "DIR/observations.rnx (RINEX 3.04), DIR/nmea.txt (GGA, RMC; GSA, GSV), "
+                                   "DIR/navigation.rnx (the decoded ephemerides), DIR/track.geojson, DIR/report.md "
+                                   "and DIR/plots/, and the --outputs asked for. `position` is the same command (its former name). "
                                    "Exit 1 when no position is found, 2 for bad options or files.")
     _add_recording_options(p)
     p.add_argument("--out", required=True, help="output directory")
@@ -941,6 +962,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--start-time", metavar="WEEK,TOW", help="GPS week and time of week (s) of the first sample "
                                                             "(to ~1 ms), for --approx-position")
     _add_threads_option(p)
+    p.add_argument("--outputs", metavar="LIST",
+                   help="comma-separated files for other tools: rinex-nav (navigation.rnx), gsa, gsv (in nmea.txt), "
+                        "geojson (track.geojson), kml (track.kml), parquet (tracking.parquet, needs pyarrow), rtcm "
+                        "(observations.rtcm3, RTCM 3 MSM7 observations); default stands for "
+                        "rinex-nav,gsa,gsv,geojson, the set written without this option")
     p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     p.set_defaults(func=_cmd_receive)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")

@@ -9,6 +9,13 @@ of twenty minutes is never silent::
             ...
             p.update()
     # off a terminal: "vector_tracking: 8/72 batch (11 %), 0:00:41 elapsed" ...
+
+Work on a recording says how much of the signal it has processed and how fast
+(``signal_s``: the seconds of signal the whole work stands for): each line (and the bar's
+postfix) adds ``9.6/32.0 s of signal, 0.41x real time``, the real-time factor being the
+seconds of signal processed per second of wall-clock time (above 1: faster than real
+time). `phase` prints one line when a command starts a phase (acquisition, positions),
+on a terminal or not.
 """
 
 from __future__ import annotations
@@ -17,7 +24,19 @@ import sys
 import time
 from typing import TextIO
 
-__all__ = ["Progress"]
+__all__ = ["Progress", "phase", "clock"]
+
+
+def clock(seconds: float) -> str:
+    """``h:mm:ss`` of a duration."""
+    hours, rest = divmod(int(seconds), 3600)
+    return f"{hours}:{rest // 60:02d}:{rest % 60:02d}"
+
+
+def phase(desc: str, text: str, start: float, stream: TextIO | None = None) -> None:
+    """One line ``desc: text, h:mm:ss elapsed`` (since ``start``, a `time.monotonic` value)."""
+    print(f"{desc}: {text}, {clock(time.monotonic() - start)} elapsed", file=sys.stderr if stream is None else stream,
+          flush=True)
 
 
 class Progress:
@@ -36,10 +55,13 @@ class Progress:
     terminal
         Draw a bar (True) or print lines (False); by default, whether ``stream`` is a
         terminal.
+    signal_s
+        Seconds of signal the ``total`` stands for (a recording's): the signal time
+        processed and the real-time factor are shown (see the module text).
     """
 
     def __init__(self, total: int, desc: str, unit: str, stream: TextIO | None = None,
-                 terminal: bool | None = None) -> None:
+                 terminal: bool | None = None, signal_s: float | None = None) -> None:
         self.total = max(int(total), 0)
         self.desc, self.unit = desc, unit
         self.stream = sys.stderr if stream is None else stream
@@ -47,6 +69,7 @@ class Progress:
             isatty = getattr(self.stream, "isatty", None)
             terminal = bool(isatty()) if callable(isatty) else False
         self.done = 0
+        self.signal_s = signal_s
         self._start = time.monotonic()
         self._next_tenth = 1
         self._bar = None
@@ -63,6 +86,8 @@ class Progress:
         """``done`` units done in all (never moves back)."""
         done = min(max(int(done), self.done), self.total)
         if self._bar is not None:
+            if self.signal_s is not None and done > self.done:
+                self._bar.set_postfix_str(self._signal(done), refresh=False)
             self._bar.update(done - self.done)
         self.done = done
         if self._bar is None and self.total:
@@ -70,11 +95,19 @@ class Progress:
                 self._next_tenth += 1
                 self._line()
 
+    def _signal(self, done: int) -> str:
+        """``9.6/32.0 s of signal, 0.41x real time`` at ``done`` units (with ``signal_s`` set)."""
+        signal_s = self.signal_s or 0.0
+        processed_s = signal_s * done / self.total if self.total else 0.0
+        wall_s = time.monotonic() - self._start
+        speed = f"{processed_s / wall_s:.2f}x real time" if wall_s > 0 else "-"
+        digits = 1 if signal_s >= 1.0 else 3  # a short recording's milliseconds
+        return f"{processed_s:.{digits}f}/{signal_s:.{digits}f} s of signal, {speed}"
+
     def _line(self) -> None:
-        elapsed = int(time.monotonic() - self._start)
-        hours, rest = divmod(elapsed, 3600)
-        print(f"{self.desc}: {self.done}/{self.total} {self.unit} ({100 * self.done // self.total} %), "
-              f"{hours}:{rest // 60:02d}:{rest % 60:02d} elapsed", file=self.stream, flush=True)
+        signal = f"{self._signal(self.done)}, " if self.signal_s is not None else ""
+        print(f"{self.desc}: {self.done}/{self.total} {self.unit} ({100 * self.done // self.total} %), {signal}"
+              f"{clock(time.monotonic() - self._start)} elapsed", file=self.stream, flush=True)
 
     def close(self) -> None:
         """The work is over (a bar is closed; lines need nothing more)."""

@@ -37,3 +37,28 @@ def test_a_terminal_gets_a_bar_not_lines():
     with Progress(10, "x", "batch", stream=out, terminal=True) as p:
         p.update(10)
     assert "x: 10/10 batch (100 %)" not in out.getvalue() and "10/10" in out.getvalue()
+
+
+def test_a_recordings_lines_give_the_signal_time_processed_and_the_real_time_factor(monkeypatch):
+    from gnssframework import progress
+
+    now = [100.0]
+    monkeypatch.setattr(progress.time, "monotonic", lambda: now[0])
+    out = io.StringIO()
+    p = Progress(100, "rec.bin", "%", stream=out, signal_s=32.0)
+    now[0] += 8.0  # 8 s of wall clock for the first 10 % (3.2 s of signal): 0.40x real time
+    p.set(10)
+    now[0] += 2.0
+    p.set(20)  # 6.4 s of signal in 10 s: 0.64x
+    lines = out.getvalue().splitlines()
+    assert lines == ["rec.bin: 10/100 % (10 %), 3.2/32.0 s of signal, 0.40x real time, 0:00:08 elapsed",
+                     "rec.bin: 20/100 % (20 %), 6.4/32.0 s of signal, 0.64x real time, 0:00:10 elapsed"]
+    progress.phase("rec.bin", "acquisition of 3 PRNs", 90.0, stream=out)
+    assert out.getvalue().splitlines()[-1] == "rec.bin: acquisition of 3 PRNs, 0:00:20 elapsed"
+
+
+def test_a_terminal_bar_shows_the_signal_time_and_speed():
+    out = io.StringIO()
+    with Progress(10, "rec.bin", "%", stream=out, terminal=True, signal_s=5.0) as p:
+        p.update(10)
+    assert "5.0/5.0 s of signal" in out.getvalue() and "x real time" in out.getvalue()

@@ -4,6 +4,8 @@ and the vector mode's navigation-filter process noise."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from gnssframework import cli
@@ -191,3 +193,35 @@ def test_raim_options_are_read_and_checked(parsed):
     assert cli.main(["receive", "rec.bin", "--out", "o", "--raim", "--raim-pfa", "2"]) == 0
     with pytest.raises(ConfigError, match="--raim-pfa"):
         cli._raim_from_args(parsed["args"])
+def test_off_a_terminal_receive_prints_a_line_per_phase_and_per_tenth_of_the_signal(tiny_recording, tmp_path,
+                                                                                     capsys, received):
+    """Issue 41: a log, CI or a notebook cell saw nothing for the whole run."""
+    from gnssframework.receiver.channels.records import TrackingResult
+    from gnssframework.receiver.navigation import receive as receive_module
+    from gnssframework.receiver.navigation.receive import ReceiveResult
+
+    def tracked_nothing(*args, progress=None, **kwargs):
+        for fraction in (0.05, 0.25, 0.5):  # the tracker's reports
+            if progress is not None:
+                progress(fraction)
+        return ReceiveResult(TrackingResult({}, [], 0.002, "scalar"), None, None)
+
+    receive_module.receive = tracked_nothing  # (monkeypatched by `received`: restored after the test)
+    assert cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--prn", "3"]) == 1
+    err = capsys.readouterr().err.splitlines()  # capsys: not a terminal
+    # A line as each phase ends (the acquisition is faked here: it found nothing).
+    assert err[0].startswith("noise.sigmf-data: acquisition found 0 of 0 PRNs; tracking, decoding LNAV, positioning, "
+                             "0:00:0")
+    signal_s = 4096 / 2.046e6
+    tenths = [line for line in err if " % (" in line]
+    # One line per tenth crossed (a report past two tenths prints two lines, both at its
+    # value), the last ones when the run is over; each with the signal time processed.
+    done = [int(line.split(": ")[1].split("/")[0]) for line in tenths]
+    assert done == [25, 25, 50, 50, 50, 100, 100, 100, 100, 100]
+    for d, line in zip(done, tenths):
+        processed, total = line.split(", ")[1].removesuffix(" s of signal").split("/")
+        assert float(total) == pytest.approx(signal_s, abs=5e-4)
+        assert float(processed) == pytest.approx(d / 100 * signal_s, abs=5e-4)
+        assert re.search(r", \d+\.\d\dx real time, \d:\d\d:\d\d elapsed$", line)
+    assert cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--prn", "3", "--quiet"]) == 1
+    assert capsys.readouterr().err == ""

@@ -42,7 +42,7 @@ def outputs(recording, tmp_path_factory):  # noqa: F811
     path, sats = recording
     first, second = tmp_path_factory.mktemp("first"), tmp_path_factory.mktemp("second")
     assert _run(path, first) == 0
-    assert _run(path, second) == 0
+    assert _run(path, second, "--outputs", "default,kml,parquet,rtcm") == 0  # the defaults' bytes the same
     return first, second, sats
 
 
@@ -91,17 +91,106 @@ def test_nmea_sentences_parse_and_match_positions_csv(outputs):
     out, _, _ = outputs
     lines = (out / "nmea.txt").read_text().splitlines()
     parsed = [pynmea2.parse(line, check=True) for line in lines]
-    assert [p.sentence_type for p in parsed] == ["GGA", "RMC"] * (len(lines) // 2)
     with (out / "positions.csv").open() as fh:
         rows = list(csv.DictReader(fh))
-    gga = parsed[0::2]
-    assert len(gga) == len(rows)
+    # Per fix GGA, RMC, GSA, then two GSV pages (five satellites, four a page).
+    assert [p.sentence_type for p in parsed] == ["GGA", "RMC", "GSA", "GSV", "GSV"] * len(rows)
+    gga = parsed[0::5]
     for g, r in zip(gga, rows):
         assert g.latitude == pytest.approx(float(r["lat_deg"]), abs=1e-7)
         assert g.longitude == pytest.approx(float(r["lon_deg"]), abs=1e-7)
         assert int(g.num_sats) == int(r["n_sats"])
     utc = datetime(1980, 1, 6) + timedelta(weeks=WEEK, seconds=float(rows[0]["tow_s"]) - 18)  # 18 leap seconds
     assert parsed[1].datestamp == utc.date()
+    for gsa, r in zip(parsed[2::5], rows):
+        assert float(gsa.hdop) == pytest.approx(float(r["hdop"]), abs=0.0051)
+        assert float(gsa.vdop) == pytest.approx(float(r["vdop"]), abs=0.0051)
+        # PDOP² = HDOP² + VDOP² of the unrounded DOPs; the CSV's are rounded to 0.01 each.
+        assert float(gsa.pdop) == pytest.approx(np.hypot(float(r["hdop"]), float(r["vdop"])), abs=0.0125)
+
+
+@pytest.mark.slow
+def test_gsv_gives_each_satellites_elevation_and_azimuth_from_the_station(outputs):
+    from gnssframework.navigation.ephemeris import satellite_state
+
+    out, _, sats = outputs
+    lines = (out / "nmea.txt").read_text().splitlines()
+    parsed = [pynmea2.parse(line, check=True) for line in lines[3:5]]  # the first fix's GSV pages
+    seen = {int(getattr(p, f"sv_prn_num_{i}")): (float(getattr(p, f"elevation_deg_{i}")),
+                                                 float(getattr(p, f"azimuth_{i}")), float(getattr(p, f"snr_{i}")))
+            for p in parsed for i in range(1, 5) if getattr(p, f"sv_prn_num_{i}", None)}
+    assert sorted(seen) == sorted(int(s[1:]) for s in sats.sv)
+    # The truth: the navigation file's records seen from the station (not the fixes) at the
+    # fixture's first epochs; a satellite moves under 0.01 deg/s, the fix is metres off.
+    pos = satellite_state(sats, TOW0 + 3.0).position_m
+    for k, sv in enumerate(sats.sv):
+        az, el, _ = pymap3d.ecef2aer(*pos[k], *TRUTH)
+        got_el, got_az, snr = seen[int(sv[1:])]
+        assert abs(got_el - el) <= 0.5 + 0.1 and abs((got_az - az + 180) % 360 - 180) <= 0.5 + 0.1
+        assert 40 <= snr <= 50  # the recording's 45 dB-Hz
+
+
+@pytest.mark.slow
+def test_track_geojson_is_written_by_default_and_no_navigation_rnx_without_a_decoded_ephemeris(outputs):
+    import json
+
+    out, _, _ = outputs
+    track = json.loads((out / "track.geojson").read_text())
+    with (out / "positions.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    lon_lat = np.array(track["features"][0]["geometry"]["coordinates"])[:, :2]
+    assert np.allclose(lon_lat, [[float(r["lon_deg"]), float(r["lat_deg"])] for r in rows], atol=1e-9)
+    # The fixture's 9.5 s hold no subframe 1 (its records come from --ephemeris): nothing
+    # decoded, so no navigation file (test_receiver_outputs checks one of decoded records).
+    assert not (out / "navigation.rnx").exists()
+
+
+@pytest.mark.slow
+def test_the_outputs_asked_for_read_back_through_their_own_readers(outputs):
+    """KML (ElementTree), Parquet (pandas) and RTCM MSM7 (pyrtcm) of the run with
+    ``--outputs default,kml,parquet,rtcm``, against positions.csv, the recording and the
+    pseudoranges of observations.rnx (georinex)."""
+    import io
+    import xml.etree.ElementTree as ET
+
+    import georinex
+    import pandas as pd
+    from pyrtcm import RTCMReader, parse_msm
+
+    _, out, sats = outputs
+    with (out / "positions.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    ns = {"k": "http://www.opengis.net/kml/2.2"}
+    line = ET.parse(out / "track.kml").getroot().find(".//k:LineString/k:coordinates", ns).text.split()
+    assert np.allclose([[float(v) for v in c.split(",")[:2]] for c in line],
+                       [[float(r["lon_deg"]), float(r["lat_deg"])] for r in rows], atol=1e-9)
+    frame = pd.read_parquet(out / "tracking.parquet")
+    assert set(frame["prn"]) == {int(s[1:]) for s in sats.sv}
+    assert frame["time_s"].is_monotonic_increasing and 9.0 < frame["time_s"].max() <= 9.5  # the 9.5 s recording
+    locked = frame[frame["lock"]]
+    for _, one in locked.groupby("prn"):  # the recording's 45 dB-Hz, each channel's own estimate
+        assert 42.0 < one["cn0_dbhz"].median() < 48.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        rnx = georinex.load(out / "observations.rnx")
+    # GPS seconds of week of the epochs from the file's own epoch lines: georinex's times are
+    # truncated to the microsecond (12.1000000 s reads as 12.099999), and a microsecond is
+    # half a millimetre of range at 2.5 kHz of Doppler.
+    epochs = [line.split() for line in (out / "observations.rnx").read_text().splitlines() if line.startswith(">")]
+    tow_rnx = np.array([(datetime(*map(int, e[1:6])) - datetime(1980, 1, 6)).total_seconds() % 604_800
+                        + float(e[6]) for e in epochs])
+    messages = [msg for _, msg in RTCMReader(io.BytesIO((out / "observations.rtcm3").read_bytes()), validate=1)]
+    assert len(messages) == rnx.time.size and all(m.identity == "1077" for m in messages)
+    for k, msg in enumerate(messages):
+        meta, sat_rows, cells = parse_msm(msg)
+        dt = meta["epoch"] / 1e3 - tow_rnx[k]  # to the message's whole millisecond
+        assert abs(dt) <= 0.5e-3
+        for sat, cell in zip(sat_rows, cells):
+            one = rnx.isel(time=k).sel(sv=f"G{cell['CELLPRN'][-2:]}")
+            pr = (sat["DF397"] + sat["DF398"] + cell["DF405"]) * 299_792.458
+            # RINEX's millimetre and MSM7's 2^-29 ms (0.56 mm), after the Doppler's move over dt.
+            moved = float(one["C1C"]) - 299_792_458.0 / 1575.42e6 * float(one["D1C"]) * dt
+            assert pr == pytest.approx(moved, abs=1e-3)
 
 
 @pytest.mark.slow
@@ -119,7 +208,7 @@ def test_report_has_ttff_errors_satellites_and_figures(outputs):
 @pytest.mark.slow
 def test_the_same_recording_gives_the_same_bytes(outputs):
     first, second, _ = outputs
-    for name in ("positions.csv", "observations.rnx", "nmea.txt", "report.md"):
+    for name in ("positions.csv", "observations.rnx", "nmea.txt", "report.md", "track.geojson"):
         assert (first / name).read_bytes() == (second / name).read_bytes(), name
 
 

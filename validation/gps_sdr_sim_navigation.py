@@ -37,7 +37,18 @@ static receiver at a known position; complex white noise is added for the chosen
   weights, so ours are equal here too (``elevation_weights=False``); with our sin²(E)
   weights the two differ by about 2 m RMS at 45 dB-Hz with a mean difference of
   centimetres: a weighting difference, not one of the observables or their time tags.
-  Without ``rnx2rtkp`` the check is said not to run, which is not a failure.
+  Without ``rnx2rtkp`` the check is said not to run, which is not a failure;
+- the files for other tools (issue 41): the navigation file of the decoded ephemerides
+  (``navigation.rnx``, `rinex_nav`) in place of gps-sdr-sim's: rnx2rtkp's solution on
+  observations.rnx with it within 5 mm at every epoch of our least squares with RTKLIB's
+  weighting (``weighting="rtklib"``) on the same observables and records (as in
+  `rtklib_vector_rinex`; the decoded records differ from gps-sdr-sim's file by its
+  truncation over each field's LSB and its URA index, so rnx2rtkp with that file moves by
+  up to 15 cm; the Klobuchar header is the decoded page 18 to D12.4's five digits); the
+  RTCM 3 MSM7 stream (``observations.rtcm3``, `rtcm_out`) converted back to RINEX by RTKLIB's ``convbin``: every pseudorange within
+  1 mm of ours moved to the message's millisecond with its Doppler and, where convbin
+  writes them, the Doppler within 1 mHz and the C/N0 within 0.1 dB-Hz. Each is said not
+  to run without its RTKLIB tool.
 
 Exits 1 when a check fails, 2 when gps-sdr-sim cannot be built or run.
 """
@@ -67,7 +78,9 @@ from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
 from gnssframework.receiver.navigation.filtered import filter_epochs  # noqa: E402
 from gnssframework.receiver.navigation.fixes import solve_epochs  # noqa: E402
 from gnssframework.receiver.navigation.receive import position_errors, receive  # noqa: E402
+from gnssframework.receiver.navigation.rinex_nav import decoded_records, write_rinex_nav  # noqa: E402
 from gnssframework.receiver.navigation.rinex_obs import write_rinex_obs  # noqa: E402
+from gnssframework.receiver.navigation.rtcm_out import write_rtcm  # noqa: E402
 from gnssframework.receiver.channels import tracking_config  # noqa: E402
 from gnssframework.receiver.frontend import open_recording  # noqa: E402
 
@@ -99,6 +112,85 @@ def rtklib_positions(obs_path: Path, nav_path: Path, work: Path) -> tuple[np.nda
     rows = [line.split() for line in out.read_text().splitlines() if line.strip() and not line.startswith("%")]
     tow = np.array([float(r[1]) for r in rows])
     return tow, np.array([[float(v) for v in r[2:5]] for r in rows]).reshape(-1, 3)
+
+
+def navigation_file_check(check, obs, week: int, rinex_path: Path, work: Path) -> None:
+    """rnx2rtkp on observations.rnx with our navigation.rnx against our least squares with
+    RTKLIB's weighting on the same observables and the decoded records."""
+    from dataclasses import replace
+
+    from gnssframework.receiver.navigation.fixes import _stack
+
+    nav_records = decoded_records(obs.ephemeris, obs.sample_time_s, obs.rx_time_s, week)
+    nav_path = write_rinex_nav(work / "navigation.rnx", nav_records, obs.iono_utc)
+    rtk_dir = work / "rtk_navigation_rnx"
+    rtk_dir.mkdir(exist_ok=True)
+    rtk = rtklib_positions(rinex_path, nav_path, rtk_dir)
+    if rtk is None:
+        print("  --    navigation.rnx check not run: rnx2rtkp is not on PATH (Debian package rtklib)")
+        return
+    # Ours with the decoded records at every epoch (as RTKLIB takes the file's, not from the
+    # time each was decoded) and the decoded page 18, RTKLIB's weights, no troposphere.
+    ours = solve_epochs(replace(obs, ephemeris={}), _stack([r.record for r in nav_records]), reference_week=week,
+                        weighting="rtklib", iono=obs.iono_utc)
+    common, i, j = np.intersect1d(np.round(rtk[0], 3), np.round(ours.columns["tow_s"], 3), return_indices=True)
+    if not common.size:
+        check(False, f"rnx2rtkp with navigation.rnx: no epoch in common ({rtk[0].size} solutions, ours {len(ours)})")
+        return
+    d = np.linalg.norm(rtk[1][i] - ours.ecef_m[j], axis=1)
+    check(bool(d.max() <= 0.005 and common.size == len(ours)),
+          f"rnx2rtkp on observations.rnx with our navigation.rnx ({len(nav_records)} decoded records) against our "
+          f"least squares with RTKLIB's weighting and the same records: {common.size} of our {len(ours)} epochs, "
+          f"3-D difference max {d.max() * 1000:.1f} mm (aim: 5 mm; RTKLIB prints 0.1 mm, the header's Klobuchar "
+          f"D12.4 five digits)")
+
+
+def rtcm_check(check, obs, week: int, work: Path) -> None:
+    """The MSM7 stream through RTKLIB's convbin back to RINEX against our observables."""
+    import georinex
+
+    rtcm_path = write_rtcm(work / "observations.rtcm3", obs, week)
+    exe = shutil.which("convbin")
+    if exe is None:
+        print("  --    RTCM check not run: convbin is not on PATH (Debian package rtklib)")
+        return
+    first = np.datetime64("1980-01-06") + np.timedelta64(int(week * 604800 + obs.rx_time_s[0]), "s")
+    approx = str(first.astype("datetime64[s]")).replace("-", "/").replace("T", " ")
+    out_dir = work / "convbin"
+    out_dir.mkdir(exist_ok=True)
+    subprocess.run([exe, "-r", "rtcm3", "-tr", approx, "-od", "-os", "-d", str(out_dir), "-o", "rtcm.obs",
+                    str(rtcm_path)], check=True, capture_output=True, text=True)
+    back = georinex.load(out_dir / "rtcm.obs")
+    wavelength = 299_792_458.0 / 1575.42e6
+    t_ms = np.round(obs.rx_time_s * 1e3)
+    dt = t_ms * 1e-3 - obs.rx_time_s
+    tow_back = np.round(((back.time.values - np.datetime64("1980-01-06")) / np.timedelta64(1, "ms"))
+                        % 604_800_000).astype(np.int64)
+    # convbin writes D1C and S1C only where asked and able (rtklib 2.4.3 b34 left D1C out here):
+    # those it wrote are compared too.
+    kinds = [k for k in ("C1C", "D1C", "S1C") if k in back.data_vars]
+    worst = dict.fromkeys(kinds, 0.0)
+    n = 0
+    for e in range(obs.rx_time_s.size):
+        k = np.flatnonzero(tow_back == int(t_ms[e]) % 604_800_000)
+        for j, prn in enumerate(obs.prn):
+            if not np.isfinite(obs.pseudorange_m[e, j]):
+                continue
+            if not k.size or f"G{prn:02d}" not in back.sv.values:
+                worst["C1C"] = np.inf
+                continue
+            one = back.isel(time=int(k[0])).sel(sv=f"G{prn:02d}")
+            expected = {"C1C": obs.pseudorange_m[e, j] - wavelength * obs.doppler_hz[e, j] * dt[e],
+                        "D1C": obs.doppler_hz[e, j], "S1C": obs.cn0_dbhz[e, j]}
+            for kind in kinds:
+                worst[kind] = max(worst[kind], abs(float(one[kind]) - expected[kind]))
+            n += 1
+    aims = {"C1C": 1e-3, "D1C": 1e-3, "S1C": 0.1}
+    units = {"C1C": (1e3, "mm"), "D1C": (1e3, "mHz"), "S1C": (1.0, "dB-Hz")}
+    text = ", ".join(f"{k} within {worst[k] * units[k][0]:.2f} {units[k][1]} (aim {aims[k] * units[k][0]:g})"
+                     for k in kinds)
+    check(bool(n > 0 and all(worst[k] <= aims[k] for k in kinds)),
+          f"observations.rtcm3 (MSM7) through convbin back to RINEX: {n} pseudoranges; {text}")
 
 
 def header_klobuchar(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -230,6 +322,8 @@ def main(argv: list[str] | None = None) -> int:
         # The RINEX 3.04 observation file reads back through georinex with the same pseudoranges.
         rinex_path = write_rinex_obs(work / "observations.rnx", obs, week)
         rinex_read_back(check, obs, rinex_path, "observations.rnx")
+        rtcm_check(check, obs, week, work)
+        navigation_file_check(check, obs, week, rinex_path, work)
 
         # 3. Positions: decoded ephemerides, ekf-pv on them, then the RINEX file. ekf-pv's white
         # acceleration: its default (0.1 m²/s³) for the static receiver; on the circle, the

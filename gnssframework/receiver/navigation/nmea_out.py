@@ -1,4 +1,5 @@
-"""NMEA 0183 GGA and RMC sentences of a receiver's fixes (pynmea2 builds and checksums them).
+"""NMEA 0183 GGA, RMC, GSA and GSV sentences of a receiver's fixes (pynmea2 builds and
+checksums them).
 
 Times are UTC: GPS time minus the leap seconds (the decoded page 18's ΔtLS, IS-GPS-200
 20.3.3.5.2.4). GGA's altitude field holds the WGS 84 ellipsoidal height with a geoid
@@ -8,10 +9,18 @@ defines it. RMC's speed (knots) and course come from the fix's velocity.
 The talker is the fix's constellation (NMEA 0183 4.11: ``GP`` GPS, ``GA`` Galileo, ``GB``
 BeiDou, ``GL`` GLONASS, ``GQ`` QZSS; ``GN`` for a fix from several), from the signals'
 RINEX system letters (`nmea_talker`).
+
+With the satellites in view of each fix (`SkyView`), each fix's GGA and RMC are followed by
+a GSA (mode A, 3D fix, the PRNs used, at most 12, and PDOP, HDOP, VDOP; PDOP² = HDOP² +
+VDOP², the position block's trace) and by GSV sentences, four satellites each, with the
+elevation (deg), azimuth (deg from true north) and SNR (the C/N0 in dB-Hz, empty where not
+measured), all rounded to whole units as NMEA writes them. Satellites are numbered as NMEA
+0183 4.11 does for the talker: the PRN for GPS (1-32), PRN - 192 for QZSS (1-10).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from datetime import datetime, timedelta
 from pathlib import Path
 
@@ -23,7 +32,7 @@ from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .fixes import PositionTable
 
-__all__ = ["nmea_sentences", "write_nmea", "nmea_talker"]
+__all__ = ["nmea_sentences", "write_nmea", "nmea_talker", "SkyView", "gsa_gsv_sentences"]
 
 #: NMEA talker of a RINEX system letter (NMEA 0183 4.11; SBAS fixes count as GPS).
 _TALKERS = {"G": "GP", "S": "GP", "E": "GA", "C": "GB", "R": "GL", "J": "GQ", "I": "GI"}
@@ -46,6 +55,8 @@ def nmea_talker(*signals: SignalSpec, default: SignalSpec = GPS_L1CA) -> str:
     return talkers.pop() if len(talkers) == 1 else "GN"
 
 _GPS_EPOCH = datetime(1980, 1, 6)
+#: Satellite ID offset of NMEA 0183 4.11 per talker (QZSS PRN 193 is GQ satellite 1).
+_NMEA_ID_OFFSET = {"GQ": 192}
 _KNOT_MPS = 1852.0 / 3600.0
 
 
@@ -59,8 +70,52 @@ def _angle(value_deg: float, width: int, hemispheres: str) -> tuple[str, str]:
     return f"{degrees:0{width}d}{minutes:08.5f}", hemispheres[0] if value_deg >= 0 else hemispheres[1]
 
 
-def nmea_sentences(table: PositionTable, leap_seconds: int = 18, talker: str = "GP") -> list[str]:
-    """A GGA and an RMC sentence per fix of ``table``, from ``talker`` (`nmea_talker`)."""
+@dataclass(frozen=True)
+class SkyView:
+    """The satellites in view at one fix: PRN, elevation and azimuth (deg) and C/N0 (dB-Hz,
+    NaN where not measured), each ``(N,)``."""
+
+    prn: np.ndarray
+    elevation_deg: np.ndarray
+    azimuth_deg: np.ndarray
+    cn0_dbhz: np.ndarray
+
+
+def _whole(value: float, width: int) -> str:
+    return f"{int(round(float(value))):0{width}d}" if np.isfinite(value) else ""
+
+
+def gsa_gsv_sentences(used_prns: tuple[int, ...], hdop: float, vdop: float, sky: SkyView | None,
+                      talker: str = "GP", gsa: bool = True) -> list[str]:
+    """The GSA sentence of one fix (``used_prns``, its DOPs; none unless ``gsa``) and its GSV
+    sentences (``sky``; none without it). See the module text."""
+    offset = _NMEA_ID_OFFSET.get(talker, 0)
+    ids = [f"{int(p) - offset:02d}" for p in sorted(used_prns)[:12]]
+    pdop = float(np.hypot(hdop, vdop))
+    out = [str(pynmea2.GSA(talker, "GSA", ("A", "3", *ids, *[""] * (12 - len(ids)),
+                                           f"{pdop:.2f}", f"{hdop:.2f}", f"{vdop:.2f}")))] if gsa else []
+    if sky is None or not np.size(sky.prn):
+        return out
+    order = np.argsort(sky.prn, kind="stable")
+    n = order.size
+    pages = (n + 3) // 4
+    for page in range(pages):
+        fields = [str(pages), str(page + 1), f"{n:02d}"]
+        for j in order[4 * page:4 * page + 4]:
+            el = float(sky.elevation_deg[j])
+            fields += [f"{int(sky.prn[j]) - offset:02d}", _whole(el, 2),
+                       _whole(round(float(sky.azimuth_deg[j])) % 360, 3) if np.isfinite(el) else "",
+                       _whole(np.clip(sky.cn0_dbhz[j], 0, 99), 2)]
+        out.append(str(pynmea2.GSV(talker, "GSV", tuple(fields))))
+    return out
+
+
+def nmea_sentences(table: PositionTable, leap_seconds: int = 18, talker: str = "GP",
+                   sky: list[SkyView] | None = None, gsa: bool = False) -> list[str]:
+    """A GGA and an RMC sentence per fix of ``table``, from ``talker`` (`nmea_talker`);
+    then with ``gsa`` its GSA and with ``sky`` (one `SkyView` per fix) its GSV sentences."""
+    if sky is not None and len(sky) != len(table):
+        raise ConfigError("sky", f"one SkyView per fix: {len(sky)} for {len(table)} fixes")
     out = []
     c = table.columns
     for k in range(len(table)):
@@ -78,11 +133,16 @@ def nmea_sentences(table: PositionTable, leap_seconds: int = 18, talker: str = "
                                                  "" if np.isnan(speed) else f"{speed:.3f}",
                                                  "" if np.isnan(course) else f"{course:.2f}",
                                                  utc.strftime("%d%m%y"), "", "", "A"))))
+        if gsa or sky is not None:
+            out += gsa_gsv_sentences(table.used_prns[k], float(c["hdop"][k]), float(c["vdop"][k]),
+                                     None if sky is None else sky[k], talker, gsa)
     return out
 
 
-def write_nmea(path: str | Path, table: PositionTable, leap_seconds: int = 18, talker: str = "GP") -> Path:
-    """``nmea.txt``: the GGA and RMC sentences of every fix, one per line."""
+def write_nmea(path: str | Path, table: PositionTable, leap_seconds: int = 18, talker: str = "GP",
+               sky: list[SkyView] | None = None, gsa: bool = False) -> Path:
+    """``nmea.txt``: the GGA and RMC sentences of every fix (with ``gsa`` its GSA, with
+    ``sky`` its GSV), one per line."""
     path = Path(path)
-    path.write_text("".join(s + "\r\n" for s in nmea_sentences(table, leap_seconds, talker)))
+    path.write_text("".join(s + "\r\n" for s in nmea_sentences(table, leap_seconds, talker, sky, gsa)))
     return path

@@ -1,0 +1,166 @@
+"""RINEX 3.04 navigation file of the ephemerides a receiver decoded (``navigation.rnx``).
+
+One record per distinct decoded ephemeris (satellite, Toc, IODE), in the layout of RINEX
+3.04 section 6 and table A8 (GPS) / A14 (QZSS): a first line ``A1,I2.2`` satellite,
+the Toc as ``1X,I4,5(1X,I2.2)`` and af0, af1, af2 as ``D19.12``, then seven broadcast
+orbit lines of four ``D19.12`` fields after four spaces. The header carries the decoded
+page 18 when there is one (IS-GPS-200 20.3.3.5.1.6-7): ``IONOSPHERIC CORR`` ``GPSA`` /
+``GPSB`` (``A4,1X,4D12.4``), ``TIME SYSTEM CORR`` ``GPUT`` (a0, a1, tot, week of tot)
+and ``LEAP SECONDS`` (ΔtLS).
+
+What the decoded record does not keep is written as RINEX allows: IODC as the IODE (the
+low 8 bits of IODC, which LNAV requires to equal IODE: IS-GPS-200 20.3.3.4.1), the codes
+on L2 and the L2 P data flag as 0, the fit interval as 4 hours for GPS (the fit interval
+flag 0 of 20.3.3.4.3.1) and as the flag 0 (2 hours) for QZSS, whose records hold the flag
+(RINEX 3.04 table A14), and the transmission time of message as the GPS time of week at which
+the receiver had the record (its last subframe's end, 6 s after that subframe's HOW
+time). The GPS week (continuous, not modulo 1024) is the one that puts Toe (and Toc) within
+half a week of that time. The system letter and satellite names come from the signal's
+`SignalSpec` (``J01`` for QZSS PRN 193), so the same writer serves every LNAV-format
+signal; a system of another record layout (Galileo's data sources and BGDs) is refused.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import datetime, timedelta
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import ConfigError
+from ...navigation.ephemeris import Ephemerides
+from ...navigation.lnav import WEEK_S, IonoUtc
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
+
+__all__ = ["NavRecord", "decoded_records", "write_rinex_nav", "RINEX_NAV_SYSTEMS"]
+
+#: Systems whose records have the GPS LNAV layout of RINEX 3.04 (GPS, QZSS).
+RINEX_NAV_SYSTEMS = {"G": "GPS", "J": "QZSS"}
+_GPS_EPOCH = datetime(1980, 1, 6)
+#: The last field of BROADCAST ORBIT 7 per system: GPS's fit interval in hours (4: the flag
+#: 0 of IS-GPS-200 20.3.3.4.3.1), QZSS's fit interval flag itself (0: 2 hours; RINEX 3.04 A14).
+FIT_INTERVAL = {"G": 4.0, "J": 0.0}
+
+
+@dataclass(frozen=True)
+class NavRecord:
+    """One decoded ephemeris to write: its satellite's PRN, the record and the full GPS
+    week and time of week (s) at which the receiver had it."""
+
+    prn: int
+    record: Ephemerides
+    week: int
+    tow_s: float
+
+
+def _d19(value: float) -> str:
+    """FORTRAN ``D19.12``: `` 1.234567890123D-04``."""
+    return f"{float(value):19.12E}".replace("E", "D")
+
+
+def _d12(value: float) -> str:
+    """FORTRAN ``D12.4``: ``  1.1176D-08``."""
+    return f"{float(value):12.4E}".replace("E", "D")
+
+
+def _line(content: str, label: str) -> str:
+    return f"{content:<60.60}{label:<20}\n"
+
+
+def _week_near(week: int, tow_s: float, t_s: float) -> int:
+    """The week that puts the seconds of week ``t_s`` within half a week of ``(week, tow_s)``."""
+    return int(week + np.round((tow_s - t_s) / WEEK_S))
+
+
+def _calendar(week: int, tow_s: float) -> datetime:
+    return _GPS_EPOCH + timedelta(weeks=int(week), seconds=float(tow_s))
+
+
+def decoded_records(ephemeris: dict[int, list[tuple[float, Ephemerides]]], sample_time_s: np.ndarray,
+                    rx_time_s: np.ndarray, week: int) -> list[NavRecord]:
+    """The distinct records (by PRN, Toc and IODE) of ``Observables.ephemeris``, each with
+    the GPS time at which it was ready: the recording time it became known mapped to the
+    receiver clock of the observables' epochs (``sample_time_s`` -> ``rx_time_s``, linear),
+    in ``week`` (the full week of the epochs)."""
+    if week < 0:
+        raise ConfigError("week", "the GPS week of the epochs is unknown: the navigation file's dates need it")
+    sample_time_s = np.asarray(sample_time_s, float)
+    rx = np.unwrap(np.asarray(rx_time_s, float), period=WEEK_S)
+    out, seen = [], set()
+    for prn in sorted(ephemeris):
+        for ready_s, rec in ephemeris[prn]:
+            key = (prn, float(rec.toc_s[0]), int(rec.iode[0]))
+            if key in seen:
+                continue
+            seen.add(key)
+            if sample_time_s.size > 1:
+                slope = (rx[-1] - rx[0]) / (sample_time_s[-1] - sample_time_s[0])
+                t = rx[0] + slope * (ready_s - sample_time_s[0])
+            else:
+                t = rx[0] + (ready_s - sample_time_s[0])
+            out.append(NavRecord(prn, rec, week + int(t // WEEK_S), float(t % WEEK_S)))
+    return out
+
+
+def _orbit_lines(nav: NavRecord, system: str) -> list[str]:
+    rec = nav.record
+    e = {k: float(v[0]) for k, v in rec.elements.items()}
+    toe_week = _week_near(nav.week, nav.tow_s, e["Toe"])
+    iode = float(rec.iode[0])
+    accuracy = float(rec.accuracy_m[0]) if rec.accuracy_m is not None else -1.0
+    rows = ((iode, e["Crs"], e["DeltaN"], e["M0"]),
+            (e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]),
+            (e["Toe"], e["Cic"], e["Omega0"], e["Cis"]),
+            (e["Io"], e["Crc"], e["omega"], e["OmegaDot"]),
+            (e["IDOT"], 0.0, float(toe_week), 0.0),  # codes on L2, week, L2 P data flag
+            (accuracy, float(rec.health[0]), e["TGD"], iode),  # IODC: see the module text
+            (nav.tow_s, FIT_INTERVAL[system]))
+    return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
+
+
+def _header(records: list[NavRecord], iono: IonoUtc | None, signal: SignalSpec) -> list[str]:
+    first = records[0]
+    stamp = _calendar(first.week, first.tow_s).strftime("%Y%m%d %H%M%S") + " GPS"  # the data's date: same bytes
+    system = f"{signal.system}: {RINEX_NAV_SYSTEMS[signal.system]}"
+    out = [_line(f"{'3.04':>9}{'':11}{'N: GNSS NAV DATA':<20}{system:<20}", "RINEX VERSION / TYPE"),
+           _line(f"{'gnssframework':<20}{'':<20}{stamp:<20}", "PGM / RUN BY / DATE")]
+    if iono is not None:
+        out += [_line("GPSA " + "".join(_d12(v) for v in iono.alpha), "IONOSPHERIC CORR"),
+                _line("GPSB " + "".join(_d12(v) for v in iono.beta), "IONOSPHERIC CORR")]
+        # The 8-bit week of tot placed nearest the records' week (IS-GPS-200 20.3.3.5.2.4).
+        wnt = first.week + ((iono.wnt - first.week + 128) % 256) - 128
+        a0 = f"{float(iono.a0_s):17.10E}".replace("E", "D")
+        a1 = f"{float(iono.a1_s_s):16.9E}".replace("E", "D")
+        out += [_line(f"GPUT {a0}{a1} {int(iono.tot_s):6d} {wnt:4d}", "TIME SYSTEM CORR"),
+                _line(f"{int(iono.dt_ls_s):6d}", "LEAP SECONDS")]
+    return out + [_line("", "END OF HEADER")]
+
+
+def write_rinex_nav(path: str | Path, records: list[NavRecord], iono: IonoUtc | None = None,
+                    signal: SignalSpec = GPS_L1CA) -> Path:
+    """Write ``records`` (`decoded_records`) and the page 18 ``iono`` as a RINEX 3.04
+    navigation file of ``signal``'s system (see the module text).
+
+    Raises
+    ------
+    ConfigError
+        Without a record, or for a system whose records are not of the LNAV layout.
+    """
+    if signal.system not in RINEX_NAV_SYSTEMS:
+        raise ConfigError("signal", f"no RINEX navigation record layout for system {signal.system!r} "
+                                    f"({signal.name}) here (systems: {', '.join(RINEX_NAV_SYSTEMS)})")
+    if not records:
+        raise ConfigError("ephemeris", "no ephemeris was decoded: no navigation file to write")
+    path = Path(path)
+    body = []
+    for nav in sorted(records, key=lambda r: (r.prn, r.week, float(r.record.toc_s[0]))):
+        rec = nav.record
+        toc = _calendar(_week_near(nav.week, nav.tow_s, float(rec.toc_s[0])), float(rec.toc_s[0]))
+        body.append(f"{signal.rinex_satellite(nav.prn)} {toc:%Y %m %d %H %M %S}"
+                    + "".join(_d19(rec.elements[k][0]) for k in ("SVclockBias", "SVclockDrift", "SVclockDriftRate"))
+                    + "\n")
+        body += _orbit_lines(nav, signal.system)
+    path.write_text("".join(_header(records, iono, signal) + body))
+    return path
