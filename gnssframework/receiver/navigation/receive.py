@@ -11,7 +11,7 @@ fix on (`filtered.filter_epochs`) and gives the positions.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import pymap3d
@@ -56,7 +56,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             nav_filter: PluginSpec | None = None, vector: VectorConfig | None = None,
             acquisitions: list[AcquisitionResult] | None = None, assist: Assistance | None = None,
             iono_fallback: IonoUtc | None = None, weighting: str | None = None,
-            signal: SignalSpec = GPS_L1CA, filters: StageFilters | None = None) -> ReceiveResult:
+            signal: SignalSpec = GPS_L1CA, filters: StageFilters | None = None,
+            observe: Callable[[SampleTracker], Any] | None = None) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
     fraction of the recording tracked. With ``nav_filter`` the positions are that filter's
@@ -73,7 +74,9 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     that of the least-squares fixes (`pvt.solve_position`'s; ``rtklib`` for RTKLIB's SPP model).
     ``signal`` is the one searched, tracked and dated (an LNAV-format `SignalSpec`: GPS or
     QZSS L1 C/A); ``filters`` the stages' channel filters built once for the task
-    (`channels.factory.StageFilters` of ``config``; built by the tracker when None)."""
+    (`channels.factory.StageFilters` of ``config``; built by the tracker when None). ``observe``
+    is given the scalar tracker before it runs (a live receiver's fixes as they come,
+    `live.LiveFixes`, read its records from ``progress``)."""
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
                                         "give nav_filter or vector, not both")
@@ -109,8 +112,10 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     if assist is not None:
         raise ConfigError("approx_position", "an approximate position and start time start vector tracking: "
                                              "give vector as well")
-    tracking = SampleTracker(recording, config, acquisition, signal=signal, filters=filters).run(found, duration_s,
-                                                                                                progress)
+    scalar_tracker = SampleTracker(recording, config, acquisition, signal=signal, filters=filters)
+    if observe is not None:
+        observe(scalar_tracker)
+    tracking = scalar_tracker.run(found, duration_s, progress)
     timings = [channel_timing(ch, signal=signal) for ch in tracking.channels.values()]
     if not any(t is not None and t.time_s.size > 1 for t in timings):
         return ReceiveResult(tracking, None, None)
