@@ -198,3 +198,22 @@ def test_the_nmea_server_sends_every_sentence_to_every_client():
     server.close()
     with pytest.raises(ConfigError, match="tcp://"):
         open_nmea_sink("udp://x:1")
+
+
+@pytest.mark.parametrize("extra, message", [
+    ([], "--format"),
+    (["--format", "ci8"], "--fs"),
+    (["--format", "ci8", "--fs", "4e6", "--center-freq", "1575420000"], "rtl_tcp:// server only"),
+    (["--format", "ci8", "--fs", "4e6", "--tracking", "vector"], "live input runs scalar tracking"),
+    (["--format", "ci8", "--fs", "4e6", "--nmea-out", "udp://x:1"], "tcp://"),
+])
+def test_receive_refuses_a_stream_without_what_it_needs_in_one_line(tmp_path, capsys, extra, message):
+    from gnssframework.cli import main
+
+    fifo = tmp_path / "iq"
+    os.mkfifo(fifo)
+    writer = threading.Thread(target=lambda: open(fifo, "wb").close(), daemon=True)  # (a FIFO opens with a writer)
+    writer.start()
+    assert main(["receive", str(fifo), "--out", str(tmp_path / "o"), "--quiet", *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err

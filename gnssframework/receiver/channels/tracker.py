@@ -257,7 +257,7 @@ class SampleTracker:
         while True:
             live = np.flatnonzero(self.active)
             if live.size == 0:  # every channel lost: only re-acquisition can go on
-                if not self.channels or next_reacq >= stop:
+                if not self.channels or next_reacq >= min(stop, self.rec.n_samples):  # (a stream's, once ended)
                     break
                 self.closer.reacquire(next_reacq, stop)
                 next_reacq += every

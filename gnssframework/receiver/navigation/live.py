@@ -133,3 +133,32 @@ class LiveFixes:
         leap = obs.iono_utc.dt_ls_s if obs is not None and obs.iono_utc is not None else DEFAULT_LEAP_S
         self._send(table_rows(table, table.sample_time_s > self.sent_until_s), leap)
         self.sent_until_s = max(self.sent_until_s, float(table.sample_time_s[-1]))
+
+
+class LiveRun:
+    """A command's live input and output: the stream recording (or a file), the NMEA sinks
+    and `LiveFixes`; `finish` sends the last fixes, closes everything and returns the
+    overrun line (``""`` for a file or a run that dropped nothing)."""
+
+    def __init__(self, recording, sinks: list[NmeaSink]) -> None:
+        self.recording = recording
+        self.sinks = sinks
+        self.fixes: LiveFixes | None = None
+
+    def start(self, **solve) -> LiveFixes:
+        """The `LiveFixes` of this run (``solve``: its keyword arguments but the sinks)."""
+        self.fixes = LiveFixes(self.sinks, **solve)
+        return self.fixes
+
+    def finish(self, table: PositionTable | None = None, obs: Observables | None = None) -> str:
+        try:
+            if self.fixes is not None:
+                self.fixes.finish(table, obs)
+        finally:
+            for sink in self.sinks:
+                sink.close()
+            close = getattr(self.recording, "close", None)
+            if close is not None:
+                close()
+        overruns = getattr(self.recording, "overrun_summary", None)
+        return overruns() if overruns is not None and (self.recording.realtime or self.recording.gaps) else ""
