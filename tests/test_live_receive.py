@@ -116,27 +116,32 @@ def test_a_stalled_realtime_consumer_counts_its_overruns_and_still_fixes(recordi
     data = path.read_bytes()
     bytes_per_sample = 4  # ci16_le
     lead_s, stall_at_s, min_dropped = 0.05, 0.3, 5
-    state = {"stalled": False, "rec": None}
+    state = {"stalled": False, "rec": None, "limit": 0}
     stall = threading.Event()
 
     def gate(offset: int) -> None:
-        """The producer keeps at most lead_s ahead of what the receiver took, except while
-        it stalls (then it sends on, as a real front end does)."""
-        while not stall.is_set():
+        """The producer sends while the reader's queue has room for what may be in flight
+        (a chunk, a partial block), except while the consumer stalls: then it sends on (as
+        a front end does) up to ``state["limit"]``, more than the queue holds."""
+        while True:
             rec = state["rec"]
-            if rec is not None:  # what the receiver took, and the places of what was dropped
-                taken = max([rec.received_samples] + [end // bytes_per_sample for _, end in rec.gaps[-1:]])
-                if offset / bytes_per_sample <= taken + lead_s * FS:
-                    return
+            if rec is not None:
+                if stall.is_set():
+                    if offset / bytes_per_sample <= state["limit"]:
+                        return
+                elif offset <= rec.stream_bytes + 2 * chunk and rec.queued_blocks[0] <= rec.queued_blocks[1] - 3:
+                    return  # the reader has read what was sent and its queue has room for what may follow
             time.sleep(0.001)
 
-    port = _serve(data, gate)
+    chunk = 65536
+    port = _serve(data, gate, chunk)
     rec = open_stream(f"tcp://127.0.0.1:{port}", "ci16_le", FS, realtime=True, block_s=0.01, buffer_s=0.1)
     state["rec"] = rec
 
     def progress(fraction: float) -> None:  # the artificially slow consumer: one stall at 0.3 s
         if not state["stalled"] and rec.received_samples > stall_at_s * FS:
             state["stalled"] = True
+            state["limit"] = rec.received_samples + (lead_s + 0.1 + 0.12) * FS  # the queue holds 0.1 s
             stall.set()
             deadline = time.monotonic() + 60
             while rec.overrun_blocks < min_dropped and time.monotonic() < deadline:
@@ -159,7 +164,8 @@ def test_a_stalled_realtime_consumer_counts_its_overruns_and_still_fixes(recordi
         assert events and all(gap[0] / FS - 0.03 < t <= gap[0] / FS for t, _ in events), ch.events
         assert any(what == "re-acquired" and t >= gap[1] / FS for t, what in ch.events), ch.events
     table = result.positions
-    assert table is not None and len(table) >= 3 and np.all(table.sample_time_s > gap[1] / FS)
+    assert table is not None and len(table) >= 3 and np.all(table.sample_time_s > gap[1] / FS), (
+        gap, blocks, result.tracking.duration_s, {p: c.events for p, c in result.tracking.channels.items()})
     err = np.linalg.norm(table.ecef_m - STATION, axis=1)
     # As test_receiver_fix: ~1.7 m of code noise per satellite, PDOP-scaled: a wrong count of
     # samples across the gap (1 sample = 147 m) would be far outside.

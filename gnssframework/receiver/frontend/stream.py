@@ -93,6 +93,8 @@ class StreamRecording(Recording):
         #: Runs of dropped bytes ``(first byte, end byte)`` in order (reader thread appends).
         self.gaps: list[tuple[int, int]] = []
         self.overrun_blocks = 0
+        #: Bytes read from the stream so far by the reader thread (queued, dropped or in a partial block).
+        self.stream_bytes = 0
         self._stop = threading.Event()
         self._lock = threading.Lock()
         self._thread = threading.Thread(target=self._reader, name="gnssframework-stream-reader", daemon=True)
@@ -110,6 +112,7 @@ class StreamRecording(Recording):
                     if not more:
                         break
                     data += more
+                    self.stream_bytes += len(more)
                 whole = len(data) - len(data) % bpc
                 if whole:
                     block = np.frombuffer(bytes(data[:whole]), np.uint8)
@@ -193,10 +196,6 @@ class StreamRecording(Recording):
         """`OPEN_ENDED_SAMPLES` until the stream ends, then the samples it held."""
         return self._sample(self._received) if self._ended else OPEN_ENDED_SAMPLES
 
-    @n_samples.setter
-    def n_samples(self, value: int) -> None:  # Recording.__init__ is not run; nothing to set
-        pass
-
     @property
     def ended(self) -> bool:
         """The stream has ended and every block has been taken off the queue."""
@@ -206,6 +205,11 @@ class StreamRecording(Recording):
     def received_samples(self) -> int:
         """Samples taken off the queue so far (their places: dropped ones count)."""
         return self._sample(self._received)
+
+    @property
+    def queued_blocks(self) -> tuple[int, int]:
+        """``(blocks on the queue now, blocks it holds)``."""
+        return self._queue.qsize(), self._queue.maxsize
 
     def overruns(self) -> tuple[int, int]:
         """``(blocks, samples)`` dropped so far (``realtime`` only)."""
