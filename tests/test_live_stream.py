@@ -217,3 +217,21 @@ def test_receive_refuses_a_stream_without_what_it_needs_in_one_line(tmp_path, ca
     assert main(["receive", str(fifo), "--out", str(tmp_path / "o"), "--quiet", *extra]) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_receive_reads_standard_input_to_its_end(tmp_path, capsys, monkeypatch):
+    from gnssframework.cli import main
+
+    rng = np.random.default_rng(3)  # 0.2 s of noise: read to the end, nothing found, no position
+    noise = registry.create("sample_source", "ci8").encode((rng.normal(size=409_200) + 1j * rng.normal(size=409_200))
+                                                           * 20)
+
+    class Stdin:
+        buffer = io.BytesIO(noise)
+
+    monkeypatch.setattr("sys.stdin", Stdin)
+    code = main(["receive", "-", "--format", "ci8", "--fs", str(FS), "--out", str(tmp_path / "o"), "--quiet",
+                 "--prns", "1", "2"])
+    out = capsys.readouterr()
+    assert code == 1 and "nothing found" in out.out, out.out + out.err
+    assert "overruns" not in out.err
