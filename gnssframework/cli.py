@@ -232,7 +232,10 @@ def _cmd_schema(args: argparse.Namespace) -> int:
 
 def _open_recording_from_args(args: argparse.Namespace):
     from .receiver.frontend import open_recording
+    from .receiver.frontend.stream_io import is_stream_address
 
+    if hasattr(args, "realtime") and is_stream_address(args.recording):  # receive's live input
+        return _open_stream_from_args(args)
     if not Path(args.recording).exists():  # the wording every command uses for a missing file
         raise DataFileError(args.recording, None, "no such file")
     if not Path(args.recording).is_file():
@@ -240,6 +243,51 @@ def _open_recording_from_args(args: argparse.Namespace):
                                                   "recorded samples")
     return open_recording(args.recording, format=args.format, sample_rate_hz=args.fs, if_hz=args.if_hz,
                           q_sign=args.q_sign)
+
+
+def _open_stream_from_args(args: argparse.Namespace):
+    """``receive``'s live input (`frontend.stream.open_stream`): --format and --fs needed
+    (cu8 by default from rtl_tcp); overruns announced on standard error as they begin."""
+    from .receiver.frontend.stream import open_stream
+    from .receiver.frontend.stream_io import RtlTcpSettings
+
+    rtl = args.recording.startswith("rtl_tcp://")
+    fmt = args.format or ("cu8" if rtl else None)
+    if fmt is None or args.fs is None:
+        raise ConfigError("--format" if fmt is None else "--fs",
+                          f"{args.recording}: a stream has no SigMF metadata: give --format and --fs")
+    if not rtl and (args.center_freq is not None or args.gain is not None):
+        raise ConfigError("--center-freq" if args.center_freq is not None else "--gain",
+                          "tunes an rtl_tcp:// server only")
+    if args.tracking == "vector":
+        raise ConfigError("--tracking", "live input runs scalar tracking (vector tracking reads a file)")
+    announced = []
+
+    def overrun(first: int, count: int) -> None:
+        if not announced:
+            announced.append(first)
+            print(f"overrun: the receiver lags the stream: samples dropped from {first / args.fs:.3f} s of signal "
+                  "(counted; the channels re-acquire after each gap)", file=sys.stderr, flush=True)
+
+    settings = RtlTcpSettings(args.center_freq, args.fs, None if args.gain is None else round(10 * args.gain)) \
+        if rtl else None
+    return open_stream(args.recording, fmt, args.fs, args.if_hz or 0.0, args.q_sign or 1, realtime=args.realtime,
+                       buffer_s=args.buffer_s, rtl_tcp=settings, on_overrun=overrun)
+
+
+def _add_live_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("live input and output (docs: Live input)")
+    g.add_argument("--realtime", action="store_true",
+                   help="with a stream (-, a FIFO, tcp://HOST:PORT, rtl_tcp://HOST:PORT): drop whole blocks the "
+                        "receiver cannot take in time, counted and reported as overruns, instead of holding the "
+                        "producer back (the default)")
+    g.add_argument("--buffer-s", type=float, default=1.0, metavar="S",
+                   help="signal queued between the stream reader and the receiver (default %(default)s)")
+    g.add_argument("--center-freq", type=float, metavar="HZ", help="rtl_tcp: tune to HZ (e.g. 1575420000)")
+    g.add_argument("--gain", type=float, metavar="DB", help="rtl_tcp: manual tuner gain (default automatic)")
+    g.add_argument("--nmea-out", metavar="DEST",
+                   help="send GGA and RMC as fixes come: - (standard output; the messages go to standard error) "
+                        "or tcp://[HOST]:PORT (a server for gpsd and other clients)")
 
 
 def _acquisition_from_args(args: argparse.Namespace):
@@ -358,14 +406,23 @@ MIN_DURATION_S = 0.02
 MAX_RATE_HZ = 1000.0
 
 
+def _both(first: Callable[[float], None] | None, second: Callable[[float], None] | None):
+    """A progress callback calling both (either may be None)."""
+    if first is None or second is None:
+        return first or second
+    return lambda fraction: (first(fraction), second(fraction))
+
+
 @contextmanager
-def _recording_progress(args: argparse.Namespace, rec=None) -> Iterator[Callable[[float], None] | None]:
+def _recording_progress(args: argparse.Namespace, rec=None, quiet: bool = False,
+                        ) -> Iterator[Callable[[float], None] | None]:
     """The tracker's progress callback (fraction of the recording done): a bar on a terminal,
-    a line per tenth of the recording in a log or a pipe, none with ``--quiet``; with the
-    recording ``rec``, the signal time processed and the real-time factor too."""
+    a line per tenth of the recording in a log or a pipe, none with ``--quiet`` (or
+    ``quiet``: a live stream has no known length); with the recording ``rec``, the signal
+    time processed and the real-time factor too."""
     from .progress import Progress
 
-    if args.quiet:
+    if args.quiet or quiet:
         yield None
         return
     signal_s = None
@@ -496,6 +553,33 @@ def _assist_from_args(args: argparse.Namespace, nav_info=None):
 
 
 def _cmd_receive(args: argparse.Namespace) -> int:
+    if args.nmea_out == "-":  # standard output carries the sentences: the messages go to standard error
+        import contextlib
+
+        from .receiver.navigation.nmea_stream import NmeaWriter
+
+        sink = NmeaWriter(sys.stdout)
+        with contextlib.redirect_stdout(sys.stderr):
+            return _receive(args, sink)
+    return _receive(args, None)
+
+
+def _receive(args: argparse.Namespace, stdout_sink) -> int:
+    """``receive`` with its live input and NMEA sinks closed whatever happens."""
+    from .receiver.navigation.live import LiveRun
+    from .receiver.navigation.nmea_stream import open_nmea_sink
+
+    sinks = [stdout_sink] if stdout_sink is not None else [open_nmea_sink(args.nmea_out)] if args.nmea_out else []
+    live = LiveRun(_open_recording_from_args(args), sinks)
+    try:
+        return _receive_run(args, live)
+    finally:
+        overruns = live.finish()
+        if overruns:
+            print(overruns, file=sys.stderr)
+
+
+def _receive_run(args: argparse.Namespace, live) -> int:
     import json
     import time
 
@@ -516,7 +600,7 @@ def _cmd_receive(args: argparse.Namespace) -> int:
 
     _threads_from_args(args)
     outputs = parse_outputs(args.outputs)
-    rec = _open_recording_from_args(args)
+    rec = live.recording
     acq = _acquisition_from_args(args)
     signal = _signal_from_args(args)
     prns = _prns_from_args(args, signal)
@@ -567,13 +651,27 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     if not args.quiet:  # a line as each phase ends (a refused one leaves its one error line alone)
         phase(name, f"acquisition found {sum(r.detected for r in acquisitions)} of {len(acquisitions)} PRNs; "
                     "tracking, decoding LNAV, positioning", started)
-    with _recording_progress(args, rec) as progress:
+    iono_fallback = nav_info.iono if nav_info is not None and not args.no_iono else None
+    fixes = None
+    if live.sinks and vector is None:
+        fixes = live.start(rate_hz=args.rate, rinex=rinex, ionosphere=not args.no_iono, troposphere=args.troposphere,
+                           reference_week=reference_week, weighting=args.weighting, signal=signal,
+                           iono_fallback=iono_fallback)
+    elif live.sinks:
+        print("note: with --tracking vector the NMEA sentences are sent at the end of the run")
+        fixes = live.start(rate_hz=args.rate, signal=signal)
+    streaming = hasattr(rec, "overrun_summary")
+    with _recording_progress(args, rec, quiet=streaming) as progress:
         result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
                          ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
-                         progress=progress, nav_filter=filters.nav_filter,
-                         vector=vector, assist=assist, acquisitions=acquisitions,
-                         iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
-                         weighting=args.weighting, signal=signal, raim=raim)
+                         progress=_both(progress, fixes if vector is None else None), nav_filter=filters.nav_filter,
+                         vector=vector, assist=assist, acquisitions=acquisitions, iono_fallback=iono_fallback,
+                         weighting=args.weighting, signal=signal, raim=raim,
+                         observe=fixes.observe if fixes is not None and vector is None else None)
+    if fixes is not None:
+        fixes.finish(result.positions, result.observables)
+        print(f"NMEA: {fixes.sent} fixes sent to {', '.join(s.description for s in live.sinks)}")
+    overruns = rec.overrun_summary() if streaming and rec.realtime else ""
     if result.vector is not None and result.vector.handover_s is not None:
         print(f"vector tracking from {result.vector.handover_s:.1f} s of PRN "
               f"{', '.join(str(p) for p in result.vector.prns)} (channel filter {vector.channel_filter})")
@@ -626,7 +724,8 @@ def _cmd_receive(args: argparse.Namespace) -> int:
     used = (f"channel filter {config.channel_filter}, "
             + (f"nav filter {nav_name} from the first least-squares fix" if nav_name else
                "least squares per epoch"))
-    written += write_receive_report(out, result, table, truth, rinex, f"Filters: {used}.")
+    written += write_receive_report(out, result, table, truth, rinex, f"Filters: {used}."
+                                    + (f" Live input {rec.description}: {overruns}." if overruns else ""))
     print(f"{len(table)} fixes ({used}) from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
           f"{int(c['gps_week'][0])}, tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} "
           f"satellites; last {c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP "
@@ -706,8 +805,10 @@ def _threads_from_args(args: argparse.Namespace) -> None:
 
 
 def _add_recording_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("recording", help="sample file (a SigMF .sigmf-meta beside it gives format, rate and IF)")
-    p.add_argument("--format", help="sample format: ri8, ci8, ci16_le, cf32_le (SigMF names), ri2/ci2 (2-bit "
+    p.add_argument("recording", help="sample file (a SigMF .sigmf-meta beside it gives format, rate and IF); "
+                                     "receive also reads a stream: - (standard input), a FIFO, tcp://HOST:PORT, "
+                                     "rtl_tcp://HOST:PORT")
+    p.add_argument("--format", help="sample format: ri8, ci8, cu8, ci16_le, cf32_le (SigMF names), ri2/ci2 (2-bit "
                                     "packed) or a plugin's")
     p.add_argument("--fs", type=float, metavar="HZ", help="sample rate")
     p.add_argument("--if", dest="if_hz", type=float, metavar="HZ", help="intermediate frequency (default 0)")
@@ -968,6 +1069,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(observations.rtcm3, RTCM 3 MSM7 observations); default stands for "
                         "rinex-nav,gsa,gsv,geojson, the set written without this option")
     p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
+    _add_live_options(p)
     p.set_defaults(func=_cmd_receive)
     p = sub.add_parser("schema", help="print the JSON schema of comparison configs")
     p.set_defaults(func=_cmd_schema)

@@ -3,7 +3,8 @@
 SigMF datatype names where SigMF has one (SigMF specification, "Dataset Format"):
 ``ri8`` (real int8), ``ci8`` (interleaved int8 I/Q), ``ci16_le`` (interleaved
 little-endian int16 I/Q), ``cf32_le`` (interleaved float32 I/Q, GNSS-SDR's
-``gr_complex``). Packed 2-bit samples (``ri2``, ``ci2``), which SigMF has no name for:
+``gr_complex``), ``cu8`` (interleaved unsigned 8-bit I/Q, the RTL-SDR's ``rtl_sdr`` and
+``rtl_tcp`` output: each byte ``b`` stands for ``b - 127.5``). Packed 2-bit samples (``ri2``, ``ci2``), which SigMF has no name for:
 four 2-bit values a byte, the first sample in the least significant bits, each a
 two's-complement value v in -2..1 standing for the level 2v + 1 (-3, -1, +1, +3), the
 symmetric four-level quantiser of front ends such as the MAX2771.
@@ -18,7 +19,7 @@ import numpy as np
 from gnssframework.plugin import PluginParams
 from gnssframework.receiver.frontend.source import SampleSource
 
-__all__ = ["RealInt8", "ComplexInt8", "ComplexInt16", "ComplexFloat32", "RealPacked2", "ComplexPacked2"]
+__all__ = ["RealInt8", "ComplexInt8", "ComplexUint8", "ComplexInt16", "ComplexFloat32", "RealPacked2", "ComplexPacked2"]
 
 
 class FormatParams(PluginParams):
@@ -72,6 +73,24 @@ class ComplexInt8(SampleSource):
 
     def encode(self, samples: np.ndarray) -> bytes:
         return _to_int(_interleave(samples), np.int8).tobytes()
+
+
+class ComplexUint8(SampleSource):
+    """Interleaved I/Q, one unsigned byte each, offset binary (SigMF ``cu8``; RTL-SDR's
+    ``rtl_sdr`` and ``rtl_tcp`` output): byte ``b`` is the value ``b - 127.5`` (the
+    RTL2832U's 8-bit ADC codes centred between 127 and 128)."""
+
+    name = "cu8"
+    Params = FormatParams
+    description = "interleaved unsigned 8-bit I/Q, offset 127.5 (SigMF cu8; rtl_sdr, rtl_tcp)"
+    bytes_per_chunk = 2
+    sigmf_datatype = "cu8"
+
+    def decode(self, raw: np.ndarray) -> np.ndarray:
+        return (raw.astype(np.float32) - np.float32(127.5)).view(np.complex64)
+
+    def encode(self, samples: np.ndarray) -> bytes:
+        return np.clip(np.rint(_interleave(samples) + 127.5), 0, 255).astype(np.uint8).tobytes()
 
 
 class ComplexInt16(SampleSource):

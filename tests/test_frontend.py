@@ -15,7 +15,7 @@ from gnssframework.receiver.frontend import (SatelliteSignal, open_recording, sy
 from gnssframework.receiver.frontend.sigmf_meta import read_sigmf_meta
 
 FS = 2.6e6
-FORMATS = {"ri8": False, "ci8": True, "ci16_le": True, "cf32_le": True, "ri2": False, "ci2": True}
+FORMATS = {"ri8": False, "ci8": True, "ci16_le": True, "cf32_le": True, "ri2": False, "ci2": True, "cu8": True}
 
 
 def test_the_built_in_formats_are_sample_source_plugins():

@@ -261,7 +261,7 @@ class SampleTracker:
         while True:
             live = np.flatnonzero(self.active)
             if live.size == 0:  # every channel lost: only re-acquisition can go on
-                if not self.channels or next_reacq >= stop:
+                if not self.channels or next_reacq >= min(stop, self.rec.n_samples):  # (a stream's, once ended)
                     break
                 self.closer.reacquire(next_reacq, stop)
                 next_reacq += every
@@ -287,6 +287,13 @@ class SampleTracker:
             if ends.max() > stop:
                 break
             buf, first = self._samples(int(starts.min()), int(ends.max()))
+            if first + buf.shape[0] // (2 if self.rec.is_complex else 1) < ends.max():
+                break  # a live stream ended
+            if self.rec.dropped_between(int(starts.min()), int(ends.max())) is not None:  # a live stream's overrun
+                after = self._lose_across(idx, starts, ends)
+                if after is not None:
+                    next_reacq = after
+                    continue
             dop = self.doppler[idx]
             carrier0 = (self.if_hz * starts / fs) % 1.0 + self.doppler_cycles[idx]
             if tables_for is None or not np.array_equal(tables_for, idx):  # channel set changed: new tables
@@ -317,6 +324,7 @@ class SampleTracker:
             if lead.min() >= next_reacq:
                 self.closer.reacquire(int(lead.max()), stop)
                 next_reacq += every
+        stop = min(stop, self.rec.n_samples)  # a live stream's length is known at its end
         result = TrackingResult(self.records, list(acquisitions), stop / fs, cfg.channel_filter)
         self.closer.finish(result)
         return result
@@ -327,11 +335,29 @@ class SampleTracker:
         need = self.acquisition.samples_needed(self.fs, self.signal)
         if not prns or at + need > stop:
             return
-        found = self.acquisition.acquire(self.rec.read(at, need), self.fs, self.if_hz, prns, self.signal)
+        samples = self.rec.read(at, need)
+        if samples.shape[0] < need:  # a live stream ended
+            return
+        found = self.acquisition.acquire(samples, self.fs, self.if_hz, prns, self.signal)
         for acq in found:
             if acq.detected:
                 self.records[acq.prn].events.append((at / self.fs, "re-acquired"))
                 self.add(acq.prn, acq, at)
+
+    def _lose_across(self, idx: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> int | None:
+        """Channels of ``idx`` whose next interval ``[starts, ends)`` crosses samples a live
+        stream dropped (an overrun) are lost (`deactivate`) until re-acquisition after the
+        gap: their NCOs are not carried across it, so nothing is measured over it. The last
+        such gap's end (None: no interval crosses one)."""
+        after = None
+        for i, lo, hi in zip(idx.tolist(), starts.tolist(), ends.tolist()):
+            gap = self.rec.dropped_between(lo, hi)
+            if gap is not None:
+                what = (f"overrun: samples {gap[0]}-{gap[1]} ({(gap[1] - gap[0]) / self.fs:.3f} s) dropped: lost "
+                        "until re-acquired after them")
+                self.deactivate(self.channels[self.signal.prns[i]], gap[1], (gap[0] / self.fs, what))
+                after = gap[1] if after is None else max(after, gap[1])
+        return after
 
     def deactivate(self, c: SampleChannel, retry_at: int, event: tuple[float, str]) -> None:
         """Channel ``c`` is ``lost``: out of its batch and of the active channels until

@@ -13,7 +13,7 @@ from ...errors import ConfigError
 from .sigmf_meta import SigmfInfo, meta_path_for, read_sigmf_meta
 from .source import SampleSource
 
-__all__ = ["RecordingInfo", "Recording", "open_recording"]
+__all__ = ["RecordingInfo", "Recording", "open_recording", "check_recording_info"]
 
 #: SigMF datatypes whose bytes are the samples' components as they are (SigMF
 #: specification, "Dataset Format"): read without decoding (`Recording.read_components`).
@@ -74,6 +74,17 @@ class Recording:
             self.nonfinite_zeroed += int(bad.sum())
         return x
 
+    def _raw(self, offset_bytes: int, count_bytes: int) -> np.ndarray:
+        """``count_bytes`` bytes (``uint8``) of the samples from byte ``offset_bytes`` (fewer
+        at the end): the one place the bytes are fetched (a live stream,
+        `frontend.stream.StreamRecording`, fetches them from its buffer)."""
+        return np.fromfile(self.path, dtype=np.uint8, count=count_bytes, offset=offset_bytes)
+
+    def dropped_between(self, first: int, stop: int) -> tuple[int, int] | None:
+        """The first run ``(first_sample, end_sample)`` of samples lost (never received: a
+        live stream's overrun) overlapping ``[first, stop)``; None for a file (none lost)."""
+        return None
+
     @property
     def is_complex(self) -> bool:
         return self.source.is_complex
@@ -93,7 +104,7 @@ class Recording:
         bpc, spc = self.source.bytes_per_chunk, self.source.samples_per_chunk
         first = start // spc
         last = -(-(start + count) // spc)
-        raw = np.fromfile(self.path, dtype=np.uint8, count=(last - first) * bpc, offset=first * bpc)
+        raw = self._raw(first * bpc, (last - first) * bpc)
         x = self.source.decode(raw)[start - first * spc:start - first * spc + count]
         if self._floating:
             x = self._zero_nonfinite(x)
@@ -116,7 +127,7 @@ class Recording:
             raise ConfigError("start", f"sample range must be non-negative, got start {start}, count {count}")
         count = max(0, min(count, self.n_samples - start))
         bpc = self.source.bytes_per_chunk
-        raw = np.fromfile(self.path, dtype=np.uint8, count=count * bpc, offset=start * bpc)
+        raw = self._raw(start * bpc, count * bpc)
         out = raw.view(stored).astype(np.dtype(stored).newbyteorder("="), copy=False)
         return self._zero_nonfinite(out) if self._floating else out
 
@@ -137,6 +148,36 @@ def _pick(name: str, given, from_meta, default=None):
     if default is not None:
         return default
     raise ConfigError(name, "not given and no SigMF metadata file beside the recording states it")
+
+
+def check_recording_info(format: str, sample_rate_hz: float, if_hz: float = 0.0, q_sign: int = 1,
+                         start_time: str | None = None, fields: dict[str, str] | None = None) -> RecordingInfo:
+    """The `RecordingInfo` of these values once checked (a file's or a live stream's);
+    ``fields`` renames a parameter in the errors (where its value came from).
+
+    Raises
+    ------
+    ConfigError
+        An unknown format, a rate or IF a GPS L1 C/A receiver cannot use, a bad Q sign.
+    """
+    name = (fields or {}).get
+    known = registry.names("sample_source")
+    if format not in known:
+        raise ConfigError(name("format", "format"), f"unknown sample format {format!r}; known: {', '.join(known)}")
+    fs, fif, qs = float(sample_rate_hz), float(if_hz), int(q_sign)
+    fs_field, if_field = name("sample_rate_hz", "sample_rate_hz"), name("if_hz", "if_hz")
+    if not np.isfinite(fs) or fs < 2.046e6:
+        raise ConfigError(fs_field, f"{fs:g} Hz is below the C/A main lobe (needs >= 2.046 MHz)")
+    if not np.isfinite(fif):
+        raise ConfigError(if_field, f"must be a finite number of Hz, got {fif:g}")
+    if qs not in (1, -1):
+        raise ConfigError("q_sign", f"must be 1 or -1, got {qs}")
+    is_complex = registry.create("sample_source", format).is_complex
+    if not is_complex and not 0 < fif < fs / 2:
+        raise ConfigError(if_field, f"real samples need 0 < IF < fs/2 = {fs / 2:g} Hz, got {fif:g}")
+    if is_complex and abs(fif) >= fs / 2:
+        raise ConfigError(if_field, f"complex samples need |IF| < fs/2 = {fs / 2:g} Hz, got {fif:g}")
+    return RecordingInfo(format, fs, fif, qs, start_time)
 
 
 def open_recording(path: str | Path, format: str | None = None, sample_rate_hz: float | None = None,
@@ -165,26 +206,16 @@ def open_recording(path: str | Path, format: str | None = None, sample_rate_hz: 
         return parameter if given is not None else f"{meta_file} {meta_key}"
 
     fmt = _pick("format", format, meta.format)
-    known = registry.names("sample_source")
-    if fmt not in known:
-        raise ConfigError(field("format", format, "global core:datatype"),
-                          f"unknown sample format {fmt!r}; known: {', '.join(known)}")
+    if fmt not in registry.names("sample_source"):  # named before a missing rate
+        check_recording_info(fmt, 0.0, fields={"format": field("format", format, "global core:datatype")})
     fs = float(_pick("sample_rate_hz", sample_rate_hz, meta.sample_rate_hz))
     fif = float(_pick("if_hz", if_hz, meta.if_hz, 0.0))
     qs = int(_pick("q_sign", q_sign, meta.q_sign, 1))
-    fs_field = field("sample_rate_hz", sample_rate_hz, "global core:sample_rate")
-    if_field = field("if_hz", if_hz, "captures[0] core:frequency")
-    if not np.isfinite(fs) or fs < 2.046e6:
-        raise ConfigError(fs_field, f"{fs:g} Hz is below the C/A main lobe (needs >= 2.046 MHz)")
-    if not np.isfinite(fif):
-        raise ConfigError(if_field, f"must be a finite number of Hz, got {fif:g}")
-    if qs not in (1, -1):
-        raise ConfigError("q_sign", f"must be 1 or -1, got {qs}")
-    rec = Recording(path, RecordingInfo(fmt, fs, fif, qs, meta.start_time))
-    if not rec.is_complex and not 0 < fif < fs / 2:
-        raise ConfigError(if_field, f"real samples need 0 < IF < fs/2 = {fs / 2:g} Hz, got {fif:g}")
-    if rec.is_complex and abs(fif) >= fs / 2:
-        raise ConfigError(if_field, f"complex samples need |IF| < fs/2 = {fs / 2:g} Hz, got {fif:g}")
+    info = check_recording_info(fmt, fs, fif, qs, meta.start_time, fields={
+        "format": field("format", format, "global core:datatype"),
+        "sample_rate_hz": field("sample_rate_hz", sample_rate_hz, "global core:sample_rate"),
+        "if_hz": field("if_hz", if_hz, "captures[0] core:frequency")})
+    rec = Recording(path, info)
     if rec.n_samples == 0:
         raise ConfigError("recording", f"{path}: holds no whole sample of format {fmt}")
     if meta.sample_start:  # the metadata describes the samples from there on: not read from a later start

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from typing import Any
+from collections.abc import Callable
 
 import numpy as np
 import pymap3d
@@ -58,7 +59,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
             acquisitions: list[AcquisitionResult] | None = None, assist: Assistance | None = None,
             iono_fallback: IonoUtc | None = None, weighting: str | None = None,
             signal: SignalSpec = GPS_L1CA, filters: StageFilters | None = None,
-            raim: RaimOptions | None = None) -> ReceiveResult:
+            raim: RaimOptions | None = None,
+            observe: Callable[[SampleTracker], Any] | None = None) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
     fraction of the recording tracked. With ``nav_filter`` the positions are that filter's
@@ -78,7 +80,9 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     (`channels.factory.StageFilters` of ``config``; built by the tracker when None).
     ``raim`` monitors the least-squares fixes' integrity (`pvt.solve_position`'s ``raim``)
     and gives the nav filter's rows protection levels from its covariance, its innovation
-    test at ``raim.false_alarm`` (`filtered.filter_epochs`); the vector loop's rows have none."""
+    test at ``raim.false_alarm`` (`filtered.filter_epochs`); the vector loop's rows have none.
+    ``observe`` is given the scalar tracker before it runs (a live receiver's fixes as they
+    come, `live.LiveFixes`, read its records from ``progress``)."""
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
                                         "give nav_filter or vector, not both")
@@ -114,8 +118,10 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     if assist is not None:
         raise ConfigError("approx_position", "an approximate position and start time start vector tracking: "
                                              "give vector as well")
-    tracking = SampleTracker(recording, config, acquisition, signal=signal, filters=filters).run(found, duration_s,
-                                                                                                progress)
+    scalar_tracker = SampleTracker(recording, config, acquisition, signal=signal, filters=filters)
+    if observe is not None:
+        observe(scalar_tracker)
+    tracking = scalar_tracker.run(found, duration_s, progress)
     timings = [channel_timing(ch, signal=signal) for ch in tracking.channels.values()]
     if not any(t is not None and t.time_s.size > 1 for t in timings):
         return ReceiveResult(tracking, None, None)
