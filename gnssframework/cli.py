@@ -249,10 +249,10 @@ def _open_stream_from_args(args: argparse.Namespace):
     """``receive``'s live input (`frontend.stream.open_stream`): --format and --fs needed
     (cu8 by default from rtl_tcp); overruns announced on standard error as they begin."""
     from .receiver.frontend.stream import open_stream
-    from .receiver.frontend.stream_io import RtlTcpSettings
+    from .receiver.frontend.stream_io import RTL_TCP_FORMAT, RtlTcpSettings
 
     rtl = args.recording.startswith("rtl_tcp://")
-    fmt = args.format or ("cu8" if rtl else None)
+    fmt = args.format or (RTL_TCP_FORMAT if rtl else None)
     if fmt is None or args.fs is None:
         raise ConfigError("--format" if fmt is None else "--fs",
                           f"{args.recording}: a stream has no SigMF metadata: give --format and --fs")
@@ -569,17 +569,21 @@ def _receive(args: argparse.Namespace, stdout_sink) -> int:
     from .receiver.navigation.live import LiveRun
     from .receiver.navigation.nmea_stream import open_nmea_sink
 
+    from .receiver.navigation.receive_outputs import parse_outputs
+
+    _threads_from_args(args)
+    outputs = parse_outputs(args.outputs)  # refused before the recording is opened or tracked
     sinks = [stdout_sink] if stdout_sink is not None else [open_nmea_sink(args.nmea_out)] if args.nmea_out else []
     live = LiveRun(_open_recording_from_args(args), sinks)
     try:
-        return _receive_run(args, live)
+        return _receive_run(args, live, outputs)
     finally:
         overruns = live.finish()
         if overruns:
             print(overruns, file=sys.stderr)
 
 
-def _receive_run(args: argparse.Namespace, live) -> int:
+def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int:
     import json
     import time
 
@@ -595,11 +599,9 @@ def _receive_run(args: argparse.Namespace, live) -> int:
     from .receiver.channels.report import write_tracking_outputs
     from .receiver.navigation.report import no_position_reason, write_no_position_report, write_receive_report
     from .receiver.navigation.rinex_obs import write_rinex_obs
-    from .receiver.navigation.receive_outputs import parse_outputs, sky_views, write_extra_outputs
+    from .receiver.navigation.receive_outputs import sky_views, write_extra_outputs
     from .progress import phase
 
-    _threads_from_args(args)
-    outputs = parse_outputs(args.outputs)
     rec = live.recording
     acq = _acquisition_from_args(args)
     signal = _signal_from_args(args)
@@ -1111,6 +1113,8 @@ OPTION_OF_PARAMETER = {
     "max_speed_mps": "--max-speed", "max_abs_height_m": "--max-height",
     "select": "--prn", "max_gap_s": "--max-gap", "pseudorange_min_m": "--pseudorange-min",
     "pseudorange_max_m": "--pseudorange-max",
+    "raim": "--raim", "raim_false_alarm": "--raim-pfa", "raim_missed_detection": "--raim-pmd", "outputs": "--outputs",
+    "threads": "--threads",
 }
 #: Parameters that take a table of values: the path below them is kept
 #: (``channel_params.pll_bandwidth_hz`` is ``--channel-params.pll_bandwidth_hz``).

@@ -149,7 +149,7 @@ def test_progress_unless_quiet_the_runner_choosing_bar_or_lines(tmp_path, monkey
 
 def test_every_built_in_without_parameters_says_why(capsys):
     bare = [(i.kind, i.name) for i in builtin_plugins() if not i.cls.Params.model_fields]
-    assert ("estimator", "kf") in bare and ("sample_source", "ci8") in bare
+    assert ("cn0_estimator", "m2m4") in bare and ("sample_source", "ci8") in bare
     for kind, name in bare:
         assert main(["plugins", "--kind", kind, "--describe", name]) == 0
         out = capsys.readouterr().out

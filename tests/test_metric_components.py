@@ -278,7 +278,8 @@ def test_vector_tracking_reports_the_hand_reductions():
             "freq_output_rmse": rms(sr["freq_output_error_hz"], s),
             "pcrb_position": rms(sr["pcrb_position_m"], s), "pcrb_velocity": rms(sr["pcrb_velocity_m_s"], s),
             "pcrb_position_code": rms(sr["pcrb_position_code_m"], s),
-            "pcrb_velocity_code": rms(sr["pcrb_velocity_code_m_s"], s)}
+            "pcrb_velocity_code": rms(sr["pcrb_velocity_code_m_s"], s),
+            "excluded_channels": np.zeros(2)}  # no channel monitor: no channel excluded
     assert set(res.metrics) == set(hand) == set(scen.metrics)
     for name, value in hand.items():
         np.testing.assert_allclose(res.metrics[name], value, rtol=1e-12, err_msg=name)

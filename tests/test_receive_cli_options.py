@@ -191,8 +191,9 @@ def test_raim_options_are_read_and_checked(parsed):
         cli._raim_from_args(parsed["args"])
     parsed.clear()
     assert cli.main(["receive", "rec.bin", "--out", "o", "--raim", "--raim-pfa", "2"]) == 0
-    with pytest.raises(ConfigError, match="--raim-pfa"):
+    with pytest.raises(ConfigError, match="raim_false_alarm") as refused:  # the library's parameter...
         cli._raim_from_args(parsed["args"])
+    assert cli.option_field(refused.value.field) == "--raim-pfa"  # ...the command line's option
 def test_off_a_terminal_receive_prints_a_line_per_phase_and_per_tenth_of_the_signal(tiny_recording, tmp_path,
                                                                                      capsys, received):
     """Issue 41: a log, CI or a notebook cell saw nothing for the whole run."""

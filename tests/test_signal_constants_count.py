@@ -62,7 +62,9 @@ CA_LITERALS: dict[float, str] = {1.023e6: "1.023e6 (chip rate)", 1575.42e6: "157
                                  1023: "1023 (code length)", 1540: "1540 (cycles per chip)"}
 #: C/A's timing numbers, counted only when bound to a `TIMING_NAME`.
 CA_TIMING = frozenset({1e-3, 0.02, 20, 50})
-TIMING_NAME = re.compile(r"bit|code_period|detect", re.IGNORECASE)
+# "detect" as a bit detection's name (DETECT_MS, FIRST_DETECT_S), not a missed detection's
+# probability (missed_detection = 1e-3).
+TIMING_NAME = re.compile(r"bit|code_period|^detect|detect_m?s$", re.IGNORECASE)
 #: Files that still use C/A constants (measured), with what they use.
 REMAINING: frozenset[str] = frozenset({
     # RINEX observation codes' carrier frequencies (L1 1575.42e6, shared by GPS, Galileo,

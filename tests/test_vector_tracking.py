@@ -201,7 +201,7 @@ def test_vector_metrics_on_hand_built_series():
     series = {"code_error_chips": 0.01 * one, "freq_error_hz": 2.0 * one,
               "position_error_m": pos, "velocity_error_m_s": pos / 10, "nav_nees": nees, "nav_nees_position": nees / 2,
               "nav_nees_velocity": nees / 4, "code_output_error_chips": 0.03 * one, "freq_output_error_hz": 5.0 * one,
-              "pcrb_position_m": one}
+              "pcrb_position_m": one, "excluded_channel_count": np.array([[4.0, 0.0], [0.0, 1.0], [1.0, 1.0], [2.0, 1.0]])}
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 4.0, "settle_s": 1.0, "steady_state_s": 3.0})
     m = evaluate(METRICS, series, t, scen).metrics
     # RMS over epochs 2-4: sqrt((9 + 16 + 0) / 3) and sqrt(36 / 3); NEES: plain means.
@@ -214,6 +214,7 @@ def test_vector_metrics_on_hand_built_series():
     np.testing.assert_allclose(m["code_output_rmse"], [0.03, 0.03])
     np.testing.assert_allclose(m["freq_output_rmse"], [5.0, 5.0])
     np.testing.assert_allclose(m["pcrb_position"], [1.0, 1.0])
+    np.testing.assert_allclose(m["excluded_channels"], [1.0, 1.0])  # means over epochs 2-4
     assert "pcrb_velocity" not in m
 
 

@@ -32,8 +32,8 @@ and the prior's spread, for a gate: ``gates_prior``).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
 from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -42,8 +42,19 @@ from .linalg import any_true, all_true, cholesky_masked, failing_indices, mat_ve
 from .types import Gaussian, Model, Update
 
 if TYPE_CHECKING:
-    from .estimator import Estimator
     from .robust import RobustUpdate
+
+
+class Engine(Protocol):
+    """What the loop reads of an engine (`estimator.Estimator` has it; described here, not
+    imported: the engines call this module)."""
+
+    @property
+    def name(self) -> str: ...
+
+    def measurement_moments(self, prior: Gaussian, model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+    def posterior_cov(self, prior: Gaussian, gain: np.ndarray, S: np.ndarray, model: Model) -> np.ndarray: ...
 
 #: A model's residual hook: ``residual(a, b)`` is ``a - b`` in its space.
 Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -80,7 +91,7 @@ def _where(mask: np.ndarray, new: np.ndarray, old: np.ndarray) -> np.ndarray:
 LINE_SEARCH_HALVINGS = 20
 
 
-def _map_cost(engine: Estimator, model: Model, prior: Gaussian, z: np.ndarray, x: np.ndarray, res_x: Residual,
+def _map_cost(engine: Engine, model: Model, prior: Gaussian, z: np.ndarray, x: np.ndarray, res_x: Residual,
               res_z: Residual) -> np.ndarray:
     r"""$\tfrac12 \|x - m\|^2_{P^{-1}} + \tfrac12 \|z - h(x)\|^2_{R^{-1}}$ per batch element,
     with $h(x)$ from the engine's moments at $N(x, P)$ (the EKF's $h$ at $x$)."""
@@ -92,7 +103,7 @@ def _map_cost(engine: Estimator, model: Model, prior: Gaussian, z: np.ndarray, x
     return cost
 
 
-def _damped(engine: Estimator, model: Model, prior: Gaussian, z: np.ndarray, x: np.ndarray, x_full: np.ndarray,
+def _damped(engine: Engine, model: Model, prior: Gaussian, z: np.ndarray, x: np.ndarray, x_full: np.ndarray,
             active: np.ndarray, res_x: Residual, res_z: Residual) -> np.ndarray:
     """The Gauss-Newton step from ``x`` towards ``x_full``, halved per batch element until
     the MAP cost does not increase (Skoglund, Hendeby & Axehill, FUSION 2015: the IEKF with
@@ -114,7 +125,7 @@ def _damped(engine: Estimator, model: Model, prior: Gaussian, z: np.ndarray, x: 
     return out
 
 
-def iterated_update(engine: Estimator, prior: Gaussian, z: np.ndarray, model: Model, *, on_failure: str = "raise",
+def iterated_update(engine: Engine, prior: Gaussian, z: np.ndarray, model: Model, *, on_failure: str = "raise",
                     missing: str = "raise", iterations: int = 1, tol: float = 0.0,
                     iteration: str = "gauss-newton", robust: RobustUpdate | None = None,
                     line_search: bool = False) -> Update:

@@ -311,7 +311,7 @@ class RaimOptions:
 
     def __post_init__(self) -> None:
         if self.method not in RAIM_METHODS:
-            raise ConfigError("--raim", f"one of {', '.join(RAIM_METHODS)}, got {self.method!r}")
-        for name, p in (("--raim-pfa", self.false_alarm), ("--raim-pmd", self.missed_detection),
-                        ("--integrity-risk", self.integrity_risk)):
+            raise ConfigError("raim", f"one of {', '.join(RAIM_METHODS)}, got {self.method!r}")
+        for name, p in (("raim_false_alarm", self.false_alarm), ("raim_missed_detection", self.missed_detection),
+                        ("integrity_risk", self.integrity_risk)):
             _check_probability(name, p)

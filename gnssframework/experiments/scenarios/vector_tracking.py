@@ -217,9 +217,9 @@ METRICS = (
          description="RMS error of the code measurement handed to the nav filter"),
     Rmse("freq_output_rmse", "Hz", of="freq_output_error_hz", settle="settle_s",
          description="RMS error of the frequency measurement handed to the nav filter"),
-    Mean("excluded_channels", "-", of="excluded_channel_count", settle="settle_s", optional=True,
-         undefined="no channel monitor (scenario_options.channel_monitor) in this candidate",
-         description="mean number of channels the channel monitor excludes from the navigation update"),
+    Mean("excluded_channels", "-", of="excluded_channel_count", settle="settle_s",
+         description="mean number of channels the channel monitor excludes from the navigation update (0 without "
+                     "a monitor: scenario_options.channel_monitor)"),
     Rmse("pcrb_position", "m", of="pcrb_position_m", settle="settle_s", optional=True, undefined=_NO_BOUND,
          description="posterior Cramér-Rao bound of the position error (RMS over the same window)"),
     Rmse("pcrb_velocity", "m/s", of="pcrb_velocity_m_s", settle="settle_s", optional=True, undefined=_NO_BOUND,
@@ -487,8 +487,10 @@ class VectorTrackingScenario(Scenario):
                   "nav_nees": rec.nees, "nav_nees_position": rec.nees_position, "nav_nees_velocity": rec.nees_velocity,
                   "code_output_error_chips": channel_rms(rec.code_output_error_chips),
                   "freq_output_error_hz": channel_rms(rec.freq_output_error_hz)}
-        if "excluded" in rec.extra:
-            series["excluded_channel_count"] = rec.extra["excluded"].sum(axis=-1).astype(float)
+        # Without a channel monitor no channel is ever excluded: 0, so candidates with and
+        # without one pair on this metric too.
+        series["excluded_channel_count"] = (rec.extra["excluded"].sum(axis=-1).astype(float) if "excluded" in rec.extra
+                                            else np.zeros_like(series["position_error_m"]))
         if p.pcrb or (p.pcrb is None and not p.trajectory_file and p.geometry == "fixed"
                       and motion == "constant-velocity" and c.fade() is None and c.fault() is None):
             _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0)

@@ -34,6 +34,9 @@ from ...errors import ConfigError
 __all__ = ["RtlTcpSettings", "RTL_TCP_HEADER_BYTES", "connect", "is_stream_address", "rtl_tcp_command",
            "parse_host_port"]
 
+#: The sample format an rtl_tcp server sends: 8-bit offset-binary I/Q (the `cu8` source).
+RTL_TCP_FORMAT = "cu8"
+
 #: The rtl_tcp greeting: ``"RTL0"``, tuner type, gain count (big-endian ``uint32`` each).
 RTL_TCP_HEADER_BYTES = 12
 #: rtl_tcp command bytes (osmocom rtl-sdr, rtl_tcp.c's command loop).

@@ -35,7 +35,7 @@ def write_tracking_parquet(path: str | Path, tracking: TrackingResult) -> Path:
         import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:
-        raise ConfigError("--outputs", PYARROW_MISSING) from None
+        raise ConfigError("outputs", PYARROW_MISSING) from None
     rows = [(prn, *r) for prn, ch in tracking.channels.items() for r in ch.rows]
     names = ("prn", *RECORD_FIELDS)
     columns = {n: np.array([r[i] for r in rows]) for i, n in enumerate(names)} if rows else \

@@ -50,13 +50,13 @@ def parse_outputs(text: str | None) -> frozenset[str]:
         names = (names - {"default"}) | set(DEFAULT_OUTPUTS)
     unknown = sorted(names - set(OUTPUTS))
     if unknown:
-        raise ConfigError("--outputs", f"unknown {', '.join(unknown)} (choose from default, {', '.join(OUTPUTS)})")
+        raise ConfigError("outputs", f"unknown {', '.join(unknown)} (choose from default, {', '.join(OUTPUTS)})")
     for name in sorted(names & set(_NEEDS)):  # before minutes of tracking, not after
         module, message = _NEEDS[name]
         try:
             __import__(module)
         except ImportError:
-            raise ConfigError("--outputs", message) from None
+            raise ConfigError("outputs", message) from None
     return frozenset(names)
 
 

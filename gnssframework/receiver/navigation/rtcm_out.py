@@ -52,6 +52,9 @@ _SATELLITE_OFFSET = {"G": 0, "E": 0, "J": 192}
 _LIGHT_MS_M = SPEED_OF_LIGHT_MPS * 1e-3
 _WEEK_MS = 604_800_000
 
+#: The longest message an RTCM 3 frame carries: its 10-bit length field.
+MAX_MESSAGE_BYTES = 2**10 - 1
+
 
 def crc24q(data: bytes) -> int:
     """CRC-24Q of ``data`` (RTCM 10403.3 section 4.2: polynomial 0x1864CFB, initial 0)."""
@@ -91,8 +94,9 @@ class _Bits:
 
 
 def _frame(message: bytes) -> bytes:
-    if len(message) > 1023:
-        raise ConfigError("observables", f"an MSM of {len(message)} bytes is longer than a frame's 1023")
+    if len(message) > MAX_MESSAGE_BYTES:
+        raise ConfigError("observables", f"an MSM of {len(message)} bytes is longer than a frame's "
+                                         f"{MAX_MESSAGE_BYTES}")
     head = bytes([0xD3, (len(message) >> 8) & 0x03, len(message) & 0xFF])
     return head + message + crc24q(head + message).to_bytes(3, "big")
 
@@ -180,7 +184,7 @@ def msm7_frames(obs: Observables, signal: SignalSpec = GPS_L1CA, station_id: int
             b.put(int(value), 1)
         cn0 = obs.cn0_dbhz[e, sats]
         for value in cn0:
-            b.put(int(np.clip(np.round(value * 16.0), 0, 1023)) if np.isfinite(value) else 0, 10)
+            b.put(int(np.clip(np.round(value * 16.0), 0, 2**10 - 1)) if np.isfinite(value) else 0, 10)
         fine_rate = np.round((r - rough_rate) / 1e-4)
         for value in fine_rate:
             b.put(int(value) if np.isfinite(value) and abs(value) < 2**14 else -(2**14), 15)
