@@ -873,6 +873,22 @@ class _Parser(argparse.ArgumentParser):
         return namespace, extras
 
 
+def _add_position_log_options(p: argparse.ArgumentParser, adapter_use: str) -> None:
+    """The options ``filter-positions`` and ``smooth-positions`` share: the filter's adapter,
+    augmentation and AR(1) coefficient, and how the NMEA log's bad sentences are skipped."""
+    p.add_argument("--noise-adapter", default=None, metavar="NAME",
+                   help=f"a registered noise adapter{adapter_use} (replaces the label's own)")
+    p.add_argument("--augmentation", default=None, metavar="NAME",
+                   help="a registered augmentation, e.g. colored-ar1 with --psi (replaces the label's own)")
+    p.add_argument("--psi", type=float, default=0.95, help="AR(1) coefficient for the colored filters")
+    p.add_argument("--max-speed", type=float, default=MAX_SPEED_MPS, metavar="M/S",
+                   help="jump check: skip a fix further from the last accepted one than this speed allows "
+                        "(default %(default)g m/s)")
+    p.add_argument("--max-height", type=float, default=MAX_ABS_HEIGHT_M, metavar="M",
+                   help="skip a GGA whose altitude is not a number or above this in magnitude (default %(default)g m)")
+    p.add_argument("--strict", action="store_true", help="refuse the file at the first bad sentence (exit 2)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
@@ -910,17 +926,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--filter", default="AUKF1", metavar="NAME",
                    help="a position filter of Liu et al. 2020 (UKF, UKF1, AUKF, AUKF1) or a registered estimator "
                         "(`gnssframework plugins --kind estimator`) in the constant-acceleration position model")
-    p.add_argument("--noise-adapter", default=None, metavar="NAME",
-                   help="a registered noise adapter (replaces the label's own)")
-    p.add_argument("--augmentation", default=None, metavar="NAME",
-                   help="a registered augmentation, e.g. colored-ar1 with --psi (replaces the label's own)")
-    p.add_argument("--psi", type=float, default=0.95, help="AR(1) coefficient for the colored filters")
-    p.add_argument("--max-speed", type=float, default=MAX_SPEED_MPS, metavar="M/S",
-                   help="jump check: skip a fix further from the last accepted one than this speed allows "
-                        "(default %(default)g m/s)")
-    p.add_argument("--max-height", type=float, default=MAX_ABS_HEIGHT_M, metavar="M",
-                   help="skip a GGA whose altitude is not a number or above this in magnitude (default %(default)g m)")
-    p.add_argument("--strict", action="store_true", help="refuse the file at the first bad sentence (exit 2)")
+    _add_position_log_options(p, "")
     p.set_defaults(func=_cmd_filter_positions)
     p = sub.add_parser("smooth-positions", help="smooth an NMEA position log forward-backward (filter, then RTS)",
                        description="Run a position filter forward over an NMEA log, then the fixed-interval "
@@ -933,17 +939,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--filter", default="UKF", metavar="NAME",
                    help="the forward filter: a label of Liu et al. 2020 (UKF, UKF1, AUKF, AUKF1) or a registered "
                         "estimator in the constant-acceleration position model (default %(default)s)")
-    p.add_argument("--noise-adapter", default=None, metavar="NAME",
-                   help="a registered noise adapter for the forward pass (replaces the label's own)")
-    p.add_argument("--augmentation", default=None, metavar="NAME",
-                   help="a registered augmentation, e.g. colored-ar1 with --psi (replaces the label's own)")
-    p.add_argument("--psi", type=float, default=0.95, help="AR(1) coefficient for the colored filters")
-    p.add_argument("--max-speed", type=float, default=MAX_SPEED_MPS, metavar="M/S",
-                   help="jump check: skip a fix further from the last accepted one than this speed allows "
-                        "(default %(default)g m/s)")
-    p.add_argument("--max-height", type=float, default=MAX_ABS_HEIGHT_M, metavar="M",
-                   help="skip a GGA whose altitude is not a number or above this in magnitude (default %(default)g m)")
-    p.add_argument("--strict", action="store_true", help="refuse the file at the first bad sentence (exit 2)")
+    _add_position_log_options(p, " for the forward pass")
     p.set_defaults(func=_cmd_smooth_positions)
     p = sub.add_parser("smooth", help="carrier-smooth code from a RINEX observation file, arc by arc",
                        description="Carrier-smooth each selected satellite's code with its carrier (GPS C1C/L1C, "
