@@ -4,7 +4,7 @@ whatever the number, and the kernel pool runs every chunk once with any helper c
 
 Bitwise by construction: each channel group runs the serial kernel on slices of the same
 arrays, so no channel's arithmetic or its order depends on the split; the tests check it
-with the split forced on every call (`correlator.SPLIT_SAMPLES` 0)."""
+with the split forced on every call (`channel_groups.SPLIT_SAMPLES` 0)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from gnssframework import backend, registry
 from gnssframework.errors import ConfigError
 from gnssframework.estimation.compiled import pool
 from gnssframework.receiver.acquisition.report import acquire_recording
-from gnssframework.receiver.channels import SampleTracker, correlator, tracking_config
+from gnssframework.receiver.channels import SampleTracker, channel_groups, correlator, tracking_config
 from gnssframework.receiver.channels.correlator import correlate_channels, correlate_numpy, correlate_periods
 from gnssframework.receiver.frontend import SatelliteSignal, open_recording, synthesize_samples, write_recording
 from gnssframework.signal.codes import ca_code
@@ -28,7 +28,7 @@ FS = 2.6e6
 @pytest.fixture
 def always_split(monkeypatch):
     """Every call split into channel groups, and the groups run counted."""
-    monkeypatch.setattr(correlator, "SPLIT_SAMPLES", 0)
+    monkeypatch.setattr(channel_groups, "SPLIT_SAMPLES", 0)
     calls = []
     real = pool.run_chunks
 

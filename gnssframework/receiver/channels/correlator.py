@@ -40,8 +40,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import ConfigError
-from ...backend import get_backend, get_threads
+from ...backend import get_backend
 from ...signal.spec import SignalSpec
+from .channel_groups import SPLIT_SAMPLES, run_groups, split_channels
 
 __all__ = ["replica_codes", "to_table_units", "correlate_channels", "correlate_numpy", "correlate_periods", "correlate_periods_numpy", "code_tables",
            "correlation_error_bound", "sum_of_squares", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS", "SPLIT_SAMPLES"]
@@ -221,38 +222,10 @@ def _parallel(parallel: bool) -> bool:
     return parallel and threading.current_thread() is threading.main_thread()
 
 
-#: Samples (all channels of a call) below which a call runs on the calling thread alone:
-#: a helper thread's hand-over costs about as much as correlating this many.
-SPLIT_SAMPLES = 20_000
-
-
-def _split(n_channels: int, work_samples: int, threads: int | None) -> list[tuple[int, int]]:
-    """Contiguous channel groups ``[lo, hi)`` of a call, for ``threads`` threads: one group
-    when one thread or a small call, else about two groups per thread (the calling thread
-    takes the groups a helper has not claimed yet, `pool.run_chunks`)."""
-    n_threads = get_threads() if threads is None else int(threads)
-    if n_threads < 2 or n_channels < 2 or work_samples < SPLIT_SAMPLES:
-        return [(0, n_channels)]
-    n_groups = min(n_channels, 2 * n_threads)
-    edges = [k * n_channels // n_groups for k in range(n_groups + 1)]
-    return list(zip(edges[:-1], edges[1:]))
-
-
-def _run_groups(groups: list[tuple[int, int]], call, threads: int | None) -> None:
-    """``call(lo, hi)`` for every channel group: each runs the serial kernel on slices of the
-    per-channel arrays (C-contiguous slices: the same compiled specialisation), so every
-    channel's sums are those of one call over all channels, whichever thread ran its group."""
-    if len(groups) == 1:
-        call(*groups[0])
-    else:
-        pool.run_chunks(len(groups), lambda g: call(*groups[g]), get_threads() if threads is None else int(threads))
-
-
 try:
     import numba
     from numba import prange
 
-    from ...estimation.compiled import pool
     from ...estimation.compiled.specialise import with_globals
 
     HAVE_NUMBA = True
@@ -505,14 +478,14 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
     out_i = np.empty((n_ch, n_taps))
     par = _parallel(parallel)
     kernel = _kernels(cplx, tables.thresholds.size, par)[0]
-    groups = [(0, n_ch)] if par else _split(n_ch, int(counts.sum()), threads)
+    groups = [(0, n_ch)] if par else split_channels(n_ch, int(counts.sum()), threads)
     q, pat, thr = np.float32(q_sign), tables.patterns, tables.thresholds
 
     def call(lo: int, hi: int) -> None:
         kernel(x, q, starts[lo:hi], counts[lo:hi], carrier0[lo:hi], dcarrier[lo:hi], code0[lo:hi], dcode[lo:hi],
                pat[lo:hi], thr, out_r[lo:hi], out_i[lo:hi])
 
-    _run_groups(groups, call, threads)
+    run_groups(groups, call, threads)
     return out_r + 1j * out_i
 
 
@@ -595,12 +568,12 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
     par = _parallel(parallel)
     kernel = _kernels(cplx, tables.thresholds.size, par)[1]
     work = int(n_periods.sum()) * n_code / float(step.min(initial=1.0))
-    groups = [(0, n_ch)] if par else _split(n_ch, work, threads)
+    groups = [(0, n_ch)] if par else split_channels(n_ch, work, threads)
     q, pat, thr = np.float32(q_sign), tables.patterns, tables.thresholds
 
     def call(lo: int, hi: int) -> None:
         kernel(x, q, starts[lo:hi], n_periods[lo:hi], carrier0[lo:hi], dcarrier[lo:hi], code0[lo:hi], dcode[lo:hi],
                2 * period_word, period_word, pat[lo:hi], thr, out_r[lo:hi], out_i[lo:hi], counts[lo:hi])
 
-    _run_groups(groups, call, threads)
+    run_groups(groups, call, threads)
     return out_r + 1j * out_i, counts
