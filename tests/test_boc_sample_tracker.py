@@ -61,6 +61,10 @@ def test_sample_tracker_tracks_a_boc11_signal_on_its_spreading_waveform(boc_reco
     power = ch.column("prompt_i")[last] ** 2 + ch.column("prompt_q")[last] ** 2
     T = SAT.signal.code_period_s
     assert abs(10 * np.log10((np.mean(power) - 2) / (2 * T)) - SAT.cn0_dbhz) < 1.5
+    # The tracker's own C/N0 (moments: E1-B's symbol is one code period, `lock.nwpr_block`)
+    # a number near the generated one (it was NaN).
+    cn0 = ch.column("cn0_dbhz")[last]
+    assert np.all(np.isfinite(cn0)) and abs(np.median(cn0) - SAT.cn0_dbhz) < 2.0
 
 def test_sample_tracker_refuses_a_cboc_replica_naming_the_boc11_one(boc_recording):
     with pytest.raises(ConfigError, match="boc11"):

@@ -101,6 +101,27 @@ def test_cn0_of_a_pilot_falls_back_to_moments():
     assert estimate_cn0(p, "nwpr", 0, signal=BOC) == pytest.approx(float(cn0_moments(p, 1e-3)))
 
 
+def test_cn0_of_a_symbol_of_one_code_period_is_the_moments_estimate_not_nan():
+    # Galileo E1-B: a 4 ms symbol of one 4 ms code period, so a narrow-wide block of one
+    # prompt compares a power with itself (0/0: the tracker's C/N0 column was NaN).
+    from gnssframework.receiver.channels.lock import cn0_nwpr_bits, nwpr_block
+    from gnssframework.signal.cn0 import cn0_nwpr
+    from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
+    from gnssframework.signal.gps_l1ca import GPS_L1CA
+
+    assert (GALILEO_E1B_BOC11.code_periods_per_symbol, nwpr_block(GALILEO_E1B_BOC11)) == (1, None)
+    assert nwpr_block(GPS_L1CA) == 20
+    T = GALILEO_E1B_BOC11.code_period_s
+    rng = np.random.default_rng(9)
+    a = np.sqrt(2 * 10 ** (40.0 / 10) * T)  # |P|^2 = 2 c T + 2 (unit-variance I and Q noise): 40 dB-Hz
+    p = a * rng.choice([-1.0, 1.0], 500) + rng.standard_normal(500) + 1j * rng.standard_normal(500)
+    cn0 = estimate_cn0(p, "nwpr", 0, signal=GALILEO_E1B_BOC11)
+    assert cn0 == pytest.approx(float(cn0_moments(p, T))) and abs(cn0 - 40.0) < 1.0
+    for refused in (lambda: cn0_nwpr(p, T, m=1), lambda: cn0_nwpr_bits(p[None], np.array([0]), T, m=1)):
+        with pytest.raises(ConfigError, match="at least 2 prompts"):
+            refused()
+
+
 def test_the_channel_model_takes_a_bpsk_signal_and_refuses_a_boc_one():
     assert code_to_carrier(QZSS_L1CA) == pytest.approx(1 / 1540, rel=1e-15)
     q = np.eye(5)

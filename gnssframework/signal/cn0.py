@@ -24,8 +24,12 @@ def cn0_nwpr(prompt: np.ndarray, coherent_time_s: float, m: int = 20) -> np.ndar
     $$
 
     Blocks must not contain a data-bit transition: wipe the bits off first, or align
-    blocks of 20 ms with the bit edges (``m * T = 20 ms``).
+    blocks of 20 ms with the bit edges (``m * T = 20 ms``). ``m`` is at least 2: with one
+    prompt per block NBP = WBP and the ratio is 0/0.
     """
+    if m < 2:
+        raise ConfigError("m", f"the narrow-wide ratio needs at least 2 prompts per block, got {m} (a signal "
+                               "whose symbol is one code period: use cn0_moments)")
     p = np.asarray(prompt)
     k = p.shape[0] // m
     if k < 1:

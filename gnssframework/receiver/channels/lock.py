@@ -29,8 +29,8 @@ from ...signal.cn0 import cn0_moments, cn0_nwpr
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 
-__all__ = ["phase_lock_indicator", "estimate_cn0", "cn0_nwpr_bits", "BitSync", "bit_edge_from_votes", "CN0_ESTIMATORS",
-           "cn0_estimator_names", "cn0_plugin"]
+__all__ = ["phase_lock_indicator", "estimate_cn0", "nwpr_block", "cn0_nwpr_bits", "BitSync", "bit_edge_from_votes",
+           "CN0_ESTIMATORS", "cn0_estimator_names", "cn0_plugin"]
 
 #: The receiver's own estimators: ``nwpr`` on bit-aligned blocks after bit synchronisation
 #: (moments before), ``moments``. Any other name is a ``cn0_estimator`` plugin.
@@ -67,20 +67,29 @@ def _periods_per_symbol(signal: SignalSpec) -> int:
     return m
 
 
+def nwpr_block(signal: SignalSpec) -> int | None:
+    """Prompts per NWPR block on ``signal``: its code periods per symbol (20 on L1 C/A), or
+    None where the narrow-wide ratio has nothing to compare (no data symbols, or a symbol
+    of one code period, as Galileo E1-B's 4 ms: NBP = WBP)."""
+    m = signal.code_periods_per_symbol
+    return m if m is not None and m >= 2 else None
+
+
 def estimate_cn0(prompts: np.ndarray, estimator: str, bit_phase: int | None, signal: SignalSpec = GPS_L1CA) -> float:
     """C/N0 (dB-Hz) of a window of one-code-period prompts (1 ms on L1 C/A).
 
     ``nwpr`` needs blocks free of bit edges: with the bit phase known (``bit_phase`` = the
     index in ``prompts`` of a bit's first code period) it sums bit-aligned blocks of one
     symbol (20 ms on L1 C/A); before bit synchronisation, or on a signal without data
-    symbols, it falls back to ``moments``, which bits do not disturb. Any other name is a
+    symbols or with one code period per symbol (`nwpr_block`), it falls back to
+    ``moments``, which bits do not disturb. Any other name is a
     ``cn0_estimator`` plugin on the whole window (`cn0_estimator_names`).
     """
     p = np.asarray(prompts)
     period_s = signal.code_period_s
     if estimator not in CN0_ESTIMATORS:
         return float(cn0_plugin(estimator)(p, period_s))
-    m = signal.code_periods_per_symbol
+    m = nwpr_block(signal)
     if estimator == "nwpr" and m is not None and bit_phase is not None and p.size - bit_phase >= m:
         return float(cn0_nwpr(p[bit_phase:], period_s, m=m))
     return float(cn0_moments(p, period_s))
@@ -103,6 +112,8 @@ def cn0_nwpr_bits(prompts: np.ndarray, bit_phase: np.ndarray, coherent_time_s: f
     bit_phase
         ``(n_rows,)`` index in each window of a bit's first prompt; at most ``n - m``.
     """
+    if m < 2:
+        raise ConfigError("m", f"the narrow-wide ratio needs at least 2 prompts per block, got {m} (`nwpr_block`)")
     p = np.asarray(prompts)
     first = np.asarray(bit_phase, np.int64)
     n = p.shape[1]

@@ -60,7 +60,8 @@ from .nco import ReplicaNCOs
 from .prefetch import BlockReader
 from .records import RECORD_FIELDS, STAGES, ChannelRecord, TrackingResult
 from ...signal.cn0 import cn0_moments
-from .lock import CN0_ESTIMATORS, bit_edge_from_votes, cn0_nwpr_bits, cn0_plugin, estimate_cn0, phase_lock_indicator
+from .lock import (CN0_ESTIMATORS, bit_edge_from_votes, cn0_nwpr_bits, cn0_plugin, estimate_cn0, nwpr_block,
+                   phase_lock_indicator)
 
 __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
 
@@ -508,10 +509,10 @@ class SampleTracker:
         # phase, on the others.
         phases = [self._bit_phase(c, int(self.ms_index[c.slot]), size) for c in full]
         cn0 = np.zeros(len(full))
-        per_bit = self.signal.code_periods_per_symbol
+        per_bit = nwpr_block(self.signal)
         period_s = self.signal.code_period_s
         nwpr = [j for j, bp in enumerate(phases)
-                if cfg.cn0_estimator == "nwpr" and bp is not None and size - bp >= per_bit]
+                if cfg.cn0_estimator == "nwpr" and per_bit is not None and bp is not None and size - bp >= per_bit]
         rest = sorted(set(range(len(full))) - set(nwpr))
         if cfg.cn0_estimator not in CN0_ESTIMATORS:  # a cn0_estimator plugin: every channel's whole window
             rest, cn0 = [], cn0_plugin(cfg.cn0_estimator)(win, period_s)
