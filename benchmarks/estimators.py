@@ -162,12 +162,13 @@ def time_stonesoup(kind: str, filters: int, steps: int, rng) -> float:
     return (time.perf_counter() - t0) / (steps * filters)
 
 
-def time_dynamax(batch: int, steps: int, rng) -> float:
+def jax_channel_model():
+    """The channel model's transition and measurement functions written in JAX for dynamax
+    (64-bit floats switched on): ``(f, h)``, the same model as `f` and `h`."""
     import jax
 
     jax.config.update("jax_enable_x64", True)
     import jax.numpy as jnp
-    from dynamax.nonlinear_gaussian_ssm import ParamsNLGSSM, UKFHyperParams, unscented_kalman_filter
 
     Fj = jnp.asarray(F)
     offsets = jnp.array([-SPACING, 0.0, SPACING])
@@ -178,7 +179,16 @@ def time_dynamax(batch: int, steps: int, rng) -> float:
         phase = jnp.pi * x[3] * T + x[2]
         return jnp.concatenate([common * jnp.cos(phase) * r, common * jnp.sin(phase) * r])
 
-    params = ParamsNLGSSM(jnp.asarray(X0), jnp.asarray(P0), lambda x: Fj @ x, jnp.asarray(Q), hj, jnp.asarray(R))
+    return (lambda x: Fj @ x), hj
+
+
+def time_dynamax(batch: int, steps: int, rng) -> float:
+    import jax
+    import jax.numpy as jnp
+    from dynamax.nonlinear_gaussian_ssm import ParamsNLGSSM, UKFHyperParams, unscented_kalman_filter
+
+    fj, hj = jax_channel_model()
+    params = ParamsNLGSSM(jnp.asarray(X0), jnp.asarray(P0), fj, jnp.asarray(Q), hj, jnp.asarray(R))
     hyper = UKFHyperParams(alpha=ALPHA, beta=2.0, kappa=0.0)
     zs = jnp.asarray(np.swapaxes(make_problem(batch, steps, rng), 0, 1))  # (batch, steps, 6)
 

@@ -90,20 +90,11 @@ def time_dynamax(engine: str, zs: np.ndarray) -> float | None:
                                                     unscented_kalman_smoother)
     except ImportError:
         return None
-    from estimators import SPACING
+    from estimators import jax_channel_model
 
-    jax.config.update("jax_enable_x64", True)
-    Fj = jnp.asarray(F)
-    offsets = jnp.array([-SPACING, 0.0, SPACING])
-
-    def hj(x):
-        r = jnp.maximum(0.0, 1.0 - jnp.abs(x[1] - offsets))
-        common = x[0] * jnp.sinc(x[3] * T)
-        phase = jnp.pi * x[3] * T + x[2]
-        return jnp.concatenate([common * jnp.cos(phase) * r, common * jnp.sin(phase) * r])
-
+    fj, hj = jax_channel_model()
     # dynamax's first prior is the first step's: our initial predicted once (F linear)
-    params = ParamsNLGSSM(jnp.asarray(F @ X0), jnp.asarray(F @ P0 @ F.T + Q), lambda x: Fj @ x, jnp.asarray(Q), hj,
+    params = ParamsNLGSSM(jnp.asarray(F @ X0), jnp.asarray(F @ P0 @ F.T + Q), fj, jnp.asarray(Q), hj,
                           jnp.asarray(R))
     if engine == "ekf":
         def one(em):
