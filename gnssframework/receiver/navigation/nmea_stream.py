@@ -7,6 +7,7 @@ each sentence goes to every client connected at that moment; gpsd reads such a s
 
 from __future__ import annotations
 
+import abc
 import socket
 import sys
 import threading
@@ -18,15 +19,16 @@ from ..frontend.stream_io import parse_host_port
 __all__ = ["NmeaSink", "NmeaWriter", "NmeaServer", "open_nmea_sink"]
 
 
-class NmeaSink:
+class NmeaSink(abc.ABC):
     """Where NMEA sentences go (`send`), closed at the end (`close`)."""
 
     description = "nmea"
 
+    @abc.abstractmethod
     def send(self, sentences: list[str]) -> None:
-        raise NotImplementedError
+        """Send one batch of sentences (without their CR LF)."""
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027  (deliberately empty: a sink with nothing to release keeps it)
         """Nothing to release by default."""
 
 
