@@ -19,8 +19,10 @@ import gnssframework as gf  # noqa: E402
 from gnssframework.receiver.tracking.jitter import loop_variance, pll_thermal_variance_rad2  # noqa: E402
 from gnssframework.receiver.tracking.scalar import SignalTruth, run_closed_loop  # noqa: E402
 from gnssframework.signal.correlator_model import (  # noqa: E402
-    amplitude_from_cn0, code_autocorrelation, correlator_mean, simulate_correlators,
+    amplitude_from_cn0, code_autocorrelation, correlator_mean, simulate_correlators, tap_offsets,
 )
+from gnssframework.signal.galileo_e1 import GALILEO_E1C_BOC11  # noqa: E402
+from gnssframework.signal.gps_l1ca import GPS_L1CA  # noqa: E402
 from gnssframework.simulation import clock, impairments, scintillation  # noqa: E402
 
 OUT = pathlib.Path(__file__).resolve().parent / "img"
@@ -33,54 +35,76 @@ def _save(fig, name: str) -> None:
     plt.close(fig)
 
 
-def _noise_free(code=0.0, phase=0.0, freq=0.0, T=T):
-    y = correlator_mean(amplitude_from_cn0(45.0, T), code, phase, freq, T, np.array([-0.5, 0.0, 0.5]))
-    return gf.Correlators(y[..., 0], y[..., 1], y[..., 2])
+def _signal_of(d):
+    """The signal a discriminator's figures use: BOC(1,1) (Galileo E1-C's replica) for the
+    BOC discriminators (their parameters carry the main peak's slope), GPS L1 C/A otherwise."""
+    return GALILEO_E1C_BOC11 if hasattr(d.params, "autocorrelation_slope") else GPS_L1CA
 
 
-def s_curves() -> None:
-    for name in gf.registry.names("discriminator"):
-        d = gf.registry.create("discriminator", name, coherent_time_s=T)
-        fig, ax = plt.subplots(figsize=(5, 3.2))
-        if d.unit == "chips":
-            e = np.linspace(-1.5, 1.5, 601)
-            out = d(_noise_free(code=e))
-        elif d.unit == "Hz":
-            e = np.linspace(-1 / T, 1 / T, 601)
-            out = d(_noise_free(phase=2 * np.pi * e * T, freq=e), previous=_noise_free(phase=0.0, freq=e))
-        else:
-            e = np.linspace(-np.pi, np.pi, 601)
-            out = d(_noise_free(phase=e))
-        ax.plot(e, out, label=name)
-        ax.plot(e, e, "k:", lw=0.8, label="unit slope")
-        ax.set_xlabel(f"true error ({d.unit})")
-        ax.set_ylabel(f"output ({d.unit})")
-        ax.set_ylim(np.min(out) * 1.3 - 1e-9, np.max(out) * 1.3 + 1e-9)
-        ax.grid(alpha=0.3)
-        ax.legend()
-        ax.set_title(f"{name}: S-curve (T = {T * 1e3:.0f} ms)")
-        _save(fig, f"scurve-{name}.png")
+def _taps_of(d) -> dict[str, float]:
+    """Tap offsets (chips) the discriminator reads: early, prompt, late at its own spacing
+    (1 chip if it has none), and the extra taps it declares (`Discriminator.extra_taps`)."""
+    return tap_offsets(getattr(d.params, "early_late_spacing_chips", 1.0), d.extra_taps())
 
 
-def noise_curves(rng: np.random.Generator) -> None:
+def _noise_free(d, code=0.0, phase=0.0, freq=0.0, T=T):
+    """Noise-free correlators at 45 dB-Hz for the taps and signal ``d`` reads."""
+    taps = _taps_of(d)
+    y = correlator_mean(amplitude_from_cn0(45.0, T), code, phase, freq, T, np.array(list(taps.values())),
+                        signal=_signal_of(d))
+    names = list(taps)
+    extra = {n: y[..., i] for i, n in enumerate(names) if n not in ("early", "prompt", "late")}
+    return gf.Correlators(y[..., names.index("early")], y[..., names.index("prompt")], y[..., names.index("late")],
+                          extra=extra)
+
+
+def s_curve(name: str) -> None:
+    """The S-curve of discriminator ``name`` (noise-free, 45 dB-Hz, T = 10 ms) into scurve-NAME.png."""
+    d = gf.registry.create("discriminator", name, coherent_time_s=T)
+    fig, ax = plt.subplots(figsize=(5, 3.2))
+    if d.unit == "chips":
+        e = np.linspace(-1.5, 1.5, 601)
+        out = d(_noise_free(d, code=e))
+    elif d.unit == "Hz":
+        e = np.linspace(-1 / T, 1 / T, 601)
+        out = d(_noise_free(d, phase=2 * np.pi * e * T, freq=e), previous=_noise_free(d, phase=0.0, freq=e))
+    else:
+        e = np.linspace(-np.pi, np.pi, 601)
+        out = d(_noise_free(d, phase=e))
+    ax.plot(e, out, label=name)
+    ax.plot(e, e, "k:", lw=0.8, label="unit slope")
+    ax.set_xlabel(f"true error ({d.unit})")
+    ax.set_ylabel(f"output ({d.unit})")
+    ax.set_ylim(np.min(out) * 1.3 - 1e-9, np.max(out) * 1.3 + 1e-9)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    ax.set_title(f"{name} ({_signal_of(d).name}): S-curve (T = {T * 1e3:.0f} ms)", fontsize=9)
+    _save(fig, f"scurve-{name}.png")
+
+
+def noise_curve(name: str, rng: np.random.Generator, draws: int = 20000) -> None:
+    """The output noise of discriminator ``name`` against its formula (``noise_variance``),
+    at T = 1 and 10 ms, on ``draws`` simulated intervals per C/N0, into noise-NAME.png."""
     cn0 = np.arange(25, 51, 2.5)
-    for name in gf.registry.names("discriminator"):
-        fig, ax = plt.subplots(figsize=(5, 3.2))
-        for Tc, style in ((0.001, "o"), (0.01, "s")):
-            d = gf.registry.create("discriminator", name, coherent_time_s=Tc)
-            mc = []
-            for c in cn0:
-                cur = simulate_correlators(np.zeros(20000), 0.0, 0.0, c, Tc, rng)
-                prev = simulate_correlators(np.zeros(20000), 0.0, 0.0, c, Tc, rng)
-                mc.append(np.std(d(cur, previous=prev)))
-            ax.semilogy(cn0, np.sqrt(d.noise_variance(cn0)), "-", label=f"formula, T = {Tc * 1e3:.0f} ms")
-            ax.semilogy(cn0, mc, style, label=f"Monte Carlo, T = {Tc * 1e3:.0f} ms")
-        ax.set_xlabel("C/N0 (dB-Hz)")
-        ax.set_ylabel(f"output std ({d.unit})")
-        ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=7)
-        ax.set_title(f"{name}: thermal noise")
-        _save(fig, f"noise-{name}.png")
+    fig, ax = plt.subplots(figsize=(5, 3.2))
+    for Tc, style in ((0.001, "o"), (0.01, "s")):
+        d = gf.registry.create("discriminator", name, coherent_time_s=Tc)
+        taps = _taps_of(d)
+        spacing = taps["late"] - taps["early"]
+        extra = {n: o for n, o in taps.items() if n not in ("early", "prompt", "late")}
+        mc = []
+        for c in cn0:
+            cur, prev = (simulate_correlators(np.zeros(draws), 0.0, 0.0, c, Tc, rng, early_late_spacing_chips=spacing,
+                                              extra_taps=extra, signal=_signal_of(d)) for _ in range(2))
+            mc.append(np.std(d(cur, previous=prev)))
+        ax.semilogy(cn0, np.sqrt(d.noise_variance(cn0)), "-", label=f"formula, T = {Tc * 1e3:.0f} ms")
+        ax.semilogy(cn0, mc, style, label=f"Monte Carlo, T = {Tc * 1e3:.0f} ms")
+    ax.set_xlabel("C/N0 (dB-Hz)")
+    ax.set_ylabel(f"output std ({d.unit})")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    ax.set_title(f"{name}: thermal noise")
+    _save(fig, f"noise-{name}.png")
 
 
 def autocorrelation() -> None:
@@ -183,8 +207,9 @@ def clock_adev(rng: np.random.Generator) -> None:
 def main() -> None:
     OUT.mkdir(exist_ok=True)
     rng = np.random.default_rng(2026)
-    s_curves()
-    noise_curves(rng)
+    for name in gf.registry.names("discriminator"):
+        s_curve(name)
+        noise_curve(name, rng)
     autocorrelation()
     loops(rng)
     scintillation_plots(rng)
