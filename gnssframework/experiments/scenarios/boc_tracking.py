@@ -86,22 +86,18 @@ def boc_scores(code_err: np.ndarray, phase_err: np.ndarray, T: float, p: BocTrac
 
 class BocScore(SeriesMetric):
     """One of `boc_scores` as a metric component (reads ``code_error_chips`` and
-    ``phase_error_rad``; the scores are computed once per batch and shared)."""
-
-    _last: tuple = (None, None)
+    ``phase_error_rad``). Each computes the batch's scores itself (a few means over the
+    ``(K, runs)`` errors): no state is kept between calls, so no scorer can hand another
+    scenario's or batch's scores on."""
 
     def __init__(self, name: str, unit: str, *, undefined: str = "", description: str = "") -> None:
         super().__init__(name, unit, of="code_error_chips", undefined=undefined, description=description)
         self.requires = ("code_error_chips", "phase_error_rad")  # type: ignore[misc]  # per instance, as SeriesMetric's
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
-        code = series["code_error_chips"]
-        last, scores = BocScore._last
-        if last is not code:
-            assert time_s is not None  # the scenario's series have a time axis
-            T = float(time_s[1] - time_s[0]) if len(time_s) > 1 else 2 * float(time_s[0])
-            scores = boc_scores(code, series["phase_error_rad"], T, scenario.params)
-            BocScore._last = (code, scores)
+        assert time_s is not None  # the scenario's series have a time axis
+        T = float(time_s[1] - time_s[0]) if len(time_s) > 1 else 2 * float(time_s[0])
+        scores = boc_scores(series["code_error_chips"], series["phase_error_rad"], T, scenario.params)
         return MetricValue(scores[self.name])
 
 
