@@ -91,14 +91,14 @@ def start_phases(length, rng):
                      3.3 * length + 0.25, length / 2 + 0.1])
 
 
-@pytest.mark.parametrize("signal,fs", [("gps-l1ca", 2.6e6), ("gps-l1ca", 4e6), ("gps-l1ca", 16.3676e6),
+@pytest.mark.parametrize("signal,fs", [("gps-l1ca", 2.6e6), ("gps-l1ca", 16.3676e6),
                                        ("galileo-e1b-boc11", 4e6), ("galileo-e1b-boc11", 12e6)])
-@pytest.mark.parametrize("periods", [0.6, 2.5, 3.0, 4.7])
+@pytest.mark.parametrize("periods", [0.6, 2.5, 4.7])
 def test_correlate_channels_matches_an_independent_replica(signal, fs, periods):
     """Six channels per call (every start-phase kind of `start_phases`) over blocks of
-    ``periods`` code periods (0.6 to 4.7 ms of C/A, 2.4 to 19 ms of E1), Doppler within
-    ±6 kHz and code rates off the nominal by ±5e-6 (Doppler) and ±3e-4 (a loop's NCO
-    correction)."""
+    ``periods`` code periods (0.6 to 4.7 ms of C/A, 2.4 to 19 ms of E1; C/A at 4 MHz is in
+    the Hypothesis sweep below), Doppler within ±6 kHz and code rates off the nominal by
+    ±5e-6 (Doppler) and ±3e-4 (a loop's NCO correction)."""
     rng = np.random.default_rng([len(signal), int(fs), int(periods * 10)])
     length = SIGNALS[signal][2]
     phases = start_phases(length, rng)
