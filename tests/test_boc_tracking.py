@@ -121,3 +121,27 @@ def test_boc_tracking_scenario_detectors_leave_the_side_peaks_eml_keeps():
         scores = boc_scores(code, phase, T, scenario.params)
         np.testing.assert_array_equal(scores["side_peak_lock"], side)
         assert np.isnan(scores["code_rms_main_chips"]).all() == bool(side)
+
+
+def test_boc_scorers_keep_no_state_between_scenarios_or_batches():
+    """Two scorers (and one scorer twice) on the same series object under scenarios whose
+    side_peak_chips differ: each answers for its own scenario. Run 0 ends 0.2 chip off, run 1
+    0.05: side-peak locked (mean |error| > side_peak_chips / 2) at 0.3 chips, not at 0.5."""
+    from gnssframework.experiments.scenarios import get_scenario
+    from gnssframework.experiments.scenarios.boc_tracking import METRICS, BocScore
+
+    K = 50
+    time_s = 0.004 * (1 + np.arange(K))
+    code = np.tile([0.2, 0.05], (K, 1))
+    series = {"code_error_chips": code, "phase_error_rad": np.zeros((K, 2))}
+    narrow, wide = (get_scenario({"kind": "boc-tracking", "side_peak_chips": s, "lock_window_s": 0.02})
+                    for s in (0.3, 0.5))
+    first = next(m for m in METRICS if m.name == "side_peak_lock")
+    second = BocScore("side_peak_lock", "")
+    np.testing.assert_array_equal(first.compute(series, time_s, narrow).value, [1.0, 0.0])
+    np.testing.assert_array_equal(second.compute(series, time_s, wide).value, [0.0, 0.0])
+    np.testing.assert_array_equal(first.compute(series, time_s, wide).value, [0.0, 0.0])
+    # the RMS is undefined (side-peak lock) on run 0 only where that run is side-locked
+    rms = next(m for m in METRICS if m.name == "code_rms_main_chips")
+    assert np.isnan(rms.compute(series, time_s, narrow).value[0])
+    np.testing.assert_allclose(rms.compute(series, time_s, wide).value, [0.2, 0.05])

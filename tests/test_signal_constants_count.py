@@ -65,17 +65,10 @@ CA_TIMING = frozenset({1e-3, 0.02, 20, 50})
 # "detect" as a bit detection's name (DETECT_MS, FIRST_DETECT_S), not a missed detection's
 # probability (missed_detection = 1e-3).
 TIMING_NAME = re.compile(r"bit|code_period|^detect|detect_m?s$", re.IGNORECASE)
-#: Files that still use C/A constants (measured), with what they use.
-REMAINING: frozenset[str] = frozenset({
-    # RINEX observation codes' carrier frequencies (L1 1575.42e6, shared by GPS, Galileo,
-    # QZSS and SBAS): a table of the file format, not a receiver block.
-    "gnssframework/io/observations.py",
-    # DETECT_MS = 20, FIRST_DETECT_S = 0.02: the tracker's bit detection (not reworked here).
-    "gnssframework/receiver/channels/tracker.py",
-    # CoherentTime = coherent_time(): the pydantic type of T the C/A-only scenarios annotate
-    # their fields with (a type annotation needs a module-level name).
-    "gnssframework/experiments/limits.py",
-})
+#: Files that still use C/A constants (measured), with what they use: none (the RINEX
+#: reader takes L1's carrier from the signal descriptions, the tracker's detector cadence
+#: is one symbol of its signal, the scenarios' T type reads their own signal).
+REMAINING: frozenset[str] = frozenset()
 
 
 def _module(path: pathlib.Path) -> tuple[str, bool]:

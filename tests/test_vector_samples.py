@@ -240,7 +240,7 @@ def assert_dropped_and_rejoined(result, gone: int, blank_start_s: float, blank_e
     lost = [t for t, text in events if text.startswith("lost: C/N0 estimate below")]
     found = [t for t, text in events if "re-acquired in the window predicted by the navigation solution" in text]
     # The estimate over cn0_window_ms is all noise cn0_window_ms after the blank starts, and is
-    # evaluated every 20 ms (DETECT_MS); the rule then needs loss_ms of it. Before loss_ms of
+    # evaluated every 20 ms (one bit: the tracker's detect_periods); the rule then needs loss_ms of it. Before loss_ms of
     # blank it cannot fire.
     assert len(lost) == 1, events
     assert blank_start_s + v.loss_ms * 1e-3 <= lost[0] <= blank_start_s + (cfg.cn0_window_ms + v.loss_ms + 30) * 1e-3

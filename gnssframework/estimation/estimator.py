@@ -15,7 +15,6 @@ Gaussian filter of Särkkä, *Bayesian Filtering and Smoothing* (2013), chapter 
 from __future__ import annotations
 
 import abc
-from collections.abc import Callable
 from typing import Any, Literal
 
 import numpy as np
@@ -27,7 +26,7 @@ from . import compiled as kernels
 from .linalg import all_true, any_true, cholesky_masked, failing_indices, mat_vec, symmetrize
 from .compiled_model import CompiledFunctions
 from .iterated import iterated_update
-from .types import Gaussian, Model, Update
+from .types import Gaussian, Model, Update, residual_hook
 
 #: A compiled point rule: (root kind, scale, centre point, mean weights, covariance weights).
 KernelRule = tuple[int, float, bool, np.ndarray, np.ndarray]
@@ -257,7 +256,7 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
             S_safe = S
         # K^T = S^{-1} C^T: one batched solve, S symmetric.
         gain = np.swapaxes(np.linalg.solve(S_safe, np.swapaxes(C, -1, -2)), -1, -2)
-        innovation = _residual(model, "z")(z, z_hat)
+        innovation = residual_hook(model, "z")(z, z_hat)
         mean = prior.mean + mat_vec(gain, innovation)
         cov = self.posterior_cov(prior, gain, S_safe, model)
         if any_true(skip):
@@ -277,16 +276,6 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
 def _hooked(model: Model) -> bool:
     """Whether ``model`` has angle-aware residual or mean hooks (NumPy path only)."""
     return bool(getattr(model, "angle_aware", False))
-
-
-def _subtract(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out: np.ndarray = a - b
-    return out
-
-
-def _residual(model: Model | None, space: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
-    """The model's ``residual_x``/``residual_z`` hook, or plain subtraction."""
-    return getattr(model, f"residual_{space}", None) or _subtract
 
 
 class SigmaPointEstimator(Estimator):
@@ -395,7 +384,7 @@ class SigmaPointEstimator(Estimator):
         model's mean and residual hooks of ``space`` (``"x"`` or ``"z"``) where it has them."""
         mean_fn = getattr(model, f"mean_{space}", None)
         mean = mean_fn(Y, wm) if mean_fn is not None else (wm @ Y.reshape(Y.shape[0], -1)).reshape(Y.shape[1:])
-        return mean, _residual(model, space)(Y, mean)
+        return mean, residual_hook(model, space)(Y, mean)
 
     @staticmethod
     def _weighted_cov(dA: np.ndarray, dB: np.ndarray, wc: np.ndarray) -> np.ndarray:
@@ -437,7 +426,7 @@ class SigmaPointEstimator(Estimator):
         Z = model.h(X)
         z_hat, dZ = self._moments(Z, wm, wc, model, "z")
         S = symmetrize(self._weighted_cov(dZ, dZ, wc) + model.R)
-        C = self._weighted_cov(_residual(model, "x")(X, prior.mean), dZ, wc)
+        C = self._weighted_cov(residual_hook(model, "x")(X, prior.mean), dZ, wc)
         return z_hat, S, C
 
     def transition_cross_cov(self, state: Gaussian, model: Model, prior: Gaussian) -> np.ndarray:
@@ -456,7 +445,7 @@ class SigmaPointEstimator(Estimator):
         """
         points = None if _hooked(model) else self._kernel_points(state)
         X, wm, wc = points if points is not None else self.sigma_points(state)
-        residual = _residual(model, "x")
+        residual = residual_hook(model, "x")
         dX = residual(X, state.mean)
         dY = residual(model.f(X), prior.mean)
         return self._weighted_cov(dX, dY, wc)

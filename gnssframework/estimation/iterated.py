@@ -39,7 +39,7 @@ import numpy as np
 
 from ..errors import InvalidMeasurementError, NotPositiveDefiniteError
 from .linalg import any_true, all_true, cholesky_masked, failing_indices, mat_vec, symmetrize
-from .types import Gaussian, Model, Update
+from .types import Gaussian, Model, Update, residual_hook
 
 if TYPE_CHECKING:
     from .robust import RobustUpdate
@@ -68,17 +68,6 @@ ITERATION_KINDS = ("gauss-newton", "posterior-linearisation")
 def _t(a: np.ndarray) -> np.ndarray:
     out: np.ndarray = np.swapaxes(a, -1, -2)
     return out
-
-
-def _subtract(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out: np.ndarray = a - b
-    return out
-
-
-def _residual(model: Model, space: str) -> Residual:
-    """The model's ``residual_x``/``residual_z`` hook, or plain subtraction (as the engines)."""
-    hook: Residual = getattr(model, f"residual_{space}", None) or _subtract
-    return hook
 
 
 def _where(mask: np.ndarray, new: np.ndarray, old: np.ndarray) -> np.ndarray:
@@ -160,7 +149,7 @@ def iterated_update(engine: Engine, prior: Gaussian, z: np.ndarray, model: Model
     bad_z = np.zeros(batch, dtype=bool) if all_true(finite_z) else ~finite_z.all(axis=-1)
     if any_true(bad_z) and missing != "skip":
         raise InvalidMeasurementError(engine.name, failing_indices(~bad_z))
-    res_z, res_x = _residual(model, "z"), _residual(model, "x")
+    res_z, res_x = residual_hook(model, "z"), residual_hook(model, "x")
 
     z_bar0, S0, C0 = engine.measurement_moments(prior, model)
     z = np.where(bad_z[..., None], z_bar0, z) if any_true(bad_z) else z

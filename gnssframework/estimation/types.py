@@ -24,7 +24,8 @@ from ..errors import ConfigError
 from .compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian
 from .linalg import mat_vec, to_float
 
-__all__ = ["Gaussian", "Update", "LinearModel", "NonlinearModel", "Model", "CompiledFunctions", "numerical_jacobian"]
+__all__ = ["Gaussian", "Update", "LinearModel", "NonlinearModel", "Model", "CompiledFunctions", "numerical_jacobian",
+           "residual_hook"]
 
 ArrayFn = Callable[[np.ndarray], np.ndarray]
 
@@ -198,6 +199,19 @@ class LinearModel:
     def with_noise(self, Q: np.ndarray | None = None, R: np.ndarray | None = None) -> LinearModel:
         """Copy with new noise covariances (``None`` keeps the current one)."""
         return dataclasses.replace(self, Q=self.Q if Q is None else Q, R=self.R if R is None else R)
+
+
+def _subtract(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    out: np.ndarray = a - b
+    return out
+
+
+def residual_hook(model: Any, space: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """The model's ``residual_x`` or ``residual_z`` hook (``space`` ``"x"`` or ``"z"``: an
+    angle-aware difference, `gnssframework.estimation.angles`), or plain subtraction where
+    it has none: the one lookup of the engines and of `iterated_update`."""
+    hook: Callable[[np.ndarray, np.ndarray], np.ndarray] = getattr(model, f"residual_{space}", None) or _subtract
+    return hook
 
 
 def numerical_jacobian(fn: ArrayFn, x: np.ndarray, rel_step: float = 1e-6) -> np.ndarray:

@@ -2,7 +2,8 @@
 
 Two kinds of limit: the coherent interval T must be a whole number of the signal's code
 periods between one period and one data symbol (1 to 20 ms for GPS L1 C/A, the default;
-`coherent_time` makes the type for another `SignalSpec`), and one batch of runs must fit in a
+`coherent_time` makes the type for a `SignalSpec`; a scenario's parameter models check their
+``coherent_time_s`` against their own ``signal`` through `SignalCoherentTime`), and one batch of runs must fit in a
 stated memory budget. A scenario estimates its batch's memory from its epochs, runs and
 channels (bytes per epoch, run and channel measured on the harnesses and rounded up;
 ``tests/test_limits.py`` holds each estimate above the measured peak), so a config that
@@ -12,15 +13,17 @@ would need tens of GiB is refused with the estimate before anything is allocated
 from __future__ import annotations
 
 import os
-from typing import Annotated
+from typing import Annotated, Any, ClassVar
 
-from pydantic import AfterValidator, Field
+from pydantic import AfterValidator, BaseModel, Field, GetJsonSchemaHandler, field_validator
+from pydantic.json_schema import JsonSchemaValue
+from pydantic_core import PydanticKnownError
 
 from ..errors import ConfigError
 from ..signal.gps_l1ca import GPS_L1CA
 from ..signal.spec import SignalSpec
 
-__all__ = ["CoherentTime", "coherent_time", "coherent_time_bounds",
+__all__ = ["SignalCoherentTime", "coherent_time", "coherent_time_bounds",
            "MEMORY_BUDGET_ENV", "DEFAULT_MEMORY_BUDGET_GIB", "memory_budget_gib", "check_batch_memory"]
 
 
@@ -63,8 +66,39 @@ def coherent_time(signal: SignalSpec = GPS_L1CA):
     return Annotated[float, Field(ge=lo, le=hi), AfterValidator(_whole_code_periods(signal))]
 
 
-#: A coherent integration interval T in seconds: whole code periods, 1 to 20 ms (GPS L1 C/A).
-CoherentTime = coherent_time()
+class SignalCoherentTime(BaseModel):
+    """Base of a parameter model whose ``coherent_time_s`` (T, s; None where a case takes its
+    scenario's) must be whole code periods of the model's `signal`, from one period to
+    `coherent_time_bounds`' longest: the checks and messages of `coherent_time`'s type,
+    read off the class's own signal (a subclass for another signal sets ``signal``), and
+    the bounds in the JSON schema (the config reference)."""
+
+    #: The signal whose code periods T counts (the scenario's).
+    signal: ClassVar[SignalSpec] = GPS_L1CA
+
+    @field_validator("coherent_time_s", check_fields=False)
+    @classmethod
+    def _whole_code_periods_of_the_signal(cls, value: float | None) -> float | None:
+        if value is None:
+            return value
+        lo, hi = coherent_time_bounds(cls.signal)
+        if not value >= lo:
+            raise PydanticKnownError("greater_than_equal", {"ge": lo})
+        if not value <= hi:
+            raise PydanticKnownError("less_than_equal", {"le": hi})
+        out: float = _whole_code_periods(cls.signal)(value)
+        return out
+
+    @classmethod
+    def __get_pydantic_json_schema__(cls, core_schema: Any, handler: GetJsonSchemaHandler) -> JsonSchemaValue:
+        schema = handler(core_schema)
+        field = handler.resolve_ref_schema(schema).get("properties", {}).get("coherent_time_s")
+        if field is not None:
+            lo, hi = coherent_time_bounds(cls.signal)
+            for number in [field, *field.get("anyOf", [])]:
+                if number.get("type") == "number":
+                    number.update(minimum=lo, maximum=hi)
+        return schema
 
 
 def memory_budget_gib() -> float:

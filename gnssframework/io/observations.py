@@ -18,11 +18,14 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, DataFileError
+from ..signal.galileo_e1 import GALILEO_E1C
+from ..signal.gps_l1ca import GPS_L1CA
+from ..signal.spec import SignalSpec
 from .rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M, RinexScan, _check_bounds, check_rinex3_obs
 from .skipped import refuse_or_keep
 from .text import check_input_file
 
-__all__ = ["Observations", "normalise_select", "SIGNALS", "SECOND_SIGNALS", "SPEED_OF_LIGHT_MPS", "LLI_LOST_LOCK", "read_observations",
+__all__ = ["Observations", "normalise_select", "primary_signals", "SECOND_SIGNALS", "SPEED_OF_LIGHT_MPS", "LLI_LOST_LOCK", "read_observations",
            "arc_starts", "glonass_l1_frequency_hz", "GEORINEX_TIME_TOLERANCE", "CodeCarrier", "read_code_carrier"]
 
 SPEED_OF_LIGHT_MPS = 299_792_458.0
@@ -32,20 +35,27 @@ SPEED_OF_LIGHT_MPS = 299_792_458.0
 #: in RINEX 2, BOC tracking in RINEX 3) do not break the carrier's continuity.
 LLI_LOST_LOCK = 1
 
-# Carrier frequencies (Hz): IS-GPS-200 (L1 1575.42, L2 1227.60), Galileo OS SIS ICD
-# (E1 1575.42, E5a 1176.45), BDS-SIS-ICD-B1I (1561.098) and B2I (1207.14).
-_F = {"L1": 1575.42e6, "L2": 1227.60e6, "E5a": 1176.45e6, "B1I": 1561.098e6, "B2I": 1207.14e6}
+# Carrier frequencies (Hz) of the signals without a description here: IS-GPS-200 (L2
+# 1227.60), Galileo OS SIS ICD (E5a 1176.45), BDS-SIS-ICD-B1I (1561.098) and B2I (1207.14).
+_F = {"L2": 1227.60e6, "E5a": 1176.45e6, "B1I": 1561.098e6, "B2I": 1207.14e6}
 
-#: Per system, the (code, phase, signal-strength) observation codes of the primary signal,
-#: tried in order (RINEX 3 names first, then RINEX 2), with the carrier frequency (Hz).
-#: GLONASS's frequency depends on the satellite's channel (:func:`glonass_l1_frequency_hz`).
-#: RINEX 3.02 wrote BDS B1I as ``C1I``; 3.03 and later as ``C2I``.
-SIGNALS: dict[str, list[tuple[str, str, str, float | None]]] = {
-    "G": [("C1C", "L1C", "S1C", _F["L1"]), ("C1", "L1", "S1", _F["L1"])],
-    "E": [("C1C", "L1C", "S1C", _F["L1"]), ("C1X", "L1X", "S1X", _F["L1"]), ("C1", "L1", "S1", _F["L1"])],
-    "C": [("C2I", "L2I", "S2I", _F["B1I"]), ("C1I", "L1I", "S1I", _F["B1I"])],
-    "R": [("C1C", "L1C", "S1C", None), ("C1", "L1", "S1", None)],
-}
+
+def primary_signals(gps: SignalSpec = GPS_L1CA,
+                    galileo: SignalSpec = GALILEO_E1C) -> dict[str, list[tuple[str, str, str, float | None]]]:
+    """Per system, the (code, phase, signal-strength) observation codes of the primary
+    signal, tried in order (RINEX 3 names first, then RINEX 2), with the carrier frequency
+    (Hz): GPS L1 C/A's and Galileo E1's from their descriptions (``gps``, ``galileo``).
+    GLONASS's frequency depends on the satellite's channel (:func:`glonass_l1_frequency_hz`).
+    RINEX 3.02 wrote BDS B1I as ``C1I``; 3.03 and later as ``C2I``.
+    """
+    f_gps, f_gal = gps.carrier_freq_hz, galileo.carrier_freq_hz
+    return {
+        "G": [("C1C", "L1C", "S1C", f_gps), ("C1", "L1", "S1", f_gps)],
+        "E": [("C1C", "L1C", "S1C", f_gal), ("C1X", "L1X", "S1X", f_gal), ("C1", "L1", "S1", f_gal)],
+        "C": [("C2I", "L2I", "S2I", _F["B1I"]), ("C1I", "L1I", "S1I", _F["B1I"])],
+        "R": [("C1C", "L1C", "S1C", None), ("C1", "L1", "S1", None)],
+    }
+
 #: Per system, the phase of a second frequency (for the ionosphere-free combinations),
 #: tried in order, with its frequency (Hz); GLONASS L2 is 1246 + k 0.4375 MHz.
 SECOND_SIGNALS: dict[str, list[tuple[str, float | None]]] = {
@@ -359,7 +369,7 @@ def read_observations(path: str | Path, select: str = "G", pseudorange_min_m: fl
         The file; Hatanaka and gzip compression are undone with the ``hatanaka`` package.
     select
         Satellites (``"G08"``, ``"G08,C11"``) or systems (``"G"``, ``"GEC"``, ``"all"``):
-        GPS L1 C/A, Galileo E1, BDS B1I, GLONASS L1 C/A (:data:`SIGNALS`).
+        GPS L1 C/A, Galileo E1, BDS B1I, GLONASS L1 C/A (:func:`primary_signals`).
     pseudorange_min_m, pseudorange_max_m
         Plausibility bounds of a pseudorange (RINEX 3 line checks).
     strict
@@ -392,7 +402,7 @@ def read_observations(path: str | Path, select: str = "G", pseudorange_min_m: fl
         stated = _rinex2_epochs(text)
         _refuse_rinex2_time_order(path, stated)
     width = 3 if version >= 3 else 2  # georinex matches meas by prefix: "C1" would pull C1W, C1P...
-    meas = sorted(code for code in ({c for s in systems for sig in SIGNALS[s] for c in sig[:3]}
+    meas = sorted(code for code in ({c for s in systems for sig in primary_signals()[s] for c in sig[:3]}
                                     | {c for s in systems for c, _ in SECOND_SIGNALS[s]}) if len(code) == width)
     with tempfile.TemporaryDirectory(prefix="gnssframework-rinex-") as tmpdir:
         source = Path(tmpdir) / (path.name.split(".")[0] + (".rnx" if version >= 3 else ".obs"))
@@ -441,7 +451,7 @@ def _rinex2_out_of_bounds(obs: Observations, stated: list[tuple[int, np.datetime
 def _names(system: str, version: float) -> tuple[str, str]:
     """The first code and phase names of ``system``'s signal in a file of ``version``."""
     width = 3 if version >= 3 else 2
-    code, phase, _, _ = next(sig for sig in SIGNALS[system] if len(sig[0]) == width)
+    code, phase, _, _ = next(sig for sig in primary_signals()[system] if len(sig[0]) == width)
     return code, phase
 
 
@@ -470,7 +480,7 @@ def _assemble(path: Path, obs, epochs: np.ndarray, version: float, systems: set[
         if sv not in present:
             dropped[sv] = "no observations in the file"
             continue
-        pair = next(((c, p, s, f) for c, p, s, f in SIGNALS[sv[0]] if _both(obs, c, p, sv)), None)
+        pair = next(((c, p, s, f) for c, p, s, f in primary_signals()[sv[0]] if _both(obs, c, p, sv)), None)
         if pair is None:
             dropped[sv] = "no epoch with both {} and {}".format(*_names(sv[0], version))
             continue
@@ -542,7 +552,7 @@ class CodeCarrier:
     truncated: str | None = None  # why the file looks cut, or None
     lli: np.ndarray | None = None  # loss-of-lock indicator of the carrier, 0 where blank
     snr_dbhz: np.ndarray | None = None  # signal-strength observation, NaN where absent
-    wavelength_m: float = SPEED_OF_LIGHT_MPS / _F["L1"]  # the carrier's (read_code_carrier: the file's signal)
+    wavelength_m: float = field(kw_only=True)  # the carrier's (read_code_carrier: the file's signal)
 
 
 def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSEUDORANGE_MIN_M,
@@ -550,7 +560,7 @@ def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSE
     """Pseudorange and carrier (metres) of satellite ``prn`` (``"G08"``, ``"C11"``...).
 
     One satellite of :func:`read_observations` (RINEX 2.1x
-    or 3.0x, plain or Hatanaka-compressed; the signal of :data:`SIGNALS`),
+    or 3.0x, plain or Hatanaka-compressed; the signal of :func:`primary_signals`),
     at the epochs where both code and carrier exist, with its loss-of-lock indicators and
     signal strength. RINEX 3 files are first checked by :func:`~gnssframework.io.rinex.check_rinex3_obs`:
     duplicated, backwards and truncated epochs and implausible pseudoranges are skipped
@@ -576,4 +586,4 @@ def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSE
     times = obs.epoch[ok]
     t = (times - times[0]) / np.timedelta64(1, "s")
     return CodeCarrier(t.astype(float), times, obs.pseudorange_m[ok, j], obs.carrier_m[ok, j], obs.skipped,
-                       obs.truncated, obs.lli[ok, j], obs.snr_dbhz[ok, j], float(obs.wavelength_m[j]))
+                       obs.truncated, obs.lli[ok, j], obs.snr_dbhz[ok, j], wavelength_m=float(obs.wavelength_m[j]))

@@ -37,7 +37,6 @@ import numpy as np
 from pydantic import Field
 
 from ... import random_streams as draw
-from ...errors import ConfigError
 from ...receiver.engine.channel import Channel
 from ...receiver.engine.closers import ScalarCloser
 from ...receiver.engine.sources import AnalyticSource
@@ -46,7 +45,6 @@ from ...receiver.tracking.loop_bandwidth import at_interval
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from ...signal.galileo_e1 import GALILEO_E1C_BOC11
 from ...signal.spec import SignalSpec
-from ..limits import CoherentTime
 from ..metric_components import SeriesMetric, evaluate, units
 from ..metrics import MetricValue
 from . import BatchResult, register_scenario
@@ -56,8 +54,10 @@ __all__ = ["BocTrackingScenario", "boc_scores", "METRICS"]
 
 
 class BocTrackingParams(TrackingThresholdParams):
+    #: T counts its code periods (`SignalCoherentTime`): 4 ms to the 100 ms of E1-C's overlay.
+    signal: ClassVar[SignalSpec] = GALILEO_E1C_BOC11
     duration_s: float = Field(2.0, gt=0, le=3600, description="duration of every case (s)")
-    coherent_time_s: CoherentTime = Field(0.004, description="interval T (s): whole 4 ms E1-C code periods")
+    coherent_time_s: float = Field(0.004, description="interval T (s): whole 4 ms E1-C code periods")
     early_late_spacing_chips: float = Field(0.2, gt=0, le=1.0, description="early-late spacing D (chips)")
     settle_s: float = Field(1.0, ge=0, description="time not scored by code_rms_main_chips (s)")
     lock_window_s: float = Field(0.2, gt=0, description="the last this many seconds decide side-peak lock")
@@ -68,6 +68,7 @@ class BocTrackingParams(TrackingThresholdParams):
 
 
 class BocTrackingCase(TrackingThresholdCase):
+    signal: ClassVar[SignalSpec] = GALILEO_E1C_BOC11
     source: Literal["analytic"] = Field("analytic", description="correlators from the analytic model (the only "
                                         "source of this scenario)")
 
@@ -86,22 +87,18 @@ def boc_scores(code_err: np.ndarray, phase_err: np.ndarray, T: float, p: BocTrac
 
 class BocScore(SeriesMetric):
     """One of `boc_scores` as a metric component (reads ``code_error_chips`` and
-    ``phase_error_rad``; the scores are computed once per batch and shared)."""
-
-    _last: tuple = (None, None)
+    ``phase_error_rad``). Each computes the batch's scores itself (a few means over the
+    ``(K, runs)`` errors): no state is kept between calls, so no scorer can hand another
+    scenario's or batch's scores on."""
 
     def __init__(self, name: str, unit: str, *, undefined: str = "", description: str = "") -> None:
         super().__init__(name, unit, of="code_error_chips", undefined=undefined, description=description)
         self.requires = ("code_error_chips", "phase_error_rad")  # type: ignore[misc]  # per instance, as SeriesMetric's
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
-        code = series["code_error_chips"]
-        last, scores = BocScore._last
-        if last is not code:
-            assert time_s is not None  # the scenario's series have a time axis
-            T = float(time_s[1] - time_s[0]) if len(time_s) > 1 else 2 * float(time_s[0])
-            scores = boc_scores(code, series["phase_error_rad"], T, scenario.params)
-            BocScore._last = (code, scores)
+        assert time_s is not None  # the scenario's series have a time axis
+        T = float(time_s[1] - time_s[0]) if len(time_s) > 1 else 2 * float(time_s[0])
+        scores = boc_scores(series["code_error_chips"], series["phase_error_rad"], T, scenario.params)
         return MetricValue(scores[self.name])
 
 
@@ -126,14 +123,6 @@ class BocTrackingScenario(TrackingThresholdScenario):
     params: BocTrackingParams  # self.params, as validated
     CaseParams = BocTrackingCase
     outputs = {"phase_error_rad": "rad", "code_error_chips": "chips"}
-
-    def check_case(self, case: dict, where: str) -> None:
-        super().check_case(case, where)
-        T = self._case(case)["T"]
-        periods = T / self.signal.code_period_s
-        if abs(periods - round(periods)) > 1e-9 or round(periods) < 1:
-            raise ConfigError(f"{where}.coherent_time_s", f"must be whole {self.signal.code_period_s * 1e3:g} ms "
-                              f"code periods of {self.signal.name} (got {T!r})")
 
     @staticmethod
     def taps_of(channel) -> dict[str, float]:

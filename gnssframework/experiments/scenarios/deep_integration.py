@@ -46,7 +46,7 @@ from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import draw_epochs, nominal_constellation
 from ...simulation.propagation import cn0_from_elevation, elevation_deg, range_error_function
-from ..limits import CoherentTime
+from ..limits import SignalCoherentTime
 from ..metric_components import Mean, PostSettleMax, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
@@ -91,7 +91,7 @@ METRICS = (
 )
 
 
-class DeepIntegrationParams(SkyRealismParams):
+class DeepIntegrationParams(SignalCoherentTime, SkyRealismParams):
     """The flight and receiver of reference 002; the C/N0 and range-residual options of
     `SkyRealismParams` (off by default)."""
 
@@ -99,7 +99,7 @@ class DeepIntegrationParams(SkyRealismParams):
     profile: Literal["pull-up", "straight", "jerk-pulse"] = Field(
         "pull-up", description="Cai and Guo's (2017) flight (level 10 s, then a pull-up), straight flight, or straight "
         "flight with one smooth acceleration pulse (pulse_* parameters)")
-    coherent_time_s: CoherentTime = Field(0.001, description="T of correlators and prefilters (s): whole 1 ms code "
+    coherent_time_s: float = Field(0.001, description="T of correlators and prefilters (s): whole 1 ms code "
                                           "periods, 1 to 20 ms")
     imu_interval_s: float = Field(0.005, gt=0, description="IMU increment interval (200 Hz in Cai and Guo 2017)")
     nco_interval_s: float = Field(0.005, gt=0, description="interval at which the NCOs are re-aided (deep)")

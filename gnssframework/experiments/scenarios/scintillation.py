@@ -24,7 +24,7 @@ from ...receiver.tracking.scalar import NCO_COMMANDS, SignalTruth, check_closed_
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from ...simulation import scintillation as scint
-from ..limits import CoherentTime
+from ..limits import SignalCoherentTime
 from ..metric_components import LockLossFraction, Mean, Rmse, Std, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
@@ -35,9 +35,9 @@ __all__ = ["ScintillationScenario", "METRICS", "BYTES_PER_EPOCH_RUN"]
 BYTES_PER_EPOCH_RUN = 512
 
 
-class ScintillationParams(ScenarioParams):
+class ScintillationParams(SignalCoherentTime, ScenarioParams):
     duration_s: float = Field(60.0, gt=0, le=3600)
-    coherent_time_s: CoherentTime = Field(0.01, description="interval T (s): whole 1 ms code periods, 1 to 20 ms")
+    coherent_time_s: float = Field(0.01, description="interval T (s): whole 1 ms code periods, 1 to 20 ms")
     cn0_dbhz: float = Field(45.0, ge=20, le=60, description="C/N0 without scintillation")
     doppler_hz: float = Field(1500.0, description="constant Doppler (known at start)")
     doppler_rate_hz_s: float = Field(0.0, description="line-of-sight dynamics")
@@ -46,7 +46,7 @@ class ScintillationParams(ScenarioParams):
     lock_threshold: float = Field(0.5, description="a block whose mean cos(2 phase error) is below is out of lock")
 
 
-class ScintillationCase(ScenarioParams):
+class ScintillationCase(SignalCoherentTime, ScenarioParams):
     name: str | None = None
     model: Literal["aj-stanford", "cornell"] = "aj-stanford"
     s4: float = Field(..., gt=0, le=1.0)
@@ -55,7 +55,7 @@ class ScintillationCase(ScenarioParams):
     p: float = Field(2.5, ge=1.5, le=4.0, description="AJ-Stanford spectral slope")
     corner_hz: float = Field(0.1, gt=0, description="AJ-Stanford corner frequency")
     cn0_dbhz: float | None = Field(None, ge=20, le=60, description="C/N0 of this case (default: the scenario's)")
-    coherent_time_s: CoherentTime | None = Field(None, description="interval T of this case (s; whole 1 ms code "
+    coherent_time_s: float | None = Field(None, description="interval T of this case (s; whole 1 ms code "
                                                  "periods, 1 to 20 ms; default: the scenario's); the candidates' "
                                                  "loops are re-created at this T")
     duration_s: float | None = Field(None, gt=0, le=3600, description="duration of this case (default: the scenario's)")

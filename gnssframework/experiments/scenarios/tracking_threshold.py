@@ -64,7 +64,7 @@ from ...receiver.tracking.loop_bandwidth import at_interval, equivalent_bandwidt
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
-from ..limits import CoherentTime
+from ..limits import SignalCoherentTime
 from ..metric_components import Mean, SeriesMetric, evaluate, units
 from ..metrics import MetricValue
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
@@ -74,9 +74,9 @@ __all__ = ["TrackingThresholdScenario", "lock_loss", "count_slips", "lock_scores
 #: Peak memory of one run's interval (truth, the record; a generous round number).
 BYTES_PER_EPOCH_RUN = 512
 
-class TrackingThresholdParams(ScenarioParams):
+class TrackingThresholdParams(SignalCoherentTime, ScenarioParams):
     duration_s: float = Field(10.0, gt=0, le=3600, description="duration of every case (s)")
-    coherent_time_s: CoherentTime = Field(0.01, description="interval T (s): whole 1 ms code periods, 1 to 20 ms")
+    coherent_time_s: float = Field(0.01, description="interval T (s): whole 1 ms code periods, 1 to 20 ms")
     cn0_dbhz: float = Field(30.0, ge=5, le=60, description="C/N0 of a case that sets none (dB-Hz)")
     doppler_hz: float = Field(1500.0, description="constant Doppler at start (known to the receiver)")
     initial_freq_error_hz: float = Field(0.0, ge=-50, le=50, description="acquisition's Doppler error (Hz)")
@@ -93,10 +93,10 @@ class TrackingThresholdParams(ScenarioParams):
                                     "this close (rad) to a new multiple of pi to count a slip")
 
 
-class TrackingThresholdCase(ScenarioParams):
+class TrackingThresholdCase(SignalCoherentTime, ScenarioParams):
     name: str | None = None
     cn0_dbhz: float | None = Field(None, ge=5, le=60, description="C/N0 of this case (dB-Hz; default the scenario's)")
-    coherent_time_s: CoherentTime | None = Field(None, description="interval T of this case (default the "
+    coherent_time_s: float | None = Field(None, description="interval T of this case (default the "
                                                  "scenario's); the candidates' loops are re-created at it")
     duration_s: float | None = Field(None, gt=0, le=3600, description="duration of this case (default the scenario's)")
     doppler_rate_hz_s: float = Field(0.0, ge=-1000, le=1000, description="constant Doppler rate (Hz/s; "

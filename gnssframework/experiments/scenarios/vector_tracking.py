@@ -26,7 +26,7 @@ from ...simulation.constellation import draw_epochs, nominal_constellation
 from ...simulation.fade import CN0Fade, FadeCause, lowest_channels
 from ...simulation.propagation import cn0_from_elevation, draw_range_errors, elevation_deg, range_error_function
 from ...simulation.trajectory import FigureEight
-from ..limits import CoherentTime
+from ..limits import SignalCoherentTime
 from ..metric_components import Mean, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
@@ -74,9 +74,9 @@ class SkyRealismParams(ScenarioParams):
                     or self.orbit_clock_residual_std_m)
 
 
-class VectorTrackingParams(SkyRealismParams):
+class VectorTrackingParams(SignalCoherentTime, SkyRealismParams):
     duration_s: float = Field(30.0, gt=0, le=3600)
-    coherent_time_s: CoherentTime = Field(0.01, description="T (s): whole 1 ms code periods, 1 to 20 ms; with 20 ms "
+    coherent_time_s: float = Field(0.01, description="T (s): whole 1 ms code periods, 1 to 20 ms; with 20 ms "
                                           "bits, 10 ms intervals stay in a bit")
     channels: int = Field(8, ge=4, le=12)
     elevation_mask_deg: float = Field(10.0, ge=0, lt=90)

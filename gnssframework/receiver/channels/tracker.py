@@ -67,11 +67,14 @@ __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD
 
 #: How far (s) a channel may run ahead of the last one before it waits.
 LAG_LIMIT_S = 0.025
-#: Interval (ms) between two evaluations of a channel's lock detectors.
-DETECT_MS = 20
-#: Time (s) a channel of a signal without data symbols tracks before its lock detectors
-#: run (with data: one symbol, `SampleTracker.first_detect_periods`).
-FIRST_DETECT_S = 0.02
+
+
+def detect_periods(signal: SignalSpec) -> int:
+    """Code periods between two runs of a channel's lock detectors on ``signal``, and before
+    the first: one data symbol's (20 on L1 C/A, 1 on Galileo E1-B), on a pilot its overlay
+    code's (25 on E1-C; `SignalSpec.longest_coherent_s`). The detectors' windows are 10-100
+    times longer."""
+    return max(1, round(signal.longest_coherent_s / signal.code_period_s))
 
 
 class SampleTracker:
@@ -138,10 +141,9 @@ class SampleTracker:
         # (`to_table_units`). A CBOC waveform is not ±1 and is refused there (its -boc11 replica is).
         self.codes = replica_codes(signal, signal.prns)
         self.table_offsets = to_table_units(self.offsets, signal)
-        #: Prompts a channel holds before its lock detectors run: one data symbol's code
-        #: periods (20 on L1 C/A), or `FIRST_DETECT_S` of them on a signal without data.
-        self.first_detect_periods = signal.code_periods_per_symbol or max(
-            1, round(FIRST_DETECT_S / signal.code_period_s))
+        #: Prompts a channel holds before its lock detectors first run, and code periods
+        #: between two of their runs (`detect_periods`).
+        self.detect_periods = detect_periods(signal)
 
     def slot(self, prn: int) -> int:
         """The index of ``prn``'s channel in the tracker's arrays."""
@@ -480,18 +482,19 @@ class SampleTracker:
         return self.prompts[i, (self.n_prompts[i] - n + np.arange(n)) % size]
 
     def _detect(self, chans: list[SampleChannel]) -> None:
-        """Lock detectors of channels ``chans``, evaluated every `DETECT_MS` (their windows are
-        10-100 times longer): on arrays over the channels whose prompt window is full."""
+        """Lock detectors of channels ``chans``, evaluated every `detect_periods` code periods
+        (their windows are 10-100 times longer): on arrays over the channels whose prompt
+        window is full."""
         cfg = self.config
         size = self.prompts.shape[1]
-        first = self.first_detect_periods
+        first = self.detect_periods
         full = []
         for c in chans:
             ms = int(self.ms_index[c.slot])
             if self.n_prompts[c.slot] < min(cfg.lock_window_ms, first):
                 c.locked = False
             elif ms >= c.next_detect:
-                c.next_detect = ms + DETECT_MS
+                c.next_detect = ms + first
                 if self.n_prompts[c.slot] >= size:
                     full.append(c)
                 else:
