@@ -76,3 +76,20 @@ def test_a_batch_with_every_metric_row_gone_is_not_finished(tmp_path):
     with sqlite3.connect(tmp_path / "s.sqlite") as con:
         con.execute("DELETE FROM metrics WHERE first_run = 2")
     assert store.finished_batches("k") == {("c", "a", 0, 2)}
+
+
+def test_a_metric_only_one_case_defines_does_not_damage_the_others(tmp_path):
+    """The main vector-tracking example's PCRB metrics exist on its static cases only: its
+    moving cases' batches were once counted damaged for lacking them, and recomputed on
+    every resume (36 batches each time the figure script reused the main job's store)."""
+    store = ResultStore(tmp_path / "s.sqlite")
+    store.register("k", 2)
+    store.add_batch("k", "static", "a", 0, {"m1": [1.0, 2.0], "pcrb": [3.0, 4.0]})
+    store.add_batch("k", "moving", "a", 0, {"m1": [1.0, 2.0]})
+    store.add_batch("k", "moving", "a", 2, {"m1": [1.0, 2.0]})
+    assert store.finished_batches("k") == {("static", "a", 0, 2), ("moving", "a", 0, 2), ("moving", "a", 2, 2)}
+    assert not store.damaged_batches("k")
+    with sqlite3.connect(tmp_path / "s.sqlite") as con:  # a metric the case's other batch holds is still missed
+        con.execute("DELETE FROM metrics WHERE \"case\" = 'moving' AND first_run = 2")
+    store.add_batch("k", "moving", "a", 2, {"m2": [1.0, 2.0]})
+    assert store.damaged_batches("k") == {("moving", "a", 0, 2), ("moving", "a", 2, 2)}

@@ -115,9 +115,12 @@ class ResultStore:
         metric rows are all there.
 
         A batch's ``batches`` row says it committed; its metric rows are checked too: every
-        metric the config's batches store must have one row per run of the batch. A batch
-        with rows missing (a store edited or damaged by hand) is not finished: the
-        comparison recomputes it instead of averaging over the runs that are left.
+        metric the other batches of its case and candidate store must have one row per run
+        of the batch. A batch with rows missing (a store edited or damaged by hand) is not
+        finished: the comparison recomputes it instead of averaging over the runs that are
+        left. The metrics expected are those of the same case and candidate, not of the
+        whole comparison: a case may define metrics another does not (the posterior
+        Cramer-Rao bound on a static receiver only), and its batches are not damaged for it.
         """
         with self._connect() as con:
             rows = con.execute(
@@ -131,9 +134,11 @@ class ResultStore:
             counts = held.setdefault((c, k, int(f), int(n)), {})
             if metric is not None:
                 counts[metric] = int(count)
-        every = {m for counts in held.values() for m in counts}
+        expected: dict[tuple[str, str], set[str]] = {}
+        for (c, k, _, _), counts in held.items():
+            expected.setdefault((c, k), set()).update(counts)
         return {batch for batch, counts in held.items()
-                if every and set(counts) == every and all(v == batch[3] for v in counts.values())}
+                if counts and set(counts) == expected[batch[:2]] and all(v == batch[3] for v in counts.values())}
 
     def damaged_batches(self, config: str,
                         finished: set[tuple[str, str, int, int]] | None = None) -> set[tuple[str, str, int, int]]:
