@@ -27,7 +27,7 @@ from ...simulation.fade import CN0Fade, FadeCause, lowest_channels
 from ...simulation.propagation import cn0_from_elevation, draw_range_errors, elevation_deg, range_error_function
 from ...simulation.trajectory import FigureEight
 from ..limits import CoherentTime
-from ..metric_components import Mean, Rmse, evaluate, units
+from ..metric_components import IntegrityOutcome, Mean, Rmse, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["VectorTrackingScenario", "SkyRealismParams", "METRICS", "steady_state_start_s", "draw_residuals",
@@ -120,6 +120,19 @@ class VectorTrackingParams(SkyRealismParams):
         "start epoch from its own stream, uniform over the nominal constellation's sidereal day (86164.1 s) among "
         "the epochs with `channels` satellites above the mask, and tracks the highest ones then (no PCRB). "
         "Default fixed")
+    integrity_risk: float = Field(
+        1e-7, gt=0, lt=1, description="fault-free integrity risk of the protection levels hpl_m, vpl_m, computed "
+        "each epoch from the nav filter's position covariance in east, north, up "
+        "(gnssframework.navigation.integrity.covariance_protection_levels: VPL = Q^-1(I/2) sigma_U, "
+        "HPL = sqrt(-2 ln I) sqrt(lambda_max(C_EN))); they bound the error only as far as that covariance is "
+        "honest and no fault is left in. Default 1e-7")
+    horizontal_alert_limit_m: float = Field(
+        40.0, gt=0, description="horizontal alert limit (m) of the integrity metrics: an epoch is available "
+        "where HPL < it, hazardously misleading where HPL < it < the horizontal error. Default 40 (LPV-200, "
+        "ICAO Annex 10)")
+    vertical_alert_limit_m: float = Field(
+        35.0, gt=0, description="vertical alert limit (m), as horizontal_alert_limit_m for VPL and the vertical "
+        "error. Default 35 (LPV-200, ICAO Annex 10)")
 
 
     @field_validator("ephemeris_file", "trajectory_file")
@@ -220,6 +233,17 @@ METRICS = (
     Mean("excluded_channels", "-", of="excluded_channel_count", settle="settle_s",
          description="mean number of channels the channel monitor excludes from the navigation update (0 without "
                      "a monitor: scenario_options.channel_monitor)"),
+    Mean("hpl_mean", "m", of="hpl_m", settle="settle_s",
+         description="mean horizontal protection level of the nav filter's covariance at integrity_risk"),
+    Mean("vpl_mean", "m", of="vpl_m", settle="settle_s",
+         description="mean vertical protection level of the nav filter's covariance at integrity_risk"),
+    *(IntegrityOutcome(f"{axis}_{outcome}_fraction", of=f"{axis}_error_m", level=f"{axis[0]}pl_m",
+                       outcome=outcome, alert_limit=f"{axis}_alert_limit_m", settle="settle_s", description=text)
+      for axis in ("horizontal", "vertical") for outcome, text in (
+          ("misleading", f"fraction of epochs with misleading information: {axis} error > {axis[0].upper()}PL"),
+          ("hazardous", f"fraction of epochs with hazardously misleading information: {axis[0].upper()}PL < "
+                        f"{axis}_alert_limit_m < {axis} error"),
+          ("available", f"fraction of epochs available: {axis[0].upper()}PL < {axis}_alert_limit_m"))),
     Rmse("pcrb_position", "m", of="pcrb_position_m", settle="settle_s", optional=True, undefined=_NO_BOUND,
          description="posterior Cramér-Rao bound of the position error (RMS over the same window)"),
     Rmse("pcrb_velocity", "m/s", of="pcrb_velocity_m_s", settle="settle_s", optional=True, undefined=_NO_BOUND,
@@ -269,10 +293,13 @@ class VectorTrackingScenario(Scenario):
     metrics = units(METRICS)
     #: The raw per-epoch series the metrics reduce (metric components of other packages
     #: may read them too): code and frequency errors RMS over the channels, position and
-    #: velocity error norms, the channels the monitor excluded (with one), the per-epoch NEES,
+    #: velocity error norms, the horizontal and vertical position errors (at the true
+    #: position) and the protection levels of the nav filter's covariance (at
+    #: ``integrity_risk``), the channels the monitor excluded (with one), the per-epoch NEES,
     #: and the bound (if computed).
     outputs = {"code_error_chips": "chips", "freq_error_hz": "Hz", "position_error_m": "m",
                "velocity_error_m_s": "m/s", "excluded_channel_count": "-", "nav_nees": "-", "nav_nees_position": "-",
+               "horizontal_error_m": "m", "vertical_error_m": "m", "hpl_m": "m", "vpl_m": "m",
                "nav_nees_velocity": "-",
                "code_output_error_chips": "chips", "freq_output_error_hz": "Hz", "pcrb_position_m": "m",
                "pcrb_velocity_m_s": "m/s", "pcrb_position_code_m": "m", "pcrb_velocity_code_m_s": "m/s"}
@@ -471,7 +498,8 @@ class VectorTrackingScenario(Scenario):
         monitor = plugins.get("channel_monitor")
         rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng,
                               early_late_spacing_chips=p.early_late_spacing_chips, data_bits=p.data_bits,
-                              monitor=None if monitor is None else monitor.create())
+                              monitor=None if monitor is None else monitor.create(),
+                              integrity_risk=p.integrity_risk)
         last_s = rec.time_s[-1]
         if not (p.settle_s <= last_s and steady_state_start_s(self) <= last_s):
             raise ConfigError("scenario.settle_s", f"settle_s = {p.settle_s} and steady_state_s = "
@@ -486,7 +514,10 @@ class VectorTrackingScenario(Scenario):
                   "velocity_error_m_s": np.linalg.norm(rec.velocity_error_m_s, axis=-1),
                   "nav_nees": rec.nees, "nav_nees_position": rec.nees_position, "nav_nees_velocity": rec.nees_velocity,
                   "code_output_error_chips": channel_rms(rec.code_output_error_chips),
-                  "freq_output_error_hz": channel_rms(rec.freq_output_error_hz)}
+                  "freq_output_error_hz": channel_rms(rec.freq_output_error_hz),
+                  # East-north-up at the true position, and the covariance's protection levels.
+                  "horizontal_error_m": np.hypot(rec.position_error_enu_m[..., 0], rec.position_error_enu_m[..., 1]),
+                  "vertical_error_m": np.abs(rec.position_error_enu_m[..., 2]), "hpl_m": rec.hpl_m, "vpl_m": rec.vpl_m}
         # Without a channel monitor no channel is ever excluded: 0, so candidates with and
         # without one pair on this metric too.
         series["excluded_channel_count"] = (rec.extra["excluded"].sum(axis=-1).astype(float) if "excluded" in rec.extra
