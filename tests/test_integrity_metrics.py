@@ -128,3 +128,60 @@ def test_the_levels_scale_with_the_integrity_risk_as_their_formulas_say(step_run
     a, b = step_runs["monitor"].series, step_runs["monitor-1e-3"].series
     np.testing.assert_allclose(b["hpl_m"] / a["hpl_m"], np.sqrt(np.log(1e-3) / np.log(1e-7)), rtol=1e-9)
     np.testing.assert_allclose(b["vpl_m"] / a["vpl_m"], norm.isf(5e-4) / norm.isf(5e-8), rtol=1e-9)
+
+
+# --- receive --tracking vector --raim: the vector rows' protection levels ---------------------
+
+def test_vector_rows_carry_the_covariance_levels_and_the_monitor_verdict():
+    import pymap3d
+
+    from gnssframework.receiver.navigation.fixes import INTEGRITY_COLUMNS, POSITION_COLUMNS
+    from gnssframework.receiver.navigation.receive import concatenate_tables
+    from gnssframework.receiver.navigation.vector_solution import VectorSolution
+
+    lat, lon, h = 45.5, -73.6, 50.0
+    r = np.array(pymap3d.geodetic2ecef(lat, lon, h))
+    # East, north, up unit vectors in ECEF (pymap3d, not the module's rotation), as columns.
+    enu_to_ecef = np.stack(pymap3d.enu2uvw(*np.eye(3), lat, lon), axis=0)
+    C_enu = [np.array([[4.0, 1.0, 0.3], [1.0, 2.0, -0.2], [0.3, -0.2, 9.0]]), np.diag([1.0, 1.0, 4.0]),
+             np.diag([0.25, 1.0, 1.0])]
+    sol = VectorSolution(prns=(3, 7, 9), handover_s=10.0, week=2300)
+    for i, C in enumerate(C_enu):
+        P = np.eye(8)
+        P[:3, :3] = enu_to_ecef @ C @ enu_to_ecef.T
+        sol.sample_time_s.append(10.0 + i)
+        sol.state.append(np.concatenate([r, np.zeros(5)]))
+        sol.cov.append(P)
+        sol.used.append(np.isin(sol.slot_prns, (3, 7, 9)))
+        sol.used_sat_pos_m.append(np.zeros((0, 3)))
+        sol.monitor_excluded.append(np.isin(sol.slot_prns, (7, 9) if i == 1 else ()))
+    risk = 1e-5
+    table = sol.table(1.0, integrity_risk=risk)
+    for i, C in enumerate(C_enu):
+        lam_max = np.linalg.eigvalsh(C[:2, :2])[-1]
+        assert table.columns["hpl_m"][i] == pytest.approx(np.sqrt(-2 * np.log(risk) * lam_max), rel=1e-9)
+        assert table.columns["vpl_m"][i] == pytest.approx(norm.isf(risk / 2) * np.sqrt(C[2, 2]), rel=1e-9)
+    assert list(table.columns["raim"]) == ["ok", "excluded", "ok"]
+    assert list(table.excluded_prn) == [0, 7, 0]
+    assert set(INTEGRITY_COLUMNS) <= set(table.columns) and "hpl_m" not in sol.table(1.0).columns
+    # After scalar rows without levels (no --raim there), those rows say unavailable.
+    before = sol.table(1.0)
+    shifted = type(before)(before.columns, before.ecef_m, before.sample_time_s - 5.0, before.used_prns,
+                           before.excluded_prn)
+    joined = concatenate_tables(shifted, table, 10.0)
+    assert set(POSITION_COLUMNS + INTEGRITY_COLUMNS) <= set(joined.columns)
+    assert list(joined.columns["raim"]) == ["unavailable"] * 3 + ["ok", "excluded", "ok"]
+    assert np.all(np.isinf(joined.columns["hpl_m"][:3])) and np.all(np.isfinite(joined.columns["hpl_m"][3:]))
+
+
+def test_the_loop_rotation_to_east_north_up_is_pymap3ds():
+    import pymap3d
+
+    from gnssframework.receiver.tracking.vector import enu_rotation
+
+    rng = np.random.default_rng(7)
+    lat, lon, h = rng.uniform(-89, 89, 6), rng.uniform(-180, 180, 6), rng.uniform(-100, 9000, 6)
+    r = np.stack(pymap3d.geodetic2ecef(lat, lon, h), axis=-1)
+    d = rng.standard_normal((6, 3))
+    expected = np.stack(pymap3d.ecef2enuv(d[:, 0], d[:, 1], d[:, 2], lat, lon), axis=-1)
+    np.testing.assert_allclose(np.einsum("kij,kj->ki", enu_rotation(r), d), expected, atol=1e-12)
