@@ -16,10 +16,12 @@ from pydantic import Field, field_validator
 
 from ... import random_streams as draw
 from ...errors import ConfigError
+from ...estimation.consistency import nees
 from ...suggest import did_you_mean
 from ...interfaces import RunContext
 from ...io.text import check_input_file
-from ...receiver.tracking.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop
+from ...receiver.tracking.vector import (CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop,
+                                        smooth_record)
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import draw_epochs, nominal_constellation
@@ -36,6 +38,10 @@ __all__ = ["VectorTrackingScenario", "SkyRealismParams", "METRICS", "steady_stat
 #: Peak memory of the vector loop per epoch, run and channel (the recorded errors, NCO and
 #: truth arrays), an upper bound: tests/test_limits.py holds it above the measured peak.
 BYTES_PER_EPOCH_RUN_CHANNEL = 512
+#: With ``smoothed``: the stored posteriors and the backward pass's arrays per epoch and run
+#: (state, covariance, prediction, cross covariance, gain and smoothed covariance: about
+#: six 8 x 8 matrices), an upper bound like the one above.
+BYTES_PER_EPOCH_RUN_SMOOTHED = 4096
 
 
 #: Receiver motions of the scenario (`VectorTrackingParams.motion`).
@@ -126,6 +132,12 @@ class VectorTrackingParams(SkyRealismParams):
         "(gnssframework.navigation.integrity.covariance_protection_levels: VPL = Q^-1(I/2) sigma_U, "
         "HPL = sqrt(-2 ln I) sqrt(lambda_max(C_EN))); they bound the error only as far as that covariance is "
         "honest and no fault is left in. Default 1e-7")
+    smoothed: bool = Field(
+        False, description="also score the nav filter's fixed-interval RTS-smoothed estimates "
+        "(position_smoothed_error_rmse, velocity_smoothed_error_rmse, nees_position_smoothed): every epoch's "
+        "posterior is kept (576 bytes per epoch and run, more for the backward pass) and smoothed after the run "
+        "with the filter's transition(T) (gnssframework.receiver.tracking.vector.smooth_record); needs a nav "
+        "filter whose prediction is linear on its 8 published states (ekf-pv). Default false")
     horizontal_alert_limit_m: float = Field(
         40.0, gt=0, description="horizontal alert limit (m) of the integrity metrics: an epoch is available "
         "where HPL < it, hazardously misleading where HPL < it < the horizontal error. Default 40 (LPV-200, "
@@ -213,6 +225,7 @@ def steady_state_start_s(scenario: Any) -> float:
 #: Why a case has no bound (its metrics are then undefined rather than absent); the same for
 #: the code-and-carrier and the code-only bound, computed together.
 _NO_BOUND = "no bound for this case: a moving receiver, a per-run geometry, a trajectory file or a C/N0 fade"
+_NOT_SMOOTHED = "not smoothed: set scenario.smoothed = true"
 
 METRICS = (
     Rmse("code_phase_error_rmse", "chips", of="code_error_chips", settle="settle_s",
@@ -244,6 +257,13 @@ METRICS = (
           ("hazardous", f"fraction of epochs with hazardously misleading information: {axis[0].upper()}PL < "
                         f"{axis}_alert_limit_m < {axis} error"),
           ("available", f"fraction of epochs available: {axis[0].upper()}PL < {axis}_alert_limit_m"))),
+    Rmse("position_smoothed_error_rmse", "m", of="position_smoothed_error_m", settle="settle_s", optional=True,
+         undefined=_NOT_SMOOTHED, description="RMS position error of the RTS-smoothed estimates (smoothed = true)"),
+    Rmse("velocity_smoothed_error_rmse", "m/s", of="velocity_smoothed_error_m_s", settle="settle_s", optional=True,
+         undefined=_NOT_SMOOTHED, description="RMS velocity error of the RTS-smoothed estimates (smoothed = true)"),
+    Mean("nees_position_smoothed", "-", of="nav_nees_position_smoothed", settle="settle_s", optional=True,
+         undefined=_NOT_SMOOTHED, description="mean NEES of the smoothed position on its smoothed covariance "
+                                              "(smoothed = true)"),
     Rmse("pcrb_position", "m", of="pcrb_position_m", settle="settle_s", optional=True, undefined=_NO_BOUND,
          description="posterior Cramér-Rao bound of the position error (RMS over the same window)"),
     Rmse("pcrb_velocity", "m/s", of="pcrb_velocity_m_s", settle="settle_s", optional=True, undefined=_NO_BOUND,
@@ -300,6 +320,8 @@ class VectorTrackingScenario(Scenario):
     outputs = {"code_error_chips": "chips", "freq_error_hz": "Hz", "position_error_m": "m",
                "velocity_error_m_s": "m/s", "excluded_channel_count": "-", "nav_nees": "-", "nav_nees_position": "-",
                "horizontal_error_m": "m", "vertical_error_m": "m", "hpl_m": "m", "vpl_m": "m",
+               "position_smoothed_error_m": "m", "velocity_smoothed_error_m_s": "m/s",
+               "nav_nees_position_smoothed": "-",
                "nav_nees_velocity": "-",
                "code_output_error_chips": "chips", "freq_output_error_hz": "Hz", "pcrb_position_m": "m",
                "pcrb_velocity_m_s": "m/s", "pcrb_position_code_m": "m", "pcrb_velocity_code_m_s": "m/s"}
@@ -371,7 +393,8 @@ class VectorTrackingScenario(Scenario):
     def batch_memory(self, case: dict[str, Any], runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         p = self.params
         epochs = int(round(p.duration_s / p.coherent_time_s))
-        return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels, "scenario.coherent_time_s",
+        smoothing = BYTES_PER_EPOCH_RUN_SMOOTHED * epochs * runs if p.smoothed else 0
+        return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels + smoothing, "scenario.coherent_time_s",
                 f"a batch of {runs} runs of {where} ({epochs} epochs x {p.channels} channels)")
 
     def run_contexts(self, cases: list[dict[str, Any]]) -> list[RunContext]:
@@ -385,6 +408,14 @@ class VectorTrackingScenario(Scenario):
         except ConfigError as exc:
             outputs = CHANNEL_OUTPUTS if exc.field == "channel_filter" else NAV_OUTPUTS
             raise self.refuse(exc, where, outputs) from None
+        if self.params.smoothed:
+            nav = plugins["nav_filter"]
+            F = np.asarray(nav.transition(self.params.coherent_time_s)[0]) if hasattr(nav, "transition") else None
+            if F is None or F.shape != (8, 8):
+                raise ConfigError(f"{where}.nav_filter", f"scenario.smoothed needs a nav filter whose prediction is "
+                                  f"linear on its 8 published states, with transition(T) (ekf-pv); "
+                                  f"{getattr(nav, 'name', '?')!r} has " + ("none" if F is None else
+                                                                           f"{F.shape[0]} states"))
 
     def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None,
               case: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -499,7 +530,7 @@ class VectorTrackingScenario(Scenario):
         rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng,
                               early_late_spacing_chips=p.early_late_spacing_chips, data_bits=p.data_bits,
                               monitor=None if monitor is None else monitor.create(),
-                              integrity_risk=p.integrity_risk)
+                              integrity_risk=p.integrity_risk, store_estimates=p.smoothed)
         last_s = rec.time_s[-1]
         if not (p.settle_s <= last_s and steady_state_start_s(self) <= last_s):
             raise ConfigError("scenario.settle_s", f"settle_s = {p.settle_s} and steady_state_s = "
@@ -518,6 +549,11 @@ class VectorTrackingScenario(Scenario):
                   # East-north-up at the true position, and the covariance's protection levels.
                   "horizontal_error_m": np.hypot(rec.position_error_enu_m[..., 0], rec.position_error_enu_m[..., 1]),
                   "vertical_error_m": np.abs(rec.position_error_enu_m[..., 2]), "hpl_m": rec.hpl_m, "vpl_m": rec.vpl_m}
+        if p.smoothed:  # the RTS pass over the stored posteriors, with the filter's own transition
+            pos_s, vel_s, cov_s = smooth_record(rec, plugins["nav_filter"].transition(p.coherent_time_s), x0, P0)
+            series["position_smoothed_error_m"] = np.linalg.norm(pos_s, axis=-1)
+            series["velocity_smoothed_error_m_s"] = np.linalg.norm(vel_s, axis=-1)
+            series["nav_nees_position_smoothed"] = nees(pos_s, cov_s[..., 0:3, 0:3])
         # Without a channel monitor no channel is ever excluded: 0, so candidates with and
         # without one pair on this metric too.
         series["excluded_channel_count"] = (rec.extra["excluded"].sum(axis=-1).astype(float) if "excluded" in rec.extra
