@@ -114,6 +114,7 @@ def test_the_scenario_scores_the_smoothed_estimates():
     plain = get_scenario({**BASE, "smoothed": False})
     res = plain.run_batch({"cn0_dbhz": 40.0}, plain.build(COMPONENTS, None), 1, draw.run_streams(43, (0,), [0]))
     assert "position_smoothed_error_rmse" not in res.metrics  # optional: NaN in a comparison, with the reason
+    assert "smoothed = true" in plain.undefined_reasons["position_smoothed_error_rmse"]
 
 
 def test_a_nav_filter_with_more_states_than_it_publishes_is_refused():

@@ -29,7 +29,7 @@ from ...simulation.fade import CN0Fade, FadeCause, lowest_channels
 from ...simulation.propagation import cn0_from_elevation, draw_range_errors, elevation_deg, range_error_function
 from ...simulation.trajectory import FigureEight
 from ..limits import CoherentTime
-from ..metric_components import IntegrityOutcome, Mean, Rmse, evaluate, units
+from ..metric_components import IntegrityOutcome, Mean, Rmse, evaluate, undefined_reasons as _undefined_reasons, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["VectorTrackingScenario", "SkyRealismParams", "METRICS", "steady_state_start_s", "draw_residuals",
@@ -311,18 +311,20 @@ class VectorTrackingScenario(Scenario):
     components = {"channel_filter": True, "nav_filter": True}
     CandidateOptions = VectorCandidateOptions
     metrics = units(METRICS)
+    #: Why a metric can be undefined (NaN) in a run: no bound, or not smoothed.
+    undefined_reasons = _undefined_reasons(METRICS)
     #: The raw per-epoch series the metrics reduce (metric components of other packages
     #: may read them too): code and frequency errors RMS over the channels, position and
     #: velocity error norms, the horizontal and vertical position errors (at the true
     #: position) and the protection levels of the nav filter's covariance (at
     #: ``integrity_risk``), the channels the monitor excluded (with one), the per-epoch NEES,
-    #: and the bound (if computed).
+    #: the smoothed errors and NEES (with ``smoothed``), and the bound (if computed).
     outputs = {"code_error_chips": "chips", "freq_error_hz": "Hz", "position_error_m": "m",
                "velocity_error_m_s": "m/s", "excluded_channel_count": "-", "nav_nees": "-", "nav_nees_position": "-",
+               "nav_nees_velocity": "-",
                "horizontal_error_m": "m", "vertical_error_m": "m", "hpl_m": "m", "vpl_m": "m",
                "position_smoothed_error_m": "m", "velocity_smoothed_error_m_s": "m/s",
                "nav_nees_position_smoothed": "-",
-               "nav_nees_velocity": "-",
                "code_output_error_chips": "chips", "freq_output_error_hz": "Hz", "pcrb_position_m": "m",
                "pcrb_velocity_m_s": "m/s", "pcrb_position_code_m": "m", "pcrb_velocity_code_m_s": "m/s"}
     #: Error metric -> the bound drawn beside it in the report's time-series plot.
