@@ -1039,7 +1039,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(positions.csv columns hpl_m, vpl_m, raim); chi2 (the residual test, slope levels; the "
                         "default method) or ss (solution separation); with --nav-filter: its innovation test and "
                         "levels from its covariance; with --tracking vector: also the vector loop's channel fault "
-                        "monitor at --raim-pfa (the vector rows carry no protection levels)")
+                        "monitor at --raim-pfa, and the vector rows' levels from its navigation filter's covariance "
+                        "(raim: excluded where the monitor left a channel out)")
     p.add_argument("--raim-pfa", type=float, metavar="P", help="with --raim: false-alarm probability of its tests "
                                                                "(default 1e-5)")
     p.add_argument("--raim-pmd", type=float, metavar="P", help="with --raim: missed-detection probability of the "

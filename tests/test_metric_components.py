@@ -280,7 +280,15 @@ def test_vector_tracking_reports_the_hand_reductions():
             "pcrb_position_code": rms(sr["pcrb_position_code_m"], s),
             "pcrb_velocity_code": rms(sr["pcrb_velocity_code_m_s"], s),
             "excluded_channels": np.zeros(2)}  # no channel monitor: no channel excluded
-    assert set(res.metrics) == set(hand) == set(scen.metrics)
+    # Integrity: the default alert limits 40 m (horizontal) and 35 m (vertical).
+    for axis, limit in (("horizontal", 40.0), ("vertical", 35.0)):
+        err, pl = sr[f"{axis}_error_m"], sr[f"{axis[0]}pl_m"]
+        hand[f"{axis[0]}pl_mean"] = np.mean(pl[s], axis=0)
+        hand[f"{axis}_misleading_fraction"] = np.mean((err > pl)[s], axis=0)
+        hand[f"{axis}_hazardous_fraction"] = np.mean(((pl < limit) & (err > limit))[s], axis=0)
+        hand[f"{axis}_available_fraction"] = np.mean((pl < limit)[s], axis=0)
+    smoothed = {"position_smoothed_error_rmse", "velocity_smoothed_error_rmse", "nees_position_smoothed"}
+    assert set(res.metrics) == set(hand) == set(scen.metrics) - smoothed  # those with smoothed = true only
     for name, value in hand.items():
         np.testing.assert_allclose(res.metrics[name], value, rtol=1e-12, err_msg=name)
     assert sr["code_error_chips"].shape == (30, 2) and np.all(sr["nav_nees"] > 0)

@@ -62,3 +62,21 @@ def test_the_monitor_leaves_the_faulty_channel_out_and_keeps_the_position(runs):
     # monitor (this short recording's vector solution is tens of metres off already before
     # the fault: the comparison, not an absolute bound).
     assert np.sqrt(np.mean(err[t > FAULT_S + 1.0] ** 2)) < 0.8 * np.sqrt(np.mean(err0[t0 > FAULT_S + 1.0] ** 2))
+
+
+@pytest.mark.slow
+def test_the_vector_rows_carry_protection_levels_and_the_monitors_verdict(runs):
+    bad, out = runs
+    sol = out["monitor"].vector
+    table = sol.table(5.0, integrity_risk=1e-7)  # what receive --tracking vector --raim writes
+    t = table.sample_time_s
+    rows = np.asarray(sol.monitor_excluded)[np.searchsorted(sol.sample_time_s, t)]  # (rows, slots)
+    bad_out = rows[:, sol.slot_prns.index(bad)]
+    # The faulty channel is out at rows after the fault (it is readmitted now and then while
+    # its innovations pass), never before; each row's status is the monitor's verdict.
+    assert np.any(bad_out[t > FAULT_S]) and not np.any(bad_out[t < FAULT_S])
+    np.testing.assert_array_equal(table.columns["raim"] == "excluded", rows.any(axis=1))
+    lowest = [min((p for p, o in zip(sol.slot_prns, r) if o), default=0) for r in rows]
+    np.testing.assert_array_equal(table.excluded_prn, lowest)
+    assert np.all(np.isfinite(table.columns["hpl_m"])) and np.all(table.columns["vpl_m"] > 0)
+    assert "raim" not in out["none"].vector.table(5.0).columns

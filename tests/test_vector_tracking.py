@@ -201,7 +201,12 @@ def test_vector_metrics_on_hand_built_series():
     series = {"code_error_chips": 0.01 * one, "freq_error_hz": 2.0 * one,
               "position_error_m": pos, "velocity_error_m_s": pos / 10, "nav_nees": nees, "nav_nees_position": nees / 2,
               "nav_nees_velocity": nees / 4, "code_output_error_chips": 0.03 * one, "freq_output_error_hz": 5.0 * one,
-              "pcrb_position_m": one, "excluded_channel_count": np.array([[4.0, 0.0], [0.0, 1.0], [1.0, 1.0], [2.0, 1.0]])}
+              "pcrb_position_m": one, "excluded_channel_count": np.array([[4.0, 0.0], [0.0, 1.0], [1.0, 1.0], [2.0, 1.0]]),
+              # Errors and protection levels against the default alert limits, 40 m and 35 m.
+              "horizontal_error_m": np.array([[100.0, 100.0], [3.0, 0.0], [50.0, 0.0], [0.0, 6.0]]),
+              "hpl_m": np.array([[1.0, 1.0], [2.0, 1.0], [45.0, 1.0], [1.0, 50.0]]),
+              "vertical_error_m": np.array([[0.0, 0.0], [36.0, 1.0], [2.0, 0.0], [0.0, 0.0]]),
+              "vpl_m": np.array([[1.0, 1.0], [10.0, 1.0], [1.0, 1.0], [1.0, 36.0]])}
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 4.0, "settle_s": 1.0, "steady_state_s": 3.0})
     m = evaluate(METRICS, series, t, scen).metrics
     # RMS over epochs 2-4: sqrt((9 + 16 + 0) / 3) and sqrt(36 / 3); NEES: plain means.
@@ -216,6 +221,16 @@ def test_vector_metrics_on_hand_built_series():
     np.testing.assert_allclose(m["pcrb_position"], [1.0, 1.0])
     np.testing.assert_allclose(m["excluded_channels"], [1.0, 1.0])  # means over epochs 2-4
     assert "pcrb_velocity" not in m
+    # Epochs 2-4 by hand: MI error > PL; HMI PL < AL < error; available PL < AL.
+    np.testing.assert_allclose(m["hpl_mean"], [16.0, 52 / 3])
+    np.testing.assert_allclose(m["vpl_mean"], [4.0, 38 / 3])
+    np.testing.assert_allclose(m["horizontal_misleading_fraction"], [2 / 3, 0.0])  # 3 > 2, 50 > 45
+    np.testing.assert_allclose(m["horizontal_hazardous_fraction"], [0.0, 0.0])  # 50 > 40, but HPL 45 > 40
+    np.testing.assert_allclose(m["horizontal_available_fraction"], [2 / 3, 2 / 3])
+    np.testing.assert_allclose(m["vertical_misleading_fraction"], [2 / 3, 0.0])  # 36 > 10, 2 > 1; 1 > 1 is not
+    np.testing.assert_allclose(m["vertical_hazardous_fraction"], [1 / 3, 0.0])  # 10 < 35 < 36
+    np.testing.assert_allclose(m["vertical_available_fraction"], [1.0, 2 / 3])
+    assert "position_smoothed_error_rmse" not in m  # optional: only with smoothed = true
 
 
 def test_split_output_without_a_cn0_says_what_to_do():

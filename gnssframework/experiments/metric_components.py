@@ -489,3 +489,88 @@ def series_label(scenario: Any, metric: str) -> str:
     component's ``series_label``, or the metric's name when nothing says more."""
     component = metric_component(metric, scenario)
     return getattr(component, "series_label", None) or f"{metric} per epoch"
+
+
+# --- Integrity outcomes of protection levels (issue 43) ---------------------------------------
+
+__all__ += ["IntegrityOutcome", "integrity_outcome", "INTEGRITY_OUTCOMES"]
+
+#: What `IntegrityOutcome` counts (`integrity_outcome`).
+INTEGRITY_OUTCOMES = ("misleading", "hazardous", "available")
+
+
+def integrity_outcome(error_m: np.ndarray, level_m: np.ndarray, alert_limit_m: float, outcome: str) -> np.ndarray:
+    """Per-epoch integrity outcome of a position error against its protection level, the
+    regions of the Stanford-ESA integrity diagram (Tossaint et al. 2007, "The Stanford-ESA
+    integrity diagram: a new tool for the user domain SBAS integrity assessment",
+    Navigation 54(2); RTCA DO-229 for the terms), ``(K, runs)`` booleans:
+
+    - ``"misleading"`` (MI): the error exceeds the protection level, ``|e| > PL``;
+    - ``"hazardous"`` (HMI): the system declares itself available and the error exceeds
+      the alert limit, ``PL < AL < |e|`` (so also ``|e| > PL``); an error above both the
+      PL and the AL while ``PL >= AL`` is MI while unavailable, not HMI;
+    - ``"available"``: ``PL < AL``.
+
+    ``error_m`` is the magnitude of the error (``|e|``; a signed error is taken in
+    absolute value) and ``level_m`` the PL, both ``(K, runs)``; a NaN PL (none computed) is
+    neither available nor an MI.
+
+    Examples
+    --------
+    >>> e = np.array([1.0, 3.0, 12.0, 12.0, 30.0]); pl = np.array([2.0, 2.0, 5.0, 20.0, 25.0])
+    >>> [integrity_outcome(e, pl, 10.0, o).astype(int).tolist() for o in INTEGRITY_OUTCOMES]
+    [[0, 1, 1, 0, 1], [0, 0, 1, 0, 0], [1, 1, 1, 0, 0]]
+    """
+    if outcome not in INTEGRITY_OUTCOMES:
+        raise ValueError(f"outcome must be one of {', '.join(INTEGRITY_OUTCOMES)}, not {outcome!r}")
+    err = np.abs(np.asarray(error_m, dtype=float))
+    pl = np.asarray(level_m, dtype=float)
+    available = pl < alert_limit_m
+    if outcome == "available":
+        return available
+    misleading = err > pl
+    return misleading if outcome == "misleading" else available & (err > alert_limit_m)
+
+
+class IntegrityOutcome(SeriesMetric):
+    """Fraction of the settled epochs with an integrity outcome (`integrity_outcome`) of the
+    error ``of`` (m) against the protection level ``level`` (m, a series of the same
+    shape) and the alert limit ``alert_limit`` (m, or the scenario parameter holding it).
+    Its series is the outcome epoch by epoch (1 where it holds).
+
+    A run's value is a rate per epoch: ``misleading`` and ``hazardous`` estimate the
+    probabilities of MI and HMI (compare with the integrity risk the PL was computed at),
+    ``available`` the availability at that alert limit.
+
+    Examples
+    --------
+    >>> m = IntegrityOutcome("mi", of="e", level="pl", outcome="misleading", alert_limit=10.0)
+    >>> m.compute({"e": np.array([[1.0], [3.0]]), "pl": np.array([[2.0], [2.0]])}, None, None).value.tolist()
+    [0.5]
+    """
+
+    def __init__(self, name: str, of: str, *, level: str, outcome: str,
+                 alert_limit: float | str | Callable[[Any], float], settle: float | str | None = None,
+                 optional: bool = False, description: str = "") -> None:
+        if outcome not in INTEGRITY_OUTCOMES:
+            raise ValueError(f"outcome must be one of {', '.join(INTEGRITY_OUTCOMES)}, not {outcome!r}")
+        super().__init__(name, "-", of, settle=settle, optional=optional, description=description)
+        self.level, self.outcome, self.alert_limit = level, outcome, alert_limit
+        self.requires = (of, level)
+
+    @property
+    def series_label(self) -> str:
+        what = {"misleading": f"|{self.of}| > {self.level}",
+                "hazardous": f"{self.level} < alert limit < |{self.of}|",
+                "available": f"{self.level} < alert limit"}[self.outcome]
+        return f"{what} (1) or not (0)"
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        err = np.asarray(series[self.of], dtype=float)
+        pl = np.asarray(series[self.level], dtype=float)
+        if pl.shape != err.shape:
+            raise ValueError(f"{self.name}: the level {self.level!r} has shape {pl.shape}, the error {err.shape}")
+        limit = float(_scenario_value(self.alert_limit, scenario, self.name))
+        flags = integrity_outcome(err, pl, limit, self.outcome).astype(float)
+        return MetricValue(np.mean(select(flags, self._mask(err.shape[0], time_s, scenario), self.name), axis=0),
+                           flags)

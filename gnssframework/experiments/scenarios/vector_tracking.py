@@ -16,10 +16,12 @@ from pydantic import Field, field_validator
 
 from ... import random_streams as draw
 from ...errors import ConfigError
+from ...estimation.consistency import nees
 from ...suggest import did_you_mean
 from ...interfaces import RunContext
 from ...io.text import check_input_file
-from ...receiver.tracking.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop
+from ...receiver.tracking.vector import (CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, check_composition, run_vector_loop,
+                                        smooth_record)
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import draw_epochs, nominal_constellation
@@ -27,7 +29,7 @@ from ...simulation.fade import CN0Fade, FadeCause, lowest_channels
 from ...simulation.propagation import cn0_from_elevation, draw_range_errors, elevation_deg, range_error_function
 from ...simulation.trajectory import FigureEight
 from ..limits import SignalCoherentTime
-from ..metric_components import Mean, Rmse, evaluate, units
+from ..metric_components import IntegrityOutcome, Mean, Rmse, evaluate, undefined_reasons as _undefined_reasons, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["VectorTrackingScenario", "SkyRealismParams", "METRICS", "steady_state_start_s", "draw_residuals",
@@ -36,6 +38,10 @@ __all__ = ["VectorTrackingScenario", "SkyRealismParams", "METRICS", "steady_stat
 #: Peak memory of the vector loop per epoch, run and channel (the recorded errors, NCO and
 #: truth arrays), an upper bound: tests/test_limits.py holds it above the measured peak.
 BYTES_PER_EPOCH_RUN_CHANNEL = 512
+#: With ``smoothed``: the stored posteriors and the backward pass's arrays per epoch and run
+#: (state, covariance, prediction, cross covariance, gain and smoothed covariance: about
+#: six 8 x 8 matrices), an upper bound like the one above.
+BYTES_PER_EPOCH_RUN_SMOOTHED = 4096
 
 
 #: Receiver motions of the scenario (`VectorTrackingParams.motion`).
@@ -120,6 +126,25 @@ class VectorTrackingParams(SignalCoherentTime, SkyRealismParams):
         "start epoch from its own stream, uniform over the nominal constellation's sidereal day (86164.1 s) among "
         "the epochs with `channels` satellites above the mask, and tracks the highest ones then (no PCRB). "
         "Default fixed")
+    integrity_risk: float = Field(
+        1e-7, gt=0, lt=1, description="fault-free integrity risk of the protection levels hpl_m, vpl_m, computed "
+        "each epoch from the nav filter's position covariance in east, north, up "
+        "(gnssframework.navigation.integrity.covariance_protection_levels: VPL = Q^-1(I/2) sigma_U, "
+        "HPL = sqrt(-2 ln I) sqrt(lambda_max(C_EN))); they bound the error only as far as that covariance is "
+        "honest and no fault is left in. Default 1e-7")
+    smoothed: bool = Field(
+        False, description="also score the nav filter's fixed-interval RTS-smoothed estimates "
+        "(position_smoothed_error_rmse, velocity_smoothed_error_rmse, nees_position_smoothed): every epoch's "
+        "posterior is kept (576 bytes per epoch and run, more for the backward pass) and smoothed after the run "
+        "with the filter's transition(T) (gnssframework.receiver.tracking.vector.smooth_record); needs a nav "
+        "filter whose prediction is linear on its 8 published states (ekf-pv). Default false")
+    horizontal_alert_limit_m: float = Field(
+        40.0, gt=0, description="horizontal alert limit (m) of the integrity metrics: an epoch is available "
+        "where HPL < it, hazardously misleading where HPL < it < the horizontal error. Default 40 (LPV-200, "
+        "ICAO Annex 10)")
+    vertical_alert_limit_m: float = Field(
+        35.0, gt=0, description="vertical alert limit (m), as horizontal_alert_limit_m for VPL and the vertical "
+        "error. Default 35 (LPV-200, ICAO Annex 10)")
 
 
     @field_validator("ephemeris_file", "trajectory_file")
@@ -200,6 +225,7 @@ def steady_state_start_s(scenario: Any) -> float:
 #: Why a case has no bound (its metrics are then undefined rather than absent); the same for
 #: the code-and-carrier and the code-only bound, computed together.
 _NO_BOUND = "no bound for this case: a moving receiver, a per-run geometry, a trajectory file or a C/N0 fade"
+_NOT_SMOOTHED = "not smoothed: set scenario.smoothed = true"
 
 METRICS = (
     Rmse("code_phase_error_rmse", "chips", of="code_error_chips", settle="settle_s",
@@ -220,6 +246,24 @@ METRICS = (
     Mean("excluded_channels", "-", of="excluded_channel_count", settle="settle_s",
          description="mean number of channels the channel monitor excludes from the navigation update (0 without "
                      "a monitor: scenario_options.channel_monitor)"),
+    Mean("hpl_mean", "m", of="hpl_m", settle="settle_s",
+         description="mean horizontal protection level of the nav filter's covariance at integrity_risk"),
+    Mean("vpl_mean", "m", of="vpl_m", settle="settle_s",
+         description="mean vertical protection level of the nav filter's covariance at integrity_risk"),
+    *(IntegrityOutcome(f"{axis}_{outcome}_fraction", of=f"{axis}_error_m", level=f"{axis[0]}pl_m",
+                       outcome=outcome, alert_limit=f"{axis}_alert_limit_m", settle="settle_s", description=text)
+      for axis in ("horizontal", "vertical") for outcome, text in (
+          ("misleading", f"fraction of epochs with misleading information: {axis} error > {axis[0].upper()}PL"),
+          ("hazardous", f"fraction of epochs with hazardously misleading information: {axis[0].upper()}PL < "
+                        f"{axis}_alert_limit_m < {axis} error"),
+          ("available", f"fraction of epochs available: {axis[0].upper()}PL < {axis}_alert_limit_m"))),
+    Rmse("position_smoothed_error_rmse", "m", of="position_smoothed_error_m", settle="settle_s", optional=True,
+         undefined=_NOT_SMOOTHED, description="RMS position error of the RTS-smoothed estimates (smoothed = true)"),
+    Rmse("velocity_smoothed_error_rmse", "m/s", of="velocity_smoothed_error_m_s", settle="settle_s", optional=True,
+         undefined=_NOT_SMOOTHED, description="RMS velocity error of the RTS-smoothed estimates (smoothed = true)"),
+    Mean("nees_position_smoothed", "-", of="nav_nees_position_smoothed", settle="settle_s", optional=True,
+         undefined=_NOT_SMOOTHED, description="mean NEES of the smoothed position on its smoothed covariance "
+                                              "(smoothed = true)"),
     Rmse("pcrb_position", "m", of="pcrb_position_m", settle="settle_s", optional=True, undefined=_NO_BOUND,
          description="posterior Cramér-Rao bound of the position error (RMS over the same window)"),
     Rmse("pcrb_velocity", "m/s", of="pcrb_velocity_m_s", settle="settle_s", optional=True, undefined=_NO_BOUND,
@@ -267,13 +311,20 @@ class VectorTrackingScenario(Scenario):
     components = {"channel_filter": True, "nav_filter": True}
     CandidateOptions = VectorCandidateOptions
     metrics = units(METRICS)
+    #: Why a metric can be undefined (NaN) in a run: no bound, or not smoothed.
+    undefined_reasons = _undefined_reasons(METRICS)
     #: The raw per-epoch series the metrics reduce (metric components of other packages
     #: may read them too): code and frequency errors RMS over the channels, position and
-    #: velocity error norms, the channels the monitor excluded (with one), the per-epoch NEES,
-    #: and the bound (if computed).
+    #: velocity error norms, the horizontal and vertical position errors (at the true
+    #: position) and the protection levels of the nav filter's covariance (at
+    #: ``integrity_risk``), the channels the monitor excluded (with one), the per-epoch NEES,
+    #: the smoothed errors and NEES (with ``smoothed``), and the bound (if computed).
     outputs = {"code_error_chips": "chips", "freq_error_hz": "Hz", "position_error_m": "m",
                "velocity_error_m_s": "m/s", "excluded_channel_count": "-", "nav_nees": "-", "nav_nees_position": "-",
                "nav_nees_velocity": "-",
+               "horizontal_error_m": "m", "vertical_error_m": "m", "hpl_m": "m", "vpl_m": "m",
+               "position_smoothed_error_m": "m", "velocity_smoothed_error_m_s": "m/s",
+               "nav_nees_position_smoothed": "-",
                "code_output_error_chips": "chips", "freq_output_error_hz": "Hz", "pcrb_position_m": "m",
                "pcrb_velocity_m_s": "m/s", "pcrb_position_code_m": "m", "pcrb_velocity_code_m_s": "m/s"}
     #: Error metric -> the bound drawn beside it in the report's time-series plot.
@@ -344,7 +395,8 @@ class VectorTrackingScenario(Scenario):
     def batch_memory(self, case: dict[str, Any], runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         p = self.params
         epochs = int(round(p.duration_s / p.coherent_time_s))
-        return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels, "scenario.coherent_time_s",
+        smoothing = BYTES_PER_EPOCH_RUN_SMOOTHED * epochs * runs if p.smoothed else 0
+        return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels + smoothing, "scenario.coherent_time_s",
                 f"a batch of {runs} runs of {where} ({epochs} epochs x {p.channels} channels)")
 
     def run_contexts(self, cases: list[dict[str, Any]]) -> list[RunContext]:
@@ -358,6 +410,14 @@ class VectorTrackingScenario(Scenario):
         except ConfigError as exc:
             outputs = CHANNEL_OUTPUTS if exc.field == "channel_filter" else NAV_OUTPUTS
             raise self.refuse(exc, where, outputs) from None
+        if self.params.smoothed:
+            nav = plugins["nav_filter"]
+            F = np.asarray(nav.transition(self.params.coherent_time_s)[0]) if hasattr(nav, "transition") else None
+            if F is None or F.shape != (8, 8):
+                raise ConfigError(f"{where}.nav_filter", f"scenario.smoothed needs a nav filter whose prediction is "
+                                  f"linear on its 8 published states, with transition(T) (ekf-pv); "
+                                  f"{getattr(nav, 'name', '?')!r} has " + ("none" if F is None else
+                                                                           f"{F.shape[0]} states"))
 
     def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None,
               case: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -471,7 +531,8 @@ class VectorTrackingScenario(Scenario):
         monitor = plugins.get("channel_monitor")
         rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng,
                               early_late_spacing_chips=p.early_late_spacing_chips, data_bits=p.data_bits,
-                              monitor=None if monitor is None else monitor.create())
+                              monitor=None if monitor is None else monitor.create(),
+                              integrity_risk=p.integrity_risk, store_estimates=p.smoothed)
         last_s = rec.time_s[-1]
         if not (p.settle_s <= last_s and steady_state_start_s(self) <= last_s):
             raise ConfigError("scenario.settle_s", f"settle_s = {p.settle_s} and steady_state_s = "
@@ -486,7 +547,15 @@ class VectorTrackingScenario(Scenario):
                   "velocity_error_m_s": np.linalg.norm(rec.velocity_error_m_s, axis=-1),
                   "nav_nees": rec.nees, "nav_nees_position": rec.nees_position, "nav_nees_velocity": rec.nees_velocity,
                   "code_output_error_chips": channel_rms(rec.code_output_error_chips),
-                  "freq_output_error_hz": channel_rms(rec.freq_output_error_hz)}
+                  "freq_output_error_hz": channel_rms(rec.freq_output_error_hz),
+                  # East-north-up at the true position, and the covariance's protection levels.
+                  "horizontal_error_m": np.hypot(rec.position_error_enu_m[..., 0], rec.position_error_enu_m[..., 1]),
+                  "vertical_error_m": np.abs(rec.position_error_enu_m[..., 2]), "hpl_m": rec.hpl_m, "vpl_m": rec.vpl_m}
+        if p.smoothed:  # the RTS pass over the stored posteriors, with the filter's own transition
+            pos_s, vel_s, cov_s = smooth_record(rec, plugins["nav_filter"].transition(p.coherent_time_s), x0, P0)
+            series["position_smoothed_error_m"] = np.linalg.norm(pos_s, axis=-1)
+            series["velocity_smoothed_error_m_s"] = np.linalg.norm(vel_s, axis=-1)
+            series["nav_nees_position_smoothed"] = nees(pos_s, cov_s[..., 0:3, 0:3])
         # Without a channel monitor no channel is ever excluded: 0, so candidates with and
         # without one pair on this metric too.
         series["excluded_channel_count"] = (rec.extra["excluded"].sum(axis=-1).astype(float) if "excluded" in rec.extra

@@ -80,7 +80,9 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     (`channels.factory.StageFilters` of ``config``; built by the tracker when None).
     ``raim`` monitors the least-squares fixes' integrity (`pvt.solve_position`'s ``raim``)
     and gives the nav filter's rows protection levels from its covariance, its innovation
-    test at ``raim.false_alarm`` (`filtered.filter_epochs`); the vector loop's rows have none.
+    test at ``raim.false_alarm`` (`filtered.filter_epochs`); the vector loop's rows get the
+    levels of its navigation filter's covariance and its channel monitor's verdict
+    (`VectorSolution.table`; the monitor is ``vector.monitor_false_alarm``'s).
     ``observe`` is given the scalar tracker before it runs (a live receiver's fixes as they
     come, `live.LiveFixes`, read its records from ``progress``)."""
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
@@ -106,7 +108,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
                                   weighting=weighting, signal=signal, **_raim_args(raim))
         else:
             obs = None
-        table = concatenate_tables(scalar, solution.table(vector.solution_rate_hz), solution.handover_s)
+        vector_rows = solution.table(vector.solution_rate_hz, None if raim is None else raim.integrity_risk)
+        table = concatenate_tables(scalar, vector_rows, solution.handover_s)
         if assist is not None and solution.replica_tx:
             assisted = assisted_observables(tracking, solution, rate_hz, assist.iono, signal)
             if assisted is not None:  # the vector channels' rows, dated without LNAV
@@ -208,18 +211,20 @@ def assisted_observables(tracking: TrackingResult, solution: VectorSolution, rat
 def concatenate_tables(before: PositionTable | None, after: PositionTable | None,
                        switch_s: float | None) -> PositionTable | None:
     """The rows of ``before`` up to ``switch_s`` (recording time), then those of ``after``
-    (its integrity columns, where ``before`` has them and it has none, inf and ``unavailable``)."""
+    (integrity columns that one of them has and the other lacks: inf and ``unavailable`` in the
+    rows that lack them)."""
     if after is None or switch_s is None:
         return before
     if before is None:
         return after
     k = before.sample_time_s < switch_s
-    after_columns = dict(after.columns)
-    for c in INTEGRITY_COLUMNS:  # the vector rows have no protection levels: inf, "unavailable"
-        if c in before.columns and c not in after_columns:
-            after_columns[c] = np.full(len(after), "unavailable" if c == "raim" else np.inf,
-                                       dtype=before.columns[c].dtype)
-    return PositionTable({c: np.concatenate([before.columns[c][k], after_columns[c]]) for c in after_columns},
+    before_columns, after_columns = dict(before.columns), dict(after.columns)
+    for c in INTEGRITY_COLUMNS:  # rows without protection levels: inf, "unavailable"
+        for have, lack, rows in ((before_columns, after_columns, len(after)), (after_columns, before_columns,
+                                                                               len(before))):
+            if c in have and c not in lack:
+                lack[c] = np.full(rows, "unavailable" if c == "raim" else np.inf, dtype=have[c].dtype)
+    return PositionTable({c: np.concatenate([before_columns[c][k], after_columns[c]]) for c in after_columns},
                          np.concatenate([before.ecef_m[k], after.ecef_m]),
                          np.concatenate([before.sample_time_s[k], after.sample_time_s]),
                          [u for u, keep in zip(before.used_prns, k) if keep] + list(after.used_prns),

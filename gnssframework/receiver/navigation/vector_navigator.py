@@ -257,6 +257,10 @@ class VectorNavigator:
         mask[slots] = use
         s.used.append(mask)
         s.used_sat_pos_m.append(pos[use])
+        if self.monitor is not None:  # this epoch's channels the monitor left out
+            out_mask = np.zeros(len(sp.prns), bool)
+            out_mask[slots] = self.monitor.excluded[0, slots]
+            s.monitor_excluded.append(out_mask)
         self.command(slots, x)
 
     def _screen(self, slots: np.ndarray, code_chips: np.ndarray, var_chips2: np.ndarray, sat_pos: np.ndarray,

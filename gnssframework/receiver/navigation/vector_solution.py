@@ -30,7 +30,8 @@ class VectorSolution:
     ``(K, slots)`` whether the output of the channel at each tracker slot (the PRN
     ``slot_prns[slot]``) entered the update; ``used_sat_pos_m`` ``(K,)`` of ``(n, 3)``:
     the positions of those satellites (the table's HDOP and VDOP come from them, for its
-    rows only); ``handover_s`` the recording time of the hand-over fix; ``events`` what
+    rows only); ``monitor_excluded`` ``(K, slots)`` the channels the channel fault monitor
+    left out of the update (empty without a monitor); ``handover_s`` the recording time of the hand-over fix; ``events`` what
     happened (``(time_s, text)``).
     """
 
@@ -43,6 +44,7 @@ class VectorSolution:
     cov: list[np.ndarray] = field(default_factory=list)
     used: list[np.ndarray] = field(default_factory=list)
     used_sat_pos_m: list[np.ndarray] = field(default_factory=list)
+    monitor_excluded: list[np.ndarray] = field(default_factory=list)
     events: list[tuple[float, str]] = field(default_factory=list)
     #: Per vector channel's PRN at the end of the run: the recording time of its next
     #: interval's start and its replica's transmit time there (s of week, SV time).
@@ -55,10 +57,18 @@ class VectorSolution:
         """The PRN of each tracker slot (``signal.prns``; `used`'s columns)."""
         return self.signal.prns
 
-    def table(self, rate_hz: float = 1.0) -> PositionTable | None:
+    def table(self, rate_hz: float = 1.0, integrity_risk: float | None = None) -> PositionTable | None:
         """The epochs nearest whole multiples of ``1 / rate_hz`` of recording time as a
         position table (the columns of `fixes.POSITION_COLUMNS`; DOPs of the vector channels), or None
-        before any epoch."""
+        before any epoch.
+
+        With ``integrity_risk`` the rows also carry `fixes.INTEGRITY_COLUMNS`: the
+        protection levels of the navigation filter's position covariance rotated to east,
+        north, up at the estimate (`integrity.covariance_protection_levels`: fault-free
+        levels, as honest as that covariance), and ``raim`` ``excluded`` where the channel
+        monitor left a channel out of that epoch's update (its PRN, the lowest if several,
+        in ``excluded_prn``), ``ok`` otherwise, ``unavailable`` without a finite covariance.
+        """
         if not self.sample_time_s:
             return None
         t = np.asarray(self.sample_time_s)
@@ -74,7 +84,33 @@ class VectorSolution:
                    "lat_deg": lat, "lon_deg": lon, "height_m": h, "vel_e_mps": ve, "vel_n_mps": vn, "vel_u_mps": vu,
                    "clock_bias_m": x[:, 6], "n_sats": n_used.astype(int), "hdop": dops[:, 0], "vdop": dops[:, 1]}
         used = [tuple(self.slot_prns[int(i)] for i in np.flatnonzero(row)) for row in np.asarray(self.used)[k]]
-        return PositionTable(columns, x[:, :3].copy(), t, used, np.zeros(k.size, int))
+        excluded_prn = np.zeros(k.size, int)
+        if self.monitor_excluded:
+            out = np.asarray(self.monitor_excluded)[k]
+            prns = np.asarray(self.slot_prns)
+            excluded_prn = np.where(out.any(axis=1), np.min(np.where(out, prns, np.iinfo(int).max), axis=1), 0)
+        if integrity_risk is not None:
+            columns.update(self._integrity(x, np.asarray(self.cov)[k][:, :3, :3], lat, lon, integrity_risk,
+                                           excluded_prn))
+        return PositionTable(columns, x[:, :3].copy(), t, used, excluded_prn)
+
+    @staticmethod
+    def _integrity(x: np.ndarray, cov_ecef: np.ndarray, lat_deg: np.ndarray, lon_deg: np.ndarray,
+                   integrity_risk: float, excluded_prn: np.ndarray) -> dict[str, np.ndarray]:
+        """`fixes.INTEGRITY_COLUMNS` of rows with states ``x`` and position covariances
+        ``cov_ecef`` ``(rows, 3, 3)`` at ``lat_deg``, ``lon_deg`` (see `table`)."""
+        from ...navigation.integrity import covariance_protection_levels
+
+        lat, lon = np.radians(lat_deg), np.radians(lon_deg)
+        sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+        R = np.stack([np.stack([-so, co, np.zeros_like(lat)], -1), np.stack([-sl * co, -sl * so, cl], -1),
+                      np.stack([cl * co, cl * so, sl], -1)], -2)  # rows east, north, up
+        finite = np.all(np.isfinite(cov_ecef), axis=(-1, -2))
+        C = R @ np.where(finite[:, None, None], cov_ecef, 0.0) @ np.swapaxes(R, -1, -2)
+        hpl, vpl = covariance_protection_levels(C, integrity_risk)
+        status = np.where(~finite, "unavailable", np.where(excluded_prn > 0, "excluded", "ok"))
+        return {"hpl_m": np.where(finite, hpl, np.inf), "vpl_m": np.where(finite, vpl, np.inf),
+                "raim": status.astype("<U11")}
 
 
 def _dops(sat_pos: np.ndarray, r: np.ndarray) -> tuple[float, float]:

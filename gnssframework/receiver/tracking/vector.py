@@ -34,6 +34,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import pymap3d
 
 from ... import names
 from ... import random_streams as draw
@@ -41,6 +42,7 @@ from ...errors import ConfigError
 from ...estimation.consistency import nees
 from ...interfaces import ChannelFilter, NavFilter, RunContext
 from ...navigation.geometry import line_of_sight, range_rate, ranges_from_receivers
+from ...navigation.integrity import covariance_protection_levels
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from ...signal.navdata import random_nav_bits
 from ..engine.channel import Channel
@@ -49,7 +51,8 @@ from ..engine.closers import CHANNEL_OUTPUTS, HARNESS_INPUTS, NAV_OUTPUTS, Vecto
 from ..engine.sources import AnalyticSource
 from ..engine.truth import LoopTruth, VectorTruth, code_phase_of_range
 
-__all__ = ["VectorTruth", "VectorRecord", "run_vector_loop", "check_composition", "predicted_range",
+__all__ = ["VectorTruth", "VectorRecord", "run_vector_loop", "check_composition", "predicted_range", "enu_rotation",
+           "smooth_record",
            "CHANNEL_OUTPUTS", "NAV_OUTPUTS", "HARNESS_INPUTS"]
 
 
@@ -72,6 +75,16 @@ class VectorRecord:
     #: code (chips) and frequency (Hz) errors minus the true replica errors.
     code_output_error_chips: np.ndarray | None = None
     freq_output_error_hz: np.ndarray | None = None
+    #: (K, runs, 3) position error in east, north, up at the true position (m), and with
+    #: ``integrity_risk`` the protection levels of the nav filter's covariance (K, runs)
+    #: (`navigation.integrity.covariance_protection_levels`).
+    position_error_enu_m: np.ndarray | None = None
+    hpl_m: np.ndarray | None = None
+    vpl_m: np.ndarray | None = None
+    #: With ``store_estimates``: the nav filter's posterior states (K, runs, 8) and their
+    #: covariances (K, runs, 8, 8), what `smooth_record` smooths.
+    estimate: np.ndarray | None = None
+    estimate_cov: np.ndarray | None = None
 
 
 def run_vector_loop(
@@ -85,6 +98,8 @@ def run_vector_loop(
     early_late_spacing_chips: float = 1.0,
     data_bits: str = "known",
     monitor: ChannelMonitor | None = None,
+    integrity_risk: float | None = None,
+    store_estimates: bool = False,
 ) -> VectorRecord:
     """Run the vector tracking loop over all epochs of ``truth``.
 
@@ -106,6 +121,12 @@ def run_vector_loop(
     monitor
         A `ChannelMonitor` screening each channel's innovation (`VectorCloser`); its
         exclusions per interval are recorded in ``extra["excluded"]`` ``(K, runs, ch)``.
+    integrity_risk
+        With it, each epoch's horizontal and vertical protection levels of the nav filter's
+        position covariance at this fault-free integrity risk (`VectorRecord.hpl_m`).
+    store_estimates
+        Keep every epoch's posterior state and covariance (`VectorRecord.estimate`, 576
+        bytes per epoch and run) for `smooth_record`.
     """
     closer = VectorCloser(channel, nav, monitor)
     if data_bits not in ("none", "known", "unknown"):
@@ -140,7 +161,7 @@ def run_vector_loop(
     closer.reset(replica, context)
     source = AnalyticSource(CorrelatorSimulator(T, early_late_spacing_chips), amplitude_from_cn0(cn0, T), rng,
                             signal_gain=truth.signal_gain, noise_gain=truth.noise_gain)
-    record = _Recorder(K, runs, batch)
+    record = _Recorder(K, runs, batch, integrity_risk, store_estimates)
     excluded = np.zeros((K,) + batch, bool) if monitor is not None else None
 
     block = max(1, min(K, _BLOCK))
@@ -168,19 +189,34 @@ def run_vector_loop(
 
 class _Recorder:
     """The run's series: the replica's true errors, the channel outputs' errors, the nav
-    state's error and, per block of epochs, its NEES."""
+    state's error and, per block of epochs, its NEES, its position error in east, north,
+    up and (with ``integrity_risk``) the protection levels of its covariance."""
 
-    def __init__(self, K: int, runs: int, batch: tuple[int, int]) -> None:
+    def __init__(self, K: int, runs: int, batch: tuple[int, int], integrity_risk: float | None = None,
+                 store_estimates: bool = False) -> None:
         self.code, self.freq, self.code_out, self.freq_out = (np.empty((K,) + batch) for _ in range(4))
         self.err = np.empty((K, runs, 8))
         self.nees, self.nees_pos, self.nees_vel = (np.empty((K, runs)) for _ in range(3))
-        self.cov = np.empty((max(1, min(K, _BLOCK)), runs, 8, 8))
+        block = max(1, min(K, _BLOCK))
+        self.cov = np.empty((block, runs, 8, 8))
+        self.true_pos = np.empty((block, runs, 3))
+        self.err_enu = np.empty((K, runs, 3))
+        self.integrity_risk = integrity_risk
+        self.hpl: np.ndarray | None = None
+        self.vpl: np.ndarray | None = None
+        if integrity_risk is not None:
+            self.hpl, self.vpl = np.empty((K, runs)), np.empty((K, runs))
+        self.est = np.empty((K, runs, 8)) if store_estimates else None
+        self.est_cov = np.empty((K, runs, 8, 8)) if store_estimates else None
 
     def epoch(self, k: int, j: int, nav_out: dict[str, np.ndarray], x_true: np.ndarray, ch_out: dict[str, np.ndarray],
               code_err: np.ndarray, freq_err: np.ndarray) -> None:
         est = np.concatenate([nav_out[names.POSITION_M], nav_out[names.VELOCITY_M_S], nav_out[names.CLOCK_M]], axis=-1)
         np.subtract(est, x_true, out=self.err[k])
         self.cov[j] = nav_out[names.COV]  # a copy: a nav filter may reuse its array
+        if self.est is not None and self.est_cov is not None:
+            self.est[k], self.est_cov[k] = est, self.cov[j]
+        self.true_pos[j] = x_true[..., 0:3]
         self.code[k] = code_err
         self.freq[k] = freq_err
         self.code_out[k] = ch_out[names.CODE_ERROR_CHIPS] - code_err
@@ -192,11 +228,75 @@ class _Recorder:
         self.nees[k0:k1] = nees(err, cov)
         self.nees_pos[k0:k1] = nees(err[..., 0:3], cov[..., 0:3, 0:3])
         self.nees_vel[k0:k1] = nees(err[..., 3:6], cov[..., 3:6, 3:6])
+        R = enu_rotation(self.true_pos[:k1 - k0])  # (block, runs, 3, 3), at the true positions
+        self.err_enu[k0:k1] = np.einsum("...ij,...j->...i", R, err[..., 0:3])
+        if self.hpl is not None and self.vpl is not None and self.integrity_risk is not None:
+            cov_enu = R @ cov[..., 0:3, 0:3] @ np.swapaxes(R, -1, -2)
+            self.hpl[k0:k1], self.vpl[k0:k1] = covariance_protection_levels(cov_enu, self.integrity_risk)
 
     def result(self, time_s: np.ndarray) -> VectorRecord:
         return VectorRecord(self.code, self.freq, self.err[..., 0:3], self.err[..., 3:6], self.nees, time_s,
                             nees_position=self.nees_pos, nees_velocity=self.nees_vel,
-                            code_output_error_chips=self.code_out, freq_output_error_hz=self.freq_out)
+                            code_output_error_chips=self.code_out, freq_output_error_hz=self.freq_out,
+                            position_error_enu_m=self.err_enu, hpl_m=self.hpl, vpl_m=self.vpl,
+                            estimate=self.est, estimate_cov=self.est_cov)
+
+
+def smooth_record(record: VectorRecord, transition: tuple[np.ndarray, np.ndarray], initial_state: np.ndarray,
+                  initial_cov: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Fixed-interval RTS smoothing of a run's nav estimates (`run_vector_loop` with
+    ``store_estimates``): the smoothed position and velocity errors ``(K, runs, 3)`` each
+    and the smoothed covariances ``(K, runs, 8, 8)``.
+
+    The loop's nav filter predicts its posterior :math:`m_{k-1}, P_{k-1}` over one interval
+    by its ``transition`` ``(F, Q)``, :math:`m^-_k = F m_{k-1}`,
+    :math:`P^-_k = F P_{k-1} F^T + Q`, cross covariance :math:`C_k = P_{k-1} F^T`; the
+    first epoch's estimate is updated from ``initial_state``, ``initial_cov`` without a
+    prediction (``F = I``, ``Q = 0``). `gnssframework.estimation.smoother.smooth` runs the
+    backward pass on those (Särkkä 2013, ch. 8-9). Exact for a filter whose prediction is
+    that linear one on the 8 published states (``ekf-pv`` with any engine); the NCO
+    feedback does not enter the state's dynamics, so it changes nothing here.
+
+    Raises
+    ------
+    ConfigError
+        Without stored estimates, or a transition that is not 8 x 8.
+    """
+    from ...estimation.sequence import FilterResult, SmootherInputs
+    from ...estimation.smoother import smooth
+    from ...estimation.types import Gaussian
+
+    if record.estimate is None or record.estimate_cov is None:
+        raise ConfigError("store_estimates", "smoothing needs run_vector_loop(..., store_estimates=True)")
+    F, Q = (np.asarray(a, float) for a in transition)
+    if F.shape != (8, 8) or Q.shape != (8, 8):
+        raise ConfigError("nav_filter", f"smoothing needs the transition of the 8 published states; got F {F.shape}")
+    m, P = record.estimate, record.estimate_cov
+    K, runs = m.shape[:2]
+    x0 = np.broadcast_to(np.asarray(initial_state, float), (runs, 8))
+    P0 = np.broadcast_to(np.asarray(initial_cov, float), (runs, 8, 8))
+    prior_mean = np.concatenate([x0[None], m[:-1] @ F.T])
+    prior_cov = np.concatenate([P0[None], F @ P[:-1] @ F.T + Q])
+    cross_cov = np.concatenate([P0[None], P[:-1] @ F.T])
+    none = np.zeros((K, runs, 0))
+    result = FilterResult(m, P, none, none[..., None], np.broadcast_to(Q, (K, 8, 8)), none[..., None],
+                          np.zeros((K, runs), bool), np.arange(K), time_s=record.time_s,
+                          smoother_inputs=SmootherInputs(prior_mean, prior_cov, cross_cov, Gaussian(x0, P0), "solve"))
+    s = smooth(result)
+    change = s.mean - m  # smoothed minus filtered: the error changes by as much
+    return record.position_error_m + change[..., 0:3], record.velocity_error_m_s + change[..., 3:6], s.cov
+
+
+def enu_rotation(position_ecef_m: np.ndarray) -> np.ndarray:
+    """Rotations ``(..., 3, 3)`` from ECEF to east, north, up at ECEF positions ``(..., 3)``
+    (geodetic latitude on WGS-84, `pymap3d.ecef2geodetic`): rows east, north, up."""
+    r = np.asarray(position_ecef_m, float)
+    lat_deg = np.asarray(pymap3d.ecef2geodetic(r[..., 0], r[..., 1], r[..., 2])[0], float)
+    lat, lon = np.radians(lat_deg), np.arctan2(r[..., 1], r[..., 0])
+    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+    zero = np.zeros_like(lat)
+    return np.stack([np.stack([-so, co, zero], -1), np.stack([-sl * co, -sl * so, cl], -1),
+                     np.stack([cl * co, cl * so, sl], -1)], -2)
 
 
 def _block_truth(truth: LoopTruth, sat_pos_edges: np.ndarray, t_edges: np.ndarray, theta0: np.ndarray, k0: int,
