@@ -24,6 +24,18 @@ Loss of lock (per run, absorbing)
     ``lock_window_s``); ``time_to_loss_s`` is that time after ``settle_s``, or the
     observed span (censored) without a loss.
 
+Code and frequency lock (``loss_of_code_freq_lock``, `code_freq_lock_loss`)
+    The same blocks judged by the replica's mean :math:`|\delta f|` (above
+    ``freq_lock_hz``, default :math:`1/(4T)`) or mean :math:`|\delta\tau|` (above half the
+    spacing): the test a frequency-locked vector loop is judged by (scenario
+    ``vector-threshold``), reported here beside the phase test.
+
+Filters that estimate instead of commanding
+    A ``channel_filter`` that provides no NCO commands but the replica's code, frequency
+    and phase errors (``iq-filter``) is closed by `EstimateCloser`: its NCOs move to its
+    estimates every interval; its phase error is then the error of its carrier phase
+    estimate (the replica's phase is not steered), and it has no equivalent bandwidth.
+
 Cycle slips
     The unwrapped phase error's lock point :math:`n\pi` is tracked with hysteresis: it
     changes only when the error comes within ``slip_capture_rad`` of another multiple
