@@ -111,10 +111,13 @@ class VectorThresholdScenario(VectorTrackingScenario):
     params: VectorThresholdParams  # self.params, as validated
     CaseParams = VectorThresholdCase
     metrics = units(METRICS)
-    outputs = {**VectorTrackingScenario.outputs, "channels_out_of_lock": "-"}
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         series, rec = self.vector_series(case, plugins, runs, rng)
         series["channels_out_of_lock"] = channel_lock_series(rec.freq_error_hz, rec.code_error_chips,
                                                              self.params.coherent_time_s, self.params)
         return evaluate(METRICS, series, rec.time_s, self)
+
+
+# The vector-tracking scenario's raw series (inherited), and the lock series.
+VectorThresholdScenario.outputs = {**VectorThresholdScenario.outputs, "channels_out_of_lock": "-"}
