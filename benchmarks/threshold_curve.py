@@ -1,17 +1,22 @@
-"""A tracking-threshold curve at issue 40's size: 7 C/N0 points x 5 candidates x 200 runs.
+"""A tracking-threshold curve at issue 40's size: 7 C/N0 points x 7 candidates x 200 runs.
 
 The `tracking-threshold` scenario of ``examples/tracking_threshold.toml`` (static, 6 s at
 T = 10 ms on the analytic correlator model), its static case only, swept from 15 to
-45 dB-Hz in 5 dB steps, with five channel filters: 2nd-order Costas PLLs at 10 and 18 Hz,
-a 3rd-order one at 18 Hz, the 18 Hz PLL with a 10 Hz FLL assist, and the Kalman carrier
-loop. Runs on the local executor (a process per core), then, with ``--dask``, again on a
-Dask LocalCluster of as many workers, and checks that every number of the two summaries
-is the same (the runs' random streams come from the seed and the run, never from where a
-batch runs).
+45 dB-Hz in 5 dB steps, with seven channel filters: 2nd-order Costas PLLs at 10 and 18 Hz,
+a 3rd-order one at 18 Hz, the 18 Hz PLL with a 10 Hz FLL assist, the Kalman carrier
+loop, and ``iq-filter`` with an SVD-CKF and with a UKF (R fixed at the correlators' true
+covariance, closed by its own estimates: `gnssframework.receiver.engine.EstimateCloser`).
+Two thresholds on the same runs: the phase-lock one (``loss_of_lock``) and the
+code-and-frequency one (``loss_of_code_freq_lock``, the criterion of the vector loop's
+threshold, ``examples/tracking_threshold_vector.toml``). Runs on the local executor (a
+process per core), then, with ``--dask``, again on a Dask LocalCluster of as many workers,
+and checks that every number of the two summaries is the same (the runs' random streams
+come from the seed and the run, never from where a batch runs).
 
-Printed: the wall time of the whole comparison (the sweep's points and its
-threshold bootstrap included), the load average before and after, and whether it met the
-issue's budget (under 10 minutes on 2 cores).
+Printed: the wall time of the whole comparison (the sweeps' points and their threshold
+bootstraps included), the load average before and after, whether it met the issue's
+budget (under 10 minutes on 2 cores), and the thresholds with their paired-bootstrap
+intervals.
 
     python benchmarks/threshold_curve.py [--runs 200] [--dask] [--work DIR]
 """
@@ -40,6 +45,8 @@ CANDIDATES = {
                   "dll_bandwidth_hz = 0.5 } }",
     "kf": "{ name = \"kf-carrier-loop\", params = { q = [0.01, 0.1], r = 5.0, angle_unit = \"deg\", "
           "dll_bandwidth_hz = 0.5 } }",
+    "iq-ckf": "{ name = \"iq-filter\", params = { estimator = \"svd-ckf\", adaptive = false, output = \"filtered\" } }",
+    "iq-ukf": "{ name = \"iq-filter\", params = { estimator = \"ukf\", adaptive = false, output = \"filtered\" } }",
 }
 
 
@@ -69,6 +76,13 @@ start = 15.0
 stop = 45.0
 step = 5.0
 threshold = {{ metric = "loss_of_lock", level = 0.5, bootstrap = 2000, time_metric = "time_to_loss_s" }}
+[[sweeps]]
+name = "cn0-cf"
+path = "cases.cn0_dbhz"
+start = 15.0
+stop = 45.0
+step = 5.0
+threshold = {{ metric = "loss_of_code_freq_lock", level = 0.5, bootstrap = 2000, time_metric = "time_to_code_freq_loss_s" }}
 """
 
 
@@ -85,6 +99,31 @@ def run(runs: int, executor: str, work: Path) -> tuple[float, dict]:
     return wall, json.loads(summary.read_text())
 
 
+def _fmt(x) -> str:
+    """A threshold bound: a number to 0.1 dB, or its out-of-grid word as stored."""
+    return "n/a" if x is None else x if isinstance(x, str) else f"{x:.1f}"
+
+
+def print_thresholds(summary: dict) -> None:
+    """Each sweep's thresholds (dB-Hz) and differences to the reference, with their
+    paired-bootstrap 95 % intervals."""
+    for sweep in summary["sweeps"]:
+        t = sweep.get("threshold")
+        if not t:
+            continue
+        for case in t["cases"]:
+            print(f"threshold of {t['metric']} at P = {t['level']} along {t['sweep']} ({case['case']}, "
+                  f"{case['runs']} paired runs), dB-Hz [95 %]:")
+            for row in case["rows"]:
+                est = row["where"] if row["threshold"] is None else _fmt(row["threshold"])
+                line = f"  {row['candidate']:<12} {est:>16} [{_fmt(row['ci95'][0])}, {_fmt(row['ci95'][1])}]"
+                d = row.get("difference")
+                if d and d["estimate"] is not None:
+                    line += (f"   - {d['reference']}: {d['estimate']:+.1f} [{_fmt(d['ci95'][0])}, "
+                             f"{_fmt(d['ci95'][1])}]")
+                print(line, flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=200, help="runs per candidate and C/N0 point (default 200)")
@@ -99,6 +138,7 @@ def main() -> None:
     verdict = "within" if wall <= BUDGET_S else "OVER"
     print(f"local: {wall:.1f} s wall, {verdict} the {BUDGET_S:.0f} s budget; "
           f"load average {os.getloadavg()[0]:.1f} after", flush=True)
+    print_thresholds(local)
     if args.dask:
         wall_d, dask = run(args.runs, "dask", work)
         same = local == dask  # every row, paired difference, sweep point and threshold

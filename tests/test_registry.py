@@ -29,7 +29,7 @@ def test_kinds_and_builtin_names():
     assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
     assert builtin_names("scenario") == ["boc-tracking", "carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
                                          "sample-recording", "scintillation", "tracking-threshold",
-                                         "vector-tracking"]
+                                         "vector-threshold", "vector-tracking"]
 
 
 def test_builtin_name_sets_ignore_a_plugin_installed_beside_the_project(scratch_registry):
@@ -138,7 +138,7 @@ def test_the_core_scenarios_register_through_the_entry_point_group_only(monkeypa
     # the core's hooks register every built-in scenario (the list test_kinds_and_builtin_names holds)
     assert sorted(i.name for i in infos) == ["boc-tracking", "carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
                                              "sample-recording", "scintillation", "tracking-threshold",
-                                             "vector-tracking"]
+                                             "vector-threshold", "vector-tracking"]
     real = md.entry_points
 
     def without_core_hooks(group=None, **kw):

@@ -24,6 +24,18 @@ Loss of lock (per run, absorbing)
     ``lock_window_s``); ``time_to_loss_s`` is that time after ``settle_s``, or the
     observed span (censored) without a loss.
 
+Code and frequency lock (``loss_of_code_freq_lock``, `code_freq_lock_loss`)
+    The same blocks judged by the replica's mean :math:`|\delta f|` (above
+    ``freq_lock_hz``, default :math:`1/(4T)`) or mean :math:`|\delta\tau|` (above half the
+    spacing): the test a frequency-locked vector loop is judged by (scenario
+    ``vector-threshold``), reported here beside the phase test.
+
+Filters that estimate instead of commanding
+    A ``channel_filter`` that provides no NCO commands but the replica's code, frequency
+    and phase errors (``iq-filter``) is closed by `EstimateCloser`: its NCOs move to its
+    estimates every interval; its phase error is then the error of its carrier phase
+    estimate (the replica's phase is not steered), and it has no equivalent bandwidth.
+
 Cycle slips
     The unwrapped phase error's lock point :math:`n\pi` is tracked with hysteresis: it
     changes only when the error comes within ``slip_capture_rad`` of another multiple
@@ -56,7 +68,8 @@ from ... import random_streams as draw
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...receiver.engine.channel import Channel
-from ...receiver.engine.closers import NCO_COMMANDS, ScalarCloser, check_closed_loop
+from ...receiver.engine.closers import (ESTIMATE_OUTPUTS, NCO_COMMANDS, EstimateCloser, ScalarCloser,
+                                        check_closed_loop, check_estimate_loop)
 from ...receiver.engine.sources import AnalyticSource
 from ...receiver.engine.truth import LoopTruth
 from ...receiver.tracking.jitter import loop_variance, pll_thermal_variance_rad2
@@ -69,7 +82,8 @@ from ..metric_components import Mean, SeriesMetric, evaluate, units
 from ..metrics import MetricValue
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["TrackingThresholdScenario", "lock_loss", "count_slips", "lock_scores", "METRICS", "BYTES_PER_EPOCH_RUN"]
+__all__ = ["TrackingThresholdScenario", "lock_loss", "code_freq_lock_loss", "count_slips", "lock_scores",
+           "code_freq_lock_scores", "METRICS", "BYTES_PER_EPOCH_RUN"]
 
 #: Peak memory of one run's interval (truth, the record; a generous round number).
 BYTES_PER_EPOCH_RUN = 512
@@ -86,6 +100,9 @@ class TrackingThresholdParams(SignalCoherentTime, ScenarioParams):
                                  "out-of-lock condition must hold (s)")
     lock_threshold: float = Field(0.5, gt=-1, lt=1, description="a block whose mean cos(2 phase error) is "
                                   "below is out of lock")
+    freq_lock_hz: float | None = Field(None, gt=0, description="code-and-frequency lock test (loss_of_code_freq_lock): "
+                                       "a block whose mean |frequency error| exceeds it is out of lock (Hz); "
+                                       "null: 1/(4T), a two-quadrant arctangent FLL's pull-in range")
     sample_rate_hz: float = Field(2.046e6, ge=1.1e6, le=40e6, description="sample rate of a samples case "
                                   "(complex baseband, IF 0; T times it must be a whole number)")
     prn: int = Field(1, ge=1, le=32, description="PRN of a samples case's signal")
@@ -136,6 +153,45 @@ def lock_loss(phase_error_rad: np.ndarray, code_error_chips: np.ndarray, first: 
     c2 = np.cos(2 * phase_error_rad[first:stop]).reshape(blocks, window, runs).mean(axis=1)
     code = np.abs(code_error_chips[first:stop]).reshape(blocks, window, runs).mean(axis=1)
     bad = (c2 < threshold) | (code > half_spacing_chips)
+    lost = bad.any(axis=0)
+    j = np.where(lost, np.argmax(bad, axis=0), blocks - 1)
+    return lost, (j + 1) * window, blocks
+
+
+def code_freq_lock_loss(freq_error_hz: np.ndarray, code_error_chips: np.ndarray, first: int, window: int,
+                        freq_limit_hz: float, half_spacing_chips: float) -> tuple[np.ndarray, np.ndarray, int]:
+    r"""First block out of *code and frequency* lock of every run (or channel): the criterion
+    that a frequency-locked loop (a vector delay/frequency lock loop, whose replica phase is
+    not locked) can be judged by, and a phase-locked loop beside it.
+
+    A block of ``window`` intervals after interval ``first`` is out of lock when its mean
+    :math:`|\delta f|` exceeds ``freq_limit_hz`` (the scenarios' default :math:`1/(4T)`:
+    the pull-in range of a two-quadrant arctangent FLL discriminator, Kaplan & Hegarty, 3rd
+    ed., section 8.4; beyond it the frequency discriminator wraps) or its mean
+    :math:`|\delta\tau|` exceeds ``half_spacing_chips`` (the DLL has left its linear range).
+
+    Parameters
+    ----------
+    freq_error_hz, code_error_chips
+        ``(K, ...)`` true errors of the replica per interval (any batch dimensions).
+    first, window
+        First scored interval; intervals per block.
+
+    Returns
+    -------
+    lost, end, blocks
+        ``lost (...)`` bool; ``end (...)`` scored intervals up to the end of the first
+        out-of-lock block (``blocks * window`` when not lost); ``blocks`` whole blocks scored.
+    """
+    K = freq_error_hz.shape[0]
+    batch = freq_error_hz.shape[1:]
+    blocks = (K - first) // window
+    if blocks < 1:
+        raise ValueError(f"no whole lock-test block of {window} intervals after interval {first} of {K}")
+    stop = first + blocks * window
+    freq = np.abs(freq_error_hz[first:stop]).reshape((blocks, window) + batch).mean(axis=1)
+    code = np.abs(code_error_chips[first:stop]).reshape((blocks, window) + batch).mean(axis=1)
+    bad = (freq > freq_limit_hz) | (code > half_spacing_chips)
     lost = bad.any(axis=0)
     j = np.where(lost, np.argmax(bad, axis=0), blocks - 1)
     return lost, (j + 1) * window, blocks
@@ -202,7 +258,8 @@ class TrackingThresholdScenario(Scenario):
     params: TrackingThresholdParams  # self.params, as validated
     CaseParams = TrackingThresholdCase
     components = {"channel_filter": True}
-    outputs = {"phase_error_rad": "rad", "code_error_chips": "chips", "phase_thermal_std_rad": "rad",
+    outputs = {"phase_error_rad": "rad", "code_error_chips": "chips", "freq_error_hz": "Hz",
+               "phase_thermal_std_rad": "rad",
                "code_thermal_std_chips": "chips", "loop_noise_bandwidth_hz": "Hz"}
 
     def _case(self, case: dict) -> dict:
@@ -249,27 +306,37 @@ class TrackingThresholdScenario(Scenario):
         return at_interval(plugin, context.coherent_time_s)
 
     def check_composition(self, plugins, where: str) -> None:
+        channel = plugins["channel_filter"]
         try:
-            check_closed_loop(plugins["channel_filter"])
+            if all(n in channel.provides for n in NCO_COMMANDS):
+                check_closed_loop(channel)
+            else:
+                check_estimate_loop(channel)
         except ConfigError as exc:
-            raise self.refuse(exc, where, NCO_COMMANDS) from None
+            raise self.refuse(exc, where, NCO_COMMANDS + ESTIMATE_OUTPUTS) from None
 
     def track(self, case: dict, channel, runs: int, rng) -> tuple[np.ndarray, np.ndarray, float]:
         """Close ``channel`` (at the case's T) over ``runs`` runs of the case: the unwrapped
         mid-interval phase error ``(K, runs)`` (rad), the code error (chips), and T."""
+        phase, code, _, T = self.track_errors(case, channel, runs, rng)
+        return phase, code, T
+
+    def track_errors(self, case: dict, channel, runs: int, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """`track`, with the replica's true frequency error ``(K, runs)`` (Hz) before T."""
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         c = self._case(case)
         T, d = c["T"], p.early_late_spacing_chips
         if c["source"] == "samples":
             parts = [self._track_samples(c, channel, stream) for stream in rng.generators]
-            return np.concatenate([q[0] for q in parts], axis=1), np.concatenate([q[1] for q in parts], axis=1), T
+            return (*(np.concatenate([q[i] for q in parts], axis=1) for i in range(3)), T)
         truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=np.full(runs, p.doppler_hz),
                                         doppler_rate_hz_s=c["rate"], doppler_jerk_hz_s2=c["jerk"])
         source = AnalyticSource(CorrelatorSimulator(T, d), amplitude_from_cn0(c["cn0_dbhz"], T), rng)
         return (*self._close(channel, truth, c, source), T)
 
-    def _track_samples(self, c: dict, channel, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    def _track_samples(self, c: dict, channel, rng: np.random.Generator
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """One run on IF samples drawn from the run's own stream ``rng`` (complex baseband
         at ``sample_rate_hz``; the signal's code phase and carrier phase 0 at t = 0)."""
         from ...signal.if_samples import generate_if_samples
@@ -284,37 +351,46 @@ class TrackingThresholdScenario(Scenario):
                               early_late_spacing_chips=p.early_late_spacing_chips, noise_std=x.noise_std)
         return self._close(channel, truth, c, source)  # the closer resets the filter
 
-    def _close(self, channel, truth: LoopTruth, c: dict, source) -> tuple[np.ndarray, np.ndarray]:
+    def _close(self, channel, truth: LoopTruth, c: dict, source) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Close ``channel`` over ``truth`` on ``source``: the unwrapped mid-interval phase
-        error and the code error, ``(K, runs)``."""
+        error, the code error and the replica's frequency error, ``(K, runs)``. A channel
+        filter that commands NCOs is closed by `ScalarCloser`; one that estimates the
+        replica's errors (``iq-filter``) by `EstimateCloser`, its phase error then the
+        error of its carrier phase estimate (its replica's phase is not steered)."""
         p = self.params
         T, d = truth.coherent_time_s, p.early_late_spacing_chips
         runs = truth.code_phase_chips.shape[1]
-        closer = ScalarCloser(channel)
+        estimate = not all(n in channel.provides for n in NCO_COMMANDS)
+        closer = EstimateCloser(channel) if estimate else ScalarCloser(channel)
         replica = Channel.start((runs,), truth.code_phase_chips[0], p.doppler_hz + p.initial_freq_error_hz,
                                 signal=truth.signal)
         closer.reset(replica, T, early_late_spacing_chips=d, cn0_dbhz=c["cn0_dbhz"])
         code, carrier = truth.code_phase_chips, truth.carrier_phase_rad
-        phase_err, code_err = np.empty((truth.epochs, runs)), np.empty((truth.epochs, runs))
+        phase_err, code_err, freq_err = (np.empty((truth.epochs, runs)) for _ in range(3))
         for k in range(truth.epochs):
             err = replica.errors(code[k], code[k + 1], carrier[k], carrier[k + 1], T)
-            closer.step(replica, source.correlate(replica, k, err))
+            out = closer.step(replica, source.correlate(replica, k, err))
             phase_err[k] = err.phase_rad + np.pi * err.freq_hz * T  # mid-interval, not wrapped
+            if estimate:  # the replica's phase is not steered: the loop's phase is its estimate
+                phase_err[k] = EstimateCloser.phase_estimate_error(phase_err[k], out, T)
             code_err[k] = err.code_chips
-        return phase_err, code_err
+            freq_err[k] = err.freq_hz
+        return phase_err, code_err, freq_err
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         c = self._case(case)
         channel = at_interval(plugins["channel_filter"], c["T"])
-        phase_err, code_err, T = self.track(case, channel, runs, rng)
-        try:
-            bandwidth = equivalent_bandwidth_hz(channel, T)
-        except ConfigError:  # the bandwidth probe did not settle: no thermal formula to compare with
-            bandwidth = float("nan")
+        phase_err, code_err, freq_err, T = self.track_errors(case, channel, runs, rng)
+        bandwidth = float("nan")  # a loop closed by its estimates has no NCO loop to probe
+        if all(n in channel.provides for n in NCO_COMMANDS):
+            try:
+                bandwidth = equivalent_bandwidth_hz(channel, T)
+            except ConfigError:  # the bandwidth probe did not settle: no thermal formula to compare with
+                pass
         thermal_phase = float(np.sqrt(pll_thermal_variance_rad2(c["cn0_dbhz"], bandwidth, T)))
         thermal_code = code_thermal_std_chips(channel, c["cn0_dbhz"], T, self.params.early_late_spacing_chips)
         K = phase_err.shape[0]
-        series = {"phase_error_rad": phase_err, "code_error_chips": code_err,
+        series = {"phase_error_rad": phase_err, "code_error_chips": code_err, "freq_error_hz": freq_err,
                   "phase_thermal_std_rad": np.full((K, runs), thermal_phase),
                   "code_thermal_std_chips": np.full((K, runs), thermal_code),
                   "loop_noise_bandwidth_hz": np.full((K, runs), bandwidth)}
@@ -338,6 +414,32 @@ def lock_scores(phase_err: np.ndarray, code_err: np.ndarray, T: float, p: Tracki
             "half_cycle_slip_rate": half_slips / span_s, "cycle_slip_rate": whole_slips / span_s,
             "phase_jitter_rad": _rms_before(wrapped, in_lock),
             "code_jitter_chips": _rms_before(code_err[first:], in_lock)}
+
+
+def code_freq_lock_scores(freq_err: np.ndarray, code_err: np.ndarray, T: float, p: Any) -> dict:
+    """``loss_of_code_freq_lock`` and ``time_to_code_freq_loss_s`` of every run (or channel:
+    any trailing dimensions) from the replica's true errors ``(K, ...)``, with the lock-test
+    settings of ``p`` (``settle_s``, ``lock_window_s``, ``freq_lock_hz``,
+    ``early_late_spacing_chips``; `code_freq_lock_loss`)."""
+    first = int(math.ceil(p.settle_s / T - 1e-9))
+    window = max(1, int(round(p.lock_window_s / T)))
+    limit = p.freq_lock_hz if p.freq_lock_hz is not None else 1.0 / (4.0 * T)
+    lost, end, _ = code_freq_lock_loss(freq_err, code_err, first, window, limit, p.early_late_spacing_chips / 2)
+    return {"loss_of_code_freq_lock": lost.astype(float), "time_to_code_freq_loss_s": end * T}
+
+
+class CodeFreqLockScore(SeriesMetric):
+    """One of `code_freq_lock_scores` as a metric component (reads ``freq_error_hz`` and
+    ``code_error_chips``)."""
+
+    def __init__(self, name: str, unit: str, *, description: str = "") -> None:
+        super().__init__(name, unit, of="freq_error_hz", description=description)
+        self.requires = ("freq_error_hz", "code_error_chips")
+
+    def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
+        T = float(time_s[1] - time_s[0]) if len(time_s) > 1 else 2 * float(time_s[0])
+        scores = code_freq_lock_scores(series["freq_error_hz"], series["code_error_chips"], T, scenario.params)
+        return MetricValue(scores[self.name])
 
 
 class LockScore(SeriesMetric):
@@ -367,6 +469,12 @@ METRICS = (
               "probability of loss of lock within the case"),
     LockScore("time_to_loss_s", "s", description="time after settle_s to the end of the first out-of-lock block, "
               "or the observed span (censored); its mean is the Kaplan-Meier restricted mean time to loss of lock"),
+    CodeFreqLockScore("loss_of_code_freq_lock", "", description="1 if code or frequency lock was lost after "
+                      "settle_s (a lock_window_s block with mean |frequency error| above freq_lock_hz, default "
+                      "1/(4T), or mean |code error| above d/2), else 0: the criterion a frequency-locked vector "
+                      "loop is judged by too"),
+    CodeFreqLockScore("time_to_code_freq_loss_s", "s", description="time after settle_s to the end of the first "
+                      "block out of code or frequency lock, or the observed span (censored)"),
     LockScore("half_cycle_slip_rate", "1/s", description="half-cycle slips of the true phase error per second "
               "after settle_s"),
     LockScore("cycle_slip_rate", "1/s", description="whole-cycle slips of the true phase error per second after "

@@ -523,6 +523,12 @@ class VectorTrackingScenario(Scenario):
         return {"coherent_time_s": self.params.coherent_time_s, "cn0_dbhz": float(case["cn0_dbhz"])}
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
+        series, rec = self.vector_series(case, plugins, runs, rng)
+        return evaluate(METRICS, series, rec.time_s, self)
+
+    def vector_series(self, case, plugins, runs, rng) -> tuple[dict[str, np.ndarray], Any]:
+        """Run the vector loop over ``runs`` runs of ``case``: the raw series the metrics
+        reduce, and the loop's `VectorRecord` (per-channel errors)."""
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         motion = case.get("motion") or p.motion
@@ -569,7 +575,7 @@ class VectorTrackingScenario(Scenario):
             _, bound_pos, bound_vel = self.bound(float(case["cn0_dbhz"]), P0, "code")
             series["pcrb_position_code_m"] = np.repeat(bound_pos[:, None], runs, axis=1)
             series["pcrb_velocity_code_m_s"] = np.repeat(bound_vel[:, None], runs, axis=1)
-        return evaluate(METRICS, series, rec.time_s, self)
+        return series, rec
 
     def check_case(self, case: dict[str, Any], where: str) -> None:
         self._check_case_before_fault(case, where)

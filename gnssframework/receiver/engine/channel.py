@@ -153,6 +153,20 @@ class Channel:
         self.carrier_freq_hz = f_new
         self.code_rate_chips_s = np.asarray(code_freq_hz, float)
 
+    def steer_by_errors(self, code_step_chips: np.ndarray, freq_step_hz: np.ndarray) -> None:
+        """Next interval moved by an estimate of the errors (`EstimateCloser`): the code
+        phase jumps by ``code_step_chips``, the carrier frequency by ``freq_step_hz`` (the
+        carrier phase runs on, no jump), and the code rate is the new carrier frequency's
+        carrier-aided one, :math:`f_{chip}(1 + \\hat f / f_L)` (`SignalSpec.code_freq_hz`)."""
+        step = np.asarray(code_step_chips, float)
+        f_new = self.carrier_freq_hz + np.asarray(freq_step_hz, float)
+        self.shift_chips = np.broadcast_to(step, np.shape(self._code_end))
+        self.shift_hz = f_new - self.carrier_freq_hz
+        self.code_phase_chips = self._code_end + step
+        self.carrier_phase_rad = self._carrier_end
+        self.carrier_freq_hz = f_new
+        self.code_rate_chips_s = self.signal.code_freq_hz(f_new)
+
     def steer_range(self, nco_range_m: np.ndarray, nco_range_rate_m_s: np.ndarray, t_s: float | np.ndarray) -> None:
         """Next interval, starting at ``t_s``, from a range command (a vector loop's
         ``nco_range_m`` at ``t_s`` and ``nco_range_rate_m_s``): the code NCO jumps to the

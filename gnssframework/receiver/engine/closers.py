@@ -31,11 +31,14 @@ from ...signal.correlators import Correlators
 from .channel import Channel
 from .channel_monitor import IGNORE_VAR, ChannelMonitor
 
-__all__ = ["ScalarCloser", "VectorCloser", "check_closed_loop", "check_composition", "range_error_chips",
-           "NCO_COMMANDS", "CHANNEL_OUTPUTS", "NAV_OUTPUTS", "HARNESS_INPUTS"]
+__all__ = ["ScalarCloser", "EstimateCloser", "VectorCloser", "check_closed_loop", "check_estimate_loop",
+           "check_composition", "range_error_chips", "NCO_COMMANDS", "ESTIMATE_OUTPUTS", "CHANNEL_OUTPUTS",
+           "NAV_OUTPUTS", "HARNESS_INPUTS"]
 
 #: Outputs a channel filter needs to steer the NCOs of a closed loop.
 NCO_COMMANDS = (names.CARRIER_FREQ_HZ, names.CODE_FREQ_HZ)
+#: What a channel filter must provide to close its own loop by its estimates (`EstimateCloser`).
+ESTIMATE_OUTPUTS = (names.CODE_ERROR_CHIPS, names.FREQ_ERROR_HZ, names.PHASE_ERROR_RAD)
 #: What a channel filter must provide to feed a vector loop's nav filter.
 CHANNEL_OUTPUTS = (names.CODE_ERROR_CHIPS, names.CODE_ERROR_VAR_CHIPS2, names.FREQ_ERROR_HZ, names.FREQ_ERROR_VAR_HZ2)
 #: What a nav filter must provide to close a vector loop.
@@ -66,6 +69,20 @@ def check_closed_loop(channel: ChannelFilter, record: tuple[str, ...] = ()) -> N
     if names.CORRELATORS not in channel.requires or missing:
         raise ConfigError("channel_filter", f"{channel.name!r} cannot close a tracking loop: it must require "
                           f"'correlators' and provide {', '.join(needed)}")
+
+
+def check_estimate_loop(channel: ChannelFilter) -> None:
+    """Refuse a channel filter that `EstimateCloser` cannot close.
+
+    Raises
+    ------
+    ConfigError
+        With field ``"channel_filter"``.
+    """
+    missing = [n for n in ESTIMATE_OUTPUTS if n not in channel.provides]
+    if names.CORRELATORS not in channel.requires or missing:
+        raise ConfigError("channel_filter", f"{channel.name!r} cannot close a tracking loop by its estimates: it "
+                          f"must require 'correlators' and provide {', '.join(ESTIMATE_OUTPUTS)}")
 
 
 def check_composition(channel: ChannelFilter, nav: NavFilter) -> None:
@@ -121,6 +138,54 @@ class ScalarCloser:
         channel.steer_frequency(out[names.CARRIER_FREQ_HZ], out[names.CODE_FREQ_HZ],
                                 out.get("carrier_phase_step_rad", 0.0))
         return out
+
+
+class EstimateCloser:
+    r"""One channel filter per channel that estimates the replica's errors, its NCOs moved to
+    the estimate every interval.
+
+    For a filter of the errors themselves (``iq-filter`` with ``output = "filtered"``: code
+    error :math:`\widehat{\delta\tau}`, frequency error :math:`\widehat{\delta f}` and
+    phase error :math:`\widehat{\delta\theta}` at the interval's start, truth minus
+    replica) on one channel, without a navigation filter: after each interval the code NCO
+    jumps by :math:`\widehat{\delta\tau}` and the carrier frequency by
+    :math:`\widehat{\delta f}` (`Channel.steer_by_errors`; the code rate carrier-aided),
+    and the filter is told the moves (``nco_shift_chips``, ``nco_shift_hz``), so its states
+    stay relative to the replica in use. Full feedback: the replica of the next interval is
+    the filter's own prediction, with no loop bandwidth of its own (the filter's Q and R set
+    it). The carrier phase is not stepped (the filter's phase state keeps it): the loop's
+    carrier phase estimate is the replica's plus :math:`\widehat{\delta\theta}`
+    (`phase_estimate_error`).
+    """
+
+    def __init__(self, channel_filter: ChannelFilter) -> None:
+        check_estimate_loop(channel_filter)
+        self.filter = channel_filter
+
+    def reset(self, channel: Channel, coherent_time_s: float, *, early_late_spacing_chips: float = 1.0,
+              cn0_dbhz: np.ndarray | float = 45.0) -> None:
+        """Start the filter on ``channel``'s batch."""
+        T = coherent_time_s
+        context = RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips, epoch_interval_s=T,
+                             cn0_dbhz=cn0_dbhz, doppler_hz=channel.carrier_freq_hz)
+        self.filter.reset(channel.batch, context)
+
+    def step(self, channel: Channel, correlators: Correlators) -> dict[str, np.ndarray]:
+        """Filter one interval's correlators and move ``channel`` to the estimate (after its
+        `Channel.errors` or `Channel.run_interval` of the interval); returns the outputs."""
+        out = self.filter.checked_step({names.CORRELATORS: correlators, names.NCO_SHIFT_CHIPS: channel.shift_chips,
+                                        names.NCO_SHIFT_HZ: channel.shift_hz})
+        channel.steer_by_errors(out[names.CODE_ERROR_CHIPS], out[names.FREQ_ERROR_HZ])
+        return out
+
+    @staticmethod
+    def phase_estimate_error(true_mid_phase_error_rad: np.ndarray, out: dict[str, np.ndarray],
+                             coherent_time_s: float) -> np.ndarray:
+        r"""The true error of the loop's carrier phase estimate at mid-interval: the replica's
+        true error :math:`\delta\theta + \pi\,\delta f\,T` minus the filter's estimate of
+        it, :math:`\widehat{\delta\theta} + \pi\widehat{\delta f}T`."""
+        est = out[names.PHASE_ERROR_RAD] + np.pi * out[names.FREQ_ERROR_HZ] * coherent_time_s
+        return true_mid_phase_error_rad - est
 
 
 class VectorCloser:
