@@ -73,7 +73,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     _print_work_estimate(config)
     try:
         # A bar on a terminal, a line per tenth of the batches in a log or a pipe.
-        summary = run_comparison(config, out, progress=not args.quiet, replicate=args.replicate)
+        summary = run_comparison(config, out, progress=not args.quiet, replicate=args.replicate,
+                                 trials_from=args.trials_from)
     except sqlite3.DatabaseError as exc:  # sqlite3 does not say which file: name the store
         raise _store_error(exc, Path(out) / "results.sqlite") from None
     print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
@@ -911,6 +912,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--replicate", action="store_true",
                    help="also run every case and candidate on a second, disjoint set of runs (the replicate streams, "
                         "at the tuned values) and re-check every claim there; with --check, a claim must hold on both")
+    p.add_argument("--trials-from", metavar="FILE",
+                   help="a tuned config: seed its tuning with the trials another run of the same config recorded "
+                        "(its tuning_trials.json); they are not rerun, and the best selects the tuned values")
     p.add_argument("--dask-address", metavar="ADDR",
                    help="run on this Dask scheduler (executor kind dask; also GNSSFRAMEWORK_DASK_ADDRESS). Dask's "
                         "protocol carries pickles: give only a scheduler you trust; a config file cannot name one")

@@ -244,10 +244,14 @@ def replicate_config(config: ComparisonConfig) -> ComparisonConfig:
 
 
 def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = True,
-                   on_batch: Callable[[Task], None] | None = None, replicate: bool = False) -> Path:
+                   on_batch: Callable[[Task], None] | None = None, replicate: bool = False,
+                   trials_from: str | Path | None = None) -> Path:
     """Run (or resume) ``config`` and write the report into ``out``; with ``replicate``,
     also run it on the replicate streams (a second, disjoint set of runs) and re-check
-    every claim there (each claim row's ``replicate_outcome``).
+    every claim there (each claim row's ``replicate_outcome``). A tuned comparison also
+    writes its trials (``tuning_trials.json``); ``trials_from``, such a file of an earlier
+    run of the same config, seeds the tuning with its trials, which are not rerun
+    (`gnssframework.experiments.trial_record`).
 
     Returns
     -------
@@ -257,19 +261,26 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
     Raises
     ------
     ConfigError
-        If ``out`` holds another comparison's results or another process is writing it.
+        If ``out`` holds another comparison's results or another process is writing it, or
+        ``trials_from`` is given to an untuned config or records another config's trials.
     RunFailure
         If a batch fails, naming its candidate, case, runs and sweep point.
     """
     from .report import write_report
 
     out = Path(out)
+    if trials_from is not None and config.tuning is None:
+        raise ConfigError("trials_from", f"{trials_from}: {config.name!r} has no [tuning] to seed")
     with claim_folder(out, config) as store:
         tuning = None
         if config.tuning is not None:  # tune every candidate with free parameters, then evaluate them
+            from .trial_record import TRIALS_FILE, seed_trials, write_trial_record
             from .tuning import tune, tuned_config
 
+            if trials_from is not None:
+                seed_trials(trials_from, config, store)
             tuning = tune(config, store, out, lambda jobs: _execute(jobs, config.executor), progress=progress)
+            write_trial_record(out / TRIALS_FILE, config, tuning)
             config = tuned_config(config, tuning)
         replica = replicate_config(config) if replicate else None
         # Every unfinished batch of the comparison and of its sweep points, the comparison's
