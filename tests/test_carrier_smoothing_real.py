@@ -66,7 +66,8 @@ def test_the_example_runs_on_the_excerpt(example, tmp_path):
 
     summary = json.loads((tmp_path / "carrier_smoothing_real.json").read_text())
     assert summary["lli_flags"] == int(((obs.lli & 1) != 0)[obs.valid].sum())
-    assert set(summary["candidates"]) == {"raw", "hatch", "kf", "adaptive-kf", "hatch-slip-reset", "kf-slip-reset"}
+    assert set(summary["candidates"]) == {"raw", "hatch", "kf", "adaptive-kf", "hatch-slip-reset", "kf-slip-reset",
+                                          "kf-tuned", "adaptive-kf-tuned"}
 
 
 def test_the_pages_table_is_what_the_script_writes_from_its_summary(example):
@@ -85,3 +86,23 @@ def test_a_paired_difference_whose_t_interval_contains_zero_is_marked_not_signif
          "significant": {"error_rmse": False, "settle_epochs": True}}
     assert example._paired(d, "error_rmse", 3) == "0.040 ± 0.020 (49, n.s.)"
     assert example._paired(d, "settle_epochs", 1) == "3.0 ± 1.0 (12)"
+
+
+def test_the_reference_restarts_at_an_unflagged_jump_and_keeps_a_smoothers_transient(example):
+    # The measure (code minus carriers) steps by the carriers' jump; the code error does not.
+    rng = np.random.default_rng(11)
+    n, k = 200, 120
+    code_error = rng.normal(0, 0.3, n)
+    step = np.where(np.arange(n) >= k, -2.5, 0.0) + 7.0  # the reference constant, stepping at the jump
+    jumps = np.zeros(n, bool)
+    jumps[k] = True
+    reference = example.segment_reference(code_error + step, jumps)
+    # Raw code: what is left is its error minus the error's mean on each segment.
+    left = code_error + step - reference
+    expected = code_error - np.where(np.arange(n) >= k, code_error[k:].mean(), code_error[:k].mean())
+    np.testing.assert_allclose(left, expected, atol=1e-12)
+    # A smoother that carried the jump and lets it decay (0.8 per epoch) keeps that transient.
+    transient = np.where(np.arange(n) >= k, 1.5 * 0.8 ** np.clip(np.arange(n) - k, 0, None), 0.0)
+    smoothed_left = code_error + transient + step - reference
+    assert smoothed_left[k] - left[k] == pytest.approx(1.5)
+    assert np.ptp(example.segment_reference(code_error, np.zeros(n, bool))) < 1e-12  # no jump: one constant
