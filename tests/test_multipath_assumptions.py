@@ -110,15 +110,16 @@ def test_the_examples_assumptions_table_sets_the_candidates_side_by_side():
 
     rows = assumption_rows(load_config(Path(__file__).resolve().parents[1] / "examples" / "multipath.toml"))
     by = {(r["case"], r["candidate"], r["component"], r["label"]): r["value"] for r in rows}
-    # The raw row assumes nothing; the plain UKF no colored noise, UKF1 the case's psi.
+    # The raw row assumes nothing; the plain UKF no colored noise, UKF1 the case's psi
+    # (the paper's literal rows: the tuned ones' given values are the tuner's start only).
     assert not [r for r in rows if r["candidate"] == "raw"]
-    assert ("psi-0.8", "UKF", "augmentation", "AR(1) psi") not in by
-    assert by[("psi-0.8", "UKF1", "augmentation", "AR(1) psi")] == 0.8
+    assert ("psi-0.8", "UKF-paper", "augmentation", "AR(1) psi") not in by
+    assert by[("psi-0.8", "UKF1-paper", "augmentation", "AR(1) psi")] == 0.8
     # UKF1's implied stationary measurement variance, R0 / (1 - psi²), against the truth's:
     # far below it at psi = 0.5, near it at 0.95 (R0 = 1 m², truth 9.25 m²).
     for case, psi in (("psi-0.5", 0.5), ("psi-0.95", 0.95)):
-        implied = by[(case, "UKF1", "nav_filter", "R0 / true measurement variance (white + colored)")] * \
-            by[(case, "UKF1", "augmentation", "stationary / driving variance, 1/(1 − psi²)")]
+        implied = by[(case, "UKF1-paper", "nav_filter", "R0 / true measurement variance (white + colored)")] * \
+            by[(case, "UKF1-paper", "augmentation", "stationary / driving variance, 1/(1 − psi²)")]
         assert implied == pytest.approx(1.0 / (1 - psi**2) / 9.25)
-    assert by[("psi-0.5", "AUKF1", "noise_adapter", "adapter memory")] == 1.0
+    assert by[("psi-0.5", "AUKF1-paper", "noise_adapter", "adapter memory")] == 1.0
     assert "1e-08 to 1" in by[("psi-0.5", "oracle", "oracle", "Q scale s_q (Q = s_q Q0)")]
