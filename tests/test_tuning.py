@@ -225,3 +225,33 @@ scale = "log"
     assert list(trial.candidates[0].channel_filter.params["q"]) == [1.0, 2.0, 3.0, 4.0, 7.0]
     assert tuning_module._get(config, "given-q", resolve_free(config)["given-q"][0][1]) == 5.0
     assert tuning_module._get(config, "default-q", resolve_free(config)["default-q"][0][1]) == default[4]
+
+
+def _two_cases(own: str) -> str:
+    text = BASE.format(sampler="grid", trials=4, path="candidates.*.nav_filter.params.r0")
+    return text.replace('[[cases]]\nname = "only"\n', '[[cases]]\nname = "only"\n[[cases]]\nname = "other"\n') + own
+
+
+def test_candidate_cases_give_one_candidate_its_own_objective_cases(tmp_path):
+    config = _config(tmp_path, text=_two_cases('[tuning.candidate_cases]\nkf = ["other"]\n'))
+    # kf's trials run its own case only; the others the tuning's (every case), with the
+    # same sampler, budget and runs.
+    kf, ar1 = trial_config(config, "kf", [1.0]), trial_config(config, "ar1", [1.0])
+    assert [c.name for c in kf.cases] == ["other"]
+    assert [c.name for c in ar1.cases] == ["only", "other"]
+    assert kf.runs == ar1.runs == 3
+    from gnssframework.experiments.runner import work_estimate
+
+    # work: 3 candidates x 2 cases x 4 runs, plus trials 4 x (1 + 2 + 2) cases x 3 runs
+    assert work_estimate(config)[1] == 3 * 2 * 4 + 4 * 5 * 3
+
+
+@pytest.mark.parametrize("own, field, message", [
+    ('[tuning.candidate_cases]\nkf = ["nowhere"]\n', "tuning.candidate_cases.kf[0]", "unknown case 'nowhere'"),
+    ('[tuning.candidate_cases]\nghost = ["only"]\n', "tuning.candidate_cases.ghost", "not a tuned candidate"),
+    ('[tuning.candidate_cases]\nkf = []\n', "tuning.candidate_cases.kf", "at least one case"),
+])
+def test_bad_candidate_cases_are_refused_at_load(tmp_path, own, field, message):
+    with pytest.raises(ConfigError) as err:
+        _config(tmp_path, text=_two_cases(own))
+    assert str(err.value).startswith(field) and message in str(err.value), str(err.value)

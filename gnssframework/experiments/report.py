@@ -449,6 +449,10 @@ def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[s
         _savefig(fig, out / "plots" / f"tuning-{cand}.png")
         plt.close(fig)
     lines.append("")
+    own = {cand: res["own_cases"] for cand, res in tuning.items() if res.get("own_cases")}
+    lines += [f"Objective of `{cand}` over its own cases (`tuning.candidate_cases`): "
+              + ", ".join(f"`{c}`" for c in cases) + "." for cand, cases in own.items()]
+    lines += [""] if own else []
     lines += [f"![tuning {cand}](plots/tuning-{cand}.png)" for cand in tuning] + [""]
     return lines
 

@@ -212,10 +212,11 @@ def work_estimate(config: ComparisonConfig) -> tuple[int, int]:
         runs += per * point.runs
     tuning = config.tuning
     if tuning is not None:
-        from .tuning import grid_points, resolve_free
+        from .tuning import grid_points, objective_cases, resolve_free
 
-        cases = len(tuning.cases) if tuning.cases else len(config.cases)
-        for params in resolve_free(config).values():
+        for cand, params in resolve_free(config).items():
+            own = objective_cases(tuning, cand)
+            cases = len(own) if own else len(config.cases)
             trials = len(grid_points(params, tuning.trials)) if tuning.sampler == "grid" else tuning.trials
             batches += trials * cases * len(plan_batches(tuning.runs, config.batch_size))
             runs += trials * cases * tuning.runs

@@ -16,6 +16,9 @@ candidate at its tuned values on the evaluation streams with common random numbe
     cases = ["45dBHz", "30dBHz"]     # default: every case
     combine = "geometric-mean"       # over cases: "geometric-mean" (scale-free), "mean", "max"
 
+    [tuning.candidate_cases]         # optional: a candidate's own objective cases (a regime)
+    pll-30dBHz = ["30dBHz"]
+
     [[tuning.free]]
     path = "candidates.*.nav_filter.params.accel_psd"   # every candidate with that parameter
     low = 1e-4
@@ -27,6 +30,10 @@ candidate at its tuned values on the evaluation streams with common random numbe
     low = 5
     high = 60
     type = "int"
+
+``candidate_cases`` tunes a candidate for one regime (e.g. a loop tuned for the C/N0 it
+will see): its objective is over those cases instead of ``cases``; the sampler, the
+budget, the runs, the metric and ``combine`` stay the same for every candidate.
 
 A candidate without free parameters is evaluated as given (keep the paper's literal
 settings as such a row). Each trial is a small comparison of one candidate stored in the
@@ -125,6 +132,9 @@ class Tuning(BaseModel):
     cases: list[str] | None = Field(None, min_length=1, description="cases of the objective (default: every case)")
     combine: Literal["geometric-mean", "mean", "max"] = Field(
         "geometric-mean", description="how the cases' mean metrics make one objective")
+    candidate_cases: dict[str, list[str]] = Field(
+        default_factory=dict, description="per tuned candidate, the cases of its own objective instead of `cases` "
+        "(a loop tuned for one regime); sampler, budget, runs, metric and combine stay the same for all")
     free: list[FreeParameter] = Field(..., min_length=1, description="the free parameters")
 
 
@@ -223,9 +233,16 @@ def trial_config(config, candidate: str, values: list[Any]):
     data = _with_values(base, index, params, values)
     data.update(candidates=[data["candidates"][index]], runs=tuning.runs, reference=None,
                 random_stream="tuning", metrics=[tuning.metric], name=f"{config.name}-tune-{candidate}")
-    if tuning.cases:
-        data["cases"] = [c for c in data["cases"] if c["name"] in tuning.cases]
+    cases = objective_cases(tuning, candidate)
+    if cases:
+        data["cases"] = [c for c in data["cases"] if c["name"] in cases]
     return type(config).model_validate(data)  # this module sits below experiments.config
+
+
+def objective_cases(tuning: Tuning, candidate: str) -> list[str] | None:
+    """The cases of ``candidate``'s objective: its own (``candidate_cases``), else the
+    tuning's ``cases`` (``None``: every case)."""
+    return tuning.candidate_cases.get(candidate) or tuning.cases
 
 
 def check_tuning(config) -> None:
@@ -244,6 +261,16 @@ def check_tuning(config) -> None:
         if case not in cases:
             raise ConfigError(f"tuning.cases[{j}]", f"unknown case {case!r}; allowed: {', '.join(cases)}")
     resolved = resolve_free(config)
+    for cand, own in tuning.candidate_cases.items():
+        if cand not in resolved:
+            raise ConfigError(f"tuning.candidate_cases.{cand}", f"{cand!r} is not a tuned candidate (no free "
+                              f"parameter of it); tuned: {', '.join(resolved) or 'none'}")
+        if not own:
+            raise ConfigError(f"tuning.candidate_cases.{cand}", "give at least one case")
+        for j, case in enumerate(own):
+            if case not in cases:
+                raise ConfigError(f"tuning.candidate_cases.{cand}[{j}]", f"unknown case {case!r}; allowed: "
+                                  f"{', '.join(cases)}")
     for cand, params in resolved.items():
         for end in (0, -1):
             values = [p.grid(2)[end] for p, _, _ in params]
@@ -388,7 +415,7 @@ def tune(config, store, out: Path, execute, progress: bool = False) -> dict[str,
         results[cand] = {"labels": labels, "trials": [{"values": v, "objective": o} for v, o in history],
                          "best": dict(zip(labels, best_values)), "best_objective": best,
                          "given": dict(zip(labels, given)), "budget": budget, "metric": tuning.metric,
-                         "combine": tuning.combine}
+                         "combine": tuning.combine, "own_cases": tuning.candidate_cases.get(cand)}
     return results
 
 

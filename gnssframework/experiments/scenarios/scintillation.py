@@ -24,6 +24,7 @@ from ...receiver.tracking.scalar import NCO_COMMANDS, SignalTruth, check_closed_
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from ...simulation import scintillation as scint
+from ...simulation.clock import PRESETS as CLOCK_PRESETS
 from ..limits import SignalCoherentTime
 from ..metric_components import LockLossFraction, Mean, Rmse, Std, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
@@ -35,6 +36,11 @@ __all__ = ["ScintillationScenario", "METRICS", "BYTES_PER_EPOCH_RUN"]
 BYTES_PER_EPOCH_RUN = 512
 
 
+#: The receiver oscillators a case may have: an ideal clock or a preset of
+#: `gnssframework.simulation.clock` (its white- and random-walk-frequency h-parameters).
+Oscillator = Literal["none", "tcxo", "tcxo-hq", "ocxo"]
+
+
 class ScintillationParams(SignalCoherentTime, ScenarioParams):
     duration_s: float = Field(60.0, gt=0, le=3600)
     coherent_time_s: float = Field(0.01, description="interval T (s): whole 1 ms code periods, 1 to 20 ms")
@@ -44,6 +50,10 @@ class ScintillationParams(SignalCoherentTime, ScenarioParams):
     settle_s: float = Field(2.0, ge=0)
     lock_window_s: float = Field(0.2, gt=0, description="block length of the lock test")
     lock_threshold: float = Field(0.5, description="a block whose mean cos(2 phase error) is below is out of lock")
+    oscillator: Oscillator = Field(
+        "none", description="receiver oscillator phase noise of every case that sets none: 'none' (an ideal "
+        "clock), or a preset of gnssframework.simulation.clock (tcxo, tcxo-hq, ocxo: its Allan-variance "
+        "h-parameters)")
 
 
 class ScintillationCase(SignalCoherentTime, ScenarioParams):
@@ -77,6 +87,9 @@ class ScintillationCase(SignalCoherentTime, ScenarioParams):
     los_sine_frequency_hz: float = Field(
         0.5, gt=0, le=20,
         description="frequency in Hz of that sinusoidal motion, default 0.5 Hz (a vibration or a sway)")
+    oscillator: Oscillator | None = Field(
+        None, description="receiver oscillator of this case (default: the scenario's): its clock bias b(t) "
+        "moves carrier and code together by -f_L1 b cycles (gnssframework.simulation.clock.ClockModel)")
 
 
 #: The scenario's metrics, each declared once as a component (name, unit, the series it
@@ -206,12 +219,30 @@ class ScintillationScenario(Scenario):
             t = np.arange(K + 1)[:, None] * T
             sway = (c["los_sine_amplitude_m"] / self.signal.wavelength_m
                     * np.sin(2 * np.pi * c["los_sine_frequency_hz"] * t))
+        oscillator = c["oscillator"] or p.oscillator
+        if oscillator != "none":
+            clock = self.oscillator_cycles(oscillator, K, T, draw.child(rng, "oscillator"), runs)
+            sway = clock if sway is None else sway + clock
         truth = SignalTruth.from_dynamics(duration_s, T, cn0_dbhz,
                                           doppler_hz=np.full(runs, p.doppler_hz),
                                           doppler_rate_hz_s=rate, doppler_jerk_hz_s2=c["doppler_jerk_hz_s2"],
                                           extra_cycles=sway,
                                           extra_phase_rad=phase, amplitude_scale=np.abs(z[:K]))
         return truth, phase
+
+    def oscillator_cycles(self, oscillator: str, epochs: int, interval_s: float, rng, runs: int) -> np.ndarray:
+        r"""The carrier cycles ``(K+1, runs)`` a receiver oscillator adds to the truth.
+
+        A clock bias b (s) delays the replica, so the received carrier moves by
+        $-f_c b$ cycles relative to it and the code by $-f_{code} b$ chips (code and
+        carrier together, as ``extra_cycles`` does;
+        `gnssframework.simulation.clock.ClockModel.tracking_process_noise`). b is the
+        preset's two-state clock (white and random-walk frequency noise, exact over T;
+        flicker frequency noise is not simulated), starting at 0 with zero drift: the
+        receiver's frequency offset at acquisition is absorbed in the known Doppler.
+        """
+        bias_s, _ = CLOCK_PRESETS[oscillator].simulate(epochs + 1, interval_s, rng, batch_shape=(runs,))
+        return -self.signal.carrier_freq_hz * bias_s
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
