@@ -2,9 +2,15 @@
 
     python docs/make_experiment_plots.py            # what CI runs
     python docs/make_experiment_plots.py --slow     # also the reference-000 C/N0 sweep (~6 min on 2 cores)
+    python docs/make_experiment_plots.py --retune   # tune the tuned examples again, rewrite their records
 
 Each comparison writes to results/<name>/ and resumes from its store, so a run that
-the README's main job already made is not repeated.
+the README's main job already made is not repeated. A tuned example with a record of its
+tuning (examples/trials/<name>.json, `gnssframework.experiments.trial_record`) is evaluated
+at the values that tuning selected, its trials not rerun: CI checks its claims without paying
+for its tuning. ``--retune`` runs every tuning whole and writes the records anew (a tuned
+example without a record gets one on its first run); tests/test_committed_trial_records.py
+says when a record has gone stale.
 """
 
 from __future__ import annotations
@@ -14,9 +20,14 @@ import shutil
 import sys
 
 from gnssframework.experiments import load_config, run_comparison
+from gnssframework.experiments.trial_record import TRIALS_FILE
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "img" / "experiments"
+#: The tuned examples' trial records (what their full tuning ran and selected).
+RECORDS = ROOT / "examples" / "trials"
+#: Tuned by the README's main job in CI (its store reused here): no record.
+TUNED_BY_MAIN_JOB = ("vector_tracking",)
 EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath", "sweep_demo",
             "carrier_smoothing_sweep", "scintillation_sweep", "deep_integration_ci", "deep_integration_elevation_ci",
             "deep_integration_lock_ci", "deep_integration_lock_control_ci", "sample_receiver",
@@ -86,7 +97,15 @@ def main() -> int:
     failed = []
     for name in EXAMPLES + (SLOW_EXAMPLES if "--slow" in sys.argv[1:] else ()):
         config = load_config(ROOT / "examples" / f"{name}.toml")
-        summary = run_comparison(config, ROOT / "results" / name, progress=False)
+        record = RECORDS / f"{name}.json"
+        recorded = config.tuning is not None and name not in TUNED_BY_MAIN_JOB
+        seeded = recorded and record.exists() and "--retune" not in sys.argv[1:]
+        summary = run_comparison(config, ROOT / "results" / name, progress=False,
+                                 trials_from=record if seeded else None)
+        if recorded and not seeded:
+            RECORDS.mkdir(exist_ok=True)
+            shutil.copy(summary.parent / TRIALS_FILE, record)
+            print(f"{name}: tuning record written to {record}")
         for png in sorted((summary.parent / "plots").glob("*.png")):
             shutil.copy(png, OUT / f"{name}-{png.name}")
         print(f"{name}: figures copied")

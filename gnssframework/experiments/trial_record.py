@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ConfigError
-from ..io.files import loads_strict, write_json
+from ..io.files import atomic_write_text, dumps_strict, loads_strict
 
 __all__ = ["TRIALS_FILE", "write_trial_record", "seed_trials"]
 
@@ -39,9 +39,11 @@ def write_trial_record(path: str | Path, config: Any, tuning: dict[str, dict]) -
     A failed trial's objective (``inf``) is written as ``null`` (strict JSON) and read
     back as ``inf``.
     """
-    write_json(path, {"config": config.name, "identity": config.identity(),
-                      "trials": {cand: [{"values": t["values"], "objective": t["objective"]} for t in res["trials"]]
-                                 for cand, res in tuning.items()}}, indent=1)
+    head = dumps_strict({"config": config.name, "identity": config.identity()})[:-1]
+    blocks = [f' {dumps_strict(cand)}: [\n' + ",\n".join(
+        "  " + dumps_strict({"values": t["values"], "objective": t["objective"]}) for t in res["trials"]) + "\n ]"
+        for cand, res in tuning.items()]
+    atomic_write_text(path, head + ', "trials": {\n' + ",\n".join(blocks) + "\n}}\n")  # a trial per line
 
 
 def seed_trials(path: str | Path, config: Any, store: Any) -> int:
