@@ -35,10 +35,14 @@ def _save(fig, name: str) -> None:
     plt.close(fig)
 
 
+#: A signal of each modulation a discriminator may declare (`Discriminator.modulation`).
+SIGNAL_OF_MODULATION = {"bpsk": GPS_L1CA, "boc11": GALILEO_E1C_BOC11}
+
+
 def _signal_of(d):
-    """The signal a discriminator's figures use: BOC(1,1) (Galileo E1-C's replica) for the
-    BOC discriminators (their parameters carry the main peak's slope), GPS L1 C/A otherwise."""
-    return GALILEO_E1C_BOC11 if hasattr(d.params, "autocorrelation_slope") else GPS_L1CA
+    """The signal a discriminator's figures use: one of the modulation it is designed for
+    (GPS L1 C/A for BPSK, Galileo E1-C's BOC(1,1) replica for the BOC discriminators)."""
+    return SIGNAL_OF_MODULATION[d.modulation]
 
 
 def _taps_of(d) -> dict[str, float]:

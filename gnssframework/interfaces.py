@@ -26,7 +26,7 @@ import dataclasses
 import functools
 import inspect
 from dataclasses import dataclass
-from typing import Any, ClassVar, TypeVar
+from typing import Any, ClassVar, Literal, TypeVar
 from collections.abc import Callable, Mapping
 
 import numpy as np
@@ -62,6 +62,12 @@ class Discriminator(Plugin, abc.ABC):
     params: DiscriminatorParams  # self.params, as validated
     #: True for frequency discriminators, which need the previous prompt.
     needs_previous: ClassVar[bool] = False
+    #: The ranging modulation whose correlation function the linear region and
+    #: ``noise_variance`` assume: ``"bpsk"`` (a rectangular chip: GPS C/A, L2C, the
+    #: classic code discriminators) or ``"boc11"`` (BOC(1,1), the main peak of Galileo E1 and
+    #: BeiDou B1C: the BOC code discriminators). A harness that draws or simulates a
+    #: discriminator on its own (docs/make_plots.py's S-curves) picks the signal from it.
+    modulation: ClassVar[Literal["bpsk", "boc11"]] = "bpsk"
 
     @abc.abstractmethod
     def __call__(self, current: Correlators, previous: Correlators | None = None) -> np.ndarray:

@@ -92,6 +92,7 @@ class BocEarlyMinusLate(Discriminator):
 
     name = "boc-eml"
     unit = "chips"
+    modulation = "boc11"
     description = "Early-minus-late envelope scaled to a BOC main peak (chips); blind to side peaks"
     Params = BocCodeParams
     params: BocCodeParams  # self.params, as validated

@@ -41,3 +41,16 @@ def test_boc_figures_read_a_boc_main_peak(make_plots, name):
     d = gf.registry.create("discriminator", name, coherent_time_s=make_plots.T)
     e = np.array([-0.05, 0.05])
     np.testing.assert_allclose(d(make_plots._noise_free(d, code=e)), e, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", [n for n in builtin_names("discriminator")
+                                  if gf.registry.get("discriminator", n).unit == "chips"])
+def test_a_code_discriminator_has_unit_slope_on_the_modulation_it_declares(make_plots, name):
+    """`Discriminator.modulation` picks the figures' signal: on its declared modulation's
+    noise-free correlators every code discriminator reads a small error as itself (unit slope
+    in the linear region); on the other modulation the BOC ones read 3x, the BPSK ones 1/3x
+    (a wrong declaration fails here)."""
+    d = gf.registry.create("discriminator", name, coherent_time_s=make_plots.T)
+    assert d.modulation in make_plots.SIGNAL_OF_MODULATION
+    e = np.array([-0.02, 0.02])
+    np.testing.assert_allclose(d(make_plots._noise_free(d, code=e)), e, rtol=0.05, atol=1e-6)
