@@ -56,6 +56,15 @@ def config_text(runs: int, executor: str) -> str:
     scenario = "\n".join(f"{k} = {json.dumps(v)}" for k, v in example["scenario"].items())
     candidates = "\n".join(f"[[candidates]]\nname = \"{name}\"\nchannel_filter = {ref}\n"
                            for name, ref in CANDIDATES.items())
+    sweeps = "".join(f"""[[sweeps]]
+name = "{name}"
+path = "cases.cn0_dbhz"
+start = 15.0
+stop = 45.0
+step = 5.0
+threshold = {{ metric = "{metric}", level = 0.5, bootstrap = 2000, time_metric = "{time_metric}" }}
+""" for name, metric, time_metric in (("cn0", "loss_of_lock", "time_to_loss_s"),
+                                      ("cn0-cf", "loss_of_code_freq_lock", "time_to_code_freq_loss_s")))
     return f"""name = "threshold_curve_benchmark"
 runs = {runs}
 batch_size = {min(runs, 100)}
@@ -69,21 +78,7 @@ kind = "{executor}"
 name = "static"
 cn0_dbhz = 30.0
 {candidates}
-[[sweeps]]
-name = "cn0"
-path = "cases.cn0_dbhz"
-start = 15.0
-stop = 45.0
-step = 5.0
-threshold = {{ metric = "loss_of_lock", level = 0.5, bootstrap = 2000, time_metric = "time_to_loss_s" }}
-[[sweeps]]
-name = "cn0-cf"
-path = "cases.cn0_dbhz"
-start = 15.0
-stop = 45.0
-step = 5.0
-threshold = {{ metric = "loss_of_code_freq_lock", level = 0.5, bootstrap = 2000, time_metric = "time_to_code_freq_loss_s" }}
-"""
+{sweeps}"""
 
 
 def run(runs: int, executor: str, work: Path) -> tuple[float, dict]:

@@ -107,7 +107,21 @@ def check_composition(channel: ChannelFilter, nav: NavFilter) -> None:
                           f"{', '.join(missing)}")
 
 
-class ScalarCloser:
+class _ChannelFilterCloser:
+    """What the closers with one channel filter per channel share: its start on a channel."""
+
+    filter: ChannelFilter
+
+    def reset(self, channel: Channel, coherent_time_s: float, *, early_late_spacing_chips: float = 1.0,
+              cn0_dbhz: np.ndarray | float = 45.0) -> None:
+        """Start the filter on ``channel``'s batch; its Doppler prior is the carrier NCO's."""
+        T = coherent_time_s
+        context = RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips, epoch_interval_s=T,
+                             cn0_dbhz=cn0_dbhz, doppler_hz=channel.carrier_freq_hz)
+        self.filter.reset(channel.batch, context)
+
+
+class ScalarCloser(_ChannelFilterCloser):
     """One channel filter per channel, steering its own NCOs by frequency.
 
     Parameters
@@ -123,14 +137,6 @@ class ScalarCloser:
         check_closed_loop(channel_filter, record)
         self.filter = channel_filter
 
-    def reset(self, channel: Channel, coherent_time_s: float, *, early_late_spacing_chips: float = 1.0,
-              cn0_dbhz: np.ndarray | float = 45.0) -> None:
-        """Start the filter on ``channel``'s batch; its Doppler prior is the carrier NCO's."""
-        T = coherent_time_s
-        context = RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips, epoch_interval_s=T,
-                             cn0_dbhz=cn0_dbhz, doppler_hz=channel.carrier_freq_hz)
-        self.filter.reset(channel.batch, context)
-
     def step(self, channel: Channel, correlators: Correlators) -> dict[str, np.ndarray]:
         """Filter one interval's correlators and steer ``channel`` (after its `Channel.errors`
         or `Channel.run_interval` of the interval); returns the filter's outputs."""
@@ -140,7 +146,7 @@ class ScalarCloser:
         return out
 
 
-class EstimateCloser:
+class EstimateCloser(_ChannelFilterCloser):
     r"""One channel filter per channel that estimates the replica's errors, its NCOs moved to
     the estimate every interval.
 
@@ -161,14 +167,6 @@ class EstimateCloser:
     def __init__(self, channel_filter: ChannelFilter) -> None:
         check_estimate_loop(channel_filter)
         self.filter = channel_filter
-
-    def reset(self, channel: Channel, coherent_time_s: float, *, early_late_spacing_chips: float = 1.0,
-              cn0_dbhz: np.ndarray | float = 45.0) -> None:
-        """Start the filter on ``channel``'s batch."""
-        T = coherent_time_s
-        context = RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips, epoch_interval_s=T,
-                             cn0_dbhz=cn0_dbhz, doppler_hz=channel.carrier_freq_hz)
-        self.filter.reset(channel.batch, context)
 
     def step(self, channel: Channel, correlators: Correlators) -> dict[str, np.ndarray]:
         """Filter one interval's correlators and move ``channel`` to the estimate (after its
