@@ -94,3 +94,20 @@ def test_samples_source_tracks_at_high_cn0_and_refuses_dynamics():
     assert abs(vs.mean() - va.mean()) < 4 * se, (vs.mean(), va.mean(), se)
     with pytest.raises(ConfigError, match="cases\\[0\\].doppler_rate_hz_s"):
         sc.check_case({"cn0_dbhz": 30.0, "source": "samples", "doppler_rate_hz_s": 1.0}, "cases[0]")
+
+
+def test_lock_scorers_answer_for_their_own_scenario():
+    """The lock metrics once shared a class-level cache keyed on the series' identity: the
+    same series scored under a second scenario (another lock_threshold) got the first one's
+    scores. Run 0 holds cos(2 e) = cos(1.2) = 0.36, run 1 cos(0.2) = 0.98: out of lock
+    under a threshold of 0.5, both in lock under 0.3."""
+    from gnssframework.experiments.scenarios.tracking_threshold import METRICS
+
+    K = 40
+    time_s = 0.01 * (0.5 + np.arange(K))
+    series = {"phase_error_rad": np.tile([0.6, 0.1], (K, 1)), "code_error_chips": np.zeros((K, 2))}
+    strict, loose = (get_scenario({"kind": "tracking-threshold", "lock_threshold": t, "settle_s": 0.0,
+                                   "lock_window_s": 0.05}) for t in (0.5, 0.3))
+    lost = next(m for m in METRICS if m.name == "loss_of_lock")
+    np.testing.assert_array_equal(lost.compute(series, time_s, strict).value, [1.0, 0.0])
+    np.testing.assert_array_equal(lost.compute(series, time_s, loose).value, [0.0, 0.0])

@@ -444,21 +444,18 @@ class CodeFreqLockScore(SeriesMetric):
 
 class LockScore(SeriesMetric):
     """One of `lock_scores` as a metric component (reads ``phase_error_rad`` and
-    ``code_error_chips``; the scores are computed once per batch and shared)."""
-
-    _last: tuple = (None, None, None)
+    ``code_error_chips``). Each computes the batch's scores itself (a few passes over the
+    ``(K, runs)`` errors): no state is kept between calls, so no scorer can hand another
+    scenario's or batch's scores on."""
 
     def __init__(self, name: str, unit: str, *, undefined: str = "", description: str = "") -> None:
         super().__init__(name, unit, of="phase_error_rad", undefined=undefined, description=description)
         self.requires = ("phase_error_rad", "code_error_chips")
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
-        phase, code = series["phase_error_rad"], series["code_error_chips"]
-        last_phase, last_code, scores = LockScore._last
-        if last_phase is not phase or last_code is not code:
-            T = float(time_s[1] - time_s[0]) if len(time_s) > 1 else 2 * float(time_s[0])
-            scores = lock_scores(phase, code, T, scenario.params)
-            LockScore._last = (phase, code, scores)
+        assert time_s is not None  # the scenario's series have a time axis
+        T = float(time_s[1] - time_s[0]) if len(time_s) > 1 else 2 * float(time_s[0])
+        scores = lock_scores(series["phase_error_rad"], series["code_error_chips"], T, scenario.params)
         return MetricValue(scores[self.name])
 
 
