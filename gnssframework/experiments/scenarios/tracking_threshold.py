@@ -45,6 +45,16 @@ Cycle slips
     Rates are slips over the observed span after ``settle_s`` (a loop that lost lock and
     spins keeps slipping: its rate is high).
 
+The receiver's C/N0 estimate
+    What the receiver itself would read of the signal as lock goes: after ``settle_s`` the
+    prompts are cut into windows of ``cn0_window_s``, each read by the ``cn0_estimator``
+    plugin (``m2m4`` by default: bit-blind, on the prompt alone), and
+    ``cn0_estimate_error_db`` is the median over a run's windows of the reading minus the
+    case's true C/N0 (dB; its mean over runs the estimate's bias). A loop that keeps lock
+    reads the estimator's own bias on ideal prompts (`gnssframework.signal.cn0_estimator`);
+    one that loses it reads the signal's power smeared over code and frequency errors:
+    low, down to the estimator's floor on noise.
+
 Jitter
     ``phase_jitter_rad`` and ``code_jitter_chips``: RMS of the phase error (wrapped to
     half a cycle around the lock point) and of the code error over the intervals before
@@ -62,7 +72,7 @@ import math
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from ... import random_streams as draw
 from ...errors import ConfigError
@@ -83,7 +93,7 @@ from ..metrics import MetricValue
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["TrackingThresholdScenario", "lock_loss", "code_freq_lock_loss", "count_slips", "lock_scores",
-           "code_freq_lock_scores", "METRICS", "BYTES_PER_EPOCH_RUN"]
+           "code_freq_lock_scores", "cn0_estimate_error_db", "METRICS", "BYTES_PER_EPOCH_RUN"]
 
 #: Peak memory of one run's interval (truth, the record; a generous round number).
 BYTES_PER_EPOCH_RUN = 512
@@ -108,6 +118,21 @@ class TrackingThresholdParams(SignalCoherentTime, ScenarioParams):
     prn: int = Field(1, ge=1, le=32, description="PRN of a samples case's signal")
     slip_capture_rad: float = Field(math.pi / 4, gt=0, lt=math.pi / 2, description="the phase error must come "
                                     "this close (rad) to a new multiple of pi to count a slip")
+    cn0_estimator: str = Field("m2m4", description="the cn0_estimator plugin reading the prompts "
+                               "(cn0_estimate_bias_db); one that reads the prompt alone")
+    cn0_window_s: float = Field(0.2, gt=0, le=60, description="window of one C/N0 estimate (s; whole intervals T)")
+
+    @field_validator("cn0_estimator")
+    @classmethod
+    def _prompt_only(cls, name: str) -> str:
+        from ... import registry
+
+        estimator = registry.get("cn0_estimator", name)  # an unknown name: the registry's error, with the names
+        if tuple(estimator.needs) != ("prompt",):
+            raise ConfigError("cn0_estimator", f"{name!r} reads {', '.join(estimator.needs)}; the scenario simulates "
+                              "the prompt only: choose an estimator of the prompt alone (m2m4, narrow-wide, snv, "
+                              "beaulieu)")
+        return name
 
 
 class TrackingThresholdCase(SignalCoherentTime, ScenarioParams):
@@ -260,7 +285,7 @@ class TrackingThresholdScenario(Scenario):
     components = {"channel_filter": True}
     outputs = {"phase_error_rad": "rad", "code_error_chips": "chips", "freq_error_hz": "Hz",
                "phase_thermal_std_rad": "rad",
-               "code_thermal_std_chips": "chips", "loop_noise_bandwidth_hz": "Hz"}
+               "code_thermal_std_chips": "chips", "loop_noise_bandwidth_hz": "Hz", "cn0_error_db": "dB"}
 
     def _case(self, case: dict) -> dict:
         c = self.CaseParams.model_validate(case)
@@ -323,20 +348,24 @@ class TrackingThresholdScenario(Scenario):
 
     def track_errors(self, case: dict, channel, runs: int, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
         """`track`, with the replica's true frequency error ``(K, runs)`` (Hz) before T."""
+        series, T = self.track_series(case, channel, runs, rng)
+        return series["phase_error_rad"], series["code_error_chips"], series["freq_error_hz"], T
+
+    def track_series(self, case: dict, channel, runs: int, rng) -> tuple[dict[str, np.ndarray], float]:
+        """Close ``channel`` over ``runs`` runs of the case: the series of `_close` and T."""
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         c = self._case(case)
         T, d = c["T"], p.early_late_spacing_chips
         if c["source"] == "samples":
             parts = [self._track_samples(c, channel, stream) for stream in rng.generators]
-            return (*(np.concatenate([q[i] for q in parts], axis=1) for i in range(3)), T)
+            return {name: np.concatenate([q[name] for q in parts], axis=1) for name in parts[0]}, T
         truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=np.full(runs, p.doppler_hz),
                                         doppler_rate_hz_s=c["rate"], doppler_jerk_hz_s2=c["jerk"])
         source = AnalyticSource(CorrelatorSimulator(T, d), amplitude_from_cn0(c["cn0_dbhz"], T), rng)
-        return (*self._close(channel, truth, c, source), T)
+        return self._close(channel, truth, c, source), T
 
-    def _track_samples(self, c: dict, channel, rng: np.random.Generator
-                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _track_samples(self, c: dict, channel, rng: np.random.Generator) -> dict[str, np.ndarray]:
         """One run on IF samples drawn from the run's own stream ``rng`` (complex baseband
         at ``sample_rate_hz``; the signal's code phase and carrier phase 0 at t = 0)."""
         from ...signal.if_samples import generate_if_samples
@@ -351,9 +380,11 @@ class TrackingThresholdScenario(Scenario):
                               early_late_spacing_chips=p.early_late_spacing_chips, noise_std=x.noise_std)
         return self._close(channel, truth, c, source)  # the closer resets the filter
 
-    def _close(self, channel, truth: LoopTruth, c: dict, source) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _close(self, channel, truth: LoopTruth, c: dict, source) -> dict[str, np.ndarray]:
         """Close ``channel`` over ``truth`` on ``source``: the unwrapped mid-interval phase
-        error, the code error and the replica's frequency error, ``(K, runs)``. A channel
+        error, the code error, the replica's frequency error and the prompt correlator,
+        ``(K, runs)`` each (``phase_error_rad``, ``code_error_chips``, ``freq_error_hz``,
+        ``prompt``). A channel
         filter that commands NCOs is closed by `ScalarCloser`; one that estimates the
         replica's errors (``iq-filter``) by `EstimateCloser`, its phase error then the
         error of its carrier phase estimate (its replica's phase is not steered)."""
@@ -367,20 +398,25 @@ class TrackingThresholdScenario(Scenario):
         closer.reset(replica, T, early_late_spacing_chips=d, cn0_dbhz=c["cn0_dbhz"])
         code, carrier = truth.code_phase_chips, truth.carrier_phase_rad
         phase_err, code_err, freq_err = (np.empty((truth.epochs, runs)) for _ in range(3))
+        prompt = np.empty((truth.epochs, runs), complex)
         for k in range(truth.epochs):
             err = replica.errors(code[k], code[k + 1], carrier[k], carrier[k + 1], T)
-            out = closer.step(replica, source.correlate(replica, k, err))
+            correlators = source.correlate(replica, k, err)
+            prompt[k] = correlators.prompt
+            out = closer.step(replica, correlators)
             phase_err[k] = err.phase_rad + np.pi * err.freq_hz * T  # mid-interval, not wrapped
             if estimate:  # the replica's phase is not steered: the loop's phase is its estimate
                 phase_err[k] = EstimateCloser.phase_estimate_error(phase_err[k], out, T)
             code_err[k] = err.code_chips
             freq_err[k] = err.freq_hz
-        return phase_err, code_err, freq_err
+        return {"phase_error_rad": phase_err, "code_error_chips": code_err, "freq_error_hz": freq_err,
+                "prompt": prompt}
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         c = self._case(case)
         channel = at_interval(plugins["channel_filter"], c["T"])
-        phase_err, code_err, freq_err, T = self.track_errors(case, channel, runs, rng)
+        tracked, T = self.track_series(case, channel, runs, rng)
+        phase_err = tracked["phase_error_rad"]
         bandwidth = float("nan")  # a loop closed by its estimates has no NCO loop to probe
         if all(n in channel.provides for n in NCO_COMMANDS):
             try:
@@ -390,11 +426,39 @@ class TrackingThresholdScenario(Scenario):
         thermal_phase = float(np.sqrt(pll_thermal_variance_rad2(c["cn0_dbhz"], bandwidth, T)))
         thermal_code = code_thermal_std_chips(channel, c["cn0_dbhz"], T, self.params.early_late_spacing_chips)
         K = phase_err.shape[0]
-        series = {"phase_error_rad": phase_err, "code_error_chips": code_err, "freq_error_hz": freq_err,
+        cn0_error_db = cn0_estimate_error_db(tracked.pop("prompt"), T, c["cn0_dbhz"], self.params)
+        series = {**tracked, "cn0_error_db": np.broadcast_to(cn0_error_db, (K, runs)),
                   "phase_thermal_std_rad": np.full((K, runs), thermal_phase),
                   "code_thermal_std_chips": np.full((K, runs), thermal_code),
                   "loop_noise_bandwidth_hz": np.full((K, runs), bandwidth)}
         return evaluate(METRICS, series, (np.arange(K) + 0.5) * T, self)
+
+
+def cn0_estimate_error_db(prompt: np.ndarray, T: float, cn0_dbhz: float, p: Any) -> np.ndarray:
+    """The receiver's C/N0 estimate against the truth, per run: the median over the run's
+    windows of ``10 log10(estimate) - cn0_dbhz`` (dB).
+
+    ``prompt`` is ``(K, runs)``; after ``p.settle_s`` it is cut into whole windows of
+    ``p.cn0_window_s`` (at least the estimator's fewest intervals), each read by the
+    ``p.cn0_estimator`` plugin. A reading of 0 (the estimator saw no signal: M2M4's
+    :math:`2M_2^2 - M_4 < 0`) ranks lowest; the median is robust to it and NaN when more
+    than half the windows have no reading, or there is no whole window.
+    """
+    from ... import registry
+
+    estimator = registry.create("cn0_estimator", p.cn0_estimator)
+    K, runs = prompt.shape
+    first = int(math.ceil(p.settle_s / T - 1e-9))
+    width = max(int(round(p.cn0_window_s / T)), estimator.required_intervals())
+    windows = (K - first) // width
+    if windows < 1:
+        return np.full(runs, np.nan)
+    blocks = prompt[first:first + windows * width].reshape(windows, width, runs)
+    estimate_hz = estimator.estimate_hz(np.moveaxis(blocks, 1, -1), T)  # (windows, runs)
+    with np.errstate(divide="ignore"):
+        reading_db = np.where(estimate_hz > 0, 10.0 * np.log10(np.maximum(estimate_hz, 1e-300)), -np.inf)
+    error_db = np.median(reading_db, axis=0) - cn0_dbhz
+    return np.where(np.isfinite(error_db), error_db, np.nan)
 
 
 def lock_scores(phase_err: np.ndarray, code_err: np.ndarray, T: float, p: TrackingThresholdParams) -> dict:
@@ -484,6 +548,11 @@ METRICS = (
               description="RMS code error while in lock"),
     Mean("code_jitter_thermal_chips", "chips", of="code_thermal_std_chips",
          description="DLL thermal jitter sqrt(2 B T sigma_D^2) (NaN without dll_bandwidth_hz)"),
+    Mean("cn0_estimate_error_db", "dB", of="cn0_error_db",
+         undefined="no reading in most windows (or no whole cn0_window_s after settle_s)",
+         description="median over the run's windows (cn0_window_s, after settle_s) of the cn0_estimator's reading "
+         "minus the true C/N0; its mean over runs is the estimate's bias: the receiver's own view of the signal "
+         "as lock goes"),
     Mean("equivalent_bandwidth_hz", "Hz", of="loop_noise_bandwidth_hz",
          description="the carrier loop's steady-state noise bandwidth (loop_bandwidth.equivalent_bandwidth_hz)"),
 )
