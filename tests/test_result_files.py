@@ -31,7 +31,9 @@ def _shortened(path: Path, tmp_path: Path) -> Path:
     # strictly too. Claims at a dropped case go with it.
     cases = data.get("cases", [])
     if len(cases) > 2:
-        data["cases"] = [cases[0], cases[-1]]
+        tuning = data.get("tuning", {})  # the cases the tuning scores on stay: it names them
+        tuned = set(tuning.get("cases", [])) | {c for own in tuning.get("candidate_cases", {}).values() for c in own}
+        data["cases"] = [c for j, c in enumerate(cases) if j in (0, len(cases) - 1) or c["name"] in tuned]
         kept = {c["name"] for c in data["cases"]}
         for case in data["cases"]:  # streams named after a dropped case: the case's own
             if case.get("streams") not in (None, *kept):
