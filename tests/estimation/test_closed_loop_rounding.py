@@ -1,7 +1,7 @@
 """The compiled path changes closed-loop results no more than rounding does (issue 11).
 
 A step of the compiled kernels equals the NumPy reference to 1e-12 on random models
-(tests/test_kernels.py), but in the closed vector loop (channel filters steering their
+(tests/estimation/test_kernels.py), but in the closed vector loop (channel filters steering their
 NCOs from the navigation filter) any rounding difference grows over a run. These tests
 measure that growth on the reference itself, so the compiled path is judged against
 what the arithmetic allows rather than against a bit pattern:
@@ -41,7 +41,7 @@ def _rel(a: dict, b: dict) -> dict[str, float]:
 def test_compiled_path_moves_closed_loop_results_no_more_than_rounding_moves_the_reference(estimator):
     # Resolution: a compiled posterior mean biased by 1e-8 relative per step fails this
     # (checked by mutation); 1e-10 does not, as the loop's own rounding growth covers it.
-    # Finer per-step agreement is tests/test_kernels.py's (1e-12 on random models).
+    # Finer per-step agreement is tests/estimation/test_kernels.py's (1e-12 on random models).
     reference = _run(estimator, "numpy")
     compiled = _rel(reference, _run(estimator, "numba"))
     nudged = _rel(reference, _run(estimator, "numpy", nudge=True))

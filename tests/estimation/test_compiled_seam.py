@@ -61,7 +61,7 @@ def _state(batch: int, seed: int = 0) -> tuple[Gaussian, np.ndarray]:
 @pytest.mark.parametrize("batch", (3, 300))
 def test_a_third_party_model_with_its_own_jitted_f_and_h_runs_fused_and_equals_numpy(name, batch):
     state, z = _state(batch)
-    est = _engine(name)  # ukf with alpha 0.5: weights of order 1, as tests/test_kernels.py
+    est = _engine(name)  # ukf with alpha 0.5: weights of order 1, as tests/estimation/test_kernels.py
     numpy_calls: list = []
     est.backend = "numpy"
     ref = est.update(est.predict(state, _model(numpy_calls, True)), z, _model(numpy_calls, True))

@@ -12,9 +12,9 @@ from gnssframework.io.recordings import describe_recording, recording_kind
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests" / "data"
-# Precise orbits (SP3) are a truth for tests/test_ephemeris_gnss.py, not a recording; raw
-# front-end samples (.bin) are read by the sample sources (tests/test_frontend.py); RTKLIB's
-# solution (.pos) is a peer's output that tests/test_rtklib_weighting.py compares with.
+# Precise orbits (SP3) are a truth for tests/navigation/test_ephemeris_gnss.py, not a recording; raw
+# front-end samples (.bin) are read by the sample sources (tests/receiver/test_frontend.py); RTKLIB's
+# solution (.pos) is a peer's output that tests/navigation/test_rtklib_weighting.py compares with.
 FILES = sorted(p for p in DATA.iterdir() if p.name != "README.md" and p.suffix.lower() not in (".sp3", ".bin", ".pos"))
 
 KINDS = {"07590920.05n": "rinex-nav", "07590920.05o": "rinex-obs", "CEBR00ESP_R_20182002200_01H_30S_MO.crx.gz":

@@ -251,7 +251,7 @@ def test_no_import_circle(graph):
 
 def test_no_arrow_from_a_lower_layer_to_a_higher_one(graph):
     up = upward_arrows(graph, set(KNOWN_VIOLATIONS))
-    assert not up, "imports from a lower layer to a higher one (layers: tests/test_architecture.py LAYERS):\n" + \
+    assert not up, "imports from a lower layer to a higher one (layers: tests/project/test_architecture.py LAYERS):\n" + \
         "\n".join(up)
 
 
@@ -278,7 +278,7 @@ def test_estimation_imports_nothing_gnss_specific(graph):
 
 def test_every_allowed_violation_still_exists(graph):
     gone = [f"  {a} -> {b} ({why})" for (a, b), why in KNOWN_VIOLATIONS.items() if (a, b) not in graph.arrows]
-    assert not gone, "fixed; remove from KNOWN_VIOLATIONS in tests/test_architecture.py:\n" + "\n".join(gone)
+    assert not gone, "fixed; remove from KNOWN_VIOLATIONS in tests/project/test_architecture.py:\n" + "\n".join(gone)
 
 
 def test_the_design_notes_show_the_same_layers():

@@ -73,7 +73,7 @@ def test_predicted_phase_variance_is_that_of_the_simulated_error_recursion():
 
 
 def test_carrier_summary_is_within_the_tests_band():
-    # The same band as tests/test_deep_carrier.py (5 % SE of the measured variance).
+    # The same band as tests/receiver/test_deep_carrier.py (5 % SE of the measured variance).
     for row in _summary("deep_integration_carrier")["rows"]:
         assert 0.85 < row["measured_var_rad2"] / row["predicted_var_rad2"] < 1.15
 

@@ -10,7 +10,7 @@ from gnssframework.signal.correlator_model import amplitude_from_cn0, correlator
 CODE = ("eml-envelope", "eml-power", "dot-product")
 FREQ = ("cross-product", "atan2-fll")
 PHASE = ("costas-atan", "atan2-pll")
-#: The BOC code discriminators (tests/test_boc_tracking.py): chips too, on a BOC main peak.
+#: The BOC code discriminators (tests/signal/test_boc_tracking.py): chips too, on a BOC main peak.
 BOC = ("boc-eml", "boc-vemlp", "bump-jumping")
 
 
