@@ -5,7 +5,7 @@
 writes ``docs/receiver/generated/cn0_estimators.md`` (a few seconds). Prompts are drawn by
 the correlator model (`gnssframework.signal.correlator_model.simulate_correlators`:
 amplitude ``sqrt(2 c T)``, unit-variance I and Q), phase-locked with the data bits wiped,
-the noise-only correlator a tap 10 chips off the peak. ``tests/test_cn0_estimators.py``
+the noise-only correlator a tap 10 chips off the peak. ``tests/signal/test_cn0_estimators.py``
 checks the committed page against a fresh run.
 """
 

@@ -7,7 +7,7 @@ variance follows from the loop's steady-state Kalman gain $K$ (discrete Riccati 
 the error recursion $e^-_{k+1} = F(I-KH)e^-_k - FKv_k$, a discrete Lyapunov equation with
 $\\operatorname{var} v = \\frac{1}{2cT}(1+\\frac{1}{2cT})$ (Costas discriminator; Kaplan and
 Hegarty 2017). Writes ``docs/experiments/generated/deep_integration_carrier.json`` and, by
-`markdown` of it, ``deep_integration_carrier.md``. ``tests/test_deep_carrier.py`` checks the
+`markdown` of it, ``deep_integration_carrier.md``. ``tests/receiver/test_deep_carrier.py`` checks the
 same measurement against the same prediction (band 0.85-1.15).
 """
 

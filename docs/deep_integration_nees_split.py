@@ -10,7 +10,7 @@ covariance handed over, and the INS error against ``ins-ekf``'s covariance after
 Rows: the candidate as it is; its range and/or rate replaced by truth plus white noise of
 their stated covariance (a consistent, white measurement); and three prefilter variants.
 Writes ``docs/experiments/generated/deep_integration_nees_split.json`` and, by `markdown`
-of it, ``deep_integration_nees_split.md``. ``tests/test_deep_nees_split.py`` uses `measure`.
+of it, ``deep_integration_nees_split.md``. ``tests/receiver/test_deep_nees_split.py`` uses `measure`.
 """
 
 from __future__ import annotations

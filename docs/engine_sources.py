@@ -8,7 +8,7 @@ the same simulated signal (`generate_if_samples`, complex, 4 MHz) correlated by 
 compiled kernels. Every run draws its own noise (seeded); the table gives, over the runs,
 the mean of each run's mean and standard deviation of the replica's true errors after
 the pull-in, and their standard errors from the spread across runs. Writes
-``docs/experiments/generated/engine_sources.{json,md}``. `tests/test_engine_sources.py`
+``docs/experiments/generated/engine_sources.{json,md}``. `tests/receiver/test_engine_sources.py`
 runs the same comparison on fewer runs.
 """
 

@@ -2,7 +2,7 @@
 
     python docs/gen_config_reference.py
 
-The page is committed; tests/test_docs.py fails when it is out of date.
+The page is committed; tests/project/test_docs.py fails when it is out of date.
 """
 
 from __future__ import annotations

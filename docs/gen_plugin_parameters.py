@@ -3,7 +3,7 @@ from its ``Params`` (gnssframework.plugin_docs), nested plugin references includ
 
     python docs/gen_plugin_parameters.py
 
-The page is committed; tests/test_docs.py fails when it is out of date.
+The page is committed; tests/project/test_docs.py fails when it is out of date.
 """
 
 from __future__ import annotations

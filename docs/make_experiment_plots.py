@@ -9,7 +9,7 @@ the README's main job already made is not repeated. A tuned example with a recor
 tuning (examples/trials/<name>.json, `gnssframework.experiments.trial_record`) is evaluated
 at the values that tuning selected, its trials not rerun: CI checks its claims without paying
 for its tuning. ``--retune`` runs every tuning whole and writes the records anew (a tuned
-example without a record gets one on its first run); tests/test_committed_trial_records.py
+example without a record gets one on its first run); tests/experiments/test_committed_trial_records.py
 says when a record has gone stale.
 """
 

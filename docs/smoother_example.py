@@ -3,7 +3,7 @@
 A pendulum's angle and rate, x' = (a + dt w, w - dt g sin a) + noise, seen through the
 horizontal position of its bob, z = sin(a) + noise; 200 runs of 100 steps, every
 engine, the same data. ``python docs/smoother_example.py`` prints the table of the page;
-tests/test_smoother.py checks the page shows what this prints.
+tests/estimation/test_smoother.py checks the page shows what this prints.
 """
 
 from __future__ import annotations

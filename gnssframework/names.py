@@ -6,7 +6,7 @@ between them. The harnesses spell their step inputs and the outputs they read th
 (`gnssframework.receiver.tracking.scalar`, `gnssframework.receiver.tracking.vector`,
 `gnssframework.io.smoothing`), a plugin declares ``requires = (names.CORRELATORS,)``,
 and the harness checks that ``step()`` returned everything the plugin ``provides``
-(``SequentialFilter.checked_step``). ``tests/test_names.py`` holds every key that a
+(``SequentialFilter.checked_step``). ``tests/core/test_names.py`` holds every key that a
 built-in plugin or a harness reads or hands over, spelt literally or through this
 module, to the names below.
 

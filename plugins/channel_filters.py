@@ -471,7 +471,7 @@ def _phase_spread_within_circle(cov: np.ndarray) -> np.ndarray:
     alpha = 1e-3: about -1e6) computes the correlators' covariance as a difference of
     terms of size $|W_0^c|\,|z_0-\hat z|^2$ whose rounding reaches R, and
     the innovation covariance loses positive definiteness by chance
-    (`tests/test_deep_prefilter_lost_channel.py`). Scaling the phase's row and column,
+    (`tests/receiver/test_deep_prefilter_lost_channel.py`). Scaling the phase's row and column,
     $P \leftarrow D P D$ with $D = \mathrm{diag}(1, 1, s, 1, 1)$, keeps P positive
     definite and every correlation; a channel in lock (tenths of a radian) is untouched.
     """
@@ -546,7 +546,7 @@ class IqFilter(ChannelFilter):
       in code; one interval says almost nothing about the frequency, so the frequency
       gain is lost. A code error small against the filter's code uncertainty comes out
       shrunk towards 0 (the prompt's slope changes sign at the correlation peak; 0.71 of
-      a 0.002-chip error at 45 dB-Hz, `tests/test_deep_code_shrinkage.py`);
+      a 0.002-chip error at 45 dB-Hz, `tests/receiver/test_deep_code_shrinkage.py`);
       ``equivalent_code = "discriminator"`` takes the code error from the code
       discriminator with its thermal variance instead; a UKF estimator with its sigma
       points spread over the prior (``alpha = 1``) keeps the new information without it.

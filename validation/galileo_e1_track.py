@@ -7,7 +7,7 @@ open-loop prompts whose consecutive products are matched against CS25_1's (blind
 residual Doppler): the best shift is the secondary-code phase, the product's angle a
 frequency correction. Then the engine's scalar loop (registry defaults: eml-envelope DLL
 with d = 0.2 chip, Costas PLL, FLL assist) on the compiled correlators with CS25_1 wiped off.
-`tests/test_galileo_e1.py` does the same on the 100 ms slice; docs/receiver/galileo-e1.md
+`tests/signal/test_galileo_e1.py` does the same on the 100 ms slice; docs/receiver/galileo-e1.md
 holds what this printed.
 """
 

@@ -3,7 +3,7 @@ against the satellites PocketSDR's own acquisition finds there (../shared/data/R
 
 Prints one table a file and signal (every PRN above the false-alarm threshold, strongest
 first) and exits non-zero if a satellite PocketSDR finds is missed. The tests
-(tests/test_sbas_l1.py, tests/test_gps_l2c.py, tests/test_beidou_b1c.py) check the same on slices in tests/data; this
+(tests/signal/test_sbas_l1.py, tests/signal/test_gps_l2c.py, tests/signal/test_beidou_b1c.py) check the same on slices in tests/data; this
 script is the whole-PRN-range search of docs/receiver/more-signals.md (the L2C one takes
 minutes: 20 ms coherent blocks, 25 Hz Doppler bins; B1C's too, 10 ms).
 

@@ -21,7 +21,7 @@ diverges: it trusts its model, stops following the measurements, its innovations
 grow, and an R estimator reads them as measurement noise. With Q and R estimated
 together (which is not identifiable from one innovation sequence), a low Q floor
 lets classic Sage-Husa settle on Q at the floor and R 20x too large, and the error
-grows tenfold on the constant-acceleration test in ``tests/test_adapters.py``.
+grows tenfold on the constant-acceleration test in ``tests/estimation/test_adapters.py``.
 """
 
 from __future__ import annotations

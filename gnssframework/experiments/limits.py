@@ -6,7 +6,7 @@ periods between one period and one data symbol (1 to 20 ms for GPS L1 C/A, the d
 ``coherent_time_s`` against their own ``signal`` through `SignalCoherentTime`), and one batch of runs must fit in a
 stated memory budget. A scenario estimates its batch's memory from its epochs, runs and
 channels (bytes per epoch, run and channel measured on the harnesses and rounded up;
-``tests/test_limits.py`` holds each estimate above the measured peak), so a config that
+``tests/experiments/test_limits.py`` holds each estimate above the measured peak), so a config that
 would need tens of GiB is refused with the estimate before anything is allocated.
 """
 

@@ -33,7 +33,7 @@ ICD tables (GNSS-SDR, ``src/core/system_parameters/Galileo_E1.h``; compared, not
 all 100 codes and CS25_1 agree. What the tests check without either transcription: the
 recorded Galileo satellites of two real PocketSDR recordings are found with these codes,
 the codes are balanced to within the ICD's memory-code design, and no two codes correlate
-anywhere near a code's own peak (`tests/test_galileo_e1.py`).
+anywhere near a code's own peak (`tests/signal/test_galileo_e1.py`).
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ DO-229C, extended to 158 in later issues) as the GPS Directorate lists them for 
 in "L1 C/A PRN code assignments", October 2019,
 https://www.gps.gov/technical/prn-codes/L1-CA-PRN-code-assignments-2019-Oct.pdf.
 DO-229's table also gives each code's initial G2 register setting (octal), which the tests
-use as a truth the generator does not contain (`tests/test_sbas_l1.py`).
+use as a truth the generator does not contain (`tests/signal/test_sbas_l1.py`).
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ r"""Scenario ``boc-tracking``: side-peak lock and code error of BOC(1,1) code lo
 One channel per run tracks Galileo E1-C with a BOC(1,1) replica (``galileo-e1c-boc11``,
 a pilot: no data) on the loop engine's analytic correlator model, whose taps see the BOC
 autocorrelation (a train of triangles, `SignalSpec.autocorrelation`; checked against the
-numerical correlation of the sampled replica in ``tests/test_boc_tracking.py``). The
+numerical correlation of the sampled replica in ``tests/signal/test_boc_tracking.py``). The
 candidate's code discriminator declares the taps it needs beyond early, prompt and late
 (`Discriminator.extra_taps`: very-early and very-late for the side-peak detectors); the
 source draws them with their noise correlated as :math:`R(o_i - o_j)`.

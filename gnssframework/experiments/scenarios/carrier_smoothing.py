@@ -34,7 +34,7 @@ __all__ = ["CarrierSmoothingScenario", "METRICS", "slip_recovery", "slip_recover
            "BYTES_PER_EPOCH_RUN"]
 
 #: Peak memory of one run's epoch (the simulated observables and the smoother's outputs;
-#: an upper bound over the candidates: tests/test_limits.py holds it above the measured peak).
+#: an upper bound over the candidates: tests/experiments/test_limits.py holds it above the measured peak).
 BYTES_PER_EPOCH_RUN = 256
 
 

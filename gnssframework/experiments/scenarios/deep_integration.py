@@ -53,7 +53,7 @@ from . import BatchResult, Scenario, ScenarioParams, register_scenario
 __all__ = ["DeepIntegrationScenario", "BYTES_PER_EPOCH_RUN_CHANNEL"]
 
 #: Peak memory of the aided tracking (or the vector loop) per coherent interval, run and
-#: channel, an upper bound over the candidate kinds: tests/test_limits.py holds it above
+#: channel, an upper bound over the candidate kinds: tests/experiments/test_limits.py holds it above
 #: the measured peak.
 BYTES_PER_EPOCH_RUN_CHANNEL = 256
 

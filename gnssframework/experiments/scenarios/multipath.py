@@ -37,7 +37,7 @@ __all__ = ["MultipathScenario", "OracleGrid", "MultipathCandidateOptions", "METR
 
 #: Peak memory of one filtered run's epoch (the measurements, the filter's means and
 #: covariances, and per run and grid pair of the oracle), an upper bound:
-#: tests/test_limits.py holds it above the measured peak.
+#: tests/experiments/test_limits.py holds it above the measured peak.
 BYTES_PER_EPOCH_RUN = 1536
 
 

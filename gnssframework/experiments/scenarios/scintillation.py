@@ -32,7 +32,7 @@ from . import BatchResult, Scenario, ScenarioParams, register_scenario
 __all__ = ["ScintillationScenario", "METRICS", "BYTES_PER_EPOCH_RUN"]
 
 #: Peak memory of one run's epoch (the scintillation process, the truth and the closed
-#: loop's record), an upper bound: tests/test_limits.py holds it above the measured peak.
+#: loop's record), an upper bound: tests/experiments/test_limits.py holds it above the measured peak.
 BYTES_PER_EPOCH_RUN = 512
 
 

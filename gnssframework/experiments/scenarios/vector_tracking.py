@@ -36,7 +36,7 @@ __all__ = ["VectorTrackingScenario", "SkyRealismParams", "METRICS", "steady_stat
            "BYTES_PER_EPOCH_RUN_CHANNEL"]
 
 #: Peak memory of the vector loop per epoch, run and channel (the recorded errors, NCO and
-#: truth arrays), an upper bound: tests/test_limits.py holds it above the measured peak.
+#: truth arrays), an upper bound: tests/experiments/test_limits.py holds it above the measured peak.
 BYTES_PER_EPOCH_RUN_CHANNEL = 512
 #: With ``smoothed``: the stored posteriors and the backward pass's arrays per epoch and run
 #: (state, covariance, prediction, cross covariance, gain and smoothed covariance: about

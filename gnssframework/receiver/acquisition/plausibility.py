@@ -155,7 +155,7 @@ def format_hint(path: str | Path, source, offset: int = 0) -> str:
 MIN_FOUND_FOR_REPEAT = 3
 
 #: Largest Doppler change between the two searches of a satellite found again (Hz): the
-#: fine search's resolution, as the real recording shows (tests/test_acquisition.py).
+#: fine search's resolution, as the real recording shows (tests/receiver/test_acquisition.py).
 REPEAT_DOPPLER_TOL_HZ = 250.0
 
 #: Largest code-phase miss of a satellite found again (chips): about two samples at

@@ -94,7 +94,7 @@ def run_aided_tracking(
         Number of first integration intervals whose prefilter output is recorded but not
         handed to the navigator: the prefilters pull in from their acquisition prior then,
         and that first output is overconfident (the closed loop's position NEES went from
-        3.6 to 7.8 for 3 states with it; ``tests/test_deep_ins.py``).
+        3.6 to 7.8 for 3 states with it; ``tests/receiver/test_deep_ins.py``).
     carrier_filter
         Optional carrier-phase prefilter (a ``channel_filter`` on ``correlators`` that
         provides ``carrier_freq_hz`` and may provide ``carrier_phase_step_rad``, e.g.

@@ -63,7 +63,7 @@ For a static receiver with a known velocity and clock drift and no clock noise, 
 $K$ intervals then add up to the least-squares information,
 $J_K \to \sum_k G_k^T \Sigma^{-1} G_k$, $G = [-e^T, 1]$, $\Sigma = \sigma^2 I$ with
 $\sigma^2 = \lambda_{chip}^2 / J_{\tau\tau}$: the snapshot covariance
-$\sigma^2 (G^T G)^{-1}$ divided by $K$ (tests/test_pcrb.py checks both this limit and
+$\sigma^2 (G^T G)^{-1}$ divided by $K$ (tests/receiver/test_pcrb.py checks both this limit and
 the batch least-squares information of the full state).
 """
 
