@@ -71,7 +71,7 @@ import numpy as np
 from ..errors import ConfigError
 
 __all__ = ["IntegrityResult", "RaimOptions", "raim", "detection_noncentrality", "covariance_protection_levels",
-           "enu_geometry", "RAIM_METHODS"]
+           "enu_geometry", "separation_levels", "RAIM_METHODS"]
 
 #: The detection tests `raim` can apply: ``chi2`` the residual test (with slope PLs),
 #: ``ss`` solution separation (with its PLs).
@@ -236,12 +236,8 @@ def raim(geometry: np.ndarray, sigma_m: np.ndarray, residual_m: np.ndarray, used
     sig_ss = np.sqrt(np.maximum(var_ss, 0.0))
     sig_k = np.sqrt(np.diagonal(Pk, axis1=-2, axis2=-1)[..., :3])
     sig_0 = np.sqrt(np.diagonal(P0, axis1=-2, axis2=-1)[..., :3])
-    modes = np.maximum(valid_k.sum(-1), 1)
-    k_fa = _q_inv(false_alarm / (6.0 * modes))[..., None, None]
-    t_k = k_fa * sig_ss
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(valid_k[..., None] & (sig_ss > 0), np.abs(dxk) / t_k, 0.0)
-    ss_ratio = ratio.max(axis=(-1, -2)) if n else np.zeros(shape)
+    ss_ratio, pl = separation_levels(dxk, sig_ss, sig_k, sig_0, valid_k, false_alarm, missed_detection,
+                                     integrity_risk)
     ss_detected = ss_ratio > 1.0
     detected = chi2_detected if method == "chi2" else ss_detected
     # Exclusion: subsets whose own residual test passes; the smallest WSSE among them.
@@ -266,16 +262,49 @@ def raim(geometry: np.ndarray, sigma_m: np.ndarray, residual_m: np.ndarray, used
     enough = dof >= 2
     hpl_slope = np.where(enough, hslope.max(-1, initial=0.0) * pbias, np.inf)
     vpl_slope = np.where(enough, vslope.max(-1, initial=0.0) * pbias, np.inf)
-    # Solution-separation PLs.
-    k_md = np.array([_q_inv(missed_detection / 4), _q_inv(missed_detection / 4), _q_inv(missed_detection / 2)])
-    k_ff = np.array([_q_inv(integrity_risk / 4), _q_inv(integrity_risk / 4), _q_inv(integrity_risk / 2)])
-    fault_terms = np.where(valid_k[..., None], t_k + k_md * sig_k, 0.0).max(axis=-2) if n else np.zeros(shape + (3,))
-    pl = np.maximum(k_ff * sig_0, fault_terms)
+    # Solution-separation PLs (per axis in `pl`).
     hpl_ss = np.where(enough, np.hypot(pl[..., 0], pl[..., 1]), np.inf)
     vpl_ss = np.where(enough, pl[..., 2], np.inf)
     hpl, vpl = (hpl_slope, vpl_slope) if method == "chi2" else (hpl_ss, vpl_ss)
     return IntegrityResult(wsse, dof, threshold, chi2_detected, ss_ratio, ss_detected, detected, excluded, alert,
                            hpl, vpl, hpl_slope, vpl_slope, hpl_ss, vpl_ss, x0[..., :3])
+
+
+def separation_levels(separation: np.ndarray, sigma_ss: np.ndarray, sigma_subset: np.ndarray,
+                      sigma_full: np.ndarray, valid: np.ndarray, false_alarm: float, missed_detection: float,
+                      integrity_risk: float) -> tuple[np.ndarray, np.ndarray]:
+    r"""Solution separation's test and per-axis protection levels (Blanch et al. 2015; the
+    module text), shared by `raim` and `navigation.filter_integrity`.
+
+    Parameters
+    ----------
+    separation
+        ``(..., N, 3)`` :math:`\hat x_{k,q} - \hat x_{0,q}` of the ``N`` fault modes, east, north, up.
+    sigma_ss, sigma_subset
+        ``(..., N, 3)`` :math:`\sigma_{ss,k,q}` and :math:`\sigma_{k,q}`.
+    sigma_full
+        ``(..., 3)`` :math:`\sigma_{0,q}`.
+    valid
+        ``(..., N)`` the modes that exist (the others neither test nor bound).
+
+    Returns
+    -------
+    The largest :math:`|\hat x_{k,q} - \hat x_{0,q}| / T_{k,q}` ``(...)`` (a fault above 1),
+    :math:`T_{k,q} = K_{fa}\sigma_{ss,k,q}`, :math:`K_{fa} = Q^{-1}(P_{fa} / (6 N_{valid}))`, and
+    :math:`PL_q = \max(K_{ff,q}\sigma_{0,q}, \max_k (T_{k,q} + K_{md,q}\sigma_{k,q}))` ``(..., 3)``.
+    """
+    sig_ss, sig_k, sig_0 = sigma_ss, sigma_subset, sigma_full
+    shape, n = np.shape(valid)[:-1], np.shape(valid)[-1]
+    modes = np.maximum(valid.sum(-1), 1)
+    k_fa = _q_inv(false_alarm / (6.0 * modes))[..., None, None]
+    t_k = k_fa * sig_ss
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(valid[..., None] & (sig_ss > 0), np.abs(separation) / t_k, 0.0)
+    ss_ratio = ratio.max(axis=(-1, -2)) if n else np.zeros(shape)
+    k_md = np.array([_q_inv(missed_detection / 4), _q_inv(missed_detection / 4), _q_inv(missed_detection / 2)])
+    k_ff = np.array([_q_inv(integrity_risk / 4), _q_inv(integrity_risk / 4), _q_inv(integrity_risk / 2)])
+    fault_terms = np.where(valid[..., None], t_k + k_md * sig_k, 0.0).max(axis=-2) if n else np.zeros(shape + (3,))
+    return ss_ratio, np.maximum(k_ff * sig_0, fault_terms)
 
 
 def covariance_protection_levels(cov_enu_m2: np.ndarray, integrity_risk: float = 1e-7) -> tuple[np.ndarray,
