@@ -12,7 +12,7 @@ from pydantic import Field, NonNegativeFloat, PositiveFloat
 from gnssframework.errors import ConfigError
 from gnssframework import backend
 from gnssframework.estimation import (CompiledFunctions, FilterStep, Gaussian, LinearModel, NonlinearModel,
-                                     linear_f, register_warm_up)
+                                     StepResult, linear_f, register_warm_up)
 from gnssframework.interfaces import BatchPositionFilter, NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
@@ -203,6 +203,10 @@ class EkfPositionVelocity(NavFilter):
     the total state is algebraically the paper's error-state EKF, because its
     measurement is the residual against the same prediction. The NCO command of the
     next interval is the range and rate predicted half an interval ahead.
+
+    ``last_step`` is the last step's `StepResult` (None before the first): its
+    ``update`` holds the innovation, its covariance and the cross covariance that
+    `gnssframework.navigation.filter_integrity` tests.
     """
 
     name = "ekf-pv"
@@ -231,6 +235,7 @@ class EkfPositionVelocity(NavFilter):
         self.F, self.Q = self.transition(T)
         initial = Gaussian(context.require("initial_state", who), context.require("initial_cov", who))
         self.state = self.filter_step.start(initial)
+        self.last_step: StepResult | None = None
         # Measurement assembly and NCO command in one compiled call each under the numba
         # backend (chosen once per run); the NumPy lines of `_measurements`/`_nco_command`
         # are the reference.
@@ -310,7 +315,9 @@ class EkfPositionVelocity(NavFilter):
             z, R = self._measurements(inputs)
         model = self._model(inputs["sat_pos_m"], inputs["sat_vel_m_s"], R)
         # The initial estimate is already at the first mid-interval: no prediction then.
-        self.state = self.filter_step(self.state, z, model, predict=self.filter_step.step_index > 0).posterior
+        # The whole step is kept for integrity monitoring (`navigation.filter_integrity`).
+        self.last_step = self.filter_step(self.state, z, model, predict=self.filter_step.step_index > 0)
+        self.state = self.last_step.posterior
         x = self.state.mean
         sp, sv = inputs["next_sat_pos_m"], inputs["next_sat_vel_m_s"]
         if self._compiled and np.ndim(sp) == 2 and np.ndim(sv) == 2 and x.shape[-1] == 8:
