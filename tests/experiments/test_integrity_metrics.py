@@ -8,7 +8,9 @@
   the misleading fraction must fall inside the binomial interval of ``I``;
 - a short vector-tracking run with a 60 m code step on one channel: the fault-free PLs
   (a few metres) are exceeded at most epochs after the step without the channel monitor
-  and at none with it; the PLs scale with the integrity risk as the two formulas say.
+  and at none with it; the PLs scale with the integrity risk as the two formulas say;
+- on the same runs, the nav filter's innovation (NIS) test alarms at the step, keeps
+  alarming without the monitor and stops once the monitor has left the channel out.
 """
 
 from __future__ import annotations
@@ -92,7 +94,7 @@ def test_the_vector_scenario_declares_the_integrity_metrics_and_its_limits():
 @pytest.fixture(scope="module")
 def step_runs():
     base = {"kind": "vector-tracking", "duration_s": 3.0, "channels": 8, "settle_s": 0.5, "steady_state_s": 2.0,
-            "pcrb": False}
+            "pcrb": False, "innovation_false_alarm": 1e-3}
     case = {"cn0_dbhz": 45.0, "fault_channel": 0, "fault_start_s": 1.0, "fault_step_m": 60.0}
     components = {"channel_filter": {"name": "discriminator", "params": {"code_discriminator": "eml-envelope"}},
                   "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1e-5}}}
@@ -121,6 +123,24 @@ def test_a_fault_the_monitor_misses_is_misleading_and_one_it_excludes_is_not(ste
     for axis in ("horizontal", "vertical"):
         np.testing.assert_array_equal(monitor.metrics[f"{axis}_misleading_fraction"], 0.0)
         np.testing.assert_array_equal(monitor.metrics[f"{axis}_hazardous_fraction"], 0.0)
+
+
+def test_the_nav_filters_innovation_test_alarms_at_the_step_and_stops_once_it_is_excluded(step_runs):
+    # The nav filter's NIS test (innovation_false_alarm 1e-3): a 60 m step on a code of a few
+    # metres' sigma is far past the 16-row test's threshold at the first interval after it.
+    none, monitor = step_runs["none"], step_runs["monitor"]
+    K = none.series["innovation_alarm"].shape[0]
+    onset = K // 3  # fault_start_s 1.0 of a 3 s run: the first interval after the step
+    for r in (none, monitor):
+        alarm = r.series["innovation_alarm"]
+        np.testing.assert_array_equal(alarm[onset], 1.0)
+        assert alarm[:onset].mean() < 0.05  # fault-free: rare (no alarm in these runs)
+        assert np.all(np.isfinite(r.series["nav_nis_per_dof"]))
+    # Unmonitored, the step stays in the update and keeps the test alarming; once the monitor
+    # leaves the channel out (three intervals), the remaining 14 rows pass again (at 1e-3 a
+    # fault-free interval alarms rarely: 0.05 is 50 times that).
+    assert np.all(none.metrics["innovation_alarm_fraction"] > 0.5)
+    assert np.all(monitor.metrics["innovation_alarm_fraction"] < 0.05)
 
 
 def test_the_levels_scale_with_the_integrity_risk_as_their_formulas_say(step_runs):

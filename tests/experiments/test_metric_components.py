@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.stats import chi2
 
 from gnssframework.experiments import get_scenario
 from gnssframework.experiments.metric_components import (ConvergenceEpoch, LockLossFraction, Mean, MeanAbs, Rmse,
@@ -257,7 +258,7 @@ def test_scintillation_reports_the_hand_reductions():
 
 def test_vector_tracking_reports_the_hand_reductions():
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.3, "channels": 4, "settle_s": 0.1,
-                         "steady_state_s": 0.2})
+                         "steady_state_s": 0.2, "innovation_false_alarm": 1e-3})
     plugins = scen.build({"channel_filter": {"name": "discriminator"}, "nav_filter": {"name": "ekf-pv"}})
     res = scen.run_batch({"cn0_dbhz": 40.0}, plugins, 2, np.random.default_rng(8))
     t, sr = res.time_s, res.series
@@ -279,7 +280,10 @@ def test_vector_tracking_reports_the_hand_reductions():
             "pcrb_position": rms(sr["pcrb_position_m"], s), "pcrb_velocity": rms(sr["pcrb_velocity_m_s"], s),
             "pcrb_position_code": rms(sr["pcrb_position_code_m"], s),
             "pcrb_velocity_code": rms(sr["pcrb_velocity_code_m_s"], s),
-            "excluded_channels": np.zeros(2)}  # no channel monitor: no channel excluded
+            "excluded_channels": np.zeros(2),  # no channel monitor: no channel excluded
+            # The nav filter's NIS over its 2 x 4 rows (ranges and rates of 4 channels), and its test at 1e-3.
+            "nis_per_dof": np.mean(sr["nav_nis_per_dof"][s], axis=0),
+            "innovation_alarm_fraction": np.mean((sr["nav_nis_per_dof"] * 8 > chi2.isf(1e-3, 8))[s], axis=0)}
     # Integrity: the default alert limits 40 m (horizontal) and 35 m (vertical).
     for axis, limit in (("horizontal", 40.0), ("vertical", 35.0)):
         err, pl = sr[f"{axis}_error_m"], sr[f"{axis[0]}pl_m"]

@@ -132,6 +132,12 @@ class VectorTrackingParams(SignalCoherentTime, SkyRealismParams):
         "(gnssframework.navigation.integrity.covariance_protection_levels: VPL = Q^-1(I/2) sigma_U, "
         "HPL = sqrt(-2 ln I) sqrt(lambda_max(C_EN))); they bound the error only as far as that covariance is "
         "honest and no fault is left in. Default 1e-7")
+    innovation_false_alarm: float | None = Field(
+        None, gt=0, lt=1, description="record the nav filter's normalised innovation squared (metric nis_per_dof) "
+        "and test it at this false-alarm probability (metric innovation_alarm_fraction: an epoch alarms where the "
+        "statistic of the channels in the update exceeds its chi-square quantile 1 - this; "
+        "gnssframework.navigation.filter_integrity.innovation_test); one batched solve per epoch. Null (default): "
+        "not recorded")
     smoothed: bool = Field(
         False, description="also score the nav filter's fixed-interval RTS-smoothed estimates "
         "(position_smoothed_error_rmse, velocity_smoothed_error_rmse, nees_position_smoothed): every epoch's "
@@ -226,6 +232,8 @@ def steady_state_start_s(scenario: Any) -> float:
 #: the code-and-carrier and the code-only bound, computed together.
 _NO_BOUND = "no bound for this case: a moving receiver, a per-run geometry, a trajectory file or a C/N0 fade"
 _NOT_SMOOTHED = "not smoothed: set scenario.smoothed = true"
+_NO_NIS = ("no innovation test: set scenario.innovation_false_alarm (and a nav filter that keeps its last_step, "
+           "as ekf-pv)")
 
 METRICS = (
     Rmse("code_phase_error_rmse", "chips", of="code_error_chips", settle="settle_s",
@@ -257,6 +265,12 @@ METRICS = (
           ("hazardous", f"fraction of epochs with hazardously misleading information: {axis[0].upper()}PL < "
                         f"{axis}_alert_limit_m < {axis} error"),
           ("available", f"fraction of epochs available: {axis[0].upper()}PL < {axis}_alert_limit_m"))),
+    Mean("nis_per_dof", "-", of="nav_nis_per_dof", settle="settle_s", optional=True, undefined=_NO_NIS,
+         description="mean normalised innovation squared of the nav filter's update per degree of freedom (1 for "
+                     "white innovations of the covariance the filter predicts)"),
+    Mean("innovation_alarm_fraction", "-", of="innovation_alarm", settle="settle_s", optional=True,
+         undefined=_NO_NIS, description="fraction of epochs whose nav-filter innovation test alarms at "
+                                        "innovation_false_alarm (that probability for white Gaussian innovations)"),
     Rmse("position_smoothed_error_rmse", "m", of="position_smoothed_error_m", settle="settle_s", optional=True,
          undefined=_NOT_SMOOTHED, description="RMS position error of the RTS-smoothed estimates (smoothed = true)"),
     Rmse("velocity_smoothed_error_rmse", "m/s", of="velocity_smoothed_error_m_s", settle="settle_s", optional=True,
@@ -324,7 +338,7 @@ class VectorTrackingScenario(Scenario):
                "nav_nees_velocity": "-",
                "horizontal_error_m": "m", "vertical_error_m": "m", "hpl_m": "m", "vpl_m": "m",
                "position_smoothed_error_m": "m", "velocity_smoothed_error_m_s": "m/s",
-               "nav_nees_position_smoothed": "-",
+               "nav_nees_position_smoothed": "-", "nav_nis_per_dof": "-", "innovation_alarm": "-",
                "code_output_error_chips": "chips", "freq_output_error_hz": "Hz", "pcrb_position_m": "m",
                "pcrb_velocity_m_s": "m/s", "pcrb_position_code_m": "m", "pcrb_velocity_code_m_s": "m/s"}
     #: Error metric -> the bound drawn beside it in the report's time-series plot.
@@ -538,7 +552,8 @@ class VectorTrackingScenario(Scenario):
         rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng,
                               early_late_spacing_chips=p.early_late_spacing_chips, data_bits=p.data_bits,
                               monitor=None if monitor is None else monitor.create(),
-                              integrity_risk=p.integrity_risk, store_estimates=p.smoothed)
+                              integrity_risk=p.integrity_risk, store_estimates=p.smoothed,
+                              innovations=p.innovation_false_alarm is not None)
         last_s = rec.time_s[-1]
         if not (p.settle_s <= last_s and steady_state_start_s(self) <= last_s):
             raise ConfigError("scenario.settle_s", f"settle_s = {p.settle_s} and steady_state_s = "
@@ -557,6 +572,11 @@ class VectorTrackingScenario(Scenario):
                   # East-north-up at the true position, and the covariance's protection levels.
                   "horizontal_error_m": np.hypot(rec.position_error_enu_m[..., 0], rec.position_error_enu_m[..., 1]),
                   "vertical_error_m": np.abs(rec.position_error_enu_m[..., 2]), "hpl_m": rec.hpl_m, "vpl_m": rec.vpl_m}
+        if rec.nis is not None and rec.nis_dof is not None and p.innovation_false_alarm is not None:
+            from scipy.stats import chi2
+
+            series["nav_nis_per_dof"] = rec.nis / np.maximum(rec.nis_dof, 1)
+            series["innovation_alarm"] = (rec.nis > chi2.isf(p.innovation_false_alarm, rec.nis_dof)).astype(float)
         if p.smoothed:  # the RTS pass over the stored posteriors, with the filter's own transition
             pos_s, vel_s, cov_s = smooth_record(rec, plugins["nav_filter"].transition(p.coherent_time_s), x0, P0)
             series["position_smoothed_error_m"] = np.linalg.norm(pos_s, axis=-1)

@@ -42,6 +42,8 @@ from ...errors import ConfigError
 from ...estimation.consistency import nees
 from ...interfaces import ChannelFilter, NavFilter, RunContext
 from ...navigation.geometry import line_of_sight, range_rate, ranges_from_receivers
+from ...estimation.types import Update
+from ...navigation.filter_integrity import normalised_innovation_squared
 from ...navigation.integrity import covariance_protection_levels
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from ...signal.navdata import random_nav_bits
@@ -85,6 +87,12 @@ class VectorRecord:
     #: covariances (K, runs, 8, 8), what `smooth_record` smooths.
     estimate: np.ndarray | None = None
     estimate_cov: np.ndarray | None = None
+    #: (K, runs) the nav filter's normalised innovation squared :math:`\nu^T S^{-1} \nu` of
+    #: the channels in its update (those the monitor left out dropped) and its degrees of
+    #: freedom, the rows used (`navigation.filter_integrity`); None for a nav filter that
+    #: does not keep its ``last_step``.
+    nis: np.ndarray | None = None
+    nis_dof: np.ndarray | None = None
 
 
 def run_vector_loop(
@@ -100,6 +108,7 @@ def run_vector_loop(
     monitor: ChannelMonitor | None = None,
     integrity_risk: float | None = None,
     store_estimates: bool = False,
+    innovations: bool = False,
 ) -> VectorRecord:
     """Run the vector tracking loop over all epochs of ``truth``.
 
@@ -127,6 +136,10 @@ def run_vector_loop(
     store_estimates
         Keep every epoch's posterior state and covariance (`VectorRecord.estimate`, 576
         bytes per epoch and run) for `smooth_record`.
+    innovations
+        Record the nav filter's normalised innovation squared each epoch
+        (`VectorRecord.nis`; one batched solve of the innovation covariance per epoch) if
+        it keeps its ``last_step``.
     """
     closer = VectorCloser(channel, nav, monitor)
     if data_bits not in ("none", "known", "unknown"):
@@ -178,6 +191,9 @@ def run_vector_loop(
                         names.NEXT_SAT_POS_M: sat_edges[0][k + 1], names.NEXT_SAT_VEL_M_S: sat_edges[1][k + 1]}
             nav_out = closer.nav_step(replica, ch_out, geometry, T, t_edges[k + 1])
             record.epoch(k, j, nav_out, x_true[j], ch_out, err.code_chips, err.freq_hz)
+            last = getattr(nav, "last_step", None) if innovations else None
+            if last is not None:
+                record.innovation(k, last.update, None if monitor is None else monitor.excluded)
             if monitor is not None:
                 excluded[k] = monitor.excluded
         record.block_nees(k0, k1)
@@ -208,6 +224,8 @@ class _Recorder:
             self.hpl, self.vpl = np.empty((K, runs)), np.empty((K, runs))
         self.est = np.empty((K, runs, 8)) if store_estimates else None
         self.est_cov = np.empty((K, runs, 8, 8)) if store_estimates else None
+        self.nis: np.ndarray | None = None
+        self.nis_dof: np.ndarray | None = None
 
     def epoch(self, k: int, j: int, nav_out: dict[str, np.ndarray], x_true: np.ndarray, ch_out: dict[str, np.ndarray],
               code_err: np.ndarray, freq_err: np.ndarray) -> None:
@@ -221,6 +239,16 @@ class _Recorder:
         self.freq[k] = freq_err
         self.code_out[k] = ch_out[names.CODE_ERROR_CHIPS] - code_err
         self.freq_out[k] = ch_out[names.FREQ_ERROR_HZ] - freq_err
+
+    def innovation(self, k: int, update: Update, excluded: np.ndarray | None) -> None:
+        """The nav filter's NIS at epoch ``k`` without the rows of the ``excluded`` channels
+        ``(runs, ch)`` (measurements stacked per channel block: ranges, then rates)."""
+        K, runs = self.nees.shape
+        if self.nis is None or self.nis_dof is None:
+            self.nis, self.nis_dof = np.full((K, runs), np.nan), np.zeros((K, runs), int)
+        m, ch = update.innovation.shape[-1], self.code.shape[-1]
+        used = None if excluded is None or m % ch else np.tile(~excluded, m // ch)
+        self.nis[k], self.nis_dof[k] = normalised_innovation_squared(update.innovation, update.innovation_cov, used)
 
     def block_nees(self, k0: int, k1: int) -> None:
         """NEES of the block's epochs in three batched solves instead of three per epoch."""
@@ -239,7 +267,7 @@ class _Recorder:
                             nees_position=self.nees_pos, nees_velocity=self.nees_vel,
                             code_output_error_chips=self.code_out, freq_output_error_hz=self.freq_out,
                             position_error_enu_m=self.err_enu, hpl_m=self.hpl, vpl_m=self.vpl,
-                            estimate=self.est, estimate_cov=self.est_cov)
+                            estimate=self.est, estimate_cov=self.est_cov, nis=self.nis, nis_dof=self.nis_dof)
 
 
 def smooth_record(record: VectorRecord, transition: tuple[np.ndarray, np.ndarray], initial_state: np.ndarray,
