@@ -86,13 +86,14 @@ def _jacobian(r: np.ndarray, sp: np.ndarray) -> np.ndarray:
     return H
 
 
-def _run(runs: int, epochs: int, fault_m: np.ndarray | None = None, seed: int = 0, keep_last: bool = False):
-    """Run ``ekf-pv`` over ``runs`` x ``epochs`` with an optional range fault ``(epochs, runs,
-    CH)`` added to the measurements; returns per epoch the steps' updates (innovation
-    tests at 1e-2), the position errors ``(epochs, runs, 3)`` and the last step."""
+def _run(runs: int, epochs: int, fault_m: np.ndarray | None = None, seed: int = 0, estimator: str = "ekf"):
+    """Run ``ekf-pv`` (with ``estimator``) over ``runs`` x ``epochs`` with an optional range
+    fault ``(epochs, runs, CH)`` added to the measurements; returns the statistics
+    ``ν^T S^-1 ν`` ``(epochs, runs)``, the position errors ``(epochs, runs, 3)`` in east,
+    north, up and the last step."""
     rng = np.random.default_rng(seed)
     r, pos, vel, sigma = _geometry(epochs)
-    nav = registry.create("nav_filter", "ekf-pv")
+    nav = registry.create("nav_filter", "ekf-pv", estimator=estimator)
     F, Q = nav.transition(T_S)
     x_hat0 = np.r_[r, np.zeros(3), 100.0, 0.0]
     nav.reset((runs,), RunContext(coherent_time_s=T_S, epoch_interval_s=T_S,
@@ -164,9 +165,10 @@ def test_filter_separation_matches_explicit_subset_updates():
         filter_solution_separation(P, nu, S, C, satellite_modes(sats + 1), A)
 
 
-def test_fault_free_innovation_test_false_alarm_rate_is_the_stated_one():
+@pytest.mark.parametrize("estimator", ["ekf", pytest.param("ckf", marks=pytest.mark.slow)])  # ckf: ~15 s
+def test_fault_free_innovation_test_false_alarm_rate_is_the_stated_one(estimator):
     runs, epochs, p_fa = 2_000, 12, 1e-2
-    stats, _, _ = _run(runs, epochs, seed=2)
+    stats, _, _ = _run(runs, epochs, seed=2, estimator=estimator)
     threshold = chi2.isf(p_fa, 2 * CH)
     lo, hi = _interval(stats.size, p_fa)  # 24 000 independent epoch-runs: the innovations are white
     assert lo <= (stats > threshold).mean() <= hi
