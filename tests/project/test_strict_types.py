@@ -4,8 +4,9 @@ mypy's `strict` is a global-only option, so pyproject.toml gives the public API'
 its flags in a `[[tool.mypy.overrides]]` section. These tests read that table and hold the
 list to the modules it must cover, found from the code where they can be (every module of
 `gnssframework.estimation`, every ``gnssframework.<kind>s`` class module, the module of
-every plugin kind's base class, the modules of `compare` and `run_comparison`), so a new
-engine or kind is strict from the start and the list cannot silently shrink.
+every plugin kind's base class, the modules of `compare`, `run_comparison` and
+`ComparisonConfig`), so a new engine or kind is strict from the start and the list cannot
+silently shrink.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from pathlib import Path
 
 import gnssframework
 from gnssframework import hookspecs, registry
-from gnssframework.experiments import run_comparison
+from gnssframework.experiments import ComparisonConfig, run_comparison
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "gnssframework"
@@ -60,7 +61,8 @@ def _must_be_strict() -> set[str]:
         base = registry.base_class(kind)
         assert base is not None, f"plugin kind {kind!r} has no base class declared"
         modules.add(base.__module__)
-    modules |= {gnssframework.compare.__module__, run_comparison.__module__, "gnssframework.experiments"}
+    modules |= {gnssframework.compare.__module__, run_comparison.__module__, ComparisonConfig.__module__,
+                "gnssframework.experiments"}
     return modules
 
 
@@ -72,7 +74,8 @@ def test_the_required_modules_are_found():
             "gnssframework.signal.registered", "gnssframework.signal.cn0_estimator",
             "gnssframework.experiments.metrics", "gnssframework.experiments.scenarios",
             "gnssframework.receiver.acquisition.search", "gnssframework.receiver.frontend.source",
-            "gnssframework.experiments.results", "gnssframework.experiments.runner"} <= required
+            "gnssframework.experiments.results", "gnssframework.experiments.runner",
+            "gnssframework.experiments.config"} <= required
     assert not [m for m in required for n in NOT_STRICT if m == n or m.startswith(n + ".")]
 
 
