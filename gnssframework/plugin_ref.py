@@ -218,13 +218,21 @@ def component_spec(kind: str, value: Any) -> PluginSpec:
 def ComponentRef(kind: str) -> Any:  # noqa: N802 - reads as a type
     """The type of a comparison candidate's plugin of ``kind``: a `PluginSpec` written as a
     name or ``{name, params}`` (and dumped back that way). Unlike `PluginRef`, the
-    parameters are left to the candidate's check, which names their config path."""
+    parameters are left to the candidate's check, which names their config path.
+
+    A type checker cannot read a call as a type; a module checked by one writes the same
+    type as ``Annotated[PluginSpec, *component_metadata(kind)]``."""
+    return Annotated[PluginSpec, *component_metadata(kind)]
+
+
+def component_metadata(kind: str) -> tuple[Any, ...]:
+    """The pydantic metadata of `ComponentRef` (its validator, serializer and JSON schema)."""
     schema = {"description": f"a {kind} plugin: its name, or {{name, params}}",
               "anyOf": [{"type": "string"},
                         {"type": "object", "required": ["name"], "additionalProperties": False,
                          "properties": {"name": {"type": "string"}, "params": {"type": "object"}}}]}
-    return Annotated[PluginSpec, BeforeValidator(lambda v: _component(kind, v)),
-                     PlainSerializer(PluginSpec.table), WithJsonSchema(schema)]
+    return (BeforeValidator(lambda v: _component(kind, v)), PlainSerializer(PluginSpec.table),
+            WithJsonSchema(schema))
 
 
 

@@ -293,7 +293,7 @@ class _Registry:
         if kind not in self._plugins:
             raise ConfigError("kind", f"unknown plugin kind {kind!r}; allowed: {', '.join(sorted(self._plugins))}")
 
-    def get(self, kind: str, name: str) -> type:
+    def get(self, kind: str, name: str) -> type[Any]:
         self.ensure_loaded()
         self.check_kind(kind)
         try:
@@ -336,8 +336,10 @@ def names(kind: str) -> list[str]:
     return sorted(_REGISTRY._plugins[kind])
 
 
-def get(kind: str, name: str) -> type:
-    """The plugin class registered as ``kind`` / ``name``.
+def get(kind: str, name: str) -> type[Any]:
+    """The plugin class registered as ``kind`` / ``name`` (a subclass of the kind's base,
+    `base_class`; typed ``type[Any]`` since the registry holds every kind's classes: a
+    caller states the one it expects, ``cls: type[Scenario] = get("scenario", name)``).
 
     Raises
     ------
@@ -383,7 +385,7 @@ def register_module(module: types.ModuleType | Any, name: str | None = None, dis
     """
     _REGISTRY.ensure_loaded()
     with _REGISTRY._lock:
-        _REGISTRY._add_module(module, name or getattr(module, "__name__", repr(module)), distribution, "")
+        _REGISTRY._add_module(module, name or str(getattr(module, "__name__", repr(module))), distribution, "")
 
 
 def reload() -> None:
@@ -400,4 +402,5 @@ def signal_spec(name: str) -> SignalSpec:
     ConfigError
         For an unknown signal, listing the known ones and the closest match.
     """
-    return get("signal", name).spec
+    spec: SignalSpec = get("signal", name).spec
+    return spec

@@ -11,7 +11,7 @@ import hashlib
 import json
 import re
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal, TypeAlias
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator, model_validator
 
@@ -19,7 +19,7 @@ from ..errors import ConfigError
 from ..hookspecs import COMPONENT_KINDS
 from ..io.text import read_toml
 from ..plugin import validation_message
-from ..plugin_ref import ComponentRef, PluginSpec
+from ..plugin_ref import PluginSpec, component_metadata
 from .candidates import CandidatePlan, resolve_candidate
 from .claims import Claim, check_claims, check_untuned_claims
 from .file_names import check_file_name
@@ -46,18 +46,25 @@ class _Strict(BaseModel):
 
 
 _REF = "the {kind} plugin: its name, or {{ name, params }}"
+# A candidate's plugin of each kind: `plugin_ref.ComponentRef(kind)`, written out so that mypy reads it.
+_EstimatorRef: TypeAlias = Annotated[PluginSpec, *component_metadata("estimator")]
+_NoiseAdapterRef: TypeAlias = Annotated[PluginSpec, *component_metadata("noise_adapter")]
+_AugmentationRef: TypeAlias = Annotated[PluginSpec, *component_metadata("augmentation")]
+_DiscriminatorRef: TypeAlias = Annotated[PluginSpec, *component_metadata("discriminator")]
+_ChannelFilterRef: TypeAlias = Annotated[PluginSpec, *component_metadata("channel_filter")]
+_NavFilterRef: TypeAlias = Annotated[PluginSpec, *component_metadata("nav_filter")]
 
 
 class Candidate(_Strict):
     """A named composition of plugins, one per kind the scenario uses."""
 
     name: str = Field(..., pattern=r"^[A-Za-z0-9_.+-]+$")
-    estimator: ComponentRef("estimator") | None = Field(None, description=_REF.format(kind="estimator"))
-    noise_adapter: ComponentRef("noise_adapter") | None = Field(None, description=_REF.format(kind="noise_adapter"))
-    augmentation: ComponentRef("augmentation") | None = Field(None, description=_REF.format(kind="augmentation"))
-    discriminator: ComponentRef("discriminator") | None = Field(None, description=_REF.format(kind="discriminator"))
-    channel_filter: ComponentRef("channel_filter") | None = Field(None, description=_REF.format(kind="channel_filter"))
-    nav_filter: ComponentRef("nav_filter") | None = Field(None, description=_REF.format(kind="nav_filter"))
+    estimator: _EstimatorRef | None = Field(None, description=_REF.format(kind="estimator"))
+    noise_adapter: _NoiseAdapterRef | None = Field(None, description=_REF.format(kind="noise_adapter"))
+    augmentation: _AugmentationRef | None = Field(None, description=_REF.format(kind="augmentation"))
+    discriminator: _DiscriminatorRef | None = Field(None, description=_REF.format(kind="discriminator"))
+    channel_filter: _ChannelFilterRef | None = Field(None, description=_REF.format(kind="channel_filter"))
+    nav_filter: _NavFilterRef | None = Field(None, description=_REF.format(kind="nav_filter"))
     scenario_options: dict[str, Any] = Field(
         default_factory=dict, description="options the scenario applies to this candidate, not plugins (see the "
         "scenario's page; e.g. multipath's oracle)")
@@ -144,7 +151,7 @@ class ComparisonConfig(_Strict):
 
     @field_validator("candidates", "cases")
     @classmethod
-    def _unique_names(cls, items):
+    def _unique_names(cls, items: list[Case] | list[Candidate]) -> list[Case] | list[Candidate]:
         names = [i.name for i in items]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
@@ -172,16 +179,16 @@ class ComparisonConfig(_Strict):
         if self.reference is not None and self.reference not in cand_names:
             raise ConfigError("reference", f"got {self.reference!r}; allowed: the candidates' names "
                               f"{', '.join(c.name for c in self.candidates)}")
-        for case, per_cand in self.published.items():
-            if case not in case_names:
-                raise ConfigError(f"published.{case}", f"unknown case; allowed: {', '.join(sorted(case_names))}")
+        for case_name, per_cand in self.published.items():
+            if case_name not in case_names:
+                raise ConfigError(f"published.{case_name}", f"unknown case; allowed: {', '.join(sorted(case_names))}")
             for cand, values in per_cand.items():
                 if cand not in cand_names:
-                    raise ConfigError(f"published.{case}.{cand}",
+                    raise ConfigError(f"published.{case_name}.{cand}",
                                       f"unknown candidate; allowed: {', '.join(sorted(cand_names))}")
                 for metric in values:
                     if metric not in self.metric_names:
-                        raise ConfigError(f"published.{case}.{cand}.{metric}",
+                        raise ConfigError(f"published.{case_name}.{cand}.{metric}",
                                           f"unknown metric; allowed: {', '.join(self.metric_names)}")
         check_claims(self.claims, sorted(case_names), [c.name for c in self.candidates], self.metric_names,
                      self.sweeps)
@@ -194,7 +201,7 @@ class ComparisonConfig(_Strict):
             self._points = {i: expand_sweep(self, i) for i in range(len(self.sweeps))}  # validates every value
         return self
 
-    _points: dict[int, list] = PrivateAttr(default_factory=dict)
+    _points: dict[int, list[tuple[Any, Any]]] = PrivateAttr(default_factory=dict)
     _scenario: Any = PrivateAttr(None)
     _candidates: tuple[CandidatePlan, ...] | None = PrivateAttr(None)
 

@@ -82,7 +82,8 @@ def select(x: np.ndarray, mask: np.ndarray | None, what: str) -> np.ndarray:
 def magnitude(x: np.ndarray) -> np.ndarray:
     """``|x|`` of a ``(K, runs)`` series; the Euclidean norm per epoch of a ``(K, runs, d...)`` one."""
     x = np.asarray(x, dtype=float)
-    return np.abs(x) if x.ndim <= 2 else np.sqrt(np.sum(x**2, axis=tuple(range(2, x.ndim))))
+    out: np.ndarray = np.abs(x) if x.ndim <= 2 else np.sqrt(np.sum(x**2, axis=tuple(range(2, x.ndim))))
+    return out
 
 
 def rmse(err: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
@@ -98,13 +99,15 @@ def rmse(err: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
     """
     e = select(err, mask, "rmse")
     sq = e**2 if e.ndim <= 2 else np.sum(e**2, axis=tuple(range(2, e.ndim)))
-    return np.sqrt(np.mean(sq, axis=0))
+    out: np.ndarray = np.sqrt(np.mean(sq, axis=0))
+    return out
 
 
 def max_after_settle(err: np.ndarray, time_s: np.ndarray | None, settle_s: float) -> np.ndarray:
     """Largest absolute error (norm for vector errors) at or after ``settle_s``, ``(runs,)``."""
     e = np.asarray(err, dtype=float)
-    return np.max(magnitude(select(e, settled(time_s, settle_s, e.shape[0]), "max_after_settle")), axis=0)
+    out: np.ndarray = np.max(magnitude(select(e, settled(time_s, settle_s, e.shape[0]), "max_after_settle")), axis=0)
+    return out
 
 
 def nees_mean(err: np.ndarray, cov: np.ndarray | None = None, mask: np.ndarray | None = None) -> np.ndarray:
@@ -114,14 +117,16 @@ def nees_mean(err: np.ndarray, cov: np.ndarray | None = None, mask: np.ndarray |
     (Bar-Shalom, Li and Kirubarajan 2001, sec. 5.4; its expectation is ``n`` for a
     consistent filter). Without ``cov``, ``err`` is the per-epoch NEES ``(K, runs)``.
     """
-    if cov is None:
-        return np.mean(select(err, mask, "nees_mean"), axis=0)
-    return np.mean(nees(select(err, mask, "nees_mean"), select(cov, mask, "nees_mean")), axis=0)
+    per_epoch = select(err, mask, "nees_mean") if cov is None else nees(select(err, mask, "nees_mean"),
+                                                                          select(cov, mask, "nees_mean"))
+    out: np.ndarray = np.mean(per_epoch, axis=0)
+    return out
 
 
 def fraction(flags: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
     """Fraction of the selected epochs where ``flags`` is true (e.g. loss of lock), ``(runs,)``."""
-    return np.mean(select(np.asarray(flags, dtype=bool), mask, "fraction"), axis=0)
+    out: np.ndarray = np.mean(select(np.asarray(flags, dtype=bool), mask, "fraction"), axis=0)
+    return out
 
 
 @dataclass
@@ -192,8 +197,13 @@ def metric_component(name: str, scenario: Any) -> Metric | None:
 def available_metrics(scenario: Any) -> list[str]:
     """Every metric ``scenario`` can report: its own, then the registered ``metric``
     plugins that apply to it (`Metric.applies_to`)."""
-    plugins = [n for n in registry.names("metric") if n not in scenario.metrics
-               and not metric_component(n, scenario).applies_to(scenario)]
+    plugins = []
+    for n in registry.names("metric"):
+        if n in scenario.metrics:
+            continue
+        component = metric_component(n, scenario)  # a registered name outside the scenario's: never None
+        if component is not None and not component.applies_to(scenario):
+            plugins.append(n)
     return list(scenario.metrics) + plugins
 
 
@@ -201,7 +211,8 @@ def check_metric(name: str, scenario: Any, field: str) -> str:
     """Unit of metric ``name`` in ``scenario`` (its own or a component's); a ``ConfigError``
     naming ``field`` and the allowed metrics otherwise."""
     if name in scenario.metrics:
-        return scenario.metrics[name]
+        unit: str = scenario.metrics[name]
+        return unit
     component = metric_component(name, scenario)
     allowed = ", ".join(available_metrics(scenario))
     if component is None:

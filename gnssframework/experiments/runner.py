@@ -28,26 +28,30 @@ import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Generator
+from typing import Any, TypeAlias
 
 import numpy as np
 
 from ..errors import ConfigError, GnssFrameworkError, RunFailure, WorkerError
 from ..progress import Progress
-from .config import DASK_ADDRESS_ENV, ComparisonConfig
+from .config import DASK_ADDRESS_ENV, ComparisonConfig, Executor
 from ..io.files import atomic_open
 from .folder import claim_folder
 from .metric_components import evaluate
-from .metrics import metric_component
+from .metrics import Metric, metric_component
 from .run_plan import RunPlan, resolve, task_streams
 from .store import plan_batches
 from .tasks import Task, plan, series_file
 
 __all__ = ["Task", "plan", "task_streams", "run_task", "run_comparison", "series_file"]
 
+#: What `run_task` returns: the task, its metrics by name ``(runs,)``, its per-epoch series
+#: by name (those the metric components add) and its time axis (``None`` without one).
+TaskResult: TypeAlias = tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray], np.ndarray | None]
 
-def run_task(plan: RunPlan, task: Task) -> tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray],
-                                                 np.ndarray | None]:
+
+def run_task(plan: RunPlan, task: Task) -> TaskResult:
     """Execute one task in any process: builds the task's candidate from the resolved plan.
 
     A library error raised while simulating is re-raised as a
@@ -64,8 +68,7 @@ def run_task(plan: RunPlan, task: Task) -> tuple[Task, dict[str, np.ndarray], di
                          "batch_size or a shorter case", "MemoryError") from None
 
 
-def _simulate(plan: RunPlan, task: Task) -> tuple[Task, dict[str, np.ndarray], dict[str, np.ndarray],
-                                                  np.ndarray | None]:
+def _simulate(plan: RunPlan, task: Task) -> TaskResult:
     scenario = plan.scenario
     plugins = plan.build(task.candidate_index, task.case_index)
     result = scenario.run_batch(plan.cases[task.case_index].as_case(), plugins, task.runs, task_streams(plan, task))
@@ -84,7 +87,7 @@ def _simulate(plan: RunPlan, task: Task) -> tuple[Task, dict[str, np.ndarray], d
             + ([f"returned metrics not of shape ({task.runs},): {', '.join(wrong)}"] if wrong else [])))
     # The metric plugins the config adds: computed once, here, as a scenario computes its own.
     try:
-        added = evaluate([metric_component(m, scenario) for m in plan.component_metrics], series, result.time_s,
+        added = evaluate(_added_components(plan.component_metrics, scenario), series, result.time_s,
                          scenario, runs=task.runs)
     except ValueError as exc:  # a metric's own complaint (a wrong shape, no epoch selected): one line
         raise GnssFrameworkError(str(exc)) from None
@@ -92,7 +95,19 @@ def _simulate(plan: RunPlan, task: Task) -> tuple[Task, dict[str, np.ndarray], d
     return task, metrics, added.series, result.time_s
 
 
-def run_task_in_worker(plan: RunPlan, task: Task) -> tuple:
+def _added_components(names: tuple[str, ...], scenario: Any) -> list[Metric]:
+    """The metric components of the metrics ``names`` a config adds to ``scenario``'s own."""
+    components = []
+    for name in names:
+        component = metric_component(name, scenario)
+        if component is None:  # the config checked each name (check_metric): not reached
+            raise GnssFrameworkError(f"metric {name!r}: no metric component computes it in scenario "
+                                     f"{scenario.kind!r}")
+        components.append(component)
+    return components
+
+
+def run_task_in_worker(plan: RunPlan, task: Task) -> TaskResult:
     """``run_task`` for a worker process: an exception that would not survive the trip
     back to the parent (unpicklable, or not rebuildable from its pickle) is replaced by a
     ``WorkerError`` carrying its type, message and traceback as text."""
@@ -113,11 +128,13 @@ def _save_series(out: Path, config: ComparisonConfig, task: Task, series: dict[s
                        task.first_run, task.runs)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_open(path, "wb") as fh:  # a kill leaves no half npz
-        np.savez_compressed(fh, time_s=np.array([]) if time_s is None else time_s, first_run=task.first_run,
-                            **series)
+        # numpy's stub types **kwds as possibly naming its allow_pickle flag; the series'
+        # names are the scenario's outputs and metric components' names, never allow_pickle.
+        np.savez_compressed(fh, time_s=np.array([]) if time_s is None else time_s,
+                            first_run=task.first_run, **series)  # type: ignore[arg-type]
 
 
-def _execute(jobs: list[tuple[RunPlan, Task]], executor) -> Iterable[tuple[int, tuple]]:
+def _execute(jobs: list[tuple[RunPlan, Task]], executor: Executor) -> Generator[tuple[int, TaskResult], None, None]:
     """Run ``(plan, task)`` jobs; yields ``(job index, run_task's result)`` as they finish."""
     if not jobs:  # everything already in the store
         return
@@ -137,9 +154,9 @@ def _execute(jobs: list[tuple[RunPlan, Task]], executor) -> Iterable[tuple[int, 
                                    processes=False, dashboard_address=None)
             client = Client(cluster)
         try:
-            futures = {client.submit(run_task, d, t, pure=False): i for i, (d, t) in enumerate(jobs)}
-            for fut in dask_completed(list(futures)):
-                yield futures[fut], fut.result()
+            submitted = {client.submit(run_task, d, t, pure=False): i for i, (d, t) in enumerate(jobs)}
+            for done in dask_completed(list(submitted)):
+                yield submitted[done], done.result()
         finally:
             client.close()
             if cluster is not None:
@@ -164,7 +181,7 @@ def _execute(jobs: list[tuple[RunPlan, Task]], executor) -> Iterable[tuple[int, 
         for fut in as_completed(futures):
             i = futures[fut]
             try:
-                result = fut.result()
+                result: TaskResult = fut.result()
             except BrokenProcessPool as exc:
                 # A worker died without raising (killed, out of memory, a crash in
                 # compiled code): say which batch and how to see the real failure.

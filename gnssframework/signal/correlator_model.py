@@ -130,10 +130,10 @@ def tap_offsets(early_late_spacing_chips: float, extra: dict[str, float] | None 
 
 
 def correlator_mean(
-    amplitude: np.ndarray,
-    code_error_chips: np.ndarray,
-    carrier_phase_rad: np.ndarray,
-    freq_error_hz: np.ndarray,
+    amplitude: np.ndarray | float,
+    code_error_chips: np.ndarray | float,
+    carrier_phase_rad: np.ndarray | float,
+    freq_error_hz: np.ndarray | float,
     coherent_time_s: float,
     offsets_chips: np.ndarray,
     data_bit: np.ndarray | float = 1.0,
@@ -164,9 +164,9 @@ def tap_noise_cov(offsets_chips: np.ndarray, bandwidth_hz: float | None = None,
 
 
 def simulate_correlators(
-    code_error_chips: np.ndarray,
-    carrier_phase_rad: np.ndarray,
-    freq_error_hz: np.ndarray,
+    code_error_chips: np.ndarray | float,
+    carrier_phase_rad: np.ndarray | float,
+    freq_error_hz: np.ndarray | float,
     cn0_dbhz: np.ndarray | float,
     coherent_time_s: float,
     rng: np.random.Generator,
@@ -240,7 +240,8 @@ class CorrelatorSimulator:
         root = v * np.sqrt(np.clip(w, 0.0, None))  # PSD root: taps may be (nearly) coincident
         self.root_t = root.T
 
-    def draw(self, code_error_chips: np.ndarray, carrier_phase_rad: np.ndarray, freq_error_hz: np.ndarray,
+    def draw(self, code_error_chips: np.ndarray | float, carrier_phase_rad: np.ndarray | float,
+             freq_error_hz: np.ndarray | float,
              amplitude: np.ndarray, rng: np.random.Generator, data_bit: np.ndarray | float = 1.0) -> Correlators:
         """One interval of correlator outputs (`simulate_correlators`, with the amplitude
         ``A = sqrt(2 c T)`` given: `amplitude_from_cn0`)."""

@@ -15,7 +15,7 @@ generic blocks.
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar
 
 from ..errors import PluginError
 from ..plugin import Plugin, PluginParams
@@ -44,7 +44,7 @@ class Signal(Plugin):
     Params = SignalParams
     params: SignalParams  # self.params, as validated
 
-    def __init_subclass__(cls, **kwargs) -> None:
+    def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         spec = cls.__dict__.get("spec")
         name = cls.__dict__.get("name")

@@ -8,6 +8,7 @@ plugin kinds a candidate must (or may) compose, and its metrics with their units
 from __future__ import annotations
 
 import abc
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -18,6 +19,7 @@ from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...plugin import refuse_quiet_conversions, validation_message
 from ...plugin_ref import PluginSpec, component_spec
+from ...random_streams import RunStreams
 from ...suggest import did_you_mean
 from ..batch import BatchResult
 from ..limits import check_batch_memory
@@ -68,7 +70,7 @@ class Scenario(abc.ABC):
             raise validation_message(exc, prefix=where, model=self.CaseParams) from None
 
     def batch_memory(self, case: dict[str, Any], runs: int, where: str,
-                     candidates: list[dict[str, Any]] = ()) -> tuple[float, str, str] | None:
+                     candidates: Sequence[dict[str, Any]] = ()) -> tuple[float, str, str] | None:
         """Estimated peak memory of one batch of ``runs`` runs of ``case`` (validated case
         parameters) for the most demanding of ``candidates`` (their plugin references by
         kind, and their ``scenario_options`` dict), for `check_memory`: ``(bytes, field path, the batch's size in words)``, or
@@ -76,7 +78,7 @@ class Scenario(abc.ABC):
         return None
 
     def check_memory(self, case: dict[str, Any], runs: int, where: str,
-                     candidates: list[dict[str, Any]] = ()) -> None:
+                     candidates: Sequence[dict[str, Any]] = ()) -> None:
         """Refuse a case whose batch of ``runs`` runs would exceed the memory budget
         (`gnssframework.experiments.limits`), before anything is allocated."""
         estimate = self.batch_memory(self.CaseParams.model_validate(case).model_dump(), runs, where, candidates)
@@ -192,14 +194,18 @@ class Scenario(abc.ABC):
 
     @abc.abstractmethod
     def run_batch(self, case: dict[str, Any], plugins: dict[str, Any], runs: int,
-                  rng: np.random.Generator) -> BatchResult:
-        """Simulate ``runs`` Monte Carlo runs as one array program."""
+                  rng: RunStreams | np.random.Generator | int) -> BatchResult:
+        """Simulate ``runs`` Monte Carlo runs as one array program.
+
+        ``rng`` is the runs' random streams: the runner gives `RunStreams` (one generator
+        per run); a plain ``Generator`` or a seed is accepted too and made into streams with
+        `gnssframework.random_streams.as_run_streams`."""
 
 
 registry.register_kind("scenario", Scenario)  # this layer owns the kind's base
 
 
-def _config_path(exc: ConfigError, cls: type, where: str) -> ConfigError:
+def _config_path(exc: ConfigError, cls: type[Any], where: str) -> ConfigError:
     """A plugin's error re-addressed to the config: the plugin names its field from its own
     root (``channel_filter 'iq-filter'.estimator...``); continue the config's path ``where``
     instead, so the field is written one way."""
@@ -263,7 +269,7 @@ def get_scenario(config: dict[str, Any]) -> Scenario:
     if kind not in kinds:
         raise ConfigError("scenario.kind", f"got {kind!r}; allowed: {', '.join(kinds)}"
                           f"{did_you_mean(str(kind), kinds, cutoff=0.4)}")
-    cls = registry.get("scenario", kind)
+    cls: type[Scenario] = registry.get("scenario", kind)
     try:
         params = cls.Params.model_validate({k: v for k, v in config.items() if k != "kind"})
     except ValidationError as exc:
