@@ -46,6 +46,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .. import backend
+from .compiled import tria as compiled_tria
 from .linalg import mat_vec, symmetrize, transpose
 
 __all__ = ["psd_root", "tria", "sqrt_terms", "sqrt_rts_step", "cov_of"]
@@ -61,7 +63,10 @@ def psd_root(a: np.ndarray) -> np.ndarray:
 
 def tria(a: np.ndarray) -> np.ndarray:
     r"""Lower-triangular $L$ ``(..., p, p)`` with $L L^T = A A^T$ for ``a`` ``(..., p, q)``, $q \ge p$:
-    from the QR factorisation $A^T = Q R$, $L = R^T$ (batched)."""
+    from the QR factorisation $A^T = Q R$, $L = R^T$ (batched). Under the ``numba`` backend
+    one compiled Householder pass per element (`compiled.tria`); NumPy's LAPACK ``qr`` otherwise."""
+    if backend.compiled() and a.shape[-1] >= a.shape[-2] and np.all(np.isfinite(a)):
+        return compiled_tria.tria(a)
     # mode "raw" returns LAPACK's Householder output transposed, (..., p, q): R^T is the lower
     # triangle of its first p columns (no triu copy of the (..., q, p) result).
     p = a.shape[-2]

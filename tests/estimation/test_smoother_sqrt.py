@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import gnssframework as gf
+from gnssframework import backend
 from gnssframework.errors import ConfigError
 from gnssframework.estimation import Gaussian, LinearModel
 from conftest import create, random_pd
@@ -169,19 +170,52 @@ def test_square_root_form_stays_psd_where_the_covariance_form_does_not(rng):
     assert gap.min() >= -1e-12 * np.abs(result.cov).max()
 
 
-def test_square_root_form_is_accurate_where_the_covariance_forms_degrade(rng):
+@pytest.mark.parametrize("path", ["numpy", "numba"])
+def test_square_root_form_is_accurate_where_the_covariance_forms_degrade(path, rng):
     """Against the 60-digit reference, per eigen-direction of the true covariance: the
     square-root form is right to 1.2e-5 of each direction's own spread (the forward pass's
     rounding: the median over steps is 6e-7 for every form); the covariance form ("solve") is
     off by 15-39 times the smallest direction's spread and the clipped one ("eigh") by 3-67
-    (seeds 0-5, measured)."""
+    (seeds 0-5, measured). The backward pass on either path (NumPy's QR, the compiled one)."""
     zs, result = _ill_conditioned_run(rng, B=1)
     mean, cov = _decimal_rts(zs[:, 0])
     assert np.linalg.eigvalsh(cov).min() > 0  # the truth is PD, as the theorem says
-    errors = {form: _whitened_error(gf.smooth(result, form=form).cov[:, 0], cov) for form in ("solve", "eigh", "sqrt")}
+    backend.set_backend(path)
+    try:
+        errors = {form: _whitened_error(gf.smooth(result, form=form).cov[:, 0], cov)
+                  for form in ("solve", "eigh", "sqrt")}
+        sqrt = gf.smooth(result)
+    finally:
+        backend.set_backend(None)
     assert errors["sqrt"] < 1e-3, errors
     assert errors["solve"] > 1.0 and errors["eigh"] > 1.0, errors
-    np.testing.assert_allclose(gf.smooth(result).mean[:, 0], mean, rtol=0, atol=1e-8)
+    assert np.linalg.eigvalsh(sqrt.cov).min() >= 0.0
+    np.testing.assert_allclose(sqrt.mean[:, 0], mean, rtol=0, atol=1e-8)
+
+
+def test_compiled_tria_equals_numpys_qr(rng):
+    """`compiled.tria` against LAPACK's QR (`smoother_sqrt.tria` on the numpy backend): the same
+    factor up to its columns' signs, lower triangular, full rank or not."""
+    from gnssframework.estimation.compiled.tria import tria as compiled_tria
+    from gnssframework.estimation.smoother_sqrt import tria
+
+    A = rng.standard_normal((200, 5, 12))
+    A[:50] = rng.standard_normal((50, 5, 2)) @ rng.standard_normal((50, 2, 12))  # rank 2
+    A[50:60, 3] = 0.0  # a zero row
+    L = compiled_tria(A)
+    backend.set_backend("numpy")
+    try:
+        ref = tria(A)
+    finally:
+        backend.set_backend(None)
+    gram = A @ np.swapaxes(A, -1, -2)
+    scale = np.abs(gram).max(axis=(-2, -1), keepdims=True)
+    assert np.all(np.triu(L, 1) == 0.0)
+    np.testing.assert_allclose((L @ np.swapaxes(L, -1, -2)) / scale, gram / scale, rtol=0, atol=1e-14)
+    # full rank: the factor is unique up to the signs of its columns
+    np.testing.assert_allclose(np.abs(L[60:]), np.abs(ref[60:]), rtol=0, atol=1e-13 * np.sqrt(scale.max()))
+    with pytest.raises(ValueError, match="columns"):
+        compiled_tria(np.ones((2, 3, 2)))
 
 
 def test_square_root_fixed_lag_smoother_stays_psd(rng):
@@ -213,9 +247,9 @@ def test_square_root_smoother_on_the_compiled_points_equals_numpy(rng):
     eigen root); the smoothed states equal the NumPy path's to rounding."""
     model, zs, init = _pendulum_run(rng)
     out = {}
-    for backend in ("numpy", "numba"):
+    for path in ("numpy", "numba"):
         estimator = create("estimator", "svd-ckf")
-        estimator.backend = backend
-        out[backend] = gf.smooth(gf.filter_sequence(estimator, model, zs, init, store="smoother"))
+        estimator.backend = path
+        out[path] = gf.smooth(gf.filter_sequence(estimator, model, zs, init, store="smoother"))
     np.testing.assert_allclose(out["numba"].mean, out["numpy"].mean, rtol=0, atol=1e-12)
     np.testing.assert_allclose(out["numba"].cov, out["numpy"].cov, rtol=0, atol=1e-12)
