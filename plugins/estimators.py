@@ -256,8 +256,9 @@ class SvdCubatureKalmanFilter(CubatureKalmanFilter):
     description = "Cubature Kalman filter with an SVD square root (Zou et al. 2018)"
     #: The kernels' root for this ``square_root``: ``V sqrt(|w|)`` of the eigen-decomposition.
     kernel_root = 1
-    #: The RTS smoother's gain through the eigen-decomposition of P^- (its SVD).
-    smoother_gain = "eigh"
+    #: The RTS smoother in square-root form (`gnssframework.estimation.smoother_sqrt`): the
+    #: smoothed covariance carried as a factor from the points' weighted deviations.
+    smoother_gain = "sqrt"
 
     def square_root(self, cov: np.ndarray) -> np.ndarray:
         finite = np.isfinite(cov).all(axis=(-2, -1))

@@ -20,12 +20,13 @@ from typing import Any, Literal
 import numpy as np
 
 from .. import backend
-from ..errors import InvalidMeasurementError, NotPositiveDefiniteError
+from ..errors import ConfigError, InvalidMeasurementError, NotPositiveDefiniteError
 from ..plugin import Plugin
 from . import compiled as kernels
 from .linalg import all_true, any_true, cholesky_masked, failing_indices, mat_vec, symmetrize
 from .compiled_model import CompiledFunctions
 from .iterated import iterated_update
+from .smoother_sqrt import psd_root
 from .types import Gaussian, Model, Update, residual_hook
 
 #: A compiled point rule: (root kind, scale, centre point, mean weights, covariance weights).
@@ -112,8 +113,22 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
     #: How the RTS smoother solves for its gain ``G = C (P^-)^{-1}`` after this engine
     #: (`gnssframework.estimation.smoother`): ``"solve"`` (a batched linear solve, no inverse) or
     #: ``"eigh"`` (through the symmetric eigen-decomposition of ``P^-``, the SVD-CKF's
-    #: square root, which exists for a nearly singular ``P^-``).
+    #: square root, which exists for a nearly singular ``P^-``) or ``"sqrt"`` (the square-root
+    #: form, `gnssframework.estimation.smoother_sqrt`: the forward pass also keeps
+    #: `transition_factors` and the backward pass carries the smoothed covariance as a factor).
     smoother_gain: str = "solve"
+
+    def transition_factors(self, state: Gaussian, model: Model, prior: Gaussian) -> tuple[np.ndarray, np.ndarray]:
+        r"""Factors ``(X, Y)`` of the prediction ``state -> prior``, ``(..., n, N)`` each, with
+        $X X^T = P_k$, $X Y^T = C$ (`transition_cross_cov`) and $Y Y^T + Q = P^-_{k+1}$: what
+        the square-root smoother (``smoother_gain = "sqrt"``) keeps.
+
+        The linearised form: $X$ the symmetric root of $P_k$ (`smoother_sqrt.psd_root`), $Y = F X$
+        with $F$ the Jacobian of $f$ at the mean. Computed on NumPy.
+        """
+        X = psd_root(state.cov)
+        F = model.jacobian_f(state.mean)
+        return X, F @ X
 
     def transition_cross_cov(self, state: Gaussian, model: Model, prior: Gaussian) -> np.ndarray:
         r"""Cross covariance ``C = Cov(x_k, x_{k+1}^-)`` of the prediction ``state -> prior``.
@@ -449,6 +464,32 @@ class SigmaPointEstimator(Estimator):
         dX = residual(X, state.mean)
         dY = residual(model.f(X), prior.mean)
         return self._weighted_cov(dX, dY, wc)
+
+    def transition_factors(self, state: Gaussian, model: Model, prior: Gaussian) -> tuple[np.ndarray, np.ndarray]:
+        r"""Factors ``(X, Y)`` ``(..., n, N)`` of the prediction from this engine's points:
+        $X_{:,i} = \sqrt{W^c_i}\,(\mathcal X_i - m_k)$, $Y_{:,i} = \sqrt{W^c_i}\,(f(\mathcal X_i) -
+        m^-_{k+1})$, so $X Y^T$ is `transition_cross_cov` (Arasaratnam & Haykin 2011, the
+        square-root cubature RTS smoother). The points are drawn as `transition_cross_cov` draws them.
+
+        Raises
+        ------
+        ConfigError
+            A rule with a negative covariance weight (a UKF with small alpha): its weighted
+            deviations have no real root.
+        """
+        points = None if _hooked(model) else self._kernel_points(state)
+        X, wm, wc = points if points is not None else self.sigma_points(state)
+        wc = np.asarray(wc, dtype=float)
+        if (wc < 0).any():
+            raise ConfigError(f"estimator {self.name!r}", "the square-root smoother (smoother_gain 'sqrt') needs "
+                              f"nonnegative covariance weights; this rule has {wc.min():.3g}: use form='solve'")
+        residual = residual_hook(model, "x")
+        root_w = np.sqrt(wc)
+        dX = residual(X, state.mean)
+        dY = residual(model.f(X), prior.mean)
+        nd = dX.ndim
+        order = tuple(range(1, nd)) + (0,)  # (N, ..., n) -> (..., n, N)
+        return dX.transpose(order) * root_w, dY.transpose(order) * root_w
 
     @staticmethod
     def _scaled_points(mean: np.ndarray, sqrt_cov: np.ndarray, scale: float) -> np.ndarray:

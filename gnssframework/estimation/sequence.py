@@ -13,6 +13,8 @@ from ..errors import ConfigError, InvalidInputError
 from .adaptation import Augmentation, NoiseAdapter
 from .boundary import as_sequence, check_argument, check_model_functions, checked_model_at, to_float
 from .estimator import Estimator, OnFailure, OnMissing
+from .linalg import transpose
+from .smoother_sqrt import psd_root
 from .step import RECOVERIES, FilterStep, StepResult
 from .types import Gaussian, Model
 
@@ -40,7 +42,12 @@ class SmootherInputs:
     initial
         The initial state the first step predicted from (batch-broadcast).
     gain_form
-        The engine's ``smoother_gain`` (``"solve"`` or ``"eigh"``).
+        The engine's ``smoother_gain`` (``"solve"``, ``"eigh"`` or ``"sqrt"``).
+    factors
+        For a square-root engine (``gain_form == "sqrt"``), the factors of each prediction
+        (`gnssframework.estimation.smoother_sqrt`): ``(X, Y, S_Q)``, ``(K, ..., n, N)``,
+        ``(K, ..., n, N)`` and ``(K, ..., n, n)``, with ``X X^T = P_{k-1}``, ``X Y^T = C_k`` and
+        ``Y Y^T + S_Q S_Q^T = P^-_k`` (`Estimator.transition_factors`); None otherwise.
     """
 
     prior_mean: np.ndarray
@@ -48,28 +55,44 @@ class SmootherInputs:
     cross_cov: np.ndarray
     initial: Gaussian
     gain_form: str
+    factors: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+
+Factors = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 def transition_terms(estimator: Estimator, previous: Gaussian, r: StepResult,
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, Factors | None]:
     """What a backward pass keeps of one step ``previous -> r``: the prediction's mean and
     covariance and ``estimator.transition_cross_cov``, each broadcast to the posterior's batch
-    (a state shared by the runs may be predicted with a Q per run).
+    (a state shared by the runs may be predicted with a Q per run), and for a square-root
+    engine (``smoother_gain == "sqrt"``) the factors ``(X, Y, S_Q)`` of `SmootherInputs`
+    (then ``C = X Y^T``, from the same points).
 
     Returns
     -------
-    (np.ndarray, np.ndarray, np.ndarray)
-        ``(prior_mean, prior_cov, cross_cov)``, ``(..., n)``, ``(..., n, n)``, ``(..., n, n)``.
+    tuple
+        ``(prior_mean, prior_cov, cross_cov, factors)``, ``(..., n)``, ``(..., n, n)``,
+        ``(..., n, n)`` and the factors or None.
     """
     batch = r.posterior.batch_shape
     if previous.batch_shape != batch:
         previous = Gaussian(np.broadcast_to(previous.mean, batch + previous.mean.shape[-1:]),
                             np.broadcast_to(previous.cov, batch + previous.cov.shape[-2:]))
     # r.model is the model the prediction used (the adapter's Q in force at this step).
-    cross = estimator.transition_cross_cov(previous, r.model, r.prior)
+    factors: Factors | None = None
+    if estimator.smoother_gain == "sqrt":
+        X, Y = estimator.transition_factors(previous, r.model, r.prior)
+        X = np.broadcast_to(X, batch + X.shape[-2:])
+        Y = np.broadcast_to(Y, batch + Y.shape[-2:])
+        noise = psd_root(r.model.Q)
+        factors = (X, Y, np.broadcast_to(noise, batch + noise.shape[-2:]))
+        cross = X @ transpose(Y)
+    else:
+        cross = estimator.transition_cross_cov(previous, r.model, r.prior)
     return (np.broadcast_to(r.prior.mean, batch + r.prior.mean.shape[-1:]),
             np.broadcast_to(r.prior.cov, batch + r.prior.cov.shape[-2:]),
-            np.broadcast_to(cross, batch + cross.shape[-2:]))
+            np.broadcast_to(cross, batch + cross.shape[-2:]), factors)
 
 
 @dataclass
@@ -266,13 +289,14 @@ def filter_sequence(
                                 f"initial state's {initial.batch_shape}") from None
     state = step.start(initial, m0)
     out: dict[str, list[Any]] = {k: [] for k in ("mean", "cov", "innovation", "innovation_cov", "Q", "R", "skipped",
-                                            "prior_mean", "prior_cov", "cross_cov")}
+                                            "prior_mean", "prior_cov", "cross_cov", "factors")}
     start = state
     for k in range(zs.shape[0]):
         r = step(state, zs[k], m0 if k == 0 else model_at(k))
         posterior, mk = r.posterior, r.model
         if store == "smoother":
-            for key, value in zip(("prior_mean", "prior_cov", "cross_cov"), transition_terms(estimator, state, r)):
+            for key, value in zip(("prior_mean", "prior_cov", "cross_cov", "factors"),
+                                  transition_terms(estimator, state, r)):
                 out[key].append(value)
         out["mean"].append(posterior.mean)
         if store_cov:
@@ -298,8 +322,16 @@ def filter_sequence(
         smoother_inputs=None if store != "smoother" else SmootherInputs(
             prior_mean=np.stack(out["prior_mean"]), prior_cov=np.stack(out["prior_cov"]),
             cross_cov=np.stack(out["cross_cov"]), initial=start,
-            gain_form=estimator.smoother_gain),
+            gain_form=estimator.smoother_gain, factors=_stacked_factors(out["factors"])),
     )
+
+
+def _stacked_factors(steps: list[Factors | None]) -> Factors | None:
+    """The per-step factors stacked over steps, or None when the engine keeps none."""
+    if not steps or steps[0] is None:
+        return None
+    X, Y, S = (np.stack([f[i] for f in steps if f is not None]) for i in range(3))
+    return X, Y, S
 
 
 def _times(time_s: Any, k: int, filter_name: str) -> np.ndarray:

@@ -20,8 +20,8 @@ for KF/EKF ($F$ the Jacobian at $m_k$), $\sum_i W^c_i (\mathcal X_i - m_k)(f(\ma
 m^-_{k+1})^T$ for the UKF, CKF and SVD-CKF, from the same points as their prediction.
 
 Numerics. The gain is never formed from an inverse: ``"solve"`` (KF, EKF, UKF, CKF) solves
-$P^-_{k+1} G_k^T = C_{k+1}^T$ in one batched solve; ``"eigh"`` (the SVD-CKF,
-``Estimator.smoother_gain``) goes through $P^-_{k+1} = V \operatorname{diag}(w) V^T$, the
+$P^-_{k+1} G_k^T = C_{k+1}^T$ in one batched solve; ``"eigh"`` (``Estimator.smoother_gain``)
+goes through $P^-_{k+1} = V \operatorname{diag}(w) V^T$, the
 eigen-decomposition the SVD-CKF takes its square root from, $G_k = C V \operatorname{diag}(1/w)
 V^T$ with eigenvalues below $n\,\epsilon\,\max w$ dropped (a pseudo-inverse where $P^-$ is
 numerically singular), and writes the covariance as the sum of two PSD terms,
@@ -32,8 +32,10 @@ P^s_k = \underbrace{(P_k - G_k C_{k+1}^T)}_{\operatorname{Cov}(x_k \mid x_{k+1})
 $$
 
 the first term's rounding-negative eigenvalues set to zero (its square root exists), so
-$P^s_k$ stays symmetric PSD. In exact arithmetic both forms are the equation above. Every
-covariance is symmetrised.
+$P^s_k$ stays symmetric PSD. ``"sqrt"`` (the SVD-CKF's default) carries $P^s_k$ as a factor
+from the forward pass's factors, one QR per step and no subtraction
+(`gnssframework.estimation.smoother_sqrt`, Arasaratnam & Haykin 2011). In exact arithmetic
+the three forms are the equation above. Every covariance is symmetrised.
 
 Time-varying and adapted noise. The smoother uses the stored per-step predictions, so a Q
 that changes with k (a callable model) or that a noise adapter estimated online (its estimate
@@ -61,14 +63,16 @@ from .boundary import check_argument
 from .estimator import Estimator, OnFailure, OnMissing
 from .linalg import all_true, mat_vec, pd_mask, project_psd, symmetrize, transpose
 from .sequence import FilterResult, SmootherInputs, transition_terms
+from .smoother_sqrt import cov_of, psd_root, sqrt_rts_step, sqrt_terms
 from .step import FilterStep
 from .types import Gaussian, Model
 
 __all__ = ["SmoothedResult", "LagEstimate", "FixedLagSmoother", "smooth", "fixed_lag_smooth", "smoother_gain",
            "GAIN_FORMS"]
 
-#: The gain solves the smoother knows (``Estimator.smoother_gain``).
-GAIN_FORMS = ("solve", "eigh")
+#: The forms the smoother knows (``Estimator.smoother_gain``): two gain solves of the covariance
+#: form and the square-root form (`gnssframework.estimation.smoother_sqrt`).
+GAIN_FORMS = ("solve", "eigh", "sqrt")
 
 Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -92,6 +96,9 @@ class SmoothedResult:
     initial_gain
         ``G_{-1}`` ``(..., n, n)``, the gain of the transition from the initial state into
         step 0 (`smooth`; None from `fixed_lag_smooth`).
+    cov_root
+        The square-root form's factors ``S^s_k`` ``(K, ..., n, n)``, ``cov = S S^T``
+        (``form="sqrt"``; None for the covariance forms).
     """
 
     mean: np.ndarray
@@ -101,6 +108,7 @@ class SmoothedResult:
     epochs: np.ndarray
     time_s: np.ndarray | None = None
     initial_gain: np.ndarray | None = None
+    cov_root: np.ndarray | None = None
 
     def lag_one_cov(self) -> np.ndarray:
         r"""Smoothed lag-one covariances $P^s_{k,k-1} = \operatorname{Cov}(x_k, x_{k-1} \mid z_0
@@ -153,7 +161,8 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
         inv_w = np.where(w > tol, 1.0 / np.where(w > tol, w, 1.0), 0.0)
         gain: np.ndarray = ((cross_cov @ V) * inv_w[..., None, :]) @ transpose(V)
         return gain
-    raise ConfigError("smoother gain form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
+    raise ConfigError("smoother gain form", f"got {form!r}; allowed: solve, eigh (the square-root form's gain "
+                      "comes with its factors: smoother_sqrt.sqrt_terms)")
 
 
 def _psd_part(a: np.ndarray) -> np.ndarray:
@@ -220,11 +229,22 @@ def _inputs(result: FilterResult, caller: str) -> SmootherInputs:
 
 
 def _gain_form(inputs: SmootherInputs, form: str | None) -> str:
-    """``form``, or the engine's stored one when None; `ConfigError` for an unknown form."""
+    """``form``, or the engine's stored one when None; `ConfigError` for an unknown form, or
+    ``"sqrt"`` on a result that kept no factors."""
     form = inputs.gain_form if form is None else form
     if form not in GAIN_FORMS:
         raise ConfigError("form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
+    if form == "sqrt" and inputs.factors is None:
+        raise ConfigError("form", "'sqrt' needs the factors a square-root engine (svd-ckf) keeps in its forward "
+                          f"pass; this result's engine (form {inputs.gain_form!r}) kept none: use 'solve' or 'eigh'")
     return form
+
+
+def _sqrt_terms(inputs: SmootherInputs, steps: slice) -> tuple[np.ndarray, np.ndarray]:
+    """The gains and conditional roots (`sqrt_terms`) of the stored transitions ``steps``."""
+    assert inputs.factors is not None  # _gain_form refuses "sqrt" without them
+    X, Y, S = (f[steps] for f in inputs.factors)
+    return sqrt_terms(X, Y, S)
 
 
 def _checked_lag(lag: Any) -> int:
@@ -249,8 +269,9 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
         Angle-aware state difference ``(a, b) -> a - b`` for angle states (the model's
         ``residual_x``); plain subtraction when None.
     form
-        Override the engine's gain form (``"solve"`` or ``"eigh"``); None uses the one the
-        result stored (``Estimator.smoother_gain``: ``"eigh"`` for the SVD-CKF).
+        Override the engine's form (``"solve"``, ``"eigh"``, or ``"sqrt"`` where the forward
+        pass kept the factors); None uses the one the result stored
+        (``Estimator.smoother_gain``: ``"sqrt"`` for the SVD-CKF, `smoother_sqrt`).
 
     Returns
     -------
@@ -265,6 +286,8 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
     inputs = _inputs(result, "smooth")
     assert result.cov is not None  # _inputs refuses a result without it
     form = _gain_form(inputs, form)
+    if form == "sqrt":
+        return _smooth_sqrt(result, inputs, residual_x)
     K = result.mean.shape[0]
     # The gains depend on the forward pass only: all K (the initial state's first) in one batched call.
     gains = smoother_gain(inputs.cross_cov, inputs.prior_cov, form)
@@ -276,14 +299,38 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
         nxt = rts_step(Gaussian(result.mean[k], result.cov[k]), inputs.prior_mean[k + 1], inputs.prior_cov[k + 1],
                        inputs.cross_cov[k + 1], nxt, gains[k + 1], form, residual_x)
         mean[k], cov[k] = nxt.mean, nxt.cov
-    batch = result.mean.shape[1:-1]
-    n = result.mean.shape[-1]
-    start = Gaussian(np.broadcast_to(inputs.initial.mean, batch + (n,)),
-                     np.broadcast_to(inputs.initial.cov, batch + (n, n)))
+    start = _start(result, inputs)
     initial = rts_step(start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, gains[0], form,
                        residual_x)
     return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=initial, epochs=result.epochs,
                           time_s=result.time_s, initial_gain=np.broadcast_to(gains[0], cov.shape[1:]))
+
+
+def _start(result: FilterResult, inputs: SmootherInputs) -> Gaussian:
+    """The initial state, broadcast to the result's batch."""
+    batch = result.mean.shape[1:-1]
+    n = result.mean.shape[-1]
+    return Gaussian(np.broadcast_to(inputs.initial.mean, batch + (n,)),
+                    np.broadcast_to(inputs.initial.cov, batch + (n, n)))
+
+
+def _smooth_sqrt(result: FilterResult, inputs: SmootherInputs, residual_x: Residual | None) -> SmoothedResult:
+    """`smooth` in square-root form (`smoother_sqrt`): the factors carried, ``cov = S S^T``."""
+    assert result.cov is not None
+    gains, cond = _sqrt_terms(inputs, slice(None))  # every transition's, the initial state's first
+    K = result.mean.shape[0]
+    mean = np.empty_like(result.mean)
+    cov = np.empty_like(result.cov)
+    root = np.empty_like(result.cov)
+    mean[-1], cov[-1], root[-1] = result.mean[-1], result.cov[-1], psd_root(result.cov[-1])
+    for k in range(K - 2, -1, -1):
+        mean[k], root[k] = sqrt_rts_step(result.mean[k], inputs.prior_mean[k + 1], mean[k + 1], root[k + 1],
+                                         gains[k + 1], cond[k + 1], residual_x)
+        cov[k] = cov_of(root[k])
+    start = _start(result, inputs)
+    m0, r0 = sqrt_rts_step(start.mean, inputs.prior_mean[0], mean[0], root[0], gains[0], cond[0], residual_x)
+    return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=Gaussian(m0, cov_of(r0)), epochs=result.epochs,
+                          time_s=result.time_s, initial_gain=np.broadcast_to(gains[0], cov.shape[1:]), cov_root=root)
 
 
 def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | None = None,
@@ -317,20 +364,33 @@ def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | N
     K = result.mean.shape[0]
     steps = min(lag, K - 1)  # backward steps of the longest window
     # G_i (transition i -> i+1) depends on the forward pass only: each once, not once per window.
-    gain = (smoother_gain(inputs.cross_cov[1:], inputs.prior_cov[1:], form) if steps > 0
-            else np.zeros((max(K - 1, 0),) + result.cov.shape[1:]))
+    cond = None
+    if steps == 0:
+        gain = np.zeros((max(K - 1, 0),) + result.cov.shape[1:])
+    elif form == "sqrt":
+        gain, cond = _sqrt_terms(inputs, slice(1, None))
+    else:
+        gain = smoother_gain(inputs.cross_cov[1:], inputs.prior_cov[1:], form)
     j = np.arange(K)
     end = np.minimum(j + lag, K - 1)  # the last step each window sees
     mean, cov = result.mean[end].copy(), result.cov[end].copy()
+    root = psd_root(cov) if cond is not None else None
     shape = (K,) + (1,) * (result.mean.ndim - 1)
     for d in range(1, steps + 1):
         i = end - d  # step smoothed now in each window
         active = i >= j
         ic = np.maximum(i, 0)
+        a = active.reshape(shape)
+        if root is not None and cond is not None:
+            out_mean, out_root = sqrt_rts_step(result.mean[ic], inputs.prior_mean[ic + 1], mean, root, gain[ic],
+                                               cond[ic], residual_x)
+            root = np.where(a[..., None], out_root, root)
+            mean = np.where(a, out_mean, mean)
+            cov = np.where(a[..., None], cov_of(root), cov)
+            continue
         out = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
                        inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), gain[ic], form,
                        residual_x)
-        a = active.reshape(shape)
         mean = np.where(a, out.mean, mean)
         cov = np.where(a[..., None], out.cov, cov)
     return SmoothedResult(mean=mean, cov=cov, gain=gain, initial=inputs.initial, epochs=result.epochs,
@@ -353,13 +413,18 @@ class _Transition:
     prior_mean: np.ndarray
     prior_cov: np.ndarray
     cross_cov: np.ndarray
+    factors: tuple[np.ndarray, np.ndarray, np.ndarray] | None
     form: str
 
     @cached_property
-    def gain(self) -> np.ndarray:
-        """The gain of the transition into this step (`smoother_gain`): solved once, however
-        many windows use it."""
-        return smoother_gain(self.cross_cov, self.prior_cov, self.form)
+    def terms(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """The gain of the transition into this step (`smoother_gain`) and, in the square-root
+        form, the conditional root (`smoother_sqrt.sqrt_terms`): solved once, however many
+        windows use them."""
+        if self.form == "sqrt":
+            assert self.factors is not None  # a "sqrt" engine keeps them
+            return sqrt_terms(*self.factors)
+        return smoother_gain(self.cross_cov, self.prior_cov, self.form), None
 
 
 class FixedLagSmoother:
@@ -441,9 +506,16 @@ class FixedLagSmoother:
         window = list(self._window)
         nxt = window[-1].posterior
         out = [nxt]
+        root = psd_root(nxt.cov) if self.form == "sqrt" else None
         for i in range(len(window) - 2, -1, -1):
             t = window[i + 1]
-            nxt = rts_step(window[i].posterior, t.prior_mean, t.prior_cov, t.cross_cov, nxt, t.gain, self.form,
-                           self.residual_x)
+            gain, cond = t.terms
+            if root is not None and cond is not None:
+                mean, root = sqrt_rts_step(window[i].posterior.mean, t.prior_mean, nxt.mean, root, gain, cond,
+                                           self.residual_x)
+                nxt = Gaussian(mean, cov_of(root))
+            else:
+                nxt = rts_step(window[i].posterior, t.prior_mean, t.prior_cov, t.cross_cov, nxt, gain, self.form,
+                               self.residual_x)
             out.append(nxt)
         return out[::-1]

@@ -158,3 +158,49 @@ def test_a_nav_filter_takes_a_robust_update_through_its_estimator():
         moved[robust] = float(out["position_m"][0, 0])
     assert moved["huber"] < 0.2 * moved[None], moved
     assert moved["cauchy"] < 0.5 * moved["huber"], moved
+
+
+ROBUST_SPECS = {"huber": {"name": "huber", "params": {"iterations": 30}},
+                "cauchy": {"name": "cauchy", "params": {"iterations": 30}},
+                "student-t": {"name": "student-t", "params": {"iterations": 30}},
+                "gate": {"name": "gate", "params": {"false_alarm": 1e-3}}}
+
+
+@pytest.mark.parametrize("robust", sorted(ROBUST_SPECS))
+def test_robust_updates_give_the_same_numbers_on_the_compiled_path(robust, monkeypatch):
+    """Under the numba backend the iterates' moments come from the compiled kernels (the
+    KF/EKF's compiled Jacobian moments of the linear model's twins, the sigma-point engines'
+    compiled points); the robust update and a 25-step filter_sequence through it give the
+    NumPy path's numbers. The ukf's weights of 1e6 (alpha = 1e-3) amplify the kernels'
+    different rounding (as in test_iterated_update.py)."""
+    from gnssframework.estimation import estimator as estimator_module
+    from gnssframework.estimation import filter_sequence
+
+    calls = []
+    for kernel in ("ekf_moments", "sigma_points"):
+        original = getattr(estimator_module.kernels, kernel)
+        monkeypatch.setattr(estimator_module.kernels, kernel,
+                            lambda *a, _f=original: calls.append(1) or _f(*a))
+    rng = np.random.default_rng(3)
+    # a batch of 3: no outlier, a 40-sigma error on range 3, a 15-sigma one on range 1
+    z = np.array([[0.3, -0.2, 0.4, 0.1], [0.3, -0.2, 40.0, 0.1], [0.3, -18.0, 0.4, 0.1]])
+    prior = Gaussian(np.zeros((3, 2)), np.broadcast_to(PRIOR.cov, (3, 2, 2)))
+    zs = rng.normal(size=(25, 3, 4)) * np.sqrt(np.diag(R))
+    zs[rng.random((25, 3, 4)) < 0.1] += 30.0
+    for name in ("kf", "ekf", "ukf", "ckf", "svd-ckf"):
+        out, seq = {}, {}
+        for backend in ("numpy", "numba"):
+            engine = registry.create("estimator", name, robust=ROBUST_SPECS[robust])
+            engine.backend = backend
+            calls.clear()
+            out[backend] = engine.update(prior, z, MODEL).state
+            assert bool(calls) == (backend == "numba"), (name, backend)  # the compiled kernels ran
+            seq[backend] = filter_sequence(engine, MODEL, zs, PRIOR)
+        atol = 1e-8 if name == "ukf" else 1e-12
+        np.testing.assert_allclose(out["numba"].mean, out["numpy"].mean, rtol=0, atol=atol, err_msg=name)
+        np.testing.assert_allclose(out["numba"].cov, out["numpy"].cov, rtol=0, atol=atol, err_msg=name)
+        np.testing.assert_allclose(seq["numba"].mean, seq["numpy"].mean, rtol=0, atol=atol, err_msg=name)
+        np.testing.assert_allclose(seq["numba"].cov, seq["numpy"].cov, rtol=0, atol=atol, err_msg=name)
+        # the robust update did act: the outlier's element is far from the plain update's
+        plain = _engine(name).update(prior, z, MODEL).state.mean
+        assert np.abs(out["numpy"].mean[1] - plain[1]).max() > 1.0, name

@@ -159,16 +159,16 @@ def test_linear_smoother_matches_filterpy_kalman_rts_smoother(engine, rng):
         np.testing.assert_allclose(smoothed.gain[:, b], gains[:-1], rtol=0, atol=1e-9)
 
 
-def test_svd_ckf_square_root_form_agrees_with_the_plain_form_and_stays_psd(rng):
-    """The SVD-CKF's eigh gain and PSD-sum covariance equal the plain form on a
-    well-conditioned nonlinear problem, and stay PSD where P^- is nearly singular."""
+def test_eigh_form_agrees_with_the_plain_form_and_stays_psd(rng):
+    """The ``"eigh"`` gain and PSD-sum covariance equal the plain form on a
+    well-conditioned nonlinear problem, and stay PSD where P^- is nearly singular (the
+    SVD-CKF's default square-root form: test_smoother_sqrt.py)."""
     Q, R = np.diag([1e-4, 4e-3]), np.diag([0.01, 0.02])
     model = pendulum_model(Q, R)
     zs = pendulum_data(rng, 30, model)
     result = gf.filter_sequence(create("estimator", "svd-ckf"), model, zs,
                                 Gaussian(np.array([0.6, 0.1]), np.diag([0.1, 0.1])), store="smoother")
-    assert result.smoother_inputs.gain_form == "eigh"
-    careful, plain = gf.smooth(result), gf.smooth(result, form="solve")
+    careful, plain = gf.smooth(result, form="eigh"), gf.smooth(result, form="solve")
     np.testing.assert_allclose(careful.mean, plain.mean, rtol=0, atol=1e-10)
     np.testing.assert_allclose(careful.cov, plain.cov, rtol=0, atol=1e-12)
     # A nearly deterministic state (Q ~ 1e-14 on a constant) makes P^- nearly singular.
@@ -177,7 +177,7 @@ def test_svd_ckf_square_root_form_agrees_with_the_plain_form_and_stays_psd(rng):
     z = rng.standard_normal((200, 1))
     res = gf.filter_sequence(create("estimator", "svd-ckf"), lin, z, Gaussian(np.zeros(3), np.eye(3)),
                              store="smoother")
-    cov = gf.smooth(res).cov
+    cov = gf.smooth(res, form="eigh").cov
     assert np.isfinite(cov).all()
     np.testing.assert_array_equal(cov, np.swapaxes(cov, -1, -2))
     assert np.linalg.eigvalsh(cov).min() >= -1e-12 * np.abs(cov).max()
