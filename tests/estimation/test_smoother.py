@@ -65,14 +65,19 @@ def joint_posterior(models, zs, m0, P0):
     return mean.reshape(K + 1, n), np.stack([cov[i * n:(i + 1) * n, i * n:(i + 1) * n] for i in range(K + 1)])
 
 
-@pytest.mark.parametrize("engine", ENGINES)
-def test_smoother_equals_the_joint_gaussian_posterior(engine, rng):
+@pytest.mark.parametrize(("engine", "form"), [(e, None) for e in ENGINES]
+                         + [(e, "sqrt") for e in ("kf", "ckf", "svd-ckf")])
+def test_smoother_equals_the_joint_gaussian_posterior(engine, form, rng):
+    """Every engine's own smoother form, and the square-root form (the KF's factors: X the
+    root of P, Y = F X; the CKF's points), against the dense batch least-squares posterior."""
     K, B, n = 12, 3, 2
     models = time_varying_models(rng, K, n)
     zs = rng.standard_normal((K, B, 1))
     m0, P0 = np.array([0.5, -0.2]), random_pd(rng, n)
-    result = gf.filter_sequence(create("estimator", engine), lambda k: models[k], zs, Gaussian(m0, P0),
-                                store="smoother")
+    estimator = create("estimator", engine)
+    if form is not None:
+        estimator.smoother_gain = form
+    result = gf.filter_sequence(estimator, lambda k: models[k], zs, Gaussian(m0, P0), store="smoother")
     smoothed = gf.smooth(result)
     for b in range(B):
         mean, cov = joint_posterior(models, zs[:, b], m0, P0)

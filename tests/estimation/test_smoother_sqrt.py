@@ -21,8 +21,8 @@ import gnssframework as gf
 from gnssframework import backend
 from gnssframework.errors import ConfigError
 from gnssframework.estimation import Gaussian, LinearModel
-from conftest import create, random_pd
-from test_smoother import joint_posterior, pendulum_data, pendulum_model, time_varying_models
+from conftest import create
+from test_smoother import pendulum_data, pendulum_model
 
 
 def _pendulum_run(rng, engine: str = "svd-ckf", K: int = 30):
@@ -55,25 +55,6 @@ def test_square_root_form_is_the_svd_ckfs_and_equals_the_covariance_form(rng):
         lagged, lagged_plain = gf.fixed_lag_smooth(result, lag), gf.fixed_lag_smooth(result, lag, form="solve")
         np.testing.assert_allclose(lagged.mean, lagged_plain.mean, rtol=0, atol=1e-9)
         np.testing.assert_allclose(lagged.cov, lagged_plain.cov, rtol=0, atol=1e-9)
-
-
-@pytest.mark.parametrize("engine", ("kf", "ckf", "svd-ckf"))
-def test_square_root_form_equals_the_joint_gaussian_posterior(engine, rng):
-    """The linearised factors (KF: X the root of P, Y = F X) and the points' (CKF) in
-    square-root form, against the dense batch least-squares posterior."""
-    K, B, n = 12, 3, 2
-    models = time_varying_models(rng, K, n)
-    zs = rng.standard_normal((K, B, 1))
-    m0, P0 = np.array([0.5, -0.2]), random_pd(rng, n)
-    estimator = create("estimator", engine)
-    estimator.smoother_gain = "sqrt"
-    smoothed = gf.smooth(gf.filter_sequence(estimator, lambda k: models[k], zs, Gaussian(m0, P0), store="smoother"))
-    for b in range(B):
-        mean, cov = joint_posterior(models, zs[:, b], m0, P0)
-        np.testing.assert_allclose(smoothed.mean[:, b], mean[1:], rtol=0, atol=1e-9)
-        np.testing.assert_allclose(smoothed.cov[:, b], cov[1:], rtol=0, atol=1e-9)
-        np.testing.assert_allclose(smoothed.initial.mean[b], mean[0], rtol=0, atol=1e-9)
-        np.testing.assert_allclose(smoothed.initial.cov[b], cov[0], rtol=0, atol=1e-9)
 
 
 #: The ill-conditioned model: constant acceleration, 1 s steps, white-jerk Q with q = 1e-18, a
