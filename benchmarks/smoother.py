@@ -6,7 +6,10 @@ element-step (best of a few repeats after a warm-up):
 
 - ``forward``: ``filter_sequence`` without storing (the filter alone);
 - ``forward+store``: with ``store="smoother"`` (the cross covariances recomputed on NumPy);
-- ``smooth``: the backward pass ``smooth(result)`` alone;
+- ``smooth``: the backward pass ``smooth(result)`` alone, in the engine's default form
+  (``Estimator.smoother_gain``: ``"sqrt"`` for the SVD-CKF, ``smoother_sqrt``); for a
+  square-root engine a second row times ``smooth(result, form="eigh")`` on the same stored
+  run (the covariance form it replaced), its ``forward`` columns repeated;
 
 and FilterPy's ``UnscentedKalmanFilter.rts_smoother`` (``ukf``, ``ckf`` as Merwe points with
 alpha 1, beta 0, kappa 0) and ``KalmanFilter.rts_smoother`` (``ekf``: the transition is
@@ -56,7 +59,10 @@ def time_ours(engine: str, zs: np.ndarray):
     forward = _best(lambda: gf.filter_sequence(est, MODEL, zs, init), per)
     stored = _best(lambda: gf.filter_sequence(est, MODEL, zs, init, store="smoother"), per)
     result = gf.filter_sequence(est, MODEL, zs, init, store="smoother")
-    backward = _best(lambda: gf.smooth(result), per)
+    default = est.smoother_gain
+    backward = {default: _best(lambda: gf.smooth(result), per)}
+    if default == "sqrt":
+        backward["eigh"] = _best(lambda: gf.smooth(result, form="eigh"), per)
     return forward, stored, backward, result
 
 
@@ -118,20 +124,22 @@ def main(argv=None) -> None:
     rng = np.random.default_rng(1)
     print(f"time per element-step (us), {args.steps} steps; ratios: FilterPy / ours, smooth / forward, "
           "dynamax / ours (filter + smoother)")
-    print(f"{'engine':8} {'batch':>6} {'forward':>9} {'fwd+store':>9} {'smooth':>9} {'FilterPy':>9} "
+    print(f"{'engine':8} {'form':>5} {'batch':>6} {'forward':>9} {'fwd+store':>9} {'smooth':>9} {'FilterPy':>9} "
           f"{'FP/smooth':>9} {'smooth/fwd':>10} {'dynamax':>9} {'dmx/ours':>8}")
     for batch in args.batches:
         zs = problem(batch, args.steps, rng)
         for engine in args.engines:
-            forward, stored, backward, result = time_ours(engine, zs)
+            forward, stored, backwards, result = time_ours(engine, zs)
             ref = time_filterpy(engine, result)
-            ref_txt = "-" if ref is None else f"{ref * 1e6:9.1f}"
-            ratio = "-" if ref is None else f"{ref / backward:9.1f}"
             dmx = None if args.no_dynamax else time_dynamax(engine, zs)
-            dmx_txt = "-" if dmx is None else f"{dmx * 1e6:9.2f}"
-            dmx_ratio = "-" if dmx is None else f"{dmx / (stored + backward):8.2f}"
-            print(f"{engine:8} {batch:6d} {forward * 1e6:9.2f} {stored * 1e6:9.2f} {backward * 1e6:9.2f} "
-                  f"{ref_txt:>9} {ratio:>9} {backward / forward:10.2f} {dmx_txt:>9} {dmx_ratio:>8}")
+            for form, backward in backwards.items():
+                ref_txt = "-" if ref is None else f"{ref * 1e6:9.1f}"
+                ratio = "-" if ref is None else f"{ref / backward:9.1f}"
+                dmx_txt = "-" if dmx is None else f"{dmx * 1e6:9.2f}"
+                dmx_ratio = "-" if dmx is None else f"{dmx / (stored + backward):8.2f}"
+                print(f"{engine:8} {form:>5} {batch:6d} {forward * 1e6:9.2f} {stored * 1e6:9.2f} "
+                      f"{backward * 1e6:9.2f} {ref_txt:>9} {ratio:>9} {backward / forward:10.2f} {dmx_txt:>9} "
+                      f"{dmx_ratio:>8}")
 
 
 if __name__ == "__main__":
