@@ -4,7 +4,8 @@ The test statistic against its chi-square law (Monte Carlo, binomial interval), 
 consecutive-epoch logic against a hand-traced sequence, and a short vector-tracking run
 with a 60 m code step on one channel: the monitor excludes that channel (only it) within
 its ``consecutive`` intervals and the position stays at its fault-free error, while the
-same loop without the monitor is pulled by tens of metres.
+same loop without the monitor is pulled by tens of metres; the epoch of the exclusion
+against the rule stated on the integrity page, for several ``consecutive`` and step times.
 """
 
 from __future__ import annotations
@@ -76,10 +77,44 @@ def fault_runs():
 
 def test_the_monitor_cuts_off_a_faulty_channel_before_it_pulls_the_solution(fault_runs):
     none, monitor = fault_runs["none"], fault_runs["monitor"]
-    # Excluded from 1.03 s to 3 s of the window from 0.5 s: (3 - 1.03) / 2.5 channels on average.
-    np.testing.assert_allclose(monitor.metrics["excluded_channels"], (3.0 - 1.03) / 2.5, atol=0.01)
+    # Excluded from the update at 1.015 s or 1.025 s (see the delay test below: the interval
+    # ending at the step sees half of it, flagged or not) to 3 s, of the window from 0.5 s;
+    # one epoch (0.01 s) of slack for the window's edge.
+    lo, hi = (3.0 - 1.025 - 0.01) / 2.5, (3.0 - 1.015 + 0.01) / 2.5
+    assert np.all((lo <= monitor.metrics["excluded_channels"]) & (monitor.metrics["excluded_channels"] <= hi))
     assert np.all(monitor.metrics["position_steady_error_rmse"] < 3.0)
     assert np.all(none.metrics["position_steady_error_rmse"] > 15.0)
+
+
+@pytest.mark.parametrize("consecutive", [2, 3, 5])
+@pytest.mark.parametrize("start_s", [1.0, 1.005])
+def test_a_step_is_excluded_at_the_update_of_its_consecutive_th_flagged_interval(consecutive, start_s):
+    """The detection delay of docs/estimators/integrity.md ("Vector tracking: a faulty channel").
+
+    The truth's code range is sampled at the interval edges and the correlator model is linear
+    between them, so a step from ``start_s`` shows as half the step in the interval ending at
+    the first edge at or after it (index j = ceil(start_s / T) - 1), the whole step after. A
+    150 m step (75 m at half) fails the test in every interval from j; the monitor leaves the
+    channel out of the update of interval j + consecutive - 1 (the flagged one that completes
+    the count), whose epoch is its mid-time (j + consecutive - 1/2) T: 1.5 T after a step on an
+    edge with consecutive = 3, 2 T after one mid-interval.
+    """
+    T, runs = 0.01, 3
+    scen = get_scenario({"kind": "vector-tracking", "duration_s": 1.2, "channels": 8, "settle_s": 0.5,
+                         "steady_state_s": 0.6, "pcrb": False, "coherent_time_s": T})
+    case = {"cn0_dbhz": 45.0, "fault_channel": 0, "fault_start_s": start_s, "fault_step_m": 150.0}
+    components = {"channel_filter": {"name": "discriminator", "params": {"code_discriminator": "eml-envelope"}},
+                  "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1e-5}}}
+    plugins = scen.build(components, {"channel_monitor": {"false_alarm": 1e-3, "consecutive": consecutive}})
+    _, rec = scen.vector_series(case, plugins, runs, draw.run_streams(44, (0,), range(runs)))
+    excluded, t = rec.extra["excluded"], rec.time_s  # (epochs, runs, channels), mid-interval times
+    j = int(np.ceil(start_s / T - 1e-9)) - 1
+    out_from = (j + consecutive - 0.5) * T
+    after = t > out_from - T / 2
+    assert not excluded[~after].any()  # nothing before (no false alarm in 1 s at P_fa 1e-3 per 3 tests)
+    assert excluded[after][..., 0].all()  # the faulty channel from that epoch to the end
+    assert not excluded[after][..., 1:].any()  # and only it
+    np.testing.assert_allclose(t[after][0], out_from, atol=1e-9)
 
 
 def test_fault_settings_are_checked():

@@ -14,8 +14,10 @@ measurement: Bar-Shalom, Li & Kirubarajan 2001, sec. 5.4.2). The monitor:
 - flags channel ``i`` at an interval where :math:`z_i` exceeds the :math:`1 - P_{fa}` quantile;
 - excludes it from the navigation update after ``consecutive`` flagged intervals in a row
   (its code and frequency variances set to `IGNORE_VAR`: the filter's gain on it is then
-  nil), so one noisy interval does not cost a channel, while a fault cannot pull the
-  solution for more than ``consecutive`` intervals before it is cut off;
+  nil) from the update of the interval that completes the count on: one noisy interval
+  does not cost a channel, while a fault pulls at most ``consecutive - 1`` updates before
+  it is cut off (the first of them, in the analytic correlator model, sees part of a step
+  that starts within or at the end of its interval: docs/estimators/integrity.md);
 - readmits it after ``readmit`` unflagged intervals in a row.
 
 An excluded channel is neither re-acquired nor handed to a scalar loop: its replica keeps
