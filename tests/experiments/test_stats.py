@@ -228,11 +228,20 @@ nav_filter = { name = "ekf-pv" }
     path.write_text(text)
     config = load_config(path)
     summary = json.loads(run_comparison(config, tmp_path / "out", progress=False).read_text())
-    smoothed = {"position_smoothed_error_rmse", "velocity_smoothed_error_rmse", "nees_position_smoothed"}
-    for r in summary["paired"]:  # the smoothed metrics are undefined without scenario.smoothed: no pairs
-        if r["metric"] in smoothed:
-            assert r["n"] == 0
-        else:
+    # A metric without pairs must be one the scenario declares optional, undefined in every
+    # run for the reason it gives (the smoothed ones here: smoothed = false); the rest pair.
+    from gnssframework.experiments.scenarios.vector_tracking import METRICS, VectorTrackingScenario
+
+    optional = {c.name for c in METRICS if c.optional}
+    runs = {(r["candidate"], r["metric"]): r for r in summary["rows"]}
+    unpaired = {r["metric"] for r in summary["paired"] if r["n"] == 0}
+    assert unpaired and unpaired <= optional
+    for name in unpaired:
+        for candidate in ("one", "two"):
+            row = runs[(candidate, name)]
+            assert row["runs"] == 0 and row["undefined"] == VectorTrackingScenario.undefined_reasons[name], row
+    for r in summary["paired"]:
+        if r["metric"] not in unpaired:
             assert r["n"] == 2 and r["diff"] == 0.0 and r["significant"] is False
 
 
