@@ -1,7 +1,7 @@
 """examples/vector_tracking_fault_ci.toml's claims (docs/estimators/integrity.md, "Vector
 tracking: a faulty channel"), from a fresh run: the channel monitor excludes nothing
-without a fault, excludes the faulty channel from three intervals after a 60 m step to the
-end, and removes most of the step's and the ramp's position error.
+without a fault, excludes the faulty channel from 1.5 or 2.5 intervals after a 60 m step to
+the end, and removes most of the step's and the ramp's position error.
 
 The claims are judged by the library's claim checker on the paired runs (the same as
 ``gnssframework compare ... --check``); the test also holds every claim's evidence to the
