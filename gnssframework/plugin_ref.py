@@ -68,7 +68,7 @@ class PluginSpec:
         return {"name": self.name, "params": dict(self.params)}
 
     @property
-    def cls(self) -> type:
+    def cls(self) -> type[Any]:
         """The registered plugin class."""
         return registry.get(self.kind, self.name)
 
@@ -104,7 +104,7 @@ def _same(a: Any, b: Any) -> bool:
     try:
         return bool(np.allclose(a, b, rtol=1e-12, atol=0))
     except (TypeError, ValueError):
-        return a == b
+        return bool(a == b)
 
 
 def _names_that_fit(rule: RefRule) -> list[str]:

@@ -29,16 +29,19 @@ True
 from __future__ import annotations
 
 import hashlib
-from typing import Any
 from collections.abc import Callable, Sequence
+from typing import Any, TypeAlias
 
 import numpy as np
 
 from .errors import ConfigError
 
 __all__ = ["RunStreams", "run_streams", "as_run_streams", "name_key", "child", "standard_normal", "uniform",
-           "integers", "random", "choice"]
+           "integers", "random", "choice", "Size"]
 
+#: A draw's shape, as NumPy's ``size``: an int or a sequence of ints (None: no shape, refused
+#: by the per-run draws, which need the run axis).
+Size: TypeAlias = int | Sequence[int] | None
 
 
 def name_key(name: str) -> tuple[int, int]:
@@ -95,9 +98,10 @@ class RunStreams:
         return np.random.default_rng(np.random.SeedSequence(list(self.base),
                                                             spawn_key=self.purpose + name_key(purpose) + (1,)))
 
-    def _draw(self, size: int | tuple[int, ...], run_axis: int, one: Callable[[np.random.Generator, tuple], Any]
+    def _draw(self, size: Size, run_axis: int, one: Callable[[np.random.Generator, tuple[int, ...]], Any]
               ) -> np.ndarray:
-        shape = (size,) if np.isscalar(size) else tuple(size)
+        shape: tuple[int, ...] = (() if size is None else (int(size),) if isinstance(size, (int, np.integer))
+                                  else tuple(int(n) for n in size))
         axis = run_axis % len(shape) if shape else 0
         if not shape or shape[axis] != len(self):
             raise ValueError(f"a draw of shape {shape} with the runs on axis {run_axis} needs "
@@ -105,23 +109,23 @@ class RunStreams:
         per_run = shape[:axis] + shape[axis + 1:]
         return np.stack([np.asarray(one(g, per_run)) for g in self.generators], axis=axis)
 
-    def standard_normal(self, size, run_axis: int = 0) -> np.ndarray:
+    def standard_normal(self, size: Size, run_axis: int = 0) -> np.ndarray:
         """Standard normal draws of ``size``; axis ``run_axis`` indexes the runs."""
         return self._draw(size, run_axis, lambda g, s: g.standard_normal(s))
 
-    def uniform(self, low: float = 0.0, high: float = 1.0, size=None, run_axis: int = 0) -> np.ndarray:
+    def uniform(self, low: float = 0.0, high: float = 1.0, size: Size = None, run_axis: int = 0) -> np.ndarray:
         """Uniform draws on ``[low, high)`` (scalar bounds)."""
         return self._draw(size, run_axis, lambda g, s: g.uniform(low, high, s))
 
-    def integers(self, low: int, high: int | None = None, size=None, run_axis: int = 0) -> np.ndarray:
+    def integers(self, low: int, high: int | None = None, size: Size = None, run_axis: int = 0) -> np.ndarray:
         """Integers on ``[low, high)`` (scalar bounds), as ``Generator.integers``."""
         return self._draw(size, run_axis, lambda g, s: g.integers(low, high, s))
 
-    def random(self, size=None, run_axis: int = 0) -> np.ndarray:
+    def random(self, size: Size = None, run_axis: int = 0) -> np.ndarray:
         """Uniform draws on ``[0, 1)``."""
         return self._draw(size, run_axis, lambda g, s: g.random(s))
 
-    def choice(self, a, size=None, run_axis: int = 0) -> np.ndarray:
+    def choice(self, a: Any, size: Size = None, run_axis: int = 0) -> np.ndarray:
         """Draws from ``a`` with replacement, as ``Generator.choice``."""
         return self._draw(size, run_axis, lambda g, s: g.choice(a, s))
 
@@ -160,36 +164,41 @@ def child(rng: Any, purpose: str) -> Any:
     return rng.child(purpose) if isinstance(rng, RunStreams) else rng
 
 
-def standard_normal(rng: Any, size, run_axis: int = 0) -> np.ndarray:
+def standard_normal(rng: Any, size: Size, run_axis: int = 0) -> np.ndarray:
     """``rng.standard_normal(size)``; with :class:`RunStreams`, axis ``run_axis`` holds the runs."""
     if isinstance(rng, RunStreams):
         return rng.standard_normal(size, run_axis=run_axis)
-    return rng.standard_normal(size)
+    out: np.ndarray = rng.standard_normal(size)
+    return out
 
 
-def uniform(rng: Any, low: float, high: float, size, run_axis: int = 0) -> np.ndarray:
+def uniform(rng: Any, low: float, high: float, size: Size, run_axis: int = 0) -> np.ndarray:
     """``rng.uniform(low, high, size)``; with :class:`RunStreams`, axis ``run_axis`` holds the runs."""
     if isinstance(rng, RunStreams):
         return rng.uniform(low, high, size, run_axis=run_axis)
-    return rng.uniform(low, high, size)
+    out: np.ndarray = rng.uniform(low, high, size)
+    return out
 
 
-def integers(rng: Any, low: int, high: int | None, size, run_axis: int = 0) -> np.ndarray:
+def integers(rng: Any, low: int, high: int | None, size: Size, run_axis: int = 0) -> np.ndarray:
     """``rng.integers(low, high, size)``; with :class:`RunStreams`, axis ``run_axis`` holds the runs."""
     if isinstance(rng, RunStreams):
         return rng.integers(low, high, size, run_axis=run_axis)
-    return rng.integers(low, high, size)
+    out: np.ndarray = rng.integers(low, high, size)
+    return out
 
 
-def random(rng: Any, size, run_axis: int = 0) -> np.ndarray:
+def random(rng: Any, size: Size, run_axis: int = 0) -> np.ndarray:
     """``rng.random(size)``; with :class:`RunStreams`, axis ``run_axis`` holds the runs."""
     if isinstance(rng, RunStreams):
         return rng.random(size, run_axis=run_axis)
-    return rng.random(size)
+    out: np.ndarray = rng.random(size)
+    return out
 
 
-def choice(rng: Any, a, size, run_axis: int = 0) -> np.ndarray:
+def choice(rng: Any, a: Any, size: Size, run_axis: int = 0) -> np.ndarray:
     """``rng.choice(a, size)``; with :class:`RunStreams`, axis ``run_axis`` holds the runs."""
     if isinstance(rng, RunStreams):
         return rng.choice(a, size, run_axis=run_axis)
-    return rng.choice(a, size)
+    out: np.ndarray = rng.choice(a, size)
+    return out
