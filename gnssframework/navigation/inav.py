@@ -43,7 +43,7 @@ from .inav_words import WORD_BITS, decode_word, encode_word, ephemeris_to_words,
 
 __all__ = ["SYNC", "PART_SYMBOLS", "PAGE_SYMBOLS", "SYMBOL_RATE_HZ", "E1B_SUBFRAME_WORDS", "InavCrcError",
            "InavPage", "InavMessage", "page_part_bits", "encode_pages", "decode_pages", "find_pages", "decode_inav",
-           "encode_inav", "crc_message"]
+           "encode_inav", "inav_symbols", "crc_message"]
 
 #: Synchronisation pattern of every page part (ICD 4.3.2.1).
 SYNC = np.array([0, 1, 0, 1, 1, 0, 0, 0, 0, 0], dtype=np.uint8)
@@ -274,3 +274,19 @@ def encode_inav(record: Ephemerides, wn: int, first_tow_s: int, n_pages: int, bg
         else:
             words[k] = encode_word(0, {"time": 2, "wn": wn_k, "tow_s": tow})
     return encode_pages(words).reshape(-1)
+
+
+def inav_symbols(record: Ephemerides, wn: int, tow_s: float, n_symbols: int, bgd_e1e5a_s: float = 0.0,
+                 ai_sfu: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> tuple[np.ndarray, float]:
+    """±1 E1-B symbols (int8, bit 0 as +1) from the one in force at GST ``tow_s`` (week
+    ``wn``) on, for the IF generator's ``data_bits`` (`galileo-e1b`: one symbol a 4 ms code
+    period); and the time (s) from the first symbol's start to ``tow_s``
+    (``first_bit_edge_s = -that``). Pages as :func:`encode_inav`."""
+    first = int(np.floor((tow_s - 1.0) / 2.0)) * 2 + 1  # the page in force started on an odd second
+    if first < 0:
+        first, wn = first + 604_800, wn - 1
+    into_page_s = (tow_s - first) % 604_800  # in [0, 2)
+    skip = int(np.floor(into_page_s * SYMBOL_RATE_HZ))
+    n_pages = int(np.ceil((skip + n_symbols) / PAGE_SYMBOLS))
+    symbols = encode_inav(record, wn, first, n_pages, bgd_e1e5a_s, ai_sfu)[skip:skip + n_symbols]
+    return symbols, float(into_page_s - skip / SYMBOL_RATE_HZ)

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from gnssframework.errors import ConfigError
 from gnssframework.navigation import fec, inav, inav_words
@@ -226,3 +228,25 @@ def test_bad_input_is_refused_in_one_line(case):
         inav_words.encode_word(1, {"sqrt_a_sqrtm": 9000.0})
     with pytest.raises(ConfigError, match="inav.word5: missing"):
         inav_words.words_to_ephemeris({t: decoded[t] for t in (1, 2, 3, 4)})
+
+
+def test_inav_symbols_start_at_the_symbol_in_force_and_cross_the_week(case):
+    rec = case.records[0][0]
+    symbols, lead_s = inav.inav_symbols(rec, case.week, 18020.501, 600)
+    # The page in force started at 18019 s; 18020.501 s is 1 ms into its 376th symbol.
+    assert lead_s == pytest.approx(0.001, abs=1e-9)
+    assert np.array_equal(symbols, inav.encode_inav(rec, case.week, 18019, 2)[375:975])
+    symbols, lead_s = inav.inav_symbols(rec, case.week, 0.3, 100)  # the page began at 604799 s of the week before
+    assert lead_s == pytest.approx(0.0, abs=1e-9)
+    assert np.array_equal(symbols, inav.encode_inav(rec, case.week - 1, 604_799, 1)[325:425])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 5), st.data())
+def test_any_word_field_values_round_trip_exactly(word_type, data):
+    values = {}
+    for name, (_, n, scale, signed) in inav_words.WORD_LAYOUTS[word_type].items():
+        lo, hi = (-(1 << (n - 1)), (1 << (n - 1)) - 1) if signed else (0, (1 << n) - 1)
+        values[name] = data.draw(st.integers(lo, hi)) * scale
+    got_type, got = inav_words.decode_word(inav_words.encode_word(word_type, values))
+    assert got_type == word_type and got == values
