@@ -3,12 +3,12 @@ factors and the ephemeris they carry.
 
 An I/NAV word is 128 bits, its first 6 the word type. Types 1-4 hold the ephemeris and
 clock of the transmitting satellite under one IODnav (5.1.1, 5.1.3, 5.1.9.2), type 3 the
-SISA(E1,E5b) index (5.1.12), type 5 the NeQuick coefficients ai0-ai2 and disturbance flags
-(5.1.6), BGD(E1,E5a) and BGD(E1,E5b) (5.1.5), the E1-B and E5b signal health and data
-validity (5.1.9.3) and the GST week and time of week (5.1.2); type 0, with its time field
-``10``, GST only. Scale factors are those of ICD Tables 60 (ephemeris), 63 (clock), 65
-(BGD), 67 (ionosphere) and the GST table; angles are in semicircles, converted with the
-ICD's value of pi (5.1.1: 3.1415926535898, as IS-GPS-200's).
+SISA(E1,E5b) index (the SISA section of ICD 5.1), type 5 the NeQuick coefficients ai0-ai2
+and disturbance flags (5.1.6), BGD(E1,E5a) and BGD(E1,E5b) (5.1.5), the E1-B and E5b
+signal health and data validity (5.1.9.3) and the GST week and time of week (5.1.2); type
+0, with its time field ``10``, GST only. Scale factors are those of the ICD's parameter
+tables in 5.1.1-5.1.9 (ephemeris, GST, clock, BGD, ionosphere, health); angles are in
+semicircles, converted with the ICD's value of pi (5.1.1: 3.1415926535898, as IS-GPS-200's).
 
 :func:`ephemeris_to_words` writes one :class:`~gnssframework.navigation.ephemeris.Ephemerides`
 record (angles in radians, as RINEX) into the field values of words 1-5, and
@@ -70,7 +70,7 @@ _HEALTH_SHIFT = {"e1b_dvs": 0, "e1b_hs": 1, "e5b_dvs": 6, "e5b_hs": 7}
 
 
 def sisa_m(index: int) -> float:
-    """SISA value of an index (ICD 5.1.12): 0-49 by 1 cm from 0, 50-74 by 2 cm from 0.5 m,
+    """SISA value of an index (the ICD's SISA index table, chapter 5.1): 0-49 by 1 cm from 0, 50-74 by 2 cm from 0.5 m,
     75-99 by 4 cm from 1 m, 100-125 by 16 cm from 2 m; -1 for 255 (no accuracy prediction
     available, NAPA) and the spare indices."""
     for first, base_m, step_m in ((100, 2.0, 0.16), (75, 1.0, 0.04), (50, 0.5, 0.02), (0, 0.0, 0.01)):

@@ -22,7 +22,7 @@ from gnssframework.navigation.ephemeris import Ephemerides, gps_seconds_of_week,
 
 DATA = Path(__file__).parents[1] / "data"
 PI = 3.1415926535898  # Galileo OS SIS ICD 5.1.1
-# LSB of every RINEX field, typed from the ICD's Tables 60 and 63 and the BGD table (angles x pi).
+# LSB of every RINEX field, typed from the ICD's parameter tables of 5.1 (angles x pi).
 LSB = {"M0": 2.0**-31 * PI, "DeltaN": 2.0**-43 * PI, "Eccentricity": 2.0**-33, "sqrtA": 2.0**-19,
        "Omega0": 2.0**-31 * PI, "Io": 2.0**-31 * PI, "omega": 2.0**-31 * PI, "OmegaDot": 2.0**-43 * PI,
        "IDOT": 2.0**-43 * PI, "Cuc": 2.0**-29, "Cus": 2.0**-29, "Crc": 2.0**-5, "Crs": 2.0**-5, "Cic": 2.0**-29,
@@ -107,7 +107,7 @@ def test_word_layouts_fill_128_bits_without_overlap():
 
 
 def test_sisa_index_table():
-    # ICD 5.1.12 SISA table: the file's 3.12 m is index 107.
+    # The ICD's SISA index table (5.1): the file's 3.12 m is index 107.
     assert [inav_words.sisa_m(k) for k in (0, 49, 50, 74, 75, 99, 100, 107, 125, 126, 255)] == \
         [0.0, 0.49, 0.5, 0.98, 1.0, 1.96, 2.0, 3.12, 6.0, -1.0, -1.0]
     assert inav_words.sisa_index(3.12) == 107 and inav_words.sisa_index(-1.0) == 255
