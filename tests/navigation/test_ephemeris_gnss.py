@@ -89,8 +89,8 @@ def test_the_file_is_read_per_system_and_glonass_is_refused_in_one_line(eph):
         read_rinex_nav(NAV, "GR")
     with pytest.raises(ValueError, match="GLONASS"):
         eph.select(["E19", "R01"], TUESDAY_S)
-    with pytest.raises(ValueError, match=r"system 'J' \(QZSS\) is not handled"):
-        eph.of_systems("J")
+    with pytest.raises(ValueError, match=r"system 'I' \(NavIC/IRNSS\) is not handled"):
+        eph.of_systems("I")
     assert eph.select(["G05", "E19", "C05"], TUESDAY_S + 3600).sv.tolist() == ["G05", "E19", "C05"]
 
 
