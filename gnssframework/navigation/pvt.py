@@ -497,7 +497,8 @@ def solve_position_sv(pseudorange_m: np.ndarray, sv_position_ecef_m: np.ndarray,
     offsets = time_offsets_s or {}
     prz = np.where(keep, pr, 0.0) + _C * np.array([offsets.get(str(s), 0.0) for s in letters])
     sigma = np.where(keep, np.broadcast_to(sigma, pr.shape), 1.0) if sigma.ndim else float(sigma)
-    fix = _solve(prz, np.where(keep[:, None], pos, 0.0), np.where(keep, clock_m, 0.0), keep, letters, offsets,
+    far = np.array([0.0, 0.0, 2.6e7])  # a stand-in for an unused satellite without a position (no 0/0)
+    fix = _solve(prz, np.where(keep[:, None], pos, far), np.where(keep, clock_m, 0.0), keep, letters, offsets,
                  initial_ecef_m, (sigma, None, False, 0.0), (elevation_mask_deg, weighting, None),
                  (raim, false_alarm, missed_detection, integrity_risk))
     if fix is None:

@@ -252,3 +252,18 @@ def test_galileo_positions_against_a_precise_orbit(monkeypatch):
     monkeypatch.undo()
     monkeypatch.setattr(ephem, "OMEGA_EARTH_RAD_S", ephem.OMEGA_EARTH_BDS_RAD_S)
     assert _errors_to_precise_orbit(eph, ref).min() > 10.0
+
+
+def test_qzss_records_take_gps_constants_and_time(eph):
+    # IS-QZSS-PNT-005: the L1 C/A ephemeris and its user algorithm are IS-GPS-200's, on GPS
+    # time. A GPS record renamed J01 must give the same state to the bit; renamed E01 (the
+    # Galileo GM) it must not (GM 3.986004418e14 against 3.986005e14 moves a MEO metres).
+    g = eph.of_systems("G").subset(np.array([0]))
+    t = float(g.elements["Toe"][0]) + 3000.0
+    renamed = {letter: Ephemerides(np.array([f"{letter}01"]), g.toc_s, g.elements, g.health, g.iode, g.accuracy_m)
+               for letter in "JE"}
+    gps, qzss, gal = (satellite_state(e, t) for e in (g, renamed["J"], renamed["E"]))
+    assert np.array_equal(gps.position_m, qzss.position_m) and np.array_equal(gps.clock_l1_s, qzss.clock_l1_s)
+    assert np.linalg.norm(gps.position_m - gal.position_m) > 0.5
+    with pytest.raises(ephem.DataFileError, match=r"not a QZSS navigation file: it holds no QZSS \(J\) record"):
+        read_rinex_nav(NAV, "J")
