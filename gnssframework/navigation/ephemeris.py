@@ -24,7 +24,8 @@ seconds of week, and the conversion is made there, at the boundary:
 * Galileo System Time is steered to GPS time. The remaining offset GGTO (RINEX header
   line GPGA/GAGP: 22 ns and 2.3 ns in the two test files, 7 m and 0.7 m of range) is not
   applied: it moves a satellite by under a millimetre, and a receiver mixing GPS and
-  Galileo ranges estimates it as an inter-system time offset. Its seconds of week are
+  Galileo ranges estimates it as an inter-system time offset (`pvt.solve_position`'s clock
+  per system; or gives it as ``time_offsets_s``, which corrects the ranges). Its seconds of week are
   GPS's; its 12-bit week number counts from 1999-08-22 (GPS week 1024) and rolls over at
   4096, GPS's 10-bit one at 1024; RINEX writes the Galileo week continuous with GPS's,
   and a seconds-of-week interface sees neither rollover.

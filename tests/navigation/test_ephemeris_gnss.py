@@ -267,3 +267,19 @@ def test_qzss_records_take_gps_constants_and_time(eph):
     assert np.linalg.norm(gps.position_m - gal.position_m) > 0.5
     with pytest.raises(ephem.DataFileError, match=r"not a QZSS navigation file: it holds no QZSS \(J\) record"):
         read_rinex_nav(NAV, "J")
+
+
+def test_a_qzss_record_is_read_with_gps_fields(tmp_path):
+    # A RINEX 3 QZSS record has the GPS record's layout (RINEX 3.03 A-31); the file's first
+    # GPS record written again as J01 must read back with the same elements and group delay.
+    lines = NAV.read_text().splitlines()
+    end = next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1
+    g05 = lines[end:end + 8]
+    assert g05[0].startswith("G05")
+    path = tmp_path / "qzss.rnx"
+    path.write_text("\n".join(lines[:end] + g05 + ["J01" + g05[0][3:]] + g05[1:]) + "\n")
+    both = read_rinex_nav(path, "GJ")
+    assert both.sv.tolist() == ["G05", "J01"]
+    for name in ephem.ORBIT_FIELDS + ephem.CLOCK_FIELDS:
+        assert both.elements[name][0] == both.elements[name][1], name
+    assert both.toc_s[0] == both.toc_s[1] and both.health[1] == 0 and both.iode[0] == both.iode[1]
