@@ -29,6 +29,7 @@ import pytest
 from gnssframework.errors import ConfigError
 from gnssframework.navigation.ephemeris import Ephemerides, read_rinex_nav, satellite_state
 from gnssframework.navigation.pvt import solve_position, solve_position_sv
+from gnssframework.navigation.rinex_nav_header import read_nav_file_info
 from light_time import C, signal_flight
 
 NAV = Path(__file__).resolve().parents[1] / "data" / "VILL00ESP_R_20181700000_06H_MN.rnx"
@@ -138,7 +139,10 @@ def test_a_constellation_selection_estimates_its_own_clocks(sky):
 def test_a_known_ggto_replaces_the_galileo_clock(sky):
     # The Galileo satellites' clock is GPS's less c GGTO (GGTO = GST - GPST, Galileo OS SIS ICD
     # 5.1.8): a receiver with no inter-system hardware bias, given GGTO, needs no Galileo clock.
-    ggto_s = -37e-9
+    # GGTO as the file's header broadcasts it (GPGA: 22.32 ns at 259200 s, -1.02e-14 s/s):
+    # 23.15 ns at 01:30 Tuesday (178200 s).
+    ggto_s = read_nav_file_info(NAV).ggto_s(2006, T_RX)
+    assert ggto_s == pytest.approx(2.2322637960e-08 - 1.021405183e-14 * (178200 - 259200), rel=1e-12)
     clocks = dict(CLOCK_M, E=CLOCK_M["G"] - C * ggto_s)
     pr, tx, _ = _ranges(sky, clocks)
     fix = solve_position(pr, tx, sky, elevation_mask_deg=0.0, time_offsets_s={"E": ggto_s})
