@@ -302,13 +302,13 @@ def _dof(sol) -> int:
     return int(sol[6].sum()) - 3 - sol[9].shape[1]
 
 
-def _clock_index(letters: np.ndarray, time_offsets_s: dict[str, float]) -> tuple[np.ndarray, str]:
-    """Each satellite's clock state and the clocks' letters (`CLOCK_OF_SYSTEM`; a system with
-    a known offset takes GPS's clock)."""
-    clock = np.array([CLOCK_OF_SYSTEM["G"] if str(s) in time_offsets_s else CLOCK_OF_SYSTEM[str(s)]
-                      for s in letters], dtype="U1")
-    present = "".join(c for c in _CLOCK_ORDER if c in set(clock.tolist()))
-    return np.array([present.index(c) for c in clock], dtype=int), present
+def _clock_index(letters: np.ndarray, time_offsets_s: dict[str, float], keep: np.ndarray) -> tuple[np.ndarray, str]:
+    """Each satellite's clock state and the letters of the clocks of the satellites ``keep``
+    (`CLOCK_OF_SYSTEM`; a system with a known offset takes GPS's clock; a satellite left out
+    takes the first clock, unused)."""
+    clock = np.array(["G" if str(s) in time_offsets_s else CLOCK_OF_SYSTEM.get(str(s), "") for s in letters])
+    present = "".join(c for c in _CLOCK_ORDER if np.any((clock == c) & keep))
+    return np.array([present.index(c) if c and c in present else 0 for c in clock], dtype=int), present
 
 
 def _check_systems(systems: str | None, time_offsets_s: dict[str, float] | None) -> None:
@@ -488,7 +488,8 @@ def solve_position_sv(pseudorange_m: np.ndarray, sv_position_ecef_m: np.ndarray,
     if weighting not in ("uniform", "elevation"):
         raise ConfigError("weighting", f"uniform or elevation, got {weighting!r}")
     _check_systems(systems, time_offsets_s)
-    _check_systems("".join(np.unique(letters).tolist()), None)
+    chosen = letters if systems is None else letters[np.isin(letters, list(systems))]
+    _check_systems("".join(np.unique(chosen).tolist()), None)
     keep = np.isfinite(pr) & np.all(np.isfinite(pos), axis=1) & np.isfinite(clock_m) & np.isfinite(sigma)
     if systems is not None:
         keep &= np.isin(letters, list(systems))
@@ -512,7 +513,7 @@ def _solve(prz, sat_pos, clock_m, keep, letters, offsets, initial_ecef_m, model,
     raim, false_alarm, missed_detection, integrity_risk = integrity
     sigma_m, iono, troposphere, tow = model
     elevation_mask_deg, weighting, ura_m = options
-    clock_index, clocks = _clock_index(letters, offsets)
+    clock_index, clocks = _clock_index(letters, offsets, keep)
     one = len(clocks) == 1
     k = len(clocks)
     x0 = np.zeros(3 + k) if initial_ecef_m is None else np.r_[np.asarray(initial_ecef_m, float), np.zeros(k)]

@@ -26,6 +26,7 @@ import numpy as np
 import pymap3d
 import pytest
 
+from gnssframework.errors import ConfigError
 from gnssframework.io.gsdc import read_gsdc_measurements, read_gsdc_truth
 from gnssframework.navigation.pvt import solve_position_sv
 
@@ -97,3 +98,21 @@ def test_more_systems_keep_a_fix_where_gps_alone_has_none(phone):
         assert multi >= gps, mask
         if mask == 30.0:
             assert (gps, multi) == (0, 6)
+
+
+def test_rows_of_other_systems_are_left_out_by_the_selection(phone):
+    # GLONASS rows (not a system of this solver) beside the others: refused unless the
+    # selection leaves them out, and then the same fix as without them.
+    m, _ = phone
+    t = m.utc_ms[0]
+    rows = (m.utc_ms == t) & np.isin(m.signal, FIRST_SIGNALS + ["GLO_G1"])
+    first = rows & (m.system != "R")
+    args = [(m.pseudorange_m[r] - m.iono_m[r] - m.tropo_m[r], m.sv_position_ecef_m[r], m.sv_clock_m[r], m.system[r])
+            for r in (rows, first)]
+    with_glonass = solve_position_sv(*args[0], sigma_m=5.0, systems="GEC")
+    without = solve_position_sv(*args[1], sigma_m=5.0, systems="GEC")
+    assert np.array_equal(with_glonass.position_ecef_m, without.position_ecef_m)
+    assert with_glonass.system_offsets_ns == without.system_offsets_ns
+    assert not with_glonass.used[args[0][3] == "R"].any() and (args[0][3] == "R").sum() == 3
+    with pytest.raises(ConfigError, match="systems"):
+        solve_position_sv(*args[0])
