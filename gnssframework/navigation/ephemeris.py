@@ -1,12 +1,15 @@
-"""Satellite position, velocity and clock from GPS, Galileo and BeiDou broadcast ephemerides.
+"""Satellite position, velocity and clock from GPS, QZSS, Galileo and BeiDou broadcast ephemerides.
 
 The one place the framework turns broadcast ephemeris records into satellite states: the
 simulation's :class:`~gnssframework.simulation.ephemeris.BroadcastEphemeris` and a
 software receiver both call :func:`satellite_state`. Records come from RINEX 2 or 3
 navigation files through georinex (:func:`read_rinex_nav`).
 
-The three systems share the Keplerian user algorithm of IS-GPS-200 Table 20-IV, each with
-its own constants: GPS (WGS 84, IS-GPS-200), Galileo (Galileo OS SIS ICD 5.1.1:
+The four systems share the Keplerian user algorithm of IS-GPS-200 Table 20-IV, each with
+its own constants: GPS (WGS 84, IS-GPS-200), QZSS (IS-QZSS-PNT-005, LNAV ephemeris of the
+L1 C/A signal: IS-GPS-200's parameters and user algorithm, GM = 3.986005e14 m^3/s^2 and
+Earth rotation 7.2921151467e-5 rad/s; QZS-3's GEO orbit takes the same algorithm, unlike
+BeiDou's GEOs), Galileo (Galileo OS SIS ICD 5.1.1:
 GM = 3.986004418e14 m^3/s^2, Earth rotation 7.2921151467e-5 rad/s) and BeiDou (CGCS2000,
 BDS-SIS-ICD-B1I 3.0 5.2.4: GM = 3.986004418e14, Earth rotation 7.2921150e-5 rad/s), with
 the BDS GEO satellites (C01-C05, C59-C63) in the ICD's own formula (5.2.4.12: node without
@@ -21,10 +24,14 @@ seconds of week, and the conversion is made there, at the boundary:
 * Galileo System Time is steered to GPS time. The remaining offset GGTO (RINEX header
   line GPGA/GAGP: 22 ns and 2.3 ns in the two test files, 7 m and 0.7 m of range) is not
   applied: it moves a satellite by under a millimetre, and a receiver mixing GPS and
-  Galileo ranges estimates it as an inter-system time offset. Its seconds of week are
+  Galileo ranges estimates it as an inter-system time offset (`pvt.solve_position`'s clock
+  per system; or gives it as ``time_offsets_s``, which corrects the ranges). Its seconds of week are
   GPS's; its 12-bit week number counts from 1999-08-22 (GPS week 1024) and rolls over at
   4096, GPS's 10-bit one at 1024; RINEX writes the Galileo week continuous with GPS's,
   and a seconds-of-week interface sees neither rollover.
+* QZSS Time (QZSST, IS-QZSS-PNT-005) is aligned to GPS time: the same week number and
+  seconds of week, its residual offset steered to a few ns (RTKLIB's ``pntpos.c`` gives
+  QZSS the GPS receiver clock for this reason), so its records take GPS seconds of week.
 * BeiDou Time is BDT = GPST - 14 s (its week 0 starts 2006-01-01 00:00:00 UTC, GPS week
   1356 + 14 s), so a GPS time t is t - 14 s in BDT seconds of week; BDT weeks roll over
   at 8192, GPS's at 1024, which a seconds-of-week interface does not see.
@@ -60,9 +67,11 @@ OMEGA_EARTH_BDS_RAD_S = 7.2921150e-5
 #: F = -2 sqrt(mu) / c^2 with the Galileo/BeiDou mu (Galileo OS SIS ICD 5.1.4, BDS ICD 5.2.4.10), s/sqrt(m).
 F_RELATIVISTIC_GAL_BDS_S_SQRTM = -4.442807309e-10
 #: GPS time minus the system's time, s: BDT = GPST - 14 s; GST is steered to GPST.
-SYSTEM_TIME_OFFSET_S = {"G": 0.0, "E": 0.0, "C": 14.0}
+SYSTEM_TIME_OFFSET_S = {"G": 0.0, "J": 0.0, "E": 0.0, "C": 14.0}
 #: Systems whose records this module propagates (RINEX letters).
-SYSTEMS = ("G", "E", "C")
+SYSTEMS = ("G", "J", "E", "C")
+#: Systems on GPS's constants (IS-GPS-200 Table 20-IV; QZSS: IS-QZSS-PNT-005 takes them over).
+_GPS_CONSTANTS = ("G", "J")
 _SYSTEM_NAMES = {"G": "GPS", "E": "Galileo", "C": "BeiDou", "R": "GLONASS", "J": "QZSS", "I": "NavIC/IRNSS",
                  "S": "SBAS"}
 _GEO_TILT_RAD = np.radians(-5.0)  # BDS GEO: rotation about X of BDS-SIS-ICD-B1I 5.2.4.12
@@ -82,8 +91,9 @@ def _system_error(letter: str) -> ValueError:
     name = _SYSTEM_NAMES.get(letter, "unknown")
     if letter == "R":
         return ValueError("GLONASS (R) records are position/velocity/acceleration state vectors; this code does not "
-                          "propagate them (GPS G, Galileo E, BeiDou C only)")
-    return ValueError(f"system {letter!r} ({name}) is not handled by this code (GPS G, Galileo E, BeiDou C only)")
+                          "propagate them (GPS G, QZSS J, Galileo E, BeiDou C only)")
+    return ValueError(f"system {letter!r} ({name}) is not handled by this code (GPS G, QZSS J, Galileo E, "
+                      "BeiDou C only)")
 
 
 def _letters(sv: np.ndarray) -> np.ndarray:
@@ -112,7 +122,7 @@ class Ephemerides:
         ``(N,)`` satellite of each record (``"G08"``, ``"E19"``, ``"C05"``).
     toc_s
         ``(N,)`` clock reference time, seconds of week in the record's own system time
-        (GPS and Galileo: GPS time; BeiDou: BDT), as ``elements["Toe"]``.
+        (GPS, QZSS and Galileo: GPS time; BeiDou: BDT), as ``elements["Toe"]``.
     elements
         ``ORBIT_FIELDS`` and ``CLOCK_FIELDS``, each ``(N,)``, as broadcast.
     health
@@ -236,7 +246,7 @@ def satellite_state(eph: Ephemerides, t_s: np.ndarray | float) -> SatelliteState
     """
     e = eph.elements
     letters = _letters(eph.sv)
-    gps = letters == "G"
+    gps = np.isin(letters, _GPS_CONSTANTS)
     geo = is_bds_geo(eph.sv)
     gm = np.where(gps, GM_GPS_M3_S2, GM_GAL_BDS_M3_S2)
     we = np.where(letters == "C", OMEGA_EARTH_BDS_RAD_S, OMEGA_EARTH_RAD_S)
@@ -309,14 +319,15 @@ def _geo_to_earth_fixed(geo, theta, pos, vel, we):
 
 #: Per system: georinex names of (group delay source(s), health, issue of data, accuracy).
 _SYSTEM_FIELDS = {"G": (("TGD",), "health", "IODE", "SVacc"),
+                  "J": (("TGD",), "health", "IODE", "SVacc"),  # RINEX 3 QZSS records: GPS's fields
                   "E": (("BGDe5a", "BGDe5b", "DataSrc"), "health", "IODnav", "SISA"),
                   "C": (("TGD1",), "SatH1", "AODE", "SVacc")}
 
 
 def _group_delay(letter: str, values: dict) -> np.ndarray:
     """The single-frequency user's group delay of each record (NaN where it cannot be told)."""
-    if letter == "G":
-        return values["TGD"]
+    if letter in _GPS_CONSTANTS:
+        return values["TGD"]  # QZSS L1 C/A: T_GD as GPS's
     if letter == "C":
         return values["TGD1"]  # B1I user: clock - T_GD1 (BDS-SIS-ICD-B1I 3.0 5.2.4.10)
     # Galileo (OS SIS ICD 5.1.5, RINEX 3 data source bits 8 and 9): an I/NAV record's clock is

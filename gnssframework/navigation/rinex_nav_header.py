@@ -5,7 +5,10 @@ The header's ionosphere lines are RINEX 2's ``ION ALPHA`` / ``ION BETA`` (``2X,4
 RINEX 2.11 table A4) or RINEX 3's ``IONOSPHERIC CORR`` with ``GPSA`` / ``GPSB``
 (``A4,1X,4D12.4``, RINEX 3.04 table A5), in the units of the broadcast page 18 (s,
 s/semicircle, ...; IS-GPS-200 20.3.3.5.1.7); ``LEAP SECONDS`` (``I6``) the current
-GPS - UTC. The records' epochs (their Toc, georinex's ``gettime``) give the GPS time
+GPS - UTC. RINEX 3's ``TIME SYSTEM CORR`` line ``GPGA`` (3.00-3.03) or ``GAGP`` (3.04,
+``A4,1X,D17.10,D16.9,1X,I6,1X,I4``) carries Galileo's broadcast GPS-Galileo time offset
+``A0G, A1G, t0G, WN0G`` (Galileo OS SIS ICD 5.1.8: ``GGTO = GST - GPST = A0G + A1G (t - t0G
++ 604800 (WN - WN0G))``, the week continuous with GPS's), `NavFileInfo.ggto_s`. The records' epochs (their Toc, georinex's ``gettime``) give the GPS time
 span a receiver can use them over: a record's fit interval reaches 2 h either side of
 its Toe (IS-GPS-200 20.3.4.4), so a recording is covered from 2 h before the first
 record to 2 h after the last (`NavFileInfo.covers`), and its full GPS week is the one
@@ -33,12 +36,22 @@ FIT_MARGIN_S = 7200.0
 @dataclass(frozen=True)
 class NavFileInfo:
     """A navigation file's header Klobuchar model (None when absent) and its records'
-    first and last epochs in GPS seconds since 1980-01-06 (GPS time, no leap seconds)."""
+    first and last epochs in GPS seconds since 1980-01-06 (GPS time, no leap seconds), and
+    the header's GGTO polynomial ``(A0G s, A1G s/s, t0G s of week, WN0G)`` (None when absent)."""
 
     path: Path
     iono: IonoUtc | None
     first_s: float
     last_s: float
+    ggto: tuple[float, float, float, int] | None = None
+
+    def ggto_s(self, week: int, tow_s: float) -> float:
+        """GST - GPST (s) at GPS time ``(week, tow_s)`` from the header's polynomial (NaN
+        without one): the ``time_offsets_s["E"]`` of `pvt.solve_position`."""
+        if self.ggto is None:
+            return float("nan")
+        a0, a1, t0, w0 = self.ggto
+        return a0 + a1 * (tow_s - t0 + WEEK_S * (week - w0))
 
     def week_at(self, tow_s: float) -> int:
         """The full GPS week that puts ``tow_s`` (s of week) nearest the middle of the records."""
@@ -91,6 +104,22 @@ def _header_iono(path: Path) -> IonoUtc | None:
     return IonoUtc(tuple(alpha), tuple(beta), dt_ls_s=18 if leap is None else leap)
 
 
+def _header_ggto(path: Path) -> tuple[float, float, float, int] | None:
+    with path.open(errors="replace") as fh:
+        for number, line in enumerate(fh, 1):
+            label = line[60:].strip()
+            if label == "TIME SYSTEM CORR" and line[:4] in ("GPGA", "GAGP"):
+                try:
+                    return (float(line[5:22].replace("D", "E")), float(line[22:38].replace("D", "E")),
+                            float(line[38:45]), int(line[45:50]))
+                except ValueError:
+                    raise DataFileError(str(path), number, f"TIME SYSTEM CORR {line[:4]}: expected a0, a1, T, "
+                                                           "W") from None
+            if label == "END OF HEADER" or number > 500:
+                break
+    return None
+
+
 def read_nav_file_info(path: str | Path) -> NavFileInfo:
     """`NavFileInfo` of a RINEX 2 or 3 navigation file.
 
@@ -113,4 +142,4 @@ def read_nav_file_info(path: str | Path) -> NavFileInfo:
     if times.size == 0:
         raise DataFileError(str(path), None, "no ephemeris record")
     seconds = (times - _GPS_EPOCH) / np.timedelta64(1, "s")
-    return NavFileInfo(path, iono, float(np.min(seconds)), float(np.max(seconds)))
+    return NavFileInfo(path, iono, float(np.min(seconds)), float(np.max(seconds)), _header_ggto(path))

@@ -89,8 +89,8 @@ def test_the_file_is_read_per_system_and_glonass_is_refused_in_one_line(eph):
         read_rinex_nav(NAV, "GR")
     with pytest.raises(ValueError, match="GLONASS"):
         eph.select(["E19", "R01"], TUESDAY_S)
-    with pytest.raises(ValueError, match=r"system 'J' \(QZSS\) is not handled"):
-        eph.of_systems("J")
+    with pytest.raises(ValueError, match=r"system 'I' \(NavIC/IRNSS\) is not handled"):
+        eph.of_systems("I")
     assert eph.select(["G05", "E19", "C05"], TUESDAY_S + 3600).sv.tolist() == ["G05", "E19", "C05"]
 
 
@@ -252,3 +252,34 @@ def test_galileo_positions_against_a_precise_orbit(monkeypatch):
     monkeypatch.undo()
     monkeypatch.setattr(ephem, "OMEGA_EARTH_RAD_S", ephem.OMEGA_EARTH_BDS_RAD_S)
     assert _errors_to_precise_orbit(eph, ref).min() > 10.0
+
+
+def test_qzss_records_take_gps_constants_and_time(eph):
+    # IS-QZSS-PNT-005: the L1 C/A ephemeris and its user algorithm are IS-GPS-200's, on GPS
+    # time. A GPS record renamed J01 must give the same state to the bit; renamed E01 (the
+    # Galileo GM) it must not (GM 3.986004418e14 against 3.986005e14 moves a MEO metres).
+    g = eph.of_systems("G").subset(np.array([0]))
+    t = float(g.elements["Toe"][0]) + 3000.0
+    renamed = {letter: Ephemerides(np.array([f"{letter}01"]), g.toc_s, g.elements, g.health, g.iode, g.accuracy_m)
+               for letter in "JE"}
+    gps, qzss, gal = (satellite_state(e, t) for e in (g, renamed["J"], renamed["E"]))
+    assert np.array_equal(gps.position_m, qzss.position_m) and np.array_equal(gps.clock_l1_s, qzss.clock_l1_s)
+    assert np.linalg.norm(gps.position_m - gal.position_m) > 0.5
+    with pytest.raises(ephem.DataFileError, match=r"not a QZSS navigation file: it holds no QZSS \(J\) record"):
+        read_rinex_nav(NAV, "J")
+
+
+def test_a_qzss_record_is_read_with_gps_fields(tmp_path):
+    # A RINEX 3 QZSS record has the GPS record's layout (RINEX 3.03 A-31); the file's first
+    # GPS record written again as J01 must read back with the same elements and group delay.
+    lines = NAV.read_text().splitlines()
+    end = next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1
+    g05 = lines[end:end + 8]
+    assert g05[0].startswith("G05")
+    path = tmp_path / "qzss.rnx"
+    path.write_text("\n".join(lines[:end] + g05 + ["J01" + g05[0][3:]] + g05[1:]) + "\n")
+    both = read_rinex_nav(path, "GJ")
+    assert both.sv.tolist() == ["G05", "J01"]
+    for name in ephem.ORBIT_FIELDS + ephem.CLOCK_FIELDS:
+        assert both.elements[name][0] == both.elements[name][1], name
+    assert both.toc_s[0] == both.toc_s[1] and both.health[1] == 0 and both.iode[0] == both.iode[1]

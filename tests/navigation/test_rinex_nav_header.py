@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from gnssframework.errors import DataFileError
@@ -45,3 +46,23 @@ def test_a_missing_or_malformed_file_is_named(tmp_path):
     bad.write_text((DATA / "07590920.05n").read_text().replace("1.1180D-08", "1.1180X-08"))
     with pytest.raises(DataFileError, match="ION ALPHA"):
         read_nav_file_info(bad)
+
+
+def test_the_ggto_lines_of_rinex3_headers():
+    # VILL (RINEX 3.03): "GPGA  2.2322637960E-08-1.021405183E-14 259200 2006", read by eye.
+    vill = read_nav_file_info(DATA / "VILL00ESP_R_20181700000_06H_MN.rnx")
+    assert vill.ggto == (2.2322637960e-08, -1.021405183e-14, 259200.0, 2006)
+    assert vill.ggto_s(2006, 259200.0) == 2.2322637960e-08
+    assert vill.ggto_s(2007, 0.0) == pytest.approx(2.2322637960e-08 - 1.021405183e-14 * 345600.0, abs=1e-20)
+    # BRDC (RINEX 3.04): "GAGP  2.2700987756E-09 1.287858709E-14 432000 2105".
+    brdc = read_nav_file_info(DATA / "BRDC00IGS_R_20201361400_02H_EN.rnx")
+    assert brdc.ggto == (2.2700987756e-09, 1.287858709e-14, 432000.0, 2105)
+    # A GPS-only RINEX 2 file has none.
+    gps = read_nav_file_info(DATA / "07590920.05n")
+    assert gps.ggto is None and np.isnan(gps.ggto_s(1316, 0.0))
+    # The sign (GST - GPST): the same header's GAUT - GPUT (GST - UTC less GPST - UTC, each
+    # system's UTC realisation within a few ns of the other's) has GGTO's sign and size:
+    # 32.9 ns against 22.3 ns at t0G.
+    gaut = 3.3527612686e-08 - 1.243449788e-14 * (259200 - 172800)
+    gput = -9.3132257462e-10 - 3.552713679e-15 * (259200 - 405504)
+    assert (gaut - gput) * vill.ggto_s(2006, 259200.0) > 0 and abs(gaut - gput - vill.ggto[0]) < 15e-9
