@@ -49,8 +49,9 @@ class GsdcFixes:
     line: np.ndarray
 
 
-def _rows(path: Path, columns: tuple[str, ...]) -> list[tuple[int, list[float]]]:
-    """``(line, values)`` of every data row; refuse a missing column or a bad number."""
+def _csv_rows(path: Path, columns: tuple[str, ...], kind: str) -> tuple[list[int], list[tuple[int, list[str]]]]:
+    """The header positions of ``columns`` and ``(line, fields)`` of every non-empty data
+    row; refuse a file that cannot be read or lacks a column (``kind`` names the file kind)."""
     path = check_input_file(path)  # a device or a pipe would be read without end
     try:
         fh = open(path, newline="")
@@ -61,21 +62,25 @@ def _rows(path: Path, columns: tuple[str, ...]) -> list[tuple[int, list[float]]]
         header = next(reader, [])
         missing = [c for c in columns if c not in header]
         if missing:
-            raise DataFileError(str(path), 1, f"not a GSDC 2022 file of this kind: no column {', '.join(missing)}")
-        index = [header.index(c) for c in columns]
-        out = []
-        for no, row in enumerate(reader, 2):
-            if not row:
-                continue
-            try:
-                values = [float(row[i]) for i in index]
-            except (ValueError, IndexError):
-                raise DataFileError(str(path), no, f"expected numbers in {', '.join(columns)}") from None
-            if not np.all(np.isfinite(values)):
-                raise DataFileError(str(path), no, f"non-finite value in {', '.join(columns)}")
-            out.append((no, values))
-    if not out:
+            raise DataFileError(str(path), 1, f"not a GSDC 2022 {kind}: no column {', '.join(missing)}")
+        rows = [(no, row) for no, row in enumerate(reader, 2) if row]
+    if not rows:
         raise DataFileError(str(path), None, "no data rows")
+    return [header.index(c) for c in columns], rows
+
+
+def _rows(path: Path, columns: tuple[str, ...]) -> list[tuple[int, list[float]]]:
+    """``(line, values)`` of every data row; refuse a missing column or a bad number."""
+    index, rows = _csv_rows(path, columns, "file of this kind")
+    out = []
+    for no, row in rows:
+        try:
+            values = [float(row[i]) for i in index]
+        except (ValueError, IndexError):
+            raise DataFileError(str(path), no, f"expected numbers in {', '.join(columns)}") from None
+        if not np.all(np.isfinite(values)):
+            raise DataFileError(str(path), no, f"non-finite value in {', '.join(columns)}")
+        out.append((no, values))
     return out
 
 
@@ -140,45 +145,29 @@ def read_gsdc_measurements(path: str | Path) -> GsdcMeasurements:
         Naming the file and the line: a missing column, a field that is not a number, an
         infinite value, an epoch or constellation that is empty or not an integer.
     """
-    path = check_input_file(Path(path))
-    try:
-        fh = open(path, newline="")
-    except OSError as exc:
-        raise DataFileError(str(path), None, f"cannot read: {exc.strerror}") from None
     columns = MEASUREMENT_COLUMNS + ("SignalType",)
-    with fh:
-        reader = csv.reader(fh)
-        header = next(reader, [])
-        missing = [c for c in columns if c not in header]
-        if missing:
-            raise DataFileError(str(path), 1, f"not a GSDC 2022 device_gnss file: no column {', '.join(missing)}")
-        index = [header.index(c) for c in MEASUREMENT_COLUMNS]
-        signal_at = header.index("SignalType")
-        values, signals, lines = [], [], []
-        for no, row in enumerate(reader, 2):
-            if not row:
-                continue
-            if len(row) < len(header):
-                raise DataFileError(str(path), no, f"{len(row)} fields, the header names {len(header)}")
-            out = []
-            for name, i in zip(MEASUREMENT_COLUMNS, index):
-                text = row[i].strip()
-                try:
-                    v = float(text) if text else float("nan")
-                except ValueError:
-                    raise DataFileError(str(path), no, f"{name}: not a number: {text!r}") from None
-                integer = name in MEASUREMENT_COLUMNS[:3]  # the epoch, constellation and satellite
-                if np.isinf(v) or (integer and not (np.isfinite(v) and v == round(v))):
-                    kind = "an integer" if integer else "a finite number"
-                    raise DataFileError(str(path), no, f"{name}: expected {kind}, got {text!r}")
-                out.append(v)
-            if int(out[1]) not in CONSTELLATION_LETTERS:
-                raise DataFileError(str(path), no, f"ConstellationType: unknown type {int(out[1])}")
-            values.append(out)
-            signals.append(row[signal_at].strip())
-            lines.append(no)
-    if not values:
-        raise DataFileError(str(path), None, "no data rows")
+    index, rows = _csv_rows(Path(path), columns, "device_gnss file")
+    values, signals, lines = [], [], []
+    for no, row in rows:
+        if len(row) <= max(index):
+            raise DataFileError(str(path), no, f"{len(row)} fields, too few for column {columns[int(np.argmax(index))]}")
+        out = []
+        for name, i in zip(MEASUREMENT_COLUMNS, index):
+            text = row[i].strip()
+            try:
+                v = float(text) if text else float("nan")
+            except ValueError:
+                raise DataFileError(str(path), no, f"{name}: not a number: {text!r}") from None
+            integer = name in MEASUREMENT_COLUMNS[:3]  # the epoch, constellation and satellite
+            if np.isinf(v) or (integer and not (np.isfinite(v) and v == round(v))):
+                kind = "an integer" if integer else "a finite number"
+                raise DataFileError(str(path), no, f"{name}: expected {kind}, got {text!r}")
+            out.append(v)
+        if int(out[1]) not in CONSTELLATION_LETTERS:
+            raise DataFileError(str(path), no, f"ConstellationType: unknown type {int(out[1])}")
+        values.append(out)
+        signals.append(row[index[-1]].strip())
+        lines.append(no)
     a = np.array(values)
     return GsdcMeasurements(a[:, 0].astype(np.int64), np.array([CONSTELLATION_LETTERS[int(c)] for c in a[:, 1]]),
                             a[:, 2].astype(np.int64), np.array(signals), a[:, 3], a[:, 4], a[:, 5:8], a[:, 8], a[:, 9],

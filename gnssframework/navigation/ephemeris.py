@@ -87,6 +87,17 @@ ORBIT_FIELDS = ("sqrtA", "Eccentricity", "Io", "Omega0", "omega", "M0", "DeltaN"
 CLOCK_FIELDS = ("SVclockBias", "SVclockDrift", "SVclockDriftRate", "TGD")
 
 
+#: Keplerian and clock fields of a broadcast navigation message (the decoders' names, angles
+#: in semicircles) -> georinex names of `read_rinex_nav` (angles in radians there).
+KEPLER_TO_RINEX = {"sqrt_a_sqrtm": "sqrtA", "e": "Eccentricity", "i0_sc": "Io", "omega0_sc": "Omega0",
+                   "omega_sc": "omega", "m0_sc": "M0", "delta_n_sc_s": "DeltaN", "omega_dot_sc_s": "OmegaDot",
+                   "idot_sc_s": "IDOT", "cuc_rad": "Cuc", "cus_rad": "Cus", "crc_m": "Crc", "crs_m": "Crs",
+                   "cic_rad": "Cic", "cis_rad": "Cis", "toe_s": "Toe", "af0_s": "SVclockBias",
+                   "af1_s_s": "SVclockDrift", "af2_s_s2": "SVclockDriftRate"}
+#: The fields of `KEPLER_TO_RINEX` broadcast in semicircles (or semicircles per second).
+SEMICIRCLE_FIELDS = ("delta_n_sc_s", "m0_sc", "omega0_sc", "i0_sc", "omega_sc", "omega_dot_sc_s", "idot_sc_s")
+
+
 def _system_error(letter: str) -> ValueError:
     name = _SYSTEM_NAMES.get(letter, "unknown")
     if letter == "R":

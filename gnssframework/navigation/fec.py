@@ -42,7 +42,7 @@ import numpy as np
 from ..errors import ConfigError
 
 __all__ = ["G1", "G2", "CONSTRAINT_LENGTH", "conv_encode", "viterbi_decode", "interleave", "deinterleave",
-           "crc24q_bits", "CRC24Q_POLY"]
+           "crc24q_bits", "CRC24Q_POLY", "real_symbols"]
 
 #: Generator polynomials of the Galileo I/NAV and F/NAV convolutional code (ICD 4.1.4.1), octal 171 and 133.
 G1 = 0o171
@@ -194,3 +194,14 @@ def crc24q_bits(bits: np.ndarray) -> np.ndarray:
     for j in range(data.shape[-1]):
         crc = ((crc << 8) & 0xFFFFFF) ^ _CRC_TABLE[((crc >> 16) ^ data[..., j]) & 0xFF]
     return crc
+
+
+def real_symbols(symbols: np.ndarray, what: str = "one satellite's stream") -> np.ndarray:
+    """``symbols`` as a 1-D float array (±1 or a prompt's in-phase sums), refused in one line
+    naming ``symbols`` when not 1-D, complex or not finite."""
+    s = np.asarray(symbols)
+    if s.ndim != 1:
+        raise ConfigError("symbols", f"{what} is 1-D, got shape {s.shape}")
+    if np.iscomplexobj(s) or not np.all(np.isfinite(s)):
+        raise ConfigError("symbols", "must be finite real numbers (±1 or the prompt's in-phase sums)")
+    return s.astype(float)

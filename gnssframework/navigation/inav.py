@@ -170,12 +170,7 @@ def decode_pages(symbols: np.ndarray) -> list[InavPage]:
 
 
 def _soft(symbols: np.ndarray) -> np.ndarray:
-    s = np.asarray(symbols)
-    if s.ndim != 1:
-        raise ConfigError("symbols", f"one satellite's E1-B stream is 1-D, got shape {s.shape}")
-    if np.iscomplexobj(s) or not np.all(np.isfinite(s)):
-        raise ConfigError("symbols", "must be finite real numbers (±1 or the prompt's in-phase sums)")
-    return s.astype(float)
+    return fec.real_symbols(symbols, "one satellite's E1-B stream")
 
 
 def find_pages(symbols: np.ndarray, sync_errors: int = 1) -> tuple[list[InavPage], list[str]]:

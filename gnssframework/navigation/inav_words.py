@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConfigError
-from .ephemeris import Ephemerides
+from .ephemeris import KEPLER_TO_RINEX, SEMICIRCLE_FIELDS, Ephemerides
 
 __all__ = ["PI_GALILEO", "WORD_BITS", "WORD_LAYOUTS", "encode_word", "decode_word", "ephemeris_to_words",
            "words_to_ephemeris", "sisa_m", "sisa_index", "LSB"]
@@ -58,13 +58,8 @@ WORD_LAYOUTS: dict[int, _Layout] = {
 }
 #: The LSB of each scaled field (its scale factor), for quantisation bounds.
 LSB = {name: scale for layout in WORD_LAYOUTS.values() for name, (_, _, scale, _) in layout.items()}
-_SEMICIRCLES = ("m0_sc", "omega0_sc", "i0_sc", "omega_sc", "idot_sc_s", "omega_dot_sc_s", "delta_n_sc_s")
-# Word field -> georinex name of navigation/ephemeris.py (radians there).
-_TO_RINEX = {"sqrt_a_sqrtm": "sqrtA", "e": "Eccentricity", "i0_sc": "Io", "omega0_sc": "Omega0",
-             "omega_sc": "omega", "m0_sc": "M0", "delta_n_sc_s": "DeltaN", "omega_dot_sc_s": "OmegaDot",
-             "idot_sc_s": "IDOT", "cuc_rad": "Cuc", "cus_rad": "Cus", "crc_m": "Crc", "crs_m": "Crs",
-             "cic_rad": "Cic", "cis_rad": "Cis", "toe_s": "Toe", "af0_s": "SVclockBias", "af1_s_s": "SVclockDrift",
-             "af2_s_s2": "SVclockDriftRate", "bgd_e1e5b_s": "TGD"}
+_SEMICIRCLES = SEMICIRCLE_FIELDS
+_TO_RINEX = {**KEPLER_TO_RINEX, "bgd_e1e5b_s": "TGD"}
 # RINEX 3 Galileo SV health bits of the I/NAV fields (RINEX 3.04 Table A8).
 _HEALTH_SHIFT = {"e1b_dvs": 0, "e1b_hs": 1, "e5b_dvs": 6, "e5b_hs": 7}
 

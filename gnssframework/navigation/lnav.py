@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
-from .ephemeris import ORBIT_FIELDS, Ephemerides
+from .ephemeris import KEPLER_TO_RINEX, ORBIT_FIELDS, SEMICIRCLE_FIELDS, Ephemerides
+from .fec import real_symbols
 
 __all__ = ["PI_IS_GPS", "PREAMBLE", "BITS_PER_SUBFRAME", "IonoUtc", "Subframe", "LnavMessage", "parity_bits",
            "encode_words", "words_parity_ok", "encode_subframe", "ephemeris_to_fields", "encode_lnav",
@@ -106,13 +107,8 @@ PAGE18_SV_ID = 56
 _DUMMY_PAGE: _Layout = {"data_id": (((61, 2),), 1, False), "sv_id": (((63, 6),), 1, False)}
 _DUMMY_SV_ID = {4: 63, 5: 51}
 _LAYOUTS = {1: SUBFRAME1, 2: SUBFRAME2, 3: SUBFRAME3}
-_SEMICIRCLE_FIELDS = ("delta_n_sc_s", "m0_sc", "omega0_sc", "i0_sc", "omega_sc", "omega_dot_sc_s", "idot_sc_s")
-# Decoded field -> georinex name of navigation/ephemeris.py (angles there in radians).
-_TO_RINEX = {"sqrt_a_sqrtm": "sqrtA", "e": "Eccentricity", "i0_sc": "Io", "omega0_sc": "Omega0",
-             "omega_sc": "omega", "m0_sc": "M0", "delta_n_sc_s": "DeltaN", "omega_dot_sc_s": "OmegaDot",
-             "idot_sc_s": "IDOT", "cuc_rad": "Cuc", "cus_rad": "Cus", "crc_m": "Crc", "crs_m": "Crs",
-             "cic_rad": "Cic", "cis_rad": "Cis", "toe_s": "Toe", "af0_s": "SVclockBias", "af1_s_s": "SVclockDrift",
-             "af2_s_s2": "SVclockDriftRate", "tgd_s": "TGD"}
+_SEMICIRCLE_FIELDS = SEMICIRCLE_FIELDS
+_TO_RINEX = {**KEPLER_TO_RINEX, "tgd_s": "TGD"}
 
 
 @dataclass(frozen=True)
@@ -354,12 +350,7 @@ class LnavMessage:
 
 
 def _hard_bits(symbols: np.ndarray) -> np.ndarray:
-    s = np.asarray(symbols)
-    if s.ndim != 1:
-        raise ConfigError("symbols", f"one satellite's stream is 1-D, got shape {s.shape}")
-    if np.iscomplexobj(s) or not np.all(np.isfinite(s)):
-        raise ConfigError("symbols", "must be finite real numbers (±1 or the prompt's in-phase sums)")
-    return (s < 0).astype(np.uint8)
+    return (real_symbols(symbols) < 0).astype(np.uint8)
 
 
 def find_subframes(symbols: np.ndarray) -> list[Subframe]:
