@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ConfigError
+from ...navigation.fec import crc24q_bits
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .observables import SPEED_OF_LIGHT_MPS, Observables
@@ -57,15 +58,11 @@ MAX_MESSAGE_BYTES = 2**10 - 1
 
 
 def crc24q(data: bytes) -> int:
-    """CRC-24Q of ``data`` (RTCM 10403.3 section 4.2: polynomial 0x1864CFB, initial 0)."""
-    crc = 0
-    for byte in data:
-        crc ^= byte << 16
-        for _ in range(8):
-            crc <<= 1
-            if crc & 0x1000000:
-                crc ^= 0x1864CFB
-    return crc & 0xFFFFFF
+    """CRC-24Q of ``data`` (RTCM 10403.3 section 4.2: polynomial 0x1864CFB, initial 0), by
+    `gnssframework.navigation.fec.crc24q_bits` (the same code as Galileo I/NAV's)."""
+    if not data:
+        return 0
+    return int(crc24q_bits(np.unpackbits(np.frombuffer(bytes(data), dtype=np.uint8))))
 
 
 def lock_time_indicator(lock_ms: float) -> int:
