@@ -180,3 +180,41 @@ def test_channels_in_parallel_give_bit_identical_sums_whatever_the_thread_count(
     z = comps[0::2] + 1j * comps[1::2].astype(float)
     bound = 2 * correlation_error_bound(z, 0, z.size)  # each side within its bound of the exact sums
     assert np.abs(serial - runs[0][0]).max() <= bound
+
+
+@pytest.mark.parametrize("recorded", ["int8 iq", "float32 real"])
+def test_the_fused_epl_loop_agrees_with_the_per_tap_loops(recorded):
+    """Three taps take the kernel's fused E/P/L loop (the baseband in registers, issue 41),
+    any other count the per-tap loops over the stored baseband. The same three taps with a
+    fourth beside them go the second way: each of the three sums is then the same float32
+    products summed in another order within each chunk, so the two differ by at most twice
+    a chunk's float32 summation error, 2 `ROUNDING` per unit of sum |x| over each period (a
+    tap's bit read from the wrong place in the pattern would differ by order sqrt(N)|x|)."""
+    from gnssframework.receiver.channels.correlator import ROUNDING, correlate_periods
+
+    rng = np.random.default_rng(41)
+    fs = 2.6e6 if recorded == "int8 iq" else 16.3676e6
+    n = int(fs * 8e-3)
+    iq = recorded == "int8 iq"
+    x = rng.integers(-40, 40, 2 * n).astype(np.int8) if iq else rng.standard_normal(n).astype(np.float32)
+    mag = np.abs(x[0::2] + 1j * x[1::2].astype(float)) if iq else np.abs(x.astype(float))
+    codes = np.stack([ca_code(p) for p in (5, 12, 28)]).astype(np.float32)
+    epl = np.array([-0.5, 0.0, 0.5])
+    head = (rng.integers(0, 300, 3), np.array([6, 1, 4]), rng.uniform(-0.5, 0.5, 3),
+            1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, 3)), rng.uniform(0, 1, 3), rng.uniform(-3e-3, 3e-3, 3), codes)
+    fused, counts = correlate_periods(x, *head, epl, iq=iq, backend="numba")
+    per_tap, counts4 = correlate_periods(x, *head, np.append(epl, 0.25), iq=iq, backend="numba")
+    np.testing.assert_array_equal(counts, counts4)
+    for c in range(3):
+        start = head[0][c]
+        for k in range(head[1][c]):
+            bound = 2 * ROUNDING * mag[start:start + counts[c, k]].sum()
+            assert np.abs(fused[c, k] - per_tap[c, k, :3]).max() <= bound
+            start += counts[c, k]
+    # correlate_channels' driver too (one range per channel, two chunks and more)
+    args = (head[0], np.array([3000, 1100, 5000]), head[2], head[3], head[4], head[5], codes)
+    got3 = correlate_channels(x, *args, epl, iq=iq, backend="numba")
+    got4 = correlate_channels(x, *args, np.append(epl, 0.25), iq=iq, backend="numba")
+    for c in range(3):
+        bound = 2 * ROUNDING * mag[args[0][c]:args[0][c] + args[1][c]].sum()
+        assert np.abs(got3[c] - got4[c, :3]).max() <= bound

@@ -86,19 +86,24 @@ def correlate_numpy(samples: np.ndarray, starts: np.ndarray, counts: np.ndarray,
 
 # The kernels are plain functions specialised by `with_globals` (each twin has its own
 # numba disk cache entry, which closures would not): ``_IQ`` (interleaved I/Q components or
-# real samples) and ``_M`` (the code tables' tap thresholds, `CodeTables`) are constants of
-# each twin, and both drivers inline the same per-sample function, `_run`.
+# real samples), ``_M`` (the code tables' tap thresholds, `CodeTables`) and ``_EPL``
+# (three taps: the fused E/P/L loop) are constants of each twin, and both drivers inline the same per-sample function, `_run`.
 _IQ = True
 _M = 1
+_EPL = False
 
 
-def _run(x, q_sign, s, n, ph, dph, u, dp, pat, thr, rot_r, rot_i, br, bi, code, acc_r,
+def _run(x, q_sign, s, n, ph, dph, u, dp, idp, pat, thr, rot_r, rot_i, br, bi, code, acc_r,
          acc_i):  # pragma: no cover - compiled
     # n samples from sample s into acc_r/acc_i (one per tap); returns the carrier and code
-    # words after them. Chunk by chunk, three loops that vectorise: the baseband (chunk's
-    # exact first phasor times the rot table) into br/bi; each sample's tap pattern (one
-    # gather: the code chip of word u and the taps' thresholds crossed in it, `CodeTables`)
-    # into code; then each tap's dot product, summed in float32, the chunk sums in float64.
+    # words after them. Chunk by chunk, loops that vectorise: each sample's pattern index
+    # (the prompt's word u + idp[i], idp[i] = i dp, its chip and the taps' thresholds
+    # crossed in it, `CodeTables`) into code; then the patterns themselves (one scalar
+    # gather per sample, the only loop that does not vectorise); then the baseband (chunk's
+    # exact first phasor times the rot table) and each tap's dot product, summed in float32,
+    # the chunk sums in float64. For E/P/L (``_EPL``: three taps) the baseband and the three
+    # taps are one loop (the baseband stays in registers); otherwise the baseband goes into
+    # br/bi and each tap has its own loop.
     n_taps = acc_r.shape[0]
     done = 0
     while done < n:
@@ -106,37 +111,89 @@ def _run(x, q_sign, s, n, ph, dph, u, dp, pat, thr, rot_r, rot_i, br, bi, code, 
         theta = _TWO_PI_2_32 * (ph & _MASK32)
         c0r = np.float32(math.cos(theta))
         c0i = np.float32(-math.sin(theta))
-        if _IQ:
+        for i in range(m):
+            w = u + idp[i]
+            frac = w & _MASK32
+            k = (w >> 32) * (_M + 1)
+            for j in range(_M):
+                k += np.int64(frac >= thr[j])
+            code[i] = np.int32(k)
+        for i in range(m):
+            code[i] = pat[np.uint64(code[i])]  # (unsigned: no negative-index wrap, 1.3x faster)
+        if _EPL and _IQ:
             xs = x[2 * (s + done):2 * (s + done + m)]
+            e_r = e_i = p_r = p_i = l_r = l_i = np.float32(0.0)
             for i in range(m):
                 cr = c0r * rot_r[i] - c0i * rot_i[i]  # exp(-j phase)
                 ci = c0r * rot_i[i] + c0i * rot_r[i]
                 a = np.float32(xs[2 * i])
                 b = q_sign * np.float32(xs[2 * i + 1])
-                br[i] = a * cr - b * ci
-                bi[i] = a * ci + b * cr
-        else:
+                zr = a * cr - b * ci
+                zi = a * ci + b * cr
+                cd = code[i]
+                v0 = np.float32(1 - 2 * (cd & 1))
+                v1 = np.float32(1 - 2 * ((cd >> 1) & 1))
+                v2 = np.float32(1 - 2 * ((cd >> 2) & 1))
+                e_r += zr * v0
+                e_i += zi * v0
+                p_r += zr * v1
+                p_i += zi * v1
+                l_r += zr * v2
+                l_i += zi * v2
+            acc_r[0] += e_r
+            acc_i[0] += e_i
+            acc_r[1] += p_r
+            acc_i[1] += p_i
+            acc_r[2] += l_r
+            acc_i[2] += l_i
+        elif _EPL:
             xs = x[s + done:s + done + m]
+            e_r = e_i = p_r = p_i = l_r = l_i = np.float32(0.0)
             for i in range(m):
                 a = np.float32(xs[i])
-                br[i] = a * (c0r * rot_r[i] - c0i * rot_i[i])
-                bi[i] = a * (c0r * rot_i[i] + c0i * rot_r[i])
-        for i in range(m):
-            w = u + i * dp
-            frac = w & _MASK32
-            k = (w >> 32) * (_M + 1)
-            for j in range(_M):
-                k += np.int64(frac >= thr[j])
-            code[i] = pat[k]
-        for t in range(n_taps):
-            sr = np.float32(0.0)
-            si = np.float32(0.0)
-            for i in range(m):
-                v = np.float32(1 - 2 * ((code[i] >> t) & 1))
-                sr += br[i] * v
-                si += bi[i] * v
-            acc_r[t] += sr
-            acc_i[t] += si
+                zr = a * (c0r * rot_r[i] - c0i * rot_i[i])
+                zi = a * (c0r * rot_i[i] + c0i * rot_r[i])
+                cd = code[i]
+                v0 = np.float32(1 - 2 * (cd & 1))
+                v1 = np.float32(1 - 2 * ((cd >> 1) & 1))
+                v2 = np.float32(1 - 2 * ((cd >> 2) & 1))
+                e_r += zr * v0
+                e_i += zi * v0
+                p_r += zr * v1
+                p_i += zi * v1
+                l_r += zr * v2
+                l_i += zi * v2
+            acc_r[0] += e_r
+            acc_i[0] += e_i
+            acc_r[1] += p_r
+            acc_i[1] += p_i
+            acc_r[2] += l_r
+            acc_i[2] += l_i
+        else:
+            if _IQ:
+                xs = x[2 * (s + done):2 * (s + done + m)]
+                for i in range(m):
+                    cr = c0r * rot_r[i] - c0i * rot_i[i]  # exp(-j phase)
+                    ci = c0r * rot_i[i] + c0i * rot_r[i]
+                    a = np.float32(xs[2 * i])
+                    b = q_sign * np.float32(xs[2 * i + 1])
+                    br[i] = a * cr - b * ci
+                    bi[i] = a * ci + b * cr
+            else:
+                xs = x[s + done:s + done + m]
+                for i in range(m):
+                    a = np.float32(xs[i])
+                    br[i] = a * (c0r * rot_r[i] - c0i * rot_i[i])
+                    bi[i] = a * (c0r * rot_i[i] + c0i * rot_r[i])
+            for t in range(n_taps):
+                sr = np.float32(0.0)
+                si = np.float32(0.0)
+                for i in range(m):
+                    v = np.float32(1 - 2 * ((code[i] >> t) & 1))
+                    sr += br[i] * v
+                    si += bi[i] * v
+                acc_r[t] += sr
+                acc_i[t] += si
         u += m * dp
         ph += m * dph
         done += m
@@ -166,8 +223,9 @@ def _channels(x, q_sign, starts, counts, carrier0, dcarrier, code0, dcode, pat, 
         code = np.empty(CHUNK, np.int32)
         acc_r, acc_i = np.zeros(n_taps), np.zeros(n_taps)
         _rotations_(dcarrier[c], rot_r, rot_i)
-        _run_(x, q_sign, starts[c], counts[c], carrier0[c], dcarrier[c], code0[c], dcode[c], pat[c], thr, rot_r,
-              rot_i, br, bi, code, acc_r, acc_i)
+        idp = np.arange(CHUNK) * dcode[c]
+        _run_(x, q_sign, starts[c], counts[c], carrier0[c], dcarrier[c], code0[c], dcode[c], idp, pat[c], thr,
+              rot_r, rot_i, br, bi, code, acc_r, acc_i)
         out_r[c] = acc_r
         out_i[c] = acc_i
 
@@ -185,12 +243,14 @@ def _periods(x, q_sign, starts, n_periods, carrier0, dcarrier, code0, dcode, wra
         acc_r, acc_i = np.zeros(n_taps), np.zeros(n_taps)
         dph, dp = dcarrier[c], dcode[c]
         _rotations_(dph, rot_r, rot_i)
+        idp = np.arange(CHUNK) * dp
         s, ph, u = starts[c], carrier0[c], code0[c]
         for k in range(n_periods[c]):
             n = (wrap - u + dp - 1) // dp
             acc_r[:] = 0.0
             acc_i[:] = 0.0
-            ph, u = _run_(x, q_sign, s, n, ph, dph, u, dp, pat[c], thr, rot_r, rot_i, br, bi, code, acc_r, acc_i)
+            ph, u = _run_(x, q_sign, s, n, ph, dph, u, dp, idp, pat[c], thr, rot_r, rot_i, br, bi, code, acc_r,
+                          acc_i)
             out_r[c, k] = acc_r
             out_i[c, k] = acc_i
             counts[c, k] = n
@@ -198,18 +258,19 @@ def _periods(x, q_sign, starts, n_periods, carrier0, dcarrier, code0, dcode, wra
             u -= period_word
 
 
-_KERNELS: dict[tuple[bool, int, bool], tuple] = {}
+_KERNELS: dict[tuple[bool, int, bool, bool], tuple] = {}
 
 
-def _kernels(iq: bool, m: int, parallel: bool) -> tuple:
+def _kernels(iq: bool, m: int, parallel: bool, n_taps: int = 0) -> tuple:
     """The (fixed-count, whole-periods) kernels for sample kind ``iq``, ``m`` thresholds,
     serial or over the channels in parallel (the same body: ``prange`` is ``range`` in the
-    serial twin)."""
-    key = (iq, m, parallel)
+    serial twin), with the fused E/P/L loop when ``n_taps`` is 3."""
+    epl = n_taps == 3
+    key = (iq, m, parallel, epl)
     if key not in _KERNELS:
-        tag = f"_{'iq' if iq else 'real'}{m}{'_par' if parallel else ''}"
+        tag = f"_{'iq' if iq else 'real'}{m}{'_par' if parallel else ''}{'_epl' if epl else ''}"
         inline = numba.njit(inline="always", fastmath=True, nogil=True)
-        run = inline(with_globals(_run, tag, _IQ=iq, _M=m))
+        run = inline(with_globals(_run, tag, _IQ=iq, _M=m, _EPL=epl))
         rotations = inline(with_globals(_rotations, tag))
         compiled = numba.njit(cache=True, nogil=True, fastmath=True, parallel=parallel)
         _KERNELS[key] = tuple(compiled(with_globals(fn, tag, _run_=run, _rotations_=rotations))
@@ -477,7 +538,7 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
     out_r = np.empty((n_ch, n_taps))
     out_i = np.empty((n_ch, n_taps))
     par = _parallel(parallel)
-    kernel = _kernels(cplx, tables.thresholds.size, par)[0]
+    kernel = _kernels(cplx, tables.thresholds.size, par, n_taps)[0]
     groups = [(0, n_ch)] if par else split_channels(n_ch, int(counts.sum()), threads)
     q, pat, thr = np.float32(q_sign), tables.patterns, tables.thresholds
 
@@ -566,7 +627,7 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
     out_i = np.zeros((n_ch, p_max, offsets_chips.size))
     counts = np.zeros((n_ch, p_max), np.int64)
     par = _parallel(parallel)
-    kernel = _kernels(cplx, tables.thresholds.size, par)[1]
+    kernel = _kernels(cplx, tables.thresholds.size, par, offsets_chips.size)[1]
     work = int(n_periods.sum()) * n_code / float(step.min(initial=1.0))
     groups = [(0, n_ch)] if par else split_channels(n_ch, work, threads)
     q, pat, thr = np.float32(q_sign), tables.patterns, tables.thresholds
