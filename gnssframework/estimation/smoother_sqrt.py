@@ -84,7 +84,10 @@ def cov_of(root: np.ndarray) -> np.ndarray:
 def sqrt_terms(point_root: np.ndarray, image_root: np.ndarray,
                noise_root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""The gain $G_k$ and the root $D_k$ of $\operatorname{Cov}(x_k - G_k x^-_{k+1})$ of each stored
-    transition (module docstring), batched over every leading axis.
+    transition (module docstring), batched over every leading axis. Under the ``numba`` backend
+    one compiled pass per element (`compiled.sqrt_smoother.sqrt_terms`: the stacked factor built
+    in the kernel, the gain by back-substitution on the triangular $L_{11}$); the elements whose
+    $L_{11}$ is numerically singular, and every element elsewhere, by NumPy (`_numpy_terms`).
 
     Parameters
     ----------
