@@ -63,7 +63,7 @@ from .boundary import check_argument
 from .estimator import Estimator, OnFailure, OnMissing
 from .linalg import all_true, mat_vec, pd_mask, project_psd, symmetrize, transpose
 from .sequence import FilterResult, SmootherInputs, transition_terms
-from .smoother_sqrt import cov_of, psd_root, sqrt_rts_step, sqrt_terms
+from .smoother_sqrt import psd_root, sqrt_rts_step_cov, sqrt_terms
 from .step import FilterStep
 from .types import Gaussian, Model
 
@@ -324,12 +324,11 @@ def _smooth_sqrt(result: FilterResult, inputs: SmootherInputs, residual_x: Resid
     root = np.empty_like(result.cov)
     mean[-1], cov[-1], root[-1] = result.mean[-1], result.cov[-1], psd_root(result.cov[-1])
     for k in range(K - 2, -1, -1):
-        mean[k], root[k] = sqrt_rts_step(result.mean[k], inputs.prior_mean[k + 1], mean[k + 1], root[k + 1],
-                                         gains[k + 1], cond[k + 1], residual_x)
-        cov[k] = cov_of(root[k])
+        mean[k], root[k], cov[k] = sqrt_rts_step_cov(result.mean[k], inputs.prior_mean[k + 1], mean[k + 1],
+                                                     root[k + 1], gains[k + 1], cond[k + 1], residual_x)
     start = _start(result, inputs)
-    m0, r0 = sqrt_rts_step(start.mean, inputs.prior_mean[0], mean[0], root[0], gains[0], cond[0], residual_x)
-    return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=Gaussian(m0, cov_of(r0)), epochs=result.epochs,
+    m0, _, c0 = sqrt_rts_step_cov(start.mean, inputs.prior_mean[0], mean[0], root[0], gains[0], cond[0], residual_x)
+    return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=Gaussian(m0, c0), epochs=result.epochs,
                           time_s=result.time_s, initial_gain=np.broadcast_to(gains[0], cov.shape[1:]), cov_root=root)
 
 
@@ -382,11 +381,11 @@ def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | N
         ic = np.maximum(i, 0)
         a = active.reshape(shape)
         if root is not None and cond is not None:
-            out_mean, out_root = sqrt_rts_step(result.mean[ic], inputs.prior_mean[ic + 1], mean, root, gain[ic],
-                                               cond[ic], residual_x)
+            out_mean, out_root, out_cov = sqrt_rts_step_cov(result.mean[ic], inputs.prior_mean[ic + 1], mean, root,
+                                                            gain[ic], cond[ic], residual_x)
             root = np.where(a[..., None], out_root, root)
             mean = np.where(a, out_mean, mean)
-            cov = np.where(a[..., None], cov_of(root), cov)
+            cov = np.where(a[..., None], out_cov, cov)
             continue
         out = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
                        inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), gain[ic], form,
@@ -511,9 +510,9 @@ class FixedLagSmoother:
             t = window[i + 1]
             gain, cond = t.terms
             if root is not None and cond is not None:
-                mean, root = sqrt_rts_step(window[i].posterior.mean, t.prior_mean, nxt.mean, root, gain, cond,
-                                           self.residual_x)
-                nxt = Gaussian(mean, cov_of(root))
+                mean, root, cov = sqrt_rts_step_cov(window[i].posterior.mean, t.prior_mean, nxt.mean, root, gain,
+                                                    cond, self.residual_x)
+                nxt = Gaussian(mean, cov)
             else:
                 nxt = rts_step(window[i].posterior, t.prior_mean, t.prior_cov, t.cross_cov, nxt, gain, self.form,
                                self.residual_x)

@@ -47,10 +47,11 @@ from collections.abc import Callable
 import numpy as np
 
 from .. import backend
+from .compiled import sqrt_smoother as compiled_sqrt
 from .compiled import tria as compiled_tria
 from .linalg import mat_vec, symmetrize, transpose
 
-__all__ = ["psd_root", "tria", "sqrt_terms", "sqrt_rts_step", "cov_of"]
+__all__ = ["psd_root", "tria", "sqrt_terms", "sqrt_rts_step", "sqrt_rts_step_cov", "cov_of"]
 
 
 def psd_root(a: np.ndarray) -> np.ndarray:
@@ -83,7 +84,10 @@ def cov_of(root: np.ndarray) -> np.ndarray:
 def sqrt_terms(point_root: np.ndarray, image_root: np.ndarray,
                noise_root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""The gain $G_k$ and the root $D_k$ of $\operatorname{Cov}(x_k - G_k x^-_{k+1})$ of each stored
-    transition (module docstring), batched over every leading axis.
+    transition (module docstring), batched over every leading axis. Under the ``numba`` backend
+    one compiled pass per element (`compiled.sqrt_smoother.sqrt_terms`: the stacked factor built
+    in the kernel, the gain by back-substitution on the triangular $L_{11}$); the elements whose
+    $L_{11}$ is numerically singular, and every element elsewhere, by NumPy (`_numpy_terms`).
 
     Parameters
     ----------
@@ -98,6 +102,22 @@ def sqrt_terms(point_root: np.ndarray, image_root: np.ndarray,
         $G$ ``(..., n, n)`` and lower-triangular $D$ ``(..., n, n)``, $D D^T = (L_{21} - G L_{11})
         (\cdot)^T + L_{22} L_{22}^T$.
     """
+    if backend.compiled() and all(np.all(np.isfinite(a)) for a in (point_root, image_root, noise_root)):
+        # one compiled pass per element (`compiled.sqrt_smoother`); the elements whose L11 is
+        # numerically singular (flagged) take the NumPy path below, with its pseudo-inverse
+        gain, D, regular = compiled_sqrt.sqrt_terms(point_root, image_root, noise_root)
+        if not regular.all():
+            bad = ~regular
+            batch = regular.shape
+            gain[bad], D[bad] = _numpy_terms(*(np.broadcast_to(a, batch + a.shape[-2:])[bad]
+                                               for a in (point_root, image_root, noise_root)))
+        return gain, D
+    return _numpy_terms(point_root, image_root, noise_root)
+
+
+def _numpy_terms(point_root: np.ndarray, image_root: np.ndarray,
+                 noise_root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`sqrt_terms` by NumPy stacking, `tria` and `_root_gain` (the reference path)."""
     n, N = point_root.shape[-2:]
     batch = np.broadcast_shapes(point_root.shape[:-2], image_root.shape[:-2], noise_root.shape[:-2])
     top = np.concatenate([np.broadcast_to(image_root, batch + (n, N)), np.broadcast_to(noise_root, batch + (n, n))],
@@ -149,3 +169,24 @@ def sqrt_rts_step(filtered_mean: np.ndarray, prior_mean: np.ndarray, next_mean: 
     spread = gain @ next_root
     root = tria(np.concatenate([np.broadcast_to(cond_root, spread.shape), spread], axis=-1))
     return mean, root
+
+
+def sqrt_rts_step_cov(filtered_mean: np.ndarray, prior_mean: np.ndarray, next_mean: np.ndarray,
+                      next_root: np.ndarray, gain: np.ndarray, cond_root: np.ndarray,
+                      residual_x: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""`sqrt_rts_step` and the covariance $P^s_k = S^s_k S^{sT}_k$ (`cov_of`): under the ``numba``
+    backend the factor and its product in one compiled pass per element
+    (`compiled.sqrt_smoother.sqrt_step_root`), the NumPy path otherwise.
+
+    Returns
+    -------
+    (np.ndarray, np.ndarray, np.ndarray)
+        $m^s_k$ ``(..., n)``, lower-triangular $S^s_k$ and symmetric $P^s_k$ ``(..., n, n)``.
+    """
+    if backend.compiled() and all(np.all(np.isfinite(a)) for a in (gain, cond_root, next_root)):
+        diff = (residual_x or np.subtract)(next_mean, prior_mean)
+        root, cov = compiled_sqrt.sqrt_step_root(gain, cond_root, next_root)
+        return filtered_mean + mat_vec(gain, diff), root, cov
+    mean, root = sqrt_rts_step(filtered_mean, prior_mean, next_mean, next_root, gain, cond_root, residual_x)
+    return mean, root, cov_of(root)

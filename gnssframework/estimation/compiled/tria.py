@@ -14,11 +14,42 @@ import math
 import numpy as np
 
 from . import split
-from .specialise import jit_pair, prange
+from .specialise import jit_pair, prange, step_jit
 
-__all__ = ["tria"]
+__all__ = ["tria", "householder"]
 
 _CHUNKS = 64
+
+
+def _householder(W, v, q, p):
+    """In place: ``W[:q, :p]`` (``q >= p``) to ``R`` of its QR factorisation (upper triangle;
+    ``v`` ``(q,)`` workspace)."""
+    for k in range(p):
+        s = 0.0
+        for i in range(k + 1, q):
+            s += W[i, k] * W[i, k]
+        x0 = W[k, k]
+        if s == 0.0:  # the column is already triangular below k
+            continue
+        norm = math.sqrt(x0 * x0 + s)
+        alpha = -norm if x0 >= 0.0 else norm  # reflect x onto alpha e_k, no cancellation
+        v[k] = x0 - alpha
+        for i in range(k + 1, q):
+            v[i] = W[i, k]
+        vv = v[k] * v[k] + s
+        W[k, k] = alpha
+        for i in range(k + 1, q):
+            W[i, k] = 0.0
+        for j in range(k + 1, p):
+            dot = 0.0
+            for i in range(k, q):
+                dot += v[i] * W[i, j]
+            f = 2.0 * dot / vv
+            for i in range(k, q):
+                W[i, j] -= f * v[i]
+
+
+householder = step_jit(_householder)
 
 
 def _tria_body(A, L):
@@ -32,29 +63,7 @@ def _tria_body(A, L):
             for i in range(q):
                 for j in range(p):
                     W[i, j] = A[b, j, i]
-            for k in range(p):
-                s = 0.0
-                for i in range(k + 1, q):
-                    s += W[i, k] * W[i, k]
-                x0 = W[k, k]
-                if s == 0.0:  # the column is already triangular below k
-                    continue
-                norm = math.sqrt(x0 * x0 + s)
-                alpha = -norm if x0 >= 0.0 else norm  # reflect x onto alpha e_k, no cancellation
-                v[k] = x0 - alpha
-                for i in range(k + 1, q):
-                    v[i] = W[i, k]
-                vv = v[k] * v[k] + s
-                W[k, k] = alpha
-                for i in range(k + 1, q):
-                    W[i, k] = 0.0
-                for j in range(k + 1, p):
-                    dot = 0.0
-                    for i in range(k, q):
-                        dot += v[i] * W[i, j]
-                    f = 2.0 * dot / vv
-                    for i in range(k, q):
-                        W[i, j] -= f * v[i]
+            householder(W, v, q, p)
             for i in range(p):
                 for j in range(p):
                     L[b, i, j] = W[j, i] if j <= i else 0.0
