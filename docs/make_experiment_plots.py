@@ -85,6 +85,9 @@ SWEEP_TABLES["scintillation_sweep"] = ["phase_error_rmse", "loss_of_lock_fractio
 # Reference 001 (carrier smoothing): the main example's metrics and its slip-rate sweep's.
 TABLES["carrier_smoothing"] = ["error_rmse", "slip_recovery_epochs", "censored_slips", "false_reset_rate"]
 SWEEP_TABLES["carrier_smoothing_sweep"] = ["error_rmse", "slip_recovery_epochs", "false_reset_rate"]
+# Issue 40 (tracking thresholds): lock along the C/N0 sweep and the receiver's own C/N0 reading there.
+SWEEP_TABLES["tracking_threshold"] = ["loss_of_lock", "loss_of_code_freq_lock", "cn0_estimate_error_db",
+                                      "loss_of_lock_by_cn0"]
 
 
 def main() -> int:

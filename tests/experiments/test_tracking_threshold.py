@@ -177,3 +177,38 @@ def test_a_cn0_estimator_needing_a_noise_correlator_is_refused(tmp_path):
     with pytest.raises(ConfigError, match="cn0_estimator: 'noise-channel' reads prompt, noise; the scenario "
                                           "simulates the prompt only"):
         load_config(tmp_path / "c.toml")
+
+
+def test_cn0_lock_loss_declares_a_run_lost_at_any_window_below_the_limit():
+    from gnssframework.experiments.scenarios.tracking_threshold import cn0_lock_loss, median_error_db
+
+    reading = np.array([[30.0, 30.0, 30.0], [24.9, 30.0, 25.0], [-np.inf, 26.0, 31.0]])
+    np.testing.assert_array_equal(cn0_lock_loss(reading, 25.0), [1.0, 0.0, 0.0])
+    assert np.isnan(cn0_lock_loss(np.empty((0, 2)), 25.0)).all()
+    # a window with no reading (-inf) ranks lowest; the median is NaN when most windows have none
+    np.testing.assert_allclose(median_error_db(reading, 25.0), [-0.1, 5.0, 5.0])
+    two_none = np.array([[-np.inf], [-np.inf], [30.0]])
+    assert np.isnan(median_error_db(two_none, 25.0)).all()
+
+
+def test_cn0_floor_is_passed_by_pure_noise_in_5_percent_of_windows():
+    """The default lock limit, the estimator's noise-only floor on the scenario's window
+    (m2m4, 20 intervals of 10 ms): pure noise (unit complex noise, no signal, a seed of
+    its own) through the scenario's own reading path reads above it in 5 % of windows
+    (binomial SE of 4000 windows and of the floor's 2000, 4 SE); and at a fixed window
+    length the floor scales as 1/T (the readings are c_hat T / T): 10 dB from T = 10 ms to 1 ms."""
+    from types import SimpleNamespace
+
+    from gnssframework.experiments.scenarios.tracking_threshold import cn0_floor_dbhz, cn0_readings_dbhz
+
+    p10 = SimpleNamespace(cn0_estimator="m2m4", cn0_window_s=0.2, settle_s=0.0)
+    floor = cn0_floor_dbhz(0.01, p10)
+    rng = np.random.default_rng(20261203)
+    noise = rng.standard_normal((20, 4000)) + 1j * rng.standard_normal((20, 4000))
+    reading = cn0_readings_dbhz(noise, 0.01, p10)
+    assert reading.shape == (1, 4000)
+    above = np.mean(reading > floor)
+    se = np.sqrt(0.05 * 0.95 / 4000 + 0.05 * 0.95 / 2000)
+    assert abs(above - 0.05) < 4 * se, (above, floor)
+    p1 = SimpleNamespace(cn0_estimator="m2m4", cn0_window_s=0.02, settle_s=0.0)
+    assert abs(cn0_floor_dbhz(0.001, p1) - floor - 10.0) < 0.3

@@ -55,6 +55,15 @@ The receiver's C/N0 estimate
     one that loses it reads the signal's power smeared over code and frequency errors:
     low, down to the estimator's floor on noise.
 
+A lock test on that reading (``loss_of_lock_by_cn0``)
+    What the receiver would decide from its own reading: a run is lost at the first window
+    (after ``settle_s``) whose reading is below ``cn0_lock_dbhz``, by default the
+    estimator's noise-only floor on the window, ``cn0_floor_dbhz`` (the 95th percentile of
+    its readings on pure noise, `gnssframework.signal.cn0_estimator.noise_floor_dbhz`: a
+    test set lower passes pure noise in more than 5 % of windows). A threshold of this
+    metric along a C/N0 sweep is the threshold *read off the estimate*; one of the truth's
+    ``loss_of_lock`` below ``cn0_floor_dbhz`` is one the receiver's estimator cannot vouch for.
+
 Jitter
     ``phase_jitter_rad`` and ``code_jitter_chips``: RMS of the phase error (wrapped to
     half a cycle around the lock point) and of the code error over the intervals before
@@ -68,6 +77,7 @@ Jitter
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, ClassVar, Literal
 
@@ -93,7 +103,8 @@ from ..metrics import MetricValue
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
 __all__ = ["TrackingThresholdScenario", "lock_loss", "code_freq_lock_loss", "count_slips", "lock_scores",
-           "code_freq_lock_scores", "cn0_estimate_error_db", "METRICS", "BYTES_PER_EPOCH_RUN"]
+           "code_freq_lock_scores", "cn0_estimate_error_db", "cn0_readings_dbhz", "median_error_db", "cn0_floor_dbhz",
+           "cn0_lock_loss", "METRICS", "BYTES_PER_EPOCH_RUN"]
 
 #: Peak memory of one run's interval (truth, the record; a generous round number).
 BYTES_PER_EPOCH_RUN = 512
@@ -121,6 +132,10 @@ class TrackingThresholdParams(SignalCoherentTime, ScenarioParams):
     cn0_estimator: str = Field("m2m4", description="the cn0_estimator plugin reading the prompts "
                                "(cn0_estimate_bias_db); one that reads the prompt alone")
     cn0_window_s: float = Field(0.2, gt=0, le=60, description="window of one C/N0 estimate (s; whole intervals T)")
+    cn0_lock_dbhz: float | None = Field(None, ge=0, le=60, description="the receiver's C/N0 lock test "
+                                        "(loss_of_lock_by_cn0): a window whose reading is below it declares loss "
+                                        "(dB-Hz); null: the cn0_estimator's noise-only floor on the window (95th "
+                                        "percentile on pure noise, cn0_floor_dbhz), the lowest C/N0 it can vouch for")
 
     @field_validator("cn0_estimator")
     @classmethod
@@ -285,7 +300,8 @@ class TrackingThresholdScenario(Scenario):
     components = {"channel_filter": True}
     outputs = {"phase_error_rad": "rad", "code_error_chips": "chips", "freq_error_hz": "Hz",
                "phase_thermal_std_rad": "rad",
-               "code_thermal_std_chips": "chips", "loop_noise_bandwidth_hz": "Hz", "cn0_error_db": "dB"}
+               "code_thermal_std_chips": "chips", "loop_noise_bandwidth_hz": "Hz", "cn0_error_db": "dB",
+               "cn0_lost": "", "cn0_floor": "dB-Hz"}
 
     def _case(self, case: dict) -> dict:
         c = self.CaseParams.model_validate(case)
@@ -426,39 +442,81 @@ class TrackingThresholdScenario(Scenario):
         thermal_phase = float(np.sqrt(pll_thermal_variance_rad2(c["cn0_dbhz"], bandwidth, T)))
         thermal_code = code_thermal_std_chips(channel, c["cn0_dbhz"], T, self.params.early_late_spacing_chips)
         K = phase_err.shape[0]
-        cn0_error_db = cn0_estimate_error_db(tracked.pop("prompt"), T, c["cn0_dbhz"], self.params)
+        reading_db = cn0_readings_dbhz(tracked.pop("prompt"), T, self.params)
+        cn0_error_db = median_error_db(reading_db, c["cn0_dbhz"])
+        floor_dbhz = cn0_floor_dbhz(T, self.params)
+        limit = floor_dbhz if self.params.cn0_lock_dbhz is None else self.params.cn0_lock_dbhz
+        lost_by_cn0 = cn0_lock_loss(reading_db, limit)
         series = {**tracked, "cn0_error_db": np.broadcast_to(cn0_error_db, (K, runs)),
+                  "cn0_lost": np.broadcast_to(lost_by_cn0, (K, runs)), "cn0_floor": np.full((K, runs), floor_dbhz),
                   "phase_thermal_std_rad": np.full((K, runs), thermal_phase),
                   "code_thermal_std_chips": np.full((K, runs), thermal_code),
                   "loop_noise_bandwidth_hz": np.full((K, runs), bandwidth)}
         return evaluate(METRICS, series, (np.arange(K) + 0.5) * T, self)
 
 
-def cn0_estimate_error_db(prompt: np.ndarray, T: float, cn0_dbhz: float, p: Any) -> np.ndarray:
-    """The receiver's C/N0 estimate against the truth, per run: the median over the run's
-    windows of ``10 log10(estimate) - cn0_dbhz`` (dB).
-
-    ``prompt`` is ``(K, runs)``; after ``p.settle_s`` it is cut into whole windows of
-    ``p.cn0_window_s`` (at least the estimator's fewest intervals), each read by the
-    ``p.cn0_estimator`` plugin. A reading of 0 (the estimator saw no signal: M2M4's
-    :math:`2M_2^2 - M_4 < 0`) ranks lowest; the median is robust to it and NaN when more
-    than half the windows have no reading, or there is no whole window.
-    """
+def cn0_readings_dbhz(prompt: np.ndarray, T: float, p: Any) -> np.ndarray:
+    """The receiver's C/N0 readings (dB-Hz), ``(windows, runs)``: ``prompt (K, runs)`` cut
+    after ``p.settle_s`` into whole windows of ``p.cn0_window_s`` (at least the estimator's
+    fewest intervals), each read by the ``p.cn0_estimator`` plugin; ``-inf`` where it reads
+    0 or below (the estimator saw no signal: M2M4's :math:`2M_2^2 - M_4 < 0`). No whole
+    window: ``(0, runs)``."""
     from ... import registry
 
     estimator = registry.create("cn0_estimator", p.cn0_estimator)
     K, runs = prompt.shape
     first = int(math.ceil(p.settle_s / T - 1e-9))
     width = max(int(round(p.cn0_window_s / T)), estimator.required_intervals())
-    windows = (K - first) // width
-    if windows < 1:
-        return np.full(runs, np.nan)
+    windows = max((K - first) // width, 0)
     blocks = prompt[first:first + windows * width].reshape(windows, width, runs)
     estimate_hz = estimator.estimate_hz(np.moveaxis(blocks, 1, -1), T)  # (windows, runs)
     with np.errstate(divide="ignore"):
-        reading_db = np.where(estimate_hz > 0, 10.0 * np.log10(np.maximum(estimate_hz, 1e-300)), -np.inf)
+        return np.where(estimate_hz > 0, 10.0 * np.log10(np.maximum(estimate_hz, 1e-300)), -np.inf)
+
+
+def median_error_db(reading_db: np.ndarray, cn0_dbhz: float) -> np.ndarray:
+    """Per run, the median over windows of ``reading_db (windows, runs)`` minus the truth
+    (dB); a reading of ``-inf`` ranks lowest, and the median is NaN when more than half the
+    windows have none (or there is no window)."""
+    if reading_db.shape[0] == 0:
+        return np.full(reading_db.shape[1], np.nan)
     error_db = np.median(reading_db, axis=0) - cn0_dbhz
     return np.where(np.isfinite(error_db), error_db, np.nan)
+
+
+def cn0_estimate_error_db(prompt: np.ndarray, T: float, cn0_dbhz: float, p: Any) -> np.ndarray:
+    """The receiver's C/N0 estimate against the truth, per run: the median over the run's
+    windows of ``10 log10(estimate) - cn0_dbhz`` (dB; `cn0_readings_dbhz`, `median_error_db`)."""
+    return median_error_db(cn0_readings_dbhz(prompt, T, p), cn0_dbhz)
+
+
+def cn0_floor_dbhz(T: float, p: Any) -> float:
+    """The ``p.cn0_estimator``'s noise-only floor (dB-Hz) on the scenario's window
+    (``p.cn0_window_s`` at interval ``T``): the 95th percentile of its readings on pure noise
+    (`gnssframework.signal.cn0_estimator.noise_floor_dbhz`, 2000 windows, a fixed seed;
+    computed once per estimator, T and window: every batch of a case reads the same)."""
+    from ... import registry
+
+    estimator = registry.create("cn0_estimator", p.cn0_estimator)
+    width = max(int(round(p.cn0_window_s / T)), estimator.required_intervals())
+    return _noise_floor_dbhz(p.cn0_estimator, float(T), width)
+
+
+@functools.lru_cache(maxsize=64)
+def _noise_floor_dbhz(name: str, T: float, width: int) -> float:
+    from ... import registry
+    from ...signal.cn0_estimator import noise_floor_dbhz
+
+    return noise_floor_dbhz(registry.create("cn0_estimator", name), T, width)
+
+
+def cn0_lock_loss(reading_db: np.ndarray, limit_dbhz: float) -> np.ndarray:
+    """Per run, 1.0 if a window's reading ``reading_db (windows, runs)`` is below
+    ``limit_dbhz`` (the receiver's C/N0 lock test declares loss), else 0.0; NaN without a
+    window."""
+    if reading_db.shape[0] == 0:
+        return np.full(reading_db.shape[1], np.nan)
+    return (reading_db < limit_dbhz).any(axis=0).astype(float)
 
 
 def lock_scores(phase_err: np.ndarray, code_err: np.ndarray, T: float, p: TrackingThresholdParams) -> dict:
@@ -553,6 +611,12 @@ METRICS = (
          description="median over the run's windows (cn0_window_s, after settle_s) of the cn0_estimator's reading "
          "minus the true C/N0; its mean over runs is the estimate's bias: the receiver's own view of the signal "
          "as lock goes"),
+    Mean("loss_of_lock_by_cn0", "", of="cn0_lost", undefined="no whole cn0_window_s after settle_s",
+         description="1 if a window's C/N0 reading (cn0_window_s, after settle_s) is below cn0_lock_dbhz (default "
+         "cn0_floor_dbhz), else 0: the receiver's own lock test on its estimate"),
+    Mean("cn0_floor_dbhz", "dB-Hz", of="cn0_floor",
+         description="the cn0_estimator's noise-only floor on the window (95th percentile of its readings on pure "
+         "noise): a threshold below it cannot be read off the estimate"),
     Mean("equivalent_bandwidth_hz", "Hz", of="loop_noise_bandwidth_hz",
          description="the carrier loop's steady-state noise bandwidth (loop_bandwidth.equivalent_bandwidth_hz)"),
 )
