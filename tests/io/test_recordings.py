@@ -21,7 +21,7 @@ KINDS = {"07590920.05n": "rinex-nav", "07590920.05o": "rinex-obs", "CEBR00ESP_R_
          "rinex-obs", "beidou-bd.log": "nmea", "gsdc2022_device_gnss.csv": "gsdc-device",
          "gsdc2022_ground_truth.csv": "gsdc-truth", "pixel6.23o": "rinex-obs", "pixel6.nmea": "nmea",
          "ublox-zed-f9p-nmea.log": "nmea", "gnssframework_receive_13s.rnx": "rinex-obs", "VILL00ESP_R_20181700000_06H_MN.rnx": "rinex-nav",
-         "BRDC00IGS_R_20201361400_02H_EN.rnx": "rinex-nav"}
+         "BRDC00IGS_R_20201361400_02H_EN.rnx": "rinex-nav", "galileo_inav_20feb2022_05h.rnx": "rinex-nav"}
 
 
 def test_every_copied_recording_has_a_known_kind():
