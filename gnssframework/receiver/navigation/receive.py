@@ -30,6 +30,7 @@ from ...plugin_ref import PluginSpec
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .filtered import filter_epochs
+from .inav_stream import require_lnav
 from .fixes import INTEGRITY_COLUMNS, PositionTable, solve_epochs
 from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
 from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
@@ -85,6 +86,7 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     (`VectorSolution.table`; the monitor is ``vector.monitor_false_alarm``'s).
     ``observe`` is given the scalar tracker before it runs (a live receiver's fixes as they
     come, `live.LiveFixes`, read its records from ``progress``)."""
+    require_lnav(signal)  # the transmit times below are dated from LNAV subframes
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
                                         "give nav_filter or vector, not both")
