@@ -23,7 +23,7 @@ not dated.
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -32,15 +32,18 @@ import numpy as np
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.inav import InavMessage, decode_inav
+from ...navigation.lnav import LnavMessage
 from ...signal.spec import SignalSpec
 
 if TYPE_CHECKING:
     from ..channels import ChannelRecord, TrackingResult
+    from .observables import ChannelTiming
 
 __all__ = ["carries_inav", "carries_lnav", "require_lnav", "symbol_runs", "InavTiming", "channel_inav",
-           "INAV_COLUMNS", "inav_summary", "write_inav_report", "coherent_periods"]
+           "INAV_COLUMNS", "inav_summary", "inav_channel_timing", "write_inav_report", "coherent_periods"]
 
 _WEEK_S = 604_800.0
+_PULL_IN = 0  # index of "pull-in" in receiver.channels.STAGES
 #: Columns of the ``track`` command's ``inav.csv``: one row per E1-B channel.
 INAV_COLUMNS = ("prn", "symbols", "pages", "word_types", "crc_failures", "iodnav", "gst_wn", "gst_tow_s",
                 "gst_time_s", "inverted", "ephemeris")
@@ -62,9 +65,10 @@ def carries_lnav(signal: SignalSpec) -> bool:
 def require_lnav(signal: SignalSpec) -> None:
     """Refuse, in one line, a signal the receiver's dating and positioning would read as LNAV wrongly."""
     if not carries_lnav(signal):
-        hint = (f"; its I/NAV is decoded by `track --signal {signal.name}`" if carries_inav(signal) else "")
-        raise ConfigError("signal", f"{signal.name}: the receiver dates and positions from GPS LNAV (gps-l1ca, "
-                                    f"qzss-l1ca) only{hint}")
+        hint = (f"; its I/NAV is decoded by `track --signal {signal.name}` (positions: the receive() API)"
+                if carries_inav(signal) else "")
+        raise ConfigError("signal", f"{signal.name}: the receive command dates and positions from GPS LNAV "
+                                    f"(gps-l1ca, qzss-l1ca) only{hint}")
 
 
 def coherent_periods(signal: SignalSpec, requested: int | None, default: int = 10) -> int | None:
@@ -106,7 +110,11 @@ class InavTiming:
     ``messages``: `InavMessage` per run (`symbol_runs`); ``rows`` and ``transmit_s`` the
     record rows dated from a decoded GST and their transmit times (satellite time of week,
     s); ``gst``: the last ``(recording time s of the dated symbol, WN, TOW s)``;
-    ``ephemeris`` the last complete one (None without).
+    ``ephemeris`` the last complete one (None without); ``half_cycle`` per dated row, True
+    where its run's pages came inverted (the Costas loop 180 degrees off: the sync pattern
+    is sent upright); ``arc_start`` True on the first dated row of each run;
+    ``ephemerides`` each run's complete ephemeris with the recording time of the run's
+    last row (when it is surely in hand).
     """
 
     prn: int
@@ -115,6 +123,9 @@ class InavTiming:
     transmit_s: np.ndarray
     gst: tuple[float, int, float] | None
     ephemeris: Ephemerides | None
+    half_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    arc_start: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    ephemerides: list[tuple[float, Ephemerides]] = field(default_factory=list)
 
     @property
     def pages(self) -> int:
@@ -137,13 +148,15 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
     time_s, code_chips = col("time_s"), col("code_phase_chips")
     period = signal.code_period_s
     prompt = col("prompt_i")
-    messages, rows, tx = [], [], []
+    messages, rows, tx, half = [], [], [], []
     gst, ephemeris = None, None
+    ephemerides: list[tuple[float, Ephemerides]] = []
     for run in symbol_runs(time_s, col("coherent_ms"), period):
         msg = decode_inav(prompt[run])
         messages.append(msg)
         if msg.ephemeris is not None:
             ephemeris = msg.ephemeris
+            ephemerides.append((float(time_s[run[-1]]), msg.ephemeris))
         if msg.gst is None:
             continue
         start, wn, tow = msg.gst
@@ -151,8 +164,34 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
         k = np.arange(run.size) - start
         tx.append((tow + k * period + code_chips[run] / signal.chip_rate_hz) % _WEEK_S)
         rows.append(run)
+        half.append(np.full(run.size, msg.pages[-1].inverted))
+    starts = np.zeros(sum(r.size for r in rows), bool)
+    starts[np.cumsum([0] + [r.size for r in rows[:-1]])[:len(rows)]] = True
     return InavTiming(record.prn, messages, np.concatenate(rows) if rows else np.zeros(0, int),
-                      np.concatenate(tx) if tx else empty, gst, ephemeris)
+                      np.concatenate(tx) if tx else empty, gst, ephemeris,
+                      np.concatenate(half) if half else np.zeros(0, bool), starts, ephemerides)
+
+
+def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTiming | None:
+    """The rows of an E1-B channel dated from its I/NAV GST (`channel_inav`) as the
+    `observables.ChannelTiming` the observables and fixes take (no LNAV message: no week,
+    no Klobuchar coefficients; the ephemerides decoded per run); None without a GST."""
+    from .observables import ChannelTiming
+
+    timing = channel_inav(record, signal)
+    col = record.column
+    # The pull-in's rows decode (their symbols are as good once the carrier is in) but
+    # their code phase is still converging: only the rows from lock on are measurements.
+    keep = col("stage")[timing.rows] != _PULL_IN
+    if np.count_nonzero(keep) < 2:
+        return None
+    run = np.cumsum(timing.arc_start)[keep]
+    arc_start = np.r_[True, np.diff(run) != 0]
+    r = timing.rows[keep]
+    return ChannelTiming(record.prn, col("time_s")[r], timing.transmit_s[keep], col("doppler_hz")[r],
+                         col("carrier_phase_cycles")[r], col("cn0_dbhz")[r], timing.half_cycle[keep],
+                         LnavMessage(record.prn, [], None, None, None), timing.ephemerides, arc_start,
+                         np.ones(r.size, bool))
 
 
 def inav_summary(timing: InavTiming, symbols: int) -> dict:
