@@ -161,3 +161,17 @@ def test_track_galileo_e1b_reports_the_inav_pages_iodnav_and_gst(tmp_path, capsy
     late = t > 1.0  # after pull-in
     err_chips = (timing.transmit_s - truth)[late] * GALILEO_E1B_BOC11.chip_rate_hz
     assert late.sum() > 1000 and np.all(np.abs(err_chips) < 0.1), np.abs(err_chips).max()
+
+
+def test_an_ephemeris_is_ready_once_the_page_completing_words_1_to_5_has_arrived():
+    """One run of nine pages from GST 18019 s (word types 22, 1, 3, 5, 0, 16, 2, 4, 6): the
+    record is complete with word 4's page (18033 s), i.e. at the row after that page's last
+    symbol, 16 s of pages after the run's first symbol; its fields are the record's."""
+    rec = read_rinex_nav(NAV, systems="E").subset(np.array([0]))
+    sym = inav.encode_inav(rec, WN, 18019, 9).astype(float) * 4.0
+    t = 1.0 + np.arange(sym.size) * 0.004
+    timing = channel_inav(_record(11, t, sym, np.zeros(sym.size), np.ones(sym.size, int)), GALILEO_E1B_BOC11)
+    ((ready_s, eph),) = timing.ephemerides
+    assert ready_s == pytest.approx(1.0 + (18035 - 18019) * 1.0, abs=1e-9)
+    assert int(eph.iode[0]) == int(rec.iode[0]) and eph.sv[0] == rec.sv[0]
+    assert eph.elements["sqrtA"][0] == pytest.approx(rec.elements["sqrtA"][0], rel=1e-12)

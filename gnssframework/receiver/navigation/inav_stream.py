@@ -31,7 +31,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides
-from ...navigation.inav import InavMessage, decode_inav
+from ...navigation.inav import PAGE_SYMBOLS, InavMessage, decode_inav
 from ...navigation.lnav import LnavMessage
 from ...signal.spec import SignalSpec
 
@@ -156,7 +156,8 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
         messages.append(msg)
         if msg.ephemeris is not None:
             ephemeris = msg.ephemeris
-            ephemerides.append((float(time_s[run[-1]]), msg.ephemeris))
+            done = min(_completed_at(msg) + PAGE_SYMBOLS, run.size - 1)  # the row after its last page
+            ephemerides.append((float(time_s[run[done]]), msg.ephemeris))
         if msg.gst is None:
             continue
         start, wn, tow = msg.gst
@@ -170,6 +171,20 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
     return InavTiming(record.prn, messages, np.concatenate(rows) if rows else np.zeros(0, int),
                       np.concatenate(tx) if tx else empty, gst, ephemeris,
                       np.concatenate(half) if half else np.zeros(0, bool), starts, ephemerides)
+
+
+def _completed_at(msg: InavMessage) -> int:
+    """Index (in its run) of the first symbol of the page that completed ``msg``'s
+    ephemeris: the first page by which words 1-5 have all arrived with words 1-4 of the
+    ephemeris's IODnav."""
+    iod = int(msg.ephemeris.iode[0]) if msg.ephemeris is not None else -1
+    seen: set[int] = set()
+    for p in msg.pages:
+        if p.word_type == 5 or (p.word_type in (1, 2, 3, 4) and int(p.fields["iodnav"]) == iod):
+            seen.add(p.word_type)
+        if seen >= {1, 2, 3, 4, 5}:
+            return p.start
+    return msg.pages[-1].start
 
 
 def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTiming | None:
