@@ -376,12 +376,21 @@ def _note_nonfinite(rec) -> None:
               "set to 0")
 
 
-def _tracking_config_from_args(args: argparse.Namespace):
+#: The early-to-late spacing (chips) ``track`` uses on a BOC signal unless told
+#: (`docs/receiver/galileo-e1.md`: the spacing the E1 tracking was validated with).
+BOC_EARLY_LATE_SPACING_CHIPS = 0.2
+
+
+def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | None = None):
     """The tracking settings of ``track`` and ``position`` (a command without an option
-    leaves its default), and ``--duration`` checked."""
+    leaves its default), and ``--duration`` checked. With ``signal``, ``--coherent-ms-track``
+    must divide its data symbol and defaults to the largest such up to 10 code periods
+    (`inav_stream.coherent_periods`: 1 on Galileo E1-B), and a BOC signal's early-to-late
+    spacing defaults to `BOC_EARLY_LATE_SPACING_CHIPS`."""
     import json
 
     from .receiver.channels import tracking_config
+    from .receiver.navigation.inav_stream import coherent_periods
 
     try:
         params = json.loads(args.channel_params) if args.channel_params else {}
@@ -392,6 +401,13 @@ def _tracking_config_from_args(args: argparse.Namespace):
                         ("early_late_spacing", "early_late_spacing_chips")):
         if getattr(args, option, None) is not None:
             settings[key] = getattr(args, option)
+    if signal is not None:
+        coherent = coherent_periods(signal, getattr(args, "coherent_ms_track", None))
+        if coherent is not None:
+            settings["coherent_ms"] = coherent
+        if signal.subcarrier.kind != "bpsk" and getattr(args, "early_late_spacing", None) is None:
+            # BOC(1,1)'s main peak is +-1/3 chip wide: taps +-0.5 chip apart sit on its side lobes
+            settings["early_late_spacing_chips"] = BOC_EARLY_LATE_SPACING_CHIPS
     if args.duration is not None and not args.duration >= MIN_DURATION_S:
         raise ConfigError("--duration", f"must be at least {MIN_DURATION_S:g} s (tracking's first intervals), got "
                                         f"{args.duration:g}")
@@ -441,13 +457,14 @@ def _cmd_track(args: argparse.Namespace) -> int:
     from .receiver.acquisition.report import search_summary
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
+    from .receiver.navigation.inav_stream import carries_inav, write_inav_report
 
     _threads_from_args(args)
     rec = _open_recording_from_args(args)
     acq = _acquisition_from_args(args)
     signal = _signal_from_args(args)
     prns = _prns_from_args(args, signal)
-    config = _tracking_config_from_args(args)
+    config = _tracking_config_from_args(args, signal)
     tracker = SampleTracker(rec, config, acq, signal=signal)  # its stages' filters built once, here
     if rec.trailing_bytes:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
@@ -459,12 +476,21 @@ def _cmd_track(args: argparse.Namespace) -> int:
         return 1
     with _recording_progress(args, rec) as progress:
         result = tracker.run(found, args.duration, progress)
-    written = write_tracking_outputs(args.out, result, plots=not args.no_plots)
+    written = write_tracking_outputs(args.out, result, plots=not args.no_plots, code_period_s=signal.code_period_s)
     print(f"tracked {len(found)} satellites for {result.duration_s:.3f} s with {config.channel_filter}:")
-    for s in channel_summary(result):
+    for s in channel_summary(result, signal.code_period_s):
         print(f"  PRN {s['prn']:2d}: locked {100 * s['locked_fraction']:5.1f} % of {s['tracked_s']:.2f} s, "
               f"C/N0 {_or_none(s['cn0_dbhz_locked'], '5.1f')} dB-Hz, Doppler {_or_none(s['doppler_hz_last'], '9.1f')} "
               f"Hz, {s['final_stage']}")
+    if carries_inav(signal):  # E1-B: every 4 ms prompt a symbol of I/NAV
+        path, inav_rows = write_inav_report(args.out, result, signal)
+        written.append(path)
+        for r in inav_rows:
+            gst = f"GST week {r['gst_wn']} TOW {r['gst_tow_s']} s at {float(r['gst_time_s']):.3f} s" \
+                if r["gst_wn"] != "" else "no GST"
+            print(f"  PRN {r['prn']:2d}: I/NAV {r['pages']} pages (word types {r['word_types'] or 'none'}), "
+                  f"{r['crc_failures']} CRC failures, IODnav {r['iodnav'] or 'none'}, {gst}"
+                  f"{', ephemeris complete' if r['ephemeris'] else ''}")
     _note_nonfinite(rec)
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0
@@ -595,6 +621,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
     from .receiver.navigation.receive import position_errors, receive
+    from .receiver.navigation.inav_stream import require_lnav
     from .receiver.navigation.receiver_config import receiver_filters
     from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
     from .receiver.channels.report import write_tracking_outputs
@@ -606,6 +633,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     rec = live.recording
     acq = _acquisition_from_args(args)
     signal = _signal_from_args(args)
+    require_lnav(signal)  # the dating below is LNAV's: another message would be misread
     prns = _prns_from_args(args, signal)
     try:
         channel_params = json.loads(args.channel_params) if args.channel_params else None

@@ -23,8 +23,9 @@ SUMMARY_COLUMNS = ("prn", "acq_doppler_hz", "acq_cn0_dbhz", "tracked_s", "locked
                    "doppler_hz_last", "final_stage")
 
 
-def channel_summary(result: TrackingResult) -> list[dict]:
-    """One dict per channel (`SUMMARY_COLUMNS`)."""
+def channel_summary(result: TrackingResult, code_period_s: float = 1e-3) -> list[dict]:
+    """One dict per channel (`SUMMARY_COLUMNS`); ``code_period_s`` the tracked signal's
+    (the record's ``coherent_ms`` counts code periods: 4 ms each on Galileo E1)."""
     acq = {a.prn: a for a in result.acquisitions}
     out = []
     for prn, ch in sorted(result.channels.items()):
@@ -32,7 +33,7 @@ def channel_summary(result: TrackingResult) -> list[dict]:
             lock = np.zeros(0)
         else:
             lock = ch.column("lock").astype(bool)
-        span = ch.column("coherent_ms") * 1e-3 if ch.rows else np.zeros(0)
+        span = ch.column("coherent_ms") * code_period_s if ch.rows else np.zeros(0)
         cn0 = ch.column("cn0_dbhz")[lock] if lock.any() else np.zeros(0)
         out.append({"prn": prn, "acq_doppler_hz": acq[prn].doppler_hz, "acq_cn0_dbhz": acq[prn].cn0_dbhz,
                     "tracked_s": float(span.sum()),
@@ -57,8 +58,10 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def write_tracking_outputs(out_dir: str | Path, result: TrackingResult, plots: bool = True) -> list[Path]:
-    """Write the files of a tracking run into ``out_dir``; returns their paths."""
+def write_tracking_outputs(out_dir: str | Path, result: TrackingResult, plots: bool = True,
+                           code_period_s: float = 1e-3) -> list[Path]:
+    """Write the files of a tracking run into ``out_dir``; returns their paths
+    (``code_period_s``: the tracked signal's, `channel_summary`)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "tracking.csv", out / "summary.csv", out / "events.txt"]
@@ -78,7 +81,7 @@ def write_tracking_outputs(out_dir: str | Path, result: TrackingResult, plots: b
             w.writerow([f"{r['time_s']:.9f}", r["prn"], f"{r['cn0_dbhz']:.2f}", f"{r['doppler_hz']:.3f}",
                         f"{r['code_phase_chips']:.6f}", r["lock"], f"{r['prompt_i']:.4f}", f"{r['prompt_q']:.4f}",
                         f"{r['carrier_phase_cycles']:.6f}", f"{r['pli']:.3f}", r["stage"], r["coherent_ms"]])
-    summary = channel_summary(result)
+    summary = channel_summary(result, code_period_s)
     with atomic_open(written[1], "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(SUMMARY_COLUMNS)

@@ -8,7 +8,7 @@ signal is any `SignalSpec` (GPS L1 C/A by default; BPSK or BOC alike).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,11 +36,17 @@ class SatelliteSignal:
     first_bit_code_period: int | None = None
     #: The signal the satellite sends.
     signal: SignalSpec = GPS_L1CA
+    #: The ±1 data symbols sent from ``first_bit_code_period`` on (e.g. `inav.inav_symbols`,
+    #: `lnav.lnav_symbols`) instead of random ones; at least one per symbol period of the
+    #: recording after the first edge.
+    symbols: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.first_bit_code_period is not None and self.signal.symbol_period_s is None:
             raise ConfigError("first_bit_code_period", f"{self.signal.name} carries no data symbols (a pilot): "
                                                        "leave it None")
+        if self.symbols is not None and self.first_bit_code_period is None:
+            raise ConfigError("symbols", "give first_bit_code_period too: the code period the first symbol starts")
 
     def first_bit_edge_s(self) -> float:
         """Time of the first bit edge: a code epoch (chip 0) after t = 0."""
@@ -57,7 +63,13 @@ def synthesize_samples(satellites: list[SatelliteSignal], duration_s: float, sam
     x = np.zeros(n, complex if complex_samples else float)
     for sat in satellites:
         bits = None
-        if sat.first_bit_code_period is not None:
+        if sat.symbols is not None:
+            need = int(np.ceil((duration_s - sat.first_bit_edge_s()) / sat.signal.symbol_period_s))
+            bits = np.asarray(sat.symbols, dtype=float)
+            if bits.ndim != 1 or bits.size < need:
+                raise ConfigError("symbols", f"PRN {sat.prn}: {need} symbols cover the recording, got shape "
+                                             f"{bits.shape}")
+        elif sat.first_bit_code_period is not None:
             bits = random_nav_bits(int(np.ceil(duration_s * (1.0 / sat.signal.symbol_period_s))) + 2, rng)
         x += generate_if_samples(sat.prn, duration_s, sample_rate_hz, if_hz, sat.cn0_dbhz, rng,
                                  doppler_hz=sat.doppler_hz, code_phase_chips=sat.code_phase_chips,

@@ -30,6 +30,7 @@ from ...plugin_ref import PluginSpec
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .filtered import filter_epochs
+from .inav_stream import carries_inav, inav_channel_timing, require_lnav
 from .fixes import INTEGRITY_COLUMNS, PositionTable, solve_epochs
 from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
 from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
@@ -76,7 +77,9 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     decoded page 18 (an assisted start takes the assistance's). ``weighting``
     that of the least-squares fixes (`pvt.solve_position`'s; ``rtklib`` for RTKLIB's SPP model).
     ``signal`` is the one searched, tracked and dated (an LNAV-format `SignalSpec`: GPS or
-    QZSS L1 C/A); ``filters`` the stages' channel filters built once for the task
+    QZSS L1 C/A; or Galileo E1-B, dated from its I/NAV GST, scalar tracking only, with the
+    records of ``rinex`` or the decoded I/NAV ones, no Klobuchar correction unless
+    ``iono_fallback``); ``filters`` the stages' channel filters built once for the task
     (`channels.factory.StageFilters` of ``config``; built by the tracker when None).
     ``raim`` monitors the least-squares fixes' integrity (`pvt.solve_position`'s ``raim``)
     and gives the nav filter's rows protection levels from its covariance, its innovation
@@ -85,6 +88,12 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     (`VectorSolution.table`; the monitor is ``vector.monitor_false_alarm``'s).
     ``observe`` is given the scalar tracker before it runs (a live receiver's fixes as they
     come, `live.LiveFixes`, read its records from ``progress``)."""
+    galileo = carries_inav(signal)  # E1-B: dated from the I/NAV GST (`inav_stream.inav_channel_timing`)
+    if galileo and (vector is not None or assist is not None):
+        raise ConfigError("vector", f"{signal.name}: vector tracking and the assisted start hand over from LNAV; "
+                                    "I/NAV positions are the scalar receiver's")
+    if not galileo:
+        require_lnav(signal)  # the transmit times below are dated from LNAV subframes
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
                                         "give nav_filter or vector, not both")
@@ -125,7 +134,8 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     if observe is not None:
         observe(scalar_tracker)
     tracking = scalar_tracker.run(found, duration_s, progress)
-    timings = [channel_timing(ch, signal=signal) for ch in tracking.channels.values()]
+    timings = [inav_channel_timing(ch, signal) if galileo else channel_timing(ch, signal=signal)
+               for ch in tracking.channels.values()]
     if not any(t is not None and t.time_s.size > 1 for t in timings):
         return ReceiveResult(tracking, None, None)
     obs = observables(timings, rate_hz)

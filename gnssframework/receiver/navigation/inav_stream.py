@@ -1,0 +1,241 @@
+"""Galileo I/NAV from a tracked E1-B channel: its prompts, symbol by symbol, to pages and GST.
+
+An E1-B symbol is one 4 ms code period (Galileo OS SIS ICD 4.3.2, 250 symbol/s), and
+every row of a channel's record (`gnssframework.receiver.channels.ChannelRecord`) starts
+on a code epoch of its replica: a row integrated over one code period (``coherent_ms`` 1,
+whatever the stage) is one soft symbol, with no bit synchronisation. A run of such rows
+without a gap (consecutive rows one code period apart, half a period of slack) is one
+stream for :func:`~gnssframework.navigation.inav.decode_inav`; a channel that loses lock
+starts a new run.
+
+The GST a page carries (word type 0 or 5: WN, TOW) is the satellite time at the start of
+that page's even part (ICD 5.1.2), the first symbol of the row the decoder names; the row
+``k`` rows later started transmitting ``k x 4 ms`` after it, and its replica was
+``code_phase_chips / chip rate`` further on (a chip is 1/1.023 MHz of satellite time), so
+
+    t_tx(row) = TOW + (row - start) x 4 ms + code_phase_chips / 1.023e6 s
+
+(`InavTiming.transmit_s`: satellite time of week, before the clock correction, as
+`observables.channel_timing` gives it for LNAV). Rows of runs without a decoded GST are
+not dated.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ...errors import ConfigError
+from ...navigation.ephemeris import Ephemerides
+from ...navigation.inav import PAGE_SYMBOLS, InavMessage, decode_inav
+from ...navigation.lnav import LnavMessage
+from ...signal.spec import SignalSpec
+
+if TYPE_CHECKING:
+    from ..channels import ChannelRecord, TrackingResult
+    from .observables import ChannelTiming
+
+__all__ = ["carries_inav", "carries_lnav", "require_lnav", "symbol_runs", "InavTiming", "channel_inav",
+           "INAV_COLUMNS", "inav_summary", "inav_channel_timing", "write_inav_report", "coherent_periods"]
+
+_WEEK_S = 604_800.0
+_PULL_IN = 0  # index of "pull-in" in receiver.channels.STAGES
+#: Columns of the ``track`` command's ``inav.csv``: one row per E1-B channel.
+INAV_COLUMNS = ("prn", "symbols", "pages", "word_types", "crc_failures", "iodnav", "gst_wn", "gst_tow_s",
+                "gst_time_s", "inverted", "ephemeris")
+
+
+def carries_inav(signal: SignalSpec) -> bool:
+    """Whether ``signal``'s tracked component is Galileo E1-B (I/NAV, one symbol a 4 ms code period)."""
+    sym = signal.components[0].symbol_period_s
+    return signal.system == "E" and sym is not None and abs(sym - 0.004) < 1e-9 and signal.code_periods_per_symbol == 1
+
+
+def carries_lnav(signal: SignalSpec) -> bool:
+    """Whether ``signal`` is an L1 C/A signal of the GPS LNAV format (GPS, QZSS): 1 ms
+    code periods, 20 ms bits."""
+    return signal.system in ("G", "J") and signal.code_periods_per_symbol == 20 \
+        and abs(signal.code_period_s - 1e-3) < 1e-12
+
+
+def require_lnav(signal: SignalSpec) -> None:
+    """Refuse, in one line, a signal the receiver's dating and positioning would read as LNAV wrongly."""
+    if not carries_lnav(signal):
+        hint = (f"; its I/NAV is decoded by `track --signal {signal.name}` (positions: the receive() API)"
+                if carries_inav(signal) else "")
+        raise ConfigError("signal", f"{signal.name}: the receive command dates and positions from GPS LNAV "
+                                    f"(gps-l1ca, qzss-l1ca) only{hint}")
+
+
+def coherent_periods(signal: SignalSpec, requested: int | None, default: int = 10) -> int | None:
+    """The tracking's coherent code periods after bit sync on ``signal``: ``requested``
+    (None: the largest of 1, 2, 4, 5, ``default`` that divides a data symbol; None on a
+    pilot, the tracking's default), refused where it spans data symbols."""
+    per_symbol = signal.code_periods_per_symbol
+    if per_symbol is None:
+        return requested
+    if requested is None:
+        return max(k for k in (1, 2, 4, 5, default) if k <= default and per_symbol % k == 0)
+    if per_symbol % requested:
+        raise ConfigError("--coherent-ms-track", f"{requested} code periods span {signal.name}'s data symbols "
+                                                 f"({per_symbol} code period{'s' if per_symbol > 1 else ''} each): "
+                                                 "give one that divides it")
+    return requested
+
+
+def symbol_runs(time_s: np.ndarray, coherent: np.ndarray, code_period_s: float, min_symbols: int = 1
+                ) -> list[np.ndarray]:
+    """Row indices of the gap-free runs of one-code-period rows: consecutive in the record,
+    ``coherent`` 1, each starting one code period after the previous (half a period of
+    slack); runs shorter than ``min_symbols`` left out."""
+    time_s, coherent = np.asarray(time_s, float), np.asarray(coherent, int)
+    if time_s.shape != coherent.shape or time_s.ndim != 1:
+        raise ConfigError("symbol_runs", f"columns of one record must be 1-D and of one length, got {time_s.shape}, "
+                                         f"{coherent.shape}")
+    rows = np.flatnonzero(coherent == 1)
+    if rows.size == 0:
+        return []
+    breaks = (np.diff(rows) != 1) | (np.abs(np.diff(time_s[rows]) - code_period_s) > 0.5 * code_period_s)
+    return [r for r in np.split(rows, np.flatnonzero(breaks) + 1) if r.size >= min_symbols]
+
+
+@dataclass(frozen=True)
+class InavTiming:
+    """What one E1-B channel's I/NAV gave.
+
+    ``messages``: `InavMessage` per run (`symbol_runs`); ``rows`` and ``transmit_s`` the
+    record rows dated from a decoded GST and their transmit times (satellite time of week,
+    s); ``gst``: the last ``(recording time s of the dated symbol, WN, TOW s)``;
+    ``ephemeris`` the last complete one (None without); ``half_cycle`` per dated row, True
+    where its run's pages came inverted (the Costas loop 180 degrees off: the sync pattern
+    is sent upright); ``arc_start`` True on the first dated row of each run;
+    ``ephemerides`` each run's complete ephemeris with the recording time of the run's
+    last row (when it is surely in hand).
+    """
+
+    prn: int
+    messages: list[InavMessage]
+    rows: np.ndarray
+    transmit_s: np.ndarray
+    gst: tuple[float, int, float] | None
+    ephemeris: Ephemerides | None
+    half_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    arc_start: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    ephemerides: list[tuple[float, Ephemerides]] = field(default_factory=list)
+
+    @property
+    def pages(self) -> int:
+        return sum(len(m.pages) for m in self.messages)
+
+    @property
+    def failures(self) -> list[str]:
+        return [f for m in self.messages for f in m.failures]
+
+
+def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
+    """Decode the I/NAV of one channel tracking E1-B (`carries_inav`), run by run, and date
+    the rows of each run that carries a GST (module text)."""
+    if not carries_inav(signal):
+        raise ConfigError("signal", f"{signal.name} carries no I/NAV on its tracked component (galileo-e1b does)")
+    empty = np.zeros(0)
+    if not record.rows:
+        return InavTiming(record.prn, [], np.zeros(0, int), empty, None, None)
+    col = record.column
+    time_s, code_chips = col("time_s"), col("code_phase_chips")
+    period = signal.code_period_s
+    prompt = col("prompt_i")
+    messages, rows, tx, half = [], [], [], []
+    gst, ephemeris = None, None
+    ephemerides: list[tuple[float, Ephemerides]] = []
+    for run in symbol_runs(time_s, col("coherent_ms"), period):
+        msg = decode_inav(prompt[run])
+        messages.append(msg)
+        if msg.ephemeris is not None:
+            ephemeris = msg.ephemeris
+            done = min(_completed_at(msg) + PAGE_SYMBOLS, run.size - 1)  # the row after its last page
+            ephemerides.append((float(time_s[run[done]]), msg.ephemeris))
+        if msg.gst is None:
+            continue
+        start, wn, tow = msg.gst
+        gst = (float(time_s[run[start]]), wn, tow)
+        k = np.arange(run.size) - start
+        tx.append((tow + k * period + code_chips[run] / signal.chip_rate_hz) % _WEEK_S)
+        rows.append(run)
+        half.append(np.full(run.size, msg.pages[-1].inverted))
+    starts = np.zeros(sum(r.size for r in rows), bool)
+    starts[np.cumsum([0] + [r.size for r in rows[:-1]])[:len(rows)]] = True
+    return InavTiming(record.prn, messages, np.concatenate(rows) if rows else np.zeros(0, int),
+                      np.concatenate(tx) if tx else empty, gst, ephemeris,
+                      np.concatenate(half) if half else np.zeros(0, bool), starts, ephemerides)
+
+
+def _completed_at(msg: InavMessage) -> int:
+    """Index (in its run) of the first symbol of the page that completed ``msg``'s
+    ephemeris: the first page by which words 1-5 have all arrived with words 1-4 of the
+    ephemeris's IODnav."""
+    iod = int(msg.ephemeris.iode[0]) if msg.ephemeris is not None else -1
+    seen: set[int] = set()
+    for p in msg.pages:
+        if p.word_type == 5 or (p.word_type in (1, 2, 3, 4) and int(p.fields["iodnav"]) == iod):
+            seen.add(p.word_type)
+        if seen >= {1, 2, 3, 4, 5}:
+            return p.start
+    return msg.pages[-1].start
+
+
+def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTiming | None:
+    """The rows of an E1-B channel dated from its I/NAV GST (`channel_inav`) as the
+    `observables.ChannelTiming` the observables and fixes take (no LNAV message: no week,
+    no Klobuchar coefficients; the ephemerides decoded per run); None without a GST."""
+    from .observables import ChannelTiming
+
+    timing = channel_inav(record, signal)
+    col = record.column
+    # The pull-in's rows decode (their symbols are as good once the carrier is in) but
+    # their code phase is still converging: only the rows from lock on are measurements.
+    keep = col("stage")[timing.rows] != _PULL_IN
+    if np.count_nonzero(keep) < 2:
+        return None
+    run = np.cumsum(timing.arc_start)[keep]
+    arc_start = np.r_[True, np.diff(run) != 0]
+    r = timing.rows[keep]
+    return ChannelTiming(record.prn, col("time_s")[r], timing.transmit_s[keep], col("doppler_hz")[r],
+                         col("carrier_phase_cycles")[r], col("cn0_dbhz")[r], timing.half_cycle[keep],
+                         LnavMessage(record.prn, [], None, None, None), timing.ephemerides, arc_start,
+                         np.ones(r.size, bool))
+
+
+def inav_summary(timing: InavTiming, symbols: int) -> dict:
+    """One row of ``inav.csv`` (`INAV_COLUMNS`) for a channel of ``symbols`` one-period rows."""
+    pages = [p for m in timing.messages for p in m.pages]
+    iods = sorted({int(p.fields["iodnav"]) for p in pages if "iodnav" in p.fields})
+    gst = timing.gst
+    return {"prn": timing.prn, "symbols": symbols, "pages": len(pages),
+            "word_types": " ".join(str(p.word_type) for p in pages), "crc_failures": len(timing.failures),
+            "iodnav": " ".join(str(i) for i in iods),
+            "gst_wn": "" if gst is None else gst[1], "gst_tow_s": "" if gst is None else f"{gst[2]:.0f}",
+            "gst_time_s": "" if gst is None else f"{gst[0]:.9f}",
+            "inverted": " ".join(sorted({str(int(p.inverted)) for p in pages})),
+            "ephemeris": int(timing.ephemeris is not None)}
+
+
+def write_inav_report(out_dir: str | Path, tracking: TrackingResult, signal: SignalSpec) -> tuple[Path, list[dict]]:
+    """Decode every channel of ``tracking`` (a `TrackingResult` of E1-B) and write
+    ``out_dir/inav.csv`` (`INAV_COLUMNS`, one row per channel); the path and the rows."""
+    from ...io.files import atomic_open
+
+    rows = []
+    for _, ch in sorted(tracking.channels.items()):
+        n = int(np.count_nonzero(ch.column("coherent_ms") == 1)) if ch.rows else 0
+        rows.append(inav_summary(channel_inav(ch, signal), n))
+    path = Path(out_dir) / "inav.csv"
+    with atomic_open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(INAV_COLUMNS)
+        for r in rows:
+            w.writerow([r[c] for c in INAV_COLUMNS])
+    return path, rows
