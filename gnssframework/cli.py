@@ -1143,7 +1143,7 @@ OPTION_OF_PARAMETER = {
     "select": "--prn", "max_gap_s": "--max-gap", "pseudorange_min_m": "--pseudorange-min",
     "pseudorange_max_m": "--pseudorange-max",
     "raim": "--raim", "raim_false_alarm": "--raim-pfa", "raim_missed_detection": "--raim-pmd", "outputs": "--outputs",
-    "threads": "--threads",
+    "threads": "--threads", "tracking.coherent_ms": "--coherent-ms-track",
 }
 #: Parameters that take a table of values: the path below them is kept
 #: (``channel_params.pll_bandwidth_hz`` is ``--channel-params.pll_bandwidth_hz``).

@@ -49,8 +49,11 @@ def test_signals_by_message_and_the_coherent_default():
     assert coherent_periods(GPS_L1CA, None) == 10 and coherent_periods(GALILEO_E1B_BOC11, None) == 1
     assert coherent_periods(GPS_L1CA, 20) == 20
     assert coherent_periods(GALILEO_E1C_BOC11, None) == 1  # its E1-B symbol (and overlay chip): one period
-    with pytest.raises(ConfigError, match="coherent-ms-track.*span galileo-e1b-boc11"):
+    with pytest.raises(ConfigError, match="tracking.coherent_ms.*span galileo-e1b-boc11"):
         coherent_periods(GALILEO_E1B_BOC11, 10)
+    # the library names its parameter; the track command names it as its option
+    from gnssframework.cli import option_field
+    assert option_field("tracking.coherent_ms") == "--coherent-ms-track"
 
 
 def test_receive_refuses_a_signal_it_would_date_as_lnav_in_one_line():

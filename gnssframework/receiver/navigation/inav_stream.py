@@ -81,9 +81,9 @@ def coherent_periods(signal: SignalSpec, requested: int | None, default: int = 1
     if requested is None:
         return max(k for k in (1, 2, 4, 5, default) if k <= default and per_symbol % k == 0)
     if per_symbol % requested:
-        raise ConfigError("--coherent-ms-track", f"{requested} code periods span {signal.name}'s data symbols "
-                                                 f"({per_symbol} code period{'s' if per_symbol > 1 else ''} each): "
-                                                 "give one that divides it")
+        raise ConfigError("tracking.coherent_ms", f"{requested} code periods span {signal.name}'s data symbols "
+                                                  f"({per_symbol} code period{'s' if per_symbol > 1 else ''} each): "
+                                                  "give one that divides it")
     return requested
 
 
