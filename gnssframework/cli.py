@@ -1169,10 +1169,11 @@ def option_field(field: str, options: frozenset[str] | set[str] = ALL_OPTIONS) -
     out = []
     for part in field.split("/"):
         head, dot, rest = part.partition(".")
-        option = OPTION_OF_PARAMETER.get(head if (not dot or head in TABLE_PARAMETERS) else part)
+        key = head if (not dot or head in TABLE_PARAMETERS) else part
+        option = OPTION_OF_PARAMETER.get(key)
         if option is None or option not in options:
             return field
-        out.append(option + dot + rest)
+        out.append(option + (dot + rest if key == head else ""))  # a dotted key maps whole
     return "/".join(out)
 
 
