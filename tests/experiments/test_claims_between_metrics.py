@@ -216,3 +216,28 @@ def test_compare_check_on_a_real_run_where_the_ordering_holds_in_every_run(tmp_p
 
 def _versus_real(**fields) -> str:
     return claim_toml(candidate="a", metric="lat_error_rmse", versus_metric="lat_error_mean", **fields)
+
+
+def test_a_claim_between_metrics_at_a_sweeps_points(tmp_path):
+    # a's lat = LAT and lon = LAT - d at each point of a psi sweep, d per point: (0.5, 0.5, 1.0,
+    # 0.5) t = 5, (0.5, 0.3, 1.0, 0.7) t = 4.19, (1.0, -0.5, 2.0, -0.4) t = 0.89, against
+    # t(0.975, 3) = 3.182: holds, holds, not significant; no point fails, so "all" is not significant.
+    sweep = '[[sweeps]]\nname = "psi"\npath = "scenario.psi"\nvalues = [0.2, 0.5, 0.8]'
+    differences = [np.array([0.5, 0.5, 1.0, 0.5]), np.array([0.5, 0.3, 1.0, 0.7]), np.array([1.0, -0.5, 2.0, -0.4])]
+    path = tmp_path / "c.toml"
+    path.write_text(two_candidate_config("sweep", sweeps=sweep, claims=_versus(direction="higher", sweep="psi")))
+    config = load_config(path)
+    store = ResultStore(tmp_path / "results.sqlite")
+    for (_, point), d in zip(config.sweep_points(0), differences):
+        key = point.identity()
+        store.register(key, config.batch_size)
+        for name in ("a", "b"):
+            own = {"lat_error_rmse": LAT, "lon_error_rmse": LAT - d} if name == "a" else {}
+            for first in (0, 2):
+                store.add_batch(key, "only", name, first, {m: own.get(m, B)[first:first + 2]
+                                                           for m in config.metric_names})
+    rows = evaluate_claims(config, store)
+    assert [(r["point"], r["outcome"]) for r in rows] == [(0.2, "holds"), (0.5, "holds"), (0.8, "not significant"),
+                                                         ("all", "not significant")]
+    for row, d in zip(rows, differences):
+        assert row["diff"] == pytest.approx(d.mean()) and row["se"] == pytest.approx(d.std(ddof=1) / 2)
