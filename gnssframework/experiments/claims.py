@@ -24,6 +24,18 @@ statements as ``[[claims]]``::
     case = "g-sensitivity"           # optional: default every other case
     direction = "higher"
 
+    [[claims]]                       # an ordering between two metrics of one candidate
+    candidate = "ekf-pv"
+    metric = "position_smoothed_error_rmse"
+    versus_metric = "position_error_rmse"   # paired with its own value of this metric, run by run
+    direction = "lower"
+
+An ordering between two metrics pairs the candidate's value of ``metric`` in run ``r`` with
+its value of ``versus_metric`` in the same run (the two are computed from the same run, so
+the pairing is exact); the tested quantity is ``metric - versus_metric`` (and the ratio of
+their means), judged exactly as a paired difference between candidates. The two metrics
+must have the same unit.
+
 An ordering between cases pairs run ``r`` of one case with run ``r`` of the other; the
 pairing removes the shared noise only when the two cases draw the same random numbers
 (``streams`` of ``[[cases]]``: the case that differs by an option names the reference
@@ -130,6 +142,9 @@ class Claim(BaseModel):
                                   "with reference_case, default the candidate itself")
     reference_case: str | None = Field(None, description="for an ordering between cases: the case the reference's "
                                        "runs come from (paired run by run with each claimed case)")
+    versus_metric: str | None = Field(None, description="for an ordering between two metrics of the candidate: "
+                                      "the metric compared with, on the candidate's same runs (paired run by run; "
+                                      "the difference is metric minus versus_metric, in one unit)")
     direction: Literal["lower", "higher"] | None = Field(
         None, description="for an ordering: the candidate's values are lower / higher than the reference's")
     ratio_max: float | None = Field(None, gt=0, description="for an ordering: ratio of means (candidate / "
@@ -174,8 +189,8 @@ class Claim(BaseModel):
             if self.reference is None or self.sweep is None:
                 raise ValueError("a threshold claim compares the candidate's threshold with a reference candidate's "
                                  "along a sweep: give reference = \"<candidate>\" and sweep = \"<name>\"")
-            others = [k for k in ("direction", "ratio_max", "ratio_min", "within", "reference_case", "at",
-                                  "points_from", "points_to") if getattr(self, k) is not None]
+            others = [k for k in ("direction", "ratio_max", "ratio_min", "within", "reference_case", "versus_metric",
+                                  "at", "points_from", "points_to") if getattr(self, k) is not None]
             if others:
                 raise ValueError(f"a threshold claim is about the whole sweep; {', '.join(others)} is a separate claim")
             if self.reference == self.candidate:
@@ -189,7 +204,9 @@ class Claim(BaseModel):
                     if getattr(self, k) is not None]
         if self.consistent_states is not None or self.every_run_within is not None:
             return self
-        if self.reference_case is not None:
+        if self.versus_metric is not None:
+            self._between_metrics(ordering)
+        elif self.reference_case is not None:
             if not ordering:
                 raise ValueError("an ordering between cases needs direction = \"lower\" or \"higher\", "
                                  "ratio_max or ratio_min")
@@ -220,17 +237,36 @@ class Claim(BaseModel):
             raise ValueError(f"within = {list(self.within)} must be [low, high] with low < high")
         return self
 
+    def _between_metrics(self, ordering: list[str]) -> None:
+        """An ordering between two metrics of the candidate (``versus_metric``) against the rest."""
+        if self.versus_metric == self.metric:
+            raise ValueError(f"versus_metric is metric {self.metric!r} itself: name another metric of the candidate")
+        others = [k for k in ("reference", "reference_case", "within") if getattr(self, k) is not None]
+        if others:
+            raise ValueError(f"versus_metric pairs two metrics of the candidate on its own runs; {', '.join(others)} "
+                             "is a separate claim")
+        if not ordering:
+            raise ValueError("an ordering between metrics needs direction = \"lower\" or \"higher\", ratio_max, "
+                             "ratio_min or equivalence_margin (or every_run_within)")
+
     def _new_kinds(self) -> None:
         """The equivalence, consistency and every-run kinds, and the test, against the rest."""
         own = [k for k in ("consistent_states", "every_run_within") if getattr(self, k) is not None]
         if own:
-            paired = ("reference", "reference_case") if own[0] == "every_run_within" else ()
+            paired = ("reference", "reference_case", "versus_metric") if own[0] == "every_run_within" else ()
             others = [k for k in ("direction", "ratio_max", "ratio_min", "equivalence_margin", "within", "reference",
-                                  "reference_case", "threshold", "threshold_difference", "consistent_states",
-                                  "every_run_within") if k not in (*own[:1], *paired) and getattr(self, k) is not None]
+                                  "reference_case", "versus_metric", "threshold", "threshold_difference",
+                                  "consistent_states", "every_run_within")
+                      if k not in (*own[:1], *paired) and getattr(self, k) is not None]
             if others:
                 raise ValueError(f"{own[0]} is a claim about the candidate's own runs; {', '.join(others)} is a "
                                  "separate claim")
+            if self.versus_metric is not None and (self.reference is not None or self.reference_case is not None):
+                raise ValueError("versus_metric pairs two metrics of the candidate on its own runs; reference and "
+                                 "reference_case are a separate claim")
+            if self.versus_metric == self.metric:
+                raise ValueError(f"versus_metric is metric {self.metric!r} itself: name another metric of the "
+                                 "candidate")
             if own[0] == "consistent_states" and "nees" not in self.metric.lower():
                 raise ValueError(f"consistent_states is the chi-square band of a NEES; metric {self.metric!r} is not "
                                  "a NEES")
@@ -267,6 +303,8 @@ class Claim(BaseModel):
             own = self.reference in (None, self.candidate)
             ref = f"in {self.reference_case}" if own else f"{self.reference}'s in {self.reference_case}"
             ratio_ref = f"its value in {self.reference_case}" if own else ref
+        if self.versus_metric is not None:
+            ref = ratio_ref = f"its {self.versus_metric}"
         if self.direction is not None:
             parts.append(f"{self.metric} {self.direction} than {ref}")
         if self.ratio_max is not None:
@@ -281,7 +319,7 @@ class Claim(BaseModel):
             parts.append(f"{self.metric} consistent ({self.consistent_states} states, chi-square 95 % band)")
         if self.every_run_within is not None:
             lo, hi = self.every_run_within
-            paired = ("" if self.reference is None and self.reference_case is None
+            paired = ("" if self.reference is None and self.reference_case is None and self.versus_metric is None
                       else f" minus {ratio_ref}")
             parts.append(f"{self.metric}{paired} in [{lo:g}, {hi:g}] in every run")
         test = {"t": "", "bootstrap": " [bootstrap]", "wilcoxon": " [Wilcoxon]"}[self.test]
@@ -289,16 +327,22 @@ class Claim(BaseModel):
 
 
 def check_claims(claims: list[Claim], cases: list[str], candidates: list[str], metrics: list[str],
-                 sweeps: list | tuple = ()) -> None:
-    """Refuse claims naming an unknown case, candidate, metric, sweep or sweep point (at
+                 sweeps: list | tuple = (), units: dict[str, str] | None = None) -> None:
+    """Refuse claims naming an unknown case, candidate, metric, sweep or sweep point, or
+    two metrics of different units (``units``: metric -> unit) in one difference (at
     config load); ``sweeps`` are the config's :class:`~.sweeps.Sweep` entries."""
     labels = [s.label for s in sweeps]
     for i, c in enumerate(claims):
         for field, value, allowed in (("candidate", c.candidate, candidates), ("reference", c.reference, candidates),
                                       ("case", c.case, cases), ("reference_case", c.reference_case, cases),
-                                      ("metric", c.metric, metrics)):
+                                      ("metric", c.metric, metrics), ("versus_metric", c.versus_metric, metrics)):
             if value is not None and value not in allowed:
                 raise ConfigError(f"claims[{i}].{field}", f"unknown {field} {value!r}; allowed: {', '.join(allowed)}")
+        if c.versus_metric is not None and units is not None:
+            unit, versus = units.get(c.metric), units.get(c.versus_metric)
+            if unit != versus:
+                raise ConfigError(f"claims[{i}].versus_metric", f"{c.versus_metric!r} is in {versus!r} and metric "
+                                  f"{c.metric!r} in {unit!r}: a paired difference needs two metrics of one unit")
         picks = [f for f, v in (("at", c.at), ("from", c.points_from), ("to", c.points_to)) if v is not None]
         if c.sweep is None:
             if picks:
@@ -418,9 +462,10 @@ def _evidence(claim: Claim, store, key: str, case: str, runs: int) -> tuple[dict
     and the finite pairs ``(x, y)`` (``None`` for a bound)."""
     x = store.run_values(key, case, claim.candidate, claim.metric, runs)
     row, pd, pair = {}, None, None
-    reference = claim.reference or (claim.candidate if claim.reference_case else None)
+    own = claim.reference_case is not None or claim.versus_metric is not None  # paired with the candidate itself
+    reference = claim.reference or (claim.candidate if own else None)
     if reference is not None:
-        y = store.run_values(key, claim.reference_case or case, reference, claim.metric, runs)
+        y = store.run_values(key, claim.reference_case or case, reference, claim.versus_metric or claim.metric, runs)
         xs, ys = paired_values(x, y)
         pd = paired_difference(xs, ys)
         ok = np.isfinite(xs) & np.isfinite(ys)
@@ -428,6 +473,8 @@ def _evidence(claim: Claim, store, key: str, case: str, runs: int) -> tuple[dict
         row.update(reference=reference, **{k: v for k, v in pd.to_json().items() if k != "reason"})
         if claim.reference_case is not None:
             row["reference_case"] = claim.reference_case
+        if claim.versus_metric is not None:
+            row["versus_metric"] = claim.versus_metric
     values = np.array([x[r] for r in sorted(x)], dtype=float)
     if claim.within is not None or claim.consistent_states is not None or claim.every_run_within is not None:
         mean, se, n = mean_and_se(values)
@@ -474,8 +521,10 @@ def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: floa
         if pd.n < 2:
             return "not significant", None, ""
         if _no_spread(d) or pd.se is None or pd.se == 0.0:
-            return ("refused", None, f"{claim.metric} minus the reference's is the same in all {pd.n} runs (no "
-                    "spread): nothing to test; state it with every_run_within on each candidate")
+            other, on = (("the reference's", " on each candidate") if claim.versus_metric is None
+                         else (claim.versus_metric, ""))
+            return ("refused", None, f"{claim.metric} minus {other} is the same in all {pd.n} runs (no "
+                    f"spread): nothing to test; state it with every_run_within{on}")
         if claim.test == "t":
             if claim.direction is not None:
                 below = claim.direction == "lower"

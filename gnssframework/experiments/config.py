@@ -191,7 +191,7 @@ class ComparisonConfig(_Strict):
                         raise ConfigError(f"published.{case_name}.{cand}.{metric}",
                                           f"unknown metric; allowed: {', '.join(self.metric_names)}")
         check_claims(self.claims, sorted(case_names), [c.name for c in self.candidates], self.metric_names,
-                     self.sweeps)
+                     self.sweeps, self.metric_units if any(c.versus_metric for c in self.claims) else None)
         if self.tuning is not None:
             check_tuning(self)
             check_untuned_claims(self)

@@ -5,10 +5,11 @@ runs, a paired difference run by run.
 The smoothed estimate conditions on every measurement, the filtered one on those up to its
 epoch, so for a filter whose model is the truth's the smoothed mean square error is the
 lower in expectation (the smoothed covariance is at most the filtered, Särkkä 2013, ch. 8).
-The test holds the paired 95 % t-interval of (smoothed - filtered) position and velocity
-RMSE below zero in each case, and the smoothed NEES finite. The comparison framework's
-claims compare candidates or cases, not two metrics of one candidate, so the check is
-here. 3 s instead of 8, 12 runs (the example's count).
+The example states it as claims between two metrics of its candidate (``versus_metric``):
+the paired 95 % t-interval of (smoothed - filtered) position and velocity RMSE below zero.
+The test judges those claims with the library's claim checker (what ``compare --check``
+runs) in each case, holds their evidence to the paired differences computed here from the
+store, and the smoothed NEES finite. 3 s instead of 8, 12 runs (the example's count).
 """
 
 from __future__ import annotations
@@ -39,13 +40,22 @@ def test_the_smoothed_example_beats_its_filtered_estimates_run_by_run(tmp_path):
     assert {r["runs"] for r in summary["rows"]} == {runs}  # every metric defined in every run
     store = ResultStore(out / "results.sqlite")
     candidate, key = config.candidates[0].name, config.identity()
-    for case in (c.name for c in config.cases):
-        for filtered, smoothed in (("position_error_rmse", "position_smoothed_error_rmse"),
-                                   ("velocity_error_rmse", "velocity_smoothed_error_rmse")):
-            f = store.values(key, case, candidate, filtered, runs)
-            s = store.values(key, case, candidate, smoothed, runs)
-            assert f.shape == s.shape == (runs,)
-            d = paired_difference(s, f)
-            lo, hi = d.ci95
-            assert d.n == runs and hi < 0, f"{case}: {smoothed} - {filtered} = {d.diff:.3g} [{lo:.3g}, {hi:.3g}]"
+    claims = summary["claims"]
+    cases = [c.name for c in config.cases]
+    pairs = [("position_smoothed_error_rmse", "position_error_rmse"),
+             ("velocity_smoothed_error_rmse", "velocity_error_rmse")]
+    assert [(c.metric, c.versus_metric, c.direction) for c in config.claims] == [(*p, "lower") for p in pairs]
+    assert [(c["case"], c["metric"], c["versus_metric"]) for c in claims] == \
+        [(case, *p) for p in pairs for case in cases]
+    for row in claims:
+        case, smoothed, filtered = row["case"], row["metric"], row["versus_metric"]
+        f = store.values(key, case, candidate, filtered, runs)
+        s = store.values(key, case, candidate, smoothed, runs)
+        assert f.shape == s.shape == (runs,)
+        d = paired_difference(s, f)
+        lo, hi = d.ci95
+        assert row["n"] == d.n == runs and row["diff"] == pytest.approx(d.diff) and row["se"] == pytest.approx(d.se)
+        assert row["outcome"] == "holds" and hi < 0, \
+            f"{case}: {smoothed} - {filtered} = {d.diff:.3g} [{lo:.3g}, {hi:.3g}] -> {row['outcome']}"
+    for case in cases:
         assert np.all(np.isfinite(store.values(key, case, candidate, "nees_position_smoothed", runs)))
