@@ -621,7 +621,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
     from .receiver.navigation.receive import position_errors, receive
-    from .receiver.navigation.inav_stream import require_lnav
+    from .receiver.navigation.inav_stream import carries_inav, require_positioning
     from .receiver.navigation.receiver_config import receiver_filters
     from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
     from .receiver.channels.report import write_tracking_outputs
@@ -633,7 +633,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     rec = live.recording
     acq = _acquisition_from_args(args)
     signal = _signal_from_args(args)
-    require_lnav(signal)  # the dating below is LNAV's: another message would be misread
+    require_positioning(signal)  # dated from LNAV or I/NAV: another message would be misread
     prns = _prns_from_args(args, signal)
     try:
         channel_params = json.loads(args.channel_params) if args.channel_params else None
@@ -642,7 +642,8 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     filters = receiver_filters(args.config, args.channel_filter, channel_params, args.nav_filter)
     args.channel_filter = filters.channel_filter.name
     args.channel_params = json.dumps(filters.channel_filter.params)
-    config = _tracking_config_from_args(args)
+    # E1-B: one 4 ms code period a symbol, taps off BOC(1,1)'s side lobes (track's E1 defaults)
+    config = _tracking_config_from_args(args, signal if carries_inav(signal) else None)
     if not args.rate > 0:
         raise ConfigError("--rate", f"must be > 0 Hz, got {args.rate}")
     if not args.rate <= MAX_RATE_HZ:
@@ -681,7 +682,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     acquisitions = _acquire_checked(rec, acq, prns, signal)  # checked before minutes of tracking
     if not args.quiet:  # a line as each phase ends (a refused one leaves its one error line alone)
         phase(name, f"acquisition found {sum(r.detected for r in acquisitions)} of {len(acquisitions)} PRNs; "
-                    "tracking, decoding LNAV, positioning", started)
+                    f"tracking, decoding {'I/NAV' if carries_inav(signal) else 'LNAV'}, positioning", started)
     iono_fallback = nav_info.iono if nav_info is not None and not args.no_iono else None
     fixes = None
     if live.sinks and vector is None:
@@ -718,7 +719,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             why += _ephemeris_distance(rinex, result.observables)
         out.mkdir(parents=True, exist_ok=True)
         written = write_tracking_outputs(out, result.tracking, plots=True)
-        written += write_no_position_report(out, result, why, rinex)
+        written += write_no_position_report(out, result, why, rinex, signal)
         print(f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
               f"{result.tracking.duration_s:.1f} s; wrote {', '.join(str(p) for p in written if p.parent == out)}")
         return 1
@@ -737,7 +738,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     c = table.columns
     week = int(c["gps_week"][0])
     leap = obs.iono_utc.dt_ls_s if obs is not None and obs.iono_utc is not None else 18
-    sky = sky_views(result, table, rinex) if "gsv" in outputs else None
+    sky = sky_views(result, table, rinex, signal) if "gsv" in outputs else None
     if week >= 0 and obs is None:
         print("note: no LNAV subframe decoded, so no pseudoranges of the scalar channels: no observations.rnx")
         written.append(write_nmea(out / "nmea.txt", table, 18, nmea_talker(signal), sky, "gsa" in outputs))
@@ -756,7 +757,8 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             + (f"nav filter {nav_name} from the first least-squares fix" if nav_name else
                "least squares per epoch"))
     written += write_receive_report(out, result, table, truth, rinex, f"Filters: {used}."
-                                    + (f" Live input {rec.description}: {overruns}." if overruns else ""))
+                                    + (f" Live input {rec.description}: {overruns}." if overruns else ""),
+                                    signal=signal)
     print(f"{len(table)} fixes ({used}) from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
           f"{int(c['gps_week'][0])}, tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} "
           f"satellites; last {c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP "
