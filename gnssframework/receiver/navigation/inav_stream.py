@@ -65,9 +65,10 @@ def carries_lnav(signal: SignalSpec) -> bool:
 def require_lnav(signal: SignalSpec) -> None:
     """Refuse, in one line, a signal the receiver's dating and positioning would read as LNAV wrongly."""
     if not carries_lnav(signal):
-        hint = (f"; its I/NAV is decoded by `track --signal {signal.name}` (positions: the receive() API)"
+        hint = (f"; its I/NAV is decoded by `track --signal {signal.name}` and positioned by `receive --signal "
+                f"{signal.name}`"
                 if carries_inav(signal) else "")
-        raise ConfigError("signal", f"{signal.name}: the receive command dates and positions from GPS LNAV "
+        raise ConfigError("signal", f"{signal.name}: LNAV dating and positioning take GPS LNAV "
                                     f"(gps-l1ca, qzss-l1ca) only{hint}")
 
 
