@@ -12,7 +12,9 @@ strength digit (section 5.7) follows C1C, L1C and D1C. Epochs are the receiver c
 time biased by the receiver clock error), as RINEX defines them. Another signal's file
 takes its system letter, satellite names and observation codes from its `SignalSpec`
 (``J01 C1C ...`` for QZSS L1 C/A; ``E11 C1B L1B D1B S1B`` for Galileo E1-B, the I/NAV
-data component, RINEX 3.04 table A6) and its time system from `TIME_SYSTEMS`.
+data component, RINEX 3.04 table A6) and its time system from `TIME_SYSTEMS`. A mixed file
+(``M``, a `multi_receive.SignalSet`: GPS L1 C/A with Galileo E1-B) has one ``SYS / # / OBS
+TYPES`` line per system and its epochs in GPS time (the fixes' reference clock).
 """
 
 from __future__ import annotations
@@ -72,7 +74,8 @@ def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m
     if week < 0:
         raise ConfigError("week", "the GPS week of the epochs is unknown (no subframe 1 decoded and no reference)")
     path = Path(path)
-    types = signal.rinex_obs_types
+    # A signal set (`multi_receive.SignalSet`, system "M") lists each system's types on its own line.
+    members = getattr(signal, "signals", (signal,))
     rows = [e for e in range(obs.rx_time_s.size) if np.isfinite(obs.pseudorange_m[e]).any()]
     if not rows:
         raise ConfigError("observables", "no epoch holds a pseudorange: nothing to write")
@@ -89,7 +92,8 @@ def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m
         _line(f"{'0':<20}{'unknown':<20}", "ANT # / TYPE"),
         _line("".join(f"{v:14.4f}" for v in xyz), "APPROX POSITION XYZ"),
         _line("".join(f"{v:14.4f}" for v in (0.0, 0.0, 0.0)), "ANTENNA: DELTA H/E/N"),
-        _line(f"{signal.system}{len(types):5d}" + "".join(f" {t}" for t in types), "SYS / # / OBS TYPES"),
+        *(_line(f"{m.system}{len(m.rinex_obs_types):5d}" + "".join(f" {t}" for t in m.rinex_obs_types),
+                "SYS / # / OBS TYPES") for m in members),
         _line(f"{first.year:6d}{first.month:6d}{first.day:6d}{first.hour:6d}{first.minute:6d}"
               f"{first.second + frac:13.7f}{'':5}{TIME_SYSTEMS.get(signal.system, 'GPS')}", "TIME OF FIRST OBS"),
         _line("", "END OF HEADER"),
