@@ -621,7 +621,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
     from .receiver.navigation.receive import position_errors, receive
-    from .receiver.navigation.inav_stream import require_lnav
+    from .receiver.navigation.inav_stream import carries_inav, require_positioning
     from .receiver.navigation.receiver_config import receiver_filters
     from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
     from .receiver.channels.report import write_tracking_outputs
@@ -632,8 +632,10 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
 
     rec = live.recording
     acq = _acquisition_from_args(args)
+    if "," in args.signal:
+        return _receive_several(args, live, outputs)
     signal = _signal_from_args(args)
-    require_lnav(signal)  # the dating below is LNAV's: another message would be misread
+    require_positioning(signal)  # dated from LNAV or I/NAV: another message would be misread
     prns = _prns_from_args(args, signal)
     try:
         channel_params = json.loads(args.channel_params) if args.channel_params else None
@@ -642,7 +644,8 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     filters = receiver_filters(args.config, args.channel_filter, channel_params, args.nav_filter)
     args.channel_filter = filters.channel_filter.name
     args.channel_params = json.dumps(filters.channel_filter.params)
-    config = _tracking_config_from_args(args)
+    # E1-B: one 4 ms code period a symbol, taps off BOC(1,1)'s side lobes (track's E1 defaults)
+    config = _tracking_config_from_args(args, signal if carries_inav(signal) else None)
     if not args.rate > 0:
         raise ConfigError("--rate", f"must be > 0 Hz, got {args.rate}")
     if not args.rate <= MAX_RATE_HZ:
@@ -681,7 +684,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     acquisitions = _acquire_checked(rec, acq, prns, signal)  # checked before minutes of tracking
     if not args.quiet:  # a line as each phase ends (a refused one leaves its one error line alone)
         phase(name, f"acquisition found {sum(r.detected for r in acquisitions)} of {len(acquisitions)} PRNs; "
-                    "tracking, decoding LNAV, positioning", started)
+                    f"tracking, decoding {'I/NAV' if carries_inav(signal) else 'LNAV'}, positioning", started)
     iono_fallback = nav_info.iono if nav_info is not None and not args.no_iono else None
     fixes = None
     if live.sinks and vector is None:
@@ -718,7 +721,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             why += _ephemeris_distance(rinex, result.observables)
         out.mkdir(parents=True, exist_ok=True)
         written = write_tracking_outputs(out, result.tracking, plots=True)
-        written += write_no_position_report(out, result, why, rinex)
+        written += write_no_position_report(out, result, why, rinex, signal)
         print(f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
               f"{result.tracking.duration_s:.1f} s; wrote {', '.join(str(p) for p in written if p.parent == out)}")
         return 1
@@ -737,7 +740,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     c = table.columns
     week = int(c["gps_week"][0])
     leap = obs.iono_utc.dt_ls_s if obs is not None and obs.iono_utc is not None else 18
-    sky = sky_views(result, table, rinex) if "gsv" in outputs else None
+    sky = sky_views(result, table, rinex, signal) if "gsv" in outputs else None
     if week >= 0 and obs is None:
         print("note: no LNAV subframe decoded, so no pseudoranges of the scalar channels: no observations.rnx")
         written.append(write_nmea(out / "nmea.txt", table, 18, nmea_talker(signal), sky, "gsa" in outputs))
@@ -756,7 +759,8 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             + (f"nav filter {nav_name} from the first least-squares fix" if nav_name else
                "least squares per epoch"))
     written += write_receive_report(out, result, table, truth, rinex, f"Filters: {used}."
-                                    + (f" Live input {rec.description}: {overruns}." if overruns else ""))
+                                    + (f" Live input {rec.description}: {overruns}." if overruns else ""),
+                                    signal=signal)
     print(f"{len(table)} fixes ({used}) from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
           f"{int(c['gps_week'][0])}, tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} "
           f"satellites; last {c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP "
@@ -766,6 +770,106 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
         print(f"against --truth: horizontal RMS {np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))):.2f} m, "
               f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m")
     print(f"wrote {', '.join(str(p) for p in written if p.parent == out)} and {out / 'plots'}/")
+    return 0
+
+
+def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) -> int:
+    """``receive --signal A,B``: every signal tracked and dated by its own message, one fix
+    per epoch of all their satellites with a receiver clock per time system
+    (`multi_receive.receive_signals`); positions.csv (with ``system_offset_ns``), a mixed
+    observations.rnx, nmea.txt (GN: GGA, RMC), the report."""
+    import json
+    import time
+
+    import numpy as np
+
+    from .navigation.ephemeris import read_rinex_nav
+    from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
+    from .progress import phase
+    from .receiver.channels.report import write_tracking_outputs
+    from .receiver.navigation.fixes import SYSTEM_OFFSET_COLUMN, write_positions_csv
+    from .receiver.navigation.inav_stream import carries_inav
+    from .receiver.navigation.multi_receive import SignalSet, receive_signals
+    from .receiver.navigation.nmea_out import nmea_talker, write_nmea
+    from .receiver.navigation.receive import position_errors
+    from .receiver.navigation.report import write_receive_report
+    from .receiver.navigation.receiver_config import receiver_filters
+    from .receiver.navigation.rinex_obs import write_rinex_obs
+
+    signals = SignalSet(tuple(registry.signal_spec(n) for n in args.signal.split(",")))
+    given = {"--prns": args.prns, "--tracking vector": args.tracking == "vector", "--nav-filter": args.nav_filter,
+             "--config": args.config, "--nmea-out": args.nmea_out, "--approx-position": args.approx_position,
+             "--vector-channel-filter": args.vector_channel_filter, "--raim": getattr(args, "raim", None)}
+    for option, value in given.items():
+        if value:
+            raise ConfigError(option, f"not with several signals ({signals.name}): give one --signal for it")
+    extra = sorted(outputs - {"rinex-nav", "gsa", "gsv", "geojson"})
+    if extra:
+        raise ConfigError("--outputs", f"{', '.join(extra)}: not written for several signals ({signals.name})")
+    if not args.rate > 0 or not args.rate <= MAX_RATE_HZ:
+        raise ConfigError("--rate", f"must be in (0, {MAX_RATE_HZ:g}] Hz, got {args.rate:g}")
+    if args.week is not None and not 0 <= args.week < 10_000:
+        raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
+    try:
+        channel_params = json.loads(args.channel_params) if args.channel_params else None
+    except json.JSONDecodeError as exc:
+        raise ConfigError("--channel-params", f"not JSON: {exc.msg}") from None
+    filters = receiver_filters(None, args.channel_filter, channel_params, None)
+    args.channel_filter = filters.channel_filter.name
+    args.channel_params = json.dumps(filters.channel_filter.params)
+    configs = [_tracking_config_from_args(args, s if carries_inav(s) else None) for s in signals.signals]
+    systems = "".join(s.system for s in signals.signals)
+    rinex = read_rinex_nav(args.ephemeris, systems=systems) if args.ephemeris else None
+    nav_info = read_nav_file_info(args.ephemeris) if args.ephemeris else None
+    reference_week = args.week
+    if reference_week is None and nav_info is not None:
+        reference_week = int(0.5 * (nav_info.first_s + nav_info.last_s) // WEEK_S)
+    truth = _truth_from_args(args)
+    rec = live.recording
+    started = time.monotonic()
+    name = Path(args.recording).name
+    with _recording_progress(args, rec) as progress:
+        result = receive_signals(rec, _acquisition_from_args(args), configs, signals, duration_s=args.duration,
+                                 rate_hz=args.rate, rinex=rinex, ionosphere=not args.no_iono,
+                                 troposphere=args.troposphere, reference_week=reference_week,
+                                 iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
+                                 weighting=args.weighting, progress=progress)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    table = result.positions
+    if table is None or len(table) == 0:
+        written = write_tracking_outputs(out, result.tracking, plots=True)
+        print(f"no position from {signals.name}: tracked {len(result.tracking.channels)} satellites for "
+              f"{result.tracking.duration_s:.1f} s (a fix needs 3 + one per time system of satellites with a "
+              f"transmit time and an ephemeris); wrote {', '.join(str(p) for p in written if p.parent == out)}")
+        return 1
+    if not args.quiet:
+        phase(name, f"{len(table)} fixes; writing the outputs", started)
+    c = table.columns
+    week = int(c["gps_week"][0])
+    obs = result.observables
+    written = [write_positions_csv(out / "positions.csv", table)]
+    if week >= 0 and obs is not None:
+        leap = obs.iono_utc.dt_ls_s if obs.iono_utc is not None else 18
+        written += [write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1], signal=signals),  # type: ignore[arg-type]
+                    write_nmea(out / "nmea.txt", table, leap, nmea_talker(*signals.signals))]
+    else:
+        print("note: the GPS week is unknown: no observations.rnx or nmea.txt (give it with --week)")
+    print("note: with several signals no navigation.rnx, GSA, GSV or track.geojson is written (not done)")
+    written += write_receive_report(out, result, table, truth, rinex, "Filters: least squares per epoch, a "
+                                    f"receiver clock per time system ({signals.name}).",
+                                    signal=signals)  # type: ignore[arg-type]
+    offsets = c.get(SYSTEM_OFFSET_COLUMN, np.full(len(table), np.nan))
+    print(f"{len(table)} fixes of {signals.name} from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
+          f"{week}, tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} satellites; "
+          f"last {c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP {c['hdop'][-1]:.2f}; "
+          f"inter-system clock offset {np.nanmedian(offsets) if np.isfinite(offsets).any() else float('nan'):.1f} ns "
+          "(median)")
+    if truth is not None:
+        err = position_errors(table, truth)
+        print(f"against --truth: horizontal RMS {np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))):.2f} m, "
+              f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m")
+    print(f"wrote {', '.join(str(p) for p in written if p.parent == out)}")
     return 0
 
 
@@ -835,7 +939,17 @@ def _threads_from_args(args: argparse.Namespace) -> None:
     set_threads(args.threads)
 
 
-def _add_recording_options(p: argparse.ArgumentParser) -> None:
+def _signal_names(text: str) -> str:
+    """``receive --signal``: one registered signal name or several, comma-separated, each checked."""
+    names = [n.strip() for n in text.split(",")]
+    known = registry.names("signal")
+    bad = [n for n in names if n not in known]
+    if bad:
+        raise argparse.ArgumentTypeError(f"unknown signal {', '.join(map(repr, bad))} (choose from {', '.join(known)})")
+    return ",".join(names)
+
+
+def _add_recording_options(p: argparse.ArgumentParser, several_signals: bool = False) -> None:
     p.add_argument("recording", help="sample file (a SigMF .sigmf-meta beside it gives format, rate and IF); "
                                      "receive also reads a stream: - (standard input), a FIFO, tcp://HOST:PORT, "
                                      "rtl_tcp://HOST:PORT")
@@ -852,9 +966,15 @@ def _add_recording_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--alternate-blocks", action="store_true",
                    help="sum even and odd coherent blocks apart, keep the larger (with --coherent-ms 10: one of them "
                         "is free of data-bit transitions; weak signals)")
-    p.add_argument("--signal", default=DEFAULT_SIGNAL, choices=registry.names("signal"), metavar="NAME",
-                   help="the signal searched and tracked: a registered signal plugin (`gnssframework plugins --kind "
-                        "signal`: %(choices)s; default %(default)s)")
+    if several_signals:  # receive: several signals positioned together
+        p.add_argument("--signal", default=DEFAULT_SIGNAL, type=_signal_names, metavar="NAME[,NAME]",
+                       help="the signal searched and tracked: a registered signal plugin (`gnssframework plugins "
+                            f"--kind signal`: {', '.join(registry.names('signal'))}; default %(default)s); "
+                            "gps-l1ca,galileo-e1b-boc11 tracks both and solves them together")
+    else:
+        p.add_argument("--signal", default=DEFAULT_SIGNAL, choices=registry.names("signal"), metavar="NAME",
+                       help="the signal searched and tracked: a registered signal plugin (`gnssframework plugins "
+                            "--kind signal`: %(choices)s; default %(default)s)")
     p.add_argument("--prns", type=int, nargs="+", help="PRNs to search, the signal's (default all: 1-32 on gps-l1ca)")
 
 
@@ -1045,7 +1165,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "DIR/navigation.rnx (the decoded ephemerides), DIR/track.geojson, DIR/report.md "
                                    "and DIR/plots/, and the --outputs asked for. `position` is the same command (its former name). "
                                    "Exit 1 when no position is found, 2 for bad options or files.")
-    _add_recording_options(p)
+    _add_recording_options(p, several_signals=True)
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--duration", type=float, metavar="S", help="seconds of the recording to use (default: all)")
     p.add_argument("--config", metavar="TOML", help="receiver config: [channel_filter] and [nav_filter], each "

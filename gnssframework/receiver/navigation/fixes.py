@@ -7,7 +7,8 @@ LNAV, else the nearest record of a RINEX navigation file) go to
 week placed in the era of the RINEX file when one is given, else in the era that began
 on 2019-04-07 (weeks 2048-3071, IS-GPS-200 20.3.3.3.1.1: the week rolls over every 1024).
 With ``raim`` each fix carries its integrity (`navigation.integrity`): the table and
-``positions.csv`` then add the columns `INTEGRITY_COLUMNS`.
+``positions.csv`` then add the columns `INTEGRITY_COLUMNS`; fixes of several systems'
+satellites the column `SYSTEM_OFFSET_COLUMN`.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 
 __all__ = ["PositionTable", "solve_epochs", "write_positions_csv", "POSITION_COLUMNS", "INTEGRITY_COLUMNS", "full_week",
-           "ELEVATION_MASK_DEG"]
+           "SYSTEM_OFFSET_COLUMN", "ELEVATION_MASK_DEG"]
 
 #: Columns of ``positions.csv`` (one row per solution).
 POSITION_COLUMNS = ("gps_week", "tow_s", "lat_deg", "lon_deg", "height_m", "vel_e_mps", "vel_n_mps", "vel_u_mps",
@@ -35,6 +36,11 @@ POSITION_COLUMNS = ("gps_week", "tow_s", "lat_deg", "lon_deg", "height_m", "vel_
 #: Columns added with integrity monitoring: horizontal and vertical protection levels (m;
 #: inf on an alert or with too few satellites) and the outcome (`pvt.RAIM_STATUSES`).
 INTEGRITY_COLUMNS = ("hpl_m", "vpl_m", "raim")
+#: Column added when a fix estimated a clock per time system (several systems'
+#: satellites): the second system's receiver clock minus the first's (ns; GST - GPS time
+#: plus the receiver's inter-system bias in a GPS+Galileo fix, `pvt.PositionFix.system_offsets_ns`),
+#: NaN in a row with one clock.
+SYSTEM_OFFSET_COLUMN = "system_offset_ns"
 _ERA_START_WEEK = 2048
 #: Satellites below this elevation (deg) are left out of a fix.
 ELEVATION_MASK_DEG = 5.0
@@ -154,6 +160,9 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
                "height_m": np.array([f.height_m for f in rows]), "vel_e_mps": vel[:, 0], "vel_n_mps": vel[:, 1],
                "vel_u_mps": vel[:, 2], "clock_bias_m": bias, "n_sats": np.array([len(u) for u in used], dtype=int),
                "hdop": np.array([f.hdop for f in rows]), "vdop": np.array([f.vdop for f in rows])}
+    offsets = [next(iter(f.system_offsets_ns.values()), np.nan) for f in rows]
+    if np.isfinite(offsets).any():
+        columns[SYSTEM_OFFSET_COLUMN] = np.array(offsets, float)
     if raim is not None:
         columns.update(hpl_m=np.array([f.hpl_m for f in rows], float), vpl_m=np.array([f.vpl_m for f in rows], float),
                        raim=np.array([f.raim for f in rows], dtype="<U11"))
@@ -168,8 +177,9 @@ def write_positions_csv(path: str | Path, table: PositionTable) -> Path:
     if not set(POSITION_COLUMNS) <= set(table.columns):
         raise ConfigError("table", f"lacks {sorted(set(POSITION_COLUMNS) - set(table.columns))}")
     digits = {"tow_s": 3, "lat_deg": 9, "lon_deg": 9, "height_m": 3, "clock_bias_m": 3, "hdop": 2, "vdop": 2,
-              "hpl_m": 2, "vpl_m": 2}
-    names = POSITION_COLUMNS + (INTEGRITY_COLUMNS if set(INTEGRITY_COLUMNS) <= set(table.columns) else ())
+              "hpl_m": 2, "vpl_m": 2, SYSTEM_OFFSET_COLUMN: 2}
+    names = POSITION_COLUMNS + (INTEGRITY_COLUMNS if set(INTEGRITY_COLUMNS) <= set(table.columns) else ()) \
+        + ((SYSTEM_OFFSET_COLUMN,) if SYSTEM_OFFSET_COLUMN in table.columns else ())
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(names)

@@ -39,7 +39,7 @@ if TYPE_CHECKING:
     from ..channels import ChannelRecord, TrackingResult
     from .observables import ChannelTiming
 
-__all__ = ["carries_inav", "carries_lnav", "require_lnav", "symbol_runs", "InavTiming", "channel_inav",
+__all__ = ["carries_inav", "carries_lnav", "require_lnav", "require_positioning", "symbol_runs", "InavTiming", "channel_inav",
            "INAV_COLUMNS", "inav_summary", "inav_channel_timing", "write_inav_report", "coherent_periods"]
 
 _WEEK_S = 604_800.0
@@ -65,10 +65,20 @@ def carries_lnav(signal: SignalSpec) -> bool:
 def require_lnav(signal: SignalSpec) -> None:
     """Refuse, in one line, a signal the receiver's dating and positioning would read as LNAV wrongly."""
     if not carries_lnav(signal):
-        hint = (f"; its I/NAV is decoded by `track --signal {signal.name}` (positions: the receive() API)"
+        hint = (f"; its I/NAV is decoded by `track --signal {signal.name}` and positioned by `receive --signal "
+                f"{signal.name}`"
                 if carries_inav(signal) else "")
-        raise ConfigError("signal", f"{signal.name}: the receive command dates and positions from GPS LNAV "
+        raise ConfigError("signal", f"{signal.name}: LNAV dating and positioning take GPS LNAV "
                                     f"(gps-l1ca, qzss-l1ca) only{hint}")
+
+
+def require_positioning(signal: SignalSpec) -> None:
+    """Refuse, in one line, a signal the ``receive`` command cannot position with: it dates
+    GPS/QZSS L1 C/A from LNAV and Galileo E1-B from I/NAV (`carries_lnav`, `carries_inav`)."""
+    if not (carries_lnav(signal) or carries_inav(signal)):
+        raise ConfigError("signal", f"{signal.name}: the receive command positions from GPS/QZSS L1 C/A (LNAV: "
+                                    "gps-l1ca, qzss-l1ca) and Galileo E1-B (I/NAV: galileo-e1b-boc11, galileo-e1b) "
+                                    "only")
 
 
 def coherent_periods(signal: SignalSpec, requested: int | None, default: int = 10) -> int | None:
@@ -189,8 +199,9 @@ def _completed_at(msg: InavMessage) -> int:
 
 def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTiming | None:
     """The rows of an E1-B channel dated from its I/NAV GST (`channel_inav`) as the
-    `observables.ChannelTiming` the observables and fixes take (no LNAV message: no week,
-    no Klobuchar coefficients; the ephemerides decoded per run); None without a GST."""
+    `observables.ChannelTiming` the observables and fixes take (no LNAV message: the GPS
+    week's low 10 bits from the GST week, no Klobuchar coefficients; the ephemerides decoded
+    per run); None without a GST."""
     from .observables import ChannelTiming
 
     timing = channel_inav(record, signal)
@@ -203,9 +214,12 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     run = np.cumsum(timing.arc_start)[keep]
     arc_start = np.r_[True, np.diff(run) != 0]
     r = timing.rows[keep]
+    # GST week 0 is GPS week 1024 (OS SIS ICD 5.1.2; GST steered to GPS time): the GPS week's
+    # low 10 bits, as LNAV's subframe 1 sends them (`fixes.full_week` places them in an era).
+    week10 = None if timing.gst is None else (timing.gst[1] + 1024) % 1024
     return ChannelTiming(record.prn, col("time_s")[r], timing.transmit_s[keep], col("doppler_hz")[r],
                          col("carrier_phase_cycles")[r], col("cn0_dbhz")[r], timing.half_cycle[keep],
-                         LnavMessage(record.prn, [], None, None, None), timing.ephemerides, arc_start,
+                         LnavMessage(record.prn, [], None, None, week10), timing.ephemerides, arc_start,
                          np.ones(r.size, bool))
 
 

@@ -60,11 +60,13 @@ def parse_outputs(text: str | None) -> frozenset[str]:
     return frozenset(names)
 
 
-def sky_views(result: ReceiveResult, table: PositionTable, rinex: Ephemerides | None = None) -> list[SkyView]:
-    """Per fix of ``table``, the satellites in view (see the module text)."""
+def sky_views(result: ReceiveResult, table: PositionTable, rinex: Ephemerides | None = None,
+              signal: SignalSpec = GPS_L1CA) -> list[SkyView]:
+    """Per fix of ``table``, the satellites in view (see the module text; ``signal`` names
+    the satellites of ``rinex``)."""
     from .report import sky_tracks
 
-    tracks = sky_tracks(result, table, rinex)
+    tracks = sky_tracks(result, table, rinex, signal)
     obs = result.observables
     prns = np.array(sorted(tracks), dtype=int)
     cn0 = np.full((len(table), prns.size), np.nan)
@@ -96,7 +98,8 @@ def write_extra_outputs(out_dir: str | Path, result: ReceiveResult, table: Posit
         from .rinex_nav import RINEX_NAV_SYSTEMS, decoded_records, write_rinex_nav
 
         if obs is None or not any(obs.ephemeris.values()):
-            notes.append("no ephemeris decoded from LNAV: no navigation.rnx")
+            notes.append(f"no ephemeris decoded from {'I/NAV' if signal.system == 'E' else 'LNAV'}: "
+                         "no navigation.rnx")
         elif week < 0:
             notes.append("the GPS week is unknown: no navigation.rnx")
         elif signal.system not in RINEX_NAV_SYSTEMS:

@@ -19,6 +19,8 @@ import numpy as np
 import pymap3d
 
 from ...navigation.ephemeris import Ephemerides, satellite_state
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from ..channels.report import locked_channels
 from .fixes import ELEVATION_MASK_DEG, PositionTable, full_week
 from .fixes import _ephemeris_for as ephemeris_for
@@ -34,8 +36,8 @@ _BIT_ALIGNED = (2, 4)
 _NEEDED = 4
 
 
-def sky_tracks(result: ReceiveResult, table: PositionTable, rinex: Ephemerides | None = None
-               ) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+def sky_tracks(result: ReceiveResult, table: PositionTable, rinex: Ephemerides | None = None,
+               signal: SignalSpec = GPS_L1CA) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     """Per PRN used in ``table``, azimuth and elevation (degrees) ``(F,)`` at each solution
     (NaN where it has no ephemeris yet), from its ephemeris seen from the solution."""
     obs = result.observables
@@ -45,7 +47,7 @@ def sky_tracks(result: ReceiveResult, table: PositionTable, rinex: Ephemerides |
         az, el = np.full(len(table), np.nan), np.full(len(table), np.nan)
         for k in range(len(table)):
             t = float(table.columns["tow_s"][k])
-            rec = ephemeris_for(np.array([prn]), obs, rinex, t, float(table.sample_time_s[k]))[0]
+            rec = ephemeris_for(np.array([prn]), obs, rinex, t, float(table.sample_time_s[k]), signal)[0]
             if rec is None:
                 continue
             pos = satellite_state(rec, np.array([t - 0.075])).position_m[0]
@@ -61,13 +63,15 @@ def _fmt(value: float, digits: int = 1) -> str:
 
 def write_receive_report(out_dir: str | Path, result: ReceiveResult, table: PositionTable,
                          truth_lat_lon_h: tuple[float, float, float] | None = None,
-                         rinex: Ephemerides | None = None, filters: str = "") -> list[Path]:
+                         rinex: Ephemerides | None = None, filters: str = "",
+                         signal: SignalSpec = GPS_L1CA) -> list[Path]:
     """Write ``report.md`` and ``plots/*.png`` into ``out_dir`` (see the module text);
-    returns their paths. ``filters`` is a line saying which filters ran."""
+    returns their paths. ``filters`` is a line saying which filters ran; ``signal`` names
+    the satellites of ``rinex`` (`SignalSpec.rinex_satellite`)."""
     out = Path(out_dir)
     plots = out / "plots"
     plots.mkdir(parents=True, exist_ok=True)
-    sky = sky_tracks(result, table, rinex)
+    sky = sky_tracks(result, table, rinex, signal)
     err = position_errors(table, truth_lat_lon_h) if truth_lat_lon_h is not None else None
     wls = result.least_squares
     figures = _figures(plots, result, table, sky, err, truth_lat_lon_h)
@@ -112,7 +116,7 @@ def write_receive_report(out_dir: str | Path, result: ReceiveResult, table: Posi
         lines.append(f"| {prn} | {used_count.get(prn, 0)} | {_fmt(cn0)} | {locked:.0f} % "
                      f"| {_fmt(el[first[0]] if first.size else np.nan)} | "
                      f"{_fmt(az[first[0]] if first.size else np.nan)} | {source.strip(' +') or '-'} | "
-                     f"{why_unused(prn, ch, result, table, rinex) if not used_count.get(prn) else '-'} |")
+                     f"{why_unused(prn, ch, result, table, rinex, signal) if not used_count.get(prn) else '-'} |")
     lines += ["", "## Figures", ""] + [f"![{p.stem.replace('_', ' ')}](plots/{p.name})" for p in figures] + [""]
     report = out / "report.md"
     report.write_text("\n".join(lines))
@@ -120,7 +124,7 @@ def write_receive_report(out_dir: str | Path, result: ReceiveResult, table: Posi
 
 
 def why_unused(prn: int, ch, result: ReceiveResult, table: PositionTable | None,
-               rinex: Ephemerides | None = None) -> str:
+               rinex: Ephemerides | None = None, signal: SignalSpec = GPS_L1CA) -> str:
     """Why a tracked satellite is in no solution of ``table``: the first of never locked, no
     LNAV bits or subframe (no transmit time), no pseudorange, no healthy ephemeris, excluded
     by the residual test, below the elevation mask, left out of the vector loop's updates
@@ -137,7 +141,8 @@ def why_unused(prn: int, ch, result: ReceiveResult, table: PositionTable | None,
     valid = np.flatnonzero(np.isfinite(obs.pseudorange_m[:, j]))
     if valid.size == 0:
         return "no pseudorange at any epoch"
-    records = [ephemeris_for(np.array([prn]), obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]))[0]
+    records = [ephemeris_for(np.array([prn]), obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]),
+                             signal)[0]
                for e in (valid[0], valid[-1])]
     if all(r is None for r in records):
         return "no healthy ephemeris (none decoded" + (", none in --ephemeris)" if rinex is not None else
@@ -206,7 +211,7 @@ def no_position_reason(result: ReceiveResult, nav_info=None, assist=None, refere
 
 
 def write_no_position_report(out_dir: str | Path, result: ReceiveResult, reason: str,
-                             rinex: Ephemerides | None = None) -> list[Path]:
+                             rinex: Ephemerides | None = None, signal: SignalSpec = GPS_L1CA) -> list[Path]:
     """``report.md`` of a run without a position: the reason, per tracked satellite its
     lock, what its LNAV gave (`decoded_lnav`) and why it was not used, the vector loop's
     events, and the C/N0 figure; returns the paths written."""
@@ -227,7 +232,7 @@ def write_no_position_report(out_dir: str | Path, result: ReceiveResult, reason:
         lines.append(f"| {prn} | {_fmt(cn0)} | {100 * lock.mean() if lock.size else 0.0:.0f} % | {d['subframes']} | "
                      f"{tow} | "
                      f"{'yes' if d['ephemeris'] else 'no'} | {'yes' if d['iono'] else 'no'} | "
-                     f"{'-' if d['week'] is None else d['week']} | {why_unused(prn, ch, result, None, rinex)} |")
+                     f"{'-' if d['week'] is None else d['week']} | {why_unused(prn, ch, result, None, rinex, signal)} |")
     if result.vector is not None and result.vector.events:
         lines += ["", "## Vector tracking", ""] + [f"- {t:.2f} s: {text}" for t, text in result.vector.events]
     figure = _cn0_figure(out / "plots" / "cn0_lock.png", result)

@@ -17,7 +17,18 @@ the receiver had the record (its last subframe's end, 6 s after that subframe's 
 time). The GPS week (continuous, not modulo 1024) is the one that puts Toe (and Toc) within
 half a week of that time. The system letter and satellite names come from the signal's
 `SignalSpec` (``J01`` for QZSS PRN 193), so the same writer serves every LNAV-format
-signal; a system of another record layout (Galileo's data sources and BGDs) is refused.
+signal.
+
+Galileo records decoded from I/NAV on E1-B (`inav_stream`) take the Galileo navigation
+message record of RINEX 3.04 (appendix A): the Toc in GST (calendar as GPS time: GST is steered to it and RINEX counts the
+Galileo week continuously with GPS's), IODnav in the first orbit line, BROADCAST ORBIT 5
+``IDOT, data sources, GAL week, spare`` with the data sources 513 (bit 0: I/NAV E1-B; bit 9:
+af0-af2, Toc and SISA for E5b,E1, the I/NAV clock), ORBIT 6 ``SISA (m; -1 for no accuracy
+prediction), SV health, BGD E5a/E1, BGD E5b/E1`` and ORBIT 7 the transmission time (seconds
+of the GAL week at which the receiver had the record) and a spare 0. The decoded record
+keeps BGD(E1,E5b) (its ``TGD``, the E1 user's) but not word 5's BGD(E1,E5a): that field is
+written 0. No ionospheric or time-system header lines (word types 5 and 6's NeQuick, GST-UTC
+and GGTO are not kept). A system of another layout (BeiDou, SBAS) is refused.
 """
 
 from __future__ import annotations
@@ -36,8 +47,12 @@ from ...signal.spec import SignalSpec
 
 __all__ = ["NavRecord", "decoded_records", "write_rinex_nav", "RINEX_NAV_SYSTEMS"]
 
-#: Systems whose records have the GPS LNAV layout of RINEX 3.04 (GPS, QZSS).
-RINEX_NAV_SYSTEMS = {"G": "GPS", "J": "QZSS"}
+#: Systems whose decoded records are written: GPS and QZSS (the LNAV layout) and Galileo
+#: (its I/NAV record layout; see the module text).
+RINEX_NAV_SYSTEMS = {"G": "GPS", "J": "QZSS", "E": "GALILEO"}
+#: RINEX 3.04 Galileo data sources of an I/NAV E1-B record: bit 0 (I/NAV E1-B) and bit 9
+#: (clock parameters for E5b,E1).
+INAV_E1B_DATA_SOURCES = 1 + 512
 _GPS_EPOCH = datetime(1980, 1, 6)
 #: The last field of BROADCAST ORBIT 7 per system: GPS's fit interval in hours (4: the flag
 #: 0 of IS-GPS-200 20.3.3.4.3.1), QZSS's fit interval flag itself (0: 2 hours; RINEX 3.04 A14).
@@ -110,6 +125,16 @@ def _orbit_lines(nav: NavRecord, system: str) -> list[str]:
     toe_week = _week_near(nav.week, nav.tow_s, e["Toe"])
     iode = float(rec.iode[0])
     accuracy = float(rec.accuracy_m[0]) if rec.accuracy_m is not None else -1.0
+    if system == "E":
+        bgd_e5b = e["TGD"]  # the I/NAV record's group delay: BGD(E1,E5b) (`inav_words.words_to_ephemeris`)
+        rows = ((iode, e["Crs"], e["DeltaN"], e["M0"]),
+                (e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]),
+                (e["Toe"], e["Cic"], e["Omega0"], e["Cis"]),
+                (e["Io"], e["Crc"], e["omega"], e["OmegaDot"]),
+                (e["IDOT"], float(INAV_E1B_DATA_SOURCES), float(toe_week), 0.0),  # data sources, GAL week, spare
+                (accuracy, float(rec.health[0]), 0.0, bgd_e5b),  # SISA, health, BGD E5a/E1 (not kept), E5b/E1
+                (nav.tow_s, 0.0))
+        return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
     rows = ((iode, e["Crs"], e["DeltaN"], e["M0"]),
             (e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]),
             (e["Toe"], e["Cic"], e["Omega0"], e["Cis"]),
@@ -126,7 +151,7 @@ def _header(records: list[NavRecord], iono: IonoUtc | None, signal: SignalSpec) 
     system = f"{signal.system}: {RINEX_NAV_SYSTEMS[signal.system]}"
     out = [_line(f"{'3.04':>9}{'':11}{'N: GNSS NAV DATA':<20}{system:<20}", "RINEX VERSION / TYPE"),
            _line(f"{'gnssframework':<20}{'':<20}{stamp:<20}", "PGM / RUN BY / DATE")]
-    if iono is not None:
+    if iono is not None and signal.system in ("G", "J"):  # LNAV page 18 (a Galileo file has none)
         out += [_line("GPSA " + "".join(_d12(v) for v in iono.alpha), "IONOSPHERIC CORR"),
                 _line("GPSB " + "".join(_d12(v) for v in iono.beta), "IONOSPHERIC CORR")]
         # The 8-bit week of tot placed nearest the records' week (IS-GPS-200 20.3.3.5.2.4).
@@ -146,13 +171,19 @@ def write_rinex_nav(path: str | Path, records: list[NavRecord], iono: IonoUtc | 
     Raises
     ------
     ConfigError
-        Without a record, or for a system whose records are not of the LNAV layout.
+        Without a record, for a system of another layout (BeiDou, SBAS), or for a record of
+        another system in a Galileo file.
     """
     if signal.system not in RINEX_NAV_SYSTEMS:
         raise ConfigError("signal", f"no RINEX navigation record layout for system {signal.system!r} "
                                     f"({signal.name}) here (systems: {', '.join(RINEX_NAV_SYSTEMS)})")
     if not records:
         raise ConfigError("ephemeris", "no ephemeris was decoded: no navigation file to write")
+    if signal.system == "E":  # the Galileo layout's fields (IODnav, BGD, data sources) are I/NAV's
+        other = [str(r.record.sv[0]) for r in records if not str(r.record.sv[0]).startswith("E")]
+        if other:
+            raise ConfigError("ephemeris", f"{other[0]}: not a Galileo record, not written in {signal.name}'s "
+                                           "navigation file")
     path = Path(path)
     body = []
     for nav in sorted(records, key=lambda r: (r.prn, r.week, float(r.record.toc_s[0]))):

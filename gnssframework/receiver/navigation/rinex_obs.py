@@ -11,7 +11,10 @@ epoch, cycle slip possible; bit 1: half-cycle ambiguity), blank when zero; the s
 strength digit (section 5.7) follows C1C, L1C and D1C. Epochs are the receiver clock's (GPS
 time biased by the receiver clock error), as RINEX defines them. Another signal's file
 takes its system letter, satellite names and observation codes from its `SignalSpec`
-(``J01 C1C ...`` for QZSS L1 C/A).
+(``J01 C1C ...`` for QZSS L1 C/A; ``E11 C1B L1B D1B S1B`` for Galileo E1-B, the I/NAV
+data component, RINEX 3.04 table A6) and its time system from `TIME_SYSTEMS`. A mixed file
+(``M``, a `multi_receive.SignalSet`: GPS L1 C/A with Galileo E1-B) has one ``SYS / # / OBS
+TYPES`` line per system and its epochs in GPS time (the fixes' reference clock).
 """
 
 from __future__ import annotations
@@ -26,11 +29,17 @@ from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .observables import Observables
 
-__all__ = ["write_rinex_obs", "OBS_TYPES"]
+__all__ = ["write_rinex_obs", "OBS_TYPES", "TIME_SYSTEMS"]
 
 #: Observation types written for GPS L1 C/A, in this order (another signal's:
 #: `SignalSpec.rinex_obs_types`).
 OBS_TYPES = ("C1C", "L1C", "D1C", "S1C")
+#: The time system written in TIME OF FIRST OBS (RINEX 3.04 table A2): Galileo System Time
+#: (``GAL``) for Galileo, whose epochs the receiver dates from the I/NAV GST (`inav_stream`);
+#: GPS time otherwise (QZSS L1 C/A is dated in GPS time: QZSST is aligned to it). GST is
+#: steered to GPS time and RINEX counts its weeks continuously with GPS's, so the calendar
+#: of an epoch is computed the same way.
+TIME_SYSTEMS = {"E": "GAL"}
 _GPS_EPOCH = datetime(1980, 1, 6)
 
 
@@ -65,7 +74,8 @@ def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m
     if week < 0:
         raise ConfigError("week", "the GPS week of the epochs is unknown (no subframe 1 decoded and no reference)")
     path = Path(path)
-    types = signal.rinex_obs_types
+    # A signal set (`multi_receive.SignalSet`, system "M") lists each system's types on its own line.
+    members = getattr(signal, "signals", (signal,))
     rows = [e for e in range(obs.rx_time_s.size) if np.isfinite(obs.pseudorange_m[e]).any()]
     if not rows:
         raise ConfigError("observables", "no epoch holds a pseudorange: nothing to write")
@@ -82,9 +92,10 @@ def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m
         _line(f"{'0':<20}{'unknown':<20}", "ANT # / TYPE"),
         _line("".join(f"{v:14.4f}" for v in xyz), "APPROX POSITION XYZ"),
         _line("".join(f"{v:14.4f}" for v in (0.0, 0.0, 0.0)), "ANTENNA: DELTA H/E/N"),
-        _line(f"{signal.system}{len(types):5d}" + "".join(f" {t}" for t in types), "SYS / # / OBS TYPES"),
+        *(_line(f"{m.system}{len(m.rinex_obs_types):5d}" + "".join(f" {t}" for t in m.rinex_obs_types),
+                "SYS / # / OBS TYPES") for m in members),
         _line(f"{first.year:6d}{first.month:6d}{first.day:6d}{first.hour:6d}{first.minute:6d}"
-              f"{first.second + frac:13.7f}{'':5}GPS", "TIME OF FIRST OBS"),
+              f"{first.second + frac:13.7f}{'':5}{TIME_SYSTEMS.get(signal.system, 'GPS')}", "TIME OF FIRST OBS"),
         _line("", "END OF HEADER"),
     ]
     body = []

@@ -1,0 +1,126 @@
+"""Several signals of one recording to one set of fixes (GPS L1 C/A with Galileo E1-B).
+
+:func:`receive_signals` acquires and tracks each signal of a `SignalSet` in turn over the
+same recording (one scalar `SampleTracker` per signal), dates each channel from its own
+message (`observables.channel_timing` for LNAV, `inav_stream.inav_channel_timing` for
+I/NAV), puts every channel's rows on the same receiver epochs (`observables.observables`)
+and solves each epoch with `pvt.solve_position`, which estimates one receiver clock per
+time system (GPS time, Galileo System Time: the inter-system offset, GGTO plus the
+receiver's inter-system bias, is a state; module text of `gnssframework.navigation.pvt`).
+
+A satellite of the ``i``-th signal is numbered ``i x KEY_STEP + PRN`` in the observables
+and the fixes (`SignalSet.key`): GPS PRN 5 is 5 and Galileo E11 is 1011 in
+``GPS+Galileo``; `SignalSet.rinex_satellite` names it (``G05``, ``E11``). The signals must
+share a carrier (a Doppler's wavelength): GPS L1 and Galileo E1 both at 1575.42 MHz.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+from ...errors import ConfigError
+from ...navigation.ephemeris import Ephemerides
+from ...navigation.lnav import IonoUtc
+from ...signal.spec import SignalSpec
+from ..acquisition.report import acquire_recording
+from ..acquisition.search import Acquisition
+from ..channels import SampleTracker, TrackingConfig, TrackingResult
+from ..frontend.recording import Recording
+from .fixes import solve_epochs
+from .inav_stream import carries_inav, carries_lnav, inav_channel_timing
+from .observables import ChannelTiming, channel_timing, observables
+from .receive import ReceiveResult
+
+__all__ = ["SignalSet", "KEY_STEP", "receive_signals"]
+
+#: The satellite numbers of one signal of a `SignalSet` (every signal's PRNs are below it).
+KEY_STEP = 1000
+
+
+@dataclass(frozen=True)
+class SignalSet:
+    """Signals positioned together: the `SignalSpec` attributes the fixes and the RINEX
+    observation file ask of a signal (``rinex_satellite``, ``wavelength_m``, ``system``,
+    ``name``), over the numbering ``index x KEY_STEP + PRN`` (module text)."""
+
+    signals: tuple[SignalSpec, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.signals) < 2:
+            raise ConfigError("signal", "a signal set holds two signals or more")
+        names = [s.name for s in self.signals]
+        if len(set(names)) != len(names):
+            raise ConfigError("signal", f"a signal given twice: {', '.join(names)}")
+        systems = [s.system for s in self.signals]
+        if len(set(systems)) != len(systems):
+            raise ConfigError("signal", f"one signal per system: {', '.join(names)}")
+        carriers = {s.carrier_freq_hz for s in self.signals}
+        if len(carriers) != 1:
+            raise ConfigError("signal", f"{', '.join(names)}: on different carriers; the fixes' Dopplers take one")
+        for s in self.signals:
+            if not (carries_lnav(s) or carries_inav(s)):
+                raise ConfigError("signal", f"{s.name}: not positioned here (GPS/QZSS L1 C/A LNAV, Galileo E1-B "
+                                            "I/NAV only)")
+
+    @property
+    def name(self) -> str:
+        return "+".join(s.name for s in self.signals)
+
+    @property
+    def system(self) -> str:
+        """``"M"`` (mixed, RINEX 3.04 4.4)."""
+        return "M"
+
+    @property
+    def wavelength_m(self) -> float:
+        return self.signals[0].wavelength_m
+
+    def key(self, index: int, prn: int) -> int:
+        """The number of PRN ``prn`` of the ``index``-th signal."""
+        return index * KEY_STEP + int(prn)
+
+    def signal_of(self, key: int) -> SignalSpec:
+        return self.signals[int(key) // KEY_STEP]
+
+    def rinex_satellite(self, key: int) -> str:
+        """The RINEX 3 satellite name of ``key`` (``G05``, ``E11``)."""
+        return self.signal_of(key).rinex_satellite(int(key) % KEY_STEP)
+
+
+def receive_signals(recording: Recording, acquisition: Acquisition, configs: list[TrackingConfig],
+                    signals: SignalSet, *, duration_s: float | None = None, rate_hz: float = 1.0,
+                    rinex: Ephemerides | None = None, ionosphere: bool = True, troposphere: bool = False,
+                    reference_week: int | None = None, weighting: str | None = None,
+                    iono_fallback: IonoUtc | None = None, progress: Any = None) -> ReceiveResult:
+    """Acquire, track and date every signal of ``signals`` (``configs[i]`` tracks the
+    ``i``-th) and solve their satellites together (module text). ``rinex`` holds the
+    records of every system (`read_rinex_nav` with ``systems="GE"``); the Klobuchar
+    coefficients of a decoded LNAV page 18 (else ``iono_fallback``) correct every satellite
+    (L1 and E1 share the frequency). The result's tracking and observables are keyed by
+    `SignalSet.key`."""
+    if len(configs) != len(signals.signals):
+        raise ConfigError("configs", f"one tracking config per signal: {len(configs)} for {len(signals.signals)}")
+    channels: dict = {}
+    found_all: list = []
+    timings: list[ChannelTiming | None] = []
+    duration = 0.0
+    for i, (signal, config) in enumerate(zip(signals.signals, configs)):
+        found = [r for r in acquire_recording(recording, acquisition, None, signal=signal) if r.detected]
+        found_all += found
+        tracking = SampleTracker(recording, config, acquisition, signal=signal).run(found, duration_s, progress)
+        duration = max(duration, tracking.duration_s)
+        for prn, ch in tracking.channels.items():
+            key = signals.key(i, prn)
+            channels[key] = ch
+            t = inav_channel_timing(ch, signal) if carries_inav(signal) else channel_timing(ch, signal=signal)
+            if t is not None:
+                timings.append(replace(t, prn=key))
+    tracking_all = TrackingResult(channels, found_all, duration, configs[0].channel_filter)
+    if not any(t is not None and t.time_s.size > 1 for t in timings):
+        return ReceiveResult(tracking_all, None, None)
+    obs = observables(timings, rate_hz)
+    iono = iono_fallback if obs.iono_utc is None else None
+    table = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere, iono=iono,
+                         reference_week=reference_week, weighting=weighting, signal=signals)  # type: ignore[arg-type]
+    return ReceiveResult(tracking_all, obs, table, table)

@@ -1,0 +1,117 @@
+"""The receiver tests' GPS + Galileo recording: Galileo satellites of real broadcast records
+(tests/data/galileo_inav_20feb2022_05h.rnx, `inav_recordings`) sending E1-B (BOC(1,1)) with
+their I/NAV, and GPS satellites sending L1 C/A with their LNAV, seen from VILL, each with
+the code phase, Doppler and data timing of the geometry (light time, Earth rotation,
+satellite clock; updated every 0.5 s), 45 dB-Hz, complex int16 SigMF at 4 MHz.
+
+No GPS navigation file of that day is in tests/data: the GPS orbits are those of the
+project's 2005 file (tests/data/07590920.05n) with their Toc and Toe moved to 18000 s of
+the 2022 week (the Kepler elements unchanged: valid orbits at other longitudes), a
+synthetic constellation the generator and the receiver share through `write_mixed_nav`.
+GST is taken as GPS time (the generator has no GGTO): the fixes' Galileo-GPS clock
+offset is the receiver's alone."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gnssframework import registry
+from gnssframework.navigation import inav, lnav
+from gnssframework.navigation.ephemeris import Ephemerides, read_rinex_nav, satellite_state
+from gnssframework.receiver.frontend import write_recording
+from gnssframework.receiver.navigation.rinex_nav import NavRecord, write_rinex_nav
+from gnssframework.signal.constants import L1_FREQ_HZ
+from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
+from gnssframework.signal.gps_l1ca import GPS_L1CA
+from gnssframework.signal.if_samples import generate_if_samples
+from inav_recordings import GPS_WEEK, NAV as GALILEO_NAV, STATION
+from light_time import signal_flight
+
+GPS_NAV = Path(__file__).parent / "data" / "07590920.05n"
+TOE_S = 18000.0
+FS = 4e6
+CHUNK_S = 0.5
+
+
+def moved_gps_records() -> Ephemerides:
+    """The 2005 file's first record of each GPS satellite, Toc and Toe at `TOE_S`."""
+    nav = read_rinex_nav(GPS_NAV)
+    _, first = np.unique(nav.sv, return_index=True)
+    nav = nav.subset(np.sort(first))
+    elements = dict(nav.elements)
+    elements["Toe"] = np.full(nav.sv.size, TOE_S)
+    return Ephemerides(nav.sv, np.full(nav.sv.size, TOE_S), elements, nav.health, nav.iode, nav.accuracy_m)
+
+
+def highest(nav: Ephemerides, t: float, n: int) -> Ephemerides:
+    """The ``n`` healthy satellites of ``nav`` highest above the station at ``t`` (records within 2 h)."""
+    sel = nav.subset(np.flatnonzero((nav.health == 0) & (np.abs(nav.elements["Toe"] - t) < 7200)))
+    sel = sel.subset(np.unique(sel.sv, return_index=True)[1])
+    up = STATION / np.linalg.norm(STATION)
+    los = satellite_state(sel, t).position_m - STATION
+    el = los @ up / np.linalg.norm(los, axis=1)
+    return sel.subset(np.argsort(-el)[:n])
+
+
+def write_mixed_nav(path: Path, gps: Ephemerides) -> Path:
+    """A RINEX 3.04 mixed navigation file: the ``gps`` records (`write_rinex_nav`) and every
+    Galileo record of the I/NAV excerpt, for ``receive --ephemeris``."""
+    gps_file = write_rinex_nav(path.with_suffix(".gps"), [NavRecord(int(s[1:]), gps.subset(np.array([k])), GPS_WEEK,
+                                                                    TOE_S) for k, s in enumerate(gps.sv)])
+    body = []
+    for f in (gps_file, GALILEO_NAV):
+        lines = f.read_text().splitlines(keepends=True)
+        body += lines[next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1:]
+    header = (f"{'3.04':>9}{'':11}{'N: GNSS NAV DATA':<20}{'M: MIXED':<20}RINEX VERSION / TYPE\n"
+              f"{'':60}END OF HEADER       \n")
+    path.write_text(header + "".join(body))
+    gps_file.unlink()
+    return path
+
+
+def _satellite_time(eph, t_rx):
+    tau, clock, _ = signal_flight(eph, t_rx, STATION)
+    return t_rx - tau + clock
+
+
+def write_mixed_recording(path: Path, gps, galileo, tow0: float, duration_s: float, seed: int,
+                          cn0_dbhz: float = 45.0) -> Path:
+    """Write ``duration_s`` of the GPS records ``gps`` and the Galileo ones ``galileo`` from time ``tow0``."""
+    rng = np.random.default_rng(seed)
+    n = int(round(CHUNK_S * FS))
+    source = registry.create("sample_source", "ci16_le")
+    groups = []
+    for sats, signal in ((gps, GPS_L1CA), (galileo, GALILEO_E1B_BOC11)):
+        t_sv0 = _satellite_time(sats, np.array(tow0))
+        if signal is GPS_L1CA:
+            data = [lnav.lnav_symbols(sats.subset(np.array([k])), GPS_WEEK, float(t_sv0[k]) - 0.1,
+                                      int(duration_s * 50) + 20) for k in range(sats.sv.size)]
+        else:
+            data = [inav.inav_symbols(sats.subset(np.array([k])), GPS_WEEK - 1024, float(t_sv0[k]) - 0.1,
+                                      int(duration_s * inav.SYMBOL_RATE_HZ) + 50) for k in range(sats.sv.size)]
+        groups.append((sats, signal, t_sv0, data, np.zeros(sats.sv.size)))
+    with open(path, "wb") as out:
+        for c in range(int(round(duration_s / CHUNK_S))):
+            t0 = tow0 + c * CHUNK_S
+            x = np.zeros(n, complex)
+            for sats, signal, t_sv0, data, phase in groups:
+                start = _satellite_time(sats, t0)
+                doppler = L1_FREQ_HZ * ((_satellite_time(sats, t0 + CHUNK_S) - start) / CHUNK_S - 1)
+                for k in range(sats.sv.size):
+                    bits, into = data[k]
+                    first_tsv = float(t_sv0[k]) - 0.1 - into
+                    chips = (start[k] / signal.code_period_s % 1.0) * signal.code_length_chips
+                    x += generate_if_samples(int(sats.sv[k][1:]), CHUNK_S, FS, 0.0, cn0_dbhz, rng,
+                                             doppler_hz=doppler[k], code_phase_chips=chips,
+                                             carrier_phase_rad=phase[k], complex_samples=True,
+                                             data_bits=np.asarray(bits, float), first_bit_edge_s=first_tsv - start[k],
+                                             noise=False, signal=signal).samples
+                    phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
+            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
+            out.write(source.encode(x * 300.0))
+    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", FS, 0.0)
+    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
+    path.with_suffix(".tmp").unlink()
+    return path
