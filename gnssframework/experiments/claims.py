@@ -96,7 +96,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..errors import ConfigError
 from .claim_tests import (adjust, all_runs_bound, bootstrap_means, bootstrap_p, claim_rng, detectable_difference,
-                          nees_band, t_p_value, tost, wilcoxon_p)
+                          equivalence_margin_for_power, nees_band, t_p_value, tost, wilcoxon_p)
 from .number_format import at_rounding_level, format_estimate
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values, t_quantile
 
@@ -589,12 +589,14 @@ def _row_judgement(claim: Claim, evidence: tuple, rng: np.random.Generator, decl
         out["few_runs"] = True
         out["small_n"] = bool(declared)
         # An ordering (direction, ratio) or a bound on the mean (within) is the 95 % interval on the
-        # claimed side, the two-sided 5 % t-test; a band, an every-run observation or an equivalence
-        # is not a test of a difference's sign and states no MDD.
+        # claimed side, the two-sided 5 % t-test; an equivalence states the margin its TOST shows
+        # at a true difference of 0; a band or an every-run observation states its own band or bound.
         tested = (claim.direction is not None or claim.ratio_max is not None or claim.ratio_min is not None
                   or claim.within is not None)
         if tested and runs >= 2 and se:
             out["detectable80"] = detectable_difference(se, runs, STATED_POWER, ALPHA)
+        if claim.equivalence_margin is not None and runs >= 2 and se:
+            out["equivalence_margin80"] = equivalence_margin_for_power(se, runs, STATED_POWER, ALPHA)
     if n and claim.consistent_states is not None:
         out["nees_band95"] = list(nees_band(n, claim.consistent_states))
     if n and claim.every_run_within is not None:
@@ -803,6 +805,9 @@ def claim_evidence(row: dict) -> str:
             if row.get("detectable80_adjusted") is not None:
                 text += (f", >= {row['detectable80_adjusted']:.2g} after adjustment (level "
                          f"{ALPHA:g}/{row['family_size']})")
+        if row.get("equivalence_margin80") is not None:
+            text += (f": shows equivalence within +-{row['equivalence_margin80']:.2g} at power {STATED_POWER:g} "
+                     "when the true difference is 0")
         text += ")"
     if row.get("test") not in (None, "t"):
         text += f", {row['test']}"

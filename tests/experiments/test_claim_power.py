@@ -169,3 +169,31 @@ def test_every_example_over_fewer_than_12_runs_declares_small_n(path):
     # says so (small_n), so its claims state their power instead of being refused.
     config = load_config(path)
     assert unstated_small_n_claims(config) == [], f"{path.name}: runs = {config.runs}"
+
+
+@pytest.mark.parametrize("n", [4, 10])
+def test_the_tost_margin_for_power_is_shown_in_80_percent_of_simulated_experiments(n):
+    # True difference 0, differences N(0, sd^2) over n runs: the TOST at 5 % per side (the 90 %
+    # interval inside +-margin) with the margin from equivalence_margin_for_power(sd / sqrt(n))
+    # shows equivalence in 80 % of 40,000 seeded experiments (binomial SE 0.002; 4 SE).
+    from gnssframework.experiments.claim_tests import equivalence_margin_for_power
+
+    sd, sims = 0.7, 40_000
+    margin = equivalence_margin_for_power(sd / np.sqrt(n), n)
+    d = np.random.default_rng(40 + n).normal(0.0, sd, size=(sims, n))
+    mean, se = d.mean(axis=1), d.std(axis=1, ddof=1) / np.sqrt(n)
+    half = stats.t.ppf(0.95, n - 1) * se
+    rate = float(np.mean((mean - half > -margin) & (mean + half < margin)))
+    assert abs(rate - 0.8) < 4 * np.sqrt(0.8 * 0.2 / sims), rate
+
+
+def test_an_equivalence_claim_over_few_runs_states_the_margin_it_can_show(tmp_path):
+    from gnssframework.experiments.claim_tests import equivalence_margin_for_power
+
+    rows, _, _ = evaluate_stored(tmp_path, claim_toml(candidate="a", reference="b", metric="lat_error_rmse",
+                                                      equivalence_margin=1.0), A, B, top="claims_small_n = true")
+    assert "detectable80" not in rows[0]
+    margin = equivalence_margin_for_power(0.125, 4)
+    assert rows[0]["equivalence_margin80"] == pytest.approx(margin)
+    assert f"(n < 12: shows equivalence within +-{margin:.2g} at power 0.8 when the true difference is 0)" in \
+        claim_evidence(rows[0])
