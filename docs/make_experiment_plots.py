@@ -93,7 +93,7 @@ SWEEP_TABLES["tracking_threshold"] = ["loss_of_lock", "loss_of_code_freq_lock", 
 def main() -> int:
     """Run the examples, copy their figures, and check every example's claims (exit 1 if
     one does not hold: the pages state them)."""
-    from gnssframework.experiments.claims import claim_line
+    from gnssframework.experiments.claims import claim_line, small_n_refusal, unstated_small_n
     from gnssframework.io.files import loads_strict
 
     OUT.mkdir(parents=True, exist_ok=True)
@@ -114,6 +114,7 @@ def main() -> int:
         print(f"{name}: figures copied")
         claims = loads_strict(summary.read_text()).get("claims", [])
         failed += [f"{name}: {claim_line(c)}" for c in claims if c["outcome"] != "holds"]
+        failed += [small_n_refusal(name, c["claim"], c["statement"], c["n"]) for c in unstated_small_n(claims)]
         if claims:
             print(f"{name}: {sum(c['outcome'] == 'holds' for c in claims)} of {len(claims)} claims hold")
         if name in TABLES:

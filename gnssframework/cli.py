@@ -70,6 +70,15 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if args.dask_address:  # a scheduler address comes from the person running the comparison, not the config
         config.executor = config.executor.model_copy(update={"kind": "dask", "address": args.dask_address})
     out = args.out or f"results/{config.name}"
+    if args.check:  # a claim over too few runs, undeclared, is refused before the work, not after
+        from .experiments.claims import small_n_refusal, unstated_small_n_claims
+
+        refused = unstated_small_n_claims(config)
+        for i in refused:
+            print(f"error: {small_n_refusal(config.name, i, config.claims[i].statement(), config.runs)}",
+                  file=sys.stderr)
+        if refused:
+            return 1
     _print_work_estimate(config)
     try:
         # A bar on a terminal, a line per tenth of the batches in a log or a pipe.
@@ -98,11 +107,13 @@ def _print_work_estimate(config) -> None:
 
 
 def _report_claims(summary, check: bool) -> int:
-    """Print the claims' outcomes (all with ``--check``, else a tally); 1 if checked and one does not hold."""
-    from .experiments.claims import claim_line, claim_where
+    """Print the claims' outcomes (all with ``--check``, else a tally); 1 if checked and one
+    does not hold, or is over fewer than 12 runs without declaring ``small_n``."""
+    from .experiments.claims import claim_line, claim_where, small_n_refusal, unstated_small_n
     from .io.files import loads_strict
 
-    claims = loads_strict(summary.read_text()).get("claims", [])
+    data = loads_strict(summary.read_text())
+    claims = data.get("claims", [])
     if not claims:
         if check:
             print("no [[claims]] in this config: nothing to check")
@@ -115,7 +126,11 @@ def _report_claims(summary, check: bool) -> int:
     for c in claims:  # a claim that cannot be tested: one line naming it
         if c["outcome"] == "refused":
             print(f"error: claims[{c['claim']}] in {claim_where(c)} refused: {c.get('reason', '')}", file=sys.stderr)
-    return 1 if check and bad else 0
+    unstated = unstated_small_n(claims) if check else []
+    for c in unstated:  # over fewer runs than the config's (missing values): one line per claim
+        print(f"error: {small_n_refusal(data.get('name', summary.parent.name), c['claim'], c['statement'], c['n'])}",
+              file=sys.stderr)
+    return 1 if check and (bad or unstated) else 0
 
 
 def _store_error(exc: sqlite3.DatabaseError, store: Path) -> Exception:

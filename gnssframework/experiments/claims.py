@@ -108,12 +108,13 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..errors import ConfigError
 from .claim_tests import (adjust, all_runs_bound, bootstrap_means, bootstrap_p, claim_rng, detectable_difference,
-                          nees_band, t_p_value, tost, wilcoxon_p)
+                          equivalence_margin_for_power, nees_band, t_p_value, tost, wilcoxon_p)
 from .number_format import at_rounding_level, format_estimate
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values, t_quantile
 
 __all__ = ["Claim", "check_claims", "check_untuned_claims", "evaluate_claims", "claim_points", "OUTCOMES",
-           "untuned_candidates", "adjust_claims"]
+           "untuned_candidates", "adjust_claims", "small_n_declared", "unstated_small_n", "unstated_small_n_claims",
+           "small_n_refusal", "MIN_CLAIM_RUNS", "STATED_POWER"]
 
 #: Outcomes from best to worst (``refused``: the claim cannot be tested as stated, e.g. its
 #: metric has no spread over the runs).
@@ -127,8 +128,13 @@ TESTS = ("t", "bootstrap", "wilcoxon")
 ALPHA = 0.05
 
 #: Paired runs below which a claim row states its power: the difference its t-test detects
-#: with 80 % probability (`claim_tests.detectable_difference`), beside its evidence.
+#: with 80 % probability (`claim_tests.detectable_difference`), beside its evidence; and
+#: below which ``compare --check`` refuses a claim that does not declare ``small_n = true``.
 MIN_CLAIM_RUNS = 12
+
+#: The power at which a claim over fewer than :data:`MIN_CLAIM_RUNS` runs states its
+#: minimum detectable difference.
+STATED_POWER = 0.8
 
 
 class Claim(BaseModel):
@@ -180,6 +186,9 @@ class Claim(BaseModel):
         "t", description="t: the t-interval (default); bootstrap: the paired bootstrap percentile interval "
         "(heavy-tailed metrics: maxima, loss of lock), reproducible from the seed; wilcoxon: the signed-rank test "
         "of the paired differences (direction only)")
+    small_n: bool = Field(False, strict=True, description=f"the claim is checked on fewer than {MIN_CLAIM_RUNS} runs on "
+                          "purpose (e.g. a CI example kept short): compare --check accepts it and states its power, "
+                          "the difference its test detects with probability 0.8; without it such a claim is refused")
     note: str = Field("", description="where the claim is stated (a docs page, a paper's table)")
 
     @model_validator(mode="after")
@@ -613,16 +622,30 @@ def _outcome(claim: Claim, pd, values: np.ndarray, level: float = 0.95, pair: tu
     return _judge(claim, pd, values, pair, level, rng)[0]
 
 
-def _row_judgement(claim: Claim, evidence: tuple, rng: np.random.Generator) -> dict:
-    """The outcome fields of a claim row: ``outcome``, ``p_value`` and ``reason`` (refused)."""
-    _, pd, values, pair = evidence
+def _row_judgement(claim: Claim, evidence: tuple, rng: np.random.Generator, declared: bool = False) -> dict:
+    """The outcome fields of a claim row: ``outcome``, ``p_value`` and ``reason`` (refused);
+    over fewer than :data:`MIN_CLAIM_RUNS` runs also ``few_runs``, ``small_n`` (whether the
+    config declares it, ``declared``) and, for a claim judged by an interval of a mean or a
+    paired mean difference, ``detectable80``: its minimum detectable difference at 80 % power."""
+    row, pd, values, pair = evidence
     outcome, p, reason = _judge(claim, pd, values, pair, rng=rng)
-    out = {"outcome": outcome, "test": claim.test, "p_value": finite_or_none(p)}
+    out: dict[str, Any] = {"outcome": outcome, "test": claim.test, "p_value": finite_or_none(p)}
     if reason:
         out["reason"] = reason
-    if pd is not None and pd.n is not None and 2 <= pd.n < MIN_CLAIM_RUNS and pd.se:
-        out["detectable80"] = detectable_difference(pd.se, pd.n)
     n = int(np.isfinite(values).sum())  # the runs a band or bound is over
+    runs, se = (pd.n, pd.se) if pd is not None else (n, row.get("mean_se"))
+    if runs is not None and runs < MIN_CLAIM_RUNS:
+        out["few_runs"] = True
+        out["small_n"] = bool(declared)
+        # An ordering (direction, ratio) or a bound on the mean (within) is the 95 % interval on the
+        # claimed side, the two-sided 5 % t-test; an equivalence states the margin its TOST shows
+        # at a true difference of 0; a band or an every-run observation states its own band or bound.
+        tested = (claim.direction is not None or claim.ratio_max is not None or claim.ratio_min is not None
+                  or claim.within is not None)
+        if tested and runs >= 2 and se:
+            out["detectable80"] = detectable_difference(se, runs, STATED_POWER, ALPHA)
+        if claim.equivalence_margin is not None and runs >= 2 and se:
+            out["equivalence_margin80"] = equivalence_margin_for_power(se, runs, STATED_POWER, ALPHA)
     if n and claim.consistent_states is not None:
         out["nees_band95"] = list(nees_band(n, claim.consistent_states))
     if n and claim.every_run_within is not None:
@@ -649,7 +672,8 @@ def _sweep_rows(config, store, i: int, claim: Claim) -> list[dict]:
             where = f"{case} {claim.sweep}={value}"  # each judgement resamples from a fresh generator of it
             row = {"claim": i, "statement": claim.statement(), "case": case, "sweep": claim.sweep, "point": value,
                    "candidate": claim.candidate, "metric": claim.metric, "note": claim.note, **evidence[0],
-                   **_row_judgement(claim, evidence, claim_rng(config.seed, i, where))}
+                   **_row_judgement(claim, evidence, claim_rng(config.seed, i, where),
+                                    small_n_declared(config, claim))}
             _, pd, values, pair = evidence
             if len(points) > 1 and _outcome(claim, pd, values, corrected, pair,
                                              claim_rng(config.seed, i, where)) == "fails":
@@ -711,7 +735,8 @@ def evaluate_claims(config, store, key: str | None = None) -> list[dict]:
             evidence = _evidence(claim, store, key, case, config.runs)
             out.append({"claim": i, "statement": claim.statement(), "case": case, "candidate": claim.candidate,
                         "metric": claim.metric, "note": claim.note, **evidence[0],
-                        **_row_judgement(claim, evidence, claim_rng(config.seed, i, case))})
+                        **_row_judgement(claim, evidence, claim_rng(config.seed, i, case),
+                                         small_n_declared(config, claim))})
     return adjust_claims(out, config.claims_adjustment)
 
 
@@ -738,7 +763,48 @@ def adjust_claims(rows: list[dict], method: str) -> list[dict]:
         r["adjustment"] = method
         r["family_size"] = len(family)
         r["holds_adjusted"] = bool(r["outcome"] == "holds" and p < ALPHA)
+        if r.get("detectable80") is not None and len(family) > 1:
+            # The strictest level either adjustment compares a p-value with is ALPHA / m (Holm's
+            # first step is Bonferroni's; BH's smallest p is held to the same): the MDD there
+            # bounds the adjusted test's from above.
+            se = r["se"] if r.get("diff") is not None else r["mean_se"]
+            r["detectable80_adjusted"] = detectable_difference(se, r["n"], STATED_POWER, ALPHA / len(family))
     return rows
+
+
+def small_n_declared(config, claim: Claim) -> bool:
+    """Whether a claim may be checked on fewer than :data:`MIN_CLAIM_RUNS` runs: ``small_n``
+    on the claim or ``claims_small_n`` on the config."""
+    return bool(claim.small_n or getattr(config, "claims_small_n", False))
+
+
+def unstated_small_n(rows: list[dict]) -> list[dict]:
+    """The claim rows over fewer than :data:`MIN_CLAIM_RUNS` runs whose claim does not
+    declare ``small_n``: what ``compare --check`` refuses (one row per claim)."""
+    seen: set[int] = set()
+    out = []
+    for r in rows:
+        if r.get("few_runs") and not r.get("small_n") and r["claim"] not in seen:
+            seen.add(r["claim"])
+            out.append(r)
+    return out
+
+
+def unstated_small_n_claims(config) -> list[int]:
+    """The indices of the claims ``compare --check`` will refuse before it runs: the config
+    runs fewer than :data:`MIN_CLAIM_RUNS` runs and the claim does not declare ``small_n``
+    (a threshold claim, a bootstrap interval of a sweep's thresholds, is exempt)."""
+    if config.runs >= MIN_CLAIM_RUNS:
+        return []
+    return [i for i, c in enumerate(config.claims) if not small_n_declared(config, c)
+            and c.threshold is None and c.threshold_difference is None]
+
+
+def small_n_refusal(name: str, claim: int, statement: str, runs: int) -> str:
+    """The one-line refusal of a claim over too few runs, naming the example and the claim."""
+    return (f"{name}: claims[{claim}] ({statement}) is checked on {runs} paired runs, fewer than "
+            f"{MIN_CLAIM_RUNS}: run {MIN_CLAIM_RUNS} or more, or declare small_n = true on the claim (or "
+            "claims_small_n = true in the config) to state its power instead")
 
 
 def claim_where(row: dict) -> str:
@@ -781,9 +847,17 @@ def claim_evidence(row: dict) -> str:
         ev.append(f"95 % upper bound on the chance of a run outside {row['outside_bound95']:.2g}")
     n = row.get("n")
     text = ", ".join(ev) + (f", n={n}" if n else "")
-    if row.get("detectable80") is not None:
-        text += (f" (fewer than {MIN_CLAIM_RUNS} runs: a difference of +-{row['detectable80']:.2g} is detected "
-                 "with 80 % power)")
+    if row.get("few_runs"):
+        text += f" (n < {MIN_CLAIM_RUNS}" + ("" if row.get("small_n") else ", small_n not declared")
+        if row.get("detectable80") is not None:
+            text += f": detects differences >= {row['detectable80']:.2g} at power {STATED_POWER:g}"
+            if row.get("detectable80_adjusted") is not None:
+                text += (f", >= {row['detectable80_adjusted']:.2g} after adjustment (level "
+                         f"{ALPHA:g}/{row['family_size']})")
+        if row.get("equivalence_margin80") is not None:
+            text += (f": shows equivalence within +-{row['equivalence_margin80']:.2g} at power {STATED_POWER:g} "
+                     "when the true difference is 0")
+        text += ")"
     if row.get("test") not in (None, "t"):
         text += f", {row['test']}"
     if row.get("p_value") is not None:

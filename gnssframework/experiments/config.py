@@ -146,6 +146,10 @@ class ComparisonConfig(_Strict):
     claims_adjustment: Literal["holm", "benjamini-hochberg"] = Field(
         "holm", description="multiplicity adjustment of the claims' p-values over the example: holm (family-wise "
         "error rate) or benjamini-hochberg (false discovery rate)")
+    claims_small_n: bool = Field(
+        False, strict=True, description="every claim is checked on fewer than 12 runs on purpose (small_n = true on each): "
+        "compare --check accepts them and states each one's power (the difference its test detects with "
+        "probability 0.8); without it, or small_n on the claim, such a claim is refused")
 
     _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
 
@@ -259,7 +263,8 @@ class ComparisonConfig(_Strict):
         A store keyed by it lets a longer or interrupted comparison reuse finished batches.
         """
         data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
-                                        "reference", "sweeps", "claims", "claims_adjustment"})
+                                        "reference", "sweeps", "claims", "claims_adjustment",
+                                        "claims_small_n"})
         # The scenario's and the cases' values as their models read them, not as written:
         # `cn0_dbhz = 45` and `= 45.0` are one case (one key), as they are one simulation.
         scenario = self.resolved_scenario

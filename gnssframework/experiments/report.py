@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .candidates import build_candidate
-from .claims import claim_evidence, claim_where, evaluate_claims, in_family
+from .claims import MIN_CLAIM_RUNS, STATED_POWER, claim_evidence, claim_where, evaluate_claims, in_family
 from .config import ComparisonConfig
 from ..io.files import atomic_open, atomic_write_text, write_json
 from .number_format import format_estimate
@@ -335,6 +335,13 @@ def _claims_markdown(claims: list[dict], adjustment: str = "holm", untuned: list
               f"Multiple comparisons: {name} over the {len(family)} tests of this example; "
               f"{adjusted} of them hold after it at 5 %. "
               "Reported only: the outcome above is each claim's own 95 % test.", ""]
+    few = [c for c in claims if c.get("few_runs")]
+    if few:
+        lines += [f"Power: {len(few)} of the claim rows are over fewer than {MIN_CLAIM_RUNS} paired runs; each states "
+                  f"the difference its test detects with probability {STATED_POWER:g} at its 5 % level (and, after "
+                  "the adjustment, at the strictest adjusted level), a property of the design, not of the difference "
+                  "observed." + ("" if all(c.get("small_n") for c in few) else " Those marked `small_n not declared` "
+                                 "are refused by `compare --check`."), ""]
     if replicated:
         both = sum(c["outcome"] == "holds" and c.get("replicate_outcome") == "holds" for c in claims)
         one = sum((c["outcome"] == "holds") != (c.get("replicate_outcome") == "holds") for c in claims)

@@ -175,7 +175,7 @@ def test_compare_check_names_a_refused_claim_in_one_line(tmp_path):
 
     path = tmp_path / "c.toml"
     claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower")
-    text = two_candidate_config("claims", claims=claims)
+    text = two_candidate_config("claims", top="claims_small_n = true", claims=claims)
     ckf = 'estimator = { name = "ckf" }'
     assert ckf in text
     path.write_text(text.replace(ckf, 'estimator = { name = "kf" }'))  # b is a: the same values in every run
@@ -351,42 +351,3 @@ def test_compare_replicate_rechecks_every_claim(tmp_path):
     assert [r["outcome"] for r in rep_rows] == [r["replicate_outcome"] for r in summary["claims"]]
     assert all(r["outcome"] != "refused" for r in rep_rows)
     assert rep_rows[0]["diff"] != summary["claims"][0]["diff"]
-
-
-# -- power of a claim over few runs ----------------------------------------------------------------
-
-@pytest.mark.parametrize("n", [4, 10])
-def test_the_detectable_difference_is_detected_with_80_percent_power(n):
-    # Paired differences N(delta, 1) over n runs, delta = detectable_difference(1/sqrt(n), n):
-    # the two-sided 5 % t-test rejects in 80 % of 40,000 simulated experiments (binomial SE
-    # 0.002; 4.5 SE allowed).
-    from gnssframework.experiments.claim_tests import detectable_difference
-    delta = detectable_difference(1.0 / np.sqrt(n), n)
-    d = np.random.default_rng(11).normal(delta, 1.0, size=(40_000, n))
-    t = d.mean(axis=1) / (d.std(axis=1, ddof=1) / np.sqrt(n))
-    rate = float(np.mean(np.abs(t) > stats.t.ppf(0.975, n - 1)))
-    assert abs(rate - 0.8) < 4.5 * np.sqrt(0.8 * 0.2 / 40_000), rate
-
-
-def _noncentrality_for_power(dof: int, power: float) -> float:
-    """The noncentrality at which the two-sided 5 % t-test rejects with ``power`` (scipy's
-    noncentral t, both tails, solved by brentq)."""
-    from scipy.optimize import brentq
-    t_crit = stats.t.ppf(0.975, dof)
-    both_tails = lambda nc: stats.nct.sf(t_crit, dof, nc) + np.nan_to_num(stats.nct.cdf(-t_crit, dof, nc))  # noqa: E731
-    return brentq(lambda nc: both_tails(nc) - power, 0.0, 20.0)
-
-
-def test_a_claim_over_fewer_than_12_runs_states_the_difference_it_can_detect(tmp_path):
-    from gnssframework.experiments.claims import _row_judgement, claim_evidence
-    rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse",
-                                            direction="higher"))
-    # d = (0.5, 0.5, 1.0, 0.5): SE 0.125 over n = 4 (3 dof). The far tail left out is below
-    # 1e-6 of power, so the two agree to 1e-5 relative.
-    assert rows[0]["detectable80"] == pytest.approx(0.125 * _noncentrality_for_power(3, 0.8), rel=1e-5)
-    assert "fewer than 12 runs: a difference of +-0.53 is detected with 80 % power" in claim_evidence(rows[0])
-    # Over 12 runs nothing is added.
-    claim = Claim(candidate="a", reference="b", metric="m", direction="higher")
-    x, y = np.tile(A, 3), np.tile(B, 3)
-    out = _row_judgement(claim, ({}, paired_difference(x, y), x, (x, y)), np.random.default_rng(0))
-    assert out["outcome"] == "holds" and "detectable80" not in out

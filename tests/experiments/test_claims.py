@@ -104,7 +104,8 @@ def test_bad_claims_are_refused_at_load_naming_the_field(tmp_path, fields, field
 def test_compare_check_exits_1_when_a_claim_does_not_hold(tmp_path):
     claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower")
     path = tmp_path / "c.toml"
-    path.write_text(two_candidate_config("claims", claims=claims).replace("runs = 4", "runs = 3"))
+    path.write_text(two_candidate_config("claims", top="claims_small_n = true", claims=claims)
+                    .replace("runs = 4", "runs = 3"))
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o"),
                            "--quiet", "--check"], capture_output=True, text=True)
     outcome = json.loads((tmp_path / "o" / "summary.json").read_text())["claims"][0]["outcome"]

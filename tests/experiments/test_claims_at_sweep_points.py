@@ -188,7 +188,8 @@ def test_compare_check_exits_1_when_a_sweep_point_claim_does_not_hold(tmp_path):
     claims = (_claim(candidate="a", metric="lat_error_rmse", sweep="psi", within=[0.0, 1e9])
               + _claim(candidate="a", metric="lat_error_rmse", sweep="psi", at=0.5, within=[1e9, 1e10]))
     path = tmp_path / "c.toml"
-    path.write_text(_text(claims).replace("runs = 4", "runs = 3"))
+    # 3 runs on purpose (small_n declared, else --check refuses every claim before the run).
+    path.write_text(_text(claims).replace("runs = 4", "runs = 3\nclaims_small_n = true"))
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o"),
                            "--quiet", "--check"], capture_output=True, text=True)
     assert proc.returncode == 1, proc.stderr
