@@ -204,7 +204,8 @@ def test_compare_check_on_a_real_run_where_the_ordering_holds_in_every_run(tmp_p
     # run, so "in [0, 1e6] in every run" holds and "in [-1e6, 0) in every run" fails.
     claims = (_versus_real(every_run_within=[0.0, 1e6]) + _versus_real(every_run_within=[-1e6, -1e-12]))
     path = tmp_path / "c.toml"
-    path.write_text(two_candidate_config("claims", claims=claims).replace("runs = 4", "runs = 3"))
+    path.write_text(two_candidate_config("claims", top="claims_small_n = true", claims=claims)
+                    .replace("runs = 4", "runs = 3"))
     proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o"),
                            "--quiet", "--check"], capture_output=True, text=True)
     assert proc.returncode == 1, proc.stderr
