@@ -260,7 +260,7 @@ WEAK_PD, WEAK_PFA = 0.9, 1e-3
 MAX_PAIRS = 7
 #: Most pairs of the assisted search (which follows the code Doppler): one second of samples.
 MAX_ASSISTED_PAIRS = 50
-TABLE_HEADER = ("| receiver | motion | C/N0 (dB-Hz) | acquired (weak search) | first fix (s) | fixes | satellites used "
+TABLE_HEADER = ("| receiver | motion | C/N0 (dB-Hz) | acquired (assisted search) | first fix (s) | fixes | satellites used "
                 "| H RMS (m) | V RMS (m) | checks |\n|---|---|---|---|---|---|---|---|---|---|\n")
 
 
@@ -326,7 +326,7 @@ def run_one(args, cn0: float, check: Checks, work: Path, rec_path: Path, rinex, 
           f"{a_pairs} blocks of 10 ms, code Doppler followed; {a_why}): {len(a_found)} found {a_found} in {t:.1f} s")
     check(len(a_found) >= 4 and set(a_found) <= set(sats),
           f"the assisted search finds at least four simulated satellites and nothing else: {a_found}")
-    acquired = f"{len(set(a_found) & set(sats))} of {len(sats)}" + (
+    acquired = f"{len(set(a_found) & set(sats))} of {len(a_results)} predicted" + (
         f" (+{len(set(a_found) - set(sats))} false)" if set(a_found) - set(sats) else "")
     # ekf-pv's white acceleration: its default for the static receiver; on the circle v³/R
     # (the centripetal acceleration as white noise, as gps_sdr_sim_navigation sets it).
