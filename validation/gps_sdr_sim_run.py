@@ -33,6 +33,9 @@ NAV = SIM_DIR / "brdc0010.22n"
 #: gps-sdr-sim's per-satellite amplitude with -b 16 and -p 128: its 250-level carrier
 #: table times the gain 128, shifted right by 7 (gpssim.c, the sample loop).
 AMPLITUDE_LSB = 250.0
+#: Largest noise standard deviation (LSB) written as int16 (`add_noise`): 32767 / 6.4, about
+#: 35 dB-Hz at 2.6 MHz (the lowest C/N0 that fitted unscaled); weaker files are scaled to it.
+NOISE_SIGMA_MAX_LSB = 5120.0
 #: The static receiver (latitude, longitude in degrees, height in metres).
 LOCATION = (35.681298, 139.766247, 10.0)
 #: The moving receiver: a horizontal circle about LOCATION (radius m, speed m/s).
@@ -121,13 +124,21 @@ def add_noise(src: Path, dst: Path, cn0_dbhz: float, fs: float, rng: np.random.G
     """Add complex white noise of the standard deviation that gives ``cn0_dbhz`` to every
     satellite of amplitude `AMPLITUDE_LSB`: a = sqrt(2 sigma^2 c / fs) (complex samples,
     the law of `gnssframework.signal.if_samples`), so sigma = a sqrt(fs / (2 c)). A block at
-    a time (the same draws as one call), so a 40 s file never sits in memory as floats."""
+    a time (the same draws as one call), so a 40 s file never sits in memory as floats.
+
+    Where sigma would exceed `NOISE_SIGMA_MAX_LSB` (below about 35 dB-Hz at 2.6 MHz) signal
+    and noise are both scaled by ``NOISE_SIGMA_MAX_LSB / sigma`` before rounding to int16:
+    the C/N0 is a ratio and does not change, the rounding adds 1/12 LSB² to a noise of
+    ~2.6e7 LSB² (1e-8 dB), and the int16 range keeps its 6.4 standard deviations."""
     sigma = AMPLITUDE_LSB * np.sqrt(fs / (2 * 10 ** (cn0_dbhz / 10)))
+    gain = min(1.0, NOISE_SIGMA_MAX_LSB / sigma)
     raw = np.memmap(src, dtype="<i2", mode="r")
     block = 1 << 23
     with open(dst, "wb") as out:
         for start in range(0, raw.size, block):
             noisy = raw[start:start + block] + sigma * rng.standard_normal(min(block, raw.size - start))
+            if gain < 1.0:
+                noisy *= gain
             if np.abs(noisy).max() > 32767:
                 raise RuntimeError("noise clips int16: choose a higher C/N0")
             out.write(np.rint(noisy).astype("<i2").tobytes())

@@ -43,7 +43,7 @@ class SearchWindow:
 
 def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn: int, window: SearchWindow, *,
                   coherent_ms: int = 10, noncoherent: int = 8, alternate: bool = True,
-                  pfa: float = 1e-3, signal: SignalSpec = GPS_L1CA) -> AcquisitionResult:
+                  pfa: float = 1e-3, signal: SignalSpec = GPS_L1CA, code_doppler: bool = False) -> AcquisitionResult:
     """Search ``prn`` in ``window`` only (see the module text).
 
     Parameters
@@ -59,6 +59,9 @@ def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn:
     signal
         The searched signal's description; ``coherent_ms`` counts its code periods
         (milliseconds for GPS L1 C/A).
+    code_doppler
+        Follow the code Doppler across the blocks (`fft_search.search_grid`): for long
+        non-coherent sums.
 
     Returns
     -------
@@ -80,7 +83,8 @@ def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn:
     half = int(np.ceil(window.doppler_halfwidth_hz / step))
     dopplers = window.doppler_hz + np.arange(-half, half + 1) * step
     blocks = noncoherent // 2 if alternate else noncoherent
-    grid = search_grid(samples, sample_rate_hz, if_hz, (prn,), T, noncoherent, dopplers, alternate, signal)[0]
+    grid = search_grid(samples, sample_rate_hz, if_hz, (prn,), T, noncoherent, dopplers, alternate, signal,
+                       code_doppler)[0]
     sigma2 = noise_floor(grid, blocks, alternate)
     # Lags within the half width of the predicted start, modulo one code period.
     per_code = sample_rate_hz * signal.code_length_chips / signal.chip_rate_hz

@@ -67,7 +67,7 @@ def _sum_blocks(power: np.ndarray, alternate: bool) -> np.ndarray:
 
 def search_grid(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prns: tuple[int, ...],
                 coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray,
-                alternate: bool = False, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
+                alternate: bool = False, signal: SignalSpec = GPS_L1CA, code_doppler: bool = False) -> np.ndarray:
     """Raw grid :math:`\\sum_k |z_k[s]|^2` per PRN, Doppler bin and code lag: ``(n_prn, n_doppler, N)``.
 
     ``samples`` must hold ``noncoherent`` blocks of ``N = round(coherent_time_s * fs)``.
@@ -76,6 +76,16 @@ def search_grid(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prns: 
     over the even blocks and over the odd blocks. A 20 ms bit has one possible edge per
     20 ms, at a fixed phase, so it falls in blocks of one parity only: the other parity's
     blocks are free of bit transitions, and the statistic keeps their full coherent gain.
+
+    ``code_doppler``: follow the code Doppler across the blocks. The code arrives at the
+    chip rate times :math:`1 + f_D/f_c` (carrier and code share the satellite's motion),
+    so block :math:`k`'s peak is :math:`k N f_D / f_c` samples earlier than block 0's
+    (5 kHz at L1: 3.2 chips/s, half a chip in 154 ms); each block's correlation is
+    shifted back by that, a fraction of a sample included (the phase ramp
+    :math:`e^{-j 2\\pi m d_k / N}` on its spectrum, the DFT's shift theorem), before the
+    sum, and the grid's lag is block 0's: a long non-coherent sum keeps its gain
+    (Kaplan & Hegarty, *Understanding GPS/GNSS*, 3rd ed., sec. 8.4). Without it (the
+    default) the blocks are summed at the same lag.
     """
     n = int(round(coherent_time_s * sample_rate_hz))
     blocks = _blocks(samples, n, noncoherent)
@@ -84,10 +94,20 @@ def search_grid(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prns: 
     step = max(1, _CHUNK_ELEMENTS // (noncoherent * n))
     for lo in range(0, dopplers_hz.size, step):
         spectra = _wiped_spectra(blocks, dopplers_hz[lo:lo + step], sample_rate_hz, if_hz)
+        if code_doppler:
+            spectra *= _code_drift_ramp(dopplers_hz[lo:lo + step], noncoherent, n, signal.carrier_freq_hz)
         for i in range(len(prns)):
             z = fft.ifft(spectra * codes[i], axis=-1, workers=1)
             out[i, lo:lo + step] = _sum_blocks(z.real**2 + z.imag**2, alternate)
     return out
+
+
+def _code_drift_ramp(dopplers_hz: np.ndarray, blocks: int, n: int, carrier_hz: float) -> np.ndarray:
+    """``(n_doppler, K, N)`` phase ramps that delay block ``k``'s correlation by the code's
+    drift :math:`d_k = k N f_D / f_c` samples, landing its peak on block 0's lag (`search_grid`)."""
+    drift = np.arange(blocks)[None, :] * n * dopplers_hz[:, None] / carrier_hz  # (n_doppler, K) samples
+    m = fft.fftfreq(n, 1.0 / n)  # signed DFT bin indices
+    return np.exp(-2j * np.pi * drift[:, :, None] * (m / n)).astype(np.complex64)
 
 
 @lru_cache(maxsize=2)
