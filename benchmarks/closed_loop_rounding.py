@@ -22,8 +22,15 @@ import numpy as np
 from gnssframework import testing
 from gnssframework_plugins import estimators as builtin_estimators
 
-SERIES = ("code_error_chips", "freq_error_hz", "position_error_m", "velocity_error_m_s", "nav_nees",
-          "code_output_error_chips", "freq_output_error_hz")
+SERIES = (
+    "code_error_chips",
+    "freq_error_hz",
+    "position_error_m",
+    "velocity_error_m_s",
+    "nav_nees",
+    "code_output_error_chips",
+    "freq_output_error_hz",
+)
 
 
 @contextlib.contextmanager
@@ -52,15 +59,18 @@ def main() -> None:
     args = parser.parse_args()
     for estimator in ("svd-ckf", "ckf", "ukf"):
         ref = run(estimator, "numpy", args.duration)
-        others = {"numba": run(estimator, "numba", args.duration),
-                  "1 ulp": run(estimator, "numpy", args.duration, nudge=True),
-                  "reversed": run(estimator, "numpy", args.duration, reverse=True)}
+        others = {
+            "numba": run(estimator, "numba", args.duration),
+            "1 ulp": run(estimator, "numpy", args.duration, nudge=True),
+            "reversed": run(estimator, "numpy", args.duration, reverse=True),
+        }
         print(f"\n{estimator}, 30 dB-Hz, 2 runs x {args.duration:g} s: max |difference| / max |value|")
         print(f"{'series':26s}" + "".join(f"{k:>11s}" for k in others))
         for name in SERIES:
             scale = np.max(np.abs(ref[name]))
-            print(f"{name:26s}" + "".join(f"{np.max(np.abs(o[name] - ref[name])) / scale:11.1e}"
-                                          for o in others.values()))
+            print(
+                f"{name:26s}" + "".join(f"{np.max(np.abs(o[name] - ref[name])) / scale:11.1e}" for o in others.values())
+            )
 
 
 if __name__ == "__main__":

@@ -67,32 +67,96 @@ def _kernel_cases():
     bad = np.zeros(B, dtype=np.bool_)
     upd_out = (np.empty((B, n)), np.empty((B, n, n)), np.empty((B, n, m)), np.empty((B, m)), np.empty(B, np.bool_))
     cases = [
-        ("sigma points (Cholesky)", drivers._sigma_points_kernels[0], (mean, cov, 0, float(np.sqrt(n)), False, X, status)),
+        (
+            "sigma points (Cholesky)",
+            drivers._sigma_points_kernels[0],
+            (mean, cov, 0, float(np.sqrt(n)), False, X, status),
+        ),
         ("sigma points (eigh)", drivers._sigma_points_kernels[0], (mean, cov, 1, float(np.sqrt(n)), False, X, status)),
         ("predict moments", drivers._predict_moments_kernels[0], (X, w, w, Q, np.empty((B, n)), np.empty((B, n, n)))),
-        ("measurement moments", drivers._measurement_moments_kernels[0],
-         (X, Z, mean, w, w, R, np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m)))),
+        (
+            "measurement moments",
+            drivers._measurement_moments_kernels[0],
+            (X, Z, mean, w, w, R, np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m))),
+        ),
         ("update (P - K S K^T)", drivers._update_kernels[0], (mean, cov, z, z_hat, S, C, bad, False, H, R, *upd_out)),
         ("update (Joseph)", drivers._update_kernels[0], (mean, cov, z, z_hat, S, C, bad, True, H, R, *upd_out)),
-        ("linear predict", drivers._linear_predict_kernels[0],
-         (mean, cov, compiled.f_params, Q, np.empty((B, n)), np.empty((B, n, n)))),
+        (
+            "linear predict",
+            drivers._linear_predict_kernels[0],
+            (mean, cov, compiled.f_params, Q, np.empty((B, n)), np.empty((B, n, n))),
+        ),
     ]
     linear = CompiledFunctions(compiled.f, compiled.f_params, linear_h, H[0].copy(), linear_h_jacobian)
-    cases.append(("ekf moments (linear h)", drivers._ekf_pair(linear)[0],
-                  (mean, cov, linear.h_params, R, np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m)))))
-    rules = {"ukf": (0, float(np.sqrt(3.0)), True), "ckf": (0, float(np.sqrt(n)), False),
-             "svd-ckf": (1, float(np.sqrt(n)), False)}
+    cases.append(
+        (
+            "ekf moments (linear h)",
+            drivers._ekf_pair(linear)[0],
+            (mean, cov, linear.h_params, R, np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m))),
+        )
+    )
+    rules = {
+        "ukf": (0, float(np.sqrt(3.0)), True),
+        "ckf": (0, float(np.sqrt(n)), False),
+        "svd-ckf": (1, float(np.sqrt(n)), False),
+    }
     for label, (kind, scale, center) in rules.items():
         Nr = 2 * n + (1 if center else 0)
         wr = np.full(Nr, 1.0 / Nr)
-        cases.append((f"fused predict 5x6 ({label})", drivers._predict_pair(compiled, n)[0],
-                      (mean, cov, kind, scale, center, wr, wr, compiled.f_params, Q, np.empty((B, n)),
-                       np.empty((B, n, n)), np.empty(B, np.int8), np.empty(1, np.int64))))
-        outs = (np.empty((B, n)), np.empty((B, n, n)), np.empty((B, n, m)), np.empty((B, m)), np.empty((B, m)),
-                np.empty((B, m, m)), np.empty((B, n, m)))
-        cases.append((f"fused update 5x6 ({label})", drivers._update_pair(compiled, n, m)[0],
-                      (mean, cov, z, bad, kind, scale, center, wr, wr, compiled.h_params, R, *outs,
-                       np.empty(B, np.int8), np.empty(B, np.bool_), np.empty(B, np.bool_), np.empty(3, np.int64))))
+        cases.append(
+            (
+                f"fused predict 5x6 ({label})",
+                drivers._predict_pair(compiled, n)[0],
+                (
+                    mean,
+                    cov,
+                    kind,
+                    scale,
+                    center,
+                    wr,
+                    wr,
+                    compiled.f_params,
+                    Q,
+                    np.empty((B, n)),
+                    np.empty((B, n, n)),
+                    np.empty(B, np.int8),
+                    np.empty(1, np.int64),
+                ),
+            )
+        )
+        outs = (
+            np.empty((B, n)),
+            np.empty((B, n, n)),
+            np.empty((B, n, m)),
+            np.empty((B, m)),
+            np.empty((B, m)),
+            np.empty((B, m, m)),
+            np.empty((B, n, m)),
+        )
+        cases.append(
+            (
+                f"fused update 5x6 ({label})",
+                drivers._update_pair(compiled, n, m)[0],
+                (
+                    mean,
+                    cov,
+                    z,
+                    bad,
+                    kind,
+                    scale,
+                    center,
+                    wr,
+                    wr,
+                    compiled.h_params,
+                    R,
+                    *outs,
+                    np.empty(B, np.int8),
+                    np.empty(B, np.bool_),
+                    np.empty(B, np.bool_),
+                    np.empty(3, np.int64),
+                ),
+            )
+        )
     return cases
 
 
@@ -167,8 +231,12 @@ def main() -> None:
     parser.add_argument("before", type=Path, nargs="?")
     parser.add_argument("after", type=Path, nargs="?")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--only", choices=("kernels", "estimators", "vector-loop"), nargs="+",
-                        default=["kernels", "estimators", "vector-loop"])
+    parser.add_argument(
+        "--only",
+        choices=("kernels", "estimators", "vector-loop"),
+        nargs="+",
+        default=["kernels", "estimators", "vector-loop"],
+    )
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:  # inside a checkout's process: time its kernels, print one JSON line
@@ -182,8 +250,11 @@ def main() -> None:
             parser.error(f"{tree} is not a gnssframework checkout")
     global _CACHE_DIR
     _CACHE_DIR = tempfile.mkdtemp(prefix="compare-commits-numba-")
-    print(f"BEFORE {trees[0]}\nAFTER  {trees[1]}\nload average {os.getloadavg()[0]:.1f} at start, "
-          f"{os.cpu_count()} cores; numba cache {_CACHE_DIR}", flush=True)
+    print(
+        f"BEFORE {trees[0]}\nAFTER  {trees[1]}\nload average {os.getloadavg()[0]:.1f} at start, "
+        f"{os.cpu_count()} cores; numba cache {_CACHE_DIR}",
+        flush=True,
+    )
     for tree in trees:  # compile every kernel once, untimed
         _measure(tree, "kernels")
     for what in args.only:
@@ -192,8 +263,11 @@ def main() -> None:
             for side, tree in enumerate(trees):
                 for key, value in _measure(tree, what).items():
                     results[side].setdefault(key, []).append(value)
-            print(f"  {what}: repeat {r + 1} of {args.repeats} done, load {os.getloadavg()[0]:.1f}",
-                  file=sys.stderr, flush=True)
+            print(
+                f"  {what}: repeat {r + 1} of {args.repeats} done, load {os.getloadavg()[0]:.1f}",
+                file=sys.stderr,
+                flush=True,
+            )
         rate = what == "vector-loop"  # a rate (higher is faster); the others are times
         unit = ("BEFORE / AFTER" if rate else "AFTER / BEFORE") + " (above 1: AFTER slower)"
         print(f"\n{what}: medians of {args.repeats} alternated repeats; ratio {unit}")

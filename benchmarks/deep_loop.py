@@ -35,8 +35,9 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "deep_integration.t
 def candidates() -> dict[str, dict]:
     """The candidates of the example (channel_filter and nav_filter specs), by name."""
     cfg = tomllib.loads(EXAMPLE.read_text())
-    return {c["name"]: {"channel_filter": c["channel_filter"], "nav_filter": c["nav_filter"]}
-            for c in cfg["candidates"]}
+    return {
+        c["name"]: {"channel_filter": c["channel_filter"], "nav_filter": c["nav_filter"]} for c in cfg["candidates"]
+    }
 
 
 def main() -> None:
@@ -51,10 +52,14 @@ def main() -> None:
     # Warm-up long enough that every path runs (loose: its first fix comes after the pull-in update).
     short = get_scenario({**base, "duration_s": 0.5})
     epochs = int(round(args.duration / scen.params.coherent_time_s))
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, load average "
-          f"{os.getloadavg()[0]:.1f} at start; {args.duration} s simulated per run")
-    print(f"{'candidate':12s} {'runs':>5s} {'epochs/s':>10s} {'x real time, all runs':>22s} "
-          f"{'same, CPU time':>16s} {'wall s':>8s} {'CPU s':>8s}")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, load average "
+        f"{os.getloadavg()[0]:.1f} at start; {args.duration} s simulated per run"
+    )
+    print(
+        f"{'candidate':12s} {'runs':>5s} {'epochs/s':>10s} {'x real time, all runs':>22s} "
+        f"{'same, CPU time':>16s} {'wall s':>8s} {'CPU s':>8s}"
+    )
     for name in args.candidates:
         for runs in (1, args.runs):
             short.run_batch({"cn0_dbhz": 45.0}, short.build(specs[name]), runs, np.random.default_rng(1))  # warm-up
@@ -63,8 +68,11 @@ def main() -> None:
             scen.run_batch({"cn0_dbhz": 45.0}, plugins, runs, np.random.default_rng(0))
             dt, dc = time.perf_counter() - t0, time.process_time() - c0
             rate = epochs / dt
-            print(f"{name:12s} {runs:5d} {rate:10.1f} {rate * runs / 1000:22.2f} {epochs / dc * runs / 1000:16.2f} "
-                  f"{dt:8.2f} {dc:8.2f}", flush=True)
+            print(
+                f"{name:12s} {runs:5d} {rate:10.1f} {rate * runs / 1000:22.2f} {epochs / dc * runs / 1000:16.2f} "
+                f"{dt:8.2f} {dc:8.2f}",
+                flush=True,
+            )
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
 
 

@@ -192,7 +192,9 @@ def time_dynamax(batch: int, steps: int, rng) -> float:
     hyper = UKFHyperParams(alpha=ALPHA, beta=2.0, kappa=0.0)
     zs = jnp.asarray(np.swapaxes(make_problem(batch, steps, rng), 0, 1))  # (batch, steps, 6)
 
-    run = jax.jit(jax.vmap(lambda em: unscented_kalman_filter(params, em, hyper, output_fields=["filtered_means"]).filtered_means))
+    run = jax.jit(
+        jax.vmap(lambda em: unscented_kalman_filter(params, em, hyper, output_fields=["filtered_means"]).filtered_means)
+    )
     run(zs).block_until_ready()
     best = np.inf
     for _ in range(3):
@@ -215,12 +217,17 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=20)
     parser.add_argument("--batches", type=int, nargs="+", default=[1, 8, 1000, 8000])
     parser.add_argument("--no-numpy", action="store_true", help="skip the NumPy reference rows")
-    parser.add_argument("--no-peers", action="store_true",
-                        help="skip FilterPy, Stone Soup and dynamax (our rows only, e.g. to compare two commits)")
+    parser.add_argument(
+        "--no-peers",
+        action="store_true",
+        help="skip FilterPy, Stone Soup and dynamax (our rows only, e.g. to compare two commits)",
+    )
     args = parser.parse_args()
     rng = np.random.default_rng(0)
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"Python {platform.python_version()}, numpy {np.__version__}")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"Python {platform.python_version()}, numpy {np.__version__}"
+    )
     t0 = time.perf_counter()
     print(f"kernel warm-up (compile or load from cache): {compiled_kernels.warm_up():.2f} s\n")
 
@@ -241,8 +248,10 @@ def main() -> None:
 
     if FILTERPY_CPU:
         print(f"FilterPy UKF CPU time: {FILTERPY_CPU * 1e6:9.1f} us per filter-step")
-    print(f"\n{'filter':8s} {'path':9s} {'batch':>6s} {'us/step':>9s} {'vs FilterPy':>12s} {'vs dynamax':>11s} "
-          f"{'CPU us/step':>12s} {'CPU vs FilterPy':>16s}")
+    print(
+        f"\n{'filter':8s} {'path':9s} {'batch':>6s} {'us/step':>9s} {'vs FilterPy':>12s} {'vs dynamax':>11s} "
+        f"{'CPU us/step':>12s} {'CPU vs FilterPy':>16s}"
+    )
     paths = [("numba", "numba", False), ("numba+cm", "numba", True)]
     if not args.no_numpy:
         paths.append(("numpy", "numpy", False))
@@ -254,8 +263,10 @@ def main() -> None:
                 vs_fp = f"{fp / t:11.1f}x" if fp else f"{'-':>12s}"
                 vs_d = f"{dmx[batch] / t:10.2f}x" if dmx.get(batch) else f"{'-':>11s}"
                 cpu_fp = f"{FILTERPY_CPU / t_cpu:15.1f}x" if FILTERPY_CPU else f"{'-':>16s}"
-                print(f"{name:8s} {label:9s} {batch:6d} {t * 1e6:9.2f} {vs_fp} {vs_d} {t_cpu * 1e6:12.2f} {cpu_fp}",
-                      flush=True)
+                print(
+                    f"{name:8s} {label:9s} {batch:6d} {t * 1e6:9.2f} {vs_fp} {vs_d} {t_cpu * 1e6:12.2f} {cpu_fp}",
+                    flush=True,
+                )
     print(f"\ntotal {time.perf_counter() - t0:.0f} s")
 
 

@@ -10,12 +10,23 @@ from pathlib import Path
 ADAPTERS = {"ibyte": "Ibyte_To_Complex", "ishort": "Ishort_To_Complex"}
 
 #: The ``Acquisition_1C`` section: PCPS, 1 ms coherent, +-5 kHz in 250 Hz steps, one dwell.
-ACQUISITION = {"implementation": "GPS_L1_CA_PCPS_Acquisition", "item_type": "gr_complex",
-               "coherent_integration_time_ms": 1, "pfa": 0.01, "doppler_max": 5000, "doppler_step": 250,
-               "max_dwells": 1}
+ACQUISITION = {
+    "implementation": "GPS_L1_CA_PCPS_Acquisition",
+    "item_type": "gr_complex",
+    "coherent_integration_time_ms": 1,
+    "pfa": 0.01,
+    "doppler_max": 5000,
+    "doppler_step": 250,
+    "max_dwells": 1,
+}
 #: The ``Tracking_1C`` section: DLL/PLL, 30 Hz PLL, 2 Hz DLL, early-late 0.5 chip.
-TRACKING = {"implementation": "GPS_L1_CA_DLL_PLL_Tracking", "item_type": "gr_complex", "pll_bw_hz": 30.0,
-            "dll_bw_hz": 2.0, "early_late_space_chips": 0.5}
+TRACKING = {
+    "implementation": "GPS_L1_CA_DLL_PLL_Tracking",
+    "item_type": "gr_complex",
+    "pll_bw_hz": 30.0,
+    "dll_bw_hz": 2.0,
+    "early_late_space_chips": 0.5,
+}
 
 
 def section(block: str, settings: dict[str, object]) -> str:
@@ -24,8 +35,17 @@ def section(block: str, settings: dict[str, object]) -> str:
     return "".join(f"{block}.{key}={value}\n" for key, value in settings.items())
 
 
-def gnss_sdr_config(path: Path, fs: float, out: Path, *, channels: int = 8, item_type: str = "ibyte",
-                    output_rate_ms: int = 100, display_rate_ms: int = 500, pvt_models: bool = False) -> str:
+def gnss_sdr_config(
+    path: Path,
+    fs: float,
+    out: Path,
+    *,
+    channels: int = 8,
+    item_type: str = "ibyte",
+    output_rate_ms: int = 100,
+    display_rate_ms: int = 500,
+    pvt_models: bool = False,
+) -> str:
     """The text of a GNSS-SDR 0.0.17 config for GPS L1 C/A on interleaved I/Q ``path``.
 
     ``item_type`` is ``ibyte`` (int8 I/Q) or ``ishort`` (int16 I/Q); ``pvt_models`` adds

@@ -59,8 +59,10 @@ from gnss_sdr_config import gnss_sdr_config  # noqa: E402  (beside this script)
 
 FS_HZ = 2.6e6
 LEAP_S = 18  # GPS - UTC in 2022 (gps-sdr-sim's brdc0010.22n): GNSS-SDR prints UTC
-_POSITION = re.compile(r"Position at \S+ (\d+):(\d+):([\d.]+) UTC using (\d+) observations is Lat = ([-\d.]+) "
-                       r"\[deg\], Long = ([-\d.]+) \[deg\], Height\s*=\s*([-\d.]+) \[m\]")
+_POSITION = re.compile(
+    r"Position at \S+ (\d+):(\d+):([\d.]+) UTC using (\d+) observations is Lat = ([-\d.]+) "
+    r"\[deg\], Long = ([-\d.]+) \[deg\], Height\s*=\s*([-\d.]+) \[m\]"
+)
 
 
 def errors_m(lat_deg: np.ndarray, lon_deg: np.ndarray, h_m: np.ndarray) -> tuple[float, float]:
@@ -100,8 +102,9 @@ def ours_in_this_process(path: Path, out: Path, profile: bool, threads: int | No
     startup_cpu_s = time.process_time()
 
     def run():
-        return receive(open_recording(path), acquisition, tracking_config(), rate_hz=1.0, ionosphere=True,
-                       troposphere=False)
+        return receive(
+            open_recording(path), acquisition, tracking_config(), rate_hz=1.0, ionosphere=True, troposphere=False
+        )
 
     if profile:
         import cProfile
@@ -116,9 +119,12 @@ def ours_in_this_process(path: Path, out: Path, profile: bool, threads: int | No
     found = {"channels": sorted(int(p) for p in result.tracking.channels), "startup_cpu_s": startup_cpu_s}
     if table is not None and len(table):
         c = table.columns
-        found |= {"first_fix_s": float(table.sample_time_s[0]), "fixes": len(table),
-                  "sats_median": float(np.median(c["n_sats"])),
-                  "errors_m": errors_m(c["lat_deg"], c["lon_deg"], c["height_m"])}
+        found |= {
+            "first_fix_s": float(table.sample_time_s[0]),
+            "fixes": len(table),
+            "sats_median": float(np.median(c["n_sats"])),
+            "errors_m": errors_m(c["lat_deg"], c["lon_deg"], c["height_m"]),
+        }
     out.write_text(json.dumps(found))
 
 
@@ -155,30 +161,66 @@ def run_gnss_sdr(path: Path, work: Path, tow0: float) -> dict:
     out = work / "gnss-sdr"
     out.mkdir(exist_ok=True)
     conf = work / "gnss-sdr.conf"
-    conf.write_text(gnss_sdr_config(path, FS_HZ, out, channels=12, item_type="ishort", output_rate_ms=1000,
-                                      display_rate_ms=1000, pvt_models=True))
+    conf.write_text(
+        gnss_sdr_config(
+            path,
+            FS_HZ,
+            out,
+            channels=12,
+            item_type="ishort",
+            output_rate_ms=1000,
+            display_rate_ms=1000,
+            pvt_models=True,
+        )
+    )
     run, wall, cpu, load, peak = timed([exe, f"--config_file={conf}"], out)
     text = run.stdout + run.stderr
     (work / "gnss-sdr.log").write_text(text)
     fixes = [m.groups() for m in _POSITION.finditer(text)]
-    found = {"wall_s": wall, "cpu_s": cpu, "load": load, "peak_mib": peak, "exit": run.returncode,
-             "channels": sorted({int(p) for p in re.findall(r"Tracking of GPS L1 C/A signal started on channel \d+ "
-                                                            r"for satellite GPS PRN (\d+)", text)})}
+    found = {
+        "wall_s": wall,
+        "cpu_s": cpu,
+        "load": load,
+        "peak_mib": peak,
+        "exit": run.returncode,
+        "channels": sorted(
+            {
+                int(p)
+                for p in re.findall(
+                    r"Tracking of GPS L1 C/A signal started on channel \d+ "
+                    r"for satellite GPS PRN (\d+)",
+                    text,
+                )
+            }
+        ),
+    }
     if fixes:
         f = np.array(fixes, dtype=float)
         sod = f[:, 0] * 3600 + f[:, 1] * 60 + f[:, 2]
-        found |= {"first_fix_s": float((sod[0] + LEAP_S - tow0 % 86400) % 86400), "fixes": len(f),
-                  "sats_median": float(np.median(f[:, 3])), "errors_m": errors_m(f[:, 4], f[:, 5], f[:, 6])}
+        found |= {
+            "first_fix_s": float((sod[0] + LEAP_S - tow0 % 86400) % 86400),
+            "fixes": len(f),
+            "sats_median": float(np.median(f[:, 3])),
+            "errors_m": errors_m(f[:, 4], f[:, 5], f[:, 6]),
+        }
     return found
 
 
 def line(name: str, r: dict, seconds: float) -> str:
-    fix = (f"first fix {r['first_fix_s']:5.1f} s, {r['fixes']:3d} fixes, {r['sats_median']:.0f} sats, H/V RMS "
-           f"{r['errors_m'][0]:5.1f}/{r['errors_m'][1]:5.1f} m") if "fixes" in r else "no fix"
+    fix = (
+        (
+            f"first fix {r['first_fix_s']:5.1f} s, {r['fixes']:3d} fixes, {r['sats_median']:.0f} sats, H/V RMS "
+            f"{r['errors_m'][0]:5.1f}/{r['errors_m'][1]:5.1f} m"
+        )
+        if "fixes" in r
+        else "no fix"
+    )
     startup = f" (start-up {r['startup_cpu_s']:.1f})" if "startup_cpu_s" in r else ""
-    return (f"{name:13s} wall {r['wall_s']:6.1f} s  CPU {r['cpu_s']:6.1f} s{startup}  peak {r['peak_mib']:4.0f} MiB  "
-            f"x{seconds / r['wall_s']:5.2f} "
-            f"real time  load {r['load']:4.1f}  {len(r['channels']):2d} channels  {fix}")
+    return (
+        f"{name:13s} wall {r['wall_s']:6.1f} s  CPU {r['cpu_s']:6.1f} s{startup}  peak {r['peak_mib']:4.0f} MiB  "
+        f"x{seconds / r['wall_s']:5.2f} "
+        f"real time  load {r['load']:4.1f}  {len(r['channels']):2d} channels  {fix}"
+    )
 
 
 def uptime() -> str:
@@ -212,22 +254,27 @@ def main(argv: list[str] | None = None) -> int:
         except (subprocess.CalledProcessError, OSError) as exc:
             print(f"cannot build or run gps-sdr-sim from {SIM_DIR}: {exc}", file=sys.stderr)
             return 2
-        print(f"{args.seconds:.0f} s gps-sdr-sim at {FS_HZ / 1e6:.1f} MHz, {args.cn0:g} dB-Hz; {os.cpu_count()} cores; "
-              f"before: {uptime()}")
+        print(
+            f"{args.seconds:.0f} s gps-sdr-sim at {FS_HZ / 1e6:.1f} MHz, {args.cn0:g} dB-Hz; {os.cpu_count()} cores; "
+            f"before: {uptime()}"
+        )
         rows = []
         for k in range(args.repeat):
             order = ("ours", "gnss-sdr") if k % 2 == 0 else ("gnss-sdr", "ours")
             round_ = {}
             for who in order:
-                round_[who] = (run_ours(path, work, threads=args.threads) if who == "ours"
-                               else run_gnss_sdr(path, work, tow0))
+                round_[who] = (
+                    run_ours(path, work, threads=args.threads) if who == "ours" else run_gnss_sdr(path, work, tow0)
+                )
                 print(line("gnssframework" if who == "ours" else "GNSS-SDR", round_[who], args.seconds), flush=True)
             rows.append(round_)
         wall = np.array([r["gnss-sdr"]["wall_s"] / r["ours"]["wall_s"] for r in rows])
         cpu = np.array([r["gnss-sdr"]["cpu_s"] / r["ours"]["cpu_s"] for r in rows])
-        print(f"GNSS-SDR / gnssframework (above 1: gnssframework faster), per round: wall time "
-              f"{', '.join(f'{x:.2f}' for x in wall)}, CPU time {', '.join(f'{x:.2f}' for x in cpu)}; median: wall "
-              f"{np.median(wall):.2f}, CPU {np.median(cpu):.2f}; after: {uptime()}")
+        print(
+            f"GNSS-SDR / gnssframework (above 1: gnssframework faster), per round: wall time "
+            f"{', '.join(f'{x:.2f}' for x in wall)}, CPU time {', '.join(f'{x:.2f}' for x in cpu)}; median: wall "
+            f"{np.median(wall):.2f}, CPU {np.median(cpu):.2f}; after: {uptime()}"
+        )
         if args.profile:
             print("\nwhere gnssframework's time goes (cProfile, a separate untimed run):")
             run_ours(path, work, profile=True, threads=args.threads)

@@ -74,21 +74,37 @@ def correlation_rates(fs: float, channels: int, rng: np.random.Generator) -> dic
     x = (rng.standard_normal(n + 100) + 1j * rng.standard_normal(n + 100)).astype(np.complex64)
     codes = np.stack([ca_code(p) for p in range(1, channels + 1)]).astype(np.float32)
     starts, counts = rng.integers(0, 100, channels), np.full(channels, n)
-    args = (starts, counts, rng.uniform(0, 1, channels), np.full(channels, 1.023e6 / fs), rng.uniform(0, 1, channels),
-            rng.uniform(-5e3, 5e3, channels) / fs, codes, np.array([-0.5, 0.0, 0.5]))
+    args = (
+        starts,
+        counts,
+        rng.uniform(0, 1, channels),
+        np.full(channels, 1.023e6 / fs),
+        rng.uniform(0, 1, channels),
+        rng.uniform(-5e3, 5e3, channels) / fs,
+        codes,
+        np.array([-0.5, 0.0, 0.5]),
+    )
     correlate_channels(x, *args, backend="numba")  # compile / load
     loops = 50
     compiled = _best(lambda: [correlate_channels(x, *args, backend="numba") for _ in range(loops)]) / loops
     reference = _best(lambda: correlate_channels(x, *args, backend="numpy"), 1)
     sig = IfSignal(x.astype(np.complex128), fs, 0.0, 1.0, True)
-    old = _best(lambda: [correlate_if(sig, p, np.array(0.3), np.array(1.023e6), np.array(1000.0), np.array(0.0), 1e-3)
-                         for p in range(1, channels + 1)], 1)
-    return {name: channels * 1e-3 / t for name, t in
-            (("compiled", compiled), ("numpy reference", reference), ("correlate_if", old))}
+    old = _best(
+        lambda: [
+            correlate_if(sig, p, np.array(0.3), np.array(1.023e6), np.array(1000.0), np.array(0.0), 1e-3)
+            for p in range(1, channels + 1)
+        ],
+        1,
+    )
+    return {
+        name: channels * 1e-3 / t
+        for name, t in (("compiled", compiled), ("numpy reference", reference), ("correlate_if", old))
+    }
 
 
-def channel_mhz_per_core(fs: float, channels: int, rng: np.random.Generator, threads: int,
-                         coherent_ms: int = 10, loops: int = 40) -> tuple[float, float]:
+def channel_mhz_per_core(
+    fs: float, channels: int, rng: np.random.Generator, threads: int, coherent_ms: int = 10, loops: int = 40
+) -> tuple[float, float]:
     """Correlation alone as the tracker calls it (`correlate_periods`: ``coherent_ms`` whole
     code periods of every channel per call, int8 I/Q as recorded, E/P/L), on ``threads``
     threads: (channel-MHz per CPU second, channel-MHz per wall second), i.e. channel-samples
@@ -99,9 +115,16 @@ def channel_mhz_per_core(fs: float, channels: int, rng: np.random.Generator, thr
     comps = rng.integers(-40, 40, 2 * n).astype(np.int8)
     codes = np.stack([ca_code(p) for p in range(1, channels + 1)]).astype(np.float32)
     taps = np.array([-0.5, 0.0, 0.5])
-    args = (rng.integers(0, 300, channels), np.full(channels, coherent_ms), rng.uniform(-0.5, 0.5, channels),
-            1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, channels)), rng.uniform(0, 1, channels),
-            rng.uniform(-5e3, 5e3, channels) / fs, codes, taps)
+    args = (
+        rng.integers(0, 300, channels),
+        np.full(channels, coherent_ms),
+        rng.uniform(-0.5, 0.5, channels),
+        1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, channels)),
+        rng.uniform(0, 1, channels),
+        rng.uniform(-5e3, 5e3, channels) / fs,
+        codes,
+        taps,
+    )
     tables = code_tables(codes, taps)
     correlate_periods(comps, *args, iq=True, tables=tables, threads=threads)  # compile / load
     best_cpu = best_wall = 0.0
@@ -131,8 +154,9 @@ def tracking_rate(path: Path, channels: int, duration_s: float | None = None) ->
     return len(found) * result.duration_s / wall, wall, len(found)
 
 
-def boc_cost(fs: float, seconds: float, channels: int, folder: Path, rng: np.random.Generator,
-             repeat: int = 2) -> dict[str, tuple[float, float]]:
+def boc_cost(
+    fs: float, seconds: float, channels: int, folder: Path, rng: np.random.Generator, repeat: int = 2
+) -> dict[str, tuple[float, float]]:
     """CPU and wall seconds per channel-second of tracking ``channels`` GPS L1 C/A and as
     many Galileo E1-B (BOC(1,1) replica: code times sub-carrier, two table entries a chip)
     channels on generated recordings at ``fs`` (45 dB-Hz, the same tracking config for
@@ -144,16 +168,25 @@ def boc_cost(fs: float, seconds: float, channels: int, folder: Path, rng: np.ran
 
     out = {}
     for spec in (GPS_L1CA, GALILEO_E1B_BOC11):
-        sats = [SatelliteSignal(p, 45.0, float(rng.uniform(-4000, 4000)),
-                                float(rng.uniform(0, spec.code_length_chips)), float(rng.uniform(0, 2 * np.pi)),
-                                first_bit_code_period=0, signal=spec) for p in range(1, channels + 1)]
+        sats = [
+            SatelliteSignal(
+                p,
+                45.0,
+                float(rng.uniform(-4000, 4000)),
+                float(rng.uniform(0, spec.code_length_chips)),
+                float(rng.uniform(0, 2 * np.pi)),
+                first_bit_code_period=0,
+                signal=spec,
+            )
+            for p in range(1, channels + 1)
+        ]
         x = synthesize_samples(sats, seconds, fs, 0.0, rng)
-        rec = open_recording(write_recording(folder / f"{spec.name}_{fs:.0f}.sigmf-data", x, "ci16_le", fs, 0.0,
-                                             scale=300.0))
+        rec = open_recording(
+            write_recording(folder / f"{spec.name}_{fs:.0f}.sigmf-data", x, "ci16_le", fs, 0.0, scale=300.0)
+        )
         del x
         acq = registry.create("acquisition", "pcps")
-        found = [r for r in acquire_recording(rec, acq, prns=tuple(range(1, channels + 1)), signal=spec)
-                 if r.detected]
+        found = [r for r in acquire_recording(rec, acq, prns=tuple(range(1, channels + 1)), signal=spec) if r.detected]
         tracker = SampleTracker(rec, tracking_config(early_late_spacing_chips=0.2, coherent_ms=1), acq, signal=spec)
         tracker.run(found, 0.05)  # warm: compiled kernels loaded
         best = None
@@ -174,9 +207,17 @@ def generated(fs: float, seconds: float, channels: int, folder: Path, rng: np.ra
     from gnssframework.receiver.frontend.sigmf_meta import write_sigmf_meta
     from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 
-    base = [SatelliteSignal(p, 45.0, float(rng.uniform(-4000, 4000)), float(rng.uniform(0, 1023)),
-                            float(rng.uniform(0, 2 * np.pi)), first_bit_code_period=int(rng.integers(0, 20)))
-            for p in range(1, channels + 1)]
+    base = [
+        SatelliteSignal(
+            p,
+            45.0,
+            float(rng.uniform(-4000, 4000)),
+            float(rng.uniform(0, 1023)),
+            float(rng.uniform(0, 2 * np.pi)),
+            first_bit_code_period=int(rng.integers(0, 20)),
+        )
+        for p in range(1, channels + 1)
+    ]
     path = folder / f"gen_{fs:.0f}.bin"
     source = registry.create("sample_source", "ci8")
     chunk = 0.25
@@ -187,24 +228,50 @@ def generated(fs: float, seconds: float, channels: int, folder: Path, rng: np.ra
             for b in base:
                 chips = b.code_phase_chips + CA_CHIP_RATE_HZ * (1 + b.doppler_hz / L1_FREQ_HZ) * t
                 first_epoch = int(np.ceil(chips / 1023)) - 1  # index of the chunk's first code epoch
-                sats.append(SatelliteSignal(b.prn, b.cn0_dbhz, b.doppler_hz, chips % 1023,
-                                            b.carrier_phase_rad + 2 * np.pi * b.doppler_hz * t,
-                                            first_bit_code_period=(b.first_bit_code_period - first_epoch) % 20))
+                sats.append(
+                    SatelliteSignal(
+                        b.prn,
+                        b.cn0_dbhz,
+                        b.doppler_hz,
+                        chips % 1023,
+                        b.carrier_phase_rad + 2 * np.pi * b.doppler_hz * t,
+                        first_bit_code_period=(b.first_bit_code_period - first_epoch) % 20,
+                    )
+                )
             fh.write(source.encode(8.0 * synthesize_samples(sats, chunk, fs, 0.0, rng)))
-    write_sigmf_meta(path.with_suffix(".sigmf-meta"), format="ci8", sigmf_datatype="ci8", sample_rate_hz=fs,
-                     if_hz=0.0)
+    write_sigmf_meta(path.with_suffix(".sigmf-meta"), format="ci8", sigmf_datatype="ci8", sample_rate_hz=fs, if_hz=0.0)
     return path
 
 
 def gps_sdr_sim_file(fs: float, seconds: float, folder: Path) -> Path | None:
     if not (SIM_DIR / "build.sh").exists():
         return None
-    binary = subprocess.run([str(SIM_DIR / "build.sh"), str(folder / "bin")], check=True, capture_output=True,
-                            text=True).stdout.strip().splitlines()[-1]
+    binary = (
+        subprocess.run([str(SIM_DIR / "build.sh"), str(folder / "bin")], check=True, capture_output=True, text=True)
+        .stdout.strip()
+        .splitlines()[-1]
+    )
     out = folder / f"sim_{fs:.0f}.bin"
-    subprocess.run([binary, "-e", str(SIM_DIR / "brdc0010.22n"), "-l", "35.681298,139.766247,10.0", "-d",
-                    f"{seconds}", "-b", "8", "-s", f"{fs:.0f}", "-o", str(out)], check=True, capture_output=True,
-                   cwd=folder)
+    subprocess.run(
+        [
+            binary,
+            "-e",
+            str(SIM_DIR / "brdc0010.22n"),
+            "-l",
+            "35.681298,139.766247,10.0",
+            "-d",
+            f"{seconds}",
+            "-b",
+            "8",
+            "-s",
+            f"{fs:.0f}",
+            "-o",
+            str(out),
+        ],
+        check=True,
+        capture_output=True,
+        cwd=folder,
+    )
     return out
 
 
@@ -242,11 +309,16 @@ def worker(path: Path, fs: float, channels: int, with_acquisition: bool) -> dict
     tracker.run(found, 0.05)  # warm: compiled kernels loaded
     wall0, cpu0 = time.perf_counter(), time.process_time()
     if with_acquisition:
-        found = sorted([r for r in acquire_recording(rec, acq) if r.detected],
-                       key=lambda r: -r.test_statistic)[:channels]
+        found = sorted([r for r in acquire_recording(rec, acq) if r.detected], key=lambda r: -r.test_statistic)[
+            :channels
+        ]
     result = tracker.run(found)
-    return {"wall": time.perf_counter() - wall0, "cpu": time.process_time() - cpu0, "signal": result.duration_s,
-            "channels": len(found)}
+    return {
+        "wall": time.perf_counter() - wall0,
+        "cpu": time.process_time() - cpu0,
+        "signal": result.duration_s,
+        "channels": len(found),
+    }
 
 
 def run_worker(path: Path, fs: float, channels: int, with_acquisition: bool, one_cpu: int | None = None) -> dict:
@@ -272,8 +344,12 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--channels", type=int, default=8)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--repeat", type=int, default=2, help="interleaved runs of ours and GNSS-SDR per rate")
-    ap.add_argument("--threads", type=int, default=2, help="threads of the correlation rows (besides 1 and 2), and "
-                                                            "of the tracking runs (default %(default)s)")
+    ap.add_argument(
+        "--threads",
+        type=int,
+        default=2,
+        help="threads of the correlation rows (besides 1 and 2), and of the tracking runs (default %(default)s)",
+    )
     ap.add_argument("--correlation-only", action="store_true", help="the channel-MHz rows only")
     ap.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
     ap.add_argument("--fs", type=float, help=argparse.SUPPRESS)
@@ -291,8 +367,10 @@ def main(argv: list[str] | None = None) -> None:
     boc_rows(args, rng)
     if args.boc_only:
         return
-    print("\ncorrelation alone, channel-MHz per core (per CPU second of the process) and per wall second, "
-          "10 ms whole periods per call as the tracker after bit sync")
+    print(
+        "\ncorrelation alone, channel-MHz per core (per CPU second of the process) and per wall second, "
+        "10 ms whole periods per call as the tracker after bit sync"
+    )
     for fs in RATES_HZ:
         cells = []
         for threads in sorted({1, 2, args.threads}):
@@ -305,25 +383,33 @@ def main(argv: list[str] | None = None) -> None:
     print(f"{'rate MHz':>9s} {'compiled':>10s} {'numpy ref':>10s} {'correlate_if':>13s} {'compiled/if':>12s}")
     for fs in RATES_HZ:
         r = correlation_rates(fs, args.channels, rng)
-        print(f"{fs / 1e6:9.4f} {r['compiled']:10.1f} {r['numpy reference']:10.2f} {r['correlate_if']:13.2f} "
-              f"{r['compiled'] / r['correlate_if']:12.0f}  ({_load()})")
-    print(f"\ntracking ({args.seconds} s generated, scalar: 1 ms until bit sync, then 10 ms), channel-seconds per "
-          f"second; real time for {args.channels} channels = {args.channels}")
+        print(
+            f"{fs / 1e6:9.4f} {r['compiled']:10.1f} {r['numpy reference']:10.2f} {r['correlate_if']:13.2f} "
+            f"{r['compiled'] / r['correlate_if']:12.0f}  ({_load()})"
+        )
+    print(
+        f"\ntracking ({args.seconds} s generated, scalar: 1 ms until bit sync, then 10 ms), channel-seconds per "
+        f"second; real time for {args.channels} channels = {args.channels}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         for fs in RATES_HZ:
             rate, wall, n = tracking_rate(generated(fs, args.seconds, args.channels, folder, rng), args.channels)
             per_core = n * fs * args.seconds / tracking_rate.cpu_s / 1e6
-            print(f"{fs / 1e6:9.4f} MHz: {rate:6.1f} channel-s/s ({n} channels, {wall:.1f} s wall for "
-                  f"{args.seconds} s: {wall / args.seconds:.2f} of real time; {per_core:.0f} channel-MHz per core, "
-                  f"tracking included; {_load()})")
+            print(
+                f"{fs / 1e6:9.4f} MHz: {rate:6.1f} channel-s/s ({n} channels, {wall:.1f} s wall for "
+                f"{args.seconds} s: {wall / args.seconds:.2f} of real time; {per_core:.0f} channel-MHz per core, "
+                f"tracking included; {_load()})"
+            )
         if not SIM_DIR.exists():
             print("\ngps-sdr-sim rows: skipped (needs ../shared/tools/gps-sdr-sim)")
             return
         secs = args.seconds * 5
         have_peer = shutil.which("gnss-sdr") is not None
-        print(f"\nsame gps-sdr-sim file ({secs:.0f} s, int8 I/Q), whole run: wall and CPU time over signal time"
-              + ("" if have_peer else " (GNSS-SDR skipped: gnss-sdr is not on PATH)"))
+        print(
+            f"\nsame gps-sdr-sim file ({secs:.0f} s, int8 I/Q), whole run: wall and CPU time over signal time"
+            + ("" if have_peer else " (GNSS-SDR skipped: gnss-sdr is not on PATH)")
+        )
         sims = {}
         for fs in RATES_HZ:
             sims[fs] = sim = gps_sdr_sim_file(fs, secs, folder)
@@ -331,29 +417,37 @@ def main(argv: list[str] | None = None) -> None:
             for _ in range(args.repeat):
                 r = run_worker(sim, fs, args.channels, True)
                 ours.append((r["wall"] / r["signal"], r["cpu"] / r["signal"], os.getloadavg()[0]))
-                print(f"  {fs / 1e6:7.4f} MHz gnssframework: wall {ours[-1][0]:.3f}, CPU {ours[-1][1]:.3f} "
-                      f"({r['channels']} channels; {_load()})")
+                print(
+                    f"  {fs / 1e6:7.4f} MHz gnssframework: wall {ours[-1][0]:.3f}, CPU {ours[-1][1]:.3f} "
+                    f"({r['channels']} channels; {_load()})"
+                )
                 if have_peer:
                     g = gnss_sdr_run(sim, fs, args.channels, folder)
                     if g is not None:
                         theirs.append((g[0] / secs, g[1] / secs, os.getloadavg()[0]))
-                        print(f"  {fs / 1e6:7.4f} MHz GNSS-SDR:      wall {theirs[-1][0]:.3f}, CPU "
-                              f"{theirs[-1][1]:.3f} ({_load()})")
+                        print(
+                            f"  {fs / 1e6:7.4f} MHz GNSS-SDR:      wall {theirs[-1][0]:.3f}, CPU "
+                            f"{theirs[-1][1]:.3f} ({_load()})"
+                        )
             best_ours = min(o[0] for o in ours)
             line = f"{fs / 1e6:7.4f} MHz: gnssframework best wall {best_ours:.3f} of real time"
             if theirs:
                 best_theirs = min(t[0] for t in theirs)
                 cpu_ratio = min(t[1] for t in theirs) / min(o[1] for o in ours)
-                line += (f", GNSS-SDR {best_theirs:.3f}; GNSS-SDR time / ours: wall {best_theirs / best_ours:.2f}, "
-                         f"CPU {cpu_ratio:.2f} (above 1: ours faster)")
+                line += (
+                    f", GNSS-SDR {best_theirs:.3f}; GNSS-SDR time / ours: wall {best_theirs / best_ours:.2f}, "
+                    f"CPU {cpu_ratio:.2f} (above 1: ours faster)"
+                )
             print(line)
         cpu = sorted(os.sched_getaffinity(0))[-1]
         fs = RATES_HZ[-1]
         runs = [run_worker(sims[fs], fs, args.channels, False, one_cpu=cpu) for _ in range(args.repeat)]
         best = min(runs, key=lambda r: r["wall"])
-        print(f"\n{best['channels']} channels at {fs / 1e6:.4f} MHz on ONE core (CPU {cpu}, one thread), tracking: "
-              f"wall {best['wall'] / best['signal']:.3f} of real time, CPU {best['cpu'] / best['signal']:.3f} "
-              f"(best of {len(runs)}; {_load()})")
+        print(
+            f"\n{best['channels']} channels at {fs / 1e6:.4f} MHz on ONE core (CPU {cpu}, one thread), tracking: "
+            f"wall {best['wall'] / best['signal']:.3f} of real time, CPU {best['cpu'] / best['signal']:.3f} "
+            f"(best of {len(runs)}; {_load()})"
+        )
 
 
 def boc_kernel_cost(fs: float, channels: int, rng: np.random.Generator) -> tuple[float, float]:
@@ -372,9 +466,15 @@ def boc_kernel_cost(fs: float, channels: int, rng: np.random.Generator) -> tuple
     out = []
     for spec in (GPS_L1CA, GALILEO_E1B_BOC11):
         codes = replica_codes(spec, range(1, channels + 1))
-        args = (starts, counts, to_table_units(rng.uniform(0, 1, channels), spec),
-                to_table_units(np.full(channels, 1.023e6 / fs), spec), *carrier, codes,
-                to_table_units(np.array([-0.1, 0.0, 0.1]), spec))
+        args = (
+            starts,
+            counts,
+            to_table_units(rng.uniform(0, 1, channels), spec),
+            to_table_units(np.full(channels, 1.023e6 / fs), spec),
+            *carrier,
+            codes,
+            to_table_units(np.array([-0.1, 0.0, 0.1]), spec),
+        )
         correlate_channels(x, *args, backend="numba")  # compile / load
         loops = 20
         c = time.process_time()
@@ -387,20 +487,22 @@ def boc_kernel_cost(fs: float, channels: int, rng: np.random.Generator) -> tuple
 def boc_rows(args: argparse.Namespace, rng: np.random.Generator) -> None:
     """Issue 39: a BOC channel costs at most twice a C/A channel of the same rate."""
     seconds = min(args.seconds, 2.0)
-    print(f"\nBOC(1,1) against C/A, correlation alone ({args.channels} channels, 4 ms), CPU seconds per "
-          "channel-second")
+    print(f"\nBOC(1,1) against C/A, correlation alone ({args.channels} channels, 4 ms), CPU seconds per channel-second")
     for fs in (4e6, 16.3676e6):
         ca, boc = boc_kernel_cost(fs, args.channels, rng)
-        print(f"{fs / 1e6:9.4f} MHz: C/A {ca:.4f}, E1-B BOC(1,1) {boc:.4f}; BOC / C/A ratio {boc / ca:.2f} "
-              f"({_load()})")
-    print(f"\nBOC(1,1) against C/A, tracking {seconds} s generated, {args.channels} channels each, "
-          "CPU (wall) seconds per channel-second")
+        print(f"{fs / 1e6:9.4f} MHz: C/A {ca:.4f}, E1-B BOC(1,1) {boc:.4f}; BOC / C/A ratio {boc / ca:.2f} ({_load()})")
+    print(
+        f"\nBOC(1,1) against C/A, tracking {seconds} s generated, {args.channels} channels each, "
+        "CPU (wall) seconds per channel-second"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for fs in (4e6, 16.3676e6):
             r = boc_cost(fs, seconds, args.channels, Path(tmp), rng, args.repeat)
             ca, boc = r["gps-l1ca"], r["galileo-e1b-boc11"]
-            print(f"{fs / 1e6:9.4f} MHz: C/A {ca[0]:.4f} ({ca[1]:.4f}) on {ca[2]}, E1-B BOC(1,1) {boc[0]:.4f} "
-                  f"({boc[1]:.4f}) on {boc[2]}; BOC / C/A CPU ratio {boc[0] / ca[0]:.2f} ({_load()})")
+            print(
+                f"{fs / 1e6:9.4f} MHz: C/A {ca[0]:.4f} ({ca[1]:.4f}) on {ca[2]}, E1-B BOC(1,1) {boc[0]:.4f} "
+                f"({boc[1]:.4f}) on {boc[2]}; BOC / C/A CPU ratio {boc[0] / ca[0]:.2f} ({_load()})"
+            )
 
 
 if __name__ == "__main__":

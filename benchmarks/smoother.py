@@ -92,23 +92,29 @@ def time_dynamax(engine: str, zs: np.ndarray) -> float | None:
     try:
         import jax
         import jax.numpy as jnp
-        from dynamax.nonlinear_gaussian_ssm import (ParamsNLGSSM, UKFHyperParams, extended_kalman_smoother,
-                                                    unscented_kalman_smoother)
+        from dynamax.nonlinear_gaussian_ssm import (
+            ParamsNLGSSM,
+            UKFHyperParams,
+            extended_kalman_smoother,
+            unscented_kalman_smoother,
+        )
     except ImportError:
         return None
     from estimators import jax_channel_model
 
     fj, hj = jax_channel_model()
     # dynamax's first prior is the first step's: our initial predicted once (F linear)
-    params = ParamsNLGSSM(jnp.asarray(F @ X0), jnp.asarray(F @ P0 @ F.T + Q), fj, jnp.asarray(Q), hj,
-                          jnp.asarray(R))
+    params = ParamsNLGSSM(jnp.asarray(F @ X0), jnp.asarray(F @ P0 @ F.T + Q), fj, jnp.asarray(Q), hj, jnp.asarray(R))
     if engine == "ekf":
+
         def one(em):
             return extended_kalman_smoother(params, em).smoothed_means
     else:
         hyper = UKFHyperParams(alpha=1.0, beta=0.0, kappa=0.0)
+
         def one(em):
             return unscented_kalman_smoother(params, em, hyper).smoothed_means
+
     run = jax.jit(jax.vmap(one))
     data = jnp.asarray(np.swapaxes(zs, 0, 1))  # (batch, steps, 6)
     return _best(lambda: run(data).block_until_ready(), zs.shape[0] * zs.shape[1])
@@ -122,10 +128,14 @@ def main(argv=None) -> None:
     ap.add_argument("--no-dynamax", action="store_true", help="skip dynamax's smoothers")
     args = ap.parse_args(argv)
     rng = np.random.default_rng(1)
-    print(f"time per element-step (us), {args.steps} steps; ratios: FilterPy / ours, smooth / forward, "
-          "dynamax / ours (filter + smoother)")
-    print(f"{'engine':8} {'form':>5} {'batch':>6} {'forward':>9} {'fwd+store':>9} {'smooth':>9} {'FilterPy':>9} "
-          f"{'FP/smooth':>9} {'smooth/fwd':>10} {'dynamax':>9} {'dmx/ours':>8}")
+    print(
+        f"time per element-step (us), {args.steps} steps; ratios: FilterPy / ours, smooth / forward, "
+        "dynamax / ours (filter + smoother)"
+    )
+    print(
+        f"{'engine':8} {'form':>5} {'batch':>6} {'forward':>9} {'fwd+store':>9} {'smooth':>9} {'FilterPy':>9} "
+        f"{'FP/smooth':>9} {'smooth/fwd':>10} {'dynamax':>9} {'dmx/ours':>8}"
+    )
     for batch in args.batches:
         zs = problem(batch, args.steps, rng)
         for engine in args.engines:
@@ -137,9 +147,11 @@ def main(argv=None) -> None:
                 ratio = "-" if ref is None else f"{ref / backward:9.1f}"
                 dmx_txt = "-" if dmx is None else f"{dmx * 1e6:9.2f}"
                 dmx_ratio = "-" if dmx is None else f"{dmx / (stored + backward):8.2f}"
-                print(f"{engine:8} {form:>5} {batch:6d} {forward * 1e6:9.2f} {stored * 1e6:9.2f} "
-                      f"{backward * 1e6:9.2f} {ref_txt:>9} {ratio:>9} {backward / forward:10.2f} {dmx_txt:>9} "
-                      f"{dmx_ratio:>8}")
+                print(
+                    f"{engine:8} {form:>5} {batch:6d} {forward * 1e6:9.2f} {stored * 1e6:9.2f} "
+                    f"{backward * 1e6:9.2f} {ref_txt:>9} {ratio:>9} {backward / forward:10.2f} {dmx_txt:>9} "
+                    f"{dmx_ratio:>8}"
+                )
 
 
 if __name__ == "__main__":

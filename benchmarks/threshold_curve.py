@@ -35,18 +35,18 @@ ROOT = Path(__file__).resolve().parents[1]
 BUDGET_S = 600.0
 
 CANDIDATES = {
-    "pll-2-10": "{ name = \"scalar\", params = { pll_bandwidth_hz = 10.0, pll_order = 2, fll_bandwidth_hz = 0.0, "
-                "dll_bandwidth_hz = 0.5 } }",
-    "pll-2-18": "{ name = \"scalar\", params = { pll_bandwidth_hz = 18.0, pll_order = 2, fll_bandwidth_hz = 0.0, "
-                "dll_bandwidth_hz = 0.5 } }",
-    "pll-3-18": "{ name = \"scalar\", params = { pll_bandwidth_hz = 18.0, pll_order = 3, fll_bandwidth_hz = 0.0, "
-                "dll_bandwidth_hz = 0.5 } }",
-    "fll-pll-18": "{ name = \"scalar\", params = { pll_bandwidth_hz = 18.0, pll_order = 2, fll_bandwidth_hz = 10.0, "
-                  "dll_bandwidth_hz = 0.5 } }",
-    "kf": "{ name = \"kf-carrier-loop\", params = { q = [0.01, 0.1], r = 5.0, angle_unit = \"deg\", "
-          "dll_bandwidth_hz = 0.5 } }",
-    "iq-ckf": "{ name = \"iq-filter\", params = { estimator = \"svd-ckf\", adaptive = false, output = \"filtered\" } }",
-    "iq-ukf": "{ name = \"iq-filter\", params = { estimator = \"ukf\", adaptive = false, output = \"filtered\" } }",
+    "pll-2-10": '{ name = "scalar", params = { pll_bandwidth_hz = 10.0, pll_order = 2, fll_bandwidth_hz = 0.0, '
+    "dll_bandwidth_hz = 0.5 } }",
+    "pll-2-18": '{ name = "scalar", params = { pll_bandwidth_hz = 18.0, pll_order = 2, fll_bandwidth_hz = 0.0, '
+    "dll_bandwidth_hz = 0.5 } }",
+    "pll-3-18": '{ name = "scalar", params = { pll_bandwidth_hz = 18.0, pll_order = 3, fll_bandwidth_hz = 0.0, '
+    "dll_bandwidth_hz = 0.5 } }",
+    "fll-pll-18": '{ name = "scalar", params = { pll_bandwidth_hz = 18.0, pll_order = 2, fll_bandwidth_hz = 10.0, '
+    "dll_bandwidth_hz = 0.5 } }",
+    "kf": '{ name = "kf-carrier-loop", params = { q = [0.01, 0.1], r = 5.0, angle_unit = "deg", '
+    "dll_bandwidth_hz = 0.5 } }",
+    "iq-ckf": '{ name = "iq-filter", params = { estimator = "svd-ckf", adaptive = false, output = "filtered" } }',
+    "iq-ukf": '{ name = "iq-filter", params = { estimator = "ukf", adaptive = false, output = "filtered" } }',
 }
 
 
@@ -54,17 +54,23 @@ def config_text(runs: int, executor: str) -> str:
     """The benchmark's comparison: the example's scenario, its static case, 7 points, 5 candidates."""
     example = tomllib.loads((ROOT / "examples" / "tracking_threshold.toml").read_text())
     scenario = "\n".join(f"{k} = {json.dumps(v)}" for k, v in example["scenario"].items())
-    candidates = "\n".join(f"[[candidates]]\nname = \"{name}\"\nchannel_filter = {ref}\n"
-                           for name, ref in CANDIDATES.items())
-    sweeps = "".join(f"""[[sweeps]]
+    candidates = "\n".join(
+        f'[[candidates]]\nname = "{name}"\nchannel_filter = {ref}\n' for name, ref in CANDIDATES.items()
+    )
+    sweeps = "".join(
+        f"""[[sweeps]]
 name = "{name}"
 path = "cases.cn0_dbhz"
 start = 15.0
 stop = 45.0
 step = 5.0
 threshold = {{ metric = "{metric}", level = 0.5, bootstrap = 2000, time_metric = "{time_metric}" }}
-""" for name, metric, time_metric in (("cn0", "loss_of_lock", "time_to_loss_s"),
-                                      ("cn0-cf", "loss_of_code_freq_lock", "time_to_code_freq_loss_s")))
+"""
+        for name, metric, time_metric in (
+            ("cn0", "loss_of_lock", "time_to_loss_s"),
+            ("cn0-cf", "loss_of_code_freq_lock", "time_to_code_freq_loss_s"),
+        )
+    )
     return f"""name = "threshold_curve_benchmark"
 runs = {runs}
 batch_size = {min(runs, 100)}
@@ -107,15 +113,16 @@ def print_thresholds(summary: dict) -> None:
         if not t:
             continue
         for case in t["cases"]:
-            print(f"threshold of {t['metric']} at P = {t['level']} along {t['sweep']} ({case['case']}, "
-                  f"{case['runs']} paired runs), dB-Hz [95 %]:")
+            print(
+                f"threshold of {t['metric']} at P = {t['level']} along {t['sweep']} ({case['case']}, "
+                f"{case['runs']} paired runs), dB-Hz [95 %]:"
+            )
             for row in case["rows"]:
                 est = row["where"] if row["threshold"] is None else _fmt(row["threshold"])
                 line = f"  {row['candidate']:<12} {est:>16} [{_fmt(row['ci95'][0])}, {_fmt(row['ci95'][1])}]"
                 d = row.get("difference")
                 if d and d["estimate"] is not None:
-                    line += (f"   - {d['reference']}: {d['estimate']:+.1f} [{_fmt(d['ci95'][0])}, "
-                             f"{_fmt(d['ci95'][1])}]")
+                    line += f"   - {d['reference']}: {d['estimate']:+.1f} [{_fmt(d['ci95'][0])}, {_fmt(d['ci95'][1])}]"
                 print(line, flush=True)
 
 
@@ -127,12 +134,17 @@ def main() -> None:
     args = parser.parse_args()
     work = args.work or Path(tempfile.mkdtemp(prefix="threshold_curve_"))
     work.mkdir(parents=True, exist_ok=True)
-    print(f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} before; 7 C/N0 points x "
-          f"{len(CANDIDATES)} candidates x {args.runs} runs of 6 s; results in {work}", flush=True)
+    print(
+        f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} before; 7 C/N0 points x "
+        f"{len(CANDIDATES)} candidates x {args.runs} runs of 6 s; results in {work}",
+        flush=True,
+    )
     wall, local = run(args.runs, "local", work)
     verdict = "within" if wall <= BUDGET_S else "OVER"
-    print(f"local: {wall:.1f} s wall, {verdict} the {BUDGET_S:.0f} s budget; "
-          f"load average {os.getloadavg()[0]:.1f} after", flush=True)
+    print(
+        f"local: {wall:.1f} s wall, {verdict} the {BUDGET_S:.0f} s budget; load average {os.getloadavg()[0]:.1f} after",
+        flush=True,
+    )
     print_thresholds(local)
     if args.dask:
         wall_d, dask = run(args.runs, "dask", work)

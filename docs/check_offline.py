@@ -13,8 +13,11 @@ import sys
 from pathlib import Path
 
 #: A <script src>, <link href> (stylesheet, font, preconnect) or CSS url() to another host.
-REMOTE = re.compile(r"""<script[^>]*\ssrc=["'](https?:)?//[^"']+|<link[^>]*\shref=["'](https?:)?//[^"']+"""
-                    r"""|@import\s+url\(["']?(https?:)?//[^)"']+|url\(["']?(https?:)?//[^)"']+""", re.I)
+REMOTE = re.compile(
+    r"""<script[^>]*\ssrc=["'](https?:)?//[^"']+|<link[^>]*\shref=["'](https?:)?//[^"']+"""
+    r"""|@import\s+url\(["']?(https?:)?//[^)"']+|url\(["']?(https?:)?//[^)"']+""",
+    re.I,
+)
 #: The MathJax script the pages load, relative to the site.
 MATHJAX = "javascripts/mathjax/tex-mml-chtml.js"
 
@@ -50,8 +53,10 @@ def summary(site: Path) -> str:
     """The one line printed when ``site`` passes: what was checked."""
     pages = len(list(site.rglob("*.html")))
     sheets = len([p for p in site.rglob("*.css") if "mathjax" not in p.parts])
-    return (f"offline: {pages} pages and {sheets} stylesheets load nothing from another host; "
-            f"MathJax is served with the site ({MATHJAX})")
+    return (
+        f"offline: {pages} pages and {sheets} stylesheets load nothing from another host; "
+        f"MathJax is served with the site ({MATHJAX})"
+    )
 
 
 def main(argv: list[str]) -> int:

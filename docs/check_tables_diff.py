@@ -37,7 +37,7 @@ def tokens(text: str) -> list[str | Decimal]:
     out: list[str | Decimal] = []
     pos = 0
     for m in NUMBER.finditer(text):
-        out.append(re.sub(r"\s+", " ", text[pos:m.start()]))
+        out.append(re.sub(r"\s+", " ", text[pos : m.start()]))
         out.append(Decimal(m.group().replace("−", "-")))
         pos = m.end()
     out.append(re.sub(r"\s+", " ", text[pos:]))
@@ -104,9 +104,11 @@ def main(argv: list[str]) -> int:
     for line in failures:
         print(line)
     if failures:
-        print(f"check_tables_diff: {len(failures)} difference(s) beyond the printed digits in {n} tables "
-              f"under {', '.join(folders)}; regenerate and commit them with the change that moves them"
-              + (" (--warn-only: not failing)" if warn_only else ""))
+        print(
+            f"check_tables_diff: {len(failures)} difference(s) beyond the printed digits in {n} tables "
+            f"under {', '.join(folders)}; regenerate and commit them with the change that moves them"
+            + (" (--warn-only: not failing)" if warn_only else "")
+        )
         return 0 if warn_only else 1
     print(f"check_tables_diff: {n} regenerated tables equal the committed ones within their printed digits")
     return 0

@@ -36,13 +36,27 @@ def deep_plugins(**channel) -> dict:
     """The ``deep`` candidate of examples/deep_integration_ci.toml before the fix (ukf ``alpha``
     1e-3, the default); ``channel`` overrides ``iq-filter``'s parameters."""
     params = {"estimator": "ukf", "adaptive": False, "output": "equivalent", "q": Q, **channel}
-    return {"channel_filter": gf.registry.create("channel_filter", "iq-filter", **params),
-            "nav_filter": gf.registry.create("nav_filter", "ins-ekf", accel_aiding=True, carrier_filter={
-                "name": "kf-carrier-loop", "params": {"states": 2, "q": [0.0, 0.001], "r": 0.05}})}
+    return {
+        "channel_filter": gf.registry.create("channel_filter", "iq-filter", **params),
+        "nav_filter": gf.registry.create(
+            "nav_filter",
+            "ins-ekf",
+            accel_aiding=True,
+            carrier_filter={"name": "kf-carrier-loop", "params": {"states": 2, "q": [0.0, 0.001], "r": 0.05}},
+        ),
+    }
 
 
-def measure(runs: int, duration_s: float, settle_s: float, cn0_dbhz: float = 45.0, profile: str = "straight",
-            seed: int = SEED, plugins: dict | None = None, replace: tuple[int, ...] = ()) -> dict[str, np.ndarray]:
+def measure(
+    runs: int,
+    duration_s: float,
+    settle_s: float,
+    cn0_dbhz: float = 45.0,
+    profile: str = "straight",
+    seed: int = SEED,
+    plugins: dict | None = None,
+    replace: tuple[int, ...] = (),
+) -> dict[str, np.ndarray]:
     """Run ``deep`` and return, from ``settle_s`` on, per update: the handed-over errors normalised by
     their stated standard deviation ``z (U, runs, ch, 2)`` [range, rate], the same errors ``e`` and
     their stated variances ``var`` (m, m/s; same shape), the navigator's own
@@ -52,9 +66,19 @@ def measure(runs: int, duration_s: float, settle_s: float, cn0_dbhz: float = 45.
     ``replace`` lists the components (0 range, 1 rate) handed over as the true value plus white
     Gaussian noise of the stated variance instead of the prefilter's.
     """
-    scenario = DeepIntegrationScenario(DeepIntegrationParams(
-        profile=profile, duration_s=duration_s, coherent_time_s=0.001, imu_interval_s=0.005, nco_interval_s=0.005,
-        update_interval_s=0.1, channels=8, clock="ocxo", settle_s=settle_s))
+    scenario = DeepIntegrationScenario(
+        DeepIntegrationParams(
+            profile=profile,
+            duration_s=duration_s,
+            coherent_time_s=0.001,
+            imu_interval_s=0.005,
+            nco_interval_s=0.005,
+            update_interval_s=0.1,
+            channels=8,
+            clock="ocxo",
+            settle_s=settle_s,
+        )
+    )
     cap: dict[str, list] = {"t": [], "z": [], "e": [], "var": [], "x": [], "nees_pos": [], "nees_vel": [], "nees": []}
     original_run, original_update = deep_integration_runs.run_deep, InsNavigator.update
     noise = np.random.default_rng([seed, 99])
@@ -66,8 +90,9 @@ def measure(runs: int, duration_s: float, settle_s: float, cn0_dbhz: float = 45.
             p, v, a = self.ins.kinematics()
             rho, rate, _, _ = line_of_sight_kinematics(p, v, a, s, sv, sa, *self.clock.at(t_s))
             k = int(round(t_s / truth.coherent_time_s))
-            rho_t, rate_t, _, _ = line_of_sight_kinematics(*truth.receiver_state(t_s), s, sv, sa,
-                                                           truth.clock_m[k, :, 0], truth.clock_m[k, :, 1])
+            rho_t, rate_t, _, _ = line_of_sight_kinematics(
+                *truth.receiver_state(t_s), s, sv, sa, truth.clock_m[k, :, 0], truth.clock_m[k, :, 1]
+            )
             true = np.stack([rho_t - rho, rate_t - rate], -1)
             sd = np.sqrt(np.diagonal(residual_cov, axis1=-2, axis2=-1))
             if replace:
@@ -107,10 +132,12 @@ ROWS = {  # label: (plugin overrides, replaced components)
     "range replaced by truth + white noise of its stated covariance": ({}, (0,)),
     "rate replaced the same way": ({}, (1,)),
     "both replaced": ({}, (0, 1)),
-    "prefilter reset after each update (`output = \"reset\"`, issue 22's suggestion)": ({"output": "reset"}, ()),
-    "code from the discriminator (`equivalent_code = \"discriminator\"`)": ({"equivalent_code": "discriminator"}, ()),
-    "UKF spread over the prior (`estimator = { name = \"ukf\", params = { alpha = 1.0 } }`)":
-        ({"estimator": {"name": "ukf", "params": {"alpha": 1.0}}}, ()),
+    'prefilter reset after each update (`output = "reset"`, issue 22\'s suggestion)': ({"output": "reset"}, ()),
+    'code from the discriminator (`equivalent_code = "discriminator"`)': ({"equivalent_code": "discriminator"}, ()),
+    'UKF spread over the prior (`estimator = { name = "ukf", params = { alpha = 1.0 } }`)': (
+        {"estimator": {"name": "ukf", "params": {"alpha": 1.0}}},
+        (),
+    ),
 }
 
 
@@ -121,8 +148,11 @@ def handed_over(m: dict[str, np.ndarray]) -> dict:
     out = {}
     for i, name in enumerate(("range", "rate")):
         z = m["z"][..., i]
-        out[name] = {"normalised_square": float(np.mean(z**2)),
-                     "lag1_correlation": float(np.mean(z[1:] * z[:-1]) / np.mean(z**2)), "samples": int(z.size)}
+        out[name] = {
+            "normalised_square": float(np.mean(z**2)),
+            "lag1_correlation": float(np.mean(z[1:] * z[:-1]) / np.mean(z**2)),
+            "samples": int(z.size),
+        }
     return out
 
 
@@ -139,9 +169,12 @@ def range_averaging(m: dict[str, np.ndarray]) -> dict:
     e, var, x = m["e"][..., 0], m["var"][..., 0], m["x"][..., 0]
     mbar2 = (e.sum(0) / np.sqrt(var.sum(0))) ** 2  # (runs, ch)
     per_run = np.sum(e * x, axis=(0, 2)) / np.sum(x * x, axis=(0, 2))
-    return {"seconds": float(m["t"][-1] - m["t"][0] + (m["t"][1] - m["t"][0])),
-            "mean_ratio": [float(mbar2.mean()), float(mbar2.std(ddof=1) / np.sqrt(mbar2.size))],
-            "slope": list(mean_se(per_run)), "slope_per_run": per_run.tolist()}
+    return {
+        "seconds": float(m["t"][-1] - m["t"][0] + (m["t"][1] - m["t"][0])),
+        "mean_ratio": [float(mbar2.mean()), float(mbar2.std(ddof=1) / np.sqrt(mbar2.size))],
+        "slope": list(mean_se(per_run)),
+        "slope_per_run": per_run.tolist(),
+    }
 
 
 def summary() -> dict:
@@ -164,30 +197,45 @@ def mean_se(v) -> tuple[float, float]:
 
 def markdown(s: dict) -> str:
     """The page's table from `summary`'s dict (the committed .json)."""
-    lines = ["<!-- generated by docs/deep_integration_nees_split.py from deep_integration_nees_split.json: do not edit -->",
-             "", "| straight flight, 45 dB-Hz | NEES (6) | position (3) | velocity (3) | paired NEES difference to `deep` |",
-             "| --- | --- | --- | --- | --- |"]
+    lines = [
+        "<!-- generated by docs/deep_integration_nees_split.py from deep_integration_nees_split.json: do not edit -->",
+        "",
+        "| straight flight, 45 dB-Hz | NEES (6) | position (3) | velocity (3) | paired NEES difference to `deep` |",
+        "| --- | --- | --- | --- | --- |",
+    ]
     base = np.asarray(s["rows"][0]["nees"])
     for i, r in enumerate(s["rows"]):
         cells = [f"{m:.2f} ± {se:.2f}" for m, se in (mean_se(r[k]) for k in ("nees", "nees_pos", "nees_vel"))]
         d = "–" if i == 0 else "{:+.2f} ± {:.2f}".format(*mean_se(np.asarray(r["nees"]) - base))
         lines.append(f"| {r['label']} | {' | '.join(cells)} | {d} |")
     h = s["rows"][0]["handed_over"]
-    lines += ["", f"Mean ± SE over the {s['runs']} runs of each run's mean over the updates from {s['settle_s']:g} s "
-              f"({s['duration_s']:g} s flight, seed {s['seed']}, the same runs in every row). What `deep` hands over "
-              f"(all channels and updates): range normalised square {h['range']['normalised_square']:.2f}, lag-1 "
-              f"correlation between updates {h['range']['lag1_correlation']:.3f}; rate "
-              f"{h['rate']['normalised_square']:.2f} and {h['rate']['lag1_correlation']:.2f}."]
-    lines += ["", "| row | range error's mean over the updates: variance / stated | slope of the range error on the "
-              "navigator's own |", "| --- | --- | --- |"]
+    lines += [
+        "",
+        f"Mean ± SE over the {s['runs']} runs of each run's mean over the updates from {s['settle_s']:g} s "
+        f"({s['duration_s']:g} s flight, seed {s['seed']}, the same runs in every row). What `deep` hands over "
+        f"(all channels and updates): range normalised square {h['range']['normalised_square']:.2f}, lag-1 "
+        f"correlation between updates {h['range']['lag1_correlation']:.3f}; rate "
+        f"{h['rate']['normalised_square']:.2f} and {h['rate']['lag1_correlation']:.2f}.",
+    ]
+    lines += [
+        "",
+        "| row | range error's mean over the updates: variance / stated | slope of the range error on the "
+        "navigator's own |",
+        "| --- | --- | --- |",
+    ]
     for r in s["rows"]:
         a = r["range_averaging"]
-        lines.append(f"| {r['label']} | {a['mean_ratio'][0]:.2f} ± {a['mean_ratio'][1]:.2f} | "
-                     f"{a['slope'][0]:+.3f} ± {a['slope'][1]:.3f} |")
-    lines += ["", f"Variance ratio: per run and channel, the sum of the range errors over the "
-              f"{s['rows'][0]['range_averaging']['seconds']:g} s of updates over the square root of the sum of their "
-              "stated variances, squared (1 for white errors as stated); mean ± SE over runs × channels. Slope: least "
-              "squares through 0 per run (0: the measurement reports the navigator's error in full); mean ± SE over runs."]
+        lines.append(
+            f"| {r['label']} | {a['mean_ratio'][0]:.2f} ± {a['mean_ratio'][1]:.2f} | "
+            f"{a['slope'][0]:+.3f} ± {a['slope'][1]:.3f} |"
+        )
+    lines += [
+        "",
+        f"Variance ratio: per run and channel, the sum of the range errors over the "
+        f"{s['rows'][0]['range_averaging']['seconds']:g} s of updates over the square root of the sum of their "
+        "stated variances, squared (1 for white errors as stated); mean ± SE over runs × channels. Slope: least "
+        "squares through 0 per run (0: the measurement reports the navigator's error in full); mean ± SE over runs.",
+    ]
     return "\n".join(lines) + "\n"
 
 

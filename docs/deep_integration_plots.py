@@ -42,8 +42,9 @@ def trajectory_figure() -> None:
 
     _, _, h = pymap3d.ecef2geodetic(*tr.position_ecef_m.T)
     fig, ax = plt.subplots(4, 1, figsize=(7, 7), sharex=True)
-    for a, y, lab in zip(ax, (h / 1e3, speed, acc, jerk), ("height (km)", "speed (m/s)", "acceleration (g)",
-                                                          "jerk (g/s)")):
+    for a, y, lab in zip(
+        ax, (h / 1e3, speed, acc, jerk), ("height (km)", "speed (m/s)", "acceleration (g)", "jerk (g/s)")
+    ):
         a.plot(t, y)
         a.set_ylabel(lab)
         a.grid(alpha=0.3)
@@ -54,13 +55,15 @@ def trajectory_figure() -> None:
 
 
 def error_figure(run: Path, case: str) -> None:
-    names = [("horizontal_position_error_rmse", "horizontal position (m)"),
-             ("height_error_rmse", "height (m)"),
-             ("horizontal_velocity_error_rmse", "horizontal velocity (m/s)"),
-             ("vertical_velocity_error_rmse", "vertical velocity (m/s)"),
-             ("attitude_error_rmse", "attitude, max axis (deg)"),
-             ("freq_tracking_error_rmse", "replica frequency error (Hz)"),
-             ("code_tracking_error_rmse", "replica code error (chip)")]
+    names = [
+        ("horizontal_position_error_rmse", "horizontal position (m)"),
+        ("height_error_rmse", "height (m)"),
+        ("horizontal_velocity_error_rmse", "horizontal velocity (m/s)"),
+        ("vertical_velocity_error_rmse", "vertical velocity (m/s)"),
+        ("attitude_error_rmse", "attitude, max axis (deg)"),
+        ("freq_tracking_error_rmse", "replica frequency error (Hz)"),
+        ("code_tracking_error_rmse", "replica code error (chip)"),
+    ]
     fig, ax = plt.subplots(len(names), 1, figsize=(7, 12), sharex=True)
     for cand in CANDIDATES:
         t, s = _series(run, case, cand)

@@ -54,8 +54,13 @@ ITERATIONS, TOL = 100, 1e-7
 FRESH_STEPS, FRESH_SKIP = 300, 50
 
 
-def simulate(rng: np.random.Generator, q: float, K: int, runs: int, r_step: float = 1.0,
-             ) -> tuple[np.ndarray, np.ndarray]:
+def simulate(
+    rng: np.random.Generator,
+    q: float,
+    K: int,
+    runs: int,
+    r_step: float = 1.0,
+) -> tuple[np.ndarray, np.ndarray]:
     """``(K, runs, 2)`` states and ``(K, runs, 1)`` measurements from x_{-1} ~ INITIAL; the
     measurement noise variance is r, times ``r_step`` from step K // 2 on."""
     x = INITIAL.mean + rng.standard_normal((runs, 2)) @ np.linalg.cholesky(INITIAL.cov).T
@@ -87,9 +92,13 @@ class Regime(NamedTuple):
 
 #: The stationary regimes (well and weakly observed Q, short and long records), then R
 #: stepping to 4 r at mid-record, scored against the final 4 r (where a window tracks).
-REGIMES = (Regime("well-observed Q", 0.1, 100), Regime("well-observed Q", 0.1, 400),
-           Regime("weakly observed Q", 1e-4, 100), Regime("weakly observed Q", 1e-4, 400),
-           Regime("R to 4 r at mid-record", 0.1, 400, r_step=4.0, unknowns=("R only",)))
+REGIMES = (
+    Regime("well-observed Q", 0.1, 100),
+    Regime("well-observed Q", 0.1, 400),
+    Regime("weakly observed Q", 1e-4, 100),
+    Regime("weakly observed Q", 1e-4, 400),
+    Regime("R to 4 r at mid-record", 0.1, 400, r_step=4.0, unknowns=("R only",)),
+)
 
 
 @dataclass
@@ -162,17 +171,25 @@ def compare(regime: Regime, runs: int = RUNS, seed: int = SEED) -> list[Block]:
 
     blocks = []
     if "R only" in regime.unknowns:
-        Q, R, history = learn_noise(known_q, zs, INITIAL, estimator=kf, iterations=ITERATIONS, tol=TOL,
-                                    q_structure="fixed")
-        estimators = {"EM": learned(Q, R), "innovation": adapter(known_q, "innovation"),
-                      "sage-husa": adapter(known_q, "sage-husa", estimate_q=False),
-                      "sage-husa classic": adapter(known_q, "sage-husa", estimate_q=False, variant="classic")}
+        Q, R, history = learn_noise(
+            known_q, zs, INITIAL, estimator=kf, iterations=ITERATIONS, tol=TOL, q_structure="fixed"
+        )
+        estimators = {
+            "EM": learned(Q, R),
+            "innovation": adapter(known_q, "innovation"),
+            "sage-husa": adapter(known_q, "sage-husa", estimate_q=False),
+            "sage-husa classic": adapter(known_q, "sage-husa", estimate_q=False, variant="classic"),
+        }
         blocks.append(Block(regime, "R only", q, r_end, estimators, *_em_convergence(history)))
     if "Q and R" in regime.unknowns:
-        Q, R, history = learn_noise(start, zs, INITIAL, estimator=kf, iterations=ITERATIONS, tol=TOL,
-                                    q_structure="scaled")
-        estimators = {"EM": learned(Q, R), "sage-husa": adapter(start, "sage-husa"),
-                      "sage-husa classic": adapter(start, "sage-husa", variant="classic")}
+        Q, R, history = learn_noise(
+            start, zs, INITIAL, estimator=kf, iterations=ITERATIONS, tol=TOL, q_structure="scaled"
+        )
+        estimators = {
+            "EM": learned(Q, R),
+            "sage-husa": adapter(start, "sage-husa"),
+            "sage-husa classic": adapter(start, "sage-husa", variant="classic"),
+        }
         blocks.append(Block(regime, "Q and R", q, r_end, estimators, *_em_convergence(history)))
     return blocks
 
@@ -195,25 +212,35 @@ def rows(blocks: list[Block]) -> list[str]:
         both = b.unknowns == "Q and R"
         for name, est in b.estimators.items():
             lq, lr = b.log_errors(name)
-            label = (f"EM ({b.em_iterations} it., {b.em_converged}/{lr.size} conv.)" if name == "EM"
-                     else f"`{name}`")
-            cells = [b.regime.name, str(b.regime.steps), b.unknowns, label,
-                     f"{np.median(est.q / b.q_true):.3g}" if both else "",
-                     f"{np.median(est.r / b.r_true):.3g}",
-                     f"{np.sqrt(np.mean(lq**2)):.2f}" if both else "",
-                     f"{np.sqrt(np.mean(lr**2)):.2f}", f"{np.mean(est.rmse_ratio):.3f}"]
+            label = f"EM ({b.em_iterations} it., {b.em_converged}/{lr.size} conv.)" if name == "EM" else f"`{name}`"
+            cells = [
+                b.regime.name,
+                str(b.regime.steps),
+                b.unknowns,
+                label,
+                f"{np.median(est.q / b.q_true):.3g}" if both else "",
+                f"{np.median(est.r / b.r_true):.3g}",
+                f"{np.sqrt(np.mean(lq**2)):.2f}" if both else "",
+                f"{np.sqrt(np.mean(lr**2)):.2f}",
+                f"{np.mean(est.rmse_ratio):.3f}",
+            ]
             if name == "EM":
                 cells += ["", "", ""]
             else:
-                cells += [_pm(paired(em_r, lr), 2), _pm(paired(em_q, lq), 2) if both else "",
-                          _pm(paired(b.estimators["EM"].rmse_ratio, est.rmse_ratio), 3)]
+                cells += [
+                    _pm(paired(em_r, lr), 2),
+                    _pm(paired(em_q, lq), 2) if both else "",
+                    _pm(paired(b.estimators["EM"].rmse_ratio, est.rmse_ratio), 3),
+                ]
             lines.append("| " + " | ".join(cells) + " |")
     return lines
 
 
-HEADER = ("| regime | steps | unknown | estimator | median q̂/q | median r̂/r | RMS log q̂/q | RMS log r̂/r "
-          "| RMSE / true | EM − it: abs log r | EM − it: abs log q | EM − it: RMSE / true |\n"
-          "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+HEADER = (
+    "| regime | steps | unknown | estimator | median q̂/q | median r̂/r | RMS log q̂/q | RMS log r̂/r "
+    "| RMSE / true | EM − it: abs log r | EM − it: abs log q | EM − it: RMSE / true |\n"
+    "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+)
 
 
 def all_blocks(runs: int = RUNS, seed: int = SEED) -> list[Block]:

@@ -40,16 +40,26 @@ ERRORS = ("code_chips", "phase_rad", "freq_hz")
 
 def _truth(duration_s: float, runs: int) -> LoopTruth:
     s = SIGNAL
-    return LoopTruth.from_dynamics(duration_s, T_S, s["cn0_dbhz"], doppler_hz=np.full(runs, s["doppler_hz"]),
-                                   code_phase0_chips=s["code_phase_chips"], carrier_phase0_rad=s["carrier_phase_rad"])
+    return LoopTruth.from_dynamics(
+        duration_s,
+        T_S,
+        s["cn0_dbhz"],
+        doppler_hz=np.full(runs, s["doppler_hz"]),
+        code_phase0_chips=s["code_phase_chips"],
+        carrier_phase0_rad=s["carrier_phase_rad"],
+    )
 
 
 def _track(truth: LoopTruth, source_of) -> TrackingRecord:
     """The one loop: the registry's ``scalar`` channel filter closing a `ScalarCloser` over a
     `Channel` started with `START_ERRORS`, on the source ``source_of(channel)`` gives."""
     batch = truth.code_phase_chips.shape[1:]
-    channel = Channel.start(batch, truth.code_phase_chips[0] + START_ERRORS["code_chips"],
-                            SIGNAL["doppler_hz"] + START_ERRORS["doppler_hz"], signal=GPS_L1CA)
+    channel = Channel.start(
+        batch,
+        truth.code_phase_chips[0] + START_ERRORS["code_chips"],
+        SIGNAL["doppler_hz"] + START_ERRORS["doppler_hz"],
+        signal=GPS_L1CA,
+    )
     closer = ScalarCloser(registry.create("channel_filter", "scalar"))
     closer.reset(channel, T_S, cn0_dbhz=truth.cn0_dbhz)
     return run_scalar(closer, source_of(channel), channel, truth)
@@ -59,8 +69,9 @@ def analytic_runs(runs: int, duration_s: float, seed: int) -> TrackingRecord:
     """All runs at once on the analytic model: ``(K, runs)`` errors."""
     truth = _truth(duration_s, runs)
     rng = np.random.default_rng(seed)
-    return _track(truth, lambda ch: AnalyticSource(CorrelatorSimulator(T_S), amplitude_from_cn0(truth.cn0_dbhz, T_S),
-                                                   rng))
+    return _track(
+        truth, lambda ch: AnalyticSource(CorrelatorSimulator(T_S), amplitude_from_cn0(truth.cn0_dbhz, T_S), rng)
+    )
 
 
 def sample_runs(runs: int, duration_s: float, seed: int) -> list[TrackingRecord]:
@@ -69,13 +80,25 @@ def sample_runs(runs: int, duration_s: float, seed: int) -> list[TrackingRecord]
     code = GPS_L1CA.code(SIGNAL["prn"])[None, :]
     for r in range(runs):
         rng = np.random.default_rng([seed, r])
-        x = generate_if_samples(SIGNAL["prn"], duration_s + 2 * T_S, SAMPLE_RATE_HZ, IF_HZ, SIGNAL["cn0_dbhz"], rng,
-                                doppler_hz=SIGNAL["doppler_hz"], code_phase_chips=SIGNAL["code_phase_chips"],
-                                carrier_phase_rad=SIGNAL["carrier_phase_rad"], complex_samples=True,
-                                sample_type="float32")
-        out.append(_track(_truth(duration_s, 1),
-                          lambda ch, x=x: SampleSource(x.samples, SAMPLE_RATE_HZ, IF_HZ, code, T_S,
-                                                       noise_std=x.noise_std)))
+        x = generate_if_samples(
+            SIGNAL["prn"],
+            duration_s + 2 * T_S,
+            SAMPLE_RATE_HZ,
+            IF_HZ,
+            SIGNAL["cn0_dbhz"],
+            rng,
+            doppler_hz=SIGNAL["doppler_hz"],
+            code_phase_chips=SIGNAL["code_phase_chips"],
+            carrier_phase_rad=SIGNAL["carrier_phase_rad"],
+            complex_samples=True,
+            sample_type="float32",
+        )
+        out.append(
+            _track(
+                _truth(duration_s, 1),
+                lambda ch, x=x: SampleSource(x.samples, SAMPLE_RATE_HZ, IF_HZ, code, T_S, noise_std=x.noise_std),
+            )
+        )
     return out
 
 
@@ -95,29 +118,36 @@ def both_sources(runs: int, duration_s: float, settle_s: float, seed: int = 1) -
     a = analytic_runs(runs, duration_s, seed)
     s = sample_runs(runs, duration_s, seed + 1)
     stack = lambda f: np.concatenate([getattr(r, f) for r in s], axis=1)  # noqa: E731
-    return {"analytic": run_statistics(a.code_error_chips, a.phase_error_rad, a.freq_error_hz, settle),
-            "samples": run_statistics(stack("code_error_chips"), stack("phase_error_rad"), stack("freq_error_hz"),
-                                      settle)}
+    return {
+        "analytic": run_statistics(a.code_error_chips, a.phase_error_rad, a.freq_error_hz, settle),
+        "samples": run_statistics(stack("code_error_chips"), stack("phase_error_rad"), stack("freq_error_hz"), settle),
+    }
 
 
 def summary(stats: dict[str, dict[str, np.ndarray]]) -> dict[str, dict[str, list[float]]]:
     """Mean over the runs and its standard error, per statistic and source: ``[mean, se]``."""
-    return {src: {k: [float(np.mean(v)), float(np.std(v, ddof=1) / np.sqrt(v.size))] for k, v in st.items()}
-            for src, st in stats.items()}
+    return {
+        src: {k: [float(np.mean(v)), float(np.std(v, ddof=1) / np.sqrt(v.size))] for k, v in st.items()}
+        for src, st in stats.items()
+    }
 
 
 def table(summ: dict, runs: int, duration_s: float, settle_s: float) -> str:
     units = {"code_chips": "chips", "phase_rad": "rad", "freq_hz": "Hz"}
-    lines = [f"<!-- generated by docs/engine_sources.py: {runs} runs per source, {duration_s} s, "
-             f"statistics after {settle_s} s -->",
-             "| error statistic | analytic source | IF-samples source | difference / combined SE |",
-             "| --- | --- | --- | --- |"]
+    lines = [
+        f"<!-- generated by docs/engine_sources.py: {runs} runs per source, {duration_s} s, "
+        f"statistics after {settle_s} s -->",
+        "| error statistic | analytic source | IF-samples source | difference / combined SE |",
+        "| --- | --- | --- | --- |",
+    ]
     for key in summ["analytic"]:
         (ma, sa), (ms, ss) = summ["analytic"][key], summ["samples"][key]
         name, stat = key.rsplit("_", 1)
         z = (ms - ma) / np.hypot(sa, ss)
-        lines.append(f"| {stat} of {name.split('_')[0]} error ({units[name]}) | {ma:.4g} ± {sa:.2g} | "
-                     f"{ms:.4g} ± {ss:.2g} | {z:+.2f} |")
+        lines.append(
+            f"| {stat} of {name.split('_')[0]} error ({units[name]}) | {ma:.4g} ± {sa:.2g} | "
+            f"{ms:.4g} ± {ss:.2g} | {z:+.2f} |"
+        )
     return "\n".join(lines) + "\n"
 
 

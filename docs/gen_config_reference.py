@@ -43,28 +43,48 @@ def _table(schema: dict) -> list[str]:
 
 def render() -> str:
     schema = ComparisonConfig.model_json_schema()
-    lines = ["# Config reference", "",
-             "Generated from the JSON schema (`gnssframework schema`) by `docs/gen_config_reference.py`.", "",
-             "## ComparisonConfig (the file)", ""] + _table(schema)
+    lines = [
+        "# Config reference",
+        "",
+        "Generated from the JSON schema (`gnssframework schema`) by `docs/gen_config_reference.py`.",
+        "",
+        "## ComparisonConfig (the file)",
+        "",
+    ] + _table(schema)
     for name, sub in sorted(schema.get("$defs", {}).items()):
         lines += ["", f"## {name}", ""]
         if sub.get("description"):
             lines += [sub["description"].strip(), ""]
         lines += _table(sub)
-    lines += ["", "## Scenario kinds", "",
-              "`scenario.kind` selects one; the other keys of `[scenario]` are its parameters, and each",
-              "`[[cases]]` entry has a `name` plus the case parameters."]
+    lines += [
+        "",
+        "## Scenario kinds",
+        "",
+        "`scenario.kind` selects one; the other keys of `[scenario]` are its parameters, and each",
+        "`[[cases]]` entry has a `name` plus the case parameters.",
+    ]
     for kind in sorted(cls.kind for cls in declared_scenarios()):
         scen = get_scenario({"kind": kind})
-        lines += ["", f"### `{kind}`", "", (type(scen).__doc__ or "").strip().splitlines()[0], "",
-                  "Candidates compose: " + ", ".join(f"`{k}` ({'required' if r else 'optional'})"
-                                                      for k, r in scen.components.items()) + ".", "",
-                  "Metrics: " + ", ".join(f"`{m}` ({u})" for m, u in scen.metrics.items()) + ".", "",
-                  "Scenario parameters:", ""] + _table(scen.Params.model_json_schema())
+        lines += [
+            "",
+            f"### `{kind}`",
+            "",
+            (type(scen).__doc__ or "").strip().splitlines()[0],
+            "",
+            "Candidates compose: "
+            + ", ".join(f"`{k}` ({'required' if r else 'optional'})" for k, r in scen.components.items())
+            + ".",
+            "",
+            "Metrics: " + ", ".join(f"`{m}` ({u})" for m, u in scen.metrics.items()) + ".",
+            "",
+            "Scenario parameters:",
+            "",
+        ] + _table(scen.Params.model_json_schema())
         lines += ["", "Case parameters:", ""] + _table(scen.CaseParams.model_json_schema())
         if scen.CandidateOptions.model_fields:
             lines += ["", "Candidate options (`scenario_options`):", ""] + _table(
-                scen.CandidateOptions.model_json_schema())
+                scen.CandidateOptions.model_json_schema()
+            )
     return "\n".join(lines) + "\n"
 
 

@@ -17,17 +17,20 @@ OUT = pathlib.Path(__file__).resolve().parent / "api" / "plugin-parameters.md"
 
 
 def render() -> str:
-    lines = ["# Plugin parameters", "",
-             "Generated from each plugin's `Params` by `docs/gen_plugin_parameters.py`; the same",
-             "table is in the class's `help()` and in `gnssframework plugins --describe NAME`.",
-             "A parameter of type *kind plugin* takes a name or `{ name, params }` and is",
-             "validated when the config is loaded (see",
-             "[From a registered plugin to a comparison](../tutorial/from-plugin-to-comparison.md)).", ""]
+    lines = [
+        "# Plugin parameters",
+        "",
+        "Generated from each plugin's `Params` by `docs/gen_plugin_parameters.py`; the same",
+        "table is in the class's `help()` and in `gnssframework plugins --describe NAME`.",
+        "A parameter of type *kind plugin* takes a name or `{ name, params }` and is",
+        "validated when the config is loaded (see",
+        "[From a registered plugin to a comparison](../tutorial/from-plugin-to-comparison.md)).",
+        "",
+    ]
     for info in registry.describe():
         if info.distribution != "gnssframework" or info.kind == "scenario":
             continue
-        lines += [f"## {info.kind} `{info.name}`", "", info.description, "",
-                  parameter_table(info.cls.Params), ""]
+        lines += [f"## {info.kind} `{info.name}`", "", info.description, "", parameter_table(info.cls.Params), ""]
     return "\n".join(lines)
 
 

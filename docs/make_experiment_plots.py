@@ -28,55 +28,128 @@ OUT = ROOT / "docs" / "img" / "experiments"
 RECORDS = ROOT / "examples" / "trials"
 #: Tuned by the README's main job in CI (its store reused here): no record.
 TUNED_BY_MAIN_JOB = ("vector_tracking",)
-EXAMPLES = ("vector_tracking", "carrier_smoothing", "scintillation", "multipath", "sweep_demo",
-            "carrier_smoothing_sweep", "scintillation_sweep", "deep_integration_ci", "deep_integration_elevation_ci",
-            "deep_integration_lock_ci", "deep_integration_lock_control_ci", "sample_receiver",
-            "deep_integration_nees_ci", "deep_integration_error_sources_ci", "vector_tracking_spacing",
-            "vector_tracking_fade_ci", "deep_integration_error_sources", "deep_integration_lock_bandwidth",
-            "tracking_threshold")
+EXAMPLES = (
+    "vector_tracking",
+    "carrier_smoothing",
+    "scintillation",
+    "multipath",
+    "sweep_demo",
+    "carrier_smoothing_sweep",
+    "scintillation_sweep",
+    "deep_integration_ci",
+    "deep_integration_elevation_ci",
+    "deep_integration_lock_ci",
+    "deep_integration_lock_control_ci",
+    "sample_receiver",
+    "deep_integration_nees_ci",
+    "deep_integration_error_sources_ci",
+    "vector_tracking_spacing",
+    "vector_tracking_fade_ci",
+    "deep_integration_error_sources",
+    "deep_integration_lock_bandwidth",
+    "tracking_threshold",
+)
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
 #: Examples whose page includes tables generated from the run (docs/experiment_tables.py), with the
 #: metrics their results tables list (None: every metric of the example, in its order).
 #: The main example's metrics, in its order (the slow one-motion tunings share them).
-_VECTOR_TRACKING_TABLE = ["code_phase_error_rmse", "carrier_freq_error_rmse", "position_error_rmse",
-                          "velocity_error_rmse", "position_steady_error_rmse", "nees", "nees_position",
-                          "nees_velocity", "code_output_rmse", "freq_output_rmse"]
-TABLES = {"vector_tracking": _VECTOR_TRACKING_TABLE, "vector_tracking_static": _VECTOR_TRACKING_TABLE,
-          "vector_tracking_moving": _VECTOR_TRACKING_TABLE,
-          # The full reference-002 run (--slow): every metric of the example (None).
-          "deep_integration": None}
+_VECTOR_TRACKING_TABLE = [
+    "code_phase_error_rmse",
+    "carrier_freq_error_rmse",
+    "position_error_rmse",
+    "velocity_error_rmse",
+    "position_steady_error_rmse",
+    "nees",
+    "nees_position",
+    "nees_velocity",
+    "code_output_rmse",
+    "freq_output_rmse",
+]
+TABLES = {
+    "vector_tracking": _VECTOR_TRACKING_TABLE,
+    "vector_tracking_static": _VECTOR_TRACKING_TABLE,
+    "vector_tracking_moving": _VECTOR_TRACKING_TABLE,
+    # The full reference-002 run (--slow): every metric of the example (None).
+    "deep_integration": None,
+}
 #: Sweep examples whose page includes their sweep tables (docs/sweep_tables.py).
-SWEEP_TABLES = {"vector_tracking_sweep": ["carrier_freq_error_rmse", "velocity_error_rmse", "position_error_rmse",
-                                          "nees_position", "nees_velocity", "freq_output_rmse", "pcrb_position",
-                                          "pcrb_velocity"]}
+SWEEP_TABLES = {
+    "vector_tracking_sweep": [
+        "carrier_freq_error_rmse",
+        "velocity_error_rmse",
+        "position_error_rmse",
+        "nees_position",
+        "nees_velocity",
+        "freq_output_rmse",
+        "pcrb_position",
+        "pcrb_velocity",
+    ]
+}
 #: Sweeps of the correlator spacing whose page includes the theory table (docs/spacing_tables.py).
 SPACING_TABLES = ("vector_tracking_spacing",)
 #: Examples whose page includes the paper's values beside theirs (docs/published_tables.py).
 PUBLISHED_TABLES = {"vector_tracking": ["ackf-literal", "discriminator-fixed-r"]}
-TABLES["deep_integration_ci"] = ["horizontal_position_error_rmse", "height_error_rmse",
-                                  "horizontal_velocity_error_rmse", "vertical_velocity_error_rmse",
-                                  "attitude_error_rmse", "loss_of_lock_fraction", "nees"]
+TABLES["deep_integration_ci"] = [
+    "horizontal_position_error_rmse",
+    "height_error_rmse",
+    "horizontal_velocity_error_rmse",
+    "vertical_velocity_error_rmse",
+    "attitude_error_rmse",
+    "loss_of_lock_fraction",
+    "nees",
+]
 TABLES["deep_integration_elevation_ci"] = TABLES["deep_integration_ci"]
-TABLES["deep_integration_lock_ci"] = ["loss_of_lock_fraction", "phase_lock_loss_fraction", "cycle_slip_rate",
-                                      "phase_tracking_error_rmse", "freq_tracking_error_rmse",
-                                      "code_tracking_error_rmse"]
+TABLES["deep_integration_lock_ci"] = [
+    "loss_of_lock_fraction",
+    "phase_lock_loss_fraction",
+    "cycle_slip_rate",
+    "phase_tracking_error_rmse",
+    "freq_tracking_error_rmse",
+    "code_tracking_error_rmse",
+]
 TABLES["deep_integration_lock_control_ci"] = TABLES["deep_integration_lock_ci"]
 TABLES["deep_integration_lock_bandwidth"] = TABLES["deep_integration_lock_ci"]
-TABLES["sample_receiver"] = ["horizontal_error_rms", "vertical_error_rms", "time_to_first_fix_s", "fix_fraction",
-                             "channels_locked", "false_channels_locked", "cn0_error_rms_db"]
-TABLES["deep_integration_nees_ci"] = ["horizontal_position_error_rmse", "height_error_rmse",
-                                      "horizontal_velocity_error_rmse", "vertical_velocity_error_rmse",
-                                      "code_tracking_error_rmse", "loss_of_lock_fraction", "nees"]
-TABLES["deep_integration_error_sources_ci"] = ["horizontal_position_error_rmse", "height_error_rmse",
-                                               "horizontal_velocity_error_rmse", "vertical_velocity_error_rmse",
-                                               "attitude_error_rmse", "freq_tracking_error_rmse",
-                                               "code_tracking_error_rmse", "loss_of_lock_fraction", "nees"]
+TABLES["sample_receiver"] = [
+    "horizontal_error_rms",
+    "vertical_error_rms",
+    "time_to_first_fix_s",
+    "fix_fraction",
+    "channels_locked",
+    "false_channels_locked",
+    "cn0_error_rms_db",
+]
+TABLES["deep_integration_nees_ci"] = [
+    "horizontal_position_error_rmse",
+    "height_error_rmse",
+    "horizontal_velocity_error_rmse",
+    "vertical_velocity_error_rmse",
+    "code_tracking_error_rmse",
+    "loss_of_lock_fraction",
+    "nees",
+]
+TABLES["deep_integration_error_sources_ci"] = [
+    "horizontal_position_error_rmse",
+    "height_error_rmse",
+    "horizontal_velocity_error_rmse",
+    "vertical_velocity_error_rmse",
+    "attitude_error_rmse",
+    "freq_tracking_error_rmse",
+    "code_tracking_error_rmse",
+    "loss_of_lock_fraction",
+    "nees",
+]
 TABLES["deep_integration_error_sources"] = TABLES["deep_integration_error_sources_ci"]
 # Reference 004 (docs/experiments/multipath.md): its cases' tables and its psi sweep's
 # (written to multipath_sweep.md: an example in both lists gets <name>_sweep.md for its sweeps).
-_MULTIPATH_TABLE = ["horizontal_error_rmse", "lat_error_mean", "lat_error_rmse", "lon_error_mean", "lon_error_rmse",
-                    "convergence_epoch"]
+_MULTIPATH_TABLE = [
+    "horizontal_error_rmse",
+    "lat_error_mean",
+    "lat_error_rmse",
+    "lon_error_mean",
+    "lon_error_rmse",
+    "convergence_epoch",
+]
 TABLES["multipath"] = _MULTIPATH_TABLE
 SWEEP_TABLES["multipath"] = ["horizontal_error_rmse"]
 # Reference 003 (scintillation): the main example and its sweeps.
@@ -86,8 +159,12 @@ SWEEP_TABLES["scintillation_sweep"] = ["phase_error_rmse", "loss_of_lock_fractio
 TABLES["carrier_smoothing"] = ["error_rmse", "slip_recovery_epochs", "censored_slips", "false_reset_rate"]
 SWEEP_TABLES["carrier_smoothing_sweep"] = ["error_rmse", "slip_recovery_epochs", "false_reset_rate"]
 # Issue 40 (tracking thresholds): lock along the C/N0 sweep and the receiver's own C/N0 reading there.
-SWEEP_TABLES["tracking_threshold"] = ["loss_of_lock", "loss_of_code_freq_lock", "cn0_estimate_error_db",
-                                      "loss_of_lock_by_cn0"]
+SWEEP_TABLES["tracking_threshold"] = [
+    "loss_of_lock",
+    "loss_of_code_freq_lock",
+    "cn0_estimate_error_db",
+    "loss_of_lock_by_cn0",
+]
 
 
 def main() -> int:
@@ -103,8 +180,9 @@ def main() -> int:
         record = RECORDS / f"{name}.json"
         recorded = config.tuning is not None and name not in TUNED_BY_MAIN_JOB
         seeded = recorded and record.exists() and "--retune" not in sys.argv[1:]
-        summary = run_comparison(config, ROOT / "results" / name, progress=False,
-                                 trials_from=record if seeded else None)
+        summary = run_comparison(
+            config, ROOT / "results" / name, progress=False, trials_from=record if seeded else None
+        )
         if recorded and not seeded:
             RECORDS.mkdir(exist_ok=True)
             shutil.copy(summary.parent / TRIALS_FILE, record)
@@ -126,8 +204,9 @@ def main() -> int:
             sys.path.insert(0, str(ROOT / "docs"))
             from published_tables import write as write_published
 
-            print(f"{name}: published values written to "
-                  f"{write_published(summary.parent, name, PUBLISHED_TABLES[name])}")
+            print(
+                f"{name}: published values written to {write_published(summary.parent, name, PUBLISHED_TABLES[name])}"
+            )
         if name in SWEEP_TABLES:
             sys.path.insert(0, str(ROOT / "docs"))
             from sweep_tables import write as write_sweep
@@ -139,7 +218,6 @@ def main() -> int:
             from spacing_tables import write as write_spacing
 
             print(f"{name}: spacing tables written to {write_spacing(summary.parent, name)}")
-
 
     for line in failed:
         print("claim does not hold: " + line, file=sys.stderr)

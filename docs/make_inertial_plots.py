@@ -50,8 +50,11 @@ def trajectory_figure(model: TrajectoryModel) -> None:
     for ts in (10, 20, 30, 40):
         k = int(ts / 0.01)
         ax[0, 0].annotate(f"{ts} s", (horiz[k] / 1e3, enu[k, 2] / 1e3), fontsize=8)
-    ax[0, 0].set(xlabel="horizontal distance (km, heading 45 deg)", ylabel="height above start (km)",
-                 title="track in the vertical plane")
+    ax[0, 0].set(
+        xlabel="horizontal distance (km, heading 45 deg)",
+        ylabel="height above start (km)",
+        title="track in the vertical plane",
+    )
     ax[0, 1].plot(t, np.linalg.norm(tr.velocity_ecef_mps, axis=-1), label="speed (m/s)")
     ax[0, 1].axhline(1000, color="k", ls=":", lw=0.8)
     ax[0, 1].set(xlabel="time (s)", ylabel="m/s", title="speed (limit 1 km/s)")
@@ -95,9 +98,13 @@ def free_inertial_figure(model: TrajectoryModel, runs: int = 20) -> None:
     sig = np.array(sig)
     t = truth.time_s[idx]
     fig, ax = plt.subplots(1, 3, figsize=(12, 3.6))
-    for j, (block, label, scale) in enumerate(((slice(0, 3), "attitude error (deg)", 180 / np.pi),
-                                               (slice(3, 6), "velocity error (m/s)", 1.0),
-                                               (slice(6, 9), "position error (m)", 1.0))):
+    for j, (block, label, scale) in enumerate(
+        (
+            (slice(0, 3), "attitude error (deg)", 180 / np.pi),
+            (slice(3, 6), "velocity error (m/s)", 1.0),
+            (slice(6, 9), "position error (m)", 1.0),
+        )
+    ):
         rms = np.sqrt(np.mean(np.sum(err[..., block] ** 2, axis=-1), axis=1))
         ax[j].plot(t, rms * scale, label=f"Monte Carlo RMS ({runs} runs)")
         ax[j].plot(t, np.sqrt(np.sum(sig[:, block] ** 2, axis=-1)) * scale, "--", label="linear model 1-sigma")

@@ -19,7 +19,11 @@ import gnssframework as gf  # noqa: E402
 from gnssframework.receiver.tracking.jitter import loop_variance, pll_thermal_variance_rad2  # noqa: E402
 from gnssframework.receiver.tracking.scalar import SignalTruth, run_closed_loop  # noqa: E402
 from gnssframework.signal.correlator_model import (  # noqa: E402
-    amplitude_from_cn0, code_autocorrelation, correlator_mean, simulate_correlators, tap_offsets,
+    amplitude_from_cn0,
+    code_autocorrelation,
+    correlator_mean,
+    simulate_correlators,
+    tap_offsets,
 )
 from gnssframework.signal.galileo_e1 import GALILEO_E1C_BOC11  # noqa: E402
 from gnssframework.signal.gps_l1ca import GPS_L1CA  # noqa: E402
@@ -54,12 +58,14 @@ def _taps_of(d) -> dict[str, float]:
 def _noise_free(d, code=0.0, phase=0.0, freq=0.0, T=T):
     """Noise-free correlators at 45 dB-Hz for the taps and signal ``d`` reads."""
     taps = _taps_of(d)
-    y = correlator_mean(amplitude_from_cn0(45.0, T), code, phase, freq, T, np.array(list(taps.values())),
-                        signal=_signal_of(d))
+    y = correlator_mean(
+        amplitude_from_cn0(45.0, T), code, phase, freq, T, np.array(list(taps.values())), signal=_signal_of(d)
+    )
     names = list(taps)
     extra = {n: y[..., i] for i, n in enumerate(names) if n not in ("early", "prompt", "late")}
-    return gf.Correlators(y[..., names.index("early")], y[..., names.index("prompt")], y[..., names.index("late")],
-                          extra=extra)
+    return gf.Correlators(
+        y[..., names.index("early")], y[..., names.index("prompt")], y[..., names.index("late")], extra=extra
+    )
 
 
 def s_curve(name: str) -> None:
@@ -98,8 +104,20 @@ def noise_curve(name: str, rng: np.random.Generator, draws: int = 20000) -> None
         extra = {n: o for n, o in taps.items() if n not in ("early", "prompt", "late")}
         mc = []
         for c in cn0:
-            cur, prev = (simulate_correlators(np.zeros(draws), 0.0, 0.0, c, Tc, rng, early_late_spacing_chips=spacing,
-                                              extra_taps=extra, signal=_signal_of(d)) for _ in range(2))
+            cur, prev = (
+                simulate_correlators(
+                    np.zeros(draws),
+                    0.0,
+                    0.0,
+                    c,
+                    Tc,
+                    rng,
+                    early_late_spacing_chips=spacing,
+                    extra_taps=extra,
+                    signal=_signal_of(d),
+                )
+                for _ in range(2)
+            )
             mc.append(np.std(d(cur, previous=prev)))
         ax.semilogy(cn0, np.sqrt(d.noise_variance(cn0)), "-", label=f"formula, T = {Tc * 1e3:.0f} ms")
         ax.semilogy(cn0, mc, style, label=f"Monte Carlo, T = {Tc * 1e3:.0f} ms")
@@ -129,8 +147,7 @@ def loops(rng: np.random.Generator) -> None:
     mc_pll, mc_dll = [], []
     for c in cn0:
         truth = SignalTruth.from_dynamics(3.0, 0.001, c, doppler_hz=np.full(32, 500.0))
-        loop = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=10.0, pll_order=2,
-                                  fll_bandwidth_hz=0.0)
+        loop = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=10.0, pll_order=2, fll_bandwidth_hz=0.0)
         rec = run_closed_loop(loop, truth, rng, initial_doppler_hz=500.0)
         mc_pll.append(np.std((rec.phase_error_rad[1000:] + np.pi / 2) % np.pi - np.pi / 2))
         mc_dll.append(np.std(rec.code_error_chips[1000:]))
@@ -174,13 +191,17 @@ def multipath_envelope() -> None:
     delays = np.linspace(0.0, 1.6, 81)
     fig, ax = plt.subplots(figsize=(5, 3.2))
     from scipy import optimize
+
     for phase, label in ((0.0, "in phase"), (np.pi, "anti-phase")):
         err = []
         for dl in delays:
+
             def out(e, dl=dl, phase=phase):
-                y = impairments.multipath_correlator_mean(A, e, 0.0, 0.0, 0.001, np.array([-0.5, 0, 0.5]), 0.5, dl,
-                                                          phase)
+                y = impairments.multipath_correlator_mean(
+                    A, e, 0.0, 0.0, 0.001, np.array([-0.5, 0, 0.5]), 0.5, dl, phase
+                )
                 return float(disc(gf.Correlators(y[0], y[1], y[2])))
+
             err.append(optimize.brentq(out, -0.45, 0.45))
         ax.plot(delays, err, label=label)
     ax.set_xlabel("reflection delay (chips)")

@@ -21,8 +21,12 @@ from gnssframework.receiver.acquisition import noise_floor, search_grid  # noqa:
 from gnssframework.receiver.acquisition.report import acquire_recording  # noqa: E402
 from gnssframework.receiver.channels import SampleTracker, correlate_channels, tracking_config  # noqa: E402
 from gnssframework.receiver.channels.correlator import MAX_TAPS  # noqa: E402
-from gnssframework.receiver.frontend import (SatelliteSignal, open_recording, synthesize_samples,  # noqa: E402
-                                             write_recording)
+from gnssframework.receiver.frontend import (
+    SatelliteSignal,
+    open_recording,
+    synthesize_samples,  # noqa: E402
+    write_recording,
+)
 from gnssframework.signal.codes import ca_code  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -42,8 +46,13 @@ def acquisition_figures() -> None:
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
     peak = int(np.argmax(stat.max(axis=0)))
     lo, hi = max(0, peak - 80), min(stat.shape[1], peak + 80)  # +-20 chips around the peak
-    im = axes[0].imshow(stat[:, lo:hi], aspect="auto", origin="lower", cmap="viridis",
-                        extent=(lo * 1.023e6 / fs, hi * 1.023e6 / fs, dopplers[0], dopplers[-1]))
+    im = axes[0].imshow(
+        stat[:, lo:hi],
+        aspect="auto",
+        origin="lower",
+        cmap="viridis",
+        extent=(lo * 1.023e6 / fs, hi * 1.023e6 / fs, dopplers[0], dopplers[-1]),
+    )
     fig.colorbar(im, ax=axes[0], label="test statistic")
     axes[0].set_xlabel("code phase (chips)")
     axes[0].set_ylabel("Doppler (Hz)")
@@ -66,10 +75,22 @@ def acquisition_figures() -> None:
     sums = np.zeros(offsets.size)
     chunks = np.array_split(offsets, -(-offsets.size // MAX_TAPS))  # the kernel takes at most MAX_TAPS taps
     for k in range(9):  # the whole code periods after the first epoch
-        c = np.concatenate([correlate_channels(x, np.array([start + k * n]), np.array([n]), np.array([0.0]),
-                                               np.array([1.023e6 / fs]),
-                                               np.array([res.doppler_hz * (start + k * n) / fs]),
-                                               np.array([res.doppler_hz / fs]), codes, taps)[0] for taps in chunks])
+        c = np.concatenate(
+            [
+                correlate_channels(
+                    x,
+                    np.array([start + k * n]),
+                    np.array([n]),
+                    np.array([0.0]),
+                    np.array([1.023e6 / fs]),
+                    np.array([res.doppler_hz * (start + k * n) / fs]),
+                    np.array([res.doppler_hz / fs]),
+                    codes,
+                    taps,
+                )[0]
+                for taps in chunks
+            ]
+        )
         sums += np.abs(c) ** 2
     fig, ax = plt.subplots(figsize=(5, 3.4))
     ax.plot(offsets, np.sqrt(sums / sums.max()), ".-")
@@ -87,22 +108,25 @@ def acquisition_figures() -> None:
 def tracking_figures(tmp: Path) -> None:
     fs = 2.6e6
     rng = np.random.default_rng(7)
-    sats = [SatelliteSignal(4, 46.0, 1320.0, 210.0, first_bit_code_period=5),
-            SatelliteSignal(9, 40.0, -2410.0, 640.0, first_bit_code_period=14),
-            SatelliteSignal(21, 34.0, 380.0, 975.0, first_bit_code_period=0)]
+    sats = [
+        SatelliteSignal(4, 46.0, 1320.0, 210.0, first_bit_code_period=5),
+        SatelliteSignal(9, 40.0, -2410.0, 640.0, first_bit_code_period=14),
+        SatelliteSignal(21, 34.0, 380.0, 975.0, first_bit_code_period=0),
+    ]
     x = synthesize_samples(sats, 3.0, fs, 0.0, rng)
     rec = open_recording(write_recording(tmp / "docs.sigmf-data", x, "ci16_le", fs, 0.0, scale=300.0))
     acq = registry.create("acquisition", "pcps", noncoherent=20)
     found = [r for r in acquire_recording(rec, acq) if r.detected]
-    result = SampleTracker(rec, tracking_config(coherent_ms=20, channel_params={"pll_bandwidth_hz": 8.0}),
-                           acq).run(found)
+    result = SampleTracker(rec, tracking_config(coherent_ms=20, channel_params={"pll_bandwidth_hz": 8.0}), acq).run(
+        found
+    )
     fig, axes = plt.subplots(3, 1, figsize=(8, 7.5), sharex=True)
     for sat in sats:
         ch = result.channels.get(sat.prn)
         if ch is None:
             continue
         t = ch.column("time_s")
-        line, = axes[0].plot(t, ch.column("cn0_dbhz"), label=f"PRN {sat.prn} ({sat.cn0_dbhz:g} dB-Hz generated)")
+        (line,) = axes[0].plot(t, ch.column("cn0_dbhz"), label=f"PRN {sat.prn} ({sat.cn0_dbhz:g} dB-Hz generated)")
         axes[0].axhline(sat.cn0_dbhz, color=line.get_color(), ls=":", lw=0.8)
         axes[1].plot(t, ch.column("pli"), color=line.get_color())
         axes[2].step(t, ch.column("stage") + 0.04 * sats.index(sat), where="post", color=line.get_color())

@@ -30,8 +30,19 @@ from collections.abc import Callable
 
 from .errors import ConfigError
 
-__all__ = ["HAVE_NUMBA", "available", "get_backend", "set_backend", "resolve_backend", "compiled", "BackendChoice",
-           "jit", "available_cores", "set_threads", "get_threads"]
+__all__ = [
+    "HAVE_NUMBA",
+    "available",
+    "get_backend",
+    "set_backend",
+    "resolve_backend",
+    "compiled",
+    "BackendChoice",
+    "jit",
+    "available_cores",
+    "set_threads",
+    "get_threads",
+]
 
 try:  # numba is a dependency, but the NumPy path must keep working without it.
     import numba

@@ -27,16 +27,16 @@ def _cmd_plugins(args: argparse.Namespace) -> int:
     if args.describe:
         from .plugin_docs import describe_plugin
 
-        matches = [k for k in ([args.kind] if args.kind else registry.kinds())
-                   if args.describe in registry.names(k)]
+        matches = [k for k in ([args.kind] if args.kind else registry.kinds()) if args.describe in registry.names(k)]
         if not matches:
             if args.kind:  # the registry words it: known names of that kind, the closest one
                 registry.get(args.kind, args.describe)
             every = sorted({n for k in registry.kinds() for n in registry.names(k)})
             from .suggest import did_you_mean
 
-            raise ConfigError("--describe", f"no plugin named {args.describe!r}"
-                                            f"{did_you_mean(args.describe, every, cutoff=0.4)}")
+            raise ConfigError(
+                "--describe", f"no plugin named {args.describe!r}{did_you_mean(args.describe, every, cutoff=0.4)}"
+            )
         print("\n\n".join(plain_text(describe_plugin(k, registry.get(k, args.describe))) for k in matches))
         return 0
     rows = [("KIND", "NAME", "DESCRIPTION", "SOURCE")]
@@ -75,15 +75,17 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
         refused = unstated_small_n_claims(config)
         for i in refused:
-            print(f"error: {small_n_refusal(config.name, i, config.claims[i].statement(), config.runs)}",
-                  file=sys.stderr)
+            print(
+                f"error: {small_n_refusal(config.name, i, config.claims[i].statement(), config.runs)}", file=sys.stderr
+            )
         if refused:
             return 1
     _print_work_estimate(config)
     try:
         # A bar on a terminal, a line per tenth of the batches in a log or a pipe.
-        summary = run_comparison(config, out, progress=not args.quiet, replicate=args.replicate,
-                                 trials_from=args.trials_from)
+        summary = run_comparison(
+            config, out, progress=not args.quiet, replicate=args.replicate, trials_from=args.trials_from
+        )
     except sqlite3.DatabaseError as exc:  # sqlite3 does not say which file: name the store
         raise _store_error(exc, Path(out) / "results.sqlite") from None
     print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
@@ -100,10 +102,14 @@ def _print_work_estimate(config) -> None:
 
     batches, runs = work_estimate(config)
     if batches > LONG_COMPARISON_BATCHES:
-        print(f"work: {batches:,} batches, {runs:,} filter runs ({len(config.cases)} cases x "
-              f"{len(config.candidates)} candidates x {config.runs} runs, {len(config.sweeps)} sweeps"
-              + (", tuning" if config.tuning is not None else "") + "); finished batches are kept, Ctrl-C and the "
-              "same command resumes", flush=True)
+        print(
+            f"work: {batches:,} batches, {runs:,} filter runs ({len(config.cases)} cases x "
+            f"{len(config.candidates)} candidates x {config.runs} runs, {len(config.sweeps)} sweeps"
+            + (", tuning" if config.tuning is not None else "")
+            + "); finished batches are kept, Ctrl-C and the "
+            "same command resumes",
+            flush=True,
+        )
 
 
 def _report_claims(summary, check: bool) -> int:
@@ -119,8 +125,10 @@ def _report_claims(summary, check: bool) -> int:
             print("no [[claims]] in this config: nothing to check")
         return 0
     bad = [c for c in claims if c["outcome"] != "holds" or c.get("replicate_outcome", "holds") != "holds"]
-    print(f"claims: {len(claims) - len(bad)} of {len(claims)} hold"
-          + (" on both seed sets" if any("replicate_outcome" in c for c in claims) else ""))
+    print(
+        f"claims: {len(claims) - len(bad)} of {len(claims)} hold"
+        + (" on both seed sets" if any("replicate_outcome" in c for c in claims) else "")
+    )
     for c in claims if check else bad:
         print("  " + claim_line(c))
     for c in claims:  # a claim that cannot be tested: one line naming it
@@ -128,8 +136,10 @@ def _report_claims(summary, check: bool) -> int:
             print(f"error: claims[{c['claim']}] in {claim_where(c)} refused: {c.get('reason', '')}", file=sys.stderr)
     unstated = unstated_small_n(claims) if check else []
     for c in unstated:  # over fewer runs than the config's (missing values): one line per claim
-        print(f"error: {small_n_refusal(data.get('name', summary.parent.name), c['claim'], c['statement'], c['n'])}",
-              file=sys.stderr)
+        print(
+            f"error: {small_n_refusal(data.get('name', summary.parent.name), c['claim'], c['statement'], c['n'])}",
+            file=sys.stderr,
+        )
     return 1 if check and (bad or unstated) else 0
 
 
@@ -141,8 +151,9 @@ def _store_error(exc: sqlite3.DatabaseError, store: Path) -> Exception:
         return OSError(errno.ENOSPC, text, str(store))
     if "readonly" in text or "unable to open" in text:
         return OSError(errno.EACCES, text, str(store))
-    return DataFileError(str(store), None, f"results store: {text} (a corrupted store: move it away or choose "
-                         "another --out)")
+    return DataFileError(
+        str(store), None, f"results store: {text} (a corrupted store: move it away or choose another --out)"
+    )
 
 
 def _cmd_filter_positions(args: argparse.Namespace) -> int:
@@ -154,8 +165,10 @@ def _cmd_filter_positions(args: argparse.Namespace) -> int:
     lat, lon, _, _ = filter_positions(fixes, composition(args.filter, args.noise_adapter, args.augmentation), args.psi)
     write_positions_csv(args.out, fixes, lat, lon)
     sidecar = write_skipped_report(args.out, args.file, fixes.skipped)
-    print(f"{args.file}: {fixes.time_s.size} fixes filtered with {args.filter}, {len(fixes.skipped)} sentences "
-          f"skipped; wrote {args.out}" + (f" and {sidecar}" if fixes.skipped else ""))
+    print(
+        f"{args.file}: {fixes.time_s.size} fixes filtered with {args.filter}, {len(fixes.skipped)} sentences "
+        f"skipped; wrote {args.out}" + (f" and {sidecar}" if fixes.skipped else "")
+    )
     if fixes.ignored or fixes.comments:
         kinds = ", ".join(f"{n} {kind}" for kind, n in fixes.ignored.items())
         print(f"  not used: {kinds or 'no sentences'}; {fixes.comments} comment lines")
@@ -172,8 +185,10 @@ def _cmd_smooth_positions(args: argparse.Namespace) -> int:
     track = smooth_positions(fixes, composition(args.filter, args.noise_adapter, args.augmentation), args.psi)
     write_smoothed_positions_csv(args.out, fixes, track)
     sidecar = write_skipped_report(args.out, args.file, fixes.skipped)
-    print(f"{args.file}: {fixes.time_s.size} fixes smoothed (forward {args.filter}, then RTS), "
-          f"{len(fixes.skipped)} sentences skipped; wrote {args.out}" + (f" and {sidecar}" if fixes.skipped else ""))
+    print(
+        f"{args.file}: {fixes.time_s.size} fixes smoothed (forward {args.filter}, then RTS), "
+        f"{len(fixes.skipped)} sentences skipped; wrote {args.out}" + (f" and {sidecar}" if fixes.skipped else "")
+    )
     print_skipped(fixes.skipped)
     return exit_status(fixes.skipped)
 
@@ -195,41 +210,84 @@ def _cmd_smooth(args: argparse.Namespace) -> int:
     from .io.smoothing import smooth_observations
 
     args.prn = normalise_select(args.prn)
-    obs = read_observations(args.file, args.prn, pseudorange_min_m=args.pseudorange_min,
-                            pseudorange_max_m=args.pseudorange_max, strict=args.strict)
+    obs = read_observations(
+        args.file,
+        args.prn,
+        pseudorange_min_m=args.pseudorange_min,
+        pseudorange_max_m=args.pseudorange_max,
+        strict=args.strict,
+    )
     name = SMOOTHERS[args.filter]["name"]
     takes = registry.get("channel_filter", name).Params.model_fields
-    kw = {**{k: v for k, v in (("window", args.window), ("q", args.q), ("r", args.r)) if k in takes},
-          **SMOOTHERS[args.filter]["params"]}
+    kw = {
+        **{k: v for k, v in (("window", args.window), ("q", args.q), ("r", args.r)) if k in takes},
+        **SMOOTHERS[args.filter]["params"],
+    }
     if args.slip_threshold:
         kw["slip_threshold_m"] = args.slip_threshold
     registry.create("channel_filter", name, **kw)  # a bad parameter fails before the run
-    result = smooth_observations(obs, lambda: registry.create("channel_filter", name, **kw), args.max_gap,
-                                 reset_at_lli=not args.ignore_lli, max_cmc_rate_mps=args.max_cmc_rate)
+    result = smooth_observations(
+        obs,
+        lambda: registry.create("channel_filter", name, **kw),
+        args.max_gap,
+        reset_at_lli=not args.ignore_lli,
+        max_cmc_rate_mps=args.max_cmc_rate,
+    )
     valid = obs.valid
     with atomic_open(args.out, "w", newline="") as fh:  # a killed run leaves no half CSV
         w = csv.writer(fh)
-        w.writerow(["epoch", "sv", "time_s", "pseudorange_m", "carrier_m", "smoothed_m", "lli", "snr_dbhz",
-                    "arc_start", "slip_detected"])
+        w.writerow(
+            [
+                "epoch",
+                "sv",
+                "time_s",
+                "pseudorange_m",
+                "carrier_m",
+                "smoothed_m",
+                "lli",
+                "snr_dbhz",
+                "arc_start",
+                "slip_detected",
+            ]
+        )
         for k, j in zip(*np.nonzero(valid)):
-            w.writerow([str(obs.epoch[k]), obs.sv[j], f"{obs.time_s[k]:.7f}", f"{obs.pseudorange_m[k, j]:.3f}",
-                        f"{obs.carrier_m[k, j]:.4f}", _blank_nan(result.smoothed_m[k, j], 4), int(obs.lli[k, j]),
-                        _blank_nan(obs.snr_dbhz[k, j], 2), int(result.arc_start[k, j]), int(result.slip_detected[k, j])])
+            w.writerow(
+                [
+                    str(obs.epoch[k]),
+                    obs.sv[j],
+                    f"{obs.time_s[k]:.7f}",
+                    f"{obs.pseudorange_m[k, j]:.3f}",
+                    f"{obs.carrier_m[k, j]:.4f}",
+                    _blank_nan(result.smoothed_m[k, j], 4),
+                    int(obs.lli[k, j]),
+                    _blank_nan(obs.snr_dbhz[k, j], 2),
+                    int(result.arc_start[k, j]),
+                    int(result.slip_detected[k, j]),
+                ]
+            )
     sidecar = write_skipped_report(args.out, args.file, obs.skipped)
     flagged = int(((obs.lli & 1) != 0)[valid].sum())
-    print(f"{args.file} {args.prn}: {int(valid.sum())} epochs of {obs.sv.size} satellites smoothed with "
-          f"{args.filter} in {result.arcs} arcs ({flagged} loss-of-lock flags"
-          + (" ignored" if args.ignore_lli else "") + f", gaps over {result.max_gap_s:g} s)"
-          + (f", {int(result.slip_detected.sum())} slips detected by the filter "
-             f"({int((result.slip_detected & (obs.lli & 1 != 0)).sum())} of them at a receiver's flag)"
-             if args.slip_threshold else "")
-          + f", {len(obs.skipped)} epochs or observations skipped; wrote {args.out}"
-          + (f" and {sidecar}" if obs.skipped else ""))
+    print(
+        f"{args.file} {args.prn}: {int(valid.sum())} epochs of {obs.sv.size} satellites smoothed with "
+        f"{args.filter} in {result.arcs} arcs ({flagged} loss-of-lock flags"
+        + (" ignored" if args.ignore_lli else "")
+        + f", gaps over {result.max_gap_s:g} s)"
+        + (
+            f", {int(result.slip_detected.sum())} slips detected by the filter "
+            f"({int((result.slip_detected & (obs.lli & 1 != 0)).sum())} of them at a receiver's flag)"
+            if args.slip_threshold
+            else ""
+        )
+        + f", {len(obs.skipped)} epochs or observations skipped; wrote {args.out}"
+        + (f" and {sidecar}" if obs.skipped else "")
+    )
     for sv, why in obs.dropped.items():
         print(f"  not read: {sv}: {why}")
     for sv, row, rate in result.inconsistent:
-        print(f"  not smoothed (smoothed_m empty): {sv}'s arc from {obs.epoch[row]}: code minus carrier drifts "
-              f"{rate:.3g} m/s (over --max-cmc-rate {args.max_cmc_rate:g}): its carrier does not follow the code")
+        print(
+            f"  not smoothed (smoothed_m empty): {sv}'s arc from {obs.epoch[row]}: code minus carrier drifts "
+            f"{rate:.3g} m/s (over --max-cmc-rate {args.max_cmc_rate:g}): its carrier does not follow the code"
+        )
     if obs.truncated:
         print(f"  TRUNCATED FILE: {obs.truncated}; the output covers the epochs before the cut")
     print_skipped(obs.skipped)
@@ -255,10 +313,12 @@ def _open_recording_from_args(args: argparse.Namespace):
     if not Path(args.recording).exists():  # the wording every command uses for a missing file
         raise DataFileError(args.recording, None, "no such file")
     if not Path(args.recording).is_file():
-        raise DataFileError(args.recording, None, "not a regular file (a device, pipe or folder): give a file of "
-                                                  "recorded samples")
-    return open_recording(args.recording, format=args.format, sample_rate_hz=args.fs, if_hz=args.if_hz,
-                          q_sign=args.q_sign)
+        raise DataFileError(
+            args.recording, None, "not a regular file (a device, pipe or folder): give a file of recorded samples"
+        )
+    return open_recording(
+        args.recording, format=args.format, sample_rate_hz=args.fs, if_hz=args.if_hz, q_sign=args.q_sign
+    )
 
 
 def _open_stream_from_args(args: argparse.Namespace):
@@ -270,11 +330,14 @@ def _open_stream_from_args(args: argparse.Namespace):
     rtl = args.recording.startswith("rtl_tcp://")
     fmt = args.format or (RTL_TCP_FORMAT if rtl else None)
     if fmt is None or args.fs is None:
-        raise ConfigError("--format" if fmt is None else "--fs",
-                          f"{args.recording}: a stream has no SigMF metadata: give --format and --fs")
+        raise ConfigError(
+            "--format" if fmt is None else "--fs",
+            f"{args.recording}: a stream has no SigMF metadata: give --format and --fs",
+        )
     if not rtl and (args.center_freq is not None or args.gain is not None):
-        raise ConfigError("--center-freq" if args.center_freq is not None else "--gain",
-                          "tunes an rtl_tcp:// server only")
+        raise ConfigError(
+            "--center-freq" if args.center_freq is not None else "--gain", "tunes an rtl_tcp:// server only"
+        )
     if args.tracking == "vector":
         raise ConfigError("--tracking", "live input runs scalar tracking (vector tracking reads a file)")
     announced = []
@@ -282,33 +345,66 @@ def _open_stream_from_args(args: argparse.Namespace):
     def overrun(first: int, count: int) -> None:
         if not announced:
             announced.append(first)
-            print(f"overrun: the receiver lags the stream: samples dropped from {first / args.fs:.3f} s of signal "
-                  "(counted; the channels re-acquire after each gap)", file=sys.stderr, flush=True)
+            print(
+                f"overrun: the receiver lags the stream: samples dropped from {first / args.fs:.3f} s of signal "
+                "(counted; the channels re-acquire after each gap)",
+                file=sys.stderr,
+                flush=True,
+            )
 
-    settings = RtlTcpSettings(args.center_freq, args.fs, None if args.gain is None else round(10 * args.gain)) \
-        if rtl else None
-    return open_stream(args.recording, fmt, args.fs, args.if_hz or 0.0, args.q_sign or 1, realtime=args.realtime,
-                       buffer_s=args.buffer_s, rtl_tcp=settings, on_overrun=overrun)
+    settings = (
+        RtlTcpSettings(args.center_freq, args.fs, None if args.gain is None else round(10 * args.gain)) if rtl else None
+    )
+    return open_stream(
+        args.recording,
+        fmt,
+        args.fs,
+        args.if_hz or 0.0,
+        args.q_sign or 1,
+        realtime=args.realtime,
+        buffer_s=args.buffer_s,
+        rtl_tcp=settings,
+        on_overrun=overrun,
+    )
 
 
 def _add_live_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("live input and output (docs: Live input)")
-    g.add_argument("--realtime", action="store_true",
-                   help="with a stream (-, a FIFO, tcp://HOST:PORT, rtl_tcp://HOST:PORT): drop whole blocks the "
-                        "receiver cannot take in time, counted and reported as overruns, instead of holding the "
-                        "producer back (the default)")
-    g.add_argument("--buffer-s", type=float, default=1.0, metavar="S",
-                   help="signal queued between the stream reader and the receiver (default %(default)s)")
+    g.add_argument(
+        "--realtime",
+        action="store_true",
+        help="with a stream (-, a FIFO, tcp://HOST:PORT, rtl_tcp://HOST:PORT): drop whole blocks the "
+        "receiver cannot take in time, counted and reported as overruns, instead of holding the "
+        "producer back (the default)",
+    )
+    g.add_argument(
+        "--buffer-s",
+        type=float,
+        default=1.0,
+        metavar="S",
+        help="signal queued between the stream reader and the receiver (default %(default)s)",
+    )
     g.add_argument("--center-freq", type=float, metavar="HZ", help="rtl_tcp: tune to HZ (e.g. 1575420000)")
     g.add_argument("--gain", type=float, metavar="DB", help="rtl_tcp: manual tuner gain (default automatic)")
-    g.add_argument("--nmea-out", metavar="DEST",
-                   help="send GGA and RMC as fixes come: - (standard output; the messages go to standard error) "
-                        "or tcp://[HOST]:PORT (a server for gpsd and other clients)")
+    g.add_argument(
+        "--nmea-out",
+        metavar="DEST",
+        help="send GGA and RMC as fixes come: - (standard output; the messages go to standard error) "
+        "or tcp://[HOST]:PORT (a server for gpsd and other clients)",
+    )
 
 
 def _acquisition_from_args(args: argparse.Namespace):
-    params = {k: v for k, v in (("coherent_ms", args.coherent_ms), ("noncoherent", args.noncoherent),
-                                ("doppler_max_hz", args.doppler_max), ("pfa", args.pfa)) if v is not None}
+    params = {
+        k: v
+        for k, v in (
+            ("coherent_ms", args.coherent_ms),
+            ("noncoherent", args.noncoherent),
+            ("doppler_max_hz", args.doppler_max),
+            ("pfa", args.pfa),
+        )
+        if v is not None
+    }
     if getattr(args, "alternate_blocks", False):
         params["alternate_blocks"] = True
     from .receiver.acquisition.search import check_contract
@@ -325,12 +421,15 @@ def _prns_from_args(args: argparse.Namespace, signal: SignalSpec = GPS_L1CA) -> 
     prns = tuple(args.prns) if args.prns else signal.prns
     bad = [p for p in prns if p not in signal.prns]
     if bad:
-        raise ConfigError("--prns", f"{_SIGNAL_LABEL.get(signal.name, signal.name)} PRNs are {min(signal.prns)}-"
-                                    f"{max(signal.prns)}, got {bad}")
+        raise ConfigError(
+            "--prns",
+            f"{_SIGNAL_LABEL.get(signal.name, signal.name)} PRNs are {min(signal.prns)}-{max(signal.prns)}, got {bad}",
+        )
     repeated = sorted({p for p in prns if prns.count(p) > 1})
     if repeated:
-        raise ConfigError("--prns", f"PRN {', '.join(map(str, repeated))} given more than once: each PRN is "
-                                    "searched once")
+        raise ConfigError(
+            "--prns", f"PRN {', '.join(map(str, repeated))} given more than once: each PRN is searched once"
+        )
     return prns
 
 
@@ -370,15 +469,19 @@ def _cmd_acquire(args: argparse.Namespace) -> int:
         print(f"note: {rec.path.name} ends with {rec.trailing_bytes} bytes of a cut sample, not read")
     if args.verbose:
         for r in results:
-            print(f"PRN {r.prn:2d}: statistic {r.test_statistic:8.2f} (threshold {r.threshold:.2f}) "
-                  f"{'FOUND' if r.detected else 'no'}  doppler {r.doppler_hz:8.1f} Hz  code phase "
-                  f"{r.code_phase_chips:8.3f} chips  C/N0 {r.cn0_dbhz:5.1f} dB-Hz")
+            print(
+                f"PRN {r.prn:2d}: statistic {r.test_statistic:8.2f} (threshold {r.threshold:.2f}) "
+                f"{'FOUND' if r.detected else 'no'}  doppler {r.doppler_hz:8.1f} Hz  code phase "
+                f"{r.code_phase_chips:8.3f} chips  C/N0 {r.cn0_dbhz:5.1f} dB-Hz"
+            )
     write_acquisition_csv(args.out, results)
     found = [r for r in results if r.detected]
     if not found:
-        print(f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF "
-              "(--if), the format (--format) and, for a large frequency offset, --doppler-max; wrote an empty "
-              f"{args.out}")
+        print(
+            f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF "
+            "(--if), the format (--format) and, for a large frequency offset, --doppler-max; wrote an empty "
+            f"{args.out}"
+        )
         return 1
     print(f"{len(found)} satellites found ({', '.join(str(r.prn) for r in found)}); wrote {args.out}")
     return 0
@@ -387,8 +490,10 @@ def _cmd_acquire(args: argparse.Namespace) -> int:
 def _note_nonfinite(rec) -> None:
     """Say how many NaN/inf values the reads so far zeroed (a float recording's gaps)."""
     if rec.nonfinite_zeroed:
-        print(f"note: {rec.path.name}: {rec.nonfinite_zeroed} non-finite values (NaN or inf) in the samples read were "
-              "set to 0")
+        print(
+            f"note: {rec.path.name}: {rec.nonfinite_zeroed} non-finite values (NaN or inf) in the samples read were "
+            "set to 0"
+        )
 
 
 #: The early-to-late spacing (chips) ``track`` uses on a BOC signal unless told
@@ -412,8 +517,11 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
     except json.JSONDecodeError as exc:
         raise ConfigError("--channel-params", f"not JSON: {exc.msg}") from None
     settings = {"channel_filter": args.channel_filter, "channel_params": params}
-    for option, key in (("coherent_ms_track", "coherent_ms"), ("cn0_estimator", "cn0_estimator"),
-                        ("early_late_spacing", "early_late_spacing_chips")):
+    for option, key in (
+        ("coherent_ms_track", "coherent_ms"),
+        ("cn0_estimator", "cn0_estimator"),
+        ("early_late_spacing", "early_late_spacing_chips"),
+    ):
         if getattr(args, option, None) is not None:
             settings[key] = getattr(args, option)
     if signal is not None:
@@ -424,8 +532,9 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
             # BOC(1,1)'s main peak is +-1/3 chip wide: taps +-0.5 chip apart sit on its side lobes
             settings["early_late_spacing_chips"] = BOC_EARLY_LATE_SPACING_CHIPS
     if args.duration is not None and not args.duration >= MIN_DURATION_S:
-        raise ConfigError("--duration", f"must be at least {MIN_DURATION_S:g} s (tracking's first intervals), got "
-                                        f"{args.duration:g}")
+        raise ConfigError(
+            "--duration", f"must be at least {MIN_DURATION_S:g} s (tracking's first intervals), got {args.duration:g}"
+        )
     return tracking_config(**settings)
 
 
@@ -446,8 +555,11 @@ def _both(first: Callable[[float], None] | None, second: Callable[[float], None]
 
 
 @contextmanager
-def _recording_progress(args: argparse.Namespace, rec=None, quiet: bool = False,
-                        ) -> Iterator[Callable[[float], None] | None]:
+def _recording_progress(
+    args: argparse.Namespace,
+    rec=None,
+    quiet: bool = False,
+) -> Iterator[Callable[[float], None] | None]:
     """The tracker's progress callback (fraction of the recording done): a bar on a terminal,
     a line per tenth of the recording in a log or a pipe, none with ``--quiet`` (or
     ``quiet``: a live stream has no known length); with the recording ``rec``, the signal
@@ -486,26 +598,35 @@ def _cmd_track(args: argparse.Namespace) -> int:
     results = _acquire_checked(rec, acq, prns, signal)
     found = [r for r in results if r.detected]
     if not found:
-        print(f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF (--if), "
-              "the format (--format) and --doppler-max; nothing tracked")
+        print(
+            f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF (--if), "
+            "the format (--format) and --doppler-max; nothing tracked"
+        )
         return 1
     with _recording_progress(args, rec) as progress:
         result = tracker.run(found, args.duration, progress)
     written = write_tracking_outputs(args.out, result, plots=not args.no_plots, code_period_s=signal.code_period_s)
     print(f"tracked {len(found)} satellites for {result.duration_s:.3f} s with {config.channel_filter}:")
     for s in channel_summary(result, signal.code_period_s):
-        print(f"  PRN {s['prn']:2d}: locked {100 * s['locked_fraction']:5.1f} % of {s['tracked_s']:.2f} s, "
-              f"C/N0 {_or_none(s['cn0_dbhz_locked'], '5.1f')} dB-Hz, Doppler {_or_none(s['doppler_hz_last'], '9.1f')} "
-              f"Hz, {s['final_stage']}")
+        print(
+            f"  PRN {s['prn']:2d}: locked {100 * s['locked_fraction']:5.1f} % of {s['tracked_s']:.2f} s, "
+            f"C/N0 {_or_none(s['cn0_dbhz_locked'], '5.1f')} dB-Hz, Doppler {_or_none(s['doppler_hz_last'], '9.1f')} "
+            f"Hz, {s['final_stage']}"
+        )
     if carries_inav(signal):  # E1-B: every 4 ms prompt a symbol of I/NAV
         path, inav_rows = write_inav_report(args.out, result, signal)
         written.append(path)
         for r in inav_rows:
-            gst = f"GST week {r['gst_wn']} TOW {r['gst_tow_s']} s at {float(r['gst_time_s']):.3f} s" \
-                if r["gst_wn"] != "" else "no GST"
-            print(f"  PRN {r['prn']:2d}: I/NAV {r['pages']} pages (word types {r['word_types'] or 'none'}), "
-                  f"{r['crc_failures']} CRC failures, IODnav {r['iodnav'] or 'none'}, {gst}"
-                  f"{', ephemeris complete' if r['ephemeris'] else ''}")
+            gst = (
+                f"GST week {r['gst_wn']} TOW {r['gst_tow_s']} s at {float(r['gst_time_s']):.3f} s"
+                if r["gst_wn"] != ""
+                else "no GST"
+            )
+            print(
+                f"  PRN {r['prn']:2d}: I/NAV {r['pages']} pages (word types {r['word_types'] or 'none'}), "
+                f"{r['crc_failures']} CRC failures, IODnav {r['iodnav'] or 'none'}, {gst}"
+                f"{', ephemeris complete' if r['ephemeris'] else ''}"
+            )
     _note_nonfinite(rec)
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0
@@ -585,11 +706,15 @@ def _assist_from_args(args: argparse.Namespace, nav_info=None):
         week, tow = args.start_time.split(",")
         when = (int(week), float(tow))
     except ValueError:
-        raise ConfigError("--start-time", f"WEEK,TOW (full GPS week, seconds of week), got {args.start_time!r}") \
-            from None
+        raise ConfigError(
+            "--start-time", f"WEEK,TOW (full GPS week, seconds of week), got {args.start_time!r}"
+        ) from None
     if nav_info is not None and not nav_info.covers(*when):
-        raise ConfigError("--ephemeris", f"the ephemeris does not cover the recording: its records span "
-                                         f"{nav_info.dates()}, --start-time is week {when[0]}, tow {when[1]:g} s")
+        raise ConfigError(
+            "--ephemeris",
+            f"the ephemeris does not cover the recording: its records span "
+            f"{nav_info.dates()}, --start-time is week {when[0]}, tow {when[1]:g} s",
+        )
     iono = nav_info.iono if nav_info is not None and not args.no_iono else None
     return assistance(where, *when, iono=iono)
 
@@ -664,16 +789,20 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     if not args.rate > 0:
         raise ConfigError("--rate", f"must be > 0 Hz, got {args.rate}")
     if not args.rate <= MAX_RATE_HZ:
-        raise ConfigError("--rate", f"must be at most {MAX_RATE_HZ:g} Hz (one solution per 1 ms code period), got "
-                                    f"{args.rate:g}")
+        raise ConfigError(
+            "--rate", f"must be at most {MAX_RATE_HZ:g} Hz (one solution per 1 ms code period), got {args.rate:g}"
+        )
     if args.week is not None and not 0 <= args.week < 10_000:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
     truth = _truth_from_args(args)
     raim = _raim_from_args(args)
     if args.ephemeris and signal.system not in EPHEMERIS_SYSTEMS:
-        raise ConfigError("--ephemeris", f"the records of {signal.name} (RINEX system {signal.system}) are not read "
-                                         f"from a navigation file (systems read: {', '.join(EPHEMERIS_SYSTEMS)}); "
-                                         "drop --ephemeris, the decoded LNAV ephemerides serve")
+        raise ConfigError(
+            "--ephemeris",
+            f"the records of {signal.name} (RINEX system {signal.system}) are not read "
+            f"from a navigation file (systems read: {', '.join(EPHEMERIS_SYSTEMS)}); "
+            "drop --ephemeris, the decoded LNAV ephemerides serve",
+        )
     rinex = read_rinex_nav(args.ephemeris, systems=signal.system) if args.ephemeris else None
     nav_info = read_nav_file_info(args.ephemeris) if args.ephemeris else None
     # Without --week, the ephemeris file's (placed at the recording's tow once known, below).
@@ -685,8 +814,11 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
         from .receiver.navigation.vector_tracking import vector_config
 
         if filters.nav_filter is not None:  # the vector loop closes its own ekf-pv
-            raise ConfigError("--tracking", "vector tracking runs its own navigation filter: drop --nav-filter "
-                                            "(or the config's [nav_filter]) or use --tracking scalar")
+            raise ConfigError(
+                "--tracking",
+                "vector tracking runs its own navigation filter: drop --nav-filter "
+                "(or the config's [nav_filter]) or use --tracking scalar",
+            )
         monitor = {} if raim is None else {"monitor_false_alarm": raim.false_alarm}  # the channel fault monitor
         vector = vector_config(solution_rate_hz=args.rate, **_vector_channel_from_args(args), **monitor)
     elif args.vector_channel_filter or args.vector_channel_params:
@@ -698,35 +830,66 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     name = Path(args.recording).name
     acquisitions = _acquire_checked(rec, acq, prns, signal)  # checked before minutes of tracking
     if not args.quiet:  # a line as each phase ends (a refused one leaves its one error line alone)
-        phase(name, f"acquisition found {sum(r.detected for r in acquisitions)} of {len(acquisitions)} PRNs; "
-                    f"tracking, decoding {'I/NAV' if carries_inav(signal) else 'LNAV'}, positioning", started)
+        phase(
+            name,
+            f"acquisition found {sum(r.detected for r in acquisitions)} of {len(acquisitions)} PRNs; "
+            f"tracking, decoding {'I/NAV' if carries_inav(signal) else 'LNAV'}, positioning",
+            started,
+        )
     iono_fallback = nav_info.iono if nav_info is not None and not args.no_iono else None
     fixes = None
     if live.sinks and vector is None:
-        fixes = live.start(rate_hz=args.rate, rinex=rinex, ionosphere=not args.no_iono, troposphere=args.troposphere,
-                           reference_week=reference_week, weighting=args.weighting, signal=signal,
-                           iono_fallback=iono_fallback)
+        fixes = live.start(
+            rate_hz=args.rate,
+            rinex=rinex,
+            ionosphere=not args.no_iono,
+            troposphere=args.troposphere,
+            reference_week=reference_week,
+            weighting=args.weighting,
+            signal=signal,
+            iono_fallback=iono_fallback,
+        )
     elif live.sinks:
         print("note: with --tracking vector the NMEA sentences are sent at the end of the run")
         fixes = live.start(rate_hz=args.rate, signal=signal)
     streaming = hasattr(rec, "overrun_summary")
     with _recording_progress(args, rec, quiet=streaming) as progress:
-        result = receive(rec, acq, config, prns=prns, duration_s=args.duration, rate_hz=args.rate, rinex=rinex,
-                         ionosphere=not args.no_iono, troposphere=args.troposphere, reference_week=reference_week,
-                         progress=_both(progress, fixes if vector is None else None), nav_filter=filters.nav_filter,
-                         vector=vector, assist=assist, acquisitions=acquisitions, iono_fallback=iono_fallback,
-                         weighting=args.weighting, signal=signal, raim=raim,
-                         observe=fixes.observe if fixes is not None and vector is None else None)
+        result = receive(
+            rec,
+            acq,
+            config,
+            prns=prns,
+            duration_s=args.duration,
+            rate_hz=args.rate,
+            rinex=rinex,
+            ionosphere=not args.no_iono,
+            troposphere=args.troposphere,
+            reference_week=reference_week,
+            progress=_both(progress, fixes if vector is None else None),
+            nav_filter=filters.nav_filter,
+            vector=vector,
+            assist=assist,
+            acquisitions=acquisitions,
+            iono_fallback=iono_fallback,
+            weighting=args.weighting,
+            signal=signal,
+            raim=raim,
+            observe=fixes.observe if fixes is not None and vector is None else None,
+        )
     if fixes is not None:
         fixes.finish(result.positions, result.observables)
         print(f"NMEA: {fixes.sent} fixes sent to {', '.join(s.description for s in live.sinks)}")
     overruns = rec.overrun_summary() if streaming and rec.realtime else ""
     if result.vector is not None and result.vector.handover_s is not None:
-        print(f"vector tracking from {result.vector.handover_s:.1f} s of PRN "
-              f"{', '.join(str(p) for p in result.vector.prns)} (channel filter {vector.channel_filter})")
+        print(
+            f"vector tracking from {result.vector.handover_s:.1f} s of PRN "
+            f"{', '.join(str(p) for p in result.vector.prns)} (channel filter {vector.channel_filter})"
+        )
     if not result.tracking.channels:
-        print(f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF "
-              "(--if), the format (--format) and --doppler-max; no position")
+        print(
+            f"nothing found: {search_summary(rec, acq, prns, signal)}. Check the sample rate (--fs), the IF "
+            "(--if), the format (--format) and --doppler-max; no position"
+        )
         return 1
     table = result.positions
     out = Path(args.out)
@@ -737,8 +900,10 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
         out.mkdir(parents=True, exist_ok=True)
         written = write_tracking_outputs(out, result.tracking, plots=True)
         written += write_no_position_report(out, result, why, rinex, signal)
-        print(f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
-              f"{result.tracking.duration_s:.1f} s; wrote {', '.join(str(p) for p in written if p.parent == out)}")
+        print(
+            f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
+            f"{result.tracking.duration_s:.1f} s; wrote {', '.join(str(p) for p in written if p.parent == out)}"
+        )
         return 1
     out.mkdir(parents=True, exist_ok=True)
     if not args.quiet:
@@ -749,8 +914,9 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
         week_now = nav_info.week_at(float(table.columns["tow_s"][0]))
         for t in {id(t): t for t in (table, result.least_squares) if t is not None}.values():
             t.columns["gps_week"][:] = week_now
-        print(f"note: no subframe 1 decoded: GPS week {week_now} from the --ephemeris file's records "
-              f"({nav_info.dates()})")
+        print(
+            f"note: no subframe 1 decoded: GPS week {week_now} from the --ephemeris file's records ({nav_info.dates()})"
+        )
     written = [write_positions_csv(out / "positions.csv", table)]
     c = table.columns
     week = int(c["gps_week"][0])
@@ -760,30 +926,44 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
         print("note: no LNAV subframe decoded, so no pseudoranges of the scalar channels: no observations.rnx")
         written.append(write_nmea(out / "nmea.txt", table, 18, nmea_talker(signal), sky, "gsa" in outputs))
     elif week >= 0:
-        written += [write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1], signal=signal),
-                    write_nmea(out / "nmea.txt", table, leap, nmea_talker(signal), sky, "gsa" in outputs)]
+        written += [
+            write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1], signal=signal),
+            write_nmea(out / "nmea.txt", table, leap, nmea_talker(signal), sky, "gsa" in outputs),
+        ]
     else:
-        print("note: no subframe 1 decoded, so the GPS week is unknown: no observations.rnx or nmea.txt "
-              "(give it with --week)")
+        print(
+            "note: no subframe 1 decoded, so the GPS week is unknown: no observations.rnx or nmea.txt "
+            "(give it with --week)"
+        )
     extra, notes = write_extra_outputs(out, result, table, outputs, week, leap, signal)
     written += extra
     for note in notes:
         print(f"note: {note}")
     nav_name = filters.nav_filter.name if filters.nav_filter is not None else None
-    used = (f"channel filter {config.channel_filter}, "
-            + (f"nav filter {nav_name} from the first least-squares fix" if nav_name else
-               "least squares per epoch"))
-    written += write_receive_report(out, result, table, truth, rinex, f"Filters: {used}."
-                                    + (f" Live input {rec.description}: {overruns}." if overruns else ""),
-                                    signal=signal)
-    print(f"{len(table)} fixes ({used}) from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
-          f"{int(c['gps_week'][0])}, tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} "
-          f"satellites; last {c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP "
-          f"{c['hdop'][-1]:.2f}")
+    used = f"channel filter {config.channel_filter}, " + (
+        f"nav filter {nav_name} from the first least-squares fix" if nav_name else "least squares per epoch"
+    )
+    written += write_receive_report(
+        out,
+        result,
+        table,
+        truth,
+        rinex,
+        f"Filters: {used}." + (f" Live input {rec.description}: {overruns}." if overruns else ""),
+        signal=signal,
+    )
+    print(
+        f"{len(table)} fixes ({used}) from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
+        f"{int(c['gps_week'][0])}, tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} "
+        f"satellites; last {c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP "
+        f"{c['hdop'][-1]:.2f}"
+    )
     if truth is not None:
         err = position_errors(table, truth)
-        print(f"against --truth: horizontal RMS {np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))):.2f} m, "
-              f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m")
+        print(
+            f"against --truth: horizontal RMS {np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))):.2f} m, "
+            f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m"
+        )
     print(f"wrote {', '.join(str(p) for p in written if p.parent == out)} and {out / 'plots'}/")
     return 0
 
@@ -812,9 +992,16 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     from .receiver.navigation.rinex_obs import write_rinex_obs
 
     signals = SignalSet(tuple(registry.signal_spec(n) for n in args.signal.split(",")))
-    given = {"--prns": args.prns, "--tracking vector": args.tracking == "vector", "--nav-filter": args.nav_filter,
-             "--config": args.config, "--nmea-out": args.nmea_out, "--approx-position": args.approx_position,
-             "--vector-channel-filter": args.vector_channel_filter, "--raim": getattr(args, "raim", None)}
+    given = {
+        "--prns": args.prns,
+        "--tracking vector": args.tracking == "vector",
+        "--nav-filter": args.nav_filter,
+        "--config": args.config,
+        "--nmea-out": args.nmea_out,
+        "--approx-position": args.approx_position,
+        "--vector-channel-filter": args.vector_channel_filter,
+        "--raim": getattr(args, "raim", None),
+    }
     for option, value in given.items():
         if value:
             raise ConfigError(option, f"not with several signals ({signals.name}): give one --signal for it")
@@ -844,19 +1031,31 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     started = time.monotonic()
     name = Path(args.recording).name
     with _recording_progress(args, rec) as progress:
-        result = receive_signals(rec, _acquisition_from_args(args), configs, signals, duration_s=args.duration,
-                                 rate_hz=args.rate, rinex=rinex, ionosphere=not args.no_iono,
-                                 troposphere=args.troposphere, reference_week=reference_week,
-                                 iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
-                                 weighting=args.weighting, progress=progress)
+        result = receive_signals(
+            rec,
+            _acquisition_from_args(args),
+            configs,
+            signals,
+            duration_s=args.duration,
+            rate_hz=args.rate,
+            rinex=rinex,
+            ionosphere=not args.no_iono,
+            troposphere=args.troposphere,
+            reference_week=reference_week,
+            iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
+            weighting=args.weighting,
+            progress=progress,
+        )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     table = result.positions
     if table is None or len(table) == 0:
         written = write_tracking_outputs(out, result.tracking, plots=True)
-        print(f"no position from {signals.name}: tracked {len(result.tracking.channels)} satellites for "
-              f"{result.tracking.duration_s:.1f} s (a fix needs 3 + one per time system of satellites with a "
-              f"transmit time and an ephemeris); wrote {', '.join(str(p) for p in written if p.parent == out)}")
+        print(
+            f"no position from {signals.name}: tracked {len(result.tracking.channels)} satellites for "
+            f"{result.tracking.duration_s:.1f} s (a fix needs 3 + one per time system of satellites with a "
+            f"transmit time and an ephemeris); wrote {', '.join(str(p) for p in written if p.parent == out)}"
+        )
         return 1
     if not args.quiet:
         phase(name, f"{len(table)} fixes; writing the outputs", started)
@@ -866,24 +1065,36 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     written = [write_positions_csv(out / "positions.csv", table)]
     if week >= 0 and obs is not None:
         leap = obs.iono_utc.dt_ls_s if obs.iono_utc is not None else 18
-        written += [write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1], signal=signals),  # type: ignore[arg-type]
-                    write_nmea(out / "nmea.txt", table, leap, nmea_talker(*signals.signals))]
+        written += [
+            write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1], signal=signals),  # type: ignore[arg-type]
+            write_nmea(out / "nmea.txt", table, leap, nmea_talker(*signals.signals)),
+        ]
     else:
         print("note: the GPS week is unknown: no observations.rnx or nmea.txt (give it with --week)")
     print("note: with several signals no navigation.rnx, GSA, GSV or track.geojson is written (not done)")
-    written += write_receive_report(out, result, table, truth, rinex, "Filters: least squares per epoch, a "
-                                    f"receiver clock per time system ({signals.name}).",
-                                    signal=signals)  # type: ignore[arg-type]
+    written += write_receive_report(
+        out,
+        result,
+        table,
+        truth,
+        rinex,
+        f"Filters: least squares per epoch, a receiver clock per time system ({signals.name}).",
+        signal=signals,
+    )  # type: ignore[arg-type]
     offsets = c.get(SYSTEM_OFFSET_COLUMN, np.full(len(table), np.nan))
-    print(f"{len(table)} fixes of {signals.name} from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
-          f"{week}, tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} satellites; "
-          f"last {c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP {c['hdop'][-1]:.2f}; "
-          f"inter-system clock offset {np.nanmedian(offsets) if np.isfinite(offsets).any() else float('nan'):.1f} ns "
-          "(median)")
+    print(
+        f"{len(table)} fixes of {signals.name} from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
+        f"{week}, tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} satellites; "
+        f"last {c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP {c['hdop'][-1]:.2f}; "
+        f"inter-system clock offset {np.nanmedian(offsets) if np.isfinite(offsets).any() else float('nan'):.1f} ns "
+        "(median)"
+    )
     if truth is not None:
         err = position_errors(table, truth)
-        print(f"against --truth: horizontal RMS {np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))):.2f} m, "
-              f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m")
+        print(
+            f"against --truth: horizontal RMS {np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))):.2f} m, "
+            f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m"
+        )
     print(f"wrote {', '.join(str(p) for p in written if p.parent == out)}")
     return 0
 
@@ -905,9 +1116,11 @@ def _ephemeris_distance(rinex, obs) -> str:
     nearest = float(np.min(np.abs(_wrap_week(t0 - rinex.elements["Toe"][gps]))))
     if nearest <= MAX_EPHEMERIS_AGE_S:
         return ""
-    return (f"; the --ephemeris file's nearest GPS record is {nearest / 3600:.1f} h from the recording's time of week "
-            f"{t0:.0f} s (a record is used within {MAX_EPHEMERIS_AGE_S / 3600:g} h of its Toe): give the navigation "
-            "file of the recording's day")
+    return (
+        f"; the --ephemeris file's nearest GPS record is {nearest / 3600:.1f} h from the recording's time of week "
+        f"{t0:.0f} s (a record is used within {MAX_EPHEMERIS_AGE_S / 3600:g} h of its Toe): give the navigation "
+        "file of the recording's day"
+    )
 
 
 def _vector_channel_from_args(args: argparse.Namespace) -> dict:
@@ -941,9 +1154,12 @@ TRACKING_MODES = ("scalar", "vector")
 
 
 def _add_threads_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--threads", type=int, metavar="N",
-                   help="threads correlating the channels (default: the cores available); the results do not "
-                        "depend on it")
+    p.add_argument(
+        "--threads",
+        type=int,
+        metavar="N",
+        help="threads correlating the channels (default: the cores available); the results do not depend on it",
+    )
 
 
 def _threads_from_args(args: argparse.Namespace) -> None:
@@ -965,11 +1181,16 @@ def _signal_names(text: str) -> str:
 
 
 def _add_recording_options(p: argparse.ArgumentParser, several_signals: bool = False) -> None:
-    p.add_argument("recording", help="sample file (a SigMF .sigmf-meta beside it gives format, rate and IF); "
-                                     "receive also reads a stream: - (standard input), a FIFO, tcp://HOST:PORT, "
-                                     "rtl_tcp://HOST:PORT")
-    p.add_argument("--format", help="sample format: ri8, ci8, cu8, ci16_le, cf32_le (SigMF names), ri2/ci2 (2-bit "
-                                    "packed) or a plugin's")
+    p.add_argument(
+        "recording",
+        help="sample file (a SigMF .sigmf-meta beside it gives format, rate and IF); "
+        "receive also reads a stream: - (standard input), a FIFO, tcp://HOST:PORT, "
+        "rtl_tcp://HOST:PORT",
+    )
+    p.add_argument(
+        "--format",
+        help="sample format: ri8, ci8, cu8, ci16_le, cf32_le (SigMF names), ri2/ci2 (2-bit packed) or a plugin's",
+    )
     p.add_argument("--fs", type=float, metavar="HZ", help="sample rate")
     p.add_argument("--if", dest="if_hz", type=float, metavar="HZ", help="intermediate frequency (default 0)")
     p.add_argument("--q-sign", type=int, choices=[1, -1], help="-1 for a front end whose Q branch is inverted")
@@ -978,18 +1199,31 @@ def _add_recording_options(p: argparse.ArgumentParser, several_signals: bool = F
     p.add_argument("--noncoherent", type=int, help="non-coherent sums")
     p.add_argument("--doppler-max", type=float, metavar="HZ", help="Doppler search range +-")
     p.add_argument("--pfa", type=float, help="false-alarm probability of one PRN's search")
-    p.add_argument("--alternate-blocks", action="store_true",
-                   help="sum even and odd coherent blocks apart, keep the larger (with --coherent-ms 10: one of them "
-                        "is free of data-bit transitions; weak signals)")
+    p.add_argument(
+        "--alternate-blocks",
+        action="store_true",
+        help="sum even and odd coherent blocks apart, keep the larger (with --coherent-ms 10: one of them "
+        "is free of data-bit transitions; weak signals)",
+    )
     if several_signals:  # receive: several signals positioned together
-        p.add_argument("--signal", default=DEFAULT_SIGNAL, type=_signal_names, metavar="NAME[,NAME]",
-                       help="the signal searched and tracked: a registered signal plugin (`gnssframework plugins "
-                            f"--kind signal`: {', '.join(registry.names('signal'))}; default %(default)s); "
-                            "gps-l1ca,galileo-e1b-boc11 tracks both and solves them together")
+        p.add_argument(
+            "--signal",
+            default=DEFAULT_SIGNAL,
+            type=_signal_names,
+            metavar="NAME[,NAME]",
+            help="the signal searched and tracked: a registered signal plugin (`gnssframework plugins "
+            f"--kind signal`: {', '.join(registry.names('signal'))}; default %(default)s); "
+            "gps-l1ca,galileo-e1b-boc11 tracks both and solves them together",
+        )
     else:
-        p.add_argument("--signal", default=DEFAULT_SIGNAL, choices=registry.names("signal"), metavar="NAME",
-                       help="the signal searched and tracked: a registered signal plugin (`gnssframework plugins "
-                            "--kind signal`: %(choices)s; default %(default)s)")
+        p.add_argument(
+            "--signal",
+            default=DEFAULT_SIGNAL,
+            choices=registry.names("signal"),
+            metavar="NAME",
+            help="the signal searched and tracked: a registered signal plugin (`gnssframework plugins "
+            "--kind signal`: %(choices)s; default %(default)s)",
+        )
     p.add_argument("--prns", type=int, nargs="+", help="PRNs to search, the signal's (default all: 1-32 on gps-l1ca)")
 
 
@@ -1015,8 +1249,12 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
 
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
-        if ("default" in text or action.default in (None, False, argparse.SUPPRESS)
-                or action.option_strings == [] or isinstance(action, argparse._VersionAction)):
+        if (
+            "default" in text
+            or action.default in (None, False, argparse.SUPPRESS)
+            or action.option_strings == []
+            or isinstance(action, argparse._VersionAction)
+        ):
             return text
         return f"{text} (default: %(default)s)"
 
@@ -1040,24 +1278,43 @@ class _Parser(argparse.ArgumentParser):
 def _add_position_log_options(p: argparse.ArgumentParser, adapter_use: str) -> None:
     """The options ``filter-positions`` and ``smooth-positions`` share: the filter's adapter,
     augmentation and AR(1) coefficient, and how the NMEA log's bad sentences are skipped."""
-    p.add_argument("--noise-adapter", default=None, metavar="NAME",
-                   help=f"a registered noise adapter{adapter_use} (replaces the label's own)")
-    p.add_argument("--augmentation", default=None, metavar="NAME",
-                   help="a registered augmentation, e.g. colored-ar1 with --psi (replaces the label's own)")
+    p.add_argument(
+        "--noise-adapter",
+        default=None,
+        metavar="NAME",
+        help=f"a registered noise adapter{adapter_use} (replaces the label's own)",
+    )
+    p.add_argument(
+        "--augmentation",
+        default=None,
+        metavar="NAME",
+        help="a registered augmentation, e.g. colored-ar1 with --psi (replaces the label's own)",
+    )
     p.add_argument("--psi", type=float, default=0.95, help="AR(1) coefficient for the colored filters")
-    p.add_argument("--max-speed", type=float, default=MAX_SPEED_MPS, metavar="M/S",
-                   help="jump check: skip a fix further from the last accepted one than this speed allows "
-                        "(default %(default)g m/s)")
-    p.add_argument("--max-height", type=float, default=MAX_ABS_HEIGHT_M, metavar="M",
-                   help="skip a GGA whose altitude is not a number or above this in magnitude (default %(default)g m)")
+    p.add_argument(
+        "--max-speed",
+        type=float,
+        default=MAX_SPEED_MPS,
+        metavar="M/S",
+        help="jump check: skip a fix further from the last accepted one than this speed allows "
+        "(default %(default)g m/s)",
+    )
+    p.add_argument(
+        "--max-height",
+        type=float,
+        default=MAX_ABS_HEIGHT_M,
+        metavar="M",
+        help="skip a GGA whose altitude is not a number or above this in magnitude (default %(default)g m)",
+    )
     p.add_argument("--strict", action="store_true", help="refuse the file at the first bad sentence (exit 2)")
 
 
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
-    parser = argparse.ArgumentParser(prog="gnssframework", description=plain_text(__doc__),
-                                     formatter_class=HelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="gnssframework", description=plain_text(__doc__), formatter_class=HelpFormatter
+    )
     parser.add_argument("--version", action="version", version=f"gnssframework {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     p = sub.add_parser("plugins", help="list the registered plugins")
@@ -1070,170 +1327,294 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, help="override the seed")
     p.add_argument("--out", help="output directory (default: results/<name>)")
     p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
-    p.add_argument("--check", action="store_true",
-                   help="print every [[claims]] outcome and exit 1 unless every claim holds")
-    p.add_argument("--replicate", action="store_true",
-                   help="also run every case and candidate on a second, disjoint set of runs (the replicate streams, "
-                        "at the tuned values) and re-check every claim there; with --check, a claim must hold on both")
-    p.add_argument("--trials-from", metavar="FILE",
-                   help="a tuned config: seed its tuning with the trials another run of the same config recorded "
-                        "(its tuning_trials.json); they are not rerun, and the best selects the tuned values")
-    p.add_argument("--dask-address", metavar="ADDR",
-                   help="run on this Dask scheduler (executor kind dask; also GNSSFRAMEWORK_DASK_ADDRESS). Dask's "
-                        "protocol carries pickles: give only a scheduler you trust; a config file cannot name one")
-    p.set_defaults(func=_cmd_compare, interrupt_hint="; finished batches are kept in --out and the same command "
-                                                     "resumes")
-    p = sub.add_parser("filter-positions", help="filter an NMEA position log (Liu et al. 2020's filters)",
-                       description="Filter the horizontal track of an NMEA log. Corrupted sentences, impossible "
-                                   "positions, duplicated or backwards timestamps and implausible jumps are skipped "
-                                   "and listed (line and reason) on stdout and in <out>.skipped.csv.",
-                       epilog=EXIT_STATUS_HELP)
+    p.add_argument(
+        "--check", action="store_true", help="print every [[claims]] outcome and exit 1 unless every claim holds"
+    )
+    p.add_argument(
+        "--replicate",
+        action="store_true",
+        help="also run every case and candidate on a second, disjoint set of runs (the replicate streams, "
+        "at the tuned values) and re-check every claim there; with --check, a claim must hold on both",
+    )
+    p.add_argument(
+        "--trials-from",
+        metavar="FILE",
+        help="a tuned config: seed its tuning with the trials another run of the same config recorded "
+        "(its tuning_trials.json); they are not rerun, and the best selects the tuned values",
+    )
+    p.add_argument(
+        "--dask-address",
+        metavar="ADDR",
+        help="run on this Dask scheduler (executor kind dask; also GNSSFRAMEWORK_DASK_ADDRESS). Dask's "
+        "protocol carries pickles: give only a scheduler you trust; a config file cannot name one",
+    )
+    p.set_defaults(
+        func=_cmd_compare, interrupt_hint="; finished batches are kept in --out and the same command resumes"
+    )
+    p = sub.add_parser(
+        "filter-positions",
+        help="filter an NMEA position log (Liu et al. 2020's filters)",
+        description="Filter the horizontal track of an NMEA log. Corrupted sentences, impossible "
+        "positions, duplicated or backwards timestamps and implausible jumps are skipped "
+        "and listed (line and reason) on stdout and in <out>.skipped.csv.",
+        epilog=EXIT_STATUS_HELP,
+    )
     p.add_argument("file", help="NMEA log with GGA and/or RMC sentences")
     p.add_argument("--out", required=True, help="output CSV")
-    p.add_argument("--filter", default="AUKF1", metavar="NAME",
-                   help="a position filter of Liu et al. 2020 (UKF, UKF1, AUKF, AUKF1) or a registered estimator "
-                        "(`gnssframework plugins --kind estimator`) in the constant-acceleration position model")
+    p.add_argument(
+        "--filter",
+        default="AUKF1",
+        metavar="NAME",
+        help="a position filter of Liu et al. 2020 (UKF, UKF1, AUKF, AUKF1) or a registered estimator "
+        "(`gnssframework plugins --kind estimator`) in the constant-acceleration position model",
+    )
     _add_position_log_options(p, "")
     p.set_defaults(func=_cmd_filter_positions)
-    p = sub.add_parser("smooth-positions", help="smooth an NMEA position log forward-backward (filter, then RTS)",
-                       description="Run a position filter forward over an NMEA log, then the fixed-interval "
-                                   "Rauch-Tung-Striebel pass backward: each position given the whole log, with its "
-                                   "variance, beside the forward filter's. Bad sentences are skipped and listed as "
-                                   "by filter-positions.",
-                       epilog=EXIT_STATUS_HELP)
+    p = sub.add_parser(
+        "smooth-positions",
+        help="smooth an NMEA position log forward-backward (filter, then RTS)",
+        description="Run a position filter forward over an NMEA log, then the fixed-interval "
+        "Rauch-Tung-Striebel pass backward: each position given the whole log, with its "
+        "variance, beside the forward filter's. Bad sentences are skipped and listed as "
+        "by filter-positions.",
+        epilog=EXIT_STATUS_HELP,
+    )
     p.add_argument("file", help="NMEA log with GGA and/or RMC sentences")
     p.add_argument("--out", required=True, help="output CSV (smoothed and filtered positions, variances)")
-    p.add_argument("--filter", default="UKF", metavar="NAME",
-                   help="the forward filter: a label of Liu et al. 2020 (UKF, UKF1, AUKF, AUKF1) or a registered "
-                        "estimator in the constant-acceleration position model (default %(default)s)")
+    p.add_argument(
+        "--filter",
+        default="UKF",
+        metavar="NAME",
+        help="the forward filter: a label of Liu et al. 2020 (UKF, UKF1, AUKF, AUKF1) or a registered "
+        "estimator in the constant-acceleration position model (default %(default)s)",
+    )
     _add_position_log_options(p, " for the forward pass")
     p.set_defaults(func=_cmd_smooth_positions)
-    p = sub.add_parser("smooth", help="carrier-smooth code from a RINEX observation file, arc by arc",
-                       description="Carrier-smooth each selected satellite's code with its carrier (GPS C1C/L1C, "
-                                   "Galileo E1, BDS B1I, GLONASS L1), restarting at the receiver's loss-of-lock "
-                                   "flags and at gaps. Duplicated and backwards epochs, "
-                                   "pseudoranges outside the plausibility bounds and an epoch cut by a truncated "
-                                   "file are skipped and listed (line and reason) on stdout and in "
-                                   "<out>.skipped.csv.",
-                       epilog=EXIT_STATUS_HELP)
+    p = sub.add_parser(
+        "smooth",
+        help="carrier-smooth code from a RINEX observation file, arc by arc",
+        description="Carrier-smooth each selected satellite's code with its carrier (GPS C1C/L1C, "
+        "Galileo E1, BDS B1I, GLONASS L1), restarting at the receiver's loss-of-lock "
+        "flags and at gaps. Duplicated and backwards epochs, "
+        "pseudoranges outside the plausibility bounds and an epoch cut by a truncated "
+        "file are skipped and listed (line and reason) on stdout and in "
+        "<out>.skipped.csv.",
+        epilog=EXIT_STATUS_HELP,
+    )
     p.add_argument("file", help="RINEX 2.1x or 3.0x observation file (plain, .gz, Hatanaka .crx or .crx.gz)")
-    p.add_argument("--prn", required=True, help="satellites (G08 or G08,C11; g8 and 8 mean G08) or systems (G, GEC, "
-                                                "all)")
+    p.add_argument(
+        "--prn", required=True, help="satellites (G08 or G08,C11; g8 and 8 mean G08) or systems (G, GEC, all)"
+    )
     p.add_argument("--out", required=True, help="output CSV")
-    p.add_argument("--filter", default="hatch", choices=list(SMOOTHERS),
-                   help="smoother: Hatch filter, Kalman smoother, or Kalman smoother with ml-q adaptive Q")
+    p.add_argument(
+        "--filter",
+        default="hatch",
+        choices=list(SMOOTHERS),
+        help="smoother: Hatch filter, Kalman smoother, or Kalman smoother with ml-q adaptive Q",
+    )
     p.add_argument("--window", type=int, default=100, help="Hatch window (epochs)")
     p.add_argument("--q", type=float, default=1e-3, help="Kalman smoother Q (m^2)")
     p.add_argument("--r", type=float, default=1.25, help="Kalman smoother R (m^2)")
     p.add_argument("--slip-threshold", type=float, default=0.0, help="code-minus-carrier slip test (m), 0: off")
-    p.add_argument("--max-gap", type=float, default=None, metavar="S",
-                   help="a longer step between a satellite's epochs ends its arc (default 1.5 epoch intervals)")
-    p.add_argument("--max-cmc-rate", type=float, default=MAX_CMC_RATE_MPS, metavar="M/S",
-                   help="leave an arc unsmoothed (and exit 3) when its code minus carrier drifts faster than this, "
-                        "least-squares slope over the arc (default %(default)g m/s; a phone's carrier can drift tens of m/s)")
-    p.add_argument("--ignore-lli", action="store_true",
-                   help="do not restart at the receiver's loss-of-lock flags (gaps still end arcs)")
-    p.add_argument("--pseudorange-min", type=float, default=PSEUDORANGE_MIN_M, metavar="M",
-                   help="skip a pseudorange below this (default %(default)g m)")
-    p.add_argument("--pseudorange-max", type=float, default=PSEUDORANGE_MAX_M, metavar="M",
-                   help="skip a pseudorange above this (default %(default)g m)")
-    p.add_argument("--strict", action="store_true",
-                   help="refuse the file at the first bad epoch or observation, or a truncation (exit 2)")
+    p.add_argument(
+        "--max-gap",
+        type=float,
+        default=None,
+        metavar="S",
+        help="a longer step between a satellite's epochs ends its arc (default 1.5 epoch intervals)",
+    )
+    p.add_argument(
+        "--max-cmc-rate",
+        type=float,
+        default=MAX_CMC_RATE_MPS,
+        metavar="M/S",
+        help="leave an arc unsmoothed (and exit 3) when its code minus carrier drifts faster than this, "
+        "least-squares slope over the arc (default %(default)g m/s; a phone's carrier can drift tens of m/s)",
+    )
+    p.add_argument(
+        "--ignore-lli",
+        action="store_true",
+        help="do not restart at the receiver's loss-of-lock flags (gaps still end arcs)",
+    )
+    p.add_argument(
+        "--pseudorange-min",
+        type=float,
+        default=PSEUDORANGE_MIN_M,
+        metavar="M",
+        help="skip a pseudorange below this (default %(default)g m)",
+    )
+    p.add_argument(
+        "--pseudorange-max",
+        type=float,
+        default=PSEUDORANGE_MAX_M,
+        metavar="M",
+        help="skip a pseudorange above this (default %(default)g m)",
+    )
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="refuse the file at the first bad epoch or observation, or a truncation (exit 2)",
+    )
     p.set_defaults(func=_cmd_smooth)
-    p = sub.add_parser("acquire", help="find the satellites of a signal (GPS L1 C/A by default) in a recording of "
-                                       "front-end samples",
-                       description="FFT parallel code-phase search of every PRN; one CSV row per satellite found. "
-                                   "Exit 1 when nothing is found (the message says what was searched), 2 for bad "
-                                   "options or files.")
+    p = sub.add_parser(
+        "acquire",
+        help="find the satellites of a signal (GPS L1 C/A by default) in a recording of front-end samples",
+        description="FFT parallel code-phase search of every PRN; one CSV row per satellite found. "
+        "Exit 1 when nothing is found (the message says what was searched), 2 for bad "
+        "options or files.",
+    )
     _add_recording_options(p)
     p.add_argument("--out", required=True, help="output CSV")
     p.add_argument("-v", "--verbose", action="store_true", help="a line per PRN searched")
     p.set_defaults(func=_cmd_acquire)
-    p = sub.add_parser("track", help="acquire and track the satellites of a recording with a channel filter",
-                       description="Acquire, then track every satellite found with the chosen channel_filter plugin "
-                                   "(pull-in, FLL-assisted PLL, bit synchronisation, extended integration; a channel "
-                                   "that loses lock goes back to acquisition). Writes DIR/tracking.csv, "
-                                   "DIR/summary.csv, DIR/events.txt and DIR/plots/. Exit 1 when nothing is found, 2 "
-                                   "for bad options or files.")
+    p = sub.add_parser(
+        "track",
+        help="acquire and track the satellites of a recording with a channel filter",
+        description="Acquire, then track every satellite found with the chosen channel_filter plugin "
+        "(pull-in, FLL-assisted PLL, bit synchronisation, extended integration; a channel "
+        "that loses lock goes back to acquisition). Writes DIR/tracking.csv, "
+        "DIR/summary.csv, DIR/events.txt and DIR/plots/. Exit 1 when nothing is found, 2 "
+        "for bad options or files.",
+    )
     _add_recording_options(p)
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--duration", type=float, metavar="S", help="seconds of the recording to track (default: all)")
     p.add_argument("--channel-filter", default="scalar", help="channel_filter plugin (default %(default)s)")
-    p.add_argument("--channel-params", metavar="JSON", help='its parameters, e.g. \'{"pll_bandwidth_hz": 10}\'')
-    p.add_argument("--coherent-ms-track", type=int, metavar="MS",
-                   help="coherent integration after bit synchronisation (1, 2, 4, 5, 10 or 20; default 10)")
-    p.add_argument("--cn0-estimator", help="C/N0 estimator of the lock detector: nwpr (default), moments, or a "
-                   "cn0_estimator plugin reading the prompt only (snv, beaulieu, m2m4)")
-    p.add_argument("--early-late-spacing", type=float, metavar="CHIPS",
-                   help="early-to-late correlator spacing (default 1.0)")
+    p.add_argument("--channel-params", metavar="JSON", help="its parameters, e.g. '{\"pll_bandwidth_hz\": 10}'")
+    p.add_argument(
+        "--coherent-ms-track",
+        type=int,
+        metavar="MS",
+        help="coherent integration after bit synchronisation (1, 2, 4, 5, 10 or 20; default 10)",
+    )
+    p.add_argument(
+        "--cn0-estimator",
+        help="C/N0 estimator of the lock detector: nwpr (default), moments, or a "
+        "cn0_estimator plugin reading the prompt only (snv, beaulieu, m2m4)",
+    )
+    p.add_argument(
+        "--early-late-spacing", type=float, metavar="CHIPS", help="early-to-late correlator spacing (default 1.0)"
+    )
     p.add_argument("--no-plots", action="store_true", help="no plots")
     _add_threads_option(p)
     p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     p.set_defaults(func=_cmd_track)
-    p = sub.add_parser("receive", aliases=["position"],
-                       help="positions from a recording: acquire, track, decode LNAV, solve each epoch",
-                       description="Acquire and track (as track does), decode each satellite's LNAV (TOW, ephemeris, "
-                                   "Klobuchar), form pseudoranges and Dopplers at common epochs and solve each epoch "
-                                   "(weighted least squares, one bad satellite excluded) or, with --nav-filter, run a "
-                                   "registered navigation filter on them from the first fix. Writes DIR/positions.csv, "
-                                   "DIR/observations.rnx (RINEX 3.04), DIR/nmea.txt (GGA, RMC; GSA, GSV), "
-                                   "DIR/navigation.rnx (the decoded ephemerides), DIR/track.geojson, DIR/report.md "
-                                   "and DIR/plots/, and the --outputs asked for. `position` is the same command (its former name). "
-                                   "Exit 1 when no position is found, 2 for bad options or files.")
+    p = sub.add_parser(
+        "receive",
+        aliases=["position"],
+        help="positions from a recording: acquire, track, decode LNAV, solve each epoch",
+        description="Acquire and track (as track does), decode each satellite's LNAV (TOW, ephemeris, "
+        "Klobuchar), form pseudoranges and Dopplers at common epochs and solve each epoch "
+        "(weighted least squares, one bad satellite excluded) or, with --nav-filter, run a "
+        "registered navigation filter on them from the first fix. Writes DIR/positions.csv, "
+        "DIR/observations.rnx (RINEX 3.04), DIR/nmea.txt (GGA, RMC; GSA, GSV), "
+        "DIR/navigation.rnx (the decoded ephemerides), DIR/track.geojson, DIR/report.md "
+        "and DIR/plots/, and the --outputs asked for. `position` is the same command (its former name). "
+        "Exit 1 when no position is found, 2 for bad options or files.",
+    )
     _add_recording_options(p, several_signals=True)
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--duration", type=float, metavar="S", help="seconds of the recording to use (default: all)")
-    p.add_argument("--config", metavar="TOML", help="receiver config: [channel_filter] and [nav_filter], each "
-                                                    "{name, params} (the options below override it)")
+    p.add_argument(
+        "--config",
+        metavar="TOML",
+        help="receiver config: [channel_filter] and [nav_filter], each {name, params} (the options below override it)",
+    )
     p.add_argument("--channel-filter", metavar="NAME", help="channel_filter plugin (default scalar)")
     p.add_argument("--channel-params", metavar="JSON", help="its parameters")
-    p.add_argument("--nav-filter", metavar="NAME", help="nav_filter plugin run on the pseudoranges and Dopplers, "
-                                                        "e.g. ekf-pv (default: least squares per epoch)")
+    p.add_argument(
+        "--nav-filter",
+        metavar="NAME",
+        help="nav_filter plugin run on the pseudoranges and Dopplers, e.g. ekf-pv (default: least squares per epoch)",
+    )
     p.add_argument("--rate", type=float, default=1.0, metavar="HZ", help="solutions per second (default 1)")
     p.add_argument("--ephemeris", metavar="NAV", help="RINEX navigation file for satellites not yet decoded")
-    p.add_argument("--week", type=int, metavar="WEEK", help="full GPS week of the recording (places the decoded "
-                                                            "10-bit week; without it, the --ephemeris file's week; "
-                                                            "needed without either and a decoded subframe 1)")
-    p.add_argument("--no-iono", action="store_true", help="no Klobuchar correction (by default the decoded page 18's, "
-                                                          "else the --ephemeris file header's)")
+    p.add_argument(
+        "--week",
+        type=int,
+        metavar="WEEK",
+        help="full GPS week of the recording (places the decoded "
+        "10-bit week; without it, the --ephemeris file's week; "
+        "needed without either and a decoded subframe 1)",
+    )
+    p.add_argument(
+        "--no-iono",
+        action="store_true",
+        help="no Klobuchar correction (by default the decoded page 18's, else the --ephemeris file header's)",
+    )
     p.add_argument("--troposphere", action="store_true", help="apply the Saastamoinen troposphere")
-    p.add_argument("--weighting", choices=WEIGHTINGS, default="elevation",
-                   help="least-squares weights: elevation (sin²E/σ²), uniform, or rtklib (RTKLIB's single-point "
-                        "error model: with the same corrections, e.g. --troposphere against RTKLIB's brdc "
-                        "ionosphere and saas troposphere, its fixes agree; default %(default)s)")
-    p.add_argument("--raim", nargs="?", const="chi2", choices=RAIM_METHODS, metavar="METHOD",
-                   help="integrity monitoring of the fixes: fault detection and exclusion and protection levels "
-                        "(positions.csv columns hpl_m, vpl_m, raim); chi2 (the residual test, slope levels; the "
-                        "default method) or ss (solution separation); with --nav-filter: its innovation test and "
-                        "levels from its covariance; with --tracking vector: also the vector loop's channel fault "
-                        "monitor at --raim-pfa, and the vector rows' levels from its navigation filter's covariance "
-                        "(raim: excluded where the monitor left a channel out)")
-    p.add_argument("--raim-pfa", type=float, metavar="P", help="with --raim: false-alarm probability of its tests "
-                                                               "(default 1e-5)")
-    p.add_argument("--raim-pmd", type=float, metavar="P", help="with --raim: missed-detection probability of the "
-                                                          "protection levels (default 1e-3)")
+    p.add_argument(
+        "--weighting",
+        choices=WEIGHTINGS,
+        default="elevation",
+        help="least-squares weights: elevation (sin²E/σ²), uniform, or rtklib (RTKLIB's single-point "
+        "error model: with the same corrections, e.g. --troposphere against RTKLIB's brdc "
+        "ionosphere and saas troposphere, its fixes agree; default %(default)s)",
+    )
+    p.add_argument(
+        "--raim",
+        nargs="?",
+        const="chi2",
+        choices=RAIM_METHODS,
+        metavar="METHOD",
+        help="integrity monitoring of the fixes: fault detection and exclusion and protection levels "
+        "(positions.csv columns hpl_m, vpl_m, raim); chi2 (the residual test, slope levels; the "
+        "default method) or ss (solution separation); with --nav-filter: its innovation test and "
+        "levels from its covariance; with --tracking vector: also the vector loop's channel fault "
+        "monitor at --raim-pfa, and the vector rows' levels from its navigation filter's covariance "
+        "(raim: excluded where the monitor left a channel out)",
+    )
+    p.add_argument(
+        "--raim-pfa", type=float, metavar="P", help="with --raim: false-alarm probability of its tests (default 1e-5)"
+    )
+    p.add_argument(
+        "--raim-pmd",
+        type=float,
+        metavar="P",
+        help="with --raim: missed-detection probability of the protection levels (default 1e-3)",
+    )
     p.add_argument("--truth", metavar="LAT,LON,H", help="known position: print and report the errors")
-    p.add_argument("--tracking", choices=TRACKING_MODES, default="scalar",
-                   help="vector: from the first fix the ekf-pv navigation filter drives every channel's code and "
-                        "carrier NCOs (default %(default)s)")
-    p.add_argument("--vector-channel-filter", metavar="NAME",
-                   help="with --tracking vector: the error-output channel_filter of the vector channels, "
-                        "discriminator (default) or iq-filter")
+    p.add_argument(
+        "--tracking",
+        choices=TRACKING_MODES,
+        default="scalar",
+        help="vector: from the first fix the ekf-pv navigation filter drives every channel's code and "
+        "carrier NCOs (default %(default)s)",
+    )
+    p.add_argument(
+        "--vector-channel-filter",
+        metavar="NAME",
+        help="with --tracking vector: the error-output channel_filter of the vector channels, "
+        "discriminator (default) or iq-filter",
+    )
     p.add_argument("--vector-channel-params", metavar="JSON", help="its parameters")
-    p.add_argument("--vector-accel-psd", type=float, metavar="M2_S3",
-                   help="with --tracking vector: white-acceleration PSD (m²/s³) of the navigation filter's "
-                        "constant-velocity model; raise it for a moving receiver (default: ekf-pv's 0.1)")
-    p.add_argument("--approx-position", metavar="LAT,LON,H",
-                   help="with --tracking vector and --ephemeris: approximate position (within ~100 km); with "
-                        "--start-time, vector tracking starts from acquisition, without waiting for LNAV")
-    p.add_argument("--start-time", metavar="WEEK,TOW", help="GPS week and time of week (s) of the first sample "
-                                                            "(to ~1 ms), for --approx-position")
+    p.add_argument(
+        "--vector-accel-psd",
+        type=float,
+        metavar="M2_S3",
+        help="with --tracking vector: white-acceleration PSD (m²/s³) of the navigation filter's "
+        "constant-velocity model; raise it for a moving receiver (default: ekf-pv's 0.1)",
+    )
+    p.add_argument(
+        "--approx-position",
+        metavar="LAT,LON,H",
+        help="with --tracking vector and --ephemeris: approximate position (within ~100 km); with "
+        "--start-time, vector tracking starts from acquisition, without waiting for LNAV",
+    )
+    p.add_argument(
+        "--start-time",
+        metavar="WEEK,TOW",
+        help="GPS week and time of week (s) of the first sample (to ~1 ms), for --approx-position",
+    )
     _add_threads_option(p)
-    p.add_argument("--outputs", metavar="LIST",
-                   help="comma-separated files for other tools: rinex-nav (navigation.rnx), gsa, gsv (in nmea.txt), "
-                        "geojson (track.geojson), kml (track.kml), parquet (tracking.parquet, needs pyarrow), rtcm "
-                        "(observations.rtcm3, RTCM 3 MSM7 observations); default stands for "
-                        "rinex-nav,gsa,gsv,geojson, the set written without this option")
+    p.add_argument(
+        "--outputs",
+        metavar="LIST",
+        help="comma-separated files for other tools: rinex-nav (navigation.rnx), gsa, gsv (in nmea.txt), "
+        "geojson (track.geojson), kml (track.kml), parquet (tracking.parquet, needs pyarrow), rtcm "
+        "(observations.rtcm3, RTCM 3 MSM7 observations); default stands for "
+        "rinex-nav,gsa,gsv,geojson, the set written without this option",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     _add_live_options(p)
     p.set_defaults(func=_cmd_receive)
@@ -1244,14 +1625,25 @@ def build_parser() -> argparse.ArgumentParser:
 
 #: OS errors caused by a path the user gave (exit 2, like other input errors); any other
 #: OS error (a full disk...) exits 1.
-_PATH_ERRNOS = {errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EEXIST,
-                errno.ENAMETOOLONG, errno.ELOOP}
-_HINTS = {errno.EACCES: "not writable or readable by this user; choose another path",
-          errno.EPERM: "not permitted; choose another path",
-          errno.EROFS: "on a read-only file system; choose another path",
-          errno.ENOSPC: "no space left on the device; free some or choose another --out (finished batches are "
-                        "kept and a rerun resumes)",
-          errno.EDQUOT: "disk quota exceeded; free some or choose another --out"}
+_PATH_ERRNOS = {
+    errno.EACCES,
+    errno.EPERM,
+    errno.EROFS,
+    errno.ENOENT,
+    errno.ENOTDIR,
+    errno.EISDIR,
+    errno.EEXIST,
+    errno.ENAMETOOLONG,
+    errno.ELOOP,
+}
+_HINTS = {
+    errno.EACCES: "not writable or readable by this user; choose another path",
+    errno.EPERM: "not permitted; choose another path",
+    errno.EROFS: "on a read-only file system; choose another path",
+    errno.ENOSPC: "no space left on the device; free some or choose another --out (finished batches are "
+    "kept and a rerun resumes)",
+    errno.EDQUOT: "disk quota exceeded; free some or choose another --out",
+}
 
 
 def os_error_message(exc: OSError) -> str:
@@ -1268,17 +1660,35 @@ def os_error_message(exc: OSError) -> str:
 #: command reports an option only if it has it, and an error of a field the table does not
 #: hold (a config file's ``nav_filter.params.accel_psd``) keeps its name.
 OPTION_OF_PARAMETER = {
-    "format": "--format", "sample_rate_hz": "--fs", "if_hz": "--if", "q_sign": "--q-sign",
-    "acquisition": "--acquisition", "signal": "--signal",
+    "format": "--format",
+    "sample_rate_hz": "--fs",
+    "if_hz": "--if",
+    "q_sign": "--q-sign",
+    "acquisition": "--acquisition",
+    "signal": "--signal",
     "out": "--out",
-    "channel_filter": "--channel-filter", "channel_params": "--channel-params", "nav_filter": "--nav-filter",
-    "approx_position": "--approx-position", "start_time": "--start-time", "rate_hz": "--rate",
-    "filter_name": "--filter", "noise_adapter": "--noise-adapter", "augmentation": "--augmentation", "psi": "--psi",
-    "max_speed_mps": "--max-speed", "max_abs_height_m": "--max-height",
-    "select": "--prn", "max_gap_s": "--max-gap", "pseudorange_min_m": "--pseudorange-min",
+    "channel_filter": "--channel-filter",
+    "channel_params": "--channel-params",
+    "nav_filter": "--nav-filter",
+    "approx_position": "--approx-position",
+    "start_time": "--start-time",
+    "rate_hz": "--rate",
+    "filter_name": "--filter",
+    "noise_adapter": "--noise-adapter",
+    "augmentation": "--augmentation",
+    "psi": "--psi",
+    "max_speed_mps": "--max-speed",
+    "max_abs_height_m": "--max-height",
+    "select": "--prn",
+    "max_gap_s": "--max-gap",
+    "pseudorange_min_m": "--pseudorange-min",
     "pseudorange_max_m": "--pseudorange-max",
-    "raim": "--raim", "raim_false_alarm": "--raim-pfa", "raim_missed_detection": "--raim-pmd", "outputs": "--outputs",
-    "threads": "--threads", "tracking.coherent_ms": "--coherent-ms-track",
+    "raim": "--raim",
+    "raim_false_alarm": "--raim-pfa",
+    "raim_missed_detection": "--raim-pmd",
+    "outputs": "--outputs",
+    "threads": "--threads",
+    "tracking.coherent_ms": "--coherent-ms-track",
 }
 #: Parameters that take a table of values: the path below them is kept
 #: (``channel_params.pll_bandwidth_hz`` is ``--channel-params.pll_bandwidth_hz``).
@@ -1379,8 +1789,12 @@ def attach_negative_values(argv: Sequence[str]) -> list[str]:
     tokens = list(argv)
     k = 0
     while k < len(tokens):
-        if (tokens[k] in COORDINATE_OPTIONS and k + 1 < len(tokens) and "--" not in tokens[:k]
-                and _NUMBER_LIST.match(tokens[k + 1])):
+        if (
+            tokens[k] in COORDINATE_OPTIONS
+            and k + 1 < len(tokens)
+            and "--" not in tokens[:k]
+            and _NUMBER_LIST.match(tokens[k + 1])
+        ):
             out.append(f"{tokens[k]}={tokens[k + 1]}")
             k += 2
             continue

@@ -32,8 +32,14 @@ def plugin_ref_schema(kind: str) -> dict[str, Any]:
     branches: list[dict[str, Any]] = [{"enum": registry.names(kind)}] if registry.names(kind) else []
     for name in registry.names(kind):
         params = _params_schema(registry.get(kind, name))
-        branches.append({"type": "object", "additionalProperties": False, "required": ["name"],
-                         "properties": {"name": {"const": name}, "params": params}})
+        branches.append(
+            {
+                "type": "object",
+                "additionalProperties": False,
+                "required": ["name"],
+                "properties": {"name": {"const": name}, "params": params},
+            }
+        )
     return {"oneOf": branches, "description": f"a {kind} plugin: its name, or {{name, params}}"}
 
 
@@ -51,8 +57,9 @@ def comparison_schema() -> dict[str, Any]:
             prop["anyOf"] = [plugin_ref_schema(kind), {"type": "null"}]
     sweep = schema["$defs"].get("Sweep")
     if sweep is not None:  # a list of values, or a range with exactly one of step and num
-        sweep["oneOf"] = [{"required": ["values"], "not": {"anyOf": [{"required": [k]} for k in
-                                                                   ("start", "stop", "step", "num")]}},
-                          {"required": ["start", "stop", "step"], "not": {"required": ["num"]}},
-                          {"required": ["start", "stop", "num"], "not": {"required": ["step"]}}]
+        sweep["oneOf"] = [
+            {"required": ["values"], "not": {"anyOf": [{"required": [k]} for k in ("start", "stop", "step", "num")]}},
+            {"required": ["start", "stop", "step"], "not": {"required": ["num"]}},
+            {"required": ["start", "stop", "num"], "not": {"required": ["step"]}},
+        ]
     return schema

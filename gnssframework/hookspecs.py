@@ -31,8 +31,15 @@ COMPONENT_KINDS = ("estimator", "noise_adapter", "augmentation", "discriminator"
 #: Every plugin kind, in the order the CLI lists them: the components, then the metrics a
 #: scenario reports, the scenarios themselves, the receiver's front end (sample formats
 #: and acquisition), the signals it receives and the C/N0 estimators of its lock detectors.
-KINDS = COMPONENT_KINDS + ("metric", "scenario", "sample_source", "acquisition", "signal", "cn0_estimator",
-                           "robust_update")
+KINDS = COMPONENT_KINDS + (
+    "metric",
+    "scenario",
+    "sample_source",
+    "acquisition",
+    "signal",
+    "cn0_estimator",
+    "robust_update",
+)
 
 
 @hookspec

@@ -39,8 +39,18 @@ from .signal.correlators import Correlators
 from .signal.gps_l1ca import GPS_L1CA
 from .signal.spec import SignalSpec
 
-__all__ = ["Discriminator", "DiscriminatorParams", "RunContext", "SequentialFilter", "ChannelFilter", "NavFilter",
-           "ASSUMPTION_LABELS", "ErrorStateNavFilter", "IntegrationAiding", "BatchPositionFilter"]
+__all__ = [
+    "Discriminator",
+    "DiscriminatorParams",
+    "RunContext",
+    "SequentialFilter",
+    "ChannelFilter",
+    "NavFilter",
+    "ASSUMPTION_LABELS",
+    "ErrorStateNavFilter",
+    "IntegrationAiding",
+    "BatchPositionFilter",
+]
 
 
 class DiscriminatorParams(PluginParams):
@@ -187,12 +197,16 @@ class RunContext:
     def require(self, name: str, who: str) -> Any:
         """The value of field ``name``; a `ConfigError` naming ``who`` if the harness did not set it."""
         if name not in {f.name for f in dataclasses.fields(self)}:
-            raise ConfigError("run context", f"has no field {name!r}; fields: "
-                              f"{', '.join(f.name for f in dataclasses.fields(self))}")
+            raise ConfigError(
+                "run context", f"has no field {name!r}; fields: {', '.join(f.name for f in dataclasses.fields(self))}"
+            )
         value = getattr(self, name)
         if _unset(value):
-            raise ConfigError(f"run context.{name}", f"{who} needs it, but this harness does not provide it "
-                              f"(it provides: {', '.join(self.provided()) or 'nothing'})")
+            raise ConfigError(
+                f"run context.{name}",
+                f"{who} needs it, but this harness does not provide it "
+                f"(it provides: {', '.join(self.provided()) or 'nothing'})",
+            )
         return value
 
     def resolve(self, name: str, own_value: Any, who: str) -> Any:
@@ -209,15 +223,17 @@ class RunContext:
         if value is None:
             return own_value
         if not np.allclose(value, own_value, rtol=1e-12, atol=0):
-            raise ConfigError(f"{who}.{name}", f"is {own_value} but the harness runs with {value}; leave the "
-                              "parameter out (the harness's value is used)")
+            raise ConfigError(
+                f"{who}.{name}",
+                f"is {own_value} but the harness runs with {value}; leave the "
+                "parameter out (the harness's value is used)",
+            )
         return value
 
     def get(self, name: str, default: Any = None) -> Any:
         """The value of field ``name``, or ``default`` where the harness did not set it."""
         value = getattr(self, name)
         return default if _unset(value) else value
-
 
 
 _R = TypeVar("_R")
@@ -279,7 +295,8 @@ class SequentialFilter(Plugin, abc.ABC):
             raise TypeError(
                 f"{cls.__module__}.{cls.__qualname__}.reset(self, batch_shape, **context) is the signature "
                 "before 0.2; write reset(self, batch_shape, context) and read the harness's values from the "
-                "frozen gnssframework.RunContext (context.coherent_time_s, context.require('cn0_dbhz', ...))")
+                "frozen gnssframework.RunContext (context.coherent_time_s, context.require('cn0_dbhz', ...))"
+            )
         # Wraps the subclass's own reset once, when the class is made (the marker checked_step reads).
         cls.reset = _marks_reset(cls.reset)  # type: ignore[method-assign]
 
@@ -324,14 +341,18 @@ class SequentialFilter(Plugin, abc.ABC):
             If ``step`` did not return every name in ``provides``.
         """
         if not getattr(self, "_reset_done", False):
-            raise InvalidArgumentError(f"{self.kind} {self.name!r}", "checked_step", "called before reset(batch_shape, "
-                                       "context); call reset first")
+            raise InvalidArgumentError(
+                f"{self.kind} {self.name!r}",
+                "checked_step",
+                "called before reset(batch_shape, context); call reset first",
+            )
         inputs = _checked_inputs(self, inputs)
         out = self.step(inputs)
         missing = [n for n in self.provides if n not in out]
         if missing:
-            raise PluginError(f"{self.kind} {self.name!r}: step() did not return {', '.join(missing)} "
-                              f"that it declares in `provides`")
+            raise PluginError(
+                f"{self.kind} {self.name!r}: step() did not return {', '.join(missing)} that it declares in `provides`"
+            )
         return out
 
 
@@ -342,8 +363,12 @@ def _checked_inputs(filt: SequentialFilter, inputs: Mapping[str, Any]) -> Mappin
     give them) instead of their hidden values."""
     who = f"{filt.kind} {filt.name!r}"
     if not isinstance(inputs, Mapping):
-        raise InvalidArgumentError(who, "checked_step", f"inputs must be a mapping of named arrays "
-                                   f"({', '.join(filt.requires) or 'none required'}), got {type(inputs).__name__}")
+        raise InvalidArgumentError(
+            who,
+            "checked_step",
+            f"inputs must be a mapping of named arrays "
+            f"({', '.join(filt.requires) or 'none required'}), got {type(inputs).__name__}",
+        )
     masked = {}
     for name in filt.requires:
         if name not in inputs:
@@ -385,6 +410,7 @@ class NavFilter(SequentialFilter):
 
 
 # -- capabilities: what a harness asks of a nav filter, by contract rather than by name -------------
+
 
 @dataclass(frozen=True)
 class IntegrationAiding:
@@ -466,12 +492,26 @@ class BatchPositionFilter(NavFilter):
         """The prior (`gnssframework.estimation.Gaussian`) given the first measurements
         ``(..., n_coord)``: batch shape ``(..., n_coord)``."""
 
-    def filter(self, zs: np.ndarray, estimator: Any, adapter: Any = None, augmentation: Any = None,
-               model: LinearModel | None = None, **policies: Any) -> FilterResult:
+    def filter(
+        self,
+        zs: np.ndarray,
+        estimator: Any,
+        adapter: Any = None,
+        augmentation: Any = None,
+        model: LinearModel | None = None,
+        **policies: Any,
+    ) -> FilterResult:
         """Filter positions ``zs (K, ..., n_coord)`` in metres with ``estimator`` (and an
         optional noise adapter and augmentation); ``model`` replaces `model()` (a scaled
         Q and R). Returns the `gnssframework.estimation.FilterResult`, batch shape
         ``(..., n_coord)``."""
         zs = np.asarray(zs, dtype=float)
-        return filter_sequence(estimator, self.model() if model is None else model, zs[..., None],
-                               self.initial(zs[0]), adapter=adapter, augmentation=augmentation, **policies)
+        return filter_sequence(
+            estimator,
+            self.model() if model is None else model,
+            zs[..., None],
+            self.initial(zs[0]),
+            adapter=adapter,
+            augmentation=augmentation,
+            **policies,
+        )

@@ -75,8 +75,10 @@ def _number_problem(value: Any, kind: type | None) -> str | None:
     if isinstance(value, float) and not math.isfinite(value):
         return f"must be a finite number (got {value!r})"
     if isinstance(value, (int, float)) and abs(value) > MAX_PARAMETER_MAGNITUDE:
-        return (f"{value:g} is beyond +-{MAX_PARAMETER_MAGNITUDE:g}, where a filter's squares and products "
-                "overflow double precision")
+        return (
+            f"{value:g} is beyond +-{MAX_PARAMETER_MAGNITUDE:g}, where a filter's squares and products "
+            "overflow double precision"
+        )
     return None
 
 
@@ -129,8 +131,9 @@ class PluginParams(BaseModel):
     passes either (``UKF(lam=...)`` or ``**{"lambda": ...}``), and errors, ``--describe``
     and the schema all name it ``lambda``."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, validate_by_name=True,
-                              validate_by_alias=True)
+    model_config = ConfigDict(
+        extra="forbid", frozen=True, validate_default=True, validate_by_name=True, validate_by_alias=True
+    )
 
     #: For a plugin without parameters: why it needs none (shown in its parameter table).
     no_parameters: ClassVar[str] = ""
@@ -200,8 +203,7 @@ class NestedFieldError(ValueError):
         self.detail = detail
 
 
-def validation_message(exc: ValidationError, prefix: str = "",
-                       model: type[BaseModel] | None = None) -> ConfigError:
+def validation_message(exc: ValidationError, prefix: str = "", model: type[BaseModel] | None = None) -> ConfigError:
     """Turn a pydantic ``ValidationError`` into one ``ConfigError``.
 
     The message names every offending field (a path like ``candidates[0].estimator``,
@@ -220,8 +222,10 @@ def validation_message(exc: ValidationError, prefix: str = "",
                 fields = sorted(config_names(owner))
                 msg += f"; valid: {', '.join(fields) or '(none)'}{did_you_mean(err['loc'][-1], fields)}"
                 if set(fields) == {"name", "params"}:
-                    msg += (f"; plugin parameters go under `params`: "
-                            f"{{ name = ..., params = {{ {err['loc'][-1]} = ... }} }}")
+                    msg += (
+                        f"; plugin parameters go under `params`: "
+                        f"{{ name = ..., params = {{ {err['loc'][-1]} = ... }} }}"
+                    )
         elif err["type"] == "value_error" and "error" in err.get("ctx", {}):
             error = err["ctx"]["error"]
             if isinstance(error, NestedFieldError):  # a nested plugin's field: extend the path
@@ -247,8 +251,9 @@ def params_signature(model: type[BaseModel]) -> inspect.Signature:
     for name, info in model.model_fields.items():
         default = inspect.Parameter.empty if info.is_required() else info.get_default(call_default_factory=True)
         try:
-            parameters.append(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default,
-                                                annotation=info.annotation))
+            parameters.append(
+                inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default, annotation=info.annotation)
+            )
         except ValueError:  # a field named like a Python keyword cannot be a keyword argument
             continue
     return inspect.Signature(parameters)
@@ -282,8 +287,7 @@ class Plugin:
         try:
             self.params = self.Params(**params)
         except ValidationError as exc:
-            raise validation_message(exc, prefix=f"{self.kind or 'plugin'} {self.name!r}",
-                                     model=self.Params) from None
+            raise validation_message(exc, prefix=f"{self.kind or 'plugin'} {self.name!r}", model=self.Params) from None
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.model_dump().items())

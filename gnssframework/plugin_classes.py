@@ -52,8 +52,10 @@ def kind_module(kind: str, module: str) -> tuple[Callable[[str], Any], Callable[
         except KeyError:
             from .suggest import did_you_mean
 
-            raise AttributeError(f"module {module!r} has no {kind} {attribute!r}; registered: "
-                                 f"{', '.join(sorted(classes)) or '(none)'}{did_you_mean(attribute, classes)}") from None
+            raise AttributeError(
+                f"module {module!r} has no {kind} {attribute!r}; registered: "
+                f"{', '.join(sorted(classes)) or '(none)'}{did_you_mean(attribute, classes)}"
+            ) from None
 
     def __dir__() -> list[str]:
         return sorted(_classes(kind))

@@ -25,8 +25,14 @@ from .plugin_ref_rules import plugin_ref_constraints, plugin_refs
 
 __all__ = ["ParameterRow", "parameter_rows", "parameter_table", "describe_plugin", "nested_plugins_table"]
 
-_BOUNDS = (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<="), ("min_length", "length >="),
-           ("max_length", "length <="))
+_BOUNDS = (
+    ("gt", ">"),
+    ("ge", ">="),
+    ("lt", "<"),
+    ("le", "<="),
+    ("min_length", "length >="),
+    ("max_length", "length <="),
+)
 
 
 @dataclass(frozen=True)
@@ -68,14 +74,23 @@ def parameter_rows(params_model: type[BaseModel]) -> list[ParameterRow]:
                 value = getattr(meta, attr, None)
                 if value is not None:
                     bounds.append(f"{symbol} {value}")
-        literal = [a for a in typing.get_args(info.annotation)] if typing.get_origin(info.annotation) is typing.Literal \
+        literal = (
+            [a for a in typing.get_args(info.annotation)]
+            if typing.get_origin(info.annotation) is typing.Literal
             else []
+        )
         if literal:
             bounds.append("one of " + ", ".join(map(repr, literal)))
         python = f" (Python keyword: {name})" if info.alias else ""  # a config name like `lambda`
-        rows.append(ParameterRow(info.alias or name, _type_name(info.annotation, refs, name),
-                                 _default_text(info.default, name in refs), ", ".join(bounds),
-                                 (info.description or "") + python))
+        rows.append(
+            ParameterRow(
+                info.alias or name,
+                _type_name(info.annotation, refs, name),
+                _default_text(info.default, name in refs),
+                ", ".join(bounds),
+                (info.description or "") + python,
+            )
+        )
     return rows
 
 
@@ -92,8 +107,10 @@ def parameter_table(params_model: type[BaseModel]) -> str:
         return f"(no parameters: {why})" if why else "(no parameters)"
     out = ["| name | type | default | bounds | description |", "|---|---|---|---|---|"]
     cell = _cell
-    out += [f"| `{r.name}` | {cell(r.type)} | `{cell(r.default)}` | {cell(r.bounds)} | {cell(r.description)} |"
-            for r in rows]
+    out += [
+        f"| `{r.name}` | {cell(r.type)} | `{cell(r.default)}` | {cell(r.bounds)} | {cell(r.description)} |"
+        for r in rows
+    ]
     return "\n".join(out)
 
 

@@ -38,15 +38,25 @@ from .plugin import NestedFieldError, validation_message
 from .plugin_ref_rules import RefRule, misfit, plugin_ref_constraints, plugin_refs
 from .suggest import did_you_mean
 
-__all__ = ["PluginSpec", "PluginRef", "ComponentRef", "component_spec", "plugin_refs", "plugin_ref_constraints",
-           "handles_nonlinear"]
+__all__ = [
+    "PluginSpec",
+    "PluginRef",
+    "ComponentRef",
+    "component_spec",
+    "plugin_refs",
+    "plugin_ref_constraints",
+    "handles_nonlinear",
+]
 
 
 def handles_nonlinear(cls: type) -> str:
     """``check`` for an estimator that will see a nonlinear model: refuses one that
     declares ``linear_only = True`` (the linear Kalman filter)."""
-    return "it is linear-only (linear_only = True) and this model is nonlinear" \
-        if getattr(cls, "linear_only", False) else ""
+    return (
+        "it is linear-only (linear_only = True) and this model is nonlinear"
+        if getattr(cls, "linear_only", False)
+        else ""
+    )
 
 
 handles_nonlinear.label = "handles nonlinear models (not linear-only)"  # type: ignore[attr-defined]
@@ -94,8 +104,11 @@ class PluginSpec:
         fields = cls.Params.model_fields
         for key, value in owned.items():
             if key in fields and key in self.params and not _same(self.params[key], value):
-                raise ConfigError(f"{self.kind} {self.name!r}.{key}", f"is {self.params[key]!r} but its owner runs "
-                                  f"with {value!r} (the harness's value); leave the parameter out")
+                raise ConfigError(
+                    f"{self.kind} {self.name!r}.{key}",
+                    f"is {self.params[key]!r} but its owner runs "
+                    f"with {value!r} (the harness's value); leave the parameter out",
+                )
         chosen = {k: v for k, v in (defaults or {}).items() if k in fields}
         return cls(**{**chosen, **self.params, **{k: v for k, v in owned.items() if k in fields}})
 
@@ -124,10 +137,15 @@ def _resolve(rule: RefRule, value: Any) -> PluginSpec:
     elif isinstance(value, dict):
         extra = sorted(set(value) - {"name", "params"})
         if extra or "name" not in value:
-            hint = (f"; plugin parameters go under `params`: {{ name = ..., params = {{ {extra[0]} = ... }} }}"
-                    if extra and "name" in value else "")
-            raise ValueError(f"{_article(rule.kind)} {rule.kind} reference is a name or {{ name, params }}, "
-                             f"got keys {sorted(value)}{hint}")
+            hint = (
+                f"; plugin parameters go under `params`: {{ name = ..., params = {{ {extra[0]} = ... }} }}"
+                if extra and "name" in value
+                else ""
+            )
+            raise ValueError(
+                f"{_article(rule.kind)} {rule.kind} reference is a name or {{ name, params }}, "
+                f"got keys {sorted(value)}{hint}"
+            )
         name, params = value["name"], dict(value.get("params") or {})
     else:
         raise ValueError(f"{_article(rule.kind)} {rule.kind} reference is a name or {{ name, params }}, got {value!r}")
@@ -138,8 +156,10 @@ def _resolve(rule: RefRule, value: Any) -> PluginSpec:
     cls = registry.get(rule.kind, name)
     why = misfit(rule, cls)
     if why:
-        raise ValueError(f"{rule.kind} {name!r} does not fit: {why}; {rule.kind}s that do: "
-                         f"{', '.join(_names_that_fit(rule)) or '(none registered)'}")
+        raise ValueError(
+            f"{rule.kind} {name!r} does not fit: {why}; {rule.kind}s that do: "
+            f"{', '.join(_names_that_fit(rule)) or '(none registered)'}"
+        )
     try:
         cls.Params(**params)
     except ValidationError as exc:
@@ -148,8 +168,9 @@ def _resolve(rule: RefRule, value: Any) -> PluginSpec:
     return PluginSpec(rule.kind, name, params)
 
 
-def PluginRef(kind: str, *, unit: str | None = None, provides: tuple[str, ...] = (),
-              check: Callable[[type], str] | None = None) -> Any:  # noqa: N802 - reads as a type
+def PluginRef(
+    kind: str, *, unit: str | None = None, provides: tuple[str, ...] = (), check: Callable[[type], str] | None = None
+) -> Any:  # noqa: N802 - reads as a type
     """The type of a parameter that names a nested plugin of ``kind``.
 
     Parameters
@@ -165,10 +186,18 @@ def PluginRef(kind: str, *, unit: str | None = None, provides: tuple[str, ...] =
     """
     rule = RefRule(kind, unit, tuple(provides), check)
     what = f"a {kind} plugin" + (f" with unit {unit!r}" if unit else "")
-    schema = {"description": f"{what}: its name, or {{name, params}}",
-              "anyOf": [{"type": "string"},
-                        {"type": "object", "required": ["name"], "additionalProperties": False,
-                         "properties": {"name": {"type": "string"}, "params": {"type": "object"}}}]}
+    schema = {
+        "description": f"{what}: its name, or {{name, params}}",
+        "anyOf": [
+            {"type": "string"},
+            {
+                "type": "object",
+                "required": ["name"],
+                "additionalProperties": False,
+                "properties": {"name": {"type": "string"}, "params": {"type": "object"}},
+            },
+        ],
+    }
     # PluginParams validates defaults, so a default written as a name is resolved too.
     return Annotated[PluginSpec, BeforeValidator(lambda v: _resolve(rule, v)), WithJsonSchema(schema), rule]
 
@@ -184,8 +213,11 @@ def _component(kind: str, value: Any) -> PluginSpec:
         raise ValueError(f"{_article(kind)} {kind} is a name or {{ name, params }}, got {value!r}")
     extra = sorted(set(value) - {"name", "params"})
     if extra:
-        raise NestedFieldError(extra[0], "unknown parameter; valid: name, params; plugin parameters go under "
-                               f"`params`: {{ name = ..., params = {{ {extra[0]} = ... }} }}")
+        raise NestedFieldError(
+            extra[0],
+            "unknown parameter; valid: name, params; plugin parameters go under "
+            f"`params`: {{ name = ..., params = {{ {extra[0]} = ... }} }}",
+        )
     if not isinstance(value.get("name"), str):
         raise NestedFieldError("name", f"required: the registered name of {_article(kind)} {kind}")
     params = value.get("params") or {}
@@ -227,13 +259,19 @@ def ComponentRef(kind: str) -> Any:  # noqa: N802 - reads as a type
 
 def component_metadata(kind: str) -> tuple[Any, ...]:
     """The pydantic metadata of `ComponentRef` (its validator, serializer and JSON schema)."""
-    schema = {"description": f"a {kind} plugin: its name, or {{name, params}}",
-              "anyOf": [{"type": "string"},
-                        {"type": "object", "required": ["name"], "additionalProperties": False,
-                         "properties": {"name": {"type": "string"}, "params": {"type": "object"}}}]}
-    return (BeforeValidator(lambda v: _component(kind, v)), PlainSerializer(PluginSpec.table),
-            WithJsonSchema(schema))
-
+    schema = {
+        "description": f"a {kind} plugin: its name, or {{name, params}}",
+        "anyOf": [
+            {"type": "string"},
+            {
+                "type": "object",
+                "required": ["name"],
+                "additionalProperties": False,
+                "properties": {"name": {"type": "string"}, "params": {"type": "object"}},
+            },
+        ],
+    }
+    return (BeforeValidator(lambda v: _component(kind, v)), PlainSerializer(PluginSpec.table), WithJsonSchema(schema))
 
 
 def _as_config(value: Any) -> Any:

@@ -41,6 +41,7 @@ def misfit(rule: RefRule, cls: type) -> str:
 
 def field_rules(params_model: type[BaseModel]) -> dict[str, RefRule]:
     """The nested-plugin parameters of a ``Params`` model: field -> its rule."""
+
     def rules(obj: Any) -> list[RefRule]:
         found = [m for m in getattr(obj, "__metadata__", ()) if isinstance(m, RefRule)]
         for arg in typing.get_args(obj):

@@ -35,8 +35,11 @@ def clock(seconds: float) -> str:
 
 def phase(desc: str, text: str, start: float, stream: TextIO | None = None) -> None:
     """One line ``desc: text, h:mm:ss elapsed`` (since ``start``, a `time.monotonic` value)."""
-    print(f"{desc}: {text}, {clock(time.monotonic() - start)} elapsed", file=sys.stderr if stream is None else stream,
-          flush=True)
+    print(
+        f"{desc}: {text}, {clock(time.monotonic() - start)} elapsed",
+        file=sys.stderr if stream is None else stream,
+        flush=True,
+    )
 
 
 class Progress:
@@ -60,8 +63,15 @@ class Progress:
         processed and the real-time factor are shown (see the module text).
     """
 
-    def __init__(self, total: int, desc: str, unit: str, stream: TextIO | None = None,
-                 terminal: bool | None = None, signal_s: float | None = None) -> None:
+    def __init__(
+        self,
+        total: int,
+        desc: str,
+        unit: str,
+        stream: TextIO | None = None,
+        terminal: bool | None = None,
+        signal_s: float | None = None,
+    ) -> None:
         self.total = max(int(total), 0)
         self.desc, self.unit = desc, unit
         self.stream = sys.stderr if stream is None else stream
@@ -106,8 +116,12 @@ class Progress:
 
     def _line(self) -> None:
         signal = f"{self._signal(self.done)}, " if self.signal_s is not None else ""
-        print(f"{self.desc}: {self.done}/{self.total} {self.unit} ({100 * self.done // self.total} %), {signal}"
-              f"{clock(time.monotonic() - self._start)} elapsed", file=self.stream, flush=True)
+        print(
+            f"{self.desc}: {self.done}/{self.total} {self.unit} ({100 * self.done // self.total} %), {signal}"
+            f"{clock(time.monotonic() - self._start)} elapsed",
+            file=self.stream,
+            flush=True,
+        )
 
     def close(self) -> None:
         """The work is over (a bar is closed; lines need nothing more)."""

@@ -36,8 +36,19 @@ import numpy as np
 
 from .errors import ConfigError
 
-__all__ = ["RunStreams", "run_streams", "as_run_streams", "name_key", "child", "standard_normal", "uniform",
-           "integers", "random", "choice", "Size"]
+__all__ = [
+    "RunStreams",
+    "run_streams",
+    "as_run_streams",
+    "name_key",
+    "child",
+    "standard_normal",
+    "uniform",
+    "integers",
+    "random",
+    "choice",
+    "Size",
+]
 
 #: A draw's shape, as NumPy's ``size``: an int or a sequence of ints (None: no shape, refused
 #: by the per-run draws, which need the run axis).
@@ -75,8 +86,9 @@ class RunStreams:
         if not self.runs:
             raise ConfigError("runs", "a batch needs at least one run (got 0 random streams)")
         self.purpose = tuple(purpose)
-        self.generators = [np.random.default_rng(np.random.SeedSequence([*self.base, r], spawn_key=self.purpose))
-                           for r in self.runs]
+        self.generators = [
+            np.random.default_rng(np.random.SeedSequence([*self.base, r], spawn_key=self.purpose)) for r in self.runs
+        ]
 
     def __len__(self) -> int:
         return len(self.runs)
@@ -95,18 +107,23 @@ class RunStreams:
         """One generator common to every run of every batch (seeded from ``base`` and
         ``purpose`` only): for draws that belong to the case, not to a run, such as the
         training runs an oracle is tuned on."""
-        return np.random.default_rng(np.random.SeedSequence(list(self.base),
-                                                            spawn_key=self.purpose + name_key(purpose) + (1,)))
+        return np.random.default_rng(
+            np.random.SeedSequence(list(self.base), spawn_key=self.purpose + name_key(purpose) + (1,))
+        )
 
-    def _draw(self, size: Size, run_axis: int, one: Callable[[np.random.Generator, tuple[int, ...]], Any]
-              ) -> np.ndarray:
-        shape: tuple[int, ...] = (() if size is None else (int(size),) if isinstance(size, (int, np.integer))
-                                  else tuple(int(n) for n in size))
+    def _draw(
+        self, size: Size, run_axis: int, one: Callable[[np.random.Generator, tuple[int, ...]], Any]
+    ) -> np.ndarray:
+        shape: tuple[int, ...] = (
+            () if size is None else (int(size),) if isinstance(size, (int, np.integer)) else tuple(int(n) for n in size)
+        )
         axis = run_axis % len(shape) if shape else 0
         if not shape or shape[axis] != len(self):
-            raise ValueError(f"a draw of shape {shape} with the runs on axis {run_axis} needs "
-                             f"{len(self)} runs on that axis (one random stream per run)")
-        per_run = shape[:axis] + shape[axis + 1:]
+            raise ValueError(
+                f"a draw of shape {shape} with the runs on axis {run_axis} needs "
+                f"{len(self)} runs on that axis (one random stream per run)"
+            )
+        per_run = shape[:axis] + shape[axis + 1 :]
         return np.stack([np.asarray(one(g, per_run)) for g in self.generators], axis=axis)
 
     def standard_normal(self, size: Size, run_axis: int = 0) -> np.ndarray:
@@ -157,6 +174,7 @@ def as_run_streams(rng: np.random.Generator | RunStreams | int, runs: int) -> Ru
 
 
 # -- draws from either kind, the runs on a named axis ----------------------------------------
+
 
 def child(rng: Any, purpose: str) -> Any:
     """``rng.child(purpose)`` for :class:`RunStreams`; a plain generator is used as it is

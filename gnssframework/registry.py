@@ -101,14 +101,15 @@ def register_kind(kind: str, base: type) -> type:
         for a kind (a module imported again under the same name re-declares its own base).
     """
     if kind not in hookspecs.KINDS:
-        raise PluginError(f"plugin kind {kind!r} has no register_{kind} hook in gnssframework.hookspecs; "
-                          f"kinds: {', '.join(sorted(hookspecs.KINDS))}")
+        raise PluginError(
+            f"plugin kind {kind!r} has no register_{kind} hook in gnssframework.hookspecs; "
+            f"kinds: {', '.join(sorted(hookspecs.KINDS))}"
+        )
     if not isinstance(base, type):
         raise PluginError(f"the base of plugin kind {kind!r} must be a class, got {base!r}")
     known = BASES.get(kind)
     if known is not None and known is not base and _qualified(known) != _qualified(base):
-        raise PluginError(f"plugin kind {kind!r} already has the base {_qualified(known)}; "
-                          f"refused {_qualified(base)}")
+        raise PluginError(f"plugin kind {kind!r} already has the base {_qualified(known)}; refused {_qualified(base)}")
     BASES[kind] = base
     return base
 
@@ -151,11 +152,16 @@ def defined_plugins(*modules: types.ModuleType) -> dict[str, list[type]]:
         for cls in vars(module).values():
             if not isinstance(cls, type) or cls.__module__ != module.__name__:
                 continue
-            kinds = [k for k, base in bases.items() if base is not None and issubclass(cls, base)
-                     and _name_attribute(k) in vars(cls)]
+            kinds = [
+                k
+                for k, base in bases.items()
+                if base is not None and issubclass(cls, base) and _name_attribute(k) in vars(cls)
+            ]
             if len(kinds) > 1:
-                raise PluginError(f"{module.__name__}.{cls.__name__} derives from the bases of {', '.join(kinds)}; "
-                                  "a plugin class has one kind")
+                raise PluginError(
+                    f"{module.__name__}.{cls.__name__} derives from the bases of {', '.join(kinds)}; "
+                    "a plugin class has one kind"
+                )
             if kinds:
                 out.setdefault(kinds[0], []).append(cls)
     return out
@@ -182,8 +188,10 @@ def plugin_hooks(*modules: types.ModuleType) -> dict[str, Callable[[Register], N
 def submodules(package: str, path: Iterable[str]) -> list[types.ModuleType]:
     """Every module of a package (``__name__`` and ``__path__`` of its ``__init__``),
     imported, sorted by name: a new module of the package needs no list to be edited."""
-    return [importlib.import_module(f"{package}.{info.name}") for info in sorted(pkgutil.iter_modules(path),
-                                                                                 key=lambda i: i.name)]
+    return [
+        importlib.import_module(f"{package}.{info.name}")
+        for info in sorted(pkgutil.iter_modules(path), key=lambda i: i.name)
+    ]
 
 
 @dataclass(frozen=True)
@@ -227,8 +235,10 @@ class _Registry:
         if self._loading is not None and self._loading[0] == threading.get_ident():
             # A plugin module asking the registry while it is imported by entry point would
             # wait on the lock its own loading holds: refuse, and the loader records it.
-            raise PluginError(f"entry point {self._loading[1]!r} looked the registry up while being loaded; "
-                              "look plugins up when they are used, not at import")
+            raise PluginError(
+                f"entry point {self._loading[1]!r} looked the registry up while being loaded; "
+                "look plugins up when they are used, not at import"
+            )
         with self._lock:
             if self._loaded:
                 return
@@ -266,19 +276,23 @@ class _Registry:
     def _add(self, kind: str, cls: type, dist: str, version: str) -> None:
         base = base_class(kind)
         if base is None:  # a class of the kind would have imported its base, declaring it
-            raise PluginError(f"{cls!r} registered as {kind}, a kind whose base class is not declared "
-                              f"(registry.register_kind({kind!r}, Base) where Base is defined); "
-                              "it cannot be one of its plugins")
+            raise PluginError(
+                f"{cls!r} registered as {kind}, a kind whose base class is not declared "
+                f"(registry.register_kind({kind!r}, Base) where Base is defined); "
+                "it cannot be one of its plugins"
+            )
         if not isinstance(cls, type) or not issubclass(cls, base):
-            raise PluginError(f"{cls!r} registered as {kind} is not a subclass of "
-                              f"{getattr(base, '__name__', 'a class')}")
+            raise PluginError(
+                f"{cls!r} registered as {kind} is not a subclass of {getattr(base, '__name__', 'a class')}"
+            )
         name = plugin_name(kind, cls)
         if not name:
             raise PluginError(f"{cls.__name__} registered as {kind} has no `{_name_attribute(kind)}`")
         missing = sorted(getattr(cls, "__abstractmethods__", ()))
         if missing:
-            raise PluginError(f"{kind} {name!r} ({cls.__name__}) leaves abstract methods unimplemented: "
-                              f"{', '.join(missing)}")
+            raise PluginError(
+                f"{kind} {name!r} ({cls.__name__}) leaves abstract methods unimplemented: {', '.join(missing)}"
+            )
         known = self._plugins[kind].get(name)
         if known is not None and known.cls is not cls:
             raise PluginError(f"{kind} {name!r} is already registered by {known.distribution}")
@@ -301,9 +315,7 @@ class _Registry:
         except KeyError:
             known = sorted(self._plugins[kind])
             hint = did_you_mean(name, known, cutoff=0.4)
-            raise ConfigError(
-                kind, f"unknown {kind} {name!r}; known: {', '.join(known) or '(none)'}{hint}"
-            ) from None
+            raise ConfigError(kind, f"unknown {kind} {name!r}; known: {', '.join(known) or '(none)'}{hint}") from None
 
 
 _TABLE_MARK = "Parameter table (generated from ``Params``)"
@@ -360,9 +372,12 @@ def create(kind: str, name: str, *positional: Any, **params: Any) -> Any:
     """
     if positional:
         fields = ", ".join(get(kind, name).Params.model_fields) or "(none)"
-        raise ConfigError(f"{kind} {name!r}", f"parameters are keywords (create({kind!r}, {name!r}, field=value)), "
-                          f"got {len(positional)} by position: {', '.join(repr(p) for p in positional)[:60]}; "
-                          f"its parameters: {fields}")
+        raise ConfigError(
+            f"{kind} {name!r}",
+            f"parameters are keywords (create({kind!r}, {name!r}, field=value)), "
+            f"got {len(positional)} by position: {', '.join(repr(p) for p in positional)[:60]}; "
+            f"its parameters: {fields}",
+        )
     return get(kind, name)(**params)
 
 

@@ -48,9 +48,11 @@ __all__ = [
 ]
 
 
-def random_linear_problem(rng: np.random.Generator, n: int = 3, m: int = 2,
-                          batch: tuple[int, ...] = (4,)) -> tuple[Gaussian, LinearModel, np.ndarray]:
+def random_linear_problem(
+    rng: np.random.Generator, n: int = 3, m: int = 2, batch: tuple[int, ...] = (4,)
+) -> tuple[Gaussian, LinearModel, np.ndarray]:
     """A random well-conditioned linear-Gaussian problem: prior, model and a measurement."""
+
     def pd(k: int) -> np.ndarray:
         a = rng.standard_normal((k, k))
         return a @ a.T / k + 0.5 * np.eye(k)
@@ -102,8 +104,7 @@ def check_exact_on_linear(estimator: Any, rng: np.random.Generator | None = None
     check_covariance_psd(post.cov, "posterior covariance")
 
 
-def check_batched_equals_one_by_one(estimator: Any, rng: np.random.Generator | None = None,
-                                    rtol: float = 1e-9) -> None:
+def check_batched_equals_one_by_one(estimator: Any, rng: np.random.Generator | None = None, rtol: float = 1e-9) -> None:
     """Filtering a batch gives, element by element, what filtering each element alone gives
     (to rounding: batched and single LAPACK calls may order operations differently)."""
     rng = rng or np.random.default_rng(1)
@@ -112,10 +113,16 @@ def check_batched_equals_one_by_one(estimator: Any, rng: np.random.Generator | N
     for i in range(3):
         one = Gaussian(prior.mean[i], prior.cov[i])
         alone = estimator.update(estimator.predict(one, model), z[i], model).state
-        np.testing.assert_allclose(batched.mean[i], alone.mean, rtol=rtol, atol=rtol,
-                                   err_msg=f"batch element {i}: mean differs from a lone run")
-        np.testing.assert_allclose(batched.cov[i], alone.cov, rtol=rtol, atol=rtol,
-                                   err_msg=f"batch element {i}: cov differs from a lone run")
+        np.testing.assert_allclose(
+            batched.mean[i],
+            alone.mean,
+            rtol=rtol,
+            atol=rtol,
+            err_msg=f"batch element {i}: mean differs from a lone run",
+        )
+        np.testing.assert_allclose(
+            batched.cov[i], alone.cov, rtol=rtol, atol=rtol, err_msg=f"batch element {i}: cov differs from a lone run"
+        )
 
 
 _OFFSETS = {"chips": "code_error_chips", "rad": "carrier_phase_rad", "Hz": "freq_error_hz"}
@@ -133,8 +140,9 @@ def _noise_free(disc: Any, error: np.ndarray, cn0_dbhz: float, spacing: float) -
 
     def corr(phase: np.ndarray | float) -> Correlators:
         a = dict(args, carrier_phase_rad=phase)
-        y = correlator_mean(amplitude_from_cn0(cn0_dbhz, T), a["code_error_chips"], a["carrier_phase_rad"],
-                            a["freq_error_hz"], T, taps)
+        y = correlator_mean(
+            amplitude_from_cn0(cn0_dbhz, T), a["code_error_chips"], a["carrier_phase_rad"], a["freq_error_hz"], T, taps
+        )
         return Correlators(y[..., 0], y[..., 1], y[..., 2])
 
     previous = corr(args["carrier_phase_rad"])
@@ -143,8 +151,9 @@ def _noise_free(disc: Any, error: np.ndarray, cn0_dbhz: float, spacing: float) -
     return current, previous
 
 
-def check_unit_slope(disc: Any, errors: Any, rtol: float = 5e-3, cn0_dbhz: float = 45.0,
-                     early_late_spacing_chips: float = 1.0) -> None:
+def check_unit_slope(
+    disc: Any, errors: Any, rtol: float = 5e-3, cn0_dbhz: float = 45.0, early_late_spacing_chips: float = 1.0
+) -> None:
     """For small true errors (in ``disc.unit``), the noise-free output equals the error."""
     e = np.asarray(errors, float)
     current, previous = _noise_free(disc, e, cn0_dbhz, early_late_spacing_chips)
@@ -152,8 +161,9 @@ def check_unit_slope(disc: Any, errors: Any, rtol: float = 5e-3, cn0_dbhz: float
     np.testing.assert_allclose(out, e, rtol=rtol, err_msg=f"{disc.name}: slope is not 1 {disc.unit}/{disc.unit}")
 
 
-def check_noise_variance(disc: Any, cn0_dbhz: float, rng: np.random.Generator, runs: int = 40_000,
-                         rtol: float = 0.25) -> None:
+def check_noise_variance(
+    disc: Any, cn0_dbhz: float, rng: np.random.Generator, runs: int = 40_000, rtol: float = 0.25
+) -> None:
     """``noise_variance(cn0)`` matches the variance of the output on simulated correlators
     (zero true error) within ``rtol``; check where the formula is meant to hold."""
     T = disc.params.coherent_time_s
@@ -165,16 +175,24 @@ def check_noise_variance(disc: Any, cn0_dbhz: float, rng: np.random.Generator, r
     theory = float(np.asarray(disc.noise_variance(cn0_dbhz)))
     assert abs(mc - theory) <= rtol * theory, (
         f"{disc.name}: Monte Carlo variance {mc:.4g} vs noise_variance {theory:.4g} at {cn0_dbhz} dB-Hz "
-        f"(tolerance {rtol:.0%}, {runs} draws)")
+        f"(tolerance {rtol:.0%}, {runs} draws)"
+    )
 
 
 #: The nav filter of `vector_loop_series`: the vector-tracking EKF with an OCXO clock.
 VECTOR_NAV_FILTER = {"name": "ekf-pv", "params": {"clock": "ocxo"}}
 
 
-def vector_loop_series(channel_filter: dict[str, Any], *, backend: str | None = None, nudge_initial_ulp: bool = False,
-                       duration_s: float = 5.0, cn0_dbhz: float = 30.0, runs: int = 2, seed: int = 5
-                       ) -> dict[str, np.ndarray]:
+def vector_loop_series(
+    channel_filter: dict[str, Any],
+    *,
+    backend: str | None = None,
+    nudge_initial_ulp: bool = False,
+    duration_s: float = 5.0,
+    cn0_dbhz: float = 30.0,
+    runs: int = 2,
+    seed: int = 5,
+) -> dict[str, np.ndarray]:
     """Time series ``(K, runs)`` of a short closed vector-tracking run, for rounding checks.
 
     The vector-tracking scenario (8 channels, ``settle_s = 1``) with ``channel_filter``
@@ -259,8 +277,9 @@ def relative_change(reference: Any, other: Any) -> float:
     return worst
 
 
-def assert_within_rounding(got: Any, reference: Any, nudged: Any, *, factor: float = 10.0,
-                           floor: float = 1e-12, what: str = "result") -> tuple[float, float]:
+def assert_within_rounding(
+    got: Any, reference: Any, nudged: Any, *, factor: float = 10.0, floor: float = 1e-12, what: str = "result"
+) -> tuple[float, float]:
     """``got`` differs from ``reference`` by at most ``factor`` times what rounding moves it.
 
     ``nudged`` is the reference recomputed from inputs one ulp away (`ulp_nudges`), or a
@@ -274,5 +293,6 @@ def assert_within_rounding(got: Any, reference: Any, nudged: Any, *, factor: flo
     diff = relative_change(reference, got)
     assert diff <= factor * moved + floor, (
         f"{what} differs from the reference by {diff:.3g} (relative), more than {factor:g} times "
-        f"the {moved:.3g} a one-ulp change of the reference's input makes, plus {floor:.0e}")
+        f"the {moved:.3g} a one-ulp change of the reference's input makes, plus {floor:.0e}"
+    )
     return diff, moved

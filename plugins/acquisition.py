@@ -8,8 +8,14 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework.errors import ConfigError
-from gnssframework.receiver.acquisition import (Acquisition, AcquisitionResult, fine_doppler, noise_floor,
-                                                search_grid, threshold_from_pfa)
+from gnssframework.receiver.acquisition import (
+    Acquisition,
+    AcquisitionResult,
+    fine_doppler,
+    noise_floor,
+    search_grid,
+    threshold_from_pfa,
+)
 from gnssframework.receiver.acquisition.search import searched_prns
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.spec import SignalSpec
@@ -28,16 +34,21 @@ class PcpsParams(PluginParams):
     noncoherent: int = Field(8, ge=1, le=100, description="non-coherent sums K of coherent blocks")
     doppler_max_hz: float = Field(5000.0, gt=0, le=50_000, description="search Doppler range +-")
     doppler_step_hz: float | None = Field(
-        None, gt=0, description="coarse Doppler bin spacing; null: 1/(2T), at most half a sinc lobe")
-    fine_step_hz: float | None = Field(None, gt=0, description="fine-search step around the coarse peak; "
-                                          "null: 1/(20T)")
+        None, gt=0, description="coarse Doppler bin spacing; null: 1/(2T), at most half a sinc lobe"
+    )
+    fine_step_hz: float | None = Field(None, gt=0, description="fine-search step around the coarse peak; null: 1/(20T)")
     pfa: float = Field(1e-3, gt=0, lt=1, description="false-alarm probability of one PRN's whole search")
     alternate_blocks: bool = Field(
-        False, description="sum the even and the odd coherent blocks apart and keep the larger: with 10 ms blocks "
-        "one of the two is free of data-bit transitions (needs an even noncoherent)")
+        False,
+        description="sum the even and the odd coherent blocks apart and keep the larger: with 10 ms blocks "
+        "one of the two is free of data-bit transitions (needs an even noncoherent)",
+    )
     xcorr_margin_db: float | None = Field(
-        17.0, gt=0, description="drop a detection whose C/N0 estimate is more than this below the strongest one's: "
-        "a C/A cross-correlation sidelobe of a strong signal; null keeps every detection")
+        17.0,
+        gt=0,
+        description="drop a detection whose C/N0 estimate is more than this below the strongest one's: "
+        "a C/A cross-correlation sidelobe of a strong signal; null keeps every detection",
+    )
 
 
 class ParallelCodePhaseSearch(Acquisition):
@@ -73,20 +84,30 @@ class ParallelCodePhaseSearch(Acquisition):
         half = int(np.floor(p.doppler_max_hz / step + 1e-9))
         return np.arange(-half, half + 1) * step
 
-    def acquire(self, samples: np.ndarray, sample_rate_hz: float, if_hz: float,
-                prns: tuple[int, ...] | None = None, signal: SignalSpec = GPS_L1CA) -> list[AcquisitionResult]:
+    def acquire(
+        self,
+        samples: np.ndarray,
+        sample_rate_hz: float,
+        if_hz: float,
+        prns: tuple[int, ...] | None = None,
+        signal: SignalSpec = GPS_L1CA,
+    ) -> list[AcquisitionResult]:
         p = self.params
         prns = searched_prns(prns, signal)
         T = self._coherent_s(signal)
         need = self.samples_needed(sample_rate_hz, signal)
         if samples.shape[0] < need:
-            raise ConfigError("recording", f"acquisition needs {need} samples ({need / sample_rate_hz * 1e3:.0f} ms: "
-                              f"{p.coherent_ms} ms coherent x {p.noncoherent} non-coherent), the recording holds "
-                              f"{samples.shape[0]}")
+            raise ConfigError(
+                "recording",
+                f"acquisition needs {need} samples ({need / sample_rate_hz * 1e3:.0f} ms: "
+                f"{p.coherent_ms} ms coherent x {p.noncoherent} non-coherent), the recording holds "
+                f"{samples.shape[0]}",
+            )
         alt = p.alternate_blocks
         if alt and p.noncoherent % 2:
-            raise ConfigError("acquisition.noncoherent", f"alternate_blocks needs an even number of blocks, got "
-                                                         f"{p.noncoherent}")
+            raise ConfigError(
+                "acquisition.noncoherent", f"alternate_blocks needs an even number of blocks, got {p.noncoherent}"
+            )
         blocks = p.noncoherent // 2 if alt else p.noncoherent  # summed into the statistic
         dopplers = self.dopplers_hz(signal)
         n = int(round(T * sample_rate_hz))
@@ -98,18 +119,32 @@ class ParallelCodePhaseSearch(Acquisition):
         # code such as L2 CM has 20 times the lags and 20 times the Doppler bins a PRN).
         group = max(1, _GRID_ELEMENTS // (dopplers.size * n))
         for lo in range(0, len(prns), group):
-            grid = search_grid(samples, sample_rate_hz, if_hz, prns[lo:lo + group], T, p.noncoherent, dopplers, alt,
-                               signal)
-            results += self._peaks(grid, prns[lo:lo + group], samples, sample_rate_hz, if_hz, T, dopplers,
-                                   threshold, blocks, fine_step, coarse_step, signal)
+            grid = search_grid(
+                samples, sample_rate_hz, if_hz, prns[lo : lo + group], T, p.noncoherent, dopplers, alt, signal
+            )
+            results += self._peaks(
+                grid,
+                prns[lo : lo + group],
+                samples,
+                sample_rate_hz,
+                if_hz,
+                T,
+                dopplers,
+                threshold,
+                blocks,
+                fine_step,
+                coarse_step,
+                signal,
+            )
         found = [r.cn0_dbhz for r in results if r.detected]
         if p.xcorr_margin_db is not None and found:
             floor = max(found) - p.xcorr_margin_db
             results = [replace(r, detected=False) if r.detected and r.cn0_dbhz < floor else r for r in results]
         return results
 
-    def _peaks(self, grid, prns, samples, sample_rate_hz, if_hz, T, dopplers, threshold, blocks, fine_step,
-               coarse_step, signal) -> list[AcquisitionResult]:
+    def _peaks(
+        self, grid, prns, samples, sample_rate_hz, if_hz, T, dopplers, threshold, blocks, fine_step, coarse_step, signal
+    ) -> list[AcquisitionResult]:
         """Each PRN's peak of its raw ``grid``, its fine Doppler and C/N0."""
         p = self.params
         alt = p.alternate_blocks
@@ -122,12 +157,23 @@ class ParallelCodePhaseSearch(Acquisition):
             d, s = np.unravel_index(int(np.argmax(grid[i])), grid[i].shape)
             stat = float(grid[i, d, s] / sigma2)
             fine = dopplers[d] + np.arange(-coarse_step, coarse_step + fine_step / 2, fine_step)
-            power = fine_doppler(samples, sample_rate_hz, if_hz, prn, int(s), T, p.noncoherent, fine, alt,
-                                 signal) / sigma2
+            power = (
+                fine_doppler(samples, sample_rate_hz, if_hz, prn, int(s), T, p.noncoherent, fine, alt, signal) / sigma2
+            )
             j = int(np.argmax(power))
             c = max((power[j] / blocks - 2.0) / (2 * T * duty), 1e-3)
             # Chip 0 at sample s: the phase at sample 0 is -s samples' worth of chips.
             chips = float((-s * signal.chip_rate_hz / sample_rate_hz) % signal.code_length_chips)
-            results.append(AcquisitionResult(int(prn), stat > threshold, float(fine[j]), int(s % n), chips,
-                                             float(10 * np.log10(c)), stat, threshold))
+            results.append(
+                AcquisitionResult(
+                    int(prn),
+                    stat > threshold,
+                    float(fine[j]),
+                    int(s % n),
+                    chips,
+                    float(10 * np.log10(c)),
+                    stat,
+                    threshold,
+                )
+            )
         return results

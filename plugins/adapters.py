@@ -203,8 +203,12 @@ class MlQParams(SafeguardParams):
     # R = 1.25 m^2); after a cycle slip the estimate must reach the order of R for the gain
     # to approach 1, so the ceiling must allow ~1e4 Q0 (the shared default of 100 caps the
     # gain at about 0.25 and the filter then recovers no faster than without adaptation).
-    q_ceiling: float = Field(1e4, ge=1, description="upper bound of Q, times the initial Q (large: Q0 of a "
-                             "smoother is ~1e-3 R and must be able to reach R after a slip)")
+    q_ceiling: float = Field(
+        1e4,
+        ge=1,
+        description="upper bound of Q, times the initial Q (large: Q0 of a "
+        "smoother is ~1e-3 R and must be able to reach R after a slip)",
+    )
 
 
 class _MlQRun(_WindowedRun):

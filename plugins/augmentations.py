@@ -19,8 +19,9 @@ __all__ = ["ColoredAR1"]
 
 class ColoredAR1Params(PluginParams):
     psi: float | list[float] | None = Field(
-        None, description="AR(1) coefficient of the measurement noise, one value or one per component, |psi| < 1; "
-        "unset: the true coefficient, which a scenario that simulates the noise supplies (multipath)"
+        None,
+        description="AR(1) coefficient of the measurement noise, one value or one per component, |psi| < 1; "
+        "unset: the true coefficient, which a scenario that simulates the noise supplies (multipath)",
     )
     psi_estimator: Literal["truth", "lag1", "lag-ratio"] = Field(
         "truth",
@@ -29,7 +30,7 @@ class ColoredAR1Params(PluginParams):
         "training record of the case's psi_training_epochs measurements (biased low by the white-noise share and "
         "by (1 + 4 psi)/n, Marriott & Pope 1954); 'lag-ratio', its lag-2 over lag-1 autocovariance (consistent "
         "under added white noise, Box & Jenkins' ARMA(1,1), with a larger variance); "
-        "gnssframework.estimation.ar1_estimate. Ignored when psi is given"
+        "gnssframework.estimation.ar1_estimate. Ignored when psi is given",
     )
     cross_covariance: Literal["exact", "paper"] = Field(
         "exact",
@@ -151,8 +152,9 @@ class ColoredAR1(Augmentation):
             return None
         if self.params.psi_estimator != "lag1":
             return float(psi)
-        return float(psi * context["colored_variance_m2"] / (context["colored_variance_m2"]
-                                                             + context["white_variance_m2"]))
+        return float(
+            psi * context["colored_variance_m2"] / (context["colored_variance_m2"] + context["white_variance_m2"])
+        )
 
     def assumptions(self, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
         r"""The colored-noise model: AR(1), how psi is had (given, the case's true one, or
@@ -161,11 +163,18 @@ class ColoredAR1(Augmentation):
         to the AR(1) stationary variance the filter then assumes,
         $\sigma^2 = \sigma_\xi^2 / (1 - \psi^2)$."""
         p = self.params
-        how = ("given" if p.psi is not None else "true (the case's)" if p.psi_estimator == "truth"
-               else f"estimated ({p.psi_estimator}; its long-record limit)")
+        how = (
+            "given"
+            if p.psi is not None
+            else "true (the case's)"
+            if p.psi_estimator == "truth"
+            else f"estimated ({p.psi_estimator}; its long-record limit)"
+        )
         cross = "paper (dropped, M = 0)" if p.cross_covariance == "paper" else "exact (M = Q Hᵀ)"
-        out = {"measurement-noise model": (f"AR(1), psi {how}", "-"), "process/measurement cross covariance":
-               (cross, "-")}
+        out = {
+            "measurement-noise model": (f"AR(1), psi {how}", "-"),
+            "process/measurement cross covariance": (cross, "-"),
+        }
         psi = self.assumed_psi(context)
         if psi is not None:
             out["AR(1) psi"] = (psi, "-")
@@ -180,8 +189,11 @@ class ColoredAR1(Augmentation):
             raise ConfigError("zs", "colored-ar1 needs at least two epochs")
         m = model.dim_meas
         if self.params.psi is None:
-            raise ConfigError("augmentation 'colored-ar1'.psi", "is not set; give the AR(1) coefficient (only a "
-                              "scenario that simulates the noise, e.g. multipath, fills in the true one)")
+            raise ConfigError(
+                "augmentation 'colored-ar1'.psi",
+                "is not set; give the AR(1) coefficient (only a "
+                "scenario that simulates the noise, e.g. multipath, fills in the true one)",
+            )
         psi = np.broadcast_to(np.asarray(self.params.psi, dtype=float), (m,))
         if np.any(np.abs(psi) >= 1):
             raise ConfigError("augmentation 'colored-ar1'.psi", f"must satisfy |psi| < 1, got {self.params.psi}")
@@ -232,7 +244,9 @@ class ColoredAR1(Augmentation):
                 def f_dec(x: np.ndarray) -> np.ndarray:
                     return f(x) + mat_vec(J, z_prev - h_star(x))
 
-                return _DecorrelatedNonlinear(f_dec, h_star, Q_dec, R_star, rebuild=lambda Q, R: build(k, Q, R), raw_Q=Q)
+                return _DecorrelatedNonlinear(
+                    f_dec, h_star, Q_dec, R_star, rebuild=lambda Q, R: build(k, Q, R), raw_Q=Q
+                )
 
         def model_at(k: int):
             return build(k, model.Q, R_star0)

@@ -53,17 +53,24 @@ def _cn0_linear(cn0_dbhz) -> np.ndarray:
 
 
 class BocCodeParams(DiscriminatorParams):
-    early_late_spacing_chips: float = Field(0.2, gt=0, le=1.0, description="early-to-late spacing D (chips); "
-                                            "below 1/k, on the main peak's linear part")
-    autocorrelation_slope: float = Field(3.0, ge=1.0, le=47.0, description="k: the main peak's slope, "
-                                         "R(tau) = 1 - k |tau| near 0 (1 BPSK, 3 BOC(1,1), 4m/n - 1 BOC(m, n))")
+    early_late_spacing_chips: float = Field(
+        0.2, gt=0, le=1.0, description="early-to-late spacing D (chips); below 1/k, on the main peak's linear part"
+    )
+    autocorrelation_slope: float = Field(
+        3.0,
+        ge=1.0,
+        le=47.0,
+        description="k: the main peak's slope, R(tau) = 1 - k |tau| near 0 (1 BPSK, 3 BOC(1,1), 4m/n - 1 BOC(m, n))",
+    )
 
     @model_validator(mode="after")
     def _taps_on_the_main_peak(self) -> BocCodeParams:
         if self.autocorrelation_slope * self.early_late_spacing_chips >= 1.0:
-            raise ValueError(f"early_late_spacing_chips = {self.early_late_spacing_chips} must be below 1/k = "
-                             f"{1 / self.autocorrelation_slope:.3g} chips (k = autocorrelation_slope): wider, the "
-                             "early and late taps leave the main peak")
+            raise ValueError(
+                f"early_late_spacing_chips = {self.early_late_spacing_chips} must be below 1/k = "
+                f"{1 / self.autocorrelation_slope:.3g} chips (k = autocorrelation_slope): wider, the "
+                "early and late taps leave the main peak"
+            )
         return self
 
 
@@ -115,8 +122,13 @@ class BocEarlyMinusLate(Discriminator):
 
 
 class _SidePeakParams(BocCodeParams):
-    side_peak_chips: float = Field(0.5, gt=0, le=1.0, description="Delta: offset of the very-early and very-late "
-                                   "taps and size of a jump (chips): the first side peak's, n/(2m) (0.5 for BOC(1,1))")
+    side_peak_chips: float = Field(
+        0.5,
+        gt=0,
+        le=1.0,
+        description="Delta: offset of the very-early and very-late "
+        "taps and size of a jump (chips): the first side peak's, n/(2m) (0.5 for BOC(1,1))",
+    )
 
 
 class _SidePeakDetector(BocEarlyMinusLate):
@@ -141,8 +153,10 @@ class _SidePeakDetector(BocEarlyMinusLate):
         except KeyError:
             from gnssframework.errors import ConfigError
 
-            raise ConfigError(f"discriminator {self.name!r}", "needs the very-early and very-late taps of its "
-                              "extra_taps() in the correlators (Correlators.extra)") from None
+            raise ConfigError(
+                f"discriminator {self.name!r}",
+                "needs the very-early and very-late taps of its extra_taps() in the correlators (Correlators.extra)",
+            ) from None
 
 
 class BocVemlp(_SidePeakDetector):
@@ -164,8 +178,9 @@ class BocVemlp(_SidePeakDetector):
     description = "BOC early-minus-late with the very-early/very-late peak test over a window, jumping off side peaks"
 
     class Params(_SidePeakParams):
-        window_intervals: int = Field(10, ge=1, le=1000, description="M: intervals whose tap powers are summed "
-                                      "before each test")
+        window_intervals: int = Field(
+            10, ge=1, le=1000, description="M: intervals whose tap powers are summed before each test"
+        )
 
     params: Params  # self.params, as validated
     _sums: np.ndarray | None = None
@@ -206,8 +221,9 @@ class BumpJumping(_SidePeakDetector):
     description = "BOC early-minus-late with bump-jumping: very-early/very-late counters jumping off side peaks"
 
     class Params(_SidePeakParams):
-        counter_threshold: int = Field(8, ge=1, le=1000, description="N: the count at which a very tap's counter "
-                                       "commands a jump")
+        counter_threshold: int = Field(
+            8, ge=1, le=1000, description="N: the count at which a very tap's counter commands a jump"
+        )
 
     params: Params  # self.params, as validated
     _counts: np.ndarray | None = None

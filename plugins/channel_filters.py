@@ -36,18 +36,27 @@ _BANDWIDTH_RULE = f"; B_L T at most {MAX_BANDWIDTH_TIME} at the harness's T (200
 
 
 class ScalarParams(PluginParams):
-    pll_bandwidth_hz: float = Field(15.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="PLL noise bandwidth B_L (Hz)"
-                                    + _BANDWIDTH_RULE)
+    pll_bandwidth_hz: float = Field(
+        15.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="PLL noise bandwidth B_L (Hz)" + _BANDWIDTH_RULE
+    )
     pll_order: Literal[2, 3] = Field(3, description="PLL order (2 tracks a frequency step, 3 a Doppler ramp)")
-    fll_bandwidth_hz: float = Field(5.0, ge=0, le=_MAX_BANDWIDTH_HZ, description="FLL assist bandwidth (Hz); 0 "
-                                    "switches the assist off" + _BANDWIDTH_RULE)
-    dll_bandwidth_hz: float = Field(1.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="DLL noise bandwidth B_L (Hz, "
-                                    "carrier aided)" + _BANDWIDTH_RULE)
+    fll_bandwidth_hz: float = Field(
+        5.0,
+        ge=0,
+        le=_MAX_BANDWIDTH_HZ,
+        description="FLL assist bandwidth (Hz); 0 switches the assist off" + _BANDWIDTH_RULE,
+    )
+    dll_bandwidth_hz: float = Field(
+        1.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="DLL noise bandwidth B_L (Hz, carrier aided)" + _BANDWIDTH_RULE
+    )
     dll_order: Literal[1, 2] = Field(1, description="DLL loop order")
-    code_discriminator: PluginRef("discriminator", unit="chips") = Field("eml-envelope", description="DLL discriminator")
+    code_discriminator: PluginRef("discriminator", unit="chips") = Field(
+        "eml-envelope", description="DLL discriminator"
+    )
     phase_discriminator: PluginRef("discriminator", unit="rad") = Field("costas-atan", description="PLL discriminator")
     freq_discriminator: PluginRef("discriminator", unit="Hz") = Field(
-        "atan2-fll", description="FLL-assist discriminator (on consecutive prompts)")
+        "atan2-fll", description="FLL-assist discriminator (on consecutive prompts)"
+    )
 
 
 def _check_bandwidths(loop: ChannelFilter, context: RunContext, fields: tuple[str, ...]) -> None:
@@ -163,8 +172,10 @@ class ScalarTrackingLoop(ChannelFilter):
         loop tracks a constant acceleration instead (no such PSD is declared).
         """
         p = self.params
-        out: dict[str, tuple[Any, str]] = {"carrier loop": (f"PLL, order {p.pll_order}", ""),
-                                           "carrier loop design bandwidth": (float(p.pll_bandwidth_hz), "Hz")}
+        out: dict[str, tuple[Any, str]] = {
+            "carrier loop": (f"PLL, order {p.pll_order}", ""),
+            "carrier loop design bandwidth": (float(p.pll_bandwidth_hz), "Hz"),
+        }
         out.update(_carrier_loop_bandwidth(self, context))
         out["FLL assist bandwidth"] = (float(p.fll_bandwidth_hz), "Hz")
         var = _phase_thermal_variance(self, context)
@@ -183,31 +194,51 @@ class ScalarTrackingLoop(ChannelFilter):
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         corr = inputs["correlators"]
         phase = self.phase_disc(corr)
-        freq = (self.freq_disc(corr, previous=self.previous) if self.previous is not None and self.params.fll_bandwidth_hz
-                else np.zeros_like(phase))
+        freq = (
+            self.freq_disc(corr, previous=self.previous)
+            if self.previous is not None and self.params.fll_bandwidth_hz
+            else np.zeros_like(phase)
+        )
         self.previous = corr
         f = self.carrier(phase / (2 * np.pi), freq)
         code_err, code_freq = self.dll(corr, f)
-        return {"carrier_freq_hz": f, "code_freq_hz": code_freq, "code_disc_chips": code_err,
-                "phase_disc_rad": phase, "freq_disc_hz": freq}
+        return {
+            "carrier_freq_hz": f,
+            "code_freq_hz": code_freq,
+            "code_disc_chips": code_err,
+            "phase_disc_rad": phase,
+            "freq_disc_hz": freq,
+        }
 
 
 class KalmanLoopParams(PluginParams):
     states: Literal[2, 3] = Field(2, description="phase and frequency (2), or also frequency rate (3)")
-    q: list[NonNegativeFloat] = Field([0.01, 0.1], min_length=2, max_length=3, description="diagonal of Q per "
-                                      "interval, each >= 0: phase, frequency(, rate); one value per state")
+    q: list[NonNegativeFloat] = Field(
+        [0.01, 0.1],
+        min_length=2,
+        max_length=3,
+        description="diagonal of Q per interval, each >= 0: phase, frequency(, rate); one value per state",
+    )
     r: float = Field(5.0, gt=0, description="variance R of the phase measurement")
     angle_unit: Literal["rad", "deg", "cycles"] = Field(
-        "rad", description="unit of the phase in q and r (frequency: the same unit per second)")
+        "rad", description="unit of the phase in q and r (frequency: the same unit per second)"
+    )
     phase_discriminator: PluginRef("discriminator", unit="rad") = Field(
-        "costas-atan", description="phase discriminator: the filter's measurement z")
-    dll_bandwidth_hz: float = Field(1.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="DLL noise bandwidth B_L (Hz, "
-                                    "carrier aided)" + _BANDWIDTH_RULE)
+        "costas-atan", description="phase discriminator: the filter's measurement z"
+    )
+    dll_bandwidth_hz: float = Field(
+        1.0, gt=0, le=_MAX_BANDWIDTH_HZ, description="DLL noise bandwidth B_L (Hz, carrier aided)" + _BANDWIDTH_RULE
+    )
     dll_order: Literal[1, 2] = Field(1, description="DLL loop order")
-    code_discriminator: PluginRef("discriminator", unit="chips") = Field("eml-envelope", description="DLL discriminator")
-    initial_std: list[PositiveFloat] = Field([0.5, 5.0, 1.0], min_length=2, max_length=3, description="initial "
-                                             "std, each > 0: phase (unit), freq (unit/s), rate; at least one value "
-                                             "per state")
+    code_discriminator: PluginRef("discriminator", unit="chips") = Field(
+        "eml-envelope", description="DLL discriminator"
+    )
+    initial_std: list[PositiveFloat] = Field(
+        [0.5, 5.0, 1.0],
+        min_length=2,
+        max_length=3,
+        description="initial std, each > 0: phase (unit), freq (unit/s), rate; at least one value per state",
+    )
 
     @model_validator(mode="after")
     def _one_value_per_state(self) -> KalmanLoopParams:
@@ -215,8 +246,9 @@ class KalmanLoopParams(PluginParams):
         if len(self.q) != n:
             raise NestedFieldError("q", f"needs {n} values for states = {n} (got {self.q})")
         if len(self.initial_std) < n:
-            raise NestedFieldError("initial_std", f"needs at least {n} values for states = {n} "
-                                   f"(got {self.initial_std})")
+            raise NestedFieldError(
+                "initial_std", f"needs at least {n} values for states = {n} (got {self.initial_std})"
+            )
         return self
 
 
@@ -306,8 +338,9 @@ class KalmanCarrierLoop(ChannelFilter):
         P0 = np.diag(np.array(p.initial_std[:n]) ** 2)
         self.state = self.filter_step.start(Gaussian(np.zeros(batch_shape + (n,)), P0), self.model)
         # Frequency and its rate of the NCO, in angle_unit/s (and /s^2).
-        self.freq = np.broadcast_to(2 * np.pi * np.asarray(context.get("doppler_hz", 0.0), float) / self.unit,
-                                    batch_shape).copy()
+        self.freq = np.broadcast_to(
+            2 * np.pi * np.asarray(context.get("doppler_hz", 0.0), float) / self.unit, batch_shape
+        ).copy()
         self.rate = np.zeros(batch_shape)
         self.dll = _CarrierAidedDll(p, batch_shape, T, d, _signal_of(context))
 
@@ -331,8 +364,13 @@ class KalmanCarrierLoop(ChannelFilter):
         self.state = Gaussian(np.zeros_like(dx), res.posterior.cov)
         f_hz = self.freq * self.unit / (2 * np.pi)
         code_err, code_freq = self.dll(corr, f_hz)
-        return {"carrier_freq_hz": f_hz, "code_freq_hz": code_freq, "carrier_phase_step_rad": phase_step * self.unit,
-                "phase_disc_rad": z_rad, "code_disc_chips": code_err}
+        return {
+            "carrier_freq_hz": f_hz,
+            "code_freq_hz": code_freq,
+            "carrier_phase_step_rad": phase_step * self.unit,
+            "phase_disc_rad": z_rad,
+            "code_disc_chips": code_err,
+        }
 
 
 # -- vector-tracking channel filters ------------------------------------------------
@@ -342,16 +380,26 @@ VECTOR_OUTPUTS = ("code_error_chips", "code_error_var_chips2", "freq_error_hz", 
 
 class DiscriminatorChannelParams(PluginParams):
     code_discriminator: PluginRef("discriminator", unit="chips") = Field(
-        "eml-envelope", description="code discriminator plugin")
+        "eml-envelope", description="code discriminator plugin"
+    )
     freq_discriminator: PluginRef("discriminator", unit="Hz") = Field(
-        "cross-product", description="frequency discriminator plugin")
+        "cross-product", description="frequency discriminator plugin"
+    )
     fixed_r_cn0_dbhz: float | None = Field(
-        None, ge=15, le=60, description="give the nav filter the thermal variances at this fixed C/N0 (a fixed R "
-        "tuned once, e.g. at 45 dB-Hz) instead of at the channel's C/N0; null: the channel's C/N0")
+        None,
+        ge=15,
+        le=60,
+        description="give the nav filter the thermal variances at this fixed C/N0 (a fixed R "
+        "tuned once, e.g. at 45 dB-Hz) instead of at the channel's C/N0; null: the channel's C/N0",
+    )
     freq_r_scale: float = Field(
-        1.0, gt=0, le=1e4, description="multiply the frequency variance handed to the nav filter by this (an R "
+        1.0,
+        gt=0,
+        le=1e4,
+        description="multiply the frequency variance handed to the nav filter by this (an R "
         "inflation or deflation to tune: cross-product FLL errors are correlated between intervals, which a white "
-        "R at the thermal variance does not describe)")
+        "R at the thermal variance does not describe)",
+    )
 
 
 class DiscriminatorChannel(ChannelFilter):
@@ -399,8 +447,11 @@ class DiscriminatorChannel(ChannelFilter):
         self.code = self.params.code_discriminator.create(coherent_time_s=T, early_late_spacing_chips=spacing)
         self.freq = self.params.freq_discriminator.create(coherent_time_s=T)
         if self.code.unit != "chips" or self.freq.unit != "Hz":
-            raise ConfigError("channel_filter 'discriminator'", "needs a code discriminator (chips) and a frequency "
-                              f"discriminator (Hz), got {self.code.unit} and {self.freq.unit}")
+            raise ConfigError(
+                "channel_filter 'discriminator'",
+                "needs a code discriminator (chips) and a frequency "
+                f"discriminator (Hz), got {self.code.unit} and {self.freq.unit}",
+            )
         cn0 = np.broadcast_to(np.asarray(context.require("cn0_dbhz", who), float), batch_shape)
         if self.params.fixed_r_cn0_dbhz is not None:
             cn0 = np.full(batch_shape, self.params.fixed_r_cn0_dbhz)
@@ -420,42 +471,66 @@ class DiscriminatorChannel(ChannelFilter):
         else:
             freq, var_freq = self.freq(corr, previous=self.previous), self.var_freq
         self.previous = corr
-        return {"code_error_chips": code, "code_error_var_chips2": self.var_code, "freq_error_hz": freq,
-                "freq_error_var_hz2": var_freq}
+        return {
+            "code_error_chips": code,
+            "code_error_var_chips2": self.var_code,
+            "freq_error_hz": freq,
+            "freq_error_var_hz2": var_freq,
+        }
 
 
 class IqFilterParams(PluginParams):
-    estimator: PluginRef("estimator", check=handles_nonlinear) = Field("svd-ckf", description="estimator plugin: svd-ckf, ckf or ukf")
+    estimator: PluginRef("estimator", check=handles_nonlinear) = Field(
+        "svd-ckf", description="estimator plugin: svd-ckf, ckf or ukf"
+    )
     adapter: PluginRef("noise_adapter") | None = Field(
-        "innovation", description="noise adapter plugin for R, or null for none")
-    adaptive: bool = Field(True, description="re-estimate R with the adapter; false keeps R at the correlators' "
-                           "true noise covariance (the same as adapter = null, which TOML cannot write)")
+        "innovation", description="noise adapter plugin for R, or null for none"
+    )
+    adaptive: bool = Field(
+        True,
+        description="re-estimate R with the adapter; false keeps R at the correlators' "
+        "true noise covariance (the same as adapter = null, which TOML cannot write)",
+    )
     window: int = Field(20, ge=2, description="window L of the innovation adapter")
     warmup: int = Field(20, ge=0, description="updates before R adaptation starts")
-    q: list[NonNegativeFloat] = Field([1e-3, 1e-8, 1e-5, 1e-4, 1e-2], min_length=5, max_length=5,
-                                      description="diagonal of Q per interval, 5 values each >= 0: A, dtau (chips), "
-                                      "dtheta (rad), df (Hz), dfdot (Hz/s)")
-    initial_std: list[PositiveFloat] = Field([2.0, 0.05, 0.3, 5.0, 5.0], min_length=5, max_length=5,
-                                             description="initial std of the five states, each > 0")
+    q: list[NonNegativeFloat] = Field(
+        [1e-3, 1e-8, 1e-5, 1e-4, 1e-2],
+        min_length=5,
+        max_length=5,
+        description="diagonal of Q per interval, 5 values each >= 0: A, dtau (chips), "
+        "dtheta (rad), df (Hz), dfdot (Hz/s)",
+    )
+    initial_std: list[PositiveFloat] = Field(
+        [2.0, 0.05, 0.3, 5.0, 5.0], min_length=5, max_length=5, description="initial std of the five states, each > 0"
+    )
     output: Literal["split", "equivalent", "filtered", "reset"] = Field(
-        "split", description="what the nav filter gets: split (code from the discriminator or from this "
+        "split",
+        description="what the nav filter gets: split (code from the discriminator or from this "
         "interval's new information, see split_code; frequency filtered; consistent, the default), equivalent (both from this interval's new information), "
         "filtered (the paper's filtered estimates; counts old correlators again every interval), reset "
-        "(filtered estimates from a prefilter reset after every output)")
+        "(filtered estimates from a prefilter reset after every output)",
+    )
     split_code: Literal["discriminator", "new-information"] = Field(
-        "discriminator", description="output split: the code error comes from the code discriminator with its "
-        "thermal-noise variance at the channel's C/N0, or from this interval's new information")
+        "discriminator",
+        description="output split: the code error comes from the code discriminator with its "
+        "thermal-noise variance at the channel's C/N0, or from this interval's new information",
+    )
     equivalent_code: Literal["new-information", "discriminator"] = Field(
-        "new-information", description="output equivalent: the code error from this interval's new information "
+        "new-information",
+        description="output equivalent: the code error from this interval's new information "
         "(default), or from the code discriminator with its thermal-noise variance at the channel's C/N0. The new "
         "information shrinks a code error that is small against the filter's code uncertainty towards 0 (the "
         "prompt measures |dtau| at the correlation peak, which the filter's linearisation takes as dtau with its "
-        "prior mean's sign); the discriminator does not")
+        "prior mean's sign); the discriminator does not",
+    )
     code_discriminator: PluginRef("discriminator", unit="chips") = Field(
-        "eml-envelope", description="code discriminator of the split output (and of equivalent_code = "
-        "'discriminator')")
-    clock: str | None = Field(None, description="receiver clock preset (tcxo, tcxo-hq, ocxo) whose h-parameters "
-                              "add their process noise to q; null for q alone")
+        "eml-envelope", description="code discriminator of the split output (and of equivalent_code = 'discriminator')"
+    )
+    clock: str | None = Field(
+        None,
+        description="receiver clock preset (tcxo, tcxo-hq, ocxo) whose h-parameters "
+        "add their process noise to q; null for q alone",
+    )
 
 
 # A carrier phase known to no better than uniform over the circle: var of U(-pi, pi).
@@ -499,14 +574,15 @@ def _equivalent_measurement(prior: Gaussian, post: Gaussian, idx: list[int]):
     # 2x2: invert directly where the gain is PD; eigen-clip only where it is not.
     det = gain[..., 0, 0] * gain[..., 1, 1] - gain[..., 0, 1] * gain[..., 1, 0]
     ok = (det > 1e-16) & (gain[..., 0, 0] > 1e-8)
-    adj = np.stack([np.stack([gain[..., 1, 1], -gain[..., 0, 1]], -1),
-                    np.stack([-gain[..., 1, 0], gain[..., 0, 0]], -1)], -2)
+    adj = np.stack(
+        [np.stack([gain[..., 1, 1], -gain[..., 0, 1]], -1), np.stack([-gain[..., 1, 0], gain[..., 0, 0]], -1)], -2
+    )
     R_eq = adj / np.where(ok, det, 1.0)[..., None, None]
     if not ok.all():  # no (or negative, from nonlinearity) information: variance 1e8 there
         w, v = np.linalg.eigh(0.5 * (gain[~ok] + np.swapaxes(gain[~ok], -1, -2)))
         w = np.maximum(w, 1e-8)
         R_eq[~ok] = (v / w[..., None, :]) @ np.swapaxes(v, -1, -2)
-    info = (Ipo @ post.mean[..., idx, None] - Ipr @ prior.mean[..., idx, None])
+    info = Ipo @ post.mean[..., idx, None] - Ipr @ prior.mean[..., idx, None]
     z_eq = (R_eq @ info)[..., 0]
     return z_eq, R_eq
 
@@ -590,8 +666,9 @@ class IqFilter(ChannelFilter):
         super().__init__(**params)
         p = self.params
         if p.clock is not None and p.clock not in PRESETS:
-            raise ConfigError("channel_filter 'iq-filter'.clock", f"got {p.clock!r}; allowed: {', '.join(PRESETS)} "
-                              "or null")
+            raise ConfigError(
+                "channel_filter 'iq-filter'.clock", f"got {p.clock!r}; allowed: {', '.join(PRESETS)} or null"
+            )
         self.engine = p.estimator.create()
         self.adapter = None
         if p.adapter and p.adaptive:
@@ -615,15 +692,22 @@ class IqFilter(ChannelFilter):
         self.pending_reset = False
         self.code_disc = None
         p = self.params
-        field = ("split_code" if p.output == "split" and p.split_code == "discriminator" else
-                 "equivalent_code" if p.output == "equivalent" and p.equivalent_code == "discriminator" else None)
+        field = (
+            "split_code"
+            if p.output == "split" and p.split_code == "discriminator"
+            else "equivalent_code"
+            if p.output == "equivalent" and p.equivalent_code == "discriminator"
+            else None
+        )
         if field is not None:
-            self.code_disc = self.params.code_discriminator.create(coherent_time_s=T,
-                                                                   early_late_spacing_chips=2 * d)
+            self.code_disc = self.params.code_discriminator.create(coherent_time_s=T, early_late_spacing_chips=2 * d)
             if context.get("cn0_dbhz") is None:
-                raise ConfigError(f"channel_filter 'iq-filter'.{field}", "'discriminator' needs the channel's "
-                                  "C/N0 (run context cn0_dbhz) for the discriminator's variance; this harness gives "
-                                  f"none: use {field} = 'new-information'")
+                raise ConfigError(
+                    f"channel_filter 'iq-filter'.{field}",
+                    "'discriminator' needs the channel's "
+                    "C/N0 (run context cn0_dbhz) for the discriminator's variance; this harness gives "
+                    f"none: use {field} = 'new-information'",
+                )
             cn0 = np.broadcast_to(np.asarray(context.get("cn0_dbhz"), float), batch_shape)
             self.code_var = np.broadcast_to(self.code_disc.noise_variance(cn0), batch_shape)
 
@@ -639,8 +723,12 @@ class IqFilter(ChannelFilter):
             lam = signal.wavelength_m
             out["line-of-sight acceleration PSD"] = (float(Q[3, 3] / T * lam**2), "m²/s³")
             out["line-of-sight jerk PSD"] = (float(Q[4, 4] / T * lam**2), "m²/s⁵")
-        out["correlator R"] = (f"adaptive ({self.params.adapter.name}, window {self.params.window})"
-                               if self.params.adapter and self.params.adaptive else "true covariance", "")
+        out["correlator R"] = (
+            f"adaptive ({self.params.adapter.name}, window {self.params.window})"
+            if self.params.adapter and self.params.adaptive
+            else "true covariance",
+            "",
+        )
         p = self.params
         code_from_disc = p.output == "equivalent" and p.equivalent_code == "discriminator"
         out["output"] = (f"{p.output} (code from {p.code_discriminator.name})" if code_from_disc else p.output, "")
@@ -652,8 +740,9 @@ class IqFilter(ChannelFilter):
         (`ClockModel.tracking_process_noise`, at ``signal``'s carrier and chip rate)."""
         Q = np.diag(np.asarray(self.params.q, float))
         if self.params.clock is not None:
-            Q[1:4, 1:4] += PRESETS[self.params.clock].tracking_process_noise(coherent_time_s, signal.carrier_freq_hz,
-                                                                            signal.chip_rate_hz)
+            Q[1:4, 1:4] += PRESETS[self.params.clock].tracking_process_noise(
+                coherent_time_s, signal.carrier_freq_hz, signal.chip_rate_hz
+            )
         return Q
 
     def _reset_prefilter(self, mean: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -677,8 +766,10 @@ class IqFilter(ChannelFilter):
 
     def _named(self, exc: NumericalError) -> NumericalError:
         """The failure with its batch elements in the harness's batch shape."""
-        where = [tuple(int(i) for i in np.unravel_index(b[0], self.batch_shape)) if len(b) == 1 else b
-                 for b in exc.batch_indices]
+        where = [
+            tuple(int(i) for i in np.unravel_index(b[0], self.batch_shape)) if len(b) == 1 else b
+            for b in exc.batch_indices
+        ]
         return type(exc)(exc.filter_name, where, exc.step, exc.detail)
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -698,7 +789,8 @@ class IqFilter(ChannelFilter):
             mean[:, 0] = np.abs(p0)
             mean[:, 2] = np.angle(p0)
             previous = prior = self.filter_step.start(
-                Gaussian(mean, np.diag(np.square(self.params.initial_std))), self.model)
+                Gaussian(mean, np.diag(np.square(self.params.initial_std))), self.model
+            )
         else:
             mean = self.state.mean.copy()
             mean[:, 1] -= self._flat(inputs["nco_shift_chips"])
@@ -728,12 +820,20 @@ class IqFilter(ChannelFilter):
         mode = self.params.output
         self.pending_reset = mode == "reset"
         if mode in ("filtered", "reset") or first:
-            out.update(code_error_chips=x[:, 1].reshape(shape), code_error_var_chips2=P[:, 1, 1].reshape(shape),
-                       freq_error_hz=x[:, 3].reshape(shape), freq_error_var_hz2=P[:, 3, 3].reshape(shape))
+            out.update(
+                code_error_chips=x[:, 1].reshape(shape),
+                code_error_var_chips2=P[:, 1, 1].reshape(shape),
+                freq_error_hz=x[:, 3].reshape(shape),
+                freq_error_var_hz2=P[:, 3, 3].reshape(shape),
+            )
             return out
         if self.code_disc is not None and mode == "split":  # split, code from the discriminator
-            out.update(code_error_chips=self.code_disc(corr), code_error_var_chips2=self.code_var,
-                       freq_error_hz=x[:, 3].reshape(shape), freq_error_var_hz2=P[:, 3, 3].reshape(shape))
+            out.update(
+                code_error_chips=self.code_disc(corr),
+                code_error_var_chips2=self.code_var,
+                freq_error_hz=x[:, 3].reshape(shape),
+                freq_error_var_hz2=P[:, 3, 3].reshape(shape),
+            )
             return out
         z, R = _equivalent_measurement(prior, upd.posterior, [1, 3])
         out.update(code_error_chips=z[:, 0].reshape(shape), code_error_var_chips2=R[:, 0, 0].reshape(shape))

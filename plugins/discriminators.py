@@ -155,7 +155,9 @@ class _FrequencyDiscriminator(Discriminator):
 
     def _pair(self, current: Correlators, previous: Correlators | None) -> np.ndarray:
         if previous is None:
-            raise ConfigError(f"discriminator {self.name!r}", "needs the previous prompt: call disc(current, previous=prev)")
+            raise ConfigError(
+                f"discriminator {self.name!r}", "needs the previous prompt: call disc(current, previous=prev)"
+            )
         return current.prompt * np.conj(previous.prompt)
 
 

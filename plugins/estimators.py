@@ -26,37 +26,55 @@ __all__ = [
 class EngineParams(PluginParams):
     """The parameters of an engine without tuning constants (none)."""
 
-    no_parameters: ClassVar[str] = ("the engine is set by the model it is given (F, H or f, h, with Q and R) and the "
-                                    "initial state; its rule has no tuning constant")
+    no_parameters: ClassVar[str] = (
+        "the engine is set by the model it is given (F, H or f, h, with Q and R) and the "
+        "initial state; its rule has no tuning constant"
+    )
 
 
 class IteratedParams(PluginParams):
     """The parameters every nonlinear engine shares: its iterated and robust update."""
 
-    iterations: int = Field(1, ge=1, le=100, description="most linearisations of the measurement update: 1 is the "
-                            "plain update; > 1 iterates (ekf: Gauss-Newton IEKF, sigma points: iterated posterior "
-                            "linearisation) until the step is below iteration_tol")
-    iteration_tol: float = Field(1e-9, ge=0, description="stopping rule of the iterations: largest state step in "
-                                 "prior standard deviations (each batch element stops on its own)")
+    iterations: int = Field(
+        1,
+        ge=1,
+        le=100,
+        description="most linearisations of the measurement update: 1 is the "
+        "plain update; > 1 iterates (ekf: Gauss-Newton IEKF, sigma points: iterated posterior "
+        "linearisation) until the step is below iteration_tol",
+    )
+    iteration_tol: float = Field(
+        1e-9,
+        ge=0,
+        description="stopping rule of the iterations: largest state step in "
+        "prior standard deviations (each batch element stops on its own)",
+    )
     robust: PluginRef("robust_update") | None = Field(  # type: ignore[valid-type]  # an Annotated type built at run time
-        None, description="robust_update plugin that reweights R from the residual (huber, cauchy, student-t); "
-        "none: the Gaussian update")
+        None,
+        description="robust_update plugin that reweights R from the residual (huber, cauchy, student-t); "
+        "none: the Gaussian update",
+    )
 
 
 class ExtendedParams(IteratedParams):
     """The EKF's: its iterations may be damped by a line search (Gauss-Newton only)."""
 
-    line_search: bool = Field(False, description="with iterations > 1 and no robust update: halve each "
-                              "Gauss-Newton step until the MAP cost does not increase (damped IEKF, Skoglund, "
-                              "Hendeby & Axehill 2015)")
+    line_search: bool = Field(
+        False,
+        description="with iterations > 1 and no robust update: halve each "
+        "Gauss-Newton step until the MAP cost does not increase (damped IEKF, Skoglund, "
+        "Hendeby & Axehill 2015)",
+    )
 
 
 class LinearParams(PluginParams):
     """The Kalman filter's one parameter: its robust update (a linear update needs no iteration)."""
 
     robust: PluginRef("robust_update") | None = Field(  # type: ignore[valid-type]  # an Annotated type built at run time
-        None, description="robust_update plugin that reweights R from the residual (huber, cauchy, student-t); "
-        "none: the Gaussian update")
+        None,
+        description="robust_update plugin that reweights R from the residual (huber, cauchy, student-t); "
+        "none: the Gaussian update",
+    )
 
 
 def _transpose(a: np.ndarray) -> np.ndarray:
@@ -149,8 +167,12 @@ class ExtendedKalmanFilter(Estimator):
 
 
 class UnscentedParams(IteratedParams):
-    alpha: float = Field(1e-3, gt=0, description="spread of the points around the mean (> 1 spreads them beyond "
-                         "sqrt(n + kappa) standard deviations, as FilterPy and Stone Soup allow)")
+    alpha: float = Field(
+        1e-3,
+        gt=0,
+        description="spread of the points around the mean (> 1 spreads them beyond "
+        "sqrt(n + kappa) standard deviations, as FilterPy and Stone Soup allow)",
+    )
     beta: float = Field(2.0, ge=0, description="prior knowledge of the distribution (2 is optimal for Gaussians)")
     kappa: float = Field(0.0, description="secondary scaling; n + kappa must stay positive")
 
@@ -263,7 +285,9 @@ class SvdCubatureKalmanFilter(CubatureKalmanFilter):
     def square_root(self, cov: np.ndarray) -> np.ndarray:
         finite = np.isfinite(cov).all(axis=(-2, -1))
         if not finite.all():
-            raise NotPositiveDefiniteError(self.name, failing_indices(finite), detail="state covariance P is not finite")
+            raise NotPositiveDefiniteError(
+                self.name, failing_indices(finite), detail="state covariance P is not finite"
+            )
         # For a symmetric P the SVD is its eigendecomposition with s = |w| (Hermitian
         # SVD, as numpy computes it): U sqrt(S) = V sqrt(|w|). Column order and signs
         # do not change the cubature point set, so eigh alone gives the same filter.

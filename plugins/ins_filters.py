@@ -49,16 +49,22 @@ N_ERROR_STATES = 15
 
 class InsEkfParams(PluginParams):
     estimator: PluginRef("estimator") = Field(
-        "kf", description="estimator plugin that runs the error-state filter (kf, ekf, ukf, ckf, svd-ckf)")
-    accel_aiding: bool = Field(True, description="deep integration: predict the NCOs with the line-of-sight "
-                               "acceleration from the corrected INS (false: the deep-no-accel candidate)")
+        "kf", description="estimator plugin that runs the error-state filter (kf, ekf, ukf, ckf, svd-ckf)"
+    )
+    accel_aiding: bool = Field(
+        True,
+        description="deep integration: predict the NCOs with the line-of-sight "
+        "acceleration from the corrected INS (false: the deep-no-accel candidate)",
+    )
     carrier_filter: PluginRef("channel_filter", provides=("carrier_freq_hz",)) | None = Field(
-        None, description="deep integration: a carrier-phase prefilter per channel on a phase discriminator that "
+        None,
+        description="deep integration: a carrier-phase prefilter per channel on a phase discriminator that "
         "closes only the carrier loop on top of the aided replica (e.g. kf-carrier-loop; Cai and Guo's (2017) "
-        "carrier-phase filter); nothing of it reaches this filter. Unset: the carrier phase is not tracked")
+        "carrier-phase filter); nothing of it reaches this filter. Unset: the carrier phase is not tracked",
+    )
     clock_psd: tuple[NonNegativeFloat, NonNegativeFloat] = Field(
-        (0.1, 0.1), description="white-noise PSDs of the NCO clock filter's bias (m^2/s) and drift (m^2/s^3), "
-        "each >= 0")
+        (0.1, 0.1), description="white-noise PSDs of the NCO clock filter's bias (m^2/s) and drift (m^2/s^3), each >= 0"
+    )
 
 
 class InsEkf(ErrorStateNavFilter):
@@ -104,7 +110,7 @@ class InsEkf(ErrorStateNavFilter):
             inner.check_context(context)
         except ConfigError as exc:
             own = f"{inner.kind} {inner.name!r}"
-            tail = exc.field[len(own):] if exc.field.startswith(own) else f".{exc.field}"
+            tail = exc.field[len(own) :] if exc.field.startswith(own) else f".{exc.field}"
             raise ConfigError(f"nav_filter {self.name!r}.carrier_filter.params{tail}", exc.detail) from None
 
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
@@ -119,8 +125,9 @@ class InsEkf(ErrorStateNavFilter):
     def aiding(self) -> IntegrationAiding:
         """The deep-integration options this filter's parameters set."""
         p = self.params
-        return IntegrationAiding(accel_aiding=p.accel_aiding, carrier_filter=p.carrier_filter,
-                                 clock_psd=tuple(p.clock_psd))
+        return IntegrationAiding(
+            accel_aiding=p.accel_aiding, carrier_filter=p.carrier_filter, clock_psd=tuple(p.clock_psd)
+        )
 
     @property
     def cov(self) -> np.ndarray:
@@ -138,9 +145,13 @@ class InsEkf(ErrorStateNavFilter):
             missing = [k for k in ("residual_cov", "los", "cn0_dbhz") if k not in inputs]
             if missing:
                 raise InvalidInputError(self.name, ", ".join(missing), "needed with residual_m (differenced update)")
-            return integration_measurement(np.asarray(inputs["residual_m"], float),
-                                           np.asarray(inputs["residual_cov"], float), np.asarray(inputs["los"], float),
-                                           reference_channel(inputs["cn0_dbhz"]), n_states=N_ERROR_STATES)
+            return integration_measurement(
+                np.asarray(inputs["residual_m"], float),
+                np.asarray(inputs["residual_cov"], float),
+                np.asarray(inputs["los"], float),
+                reference_channel(inputs["cn0_dbhz"]),
+                n_states=N_ERROR_STATES,
+            )
         if "position_velocity_error" in inputs:
             z = np.asarray(inputs["position_velocity_error"], float)
             R = np.asarray(inputs["position_velocity_cov"], float)
@@ -148,16 +159,21 @@ class InsEkf(ErrorStateNavFilter):
             H[..., 0:3, POSITION] = np.eye(3)
             H[..., 3:6, VELOCITY] = np.eye(3)
             return z, H, R
-        raise InvalidInputError(self.name, "inputs", "give residual_m (differenced update) or "
-                                "position_velocity_error (loose update)")
+        raise InvalidInputError(
+            self.name, "inputs", "give residual_m (differenced update) or position_velocity_error (loose update)"
+        )
 
     def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         runs = self.state.mean.shape[0]
         F = np.asarray(inputs.get("transition", np.eye(N_ERROR_STATES)), float)
         Q = np.asarray(inputs.get("process_noise", np.zeros((N_ERROR_STATES, N_ERROR_STATES))), float)
         z, H, R = self._measurement(inputs)
-        model = LinearModel(F=np.broadcast_to(F, (runs, N_ERROR_STATES, N_ERROR_STATES)), H=H,
-                            Q=np.broadcast_to(Q, (runs, N_ERROR_STATES, N_ERROR_STATES)), R=R)
+        model = LinearModel(
+            F=np.broadcast_to(F, (runs, N_ERROR_STATES, N_ERROR_STATES)),
+            H=H,
+            Q=np.broadcast_to(Q, (runs, N_ERROR_STATES, N_ERROR_STATES)),
+            R=R,
+        )
         post = self.filter_step(self.state, z, model).posterior
         dx = post.mean
         # Closed loop: the caller removes dx from the INS; the error estimate restarts at zero.

@@ -43,9 +43,9 @@ def ca_clock_model(T: float, jerk_psd: float, clock: str) -> tuple[np.ndarray, n
     F[VELOCITY, ACCELERATION] = T * np.eye(3)
     Q = np.zeros((11, 11))
     Q[CLOCK, CLOCK] = Q8[CLOCK, CLOCK]
-    per_axis = jerk_psd * np.array([[T**5 / 20, T**4 / 8, T**3 / 6],
-                                    [T**4 / 8, T**3 / 3, T**2 / 2],
-                                    [T**3 / 6, T**2 / 2, T]])
+    per_axis = jerk_psd * np.array(
+        [[T**5 / 20, T**4 / 8, T**3 / 6], [T**4 / 8, T**3 / 3, T**2 / 2], [T**3 / 6, T**2 / 2, T]]
+    )
     blocks = (POSITION, VELOCITY, ACCELERATION)
     for i, rows in enumerate(blocks):
         for j, cols in enumerate(blocks):
@@ -55,10 +55,15 @@ def ca_clock_model(T: float, jerk_psd: float, clock: str) -> tuple[np.ndarray, n
 
 class EkfPvaParams(PluginParams):
     estimator: PluginRef("estimator", check=handles_nonlinear) = Field(
-        "ekf", description="estimator plugin that runs the filter (ekf, ukf, ckf, svd-ckf)")
+        "ekf", description="estimator plugin that runs the filter (ekf, ukf, ckf, svd-ckf)"
+    )
     jerk_psd: float = Field(1e4, gt=0, description="white-jerk PSD of the constant-acceleration model, m²/s⁵")
-    initial_accel_std_m_s2: float = Field(1.0, gt=0, description="initial acceleration standard deviation per axis "
-                                          "(m/s²) when the run's initial state holds only ekf-pv's 8 states")
+    initial_accel_std_m_s2: float = Field(
+        1.0,
+        gt=0,
+        description="initial acceleration standard deviation per axis "
+        "(m/s²) when the run's initial state holds only ekf-pv's 8 states",
+    )
     clock: str = Field("tcxo", description="clock preset for the clock process noise: tcxo or ocxo")
     min_code_var_chips2: float = Field(1e-6, gt=0, description="floor of the code-error variance fed in as R")
     min_freq_var_hz2: float = Field(1e-4, gt=0, description="floor of the frequency-error variance fed in as R")
@@ -95,8 +100,10 @@ class EkfPositionVelocityAcceleration(EkfPositionVelocity):
             P[..., ACCELERATION, ACCELERATION] = self.params.initial_accel_std_m_s2**2 * np.eye(3)
             P0 = P
         elif x0.shape[-1] != 11 or P0.shape[-2:] != (11, 11):
-            raise ConfigError(f"nav_filter {self.name!r}.initial_state", f"needs 8 or 11 states with a matching "
-                              f"covariance; got state {x0.shape} and covariance {P0.shape}")
+            raise ConfigError(
+                f"nav_filter {self.name!r}.initial_state",
+                f"needs 8 or 11 states with a matching covariance; got state {x0.shape} and covariance {P0.shape}",
+            )
         super().reset(batch_shape, dataclasses.replace(context, initial_state=x0, initial_cov=P0))
 
     def transition(self, T: float) -> tuple[np.ndarray, np.ndarray]:

@@ -11,8 +11,16 @@ from pydantic import Field, NonNegativeFloat, PositiveFloat
 
 from gnssframework.errors import ConfigError
 from gnssframework import backend
-from gnssframework.estimation import (CompiledFunctions, FilterStep, Gaussian, LinearModel, NonlinearModel,
-                                     StepResult, linear_f, register_warm_up)
+from gnssframework.estimation import (
+    CompiledFunctions,
+    FilterStep,
+    Gaussian,
+    LinearModel,
+    NonlinearModel,
+    StepResult,
+    linear_f,
+    register_warm_up,
+)
 from gnssframework.interfaces import BatchPositionFilter, NavFilter, RunContext
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
@@ -21,8 +29,15 @@ from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.spec import SPEED_OF_LIGHT_M_S, SignalSpec
 from gnssframework.simulation.clock import PRESETS
 
-__all__ = ["EkfPositionVelocity", "PositionConstantAcceleration", "cv_clock_model", "range_rate_row",
-           "range_rate_jacobian", "pv_measurements", "pv_nco_command"]
+__all__ = [
+    "EkfPositionVelocity",
+    "PositionConstantAcceleration",
+    "cv_clock_model",
+    "range_rate_row",
+    "range_rate_jacobian",
+    "pv_measurements",
+    "pv_nco_command",
+]
 
 
 def cv_clock_model(T: float, accel_psd: float, clock: str) -> tuple[np.ndarray, np.ndarray]:
@@ -56,8 +71,11 @@ def range_rate_row(params, X, k, Z, kz):
         lz = params[c, 2] - X[k, 2]
         dist = math.sqrt(lx * lx + ly * ly + lz * lz)
         Z[kz, c] = dist + X[k, 6]
-        Z[kz, n_ch + c] = ((params[c, 3] - X[k, 3]) * (lx / dist) + (params[c, 4] - X[k, 4]) * (ly / dist)
-                           + (params[c, 5] - X[k, 5]) * (lz / dist)) + X[k, 7]
+        Z[kz, n_ch + c] = (
+            (params[c, 3] - X[k, 3]) * (lx / dist)
+            + (params[c, 4] - X[k, 4]) * (ly / dist)
+            + (params[c, 5] - X[k, 5]) * (lz / dist)
+        ) + X[k, 7]
 
 
 @backend.jit
@@ -87,13 +105,17 @@ def range_rate_jacobian(params, X, k, J):
 
 # The vector loop's navigation filter: its drivers compile in the kernels' warm-up (8
 # states, 8 channels), satellites 2e7 m out so every point is well away from them.
-register_warm_up(CompiledFunctions(linear_f, np.eye(8), range_rate_row, np.tile([2e7, 0, 0, 0, 0, 0], (8, 1)),
-                                   range_rate_jacobian), 8, 16)
+register_warm_up(
+    CompiledFunctions(linear_f, np.eye(8), range_rate_row, np.tile([2e7, 0, 0, 0, 0, 0], (8, 1)), range_rate_jacobian),
+    8,
+    16,
+)
 
 
 @backend.jit
-def _pv_measurements_body(rep_range, code, var_code, rep_rate, freq, var_freq, min_code, min_freq, chip_m, wave_m,
-                          z, R):
+def _pv_measurements_body(
+    rep_range, code, var_code, rep_rate, freq, var_freq, min_code, min_freq, chip_m, wave_m, z, R
+):
     B, c = code.shape
     for b in range(B):
         for j in range(2 * c):
@@ -125,8 +147,9 @@ def _pv_nco_body(x, half_t, sat_pos, sat_vel, rho, rate):
             l2 = sat_pos[i, 2] - r2
             dist = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
             e0, e1, e2 = l0 / dist, l1 / dist, l2 / dist
-            rate[b, i] = ((sat_vel[i, 0] - x[b, 3]) * e0 + (sat_vel[i, 1] - x[b, 4]) * e1
-                          + (sat_vel[i, 2] - x[b, 5]) * e2) + x[b, 7]
+            rate[b, i] = (
+                (sat_vel[i, 0] - x[b, 3]) * e0 + (sat_vel[i, 1] - x[b, 4]) * e1 + (sat_vel[i, 2] - x[b, 5]) * e2
+            ) + x[b, 7]
             rho[b, i] = dist + bias
 
 
@@ -143,8 +166,9 @@ def _as_rows(a, shape: tuple[int, ...]) -> np.ndarray:
     return np.array(np.broadcast_to(np.asarray(a, dtype=float), shape), dtype=float, order="C")
 
 
-def pv_measurements(rep_range, code, var_code, rep_rate, freq, var_freq, min_code: float, min_freq: float,
-                    chip_m: float, wave_m: float) -> tuple[np.ndarray, np.ndarray]:
+def pv_measurements(
+    rep_range, code, var_code, rep_rate, freq, var_freq, min_code: float, min_freq: float, chip_m: float, wave_m: float
+) -> tuple[np.ndarray, np.ndarray]:
     """``ekf-pv``'s measurement and its diagonal R from the channel outputs in one compiled
     pass: ``z = [range + chip_m code, rate - wave_m freq]``, ``R = diag(max(var_code,
     min_code) chip_m^2, max(var_freq, min_freq) wave_m^2)``, each ``(..., 2 ch)``."""
@@ -158,8 +182,9 @@ def pv_measurements(rep_range, code, var_code, rep_rate, freq, var_freq, min_cod
     return z.reshape(shape[:-1] + (2 * c,)), R.reshape(shape[:-1] + (2 * c, 2 * c))
 
 
-def pv_nco_command(x: np.ndarray, half_t: float, sat_pos: np.ndarray, sat_vel: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray]:
+def pv_nco_command(
+    x: np.ndarray, half_t: float, sat_pos: np.ndarray, sat_vel: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Range and rate of the states ``x (..., 8)`` moved ``half_t`` ahead (position by
     velocity, bias by drift) to satellites ``(ch, 3)``: ``ekf-pv``'s NCO command, compiled."""
     lead = x.shape[:-1]
@@ -174,7 +199,8 @@ def pv_nco_command(x: np.ndarray, half_t: float, sat_pos: np.ndarray, sat_vel: n
 
 class EkfPvParams(PluginParams):
     estimator: PluginRef("estimator", check=handles_nonlinear) = Field(
-        "ekf", description="estimator plugin that runs the filter (ekf, ukf, ckf, svd-ckf)")
+        "ekf", description="estimator plugin that runs the filter (ekf, ukf, ckf, svd-ckf)"
+    )
     accel_psd: float = Field(0.1, gt=0, description="white-acceleration PSD of the constant-velocity model, m²/s³")
     clock: str = Field("tcxo", description="clock preset for the clock process noise: tcxo or ocxo")
     min_code_var_chips2: float = Field(1e-6, gt=0, description="floor of the code-error variance fed in as R")
@@ -277,10 +303,18 @@ class EkfPositionVelocity(NavFilter):
         # shared by the batch, as in the vector loop: sigma-point engines then run fused.
         compiled = None
         if np.ndim(sat_pos) == 2 and np.ndim(sat_vel) == 2:
-            compiled = CompiledFunctions(linear_f, F, range_rate_row, np.concatenate([sat_pos, sat_vel], axis=-1),
-                                         range_rate_jacobian)
-        return NonlinearModel(f, h, self.Q, R, f_jacobian=lambda x: np.broadcast_to(F, x.shape[:-1] + (n_x, n_x)),
-                              h_jacobian=h_jac, compiled=compiled)
+            compiled = CompiledFunctions(
+                linear_f, F, range_rate_row, np.concatenate([sat_pos, sat_vel], axis=-1), range_rate_jacobian
+            )
+        return NonlinearModel(
+            f,
+            h,
+            self.Q,
+            R,
+            f_jacobian=lambda x: np.broadcast_to(F, x.shape[:-1] + (n_x, n_x)),
+            h_jacobian=h_jac,
+            compiled=compiled,
+        )
 
     def _measurements(self, inputs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         """z and R (Zou et al. 2018, eqs. 35-36) from the channel outputs: NumPy reference."""
@@ -291,8 +325,13 @@ class EkfPositionVelocity(NavFilter):
         R = np.zeros(var_code.shape[:-1] + (2 * var_code.shape[-1],) * 2)
         idx = np.arange(2 * var_code.shape[-1])
         R[..., idx, idx] = np.concatenate([var_code, var_rate], axis=-1)
-        z = np.concatenate([inputs["replica_range_m"] + chip_m * inputs["code_error_chips"],
-                            inputs["replica_rate_m_s"] - lam * inputs["freq_error_hz"]], axis=-1)
+        z = np.concatenate(
+            [
+                inputs["replica_range_m"] + chip_m * inputs["code_error_chips"],
+                inputs["replica_rate_m_s"] - lam * inputs["freq_error_hz"],
+            ],
+            axis=-1,
+        )
         return z, R
 
     def _nco_command(self, x: np.ndarray, sat_pos: np.ndarray, sat_vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -308,9 +347,17 @@ class EkfPositionVelocity(NavFilter):
         code = inputs["code_error_chips"]
         if self._compiled and np.ndim(code) >= 1:
             z, R = pv_measurements(
-                inputs["replica_range_m"], code, inputs["code_error_var_chips2"], inputs["replica_rate_m_s"],
-                inputs["freq_error_hz"], inputs["freq_error_var_hz2"], p.min_code_var_chips2, p.min_freq_var_hz2,
-                self.chip_length_m, self.wavelength_m)
+                inputs["replica_range_m"],
+                code,
+                inputs["code_error_var_chips2"],
+                inputs["replica_rate_m_s"],
+                inputs["freq_error_hz"],
+                inputs["freq_error_var_hz2"],
+                p.min_code_var_chips2,
+                p.min_freq_var_hz2,
+                self.chip_length_m,
+                self.wavelength_m,
+            )
         else:
             z, R = self._measurements(inputs)
         model = self._model(inputs["sat_pos_m"], inputs["sat_vel_m_s"], R)
@@ -324,20 +371,39 @@ class EkfPositionVelocity(NavFilter):
             rho, rate = pv_nco_command(x, self.T / 2, sp, sv)
         else:
             rho, rate = self._nco_command(x, sp, sv)
-        return {"position_m": x[..., 0:3], "velocity_m_s": x[..., 3:6], "clock_m": x[..., 6:8],
-                "cov": self.state.cov, "nco_range_m": rho, "nco_range_rate_m_s": rate}
+        return {
+            "position_m": x[..., 0:3],
+            "velocity_m_s": x[..., 3:6],
+            "clock_m": x[..., 6:8],
+            "cov": self.state.cov,
+            "nco_range_m": rho,
+            "nco_range_rate_m_s": rate,
+        }
 
 
 class PositionCaParams(PluginParams):
-    dt_s: float = Field(1.0, gt=0, description="epoch interval of filter(); in step() the harness's "
-                        "RunContext.epoch_interval_s is used and must equal it")
-    q0: list[NonNegativeFloat] = Field([1.0, 0.1, 0.01], min_length=3, max_length=3, description="diagonal of Q "
-                                       "per coordinate, 3 values each >= 0: position (m²), velocity, acceleration")
+    dt_s: float = Field(
+        1.0,
+        gt=0,
+        description="epoch interval of filter(); in step() the harness's "
+        "RunContext.epoch_interval_s is used and must equal it",
+    )
+    q0: list[NonNegativeFloat] = Field(
+        [1.0, 0.1, 0.01],
+        min_length=3,
+        max_length=3,
+        description="diagonal of Q per coordinate, 3 values each >= 0: position (m²), velocity, acceleration",
+    )
     r0: float = Field(1.0, gt=0, description="measurement noise variance R0 (m²)")
-    p0: list[PositiveFloat] = Field([10.0, 1.0, 0.1], min_length=3, max_length=3, description="initial variances, "
-                                    "3 values each > 0: position (m²), velocity, acceleration")
+    p0: list[PositiveFloat] = Field(
+        [10.0, 1.0, 0.1],
+        min_length=3,
+        max_length=3,
+        description="initial variances, 3 values each > 0: position (m²), velocity, acceleration",
+    )
     estimator: PluginRef("estimator") = Field(
-        "kf", description="estimator of the streaming step(); filter() takes the candidate's estimator")
+        "kf", description="estimator of the streaming step(); filter() takes the candidate's estimator"
+    )
 
 
 class PositionConstantAcceleration(BatchPositionFilter):
@@ -366,9 +432,11 @@ class PositionConstantAcceleration(BatchPositionFilter):
         know it). With a ``colored-ar1`` augmentation R0 is the variance of the AR(1)
         driving noise; its row gives the factor $1/(1-\psi^2)$ to the stationary variance."""
         q = self.params.q0
-        out = {"position process-noise variance per epoch": (float(q[0]), "m²"),
-               "velocity process-noise variance per epoch": (float(q[1]), "m²/s²"),
-               "acceleration process-noise variance per epoch": (float(q[2]), "m²/s⁴")}
+        out = {
+            "position process-noise variance per epoch": (float(q[0]), "m²"),
+            "velocity process-noise variance per epoch": (float(q[1]), "m²/s²"),
+            "acceleration process-noise variance per epoch": (float(q[2]), "m²/s⁴"),
+        }
         truth = context.get("measurement_variance_m2")
         if truth:
             out["R0 / true measurement variance (white + colored)"] = (self.params.r0 / truth, "-")

@@ -22,15 +22,24 @@ REJECTED_R_FACTOR = 1e12
 
 
 class _IterationParams(PluginParams):
-    iterations: int = Field(10, ge=2, le=200, description="most iterations of the reweighted update "
-                            "(iteration 0 is the Gaussian update)")
-    tol: float = Field(1e-9, ge=0, description="stopping rule: largest state step between iterations, in prior "
-                       "standard deviations (each batch element stops on its own)")
+    iterations: int = Field(
+        10, ge=2, le=200, description="most iterations of the reweighted update (iteration 0 is the Gaussian update)"
+    )
+    tol: float = Field(
+        1e-9,
+        ge=0,
+        description="stopping rule: largest state step between iterations, in prior "
+        "standard deviations (each batch element stops on its own)",
+    )
 
 
 class MEstimatorParams(_IterationParams):
-    threshold: float = Field(1.345, gt=0, description="tuning constant c, in standard deviations of the whitened "
-                             "residual (Huber: 1.345 gives 95 % efficiency on Gaussian noise; Cauchy: 2.385)")
+    threshold: float = Field(
+        1.345,
+        gt=0,
+        description="tuning constant c, in standard deviations of the whitened "
+        "residual (Huber: 1.345 gives 95 % efficiency on Gaussian noise; Cauchy: 2.385)",
+    )
 
 
 def huber_weight(r: np.ndarray, c: float) -> np.ndarray:
@@ -64,8 +73,12 @@ class HuberUpdate(RobustUpdate):
 
 
 class CauchyParams(MEstimatorParams):
-    threshold: float = Field(2.385, gt=0, description="tuning constant c, in standard deviations of the whitened "
-                             "residual (2.385 gives 95 % efficiency on Gaussian noise)")
+    threshold: float = Field(
+        2.385,
+        gt=0,
+        description="tuning constant c, in standard deviations of the whitened "
+        "residual (2.385 gives 95 % efficiency on Gaussian noise)",
+    )
 
 
 class CauchyUpdate(RobustUpdate):
@@ -82,8 +95,11 @@ class CauchyUpdate(RobustUpdate):
 
 
 class StudentTParams(_IterationParams):
-    dof: float = Field(3.0, gt=0, description="degrees of freedom nu of the Student-t measurement noise "
-                       "(small: heavy tails; large: Gaussian)")
+    dof: float = Field(
+        3.0,
+        gt=0,
+        description="degrees of freedom nu of the Student-t measurement noise (small: heavy tails; large: Gaussian)",
+    )
 
 
 class StudentTUpdate(RobustUpdate):
@@ -114,9 +130,14 @@ class StudentTUpdate(RobustUpdate):
 
 
 class GateParams(PluginParams):
-    false_alarm: float = Field(1e-3, gt=0, lt=1, description="probability that a measurement without an "
-                               "outlier is rejected: the gate is the chi-square quantile 1 - false_alarm with m "
-                               "degrees of freedom")
+    false_alarm: float = Field(
+        1e-3,
+        gt=0,
+        lt=1,
+        description="probability that a measurement without an "
+        "outlier is rejected: the gate is the chi-square quantile 1 - false_alarm with m "
+        "degrees of freedom",
+    )
 
 
 class InnovationGate(RobustUpdate):

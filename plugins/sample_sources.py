@@ -25,8 +25,10 @@ __all__ = ["RealInt8", "ComplexInt8", "ComplexUint8", "ComplexInt16", "ComplexFl
 class FormatParams(PluginParams):
     """The parameters of a sample format (none)."""
 
-    no_parameters: ClassVar[str] = ("the format fixes the sample layout; the sample rate, IF and Q sign are the "
-                                    "recording's (its SigMF metadata or --fs, --if, --q-sign)")
+    no_parameters: ClassVar[str] = (
+        "the format fixes the sample layout; the sample rate, IF and Q sign are the "
+        "recording's (its SigMF metadata or --fs, --if, --q-sign)"
+    )
 
 
 def _to_int(x: np.ndarray, dtype) -> np.ndarray:

@@ -41,8 +41,10 @@ class GpsL2c(Signal):
 
     name = "gps-l2c"
     spec = GPS_L2C
-    description = ("GPS L2C: CM (10230 chips, 20 ms, 50 sps) and CL (767250 chips, 1.5 s) alternating at "
-                   "1.023 Mchip/s on 1227.6 MHz, PRN 1-32")
+    description = (
+        "GPS L2C: CM (10230 chips, 20 ms, 50 sps) and CL (767250 chips, 1.5 s) alternating at "
+        "1.023 Mchip/s on 1227.6 MHz, PRN 1-32"
+    )
 
 
 class QzssL2c(Signal):
@@ -58,5 +60,6 @@ class BeidouB1c(Signal):
 
     name = "beidou-b1c"
     spec = BEIDOU_B1C
-    description = ("BeiDou B1C: 10230-chip Weil codes (10 ms) at 1.023 Mchip/s, BOC(1,1) replica, pilot and "
-                   "100 sps data, PRN 1-63")
+    description = (
+        "BeiDou B1C: 10230-chip Weil codes (10 ms) at 1.023 Mchip/s, BOC(1,1) replica, pilot and 100 sps data, PRN 1-63"
+    )

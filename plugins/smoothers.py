@@ -62,8 +62,10 @@ def _window_assumptions(gain: float, dt: float | None) -> dict[str, tuple[Any, s
     """
     if dt is None:
         return {}
-    return {"smoothing time constant": (float(dt / gain), "s"),
-            "noise-equivalent window": (float((2.0 / gain - 1.0) * dt), "s")}
+    return {
+        "smoothing time constant": (float(dt / gain), "s"),
+        "noise-equivalent window": (float((2.0 / gain - 1.0) * dt), "s"),
+    }
 
 
 def _slip_assumption(threshold: float) -> dict[str, tuple[Any, str]]:
@@ -76,8 +78,12 @@ def _truth_drift(context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
 
 
 class _SlipParams(PluginParams):
-    slip_threshold_m: float = Field(0.0, ge=0, description="code-minus-carrier jump that declares a cycle slip and "
-                                    "resets the smoother; 0 switches detection off")
+    slip_threshold_m: float = Field(
+        0.0,
+        ge=0,
+        description="code-minus-carrier jump that declares a cycle slip and "
+        "resets the smoother; 0 switches detection off",
+    )
 
 
 def _slip(rho, predicted, threshold: float) -> np.ndarray:
@@ -166,7 +172,8 @@ class KalmanSmootherParams(_SlipParams):
     q: float = Field(1e-3, gt=0, description="process noise Q (m²) of the carrier-propagated range")
     r: float = Field(1.0, gt=0, description="pseudorange noise R (m²)")
     adapter: PluginRef("noise_adapter") | None = Field(
-        None, description="noise adapter for Q, e.g. 'ml-q' (CN105068097 patent 2015)")
+        None, description="noise adapter for Q, e.g. 'ml-q' (CN105068097 patent 2015)"
+    )
     adapter_params: dict[str, Any] = Field(default_factory=dict, description="parameters of the adapter")
 
 
@@ -204,8 +211,11 @@ class KalmanSmoother(ChannelFilter):
         p = self.params
         self.engine = registry.create("estimator", "kf")
         # adapter_params (the flat form) win over the reference's own params.
-        self.adapter = (dataclasses.replace(p.adapter, params={**p.adapter.params, **p.adapter_params}).create()
-                        if p.adapter else None)
+        self.adapter = (
+            dataclasses.replace(p.adapter, params={**p.adapter.params, **p.adapter_params}).create()
+            if p.adapter
+            else None
+        )
         self.filter_step = FilterStep(self.engine, self.adapter, name=f"{self.name} (kf)")
 
     def assumptions(self, context: Mapping[str, Any]) -> dict[str, tuple[Any, str]]:
@@ -229,9 +239,15 @@ class KalmanSmoother(ChannelFilter):
         if self.adapter is None:
             return "none"
         ap = self.adapter.params
-        parts = [f"{label} {getattr(ap, field):g}{unit}" for field, label, unit in
-                 (("window", "window", ""), ("warmup", "warm-up", ""), ("q_ceiling", "Q ceiling", " Q0"))
-                 if hasattr(ap, field)]
+        parts = [
+            f"{label} {getattr(ap, field):g}{unit}"
+            for field, label, unit in (
+                ("window", "window", ""),
+                ("warmup", "warm-up", ""),
+                ("q_ceiling", "Q ceiling", " Q0"),
+            )
+            if hasattr(ap, field)
+        ]
         return f"{self.adapter.name} ({', '.join(parts)})" if parts else self.adapter.name
 
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
@@ -244,7 +260,8 @@ class KalmanSmoother(ChannelFilter):
         if self.state is None:
             # The first epoch only initialises (from the code): filter steps start at epoch 1.
             self.state = self.filter_step.start(
-                Gaussian(rho[..., None], np.broadcast_to(self.base.R, rho.shape + (1, 1))), self.base, first_step=1)
+                Gaussian(rho[..., None], np.broadcast_to(self.base.R, rho.shape + (1, 1))), self.base, first_step=1
+            )
             self.phi = phi
             return {"smoothed_m": rho.copy(), "slip_detected": np.zeros(rho.shape, bool)}
         model = LinearModel(self.base.F, self.base.H, self.base.Q, self.base.R, u=(phi - self.phi)[..., None])

@@ -92,8 +92,9 @@ def builtin_plugins(kind: str | None = None) -> list:
     sorted by kind then name. A test of the built-ins selects these, never the whole registry:
     a plugin another package installed beside the project (its ``coherent-eml``), or one a
     test registered at run time, is not a built-in (tests/core/test_outside_plugin.py)."""
-    return [i for i in gf.registry.describe()
-            if i.distribution == BUILTIN_DISTRIBUTION and (kind is None or i.kind == kind)]
+    return [
+        i for i in gf.registry.describe() if i.distribution == BUILTIN_DISTRIBUTION and (kind is None or i.kind == kind)
+    ]
 
 
 def builtin_names(kind: str) -> list[str]:

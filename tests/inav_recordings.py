@@ -55,8 +55,12 @@ def write_inav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
     n = int(round(CHUNK_S * FS))
     source = registry.create("sample_source", "ci16_le")
     t_sv0 = satellite_time(sats, np.array(tow0))
-    symbols = [inav.inav_symbols(sats.subset(np.array([k])), WN, float(t_sv0[k]) - 0.1,
-                                 int(duration_s * inav.SYMBOL_RATE_HZ) + 50) for k in range(sats.sv.size)]
+    symbols = [
+        inav.inav_symbols(
+            sats.subset(np.array([k])), WN, float(t_sv0[k]) - 0.1, int(duration_s * inav.SYMBOL_RATE_HZ) + 50
+        )
+        for k in range(sats.sv.size)
+    ]
     phase = np.zeros(sats.sv.size)
     period = SIGNAL.code_period_s
     with open(path, "wb") as out:
@@ -68,11 +72,22 @@ def write_inav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
             for k in range(sats.sv.size):
                 bits, into = symbols[k]
                 first_tsv = float(t_sv0[k]) - 0.1 - into  # satellite time of the first symbol's edge
-                x += generate_if_samples(int(sats.sv[k][1:]), CHUNK_S, FS, 0.0, cn0_dbhz, rng, doppler_hz=doppler[k],
-                                         code_phase_chips=(start[k] / period % 1.0) * SIGNAL.code_length_chips,
-                                         carrier_phase_rad=phase[k], complex_samples=True,
-                                         data_bits=bits.astype(float), first_bit_edge_s=first_tsv - start[k],
-                                         noise=False, signal=SIGNAL).samples
+                x += generate_if_samples(
+                    int(sats.sv[k][1:]),
+                    CHUNK_S,
+                    FS,
+                    0.0,
+                    cn0_dbhz,
+                    rng,
+                    doppler_hz=doppler[k],
+                    code_phase_chips=(start[k] / period % 1.0) * SIGNAL.code_length_chips,
+                    carrier_phase_rad=phase[k],
+                    complex_samples=True,
+                    data_bits=bits.astype(float),
+                    first_bit_edge_s=first_tsv - start[k],
+                    noise=False,
+                    signal=SIGNAL,
+                ).samples
                 phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
             x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
             out.write(source.encode(x * 300.0))

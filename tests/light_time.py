@@ -32,7 +32,8 @@ def signal_flight(eph: Ephemerides, t_rx: float | np.ndarray, receiver: np.ndarr
         st = satellite_state(eph, t_rx - tau)
         th = OMEGA_E * tau
         p = st.position_m
-        rot = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1],
-                        p[:, 2]], axis=1)
+        rot = np.stack(
+            [np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1], p[:, 2]], axis=1
+        )
         tau = np.linalg.norm(rot - receiver, axis=1) / C
     return Flight(tau, st.clock_l1_s, rot)

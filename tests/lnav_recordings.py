@@ -58,10 +58,16 @@ def true_dopplers(sats, tow0: float, duration_s: float) -> np.ndarray:
     return np.array([_chunk_doppler(sats, tow0 + c * CHUNK_S) for c in range(int(round(duration_s / CHUNK_S)))])
 
 
-def write_lnav_recording(path: Path, sats, tow0: float, duration_s: float, seed: int,
-                         blank: tuple[int, float, float] | None = None,
-                         cn0_dbhz: float | Callable[[float], float] = 45.0,
-                         code_delay: tuple[int, float, float] | None = None) -> Path:
+def write_lnav_recording(
+    path: Path,
+    sats,
+    tow0: float,
+    duration_s: float,
+    seed: int,
+    blank: tuple[int, float, float] | None = None,
+    cn0_dbhz: float | Callable[[float], float] = 45.0,
+    code_delay: tuple[int, float, float] | None = None,
+) -> Path:
     """Write ``duration_s`` of the satellites ``sats`` (an `Ephemerides`) from GPS time
     ``tow0`` to ``path`` (``.sigmf-data`` with its metadata); ``blank`` = (index of a
     satellite, start s, end s) leaves that satellite out of the chunks starting in
@@ -73,8 +79,10 @@ def write_lnav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
     n = int(round(CHUNK_S * FS))
     source = registry.create("sample_source", "ci16_le")
     t_sv0 = _satellite_time(sats, np.array(tow0))
-    symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), WEEK, float(t_sv0[k]) - 0.1, int(duration_s * 50) + 20)
-               for k in range(sats.sv.size)]
+    symbols = [
+        lnav.lnav_symbols(sats.subset(np.array([k])), WEEK, float(t_sv0[k]) - 0.1, int(duration_s * 50) + 20)
+        for k in range(sats.sv.size)
+    ]
     phase = np.zeros(sats.sv.size)
     cn0_at = cn0_dbhz if callable(cn0_dbhz) else (lambda t_s: cn0_dbhz)
     with open(path, "wb") as out:
@@ -92,10 +100,21 @@ def write_lnav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
                 tsv = start[k]
                 if code_delay is not None and k == code_delay[0] and t0 >= code_delay[1]:
                     tsv = tsv - code_delay[2] / C  # the code transmitted that much earlier
-                x += generate_if_samples(int(sats.sv[k][1:]), CHUNK_S, FS, 0.0, cn0_at(t0), rng, doppler_hz=doppler[k],
-                                         code_phase_chips=(tsv * 1e3 % 1.0) * 1023, carrier_phase_rad=phase[k],
-                                         complex_samples=True, data_bits=bits,
-                                         first_bit_edge_s=first_tsv - start[k], noise=False).samples
+                x += generate_if_samples(
+                    int(sats.sv[k][1:]),
+                    CHUNK_S,
+                    FS,
+                    0.0,
+                    cn0_at(t0),
+                    rng,
+                    doppler_hz=doppler[k],
+                    code_phase_chips=(tsv * 1e3 % 1.0) * 1023,
+                    carrier_phase_rad=phase[k],
+                    complex_samples=True,
+                    data_bits=bits,
+                    first_bit_edge_s=first_tsv - start[k],
+                    noise=False,
+                ).samples
                 phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
             x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
             out.write(source.encode(x * 300.0))

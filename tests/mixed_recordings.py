@@ -58,14 +58,17 @@ def highest(nav: Ephemerides, t: float, n: int) -> Ephemerides:
 def write_mixed_nav(path: Path, gps: Ephemerides) -> Path:
     """A RINEX 3.04 mixed navigation file: the ``gps`` records (`write_rinex_nav`) and every
     Galileo record of the I/NAV excerpt, for ``receive --ephemeris``."""
-    gps_file = write_rinex_nav(path.with_suffix(".gps"), [NavRecord(int(s[1:]), gps.subset(np.array([k])), GPS_WEEK,
-                                                                    TOE_S) for k, s in enumerate(gps.sv)])
+    gps_file = write_rinex_nav(
+        path.with_suffix(".gps"),
+        [NavRecord(int(s[1:]), gps.subset(np.array([k])), GPS_WEEK, TOE_S) for k, s in enumerate(gps.sv)],
+    )
     body = []
     for f in (gps_file, GALILEO_NAV):
         lines = f.read_text().splitlines(keepends=True)
-        body += lines[next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1:]
-    header = (f"{'3.04':>9}{'':11}{'N: GNSS NAV DATA':<20}{'M: MIXED':<20}RINEX VERSION / TYPE\n"
-              f"{'':60}END OF HEADER       \n")
+        body += lines[next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1 :]
+    header = (
+        f"{'3.04':>9}{'':11}{'N: GNSS NAV DATA':<20}{'M: MIXED':<20}RINEX VERSION / TYPE\n{'':60}END OF HEADER       \n"
+    )
     path.write_text(header + "".join(body))
     gps_file.unlink()
     return path
@@ -76,8 +79,9 @@ def _satellite_time(eph, t_rx):
     return t_rx - tau + clock
 
 
-def write_mixed_recording(path: Path, gps, galileo, tow0: float, duration_s: float, seed: int,
-                          cn0_dbhz: float = 45.0) -> Path:
+def write_mixed_recording(
+    path: Path, gps, galileo, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0
+) -> Path:
     """Write ``duration_s`` of the GPS records ``gps`` and the Galileo ones ``galileo`` from time ``tow0``."""
     rng = np.random.default_rng(seed)
     n = int(round(CHUNK_S * FS))
@@ -86,11 +90,22 @@ def write_mixed_recording(path: Path, gps, galileo, tow0: float, duration_s: flo
     for sats, signal in ((gps, GPS_L1CA), (galileo, GALILEO_E1B_BOC11)):
         t_sv0 = _satellite_time(sats, np.array(tow0))
         if signal is GPS_L1CA:
-            data = [lnav.lnav_symbols(sats.subset(np.array([k])), GPS_WEEK, float(t_sv0[k]) - 0.1,
-                                      int(duration_s * 50) + 20) for k in range(sats.sv.size)]
+            data = [
+                lnav.lnav_symbols(
+                    sats.subset(np.array([k])), GPS_WEEK, float(t_sv0[k]) - 0.1, int(duration_s * 50) + 20
+                )
+                for k in range(sats.sv.size)
+            ]
         else:
-            data = [inav.inav_symbols(sats.subset(np.array([k])), GPS_WEEK - 1024, float(t_sv0[k]) - 0.1,
-                                      int(duration_s * inav.SYMBOL_RATE_HZ) + 50) for k in range(sats.sv.size)]
+            data = [
+                inav.inav_symbols(
+                    sats.subset(np.array([k])),
+                    GPS_WEEK - 1024,
+                    float(t_sv0[k]) - 0.1,
+                    int(duration_s * inav.SYMBOL_RATE_HZ) + 50,
+                )
+                for k in range(sats.sv.size)
+            ]
         groups.append((sats, signal, t_sv0, data, np.zeros(sats.sv.size)))
     with open(path, "wb") as out:
         for c in range(int(round(duration_s / CHUNK_S))):
@@ -103,11 +118,22 @@ def write_mixed_recording(path: Path, gps, galileo, tow0: float, duration_s: flo
                     bits, into = data[k]
                     first_tsv = float(t_sv0[k]) - 0.1 - into
                     chips = (start[k] / signal.code_period_s % 1.0) * signal.code_length_chips
-                    x += generate_if_samples(int(sats.sv[k][1:]), CHUNK_S, FS, 0.0, cn0_dbhz, rng,
-                                             doppler_hz=doppler[k], code_phase_chips=chips,
-                                             carrier_phase_rad=phase[k], complex_samples=True,
-                                             data_bits=np.asarray(bits, float), first_bit_edge_s=first_tsv - start[k],
-                                             noise=False, signal=signal).samples
+                    x += generate_if_samples(
+                        int(sats.sv[k][1:]),
+                        CHUNK_S,
+                        FS,
+                        0.0,
+                        cn0_dbhz,
+                        rng,
+                        doppler_hz=doppler[k],
+                        code_phase_chips=chips,
+                        carrier_phase_rad=phase[k],
+                        complex_samples=True,
+                        data_bits=np.asarray(bits, float),
+                        first_bit_edge_s=first_tsv - start[k],
+                        noise=False,
+                        signal=signal,
+                    ).samples
                     phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
             x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
             out.write(source.encode(x * 300.0))

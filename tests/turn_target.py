@@ -49,8 +49,15 @@ def turn_row(params, X, k, Y):
 def turn(x: np.ndarray) -> np.ndarray:
     """The NumPy transition, batch-first: ``x`` ``(..., 4)``."""
     px, py, vx, vy = np.moveaxis(x, -1, 0)
-    return np.stack([px + (SIN * vx - (1.0 - COS) * vy) / OMEGA, py + ((1.0 - COS) * vx + SIN * vy) / OMEGA,
-                     COS * vx - SIN * vy, SIN * vx + COS * vy], axis=-1)
+    return np.stack(
+        [
+            px + (SIN * vx - (1.0 - COS) * vy) / OMEGA,
+            py + ((1.0 - COS) * vx + SIN * vy) / OMEGA,
+            COS * vx - SIN * vy,
+            SIN * vx + COS * vy,
+        ],
+        axis=-1,
+    )
 
 
 TURN_F = turn(np.eye(4)).T  # the transition is linear: columns are the images of the unit vectors

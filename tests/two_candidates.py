@@ -7,8 +7,7 @@ from __future__ import annotations
 import json
 
 
-def two_candidate_config(name: str, *, top: str = "", case_fields: str = "", sweeps: str = "",
-                         claims: str = "") -> str:
+def two_candidate_config(name: str, *, top: str = "", case_fields: str = "", sweeps: str = "", claims: str = "") -> str:
     """The TOML text; ``top`` goes with the top-level keys, ``case_fields`` into the case,
     ``sweeps`` before the candidates and ``claims`` after them."""
     return f"""name = "{name}"
@@ -56,5 +55,5 @@ def evaluate_stored(tmp_path, claims: str, a, b, top: str = ""):
     store.register(key, config.batch_size)
     for name, values in (("a", a), ("b", b)):
         for first in (0, 2):
-            store.add_batch(key, "only", name, first, {m: values[first:first + 2] for m in config.metric_names})
+            store.add_batch(key, "only", name, first, {m: values[first : first + 2] for m in config.metric_names})
     return evaluate_claims(config, store), config, store

@@ -28,12 +28,19 @@ FILES = {
 
 def main(shared: Path = SHARED) -> None:
     acq = registry.create("acquisition", "pcps", noncoherent=8, xcorr_margin_db=None)
-    print("| file | PRN | PocketSDR | E1-B C/N0 (dB-Hz) | E1-B Doppler (Hz) | E1-B code phase (samples) "
-          "| E1-C C/N0 | E1-C Doppler | E1-C code phase | E1-B stat / threshold | confirmed |")
+    print(
+        "| file | PRN | PocketSDR | E1-B C/N0 (dB-Hz) | E1-B Doppler (Hz) | E1-B code phase (samples) "
+        "| E1-C C/N0 | E1-C Doppler | E1-C code phase | E1-B stat / threshold | confirmed |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for label, (name, fmt, fs, if_hz, q_sign, listed) in FILES.items():
-        rec = open_recording(shared / "data" / "if" / name, format=fmt, sample_rate_hz=fs, if_hz=if_hz,
-                             **({} if q_sign is None else {"q_sign": q_sign}))
+        rec = open_recording(
+            shared / "data" / "if" / name,
+            format=fmt,
+            sample_rate_hz=fs,
+            if_hz=if_hz,
+            **({} if q_sign is None else {"q_sign": q_sign}),
+        )
         x = rec.read(0, acq.samples_needed(fs, GALILEO_E1B_BOC11))
         b = {r.prn: r for r in acq.acquire(x, fs, if_hz, signal=GALILEO_E1B_BOC11)}
         c = {r.prn: r for r in acq.acquire(x, fs, if_hz, signal=GALILEO_E1C_BOC11)}
@@ -41,15 +48,24 @@ def main(shared: Path = SHARED) -> None:
             rb, rc = b[p], c[p]
             if not (rb.detected or rc.detected or p in listed):
                 continue
-            ok = (rb.detected and rc.detected and abs(rb.doppler_hz - rc.doppler_hz) <= 250
-                  and abs(rb.code_phase_samples - rc.code_phase_samples) <= 1)
-            print(f"| {label} | {p} | {'yes' if p in listed else ''} | {rb.cn0_dbhz:.1f}{'' if rb.detected else ' (no)'}"
-                  f" | {rb.doppler_hz:.0f} | {rb.code_phase_samples} | {rc.cn0_dbhz:.1f}"
-                  f"{'' if rc.detected else ' (no)'} | {rc.doppler_hz:.0f} | {rc.code_phase_samples} "
-                  f"| {rb.test_statistic / rb.threshold:.2f} | {'yes' if ok else 'no'} |", flush=True)
+            ok = (
+                rb.detected
+                and rc.detected
+                and abs(rb.doppler_hz - rc.doppler_hz) <= 250
+                and abs(rb.code_phase_samples - rc.code_phase_samples) <= 1
+            )
+            print(
+                f"| {label} | {p} | {'yes' if p in listed else ''} | {rb.cn0_dbhz:.1f}{'' if rb.detected else ' (no)'}"
+                f" | {rb.doppler_hz:.0f} | {rb.code_phase_samples} | {rc.cn0_dbhz:.1f}"
+                f"{'' if rc.detected else ' (no)'} | {rc.doppler_hz:.0f} | {rc.code_phase_samples} "
+                f"| {rb.test_statistic / rb.threshold:.2f} | {'yes' if ok else 'no'} |",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--shared", type=Path, default=SHARED, help=f"the shared folder holding data/if/ (default {SHARED})")
+    ap.add_argument(
+        "--shared", type=Path, default=SHARED, help=f"the shared folder holding data/if/ (default {SHARED})"
+    )
     main(ap.parse_args().shared)

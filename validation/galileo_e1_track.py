@@ -34,16 +34,31 @@ FS, T, D = 4e6, 4e-3, 0.2
 
 
 def main(prn: int, shared: Path = SHARED) -> None:
-    rec = open_recording(shared / "data" / "if" / "pocketsdr_L1_20211202_084700_4MHz_IQ.bin", format="ci8",
-                         sample_rate_hz=FS, if_hz=0.0, q_sign=-1)
+    rec = open_recording(
+        shared / "data" / "if" / "pocketsdr_L1_20211202_084700_4MHz_IQ.bin",
+        format="ci8",
+        sample_rate_hz=FS,
+        if_hz=0.0,
+        q_sign=-1,
+    )
     x = np.asarray(rec.read(0, rec.n_samples), np.complex64)
     acq = registry.create("acquisition", "pcps", noncoherent=4, doppler_max_hz=5000.0, xcorr_margin_db=None)
-    r = acq.acquire(x[:acq.samples_needed(FS, SPEC)], FS, 0.0, prns=(prn,), signal=SPEC)[0]
-    print(f"acquisition: PRN {prn} detected {r.detected}, Doppler {r.doppler_hz:.1f} Hz, code start sample "
-          f"{r.code_phase_samples}, C/N0 {r.cn0_dbhz:.1f} dB-Hz")
-    source = SampleSource(x, FS, 0.0, replica_codes(SPEC, (prn,)), T, early_late_spacing_chips=D,
-                          noise_std=float(np.std(x.real)), start_sample=r.code_phase_samples,
-                          subchips_per_chip=SPEC.subchips_per_chip)
+    r = acq.acquire(x[: acq.samples_needed(FS, SPEC)], FS, 0.0, prns=(prn,), signal=SPEC)[0]
+    print(
+        f"acquisition: PRN {prn} detected {r.detected}, Doppler {r.doppler_hz:.1f} Hz, code start sample "
+        f"{r.code_phase_samples}, C/N0 {r.cn0_dbhz:.1f} dB-Hz"
+    )
+    source = SampleSource(
+        x,
+        FS,
+        0.0,
+        replica_codes(SPEC, (prn,)),
+        T,
+        early_late_spacing_chips=D,
+        noise_std=float(np.std(x.real)),
+        start_sample=r.code_phase_samples,
+        subchips_per_chip=SPEC.subchips_per_chip,
+    )
     cs = np.array(GALILEO_E1C_SECONDARY_CS25, float)
     channel = Channel.start((1,), 0.0, r.doppler_hz, signal=SPEC)
     prompts = []
@@ -53,8 +68,7 @@ def main(prn: int, shared: Path = SHARED) -> None:
         channel.steer_frequency(channel.carrier_freq_hz, channel.code_rate_chips_s)
     sync = overlay_sync(np.array(prompts), cs, T)
     shift, df = sync.shift, sync.freq_error_hz
-    print(f"secondary code: phase {shift}, score {sync.margin:.2f} x the runner-up, frequency correction "
-          f"{df:+.1f} Hz")
+    print(f"secondary code: phase {shift}, score {sync.margin:.2f} x the runner-up, frequency correction {df:+.1f} Hz")
     channel = Channel.start((1,), 0.0, r.doppler_hz + df, signal=SPEC)
     closer = ScalarCloser(registry.create("channel_filter", "scalar"))
     closer.reset(channel, T, early_late_spacing_chips=D, cn0_dbhz=40.0)
@@ -71,14 +85,18 @@ def main(prn: int, shared: Path = SHARED) -> None:
     p = np.array(tracked)[25:]
     same = np.mean(np.sign(p.real) == np.sign(np.sum(p.real)))
     cn0 = 10 * np.log10(np.mean(p.real) ** 2 / (2 * np.var(p.imag)) / T)
-    print(f"tracked {n} intervals ({n * T:.3f} s); after the first 25: {same:.3f} of the prompts of one sign, "
-          f"mean |I| / mean |Q| = {np.mean(np.abs(p.real)) / np.mean(np.abs(p.imag)):.1f}, C/N0 from the prompts "
-          f"{cn0:.1f} dB-Hz, carrier NCO {freq[0]:.1f} -> {freq[-1]:.1f} Hz")
+    print(
+        f"tracked {n} intervals ({n * T:.3f} s); after the first 25: {same:.3f} of the prompts of one sign, "
+        f"mean |I| / mean |Q| = {np.mean(np.abs(p.real)) / np.mean(np.abs(p.imag)):.1f}, C/N0 from the prompts "
+        f"{cn0:.1f} dB-Hz, carrier NCO {freq[0]:.1f} -> {freq[-1]:.1f} Hz"
+    )
 
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("prn", type=int, nargs="?", default=27, help="the Galileo PRN to track (default 27)")
-    ap.add_argument("--shared", type=Path, default=SHARED, help=f"the shared folder holding data/if/ (default {SHARED})")
+    ap.add_argument(
+        "--shared", type=Path, default=SHARED, help=f"the shared folder holding data/if/ (default {SHARED})"
+    )
     args = ap.parse_args()
     main(args.prn, args.shared)

@@ -69,9 +69,20 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import sim_truth  # noqa: E402
+
 # NAV and simulate are imported from here by gps_sdr_sim_weak.
-from gps_sdr_sim_run import (CIRCLE_RADIUS_M, CIRCLE_SPEED_MPS, LOCATION, NAV, Checks,  # noqa: E402
-                             SimulatorError, circle_truth, exit_unavailable, noisy_recording, rinex_read_back)
+from gps_sdr_sim_run import (
+    CIRCLE_RADIUS_M,
+    CIRCLE_SPEED_MPS,
+    LOCATION,
+    NAV,
+    Checks,  # noqa: E402
+    SimulatorError,
+    circle_truth,
+    exit_unavailable,
+    noisy_recording,
+    rinex_read_back,
+)
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
@@ -86,15 +97,42 @@ from gnssframework.receiver.frontend import open_recording  # noqa: E402
 
 PI = 3.1415926535898
 # One LSB of each field, typed from IS-GPS-200 Tables 20-I and 20-III (angles: semicircles x pi).
-LSB = {"SVclockBias": 2.0**-31, "SVclockDrift": 2.0**-43, "SVclockDriftRate": 2.0**-55, "TGD": 2.0**-31,
-       "Crs": 2.0**-5, "Crc": 2.0**-5, "Cuc": 2.0**-29, "Cus": 2.0**-29, "Cic": 2.0**-29, "Cis": 2.0**-29,
-       "DeltaN": 2.0**-43 * PI, "M0": 2.0**-31 * PI, "Omega0": 2.0**-31 * PI, "Io": 2.0**-31 * PI,
-       "omega": 2.0**-31 * PI, "OmegaDot": 2.0**-43 * PI, "IDOT": 2.0**-43 * PI, "Eccentricity": 2.0**-33,
-       "sqrtA": 2.0**-19, "Toe": 16.0}
+LSB = {
+    "SVclockBias": 2.0**-31,
+    "SVclockDrift": 2.0**-43,
+    "SVclockDriftRate": 2.0**-55,
+    "TGD": 2.0**-31,
+    "Crs": 2.0**-5,
+    "Crc": 2.0**-5,
+    "Cuc": 2.0**-29,
+    "Cus": 2.0**-29,
+    "Cic": 2.0**-29,
+    "Cis": 2.0**-29,
+    "DeltaN": 2.0**-43 * PI,
+    "M0": 2.0**-31 * PI,
+    "Omega0": 2.0**-31 * PI,
+    "Io": 2.0**-31 * PI,
+    "omega": 2.0**-31 * PI,
+    "OmegaDot": 2.0**-43 * PI,
+    "IDOT": 2.0**-43 * PI,
+    "Eccentricity": 2.0**-33,
+    "sqrtA": 2.0**-19,
+    "Toe": 16.0,
+}
 #: rnx2rtkp's options (its configuration file): a single-point solution modelled as ours.
-RTKLIB_OPTIONS = {"pos1-posmode": "single", "pos1-navsys": "1", "pos1-elmask": "5", "pos1-ionoopt": "brdc",
-                  "pos1-tropopt": "off", "pos1-sateph": "brdc", "pos1-posopt5": "off", "out-solformat": "xyz",
-                  "out-timesys": "gpst", "out-timeform": "tow", "out-timendec": "3"}
+RTKLIB_OPTIONS = {
+    "pos1-posmode": "single",
+    "pos1-navsys": "1",
+    "pos1-elmask": "5",
+    "pos1-ionoopt": "brdc",
+    "pos1-tropopt": "off",
+    "pos1-sateph": "brdc",
+    "pos1-posopt5": "off",
+    "out-solformat": "xyz",
+    "out-timesys": "gpst",
+    "out-timeform": "tow",
+    "out-timendec": "3",
+}
 ALPHA_LSB = np.array([2.0**-30, 2.0**-27, 2.0**-24, 2.0**-24])
 BETA_LSB = np.array([2.0**11, 2.0**14, 2.0**16, 2.0**16])
 
@@ -107,8 +145,9 @@ def rtklib_positions(obs_path: Path, nav_path: Path, work: Path) -> tuple[np.nda
         return None
     conf, out = work / "spp.conf", work / "rtklib.pos"
     conf.write_text("".join(f"{k:<18}={v}\n" for k, v in RTKLIB_OPTIONS.items()))
-    subprocess.run([exe, "-k", str(conf), "-o", str(out), str(obs_path), str(nav_path)], check=True,
-                   capture_output=True, text=True)
+    subprocess.run(
+        [exe, "-k", str(conf), "-o", str(out), str(obs_path), str(nav_path)], check=True, capture_output=True, text=True
+    )
     rows = [line.split() for line in out.read_text().splitlines() if line.strip() and not line.startswith("%")]
     tow = np.array([float(r[1]) for r in rows])
     return tow, np.array([[float(v) for v in r[2:5]] for r in rows]).reshape(-1, 3)
@@ -131,18 +170,25 @@ def navigation_file_check(check, obs, week: int, rinex_path: Path, work: Path) -
         return
     # Ours with the decoded records at every epoch (as RTKLIB takes the file's, not from the
     # time each was decoded) and the decoded page 18, RTKLIB's weights, no troposphere.
-    ours = solve_epochs(replace(obs, ephemeris={}), _stack([r.record for r in nav_records]), reference_week=week,
-                        weighting="rtklib", iono=obs.iono_utc)
+    ours = solve_epochs(
+        replace(obs, ephemeris={}),
+        _stack([r.record for r in nav_records]),
+        reference_week=week,
+        weighting="rtklib",
+        iono=obs.iono_utc,
+    )
     common, i, j = np.intersect1d(np.round(rtk[0], 3), np.round(ours.columns["tow_s"], 3), return_indices=True)
     if not common.size:
         check(False, f"rnx2rtkp with navigation.rnx: no epoch in common ({rtk[0].size} solutions, ours {len(ours)})")
         return
     d = np.linalg.norm(rtk[1][i] - ours.ecef_m[j], axis=1)
-    check(bool(d.max() <= 0.005 and common.size == len(ours)),
-          f"rnx2rtkp on observations.rnx with our navigation.rnx ({len(nav_records)} decoded records) against our "
-          f"least squares with RTKLIB's weighting and the same records: {common.size} of our {len(ours)} epochs, "
-          f"3-D difference max {d.max() * 1000:.1f} mm (aim: 5 mm; RTKLIB prints 0.1 mm, the header's Klobuchar "
-          f"D12.4 five digits)")
+    check(
+        bool(d.max() <= 0.005 and common.size == len(ours)),
+        f"rnx2rtkp on observations.rnx with our navigation.rnx ({len(nav_records)} decoded records) against our "
+        f"least squares with RTKLIB's weighting and the same records: {common.size} of our {len(ours)} epochs, "
+        f"3-D difference max {d.max() * 1000:.1f} mm (aim: 5 mm; RTKLIB prints 0.1 mm, the header's Klobuchar "
+        f"D12.4 five digits)",
+    )
 
 
 def rtcm_check(check, obs, week: int, work: Path) -> None:
@@ -158,14 +204,19 @@ def rtcm_check(check, obs, week: int, work: Path) -> None:
     approx = str(first.astype("datetime64[s]")).replace("-", "/").replace("T", " ")
     out_dir = work / "convbin"
     out_dir.mkdir(exist_ok=True)
-    subprocess.run([exe, "-r", "rtcm3", "-tr", approx, "-od", "-os", "-d", str(out_dir), "-o", "rtcm.obs",
-                    str(rtcm_path)], check=True, capture_output=True, text=True)
+    subprocess.run(
+        [exe, "-r", "rtcm3", "-tr", approx, "-od", "-os", "-d", str(out_dir), "-o", "rtcm.obs", str(rtcm_path)],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     back = georinex.load(out_dir / "rtcm.obs")
     wavelength = 299_792_458.0 / 1575.42e6
     t_ms = np.round(obs.rx_time_s * 1e3)
     dt = t_ms * 1e-3 - obs.rx_time_s
-    tow_back = np.round(((back.time.values - np.datetime64("1980-01-06")) / np.timedelta64(1, "ms"))
-                        % 604_800_000).astype(np.int64)
+    tow_back = np.round(
+        ((back.time.values - np.datetime64("1980-01-06")) / np.timedelta64(1, "ms")) % 604_800_000
+    ).astype(np.int64)
     # convbin writes D1C and S1C only where asked and able (rtklib 2.4.3 b34 left D1C out here):
     # those it wrote are compared too.
     kinds = [k for k in ("C1C", "D1C", "S1C") if k in back.data_vars]
@@ -180,17 +231,23 @@ def rtcm_check(check, obs, week: int, work: Path) -> None:
                 worst["C1C"] = np.inf
                 continue
             one = back.isel(time=int(k[0])).sel(sv=f"G{prn:02d}")
-            expected = {"C1C": obs.pseudorange_m[e, j] - wavelength * obs.doppler_hz[e, j] * dt[e],
-                        "D1C": obs.doppler_hz[e, j], "S1C": obs.cn0_dbhz[e, j]}
+            expected = {
+                "C1C": obs.pseudorange_m[e, j] - wavelength * obs.doppler_hz[e, j] * dt[e],
+                "D1C": obs.doppler_hz[e, j],
+                "S1C": obs.cn0_dbhz[e, j],
+            }
             for kind in kinds:
                 worst[kind] = max(worst[kind], abs(float(one[kind]) - expected[kind]))
             n += 1
     aims = {"C1C": 1e-3, "D1C": 1e-3, "S1C": 0.1}
     units = {"C1C": (1e3, "mm"), "D1C": (1e3, "mHz"), "S1C": (1.0, "dB-Hz")}
-    text = ", ".join(f"{k} within {worst[k] * units[k][0]:.2f} {units[k][1]} (aim {aims[k] * units[k][0]:g})"
-                     for k in kinds)
-    check(bool(n > 0 and all(worst[k] <= aims[k] for k in kinds)),
-          f"observations.rtcm3 (MSM7) through convbin back to RINEX: {n} pseudoranges; {text}")
+    text = ", ".join(
+        f"{k} within {worst[k] * units[k][0]:.2f} {units[k][1]} (aim {aims[k] * units[k][0]:g})" for k in kinds
+    )
+    check(
+        bool(n > 0 and all(worst[k] <= aims[k] for k in kinds)),
+        f"observations.rtcm3 (MSM7) through convbin back to RINEX: {n} pseudoranges; {text}",
+    )
 
 
 def header_klobuchar(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -199,7 +256,7 @@ def header_klobuchar(path: Path) -> tuple[np.ndarray, np.ndarray]:
     for line in path.read_text().splitlines():
         label = line[60:].strip()
         if label in ("ION ALPHA", "ION BETA"):
-            values[label] = np.array([float(line[2 + 12 * k:14 + 12 * k].replace("D", "E")) for k in range(4)])
+            values[label] = np.array([float(line[2 + 12 * k : 14 + 12 * k].replace("D", "E")) for k in range(4)])
         if label == "END OF HEADER":
             break
     return values["ION ALPHA"], values["ION BETA"]
@@ -222,10 +279,12 @@ def rtklib_check(check, rinex_path: Path, table, work: Path, moving: bool) -> No
         check(False, f"RTKLIB rnx2rtkp: no epoch in common ({tow.size} solutions, ours {ours.size})")
         return
     d = np.linalg.norm(xyz[k[both]] - table.ecef_m[both], axis=1)
-    text = (f"RTKLIB rnx2rtkp single-point on observations.rnx against ours (equal weights): {int(both.sum())} of "
-            f"our {ours.size} epochs "
-            f"matched ({tow.size} solutions), 3-D difference max {d.max():.3f} m, RMS "
-            f"{np.sqrt(np.mean(d**2)):.3f} m")
+    text = (
+        f"RTKLIB rnx2rtkp single-point on observations.rnx against ours (equal weights): {int(both.sum())} of "
+        f"our {ours.size} epochs "
+        f"matched ({tow.size} solutions), 3-D difference max {d.max():.3f} m, RMS "
+        f"{np.sqrt(np.mean(d**2)):.3f} m"
+    )
     if moving:
         print(f"  --    {text} (printed, not checked, for the moving receiver)")
     else:
@@ -238,8 +297,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=48.0, help="seconds simulated (>= 37 for subframes 1-3)")
     ap.add_argument("--fs", type=float, default=2.6e6, help="sample rate")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--moving", action="store_true",
-                    help=f"a receiver on a {CIRCLE_RADIUS_M:.0f} m circle at {CIRCLE_SPEED_MPS:.0f} m/s, not static")
+    ap.add_argument(
+        "--moving",
+        action="store_true",
+        help=f"a receiver on a {CIRCLE_RADIUS_M:.0f} m circle at {CIRCLE_SPEED_MPS:.0f} m/s, not static",
+    )
     args = ap.parse_args(argv)
     import pymap3d
 
@@ -254,17 +316,21 @@ def main(argv: list[str] | None = None) -> int:
         rinex = read_rinex_nav(NAV)
         used_by_sim = rinex.select([f"G{p:02d}" for p in sats], tow0, healthy_only=False)
         healthy = sorted(p for p, h in zip(sats, used_by_sim.health) if h == 0)
-        print(f"gps-sdr-sim: week {week}, tow {tow0:.0f} s, {len(sats)} satellites {sorted(sats)} ({len(healthy)} "
-              f"healthy), {args.duration} s at {args.fs:g} Hz, noise for {args.cn0} dB-Hz, "
-              f"{'moving on a circle' if args.moving else 'static'}")
+        print(
+            f"gps-sdr-sim: week {week}, tow {tow0:.0f} s, {len(sats)} satellites {sorted(sats)} ({len(healthy)} "
+            f"healthy), {args.duration} s at {args.fs:g} Hz, noise for {args.cn0} dB-Hz, "
+            f"{'moving on a circle' if args.moving else 'static'}"
+        )
 
         t_run = time.perf_counter()
         rec = open_recording(rec_path)
         result = receive(rec, registry.create("acquisition", "pcps"), tracking_config(), reference_week=week)
         t_run = time.perf_counter() - t_run
-        print(f"acquisition, tracking, decoding and positions: {t_run:.1f} s wall for "
-              f"{result.tracking.duration_s:.1f} s "
-              f"of signal")
+        print(
+            f"acquisition, tracking, decoding and positions: {t_run:.1f} s wall for "
+            f"{result.tracking.duration_s:.1f} s "
+            f"of signal"
+        )
         obs = result.observables
         if obs is None:
             check(False, "no channel decoded a subframe")
@@ -281,43 +347,62 @@ def main(argv: list[str] | None = None) -> int:
             ref = used_by_sim.subset(np.flatnonzero(used_by_sim.sv == f"G{prn:02d}"))
             worst = max((abs(got.elements[k][0] - ref.elements[k][0]) / lsb, k) for k, lsb in LSB.items())
             # gps-sdr-sim's integers: the RINEX value over the LSB, truncated toward zero (a C cast).
-            exact = all(got.elements[k][0] == np.trunc(ref.elements[k][0] / lsb) * lsb
-                        or abs(got.elements[k][0] - np.trunc(ref.elements[k][0] / lsb) * lsb) < 1e-9 * lsb
-                        for k, lsb in LSB.items())
-            same = (got.iode[0] == ref.iode[0] and got.toc_s[0] == ref.toc_s[0] and got.health[0] == ref.health[0])
-            check(worst[0] < 1.0 and exact and same, f"PRN {prn:2d} ephemeris: every field under 1 LSB from the RINEX "
-                  f"record (largest {np.floor(worst[0] * 1e4) / 1e4:.4f} LSB, {worst[1]}), the integer gps-sdr-sim "
-                  f"truncates to: {exact}, IODE {got.iode[0]:.0f}, toc {got.toc_s[0]:.0f} s, health "
-                  f"{got.health[0]:.0f}, decoded at {decoded[0][0]:.1f} s")
+            exact = all(
+                got.elements[k][0] == np.trunc(ref.elements[k][0] / lsb) * lsb
+                or abs(got.elements[k][0] - np.trunc(ref.elements[k][0] / lsb) * lsb) < 1e-9 * lsb
+                for k, lsb in LSB.items()
+            )
+            same = got.iode[0] == ref.iode[0] and got.toc_s[0] == ref.toc_s[0] and got.health[0] == ref.health[0]
+            check(
+                worst[0] < 1.0 and exact and same,
+                f"PRN {prn:2d} ephemeris: every field under 1 LSB from the RINEX "
+                f"record (largest {np.floor(worst[0] * 1e4) / 1e4:.4f} LSB, {worst[1]}), the integer gps-sdr-sim "
+                f"truncates to: {exact}, IODE {got.iode[0]:.0f}, toc {got.toc_s[0]:.0f} s, health "
+                f"{got.health[0]:.0f}, decoded at {decoded[0][0]:.1f} s",
+            )
         check(obs.week == week % 1024, f"week {obs.week} (10 bits of {week})")
         if obs.iono_utc is not None:
             da = np.abs(np.array(obs.iono_utc.alpha) - alpha) / ALPHA_LSB
             db = np.abs(np.array(obs.iono_utc.beta) - beta) / BETA_LSB
-            check(bool(np.all(da <= 0.5) and np.all(db <= 0.5)),
-                  f"page 18 Klobuchar within {max(da.max(), db.max()):.2f} "
-                  f"LSB of the file's ION ALPHA/BETA")
+            check(
+                bool(np.all(da <= 0.5) and np.all(db <= 0.5)),
+                f"page 18 Klobuchar within {max(da.max(), db.max()):.2f} LSB of the file's ION ALPHA/BETA",
+            )
         else:
             check(False, "no page 18 decoded")
 
         # 2. Observables: pseudorange minus truth is one clock term per epoch.
         static = np.array(pymap3d.geodetic2ecef(*LOCATION))
-        ephs = {p: {**{k: float(v[0]) for k, v in used_by_sim.subset(np.flatnonzero(used_by_sim.sv == f"G{p:02d}"))
-                      .elements.items()}, "toc_tow": float(used_by_sim.toc_s[used_by_sim.sv == f"G{p:02d}"][0])}
-                for p in sats}
+        ephs = {
+            p: {
+                **{
+                    k: float(v[0])
+                    for k, v in used_by_sim.subset(np.flatnonzero(used_by_sim.sv == f"G{p:02d}")).elements.items()
+                },
+                "toc_tow": float(used_by_sim.toc_s[used_by_sim.sv == f"G{p:02d}"][0]),
+            }
+            for p in sats
+        }
         spread = []
         for e in range(obs.rx_time_s.size):
             ok = np.isfinite(obs.pseudorange_m[e])
             if ok.sum() < 2:
                 continue
             t_true = tow0 + obs.sample_time_s[e]  # the sample's GPS time: gps-sdr-sim starts at tow0
-            receiver = circle_truth(obs.sample_time_s[e:e + 1])[0][0] if args.moving else static
-            diff = [obs.pseudorange_m[e, j] - sim_truth.pseudorange_m(ephs[p], receiver, np.array([t_true]),
-                                                                      sats[p][3])[0][0]
-                    for j, p in enumerate(obs.prn) if ok[j]]
+            receiver = circle_truth(obs.sample_time_s[e : e + 1])[0][0] if args.moving else static
+            diff = [
+                obs.pseudorange_m[e, j]
+                - sim_truth.pseudorange_m(ephs[p], receiver, np.array([t_true]), sats[p][3])[0][0]
+                for j, p in enumerate(obs.prn)
+                if ok[j]
+            ]
             spread.append(np.std(diff))
         spread_rms = float(np.sqrt(np.mean(np.square(spread)))) if spread else np.inf
-        check(spread_rms < 3.0, f"pseudorange minus truth, spread over the satellites: {spread_rms:.2f} m RMS over "
-              f"{len(spread)} epochs (a common clock term removed)")
+        check(
+            spread_rms < 3.0,
+            f"pseudorange minus truth, spread over the satellites: {spread_rms:.2f} m RMS over "
+            f"{len(spread)} epochs (a common clock term removed)",
+        )
 
         # The RINEX 3.04 observation file reads back through georinex with the same pseudoranges.
         rinex_path = write_rinex_obs(work / "observations.rnx", obs, week)
@@ -331,10 +416,14 @@ def main(argv: list[str] | None = None) -> int:
         # constant-velocity model, Singer's 2 σ² τ with σ² = a²/2 per horizontal axis (a
         # sinusoid) and τ = R/v (the turn's time scale): v³/R = 34 m²/s³.
         accel_psd = CIRCLE_SPEED_MPS**3 / CIRCLE_RADIUS_M if args.moving else 0.1
-        for name, table in (("decoded ephemerides", result.positions),
-                            ("ekf-pv from the first decoded fix", filter_epochs(
-                                obs, result.positions, "ekf-pv", {"accel_psd": accel_psd}, reference_week=week)),
-                            ("RINEX --ephemeris", solve_epochs(obs, rinex, reference_week=week))):
+        for name, table in (
+            ("decoded ephemerides", result.positions),
+            (
+                "ekf-pv from the first decoded fix",
+                filter_epochs(obs, result.positions, "ekf-pv", {"accel_psd": accel_psd}, reference_week=week),
+            ),
+            ("RINEX --ephemeris", solve_epochs(obs, rinex, reference_week=week)),
+        ):
             if table is None or len(table) == 0:
                 check(False, f"{name}: no fix")
                 continue
@@ -352,15 +441,22 @@ def main(argv: list[str] | None = None) -> int:
             all_used = all(set(u) == set(healthy) for u in table.used_prns)
             vel = np.stack([table.columns[k] for k in ("vel_e_mps", "vel_n_mps", "vel_u_mps")], 1)
             speed_rms = float(np.sqrt(np.mean(np.sum((vel - vel_truth) ** 2, axis=1))))
-            check(h_rms < 2.0 and v_rms < 4.0 and all_used and speed_rms < 0.2,
-                  f"{name}: {len(table)} fixes, first {table.sample_time_s[0]:.1f} s into the recording, "
-                  f"{n_used.min()}-{n_used.max()} satellites (every healthy one: {all_used}), horizontal RMS "
-                  f"{h_rms:.2f} m, vertical RMS {v_rms:.2f} m, velocity error {speed_rms:.3f} m/s RMS, "
-                  f"HDOP {np.median(table.columns['hdop']):.2f}, "
-                  f"VDOP {np.median(table.columns['vdop']):.2f}")
+            check(
+                h_rms < 2.0 and v_rms < 4.0 and all_used and speed_rms < 0.2,
+                f"{name}: {len(table)} fixes, first {table.sample_time_s[0]:.1f} s into the recording, "
+                f"{n_used.min()}-{n_used.max()} satellites (every healthy one: {all_used}), horizontal RMS "
+                f"{h_rms:.2f} m, vertical RMS {v_rms:.2f} m, velocity error {speed_rms:.3f} m/s RMS, "
+                f"HDOP {np.median(table.columns['hdop']):.2f}, "
+                f"VDOP {np.median(table.columns['vdop']):.2f}",
+            )
             if name == "RINEX --ephemeris":
-                rtklib_check(check, rinex_path, solve_epochs(obs, rinex, reference_week=week, elevation_weights=False),
-                             work, args.moving)
+                rtklib_check(
+                    check,
+                    rinex_path,
+                    solve_epochs(obs, rinex, reference_week=week, elevation_weights=False),
+                    work,
+                    args.moving,
+                )
     return check.summary()
 
 

@@ -42,8 +42,10 @@ def main(argv: list[str] | None = None) -> int:
             return exit_unavailable(exc)
         shutil.move(sim.path, args.out)
         shutil.move(sim.path.with_suffix(".sigmf-meta"), args.out.with_suffix(".sigmf-meta"))
-    print(f"{args.out}: gps-sdr-sim, week {sim.week}, tow {sim.tow0_s:.0f} s, {len(sim.satellites)} satellites, "
-          f"{args.duration:g} s at {args.fs:g} Hz, {args.cn0:g} dB-Hz, receiver at {LOCATION}")
+    print(
+        f"{args.out}: gps-sdr-sim, week {sim.week}, tow {sim.tow0_s:.0f} s, {len(sim.satellites)} satellites, "
+        f"{args.duration:g} s at {args.fs:g} Hz, {args.cn0:g} dB-Hz, receiver at {LOCATION}"
+    )
     return 0
 
 

@@ -22,9 +22,23 @@ import numpy as np
 
 from gnssframework.receiver.frontend.sigmf_meta import write_sigmf_meta
 
-__all__ = ["SIM_DIR", "NAV", "LOCATION", "AMPLITUDE_LSB", "CIRCLE_RADIUS_M", "CIRCLE_SPEED_MPS", "SimRecording",
-           "SimulatorError", "Checks", "circle_truth", "simulate", "parse_log", "add_noise", "noisy_recording",
-           "exit_unavailable"]
+__all__ = [
+    "SIM_DIR",
+    "NAV",
+    "LOCATION",
+    "AMPLITUDE_LSB",
+    "CIRCLE_RADIUS_M",
+    "CIRCLE_SPEED_MPS",
+    "SimRecording",
+    "SimulatorError",
+    "Checks",
+    "circle_truth",
+    "simulate",
+    "parse_log",
+    "add_noise",
+    "noisy_recording",
+    "exit_unavailable",
+]
 
 HERE = Path(__file__).resolve().parent
 SIM_DIR = HERE.parent.parent / "shared" / "tools" / "gps-sdr-sim"
@@ -90,8 +104,11 @@ def simulate(work: Path, duration_s: float, fs: float, moving: bool = False) -> 
     """Build gps-sdr-sim and simulate the static receiver at LOCATION or, ``moving``, the
     circle (a user motion file of ECEF positions at 10 Hz, gps-sdr-sim's ``-u``); the raw
     file and gps-sdr-sim's log."""
-    binary = subprocess.run([str(SIM_DIR / "build.sh"), str(work / "bin")], check=True, capture_output=True,
-                            text=True).stdout.strip().splitlines()[-1]
+    binary = (
+        subprocess.run([str(SIM_DIR / "build.sh"), str(work / "bin")], check=True, capture_output=True, text=True)
+        .stdout.strip()
+        .splitlines()[-1]
+    )
     out = work / "sim.bin"
     if moving:
         t = np.arange(int(np.ceil(duration_s * 10)) + 2) / 10.0
@@ -102,8 +119,28 @@ def simulate(work: Path, duration_s: float, fs: float, moving: bool = False) -> 
     else:
         lat, lon, h = LOCATION
         where = ["-l", f"{lat},{lon},{h}"]
-    run = subprocess.run([binary, "-e", str(NAV), *where, "-d", f"{duration_s}", "-b", "16", "-s", f"{fs:.0f}", "-p",
-                          "128", "-o", str(out)], check=True, capture_output=True, text=True, cwd=work)
+    run = subprocess.run(
+        [
+            binary,
+            "-e",
+            str(NAV),
+            *where,
+            "-d",
+            f"{duration_s}",
+            "-b",
+            "16",
+            "-s",
+            f"{fs:.0f}",
+            "-p",
+            "128",
+            "-o",
+            str(out),
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+        cwd=work,
+    )
     return out, run.stderr
 
 
@@ -113,7 +150,7 @@ def parse_log(log: str) -> tuple[int, float, dict[int, tuple[float, float, float
     if m is None:
         raise RuntimeError(f"no start time in gps-sdr-sim's output:\n{log}")
     sats = {}
-    for line in log[m.end():].splitlines():
+    for line in log[m.end() :].splitlines():
         parts = line.split()
         if len(parts) == 5 and re.fullmatch(r"\d\d", parts[0]):
             sats[int(parts[0])] = tuple(float(p) for p in parts[1:])
@@ -136,18 +173,25 @@ def add_noise(src: Path, dst: Path, cn0_dbhz: float, fs: float, rng: np.random.G
     block = 1 << 23
     with open(dst, "wb") as out:
         for start in range(0, raw.size, block):
-            noisy = raw[start:start + block] + sigma * rng.standard_normal(min(block, raw.size - start))
+            noisy = raw[start : start + block] + sigma * rng.standard_normal(min(block, raw.size - start))
             if gain < 1.0:
                 noisy *= gain
             if np.abs(noisy).max() > 32767:
                 raise RuntimeError("noise clips int16: choose a higher C/N0")
             out.write(np.rint(noisy).astype("<i2").tobytes())
-    write_sigmf_meta(dst.with_suffix(".sigmf-meta"), format="ci16_le", sigmf_datatype="ci16_le", sample_rate_hz=fs,
-                     if_hz=0.0, description=f"gps-sdr-sim at {cn0_dbhz} dB-Hz with added white noise")
+    write_sigmf_meta(
+        dst.with_suffix(".sigmf-meta"),
+        format="ci16_le",
+        sigmf_datatype="ci16_le",
+        sample_rate_hz=fs,
+        if_hz=0.0,
+        description=f"gps-sdr-sim at {cn0_dbhz} dB-Hz with added white noise",
+    )
 
 
-def noisy_recording(work: Path, duration_s: float, fs: float, cn0_dbhz: float, seed: int,
-                    moving: bool = False) -> SimRecording:
+def noisy_recording(
+    work: Path, duration_s: float, fs: float, cn0_dbhz: float, seed: int, moving: bool = False
+) -> SimRecording:
     """gps-sdr-sim's recording with noise for ``cn0_dbhz`` drawn from ``seed``, as
     ``work/noisy.sigmf-data`` (the raw file is removed).
 
@@ -180,9 +224,11 @@ def rinex_read_back(check, obs, path: Path, label: str) -> None:
     order = [list(back.sv.values).index(f"G{p:02d}") for p in obs.prn]
     epochs = [e for e in range(obs.rx_time_s.size) if np.isfinite(obs.pseudorange_m[e]).any()]
     diff = back["C1C"].values[:, order] - obs.pseudorange_m[epochs]
-    check(back.time.size == len(epochs) and np.nanmax(np.abs(diff)) <= 0.0005 + 1e-9,
-          f"{label}: {back.time.size} epochs of {len(obs.prn)} satellites read back by georinex, "
-          f"C1C within {np.nanmax(np.abs(diff)) * 1e3:.2f} mm of the observables")
+    check(
+        back.time.size == len(epochs) and np.nanmax(np.abs(diff)) <= 0.0005 + 1e-9,
+        f"{label}: {back.time.size} epochs of {len(obs.prn)} satellites read back by georinex, "
+        f"C1C within {np.nanmax(np.abs(diff)) * 1e3:.2f} mm of the observables",
+    )
 
 
 def exit_unavailable(exc: SimulatorError) -> int:

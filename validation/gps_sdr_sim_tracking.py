@@ -55,8 +55,9 @@ def ephemerides(tow0: float) -> dict[int, dict]:
         if rec.time.size == 0:
             continue
         times = rec.time.values
-        toc_tow = np.array([(t - np.datetime64("1980-01-06")) / np.timedelta64(1, "s") % sim_truth.SECONDS_IN_WEEK
-                            for t in times])
+        toc_tow = np.array(
+            [(t - np.datetime64("1980-01-06")) / np.timedelta64(1, "s") % sim_truth.SECONDS_IN_WEEK for t in times]
+        )
         k = int(np.argmin(np.abs(sim_truth._wrap_week(tow0 - toc_tow))))
         eph = {v: float(rec[v].values[k]) for v in rec.data_vars}
         eph["toc_tow"] = toc_tow[k]
@@ -84,14 +85,18 @@ def main(argv: list[str] | None = None) -> int:
         rec = open_recording(rec_path)
         receiver = np.array(pymap3d.geodetic2ecef(*LOCATION))
         ephs = ephemerides(tow0)
-        print(f"gps-sdr-sim: week {week}, tow {tow0:.0f} s, {len(sats)} satellites {sorted(sats)}, "
-              f"{args.duration} s at {args.fs:g} Hz, noise for {args.cn0} dB-Hz")
+        print(
+            f"gps-sdr-sim: week {week}, tow {tow0:.0f} s, {len(sats)} satellites {sorted(sats)}, "
+            f"{args.duration} s at {args.fs:g} Hz, noise for {args.cn0} dB-Hz"
+        )
 
         # The truth's own check: our orbits give gps-sdr-sim's printed ranges.
         for prn, (_, _, rng_m, _) in sats.items():
             _, geometric = sim_truth.pseudorange_m(ephs[prn], receiver, np.array([tow0]))
-            check(abs(geometric[0] - rng_m) < 1.0, f"PRN {prn:2d} truth: range {geometric[0]:.1f} m vs "
-                  f"gps-sdr-sim's {rng_m:.1f} m")
+            check(
+                abs(geometric[0] - rng_m) < 1.0,
+                f"PRN {prn:2d} truth: range {geometric[0]:.1f} m vs gps-sdr-sim's {rng_m:.1f} m",
+            )
 
         acq = registry.create("acquisition", "pcps")
         t_acq = time.perf_counter()
@@ -106,9 +111,11 @@ def main(argv: list[str] | None = None) -> int:
             code_truth = sim_truth.code_phase_chips(pr, np.array([0.0]))[0]
             dop_truth = sim_truth.doppler_hz(ephs[prn], receiver, np.array([tow0]), sats[prn][3])[0]
             code_err = (r.code_phase_chips - code_truth + 511.5) % 1023 - 511.5
-            check(abs(r.doppler_hz - dop_truth) <= 250 and abs(code_err) <= sample_chips,
-                  f"PRN {prn:2d} acquisition: Doppler {r.doppler_hz:8.1f} Hz (truth {dop_truth:8.1f}), code phase "
-                  f"error {code_err:+.3f} chips (one sample {sample_chips:.3f}), C/N0 {r.cn0_dbhz:.1f} dB-Hz")
+            check(
+                abs(r.doppler_hz - dop_truth) <= 250 and abs(code_err) <= sample_chips,
+                f"PRN {prn:2d} acquisition: Doppler {r.doppler_hz:8.1f} Hz (truth {dop_truth:8.1f}), code phase "
+                f"error {code_err:+.3f} chips (one sample {sample_chips:.3f}), C/N0 {r.cn0_dbhz:.1f} dB-Hz",
+            )
 
         c_lin = 10 ** (args.cn0 / 10)
         cn0_eff = args.cn0 - 10 * np.log10(1 + (len(sats) - 1) * c_lin / args.fs)
@@ -117,8 +124,10 @@ def main(argv: list[str] | None = None) -> int:
         t_trk = time.perf_counter()
         result = SampleTracker(rec, config, acq).run(list(found.values()))
         t_trk = time.perf_counter() - t_trk
-        print(f"tracked {len(found)} channels x {result.duration_s:.1f} s in {t_trk:.1f} s wall "
-              f"({len(found) * result.duration_s / t_trk:.1f} channel-seconds per second)")
+        print(
+            f"tracked {len(found)} channels x {result.duration_s:.1f} s in {t_trk:.1f} s wall "
+            f"({len(found) * result.duration_s / t_trk:.1f} channel-seconds per second)"
+        )
         for prn in sorted(set(found) & set(sats)):
             ch = result.channels[prn]
             t = ch.column("time_s")
@@ -141,12 +150,20 @@ def main(argv: list[str] | None = None) -> int:
             cn0 = float(np.median(ch.column("cn0_dbhz")[last])) if last.any() else float("nan")
             code_rms = float(np.sqrt(np.mean(code_err[last] ** 2))) if last.any() else float("inf")
             dop_rms = float(np.sqrt(np.mean(dop_err[last] ** 2))) if last.any() else float("inf")
-            ok = (last.any() and bool(ch.column("lock")[last].all()) and abs(cn0 - cn0_eff) < 1.0
-                  and code_rms < 0.1 and dop_rms < 5.0)
-            check(ok, f"PRN {prn:2d} tracking: C/N0 {cn0:5.2f} dB-Hz ({cn0 - args.cn0:+.2f} from the injected, "
-                  f"{cn0 - cn0_eff:+.2f} from C/(N0 + I0)), code error {code_rms:.4f} chips RMS "
-                  f"({code_rms * 293.05:.1f} m), Doppler error {dop_rms:.2f} Hz RMS, {carrier_txt}, "
-                  f"locked {100 * ch.column('lock')[last].mean() if last.any() else 0:.0f} % of the last second")
+            ok = (
+                last.any()
+                and bool(ch.column("lock")[last].all())
+                and abs(cn0 - cn0_eff) < 1.0
+                and code_rms < 0.1
+                and dop_rms < 5.0
+            )
+            check(
+                ok,
+                f"PRN {prn:2d} tracking: C/N0 {cn0:5.2f} dB-Hz ({cn0 - args.cn0:+.2f} from the injected, "
+                f"{cn0 - cn0_eff:+.2f} from C/(N0 + I0)), code error {code_rms:.4f} chips RMS "
+                f"({code_rms * 293.05:.1f} m), Doppler error {dop_rms:.2f} Hz RMS, {carrier_txt}, "
+                f"locked {100 * ch.column('lock')[last].mean() if last.any() else 0:.0f} % of the last second",
+            )
     return check.summary()
 
 

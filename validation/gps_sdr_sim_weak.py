@@ -72,8 +72,19 @@ sys.path.insert(0, str(HERE))
 
 import sim_truth  # noqa: E402
 from gps_sdr_sim_navigation import header_klobuchar, rtklib_check  # noqa: E402
-from gps_sdr_sim_run import (CIRCLE_RADIUS_M, CIRCLE_SPEED_MPS, LOCATION, NAV, SIM_DIR, Checks, add_noise,  # noqa: E402
-                             circle_truth, parse_log, rinex_read_back, simulate)
+from gps_sdr_sim_run import (
+    CIRCLE_RADIUS_M,
+    CIRCLE_SPEED_MPS,
+    LOCATION,
+    NAV,
+    SIM_DIR,
+    Checks,
+    add_noise,  # noqa: E402
+    circle_truth,
+    parse_log,
+    rinex_read_back,
+    simulate,
+)
 
 from gnssframework import registry  # noqa: E402
 from gnssframework.navigation.ephemeris import read_rinex_nav  # noqa: E402
@@ -116,13 +127,19 @@ def summary(name: str, table, healthy: list[int], moving: bool = False) -> tuple
     speed = float(np.sqrt(np.mean(np.sum(dvel**2, axis=1))))
     n = table.columns["n_sats"]
     every = all(set(healthy) <= set(u) for u in table.used_prns)
-    return (f"{name}: {len(table)} fixes, first {table.sample_time_s[0]:.1f} s into the recording, {n.min()}-{n.max()} "
-            f"satellites (every healthy one: {every}), horizontal RMS {h:.2f} m, vertical RMS {v:.2f} m, velocity "
-            f"error {speed:.2f} m/s RMS", h, v, every)
+    return (
+        f"{name}: {len(table)} fixes, first {table.sample_time_s[0]:.1f} s into the recording, {n.min()}-{n.max()} "
+        f"satellites (every healthy one: {every}), horizontal RMS {h:.2f} m, vertical RMS {v:.2f} m, velocity "
+        f"error {speed:.2f} m/s RMS",
+        h,
+        v,
+        every,
+    )
 
 
-def pseudorange_spread_m(obs, used_by_sim, sats: dict, tow0: float, moving: bool,
-                         from_s: float = 0.0) -> tuple[float, float, int]:
+def pseudorange_spread_m(
+    obs, used_by_sim, sats: dict, tow0: float, moving: bool, from_s: float = 0.0
+) -> tuple[float, float, int]:
     """RMS over the epochs from recording time ``from_s`` on of the spread over the satellites of pseudorange minus gps-sdr-sim's
     (`sim_truth`: its geometry, satellite clock and printed Klobuchar delay), the RMS of the
     common term (the receiver clock: zero for a start time that is gps-sdr-sim's) and the epochs."""
@@ -132,17 +149,22 @@ def pseudorange_spread_m(obs, used_by_sim, sats: dict, tow0: float, moving: bool
     ephs = {}
     for p in obs.prn:
         k = np.flatnonzero(used_by_sim.sv == f"G{int(p):02d}")
-        ephs[int(p)] = {**{n: float(v[k[0]]) for n, v in used_by_sim.elements.items()},
-                        "toc_tow": float(used_by_sim.toc_s[k[0]])}
+        ephs[int(p)] = {
+            **{n: float(v[k[0]]) for n, v in used_by_sim.elements.items()},
+            "toc_tow": float(used_by_sim.toc_s[k[0]]),
+        }
     spread, common = [], []
     for e in range(obs.rx_time_s.size):
         ok = np.flatnonzero(np.isfinite(obs.pseudorange_m[e]))
         if ok.size < 2 or obs.sample_time_s[e] < from_s:
             continue
-        receiver = circle_truth(obs.sample_time_s[e:e + 1])[0][0] if moving else static
+        receiver = circle_truth(obs.sample_time_s[e : e + 1])[0][0] if moving else static
         t_true = np.array([tow0 + obs.sample_time_s[e]])
-        diff = [obs.pseudorange_m[e, j] - sim_truth.pseudorange_m(ephs[int(obs.prn[j])], receiver, t_true,
-                                                                   sats[int(obs.prn[j])][3])[0][0] for j in ok]
+        diff = [
+            obs.pseudorange_m[e, j]
+            - sim_truth.pseudorange_m(ephs[int(obs.prn[j])], receiver, t_true, sats[int(obs.prn[j])][3])[0][0]
+            for j in ok
+        ]
         spread.append(np.std(diff))
         common.append(np.mean(diff))
 
@@ -157,14 +179,17 @@ def noise_scale(cn0_dbhz: float, T: float = 0.010) -> float:
     times this): the early-minus-late DLL's standard deviation grows as
     sqrt((1 + 1/(T C/N0)) / (C/N0)) (Kaplan & Hegarty, *Understanding GPS/GNSS*, 3rd ed., sec.
     8.7: thermal noise with its squaring loss), T the vector channels' 10 ms; 1 at and above 35."""
+
     def var(c):
         return (1 + 1 / (T * c)) / c
-    c, c35 = 10 ** (min(cn0_dbhz, 35.0) / 10), 10 ** 3.5
+
+    c, c35 = 10 ** (min(cn0_dbhz, 35.0) / 10), 10**3.5
     return float(np.sqrt(var(c) / var(c35)))
 
 
-def assisted_rinex(check, result, work: Path, rinex, used_by_sim, sats: dict, week: int, tow0: float,
-                   moving: bool, scale: float = 1.0) -> None:
+def assisted_rinex(
+    check, result, work: Path, rinex, used_by_sim, sats: dict, week: int, tow0: float, moving: bool, scale: float = 1.0
+) -> None:
     """The assisted receiver's observables (no LNAV: dated from the assisted transmit times)
     against gps-sdr-sim's geometry, as observations.rnx read back by georinex, and rnx2rtkp's
     single-point solution on that file against ours on the same observables."""
@@ -177,8 +202,10 @@ def assisted_rinex(check, result, work: Path, rinex, used_by_sim, sats: dict, we
     settled = result.vector.handover_s + 2.0
     for since in (0.0, settled):
         spread, common, n = pseudorange_spread_m(obs, used_by_sim, sats, tow0, moving, since)
-        text = (f"assisted pseudoranges minus gps-sdr-sim's from {since:.1f} s: spread over the satellites {spread:.2f} "
-                f"m RMS over {n} epochs, common term {common:.2f} m RMS (the receiver clock at the start time)")
+        text = (
+            f"assisted pseudoranges minus gps-sdr-sim's from {since:.1f} s: spread over the satellites {spread:.2f} "
+            f"m RMS over {n} epochs, common term {common:.2f} m RMS (the receiver clock at the start time)"
+        )
         if since == settled:
             check(spread < 3.0 * scale, text + f" (aim: under {3.0 * scale:.1f} m)")
         else:
@@ -208,23 +235,36 @@ def weak_search_pairs(cn0_dbhz: float, fs: float) -> tuple[int, str]:
     except Exception:  # noqa: BLE001 (beyond 100 blocks: the cap decides)
         need = 101
     pairs = min(max(need, 4), MAX_PAIRS)
-    why = (f"theory: {need} pairs for Pd {WEAK_PD} at pfa {WEAK_PFA} over {cells} cells with {loss_db:.1f} dB of "
-           f"straddle loss" + (f"; capped at {MAX_PAIRS} (code Doppler smear)" if need > MAX_PAIRS else ""))
+    why = (
+        f"theory: {need} pairs for Pd {WEAK_PD} at pfa {WEAK_PFA} over {cells} cells with {loss_db:.1f} dB of "
+        f"straddle loss" + (f"; capped at {MAX_PAIRS} (code Doppler smear)" if need > MAX_PAIRS else "")
+    )
     return pairs, why
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cn0", type=float, nargs="+", default=[35.0],
-                    help="C/N0 of every satellite (dB-Hz); several: one noisy file each from the same simulation")
+    ap.add_argument(
+        "--cn0",
+        type=float,
+        nargs="+",
+        default=[35.0],
+        help="C/N0 of every satellite (dB-Hz); several: one noisy file each from the same simulation",
+    )
     ap.add_argument("--duration", type=float, default=20.0, help="seconds simulated")
     ap.add_argument("--fs", type=float, default=2.6e6, help="sample rate")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--positions", action="store_true", help="also track and position, scalar and vector")
-    ap.add_argument("--moving", action="store_true",
-                    help=f"a receiver on a {CIRCLE_RADIUS_M:.0f} m circle at {CIRCLE_SPEED_MPS:.0f} m/s, not static")
-    ap.add_argument("--full-search", action="store_true",
-                    help="below 35 dB-Hz also the full sky searches (1 ms, and 10 ms blocks by parity; minutes)")
+    ap.add_argument(
+        "--moving",
+        action="store_true",
+        help=f"a receiver on a {CIRCLE_RADIUS_M:.0f} m circle at {CIRCLE_SPEED_MPS:.0f} m/s, not static",
+    )
+    ap.add_argument(
+        "--full-search",
+        action="store_true",
+        help="below 35 dB-Hz also the full sky searches (1 ms, and 10 ms blocks by parity; minutes)",
+    )
     ap.add_argument("--table", type=Path, help="append the assisted receiver's row per C/N0 to this markdown file")
     args = ap.parse_args(argv)
     check = Checks()
@@ -260,8 +300,10 @@ WEAK_PD, WEAK_PFA = 0.9, 1e-3
 MAX_PAIRS = 7
 #: Most pairs of the assisted search (which follows the code Doppler): one second of samples.
 MAX_ASSISTED_PAIRS = 50
-TABLE_HEADER = ("| receiver | motion | C/N0 (dB-Hz) | acquired (assisted search) | first fix (s) | fixes | satellites used "
-                "| H RMS (m) | V RMS (m) | checks |\n|---|---|---|---|---|---|---|---|---|---|\n")
+TABLE_HEADER = (
+    "| receiver | motion | C/N0 (dB-Hz) | acquired (assisted search) | first fix (s) | fixes | satellites used "
+    "| H RMS (m) | V RMS (m) | checks |\n|---|---|---|---|---|---|---|---|---|---|\n"
+)
 
 
 def assisted_search_pairs(cn0_dbhz: float, fs: float) -> tuple[int, str]:
@@ -278,29 +320,47 @@ def assisted_search_pairs(cn0_dbhz: float, fs: float) -> tuple[int, str]:
     except Exception:  # noqa: BLE001 (beyond 100 blocks: the cap decides)
         need = 101
     pairs = min(max(need, 4), MAX_ASSISTED_PAIRS)
-    return pairs, (f"theory: {need} pairs for Pd {WEAK_PD} at pfa {WEAK_PFA} per satellite over {cells} cells with "
-                   f"{loss_db:.1f} dB of straddle loss" + (f"; capped at {MAX_ASSISTED_PAIRS}" if need > pairs else ""))
+    return pairs, (
+        f"theory: {need} pairs for Pd {WEAK_PD} at pfa {WEAK_PFA} per satellite over {cells} cells with "
+        f"{loss_db:.1f} dB of straddle loss" + (f"; capped at {MAX_ASSISTED_PAIRS}" if need > pairs else "")
+    )
 
 
-def run_one(args, cn0: float, check: Checks, work: Path, rec_path: Path, rinex, used_by_sim, sats: dict, healthy: list[int],
-            week: int, tow0: float) -> str:
+def run_one(
+    args,
+    cn0: float,
+    check: Checks,
+    work: Path,
+    rec_path: Path,
+    rinex,
+    used_by_sim,
+    sats: dict,
+    healthy: list[int],
+    week: int,
+    tow0: float,
+) -> str:
     """Acquisition and the assisted receiver on the file at ``cn0``; its table row."""
     before = len(check.failures)
-    print(f"gps-sdr-sim: week {week}, tow {tow0:.0f} s, {len(sats)} satellites {sorted(sats)} ({len(healthy)} "
-          f"healthy), {args.duration} s at {args.fs:g} Hz, noise for {cn0} dB-Hz, "
-          f"{'moving on a circle' if args.moving else 'static'}")
+    print(
+        f"gps-sdr-sim: week {week}, tow {tow0:.0f} s, {len(sats)} satellites {sorted(sats)} ({len(healthy)} "
+        f"healthy), {args.duration} s at {args.fs:g} Hz, noise for {cn0} dB-Hz, "
+        f"{'moving on a circle' if args.moving else 'static'}"
+    )
     print(f"GNSS-SDR 0.0.17 (issue 25): at 45 dB-Hz {GNSS_SDR_45}; at 35 dB-Hz {GNSS_SDR_35}")
     rec = open_recording(rec_path)
 
     pairs, why = weak_search_pairs(cn0, args.fs)
-    weak = registry.create("acquisition", "pcps", coherent_ms=10, noncoherent=2 * pairs, alternate_blocks=True,
-                           pfa=WEAK_PFA)
+    weak = registry.create(
+        "acquisition", "pcps", coherent_ms=10, noncoherent=2 * pairs, alternate_blocks=True, pfa=WEAK_PFA
+    )
     results: list = []
     found: list[int] = []
     if args.full_search or cn0 >= 35:
         default = registry.create("acquisition", "pcps")
-        for name, acq in (("default search (1 ms x 8)", default),
-                          (f"10 ms blocks by parity (2 x {pairs}; {why})", weak)):
+        for name, acq in (
+            ("default search (1 ms x 8)", default),
+            (f"10 ms blocks by parity (2 x {pairs}; {why})", weak),
+        ):
             t = time.perf_counter()
             results = acquire_recording(rec, acq)
             found = sorted(r.prn for r in results if r.detected)
@@ -309,8 +369,10 @@ def run_one(args, cn0: float, check: Checks, work: Path, rec_path: Path, rinex, 
         if "capped" not in why:
             check(found == sorted(sats), f"the weak search finds every simulated satellite and nothing else: {found}")
         else:  # fewer pairs than theory asks: four are enough to start, the aided search finds the others
-            check(len(found) >= 4 and set(found) <= set(sats),
-                  f"the weak search finds at least four simulated satellites and nothing else: {found}")
+            check(
+                len(found) >= 4 and set(found) <= set(sats),
+                f"the weak search finds at least four simulated satellites and nothing else: {found}",
+            )
     motion = "moving" if args.moving else "static"
 
     alpha, beta = header_klobuchar(NAV)
@@ -322,19 +384,26 @@ def run_one(args, cn0: float, check: Checks, work: Path, rec_path: Path, rinex, 
     a_results = assisted_search(rec, rinex, assist, 2 * a_pairs, pfa=WEAK_PFA)
     t = time.perf_counter() - t
     a_found = sorted(r.prn for r in a_results if r.detected)
-    print(f"  assisted search ({len(a_results)} predicted satellites, 500 Hz about each predicted Doppler, 2 x "
-          f"{a_pairs} blocks of 10 ms, code Doppler followed; {a_why}): {len(a_found)} found {a_found} in {t:.1f} s")
-    check(len(a_found) >= 4 and set(a_found) <= set(sats),
-          f"the assisted search finds at least four simulated satellites and nothing else: {a_found}")
+    print(
+        f"  assisted search ({len(a_results)} predicted satellites, 500 Hz about each predicted Doppler, 2 x "
+        f"{a_pairs} blocks of 10 ms, code Doppler followed; {a_why}): {len(a_found)} found {a_found} in {t:.1f} s"
+    )
+    check(
+        len(a_found) >= 4 and set(a_found) <= set(sats),
+        f"the assisted search finds at least four simulated satellites and nothing else: {a_found}",
+    )
     acquired = f"{len(set(a_found) & set(sats))} of {len(a_results)} predicted" + (
-        f" (+{len(set(a_found) - set(sats))} false)" if set(a_found) - set(sats) else "")
+        f" (+{len(set(a_found) - set(sats))} false)" if set(a_found) - set(sats) else ""
+    )
     # ekf-pv's white acceleration: its default for the static receiver; on the circle v³/R
     # (the centripetal acceleration as white noise, as gps_sdr_sim_navigation sets it).
     accel_psd = CIRCLE_SPEED_MPS**3 / CIRCLE_RADIUS_M if args.moving else 0.1
     vector = vector_config(nav_params={"accel_psd": accel_psd})
-    print(f"  assistance: approximate position {lat + 0.3:.6f} {lon:.6f} {height:.1f} m (0.3 deg, 33 km, north "
-          f"of the {'circle centre' if args.moving else 'receiver'}), start time week {week} tow {tow0:.3f} s "
-          f"(gps-sdr-sim's first sample), Klobuchar from the RINEX header; ekf-pv accel_psd {accel_psd:g} m²/s³")
+    print(
+        f"  assistance: approximate position {lat + 0.3:.6f} {lon:.6f} {height:.1f} m (0.3 deg, 33 km, north "
+        f"of the {'circle centre' if args.moving else 'receiver'}), start time week {week} tow {tow0:.3f} s "
+        f"(gps-sdr-sim's first sample), Klobuchar from the RINEX header; ekf-pv accel_psd {accel_psd:g} m²/s³"
+    )
     runs = [("assisted vector", vector, assist, a_results, a_found)]
     if args.positions and results:
         runs += [("scalar", None, None, results, found), ("vector from the scalar fix", vector, None, results, found)]
@@ -345,15 +414,26 @@ def run_one(args, cn0: float, check: Checks, work: Path, rec_path: Path, rinex, 
             print(f"  {name}: not run (fewer than four satellites acquired)")
             continue
         t = time.perf_counter()
-        result = receive(rec, weak, tracking_config(), rinex=rinex, reference_week=week, vector=vector,
-                         acquisitions=results, assist=helper)
+        result = receive(
+            rec,
+            weak,
+            tracking_config(),
+            rinex=rinex,
+            reference_week=week,
+            vector=vector,
+            acquisitions=results,
+            assist=helper,
+        )
         t = time.perf_counter() - t
         acquired_healthy = sorted(set(healthy) & set(found))
-        line, h, v, every = summary(f"{name} tracking ({t:.0f} s wall)", result.positions, acquired_healthy,
-                                    args.moving)
+        line, h, v, every = summary(
+            f"{name} tracking ({t:.0f} s wall)", result.positions, acquired_healthy, args.moving
+        )
         if result.vector is not None and result.vector.handover_s is not None:
-            print(f"  {name}: the loop closed at {result.vector.handover_s:.2f} s on PRN "
-                  f"{', '.join(map(str, result.vector.prns))}")
+            print(
+                f"  {name}: the loop closed at {result.vector.handover_s:.2f} s on PRN "
+                f"{', '.join(map(str, result.vector.prns))}"
+            )
         if helper is None:
             print("  " + line)
             continue
@@ -363,8 +443,10 @@ def run_one(args, cn0: float, check: Checks, work: Path, rec_path: Path, rinex, 
         table = result.positions
         if table is not None and len(table):
             n = table.columns["n_sats"]
-            row = (f"| assisted vector | {motion} | {cn0:g} | {acquired} | {table.sample_time_s[0]:.1f} | "
-                   f"{len(table)} of {epochs} | {n.min()}-{n.max()} | {h:.2f} | {v:.2f} |")
+            row = (
+                f"| assisted vector | {motion} | {cn0:g} | {acquired} | {table.sample_time_s[0]:.1f} | "
+                f"{len(table)} of {epochs} | {n.min()}-{n.max()} | {h:.2f} | {v:.2f} |"
+            )
     failed = len(check.failures) - before
     return row + (" pass |" if failed == 0 else f" {failed} failed |")
 

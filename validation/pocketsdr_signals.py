@@ -35,8 +35,10 @@ POCKETSDR = {
     ("pocketsdr_L1_20211202_084700_4MHz_IQ.bin", "beidou-b1c"): {21, 22, 27, 29, 30, 36, 39, 40, 45, 46},
     ("pocketsdr_L1_20211125_004000_12MHz_I.bin", "beidou-b1c"): {20, 23, 25, 27, 30, 32, 38, 39, 41},
 }
-READ = {"4MHz_IQ": dict(format="ci8", sample_rate_hz=4e6, if_hz=0.0, q_sign=-1),
-        "12MHz_I": dict(format="ri8", sample_rate_hz=12e6, if_hz=3e6)}
+READ = {
+    "4MHz_IQ": dict(format="ci8", sample_rate_hz=4e6, if_hz=0.0, q_sign=-1),
+    "12MHz_I": dict(format="ri8", sample_rate_hz=12e6, if_hz=3e6),
+}
 
 
 def search(folder: Path, name: str, signal, **params) -> int:
@@ -51,8 +53,10 @@ def search(folder: Path, name: str, signal, **params) -> int:
     print("| PRN | PocketSDR | statistic | Doppler (Hz) | code phase (chips) | C/N0 (dB-Hz) |")
     print("|---|---|---|---|---|---|")
     for r in found:
-        print(f"| {r.prn} | {'yes' if r.prn in expected else ''} | {r.test_statistic:.1f} | {r.doppler_hz:.1f} | "
-              f"{r.code_phase_chips:.1f} | {r.cn0_dbhz:.1f} |")
+        print(
+            f"| {r.prn} | {'yes' if r.prn in expected else ''} | {r.test_statistic:.1f} | {r.doppler_hz:.1f} | "
+            f"{r.code_phase_chips:.1f} | {r.cn0_dbhz:.1f} |"
+        )
     missed = expected - {r.prn for r in found}
     if missed:
         print(f"MISSED: {sorted(missed)}")
@@ -79,8 +83,9 @@ def main(argv=None) -> int:
             missed += search(args.data, name, BEIDOU_B1C, noncoherent=1, doppler_max_hz=4000.0)
     if only in (None, "l2c"):
         for signal in (GPS_L2C, QZSS_L2C):
-            missed += search(args.data, "pocketsdr_L2_20211202_084700_4MHz_IQ.bin", signal, noncoherent=1,
-                             doppler_max_hz=4000.0)
+            missed += search(
+                args.data, "pocketsdr_L2_20211202_084700_4MHz_IQ.bin", signal, noncoherent=1, doppler_max_hz=4000.0
+            )
     return 1 if missed else 0
 
 

@@ -92,8 +92,7 @@ def match_epochs(theirs_s: np.ndarray, ours_s: np.ndarray, tol_s: float = 1e-3) 
     if theirs_s.size == 0:
         return np.zeros(ours_s.size, int), np.zeros(ours_s.size, bool)
     k = np.searchsorted(theirs_s, ours_s).clip(1, max(theirs_s.size - 1, 1))
-    k = np.where(np.abs(theirs_s[k - 1] - ours_s) <= np.abs(theirs_s[k] - ours_s), k - 1, k).clip(0,
-                                                                                                theirs_s.size - 1)
+    k = np.where(np.abs(theirs_s[k - 1] - ours_s) <= np.abs(theirs_s[k] - ours_s), k - 1, k).clip(0, theirs_s.size - 1)
     return k, np.abs(theirs_s[k] - ours_s) < tol_s
 
 
@@ -101,8 +100,9 @@ def rnx2rtkp(exe: str, obs_path: Path, nav_path: Path, work: Path) -> tuple[np.n
     """rnx2rtkp's single-point solution with `OPTIONS` (`parse_pos`'s arrays)."""
     conf, out = work / "spp.conf", work / "rtklib.pos"
     conf.write_text("".join(f"{k:<18}={v}\n" for k, v in OPTIONS.items()))
-    subprocess.run([exe, "-k", str(conf), "-o", str(out), str(obs_path), str(nav_path)], check=True,
-                   capture_output=True, text=True)
+    subprocess.run(
+        [exe, "-k", str(conf), "-o", str(out), str(obs_path), str(nav_path)], check=True, capture_output=True, text=True
+    )
     return parse_pos(out.read_text())
 
 
@@ -113,8 +113,12 @@ def rtklib_slips(exe: str, obs_path: Path, nav_path: Path, work: Path) -> dict[i
     or 1 set (RTKLIB ppp.c, ``detslp_ll``)."""
     conf, out = work / "ppp.conf", work / "ppp.pos"
     conf.write_text("".join(f"{k:<18}={v}\n" for k, v in {**OPTIONS, "pos1-posmode": "ppp-kine"}.items()))
-    subprocess.run([exe, "-k", str(conf), "-x", "3", "-o", str(out), str(obs_path), str(nav_path)], check=True,
-                   capture_output=True, text=True)
+    subprocess.run(
+        [exe, "-k", str(conf), "-x", "3", "-o", str(out), str(obs_path), str(nav_path)],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     return count_slips(out.with_name(out.name + ".trace").read_text())
 
 
@@ -134,8 +138,14 @@ def count_slips(trace: str) -> dict[int, int]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=24.0, help="recording length (s)")
-    ap.add_argument("--blank", type=float, nargs=2, default=(12.0, 14.0), metavar=("START", "END"),
-                    help="interval (s) without the blanked satellite's signal (after the first epochs with it, 10 s in)")
+    ap.add_argument(
+        "--blank",
+        type=float,
+        nargs=2,
+        default=(12.0, 14.0),
+        metavar=("START", "END"),
+        help="interval (s) without the blanked satellite's signal (after the first epochs with it, 10 s in)",
+    )
     ap.add_argument("--seed", type=int, default=77, help="seed of the recording's noise")
     ap.add_argument("--out", type=Path, default=None, help="keep the recording and files here")
     args = ap.parse_args(argv)
@@ -144,8 +154,10 @@ def main(argv: list[str] | None = None) -> int:
         print("rnx2rtkp is not on PATH (Debian package rtklib): the check cannot run", file=sys.stderr)
         return 2
     if not 10.0 < args.blank[0] < args.blank[1] < args.duration - 3.0:
-        print(f"--blank must lie between 10 s (after the first fix, 8.6 s in, and an epoch with the satellite) and 3 s before the end; got {args.blank}",
-              file=sys.stderr)
+        print(
+            f"--blank must lie between 10 s (after the first fix, 8.6 s in, and an epoch with the satellite) and 3 s before the end; got {args.blank}",
+            file=sys.stderr,
+        )
         return 2
     check = Checks()
     with tempfile.TemporaryDirectory(prefix="gnssframework-rtklib-lli-") as tmp:
@@ -154,12 +166,22 @@ def main(argv: list[str] | None = None) -> int:
         nav = read_rinex_nav(NAV)
         sats = _strongest(nav, TOW0, 5)
         prn = int(sats.sv[BLANKED][1:])
-        print(f"recording: {args.duration:g} s, PRNs {', '.join(s[1:] for s in sats.sv)}, PRN {prn} blanked "
-              f"{args.blank[0]:g}-{args.blank[1]:g} s")
-        path = write_lnav_recording(work / "blanked.sigmf-data", sats, TOW0, args.duration, args.seed,
-                                    blank=(BLANKED, *args.blank))
-        result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(),
-                         rate_hz=RATE_HZ, rinex=nav, ionosphere=False, reference_week=WEEK)
+        print(
+            f"recording: {args.duration:g} s, PRNs {', '.join(s[1:] for s in sats.sv)}, PRN {prn} blanked "
+            f"{args.blank[0]:g}-{args.blank[1]:g} s"
+        )
+        path = write_lnav_recording(
+            work / "blanked.sigmf-data", sats, TOW0, args.duration, args.seed, blank=(BLANKED, *args.blank)
+        )
+        result = receive(
+            open_recording(path),
+            registry.create("acquisition", "pcps"),
+            tracking_config(),
+            rate_hz=RATE_HZ,
+            rinex=nav,
+            ionosphere=False,
+            reference_week=WEEK,
+        )
         obs = result.observables
         rinex_path = write_rinex_obs(work / "observations.rnx", obs, WEEK)
 
@@ -176,14 +198,18 @@ def main(argv: list[str] | None = None) -> int:
         half = np.flatnonzero(lli[:, j] & LLI_HALF_CYCLE)
         others = int(np.count_nonzero(np.delete(lli, j, axis=1)))
         flags = np.union1d(lost, half)  # the flagged epochs of the file
-        check(lost.size == 1 and half.size >= 1 and half[0] == lost[0] and np.all(np.diff(half) == 1)
-              and others == 0,
-              f"observations.rnx (georinex): PRN {prn} lost-lock bit on {lost.size} epoch(s), half-cycle bit on "
-              f"{half.size} consecutive epoch(s) from it, {others} flags on the other satellites")
+        check(
+            lost.size == 1 and half.size >= 1 and half[0] == lost[0] and np.all(np.diff(half) == 1) and others == 0,
+            f"observations.rnx (georinex): PRN {prn} lost-lock bit on {lost.size} epoch(s), half-cycle bit on "
+            f"{half.size} consecutive epoch(s) from it, {others} flags on the other satellites",
+        )
         slips = rtklib_slips(exe, rinex_path, NAV, work)
-        check(slips == {prn: flags.size}, f"RTKLIB reads the flags: its kinematic PPP declares slips from them "
-              f"(detslp_ll) on {slips.get(prn, 0)} epochs of PRN {prn} (flagged: {flags.size}) and "
-              f"{sum(v for p, v in slips.items() if p != prn)} of the others")
+        check(
+            slips == {prn: flags.size},
+            f"RTKLIB reads the flags: its kinematic PPP declares slips from them "
+            f"(detslp_ll) on {slips.get(prn, 0)} epochs of PRN {prn} (flagged: {flags.size}) and "
+            f"{sum(v for p, v in slips.items() if p != prn)} of the others",
+        )
 
         # 2-3. RTKLIB on the file, against our least squares on the same observables.
         ours = solve_epochs(obs, nav, ionosphere=False, reference_week=WEEK, elevation_weights=False)
@@ -195,17 +221,21 @@ def main(argv: list[str] | None = None) -> int:
         at_flag = np.isin(np.round(ours.sample_time_s, 6), np.round(flagged, 6))
         n_ours = ours.columns["n_sats"]
         where = f" ({flagged.min():.1f}-{flagged.max():.1f} s into the recording)" if flagged.size else ""
-        check(bool(both.all()) and at_flag.sum() == flagged.size > 0 and np.array_equal(ns[k[both]], n_ours[both]),
-              f"rnx2rtkp: solutions at {int(both.sum())} of our {len(ours)} epochs, {int((both & at_flag).sum())} "
-              f"of the {flagged.size} flagged ones{where}, the same satellite count as ours at every one "
-              f"({n_ours.min()}-{n_ours.max()})")
+        check(
+            bool(both.all()) and at_flag.sum() == flagged.size > 0 and np.array_equal(ns[k[both]], n_ours[both]),
+            f"rnx2rtkp: solutions at {int(both.sum())} of our {len(ours)} epochs, {int((both & at_flag).sum())} "
+            f"of the {flagged.size} flagged ones{where}, the same satellite count as ours at every one "
+            f"({n_ours.min()}-{n_ours.max()})",
+        )
         if both.any():
             d = np.linalg.norm(xyz[k[both]] - ours.ecef_m[both], axis=1)
             d_flag = d[at_flag[both]]
-            check(bool(d.max() <= AIM_M) and d_flag.size > 0,
-                  f"rnx2rtkp single point against ours (equal weights): 3-D difference max {d.max():.3f} m, RMS "
-                  f"{np.sqrt(np.mean(d**2)):.3f} m over {d.size} epochs; at the flagged epochs max "
-                  f"{d_flag.max() if d_flag.size else float('nan'):.3f} m (aim: within {AIM_M:g} m)")
+            check(
+                bool(d.max() <= AIM_M) and d_flag.size > 0,
+                f"rnx2rtkp single point against ours (equal weights): 3-D difference max {d.max():.3f} m, RMS "
+                f"{np.sqrt(np.mean(d**2)):.3f} m over {d.size} epochs; at the flagged epochs max "
+                f"{d_flag.max() if d_flag.size else float('nan'):.3f} m (aim: within {AIM_M:g} m)",
+            )
     return check.summary()
 
 

@@ -72,30 +72,44 @@ def main(argv: list[str] | None = None) -> int:
         sats = _strongest(nav, TOW0, 5)
         print(f"recording: {args.duration:g} s, PRNs {', '.join(s[1:] for s in sats.sv)}, 45 dB-Hz, vector tracking")
         path = write_lnav_recording(work / "vector.sigmf-data", sats, TOW0, args.duration, args.seed)
-        result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(),
-                         rate_hz=RATE_HZ, rinex=nav, ionosphere=False, reference_week=WEEK,
-                         vector=vector_config(solution_rate_hz=RATE_HZ))
+        result = receive(
+            open_recording(path),
+            registry.create("acquisition", "pcps"),
+            tracking_config(),
+            rate_hz=RATE_HZ,
+            rinex=nav,
+            ionosphere=False,
+            reference_week=WEEK,
+            vector=vector_config(solution_rate_hz=RATE_HZ),
+        )
         handover = result.vector.handover_s
         obs = result.observables
         rinex_path = write_rinex_obs(work / "observations.rnx", obs, WEEK)
         rows = np.flatnonzero(np.isfinite(obs.pseudorange_m).any(axis=1))
         after = obs.sample_time_s[rows] > handover
         counts = np.isfinite(obs.pseudorange_m[rows]).sum(axis=1)
-        check(after.sum() > 0 and bool(np.all(counts[after] == 5)),
-              f"observations.rnx: {rows.size} epochs, {int(after.sum())} after the hand-over at {handover:.2f} s, "
-              f"satellites per epoch after it {counts[after].min() if after.any() else 0}-"
-              f"{counts[after].max() if after.any() else 0}")
+        check(
+            after.sum() > 0 and bool(np.all(counts[after] == 5)),
+            f"observations.rnx: {rows.size} epochs, {int(after.sum())} after the hand-over at {handover:.2f} s, "
+            f"satellites per epoch after it {counts[after].min() if after.any() else 0}-"
+            f"{counts[after].max() if after.any() else 0}",
+        )
 
         tow, xyz, ns = rnx2rtkp(exe, rinex_path, NAV, work)
         ours = solve_epochs(obs, nav, ionosphere=False, reference_week=WEEK, weighting="rtklib")
         k, both = match_epochs(tow, ours.columns["tow_s"])
         late = ours.sample_time_s > handover
-        check(tow.size == rows.size and bool(both.all()) and bool(np.all(ns[k[late]] == 5)),
-              f"rnx2rtkp: {tow.size} solutions for the file's {rows.size} epochs, {int(both.sum())} of our "
-              f"{len(ours)} epochs matched, satellites after the hand-over {ns[k[late]].min()}-{ns[k[late]].max()}")
+        check(
+            tow.size == rows.size and bool(both.all()) and bool(np.all(ns[k[late]] == 5)),
+            f"rnx2rtkp: {tow.size} solutions for the file's {rows.size} epochs, {int(both.sum())} of our "
+            f"{len(ours)} epochs matched, satellites after the hand-over {ns[k[late]].min()}-{ns[k[late]].max()}",
+        )
         d = np.linalg.norm(xyz[k[both]] - ours.ecef_m[both], axis=1)
-        check(bool(d.max() <= AIM_M), f"rnx2rtkp against our least squares with RTKLIB's weighting: 3-D difference "
-              f"max {d.max():.4f} m, RMS {np.sqrt(np.mean(d**2)):.4f} m over {d.size} epochs (aim: {AIM_M:g} m)")
+        check(
+            bool(d.max() <= AIM_M),
+            f"rnx2rtkp against our least squares with RTKLIB's weighting: 3-D difference "
+            f"max {d.max():.4f} m, RMS {np.sqrt(np.mean(d**2)):.4f} m over {d.size} epochs (aim: {AIM_M:g} m)",
+        )
 
         # The vector loop's positions: rows at the solution epochs nearest each RINEX epoch.
         table = result.positions
@@ -103,11 +117,13 @@ def main(argv: list[str] | None = None) -> int:
         kv, near = match_epochs(tow, table.columns["tow_s"][vec], tol_s=0.02)
         dv = np.linalg.norm(xyz[kv[near]] - table.ecef_m[vec][near], axis=1)
         settled = table.sample_time_s[vec][near] > handover + SETTLE_S
-        check(bool(settled.any() and dv[settled].max() <= AIM_M),
-              f"rnx2rtkp against the vector loop's positions from {SETTLE_S:g} s after the hand-over: 3-D difference "
-              f"max {dv[settled].max():.3f} m, RMS {np.sqrt(np.mean(dv[settled]**2)):.3f} m over "
-              f"{int(settled.sum())} epochs (aim: {AIM_M:g} m); in the first {SETTLE_S:g} s (the filter settling) "
-              f"max {dv[~settled].max() if (~settled).any() else float('nan'):.2f} m")
+        check(
+            bool(settled.any() and dv[settled].max() <= AIM_M),
+            f"rnx2rtkp against the vector loop's positions from {SETTLE_S:g} s after the hand-over: 3-D difference "
+            f"max {dv[settled].max():.3f} m, RMS {np.sqrt(np.mean(dv[settled] ** 2)):.3f} m over "
+            f"{int(settled.sum())} epochs (aim: {AIM_M:g} m); in the first {SETTLE_S:g} s (the filter settling) "
+            f"max {dv[~settled].max() if (~settled).any() else float('nan'):.2f} m",
+        )
     return check.summary()
 
 

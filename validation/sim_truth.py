@@ -49,11 +49,22 @@ def satellite_position_clock(eph: dict, tow_s: np.ndarray) -> tuple[np.ndarray, 
     i = eph["Io"] + di + eph["IDOT"] * tk
     x, y = r * np.cos(u), r * np.sin(u)
     Omega = eph["Omega0"] + (eph["OmegaDot"] - OMEGA_E) * tk - OMEGA_E * eph["Toe"]
-    pos = np.stack([x * np.cos(Omega) - y * np.cos(i) * np.sin(Omega),
-                    x * np.sin(Omega) + y * np.cos(i) * np.cos(Omega), y * np.sin(i)], axis=-1)
+    pos = np.stack(
+        [
+            x * np.cos(Omega) - y * np.cos(i) * np.sin(Omega),
+            x * np.sin(Omega) + y * np.cos(i) * np.cos(Omega),
+            y * np.sin(i),
+        ],
+        axis=-1,
+    )
     dtc = _wrap_week(t - eph["toc_tow"])
-    clock = (eph["SVclockBias"] + eph["SVclockDrift"] * dtc + eph["SVclockDriftRate"] * dtc**2
-             + F_REL * e * eph["sqrtA"] * np.sin(E) - eph["TGD"])
+    clock = (
+        eph["SVclockBias"]
+        + eph["SVclockDrift"] * dtc
+        + eph["SVclockDriftRate"] * dtc**2
+        + F_REL * e * eph["sqrtA"] * np.sin(E)
+        - eph["TGD"]
+    )
     return pos, clock
 
 
@@ -65,8 +76,14 @@ def pseudorange_m(eph: dict, receiver_ecef: np.ndarray, tow_rx_s: np.ndarray, io
     for _ in range(4):
         pos, clock = satellite_position_clock(eph, tow_rx_s - tau)
         theta = OMEGA_E * tau
-        rot = np.stack([pos[:, 0] * np.cos(theta) + pos[:, 1] * np.sin(theta),
-                        -pos[:, 0] * np.sin(theta) + pos[:, 1] * np.cos(theta), pos[:, 2]], axis=-1)
+        rot = np.stack(
+            [
+                pos[:, 0] * np.cos(theta) + pos[:, 1] * np.sin(theta),
+                -pos[:, 0] * np.sin(theta) + pos[:, 1] * np.cos(theta),
+                pos[:, 2],
+            ],
+            axis=-1,
+        )
         geometric = np.linalg.norm(rot - receiver_ecef, axis=-1)
         tau = geometric / C
     return geometric - C * clock + iono_m, geometric

@@ -43,8 +43,9 @@ import sys
 import numpy as np
 
 if __name__ == "__main__":  # --help works without dynamax
-    argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                            epilog="Needs dynamax: pip install dynamax==1.0.3").parse_args()
+    argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], epilog="Needs dynamax: pip install dynamax==1.0.3"
+    ).parse_args()
 
 try:
     import jax
@@ -101,13 +102,21 @@ def linear_check(rng, engine: str = "kf") -> bool:
     u = 0.1 * rng.standard_normal(n)
     m0, P0 = rng.standard_normal(n), np.eye(n)
     zs = rng.standard_normal((K, B, m))
-    result = gf.filter_sequence(gf.registry.create("estimator", engine), LinearModel(F, H, Q, R, u=u), zs,
-                                Gaussian(m0, P0), store="smoother")
+    result = gf.filter_sequence(
+        gf.registry.create("estimator", engine), LinearModel(F, H, Q, R, u=u), zs, Gaussian(m0, P0), store="smoother"
+    )
     ours = gf.smooth(result)
     lag = ours.lag_one_cov()
     ll = log_likelihood(result.innovation, result.innovation_cov)
-    params = make_lgssm_params(jnp.asarray(F @ m0 + u), jnp.asarray(F @ P0 @ F.T + Q), jnp.asarray(F), jnp.asarray(Q),
-                               jnp.asarray(H), jnp.asarray(R), dynamics_bias=jnp.asarray(u))
+    params = make_lgssm_params(
+        jnp.asarray(F @ m0 + u),
+        jnp.asarray(F @ P0 @ F.T + Q),
+        jnp.asarray(F),
+        jnp.asarray(Q),
+        jnp.asarray(H),
+        jnp.asarray(R),
+        dynamics_bias=jnp.asarray(u),
+    )
     err = {"mean": 0.0, "cov": 0.0, "lag-one cov": 0.0, "log-likelihood": 0.0}
     for b in range(B):
         post = lgssm_smoother(params, jnp.asarray(zs[:, b]))
@@ -123,8 +132,10 @@ def linear_check(rng, engine: str = "kf") -> bool:
 
 def pendulum():
     """x = (angle, rate); z = sin(angle); numpy (batched) and jax (single) twins."""
+
     def f_np(x):
         return np.stack([x[..., 0] + DT * x[..., 1], x[..., 1] - G * DT * np.sin(x[..., 0])], axis=-1)
+
     def h_np(x):
         return np.sin(x[..., :1])
 
@@ -143,8 +154,10 @@ def pendulum():
 
     def f_jax(x):
         return jnp.array([x[0] + DT * x[1], x[1] - G * DT * jnp.sin(x[0])])
+
     def h_jax(x):
         return jnp.sin(x[:1])
+
     return f_np, h_np, fj_np, hj_np, f_jax, h_jax
 
 
@@ -160,25 +173,38 @@ def nonlinear_checks(rng) -> list[bool]:
         truth.append(x)
     zs = h_np(np.array(truth))[:, None, :] + rng.normal(0.0, np.sqrt(R[0, 0]), (K, B, 1))
     initial = Gaussian(np.array([1.0, 0.0]), np.diag([0.1, 0.1]))
-    cases = [("ekf", {}, None), ("ukf", {"alpha": float(np.sqrt(3)), "beta": 2.0, "kappa": 1.0},
-                                 UKFHyperParams(alpha=float(np.sqrt(3)), beta=2, kappa=1)),
-             ("ckf", {}, UKFHyperParams(alpha=1.0, beta=0, kappa=0))]
+    cases = [
+        ("ekf", {}, None),
+        (
+            "ukf",
+            {"alpha": float(np.sqrt(3)), "beta": 2.0, "kappa": 1.0},
+            UKFHyperParams(alpha=float(np.sqrt(3)), beta=2, kappa=1),
+        ),
+        ("ckf", {}, UKFHyperParams(alpha=1.0, beta=0, kappa=0)),
+    ]
     out = []
     for engine, params, hyper in cases:
-        result = gf.filter_sequence(gf.registry.create("estimator", engine, **params), model, zs, initial,
-                                    store="smoother")
+        result = gf.filter_sequence(
+            gf.registry.create("estimator", engine, **params), model, zs, initial, store="smoother"
+        )
         ours = gf.smooth(result)
         err = {"mean": 0.0, "cov": 0.0}
         for b in range(B):
             prior_m = result.smoother_inputs.prior_mean[0, b]
             prior_P = result.smoother_inputs.prior_cov[0, b]
             p = ParamsNLGSSM(jnp.asarray(prior_m), jnp.asarray(prior_P), f_jax, jnp.asarray(Q), h_jax, jnp.asarray(R))
-            post = (extended_kalman_smoother(p, jnp.asarray(zs[:, b])) if hyper is None
-                    else unscented_kalman_smoother(p, jnp.asarray(zs[:, b]), hyper))
+            post = (
+                extended_kalman_smoother(p, jnp.asarray(zs[:, b]))
+                if hyper is None
+                else unscented_kalman_smoother(p, jnp.asarray(zs[:, b]), hyper)
+            )
             err["mean"] = max(err["mean"], np.abs(ours.mean[:, b] - np.asarray(post.smoothed_means)).max())
             err["cov"] = max(err["cov"], np.abs(ours.cov[:, b] - np.asarray(post.smoothed_covariances)).max())
-        peer = "extended_kalman_smoother" if hyper is None else (
-            f"unscented_kalman_smoother alpha={hyper.alpha:.3g} beta={hyper.beta} kappa={hyper.kappa}")
+        peer = (
+            "extended_kalman_smoother"
+            if hyper is None
+            else (f"unscented_kalman_smoother alpha={hyper.alpha:.3g} beta={hyper.beta} kappa={hyper.kappa}")
+        )
         out.append(report(f"{engine} ({peer})", err))
     return out
 
@@ -186,8 +212,11 @@ def nonlinear_checks(rng) -> list[bool]:
 def main() -> int:
     rng = np.random.default_rng(20261202)
     print(f"dynamax smoothers vs gnssframework, {K} steps x {B} runs, float64")
-    results = [linear_check(np.random.default_rng(1), "kf"), linear_check(np.random.default_rng(1), "svd-ckf"),
-               *nonlinear_checks(rng)]
+    results = [
+        linear_check(np.random.default_rng(1), "kf"),
+        linear_check(np.random.default_rng(1), "svd-ckf"),
+        *nonlinear_checks(rng),
+    ]
     print("PASS" if all(results) else "FAIL", f"({sum(results)} of {len(results)} checks)")
     return 0 if all(results) else 1
 

@@ -28,7 +28,7 @@ def mathjax_es5() -> Path:
     except ModuleNotFoundError:
         root = None
     if root is None or not (root / PARTS[0]).is_file():
-        raise SystemExit("offline math: MathJax is not installed; pip install -e \".[docs]\" (django-static-mathjax)")
+        raise SystemExit('offline math: MathJax is not installed; pip install -e ".[docs]" (django-static-mathjax)')
     return root
 
 

@@ -34,8 +34,12 @@ def _plugins_by_path() -> dict[tuple[str, str], object]:
 def plugin_section(info) -> str:
     """The Markdown added under a plugin's directive."""
     cls = info.cls
-    lines = ["", f"## Parameters of `{info.name}`", "",
-             f"Plugin kind `{info.kind}`, registry name `{info.name}`; generated from `{cls.__qualname__}.Params`."]
+    lines = [
+        "",
+        f"## Parameters of `{info.name}`",
+        "",
+        f"Plugin kind `{info.kind}`, registry name `{info.name}`; generated from `{cls.__qualname__}.Params`.",
+    ]
     for attr in ("unit", "requires", "provides"):
         value = getattr(cls, attr, None)
         if value not in (None, "", ()):

@@ -34,10 +34,28 @@ def main() -> None:
     for k in range(err.shape[0]):
         t = (start + dt.timedelta(seconds=k)).strftime("%H%M%S.00")
         ns, ew = ("N" if lat[k] >= 0 else "S"), ("E" if lon[k] >= 0 else "W")
-        gga = pynmea2.GGA("GN", "GGA", (t, _dm(lat[k], 2), ns, _dm(lon[k], 3), ew, "1", "12", "0.8",
-                                         f"{h[k]:.1f}", "M", "0.0", "M", "", ""))
-        rmc = pynmea2.RMC("GN", "RMC", (t, "A", _dm(lat[k], 2), ns, _dm(lon[k], 3), ew, "0.0", "0.0",
-                                         (start + dt.timedelta(seconds=k)).strftime("%d%m%y"), "", ""))
+        gga = pynmea2.GGA(
+            "GN",
+            "GGA",
+            (t, _dm(lat[k], 2), ns, _dm(lon[k], 3), ew, "1", "12", "0.8", f"{h[k]:.1f}", "M", "0.0", "M", "", ""),
+        )
+        rmc = pynmea2.RMC(
+            "GN",
+            "RMC",
+            (
+                t,
+                "A",
+                _dm(lat[k], 2),
+                ns,
+                _dm(lon[k], 3),
+                ew,
+                "0.0",
+                "0.0",
+                (start + dt.timedelta(seconds=k)).strftime("%d%m%y"),
+                "",
+                "",
+            ),
+        )
         lines += [str(gga), str(rmc)]
     OUT.write_text("\n".join(lines) + "\n")
     print(f"wrote {OUT} ({len(lines)} sentences)")

@@ -27,9 +27,18 @@ def write_nominal_nav() -> None:
     """The nominal 24-slot almanac as broadcast ephemeris: e = 0, omega = 0, Toe = 0, so
     seconds of week equal the almanac's seconds of day for the first half week."""
     const = nominal_constellation()
-    eph = {int(prn): {"sqrtA": np.sqrt(const.radius_m), "Eccentricity": 0.0, "Io": const.inclination_rad,
-                      "Omega0": float(raan), "omega": 0.0, "M0": float(u), "Toe": 0.0}
-           for prn, raan, u in zip(const.prn, const.raan_rad, const.arg_lat_rad)}
+    eph = {
+        int(prn): {
+            "sqrtA": np.sqrt(const.radius_m),
+            "Eccentricity": 0.0,
+            "Io": const.inclination_rad,
+            "Omega0": float(raan),
+            "omega": 0.0,
+            "M0": float(u),
+            "Toe": 0.0,
+        }
+        for prn, raan, u in zip(const.prn, const.raan_rad, const.arg_lat_rad)
+    }
     write_rinex3_nav(NAV, dt.datetime(2020, 4, 26, 0, 0, 0), eph)
     print(f"wrote {NAV}")
 

@@ -58,9 +58,11 @@ for cn0 in (45.0, 35.0):
     a = means[(cn0, "discriminators", "code_phase_error_rmse")]
     b = means[(cn0, "iq-ckf", "code_phase_error_rmse")]
     d = paired[(cn0, "code_phase_error_rmse")]
-    print(f"C/N0 {cn0:.0f} dB-Hz: code RMSE discriminators {a['mean']:.4f} ± {a['se']:.4f}, "
-          f"iq-ckf {b['mean']:.4f} ± {b['se']:.4f} chips; paired difference {d['diff']:+.4f} ± {d['se']:.4f} "
-          f"({'significant' if d['significant'] else 'not significant'}, {d['n']} runs)")
+    print(
+        f"C/N0 {cn0:.0f} dB-Hz: code RMSE discriminators {a['mean']:.4f} ± {a['se']:.4f}, "
+        f"iq-ckf {b['mean']:.4f} ± {b['se']:.4f} chips; paired difference {d['diff']:+.4f} ± {d['se']:.4f} "
+        f"({'significant' if d['significant'] else 'not significant'}, {d['n']} runs)"
+    )
     assert np.isfinite(a["mean"]) and np.isfinite(b["mean"]) and a["n"] == 4 and d["n"] == 4
 # Lower C/N0, larger code error, for both candidates.
 for cand in ("discriminators", "iq-ckf"):

@@ -37,8 +37,9 @@ class GapTolerantSmoother(gf.ChannelFilter):
 
     def step(self, inputs):
         rho, phi = np.asarray(inputs[names.PSEUDORANGE_M]), np.asarray(inputs[names.CARRIER_M])
-        model = gf.LinearModel(np.eye(1), np.eye(1), [[self.q]], [[self.r]],
-                               u=None if self.phi is None else (phi - self.phi)[..., None])
+        model = gf.LinearModel(
+            np.eye(1), np.eye(1), [[self.q]], [[self.r]], u=None if self.phi is None else (phi - self.phi)[..., None]
+        )
         if self.state is None:  # the first epoch initialises from the code
             self.state = self.filter_step.start(gf.Gaussian(rho[..., None], [[self.r]]), model, first_step=1)
         else:
@@ -56,13 +57,19 @@ code[200:230, 2] = np.nan  # a 30-epoch gap in channel 2's pseudorange
 
 smoother = GapTolerantSmoother()
 smoother.reset((channels,), gf.RunContext(epoch_interval_s=1.0))
-smoothed = np.stack([smoother.checked_step({names.PSEUDORANGE_M: code[k], names.CARRIER_M: carrier[k]})
-                     [names.SMOOTHED_M] for k in range(epochs)])
+smoothed = np.stack(
+    [
+        smoother.checked_step({names.PSEUDORANGE_M: code[k], names.CARRIER_M: carrier[k]})[names.SMOOTHED_M]
+        for k in range(epochs)
+    ]
+)
 
 err = smoothed[100:] - truth[100:]
 raw = code[100:] - truth[100:]
-print(f"range RMSE: raw {np.sqrt(np.nanmean(raw**2)):.2f} m, smoothed {np.sqrt(np.mean(err**2)):.2f} m; "
-      f"recoveries {dict(smoother.filter_step.recoveries)}")
+print(
+    f"range RMSE: raw {np.sqrt(np.nanmean(raw**2)):.2f} m, smoothed {np.sqrt(np.mean(err**2)):.2f} m; "
+    f"recoveries {dict(smoother.filter_step.recoveries)}"
+)
 assert smoother.filter_step.recoveries["missing"] == 30  # every gap epoch skipped and counted
 assert np.isfinite(smoothed).all()
 assert np.sqrt(np.mean(err**2)) < 0.5 * np.sqrt(np.nanmean(raw**2))

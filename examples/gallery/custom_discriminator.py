@@ -44,9 +44,12 @@ class CoherentEml(gf.Discriminator):
 
 gf.registry.register_module(
     types.SimpleNamespace(register_discriminator=gf.hookimpl(lambda register: register(CoherentEml))),
-    name="gallery-coherent-eml")
+    name="gallery-coherent-eml",
+)
 disc = gf.registry.create("discriminator", "coherent-eml", coherent_time_s=0.01)
 testing.check_unit_slope(disc, [-1e-3, 1e-3])
 testing.check_noise_variance(disc, cn0_dbhz=40.0, rng=np.random.default_rng(0), runs=20_000)
-print(f"{disc.name}: unit slope and noise variance {float(disc.noise_variance(40.0)):.2e} chips^2 "
-      "at 40 dB-Hz confirmed by Monte Carlo")
+print(
+    f"{disc.name}: unit slope and noise variance {float(disc.noise_variance(40.0)):.2e} chips^2 "
+    "at 40 dB-Hz confirmed by Monte Carlo"
+)

@@ -61,8 +61,10 @@ else:
     raise AssertionError("the exactness check missed the fading factor")
 
 # -- 3. register it -------------------------------------------------------------------------
-gf.registry.register_module(types.SimpleNamespace(
-    register_estimator=gf.hookimpl(lambda register: register(FadingKalmanFilter))), name="fading-example")
+gf.registry.register_module(
+    types.SimpleNamespace(register_estimator=gf.hookimpl(lambda register: register(FadingKalmanFilter))),
+    name="fading-example",
+)
 
 # It inherits kf's `linear_only = True`: filters on nonlinear models refuse it when the
 # config is loaded, naming the estimators that would fit.
@@ -72,6 +74,7 @@ except gf.ConfigError as exc:
     assert "linear-only" in str(exc), exc
 else:
     raise AssertionError("iq-filter took a linear-only estimator")
+
 
 # -- 4. a metric of your own, and the comparison -----------------------------------------------
 class LateErrorP95(Metric):
@@ -84,11 +87,12 @@ class LateErrorP95(Metric):
 
     def compute(self, series, time_s, scenario):
         h = series["horizontal_error_m"]  # (K, runs)
-        return MetricValue(np.percentile(h[h.shape[0] // 2:], 95, axis=0))
+        return MetricValue(np.percentile(h[h.shape[0] // 2 :], 95, axis=0))
 
 
-gf.registry.register_module(types.SimpleNamespace(
-    register_metric=gf.hookimpl(lambda register: register(LateErrorP95))), name="p95-example")
+gf.registry.register_module(
+    types.SimpleNamespace(register_metric=gf.hookimpl(lambda register: register(LateErrorP95))), name="p95-example"
+)
 
 CONFIG = """
 name = "fading-vs-kf"
@@ -133,8 +137,9 @@ with tempfile.TemporaryDirectory() as tmp:
     # The new metric was computed once per batch from the stored series: check it by hand.
     p95 = {(r["case"], r["candidate"]): r for r in summary["rows"] if r["metric"] == "late_horizontal_error_p95"}
     for (case, cand), row in p95.items():
-        h = np.concatenate([np.load(f)["horizontal_error_m"] for f in sorted((out / "raw" / case / cand).glob("*.npz"))],
-                           axis=1)
+        h = np.concatenate(
+            [np.load(f)["horizontal_error_m"] for f in sorted((out / "raw" / case / cand).glob("*.npz"))], axis=1
+        )
         # 150 late values; the linear-interpolation percentile sits at rank 0.95 * 149 = 141.55
         assert h.shape == (300, 40), h.shape
         hand = [np.sort(h[150:, r])[[141, 142]] @ [0.45, 0.55] for r in range(40)]
@@ -151,9 +156,11 @@ for case in ("white", "colored"):
     kf, fading = rows[(case, "kf", "horizontal_error_rmse")], rows[(case, "fading-1.05", "horizontal_error_rmse")]
     # Why pair: the SE of the paired difference against that of two independent samples.
     unpaired_se = np.hypot(kf["std"], fading["std"]) / np.sqrt(kf["runs"])
-    print(f"{case}: horizontal RMSE kf {kf['mean']:.3f} m, fading-1.05 {fading['mean']:.3f} m; "
-          f"paired difference {d['diff']:+.4f} ± {d['se']:.4f} m (n = {d['n']}, "
-          f"{'significant' if d['significant'] else 'not significant'}; unpaired SE would be {unpaired_se:.4f})")
+    print(
+        f"{case}: horizontal RMSE kf {kf['mean']:.3f} m, fading-1.05 {fading['mean']:.3f} m; "
+        f"paired difference {d['diff']:+.4f} ± {d['se']:.4f} m (n = {d['n']}, "
+        f"{'significant' if d['significant'] else 'not significant'}; unpaired SE would be {unpaired_se:.4f})"
+    )
     assert d["n"] == 40 and 0 < d["se"] < unpaired_se
 # White noise: every past measurement is as informative as the last, so forgetting them
 # costs (the KF is the optimal linear filter there). Colored noise (psi 0.95): the data do
@@ -163,6 +170,8 @@ assert white["diff"] > 0 and white["significant"]
 assert "fading-1.05" in report and "Paired differences" in report
 for case in ("white", "colored"):
     d = paired[(case, "fading-1.05", "late_horizontal_error_p95")]
-    print(f"{case}: late 95th percentile, fading-1.05 - kf: {d['diff']:+.4f} ± {d['se']:.4f} m (n = {d['n']}, "
-          f"{'significant' if d['significant'] else 'not significant'})")
+    print(
+        f"{case}: late 95th percentile, fading-1.05 - kf: {d['diff']:+.4f} ± {d['se']:.4f} m (n = {d['n']}, "
+        f"{'significant' if d['significant'] else 'not significant'})"
+    )
     assert paired[(case, "fading-1.00", "late_horizontal_error_p95")]["diff"] == 0.0

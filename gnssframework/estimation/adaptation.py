@@ -137,8 +137,12 @@ class AdapterRun(abc.ABC):
         if kept is None or kept[0] is not reference:
             eig = regularised(reference)
             w, v = eig
-            kept = cache[id(reference)] = (reference, eig, (v * w[..., None, :]) @ np.swapaxes(v, -1, -2),
-                                           backend.compiled())
+            kept = cache[id(reference)] = (
+                reference,
+                eig,
+                (v * w[..., None, :]) @ np.swapaxes(v, -1, -2),
+                backend.compiled(),
+            )
         if kept[3]:
             lean = compiled_loop.guard(raw, kept[2], kept[1], floor, ceiling)
             if lean is not None:

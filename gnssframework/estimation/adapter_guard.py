@@ -30,8 +30,9 @@ def _finite_per_element(a: np.ndarray | None, batch_shape: tuple[int, ...]) -> n
     return np.broadcast_to(np.isfinite(np.asarray(a, float)).all(axis=(-2, -1)), batch_shape)
 
 
-def adapt_checked(run: AdapterRun, ctx: AdaptationStep, filter_name: str, adapter_name: str,
-                  step: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+def adapt_checked(
+    run: AdapterRun, ctx: AdaptationStep, filter_name: str, adapter_name: str, step: int
+) -> tuple[np.ndarray | None, np.ndarray | None]:
     """``run.step(ctx)``, refused by name where the adapter's arithmetic overflows.
 
     Raises
@@ -63,6 +64,10 @@ def adapt_checked(run: AdapterRun, ctx: AdaptationStep, filter_name: str, adapte
             if ok.all():
                 ok = np.zeros(batch_shape, bool)
     what = f"its decomposition failed ({failed})" if failed else "its Q or R estimate is not finite"
-    raise NonFiniteError(filter_name, failing_indices(ok), step,
-                         detail=f"noise adapter {adapter_name!r}: {what}, from innovations of magnitude up to "
-                                f"{size:.3g} (an overflow: a measurement far outside the model)")
+    raise NonFiniteError(
+        filter_name,
+        failing_indices(ok),
+        step,
+        detail=f"noise adapter {adapter_name!r}: {what}, from innovations of magnitude up to "
+        f"{size:.3g} (an overflow: a measurement far outside the model)",
+    )

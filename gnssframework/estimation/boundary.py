@@ -19,8 +19,7 @@ from ..errors import InvalidArgumentError, InvalidInputError
 from .linalg import to_float
 from .types import Gaussian, LinearModel, NonlinearModel
 
-__all__ = ["as_measurement", "as_sequence", "to_float", "check_argument", "checked_model_at",
-           "check_model_functions"]
+__all__ = ["as_measurement", "as_sequence", "to_float", "check_argument", "checked_model_at", "check_model_functions"]
 
 
 def _has(*methods: str) -> Callable[[Any], bool]:
@@ -38,10 +37,14 @@ def _is_model(value: Any) -> bool:
 #: What each object argument of the estimation calls must be: (words for the message, test).
 _ARGUMENTS: dict[str, tuple[str, Callable[[Any], bool]]] = {
     "estimator": ("an estimator plugin, e.g. gf.registry.create('estimator', 'ukf')", _has("predict", "update")),
-    "adapter": ("a noise_adapter plugin, e.g. gf.registry.create('noise_adapter', 'innovation'), or None",
-                lambda v: v is None or _has("start")(v)),
-    "augmentation": ("an augmentation plugin, e.g. gf.registry.create('augmentation', 'colored-ar1'), or None",
-                     lambda v: v is None or _has("apply")(v)),
+    "adapter": (
+        "a noise_adapter plugin, e.g. gf.registry.create('noise_adapter', 'innovation'), or None",
+        lambda v: v is None or _has("start")(v),
+    ),
+    "augmentation": (
+        "an augmentation plugin, e.g. gf.registry.create('augmentation', 'colored-ar1'), or None",
+        lambda v: v is None or _has("apply")(v),
+    ),
     "initial": ("a gf.Gaussian(mean, cov)", _is_gaussian),
     "model": ("a gf.LinearModel or gf.NonlinearModel, or a callable k -> model", _is_model),
 }
@@ -59,8 +62,12 @@ def check_argument(value: Any, argument: str, call: str) -> None:
     a filter. ``argument`` is a key of the table above, also the name in the message."""
     expected, ok = _ARGUMENTS[argument]
     if isinstance(value, type) and argument != "model":  # the plugin class, not an instance of it
-        raise InvalidArgumentError(call, argument, f"expected {expected}; got the class {value.__name__}, not an "
-                                   "instance: create one (gf.registry.create(kind, name, **params))")
+        raise InvalidArgumentError(
+            call,
+            argument,
+            f"expected {expected}; got the class {value.__name__}, not an "
+            "instance: create one (gf.registry.create(kind, name, **params))",
+        )
     if not ok(value):
         raise InvalidArgumentError(call, argument, f"expected {expected}; got {_describe(value)}")
 
@@ -76,8 +83,11 @@ def checked_model_at(model_at: Callable[[int], Any], call: str) -> Callable[[int
         except TypeError as exc:  # a callable of another signature
             raise InvalidArgumentError(call, "model", f"the callable k -> model failed at step {k}: {exc}") from None
         if not isinstance(model, (LinearModel, NonlinearModel)):
-            raise InvalidArgumentError(call, "model", f"the callable returned {_describe(model)} at step {k}; "
-                                       "expected a gf.LinearModel or gf.NonlinearModel")
+            raise InvalidArgumentError(
+                call,
+                "model",
+                f"the callable returned {_describe(model)} at step {k}; expected a gf.LinearModel or gf.NonlinearModel",
+            )
         return model
 
     return checked
@@ -94,13 +104,22 @@ def check_model_functions(model: Any, mean: np.ndarray, call: str) -> None:
         try:
             out = fn(np.asarray(mean, dtype=float))
         except Exception as exc:  # noqa: BLE001 - the caller's function: say which one failed, and how
-            raise InvalidArgumentError(call, f"model.{what}", f"failed on the initial mean: {type(exc).__name__}: "
-                                       f"{exc}") from None
+            raise InvalidArgumentError(
+                call, f"model.{what}", f"failed on the initial mean: {type(exc).__name__}: {exc}"
+            ) from None
         shape = getattr(out, "shape", None)
-        if out is None or shape is None or not shape or shape[-1] != size or \
-                getattr(out, "dtype", np.dtype(object)).kind not in "biuf":
-            raise InvalidArgumentError(call, f"model.{what}", f"returned {_describe(out)} for the initial mean; "
-                                       f"expected a float array of shape (..., {size})")
+        if (
+            out is None
+            or shape is None
+            or not shape
+            or shape[-1] != size
+            or getattr(out, "dtype", np.dtype(object)).kind not in "biuf"
+        ):
+            raise InvalidArgumentError(
+                call,
+                f"model.{what}",
+                f"returned {_describe(out)} for the initial mean; expected a float array of shape (..., {size})",
+            )
 
 
 def as_sequence(zs: Any, filter_name: str) -> np.ndarray:
@@ -125,12 +144,19 @@ def as_measurement(z: Any, m: int, batch_shape: tuple[int, ...], filter_name: st
     except ValueError as exc:
         raise InvalidInputError(filter_name, "measurement z", f"{exc} at step {step}") from None
     if z.ndim < 1 or z.shape[-1] != m:
-        raise InvalidInputError(filter_name, "measurement z", f"has shape {z.shape} at step {step}; "
-                                f"the model's R is {m}x{m}, so z needs shape (..., {m})")
+        raise InvalidInputError(
+            filter_name,
+            "measurement z",
+            f"has shape {z.shape} at step {step}; the model's R is {m}x{m}, so z needs shape (..., {m})",
+        )
     try:
         np.broadcast_shapes(z.shape[:-1], batch_shape)
     except ValueError:
-        raise InvalidInputError(filter_name, "measurement z", f"has batch shape {z.shape[:-1]} at step {step}, which "
-                                f"does not broadcast with the state's batch shape {batch_shape}") from None
+        raise InvalidInputError(
+            filter_name,
+            "measurement z",
+            f"has batch shape {z.shape[:-1]} at step {step}, which "
+            f"does not broadcast with the state's batch shape {batch_shape}",
+        ) from None
     out: np.ndarray = z
     return out

@@ -105,7 +105,9 @@ class CompiledFunctions:
     def __post_init__(self) -> None:
         for name in ("f", "h"):
             if not callable(getattr(self, name)):
-                raise ConfigError(f"CompiledFunctions.{name}", "must be a function compiled with gnssframework.backend.jit")
+                raise ConfigError(
+                    f"CompiledFunctions.{name}", "must be a function compiled with gnssframework.backend.jit"
+                )
         for name in ("f_params", "h_params"):
             a = np.ascontiguousarray(getattr(self, name), dtype=float)
             if a.ndim != 2:
@@ -123,9 +125,14 @@ class CompiledFunctions:
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, CompiledFunctions):
             return NotImplemented
-        return (self.f is other.f and self.h is other.h and self.h_jacobian is other.h_jacobian
-                and self.sizes == other.sizes and _same(self.f_params, other.f_params)
-                and _same(self.h_params, other.h_params))
+        return (
+            self.f is other.f
+            and self.h is other.h
+            and self.h_jacobian is other.h_jacobian
+            and self.sizes == other.sizes
+            and _same(self.f_params, other.f_params)
+            and _same(self.h_params, other.h_params)
+        )
 
     __hash__ = None  # type: ignore[assignment]  # mutable arrays inside
 

@@ -83,8 +83,7 @@ class LearnedNoise(NamedTuple):
     log_likelihood: np.ndarray
 
 
-def log_likelihood(innovation: np.ndarray, innovation_cov: np.ndarray,
-                   present: np.ndarray | None = None) -> np.ndarray:
+def log_likelihood(innovation: np.ndarray, innovation_cov: np.ndarray, present: np.ndarray | None = None) -> np.ndarray:
     r"""The prediction-error log-likelihood $-\tfrac12 \sum_k [m \log 2\pi + \log\det S_k +
     \nu_k^T S_k^{-1} \nu_k]$ of a filter's innovations, summed over axis 0 (time).
 
@@ -115,15 +114,19 @@ def log_likelihood(innovation: np.ndarray, innovation_cov: np.ndarray,
 class _Moments:
     """Summed M-step second moments and their counts, per run."""
 
-    q_sum: np.ndarray   # (..., n, n)
+    q_sum: np.ndarray  # (..., n, n)
     q_count: np.ndarray  # (...)
-    r_sum: np.ndarray   # (..., m, m)
+    r_sum: np.ndarray  # (..., m, m)
     r_count: np.ndarray  # (...)
 
 
-def _expected_residuals(model_at: Callable[[int], Model], fixed: bool, zs: np.ndarray, sm: SmoothedResult,
-                        present: np.ndarray,
-                        ) -> _Moments:
+def _expected_residuals(
+    model_at: Callable[[int], Model],
+    fixed: bool,
+    zs: np.ndarray,
+    sm: SmoothedResult,
+    present: np.ndarray,
+) -> _Moments:
     """The bracketed sums of the module docstring's M-step (over k), per run."""
     K = zs.shape[0]
     mean, cov = sm.mean, sm.cov
@@ -144,18 +147,28 @@ def _expected_residuals(model_at: Callable[[int], Model], fixed: bool, zs: np.nd
             res_x = getattr(md, "residual_x", None) or np.subtract
             res_z = getattr(md, "residual_z", None) or np.subtract
             Fk, Hk = md.jacobian_f(prev_mean[k]), md.jacobian_h(mean[k])
-            parts.append((res_x(mean[k], md.f(prev_mean[k])), np.broadcast_to(Fk, lag.shape[1:]),
-                          res_z(zs[k], md.h(mean[k])), np.broadcast_to(Hk, mean.shape[1:-1] + Hk.shape[-2:])))
+            parts.append(
+                (
+                    res_x(mean[k], md.f(prev_mean[k])),
+                    np.broadcast_to(Fk, lag.shape[1:]),
+                    res_z(zs[k], md.h(mean[k])),
+                    np.broadcast_to(Hk, mean.shape[1:-1] + Hk.shape[-2:]),
+                )
+            )
         e, F, d, H = (np.stack(p) for p in zip(*parts))
     FT = transpose(F)
     cross = lag @ FT
-    q_terms = (e[..., :, None] * e[..., None, :] + cov - cross - transpose(cross) + F @ prev_cov @ FT)
+    q_terms = e[..., :, None] * e[..., None, :] + cov - cross - transpose(cross) + F @ prev_cov @ FT
     d = np.where(present[..., None], d, 0.0)
     r_terms = d[..., :, None] * d[..., None, :] + H @ cov @ transpose(H)
     r_terms = np.where(present[..., None, None], r_terms, 0.0)
     batch = mean.shape[1:-1]
-    return _Moments(q_sum=np.sum(q_terms, axis=0), q_count=np.full(batch, float(K)),
-                    r_sum=np.sum(r_terms, axis=0), r_count=np.sum(present, axis=0).astype(float))
+    return _Moments(
+        q_sum=np.sum(q_terms, axis=0),
+        q_count=np.full(batch, float(K)),
+        r_sum=np.sum(r_terms, axis=0),
+        r_count=np.sum(present, axis=0).astype(float),
+    )
 
 
 def _structured(estimate: np.ndarray, previous: np.ndarray, shape0: np.ndarray, structure: str) -> np.ndarray:
@@ -177,10 +190,20 @@ def _check_structure(name: str, value: str) -> None:
         raise ConfigError(name, f"got {value!r}; allowed: {', '.join(STRUCTURES)}")
 
 
-def em_step(estimator: Estimator, model: Model | Callable[[int], Model], zs: np.ndarray, initial: Gaussian,
-            Q: np.ndarray, R: np.ndarray, *, shared: bool = False, q_structure: str = "full",
-            r_structure: str = "full", Q0: np.ndarray | None = None, R0: np.ndarray | None = None,
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def em_step(
+    estimator: Estimator,
+    model: Model | Callable[[int], Model],
+    zs: np.ndarray,
+    initial: Gaussian,
+    Q: np.ndarray,
+    R: np.ndarray,
+    *,
+    shared: bool = False,
+    q_structure: str = "full",
+    r_structure: str = "full",
+    Q0: np.ndarray | None = None,
+    R0: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One EM iteration (module docstring): E-step with ``Q, R``, then the M-step.
 
     Returns
@@ -195,8 +218,9 @@ def em_step(estimator: Estimator, model: Model | Callable[[int], Model], zs: np.
         md = model(k) if callable(model) else model
         return md.with_noise(Q=Q, R=R)
 
-    result = filter_sequence(estimator, model_at(0) if fixed else model_at, zs, initial, missing="skip",
-                             store="smoother")
+    result = filter_sequence(
+        estimator, model_at(0) if fixed else model_at, zs, initial, missing="skip", store="smoother"
+    )
     present = ~result.skipped
     ll = log_likelihood(result.innovation, result.innovation_cov, present)
     first = model_at(0)
@@ -217,10 +241,20 @@ def em_step(estimator: Estimator, model: Model | Callable[[int], Model], zs: np.
     return Q_new, R_new, ll
 
 
-def learn_noise(model: Model | Callable[[int], Model], zs: np.ndarray, initial: Gaussian, *,
-                estimator: Estimator, iterations: int = 100, tol: float = 1e-9, shared: bool = False,
-                q_structure: str = "full", r_structure: str = "full",
-                Q: np.ndarray | None = None, R: np.ndarray | None = None) -> LearnedNoise:
+def learn_noise(
+    model: Model | Callable[[int], Model],
+    zs: np.ndarray,
+    initial: Gaussian,
+    *,
+    estimator: Estimator,
+    iterations: int = 100,
+    tol: float = 1e-9,
+    shared: bool = False,
+    q_structure: str = "full",
+    r_structure: str = "full",
+    Q: np.ndarray | None = None,
+    R: np.ndarray | None = None,
+) -> LearnedNoise:
     r"""Maximum-likelihood Q and R from recorded measurements by EM (module docstring).
 
     Parameters
@@ -288,12 +322,25 @@ def learn_noise(model: Model | Callable[[int], Model], zs: np.ndarray, initial: 
     Q0, R0 = Q, R
     for name, shape, structure in (("Q", Q0, q_structure), ("R", R0, r_structure)):
         if structure == "scaled" and not np.all(np.linalg.eigvalsh(symmetrize(shape)) > 0):
-            raise ConfigError(f"learn_noise {name}", "a 'scaled' structure needs a positive definite starting "
-                              f"{name} (its known shape)")
+            raise ConfigError(
+                f"learn_noise {name}",
+                f"a 'scaled' structure needs a positive definite starting {name} (its known shape)",
+            )
     history = []
     for i in range(iterations + 1):
-        Q_new, R_new, ll = em_step(estimator, model, zs, initial, Q, R, shared=shared, q_structure=q_structure,
-                                   r_structure=r_structure, Q0=Q0, R0=R0)
+        Q_new, R_new, ll = em_step(
+            estimator,
+            model,
+            zs,
+            initial,
+            Q,
+            R,
+            shared=shared,
+            q_structure=q_structure,
+            r_structure=r_structure,
+            Q0=Q0,
+            R0=R0,
+        )
         history.append(ll)
         if i == iterations:
             break  # the last E-step only scores the returned Q, R

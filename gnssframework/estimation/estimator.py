@@ -74,14 +74,16 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
         return Gaussian(*kernels.linear_predict(state.mean, state.cov, compiled.f_params, model.Q))
 
     def compiled_linearised_moments(
-            self, prior: Gaussian, model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        self, prior: Gaussian, model: Model
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """``(h(x), H P H^T + R, P H^T)`` with the model's compiled ``h`` and Jacobian H at
         the mean, or ``None`` where that path does not apply (the caller then runs NumPy)."""
         compiled = self._linearised_twins(model)
         if compiled is None:
             return None
-        moments: tuple[np.ndarray, np.ndarray, np.ndarray] = kernels.ekf_moments(prior.mean, prior.cov, compiled,
-                                                                                  model.R)
+        moments: tuple[np.ndarray, np.ndarray, np.ndarray] = kernels.ekf_moments(
+            prior.mean, prior.cov, compiled, model.R
+        )
         return moments
 
     def _raise_root_failure(self, status: np.ndarray, root_kind: int) -> None:
@@ -103,9 +105,7 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
         """Propagate ``state`` through the transition of ``model`` (adds Q)."""
 
     @abc.abstractmethod
-    def measurement_moments(
-        self, prior: Gaussian, model: Model
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def measurement_moments(self, prior: Gaussian, model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return ``(z_hat, S, C)``: predicted measurement, its covariance with R, and
         the state-measurement cross covariance."""
 
@@ -214,9 +214,19 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
         plan = self._iteration_plan()
         if plan is not None:  # iterated and/or robust: the loop of `iterated.iterated_update`
             iterations, tol, robust = plan
-            return iterated_update(self, prior, z, model, on_failure=on_failure, missing=missing,
-                                   iterations=iterations, tol=tol, iteration=self.iteration_kind, robust=robust,
-                                   line_search=bool(getattr(self.params, "line_search", False)))
+            return iterated_update(
+                self,
+                prior,
+                z,
+                model,
+                on_failure=on_failure,
+                missing=missing,
+                iterations=iterations,
+                tol=tol,
+                iteration=self.iteration_kind,
+                robust=robust,
+                line_search=bool(getattr(self.params, "line_search", False)),
+            )
         # The fused pass computes the moments and the posterior itself: an engine that
         # overrides either of them takes the path below, which calls its overrides.
         # A model with angle-aware residual hooks takes that path too (the fused pass
@@ -225,9 +235,9 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
         if rule is not None:
             # The lean path: one compiled pass finds the missing measurements, the failed
             # roots and the non-PD S, and reports them as three counts.
-            (mean, cov, gain, innovation, z_hat, S, C, status, ok, skipped,
-             (n_bad_z, n_root, n_not_pd)) = kernels.fused_update(prior.mean, prior.cov, z, None, rule,
-                                                                model.compiled, model.R)
+            (mean, cov, gain, innovation, z_hat, S, C, status, ok, skipped, (n_bad_z, n_root, n_not_pd)) = (
+                kernels.fused_update(prior.mean, prior.cov, z, None, rule, model.compiled, model.R)
+            )
             if n_bad_z and missing != "skip":
                 raise InvalidMeasurementError(self.name, failing_indices(np.isfinite(z).all(axis=-1)))
             if n_root:
@@ -246,7 +256,16 @@ class Estimator(backend.BackendChoice, Plugin, abc.ABC):
             joseph = form == "joseph"
             H = model.H if joseph else None  # type: ignore[union-attr]  # "joseph": the KF's form, linear models
             mean, cov, gain, innovation, ok = kernels.update(
-                prior.mean, prior.cov, z, z_hat, S, C, bad_z, joseph, H, model.R if joseph else None,
+                prior.mean,
+                prior.cov,
+                z,
+                z_hat,
+                S,
+                C,
+                bad_z,
+                joseph,
+                H,
+                model.R if joseph else None,
             )
             if on_failure == "raise" and not all_true(ok):
                 raise NotPositiveDefiniteError(self.name, failing_indices(ok), detail="innovation covariance S")
@@ -361,7 +380,13 @@ class SigmaPointEstimator(Estimator):
             rule = self.kernel_rule(n) if self._kernel_rule_ok else None
             if rule is not None:
                 root_kind, scale, center, wm, wc = rule
-                rule = (int(root_kind), float(scale), bool(center), kernels.vector_operand(wm), kernels.vector_operand(wc))
+                rule = (
+                    int(root_kind),
+                    float(scale),
+                    bool(center),
+                    kernels.vector_operand(wm),
+                    kernels.vector_operand(wc),
+                )
             hit = cache[key] = (rule, getattr(self, "params", None))  # holds params: its id stays unique
         rule_or_none: KernelRule | None = hit[0]
         return rule_or_none
@@ -393,8 +418,9 @@ class SigmaPointEstimator(Estimator):
         return L
 
     @staticmethod
-    def _moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray, model: Model | None = None,
-                 space: str = "x") -> tuple[np.ndarray, np.ndarray]:
+    def _moments(
+        Y: np.ndarray, wm: np.ndarray, wc: np.ndarray, model: Model | None = None, space: str = "x"
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean and deviations of transformed points ``(N, ..., p)``, through the
         model's mean and residual hooks of ``space`` (``"x"`` or ``"z"``) where it has them."""
         mean_fn = getattr(model, f"mean_{space}", None)
@@ -435,7 +461,8 @@ class SigmaPointEstimator(Estimator):
         if points is not None:
             X, wm, wc = points
             moments: tuple[np.ndarray, np.ndarray, np.ndarray] = kernels.measurement_moments(
-                X, model.h(X), prior.mean, wm, wc, model.R)
+                X, model.h(X), prior.mean, wm, wc, model.R
+            )
             return moments
         X, wm, wc = self.sigma_points(prior)
         Z = model.h(X)
@@ -481,8 +508,11 @@ class SigmaPointEstimator(Estimator):
         X, wm, wc = points if points is not None else self.sigma_points(state)
         wc = np.asarray(wc, dtype=float)
         if (wc < 0).any():
-            raise ConfigError(f"estimator {self.name!r}", "the square-root smoother (smoother_gain 'sqrt') needs "
-                              f"nonnegative covariance weights; this rule has {wc.min():.3g}: use form='solve'")
+            raise ConfigError(
+                f"estimator {self.name!r}",
+                "the square-root smoother (smoother_gain 'sqrt') needs "
+                f"nonnegative covariance weights; this rule has {wc.min():.3g}: use form='solve'",
+            )
         residual = residual_hook(model, "x")
         root_w = np.sqrt(wc)
         dX = residual(X, state.mean)

@@ -56,6 +56,7 @@ class Engine(Protocol):
 
     def posterior_cov(self, prior: Gaussian, gain: np.ndarray, S: np.ndarray, model: Model) -> np.ndarray: ...
 
+
 #: A model's residual hook: ``residual(a, b)`` is ``a - b`` in its space.
 Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -80,20 +81,32 @@ def _where(mask: np.ndarray, new: np.ndarray, old: np.ndarray) -> np.ndarray:
 LINE_SEARCH_HALVINGS = 20
 
 
-def _map_cost(engine: Engine, model: Model, prior: Gaussian, z: np.ndarray, x: np.ndarray, res_x: Residual,
-              res_z: Residual) -> np.ndarray:
+def _map_cost(
+    engine: Engine, model: Model, prior: Gaussian, z: np.ndarray, x: np.ndarray, res_x: Residual, res_z: Residual
+) -> np.ndarray:
     r"""$\tfrac12 \|x - m\|^2_{P^{-1}} + \tfrac12 \|z - h(x)\|^2_{R^{-1}}$ per batch element,
     with $h(x)$ from the engine's moments at $N(x, P)$ (the EKF's $h$ at $x$)."""
     h_x = engine.measurement_moments(Gaussian(x, prior.cov), model)[0]
     d, e = res_x(x, prior.mean), res_z(z, h_x)
     R = np.broadcast_to(model.R, e.shape + e.shape[-1:])
-    cost: np.ndarray = 0.5 * (np.einsum("...i,...i->...", d, np.linalg.solve(prior.cov, d[..., None])[..., 0])
-                              + np.einsum("...i,...i->...", e, np.linalg.solve(R, e[..., None])[..., 0]))
+    cost: np.ndarray = 0.5 * (
+        np.einsum("...i,...i->...", d, np.linalg.solve(prior.cov, d[..., None])[..., 0])
+        + np.einsum("...i,...i->...", e, np.linalg.solve(R, e[..., None])[..., 0])
+    )
     return cost
 
 
-def _damped(engine: Engine, model: Model, prior: Gaussian, z: np.ndarray, x: np.ndarray, x_full: np.ndarray,
-            active: np.ndarray, res_x: Residual, res_z: Residual) -> np.ndarray:
+def _damped(
+    engine: Engine,
+    model: Model,
+    prior: Gaussian,
+    z: np.ndarray,
+    x: np.ndarray,
+    x_full: np.ndarray,
+    active: np.ndarray,
+    res_x: Residual,
+    res_z: Residual,
+) -> np.ndarray:
     """The Gauss-Newton step from ``x`` towards ``x_full``, halved per batch element until
     the MAP cost does not increase (Skoglund, Hendeby & Axehill, FUSION 2015: the IEKF with
     a backtracking line search). Elements that no step improves stay at ``x``."""
@@ -114,10 +127,20 @@ def _damped(engine: Engine, model: Model, prior: Gaussian, z: np.ndarray, x: np.
     return out
 
 
-def iterated_update(engine: Engine, prior: Gaussian, z: np.ndarray, model: Model, *, on_failure: str = "raise",
-                    missing: str = "raise", iterations: int = 1, tol: float = 0.0,
-                    iteration: str = "gauss-newton", robust: RobustUpdate | None = None,
-                    line_search: bool = False) -> Update:
+def iterated_update(
+    engine: Engine,
+    prior: Gaussian,
+    z: np.ndarray,
+    model: Model,
+    *,
+    on_failure: str = "raise",
+    missing: str = "raise",
+    iterations: int = 1,
+    tol: float = 0.0,
+    iteration: str = "gauss-newton",
+    robust: RobustUpdate | None = None,
+    line_search: bool = False,
+) -> Update:
     """The iterated (and optionally robust) update of ``engine`` (see the module docstring).
 
     Parameters

@@ -189,7 +189,11 @@ def regularised(reference: np.ndarray, rel: float = 1e-6) -> tuple[np.ndarray, n
 
 
 def clamp_relative(
-    a: np.ndarray, reference: np.ndarray, floor: float, ceiling: float, rel_regularisation: float = 1e-6,
+    a: np.ndarray,
+    reference: np.ndarray,
+    floor: float,
+    ceiling: float,
+    rel_regularisation: float = 1e-6,
     reference_eig: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Clamp ``a`` between ``floor * reference`` and ``ceiling * reference``.

@@ -61,8 +61,11 @@ class SmootherInputs:
 Factors = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
-def transition_terms(estimator: Estimator, previous: Gaussian, r: StepResult,
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, Factors | None]:
+def transition_terms(
+    estimator: Estimator,
+    previous: Gaussian,
+    r: StepResult,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, Factors | None]:
     """What a backward pass keeps of one step ``previous -> r``: the prediction's mean and
     covariance and ``estimator.transition_cross_cov``, each broadcast to the posterior's batch
     (a state shared by the runs may be predicted with a Q per run), and for a square-root
@@ -77,8 +80,10 @@ def transition_terms(estimator: Estimator, previous: Gaussian, r: StepResult,
     """
     batch = r.posterior.batch_shape
     if previous.batch_shape != batch:
-        previous = Gaussian(np.broadcast_to(previous.mean, batch + previous.mean.shape[-1:]),
-                            np.broadcast_to(previous.cov, batch + previous.cov.shape[-2:]))
+        previous = Gaussian(
+            np.broadcast_to(previous.mean, batch + previous.mean.shape[-1:]),
+            np.broadcast_to(previous.cov, batch + previous.cov.shape[-2:]),
+        )
     # r.model is the model the prediction used (the adapter's Q in force at this step).
     factors: Factors | None = None
     if estimator.smoother_gain == "sqrt":
@@ -90,9 +95,12 @@ def transition_terms(estimator: Estimator, previous: Gaussian, r: StepResult,
         cross = X @ transpose(Y)
     else:
         cross = estimator.transition_cross_cov(previous, r.model, r.prior)
-    return (np.broadcast_to(r.prior.mean, batch + r.prior.mean.shape[-1:]),
-            np.broadcast_to(r.prior.cov, batch + r.prior.cov.shape[-2:]),
-            np.broadcast_to(cross, batch + cross.shape[-2:]), factors)
+    return (
+        np.broadcast_to(r.prior.mean, batch + r.prior.mean.shape[-1:]),
+        np.broadcast_to(r.prior.cov, batch + r.prior.cov.shape[-2:]),
+        np.broadcast_to(cross, batch + cross.shape[-2:]),
+        factors,
+    )
 
 
 @dataclass
@@ -159,23 +167,32 @@ class FilterResult:
 
     def __repr__(self) -> str:
         info = self.summary()
-        return (f"FilterResult({info['steps']} steps, batch {info['batch']}, n={info['state n']}, "
-                f"m={info['measurement m']}, {info['time']}, covariances {info['covariances']}, skipped updates "
-                f"{info['skipped updates']}, recoveries {info['recoveries']})")
+        return (
+            f"FilterResult({info['steps']} steps, batch {info['batch']}, n={info['state n']}, "
+            f"m={info['measurement m']}, {info['time']}, covariances {info['covariances']}, skipped updates "
+            f"{info['skipped updates']}, recoveries {info['recoveries']})"
+        )
 
     def _repr_html_(self) -> str:
         from html import escape
 
-        rows = "".join(f"<tr><th style='text-align:left'>{escape(label)}</th><td style='text-align:left'>"
-                       f"{escape(text)}</td></tr>" for label, text in self.summary().items())
+        rows = "".join(
+            f"<tr><th style='text-align:left'>{escape(label)}</th><td style='text-align:left'>{escape(text)}</td></tr>"
+            for label, text in self.summary().items()
+        )
         return f"<table><caption>FilterResult</caption>{rows}</table>"
 
 
 def _check_arguments(estimator: Any, model: Any, initial: Any, adapter: Any, augmentation: Any) -> None:
     """The object arguments are of the right kind (a string or dict is named, not an
     AttributeError deep in a filter)."""
-    for value, argument in ((estimator, "estimator"), (model, "model"), (initial, "initial"),
-                            (adapter, "adapter"), (augmentation, "augmentation")):
+    for value, argument in (
+        (estimator, "estimator"),
+        (model, "model"),
+        (initial, "initial"),
+        (adapter, "adapter"),
+        (augmentation, "augmentation"),
+    ):
         check_argument(value, argument, "filter_sequence")
 
 
@@ -255,14 +272,22 @@ def filter_sequence(
     step = FilterStep(estimator, adapter, on_failure=on_failure, missing=missing)
     zs = as_sequence(zs, estimator.name)  # text, ragged or complex: named, not a raw ValueError
     if zs.ndim < 2:
-        raise InvalidInputError(estimator.name, "zs", f"needs shape (K, batch..., m), got {zs.shape}"
-                                + ("; K scalar measurements are zs[:, None]" if zs.ndim == 1 else ""))
+        raise InvalidInputError(
+            estimator.name,
+            "zs",
+            f"needs shape (K, batch..., m), got {zs.shape}"
+            + ("; K scalar measurements are zs[:, None]" if zs.ndim == 1 else ""),
+        )
     if zs.shape[0] == 0:
-        raise InvalidInputError(estimator.name, "zs", f"is a zero-length measurement sequence (shape {zs.shape}): "
-                                "there is nothing to filter")
+        raise InvalidInputError(
+            estimator.name,
+            "zs",
+            f"is a zero-length measurement sequence (shape {zs.shape}): there is nothing to filter",
+        )
     if 0 in zs.shape[1:-1]:
-        raise InvalidInputError(estimator.name, "zs", f"has an empty batch (shape {zs.shape}): there is nothing "
-                                "to filter")
+        raise InvalidInputError(
+            estimator.name, "zs", f"has an empty batch (shape {zs.shape}): there is nothing to filter"
+        )
     times = None if time_s is None else _times(time_s, zs.shape[0], estimator.name)  # of the steps as given
     if augmentation is not None:
         if callable(model):  # models are dataclasses, not callables
@@ -277,26 +302,51 @@ def filter_sequence(
     check_model_functions(m0, initial.mean, "filter_sequence")
     m = m0.R.shape[-1]
     if zs.shape[-1] != m:
-        hint = (f"; a batch of {zs.shape[-1]} sequences of {m} measurement{'s' if m > 1 else ''} is "
-                f"(K, batch, m) = {(zs.shape[0], zs.shape[-1], m)}" + (": zs[..., None]" if m == 1 else "")
-                if zs.ndim == 2 else "")
-        raise InvalidInputError(estimator.name, "zs", f"has {zs.shape[-1]} measurements per step (shape {zs.shape}) "
-                                f"but the model's R is {m}x{m}; expected (K, batch..., m){hint}")
+        hint = (
+            f"; a batch of {zs.shape[-1]} sequences of {m} measurement{'s' if m > 1 else ''} is "
+            f"(K, batch, m) = {(zs.shape[0], zs.shape[-1], m)}" + (": zs[..., None]" if m == 1 else "")
+            if zs.ndim == 2
+            else ""
+        )
+        raise InvalidInputError(
+            estimator.name,
+            "zs",
+            f"has {zs.shape[-1]} measurements per step (shape {zs.shape}) "
+            f"but the model's R is {m}x{m}; expected (K, batch..., m){hint}",
+        )
     try:
         np.broadcast_shapes(initial.batch_shape, zs.shape[1:-1])
     except ValueError:
-        raise InvalidInputError(estimator.name, "zs", f"batch shape {zs.shape[1:-1]} does not broadcast with the "
-                                f"initial state's {initial.batch_shape}") from None
+        raise InvalidInputError(
+            estimator.name,
+            "zs",
+            f"batch shape {zs.shape[1:-1]} does not broadcast with the initial state's {initial.batch_shape}",
+        ) from None
     state = step.start(initial, m0)
-    out: dict[str, list[Any]] = {k: [] for k in ("mean", "cov", "innovation", "innovation_cov", "Q", "R", "skipped",
-                                            "prior_mean", "prior_cov", "cross_cov", "factors")}
+    out: dict[str, list[Any]] = {
+        k: []
+        for k in (
+            "mean",
+            "cov",
+            "innovation",
+            "innovation_cov",
+            "Q",
+            "R",
+            "skipped",
+            "prior_mean",
+            "prior_cov",
+            "cross_cov",
+            "factors",
+        )
+    }
     start = state
     for k in range(zs.shape[0]):
         r = step(state, zs[k], m0 if k == 0 else model_at(k))
         posterior, mk = r.posterior, r.model
         if store == "smoother":
-            for key, value in zip(("prior_mean", "prior_cov", "cross_cov", "factors"),
-                                  transition_terms(estimator, state, r)):
+            for key, value in zip(
+                ("prior_mean", "prior_cov", "cross_cov", "factors"), transition_terms(estimator, state, r)
+            ):
                 out[key].append(value)
         out["mean"].append(posterior.mean)
         if store_cov:
@@ -319,10 +369,16 @@ def filter_sequence(
         epochs=np.asarray(epochs),
         recoveries=dict(step.recoveries),
         time_s=None if times is None else times[np.asarray(epochs)],
-        smoother_inputs=None if store != "smoother" else SmootherInputs(
-            prior_mean=np.stack(out["prior_mean"]), prior_cov=np.stack(out["prior_cov"]),
-            cross_cov=np.stack(out["cross_cov"]), initial=start,
-            gain_form=estimator.smoother_gain, factors=_stacked_factors(out["factors"])),
+        smoother_inputs=None
+        if store != "smoother"
+        else SmootherInputs(
+            prior_mean=np.stack(out["prior_mean"]),
+            prior_cov=np.stack(out["prior_cov"]),
+            cross_cov=np.stack(out["cross_cov"]),
+            initial=start,
+            gain_form=estimator.smoother_gain,
+            factors=_stacked_factors(out["factors"]),
+        ),
     )
 
 
@@ -341,6 +397,10 @@ def _times(time_s: Any, k: int, filter_name: str) -> np.ndarray:
     except ValueError as exc:
         raise InvalidInputError(filter_name, "time_s", str(exc)) from None
     if t.shape != (k,) or not np.all(np.isfinite(t)):
-        raise InvalidInputError(filter_name, "time_s", f"needs one finite time per measurement step, shape ({k},); "
-                                f"got shape {t.shape}" + ("" if t.shape != (k,) else " with NaN or inf"))
+        raise InvalidInputError(
+            filter_name,
+            "time_s",
+            f"needs one finite time per measurement step, shape ({k},); "
+            f"got shape {t.shape}" + ("" if t.shape != (k,) else " with NaN or inf"),
+        )
     return t

@@ -67,8 +67,15 @@ from .smoother_sqrt import psd_root, sqrt_rts_step_cov, sqrt_terms
 from .step import FilterStep
 from .types import Gaussian, Model
 
-__all__ = ["SmoothedResult", "LagEstimate", "FixedLagSmoother", "smooth", "fixed_lag_smooth", "smoother_gain",
-           "GAIN_FORMS"]
+__all__ = [
+    "SmoothedResult",
+    "LagEstimate",
+    "FixedLagSmoother",
+    "smooth",
+    "fixed_lag_smooth",
+    "smoother_gain",
+    "GAIN_FORMS",
+]
 
 #: The forms the smoother knows (``Estimator.smoother_gain``): two gain solves of the covariance
 #: form and the square-root form (`gnssframework.estimation.smoother_sqrt`).
@@ -126,14 +133,18 @@ class SmoothedResult:
             The result is a fixed-lag smoother's (its windows are not one joint posterior).
         """
         if self.initial_gain is None:
-            raise ConfigError("lag_one_cov", "needs a fixed-interval smoother's result (smooth), not fixed_lag_smooth's")
+            raise ConfigError(
+                "lag_one_cov", "needs a fixed-interval smoother's result (smooth), not fixed_lag_smooth's"
+            )
         gains = np.concatenate([self.initial_gain[None], self.gain], axis=0)
         lag: np.ndarray = self.cov @ transpose(gains)
         return lag
 
     def __repr__(self) -> str:
-        return (f"SmoothedResult({self.mean.shape[0]} steps, batch {self.mean.shape[1:-1] or 'none'}, "
-                f"n={self.mean.shape[-1]})")
+        return (
+            f"SmoothedResult({self.mean.shape[0]} steps, batch {self.mean.shape[1:-1] or 'none'}, "
+            f"n={self.mean.shape[-1]})"
+        )
 
 
 def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "solve") -> np.ndarray:
@@ -161,8 +172,11 @@ def smoother_gain(cross_cov: np.ndarray, prior_cov: np.ndarray, form: str = "sol
         inv_w = np.where(w > tol, 1.0 / np.where(w > tol, w, 1.0), 0.0)
         gain: np.ndarray = ((cross_cov @ V) * inv_w[..., None, :]) @ transpose(V)
         return gain
-    raise ConfigError("smoother gain form", f"got {form!r}; allowed: solve, eigh (the square-root form's gain "
-                      "comes with its factors: smoother_sqrt.sqrt_terms)")
+    raise ConfigError(
+        "smoother gain form",
+        f"got {form!r}; allowed: solve, eigh (the square-root form's gain "
+        "comes with its factors: smoother_sqrt.sqrt_terms)",
+    )
 
 
 def _psd_part(a: np.ndarray) -> np.ndarray:
@@ -180,9 +194,16 @@ def _psd_part(a: np.ndarray) -> np.ndarray:
     return a
 
 
-def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, cross_cov: np.ndarray,
-             next_smoothed: Gaussian, gain: np.ndarray, form: str = "solve",
-             residual_x: Residual | None = None) -> Gaussian:
+def rts_step(
+    filtered: Gaussian,
+    prior_mean: np.ndarray,
+    prior_cov: np.ndarray,
+    cross_cov: np.ndarray,
+    next_smoothed: Gaussian,
+    gain: np.ndarray,
+    form: str = "solve",
+    residual_x: Residual | None = None,
+) -> Gaussian:
     r"""One backward RTS step from $k+1$ to $k$ (module docstring), batched.
 
     Parameters
@@ -220,11 +241,15 @@ def rts_step(filtered: Gaussian, prior_mean: np.ndarray, prior_cov: np.ndarray, 
 
 def _inputs(result: FilterResult, caller: str) -> SmootherInputs:
     if not isinstance(result, FilterResult):
-        raise ConfigError("result", f"{caller} needs the FilterResult of filter_sequence(..., store='smoother'), "
-                          f"got {type(result).__name__}")
+        raise ConfigError(
+            "result",
+            f"{caller} needs the FilterResult of filter_sequence(..., store='smoother'), got {type(result).__name__}",
+        )
     if result.smoother_inputs is None or result.cov is None:
-        raise ConfigError("result", f"{caller} needs the predictions and cross covariances: run "
-                          "filter_sequence(..., store='smoother')")
+        raise ConfigError(
+            "result",
+            f"{caller} needs the predictions and cross covariances: run filter_sequence(..., store='smoother')",
+        )
     return result.smoother_inputs
 
 
@@ -235,8 +260,11 @@ def _gain_form(inputs: SmootherInputs, form: str | None) -> str:
     if form not in GAIN_FORMS:
         raise ConfigError("form", f"got {form!r}; allowed: {', '.join(GAIN_FORMS)}")
     if form == "sqrt" and inputs.factors is None:
-        raise ConfigError("form", "'sqrt' needs the factors a square-root engine (svd-ckf) keeps in its forward "
-                          f"pass; this result's engine (form {inputs.gain_form!r}) kept none: use 'solve' or 'eigh'")
+        raise ConfigError(
+            "form",
+            "'sqrt' needs the factors a square-root engine (svd-ckf) keeps in its forward "
+            f"pass; this result's engine (form {inputs.gain_form!r}) kept none: use 'solve' or 'eigh'",
+        )
     return form
 
 
@@ -296,22 +324,39 @@ def smooth(result: FilterResult, *, residual_x: Residual | None = None, form: st
     mean[-1], cov[-1] = result.mean[-1], result.cov[-1]
     nxt = Gaussian(mean[-1], cov[-1])
     for k in range(K - 2, -1, -1):
-        nxt = rts_step(Gaussian(result.mean[k], result.cov[k]), inputs.prior_mean[k + 1], inputs.prior_cov[k + 1],
-                       inputs.cross_cov[k + 1], nxt, gains[k + 1], form, residual_x)
+        nxt = rts_step(
+            Gaussian(result.mean[k], result.cov[k]),
+            inputs.prior_mean[k + 1],
+            inputs.prior_cov[k + 1],
+            inputs.cross_cov[k + 1],
+            nxt,
+            gains[k + 1],
+            form,
+            residual_x,
+        )
         mean[k], cov[k] = nxt.mean, nxt.cov
     start = _start(result, inputs)
-    initial = rts_step(start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, gains[0], form,
-                       residual_x)
-    return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=initial, epochs=result.epochs,
-                          time_s=result.time_s, initial_gain=np.broadcast_to(gains[0], cov.shape[1:]))
+    initial = rts_step(
+        start, inputs.prior_mean[0], inputs.prior_cov[0], inputs.cross_cov[0], nxt, gains[0], form, residual_x
+    )
+    return SmoothedResult(
+        mean=mean,
+        cov=cov,
+        gain=gains[1:],
+        initial=initial,
+        epochs=result.epochs,
+        time_s=result.time_s,
+        initial_gain=np.broadcast_to(gains[0], cov.shape[1:]),
+    )
 
 
 def _start(result: FilterResult, inputs: SmootherInputs) -> Gaussian:
     """The initial state, broadcast to the result's batch."""
     batch = result.mean.shape[1:-1]
     n = result.mean.shape[-1]
-    return Gaussian(np.broadcast_to(inputs.initial.mean, batch + (n,)),
-                    np.broadcast_to(inputs.initial.cov, batch + (n, n)))
+    return Gaussian(
+        np.broadcast_to(inputs.initial.mean, batch + (n,)), np.broadcast_to(inputs.initial.cov, batch + (n, n))
+    )
 
 
 def _smooth_sqrt(result: FilterResult, inputs: SmootherInputs, residual_x: Residual | None) -> SmoothedResult:
@@ -324,16 +369,26 @@ def _smooth_sqrt(result: FilterResult, inputs: SmootherInputs, residual_x: Resid
     root = np.empty_like(result.cov)
     mean[-1], cov[-1], root[-1] = result.mean[-1], result.cov[-1], psd_root(result.cov[-1])
     for k in range(K - 2, -1, -1):
-        mean[k], root[k], cov[k] = sqrt_rts_step_cov(result.mean[k], inputs.prior_mean[k + 1], mean[k + 1],
-                                                     root[k + 1], gains[k + 1], cond[k + 1], residual_x)
+        mean[k], root[k], cov[k] = sqrt_rts_step_cov(
+            result.mean[k], inputs.prior_mean[k + 1], mean[k + 1], root[k + 1], gains[k + 1], cond[k + 1], residual_x
+        )
     start = _start(result, inputs)
     m0, _, c0 = sqrt_rts_step_cov(start.mean, inputs.prior_mean[0], mean[0], root[0], gains[0], cond[0], residual_x)
-    return SmoothedResult(mean=mean, cov=cov, gain=gains[1:], initial=Gaussian(m0, c0), epochs=result.epochs,
-                          time_s=result.time_s, initial_gain=np.broadcast_to(gains[0], cov.shape[1:]), cov_root=root)
+    return SmoothedResult(
+        mean=mean,
+        cov=cov,
+        gain=gains[1:],
+        initial=Gaussian(m0, c0),
+        epochs=result.epochs,
+        time_s=result.time_s,
+        initial_gain=np.broadcast_to(gains[0], cov.shape[1:]),
+        cov_root=root,
+    )
 
 
-def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | None = None,
-                     form: str | None = None) -> SmoothedResult:
+def fixed_lag_smooth(
+    result: FilterResult, lag: int, *, residual_x: Residual | None = None, form: str | None = None
+) -> SmoothedResult:
     r"""Fixed-lag smoothing of a stored forward pass: $E[x_j \mid z_0 \dots z_{\min(j+L, K-1)}]$.
 
     What a streaming fixed-lag smoother (`FixedLagSmoother`) outputs for step ``j`` once
@@ -381,19 +436,28 @@ def fixed_lag_smooth(result: FilterResult, lag: int, *, residual_x: Residual | N
         ic = np.maximum(i, 0)
         a = active.reshape(shape)
         if root is not None and cond is not None:
-            out_mean, out_root, out_cov = sqrt_rts_step_cov(result.mean[ic], inputs.prior_mean[ic + 1], mean, root,
-                                                            gain[ic], cond[ic], residual_x)
+            out_mean, out_root, out_cov = sqrt_rts_step_cov(
+                result.mean[ic], inputs.prior_mean[ic + 1], mean, root, gain[ic], cond[ic], residual_x
+            )
             root = np.where(a[..., None], out_root, root)
             mean = np.where(a, out_mean, mean)
             cov = np.where(a[..., None], out_cov, cov)
             continue
-        out = rts_step(Gaussian(result.mean[ic], result.cov[ic]), inputs.prior_mean[ic + 1],
-                       inputs.prior_cov[ic + 1], inputs.cross_cov[ic + 1], Gaussian(mean, cov), gain[ic], form,
-                       residual_x)
+        out = rts_step(
+            Gaussian(result.mean[ic], result.cov[ic]),
+            inputs.prior_mean[ic + 1],
+            inputs.prior_cov[ic + 1],
+            inputs.cross_cov[ic + 1],
+            Gaussian(mean, cov),
+            gain[ic],
+            form,
+            residual_x,
+        )
         mean = np.where(a, out.mean, mean)
         cov = np.where(a[..., None], out.cov, cov)
-    return SmoothedResult(mean=mean, cov=cov, gain=gain, initial=inputs.initial, epochs=result.epochs,
-                          time_s=result.time_s)
+    return SmoothedResult(
+        mean=mean, cov=cov, gain=gain, initial=inputs.initial, epochs=result.epochs, time_s=result.time_s
+    )
 
 
 @dataclass(frozen=True)
@@ -462,9 +526,16 @@ class FixedLagSmoother:
     [1, 2]
     """
 
-    def __init__(self, estimator: Estimator, lag: int, adapter: NoiseAdapter | None = None, *,
-                 on_failure: OnFailure = "raise", missing: OnMissing = "raise",
-                 residual_x: Residual | None = None) -> None:
+    def __init__(
+        self,
+        estimator: Estimator,
+        lag: int,
+        adapter: NoiseAdapter | None = None,
+        *,
+        on_failure: OnFailure = "raise",
+        missing: OnMissing = "raise",
+        residual_x: Residual | None = None,
+    ) -> None:
         check_argument(estimator, "estimator", "FixedLagSmoother")
         self.lag = _checked_lag(lag)
         self.estimator = estimator
@@ -510,11 +581,13 @@ class FixedLagSmoother:
             t = window[i + 1]
             gain, cond = t.terms
             if root is not None and cond is not None:
-                mean, root, cov = sqrt_rts_step_cov(window[i].posterior.mean, t.prior_mean, nxt.mean, root, gain,
-                                                    cond, self.residual_x)
+                mean, root, cov = sqrt_rts_step_cov(
+                    window[i].posterior.mean, t.prior_mean, nxt.mean, root, gain, cond, self.residual_x
+                )
                 nxt = Gaussian(mean, cov)
             else:
-                nxt = rts_step(window[i].posterior, t.prior_mean, t.prior_cov, t.cross_cov, nxt, gain, self.form,
-                               self.residual_x)
+                nxt = rts_step(
+                    window[i].posterior, t.prior_mean, t.prior_cov, t.cross_cov, nxt, gain, self.form, self.residual_x
+                )
             out.append(nxt)
         return out[::-1]

@@ -81,8 +81,7 @@ def cov_of(root: np.ndarray) -> np.ndarray:
     return symmetrize(root @ transpose(root))
 
 
-def sqrt_terms(point_root: np.ndarray, image_root: np.ndarray,
-               noise_root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def sqrt_terms(point_root: np.ndarray, image_root: np.ndarray, noise_root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""The gain $G_k$ and the root $D_k$ of $\operatorname{Cov}(x_k - G_k x^-_{k+1})$ of each stored
     transition (module docstring), batched over every leading axis. Under the ``numba`` backend
     one compiled pass per element (`compiled.sqrt_smoother.sqrt_terms`: the stacked factor built
@@ -109,19 +108,22 @@ def sqrt_terms(point_root: np.ndarray, image_root: np.ndarray,
         if not regular.all():
             bad = ~regular
             batch = regular.shape
-            gain[bad], D[bad] = _numpy_terms(*(np.broadcast_to(a, batch + a.shape[-2:])[bad]
-                                               for a in (point_root, image_root, noise_root)))
+            gain[bad], D[bad] = _numpy_terms(
+                *(np.broadcast_to(a, batch + a.shape[-2:])[bad] for a in (point_root, image_root, noise_root))
+            )
         return gain, D
     return _numpy_terms(point_root, image_root, noise_root)
 
 
-def _numpy_terms(point_root: np.ndarray, image_root: np.ndarray,
-                 noise_root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _numpy_terms(
+    point_root: np.ndarray, image_root: np.ndarray, noise_root: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """`sqrt_terms` by NumPy stacking, `tria` and `_root_gain` (the reference path)."""
     n, N = point_root.shape[-2:]
     batch = np.broadcast_shapes(point_root.shape[:-2], image_root.shape[:-2], noise_root.shape[:-2])
-    top = np.concatenate([np.broadcast_to(image_root, batch + (n, N)), np.broadcast_to(noise_root, batch + (n, n))],
-                         axis=-1)
+    top = np.concatenate(
+        [np.broadcast_to(image_root, batch + (n, N)), np.broadcast_to(noise_root, batch + (n, n))], axis=-1
+    )
     bottom = np.concatenate([np.broadcast_to(point_root, batch + (n, N)), np.zeros(batch + (n, n))], axis=-1)
     L = tria(np.concatenate([top, bottom], axis=-2))  # (..., 2n, 2n) lower
     L11, L21, L22 = L[..., :n, :n], L[..., n:, :n], L[..., n:, n:]
@@ -150,10 +152,15 @@ def _root_gain(L11: np.ndarray, L21: np.ndarray) -> np.ndarray:
     return gain
 
 
-def sqrt_rts_step(filtered_mean: np.ndarray, prior_mean: np.ndarray, next_mean: np.ndarray,
-                  next_root: np.ndarray, gain: np.ndarray, cond_root: np.ndarray,
-                  residual_x: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def sqrt_rts_step(
+    filtered_mean: np.ndarray,
+    prior_mean: np.ndarray,
+    next_mean: np.ndarray,
+    next_root: np.ndarray,
+    gain: np.ndarray,
+    cond_root: np.ndarray,
+    residual_x: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     r"""One backward step from $k+1$ to $k$ in square-root form, batched.
 
     $m^s_k = m_k + G_k (m^s_{k+1} - m^-_{k+1})$, $S^s_k = \operatorname{tria}[D_k,\ G_k S^s_{k+1}]$
@@ -171,10 +178,15 @@ def sqrt_rts_step(filtered_mean: np.ndarray, prior_mean: np.ndarray, next_mean: 
     return mean, root
 
 
-def sqrt_rts_step_cov(filtered_mean: np.ndarray, prior_mean: np.ndarray, next_mean: np.ndarray,
-                      next_root: np.ndarray, gain: np.ndarray, cond_root: np.ndarray,
-                      residual_x: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def sqrt_rts_step_cov(
+    filtered_mean: np.ndarray,
+    prior_mean: np.ndarray,
+    next_mean: np.ndarray,
+    next_root: np.ndarray,
+    gain: np.ndarray,
+    cond_root: np.ndarray,
+    residual_x: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""`sqrt_rts_step` and the covariance $P^s_k = S^s_k S^{sT}_k$ (`cov_of`): under the ``numba``
     backend the factor and its product in one compiled pass per element
     (`compiled.sqrt_smoother.sqrt_step_root`), the NumPy path otherwise.

@@ -43,8 +43,14 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import (ConfigError, InvalidInitialStateError, InvalidInputError, NonFiniteError, NotPositiveDefiniteError,
-                      NumericalError)
+from ..errors import (
+    ConfigError,
+    InvalidInitialStateError,
+    InvalidInputError,
+    NonFiniteError,
+    NotPositiveDefiniteError,
+    NumericalError,
+)
 from .. import backend
 from .compiled import loop as compiled_loop
 from .adaptation import AdapterRun, AdaptationStep, NoiseAdapter
@@ -80,11 +86,13 @@ def check_initial(initial: Gaussian, filter_name: str, model: Model | None = Non
         not symmetric positive definite) and every failing batch element.
     """
     if 0 in initial.batch_shape:
-        raise InvalidInputError(filter_name, "initial mean", f"has an empty batch (shape {initial.mean.shape}): "
-                                "there is nothing to filter")
+        raise InvalidInputError(
+            filter_name, "initial mean", f"has an empty batch (shape {initial.mean.shape}): there is nothing to filter"
+        )
     if model is not None and initial.ndim_state != model.Q.shape[-1]:
-        raise InvalidInputError(filter_name, "initial mean",
-                                f"has {initial.ndim_state} states but the model's Q is {model.Q.shape[-2:]}")
+        raise InvalidInputError(
+            filter_name, "initial mean", f"has {initial.ndim_state} states but the model's Q is {model.Q.shape[-2:]}"
+        )
     finite_mean = np.isfinite(initial.mean).all(axis=-1)
     if not finite_mean.all():
         raise InvalidInitialStateError(filter_name, failing_indices(finite_mean), detail="initial mean is NaN or inf")
@@ -94,12 +102,14 @@ def check_initial(initial: Gaussian, filter_name: str, model: Model | None = Non
         sym = asym <= 1e-9 * np.abs(cov).max(axis=(-2, -1))
     ok = cholesky_masked(cov)[1] & sym
     if not ok.all():
-        raise InvalidInitialStateError(filter_name, failing_indices(ok), detail="initial covariance is not finite, "
-                                       "symmetric and positive definite")
+        raise InvalidInitialStateError(
+            filter_name, failing_indices(ok), detail="initial covariance is not finite, symmetric and positive definite"
+        )
 
 
-def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, counts: Counter[str],
-                      filter_name: str, lean: bool = False) -> Gaussian:
+def _repair_posterior(
+    state: Gaussian, prior: Gaussian, policy: OnFailure, counts: Counter[str], filter_name: str, lean: bool = False
+) -> Gaussian:
     """Check the posterior of every batch element; apply ``policy`` where it fails.
 
     ``lean`` (the ``numba`` backend): one compiled test of the whole posterior first; the
@@ -114,8 +124,11 @@ def _repair_posterior(state: Gaussian, prior: Gaussian, policy: OnFailure, count
     bad = ~ok
     if policy == "raise":
         if not finite_mean.all():
-            raise NonFiniteError(filter_name, failing_indices(finite_mean),
-                                 detail="posterior mean (overflow from a huge measurement or innovation?)")
+            raise NonFiniteError(
+                filter_name,
+                failing_indices(finite_mean),
+                detail="posterior mean (overflow from a huge measurement or innovation?)",
+            )
         raise NotPositiveDefiniteError(filter_name, failing_indices(ok), detail="posterior covariance P")
     mean, cov = state.mean, state.cov
     if policy == "skip" or not finite_mean.all():
@@ -151,8 +164,12 @@ def _check_prior(prior: Gaussian, state: Gaussian, filter_name: str, lean: bool 
     if not all_true(ok):
         bad = failing_indices(ok)
         size = float(np.max(np.abs(state.mean)))
-        raise NonFiniteError(filter_name, bad, detail=f"prediction, from a finite state of magnitude up to {size:.3g}: "
-                             "an overflow, or NaN/inf in the model (F, Q, a known input u)")
+        raise NonFiniteError(
+            filter_name,
+            bad,
+            detail=f"prediction, from a finite state of magnitude up to {size:.3g}: "
+            "an overflow, or NaN/inf in the model (F, Q, a known input u)",
+        )
 
 
 @dataclass(frozen=True)
@@ -207,8 +224,15 @@ class FilterStep:
         Index of the next step (named in errors).
     """
 
-    def __init__(self, estimator: Estimator, adapter: NoiseAdapter | None = None, *,
-                 on_failure: OnFailure = "raise", missing: OnMissing = "raise", name: str | None = None) -> None:
+    def __init__(
+        self,
+        estimator: Estimator,
+        adapter: NoiseAdapter | None = None,
+        *,
+        on_failure: OnFailure = "raise",
+        missing: OnMissing = "raise",
+        name: str | None = None,
+    ) -> None:
         _check_policy("on_failure", on_failure, POLICIES)
         _check_policy("missing", missing, ("raise", "skip"))
         check_argument(estimator, "estimator", "FilterStep")
@@ -335,27 +359,38 @@ class FilterStep:
         """
         mk = self.in_force(model)
         m = mk.R.shape[-1]
-        if not (type(z) is np.ndarray and z.dtype == np.float64 and z.ndim == len(prior.batch_shape) + 1
-                and z.shape[-1] == m and z.shape[:-1] == prior.batch_shape):
+        if not (
+            type(z) is np.ndarray
+            and z.dtype == np.float64
+            and z.ndim == len(prior.batch_shape) + 1
+            and z.shape[-1] == m
+            and z.shape[:-1] == prior.batch_shape
+        ):
             # Anything but a float array of exactly the state's batch shape is checked here.
             z = as_measurement(z, m, prior.batch_shape, self.name, self.step_index)
         try:
             with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
                 upd = self.estimator.update(prior, z, mk, on_failure=self.on_failure, missing=self.missing)
-                posterior = _repair_posterior(upd.state, prior, self.on_failure, self.recoveries,
-                                              self.estimator.name, self._lean)
+                posterior = _repair_posterior(
+                    upd.state, prior, self.on_failure, self.recoveries, self.estimator.name, self._lean
+                )
         except NumericalError as exc:
             raise self._named(exc) from None
         skipped = np.asarray(upd.skipped)
         if any_true(skipped):  # nothing to count on the common step
-            missing_now = (~np.isfinite(z).all(axis=-1) if self.missing == "skip" else np.zeros((), bool))
+            missing_now = ~np.isfinite(z).all(axis=-1) if self.missing == "skip" else np.zeros((), bool)
             self.recoveries["missing"] += int(np.sum(missing_now & skipped))
             self.recoveries["skip_update"] += int(np.sum(skipped & ~missing_now))
         if self._run is not None and self.adapter is not None:  # a run only with an adapter
             previous = prior if previous is None else previous
             # Overflow in the adapter (an innovation of 1e300) is refused by name, not a NumPy warning.
-            self._Q, self._R = adapt_checked(self._run, AdaptationStep(self._adapted, previous, prior, upd, mk),
-                                             self.name, self.adapter.name, self.step_index)
+            self._Q, self._R = adapt_checked(
+                self._run,
+                AdaptationStep(self._adapted, previous, prior, upd, mk),
+                self.name,
+                self.adapter.name,
+                self.step_index,
+            )
             self._adapted += 1
         self.step_index += 1
         if skipped.shape != posterior.batch_shape:

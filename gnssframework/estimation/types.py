@@ -24,8 +24,16 @@ from ..errors import ConfigError
 from .compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian
 from .linalg import mat_vec, to_float
 
-__all__ = ["Gaussian", "Update", "LinearModel", "NonlinearModel", "Model", "CompiledFunctions", "numerical_jacobian",
-           "residual_hook"]
+__all__ = [
+    "Gaussian",
+    "Update",
+    "LinearModel",
+    "NonlinearModel",
+    "Model",
+    "CompiledFunctions",
+    "numerical_jacobian",
+    "residual_hook",
+]
 
 ArrayFn = Callable[[np.ndarray], np.ndarray]
 
@@ -49,9 +57,12 @@ class Gaussian:
         mean, cov = self.mean, self.cov
         # Fast path (every filter step): float arrays whose shapes already agree.
         if (
-            type(mean) is np.ndarray and type(cov) is np.ndarray
-            and mean.dtype == np.float64 and cov.dtype == np.float64
-            and mean.ndim >= 1 and cov.shape == mean.shape + mean.shape[-1:]
+            type(mean) is np.ndarray
+            and type(cov) is np.ndarray
+            and mean.dtype == np.float64
+            and cov.dtype == np.float64
+            and mean.ndim >= 1
+            and cov.shape == mean.shape + mean.shape[-1:]
         ):
             return
         try:  # text, ragged or complex input is named, not a raw ValueError
@@ -70,8 +81,9 @@ class Gaussian:
         try:
             batch = np.broadcast_shapes(mean.shape[:-1], cov.shape[:-2])
         except ValueError:
-            raise ConfigError("Gaussian.cov", f"batch shape {cov.shape[:-2]} does not broadcast with the mean's "
-                              f"{mean.shape[:-1]}") from None
+            raise ConfigError(
+                "Gaussian.cov", f"batch shape {cov.shape[:-2]} does not broadcast with the mean's {mean.shape[:-1]}"
+            ) from None
         object.__setattr__(self, "mean", np.broadcast_to(mean, batch + (n,)))
         object.__setattr__(self, "cov", np.broadcast_to(cov, batch + (n, n)))
 
@@ -304,4 +316,3 @@ class NonlinearModel:
 
 
 Model = LinearModel | NonlinearModel
-

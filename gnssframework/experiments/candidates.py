@@ -32,8 +32,7 @@ class CandidatePlan:
     scenario_options: dict[str, Any]
 
 
-def resolve_candidate(scenario: Scenario, candidate: Any, cases: Sequence[dict[str, Any]],
-                      where: str) -> CandidatePlan:
+def resolve_candidate(scenario: Scenario, candidate: Any, cases: Sequence[dict[str, Any]], where: str) -> CandidatePlan:
     """Check a config's candidate (``name``, ``components()``, ``scenario_options``) against
     ``scenario`` over the cases' parameters ``cases``, and resolve it.
 
@@ -48,8 +47,7 @@ def resolve_candidate(scenario: Scenario, candidate: Any, cases: Sequence[dict[s
     return CandidatePlan(candidate.name, specs, dict(candidate.scenario_options))
 
 
-def build_candidate(scenario: Scenario, candidate: CandidatePlan, case: dict[str, Any] | None = None
-                    ) -> dict[str, Any]:
+def build_candidate(scenario: Scenario, candidate: CandidatePlan, case: dict[str, Any] | None = None) -> dict[str, Any]:
     """Fresh plugins of a resolved candidate, as ``scenario.run_batch`` takes them
     (`Scenario.build`, with what the scenario adds for its options; built for ``case``,
     a task's, when given: each plugin once, with the parameters the case sets)."""

@@ -56,9 +56,22 @@ from collections.abc import Callable
 import numpy as np
 from scipy import special as _sc  # not scipy.stats: its import costs every run of the CLI a second
 
-__all__ = ["holm", "benjamini_hochberg", "adjust", "ADJUSTMENTS", "t_p_value", "tost", "bootstrap_means",
-           "BOOTSTRAP_RESAMPLES", "wilcoxon_p", "nees_band", "all_runs_bound", "claim_rng",
-           "detectable_difference", "equivalence_margin_for_power"]
+__all__ = [
+    "holm",
+    "benjamini_hochberg",
+    "adjust",
+    "ADJUSTMENTS",
+    "t_p_value",
+    "tost",
+    "bootstrap_means",
+    "BOOTSTRAP_RESAMPLES",
+    "wilcoxon_p",
+    "nees_band",
+    "all_runs_bound",
+    "claim_rng",
+    "detectable_difference",
+    "equivalence_margin_for_power",
+]
 
 #: Resamples of every bootstrap interval (the Monte Carlo error of a 2.5 % tail estimate
 #: from 10 000 resamples is about 0.16 %).
@@ -98,7 +111,8 @@ def benjamini_hochberg(p_values) -> np.ndarray:
     [0.03, 0.04, 0.04]
     """
     return _in_input_order(
-        p_values, lambda p, m: np.minimum.accumulate(np.minimum(1.0, p * m / np.arange(1, m + 1))[::-1])[::-1])
+        p_values, lambda p, m: np.minimum.accumulate(np.minimum(1.0, p * m / np.arange(1, m + 1))[::-1])[::-1]
+    )
 
 
 #: The multiplicity adjustments a config may choose (``claims_adjustment``).
@@ -129,8 +143,9 @@ def claim_rng(seed: int, claim: int, where: str) -> np.random.Generator:
     return np.random.default_rng([seed, claim, zlib.crc32(where.encode())])
 
 
-def bootstrap_means(x: np.ndarray, y: np.ndarray | None, rng: np.random.Generator,
-                    resamples: int = BOOTSTRAP_RESAMPLES) -> tuple[np.ndarray, np.ndarray | None]:
+def bootstrap_means(
+    x: np.ndarray, y: np.ndarray | None, rng: np.random.Generator, resamples: int = BOOTSTRAP_RESAMPLES
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Means of ``resamples`` paired resamples of the runs: ``(mean x*, mean y*)`` (``y``
     resampled with the same run indices as ``x``; ``None`` without ``y``)."""
     n = x.size
@@ -168,8 +183,7 @@ def all_runs_bound(runs: int, level: float = 0.95) -> float:
     return float(1.0 - (1.0 - level) ** (1.0 / runs))
 
 
-def detectable_difference(se: float, n: int, power: float = 0.8, alpha: float = 0.05,
-                          sides: int = 2) -> float:
+def detectable_difference(se: float, n: int, power: float = 0.8, alpha: float = 0.05, sides: int = 2) -> float:
     """The minimum detectable difference: the true paired mean difference the ``sides``-sided
     t-test at ``alpha`` detects with probability ``power`` over ``n`` runs of standard
     error ``se`` (see the module docstring).
@@ -198,9 +212,15 @@ def equivalence_margin_for_power(se: float, n: int, power: float = 0.8, alpha: f
     def tost_power(k: float) -> float:
         # Over q = chi2(dof) draws: V = sqrt(q / dof); the integrand is 0 beyond V = k / t.
         top = dof * (k / t_crit) ** 2
-        value, _ = integrate.quad(lambda q: (2.0 * _sc.ndtr(k - t_crit * np.sqrt(q / dof)) - 1.0)
-                                  * np.exp(_sc.xlogy(dof / 2 - 1, q) - q / 2 - _sc.gammaln(dof / 2)
-                                           - dof / 2 * np.log(2.0)), 0.0, top, limit=200)
+        value, _ = integrate.quad(
+            lambda q: (
+                (2.0 * _sc.ndtr(k - t_crit * np.sqrt(q / dof)) - 1.0)
+                * np.exp(_sc.xlogy(dof / 2 - 1, q) - q / 2 - _sc.gammaln(dof / 2) - dof / 2 * np.log(2.0))
+            ),
+            0.0,
+            top,
+            limit=200,
+        )
         return float(value)
 
     k = optimize.brentq(lambda k: tost_power(k) - power, t_crit, t_crit + 60.0, xtol=1e-10)

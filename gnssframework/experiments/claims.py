@@ -107,14 +107,38 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..errors import ConfigError
-from .claim_tests import (adjust, all_runs_bound, bootstrap_means, bootstrap_p, claim_rng, detectable_difference,
-                          equivalence_margin_for_power, nees_band, t_p_value, tost, wilcoxon_p)
+from .claim_tests import (
+    adjust,
+    all_runs_bound,
+    bootstrap_means,
+    bootstrap_p,
+    claim_rng,
+    detectable_difference,
+    equivalence_margin_for_power,
+    nees_band,
+    t_p_value,
+    tost,
+    wilcoxon_p,
+)
 from .number_format import at_rounding_level, format_estimate
 from .stats import finite_or_none, mean_and_se, paired_difference, paired_values, t_quantile
 
-__all__ = ["Claim", "check_claims", "check_untuned_claims", "evaluate_claims", "claim_points", "OUTCOMES",
-           "untuned_candidates", "adjust_claims", "small_n_declared", "unstated_small_n", "unstated_small_n_claims",
-           "small_n_refusal", "MIN_CLAIM_RUNS", "STATED_POWER"]
+__all__ = [
+    "Claim",
+    "check_claims",
+    "check_untuned_claims",
+    "evaluate_claims",
+    "claim_points",
+    "OUTCOMES",
+    "untuned_candidates",
+    "adjust_claims",
+    "small_n_declared",
+    "unstated_small_n",
+    "unstated_small_n_claims",
+    "small_n_refusal",
+    "MIN_CLAIM_RUNS",
+    "STATED_POWER",
+]
 
 #: Outcomes from best to worst (``refused``: the claim cannot be tested as stated, e.g. its
 #: metric has no spread over the runs).
@@ -144,51 +168,88 @@ class Claim(BaseModel):
     candidate: str = Field(..., description="the candidate the claim is about")
     metric: str = Field(..., description="a reported metric")
     case: str | None = Field(None, description="the case (default: the claim must hold in every case)")
-    reference: str | None = Field(None, description="for an ordering: the candidate compared with (paired runs); "
-                                  "with reference_case, default the candidate itself")
-    reference_case: str | None = Field(None, description="for an ordering between cases: the case the reference's "
-                                       "runs come from (paired run by run with each claimed case)")
-    versus_metric: str | None = Field(None, description="for an ordering between two metrics of the candidate: "
-                                      "the metric compared with, on the candidate's same runs (paired run by run; "
-                                      "the difference is metric minus versus_metric, in one unit)")
+    reference: str | None = Field(
+        None,
+        description="for an ordering: the candidate compared with (paired runs); "
+        "with reference_case, default the candidate itself",
+    )
+    reference_case: str | None = Field(
+        None,
+        description="for an ordering between cases: the case the reference's "
+        "runs come from (paired run by run with each claimed case)",
+    )
+    versus_metric: str | None = Field(
+        None,
+        description="for an ordering between two metrics of the candidate: "
+        "the metric compared with, on the candidate's same runs (paired run by run; "
+        "the difference is metric minus versus_metric, in one unit)",
+    )
     direction: Literal["lower", "higher"] | None = Field(
-        None, description="for an ordering: the candidate's values are lower / higher than the reference's")
-    ratio_max: float | None = Field(None, gt=0, description="for an ordering: ratio of means (candidate / "
-                                    "reference) below this")
+        None, description="for an ordering: the candidate's values are lower / higher than the reference's"
+    )
+    ratio_max: float | None = Field(
+        None, gt=0, description="for an ordering: ratio of means (candidate / reference) below this"
+    )
     ratio_min: float | None = Field(None, gt=0, description="for an ordering: ratio of means above this")
-    within: tuple[float, float] | None = Field(None, description="for a bound: the candidate's mean lies in "
-                                               "[low, high]")
-    sweep: str | None = Field(None, description="evaluate at this sweep's points (a [[sweeps]] name) instead of "
-                              "the example's cases; each point one outcome, plus one for all of them")
+    within: tuple[float, float] | None = Field(
+        None, description="for a bound: the candidate's mean lies in [low, high]"
+    )
+    sweep: str | None = Field(
+        None,
+        description="evaluate at this sweep's points (a [[sweeps]] name) instead of "
+        "the example's cases; each point one outcome, plus one for all of them",
+    )
     at: float | str | list[float | str] | None = Field(
-        None, description="with sweep: the point or list of points (swept values)")
-    points_from: float | None = Field(None, alias="from", description="with sweep: every point from this value "
-                                      "(inclusive; default the first)")
-    points_to: float | None = Field(None, alias="to", description="with sweep: every point up to this value "
-                                    "(inclusive; default the last)")
+        None, description="with sweep: the point or list of points (swept values)"
+    )
+    points_from: float | None = Field(
+        None, alias="from", description="with sweep: every point from this value (inclusive; default the first)"
+    )
+    points_to: float | None = Field(
+        None, alias="to", description="with sweep: every point up to this value (inclusive; default the last)"
+    )
     threshold: Literal["lower", "higher"] | None = Field(
-        None, description="with sweep (one with a threshold table) and reference: the candidate's threshold is "
-        "lower / higher than the reference's (paired bootstrap 95 % interval of the difference)")
+        None,
+        description="with sweep (one with a threshold table) and reference: the candidate's threshold is "
+        "lower / higher than the reference's (paired bootstrap 95 % interval of the difference)",
+    )
     threshold_difference: tuple[float, float] | None = Field(
-        None, description="with sweep and reference: the candidate's threshold minus the reference's lies in "
-        "[low, high] (its paired bootstrap 95 % interval does)")
+        None,
+        description="with sweep and reference: the candidate's threshold minus the reference's lies in "
+        "[low, high] (its paired bootstrap 95 % interval does)",
+    )
     equivalence_margin: float | None = Field(
-        None, gt=0, description="for an ordering: the candidate and the reference are equivalent, |paired mean "
-        "difference| < margin (two one-sided tests at 5 %: the 90 % interval inside (-margin, margin))")
+        None,
+        gt=0,
+        description="for an ordering: the candidate and the reference are equivalent, |paired mean "
+        "difference| < margin (two one-sided tests at 5 %: the 90 % interval inside (-margin, margin))",
+    )
     consistent_states: int | None = Field(
-        None, ge=1, le=1000, description="for a NEES metric: the candidate is consistent, its mean over the N runs "
-        "inside the two-sided 95 % chi-square band [chi2(0.025, N n) / N, chi2(0.975, N n) / N] of n states")
+        None,
+        ge=1,
+        le=1000,
+        description="for a NEES metric: the candidate is consistent, its mean over the N runs "
+        "inside the two-sided 95 % chi-square band [chi2(0.025, N n) / N, chi2(0.975, N n) / N] of n states",
+    )
     every_run_within: tuple[float, float] | None = Field(
-        None, description="every run's value lies in [low, high] (an observation over all runs, with the exact 95 % "
+        None,
+        description="every run's value lies in [low, high] (an observation over all runs, with the exact 95 % "
         "upper bound on the chance of a run outside; for a metric that is the same in every run, e.g. no loss of lock); "
-        "with reference or reference_case, every run's paired difference (the candidate's minus the reference's)")
+        "with reference or reference_case, every run's paired difference (the candidate's minus the reference's)",
+    )
     test: Literal["t", "bootstrap", "wilcoxon"] = Field(
-        "t", description="t: the t-interval (default); bootstrap: the paired bootstrap percentile interval "
+        "t",
+        description="t: the t-interval (default); bootstrap: the paired bootstrap percentile interval "
         "(heavy-tailed metrics: maxima, loss of lock), reproducible from the seed; wilcoxon: the signed-rank test "
-        "of the paired differences (direction only)")
-    small_n: bool = Field(False, strict=True, description=f"the claim is checked on fewer than {MIN_CLAIM_RUNS} runs on "
-                          "purpose (e.g. a CI example kept short): compare --check accepts it and states its power, "
-                          "the difference its test detects with probability 0.8; without it such a claim is refused")
+        "of the paired differences (direction only)",
+    )
+    small_n: bool = Field(
+        False,
+        strict=True,
+        description=f"the claim is checked on fewer than {MIN_CLAIM_RUNS} runs on "
+        "purpose (e.g. a CI example kept short): compare --check accepts it and states its power, "
+        "the difference its test detects with probability 0.8; without it such a claim is refused",
+    )
     note: str = Field("", description="where the claim is stated (a docs page, a paper's table)")
 
     @model_validator(mode="after")
@@ -196,43 +257,63 @@ class Claim(BaseModel):
         self._new_kinds()
         if self.threshold is not None or self.threshold_difference is not None:
             if self.reference is None or self.sweep is None:
-                raise ValueError("a threshold claim compares the candidate's threshold with a reference candidate's "
-                                 "along a sweep: give reference = \"<candidate>\" and sweep = \"<name>\"")
-            others = [k for k in ("direction", "ratio_max", "ratio_min", "within", "reference_case", "versus_metric",
-                                  "at", "points_from", "points_to") if getattr(self, k) is not None]
+                raise ValueError(
+                    "a threshold claim compares the candidate's threshold with a reference candidate's "
+                    'along a sweep: give reference = "<candidate>" and sweep = "<name>"'
+                )
+            others = [
+                k
+                for k in (
+                    "direction",
+                    "ratio_max",
+                    "ratio_min",
+                    "within",
+                    "reference_case",
+                    "versus_metric",
+                    "at",
+                    "points_from",
+                    "points_to",
+                )
+                if getattr(self, k) is not None
+            ]
             if others:
                 raise ValueError(f"a threshold claim is about the whole sweep; {', '.join(others)} is a separate claim")
             if self.reference == self.candidate:
                 raise ValueError("the reference must be another candidate")
             bounds = self.threshold_difference
             if bounds is not None and not bounds[0] < bounds[1]:
-                raise ValueError(f"threshold_difference = {list(self.threshold_difference)} must be [low, high] with "
-                                 "low < high")
+                raise ValueError(
+                    f"threshold_difference = {list(self.threshold_difference)} must be [low, high] with low < high"
+                )
             return self
-        ordering = [k for k in ("direction", "ratio_max", "ratio_min", "equivalence_margin")
-                    if getattr(self, k) is not None]
+        ordering = [
+            k for k in ("direction", "ratio_max", "ratio_min", "equivalence_margin") if getattr(self, k) is not None
+        ]
         if self.consistent_states is not None or self.every_run_within is not None:
             return self
         if self.versus_metric is not None:
             self._between_metrics(ordering)
         elif self.reference_case is not None:
             if not ordering:
-                raise ValueError("an ordering between cases needs direction = \"lower\" or \"higher\", "
-                                 "ratio_max or ratio_min")
+                raise ValueError(
+                    'an ordering between cases needs direction = "lower" or "higher", ratio_max or ratio_min'
+                )
             if self.within is not None:
                 raise ValueError("reference_case makes an ordering; a bound (within) is a separate claim")
             if self.case is not None and self.case == self.reference_case:
                 raise ValueError(f"case and reference_case are both {self.case!r}: compare two cases")
         elif self.reference is None:
             if ordering:
-                raise ValueError(f"{', '.join(ordering)} compare with a reference: give reference = \"<candidate>\"")
+                raise ValueError(f'{", ".join(ordering)} compare with a reference: give reference = "<candidate>"')
             if self.within is None:
-                raise ValueError("a claim is an ordering (reference with direction, ratio_max, ratio_min or "
-                                 "equivalence_margin) or a bound (within = [low, high], consistent_states = n, "
-                                 "every_run_within = [low, high])")
+                raise ValueError(
+                    "a claim is an ordering (reference with direction, ratio_max, ratio_min or "
+                    "equivalence_margin) or a bound (within = [low, high], consistent_states = n, "
+                    "every_run_within = [low, high])"
+                )
         else:
             if not ordering:
-                raise ValueError("an ordering needs direction = \"lower\" or \"higher\", ratio_max or ratio_min")
+                raise ValueError('an ordering needs direction = "lower" or "higher", ratio_max or ratio_min')
             if self.reference == self.candidate:
                 raise ValueError("the reference must be another candidate")
         for k in ("ratio_max", "ratio_min"):
@@ -240,8 +321,10 @@ class Claim(BaseModel):
             if value is not None and not math.isfinite(value):
                 raise ValueError(f"{k} = {value!r} must be a finite number")
         if self.ratio_max is not None and self.ratio_min is not None and not self.ratio_min < self.ratio_max:
-            raise ValueError(f"ratio_min = {self.ratio_min:g} is not below ratio_max = {self.ratio_max:g}: the claim "
-                             "could never hold")
+            raise ValueError(
+                f"ratio_min = {self.ratio_min:g} is not below ratio_max = {self.ratio_max:g}: the claim "
+                "could never hold"
+            )
         if self.within is not None and not self.within[0] < self.within[1]:
             raise ValueError(f"within = {list(self.within)} must be [low, high] with low < high")
         return self
@@ -252,50 +335,78 @@ class Claim(BaseModel):
             raise ValueError(f"versus_metric is metric {self.metric!r} itself: name another metric of the candidate")
         others = [k for k in ("reference", "reference_case", "within") if getattr(self, k) is not None]
         if others:
-            raise ValueError(f"versus_metric pairs two metrics of the candidate on its own runs; {', '.join(others)} "
-                             "is a separate claim")
+            raise ValueError(
+                f"versus_metric pairs two metrics of the candidate on its own runs; {', '.join(others)} "
+                "is a separate claim"
+            )
         if not ordering:
-            raise ValueError("an ordering between metrics needs direction = \"lower\" or \"higher\", ratio_max, "
-                             "ratio_min or equivalence_margin (or every_run_within)")
+            raise ValueError(
+                'an ordering between metrics needs direction = "lower" or "higher", ratio_max, '
+                "ratio_min or equivalence_margin (or every_run_within)"
+            )
 
     def _new_kinds(self) -> None:
         """The equivalence, consistency and every-run kinds, and the test, against the rest."""
         own = [k for k in ("consistent_states", "every_run_within") if getattr(self, k) is not None]
         if own:
             paired = ("reference", "reference_case", "versus_metric") if own[0] == "every_run_within" else ()
-            others = [k for k in ("direction", "ratio_max", "ratio_min", "equivalence_margin", "within", "reference",
-                                  "reference_case", "versus_metric", "threshold", "threshold_difference",
-                                  "consistent_states", "every_run_within")
-                      if k not in (*own[:1], *paired) and getattr(self, k) is not None]
+            others = [
+                k
+                for k in (
+                    "direction",
+                    "ratio_max",
+                    "ratio_min",
+                    "equivalence_margin",
+                    "within",
+                    "reference",
+                    "reference_case",
+                    "versus_metric",
+                    "threshold",
+                    "threshold_difference",
+                    "consistent_states",
+                    "every_run_within",
+                )
+                if k not in (*own[:1], *paired) and getattr(self, k) is not None
+            ]
             if others:
-                raise ValueError(f"{own[0]} is a claim about the candidate's own runs; {', '.join(others)} is a "
-                                 "separate claim")
+                raise ValueError(
+                    f"{own[0]} is a claim about the candidate's own runs; {', '.join(others)} is a separate claim"
+                )
             if self.versus_metric is not None and (self.reference is not None or self.reference_case is not None):
-                raise ValueError("versus_metric pairs two metrics of the candidate on its own runs; reference and "
-                                 "reference_case are a separate claim")
+                raise ValueError(
+                    "versus_metric pairs two metrics of the candidate on its own runs; reference and "
+                    "reference_case are a separate claim"
+                )
             if self.versus_metric == self.metric:
-                raise ValueError(f"versus_metric is metric {self.metric!r} itself: name another metric of the "
-                                 "candidate")
+                raise ValueError(
+                    f"versus_metric is metric {self.metric!r} itself: name another metric of the candidate"
+                )
             if own[0] == "consistent_states" and "nees" not in self.metric.lower():
-                raise ValueError(f"consistent_states is the chi-square band of a NEES; metric {self.metric!r} is not "
-                                 "a NEES")
+                raise ValueError(
+                    f"consistent_states is the chi-square band of a NEES; metric {self.metric!r} is not a NEES"
+                )
             if self.every_run_within is not None and not self.every_run_within[0] <= self.every_run_within[1]:
-                raise ValueError(f"every_run_within = {list(self.every_run_within)} must be [low, high] with "
-                                 "low <= high")
+                raise ValueError(
+                    f"every_run_within = {list(self.every_run_within)} must be [low, high] with low <= high"
+                )
             if self.test != "t":
                 raise ValueError(f"{own[0]} takes no test (it is not a t-interval); remove test = {self.test!r}")
         if self.equivalence_margin is not None:
             if self.direction is not None:
-                raise ValueError("equivalence_margin (the two are equivalent) and direction (one is lower) "
-                                 "contradict: give one")
+                raise ValueError(
+                    "equivalence_margin (the two are equivalent) and direction (one is lower) contradict: give one"
+                )
             if not math.isfinite(self.equivalence_margin):
                 raise ValueError(f"equivalence_margin = {self.equivalence_margin!r} must be a finite number")
         if self.test == "wilcoxon":
-            extra = [k for k in ("ratio_max", "ratio_min", "equivalence_margin", "within")
-                     if getattr(self, k) is not None]
+            extra = [
+                k for k in ("ratio_max", "ratio_min", "equivalence_margin", "within") if getattr(self, k) is not None
+            ]
             if self.direction is None or extra:
-                raise ValueError("test = \"wilcoxon\" tests the sign of the paired differences: it takes direction "
-                                 "only" + (f" ({', '.join(extra)} needs test = \"t\" or \"bootstrap\")" if extra else ""))
+                raise ValueError(
+                    'test = "wilcoxon" tests the sign of the paired differences: it takes direction '
+                    "only" + (f' ({", ".join(extra)} needs test = "t" or "bootstrap")' if extra else "")
+                )
         if self.test != "t" and (self.threshold is not None or self.threshold_difference is not None):
             raise ValueError("a threshold claim is always judged by its paired bootstrap: remove test")
 
@@ -328,55 +439,86 @@ class Claim(BaseModel):
             parts.append(f"{self.metric} consistent ({self.consistent_states} states, chi-square 95 % band)")
         if self.every_run_within is not None:
             lo, hi = self.every_run_within
-            paired = ("" if self.reference is None and self.reference_case is None and self.versus_metric is None
-                      else f" minus {ratio_ref}")
+            paired = (
+                ""
+                if self.reference is None and self.reference_case is None and self.versus_metric is None
+                else f" minus {ratio_ref}"
+            )
             parts.append(f"{self.metric}{paired} in [{lo:g}, {hi:g}] in every run")
         test = {"t": "", "bootstrap": " [bootstrap]", "wilcoxon": " [Wilcoxon]"}[self.test]
         return f"{self.candidate}: " + " and ".join(parts) + test
 
 
-def check_claims(claims: list[Claim], cases: list[str], candidates: list[str], metrics: list[str],
-                 sweeps: list | tuple = (), units: dict[str, str] | None = None) -> None:
+def check_claims(
+    claims: list[Claim],
+    cases: list[str],
+    candidates: list[str],
+    metrics: list[str],
+    sweeps: list | tuple = (),
+    units: dict[str, str] | None = None,
+) -> None:
     """Refuse claims naming an unknown case, candidate, metric, sweep or sweep point, or
     two metrics of different units (``units``: metric -> unit) in one difference (at
     config load); ``sweeps`` are the config's :class:`~.sweeps.Sweep` entries."""
     labels = [s.label for s in sweeps]
     for i, c in enumerate(claims):
-        for field, value, allowed in (("candidate", c.candidate, candidates), ("reference", c.reference, candidates),
-                                      ("case", c.case, cases), ("reference_case", c.reference_case, cases),
-                                      ("metric", c.metric, metrics), ("versus_metric", c.versus_metric, metrics)):
+        for field, value, allowed in (
+            ("candidate", c.candidate, candidates),
+            ("reference", c.reference, candidates),
+            ("case", c.case, cases),
+            ("reference_case", c.reference_case, cases),
+            ("metric", c.metric, metrics),
+            ("versus_metric", c.versus_metric, metrics),
+        ):
             if value is not None and value not in allowed:
                 raise ConfigError(f"claims[{i}].{field}", f"unknown {field} {value!r}; allowed: {', '.join(allowed)}")
         if c.versus_metric is not None and units is not None:
             unit, versus = units.get(c.metric), units.get(c.versus_metric)
             if unit != versus:
-                raise ConfigError(f"claims[{i}].versus_metric", f"{c.versus_metric!r} is in {versus!r} and metric "
-                                  f"{c.metric!r} in {unit!r}: a paired difference needs two metrics of one unit")
+                raise ConfigError(
+                    f"claims[{i}].versus_metric",
+                    f"{c.versus_metric!r} is in {versus!r} and metric "
+                    f"{c.metric!r} in {unit!r}: a paired difference needs two metrics of one unit",
+                )
         picks = [f for f, v in (("at", c.at), ("from", c.points_from), ("to", c.points_to)) if v is not None]
         if c.sweep is None:
             if picks:
-                raise ConfigError(f"claims[{i}].{picks[0]}", f"{picks[0]} picks points of a sweep: add sweep = "
-                                  f"\"<name>\"; allowed: {', '.join(labels) or 'none (this config has no [[sweeps]])'}")
+                raise ConfigError(
+                    f"claims[{i}].{picks[0]}",
+                    f"{picks[0]} picks points of a sweep: add sweep = "
+                    f'"<name>"; allowed: {", ".join(labels) or "none (this config has no [[sweeps]])"}',
+                )
             continue
         if c.sweep not in labels:
-            raise ConfigError(f"claims[{i}].sweep", f"unknown sweep {c.sweep!r}; allowed: "
-                              f"{', '.join(labels) or 'none (this config has no [[sweeps]])'}")
+            raise ConfigError(
+                f"claims[{i}].sweep",
+                f"unknown sweep {c.sweep!r}; allowed: {', '.join(labels) or 'none (this config has no [[sweeps]])'}",
+            )
         sweep = sweeps[labels.index(c.sweep)]
         if c.threshold is not None or c.threshold_difference is not None:
             spec = getattr(sweep, "threshold", None)
             if spec is None:
-                raise ConfigError(f"claims[{i}].sweep", f"sweep {c.sweep!r} has no threshold table: add threshold = "
-                                  "{ metric = \"...\", level = 0.5 } to it")
+                raise ConfigError(
+                    f"claims[{i}].sweep",
+                    f"sweep {c.sweep!r} has no threshold table: add threshold = "
+                    '{ metric = "...", level = 0.5 } to it',
+                )
             if c.metric != spec.metric:
-                raise ConfigError(f"claims[{i}].metric", f"sweep {c.sweep!r} finds the threshold of {spec.metric!r}; "
-                                  f"got {c.metric!r}")
+                raise ConfigError(
+                    f"claims[{i}].metric", f"sweep {c.sweep!r} finds the threshold of {spec.metric!r}; got {c.metric!r}"
+                )
         claim_points(c, sweep, f"claims[{i}]")
         run = list(sweep.cases or cases)
-        for field, value, allowed, what in (("case", c.case, varied_cases(sweep, cases), "varies"),
-                                            ("reference_case", c.reference_case, run, "runs")):
+        for field, value, allowed, what in (
+            ("case", c.case, varied_cases(sweep, cases), "varies"),
+            ("reference_case", c.reference_case, run, "runs"),
+        ):
             if value is not None and value not in allowed:
-                raise ConfigError(f"claims[{i}].{field}", f"case {value!r} is not one sweep {c.sweep!r} {what}, so "
-                                  f"it has no value at the sweep's points; allowed: {', '.join(allowed)}")
+                raise ConfigError(
+                    f"claims[{i}].{field}",
+                    f"case {value!r} is not one sweep {c.sweep!r} {what}, so "
+                    f"it has no value at the sweep's points; allowed: {', '.join(allowed)}",
+                )
 
 
 def untuned_candidates(config) -> list[str]:
@@ -403,10 +545,13 @@ def check_untuned_claims(config) -> None:
             continue
         for field, name in (("reference", c.reference), ("candidate", c.candidate)):
             if name in untuned and name not in given:
-                raise ConfigError(f"claims[{i}].{field}", f"candidate {name!r} is not tuned while others are "
-                                  f"([tuning] has no free parameter of it), so the claim {c.statement()!r} compares "
-                                  f"hands, not filters: tune it, or mark it as_given = true if it is deliberately "
-                                  "evaluated as given")
+                raise ConfigError(
+                    f"claims[{i}].{field}",
+                    f"candidate {name!r} is not tuned while others are "
+                    f"([tuning] has no free parameter of it), so the claim {c.statement()!r} compares "
+                    f"hands, not filters: tune it, or mark it as_given = true if it is deliberately "
+                    "evaluated as given",
+                )
 
 
 def varied_cases(sweep, cases: list[str]) -> list[str]:
@@ -445,13 +590,18 @@ def claim_points(claim: Claim, sweep, where: str) -> list[Any]:
             continue
         hit = [j for j, p in enumerate(points) if _same_point(p, value)]
         if not hit:
-            raise ConfigError(f"{where}.{field}", f"{value:g} is not a point of sweep {sweep.label!r} (a range "
-                              f"starts and ends at points); allowed: {shown}")
+            raise ConfigError(
+                f"{where}.{field}",
+                f"{value:g} is not a point of sweep {sweep.label!r} (a range "
+                f"starts and ends at points); allowed: {shown}",
+            )
         first, last = (hit[0], last) if field == "from" else (first, hit[0])
     if first > last:
-        raise ConfigError(f"{where}.from", f"from = {claim.points_from:g} comes after to = {claim.points_to:g} "
-                          f"in sweep {sweep.label!r} ({shown})")
-    return points[first:last + 1]
+        raise ConfigError(
+            f"{where}.from",
+            f"from = {claim.points_from:g} comes after to = {claim.points_to:g} in sweep {sweep.label!r} ({shown})",
+        )
+    return points[first : last + 1]
 
 
 def _against(low: float, high: float, bound: float, below: bool) -> str:
@@ -503,8 +653,14 @@ def _two_sided(p_one: float) -> float:
     return min(1.0, 2.0 * p_one)
 
 
-def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: float = 0.95,
-           rng: np.random.Generator | None = None) -> tuple[str, float | None, str]:
+def _judge(
+    claim: Claim,
+    pd,
+    values: np.ndarray,
+    pair: tuple | None,
+    level: float = 0.95,
+    rng: np.random.Generator | None = None,
+) -> tuple[str, float | None, str]:
     """The claim's outcome from its evidence, its p-value (the largest of its conditions',
     an intersection-union test; ``None`` for a claim that is not a significance test) and
     why it was refused (``""`` otherwise). Each condition is judged on the ``level``
@@ -530,17 +686,23 @@ def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: floa
         if pd.n < 2:
             return "not significant", None, ""
         if _no_spread(d) or pd.se is None or pd.se == 0.0:
-            other, on = (("the reference's", " on each candidate") if claim.versus_metric is None
-                         else (claim.versus_metric, ""))
-            return ("refused", None, f"{claim.metric} minus {other} is the same in all {pd.n} runs (no "
-                    f"spread): nothing to test; state it with every_run_within{on}")
+            other, on = (
+                ("the reference's", " on each candidate") if claim.versus_metric is None else (claim.versus_metric, "")
+            )
+            return (
+                "refused",
+                None,
+                f"{claim.metric} minus {other} is the same in all {pd.n} runs (no "
+                f"spread): nothing to test; state it with every_run_within{on}",
+            )
         if claim.test == "t":
             if claim.direction is not None:
                 below = claim.direction == "lower"
                 half = t_quantile(pd.n, level) * pd.se
                 # pd.significant is the 95 % rule; a stricter level can only shrink what it calls significant.
-                outcomes.append(_against(pd.diff - half, pd.diff + half, 0.0, below)
-                                if pd.significant else "not significant")
+                outcomes.append(
+                    _against(pd.diff - half, pd.diff + half, 0.0, below) if pd.significant else "not significant"
+                )
                 ps.append(_two_sided(t_p_value(pd.diff, pd.se, pd.n, 0.0, below)))
             for bound, below in ((claim.ratio_max, True), (claim.ratio_min, False)):
                 if bound is None:
@@ -557,8 +719,9 @@ def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: floa
                 p = tost(pd.diff, pd.se, pd.n, m)
                 wide = t_quantile(pd.n, level) * pd.se
                 outside = pd.diff - wide > m or pd.diff + wide < -m
-                outcomes.append("holds" if p < ALPHA * (1 - level) / 0.05 else "fails" if outside
-                                else "not significant")
+                outcomes.append(
+                    "holds" if p < ALPHA * (1 - level) / 0.05 else "fails" if outside else "not significant"
+                )
                 ps.append(p)
         elif claim.test == "wilcoxon":
             below = claim.direction == "lower"
@@ -589,8 +752,9 @@ def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: floa
                 m = claim.equivalence_margin
                 p = max(bootstrap_p(diff, m, True), bootstrap_p(diff, -m, False))
                 lo, hi = np.quantile(diff, [tail, 1 - tail])
-                outcomes.append("holds" if p < ALPHA * (1 - level) / 0.05 else "fails"
-                                if lo > m or hi < -m else "not significant")
+                outcomes.append(
+                    "holds" if p < ALPHA * (1 - level) / 0.05 else "fails" if lo > m or hi < -m else "not significant"
+                )
                 ps.append(p)
     if claim.within is not None:
         v = values[np.isfinite(values)]
@@ -599,8 +763,12 @@ def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: floa
             outcomes.append("not significant")
             ps.append(1.0)
         elif _no_spread(v) or se == 0.0:
-            return ("refused", None, f"{claim.metric} is {mean:g} in all {n} runs (no spread): a mean's interval has "
-                    "nothing to test; state it with every_run_within")
+            return (
+                "refused",
+                None,
+                f"{claim.metric} is {mean:g} in all {n} runs (no spread): a mean's interval has "
+                "nothing to test; state it with every_run_within",
+            )
         else:
             if claim.test == "bootstrap":
                 draws = bootstrap_means(v, None, rng if rng is not None else np.random.default_rng(0))[0]
@@ -610,14 +778,19 @@ def _judge(claim: Claim, pd, values: np.ndarray, pair: tuple | None, level: floa
                 lo, hi = mean - t_quantile(n, level) * se, mean + t_quantile(n, level) * se
                 p_lo = t_p_value(mean, se, n, claim.within[0], below=False)
                 p_hi = t_p_value(mean, se, n, claim.within[1], below=True)
-            outcomes += [_against(lo, hi, claim.within[0], below=False),
-                         _against(lo, hi, claim.within[1], below=True)]
+            outcomes += [_against(lo, hi, claim.within[0], below=False), _against(lo, hi, claim.within[1], below=True)]
             ps.append(_two_sided(max(p_lo, p_hi)))
     return _worst(outcomes), (max(ps) if ps else None), ""
 
 
-def _outcome(claim: Claim, pd, values: np.ndarray, level: float = 0.95, pair: tuple | None = None,
-             rng: np.random.Generator | None = None) -> str:
+def _outcome(
+    claim: Claim,
+    pd,
+    values: np.ndarray,
+    level: float = 0.95,
+    pair: tuple | None = None,
+    rng: np.random.Generator | None = None,
+) -> str:
     """The claim's outcome alone (see :func:`_judge`)."""
     return _judge(claim, pd, values, pair, level, rng)[0]
 
@@ -640,8 +813,12 @@ def _row_judgement(claim: Claim, evidence: tuple, rng: np.random.Generator, decl
         # An ordering (direction, ratio) or a bound on the mean (within) is the 95 % interval on the
         # claimed side, the two-sided 5 % t-test; an equivalence states the margin its TOST shows
         # at a true difference of 0; a band or an every-run observation states its own band or bound.
-        tested = (claim.direction is not None or claim.ratio_max is not None or claim.ratio_min is not None
-                  or claim.within is not None)
+        tested = (
+            claim.direction is not None
+            or claim.ratio_max is not None
+            or claim.ratio_min is not None
+            or claim.within is not None
+        )
         if tested and runs >= 2 and se:
             out["detectable80"] = detectable_difference(se, runs, STATED_POWER, ALPHA)
         if claim.equivalence_margin is not None and runs >= 2 and se:
@@ -670,23 +847,51 @@ def _sweep_rows(config, store, i: int, claim: Claim) -> list[dict]:
             point = next(p for v, p in pairs if _same_point(v, value))
             evidence = _evidence(claim, store, point.identity(), case, point.runs)
             where = f"{case} {claim.sweep}={value}"  # each judgement resamples from a fresh generator of it
-            row = {"claim": i, "statement": claim.statement(), "case": case, "sweep": claim.sweep, "point": value,
-                   "candidate": claim.candidate, "metric": claim.metric, "note": claim.note, **evidence[0],
-                   **_row_judgement(claim, evidence, claim_rng(config.seed, i, where),
-                                    small_n_declared(config, claim))}
+            row = {
+                "claim": i,
+                "statement": claim.statement(),
+                "case": case,
+                "sweep": claim.sweep,
+                "point": value,
+                "candidate": claim.candidate,
+                "metric": claim.metric,
+                "note": claim.note,
+                **evidence[0],
+                **_row_judgement(claim, evidence, claim_rng(config.seed, i, where), small_n_declared(config, claim)),
+            }
             _, pd, values, pair = evidence
-            if len(points) > 1 and _outcome(claim, pd, values, corrected, pair,
-                                             claim_rng(config.seed, i, where)) == "fails":
+            if (
+                len(points) > 1
+                and _outcome(claim, pd, values, corrected, pair, claim_rng(config.seed, i, where)) == "fails"
+            ):
                 failed.append(value)
             rows.append(row)
         out += rows
         if len(points) > 1:
             held = sum(r["outcome"] == "holds" for r in rows)
-            out.append({"claim": i, "statement": claim.statement(), "case": case, "sweep": claim.sweep,
-                        "point": "all", "points": points, "candidate": claim.candidate, "metric": claim.metric,
-                        "note": claim.note, "held": held, "corrected_level": corrected, "failed_corrected": failed,
-                        "outcome": "refused" if any(r["outcome"] == "refused" for r in rows) else "holds"
-                        if held == len(points) else "fails" if failed else "not significant"})
+            out.append(
+                {
+                    "claim": i,
+                    "statement": claim.statement(),
+                    "case": case,
+                    "sweep": claim.sweep,
+                    "point": "all",
+                    "points": points,
+                    "candidate": claim.candidate,
+                    "metric": claim.metric,
+                    "note": claim.note,
+                    "held": held,
+                    "corrected_level": corrected,
+                    "failed_corrected": failed,
+                    "outcome": "refused"
+                    if any(r["outcome"] == "refused" for r in rows)
+                    else "holds"
+                    if held == len(points)
+                    else "fails"
+                    if failed
+                    else "not significant",
+                }
+            )
     return out
 
 
@@ -705,10 +910,22 @@ def _threshold_claim_rows(config, i: int, claim: Claim, report: dict) -> list[di
         if claim.threshold_difference is not None:
             a, b = claim.threshold_difference
             outcomes.append(_worst([_against(lo, hi, a, below=False), _against(lo, hi, b, below=True)]))
-        out.append({"claim": i, "statement": claim.statement(), "case": case, "sweep": claim.sweep,
-                    "point": "threshold", "candidate": claim.candidate, "reference": claim.reference,
-                    "metric": claim.metric, "note": claim.note, "threshold_difference": finite_or_none(est),
-                    "threshold_ci95": [_bound(lo), _bound(hi)], "outcome": _worst(outcomes)})
+        out.append(
+            {
+                "claim": i,
+                "statement": claim.statement(),
+                "case": case,
+                "sweep": claim.sweep,
+                "point": "threshold",
+                "candidate": claim.candidate,
+                "reference": claim.reference,
+                "metric": claim.metric,
+                "note": claim.note,
+                "threshold_difference": finite_or_none(est),
+                "threshold_ci95": [_bound(lo), _bound(hi)],
+                "outcome": _worst(outcomes),
+            }
+        )
     return out
 
 
@@ -733,10 +950,18 @@ def evaluate_claims(config, store, key: str | None = None) -> list[dict]:
         cases = [claim.case] if claim.case else [c.name for c in config.cases if c.name != claim.reference_case]
         for case in cases:
             evidence = _evidence(claim, store, key, case, config.runs)
-            out.append({"claim": i, "statement": claim.statement(), "case": case, "candidate": claim.candidate,
-                        "metric": claim.metric, "note": claim.note, **evidence[0],
-                        **_row_judgement(claim, evidence, claim_rng(config.seed, i, case),
-                                         small_n_declared(config, claim))})
+            out.append(
+                {
+                    "claim": i,
+                    "statement": claim.statement(),
+                    "case": case,
+                    "candidate": claim.candidate,
+                    "metric": claim.metric,
+                    "note": claim.note,
+                    **evidence[0],
+                    **_row_judgement(claim, evidence, claim_rng(config.seed, i, case), small_n_declared(config, claim)),
+                }
+            )
     return adjust_claims(out, config.claims_adjustment)
 
 
@@ -796,15 +1021,20 @@ def unstated_small_n_claims(config) -> list[int]:
     (a threshold claim, a bootstrap interval of a sweep's thresholds, is exempt)."""
     if config.runs >= MIN_CLAIM_RUNS:
         return []
-    return [i for i, c in enumerate(config.claims) if not small_n_declared(config, c)
-            and c.threshold is None and c.threshold_difference is None]
+    return [
+        i
+        for i, c in enumerate(config.claims)
+        if not small_n_declared(config, c) and c.threshold is None and c.threshold_difference is None
+    ]
 
 
 def small_n_refusal(name: str, claim: int, statement: str, runs: int) -> str:
     """The one-line refusal of a claim over too few runs, naming the example and the claim."""
-    return (f"{name}: claims[{claim}] ({statement}) is checked on {runs} paired runs, fewer than "
-            f"{MIN_CLAIM_RUNS}: run {MIN_CLAIM_RUNS} or more, or declare small_n = true on the claim (or "
-            "claims_small_n = true in the config) to state its power instead")
+    return (
+        f"{name}: claims[{claim}] ({statement}) is checked on {runs} paired runs, fewer than "
+        f"{MIN_CLAIM_RUNS}: run {MIN_CLAIM_RUNS} or more, or declare small_n = true on the claim (or "
+        "claims_small_n = true in the config) to state its power instead"
+    )
 
 
 def claim_where(row: dict) -> str:
@@ -824,13 +1054,17 @@ def claim_evidence(row: dict) -> str:
     if row.get("point") == "threshold":
         lo, hi = row["threshold_ci95"]
         est = row["threshold_difference"]
-        return (f"threshold difference {'undefined' if est is None else format(est, '+.2f')}, paired bootstrap "
-                f"95 % interval [{lo if isinstance(lo, str) else format(lo, '+.2f')}, "
-                f"{hi if isinstance(hi, str) else format(hi, '+.2f')}]")
+        return (
+            f"threshold difference {'undefined' if est is None else format(est, '+.2f')}, paired bootstrap "
+            f"95 % interval [{lo if isinstance(lo, str) else format(lo, '+.2f')}, "
+            f"{hi if isinstance(hi, str) else format(hi, '+.2f')}]"
+        )
     if row.get("point") == "all":
         failed = row.get("failed_corrected") or []
-        return (f"holds at {row['held']} of {len(row['points'])} points; fails at the Bonferroni level "
-                f"{1 - row['corrected_level']:.2g} at {', '.join(map(str, failed)) if failed else 'none'}")
+        return (
+            f"holds at {row['held']} of {len(row['points'])} points; fails at the Bonferroni level "
+            f"{1 - row['corrected_level']:.2g} at {', '.join(map(str, failed)) if failed else 'none'}"
+        )
     if row.get("outcome") == "refused" and row.get("reason"):
         return f"refused: {row['reason']}"
     ev = []
@@ -852,11 +1086,14 @@ def claim_evidence(row: dict) -> str:
         if row.get("detectable80") is not None:
             text += f": detects differences >= {row['detectable80']:.2g} at power {STATED_POWER:g}"
             if row.get("detectable80_adjusted") is not None:
-                text += (f", >= {row['detectable80_adjusted']:.2g} after adjustment (level "
-                         f"{ALPHA:g}/{row['family_size']})")
+                text += (
+                    f", >= {row['detectable80_adjusted']:.2g} after adjustment (level {ALPHA:g}/{row['family_size']})"
+                )
         if row.get("equivalence_margin80") is not None:
-            text += (f": shows equivalence within +-{row['equivalence_margin80']:.2g} at power {STATED_POWER:g} "
-                     "when the true difference is 0")
+            text += (
+                f": shows equivalence within +-{row['equivalence_margin80']:.2g} at power {STATED_POWER:g} "
+                "when the true difference is 0"
+            )
         text += ")"
     if row.get("test") not in (None, "t"):
         text += f", {row['test']}"

@@ -43,8 +43,6 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-
-
 _REF = "the {kind} plugin: its name, or {{ name, params }}"
 # A candidate's plugin of each kind: `plugin_ref.ComponentRef(kind)`, written out so that mypy reads it.
 _EstimatorRef: TypeAlias = Annotated[PluginSpec, *component_metadata("estimator")]
@@ -66,11 +64,16 @@ class Candidate(_Strict):
     channel_filter: _ChannelFilterRef | None = Field(None, description=_REF.format(kind="channel_filter"))
     nav_filter: _NavFilterRef | None = Field(None, description=_REF.format(kind="nav_filter"))
     scenario_options: dict[str, Any] = Field(
-        default_factory=dict, description="options the scenario applies to this candidate, not plugins (see the "
-        "scenario's page; e.g. multipath's oracle)")
-    as_given: bool = Field(False, description="the candidate is deliberately evaluated as given (e.g. a paper's "
-                           "literal settings) while others are tuned: claims against it are then accepted, and the "
-                           "report says so")
+        default_factory=dict,
+        description="options the scenario applies to this candidate, not plugins (see the "
+        "scenario's page; e.g. multipath's oracle)",
+    )
+    as_given: bool = Field(
+        False,
+        description="the candidate is deliberately evaluated as given (e.g. a paper's "
+        "literal settings) while others are tuned: claims against it are then accepted, and the "
+        "report says so",
+    )
 
     _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
 
@@ -85,9 +88,12 @@ class Case(BaseModel):
     model_config = ConfigDict(extra="allow")
     name: str = Field(..., pattern=r"^[A-Za-z0-9_.+-]+$")
     streams: str | None = Field(
-        None, pattern=r"^[A-Za-z0-9_.+-]+$", description="the random streams this case draws, named by a case "
+        None,
+        pattern=r"^[A-Za-z0-9_.+-]+$",
+        description="the random streams this case draws, named by a case "
         "(default: its own name): cases with the same streams draw the same random numbers run by run (common "
-        "random numbers across cases, which claims with reference_case pair)")
+        "random numbers across cases, which claims with reference_case pair)",
+    )
 
     _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
 
@@ -103,53 +109,90 @@ class Executor(_Strict):
     """Where the runs execute."""
 
     kind: Literal["local", "dask"] = "local"
-    workers: int = Field(0, ge=0, le=1024, strict=True, description="local processes (0: one per core, 1: in this "
-                         "process), at most 1024")
-    address: str = Field("", description="dask scheduler address, from the Python API only: a config file may not "
-                         "set it (Dask's protocol carries pickles, so the scheduler a config names runs code here); "
-                         f"give it with `compare --dask-address` or the {DASK_ADDRESS_ENV} environment variable. "
-                         "Empty: a LocalCluster on this machine")
+    workers: int = Field(
+        0, ge=0, le=1024, strict=True, description="local processes (0: one per core, 1: in this process), at most 1024"
+    )
+    address: str = Field(
+        "",
+        description="dask scheduler address, from the Python API only: a config file may not "
+        "set it (Dask's protocol carries pickles, so the scheduler a config names runs code here); "
+        f"give it with `compare --dask-address` or the {DASK_ADDRESS_ENV} environment variable. "
+        "Empty: a LocalCluster on this machine",
+    )
 
 
 class ComparisonConfig(_Strict):
     """A Monte Carlo comparison."""
 
-    name: str = Field("comparison", description="the comparison's name: its results folder results/<name> "
-                      "without --out, so a plain file name (no '/', '.', '..' or control characters)")
+    name: str = Field(
+        "comparison",
+        description="the comparison's name: its results folder results/<name> "
+        "without --out, so a plain file name (no '/', '.', '..' or control characters)",
+    )
     description: str = ""
-    runs: int = Field(10, ge=1, le=MAX_RUNS, strict=True, description="Monte Carlo runs per case and candidate, "
-                      f"1 to {MAX_RUNS}")
-    batch_size: int = Field(5, ge=1, le=MAX_RUNS, strict=True, description="runs simulated together as one array "
-                            f"program, 1 to {MAX_RUNS} (and within the memory budget, see experiments.limits)")
+    runs: int = Field(
+        10, ge=1, le=MAX_RUNS, strict=True, description=f"Monte Carlo runs per case and candidate, 1 to {MAX_RUNS}"
+    )
+    batch_size: int = Field(
+        5,
+        ge=1,
+        le=MAX_RUNS,
+        strict=True,
+        description="runs simulated together as one array "
+        f"program, 1 to {MAX_RUNS} (and within the memory budget, see experiments.limits)",
+    )
     seed: int = Field(0, ge=0, lt=2**63, strict=True, description="seed of the runs' random numbers, 0 to 2^63 - 1")
     executor: Executor = Field(default_factory=Executor)
     scenario: dict[str, Any] = Field(..., description="scenario kind and its parameters (see the scenario's page)")
-    cases: list[Case] = Field(..., min_length=1, max_length=MAX_CASES,
-                              description=f"the conditions compared, 1 to {MAX_CASES}")
-    candidates: list[Candidate] = Field(..., min_length=1, max_length=MAX_CANDIDATES,
-                                        description=f"the filter compositions compared, 1 to {MAX_CANDIDATES}")
+    cases: list[Case] = Field(
+        ..., min_length=1, max_length=MAX_CASES, description=f"the conditions compared, 1 to {MAX_CASES}"
+    )
+    candidates: list[Candidate] = Field(
+        ...,
+        min_length=1,
+        max_length=MAX_CANDIDATES,
+        description=f"the filter compositions compared, 1 to {MAX_CANDIDATES}",
+    )
     metrics: list[str] = Field(default_factory=list, description="metrics to report (default: all of the scenario)")
-    reference: str | None = Field(None, description="candidate the others are compared with (paired differences); "
-                                  "default: the first candidate")
-    sweeps: list[Sweep] = Field(default_factory=list, description="parameters varied one at a time over a list "
-                                "or range of values (each point runs every case and candidate)")
+    reference: str | None = Field(
+        None, description="candidate the others are compared with (paired differences); default: the first candidate"
+    )
+    sweeps: list[Sweep] = Field(
+        default_factory=list,
+        description="parameters varied one at a time over a list "
+        "or range of values (each point runs every case and candidate)",
+    )
     published: dict[str, dict[str, dict[str, float]]] = Field(
-        default_factory=dict, description="published values: case -> candidate -> metric -> value")
-    tuning: Tuning | None = Field(None, description="tune every candidate with free parameters by the same "
-                                  "procedure and budget on tuning streams, then evaluate them at their tuned values")
+        default_factory=dict, description="published values: case -> candidate -> metric -> value"
+    )
+    tuning: Tuning | None = Field(
+        None,
+        description="tune every candidate with free parameters by the same "
+        "procedure and budget on tuning streams, then evaluate them at their tuned values",
+    )
     random_stream: Literal["evaluation", "tuning", "replicate"] = Field(
-        "evaluation", description="the runs' random streams: evaluation (the default), the disjoint tuning "
-        "streams (set by the tuner for its trials) or the disjoint replicate streams (set by compare --replicate)")
-    claims: list[Claim] = Field(default_factory=list, description="orderings and bounds the results must show, "
-                                "each checked from the paired runs (holds / fails / not significant); "
-                                "`compare --check` exits 1 unless every claim holds")
+        "evaluation",
+        description="the runs' random streams: evaluation (the default), the disjoint tuning "
+        "streams (set by the tuner for its trials) or the disjoint replicate streams (set by compare --replicate)",
+    )
+    claims: list[Claim] = Field(
+        default_factory=list,
+        description="orderings and bounds the results must show, "
+        "each checked from the paired runs (holds / fails / not significant); "
+        "`compare --check` exits 1 unless every claim holds",
+    )
     claims_adjustment: Literal["holm", "benjamini-hochberg"] = Field(
-        "holm", description="multiplicity adjustment of the claims' p-values over the example: holm (family-wise "
-        "error rate) or benjamini-hochberg (false discovery rate)")
+        "holm",
+        description="multiplicity adjustment of the claims' p-values over the example: holm (family-wise "
+        "error rate) or benjamini-hochberg (false discovery rate)",
+    )
     claims_small_n: bool = Field(
-        False, strict=True, description="every claim is checked on fewer than 12 runs on purpose (small_n = true on each): "
+        False,
+        strict=True,
+        description="every claim is checked on fewer than 12 runs on purpose (small_n = true on each): "
         "compare --check accepts them and states each one's power (the difference its test detects with "
-        "probability 0.8); without it, or small_n on the claim, such a claim is refused")
+        "probability 0.8); without it, or small_n on the claim, such a claim is refused",
+    )
 
     _plain_name = field_validator("name")(lambda cls, v: check_file_name(v))
 
@@ -174,28 +217,45 @@ class ComparisonConfig(_Strict):
             check_metric(metric, scenario, f"metrics[{i}]")
         for i, case in enumerate(self.cases):
             scenario.check_case(case.params(), f"cases[{i}]")
-            scenario.check_memory(case.params(), min(self.batch_size, self.runs), f"cases[{i}]",
-                                  [{**c.components(), "scenario_options": c.scenario_options} for c in self.candidates])
-        self._candidates = tuple(resolve_candidate(scenario, cand, [c.params() for c in self.cases],
-                                                   f"candidates[{i}]") for i, cand in enumerate(self.candidates))
+            scenario.check_memory(
+                case.params(),
+                min(self.batch_size, self.runs),
+                f"cases[{i}]",
+                [{**c.components(), "scenario_options": c.scenario_options} for c in self.candidates],
+            )
+        self._candidates = tuple(
+            resolve_candidate(scenario, cand, [c.params() for c in self.cases], f"candidates[{i}]")
+            for i, cand in enumerate(self.candidates)
+        )
         case_names = {c.name for c in self.cases}
         cand_names = {c.name for c in self.candidates}
         if self.reference is not None and self.reference not in cand_names:
-            raise ConfigError("reference", f"got {self.reference!r}; allowed: the candidates' names "
-                              f"{', '.join(c.name for c in self.candidates)}")
+            raise ConfigError(
+                "reference",
+                f"got {self.reference!r}; allowed: the candidates' names {', '.join(c.name for c in self.candidates)}",
+            )
         for case_name, per_cand in self.published.items():
             if case_name not in case_names:
                 raise ConfigError(f"published.{case_name}", f"unknown case; allowed: {', '.join(sorted(case_names))}")
             for cand, values in per_cand.items():
                 if cand not in cand_names:
-                    raise ConfigError(f"published.{case_name}.{cand}",
-                                      f"unknown candidate; allowed: {', '.join(sorted(cand_names))}")
+                    raise ConfigError(
+                        f"published.{case_name}.{cand}", f"unknown candidate; allowed: {', '.join(sorted(cand_names))}"
+                    )
                 for metric in values:
                     if metric not in self.metric_names:
-                        raise ConfigError(f"published.{case_name}.{cand}.{metric}",
-                                          f"unknown metric; allowed: {', '.join(self.metric_names)}")
-        check_claims(self.claims, sorted(case_names), [c.name for c in self.candidates], self.metric_names,
-                     self.sweeps, self.metric_units if any(c.versus_metric for c in self.claims) else None)
+                        raise ConfigError(
+                            f"published.{case_name}.{cand}.{metric}",
+                            f"unknown metric; allowed: {', '.join(self.metric_names)}",
+                        )
+        check_claims(
+            self.claims,
+            sorted(case_names),
+            [c.name for c in self.candidates],
+            self.metric_names,
+            self.sweeps,
+            self.metric_units if any(c.versus_metric for c in self.claims) else None,
+        )
         if self.tuning is not None:
             check_tuning(self)
             check_untuned_claims(self)
@@ -225,8 +285,10 @@ class ComparisonConfig(_Strict):
         (`gnssframework.experiments.candidates.resolve_candidate`), in order."""
         if self._candidates is None:  # a config made without validation (model_construct)
             cases = [c.params() for c in self.cases]
-            self._candidates = tuple(resolve_candidate(self.resolved_scenario, cand, cases, f"candidates[{i}]")
-                                     for i, cand in enumerate(self.candidates))
+            self._candidates = tuple(
+                resolve_candidate(self.resolved_scenario, cand, cases, f"candidates[{i}]")
+                for i, cand in enumerate(self.candidates)
+            )
         return self._candidates
 
     def sweep_points(self, index: int) -> list[tuple[Any, ComparisonConfig]]:
@@ -262,9 +324,21 @@ class ComparisonConfig(_Strict):
 
         A store keyed by it lets a longer or interrupted comparison reuse finished batches.
         """
-        data = self.model_dump(exclude={"runs", "executor", "description", "published", "metrics", "name",
-                                        "reference", "sweeps", "claims", "claims_adjustment",
-                                        "claims_small_n"})
+        data = self.model_dump(
+            exclude={
+                "runs",
+                "executor",
+                "description",
+                "published",
+                "metrics",
+                "name",
+                "reference",
+                "sweeps",
+                "claims",
+                "claims_adjustment",
+                "claims_small_n",
+            }
+        )
         # The scenario's and the cases' values as their models read them, not as written:
         # `cn0_dbhz = 45` and `= 45.0` are one case (one key), as they are one simulation.
         scenario = self.resolved_scenario
@@ -327,10 +401,13 @@ def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
     if isinstance(executor, dict) and executor.get("address"):
         # Dask's protocol carries pickles: a shared config that names a scheduler would make
         # whoever runs it execute that scheduler's code and send it theirs.
-        raise ConfigError("executor.address", "a Dask scheduler address is not taken from a config file (Dask's "
-                          "protocol carries pickles: the scheduler it names would run code here); give it with "
-                          f"`gnssframework compare --dask-address ADDR` or the {DASK_ADDRESS_ENV} environment "
-                          "variable")
+        raise ConfigError(
+            "executor.address",
+            "a Dask scheduler address is not taken from a config file (Dask's "
+            "protocol carries pickles: the scheduler it names would run code here); give it with "
+            f"`gnssframework compare --dask-address ADDR` or the {DASK_ADDRESS_ENV} environment "
+            "variable",
+        )
     data.update({k: v for k, v in overrides.items() if v is not None})
     try:
         config = ComparisonConfig.model_validate(data)

@@ -112,11 +112,16 @@ def panel_grid(panels: list[Panel], title: str, max_columns: int = 3, panel_size
     import matplotlib.pyplot as plt
 
     rows, columns = grid_shape(len(panels), max_columns)
-    fig, axes = plt.subplots(rows, columns, figsize=(panel_size_in[0] * columns, panel_size_in[1] * rows + 0.8),
-                             squeeze=False, layout="constrained")
+    fig, axes = plt.subplots(
+        rows,
+        columns,
+        figsize=(panel_size_in[0] * columns, panel_size_in[1] * rows + 0.8),
+        squeeze=False,
+        layout="constrained",
+    )
     for ax, panel in zip(axes.flat, panels):
         _draw(ax, panel)
-    for ax in list(axes.flat)[len(panels):]:
+    for ax in list(axes.flat)[len(panels) :]:
         fig.delaxes(ax)
     handles: dict[str, Any] = {}
     for ax in fig.axes:
@@ -124,6 +129,12 @@ def panel_grid(panels: list[Panel], title: str, max_columns: int = 3, panel_size
             handles.setdefault(label, handle)
     fig.suptitle(title, fontsize=9)
     if handles:
-        fig.legend(list(handles.values()), list(handles), loc="outside lower center", fontsize=7,
-                   ncol=min(len(handles), 4), frameon=False)
+        fig.legend(
+            list(handles.values()),
+            list(handles),
+            loc="outside lower center",
+            fontsize=7,
+            ncol=min(len(handles), 4),
+            frameon=False,
+        )
     return fig

@@ -20,8 +20,7 @@ def check_file_name(name: str) -> str:
         raise ValueError(f"{name!r} is not a name but a folder: it would write outside its results folder")
     bad = [c for c in name if c in "/\\" or ord(c) < 32 or ord(c) == 127]
     if bad:
-        raise ValueError(f"must be a plain file name, without path separators or control characters (got "
-                         f"{name!r})")
+        raise ValueError(f"must be a plain file name, without path separators or control characters (got {name!r})")
     if len(name.encode("utf-8")) > MAX_NAME_BYTES:
         raise ValueError(f"is longer than {MAX_NAME_BYTES} bytes: it names a folder or file of the results")
     return name

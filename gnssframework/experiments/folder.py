@@ -41,8 +41,10 @@ def _lock(out: Path):
         fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         fh.close()
-        raise ConfigError("out", f"{out} is being written by another gnssframework process; wait for it to "
-                          "finish or choose another folder") from None
+        raise ConfigError(
+            "out",
+            f"{out} is being written by another gnssframework process; wait for it to finish or choose another folder",
+        ) from None
     fh.seek(0)
     fh.truncate()
     fh.write(f"{os.getpid()}\n")
@@ -74,8 +76,9 @@ def claim_folder(out: Path, config) -> Iterator[ResultStore]:
         current = json.loads(config.model_dump_json())
         held = store.meta("identity")
         if held is None and (out / "raw").is_dir() and any((out / "raw").iterdir()):
-            raise ConfigError("out", f"{out} holds time series (raw/) but no record of their comparison; "
-                              "choose an empty folder")
+            raise ConfigError(
+                "out", f"{out} holds time series (raw/) but no record of their comparison; choose an empty folder"
+            )
         if held is not None and held != identity:
             try:
                 previous = json.loads((out / "config.json").read_text())
@@ -83,8 +86,11 @@ def claim_folder(out: Path, config) -> Iterator[ResultStore]:
                 previous = {}
             what = ", ".join(_differences(previous, current)) or "its identity"
             name = previous.get("name", "another comparison")
-            raise ConfigError("out", f"{out} holds the results of {name!r}, a different configuration (it differs "
-                              f"in: {what}); choose another folder, or delete this one to start afresh")
+            raise ConfigError(
+                "out",
+                f"{out} holds the results of {name!r}, a different configuration (it differs "
+                f"in: {what}); choose another folder, or delete this one to start afresh",
+            )
         if held is None:
             store.set_meta("identity", identity)
         atomic_write_text(out / "config.json", config.model_dump_json(indent=2))

@@ -23,8 +23,15 @@ from ..errors import ConfigError
 from ..signal.gps_l1ca import GPS_L1CA
 from ..signal.spec import SignalSpec
 
-__all__ = ["SignalCoherentTime", "coherent_time", "coherent_time_bounds",
-           "MEMORY_BUDGET_ENV", "DEFAULT_MEMORY_BUDGET_GIB", "memory_budget_gib", "check_batch_memory"]
+__all__ = [
+    "SignalCoherentTime",
+    "coherent_time",
+    "coherent_time_bounds",
+    "MEMORY_BUDGET_ENV",
+    "DEFAULT_MEMORY_BUDGET_GIB",
+    "memory_budget_gib",
+    "check_batch_memory",
+]
 
 
 def coherent_time_bounds(signal: SignalSpec = GPS_L1CA) -> tuple[float, float]:
@@ -52,8 +59,10 @@ def _whole_code_periods(signal: SignalSpec):
         """Refuse an interval that is not a whole number of the signal's code periods."""
         periods = value / period_s
         if abs(periods - round(periods)) > 1e-9 * max(1.0, periods):
-            raise ValueError(f"must be a whole multiple of the {period_s * 1e3:g} ms {what} code period, from {lo} "
-                             f"to {hi} s (got {value!r})")
+            raise ValueError(
+                f"must be a whole multiple of the {period_s * 1e3:g} ms {what} code period, from {lo} "
+                f"to {hi} s (got {value!r})"
+            )
         return value
 
     return check
@@ -135,6 +144,9 @@ def check_batch_memory(estimate_bytes: float, field: str, what: str) -> None:
     budget = memory_budget_gib()
     need_gib = estimate_bytes / 2**30
     if need_gib > budget:
-        raise ConfigError(field, f"{what} needs about {need_gib:.3g} GiB, above the memory budget of {budget:g} GiB "
-                          f"per batch; use a longer coherent_time_s, a shorter duration_s or a smaller batch_size "
-                          f"(or set {MEMORY_BUDGET_ENV})")
+        raise ConfigError(
+            field,
+            f"{what} needs about {need_gib:.3g} GiB, above the memory budget of {budget:g} GiB "
+            f"per batch; use a longer coherent_time_s, a shorter duration_s or a smaller batch_size "
+            f"(or set {MEMORY_BUDGET_ENV})",
+        )

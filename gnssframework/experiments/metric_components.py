@@ -33,9 +33,25 @@ import numpy as np
 from .batch import BatchResult
 from .metrics import Metric, MetricValue, magnitude, metric_component, rmse, select, settled
 
-__all__ = ["SeriesMetric", "Rmse", "MeanAbs", "ConvergenceEpoch", "convergence_epoch", "evaluate", "units",
-           "Mean", "Std", "LockLossFraction", "SlipRecovery", "FalseResets", "slip_recovery", "false_resets",
-           "undefined_reasons", "MetricTable", "series_label"]
+__all__ = [
+    "SeriesMetric",
+    "Rmse",
+    "MeanAbs",
+    "ConvergenceEpoch",
+    "convergence_epoch",
+    "evaluate",
+    "units",
+    "Mean",
+    "Std",
+    "LockLossFraction",
+    "SlipRecovery",
+    "FalseResets",
+    "slip_recovery",
+    "false_resets",
+    "undefined_reasons",
+    "MetricTable",
+    "series_label",
+]
 
 
 def _scenario_value(value: Any, scenario: Any, what: str) -> Any:
@@ -48,8 +64,9 @@ def _scenario_value(value: Any, scenario: Any, what: str) -> Any:
     try:
         return getattr(scenario.params, value)
     except AttributeError:
-        raise AttributeError(f"{what}: scenario {getattr(scenario, 'kind', '?')!r} has no parameter {value!r}") \
-            from None
+        raise AttributeError(
+            f"{what}: scenario {getattr(scenario, 'kind', '?')!r} has no parameter {value!r}"
+        ) from None
 
 
 class SeriesMetric(Metric):
@@ -83,9 +100,18 @@ class SeriesMetric(Metric):
     #: What the stored per-epoch series is (``{of}``: the name of the series read).
     series_template: ClassVar[str] = "{of}"
 
-    def __init__(self, name: str, unit: str, of: str, *, settle: float | str | Callable[[Any], float] | None = None,
-                 skip_epochs: int | str | None = None, optional: bool = False, undefined: str = "",
-                 description: str = "") -> None:
+    def __init__(
+        self,
+        name: str,
+        unit: str,
+        of: str,
+        *,
+        settle: float | str | Callable[[Any], float] | None = None,
+        skip_epochs: int | str | None = None,
+        optional: bool = False,
+        undefined: str = "",
+        description: str = "",
+    ) -> None:
         super().__init__()
         self.undefined = undefined
         self.name = name
@@ -163,7 +189,7 @@ def convergence_epoch(err: np.ndarray, window: int, factor: float = 2.0) -> np.n
     cs = np.cumsum(err**2, axis=0)
     lagged = np.concatenate([np.zeros((min(window, K),) + err.shape[1:]), cs[: max(K - window, 0)]], axis=0)
     running = np.sqrt((cs - lagged) / window)
-    bound = factor * np.sqrt(np.mean(err[K // 2:] ** 2, axis=0))
+    bound = factor * np.sqrt(np.mean(err[K // 2 :] ** 2, axis=0))
     above = running > bound
     last = np.where(above.any(axis=0), K - 1 - np.argmax(above[::-1], axis=0), -1)
     return (last + 1).astype(float)
@@ -234,8 +260,7 @@ class Std(SeriesMetric):
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
         x = np.asarray(series[self.of], dtype=float)
-        return MetricValue(np.std(select(x, self._mask(x.shape[0], time_s, scenario), self.name), axis=0),
-                           np.abs(x))
+        return MetricValue(np.std(select(x, self._mask(x.shape[0], time_s, scenario), self.name), axis=0), np.abs(x))
 
 
 class LockLossFraction(SeriesMetric):
@@ -255,8 +280,16 @@ class LockLossFraction(SeriesMetric):
 
     series_template = "out of phase lock (1) or in lock (0)"
 
-    def __init__(self, name: str, of: str, *, window: float | str, threshold: float | str,
-                 settle: float | str | None = None, description: str = "") -> None:
+    def __init__(
+        self,
+        name: str,
+        of: str,
+        *,
+        window: float | str,
+        threshold: float | str,
+        settle: float | str | None = None,
+        description: str = "",
+    ) -> None:
         super().__init__(name, "-", of, settle=settle, description=description)
         self.window = window
         self.threshold = threshold
@@ -271,14 +304,23 @@ class LockLossFraction(SeriesMetric):
         e = select(err, self._mask(err.shape[0], time_s, scenario), self.name)
         n_blocks = e.shape[0] // block
         if n_blocks == 0:  # the mean of no block would be a NumPy warning and a NaN
-            raise ValueError(f"{self.name}: the {e.shape[0]} settled epochs hold no whole block of {block} epochs "
-                             f"(window {self.window!r}); use a shorter window or a longer run")
+            raise ValueError(
+                f"{self.name}: the {e.shape[0]} settled epochs hold no whole block of {block} epochs "
+                f"(window {self.window!r}); use a shorter window or a longer run"
+            )
         pli = np.cos(2 * e[: n_blocks * block]).reshape((n_blocks, block) + e.shape[1:]).mean(axis=1)
         return MetricValue(np.mean(pli < threshold, axis=0), (np.cos(2 * err) < threshold).astype(float))
 
 
-def slip_recovery(err: np.ndarray, slips: np.ndarray, before: int = 30, window: int = 5, band: float = 2.0,
-                  isolation: int = 400, start: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def slip_recovery(
+    err: np.ndarray,
+    slips: np.ndarray,
+    before: int = 30,
+    window: int = 5,
+    band: float = 2.0,
+    isolation: int = 400,
+    start: int = 0,
+) -> tuple[np.ndarray, np.ndarray]:
     """Recovery after isolated cycle slips, per run: (mean epochs to recover, censored slips).
 
     A slip at epoch s is *measured* if its ``before`` epochs of reference start at or
@@ -305,10 +347,10 @@ def slip_recovery(err: np.ndarray, slips: np.ndarray, before: int = 30, window: 
         at = np.flatnonzero(slips[:, r])
         rec = []
         for i, s in enumerate(at):
-            prev_slip = at[i - 1] if i else -10**9
+            prev_slip = at[i - 1] if i else -(10**9)
             if s - before < start or s - prev_slip <= isolation:
                 continue
-            sigma = np.sqrt(np.mean(err[s - before:s, r] ** 2))
+            sigma = np.sqrt(np.mean(err[s - before : s, r] ** 2))
             end = at[i + 1] if i + 1 < at.size else K
             sq = err[s:end, r] ** 2
             run_rms = np.sqrt(np.convolve(sq, np.ones(window) / window, mode="valid")) if sq.size >= window else sq[:0]
@@ -356,20 +398,39 @@ class SlipRecovery(SeriesMetric):
 
     series_template = "cycle slip (1) or none (0)"
 
-    def __init__(self, name: str, of: str, *, slips: str, output: str = "mean", isolation: int | str = 400,
-                 start: int | str = 0, band: float = 2.0, description: str = "") -> None:
+    def __init__(
+        self,
+        name: str,
+        of: str,
+        *,
+        slips: str,
+        output: str = "mean",
+        isolation: int | str = 400,
+        start: int | str = 0,
+        band: float = 2.0,
+        description: str = "",
+    ) -> None:
         if output not in ("mean", "censored"):
             raise ValueError(f"output must be 'mean' or 'censored', not {output!r}")
-        super().__init__(name, "epochs" if output == "mean" else "slips/run", of, description=description,
-                         undefined="no isolated slips" if output == "mean" else "")
+        super().__init__(
+            name,
+            "epochs" if output == "mean" else "slips/run",
+            of,
+            description=description,
+            undefined="no isolated slips" if output == "mean" else "",
+        )
         self.slips, self.output, self.isolation, self.start, self.band = slips, output, isolation, start, band
         self.requires = (of, slips)
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
         slips = np.asarray(series[self.slips], dtype=bool)
-        mean, censored = slip_recovery(np.asarray(series[self.of], dtype=float), slips, band=self.band,
-                                       isolation=int(_scenario_value(self.isolation, scenario, self.name)),
-                                       start=int(_scenario_value(self.start, scenario, self.name)))
+        mean, censored = slip_recovery(
+            np.asarray(series[self.of], dtype=float),
+            slips,
+            band=self.band,
+            isolation=int(_scenario_value(self.isolation, scenario, self.name)),
+            start=int(_scenario_value(self.start, scenario, self.name)),
+        )
         return MetricValue(mean if self.output == "mean" else censored, slips.astype(float))
 
 
@@ -428,8 +489,13 @@ def undefined_reasons(components: Sequence[Metric]) -> dict[str, str]:
     return {c.name: c.undefined for c in components if getattr(c, "undefined", "")}
 
 
-def evaluate(components: Sequence[Metric], series: dict[str, np.ndarray], time_s: np.ndarray | None,
-             scenario: Any, runs: int | None = None) -> BatchResult:
+def evaluate(
+    components: Sequence[Metric],
+    series: dict[str, np.ndarray],
+    time_s: np.ndarray | None,
+    scenario: Any,
+    runs: int | None = None,
+) -> BatchResult:
     """Compute every component once from the raw ``series`` of one batch: a scenario's own
     components in its ``run_batch``, the registered ``metric`` plugins a config adds in
     the worker (`gnssframework.experiments.runner`), the same way.
@@ -549,9 +615,18 @@ class IntegrityOutcome(SeriesMetric):
     [0.5]
     """
 
-    def __init__(self, name: str, of: str, *, level: str, outcome: str,
-                 alert_limit: float | str | Callable[[Any], float], settle: float | str | None = None,
-                 optional: bool = False, description: str = "") -> None:
+    def __init__(
+        self,
+        name: str,
+        of: str,
+        *,
+        level: str,
+        outcome: str,
+        alert_limit: float | str | Callable[[Any], float],
+        settle: float | str | None = None,
+        optional: bool = False,
+        description: str = "",
+    ) -> None:
         if outcome not in INTEGRITY_OUTCOMES:
             raise ValueError(f"outcome must be one of {', '.join(INTEGRITY_OUTCOMES)}, not {outcome!r}")
         super().__init__(name, "-", of, settle=settle, optional=optional, description=description)
@@ -560,9 +635,11 @@ class IntegrityOutcome(SeriesMetric):
 
     @property
     def series_label(self) -> str:
-        what = {"misleading": f"|{self.of}| > {self.level}",
-                "hazardous": f"{self.level} < alert limit < |{self.of}|",
-                "available": f"{self.level} < alert limit"}[self.outcome]
+        what = {
+            "misleading": f"|{self.of}| > {self.level}",
+            "hazardous": f"{self.level} < alert limit < |{self.of}|",
+            "available": f"{self.level} < alert limit",
+        }[self.outcome]
         return f"{what} (1) or not (0)"
 
     def compute(self, series: dict[str, np.ndarray], time_s: np.ndarray | None, scenario: Any) -> MetricValue:
@@ -572,5 +649,4 @@ class IntegrityOutcome(SeriesMetric):
             raise ValueError(f"{self.name}: the level {self.level!r} has shape {pl.shape}, the error {err.shape}")
         limit = float(_scenario_value(self.alert_limit, scenario, self.name))
         flags = integrity_outcome(err, pl, limit, self.outcome).astype(float)
-        return MetricValue(np.mean(select(flags, self._mask(err.shape[0], time_s, scenario), self.name), axis=0),
-                           flags)
+        return MetricValue(np.mean(select(flags, self._mask(err.shape[0], time_s, scenario), self.name), axis=0), flags)

@@ -43,8 +43,20 @@ from ..errors import ConfigError
 from ..estimation.consistency import nees
 from ..plugin import Plugin
 
-__all__ = ["Metric", "MetricValue", "rmse", "max_after_settle", "nees_mean", "fraction", "settled", "select",
-           "magnitude", "metric_component", "available_metrics", "check_metric"]
+__all__ = [
+    "Metric",
+    "MetricValue",
+    "rmse",
+    "max_after_settle",
+    "nees_mean",
+    "fraction",
+    "settled",
+    "select",
+    "magnitude",
+    "metric_component",
+    "available_metrics",
+    "check_metric",
+]
 
 
 def settled(time_s: np.ndarray | None, settle_s: float, k: int) -> np.ndarray:
@@ -117,8 +129,11 @@ def nees_mean(err: np.ndarray, cov: np.ndarray | None = None, mask: np.ndarray |
     (Bar-Shalom, Li and Kirubarajan 2001, sec. 5.4; its expectation is ``n`` for a
     consistent filter). Without ``cov``, ``err`` is the per-epoch NEES ``(K, runs)``.
     """
-    per_epoch = select(err, mask, "nees_mean") if cov is None else nees(select(err, mask, "nees_mean"),
-                                                                          select(cov, mask, "nees_mean"))
+    per_epoch = (
+        select(err, mask, "nees_mean")
+        if cov is None
+        else nees(select(err, mask, "nees_mean"), select(cov, mask, "nees_mean"))
+    )
     out: np.ndarray = np.mean(per_epoch, axis=0)
     return out
 

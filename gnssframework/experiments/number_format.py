@@ -56,8 +56,14 @@ def _fixed(x: float, decimals: int, sign: bool) -> str:
     return f"{x:+.{max(decimals, 0)}f}" if sign else f"{x:.{max(decimals, 0)}f}"
 
 
-def format_estimate(value: float | None, se: float | None = None, spread: float | None = None, *,
-                    scale: float | None = None, sign: bool = False) -> str:
+def format_estimate(
+    value: float | None,
+    se: float | None = None,
+    spread: float | None = None,
+    *,
+    scale: float | None = None,
+    sign: bool = False,
+) -> str:
     """``value`` (and ``± spread``) at the resolution its standard error ``se`` supports.
 
     Parameters

@@ -35,16 +35,18 @@ def summary_rows(config: ComparisonConfig, store: ResultStore) -> list[dict]:
             for metric in config.metric_names:
                 v = store.values(key, case.name, cand.name, metric, config.runs)
                 v = v[np.isfinite(v)]  # a metric may be undefined in a run (e.g. no isolated slip): NaN
-                rows.append({
-                    "case": case.name,
-                    "candidate": cand.name,
-                    "metric": metric,
-                    "mean": float(np.mean(v)) if v.size else None,
-                    "std": float(np.std(v, ddof=1)) if v.size > 1 else 0.0,
-                    "runs": int(v.size),
-                    "unit": units[metric],
-                    "published": config.published.get(case.name, {}).get(cand.name, {}).get(metric),
-                })
+                rows.append(
+                    {
+                        "case": case.name,
+                        "candidate": cand.name,
+                        "metric": metric,
+                        "mean": float(np.mean(v)) if v.size else None,
+                        "std": float(np.std(v, ddof=1)) if v.size > 1 else 0.0,
+                        "runs": int(v.size),
+                        "unit": units[metric],
+                        "published": config.published.get(case.name, {}).get(cand.name, {}).get(metric),
+                    }
+                )
                 if not v.size:
                     rows[-1].update(std=None, undefined=_undefined_reason(scenario, metric))
     return rows
@@ -77,12 +79,19 @@ def _paired_markdown(config: ComparisonConfig, paired: list[dict], case: str, un
     mine = [r for r in paired if r["case"] == case and r["candidate"] in others and r["diff"] is not None]
     counts = [r["n"] for r in mine]
     n_all = max(set(counts), key=counts.count) if counts else None  # the usual n, stated once
-    lines = [f"Paired differences to `{config.reference_name}` (candidate minus reference, mean ± SE over "
-             + (f"the n = {n_all} common-random-number runs, n given in a cell where it differs"
-                if n_all is not None else "the n common-random-number runs")
-             + "; ×: ratio of means ± its SE; **\\***: significant, the 95 % paired "
-             "t-interval excludes 0; a difference without ± has no spread over the runs and is not tested):", "",
-             "| metric | unit | " + " | ".join(others) + " |", "| --- | --- | " + " | ".join("---" for _ in others) + " |"]
+    lines = [
+        f"Paired differences to `{config.reference_name}` (candidate minus reference, mean ± SE over "
+        + (
+            f"the n = {n_all} common-random-number runs, n given in a cell where it differs"
+            if n_all is not None
+            else "the n common-random-number runs"
+        )
+        + "; ×: ratio of means ± its SE; **\\***: significant, the 95 % paired "
+        "t-interval excludes 0; a difference without ± has no spread over the runs and is not tested):",
+        "",
+        "| metric | unit | " + " | ".join(others) + " |",
+        "| --- | --- | " + " | ".join("---" for _ in others) + " |",
+    ]
     for metric in config.metric_names:
         cells = []
         for cand in others:
@@ -102,22 +111,30 @@ def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | N
     lines = [f"# {config.name}", ""]
     if config.description:
         lines += [config.description.strip(), ""]
-    lines += [f"{config.runs} Monte Carlo runs per case and candidate, seed {config.seed}, "
-              f"batches of {config.batch_size}. Every ± is a standard error: each case's first table gives "
-              "mean ± SE over the runs (SE = standard deviation / sqrt(runs), the uncertainty of the mean, "
-              "not the spread of one run's metric), as the docs' tables do; orderings are read from the "
-              "paired differences in the table below it. Numbers are given to the second "
-              "significant figure of their standard error; a value without ± did not vary over the runs "
-              "(beyond floating-point rounding).", ""]
+    lines += [
+        f"{config.runs} Monte Carlo runs per case and candidate, seed {config.seed}, "
+        f"batches of {config.batch_size}. Every ± is a standard error: each case's first table gives "
+        "mean ± SE over the runs (SE = standard deviation / sqrt(runs), the uncertainty of the mean, "
+        "not the spread of one run's metric), as the docs' tables do; orderings are read from the "
+        "paired differences in the table below it. Numbers are given to the second "
+        "significant figure of their standard error; a value without ± did not vary over the runs "
+        "(beyond floating-point rounding).",
+        "",
+    ]
     for case in config.cases:
-        lines += [f"## {case.name}", "", "| metric | unit | " + " | ".join(c.name for c in config.candidates) + " |",
-                  "| --- | --- | " + " | ".join("---" for _ in config.candidates) + " |"]
+        lines += [
+            f"## {case.name}",
+            "",
+            "| metric | unit | " + " | ".join(c.name for c in config.candidates) + " |",
+            "| --- | --- | " + " | ".join("---" for _ in config.candidates) + " |",
+        ]
         for metric in config.metric_names:
             cells = []
             unit = ""
             for cand in config.candidates:
-                r = next(r for r in rows if r["case"] == case.name and r["candidate"] == cand.name
-                         and r["metric"] == metric)
+                r = next(
+                    r for r in rows if r["case"] == case.name and r["candidate"] == cand.name and r["metric"] == metric
+                )
                 unit = r["unit"]
                 cell = r["undefined"] if r.get("undefined") else mean_cell(r)
                 if r["published"] is not None:
@@ -125,8 +142,12 @@ def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | N
                 cells.append(cell)
             lines.append(f"| {metric} | {unit} | " + " | ".join(cells) + " |")
         lines += [""] + _paired_markdown(config, paired or [], case.name, {r["metric"]: r["unit"] for r in rows})
-        lines += [f"![time series](plots/{case.name}-series.png)", "",
-                  f"![CDFs over runs](plots/{case.name}-cdf.png)", ""]
+        lines += [
+            f"![time series](plots/{case.name}-series.png)",
+            "",
+            f"![CDFs over runs](plots/{case.name}-cdf.png)",
+            "",
+        ]
     return "\n".join(lines) + "\n"
 
 
@@ -135,8 +156,9 @@ def _markdown(config: ComparisonConfig, rows: list[dict], paired: list[dict] | N
 PLOT_EPOCHS = 2000
 
 
-def _median_series(out: Path, config: ComparisonConfig, case: str, cand: str
-                   ) -> tuple[np.ndarray | None, dict[str, np.ndarray]]:
+def _median_series(
+    out: Path, config: ComparisonConfig, case: str, cand: str
+) -> tuple[np.ndarray | None, dict[str, np.ndarray]]:
     """Per metric, the median over runs at up to ``PLOT_EPOCHS`` evenly spaced epochs, read
     from the batches of this comparison's plan only, one series at a time (memory bounded
     whatever the number of runs)."""
@@ -206,17 +228,34 @@ def series_figure(config: ComparisonConfig, out: Path, case: str):
     for metric in config.metric_names:
         if metric in bounds.values():
             continue
-        curves = [Curve(cand, t, series[metric], styles[cand]) for cand, (t, series) in medians.items()
-                  if t is not None and t.size and metric in series]
+        curves = [
+            Curve(cand, t, series[metric], styles[cand])
+            for cand, (t, series) in medians.items()
+            if t is not None and t.size and metric in series
+        ]
         bound = bounds.get(metric)
-        drawn = next(((t, series[bound]) for t, series in medians.values()
-                      if bound and t is not None and t.size and bound in series), None)
+        drawn = next(
+            (
+                (t, series[bound])
+                for t, series in medians.values()
+                if bound and t is not None and t.size and bound in series
+            ),
+            None,
+        )
         if drawn is not None:
             curves.append(Curve(f"{bound} (bound)", *drawn, BOUND_STYLE))
-        panels.append(Panel(metric, "time (s)", f"{series_label(scenario, metric)} ({units[metric]})", curves,
-                            note="no time series stored"))
-    return panel_grid(panels, f"{config.name} – {case}: median over {config.runs} runs of each metric's "
-                      "per-epoch series")
+        panels.append(
+            Panel(
+                metric,
+                "time (s)",
+                f"{series_label(scenario, metric)} ({units[metric]})",
+                curves,
+                note="no time series stored",
+            )
+        )
+    return panel_grid(
+        panels, f"{config.name} – {case}: median over {config.runs} runs of each metric's per-epoch series"
+    )
 
 
 def cdf_figure(config: ComparisonConfig, store: ResultStore, case: str):
@@ -250,8 +289,16 @@ def cdf_figure(config: ComparisonConfig, store: ResultStore, case: str):
             if bound is not None:
                 bound.label = f"{bounds[metric]} (bound)"
                 curves.append(bound)
-        panels.append(Panel(metric, f"{metric} ({units[metric]})", "fraction of runs at or below (-)",
-                            [c for c in curves if c is not None], values_on="x", note="undefined in every run"))
+        panels.append(
+            Panel(
+                metric,
+                f"{metric} ({units[metric]})",
+                "fraction of runs at or below (-)",
+                [c for c in curves if c is not None],
+                values_on="x",
+                note="undefined in every run",
+            )
+        )
     return panel_grid(panels, f"{config.name} – {case}: distribution over {config.runs} runs")
 
 
@@ -264,8 +311,10 @@ def _plots(config: ComparisonConfig, store: ResultStore, out: Path) -> None:
     plot_dir = out / "plots"
     plot_dir.mkdir(exist_ok=True)
     for case in config.cases:
-        for name, fig in ((f"{case.name}-series.png", series_figure(config, out, case.name)),
-                          (f"{case.name}-cdf.png", cdf_figure(config, store, case.name))):
+        for name, fig in (
+            (f"{case.name}-series.png", series_figure(config, out, case.name)),
+            (f"{case.name}-cdf.png", cdf_figure(config, store, case.name)),
+        ):
             _savefig(fig, plot_dir / name)
             plt.close(fig)
 
@@ -282,8 +331,16 @@ def assumption_rows(config: ComparisonConfig) -> list[dict]:
             for kind, plugin in plugins.items():
                 declared = getattr(plugin, "assumptions", None)
                 for label, (value, unit) in (declared(context) if declared else {}).items():
-                    rows.append({"case": case.name, "candidate": cand.name, "component": kind, "label": label,
-                                 "value": value, "unit": unit})
+                    rows.append(
+                        {
+                            "case": case.name,
+                            "candidate": cand.name,
+                            "component": kind,
+                            "label": label,
+                            "value": value,
+                            "unit": unit,
+                        }
+                    )
     return rows
 
 
@@ -291,14 +348,23 @@ def _assumptions_markdown(config: ComparisonConfig, rows: list[dict]) -> list[st
     if not rows:
         return []
     names = [c.name for c in config.candidates]
-    lines = ["## Assumptions", "", "What each candidate's filters assume about the dynamics and the noise, in "
-             "common units (from each plugin's `assumptions`): a mismatch here explains a ranking before the "
-             "ranking is read.", ""]
+    lines = [
+        "## Assumptions",
+        "",
+        "What each candidate's filters assume about the dynamics and the noise, in "
+        "common units (from each plugin's `assumptions`): a mismatch here explains a ranking before the "
+        "ranking is read.",
+        "",
+    ]
     for case in config.cases:
         mine = [r for r in rows if r["case"] == case.name]
         keys = list(dict.fromkeys((r["component"], r["label"], r["unit"]) for r in mine))
-        lines += [f"### {case.name}", "", "| component | assumption | unit | " + " | ".join(names) + " |",
-                  "| --- | --- | --- | " + " | ".join("---" for _ in names) + " |"]
+        lines += [
+            f"### {case.name}",
+            "",
+            "| component | assumption | unit | " + " | ".join(names) + " |",
+            "| --- | --- | --- | " + " | ".join("---" for _ in names) + " |",
+        ]
         for comp, label, unit in keys:
             cells = []
             for name in names:
@@ -310,43 +376,72 @@ def _assumptions_markdown(config: ComparisonConfig, rows: list[dict]) -> list[st
     return lines
 
 
-def _claims_markdown(claims: list[dict], adjustment: str = "holm", untuned: list[str] = (),
-                     given: set[str] = frozenset(), replicated: bool = False) -> list[str]:
+def _claims_markdown(
+    claims: list[dict],
+    adjustment: str = "holm",
+    untuned: list[str] = (),
+    given: set[str] = frozenset(),
+    replicated: bool = False,
+) -> list[str]:
     lines = []
     if untuned:  # the fairness rule: every candidate left as given while others were tuned, marked
-        lines += ["## Untuned candidates", "", "Tuned by `[tuning]`: every candidate but "
-                  + ", ".join(f"`{n}` ({'deliberately as given: as_given = true' if n in given else 'not tuned'})"
-                              for n in untuned)
-                  + ". A claim against a candidate that is not tuned is refused unless it is marked as given.", ""]
+        lines += [
+            "## Untuned candidates",
+            "",
+            "Tuned by `[tuning]`: every candidate but "
+            + ", ".join(
+                f"`{n}` ({'deliberately as given: as_given = true' if n in given else 'not tuned'})" for n in untuned
+            )
+            + ". A claim against a candidate that is not tuned is refused unless it is marked as given.",
+            "",
+        ]
     if not claims:
         return lines
     held = sum(c["outcome"] == "holds" for c in claims)
     family = [c for c in claims if in_family(c)]
     adjusted = sum(bool(c.get("holds_adjusted")) for c in family)
-    name = {"holm": "Holm's step-down (family-wise error rate)",
-            "benjamini-hochberg": "Benjamini-Hochberg (false discovery rate)"}[adjustment]
-    lines += ["## Claims", "", f"{held} of {len(claims)} hold. Each is checked from the 95 % intervals of its test "
-              "(t by default; a claim may ask for the paired bootstrap or Wilcoxon's signed-rank test) on its "
-              "paired differences, ratio of means or mean (`holds`: on the claimed side; `fails`: on the other; "
-              "`not significant`: the runs cannot tell; `refused`: no spread over the runs, nothing to test); an "
-              "equivalence by two one-sided tests against its margin; a NEES consistency by the chi-square band of "
-              "its runs and states; a claim at a sweep's points is one row per point and one for all of them (fails "
-              "only at the Bonferroni level over its points).", "",
-              f"Multiple comparisons: {name} over the {len(family)} tests of this example; "
-              f"{adjusted} of them hold after it at 5 %. "
-              "Reported only: the outcome above is each claim's own 95 % test.", ""]
+    name = {
+        "holm": "Holm's step-down (family-wise error rate)",
+        "benjamini-hochberg": "Benjamini-Hochberg (false discovery rate)",
+    }[adjustment]
+    lines += [
+        "## Claims",
+        "",
+        f"{held} of {len(claims)} hold. Each is checked from the 95 % intervals of its test "
+        "(t by default; a claim may ask for the paired bootstrap or Wilcoxon's signed-rank test) on its "
+        "paired differences, ratio of means or mean (`holds`: on the claimed side; `fails`: on the other; "
+        "`not significant`: the runs cannot tell; `refused`: no spread over the runs, nothing to test); an "
+        "equivalence by two one-sided tests against its margin; a NEES consistency by the chi-square band of "
+        "its runs and states; a claim at a sweep's points is one row per point and one for all of them (fails "
+        "only at the Bonferroni level over its points).",
+        "",
+        f"Multiple comparisons: {name} over the {len(family)} tests of this example; "
+        f"{adjusted} of them hold after it at 5 %. "
+        "Reported only: the outcome above is each claim's own 95 % test.",
+        "",
+    ]
     few = [c for c in claims if c.get("few_runs")]
     if few:
-        lines += [f"Power: {len(few)} of the claim rows are over fewer than {MIN_CLAIM_RUNS} paired runs; each states "
-                  f"the difference its test detects with probability {STATED_POWER:g} at its 5 % level (and, after "
-                  "the adjustment, at the strictest adjusted level), a property of the design, not of the difference "
-                  "observed." + ("" if all(c.get("small_n") for c in few) else " Those marked `small_n not declared` "
-                                 "are refused by `compare --check`."), ""]
+        lines += [
+            f"Power: {len(few)} of the claim rows are over fewer than {MIN_CLAIM_RUNS} paired runs; each states "
+            f"the difference its test detects with probability {STATED_POWER:g} at its 5 % level (and, after "
+            "the adjustment, at the strictest adjusted level), a property of the design, not of the difference "
+            "observed."
+            + (
+                ""
+                if all(c.get("small_n") for c in few)
+                else " Those marked `small_n not declared` are refused by `compare --check`."
+            ),
+            "",
+        ]
     if replicated:
         both = sum(c["outcome"] == "holds" and c.get("replicate_outcome") == "holds" for c in claims)
         one = sum((c["outcome"] == "holds") != (c.get("replicate_outcome") == "holds") for c in claims)
-        lines += [f"Replication: every claim re-checked on a second, disjoint set of runs (the replicate streams): "
-                  f"{both} hold on both, {one} on one seed set only.", ""]
+        lines += [
+            f"Replication: every claim re-checked on a second, disjoint set of runs (the replicate streams): "
+            f"{both} hold on both, {one} on one seed set only.",
+            "",
+        ]
     lines += ["| outcome | case | claim | evidence |", "| --- | --- | --- | --- |"]
     for c in claims:
         outcome = c["outcome"]
@@ -358,9 +453,20 @@ def _claims_markdown(claims: list[dict], adjustment: str = "holm", untuned: list
 
 #: Units read off a parameter's name suffix (the project names quantities with their
 #: units: ``pll_bandwidth_hz``), for the tuning plots' x axes.
-_UNIT_SUFFIXES = (("_dbhz", "dB-Hz"), ("_hz_s", "Hz/s"), ("_hz", "Hz"), ("_m2", "m²"), ("_m_s", "m/s"),
-                  ("_chips", "chips"), ("_rad", "rad"), ("_deg", "deg"), ("_db", "dB"), ("_ms", "ms"),
-                  ("_s", "s"), ("_m", "m"))
+_UNIT_SUFFIXES = (
+    ("_dbhz", "dB-Hz"),
+    ("_hz_s", "Hz/s"),
+    ("_hz", "Hz"),
+    ("_m2", "m²"),
+    ("_m_s", "m/s"),
+    ("_chips", "chips"),
+    ("_rad", "rad"),
+    ("_deg", "deg"),
+    ("_db", "dB"),
+    ("_ms", "ms"),
+    ("_s", "s"),
+    ("_m", "m"),
+)
 
 
 def parameter_axis_label(label: str) -> str:
@@ -391,8 +497,13 @@ def tuning_figure(cand: str, res: dict, unit: str):
         ok = np.isfinite(obj)
         xs = np.array(x, dtype=float) if numeric else np.array([str(v) for v in x])
         ax.plot(xs[ok], obj[ok], "o", ms=4, label="trial")
-        ax.plot([res["best"][label]] if numeric else [str(res["best"][label])], [res["best_objective"]], "r*",
-                ms=10, label="tuned")
+        ax.plot(
+            [res["best"][label]] if numeric else [str(res["best"][label])],
+            [res["best_objective"]],
+            "r*",
+            ms=10,
+            label="tuned",
+        )
         if numeric and min(x) > 0 and max(x) / min(x) > 50:
             ax.set_xscale("log")
         ax.set_xlabel(parameter_axis_label(label), fontsize=7)
@@ -415,8 +526,9 @@ def replicate_claims(claims: list[dict], replica: list[dict]) -> None:
         row["replicate_outcome"] = rep["outcome"]
         row["replicate_p_value"] = rep.get("p_value")
         first, second = row["outcome"] == "holds", rep["outcome"] == "holds"
-        row["replicated"] = ("both" if first and second else "first only" if first else "replicate only" if second
-                             else "neither")
+        row["replicated"] = (
+            "both" if first and second else "first only" if first else "replicate only" if second else "neither"
+        )
 
 
 def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[str]:
@@ -432,20 +544,31 @@ def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[s
     (out / "tuning").mkdir(exist_ok=True)
     (out / "plots").mkdir(exist_ok=True)
     spec = next(iter(tuning.values()), None)
-    lines = ["## Tuning", "",
-             "Every candidate with free parameters was tuned by the same procedure and budget on runs drawn from "
-             "the tuning streams (disjoint from the evaluation's), then evaluated above at its tuned values.", ""]
+    lines = [
+        "## Tuning",
+        "",
+        "Every candidate with free parameters was tuned by the same procedure and budget on runs drawn from "
+        "the tuning streams (disjoint from the evaluation's), then evaluated above at its tuned values.",
+        "",
+    ]
     if spec is not None:
-        lines += ["| candidate | parameter | given | tuned | objective | trials (failed) |", "| --- | --- | --- | --- | --- | --- |"]
+        lines += [
+            "| candidate | parameter | given | tuned | objective | trials (failed) |",
+            "| --- | --- | --- | --- | --- | --- |",
+        ]
     for cand, res in tuning.items():
         failed = sum(not np.isfinite(t["objective"]) for t in res["trials"])
         for i, label in enumerate(res["labels"]):
             given, best = res["given"][label], res["best"][label]
             first = i == 0
-            cells = [cand if first else "", f"`{label}`", "(default)" if given is None else str(given),
-                     _fmt(best) if isinstance(best, float) else str(best),
-                     _fmt(res["best_objective"]) if first else "",
-                     f"{len(res['trials'])} ({failed})" if first else ""]
+            cells = [
+                cand if first else "",
+                f"`{label}`",
+                "(default)" if given is None else str(given),
+                _fmt(best) if isinstance(best, float) else str(best),
+                _fmt(res["best_objective"]) if first else "",
+                f"{len(res['trials'])} ({failed})" if first else "",
+            ]
             lines.append("| " + " | ".join(cells) + " |")
         with atomic_open(out / "tuning" / f"{cand}.csv", "w", newline="") as fh:
             w = csv.writer(fh)
@@ -457,8 +580,12 @@ def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[s
         plt.close(fig)
     lines.append("")
     own = {cand: res["own_cases"] for cand, res in tuning.items() if res.get("own_cases")}
-    lines += [f"Objective of `{cand}` over its own cases (`tuning.candidate_cases`): "
-              + ", ".join(f"`{c}`" for c in cases) + "." for cand, cases in own.items()]
+    lines += [
+        f"Objective of `{cand}` over its own cases (`tuning.candidate_cases`): "
+        + ", ".join(f"`{c}`" for c in cases)
+        + "."
+        for cand, cases in own.items()
+    ]
     lines += [""] if own else []
     lines += [f"![tuning {cand}](plots/tuning-{cand}.png)" for cand in tuning] + [""]
     return lines
@@ -474,8 +601,13 @@ def join_sections(sections: list[str]) -> str:
     return "\n\n".join(s.strip("\n") for s in sections if s.strip()) + "\n"
 
 
-def write_report(config: ComparisonConfig, store: ResultStore, out: Path, tuning: dict | None = None,
-                 replicate: ComparisonConfig | None = None) -> Path:
+def write_report(
+    config: ComparisonConfig,
+    store: ResultStore,
+    out: Path,
+    tuning: dict | None = None,
+    replicate: ComparisonConfig | None = None,
+) -> Path:
     """Write ``summary.json``, ``report.md`` and ``plots/`` into ``out`` (and the tuning's
     tables and plots when the comparison was tuned)."""
     from .tuning import tuning_points
@@ -490,17 +622,33 @@ def write_report(config: ComparisonConfig, store: ResultStore, out: Path, tuning
     assumptions = assumption_rows(config)
     sweeps, sweep_lines = write_sweeps(config, store, out)
     summary = out / "summary.json"
-    write_json(summary, {"name": config.name, "seed": config.seed, "runs": config.runs, "rows": rows,  # strict, atomic
-                         "reference": config.reference_name, "significance_rule": SIGNIFICANCE_RULE,
-                         "paired": paired, "claims": claims, "sweeps": sweeps,
-                         "tuning": tuning_points(tuning) if tuning else None, "assumptions": assumptions,
-                         "untuned": [{"candidate": n, "as_given": n in given} for n in untuned],
-                         "claims_adjustment": config.claims_adjustment if claims else None,
-                         "replicated": replicate is not None})
+    write_json(
+        summary,
+        {
+            "name": config.name,
+            "seed": config.seed,
+            "runs": config.runs,
+            "rows": rows,  # strict, atomic
+            "reference": config.reference_name,
+            "significance_rule": SIGNIFICANCE_RULE,
+            "paired": paired,
+            "claims": claims,
+            "sweeps": sweeps,
+            "tuning": tuning_points(tuning) if tuning else None,
+            "assumptions": assumptions,
+            "untuned": [{"candidate": n, "as_given": n in given} for n in untuned],
+            "claims_adjustment": config.claims_adjustment if claims else None,
+            "replicated": replicate is not None,
+        },
+    )
     tuning_lines = _tuning_outputs(config, tuning, out) if tuning else []
-    sections = [_markdown(config, rows, paired), "\n".join(_assumptions_markdown(config, assumptions)),
-                "\n".join(_claims_markdown(claims, config.claims_adjustment, untuned, given, replicate is not None)),
-                "\n".join(tuning_lines), "\n".join(sweep_lines)]
+    sections = [
+        _markdown(config, rows, paired),
+        "\n".join(_assumptions_markdown(config, assumptions)),
+        "\n".join(_claims_markdown(claims, config.claims_adjustment, untuned, given, replicate is not None)),
+        "\n".join(tuning_lines),
+        "\n".join(sweep_lines),
+    ]
     atomic_write_text(out / "report.md", join_sections(sections))
     _plots(config, store, out)
     return summary

@@ -90,8 +90,10 @@ class ComparisonResult:
         claims = s.get("claims") or []
         held = sum(c["outcome"] == "holds" for c in claims)
         where = f", in {self.out}" if self.out else ", in memory"
-        return (f"<ComparisonResult {s['name']!r}: {len(cases)} cases x {len(cands)} candidates x {s.get('runs')} runs"
-                f"{f', claims {held}/{len(claims)} hold' if claims else ''}{where}>")
+        return (
+            f"<ComparisonResult {s['name']!r}: {len(cases)} cases x {len(cands)} candidates x {s.get('runs')} runs"
+            f"{f', claims {held}/{len(claims)} hold' if claims else ''}{where}>"
+        )
 
     def _repr_html_(self) -> str:
         """A notebook's view: the one-line summary, then per case a table of each metric's
@@ -121,13 +123,20 @@ class ComparisonResult:
         for case in cases:
             body = "".join(
                 f"<tr><th{left}>{escape(m)}</th><td>{escape(str(units[m]))}</td>"
-                + "".join(f"<td>{cell(rows.get((case, c, m)))}</td>" for c in cands) + "</tr>" for m in metrics)
-            parts.append(f"<table><caption{left}>{escape(case)}</caption><tr><th>metric</th><th>unit</th>{head}</tr>"
-                         f"{body}</table>")
+                + "".join(f"<td>{cell(rows.get((case, c, m)))}</td>" for c in cands)
+                + "</tr>"
+                for m in metrics
+            )
+            parts.append(
+                f"<table><caption{left}>{escape(case)}</caption><tr><th>metric</th><th>unit</th>{head}</tr>"
+                f"{body}</table>"
+            )
         claims = s.get("claims") or []
         if claims:
-            body = "".join(f"<tr><td>{escape(str(c['outcome']))}</td><td{left}>{escape(str(c.get('statement', '')))}</td>"
-                           "</tr>" for c in claims)
+            body = "".join(
+                f"<tr><td>{escape(str(c['outcome']))}</td><td{left}>{escape(str(c.get('statement', '')))}</td></tr>"
+                for c in claims
+            )
             parts.append(f"<table><caption{left}>claims</caption><tr><th>outcome</th><th>claim</th></tr>{body}</table>")
         return "".join(parts)
 
@@ -147,8 +156,11 @@ def _runs_dataset(config: Any, store: Any) -> xr.Dataset:
                 for r, v in store.run_values(key, case, cand, metric, config.runs).items():
                     values[i, j, r] = v
         data[metric] = xr.DataArray(values, dims=("case", "candidate", "run"), attrs={"units": units[metric]})
-    return xr.Dataset(data, coords={"case": cases, "candidate": cands, "run": np.arange(config.runs)},
-                      attrs={"name": config.name, "seed": config.seed})
+    return xr.Dataset(
+        data,
+        coords={"case": cases, "candidate": cands, "run": np.arange(config.runs)},
+        attrs={"name": config.name, "seed": config.seed},
+    )
 
 
 def _series_dataset(config: Any, out: Path) -> xr.Dataset:
@@ -162,9 +174,12 @@ def _series_dataset(config: Any, out: Path) -> xr.Dataset:
 
     cases = [c.name for c in config.cases]
     cands = [c.name for c in config.candidates]
-    files = [(i, j, first, n, series_file(out, case, cand, first, n))
-             for i, case in enumerate(cases) for j, cand in enumerate(cands)
-             for first, n in plan_batches(config.runs, config.batch_size)]
+    files = [
+        (i, j, first, n, series_file(out, case, cand, first, n))
+        for i, case in enumerate(cases)
+        for j, cand in enumerate(cands)
+        for first, n in plan_batches(config.runs, config.batch_size)
+    ]
     files = [f for f in files if f[-1].exists()]
     times = []
     for *_, path in files:
@@ -183,11 +198,19 @@ def _series_dataset(config: Any, out: Path) -> xr.Dataset:
                     continue  # only (epoch, run) series on the file's own time axis
                 if name not in blocks:
                     blocks[name] = np.full((len(cases), len(cands), time_s.size, config.runs), np.nan)
-                blocks[name][i, j, at, first:first + n] = arr
+                blocks[name][i, j, at, first : first + n] = arr
     data = {k: (("case", "candidate", "epoch", "run"), v) for k, v in blocks.items()}
-    return xr.Dataset(data, coords={"case": cases, "candidate": cands, "epoch": np.arange(time_s.size),
-                                    "run": np.arange(config.runs), "time_s": ("epoch", time_s)},
-                      attrs={"time_s": "s, the union of the candidates' epochs (NaN where a filter has none)"})
+    return xr.Dataset(
+        data,
+        coords={
+            "case": cases,
+            "candidate": cands,
+            "epoch": np.arange(time_s.size),
+            "run": np.arange(config.runs),
+            "time_s": ("epoch", time_s),
+        },
+        attrs={"time_s": "s, the union of the candidates' epochs (NaN where a filter has none)"},
+    )
 
 
 def load_results(out: str | Path, config: Any = None) -> ComparisonResult:
@@ -205,20 +228,29 @@ def load_results(out: str | Path, config: Any = None) -> ComparisonResult:
 
         config = tuned_config(config, _tuning_results(config, summary))
     store = ResultStore(out / "results.sqlite")
-    return ComparisonResult(summary, _runs_dataset(config, store), _series_dataset(config, out),
-                            (out / "report.md").read_text(), out)
+    return ComparisonResult(
+        summary, _runs_dataset(config, store), _series_dataset(config, out), (out / "report.md").read_text(), out
+    )
 
 
 def _tuning_results(config: Any, summary: dict[str, Any]) -> dict[str, dict[str, Any]]:
     from .tuning import resolve_free
 
     resolved = resolve_free(config)
-    return {t["candidate"]: {"labels": [lb for _, _, lb in resolved[t["candidate"]]], "best": t["tuned"]}
-            for t in summary["tuning"]}
+    return {
+        t["candidate"]: {"labels": [lb for _, _, lb in resolved[t["candidate"]]], "best": t["tuned"]}
+        for t in summary["tuning"]
+    }
 
 
-def compare(config: Any, out: str | Path | None = None, *, runs: int | None = None, seed: int | None = None,
-            progress: bool = False) -> ComparisonResult:
+def compare(
+    config: Any,
+    out: str | Path | None = None,
+    *,
+    runs: int | None = None,
+    seed: int | None = None,
+    progress: bool = False,
+) -> ComparisonResult:
     """Run (or resume) a comparison from Python and return its results as data.
 
     Parameters

@@ -62,8 +62,10 @@ class RunPlan:
     def where(self, task: Task) -> str:
         """A task in words, for failures: candidate, case, runs and sweep point."""
         point = f", sweep point {task.point}" if task.point else ""
-        return (f"candidate {self.candidates[task.candidate_index].name!r}, case "
-                f"{self.cases[task.case_index].name!r}, {task.run_range}{point}")
+        return (
+            f"candidate {self.candidates[task.candidate_index].name!r}, case "
+            f"{self.cases[task.case_index].name!r}, {task.run_range}{point}"
+        )
 
 
 def resolve(config: Any) -> RunPlan:

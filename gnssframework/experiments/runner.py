@@ -64,8 +64,11 @@ def run_task(plan: RunPlan, task: Task) -> TaskResult:
     except GnssFrameworkError as exc:
         raise RunFailure(plan.where(task), str(exc), type(exc).__name__) from None
     except MemoryError as exc:
-        raise RunFailure(plan.where(task), f"out of memory ({exc or 'MemoryError'}); use a smaller "
-                         "batch_size or a shorter case", "MemoryError") from None
+        raise RunFailure(
+            plan.where(task),
+            f"out of memory ({exc or 'MemoryError'}); use a smaller batch_size or a shorter case",
+            "MemoryError",
+        ) from None
 
 
 def _simulate(plan: RunPlan, task: Task) -> TaskResult:
@@ -82,13 +85,18 @@ def _simulate(plan: RunPlan, task: Task) -> TaskResult:
     missing = [m for m in plan.metrics if m in scenario.metrics and m not in metrics]
     wrong = [f"{m} {np.shape(v)}" for m, v in metrics.items() if np.shape(v) != (task.runs,)]
     if missing or wrong:  # a scenario's declared metrics and its run_batch must agree
-        raise GnssFrameworkError(f"scenario {scenario.kind!r}: run_batch " + "; ".join(
-            ([f"did not return the declared metrics {', '.join(missing)}"] if missing else [])
-            + ([f"returned metrics not of shape ({task.runs},): {', '.join(wrong)}"] if wrong else [])))
+        raise GnssFrameworkError(
+            f"scenario {scenario.kind!r}: run_batch "
+            + "; ".join(
+                ([f"did not return the declared metrics {', '.join(missing)}"] if missing else [])
+                + ([f"returned metrics not of shape ({task.runs},): {', '.join(wrong)}"] if wrong else [])
+            )
+        )
     # The metric plugins the config adds: computed once, here, as a scenario computes its own.
     try:
-        added = evaluate(_added_components(plan.component_metrics, scenario), series, result.time_s,
-                         scenario, runs=task.runs)
+        added = evaluate(
+            _added_components(plan.component_metrics, scenario), series, result.time_s, scenario, runs=task.runs
+        )
     except ValueError as exc:  # a metric's own complaint (a wrong shape, no epoch selected): one line
         raise GnssFrameworkError(str(exc)) from None
     metrics.update(added.metrics)
@@ -101,8 +109,7 @@ def _added_components(names: tuple[str, ...], scenario: Any) -> list[Metric]:
     for name in names:
         component = metric_component(name, scenario)
         if component is None:  # the config checked each name (check_metric): not reached
-            raise GnssFrameworkError(f"metric {name!r}: no metric component computes it in scenario "
-                                     f"{scenario.kind!r}")
+            raise GnssFrameworkError(f"metric {name!r}: no metric component computes it in scenario {scenario.kind!r}")
         components.append(component)
     return components
 
@@ -117,21 +124,21 @@ def run_task_in_worker(plan: RunPlan, task: Task) -> TaskResult:
         try:
             pickle.loads(pickle.dumps(exc))
         except Exception:  # noqa: BLE001 - any failure to round-trip means: send text
-            raise WorkerError(plan.where(task), f"{type(exc).__name__}: {exc}",
-                              traceback.format_exc()) from None
+            raise WorkerError(plan.where(task), f"{type(exc).__name__}: {exc}", traceback.format_exc()) from None
         raise
 
 
-def _save_series(out: Path, config: ComparisonConfig, task: Task, series: dict[str, np.ndarray],
-                 time_s: np.ndarray | None) -> None:
-    path = series_file(out, config.cases[task.case_index].name, config.candidates[task.candidate_index].name,
-                       task.first_run, task.runs)
+def _save_series(
+    out: Path, config: ComparisonConfig, task: Task, series: dict[str, np.ndarray], time_s: np.ndarray | None
+) -> None:
+    path = series_file(
+        out, config.cases[task.case_index].name, config.candidates[task.candidate_index].name, task.first_run, task.runs
+    )
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_open(path, "wb") as fh:  # a kill leaves no half npz
         # numpy's stub types **kwds as possibly naming its allow_pickle flag; the series'
         # names are the scenario's outputs and metric components' names, never allow_pickle.
-        np.savez_compressed(fh, time_s=np.array([]) if time_s is None else time_s,
-                            first_run=task.first_run, **series)  # type: ignore[arg-type]
+        np.savez_compressed(fh, time_s=np.array([]) if time_s is None else time_s, first_run=task.first_run, **series)  # type: ignore[arg-type]
 
 
 def _execute(jobs: list[tuple[RunPlan, Task]], executor: Executor) -> Generator[tuple[int, TaskResult], None, None]:
@@ -143,15 +150,20 @@ def _execute(jobs: list[tuple[RunPlan, Task]], executor: Executor) -> Generator[
         try:
             from dask.distributed import Client, LocalCluster, as_completed as dask_completed
         except ImportError:
-            raise ConfigError("executor.kind", "'dask' needs the optional extra: pip install 'gnssframework[dask]'") \
-                from None
+            raise ConfigError(
+                "executor.kind", "'dask' needs the optional extra: pip install 'gnssframework[dask]'"
+            ) from None
         cluster = None
         address = ex.address or os.environ.get(DASK_ADDRESS_ENV, "")  # never from a config file (see Executor)
         if address:
             client = Client(address)
         else:
-            cluster = LocalCluster(n_workers=ex.workers or os.cpu_count() or 1, threads_per_worker=1,
-                                   processes=False, dashboard_address=None)
+            cluster = LocalCluster(
+                n_workers=ex.workers or os.cpu_count() or 1,
+                threads_per_worker=1,
+                processes=False,
+                dashboard_address=None,
+            )
             client = Client(cluster)
         try:
             submitted = {client.submit(run_task, d, t, pure=False): i for i, (d, t) in enumerate(jobs)}
@@ -170,6 +182,7 @@ def _execute(jobs: list[tuple[RunPlan, Task]], executor: Executor) -> Generator[
     # Compile or load the numba kernels once here: the forked workers inherit them
     # instead of each loading them from the disk cache (or compiling them).
     from .. import backend
+
     if backend.compiled():
         from ..estimation import compiled
 
@@ -186,8 +199,10 @@ def _execute(jobs: list[tuple[RunPlan, Task]], executor: Executor) -> Generator[
                 # A worker died without raising (killed, out of memory, a crash in
                 # compiled code): say which batch and how to see the real failure.
                 raise RunFailure(
-                    jobs[i][0].where(jobs[i][1]), f"a worker process died ({exc}); "
-                    "run with executor.workers = 1 to see the failure in this process", "BrokenProcessPool") from None
+                    jobs[i][0].where(jobs[i][1]),
+                    f"a worker process died ({exc}); run with executor.workers = 1 to see the failure in this process",
+                    "BrokenProcessPool",
+                ) from None
             yield i, result
         finished = True
     finally:
@@ -248,8 +263,11 @@ def _say_recomputed(damaged: set[tuple[str, str, int, int]], label: str | None) 
     where = "; ".join(f"case {c!r}, candidate {k!r}, runs {f}-{f + n - 1}" for c, k, f, n in sorted(damaged)[:3])
     more = f" and {len(damaged) - 3} more" if len(damaged) > 3 else ""
     at = f" (sweep point {label})" if label is not None else ""
-    print(f"note: results.sqlite lacks metric rows of {len(damaged)} finished batch{'es' if len(damaged) > 1 else ''}"
-          f"{at}: {where}{more}; recomputing {'them' if len(damaged) > 1 else 'it'}", file=sys.stderr)
+    print(
+        f"note: results.sqlite lacks metric rows of {len(damaged)} finished batch{'es' if len(damaged) > 1 else ''}"
+        f"{at}: {where}{more}; recomputing {'them' if len(damaged) > 1 else 'it'}",
+        file=sys.stderr,
+    )
 
 
 def replicate_config(config: ComparisonConfig) -> ComparisonConfig:
@@ -261,9 +279,14 @@ def replicate_config(config: ComparisonConfig) -> ComparisonConfig:
     return type(config).model_validate(data)
 
 
-def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = True,
-                   on_batch: Callable[[Task], None] | None = None, replicate: bool = False,
-                   trials_from: str | Path | None = None) -> Path:
+def run_comparison(
+    config: ComparisonConfig,
+    out: str | Path,
+    progress: bool = True,
+    on_batch: Callable[[Task], None] | None = None,
+    replicate: bool = False,
+    trials_from: str | Path | None = None,
+) -> Path:
     """Run (or resume) ``config`` and write the report into ``out``; with ``replicate``,
     also run it on the replicate streams (a second, disjoint set of runs) and re-check
     every claim there (each claim row's ``replicate_outcome``). A tuned comparison also
@@ -307,8 +330,10 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
         seen: set[tuple[str, str, str, int, int]] = set()
         points = comparison_points(config)
         if replica is not None:  # labelled, so its runs keep their metrics only (the series are the evaluation's)
-            points += [("replicate" if label is None else f"replicate {label}", point)
-                       for label, point in comparison_points(replica)]
+            points += [
+                ("replicate" if label is None else f"replicate {label}", point)
+                for label, point in comparison_points(replica)
+            ]
         for label, point in points:
             key = point.identity()
             store.register(key, point.batch_size)
@@ -316,8 +341,13 @@ def run_comparison(config: ComparisonConfig, out: str | Path, progress: bool = T
             _say_recomputed(store.damaged_batches(key, done), label)
             resolved = resolve(point)  # once per point: the workers get it, nothing to re-validate
             for t in plan(point, label):
-                ident = (key, point.cases[t.case_index].name, point.candidates[t.candidate_index].name, t.first_run,
-                         t.runs)
+                ident = (
+                    key,
+                    point.cases[t.case_index].name,
+                    point.candidates[t.candidate_index].name,
+                    t.first_run,
+                    t.runs,
+                )
                 if ident[1:] in done or ident in seen:
                     continue
                 seen.add(ident)

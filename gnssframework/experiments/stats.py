@@ -27,9 +27,11 @@ from .number_format import at_rounding_level
 
 __all__ = ["PairedDifference", "paired_difference", "mean_and_se", "SIGNIFICANCE_RULE", "finite_or_none", "t_quantile"]
 
-SIGNIFICANCE_RULE = ("significant: the 95 % paired t-interval of the per-run differences excludes 0, "
-                     "|mean difference| > t(0.975, n-1) x SE, SE = std of the per-run differences / sqrt(n); "
-                     "a difference with no spread over the runs (SE zero or at rounding level) is not tested")
+SIGNIFICANCE_RULE = (
+    "significant: the 95 % paired t-interval of the per-run differences excludes 0, "
+    "|mean difference| > t(0.975, n-1) x SE, SE = std of the per-run differences / sqrt(n); "
+    "a difference with no spread over the runs (SE zero or at rounding level) is not tested"
+)
 
 
 def finite_or_none(x: float | None) -> float | None:
@@ -150,11 +152,20 @@ def paired_difference(candidate: np.ndarray, reference: np.ndarray, level: float
     if at_rounding_level(se, float(np.max(np.abs(np.concatenate([x, y]))))):
         # No spread beyond floating-point rounding (e.g. the same bound in every run): the
         # t-test has nothing to test, so nothing is called significant.
-        return PairedDifference(n, diff, 0.0, (diff, diff), ratio, ratio_se, False,
-                                "identical values in every run" if diff == 0.0 else
-                                "identical values in every run up to floating-point rounding"
-                                if at_rounding_level(abs(diff), float(np.max(np.abs(np.concatenate([x, y])))))
-                                else "the same difference in every run (no spread): no significance test")
+        return PairedDifference(
+            n,
+            diff,
+            0.0,
+            (diff, diff),
+            ratio,
+            ratio_se,
+            False,
+            "identical values in every run"
+            if diff == 0.0
+            else "identical values in every run up to floating-point rounding"
+            if at_rounding_level(abs(diff), float(np.max(np.abs(np.concatenate([x, y])))))
+            else "the same difference in every run (no spread): no significance test",
+        )
     return PairedDifference(n, diff, se, ci, ratio, ratio_se, bool(abs(diff) > t * se))
 
 
@@ -183,6 +194,7 @@ def paired_rows(config, store, key: str | None = None) -> list[dict]:
                     continue
                 x = store.run_values(key, case.name, cand.name, metric, config.runs)
                 pd = paired_difference(*paired_values(x, y))
-                rows.append({"case": case.name, "candidate": cand.name, "metric": metric, "reference": ref,
-                             **pd.to_json()})
+                rows.append(
+                    {"case": case.name, "candidate": cand.name, "metric": metric, "reference": ref, **pd.to_json()}
+                )
     return rows

@@ -72,15 +72,23 @@ class ResultStore:
             with self._connect() as con:
                 tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
                 if "batches" in tables and "meta" not in tables:
-                    raise DataFileError(str(self.path), None, "a result store of an earlier gnssframework (format 1, "
-                                        "batches numbered by position); write this comparison to a new --out folder")
+                    raise DataFileError(
+                        str(self.path),
+                        None,
+                        "a result store of an earlier gnssframework (format 1, "
+                        "batches numbered by position); write this comparison to a new --out folder",
+                    )
                 con.executescript(_SCHEMA)
                 row = con.execute("SELECT value FROM meta WHERE key = 'format'").fetchone()
                 if row is None:
                     con.execute("INSERT INTO meta VALUES ('format', ?)", (str(STORE_FORMAT),))
                 elif row[0] != str(STORE_FORMAT):
-                    raise DataFileError(str(self.path), None, f"result store format {row[0]}, this gnssframework "
-                                        f"reads format {STORE_FORMAT}; write to a new --out folder")
+                    raise DataFileError(
+                        str(self.path),
+                        None,
+                        f"result store format {row[0]}, this gnssframework "
+                        f"reads format {STORE_FORMAT}; write to a new --out folder",
+                    )
         except sqlite3.DatabaseError as exc:
             raise DataFileError(str(self.path), None, f"not a readable result store ({exc})") from None
 
@@ -128,7 +136,9 @@ class ResultStore:
                 'LEFT JOIN metrics m ON m.config = b.config AND m."case" = b."case" AND m.candidate = b.candidate '
                 "AND m.first_run = b.first_run AND m.batch_runs = b.runs AND m.run >= b.first_run "
                 "AND m.run < b.first_run + b.runs WHERE b.config = ? "
-                'GROUP BY b."case", b.candidate, b.first_run, b.runs, m.metric', (config,)).fetchall()
+                'GROUP BY b."case", b.candidate, b.first_run, b.runs, m.metric',
+                (config,),
+            ).fetchall()
         held: dict[tuple[str, str, int, int], dict[str, int]] = {}
         for c, k, f, n, metric, count in rows:
             counts = held.setdefault((c, k, int(f), int(n)), {})
@@ -137,44 +147,59 @@ class ResultStore:
         expected: dict[tuple[str, str], set[str]] = {}
         for (c, k, _, _), counts in held.items():
             expected.setdefault((c, k), set()).update(counts)
-        return {batch for batch, counts in held.items()
-                if counts and set(counts) == expected[batch[:2]] and all(v == batch[3] for v in counts.values())}
+        return {
+            batch
+            for batch, counts in held.items()
+            if counts and set(counts) == expected[batch[:2]] and all(v == batch[3] for v in counts.values())
+        }
 
-    def damaged_batches(self, config: str,
-                        finished: set[tuple[str, str, int, int]] | None = None) -> set[tuple[str, str, int, int]]:
+    def damaged_batches(
+        self, config: str, finished: set[tuple[str, str, int, int]] | None = None
+    ) -> set[tuple[str, str, int, int]]:
         """``(case, candidate, first_run, runs)`` of every batch of ``config`` that committed
         (its ``batches`` row is there) but whose metric rows are not all there: what
         `finished_batches` leaves out for the comparison to recompute (``finished``: its
         answer when the caller has it already, not queried again)."""
         with self._connect() as con:
-            committed = {(c, k, int(f), int(n)) for c, k, f, n in con.execute(
-                'SELECT "case", candidate, first_run, runs FROM batches WHERE config = ?', (config,)).fetchall()}
+            committed = {
+                (c, k, int(f), int(n))
+                for c, k, f, n in con.execute(
+                    'SELECT "case", candidate, first_run, runs FROM batches WHERE config = ?', (config,)
+                ).fetchall()
+            }
         return committed - (self.finished_batches(config) if finished is None else finished)
 
-    def add_batch(self, config: str, case: str, candidate: str, first_run: int,
-                  metrics: dict[str, np.ndarray]) -> None:
+    def add_batch(self, config: str, case: str, candidate: str, first_run: int, metrics: dict[str, np.ndarray]) -> None:
         """Store one finished batch (runs ``first_run ..``, one value per run) atomically."""
         runs = len(next(iter(metrics.values())))
-        rows = [(config, case, candidate, first_run, runs, first_run + i, name, float(values[i]))
-                for name, values in metrics.items() for i in range(runs)]
+        rows = [
+            (config, case, candidate, first_run, runs, first_run + i, name, float(values[i]))
+            for name, values in metrics.items()
+            for i in range(runs)
+        ]
         with self._connect() as con:
             con.executemany("INSERT OR REPLACE INTO metrics VALUES (?, ?, ?, ?, ?, ?, ?, ?)", rows)
-            con.execute("INSERT OR REPLACE INTO batches VALUES (?, ?, ?, ?, ?)", (config, case, candidate, first_run,
-                                                                                   runs))
+            con.execute(
+                "INSERT OR REPLACE INTO batches VALUES (?, ?, ?, ?, ?)", (config, case, candidate, first_run, runs)
+            )
 
     def add_trial(self, config: str, candidate: str, trial: int, values_json: str, objective: float) -> None:
         """Record a finished tuning trial (its parameter values as JSON and its objective)."""
         with self._connect() as con:
-            con.execute("INSERT OR REPLACE INTO trials VALUES (?, ?, ?, ?, ?)",
-                        (config, candidate, int(trial), values_json, float(objective)))
+            con.execute(
+                "INSERT OR REPLACE INTO trials VALUES (?, ?, ?, ?, ?)",
+                (config, candidate, int(trial), values_json, float(objective)),
+            )
 
     def trials(self, config: str, candidate: str) -> list[tuple[list, float]]:
         """The finished tuning trials of ``candidate`` in ``config``, in order: (values, objective)."""
         import json
 
         with self._connect() as con:
-            rows = con.execute('SELECT "values", objective FROM trials WHERE config = ? AND candidate = ? '
-                               "ORDER BY trial", (config, candidate)).fetchall()
+            rows = con.execute(
+                'SELECT "values", objective FROM trials WHERE config = ? AND candidate = ? ORDER BY trial',
+                (config, candidate),
+            ).fetchall()
         return [(json.loads(v), float("inf") if o is None else float(o)) for v, o in rows]
 
     def run_values(self, config: str, case: str, candidate: str, metric: str, runs: int) -> dict[int, float]:
@@ -187,7 +212,9 @@ class ResultStore:
             plan = set(plan_batches(runs, batch_size))
             rows = con.execute(
                 'SELECT first_run, batch_runs, run, value FROM metrics WHERE config = ? AND "case" = ? '
-                "AND candidate = ? AND metric = ? AND run < ?", (config, case, candidate, metric, runs)).fetchall()
+                "AND candidate = ? AND metric = ? AND run < ?",
+                (config, case, candidate, metric, runs),
+            ).fetchall()
         return {int(r): (float("nan") if v is None else float(v)) for f, n, r, v in rows if (f, n) in plan}
 
     def values(self, config: str, case: str, candidate: str, metric: str, runs: int) -> np.ndarray:

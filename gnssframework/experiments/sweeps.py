@@ -59,21 +59,35 @@ class Sweep(BaseModel):
     (``start``, ``stop`` and ``step`` or ``num``) of values."""
 
     model_config = ConfigDict(extra="forbid")
-    path: str = Field(..., description="dotted path of the parameter: scenario.<field>, cases.<field>, "
-                      "cases.<case>.<field> or candidates.<candidate>.<kind>.params.<field>")
-    name: str | None = Field(None, pattern=r"^[A-Za-z0-9_.+-]+$",
-                             description="name in reports and file names (default: the path's last part)")
-    values: list[Any] | None = Field(None, min_length=1, max_length=MAX_SWEEP_POINTS,
-                                     description=f"the values, in order (at most {MAX_SWEEP_POINTS})")
+    path: str = Field(
+        ...,
+        description="dotted path of the parameter: scenario.<field>, cases.<field>, "
+        "cases.<case>.<field> or candidates.<candidate>.<kind>.params.<field>",
+    )
+    name: str | None = Field(
+        None,
+        pattern=r"^[A-Za-z0-9_.+-]+$",
+        description="name in reports and file names (default: the path's last part)",
+    )
+    values: list[Any] | None = Field(
+        None,
+        min_length=1,
+        max_length=MAX_SWEEP_POINTS,
+        description=f"the values, in order (at most {MAX_SWEEP_POINTS})",
+    )
     start: float | None = Field(None, description="first value of a range")
     stop: float | None = Field(None, description="last value of a range (inclusive)")
     step: float | None = Field(None, description="spacing of a range (with start and stop)")
     num: int | None = Field(None, ge=2, le=MAX_SWEEP_POINTS, description="number of evenly spaced values of a range")
-    cases: list[str] | None = Field(None, min_length=1, description="the cases the sweep's points run "
-                                    "(default: every case)")
-    threshold: Threshold | None = Field(None, description="where a per-run 0/1 metric's mean crosses a level "
-                                        "along the sweep, with a paired bootstrap interval "
-                                        "(gnssframework.experiments.threshold)")
+    cases: list[str] | None = Field(
+        None, min_length=1, description="the cases the sweep's points run (default: every case)"
+    )
+    threshold: Threshold | None = Field(
+        None,
+        description="where a per-run 0/1 metric's mean crosses a level "
+        "along the sweep, with a paired bootstrap interval "
+        "(gnssframework.experiments.threshold)",
+    )
 
     @field_validator("name")
     @classmethod
@@ -85,8 +99,10 @@ class Sweep(BaseModel):
         ranged = [k for k in ("start", "stop", "step", "num") if getattr(self, k) is not None]
         if self.values is not None:
             if ranged:
-                raise ValueError(f"give either values or a range (start, stop, step or num), not both "
-                                 f"(got values and {', '.join(ranged)})")
+                raise ValueError(
+                    f"give either values or a range (start, stop, step or num), not both "
+                    f"(got values and {', '.join(ranged)})"
+                )
             return self
         if self.start is None or self.stop is None or (self.step is None) == (self.num is None):
             raise ValueError("give values = [...], or start and stop with exactly one of step and num")
@@ -132,8 +148,11 @@ def _resolve(config, sweep: Sweep, where: str) -> list[tuple[Any, ...]]:
     if head == "scenario":
         allowed = _model_fields(type(scenario).Params)
         if len(rest) != 1 or rest[0] not in allowed:
-            raise ConfigError(field, f"{sweep.path!r} names no parameter of scenario {scenario.kind!r}; "
-                              f"allowed: {', '.join('scenario.' + a for a in allowed)}")
+            raise ConfigError(
+                field,
+                f"{sweep.path!r} names no parameter of scenario {scenario.kind!r}; "
+                f"allowed: {', '.join('scenario.' + a for a in allowed)}",
+            )
         return [("scenario", rest[0])]
     if head == "cases":
         allowed = _model_fields(type(scenario).CaseParams)
@@ -142,32 +161,44 @@ def _resolve(config, sweep: Sweep, where: str) -> list[tuple[Any, ...]]:
             return [("cases", i, rest[0]) for i in range(len(config.cases))]
         if len(rest) == 2 and rest[0] in names and rest[1] in allowed:
             return [("cases", names.index(rest[0]), rest[1])]
-        raise ConfigError(field, f"{sweep.path!r} names no case parameter; allowed: "
-                          f"{', '.join('cases.' + a for a in allowed)} or cases.<case>.<parameter> "
-                          f"with a case among {', '.join(names)}")
+        raise ConfigError(
+            field,
+            f"{sweep.path!r} names no case parameter; allowed: "
+            f"{', '.join('cases.' + a for a in allowed)} or cases.<case>.<parameter> "
+            f"with a case among {', '.join(names)}",
+        )
     if head == "candidates":
         names = [c.name for c in config.candidates]
         if not rest or rest[0] not in names:
-            raise ConfigError(field, f"{sweep.path!r}: the second part must be a candidate; allowed: "
-                              f"{', '.join(names)}")
+            raise ConfigError(
+                field, f"{sweep.path!r}: the second part must be a candidate; allowed: {', '.join(names)}"
+            )
         i = names.index(rest[0])
         comps = config.resolved_candidates[i].components
         tail = rest[1:]
         if tail[:1] == ["params"] and len(tail) >= 2:  # kind left out: the one plugin having the parameter
             kinds = [k for k, spec in comps.items() if tail[1] in _model_fields(spec.cls.Params)]
             if len(kinds) != 1:
-                raise ConfigError(field, f"{sweep.path!r}: {'no' if not kinds else 'more than one'} plugin of "
-                                  f"candidate {rest[0]!r} has a parameter {tail[1]!r}; write "
-                                  f"candidates.{rest[0]}.<kind>.params.{tail[1]} with a kind among "
-                                  f"{', '.join(comps)}")
+                raise ConfigError(
+                    field,
+                    f"{sweep.path!r}: {'no' if not kinds else 'more than one'} plugin of "
+                    f"candidate {rest[0]!r} has a parameter {tail[1]!r}; write "
+                    f"candidates.{rest[0]}.<kind>.params.{tail[1]} with a kind among "
+                    f"{', '.join(comps)}",
+                )
             tail = [kinds[0]] + tail
         if len(tail) < 3 or tail[0] not in comps or tail[1] != "params":
-            raise ConfigError(field, f"{sweep.path!r}: write candidates.{rest[0]}.<kind>.params.<parameter> with "
-                              f"a kind among {', '.join(comps)}")
+            raise ConfigError(
+                field,
+                f"{sweep.path!r}: write candidates.{rest[0]}.<kind>.params.<parameter> with "
+                f"a kind among {', '.join(comps)}",
+            )
         allowed = _model_fields(comps[tail[0]].cls.Params)
         if tail[2] not in allowed:
-            raise ConfigError(field, f"{sweep.path!r}: {comps[tail[0]].name!r} has no parameter {tail[2]!r}; "
-                              f"allowed: {', '.join(allowed)}")
+            raise ConfigError(
+                field,
+                f"{sweep.path!r}: {comps[tail[0]].name!r} has no parameter {tail[2]!r}; allowed: {', '.join(allowed)}",
+            )
         return [("candidates", i, tail[0], "params", *tail[2:])]
     raise ConfigError(field, f"{sweep.path!r} must start with scenario, cases or candidates")
 
@@ -184,8 +215,11 @@ def _set(data: dict, keys: tuple[Any, ...], value: Any, path: str, field: str) -
         except (KeyError, IndexError, TypeError):
             raise ConfigError(field, f"{path!r} does not exist in the config (at {k!r})") from None
         if not isinstance(node, (dict, list)):
-            raise ConfigError(field, f"{path!r} does not exist in the config: {k!r} is a value "
-                              f"({node!r}), not a table; write it as {{ name = ..., params = {{ ... }} }}")
+            raise ConfigError(
+                field,
+                f"{path!r} does not exist in the config: {k!r} is a value "
+                f"({node!r}), not a table; write it as {{ name = ..., params = {{ ... }} }}",
+            )
     node[keys[-1]] = value
 
 
@@ -221,15 +255,16 @@ def expand_sweep(config, index: int) -> list[tuple[Any, Any]]:
             from ..plugin import validation_message
 
             if isinstance(exc, ValidationError):
-                raise ConfigError(f"{where}.values[{j}]",
-                                  f"{sweep.path} = {value!r}: {validation_message(exc, model=model)}") \
-                    from None
+                raise ConfigError(
+                    f"{where}.values[{j}]", f"{sweep.path} = {value!r}: {validation_message(exc, model=model)}"
+                ) from None
             raise
         out.append((value, point))
     return out
 
 
 # -- report ---------------------------------------------------------------------------------
+
 
 def sweep_rows(config, store) -> list[dict]:
     """Per sweep: ``{"name", "path", "values", "rows", "paired"}``; ``rows`` hold each
@@ -248,16 +283,40 @@ def sweep_rows(config, store) -> list[dict]:
                     for cand in point.candidates:
                         x = store.run_values(key, case.name, cand.name, metric, point.runs)
                         mean, se, n = mean_and_se(np.array([x[r] for r in sorted(x)]))
-                        rows.append({"value": value, "case": case.name, "candidate": cand.name, "metric": metric,
-                                     "mean": finite_or_none(mean), "se": finite_or_none(se), "n": n,
-                                     "unit": units[metric]})
+                        rows.append(
+                            {
+                                "value": value,
+                                "case": case.name,
+                                "candidate": cand.name,
+                                "metric": metric,
+                                "mean": finite_or_none(mean),
+                                "se": finite_or_none(se),
+                                "n": n,
+                                "unit": units[metric],
+                            }
+                        )
                         if cand.name != ref:
                             pd = paired_difference(*paired_values(x, y))
-                            paired.append({"value": value, "case": case.name, "candidate": cand.name,
-                                           "metric": metric, "reference": ref, **pd.to_json()})
-        out.append({"name": sweep.label, "path": sweep.path, "values": sweep.points(),
-                    "cases": [c.name for c in config.cases if not sweep.cases or c.name in sweep.cases],
-                    "rows": rows, "paired": paired})
+                            paired.append(
+                                {
+                                    "value": value,
+                                    "case": case.name,
+                                    "candidate": cand.name,
+                                    "metric": metric,
+                                    "reference": ref,
+                                    **pd.to_json(),
+                                }
+                            )
+        out.append(
+            {
+                "name": sweep.label,
+                "path": sweep.path,
+                "values": sweep.points(),
+                "cases": [c.name for c in config.cases if not sweep.cases or c.name in sweep.cases],
+                "rows": rows,
+                "paired": paired,
+            }
+        )
     return out
 
 
@@ -265,14 +324,38 @@ def _write_csv(path: Path, sweep: dict) -> None:
     paired = {(p["value"], p["case"], p["candidate"], p["metric"]): p for p in sweep["paired"]}
     with atomic_open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow([sweep["name"], "case", "candidate", "metric", "unit", "mean", "se", "n",
-                    "diff_to_reference", "diff_se", "significant"])
+        w.writerow(
+            [
+                sweep["name"],
+                "case",
+                "candidate",
+                "metric",
+                "unit",
+                "mean",
+                "se",
+                "n",
+                "diff_to_reference",
+                "diff_se",
+                "significant",
+            ]
+        )
         for r in sweep["rows"]:
             p = paired.get((r["value"], r["case"], r["candidate"], r["metric"]), {})
-            w.writerow([r["value"], r["case"], r["candidate"], r["metric"], r["unit"],
-                        "" if r["mean"] is None else r["mean"], "" if r["se"] is None else r["se"], r["n"],
-                        "" if p.get("diff") is None else p["diff"], "" if p.get("se") is None else p["se"],
-                        p.get("significant", "")])
+            w.writerow(
+                [
+                    r["value"],
+                    r["case"],
+                    r["candidate"],
+                    r["metric"],
+                    r["unit"],
+                    "" if r["mean"] is None else r["mean"],
+                    "" if r["se"] is None else r["se"],
+                    r["n"],
+                    "" if p.get("diff") is None else p["diff"],
+                    "" if p.get("se") is None else p["se"],
+                    p.get("significant", ""),
+                ]
+            )
 
 
 def _plot(path: Path, config, sweep: dict, case: str) -> None:
@@ -288,11 +371,14 @@ def _plot(path: Path, config, sweep: dict, case: str) -> None:
     fig, axes = plt.subplots(len(metrics), 1, figsize=(6.5, 2.2 * len(metrics)), sharex=True, squeeze=False)
     for ax, metric in zip(axes[:, 0], metrics):
         for cand in config.candidates:
-            rows = {r["value"]: r for r in sweep["rows"]
-                    if r["case"] == case and r["candidate"] == cand.name and r["metric"] == metric}
+            rows = {
+                r["value"]: r
+                for r in sweep["rows"]
+                if r["case"] == case and r["candidate"] == cand.name and r["metric"] == metric
+            }
             mean = np.array([np.nan if rows[v]["mean"] is None else rows[v]["mean"] for v in values], dtype=float)
             se = np.array([np.nan if rows[v]["se"] is None else rows[v]["se"] for v in values], dtype=float)
-            line, = ax.plot(xs, mean, marker="o", ms=3, lw=1.0, label=cand.name)
+            (line,) = ax.plot(xs, mean, marker="o", ms=3, lw=1.0, label=cand.name)
             ax.fill_between(xs, mean - 1.96 * se, mean + 1.96 * se, color=line.get_color(), alpha=0.2, lw=0)
         ax.set_ylabel(f"{metric}\n({config.metric_units[metric]})", fontsize=7)
         ax.grid(alpha=0.3)
@@ -324,14 +410,27 @@ def _plot_paired(path: Path, config, sweep: dict, case: str) -> None:
         for cand in config.candidates:
             if cand.name == config.reference_name:
                 continue
-            rows = {p["value"]: p for p in sweep["paired"]
-                    if p["case"] == case and p["candidate"] == cand.name and p["metric"] == metric}
+            rows = {
+                p["value"]: p
+                for p in sweep["paired"]
+                if p["case"] == case and p["candidate"] == cand.name and p["metric"] == metric
+            }
             diff = np.array([np.nan if rows[v]["diff"] is None else rows[v]["diff"] for v in values], dtype=float)
-            lo = np.array([np.nan if rows[v]["ci95"] is None or rows[v]["ci95"][0] is None else rows[v]["ci95"][0]
-                           for v in values], dtype=float)
-            hi = np.array([np.nan if rows[v]["ci95"] is None or rows[v]["ci95"][1] is None else rows[v]["ci95"][1]
-                           for v in values], dtype=float)
-            line, = ax.plot(xs, diff, marker="o", ms=3, lw=1.0, label=f"{cand.name} - {config.reference_name}")
+            lo = np.array(
+                [
+                    np.nan if rows[v]["ci95"] is None or rows[v]["ci95"][0] is None else rows[v]["ci95"][0]
+                    for v in values
+                ],
+                dtype=float,
+            )
+            hi = np.array(
+                [
+                    np.nan if rows[v]["ci95"] is None or rows[v]["ci95"][1] is None else rows[v]["ci95"][1]
+                    for v in values
+                ],
+                dtype=float,
+            )
+            (line,) = ax.plot(xs, diff, marker="o", ms=3, lw=1.0, label=f"{cand.name} - {config.reference_name}")
             ax.fill_between(xs, lo, hi, color=line.get_color(), alpha=0.2, lw=0)
         ax.axhline(0.0, color="k", lw=0.6)
         ax.set_ylabel(f"Δ {metric}\n({config.metric_units[metric]})", fontsize=7)
@@ -341,8 +440,9 @@ def _plot_paired(path: Path, config, sweep: dict, case: str) -> None:
     axes[-1, 0].set_xlabel(sweep["path"])
     if axes[0, 0].get_legend_handles_labels()[0]:
         axes[0, 0].legend(fontsize=7)
-    axes[0, 0].set_title(f"{config.name} - {case}: paired difference to {config.reference_name}, "
-                         "95 % paired t-interval", fontsize=9)
+    axes[0, 0].set_title(
+        f"{config.name} - {case}: paired difference to {config.reference_name}, 95 % paired t-interval", fontsize=9
+    )
     fig.tight_layout()
     with atomic_open(path, "wb") as fh:
         fig.savefig(fh, format="png", dpi=90)
@@ -354,15 +454,21 @@ def _markdown(config, sweep: dict) -> list[str]:
     paired = {(p["value"], p["case"], p["candidate"], p["metric"]): p for p in sweep["paired"]}
     means = {(r["value"], r["case"], r["candidate"], r["metric"]): r for r in sweep["rows"]}
     names = [c.name for c in config.candidates]
-    lines = [f"## Sweep `{sweep['name']}`: {sweep['path']}", "",
-             f"Mean ± SE over runs; for candidates other than `{ref}`, the paired difference to it "
-             "(**\\***: significant). Table: `sweeps/" + sweep["name"] + ".csv`.", ""]
+    lines = [
+        f"## Sweep `{sweep['name']}`: {sweep['path']}",
+        "",
+        f"Mean ± SE over runs; for candidates other than `{ref}`, the paired difference to it "
+        "(**\\***: significant). Table: `sweeps/" + sweep["name"] + ".csv`.",
+        "",
+    ]
     for case in sweep["cases"]:
         lines += [f"### {case}", "", f"![sweep {sweep['name']}](plots/sweep-{sweep['name']}-{case}.png)", ""]
         if len(names) > 1:
             lines += [f"![paired differences](plots/sweep-{sweep['name']}-{case}-paired.png)", ""]
-        lines += [f"| {sweep['name']} | metric | " + " | ".join(names) + " |",
-                  "| --- | --- | " + " | ".join("---" for _ in names) + " |"]
+        lines += [
+            f"| {sweep['name']} | metric | " + " | ".join(names) + " |",
+            "| --- | --- | " + " | ".join("---" for _ in names) + " |",
+        ]
         for metric in config.metric_names:
             for v in sweep["values"]:
                 cells = []
@@ -371,8 +477,11 @@ def _markdown(config, sweep: dict) -> list[str]:
                     cell = format_estimate(r["mean"], r["se"])
                     p = paired.get((v, case, cand, metric))
                     if p is not None and p["diff"] is not None:
-                        cell += f" (Δ {format_estimate(p['diff'], p['se'], sign=True)}" + (
-                            " **\\***" if p["significant"] else "") + ")"
+                        cell += (
+                            f" (Δ {format_estimate(p['diff'], p['se'], sign=True)}"
+                            + (" **\\***" if p["significant"] else "")
+                            + ")"
+                        )
                     cells.append(cell)
                 lines.append(f"| {v} | {metric} | " + " | ".join(cells) + " |")
         lines.append("")
@@ -401,11 +510,13 @@ def write_sweeps(config, store, out: Path) -> tuple[list[dict], list[str]]:
         if report is None:
             continue
         for entry in report["cases"]:
-            plot_threshold(out / "plots" / f"threshold-{sweep.label}-{entry['case']}.png", config, report, entry,
-                           sweeps[i])
+            plot_threshold(
+                out / "plots" / f"threshold-{sweep.label}-{entry['case']}.png", config, report, entry, sweeps[i]
+            )
         lines += threshold_markdown(config, report)
         sweeps[i]["threshold"] = {k: v for k, v in report.items() if k != "cases"} | {
-            "cases": [{k: v for k, v in c.items() if k != "_samples"} for c in report["cases"]]}
+            "cases": [{k: v for k, v in c.items() if k != "_samples"} for c in report["cases"]]
+        }
         write_json(out / "sweeps" / f"{sweep.label}-threshold.json", sweeps[i]["threshold"])
     return sweeps, lines
 
@@ -419,12 +530,15 @@ def check_thresholds(sweeps: list[Sweep], metrics: list[str]) -> None:
         for field in ("metric", "time_metric"):
             value = getattr(t, field)
             if value is not None and value not in metrics:
-                raise ConfigError(f"sweeps[{i}].threshold.{field}", f"unknown metric {value!r}; allowed: "
-                                  f"{', '.join(metrics)}")
+                raise ConfigError(
+                    f"sweeps[{i}].threshold.{field}", f"unknown metric {value!r}; allowed: {', '.join(metrics)}"
+                )
         for j, value in enumerate(t.plot_metrics):
             if value not in metrics:
-                raise ConfigError(f"sweeps[{i}].threshold.plot_metrics[{j}]", f"unknown metric {value!r}; "
-                                  f"allowed: {', '.join(metrics)}")
+                raise ConfigError(
+                    f"sweeps[{i}].threshold.plot_metrics[{j}]",
+                    f"unknown metric {value!r}; allowed: {', '.join(metrics)}",
+                )
 
 
 def check_unique_labels(sweeps: list[Sweep]) -> None:
@@ -432,4 +546,3 @@ def check_unique_labels(sweeps: list[Sweep]) -> None:
     dup = sorted({n for n in labels if labels.count(n) > 1})
     if dup:
         raise ConfigError("sweeps", f"sweep names must be unique, repeated: {', '.join(dup)} (set name = ...)")
-

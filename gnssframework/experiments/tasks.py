@@ -34,8 +34,12 @@ class Task:
 
 def plan(config: Any, point: str | None = None) -> list[Task]:
     """Every (case, candidate, batch) of a ``ComparisonConfig``, batch-major for early partial results."""
-    return [Task(i, j, first, n, point) for first, n in plan_batches(config.runs, config.batch_size)
-            for i in range(len(config.cases)) for j in range(len(config.candidates))]
+    return [
+        Task(i, j, first, n, point)
+        for first, n in plan_batches(config.runs, config.batch_size)
+        for i in range(len(config.cases))
+        for j in range(len(config.candidates))
+    ]
 
 
 def series_file(out: Path, case: str, candidate: str, first_run: int, runs: int) -> Path:

@@ -44,8 +44,17 @@ from pydantic import BaseModel, ConfigDict, Field
 from .stats import finite_or_none
 from .survival import exponential_mean_mle, kaplan_meier
 
-__all__ = ["Threshold", "crossing", "bootstrap_thresholds", "threshold_rows", "plot_threshold", "threshold_markdown",
-           "wilson", "difference_interval", "THRESHOLD_SEED_TAG"]
+__all__ = [
+    "Threshold",
+    "crossing",
+    "bootstrap_thresholds",
+    "threshold_rows",
+    "plot_threshold",
+    "threshold_markdown",
+    "wilson",
+    "difference_interval",
+    "THRESHOLD_SEED_TAG",
+]
 
 #: Tag mixed into the bootstrap's seed (with the comparison's seed and the sweep's name).
 THRESHOLD_SEED_TAG = 0x7E5
@@ -58,10 +67,15 @@ class Threshold(BaseModel):
     metric: str = Field(..., description="per-run 0/1 outcome whose mean is the probability (loss_of_lock)")
     level: float = Field(0.5, gt=0, lt=1, description="the probability level the threshold crosses")
     bootstrap: int = Field(2000, ge=100, le=100000, description="bootstrap resamples over runs")
-    time_metric: str | None = Field(None, description="optional per-run time to the event (censored at the span): "
-                                    "adds the Kaplan-Meier restricted mean per point")
-    plot_metrics: list[str] = Field(default_factory=list, description="further metrics plotted against the "
-                                    "swept value under the probability (e.g. the slip rates)")
+    time_metric: str | None = Field(
+        None,
+        description="optional per-run time to the event (censored at the span): "
+        "adds the Kaplan-Meier restricted mean per point",
+    )
+    plot_metrics: list[str] = Field(
+        default_factory=list,
+        description="further metrics plotted against the swept value under the probability (e.g. the slip rates)",
+    )
 
 
 def crossing(x: np.ndarray, p: np.ndarray, level: float) -> np.ndarray:
@@ -90,8 +104,9 @@ def _interval(samples: np.ndarray) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def bootstrap_thresholds(x: np.ndarray, outcomes: dict[str, np.ndarray], level: float, resamples: int,
-                         rng: np.random.Generator) -> dict[str, Any]:
+def bootstrap_thresholds(
+    x: np.ndarray, outcomes: dict[str, np.ndarray], level: float, resamples: int, rng: np.random.Generator
+) -> dict[str, Any]:
     """Thresholds of each candidate and their paired differences.
 
     Parameters
@@ -154,17 +169,26 @@ def threshold_rows(config, store, index: int) -> dict[str, Any] | None:
     order = np.argsort(x)
     ref = config.reference_name
     cases = [c.name for c in config.cases if not sweep.cases or c.name in sweep.cases]
-    result = {"sweep": sweep.label, "metric": spec.metric, "level": spec.level, "bootstrap": spec.bootstrap,
-              "interval": "paired bootstrap over runs, 95 % percentile", "values": [float(v) for v in x[order]],
-              "cases": []}
+    result = {
+        "sweep": sweep.label,
+        "metric": spec.metric,
+        "level": spec.level,
+        "bootstrap": spec.bootstrap,
+        "interval": "paired bootstrap over runs, 95 % percentile",
+        "values": [float(v) for v in x[order]],
+        "cases": [],
+    }
     for case in cases:
         raw, raw_times = {}, {}
         for cand in config.candidates:
-            raw[cand.name] = [store.run_values(pairs[j][1].identity(), case, cand.name, spec.metric, pairs[j][1].runs)
-                              for j in order]
+            raw[cand.name] = [
+                store.run_values(pairs[j][1].identity(), case, cand.name, spec.metric, pairs[j][1].runs) for j in order
+            ]
             if spec.time_metric is not None:
-                raw_times[cand.name] = [store.run_values(pairs[j][1].identity(), case, cand.name, spec.time_metric,
-                                                         pairs[j][1].runs) for j in order]
+                raw_times[cand.name] = [
+                    store.run_values(pairs[j][1].identity(), case, cand.name, spec.time_metric, pairs[j][1].runs)
+                    for j in order
+                ]
         # the runs every candidate has at every point: run r is paired everywhere
         common = sorted(set.intersection(*(set(v) for vals in raw.values() for v in vals)))
         outcomes = {k: np.array([[v[r] for r in common] for v in vals], float) for k, vals in raw.items()}
@@ -174,22 +198,35 @@ def threshold_rows(config, store, index: int) -> dict[str, Any] | None:
         rows = []
         for name, (est, lo, hi) in boot["threshold"].items():
             p = outcomes[name].mean(axis=1)
-            curve = [{"value": float(xv), "p": float(pv), "ci95": list(wilson(pv, runs))}
-                     for xv, pv in zip(x[order], p)]
+            curve = [
+                {"value": float(xv), "p": float(pv), "ci95": list(wilson(pv, runs))} for xv, pv in zip(x[order], p)
+            ]
             if name in times:
                 for c, t, o in zip(curve, times[name], outcomes[name]):
                     km = kaplan_meier(t, o > 0.5)
                     horizon = float(np.max(t))
-                    c.update(km_restricted_mean=km.restricted_mean(horizon), horizon=horizon,
-                             exponential_mean_mle=finite_or_none(exponential_mean_mle(t, o > 0.5)))
-            row = {"candidate": name, "threshold": finite_or_none(est), "where": _where(est),
-                   "ci95": [_bound(lo), _bound(hi)], "n": runs, "curve": curve}
+                    c.update(
+                        km_restricted_mean=km.restricted_mean(horizon),
+                        horizon=horizon,
+                        exponential_mean_mle=finite_or_none(exponential_mean_mle(t, o > 0.5)),
+                    )
+            row = {
+                "candidate": name,
+                "threshold": finite_or_none(est),
+                "where": _where(est),
+                "ci95": [_bound(lo), _bound(hi)],
+                "n": runs,
+                "curve": curve,
+            }
             if name != ref:
                 d = _differences(boot["samples"][name], boot["samples"][ref])
                 dest = est - boot["threshold"][ref][0]
-                row["difference"] = {"reference": ref, "estimate": finite_or_none(dest),
-                                     "ci95": [_bound(v) for v in _interval(d)] if d.size else [None, None],
-                                     "resamples": int(d.size)}
+                row["difference"] = {
+                    "reference": ref,
+                    "estimate": finite_or_none(dest),
+                    "ci95": [_bound(v) for v in _interval(d)] if d.size else [None, None],
+                    "resamples": int(d.size),
+                }
             rows.append(row)
         result["cases"].append({"case": case, "runs": runs, "rows": rows, "_samples": boot["samples"]})
     return result
@@ -247,9 +284,10 @@ def plot_threshold(path, config, report: dict, entry: dict, sweep: dict) -> None
         lo = np.array([c["ci95"][0] for c in row["curve"]])
         hi = np.array([c["ci95"][1] for c in row["curve"]])
         t = row["threshold"]
-        label = row["candidate"] + (f" ({t:.1f} [{_fmt(row['ci95'][0])}, {_fmt(row['ci95'][1])}])" if t is not None
-                                    else f" ({row['where']})")
-        line, = ax.plot(xs, p, marker="o", ms=3, lw=1.0, label=label)
+        label = row["candidate"] + (
+            f" ({t:.1f} [{_fmt(row['ci95'][0])}, {_fmt(row['ci95'][1])}])" if t is not None else f" ({row['where']})"
+        )
+        (line,) = ax.plot(xs, p, marker="o", ms=3, lw=1.0, label=label)
         ax.fill_between(xs, lo, hi, color=line.get_color(), alpha=0.15, lw=0)
         if t is not None:
             ax.axvline(t, color=line.get_color(), lw=0.8, ls="--")
@@ -261,17 +299,23 @@ def plot_threshold(path, config, report: dict, entry: dict, sweep: dict) -> None
     ax.set_ylim(-0.02, 1.02)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=6)
-    ax.set_title(f"{config.name} - {entry['case']}: {entry['runs']} paired runs, Wilson 95 % bands;\n"
-                 f"threshold at p = {report['level']:g} (dashed), paired-bootstrap 95 % interval (shaded)", fontsize=7)
+    ax.set_title(
+        f"{config.name} - {entry['case']}: {entry['runs']} paired runs, Wilson 95 % bands;\n"
+        f"threshold at p = {report['level']:g} (dashed), paired-bootstrap 95 % interval (shaded)",
+        fontsize=7,
+    )
     for ax, metric in zip(axes[1:, 0], extra):
         for cand in config.candidates:
-            rows = {r["value"]: r for r in sweep["rows"]
-                    if r["case"] == entry["case"] and r["candidate"] == cand.name and r["metric"] == metric}
+            rows = {
+                r["value"]: r
+                for r in sweep["rows"]
+                if r["case"] == entry["case"] and r["candidate"] == cand.name and r["metric"] == metric
+            }
             values = sorted(rows, key=float)
             xs = np.array(values, float)
             m = np.array([np.nan if rows[v]["mean"] is None else rows[v]["mean"] for v in values], float)
             se = np.array([0.0 if rows[v]["se"] is None else rows[v]["se"] for v in values], float)
-            line, = ax.plot(xs, m, marker="o", ms=3, lw=1.0, label=cand.name)
+            (line,) = ax.plot(xs, m, marker="o", ms=3, lw=1.0, label=cand.name)
             ax.fill_between(xs, m - 1.96 * se, m + 1.96 * se, color=line.get_color(), alpha=0.15, lw=0)
         ax.set_ylabel(f"{metric}\n({config.metric_units[metric]})", fontsize=7)
         ax.set_yscale("symlog", linthresh=0.1)  # slip rates span 0 to hundreds per second
@@ -290,28 +334,46 @@ def _fmt(v: float | str | None) -> str:
 def threshold_markdown(config, report: dict) -> list[str]:
     """The report's threshold section: per case, each candidate's threshold, its interval
     and its paired difference to the reference; the curve's points with the survival."""
-    lines = [f"## Thresholds along sweep `{report['sweep']}`", "",
-             f"Where P({report['metric']}) falls through {report['level']:g} (linear interpolation, read from the top "
-             f"of the grid); intervals: {report['interval']} ({report['bootstrap']} resamples, seeded from the "
-             f"comparison's seed). Table: `sweeps/{report['sweep']}-threshold.json`.", ""]
+    lines = [
+        f"## Thresholds along sweep `{report['sweep']}`",
+        "",
+        f"Where P({report['metric']}) falls through {report['level']:g} (linear interpolation, read from the top "
+        f"of the grid); intervals: {report['interval']} ({report['bootstrap']} resamples, seeded from the "
+        f"comparison's seed). Table: `sweeps/{report['sweep']}-threshold.json`.",
+        "",
+    ]
     for entry in report["cases"]:
-        lines += [f"### {entry['case']}", "",
-                  f"![threshold](plots/threshold-{report['sweep']}-{entry['case']}.png)", "",
-                  "| candidate | threshold | 95 % interval | difference to reference | 95 % interval |",
-                  "| --- | --- | --- | --- | --- |"]
+        lines += [
+            f"### {entry['case']}",
+            "",
+            f"![threshold](plots/threshold-{report['sweep']}-{entry['case']}.png)",
+            "",
+            "| candidate | threshold | 95 % interval | difference to reference | 95 % interval |",
+            "| --- | --- | --- | --- | --- |",
+        ]
         for row in entry["rows"]:
             d = row.get("difference")
-            diff = (f"{_fmt(d['estimate'])} (vs {d['reference']})", f"[{_fmt(d['ci95'][0])}, {_fmt(d['ci95'][1])}]") \
-                if d else ("", "")
+            diff = (
+                (f"{_fmt(d['estimate'])} (vs {d['reference']})", f"[{_fmt(d['ci95'][0])}, {_fmt(d['ci95'][1])}]")
+                if d
+                else ("", "")
+            )
             thr = _fmt(row["threshold"]) if row["threshold"] is not None else row["where"]
-            lines.append(f"| {row['candidate']} | {thr} | [{_fmt(row['ci95'][0])}, {_fmt(row['ci95'][1])}] | "
-                         f"{diff[0]} | {diff[1]} |")
+            lines.append(
+                f"| {row['candidate']} | {thr} | [{_fmt(row['ci95'][0])}, {_fmt(row['ci95'][1])}] | "
+                f"{diff[0]} | {diff[1]} |"
+            )
         lines.append("")
         survival = any("km_restricted_mean" in c for r in entry["rows"] for c in r["curve"])
         head = "| candidate | " + " | ".join(f"{v:g}" for v in report["values"]) + " |"
-        lines += [f"P({report['metric']}) [Wilson 95 %]" + (" / Kaplan-Meier restricted mean time to it (s)"
-                                                            if survival else "") + ":", "", head,
-                  "| --- |" + " --- |" * len(report["values"])]
+        lines += [
+            f"P({report['metric']}) [Wilson 95 %]"
+            + (" / Kaplan-Meier restricted mean time to it (s)" if survival else "")
+            + ":",
+            "",
+            head,
+            "| --- |" + " --- |" * len(report["values"]),
+        ]
         for row in entry["rows"]:
             cells = []
             for c in row["curve"]:

@@ -40,9 +40,12 @@ def write_trial_record(path: str | Path, config: Any, tuning: dict[str, dict]) -
     back as ``inf``.
     """
     head = dumps_strict({"config": config.name, "identity": config.identity()})[:-1]
-    blocks = [f' {dumps_strict(cand)}: [\n' + ",\n".join(
-        "  " + dumps_strict({"values": t["values"], "objective": t["objective"]}) for t in res["trials"]) + "\n ]"
-        for cand, res in tuning.items()]
+    blocks = [
+        f" {dumps_strict(cand)}: [\n"
+        + ",\n".join("  " + dumps_strict({"values": t["values"], "objective": t["objective"]}) for t in res["trials"])
+        + "\n ]"
+        for cand, res in tuning.items()
+    ]
     atomic_write_text(path, head + ', "trials": {\n' + ",\n".join(blocks) + "\n}}\n")  # a trial per line
 
 
@@ -64,9 +67,12 @@ def seed_trials(path: str | Path, config: Any, store: Any) -> int:
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise ConfigError("trials_from", f"{path}: not a trial record ({exc})") from None
     if identity != config.identity():
-        raise ConfigError("trials_from", f"{path}: recorded for config {record.get('config')!r} with another "
-                                           f"identity than {config.name!r} (its scenario, cases, candidates, seed or "
-                                           "tuning changed since): rerun the tuning")
+        raise ConfigError(
+            "trials_from",
+            f"{path}: recorded for config {record.get('config')!r} with another "
+            f"identity than {config.name!r} (its scenario, cases, candidates, seed or "
+            "tuning changed since): rerun the tuning",
+        )
     free = resolve_free(config)
     key = config.identity()
     added = 0
@@ -77,8 +83,10 @@ def seed_trials(path: str | Path, config: Any, store: Any) -> int:
         for index, row in enumerate(rows):
             values, objective = row["values"], row["objective"]
             if len(values) != width:
-                raise ConfigError("trials_from", f"{path}: candidate {cand!r}, trial {index}: {len(values)} values "
-                                                   f"for {width} free parameters")
+                raise ConfigError(
+                    "trials_from",
+                    f"{path}: candidate {cand!r}, trial {index}: {len(values)} values for {width} free parameters",
+                )
             store.add_trial(key, cand, index, json.dumps(values), math.inf if objective is None else float(objective))
             added += 1
     return added

@@ -69,28 +69,30 @@ from .tasks import plan
 __all__ = ["Tuning", "FreeParameter", "TUNING_PURPOSE", "tuned_config", "tuning_points"]
 
 
-
 class FreeParameter(BaseModel):
     """A parameter the tuner may set: a candidate path (``*`` for every candidate that
     has the parameter) and a range (``low``, ``high``, ``scale``, ``type``) or ``values``."""
 
     model_config = ConfigDict(extra="forbid")
-    path: str = Field(..., description="candidates.<candidate or *>.<kind>.params.<field> (nested plugins: "
-                      "...params.estimator.params.alpha)")
+    path: str = Field(
+        ...,
+        description="candidates.<candidate or *>.<kind>.params.<field> (nested plugins: "
+        "...params.estimator.params.alpha)",
+    )
     low: float | None = Field(None, description="lower end of the range")
     high: float | None = Field(None, description="upper end of the range")
     scale: Literal["linear", "log"] = Field("linear", description="sample the range linearly or in log")
     type: Literal["float", "int"] = Field("float", description="a float or an integer parameter")
-    values: list[Any] | None = Field(None, min_length=2, description="a choice among these values, instead of "
-                                     "a range")
+    values: list[Any] | None = Field(None, min_length=2, description="a choice among these values, instead of a range")
 
     @model_validator(mode="after")
     def _one_form(self) -> FreeParameter:
         for end in ("low", "high"):
             value = getattr(self, end)
             if value is not None and not math.isfinite(value):
-                raise ValueError(f"{end} must be a finite number, got {value!r} (a sampler cannot draw from an "
-                                 "unbounded range)")
+                raise ValueError(
+                    f"{end} must be a finite number, got {value!r} (a sampler cannot draw from an unbounded range)"
+                )
         if self.values is not None:
             bad = [v for v in self.values if isinstance(v, float) and not math.isfinite(v)]
             if bad:
@@ -126,19 +128,25 @@ class Tuning(BaseModel):
     trials: int = Field(..., ge=1, le=2000, description="trials per tuned candidate (the same budget for all)")
     runs: int = Field(4, ge=1, le=10000, description="Monte Carlo runs per trial, on the tuning streams")
     sampler: Literal["tpe", "random", "grid"] = Field(
-        "tpe", description="tpe (Optuna's TPE), random (Optuna's random sampler) or grid (the same number of "
-        "points per free parameter, at most `trials` in all)")
+        "tpe",
+        description="tpe (Optuna's TPE), random (Optuna's random sampler) or grid (the same number of "
+        "points per free parameter, at most `trials` in all)",
+    )
     metric: str = Field(..., description="the objective's metric (minimised)")
     cases: list[str] | None = Field(None, min_length=1, description="cases of the objective (default: every case)")
     combine: Literal["geometric-mean", "mean", "max"] = Field(
-        "geometric-mean", description="how the cases' mean metrics make one objective")
+        "geometric-mean", description="how the cases' mean metrics make one objective"
+    )
     candidate_cases: dict[str, list[str]] = Field(
-        default_factory=dict, description="per tuned candidate, the cases of its own objective instead of `cases` "
-        "(a loop tuned for one regime); sampler, budget, runs, metric and combine stay the same for all")
+        default_factory=dict,
+        description="per tuned candidate, the cases of its own objective instead of `cases` "
+        "(a loop tuned for one regime); sampler, budget, runs, metric and combine stay the same for all",
+    )
     free: list[FreeParameter] = Field(..., min_length=1, description="the free parameters")
 
 
 # -- resolving the free parameters ---------------------------------------------------------------
+
 
 class _Path:
     def __init__(self, path: str) -> None:
@@ -156,8 +164,10 @@ def resolve_free(config) -> dict[str, list[tuple[FreeParameter, tuple[Any, ...],
         where = f"tuning.free[{i}]"
         parts = free.path.split(".")
         if len(parts) < 2 or parts[0] != "candidates":
-            raise ConfigError(f"{where}.path", f"{free.path!r}: a free parameter is a candidate's: "
-                              "candidates.<candidate or *>.<kind>.params.<field>")
+            raise ConfigError(
+                f"{where}.path",
+                f"{free.path!r}: a free parameter is a candidate's: candidates.<candidate or *>.<kind>.params.<field>",
+            )
         targets = names if parts[1] == "*" else [parts[1]]
         found = 0
         for cand in targets:
@@ -189,9 +199,11 @@ def _with_values(data: dict, index: int, params: list[tuple[FreeParameter, tuple
             current = _lookup(data["candidates"][index], keys[:-1])
             element = int(keys[-1])
             if not isinstance(current, list) or element >= len(current):
-                raise ConfigError("tuning.free", f"{free.path!r}: {label.rsplit('.', 1)[0]!r} has no element "
-                                  f"{element} (it is {current!r})")
-            value, keys = current[:element] + [value] + current[element + 1:], keys[:-1]
+                raise ConfigError(
+                    "tuning.free",
+                    f"{free.path!r}: {label.rsplit('.', 1)[0]!r} has no element {element} (it is {current!r})",
+                )
+            value, keys = current[:element] + [value] + current[element + 1 :], keys[:-1]
         _set(data, keys, value, free.path, "tuning.free")
     return data
 
@@ -218,8 +230,13 @@ def _lookup(cand_data: dict, keys: tuple) -> Any:
         if info is None or info.is_required():
             return None
         default = info.get_default(call_default_factory=True)
-        return default[int(keys[5])] if len(keys) > 5 and isinstance(default, list) and str(keys[5]).isdigit() \
-            else list(default) if isinstance(default, (list, tuple)) and len(keys) == 5 else default
+        return (
+            default[int(keys[5])]
+            if len(keys) > 5 and isinstance(default, list) and str(keys[5]).isdigit()
+            else list(default)
+            if isinstance(default, (list, tuple)) and len(keys) == 5
+            else default
+        )
     return list(node) if isinstance(node, tuple) else node
 
 
@@ -231,8 +248,14 @@ def trial_config(config, candidate: str, values: list[Any]):
     base = config.model_dump(mode="json", exclude={"sweeps", "claims", "tuning", "published"}, exclude_none=True)
     index = [c["name"] for c in base["candidates"]].index(candidate)
     data = _with_values(base, index, params, values)
-    data.update(candidates=[data["candidates"][index]], runs=tuning.runs, reference=None,
-                random_stream="tuning", metrics=[tuning.metric], name=f"{config.name}-tune-{candidate}")
+    data.update(
+        candidates=[data["candidates"][index]],
+        runs=tuning.runs,
+        reference=None,
+        random_stream="tuning",
+        metrics=[tuning.metric],
+        name=f"{config.name}-tune-{candidate}",
+    )
     cases = objective_cases(tuning, candidate)
     if cases:
         data["cases"] = [c for c in data["cases"] if c["name"] in cases]
@@ -254,8 +277,9 @@ def check_tuning(config) -> None:
 
     tuning = config.tuning
     if tuning.metric not in config.metric_names:
-        raise ConfigError("tuning.metric", f"unknown metric {tuning.metric!r}; allowed: "
-                          f"{', '.join(config.metric_names)}")
+        raise ConfigError(
+            "tuning.metric", f"unknown metric {tuning.metric!r}; allowed: {', '.join(config.metric_names)}"
+        )
     cases = [c.name for c in config.cases]
     for j, case in enumerate(tuning.cases or []):
         if case not in cases:
@@ -263,14 +287,17 @@ def check_tuning(config) -> None:
     resolved = resolve_free(config)
     for cand, own in tuning.candidate_cases.items():
         if cand not in resolved:
-            raise ConfigError(f"tuning.candidate_cases.{cand}", f"{cand!r} is not a tuned candidate (no free "
-                              f"parameter of it); tuned: {', '.join(resolved) or 'none'}")
+            raise ConfigError(
+                f"tuning.candidate_cases.{cand}",
+                f"{cand!r} is not a tuned candidate (no free parameter of it); tuned: {', '.join(resolved) or 'none'}",
+            )
         if not own:
             raise ConfigError(f"tuning.candidate_cases.{cand}", "give at least one case")
         for j, case in enumerate(own):
             if case not in cases:
-                raise ConfigError(f"tuning.candidate_cases.{cand}[{j}]", f"unknown case {case!r}; allowed: "
-                                  f"{', '.join(cases)}")
+                raise ConfigError(
+                    f"tuning.candidate_cases.{cand}[{j}]", f"unknown case {case!r}; allowed: {', '.join(cases)}"
+                )
     for cand, params in resolved.items():
         for end in (0, -1):
             values = [p.grid(2)[end] for p, _, _ in params]
@@ -278,13 +305,17 @@ def check_tuning(config) -> None:
                 trial_config(config, cand, values)
             except (ConfigError, ValidationError) as exc:
                 text = str(exc) if isinstance(exc, ConfigError) else str(validation_message(exc))
-                raise ConfigError("tuning.free", f"candidate {cand!r} at {dict(zip([lb for _, _, lb in params], values))}:"
-                                  f" {text}") from None
+                raise ConfigError(
+                    "tuning.free", f"candidate {cand!r} at {dict(zip([lb for _, _, lb in params], values))}: {text}"
+                ) from None
         if tuning.sampler == "grid":
             points = len(grid_points(params, tuning.trials))
             if points > tuning.trials:
-                raise ConfigError("tuning.trials", f"the grid of candidate {cand!r} has {points} points (its choices "
-                                  f"alone), more than the budget of {tuning.trials} trials")
+                raise ConfigError(
+                    "tuning.trials",
+                    f"the grid of candidate {cand!r} has {points} points (its choices "
+                    f"alone), more than the budget of {tuning.trials} trials",
+                )
 
 
 def grid_points(params: list[tuple[FreeParameter, tuple, str]], trials: int) -> list[list[Any]]:
@@ -298,6 +329,7 @@ def grid_points(params: list[tuple[FreeParameter, tuple, str]], trials: int) -> 
 
 
 # -- the tuning loop ---------------------------------------------------------------------------------
+
 
 def _objective(config, store, trial) -> float:
     """The combined objective of a finished trial (``inf`` where undefined)."""
@@ -325,14 +357,17 @@ def _run_trial(config, store, trial, execute) -> float:
     store.register(key, trial.batch_size)
     done = store.finished_batches(key)
     resolved = resolve(trial)
-    jobs = [(resolved, t) for t in plan(trial, f"tuning trial of {trial.candidates[0].name}")
-            if (trial.cases[t.case_index].name, trial.candidates[t.candidate_index].name, t.first_run, t.runs)
-            not in done]
+    jobs = [
+        (resolved, t)
+        for t in plan(trial, f"tuning trial of {trial.candidates[0].name}")
+        if (trial.cases[t.case_index].name, trial.candidates[t.candidate_index].name, t.first_run, t.runs) not in done
+    ]
     try:
         with closing(execute(jobs)) as results:  # closed at once on Ctrl-C: workers stop
             for _i, (task, metrics, _series, _time) in results:
-                store.add_batch(key, trial.cases[task.case_index].name, trial.candidates[0].name, task.first_run,
-                                metrics)
+                store.add_batch(
+                    key, trial.cases[task.case_index].name, trial.candidates[0].name, task.first_run, metrics
+                )
     except RunFailure:
         return math.inf
     return _objective(config, store, trial)
@@ -342,8 +377,9 @@ def _sampler(kind: str, seed: int, trials: int):
     try:
         import optuna
     except ImportError:
-        raise ConfigError("tuning.sampler", f"{kind!r} needs Optuna: pip install 'gnssframework[tune]' (or use "
-                          "sampler = \"grid\")") from None
+        raise ConfigError(
+            "tuning.sampler", f"{kind!r} needs Optuna: pip install 'gnssframework[tune]' (or use sampler = \"grid\")"
+        ) from None
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     if kind == "tpe":
         # TPE's random start-up: a third of the budget, 2 to 10 trials.
@@ -377,9 +413,13 @@ def _suggest(config, cand: str, params, history: list[tuple[list[Any], float]], 
     dists = _distributions(params)
     study = optuna.create_study(direction="minimize", sampler=_sampler(tuning.sampler, seed, tuning.trials))
     for values, objective in history:
-        study.add_trial(optuna.trial.create_trial(
-            params=dict(zip(dists, values)), distributions=dists,
-            value=objective if math.isfinite(objective) else 1e300))
+        study.add_trial(
+            optuna.trial.create_trial(
+                params=dict(zip(dists, values)),
+                distributions=dists,
+                value=objective if math.isfinite(objective) else 1e300,
+            )
+        )
     trial = study.ask(dists)
     return [trial.params[label] for label in dists]
 
@@ -403,19 +443,30 @@ def tune(config, store, out: Path, execute, progress: bool = False) -> dict[str,
                 print(f"tuning {cand}: trial {index + 1}/{budget} {dict(zip(labels, values))} -> {objective:.4g}")
         finite = [(v, o) for v, o in history if math.isfinite(o)]
         if not finite:
-            raise GnssFrameworkError(f"tuning: every trial of candidate {cand!r} failed (objective undefined); "
-                                     "narrow the ranges in tuning.free")
+            raise GnssFrameworkError(
+                f"tuning: every trial of candidate {cand!r} failed (objective undefined); "
+                "narrow the ranges in tuning.free"
+            )
         failed = len(history) - len(finite)
         if 2 * failed > len(history):  # the "best" of a few survivors is not a tuning
-            raise GnssFrameworkError(f"tuning: {failed} of {len(history)} trials of candidate {cand!r} failed "
-                                     "(objective undefined): the tuned value would be the best of the few that ran; "
-                                     "narrow the ranges in tuning.free")
+            raise GnssFrameworkError(
+                f"tuning: {failed} of {len(history)} trials of candidate {cand!r} failed "
+                "(objective undefined): the tuned value would be the best of the few that ran; "
+                "narrow the ranges in tuning.free"
+            )
         best_values, best = min(finite, key=lambda t: t[1])
         given = [_get(config, cand, keys) for _, keys, _ in params]
-        results[cand] = {"labels": labels, "trials": [{"values": v, "objective": o} for v, o in history],
-                         "best": dict(zip(labels, best_values)), "best_objective": best,
-                         "given": dict(zip(labels, given)), "budget": budget, "metric": tuning.metric,
-                         "combine": tuning.combine, "own_cases": tuning.candidate_cases.get(cand)}
+        results[cand] = {
+            "labels": labels,
+            "trials": [{"values": v, "objective": o} for v, o in history],
+            "best": dict(zip(labels, best_values)),
+            "best_objective": best,
+            "given": dict(zip(labels, given)),
+            "budget": budget,
+            "metric": tuning.metric,
+            "combine": tuning.combine,
+            "own_cases": tuning.candidate_cases.get(cand),
+        }
     return results
 
 
@@ -439,7 +490,15 @@ def tuned_config(config, results: dict[str, dict]):
 
 def tuning_points(results: dict[str, dict]) -> list[dict]:
     """Strict-JSON summary entries (candidate, given and tuned values, objective, budget)."""
-    return [{"candidate": c, "given": r["given"], "tuned": r["best"], "objective": r["best_objective"],
-             "trials": len(r["trials"]), "budget": r["budget"],
-             "failed_trials": sum(not math.isfinite(t["objective"]) for t in r["trials"])}
-            for c, r in results.items()]
+    return [
+        {
+            "candidate": c,
+            "given": r["given"],
+            "tuned": r["best"],
+            "objective": r["best_objective"],
+            "trials": len(r["trials"]),
+            "budget": r["budget"],
+            "failed_trials": sum(not math.isfinite(t["objective"]) for t in r["trials"]),
+        }
+        for c, r in results.items()
+    ]

@@ -21,8 +21,9 @@ __all__ = ["HAVE_NUMBA", "integrate_kernel"]
 ROTATION_MODES = {"none": 0, "first-order": 1, "exact": 2}
 
 
-def _integrate(q0, v0, r0, dth, dv, pth, pdv, has_prev, dt, coning, sculling, rot_mode,
-               omega, gm, j2, a_m, qs, vs, rs):  # pragma: no cover - compiled
+def _integrate(
+    q0, v0, r0, dth, dv, pth, pdv, has_prev, dt, coning, sculling, rot_mode, omega, gm, j2, a_m, qs, vs, rs
+):  # pragma: no cover - compiled
     n_t = dth.shape[0]
     n_b = q0.shape[0]
     cz, sz = math.cos(-0.5 * omega * dt), math.sin(-0.5 * omega * dt)
@@ -141,7 +142,25 @@ def integrate_kernel(q0, v0, r0, dth, dv, pth, pdv, has_prev, dt, coning, sculli
     qs = np.empty((n_t + 1, n_b, 4))
     vs = np.empty((n_t + 1, n_b, 3))
     rs = np.empty((n_t + 1, n_b, 3))
-    _integrate(q0, v0, r0, dth, dv, pth, pdv, bool(has_prev), float(dt), bool(coning), bool(sculling),
-               ROTATION_MODES[rotation_term], float(earth.rate_rad_s), float(earth.gm_m3_s2), float(earth.j2),
-               float(earth.semi_major_axis_m), qs, vs, rs)
+    _integrate(
+        q0,
+        v0,
+        r0,
+        dth,
+        dv,
+        pth,
+        pdv,
+        bool(has_prev),
+        float(dt),
+        bool(coning),
+        bool(sculling),
+        ROTATION_MODES[rotation_term],
+        float(earth.rate_rad_s),
+        float(earth.gm_m3_s2),
+        float(earth.j2),
+        float(earth.semi_major_axis_m),
+        qs,
+        vs,
+        rs,
+    )
     return qs, vs, rs

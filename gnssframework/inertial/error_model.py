@@ -65,10 +65,16 @@ __all__ = [
     "compensate_increments",
 ]
 
-ATTITUDE, VELOCITY, POSITION, GYRO_BIAS, ACCEL_BIAS = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15))
-ERROR_STATE_LABELS = tuple(
-    f"{name}_{axis}" for name in ("dpsi", "dv", "dr") for axis in "xyz"
-) + tuple(f"{name}_{axis}" for name in ("bg", "ba") for axis in "xyz")
+ATTITUDE, VELOCITY, POSITION, GYRO_BIAS, ACCEL_BIAS = (
+    slice(0, 3),
+    slice(3, 6),
+    slice(6, 9),
+    slice(9, 12),
+    slice(12, 15),
+)
+ERROR_STATE_LABELS = tuple(f"{name}_{axis}" for name in ("dpsi", "dv", "dr") for axis in "xyz") + tuple(
+    f"{name}_{axis}" for name in ("bg", "ba") for axis in "xyz"
+)
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -121,7 +127,9 @@ def error_state_matrices(
     F[..., ATTITUDE, GYRO_BIAS] = c
     F[..., VELOCITY, ATTITUDE] = -_skew(np.broadcast_to(f_e, batch + (3,)))
     F[..., VELOCITY, VELOCITY] = -2.0 * om
-    F[..., VELOCITY, POSITION] = earth.gravity_gradient(np.broadcast_to(state.position_ecef_m, batch + (3,)), gravity_gradient)
+    F[..., VELOCITY, POSITION] = earth.gravity_gradient(
+        np.broadcast_to(state.position_ecef_m, batch + (3,)), gravity_gradient
+    )
     F[..., VELOCITY, ACCEL_BIAS] = c
     F[..., POSITION, VELOCITY] = np.eye(3)
     Qc = np.zeros(batch + (15, 15))
@@ -182,8 +190,9 @@ def error_state_transition(
     """
     if not dt_s > 0:
         raise ConfigError("dt_s", f"must be > 0, got {dt_s}")
-    F, Qc = error_state_matrices(state, specific_force_b_mps2, grade, earth=earth, bias_model=bias_model,
-                                 gravity_gradient=gravity_gradient)
+    F, Qc = error_state_matrices(
+        state, specific_force_b_mps2, grade, earth=earth, bias_model=bias_model, gravity_gradient=gravity_gradient
+    )
     if method == "second-order":
         Fd = F * dt_s
         Phi = np.eye(15) + Fd + Fd @ Fd / 2.0
@@ -216,8 +225,9 @@ def apply_navigation_error(truth: NavState, error: np.ndarray) -> NavState:
     """A state whose :func:`navigation_error` w.r.t. ``truth`` is ``error[..., :9]`` (exact inverse)."""
     error = np.asarray(error, dtype=float)
     q = quat_multiply(quat_from_rotvec(error[..., ATTITUDE]), truth.q_b_e)
-    return NavState(quat_normalize(q), truth.velocity_ecef_mps + error[..., VELOCITY],
-                    truth.position_ecef_m + error[..., POSITION])
+    return NavState(
+        quat_normalize(q), truth.velocity_ecef_mps + error[..., VELOCITY], truth.position_ecef_m + error[..., POSITION]
+    )
 
 
 def correct_state(
@@ -242,8 +252,9 @@ def correct_state(
     """
     dx = np.asarray(dx, dtype=float)
     q = quat_multiply(quat_from_rotvec(-dx[..., ATTITUDE]), state.q_b_e)
-    corrected = NavState(quat_normalize(q), state.velocity_ecef_mps - dx[..., VELOCITY],
-                         state.position_ecef_m - dx[..., POSITION])
+    corrected = NavState(
+        quat_normalize(q), state.velocity_ecef_mps - dx[..., VELOCITY], state.position_ecef_m - dx[..., POSITION]
+    )
     return corrected, gyro_bias_rad_s + dx[..., GYRO_BIAS], accel_bias_mps2 + dx[..., ACCEL_BIAS]
 
 

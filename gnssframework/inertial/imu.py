@@ -68,13 +68,16 @@ class ImuGrade(BaseModel):
     accel_vrw_mg_per_sqrt_hz: float = Field(0.01, ge=0.0, description="velocity random walk")
     accel_scale_factor_ppm: float = Field(0.0, ge=0.0, description="random-constant scale-factor error")
     gyro_misalignment_mrad: float = Field(
-        0.0, ge=0.0, le=50.0,
+        0.0,
+        ge=0.0,
+        le=50.0,
         description="random-constant cross-coupling of the gyro triad, 1-sigma of each of the six off-diagonal "
         "elements of its small-angle misalignment matrix M_g in mrad (axis non-orthogonality and mounting "
-        "misalignment; Groves 2nd ed. sec. 4.4.3, eq. 4.18); default 0. 1 mrad = 206 arcsec")
+        "misalignment; Groves 2nd ed. sec. 4.4.3, eq. 4.18); default 0. 1 mrad = 206 arcsec",
+    )
     accel_misalignment_mrad: float = Field(
-        0.0, ge=0.0, le=50.0,
-        description="the same for the accelerometer triad (M_a), in mrad; default 0")
+        0.0, ge=0.0, le=50.0, description="the same for the accelerometer triad (M_a), in mrad; default 0"
+    )
 
     @property
     def gyro_bias_rad_s(self) -> float:
@@ -105,11 +108,19 @@ class ImuGrade(BaseModel):
     @classmethod
     def perfect(cls) -> ImuGrade:
         """An error-free IMU."""
-        return cls(gyro_bias_deg_per_h=0, gyro_markov_sigma_deg_per_h=0, gyro_arw_deg_per_sqrt_h=0,
-                   accel_bias_mg=0, accel_markov_sigma_mg=0, accel_vrw_mg_per_sqrt_hz=0)
+        return cls(
+            gyro_bias_deg_per_h=0,
+            gyro_markov_sigma_deg_per_h=0,
+            gyro_arw_deg_per_sqrt_h=0,
+            accel_bias_mg=0,
+            accel_markov_sigma_mg=0,
+            accel_vrw_mg_per_sqrt_hz=0,
+        )
 
 
-def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float, tau_s: float, dt_s: float) -> np.ndarray:
+def gauss_markov(
+    rng: np.random.Generator, shape: tuple[int, ...], sigma: float, tau_s: float, dt_s: float
+) -> np.ndarray:
     """First-order Gauss-Markov samples, time first ``shape = (T, ...)``, stationary start.
 
     Exact discretisation ``x[k+1] = phi x[k] + sigma sqrt(1 - phi^2) w[k]``,
@@ -187,10 +198,22 @@ def simulate_imu(
         slow = b + m
         return (1.0 + s) * true + slow * dt_s + w, slow, s
 
-    dth, bg, sg = sensor(dtheta_true_rad, grade.gyro_bias_rad_s, grade.gyro_markov_sigma_rad_s,
-                         grade.gyro_markov_tau_s, grade.gyro_arw_rad_per_sqrt_s, grade.gyro_scale_factor_ppm)
-    dv, ba, sa = sensor(dv_true_mps, grade.accel_bias_mps2, grade.accel_markov_sigma_mps2,
-                        grade.accel_markov_tau_s, grade.accel_vrw_mps_per_sqrt_s, grade.accel_scale_factor_ppm)
+    dth, bg, sg = sensor(
+        dtheta_true_rad,
+        grade.gyro_bias_rad_s,
+        grade.gyro_markov_sigma_rad_s,
+        grade.gyro_markov_tau_s,
+        grade.gyro_arw_rad_per_sqrt_s,
+        grade.gyro_scale_factor_ppm,
+    )
+    dv, ba, sa = sensor(
+        dv_true_mps,
+        grade.accel_bias_mps2,
+        grade.accel_markov_sigma_mps2,
+        grade.accel_markov_tau_s,
+        grade.accel_vrw_mps_per_sqrt_s,
+        grade.accel_scale_factor_ppm,
+    )
     # Cross-axis coupling, drawn after every other error so that a grade without it draws
     # the same numbers as before it existed: measured += M true, M with a zero diagonal.
     # With per-run streams from a child stream, so that switching it on shifts no later draw

@@ -35,8 +35,15 @@ from gnssframework.inertial.quaternion import (
     quat_rotate,
 )
 
-__all__ = ["NavState", "MechanisationOptions", "strapdown_step", "strapdown_step_trusted", "integrate", "NavSeries",
-           "kinematic_acceleration_ecef"]
+__all__ = [
+    "NavState",
+    "MechanisationOptions",
+    "strapdown_step",
+    "strapdown_step_trusted",
+    "integrate",
+    "NavSeries",
+    "kinematic_acceleration_ecef",
+]
 
 RotationTerm = Literal["exact", "first-order", "none"]
 
@@ -114,9 +121,12 @@ class MechanisationOptions:
     def __post_init__(self) -> None:
         if self.rotation_term not in ("exact", "first-order", "none"):
             raise ConfigError("rotation_term", f"got {self.rotation_term!r}; allowed: 'exact', 'first-order', 'none'")
-        if self.backend is not None and (self.backend not in ("numba", "numpy")
-                                         or (self.backend == "numba" and not HAVE_NUMBA)):
-            raise ConfigError("backend", f"got {self.backend!r}; allowed: None, 'numpy'" + (", 'numba'" if HAVE_NUMBA else ""))
+        if self.backend is not None and (
+            self.backend not in ("numba", "numpy") or (self.backend == "numba" and not HAVE_NUMBA)
+        ):
+            raise ConfigError(
+                "backend", f"got {self.backend!r}; allowed: None, 'numpy'" + (", 'numba'" if HAVE_NUMBA else "")
+            )
 
     @property
     def use_compiled(self) -> bool:
@@ -246,11 +256,20 @@ def strapdown_step_trusted(
     has_prev = prev_dtheta_rad is not None
     zero = np.zeros_like(state.velocity_ecef_mps) if not has_prev else None
     qs, vs, rs = integrate_kernel(
-        np.ascontiguousarray(state.q_b_e), np.ascontiguousarray(state.velocity_ecef_mps),
-        np.ascontiguousarray(state.position_ecef_m), np.ascontiguousarray(dtheta_rad)[None],
-        np.ascontiguousarray(dv_mps)[None], zero if zero is not None else np.ascontiguousarray(prev_dtheta_rad),
-        zero if zero is not None else np.ascontiguousarray(prev_dv_mps), has_prev, dt_s,
-        options.coning, options.sculling, options.rotation_term, options.earth)
+        np.ascontiguousarray(state.q_b_e),
+        np.ascontiguousarray(state.velocity_ecef_mps),
+        np.ascontiguousarray(state.position_ecef_m),
+        np.ascontiguousarray(dtheta_rad)[None],
+        np.ascontiguousarray(dv_mps)[None],
+        zero if zero is not None else np.ascontiguousarray(prev_dtheta_rad),
+        zero if zero is not None else np.ascontiguousarray(prev_dv_mps),
+        has_prev,
+        dt_s,
+        options.coning,
+        options.sculling,
+        options.rotation_term,
+        options.earth,
+    )
     return NavState(qs[1], vs[1], rs[1])
 
 
@@ -324,8 +343,11 @@ def integrate(
         raise ConfigError("increments", "non-finite angle or velocity increment")
     if not dt_s > 0:
         raise ConfigError("dt_s", f"must be > 0, got {dt_s}")
-    for name, x in (("q_b_e", state0.q_b_e), ("velocity_ecef_mps", state0.velocity_ecef_mps),
-                    ("position_ecef_m", state0.position_ecef_m)):
+    for name, x in (
+        ("q_b_e", state0.q_b_e),
+        ("velocity_ecef_mps", state0.velocity_ecef_mps),
+        ("position_ecef_m", state0.position_ecef_m),
+    ):
         if not np.all(np.isfinite(x)):
             bad = np.argwhere(~np.isfinite(x))[0][:-1]
             raise ConfigError(f"state0.{name}", f"non-finite at batch element {tuple(int(i) for i in bad)}")
@@ -336,18 +358,33 @@ def integrate(
         nb = int(np.prod(batch, dtype=int))
 
         def flat(x, lead=()):
-            return np.ascontiguousarray(np.broadcast_to(x, lead + batch + (x.shape[-1],))).reshape(lead + (nb, x.shape[-1]))
+            return np.ascontiguousarray(np.broadcast_to(x, lead + batch + (x.shape[-1],))).reshape(
+                lead + (nb, x.shape[-1])
+            )
 
         has_prev = prev_dtheta_rad is not None
         pth = np.zeros(3) if prev_dtheta_rad is None else np.asarray(prev_dtheta_rad, dtype=float)
         pdv = np.zeros(3) if prev_dv_mps is None else np.asarray(prev_dv_mps, dtype=float)
         qs, vs, rs = integrate_kernel(
-            flat(state.q_b_e), flat(state.velocity_ecef_mps), flat(state.position_ecef_m),
-            flat(dtheta_rad, (n,)), flat(dv_mps, (n,)), flat(pth), flat(pdv), has_prev, dt_s,
-            options.coning, options.sculling, options.rotation_term, options.earth,
+            flat(state.q_b_e),
+            flat(state.velocity_ecef_mps),
+            flat(state.position_ecef_m),
+            flat(dtheta_rad, (n,)),
+            flat(dv_mps, (n,)),
+            flat(pth),
+            flat(pdv),
+            has_prev,
+            dt_s,
+            options.coning,
+            options.sculling,
+            options.rotation_term,
+            options.earth,
         )
-        return NavSeries(qs.reshape((n + 1,) + batch + (4,)), vs.reshape((n + 1,) + batch + (3,)),
-                         rs.reshape((n + 1,) + batch + (3,)))
+        return NavSeries(
+            qs.reshape((n + 1,) + batch + (4,)),
+            vs.reshape((n + 1,) + batch + (3,)),
+            rs.reshape((n + 1,) + batch + (3,)),
+        )
     qs = np.empty((n + 1,) + batch + (4,))
     vs = np.empty((n + 1,) + batch + (3,))
     rs = np.empty((n + 1,) + batch + (3,))

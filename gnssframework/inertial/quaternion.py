@@ -10,8 +10,16 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cross", "quat_multiply", "quat_conjugate", "quat_rotate", "quat_from_rotvec", "quat_to_rotvec",
-           "quat_to_dcm", "quat_normalize"]
+__all__ = [
+    "cross",
+    "quat_multiply",
+    "quat_conjugate",
+    "quat_rotate",
+    "quat_from_rotvec",
+    "quat_to_rotvec",
+    "quat_to_dcm",
+    "quat_normalize",
+]
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -87,7 +87,9 @@ class TrajectoryProfile(BaseModel):
     def _check(self) -> TrajectoryProfile:
         for i, p in enumerate(self.pulses):
             if p.end_s > self.duration_s:
-                raise ConfigError(f"pulses[{i}].start_s", f"pulse ends at {p.end_s} s, after duration_s={self.duration_s}")
+                raise ConfigError(
+                    f"pulses[{i}].start_s", f"pulse ends at {p.end_s} s, after duration_s={self.duration_s}"
+                )
         return self
 
 
@@ -118,18 +120,35 @@ def paper_profile() -> TrajectoryProfile:
     )
 
 
-def static_profile(lat_deg: float, lon_deg: float, height_m: float, duration_s: float,
-                   roll_pitch_yaw_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> TrajectoryProfile:
+def static_profile(
+    lat_deg: float,
+    lon_deg: float,
+    height_m: float,
+    duration_s: float,
+    roll_pitch_yaw_deg: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> TrajectoryProfile:
     """A body at rest on the rotating Earth with a fixed attitude w.r.t. the start NED frame."""
-    return TrajectoryProfile(start_lat_deg=lat_deg, start_lon_deg=lon_deg, start_height_m=height_m,
-                             duration_s=duration_s, attitude="fixed", fixed_roll_pitch_yaw_deg=roll_pitch_yaw_deg)
+    return TrajectoryProfile(
+        start_lat_deg=lat_deg,
+        start_lon_deg=lon_deg,
+        start_height_m=height_m,
+        duration_s=duration_s,
+        attitude="fixed",
+        fixed_roll_pitch_yaw_deg=roll_pitch_yaw_deg,
+    )
 
 
-def constant_velocity_profile(lat_deg: float, lon_deg: float, height_m: float, velocity_enu_mps: tuple[float, float, float],
-                              duration_s: float) -> TrajectoryProfile:
+def constant_velocity_profile(
+    lat_deg: float, lon_deg: float, height_m: float, velocity_enu_mps: tuple[float, float, float], duration_s: float
+) -> TrajectoryProfile:
     """Straight unaccelerated flight (in the start ENU frame), body x along the velocity."""
-    return TrajectoryProfile(start_lat_deg=lat_deg, start_lon_deg=lon_deg, start_height_m=height_m,
-                             initial_velocity_enu_mps=velocity_enu_mps, duration_s=duration_s)
+    return TrajectoryProfile(
+        start_lat_deg=lat_deg,
+        start_lon_deg=lon_deg,
+        start_height_m=height_m,
+        initial_velocity_enu_mps=velocity_enu_mps,
+        duration_s=duration_s,
+    )
 
 
 @dataclass(frozen=True)
@@ -195,7 +214,11 @@ class TrajectoryModel:
         self._dirs = np.array([p.accel_enu_mps2 for p in profile.pulses]).reshape(-1, 3)
         shapes = []
         for p in profile.pulses:
-            knots = [p.start_s, p.start_s + p.rise_s] + ([p.start_s + p.rise_s + p.hold_s] if p.hold_s > 0 else []) + [p.end_s]
+            knots = (
+                [p.start_s, p.start_s + p.rise_s]
+                + ([p.start_s + p.rise_s + p.hold_s] if p.hold_s > 0 else [])
+                + [p.end_s]
+            )
             vals = [0.0, 1.0] + ([1.0] if p.hold_s > 0 else []) + [0.0]
             xi, yi = list(knots), [[v, 0.0, 0.0] for v in vals]
             if p.start_s > 0:
@@ -204,8 +227,15 @@ class TrajectoryModel:
                 xi, yi = xi + [profile.duration_s], yi + [[0.0, 0.0, 0.0]]
             shape = PPoly.from_bernstein_basis(BPoly.from_derivatives(xi, yi))
             # orders: -2 (position), -1 (velocity), 0 (acceleration), 1 (jerk), 2 (snap)
-            shapes.append({-2: shape.antiderivative(2), -1: shape.antiderivative(1), 0: shape,
-                           1: shape.derivative(1), 2: shape.derivative(2)})
+            shapes.append(
+                {
+                    -2: shape.antiderivative(2),
+                    -1: shape.antiderivative(1),
+                    0: shape,
+                    1: shape.derivative(1),
+                    2: shape.derivative(2),
+                }
+            )
         self._shapes = shapes
         if profile.attitude == "fixed":
             c_b_n = Rotation.from_euler("ZYX", profile.fixed_roll_pitch_yaw_deg[::-1], degrees=True).as_matrix()

@@ -49,8 +49,11 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO
         raise ValueError(f"atomic_open writes whole files: mode 'w' or 'wb', not {mode!r}")
     path = Path(path)
     if not path.parent.is_dir():  # mkstemp would name its temporary file, not the folder the user gave
-        raise FileNotFoundError(errno.ENOENT, f"the output folder {path.parent} does not exist (create it or "
-                                "choose another path)", str(path))
+        raise FileNotFoundError(
+            errno.ENOENT,
+            f"the output folder {path.parent} does not exist (create it or choose another path)",
+            str(path),
+        )
     try:
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     except OSError as exc:

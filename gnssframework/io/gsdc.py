@@ -19,18 +19,40 @@ import pymap3d
 from ..errors import DataFileError
 from .text import check_input_file
 
-__all__ = ["GsdcFixes", "GsdcMeasurements", "read_gsdc_wls", "read_gsdc_truth", "read_gsdc_measurements",
-           "DEVICE_COLUMNS", "TRUTH_COLUMNS", "MEASUREMENT_COLUMNS", "CONSTELLATION_LETTERS"]
+__all__ = [
+    "GsdcFixes",
+    "GsdcMeasurements",
+    "read_gsdc_wls",
+    "read_gsdc_truth",
+    "read_gsdc_measurements",
+    "DEVICE_COLUMNS",
+    "TRUTH_COLUMNS",
+    "MEASUREMENT_COLUMNS",
+    "CONSTELLATION_LETTERS",
+]
 
 #: Columns of device_gnss.csv used: the epoch and the baseline WLS position (ECEF, m).
 DEVICE_COLUMNS = ("utcTimeMillis", "WlsPositionXEcefMeters", "WlsPositionYEcefMeters", "WlsPositionZEcefMeters")
 #: Columns of device_gnss.csv's per-satellite rows read by `read_gsdc_measurements` (numbers;
 #: an empty field, a signal not tracked, reads as NaN).
-MEASUREMENT_COLUMNS = ("utcTimeMillis", "ConstellationType", "Svid", "RawPseudorangeMeters",
-                       "RawPseudorangeUncertaintyMeters", "SvPositionXEcefMeters", "SvPositionYEcefMeters",
-                       "SvPositionZEcefMeters", "SvClockBiasMeters", "IsrbMeters", "IonosphericDelayMeters",
-                       "TroposphericDelayMeters", "SvElevationDegrees", "WlsPositionXEcefMeters",
-                       "WlsPositionYEcefMeters", "WlsPositionZEcefMeters")
+MEASUREMENT_COLUMNS = (
+    "utcTimeMillis",
+    "ConstellationType",
+    "Svid",
+    "RawPseudorangeMeters",
+    "RawPseudorangeUncertaintyMeters",
+    "SvPositionXEcefMeters",
+    "SvPositionYEcefMeters",
+    "SvPositionZEcefMeters",
+    "SvClockBiasMeters",
+    "IsrbMeters",
+    "IonosphericDelayMeters",
+    "TroposphericDelayMeters",
+    "SvElevationDegrees",
+    "WlsPositionXEcefMeters",
+    "WlsPositionYEcefMeters",
+    "WlsPositionZEcefMeters",
+)
 #: Android's ``GnssStatus`` constellation types as RINEX letters (0: unknown).
 CONSTELLATION_LETTERS = {0: "?", 1: "G", 2: "S", 3: "R", 4: "J", 5: "C", 6: "E", 7: "I"}
 #: Columns of ground_truth.csv used.
@@ -96,8 +118,7 @@ def read_gsdc_wls(path: str | Path) -> GsdcFixes:
     utc = np.array(sorted(epochs))
     xyz = np.array([epochs[t][1][1:] for t in utc])
     lat, lon, h = pymap3d.ecef2geodetic(xyz[:, 0], xyz[:, 1], xyz[:, 2])
-    return GsdcFixes(utc, np.asarray(lat), np.asarray(lon), np.asarray(h),
-                     np.array([epochs[t][0] for t in utc]))
+    return GsdcFixes(utc, np.asarray(lat), np.asarray(lon), np.asarray(h), np.array([epochs[t][0] for t in utc]))
 
 
 def read_gsdc_truth(path: str | Path) -> GsdcFixes:
@@ -105,8 +126,9 @@ def read_gsdc_truth(path: str | Path) -> GsdcFixes:
     rows = _rows(Path(path), TRUTH_COLUMNS)
     arr = np.array([v for _, v in rows])
     order = np.argsort(arr[:, 0], kind="stable")
-    return GsdcFixes(arr[order, 0], arr[order, 1], arr[order, 2], arr[order, 3],
-                     np.array([no for no, _ in rows])[order])
+    return GsdcFixes(
+        arr[order, 0], arr[order, 1], arr[order, 2], arr[order, 3], np.array([no for no, _ in rows])[order]
+    )
 
 
 @dataclass
@@ -150,7 +172,9 @@ def read_gsdc_measurements(path: str | Path) -> GsdcMeasurements:
     values, signals, lines = [], [], []
     for no, row in rows:
         if len(row) <= max(index):
-            raise DataFileError(str(path), no, f"{len(row)} fields, too few for column {columns[int(np.argmax(index))]}")
+            raise DataFileError(
+                str(path), no, f"{len(row)} fields, too few for column {columns[int(np.argmax(index))]}"
+            )
         out = []
         for name, i in zip(MEASUREMENT_COLUMNS, index):
             text = row[i].strip()
@@ -169,6 +193,19 @@ def read_gsdc_measurements(path: str | Path) -> GsdcMeasurements:
         signals.append(row[index[-1]].strip())
         lines.append(no)
     a = np.array(values)
-    return GsdcMeasurements(a[:, 0].astype(np.int64), np.array([CONSTELLATION_LETTERS[int(c)] for c in a[:, 1]]),
-                            a[:, 2].astype(np.int64), np.array(signals), a[:, 3], a[:, 4], a[:, 5:8], a[:, 8], a[:, 9],
-                            a[:, 10], a[:, 11], a[:, 12], a[:, 13:16], np.array(lines))
+    return GsdcMeasurements(
+        a[:, 0].astype(np.int64),
+        np.array([CONSTELLATION_LETTERS[int(c)] for c in a[:, 1]]),
+        a[:, 2].astype(np.int64),
+        np.array(signals),
+        a[:, 3],
+        a[:, 4],
+        a[:, 5:8],
+        a[:, 8],
+        a[:, 9],
+        a[:, 10],
+        a[:, 11],
+        a[:, 12],
+        a[:, 13:16],
+        np.array(lines),
+    )

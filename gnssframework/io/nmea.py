@@ -75,8 +75,10 @@ def _clock(t_s: float) -> str:
 
 def _coordinate(msg, kind: str) -> tuple[float, float] | str:
     """``(lat_deg, lon_deg)`` of a GGA/RMC sentence, or the reason it is not a position."""
-    for name, value, hemi, allowed, width in (("latitude", msg.lat, msg.lat_dir, "NS", 2),
-                                              ("longitude", msg.lon, msg.lon_dir, "EW", 3)):
+    for name, value, hemi, allowed, width in (
+        ("latitude", msg.lat, msg.lat_dir, "NS", 2),
+        ("longitude", msg.lon, msg.lon_dir, "EW", 3),
+    ):
         if not value.strip():
             return f"{kind} with an empty {name}"
         if hemi not in tuple(allowed):  # pynmea2 reads any other letter as 0 deg
@@ -102,8 +104,12 @@ def _distance_m(lat0: float, lon0: float, lat1: float, lon1: float) -> float:
     return float(2 * _EARTH_RADIUS_M * np.arcsin(min(1.0, np.sqrt(h))))
 
 
-def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bool = False,
-              max_abs_height_m: float = MAX_ABS_HEIGHT_M) -> NmeaFixes:
+def read_nmea(
+    path: str | Path,
+    max_speed_mps: float = MAX_SPEED_MPS,
+    strict: bool = False,
+    max_abs_height_m: float = MAX_ABS_HEIGHT_M,
+) -> NmeaFixes:
     """Read GGA and RMC fixes from an NMEA log, with integrity checks.
 
     A sentence is skipped, and listed with its line number and the reason in ``skipped``,
@@ -210,8 +216,7 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
                 continue
             height = float(msg.altitude) if kind == "GGA" else np.nan
             if kind == "GGA" and not abs(height) <= max_abs_height_m:  # also NaN
-                skipped.append((no, f"GGA altitude {height:g} m outside +-{max_abs_height_m:g} m "
-                                    "(max_abs_height_m)"))
+                skipped.append((no, f"GGA altitude {height:g} m outside +-{max_abs_height_m:g} m (max_abs_height_m)"))
                 continue
             tod = _seconds(msg.timestamp)
         except (TypeError, ValueError, AttributeError) as exc:
@@ -240,8 +245,13 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
             speed = dist / (t - prev[0])
             if speed > max_speed_mps:
                 for k, s in sentences.items():
-                    skipped.append((s[3], f"{k} position jumps {dist / 1e3:.3f} km in {t - prev[0]:g} s "
-                                           f"({speed:.0f} m/s > max_speed_mps {max_speed_mps:g})"))
+                    skipped.append(
+                        (
+                            s[3],
+                            f"{k} position jumps {dist / 1e3:.3f} km in {t - prev[0]:g} s "
+                            f"({speed:.0f} m/s > max_speed_mps {max_speed_mps:g})",
+                        )
+                    )
                 continue
         prev = (t, lat, lon)
         rows.append((t, lat, lon, h, no))
@@ -251,8 +261,16 @@ def read_nmea(path: str | Path, max_speed_mps: float = MAX_SPEED_MPS, strict: bo
         first = f", the first at line {skipped[0][0]}: {skipped[0][1]}" if skipped else ""
         raise DataFileError(str(path), None, f"no valid GGA or RMC fix ({len(skipped)} sentences skipped{first})")
     arr = np.array(rows, dtype=float)
-    return NmeaFixes(arr[:, 0] - arr[0, 0], arr[:, 1], arr[:, 2], arr[:, 3], arr[:, 4].astype(int), skipped,
-                     dict(sorted(ignored.items())), comments)
+    return NmeaFixes(
+        arr[:, 0] - arr[0, 0],
+        arr[:, 1],
+        arr[:, 2],
+        arr[:, 3],
+        arr[:, 4].astype(int),
+        skipped,
+        dict(sorted(ignored.items())),
+        comments,
+    )
 
 
 _GNSSLOGGER = re.compile(r"^NMEA,(?P<sentence>[$!].*\*[0-9A-Fa-f]{2}),\d+$")
@@ -298,6 +316,7 @@ class _NoiseRuns:
     def end(self) -> None:
         if self.first is not None:
             n = self.last - self.first + 1
-            self.skipped.append((self.first, f"binary or non-NMEA data: {n} line{'s' if n > 1 else ''} "
-                                             f"({self.first}-{self.last})"))
+            self.skipped.append(
+                (self.first, f"binary or non-NMEA data: {n} line{'s' if n > 1 else ''} ({self.first}-{self.last})")
+            )
         self.first = self.last = None

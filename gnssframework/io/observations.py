@@ -25,8 +25,20 @@ from .rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M, RinexScan, _check_bound
 from .skipped import refuse_or_keep
 from .text import check_input_file
 
-__all__ = ["Observations", "normalise_select", "primary_signals", "SECOND_SIGNALS", "SPEED_OF_LIGHT_MPS", "LLI_LOST_LOCK", "read_observations",
-           "arc_starts", "glonass_l1_frequency_hz", "GEORINEX_TIME_TOLERANCE", "CodeCarrier", "read_code_carrier"]
+__all__ = [
+    "Observations",
+    "normalise_select",
+    "primary_signals",
+    "SECOND_SIGNALS",
+    "SPEED_OF_LIGHT_MPS",
+    "LLI_LOST_LOCK",
+    "read_observations",
+    "arc_starts",
+    "glonass_l1_frequency_hz",
+    "GEORINEX_TIME_TOLERANCE",
+    "CodeCarrier",
+    "read_code_carrier",
+]
 
 SPEED_OF_LIGHT_MPS = 299_792_458.0
 #: Bit 0 of the loss-of-lock indicator: "lost lock between previous and current
@@ -40,8 +52,9 @@ LLI_LOST_LOCK = 1
 _F = {"L2": 1227.60e6, "E5a": 1176.45e6, "B1I": 1561.098e6, "B2I": 1207.14e6}
 
 
-def primary_signals(gps: SignalSpec = GPS_L1CA,
-                    galileo: SignalSpec = GALILEO_E1C) -> dict[str, list[tuple[str, str, str, float | None]]]:
+def primary_signals(
+    gps: SignalSpec = GPS_L1CA, galileo: SignalSpec = GALILEO_E1C
+) -> dict[str, list[tuple[str, str, str, float | None]]]:
     """Per system, the (code, phase, signal-strength) observation codes of the primary
     signal, tried in order (RINEX 3 names first, then RINEX 2), with the carrier frequency
     (Hz): GPS L1 C/A's and Galileo E1's from their descriptions (``gps``, ``galileo``).
@@ -55,6 +68,7 @@ def primary_signals(gps: SignalSpec = GPS_L1CA,
         "C": [("C2I", "L2I", "S2I", _F["B1I"]), ("C1I", "L1I", "S1I", _F["B1I"])],
         "R": [("C1C", "L1C", "S1C", None), ("C1", "L1", "S1", None)],
     }
+
 
 #: Per system, the phase of a second frequency (for the ionosphere-free combinations),
 #: tried in order, with its frequency (Hz); GLONASS L2 is 1246 + k 0.4375 MHz.
@@ -213,8 +227,9 @@ def _parse_select(select: str) -> tuple[set[str], list[str] | None]:
         return {x[0] for x in items}, items
     if len(items) == 1 and items[0] and set(items[0]) <= set(_SYSTEMS):
         return set(items[0]), None
-    raise ConfigError("select", f"{select!r} is neither satellites (G08, C11,E24) nor systems (G, GC, all) "
-                                        f"of {', '.join(_SYSTEMS)}")
+    raise ConfigError(
+        "select", f"{select!r} is neither satellites (G08, C11,E24) nor systems (G, GC, all) of {', '.join(_SYSTEMS)}"
+    )
 
 
 def _decompress(path: Path) -> str:
@@ -228,14 +243,18 @@ def _decompress(path: Path) -> str:
     try:
         data = hatanaka.decompress(raw)
     except Exception as exc:  # noqa: BLE001 - a corrupt archive or CRINEX stream: one line naming the file
-        raise DataFileError(str(path), None, f"Hatanaka/gzip decompression failed: {type(exc).__name__}: "
-                                             f"{exc}") from None
+        raise DataFileError(
+            str(path), None, f"Hatanaka/gzip decompression failed: {type(exc).__name__}: {exc}"
+        ) from None
     return data.decode("ascii", errors="replace") if isinstance(data, bytes) else data
 
 
 #: RINEX types other than observations, as a user would name the file.
-_OTHER_RINEX = {**dict.fromkeys("NGHLEBJ", "a navigation file (broadcast ephemeris, RINEX type N)"),
-                "M": "a meteorological file (RINEX type M)", "C": "a clock file (RINEX type C)"}
+_OTHER_RINEX = {
+    **dict.fromkeys("NGHLEBJ", "a navigation file (broadcast ephemeris, RINEX type N)"),
+    "M": "a meteorological file (RINEX type M)",
+    "C": "a clock file (RINEX type C)",
+}
 
 
 def _version(path: Path, text: str) -> float:
@@ -248,8 +267,9 @@ def _version(path: Path, text: str) -> float:
         raise DataFileError(str(path), 1, f"unreadable RINEX version {first[:9].strip()!r}") from None
     if first[20] != "O":
         what = _OTHER_RINEX.get(first[20], f"a RINEX file of type {first[20]!r}")
-        raise DataFileError(str(path), 1, f"{what}, not an observation file (RINEX type O, with the code and "
-                                          "carrier this reads)")
+        raise DataFileError(
+            str(path), 1, f"{what}, not an observation file (RINEX type O, with the code and carrier this reads)"
+        )
     if not (2.0 <= version < 2.2 or 3.0 <= version < 4.0):
         raise DataFileError(str(path), 1, f"RINEX version {version:g}: this reader reads 2.1x and 3.0x")
     return version
@@ -278,11 +298,19 @@ def _rinex2_epochs(text: str) -> list[tuple[int, np.datetime64, str]]:
             yy = int(lines[i][1:3])
             year = yy + (1900 if yy >= 80 else 2000)  # RINEX 2.11 section 6.5: 80-99 are 1980-1999
             sec = float(lines[i][16:26])
-            t = (np.datetime64(f"{year:04d}-{int(lines[i][4:6]):02d}-{int(lines[i][7:9]):02d}T"
-                               f"{int(lines[i][10:12]):02d}:{int(lines[i][13:15]):02d}", "ns")
-                 + np.timedelta64(int(round(sec * 1e9)), "ns"))
-            out.append((i + 1, t, f"{year:04d}-{lines[i][4:6].strip():0>2}-{lines[i][7:9].strip():0>2} "
-                                  f"{lines[i][10:12].strip():0>2}:{lines[i][13:15].strip():0>2}:{sec:010.7f}"))
+            t = np.datetime64(
+                f"{year:04d}-{int(lines[i][4:6]):02d}-{int(lines[i][7:9]):02d}T"
+                f"{int(lines[i][10:12]):02d}:{int(lines[i][13:15]):02d}",
+                "ns",
+            ) + np.timedelta64(int(round(sec * 1e9)), "ns")
+            out.append(
+                (
+                    i + 1,
+                    t,
+                    f"{year:04d}-{lines[i][4:6].strip():0>2}-{lines[i][7:9].strip():0>2} "
+                    f"{lines[i][10:12].strip():0>2}:{lines[i][13:15].strip():0>2}:{sec:010.7f}",
+                )
+            )
     return out
 
 
@@ -291,8 +319,9 @@ def _refuse_rinex2_time_order(path: Path, stated: list[tuple[int, np.datetime64,
     for (line0, t0, _), (line, t, when) in zip(stated, stated[1:]):
         if t <= t0:
             what = "repeats the epoch" if t == t0 else "goes backwards from the epoch"
-            raise DataFileError(str(path), line, f"epoch {when} {what} at line {line0} (RINEX 2 epochs are "
-                                                 "not skipped, only refused)")
+            raise DataFileError(
+                str(path), line, f"epoch {when} {what} at line {line0} (RINEX 2 epochs are not skipped, only refused)"
+            )
 
 
 def _rinex3_epochs(scan: RinexScan, systems: set[str]) -> list[tuple[int, np.datetime64, str]]:
@@ -302,12 +331,16 @@ def _rinex3_epochs(scan: RinexScan, systems: set[str]) -> list[tuple[int, np.dat
     out = []
     starts = scan.epoch_starts + [len(scan.lines)]
     for n, start in enumerate(scan.epoch_starts):
-        if not any(line[:1] in systems and line[3:].strip() for line in scan.lines[start + 1:starts[n + 1]]):
+        if not any(line[:1] in systems and line[3:].strip() for line in scan.lines[start + 1 : starts[n + 1]]):
             continue
         minute, seconds = _epoch_time(scan.lines[start])
-        out.append((scan.line_numbers[start],
-                    np.datetime64(minute, "ns") + np.timedelta64(int(round(seconds * 1e9)), "ns"),
-                    _fmt_time((minute, seconds))))
+        out.append(
+            (
+                scan.line_numbers[start],
+                np.datetime64(minute, "ns") + np.timedelta64(int(round(seconds * 1e9)), "ns"),
+                _fmt_time((minute, seconds)),
+            )
+        )
     return out
 
 
@@ -338,11 +371,19 @@ def _match_epochs(path: Path, stated: list[tuple[int, np.datetime64, str]], retu
     if not found.all():
         line, _, when = stated[int(order[np.argmin(found)])]
         missing = int((~found).sum())
-        raise DataFileError(str(path), line, f"georinex did not return the epoch at this line ({when}), nor "
-                            f"{missing - 1} later epochs: it stops without an error at an epoch it cannot parse")
+        raise DataFileError(
+            str(path),
+            line,
+            f"georinex did not return the epoch at this line ({when}), nor "
+            f"{missing - 1} later epochs: it stops without an error at an epoch it cannot parse",
+        )
     if not close.all() or np.unique(nearest).size != nearest.size:
-        raise DataFileError(str(path), None, "georinex returned epochs the file does not state, or two of its "
-                                             f"epochs within {GEORINEX_TIME_TOLERANCE} of one stated epoch")
+        raise DataFileError(
+            str(path),
+            None,
+            "georinex returned epochs the file does not state, or two of its "
+            f"epochs within {GEORINEX_TIME_TOLERANCE} of one stated epoch",
+        )
     return ref[nearest]
 
 
@@ -359,8 +400,13 @@ def _glonass_channels(source: Path) -> dict[str, int]:
     return {f"R{int(s):02d}": int(k) for s, k in re.findall(r"R\s?(\d{1,2})\s+(-?\d+)", text)}
 
 
-def read_observations(path: str | Path, select: str = "G", pseudorange_min_m: float = PSEUDORANGE_MIN_M,
-                      pseudorange_max_m: float = PSEUDORANGE_MAX_M, strict: bool = False) -> Observations:
+def read_observations(
+    path: str | Path,
+    select: str = "G",
+    pseudorange_min_m: float = PSEUDORANGE_MIN_M,
+    pseudorange_max_m: float = PSEUDORANGE_MAX_M,
+    strict: bool = False,
+) -> Observations:
     """Read a RINEX 2.1x or 3.0x observation file (plain, ``.gz``, ``.crx``, ``.crx.gz``).
 
     Parameters
@@ -402,8 +448,14 @@ def read_observations(path: str | Path, select: str = "G", pseudorange_min_m: fl
         stated = _rinex2_epochs(text)
         _refuse_rinex2_time_order(path, stated)
     width = 3 if version >= 3 else 2  # georinex matches meas by prefix: "C1" would pull C1W, C1P...
-    meas = sorted(code for code in ({c for s in systems for sig in primary_signals()[s] for c in sig[:3]}
-                                    | {c for s in systems for c, _ in SECOND_SIGNALS[s]}) if len(code) == width)
+    meas = sorted(
+        code
+        for code in (
+            {c for s in systems for sig in primary_signals()[s] for c in sig[:3]}
+            | {c for s in systems for c, _ in SECOND_SIGNALS[s]}
+        )
+        if len(code) == width
+    )
     with tempfile.TemporaryDirectory(prefix="gnssframework-rinex-") as tmpdir:
         source = Path(tmpdir) / (path.name.split(".")[0] + (".rnx" if version >= 3 else ".obs"))
         body = "\n".join(scan.lines) + "\n" if scan is not None else text
@@ -415,11 +467,13 @@ def read_observations(path: str | Path, select: str = "G", pseudorange_min_m: fl
             if scan is not None:
                 from .rinex import _locate_georinex_failure_with
 
-                line = _locate_georinex_failure_with(scan, Path(tmpdir) / ("probe-" + source.name),
-                                                     lambda p: _georinex_load(p, systems, meas))
+                line = _locate_georinex_failure_with(
+                    scan, Path(tmpdir) / ("probe-" + source.name), lambda p: _georinex_load(p, systems, meas)
+                )
             where = "in the epoch starting at this line" if line else "(no single epoch reproduces it)"
-            raise DataFileError(str(path), line, f"georinex could not read it {where}: "
-                                                 f"{type(exc).__name__}: {exc}") from None
+            raise DataFileError(
+                str(path), line, f"georinex could not read it {where}: {type(exc).__name__}: {exc}"
+            ) from None
         channels = _glonass_channels(source) if "R" in systems else {}
     stated = _rinex3_epochs(scan, systems) if scan is not None else stated
     epochs = _match_epochs(path, stated, obs.time.values) if obs.time.size else np.array([], "datetime64[ns]")
@@ -430,8 +484,9 @@ def read_observations(path: str | Path, select: str = "G", pseudorange_min_m: fl
     return out
 
 
-def _rinex2_out_of_bounds(obs: Observations, stated: list[tuple[int, np.datetime64, str]],
-                          bounds_m: tuple[float, float]) -> list[tuple[int, str]]:
+def _rinex2_out_of_bounds(
+    obs: Observations, stated: list[tuple[int, np.datetime64, str]], bounds_m: tuple[float, float]
+) -> list[tuple[int, str]]:
     """Blank (in place) the pseudoranges of a RINEX 2 file outside ``bounds_m`` and list
     them as ``(line of their epoch, reason)``, worded as `check_rinex3_obs` words them."""
     lo, hi = bounds_m
@@ -442,8 +497,13 @@ def _rinex2_out_of_bounds(obs: Observations, stated: list[tuple[int, np.datetime
     for k, j in zip(*np.nonzero(bad)):
         sv = str(obs.sv[j])
         name = obs.signal.get(sv[0], ("code",))[0]
-        skipped.append((line_of.get(obs.epoch[k], 0), f"{sv} {name} = {code[k, j]:.6g} m outside [{lo:g}, {hi:g}] m "
-                                                      "(pseudorange_min_m/pseudorange_max_m): observation skipped"))
+        skipped.append(
+            (
+                line_of.get(obs.epoch[k], 0),
+                f"{sv} {name} = {code[k, j]:.6g} m outside [{lo:g}, {hi:g}] m "
+                "(pseudorange_min_m/pseudorange_max_m): observation skipped",
+            )
+        )
     code[bad] = np.nan
     return sorted(skipped)
 
@@ -468,8 +528,16 @@ def _column(obs, name: str, sv: str) -> np.ndarray | None:
     return values if np.isfinite(values).any() else None
 
 
-def _assemble(path: Path, obs, epochs: np.ndarray, version: float, systems: set[str], prns: list[str] | None,
-              channels: dict[str, int], scan: RinexScan | None) -> Observations:
+def _assemble(
+    path: Path,
+    obs,
+    epochs: np.ndarray,
+    version: float,
+    systems: set[str],
+    prns: list[str] | None,
+    channels: dict[str, int],
+    scan: RinexScan | None,
+) -> Observations:
     present = [str(s) for s in obs.sv.values] if obs.time.size else []
     wanted = prns if prns is not None else sorted(s for s in present if s[0] in systems)
     dropped: dict[str, str] = {}
@@ -520,10 +588,13 @@ def _assemble(path: Path, obs, epochs: np.ndarray, version: float, systems: set[
             raise DataFileError(str(path), None, f"no observations of {prns[0]}; satellites: {', '.join(present)}")
         if prns is not None and len(prns) == 1:
             code, phase = _names(prns[0][0], version)
-            raise DataFileError(str(path), None, f"{prns[0]} has no epoch with both {code} and {phase}"
-                                + _first_skipped(skipped))
-        reasons = "; ".join(f"{k}: {v}" for k, v in list(dropped.items())[:3]) or \
-            f"no satellite of {''.join(sorted(systems))} in the file"
+            raise DataFileError(
+                str(path), None, f"{prns[0]} has no epoch with both {code} and {phase}" + _first_skipped(skipped)
+            )
+        reasons = (
+            "; ".join(f"{k}: {v}" for k, v in list(dropped.items())[:3])
+            or f"no satellite of {''.join(sorted(systems))} in the file"
+        )
         raise DataFileError(str(path), None, f"no observations of the selection ({reasons})" + _first_skipped(skipped))
 
     def stack(key: str, dtype=float) -> np.ndarray:
@@ -534,10 +605,26 @@ def _assemble(path: Path, obs, epochs: np.ndarray, version: float, systems: set[
     steps = np.diff(t)
     if interval is None or not np.isfinite(interval):
         interval = float(np.median(steps)) if steps.size else np.nan
-    return Observations(epochs, t.astype(float), np.array(columns["sv"]), stack("code"), stack("phase"),
-                        stack("lli", np.int64), stack("snr"), stack("ssi", np.int64), np.array(columns["wl"]),
-                        stack("phase2"), np.array(columns["wl2"], float), signal, float(interval), version,
-                        _header_position(obs), dropped, skipped, scan.truncated if scan is not None else None)
+    return Observations(
+        epochs,
+        t.astype(float),
+        np.array(columns["sv"]),
+        stack("code"),
+        stack("phase"),
+        stack("lli", np.int64),
+        stack("snr"),
+        stack("ssi", np.int64),
+        np.array(columns["wl"]),
+        stack("phase2"),
+        np.array(columns["wl2"], float),
+        signal,
+        float(interval),
+        version,
+        _header_position(obs),
+        dropped,
+        skipped,
+        scan.truncated if scan is not None else None,
+    )
 
 
 @dataclass
@@ -555,8 +642,13 @@ class CodeCarrier:
     wavelength_m: float = field(kw_only=True)  # the carrier's (read_code_carrier: the file's signal)
 
 
-def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSEUDORANGE_MIN_M,
-                      pseudorange_max_m: float = PSEUDORANGE_MAX_M, strict: bool = False) -> CodeCarrier:
+def read_code_carrier(
+    path: str | Path,
+    prn: str,
+    pseudorange_min_m: float = PSEUDORANGE_MIN_M,
+    pseudorange_max_m: float = PSEUDORANGE_MAX_M,
+    strict: bool = False,
+) -> CodeCarrier:
     """Pseudorange and carrier (metres) of satellite ``prn`` (``"G08"``, ``"C11"``...).
 
     One satellite of :func:`read_observations` (RINEX 2.1x
@@ -585,5 +677,14 @@ def read_code_carrier(path: str | Path, prn: str, pseudorange_min_m: float = PSE
     ok = obs.valid[:, j]
     times = obs.epoch[ok]
     t = (times - times[0]) / np.timedelta64(1, "s")
-    return CodeCarrier(t.astype(float), times, obs.pseudorange_m[ok, j], obs.carrier_m[ok, j], obs.skipped,
-                       obs.truncated, obs.lli[ok, j], obs.snr_dbhz[ok, j], wavelength_m=float(obs.wavelength_m[j]))
+    return CodeCarrier(
+        t.astype(float),
+        times,
+        obs.pseudorange_m[ok, j],
+        obs.carrier_m[ok, j],
+        obs.skipped,
+        obs.truncated,
+        obs.lli[ok, j],
+        obs.snr_dbhz[ok, j],
+        wavelength_m=float(obs.wavelength_m[j]),
+    )

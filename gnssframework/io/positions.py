@@ -16,8 +16,15 @@ from ..errors import ConfigError
 from ..interfaces import BatchPositionFilter
 from .nmea import NmeaFixes
 
-__all__ = ["CANDIDATES", "SmoothedTrack", "composition", "filter_positions", "smooth_positions",
-           "write_positions_csv", "write_smoothed_positions_csv"]
+__all__ = [
+    "CANDIDATES",
+    "SmoothedTrack",
+    "composition",
+    "filter_positions",
+    "smooth_positions",
+    "write_positions_csv",
+    "write_smoothed_positions_csv",
+]
 
 #: The paper's engine: the unscented Kalman filter with alpha 0.01, beta 2, kappa 0.
 _UKF = {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}}
@@ -33,8 +40,12 @@ CANDIDATES = {
     "UKF": {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": _UKF},
     "UKF1": {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": _UKF, "augmentation": _COLORED},
     "AUKF": {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": _UKF, "noise_adapter": _SAGE_HUSA},
-    "AUKF1": {"nav_filter": {"name": "position-ca", "params": {}}, "estimator": _UKF, "augmentation": _COLORED,
-              "noise_adapter": _SAGE_HUSA},
+    "AUKF1": {
+        "nav_filter": {"name": "position-ca", "params": {}},
+        "estimator": _UKF,
+        "augmentation": _COLORED,
+        "noise_adapter": _SAGE_HUSA,
+    },
 }
 
 
@@ -64,15 +75,21 @@ def composition(filter_name: str, noise_adapter: str | None = None, augmentation
         comp = {"nav_filter": POSITION_NAV_FILTER, "estimator": {"name": filter_name, "params": {}}}
     else:
         options = [*CANDIDATES, *registry.names("estimator")]
-        raise ConfigError("filter_name", f"unknown {filter_name!r}: a paper label ({', '.join(CANDIDATES)}) or "
-                                           f"an estimator ({', '.join(registry.names('estimator'))})"
-                                           f"{did_you_mean(filter_name, options)}")
+        raise ConfigError(
+            "filter_name",
+            f"unknown {filter_name!r}: a paper label ({', '.join(CANDIDATES)}) or "
+            f"an estimator ({', '.join(registry.names('estimator'))})"
+            f"{did_you_mean(filter_name, options)}",
+        )
     for kind, name in (("noise_adapter", noise_adapter), ("augmentation", augmentation)):
         if name is None:
             continue
         if name not in registry.names(kind):
-            raise ConfigError(kind, f"unknown {kind} {name!r}; registered: {', '.join(registry.names(kind))}"
-                                    f"{did_you_mean(name, registry.names(kind))}")
+            raise ConfigError(
+                kind,
+                f"unknown {kind} {name!r}; registered: {', '.join(registry.names(kind))}"
+                f"{did_you_mean(name, registry.names(kind))}",
+            )
         comp[kind] = {"name": name, "params": {}}
     return comp
 
@@ -97,14 +114,19 @@ def _run(fixes: NmeaFixes, candidate: str | dict, psi: float, zs: np.ndarray, **
     nav = _create(comp["nav_filter"], "nav_filter", dt_s=dt)
     if not isinstance(nav, BatchPositionFilter):
         raise ConfigError("nav_filter", f"{nav.name!r} cannot filter a position sequence (not a BatchPositionFilter)")
-    res = nav.filter(zs, _create(comp["estimator"], "estimator"),
-                     adapter=_create(comp.get("noise_adapter"), "noise_adapter"),
-                     augmentation=_create(comp.get("augmentation"), "augmentation", psi=psi), **policies)
+    res = nav.filter(
+        zs,
+        _create(comp["estimator"], "estimator"),
+        adapter=_create(comp.get("noise_adapter"), "noise_adapter"),
+        augmentation=_create(comp.get("augmentation"), "augmentation", psi=psi),
+        **policies,
+    )
     return nav, res
 
 
-def filter_positions(fixes: NmeaFixes, candidate: str | dict = "AUKF1", psi: float = 0.95
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def filter_positions(
+    fixes: NmeaFixes, candidate: str | dict = "AUKF1", psi: float = 0.95
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Filter the horizontal track of ``fixes`` with a reference-004 candidate.
 
     Positions are converted to local east/north metres about the mean fix (pymap3d),
@@ -184,8 +206,19 @@ def smooth_positions(fixes: NmeaFixes, candidate: str | dict = "UKF", psi: float
     pos, fpos = place(sm.mean[..., i], zs), place(res.mean[..., i], zs)
     var, fvar = place(sm.cov[..., i, i], nan), place(res.cov[..., i, i], nan)
     lat, lon, _ = pymap3d.enu2geodetic(pos[:, 1], pos[:, 0], 0.0, lat0, lon0, 0.0)
-    return SmoothedTrack(np.asarray(lat), np.asarray(lon), pos[:, 0], pos[:, 1], fpos[:, 0], fpos[:, 1],
-                         var[:, 0], var[:, 1], fvar[:, 0], fvar[:, 1], (lat0, lon0))
+    return SmoothedTrack(
+        np.asarray(lat),
+        np.asarray(lon),
+        pos[:, 0],
+        pos[:, 1],
+        fpos[:, 0],
+        fpos[:, 1],
+        var[:, 0],
+        var[:, 1],
+        fvar[:, 0],
+        fvar[:, 1],
+        (lat0, lon0),
+    )
 
 
 def write_positions_csv(path: str | Path, fixes: NmeaFixes, lat: np.ndarray, lon: np.ndarray) -> None:
@@ -196,8 +229,9 @@ def write_positions_csv(path: str | Path, fixes: NmeaFixes, lat: np.ndarray, lon
         w = csv.writer(fh)
         w.writerow(["time_s", "nmea_line", "lat_deg", "lon_deg", "filtered_lat_deg", "filtered_lon_deg"])
         for row in zip(fixes.time_s, fixes.line, fixes.lat_deg, fixes.lon_deg, lat, lon):
-            w.writerow([f"{row[0]:.3f}", int(row[1]), f"{row[2]:.9f}", f"{row[3]:.9f}", f"{row[4]:.9f}",
-                        f"{row[5]:.9f}"])
+            w.writerow(
+                [f"{row[0]:.3f}", int(row[1]), f"{row[2]:.9f}", f"{row[3]:.9f}", f"{row[4]:.9f}", f"{row[5]:.9f}"]
+            )
 
 
 def write_smoothed_positions_csv(path: str | Path, fixes: NmeaFixes, track: SmoothedTrack) -> None:
@@ -210,13 +244,40 @@ def write_smoothed_positions_csv(path: str | Path, fixes: NmeaFixes, track: Smoo
 
     with atomic_open(path, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["time_s", "nmea_line", "lat_deg", "lon_deg", "smoothed_lat_deg", "smoothed_lon_deg",
-                    "smoothed_north_m", "smoothed_east_m", "smoothed_var_north_m2", "smoothed_var_east_m2",
-                    "filtered_north_m", "filtered_east_m", "filtered_var_north_m2", "filtered_var_east_m2"])
+        w.writerow(
+            [
+                "time_s",
+                "nmea_line",
+                "lat_deg",
+                "lon_deg",
+                "smoothed_lat_deg",
+                "smoothed_lon_deg",
+                "smoothed_north_m",
+                "smoothed_east_m",
+                "smoothed_var_north_m2",
+                "smoothed_var_east_m2",
+                "filtered_north_m",
+                "filtered_east_m",
+                "filtered_var_north_m2",
+                "filtered_var_east_m2",
+            ]
+        )
         for k in range(fixes.time_s.size):
-            w.writerow([f"{fixes.time_s[k]:.3f}", int(fixes.line[k]), f"{fixes.lat_deg[k]:.9f}",
-                        f"{fixes.lon_deg[k]:.9f}", f"{track.lat_deg[k]:.9f}", f"{track.lon_deg[k]:.9f}",
-                        cell(track.north_m[k], 4), cell(track.east_m[k], 4), cell(track.var_north_m2[k], 6),
-                        cell(track.var_east_m2[k], 6), cell(track.filtered_north_m[k], 4),
-                        cell(track.filtered_east_m[k], 4), cell(track.filtered_var_north_m2[k], 6),
-                        cell(track.filtered_var_east_m2[k], 6)])
+            w.writerow(
+                [
+                    f"{fixes.time_s[k]:.3f}",
+                    int(fixes.line[k]),
+                    f"{fixes.lat_deg[k]:.9f}",
+                    f"{fixes.lon_deg[k]:.9f}",
+                    f"{track.lat_deg[k]:.9f}",
+                    f"{track.lon_deg[k]:.9f}",
+                    cell(track.north_m[k], 4),
+                    cell(track.east_m[k], 4),
+                    cell(track.var_north_m2[k], 6),
+                    cell(track.var_east_m2[k], 6),
+                    cell(track.filtered_north_m[k], 4),
+                    cell(track.filtered_east_m[k], 4),
+                    cell(track.filtered_var_north_m2[k], 6),
+                    cell(track.filtered_var_east_m2[k], 6),
+                ]
+            )

@@ -72,12 +72,14 @@ def describe_recording(path: str | Path, select: str = "all") -> str:
         obs = read_observations(path, select)
         systems = {s: int(sum(sv[0] == s for sv in obs.sv)) for s in sorted({sv[0] for sv in obs.sv})}
         flags = int(((obs.lli & 1) != 0)[obs.valid].sum())
-        return (f"{path.name}: RINEX {obs.version:g} observations, {obs.epoch.size} epochs at {obs.interval_s:g} s, "
-                f"satellites {', '.join(f'{s} {n}' for s, n in systems.items())}, {int(obs.valid.sum())} code+carrier "
-                f"observations, {flags} loss-of-lock flags; {len(obs.skipped)} skipped"
-                + (f" (first at line {obs.skipped[0][0]}: {obs.skipped[0][1]})" if obs.skipped else "")
-                + (f"; not read: {len(obs.dropped)} satellites" if obs.dropped else "")
-                + (f"; TRUNCATED: {obs.truncated}" if obs.truncated else ""))
+        return (
+            f"{path.name}: RINEX {obs.version:g} observations, {obs.epoch.size} epochs at {obs.interval_s:g} s, "
+            f"satellites {', '.join(f'{s} {n}' for s, n in systems.items())}, {int(obs.valid.sum())} code+carrier "
+            f"observations, {flags} loss-of-lock flags; {len(obs.skipped)} skipped"
+            + (f" (first at line {obs.skipped[0][0]}: {obs.skipped[0][1]})" if obs.skipped else "")
+            + (f"; not read: {len(obs.dropped)} satellites" if obs.dropped else "")
+            + (f"; TRUNCATED: {obs.truncated}" if obs.truncated else "")
+        )
     if kind == "rinex-nav":
         from ..navigation.ephemeris import read_rinex_nav
 
@@ -89,24 +91,32 @@ def describe_recording(path: str | Path, select: str = "all") -> str:
         misread = [str(w.message).split(": ", 1)[1].split(" (")[0] for w in caught if "misread" in str(w.message)]
         letters = eph.sv.astype("U1")
         counts = {s: int((letters == s).sum()) for s in "GEC" if (letters == s).any()}
-        what = ("GPS ephemeris records" if list(counts) == ["G"] else
-                f"ephemeris records ({', '.join(f'{s} {n}' for s, n in counts.items())})")
-        return (f"{path.name}: RINEX navigation, {eph.sv.size} {what} of {np.unique(eph.sv).size} "
-                f"satellites, {int((eph.health != 0).sum())} unhealthy"
-                + (f"; {', '.join(misread)}, not used" if misread else ""))
+        what = (
+            "GPS ephemeris records"
+            if list(counts) == ["G"]
+            else f"ephemeris records ({', '.join(f'{s} {n}' for s, n in counts.items())})"
+        )
+        return (
+            f"{path.name}: RINEX navigation, {eph.sv.size} {what} of {np.unique(eph.sv).size} "
+            f"satellites, {int((eph.health != 0).sum())} unhealthy"
+            + (f"; {', '.join(misread)}, not used" if misread else "")
+        )
     if kind == "nmea":
         from .nmea import read_nmea
 
         fixes = read_nmea(path)
         ignored = ", ".join(f"{n} {k}" for k, n in fixes.ignored.items())
-        return (f"{path.name}: NMEA, {fixes.time_s.size} fixes over {fixes.time_s[-1]:g} s; not used: "
-                f"{ignored or 'nothing'}; {fixes.comments} comment lines; {len(fixes.skipped)} skipped"
-                + (f" (first at line {fixes.skipped[0][0]}: {fixes.skipped[0][1]})" if fixes.skipped else ""))
+        return (
+            f"{path.name}: NMEA, {fixes.time_s.size} fixes over {fixes.time_s[-1]:g} s; not used: "
+            f"{ignored or 'nothing'}; {fixes.comments} comment lines; {len(fixes.skipped)} skipped"
+            + (f" (first at line {fixes.skipped[0][0]}: {fixes.skipped[0][1]})" if fixes.skipped else "")
+        )
     if kind in ("gsdc-device", "gsdc-truth"):
         from .gsdc import read_gsdc_truth, read_gsdc_wls
 
         fixes = read_gsdc_wls(path) if kind == "gsdc-device" else read_gsdc_truth(path)
         what = "baseline WLS fixes" if kind == "gsdc-device" else "ground-truth positions"
-        return (f"{path.name}: GSDC 2022, {fixes.utc_ms.size} {what} over "
-                f"{(fixes.utc_ms[-1] - fixes.utc_ms[0]) / 1e3:g} s")
+        return (
+            f"{path.name}: GSDC 2022, {fixes.utc_ms.size} {what} over {(fixes.utc_ms[-1] - fixes.utc_ms[0]) / 1e3:g} s"
+        )
     raise DataFileError(str(path), 1, "a RINEX file of a type this framework does not read (not O or N)")

@@ -18,13 +18,23 @@ import numpy as np
 from ..errors import ConfigError, DataFileError
 from .text import read_input_text
 
-__all__ = ["RinexScan", "write_rinex3_obs", "write_rinex3_nav", "check_rinex3_obs",
-           "PSEUDORANGE_MIN_M", "PSEUDORANGE_MAX_M"]
+__all__ = [
+    "RinexScan",
+    "write_rinex3_obs",
+    "write_rinex3_nav",
+    "check_rinex3_obs",
+    "PSEUDORANGE_MIN_M",
+    "PSEUDORANGE_MAX_M",
+]
 
 
-def write_rinex3_obs(path: str | Path, start: dt.datetime, interval_s: float,
-                     observations: dict[str, tuple[np.ndarray, np.ndarray]],
-                     approx_position_m: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+def write_rinex3_obs(
+    path: str | Path,
+    start: dt.datetime,
+    interval_s: float,
+    observations: dict[str, tuple[np.ndarray, np.ndarray]],
+    approx_position_m: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> None:
     """Write a RINEX 3.04 GPS observation file with C1C (m) and L1C (cycles).
 
     ``observations`` maps a satellite (``"G08"``) to its pseudorange (m) and carrier phase
@@ -119,8 +129,12 @@ def _fmt_time(t: tuple[dt.datetime, float]) -> str:
     return f"{t[0]:%Y-%m-%d %H:%M}:{t[1]:010.7f}"
 
 
-def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MIN_M,
-                     pseudorange_max_m: float = PSEUDORANGE_MAX_M, text: str | None = None) -> RinexScan:
+def check_rinex3_obs(
+    path: str | Path,
+    pseudorange_min_m: float = PSEUDORANGE_MIN_M,
+    pseudorange_max_m: float = PSEUDORANGE_MAX_M,
+    text: str | None = None,
+) -> RinexScan:
     """Check a RINEX 3 observation file line by line, before georinex reads it.
 
     georinex reports parse failures without a line number and accepts epochs out of order;
@@ -160,10 +174,13 @@ def check_rinex3_obs(path: str | Path, pseudorange_min_m: float = PSEUDORANGE_MI
 
 # -- the steps of check_rinex3_obs, in order -------------------------------------------------------
 
+
 def _check_bounds(pseudorange_min_m: float, pseudorange_max_m: float) -> None:
     if not 0 <= pseudorange_min_m < pseudorange_max_m:  # also NaN
-        raise ConfigError("pseudorange_min_m/pseudorange_max_m",
-                          f"need 0 <= min < max, got [{pseudorange_min_m!r}, {pseudorange_max_m!r}] m")
+        raise ConfigError(
+            "pseudorange_min_m/pseudorange_max_m",
+            f"need 0 <= min < max, got [{pseudorange_min_m!r}, {pseudorange_max_m!r}] m",
+        )
 
 
 def _header_end(lines: list[str], where: str) -> int:
@@ -239,8 +256,12 @@ def _epoch_body(lines: list[str], i: int, count: int, cut: str | None, where: st
     for k, j in enumerate(body):
         if lines[j].startswith(">"):
             if j < len(lines) - 1 or not cut:
-                raise DataFileError(where, i + 1, f"epoch declares {count} satellites but has only {k} "
-                                                  f"observation lines (next epoch at line {j + 1})")
+                raise DataFileError(
+                    where,
+                    i + 1,
+                    f"epoch declares {count} satellites but has only {k} "
+                    f"observation lines (next epoch at line {j + 1})",
+                )
             return body[:k]
     return body
 
@@ -263,8 +284,14 @@ class _Verdict:
                 self.skipped[:] = [s for s in self.skipped if s[0] != j + 1]
 
 
-def _judge_epochs(lines: list[str], epochs: list[tuple[int, int, list[int]]], types_of: dict[str, list[str]],
-                  cut: str | None, bounds_m: tuple[float, float], where: str) -> _Verdict:
+def _judge_epochs(
+    lines: list[str],
+    epochs: list[tuple[int, int, list[int]]],
+    types_of: dict[str, list[str]],
+    cut: str | None,
+    bounds_m: tuple[float, float],
+    where: str,
+) -> _Verdict:
     """Drop a truncated last epoch and duplicate or backward epochs; blank implausible pseudoranges."""
     verdict = _Verdict()
     code_fields_of = {sys_: {j for j, t in enumerate(ts) if t.startswith("C")} for sys_, ts in types_of.items()}
@@ -272,8 +299,10 @@ def _judge_epochs(lines: list[str], epochs: list[tuple[int, int, list[int]]], ty
     last = None
     for n_epoch, (h, count, body) in enumerate(epochs):
         if n_epoch == len(epochs) - 1 and (len(body) < count or cut):
-            verdict.truncated = cut or (f"the file ends inside the epoch at line {h + 1}: it declares {count} "
-                                        f"satellites, the file holds {len(body)}")
+            verdict.truncated = cut or (
+                f"the file ends inside the epoch at line {h + 1}: it declares {count} "
+                f"satellites, the file holds {len(body)}"
+            )
             verdict.skipped.append((h + 1, f"truncated epoch dropped: {verdict.truncated}"))
             verdict.drop.update([h, *body])
             break
@@ -290,8 +319,15 @@ def _judge_epochs(lines: list[str], epochs: list[tuple[int, int, list[int]]], ty
     return verdict
 
 
-def _check_observation_line(line: str, j: int, types_of: dict[str, list[str]], code_fields_of: dict[str, set[int]],
-                            bounds_m: tuple[float, float], where: str, verdict: _Verdict) -> None:
+def _check_observation_line(
+    line: str,
+    j: int,
+    types_of: dict[str, list[str]],
+    code_fields_of: dict[str, set[int]],
+    bounds_m: tuple[float, float],
+    where: str,
+    verdict: _Verdict,
+) -> None:
     """Refuse a bad satellite id or a value that is not a number; blank a pseudorange
     outside ``bounds_m`` and record it as skipped."""
     if not _OBS.match(line):
@@ -300,7 +336,7 @@ def _check_observation_line(line: str, j: int, types_of: dict[str, list[str]], c
     types = types_of.get(line[0], [])
     code_fields = code_fields_of.get(line[0], set())
     for f in range(len(types)):
-        value = line[3 + 16 * f: 3 + 16 * f + 14]
+        value = line[3 + 16 * f : 3 + 16 * f + 14]
         if not value.strip():
             continue
         try:
@@ -309,8 +345,13 @@ def _check_observation_line(line: str, j: int, types_of: dict[str, list[str]], c
             raise DataFileError(where, j + 1, f"observation {f + 1} is not a number: {value!r}") from None
         if f in code_fields and not lo <= x <= hi:
             verdict.blank.setdefault(j, []).append(f)
-            verdict.skipped.append((j + 1, f"{line[:3]} {types[f]} = {x:.6g} m outside [{lo:g}, {hi:g}] m "
-                                           "(pseudorange_min_m/pseudorange_max_m): observation skipped"))
+            verdict.skipped.append(
+                (
+                    j + 1,
+                    f"{line[:3]} {types[f]} = {x:.6g} m outside [{lo:g}, {hi:g}] m "
+                    "(pseudorange_min_m/pseudorange_max_m): observation skipped",
+                )
+            )
 
 
 def _epoch_time_at(line: str, h: int, where: str) -> tuple[dt.datetime, float]:
@@ -329,8 +370,9 @@ def _out_of_order(t: tuple[dt.datetime, float], kept_times: dict[tuple, int], la
     return None
 
 
-def _kept_lines(lines: list[str], epochs: list[tuple[int, int, list[int]]], verdict: _Verdict,
-                types_of: dict[str, list[str]]) -> tuple[list[str], list[int], list[int]]:
+def _kept_lines(
+    lines: list[str], epochs: list[tuple[int, int, list[int]]], verdict: _Verdict, types_of: dict[str, list[str]]
+) -> tuple[list[str], list[int], list[int]]:
     """The lines georinex is given (dropped ones removed, implausible pseudoranges blanked),
     their original line numbers, and the index of each kept epoch's header."""
     out_lines: list[str] = []
@@ -343,7 +385,7 @@ def _kept_lines(lines: list[str], epochs: list[tuple[int, int, list[int]]], verd
         if idx in verdict.blank:
             chars = list(line.ljust(3 + 16 * len(types_of[line[0]])))
             for f in verdict.blank[idx]:
-                chars[3 + 16 * f: 3 + 16 * f + 16] = " " * 16
+                chars[3 + 16 * f : 3 + 16 * f + 16] = " " * 16
             line = "".join(chars).rstrip()
         if idx in epoch_heads:
             starts.append(len(out_lines))
@@ -356,11 +398,11 @@ def _locate_georinex_failure_with(scan: RinexScan, tmp: Path, load: Callable[[Pa
     """Original line of the first epoch ``load`` (georinex) fails on, or ``None`` if no
     single epoch makes it fail. Chunks of epochs are loaded one by one (about the cost of
     one full load), then the failing chunk is bisected."""
-    head = scan.lines[:scan.header_end + 1]
+    head = scan.lines[: scan.header_end + 1]
     starts = scan.epoch_starts + [len(scan.lines)]
 
     def fails(a: int, b: int) -> bool:  # epochs a .. b-1 with the header
-        tmp.write_text("\n".join(head + scan.lines[starts[a]:starts[b]]) + "\n")
+        tmp.write_text("\n".join(head + scan.lines[starts[a] : starts[b]]) + "\n")
         try:
             load(tmp)
         except Exception:  # noqa: BLE001 - any failure counts
@@ -394,8 +436,9 @@ def _d19(x: float) -> str:
     return f"{x:19.12E}".replace("E", "D")
 
 
-def write_rinex3_nav(path: str | Path, epoch: dt.datetime, ephemerides: dict[int, dict[str, float]],
-                     gps_week: int = 2103) -> None:
+def write_rinex3_nav(
+    path: str | Path, epoch: dt.datetime, ephemerides: dict[int, dict[str, float]], gps_week: int = 2103
+) -> None:
     """Write a RINEX 3.04 GPS navigation file (one record per satellite, clock terms zero).
 
     ``ephemerides`` maps a PRN to the IS-GPS-200 elements under georinex's names
@@ -406,15 +449,23 @@ def write_rinex3_nav(path: str | Path, epoch: dt.datetime, ephemerides: dict[int
     def hdr(text: str, label: str) -> str:
         return f"{text:<60}{label:<20}"
 
-    lines = [hdr("     3.04           N: GNSS NAV DATA    G: GPS", "RINEX VERSION / TYPE"),
-             hdr(f"{'gnssframework':<20}{'gnssframework':<20}{epoch:%Y%m%d %H%M%S} UTC", "PGM / RUN BY / DATE"),
-             hdr("", "END OF HEADER")]
+    lines = [
+        hdr("     3.04           N: GNSS NAV DATA    G: GPS", "RINEX VERSION / TYPE"),
+        hdr(f"{'gnssframework':<20}{'gnssframework':<20}{epoch:%Y%m%d %H%M%S} UTC", "PGM / RUN BY / DATE"),
+        hdr("", "END OF HEADER"),
+    ]
     for prn in sorted(ephemerides):
         e = {k: 0.0 for k in ("DeltaN", "OmegaDot", "IDOT", "Cuc", "Cus", "Crc", "Crs", "Cic", "Cis")}
         e.update(ephemerides[prn])
         lines.append(f"G{prn:02d} {epoch:%Y %m %d %H %M %S}" + _d19(0.0) * 3)
-        for row in ([1.0, e["Crs"], e["DeltaN"], e["M0"]], [e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]],
-                    [e["Toe"], e["Cic"], e["Omega0"], e["Cis"]], [e["Io"], e["Crc"], e["omega"], e["OmegaDot"]],
-                    [e["IDOT"], 0.0, float(gps_week), 0.0], [2.0, 0.0, 0.0, 1.0], [e["Toe"], 4.0]):
+        for row in (
+            [1.0, e["Crs"], e["DeltaN"], e["M0"]],
+            [e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]],
+            [e["Toe"], e["Cic"], e["Omega0"], e["Cis"]],
+            [e["Io"], e["Crc"], e["omega"], e["OmegaDot"]],
+            [e["IDOT"], 0.0, float(gps_week), 0.0],
+            [2.0, 0.0, 0.0, 1.0],
+            [e["Toe"], 4.0],
+        ):
             lines.append("    " + "".join(_d19(v) for v in row))
     Path(path).write_text("\n".join(lines) + "\n")

@@ -16,8 +16,18 @@ from collections.abc import Sequence
 
 from ..errors import DataFileError
 
-__all__ = ["EXIT_OK", "EXIT_ERROR", "EXIT_SKIPPED", "EXIT_TRUNCATED", "EXIT_STATUS_HELP", "refuse_or_keep",
-           "sidecar_path", "write_skipped_report", "print_skipped", "exit_status"]
+__all__ = [
+    "EXIT_OK",
+    "EXIT_ERROR",
+    "EXIT_SKIPPED",
+    "EXIT_TRUNCATED",
+    "EXIT_STATUS_HELP",
+    "refuse_or_keep",
+    "sidecar_path",
+    "write_skipped_report",
+    "print_skipped",
+    "exit_status",
+]
 
 #: Every line used, nothing skipped.
 EXIT_OK = 0
@@ -28,9 +38,11 @@ EXIT_SKIPPED = 3
 #: Output written from the part before the cut, but the file is truncated.
 EXIT_TRUNCATED = 4
 
-EXIT_STATUS_HELP = (f"exit status: {EXIT_OK} every line used; {EXIT_SKIPPED} output written but lines were skipped "
-                    f"(listed on stdout and in <out>.skipped.csv); {EXIT_TRUNCATED} output written but the input "
-                    f"file is truncated; {EXIT_ERROR} error, nothing written (with --strict: the first bad line)")
+EXIT_STATUS_HELP = (
+    f"exit status: {EXIT_OK} every line used; {EXIT_SKIPPED} output written but lines were skipped "
+    f"(listed on stdout and in <out>.skipped.csv); {EXIT_TRUNCATED} output written but the input "
+    f"file is truncated; {EXIT_ERROR} error, nothing written (with --strict: the first bad line)"
+)
 
 
 def refuse_or_keep(path: str | Path, skipped: Sequence[tuple[int, str]], strict: bool) -> None:

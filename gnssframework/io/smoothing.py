@@ -24,8 +24,10 @@ __all__ = ["SmoothedObservations", "smooth_observations", "default_max_gap_s", "
 SMOOTHERS = {
     "hatch": {"name": "hatch", "params": {}},
     "kf": {"name": "kf-smoother", "params": {}},
-    "adaptive-kf": {"name": "kf-smoother", "params": {"adapter": "ml-q", "adapter_params": {
-        "window": 10, "warmup": 20, "q_ceiling": 1e4}}},
+    "adaptive-kf": {
+        "name": "kf-smoother",
+        "params": {"adapter": "ml-q", "adapter_params": {"window": 10, "warmup": 20, "q_ceiling": 1e4}},
+    },
 }
 
 #: Fastest plausible drift of code minus carrier (m/s), its least-squares slope over an
@@ -59,9 +61,13 @@ class SmoothedObservations:
         return int(self.arc_start.sum())
 
 
-def smooth_observations(obs: Observations, make_smoother: Callable[[], ChannelFilter],
-                        max_gap_s: float | None = None, reset_at_lli: bool = True,
-                        max_cmc_rate_mps: float = MAX_CMC_RATE_MPS) -> SmoothedObservations:
+def smooth_observations(
+    obs: Observations,
+    make_smoother: Callable[[], ChannelFilter],
+    max_gap_s: float | None = None,
+    reset_at_lli: bool = True,
+    max_cmc_rate_mps: float = MAX_CMC_RATE_MPS,
+) -> SmoothedObservations:
     """Run a fresh smoother from ``make_smoother`` over each satellite of ``obs``.
 
     Parameters
@@ -96,9 +102,13 @@ def smooth_observations(obs: Observations, make_smoother: Callable[[], ChannelFi
         smoother = make_smoother()
         smoother.reset((), context)
         for k in rows:
-            out = smoother.checked_step({"pseudorange_m": np.asarray(obs.pseudorange_m[k, j]),
-                                         "carrier_m": np.asarray(obs.carrier_m[k, j]),
-                                         names.ARC_START: np.asarray(starts[k, j])})
+            out = smoother.checked_step(
+                {
+                    "pseudorange_m": np.asarray(obs.pseudorange_m[k, j]),
+                    "carrier_m": np.asarray(obs.carrier_m[k, j]),
+                    names.ARC_START: np.asarray(starts[k, j]),
+                }
+            )
             smoothed[k, j] = float(out["smoothed_m"])
             slips[k, j] = bool(out["slip_detected"])
         arc = np.cumsum(starts[rows, j])  # arc number of each valid epoch

@@ -50,8 +50,11 @@ def check_input_file(path: str | Path) -> Path:
     if not stat.S_ISREG(info.st_mode):
         raise DataFileError(str(path), None, f"is {_kind(info.st_mode)}, not a regular file; give a file")
     if info.st_size > MAX_INPUT_FILE_BYTES:
-        raise DataFileError(str(path), None, f"is {info.st_size} bytes, more than the {MAX_INPUT_FILE_BYTES} "
-                            "bytes a reader holds in memory")
+        raise DataFileError(
+            str(path),
+            None,
+            f"is {info.st_size} bytes, more than the {MAX_INPUT_FILE_BYTES} bytes a reader holds in memory",
+        )
     return path
 
 

@@ -49,10 +49,24 @@ import numpy as np
 
 from ..errors import DataFileError
 
-__all__ = ["Ephemerides", "SatelliteState", "read_rinex_nav", "satellite_state", "gps_seconds_of_week",
-           "GM_GPS_M3_S2", "OMEGA_EARTH_RAD_S", "F_RELATIVISTIC_S_SQRTM", "ORBIT_FIELDS", "CLOCK_FIELDS",
-           "GM_GAL_BDS_M3_S2", "OMEGA_EARTH_BDS_RAD_S", "F_RELATIVISTIC_GAL_BDS_S_SQRTM", "SYSTEM_TIME_OFFSET_S",
-           "SYSTEMS", "is_bds_geo"]
+__all__ = [
+    "Ephemerides",
+    "SatelliteState",
+    "read_rinex_nav",
+    "satellite_state",
+    "gps_seconds_of_week",
+    "GM_GPS_M3_S2",
+    "OMEGA_EARTH_RAD_S",
+    "F_RELATIVISTIC_S_SQRTM",
+    "ORBIT_FIELDS",
+    "CLOCK_FIELDS",
+    "GM_GAL_BDS_M3_S2",
+    "OMEGA_EARTH_BDS_RAD_S",
+    "F_RELATIVISTIC_GAL_BDS_S_SQRTM",
+    "SYSTEM_TIME_OFFSET_S",
+    "SYSTEMS",
+    "is_bds_geo",
+]
 
 #: WGS 84 gravitational constant of IS-GPS-200 (Table 20-IV), m^3/s^2.
 GM_GPS_M3_S2 = 3.986005e14
@@ -72,15 +86,38 @@ SYSTEM_TIME_OFFSET_S = {"G": 0.0, "J": 0.0, "E": 0.0, "C": 14.0}
 SYSTEMS = ("G", "J", "E", "C")
 #: Systems on GPS's constants (IS-GPS-200 Table 20-IV; QZSS: IS-QZSS-PNT-005 takes them over).
 _GPS_CONSTANTS = ("G", "J")
-_SYSTEM_NAMES = {"G": "GPS", "E": "Galileo", "C": "BeiDou", "R": "GLONASS", "J": "QZSS", "I": "NavIC/IRNSS",
-                 "S": "SBAS"}
+_SYSTEM_NAMES = {
+    "G": "GPS",
+    "E": "Galileo",
+    "C": "BeiDou",
+    "R": "GLONASS",
+    "J": "QZSS",
+    "I": "NavIC/IRNSS",
+    "S": "SBAS",
+}
 _GEO_TILT_RAD = np.radians(-5.0)  # BDS GEO: rotation about X of BDS-SIS-ICD-B1I 5.2.4.12
 _HALF_WEEK_S = 302_400.0
 _GPS_EPOCH = np.datetime64("1980-01-06T00:00:00", "ns")
 
 #: georinex names of the Keplerian elements (IS-GPS-200 Table 20-III).
-ORBIT_FIELDS = ("sqrtA", "Eccentricity", "Io", "Omega0", "omega", "M0", "DeltaN", "OmegaDot", "IDOT",
-                "Cuc", "Cus", "Crc", "Crs", "Cic", "Cis", "Toe")
+ORBIT_FIELDS = (
+    "sqrtA",
+    "Eccentricity",
+    "Io",
+    "Omega0",
+    "omega",
+    "M0",
+    "DeltaN",
+    "OmegaDot",
+    "IDOT",
+    "Cuc",
+    "Cus",
+    "Crc",
+    "Crs",
+    "Cic",
+    "Cis",
+    "Toe",
+)
 #: georinex names of the clock terms af0, af1, af2 (s, s/s, s/s^2) and the group delay T_GD (s).
 #: For Galileo and BeiDou records ``TGD`` holds the group delay of the single-frequency user
 #: (see :func:`read_rinex_nav`): BGD(E1,E5b) or BGD(E1,E5a), and T_GD1.
@@ -89,11 +126,27 @@ CLOCK_FIELDS = ("SVclockBias", "SVclockDrift", "SVclockDriftRate", "TGD")
 
 #: Keplerian and clock fields of a broadcast navigation message (the decoders' names, angles
 #: in semicircles) -> georinex names of `read_rinex_nav` (angles in radians there).
-KEPLER_TO_RINEX = {"sqrt_a_sqrtm": "sqrtA", "e": "Eccentricity", "i0_sc": "Io", "omega0_sc": "Omega0",
-                   "omega_sc": "omega", "m0_sc": "M0", "delta_n_sc_s": "DeltaN", "omega_dot_sc_s": "OmegaDot",
-                   "idot_sc_s": "IDOT", "cuc_rad": "Cuc", "cus_rad": "Cus", "crc_m": "Crc", "crs_m": "Crs",
-                   "cic_rad": "Cic", "cis_rad": "Cis", "toe_s": "Toe", "af0_s": "SVclockBias",
-                   "af1_s_s": "SVclockDrift", "af2_s_s2": "SVclockDriftRate"}
+KEPLER_TO_RINEX = {
+    "sqrt_a_sqrtm": "sqrtA",
+    "e": "Eccentricity",
+    "i0_sc": "Io",
+    "omega0_sc": "Omega0",
+    "omega_sc": "omega",
+    "m0_sc": "M0",
+    "delta_n_sc_s": "DeltaN",
+    "omega_dot_sc_s": "OmegaDot",
+    "idot_sc_s": "IDOT",
+    "cuc_rad": "Cuc",
+    "cus_rad": "Cus",
+    "crc_m": "Crc",
+    "crs_m": "Crs",
+    "cic_rad": "Cic",
+    "cis_rad": "Cis",
+    "toe_s": "Toe",
+    "af0_s": "SVclockBias",
+    "af1_s_s": "SVclockDrift",
+    "af2_s_s2": "SVclockDriftRate",
+}
 #: The fields of `KEPLER_TO_RINEX` broadcast in semicircles (or semicircles per second).
 SEMICIRCLE_FIELDS = ("delta_n_sc_s", "m0_sc", "omega0_sc", "i0_sc", "omega_sc", "omega_dot_sc_s", "idot_sc_s")
 
@@ -101,10 +154,13 @@ SEMICIRCLE_FIELDS = ("delta_n_sc_s", "m0_sc", "omega0_sc", "i0_sc", "omega_sc", 
 def _system_error(letter: str) -> ValueError:
     name = _SYSTEM_NAMES.get(letter, "unknown")
     if letter == "R":
-        return ValueError("GLONASS (R) records are position/velocity/acceleration state vectors; this code does not "
-                          "propagate them (GPS G, QZSS J, Galileo E, BeiDou C only)")
-    return ValueError(f"system {letter!r} ({name}) is not handled by this code (GPS G, QZSS J, Galileo E, "
-                      "BeiDou C only)")
+        return ValueError(
+            "GLONASS (R) records are position/velocity/acceleration state vectors; this code does not "
+            "propagate them (GPS G, QZSS J, Galileo E, BeiDou C only)"
+        )
+    return ValueError(
+        f"system {letter!r} ({name}) is not handled by this code (GPS G, QZSS J, Galileo E, BeiDou C only)"
+    )
 
 
 def _letters(sv: np.ndarray) -> np.ndarray:
@@ -155,9 +211,14 @@ class Ephemerides:
     accuracy_m: np.ndarray | None = None
 
     def subset(self, index: np.ndarray) -> Ephemerides:
-        return Ephemerides(self.sv[index], self.toc_s[index], {k: v[index] for k, v in self.elements.items()},
-                           self.health[index], self.iode[index],
-                           None if self.accuracy_m is None else self.accuracy_m[index])
+        return Ephemerides(
+            self.sv[index],
+            self.toc_s[index],
+            {k: v[index] for k, v in self.elements.items()},
+            self.health[index],
+            self.iode[index],
+            None if self.accuracy_m is None else self.accuracy_m[index],
+        )
 
     def of_systems(self, systems: str) -> Ephemerides:
         """The records of the systems named by RINEX letters (``"E"``, ``"GEC"``).
@@ -306,8 +367,7 @@ def satellite_state(eph: Ephemerides, t_s: np.ndarray | float) -> SatelliteState
     rel_dot = f_rel * ecc * e["sqrtA"] * cosE * E_dot
     clock = e["SVclockBias"] + e["SVclockDrift"] * dtc + e["SVclockDriftRate"] * dtc**2 + rel
     drift = e["SVclockDrift"] + 2 * e["SVclockDriftRate"] * dtc + rel_dot
-    return SatelliteState(np.stack([x, y, z], -1), np.stack([vx, vy, vz], -1), clock, drift, rel,
-                          clock - e["TGD"])
+    return SatelliteState(np.stack([x, y, z], -1), np.stack([vx, vy, vz], -1), clock, drift, rel, clock - e["TGD"])
 
 
 def _geo_to_earth_fixed(geo, theta, pos, vel, we):
@@ -329,10 +389,12 @@ def _geo_to_earth_fixed(geo, theta, pos, vel, we):
 
 
 #: Per system: georinex names of (group delay source(s), health, issue of data, accuracy).
-_SYSTEM_FIELDS = {"G": (("TGD",), "health", "IODE", "SVacc"),
-                  "J": (("TGD",), "health", "IODE", "SVacc"),  # RINEX 3 QZSS records: GPS's fields
-                  "E": (("BGDe5a", "BGDe5b", "DataSrc"), "health", "IODnav", "SISA"),
-                  "C": (("TGD1",), "SatH1", "AODE", "SVacc")}
+_SYSTEM_FIELDS = {
+    "G": (("TGD",), "health", "IODE", "SVacc"),
+    "J": (("TGD",), "health", "IODE", "SVacc"),  # RINEX 3 QZSS records: GPS's fields
+    "E": (("BGDe5a", "BGDe5b", "DataSrc"), "health", "IODnav", "SISA"),
+    "C": (("TGD1",), "SatH1", "AODE", "SVacc"),
+}
 
 
 def _group_delay(letter: str, values: dict) -> np.ndarray:
@@ -384,8 +446,7 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
                 warnings.simplefilter("ignore", FutureWarning)
                 nav = georinex.load(path, use=letter)
         except Exception as exc:  # noqa: BLE001 - georinex raises many types
-            raise DataFileError(str(path), None,
-                                f"georinex could not read it: {type(exc).__name__}: {exc}") from None
+            raise DataFileError(str(path), None, f"georinex could not read it: {type(exc).__name__}: {exc}") from None
         if nav.attrs.get("rinextype") != "nav":
             raise DataFileError(str(path), 1, f"not a navigation file (RINEX type {nav.attrs.get('rinextype')!r})")
         # A RINEX 2 file of one system comes back whatever ``use`` asked: keep this system's satellites.
@@ -393,16 +454,20 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
         if not own and len(systems) > 1:
             continue  # none of this system's records: the others may be there
         if not own:
-            raise DataFileError(str(path), None, f"not a {_SYSTEM_NAMES[letter]} navigation file: it holds no "
-                                                 f"{_SYSTEM_NAMES[letter]} ({letter}) record")
+            raise DataFileError(
+                str(path),
+                None,
+                f"not a {_SYSTEM_NAMES[letter]} navigation file: it holds no {_SYSTEM_NAMES[letter]} ({letter}) record",
+            )
         nav = nav.sel(sv=own)
         delay_fields, health, iod, accuracy = _SYSTEM_FIELDS[letter]
         orbit_clock = ORBIT_FIELDS + CLOCK_FIELDS[:3]
         fields = orbit_clock + delay_fields + (health, iod)
         missing = [f for f in fields if f not in nav.data_vars]
         if missing:
-            raise DataFileError(str(path), None,
-                                f"not a {_SYSTEM_NAMES[letter]} navigation file: lacks {', '.join(missing)}")
+            raise DataFileError(
+                str(path), None, f"not a {_SYSTEM_NAMES[letter]} navigation file: lacks {', '.join(missing)}"
+            )
         values = {f: nav[f].values for f in fields}  # (time, sv)
         values["TGD"] = _group_delay(letter, values)
         required = orbit_clock + ("TGD", health, iod)
@@ -414,9 +479,11 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
         with np.errstate(invalid="ignore"):
             misread = ok & ((values[health] != np.round(values[health])) | (values[health] < 0)) & (letter == "E")
         if misread.any():
-            warnings.warn(f"{path.name}: {int(misread.sum())} {_SYSTEM_NAMES[letter]} records misread by georinex "
-                          f"(fields shifted after BROADCAST ORBIT 5: the health word is not an integer), not used",
-                          stacklevel=2)
+            warnings.warn(
+                f"{path.name}: {int(misread.sum())} {_SYSTEM_NAMES[letter]} records misread by georinex "
+                f"(fields shifted after BROADCAST ORBIT 5: the health word is not an integer), not used",
+                stacklevel=2,
+            )
             ok &= ~misread
         ti, si = np.nonzero(ok)
         acc = nav[accuracy].values[ti, si].astype(float) if accuracy in nav.data_vars else np.full(ti.size, np.nan)
@@ -424,12 +491,23 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
         # its seconds of week are those of the calendar date, as for GPS.
         # georinex names a second record of the same satellite and epoch "E19_1" (Galileo I/NAV and F/NAV).
         sv = np.array([name.split("_")[0] for name in nav.sv.values[si].astype(str)], dtype=str)
-        parts.append((sv, gps_seconds_of_week(nav.time.values[ti]),
-                      {f: values[f][ti, si].astype(float) for f in ORBIT_FIELDS + CLOCK_FIELDS},
-                      values[health][ti, si].astype(float), values[iod][ti, si].astype(float), acc))
+        parts.append(
+            (
+                sv,
+                gps_seconds_of_week(nav.time.values[ti]),
+                {f: values[f][ti, si].astype(float) for f in ORBIT_FIELDS + CLOCK_FIELDS},
+                values[health][ti, si].astype(float),
+                values[iod][ti, si].astype(float),
+                acc,
+            )
+        )
     if not parts or sum(p[0].size for p in parts) == 0:
         raise DataFileError(str(path), None, f"no complete {names} ephemeris record")
-    return Ephemerides(np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
-                       {f: np.concatenate([p[2][f] for p in parts]) for f in ORBIT_FIELDS + CLOCK_FIELDS},
-                       np.concatenate([p[3] for p in parts]), np.concatenate([p[4] for p in parts]),
-                       np.concatenate([p[5] for p in parts]))
+    return Ephemerides(
+        np.concatenate([p[0] for p in parts]),
+        np.concatenate([p[1] for p in parts]),
+        {f: np.concatenate([p[2][f] for p in parts]) for f in ORBIT_FIELDS + CLOCK_FIELDS},
+        np.concatenate([p[3] for p in parts]),
+        np.concatenate([p[4] for p in parts]),
+        np.concatenate([p[5] for p in parts]),
+    )

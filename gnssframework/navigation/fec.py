@@ -41,8 +41,18 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["G1", "G2", "CONSTRAINT_LENGTH", "conv_encode", "viterbi_decode", "interleave", "deinterleave",
-           "crc24q_bits", "CRC24Q_POLY", "real_symbols"]
+__all__ = [
+    "G1",
+    "G2",
+    "CONSTRAINT_LENGTH",
+    "conv_encode",
+    "viterbi_decode",
+    "interleave",
+    "deinterleave",
+    "crc24q_bits",
+    "CRC24Q_POLY",
+    "real_symbols",
+]
 
 #: Generator polynomials of the Galileo I/NAV and F/NAV convolutional code (ICD 4.1.4.1), octal 171 and 133.
 G1 = 0o171
@@ -72,8 +82,9 @@ def _bits(bits: np.ndarray, name: str) -> np.ndarray:
     return b.astype(np.uint8)
 
 
-def conv_encode(bits: np.ndarray, generators: tuple[int, int] = (G1, G2),
-                inverted: tuple[bool, bool] = (False, True)) -> np.ndarray:
+def conv_encode(
+    bits: np.ndarray, generators: tuple[int, int] = (G1, G2), inverted: tuple[bool, bool] = (False, True)
+) -> np.ndarray:
     """Coded symbols (0/1) of ``bits`` (``(..., n)``, 0/1) from a zero register: ``(..., 2n)``,
     the two generators' symbols of each bit in turn, each XOR 1 where ``inverted``.
 
@@ -88,7 +99,7 @@ def conv_encode(bits: np.ndarray, generators: tuple[int, int] = (G1, G2),
         c = np.full(u.shape, int(inv), dtype=np.uint8)
         for d in range(CONSTRAINT_LENGTH):
             if (g >> (CONSTRAINT_LENGTH - 1 - d)) & 1:
-                c ^= padded[..., CONSTRAINT_LENGTH - 1 - d:CONSTRAINT_LENGTH - 1 - d + n]
+                c ^= padded[..., CONSTRAINT_LENGTH - 1 - d : CONSTRAINT_LENGTH - 1 - d + n]
         out[..., j::2] = c
     return out
 
@@ -100,8 +111,12 @@ def _branch_symbols(generators: tuple[int, int], inverted: tuple[bool, bool]) ->
     return 1.0 - 2.0 * c
 
 
-def viterbi_decode(symbols: np.ndarray, generators: tuple[int, int] = (G1, G2),
-                   inverted: tuple[bool, bool] = (False, True), terminated: bool = True) -> np.ndarray:
+def viterbi_decode(
+    symbols: np.ndarray,
+    generators: tuple[int, int] = (G1, G2),
+    inverted: tuple[bool, bool] = (False, True),
+    terminated: bool = True,
+) -> np.ndarray:
     """Maximum-likelihood bits ``(..., n)`` (0/1) of soft symbols ``(..., 2n)`` (bit 0 sent as +1).
 
     Parameters
@@ -153,8 +168,9 @@ def interleave(symbols: np.ndarray, rows: int = 8, cols: int = 30) -> np.ndarray
     ``cols`` columns of ``rows``, read row by row."""
     s = np.asarray(symbols)
     if s.ndim == 0 or s.shape[-1] != rows * cols:
-        raise ConfigError("symbols", f"a {cols} x {rows} block interleaver takes {rows * cols} symbols, "
-                                     f"got shape {s.shape}")
+        raise ConfigError(
+            "symbols", f"a {cols} x {rows} block interleaver takes {rows * cols} symbols, got shape {s.shape}"
+        )
     return np.swapaxes(s.reshape(s.shape[:-1] + (cols, rows)), -1, -2).reshape(s.shape)
 
 
@@ -163,8 +179,9 @@ def deinterleave(symbols: np.ndarray, rows: int = 8, cols: int = 30) -> np.ndarr
     returned column by column."""
     s = np.asarray(symbols)
     if s.ndim == 0 or s.shape[-1] != rows * cols:
-        raise ConfigError("symbols", f"a {cols} x {rows} block de-interleaver takes {rows * cols} symbols, "
-                                     f"got shape {s.shape}")
+        raise ConfigError(
+            "symbols", f"a {cols} x {rows} block de-interleaver takes {rows * cols} symbols, got shape {s.shape}"
+        )
     return np.swapaxes(s.reshape(s.shape[:-1] + (rows, cols)), -1, -2).reshape(s.shape)
 
 

@@ -60,8 +60,14 @@ import numpy as np
 from ..errors import ConfigError
 from .integrity import _check_probability, _chi2_isf, separation_levels
 
-__all__ = ["InnovationTest", "FilterSeparation", "innovation_test", "normalised_innovation_squared",
-           "filter_solution_separation", "satellite_modes"]
+__all__ = [
+    "InnovationTest",
+    "FilterSeparation",
+    "innovation_test",
+    "normalised_innovation_squared",
+    "filter_solution_separation",
+    "satellite_modes",
+]
 
 
 @dataclass(frozen=True)
@@ -97,8 +103,7 @@ class FilterSeparation:
     error_sigma_enu_m: np.ndarray
 
 
-def _masked(innovation: np.ndarray, innovation_cov: np.ndarray,
-            keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _masked(innovation: np.ndarray, innovation_cov: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``ν`` and ``S`` with the rows not in ``keep`` removed in place: ``ν`` 0 there, ``S`` those
     rows and columns the identity's (an equal-size system whose solution ignores them)."""
     k = keep.astype(float)
@@ -106,8 +111,9 @@ def _masked(innovation: np.ndarray, innovation_cov: np.ndarray,
     return innovation * k, S
 
 
-def innovation_test(innovation: np.ndarray, innovation_cov: np.ndarray, false_alarm: float = 1e-3,
-                    used: np.ndarray | None = None) -> InnovationTest:
+def innovation_test(
+    innovation: np.ndarray, innovation_cov: np.ndarray, false_alarm: float = 1e-3, used: np.ndarray | None = None
+) -> InnovationTest:
     """The chi-square test of the normalised innovation squared (see the module text).
 
     Parameters
@@ -132,8 +138,9 @@ def innovation_test(innovation: np.ndarray, innovation_cov: np.ndarray, false_al
     return InnovationTest(statistic, dof, threshold, (dof >= 1) & (statistic > threshold))
 
 
-def normalised_innovation_squared(innovation: np.ndarray, innovation_cov: np.ndarray,
-                                  used: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def normalised_innovation_squared(
+    innovation: np.ndarray, innovation_cov: np.ndarray, used: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """:math:`\nu^T S^{-1} \nu` over the rows ``used`` (default every finite one) and their
     count, each ``(...)``, from ``(..., m)`` innovations and ``(..., m, m)`` covariances."""
     nu = np.asarray(innovation, float)
@@ -155,10 +162,19 @@ def satellite_modes(satellites: int, blocks: int = 2) -> np.ndarray:
     return np.tile(np.eye(satellites, dtype=bool), (1, blocks))
 
 
-def filter_solution_separation(prior_cov: np.ndarray, innovation: np.ndarray, innovation_cov: np.ndarray,
-                               cross_cov: np.ndarray, modes: np.ndarray, position_enu: np.ndarray, *,
-                               used: np.ndarray | None = None, false_alarm: float = 1e-3,
-                               missed_detection: float = 1e-3, integrity_risk: float = 1e-7) -> FilterSeparation:
+def filter_solution_separation(
+    prior_cov: np.ndarray,
+    innovation: np.ndarray,
+    innovation_cov: np.ndarray,
+    cross_cov: np.ndarray,
+    modes: np.ndarray,
+    position_enu: np.ndarray,
+    *,
+    used: np.ndarray | None = None,
+    false_alarm: float = 1e-3,
+    missed_detection: float = 1e-3,
+    integrity_risk: float = 1e-7,
+) -> FilterSeparation:
     """Solution separation of one filter update and its protection levels (see the module text).
 
     Parameters
@@ -186,8 +202,11 @@ def filter_solution_separation(prior_cov: np.ndarray, innovation: np.ndarray, in
     ConfigError
         For a probability outside (0, 1) or ``modes`` of the wrong width.
     """
-    for name, p in (("false_alarm", false_alarm), ("missed_detection", missed_detection),
-                    ("integrity_risk", integrity_risk)):
+    for name, p in (
+        ("false_alarm", false_alarm),
+        ("missed_detection", missed_detection),
+        ("integrity_risk", integrity_risk),
+    ):
         _check_probability(name, p)
     nu = np.asarray(innovation, float)
     m = nu.shape[-1]
@@ -218,7 +237,9 @@ def filter_solution_separation(prior_cov: np.ndarray, innovation: np.ndarray, in
     sig_k = np.sqrt(np.maximum(vark, 0.0))
     sig_ss = np.sqrt(np.maximum(gain0[..., None, :] - gaink, 0.0))  # diag A (P_k - P_0) A^T
     separation = dxk - dx0[..., None, :]
-    ratio, pl = separation_levels(separation, sig_ss, sig_k, sig_0, valid, false_alarm, missed_detection,
-                                  integrity_risk)
-    return FilterSeparation(separation, sig_ss, ratio, ratio > 1.0, pl, np.hypot(pl[..., 0], pl[..., 1]), pl[..., 2],
-                            sig_0)
+    ratio, pl = separation_levels(
+        separation, sig_ss, sig_k, sig_0, valid, false_alarm, missed_detection, integrity_risk
+    )
+    return FilterSeparation(
+        separation, sig_ss, ratio, ratio > 1.0, pl, np.hypot(pl[..., 0], pl[..., 1]), pl[..., 2], sig_0
+    )

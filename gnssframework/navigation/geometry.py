@@ -30,8 +30,7 @@ import numpy as np
 from ..signal.spec import SPEED_OF_LIGHT_M_S
 from .ephemeris import OMEGA_EARTH_RAD_S
 
-__all__ = ["geometric_range", "line_of_sight", "range_rate", "range_acceleration", "ranges_from_receivers",
-           "sagnac_m"]
+__all__ = ["geometric_range", "line_of_sight", "range_rate", "range_acceleration", "ranges_from_receivers", "sagnac_m"]
 
 
 def geometric_range(sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray) -> np.ndarray:
@@ -64,8 +63,14 @@ def range_rate(sat_vel_m_s: np.ndarray, receiver_vel_m_s: np.ndarray, los: np.nd
     return np.sum((np.asarray(sat_vel_m_s) - np.asarray(receiver_vel_m_s)) * los, axis=-1)
 
 
-def range_acceleration(sat_acc_m_s2: np.ndarray, receiver_acc_m_s2: np.ndarray, sat_vel_m_s: np.ndarray,
-                       receiver_vel_m_s: np.ndarray, los: np.ndarray, range_m: np.ndarray) -> np.ndarray:
+def range_acceleration(
+    sat_acc_m_s2: np.ndarray,
+    receiver_acc_m_s2: np.ndarray,
+    sat_vel_m_s: np.ndarray,
+    receiver_vel_m_s: np.ndarray,
+    los: np.ndarray,
+    range_m: np.ndarray,
+) -> np.ndarray:
     r"""Geometric range acceleration (m/s²): $e \cdot (\ddot s - \ddot r) + (\lVert \dot s -
     \dot r \rVert^2 - \dot\rho_g^2) / \rho_g$, the second derivative of $\lVert s - r \rVert$.
 
@@ -95,8 +100,9 @@ def ranges_from_receivers(sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray) -> 
     return geometric_range(s, np.asarray(receiver_pos_m)[..., None, :])
 
 
-def sagnac_m(sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray, omega_earth_rad_s: float = OMEGA_EARTH_RAD_S
-             ) -> np.ndarray:
+def sagnac_m(
+    sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray, omega_earth_rad_s: float = OMEGA_EARTH_RAD_S
+) -> np.ndarray:
     """Sagnac correction (m) to add to the geometric range of ECEF positions ``(..., 3)``:
     $\\frac{\\omega_{ie}}{c}(s_x r_y - s_y r_x)$ (IS-GPS-200, 20.3.3.4.3.3.2; at most about 40 m)."""
     s, r = np.asarray(sat_pos_m), np.asarray(receiver_pos_m)

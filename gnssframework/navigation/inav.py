@@ -41,9 +41,24 @@ from . import fec
 from .ephemeris import Ephemerides
 from .inav_words import WORD_BITS, decode_word, encode_word, ephemeris_to_words, words_to_ephemeris
 
-__all__ = ["SYNC", "PART_SYMBOLS", "PAGE_SYMBOLS", "SYMBOL_RATE_HZ", "E1B_SUBFRAME_WORDS", "InavCrcError",
-           "InavPage", "InavMessage", "page_part_bits", "encode_pages", "decode_pages", "find_pages", "decode_inav",
-           "encode_inav", "inav_symbols", "crc_message"]
+__all__ = [
+    "SYNC",
+    "PART_SYMBOLS",
+    "PAGE_SYMBOLS",
+    "SYMBOL_RATE_HZ",
+    "E1B_SUBFRAME_WORDS",
+    "InavCrcError",
+    "InavPage",
+    "InavMessage",
+    "page_part_bits",
+    "encode_pages",
+    "decode_pages",
+    "find_pages",
+    "decode_inav",
+    "encode_inav",
+    "inav_symbols",
+    "crc_message",
+]
 
 #: Synchronisation pattern of every page part (ICD 4.3.2.1).
 SYNC = np.array([0, 1, 0, 1, 1, 0, 0, 0, 0, 0], dtype=np.uint8)
@@ -100,8 +115,9 @@ def crc_message(parts: np.ndarray) -> np.ndarray:
     return np.concatenate([parts[..., 0, :114], parts[..., 1, :82]], axis=-1)
 
 
-def page_part_bits(words: np.ndarray, osnma: np.ndarray | None = None, sar: np.ndarray | None = None,
-                   ssp: np.ndarray | None = None) -> np.ndarray:
+def page_part_bits(
+    words: np.ndarray, osnma: np.ndarray | None = None, sar: np.ndarray | None = None, ssp: np.ndarray | None = None
+) -> np.ndarray:
     """Even and odd parts ``(P, 2, 120)`` (0/1, before coding) of pages carrying ``words``
     ``(P, 128)``; OSNMA (40), SAR (22) and SSP (8) bits per page, zero when not given."""
     w = np.atleast_2d(np.asarray(words, dtype=np.uint8))
@@ -114,7 +130,7 @@ def page_part_bits(words: np.ndarray, osnma: np.ndarray | None = None, sar: np.n
     parts[:, 1, 2:18] = w[:, 112:]
     for bits, first, n in ((osnma, 18, 40), (sar, 58, 22), (ssp, 106, 8)):
         if bits is not None:
-            parts[:, 1, first:first + n] = np.broadcast_to(np.asarray(bits, np.uint8), (p, n))
+            parts[:, 1, first : first + n] = np.broadcast_to(np.asarray(bits, np.uint8), (p, n))
     crc = fec.crc24q_bits(crc_message(parts))
     parts[:, 1, 82:106] = (crc[:, None] >> np.arange(23, -1, -1)) & 1
     return parts
@@ -159,13 +175,18 @@ def decode_pages(symbols: np.ndarray) -> list[InavPage]:
     """
     s = np.atleast_2d(np.asarray(symbols, dtype=float))
     if s.ndim != 2 or s.shape[-1] != PAGE_SYMBOLS or not np.all(np.isfinite(s)):
-        raise ConfigError("symbols", f"I/NAV pages are {PAGE_SYMBOLS} finite symbols each (two parts of "
-                                     f"{PART_SYMBOLS}), got shape {np.shape(symbols)}")
+        raise ConfigError(
+            "symbols",
+            f"I/NAV pages are {PAGE_SYMBOLS} finite symbols each (two parts of "
+            f"{PART_SYMBOLS}), got shape {np.shape(symbols)}",
+        )
     parts, crc_ok, flags_ok = _decode_parts(s)
     for k in np.flatnonzero(~(crc_ok & flags_ok)):
         what = "CRC-24Q failed" if not crc_ok[k] else "Even/Odd flags are not 0, 1"
-        raise InavCrcError(f"I/NAV page {k} (symbols {k * PAGE_SYMBOLS}-{(k + 1) * PAGE_SYMBOLS - 1}): {what}; "
-                           f"its word (type {_page(parts[k], 0, False).word_type} as read) is not used")
+        raise InavCrcError(
+            f"I/NAV page {k} (symbols {k * PAGE_SYMBOLS}-{(k + 1) * PAGE_SYMBOLS - 1}): {what}; "
+            f"its word (type {_page(parts[k], 0, False).word_type} as read) is not used"
+        )
     return [_page(parts[k], k * PAGE_SYMBOLS, False) for k in range(s.shape[0])]
 
 
@@ -215,14 +236,17 @@ def find_pages(symbols: np.ndarray, sync_errors: int = 1) -> tuple[list[InavPage
     grid_pol = np.where(sync_sum >= 0, 1.0, -1.0)
     parts, crc_ok, flags_ok = _decode_blocks(s, grid, grid_pol)
     pages = [_page(parts[k], int(grid[k]), bool(grid_pol[k] < 0)) for k in np.flatnonzero(crc_ok & flags_ok)]
-    failures = [f"I/NAV page at symbol {int(grid[k])}: "
-                f"{'CRC-24Q failed' if not crc_ok[k] else 'Even/Odd flags are not 0, 1'}; not used"
-                for k in np.flatnonzero(~(crc_ok & flags_ok))]
+    failures = [
+        f"I/NAV page at symbol {int(grid[k])}: "
+        f"{'CRC-24Q failed' if not crc_ok[k] else 'Even/Odd flags are not 0, 1'}; not used"
+        for k in np.flatnonzero(~(crc_ok & flags_ok))
+    ]
     return pages, failures
 
 
-def _decode_blocks(s: np.ndarray, starts: np.ndarray, polarity: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _decode_blocks(
+    s: np.ndarray, starts: np.ndarray, polarity: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     blocks = s[starts[:, None] + np.arange(PAGE_SYMBOLS)] * polarity[:, None]
     return _decode_parts(blocks)
 
@@ -239,14 +263,23 @@ def decode_inav(symbols: np.ndarray) -> InavMessage:
         words[p.word_type] = p.fields
         if p.word_type == 5 or (p.word_type == 0 and p.fields.get("time") == 2):
             gst = (p.start, int(p.fields["wn"]), float(p.fields["tow_s"]))
-        if p.word_type in (1, 2, 3, 4, 5) and all(t in words for t in (1, 2, 3, 4, 5)) \
-                and len({words[t]["iodnav"] for t in (1, 2, 3, 4)}) == 1:
+        if (
+            p.word_type in (1, 2, 3, 4, 5)
+            and all(t in words for t in (1, 2, 3, 4, 5))
+            and len({words[t]["iodnav"] for t in (1, 2, 3, 4)}) == 1
+        ):
             ephemeris = words_to_ephemeris(words)
     return InavMessage(pages, ephemeris, gst, words, failures)
 
 
-def encode_inav(record: Ephemerides, wn: int, first_tow_s: int, n_pages: int, bgd_e1e5a_s: float = 0.0,
-                ai_sfu: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+def encode_inav(
+    record: Ephemerides,
+    wn: int,
+    first_tow_s: int,
+    n_pages: int,
+    bgd_e1e5a_s: float = 0.0,
+    ai_sfu: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> np.ndarray:
     """±1 symbols (int8, bit 0 as +1) of ``n_pages`` consecutive E1-B pages of one
     satellite, the first starting at GST second of week ``first_tow_s`` (odd: E1-B pages
     start on odd seconds, ICD 4.3.3), in the order of `E1B_SUBFRAME_WORDS`: words 1-5 carry
@@ -271,8 +304,14 @@ def encode_inav(record: Ephemerides, wn: int, first_tow_s: int, n_pages: int, bg
     return encode_pages(words).reshape(-1)
 
 
-def inav_symbols(record: Ephemerides, wn: int, tow_s: float, n_symbols: int, bgd_e1e5a_s: float = 0.0,
-                 ai_sfu: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> tuple[np.ndarray, float]:
+def inav_symbols(
+    record: Ephemerides,
+    wn: int,
+    tow_s: float,
+    n_symbols: int,
+    bgd_e1e5a_s: float = 0.0,
+    ai_sfu: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> tuple[np.ndarray, float]:
     """±1 E1-B symbols (int8, bit 0 as +1) from the one in force at GST ``tow_s`` (week
     ``wn``) on, for the IF generator's ``data_bits`` (`galileo-e1b`: one symbol a 4 ms code
     period); and the time (s) from the first symbol's start to ``tow_s``
@@ -283,5 +322,5 @@ def inav_symbols(record: Ephemerides, wn: int, tow_s: float, n_symbols: int, bgd
     into_page_s = (tow_s - first) % 604_800  # in [0, 2)
     skip = int(np.floor(into_page_s * SYMBOL_RATE_HZ))
     n_pages = int(np.ceil((skip + n_symbols) / PAGE_SYMBOLS))
-    symbols = encode_inav(record, wn, first, n_pages, bgd_e1e5a_s, ai_sfu)[skip:skip + n_symbols]
+    symbols = encode_inav(record, wn, first, n_pages, bgd_e1e5a_s, ai_sfu)[skip : skip + n_symbols]
     return symbols, float(into_page_s - skip / SYMBOL_RATE_HZ)

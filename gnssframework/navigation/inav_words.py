@@ -26,8 +26,18 @@ import numpy as np
 from ..errors import ConfigError
 from .ephemeris import KEPLER_TO_RINEX, SEMICIRCLE_FIELDS, Ephemerides
 
-__all__ = ["PI_GALILEO", "WORD_BITS", "WORD_LAYOUTS", "encode_word", "decode_word", "ephemeris_to_words",
-           "words_to_ephemeris", "sisa_m", "sisa_index", "LSB"]
+__all__ = [
+    "PI_GALILEO",
+    "WORD_BITS",
+    "WORD_LAYOUTS",
+    "encode_word",
+    "decode_word",
+    "ephemeris_to_words",
+    "words_to_ephemeris",
+    "sisa_m",
+    "sisa_index",
+    "LSB",
+]
 
 #: pi of the Galileo user algorithm (ICD 5.1.1), semicircles to radians.
 PI_GALILEO = 3.1415926535898
@@ -38,23 +48,58 @@ WORD_BITS = 128
 _Layout = dict[str, tuple[int, int, float, bool]]
 WORD_LAYOUTS: dict[int, _Layout] = {
     0: {"time": (7, 2, 1, False), "wn": (97, 12, 1, False), "tow_s": (109, 20, 1, False)},
-    1: {"iodnav": (7, 10, 1, False), "toe_s": (17, 14, 60, False), "m0_sc": (31, 32, 2.0**-31, True),
-        "e": (63, 32, 2.0**-33, False), "sqrt_a_sqrtm": (95, 32, 2.0**-19, False)},
-    2: {"iodnav": (7, 10, 1, False), "omega0_sc": (17, 32, 2.0**-31, True), "i0_sc": (49, 32, 2.0**-31, True),
-        "omega_sc": (81, 32, 2.0**-31, True), "idot_sc_s": (113, 14, 2.0**-43, True)},
-    3: {"iodnav": (7, 10, 1, False), "omega_dot_sc_s": (17, 24, 2.0**-43, True),
-        "delta_n_sc_s": (41, 16, 2.0**-43, True), "cuc_rad": (57, 16, 2.0**-29, True),
-        "cus_rad": (73, 16, 2.0**-29, True), "crc_m": (89, 16, 2.0**-5, True), "crs_m": (105, 16, 2.0**-5, True),
-        "sisa_index": (121, 8, 1, False)},
-    4: {"iodnav": (7, 10, 1, False), "svid": (17, 6, 1, False), "cic_rad": (23, 16, 2.0**-29, True),
-        "cis_rad": (39, 16, 2.0**-29, True), "toc_s": (55, 14, 60, False), "af0_s": (69, 31, 2.0**-34, True),
-        "af1_s_s": (100, 21, 2.0**-46, True), "af2_s_s2": (121, 6, 2.0**-59, True)},
-    5: {"ai0_sfu": (7, 11, 2.0**-2, False), "ai1_sfu_deg": (18, 11, 2.0**-8, True),
-        "ai2_sfu_deg2": (29, 14, 2.0**-15, True), "region1": (43, 1, 1, False), "region2": (44, 1, 1, False),
-        "region3": (45, 1, 1, False), "region4": (46, 1, 1, False), "region5": (47, 1, 1, False),
-        "bgd_e1e5a_s": (48, 10, 2.0**-32, True), "bgd_e1e5b_s": (58, 10, 2.0**-32, True),
-        "e5b_hs": (68, 2, 1, False), "e1b_hs": (70, 2, 1, False), "e5b_dvs": (72, 1, 1, False),
-        "e1b_dvs": (73, 1, 1, False), "wn": (74, 12, 1, False), "tow_s": (86, 20, 1, False)},
+    1: {
+        "iodnav": (7, 10, 1, False),
+        "toe_s": (17, 14, 60, False),
+        "m0_sc": (31, 32, 2.0**-31, True),
+        "e": (63, 32, 2.0**-33, False),
+        "sqrt_a_sqrtm": (95, 32, 2.0**-19, False),
+    },
+    2: {
+        "iodnav": (7, 10, 1, False),
+        "omega0_sc": (17, 32, 2.0**-31, True),
+        "i0_sc": (49, 32, 2.0**-31, True),
+        "omega_sc": (81, 32, 2.0**-31, True),
+        "idot_sc_s": (113, 14, 2.0**-43, True),
+    },
+    3: {
+        "iodnav": (7, 10, 1, False),
+        "omega_dot_sc_s": (17, 24, 2.0**-43, True),
+        "delta_n_sc_s": (41, 16, 2.0**-43, True),
+        "cuc_rad": (57, 16, 2.0**-29, True),
+        "cus_rad": (73, 16, 2.0**-29, True),
+        "crc_m": (89, 16, 2.0**-5, True),
+        "crs_m": (105, 16, 2.0**-5, True),
+        "sisa_index": (121, 8, 1, False),
+    },
+    4: {
+        "iodnav": (7, 10, 1, False),
+        "svid": (17, 6, 1, False),
+        "cic_rad": (23, 16, 2.0**-29, True),
+        "cis_rad": (39, 16, 2.0**-29, True),
+        "toc_s": (55, 14, 60, False),
+        "af0_s": (69, 31, 2.0**-34, True),
+        "af1_s_s": (100, 21, 2.0**-46, True),
+        "af2_s_s2": (121, 6, 2.0**-59, True),
+    },
+    5: {
+        "ai0_sfu": (7, 11, 2.0**-2, False),
+        "ai1_sfu_deg": (18, 11, 2.0**-8, True),
+        "ai2_sfu_deg2": (29, 14, 2.0**-15, True),
+        "region1": (43, 1, 1, False),
+        "region2": (44, 1, 1, False),
+        "region3": (45, 1, 1, False),
+        "region4": (46, 1, 1, False),
+        "region5": (47, 1, 1, False),
+        "bgd_e1e5a_s": (48, 10, 2.0**-32, True),
+        "bgd_e1e5b_s": (58, 10, 2.0**-32, True),
+        "e5b_hs": (68, 2, 1, False),
+        "e1b_hs": (70, 2, 1, False),
+        "e5b_dvs": (72, 1, 1, False),
+        "e1b_dvs": (73, 1, 1, False),
+        "wn": (74, 12, 1, False),
+        "tow_s": (86, 20, 1, False),
+    },
 }
 #: The LSB of each scaled field (its scale factor), for quantisation bounds.
 LSB = {name: scale for layout in WORD_LAYOUTS.values() for name, (_, _, scale, _) in layout.items()}
@@ -99,11 +144,13 @@ def encode_word(word_type: int, values: dict[str, float]) -> np.ndarray:
         q = int(np.round(float(values[name]) / scale))
         lo, hi = (-(1 << (n - 1)), (1 << (n - 1)) - 1) if signed else (0, (1 << n) - 1)
         if not lo <= q <= hi:
-            raise ConfigError(f"inav.word{word_type}.{name}",
-                              f"{values[name]!r} does not fit {n} {'signed ' if signed else ''}bits of scale "
-                              f"{scale:g} (Galileo OS SIS ICD 4.3.5)")
+            raise ConfigError(
+                f"inav.word{word_type}.{name}",
+                f"{values[name]!r} does not fit {n} {'signed ' if signed else ''}bits of scale "
+                f"{scale:g} (Galileo OS SIS ICD 4.3.5)",
+            )
         q &= (1 << n) - 1
-        bits[first - 1:first - 1 + n] = (q >> np.arange(n - 1, -1, -1)) & 1
+        bits[first - 1 : first - 1 + n] = (q >> np.arange(n - 1, -1, -1)) & 1
     return bits
 
 
@@ -116,7 +163,7 @@ def decode_word(bits: np.ndarray) -> tuple[int, dict[str, float]]:
     weights = 1 << np.arange(63, -1, -1, dtype=np.uint64)
 
     def value(first: int, n: int) -> int:
-        return int(np.sum(b[first - 1:first - 1 + n].astype(np.uint64) * weights[64 - n:]))
+        return int(np.sum(b[first - 1 : first - 1 + n].astype(np.uint64) * weights[64 - n :]))
 
     word_type = value(1, 6)
     out: dict[str, float] = {}
@@ -128,8 +175,13 @@ def decode_word(bits: np.ndarray) -> tuple[int, dict[str, float]]:
     return word_type, out
 
 
-def ephemeris_to_words(record: Ephemerides, wn: int, tow_s: float, bgd_e1e5a_s: float = 0.0,
-                       ai_sfu: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> dict[int, dict[str, float]]:
+def ephemeris_to_words(
+    record: Ephemerides,
+    wn: int,
+    tow_s: float,
+    bgd_e1e5a_s: float = 0.0,
+    ai_sfu: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> dict[int, dict[str, float]]:
     """Field values of words 1-5 of one Galileo record: ephemeris, clock (with the record's
     ``TGD`` as BGD(E1,E5b)), SISA, health, and word 5's GST week ``wn`` (12 bits sent) and
     ``tow_s``; ``bgd_e1e5a_s`` and the NeQuick ``ai_sfu`` (ai0, ai1, ai2) are not in an
@@ -145,8 +197,15 @@ def ephemeris_to_words(record: Ephemerides, wn: int, tow_s: float, bgd_e1e5a_s: 
     words = {t: {k: fields[k] for k in WORD_LAYOUTS[t] if k in fields} | {"iodnav": iodnav} for t in (1, 2, 3, 4)}
     words[3]["sisa_index"] = sisa_index(acc)
     words[4]["svid"] = int(str(record.sv[0])[1:])
-    words[5] = {"ai0_sfu": ai_sfu[0], "ai1_sfu_deg": ai_sfu[1], "ai2_sfu_deg2": ai_sfu[2],
-                "bgd_e1e5a_s": bgd_e1e5a_s, "bgd_e1e5b_s": fields["bgd_e1e5b_s"], "wn": wn % 4096, "tow_s": tow_s}
+    words[5] = {
+        "ai0_sfu": ai_sfu[0],
+        "ai1_sfu_deg": ai_sfu[1],
+        "ai2_sfu_deg2": ai_sfu[2],
+        "bgd_e1e5a_s": bgd_e1e5a_s,
+        "bgd_e1e5b_s": fields["bgd_e1e5b_s"],
+        "wn": wn % 4096,
+        "tow_s": tow_s,
+    }
     words[5].update({k: (health >> s) & (3 if k.endswith("hs") else 1) for k, s in _HEALTH_SHIFT.items()})
     return words
 
@@ -166,12 +225,21 @@ def words_to_ephemeris(words: dict[int, dict[str, float]]) -> Ephemerides:
     iod = words[1]["iodnav"]
     for t in (2, 3, 4):
         if words[t]["iodnav"] != iod:
-            raise ConfigError(f"inav.word{t}.iodnav", f"{words[t]['iodnav']} differs from word 1's {iod} "
-                                                      f"(ICD 5.1.9.2: one IODnav per ephemeris set)")
+            raise ConfigError(
+                f"inav.word{t}.iodnav",
+                f"{words[t]['iodnav']} differs from word 1's {iod} (ICD 5.1.9.2: one IODnav per ephemeris set)",
+            )
     merged = {k: v for t in (1, 2, 3, 4, 5) for k, v in words[t].items()}
-    elements = {rinex: np.array([merged[name] * (PI_GALILEO if name in _SEMICIRCLES else 1.0)])
-                for name, rinex in _TO_RINEX.items()}
+    elements = {
+        rinex: np.array([merged[name] * (PI_GALILEO if name in _SEMICIRCLES else 1.0)])
+        for name, rinex in _TO_RINEX.items()
+    }
     health = sum(int(merged[k]) << s for k, s in _HEALTH_SHIFT.items())
-    return Ephemerides(np.array([f"E{int(merged['svid']):02d}"]), np.array([float(merged["toc_s"])]), elements,
-                       np.array([float(health)]), np.array([float(iod)]),
-                       np.array([sisa_m(int(merged["sisa_index"]))]))
+    return Ephemerides(
+        np.array([f"E{int(merged['svid']):02d}"]),
+        np.array([float(merged["toc_s"])]),
+        elements,
+        np.array([float(health)]),
+        np.array([float(iod)]),
+        np.array([sisa_m(int(merged["sisa_index"]))]),
+    )

@@ -70,8 +70,16 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["IntegrityResult", "RaimOptions", "raim", "detection_noncentrality", "covariance_protection_levels",
-           "enu_geometry", "separation_levels", "RAIM_METHODS"]
+__all__ = [
+    "IntegrityResult",
+    "RaimOptions",
+    "raim",
+    "detection_noncentrality",
+    "covariance_protection_levels",
+    "enu_geometry",
+    "separation_levels",
+    "RAIM_METHODS",
+]
 
 #: The detection tests `raim` can apply: ``chi2`` the residual test (with slope PLs),
 #: ``ss`` solution separation (with its PLs).
@@ -164,9 +172,17 @@ def _safe_inv(N: np.ndarray, ok: np.ndarray) -> np.ndarray:
     return np.linalg.inv(np.where(ok[..., None, None], N, eye))
 
 
-def raim(geometry: np.ndarray, sigma_m: np.ndarray, residual_m: np.ndarray, used: np.ndarray | None = None, *,
-         false_alarm: float = 1e-5, missed_detection: float = 1e-3, integrity_risk: float = 1e-7,
-         method: str = "chi2") -> IntegrityResult:
+def raim(
+    geometry: np.ndarray,
+    sigma_m: np.ndarray,
+    residual_m: np.ndarray,
+    used: np.ndarray | None = None,
+    *,
+    false_alarm: float = 1e-5,
+    missed_detection: float = 1e-3,
+    integrity_risk: float = 1e-7,
+    method: str = "chi2",
+) -> IntegrityResult:
     """Fault detection and exclusion and protection levels of weighted least-squares
     solutions (see the module text for the equations and sources).
 
@@ -192,8 +208,11 @@ def raim(geometry: np.ndarray, sigma_m: np.ndarray, residual_m: np.ndarray, used
     -------
     IntegrityResult
     """
-    for name, p in (("false_alarm", false_alarm), ("missed_detection", missed_detection),
-                    ("integrity_risk", integrity_risk)):
+    for name, p in (
+        ("false_alarm", false_alarm),
+        ("missed_detection", missed_detection),
+        ("integrity_risk", integrity_risk),
+    ):
         _check_probability(name, p)
     if method not in RAIM_METHODS:
         raise ConfigError("method", f"one of {', '.join(RAIM_METHODS)}, got {method!r}")
@@ -236,8 +255,7 @@ def raim(geometry: np.ndarray, sigma_m: np.ndarray, residual_m: np.ndarray, used
     sig_ss = np.sqrt(np.maximum(var_ss, 0.0))
     sig_k = np.sqrt(np.diagonal(Pk, axis1=-2, axis2=-1)[..., :3])
     sig_0 = np.sqrt(np.diagonal(P0, axis1=-2, axis2=-1)[..., :3])
-    ss_ratio, pl = separation_levels(dxk, sig_ss, sig_k, sig_0, valid_k, false_alarm, missed_detection,
-                                     integrity_risk)
+    ss_ratio, pl = separation_levels(dxk, sig_ss, sig_k, sig_0, valid_k, false_alarm, missed_detection, integrity_risk)
     ss_detected = ss_ratio > 1.0
     detected = chi2_detected if method == "chi2" else ss_detected
     # Exclusion: subsets whose own residual test passes; the smallest WSSE among them.
@@ -266,13 +284,36 @@ def raim(geometry: np.ndarray, sigma_m: np.ndarray, residual_m: np.ndarray, used
     hpl_ss = np.where(enough, np.hypot(pl[..., 0], pl[..., 1]), np.inf)
     vpl_ss = np.where(enough, pl[..., 2], np.inf)
     hpl, vpl = (hpl_slope, vpl_slope) if method == "chi2" else (hpl_ss, vpl_ss)
-    return IntegrityResult(wsse, dof, threshold, chi2_detected, ss_ratio, ss_detected, detected, excluded, alert,
-                           hpl, vpl, hpl_slope, vpl_slope, hpl_ss, vpl_ss, x0[..., :3])
+    return IntegrityResult(
+        wsse,
+        dof,
+        threshold,
+        chi2_detected,
+        ss_ratio,
+        ss_detected,
+        detected,
+        excluded,
+        alert,
+        hpl,
+        vpl,
+        hpl_slope,
+        vpl_slope,
+        hpl_ss,
+        vpl_ss,
+        x0[..., :3],
+    )
 
 
-def separation_levels(separation: np.ndarray, sigma_ss: np.ndarray, sigma_subset: np.ndarray,
-                      sigma_full: np.ndarray, valid: np.ndarray, false_alarm: float, missed_detection: float,
-                      integrity_risk: float) -> tuple[np.ndarray, np.ndarray]:
+def separation_levels(
+    separation: np.ndarray,
+    sigma_ss: np.ndarray,
+    sigma_subset: np.ndarray,
+    sigma_full: np.ndarray,
+    valid: np.ndarray,
+    false_alarm: float,
+    missed_detection: float,
+    integrity_risk: float,
+) -> tuple[np.ndarray, np.ndarray]:
     r"""Solution separation's test and per-axis protection levels (Blanch et al. 2015; the
     module text), shared by `raim` and `navigation.filter_integrity`.
 
@@ -307,8 +348,7 @@ def separation_levels(separation: np.ndarray, sigma_ss: np.ndarray, sigma_subset
     return ss_ratio, np.maximum(k_ff * sig_0, fault_terms)
 
 
-def covariance_protection_levels(cov_enu_m2: np.ndarray, integrity_risk: float = 1e-7) -> tuple[np.ndarray,
-                                                                                                 np.ndarray]:
+def covariance_protection_levels(cov_enu_m2: np.ndarray, integrity_risk: float = 1e-7) -> tuple[np.ndarray, np.ndarray]:
     """HPL and VPL ``(...)`` (m) of position covariances ``(..., 3, 3)`` in east, north, up:
     ``VPL = Q⁻¹(I/2) σ_U``, ``HPL = sqrt(-2 ln I) sqrt(λ_max(C_EN))`` (see the module text):
     each exceeded by a fault-free Gaussian error with probability at most ``integrity_risk``."""
@@ -341,6 +381,9 @@ class RaimOptions:
     def __post_init__(self) -> None:
         if self.method not in RAIM_METHODS:
             raise ConfigError("raim", f"one of {', '.join(RAIM_METHODS)}, got {self.method!r}")
-        for name, p in (("raim_false_alarm", self.false_alarm), ("raim_missed_detection", self.missed_detection),
-                        ("integrity_risk", self.integrity_risk)):
+        for name, p in (
+            ("raim_false_alarm", self.false_alarm),
+            ("raim_missed_detection", self.missed_detection),
+            ("integrity_risk", self.integrity_risk),
+        ):
             _check_probability(name, p)

@@ -31,9 +31,25 @@ from ..errors import ConfigError
 from .ephemeris import KEPLER_TO_RINEX, ORBIT_FIELDS, SEMICIRCLE_FIELDS, Ephemerides
 from .fec import real_symbols
 
-__all__ = ["PI_IS_GPS", "PREAMBLE", "BITS_PER_SUBFRAME", "IonoUtc", "Subframe", "LnavMessage", "parity_bits",
-           "encode_words", "words_parity_ok", "encode_subframe", "ephemeris_to_fields", "encode_lnav",
-           "lnav_symbols", "find_subframes", "decode_lnav", "fields_to_ephemeris", "URA_M"]
+__all__ = [
+    "PI_IS_GPS",
+    "PREAMBLE",
+    "BITS_PER_SUBFRAME",
+    "IonoUtc",
+    "Subframe",
+    "LnavMessage",
+    "parity_bits",
+    "encode_words",
+    "words_parity_ok",
+    "encode_subframe",
+    "ephemeris_to_fields",
+    "encode_lnav",
+    "lnav_symbols",
+    "find_subframes",
+    "decode_lnav",
+    "fields_to_ephemeris",
+    "URA_M",
+]
 
 #: The value of pi that converts semicircles to radians (IS-GPS-200 20.3.3.4.3).
 PI_IS_GPS = 3.1415926535898
@@ -46,8 +62,9 @@ SUBFRAME_S = 6.0
 #: Seconds in a GPS week.
 WEEK_S = 604_800.0
 #: URA index -> nominal accuracy, m (upper bounds of IS-GPS-200 20.3.3.3.1.3; index 15: none, -1).
-URA_M = np.array([2.4, 3.4, 4.85, 6.85, 9.65, 13.65, 24.0, 48.0, 96.0, 192.0, 384.0, 768.0, 1536.0, 3072.0,
-                  6144.0, -1.0])
+URA_M = np.array(
+    [2.4, 3.4, 4.85, 6.85, 9.65, 13.65, 24.0, 48.0, 96.0, 192.0, 384.0, 768.0, 1536.0, 3072.0, 6144.0, -1.0]
+)
 
 # Parity equations of IS-GPS-200 Table 20-XIV: for D25..D30, the source data bits d1..d24
 # and which of the previous word's D29*, D30* enters.
@@ -67,41 +84,74 @@ _USES_D30 = np.array([prev == 30 for _, prev in _PARITY_TAPS])
 # Field layouts: name -> (parts as (first subframe bit, length), MSB part first; scale; signed).
 # Bit numbers are those of the ICD's subframe figures (20-1): word w holds bits 30(w-1)+1..30w.
 _Layout = dict[str, tuple[tuple[tuple[int, int], ...], float, bool]]
-_HOW: _Layout = {"tow_count": (((31, 17),), 1, False), "alert": (((48, 1),), 1, False),
-                 "anti_spoof": (((49, 1),), 1, False), "subframe_id": (((50, 3),), 1, False)}
+_HOW: _Layout = {
+    "tow_count": (((31, 17),), 1, False),
+    "alert": (((48, 1),), 1, False),
+    "anti_spoof": (((49, 1),), 1, False),
+    "subframe_id": (((50, 3),), 1, False),
+}
 _TLM: _Layout = {"tlm_message": (((9, 14),), 1, False), "integrity": (((23, 1),), 1, False)}
 #: Subframe 1 (IS-GPS-200 20.3.3.3, Table 20-I).
 SUBFRAME1: _Layout = {
-    "week": (((61, 10),), 1, False), "l2_code": (((71, 2),), 1, False), "ura_index": (((73, 4),), 1, False),
-    "health": (((77, 6),), 1, False), "iodc": (((83, 2), (211, 8)), 1, False), "l2p_flag": (((91, 1),), 1, False),
-    "tgd_s": (((197, 8),), 2.0**-31, True), "toc_s": (((219, 16),), 2.0**4, False),
-    "af2_s_s2": (((241, 8),), 2.0**-55, True), "af1_s_s": (((249, 16),), 2.0**-43, True),
-    "af0_s": (((271, 22),), 2.0**-31, True)}
+    "week": (((61, 10),), 1, False),
+    "l2_code": (((71, 2),), 1, False),
+    "ura_index": (((73, 4),), 1, False),
+    "health": (((77, 6),), 1, False),
+    "iodc": (((83, 2), (211, 8)), 1, False),
+    "l2p_flag": (((91, 1),), 1, False),
+    "tgd_s": (((197, 8),), 2.0**-31, True),
+    "toc_s": (((219, 16),), 2.0**4, False),
+    "af2_s_s2": (((241, 8),), 2.0**-55, True),
+    "af1_s_s": (((249, 16),), 2.0**-43, True),
+    "af0_s": (((271, 22),), 2.0**-31, True),
+}
 #: Subframe 2 (20.3.3.4, Table 20-III); angles in semicircles.
 SUBFRAME2: _Layout = {
-    "iode": (((61, 8),), 1, False), "crs_m": (((69, 16),), 2.0**-5, True),
-    "delta_n_sc_s": (((91, 16),), 2.0**-43, True), "m0_sc": (((107, 8), (121, 24)), 2.0**-31, True),
-    "cuc_rad": (((151, 16),), 2.0**-29, True), "e": (((167, 8), (181, 24)), 2.0**-33, False),
-    "cus_rad": (((211, 16),), 2.0**-29, True), "sqrt_a_sqrtm": (((227, 8), (241, 24)), 2.0**-19, False),
-    "toe_s": (((271, 16),), 2.0**4, False), "fit_interval": (((287, 1),), 1, False),
-    "aodo": (((288, 5),), 1, False)}
+    "iode": (((61, 8),), 1, False),
+    "crs_m": (((69, 16),), 2.0**-5, True),
+    "delta_n_sc_s": (((91, 16),), 2.0**-43, True),
+    "m0_sc": (((107, 8), (121, 24)), 2.0**-31, True),
+    "cuc_rad": (((151, 16),), 2.0**-29, True),
+    "e": (((167, 8), (181, 24)), 2.0**-33, False),
+    "cus_rad": (((211, 16),), 2.0**-29, True),
+    "sqrt_a_sqrtm": (((227, 8), (241, 24)), 2.0**-19, False),
+    "toe_s": (((271, 16),), 2.0**4, False),
+    "fit_interval": (((287, 1),), 1, False),
+    "aodo": (((288, 5),), 1, False),
+}
 #: Subframe 3 (20.3.3.4, Table 20-III); angles in semicircles.
 SUBFRAME3: _Layout = {
-    "cic_rad": (((61, 16),), 2.0**-29, True), "omega0_sc": (((77, 8), (91, 24)), 2.0**-31, True),
-    "cis_rad": (((121, 16),), 2.0**-29, True), "i0_sc": (((137, 8), (151, 24)), 2.0**-31, True),
-    "crc_m": (((181, 16),), 2.0**-5, True), "omega_sc": (((197, 8), (211, 24)), 2.0**-31, True),
-    "omega_dot_sc_s": (((241, 24),), 2.0**-43, True), "iode": (((271, 8),), 1, False),
-    "idot_sc_s": (((279, 14),), 2.0**-43, True)}
+    "cic_rad": (((61, 16),), 2.0**-29, True),
+    "omega0_sc": (((77, 8), (91, 24)), 2.0**-31, True),
+    "cis_rad": (((121, 16),), 2.0**-29, True),
+    "i0_sc": (((137, 8), (151, 24)), 2.0**-31, True),
+    "crc_m": (((181, 16),), 2.0**-5, True),
+    "omega_sc": (((197, 8), (211, 24)), 2.0**-31, True),
+    "omega_dot_sc_s": (((241, 24),), 2.0**-43, True),
+    "iode": (((271, 8),), 1, False),
+    "idot_sc_s": (((279, 14),), 2.0**-43, True),
+}
 #: Subframe 4 page 18 (20.3.3.5.1.6-7, Tables 20-X and 20-IX): data ID 01, SV ID 56.
 PAGE18: _Layout = {
-    "data_id": (((61, 2),), 1, False), "sv_id": (((63, 6),), 1, False),
-    "alpha0_s": (((69, 8),), 2.0**-30, True), "alpha1_s_sc": (((77, 8),), 2.0**-27, True),
-    "alpha2_s_sc2": (((91, 8),), 2.0**-24, True), "alpha3_s_sc3": (((99, 8),), 2.0**-24, True),
-    "beta0_s": (((107, 8),), 2.0**11, True), "beta1_s_sc": (((121, 8),), 2.0**14, True),
-    "beta2_s_sc2": (((129, 8),), 2.0**16, True), "beta3_s_sc3": (((137, 8),), 2.0**16, True),
-    "a1_s_s": (((151, 24),), 2.0**-50, True), "a0_s": (((181, 24), (211, 8)), 2.0**-30, True),
-    "tot_s": (((219, 8),), 2.0**12, False), "wnt": (((227, 8),), 1, False), "dt_ls_s": (((241, 8),), 1, True),
-    "wn_lsf": (((249, 8),), 1, False), "dn": (((257, 8),), 1, False), "dt_lsf_s": (((271, 8),), 1, True)}
+    "data_id": (((61, 2),), 1, False),
+    "sv_id": (((63, 6),), 1, False),
+    "alpha0_s": (((69, 8),), 2.0**-30, True),
+    "alpha1_s_sc": (((77, 8),), 2.0**-27, True),
+    "alpha2_s_sc2": (((91, 8),), 2.0**-24, True),
+    "alpha3_s_sc3": (((99, 8),), 2.0**-24, True),
+    "beta0_s": (((107, 8),), 2.0**11, True),
+    "beta1_s_sc": (((121, 8),), 2.0**14, True),
+    "beta2_s_sc2": (((129, 8),), 2.0**16, True),
+    "beta3_s_sc3": (((137, 8),), 2.0**16, True),
+    "a1_s_s": (((151, 24),), 2.0**-50, True),
+    "a0_s": (((181, 24), (211, 8)), 2.0**-30, True),
+    "tot_s": (((219, 8),), 2.0**12, False),
+    "wnt": (((227, 8),), 1, False),
+    "dt_ls_s": (((241, 8),), 1, True),
+    "wn_lsf": (((249, 8),), 1, False),
+    "dn": (((257, 8),), 1, False),
+    "dt_lsf_s": (((271, 8),), 1, True),
+}
 #: Data ID and SV (page) ID of subframe 4 page 18 and of the pages 25 of subframes 4 and 5 (20.3.3.5.1).
 PAGE18_SV_ID = 56
 _DUMMY_PAGE: _Layout = {"data_id": (((61, 2),), 1, False), "sv_id": (((63, 6),), 1, False)}
@@ -135,15 +185,35 @@ class IonoUtc:
     def fields(self) -> dict[str, float]:
         out = {f"alpha{k}" + s: v for k, (v, s) in enumerate(zip(self.alpha, ("_s", "_s_sc", "_s_sc2", "_s_sc3")))}
         out.update({f"beta{k}" + s: v for k, (v, s) in enumerate(zip(self.beta, ("_s", "_s_sc", "_s_sc2", "_s_sc3")))})
-        out.update(a0_s=self.a0_s, a1_s_s=self.a1_s_s, tot_s=self.tot_s, wnt=self.wnt % 256, dt_ls_s=self.dt_ls_s,
-                   wn_lsf=self.wn_lsf % 256, dn=self.dn, dt_lsf_s=self.dt_lsf_s, data_id=1, sv_id=PAGE18_SV_ID)
+        out.update(
+            a0_s=self.a0_s,
+            a1_s_s=self.a1_s_s,
+            tot_s=self.tot_s,
+            wnt=self.wnt % 256,
+            dt_ls_s=self.dt_ls_s,
+            wn_lsf=self.wn_lsf % 256,
+            dn=self.dn,
+            dt_lsf_s=self.dt_lsf_s,
+            data_id=1,
+            sv_id=PAGE18_SV_ID,
+        )
         return out
 
     @classmethod
     def from_fields(cls, f: dict[str, float]) -> IonoUtc:
         keys = sorted(k for k in f if k.startswith("alpha")), sorted(k for k in f if k.startswith("beta"))
-        return cls(tuple(f[k] for k in keys[0]), tuple(f[k] for k in keys[1]), f["a0_s"], f["a1_s_s"], f["tot_s"],
-                   int(f["wnt"]), int(f["dt_ls_s"]), int(f["wn_lsf"]), int(f["dn"]), int(f["dt_lsf_s"]))
+        return cls(
+            tuple(f[k] for k in keys[0]),
+            tuple(f[k] for k in keys[1]),
+            f["a0_s"],
+            f["a1_s_s"],
+            f["tot_s"],
+            int(f["wnt"]),
+            int(f["dt_ls_s"]),
+            int(f["wn_lsf"]),
+            int(f["dn"]),
+            int(f["dt_lsf_s"]),
+        )
 
 
 # ---------------------------------------------------------------------------------------------- parity
@@ -206,15 +276,17 @@ def _put(bits: np.ndarray, layout: _Layout, values: dict[str, float], subframe: 
         q = int(np.round(float(values[name]) / scale))
         lo, hi = (-(1 << (n - 1)), (1 << (n - 1)) - 1) if signed else (0, (1 << n) - 1)
         if not lo <= q <= hi:
-            raise ConfigError(f"lnav.subframe{subframe}.{name}",
-                              f"{values[name]!r} does not fit {n} {'signed ' if signed else ''}bits of "
-                              f"scale {scale:g} (IS-GPS-200 20.3.3)")
+            raise ConfigError(
+                f"lnav.subframe{subframe}.{name}",
+                f"{values[name]!r} does not fit {n} {'signed ' if signed else ''}bits of "
+                f"scale {scale:g} (IS-GPS-200 20.3.3)",
+            )
         q &= (1 << n) - 1  # two's complement
         shift = n
         for first, length in parts:
             shift -= length
             chunk = (q >> shift) & ((1 << length) - 1)
-            bits[first - 1:first - 1 + length] = (chunk >> np.arange(length - 1, -1, -1)) & 1
+            bits[first - 1 : first - 1 + length] = (chunk >> np.arange(length - 1, -1, -1)) & 1
 
 
 def _get(bits: np.ndarray, layout: _Layout) -> dict[str, float]:
@@ -224,7 +296,7 @@ def _get(bits: np.ndarray, layout: _Layout) -> dict[str, float]:
         q = 0
         n = 0
         for first, length in parts:
-            for b in bits[first - 1:first - 1 + length]:
+            for b in bits[first - 1 : first - 1 + length]:
                 q = (q << 1) | int(b)
             n += length
         if signed and q >> (n - 1):
@@ -243,9 +315,17 @@ def ephemeris_to_fields(record: Ephemerides, week: int) -> tuple[dict, dict, dic
     acc = float(record.accuracy_m[0]) if record.accuracy_m is not None else np.nan
     ura = int(np.searchsorted(URA_M[:15], acc)) if np.isfinite(acc) and acc >= 0 else 15
     iode = int(record.iode[0])
-    sf1 = {"week": week % 1024, "ura_index": min(ura, 15), "health": int(record.health[0]), "iodc": iode,
-           "tgd_s": e["TGD"], "toc_s": float(record.toc_s[0]), "af2_s_s2": e["SVclockDriftRate"],
-           "af1_s_s": e["SVclockDrift"], "af0_s": e["SVclockBias"]}
+    sf1 = {
+        "week": week % 1024,
+        "ura_index": min(ura, 15),
+        "health": int(record.health[0]),
+        "iodc": iode,
+        "tgd_s": e["TGD"],
+        "toc_s": float(record.toc_s[0]),
+        "af2_s_s2": e["SVclockDriftRate"],
+        "af1_s_s": e["SVclockDrift"],
+        "af0_s": e["SVclockBias"],
+    }
     rad = {rinex: name for name, rinex in _TO_RINEX.items()}
     orbit = {rad[k]: (e[k] / PI_IS_GPS if rad[k] in _SEMICIRCLE_FIELDS else e[k]) for k in ORBIT_FIELDS}
     sf2 = {k: orbit[k] for k in SUBFRAME2 if k in orbit} | {"iode": iode}
@@ -253,8 +333,9 @@ def ephemeris_to_fields(record: Ephemerides, week: int) -> tuple[dict, dict, dic
     return sf1, sf2, sf3
 
 
-def encode_subframe(subframe_id: int, tow_count: int, values: dict[str, float], d29_prev: int = 0,
-                    d30_prev: int = 0) -> np.ndarray:
+def encode_subframe(
+    subframe_id: int, tow_count: int, values: dict[str, float], d29_prev: int = 0, d30_prev: int = 0
+) -> np.ndarray:
     """The 300 transmitted bits of one subframe (TLM, HOW with ``tow_count``, words 3-10).
 
     ``values`` are the fields of that subframe's layout (`SUBFRAME1`, `SUBFRAME2`,
@@ -277,8 +358,9 @@ def encode_subframe(subframe_id: int, tow_count: int, values: dict[str, float], 
     return encode_words(data, d29_prev, d30_prev, solve=(1, 9)).reshape(-1)
 
 
-def encode_lnav(record: Ephemerides, week: int, first_tow_s: float, n_subframes: int,
-                iono_utc: IonoUtc | None = None) -> np.ndarray:
+def encode_lnav(
+    record: Ephemerides, week: int, first_tow_s: float, n_subframes: int, iono_utc: IonoUtc | None = None
+) -> np.ndarray:
     """Bits (0/1) of ``n_subframes`` consecutive subframes of one satellite, the first one
     starting at GPS time of week ``first_tow_s`` (a multiple of 6 s; its subframe ID is
     ``(first_tow_s / 6) mod 5 + 1``, as the frame of 30 s starts on the 30 s of the week).
@@ -301,15 +383,16 @@ def encode_lnav(record: Ephemerides, week: int, first_tow_s: float, n_subframes:
     return out.reshape(-1)
 
 
-def lnav_symbols(record: Ephemerides, week: int, tow_s: float, n_bits: int,
-                 iono_utc: IonoUtc | None = None) -> tuple[np.ndarray, float]:
+def lnav_symbols(
+    record: Ephemerides, week: int, tow_s: float, n_bits: int, iono_utc: IonoUtc | None = None
+) -> tuple[np.ndarray, float]:
     """±1 symbols (bit 0 sent as +1) of the LNAV bits from the one in force at GPS time
     ``tow_s`` on, for the IF generator's ``data_bits``; and the time (s) from the first
     symbol's start to ``tow_s`` (``first_bit_edge_s = -that``)."""
     first = np.floor(tow_s / SUBFRAME_S) * SUBFRAME_S
     skip = int(np.floor((tow_s - first) * 50))
     n_sf = int(np.ceil((skip + n_bits) / BITS_PER_SUBFRAME))
-    bits = encode_lnav(record, week, first, n_sf, iono_utc)[skip:skip + n_bits]
+    bits = encode_lnav(record, week, first, n_sf, iono_utc)[skip : skip + n_bits]
     return (1 - 2 * bits.astype(np.int8)).astype(np.int8), float(tow_s - first - skip / 50)
 
 
@@ -362,14 +445,14 @@ def find_subframes(symbols: np.ndarray) -> list[Subframe]:
     n = bits.size
     if n < BITS_PER_SUBFRAME:
         return []
-    windows = np.lib.stride_tricks.sliding_window_view(bits, 8)[:n - BITS_PER_SUBFRAME + 1]
+    windows = np.lib.stride_tricks.sliding_window_view(bits, 8)[: n - BITS_PER_SUBFRAME + 1]
     upright = np.all(windows == PREAMBLE, axis=1)
     inverted = np.all(windows == 1 - PREAMBLE, axis=1)
     found = []
     for p in np.flatnonzero(upright | inverted):
         inv = bool(inverted[p])
-        sub = bits[p:p + BITS_PER_SUBFRAME] ^ np.uint8(inv)
-        before = bits[p - 2:p] ^ np.uint8(inv) if p >= 2 else np.zeros(2, np.uint8)
+        sub = bits[p : p + BITS_PER_SUBFRAME] ^ np.uint8(inv)
+        before = bits[p - 2 : p] ^ np.uint8(inv) if p >= 2 else np.zeros(2, np.uint8)
         words = sub.reshape(WORDS_PER_SUBFRAME, BITS_PER_WORD)
         prev = np.vstack([before, words[:-1, 28:]])
         if not words_parity_ok(words, prev).all() or words[[1, 9], 28:].any():  # words 2, 10 end in 00
@@ -398,23 +481,36 @@ def _confirmed(candidates: list[Subframe]) -> list[Subframe]:
     starts = {s.start: s for s in candidates}
 
     def neighbour(s: Subframe) -> bool:
-        return any((o := starts.get(s.start + sign * BITS_PER_SUBFRAME)) is not None
-                   and (o.tow_s - s.tow_s - sign * SUBFRAME_S) % WEEK_S == 0 for sign in (-1, 1))
+        return any(
+            (o := starts.get(s.start + sign * BITS_PER_SUBFRAME)) is not None
+            and (o.tow_s - s.tow_s - sign * SUBFRAME_S) % WEEK_S == 0
+            for sign in (-1, 1)
+        )
 
     confirmed = [s for s in candidates if neighbour(s)]
-    lone = [s for s in candidates if not neighbour(s)
-            and all(abs(o.start - s.start) >= BITS_PER_SUBFRAME for o in candidates if o is not s)]
+    lone = [
+        s
+        for s in candidates
+        if not neighbour(s) and all(abs(o.start - s.start) >= BITS_PER_SUBFRAME for o in candidates if o is not s)
+    ]
     return sorted(confirmed + lone, key=lambda s: s.start)
 
 
 def fields_to_ephemeris(prn: int, sf1: dict, sf2: dict, sf3: dict) -> Ephemerides:
     """One :class:`Ephemerides` record (georinex names, radians) from decoded subframes 1-3."""
     merged = {**sf1, **sf2, **sf3}
-    elements = {rinex: np.array([merged[name] * (PI_IS_GPS if name in _SEMICIRCLE_FIELDS else 1.0)])
-                for name, rinex in _TO_RINEX.items()}
-    return Ephemerides(np.array([f"G{prn:02d}"]), np.array([float(sf1["toc_s"])]), elements,
-                       np.array([float(sf1["health"])]), np.array([float(sf2["iode"])]),
-                       np.array([URA_M[int(sf1["ura_index"])]]))
+    elements = {
+        rinex: np.array([merged[name] * (PI_IS_GPS if name in _SEMICIRCLE_FIELDS else 1.0)])
+        for name, rinex in _TO_RINEX.items()
+    }
+    return Ephemerides(
+        np.array([f"G{prn:02d}"]),
+        np.array([float(sf1["toc_s"])]),
+        elements,
+        np.array([float(sf1["health"])]),
+        np.array([float(sf2["iode"])]),
+        np.array([URA_M[int(sf1["ura_index"])]]),
+    )
 
 
 def decode_lnav(symbols: np.ndarray, prn: int) -> LnavMessage:

@@ -62,8 +62,18 @@ from ..signal.spec import SPEED_OF_LIGHT_M_S as SPEED_OF_LIGHT_MPS
 from .ephemeris import OMEGA_EARTH_RAD_S, SYSTEMS, Ephemerides, satellite_state
 from .lnav import PI_IS_GPS, IonoUtc
 
-__all__ = ["PositionFix", "RAIM_STATUSES", "klobuchar_delay_s", "troposphere_delay_m", "dop", "solve_position",
-           "solve_position_sv", "rtklib_variance_m2", "WEIGHTINGS", "CLOCK_OF_SYSTEM"]
+__all__ = [
+    "PositionFix",
+    "RAIM_STATUSES",
+    "klobuchar_delay_s",
+    "troposphere_delay_m",
+    "dop",
+    "solve_position",
+    "solve_position_sv",
+    "rtklib_variance_m2",
+    "WEIGHTINGS",
+    "CLOCK_OF_SYSTEM",
+]
 
 #: The receiver clock state each system's pseudoranges take: QZSS shares GPS's (QZSST is
 #: aligned to GPST, IS-QZSS-PNT-005; RTKLIB 2.4.3 ``pntpos.c`` does the same).
@@ -74,8 +84,9 @@ _CLOCK_ORDER = "GEC"
 #: 1/`rtklib_variance_m2` (RTKLIB's single-point error model).
 WEIGHTINGS = ("elevation", "uniform", "rtklib")
 #: RTKLIB 2.4.3's URA values (m) of the broadcast URA index 0-14 (IS-GPS-200 20.3.3.3.1.3).
-_RTKLIB_URA_M = np.array([2.4, 3.4, 4.85, 6.85, 9.65, 13.65, 24.0, 48.0, 96.0, 192.0, 384.0, 768.0, 1536.0,
-                          3072.0, 6144.0])
+_RTKLIB_URA_M = np.array(
+    [2.4, 3.4, 4.85, 6.85, 9.65, 13.65, 24.0, 48.0, 96.0, 192.0, 384.0, 768.0, 1536.0, 3072.0, 6144.0]
+)
 
 _C = SPEED_OF_LIGHT_MPS
 
@@ -137,8 +148,15 @@ class PositionFix:
 RAIM_STATUSES = ("ok", "excluded", "alert", "unavailable")
 
 
-def klobuchar_delay_s(alpha: np.ndarray, beta: np.ndarray, lat_deg: float, lon_deg: float, azimuth_deg: np.ndarray,
-                      elevation_deg: np.ndarray, gps_tow_s: float) -> np.ndarray:
+def klobuchar_delay_s(
+    alpha: np.ndarray,
+    beta: np.ndarray,
+    lat_deg: float,
+    lon_deg: float,
+    azimuth_deg: np.ndarray,
+    elevation_deg: np.ndarray,
+    gps_tow_s: float,
+) -> np.ndarray:
     """L1 ionospheric delay (s) of the Klobuchar model (IS-GPS-200 20.3.3.5.2.5, Figure 20-4).
 
     ``alpha`` and ``beta`` as broadcast (s/semicircle^n); angles in degrees, converted to
@@ -161,8 +179,9 @@ def klobuchar_delay_s(alpha: np.ndarray, beta: np.ndarray, lat_deg: float, lon_d
     return np.where(np.abs(x) < 1.57, day, F * 5e-9)
 
 
-def troposphere_delay_m(lat_deg: float, height_m: float, elevation_deg: np.ndarray,
-                        humidity: float = 0.7) -> np.ndarray:
+def troposphere_delay_m(
+    lat_deg: float, height_m: float, elevation_deg: np.ndarray, humidity: float = 0.7
+) -> np.ndarray:
     """Tropospheric delay (m): Saastamoinen's hydrostatic and wet zenith delays (1972) with
     a standard atmosphere (1013.25 hPa, 15 degC at sea level, lapse 6.5 K/km, relative
     ``humidity``), mapped by 1/sin(E)."""
@@ -198,13 +217,18 @@ def _rotate_earth(pos: np.ndarray, tau_s: np.ndarray) -> np.ndarray:
 def _enu_rotation(lat_deg: float, lon_deg: float) -> np.ndarray:
     """Rows: east, north, up unit vectors in ECEF."""
     la, lo = np.radians(lat_deg), np.radians(lon_deg)
-    return np.array([[-np.sin(lo), np.cos(lo), 0.0],
-                     [-np.sin(la) * np.cos(lo), -np.sin(la) * np.sin(lo), np.cos(la)],
-                     [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)]])
+    return np.array(
+        [
+            [-np.sin(lo), np.cos(lo), 0.0],
+            [-np.sin(la) * np.cos(lo), -np.sin(la) * np.sin(lo), np.cos(la)],
+            [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)],
+        ]
+    )
 
 
-def rtklib_variance_m2(elevation_deg: np.ndarray, iono_m: np.ndarray | None, troposphere: bool,
-                       ura_m: np.ndarray | None) -> np.ndarray:
+def rtklib_variance_m2(
+    elevation_deg: np.ndarray, iono_m: np.ndarray | None, troposphere: bool, ura_m: np.ndarray | None
+) -> np.ndarray:
     r"""Pseudorange variance (m²) of RTKLIB 2.4.3's single-point solution (``pntpos.c``:
     ``varerr``, ``rescode``, ``ionocorr``, ``tropcorr``, ``var_uraeph``), per satellite:
 
@@ -220,8 +244,9 @@ def rtklib_variance_m2(elevation_deg: np.ndarray, iono_m: np.ndarray | None, tro
     var = var + (np.square(0.5 * np.asarray(iono_m, float)) if iono_m is not None else 5.0**2)
     var = var + ((0.3 / (sin_e + 0.1)) ** 2 if troposphere else 3.0**2)
     ura = np.full(sin_e.shape, np.nan) if ura_m is None else np.asarray(ura_m, float)
-    index = np.minimum(np.searchsorted(_RTKLIB_URA_M, np.where(np.isfinite(ura) & (ura > 0), ura, 0.0)),
-                       _RTKLIB_URA_M.size - 1)
+    index = np.minimum(
+        np.searchsorted(_RTKLIB_URA_M, np.where(np.isfinite(ura) & (ura > 0), ura, 0.0)), _RTKLIB_URA_M.size - 1
+    )
     return var + _RTKLIB_URA_M[index] ** 2
 
 
@@ -235,8 +260,21 @@ def _clock_columns(use: np.ndarray, clock_index: np.ndarray | None, k: int) -> t
     return use, np.flatnonzero(np.bincount(clock_index[use], minlength=k) > 0)
 
 
-def _least_squares(pr, sat_pos, clock_m, keep, sigma_m, iono, troposphere, tow_s, x0, mask_deg,
-                   weighting="elevation", ura_m=None, clock_index=None):
+def _least_squares(
+    pr,
+    sat_pos,
+    clock_m,
+    keep,
+    sigma_m,
+    iono,
+    troposphere,
+    tow_s,
+    x0,
+    mask_deg,
+    weighting="elevation",
+    ura_m=None,
+    clock_index=None,
+):
     """Gauss-Newton on (x, y, z, b_1..b_k) with the satellites ``keep``, weighted as
     ``weighting`` (one of `WEIGHTINGS`); ``clock_index`` ``(S,)`` the clock state of each
     satellite (None: one clock). Returns the state, the weighted residuals' chi-square,
@@ -317,18 +355,33 @@ def _check_systems(systems: str | None, time_offsets_s: dict[str, float] | None)
             raise ConfigError("systems", f"RINEX letters of {', '.join(SYSTEMS)} (e.g. 'GEC'), got {letter!r}")
     for letter, offset in (time_offsets_s or {}).items():
         if letter in "GJ" or not np.isfinite(offset):
-            raise ConfigError("time_offsets_s", f"a finite offset of a system with its own time (E, C), got "
-                                                f"{letter!r}: {offset}")
+            raise ConfigError(
+                "time_offsets_s", f"a finite offset of a system with its own time (E, C), got {letter!r}: {offset}"
+            )
 
 
-def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris: Ephemerides, *,
-                   doppler_hz: np.ndarray | None = None, iono: IonoUtc | None = None, troposphere: bool = False,
-                   sigma_m: float = 5.0, elevation_mask_deg: float = 5.0, false_alarm: float = 1e-3,
-                   initial_ecef_m: np.ndarray | None = None, elevation_weights: bool = True,
-                   wavelength_m: float | None = None, signal: SignalSpec = GPS_L1CA,
-                   weighting: str | None = None, raim: str | None = None, missed_detection: float = 1e-3,
-                   integrity_risk: float = 1e-7, systems: str | None = None,
-                   time_offsets_s: dict[str, float] | None = None) -> PositionFix | None:
+def solve_position(
+    pseudorange_m: np.ndarray,
+    transmit_s: np.ndarray,
+    ephemeris: Ephemerides,
+    *,
+    doppler_hz: np.ndarray | None = None,
+    iono: IonoUtc | None = None,
+    troposphere: bool = False,
+    sigma_m: float = 5.0,
+    elevation_mask_deg: float = 5.0,
+    false_alarm: float = 1e-3,
+    initial_ecef_m: np.ndarray | None = None,
+    elevation_weights: bool = True,
+    wavelength_m: float | None = None,
+    signal: SignalSpec = GPS_L1CA,
+    weighting: str | None = None,
+    raim: str | None = None,
+    missed_detection: float = 1e-3,
+    integrity_risk: float = 1e-7,
+    systems: str | None = None,
+    time_offsets_s: dict[str, float] | None = None,
+) -> PositionFix | None:
     """Position, velocity and clock of one epoch.
 
     Parameters
@@ -393,8 +446,11 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
     pr = np.asarray(pseudorange_m, float)
     tx = np.asarray(transmit_s, float)
     if pr.shape != tx.shape or pr.ndim != 1 or ephemeris.sv.size != pr.size:
-        raise ConfigError("solve_position", f"pseudoranges {pr.shape}, transmit times {tx.shape} and "
-                                            f"{ephemeris.sv.size} ephemeris records must all be (S,)")
+        raise ConfigError(
+            "solve_position",
+            f"pseudoranges {pr.shape}, transmit times {tx.shape} and "
+            f"{ephemeris.sv.size} ephemeris records must all be (S,)",
+        )
     if sigma_m <= 0:
         raise ConfigError("sigma_m", f"must be positive, got {sigma_m}")
     if weighting is not None and weighting not in WEIGHTINGS:
@@ -418,9 +474,18 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
     offsets = time_offsets_s or {}
     if offsets:
         prz = prz + _C * np.array([offsets.get(str(s), 0.0) for s in letters])
-    fix = _solve(prz, state.position_m, clock_m, keep, letters, offsets, initial_ecef_m,
-                 (sigma_m, iono, troposphere, tow), (elevation_mask_deg, weighting, ura_m),
-                 (raim, false_alarm, missed_detection, integrity_risk))
+    fix = _solve(
+        prz,
+        state.position_m,
+        clock_m,
+        keep,
+        letters,
+        offsets,
+        initial_ecef_m,
+        (sigma_m, iono, troposphere, tow),
+        (elevation_mask_deg, weighting, ura_m),
+        (raim, false_alarm, missed_detection, integrity_risk),
+    )
     if fix is None:
         return None
     sol, excluded, checks, clocks = fix
@@ -442,12 +507,23 @@ def solve_position(pseudorange_m: np.ndarray, transmit_s: np.ndarray, ephemeris:
     return _position_fix(sol, excluded, checks, clocks, vel, drift)
 
 
-def solve_position_sv(pseudorange_m: np.ndarray, sv_position_ecef_m: np.ndarray, sv_clock_m: np.ndarray,
-                      system: np.ndarray | list[str], *, sigma_m: float | np.ndarray = 5.0,
-                      weighting: str = "uniform", elevation_mask_deg: float = 0.0, false_alarm: float = 1e-3,
-                      initial_ecef_m: np.ndarray | None = None, raim: str | None = None,
-                      missed_detection: float = 1e-3, integrity_risk: float = 1e-7, systems: str | None = None,
-                      time_offsets_s: dict[str, float] | None = None) -> PositionFix | None:
+def solve_position_sv(
+    pseudorange_m: np.ndarray,
+    sv_position_ecef_m: np.ndarray,
+    sv_clock_m: np.ndarray,
+    system: np.ndarray | list[str],
+    *,
+    sigma_m: float | np.ndarray = 5.0,
+    weighting: str = "uniform",
+    elevation_mask_deg: float = 0.0,
+    false_alarm: float = 1e-3,
+    initial_ecef_m: np.ndarray | None = None,
+    raim: str | None = None,
+    missed_detection: float = 1e-3,
+    integrity_risk: float = 1e-7,
+    systems: str | None = None,
+    time_offsets_s: dict[str, float] | None = None,
+) -> PositionFix | None:
     """Position and clocks of one epoch from satellite states given with the ranges (as
     smartphone logs carry them), by the least squares of `solve_position`.
 
@@ -479,9 +555,12 @@ def solve_position_sv(pseudorange_m: np.ndarray, sv_position_ecef_m: np.ndarray,
     clock_m = np.asarray(sv_clock_m, float)
     letters = np.asarray(system).astype("U1")
     if pr.ndim != 1 or pos.shape != pr.shape + (3,) or clock_m.shape != pr.shape or letters.shape != pr.shape:
-        raise ConfigError("solve_position_sv", f"pseudoranges {pr.shape}, satellite positions {pos.shape}, clocks "
-                                               f"{clock_m.shape} and systems {letters.shape} must be (S,), (S, 3), "
-                                               "(S,), (S,)")
+        raise ConfigError(
+            "solve_position_sv",
+            f"pseudoranges {pr.shape}, satellite positions {pos.shape}, clocks "
+            f"{clock_m.shape} and systems {letters.shape} must be (S,), (S, 3), "
+            "(S,), (S,)",
+        )
     sigma = np.asarray(sigma_m, float)
     if not np.all(sigma > 0):
         raise ConfigError("sigma_m", f"must be positive, got {sigma_m}")
@@ -499,9 +578,18 @@ def solve_position_sv(pseudorange_m: np.ndarray, sv_position_ecef_m: np.ndarray,
     prz = np.where(keep, pr, 0.0) + _C * np.array([offsets.get(str(s), 0.0) for s in letters])
     sigma = np.where(keep, np.broadcast_to(sigma, pr.shape), 1.0) if sigma.ndim else float(sigma)
     far = np.array([0.0, 0.0, 2.6e7])  # a stand-in for an unused satellite without a position (no 0/0)
-    fix = _solve(prz, np.where(keep[:, None], pos, far), np.where(keep, clock_m, 0.0), keep, letters, offsets,
-                 initial_ecef_m, (sigma, None, False, 0.0), (elevation_mask_deg, weighting, None),
-                 (raim, false_alarm, missed_detection, integrity_risk))
+    fix = _solve(
+        prz,
+        np.where(keep[:, None], pos, far),
+        np.where(keep, clock_m, 0.0),
+        keep,
+        letters,
+        offsets,
+        initial_ecef_m,
+        (sigma, None, False, 0.0),
+        (elevation_mask_deg, weighting, None),
+        (raim, false_alarm, missed_detection, integrity_risk),
+    )
     if fix is None:
         return None
     return _position_fix(*fix, np.full(3, np.nan), float("nan"))
@@ -519,23 +607,32 @@ def _solve(prz, sat_pos, clock_m, keep, letters, offsets, initial_ecef_m, model,
     x0 = np.zeros(3 + k) if initial_ecef_m is None else np.r_[np.asarray(initial_ecef_m, float), np.zeros(k)]
     args = (prz, sat_pos, clock_m)
     index = None if one else clock_index
-    sol = _least_squares(*args, keep, sigma_m, iono, troposphere, tow, x0, elevation_mask_deg, weighting, ura_m,
-                         index)
+    sol = _least_squares(*args, keep, sigma_m, iono, troposphere, tow, x0, elevation_mask_deg, weighting, ura_m, index)
     if sol is None:
         return None
     excluded = None
     dof = _dof(sol)
     checks: dict = {}
     if raim is not None:
-        sol, excluded, checks = _raim_solution(sol, args, keep, model, (elevation_mask_deg, weighting, ura_m, index),
-                                               raim, false_alarm, missed_detection, integrity_risk)
+        sol, excluded, checks = _raim_solution(
+            sol,
+            args,
+            keep,
+            model,
+            (elevation_mask_deg, weighting, ura_m, index),
+            raim,
+            false_alarm,
+            missed_detection,
+            integrity_risk,
+        )
     elif dof >= 2 and sol[1] > chi2_ppf(1 - false_alarm, dof):
         trials = {}
         for j in np.flatnonzero(sol[6]):
             k_ = keep.copy()
             k_[j] = False
-            trial = _least_squares(*args, k_, sigma_m, iono, troposphere, tow, sol[0], elevation_mask_deg,
-                                   weighting, ura_m, index)
+            trial = _least_squares(
+                *args, k_, sigma_m, iono, troposphere, tow, sol[0], elevation_mask_deg, weighting, ura_m, index
+            )
             if trial is not None:
                 trials[int(j)] = trial
         if trials:
@@ -552,15 +649,52 @@ def _position_fix(sol, excluded, checks, clocks, vel, drift) -> PositionFix:
     R = _enu_rotation(lat, lon)
     if len(clocks) == 1:
         gdop, pdop, hdop, vdop = dop(u[use] @ R.T)
-        return PositionFix(x[:3], lat, lon, h, float(x[3]), vel, drift, gdop, pdop, hdop, vdop, use, res, excluded,
-                           el, az, **checks, clock_systems=clocks, system_offsets_ns={})
+        return PositionFix(
+            x[:3],
+            lat,
+            lon,
+            h,
+            float(x[3]),
+            vel,
+            drift,
+            gdop,
+            pdop,
+            hdop,
+            vdop,
+            use,
+            res,
+            excluded,
+            el,
+            az,
+            **checks,
+            clock_systems=clocks,
+            system_offsets_ns={},
+        )
     gdop, pdop, hdop, vdop = dop(u[use] @ R.T, columns[use])
     estimated = [clocks[i] for i in cols]  # a clock whose satellites were all left out has no state
     ref = estimated[0]
     offsets = {c: float((x[3 + clocks.index(c)] - x[3 + clocks.index(ref)]) / _C * 1e9) for c in estimated[1:]}
-    return PositionFix(x[:3], lat, lon, h, float(x[3 + clocks.index(ref)]), vel, drift, gdop, pdop, hdop, vdop,
-                       use, res, excluded, el, az, **checks, clock_systems="".join(estimated),
-                       system_offsets_ns=offsets)
+    return PositionFix(
+        x[:3],
+        lat,
+        lon,
+        h,
+        float(x[3 + clocks.index(ref)]),
+        vel,
+        drift,
+        gdop,
+        pdop,
+        hdop,
+        vdop,
+        use,
+        res,
+        excluded,
+        el,
+        az,
+        **checks,
+        clock_systems="".join(estimated),
+        system_offsets_ns=offsets,
+    )
 
 
 def _integrity_of(sol, method: str, false_alarm: float, missed_detection: float, integrity_risk: float):
@@ -574,9 +708,16 @@ def _integrity_of(sol, method: str, false_alarm: float, missed_detection: float,
         sigma = 1.0 / np.sqrt(w)
     # The design matrix [-u, clock columns] (`integrity.enu_geometry` for one clock): n - 3 - k dof.
     geometry = np.concatenate([-(u @ _enu_rotation(float(lat), float(lon)).T), columns], axis=-1)
-    return raim(geometry, sigma, res, use,
-                false_alarm=false_alarm, missed_detection=missed_detection, integrity_risk=integrity_risk,
-                method=method)
+    return raim(
+        geometry,
+        sigma,
+        res,
+        use,
+        false_alarm=false_alarm,
+        missed_detection=missed_detection,
+        integrity_risk=integrity_risk,
+        method=method,
+    )
 
 
 def _raim_solution(sol, args, keep, model, options, method, false_alarm, missed_detection, integrity_risk):
@@ -604,5 +745,14 @@ def _raim_solution(sol, args, keep, model, options, method, false_alarm, missed_
         hpl = vpl = float("inf")
     elif not np.isfinite(hpl):
         status = "unavailable"
-    return sol, excluded, {"raim": status, "test_statistic": float(result.wsse), "fault_detected": bool(first.detected),
-                           "hpl_m": hpl, "vpl_m": vpl}
+    return (
+        sol,
+        excluded,
+        {
+            "raim": status,
+            "test_statistic": float(result.wsse),
+            "fault_detected": bool(first.detected),
+            "hpl_m": hpl,
+            "vpl_m": vpl,
+        },
+    )

@@ -74,7 +74,7 @@ def _calendar(gps_s: float) -> str:
 
 
 def _numbers(line: str, start: int) -> list[float]:
-    return [float(line[start + 12 * k:start + 12 * k + 12].replace("D", "E").replace("d", "e")) for k in range(4)]
+    return [float(line[start + 12 * k : start + 12 * k + 12].replace("D", "E").replace("d", "e")) for k in range(4)]
 
 
 def _header_iono(path: Path) -> IonoUtc | None:
@@ -110,11 +110,16 @@ def _header_ggto(path: Path) -> tuple[float, float, float, int] | None:
             label = line[60:].strip()
             if label == "TIME SYSTEM CORR" and line[:4] in ("GPGA", "GAGP"):
                 try:
-                    return (float(line[5:22].replace("D", "E")), float(line[22:38].replace("D", "E")),
-                            float(line[38:45]), int(line[45:50]))
+                    return (
+                        float(line[5:22].replace("D", "E")),
+                        float(line[22:38].replace("D", "E")),
+                        float(line[38:45]),
+                        int(line[45:50]),
+                    )
                 except ValueError:
-                    raise DataFileError(str(path), number, f"TIME SYSTEM CORR {line[:4]}: expected a0, a1, T, "
-                                                           "W") from None
+                    raise DataFileError(
+                        str(path), number, f"TIME SYSTEM CORR {line[:4]}: expected a0, a1, T, W"
+                    ) from None
             if label == "END OF HEADER" or number > 500:
                 break
     return None
@@ -137,8 +142,9 @@ def read_nav_file_info(path: str | Path) -> NavFileInfo:
     try:
         times = np.asarray(georinex.gettime(path), dtype="datetime64[ns]")
     except Exception as exc:  # noqa: BLE001 - georinex raises many types
-        raise DataFileError(str(path), None, f"georinex could not read its epochs: {type(exc).__name__}: {exc}") \
-            from None
+        raise DataFileError(
+            str(path), None, f"georinex could not read its epochs: {type(exc).__name__}: {exc}"
+        ) from None
     if times.size == 0:
         raise DataFileError(str(path), None, "no ephemeris record")
     seconds = (times - _GPS_EPOCH) / np.timedelta64(1, "s")

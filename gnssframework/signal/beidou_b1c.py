@@ -26,7 +26,9 @@ BEIDOU_B1C = SignalSpec(
     chip_rate_hz=1.023e6,
     code_length_chips=B1C_PRIMARY_LENGTH,
     prns=tuple(sorted(B1C_PILOT_PARAMS)),
-    components=(Component("pilot", b1c_pilot_code, power_fraction=0.75),
-                Component("data", b1c_data_code, symbol_period_s=0.01, power_fraction=0.25)),
+    components=(
+        Component("pilot", b1c_pilot_code, power_fraction=0.75),
+        Component("data", b1c_data_code, symbol_period_s=0.01, power_fraction=0.25),
+    ),
     subcarrier=Subcarrier("boc", 1.0, 1.0),
 )

@@ -20,6 +20,7 @@ from .spec import SignalSpec
 
 __all__ = ["channel_iq", "channel_iq_row", "channel_transition", "channel_model", "code_to_carrier"]
 
+
 def code_to_carrier(signal: SignalSpec = GPS_L1CA) -> float:
     """Code chipping rate over carrier frequency, ``f_code / f_carrier`` (1/1540 for GPS L1 C/A)."""
     return signal.chip_rate_hz / signal.carrier_freq_hz
@@ -57,13 +58,21 @@ def channel_iq(
     np.ndarray
         ``(..., 6)``: ``[I_E, I_P, I_L, Q_E, Q_P, Q_L]``.
     """
-    y = correlator_mean(x[..., 0], x[..., 1], x[..., 2], x[..., 3], coherent_time_s,
-                        np.array([-spacing_chips, 0.0, spacing_chips]), data_bit)
+    y = correlator_mean(
+        x[..., 0],
+        x[..., 1],
+        x[..., 2],
+        x[..., 3],
+        coherent_time_s,
+        np.array([-spacing_chips, 0.0, spacing_chips]),
+        data_bit,
+    )
     return np.concatenate([y.real, y.imag], axis=-1)
 
 
-def channel_transition(coherent_time_s: float, code_to_carrier: float | None = None,
-                       signal: SignalSpec = GPS_L1CA) -> np.ndarray:
+def channel_transition(
+    coherent_time_s: float, code_to_carrier: float | None = None, signal: SignalSpec = GPS_L1CA
+) -> np.ndarray:
     r"""Transition matrix of the channel state over one coherent interval (Zou et al. 2018, eq. 9).
 
     ``code_to_carrier`` is ``f_code / f_carrier``, by default ``signal``'s (`code_to_carrier`).
@@ -122,8 +131,12 @@ def channel_iq_row(params, X, k, Z, kz):
 
 
 def channel_model(
-    coherent_time_s: float, spacing_chips: float, Q: np.ndarray, R: np.ndarray,
-    code_to_carrier: float | None = None, signal: SignalSpec | None = None,
+    coherent_time_s: float,
+    spacing_chips: float,
+    Q: np.ndarray,
+    R: np.ndarray,
+    code_to_carrier: float | None = None,
+    signal: SignalSpec | None = None,
 ):
     """The channel filter's model (eq. 9 transition, eqs. 2-7 correlators) with compiled twins.
 
@@ -144,8 +157,11 @@ def channel_model(
     """
     if signal is not None:
         if not signal.is_bpsk:
-            raise ConfigError("signal", f"the Zou et al. channel model assumes BPSK's triangle autocorrelation; "
-                                        f"{signal.name} has a {signal.subcarrier.kind} sub-carrier")
+            raise ConfigError(
+                "signal",
+                f"the Zou et al. channel model assumes BPSK's triangle autocorrelation; "
+                f"{signal.name} has a {signal.subcarrier.kind} sub-carrier",
+            )
         code_to_carrier = signal.chip_rate_hz / signal.carrier_freq_hz
     from ..estimation.compiled_model import CompiledFunctions, linear_f
     from ..estimation.types import NonlinearModel

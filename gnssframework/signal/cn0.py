@@ -28,8 +28,11 @@ def cn0_nwpr(prompt: np.ndarray, coherent_time_s: float, m: int = 20) -> np.ndar
     prompt per block NBP = WBP and the ratio is 0/0.
     """
     if m < 2:
-        raise ConfigError("m", f"the narrow-wide ratio needs at least 2 prompts per block, got {m} (a signal "
-                               "whose symbol is one code period: use cn0_moments)")
+        raise ConfigError(
+            "m",
+            f"the narrow-wide ratio needs at least 2 prompts per block, got {m} (a signal "
+            "whose symbol is one code period: use cn0_moments)",
+        )
     p = np.asarray(prompt)
     k = p.shape[0] // m
     if k < 1:

@@ -41,8 +41,15 @@ from ..plugin import Plugin, PluginParams
 from .cn0 import MIN_CN0_T
 from .correlator_model import simulate_correlators
 
-__all__ = ["CN0Estimator", "CN0EstimatorParams", "linear_to_dbhz", "MIN_CN0_T", "noise_readings_hz",
-           "noise_floor_dbhz", "FLOOR_PERCENTILE"]
+__all__ = [
+    "CN0Estimator",
+    "CN0EstimatorParams",
+    "linear_to_dbhz",
+    "MIN_CN0_T",
+    "noise_readings_hz",
+    "noise_floor_dbhz",
+    "FLOOR_PERCENTILE",
+]
 
 #: The percentile of an estimator's readings on pure noise that is its floor.
 FLOOR_PERCENTILE = 95.0
@@ -50,7 +57,6 @@ FLOOR_PERCENTILE = 95.0
 #: far off the correlation peak, so it holds no signal and its noise is independent of the
 #: prompt's in the correlator model.
 NOISE_TAP_CHIPS = -10.0
-
 
 
 def linear_to_dbhz(cn0_hz: np.ndarray, coherent_time_s: float) -> np.ndarray:
@@ -106,42 +112,60 @@ class CN0Estimator(Plugin, abc.ABC):
         """
         p = np.asarray(prompt)
         if p.ndim < 1 or p.shape[-1] < self.required_intervals():
-            raise ConfigError("prompt", f"{self.name} needs at least {self.required_intervals()} intervals on the "
-                                        f"last axis, got shape {p.shape}")
+            raise ConfigError(
+                "prompt",
+                f"{self.name} needs at least {self.required_intervals()} intervals on the "
+                f"last axis, got shape {p.shape}",
+            )
         if not np.isfinite(coherent_time_s) or coherent_time_s <= 0:
             raise ConfigError("coherent_time_s", f"must be a positive number of seconds, got {coherent_time_s!r}")
         n = None
         if "noise" in self.needs:
             if noise is None:
-                raise ConfigError("noise", f"{self.name} measures N0 on a noise-only correlator: pass `noise` "
-                                           "(shape of the prompt)")
+                raise ConfigError(
+                    "noise", f"{self.name} measures N0 on a noise-only correlator: pass `noise` (shape of the prompt)"
+                )
             n = np.asarray(noise)
             if n.shape != p.shape:
                 raise ConfigError("noise", f"shape {n.shape} differs from the prompt's {p.shape}")
         return self._estimate_hz(p.astype(complex, copy=False), float(coherent_time_s), n)
 
-    def estimate_dbhz(self, prompt: np.ndarray, coherent_time_s: float,
-                      noise: np.ndarray | None = None) -> np.ndarray:
+    def estimate_dbhz(self, prompt: np.ndarray, coherent_time_s: float, noise: np.ndarray | None = None) -> np.ndarray:
         """C/N0 estimate (dB-Hz), shape ``prompt.shape[:-1]`` (`linear_to_dbhz` of `estimate_hz`)."""
         return linear_to_dbhz(self.estimate_hz(prompt, coherent_time_s, noise), coherent_time_s)
 
     __call__ = estimate_dbhz
 
 
-def noise_readings_hz(estimator: CN0Estimator, coherent_time_s: float, intervals: int, runs: int,
-                      rng: np.random.Generator) -> np.ndarray:
+def noise_readings_hz(
+    estimator: CN0Estimator, coherent_time_s: float, intervals: int, runs: int, rng: np.random.Generator
+) -> np.ndarray:
     """The linear readings (Hz) of ``estimator`` on ``runs`` windows of pure noise, K =
     ``intervals`` prompts of T = ``coherent_time_s`` each, drawn by the correlator model
     (`simulate_correlators` with zero amplitude; the noise-only correlator a tap
     `NOISE_TAP_CHIPS` off the peak)."""
     shape = (int(runs), int(intervals))
-    c = simulate_correlators(np.zeros(shape), 0.0, 0.0, 0.0, coherent_time_s, rng,
-                             extra_taps={"noise": NOISE_TAP_CHIPS}, amplitude=np.zeros(shape))
+    c = simulate_correlators(
+        np.zeros(shape),
+        0.0,
+        0.0,
+        0.0,
+        coherent_time_s,
+        rng,
+        extra_taps={"noise": NOISE_TAP_CHIPS},
+        amplitude=np.zeros(shape),
+    )
     return estimator.estimate_hz(c.prompt, coherent_time_s, noise=c.extra["noise"])
 
 
-def noise_floor_dbhz(estimator: CN0Estimator, coherent_time_s: float, intervals: int,
-                     percentile: float = FLOOR_PERCENTILE, runs: int = 2000, seed: int = 0) -> float:
+def noise_floor_dbhz(
+    estimator: CN0Estimator,
+    coherent_time_s: float,
+    intervals: int,
+    percentile: float = FLOOR_PERCENTILE,
+    runs: int = 2000,
+    seed: int = 0,
+) -> float:
     r"""The noise-only floor (dB-Hz) of ``estimator`` on a window of K = ``intervals``
     intervals of T = ``coherent_time_s``: the ``percentile`` of its readings on pure noise
     (`noise_readings_hz`, ``runs`` windows from ``seed``); ``-inf`` when that reading is

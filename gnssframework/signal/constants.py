@@ -7,8 +7,16 @@ than these names; they remain for the blocks not yet generic over signals.
 from .gps_l1ca import GPS_L1CA
 from .spec import SPEED_OF_LIGHT_M_S
 
-__all__ = ["SPEED_OF_LIGHT_M_S", "L1_FREQ_HZ", "CA_CHIP_RATE_HZ", "CA_CODE_LENGTH", "CA_CODE_PERIOD_S",
-           "L1_WAVELENGTH_M", "CA_CHIP_LENGTH_M", "NAV_BIT_RATE_HZ"]
+__all__ = [
+    "SPEED_OF_LIGHT_M_S",
+    "L1_FREQ_HZ",
+    "CA_CHIP_RATE_HZ",
+    "CA_CODE_LENGTH",
+    "CA_CODE_PERIOD_S",
+    "L1_WAVELENGTH_M",
+    "CA_CHIP_LENGTH_M",
+    "NAV_BIT_RATE_HZ",
+]
 
 L1_FREQ_HZ = GPS_L1CA.carrier_freq_hz
 CA_CHIP_RATE_HZ = GPS_L1CA.chip_rate_hz

@@ -57,8 +57,9 @@ def amplitude_from_cn0(cn0_dbhz: np.ndarray | float, coherent_time_s: float) -> 
 
 
 @lru_cache(maxsize=16)
-def _band_limited_table(bandwidth_hz: float, chip_rate_hz: float,
-                        pulse: tuple[float, ...] = (1.0,)) -> tuple[np.ndarray, np.ndarray]:
+def _band_limited_table(
+    bandwidth_hz: float, chip_rate_hz: float, pulse: tuple[float, ...] = (1.0,)
+) -> tuple[np.ndarray, np.ndarray]:
     r"""R(tau) of a code with chip pulse ``pulse`` through an ideal low-pass front end of
     two-sided width B: :math:`R(\tau) = \int_{-B/2}^{B/2} G(f) \cos(2\pi f \tau T_c) df`.
 
@@ -86,7 +87,9 @@ def _band_limited_table(bandwidth_hz: float, chip_rate_hz: float,
 
 
 def code_autocorrelation(
-    tau_chips: np.ndarray, bandwidth_hz: float | None = None, chip_rate_hz: float | None = None,
+    tau_chips: np.ndarray,
+    bandwidth_hz: float | None = None,
+    chip_rate_hz: float | None = None,
     signal: SignalSpec = GPS_L1CA,
 ) -> np.ndarray:
     """Code autocorrelation of ``signal`` (GPS L1 C/A by default) at ``tau_chips``.
@@ -156,8 +159,9 @@ def correlator_mean(
     return (common * np.exp(1j * phase))[..., None] * r
 
 
-def tap_noise_cov(offsets_chips: np.ndarray, bandwidth_hz: float | None = None,
-                  signal: SignalSpec = GPS_L1CA) -> np.ndarray:
+def tap_noise_cov(
+    offsets_chips: np.ndarray, bandwidth_hz: float | None = None, signal: SignalSpec = GPS_L1CA
+) -> np.ndarray:
     """Covariance of the I (or Q) noise of the taps: ``R(o_i - o_j)`` of ``signal``."""
     o = np.asarray(offsets_chips, dtype=float)
     return code_autocorrelation(o[:, None] - o[None, :], bandwidth_hz, signal=signal)
@@ -227,9 +231,14 @@ class CorrelatorSimulator:
         As in `simulate_correlators`.
     """
 
-    def __init__(self, coherent_time_s: float, early_late_spacing_chips: float = 1.0,
-                 bandwidth_hz: float | None = None, extra_taps: dict[str, float] | None = None,
-                 signal: SignalSpec = GPS_L1CA) -> None:
+    def __init__(
+        self,
+        coherent_time_s: float,
+        early_late_spacing_chips: float = 1.0,
+        bandwidth_hz: float | None = None,
+        extra_taps: dict[str, float] | None = None,
+        signal: SignalSpec = GPS_L1CA,
+    ) -> None:
         offsets = tap_offsets(early_late_spacing_chips, extra_taps)
         self.names = list(offsets)
         self.offsets_chips = np.array([offsets[n] for n in self.names])
@@ -240,13 +249,28 @@ class CorrelatorSimulator:
         root = v * np.sqrt(np.clip(w, 0.0, None))  # PSD root: taps may be (nearly) coincident
         self.root_t = root.T
 
-    def draw(self, code_error_chips: np.ndarray | float, carrier_phase_rad: np.ndarray | float,
-             freq_error_hz: np.ndarray | float,
-             amplitude: np.ndarray, rng: np.random.Generator, data_bit: np.ndarray | float = 1.0) -> Correlators:
+    def draw(
+        self,
+        code_error_chips: np.ndarray | float,
+        carrier_phase_rad: np.ndarray | float,
+        freq_error_hz: np.ndarray | float,
+        amplitude: np.ndarray,
+        rng: np.random.Generator,
+        data_bit: np.ndarray | float = 1.0,
+    ) -> Correlators:
         """One interval of correlator outputs (`simulate_correlators`, with the amplitude
         ``A = sqrt(2 c T)`` given: `amplitude_from_cn0`)."""
-        mean = correlator_mean(amplitude, code_error_chips, carrier_phase_rad, freq_error_hz, self.coherent_time_s,
-                               self.offsets_chips, data_bit, self.bandwidth_hz, self.signal)
+        mean = correlator_mean(
+            amplitude,
+            code_error_chips,
+            carrier_phase_rad,
+            freq_error_hz,
+            self.coherent_time_s,
+            self.offsets_chips,
+            data_bit,
+            self.bandwidth_hz,
+            self.signal,
+        )
         shape = mean.shape
         root_t = self.root_t
         noise = draw.standard_normal(rng, shape, 0) @ root_t + 1j * (draw.standard_normal(rng, shape, 0) @ root_t)

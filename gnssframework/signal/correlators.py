@@ -33,7 +33,9 @@ class Correlators:
         try:
             shape = np.broadcast_shapes(*(t.shape for t in taps))
         except ValueError:
-            raise ConfigError("Correlators", f"early/prompt/late shapes do not match: {[t.shape for t in taps]}") from None
+            raise ConfigError(
+                "Correlators", f"early/prompt/late shapes do not match: {[t.shape for t in taps]}"
+            ) from None
         for name, tap in zip(("early", "prompt", "late"), taps):
             object.__setattr__(self, name, np.broadcast_to(tap.astype(complex, copy=False), shape))
 

@@ -45,8 +45,14 @@ import numpy as np
 from ..errors import ConfigError
 from .codes import bits_to_chips, checked_prn
 
-__all__ = ["GALILEO_E1_PRNS", "GALILEO_E1_CODE_LENGTH_CHIPS", "GALILEO_E1C_SECONDARY_CS25",
-           "galileo_e1b_code", "galileo_e1c_code", "hex_to_chips"]
+__all__ = [
+    "GALILEO_E1_PRNS",
+    "GALILEO_E1_CODE_LENGTH_CHIPS",
+    "GALILEO_E1C_SECONDARY_CS25",
+    "galileo_e1b_code",
+    "galileo_e1c_code",
+    "hex_to_chips",
+]
 
 #: Satellites of the E1 code tables (ICD Annex C).
 GALILEO_E1_PRNS: tuple[int, ...] = tuple(range(1, 51))
@@ -59,8 +65,9 @@ def hex_to_chips(digits: str, n_chips: int) -> np.ndarray:
     logic 1 -> -1; most significant bit of the first digit first, ICD Annex C)."""
     bits = np.unpackbits(np.frombuffer(bytes.fromhex(digits + "0" * (len(digits) % 2)), np.uint8))[:n_chips]
     if bits.size != n_chips:
-        raise ConfigError("code", f"{len(digits)} hexadecimal digits hold {4 * len(digits)} chips, "
-                                  f"{n_chips} were asked")
+        raise ConfigError(
+            "code", f"{len(digits)} hexadecimal digits hold {4 * len(digits)} chips, {n_chips} were asked"
+        )
     return bits_to_chips(bits)
 
 

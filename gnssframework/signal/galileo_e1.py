@@ -31,12 +31,26 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from .galileo_codes import (GALILEO_E1_CODE_LENGTH_CHIPS, GALILEO_E1_PRNS, GALILEO_E1C_SECONDARY_CS25,
-                            galileo_e1b_code, galileo_e1c_code)
+from .galileo_codes import (
+    GALILEO_E1_CODE_LENGTH_CHIPS,
+    GALILEO_E1_PRNS,
+    GALILEO_E1C_SECONDARY_CS25,
+    galileo_e1b_code,
+    galileo_e1c_code,
+)
 from .spec import Component, SignalSpec, Subcarrier
 
-__all__ = ["GALILEO_E1B", "GALILEO_E1C", "GALILEO_E1B_BOC11", "GALILEO_E1C_BOC11", "CBOC_6_1_1_11", "BOC_1_1",
-           "E1B_DATA", "E1C_PILOT", "boc11_replica"]
+__all__ = [
+    "GALILEO_E1B",
+    "GALILEO_E1C",
+    "GALILEO_E1B_BOC11",
+    "GALILEO_E1C_BOC11",
+    "CBOC_6_1_1_11",
+    "BOC_1_1",
+    "E1B_DATA",
+    "E1C_PILOT",
+    "boc11_replica",
+]
 
 #: CBOC(6,1,1/11): sqrt(10/11) BOC(1,1) + (or -) sqrt(1/11) BOC(6,1) (ICD sec. 2.3.3).
 CBOC_6_1_1_11 = Subcarrier("cboc", 1.0, 1.0, 6.0, (math.sqrt(10.0 / 11.0), math.sqrt(1.0 / 11.0)))
@@ -46,11 +60,18 @@ BOC_1_1 = Subcarrier("boc", 1.0, 1.0)
 #: E1-B: the data component, 250 symbols/s (4 ms, one code period), BOC(6,1) term ``+``.
 E1B_DATA = Component("data", galileo_e1b_code, symbol_period_s=0.004, power_fraction=0.5, subcarrier_sign=1.0)
 #: E1-C: the pilot, secondary code CS25_1 (100 ms), BOC(6,1) term ``-``.
-E1C_PILOT = Component("pilot", galileo_e1c_code, secondary_code=GALILEO_E1C_SECONDARY_CS25, power_fraction=0.5,
-                      subcarrier_sign=-1.0)
+E1C_PILOT = Component(
+    "pilot", galileo_e1c_code, secondary_code=GALILEO_E1C_SECONDARY_CS25, power_fraction=0.5, subcarrier_sign=-1.0
+)
 
-_COMMON = dict(system="E", carrier_freq_hz=1575.42e6, chip_rate_hz=1.023e6,
-               code_length_chips=GALILEO_E1_CODE_LENGTH_CHIPS, prns=GALILEO_E1_PRNS, subcarrier=CBOC_6_1_1_11)
+_COMMON = dict(
+    system="E",
+    carrier_freq_hz=1575.42e6,
+    chip_rate_hz=1.023e6,
+    code_length_chips=GALILEO_E1_CODE_LENGTH_CHIPS,
+    prns=GALILEO_E1_PRNS,
+    subcarrier=CBOC_6_1_1_11,
+)
 
 #: Galileo E1-B tracked (data; E1-C the second component), CBOC(6,1,1/11).
 GALILEO_E1B = SignalSpec(name="galileo-e1b", rinex_code="1B", components=(E1B_DATA, E1C_PILOT), **_COMMON)

@@ -15,8 +15,15 @@ RINEX 3.04 names the CM observation ``2S`` (``2L`` for CL, ``2X`` for both).
 
 from __future__ import annotations
 
-from .gps_l2c_codes import (L2CL_LENGTH, L2CM_INITIAL_STATE, L2CM_LENGTH, QZSS_L2CM_INITIAL_STATE, gps_l2cl_code,
-                            gps_l2cm_code, qzss_l2cm_code)
+from .gps_l2c_codes import (
+    L2CL_LENGTH,
+    L2CM_INITIAL_STATE,
+    L2CM_LENGTH,
+    QZSS_L2CM_INITIAL_STATE,
+    gps_l2cl_code,
+    gps_l2cm_code,
+    qzss_l2cm_code,
+)
 from .spec import BPSK, Component, SignalSpec
 
 __all__ = ["GPS_L2C", "QZSS_L2C", "L2_FREQ_HZ"]
@@ -26,8 +33,9 @@ L2_FREQ_HZ = 1227.60e6
 
 #: What GPS and QZSS L2C share: the carrier, the 511.5 kchip/s rate of each code alone, CM's
 #: length (the signal's code period) and RINEX code, no sub-carrier.
-_L2C_COMMON = dict(rinex_code="2S", carrier_freq_hz=L2_FREQ_HZ, chip_rate_hz=511.5e3, code_length_chips=L2CM_LENGTH,
-                   subcarrier=BPSK)
+_L2C_COMMON = dict(
+    rinex_code="2S", carrier_freq_hz=L2_FREQ_HZ, chip_rate_hz=511.5e3, code_length_chips=L2CM_LENGTH, subcarrier=BPSK
+)
 #: CM's component keywords: one CNAV symbol a 20 ms code period, half the power, first time slot.
 _CM_COMMON = dict(symbol_period_s=0.02, power_fraction=0.5, time_slot=(0, 2))
 
@@ -36,9 +44,10 @@ GPS_L2C = SignalSpec(
     name="gps-l2c",
     system="G",
     prns=tuple(sorted(L2CM_INITIAL_STATE)),
-    components=(Component("CM", gps_l2cm_code, **_CM_COMMON),
-                Component("CL", gps_l2cl_code, power_fraction=0.5, code_length_chips=L2CL_LENGTH,
-                          time_slot=(1, 2))),
+    components=(
+        Component("CM", gps_l2cm_code, **_CM_COMMON),
+        Component("CL", gps_l2cl_code, power_fraction=0.5, code_length_chips=L2CL_LENGTH, time_slot=(1, 2)),
+    ),
     **_L2C_COMMON,
 )
 

@@ -140,8 +140,11 @@ def generate_if_samples(
             x = np.stack([x.real, x.imag], axis=-1)
         x = np.clip(np.rint(x), info.min, info.max).astype(sample_type)
     else:
-        x = x.astype(np.complex128 if complex_samples and sample_type == "float64" else
-                     (np.complex64 if complex_samples else sample_type))
+        x = x.astype(
+            np.complex128
+            if complex_samples and sample_type == "float64"
+            else (np.complex64 if complex_samples else sample_type)
+        )
     return IfSignal(x, float(sample_rate_hz), float(if_hz), sigma, complex_samples, signal)
 
 
@@ -183,12 +186,17 @@ def correlate_if(
     n = int(round(coherent_time_s * signal.sample_rate_hz))
     if start_sample + n > x.shape[0]:
         raise ConfigError("start_sample", f"{start_sample} + {n} samples exceeds the {x.shape[0]} available")
-    seg = x[start_sample:start_sample + n]
+    seg = x[start_sample : start_sample + n]
     t = np.arange(n) / signal.sample_rate_hz
     cp = np.asarray(code_phase_chips, float)[..., None]
     cr = np.asarray(code_rate_hz, float)[..., None]
-    carrier = np.exp(-1j * (2 * np.pi * np.asarray(carrier_freq_hz, float)[..., None] * t
-                            + np.asarray(carrier_phase_rad, float)[..., None]))
+    carrier = np.exp(
+        -1j
+        * (
+            2 * np.pi * np.asarray(carrier_freq_hz, float)[..., None] * t
+            + np.asarray(carrier_phase_rad, float)[..., None]
+        )
+    )
     baseband = seg * carrier  # (..., n)
     spec = signal.spec
     table = spec.spreading_table(prn)

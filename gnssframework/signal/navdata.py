@@ -13,14 +13,18 @@ from .spec import SignalSpec
 __all__ = ["random_nav_bits", "bit_at", "data_bit_period_s", "wipe_off"]
 
 
-
 def random_nav_bits(n_bits: int, rng: np.random.Generator, batch_shape: tuple[int, ...] = ()) -> np.ndarray:
     """Equiprobable ±1 bits, shape ``(n_bits, *batch_shape)``, ``int8``."""
     return (1 - 2 * draw.integers(rng, 0, 2, (n_bits,) + tuple(batch_shape), run_axis=1)).astype(np.int8)
 
 
-def bit_at(time_s: np.ndarray, bits: np.ndarray, first_edge_s: float | np.ndarray = 0.0,
-           bit_period_s: float | None = None, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
+def bit_at(
+    time_s: np.ndarray,
+    bits: np.ndarray,
+    first_edge_s: float | np.ndarray = 0.0,
+    bit_period_s: float | None = None,
+    signal: SignalSpec = GPS_L1CA,
+) -> np.ndarray:
     """The bit in force at ``time_s``. Bit k spans ``[first_edge + k T_b, first_edge + (k+1) T_b)``
     with ``T_b = bit_period_s``, by default ``signal``'s data bit period (`data_bit_period_s`;
     1/50 s for GPS L1 C/A).

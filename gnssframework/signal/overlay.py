@@ -39,8 +39,9 @@ def overlay_sync(prompts: np.ndarray, overlay: tuple[int, ...] | np.ndarray, per
     p = np.asarray(prompts, complex).ravel()
     o = np.asarray(overlay, float)
     if p.size < 3 or o.size < 2:
-        raise ConfigError("prompts", f"overlay sync needs at least 3 prompts and a 2-chip overlay, "
-                                     f"got {p.size} and {o.size}")
+        raise ConfigError(
+            "prompts", f"overlay sync needs at least 3 prompts and a 2-chip overlay, got {p.size} and {o.size}"
+        )
     diff = p[1:] * np.conj(p[:-1])
     k = np.arange(diff.size)
     shifts = np.arange(o.size)[:, None]
@@ -49,5 +50,8 @@ def overlay_sync(prompts: np.ndarray, overlay: tuple[int, ...] | np.ndarray, per
     mags = np.abs(z)
     best = int(np.argmax(mags))
     runner_up = np.sort(mags)[-2]
-    return OverlaySync(best, float(np.angle(z[best]) / (2 * np.pi * period_s)),
-                       float(mags[best] / runner_up) if runner_up > 0 else float("inf"))
+    return OverlaySync(
+        best,
+        float(np.angle(z[best]) / (2 * np.pi * period_s)),
+        float(mags[best] / runner_up) if runner_up > 0 else float("inf"),
+    )

@@ -23,8 +23,18 @@ __all__ = ["QZSS_L1CA_G2_DELAY", "gold_code_by_g2_delay", "qzss_l1ca_code"]
 
 #: G2 delay (chips) per QZSS L1 C/A PRN (IS-QZSS-PNT, L1C/A PRN assignment table).
 QZSS_L1CA_G2_DELAY: dict[int, int] = {
-    193: 339, 194: 208, 195: 711, 196: 189, 197: 263, 198: 537, 199: 663, 200: 942, 201: 173, 202: 900,
+    193: 339,
+    194: 208,
+    195: 711,
+    196: 189,
+    197: 263,
+    198: 537,
+    199: 663,
+    200: 942,
+    201: 173,
+    202: 900,
 }
+
 
 def qzss_l1ca_code(prn: int) -> np.ndarray:
     """The QZSS L1 C/A code of ``prn`` (193-202) as ±1 ``int8``.

@@ -86,8 +86,10 @@ class Subcarrier:
         for m in ms:
             k = 2.0 * m / self.n
             if not (k >= 1 and abs(k - round(k)) < 1e-9):
-                raise ConfigError("subcarrier", f"2 m / n = {k:g} half-periods per chip is not a positive integer "
-                                                f"(m = {m:g}, n = {self.n:g})")
+                raise ConfigError(
+                    "subcarrier",
+                    f"2 m / n = {k:g} half-periods per chip is not a positive integer (m = {m:g}, n = {self.n:g})",
+                )
             counts.append(int(round(k)))
         return math.lcm(*counts)
 
@@ -139,7 +141,7 @@ def pulse_autocorrelation(pulse: np.ndarray, tau_chips: np.ndarray) -> np.ndarra
     tau = np.abs(np.asarray(tau_chips, float))
     v = np.asarray(pulse, float)
     s = v.size
-    rk = np.array([np.dot(v[:s - k], v[k:]) for k in range(s)] + [0.0]) / np.dot(v, v)
+    rk = np.array([np.dot(v[: s - k], v[k:]) for k in range(s)] + [0.0]) / np.dot(v, v)
     x = np.minimum(tau * s, float(s))
     k = np.minimum(np.floor(x).astype(int), s - 1)
     f = x - k
@@ -231,8 +233,11 @@ class SignalSpec:
     rinex_prn_offset: int = 0
 
     def __post_init__(self) -> None:
-        for label, value in (("carrier_freq_hz", self.carrier_freq_hz), ("chip_rate_hz", self.chip_rate_hz),
-                             ("code_length_chips", self.code_length_chips)):
+        for label, value in (
+            ("carrier_freq_hz", self.carrier_freq_hz),
+            ("chip_rate_hz", self.chip_rate_hz),
+            ("code_length_chips", self.code_length_chips),
+        ):
             if not (math.isfinite(value) and value > 0):
                 raise ConfigError(f"signal {self.name!r} {label}", f"must be a positive finite number, got {value!r}")
         if not self.components:
@@ -242,15 +247,19 @@ class SignalSpec:
         for comp in self.components:
             slot, slots = comp.time_slot
             if not (isinstance(slots, int) and slots >= 1 and isinstance(slot, int) and 0 <= slot < slots):
-                raise ConfigError(f"signal {self.name!r} component {comp.name!r} time_slot",
-                                  f"must be (slot, slots) with 0 <= slot < slots, got {comp.time_slot!r}")
+                raise ConfigError(
+                    f"signal {self.name!r} component {comp.name!r} time_slot",
+                    f"must be (slot, slots) with 0 <= slot < slots, got {comp.time_slot!r}",
+                )
             sym = comp.symbol_period_s
             if sym is None:
                 continue
             periods = sym / self.code_period_s
             if not (math.isfinite(periods) and periods >= 1 - 1e-9 and abs(periods - round(periods)) < 1e-6):
-                raise ConfigError(f"signal {self.name!r} component {comp.name!r} symbol_period_s",
-                                  f"must be a whole number of code periods ({self.code_period_s:g} s), got {sym!r}")
+                raise ConfigError(
+                    f"signal {self.name!r} component {comp.name!r} symbol_period_s",
+                    f"must be a whole number of code periods ({self.code_period_s:g} s), got {sym!r}",
+                )
 
     # --- derived quantities -------------------------------------------------------------
 
@@ -317,8 +326,10 @@ class SignalSpec:
         code = np.asarray(self.components[component].code(int(prn)))
         length = self.component_code_length(component)
         if code.shape != (length,):
-            raise ConfigError(f"signal {self.name!r} code", f"the generator gave {code.shape} chips for PRN {prn}, "
-                                                          f"the description says {length}")
+            raise ConfigError(
+                f"signal {self.name!r} code",
+                f"the generator gave {code.shape} chips for PRN {prn}, the description says {length}",
+            )
         return code
 
     def component_code_length(self, component: int = 0) -> int:

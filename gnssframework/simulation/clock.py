@@ -71,8 +71,9 @@ class ClockModel:
         flicker = 2 * np.log(2) * self.h_1 if include_flicker else 0.0
         return self.h0 / (2 * tau) + flicker + 2 * np.pi**2 / 3 * self.h_2 * tau
 
-    def simulate(self, n: int, interval_s: float, rng: np.random.Generator,
-                 batch_shape: tuple[int, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
+    def simulate(
+        self, n: int, interval_s: float, rng: np.random.Generator, batch_shape: tuple[int, ...] = ()
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Bias (s) and drift (s/s) at ``n`` epochs, both starting at 0; time on axis 0."""
         if n < 1 or interval_s <= 0:
             raise ConfigError("n", "needs n >= 1 epochs and interval_s > 0")

@@ -20,8 +20,15 @@ from .. import random_streams as draw
 from ..errors import ConfigError, DataFileError
 from ..io.text import read_input_text
 
-__all__ = ["SatelliteSet", "Constellation", "nominal_constellation", "load_almanac", "draw_epochs", "GM_EARTH",
-           "OMEGA_EARTH"]
+__all__ = [
+    "SatelliteSet",
+    "Constellation",
+    "nominal_constellation",
+    "load_almanac",
+    "draw_epochs",
+    "GM_EARTH",
+    "OMEGA_EARTH",
+]
 
 GM_EARTH = 3.986005e14  # m^3/s^2, WGS 84 value of IS-GPS-200
 OMEGA_EARTH = 7.2921151467e-5  # rad/s
@@ -49,8 +56,9 @@ class SatelliteSet(abc.ABC):
         _, el, _ = pymap3d.ecef2aer(pos[..., 0], pos[..., 1], pos[..., 2], lat_deg, lon_deg, height_m)
         return np.asarray(el)
 
-    def visible(self, t_s: float, lat_deg: float, lon_deg: float, height_m: float, mask_deg: float,
-                channels: int) -> np.ndarray:
+    def visible(
+        self, t_s: float, lat_deg: float, lon_deg: float, height_m: float, mask_deg: float, channels: int
+    ) -> np.ndarray:
         """Indices of the ``channels`` highest satellites above ``mask_deg`` at ``t_s``.
 
         Raises
@@ -62,8 +70,11 @@ class SatelliteSet(abc.ABC):
         order = np.argsort(-el)
         above = order[el[order] > mask_deg]
         if above.size < channels:
-            raise ConfigError("scenario.channels", f"only {above.size} satellites are above the {mask_deg} deg "
-                              f"mask at this place and time; ask for at most {above.size} channels")
+            raise ConfigError(
+                "scenario.channels",
+                f"only {above.size} satellites are above the {mask_deg} deg "
+                f"mask at this place and time; ask for at most {above.size} channels",
+            )
         return above[:channels]
 
 
@@ -95,8 +106,9 @@ class Constellation(SatelliteSet):
 
     def subset(self, index: np.ndarray) -> Constellation:
         """The satellites at ``index`` (any integer array shape)."""
-        return Constellation(self.prn[index], self.raan_rad[index], self.arg_lat_rad[index], self.radius_m,
-                             self.inclination_rad)
+        return Constellation(
+            self.prn[index], self.raan_rad[index], self.arg_lat_rad[index], self.radius_m, self.inclination_rad
+        )
 
     def state(self, t_s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """ECEF position (m), velocity (m/s) and acceleration (m/s^2), shape ``(*t.shape, *S, 3)``.
@@ -135,8 +147,17 @@ class Constellation(SatelliteSet):
         return p, v, a
 
 
-def draw_epochs(sats: Constellation, rng, runs: int, lat_deg: float, lon_deg: float, height_m: float,
-                mask_deg: float, channels: int, tries: int = 64) -> tuple[np.ndarray, np.ndarray]:
+def draw_epochs(
+    sats: Constellation,
+    rng,
+    runs: int,
+    lat_deg: float,
+    lon_deg: float,
+    height_m: float,
+    mask_deg: float,
+    channels: int,
+    tries: int = 64,
+) -> tuple[np.ndarray, np.ndarray]:
     """Each run's start epoch, uniform over the constellation's repeat period, and its satellites.
 
     The circular-orbit constellation's geometry seen from the ground repeats every
@@ -163,8 +184,11 @@ def draw_epochs(sats: Constellation, rng, runs: int, lat_deg: float, lon_deg: fl
     el = np.asarray(el)
     enough = np.sum(el > mask_deg, axis=-1) >= channels  # (runs, tries)
     if not np.all(enough.any(axis=1)):
-        raise ConfigError("scenario.channels", f"no epoch of {tries} drawn has {channels} satellites above the "
-                          f"{mask_deg} deg mask here; ask for fewer channels")
+        raise ConfigError(
+            "scenario.channels",
+            f"no epoch of {tries} drawn has {channels} satellites above the "
+            f"{mask_deg} deg mask here; ask for fewer channels",
+        )
     first = np.argmax(enough, axis=1)
     rows = np.arange(runs)
     order = np.argsort(-el[rows, first], axis=-1)

@@ -21,8 +21,24 @@ from .constellation import SatelliteSet
 __all__ = ["BroadcastEphemeris", "load_rinex_nav", "EPHEMERIS_FIELDS"]
 
 #: georinex variable names of the Keplerian elements used.
-EPHEMERIS_FIELDS = ("sqrtA", "Eccentricity", "Io", "Omega0", "omega", "M0", "DeltaN", "OmegaDot", "IDOT",
-                    "Cuc", "Cus", "Crc", "Crs", "Cic", "Cis", "Toe")
+EPHEMERIS_FIELDS = (
+    "sqrtA",
+    "Eccentricity",
+    "Io",
+    "Omega0",
+    "omega",
+    "M0",
+    "DeltaN",
+    "OmegaDot",
+    "IDOT",
+    "Cuc",
+    "Cus",
+    "Crc",
+    "Crs",
+    "Cic",
+    "Cis",
+    "Toe",
+)
 
 
 @dataclass(frozen=True)

@@ -12,8 +12,12 @@ __all__ = ["ar1_noise", "multipath_correlator_mean", "eml_multipath_error_chips"
 
 
 def ar1_noise(
-    psi: float | np.ndarray, innovation_std: float | np.ndarray, n: int, rng: np.random.Generator,
-    batch_shape: tuple[int, ...] = (), stationary: bool = True,
+    psi: float | np.ndarray,
+    innovation_std: float | np.ndarray,
+    n: int,
+    rng: np.random.Generator,
+    batch_shape: tuple[int, ...] = (),
+    stationary: bool = True,
 ) -> np.ndarray:
     """AR(1) process $V_k = \\psi V_{k-1} + \\xi_k$, $\\xi_k \\sim N(0, \\sigma^2)$, time on axis 0.
 
@@ -62,18 +66,30 @@ def multipath_correlator_mean(
     y_o = y_o^{direct}(\\delta\\tau) + \\alpha\\, y_o(\\delta\\tau - \\Delta, \\delta\\theta + \\psi, \\delta f + f_{mp})
     $$
     """
-    direct = correlator_mean(amplitude, code_error_chips, carrier_phase_rad, freq_error_hz, coherent_time_s,
-                             offsets_chips, bandwidth_hz=bandwidth_hz)
-    reflected = correlator_mean(np.asarray(amplitude) * relative_amplitude,
-                                np.asarray(code_error_chips) - delay_chips,
-                                np.asarray(carrier_phase_rad) + relative_phase_rad,
-                                np.asarray(freq_error_hz) + relative_freq_hz, coherent_time_s, offsets_chips,
-                                bandwidth_hz=bandwidth_hz)
+    direct = correlator_mean(
+        amplitude,
+        code_error_chips,
+        carrier_phase_rad,
+        freq_error_hz,
+        coherent_time_s,
+        offsets_chips,
+        bandwidth_hz=bandwidth_hz,
+    )
+    reflected = correlator_mean(
+        np.asarray(amplitude) * relative_amplitude,
+        np.asarray(code_error_chips) - delay_chips,
+        np.asarray(carrier_phase_rad) + relative_phase_rad,
+        np.asarray(freq_error_hz) + relative_freq_hz,
+        coherent_time_s,
+        offsets_chips,
+        bandwidth_hz=bandwidth_hz,
+    )
     return direct + reflected
 
 
-def eml_multipath_error_chips(relative_amplitude: float, delay_chips: np.ndarray,
-                              early_late_spacing_chips: float = 1.0, in_phase: bool = True) -> np.ndarray:
+def eml_multipath_error_chips(
+    relative_amplitude: float, delay_chips: np.ndarray, early_late_spacing_chips: float = 1.0, in_phase: bool = True
+) -> np.ndarray:
     """Closed-form tracking bias of a coherent EML DLL with one in-phase (or anti-phase)
     reflection, triangle autocorrelation, while both taps stay on the correlation
     slopes ($\\Delta < d - $ bias):
@@ -93,8 +109,13 @@ def eml_multipath_error_chips(relative_amplitude: float, delay_chips: np.ndarray
 
 
 def cycle_slips(
-    n_epochs: int, probability_per_epoch: float, rng: np.random.Generator, max_cycles: int = 10,
-    batch_shape: tuple[int, ...] = (), half_cycles: bool = False, min_cycles: int = 1,
+    n_epochs: int,
+    probability_per_epoch: float,
+    rng: np.random.Generator,
+    max_cycles: int = 10,
+    batch_shape: tuple[int, ...] = (),
+    half_cycles: bool = False,
+    min_cycles: int = 1,
 ) -> np.ndarray:
     """Cumulative carrier-phase slips (cycles) at each epoch, time on axis 0.
 
@@ -111,6 +132,8 @@ def cycle_slips(
     shape = (n_epochs,) + tuple(batch_shape)
     happens = draw.random(rng, shape, run_axis=1) < probability_per_epoch
     happens[0] = False
-    size = draw.integers(rng, min_cycles, max_cycles + 1, shape, run_axis=1) * draw.choice(rng, [-1, 1], shape, run_axis=1)
+    size = draw.integers(rng, min_cycles, max_cycles + 1, shape, run_axis=1) * draw.choice(
+        rng, [-1, 1], shape, run_axis=1
+    )
     step = np.where(happens, size, 0) * (0.5 if half_cycles else 1.0)
     return np.cumsum(step, axis=0)

@@ -31,17 +31,61 @@ import numpy as np
 
 from .. import random_streams as draw
 
-__all__ = ["ANTENNA_ATTENUATION_DB", "antenna_attenuation_db", "cn0_from_elevation", "klobuchar_obliquity",
-           "tropo_mapping", "elevation_deg", "RangeErrors", "draw_range_errors",
-           "range_error_function"]
+__all__ = [
+    "ANTENNA_ATTENUATION_DB",
+    "antenna_attenuation_db",
+    "cn0_from_elevation",
+    "klobuchar_obliquity",
+    "tropo_mapping",
+    "elevation_deg",
+    "RangeErrors",
+    "draw_range_errors",
+    "range_error_function",
+]
 
 #: Receiver antenna attenuation (dB) at boresight angles 0, 5, ..., 180 deg (boresight angle =
 #: 90 deg minus elevation): gps-sdr-sim's ``ant_pat_db`` (T. Ebinuma, gpssim.c, 2015).
-ANTENNA_ATTENUATION_DB = np.array([
-    0.00, 0.00, 0.22, 0.44, 0.67, 1.11, 1.56, 2.00, 2.44, 2.89, 3.56, 4.22,
-    4.89, 5.56, 6.22, 6.89, 7.56, 8.22, 8.89, 9.78, 10.67, 11.56, 12.44, 13.33,
-    14.44, 15.56, 16.67, 17.78, 18.89, 20.00, 21.33, 22.67, 24.00, 25.56, 27.33, 29.33,
-    31.56])
+ANTENNA_ATTENUATION_DB = np.array(
+    [
+        0.00,
+        0.00,
+        0.22,
+        0.44,
+        0.67,
+        1.11,
+        1.56,
+        2.00,
+        2.44,
+        2.89,
+        3.56,
+        4.22,
+        4.89,
+        5.56,
+        6.22,
+        6.89,
+        7.56,
+        8.22,
+        8.89,
+        9.78,
+        10.67,
+        11.56,
+        12.44,
+        13.33,
+        14.44,
+        15.56,
+        16.67,
+        17.78,
+        18.89,
+        20.00,
+        21.33,
+        22.67,
+        24.00,
+        25.56,
+        27.33,
+        29.33,
+        31.56,
+    ]
+)
 _BORESIGHT_DEG = np.arange(37) * 5.0
 
 
@@ -81,8 +125,7 @@ def tropo_mapping(elevation_deg: np.ndarray) -> np.ndarray:
     return 1.001 / np.sqrt(0.002001 + s * s)
 
 
-def elevation_deg(sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray, lat_deg: float, lon_deg: float
-                  ) -> np.ndarray:
+def elevation_deg(sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray, lat_deg: float, lon_deg: float) -> np.ndarray:
     """Elevation (deg) of satellites ``(..., ch, 3)`` seen from receivers ``(..., 3)`` (ECEF),
     above the plane normal to the ellipsoid's vertical at ``lat_deg``, ``lon_deg``."""
     lat, lon = np.radians(lat_deg), np.radians(lon_deg)
@@ -121,30 +164,42 @@ class RangeErrors:
         return common + iono, common - iono
 
 
-def draw_range_errors(rng: Any, runs: int, channels: int, *, iono_vertical_std_m: float = 0.0,
-                      tropo_zenith_std_m: float = 0.0, sisre_m: float = 0.0) -> RangeErrors:
+def draw_range_errors(
+    rng: Any,
+    runs: int,
+    channels: int,
+    *,
+    iono_vertical_std_m: float = 0.0,
+    tropo_zenith_std_m: float = 0.0,
+    sisre_m: float = 0.0,
+) -> RangeErrors:
     """Draw each run's residuals: zero-mean Gaussians of the given standard deviations (m).
 
     Each error source draws from its own child stream (``rng.child("iono-residual")``...)
     when ``rng`` is a `RunStreams`, so one option's draws never shift another's, and a
     run's values do not depend on its batch. A zero standard deviation draws nothing.
     """
+
     def gauss(purpose: str, std: float, shape: tuple[int, ...]) -> np.ndarray:
         if std == 0.0:
             return np.zeros(shape)
         src = rng.child(purpose) if isinstance(rng, draw.RunStreams) else rng
         return std * draw.standard_normal(src, shape, 0)
 
-    return RangeErrors(gauss("iono-residual", iono_vertical_std_m, (runs, 1)),
-                       gauss("tropo-residual", tropo_zenith_std_m, (runs, 1)),
-                       gauss("orbit-clock-residual", sisre_m, (runs, channels)))
+    return RangeErrors(
+        gauss("iono-residual", iono_vertical_std_m, (runs, 1)),
+        gauss("tropo-residual", tropo_zenith_std_m, (runs, 1)),
+        gauss("orbit-clock-residual", sisre_m, (runs, channels)),
+    )
 
 
-def range_error_function(errors: RangeErrors, sat_state: Callable, receiver_state: Callable, lat_deg: float,
-                         lon_deg: float) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+def range_error_function(
+    errors: RangeErrors, sat_state: Callable, receiver_state: Callable, lat_deg: float, lon_deg: float
+) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """``f(t) -> (code_m, carrier_m)``, each ``(*t.shape, runs, ch)``: the errors at the
     satellites' elevations at times ``t`` (``sat_state(t)[0]`` ``(*t, [runs,] ch, 3)``,
     ``receiver_state(t)[0]`` ``(*t, runs, 3)``)."""
+
     def f(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         s = np.asarray(sat_state(t)[0])
         r = np.asarray(receiver_state(t)[0])

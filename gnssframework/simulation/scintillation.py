@@ -92,8 +92,9 @@ def cornell(
     return np.sqrt(K / (K + 1)) + xi
 
 
-def _power_law_gaussian(n: int, shape: tuple[int, ...], fs: float, corner_hz: float, p: float,
-                        rng: np.random.Generator, pair_corr: float) -> tuple[np.ndarray, np.ndarray]:
+def _power_law_gaussian(
+    n: int, shape: tuple[int, ...], fs: float, corner_hz: float, p: float, rng: np.random.Generator, pair_corr: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Two unit-variance Gaussian processes with spectrum $(1 + (f/f_c)^2)^{-p/2}$ and
     correlation ``pair_corr``, shaped by one zero-phase FFT filter."""
     w1 = draw.standard_normal(rng, (n,) + shape, 1)

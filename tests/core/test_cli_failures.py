@@ -67,11 +67,14 @@ def test_an_out_path_under_a_file_is_named_with_exit_2(tmp_path, capsys):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("code, status, hint", [
-    (errno.EACCES, 2, "not writable or readable by this user; choose another path"),
-    (errno.EROFS, 2, "on a read-only file system; choose another path"),
-    (errno.ENOSPC, 1, "no space left on the device; free some or choose another --out"),
-])
+@pytest.mark.parametrize(
+    "code, status, hint",
+    [
+        (errno.EACCES, 2, "not writable or readable by this user; choose another path"),
+        (errno.EROFS, 2, "on a read-only file system; choose another path"),
+        (errno.ENOSPC, 1, "no space left on the device; free some or choose another --out"),
+    ],
+)
 def test_os_errors_while_writing_name_the_path_in_one_line(tmp_path, capsys, monkeypatch, code, status, hint):
     # Running as root ignores permissions and a test cannot fill a disk: the OS error is
     # raised where the runner would meet it (creating or writing a file under --out).
@@ -96,12 +99,16 @@ def test_a_corrupted_store_is_named_with_exit_2(tmp_path, capsys):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("sqlite_message, status, hint", [
-    ("database or disk is full", 1, "no space left on the device"),
-    ("attempt to write a readonly database", 2, "not writable or readable by this user"),
-])
-def test_sqlite_write_failures_name_the_store_as_the_os_error_they_are(tmp_path, capsys, monkeypatch, sqlite_message,
-                                                                       status, hint):
+@pytest.mark.parametrize(
+    "sqlite_message, status, hint",
+    [
+        ("database or disk is full", 1, "no space left on the device"),
+        ("attempt to write a readonly database", 2, "not writable or readable by this user"),
+    ],
+)
+def test_sqlite_write_failures_name_the_store_as_the_os_error_they_are(
+    tmp_path, capsys, monkeypatch, sqlite_message, status, hint
+):
     import sqlite3
 
     def fail(*args, **kwargs):
@@ -124,11 +131,14 @@ def test_ctrl_c_ends_with_one_line_and_exit_130(tmp_path, capsys, monkeypatch):
     assert err.startswith("error: interrupted (Ctrl-C); finished batches are kept")
 
 
-@pytest.mark.parametrize("command", [
-    ["compare", "FILE"],
-    ["filter-positions", "FILE", "--out", "OUT"],
-    ["smooth", "FILE", "--prn", "G01", "--out", "OUT"],
-])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["compare", "FILE"],
+        ["filter-positions", "FILE", "--out", "OUT"],
+        ["smooth", "FILE", "--prn", "G01", "--out", "OUT"],
+    ],
+)
 def test_an_endless_input_file_is_refused_not_read(tmp_path, capsys, command):
     fifo = tmp_path / "fifo"
     os.mkfifo(fifo)  # opening it to read would block forever: it must not be opened
@@ -178,18 +188,25 @@ def _error(tmp_path, text) -> str:
     return str(err.value)
 
 
-@pytest.mark.parametrize("change, message", [
-    (("runs = 2", "runs = 9223372036854775807"), "runs: Input should be less than or equal to 1000000"),
-    (("runs = 2", 'runs = "2"'), "runs: Input should be a valid integer (got '2')"),
-    (("runs = 2", "runs = 2.0"), "runs: Input should be a valid integer (got 2.0)"),
-    (("batch_size = 2", "batch_size = true"), "batch_size: Input should be a valid integer (got True)"),
-    (("alpha = 0.01", "alpha = true"), "candidates[0].estimator.params.alpha: must be a number, not a bool "
-                                       "(got True)"),
-    (("alpha = 0.01", 'alpha = "0.5"'), "candidates[0].estimator.params.alpha: must be a number, not a str "
-                                        "(got '0.5')"),
-    (("epochs = 50", 'epochs = "50"'), "scenario.epochs: must be a number, not a str (got '50')"),
-    (("psi = 0.8", "psi = true"), "cases[0].psi: must be a number, not a bool (got True)"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (("runs = 2", "runs = 9223372036854775807"), "runs: Input should be less than or equal to 1000000"),
+        (("runs = 2", 'runs = "2"'), "runs: Input should be a valid integer (got '2')"),
+        (("runs = 2", "runs = 2.0"), "runs: Input should be a valid integer (got 2.0)"),
+        (("batch_size = 2", "batch_size = true"), "batch_size: Input should be a valid integer (got True)"),
+        (
+            ("alpha = 0.01", "alpha = true"),
+            "candidates[0].estimator.params.alpha: must be a number, not a bool (got True)",
+        ),
+        (
+            ("alpha = 0.01", 'alpha = "0.5"'),
+            "candidates[0].estimator.params.alpha: must be a number, not a str (got '0.5')",
+        ),
+        (("epochs = 50", 'epochs = "50"'), "scenario.epochs: must be a number, not a str (got '50')"),
+        (("psi = 0.8", "psi = true"), "cases[0].psi: must be a number, not a bool (got True)"),
+    ],
+)
 def test_values_pydantic_would_quietly_convert_are_refused(tmp_path, change, message):
     assert _error(tmp_path, GOOD.replace(*change)).startswith(message)
 
@@ -260,9 +277,21 @@ def test_a_real_ctrl_c_during_a_run_ends_with_one_line_and_exit_130(tmp_path, wo
 
     out = tmp_path / "out"
     # workers = 2: the pool's workers are stopped at once, not waited for (a batch takes minutes).
-    proc = subprocess.Popen([sys.executable, "-m", "gnssframework", "compare",
-                             str(_config(tmp_path, LONG.replace("workers = 1", f"workers = {workers}"))),
-                             "--out", str(out), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "gnssframework",
+            "compare",
+            str(_config(tmp_path, LONG.replace("workers = 1", f"workers = {workers}"))),
+            "--out",
+            str(out),
+            "--quiet",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         deadline = time.monotonic() + 60
         while not (out / "results.sqlite").exists() and time.monotonic() < deadline:
@@ -279,5 +308,6 @@ def test_a_real_ctrl_c_during_a_run_ends_with_one_line_and_exit_130(tmp_path, wo
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 130, err[-2000:]
-    assert err.splitlines() == ["error: interrupted (Ctrl-C); finished batches are kept in --out and the same "
-                                "command resumes"]
+    assert err.splitlines() == [
+        "error: interrupted (Ctrl-C); finished batches are kept in --out and the same command resumes"
+    ]

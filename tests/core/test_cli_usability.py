@@ -41,8 +41,11 @@ def test_help_shows_every_default(command):
         if action.option_strings and action.default not in (None, False, argparse.SUPPRESS) and action.help:
             # The default as the help writes it: %(default)s or %(default)g.
             shown = {str(action.default), f"{action.default:g}" if isinstance(action.default, float) else ""}
-            assert any(f"default: {s})" in text or f"default {s}" in text for s in shown if s), \
-                (command, action.dest, action.default)
+            assert any(f"default: {s})" in text or f"default {s}" in text for s in shown if s), (
+                command,
+                action.dest,
+                action.default,
+            )
 
 
 def test_no_rest_markup_in_help_or_the_plugin_listing(capsys):
@@ -58,8 +61,9 @@ def test_no_rest_markup_in_help_or_the_plugin_listing(capsys):
 
 @pytest.mark.slow
 def test_schema_into_a_closed_pipe_ends_quietly():
-    proc = subprocess.run(f"'{sys.executable}' -m gnssframework schema | head -n 2", shell=True,
-                          capture_output=True, text=True, cwd=ROOT)
+    proc = subprocess.run(
+        f"'{sys.executable}' -m gnssframework schema | head -n 2", shell=True, capture_output=True, text=True, cwd=ROOT
+    )
     assert proc.stdout.splitlines() == ["{", '  "$defs": {'] and proc.stderr == ""
 
 
@@ -69,14 +73,20 @@ def test_an_empty_kind_says_so(capsys, monkeypatch):
     assert capsys.readouterr().out == "no metric plugin is registered\n"
 
 
-@pytest.mark.parametrize(("old", "new", "hint"), [
-    ("runs = 12", "runz = 12", "; did you mean 'runs'?"),
-    ("window = 20, output = \"split\"", "windw = 20, output = \"split\"", "; did you mean 'window'?"),
-    ('clock = "ocxo"       #', 'clock = "OCXO"       #', "; did you mean 'ocxo'?"),
-    ('estimator = "svd-ckf", adapter = "innovation", window = 20, output = "split"',
-     'estimator = "UKF", adapter = "innovation", window = 20, output = "split"', "; did you mean 'ukf'?"),
-    ('output = "split"', 'output = "Split"', "; did you mean 'split'?"),
-])
+@pytest.mark.parametrize(
+    ("old", "new", "hint"),
+    [
+        ("runs = 12", "runz = 12", "; did you mean 'runs'?"),
+        ('window = 20, output = "split"', 'windw = 20, output = "split"', "; did you mean 'window'?"),
+        ('clock = "ocxo"       #', 'clock = "OCXO"       #', "; did you mean 'ocxo'?"),
+        (
+            'estimator = "svd-ckf", adapter = "innovation", window = 20, output = "split"',
+            'estimator = "UKF", adapter = "innovation", window = 20, output = "split"',
+            "; did you mean 'ukf'?",
+        ),
+        ('output = "split"', 'output = "Split"', "; did you mean 'split'?"),
+    ],
+)
 def test_a_mistyped_name_gets_did_you_mean(tmp_path, old, new, hint):
     assert old in EXAMPLE
     path = tmp_path / "c.toml"
@@ -96,11 +106,16 @@ def test_closest_prefers_a_case_fold_and_suggests_nothing_far():
     assert closest("qqqq", ["window", "warmup"]) is None
 
 
-@pytest.mark.parametrize("argv", [
-    ["compare", "{p}"], ["smooth", "{p}", "--prn", "G08", "--out", "{o}"], ["filter-positions", "{p}", "--out", "{o}"],
-    ["acquire", "{p}", "--out", "{o}", "--fs", "4e6", "--format", "ci8"],
-    ["track", "{p}", "--out", "{o}", "--fs", "4e6", "--format", "ci8"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["compare", "{p}"],
+        ["smooth", "{p}", "--prn", "G08", "--out", "{o}"],
+        ["filter-positions", "{p}", "--out", "{o}"],
+        ["acquire", "{p}", "--out", "{o}", "--fs", "4e6", "--format", "ci8"],
+        ["track", "{p}", "--out", "{o}", "--fs", "4e6", "--format", "ci8"],
+    ],
+)
 def test_a_missing_file_is_worded_the_same_by_every_command(tmp_path, capsys, argv):
     missing = tmp_path / "not-there.dat"
     assert main([a.format(p=missing, o=tmp_path / "out") for a in argv]) == 2

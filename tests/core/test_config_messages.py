@@ -52,11 +52,14 @@ def test_unknown_top_level_field_lists_the_valid_ones(tmp_path):
     assert "runs" in str(err.value) and "batch_size" in str(err.value)
 
 
-@pytest.mark.parametrize("change, message", [
-    (("settle_s = 0.05", "settle_s = 0.2"), "scenario.settle_s: must be less than duration_s = 0.2 (got 0.2)"),
-    (("settle_s = 0.05", "settle_s = 5.0"), "scenario.settle_s: must be less than duration_s = 0.2 (got 5.0)"),
-    (("duration_s = 0.2", "duration_s = 0.005"), "scenario.settle_s: must be less than duration_s = 0.005"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (("settle_s = 0.05", "settle_s = 0.2"), "scenario.settle_s: must be less than duration_s = 0.2 (got 0.2)"),
+        (("settle_s = 0.05", "settle_s = 5.0"), "scenario.settle_s: must be less than duration_s = 0.2 (got 5.0)"),
+        (("duration_s = 0.2", "duration_s = 0.005"), "scenario.settle_s: must be less than duration_s = 0.005"),
+    ],
+)
 def test_cross_field_rules_are_validated(tmp_path, change, message):
     with pytest.raises(gf.ConfigError) as err:
         _load(tmp_path, GOOD.replace(*change))

@@ -54,8 +54,9 @@ def _allowed_nodes(tree: ast.AST) -> set[int]:
         if isinstance(node, ast.JoinedStr):
             cover(node)  # an f-string: a message
     for stmt in getattr(tree, "body", []):  # module constants declared in capitals: recipes, documented
-        targets = stmt.targets if isinstance(stmt, ast.Assign) else [stmt.target] if isinstance(
-            stmt, ast.AnnAssign) else []
+        targets = (
+            stmt.targets if isinstance(stmt, ast.Assign) else [stmt.target] if isinstance(stmt, ast.AnnAssign) else []
+        )
         if targets and all(isinstance(t, ast.Name) and t.id.isupper() for t in targets):
             cover(stmt)
     return allowed
@@ -69,8 +70,12 @@ def plugin_names_in_logic(root: Path = CORE) -> list[str]:
         tree = ast.parse(path.read_text(encoding="utf-8"))
         allowed = _allowed_nodes(tree)
         for node in ast.walk(tree):
-            if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in names \
-                    and id(node) not in allowed:
+            if (
+                isinstance(node, ast.Constant)
+                and isinstance(node.value, str)
+                and node.value in names
+                and id(node) not in allowed
+            ):
                 found.append(f"{path.relative_to(root.parent)}:{node.lineno}: {node.value!r}")
     return found
 
@@ -87,5 +92,6 @@ def test_the_check_finds_a_name_in_a_comparison_and_a_create_call(tmp_path):
         'def f(nav, name="ukf"):\n'
         '    if nav.name == "ins-ekf":\n'
         '        return registry.create("estimator", "kf")\n'
-        '    raise ValueError(f"not {nav.name!r}: use \'ekf-pv\'")\n')
+        "    raise ValueError(f\"not {nav.name!r}: use 'ekf-pv'\")\n"
+    )
     assert plugin_names_in_logic(tmp_path / "pkg") == ["pkg/mod.py:4: 'ins-ekf'", "pkg/mod.py:5: 'kf'"]

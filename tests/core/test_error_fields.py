@@ -40,14 +40,23 @@ def test_the_library_names_no_error_after_a_command_line_flag():
             continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             called = getattr(node.func, "id", getattr(node.func, "attr", None)) if isinstance(node, ast.Call) else None
-            if (called == "ConfigError" and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)
-                    and "--" in node.args[0].value):
+            if (
+                called == "ConfigError"
+                and node.args
+                and isinstance(node.args[0], ast.Constant)
+                and isinstance(node.args[0].value, str)
+                and "--" in node.args[0].value
+            ):
                 flagged.append(f"{path.relative_to(ROOT)}:{node.lineno}: {node.args[0].value!r}")
-            if (isinstance(node, ast.FunctionDef) and any(isinstance(d, ast.Constant) and isinstance(d.value, str)
-                                                          and d.value.startswith("--") for d in node.args.defaults)):
+            if isinstance(node, ast.FunctionDef) and any(
+                isinstance(d, ast.Constant) and isinstance(d.value, str) and d.value.startswith("--")
+                for d in node.args.defaults
+            ):
                 flagged.append(f"{path.relative_to(ROOT)}:{node.lineno}: {node.name} defaults to an option")
-    assert not flagged, "library errors named after CLI flags (name the parameter; cli.OPTION_OF_PARAMETER " \
-                        "maps it):\n" + "\n".join(flagged)
+    assert not flagged, (
+        "library errors named after CLI flags (name the parameter; cli.OPTION_OF_PARAMETER "
+        "maps it):\n" + "\n".join(flagged)
+    )
 
 
 def test_every_option_of_the_table_is_an_option_of_a_command():
@@ -56,32 +65,50 @@ def test_every_option_of_the_table_is_an_option_of_a_command():
     assert set(TABLE_PARAMETERS) <= set(OPTION_OF_PARAMETER)
 
 
-@pytest.mark.parametrize("field, options, reported", [
-    ("sample_rate_hz", {"--fs"}, "--fs"),
-    ("sample_rate_hz", {"--out"}, "sample_rate_hz"),          # a command without --fs keeps the parameter
-    ("out", {"--out"}, "--out"),
-    ("channel_params.pll_bandwidth_hz", {"--channel-params"}, "--channel-params.pll_bandwidth_hz"),
-    ("channel_filter.params.pll_bandwidth_hz", {"--channel-filter"}, "channel_filter.params.pll_bandwidth_hz"),
-    ("nav_filter.name", {"--nav-filter"}, "nav_filter.name"),  # a config file's path, not the option
-    ("pseudorange_min_m/pseudorange_max_m", {"--pseudorange-min", "--pseudorange-max"},
-     "--pseudorange-min/--pseudorange-max"),
-    ("pseudorange_min_m/runs", {"--pseudorange-min"}, "pseudorange_min_m/runs"),
-    ("candidates[0].estimator.alpha", {"--out"}, "candidates[0].estimator.alpha"),
-])
+@pytest.mark.parametrize(
+    "field, options, reported",
+    [
+        ("sample_rate_hz", {"--fs"}, "--fs"),
+        ("sample_rate_hz", {"--out"}, "sample_rate_hz"),  # a command without --fs keeps the parameter
+        ("out", {"--out"}, "--out"),
+        ("channel_params.pll_bandwidth_hz", {"--channel-params"}, "--channel-params.pll_bandwidth_hz"),
+        ("channel_filter.params.pll_bandwidth_hz", {"--channel-filter"}, "channel_filter.params.pll_bandwidth_hz"),
+        ("nav_filter.name", {"--nav-filter"}, "nav_filter.name"),  # a config file's path, not the option
+        (
+            "pseudorange_min_m/pseudorange_max_m",
+            {"--pseudorange-min", "--pseudorange-max"},
+            "--pseudorange-min/--pseudorange-max",
+        ),
+        ("pseudorange_min_m/runs", {"--pseudorange-min"}, "pseudorange_min_m/runs"),
+        ("candidates[0].estimator.alpha", {"--out"}, "candidates[0].estimator.alpha"),
+    ],
+)
 def test_option_field(field, options, reported):
     assert option_field(field, frozenset(options)) == reported
 
 
-@pytest.mark.parametrize("kwargs, field, detail, options", [
-    ({"format": "ci4"}, "format", "unknown sample format 'ci4'", ["--format", "ci4"]),
-    ({"format": "ci8"}, "sample_rate_hz", "not given and no SigMF metadata", ["--format", "ci8"]),
-    ({"format": "ci8", "sample_rate_hz": 1e6}, "sample_rate_hz", "1e+06 Hz is below the C/A main lobe",
-     ["--format", "ci8", "--fs", "1e6"]),
-    ({"format": "ri8", "sample_rate_hz": FS, "if_hz": 3e6}, "if_hz", "real samples need 0 < IF < fs/2",
-     ["--format", "ri8", "--fs", str(FS), "--if", "3e6"]),
-])
-def test_a_recording_error_names_the_parameter_and_the_command_its_option(tmp_path, capsys, kwargs, field, detail,
-                                                                          options):
+@pytest.mark.parametrize(
+    "kwargs, field, detail, options",
+    [
+        ({"format": "ci4"}, "format", "unknown sample format 'ci4'", ["--format", "ci4"]),
+        ({"format": "ci8"}, "sample_rate_hz", "not given and no SigMF metadata", ["--format", "ci8"]),
+        (
+            {"format": "ci8", "sample_rate_hz": 1e6},
+            "sample_rate_hz",
+            "1e+06 Hz is below the C/A main lobe",
+            ["--format", "ci8", "--fs", "1e6"],
+        ),
+        (
+            {"format": "ri8", "sample_rate_hz": FS, "if_hz": 3e6},
+            "if_hz",
+            "real samples need 0 < IF < fs/2",
+            ["--format", "ri8", "--fs", str(FS), "--if", "3e6"],
+        ),
+    ],
+)
+def test_a_recording_error_names_the_parameter_and_the_command_its_option(
+    tmp_path, capsys, kwargs, field, detail, options
+):
     path = tmp_path / "r.bin"
     path.write_bytes(bytes(100))
     with pytest.raises(ConfigError) as info:
@@ -106,11 +133,12 @@ def test_the_filters_of_receive_name_the_parameter_and_receive_its_option(tmp_pa
     rec = write_recording(tmp_path / "r.sigmf-data", np.ones(4000, complex), "ci8", FS, 0.0)
     toml = tmp_path / "receiver.toml"
     toml.write_text('[channel_filter]\nname = "scalar"\nparams = { pll_bandwidth_hz = -1 }\n')
-    for options, start in ((["--channel-params", '{"pll_bandwidth_hz": -1}'],
-                            "error: --channel-params.pll_bandwidth_hz: "),
-                           (["--channel-filter", "scalr"], "error: --channel-filter: unknown channel_filter 'scalr'"),
-                           (["--nav-filter", "ekf-p"], "error: --nav-filter: unknown nav_filter 'ekf-p'"),
-                           (["--config", str(toml)], "error: channel_filter.params.pll_bandwidth_hz: ")):
+    for options, start in (
+        (["--channel-params", '{"pll_bandwidth_hz": -1}'], "error: --channel-params.pll_bandwidth_hz: "),
+        (["--channel-filter", "scalr"], "error: --channel-filter: unknown channel_filter 'scalr'"),
+        (["--nav-filter", "ekf-p"], "error: --nav-filter: unknown nav_filter 'ekf-p'"),
+        (["--config", str(toml)], "error: channel_filter.params.pll_bandwidth_hz: "),
+    ):
         assert main(["receive", str(rec), "--out", str(tmp_path / "o"), "--quiet", *options]) == 2
         assert capsys.readouterr().err.startswith(start)
 
@@ -127,11 +155,14 @@ def test_filter_positions_and_smooth_name_parameters_and_options(tmp_path, capsy
     assert capsys.readouterr().err.startswith("error: --prn: 'X9' is neither satellites")
 
 
-@pytest.mark.parametrize("params, field", [
-    ({"format": "ci4"}, "scenario.format"),
-    ({"format": "ci8"}, "scenario.sample_rate_hz"),
-    ({"format": "ri8", "sample_rate_hz": FS, "if_hz": 3e6}, "scenario.if_hz"),
-])
+@pytest.mark.parametrize(
+    "params, field",
+    [
+        ({"format": "ci4"}, "scenario.format"),
+        ({"format": "ci8"}, "scenario.sample_rate_hz"),
+        ({"format": "ri8", "sample_rate_hz": FS, "if_hz": 3e6}, "scenario.if_hz"),
+    ],
+)
 def test_a_comparison_config_names_its_own_field(tmp_path, params, field):
     # The sample-recording scenario passes its parameters to open_recording: the error
     # continues the config's path (no option of any command appears).

@@ -31,8 +31,9 @@ ERRORS = [
 
 
 def test_every_library_error_class_is_covered():
-    classes = {obj for obj in vars(errors).values()
-               if isinstance(obj, type) and issubclass(obj, errors.GnssFrameworkError)}
+    classes = {
+        obj for obj in vars(errors).values() if isinstance(obj, type) and issubclass(obj, errors.GnssFrameworkError)
+    }
     assert classes == {type(e) for e in ERRORS}
 
 
@@ -103,15 +104,26 @@ except Exception as exc:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("which, expected_type, message", [
-    ("config", "RunFailure", "candidate 'bad', case 'c45', runs 0-1: nav_filter.gain: gain must be finite in the worker"),
-    ("unpicklable", "WorkerError", "candidate 'bad', case 'c45', runs 0-1: HoldsALock: exploded in step"),
-])
+@pytest.mark.parametrize(
+    "which, expected_type, message",
+    [
+        (
+            "config",
+            "RunFailure",
+            "candidate 'bad', case 'c45', runs 0-1: nav_filter.gain: gain must be finite in the worker",
+        ),
+        ("unpicklable", "WorkerError", "candidate 'bad', case 'c45', runs 0-1: HoldsALock: exploded in step"),
+    ],
+)
 def test_failure_in_a_worker_reaches_the_user_with_its_message(tmp_path, which, expected_type, message):
     path = tmp_path / "tiny.toml"
     path.write_text(TINY.replace("NAME", "failing"))
-    out = subprocess.run([sys.executable, "-c", SCRIPT, which, str(path), str(tmp_path / "out")],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [sys.executable, "-c", SCRIPT, which, str(path), str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.stdout.splitlines() == [expected_type, message], out.stderr[-2000:]
 
 
@@ -119,8 +131,12 @@ def test_failure_in_a_worker_reaches_the_user_with_its_message(tmp_path, which, 
 def test_a_worker_that_dies_is_reported_with_its_batch_not_as_a_bare_broken_pool(tmp_path):
     path = tmp_path / "tiny.toml"
     path.write_text(TINY.replace("NAME", "failing"))
-    out = subprocess.run([sys.executable, "-c", SCRIPT, "died", str(path), str(tmp_path / "out")],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [sys.executable, "-c", SCRIPT, "died", str(path), str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     lines = out.stdout.splitlines()
     assert lines[0] == "RunFailure", out.stderr[-2000:]
     assert lines[1].startswith("candidate 'bad', case 'c45', runs 0-1: a worker process died"), lines

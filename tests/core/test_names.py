@@ -44,9 +44,13 @@ def test_harness_refuses_a_step_that_breaks_the_provides_declaration(scratch_reg
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]
 PLUGIN_FILES = ["plugins/channel_filters.py", "plugins/nav_filters.py", "plugins/smoothers.py"]
-HARNESS_FILES = ["gnssframework/receiver/tracking/vector.py", "gnssframework/receiver/engine/closers.py",
-                 "gnssframework/receiver/engine/deep_closer.py", "gnssframework/experiments/scenarios/carrier_smoothing.py",
-                 "gnssframework/io/smoothing.py"]  # the smooth command's harness
+HARNESS_FILES = [
+    "gnssframework/receiver/tracking/vector.py",
+    "gnssframework/receiver/engine/closers.py",
+    "gnssframework/receiver/engine/deep_closer.py",
+    "gnssframework/experiments/scenarios/carrier_smoothing.py",
+    "gnssframework/io/smoothing.py",
+]  # the smooth command's harness
 
 
 def _string_keys(path, root=ROOT) -> set[str]:
@@ -87,18 +91,23 @@ def test_step_inputs_read_by_plugins_and_given_by_harnesses_are_shared_names(pat
 
 
 def test_the_scan_reads_names_spelt_through_the_contract(tmp_path):
-    (tmp_path / "p.py").write_text("from gnssframework import names\n"
-                                   "def step(self, inputs):\n    return inputs[names.DATA_BIT], names.NOT_A_NAME\n")
+    (tmp_path / "p.py").write_text(
+        "from gnssframework import names\n"
+        "def step(self, inputs):\n    return inputs[names.DATA_BIT], names.NOT_A_NAME\n"
+    )
     assert _string_keys("p.py", tmp_path) == {"data_bit", "names.NOT_A_NAME (not defined)"}
 
 
 def test_the_scan_sees_a_misspelt_input(tmp_path):
-    (tmp_path / "p.py").write_text('def step(self, inputs):\n    ch.checked_step({"sat_pos": 1})\n'
-                                   '    return inputs["corelators"], "data_bit" in inputs, inputs.get("nco")\n')
+    (tmp_path / "p.py").write_text(
+        'def step(self, inputs):\n    ch.checked_step({"sat_pos": 1})\n'
+        '    return inputs["corelators"], "data_bit" in inputs, inputs.get("nco")\n'
+    )
     assert _string_keys("p.py", tmp_path) == {"sat_pos", "corelators", "data_bit", "nco"}
 
 
 # -- the harnesses themselves hold a plugin to its `provides` -----------------------------------
+
 
 def _forgetful(kind, name, drop):
     base = gf.registry.get(kind, name)
@@ -117,13 +126,18 @@ def test_the_closed_loop_tracking_harness_refuses_a_step_that_breaks_provides():
     from gnssframework.receiver.tracking.scalar import SignalTruth, run_closed_loop
 
     truth = SignalTruth.from_dynamics(0.01, 0.001, 45.0, doppler_hz=np.full(2, 100.0))
-    with pytest.raises(gf.PluginError, match=r"channel_filter 'forgetful-scalar': step\(\) did not return "
-                                             r"code_freq_hz that it declares in `provides`"):
+    with pytest.raises(
+        gf.PluginError,
+        match=r"channel_filter 'forgetful-scalar': step\(\) did not return "
+        r"code_freq_hz that it declares in `provides`",
+    ):
         run_closed_loop(_forgetful("channel_filter", "scalar", names.CODE_FREQ_HZ), truth, np.random.default_rng(0))
 
 
-@pytest.mark.parametrize("kind, name, drop", [("channel_filter", "discriminator", names.FREQ_ERROR_VAR_HZ2),
-                                              ("nav_filter", "ekf-pv", names.COV)])
+@pytest.mark.parametrize(
+    "kind, name, drop",
+    [("channel_filter", "discriminator", names.FREQ_ERROR_VAR_HZ2), ("nav_filter", "ekf-pv", names.COV)],
+)
 def test_the_vector_loop_refuses_a_step_that_breaks_provides(kind, name, drop):
     from gnssframework.experiments import get_scenario
     from gnssframework.receiver.tracking.vector import run_vector_loop
@@ -131,7 +145,10 @@ def test_the_vector_loop_refuses_a_step_that_breaks_provides(kind, name, drop):
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.05, "channels": 5, "settle_s": 0.01})
     rng = np.random.default_rng(1)
     truth, x0, P0 = scen.truth(45.0, 2, rng)
-    parts = {"channel_filter": gf.registry.create("channel_filter", "discriminator"),
-             "nav_filter": gf.registry.create("nav_filter", "ekf-pv"), kind: _forgetful(kind, name, drop)}
+    parts = {
+        "channel_filter": gf.registry.create("channel_filter", "discriminator"),
+        "nav_filter": gf.registry.create("nav_filter", "ekf-pv"),
+        kind: _forgetful(kind, name, drop),
+    }
     with pytest.raises(gf.PluginError, match=rf"{kind} 'forgetful-{name}': step\(\) did not return {drop} "):
         run_vector_loop(parts["channel_filter"], parts["nav_filter"], truth, x0, P0, rng)

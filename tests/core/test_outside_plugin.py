@@ -123,10 +123,12 @@ def test_the_outside_plugin_is_registered_but_is_no_built_in(outside_site):
     assert registry.failures() == []
     assert "coherent-eml" in registry.names("discriminator")
     assert "coherent-eml" not in builtin_names("discriminator")
-    assert builtin_names("discriminator") == sorted(n for n in registry.names("discriminator")
-                                                    if info["discriminator", n].distribution == BUILTIN_DISTRIBUTION)
+    assert builtin_names("discriminator") == sorted(
+        n for n in registry.names("discriminator") if info["discriminator", n].distribution == BUILTIN_DISTRIBUTION
+    )
     assert {"outside-kf", "quality-hatch", "outside-ci8"}.isdisjoint(
-        builtin_names("estimator") + builtin_names("channel_filter") + builtin_names("sample_source"))
+        builtin_names("estimator") + builtin_names("channel_filter") + builtin_names("sample_source")
+    )
 
 
 @pytest.mark.slow
@@ -135,11 +137,33 @@ def test_the_built_in_tests_pass_with_the_outside_plugin_installed(tmp_path):
     collection) that finds the outside package through its entry point."""
     site = install_outside_package(tmp_path)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")]))}
-    probe = subprocess.run([sys.executable, "-c", "from gnssframework import registry; "
-                            "print(registry.get('discriminator', 'coherent-eml').__module__)"],
-                           capture_output=True, text=True, env=env, check=True)
+    probe = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "from gnssframework import registry; print(registry.get('discriminator', 'coherent-eml').__module__)",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
+    )
     assert probe.stdout.strip() == "gnssframework_outside"  # the run below does see the plugin
-    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:xdist", "-p", "no:cacheprovider",
-                           *(str(TESTS / t) for t in BUILTIN_TESTS)],
-                          capture_output=True, text=True, env=env, cwd=TESTS.parent)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-q",
+            "-p",
+            "no:xdist",
+            "-p",
+            "no:cacheprovider",
+            *(str(TESTS / t) for t in BUILTIN_TESTS),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=TESTS.parent,
+    )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]

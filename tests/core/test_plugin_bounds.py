@@ -112,53 +112,97 @@ def test_the_fixture_configs_load(tmp_path, params):
     _loads(tmp_path, VECTOR.replace("PARAMS", "adaptive = false"))
 
 
-@pytest.mark.parametrize("params, message", [
-    ("p0 = [10.0, 1.0]", "candidates[0].nav_filter.params.p0: List should have at least 3 items after validation, "
-                         "not 2"),
-    ("p0 = [10.0, 0.0, 0.1]", "candidates[0].nav_filter.params.p0[1]: Input should be greater than 0 (got 0.0)"),
-    ("q0 = [1.0, -0.1, 0.01]", "candidates[0].nav_filter.params.q0[1]: Input should be greater than or equal to 0 "
-                               "(got -0.1)"),
-])
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        (
+            "p0 = [10.0, 1.0]",
+            "candidates[0].nav_filter.params.p0: List should have at least 3 items after validation, not 2",
+        ),
+        ("p0 = [10.0, 0.0, 0.1]", "candidates[0].nav_filter.params.p0[1]: Input should be greater than 0 (got 0.0)"),
+        (
+            "q0 = [1.0, -0.1, 0.01]",
+            "candidates[0].nav_filter.params.q0[1]: Input should be greater than or equal to 0 (got -0.1)",
+        ),
+    ],
+)
 def test_position_filter_lengths_and_signs(tmp_path, params, message):
     assert _error(tmp_path, MULTIPATH.replace("PARAMS", params)).startswith(message)
 
 
-@pytest.mark.parametrize("name, params, message", [
-    ("kf-carrier-loop", "q = [-0.01, 0.1]", "candidates[0].channel_filter.params.q[0]: Input should be greater than "
-                                            "or equal to 0 (got -0.01)"),
-    ("kf-carrier-loop", "q = [0.01, 0.1, 1.0]", "candidates[0].channel_filter.params.q: needs 2 values for states = 2 "
-                                                "(got [0.01, 0.1, 1.0])"),
-    ("kf-carrier-loop", "states = 3, initial_std = [0.5, 5.0], q = [0.01, 0.1, 1.0]",
-     "candidates[0].channel_filter.params.initial_std: needs at least 3 values for states = 3 (got [0.5, 5.0])"),
-    ("kf-carrier-loop", "initial_std = [0.0, 5.0]", "candidates[0].channel_filter.params.initial_std[0]: Input should "
-                                                    "be greater than 0 (got 0.0)"),
-    ("kf-carrier-loop", "initial_std = 0", "candidates[0].channel_filter.params.initial_std: Input should be a valid "
-                                           "list (got 0)"),
-    ("scalar", "dll_bandwidth_hz = 1e6", "candidates[0].channel_filter.params.dll_bandwidth_hz: Input should be less "
-                                         "than or equal to 200 (got 1000000.0)"),
-    ("scalar", "fll_bandwidth_hz = 1e6", "candidates[0].channel_filter.params.fll_bandwidth_hz: Input should be less "
-                                         "than or equal to 200 (got 1000000.0)"),
-])
+@pytest.mark.parametrize(
+    "name, params, message",
+    [
+        (
+            "kf-carrier-loop",
+            "q = [-0.01, 0.1]",
+            "candidates[0].channel_filter.params.q[0]: Input should be greater than or equal to 0 (got -0.01)",
+        ),
+        (
+            "kf-carrier-loop",
+            "q = [0.01, 0.1, 1.0]",
+            "candidates[0].channel_filter.params.q: needs 2 values for states = 2 (got [0.01, 0.1, 1.0])",
+        ),
+        (
+            "kf-carrier-loop",
+            "states = 3, initial_std = [0.5, 5.0], q = [0.01, 0.1, 1.0]",
+            "candidates[0].channel_filter.params.initial_std: needs at least 3 values for states = 3 (got [0.5, 5.0])",
+        ),
+        (
+            "kf-carrier-loop",
+            "initial_std = [0.0, 5.0]",
+            "candidates[0].channel_filter.params.initial_std[0]: Input should be greater than 0 (got 0.0)",
+        ),
+        (
+            "kf-carrier-loop",
+            "initial_std = 0",
+            "candidates[0].channel_filter.params.initial_std: Input should be a valid list (got 0)",
+        ),
+        (
+            "scalar",
+            "dll_bandwidth_hz = 1e6",
+            "candidates[0].channel_filter.params.dll_bandwidth_hz: Input should be less "
+            "than or equal to 200 (got 1000000.0)",
+        ),
+        (
+            "scalar",
+            "fll_bandwidth_hz = 1e6",
+            "candidates[0].channel_filter.params.fll_bandwidth_hz: Input should be less "
+            "than or equal to 200 (got 1000000.0)",
+        ),
+    ],
+)
 def test_carrier_loop_values_are_refused_naming_the_field(tmp_path, name, params, message):
     assert _error(tmp_path, SCINT.replace("NAME", name).replace("PARAMS", params)) == message
 
 
-@pytest.mark.parametrize("params, message", [
-    ("q = [1e-3, 1e-8, -1e-5, 1e-4, 1e-2]", "candidates[0].channel_filter.params.q[2]: Input should be greater than "
-                                            "or equal to 0 (got -1e-05)"),
-    ("initial_std = [2.0, 0.05, 0.3, 5.0]", "candidates[0].channel_filter.params.initial_std: List should have at "
-                                            "least 5 items after validation, not 4"),
-    ("initial_std = [2.0, 0.05, 0.0, 5.0, 5.0]", "candidates[0].channel_filter.params.initial_std[2]: Input should be "
-                                                 "greater than 0 (got 0.0)"),
-])
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        (
+            "q = [1e-3, 1e-8, -1e-5, 1e-4, 1e-2]",
+            "candidates[0].channel_filter.params.q[2]: Input should be greater than or equal to 0 (got -1e-05)",
+        ),
+        (
+            "initial_std = [2.0, 0.05, 0.3, 5.0]",
+            "candidates[0].channel_filter.params.initial_std: List should have at "
+            "least 5 items after validation, not 4",
+        ),
+        (
+            "initial_std = [2.0, 0.05, 0.0, 5.0, 5.0]",
+            "candidates[0].channel_filter.params.initial_std[2]: Input should be greater than 0 (got 0.0)",
+        ),
+    ],
+)
 def test_iq_filter_lengths_and_signs(tmp_path, params, message):
     assert _error(tmp_path, VECTOR.replace("PARAMS", params)).startswith(message)
 
 
 def test_a_negative_clock_psd_is_refused_naming_the_field(tmp_path):
     text = DEEP.replace("CHANNEL", IQ_EQUIVALENT).replace("PARAMS", "clock_psd = [0.1, -1.0]")
-    assert _error(tmp_path, text).startswith("candidates[0].nav_filter.params.clock_psd[1]: Input should be greater "
-                                             "than or equal to 0 (got -1.0)")
+    assert _error(tmp_path, text).startswith(
+        "candidates[0].nav_filter.params.clock_psd[1]: Input should be greater than or equal to 0 (got -1.0)"
+    )
 
 
 def _too_wide(T: float) -> float:
@@ -185,8 +229,10 @@ def test_the_bandwidth_is_checked_at_a_case_s_own_interval(tmp_path):
 def test_a_nested_carrier_filter_bandwidth_is_named_under_the_nav_filter(tmp_path):
     carrier = f'carrier_filter = {{ name = "kf-carrier-loop", params = {{ dll_bandwidth_hz = {_too_wide(0.002)} }} }}'
     text = DEEP.replace("CHANNEL", IQ_EQUIVALENT).replace("PARAMS", carrier)
-    assert _error(tmp_path, text).startswith("candidates[0].nav_filter.params.carrier_filter.params.dll_bandwidth_hz: "
-                                             "B_L T = 0.25 at T = 0.002 s is too large")
+    assert _error(tmp_path, text).startswith(
+        "candidates[0].nav_filter.params.carrier_filter.params.dll_bandwidth_hz: "
+        "B_L T = 0.25 at T = 0.002 s is too large"
+    )
 
 
 def test_a_loose_candidate_fll_too_wide_is_refused_not_reported_as_a_singular_geometry(tmp_path):

@@ -51,8 +51,10 @@ def test_a_recordings_lines_give_the_signal_time_processed_and_the_real_time_fac
     now[0] += 2.0
     p.set(20)  # 6.4 s of signal in 10 s: 0.64x
     lines = out.getvalue().splitlines()
-    assert lines == ["rec.bin: 10/100 % (10 %), 3.2/32.0 s of signal, 0.40x real time, 0:00:08 elapsed",
-                     "rec.bin: 20/100 % (20 %), 6.4/32.0 s of signal, 0.64x real time, 0:00:10 elapsed"]
+    assert lines == [
+        "rec.bin: 10/100 % (10 %), 3.2/32.0 s of signal, 0.40x real time, 0:00:08 elapsed",
+        "rec.bin: 20/100 % (20 %), 6.4/32.0 s of signal, 0.64x real time, 0:00:10 elapsed",
+    ]
     progress.phase("rec.bin", "acquisition of 3 PRNs", 90.0, stream=out)
     assert out.getvalue().splitlines()[-1] == "rec.bin: acquisition of 3 PRNs, 0:00:20 elapsed"
 

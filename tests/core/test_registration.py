@@ -27,7 +27,8 @@ def _write_package(tmp_path: Path, name: str, modules: dict[str, str]) -> None:
     package.mkdir()
     (package / "__init__.py").write_text(
         "from gnssframework.registry import plugin_hooks, submodules\n\n"
-        "globals().update(plugin_hooks(*submodules(__name__, __path__)))\n")
+        "globals().update(plugin_hooks(*submodules(__name__, __path__)))\n"
+    )
     for module, source in modules.items():
         (package / f"{module}.py").write_text(textwrap.dedent(source))
 
@@ -87,20 +88,31 @@ def test_a_class_written_in_a_module_of_a_plugin_package_is_registered(package_p
     assert registry.create("estimator", "h23e-kf").name == "h23e-kf"
     # Only the kinds the package defines get a hook; the base it imported stays the built-in's.
     assert sorted(k for k in vars(package) if k.startswith("register_")) == [
-        "register_discriminator", "register_estimator", "register_metric"]
+        "register_discriminator",
+        "register_estimator",
+        "register_metric",
+    ]
     assert registry.get("estimator", "kf").__module__ == "gnssframework_plugins.estimators"
 
 
 def test_a_new_module_of_a_plugin_package_needs_no_list_either(package_path, scratch_registry):
-    _write_package(package_path, "h23e_pkg2", {"filters": FILTERS, "more": """
+    _write_package(
+        package_path,
+        "h23e_pkg2",
+        {
+            "filters": FILTERS,
+            "more": """
         from gnssframework import registry
 
         class OtherKf(registry.get("estimator", "kf")):
             name = "h23e-other-kf"
-        """})
+        """,
+        },
+    )
     registry.register_module(importlib.import_module("h23e_pkg2"), name="h23e-package2")
-    assert {"h23e-kf", "h23e-other-kf", "h23e-disc"} <= set(registry.names("estimator") + registry.names(
-        "discriminator"))
+    assert {"h23e-kf", "h23e-other-kf", "h23e-disc"} <= set(
+        registry.names("estimator") + registry.names("discriminator")
+    )
 
 
 def test_a_class_of_two_kinds_is_refused_by_name():
@@ -112,8 +124,11 @@ def test_a_class_of_two_kinds_is_refused_by_name():
 
     Twice.__module__ = module.__name__
     module.Twice = Twice
-    with pytest.raises(PluginError, match=r"h23e_pkg3\.twice\.Twice derives from the bases of channel_filter, "
-                                          r"nav_filter"):
+    with pytest.raises(
+        PluginError,
+        match=r"h23e_pkg3\.twice\.Twice derives from the bases of channel_filter, "
+        r"nav_filter",
+    ):
         registry.defined_plugins(module)
 
 
@@ -169,8 +184,12 @@ def test_every_builtin_is_defined_in_one_module_and_named_in_no_other():
     offenders = []
     for info in infos:
         home = _module_file(info.cls.__module__)
-        defined = [p for p, t in trees.items() for n in ast.walk(t)
-                   if isinstance(n, ast.ClassDef) and n.name == info.cls.__name__]
+        defined = [
+            p
+            for p, t in trees.items()
+            for n in ast.walk(t)
+            if isinstance(n, ast.ClassDef) and n.name == info.cls.__name__
+        ]
         assert defined == [home], f"{info.kind} {info.name!r}: class {info.cls.__name__} defined in {defined}"
         for path, (used, _) in refs.items():
             if path != home and info.cls.__name__ in used:  # a subclass's base in another module is fine
@@ -184,8 +203,9 @@ def test_every_builtin_scenario_metric_is_declared_by_one_component_of_its_modul
             continue
         table = info.cls.metrics
         components = getattr(table, "components", {})
-        assert set(components) == set(table), f"{info.name}: metrics without a component: " \
-                                              f"{sorted(set(table) - set(components))}"
+        assert set(components) == set(table), (
+            f"{info.name}: metrics without a component: {sorted(set(table) - set(components))}"
+        )
         declared = sys.modules[info.cls.__module__].METRICS
         for name, component in components.items():
             assert sum(c is component for c in declared) == 1, f"{info.name}: {name} not in its module's METRICS"
@@ -193,12 +213,15 @@ def test_every_builtin_scenario_metric_is_declared_by_one_component_of_its_modul
 
 
 def test_the_reference_check_sees_a_plugin_named_in_another_module():
-    tree = ast.parse("from plugins.estimators import KalmanFilter\nFILTERS = (KalmanFilter,)\n"
-                     "class Mine(KalmanFilter):\n    name = 'x'\n")
+    tree = ast.parse(
+        "from plugins.estimators import KalmanFilter\nFILTERS = (KalmanFilter,)\n"
+        "class Mine(KalmanFilter):\n    name = 'x'\n"
+    )
     used, _ = _references(tree)
     assert "KalmanFilter" in used
-    used, as_base = _references(ast.parse("from plugins.estimators import KalmanFilter\n"
-                                          "class Mine(KalmanFilter):\n    name = 'x'\n"))
+    used, as_base = _references(
+        ast.parse("from plugins.estimators import KalmanFilter\nclass Mine(KalmanFilter):\n    name = 'x'\n")
+    )
     assert "KalmanFilter" not in used and "KalmanFilter" in as_base
 
 

@@ -19,17 +19,48 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def test_kinds_and_builtin_names():
-    assert registry.kinds() == ["acquisition", "augmentation", "channel_filter", "cn0_estimator", "discriminator",
-                                "estimator", "metric", "nav_filter", "noise_adapter", "robust_update", "sample_source",
-                                "scenario", "signal"]
+    assert registry.kinds() == [
+        "acquisition",
+        "augmentation",
+        "channel_filter",
+        "cn0_estimator",
+        "discriminator",
+        "estimator",
+        "metric",
+        "nav_filter",
+        "noise_adapter",
+        "robust_update",
+        "sample_source",
+        "scenario",
+        "signal",
+    ]
     assert builtin_names("robust_update") == ["cauchy", "gate", "huber", "student-t"]
     assert builtin_names("cn0_estimator") == ["beaulieu", "m2m4", "narrow-wide", "noise-channel", "snv"]
-    assert builtin_names("signal") == ["beidou-b1c", "galileo-e1b", "galileo-e1b-boc11", "galileo-e1c",
-                                       "galileo-e1c-boc11", "gps-l1ca", "gps-l2c", "qzss-l1ca", "qzss-l2c", "sbas-l1"]
+    assert builtin_names("signal") == [
+        "beidou-b1c",
+        "galileo-e1b",
+        "galileo-e1b-boc11",
+        "galileo-e1c",
+        "galileo-e1c-boc11",
+        "gps-l1ca",
+        "gps-l2c",
+        "qzss-l1ca",
+        "qzss-l2c",
+        "sbas-l1",
+    ]
     assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]
-    assert builtin_names("scenario") == ["boc-tracking", "carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
-                                         "sample-recording", "scintillation", "tracking-threshold",
-                                         "vector-threshold", "vector-tracking"]
+    assert builtin_names("scenario") == [
+        "boc-tracking",
+        "carrier-smoothing",
+        "deep-integration",
+        "multipath",
+        "sample-receiver",
+        "sample-recording",
+        "scintillation",
+        "tracking-threshold",
+        "vector-threshold",
+        "vector-tracking",
+    ]
 
 
 def test_builtin_name_sets_ignore_a_plugin_installed_beside_the_project(scratch_registry):
@@ -136,9 +167,18 @@ def test_the_core_scenarios_register_through_the_entry_point_group_only(monkeypa
     assert [(ep.name, ep.dist.name) for ep in ours] == [("scenarios", "gnssframework")]
     infos = [i for i in registry.describe() if i.kind == "scenario" and i.distribution == "gnssframework"]
     # the core's hooks register every built-in scenario (the list test_kinds_and_builtin_names holds)
-    assert sorted(i.name for i in infos) == ["boc-tracking", "carrier-smoothing", "deep-integration", "multipath", "sample-receiver",
-                                             "sample-recording", "scintillation", "tracking-threshold",
-                                             "vector-threshold", "vector-tracking"]
+    assert sorted(i.name for i in infos) == [
+        "boc-tracking",
+        "carrier-smoothing",
+        "deep-integration",
+        "multipath",
+        "sample-receiver",
+        "sample-recording",
+        "scintillation",
+        "tracking-threshold",
+        "vector-threshold",
+        "vector-tracking",
+    ]
     real = md.entry_points
 
     def without_core_hooks(group=None, **kw):
@@ -186,27 +226,34 @@ def test_core_never_imports_the_plugins_package():
 
 @pytest.mark.slow
 def test_cli_lists_kind_name_description_and_source():
-    out = subprocess.run([sys.executable, "-m", "gnssframework", "plugins"], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "gnssframework", "plugins"], capture_output=True, text=True, check=True
+    ).stdout
     line = next(l for l in out.splitlines() if " svd-ckf " in l)
     assert line.split()[0] == "estimator" and f"gnssframework {gf.__version__}" in line
 
 
 @pytest.mark.slow
 def test_cli_library_error_is_one_line_without_traceback_and_suggests_the_name():
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "plugins", "--describe", "eml-envelop"],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-m", "gnssframework", "plugins", "--describe", "eml-envelop"], capture_output=True, text=True
+    )
     assert proc.returncode != 0 and "Traceback" not in proc.stderr
     assert proc.stderr.strip().splitlines() == [
-        "error: --describe: no plugin named 'eml-envelop'; did you mean 'eml-envelope'?"]
+        "error: --describe: no plugin named 'eml-envelop'; did you mean 'eml-envelope'?"
+    ]
 
 
 @pytest.mark.slow
 def test_describe_prints_the_contract_and_the_parameter_table_from_params():
     from gnssframework.plugin_docs import parameter_rows
 
-    out = subprocess.run([sys.executable, "-m", "gnssframework", "plugins", "--describe", "eml-envelope"],
-                         capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "gnssframework", "plugins", "--describe", "eml-envelope"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     assert "unit: chips" in out
     cls = registry.get("discriminator", "eml-envelope")
     for name, field in cls.Params.model_fields.items():
@@ -237,22 +284,26 @@ def test_nested_plugin_parameters_show_their_kind_and_unit():
 # -- the layers that own a kind's base declare it (issue 36) ------------------------------------
 
 #: Kinds whose base lives above the registry's layer, and where (the owning module declares it).
-OWNED_BASES = {"metric": ("gnssframework.experiments.metrics", "Metric"),
-               "scenario": ("gnssframework.experiments.scenarios", "Scenario"),
-               "sample_source": ("gnssframework.receiver.frontend.source", "SampleSource"),
-               "acquisition": ("gnssframework.receiver.acquisition.search", "Acquisition")}
+OWNED_BASES = {
+    "metric": ("gnssframework.experiments.metrics", "Metric"),
+    "scenario": ("gnssframework.experiments.scenarios", "Scenario"),
+    "sample_source": ("gnssframework.receiver.frontend.source", "SampleSource"),
+    "acquisition": ("gnssframework.receiver.acquisition.search", "Acquisition"),
+}
 
 
 @pytest.mark.slow
 def test_a_fresh_process_finds_the_bases_the_upper_layers_declare():
     # Only the registry is imported: its entry points import the owning modules, which
     # declare the bases before their plugins register (none is refused, all are listed).
-    code = ("import json, importlib\nfrom gnssframework import registry\n"
-            "names = {k: registry.names(k) for k in ('scenario', 'sample_source', 'acquisition', 'metric')}\n"
-            f"owned = {OWNED_BASES!r}\n"
-            "same = {k: registry.base_class(k) is getattr(importlib.import_module(m), c)\n"
-            "        for k, (m, c) in owned.items()}\n"
-            "print(json.dumps([names, same, [str(f) for f in registry.failures()]]))")
+    code = (
+        "import json, importlib\nfrom gnssframework import registry\n"
+        "names = {k: registry.names(k) for k in ('scenario', 'sample_source', 'acquisition', 'metric')}\n"
+        f"owned = {OWNED_BASES!r}\n"
+        "same = {k: registry.base_class(k) is getattr(importlib.import_module(m), c)\n"
+        "        for k, (m, c) in owned.items()}\n"
+        "print(json.dumps([names, same, [str(f) for f in registry.failures()]]))"
+    )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     import json
 

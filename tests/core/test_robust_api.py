@@ -68,11 +68,17 @@ def _smoother():
     return filt
 
 
-@pytest.mark.parametrize("inputs, says", [
-    ({"pseudorange_m": np.array(["2e7"]), "carrier_m": np.array([1.0])}, "inputs['pseudorange_m']: must be numbers"),
-    ({"pseudorange_m": "2e7", "carrier_m": np.array([1.0])}, "inputs['pseudorange_m']: must be numbers"),
-    ({"pseudorange_m": np.array([2e7])}, "inputs['carrier_m']: missing"),
-])
+@pytest.mark.parametrize(
+    "inputs, says",
+    [
+        (
+            {"pseudorange_m": np.array(["2e7"]), "carrier_m": np.array([1.0])},
+            "inputs['pseudorange_m']: must be numbers",
+        ),
+        ({"pseudorange_m": "2e7", "carrier_m": np.array([1.0])}, "inputs['pseudorange_m']: must be numbers"),
+        ({"pseudorange_m": np.array([2e7])}, "inputs['carrier_m']: missing"),
+    ],
+)
 def test_a_smoothers_bad_inputs_are_named(inputs, says):
     with pytest.raises(InvalidInputError) as err:
         _smoother().checked_step(inputs)
@@ -86,6 +92,7 @@ def test_a_smoother_reads_a_masked_epoch_as_missing():
         code = np.ma.masked_array([2e7 + k], mask=[k == 1])
         code.data[:] = 2e7 + k if k != 1 else 9e9
         a = masked.checked_step({"pseudorange_m": code, "carrier_m": np.array([float(k)])})
-        b = plain.checked_step({"pseudorange_m": np.array([2e7 + k if k != 1 else np.nan]),
-                                "carrier_m": np.array([float(k)])})
+        b = plain.checked_step(
+            {"pseudorange_m": np.array([2e7 + k if k != 1 else np.nan]), "carrier_m": np.array([float(k)])}
+        )
         assert np.array_equal(a["smoothed_m"], b["smoothed_m"], equal_nan=True)

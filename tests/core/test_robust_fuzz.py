@@ -26,8 +26,13 @@ from two_candidates import two_candidate_config
 
 DATA = Path(__file__).parents[1] / "data"
 REAL = DATA / "pocketsdr_L1_4MHz_IQ_100ms.bin"
-FUZZ = settings(max_examples=40, deadline=None, derandomize=True, database=None,
-                suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+FUZZ = settings(
+    max_examples=40,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
 NON_FINITE_WORD = re.compile(r"(?<![\w.])[-+]?(nan|inf|infinity)(?![\w])", re.IGNORECASE)
 
 
@@ -49,14 +54,23 @@ def _fresh(tmp_path_factory):
 
 # -- values a user may write -------------------------------------------------------------------
 
-NUMBERS = st.one_of(st.integers(-10**15, 10**15), st.floats(allow_nan=True, allow_infinity=True),
-                    st.sampled_from([0, -1, 1e300, -1e300, 1e-300, 1e12, 0.5, 2]))
-TEXT = st.one_of(st.text(max_size=12), st.sampled_from(["", ".", "..", "../x", "a/b", "a\x00b", "ci8", "kf", "nan",
-                                                         "2021-12-02T08:47:00Z", "1e6"]))
+NUMBERS = st.one_of(
+    st.integers(-(10**15), 10**15),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([0, -1, 1e300, -1e300, 1e-300, 1e12, 0.5, 2]),
+)
+TEXT = st.one_of(
+    st.text(max_size=12),
+    st.sampled_from(["", ".", "..", "../x", "a/b", "a\x00b", "ci8", "kf", "nan", "2021-12-02T08:47:00Z", "1e6"]),
+)
 SCALARS = st.one_of(NUMBERS, TEXT, st.booleans())
-VALUES = st.recursive(SCALARS, lambda inner: st.one_of(st.lists(inner, max_size=4),
-                                                        st.dictionaries(st.sampled_from(["name", "params", "x", "q0"]),
-                                                                        inner, max_size=3)), max_leaves=8)
+VALUES = st.recursive(
+    SCALARS,
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=4), st.dictionaries(st.sampled_from(["name", "params", "x", "q0"]), inner, max_size=3)
+    ),
+    max_leaves=8,
+)
 
 
 def _toml(value) -> str:
@@ -76,20 +90,35 @@ def _toml(value) -> str:
 
 # The places of the smallest comparison config a fuzzed value goes in: (old text, key).
 CONFIG_PLACES = [
-    ('name = "fuzz"', "name"), ("runs = 4", "runs"), ("batch_size = 2", "batch_size"), ("epochs = 40", "epochs"),
-    ('name = "only"', "name"), ('name = "a"', "name"), ('name = "b"', "name"),
-    ('nav_filter = { name = "position-ca" }', "nav_filter"), ('estimator = { name = "kf" }', "estimator"),
-    ("workers = 1", "workers"), ("[executor]", "[executor]\naddress"),
+    ('name = "fuzz"', "name"),
+    ("runs = 4", "runs"),
+    ("batch_size = 2", "batch_size"),
+    ("epochs = 40", "epochs"),
+    ('name = "only"', "name"),
+    ('name = "a"', "name"),
+    ('name = "b"', "name"),
+    ('nav_filter = { name = "position-ca" }', "nav_filter"),
+    ('estimator = { name = "kf" }', "estimator"),
+    ("workers = 1", "workers"),
+    ("[executor]", "[executor]\naddress"),
 ]
 EXTRA_PLACES = ["psi", "dt_s", "seed", "reference", "metrics"]
 
 
 @FUZZ
-@given(place=st.sampled_from(CONFIG_PLACES + [(None, k) for k in EXTRA_PLACES]), value=VALUES,
-       params=st.dictionaries(st.sampled_from(["r0", "q0", "dt_s", "accel_psd", "bogus"]),
-                              st.one_of(NUMBERS, st.lists(NUMBERS, min_size=3, max_size=3), VALUES), max_size=2),
-       claim=st.one_of(st.none(), st.dictionaries(st.sampled_from(["ratio_min", "ratio_max", "within", "direction"]),
-                                                   VALUES, max_size=2)))
+@given(
+    place=st.sampled_from(CONFIG_PLACES + [(None, k) for k in EXTRA_PLACES]),
+    value=VALUES,
+    params=st.dictionaries(
+        st.sampled_from(["r0", "q0", "dt_s", "accel_psd", "bogus"]),
+        st.one_of(NUMBERS, st.lists(NUMBERS, min_size=3, max_size=3), VALUES),
+        max_size=2,
+    ),
+    claim=st.one_of(
+        st.none(),
+        st.dictionaries(st.sampled_from(["ratio_min", "ratio_max", "within", "direction"]), VALUES, max_size=2),
+    ),
+)
 def test_fuzzed_configs_load_or_fail_in_one_line(tmp_path_factory, place, value, params, claim):
     text = two_candidate_config("fuzz")
     old, key = place
@@ -98,8 +127,11 @@ def test_fuzzed_configs_load_or_fail_in_one_line(tmp_path_factory, place, value,
     else:
         text = text.replace(old, f"{key} = {_toml(value)}", 1)
     if params:
-        text = text.replace('nav_filter = { name = "position-ca" }',
-                            f'nav_filter = {{ name = "position-ca", params = {_toml(params)} }}', 1)
+        text = text.replace(
+            'nav_filter = { name = "position-ca" }',
+            f'nav_filter = {{ name = "position-ca", params = {_toml(params)} }}',
+            1,
+        )
     if claim is not None:
         body = "\n".join(f"{k} = {_toml(v)}" for k, v in claim.items())
         text += f'[[claims]]\ncandidate = "a"\nreference = "b"\nmetric = "lat_error_rmse"\n{body}\n'
@@ -122,13 +154,20 @@ def test_fuzzed_configs_load_or_fail_in_one_line(tmp_path_factory, place, value,
 
 # -- SigMF metadata -------------------------------------------------------------------------------
 
-SIGMF_KEYS = ["core:datatype", "core:sample_rate", "core:version", "gnssframework:q_sign", "gnssframework:if_hz",
-              "gnssframework:format"]
+SIGMF_KEYS = [
+    "core:datatype",
+    "core:sample_rate",
+    "core:version",
+    "gnssframework:q_sign",
+    "gnssframework:if_hz",
+    "gnssframework:format",
+]
 CAPTURE_KEYS = ["core:sample_start", "core:frequency", "core:datetime"]
 GOOD_GLOBAL = {"core:datatype": "ci8", "core:sample_rate": 4e6, "core:version": "1.0.0", "gnssframework:q_sign": -1}
 GOOD_CAPTURE = {"core:sample_start": 0, "core:frequency": 1575.42e6}
-META_VALUES = st.one_of(VALUES, st.sampled_from([4e6, 8e6, 1575.42e6, 1575.42e6 + 1e5, "ci8", "ci16_le", "cf32_le",
-                                                 "ri8", 1, -1, 0]))
+META_VALUES = st.one_of(
+    VALUES, st.sampled_from([4e6, 8e6, 1575.42e6, 1575.42e6 + 1e5, "ci8", "ci16_le", "cf32_le", "ri8", 1, -1, 0])
+)
 
 
 @st.composite
@@ -165,7 +204,8 @@ def test_fuzzed_sigmf_metadata_opens_or_fails_in_one_line(tmp_path_factory, meta
             _one_line(exc)
             # the metadata file's field, or the parameter the library names (the CLI shows its option)
             assert "rec.sigmf-meta" in str(exc) or str(exc).startswith(
-                ("format", "sample_rate_hz", "if_hz", "q_sign", "recording")), str(exc)
+                ("format", "sample_rate_hz", "if_hz", "q_sign", "recording")
+            ), str(exc)
             return
         info = rec.info
         assert math.isfinite(info.sample_rate_hz) and info.sample_rate_hz >= 2.046e6
@@ -175,17 +215,19 @@ def test_fuzzed_sigmf_metadata_opens_or_fails_in_one_line(tmp_path_factory, meta
 
 # -- RINEX and NMEA lines ---------------------------------------------------------------------------
 
+
 def _head(path: Path, epochs: int, epoch_line: re.Pattern) -> list[str]:
     lines = path.read_text().splitlines()
     end = next(i for i, line in enumerate(lines) if "END OF HEADER" in line)
     starts = [i for i in range(end + 1, len(lines)) if epoch_line.match(lines[i])]
-    return lines[:starts[epochs]] if len(starts) > epochs else lines
+    return lines[: starts[epochs]] if len(starts) > epochs else lines
 
 
 RINEX2_LINES = _head(DATA / "07590920.05o", 12, re.compile(r"^ \d\d [ \d]\d [ \d]\d "))
 RINEX3_LINES = _head(DATA / "pixel6.23o", 6, re.compile(r"^> "))
-LINE_TEXT = st.one_of(st.text(alphabet=st.sampled_from(list("0123456789 .-+eEGRNAinf>\t")), max_size=80),
-                      st.text(max_size=40))
+LINE_TEXT = st.one_of(
+    st.text(alphabet=st.sampled_from(list("0123456789 .-+eEGRNAinf>\t")), max_size=80), st.text(max_size=40)
+)
 
 
 @st.composite
@@ -198,14 +240,14 @@ def mutated_lines(draw, lines: list[str]) -> str:
             out[i] = draw(LINE_TEXT)
         elif how == "splice":
             j = draw(st.integers(0, max(0, len(out[i]) - 1)))
-            out[i] = out[i][:j] + draw(LINE_TEXT) + out[i][j + draw(st.integers(0, 16)):]
+            out[i] = out[i][:j] + draw(LINE_TEXT) + out[i][j + draw(st.integers(0, 16)) :]
         elif how == "delete":
             del out[i]
         elif how == "duplicate":
             out.insert(i, out[i])
         else:
-            out = out[:i + 1]
-            out[-1] = out[-1][:draw(st.integers(0, len(out[-1])))]
+            out = out[: i + 1]
+            out[-1] = out[-1][: draw(st.integers(0, len(out[-1])))]
             return "\n".join(out)
     return "\n".join(out) + "\n"
 
@@ -263,29 +305,73 @@ def test_fuzzed_nmea_lines_read_or_fail_in_one_line(tmp_path_factory, text):
 
 # -- command lines ------------------------------------------------------------------------------------
 
-OPTION_VALUES = st.one_of(st.sampled_from(["nan", "inf", "-inf", "0", "-1", "1e300", "1e-9", "1 1", "", "x", "4e6",
-                                           "91,0,0", "0,0,0", "nan,nan,nan", "ci8", "ci16_le", "G08", "hatch"]),
-                          st.floats(allow_nan=True, allow_infinity=True).map(repr),
-                          st.integers(-5, 40).map(str))
+OPTION_VALUES = st.one_of(
+    st.sampled_from(
+        [
+            "nan",
+            "inf",
+            "-inf",
+            "0",
+            "-1",
+            "1e300",
+            "1e-9",
+            "1 1",
+            "",
+            "x",
+            "4e6",
+            "91,0,0",
+            "0,0,0",
+            "nan,nan,nan",
+            "ci8",
+            "ci16_le",
+            "G08",
+            "hatch",
+        ]
+    ),
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.integers(-5, 40).map(str),
+)
 COMMANDS = {
-    "acquire": (["{REAL}", "--prns", "16", "26", "31"],
-                ["--format", "--fs", "--if", "--q-sign", "--coherent-ms", "--noncoherent", "--doppler-max", "--pfa",
-                 "--prns"]),
-    "smooth": (["{RINEX}", "--prn", "G08"],
-               ["--filter", "--window", "--q", "--r", "--slip-threshold", "--max-gap", "--max-cmc-rate",
-                "--pseudorange-min", "--pseudorange-max", "--prn"]),
+    "acquire": (
+        ["{REAL}", "--prns", "16", "26", "31"],
+        ["--format", "--fs", "--if", "--q-sign", "--coherent-ms", "--noncoherent", "--doppler-max", "--pfa", "--prns"],
+    ),
+    "smooth": (
+        ["{RINEX}", "--prn", "G08"],
+        [
+            "--filter",
+            "--window",
+            "--q",
+            "--r",
+            "--slip-threshold",
+            "--max-gap",
+            "--max-cmc-rate",
+            "--pseudorange-min",
+            "--pseudorange-max",
+            "--prn",
+        ],
+    ),
     "filter-positions": (["{NMEA}"], ["--filter", "--psi", "--max-speed", "--max-height", "--noise-adapter"]),
 }
 
 
-@settings(max_examples=60, deadline=None, derandomize=True, database=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=60,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
 @given(command=st.sampled_from(sorted(COMMANDS)), data=st.data())
 def test_fuzzed_command_lines_end_in_a_result_or_one_error_line(tmp_path_factory, command, data):
     base, options = COMMANDS[command]
     chosen = data.draw(st.dictionaries(st.sampled_from(options), OPTION_VALUES, min_size=1, max_size=3))
     with _fresh(tmp_path_factory) as folder:
-        files = {"{REAL}": str(REAL), "{RINEX}": str(DATA / "07590920.05o"), "{NMEA}": str(DATA / "ublox-zed-f9p-nmea.log")}
+        files = {
+            "{REAL}": str(REAL),
+            "{RINEX}": str(DATA / "07590920.05o"),
+            "{NMEA}": str(DATA / "ublox-zed-f9p-nmea.log"),
+        }
         argv = [command] + [files.get(a, a) for a in base] + ["--out", str(folder / "out.csv")]
         if command == "acquire" and "--format" not in chosen:
             argv += ["--format", "ci8"]

@@ -45,14 +45,18 @@ def test_batched_check_catches_cross_talk_between_batch_elements():
 
 def test_psd_check_refuses_asymmetric_indefinite_and_nan():
     testing.check_covariance_psd(np.diag([1.0, 0.0]))
-    for bad, words in ((np.array([[1.0, 0.5], [0.0, 1.0]]), "not symmetric"),
-                       (np.diag([1.0, -1e-3]), "not PSD"), (np.diag([np.nan, 1.0]), "NaN")):
+    for bad, words in (
+        (np.array([[1.0, 0.5], [0.0, 1.0]]), "not symmetric"),
+        (np.diag([1.0, -1e-3]), "not PSD"),
+        (np.diag([np.nan, 1.0]), "NaN"),
+    ):
         with pytest.raises(AssertionError, match=words):
             testing.check_covariance_psd(bad)
 
 
-@pytest.mark.parametrize("name, errors", [("eml-envelope", [-1e-3, 1e-3]), ("costas-atan", [-0.05, 0.05]),
-                                          ("atan2-fll", [-0.2, 0.2])])
+@pytest.mark.parametrize(
+    "name, errors", [("eml-envelope", [-1e-3, 1e-3]), ("costas-atan", [-0.05, 0.05]), ("atan2-fll", [-0.2, 0.2])]
+)
 def test_builtin_discriminators_pass_the_slope_and_noise_checks(name, errors):
     d = gf.registry.create("discriminator", name, coherent_time_s=0.01)
     testing.check_unit_slope(d, errors)

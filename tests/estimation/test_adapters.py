@@ -91,16 +91,18 @@ def test_without_the_safeguards_the_published_recursion_runs_away(ca_problem, re
     # inflates and the error explodes. This is what the default q_floor prevents.
     F, H, Q, xs, zs, init = ca_problem
     adapter = create("noise_adapter", "sage-husa", variant="classic", q_floor=0.01)
-    res = gf.filter_sequence(create("estimator", "ukf", alpha=0.5), gf.LinearModel(F, H, Q, [[R_ASSUMED]]), zs,
-                             init, adapter=adapter)
+    res = gf.filter_sequence(
+        create("estimator", "ukf", alpha=0.5), gf.LinearModel(F, H, Q, [[R_ASSUMED]]), zs, init, adapter=adapter
+    )
     assert _rmse(res, xs) > 2.5 * reference_rmse
 
 
 def test_adapter_estimate_is_used_from_the_next_step(ca_problem):
     F, H, Q, xs, zs, init = ca_problem
     adapter = create("noise_adapter", "innovation", warmup=0, window=5)
-    res = gf.filter_sequence(create("estimator", "kf"), gf.LinearModel(F, H, Q, [[R_ASSUMED]]), zs[:3], init,
-                             adapter=adapter)
+    res = gf.filter_sequence(
+        create("estimator", "kf"), gf.LinearModel(F, H, Q, [[R_ASSUMED]]), zs[:3], init, adapter=adapter
+    )
     assert np.all(res.R[0] == R_ASSUMED)
     assert not np.allclose(res.R[1], R_ASSUMED)
 
@@ -110,6 +112,7 @@ def test_improved_sage_husa_with_zero_weights_is_the_plain_filter(ca_problem):
     model = gf.LinearModel(F, H, Q, [[R_ASSUMED]])
     kf = create("estimator", "kf")
     plain = gf.filter_sequence(kf, model, zs[:50], init)
-    off = gf.filter_sequence(kf, model, zs[:50], init,
-                             adapter=create("noise_adapter", "sage-husa", alpha_r=0.0, alpha_q=0.0))
+    off = gf.filter_sequence(
+        kf, model, zs[:50], init, adapter=create("noise_adapter", "sage-husa", alpha_r=0.0, alpha_q=0.0)
+    )
     np.testing.assert_allclose(off.mean, plain.mean, rtol=1e-12)

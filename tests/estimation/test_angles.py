@@ -23,8 +23,9 @@ def _h(x):
 
 def _model(hooks: bool) -> NonlinearModel:
     extra = {"residual_z": angle_residual(1), "mean_z": angle_mean(1)} if hooks else {}
-    return NonlinearModel(f=lambda x: x, h=_h, Q=np.eye(2) * 1e-6, R=np.diag([SIGMA_RANGE_M**2, SIGMA_BEARING_RAD**2]),
-                          **extra)
+    return NonlinearModel(
+        f=lambda x: x, h=_h, Q=np.eye(2) * 1e-6, R=np.diag([SIGMA_RANGE_M**2, SIGMA_BEARING_RAD**2]), **extra
+    )
 
 
 def _bearing_run(target, seed=4):
@@ -67,8 +68,9 @@ def test_away_from_the_cut_the_residual_hook_changes_nothing(name):
     target = np.array([20.0, 3.0])
     initial = Gaussian(np.array([[19.0, 2.0]]), np.eye(2)[None] * 4.0)
     z = _bearing_run(target)
-    residual_only = NonlinearModel(f=lambda x: x, h=_h, Q=_model(False).Q, R=_model(False).R,
-                                   residual_z=angle_residual(1))
+    residual_only = NonlinearModel(
+        f=lambda x: x, h=_h, Q=_model(False).Q, R=_model(False).R, residual_z=angle_residual(1)
+    )
     hooked = filter_sequence(estimator, residual_only, z, initial)
     plain = filter_sequence(estimator, _model(False), z, initial)
     # Equal up to rounding: the hooked model runs on NumPy, the plain one may run compiled,
@@ -82,9 +84,16 @@ def test_away_from_the_cut_the_residual_hook_changes_nothing(name):
 
 def test_an_angle_state_keeps_its_circular_mean_through_the_sigma_points():
     """A heading at pi: the sigma points straddle the cut; their mean must stay at pi."""
-    model = NonlinearModel(f=lambda x: x, h=lambda x: x, Q=np.eye(1) * 1e-4, R=np.eye(1) * 0.01,
-                           residual_x=angle_residual(0), residual_z=angle_residual(0),
-                           mean_x=angle_mean(0), mean_z=angle_mean(0))
+    model = NonlinearModel(
+        f=lambda x: x,
+        h=lambda x: x,
+        Q=np.eye(1) * 1e-4,
+        R=np.eye(1) * 0.01,
+        residual_x=angle_residual(0),
+        residual_z=angle_residual(0),
+        mean_x=angle_mean(0),
+        mean_z=angle_mean(0),
+    )
     prior = Gaussian(np.array([[np.pi - 0.01]]), np.array([[[0.04]]]))
     predicted = gf.registry.create("estimator", "ukf", alpha=1.0).predict(prior, model)
     assert abs(wrap_angle(predicted.mean[0, 0] - (np.pi - 0.01))) < 1e-9

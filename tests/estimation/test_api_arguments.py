@@ -18,8 +18,14 @@ WRONG = ["ukf", None, {"name": "ukf"}]
 
 
 def _arguments(**change):
-    args = {"estimator": create("estimator", "kf"), "model": MODEL, "zs": ZS, "initial": INITIAL,
-            "adapter": None, "augmentation": None}
+    args = {
+        "estimator": create("estimator", "kf"),
+        "model": MODEL,
+        "zs": ZS,
+        "initial": INITIAL,
+        "adapter": None,
+        "augmentation": None,
+    }
     return {**args, **change}
 
 
@@ -28,11 +34,14 @@ def test_the_fixture_arguments_filter():
     assert res.mean.shape == (4, 3, 2)
 
 
-@pytest.mark.parametrize("argument, expected", [
-    ("estimator", "expected an estimator plugin, e.g. gf.registry.create('estimator', 'ukf')"),
-    ("model", "expected a gf.LinearModel or gf.NonlinearModel, or a callable k -> model"),
-    ("initial", "expected a gf.Gaussian(mean, cov)"),
-])
+@pytest.mark.parametrize(
+    "argument, expected",
+    [
+        ("estimator", "expected an estimator plugin, e.g. gf.registry.create('estimator', 'ukf')"),
+        ("model", "expected a gf.LinearModel or gf.NonlinearModel, or a callable k -> model"),
+        ("initial", "expected a gf.Gaussian(mean, cov)"),
+    ],
+)
 @pytest.mark.parametrize("value", WRONG, ids=["str", "None", "dict"])
 def test_filter_sequence_names_an_object_argument_of_the_wrong_kind(argument, expected, value):
     with pytest.raises(gf.InvalidArgumentError) as err:
@@ -77,8 +86,11 @@ def test_filter_step_start_names_a_state_or_model_of_the_wrong_kind(argument, va
 
 @pytest.mark.parametrize("where, shape", [("zs", (4, 0, 1)), ("initial", (0, 2))])
 def test_an_empty_batch_is_refused_not_returned_as_an_empty_result(where, shape):
-    args = _arguments(zs=np.zeros(shape)) if where == "zs" else _arguments(
-        initial=gf.Gaussian(np.zeros(shape), np.eye(2)), zs=np.zeros((4, 0, 1)))
+    args = (
+        _arguments(zs=np.zeros(shape))
+        if where == "zs"
+        else _arguments(initial=gf.Gaussian(np.zeros(shape), np.eye(2)), zs=np.zeros((4, 0, 1)))
+    )
     with pytest.raises(gf.InvalidInputError, match=r"has an empty batch \(shape .*\): there is nothing to filter"):
         gf.filter_sequence(**args)
 
@@ -93,8 +105,9 @@ def test_checked_step_before_reset_says_to_reset_first():
     inputs = {"pseudorange_m": np.array([2.0e7]), "carrier_m": np.array([2.0e7])}
     with pytest.raises(gf.InvalidArgumentError) as err:
         hatch.checked_step(inputs)
-    assert str(err.value) == ("channel_filter 'hatch': checked_step: called before reset(batch_shape, context); "
-                              "call reset first")
+    assert str(err.value) == (
+        "channel_filter 'hatch': checked_step: called before reset(batch_shape, context); call reset first"
+    )
     hatch.reset((1,), gf.RunContext(epoch_interval_s=1.0))
     assert np.isfinite(hatch.checked_step(inputs)["smoothed_m"]).all()
 

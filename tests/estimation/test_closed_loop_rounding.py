@@ -23,13 +23,21 @@ from gnssframework import testing
 from gnssframework.experiments import get_scenario
 from gnssframework_plugins import estimators as builtin_estimators
 
-SERIES = ("code_error_chips", "freq_error_hz", "position_error_m", "velocity_error_m_s", "nav_nees",
-          "code_output_error_chips", "freq_output_error_hz")
+SERIES = (
+    "code_error_chips",
+    "freq_error_hz",
+    "position_error_m",
+    "velocity_error_m_s",
+    "nav_nees",
+    "code_output_error_chips",
+    "freq_output_error_hz",
+)
 
 
 def _run(estimator: str, backend: str, nudge: bool = False):
-    return testing.vector_loop_series({"name": "iq-filter", "params": {"estimator": estimator}}, backend=backend,
-                                      nudge_initial_ulp=nudge)
+    return testing.vector_loop_series(
+        {"name": "iq-filter", "params": {"estimator": estimator}}, backend=backend, nudge_initial_ulp=nudge
+    )
 
 
 def _rel(a: dict, b: dict) -> dict[str, float]:
@@ -79,7 +87,7 @@ def _solve_spd_ld(S: np.ndarray, B: np.ndarray) -> np.ndarray:
         Y[i] = (B[i] - L[i, :i] @ Y[:i]) / L[i, i]
     X = np.zeros_like(B)
     for i in reversed(range(n)):
-        X[i] = (Y[i] - L[i + 1:, i] @ X[i + 1:]) / L[i, i]
+        X[i] = (Y[i] - L[i + 1 :, i] @ X[i + 1 :]) / L[i, i]
     return X
 
 
@@ -128,8 +136,12 @@ def test_compiled_ukf_update_is_as_accurate_as_the_numpy_update_on_the_loops_sta
     set_backend("numpy")
     try:
         scen = get_scenario({"kind": "vector-tracking", "duration_s": 1.5, "channels": 8, "settle_s": 0.5})
-        plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": "ukf"}},
-                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+        plugins = scen.build(
+            {
+                "channel_filter": {"name": "iq-filter", "params": {"estimator": "ukf"}},
+                "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+            }
+        )
         scen.run_batch({"cn0_dbhz": 30.0}, plugins, 1, np.random.default_rng(5))
     finally:
         builtin_estimators.UnscentedKalmanFilter.update = update
@@ -149,20 +161,29 @@ def test_compiled_ukf_update_is_as_accurate_as_the_numpy_update_on_the_loops_sta
         ref_parts = (got["numpy"].gain, got["numpy"].state.cov)
         for mean, cov in zip(testing.ulp_nudges(prior.mean), testing.ulp_nudges(prior.cov)):
             nudged = engine.update(type(prior)(mean, cov), z, model)
-            moved.append((k < 20, testing.relative_change(ref_parts[0], nudged.gain),
-                          testing.relative_change(ref_parts[1], nudged.state.cov)))
+            moved.append(
+                (
+                    k < 20,
+                    testing.relative_change(ref_parts[0], nudged.gain),
+                    testing.relative_change(ref_parts[1], nudged.state.cov),
+                )
+            )
         means = prior.mean.reshape(-1, 5)
         covs = np.broadcast_to(prior.cov, means.shape + (5,)).reshape(-1, 5, 5)
         zs = z.reshape(-1, 6)
         Rs = np.broadcast_to(model.R, (means.shape[0], 6, 6))
         for b in range(means.shape[0]):
-            K, P = _ukf_update_ld(means[b].astype(LD), covs[b].astype(LD), zs[b].astype(LD), Rs[b].astype(LD),
-                                  LD(d), T)
+            K, P = _ukf_update_ld(means[b].astype(LD), covs[b].astype(LD), zs[b].astype(LD), Rs[b].astype(LD), LD(d), T)
             for backend, upd in got.items():
                 gain = upd.gain.reshape(-1, 5, 6)[b]
                 cov = upd.state.cov.reshape(-1, 5, 5)[b]
-                errors[backend].append((k < 20, float(np.max(np.abs(gain - K)) / np.max(np.abs(K))),
-                                        float(np.max(np.abs(cov - P)) / np.max(np.abs(P)))))
+                errors[backend].append(
+                    (
+                        k < 20,
+                        float(np.max(np.abs(gain - K)) / np.max(np.abs(K))),
+                        float(np.max(np.abs(cov - P)) / np.max(np.abs(P))),
+                    )
+                )
     ref, comp = np.array(errors["numpy"]), np.array(errors["numba"])
     # The long-double oracle is the same update: both paths are close to it at all...
     assert ref[:, 1:].max() < 1e-4 and comp[:, 1:].max() < 1e-4

@@ -24,31 +24,31 @@ def exact_posteriors(F, H, Q, R, psi, m0, P0, zs):
     cov_u[:n, :n] = P0
     for i in range(K):
         s = n + i * n
-        cov_u[s:s + n, s:s + n] = Q
+        cov_u[s : s + n, s : s + n] = Q
     for i in range(K - 1):
         s = n + K * n + i * m
-        cov_u[s:s + m, s:s + m] = R
+        cov_u[s : s + m, s : s + m] = R
     A = [np.zeros((n, nu))]
     A[0][:, :n] = np.eye(n)
     for k in range(K):  # x_k = F x_{k-1} + w_{k-1}
         a = F @ A[-1]
-        a[:, n + k * n:n + (k + 1) * n] += np.eye(n)
+        a[:, n + k * n : n + (k + 1) * n] += np.eye(n)
         A.append(a)
     X = A[1:]  # X[k] maps u to x_k
     Psi = np.diag(psi)
     rows = []
     for k in range(K - 1):
         r = H @ X[k + 1] - Psi @ H @ X[k]
-        r[:, n + K * n + k * m:n + K * n + (k + 1) * m] += np.eye(m)
+        r[:, n + K * n + k * m : n + K * n + (k + 1) * m] += np.eye(m)
         rows.append(r)
     zstar = zs[1:] - psi * zs[:-1]
     means, covs = [], []
     for j in range(K - 1):
-        Z = np.vstack(rows[:j + 1])
+        Z = np.vstack(rows[: j + 1])
         Szz = Z @ cov_u @ Z.T
         Sxz = X[j] @ cov_u @ Z.T
         gain = Sxz @ np.linalg.inv(Szz)
-        means.append(X[j] @ mean_u + gain @ (zstar[:j + 1].reshape(-1) - Z @ mean_u))
+        means.append(X[j] @ mean_u + gain @ (zstar[: j + 1].reshape(-1) - Z @ mean_u))
         covs.append(X[j] @ cov_u @ X[j].T - gain @ Sxz.T)
     return np.array(means), np.array(covs)
 
@@ -101,8 +101,9 @@ def test_colored_ar1_beats_the_white_noise_filter_on_ar1_noise():
     init = gf.Gaussian(np.zeros(3), 10 * np.eye(3))
     kf = create("estimator", "kf")
     white = gf.filter_sequence(kf, gf.LinearModel(F, H, Q, [[r_xi / (1 - psi**2)]]), zs, init)
-    colored = gf.filter_sequence(kf, gf.LinearModel(F, H, Q, [[r_xi]]), zs, init,
-                                 augmentation=create("augmentation", "colored-ar1", psi=psi))
+    colored = gf.filter_sequence(
+        kf, gf.LinearModel(F, H, Q, [[r_xi]]), zs, init, augmentation=create("augmentation", "colored-ar1", psi=psi)
+    )
     err_white = np.sqrt(np.mean((white.mean[50:-1, :, 0] - xs[50:-1, :, 0]) ** 2))
     err_colored = np.sqrt(np.mean((colored.mean[49:, :, 0] - xs[colored.epochs[49:], :, 0]) ** 2))
     assert err_colored < 0.9 * err_white  # about 15 % lower with this seed and psi = 0.9
@@ -110,8 +111,9 @@ def test_colored_ar1_beats_the_white_noise_filter_on_ar1_noise():
 
 def test_psi_out_of_range_is_a_config_error():
     with pytest.raises(gf.ConfigError, match="psi"):
-        create("augmentation", "colored-ar1", psi=1.2).apply(gf.LinearModel(np.eye(1), np.eye(1), np.eye(1), np.eye(1)),
-                                                             np.zeros((3, 1)))
+        create("augmentation", "colored-ar1", psi=1.2).apply(
+            gf.LinearModel(np.eye(1), np.eye(1), np.eye(1), np.eye(1)), np.zeros((3, 1))
+        )
 
 
 def test_nonlinear_measurement_is_refused():
@@ -148,7 +150,9 @@ def test_adapted_noise_recomputes_the_decorrelation(rng):
     n, m, K = 3, 1, 5
     F, H = np.eye(n), rng.standard_normal((m, n))
     Q, R = random_pd(rng, n, scale=0.5), random_pd(rng, m)
-    problem = create("augmentation", "colored-ar1", psi=0.6).apply(gf.LinearModel(F, H, Q, R), rng.standard_normal((K, m)))
+    problem = create("augmentation", "colored-ar1", psi=0.6).apply(
+        gf.LinearModel(F, H, Q, R), rng.standard_normal((K, m))
+    )
     Q2, R2 = 3.0 * Q, np.array([[7.0]])
     step = problem.model_at(2).with_noise(Q=Q2, R=R2)
     M = Q2 @ H.T

@@ -30,6 +30,7 @@ FIELDS = ("innovation", "innovation_cov", "gain", "cross_cov", "predicted_measur
 BATCHES = (5, kernels.PARALLEL_MIN_BATCH + 3)  # serial drivers; parallel/split drivers
 STEPS = 3
 
+
 @backend.jit
 def range_row(params, X, k, Z, kz):
     """Range, slope and range rate of [x, y, vx, vy] from the sensor at params[0]."""
@@ -75,10 +76,22 @@ def model(twins: str) -> NonlinearModel:
     Q = np.diag([0.01, 0.01, 0.1, 0.1])
     R = np.diag([0.5, 1e-3, 0.05]) + 0.01
     f_row, f_params = (linear_f, TURN_F) if twins == "linear-f" else (turn_row, [[SIN, COS, OMEGA]])
-    compiled = None if twins == "none" else CompiledFunctions(
-        f_row, f_params, range_row, [SENSOR], h_jacobian=range_jacobian, sizes=(4, 3) if twins == "sized" else None)
-    return NonlinearModel(turn, ranges, Q, R, f_jacobian=lambda x: np.broadcast_to(TURN_F, x.shape[:-1] + (4, 4)),
-                          h_jacobian=ranges_jacobian, compiled=compiled)
+    compiled = (
+        None
+        if twins == "none"
+        else CompiledFunctions(
+            f_row, f_params, range_row, [SENSOR], h_jacobian=range_jacobian, sizes=(4, 3) if twins == "sized" else None
+        )
+    )
+    return NonlinearModel(
+        turn,
+        ranges,
+        Q,
+        R,
+        f_jacobian=lambda x: np.broadcast_to(TURN_F, x.shape[:-1] + (4, 4)),
+        h_jacobian=ranges_jacobian,
+        compiled=compiled,
+    )
 
 
 def problem(batch: int, seed: int = 3):
@@ -97,8 +110,15 @@ def run(name: str, backend_name: str, mdl, state: Gaussian, z: np.ndarray) -> li
     for _ in range(STEPS):
         prior = est.predict(state, mdl)
         upd = est.update(prior, z, mdl, missing="skip")
-        out.append({"prior_mean": prior.mean, "prior_cov": prior.cov, "mean": upd.state.mean,
-                    "cov": upd.state.cov, **{f: np.asarray(getattr(upd, f)) for f in FIELDS}})
+        out.append(
+            {
+                "prior_mean": prior.mean,
+                "prior_cov": prior.cov,
+                "mean": upd.state.mean,
+                "cov": upd.state.cov,
+                **{f: np.asarray(getattr(upd, f)) for f in FIELDS},
+            }
+        )
         state = upd.state
     return out
 

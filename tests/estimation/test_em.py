@@ -74,8 +74,9 @@ def direct_ml(zs: np.ndarray):
         ll = negative(np.concatenate([theta + h * np.eye(4), theta - h * np.eye(4)]))
         return (ll[:4] - ll[4:]) / (2 * h)
 
-    return minimize(lambda t: negative(t)[0], np.log([0.5, 0.5, 0.5, 0.5]), jac=gradient, method="BFGS",
-                    options={"gtol": 1e-9})
+    return minimize(
+        lambda t: negative(t)[0], np.log([0.5, 0.5, 0.5, 0.5]), jac=gradient, method="BFGS", options={"gtol": 1e-9}
+    )
 
 
 def joint_cov(models, m0, P0) -> np.ndarray:
@@ -89,11 +90,11 @@ def joint_cov(models, m0, P0) -> np.ndarray:
     for k, md in enumerate(models):
         i = (k + 1) * n
         A = np.zeros((n, N))
-        A[:, i:i + n] = np.eye(n)
-        A[:, i - n:i] = -md.F
+        A[:, i : i + n] = np.eye(n)
+        A[:, i - n : i] = -md.F
         J += A.T @ np.linalg.inv(md.Q) @ A
         B = np.zeros((md.H.shape[0], N))
-        B[:, i:i + n] = md.H
+        B[:, i : i + n] = md.H
         J += B.T @ np.linalg.inv(md.R) @ B
     return np.linalg.inv(J)
 
@@ -101,23 +102,36 @@ def joint_cov(models, m0, P0) -> np.ndarray:
 @pytest.mark.parametrize("engine", ("kf", "ukf"))
 def test_lag_one_covariance_is_the_joint_posteriors_off_diagonal_block(engine, rng):
     K, n = 10, 2
-    models = [LinearModel(np.eye(n) + 0.3 * rng.standard_normal((n, n)), rng.standard_normal((1, n)),
-                          random_pd(rng, n, scale=0.05), random_pd(rng, 1, scale=0.3)) for _ in range(K)]
+    models = [
+        LinearModel(
+            np.eye(n) + 0.3 * rng.standard_normal((n, n)),
+            rng.standard_normal((1, n)),
+            random_pd(rng, n, scale=0.05),
+            random_pd(rng, 1, scale=0.3),
+        )
+        for _ in range(K)
+    ]
     zs = rng.standard_normal((K, 2, 1))
     m0, P0 = np.array([0.5, -0.2]), random_pd(rng, n)
-    result = gf.filter_sequence(create("estimator", engine), lambda k: models[k], zs, Gaussian(m0, P0),
-                                store="smoother")
+    result = gf.filter_sequence(
+        create("estimator", engine), lambda k: models[k], zs, Gaussian(m0, P0), store="smoother"
+    )
     lag = gf.smooth(result).lag_one_cov()
     cov = joint_cov(models, m0, P0)  # the same for every run (it does not depend on z)
     for k in range(K):  # Cov(x_k, x_{k-1}); row 0 against x_{-1}
         i = (k + 1) * n
-        np.testing.assert_allclose(lag[k], np.broadcast_to(cov[i:i + n, i - n:i], (2, n, n)), rtol=0, atol=1e-9)
+        np.testing.assert_allclose(lag[k], np.broadcast_to(cov[i : i + n, i - n : i], (2, n, n)), rtol=0, atol=1e-9)
 
 
 def test_lag_one_covariance_refuses_a_fixed_lag_result(rng):
     model = LinearModel(np.eye(1), np.eye(1), [[0.1]], [[1.0]])
-    result = gf.filter_sequence(create("estimator", "kf"), model, rng.standard_normal((5, 1)),
-                                Gaussian(np.zeros(1), np.eye(1)), store="smoother")
+    result = gf.filter_sequence(
+        create("estimator", "kf"),
+        model,
+        rng.standard_normal((5, 1)),
+        Gaussian(np.zeros(1), np.eye(1)),
+        store="smoother",
+    )
     with pytest.raises(ConfigError, match="fixed-interval"):
         gf.fixed_lag_smooth(result, 2).lag_one_cov()
 
@@ -126,16 +140,25 @@ def test_log_likelihood_equals_a_plain_kalman_filters(rng):
     zs = simulate(rng, 60, 3)
     Q, R = np.diag([0.3, 0.1]), np.diag([0.7, 0.9])
     res = gf.filter_sequence(create("estimator", "kf"), LinearModel(F, H, Q, R), zs, INITIAL)
-    np.testing.assert_allclose(log_likelihood(res.innovation, res.innovation_cov), numpy_kf_loglik(zs, Q, R),
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        log_likelihood(res.innovation, res.innovation_cov), numpy_kf_loglik(zs, Q, R), rtol=1e-12
+    )
 
 
 @pytest.mark.parametrize("structure", ("full", "diagonal", "scaled"))
 def test_em_log_likelihood_never_decreases(structure, rng):
     zs = simulate(rng, 150, 6)
     start = LinearModel(F, H, np.array([[1.0, 0.3], [0.3, 0.5]]), np.array([[2.0, -0.4], [-0.4, 1.5]]))
-    Q, R, ll = learn_noise(start, zs, INITIAL, estimator=create("estimator", "kf"), iterations=12,
-                           q_structure=structure, r_structure=structure, tol=0.0)
+    Q, R, ll = learn_noise(
+        start,
+        zs,
+        INITIAL,
+        estimator=create("estimator", "kf"),
+        iterations=12,
+        q_structure=structure,
+        r_structure=structure,
+        tol=0.0,
+    )
     assert ll.shape == (13, 6)
     # every iteration, every run: an increase up to the rounding of sums of ~300 terms of size ~1
     assert np.all(np.diff(ll, axis=0) >= -1e-9 * np.abs(ll[1:])), np.diff(ll, axis=0).min()
@@ -155,8 +178,9 @@ def test_em_fixed_point_is_the_direct_maximum_likelihood(rng):
     opt = direct_ml(zs)
     q_ml, r_ml = np.exp(opt.x[:2]), np.exp(opt.x[2:])
     start = LinearModel(F, H, np.diag(q_ml), np.diag(r_ml))
-    Q1, R1, ll = em_step(create("estimator", "kf"), start, zs, INITIAL, start.Q, start.R, q_structure="diagonal",
-                         r_structure="diagonal")
+    Q1, R1, ll = em_step(
+        create("estimator", "kf"), start, zs, INITIAL, start.Q, start.R, q_structure="diagonal", r_structure="diagonal"
+    )
     np.testing.assert_allclose(ll, -opt.fun * zs.shape[0], rtol=1e-12)
     # a stationary point of the likelihood is a fixed point of EM: relative move at the optimiser's tolerance
     np.testing.assert_allclose(np.diag(Q1[0]), q_ml, rtol=1e-5)
@@ -167,9 +191,16 @@ def test_em_fixed_point_is_the_direct_maximum_likelihood(rng):
 def test_em_from_far_reaches_the_direct_maximum_likelihood(rng):
     zs = simulate(rng, 300, 1)
     opt = direct_ml(zs)
-    Q, R, ll = learn_noise(LinearModel(F, H, np.eye(2), 2 * np.eye(2)), zs, INITIAL,
-                           estimator=create("estimator", "kf"), iterations=400, tol=1e-11,
-                           q_structure="diagonal", r_structure="diagonal")
+    Q, R, ll = learn_noise(
+        LinearModel(F, H, np.eye(2), 2 * np.eye(2)),
+        zs,
+        INITIAL,
+        estimator=create("estimator", "kf"),
+        iterations=400,
+        tol=1e-11,
+        q_structure="diagonal",
+        r_structure="diagonal",
+    )
     assert ll[-1, 0] <= -opt.fun * zs.shape[0] + 1e-6  # EM never beats the maximum
     assert ll[-1, 0] >= -opt.fun * zs.shape[0] - 1e-3
     np.testing.assert_allclose(np.diag(Q[0]), np.exp(opt.x[:2]), rtol=2e-2)
@@ -184,15 +215,19 @@ def test_em_estimates_are_within_a_few_standard_errors_of_the_truth(rng):
     zs = simulate(rng, 400, 32)
     kf = create("estimator", "kf")
     start = LinearModel(F, H, np.eye(2), 2 * np.eye(2))
-    Q, R, ll = learn_noise(start, zs, INITIAL, estimator=kf, iterations=60, q_structure="diagonal",
-                           r_structure="diagonal")
-    for est, truth in ((np.diagonal(Q, axis1=-2, axis2=-1), np.diag(Q_TRUE)),
-                       (np.diagonal(R, axis1=-2, axis2=-1), np.diag(R_TRUE))):
+    Q, R, ll = learn_noise(
+        start, zs, INITIAL, estimator=kf, iterations=60, q_structure="diagonal", r_structure="diagonal"
+    )
+    for est, truth in (
+        (np.diagonal(Q, axis1=-2, axis2=-1), np.diag(Q_TRUE)),
+        (np.diagonal(R, axis1=-2, axis2=-1), np.diag(R_TRUE)),
+    ):
         se = est.std(axis=0, ddof=1) / np.sqrt(est.shape[0])
         assert np.all(np.abs(est.mean(axis=0) - truth) < 4 * se), (est.mean(axis=0), truth, se)
         assert np.all(se < 0.1 * truth)  # and the test has power: the SE is small against the values
-    Qs, Rs, lls = learn_noise(start, zs, INITIAL, estimator=kf, iterations=60, shared=True,
-                              q_structure="diagonal", r_structure="diagonal")
+    Qs, Rs, lls = learn_noise(
+        start, zs, INITIAL, estimator=kf, iterations=60, shared=True, q_structure="diagonal", r_structure="diagonal"
+    )
     assert lls.shape == (61,) and Qs.shape == (2, 2)
     se_q = np.diagonal(Q, axis1=-2, axis2=-1).std(axis=0, ddof=1) / np.sqrt(32)
     se_r = np.diagonal(R, axis1=-2, axis2=-1).std(axis=0, ddof=1) / np.sqrt(32)
@@ -232,10 +267,13 @@ def test_linearised_em_learns_the_measurement_noise_of_a_pendulum(rng):
     Monte Carlo SE of the truth (the first-order error is far below the SE at these
     small smoothed variances)."""
     dt, g = 0.05, 9.81
+
     def f(x):
         return np.stack([x[..., 0] + dt * x[..., 1], x[..., 1] - g * dt * np.sin(x[..., 0])], axis=-1)
+
     def h(x):
         return np.sin(x[..., :1])
+
     Q, r = np.diag([1e-5, 1e-3]), 0.01
     B, K = 16, 300
     x = np.broadcast_to([1.0, 0.0], (B, 2)).copy()
@@ -244,8 +282,14 @@ def test_linearised_em_learns_the_measurement_noise_of_a_pendulum(rng):
         x = f(x) + rng.multivariate_normal(np.zeros(2), Q, B)
         zs[k] = h(x) + rng.normal(0.0, np.sqrt(r), (B, 1))
     model = NonlinearModel(f, h, Q, [[4 * r]])
-    _, R, ll = learn_noise(model, zs, Gaussian(np.array([1.0, 0.0]), np.diag([0.01, 0.01])),
-                           estimator=create("estimator", "ukf"), iterations=30, q_structure="fixed")
+    _, R, ll = learn_noise(
+        model,
+        zs,
+        Gaussian(np.array([1.0, 0.0]), np.diag([0.01, 0.01])),
+        estimator=create("estimator", "ukf"),
+        iterations=30,
+        q_structure="fixed",
+    )
     est = R[:, 0, 0]
     se = est.std(ddof=1) / np.sqrt(B)
     assert abs(est.mean() - r) < 4 * se and se < 0.1 * r, (est.mean(), se)

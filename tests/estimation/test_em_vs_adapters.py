@@ -50,8 +50,10 @@ def em_minus(block, name, metric):
 
 def assert_em_closer(block, name, metric):
     mean, se = em_minus(block, name, metric)
-    assert mean + K * se < 0, (f"{block.regime.name}, {block.regime.steps} steps, {block.unknowns}: EM − {name} "
-                               f"in {metric} = {mean:+.3f} ± {se:.3f}, not below 0 by {K} SE")
+    assert mean + K * se < 0, (
+        f"{block.regime.name}, {block.regime.steps} steps, {block.unknowns}: EM − {name} "
+        f"in {metric} = {mean:+.3f} ± {se:.3f}, not below 0 by {K} SE"
+    )
 
 
 def assert_em_not_worse(block):
@@ -60,8 +62,10 @@ def assert_em_not_worse(block):
             continue
         for metric in ("q", "r", "rmse") if block.unknowns == "Q and R" else ("r", "rmse"):
             mean, se = em_minus(block, name, metric)
-            assert mean < K * se, (f"{block.regime.name}, {block.regime.steps} steps, {block.unknowns}: EM − {name} "
-                                   f"in {metric} = {mean:+.3f} ± {se:.3f}: EM worse by {K} SE")
+            assert mean < K * se, (
+                f"{block.regime.name}, {block.regime.steps} steps, {block.unknowns}: EM − {name} "
+                f"in {metric} = {mean:+.3f} ± {se:.3f}: EM worse by {K} SE"
+            )
 
 
 def assert_centred(values, truth, what):

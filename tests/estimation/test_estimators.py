@@ -79,8 +79,7 @@ def test_covariances_stay_symmetric_psd_after_predict_and_update(problem, name):
 
 
 @settings(max_examples=60, deadline=None)
-@given(problem=linear_problems(), name=st.sampled_from(SIGMA_POINT + ("ekf",)),
-       alpha=st.floats(0.3, 1.0))
+@given(problem=linear_problems(), name=st.sampled_from(SIGMA_POINT + ("ekf",)), alpha=st.floats(0.3, 1.0))
 def test_every_estimator_equals_the_kf_on_linear_gaussian_models(problem, name, alpha):
     model, state, z = problem
     kf = create("estimator", "kf")
@@ -90,7 +89,9 @@ def test_every_estimator_equals_the_kf_on_linear_gaussian_models(problem, name, 
     np.testing.assert_allclose(prior.cov, prior_kf.cov, rtol=1e-7, atol=1e-7 * np.abs(prior_kf.cov).max())
     up_kf, up = kf.update(prior_kf, z, model), est.update(prior_kf, z, model)
     scale = np.abs(up_kf.state.cov).max()
-    np.testing.assert_allclose(up.state.mean, up_kf.state.mean, rtol=1e-6, atol=1e-6 * (1 + np.abs(up_kf.state.mean).max()))
+    np.testing.assert_allclose(
+        up.state.mean, up_kf.state.mean, rtol=1e-6, atol=1e-6 * (1 + np.abs(up_kf.state.mean).max())
+    )
     np.testing.assert_allclose(up.state.cov, up_kf.state.cov, rtol=1e-6, atol=1e-7 * scale)
     np.testing.assert_allclose(up.gain, up_kf.gain, rtol=1e-6, atol=1e-7 * (1 + np.abs(up_kf.gain).max()))
 
@@ -204,10 +205,13 @@ def test_ekf_numerical_jacobian_matches_the_analytic_one(rng):
         d = 4.0 + x[..., 0] ** 2
         den = d**2 + x[..., 1] ** 2
         zero = np.zeros_like(r)
-        return np.stack([
-            np.stack([x[..., 0] / r, zero, (x[..., 2] + 3.0) / r], -1),
-            np.stack([-x[..., 1] * 2 * x[..., 0] / den, d / den, zero], -1),
-        ], -2)
+        return np.stack(
+            [
+                np.stack([x[..., 0] / r, zero, (x[..., 2] + 3.0) / r], -1),
+                np.stack([-x[..., 1] * 2 * x[..., 0] / den, d / den, zero], -1),
+            ],
+            -2,
+        )
 
     analytic = gf.NonlinearModel(numeric.f, numeric.h, Q, R, h_jacobian=h_jac)
     x = rng.standard_normal((7, 3))

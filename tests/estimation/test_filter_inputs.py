@@ -57,18 +57,37 @@ def test_ukf_on_1e300_measurements_fails_by_name_without_a_numpy_warning():
 
 # -- Hypothesis: random bad inputs to every estimator ----------------------------------------
 
-BAD_KINDS = ["nan_mean", "inf_mean", "nan_cov", "indefinite_cov", "mean_dim", "cov_shape", "zs_dim",
-             "zs_batch", "zero_length", "nan_measurement", "zs_rank"]
+BAD_KINDS = [
+    "nan_mean",
+    "inf_mean",
+    "nan_cov",
+    "indefinite_cov",
+    "mean_dim",
+    "cov_shape",
+    "zs_dim",
+    "zs_batch",
+    "zero_length",
+    "nan_measurement",
+    "zs_rank",
+]
 #: What the error message must name for each kind.
-NAMED = {"nan_mean": "initial mean", "inf_mean": "initial mean", "nan_cov": "initial covariance",
-         "indefinite_cov": "initial covariance", "mean_dim": "initial mean", "cov_shape": "Gaussian.cov",
-         "zs_dim": "zs", "zs_batch": "zs", "zero_length": "zs", "nan_measurement": "measurement is NaN",
-         "zs_rank": "zs"}
+NAMED = {
+    "nan_mean": "initial mean",
+    "inf_mean": "initial mean",
+    "nan_cov": "initial covariance",
+    "indefinite_cov": "initial covariance",
+    "mean_dim": "initial mean",
+    "cov_shape": "Gaussian.cov",
+    "zs_dim": "zs",
+    "zs_batch": "zs",
+    "zero_length": "zs",
+    "nan_measurement": "measurement is NaN",
+    "zs_rank": "zs",
+}
 
 
 @settings(max_examples=100, deadline=None)
-@given(name=st.sampled_from(ESTIMATORS), kind=st.sampled_from(BAD_KINDS), batch=st.integers(1, 4),
-       data=st.data())
+@given(name=st.sampled_from(ESTIMATORS), kind=st.sampled_from(BAD_KINDS), batch=st.integers(1, 4), data=st.data())
 def test_random_bad_inputs_get_a_library_error_naming_the_input(name, kind, batch, data):
     bad = data.draw(st.integers(0, batch - 1), label="bad element")
     steps = data.draw(st.integers(1, 6), label="steps")
@@ -119,8 +138,13 @@ def test_an_adapter_overflow_is_refused_naming_filter_adapter_element_and_step(n
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # was: RuntimeWarning overflow, then LinAlgError from eigh
         try:
-            res = gf.filter_sequence(create("estimator", name), MODEL, zs, gf.Gaussian(np.zeros((3, 2)), np.eye(2)),
-                                     adapter=create("noise_adapter", adapter))
+            res = gf.filter_sequence(
+                create("estimator", name),
+                MODEL,
+                zs,
+                gf.Gaussian(np.zeros((3, 2)), np.eye(2)),
+                adapter=create("noise_adapter", adapter),
+            )
         except gf.NonFiniteError as err:
             e = err
         else:
@@ -185,18 +209,25 @@ def test_filter_step_refuses_bad_step_inputs_naming_them(name, kind):
     assert named in str(err.value) and str(err.value).startswith(f"{name}: "), str(err.value)
 
 
-@pytest.mark.parametrize("where, value, named", [
-    ("zs", np.array([["a"], ["b"]]), "zs: is not a numeric array"),
-    ("zs", [[1.0], [1.0, 2.0]], "zs: is not a numeric array"),  # ragged
-    ("zs", np.zeros((3, 1)) + 1j, "zs: is complex"),  # NumPy would drop the imaginary part with a warning
-    ("mean", np.array(["a", "b"]), "Gaussian.mean: is not a numeric array"),
-    ("cov", np.ones((3, 2, 2)), "Gaussian.cov: batch shape (3,) does not broadcast with the mean's (2,)"),
-])
+@pytest.mark.parametrize(
+    "where, value, named",
+    [
+        ("zs", np.array([["a"], ["b"]]), "zs: is not a numeric array"),
+        ("zs", [[1.0], [1.0, 2.0]], "zs: is not a numeric array"),  # ragged
+        ("zs", np.zeros((3, 1)) + 1j, "zs: is complex"),  # NumPy would drop the imaginary part with a warning
+        ("mean", np.array(["a", "b"]), "Gaussian.mean: is not a numeric array"),
+        ("cov", np.ones((3, 2, 2)), "Gaussian.cov: batch shape (3,) does not broadcast with the mean's (2,)"),
+    ],
+)
 def test_non_numeric_ragged_or_complex_input_is_named(where, value, named):
     mean, cov, zs = (np.zeros((2, 2)) if where == "cov" else np.zeros(2)), np.eye(2), np.zeros((3, 1))
     with pytest.raises(gf.GnssFrameworkError) as err:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
-            _run("kf", value if where == "mean" else mean, value if where == "cov" else cov,
-                 value if where == "zs" else zs)
+            _run(
+                "kf",
+                value if where == "mean" else mean,
+                value if where == "cov" else cov,
+                value if where == "zs" else zs,
+            )
     assert named in str(err.value), str(err.value)

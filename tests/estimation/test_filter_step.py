@@ -16,6 +16,7 @@ from gnssframework.signal.correlator_model import simulate_correlators
 
 # -- FilterStep --------------------------------------------------------------------------
 
+
 def test_filter_step_equals_the_kalman_filter_written_out(rng):
     """Independent truth: the KF recursion of Kalman (1960) in plain numpy."""
     F, H, Q = ca_matrices(q=0.05)
@@ -97,6 +98,7 @@ def test_kf_carrier_loop_through_the_kf_estimator_equals_the_hand_written_recurs
 
 # -- the adapter's hold on skipped updates ------------------------------------------------
 
+
 @pytest.mark.parametrize("adapter, which", [("innovation", "R"), ("ml-q", "Q")])
 def test_adapter_holds_its_estimate_on_elements_whose_update_was_skipped(rng, adapter, which):
     """A skipped update carries no information: where element 1 misses its measurements,
@@ -106,9 +108,14 @@ def test_adapter_holds_its_estimate_on_elements_whose_update_was_skipped(rng, ad
     F, H, Q = ca_matrices(q=0.01)
     _, zs = simulate_linear(rng, F, H, 4 * Q, np.array([[4.0]]), np.zeros(3), 60, (3,))
     zs[30:45, 1] = np.nan
-    res = gf.filter_sequence(create("estimator", "kf"), gf.LinearModel(F, H, Q, [[1.0]]), zs,
-                             gf.Gaussian(np.zeros(3), 10 * np.eye(3)),
-                             adapter=create("noise_adapter", adapter, window=5, warmup=3), missing="skip")
+    res = gf.filter_sequence(
+        create("estimator", "kf"),
+        gf.LinearModel(F, H, Q, [[1.0]]),
+        zs,
+        gf.Gaussian(np.zeros(3), 10 * np.eye(3)),
+        adapter=create("noise_adapter", adapter, window=5, warmup=3),
+        missing="skip",
+    )
     assert res.skipped[30:45, 1].all() and res.recoveries["missing"] == 15
     used = getattr(res, which)[..., 0, 0]
     np.testing.assert_array_equal(used[31:46, 1], used[30, 1])  # in force after each skipped step
@@ -131,6 +138,7 @@ def test_iq_filter_gets_the_adapter_and_its_recovery_counts_from_the_step():
 
 # -- the run context ----------------------------------------------------------------------
 
+
 def test_run_context_is_frozen_and_its_arrays_are_read_only_copies():
     cn0 = np.array([45.0, 40.0])
     ctx = gf.RunContext(coherent_time_s=0.01, cn0_dbhz=cn0)
@@ -146,8 +154,11 @@ def test_run_context_is_frozen_and_its_arrays_are_read_only_copies():
 
 def test_a_plugin_needing_a_value_the_harness_lacks_fails_at_reset_naming_both():
     ch = create("channel_filter", "discriminator")
-    with pytest.raises(gf.ConfigError, match=r"run context.cn0_dbhz: channel_filter 'discriminator' needs it.*"
-                                             r"provides: coherent_time_s"):
+    with pytest.raises(
+        gf.ConfigError,
+        match=r"run context.cn0_dbhz: channel_filter 'discriminator' needs it.*"
+        r"provides: coherent_time_s",
+    ):
         ch.reset((2,), gf.RunContext(coherent_time_s=0.01))
 
 
@@ -166,8 +177,12 @@ def test_the_loops_take_the_harness_interval_and_spacing_and_have_no_own():
 
 
 def test_the_pre_0_2_reset_signature_is_refused_when_the_class_is_defined():
-    with pytest.raises(TypeError, match=r"Old.reset\(self, batch_shape, \*\*context\) is the signature before 0.2; "
-                                        r"write reset\(self, batch_shape, context\)"):
+    with pytest.raises(
+        TypeError,
+        match=r"Old.reset\(self, batch_shape, \*\*context\) is the signature before 0.2; "
+        r"write reset\(self, batch_shape, context\)",
+    ):
+
         class Old(gf.ChannelFilter):
             name = "old-style"
             provides = ("code_error_chips",)
@@ -215,6 +230,7 @@ def test_restarting_the_adapter_keeps_the_estimate_in_force_and_restarts_its_war
 
 
 # -- every built-in sequential filter with a Gaussian filter runs it through FilterStep ----
+
 
 def _nan_at(arr, index):
     arr = np.array(arr, dtype=complex if np.iscomplexobj(arr) else float)
@@ -275,15 +291,19 @@ def _ekf_pv_epochs():
     run_vector_loop(LosesOneChannel(), create("nav_filter", "ekf-pv"), truth, x0, P0, rng)
 
 
-@pytest.mark.parametrize("run, filter_name, element", [
-    (lambda: _carrier_loop_epochs("kf-carrier-loop"), "kf-carrier-loop (kf)", (1,)),
-    (lambda: _carrier_loop_epochs("iq-filter"), "iq-filter (svd-ckf)", (1,)),
-    # iq-filter keeps its batch flat inside; the failure is named in the harness's (runs, channels).
-    (lambda: _carrier_loop_epochs("iq-filter", batch=(2, 3), bad=(1, 2)), "iq-filter (svd-ckf)", (1, 2)),
-    (_smoother_epochs, "kf-smoother (kf)", (1,)),
-    (_position_ca_epochs, "position-ca (kf)", (1, 0)),  # batch (runs, coordinate)
-    (_ekf_pv_epochs, "ekf-pv (ekf)", (1,)),
-], ids=["kf-carrier-loop", "iq-filter", "iq-filter-2d", "kf-smoother", "position-ca", "ekf-pv"])
+@pytest.mark.parametrize(
+    "run, filter_name, element",
+    [
+        (lambda: _carrier_loop_epochs("kf-carrier-loop"), "kf-carrier-loop (kf)", (1,)),
+        (lambda: _carrier_loop_epochs("iq-filter"), "iq-filter (svd-ckf)", (1,)),
+        # iq-filter keeps its batch flat inside; the failure is named in the harness's (runs, channels).
+        (lambda: _carrier_loop_epochs("iq-filter", batch=(2, 3), bad=(1, 2)), "iq-filter (svd-ckf)", (1, 2)),
+        (_smoother_epochs, "kf-smoother (kf)", (1,)),
+        (_position_ca_epochs, "position-ca (kf)", (1, 0)),  # batch (runs, coordinate)
+        (_ekf_pv_epochs, "ekf-pv (ekf)", (1,)),
+    ],
+    ids=["kf-carrier-loop", "iq-filter", "iq-filter-2d", "kf-smoother", "position-ca", "ekf-pv"],
+)
 def test_every_gaussian_plugin_names_a_bad_measurement_through_the_filter_step(run, filter_name, element):
     """A NaN in batch element 1 at the fourth epoch: each plugin's FilterStep refuses it by
     name (the plugin and its engine), element and step, with no NumPy warning on the way."""

@@ -30,8 +30,13 @@ def _range_jacobian(x: np.ndarray, beacons: np.ndarray) -> np.ndarray:
 
 def range_model(beacons: np.ndarray) -> NonlinearModel:
     m = len(beacons)
-    return NonlinearModel(f=lambda x: x, h=lambda x: _ranges(x, beacons), Q=np.eye(2) * 1e-6,
-                          R=np.eye(m) * SIGMA_M**2, h_jacobian=lambda x: _range_jacobian(x, beacons))
+    return NonlinearModel(
+        f=lambda x: x,
+        h=lambda x: _ranges(x, beacons),
+        Q=np.eye(2) * 1e-6,
+        R=np.eye(m) * SIGMA_M**2,
+        h_jacobian=lambda x: _range_jacobian(x, beacons),
+    )
 
 
 def grid_posterior(z: np.ndarray, beacons: np.ndarray, half_width: float = 3.5, n: int = 801):
@@ -194,9 +199,15 @@ def _compiled_range_model(beacons: np.ndarray) -> NonlinearModel:
 
     compiled = CompiledFunctions(linear_f, np.eye(2), h_rows, np.array(beacons, dtype=float), h_jacobian=h_jac)
     base = range_model(beacons)
-    return NonlinearModel(base.f, base.h, base.Q, base.R,
-                          f_jacobian=lambda x: np.broadcast_to(np.eye(2), x.shape + (2,)),
-                          h_jacobian=base.h_jacobian, compiled=compiled)
+    return NonlinearModel(
+        base.f,
+        base.h,
+        base.Q,
+        base.R,
+        f_jacobian=lambda x: np.broadcast_to(np.eye(2), x.shape + (2,)),
+        h_jacobian=base.h_jacobian,
+        compiled=compiled,
+    )
 
 
 @pytest.mark.slow

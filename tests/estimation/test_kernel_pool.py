@@ -37,8 +37,13 @@ def _problem(seed, batch, poison):
             P[i] = -P[i]
         elif poison == "S-not-PD":
             R[i] = -1e3 * np.eye(m)
-    compiled = CompiledFunctions(linear_f, np.eye(n) + 0.01 * rng.standard_normal((n, n)),
-                                 channel_iq_row, np.array([[0.5, 0.01, 1.0]]), sizes=(n, R.shape[-1]))
+    compiled = CompiledFunctions(
+        linear_f,
+        np.eye(n) + 0.01 * rng.standard_normal((n, n)),
+        channel_iq_row,
+        np.array([[0.5, 0.01, 1.0]]),
+        sizes=(n, R.shape[-1]),
+    )
     return mean, P, z, R, compiled
 
 
@@ -47,8 +52,9 @@ def _step(mean, P, z, R, compiled, root_kind, shared_r):
     N = 2 * n + (root_kind == 0)
     w = np.full(N, 1.0 / N)
     rule = (root_kind, float(np.sqrt(n)), root_kind == 0, w, w)
-    return (kernels.fused_predict(mean, P, rule, compiled, 1e-3 * np.eye(n))
-            + kernels.fused_update(mean, P, z, None, rule, compiled, R[0] if shared_r else R))
+    return kernels.fused_predict(mean, P, rule, compiled, 1e-3 * np.eye(n)) + kernels.fused_update(
+        mean, P, z, None, rule, compiled, R[0] if shared_r else R
+    )
 
 
 def _assert_same(got, ref):
@@ -63,10 +69,14 @@ def _assert_same(got, ref):
 
 
 @settings(max_examples=25, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), batch=st.integers(kernels.PARALLEL_MIN_BATCH, 1100),
-       root_kind=st.sampled_from([0, 1]), shared_r=st.booleans(),
-       poison=st.sampled_from(["none", "nan-z", "indefinite-P", "S-not-PD"]),
-       chunks=st.sampled_from([2, 8, 13]))
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    batch=st.integers(kernels.PARALLEL_MIN_BATCH, 1100),
+    root_kind=st.sampled_from([0, 1]),
+    shared_r=st.booleans(),
+    poison=st.sampled_from(["none", "nan-z", "indefinite-P", "S-not-PD"]),
+    chunks=st.sampled_from([2, 8, 13]),
+)
 def test_split_fused_kernels_are_bitwise_one_serial_call(seed, batch, root_kind, shared_r, poison, chunks):
     args = _problem(seed, batch, poison)
     assert split.SPLIT == "pool"
@@ -122,8 +132,9 @@ def _serial(m):
 
 
 @settings(max_examples=15, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), batch=st.sampled_from([60, 100, 300]), joseph=st.booleans(),
-       bad=st.integers(0, 3))
+@given(
+    seed=st.integers(0, 2**32 - 1), batch=st.sampled_from([60, 100, 300]), joseph=st.booleans(), bad=st.integers(0, 3)
+)
 def test_split_kf_update_and_ekf_moments_are_bitwise_one_serial_call(seed, batch, joseph, bad):
     # ekf-pv's sizes (8 states, 16 measurements): split from about 45 elements on.
     rng = np.random.default_rng(seed)
@@ -163,7 +174,7 @@ def _guard_problem(seed, batch, spread, k=6):
     A = rng.standard_normal((k, k))
     ref = A @ A.T + 0.1 * np.eye(k)
     B_ = rng.standard_normal((batch, k, k))
-    raw = 10.0 ** spread * (B_ @ np.swapaxes(B_, -1, -2)) / k + 0.5 * rng.standard_normal((batch, k, k))
+    raw = 10.0**spread * (B_ @ np.swapaxes(B_, -1, -2)) / k + 0.5 * rng.standard_normal((batch, k, k))
     return raw, regularised(ref), k
 
 

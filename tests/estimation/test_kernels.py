@@ -268,8 +268,11 @@ def test_parallel_kernels_are_not_used_off_the_main_thread():
 
 
 @settings(max_examples=40, deadline=None)
-@given(n=st.integers(1, 8), seed=st.integers(0, 2**32 - 1),
-       batch=st.sampled_from([(), (5,), (2, 3), (300,), (kernels.PD_MASK_PARALLEL_MIN_BATCH + 52,)]))
+@given(
+    n=st.integers(1, 8),
+    seed=st.integers(0, 2**32 - 1),
+    batch=st.sampled_from([(), (5,), (2, 3), (300,), (kernels.PD_MASK_PARALLEL_MIN_BATCH + 52,)]),
+)
 def test_pd_mask_kernel_agrees_with_lapack_eigenvalues(n, seed, batch):
     # Truth from LAPACK's eigenvalues: each matrix has its smallest eigenvalue set to
     # +-(0.01..1) of its largest, far from rounding level, or holds a NaN/inf.
@@ -310,17 +313,28 @@ def test_the_step_of_iq_filter_makes_no_lapack_call(monkeypatch, estimator):
     try:
         ch = registry.create("channel_filter", "iq-filter", estimator=estimator, adaptive=False)
         batch = (4, 3)
-        ch.reset(batch, RunContext(coherent_time_s=0.01, early_late_spacing_chips=1.0, epoch_interval_s=0.01,
-                                   cn0_dbhz=np.full(batch, 45.0)))
+        ch.reset(
+            batch,
+            RunContext(
+                coherent_time_s=0.01, early_late_spacing_chips=1.0, epoch_interval_s=0.01, cn0_dbhz=np.full(batch, 45.0)
+            ),
+        )
         rng = np.random.default_rng(3)
         x_true = np.array([10.0, 0.0, 0.3, 0.0, 0.0])
 
         def inputs():
             iq = ch.model.h(np.broadcast_to(x_true, batch + (5,))) + rng.standard_normal(batch + (6,))
-            corr = Correlators(early=iq[..., 0] + 1j * iq[..., 3], prompt=iq[..., 1] + 1j * iq[..., 4],
-                               late=iq[..., 2] + 1j * iq[..., 5])
-            return {"correlators": corr, "nco_shift_chips": np.zeros(batch), "nco_shift_hz": np.zeros(batch),
-                    "data_bit": 1.0}
+            corr = Correlators(
+                early=iq[..., 0] + 1j * iq[..., 3],
+                prompt=iq[..., 1] + 1j * iq[..., 4],
+                late=iq[..., 2] + 1j * iq[..., 5],
+            )
+            return {
+                "correlators": corr,
+                "nco_shift_chips": np.zeros(batch),
+                "nco_shift_hz": np.zeros(batch),
+                "data_bit": 1.0,
+            }
 
         ch.step(inputs())  # the first step starts the sequence (boundary checks)
         calls = _count_lapack(monkeypatch)
@@ -378,8 +392,15 @@ def _range_rate_problem(seed, name, r0, sat_range_m, sat_speed_m_s, pos_std_m):
     u = rng.standard_normal((n_ch, 3))
     sat_pos = r0 + sat_range_m * u / np.linalg.norm(u, axis=-1, keepdims=True)
     sat_vel = sat_speed_m_s * rng.standard_normal((n_ch, 3))
-    x = np.concatenate([r0 + pos_std_m * rng.standard_normal((runs, 3)), rng.standard_normal((runs, 3)),
-                        10.0 + rng.standard_normal((runs, 1)), rng.standard_normal((runs, 1))], axis=-1)
+    x = np.concatenate(
+        [
+            r0 + pos_std_m * rng.standard_normal((runs, 3)),
+            rng.standard_normal((runs, 3)),
+            10.0 + rng.standard_normal((runs, 1)),
+            rng.standard_normal((runs, 1)),
+        ],
+        axis=-1,
+    )
     # Eigenvalues 0.3 apart: svd-ckf's eigenvectors (and so its points) are well defined.
     P = np.diag(np.linspace(1.0, 3.1, 8)) * pos_std_m**2
     nav = registry.create("nav_filter", "ekf-pv", estimator=name)
@@ -393,8 +414,9 @@ def _range_rate_problem(seed, name, r0, sat_range_m, sat_speed_m_s, pos_std_m):
 def test_compiled_range_rate_h_equals_predicted_range_at_gps_distances():
     from gnssframework.receiver.tracking.vector import predicted_range
 
-    model, state, _, sat_pos, sat_vel = _range_rate_problem(21, "ckf", np.array([4.2e6, 1.7e5, 4.78e6]),
-                                                            2.02e7, 3.9e3, 30.0)
+    model, state, _, sat_pos, sat_vel = _range_rate_problem(
+        21, "ckf", np.array([4.2e6, 1.7e5, 4.78e6]), 2.02e7, 3.9e3, 30.0
+    )
     from gnssframework_plugins.nav_filters import range_rate_row
 
     assert model.compiled is not None and model.compiled.h is range_rate_row
@@ -431,15 +453,28 @@ def test_compiled_range_rate_model_of_ekf_pv_equals_its_numpy_model(name):
 
 
 def _kernel_signatures():
-    sigs = {(name, i): len(d.signatures) for name in dir(drivers)
-            if name.endswith("_kernels") and isinstance(getattr(drivers, name), tuple)
-            for i, d in enumerate(getattr(drivers, name))}
+    sigs = {
+        (name, i): len(d.signatures)
+        for name in dir(drivers)
+        if name.endswith("_kernels") and isinstance(getattr(drivers, name), tuple)
+        for i, d in enumerate(getattr(drivers, name))
+    }
     # The drivers compiled for a model's functions (and sizes), one pair per model.
-    sigs.update({("model", key, i): len(d.signatures) for key, pair in drivers._model_drivers.items()
-                 for i, d in enumerate(pair)})
+    sigs.update(
+        {
+            ("model", key, i): len(d.signatures)
+            for key, pair in drivers._model_drivers.items()
+            for i, d in enumerate(pair)
+        }
+    )
     # The loop checks' kernels (kernels_loop.warm_up), the adapter guard and window among them.
-    sigs.update({("kernels_loop", name): len(getattr(kernels_loop, name).signatures) for name in dir(kernels_loop)
-                 if name.endswith("_body") and hasattr(getattr(kernels_loop, name), "signatures")})
+    sigs.update(
+        {
+            ("kernels_loop", name): len(getattr(kernels_loop, name).signatures)
+            for name in dir(kernels_loop)
+            if name.endswith("_body") and hasattr(getattr(kernels_loop, name), "signatures")
+        }
+    )
     return sigs
 
 
@@ -460,7 +495,7 @@ def test_warm_up_compiles_every_specialisation_a_run_uses():
             z = z.copy()
             z[0, 0] = np.nan
             for name in ENGINES:
-                for model in ((linear,) if name == "kf" else (linear, nonlinear)):
+                for model in (linear,) if name == "kf" else (linear, nonlinear):
                     est = _engine(name)
                     est.update(est.predict(state, model), z, model, missing="skip")
         # Long enough (0.3 s) for the innovation adapter to pass its warm-up: its compiled
@@ -468,8 +503,12 @@ def test_warm_up_compiles_every_specialisation_a_run_uses():
         scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.3, "channels": 8, "settle_s": 0.0})
         for est_name in ("svd-ckf", "ukf"):
             for runs in (1, 40):
-                plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": est_name}},
-                                      "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+                plugins = scen.build(
+                    {
+                        "channel_filter": {"name": "iq-filter", "params": {"estimator": est_name}},
+                        "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+                    }
+                )
                 scen.run_batch({"cn0_dbhz": 45.0}, plugins, runs, np.random.default_rng(0))
         after = _kernel_signatures()
         assert {k: (before[k], after[k]) for k in after if after[k] != before[k]} == {}

@@ -42,8 +42,7 @@ def _outcome(est, backend, state, z, model, **kw):
     on_failure=st.sampled_from(["raise", "skip"]),
     dims=st.sampled_from([(4, 3), (5, 6)]),
 )
-def test_lean_update_fails_and_skips_like_the_numpy_path(name, batch, seed, nan_z, bad_r, missing, on_failure,
-                                                         dims):
+def test_lean_update_fails_and_skips_like_the_numpy_path(name, batch, seed, nan_z, bad_r, missing, on_failure, dims):
     # A LinearModel carries compiled F x / H x, so the numba backend takes the lean path;
     # 5 states / 6 measurements take the kernels specialised to those sizes.
     n, m = dims
@@ -78,8 +77,13 @@ def test_lean_update_fails_and_skips_like_the_numpy_path(name, batch, seed, nan_
 @pytest.mark.slow
 @pytest.mark.other_machines
 @settings(max_examples=30, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), root_kind=st.sampled_from([0, 1]), batch=st.sampled_from([3, 300]),
-       poison=st.sampled_from(["none", "nan-z", "nan-P", "indefinite-P", "S-not-PD"]), channel=st.booleans())
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    root_kind=st.sampled_from([0, 1]),
+    batch=st.sampled_from([3, 300]),
+    poison=st.sampled_from(["none", "nan-z", "nan-P", "indefinite-P", "S-not-PD"]),
+    channel=st.booleans(),
+)
 def test_size_specialised_fused_kernels_are_bitwise_the_generic_ones(seed, root_kind, batch, poison, channel):
     # The twins compiled for 5 states / 6 measurements run the generic kernels' code with
     # the sizes as constants: the same operations in the same order, so bitwise the same
@@ -97,8 +101,12 @@ def test_size_specialised_fused_kernels_are_bitwise_the_generic_ones(seed, root_
     elif poison == "S-not-PD":
         R[i] = -1e3 * np.eye(m)
     if channel:  # the correlator model of the iq-filter
-        functions = (linear_f, np.eye(n) + 0.01 * rng.standard_normal((n, n)), channel_iq_row,
-                     np.array([[0.5, 0.01, 1.0]]))
+        functions = (
+            linear_f,
+            np.eye(n) + 0.01 * rng.standard_normal((n, n)),
+            channel_iq_row,
+            np.array([[0.5, 0.01, 1.0]]),
+        )
     else:
         functions = (linear_f, rng.standard_normal((n, n)), linear_h, rng.standard_normal((m, n)))
     N = 2 * n + (root_kind == 0)
@@ -108,8 +116,10 @@ def test_size_specialised_fused_kernels_are_bitwise_the_generic_ones(seed, root_
     outs = []
     for sizes in ((n, m), None):  # drivers with the sizes as constants, then the generic ones
         compiled = CompiledFunctions(*functions, sizes=sizes)
-        outs.append(kernels.fused_predict(mean, P, rule, compiled, Q)
-                    + kernels.fused_update(mean, P, z, None, rule, compiled, R))
+        outs.append(
+            kernels.fused_predict(mean, P, rule, compiled, Q)
+            + kernels.fused_update(mean, P, z, None, rule, compiled, R)
+        )
     got, ref = outs
     assert (got[2] is None) == (ref[2] is None)
     rooted = ref[10] == 0  # elements whose root failed leave their outputs unset
@@ -160,8 +170,12 @@ def test_a_shared_noise_matrix_changed_in_place_is_seen_by_the_next_step():
 
 
 @settings(max_examples=60, deadline=None)
-@given(shape=st.sampled_from([(), (1,), (5,), (2, 3), (70,), (3, 40)]), seed=st.integers(0, 2**32 - 1),
-       density=st.sampled_from([0.0, 0.02, 0.5, 1.0]), dtype=st.sampled_from([np.bool_, np.int8]))
+@given(
+    shape=st.sampled_from([(), (1,), (5,), (2, 3), (70,), (3, 40)]),
+    seed=st.integers(0, 2**32 - 1),
+    density=st.sampled_from([0.0, 0.02, 0.5, 1.0]),
+    dtype=st.sampled_from([np.bool_, np.int8]),
+)
 def test_small_mask_tests_equal_numpy_reductions(shape, seed, density, dtype):
     mask = (np.random.default_rng(seed).random(shape) < density).astype(dtype)
     assert any_true(mask) is bool(mask.any())

@@ -71,7 +71,9 @@ def test_zs_without_its_measurement_axis_names_the_expected_shape():
 def test_a_name_where_an_object_is_expected_says_what_to_pass():
     with pytest.raises(InvalidArgumentError) as err:
         filter_sequence(estimators.KF(), MODEL, _zs(), _initial(5), adapter="innovation")
-    assert "gf.registry.create('noise_adapter', 'innovation')" in str(err.value) and "got str 'innovation'" in str(err.value)
+    assert "gf.registry.create('noise_adapter', 'innovation')" in str(err.value) and "got str 'innovation'" in str(
+        err.value
+    )
 
 
 def test_typed_classes_are_the_registered_plugins_with_signatures():

@@ -69,8 +69,11 @@ def test_student_t_vb_converges_to_its_fixed_point():
     update with R / lambda gives back (x, P)."""
     nu = 4.0
     z = np.array([0.3, -0.2, 12.0, 0.1])
-    out = _engine("ekf", {"name": "student-t", "params": {"dof": nu, "iterations": 200, "tol": 0.0}}).update(
-        PRIOR, z, MODEL).state
+    out = (
+        _engine("ekf", {"name": "student-t", "params": {"dof": nu, "iterations": 200, "tol": 0.0}})
+        .update(PRIOR, z, MODEL)
+        .state
+    )
     e = z - H @ out.mean
     D = np.outer(e, e) + H @ out.cov @ H.T
     lam = (nu + 4) / (nu + np.trace(np.linalg.solve(R, D)))
@@ -149,8 +152,9 @@ def test_a_nav_filter_takes_a_robust_update_through_its_estimator():
 
     moved = {}
     for robust in (None, "huber", "cauchy"):
-        nav = registry.create("nav_filter", "position-ca", r0=1.0,
-                              estimator={"name": "kf", "params": {"robust": robust}})
+        nav = registry.create(
+            "nav_filter", "position-ca", r0=1.0, estimator={"name": "kf", "params": {"robust": robust}}
+        )
         nav.reset((1,), RunContext(epoch_interval_s=1.0))
         for _ in range(30):
             out = nav.step({"position_m": np.zeros((1, 2))})
@@ -160,10 +164,12 @@ def test_a_nav_filter_takes_a_robust_update_through_its_estimator():
     assert moved["cauchy"] < 0.5 * moved["huber"], moved
 
 
-ROBUST_SPECS = {"huber": {"name": "huber", "params": {"iterations": 30}},
-                "cauchy": {"name": "cauchy", "params": {"iterations": 30}},
-                "student-t": {"name": "student-t", "params": {"iterations": 30}},
-                "gate": {"name": "gate", "params": {"false_alarm": 1e-3}}}
+ROBUST_SPECS = {
+    "huber": {"name": "huber", "params": {"iterations": 30}},
+    "cauchy": {"name": "cauchy", "params": {"iterations": 30}},
+    "student-t": {"name": "student-t", "params": {"iterations": 30}},
+    "gate": {"name": "gate", "params": {"false_alarm": 1e-3}},
+}
 
 
 @pytest.mark.parametrize("robust", sorted(ROBUST_SPECS))
@@ -179,8 +185,7 @@ def test_robust_updates_give_the_same_numbers_on_the_compiled_path(robust, monke
     calls = []
     for kernel in ("ekf_moments", "sigma_points"):
         original = getattr(estimator_module.kernels, kernel)
-        monkeypatch.setattr(estimator_module.kernels, kernel,
-                            lambda *a, _f=original: calls.append(1) or _f(*a))
+        monkeypatch.setattr(estimator_module.kernels, kernel, lambda *a, _f=original: calls.append(1) or _f(*a))
     rng = np.random.default_rng(3)
     # a batch of 3: no outlier, a 40-sigma error on range 3, a 15-sigma one on range 1
     z = np.array([[0.3, -0.2, 0.4, 0.1], [0.3, -0.2, 40.0, 0.1], [0.3, -18.0, 0.4, 0.1]])

@@ -43,8 +43,7 @@ def test_missing_measurements_are_skipped_and_counted(rng):
     model, _, zs = _problem(rng)
     zs[5, 1, 0] = np.nan
     zs[9, 3, 0] = np.inf
-    res = gf.filter_sequence(create("estimator", "ckf"), model, zs, gf.Gaussian(np.zeros(3), np.eye(3)),
-                             missing="skip")
+    res = gf.filter_sequence(create("estimator", "ckf"), model, zs, gf.Gaussian(np.zeros(3), np.eye(3)), missing="skip")
     assert res.recoveries["missing"] == 2
     assert res.skipped[5, 1] and res.skipped[9, 3] and res.skipped.sum() == 2
     # A skipped element keeps its prediction: its covariance grows instead of shrinking.
@@ -110,8 +109,9 @@ def test_symmetrize_policy_repairs_an_asymmetric_covariance(rng):
 def test_bad_policy_names_the_field_and_the_allowed_values(rng):
     model, _, zs = _problem(rng)
     with pytest.raises(gf.ConfigError, match="on_failure.*allowed: raise, skip, symmetrize, clip"):
-        gf.filter_sequence(create("estimator", "kf"), model, zs, gf.Gaussian(np.zeros(3), np.eye(3)),
-                           on_failure="ignore")
+        gf.filter_sequence(
+            create("estimator", "kf"), model, zs, gf.Gaussian(np.zeros(3), np.eye(3)), on_failure="ignore"
+        )
 
 
 def test_time_varying_model_callable(rng):
@@ -128,8 +128,11 @@ def test_time_varying_model_callable(rng):
     np.testing.assert_array_equal(res.mean, ref.mean)
 
 
-@pytest.mark.parametrize("engine, linear", [(e, True) for e in ("kf", "ekf", "ukf", "ckf", "svd-ckf")]
-                         + [(e, False) for e in ("ekf", "ukf", "ckf", "svd-ckf")])
+@pytest.mark.parametrize(
+    "engine, linear",
+    [(e, True) for e in ("kf", "ekf", "ukf", "ckf", "svd-ckf")]
+    + [(e, False) for e in ("ekf", "ukf", "ckf", "svd-ckf")],
+)
 def test_one_q_per_run_with_a_shared_initial_state_compiled_equals_numpy(engine, linear):
     """A per-run Q ``(B, n, n)`` with an unbatched initial state: the compiled predict
     broadcasts the state to Q's batch as the NumPy reference does (it raised a raw
@@ -138,10 +141,18 @@ def test_one_q_per_run_with_a_shared_initial_state_compiled_equals_numpy(engine,
     B = 5
     F, H = np.array([[1.0, 1.0], [0.0, 1.0]]), np.array([[1.0, 0.0]])
     Qb = np.stack([np.eye(2) * 0.01 * (i + 1) for i in range(B)])
-    model = (gf.LinearModel(F, H, Qb, [[1.0]]) if linear else
-             gf.NonlinearModel(lambda x: x @ F.T, lambda x: x[..., :1], Qb, np.array([[1.0]]),
-                               f_jacobian=lambda x: np.broadcast_to(F, x.shape[:-1] + (2, 2)),
-                               h_jacobian=lambda x: np.broadcast_to(H, x.shape[:-1] + (1, 2))))
+    model = (
+        gf.LinearModel(F, H, Qb, [[1.0]])
+        if linear
+        else gf.NonlinearModel(
+            lambda x: x @ F.T,
+            lambda x: x[..., :1],
+            Qb,
+            np.array([[1.0]]),
+            f_jacobian=lambda x: np.broadcast_to(F, x.shape[:-1] + (2, 2)),
+            h_jacobian=lambda x: np.broadcast_to(H, x.shape[:-1] + (1, 2)),
+        )
+    )
     zs = rng.standard_normal((4, B, 1))
     out = {}
     for backend in ("numba", "numpy"):

@@ -28,8 +28,11 @@ def time_varying_models(rng, K: int, n: int = 2, m: int = 1):
     for _k in range(K):
         F = np.eye(n) + 0.3 * rng.standard_normal((n, n))
         H = rng.standard_normal((m, n))
-        models.append(LinearModel(F, H, random_pd(rng, n, scale=0.05), random_pd(rng, m, scale=0.3),
-                                  u=0.1 * rng.standard_normal(n)))
+        models.append(
+            LinearModel(
+                F, H, random_pd(rng, n, scale=0.05), random_pd(rng, m, scale=0.3), u=0.1 * rng.standard_normal(n)
+            )
+        )
     return models
 
 
@@ -48,13 +51,13 @@ def joint_posterior(models, zs, m0, P0):
     for k, md in enumerate(models):
         i = (k + 1) * n  # x_k's block; x_{k-1} at i - n
         A = np.zeros((n, N))
-        A[:, i:i + n] = np.eye(n)
-        A[:, i - n:i] = -md.F
+        A[:, i : i + n] = np.eye(n)
+        A[:, i - n : i] = -md.F
         rows.append(A)
         rhs.append(md.u)
         weights.append(np.linalg.inv(md.Q))
         B = np.zeros((md.H.shape[0], N))
-        B[:, i:i + n] = md.H
+        B[:, i : i + n] = md.H
         rows.append(B)
         rhs.append(zs[k])
         weights.append(np.linalg.inv(md.R))
@@ -62,11 +65,12 @@ def joint_posterior(models, zs, m0, P0):
     b = sum(A.T @ W @ r for A, W, r in zip(rows, weights, rhs))
     cov = np.linalg.inv(J)
     mean = cov @ b
-    return mean.reshape(K + 1, n), np.stack([cov[i * n:(i + 1) * n, i * n:(i + 1) * n] for i in range(K + 1)])
+    return mean.reshape(K + 1, n), np.stack([cov[i * n : (i + 1) * n, i * n : (i + 1) * n] for i in range(K + 1)])
 
 
-@pytest.mark.parametrize(("engine", "form"), [(e, None) for e in ENGINES]
-                         + [(e, "sqrt") for e in ("kf", "ckf", "svd-ckf")])
+@pytest.mark.parametrize(
+    ("engine", "form"), [(e, None) for e in ENGINES] + [(e, "sqrt") for e in ("kf", "ckf", "svd-ckf")]
+)
 def test_smoother_equals_the_joint_gaussian_posterior(engine, form, rng):
     """Every engine's own smoother form, and the square-root form (the KF's factors: X the
     root of P, Y = F X; the CKF's points), against the dense batch least-squares posterior."""
@@ -95,8 +99,7 @@ def test_a_wrong_cross_covariance_is_caught_by_the_closed_form(rng):
     models = time_varying_models(rng, K, n)
     zs = rng.standard_normal((K, 1))
     m0, P0 = np.zeros(n), np.eye(n)
-    result = gf.filter_sequence(create("estimator", "kf"), lambda k: models[k], zs, Gaussian(m0, P0),
-                                store="smoother")
+    result = gf.filter_sequence(create("estimator", "kf"), lambda k: models[k], zs, Gaussian(m0, P0), store="smoother")
     inputs = result.smoother_inputs
     inputs.cross_cov = np.swapaxes(inputs.cross_cov, -1, -2)
     mean, _ = joint_posterior(models, zs, m0, P0)
@@ -122,20 +125,25 @@ def pendulum_data(rng, K: int, model: NonlinearModel):
     return np.array(zs)
 
 
-@pytest.mark.parametrize("engine, alpha, beta, kappa", [("ukf", 0.5, 2.0, 0.0), ("ukf", 0.9, 2.0, 1.0),
-                                                        ("ckf", 1.0, 0.0, 0.0)])
+@pytest.mark.parametrize(
+    "engine, alpha, beta, kappa", [("ukf", 0.5, 2.0, 0.0), ("ukf", 0.9, 2.0, 1.0), ("ckf", 1.0, 0.0, 0.0)]
+)
 def test_sigma_point_smoother_matches_filterpy_ukf_rts_smoother(engine, alpha, beta, kappa, rng):
     kalman = pytest.importorskip("filterpy.kalman")
     Q, R = np.diag([1e-4, 4e-3]), np.diag([0.01, 0.02])
     model = pendulum_model(Q, R)
     zs = pendulum_data(rng, 40, model)
     params = dict(alpha=alpha, beta=beta, kappa=kappa) if engine == "ukf" else {}
-    result = gf.filter_sequence(create("estimator", engine, **params), model, zs,
-                                Gaussian(np.array([0.6, 0.1]), np.diag([0.1, 0.1])), store="smoother")
+    result = gf.filter_sequence(
+        create("estimator", engine, **params),
+        model,
+        zs,
+        Gaussian(np.array([0.6, 0.1]), np.diag([0.1, 0.1])),
+        store="smoother",
+    )
     smoothed = gf.smooth(result)
     points = kalman.MerweScaledSigmaPoints(2, alpha=alpha, beta=beta, kappa=kappa)
-    ref = kalman.UnscentedKalmanFilter(dim_x=2, dim_z=2, dt=1.0, hx=model.h, fx=lambda x, dt: model.f(x),
-                                       points=points)
+    ref = kalman.UnscentedKalmanFilter(dim_x=2, dim_z=2, dt=1.0, hx=model.h, fx=lambda x, dt: model.f(x), points=points)
     ref.Q = Q  # FilterPy's UKF rts_smoother uses self.Q at every step
     xs, ps, gains = ref.rts_smoother(result.mean.copy(), result.cov.copy())
     np.testing.assert_allclose(smoothed.mean, xs, rtol=0, atol=1e-9)
@@ -151,8 +159,9 @@ def test_linear_smoother_matches_filterpy_kalman_rts_smoother(engine, rng):
     models = time_varying_models(rng, K, n)
     models = [LinearModel(md.F, md.H, md.Q, md.R) for md in models]  # FilterPy's smoother has no u
     zs = rng.standard_normal((K, 4, 1))
-    result = gf.filter_sequence(create("estimator", engine), lambda k: models[k], zs,
-                                Gaussian(np.zeros(n), np.eye(n)), store="smoother")
+    result = gf.filter_sequence(
+        create("estimator", engine), lambda k: models[k], zs, Gaussian(np.zeros(n), np.eye(n)), store="smoother"
+    )
     smoothed = gf.smooth(result)
     ref = kalman.KalmanFilter(dim_x=n, dim_z=1)
     Fs = np.stack([md.F for md in models])
@@ -171,8 +180,9 @@ def test_eigh_form_agrees_with_the_plain_form_and_stays_psd(rng):
     Q, R = np.diag([1e-4, 4e-3]), np.diag([0.01, 0.02])
     model = pendulum_model(Q, R)
     zs = pendulum_data(rng, 30, model)
-    result = gf.filter_sequence(create("estimator", "svd-ckf"), model, zs,
-                                Gaussian(np.array([0.6, 0.1]), np.diag([0.1, 0.1])), store="smoother")
+    result = gf.filter_sequence(
+        create("estimator", "svd-ckf"), model, zs, Gaussian(np.array([0.6, 0.1]), np.diag([0.1, 0.1])), store="smoother"
+    )
     careful, plain = gf.smooth(result, form="eigh"), gf.smooth(result, form="solve")
     np.testing.assert_allclose(careful.mean, plain.mean, rtol=0, atol=1e-10)
     np.testing.assert_allclose(careful.cov, plain.cov, rtol=0, atol=1e-12)
@@ -180,8 +190,7 @@ def test_eigh_form_agrees_with_the_plain_form_and_stays_psd(rng):
     F = np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
     lin = LinearModel(F, np.array([[1.0, 0.0, 1.0]]), np.diag([1e-3, 1e-3, 1e-14]), [[1e-2]])
     z = rng.standard_normal((200, 1))
-    res = gf.filter_sequence(create("estimator", "svd-ckf"), lin, z, Gaussian(np.zeros(3), np.eye(3)),
-                             store="smoother")
+    res = gf.filter_sequence(create("estimator", "svd-ckf"), lin, z, Gaussian(np.zeros(3), np.eye(3)), store="smoother")
     cov = gf.smooth(res, form="eigh").cov
     assert np.isfinite(cov).all()
     np.testing.assert_array_equal(cov, np.swapaxes(cov, -1, -2))
@@ -203,11 +212,16 @@ def linear_problems(draw):
 def test_smoothed_covariance_never_exceeds_the_filtered_one(problem):
     n, m, K, seed, engine = problem
     rng = np.random.default_rng(seed)
-    model = LinearModel(np.eye(n) + 0.5 * rng.standard_normal((n, n)), rng.standard_normal((m, n)),
-                        random_pd(rng, n, scale=0.1), random_pd(rng, m))
+    model = LinearModel(
+        np.eye(n) + 0.5 * rng.standard_normal((n, n)),
+        rng.standard_normal((m, n)),
+        random_pd(rng, n, scale=0.1),
+        random_pd(rng, m),
+    )
     zs = rng.standard_normal((K, 2, m))
-    result = gf.filter_sequence(create("estimator", engine), model, zs, Gaussian(np.zeros(n), random_pd(rng, n)),
-                                store="smoother")
+    result = gf.filter_sequence(
+        create("estimator", engine), model, zs, Gaussian(np.zeros(n), random_pd(rng, n)), store="smoother"
+    )
     smoothed = gf.smooth(result)
     gap = np.linalg.eigvalsh(result.cov - smoothed.cov)  # P_f - P_s >= 0 (Loewner order)
     assert gap.min() >= -1e-10 * max(1.0, np.abs(result.cov).max())
@@ -221,11 +235,18 @@ def test_smooth_refuses_a_result_without_stored_predictions(rng):
     with pytest.raises(ConfigError, match="store='smoother'"):
         gf.smooth(result)
     with pytest.raises(ConfigError, match="store"):
-        gf.filter_sequence(create("estimator", "kf"), model, np.zeros((3, 1)), Gaussian(np.zeros(1), np.eye(1)),
-                           store="everything")
+        gf.filter_sequence(
+            create("estimator", "kf"), model, np.zeros((3, 1)), Gaussian(np.zeros(1), np.eye(1)), store="everything"
+        )
     with pytest.raises(ConfigError, match="store_cov"):
-        gf.filter_sequence(create("estimator", "kf"), model, np.zeros((3, 1)), Gaussian(np.zeros(1), np.eye(1)),
-                           store="smoother", store_cov=False)
+        gf.filter_sequence(
+            create("estimator", "kf"),
+            model,
+            np.zeros((3, 1)),
+            Gaussian(np.zeros(1), np.eye(1)),
+            store="smoother",
+            store_cov=False,
+        )
 
 
 # -- fixed lag ------------------------------------------------------------------------------
@@ -245,7 +266,7 @@ def test_fixed_lag_is_the_fixed_interval_smoother_of_the_data_seen(engine, rng):
     lagged = gf.fixed_lag_smooth(full, lag)
     for j in range(K):
         end = min(j + lag, K - 1)
-        part = gf.smooth(gf.filter_sequence(create("estimator", engine), model, zs[:end + 1], init, store="smoother"))
+        part = gf.smooth(gf.filter_sequence(create("estimator", engine), model, zs[: end + 1], init, store="smoother"))
         np.testing.assert_allclose(lagged.mean[j], part.mean[j], rtol=0, atol=1e-10)
         np.testing.assert_allclose(lagged.cov[j], part.cov[j], rtol=0, atol=1e-10)
 
@@ -289,8 +310,7 @@ def test_streaming_fixed_lag_smoother_matches_the_batch_one(engine, rng):
     zs = pendulum_data(rng, 20, model)
     init = Gaussian(np.array([0.6, 0.1]), np.diag([0.1, 0.1]))
     lag = 3
-    batch = gf.fixed_lag_smooth(gf.filter_sequence(create("estimator", engine), model, zs, init, store="smoother"),
-                                lag)
+    batch = gf.fixed_lag_smooth(gf.filter_sequence(create("estimator", engine), model, zs, init, store="smoother"), lag)
     fls = gf.FixedLagSmoother(create("estimator", engine), lag)
     fls.start(init, model)
     outputs = [fls.step(z, model) for z in zs]
@@ -334,12 +354,17 @@ def test_adaptive_smoother_uses_the_stored_per_step_noise_and_is_consistent(rng)
     P0 = np.eye(2)
     truth, zs = _simulate(rng, model, K=60, B=400, P0=P0)
     init = Gaussian(np.zeros(2), P0)
-    adaptive = gf.filter_sequence(create("estimator", "kf"), model, zs, init,
-                                  adapter=create("noise_adapter", "innovation"), store="smoother")
+    adaptive = gf.filter_sequence(
+        create("estimator", "kf"), model, zs, init, adapter=create("noise_adapter", "innovation"), store="smoother"
+    )
     assert np.ptp(adaptive.R) > 0  # the adapter did move R, per run and step
-    rerun = gf.filter_sequence(create("estimator", "kf"),
-                               lambda k: LinearModel(model.F, model.H, adaptive.Q[k], adaptive.R[k]), zs, init,
-                               store="smoother")
+    rerun = gf.filter_sequence(
+        create("estimator", "kf"),
+        lambda k: LinearModel(model.F, model.H, adaptive.Q[k], adaptive.R[k]),
+        zs,
+        init,
+        store="smoother",
+    )
     smoothed, reference = gf.smooth(adaptive), gf.smooth(rerun)
     np.testing.assert_allclose(smoothed.mean, reference.mean, rtol=0, atol=1e-10)
     np.testing.assert_allclose(smoothed.cov, reference.cov, rtol=0, atol=1e-10)
@@ -360,8 +385,9 @@ def test_smoother_with_true_noise_is_consistent(rng):
     """Without adaptation the smoothed NEES averages to n within its sampling band."""
     model = LinearModel(np.array([[1.0, 1.0], [0.0, 1.0]]), np.array([[1.0, 0.0]]), np.diag([0.01, 0.01]), [[1.0]])
     truth, zs = _simulate(rng, model, K=60, B=400, P0=np.eye(2))
-    smoothed = gf.smooth(gf.filter_sequence(create("estimator", "ukf"), model, zs, Gaussian(np.zeros(2), np.eye(2)),
-                                            store="smoother"))
+    smoothed = gf.smooth(
+        gf.filter_sequence(create("estimator", "ukf"), model, zs, Gaussian(np.zeros(2), np.eye(2)), store="smoother")
+    )
     per_step = _nees(truth, smoothed.mean, smoothed.cov).mean(axis=1)  # chi2(2 B)/B at each step
     # each step's mean over 400 runs: sd sqrt(2 n / B) = 0.1; 4.5 sd covers all 60 steps
     assert np.abs(per_step - 2).max() < 4.5 * np.sqrt(4 / 400)
@@ -414,8 +440,7 @@ def test_smoothing_an_angle_state_across_the_wrap(engine, rng):
         return np.stack([wrap_angle(x[..., 0]), 0.5 * x[..., 1] ** 2 + x[..., 1]], -1)
 
     Q, R = np.diag([1e-3, 1e-3]), np.diag([0.05**2, 0.1**2])
-    hooks = dict(residual_x=angle_residual(0), mean_x=angle_mean(0), residual_z=angle_residual(0),
-                 mean_z=angle_mean(0))
+    hooks = dict(residual_x=angle_residual(0), mean_x=angle_mean(0), residual_z=angle_residual(0), mean_z=angle_mean(0))
     model = NonlinearModel(f, h, Q, R, **hooks)
     K = 30
     heading = np.pi - 0.05 + 0.01 * np.arange(K)  # crosses +pi at step 5
@@ -452,8 +477,9 @@ def test_smoother_across_missing_measurements_is_the_posterior_without_them(engi
     zs = rng.standard_normal((K, 2, 1))
     zs[[3, 4, 9], 0] = np.nan  # run 0 misses three epochs, run 1 none
     m0, P0 = np.zeros(n), np.eye(n)
-    result = gf.filter_sequence(create("estimator", engine), lambda k: models[k], zs, Gaussian(m0, P0),
-                                missing="skip", store="smoother")
+    result = gf.filter_sequence(
+        create("estimator", engine), lambda k: models[k], zs, Gaussian(m0, P0), missing="skip", store="smoother"
+    )
     smoothed = gf.smooth(result)
     for b in range(2):
         keep = [k for k in range(K) if np.isfinite(zs[k, b]).all()]
@@ -469,8 +495,9 @@ def test_streaming_fixed_lag_smoother_with_a_noise_adapter_matches_the_batch_one
     model = LinearModel(np.array([[1.0, 1.0], [0.0, 1.0]]), np.array([[1.0, 0.0]]), np.diag([0.01, 0.01]), [[1.0]])
     _, zs = _simulate(rng, model, K=30, B=4, P0=np.eye(2))
     init = Gaussian(np.zeros(2), np.eye(2))
-    result = gf.filter_sequence(create("estimator", "kf"), model, zs, init,
-                                adapter=create("noise_adapter", "sage-husa"), store="smoother")
+    result = gf.filter_sequence(
+        create("estimator", "kf"), model, zs, init, adapter=create("noise_adapter", "sage-husa"), store="smoother"
+    )
     assert np.ptp(result.Q) > 0
     batch = gf.fixed_lag_smooth(result, lag)
     fls = gf.FixedLagSmoother(create("estimator", "kf"), lag, create("noise_adapter", "sage-husa"))

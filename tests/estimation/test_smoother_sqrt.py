@@ -39,8 +39,12 @@ def test_square_root_form_is_the_svd_ckfs_and_equals_the_covariance_form(rng):
     X, Y, S_Q = result.smoother_inputs.factors
     # the stored factors are those of the stored prediction: X Y^T = C, Y Y^T + Q = P^-
     np.testing.assert_allclose(X @ np.swapaxes(Y, -1, -2), result.smoother_inputs.cross_cov, rtol=0, atol=1e-15)
-    np.testing.assert_allclose(Y @ np.swapaxes(Y, -1, -2) + S_Q @ np.swapaxes(S_Q, -1, -2),
-                               result.smoother_inputs.prior_cov, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(
+        Y @ np.swapaxes(Y, -1, -2) + S_Q @ np.swapaxes(S_Q, -1, -2),
+        result.smoother_inputs.prior_cov,
+        rtol=0,
+        atol=1e-15,
+    )
     sqrt, plain = gf.smooth(result), gf.smooth(result, form="solve")
     assert sqrt.cov_root is not None and plain.cov_root is None
     np.testing.assert_allclose(sqrt.mean, plain.mean, rtol=0, atol=1e-9)
@@ -66,8 +70,13 @@ ILL_H, ILL_R, ILL_P0 = np.array([[1.0, 0.0, 0.0]]), np.array([[1e-8]]), np.diag(
 
 def _ill_conditioned_run(rng, K: int = 300, B: int = 4):
     zs = rng.standard_normal((K, B, 1)) * np.sqrt(ILL_R[0, 0])
-    result = gf.filter_sequence(create("estimator", "svd-ckf"), LinearModel(ILL_F, ILL_H, ILL_Q, ILL_R), zs,
-                                Gaussian(np.zeros(3), ILL_P0), store="smoother")
+    result = gf.filter_sequence(
+        create("estimator", "svd-ckf"),
+        LinearModel(ILL_F, ILL_H, ILL_Q, ILL_R),
+        zs,
+        Gaussian(np.zeros(3), ILL_P0),
+        store="smoother",
+    )
     return zs, result
 
 
@@ -82,8 +91,10 @@ def _decimal_rts(zs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return [[Decimal(repr(float(x))) for x in row] for row in np.atleast_2d(a)]
 
     def mul(A, B):
-        return [[sum((A[i][k] * B[k][j] for k in range(len(B))), Decimal(0)) for j in range(len(B[0]))]
-                for i in range(len(A))]
+        return [
+            [sum((A[i][k] * B[k][j] for k in range(len(B))), Decimal(0)) for j in range(len(B[0]))]
+            for i in range(len(A))
+        ]
 
     def tr(A):
         return [list(r) for r in zip(*A)]
@@ -121,8 +132,10 @@ def _decimal_rts(zs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             (m, P), (mp, Pp), (ms, Ps) = filtered[k], predicted[k + 1], smoothed[0]
             G = mul(mul(P, tr(F)), inv(Pp))
             smoothed.insert(0, (add(m, mul(G, add(ms, mp, -1))), add(P, mul(mul(G, add(Ps, Pp, -1)), tr(G)))))
-    return (np.array([[float(x[0]) for x in m] for m, _ in smoothed]),
-            np.array([[[float(x) for x in row] for row in P] for _, P in smoothed]))
+    return (
+        np.array([[float(x[0]) for x in m] for m, _ in smoothed]),
+        np.array([[[float(x) for x in row] for row in P] for _, P in smoothed]),
+    )
 
 
 def _whitened_error(cov: np.ndarray, reference: np.ndarray) -> float:
@@ -163,8 +176,9 @@ def test_square_root_form_is_accurate_where_the_covariance_forms_degrade(path, r
     assert np.linalg.eigvalsh(cov).min() > 0  # the truth is PD, as the theorem says
     backend.set_backend(path)
     try:
-        errors = {form: _whitened_error(gf.smooth(result, form=form).cov[:, 0], cov)
-                  for form in ("solve", "eigh", "sqrt")}
+        errors = {
+            form: _whitened_error(gf.smooth(result, form=form).cov[:, 0], cov) for form in ("solve", "eigh", "sqrt")
+        }
         sqrt = gf.smooth(result)
     finally:
         backend.set_backend(None)
@@ -210,8 +224,9 @@ def test_square_root_fixed_lag_smoother_stays_psd(rng):
 
 def test_square_root_form_needs_the_factors_and_nonnegative_weights(rng):
     model = LinearModel(np.eye(1), np.eye(1), [[0.1]], [[1.0]])
-    result = gf.filter_sequence(create("estimator", "kf"), model, np.zeros((3, 1)), Gaussian(np.zeros(1), np.eye(1)),
-                                store="smoother")
+    result = gf.filter_sequence(
+        create("estimator", "kf"), model, np.zeros((3, 1)), Gaussian(np.zeros(1), np.eye(1)), store="smoother"
+    )
     assert result.smoother_inputs.factors is None
     with pytest.raises(ConfigError, match="'sqrt' needs the factors"):
         gf.smooth(result, form="sqrt")
@@ -261,8 +276,7 @@ def test_compiled_sqrt_terms_and_step_equal_the_numpy_path(rng):
     backend.set_backend("numba")
     try:
         G, D = smoother_sqrt.sqrt_terms(X, Y, S)
-        mean, root, cov = smoother_sqrt.sqrt_rts_step_cov(np.zeros((B, n)), np.zeros((B, n)), np.ones((B, n)), R,
-                                                          G, D)
+        mean, root, cov = smoother_sqrt.sqrt_rts_step_cov(np.zeros((B, n)), np.zeros((B, n)), np.ones((B, n)), R, G, D)
     finally:
         backend.set_backend(None)
     backend.set_backend("numpy")
@@ -272,8 +286,7 @@ def test_compiled_sqrt_terms_and_step_equal_the_numpy_path(rng):
     finally:
         backend.set_backend(None)
     assert np.abs(G0[:3]).max() > 0.1  # the pseudo-inverse gain is not zero
-    for a, ref in ((G, G0), (prod(D), prod(D0)), (prod(root), prod(root0)), (cov, prod(root0)),
-                   (mean, mean0)):
+    for a, ref in ((G, G0), (prod(D), prod(D0)), (prod(root), prod(root0)), (cov, prod(root0)), (mean, mean0)):
         np.testing.assert_allclose(a, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
     assert np.all(np.triu(D, 1) == 0.0) and np.all(np.triu(root, 1) == 0.0)
     np.testing.assert_array_equal(cov, np.swapaxes(cov, -1, -2))

@@ -29,8 +29,10 @@ def test_iq_filter_frequency_random_walk_is_a_line_of_sight_acceleration():
     assert out["correlator R"][0] == "true covariance"
     # A clock adds its frequency noise: more assumed acceleration, never less.
     with_clock = registry.create("channel_filter", "iq-filter", q=q, clock="tcxo", adaptive=False)
-    assert with_clock.assumptions({"coherent_time_s": 0.02})["line-of-sight acceleration PSD"][0] > \
-        out["line-of-sight acceleration PSD"][0]
+    assert (
+        with_clock.assumptions({"coherent_time_s": 0.02})["line-of-sight acceleration PSD"][0]
+        > out["line-of-sight acceleration PSD"][0]
+    )
 
 
 def test_a_fixed_r_discriminator_trusts_a_weaker_signal_too_much():
@@ -45,8 +47,9 @@ def test_a_fixed_r_discriminator_trusts_a_weaker_signal_too_much():
     for label in ("frequency R / thermal variance", "code R / thermal variance"):
         assert 10**-1.5 / 1.5 < at_30[label][0] < 10**-1.5 * 1.5, label
     scaled = registry.create("channel_filter", "discriminator", freq_r_scale=0.2)
-    assert scaled.assumptions({"coherent_time_s": 0.01, "cn0_dbhz": 30.0})["frequency R / thermal variance"][0] == \
-        pytest.approx(0.2)
+    assert scaled.assumptions({"coherent_time_s": 0.01, "cn0_dbhz": 30.0})["frequency R / thermal variance"][
+        0
+    ] == pytest.approx(0.2)
 
 
 def test_the_report_lists_every_candidates_assumptions_side_by_side(tmp_path):

@@ -43,15 +43,19 @@ def counting_loop(scratch_registry):
 
 
 def _config(name: str) -> ComparisonConfig:
-    loop = {"name": name, "params": {"q": [0.01, 0.1], "r": 10.0, "angle_unit": "deg",
-                                     "dll_bandwidth_hz": 0.5}}
-    return ComparisonConfig.model_validate({
-        "name": "build-once", "runs": 2, "batch_size": 1, "seed": 3,
-        "scenario": {"kind": "scintillation", "duration_s": 3.0, "coherent_time_s": 0.01, "settle_s": 1.0},
-        # the scenario's T (10 ms) and a case at another (1 ms): the loop runs at 1 ms there
-        "cases": [{"name": "own-T", "s4": 0.5}, {"name": "1ms", "s4": 0.5, "coherent_time_s": 0.001}],
-        "candidates": [{"name": "kf", "channel_filter": loop}],
-    })
+    loop = {"name": name, "params": {"q": [0.01, 0.1], "r": 10.0, "angle_unit": "deg", "dll_bandwidth_hz": 0.5}}
+    return ComparisonConfig.model_validate(
+        {
+            "name": "build-once",
+            "runs": 2,
+            "batch_size": 1,
+            "seed": 3,
+            "scenario": {"kind": "scintillation", "duration_s": 3.0, "coherent_time_s": 0.01, "settle_s": 1.0},
+            # the scenario's T (10 ms) and a case at another (1 ms): the loop runs at 1 ms there
+            "cases": [{"name": "own-T", "s4": 0.5}, {"name": "1ms", "s4": 0.5, "coherent_time_s": 0.001}],
+            "candidates": [{"name": "kf", "channel_filter": loop}],
+        }
+    )
 
 
 @pytest.mark.slow
@@ -100,6 +104,7 @@ def test_a_loop_without_an_interval_of_its_own_gets_nothing_from_the_case():
 
 # -- the same for an augmentation whose psi is the case's (multipath) --------------------------
 
+
 @pytest.fixture()
 def counting_ar1(scratch_registry):
     """``counting-ar1``: the built-in colored-ar1 augmentation, counting its constructions."""
@@ -119,13 +124,24 @@ def counting_ar1(scratch_registry):
 
 
 def _multipath(name: str, **params) -> ComparisonConfig:
-    return ComparisonConfig.model_validate({
-        "name": "build-once-multipath", "runs": 2, "batch_size": 1, "seed": 5,
-        "scenario": {"kind": "multipath", "epochs": 60, "psi": 0.95},
-        "cases": [{"name": "psi-0.5", "psi": 0.5}, {"name": "psi-0.8", "psi": 0.8, "psi_training_epochs": 200}],
-        "candidates": [{"name": "ukf1", "nav_filter": "position-ca", "estimator": "ukf",
-                        "augmentation": {"name": name, "params": {"cross_covariance": "paper", **params}}}],
-    })
+    return ComparisonConfig.model_validate(
+        {
+            "name": "build-once-multipath",
+            "runs": 2,
+            "batch_size": 1,
+            "seed": 5,
+            "scenario": {"kind": "multipath", "epochs": 60, "psi": 0.95},
+            "cases": [{"name": "psi-0.5", "psi": 0.5}, {"name": "psi-0.8", "psi": 0.8, "psi_training_epochs": 200}],
+            "candidates": [
+                {
+                    "name": "ukf1",
+                    "nav_filter": "position-ca",
+                    "estimator": "ukf",
+                    "augmentation": {"name": name, "params": {"cross_covariance": "paper", **params}},
+                }
+            ],
+        }
+    )
 
 
 @pytest.mark.parametrize("estimator, per_task", [("truth", 1), ("lag1", 2)])
@@ -147,7 +163,8 @@ def test_the_ar1_built_for_the_case_gives_the_numbers_of_the_re_created_one():
         built = resolved.build(0, i)
         assert built["augmentation"].params.psi == case.values["psi"]
         direct = resolved.scenario.run_batch(case.as_case(), built, 2, random_streams.run_streams(5, (1,), [0, 1]))
-        again = resolved.scenario.run_batch(case.as_case(), resolved.build(0), 2,
-                                            random_streams.run_streams(5, (1,), [0, 1]))
+        again = resolved.scenario.run_batch(
+            case.as_case(), resolved.build(0), 2, random_streams.run_streams(5, (1,), [0, 1])
+        )
         for name in direct.metrics:
             np.testing.assert_array_equal(direct.metrics[name], again.metrics[name], err_msg=name)

@@ -53,22 +53,29 @@ def smoothing_results():
         "hatch": {"channel_filter": {"name": "hatch", "params": {"window": 100}}},
         "kf": {"channel_filter": {"name": "kf-smoother", "params": {"q": 1e-3, "r": 1.25}}},
         # ml-q with its default q_ceiling (no tuning in the test).
-        "adaptive-kf": {"channel_filter": {"name": "kf-smoother", "params": {
-            "q": 1e-3, "r": 1.25, "adapter": "ml-q", "adapter_params": {"window": 10, "warmup": 20}}}},
-        "kf-slip-reset": {"channel_filter": {"name": "kf-smoother", "params": {"q": 1e-3, "r": 1.25,
-                                                                              "slip_threshold_m": 4.0}}},
+        "adaptive-kf": {
+            "channel_filter": {
+                "name": "kf-smoother",
+                "params": {"q": 1e-3, "r": 1.25, "adapter": "ml-q", "adapter_params": {"window": 10, "warmup": 20}},
+            }
+        },
+        "kf-slip-reset": {
+            "channel_filter": {"name": "kf-smoother", "params": {"q": 1e-3, "r": 1.25, "slip_threshold_m": 4.0}}
+        },
     }
     for case, prob in (("slips", 0.01), ("isolated", 0.0015)):
         for name, c in comps.items():
-            out[case, name] = scen.run_batch({"slip_probability": prob}, scen.build(c), 60,
-                                             np.random.default_rng(1)).metrics
+            out[case, name] = scen.run_batch(
+                {"slip_probability": prob}, scen.build(c), 60, np.random.default_rng(1)
+            ).metrics
     return out
 
 
 def test_adaptive_q_recovers_from_isolated_slips_faster_than_the_plain_kalman_smoother(smoothing_results):
     # Medians: a small slip under a quiet reference level can take hundreds of epochs (heavy tail).
-    rec = {k: np.nanmedian(v["slip_recovery_epochs"]) for (case, k), v in smoothing_results.items()
-           if case == "isolated"}
+    rec = {
+        k: np.nanmedian(v["slip_recovery_epochs"]) for (case, k), v in smoothing_results.items() if case == "isolated"
+    }
     assert rec["adaptive-kf"] < 0.5 * rec["kf"]
     assert rec["adaptive-kf"] < 25  # the patent: back to normal within about 15 epochs
     assert rec["hatch"] > 150  # tau ln(N lambda / sqrt(3) sigma) ~ 200 epochs for tau = 100
@@ -148,11 +155,14 @@ def test_reads_the_generated_rinex_file_through_georinex():
         read_code_carrier(RNX, "G31")
 
 
-@pytest.mark.parametrize("corrupt, line, message", [
-    (lambda lines: lines.__setitem__(20, lines[20][:3] + "  2040X487.070" + lines[20][17:]), 21, "not a number"),
-    (lambda lines: lines.__setitem__(12, "> 2020 05 01 10 30 xx"), 13, "malformed epoch line"),
-    (lambda lines: lines.__delitem__(11), None, "END OF HEADER"),
-])
+@pytest.mark.parametrize(
+    "corrupt, line, message",
+    [
+        (lambda lines: lines.__setitem__(20, lines[20][:3] + "  2040X487.070" + lines[20][17:]), 21, "not a number"),
+        (lambda lines: lines.__setitem__(12, "> 2020 05 01 10 30 xx"), 13, "malformed epoch line"),
+        (lambda lines: lines.__delitem__(11), None, "END OF HEADER"),
+    ],
+)
 def test_malformed_rinex_names_the_file_and_line(tmp_path, corrupt, line, message):
     lines = RNX.read_text().splitlines()
     corrupt(lines)
@@ -165,12 +175,39 @@ def test_malformed_rinex_names_the_file_and_line(tmp_path, corrupt, line, messag
 @pytest.mark.slow
 def test_cli_smooth_writes_csv(tmp_path):
     out = tmp_path / "smoothed.csv"
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "smooth", str(RNX), "--prn", "G08", "--out", str(out),
-                           "--filter", "kf", "--slip-threshold", "4"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gnssframework",
+            "smooth",
+            str(RNX),
+            "--prn",
+            "G08",
+            "--out",
+            str(out),
+            "--filter",
+            "kf",
+            "--slip-threshold",
+            "4",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     rows = [r.split(",") for r in out.read_text().splitlines()]
-    assert rows[0] == ["epoch", "sv", "time_s", "pseudorange_m", "carrier_m", "smoothed_m", "lli", "snr_dbhz",
-                       "arc_start", "slip_detected"]
+    assert rows[0] == [
+        "epoch",
+        "sv",
+        "time_s",
+        "pseudorange_m",
+        "carrier_m",
+        "smoothed_m",
+        "lli",
+        "snr_dbhz",
+        "arc_start",
+        "slip_detected",
+    ]
     assert len(rows) == 722 and sum(int(r[9]) for r in rows[1:]) >= 1
     assert sum(int(r[8]) for r in rows[1:]) == 1  # one arc: no flags, no gaps in the simulated pass
     code = np.array([float(r[3]) for r in rows[1:]])
@@ -190,6 +227,7 @@ def test_hatch_error_from_frequent_slips_has_the_campbell_stationary_rms():
     # slips at rate p (random sign) the stationary variance is p E[N^2] lambda^2 a^2 / (1 - a^2)
     # (Campbell's theorem): 4.31 m for p = 0.01, N uniform in 10..50, tau = 100.
     from gnssframework.simulation.impairments import cycle_slips
+
     rng = np.random.default_rng(5)
     K, runs, tau, p = 3000, 100, 100, 0.01
     truth = np.zeros((K, runs))

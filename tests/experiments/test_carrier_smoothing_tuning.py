@@ -25,8 +25,9 @@ def _params(cand) -> dict:
 
 
 def test_every_setting_of_every_smoother_is_free():
-    free = {cand: {label.split("params.", 1)[1] for _, _, label in params}
-            for cand, params in resolve_free(CONFIG).items()}
+    free = {
+        cand: {label.split("params.", 1)[1] for _, _, label in params} for cand, params in resolve_free(CONFIG).items()
+    }
     for cand in CONFIG.candidates:
         if cand.channel_filter is None:  # raw code: nothing to set
             assert cand.name not in free

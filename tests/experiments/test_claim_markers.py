@@ -39,19 +39,24 @@ ROOT = Path(__file__).resolve().parents[2]
 PAGES = sorted((ROOT / "docs" / "experiments").glob("*.md"))
 MARKER = re.compile(r"<!--\s*claim:\s*(?P<body>.*?)\s*-->", re.S)
 _WHERE = r"(?:\s+at\s+(?P<case>[^\s=]+))?(?:\s+at\s+(?P<sweep>[\w.+-]+)=(?P<points>\S+))?$"
-ORDERING = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+"
-                      r"(?P<direction>lower|higher) than\s+(?P<reference>\S+)(?:\s+in\s+(?P<reference_case>[^\s=]+))?"
-                      + _WHERE)
-BOUND = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+(?P<every>every run )?within\s+"
-                   r"\[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\]" + _WHERE)
+ORDERING = re.compile(
+    r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+"
+    r"(?P<direction>lower|higher) than\s+(?P<reference>\S+)(?:\s+in\s+(?P<reference_case>[^\s=]+))?" + _WHERE
+)
+BOUND = re.compile(
+    r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+(?P<every>every run )?within\s+"
+    r"\[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\]" + _WHERE
+)
 #: A threshold claim (``threshold`` / ``threshold_difference`` along a sweep with a threshold table):
 #: ``kf loss_of_lock threshold lower than pll along cn0 [within [-9, -5]]`` or
 #: ``kf loss_of_lock threshold within [-1, 1] of pll along cn0`` (``at CASE`` after the sweep for a
 #: claim of one case).
-THRESHOLD = re.compile(r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+threshold\s+"
-                       r"(?:(?P<threshold>lower|higher) than|within \[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\] of)\s+"
-                       r"(?P<reference>\S+)\s+along\s+(?P<sweep>[\w.+-]+)(?:\s+at\s+(?P<case>[^\s=]+))?"
-                       r"(?:\s+within\s+\[(?P<dlow>[^,\]]+),\s*(?P<dhigh>[^\]]+)\])?$")
+THRESHOLD = re.compile(
+    r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+threshold\s+"
+    r"(?:(?P<threshold>lower|higher) than|within \[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\] of)\s+"
+    r"(?P<reference>\S+)\s+along\s+(?P<sweep>[\w.+-]+)(?:\s+at\s+(?P<case>[^\s=]+))?"
+    r"(?:\s+within\s+\[(?P<dlow>[^,\]]+),\s*(?P<dhigh>[^\]]+)\])?$"
+)
 
 
 def _markers() -> list[tuple[str, int, str]]:
@@ -69,9 +74,11 @@ def _parse(body: str) -> dict:
         return {**t.groupdict(), "kind": "threshold"}
     m = ORDERING.match(body) or BOUND.match(body)
     if m is None:
-        raise AssertionError(f"unreadable claim marker {body!r}: write '<example>: <candidate> <metric> "
-                             "lower|higher than <reference> [at <case>] [at <sweep>=<points>]' or '... within "
-                             "[low, high] [at <case>] [at <sweep>=<points>]'")
+        raise AssertionError(
+            f"unreadable claim marker {body!r}: write '<example>: <candidate> <metric> "
+            "lower|higher than <reference> [at <case>] [at <sweep>=<points>]' or '... within "
+            "[low, high] [at <case>] [at <sweep>=<points>]'"
+        )
     return m.groupdict()
 
 
@@ -93,10 +100,10 @@ def _same_points(claim: dict, want: dict) -> bool:
         return at is None and low is None and high is None
     if ".." in points:
         first, last = points.split("..", 1)
-        return (at is None and low == (_point(first) if first else None)
-                and high == (_point(last) if last else None))
-    return at is not None and [_point(str(v)) for v in (at if isinstance(at, list) else [at])] == \
-        [_point(v) for v in points.split(",")]
+        return at is None and low == (_point(first) if first else None) and high == (_point(last) if last else None)
+    return at is not None and [_point(str(v)) for v in (at if isinstance(at, list) else [at])] == [
+        _point(v) for v in points.split(",")
+    ]
 
 
 def _matches(claim: dict, want: dict) -> bool:
@@ -104,18 +111,23 @@ def _matches(claim: dict, want: dict) -> bool:
         low, high = (want["low"], want["high"]) if want["low"] is not None else (want["dlow"], want["dhigh"])
         difference = None if low is None else (float(low), float(high))
         got = claim.get("threshold_difference")
-        return ((claim["candidate"], claim["metric"], claim.get("reference"), claim.get("sweep"), claim.get("case"))
-                == (want["candidate"], want["metric"], want["reference"], want["sweep"], want["case"])
-                and claim.get("threshold") == want["threshold"]
-                and (None if got is None else tuple(float(v) for v in got)) == difference)
+        return (
+            (claim["candidate"], claim["metric"], claim.get("reference"), claim.get("sweep"), claim.get("case"))
+            == (want["candidate"], want["metric"], want["reference"], want["sweep"], want["case"])
+            and claim.get("threshold") == want["threshold"]
+            and (None if got is None else tuple(float(v) for v in got)) == difference
+        )
     if (claim["candidate"], claim["metric"], claim.get("case")) != (want["candidate"], want["metric"], want["case"]):
         return False
     if not _same_points(claim, want):
         return False
     if want.get("direction"):  # an ordering between cases names its reference case ("... than deep in nominal")
         reference = claim.get("reference") or (claim["candidate"] if claim.get("reference_case") else None)
-        return (claim.get("direction") == want["direction"] and reference == want["reference"]
-                and claim.get("reference_case") == want.get("reference_case"))
+        return (
+            claim.get("direction") == want["direction"]
+            and reference == want["reference"]
+            and claim.get("reference_case") == want.get("reference_case")
+        )
     within = claim.get("every_run_within" if want.get("every") else "within")  # "every run within": every_run_within
     return within is not None and tuple(within) == (float(want["low"]), float(want["high"]))
 
@@ -125,12 +137,19 @@ def _checked_in_ci() -> set[str]:
     and the examples ``docs/make_experiment_plots.py`` runs (it exits 1 when a claim fails)
     when .ci/run runs it."""
     lines = [line for line in (ROOT / ".ci" / "run").read_text().splitlines() if not line.lstrip().startswith("#")]
-    checked = {m.group(1) for line in lines if "--check" in line
-               for m in re.finditer(r"compare\s+examples/([\w-]+)\.toml", line)}
+    checked = {
+        m.group(1)
+        for line in lines
+        if "--check" in line
+        for m in re.finditer(r"compare\s+examples/([\w-]+)\.toml", line)
+    }
     if any("docs/make_experiment_plots.py" in line and "--slow" not in line for line in lines):
         tree = ast.parse((ROOT / "docs" / "make_experiment_plots.py").read_text())
-        checked |= next(set(ast.literal_eval(node.value)) for node in tree.body if isinstance(node, ast.Assign)
-                        and any(getattr(t, "id", None) == "EXAMPLES" for t in node.targets))
+        checked |= next(
+            set(ast.literal_eval(node.value))
+            for node in tree.body
+            if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "EXAMPLES" for t in node.targets)
+        )
     return checked
 
 
@@ -150,27 +169,42 @@ def test_every_marked_ordering_is_a_claim_ci_checks(page, line, body):
     assert example.is_file(), f"{page}:{line}: no example {example.name}"
     claims = tomllib.loads(example.read_text()).get("claims", [])
     assert any(_matches(c, want) for c in claims), f"{page}:{line}: {example.name} has no claim {body!r}"
-    assert want["example"] in _checked_in_ci(), \
-        f"{page}:{line}: CI does not check the claims of {example.name} (.ci/run's compare --check or " \
+    assert want["example"] in _checked_in_ci(), (
+        f"{page}:{line}: CI does not check the claims of {example.name} (.ci/run's compare --check or "
         "docs/make_experiment_plots.py's EXAMPLES)"
+    )
 
 
 def test_ci_checks_the_reference_examples():
-    assert {"vector_tracking", "deep_integration_ci", "carrier_smoothing", "vector_tracking_tcxo",
-            "vector_tracking_regime_static_ci", "vector_tracking_regime_moving_ci",
-            "vector_tracking_modes", "vector_tracking_sweep_ci", "vector_tracking_modes_moving"} <= _checked_in_ci()
+    assert {
+        "vector_tracking",
+        "deep_integration_ci",
+        "carrier_smoothing",
+        "vector_tracking_tcxo",
+        "vector_tracking_regime_static_ci",
+        "vector_tracking_regime_moving_ci",
+        "vector_tracking_modes",
+        "vector_tracking_sweep_ci",
+        "vector_tracking_modes_moving",
+    } <= _checked_in_ci()
     assert "deep_integration" not in _checked_in_ci()  # too slow for CI: its claims are not CI's
 
 
 def test_a_marker_for_a_missing_claim_is_caught():
-    claims = [{"candidate": "deep", "reference": "vector", "metric": "horizontal_velocity_error_rmse",
-               "direction": "lower"}]
+    claims = [
+        {"candidate": "deep", "reference": "vector", "metric": "horizontal_velocity_error_rmse", "direction": "lower"}
+    ]
     assert _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse lower than vector"))
     assert not _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse higher than vector"))
     assert not _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse lower than vector at 35dBHz"))
     assert not _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse within [0, 1]"))
-    between_cases = {"candidate": "deep", "reference_case": "nominal", "metric": "freq_tracking_error_rmse",
-                     "direction": "higher", "case": "gsens"}
+    between_cases = {
+        "candidate": "deep",
+        "reference_case": "nominal",
+        "metric": "freq_tracking_error_rmse",
+        "direction": "higher",
+        "case": "gsens",
+    }
     assert _matches(between_cases, _parse("x: deep freq_tracking_error_rmse higher than deep in nominal at gsens"))
     assert not _matches(between_cases, _parse("x: deep freq_tracking_error_rmse higher than deep at gsens"))
     assert not _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse lower than vector in nominal"))
@@ -179,8 +213,15 @@ def test_a_marker_for_a_missing_claim_is_caught():
 
 
 def test_a_marker_names_a_claims_sweep_points():
-    claim = {"candidate": "ackf", "reference": "discriminator", "metric": "velocity_error_rmse",
-             "direction": "lower", "sweep": "cn0_dbhz", "from": 30.0, "to": 50.0}
+    claim = {
+        "candidate": "ackf",
+        "reference": "discriminator",
+        "metric": "velocity_error_rmse",
+        "direction": "lower",
+        "sweep": "cn0_dbhz",
+        "from": 30.0,
+        "to": 50.0,
+    }
     want = _parse("x: ackf velocity_error_rmse lower than discriminator at cn0_dbhz=30..50")
     assert (want["case"], want["sweep"], want["points"]) == (None, "cn0_dbhz", "30..50")
     assert _matches(claim, want)
@@ -200,8 +241,10 @@ def test_a_marker_names_a_claims_sweep_points():
     each = {"candidate": "deep", "metric": "loss_of_lock_fraction", "every_run_within": [-0.001, 0.001]}
     assert _matches(each, _parse("x: deep loss_of_lock_fraction every run within [-0.001, 0.001]"))
     assert not _matches(each, _parse("x: deep loss_of_lock_fraction within [-0.001, 0.001]"))
-    assert not _matches({"candidate": "deep", "metric": "loss_of_lock_fraction", "within": [-0.001, 0.001]},
-                        _parse("x: deep loss_of_lock_fraction every run within [-0.001, 0.001]"))
+    assert not _matches(
+        {"candidate": "deep", "metric": "loss_of_lock_fraction", "within": [-0.001, 0.001]},
+        _parse("x: deep loss_of_lock_fraction every run within [-0.001, 0.001]"),
+    )
     upto = {**every, "to": 40}
     assert _matches(upto, _parse("x: ackf nees_velocity within [1.0, 5.0] at cn0_dbhz=..40"))
 
@@ -217,7 +260,9 @@ def test_a_marker_names_a_claims_sweep_points():
 COMPARATIVE = re.compile(
     r"\b(?:beats?|beating|outperform(?:s|ed|ing)?|wins?|winning|loses? to"
     r"|(?:better|worse|lower|higher|smaller|larger) than"
-    r"|\d+(?:\.\d+)?\s*(?:x|×|times)\s+(?:smaller|lower|larger|higher|better|worse))\b", re.I)
+    r"|\d+(?:\.\d+)?\s*(?:x|×|times)\s+(?:smaller|lower|larger|higher|better|worse))\b",
+    re.I,
+)
 EXEMPTION = re.compile(r"<!--\s*not-compared:(?P<reason>.*?)-->", re.S)
 _FENCE = re.compile(r"^\s*(```|~~~)")
 _COMMENT = re.compile(r"<!--.*?-->", re.S)
@@ -256,12 +301,17 @@ def unmarked_orderings(text: str) -> list[str]:
         if empty:
             problems.append(f"line {start}: '<!-- not-compared: -->' needs a reason")
             continue
-        prose = " ".join(line for line in _COMMENT.sub(" ", para).splitlines()
-                         if not line.lstrip().startswith(("|", "#", "--8<--", "![")))
+        prose = " ".join(
+            line
+            for line in _COMMENT.sub(" ", para).splitlines()
+            if not line.lstrip().startswith(("|", "#", "--8<--", "!["))
+        )
         hit = COMPARATIVE.search(_INLINE_CODE.sub(" ", prose))
         if hit and not MARKER.search(para) and not EXEMPTION.search(para):
-            problems.append(f"line {start}: {hit.group(0)!r} states an ordering without a claim marker "
-                            "('<!-- claim: example: ... -->') or '<!-- not-compared: reason -->'")
+            problems.append(
+                f"line {start}: {hit.group(0)!r} states an ordering without a claim marker "
+                "('<!-- claim: example: ... -->') or '<!-- not-compared: reason -->'"
+            )
     return problems
 
 
@@ -271,36 +321,44 @@ def test_every_ordering_in_prose_is_marked(page):
     assert not problems, f"{page.name}: " + "; ".join(problems)
 
 
-@pytest.mark.parametrize("text", [
-    "The CKF beats the baseline.",
-    "Its error is 3.7x smaller at 45 dB-Hz.",
-    "Its error is 3.7 times lower at 45 dB-Hz.",
-    "- first item\n- `deep` is better than\n  `vector` in velocity",
-    "Narrow loops win here.",
-    "Raw code is lower than smoothing. <!-- not-compared:   -->",
-    "The ordering is stated. <!-- claim is not a marker -->\nIt outperforms the PLL.",
-    "- `a` beats `b`.\n- `c` ties `d`.\n  <!-- claim: x: c m lower than d -->",
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "The CKF beats the baseline.",
+        "Its error is 3.7x smaller at 45 dB-Hz.",
+        "Its error is 3.7 times lower at 45 dB-Hz.",
+        "- first item\n- `deep` is better than\n  `vector` in velocity",
+        "Narrow loops win here.",
+        "Raw code is lower than smoothing. <!-- not-compared:   -->",
+        "The ordering is stated. <!-- claim is not a marker -->\nIt outperforms the PLL.",
+        "- `a` beats `b`.\n- `c` ties `d`.\n  <!-- claim: x: c m lower than d -->",
+    ],
+)
 def test_an_unmarked_ordering_is_found(text):
     assert unmarked_orderings(text), text
 
 
-@pytest.mark.parametrize("text", [
-    "The CKF beats the baseline.\n<!-- claim: vector_tracking: ackf velocity_error_rmse lower than discriminator -->",
-    "Its error is 3.7x smaller. <!-- not-compared: one run's measurement, no paired difference -->",
-    "| a | b |\n| --- | --- |\n| beats | 3x lower |",
-    "```python\nassert a.lower() != b  # lower than\n```",
-    "The option `better-than` is a name.",
-    "## Why the narrow loop wins",
-    "Lower bounds, higher order, the winner's window: no comparison.",
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "The CKF beats the baseline.\n<!-- claim: vector_tracking: ackf velocity_error_rmse lower than discriminator -->",
+        "Its error is 3.7x smaller. <!-- not-compared: one run's measurement, no paired difference -->",
+        "| a | b |\n| --- | --- |\n| beats | 3x lower |",
+        "```python\nassert a.lower() != b  # lower than\n```",
+        "The option `better-than` is a name.",
+        "## Why the narrow loop wins",
+        "Lower bounds, higher order, the winner's window: no comparison.",
+    ],
+)
 def test_what_is_not_an_unmarked_ordering_passes(text):
     assert not unmarked_orderings(text), unmarked_orderings(text)
 
 
 # --- CI-sized examples evaluated at another example's tuned values -------------------------
 
-_TUNED_ROW = re.compile(r"^\|\s*(?:`(?P<candidate>[^`]+)`)?\s*\|\s*`(?P<label>[^`]+)`\s*\|[^|]*\|\s*(?P<tuned>[^|\s]+)\s*\|")
+_TUNED_ROW = re.compile(
+    r"^\|\s*(?:`(?P<candidate>[^`]+)`)?\s*\|\s*`(?P<label>[^`]+)`\s*\|[^|]*\|\s*(?P<tuned>[^|\s]+)\s*\|"
+)
 
 
 def _tuned_values(generated: Path) -> dict[tuple[str, str], float]:
@@ -322,31 +380,43 @@ def _param(candidate: dict, label: str) -> float:
     return float(value)
 
 
-@pytest.mark.parametrize("example, tuned_by", [
-    ("vector_tracking_regime_static_ci", "vector_tracking_static"),
-    ("vector_tracking_regime_moving_ci", "vector_tracking_moving"),
-    ("vector_tracking_tcxo", "vector_tracking"),
-    ("vector_tracking_modes", "vector_tracking"),
-    ("vector_tracking_fade_ci", "vector_tracking"),
-    ("vector_tracking_modes_moving", "vector_tracking"),
-    ("vector_tracking_sweep", "vector_tracking"),
-    ("vector_tracking_sweep_ci", "vector_tracking"),
-])
+@pytest.mark.parametrize(
+    "example, tuned_by",
+    [
+        ("vector_tracking_regime_static_ci", "vector_tracking_static"),
+        ("vector_tracking_regime_moving_ci", "vector_tracking_moving"),
+        ("vector_tracking_tcxo", "vector_tracking"),
+        ("vector_tracking_modes", "vector_tracking"),
+        ("vector_tracking_fade_ci", "vector_tracking"),
+        ("vector_tracking_modes_moving", "vector_tracking"),
+        ("vector_tracking_sweep", "vector_tracking"),
+        ("vector_tracking_sweep_ci", "vector_tracking"),
+    ],
+)
 def test_ci_examples_evaluate_at_the_tuned_values(example, tuned_by):
     # The CI examples carry the values the slow tuning selected (its generated table, 3
     # significant digits); a retuning that moves them must move the CI example too.
     tuned = _tuned_values(ROOT / "docs" / "experiments" / "generated" / f"{tuned_by}.md")
-    candidates = {c["name"]: c for c in tomllib.loads((ROOT / "examples" / f"{example}.toml").read_text())["candidates"]}
+    candidates = {
+        c["name"]: c for c in tomllib.loads((ROOT / "examples" / f"{example}.toml").read_text())["candidates"]
+    }
     checked = [(name, label) for name, label in tuned if name in candidates]
     assert {name for name, _ in checked} >= {"ackf", "discriminator"}
     for name, label in checked:
-        assert _param(candidates[name], label) == pytest.approx(tuned[(name, label)], rel=5e-3), \
+        assert _param(candidates[name], label) == pytest.approx(tuned[(name, label)], rel=5e-3), (
             f"{example}.toml: {name} {label} is not {tuned_by}'s tuned {tuned[(name, label)]}"
+        )
 
 
 def test_a_threshold_marker_names_the_claims_kind_and_interval():
-    claim = {"candidate": "kf", "reference": "pll", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower",
-             "threshold_difference": [-9.0, -5.5]}
+    claim = {
+        "candidate": "kf",
+        "reference": "pll",
+        "metric": "loss_of_lock",
+        "sweep": "cn0",
+        "threshold": "lower",
+        "threshold_difference": [-9.0, -5.5],
+    }
     assert _matches(claim, _parse("x: kf loss_of_lock threshold lower than pll along cn0 within [-9.0, -5.5]"))
     assert not _matches(claim, _parse("x: kf loss_of_lock threshold lower than pll along cn0"))
     assert not _matches(claim, _parse("x: kf loss_of_lock threshold higher than pll along cn0 within [-9.0, -5.5]"))

@@ -18,8 +18,13 @@ from gnssframework.cli import _report_claims, main
 from gnssframework.errors import ConfigError
 from gnssframework.experiments import load_config
 from gnssframework.experiments.claim_tests import detectable_difference
-from gnssframework.experiments.claims import (Claim, _row_judgement, claim_evidence, unstated_small_n,
-                                              unstated_small_n_claims)
+from gnssframework.experiments.claims import (
+    Claim,
+    _row_judgement,
+    claim_evidence,
+    unstated_small_n,
+    unstated_small_n_claims,
+)
 from gnssframework.experiments.report import write_report
 from gnssframework.experiments.stats import paired_difference
 from two_candidates import claim_toml, evaluate_stored, two_candidate_config
@@ -46,10 +51,12 @@ def _noncentrality_for_power(dof: int, power: float, alpha: float = 0.05, sides:
 def test_the_mdd_is_the_noncentral_t_solution(n, sides):
     # Two-sided: the far tail the MDD leaves out is below 1e-6 of power, so 1e-5 relative.
     assert detectable_difference(1.0, n, sides=sides) == pytest.approx(
-        _noncentrality_for_power(n - 1, 0.8, sides=sides), rel=1e-5)
+        _noncentrality_for_power(n - 1, 0.8, sides=sides), rel=1e-5
+    )
     # Power 0.9 at 1 %, and se scales it.
     assert detectable_difference(0.3, n, power=0.9, alpha=0.01, sides=sides) == pytest.approx(
-        0.3 * _noncentrality_for_power(n - 1, 0.9, 0.01, sides), rel=1e-5)
+        0.3 * _noncentrality_for_power(n - 1, 0.9, 0.01, sides), rel=1e-5
+    )
 
 
 @pytest.mark.parametrize("n, sides", [(4, 2), (10, 2), (4, 1)])
@@ -85,8 +92,7 @@ def test_a_claim_over_fewer_than_12_runs_states_its_mdd_and_whether_small_n_is_d
     mdd = 0.125 * _noncentrality_for_power(3, 0.8)
     assert rows[0]["detectable80"] == pytest.approx(mdd, rel=1e-5)
     assert rows[0]["few_runs"] is True and rows[0]["small_n"] is False
-    assert "n=4 (n < 12, small_n not declared: detects differences >= 0.53 at power 0.8)" in \
-        claim_evidence(rows[0])
+    assert "n=4 (n < 12, small_n not declared: detects differences >= 0.53 at power 0.8)" in claim_evidence(rows[0])
     assert [r["claim"] for r in unstated_small_n(rows)] == [0]
     (tmp_path / "declared").mkdir()
     rows, _, _ = evaluate_stored(tmp_path / "declared", HIGHER, A, B, top="claims_small_n = true")
@@ -100,18 +106,22 @@ def test_the_mdd_after_adjustment_is_at_the_strictest_level_of_the_family(tmp_pa
     claims = HIGHER + claim_toml(candidate="a", metric="lat_error_rmse", within=[0.4, 4.6])
     rows, _, _ = evaluate_stored(tmp_path, claims, A, B, top="claims_small_n = true")
     assert rows[0]["detectable80_adjusted"] == pytest.approx(
-        0.125 * _noncentrality_for_power(3, 0.8, alpha=0.025), rel=1e-5)
+        0.125 * _noncentrality_for_power(3, 0.8, alpha=0.025), rel=1e-5
+    )
     se = np.std(A, ddof=1) / 2
     assert rows[1]["detectable80"] == pytest.approx(se * _noncentrality_for_power(3, 0.8), rel=1e-5)
     # The line docs/experiments/statistics-and-sweeps.md quotes.
-    assert "n=4 (n < 12: detects differences >= 0.53 at power 0.8, >= 0.68 after adjustment (level 0.05/2))" in \
-        claim_evidence(rows[0])
+    assert (
+        "n=4 (n < 12: detects differences >= 0.53 at power 0.8, >= 0.68 after adjustment (level 0.05/2))"
+        in claim_evidence(rows[0])
+    )
     assert 0.68 == pytest.approx(rows[0]["detectable80_adjusted"], abs=0.005)
 
 
 def test_an_every_run_observation_over_few_runs_is_marked_without_an_mdd(tmp_path):
-    rows, _, _ = evaluate_stored(tmp_path, claim_toml(candidate="a", metric="lat_error_rmse",
-                                                      every_run_within=[0.0, 10.0]), A, B)
+    rows, _, _ = evaluate_stored(
+        tmp_path, claim_toml(candidate="a", metric="lat_error_rmse", every_run_within=[0.0, 10.0]), A, B
+    )
     assert rows[0]["few_runs"] is True and "detectable80" not in rows[0]
     assert "(n < 12, small_n not declared)" in claim_evidence(rows[0])
 
@@ -124,22 +134,25 @@ def test_over_12_runs_a_claim_row_states_nothing_more():
 
 
 def test_compare_check_refuses_an_undeclared_claim_over_few_runs_before_running(tmp_path, capsys):
-    claims = HIGHER + claim_toml(candidate="a", reference="b", metric="lat_error_rmse", direction="higher",
-                                 small_n=True)
+    claims = HIGHER + claim_toml(
+        candidate="a", reference="b", metric="lat_error_rmse", direction="higher", small_n=True
+    )
     path = tmp_path / "c.toml"
     path.write_text(two_candidate_config("claims", claims=claims))
     assert unstated_small_n_claims(load_config(path)) == [0]  # claims[1] declares it
     status = main(["compare", str(path), "--out", str(tmp_path / "o"), "--quiet", "--check"])
     err = capsys.readouterr().err
     assert status == 1 and err.count("\n") == 1, err
-    assert err.startswith("error: claims: claims[0] (a: lat_error_rmse higher than b's) is checked on 4 paired "
-                          "runs, fewer than 12: run 12 or more, or declare small_n = true")
+    assert err.startswith(
+        "error: claims: claims[0] (a: lat_error_rmse higher than b's) is checked on 4 paired "
+        "runs, fewer than 12: run 12 or more, or declare small_n = true"
+    )
     assert not (tmp_path / "o" / "summary.json").exists()  # refused before any work
 
 
 def test_small_n_must_be_a_boolean(tmp_path):
     path = tmp_path / "c.toml"
-    path.write_text(two_candidate_config("claims", claims=HIGHER.replace("direction", "small_n = \"yes\"\ndirection")))
+    path.write_text(two_candidate_config("claims", claims=HIGHER.replace("direction", 'small_n = "yes"\ndirection')))
     with pytest.raises(ConfigError, match="small_n"):
         load_config(path)
 
@@ -190,10 +203,17 @@ def test_the_tost_margin_for_power_is_shown_in_80_percent_of_simulated_experimen
 def test_an_equivalence_claim_over_few_runs_states_the_margin_it_can_show(tmp_path):
     from gnssframework.experiments.claim_tests import equivalence_margin_for_power
 
-    rows, _, _ = evaluate_stored(tmp_path, claim_toml(candidate="a", reference="b", metric="lat_error_rmse",
-                                                      equivalence_margin=1.0), A, B, top="claims_small_n = true")
+    rows, _, _ = evaluate_stored(
+        tmp_path,
+        claim_toml(candidate="a", reference="b", metric="lat_error_rmse", equivalence_margin=1.0),
+        A,
+        B,
+        top="claims_small_n = true",
+    )
     assert "detectable80" not in rows[0]
     margin = equivalence_margin_for_power(0.125, 4)
     assert rows[0]["equivalence_margin80"] == pytest.approx(margin)
-    assert f"(n < 12: shows equivalence within +-{margin:.2g} at power 0.8 when the true difference is 0)" in \
-        claim_evidence(rows[0])
+    assert (
+        f"(n < 12: shows equivalence within +-{margin:.2g} at power 0.8 when the true difference is 0)"
+        in claim_evidence(rows[0])
+    )

@@ -14,8 +14,14 @@ from scipy import stats
 
 from gnssframework.errors import ConfigError
 from gnssframework.experiments import load_config
-from gnssframework.experiments.claim_tests import (all_runs_bound, benjamini_hochberg, bootstrap_means, claim_rng,
-                                                   holm, nees_band)
+from gnssframework.experiments.claim_tests import (
+    all_runs_bound,
+    benjamini_hochberg,
+    bootstrap_means,
+    claim_rng,
+    holm,
+    nees_band,
+)
 from gnssframework.experiments.claims import Claim, _judge, evaluate_claims
 from gnssframework.experiments.report import write_report
 from gnssframework.experiments.stats import paired_difference
@@ -35,6 +41,7 @@ def _evaluate(tmp_path, claims: str, a=A, b=B, top: str = ""):
 
 # -- multiplicity ---------------------------------------------------------------------------------
 
+
 def _holm_by_closed_testing(p: list[float], alpha: float) -> list[bool]:
     """Holm's rejections by its definition as a shortcut of closed testing with Bonferroni
     tests: H_i is rejected when every intersection containing it has min p < alpha / |I|."""
@@ -42,8 +49,11 @@ def _holm_by_closed_testing(p: list[float], alpha: float) -> list[bool]:
     rejected = []
     for i in range(m):
         others = [j for j in range(m) if j != i]
-        ok = all(min(p[j] for j in (i, *sub)) < alpha / (len(sub) + 1)
-                 for k in range(m) for sub in itertools.combinations(others, k))
+        ok = all(
+            min(p[j] for j in (i, *sub)) < alpha / (len(sub) + 1)
+            for k in range(m)
+            for sub in itertools.combinations(others, k)
+        )
         rejected.append(ok)
     return rejected
 
@@ -66,8 +76,9 @@ def test_holm_and_benjamini_hochberg_on_hand_computed_values():
 
 
 def test_every_claim_row_carries_its_p_value_and_the_examples_adjustment(tmp_path):
-    claims = (_claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher")
-              + _claim(candidate="a", metric="lat_error_rmse", within=[0.4, 4.6]))
+    claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher") + _claim(
+        candidate="a", metric="lat_error_rmse", within=[0.4, 4.6]
+    )
     rows, config, store = _evaluate(tmp_path, claims)
     # Ordering: t = 0.625 / 0.125 = 5 with 3 dof, two-sided p = 2 * t.sf(5, 3).
     p1 = 2 * stats.t.sf(5.0, 3)
@@ -92,6 +103,7 @@ def test_every_claim_row_carries_its_p_value_and_the_examples_adjustment(tmp_pat
 
 # -- equivalence ----------------------------------------------------------------------------------
 
+
 def _tost_by_scipy(d: np.ndarray, margin: float) -> float:
     """TOST's p-value from scipy's one-sample t-tests of d against -margin and +margin."""
     lower = stats.ttest_1samp(d, -margin, alternative="greater").pvalue
@@ -102,8 +114,9 @@ def _tost_by_scipy(d: np.ndarray, margin: float) -> float:
 @pytest.mark.parametrize("margin", [1.0, 0.9, 1.5, 0.3, 0.05])
 def test_equivalence_by_two_one_sided_tests(tmp_path, margin):
     d = A - B
-    rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse",
-                                             equivalence_margin=margin))
+    rows, _, _ = _evaluate(
+        tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse", equivalence_margin=margin)
+    )
     (row,) = rows
     p = _tost_by_scipy(d, margin)
     assert row["p_value"] == pytest.approx(p)
@@ -113,28 +126,35 @@ def test_equivalence_by_two_one_sided_tests(tmp_path, margin):
     # By hand: margin 1.0 is t = (1.0 - 0.625) / 0.125 = 3 from the mean, one-sided p = 0.029 (holds);
     # 0.9 is t = 2.2, p = 0.058 (cannot tell); 0.3 lies inside the 95 % interval (0.227, 1.023);
     # 0.05 lies below all of it (fails).
-    assert {1.0: "holds", 0.9: "not significant", 1.5: "holds", 0.3: "not significant",
-            0.05: "fails"}[margin] == expected
+    assert {1.0: "holds", 0.9: "not significant", 1.5: "holds", 0.3: "not significant", 0.05: "fails"}[
+        margin
+    ] == expected
 
 
 def test_not_significant_is_not_equivalence(tmp_path):
     # d = (1.0, -0.5, 2.0, -0.4): mean 0.525, SE 0.59 -> no ordering, and no equivalence at 0.5 either.
     noisy = np.array([0.0, 2.5, 1.0, 4.4])
-    rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse",
-                                             direction="higher")
-                           + _claim(candidate="a", reference="b", metric="lat_error_rmse", equivalence_margin=0.5),
-                           b=noisy)
+    rows, _, _ = _evaluate(
+        tmp_path,
+        _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher")
+        + _claim(candidate="a", reference="b", metric="lat_error_rmse", equivalence_margin=0.5),
+        b=noisy,
+    )
     assert [r["outcome"] for r in rows] == ["not significant", "not significant"]
 
 
 # -- zero spread ----------------------------------------------------------------------------------
 
+
 def test_a_claim_with_no_spread_is_refused_not_held(tmp_path):
     constant = np.full(4, 0.25)
-    rows, config, store = _evaluate(tmp_path, _claim(candidate="a", metric="lat_error_rmse", within=[0.0, 1.0])
-                                    + _claim(candidate="a", reference="b", metric="lat_error_rmse",
-                                             direction="lower"),
-                                    a=constant, b=constant + 0.5)
+    rows, config, store = _evaluate(
+        tmp_path,
+        _claim(candidate="a", metric="lat_error_rmse", within=[0.0, 1.0])
+        + _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower"),
+        a=constant,
+        b=constant + 0.5,
+    )
     assert [r["outcome"] for r in rows] == ["refused", "refused"]
     assert "no spread" in rows[0]["reason"] and "in all 4 runs" in rows[0]["reason"]
     assert all(r.get("p_value") is None for r in rows)
@@ -142,9 +162,12 @@ def test_a_claim_with_no_spread_is_refused_not_held(tmp_path):
 
 def test_every_run_within_states_a_constant_with_its_exact_bound(tmp_path):
     constant = np.zeros(4)
-    rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", metric="lat_error_rmse", every_run_within=[-0.001, 0.001])
-                           + _claim(candidate="b", metric="lat_error_rmse", every_run_within=[-0.001, 0.001]),
-                           a=constant)
+    rows, _, _ = _evaluate(
+        tmp_path,
+        _claim(candidate="a", metric="lat_error_rmse", every_run_within=[-0.001, 0.001])
+        + _claim(candidate="b", metric="lat_error_rmse", every_run_within=[-0.001, 0.001]),
+        a=constant,
+    )
     assert [r["outcome"] for r in rows] == ["holds", "fails"]
     # Clopper-Pearson with 0 of n: (1 - bound)^n = 0.05.
     assert (1 - rows[0]["outside_bound95"]) ** 4 == pytest.approx(0.05)
@@ -156,15 +179,17 @@ def test_every_run_within_with_a_reference_bounds_each_runs_paired_difference(tm
     is stated as every run's difference within a tolerance; a difference outside fails."""
     same = A.copy()
     same[2] += 0.0005  # within 1 mm of A in every run
-    claims = (_claim(candidate="a", reference="b", metric="lat_error_rmse", every_run_within=[-0.001, 0.001])
-              + _claim(candidate="a", reference="b", metric="lat_error_rmse", every_run_within=[-0.0001, 0.0001]))
+    claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", every_run_within=[-0.001, 0.001]) + _claim(
+        candidate="a", reference="b", metric="lat_error_rmse", every_run_within=[-0.0001, 0.0001]
+    )
     rows, config, _ = _evaluate(tmp_path, claims, a=A, b=same)
     assert [r["outcome"] for r in rows] == ["holds", "fails"]
     assert "minus b's in [-0.001, 0.001] in every run" in config.claims[0].statement()
     # the candidate's own values (A, spread 1-4) would fail the same bound: the difference is what is judged
     (tmp_path / "own").mkdir()
-    rows, _, _ = _evaluate(tmp_path / "own", _claim(candidate="a", metric="lat_error_rmse",
-                                                     every_run_within=[-0.001, 0.001]), a=A, b=same)
+    rows, _, _ = _evaluate(
+        tmp_path / "own", _claim(candidate="a", metric="lat_error_rmse", every_run_within=[-0.001, 0.001]), a=A, b=same
+    )
     assert rows[0]["outcome"] == "fails"
 
 
@@ -179,8 +204,22 @@ def test_compare_check_names_a_refused_claim_in_one_line(tmp_path):
     ckf = 'estimator = { name = "ckf" }'
     assert ckf in text
     path.write_text(text.replace(ckf, 'estimator = { name = "kf" }'))  # b is a: the same values in every run
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o"),
-                           "--quiet", "--check"], capture_output=True, text=True, timeout=600)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gnssframework",
+            "compare",
+            str(path),
+            "--out",
+            str(tmp_path / "o"),
+            "--quiet",
+            "--check",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     (row,) = json.loads((tmp_path / "o" / "summary.json").read_text())["claims"]
     assert row["outcome"] == "refused" and row["p_value"] is None
     assert proc.returncode == 1
@@ -189,6 +228,7 @@ def test_compare_check_names_a_refused_claim_in_one_line(tmp_path):
 
 
 # -- NEES consistency -----------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("runs, states", [(12, 3), (4, 3), (24, 8), (1, 1)])
 def test_nees_band_is_the_chi_square_band_of_runs_times_states(runs, states):
@@ -211,6 +251,7 @@ def test_a_3x_overconfident_filter_fails_the_band_the_old_one_passed():
 
 
 # -- resampling tests -----------------------------------------------------------------------------
+
 
 def test_bootstrap_claim_is_its_percentile_interval_and_reproducible(tmp_path):
     claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher", test="bootstrap")
@@ -306,6 +347,7 @@ def test_the_report_marks_the_untuned_candidates(tmp_path):
 
 # -- replication ----------------------------------------------------------------------------------
 
+
 def test_replicate_streams_are_disjoint_from_evaluation_and_tuning(tmp_path):
     from gnssframework.experiments.run_plan import task_streams
     from gnssframework.experiments.runner import replicate_config
@@ -329,20 +371,27 @@ def test_compare_replicate_rechecks_every_claim(tmp_path):
     from gnssframework.experiments.runner import run_comparison
 
     path = tmp_path / "c.toml"
-    claims = (_claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower")
-              + _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher"))
+    claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower") + _claim(
+        candidate="a", reference="b", metric="lat_error_rmse", direction="higher"
+    )
     text = two_candidate_config("rep", claims=claims)
     b = 'name = "b"\nnav_filter = { name = "position-ca" }'
     assert b in text
     path.write_text(text.replace(b, 'name = "b"\nnav_filter = { name = "position-ca", params = { r0 = 9.0 } }'))
-    summary = json.loads(run_comparison(load_config(path), tmp_path / "o", progress=False,
-                                         replicate=True).read_text())
+    summary = json.loads(run_comparison(load_config(path), tmp_path / "o", progress=False, replicate=True).read_text())
     assert summary["replicated"] is True
     for row in summary["claims"]:
         assert row["replicate_outcome"] in ("holds", "not significant", "fails", "refused")
         first, second = row["outcome"] == "holds", row["replicate_outcome"] == "holds"
-        assert row["replicated"] == {(True, True): "both", (True, False): "first only",
-                                     (False, True): "replicate only", (False, False): "neither"}[(first, second)]
+        assert (
+            row["replicated"]
+            == {
+                (True, True): "both",
+                (True, False): "first only",
+                (False, True): "replicate only",
+                (False, False): "neither",
+            }[(first, second)]
+        )
     # The replicate's numbers are its own runs: re-evaluated from the store on its key.
     from gnssframework.experiments.runner import replicate_config
 

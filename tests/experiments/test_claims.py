@@ -31,8 +31,7 @@ _claim = claim_toml
 
 @pytest.mark.parametrize("direction, outcome", [("higher", "holds"), ("lower", "fails")])
 def test_an_ordering_holds_or_fails_by_its_paired_interval(tmp_path, direction, outcome):
-    rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse",
-                                             direction=direction))
+    rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse", direction=direction))
     (row,) = rows
     assert row["outcome"] == outcome
     assert row["diff"] == pytest.approx(0.625) and row["se"] == pytest.approx(0.125) and row["n"] == 4
@@ -40,8 +39,9 @@ def test_an_ordering_holds_or_fails_by_its_paired_interval(tmp_path, direction, 
 
 def test_an_ordering_the_runs_cannot_tell_is_not_significant(tmp_path):
     noisy = np.array([0.0, 2.5, 1.0, 4.4])  # d = (1.0, -0.5, 2.0, -0.4): mean 0.525, SE 0.59
-    rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse",
-                                             direction="higher"), b=noisy)
+    rows, _, _ = _evaluate(
+        tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher"), b=noisy
+    )
     assert rows[0]["outcome"] == "not significant"
 
 
@@ -52,13 +52,18 @@ def test_a_ratio_bound_uses_the_ratio_interval(tmp_path):
     se = np.sqrt(c[0, 0] - 2 * r * c[0, 1] + r**2 * c[1, 1]) / (B.mean() * 2)
     half = stats.t.ppf(0.975, 3) * se
     for bound, outcome in ((r + 1.01 * half, "holds"), (r - 1.01 * half, "fails"), (r, "not significant")):
-        rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse",
-                                                 ratio_max=float(bound)))
+        rows, _, _ = _evaluate(
+            tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse", ratio_max=float(bound))
+        )
         assert rows[0]["outcome"] == outcome, bound
         assert rows[0]["ratio"] == pytest.approx(r)
     # Two conditions: the worst outcome (the direction holds, the ratio bound fails).
-    rows, _, _ = _evaluate(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse",
-                                             direction="higher", ratio_min=float(r + 1.01 * half)))
+    rows, _, _ = _evaluate(
+        tmp_path,
+        _claim(
+            candidate="a", reference="b", metric="lat_error_rmse", direction="higher", ratio_min=float(r + 1.01 * half)
+        ),
+    )
     assert rows[0]["outcome"] == "fails"
 
 
@@ -71,8 +76,9 @@ def test_a_bound_on_a_mean(tmp_path):
 
 
 def test_summary_report_and_check_carry_the_outcomes(tmp_path):
-    claims = (_claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher")
-              + _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower"))
+    claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher") + _claim(
+        candidate="a", reference="b", metric="lat_error_rmse", direction="lower"
+    )
     _, config, store = _evaluate(tmp_path, claims)
     summary = json.loads(write_report(config, store, tmp_path).read_text())
     assert [c["outcome"] for c in summary["claims"]] == ["holds", "fails"]
@@ -81,17 +87,29 @@ def test_summary_report_and_check_carry_the_outcomes(tmp_path):
     assert "| fails | only | a: lat_error_rmse lower than b's |" in report
 
 
-@pytest.mark.parametrize("fields, field, message", [
-    ({"candidate": "c", "reference": "b", "metric": "lat_error_rmse", "direction": "lower"}, "claims[0].candidate",
-     "unknown candidate 'c'; allowed: a, b"),
-    ({"candidate": "a", "reference": "b", "metric": "rmse", "direction": "lower"}, "claims[0].metric",
-     "unknown metric 'rmse'"),
-    ({"candidate": "a", "reference": "b", "metric": "lat_error_rmse", "direction": "lower", "case": "x"},
-     "claims[0].case", "unknown case 'x'; allowed: only"),
-    ({"candidate": "a", "reference": "b", "metric": "lat_error_rmse"}, "claims[0]", "an ordering needs direction"),
-    ({"candidate": "a", "metric": "lat_error_rmse", "direction": "lower"}, "claims[0]", "give reference"),
-    ({"candidate": "a", "metric": "lat_error_rmse", "within": [2, 1]}, "claims[0]", "low < high"),
-])
+@pytest.mark.parametrize(
+    "fields, field, message",
+    [
+        (
+            {"candidate": "c", "reference": "b", "metric": "lat_error_rmse", "direction": "lower"},
+            "claims[0].candidate",
+            "unknown candidate 'c'; allowed: a, b",
+        ),
+        (
+            {"candidate": "a", "reference": "b", "metric": "rmse", "direction": "lower"},
+            "claims[0].metric",
+            "unknown metric 'rmse'",
+        ),
+        (
+            {"candidate": "a", "reference": "b", "metric": "lat_error_rmse", "direction": "lower", "case": "x"},
+            "claims[0].case",
+            "unknown case 'x'; allowed: only",
+        ),
+        ({"candidate": "a", "reference": "b", "metric": "lat_error_rmse"}, "claims[0]", "an ordering needs direction"),
+        ({"candidate": "a", "metric": "lat_error_rmse", "direction": "lower"}, "claims[0]", "give reference"),
+        ({"candidate": "a", "metric": "lat_error_rmse", "within": [2, 1]}, "claims[0]", "low < high"),
+    ],
+)
 def test_bad_claims_are_refused_at_load_naming_the_field(tmp_path, fields, field, message):
     path = tmp_path / "c.toml"
     path.write_text(two_candidate_config("claims", claims=_claim(**fields)))
@@ -104,11 +122,27 @@ def test_bad_claims_are_refused_at_load_naming_the_field(tmp_path, fields, field
 def test_compare_check_exits_1_when_a_claim_does_not_hold(tmp_path):
     claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower")
     path = tmp_path / "c.toml"
-    path.write_text(two_candidate_config("claims", top="claims_small_n = true", claims=claims)
-                    .replace("runs = 4", "runs = 3"))
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o"),
-                           "--quiet", "--check"], capture_output=True, text=True)
+    path.write_text(
+        two_candidate_config("claims", top="claims_small_n = true", claims=claims).replace("runs = 4", "runs = 3")
+    )
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gnssframework",
+            "compare",
+            str(path),
+            "--out",
+            str(tmp_path / "o"),
+            "--quiet",
+            "--check",
+        ],
+        capture_output=True,
+        text=True,
+    )
     outcome = json.loads((tmp_path / "o" / "summary.json").read_text())["claims"][0]["outcome"]
     assert proc.returncode == (0 if outcome == "holds" else 1), proc.stderr
-    assert f"claims: {int(outcome == 'holds')} of 1 hold" in proc.stdout and "a: lat_error_rmse lower than b's" in \
-        proc.stdout
+    assert (
+        f"claims: {int(outcome == 'holds')} of 1 hold" in proc.stdout
+        and "a: lat_error_rmse lower than b's" in proc.stdout
+    )

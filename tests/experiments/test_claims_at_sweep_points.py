@@ -58,8 +58,9 @@ def _store(tmp_path, config, differences) -> ResultStore:
         for case in point.cases:
             for name, values in (("a", A), ("b", A - d)):
                 for first in (0, 2):
-                    store.add_batch(key, case.name, name, first, {m: values[first:first + 2]
-                                                                  for m in config.metric_names})
+                    store.add_batch(
+                        key, case.name, name, first, {m: values[first : first + 2] for m in config.metric_names}
+                    )
     return store
 
 
@@ -89,8 +90,9 @@ def test_each_point_is_judged_like_a_case_claim_and_all_points_together(tmp_path
         assert row["outcome"] == _expected(d, direction, 0.95)
         assert row["diff"] == pytest.approx(d.mean()) and row["se"] == pytest.approx(d.std(ddof=1) / 2)
         assert row["sweep"] == "psi" and row["case"] == "only" and row["n"] == 4
-    assert [r["outcome"] for r in rows[:3]] == (["holds", "holds", "not significant"] if direction == "higher"
-                                                else ["fails", "fails", "not significant"])
+    assert [r["outcome"] for r in rows[:3]] == (
+        ["holds", "holds", "not significant"] if direction == "higher" else ["fails", "fails", "not significant"]
+    )
     everywhere = rows[3]
     assert everywhere["points"] == [0.2, 0.5, 0.8] and everywhere["held"] == (2 if direction == "higher" else 0)
     # Not "holds" (the tie at 0.8); "fails" only where the Bonferroni interval (level
@@ -128,25 +130,29 @@ def test_a_ratio_bound_and_a_bound_on_a_mean_at_points(tmp_path):
     r = x.mean() / y.mean()
     se = np.sqrt(c[0, 0] - 2 * r * c[0, 1] + r**2 * c[1, 1]) / (y.mean() * 2)
     assert row["outcome"] == ("holds" if r - stats.t.ppf(0.975, 3) * se > 1.05 else "not significant")
-    config = _config(tmp_path, _claim(candidate="b", metric="lat_error_rmse", sweep="psi", at=[0.8, 0.2],
-                                      within=[-5.0, 10.0]))
+    config = _config(
+        tmp_path, _claim(candidate="b", metric="lat_error_rmse", sweep="psi", at=[0.8, 0.2], within=[-5.0, 10.0])
+    )
     rows = evaluate_claims(config, _store(tmp_path, config, [TIE, STRONG, TIE]))
     assert [r["point"] for r in rows] == [0.2, 0.8, "all"]  # the sweep's order
     assert rows[0]["mean"] == pytest.approx((A - TIE).mean())
     assert [r["outcome"] for r in rows] == ["holds"] * 3
 
 
-@pytest.mark.parametrize("fields, field, message", [
-    ({"sweep": "cn0"}, "claims[0].sweep", "unknown sweep 'cn0'; allowed: psi"),
-    ({"sweep": "psi", "at": 0.3}, "claims[0].at", "0.3 is not a point of sweep 'psi'; allowed: 0.2, 0.5, 0.8"),
-    ({"sweep": "psi", "at": []}, "claims[0].at", "allowed: 0.2, 0.5, 0.8"),
-    ({"sweep": "psi", "from": 0.25}, "claims[0].from", "not a point of sweep 'psi'"),
-    ({"sweep": "psi", "to": 0.9}, "claims[0].to", "allowed: 0.2, 0.5, 0.8"),
-    ({"sweep": "psi", "from": 0.8, "to": 0.2}, "claims[0].from", "comes after"),
-    ({"sweep": "psi", "at": 0.5, "to": 0.8}, "claims[0].at", "not both"),
-    ({"at": 0.5}, "claims[0].at", "add sweep = \"<name>\"; allowed: psi"),
-    ({"to": 0.5}, "claims[0].to", "allowed: psi"),
-])
+@pytest.mark.parametrize(
+    "fields, field, message",
+    [
+        ({"sweep": "cn0"}, "claims[0].sweep", "unknown sweep 'cn0'; allowed: psi"),
+        ({"sweep": "psi", "at": 0.3}, "claims[0].at", "0.3 is not a point of sweep 'psi'; allowed: 0.2, 0.5, 0.8"),
+        ({"sweep": "psi", "at": []}, "claims[0].at", "allowed: 0.2, 0.5, 0.8"),
+        ({"sweep": "psi", "from": 0.25}, "claims[0].from", "not a point of sweep 'psi'"),
+        ({"sweep": "psi", "to": 0.9}, "claims[0].to", "allowed: 0.2, 0.5, 0.8"),
+        ({"sweep": "psi", "from": 0.8, "to": 0.2}, "claims[0].from", "comes after"),
+        ({"sweep": "psi", "at": 0.5, "to": 0.8}, "claims[0].at", "not both"),
+        ({"at": 0.5}, "claims[0].at", 'add sweep = "<name>"; allowed: psi'),
+        ({"to": 0.5}, "claims[0].to", "allowed: psi"),
+    ],
+)
 def test_bad_sweep_claims_are_refused_at_load_naming_the_field(tmp_path, fields, field, message):
     with pytest.raises(ConfigError) as err:
         _config(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower", **fields))
@@ -157,44 +163,74 @@ def test_a_case_the_sweep_does_not_vary_is_refused(tmp_path):
     # The sweep sets psi of case "only"; case "other" is the same comparison at every point.
     other = '[[cases]]\nname = "other"\npsi = 0.1'
     with pytest.raises(ConfigError) as err:
-        _config(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower",
-                                 sweep="psi", case="other"), path="cases.only.psi", cases=other)
+        _config(
+            tmp_path,
+            _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower", sweep="psi", case="other"),
+            path="cases.only.psi",
+            cases=other,
+        )
     assert str(err.value).startswith("claims[0].case") and "allowed: only" in str(err.value)
     # Without a case the claim is evaluated in the case the sweep varies only.
-    config = _config(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher",
-                                      sweep="psi", at=0.2), path="cases.only.psi", cases=other)
+    config = _config(
+        tmp_path,
+        _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher", sweep="psi", at=0.2),
+        path="cases.only.psi",
+        cases=other,
+    )
     rows = evaluate_claims(config, _store(tmp_path, config, [STRONG, STRONG, STRONG]))
     assert [(r["case"], r["point"], r["outcome"]) for r in rows] == [("only", 0.2, "holds")]
 
 
 @pytest.mark.slow
 def test_summary_and_report_name_the_points(tmp_path):
-    config = _config(tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher",
-                                      sweep="psi"))
+    config = _config(
+        tmp_path, _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="higher", sweep="psi")
+    )
     store = _store(tmp_path, config, [STRONG, STRONG, TIE])
     summary = json.loads(write_report(config, store, tmp_path).read_text())
     assert [(c["point"], c["outcome"]) for c in summary["claims"]] == [
-        (0.2, "holds"), (0.5, "holds"), (0.8, "not significant"), ("all", "not significant")]
+        (0.2, "holds"),
+        (0.5, "holds"),
+        (0.8, "not significant"),
+        ("all", "not significant"),
+    ]
     report = (tmp_path / "report.md").read_text()
     assert "2 of 4 hold" in report
     assert "| holds | only psi=0.2 | a: lat_error_rmse higher than b's |" in report
-    assert "| not significant | only psi=0.2,0.5,0.8 (all) | a: lat_error_rmse higher than b's | holds at 2 of 3 " \
-           "points; fails at the Bonferroni level 0.017 at none |" in report
+    assert (
+        "| not significant | only psi=0.2,0.5,0.8 (all) | a: lat_error_rmse higher than b's | holds at 2 of 3 "
+        "points; fails at the Bonferroni level 0.017 at none |" in report
+    )
 
 
 @pytest.mark.slow
 def test_compare_check_exits_1_when_a_sweep_point_claim_does_not_hold(tmp_path):
     # A bound no mean can meet fails at every point; the run itself decides nothing else.
-    claims = (_claim(candidate="a", metric="lat_error_rmse", sweep="psi", within=[0.0, 1e9])
-              + _claim(candidate="a", metric="lat_error_rmse", sweep="psi", at=0.5, within=[1e9, 1e10]))
+    claims = _claim(candidate="a", metric="lat_error_rmse", sweep="psi", within=[0.0, 1e9]) + _claim(
+        candidate="a", metric="lat_error_rmse", sweep="psi", at=0.5, within=[1e9, 1e10]
+    )
     path = tmp_path / "c.toml"
     # 3 runs on purpose (small_n declared, else --check refuses every claim before the run).
     path.write_text(_text(claims).replace("runs = 4", "runs = 3\nclaims_small_n = true"))
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o"),
-                           "--quiet", "--check"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gnssframework",
+            "compare",
+            str(path),
+            "--out",
+            str(tmp_path / "o"),
+            "--quiet",
+            "--check",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 1, proc.stderr
-    outcomes = [(c["point"], c["outcome"]) for c in
-                json.loads((tmp_path / "o" / "summary.json").read_text())["claims"]]
+    outcomes = [(c["point"], c["outcome"]) for c in json.loads((tmp_path / "o" / "summary.json").read_text())["claims"]]
     assert outcomes == [(0.2, "holds"), (0.5, "holds"), (0.8, "holds"), ("all", "holds"), (0.5, "fails")]
-    assert "claims: 4 of 5 hold" in proc.stdout and "fails           only psi=0.5: a: mean lat_error_rmse in" \
-        in proc.stdout
+    assert (
+        "claims: 4 of 5 hold" in proc.stdout
+        and "fails           only psi=0.5: a: mean lat_error_rmse in" in proc.stdout
+    )

@@ -58,8 +58,9 @@ def _store(tmp_path, config, nominal, other):
     store.register(key, config.batch_size)
     for case, values in (("nominal", nominal), ("psi9", other)):
         for first in (0, 2):
-            store.add_batch(key, case, "a", first, {m: np.asarray(values[first:first + 2], float)
-                                                    for m in config.metric_names})
+            store.add_batch(
+                key, case, "a", first, {m: np.asarray(values[first : first + 2], float) for m in config.metric_names}
+            )
     return store
 
 
@@ -72,8 +73,9 @@ OTHER = [1.5, 2.5, 4.0, 4.5]
 
 @pytest.mark.parametrize("direction, outcome", [("higher", "holds"), ("lower", "fails")])
 def test_a_claim_between_cases_is_decided_by_the_paired_differences(tmp_path, direction, outcome):
-    config = _config(tmp_path, _claim(candidate="a", metric="lat_error_rmse", reference_case="nominal",
-                                      direction=direction))
+    config = _config(
+        tmp_path, _claim(candidate="a", metric="lat_error_rmse", reference_case="nominal", direction=direction)
+    )
     (row,) = evaluate_claims(config, _store(tmp_path, config, NOMINAL, OTHER))
     assert (row["case"], row["reference"], row["reference_case"]) == ("psi9", "a", "nominal")
     assert row["diff"] == pytest.approx(0.625) and row["se"] == pytest.approx(0.125) and row["n"] == 4
@@ -82,8 +84,10 @@ def test_a_claim_between_cases_is_decided_by_the_paired_differences(tmp_path, di
 
 
 def test_a_claim_between_cases_the_runs_cannot_tell_is_not_significant(tmp_path):
-    config = _config(tmp_path, _claim(candidate="a", metric="lat_error_rmse", reference_case="nominal",
-                                      case="psi9", direction="higher"))
+    config = _config(
+        tmp_path,
+        _claim(candidate="a", metric="lat_error_rmse", reference_case="nominal", case="psi9", direction="higher"),
+    )
     noisy = [2.0, 1.5, 5.0, 3.6]  # d = (1.0, -0.5, 2.0, -0.4): mean 0.525, SE 0.59
     (row,) = evaluate_claims(config, _store(tmp_path, config, NOMINAL, noisy))
     assert row["outcome"] == "not significant"
@@ -91,8 +95,10 @@ def test_a_claim_between_cases_the_runs_cannot_tell_is_not_significant(tmp_path)
 
 def test_a_ratio_between_cases_and_another_candidate_as_reference(tmp_path):
     # reference = the same candidate named explicitly gives the same row as the default.
-    config = _config(tmp_path, _claim(candidate="a", reference="a", metric="lat_error_rmse",
-                                      reference_case="nominal", ratio_min=1.05))
+    config = _config(
+        tmp_path,
+        _claim(candidate="a", reference="a", metric="lat_error_rmse", reference_case="nominal", ratio_min=1.05),
+    )
     (row,) = evaluate_claims(config, _store(tmp_path, config, NOMINAL, OTHER))
     assert row["ratio"] == pytest.approx(12.5 / 10.0)
     assert row["outcome"] in ("holds", "not significant")  # decided by the ratio's interval (its SE)
@@ -100,13 +106,19 @@ def test_a_ratio_between_cases_and_another_candidate_as_reference(tmp_path):
     assert row["outcome"] == ("holds" if row["ratio"] - half > 1.05 else "not significant")
 
 
-@pytest.mark.parametrize("fields, field, message", [
-    ({"reference_case": "x", "direction": "higher"}, "claims[0].reference_case",
-     "unknown reference_case 'x'; allowed: nominal, psi9"),
-    ({"reference_case": "nominal", "case": "nominal", "direction": "higher"}, "claims[0]", "compare two cases"),
-    ({"reference_case": "nominal"}, "claims[0]", "an ordering between cases needs direction"),
-    ({"reference_case": "nominal", "direction": "higher", "within": [0, 1]}, "claims[0]", "separate claim"),
-])
+@pytest.mark.parametrize(
+    "fields, field, message",
+    [
+        (
+            {"reference_case": "x", "direction": "higher"},
+            "claims[0].reference_case",
+            "unknown reference_case 'x'; allowed: nominal, psi9",
+        ),
+        ({"reference_case": "nominal", "case": "nominal", "direction": "higher"}, "claims[0]", "compare two cases"),
+        ({"reference_case": "nominal"}, "claims[0]", "an ordering between cases needs direction"),
+        ({"reference_case": "nominal", "direction": "higher", "within": [0, 1]}, "claims[0]", "separate claim"),
+    ],
+)
 def test_bad_claims_between_cases_are_refused_at_load(tmp_path, fields, field, message):
     with pytest.raises(ConfigError) as err:
         _config(tmp_path, _claim(candidate="a", metric="lat_error_rmse", **fields))
@@ -119,8 +131,9 @@ def test_a_bad_streams_name_is_refused_naming_the_field(tmp_path):
     assert "cases[1].streams" in str(err.value)
     with pytest.raises(ConfigError) as err:
         _config(tmp_path, streams='streams = "nominl"')
-    assert str(err.value).startswith("cases[1].streams") and "unknown case 'nominl'; allowed: nominal, psi9" in \
-        str(err.value)
+    assert str(err.value).startswith("cases[1].streams") and "unknown case 'nominl'; allowed: nominal, psi9" in str(
+        err.value
+    )
 
 
 @pytest.mark.slow
@@ -134,8 +147,9 @@ def test_a_case_on_another_cases_streams_draws_its_random_numbers(tmp_path):
         config = load_config(path)
         run_comparison(config, tmp_path / label, progress=False)
         store = ResultStore(tmp_path / label / "results.sqlite")
-        values[label] = [store.run_values(config.identity(), case, "a", "lat_error_rmse", 4)
-                         for case in ("nominal", "psi9")]
+        values[label] = [
+            store.run_values(config.identity(), case, "a", "lat_error_rmse", 4) for case in ("nominal", "psi9")
+        ]
     assert values["shared"][0] == values["shared"][1]
     assert values["own"][0] == values["shared"][0]  # the nominal case keeps its streams
     assert all(values["own"][0][r] != values["own"][1][r] for r in range(4))
@@ -150,13 +164,16 @@ def test_the_pairing_between_cases_is_real_on_common_random_numbers(tmp_path):
     # independent streams and below 0.5 once rho > 0.75 (about 0.9 here: AR(1) noise with
     # psi 0.95 and 0.9 from the same innovations).
     runs = 16
-    config = _config(tmp_path, _claim(candidate="a", metric="lat_error_rmse", reference_case="nominal",
-                                      direction="lower"), runs=runs)
+    config = _config(
+        tmp_path, _claim(candidate="a", metric="lat_error_rmse", reference_case="nominal", direction="lower"), runs=runs
+    )
     run_comparison(config, tmp_path / "out", progress=False)
     (row,) = evaluate_claims(config, ResultStore(tmp_path / "out" / "results.sqlite"))
     store = ResultStore(tmp_path / "out" / "results.sqlite")
-    x, y = (np.array(list(store.run_values(config.identity(), c, "a", "lat_error_rmse", runs).values()))
-            for c in ("psi9", "nominal"))
+    x, y = (
+        np.array(list(store.run_values(config.identity(), c, "a", "lat_error_rmse", runs).values()))
+        for c in ("psi9", "nominal")
+    )
     unpaired_se = float(np.sqrt(np.var(x, ddof=1) / runs + np.var(y, ddof=1) / runs))
     assert row["n"] == runs and row["se"] == pytest.approx(float(np.std(x - y, ddof=1) / np.sqrt(runs)))
     assert row["se"] < 0.5 * unpaired_se, (row["se"], unpaired_se)

@@ -47,8 +47,13 @@ def _store(tmp_path, claims: str, lat=LAT, lon=LON):
     for name in ("a", "b"):
         own = {"lat_error_rmse": lat, "lon_error_rmse": lon} if name == "a" else {}
         for first in (0, 2):
-            store.add_batch(key, "only", name, first,
-                            {m: np.asarray(own.get(m, B), float)[first:first + 2] for m in config.metric_names})
+            store.add_batch(
+                key,
+                "only",
+                name,
+                first,
+                {m: np.asarray(own.get(m, B), float)[first : first + 2] for m in config.metric_names},
+            )
     return evaluate_claims(config, store), config, store
 
 
@@ -94,17 +99,22 @@ def test_a_ratio_of_the_two_metrics_uses_the_ratio_interval(tmp_path):
     assert row["statement"] == f"a: lat_error_rmse / its lon_error_rmse < {r:g}"
 
 
-@pytest.mark.parametrize("margin, outcome", [
-    (1.0, "holds"),             # 90 % interval 0.625 +- 2.353 * 0.125 = (0.331, 0.919) inside (-1, 1)
-    (0.5, "not significant"),   # neither inside nor is the 95 % interval (0.227, 1.023) outside [-0.5, 0.5]
-    (0.2, "fails"),             # the 95 % interval lies above 0.2
-])
+@pytest.mark.parametrize(
+    "margin, outcome",
+    [
+        (1.0, "holds"),  # 90 % interval 0.625 +- 2.353 * 0.125 = (0.331, 0.919) inside (-1, 1)
+        (0.5, "not significant"),  # neither inside nor is the 95 % interval (0.227, 1.023) outside [-0.5, 0.5]
+        (0.2, "fails"),  # the 95 % interval lies above 0.2
+    ],
+)
 def test_an_equivalence_of_two_metrics_by_two_one_sided_tests(tmp_path, margin, outcome):
     (row,), _, _ = _store(tmp_path, _versus(equivalence_margin=margin))
     assert row["outcome"] == outcome
     d = LAT - LON
-    p_tost = max(stats.ttest_1samp(d, margin, alternative="less").pvalue,
-                 stats.ttest_1samp(d, -margin, alternative="greater").pvalue)
+    p_tost = max(
+        stats.ttest_1samp(d, margin, alternative="less").pvalue,
+        stats.ttest_1samp(d, -margin, alternative="greater").pvalue,
+    )
     assert row["p_value"] == pytest.approx(p_tost)
     assert row["statement"] == f"a: lat_error_rmse equivalent to its lon_error_rmse within ±{margin:g}"
 
@@ -137,8 +147,9 @@ def test_a_claim_between_metrics_joins_the_examples_adjustment(tmp_path):
     # b's lat_error_rmse is LON, so a's lat minus b's lat is the same d as a's lat minus a's lon:
     # both rows have t = 5 with 3 dof, p = 2 t.sf(5, 3) = 0.0150; Holm over two equal p-values
     # adjusts both to 2 p = 0.030 < 0.05.
-    claims = _versus(direction="higher") + claim_toml(candidate="a", reference="b", metric="lat_error_rmse",
-                                                      direction="higher")
+    claims = _versus(direction="higher") + claim_toml(
+        candidate="a", reference="b", metric="lat_error_rmse", direction="higher"
+    )
     path = tmp_path / "c.toml"
     path.write_text(two_candidate_config("claims", claims=claims))
     config = load_config(path)
@@ -147,8 +158,16 @@ def test_a_claim_between_metrics_joins_the_examples_adjustment(tmp_path):
     store.register(key, config.batch_size)
     for name, lat, lon in (("a", LAT, LON), ("b", LON, B)):
         for first in (0, 2):
-            store.add_batch(key, "only", name, first, {m: {"lat_error_rmse": lat, "lon_error_rmse": lon}.get(
-                m, B)[first:first + 2] for m in config.metric_names})
+            store.add_batch(
+                key,
+                "only",
+                name,
+                first,
+                {
+                    m: {"lat_error_rmse": lat, "lon_error_rmse": lon}.get(m, B)[first : first + 2]
+                    for m in config.metric_names
+                },
+            )
     rows = evaluate_claims(config, store)
     p = 2 * stats.t.sf(5.0, 3)
     for row in rows:
@@ -170,27 +189,49 @@ def test_the_report_and_the_check_carry_a_claim_between_metrics(tmp_path, capsys
     assert "claims: 1 of 2 hold" in out and "fails           only: a: lat_error_rmse lower than its" in out
 
 
-@pytest.mark.parametrize("fields, field, message", [
-    ({"versus_metric": "lon_rmse", "direction": "lower"}, "claims[0].versus_metric",
-     "unknown versus_metric 'lon_rmse'; allowed: lat_error_mean"),
-    ({"versus_metric": "convergence_epoch", "direction": "lower"}, "claims[0].versus_metric",
-     "'convergence_epoch' is in 'epochs' and metric 'lat_error_rmse' in 'm'"),
-    ({"candidate": "c", "versus_metric": "lon_error_rmse", "direction": "lower"}, "claims[0].candidate",
-     "unknown candidate 'c'; allowed: a, b"),
-    ({"versus_metric": "lat_error_rmse", "direction": "lower"}, "claims[0]", "versus_metric is metric "
-     "'lat_error_rmse' itself"),
-    ({"versus_metric": "lon_error_rmse"}, "claims[0]", "an ordering between metrics needs direction"),
-    ({"versus_metric": "lon_error_rmse", "reference": "b", "direction": "lower"}, "claims[0]",
-     "versus_metric pairs two metrics of the candidate on its own runs; reference is a separate claim"),
-    ({"versus_metric": "lon_error_rmse", "within": [0, 1]}, "claims[0]", "within is a separate claim"),
-    ({"versus_metric": "lon_error_rmse", "consistent_states": 2}, "claims[0]", "versus_metric is a separate claim"),
-    ({"versus_metric": "lon_error_rmse", "every_run_within": [0, 1], "reference_case": "only"}, "claims[0]",
-     "reference and reference_case are a separate claim"),
-])
+@pytest.mark.parametrize(
+    "fields, field, message",
+    [
+        (
+            {"versus_metric": "lon_rmse", "direction": "lower"},
+            "claims[0].versus_metric",
+            "unknown versus_metric 'lon_rmse'; allowed: lat_error_mean",
+        ),
+        (
+            {"versus_metric": "convergence_epoch", "direction": "lower"},
+            "claims[0].versus_metric",
+            "'convergence_epoch' is in 'epochs' and metric 'lat_error_rmse' in 'm'",
+        ),
+        (
+            {"candidate": "c", "versus_metric": "lon_error_rmse", "direction": "lower"},
+            "claims[0].candidate",
+            "unknown candidate 'c'; allowed: a, b",
+        ),
+        (
+            {"versus_metric": "lat_error_rmse", "direction": "lower"},
+            "claims[0]",
+            "versus_metric is metric 'lat_error_rmse' itself",
+        ),
+        ({"versus_metric": "lon_error_rmse"}, "claims[0]", "an ordering between metrics needs direction"),
+        (
+            {"versus_metric": "lon_error_rmse", "reference": "b", "direction": "lower"},
+            "claims[0]",
+            "versus_metric pairs two metrics of the candidate on its own runs; reference is a separate claim",
+        ),
+        ({"versus_metric": "lon_error_rmse", "within": [0, 1]}, "claims[0]", "within is a separate claim"),
+        ({"versus_metric": "lon_error_rmse", "consistent_states": 2}, "claims[0]", "versus_metric is a separate claim"),
+        (
+            {"versus_metric": "lon_error_rmse", "every_run_within": [0, 1], "reference_case": "only"},
+            "claims[0]",
+            "reference and reference_case are a separate claim",
+        ),
+    ],
+)
 def test_bad_claims_between_metrics_are_refused_at_load_naming_the_field(tmp_path, fields, field, message):
     path = tmp_path / "c.toml"
-    path.write_text(two_candidate_config("claims", claims=claim_toml(**{"candidate": "a", "metric": "lat_error_rmse",
-                                                                        **fields})))
+    path.write_text(
+        two_candidate_config("claims", claims=claim_toml(**{"candidate": "a", "metric": "lat_error_rmse", **fields}))
+    )
     with pytest.raises(ConfigError) as err:
         load_config(path)
     text = str(err.value)
@@ -202,12 +243,26 @@ def test_compare_check_on_a_real_run_where_the_ordering_holds_in_every_run(tmp_p
     # In every run the RMS of the latitude error is at least the mean of its absolute value
     # (the power-mean inequality; equal only for a constant |error|): rmse - mean >= 0 in every
     # run, so "in [0, 1e6] in every run" holds and "in [-1e6, 0) in every run" fails.
-    claims = (_versus_real(every_run_within=[0.0, 1e6]) + _versus_real(every_run_within=[-1e6, -1e-12]))
+    claims = _versus_real(every_run_within=[0.0, 1e6]) + _versus_real(every_run_within=[-1e6, -1e-12])
     path = tmp_path / "c.toml"
-    path.write_text(two_candidate_config("claims", top="claims_small_n = true", claims=claims)
-                    .replace("runs = 4", "runs = 3"))
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o"),
-                           "--quiet", "--check"], capture_output=True, text=True)
+    path.write_text(
+        two_candidate_config("claims", top="claims_small_n = true", claims=claims).replace("runs = 4", "runs = 3")
+    )
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gnssframework",
+            "compare",
+            str(path),
+            "--out",
+            str(tmp_path / "o"),
+            "--quiet",
+            "--check",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 1, proc.stderr
     rows = json.loads((tmp_path / "o" / "summary.json").read_text())["claims"]
     assert [r["outcome"] for r in rows] == ["holds", "fails"] and all(r["n"] == 3 for r in rows)
@@ -235,10 +290,15 @@ def test_a_claim_between_metrics_at_a_sweeps_points(tmp_path):
         for name in ("a", "b"):
             own = {"lat_error_rmse": LAT, "lon_error_rmse": LAT - d} if name == "a" else {}
             for first in (0, 2):
-                store.add_batch(key, "only", name, first, {m: own.get(m, B)[first:first + 2]
-                                                           for m in config.metric_names})
+                store.add_batch(
+                    key, "only", name, first, {m: own.get(m, B)[first : first + 2] for m in config.metric_names}
+                )
     rows = evaluate_claims(config, store)
-    assert [(r["point"], r["outcome"]) for r in rows] == [(0.2, "holds"), (0.5, "holds"), (0.8, "not significant"),
-                                                         ("all", "not significant")]
+    assert [(r["point"], r["outcome"]) for r in rows] == [
+        (0.2, "holds"),
+        (0.5, "holds"),
+        (0.8, "not significant"),
+        ("all", "not significant"),
+    ]
     for row, d in zip(rows, differences):
         assert row["diff"] == pytest.approx(d.mean()) and row["se"] == pytest.approx(d.std(ddof=1) / 2)

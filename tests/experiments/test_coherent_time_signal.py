@@ -29,15 +29,24 @@ def test_the_boc_scenario_takes_whole_e1c_periods_up_to_its_overlay(T):
     assert get_scenario({"kind": "boc-tracking", "coherent_time_s": T}).params.coherent_time_s == T
 
 
-@pytest.mark.parametrize("kind, T, message", [
-    ("boc-tracking", 0.002, "Input should be greater than or equal to 0.004 (got 0.002)"),
-    ("boc-tracking", 0.006, "must be a whole multiple of the 4 ms galileo-e1c-boc11 code period, from 0.004 to 0.1 s "
-                            "(got 0.006)"),
-    ("boc-tracking", 0.104, "Input should be less than or equal to 0.1 (got 0.104)"),
-    ("tracking-threshold", 0.0015, "must be a whole multiple of the 1 ms C/A code period, from 0.001 to 0.02 s "
-                                   "(got 0.0015)"),
-    ("tracking-threshold", 0.04, "Input should be less than or equal to 0.02 (got 0.04)"),
-])
+@pytest.mark.parametrize(
+    "kind, T, message",
+    [
+        ("boc-tracking", 0.002, "Input should be greater than or equal to 0.004 (got 0.002)"),
+        (
+            "boc-tracking",
+            0.006,
+            "must be a whole multiple of the 4 ms galileo-e1c-boc11 code period, from 0.004 to 0.1 s (got 0.006)",
+        ),
+        ("boc-tracking", 0.104, "Input should be less than or equal to 0.1 (got 0.104)"),
+        (
+            "tracking-threshold",
+            0.0015,
+            "must be a whole multiple of the 1 ms C/A code period, from 0.001 to 0.02 s (got 0.0015)",
+        ),
+        ("tracking-threshold", 0.04, "Input should be less than or equal to 0.02 (got 0.04)"),
+    ],
+)
 def test_a_scenario_refuses_intervals_off_its_signal_naming_the_field(kind, T, message):
     """In the scenario and in a case alike: the T of each scenario's own signal (C/A's 1 to 20
     whole milliseconds, E1-C's whole 4 ms periods up to its 100 ms overlay)."""

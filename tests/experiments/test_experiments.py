@@ -71,15 +71,24 @@ def test_summary_report_plots_and_published_values(tmp_path):
 @pytest.mark.slow
 def test_same_seed_same_numbers_on_every_executor(tmp_path):
     base = run_comparison(load_config(_write(tmp_path)), tmp_path / "a", progress=False)
-    pool = run_comparison(load_config(_write(tmp_path, TINY.replace("workers = 1", "workers = 2"))),
-                          tmp_path / "b", progress=False)
+    pool = run_comparison(
+        load_config(_write(tmp_path, TINY.replace("workers = 1", "workers = 2"))), tmp_path / "b", progress=False
+    )
     pytest.importorskip("dask.distributed")
-    dask = run_comparison(load_config(_write(tmp_path, TINY.replace('kind = "local"', 'kind = "dask"')
-                                             .replace("workers = 1", "workers = 2"))), tmp_path / "c", progress=False)
+    dask = run_comparison(
+        load_config(
+            _write(tmp_path, TINY.replace('kind = "local"', 'kind = "dask"').replace("workers = 1", "workers = 2"))
+        ),
+        tmp_path / "c",
+        progress=False,
+    )
     a, b, c = _rows(base), _rows(pool), _rows(dask)
     assert a == b == c
     other = run_comparison(load_config(_write(tmp_path), seed=8), tmp_path / "d", progress=False)
-    assert _rows(other)[("c45", "disc", "position_error_rmse")]["mean"] != a[("c45", "disc", "position_error_rmse")]["mean"]
+    assert (
+        _rows(other)[("c45", "disc", "position_error_rmse")]["mean"]
+        != a[("c45", "disc", "position_error_rmse")]["mean"]
+    )
 
 
 @pytest.mark.slow
@@ -116,19 +125,29 @@ def test_more_runs_reuse_the_finished_batches(tmp_path):
     config = load_config(_write(tmp_path))
     run_comparison(config, tmp_path / "out", progress=False)
     ran = []
-    summary = run_comparison(load_config(_write(tmp_path), runs=6), tmp_path / "out", progress=False,
-                             on_batch=ran.append)
+    summary = run_comparison(
+        load_config(_write(tmp_path), runs=6), tmp_path / "out", progress=False, on_batch=ran.append
+    )
     assert len(ran) == 2 and {t.first_run for t in ran} == {4}
     assert _rows(summary)[("c45", "disc", "nees")]["runs"] == 6
 
 
-@pytest.mark.parametrize("change, field, allowed", [
-    ('name = "iq-filter", params = { estimator = "ckf" }', "candidates[1].channel_filter.name",
-     "unknown channel_filter 'iq-filtr'"),
-    ('name = "iq-filter", params = { estimator = "ckf", window = 1 }', "candidates[1].channel_filter.params",
-     "window"),
-    ('name = "scalar"', "candidates[1].channel_filter.name", "channel filters that do: discriminator, iq-filter"),
-])
+@pytest.mark.parametrize(
+    "change, field, allowed",
+    [
+        (
+            'name = "iq-filter", params = { estimator = "ckf" }',
+            "candidates[1].channel_filter.name",
+            "unknown channel_filter 'iq-filtr'",
+        ),
+        (
+            'name = "iq-filter", params = { estimator = "ckf", window = 1 }',
+            "candidates[1].channel_filter.params",
+            "window",
+        ),
+        ('name = "scalar"', "candidates[1].channel_filter.name", "channel filters that do: discriminator, iq-filter"),
+    ],
+)
 def test_config_errors_name_the_field_and_the_allowed_values(tmp_path, change, field, allowed):
     text = TINY.replace('name = "iq-filter", params = { estimator = "ckf" }', change)
     if "iq-filtr" in allowed:
@@ -138,14 +157,17 @@ def test_config_errors_name_the_field_and_the_allowed_values(tmp_path, change, f
     assert field in str(err.value) and allowed in str(err.value)
 
 
-@pytest.mark.parametrize("text, message", [
-    (TINY.replace('kind = "vector-tracking"', 'kind = "vector"'), "scenario.kind: got 'vector'; allowed: "),
-    (TINY.replace("duration_s = 0.4", "duration_s = -1"), "scenario.duration_s"),
-    (TINY.replace("cn0_dbhz = 45.0", "cn0_dbhz = 90.0"), "cases[0].cn0_dbhz"),
-    ('metrics = ["rmse"]\n' + TINY, "metrics[0]: unknown 'rmse'; allowed: code_phase_error_rmse"),
-    (TINY.replace("[published.c45.disc]", "[published.c45.dsc]"), "published.c45.dsc: unknown candidate"),
-    (TINY.replace('kind = "local"', 'kind = "cloud"'), "executor.kind"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (TINY.replace('kind = "vector-tracking"', 'kind = "vector"'), "scenario.kind: got 'vector'; allowed: "),
+        (TINY.replace("duration_s = 0.4", "duration_s = -1"), "scenario.duration_s"),
+        (TINY.replace("cn0_dbhz = 45.0", "cn0_dbhz = 90.0"), "cases[0].cn0_dbhz"),
+        ('metrics = ["rmse"]\n' + TINY, "metrics[0]: unknown 'rmse'; allowed: code_phase_error_rmse"),
+        (TINY.replace("[published.c45.disc]", "[published.c45.dsc]"), "published.c45.dsc: unknown candidate"),
+        (TINY.replace('kind = "local"', 'kind = "cloud"'), "executor.kind"),
+    ],
+)
 def test_more_config_errors(tmp_path, text, message):
     with pytest.raises(gf.ConfigError, match=message.replace("[", r"\[").replace("]", r"\]")):
         load_config(_write(tmp_path, text))
@@ -154,8 +176,11 @@ def test_more_config_errors(tmp_path, text, message):
 @pytest.mark.slow
 def test_cli_config_error_is_one_line_without_traceback(tmp_path):
     bad = _write(tmp_path, TINY.replace('name = "discriminator"', 'name = "discriminater"'))
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(bad), "--out", str(tmp_path / "o")],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-m", "gnssframework", "compare", str(bad), "--out", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert proc.stderr.startswith("error: candidates[0].channel_filter.name: unknown channel_filter 'discriminater'")
     assert "did you mean 'discriminator'" in proc.stderr
@@ -171,8 +196,24 @@ def test_cli_bad_toml_names_the_file_and_line(tmp_path):
 @pytest.mark.slow
 def test_cli_compare_runs_and_overrides_runs_and_seed(tmp_path):
     path = _write(tmp_path)
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--runs", "2", "--seed", "3",
-                           "--out", str(tmp_path / "o"), "--quiet"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gnssframework",
+            "compare",
+            str(path),
+            "--runs",
+            "2",
+            "--seed",
+            "3",
+            "--out",
+            str(tmp_path / "o"),
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["seed"] == 3
@@ -196,8 +237,9 @@ def test_schema_validates_each_plugins_params_against_its_name():
 
     import jsonschema  # test-only oracle: an independent JSON-schema validator
 
-    out = subprocess.run([sys.executable, "-m", "gnssframework", "schema"], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "gnssframework", "schema"], capture_output=True, text=True, check=True
+    ).stdout
     validator = jsonschema.Draft202012Validator(json.loads(out))
     validator.check_schema(validator.schema)
     for path in sorted((Path(__file__).resolve().parents[2] / "examples").glob("*.toml")):

@@ -81,17 +81,65 @@ def _sweep_summary() -> dict:
     rows, paired = [], []
     for value in (25.0, 30.0):
         for cand, a in (("ref", 2.0), ("cand", 1.0)):
-            rows.append({"value": value, "case": "c", "candidate": cand, "metric": "err", "mean": a * value,
-                         "se": 0.1, "n": 4, "unit": "m"})
-            rows.append({"value": value, "case": "c", "candidate": cand, "metric": "bound", "mean": 0.5,
-                         "se": 1e-17, "n": 4, "unit": "m"})
-        paired.append({"value": value, "case": "c", "candidate": "cand", "metric": "err", "reference": "ref",
-                       "diff": -value, "se": 0.05, "ratio": 0.5, "ratio_se": 0.01})
-        paired.append({"value": value, "case": "c", "candidate": "cand", "metric": "bound", "reference": "ref",
-                       "diff": 0.0, "se": 0.0, "ratio": 1.0, "ratio_se": 0.0})
-    return {"name": "s", "seed": 1, "runs": 4, "reference": "ref",
-            "sweeps": [{"name": "cn0", "path": "cases.cn0", "values": [25.0, 30.0], "cases": ["c"],
-                        "rows": rows, "paired": paired}]}
+            rows.append(
+                {
+                    "value": value,
+                    "case": "c",
+                    "candidate": cand,
+                    "metric": "err",
+                    "mean": a * value,
+                    "se": 0.1,
+                    "n": 4,
+                    "unit": "m",
+                }
+            )
+            rows.append(
+                {
+                    "value": value,
+                    "case": "c",
+                    "candidate": cand,
+                    "metric": "bound",
+                    "mean": 0.5,
+                    "se": 1e-17,
+                    "n": 4,
+                    "unit": "m",
+                }
+            )
+        paired.append(
+            {
+                "value": value,
+                "case": "c",
+                "candidate": "cand",
+                "metric": "err",
+                "reference": "ref",
+                "diff": -value,
+                "se": 0.05,
+                "ratio": 0.5,
+                "ratio_se": 0.01,
+            }
+        )
+        paired.append(
+            {
+                "value": value,
+                "case": "c",
+                "candidate": "cand",
+                "metric": "bound",
+                "reference": "ref",
+                "diff": 0.0,
+                "se": 0.0,
+                "ratio": 1.0,
+                "ratio_se": 0.0,
+            }
+        )
+    return {
+        "name": "s",
+        "seed": 1,
+        "runs": 4,
+        "reference": "ref",
+        "sweeps": [
+            {"name": "cn0", "path": "cases.cn0", "values": [25.0, 30.0], "cases": ["c"], "rows": rows, "paired": paired}
+        ],
+    }
 
 
 def test_sweep_table_gives_means_and_paired_differences():
@@ -109,11 +157,23 @@ def test_sweep_table_gives_means_and_paired_differences():
 
 def test_sweep_table_lists_the_claims_at_their_points():
     summary = _sweep_summary()
-    at = {"claim": 0, "statement": "cand: err lower than ref's", "case": "c", "sweep": "cn0", "candidate": "cand",
-          "metric": "err", "reference": "ref", "se": 0.05, "n": 4, "outcome": "holds"}
-    summary["claims"] = [{**at, "point": 25.0, "diff": -25.0}, {**at, "point": 30.0, "diff": -30.0},
-                         {**at, "point": "all", "points": [25.0, 30.0], "held": 2, "corrected_level": 0.975,
-                          "failed_corrected": []}]
+    at = {
+        "claim": 0,
+        "statement": "cand: err lower than ref's",
+        "case": "c",
+        "sweep": "cn0",
+        "candidate": "cand",
+        "metric": "err",
+        "reference": "ref",
+        "se": 0.05,
+        "n": 4,
+        "outcome": "holds",
+    }
+    summary["claims"] = [
+        {**at, "point": 25.0, "diff": -25.0},
+        {**at, "point": 30.0, "diff": -30.0},
+        {**at, "point": "all", "points": [25.0, 30.0], "held": 2, "corrected_level": 0.975, "failed_corrected": []},
+    ]
     text = sweep_tables.render(summary)
     assert "**Claims**: 3 of 3 hold" in text
     assert "| holds | c cn0=25.0 | cand: err lower than ref's | difference -25" in text
@@ -128,12 +188,30 @@ def test_sweep_table_refuses_a_summary_without_sweeps(tmp_path):
 
 def _published_summary() -> dict:
     def row(case, cand, metric, mean, std, published):
-        return {"case": case, "candidate": cand, "metric": metric, "mean": mean, "std": std, "runs": 4,
-                "unit": "m", "published": published}
-    return {"name": "p", "seed": 3, "runs": 4, "rows": [
-        row("a", "x", "pos", 1.0, 0.2, 4.7), row("a", "y", "pos", 2.0, 0.4, 5.8),
-        row("a", "x", "other", 9.0, 1.0, None), row("a", "y", "other", 9.0, 1.0, None),
-        row("b", "x", "pos", 1.0, 0.2, None), row("b", "y", "pos", 2.0, 0.4, None)]}
+        return {
+            "case": case,
+            "candidate": cand,
+            "metric": metric,
+            "mean": mean,
+            "std": std,
+            "runs": 4,
+            "unit": "m",
+            "published": published,
+        }
+
+    return {
+        "name": "p",
+        "seed": 3,
+        "runs": 4,
+        "rows": [
+            row("a", "x", "pos", 1.0, 0.2, 4.7),
+            row("a", "y", "pos", 2.0, 0.4, 5.8),
+            row("a", "x", "other", 9.0, 1.0, None),
+            row("a", "y", "other", 9.0, 1.0, None),
+            row("b", "x", "pos", 1.0, 0.2, None),
+            row("b", "y", "pos", 2.0, 0.4, None),
+        ],
+    }
 
 
 def test_published_table_sets_the_papers_values_beside_ours():
@@ -153,8 +231,14 @@ def test_published_table_refuses_an_unknown_candidate(tmp_path):
 
 
 def _assumption(case: str, candidate: str, label: str, value) -> dict:
-    return {"case": case, "candidate": candidate, "component": "channel_filter", "label": label, "value": value,
-            "unit": "-"}
+    return {
+        "case": case,
+        "candidate": candidate,
+        "component": "channel_filter",
+        "label": label,
+        "value": value,
+        "unit": "-",
+    }
 
 
 def test_assumptions_table_repeats_a_row_for_a_case_where_an_assumption_differs():
@@ -162,9 +246,14 @@ def test_assumptions_table_repeats_a_row_for_a_case_where_an_assumption_differs(
 
     # An R fixed at the first case's C/N0: its ratio to the thermal variance is 1 there and
     # 0.03 in the other case; the adaptive candidate's R follows the case.
-    rows = [_assumption("45", "fixed", "R / thermal", 1.0), _assumption("30", "fixed", "R / thermal", 0.0316),
-            _assumption("45", "adaptive", "R / thermal", 1.0), _assumption("30", "adaptive", "R / thermal", 1.0),
-            _assumption("45", "fixed", "output", "split"), _assumption("30", "fixed", "output", "split")]
+    rows = [
+        _assumption("45", "fixed", "R / thermal", 1.0),
+        _assumption("30", "fixed", "R / thermal", 0.0316),
+        _assumption("45", "adaptive", "R / thermal", 1.0),
+        _assumption("30", "adaptive", "R / thermal", 1.0),
+        _assumption("45", "fixed", "output", "split"),
+        _assumption("30", "fixed", "output", "split"),
+    ]
     lines = experiment_tables.assumptions_table(rows, ["adaptive", "fixed"], ["45", "30"])
     assert "| channel_filter | R / thermal | - | 1 | 1 |" in lines
     assert "| channel_filter | R / thermal, in 30 | - | 1 | 0.0316 |" in lines
@@ -173,9 +262,10 @@ def test_assumptions_table_repeats_a_row_for_a_case_where_an_assumption_differs(
     # Nothing differs between the cases: one row per assumption, the first case's heading only.
     same = experiment_tables.assumptions_table(rows[2:], ["adaptive", "fixed"], ["45", "30"])
     assert [line for line in same if line.startswith("| channel_filter")] == [
-        "| channel_filter | R / thermal | - | 1 | – |", "| channel_filter | output | - | – | split |"]
+        "| channel_filter | R / thermal | - | 1 | – |",
+        "| channel_filter | output | - | – | split |",
+    ]
     assert same[0] == "**Assumptions** (45: what each candidate's filters assume, in common units)"
-
 
 
 # Reference 001 (carrier smoothing): make_experiment_plots renders these with its TABLES /

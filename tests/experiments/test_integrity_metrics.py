@@ -31,10 +31,10 @@ CONF = 1e-4  # probability of a correct implementation failing one interval chec
 #: One epoch per region of the Stanford-ESA diagram at an alert limit of 10 m, and what
 #: each region is (by the definitions: MI |e| > PL; HMI PL < AL < |e|; available PL < AL).
 REGIONS = [  # (error, PL, MI, HMI, available)
-    (1.0, 5.0, 0, 0, 1),    # nominal: e < PL < AL
-    (7.0, 5.0, 1, 0, 1),    # MI: PL < e < AL
-    (12.0, 5.0, 1, 1, 1),   # HMI: PL < AL < e
-    (4.0, 15.0, 0, 0, 0),   # unavailable: e < AL < PL
+    (1.0, 5.0, 0, 0, 1),  # nominal: e < PL < AL
+    (7.0, 5.0, 1, 0, 1),  # MI: PL < e < AL
+    (12.0, 5.0, 1, 1, 1),  # HMI: PL < AL < e
+    (4.0, 15.0, 0, 0, 0),  # unavailable: e < AL < PL
     (12.0, 15.0, 0, 0, 0),  # unavailable: AL < e < PL
     (20.0, 15.0, 1, 0, 0),  # MI while unavailable: AL < PL < e (not HMI: the system said so)
     (-12.0, 5.0, 1, 1, 1),  # a signed error counts by its magnitude
@@ -82,8 +82,13 @@ def test_gaussian_errors_exceed_the_covariance_levels_at_the_stated_risk(risk):
 
 def test_the_vector_scenario_declares_the_integrity_metrics_and_its_limits():
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 3.0})
-    for name in ("hpl_mean", "vpl_mean", "horizontal_misleading_fraction", "vertical_hazardous_fraction",
-                 "horizontal_available_fraction"):
+    for name in (
+        "hpl_mean",
+        "vpl_mean",
+        "horizontal_misleading_fraction",
+        "vertical_hazardous_fraction",
+        "horizontal_available_fraction",
+    ):
         assert check_metric(name, scen, "metrics[0]") in ("m", "-")
     with pytest.raises(ConfigError, match="metrics\\[0\\]: unknown 'hpl_max'"):
         check_metric("hpl_max", scen, "metrics[0]")
@@ -93,15 +98,26 @@ def test_the_vector_scenario_declares_the_integrity_metrics_and_its_limits():
 
 @pytest.fixture(scope="module")
 def step_runs():
-    base = {"kind": "vector-tracking", "duration_s": 3.0, "channels": 8, "settle_s": 0.5, "steady_state_s": 2.0,
-            "pcrb": False, "innovation_false_alarm": 1e-3}
+    base = {
+        "kind": "vector-tracking",
+        "duration_s": 3.0,
+        "channels": 8,
+        "settle_s": 0.5,
+        "steady_state_s": 2.0,
+        "pcrb": False,
+        "innovation_false_alarm": 1e-3,
+    }
     case = {"cn0_dbhz": 45.0, "fault_channel": 0, "fault_start_s": 1.0, "fault_step_m": 60.0}
-    components = {"channel_filter": {"name": "discriminator", "params": {"code_discriminator": "eml-envelope"}},
-                  "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1e-5}}}
+    components = {
+        "channel_filter": {"name": "discriminator", "params": {"code_discriminator": "eml-envelope"}},
+        "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1e-5}},
+    }
     out = {}
-    for name, risk, options in (("none", 1e-7, None),
-                                ("monitor", 1e-7, {"channel_monitor": {"false_alarm": 1e-3, "consecutive": 3}}),
-                                ("monitor-1e-3", 1e-3, {"channel_monitor": {"false_alarm": 1e-3, "consecutive": 3}})):
+    for name, risk, options in (
+        ("none", 1e-7, None),
+        ("monitor", 1e-7, {"channel_monitor": {"false_alarm": 1e-3, "consecutive": 3}}),
+        ("monitor-1e-3", 1e-3, {"channel_monitor": {"false_alarm": 1e-3, "consecutive": 3}}),
+    ):
         scen = get_scenario({**base, "integrity_risk": risk})
         scen.check_case(case, "cases[0]")
         out[name] = scen.run_batch(case, scen.build(components, options), 2, draw.run_streams(43, (0,), range(2)))
@@ -111,8 +127,12 @@ def step_runs():
 def test_a_fault_the_monitor_misses_is_misleading_and_one_it_excludes_is_not(step_runs):
     none, monitor = step_runs["none"], step_runs["monitor"]
     for r in (none, monitor):  # east-north-up is a rotation of the ECEF error
-        np.testing.assert_allclose(np.hypot(r.series["horizontal_error_m"], r.series["vertical_error_m"]),
-                                   r.series["position_error_m"], rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(
+            np.hypot(r.series["horizontal_error_m"], r.series["vertical_error_m"]),
+            r.series["position_error_m"],
+            rtol=1e-12,
+            atol=1e-9,
+        )
         assert np.all(r.metrics["hpl_mean"] < 10.0) and np.all(r.metrics["vpl_mean"] < 15.0)  # not vacuous
         np.testing.assert_array_equal(r.metrics["horizontal_available_fraction"], 1.0)
     # The step pulls the unmonitored solution by ~30 m from about 1 s on: with a fault-free
@@ -152,6 +172,7 @@ def test_the_levels_scale_with_the_integrity_risk_as_their_formulas_say(step_run
 
 # --- receive --tracking vector --raim: the vector rows' protection levels ---------------------
 
+
 def test_vector_rows_carry_the_covariance_levels_and_the_monitor_verdict():
     import pymap3d
 
@@ -163,8 +184,11 @@ def test_vector_rows_carry_the_covariance_levels_and_the_monitor_verdict():
     r = np.array(pymap3d.geodetic2ecef(lat, lon, h))
     # East, north, up unit vectors in ECEF (pymap3d, not the module's rotation), as columns.
     enu_to_ecef = np.stack(pymap3d.enu2uvw(*np.eye(3), lat, lon), axis=0)
-    C_enu = [np.array([[4.0, 1.0, 0.3], [1.0, 2.0, -0.2], [0.3, -0.2, 9.0]]), np.diag([1.0, 1.0, 4.0]),
-             np.diag([0.25, 1.0, 1.0])]
+    C_enu = [
+        np.array([[4.0, 1.0, 0.3], [1.0, 2.0, -0.2], [0.3, -0.2, 9.0]]),
+        np.diag([1.0, 1.0, 4.0]),
+        np.diag([0.25, 1.0, 1.0]),
+    ]
     sol = VectorSolution(prns=(3, 7, 9), handover_s=10.0, week=2300)
     for i, C in enumerate(C_enu):
         P = np.eye(8)
@@ -186,8 +210,9 @@ def test_vector_rows_carry_the_covariance_levels_and_the_monitor_verdict():
     assert set(INTEGRITY_COLUMNS) <= set(table.columns) and "hpl_m" not in sol.table(1.0).columns
     # After scalar rows without levels (no --raim there), those rows say unavailable.
     before = sol.table(1.0)
-    shifted = type(before)(before.columns, before.ecef_m, before.sample_time_s - 5.0, before.used_prns,
-                           before.excluded_prn)
+    shifted = type(before)(
+        before.columns, before.ecef_m, before.sample_time_s - 5.0, before.used_prns, before.excluded_prn
+    )
     joined = concatenate_tables(shifted, table, 10.0)
     assert set(POSITION_COLUMNS + INTEGRITY_COLUMNS) <= set(joined.columns)
     assert list(joined.columns["raim"]) == ["unavailable"] * 3 + ["ok", "excluded", "ok"]

@@ -91,7 +91,8 @@ nav_filter = "position-ca"
 """
 
 ORACLE = MULTIPATH.replace('name = "ukf"', 'name = "oracle"').replace(
-    'nav_filter = "position-ca"', 'nav_filter = "position-ca"\nscenario_options = { oracle = {} }')
+    'nav_filter = "position-ca"', 'nav_filter = "position-ca"\nscenario_options = { oracle = {} }'
+)
 
 SMOOTHING = """
 name = "cs"
@@ -130,12 +131,18 @@ def test_the_fixture_configs_load(tmp_path, kind):
 
 
 @pytest.mark.parametrize("kind", CONFIGS)
-@pytest.mark.parametrize("value, message", [
-    ("1e-9", "scenario.coherent_time_s: Input should be greater than or equal to 0.001 (got 1e-09)"),
-    ("0.0015", "scenario.coherent_time_s: must be a whole multiple of the 1 ms C/A code period, from 0.001 to "
-               "0.02 s (got 0.0015)"),
-    ("0.04", "scenario.coherent_time_s: Input should be less than or equal to 0.02 (got 0.04)"),
-])
+@pytest.mark.parametrize(
+    "value, message",
+    [
+        ("1e-9", "scenario.coherent_time_s: Input should be greater than or equal to 0.001 (got 1e-09)"),
+        (
+            "0.0015",
+            "scenario.coherent_time_s: must be a whole multiple of the 1 ms C/A code period, from 0.001 to "
+            "0.02 s (got 0.0015)",
+        ),
+        ("0.04", "scenario.coherent_time_s: Input should be less than or equal to 0.02 (got 0.04)"),
+    ],
+)
 def test_a_coherent_time_the_scenario_cannot_represent_is_refused_naming_the_field(tmp_path, kind, value, message):
     text = CONFIGS[kind]
     old = next(line for line in text.splitlines() if line.startswith("coherent_time_s"))
@@ -147,16 +154,22 @@ def test_a_scintillation_case_interval_is_held_to_whole_code_periods(tmp_path):
     assert _error(tmp_path, text).startswith("cases[0].coherent_time_s: must be a whole multiple of the 1 ms")
 
 
-@pytest.mark.parametrize("kind, change", [
-    ("vector-tracking", ("duration_s = 0.2", "duration_s = 3600.0")),
-    ("deep-integration", ("duration_s = 0.5", "duration_s = 600.0")),
-    ("scintillation", ("duration_s = 1.0", "duration_s = 3600.0")),
-])
+@pytest.mark.parametrize(
+    "kind, change",
+    [
+        ("vector-tracking", ("duration_s = 0.2", "duration_s = 3600.0")),
+        ("deep-integration", ("duration_s = 0.5", "duration_s = 600.0")),
+        ("scintillation", ("duration_s = 1.0", "duration_s = 3600.0")),
+    ],
+)
 def test_a_batch_above_the_memory_budget_is_refused_with_its_estimate(tmp_path, kind, change, monkeypatch):
     monkeypatch.delenv(MEMORY_BUDGET_ENV, raising=False)
     text = CONFIGS[kind].replace(*change).replace("coherent_time_s = 0.01", "coherent_time_s = 0.001")
-    text = text.replace("batch_size = 2", "batch_size = 50").replace("runs = 4", "runs = 100").replace(
-        "runs = 2", "runs = 100")
+    text = (
+        text.replace("batch_size = 2", "batch_size = 50")
+        .replace("runs = 4", "runs = 100")
+        .replace("runs = 2", "runs = 100")
+    )
     msg = _error(tmp_path, text)
     assert msg.startswith("scenario.coherent_time_s: a batch of 50 runs of cases[0] (")
     assert "above the memory budget of 8 GiB per batch" in msg
@@ -176,8 +189,11 @@ def _oracle_passes(runs: int) -> int:
 def test_filter_scenarios_refuse_a_batch_above_the_budget_counting_an_oracle_grid(tmp_path, monkeypatch, text, oracle):
     monkeypatch.delenv(MEMORY_BUDGET_ENV, raising=False)
     passes = None if oracle is None else _oracle_passes(50) if oracle else 50
-    big = text.replace("epochs = 500", "epochs = 100000").replace("runs = 4", "runs = 100000").replace(
-        "batch_size = 2", "batch_size = 100000")
+    big = (
+        text.replace("epochs = 500", "epochs = 100000")
+        .replace("runs = 4", "runs = 100000")
+        .replace("batch_size = 2", "batch_size = 100000")
+    )
     msg = _error(tmp_path, big)
     assert msg.startswith("scenario.epochs: a batch of 100000 runs of cases[0] (100000 epochs")
     small = text.replace("batch_size = 2", "batch_size = 50").replace("runs = 4", "runs = 50")
@@ -221,26 +237,35 @@ def _peak_bytes(config) -> tuple[int, float]:
     scenario.run_batch(case, scenario.build(comps, cand.scenario_options), 1, np.random.default_rng(0))  # compile first
     tracemalloc.start()
     try:
-        scenario.run_batch(case, scenario.build(comps, cand.scenario_options), config.batch_size,
-                           np.random.default_rng(1))
+        scenario.run_batch(
+            case, scenario.build(comps, cand.scenario_options), config.batch_size, np.random.default_rng(1)
+        )
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
     checked = scenario.CaseParams.model_validate(case).model_dump()
-    return peak, scenario.batch_memory(checked, config.batch_size, "cases[0]",
-                                       [{**cand.components(), "scenario_options": cand.scenario_options}])[0]
+    return peak, scenario.batch_memory(
+        checked, config.batch_size, "cases[0]", [{**cand.components(), "scenario_options": cand.scenario_options}]
+    )[0]
 
 
-@pytest.mark.parametrize("kind, change", [
-    ("vector-tracking",
-     [("duration_s = 0.2", "duration_s = 1.0"), ("coherent_time_s = 0.01", "coherent_time_s = 0.001")]),
-    ("scintillation",
-     [("duration_s = 1.0", "duration_s = 4.0"), ("coherent_time_s = 0.01", "coherent_time_s = 0.001")]),
-    ("deep-integration", [("duration_s = 0.5", "duration_s = 1.0")]),
-    ("multipath", [("epochs = 500", "epochs = 2000")]),
-    ("oracle", [("epochs = 500", "epochs = 500")]),
-    ("carrier-smoothing", [("epochs = 500", "epochs = 5000")]),
-])
+@pytest.mark.parametrize(
+    "kind, change",
+    [
+        (
+            "vector-tracking",
+            [("duration_s = 0.2", "duration_s = 1.0"), ("coherent_time_s = 0.01", "coherent_time_s = 0.001")],
+        ),
+        (
+            "scintillation",
+            [("duration_s = 1.0", "duration_s = 4.0"), ("coherent_time_s = 0.01", "coherent_time_s = 0.001")],
+        ),
+        ("deep-integration", [("duration_s = 0.5", "duration_s = 1.0")]),
+        ("multipath", [("epochs = 500", "epochs = 2000")]),
+        ("oracle", [("epochs = 500", "epochs = 500")]),
+        ("carrier-smoothing", [("epochs = 500", "epochs = 5000")]),
+    ],
+)
 def test_the_memory_estimate_is_above_the_measured_peak(tmp_path, kind, change):
     text = {**CONFIGS, "multipath": MULTIPATH, "oracle": ORACLE, "carrier-smoothing": SMOOTHING}[kind]
     text = text.replace("batch_size = 2", "batch_size = 4").replace("runs = 2", "runs = 4")
@@ -252,13 +277,21 @@ def test_the_memory_estimate_is_above_the_measured_peak(tmp_path, kind, change):
     assert peak <= estimate <= 4 * peak, (peak, estimate)
 
 
-@pytest.mark.parametrize("case_line, message", [
-    ("duration_s = 0.005", "cases[0].duration_s: must be longer than the interval coherent_time_s = 0.01 s "
-                           "(got 0.005)"),
-    ("duration_s = 0.1", "cases[0].duration_s: must be longer than settle_s = 0.2 s (got 0.1)"),
-    ("duration_s = 0.3", "scenario.lock_window_s: must be at most duration_s - settle_s = 0.1 s of cases[0] "
-                         "(one whole lock-test block after settling; got 0.2)"),
-])
+@pytest.mark.parametrize(
+    "case_line, message",
+    [
+        (
+            "duration_s = 0.005",
+            "cases[0].duration_s: must be longer than the interval coherent_time_s = 0.01 s (got 0.005)",
+        ),
+        ("duration_s = 0.1", "cases[0].duration_s: must be longer than settle_s = 0.2 s (got 0.1)"),
+        (
+            "duration_s = 0.3",
+            "scenario.lock_window_s: must be at most duration_s - settle_s = 0.1 s of cases[0] "
+            "(one whole lock-test block after settling; got 0.2)",
+        ),
+    ],
+)
 def test_a_scintillation_case_too_short_for_its_intervals_is_refused(tmp_path, case_line, message):
     assert _error(tmp_path, SCINT.replace("s4 = 0.5", f"s4 = 0.5\n{case_line}")) == message
 

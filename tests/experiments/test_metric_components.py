@@ -7,8 +7,18 @@ import pytest
 from scipy.stats import chi2
 
 from gnssframework.experiments import get_scenario
-from gnssframework.experiments.metric_components import (ConvergenceEpoch, LockLossFraction, Mean, MeanAbs, Rmse,
-                                                         SlipRecovery, Std, evaluate, slip_recovery, units)
+from gnssframework.experiments.metric_components import (
+    ConvergenceEpoch,
+    LockLossFraction,
+    Mean,
+    MeanAbs,
+    Rmse,
+    SlipRecovery,
+    Std,
+    evaluate,
+    slip_recovery,
+    units,
+)
 from gnssframework.experiments.scenarios import carrier_smoothing, multipath, scintillation, vector_tracking
 from gnssframework.random_streams import as_run_streams
 
@@ -18,11 +28,11 @@ def _hand_convergence(err: np.ndarray, window: int, factor: float) -> float:
     RMS of the last `window` errors (zeros before the start) stays below factor x the RMS
     of the second half."""
     K = len(err)
-    bound = factor * np.sqrt(np.mean(err[K // 2:] ** 2))
+    bound = factor * np.sqrt(np.mean(err[K // 2 :] ** 2))
     last_above = -1
     for k in range(K):
         lo = max(0, k - window + 1)
-        if np.sqrt(np.sum(err[lo:k + 1] ** 2) / window) > bound:
+        if np.sqrt(np.sum(err[lo : k + 1] ** 2) / window) > bound:
             last_above = k
     return float(last_above + 1)
 
@@ -75,10 +85,14 @@ def test_the_multipath_scenario_declares_each_metric_once_and_reports_the_hand_r
     res = scen.run_batch({"psi": 0.9}, {}, 3, np.random.default_rng(4))  # raw: the measurement itself
     lat, lon = zs[..., 0], zs[..., 1]
     h = np.hypot(lat, lon)
-    hand = {"lat_error_mean": np.mean(np.abs(lat), 0), "lat_error_rmse": np.sqrt(np.mean(lat**2, 0)),
-            "lon_error_mean": np.mean(np.abs(lon), 0), "lon_error_rmse": np.sqrt(np.mean(lon**2, 0)),
-            "horizontal_error_rmse": np.sqrt(np.mean(h**2, 0)),
-            "convergence_epoch": [_hand_convergence(h[:, r], 5, 2.0) for r in range(3)]}
+    hand = {
+        "lat_error_mean": np.mean(np.abs(lat), 0),
+        "lat_error_rmse": np.sqrt(np.mean(lat**2, 0)),
+        "lon_error_mean": np.mean(np.abs(lon), 0),
+        "lon_error_rmse": np.sqrt(np.mean(lon**2, 0)),
+        "horizontal_error_rmse": np.sqrt(np.mean(h**2, 0)),
+        "convergence_epoch": [_hand_convergence(h[:, r], 5, 2.0) for r in range(3)],
+    }
     assert set(res.metrics) == set(hand)
     for name, value in hand.items():
         np.testing.assert_allclose(res.metrics[name], value, rtol=1e-12, err_msg=name)
@@ -128,7 +142,8 @@ def test_mean_and_std_against_hand_values_after_settle_time_or_leading_epochs():
     np.testing.assert_array_equal(std.series, np.abs(x))
     assert Mean("m", "-", of="x", skip_epochs="settle_epochs").compute({"x": x}, None, scen).value.tolist() == [5, 4]
     assert Rmse("r", "-", of="x", skip_epochs=1).compute({"x": x}, None, scen).value == pytest.approx(
-        [np.sqrt(17.0), np.sqrt(10.0)])
+        [np.sqrt(17.0), np.sqrt(10.0)]
+    )
     # A derived settle time (a function of the scenario), as vector-tracking's steady state.
     late = Mean("m", "-", of="x", settle=lambda s: 2 * s.params.settle_s).compute({"x": x}, t, scen)
     assert late.value.tolist() == [5.0, 4.0]
@@ -217,16 +232,29 @@ def test_an_optional_component_is_left_out_without_its_series_and_a_required_one
 
 @pytest.mark.parametrize("module", [multipath, carrier_smoothing, scintillation, vector_tracking])
 def test_each_scenario_derives_its_metric_table_from_its_components(module):
-    cls = next(c for c in vars(module).values() if isinstance(c, type) and getattr(c, "METRICS", None) is None
-               and hasattr(c, "run_batch") and c.__module__ == module.__name__)
+    cls = next(
+        c
+        for c in vars(module).values()
+        if isinstance(c, type)
+        and getattr(c, "METRICS", None) is None
+        and hasattr(c, "run_batch")
+        and c.__module__ == module.__name__
+    )
     assert cls.metrics == {m.name: m.unit for m in module.METRICS}
     # Every series a component reads is a declared output: a third-party metric may read it too.
     assert {r for m in module.METRICS for r in m.requires} <= set(cls.outputs)
 
 
 def test_carrier_smoothing_reports_the_hand_reductions():
-    scen = get_scenario({"kind": "carrier-smoothing", "epochs": 300, "settle_epochs": 20, "slip_probability": 0.02,
-                         "recovery_isolation_epochs": 40})
+    scen = get_scenario(
+        {
+            "kind": "carrier-smoothing",
+            "epochs": 300,
+            "settle_epochs": 20,
+            "slip_probability": 0.02,
+            "recovery_isolation_epochs": 40,
+        }
+    )
     truth, code, _, slips = scen.simulate(3, as_run_streams(np.random.default_rng(5), 3))  # run_batch's streams
     res = scen.run_batch({}, {}, 3, np.random.default_rng(5))  # raw: the pseudorange itself
     err = code - truth
@@ -247,9 +275,15 @@ def test_scintillation_reports_the_hand_reductions():
     err, disc, t = res.series["phase_error_rad"], res.series["phase_disc_rad"], res.time_s
     assert np.all(np.abs(err) <= np.pi / 2) and t[0] == pytest.approx(0.005)
     s = t >= 0.3  # 70 epochs: 7 blocks of 10
-    hand_lol = [np.mean([np.mean(np.cos(2 * err[s][10 * b:10 * b + 10, r])) < 0.5 for b in range(7)]) for r in range(2)]
-    hand = {"phase_error_rmse": np.sqrt(np.mean(err[s] ** 2, axis=0)), "discriminator_std": np.std(disc[s], axis=0),
-            "loss_of_lock_fraction": hand_lol, "equivalent_bandwidth_hz": res.series["loop_noise_bandwidth_hz"][0]}
+    hand_lol = [
+        np.mean([np.mean(np.cos(2 * err[s][10 * b : 10 * b + 10, r])) < 0.5 for b in range(7)]) for r in range(2)
+    ]
+    hand = {
+        "phase_error_rmse": np.sqrt(np.mean(err[s] ** 2, axis=0)),
+        "discriminator_std": np.std(disc[s], axis=0),
+        "loss_of_lock_fraction": hand_lol,
+        "equivalent_bandwidth_hz": res.series["loop_noise_bandwidth_hz"][0],
+    }
     assert set(res.metrics) == set(hand)
     for name, value in hand.items():
         np.testing.assert_allclose(res.metrics[name], value, rtol=1e-12, err_msg=name)
@@ -257,8 +291,16 @@ def test_scintillation_reports_the_hand_reductions():
 
 
 def test_vector_tracking_reports_the_hand_reductions():
-    scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.3, "channels": 4, "settle_s": 0.1,
-                         "steady_state_s": 0.2, "innovation_false_alarm": 1e-3})
+    scen = get_scenario(
+        {
+            "kind": "vector-tracking",
+            "duration_s": 0.3,
+            "channels": 4,
+            "settle_s": 0.1,
+            "steady_state_s": 0.2,
+            "innovation_false_alarm": 1e-3,
+        }
+    )
     plugins = scen.build({"channel_filter": {"name": "discriminator"}, "nav_filter": {"name": "ekf-pv"}})
     res = scen.run_batch({"cn0_dbhz": 40.0}, plugins, 2, np.random.default_rng(8))
     t, sr = res.time_s, res.series
@@ -268,22 +310,26 @@ def test_vector_tracking_reports_the_hand_reductions():
     def rms(x, m):
         return np.sqrt(np.mean(x[m] ** 2, axis=0))
 
-    hand = {"code_phase_error_rmse": rms(sr["code_error_chips"], s),
-            "carrier_freq_error_rmse": rms(sr["freq_error_hz"], s),
-            "position_error_rmse": rms(sr["position_error_m"], s),
-            "velocity_error_rmse": rms(sr["velocity_error_m_s"], s),
-            "position_steady_error_rmse": rms(sr["position_error_m"], steady),
-            "nees": np.mean(sr["nav_nees"][s], axis=0), "nees_position": np.mean(sr["nav_nees_position"][s], axis=0),
-            "nees_velocity": np.mean(sr["nav_nees_velocity"][s], axis=0),
-            "code_output_rmse": rms(sr["code_output_error_chips"], s),
-            "freq_output_rmse": rms(sr["freq_output_error_hz"], s),
-            "pcrb_position": rms(sr["pcrb_position_m"], s), "pcrb_velocity": rms(sr["pcrb_velocity_m_s"], s),
-            "pcrb_position_code": rms(sr["pcrb_position_code_m"], s),
-            "pcrb_velocity_code": rms(sr["pcrb_velocity_code_m_s"], s),
-            "excluded_channels": np.zeros(2),  # no channel monitor: no channel excluded
-            # The nav filter's NIS over its 2 x 4 rows (ranges and rates of 4 channels), and its test at 1e-3.
-            "nis_per_dof": np.mean(sr["nav_nis_per_dof"][s], axis=0),
-            "innovation_alarm_fraction": np.mean((sr["nav_nis_per_dof"] * 8 > chi2.isf(1e-3, 8))[s], axis=0)}
+    hand = {
+        "code_phase_error_rmse": rms(sr["code_error_chips"], s),
+        "carrier_freq_error_rmse": rms(sr["freq_error_hz"], s),
+        "position_error_rmse": rms(sr["position_error_m"], s),
+        "velocity_error_rmse": rms(sr["velocity_error_m_s"], s),
+        "position_steady_error_rmse": rms(sr["position_error_m"], steady),
+        "nees": np.mean(sr["nav_nees"][s], axis=0),
+        "nees_position": np.mean(sr["nav_nees_position"][s], axis=0),
+        "nees_velocity": np.mean(sr["nav_nees_velocity"][s], axis=0),
+        "code_output_rmse": rms(sr["code_output_error_chips"], s),
+        "freq_output_rmse": rms(sr["freq_output_error_hz"], s),
+        "pcrb_position": rms(sr["pcrb_position_m"], s),
+        "pcrb_velocity": rms(sr["pcrb_velocity_m_s"], s),
+        "pcrb_position_code": rms(sr["pcrb_position_code_m"], s),
+        "pcrb_velocity_code": rms(sr["pcrb_velocity_code_m_s"], s),
+        "excluded_channels": np.zeros(2),  # no channel monitor: no channel excluded
+        # The nav filter's NIS over its 2 x 4 rows (ranges and rates of 4 channels), and its test at 1e-3.
+        "nis_per_dof": np.mean(sr["nav_nis_per_dof"][s], axis=0),
+        "innovation_alarm_fraction": np.mean((sr["nav_nis_per_dof"] * 8 > chi2.isf(1e-3, 8))[s], axis=0),
+    }
     # Integrity: the default alert limits 40 m (horizontal) and 35 m (vertical).
     for axis, limit in (("horizontal", 40.0), ("vertical", 35.0)):
         err, pl = sr[f"{axis}_error_m"], sr[f"{axis[0]}pl_m"]

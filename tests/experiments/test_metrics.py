@@ -14,8 +14,7 @@ from hypothesis.extra.numpy import arrays
 import gnssframework as gf
 from gnssframework.errors import ConfigError, PluginError
 from gnssframework.experiments import load_config, run_comparison
-from gnssframework.experiments.metrics import (Metric, MetricValue, fraction, max_after_settle, nees_mean, rmse,
-                                               settled)
+from gnssframework.experiments.metrics import Metric, MetricValue, fraction, max_after_settle, nees_mean, rmse, settled
 
 
 def test_rmse_by_hand():
@@ -154,13 +153,14 @@ def test_a_metric_with_compute_left_abstract_is_refused(scratch_registry):
 
 
 @settings(max_examples=60, deadline=None)
-@given(arrays(float, st.tuples(st.integers(1, 12), st.integers(1, 4)), elements=st.floats(-1e3, 1e3)),
-       st.floats(-10, 10))
+@given(
+    arrays(float, st.tuples(st.integers(1, 12), st.integers(1, 4)), elements=st.floats(-1e3, 1e3)), st.floats(-10, 10)
+)
 def test_helper_inequalities_and_scaling(err, c):
     r = rmse(err)
-    assert np.all(r >= np.abs(np.mean(err, axis=0)) - 1e-9)            # RMS >= |mean|
+    assert np.all(r >= np.abs(np.mean(err, axis=0)) - 1e-9)  # RMS >= |mean|
     assert np.allclose(rmse(c * err), abs(c) * r, rtol=1e-9, atol=1e-9)  # homogeneous of degree 1
-    assert np.all(max_after_settle(err, None, 0.0) >= r - 1e-9)        # max >= RMS over the same epochs
+    assert np.all(max_after_settle(err, None, 0.0) >= r - 1e-9)  # max >= RMS over the same epochs
     f = fraction(err > 0)
     assert np.all((f >= 0) & (f <= 1))
 
@@ -177,7 +177,7 @@ def test_one_lookup_finds_a_scenario_s_own_component_and_a_registered_metric(scr
     assert isinstance(metric_component("code_phase_error_peak", scen), PeakCode)
     assert metric_component("no_such_metric", scen) is None
     names = available_metrics(scen)
-    assert names[:len(scen.metrics)] == list(scen.metrics)
+    assert names[: len(scen.metrics)] == list(scen.metrics)
     assert "code_phase_error_peak" in names and "needs_other" not in names  # it needs a series vector-tracking lacks
     assert series_label(scen, "code_phase_error_rmse") == own.series_label
 
@@ -192,7 +192,8 @@ class WrongShape(Metric):
 
 @pytest.mark.slow
 def test_a_registered_metric_is_computed_like_a_scenario_s_own_and_a_wrong_shape_names_the_task(
-        tmp_path, scratch_registry):
+    tmp_path, scratch_registry
+):
     from gnssframework.errors import RunFailure
 
     _register(scratch_registry, WrongShape)

@@ -118,8 +118,10 @@ def test_the_examples_assumptions_table_sets_the_candidates_side_by_side():
     # UKF1's implied stationary measurement variance, R0 / (1 - psi²), against the truth's:
     # far below it at psi = 0.5, near it at 0.95 (R0 = 1 m², truth 9.25 m²).
     for case, psi in (("psi-0.5", 0.5), ("psi-0.95", 0.95)):
-        implied = by[(case, "UKF1-paper", "nav_filter", "R0 / true measurement variance (white + colored)")] * \
-            by[(case, "UKF1-paper", "augmentation", "stationary / driving variance, 1/(1 − psi²)")]
+        implied = (
+            by[(case, "UKF1-paper", "nav_filter", "R0 / true measurement variance (white + colored)")]
+            * by[(case, "UKF1-paper", "augmentation", "stationary / driving variance, 1/(1 − psi²)")]
+        )
         assert implied == pytest.approx(1.0 / (1 - psi**2) / 9.25)
     assert by[("psi-0.5", "AUKF1-paper", "noise_adapter", "adapter memory")] == 1.0
     assert "1e-08 to 1" in by[("psi-0.5", "oracle", "oracle", "Q scale s_q (Q = s_q Q0)")]

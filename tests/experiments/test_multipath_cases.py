@@ -74,41 +74,58 @@ def test_the_oracle_is_a_scenario_option_checked_with_the_candidate():
 def test_a_nav_filter_that_cannot_filter_a_sequence_is_refused_naming_the_ones_that_can():
     scen = get_scenario({"kind": "multipath", "epochs": 120})
     refs = {**BASE_REFS, "nav_filter": PluginSpec("nav_filter", "ekf-pv")}
-    with pytest.raises(gf.ConfigError, match=r"candidates\[1\]\.nav_filter\.name: 'ekf-pv' cannot filter a "
-                                             r"position sequence .*that can: position-ca"):
+    with pytest.raises(
+        gf.ConfigError,
+        match=r"candidates\[1\]\.nav_filter\.name: 'ekf-pv' cannot filter a "
+        r"position sequence .*that can: position-ca",
+    ):
         scen.check_candidate(refs, "candidates[1]")
 
 
 def test_a_filtering_candidate_needs_both_nav_filter_and_estimator():
     with pytest.raises(gf.ConfigError, match=r"candidates\[0\]\.estimator"):
-        ComparisonConfig.model_validate({"scenario": {"kind": "multipath"}, "cases": [{"name": "a"}],
-                                          "candidates": [{"name": "x", "nav_filter": {"name": "position-ca"}}]})
+        ComparisonConfig.model_validate(
+            {
+                "scenario": {"kind": "multipath"},
+                "cases": [{"name": "a"}],
+                "candidates": [{"name": "x", "nav_filter": {"name": "position-ca"}}],
+            }
+        )
 
 
 def test_the_papers_ukf_follows_the_measurements_with_slow_multipath():
     # Q0 = diag(1, 0.1, 0.01) against R0 = 1: steady position gain 0.77, so with slow
     # multipath the UKF's error is the raw measurement's (the paper's UKF row).
-    ukf = {"nav_filter": {"name": "position-ca", "params": {}},
-           "estimator": {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}}}
+    ukf = {
+        "nav_filter": {"name": "position-ca", "params": {}},
+        "estimator": {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}},
+    }
     case = {"psi": 0.95}
     raw = _run({}, case, runs=10, epochs=300).metrics["horizontal_error_rmse"]
     filtered = _run(ukf, case, runs=10, epochs=300).metrics["horizontal_error_rmse"]
     assert np.mean(filtered) == pytest.approx(np.mean(raw), rel=0.01)
     # ... while the colored model does lower it (paired: same measurements).
-    colored = _run({**ukf, "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": "paper"}}}, case,
-                   runs=10, epochs=300).metrics["horizontal_error_rmse"]
+    colored = _run(
+        {**ukf, "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": "paper"}}},
+        case,
+        runs=10,
+        epochs=300,
+    ).metrics["horizontal_error_rmse"]
     d = colored - filtered
     assert np.mean(d) < -3 * np.std(d, ddof=1) / np.sqrt(d.size)
 
 
-UKF1 = {"nav_filter": {"name": "position-ca", "params": {}},
-        "estimator": {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}},
-        "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": "paper"}}}
+UKF1 = {
+    "nav_filter": {"name": "position-ca", "params": {}},
+    "estimator": {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}},
+    "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": "paper"}},
+}
 
 
 def _sage_husa(weight):
-    return {"noise_adapter": {"name": "sage-husa", "params": {"variant": "improved", "alpha_r": weight,
-                                                              "alpha_q": weight}}}
+    return {
+        "noise_adapter": {"name": "sage-husa", "params": {"variant": "improved", "alpha_r": weight, "alpha_q": weight}}
+    }
 
 
 @pytest.mark.parametrize("cross_covariance", ["paper", "exact"])
@@ -143,8 +160,11 @@ def test_the_batched_oracle_grid_chooses_what_the_loop_over_pairs_chooses():
     chosen = scen._oracle(plugins, 0.8, streams)
     train = scen.simulate(3, streams.shared("oracle-training"), 0.8)  # the same training draw
     plain = scen.build(colored)
-    score = {(sq, sr): np.mean(scen._filter(plain, train, sq, sr)[0] ** 2)
-             for sq in grid["q_scales"] for sr in grid["r_scales"]}
+    score = {
+        (sq, sr): np.mean(scen._filter(plain, train, sq, sr)[0] ** 2)
+        for sq in grid["q_scales"]
+        for sr in grid["r_scales"]
+    }
     assert chosen == min(score, key=score.get)
     assert chosen != (1.0, 0.3)  # the grid matters: not its corner
 
@@ -159,8 +179,11 @@ def test_the_papers_form_beats_the_exact_form_only_while_q_is_far_above_the_trut
     q0 = [q_scale * q for q in (1.0, 0.1, 0.01)]
     forms = {}
     for form in ("paper", "exact"):
-        comps = {**UKF1, "nav_filter": {"name": "position-ca", "params": {"q0": q0, "r0": 1.0}},
-                 "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": form}}}
+        comps = {
+            **UKF1,
+            "nav_filter": {"name": "position-ca", "params": {"q0": q0, "r0": 1.0}},
+            "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": form}},
+        }
         forms[form] = _run(comps, {"psi": 0.5}, runs=20, epochs=300).metrics["horizontal_error_rmse"]
     d = forms["exact"] - forms["paper"]
     assert sign * np.mean(d) > 4 * np.std(d, ddof=1) / np.sqrt(d.size)

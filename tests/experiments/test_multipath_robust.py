@@ -32,6 +32,20 @@ def test_gross_errors_leave_the_noise_draws_alone():
 
 @pytest.mark.slow
 def test_the_robust_example_claims_hold(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(EXAMPLE), "--out",
-                           str(tmp_path / "o"), "--quiet", "--check"], capture_output=True, text=True, timeout=600)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gnssframework",
+            "compare",
+            str(EXAMPLE),
+            "--out",
+            str(tmp_path / "o"),
+            "--quiet",
+            "--check",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stdout + proc.stderr

@@ -46,14 +46,15 @@ def test_estimator_takes_the_time_axis_and_refuses_short_records():
         ar1_coefficient(z[:2])
 
 
-BASE = {"nav_filter": {"name": "position-ca", "params": {"q0": [1.0, 0.1, 0.01], "r0": 1.0}},
-        "estimator": {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}},
-        "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": "paper"}}}
+BASE = {
+    "nav_filter": {"name": "position-ca", "params": {"q0": [1.0, 0.1, 0.01], "r0": 1.0}},
+    "estimator": {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}},
+    "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": "paper"}},
+}
 
 
 def test_scenario_hands_the_filter_the_training_records_estimate():
-    scen = get_scenario({"kind": "multipath", "epochs": 200, "psi": 0.9, "multipath_std_m": 3.0,
-                         "white_std_m": 0.5})
+    scen = get_scenario({"kind": "multipath", "epochs": 200, "psi": 0.9, "multipath_std_m": 3.0, "white_std_m": 0.5})
     rng = draw.run_streams(4, (), range(2))
     case = {"psi": 0.8, "psi_training_epochs": 4000}
     assert scen.filter_psi(case, rng) == 0.8  # the default: the true psi
@@ -70,8 +71,10 @@ def test_scenario_hands_the_filter_the_training_records_estimate():
 
 
 def _candidate(estimator):
-    return {**BASE, "augmentation": {"name": "colored-ar1",
-                                     "params": {"cross_covariance": "paper", "psi_estimator": estimator}}}
+    return {
+        **BASE,
+        "augmentation": {"name": "colored-ar1", "params": {"cross_covariance": "paper", "psi_estimator": estimator}},
+    }
 
 
 def test_estimated_psi_runs_do_not_depend_on_their_batch_and_differ_from_the_true_psi_runs():

@@ -29,25 +29,28 @@ from gnssframework.experiments.store import ResultStore  # noqa: E402
 # -- numbers -------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize(("args", "kwargs", "text"), [
-    # SE 3.86e-5: its 2nd significant figure is the 6th decimal; the spread goes there too.
-    ((0.0006557, 3.86e-5), {"spread": 1.338e-4}, "0.000656 ± 0.000134"),
-    # SE 0.39 -> one decimal; SE 12 -> units; SE 160 -> tens.
-    ((4.4712, 0.39), {}, "4.47 ± 0.39"),
-    ((104.4, 12.0), {}, "104 ± 12"),
-    ((1844.4, 160.0), {}, "1840 ± 160"),
-    # A negative difference keeps its sign, a positive one gets a +.
-    ((-0.0424911, 0.000514), {"sign": True}, "-0.04249 ± 0.00051"),
-    ((0.0122, 0.018), {"sign": True}, "+0.012 ± 0.018"),
-    # Beyond 6 decimals or from 1e6 on, one shared power of ten.
-    ((6.557e-7, 3.86e-8), {}, "(6.56 ± 0.39)e-07"),
-    ((1.2e7, 3.0e5), {}, "(1.200 ± 0.030)e+07"),
-    # No spread, or a spread at rounding level of the value: the value alone, 4 figures.
-    ((0.22803560419104105, 2.8989753257218837e-17), {}, "0.228"),
-    ((0.00010716586336069256, 0.0), {}, "0.0001072"),
-    ((3.0, None), {}, "3"),
-    ((None, 0.1), {}, "–"),
-])
+@pytest.mark.parametrize(
+    ("args", "kwargs", "text"),
+    [
+        # SE 3.86e-5: its 2nd significant figure is the 6th decimal; the spread goes there too.
+        ((0.0006557, 3.86e-5), {"spread": 1.338e-4}, "0.000656 ± 0.000134"),
+        # SE 0.39 -> one decimal; SE 12 -> units; SE 160 -> tens.
+        ((4.4712, 0.39), {}, "4.47 ± 0.39"),
+        ((104.4, 12.0), {}, "104 ± 12"),
+        ((1844.4, 160.0), {}, "1840 ± 160"),
+        # A negative difference keeps its sign, a positive one gets a +.
+        ((-0.0424911, 0.000514), {"sign": True}, "-0.04249 ± 0.00051"),
+        ((0.0122, 0.018), {"sign": True}, "+0.012 ± 0.018"),
+        # Beyond 6 decimals or from 1e6 on, one shared power of ten.
+        ((6.557e-7, 3.86e-8), {}, "(6.56 ± 0.39)e-07"),
+        ((1.2e7, 3.0e5), {}, "(1.200 ± 0.030)e+07"),
+        # No spread, or a spread at rounding level of the value: the value alone, 4 figures.
+        ((0.22803560419104105, 2.8989753257218837e-17), {}, "0.228"),
+        ((0.00010716586336069256, 0.0), {}, "0.0001072"),
+        ((3.0, None), {}, "3"),
+        ((None, 0.1), {}, "–"),
+    ],
+)
 def test_format_estimate_against_hand_worked_cases(args, kwargs, text):
     assert format_estimate(*args, **kwargs) == text
 
@@ -86,9 +89,15 @@ def test_log_scale_is_chosen_when_the_range_exceeds_the_decades():
 
 def test_panel_grid_lays_out_labels_scales_and_one_legend():
     t = np.linspace(0, 10, 50)
-    panels = [Panel(f"m{i}", "time (s)", f"m{i} (m)", [Curve("a", t, np.full(50, 1.0 + i)),
-                                                       Curve("b", t, np.full(50, 10.0 ** (i + 1)))])
-              for i in range(5)]
+    panels = [
+        Panel(
+            f"m{i}",
+            "time (s)",
+            f"m{i} (m)",
+            [Curve("a", t, np.full(50, 1.0 + i)), Curve("b", t, np.full(50, 10.0 ** (i + 1)))],
+        )
+        for i in range(5)
+    ]
     fig = panel_grid(panels, "title")
     try:
         assert grid_shape(5) == (2, 3) and len(fig.axes) == 5  # the sixth, empty cell is removed
@@ -102,12 +111,16 @@ def test_panel_grid_lays_out_labels_scales_and_one_legend():
 
 # -- the report's figures on a comparison ---------------------------------------------------
 
+
 class _Params(ScenarioParams):
     duration_s: float = Field(2.0, gt=0)
 
 
-METRICS = (Rmse("error_rmse", "m", of="error_m"), Mean("nees", "-", of="nees_per_epoch"),
-           Rmse("bound_rmse", "m", of="bound_m"))
+METRICS = (
+    Rmse("error_rmse", "m", of="error_m"),
+    Mean("nees", "-", of="nees_per_epoch"),
+    Rmse("bound_rmse", "m", of="bound_m"),
+)
 
 
 class BoundScenario(Scenario):

@@ -10,8 +10,9 @@ from gnssframework.experiments.report import join_sections, parameter_axis_label
 
 
 def test_a_heading_after_a_table_gets_a_blank_line():
-    text = join_sections(["| a |\n| --- |\n| 1 |\n", "\n".join(["## Claims", "", "| b |", "| --- |", "| 2 |", ""]),
-                          "", "## Tuning\n"])
+    text = join_sections(
+        ["| a |\n| --- |\n| 1 |\n", "\n".join(["## Claims", "", "| b |", "| --- |", "| 2 |", ""]), "", "## Tuning\n"]
+    )
     lines = text.splitlines()
     for i, line in enumerate(lines):
         if line.startswith("#") and i > 0:
@@ -28,9 +29,14 @@ def test_tuning_axes_carry_units():
 
 def test_the_tuning_plot_labels_lie_inside_the_figure():
     trials = [{"values": [v, w], "objective": 0.1 * v + w} for v, w in ((1.0, 0.2), (5.0, 0.1), (20.0, 0.3))]
-    res = {"labels": ["channel_filter.pll_bandwidth_hz", "channel_filter.q[1]"], "trials": trials,
-           "best": {"channel_filter.pll_bandwidth_hz": 5.0, "channel_filter.q[1]": 0.1}, "best_objective": 0.6,
-           "metric": "carrier_freq_error_rmse_long_name", "combine": "mean"}
+    res = {
+        "labels": ["channel_filter.pll_bandwidth_hz", "channel_filter.q[1]"],
+        "trials": trials,
+        "best": {"channel_filter.pll_bandwidth_hz": 5.0, "channel_filter.q[1]": 0.1},
+        "best_objective": 0.6,
+        "metric": "carrier_freq_error_rmse_long_name",
+        "combine": "mean",
+    }
     fig = tuning_figure("ackf", res, "Hz")
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()

@@ -105,12 +105,22 @@ def test_in_memory_gives_the_same_numbers_and_leaves_no_folder(on_disk, tmp_path
 def test_the_notebook_view_is_an_html_table_of_mean_and_se_per_case():
     from gnssframework.experiments.results import ComparisonResult
 
-    rows = [{"case": case, "candidate": cand, "metric": "err", "unit": "m", "mean": mean, "std": std, "runs": 4}
-            for case, cand, mean, std in (("c1", "kf", 2.5, 5 ** 0.5 / 3 ** 0.5), ("c1", "a<b", 1.0, 0.0),
-                                          ("c2", "kf", 3.0, 0.2), ("c2", "a<b", None, None))]
+    rows = [
+        {"case": case, "candidate": cand, "metric": "err", "unit": "m", "mean": mean, "std": std, "runs": 4}
+        for case, cand, mean, std in (
+            ("c1", "kf", 2.5, 5**0.5 / 3**0.5),
+            ("c1", "a<b", 1.0, 0.0),
+            ("c2", "kf", 3.0, 0.2),
+            ("c2", "a<b", None, None),
+        )
+    ]
     rows[-1]["undefined"] = "static cases only"
-    summary = {"name": "demo", "runs": 4, "rows": rows,
-               "claims": [{"outcome": "holds", "statement": "a<b: err lower than kf's"}]}
+    summary = {
+        "name": "demo",
+        "runs": 4,
+        "rows": rows,
+        "claims": [{"outcome": "holds", "statement": "a<b: err lower than kf's"}],
+    }
     html = ComparisonResult(summary, None, None, "", None)._repr_html_()
     assert html.count("<table>") == 3 and "<caption style='text-align:left'>c1</caption>" in html
     # std sqrt(5/3) over 4 runs: SE 0.645 (not the std 1.29); a run-less spread prints the mean alone

@@ -75,10 +75,14 @@ def test_run_streams_do_not_depend_on_the_batch():
     # Children per purpose: independent of how much the parent streams were used.
     used = run_streams(3, name_key("c"), range(2))
     used.standard_normal((2, 100))
-    assert np.array_equal(used.child("truth").random(2), run_streams(3, name_key("c"), range(2)).child("truth").random(2))
+    assert np.array_equal(
+        used.child("truth").random(2), run_streams(3, name_key("c"), range(2)).child("truth").random(2)
+    )
     assert not np.array_equal(whole.child("truth").random(5), whole.child("receiver").random(5))
     # A case's streams depend on its name, not on its position in a list.
-    assert not np.array_equal(run_streams(3, name_key("c"), [0]).random(1), run_streams(3, name_key("d"), [0]).random(1))
+    assert not np.array_equal(
+        run_streams(3, name_key("c"), [0]).random(1), run_streams(3, name_key("d"), [0]).random(1)
+    )
     with pytest.raises(ValueError, match="needs 5 runs on that axis"):
         whole.standard_normal((5, 4), run_axis=1)
     with pytest.raises(ValueError, match="2 random streams given for a batch of 3"):
@@ -96,8 +100,11 @@ def test_changing_runs_in_a_folder_gives_the_numbers_of_a_fresh_comparison(tmp_p
     reused = run_comparison(_config(tmp_path, second), out, progress=False)
     fresh = run_comparison(_config(tmp_path, second, name="fresh.toml"), tmp_path / "fresh", progress=False)
     assert _summary(reused) == _summary(fresh)
-    assert all(r["runs"] == second for r in json.loads(reused.read_text())["rows"] if r["mean"] is not None
-               and r["metric"] == "error_rmse")
+    assert all(
+        r["runs"] == second
+        for r in json.loads(reused.read_text())["rows"]
+        if r["mean"] is not None and r["metric"] == "error_rmse"
+    )
     report = (out / "report.md").read_text()
     assert f"{second} Monte Carlo runs" in report
 
@@ -120,8 +127,11 @@ def test_another_configuration_in_the_same_folder_is_refused(tmp_path):
     out = tmp_path / "out"
     run_comparison(_config(tmp_path, 4, seed=4), out, progress=False)
     before = sorted(p.relative_to(out) for p in out.rglob("*") if p.is_file())
-    with pytest.raises(ConfigError, match=r"^out: .* holds the results of 'reuse', a different configuration "
-                                          r"\(it differs in: seed\)"):
+    with pytest.raises(
+        ConfigError,
+        match=r"^out: .* holds the results of 'reuse', a different configuration "
+        r"\(it differs in: seed\)",
+    ):
         run_comparison(_config(tmp_path, 4, seed=5), out, progress=False)
     assert sorted(p.relative_to(out) for p in out.rglob("*") if p.is_file()) == before
     # The same configuration with other non-numeric settings is the same comparison.
@@ -134,8 +144,11 @@ def test_cli_refuses_another_configuration_in_one_line(tmp_path):
     for seed, code in ((4, 0), (5, 2)):
         path = tmp_path / f"s{seed}.toml"
         path.write_text(SMOOTH.format(runs=2, seed=seed))
-        proc = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(out),
-                               "--quiet"], capture_output=True, text=True)
+        proc = subprocess.run(
+            [sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(out), "--quiet"],
+            capture_output=True,
+            text=True,
+        )
         assert proc.returncode == code, proc.stderr
     assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
     assert proc.stderr.startswith("error: --out: ") and "differs in: seed" in proc.stderr
@@ -149,8 +162,10 @@ def test_a_folder_being_written_is_refused(tmp_path):
     out.mkdir()
     with open(out / ".lock", "a+") as held:  # another process's lock
         fcntl.flock(held.fileno(), fcntl.LOCK_EX)
-        code = ("import fcntl, sys\nfrom gnssframework.experiments import load_config, run_comparison\n"
-                f"run_comparison(load_config({str(tmp_path / 'c.toml')!r}), {str(out)!r}, progress=False)\n")
+        code = (
+            "import fcntl, sys\nfrom gnssframework.experiments import load_config, run_comparison\n"
+            f"run_comparison(load_config({str(tmp_path / 'c.toml')!r}), {str(out)!r}, progress=False)\n"
+        )
         _config(tmp_path, 2)
         proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.returncode != 0 and "is being written by another gnssframework process" in proc.stderr
@@ -183,9 +198,12 @@ def test_a_sweep_over_some_cases_keeps_each_cases_random_numbers(tmp_path):
     """The sweep's point at the base value runs only case "slips" (the second case): it
     must equal the main table's "slips" rows (it used other numbers when cases were
     numbered by position)."""
-    extra = '\n[[sweeps]]\npath = "candidates.hatch.channel_filter.params.window"\nvalues = [30, 60]\ncases = ["slips"]\n'
-    summary = json.loads(run_comparison(_config(tmp_path, 4, extra=extra), tmp_path / "out", progress=False)
-                         .read_text())
+    extra = (
+        '\n[[sweeps]]\npath = "candidates.hatch.channel_filter.params.window"\nvalues = [30, 60]\ncases = ["slips"]\n'
+    )
+    summary = json.loads(
+        run_comparison(_config(tmp_path, 4, extra=extra), tmp_path / "out", progress=False).read_text()
+    )
     main = {(r["candidate"], r["metric"]): r["mean"] for r in summary["rows"] if r["case"] == "slips"}
     sweep = summary["sweeps"][0]
     at_base = {(r["candidate"], r["metric"]): r["mean"] for r in sweep["rows"] if r["value"] == 30}
@@ -219,10 +237,14 @@ def failing_scenario(scratch_registry):
 @pytest.mark.parametrize("workers", [1, 2])
 def test_a_failure_names_the_candidate_case_runs_and_sweep_point(tmp_path, failing_scenario, workers):
     path = tmp_path / "f.toml"
-    path.write_text(f'runs = 4\nbatch_size = 2\n[executor]\nworkers = {workers}\n[scenario]\nkind = "test-failing"\n'
-                    '[[cases]]\nname = "hard"\n[[candidates]]\nname = "mine"\n')
+    path.write_text(
+        f'runs = 4\nbatch_size = 2\n[executor]\nworkers = {workers}\n[scenario]\nkind = "test-failing"\n'
+        '[[cases]]\nname = "hard"\n[[candidates]]\nname = "mine"\n'
+    )
     with pytest.raises(RunFailure) as err:
         run_comparison(load_config(path), tmp_path / "out", progress=False)
-    assert str(err.value) == ("candidate 'mine', case 'hard', runs 2-3: ukf: numerical failure at batch element (1, 0), "
-                              "step 7: innovation covariance is not positive definite")
+    assert str(err.value) == (
+        "candidate 'mine', case 'hard', runs 2-3: ukf: numerical failure at batch element (1, 0), "
+        "step 7: innovation covariance is not positive definite"
+    )
     assert err.value.cause == "NumericalError"

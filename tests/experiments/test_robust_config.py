@@ -38,7 +38,7 @@ def test_a_long_explicit_sweep_values_list_is_refused_quickly(tmp_path):
     assert str(err.value).startswith("sweeps[0].values") and "1000" in str(err.value), str(err.value)
 
 
-@pytest.mark.parametrize("sweep", ['start = nan\nstop = 1.0\nnum = 3', 'start = 0.1\nstop = 0.5\nstep = inf'])
+@pytest.mark.parametrize("sweep", ["start = nan\nstop = 1.0\nnum = 3", "start = 0.1\nstop = 0.5\nstep = inf"])
 def test_a_non_finite_sweep_range_is_refused(tmp_path, sweep):
     text = two_candidate_config("r", sweeps=f'[[sweeps]]\npath = "scenario.psi"\n{sweep}\n')
     with pytest.raises(ConfigError, match="sweeps\\[0\\].*finite"):
@@ -48,7 +48,7 @@ def test_a_non_finite_sweep_range_is_refused(tmp_path, sweep):
 def test_more_cases_than_the_bound_are_refused(tmp_path):
     text = two_candidate_config("many")
     extra = "".join(f'[[cases]]\nname = "c{i}"\n' for i in range(1001))
-    text = text.replace('[[candidates]]', extra + '[[candidates]]', 1)
+    text = text.replace("[[candidates]]", extra + "[[candidates]]", 1)
     with pytest.raises(ConfigError, match=r"^cases: .*1000"):
         load_config(_write(tmp_path, text))
 
@@ -79,17 +79,19 @@ def test_a_long_comparison_prints_its_work_before_it_starts(tmp_path, capsys, mo
 
 @pytest.mark.slow
 def test_a_config_error_names_the_candidate_as_written(tmp_path, capsys):
-    text = two_candidate_config("n").replace('nav_filter = { name = "position-ca" }\nestimator = { name = "ckf" }',
-                                              'nav_filter = { name = "position-ca", params = { r0 = -1.0 } }\n'
-                                              'estimator = { name = "ckf" }')
+    text = two_candidate_config("n").replace(
+        'nav_filter = { name = "position-ca" }\nestimator = { name = "ckf" }',
+        'nav_filter = { name = "position-ca", params = { r0 = -1.0 } }\nestimator = { name = "ckf" }',
+    )
     assert main(["compare", str(_write(tmp_path, text)), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "candidates[1].nav_filter.params.r0" in err and "(candidates[1] is 'b')" in err, err
 
 
 def test_an_ar1_psi_outside_the_unit_interval_is_refused_at_load(tmp_path):
-    text = two_candidate_config("psi").replace('estimator = { name = "ckf" }',
-                                               'estimator = { name = "ckf" }\n'
-                                               'augmentation = { name = "colored-ar1", params = { psi = 1e6 } }')
+    text = two_candidate_config("psi").replace(
+        'estimator = { name = "ckf" }',
+        'estimator = { name = "ckf" }\naugmentation = { name = "colored-ar1", params = { psi = 1e6 } }',
+    )
     with pytest.raises(ConfigError, match=r"candidates\[1\]\.augmentation.*psi.*\|psi\| < 1"):
         load_config(_write(tmp_path, text))

@@ -20,16 +20,19 @@ def _load(tmp_path, text):
     return load_config(path)
 
 
-@pytest.mark.parametrize("old, new, field", [
-    ('name = "x"', 'name = ".."', "name"),
-    ('name = "x"', 'name = "../../../x"', "name"),
-    ('name = "x"', 'name = ""', "name"),
-    ('name = "x"', 'name = "a\\u0000b"', "name"),
-    ('name = "x"', 'name = "a\\\\b"', "name"),
-    ('name = "only"', 'name = ".."', "cases[0].name"),
-    ('name = "only"', 'name = "."', "cases[0].name"),
-    ('name = "a"', 'name = ".."', "candidates[0].name"),
-])
+@pytest.mark.parametrize(
+    "old, new, field",
+    [
+        ('name = "x"', 'name = ".."', "name"),
+        ('name = "x"', 'name = "../../../x"', "name"),
+        ('name = "x"', 'name = ""', "name"),
+        ('name = "x"', 'name = "a\\u0000b"', "name"),
+        ('name = "x"', 'name = "a\\\\b"', "name"),
+        ('name = "only"', 'name = ".."', "cases[0].name"),
+        ('name = "only"', 'name = "."', "cases[0].name"),
+        ('name = "a"', 'name = ".."', "candidates[0].name"),
+    ],
+)
 def test_names_that_are_paths_are_refused(tmp_path, old, new, field):
     text = two_candidate_config("x").replace(old, new, 1)
     assert new in text
@@ -60,8 +63,9 @@ def test_a_nul_in_the_name_is_one_line_from_the_cli(tmp_path, capsys):
 
 
 def test_a_config_cannot_name_a_dask_scheduler(tmp_path):
-    text = two_candidate_config("x").replace("[executor]\nworkers = 1", '[executor]\nkind = "dask"\n'
-                                             'address = "tcp://example.org:8786"')
+    text = two_candidate_config("x").replace(
+        "[executor]\nworkers = 1", '[executor]\nkind = "dask"\naddress = "tcp://example.org:8786"'
+    )
     with pytest.raises(ConfigError) as err:
         _load(tmp_path, text)
     assert err.value.field == "executor.address" and "pickles" in str(err.value)

@@ -21,17 +21,22 @@ def _load(tmp_path, text):
 
 
 def _with_a_params(params: str) -> str:
-    return two_candidate_config("p").replace('nav_filter = { name = "position-ca" }\nestimator = { name = "kf" }',
-                                             f'nav_filter = {{ name = "position-ca", params = {{ {params} }} }}\n'
-                                             'estimator = { name = "kf" }', 1)
+    return two_candidate_config("p").replace(
+        'nav_filter = { name = "position-ca" }\nestimator = { name = "kf" }',
+        f'nav_filter = {{ name = "position-ca", params = {{ {params} }} }}\nestimator = {{ name = "kf" }}',
+        1,
+    )
 
 
-@pytest.mark.parametrize("params, field, says", [
-    ("q0 = [1e300, 0.1, 0.01]", "candidates[0].nav_filter.params.q0[0]", "beyond"),
-    ("q0 = [1.0, true, 0.01]", "candidates[0].nav_filter.params.q0[1]", "not a bool"),
-    ("dt_s = inf", "candidates[0].nav_filter.params.dt_s", "finite"),
-    ("r0 = nan", "candidates[0].nav_filter.params.r0", "finite"),
-])
+@pytest.mark.parametrize(
+    "params, field, says",
+    [
+        ("q0 = [1e300, 0.1, 0.01]", "candidates[0].nav_filter.params.q0[0]", "beyond"),
+        ("q0 = [1.0, true, 0.01]", "candidates[0].nav_filter.params.q0[1]", "not a bool"),
+        ("dt_s = inf", "candidates[0].nav_filter.params.dt_s", "finite"),
+        ("r0 = nan", "candidates[0].nav_filter.params.r0", "finite"),
+    ],
+)
 def test_filter_parameters_that_overflow_or_convert_are_refused(tmp_path, params, field, says):
     text = _with_a_params(params)
     assert params in text
@@ -58,8 +63,9 @@ def test_a_scenario_interval_must_be_finite(tmp_path):
         _load(tmp_path, text)
 
 
-@pytest.mark.parametrize("bounds, says", [("ratio_min = 0.9\nratio_max = 0.5", "could never hold"),
-                                          ("ratio_max = inf", "finite")])
+@pytest.mark.parametrize(
+    "bounds, says", [("ratio_min = 0.9\nratio_max = 0.5", "could never hold"), ("ratio_max = inf", "finite")]
+)
 def test_a_claim_that_can_never_hold_is_refused(tmp_path, bounds, says):
     claim = f'[[claims]]\ncandidate = "a"\nreference = "b"\nmetric = "lat_error_rmse"\n{bounds}\n'
     with pytest.raises(ConfigError) as err:

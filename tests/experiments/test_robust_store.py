@@ -48,8 +48,10 @@ def test_deleted_metric_rows_of_a_finished_batch_are_recomputed(tmp_path, capsys
     key = config.identity()
     assert len(store.finished_batches(key)) == 4  # 1 case x 2 candidates x 2 batches
     with sqlite3.connect(out / "results.sqlite") as con:  # one run's row of one metric of one batch
-        deleted = con.execute("DELETE FROM metrics WHERE candidate = 'hatch' AND run = 3 AND metric = "
-                              "(SELECT metric FROM metrics LIMIT 1)").rowcount
+        deleted = con.execute(
+            "DELETE FROM metrics WHERE candidate = 'hatch' AND run = 3 AND metric = "
+            "(SELECT metric FROM metrics LIMIT 1)"
+        ).rowcount
     assert deleted == 1
     assert ("clean", "hatch", 2, 2) not in store.finished_batches(key)
     assert len(store.finished_batches(key)) == 3
@@ -59,8 +61,9 @@ def test_deleted_metric_rows_of_a_finished_batch_are_recomputed(tmp_path, capsys
     assert again == first
     assert len(store.finished_batches(key)) == 4 and not store.damaged_batches(key)
     said = capsys.readouterr().err  # the repair is said, not silent
-    assert ("lacks metric rows of 1 finished batch: case 'clean', candidate 'hatch', runs 2-3; recomputing it"
-            in said), said
+    assert "lacks metric rows of 1 finished batch: case 'clean', candidate 'hatch', runs 2-3; recomputing it" in said, (
+        said
+    )
 
 
 def test_a_batch_with_every_metric_row_gone_is_not_finished(tmp_path):

@@ -22,13 +22,18 @@ def _text(**replace):
     return text
 
 
-@pytest.mark.parametrize("old, new", [("high = 100.0", "high = inf"), ("low = 0.1", "low = -inf"),
-                                      ("high = 100.0", "high = nan"),
-                                      ('low = 0.1\nhigh = 100.0\nscale = "log"', "values = [1.0, nan]")])
+@pytest.mark.parametrize(
+    "old, new",
+    [
+        ("high = 100.0", "high = inf"),
+        ("low = 0.1", "low = -inf"),
+        ("high = 100.0", "high = nan"),
+        ('low = 0.1\nhigh = 100.0\nscale = "log"', "values = [1.0, nan]"),
+    ],
+)
 def test_non_finite_free_bounds_are_refused_at_load(tmp_path, old, new):
     path = tmp_path / "t.toml"
-    path.write_text(BASE.format(sampler="grid", trials=4, path="candidates.kf.nav_filter.params.r0")
-                    .replace(old, new))
+    path.write_text(BASE.format(sampler="grid", trials=4, path="candidates.kf.nav_filter.params.r0").replace(old, new))
     with pytest.raises(ConfigError) as err:
         load_config(path)
     assert "tuning.free" in str(err.value) and "finite" in str(err.value), str(err.value)

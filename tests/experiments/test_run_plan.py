@@ -71,10 +71,16 @@ def test_a_run_validates_the_config_once_and_builds_only_each_task_s_candidate(t
     config = _config(tmp_path)
     validations, built = [], []
     real_validate, real_build = ComparisonConfig.model_validate, MultipathScenario.build
-    monkeypatch.setattr(ComparisonConfig, "model_validate",
-                        classmethod(lambda cls, *a, **k: validations.append(1) or real_validate.__func__(cls, *a, **k)))
-    monkeypatch.setattr(MultipathScenario, "build",
-                        lambda self, cand, options=None: built.append(sorted(cand)) or real_build(self, cand, options))
+    monkeypatch.setattr(
+        ComparisonConfig,
+        "model_validate",
+        classmethod(lambda cls, *a, **k: validations.append(1) or real_validate.__func__(cls, *a, **k)),
+    )
+    monkeypatch.setattr(
+        MultipathScenario,
+        "build",
+        lambda self, cand, options=None: built.append(sorted(cand)) or real_build(self, cand, options),
+    )
     run_comparison(config, tmp_path / "out", progress=False)
     assert validations == []  # the workers got the plan, not the config to validate again
     tasks = len(plan(config))
@@ -96,8 +102,10 @@ def test_a_candidate_is_resolved_once_at_load_into_specs_the_plan_carries(tmp_pa
     resolved = resolve(config)
     assert resolved.candidates is config.resolved_candidates  # the plan takes them as they are
     kf = resolved.candidates[1]
-    assert kf.components == {"nav_filter": PluginSpec("nav_filter", "position-ca"),
-                             "estimator": PluginSpec("estimator", "kf")}
+    assert kf.components == {
+        "nav_filter": PluginSpec("nav_filter", "position-ca"),
+        "estimator": PluginSpec("estimator", "kf"),
+    }
     plugins = resolved.build(1)
     assert {k: p.name for k, p in plugins.items()} == {"nav_filter": "position-ca", "estimator": "kf"}
     assert resolved.build(1)["estimator"] is not plugins["estimator"]  # fresh plugins for every batch
@@ -108,9 +116,11 @@ def test_a_sweep_point_and_a_tuning_trial_resolve_their_candidates_the_same_way(
     from gnssframework.experiments.tuning import trial_config
 
     path = tmp_path / "sweep.toml"
-    path.write_text(CONFIG + '[[sweeps]]\npath = "candidates.kf.nav_filter.params.r0"\nvalues = [0.5, 2.0]\n'
-                    '[tuning]\ntrials = 2\nsampler = "grid"\nmetric = "lat_error_rmse"\n'
-                    '[[tuning.free]]\npath = "candidates.kf.nav_filter.params.r0"\nvalues = [0.25, 1.0]\n')
+    path.write_text(
+        CONFIG + '[[sweeps]]\npath = "candidates.kf.nav_filter.params.r0"\nvalues = [0.5, 2.0]\n'
+        '[tuning]\ntrials = 2\nsampler = "grid"\nmetric = "lat_error_rmse"\n'
+        '[[tuning.free]]\npath = "candidates.kf.nav_filter.params.r0"\nvalues = [0.25, 1.0]\n'
+    )
     config = load_config(path)
     [(value, point)] = config.sweep_points(0)[1:]
     assert value == 2.0

@@ -23,7 +23,11 @@ from gnssframework.experiments import load_config
 from gnssframework.experiments.scenarios import get_scenario
 from gnssframework.experiments.scenarios import sample_receiver as sample_receiver_module
 from gnssframework.experiments.scenarios.sample_receiver_signals import (
-    SAMPLE_FORMAT, SAMPLE_SCALE, transmit_times, write_run_recording)
+    SAMPLE_FORMAT,
+    SAMPLE_SCALE,
+    transmit_times,
+    write_run_recording,
+)
 from gnssframework.navigation.ephemeris import satellite_state
 from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.receive import receive
@@ -51,8 +55,9 @@ def stored_run(scenario, tmp_path_factory):
     streams = random_streams.run_streams(SEED_KEY[0], SEED_KEY[1:], [0])
     batch = scenario.run_batch(CASE, _scalar(), 1, streams)
     plan = scenario.plan(CASE)
-    path = write_run_recording(plan, streams.child("samples").generators[0],
-                               tmp_path_factory.mktemp("run") / f"run.{SAMPLE_FORMAT}")
+    path = write_run_recording(
+        plan, streams.child("samples").generators[0], tmp_path_factory.mktemp("run") / f"run.{SAMPLE_FORMAT}"
+    )
     return batch, plan, path
 
 
@@ -67,8 +72,9 @@ def test_the_generator_puts_each_code_epoch_at_the_transmit_time_of_the_geometry
     tau = t_rx - t_sv
     th = 7.2921151467e-5 * tau  # Sagnac: the Earth-fixed frame turns during the flight
     p = st.position_m
-    rot = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1],
-                    p[:, 2]], axis=1)
+    rot = np.stack(
+        [np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1], p[:, 2]], axis=1
+    )
     assert np.allclose(C_MPS * tau, np.linalg.norm(rot - rx, axis=1), atol=1e-3)
     assert np.all((tau > 0.064) & (tau < 0.090))  # GPS flight times from above the mask
 
@@ -76,9 +82,16 @@ def test_the_generator_puts_each_code_epoch_at_the_transmit_time_of_the_geometry
 @pytest.mark.slow
 def test_metrics_agree_with_a_hand_computation_on_a_stored_run(scenario, stored_run):
     batch, plan, path = stored_run
-    result = receive(open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0),
-                     registry.create("acquisition", "pcps"), _tracking(scenario), rate_hz=5.0,
-                     rinex=plan.ephemerides, ionosphere=False, troposphere=False, reference_week=plan.week)
+    result = receive(
+        open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0),
+        registry.create("acquisition", "pcps"),
+        _tracking(scenario),
+        rate_hz=5.0,
+        rinex=plan.ephemerides,
+        ionosphere=False,
+        troposphere=False,
+        reference_week=plan.week,
+    )
     table = result.positions
     assert table is not None and len(table) > 0
     t = table.sample_time_s
@@ -133,7 +146,7 @@ def test_samples_carry_the_noise_of_the_run_stream_only(stored_run):
     _, plan, path = stored_run
     x = np.fromfile(path, np.int8).astype(float) / SAMPLE_SCALE
     # Unit variance per real dimension plus four signals of 45 dB-Hz (2 C/N0 / fs each).
-    expected = 1.0 + 4 * 10 ** 4.5 / plan.sample_rate_hz
+    expected = 1.0 + 4 * 10**4.5 / plan.sample_rate_hz
     assert np.var(x) == pytest.approx(expected, rel=5e-3)
 
 
@@ -182,8 +195,11 @@ def test_a_bad_channel_filter_is_one_line_naming_the_field(tmp_path):
     with pytest.raises(ConfigError, match="cannot track on samples.*scalar") as exc:
         load_config(path)
     assert "\n" not in str(exc.value)
-    out = subprocess.run([sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o")],
-                         capture_output=True, text=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+    )
     assert out.returncode == 2 and "hatch" in out.stderr and "Traceback" not in out.stderr
 
 
@@ -209,19 +225,27 @@ def test_a_candidates_nav_filter_runs_on_the_run_s_pseudoranges(scenario, stored
     streams = random_streams.run_streams(SEED_KEY[0], SEED_KEY[1:], [0])
     plugins = {**_scalar(), "nav_filter": registry.create("nav_filter", "ekf-pv")}
     filtered = scenario.run_batch(CASE, plugins, 1, streams)
-    by_hand = receive(open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0),
-                      registry.create("acquisition", "pcps"), _tracking(scenario), rate_hz=5.0,
-                      rinex=plan.ephemerides, ionosphere=False, troposphere=False, reference_week=plan.week,
-                      nav_filter=PluginSpec("nav_filter", "ekf-pv", {}))
+    by_hand = receive(
+        open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0),
+        registry.create("acquisition", "pcps"),
+        _tracking(scenario),
+        rate_hz=5.0,
+        rinex=plan.ephemerides,
+        ionosphere=False,
+        troposphere=False,
+        reference_week=plan.week,
+        nav_filter=PluginSpec("nav_filter", "ekf-pv", {}),
+    )
     series = run_series(by_hand, plan.prns, plan.cn0_dbhz, plan.receiver_lat_lon_h, scenario.time_s())
     for name in ("horizontal_error_m", "vertical_error_m"):
         e = series[name][np.isfinite(series[name])]
         assert e.size > 0
         metric = name.replace("_m", "_rms")
-        assert np.isclose(filtered.metrics[metric][0], np.sqrt(np.mean(e ** 2)), rtol=1e-12)
+        assert np.isclose(filtered.metrics[metric][0], np.sqrt(np.mean(e**2)), rtol=1e-12)
         assert filtered.metrics[metric][0] != least_squares.metrics[metric][0]  # the filter, not the least squares
     # the filter starts at the first least-squares fix: the same time to first fix
     assert filtered.metrics["time_to_first_fix_s"][0] == least_squares.metrics["time_to_first_fix_s"][0]
+
 
 def test_a_nav_filter_that_cannot_run_on_pseudoranges_is_one_line_naming_the_field(tmp_path):
     path = tmp_path / "c.toml"

@@ -41,8 +41,22 @@ def one_satellite(tmp_path_factory):
     """A ci16 recording of PRN 7 at 45 dB-Hz in unit white noise (scaled by 300), and its
     noise-free signal in the same units."""
     rng = np.random.default_rng(12)
-    clean = generate_if_samples(7, DURATION_S, FS, 0.0, CN0_DBHZ, rng, doppler_hz=1234.0, code_phase_chips=311.4,
-                                carrier_phase_rad=0.3, complex_samples=True, noise=False).samples * SCALE
+    clean = (
+        generate_if_samples(
+            7,
+            DURATION_S,
+            FS,
+            0.0,
+            CN0_DBHZ,
+            rng,
+            doppler_hz=1234.0,
+            code_phase_chips=311.4,
+            carrier_phase_rad=0.3,
+            complex_samples=True,
+            noise=False,
+        ).samples
+        * SCALE
+    )
     noisy = clean + SCALE * (rng.standard_normal(clean.size) + 1j * rng.standard_normal(clean.size))
     path = write_recording(tmp_path_factory.mktemp("one") / "one.sigmf-data", noisy, "ci16_le", FS, 0.0)
     return open_recording(path), clean
@@ -54,7 +68,7 @@ def _cn0(x: np.ndarray, replica: np.ndarray) -> tuple[float, float]:
     real part has variance var(y) / 2M)."""
     n = int(round(BLOCK_S * FS))
     m = x.size // n
-    y = np.sum(np.conj(replica[:m * n]).reshape(m, n) * x[:m * n].reshape(m, n), axis=1)
+    y = np.sum(np.conj(replica[: m * n]).reshape(m, n) * x[: m * n].reshape(m, n), axis=1)
     a, v = np.mean(y).real, np.var(y)
     se = np.hypot(10 / np.log(10) / np.sqrt(m), 20 / np.log(10) * np.sqrt(v / (2 * m)) / a)
     return 10 * np.log10(a**2 / v / BLOCK_S), se
@@ -102,8 +116,16 @@ class _Probe:
 
 def test_runs_differ_candidates_share_samples_and_batches_do_not_matter(one_satellite, monkeypatch):
     rec, _ = one_satellite
-    scenario = get_scenario({"kind": "sample-recording", "recording": str(rec.path), "segment_s": 1.0,
-                             "runs_on": "one-segment-with-noise", "cn0_reduction_db": 6.0, "start_s": 0.5})
+    scenario = get_scenario(
+        {
+            "kind": "sample-recording",
+            "recording": str(rec.path),
+            "segment_s": 1.0,
+            "runs_on": "one-segment-with-noise",
+            "cn0_reduction_db": 6.0,
+            "start_s": 0.5,
+        }
+    )
     scenario.check_case({"name": "c"}, "cases[0]")
     probe = _Probe()
     monkeypatch.setattr(sample_recording, "receive_candidate", probe)
@@ -125,9 +147,20 @@ def noisy_runs(tmp_path_factory):
     sats = _strongest(read_rinex_nav(NAV), TOW0, 5)
     path = write_lnav_recording(tmp_path_factory.mktemp("rec") / "recorded.sigmf-data", sats, TOW0, 12.0, 9)
     truth = [float(v) for v in pymap3d.ecef2geodetic(*STATION)]
-    scenario = get_scenario({"kind": "sample-recording", "recording": str(path), "ephemeris": str(NAV),
-                             "segment_s": 12.0, "rate_hz": 5.0, "gps_week": WEEK, "ionosphere": False,
-                             "truth_lat_lon_h": truth, "runs_on": "one-segment-with-noise", "cn0_reduction_db": 3.0})
+    scenario = get_scenario(
+        {
+            "kind": "sample-recording",
+            "recording": str(path),
+            "ephemeris": str(NAV),
+            "segment_s": 12.0,
+            "rate_hz": 5.0,
+            "gps_week": WEEK,
+            "ionosphere": False,
+            "truth_lat_lon_h": truth,
+            "runs_on": "one-segment-with-noise",
+            "cn0_reduction_db": 3.0,
+        }
+    )
     scenario.check_case({"name": "rec"}, "cases[0]")
     plugins = {"channel_filter": registry.create("channel_filter", "scalar")}
     return scenario.run_batch({"name": "rec"}, plugins, 2, random_streams.run_streams(5, (1,), [0, 1]))
@@ -164,13 +197,18 @@ def test_the_receiver_fixes_on_noisy_copies_of_one_segment(noisy_runs):
 def test_bad_noise_settings_are_refused_naming_the_field(one_satellite, tmp_path):
     rec, _ = one_satellite
     base = {"kind": "sample-recording", "recording": str(rec.path), "segment_s": 1.0}
-    with pytest.raises(ConfigError, match="scenario.cn0_reduction_db: adds noise only with runs_on = "
-                                          "'one-segment-with-noise'"):
+    with pytest.raises(
+        ConfigError, match="scenario.cn0_reduction_db: adds noise only with runs_on = 'one-segment-with-noise'"
+    ):
         get_scenario({**base, "cn0_reduction_db": 3.0}).check_case({"name": "c"}, "cases[0]")
     with pytest.raises(ConfigError, match="scenario.cn0_reduction_db: must be > 0"):
         get_scenario({**base, "runs_on": "one-segment-with-noise"}).check_case({"name": "c"}, "cases[0]")
     real = write_recording(tmp_path / "real.sigmf-data", np.zeros(int(2 * FS)), "ri8", FS, 5e5)
-    with pytest.raises(ConfigError, match="scenario.runs_on: 'one-segment-with-noise' writes complex float32 "
-                                          "samples; real.sigmf-data holds real ones"):
-        get_scenario({**base, "recording": str(real), "runs_on": "one-segment-with-noise",
-                      "cn0_reduction_db": 3.0}).check_case({"name": "c"}, "cases[0]")
+    with pytest.raises(
+        ConfigError,
+        match="scenario.runs_on: 'one-segment-with-noise' writes complex float32 "
+        "samples; real.sigmf-data holds real ones",
+    ):
+        get_scenario(
+            {**base, "recording": str(real), "runs_on": "one-segment-with-noise", "cn0_reduction_db": 3.0}
+        ).check_case({"name": "c"}, "cases[0]")

@@ -36,8 +36,16 @@ def recorded(tmp_path_factory):
     sats = _strongest(read_rinex_nav(NAV), TOW0, 5)
     path = write_lnav_recording(tmp_path_factory.mktemp("rec") / "recorded.sigmf-data", sats, TOW0, 2 * SEGMENT_S, 9)
     truth = [float(v) for v in pymap3d.ecef2geodetic(*STATION)]
-    params = {"kind": "sample-recording", "recording": str(path), "ephemeris": str(NAV), "segment_s": SEGMENT_S,
-              "rate_hz": RATE_HZ, "gps_week": WEEK, "ionosphere": False, "truth_lat_lon_h": truth}
+    params = {
+        "kind": "sample-recording",
+        "recording": str(path),
+        "ephemeris": str(NAV),
+        "segment_s": SEGMENT_S,
+        "rate_hz": RATE_HZ,
+        "gps_week": WEEK,
+        "ionosphere": False,
+        "truth_lat_lon_h": truth,
+    }
     scenario = get_scenario(params)
     scenario.check_case({"name": "rec"}, "cases[0]")
     plugins = {"channel_filter": registry.create("channel_filter", "scalar")}
@@ -48,8 +56,15 @@ def recorded(tmp_path_factory):
     rec = open_recording(path)
     first = tmp_path_factory.mktemp("first") / "first.sigmf-data"
     write_recording(first, rec.read(0, int(SEGMENT_S * FS)).astype(complex), "ci16_le", FS, 0.0)
-    hand = receive(open_recording(first), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=RATE_HZ,
-                   rinex=read_rinex_nav(NAV), ionosphere=False, reference_week=WEEK).positions
+    hand = receive(
+        open_recording(first),
+        registry.create("acquisition", "pcps"),
+        tracking_config(),
+        rate_hz=RATE_HZ,
+        rinex=read_rinex_nav(NAV),
+        ionosphere=False,
+        reference_week=WEEK,
+    ).positions
     return truth, both, second, hand
 
 
@@ -62,8 +77,9 @@ def test_run_0_is_the_first_segment_read_by_hand(recorded):
     truth, both, _, table = recorded
     assert table is not None and len(table) > 5
     enu = position_errors(table, tuple(truth))
-    assert _value(both, "horizontal_error_rms")[0] == pytest.approx(np.sqrt(np.mean(np.sum(enu[:, :2] ** 2, 1))),
-                                                                       rel=1e-9)
+    assert _value(both, "horizontal_error_rms")[0] == pytest.approx(
+        np.sqrt(np.mean(np.sum(enu[:, :2] ** 2, 1))), rel=1e-9
+    )
     assert _value(both, "vertical_error_rms")[0] == pytest.approx(np.sqrt(np.mean(enu[:, 2] ** 2)), rel=1e-9)
     assert _value(both, "time_to_first_fix_s")[0] == pytest.approx(table.sample_time_s[0], abs=1e-9)
     assert _value(both, "fix_fraction")[0] == pytest.approx(len(table) / (SEGMENT_S * RATE_HZ))
@@ -90,19 +106,29 @@ def test_run_1_is_the_second_segment_with_its_own_noise_and_errors_within_the_co
 def test_without_a_truth_the_errors_are_undefined_and_the_rest_is_the_same_run(recorded):
     _, both, second, _ = recorded
     assert np.isnan(_value(second, "horizontal_error_rms")[0]) and np.isnan(_value(second, "vertical_error_rms")[0])
-    for name in ("time_to_first_fix_s", "fix_fraction", "channels_locked", "horizontal_scatter_rms",
-                 "vertical_scatter_rms"):
+    for name in (
+        "time_to_first_fix_s",
+        "fix_fraction",
+        "channels_locked",
+        "horizontal_scatter_rms",
+        "vertical_scatter_rms",
+    ):
         assert _value(second, name)[0] == _value(both, name)[1], name
 
 
 @pytest.mark.slow
 def test_segments_map_to_samples_and_one_past_the_end_is_refused(recorded, tmp_path):
-    rec = open_recording(write_recording(tmp_path / "short.sigmf-data", np.zeros(int(2 * SEGMENT_S * FS), complex),
-                                         "ci16_le", FS, 0.0))
+    rec = open_recording(
+        write_recording(tmp_path / "short.sigmf-data", np.zeros(int(2 * SEGMENT_S * FS), complex), "ci16_le", FS, 0.0)
+    )
     assert segment_bounds(rec, 0.0, SEGMENT_S, 1) == (int(SEGMENT_S * FS), int(SEGMENT_S * FS))
-    with pytest.raises(ConfigError, match=r"scenario.segment_s: run 2's segment ends at 36.000 s, past the end of "
-                                          r"short.sigmf-data \(24.000 s\): the file holds 2 segment\(s\)"):
+    with pytest.raises(
+        ConfigError,
+        match=r"scenario.segment_s: run 2's segment ends at 36.000 s, past the end of "
+        r"short.sigmf-data \(24.000 s\): the file holds 2 segment\(s\)",
+    ):
         segment_bounds(rec, 0.0, SEGMENT_S, 2)
     with pytest.raises(ConfigError, match="scenario.recording: nowhere.bin: no such file"):
         get_scenario({"kind": "sample-recording", "recording": "nowhere.bin", "segment_s": 5.0}).check_case(
-            {"name": "x"}, "cases[0]")
+            {"name": "x"}, "cases[0]"
+        )

@@ -24,11 +24,22 @@ from gnssframework.experiments import get_scenario
 from gnssframework.receiver.deep.measurements import reference_channel
 from gnssframework.receiver.tracking.vector import VectorTruth, run_vector_loop
 from gnssframework.simulation.constellation import OMEGA_EARTH, draw_epochs, nominal_constellation
-from gnssframework.simulation.propagation import (antenna_attenuation_db, cn0_from_elevation, draw_range_errors,
-                                                  klobuchar_obliquity, tropo_mapping)
+from gnssframework.simulation.propagation import (
+    antenna_attenuation_db,
+    cn0_from_elevation,
+    draw_range_errors,
+    klobuchar_obliquity,
+    tropo_mapping,
+)
 
-SCEN = {"kind": "vector-tracking", "duration_s": 2.0, "channels": 8, "settle_s": 0.5, "steady_state_s": 1.0,
-        "pcrb": False}
+SCEN = {
+    "kind": "vector-tracking",
+    "duration_s": 2.0,
+    "channels": 8,
+    "settle_s": 0.5,
+    "steady_state_s": 1.0,
+    "pcrb": False,
+}
 LAT, LON, H = 34.23, 108.3576, 590.6
 
 
@@ -38,6 +49,7 @@ def _elevations_pymap3d(sat_pos: np.ndarray) -> np.ndarray:
 
 
 # --- closed forms -------------------------------------------------------------------------
+
 
 def test_klobuchar_obliquity_factor_closed_form_and_thin_shell_geometry():
     # IS-GPS-200 20.3.3.5.2.5: F = 1 + 16 (0.53 - E)^3, E in semicircles.
@@ -74,6 +86,7 @@ def test_antenna_pattern_is_gps_sdr_sims_table():
 
 
 # --- range errors ---------------------------------------------------------------------------
+
 
 def test_range_error_magnitudes_over_many_runs():
     n = 4000
@@ -141,11 +154,18 @@ def test_a_common_range_error_ends_in_the_receiver_clock_not_its_position():
     results = {}
     for metres in (0.0, 20.0):
         truth, x0, P0 = scen.truth(45.0, 2, draw.run_streams(8, (0,), range(2)))
-        truth = VectorTruth(truth.sat_state, truth.receiver_state, truth.clock_m, truth.cn0_dbhz,
-                            truth.coherent_time_s, range_error_m=_CommonRange(metres) if metres else None)
+        truth = VectorTruth(
+            truth.sat_state,
+            truth.receiver_state,
+            truth.clock_m,
+            truth.cn0_dbhz,
+            truth.coherent_time_s,
+            range_error_m=_CommonRange(metres) if metres else None,
+        )
         nav = gf.registry.create("nav_filter", "ekf-pv", clock="ocxo", accel_psd=1e-3)
-        rec = run_vector_loop(gf.registry.create("channel_filter", "iq-filter"), nav, truth, x0, P0,
-                              draw.run_streams(9, (0,), range(2)))
+        rec = run_vector_loop(
+            gf.registry.create("channel_filter", "iq-filter"), nav, truth, x0, P0, draw.run_streams(9, (0,), range(2))
+        )
         K = truth.epochs
         clock_error = nav.state.mean[:, 6] - truth.nav_truth((K - 0.5) * truth.coherent_time_s, K - 1)[:, 6]
         results[metres] = clock_error, np.linalg.norm(rec.position_error_m[-1], axis=-1)
@@ -155,6 +175,7 @@ def test_a_common_range_error_ends_in_the_receiver_clock_not_its_position():
 
 
 # --- geometry per run ---------------------------------------------------------------------------
+
 
 def test_per_run_geometry_differs_between_runs_and_is_batch_independent():
     scen = get_scenario({**SCEN, "geometry": "per-run", "cn0_model": "elevation", "iono_vertical_residual_std_m": 2.0})
@@ -178,27 +199,33 @@ def test_drawn_epochs_are_uniform_over_the_sidereal_day():
     n = 400
     day = 2 * np.pi / OMEGA_EARTH
     # 4 channels above 10 deg: always available with 24 satellites, so no epoch is rejected.
-    epochs, index = draw_epochs(nominal_constellation(), draw.run_streams(1, (3,), range(n)), n, LAT, LON, H,
-                                10.0, 4)
+    epochs, index = draw_epochs(nominal_constellation(), draw.run_streams(1, (3,), range(n)), n, LAT, LON, H, 10.0, 4)
     assert np.all((epochs >= 0) & (epochs < day)) and index.shape == (n, 4)
     assert stats.kstest(epochs / day, "uniform").pvalue > 1e-3
 
 
 def test_per_run_geometry_runs_the_vector_loop():
     scen = get_scenario({**SCEN, "geometry": "per-run"})
-    plugins = {"channel_filter": gf.registry.create("channel_filter", "iq-filter"),
-               "nav_filter": gf.registry.create("nav_filter", "ekf-pv", clock="ocxo")}
+    plugins = {
+        "channel_filter": gf.registry.create("channel_filter", "iq-filter"),
+        "nav_filter": gf.registry.create("nav_filter", "ekf-pv", clock="ocxo"),
+    }
     res = scen.run_batch({"cn0_dbhz": 45.0}, plugins, 2, draw.run_streams(2, (0,), range(2)))
     assert np.all(res.metrics["position_error_rmse"] < 5.0)  # tracks: errors of the initial 3 m, not km
     assert "pcrb_position" not in res.metrics  # one bound per geometry: not computed
 
 
-@pytest.mark.parametrize("extra, field", [
-    ({"geometry": "per-run", "pcrb": True}, "scenario.pcrb"),
-    # a real navigation file: the file check of the field passes and the geometry rule refuses
-    ({"geometry": "per-run", "ephemeris_file": str(Path(__file__).parents[1] / "data" / "07590920.05n")},
-     "scenario.geometry"),
-])
+@pytest.mark.parametrize(
+    "extra, field",
+    [
+        ({"geometry": "per-run", "pcrb": True}, "scenario.pcrb"),
+        # a real navigation file: the file check of the field passes and the geometry rule refuses
+        (
+            {"geometry": "per-run", "ephemeris_file": str(Path(__file__).parents[1] / "data" / "07590920.05n")},
+            "scenario.geometry",
+        ),
+    ],
+)
 def test_per_run_geometry_refuses_what_it_cannot_do(extra, field):
     with pytest.raises(ConfigError) as exc:
         get_scenario({**SCEN, **extra})
@@ -206,6 +233,7 @@ def test_per_run_geometry_refuses_what_it_cannot_do(extra, field):
 
 
 # --- C/N0 from elevation --------------------------------------------------------------------
+
 
 def test_channel_cn0_follows_elevation_and_reaches_the_channel_filters(monkeypatch):
     scen = get_scenario({**SCEN, "cn0_model": "elevation"})
@@ -224,9 +252,12 @@ def test_channel_cn0_follows_elevation_and_reaches_the_channel_filters(monkeypat
         return real_reset(self, batch_shape, context)
 
     monkeypatch.setattr(type(channel), "reset", spy)
-    scen.run_batch({"cn0_dbhz": 45.0}, {"channel_filter": channel,
-                                        "nav_filter": gf.registry.create("nav_filter", "ekf-pv", clock="ocxo")},
-                   2, draw.run_streams(1, (0,), range(2)))
+    scen.run_batch(
+        {"cn0_dbhz": 45.0},
+        {"channel_filter": channel, "nav_filter": gf.registry.create("nav_filter", "ekf-pv", clock="ocxo")},
+        2,
+        draw.run_streams(1, (0,), range(2)),
+    )
     np.testing.assert_allclose(seen["cn0"], truth.cn0_dbhz)
 
 
@@ -240,8 +271,15 @@ def test_deep_reference_channel_is_the_highest_satellite_with_elevation_cn0(monk
 
     ins = importlib.import_module(type(gf.registry.create("nav_filter", "ins-ekf")).__module__)
 
-    scen = get_scenario({"kind": "deep-integration", "duration_s": 0.3, "settle_s": 0.1, "profile": "straight",
-                         "cn0_model": "elevation"})
+    scen = get_scenario(
+        {
+            "kind": "deep-integration",
+            "duration_s": 0.3,
+            "settle_s": 0.1,
+            "profile": "straight",
+            "cn0_model": "elevation",
+        }
+    )
     flight = scen.flight()
     truth = scen._truth(flight, 45.0, 2, draw.run_streams(1, (0,), range(2)))
     el = _elevations_pymap3d(truth.sat_state(np.asarray(0.0))[0])
@@ -258,13 +296,16 @@ def test_deep_reference_channel_is_the_highest_satellite_with_elevation_cn0(monk
         return out
 
     monkeypatch.setattr(ins, "reference_channel", spy)
-    plugins = {"channel_filter": gf.registry.create("channel_filter", "iq-filter", output="equivalent"),
-               "nav_filter": gf.registry.create("nav_filter", "ins-ekf")}
+    plugins = {
+        "channel_filter": gf.registry.create("channel_filter", "iq-filter", output="equivalent"),
+        "nav_filter": gf.registry.create("nav_filter", "ins-ekf"),
+    }
     scen.run_batch({"cn0_dbhz": 45.0}, plugins, 2, draw.run_streams(1, (0,), range(2)))
     assert picked and all(np.all(p == np.argmax(el)) for p in picked)
 
 
 # --- the same residuals in the deep-integration scenario ------------------------------------
+
 
 class _Fixed:
     """Code and carrier range errors fixed per channel (m)."""
@@ -294,10 +335,14 @@ def test_deep_and_loose_put_a_common_range_error_in_the_clock_and_a_single_one_i
     final = {}
     one_channel = _Fixed([0, 0, 0, 20.0, 0, 0, 0, 0])
     for name, err in (("none", None), ("common", _Fixed(np.full(8, 20.0))), ("one", one_channel)):
-        truth = dataclasses.replace(scen._truth(flight, 45.0, 2, draw.run_streams(1, (0,), range(2))),
-                                    range_error_m=err)
-        channel = (gf.registry.create("channel_filter", "iq-filter", output="equivalent") if kind == "deep"
-                   else gf.registry.create("channel_filter", "scalar"))
+        truth = dataclasses.replace(
+            scen._truth(flight, 45.0, 2, draw.run_streams(1, (0,), range(2))), range_error_m=err
+        )
+        channel = (
+            gf.registry.create("channel_filter", "iq-filter", output="equivalent")
+            if kind == "deep"
+            else gf.registry.create("channel_filter", "scalar")
+        )
         plugins = {"channel_filter": channel, "nav_filter": gf.registry.create("nav_filter", "ins-ekf")}
         run = deep_integration_runs.run_deep if kind == "deep" else deep_integration_runs.run_loose
         out = run(scen, plugins, flight, truth, 2, draw.run_streams(2, (0,), range(2)))
@@ -317,10 +362,12 @@ def test_deep_truth_code_and_carrier_ranges_carry_the_residuals():
     np.testing.assert_allclose(noisy.pseudoranges(0, 5, s) - plain.pseudoranges(0, 5, s), code, atol=1e-6)
     # Carrier minus code is minus twice the slant ionosphere (Klobuchar obliquity at pymap3d's elevations).
     el = _elevations_pymap3d(s)
-    iono = draw_range_errors(draw.run_streams(1, (0,), range(2)).child("range-errors"), 2, 8,
-                             iono_vertical_std_m=3.0).iono_vertical_m
-    np.testing.assert_allclose(noisy.carrier_minus_code_m(0, 5), -2 * iono * klobuchar_obliquity(el)[:, None],
-                               rtol=1e-3)
+    iono = draw_range_errors(
+        draw.run_streams(1, (0,), range(2)).child("range-errors"), 2, 8, iono_vertical_std_m=3.0
+    ).iono_vertical_m
+    np.testing.assert_allclose(
+        noisy.carrier_minus_code_m(0, 5), -2 * iono * klobuchar_obliquity(el)[:, None], rtol=1e-3
+    )
     assert plain.range_error_m is None and plain.carrier_minus_code_m(0, 5) is None
 
 
@@ -335,8 +382,10 @@ def test_deep_scenarios_vector_candidate_gets_the_residuals(monkeypatch):
 
     monkeypatch.setattr(di, "run_vector_loop", capture)
     scen = get_scenario({**DEEP, "tropo_zenith_residual_std_m": 0.1})
-    plugins = {"channel_filter": gf.registry.create("channel_filter", "iq-filter"),
-               "nav_filter": gf.registry.create("nav_filter", "ekf-pv", clock="ocxo")}
+    plugins = {
+        "channel_filter": gf.registry.create("channel_filter", "iq-filter"),
+        "nav_filter": gf.registry.create("nav_filter", "ekf-pv", clock="ocxo"),
+    }
     with pytest.raises(RuntimeError, match="captured"):
         scen.run_batch({"cn0_dbhz": 45.0}, plugins, 2, draw.run_streams(1, (0,), range(2)))
     code, carrier = seen["truth"].range_error_m(np.array([0.0]))
@@ -356,11 +405,10 @@ def test_scalar_loops_see_the_carrier_range_apart_from_the_code_range(monkeypatc
     carrier = seen["truth"].carrier_phase_rad
     # Phase follows the carrier range: its change is -2 pi (rho + advance) change / lambda.
     from gnssframework.signal.constants import CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
-    np.testing.assert_allclose(carrier - carrier[0], -2 * np.pi * (rho + advance - rho[0]) / L1_WAVELENGTH_M,
-                               atol=1e-6)
+
+    np.testing.assert_allclose(carrier - carrier[0], -2 * np.pi * (rho + advance - rho[0]) / L1_WAVELENGTH_M, atol=1e-6)
     code = seen["truth"].code_phase_chips
-    np.testing.assert_allclose((code[-1] - code[0]), 1.023e6 * K * T - (rho[-1] - rho[0]) / CA_CHIP_LENGTH_M,
-                               atol=1e-6)
+    np.testing.assert_allclose((code[-1] - code[0]), 1.023e6 * K * T - (rho[-1] - rho[0]) / CA_CHIP_LENGTH_M, atol=1e-6)
 
 
 def test_pcrb_uses_each_channels_cn0():
@@ -374,13 +422,16 @@ def test_pcrb_uses_each_channels_cn0():
     assert pos_el[-1] > 1.05 * pos_const[-1]
 
 
-@pytest.mark.parametrize("kind, field, value", [
-    ("vector-tracking", "cn0_model", "elev"),
-    ("vector-tracking", "geometry", "random"),
-    ("vector-tracking", "orbit_clock_residual_std_m", -1.0),
-    ("deep-integration", "iono_vertical_residual_std_m", -2.0),
-    ("deep-integration", "tropo_zenith_residual_std_m", 5.0),
-])
+@pytest.mark.parametrize(
+    "kind, field, value",
+    [
+        ("vector-tracking", "cn0_model", "elev"),
+        ("vector-tracking", "geometry", "random"),
+        ("vector-tracking", "orbit_clock_residual_std_m", -1.0),
+        ("deep-integration", "iono_vertical_residual_std_m", -2.0),
+        ("deep-integration", "tropo_zenith_residual_std_m", 5.0),
+    ],
+)
 def test_bad_option_values_are_one_line_config_errors_naming_the_field(kind, field, value):
     with pytest.raises(ConfigError) as exc:
         get_scenario({"kind": kind, field: value})
@@ -402,11 +453,16 @@ def test_deep_per_run_geometry_is_batch_independent_and_every_kind_runs_on_it():
     el = _elevations_pymap3d(s3[0])  # (runs, ch)
     np.testing.assert_array_equal(reference_channel(three.cn0_dbhz), np.argmax(el, axis=-1))
     runs = draw.run_streams(4, (9,), range(2))
-    for channel, nav in ((gf.registry.create("channel_filter", "iq-filter", output="equivalent"), "ins-ekf"),
-                         (gf.registry.create("channel_filter", "scalar"), "ins-ekf"),
-                         (gf.registry.create("channel_filter", "iq-filter"), "ekf-pv")):
-        nav_filter = (gf.registry.create("nav_filter", nav, clock="ocxo") if nav == "ekf-pv"
-                      else gf.registry.create("nav_filter", nav))
+    for channel, nav in (
+        (gf.registry.create("channel_filter", "iq-filter", output="equivalent"), "ins-ekf"),
+        (gf.registry.create("channel_filter", "scalar"), "ins-ekf"),
+        (gf.registry.create("channel_filter", "iq-filter"), "ekf-pv"),
+    ):
+        nav_filter = (
+            gf.registry.create("nav_filter", nav, clock="ocxo")
+            if nav == "ekf-pv"
+            else gf.registry.create("nav_filter", nav)
+        )
         res = scen.run_batch({"cn0_dbhz": 45.0}, {"channel_filter": channel, "nav_filter": nav_filter}, 2, runs)
         # Tracking: errors of the initial 5 m per axis, not of a loop that lost its satellites.
         assert np.all(res.metrics["horizontal_position_error_rmse"] < 20.0), channel.name

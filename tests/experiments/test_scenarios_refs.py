@@ -7,10 +7,11 @@ from gnssframework.experiments import get_scenario
 from gnssframework.receiver.tracking.jitter import loop_variance
 import gnssframework as gf
 
-PLL = {"name": "scalar", "params": {"pll_bandwidth_hz": 10.0, "pll_order": 2,
-                                    "fll_bandwidth_hz": 0.0, "dll_bandwidth_hz": 0.5}}
-KF2 = {"name": "kf-carrier-loop", "params": {"q": [0.01, 0.1], "r": 5.0,
-                                             "angle_unit": "deg", "dll_bandwidth_hz": 0.5}}
+PLL = {
+    "name": "scalar",
+    "params": {"pll_bandwidth_hz": 10.0, "pll_order": 2, "fll_bandwidth_hz": 0.0, "dll_bandwidth_hz": 0.5},
+}
+KF2 = {"name": "kf-carrier-loop", "params": {"q": [0.01, 0.1], "r": 5.0, "angle_unit": "deg", "dll_bandwidth_hz": 0.5}}
 
 
 def _scint(case, cand, runs=6, seed=1, duration=20.0):
@@ -40,8 +41,10 @@ def test_kalman_loop_beats_the_pll_under_aj_stanford_s4_0_9():
 
 def _multipath(components, runs=10, psi=0.95):
     scen = get_scenario({"kind": "multipath", "epochs": 300, "psi": psi})
-    base = {"nav_filter": {"name": "position-ca", "params": {}},
-            "estimator": {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}}}
+    base = {
+        "nav_filter": {"name": "position-ca", "params": {}},
+        "estimator": {"name": "ukf", "params": {"alpha": 0.01, "beta": 2.0, "kappa": 0.0}},
+    }
     res = scen.run_batch({}, scen.build({**base, **components}), runs, np.random.default_rng(4))
     return res
 
@@ -74,6 +77,8 @@ def test_smaller_q_helps_where_thermal_noise_dominates_and_hurts_where_phase_sci
     case = {"model": "aj-stanford", "s4": 0.9, "sigma_phi_rad": 0.1}
     for cn0, sign in ((35.0, -1), (45.0, +1)):
         c = {**case, "cn0_dbhz": cn0}
-        d = (_scint(c, kf3, runs=12, duration=20.0)["phase_error_rmse"]
-             - _scint(c, KF2, runs=12, duration=20.0)["phase_error_rmse"])
+        d = (
+            _scint(c, kf3, runs=12, duration=20.0)["phase_error_rmse"]
+            - _scint(c, KF2, runs=12, duration=20.0)["phase_error_rmse"]
+        )
         assert sign * np.mean(d) > 2 * np.std(d, ddof=1) / np.sqrt(d.size), (cn0, d)

@@ -82,8 +82,7 @@ def _thermal_variance(cn0_dbhz: float, T: float) -> float:
 
 
 def _kf(q, r):
-    return gf.registry.create("channel_filter", "kf-carrier-loop", q=q, r=r, angle_unit="deg",
-                              dll_bandwidth_hz=0.5)
+    return gf.registry.create("channel_filter", "kf-carrier-loop", q=q, r=r, angle_unit="deg", dll_bandwidth_hz=0.5)
 
 
 @pytest.mark.slow
@@ -111,14 +110,15 @@ def test_the_unit_reading_sets_r_against_the_thermal_noise_not_the_bandwidth():
     # is the same, while R against the discriminator's thermal variance is (180/pi)^2 larger.
     q, r = TUNINGS["kf-1"]
     ctx = {"coherent_time_s": 0.01, "cn0_dbhz": 45.0}
-    in_rad = gf.registry.create("channel_filter", "kf-carrier-loop", q=q, r=r,
-                                dll_bandwidth_hz=0.5).assumptions(ctx)
+    in_rad = gf.registry.create("channel_filter", "kf-carrier-loop", q=q, r=r, dll_bandwidth_hz=0.5).assumptions(ctx)
     in_deg = _kf(q, r).assumptions(ctx)
     assert in_deg["Q and R read in"][0] == "deg" and in_rad["Q and R read in"][0] == "rad"
     assert _noise_bandwidth_hz(np.array(q, float), r, 0.01) == pytest.approx(
-        _noise_bandwidth_hz(np.array(q) * DEG**2, r * DEG**2, 0.01), rel=1e-9)
-    assert in_rad["carrier loop noise bandwidth"][0] == pytest.approx(in_deg["carrier loop noise bandwidth"][0],
-                                                                      rel=1e-6)
+        _noise_bandwidth_hz(np.array(q) * DEG**2, r * DEG**2, 0.01), rel=1e-9
+    )
+    assert in_rad["carrier loop noise bandwidth"][0] == pytest.approx(
+        in_deg["carrier loop noise bandwidth"][0], rel=1e-6
+    )
     assert in_deg["phase R / thermal variance"][0] == pytest.approx(r * DEG**2 / _thermal_variance(45.0, 0.01))
     assert in_rad["phase R / thermal variance"][0] == pytest.approx(in_deg["phase R / thermal variance"][0] / DEG**2)
 
@@ -133,24 +133,29 @@ def test_kalman_loop_q_r_psd_and_thermal_ratio_in_common_units():
     # The frequency random walk as a line-of-sight acceleration a = (lambda / 2 pi) d(omega)/dt:
     # PSD = Q_f / T (lambda / 2 pi)^2.
     assert out["line-of-sight acceleration PSD"] == (
-        pytest.approx(np.radians(np.sqrt(0.1)) ** 2 / T * (LAMBDA_L1 / (2 * np.pi)) ** 2), "m²/s³")
-    assert out["phase R / thermal variance"][0] == pytest.approx(np.radians(np.sqrt(5.0)) ** 2
-                                                                 / _thermal_variance(cn0, T))
+        pytest.approx(np.radians(np.sqrt(0.1)) ** 2 / T * (LAMBDA_L1 / (2 * np.pi)) ** 2),
+        "m²/s³",
+    )
+    assert out["phase R / thermal variance"][0] == pytest.approx(
+        np.radians(np.sqrt(5.0)) ** 2 / _thermal_variance(cn0, T)
+    )
 
 
 def test_pll_declares_order_and_a_bandwidth_of_its_design():
     # Kaplan & Hegarty's 2nd-order design: wn = B_L / 0.53, zeta = 0.707, so
     # B_L = (wn/2)(zeta + 1/(4 zeta)); at B_L T = 0.0018 the discrete loop is that bandwidth.
-    pll = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=1.8, pll_order=2,
-                             fll_bandwidth_hz=0.0, dll_bandwidth_hz=0.5)
+    pll = gf.registry.create(
+        "channel_filter", "scalar", pll_bandwidth_hz=1.8, pll_order=2, fll_bandwidth_hz=0.0, dll_bandwidth_hz=0.5
+    )
     out = pll.assumptions({"coherent_time_s": 0.001, "cn0_dbhz": 45.0})
     wn, zeta = 1.8 / 0.53, 1 / np.sqrt(2)
     assert out["carrier loop"][0] == "PLL, order 2"
     assert out["carrier loop design bandwidth"] == (1.8, "Hz")
     assert out["carrier loop noise bandwidth"][0] == pytest.approx(wn / 2 * (zeta + 1 / (4 * zeta)), rel=0.02)
     # At B_L T = 0.1 the discretised 10 Hz loop is wider than designed (the page's 12.5 Hz).
-    wide = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=10.0, pll_order=2,
-                              fll_bandwidth_hz=0.0, dll_bandwidth_hz=0.5)
+    wide = gf.registry.create(
+        "channel_filter", "scalar", pll_bandwidth_hz=10.0, pll_order=2, fll_bandwidth_hz=0.0, dll_bandwidth_hz=0.5
+    )
     assert wide.assumptions({"coherent_time_s": 0.01})["carrier loop noise bandwidth"][0] > 11.0
     # Without the scenario's T nothing is measured (a loop may run at another T there).
     assert "carrier loop noise bandwidth" not in wide.assumptions({})
@@ -164,15 +169,13 @@ def test_pll_acceleration_psd_makes_a_kalman_loop_of_the_pll_bandwidth():
     # thermal variance at the case's C/N0) is the PLL: a Kalman loop built from it, with no
     # phase noise, must come out at the PLL's bandwidth (measured independently of the PLL).
     T, cn0, B = 0.002, 40.0, 3.0
-    pll = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=B, pll_order=2,
-                             fll_bandwidth_hz=0.0)
+    pll = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=B, pll_order=2, fll_bandwidth_hz=0.0)
     psd = pll.assumptions({"coherent_time_s": T, "cn0_dbhz": cn0})["line-of-sight acceleration PSD"][0]
     q_f = psd * (2 * np.pi / LAMBDA_L1) ** 2 * T  # (rad/s)^2 per interval
     r = _thermal_variance(cn0, T)
     assert _kalman_bucy_bandwidth_hz(np.array([0.0, q_f]), r, T) == pytest.approx(B, rel=0.01)
     assert _noise_bandwidth_hz(np.array([0.0, q_f]), r, T) == pytest.approx(B, rel=0.03)
-    third = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=B, pll_order=3,
-                               fll_bandwidth_hz=0.0)
+    third = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=B, pll_order=3, fll_bandwidth_hz=0.0)
     assert "line-of-sight acceleration PSD" not in third.assumptions({"coherent_time_s": T, "cn0_dbhz": cn0})
 
 
@@ -181,6 +184,7 @@ def test_the_scenario_gives_each_case_its_interval_and_cn0():
     base = scen.assumption_context({"name": "a", "model": "aj-stanford", "s4": 0.9})
     assert base["coherent_time_s"] == 0.01 and base["cn0_dbhz"] == 45.0
     assert base["wavelength_m"] == pytest.approx(LAMBDA_L1)
-    own = scen.assumption_context({"name": "b", "model": "aj-stanford", "s4": 0.9, "coherent_time_s": 0.001,
-                                   "cn0_dbhz": 30.0})
+    own = scen.assumption_context(
+        {"name": "b", "model": "aj-stanford", "s4": 0.9, "coherent_time_s": 0.001, "cn0_dbhz": 30.0}
+    )
     assert own["coherent_time_s"] == 0.001 and own["cn0_dbhz"] == 30.0

@@ -19,24 +19,37 @@ def _scen(**params):
 
 def test_truth_phase_is_the_closed_form_of_the_case_dynamics():
     scen = _scen(doppler_hz=1200.0)
-    case = {**CASE, "doppler_rate_hz_s": 3.0, "doppler_jerk_hz_s2": -0.4, "los_sine_amplitude_m": 0.05,
-            "los_sine_frequency_hz": 0.7}
+    case = {
+        **CASE,
+        "doppler_rate_hz_s": 3.0,
+        "doppler_jerk_hz_s2": -0.4,
+        "los_sine_amplitude_m": 0.05,
+        "los_sine_frequency_hz": 0.7,
+    }
     truth, scint_phase = scen.truth(case, 2, 5)
     t = np.arange(truth.epochs + 1)[:, None] * 0.01
-    cycles = (1200.0 * t + 0.5 * 3.0 * t**2 - 0.4 * t**3 / 6
-              + 0.05 / (C_M_S / F_L1_HZ) * np.sin(2 * np.pi * 0.7 * t))
-    np.testing.assert_allclose(truth.carrier_phase_rad - scint_phase, np.broadcast_to(2 * np.pi * cycles, (t.size, 2)),
-                               rtol=1e-12, atol=1e-9)
+    cycles = 1200.0 * t + 0.5 * 3.0 * t**2 - 0.4 * t**3 / 6 + 0.05 / (C_M_S / F_L1_HZ) * np.sin(2 * np.pi * 0.7 * t)
+    np.testing.assert_allclose(
+        truth.carrier_phase_rad - scint_phase, np.broadcast_to(2 * np.pi * cycles, (t.size, 2)), rtol=1e-12, atol=1e-9
+    )
     # The code follows the same range (code-carrier coherence); the scintillation does not move it.
-    np.testing.assert_allclose(truth.code_phase_chips, np.broadcast_to(CHIP_RATE_HZ * (t + cycles / F_L1_HZ),
-                                                                       (t.size, 2)), rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(
+        truth.code_phase_chips,
+        np.broadcast_to(CHIP_RATE_HZ * (t + cycles / F_L1_HZ), (t.size, 2)),
+        rtol=1e-12,
+        atol=1e-9,
+    )
 
 
 def test_default_case_is_the_static_receiver():
     truth, scint_phase = _scen().truth(CASE, 2, 5)
     t = np.arange(truth.epochs + 1)[:, None] * 0.01
-    np.testing.assert_allclose(truth.carrier_phase_rad - scint_phase, np.broadcast_to(2 * np.pi * 1500.0 * t, (t.size, 2)),
-                               rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(
+        truth.carrier_phase_rad - scint_phase,
+        np.broadcast_to(2 * np.pi * 1500.0 * t, (t.size, 2)),
+        rtol=1e-12,
+        atol=1e-9,
+    )
 
 
 def test_a_runs_truth_does_not_depend_on_its_batch():
@@ -47,8 +60,12 @@ def test_a_runs_truth_does_not_depend_on_its_batch():
     np.testing.assert_allclose(three.carrier_phase_rad[:, 1], one.carrier_phase_rad[:, 0], rtol=1e-12, atol=1e-12)
     assert not np.allclose(three.carrier_phase_rad[:, 0], one.carrier_phase_rad[:, 0])  # another run's numbers
     # (the scintillation generator's batched filtering may differ in the last bit)
-    np.testing.assert_allclose(np.broadcast_to(three.amplitude_scale, (one.epochs, 3))[:, 1],
-                               np.broadcast_to(one.amplitude_scale, (one.epochs, 1))[:, 0], rtol=1e-12, atol=0)
+    np.testing.assert_allclose(
+        np.broadcast_to(three.amplitude_scale, (one.epochs, 3))[:, 1],
+        np.broadcast_to(one.amplitude_scale, (one.epochs, 1))[:, 0],
+        rtol=1e-12,
+        atol=0,
+    )
 
 
 @pytest.mark.parametrize("bandwidth_hz, rate_hz_s", [(10.0, 5.0), (1.8, 0.2)])
@@ -58,8 +75,14 @@ def test_second_order_pll_lags_a_doppler_rate_by_the_textbook_steady_state_error
     scen = _scen(cn0_dbhz=60.0)
     case = {"model": "aj-stanford", "s4": 0.01, "sigma_phi_rad": 0.0, "doppler_rate_hz_s": rate_hz_s}
     truth, _ = scen.truth(case, 4, 3)
-    loop = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=bandwidth_hz,
-                              pll_order=2, fll_bandwidth_hz=0.0, dll_bandwidth_hz=0.5)
+    loop = gf.registry.create(
+        "channel_filter",
+        "scalar",
+        pll_bandwidth_hz=bandwidth_hz,
+        pll_order=2,
+        fll_bandwidth_hz=0.0,
+        dll_bandwidth_hz=0.5,
+    )
     rec = run_closed_loop(loop, truth, np.random.default_rng(2), initial_doppler_hz=1500.0)
     lag_rad = np.mean(rec.phase_error_rad[500:])  # after 5 s (> 5 time constants of the 1.8 Hz loop)
     theory = 2 * np.pi * rate_hz_s / (bandwidth_hz / 0.53) ** 2

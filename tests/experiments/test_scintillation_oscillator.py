@@ -18,8 +18,16 @@ H = {"tcxo-hq": (2e-21, 2e-20), "ocxo": (2e-25, 6e-25)}
 
 
 def _clock_bias_s(oscillator, runs, duration_s, T=0.01, seed=7):
-    scen = get_scenario({"kind": "scintillation", "duration_s": duration_s, "coherent_time_s": T,
-                         "doppler_hz": 0.0, "settle_s": 0.0, "oscillator": oscillator})
+    scen = get_scenario(
+        {
+            "kind": "scintillation",
+            "duration_s": duration_s,
+            "coherent_time_s": T,
+            "doppler_hz": 0.0,
+            "settle_s": 0.0,
+            "oscillator": oscillator,
+        }
+    )
     truth, scint_phase = scen.truth(CASE, runs, seed)
     return -(truth.carrier_phase_rad - scint_phase) / (2 * np.pi * F_L1_HZ), truth
 
@@ -47,8 +55,7 @@ def test_oscillator_moves_code_and_carrier_together():
     # the carrier's excess cycles times chip rate / carrier frequency.
     bias_s, truth = _clock_bias_s("tcxo-hq", 3, duration_s=3.0)
     t = np.arange(truth.epochs + 1)[:, None] * 0.01
-    np.testing.assert_allclose(truth.code_phase_chips - CHIP_RATE_HZ * t, -CHIP_RATE_HZ * bias_s,
-                               rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(truth.code_phase_chips - CHIP_RATE_HZ * t, -CHIP_RATE_HZ * bias_s, rtol=1e-9, atol=1e-9)
     assert np.std(bias_s[-1]) > 0  # the clock did move
 
 
@@ -68,8 +75,10 @@ def test_no_oscillator_is_the_ideal_clock_and_the_scintillation_is_unchanged():
 
 def test_unknown_oscillator_is_refused_naming_the_case_field(tmp_path):
     path = tmp_path / "bad.toml"
-    path.write_text('name = "x"\nruns = 2\n[scenario]\nkind = "scintillation"\nduration_s = 3.0\n'
-                    '[[cases]]\nname = "a"\ns4 = 0.5\noscillator = "rubidium"\n'
-                    '[[candidates]]\nname = "pll"\nchannel_filter = { name = "scalar" }\n')
+    path.write_text(
+        'name = "x"\nruns = 2\n[scenario]\nkind = "scintillation"\nduration_s = 3.0\n'
+        '[[cases]]\nname = "a"\ns4 = 0.5\noscillator = "rubidium"\n'
+        '[[candidates]]\nname = "pll"\nchannel_filter = { name = "scalar" }\n'
+    )
     with pytest.raises(ConfigError, match=r"cases\[0\]\.oscillator"):
         load_config(path)

@@ -52,12 +52,13 @@ def _white_noise_error(name: str, runs: int = 400, epochs: int = 800, sigma: flo
     for _ in range(epochs):
         noise = sigma * rng.standard_normal(runs)
         errs.append(f.step({"pseudorange_m": 2e7 + noise, "carrier_m": np.full(runs, 2e7 + 123.0)})["smoothed_m"] - 2e7)
-    return np.array(errs[epochs // 2:])
+    return np.array(errs[epochs // 2 :])
 
 
-@pytest.mark.parametrize("name, params", [("kf-smoother", {"q": 1e-3, "r": 1.25}),
-                                          ("kf-smoother", {"q": 0.05, "r": 1.0}),
-                                          ("hatch", {"window": 40})])
+@pytest.mark.parametrize(
+    "name, params",
+    [("kf-smoother", {"q": 1e-3, "r": 1.25}), ("kf-smoother", {"q": 0.05, "r": 1.0}), ("hatch", {"window": 40})],
+)
 def test_declared_noise_equivalent_window_is_the_plugins_white_noise_variance_reduction(name, params):
     # A mean over N epochs of white noise of variance s2 has variance s2 / N: the declared
     # noise-equivalent window N (in epochs at dt = 1 s) must be what the plugin achieves.
@@ -95,8 +96,10 @@ def test_scenario_code_noise_variance_is_the_simulated_codes():
 
 
 def test_example_assumptions_rows():
-    rows = {(r["case"], r["candidate"], r["label"]): r for r in
-            assumption_rows(load_config(ROOT / "examples" / "carrier_smoothing.toml"))}
+    rows = {
+        (r["case"], r["candidate"], r["label"]): r
+        for r in assumption_rows(load_config(ROOT / "examples" / "carrier_smoothing.toml"))
+    }
     assert {label for (_, _, label) in rows} <= set(ASSUMPTION_LABELS)
     for case in ("slips", "isolated-slips"):
         assert rows[(case, "hatch", "smoothing time constant")]["value"] == 100.0  # window 100 x 1 s

@@ -80,8 +80,6 @@ def test_paired_se_is_smaller_than_unpaired_when_runs_are_correlated():
     assert pd.significant and abs(np.mean(x) - np.mean(y)) < 2 * unpaired_se
 
 
-
-
 def _config(tmp_path, reference=""):
     path = tmp_path / "c.toml"
     path.write_text(two_candidate_config("synthetic", top=reference))
@@ -95,7 +93,7 @@ def test_summary_and_report_carry_the_hand_computed_paired_statistics(tmp_path):
     store.register(key, config.batch_size)
     for name, values in (("a", X), ("b", Y)):
         for batch in range(2):
-            metrics = {m: values[2 * batch: 2 * batch + 2] for m in config.metric_names}
+            metrics = {m: values[2 * batch : 2 * batch + 2] for m in config.metric_names}
             store.add_batch(key, "only", name, 2 * batch, metrics)
     summary = json.loads(write_report(config, store, tmp_path).read_text())
     assert summary["reference"] == "b"
@@ -123,6 +121,7 @@ def test_reference_defaults_to_the_first_candidate_and_is_validated(tmp_path):
 
 
 # -- common random numbers in the runner ----------------------------------------------------
+
 
 class _DrawsParams(ScenarioParams):
     sigma: float = Field(1.0, gt=0)
@@ -291,8 +290,9 @@ def test_a_scenario_that_does_not_return_a_declared_metric_is_named(tmp_path, sc
     scratch_registry.register_module(module, "test-forgetful")
     path = tmp_path / "f.toml"
     path.write_text(DRAWS.replace('"test-draws"', '"test-forgetful"'))
-    with pytest.raises(GnssFrameworkError, match="'test-forgetful': run_batch did not return the declared "
-                                                 "metrics declared_only"):
+    with pytest.raises(
+        GnssFrameworkError, match="'test-forgetful': run_batch did not return the declared metrics declared_only"
+    ):
         run_comparison(load_config(path), tmp_path / "out", progress=False)
 
 

@@ -62,21 +62,31 @@ def test_ranges_lists_and_their_values():
     assert Sweep(path="cases.cn0_dbhz", values=[1]).label == "cn0_dbhz"
 
 
-@pytest.mark.parametrize("sweep, field, words", [
-    ('path = "scenario.psy"\nvalues = [0.5]', "sweeps[0].path", ["scenario.psi", "allowed"]),
-    ('path = "candidates.kf.estimator.params.alpha"\nvalues = [1]', "sweeps[0].path", ["'kf' has no parameter"]),
-    ('path = "candidates.nope.params.psi"\nvalues = [1]', "sweeps[0].path", ["kf, ar1"]),
-    ('path = "candidates.ar1.params.window"\nvalues = [1]', "sweeps[0].path", ["no plugin"]),
-    ('path = "weird.psi"\nvalues = [1]', "sweeps[0].path", ["scenario, cases or candidates"]),
-    ('path = "scenario.psi"\nvalues = [0.5, 1.5]', "sweeps[0].values[1]", ["scenario.psi = 1.5", "less than 1"]),
-    ('path = "candidates.ar1.params.psi"\nvalues = ["high"]', "sweeps[0].values[0]", ["candidates.ar1.params.psi = 'high'", "psi"]),
-    ('path = "scenario.epochs"\nstart = 10\nstop = 30\nstep = 10', "sweeps[0].values[0]",
-     ["scenario.epochs = 10", "greater than or equal to 20"]),
-    ('path = "scenario.psi"\nvalues = [0.5]\nstart = 0.1', "sweeps[0]", ["not both"]),
-    ('path = "scenario.psi"\nstart = 0.1\nstop = 0.5', "sweeps[0]", ["exactly one of step and num"]),
-    ('path = "scenario.psi"\nstart = 0.1\nstop = 0.5\nstep = -0.1', "sweeps[0]", ["does not lead"]),
-    ('path = "scenario.psi"\nvalues = [0.5]\ncases = ["other"]', "sweeps[0].cases[0]", ["'other'", "only"]),
-])
+@pytest.mark.parametrize(
+    "sweep, field, words",
+    [
+        ('path = "scenario.psy"\nvalues = [0.5]', "sweeps[0].path", ["scenario.psi", "allowed"]),
+        ('path = "candidates.kf.estimator.params.alpha"\nvalues = [1]', "sweeps[0].path", ["'kf' has no parameter"]),
+        ('path = "candidates.nope.params.psi"\nvalues = [1]', "sweeps[0].path", ["kf, ar1"]),
+        ('path = "candidates.ar1.params.window"\nvalues = [1]', "sweeps[0].path", ["no plugin"]),
+        ('path = "weird.psi"\nvalues = [1]', "sweeps[0].path", ["scenario, cases or candidates"]),
+        ('path = "scenario.psi"\nvalues = [0.5, 1.5]', "sweeps[0].values[1]", ["scenario.psi = 1.5", "less than 1"]),
+        (
+            'path = "candidates.ar1.params.psi"\nvalues = ["high"]',
+            "sweeps[0].values[0]",
+            ["candidates.ar1.params.psi = 'high'", "psi"],
+        ),
+        (
+            'path = "scenario.epochs"\nstart = 10\nstop = 30\nstep = 10',
+            "sweeps[0].values[0]",
+            ["scenario.epochs = 10", "greater than or equal to 20"],
+        ),
+        ('path = "scenario.psi"\nvalues = [0.5]\nstart = 0.1', "sweeps[0]", ["not both"]),
+        ('path = "scenario.psi"\nstart = 0.1\nstop = 0.5', "sweeps[0]", ["exactly one of step and num"]),
+        ('path = "scenario.psi"\nstart = 0.1\nstop = 0.5\nstep = -0.1', "sweeps[0]", ["does not lead"]),
+        ('path = "scenario.psi"\nvalues = [0.5]\ncases = ["other"]', "sweeps[0].cases[0]", ["'other'", "only"]),
+    ],
+)
 def test_bad_sweeps_are_refused_at_load_time_naming_the_field(tmp_path, sweep, field, words):
     with pytest.raises(ConfigError) as err:
         _load(tmp_path, "[[sweeps]]\n" + sweep + "\n")
@@ -87,13 +97,19 @@ def test_bad_sweeps_are_refused_at_load_time_naming_the_field(tmp_path, sweep, f
 
 def test_two_sweeps_with_one_name_are_refused(tmp_path):
     with pytest.raises(ConfigError, match="repeated: psi"):
-        _load(tmp_path, '[[sweeps]]\npath = "scenario.psi"\nvalues = [0.5]\n'
-                        '[[sweeps]]\npath = "candidates.ar1.params.psi"\nvalues = [0.5]\n')
+        _load(
+            tmp_path,
+            '[[sweeps]]\npath = "scenario.psi"\nvalues = [0.5]\n'
+            '[[sweeps]]\npath = "candidates.ar1.params.psi"\nvalues = [0.5]\n',
+        )
 
 
 def test_points_change_only_the_swept_parameter(tmp_path):
-    config = _load(tmp_path, '[[sweeps]]\nname = "apsi"\npath = "candidates.ar1.params.psi"\nvalues = [0.5, 0.9]\n'
-                             '[[sweeps]]\npath = "scenario.psi"\nvalues = [0.7]\n')
+    config = _load(
+        tmp_path,
+        '[[sweeps]]\nname = "apsi"\npath = "candidates.ar1.params.psi"\nvalues = [0.5, 0.9]\n'
+        '[[sweeps]]\npath = "scenario.psi"\nvalues = [0.7]\n',
+    )
     (v0, p0), (v1, p1) = config.sweep_points(0)
     assert (v0, v1) == (0.5, 0.9)
     assert p0.candidates[1].augmentation.params == {"psi": 0.5} and p0.scenario["psi"] == 0.9
@@ -191,9 +207,13 @@ def test_the_schema_validates_sweeps(tmp_path):
     validator = jsonschema.Draft202012Validator(comparison_schema())
     data = tomllib.loads(BASE + SWEEPS)
     assert list(validator.iter_errors(data)) == []
-    for bad in ({"path": "scenario.psi"}, {"path": "scenario.psi", "values": [1], "start": 0.1},
-                {"path": "scenario.psi", "start": 0, "stop": 1, "step": 0.5, "num": 3},
-                {"values": [1]}, {"path": "scenario.psi", "values": [1], "colour": 2}):
+    for bad in (
+        {"path": "scenario.psi"},
+        {"path": "scenario.psi", "values": [1], "start": 0.1},
+        {"path": "scenario.psi", "start": 0, "stop": 1, "step": 0.5, "num": 3},
+        {"values": [1]},
+        {"path": "scenario.psi", "values": [1], "colour": 2},
+    ):
         data["sweeps"] = [bad]
         assert not validator.is_valid(data), bad
 
@@ -250,18 +270,27 @@ name = "iq"
 channel_filter = { name = "iq-filter", params = { estimator = "ukf" } }
 nav_filter = { name = "ekf-pv" }
 """
-    config = _load(tmp_path, '[[sweeps]]\npath = "candidates.iq.channel_filter.params.estimator.params.alpha"\n'
-                             'values = [0.5, 1.0]\n', base)
+    config = _load(
+        tmp_path,
+        '[[sweeps]]\npath = "candidates.iq.channel_filter.params.estimator.params.alpha"\nvalues = [0.5, 1.0]\n',
+        base,
+    )
     (_, p0), (_, p1) = config.sweep_points(0)
     assert p0.candidates[0].channel_filter.params["estimator"] == {"name": "ukf", "params": {"alpha": 0.5}}
     assert p1.candidates[0].channel_filter.params["estimator"]["params"]["alpha"] == 1.0
     with pytest.raises(ConfigError) as err:
-        _load(tmp_path, '[[sweeps]]\npath = "candidates.iq.channel_filter.params.estimator.params.alpha"\n'
-                        'values = [0.5, -1.0]\n', base)
+        _load(
+            tmp_path,
+            '[[sweeps]]\npath = "candidates.iq.channel_filter.params.estimator.params.alpha"\nvalues = [0.5, -1.0]\n',
+            base,
+        )
     assert err.value.field == "sweeps[0].values[1]" and "alpha" in str(err.value)
     with pytest.raises(ConfigError) as err:
-        _load(tmp_path, '[[sweeps]]\npath = "candidates.iq.channel_filter.params.estimator.params.alfa"\n'
-                        'values = [0.5]\n', base)
+        _load(
+            tmp_path,
+            '[[sweeps]]\npath = "candidates.iq.channel_filter.params.estimator.params.alfa"\nvalues = [0.5]\n',
+            base,
+        )
     assert err.value.field == "sweeps[0].values[0]" and "alfa" in str(err.value)
 
 
@@ -312,16 +341,20 @@ def test_the_vector_tracking_examples_cn0_sweep_resumes_with_identical_numbers(t
     paired = {(p["value"], p["candidate"]) for p in cn0["paired"] if p["metric"] == "velocity_error_rmse"}
     assert paired == {(v, c) for v in (25.0, 50.0) for c in ("ackf", "ackf-literal", "discriminator-fixed-r")}
     # Lower C/N0, larger FLL output error: the point's C/N0 reached the simulation.
-    assert (rows[(25.0, "discriminator", "freq_output_rmse")]["mean"]
-            > 3 * rows[(50.0, "discriminator", "freq_output_rmse")]["mean"])
+    assert (
+        rows[(25.0, "discriminator", "freq_output_rmse")]["mean"]
+        > 3 * rows[(50.0, "discriminator", "freq_output_rmse")]["mean"]
+    )
 
 
 def test_a_value_is_one_key_whether_written_as_an_integer_or_a_float(tmp_path):
     # multipath_std_m is a float field: 3 and 3.0 are one simulation, so one store key, in
     # the scenario table and in a case; another value is another key.
     def identity(scenario_line: str, case_line: str) -> str:
-        base = BASE.replace("psi = 0.9\n[[cases]]\nname = \"only\"\n",
-                            f"psi = 0.9\n{scenario_line}\n[[cases]]\nname = \"only\"\n{case_line}\n")
+        base = BASE.replace(
+            'psi = 0.9\n[[cases]]\nname = "only"\n',
+            f'psi = 0.9\n{scenario_line}\n[[cases]]\nname = "only"\n{case_line}\n',
+        )
         return _load(tmp_path, "", base).identity()
 
     assert identity("multipath_std_m = 3", "") == identity("multipath_std_m = 3.0", "")
@@ -329,7 +362,10 @@ def test_a_value_is_one_key_whether_written_as_an_integer_or_a_float(tmp_path):
     assert identity("", "psi_training_epochs = 500") != identity("", "psi_training_epochs = 400")
     assert identity("", "psi = 0.5") != identity("", "psi = 0.6")
     # A sweep's point written as a float reuses the case's runs written as an integer.
-    config = _load(tmp_path, '[[sweeps]]\npath = "scenario.multipath_std_m"\nvalues = [2.0, 3.0]\n',
-                   BASE.replace("psi = 0.9\n", "psi = 0.9\nmultipath_std_m = 3\n", 1))
+    config = _load(
+        tmp_path,
+        '[[sweeps]]\npath = "scenario.multipath_std_m"\nvalues = [2.0, 3.0]\n',
+        BASE.replace("psi = 0.9\n", "psi = 0.9\nmultipath_std_m = 3\n", 1),
+    )
     (_, p2), (_, p3) = config.sweep_points(0)
     assert p3.identity() == config.identity() != p2.identity()

@@ -67,25 +67,53 @@ class _Store:
 def _config(claims):
     from gnssframework.experiments.config import ComparisonConfig
 
-    return ComparisonConfig.model_validate({
-        "name": "t", "runs": 40, "batch_size": 40, "seed": 4, "reference": "a",
-        "scenario": {"kind": "tracking-threshold", "duration_s": 3.0},
-        "cases": [{"name": "c", "cn0_dbhz": 30.0}],
-        "candidates": [{"name": "a", "channel_filter": "scalar"}, {"name": "b", "channel_filter": "kf-carrier-loop"}],
-        "sweeps": [{"name": "cn0", "path": "cases.cn0_dbhz", "values": [20.0, 25.0, 30.0, 35.0],
-                    "threshold": {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 500}}],
-        "claims": claims})
+    return ComparisonConfig.model_validate(
+        {
+            "name": "t",
+            "runs": 40,
+            "batch_size": 40,
+            "seed": 4,
+            "reference": "a",
+            "scenario": {"kind": "tracking-threshold", "duration_s": 3.0},
+            "cases": [{"name": "c", "cn0_dbhz": 30.0}],
+            "candidates": [
+                {"name": "a", "channel_filter": "scalar"},
+                {"name": "b", "channel_filter": "kf-carrier-loop"},
+            ],
+            "sweeps": [
+                {
+                    "name": "cn0",
+                    "path": "cases.cn0_dbhz",
+                    "values": [20.0, 25.0, 30.0, 35.0],
+                    "threshold": {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 500},
+                }
+            ],
+            "claims": claims,
+        }
+    )
 
 
 def test_threshold_claims_are_checked_from_the_paired_bootstrap():
     from gnssframework.experiments.claims import evaluate_claims
 
-    claims = [{"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower"},
-              {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0",
-               "threshold_difference": [-7.0, -3.0]},
-              {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "higher"},
-              {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0",
-               "threshold_difference": [-4.9, -4.8]}]
+    claims = [
+        {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower"},
+        {
+            "candidate": "b",
+            "reference": "a",
+            "metric": "loss_of_lock",
+            "sweep": "cn0",
+            "threshold_difference": [-7.0, -3.0],
+        },
+        {"candidate": "b", "reference": "a", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "higher"},
+        {
+            "candidate": "b",
+            "reference": "a",
+            "metric": "loss_of_lock",
+            "sweep": "cn0",
+            "threshold_difference": [-4.9, -4.8],
+        },
+    ]
     config = _config(claims)
     rng = np.random.default_rng(0)
     u = rng.random(40)
@@ -104,8 +132,9 @@ def test_threshold_claims_refuse_a_sweep_without_a_threshold_table():
     from gnssframework.errors import ConfigError
 
     with pytest.raises(ConfigError, match="claims\\[0\\].metric"):
-        _config([{"candidate": "b", "reference": "a", "metric": "cycle_slip_rate", "sweep": "cn0",
-                  "threshold": "lower"}])
+        _config(
+            [{"candidate": "b", "reference": "a", "metric": "cycle_slip_rate", "sweep": "cn0", "threshold": "lower"}]
+        )
     with pytest.raises(Exception, match="reference"):
         _config([{"candidate": "b", "metric": "loss_of_lock", "sweep": "cn0", "threshold": "lower"}])
 
@@ -117,17 +146,44 @@ def test_a_comparison_writes_its_thresholds_plot_and_claims(tmp_path):
     from gnssframework.experiments.config import ComparisonConfig
     from gnssframework.experiments.runner import run_comparison
 
-    config = ComparisonConfig.model_validate({
-        "name": "tiny-threshold", "runs": 8, "batch_size": 8, "seed": 3, "reference": "wide",
-        "scenario": {"kind": "tracking-threshold", "duration_s": 2.0, "settle_s": 0.5},
-        "cases": [{"name": "static", "cn0_dbhz": 30.0}],
-        "candidates": [{"name": "wide", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 18.0}}},
-                       {"name": "narrow", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 5.0}}}],
-        "sweeps": [{"name": "cn0", "path": "cases.cn0_dbhz", "values": [15.0, 30.0, 45.0],
-                    "threshold": {"metric": "loss_of_lock", "level": 0.5, "bootstrap": 200,
-                                  "time_metric": "time_to_loss_s", "plot_metrics": ["cycle_slip_rate"]}}],
-        "claims": [{"candidate": "narrow", "reference": "wide", "metric": "loss_of_lock", "sweep": "cn0",
-                    "threshold_difference": [-20.0, 20.0]}]})
+    config = ComparisonConfig.model_validate(
+        {
+            "name": "tiny-threshold",
+            "runs": 8,
+            "batch_size": 8,
+            "seed": 3,
+            "reference": "wide",
+            "scenario": {"kind": "tracking-threshold", "duration_s": 2.0, "settle_s": 0.5},
+            "cases": [{"name": "static", "cn0_dbhz": 30.0}],
+            "candidates": [
+                {"name": "wide", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 18.0}}},
+                {"name": "narrow", "channel_filter": {"name": "scalar", "params": {"pll_bandwidth_hz": 5.0}}},
+            ],
+            "sweeps": [
+                {
+                    "name": "cn0",
+                    "path": "cases.cn0_dbhz",
+                    "values": [15.0, 30.0, 45.0],
+                    "threshold": {
+                        "metric": "loss_of_lock",
+                        "level": 0.5,
+                        "bootstrap": 200,
+                        "time_metric": "time_to_loss_s",
+                        "plot_metrics": ["cycle_slip_rate"],
+                    },
+                }
+            ],
+            "claims": [
+                {
+                    "candidate": "narrow",
+                    "reference": "wide",
+                    "metric": "loss_of_lock",
+                    "sweep": "cn0",
+                    "threshold_difference": [-20.0, 20.0],
+                }
+            ],
+        }
+    )
     summary = json.loads(run_comparison(config, tmp_path / "out", progress=False).read_text())
     thr = summary["sweeps"][0]["threshold"]
     rows = {r["candidate"]: r for r in thr["cases"][0]["rows"]}

@@ -33,8 +33,9 @@ def test_channel_lock_series_and_the_vector_lock_metrics():
     """Two runs of three channels, T = 10 ms, settle 0.1 s, 0.1 s blocks: run 0 loses channel
     0 in block 1 (interval 29) and channel 2 in block 3 (interval 49); run 1 loses none."""
     T, K = 0.01, 60
-    p = get_scenario({"kind": "vector-threshold", "duration_s": K * T, "settle_s": 0.1, "channels": 4,
-                      "pcrb": False}).params
+    p = get_scenario(
+        {"kind": "vector-threshold", "duration_s": K * T, "settle_s": 0.1, "channels": 4, "pcrb": False}
+    ).params
     freq = np.zeros((K, 2, 3))
     code = np.zeros((K, 2, 3))
     freq[20:, 0, 0] = 100.0  # block 1 (20..29): out of frequency lock (1/(4T) = 25 Hz)

@@ -65,8 +65,7 @@ def test_scalar_pll_jitter_at_high_cn0_matches_the_thermal_formula():
 
 def test_loss_of_lock_grows_as_cn0_falls_and_runs_are_paired():
     sc = get_scenario({"kind": "tracking-threshold", "duration_s": 4.0})
-    lost = {cn0: sc.run_batch({"cn0_dbhz": cn0}, {"channel_filter": _scalar(15.0)}, 16, 3)
-            for cn0 in (18.0, 40.0)}
+    lost = {cn0: sc.run_batch({"cn0_dbhz": cn0}, {"channel_filter": _scalar(15.0)}, 16, 3) for cn0 in (18.0, 40.0)}
     assert lost[18.0].metrics["loss_of_lock"].mean() > 0.8
     assert lost[40.0].metrics["loss_of_lock"].sum() == 0
     assert np.all(lost[40.0].metrics["time_to_loss_s"] == pytest.approx(3.0))  # censored at the span
@@ -86,8 +85,10 @@ def test_samples_source_tracks_at_high_cn0_and_refuses_dynamics():
 
     sc = get_scenario({"kind": "tracking-threshold", "duration_s": 2.0, "settle_s": 0.5})
     ch = _scalar(10.0, dll_bandwidth_hz=0.5)
-    got = {src: sc.run_batch({"cn0_dbhz": 40.0, "source": src}, {"channel_filter": ch}, 6, 9).metrics
-           for src in ("samples", "analytic")}
+    got = {
+        src: sc.run_batch({"cn0_dbhz": 40.0, "source": src}, {"channel_filter": ch}, 6, 9).metrics
+        for src in ("samples", "analytic")
+    }
     assert got["samples"]["loss_of_lock"].sum() == 0
     va, vs = got["analytic"]["phase_jitter_rad"] ** 2, got["samples"]["phase_jitter_rad"] ** 2
     se = np.hypot(va.std(ddof=1) / np.sqrt(va.size), vs.std(ddof=1) / np.sqrt(vs.size))
@@ -106,8 +107,10 @@ def test_lock_scorers_answer_for_their_own_scenario():
     K = 40
     time_s = 0.01 * (0.5 + np.arange(K))
     series = {"phase_error_rad": np.tile([0.6, 0.1], (K, 1)), "code_error_chips": np.zeros((K, 2))}
-    strict, loose = (get_scenario({"kind": "tracking-threshold", "lock_threshold": t, "settle_s": 0.0,
-                                   "lock_window_s": 0.05}) for t in (0.5, 0.3))
+    strict, loose = (
+        get_scenario({"kind": "tracking-threshold", "lock_threshold": t, "settle_s": 0.0, "lock_window_s": 0.05})
+        for t in (0.5, 0.3)
+    )
     lost = next(m for m in METRICS if m.name == "loss_of_lock")
     np.testing.assert_array_equal(lost.compute(series, time_s, strict).value, [1.0, 0.0])
     np.testing.assert_array_equal(lost.compute(series, time_s, loose).value, [0.0, 0.0])
@@ -152,8 +155,12 @@ def test_the_receivers_cn0_reading_in_lock_is_the_estimators_own_and_falls_when_
     from gnssframework.signal.correlator_model import amplitude_from_cn0
 
     (tmp_path / "c.toml").write_text(CN0_CONFIG.format(estimator="m2m4"))
-    rows = {(r["case"], r["metric"]): r for r in json.loads(
-        run_comparison(load_config(tmp_path / "c.toml"), tmp_path / "out", progress=False).read_text())["rows"]}
+    rows = {
+        (r["case"], r["metric"]): r
+        for r in json.loads(
+            run_comparison(load_config(tmp_path / "c.toml"), tmp_path / "out", progress=False).read_text()
+        )["rows"]
+    }
     estimator = registry.create("cn0_estimator", "m2m4")
     rng = np.random.default_rng(7)
     amplitude = amplitude_from_cn0(45.0, 0.01)
@@ -174,8 +181,9 @@ def test_a_cn0_estimator_needing_a_noise_correlator_is_refused(tmp_path):
     from gnssframework.experiments import load_config
 
     (tmp_path / "c.toml").write_text(CN0_CONFIG.format(estimator="noise-channel"))
-    with pytest.raises(ConfigError, match="cn0_estimator: 'noise-channel' reads prompt, noise; the scenario "
-                                          "simulates the prompt only"):
+    with pytest.raises(
+        ConfigError, match="cn0_estimator: 'noise-channel' reads prompt, noise; the scenario simulates the prompt only"
+    ):
         load_config(tmp_path / "c.toml")
 
 

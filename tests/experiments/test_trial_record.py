@@ -38,8 +38,11 @@ def test_a_record_selects_the_same_values_without_rerunning_a_trial(tmp_path, mo
         raise AssertionError("a recorded trial was rerun")
 
     monkeypatch.setattr(tuning_module, "_run_trial", no_trial)
-    second = json.loads(run_comparison(_config(tmp_path), tmp_path / "second", progress=False,
-                                       trials_from=tmp_path / "first" / TRIALS_FILE).read_text())
+    second = json.loads(
+        run_comparison(
+            _config(tmp_path), tmp_path / "second", progress=False, trials_from=tmp_path / "first" / TRIALS_FILE
+        ).read_text()
+    )
     assert second["tuning"] == first["tuning"] and second["rows"] == first["rows"]
     assert json.loads((tmp_path / "second" / TRIALS_FILE).read_text()) == record
 
@@ -59,8 +62,9 @@ def test_a_record_of_another_budget_is_refused_before_any_trial(tmp_path, monkey
     # A budget of 4 is another config (the identity holds the tuning): its record is refused,
     # before a trial runs, rather than continued by a sampler that saw other trials.
     with pytest.raises(ConfigError, match="another identity"):
-        run_comparison(_config(tmp_path, trials=4), tmp_path / "four", progress=False,
-                       trials_from=tmp_path / "three" / TRIALS_FILE)
+        run_comparison(
+            _config(tmp_path, trials=4), tmp_path / "four", progress=False, trials_from=tmp_path / "three" / TRIALS_FILE
+        )
     assert not calls
 
 
@@ -68,16 +72,37 @@ def test_records_of_other_configs_and_broken_files_are_refused(tmp_path):
     config = _config(tmp_path)
     other = _config(tmp_path, name="o.toml", seed=4)
     record = tmp_path / "r.json"
-    record.write_text(json.dumps({"config": other.name, "identity": other.identity(),
-                                  "trials": {"ar1": [{"values": [1.0], "objective": 1.0}]}}))
+    record.write_text(
+        json.dumps(
+            {
+                "config": other.name,
+                "identity": other.identity(),
+                "trials": {"ar1": [{"values": [1.0], "objective": 1.0}]},
+            }
+        )
+    )
     with pytest.raises(ConfigError, match=r"trials_from: .*r\.json: recorded for config 'tuned' with another"):
         run_comparison(config, tmp_path / "a", progress=False, trials_from=record)
-    record.write_text(json.dumps({"config": config.name, "identity": config.identity(),
-                                  "trials": {"kf": [{"values": [1.0], "objective": 1.0}]}}))
+    record.write_text(
+        json.dumps(
+            {
+                "config": config.name,
+                "identity": config.identity(),
+                "trials": {"kf": [{"values": [1.0], "objective": 1.0}]},
+            }
+        )
+    )
     with pytest.raises(ConfigError, match="candidate 'kf' is not tuned by 'tuned'"):
         run_comparison(config, tmp_path / "b", progress=False, trials_from=record)
-    record.write_text(json.dumps({"config": config.name, "identity": config.identity(),
-                                  "trials": {"ar1": [{"values": [1.0, 2.0], "objective": 1.0}]}}))
+    record.write_text(
+        json.dumps(
+            {
+                "config": config.name,
+                "identity": config.identity(),
+                "trials": {"ar1": [{"values": [1.0, 2.0], "objective": 1.0}]},
+            }
+        )
+    )
     with pytest.raises(ConfigError, match="trial 0: 2 values for 1 free parameters"):
         run_comparison(config, tmp_path / "c", progress=False, trials_from=record)
     record.write_text("{not json")
@@ -94,8 +119,11 @@ def test_a_failed_trial_is_recorded_as_null_and_read_back_as_inf(tmp_path):
     from gnssframework.experiments.trial_record import seed_trials, write_trial_record
 
     config = _config(tmp_path)
-    write_trial_record(tmp_path / "r.json", config, {"ar1": {"trials": [{"values": [1.0], "objective": math.inf},
-                                                                         {"values": [2.0], "objective": 0.5}]}})
+    write_trial_record(
+        tmp_path / "r.json",
+        config,
+        {"ar1": {"trials": [{"values": [1.0], "objective": math.inf}, {"values": [2.0], "objective": 0.5}]}},
+    )
     assert json.loads((tmp_path / "r.json").read_text())["trials"]["ar1"][0]["objective"] is None
     store = ResultStore(tmp_path / "s.sqlite")
     assert seed_trials(tmp_path / "r.json", config, store) == 2

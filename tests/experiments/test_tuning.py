@@ -113,8 +113,9 @@ def test_tuning_streams_are_disjoint_from_the_evaluation_streams(tmp_path):
 def test_an_interrupted_tuning_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch, sampler):
     pytest.importorskip("optuna", reason="the 'tune' extra")  # installed by the test extra
     text = BASE.format(sampler=sampler, trials=6, path="candidates.ar1.nav_filter.params.r0")
-    whole = json.loads(run_comparison(_config(tmp_path, text=text, name="w.toml"), tmp_path / "whole",
-                                      progress=False).read_text())
+    whole = json.loads(
+        run_comparison(_config(tmp_path, text=text, name="w.toml"), tmp_path / "whole", progress=False).read_text()
+    )
     real, calls = tuning_module._run_trial, []
 
     def interrupted(*args):
@@ -127,8 +128,9 @@ def test_an_interrupted_tuning_resumes_to_the_uninterrupted_result(tmp_path, mon
     with pytest.raises(KeyboardInterrupt):
         run_comparison(_config(tmp_path, text=text, name="i.toml"), tmp_path / "cut", progress=False)
     monkeypatch.setattr(tuning_module, "_run_trial", real)
-    resumed = json.loads(run_comparison(_config(tmp_path, text=text, name="i.toml"), tmp_path / "cut",
-                                        progress=False).read_text())
+    resumed = json.loads(
+        run_comparison(_config(tmp_path, text=text, name="i.toml"), tmp_path / "cut", progress=False).read_text()
+    )
     assert resumed["tuning"] == whole["tuning"] and resumed["rows"] == whole["rows"]
     values = [v for v in whole["tuning"][0]["tuned"].values()]
     assert 0.1 <= values[0] <= 100.0
@@ -162,17 +164,32 @@ def test_a_trial_that_fails_scores_inf_and_the_tuning_goes_on(tmp_path, monkeypa
     assert t["failed_trials"] == 1 and t["tuned"]["nav_filter.params.r0"] < 50
 
 
-@pytest.mark.parametrize("change, field, message", [
-    (("candidates.*.nav_filter.params.r0", "candidates.*.nav_filter.params.rr"), "tuning.free[0].path",
-     "no candidate has this parameter"),
-    (("candidates.*.nav_filter.params.r0", "candidates.kff.nav_filter.params.r0"), "tuning.free[0].path",
-     "the second part must be a candidate"),
-    (('low = 0.1\nhigh = 100.0\nscale = "log"', 'low = -5.0\nhigh = 100.0\nscale = "linear"'), "tuning.free",
-     "candidate 'kf' at {'nav_filter.params.r0': -5.0}"),
-    (('metric = "horizontal_error_rmse"', 'metric = "rmse"'), "tuning.metric", "unknown metric 'rmse'"),
-    (('low = 0.1\nhigh = 100.0\nscale = "log"', "values = [1.0, 2.0, 3.0, 4.0, 5.0]"), "tuning.trials",
-     "more than the budget of 4 trials"),
-])
+@pytest.mark.parametrize(
+    "change, field, message",
+    [
+        (
+            ("candidates.*.nav_filter.params.r0", "candidates.*.nav_filter.params.rr"),
+            "tuning.free[0].path",
+            "no candidate has this parameter",
+        ),
+        (
+            ("candidates.*.nav_filter.params.r0", "candidates.kff.nav_filter.params.r0"),
+            "tuning.free[0].path",
+            "the second part must be a candidate",
+        ),
+        (
+            ('low = 0.1\nhigh = 100.0\nscale = "log"', 'low = -5.0\nhigh = 100.0\nscale = "linear"'),
+            "tuning.free",
+            "candidate 'kf' at {'nav_filter.params.r0': -5.0}",
+        ),
+        (('metric = "horizontal_error_rmse"', 'metric = "rmse"'), "tuning.metric", "unknown metric 'rmse'"),
+        (
+            ('low = 0.1\nhigh = 100.0\nscale = "log"', "values = [1.0, 2.0, 3.0, 4.0, 5.0]"),
+            "tuning.trials",
+            "more than the budget of 4 trials",
+        ),
+    ],
+)
 def test_bad_tuning_specs_are_refused_at_load(tmp_path, change, field, message):
     text = BASE.format(sampler="grid", trials=4, path="candidates.*.nav_filter.params.r0").replace(*change)
     with pytest.raises(ConfigError) as err:
@@ -246,11 +263,14 @@ def test_candidate_cases_give_one_candidate_its_own_objective_cases(tmp_path):
     assert work_estimate(config)[1] == 3 * 2 * 4 + 4 * 5 * 3
 
 
-@pytest.mark.parametrize("own, field, message", [
-    ('[tuning.candidate_cases]\nkf = ["nowhere"]\n', "tuning.candidate_cases.kf[0]", "unknown case 'nowhere'"),
-    ('[tuning.candidate_cases]\nghost = ["only"]\n', "tuning.candidate_cases.ghost", "not a tuned candidate"),
-    ('[tuning.candidate_cases]\nkf = []\n', "tuning.candidate_cases.kf", "at least one case"),
-])
+@pytest.mark.parametrize(
+    "own, field, message",
+    [
+        ('[tuning.candidate_cases]\nkf = ["nowhere"]\n', "tuning.candidate_cases.kf[0]", "unknown case 'nowhere'"),
+        ('[tuning.candidate_cases]\nghost = ["only"]\n', "tuning.candidate_cases.ghost", "not a tuned candidate"),
+        ("[tuning.candidate_cases]\nkf = []\n", "tuning.candidate_cases.kf", "at least one case"),
+    ],
+)
 def test_bad_candidate_cases_are_refused_at_load(tmp_path, own, field, message):
     with pytest.raises(ConfigError) as err:
         _config(tmp_path, text=_two_cases(own))

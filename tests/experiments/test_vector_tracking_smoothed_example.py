@@ -32,8 +32,9 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "vector_tracking_sm
 def test_the_smoothed_example_beats_its_filtered_estimates_run_by_run(tmp_path):
     scenario = tomllib.loads(EXAMPLE.read_text())["scenario"]
     runs = 12
-    config = load_config(EXAMPLE, runs=runs, batch_size=runs,
-                         scenario={**scenario, "duration_s": 3.0, "steady_state_s": 2.0})
+    config = load_config(
+        EXAMPLE, runs=runs, batch_size=runs, scenario={**scenario, "duration_s": 3.0, "steady_state_s": 2.0}
+    )
     assert config.scenario["smoothed"] is True
     out = tmp_path / "out"
     summary = loads_strict(run_comparison(config, out, progress=False).read_text())
@@ -42,11 +43,14 @@ def test_the_smoothed_example_beats_its_filtered_estimates_run_by_run(tmp_path):
     candidate, key = config.candidates[0].name, config.identity()
     claims = summary["claims"]
     cases = [c.name for c in config.cases]
-    pairs = [("position_smoothed_error_rmse", "position_error_rmse"),
-             ("velocity_smoothed_error_rmse", "velocity_error_rmse")]
+    pairs = [
+        ("position_smoothed_error_rmse", "position_error_rmse"),
+        ("velocity_smoothed_error_rmse", "velocity_error_rmse"),
+    ]
     assert [(c.metric, c.versus_metric, c.direction) for c in config.claims] == [(*p, "lower") for p in pairs]
-    assert [(c["case"], c["metric"], c["versus_metric"]) for c in claims] == \
-        [(case, *p) for p in pairs for case in cases]
+    assert [(c["case"], c["metric"], c["versus_metric"]) for c in claims] == [
+        (case, *p) for p in pairs for case in cases
+    ]
     for row in claims:
         case, smoothed, filtered = row["case"], row["metric"], row["versus_metric"]
         f = store.values(key, case, candidate, filtered, runs)
@@ -55,7 +59,8 @@ def test_the_smoothed_example_beats_its_filtered_estimates_run_by_run(tmp_path):
         d = paired_difference(s, f)
         lo, hi = d.ci95
         assert row["n"] == d.n == runs and row["diff"] == pytest.approx(d.diff) and row["se"] == pytest.approx(d.se)
-        assert row["outcome"] == "holds" and hi < 0, \
+        assert row["outcome"] == "holds" and hi < 0, (
             f"{case}: {smoothed} - {filtered} = {d.diff:.3g} [{lo:.3g}, {hi:.3g}] -> {row['outcome']}"
+        )
     for case in cases:
         assert np.all(np.isfinite(store.values(key, case, candidate, "nees_position_smoothed", runs)))

@@ -36,8 +36,9 @@ def test_stationary_ins_follows_the_schuler_loop():
     b_a, b_g = 1e-3, 0.1 * np.pi / 180 / 3600
     bias_th = np.array([[0, 0, 0], [0, b_g, 0]]) * dt
     bias_dv = np.array([[b_a, 0, 0], [0, 0, 0]]) * dt
-    series = integrate(truth.nav_state(0), dth[:, None] + bias_th, dv[:, None] + bias_dv, dt,
-                       MechanisationOptions(earth=earth))
+    series = integrate(
+        truth.nav_state(0), dth[:, None] + bias_th, dv[:, None] + bias_dv, dt, MechanisationOptions(earth=earth)
+    )
     enu = ecef_to_enu_offset(series.position_ecef_m, truth.position_ecef_m[:, None])
     t = truth.time_s
     expected_n = np.stack([b_a / ws**2 * (1 - np.cos(ws * t)), -r * b_g * (t - np.sin(ws * t) / ws)], axis=-1)
@@ -66,20 +67,39 @@ def test_nonlinear_mechanisation_matches_linear_error_propagation(manoeuvre):
     model, dt, truth, dth, dv, (pth, pdv) = manoeuvre
     rng = np.random.default_rng(5)
     runs = 4
-    dx0 = np.concatenate([rng.normal(0, 1e-3, (runs, 3)), rng.normal(0, 0.1, (runs, 3)), rng.normal(0, 5.0, (runs, 3)),
-                          rng.normal(0, 10 * np.pi / 180 / 3600, (runs, 3)), rng.normal(0, 1e-2, (runs, 3))], axis=-1)
+    dx0 = np.concatenate(
+        [
+            rng.normal(0, 1e-3, (runs, 3)),
+            rng.normal(0, 0.1, (runs, 3)),
+            rng.normal(0, 5.0, (runs, 3)),
+            rng.normal(0, 10 * np.pi / 180 / 3600, (runs, 3)),
+            rng.normal(0, 1e-2, (runs, 3)),
+        ],
+        axis=-1,
+    )
     start = apply_navigation_error(truth.nav_state(0), dx0)
     n = dth.shape[0]
-    series = integrate(start, dth[:, None] + dx0[:, 9:12] * dt, dv[:, None] + dx0[:, 12:15] * dt, dt,
-                       MechanisationOptions(), pth[0] + dx0[:, 9:12] * dt, pdv[0] + dx0[:, 12:15] * dt)
+    series = integrate(
+        start,
+        dth[:, None] + dx0[:, 9:12] * dt,
+        dv[:, None] + dx0[:, 12:15] * dt,
+        dt,
+        MechanisationOptions(),
+        pth[0] + dx0[:, 9:12] * dt,
+        pdv[0] + dx0[:, 12:15] * dt,
+    )
     tstates = NavState(truth.q_b_e[:-1], truth.velocity_ecef_mps[:-1], truth.position_ecef_m[:-1])
-    phi, _ = error_state_transition(tstates, dv / dt, dt, ImuGrade.perfect(), bias_model="constant", method="second-order")
+    phi, _ = error_state_transition(
+        tstates, dv / dt, dt, ImuGrade.perfect(), bias_model="constant", method="second-order"
+    )
     lin = np.empty((n + 1, runs, 15))
     lin[0] = dx0
     for k in range(n):
         lin[k + 1] = lin[k] @ phi[k].T
-    nonlin = navigation_error(NavState(series.q_b_e, series.velocity_ecef_mps, series.position_ecef_m),
-                              NavState(truth.q_b_e[:, None], truth.velocity_ecef_mps[:, None], truth.position_ecef_m[:, None]))
+    nonlin = navigation_error(
+        NavState(series.q_b_e, series.velocity_ecef_mps, series.position_ecef_m),
+        NavState(truth.q_b_e[:, None], truth.velocity_ecef_mps[:, None], truth.position_ecef_m[:, None]),
+    )
     for block in (slice(0, 3), slice(3, 6), slice(6, 9)):
         size = np.abs(nonlin[..., block]).max()
         assert np.abs(nonlin[..., block] - lin[..., block]).max() < 0.01 * size, block
@@ -98,16 +118,23 @@ def test_process_noise_matches_monte_carlo_of_the_mechanisation(manoeuvre):
     attitude and velocity errors over 300 runs matches the sum of Phi-propagated Van Loan Qd."""
     model, dt, truth, dth, dv, (pth, pdv) = manoeuvre
     k1 = 800  # 4 s, through the pull-up onset
-    grade = ImuGrade(gyro_bias_deg_per_h=0, gyro_markov_sigma_deg_per_h=0, accel_bias_mg=0, accel_markov_sigma_mg=0,
-                     gyro_arw_deg_per_sqrt_h=1.0, accel_vrw_mg_per_sqrt_hz=1.0)
+    grade = ImuGrade(
+        gyro_bias_deg_per_h=0,
+        gyro_markov_sigma_deg_per_h=0,
+        accel_bias_mg=0,
+        accel_markov_sigma_mg=0,
+        gyro_arw_deg_per_sqrt_h=1.0,
+        accel_vrw_mg_per_sqrt_hz=1.0,
+    )
     from gnssframework.inertial.imu import simulate_imu
 
     runs = 300
     rng = np.random.default_rng(6)
     mth, mdv, _ = simulate_imu(dth[:k1], dv[:k1], dt, grade, rng, (runs,))
     series = integrate(truth.nav_state(0), mth, mdv, dt, MechanisationOptions(), pth[0], pdv[0])
-    err = navigation_error(NavState(series.q_b_e[-1], series.velocity_ecef_mps[-1], series.position_ecef_m[-1]),
-                           truth.nav_state(k1))
+    err = navigation_error(
+        NavState(series.q_b_e[-1], series.velocity_ecef_mps[-1], series.position_ecef_m[-1]), truth.nav_state(k1)
+    )
     tstates = NavState(truth.q_b_e[:k1], truth.velocity_ecef_mps[:k1], truth.position_ecef_m[:k1])
     phi, qd = error_state_transition(tstates, dv[:k1] / dt, dt, grade, bias_model="constant")
     P = np.zeros((15, 15))

@@ -60,8 +60,14 @@ def test_gauss_markov_follows_its_allan_law():
     """AVAR of a first-order Gauss-Markov rate (sigma, T): (2 sigma^2 T / tau) [1 - (T / 2 tau)
     (3 - 4 e^{-tau/T} + e^{-2 tau/T})]: rate random walk (2/3) sigma^2 tau / T for tau << T,
     white 2 sigma^2 T / tau for tau >> T (IEEE Std 952 / El-Sheimy et al. 2008)."""
-    grade = ImuGrade(gyro_bias_deg_per_h=0, gyro_arw_deg_per_sqrt_h=0, accel_bias_mg=0, accel_vrw_mg_per_sqrt_hz=0,
-                     gyro_markov_sigma_deg_per_h=0.1, gyro_markov_tau_s=300.0)
+    grade = ImuGrade(
+        gyro_bias_deg_per_h=0,
+        gyro_arw_deg_per_sqrt_h=0,
+        accel_bias_mg=0,
+        accel_vrw_mg_per_sqrt_hz=0,
+        gyro_markov_sigma_deg_per_h=0.1,
+        gyro_markov_tau_s=300.0,
+    )
     dt, n, runs = 1.0, 30000, 40
     dth, _, errors = simulate_imu(np.zeros((n, 3)), np.zeros((n, 3)), dt, grade, np.random.default_rng(3), (runs,))
     sigma, T = 0.1 * np.pi / 180 / 3600, 300.0
@@ -75,8 +81,13 @@ def test_gauss_markov_follows_its_allan_law():
 
 
 def test_random_constants_and_scale_factor_per_run():
-    grade = ImuGrade(gyro_markov_sigma_deg_per_h=0, gyro_arw_deg_per_sqrt_h=0, accel_markov_sigma_mg=0,
-                     accel_vrw_mg_per_sqrt_hz=0, gyro_scale_factor_ppm=100.0)
+    grade = ImuGrade(
+        gyro_markov_sigma_deg_per_h=0,
+        gyro_arw_deg_per_sqrt_h=0,
+        accel_markov_sigma_mg=0,
+        accel_vrw_mg_per_sqrt_hz=0,
+        gyro_scale_factor_ppm=100.0,
+    )
     runs, dt = 4000, 0.005
     true_dth = np.tile([[0.01, -0.02, 0.03]], (3, 1))
     dth, dv, e = simulate_imu(true_dth, np.zeros((3, 3)), dt, grade, np.random.default_rng(4), (runs,))

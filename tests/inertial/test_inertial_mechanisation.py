@@ -102,8 +102,15 @@ def window_runs(flight):
     _, truth, dtheta, dv, _ = flight
     k0, k1 = WINDOW
     return {
-        term: integrate(truth.nav_state(k0), dtheta[k0:k1], dv[k0:k1], DT_S, MechanisationOptions(rotation_term=term),
-                        dtheta[k0 - 1], dv[k0 - 1])
+        term: integrate(
+            truth.nav_state(k0),
+            dtheta[k0:k1],
+            dv[k0:k1],
+            DT_S,
+            MechanisationOptions(rotation_term=term),
+            dtheta[k0 - 1],
+            dv[k0 - 1],
+        )
         for term in ("exact", "first-order", "none")
     }
 
@@ -144,9 +151,11 @@ def test_agrees_with_python_ins_on_the_same_increments(flight, exact_run, window
     def oracle(k0, k1):
         raw_th = np.vstack([pth, dtheta])[k0 : k1 + 1]  # python-ins wants the sample before the first
         raw_dv = np.vstack([pdv, dv])[k0 : k1 + 1]
-        imu = pd.DataFrame(np.column_stack([raw_th, raw_dv]),
-                           columns=["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"],
-                           index=ref.index[k0 : k1 + 1])
+        imu = pd.DataFrame(
+            np.column_stack([raw_th, raw_dv]),
+            columns=["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"],
+            index=ref.index[k0 : k1 + 1],
+        )
         increments = strapdown.compute_increments_from_imu(imu, "increment")
         return strapdown.Integrator(ref.iloc[k0]).integrate(increments)
 
@@ -229,10 +238,18 @@ def test_compiled_loop_equals_the_numpy_reference(flight):
     start = truth.nav_state(k0)
     for term in ("exact", "first-order", "none"):
         for coning, sculling in ((True, True), (False, False)):
-            runs = [integrate(start, mth, mdv, DT_S, MechanisationOptions(rotation_term=term, coning=coning,
-                                                                          sculling=sculling, backend=backend),
-                              dtheta[k0 - 1], dv[k0 - 1])
-                    for backend in ("numpy", "numba")]
+            runs = [
+                integrate(
+                    start,
+                    mth,
+                    mdv,
+                    DT_S,
+                    MechanisationOptions(rotation_term=term, coning=coning, sculling=sculling, backend=backend),
+                    dtheta[k0 - 1],
+                    dv[k0 - 1],
+                )
+                for backend in ("numpy", "numba")
+            ]
             np.testing.assert_allclose(runs[1].q_b_e, runs[0].q_b_e, rtol=0, atol=1e-14)
             np.testing.assert_allclose(runs[1].velocity_ecef_mps, runs[0].velocity_ecef_mps, rtol=0, atol=1e-11)
             np.testing.assert_allclose(runs[1].position_ecef_m, runs[0].position_ecef_m, rtol=1e-15, atol=1e-8)
@@ -252,8 +269,10 @@ def test_single_step_backends_agree(flight):
     start = truth.nav_state(k).broadcast((4,))
     th = dtheta[k] + rng.normal(0, 1e-4, (4, 3))
     v = dv[k] + rng.normal(0, 1e-2, (4, 3))
-    a, b = (strapdown_step(start, th, v, DT_S, dtheta[k - 1], dv[k - 1], MechanisationOptions(backend=bk))
-            for bk in ("numpy", "numba"))
+    a, b = (
+        strapdown_step(start, th, v, DT_S, dtheta[k - 1], dv[k - 1], MechanisationOptions(backend=bk))
+        for bk in ("numpy", "numba")
+    )
     np.testing.assert_allclose(b.q_b_e, a.q_b_e, rtol=0, atol=1e-15)
     np.testing.assert_allclose(b.velocity_ecef_mps, a.velocity_ecef_mps, rtol=0, atol=1e-12)
     np.testing.assert_allclose(b.position_ecef_m, a.position_ecef_m, rtol=1e-15, atol=1e-8)

@@ -37,8 +37,11 @@ def test_coordinated_flight_attitude():
     np.testing.assert_allclose(np.sum(y_e * apparent, -1), 0.0, atol=1e-9)
     assert np.all(np.sum(z_e * up0, -1) < 0)
     # the start attitude: heading 45 deg, pitch = flight-path angle 35.26 deg, wings level
-    np.testing.assert_allclose(euler_ned_deg(tr.q_b_e[0], tr.position_ecef_m[0]),
-                               [0.0, np.degrees(np.arctan(50 / np.hypot(50, 50))), 45.0], atol=1e-9)
+    np.testing.assert_allclose(
+        euler_ned_deg(tr.q_b_e[0], tr.position_ecef_m[0]),
+        [0.0, np.degrees(np.arctan(50 / np.hypot(50, 50))), 45.0],
+        atol=1e-9,
+    )
 
 
 @pytest.mark.parametrize(
@@ -57,21 +60,30 @@ def test_round_trip_static_and_straight(profile, dt, tol_m):
     dth, dv = model.increments(dt, n)
     prev = model.increments(dt, 1, start_s=-dt)
     s = integrate(truth.nav_state(0), dth, dv, dt, MechanisationOptions(), prev[0][0], prev[1][0])
-    err = navigation_error(NavState(s.q_b_e, s.velocity_ecef_mps, s.position_ecef_m),
-                           NavState(truth.q_b_e, truth.velocity_ecef_mps, truth.position_ecef_m))
+    err = navigation_error(
+        NavState(s.q_b_e, s.velocity_ecef_mps, s.position_ecef_m),
+        NavState(truth.q_b_e, truth.velocity_ecef_mps, truth.position_ecef_m),
+    )
     assert np.linalg.norm(err[:, 6:9], axis=-1).max() < tol_m
     assert np.linalg.norm(err[:, 0:3], axis=-1).max() < 1e-9
     if profile.attitude == "fixed":
         # at rest: the truth does not move, the gyros sense the Earth rate, the accelerometers -g
         np.testing.assert_allclose(truth.position_ecef_m - truth.position_ecef_m[0], 0.0, atol=1e-6)
         np.testing.assert_allclose(np.linalg.norm(dth, axis=-1) / dt, 7.292115e-5, rtol=1e-9)
-        np.testing.assert_allclose(euler_ned_deg(truth.q_b_e[0], truth.position_ecef_m[0]), (5.0, -3.0, 120.0), atol=1e-9)
+        np.testing.assert_allclose(
+            euler_ned_deg(truth.q_b_e[0], truth.position_ecef_m[0]), (5.0, -3.0, 120.0), atol=1e-9
+        )
 
 
 def test_profile_errors_name_the_field():
     with pytest.raises(ConfigError, match=r"pulses\[0\]"):
-        TrajectoryProfile(start_lat_deg=0, start_lon_deg=0, duration_s=5.0, initial_velocity_enu_mps=(10, 0, 0),
-                          pulses=(AccelerationPulse(start_s=4.0, rise_s=1.0, hold_s=0.0, accel_enu_mps2=(1, 0, 0)),))
+        TrajectoryProfile(
+            start_lat_deg=0,
+            start_lon_deg=0,
+            duration_s=5.0,
+            initial_velocity_enu_mps=(10, 0, 0),
+            pulses=(AccelerationPulse(start_s=4.0, rise_s=1.0, hold_s=0.0, accel_enu_mps2=(1, 0, 0)),),
+        )
     with pytest.raises(ConfigError, match="attitude"):
         TrajectoryModel(TrajectoryProfile(start_lat_deg=0, start_lon_deg=0, duration_s=5.0))
     with pytest.raises(Exception, match="rise_s"):
@@ -85,5 +97,6 @@ def test_kinematic_acceleration_for_nco_aiding():
 
     tr = TrajectoryModel(paper_profile()).evaluate(np.array([5.0, 12.0, 17.3, 40.0]))
     state = NavState(tr.q_b_e, tr.velocity_ecef_mps, tr.position_ecef_m)
-    np.testing.assert_allclose(kinematic_acceleration_ecef(state, tr.specific_force_b_mps2),
-                               tr.acceleration_ecef_mps2, atol=1e-9)
+    np.testing.assert_allclose(
+        kinematic_acceleration_ecef(state, tr.specific_force_b_mps2), tr.acceleration_ecef_mps2, atol=1e-9
+    )

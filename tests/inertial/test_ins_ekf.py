@@ -73,8 +73,16 @@ def test_closed_loop_differenced_filter_equals_open_loop_17_state_filter(estimat
     F, Q, P0, los, cov, cn0 = _problem(rng)
     runs, n = los.shape[:2]
     # residual = true minus predicted: [e.dr - db, e.dv - dd] with a large common clock
-    zs = [np.concatenate([rng.normal(size=(runs, n)) * 3 + rng.normal(size=(runs, 1)) * 1e2,
-                          rng.normal(size=(runs, n)) + rng.normal(size=(runs, 1)) * 1e1], axis=-1) for _ in range(5)]
+    zs = [
+        np.concatenate(
+            [
+                rng.normal(size=(runs, n)) * 3 + rng.normal(size=(runs, 1)) * 1e2,
+                rng.normal(size=(runs, n)) + rng.normal(size=(runs, 1)) * 1e1,
+            ],
+            axis=-1,
+        )
+        for _ in range(5)
+    ]
     x_ref, P_ref = _open_loop_with_clock(F, Q, P0, los, cov, zs)
     # Tolerates: the oracle's own rounding. Its clock states (variance 1e10, re-diffused
     # every step) make S ill-conditioned (about 1e10), so its non-Joseph update loses about
@@ -91,11 +99,20 @@ def test_closed_loop_differenced_filter_equals_open_loop_17_state_filter(estimat
     for z in zs:
         applied = applied @ F.T
         # The corrected INS no longer has the applied part of the error: its residuals lose H @ applied.
-        pred = np.concatenate([np.einsum("rcj,rj->rc", los, applied[:, 6:9]),
-                               np.einsum("rcj,rj->rc", los, applied[:, 3:6])], axis=-1)
+        pred = np.concatenate(
+            [np.einsum("rcj,rj->rc", los, applied[:, 6:9]), np.einsum("rcj,rj->rc", los, applied[:, 3:6])], axis=-1
+        )
         zc = z - pred
-        out = ekf.step({"transition": F, "process_noise": Q, "residual_m": np.stack([zc[:, :n], zc[:, n:]], -1),
-                        "residual_cov": cov, "los": los, "cn0_dbhz": cn0})
+        out = ekf.step(
+            {
+                "transition": F,
+                "process_noise": Q,
+                "residual_m": np.stack([zc[:, :n], zc[:, n:]], -1),
+                "residual_cov": cov,
+                "los": los,
+                "cn0_dbhz": cn0,
+            }
+        )
         applied = applied + out["error_state"]
     testing.assert_within_rounding(applied, x_ref, [x for x, _ in nudged], what="corrections")
     testing.assert_within_rounding(ekf.cov, P_ref, [P for _, P in nudged], what="covariance")

@@ -17,7 +17,9 @@ EXCERPT = ROOT / "tests" / "data" / "CEBR00ESP_R_20182002200_01H_30S_MO.crx.gz"
 
 @pytest.fixture(scope="module")
 def example():
-    spec = importlib.util.spec_from_file_location("carrier_smoothing_real", ROOT / "examples" / "carrier_smoothing_real.py")
+    spec = importlib.util.spec_from_file_location(
+        "carrier_smoothing_real", ROOT / "examples" / "carrier_smoothing_real.py"
+    )
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -66,8 +68,16 @@ def test_the_example_runs_on_the_excerpt(example, tmp_path):
 
     summary = json.loads((tmp_path / "carrier_smoothing_real.json").read_text())
     assert summary["lli_flags"] == int(((obs.lli & 1) != 0)[obs.valid].sum())
-    assert set(summary["candidates"]) == {"raw", "hatch", "kf", "adaptive-kf", "hatch-slip-reset", "kf-slip-reset",
-                                          "kf-tuned", "adaptive-kf-tuned"}
+    assert set(summary["candidates"]) == {
+        "raw",
+        "hatch",
+        "kf",
+        "adaptive-kf",
+        "hatch-slip-reset",
+        "kf-slip-reset",
+        "kf-tuned",
+        "adaptive-kf-tuned",
+    }
 
 
 def test_the_pages_table_is_what_the_script_writes_from_its_summary(example):
@@ -82,8 +92,11 @@ def test_the_pages_table_is_what_the_script_writes_from_its_summary(example):
 
 def test_a_paired_difference_whose_t_interval_contains_zero_is_marked_not_significant(example):
     # 1.98 SE over 49 arcs: outside +-1.96 SE but inside the t-interval (+-2.01 SE).
-    d = {"error_rmse_m": [0.0399, 0.0201, 49], "settle_epochs": [3.0, 1.0, 12],
-         "significant": {"error_rmse": False, "settle_epochs": True}}
+    d = {
+        "error_rmse_m": [0.0399, 0.0201, 49],
+        "settle_epochs": [3.0, 1.0, 12],
+        "significant": {"error_rmse": False, "settle_epochs": True},
+    }
     assert example._paired(d, "error_rmse", 3) == "0.040 ± 0.020 (49, n.s.)"
     assert example._paired(d, "settle_epochs", 1) == "3.0 ± 1.0 (12)"
 

@@ -28,19 +28,23 @@ def test_rows_are_read_as_the_file_writes_them():
         assert m.pseudorange_m[i] == float(r["RawPseudorangeMeters"])
         assert m.sv_position_ecef_m[i].tolist() == [float(r[f"SvPosition{a}EcefMeters"]) for a in "XYZ"]
         assert (m.sv_clock_m[i], m.isrb_m[i], m.iono_m[i], m.tropo_m[i]) == tuple(
-            float(r[k]) for k in ("SvClockBiasMeters", "IsrbMeters", "IonosphericDelayMeters",
-                                  "TroposphericDelayMeters"))
+            float(r[k])
+            for k in ("SvClockBiasMeters", "IsrbMeters", "IonosphericDelayMeters", "TroposphericDelayMeters")
+        )
         assert m.utc_ms[i] == int(r["utcTimeMillis"]) and m.svid[i] == int(r["Svid"])
     # A satellite seen but not measured: empty fields read as NaN.
     assert rows[5]["RawPseudorangeMeters"] == "" and np.isnan(m.pseudorange_m[5])
 
 
-@pytest.mark.parametrize(("column", "value", "message"), [
-    ("RawPseudorangeMeters", "abc", r"gnss.csv:3: RawPseudorangeMeters: not a number: 'abc'"),
-    ("SvClockBiasMeters", "inf", r"gnss.csv:3: SvClockBiasMeters: expected a finite number, got 'inf'"),
-    ("Svid", "2.5", r"gnss.csv:3: Svid: expected an integer, got '2.5'"),
-    ("ConstellationType", "9", r"gnss.csv:3: ConstellationType: unknown type 9"),
-])
+@pytest.mark.parametrize(
+    ("column", "value", "message"),
+    [
+        ("RawPseudorangeMeters", "abc", r"gnss.csv:3: RawPseudorangeMeters: not a number: 'abc'"),
+        ("SvClockBiasMeters", "inf", r"gnss.csv:3: SvClockBiasMeters: expected a finite number, got 'inf'"),
+        ("Svid", "2.5", r"gnss.csv:3: Svid: expected an integer, got '2.5'"),
+        ("ConstellationType", "9", r"gnss.csv:3: ConstellationType: unknown type 9"),
+    ],
+)
 def test_a_bad_value_names_the_file_line_and_column(tmp_path, column, value, message):
     lines = DEVICE.read_text().splitlines()
     header = lines[0].split(",")

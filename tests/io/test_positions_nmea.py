@@ -70,8 +70,21 @@ def test_filtering_reduces_the_error_of_the_static_track():
 @pytest.mark.slow
 def test_cli_filter_positions_writes_csv_and_lists_skipped_lines(tmp_path):
     out = tmp_path / "filtered.csv"
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "filter-positions", str(_corrupt(tmp_path)),
-                           "--out", str(out), "--filter", "AUKF1"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gnssframework",
+            "filter-positions",
+            str(_corrupt(tmp_path)),
+            "--out",
+            str(out),
+            "--filter",
+            "AUKF1",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 3, proc.stderr  # output written, lines skipped
     assert "3 sentences skipped" in proc.stdout and "skipped line 10:" in proc.stdout
     rows = out.read_text().splitlines()
@@ -104,8 +117,22 @@ def test_filter_positions_names_the_option_of_an_unknown_name(tmp_path):
 
     with pytest.raises(ConfigError, match=r"^filter_name: .*'ukff'.*did you mean 'UKF'"):
         composition("ukff")
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "filter-positions", str(LOG), "--out",
-                           str(tmp_path / "f.csv"), "--filter", "ckf", "--noise-adapter", "sage-hus"],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gnssframework",
+            "filter-positions",
+            str(LOG),
+            "--out",
+            str(tmp_path / "f.csv"),
+            "--filter",
+            "ckf",
+            "--noise-adapter",
+            "sage-hus",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 2 and "--noise-adapter" in proc.stderr and "sage-husa" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1

@@ -56,8 +56,11 @@ def test_multi_talker_log_reads_gn_fixes_and_counts_bd_and_proprietary_sentences
     # The first epochs have no fix yet (GGA quality 0, RMC status V): listed, not used.
     reasons = {reason for _, reason in fixes.skipped}
     assert reasons == {"GGA without a fix (quality 0)", "RMC status V (no fix)"}
-    fixed = [line for line in SIRF.read_text().splitlines() if re.match(r"\s*\$GNGGA,[^,]*,[^,]*,[^,]*,[^,]*,[^,]*,[1-9]",
-                                                                          line)]
+    fixed = [
+        line
+        for line in SIRF.read_text().splitlines()
+        if re.match(r"\s*\$GNGGA,[^,]*,[^,]*,[^,]*,[^,]*,[^,]*,[1-9]", line)
+    ]
     assert fixes.time_s.size == len(fixed) > 0
     assert np.all(np.abs(fixes.lat_deg - 31.248) < 0.01)  # 3114.89 N
 
@@ -69,7 +72,7 @@ def test_every_talker_gives_the_same_fix(tmp_path, talker):
     # Checksums change with the talker: recompute them.
     out = []
     for line in lines:
-        body = line[1:line.index("*")]
+        body = line[1 : line.index("*")]
         checksum = 0
         for ch in body:
             checksum ^= ord(ch)
@@ -119,9 +122,21 @@ def test_cli_on_the_gpsd_log_exits_0_and_says_what_it_did_not_use(tmp_path, caps
 
 @pytest.mark.slow
 def test_a_closed_pipe_ends_quietly_with_the_commands_status(tmp_path):
-    proc = subprocess.Popen([sys.executable, "-m", "gnssframework", "filter-positions", str(SIRF), "--out",
-                             str(tmp_path / "f.csv"), "--filter", "UKF"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "gnssframework",
+            "filter-positions",
+            str(SIRF),
+            "--out",
+            str(tmp_path / "f.csv"),
+            "--filter",
+            "UKF",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     proc.stdout.close()  # the reader is gone before the command prints (as `| head -0` would)
     err = proc.stderr.read().decode()
     assert proc.wait() == 3 and err == ""  # 3: the no-fix epochs were skipped

@@ -36,8 +36,9 @@ def _rinex3_lli_flags(text: str) -> set[tuple[int, str]]:
     LLI at offset 14. The primary carrier is the second field of every system here
     (G/E/R: C1C L1C ...; C: C2I L2I ...), as the header states."""
     flags, k = set(), -1
-    for line in text.split("\n")[text.split("\n").index(next(x for x in text.split("\n")
-                                                             if "END OF HEADER" in x)) + 1:]:
+    for line in text.split("\n")[
+        text.split("\n").index(next(x for x in text.split("\n") if "END OF HEADER" in x)) + 1 :
+    ]:
         if line.startswith(">"):
             k += 1
         elif len(line) > 3 + 16 + 14 and line[3 + 16 + 14].strip() and int(line[3 + 16 + 14]) & 1:
@@ -81,7 +82,7 @@ def test_hatanaka_multi_gnss_file_reads_every_constellation(cebr):
     first = text.split("> 2018 07 19 22 00  0.0000000  0 36\n")[1].split("\n")[0]  # "G19  25670286.804 5 ..."
     j = cebr.satellite(first[:3])
     assert cebr.pseudorange_m[0, j] == float(first[3:17])
-    assert cebr.snr_dbhz[0, j] == float(first[3 + 48:3 + 62])  # S1C, the fourth GPS field
+    assert cebr.snr_dbhz[0, j] == float(first[3 + 48 : 3 + 62])  # S1C, the fourth GPS field
     assert cebr.ssi[0, j] == int(first[3 + 16 + 15])
 
 
@@ -134,10 +135,13 @@ def test_a_bad_selection_is_a_config_error():
         read_observations(PIXEL, "X12")
 
 
-@pytest.mark.parametrize("path, why", [
-    (NAV2, r"07590920.05n:1: a navigation file \(broadcast ephemeris, RINEX type N\), not an observation file"),
-    (DATA / "beidou-bd.log", r"beidou-bd.log:1: not a RINEX file"),
-])
+@pytest.mark.parametrize(
+    "path, why",
+    [
+        (NAV2, r"07590920.05n:1: a navigation file \(broadcast ephemeris, RINEX type N\), not an observation file"),
+        (DATA / "beidou-bd.log", r"beidou-bd.log:1: not a RINEX file"),
+    ],
+)
 def test_files_that_are_not_observations_are_refused_in_one_line(path, why):
     with pytest.raises(gf.DataFileError, match=why):
         read_observations(path)
@@ -153,10 +157,13 @@ def test_a_corrupt_hatanaka_archive_is_refused_in_one_line(tmp_path):
 def test_a_rinex2_epoch_out_of_order_is_refused_with_its_line(tmp_path):
     lines = RINEX2.read_text().splitlines()
     starts = [i for i, line in enumerate(lines) if line.startswith(" 05  4  2")]
-    block = lines[starts[5]:starts[6]]  # epoch 5 again after epoch 6
-    edited = lines[:starts[7]] + block + lines[starts[7]:]
+    block = lines[starts[5] : starts[6]]  # epoch 5 again after epoch 6
+    edited = lines[: starts[7]] + block + lines[starts[7] :]
     path = tmp_path / "dup.05o"
     path.write_text("\n".join(edited) + "\n")
-    with pytest.raises(gf.DataFileError, match=rf"dup.05o:{starts[7] + 1}: epoch 2005-04-02 00:02:30.0000000 goes "
-                                               rf"backwards from the epoch at line {starts[6] + 1}"):
+    with pytest.raises(
+        gf.DataFileError,
+        match=rf"dup.05o:{starts[7] + 1}: epoch 2005-04-02 00:02:30.0000000 goes "
+        rf"backwards from the epoch at line {starts[6] + 1}",
+    ):
         read_observations(path)

@@ -36,8 +36,10 @@ def test_arc_start_restarts_from_the_code(name, params):
     phi[30:] += 19.0  # a carrier jump the receiver flagged
     f = registry.create("channel_filter", name, **params)
     f.reset((), RunContext(epoch_interval_s=1.0))
-    out = [f.checked_step({"pseudorange_m": np.asarray(r), "carrier_m": np.asarray(c),
-                           "arc_start": np.asarray(k == 30)}) for k, (r, c) in enumerate(zip(rho, phi))]
+    out = [
+        f.checked_step({"pseudorange_m": np.asarray(r), "carrier_m": np.asarray(c), "arc_start": np.asarray(k == 30)})
+        for k, (r, c) in enumerate(zip(rho, phi))
+    ]
     smoothed = np.array([float(o["smoothed_m"]) for o in out])
     assert smoothed[30] == rho[30]  # n = 1 (Hatch) or the prior discarded (KF): the code alone
     assert np.all(np.abs(smoothed[31:] - rho[31:]) < 10.0)  # the 19 m jump did not leak into the arc
@@ -115,5 +117,6 @@ def test_the_filters_detections_are_reported_beside_the_receivers_flags(tmp_path
         rows = list(csv.DictReader(fh))
     detected = sum(r["slip_detected"] == "1" for r in rows)
     at_flags = sum(r["slip_detected"] == "1" and int(r["lli"]) & 1 for r in rows)
-    assert f"{detected} slips detected by the filter ({at_flags} of them at a receiver's flag)" in \
-        capsys.readouterr().out
+    assert (
+        f"{detected} slips detected by the filter ({at_flags} of them at a receiver's flag)" in capsys.readouterr().out
+    )

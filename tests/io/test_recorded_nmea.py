@@ -69,8 +69,10 @@ def test_a_longitude_jump_is_skipped_by_the_speed_threshold(tmp_path):
 def test_duplicated_timestamps_are_skipped_with_the_first_line(tmp_path):
     lines = LINES[:22] + [LINES[20], LINES[21]] + LINES[22:]  # epoch 10 logged twice
     fixes = read_nmea(_write(tmp_path, lines))
-    assert fixes.skipped == [(23, "duplicate GGA timestamp 03:00:10.000 (first at line 21)"),
-                             (24, "duplicate RMC timestamp 03:00:10.000 (first at line 22)")]
+    assert fixes.skipped == [
+        (23, "duplicate GGA timestamp 03:00:10.000 (first at line 21)"),
+        (24, "duplicate RMC timestamp 03:00:10.000 (first at line 22)"),
+    ]
     assert fixes.time_s.size == 500 and np.all(np.diff(fixes.time_s) == 1.0)
 
 
@@ -103,19 +105,28 @@ def test_cli_exit_status_and_sidecar_say_what_was_skipped(tmp_path, capsys):
     lines[40] = _edit(lines[40], lat="")
     bad, out = _write(tmp_path, lines), tmp_path / "f.csv"
     # One real process for the exit status the shell sees; the other cases run in-process.
-    proc = subprocess.run([sys.executable, "-m", "gnssframework", "filter-positions", str(bad), "--out", str(out),
-                           "--filter", "UKF"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-m", "gnssframework", "filter-positions", str(bad), "--out", str(out), "--filter", "UKF"],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 3, proc.stderr
     assert "2 sentences skipped" in proc.stdout and "skipped line 41: GGA with an empty latitude" in proc.stdout
     with open(tmp_path / "f.csv.skipped.csv", newline="") as fh:
-        assert list(csv.reader(fh)) == [["file", "line", "reason"],
-                                        [str(bad), "11", "latitude 91.500000 deg outside +-90 deg"],
-                                        [str(bad), "41", "GGA with an empty latitude"]]
+        assert list(csv.reader(fh)) == [
+            ["file", "line", "reason"],
+            [str(bad), "11", "latitude 91.500000 deg outside +-90 deg"],
+            [str(bad), "41", "GGA with an empty latitude"],
+        ]
     assert main(["filter-positions", str(bad), "--out", str(out), "--strict"]) == 2
     assert f"{bad}:11: latitude" in capsys.readouterr().err
     # A clean log: exit 0 and an empty list (no stale one left from the run above).
-    assert main(["filter-positions", str(_write(tmp_path, LINES[:200], "clean.nmea")), "--out", str(out),
-                 "--filter", "UKF"]) == 0
+    assert (
+        main(
+            ["filter-positions", str(_write(tmp_path, LINES[:200], "clean.nmea")), "--out", str(out), "--filter", "UKF"]
+        )
+        == 0
+    )
     assert (tmp_path / "f.csv.skipped.csv").read_text().splitlines() == ["file,line,reason"]
 
 
@@ -146,14 +157,17 @@ def test_no_gga_line_disappears_silently_under_random_damage(tmp_path):
                 assert (no in used) != (no in skipped), (trial, no, sentence)
 
 
-@pytest.mark.parametrize("fields, reason", [
-    ({"lat_dir": "X"}, "GGA latitude hemisphere 'X' is not N or S"),  # pynmea2 reads it as 0 deg
-    ({"lon_dir": ""}, "GGA longitude hemisphere '' is not E or W"),
-    ({"timestamp": "250005.00"}, "GGA timestamp '250005.00' is not a time hhmmss.ss"),
-    ({"timestamp": "03a005.00"}, "GGA timestamp '03a005.00' is not a time hhmmss.ss"),
-    ({"altitude": "nan"}, r"GGA altitude nan m outside \+-100000 m \(max_abs_height_m\)"),
-    ({"altitude": "1e300"}, r"GGA altitude 1e\+300 m outside \+-100000 m"),  # was: LinAlgError in the filter
-])
+@pytest.mark.parametrize(
+    "fields, reason",
+    [
+        ({"lat_dir": "X"}, "GGA latitude hemisphere 'X' is not N or S"),  # pynmea2 reads it as 0 deg
+        ({"lon_dir": ""}, "GGA longitude hemisphere '' is not E or W"),
+        ({"timestamp": "250005.00"}, "GGA timestamp '250005.00' is not a time hhmmss.ss"),
+        ({"timestamp": "03a005.00"}, "GGA timestamp '03a005.00' is not a time hhmmss.ss"),
+        ({"altitude": "nan"}, r"GGA altitude nan m outside \+-100000 m \(max_abs_height_m\)"),
+        ({"altitude": "1e300"}, r"GGA altitude 1e\+300 m outside \+-100000 m"),  # was: LinAlgError in the filter
+    ],
+)
 def test_a_gga_with_an_impossible_field_is_skipped_with_its_line_and_reason(tmp_path, fields, reason):
     lines = LINES[:60]
     lines[10] = _edit(lines[10], **fields)  # epoch 5's GGA; its RMC (line 12) stands in for it
@@ -179,12 +193,16 @@ def test_a_bad_threshold_is_a_config_error_naming_it(tmp_path, capsys, option):
     assert main(["filter-positions", str(LOG), "--out", str(tmp_path / "t.csv"), *option]) == 2
     err = capsys.readouterr().err
     # NaN is refused by the command line's check of every number option, before the library's
-    assert err.startswith((f"error: {option[0]}: must be a positive number",
-                           f"error: {option[0]}: must be a finite number")), err
+    assert err.startswith(
+        (f"error: {option[0]}: must be a positive number", f"error: {option[0]}: must be a finite number")
+    ), err
 
 
 def test_a_log_with_no_usable_fix_says_what_was_skipped_first(tmp_path):
     lines = [_edit(line, lat_dir="Q") if line.startswith("$GNGGA") else line[:-2] + "00" for line in LINES[:20]]
-    with pytest.raises(gf.DataFileError, match=r"log.nmea: no valid GGA or RMC fix \(20 sentences skipped, the first "
-                                               r"at line 1: GGA latitude hemisphere 'Q' is not N or S\)"):
+    with pytest.raises(
+        gf.DataFileError,
+        match=r"log.nmea: no valid GGA or RMC fix \(20 sentences skipped, the first "
+        r"at line 1: GGA latitude hemisphere 'Q' is not N or S\)",
+    ):
         read_nmea(_write(tmp_path, lines))

@@ -17,11 +17,21 @@ DATA = ROOT / "tests" / "data"
 # solution (.pos) is a peer's output that tests/navigation/test_rtklib_weighting.py compares with.
 FILES = sorted(p for p in DATA.iterdir() if p.name != "README.md" and p.suffix.lower() not in (".sp3", ".bin", ".pos"))
 
-KINDS = {"07590920.05n": "rinex-nav", "07590920.05o": "rinex-obs", "CEBR00ESP_R_20182002200_01H_30S_MO.crx.gz":
-         "rinex-obs", "beidou-bd.log": "nmea", "gsdc2022_device_gnss.csv": "gsdc-device",
-         "gsdc2022_ground_truth.csv": "gsdc-truth", "pixel6.23o": "rinex-obs", "pixel6.nmea": "nmea",
-         "ublox-zed-f9p-nmea.log": "nmea", "gnssframework_receive_13s.rnx": "rinex-obs", "VILL00ESP_R_20181700000_06H_MN.rnx": "rinex-nav",
-         "BRDC00IGS_R_20201361400_02H_EN.rnx": "rinex-nav", "galileo_inav_20feb2022_05h.rnx": "rinex-nav"}
+KINDS = {
+    "07590920.05n": "rinex-nav",
+    "07590920.05o": "rinex-obs",
+    "CEBR00ESP_R_20182002200_01H_30S_MO.crx.gz": "rinex-obs",
+    "beidou-bd.log": "nmea",
+    "gsdc2022_device_gnss.csv": "gsdc-device",
+    "gsdc2022_ground_truth.csv": "gsdc-truth",
+    "pixel6.23o": "rinex-obs",
+    "pixel6.nmea": "nmea",
+    "ublox-zed-f9p-nmea.log": "nmea",
+    "gnssframework_receive_13s.rnx": "rinex-obs",
+    "VILL00ESP_R_20181700000_06H_MN.rnx": "rinex-nav",
+    "BRDC00IGS_R_20201361400_02H_EN.rnx": "rinex-nav",
+    "galileo_inav_20feb2022_05h.rnx": "rinex-nav",
+}
 
 
 def test_every_copied_recording_has_a_known_kind():
@@ -34,11 +44,16 @@ def test_every_copied_recording_reads_to_one_line(path):
     assert line.startswith(f"{path.name}: ") and "\n" not in line
 
 
-@pytest.mark.parametrize("content, why", [
-    (b"\x00\x01binary samples", r"junk.bin:1: not a RINEX, NMEA or GSDC 2022 file"),
-    (b"     3.04           METEOROLOGICAL DATA M                   RINEX VERSION / TYPE\n",
-     r"junk.bin:1: a RINEX file of a type this framework does not read"),
-])
+@pytest.mark.parametrize(
+    "content, why",
+    [
+        (b"\x00\x01binary samples", r"junk.bin:1: not a RINEX, NMEA or GSDC 2022 file"),
+        (
+            b"     3.04           METEOROLOGICAL DATA M                   RINEX VERSION / TYPE\n",
+            r"junk.bin:1: a RINEX file of a type this framework does not read",
+        ),
+    ],
+)
 def test_other_files_are_refused_in_one_line(tmp_path, content, why):
     path = tmp_path / "junk.bin"
     path.write_bytes(content)

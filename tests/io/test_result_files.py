@@ -40,8 +40,11 @@ def _shortened(path: Path, tmp_path: Path) -> Path:
                 case.pop("streams")
         data["published"] = {k: v for k, v in data.get("published", {}).items() if k in kept}
         if "claims" in data:
-            data["claims"] = [c for c in data["claims"] if c.get("case", next(iter(kept))) in kept
-                              and c.get("reference_case", next(iter(kept))) in kept]
+            data["claims"] = [
+                c
+                for c in data["claims"]
+                if c.get("case", next(iter(kept))) in kept and c.get("reference_case", next(iter(kept))) in kept
+            ]
     if data["scenario"]["kind"] == "sample-receiver":  # a fix needs a whole subframe: fewer satellites, one case
         data["scenario"].update(duration_s=8.0, satellites=4)
         data["cases"] = data["cases"][:1]
@@ -74,6 +77,7 @@ def _shortened(path: Path, tmp_path: Path) -> Path:
 
 def _toml(data: dict) -> str:
     """A minimal TOML writer for the example configs (tables, arrays of tables, inline values)."""
+
     def value(v):
         if isinstance(v, bool):
             return "true" if v else "false"
@@ -89,8 +93,9 @@ def _toml(data: dict) -> str:
     for k, v in data.items():
         if isinstance(v, dict) and k in ("scenario", "executor", "published", "sweeps"):
             tables.append((f"[{k}]", v))
-        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v) and k in ("cases", "candidates",
-                                                                                          "sweeps"):
+        elif (
+            isinstance(v, list) and v and all(isinstance(x, dict) for x in v) and k in ("cases", "candidates", "sweeps")
+        ):
             tables += [(f"[[{k}]]", x) for x in v]
         else:
             lines.append(f"{json.dumps(k)} = {value(v)}")
@@ -103,7 +108,7 @@ def test_strict_parser_refuses_nan_and_the_writer_never_emits_it(tmp_path):
     with pytest.raises(ValueError, match="NaN"):
         loads_strict('{"a": NaN}')
     with pytest.raises(ValueError, match="Infinity"):
-        loads_strict('[-Infinity]')
+        loads_strict("[-Infinity]")
     text = dumps_strict({"a": float("nan"), "b": [np.float64("inf"), 1.5], "c": np.arange(2)})
     assert loads_strict(text) == {"a": None, "b": [None, 1.5], "c": [0, 1]}
     write_json(tmp_path / "s.json", {"x": math.nan})
@@ -140,8 +145,16 @@ def test_a_metric_undefined_in_every_run_is_null_with_its_reason(tmp_path):
     summary = run_comparison(load_config(config, runs=2), tmp_path / "out", progress=False)
     rows = {(r["candidate"], r["metric"]): r for r in loads_strict(summary.read_text())["rows"]}
     assert rows[("raw", "slip_recovery_epochs")] | {"unit": None} == {
-        "case": "c", "candidate": "raw", "metric": "slip_recovery_epochs", "mean": None, "std": None, "runs": 0,
-        "unit": None, "published": None, "undefined": "no isolated slips"}
+        "case": "c",
+        "candidate": "raw",
+        "metric": "slip_recovery_epochs",
+        "mean": None,
+        "std": None,
+        "runs": 0,
+        "unit": None,
+        "published": None,
+        "undefined": "no isolated slips",
+    }
     assert rows[("hatch", "error_rmse")]["mean"] > 0 and "undefined" not in rows[("hatch", "error_rmse")]
     report = (tmp_path / "out" / "report.md").read_text()
     assert "| slip_recovery_epochs | epochs | no isolated slips | no isolated slips |" in report and "nan" not in report
@@ -197,9 +210,11 @@ def _check_every_file_parses(out: Path) -> None:
                 assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
                 # Every batch the store calls finished has all its metric rows.
                 for config, case, cand, first, runs in con.execute("SELECT * FROM batches"):
-                    n = con.execute('SELECT COUNT(*) FROM metrics WHERE config = ? AND "case" = ? AND '
-                                    "candidate = ? AND first_run = ? AND batch_runs = ?",
-                                    (config, case, cand, first, runs)).fetchone()[0]
+                    n = con.execute(
+                        'SELECT COUNT(*) FROM metrics WHERE config = ? AND "case" = ? AND '
+                        "candidate = ? AND first_run = ? AND batch_runs = ?",
+                        (config, case, cand, first, runs),
+                    ).fetchone()[0]
                     n_metrics = len(CarrierSmoothingScenario.metrics)  # the kill config's scenario
                     assert n == n_metrics * runs, (case, cand, first)  # every metric of every run
             finally:
@@ -256,8 +271,9 @@ def test_compare_killed_inside_each_kind_of_write_resumes_to_the_uninterrupted_r
     # One folder, one run per write site, each killed there; the next run resumes.
     for target in ("run000001-000001.npz", "store-batch-2", "summary.json", "-cdf.png"):
         before = {p: p.read_bytes() for p in out.rglob(f"*{target}")} if out.exists() else {}
-        proc = subprocess.run([sys.executable, "-c", _KILL_AT, str(config), str(out), target],
-                              capture_output=True, text=True, timeout=120)
+        proc = subprocess.run(
+            [sys.executable, "-c", _KILL_AT, str(config), str(out), target], capture_output=True, text=True, timeout=120
+        )
         assert proc.returncode == -signal.SIGKILL, (target, proc.stderr)  # it did die at that write
         _check_every_file_parses(out)
         # The file being written when the process died is as it was before: absent or whole.
@@ -277,8 +293,10 @@ values = [50, 100]
 
 def _no_slips_with_a_sweep(tmp_path: Path, runs: int) -> Path:
     config = tmp_path / "sweep.toml"
-    config.write_text(KILL_CONFIG.replace("runs = 8", f"runs = {runs}").replace("slip_probability = 0.01",
-                                                                                "slip_probability = 0.0") + SWEEP)
+    config.write_text(
+        KILL_CONFIG.replace("runs = 8", f"runs = {runs}").replace("slip_probability = 0.01", "slip_probability = 0.0")
+        + SWEEP
+    )
     return config
 
 
@@ -287,8 +305,9 @@ def test_sweep_tables_and_paired_rows_are_strict_with_null_and_a_reason(tmp_path
     """A metric undefined in every run (no slips) goes through summary rows, paired rows and
     the sweep's JSON and CSV as null/empty with a reason, never as NaN."""
     out = tmp_path / "out"
-    summary = loads_strict(run_comparison(load_config(_no_slips_with_a_sweep(tmp_path, 2)), out,
-                                          progress=False).read_text())
+    summary = loads_strict(
+        run_comparison(load_config(_no_slips_with_a_sweep(tmp_path, 2)), out, progress=False).read_text()
+    )
     undefined = [p for p in summary["paired"] if p["metric"] == "slip_recovery_epochs"]
     assert undefined and all(p["diff"] is None and p["se"] is None and p["reason"] for p in undefined)
     defined = [p for p in summary["paired"] if p["metric"] == "error_rmse"]
@@ -320,8 +339,9 @@ def test_compare_killed_inside_each_sweep_write_resumes_to_the_uninterrupted_res
     out = tmp_path / "killed"
     for target in ("window.csv", "window.json", "sweep-window-c-paired.png"):
         before = {p: p.read_bytes() for p in out.rglob(f"*{target}")} if out.exists() else {}
-        proc = subprocess.run([sys.executable, "-c", _KILL_AT, str(config), str(out), target],
-                              capture_output=True, text=True, timeout=120)
+        proc = subprocess.run(
+            [sys.executable, "-c", _KILL_AT, str(config), str(out), target], capture_output=True, text=True, timeout=120
+        )
         assert proc.returncode == -signal.SIGKILL, (target, proc.stderr)
         _check_every_file_parses(out)
         assert {p: p.read_bytes() for p in out.rglob(f"*{target}")} == before, target

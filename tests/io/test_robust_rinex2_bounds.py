@@ -37,7 +37,19 @@ def test_rinex2_pseudoranges_below_the_minimum_are_skipped_and_listed(tmp_path, 
 def test_bounds_that_cannot_hold_are_refused_for_rinex2(lo, hi, tmp_path, capsys):
     with pytest.raises(ConfigError, match="need 0 <= min < max"):
         read_observations(RINEX2, "G", pseudorange_min_m=lo, pseudorange_max_m=hi)
-    code = main(["smooth", str(RINEX2), "--prn", "G", "--out", str(tmp_path / "s.csv"),
-                 "--pseudorange-min", str(lo), "--pseudorange-max", str(hi)])
+    code = main(
+        [
+            "smooth",
+            str(RINEX2),
+            "--prn",
+            "G",
+            "--out",
+            str(tmp_path / "s.csv"),
+            "--pseudorange-min",
+            str(lo),
+            "--pseudorange-max",
+            str(hi),
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 2 and "--pseudorange-m" in err and err.count("\n") == 1

@@ -49,13 +49,13 @@ def dense_posterior(model, initial, zs):
     for k in range(K):
         i = (k + 1) * n
         A = np.zeros((n, N))
-        A[:, i:i + n] = np.eye(n)
-        A[:, i - n:i] = -model.F
+        A[:, i : i + n] = np.eye(n)
+        A[:, i - n : i] = -model.F
         J += A.T @ Qi @ A
         B = np.zeros((1, N))
-        B[:, i:i + n] = model.H
+        B[:, i : i + n] = model.H
         J += B.T @ Ri @ B
-        b += B.T @ Ri @ zs[k:k + 1]
+        b += B.T @ Ri @ zs[k : k + 1]
     cov = np.linalg.inv(J)
     mean = cov @ b
     return mean.reshape(K + 1, n)[1:], np.array([cov[(k + 1) * n, (k + 1) * n] for k in range(K)])
@@ -109,7 +109,9 @@ def test_cli_smooth_positions_writes_the_smoothed_track_and_variances(tmp_path, 
     lon = np.array([float(r["smoothed_lon_deg"]) for r in rows])
     raw_lat = np.array([float(r["lat_deg"]) for r in rows])
     raw_lon = np.array([float(r["lon_deg"]) for r in rows])
+
     def rms(la, lo):
         e, n, _ = pymap3d.geodetic2enu(la, lo, 0.0, LAT0, LON0, 0.0)
-        return np.sqrt(np.mean(e ** 2 + n ** 2))
+        return np.sqrt(np.mean(e**2 + n**2))
+
     assert rms(lat, lon) < rms(raw_lat, raw_lon)

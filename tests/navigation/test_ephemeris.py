@@ -19,8 +19,13 @@ import pytest
 import gnssframework as gf
 from gnssframework.io.observations import SPEED_OF_LIGHT_MPS as C
 from gnssframework.io.observations import read_observations
-from gnssframework.navigation.ephemeris import (OMEGA_EARTH_RAD_S, Ephemerides, gps_seconds_of_week, read_rinex_nav,
-                                                satellite_state)
+from gnssframework.navigation.ephemeris import (
+    OMEGA_EARTH_RAD_S,
+    Ephemerides,
+    gps_seconds_of_week,
+    read_rinex_nav,
+    satellite_state,
+)
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 OBS, NAV = DATA / "07590920.05o", DATA / "07590920.05n"
@@ -83,7 +88,7 @@ def test_clock_terms_and_tgd_are_the_records_fields():
     eph = read_rinex_nav(NAV)
     text = NAV.read_text().splitlines()
     head = next(i for i, line in enumerate(text) if line.startswith(" 3 05  4  2  0  0  0.0"))
-    af0, af1, af2 = (float(text[head][22 + 19 * j: 41 + 19 * j].replace("D", "E")) for j in range(3))
+    af0, af1, af2 = (float(text[head][22 + 19 * j : 41 + 19 * j].replace("D", "E")) for j in range(3))
     tgd = float(text[head + 6][41:60].replace("D", "E"))  # BROADCAST ORBIT - 6, third field
     rec = eph.select(["G03"], 518400.0)
     assert rec.elements["SVclockBias"][0] == af0 and rec.elements["SVclockDrift"][0] == af1

@@ -60,7 +60,7 @@ def _records(path: Path) -> dict[str, list[list[str]]]:
 def _field(record: list[str], row: int, col: int) -> float:
     """Field ``col`` (0-3) of BROADCAST ORBIT ``row`` (0: the SV/epoch/clock line), RINEX 3 layout."""
     start = (23 if row == 0 else 4) + 19 * (col - (1 if row == 0 else 0))
-    return float(record[row][start:start + 19].replace("D", "E"))
+    return float(record[row][start : start + 19].replace("D", "E"))
 
 
 def _consecutive_gaps(eph: Ephemerides, sv: str) -> np.ndarray:
@@ -206,7 +206,6 @@ def test_clock_terms_and_group_delays_as_the_icds_state(eph):
     assert state.clock_s[0] - state.clock_l1_s[0] == pytest.approx(_field(rec, 6, 2), abs=1e-18)
 
 
-
 def _sp3_positions(path: Path) -> dict[str, np.ndarray]:
     """``{sv: (epochs, 4)}`` of GPS seconds of week and ECEF position (m) from an SP3-d file."""
     lines = path.read_text().splitlines()
@@ -260,8 +259,10 @@ def test_qzss_records_take_gps_constants_and_time(eph):
     # Galileo GM) it must not (GM 3.986004418e14 against 3.986005e14 moves a MEO metres).
     g = eph.of_systems("G").subset(np.array([0]))
     t = float(g.elements["Toe"][0]) + 3000.0
-    renamed = {letter: Ephemerides(np.array([f"{letter}01"]), g.toc_s, g.elements, g.health, g.iode, g.accuracy_m)
-               for letter in "JE"}
+    renamed = {
+        letter: Ephemerides(np.array([f"{letter}01"]), g.toc_s, g.elements, g.health, g.iode, g.accuracy_m)
+        for letter in "JE"
+    }
     gps, qzss, gal = (satellite_state(e, t) for e in (g, renamed["J"], renamed["E"]))
     assert np.array_equal(gps.position_m, qzss.position_m) and np.array_equal(gps.clock_l1_s, qzss.clock_l1_s)
     assert np.linalg.norm(gps.position_m - gal.position_m) > 0.5
@@ -274,7 +275,7 @@ def test_a_qzss_record_is_read_with_gps_fields(tmp_path):
     # GPS record written again as J01 must read back with the same elements and group delay.
     lines = NAV.read_text().splitlines()
     end = next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1
-    g05 = lines[end:end + 8]
+    g05 = lines[end : end + 8]
     assert g05[0].startswith("G05")
     path = tmp_path / "qzss.rnx"
     path.write_text("\n".join(lines[:end] + g05 + ["J01" + g05[0][3:]] + g05[1:]) + "\n")

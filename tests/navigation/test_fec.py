@@ -21,8 +21,10 @@ def _bits(text: str) -> np.ndarray:
     return np.array([int(c) for c in text], dtype=np.uint8)
 
 
-@pytest.mark.parametrize("plain, encoded", [("00000100", "1110100100100101"), ("00101011", "0110110001001110"),
-                                            ("00101111", "1101000000111110")])
+@pytest.mark.parametrize(
+    "plain, encoded",
+    [("00000100", "1110100100100101"), ("00101011", "0110110001001110"), ("00101111", "1101000000111110")],
+)
 def test_encoder_gives_the_icd_encoded_ssp_configurations(plain, encoded):
     # Galileo OS SIS ICD 2.0/2.1, 5.1.9.5 (Table of SSP configurations): "the last 16 symbols
     # of the I/NAV E1 pages, after FEC encoding of the 8 plain SSP bits + 6 tail bits". They

@@ -21,8 +21,7 @@ from scipy.stats import binom, chi2, ncx2, norm
 from gnssframework import registry
 from gnssframework.errors import ConfigError
 from gnssframework.interfaces import RunContext
-from gnssframework.navigation.filter_integrity import (filter_solution_separation, innovation_test,
-                                                       satellite_modes)
+from gnssframework.navigation.filter_integrity import filter_solution_separation, innovation_test, satellite_modes
 from gnssframework.navigation.integrity import covariance_protection_levels
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.simulation.constellation import nominal_constellation
@@ -96,9 +95,15 @@ def _run(runs: int, epochs: int, fault_m: np.ndarray | None = None, seed: int = 
     nav = registry.create("nav_filter", "ekf-pv", estimator=estimator)
     F, Q = nav.transition(T_S)
     x_hat0 = np.r_[r, np.zeros(3), 100.0, 0.0]
-    nav.reset((runs,), RunContext(coherent_time_s=T_S, epoch_interval_s=T_S,
-                                  initial_state=np.broadcast_to(x_hat0, (runs, 8)).copy(),
-                                  initial_cov=np.diag(P0_DIAG)))
+    nav.reset(
+        (runs,),
+        RunContext(
+            coherent_time_s=T_S,
+            epoch_interval_s=T_S,
+            initial_state=np.broadcast_to(x_hat0, (runs, 8)).copy(),
+            initial_cov=np.diag(P0_DIAG),
+        ),
+    )
     x = x_hat0 + rng.standard_normal((runs, 8)) * np.sqrt(P0_DIAG)
     Lq = _sqrtm(Q)
     chip, lam = GPS_L1CA.chip_length_m, GPS_L1CA.wavelength_m
@@ -110,10 +115,20 @@ def _run(runs: int, epochs: int, fault_m: np.ndarray | None = None, seed: int = 
         if fault_m is not None:
             z[:, :CH] += fault_m[k]
         zero = np.zeros((runs, CH))
-        nav.step({"sat_pos_m": pos[k], "sat_vel_m_s": vel[k], "next_sat_pos_m": pos[k], "next_sat_vel_m_s": vel[k],
-                  "replica_range_m": z[:, :CH], "replica_rate_m_s": z[:, CH:], "code_error_chips": zero,
-                  "code_error_var_chips2": np.broadcast_to(sigma[:CH] ** 2 / chip**2, (runs, CH)),
-                  "freq_error_hz": zero, "freq_error_var_hz2": np.broadcast_to(sigma[CH:] ** 2 / lam**2, (runs, CH))})
+        nav.step(
+            {
+                "sat_pos_m": pos[k],
+                "sat_vel_m_s": vel[k],
+                "next_sat_pos_m": pos[k],
+                "next_sat_vel_m_s": vel[k],
+                "replica_range_m": z[:, :CH],
+                "replica_rate_m_s": z[:, CH:],
+                "code_error_chips": zero,
+                "code_error_var_chips2": np.broadcast_to(sigma[:CH] ** 2 / chip**2, (runs, CH)),
+                "freq_error_hz": zero,
+                "freq_error_var_hz2": np.broadcast_to(sigma[CH:] ** 2 / lam**2, (runs, CH)),
+            }
+        )
         u = nav.last_step.update
         stats.append(innovation_test(u.innovation, u.innovation_cov, 1e-2).statistic)
         errors.append(nav.state.mean[:, 0:3] - x[:, 0:3])
@@ -160,7 +175,7 @@ def test_filter_separation_matches_explicit_subset_updates():
         dxk, Pk = update(np.flatnonzero(~satellite_modes(sats)[k]))
         assert out.separation_enu_m[k] == pytest.approx(A @ (dxk - dx0), rel=1e-9, abs=1e-12)
         assert out.sigma_ss_m[k] ** 2 == pytest.approx(np.diag(A @ (Pk - P0) @ A.T), rel=1e-8)
-    assert out.error_sigma_enu_m ** 2 == pytest.approx(np.diag(A @ P0 @ A.T), rel=1e-9)
+    assert out.error_sigma_enu_m**2 == pytest.approx(np.diag(A @ P0 @ A.T), rel=1e-9)
     with pytest.raises(ConfigError, match="modes"):
         filter_solution_separation(P, nu, S, C, satellite_modes(sats + 1), A)
 
@@ -238,8 +253,17 @@ def test_filter_protection_levels_bound_the_fault_free_error_at_the_stated_risk(
     assert (np.hypot(e[:, 0], e[:, 1]) > hpl).mean() <= _upper(runs, risk)
     u = last.update
     A = Renu @ np.eye(3, 8)
-    ss = filter_solution_separation(last.prior.cov, u.innovation, u.innovation_cov, u.cross_cov, satellite_modes(CH),
-                                    A, false_alarm=p_fa, missed_detection=p_md, integrity_risk=risk)
+    ss = filter_solution_separation(
+        last.prior.cov,
+        u.innovation,
+        u.innovation_cov,
+        u.cross_cov,
+        satellite_modes(CH),
+        A,
+        false_alarm=p_fa,
+        missed_detection=p_md,
+        integrity_risk=risk,
+    )
     assert ss.detected.mean() <= _upper(runs, p_fa)  # union bound: at most P_fa
     assert (np.hypot(e[:, 0], e[:, 1]) > ss.hpl_m).mean() <= _upper(runs, risk)
     assert (np.abs(e[:, 2]) > ss.vpl_m).mean() <= _upper(runs, risk)
@@ -262,11 +286,19 @@ def test_filter_separation_bounds_an_undetected_step_at_the_missed_detection_ris
     fault[-1, np.arange(runs), sat] = size * sigma[sat]  # a step at the last epoch: the prior is fault-free
     _, err, last = _run(runs, epochs, fault, seed=5)
     u = last.update
-    ss = filter_solution_separation(last.prior.cov, u.innovation, u.innovation_cov, u.cross_cov, satellite_modes(CH),
-                                    _enu(LAT, LON) @ np.eye(3, 8), false_alarm=p_fa, missed_detection=p_md,
-                                    integrity_risk=risk)
+    ss = filter_solution_separation(
+        last.prior.cov,
+        u.innovation,
+        u.innovation_cov,
+        u.cross_cov,
+        satellite_modes(CH),
+        _enu(LAT, LON) @ np.eye(3, 8),
+        false_alarm=p_fa,
+        missed_detection=p_md,
+        integrity_risk=risk,
+    )
     e = err[-1]
     hmi = ((np.hypot(e[:, 0], e[:, 1]) > ss.hpl_m) | (np.abs(e[:, 2]) > ss.vpl_m)) & ~ss.detected
     for c in range(len(cases)):
-        assert hmi[c * per:(c + 1) * per].mean() <= _upper(per, p_md), cases[c]
+        assert hmi[c * per : (c + 1) * per].mean() <= _upper(per, p_md), cases[c]
     assert ss.detected[size == 9.0].mean() > 0.5  # the large steps are seen at all

@@ -9,8 +9,14 @@ from hypothesis import strategies as st
 
 from gnssframework.estimation.consistency import nees
 from gnssframework.navigation.ephemeris import OMEGA_EARTH_RAD_S
-from gnssframework.navigation.geometry import (geometric_range, line_of_sight, range_acceleration, range_rate,
-                                               ranges_from_receivers, sagnac_m)
+from gnssframework.navigation.geometry import (
+    geometric_range,
+    line_of_sight,
+    range_acceleration,
+    range_rate,
+    ranges_from_receivers,
+    sagnac_m,
+)
 from gnssframework.signal.constants import SPEED_OF_LIGHT_M_S
 
 SAT = np.array([15_600e3, 7_540e3, 20_140e3])
@@ -60,8 +66,9 @@ def test_range_acceleration_of_a_circling_satellite_is_zero(radius_m, speed_m_s)
     radial = np.stack([np.cos(angle), np.sin(angle), np.zeros_like(angle)], axis=-1)
     tangential = np.stack([-np.sin(angle), np.cos(angle), np.zeros_like(angle)], axis=-1)
     rho, e = line_of_sight(RX + radius_m * radial, RX)
-    got = range_acceleration(-speed_m_s**2 / radius_m * radial, np.zeros(3), speed_m_s * tangential,
-                             np.zeros(3), e, rho)
+    got = range_acceleration(
+        -(speed_m_s**2) / radius_m * radial, np.zeros(3), speed_m_s * tangential, np.zeros(3), e, rho
+    )
     np.testing.assert_allclose(got, 0.0, atol=1e-9 * speed_m_s**2 / radius_m)
 
 
@@ -89,8 +96,8 @@ def test_the_sagnac_term_is_the_earths_rotation_during_transit():
 
 def test_shared_and_per_run_satellites_give_the_same_ranges():
     rng = np.random.default_rng(0)
-    sats = SAT + rng.normal(0, 1e6, (4, 3))              # (ch, 3), shared by the runs
-    receivers = RX + rng.normal(0, 100.0, (2, 5, 3))    # (K, runs, 3)
+    sats = SAT + rng.normal(0, 1e6, (4, 3))  # (ch, 3), shared by the runs
+    receivers = RX + rng.normal(0, 100.0, (2, 5, 3))  # (K, runs, 3)
     shared = ranges_from_receivers(sats, receivers)
     per_run = ranges_from_receivers(np.broadcast_to(sats, (2, 5, 4, 3)), receivers)
     assert shared.shape == (2, 5, 4)

@@ -23,15 +23,34 @@ from gnssframework.navigation.ephemeris import Ephemerides, gps_seconds_of_week,
 DATA = Path(__file__).parents[1] / "data"
 PI = 3.1415926535898  # Galileo OS SIS ICD 5.1.1
 # LSB of every RINEX field, typed from the ICD's parameter tables of 5.1 (angles x pi).
-LSB = {"M0": 2.0**-31 * PI, "DeltaN": 2.0**-43 * PI, "Eccentricity": 2.0**-33, "sqrtA": 2.0**-19,
-       "Omega0": 2.0**-31 * PI, "Io": 2.0**-31 * PI, "omega": 2.0**-31 * PI, "OmegaDot": 2.0**-43 * PI,
-       "IDOT": 2.0**-43 * PI, "Cuc": 2.0**-29, "Cus": 2.0**-29, "Crc": 2.0**-5, "Crs": 2.0**-5, "Cic": 2.0**-29,
-       "Cis": 2.0**-29, "Toe": 60.0, "SVclockBias": 2.0**-34, "SVclockDrift": 2.0**-46,
-       "SVclockDriftRate": 2.0**-59, "TGD": 2.0**-32}
+LSB = {
+    "M0": 2.0**-31 * PI,
+    "DeltaN": 2.0**-43 * PI,
+    "Eccentricity": 2.0**-33,
+    "sqrtA": 2.0**-19,
+    "Omega0": 2.0**-31 * PI,
+    "Io": 2.0**-31 * PI,
+    "omega": 2.0**-31 * PI,
+    "OmegaDot": 2.0**-43 * PI,
+    "IDOT": 2.0**-43 * PI,
+    "Cuc": 2.0**-29,
+    "Cus": 2.0**-29,
+    "Crc": 2.0**-5,
+    "Crs": 2.0**-5,
+    "Cic": 2.0**-29,
+    "Cis": 2.0**-29,
+    "Toe": 60.0,
+    "SVclockBias": 2.0**-34,
+    "SVclockDrift": 2.0**-46,
+    "SVclockDriftRate": 2.0**-59,
+    "TGD": 2.0**-32,
+}
 # Per file: name, the header's GAL IONOSPHERIC CORR (ai0, ai1, ai2), the GAL week of its
 # records (continuous with GPS's) as GST's 12-bit count, how many satellites have I/NAV records.
-FILES = {"galileo-sdr-sim": ("galileo_inav_20feb2022_05h.rnx", (81.25, -0.24609, 0.0037537), 2198 - 1024, 21),
-         "VILL00ESP": ("VILL00ESP_R_20181700000_06H_MN.rnx", (34.0, 0.11719, 0.012848), 2006 - 1024, 3)}
+FILES = {
+    "galileo-sdr-sim": ("galileo_inav_20feb2022_05h.rnx", (81.25, -0.24609, 0.0037537), 2198 - 1024, 21),
+    "VILL00ESP": ("VILL00ESP_R_20181700000_06H_MN.rnx", (34.0, 0.11719, 0.012848), 2006 - 1024, 3),
+}
 
 
 @dataclass(frozen=True)
@@ -100,7 +119,7 @@ def test_word_layouts_fill_128_bits_without_overlap():
         used = np.zeros(129, int)
         used[1:7] += 1
         for first, n, _, _ in layout.values():
-            used[first:first + n] += 1
+            used[first : first + n] += 1
         assert used.max() == 1, word_type
         # Reserved/spare bits left free (ICD 4.3.5): type 0's 88 spare, 1, 2, 4: 2; 3: none; 5: 23.
         assert 128 - used.sum() == {0: 88, 1: 2, 2: 2, 3: 0, 4: 2, 5: 23}[word_type]
@@ -108,8 +127,19 @@ def test_word_layouts_fill_128_bits_without_overlap():
 
 def test_sisa_index_table():
     # The ICD's SISA index table (5.1): the file's 3.12 m is index 107.
-    assert [inav_words.sisa_m(k) for k in (0, 49, 50, 74, 75, 99, 100, 107, 125, 126, 255)] == \
-        [0.0, 0.49, 0.5, 0.98, 1.0, 1.96, 2.0, 3.12, 6.0, -1.0, -1.0]
+    assert [inav_words.sisa_m(k) for k in (0, 49, 50, 74, 75, 99, 100, 107, 125, 126, 255)] == [
+        0.0,
+        0.49,
+        0.5,
+        0.98,
+        1.0,
+        1.96,
+        2.0,
+        3.12,
+        6.0,
+        -1.0,
+        -1.0,
+    ]
     assert inav_words.sisa_index(3.12) == 107 and inav_words.sisa_index(-1.0) == 255
 
 
@@ -152,8 +182,10 @@ def test_decoded_position_and_clock_within_the_quantisations_effect(case):
     rng = np.random.default_rng(7)
     worst = 0.0
     for k, (rec0, bgd_e5a) in enumerate(case.records[:8]):
-        moved_elements = {name: v + (rng.uniform(-0.5, 0.5) * LSB[name] if name in LSB and name != "Toe" else 0.0)
-                          for name, v in rec0.elements.items()}
+        moved_elements = {
+            name: v + (rng.uniform(-0.5, 0.5) * LSB[name] if name in LSB and name != "Toe" else 0.0)
+            for name, v in rec0.elements.items()
+        }
         rec = Ephemerides(rec0.sv, rec0.toc_s, moved_elements, rec0.health, rec0.iode, rec0.accuracy_m)
         msg = inav.decode_inav(_noisy(inav.encode_inav(rec, case.week, 18021, 7, bgd_e5a, case.ai), 0.5, 100 + k))
         assert msg.ephemeris.elements["Toe"][0] == rec.elements["Toe"][0]
@@ -199,15 +231,19 @@ def _page_with_bad_crc(word: np.ndarray) -> np.ndarray:
 def test_a_crc_failure_is_reported_and_its_word_not_used(case):
     rec, bgd_e5a = case.records[0]
     good = inav.encode_inav(rec, case.week, 18021, 7, bgd_e5a, case.ai).reshape(7, 500)
-    bad = _page_with_bad_crc(np.concatenate([np.zeros(112, np.uint8), np.zeros(16, np.uint8)]) |
-                             inav_words.encode_word(1, {"iodnav": 30}))
+    bad = _page_with_bad_crc(
+        np.concatenate([np.zeros(112, np.uint8), np.zeros(16, np.uint8)]) | inav_words.encode_word(1, {"iodnav": 30})
+    )
     stream = np.concatenate([good[:6].reshape(-1), bad, good[6]])  # word 4 (last page) still arrives
     msg = inav.decode_inav(stream)
     assert msg.failures == ["I/NAV page at symbol 3000: CRC-24Q failed; not used"]
     assert [p.word_type for p in msg.pages] == [1, 3, 5, 0, 0, 2, 4]
     assert msg.ephemeris is not None and msg.words[1]["toe_s"] == rec.elements["Toe"][0]
-    with pytest.raises(inav.InavCrcError, match=r"^I/NAV page 1 \(symbols 500-999\): CRC-24Q failed; its word "
-                                                r"\(type 1 as read\) is not used$"):
+    with pytest.raises(
+        inav.InavCrcError,
+        match=r"^I/NAV page 1 \(symbols 500-999\): CRC-24Q failed; its word "
+        r"\(type 1 as read\) is not used$",
+    ):
         inav.decode_pages(np.stack([good[0], bad]))
 
 

@@ -29,12 +29,22 @@ def test_generated_e1b_samples_decode_to_the_ephemeris_and_the_gst():
     symbols, lead_s = inav.inav_symbols(rec, 1174, tow0, n_sym)
     assert lead_s == 0.0  # 18020.5 s is a symbol edge (4 ms grid from the page start at 18019 s)
     rng = np.random.default_rng(3)
-    replica = generate_if_samples(prn, 0.004, fs, 0.0, 50.0, rng, complex_samples=True, noise=False,
-                                  signal=GALILEO_E1B_BOC11).samples
+    replica = generate_if_samples(
+        prn, 0.004, fs, 0.0, 50.0, rng, complex_samples=True, noise=False, signal=GALILEO_E1B_BOC11
+    ).samples
     prompts = []
     for k in range(0, n_sym, 250):  # 1 s at a time: 250 whole code periods, code and carrier phase 0
-        x = generate_if_samples(prn, 1.0, fs, 0.0, cn0_dbhz, rng, complex_samples=True,
-                                data_bits=symbols[k:k + 250].astype(float), signal=GALILEO_E1B_BOC11).samples
+        x = generate_if_samples(
+            prn,
+            1.0,
+            fs,
+            0.0,
+            cn0_dbhz,
+            rng,
+            complex_samples=True,
+            data_bits=symbols[k : k + 250].astype(float),
+            signal=GALILEO_E1B_BOC11,
+        ).samples
         prompts.append((x.reshape(250, -1) @ replica.conj()).real)
     p = np.concatenate(prompts)
     # Es/N0 = C/N0 T = 4 dB: the uncoded symbol error rate Q(sqrt(2 Es/N0)) = 1.25 %; within

@@ -49,6 +49,7 @@ def test_statistics_match_explicit_subset_solutions():
     # Solution separation: each subset solved on its own, its separation over its threshold.
     ratios = []
     from scipy.stats import norm
+
     k_fa = norm.isf(1e-5 / (6 * 8))
     P0 = np.linalg.inv(A.T @ A)
     for k in range(8):

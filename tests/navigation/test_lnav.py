@@ -18,14 +18,38 @@ from pathlib import Path
 NAV = Path(__file__).parents[1] / "data" / "07590920.05n"
 PI = 3.1415926535898  # IS-GPS-200 20.3.3.4.3
 # The LSB of every field, typed from IS-GPS-200 Tables 20-I and 20-III (angles: semicircles x pi).
-LSB = {"SVclockBias": 2.0**-31, "SVclockDrift": 2.0**-43, "SVclockDriftRate": 2.0**-55, "TGD": 2.0**-31,
-       "Crs": 2.0**-5, "Crc": 2.0**-5, "Cuc": 2.0**-29, "Cus": 2.0**-29, "Cic": 2.0**-29, "Cis": 2.0**-29,
-       "DeltaN": 2.0**-43 * PI, "M0": 2.0**-31 * PI, "Omega0": 2.0**-31 * PI, "Io": 2.0**-31 * PI,
-       "omega": 2.0**-31 * PI, "OmegaDot": 2.0**-43 * PI, "IDOT": 2.0**-43 * PI, "Eccentricity": 2.0**-33,
-       "sqrtA": 2.0**-19, "Toe": 16.0}
+LSB = {
+    "SVclockBias": 2.0**-31,
+    "SVclockDrift": 2.0**-43,
+    "SVclockDriftRate": 2.0**-55,
+    "TGD": 2.0**-31,
+    "Crs": 2.0**-5,
+    "Crc": 2.0**-5,
+    "Cuc": 2.0**-29,
+    "Cus": 2.0**-29,
+    "Cic": 2.0**-29,
+    "Cis": 2.0**-29,
+    "DeltaN": 2.0**-43 * PI,
+    "M0": 2.0**-31 * PI,
+    "Omega0": 2.0**-31 * PI,
+    "Io": 2.0**-31 * PI,
+    "omega": 2.0**-31 * PI,
+    "OmegaDot": 2.0**-43 * PI,
+    "IDOT": 2.0**-43 * PI,
+    "Eccentricity": 2.0**-33,
+    "sqrtA": 2.0**-19,
+    "Toe": 16.0,
+}
 # Klobuchar of the same file's header (ION ALPHA / ION BETA lines).
-IONO = lnav.IonoUtc(alpha=(1.118e-08, 1.49e-08, -5.96e-08, -5.96e-08), beta=(9.011e04, 1.638e04, -1.966e05, -6.554e04),
-                    a0_s=-2.793967723846e-09, a1_s_s=-1.509903313490e-14, tot_s=503808, wnt=1316, dt_ls_s=13)
+IONO = lnav.IonoUtc(
+    alpha=(1.118e-08, 1.49e-08, -5.96e-08, -5.96e-08),
+    beta=(9.011e04, 1.638e04, -1.966e05, -6.554e04),
+    a0_s=-2.793967723846e-09,
+    a1_s_s=-1.509903313490e-14,
+    tot_s=503808,
+    wnt=1316,
+    dt_ls_s=13,
+)
 
 
 @pytest.fixture(scope="module")
@@ -132,8 +156,12 @@ def test_iodc_differing_from_iode_in_its_upper_bits_is_legal_and_a_mismatch_is_n
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.integers(-(2**31), 2**31 - 1), st.integers(-(2**15), 2**15 - 1), st.integers(0, 2**32 - 1),
-       st.integers(0, 100_799))
+@given(
+    st.integers(-(2**31), 2**31 - 1),
+    st.integers(-(2**15), 2**15 - 1),
+    st.integers(0, 2**32 - 1),
+    st.integers(0, 100_799),
+)
 def test_any_in_range_integer_field_round_trips_exactly(m0, crs, ecc, tow_count):
     values = {"m0_sc": m0 * 2.0**-31, "crs_m": crs * 2.0**-5, "e": ecc * 2.0**-33, "iode": 1}
     bits = lnav.encode_subframe(2, (tow_count + 1) % 100_800, values)  # the week's last subframe: count 0

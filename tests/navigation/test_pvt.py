@@ -52,8 +52,9 @@ def test_noise_free_pseudoranges_give_the_station_and_clock(visible):
 def test_the_klobuchar_delay_is_removed_when_switched_on(visible):
     pr, tx = _truth(visible, T_RX, STATION, 0.0)
     first = solve_position(pr, tx, visible)
-    delay = C * klobuchar_delay_s(IONO.alpha, IONO.beta, first.lat_deg, first.lon_deg, first.azimuth_deg,
-                                  first.elevation_deg, T_RX)
+    delay = C * klobuchar_delay_s(
+        IONO.alpha, IONO.beta, first.lat_deg, first.lon_deg, first.azimuth_deg, first.elevation_deg, T_RX
+    )
     assert delay.min() > 1.0  # metres: a test that would see a missing correction
     with_iono = solve_position(pr + delay, tx, visible, iono=IONO)
     assert np.linalg.norm(with_iono.position_ecef_m - STATION) < 0.01
@@ -148,8 +149,9 @@ def test_raim_excludes_a_faulty_satellite_and_its_levels_bound_the_error(visible
         assert fix.position_ecef_m == pytest.approx(plain.position_ecef_m, abs=1e-9)
         e, n, u = pymap3d.ecef2enu(*fix.position_ecef_m, lat, lon, h)
         assert np.hypot(e, n) < fix.hpl_m and abs(u) < fix.vpl_m
-        assert fix.test_statistic == pytest.approx(np.nansum(fix.residuals_m**2 * np.sin(np.radians(
-            np.maximum(fix.elevation_deg, 1.0)))**2), rel=1e-6)  # weights of the last iteration
+        assert fix.test_statistic == pytest.approx(
+            np.nansum(fix.residuals_m**2 * np.sin(np.radians(np.maximum(fix.elevation_deg, 1.0))) ** 2), rel=1e-6
+        )  # weights of the last iteration
     bad = pr + rng.standard_normal(pr.size) * 1.0
     bad[2] += 150.0
     fix = solve_position(bad, tx, visible, sigma_m=1.0, elevation_mask_deg=0.0, false_alarm=1e-5, raim=method)

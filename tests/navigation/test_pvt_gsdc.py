@@ -36,7 +36,9 @@ FIRST_SIGNALS = ["GPS_L1", "GAL_E1", "BDS_B1I", "QZS_J1"]
 
 @pytest.fixture(scope="module")
 def phone():
-    return read_gsdc_measurements(DATA / "gsdc2022_device_gnss.csv"), read_gsdc_truth(DATA / "gsdc2022_ground_truth.csv")
+    return read_gsdc_measurements(DATA / "gsdc2022_device_gnss.csv"), read_gsdc_truth(
+        DATA / "gsdc2022_ground_truth.csv"
+    )
 
 
 def _horizontal_error_m(ecef: np.ndarray, truth, utc_ms: int) -> float:
@@ -50,9 +52,16 @@ def _fixes(m, systems: str, mask_deg: float = 0.0):
     for t in np.unique(m.utc_ms):
         r = (m.utc_ms == t) & np.isin(m.signal, FIRST_SIGNALS)
         pr = m.pseudorange_m[r] - m.iono_m[r] - m.tropo_m[r]
-        out[int(t)] = solve_position_sv(pr, m.sv_position_ecef_m[r], m.sv_clock_m[r], m.system[r],
-                                        sigma_m=m.pseudorange_sigma_m[r], weighting="elevation",
-                                        elevation_mask_deg=mask_deg, systems=systems)
+        out[int(t)] = solve_position_sv(
+            pr,
+            m.sv_position_ecef_m[r],
+            m.sv_clock_m[r],
+            m.system[r],
+            sigma_m=m.pseudorange_sigma_m[r],
+            weighting="elevation",
+            elevation_mask_deg=mask_deg,
+            systems=systems,
+        )
     return out
 
 
@@ -107,8 +116,10 @@ def test_rows_of_other_systems_are_left_out_by_the_selection(phone):
     t = m.utc_ms[0]
     rows = (m.utc_ms == t) & np.isin(m.signal, FIRST_SIGNALS + ["GLO_G1"])
     first = rows & (m.system != "R")
-    args = [(m.pseudorange_m[r] - m.iono_m[r] - m.tropo_m[r], m.sv_position_ecef_m[r], m.sv_clock_m[r], m.system[r])
-            for r in (rows, first)]
+    args = [
+        (m.pseudorange_m[r] - m.iono_m[r] - m.tropo_m[r], m.sv_position_ecef_m[r], m.sv_clock_m[r], m.system[r])
+        for r in (rows, first)
+    ]
     with_glonass = solve_position_sv(*args[0], sigma_m=5.0, systems="GEC")
     without = solve_position_sv(*args[1], sigma_m=5.0, systems="GEC")
     assert np.array_equal(with_glonass.position_ecef_m, without.position_ecef_m)

@@ -45,15 +45,26 @@ def _qzss_from(record: Ephemerides) -> Ephemerides:
     """A QZSS record: a GPS record's orbit 40 degrees further along, named J01."""
     elements = {k: v.copy() for k, v in record.elements.items()}
     elements["M0"] = elements["M0"] + np.radians(40.0)
-    return Ephemerides(np.array(["J01"]), record.toc_s.copy(), elements, record.health.copy(), record.iode.copy(),
-                       None if record.accuracy_m is None else record.accuracy_m.copy())
+    return Ephemerides(
+        np.array(["J01"]),
+        record.toc_s.copy(),
+        elements,
+        record.health.copy(),
+        record.iode.copy(),
+        None if record.accuracy_m is None else record.accuracy_m.copy(),
+    )
 
 
 def _join(a: Ephemerides, b: Ephemerides) -> Ephemerides:
     acc = None if a.accuracy_m is None or b.accuracy_m is None else np.r_[a.accuracy_m, b.accuracy_m]
-    return Ephemerides(np.r_[a.sv, b.sv], np.r_[a.toc_s, b.toc_s],
-                       {k: np.r_[a.elements[k], b.elements[k]] for k in a.elements}, np.r_[a.health, b.health],
-                       np.r_[a.iode, b.iode], acc)
+    return Ephemerides(
+        np.r_[a.sv, b.sv],
+        np.r_[a.toc_s, b.toc_s],
+        {k: np.r_[a.elements[k], b.elements[k]] for k in a.elements},
+        np.r_[a.health, b.health],
+        np.r_[a.iode, b.iode],
+        acc,
+    )
 
 
 def _elevation_deg(eph: Ephemerides) -> np.ndarray:
@@ -68,8 +79,9 @@ def sky() -> Ephemerides:
     sel = nav.select(np.unique(nav.sv[nav.health == 0]), T_RX)
     gps = sel.subset(np.flatnonzero(sel.sv.astype("U1") == "G"))
     # The GPS record whose copy 40 degrees along is highest.
-    qzss = max((_qzss_from(gps.subset(np.array([i]))) for i in range(gps.sv.size)),
-               key=lambda r: float(_elevation_deg(r)[0]))
+    qzss = max(
+        (_qzss_from(gps.subset(np.array([i]))) for i in range(gps.sv.size)), key=lambda r: float(_elevation_deg(r)[0])
+    )
     sky = _join(sel, qzss)
     return sky.subset(np.flatnonzero(_elevation_deg(sky) > 5.0))
 
@@ -87,9 +99,13 @@ def _textbook_dops(names, sat_m: np.ndarray, clocks: str, receiver=RECEIVER, lat
     u = sat_m - receiver
     u = u / np.linalg.norm(u, axis=1)[:, None]
     la, lo = np.radians(lat), np.radians(lon)
-    enu = np.array([[-np.sin(lo), np.cos(lo), 0.0],
-                    [-np.sin(la) * np.cos(lo), -np.sin(la) * np.sin(lo), np.cos(la)],
-                    [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)]])
+    enu = np.array(
+        [
+            [-np.sin(lo), np.cos(lo), 0.0],
+            [-np.sin(la) * np.cos(lo), -np.sin(la) * np.sin(lo), np.cos(la)],
+            [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)],
+        ]
+    )
     column = np.array([clocks.index(GROUP[s[0]]) for s in names])
     H = np.hstack([-(u @ enu.T), (column[:, None] == np.arange(len(clocks))).astype(float)])
     d = np.diag(np.linalg.inv(H.T @ H))
@@ -111,7 +127,9 @@ def test_noise_free_ranges_give_the_position_and_the_injected_offsets(sky):
     assert fix.system_offsets_ns["C"] == pytest.approx(-120.0, abs=1e-2)
     assert np.nanmax(np.abs(fix.residuals_m)) < 1e-3
     # DOPs with three clock states are the textbook (H^T H)^-1 of the true geometry.
-    assert [fix.gdop, fix.pdop, fix.hdop, fix.vdop] == pytest.approx(_textbook_dops(sky.sv, flight.position_m, "GEC"), rel=1e-7)
+    assert [fix.gdop, fix.pdop, fix.hdop, fix.vdop] == pytest.approx(
+        _textbook_dops(sky.sv, flight.position_m, "GEC"), rel=1e-7
+    )
     # A single clock cannot absorb 37 and -120 ns: the same ranges forced into one clock
     # (the offsets given as zero) leave metres of residuals.
     single = solve_position(pr, tx, sky, elevation_mask_deg=0.0, time_offsets_s={"E": 0.0, "C": 0.0})
@@ -129,8 +147,9 @@ def test_a_constellation_selection_estimates_its_own_clocks(sky):
         assert np.linalg.norm(fix.position_ecef_m - RECEIVER) < 1e-3, systems
         assert fix.clock_bias_m == pytest.approx(CLOCK_M[clocks[0]], abs=1e-3)
         for other in clocks[1:]:  # each offset against the reference clock (GPS's, else the first)
-            assert fix.system_offsets_ns[other] == pytest.approx((CLOCK_M[other] - CLOCK_M[clocks[0]]) / C * 1e9,
-                                                                 abs=1e-2)
+            assert fix.system_offsets_ns[other] == pytest.approx(
+                (CLOCK_M[other] - CLOCK_M[clocks[0]]) / C * 1e9, abs=1e-2
+            )
         chosen = np.isin(letters, list(systems))
         textbook = _textbook_dops(sky.sv[chosen], flight.position_m[chosen], clocks)
         assert [fix.gdop, fix.pdop, fix.hdop, fix.vdop] == pytest.approx(textbook, rel=1e-7)
@@ -172,8 +191,7 @@ def phone_sky():
     rows &= np.isfinite(m.pseudorange_m)
     i = int(np.flatnonzero(truth.utc_ms == m.utc_ms[0])[0])
     receiver = np.array(pymap3d.geodetic2ecef(truth.lat_deg[i], truth.lon_deg[i], truth.height_m[i]))
-    return m.sv_position_ecef_m[rows], m.system[rows], receiver, (truth.lat_deg[i], truth.lon_deg[i],
-                                                                   truth.height_m[i])
+    return m.sv_position_ecef_m[rows], m.system[rows], receiver, (truth.lat_deg[i], truth.lon_deg[i], truth.height_m[i])
 
 
 def _phone_ranges(sv_pos, letters, receiver, clock_m):
@@ -181,8 +199,14 @@ def _phone_ranges(sv_pos, letters, receiver, clock_m):
     tau = np.full(len(letters), 0.07)
     for _ in range(6):
         th = OMEGA_E * tau
-        rot = np.stack([np.cos(th) * sv_pos[:, 0] + np.sin(th) * sv_pos[:, 1],
-                        -np.sin(th) * sv_pos[:, 0] + np.cos(th) * sv_pos[:, 1], sv_pos[:, 2]], axis=1)
+        rot = np.stack(
+            [
+                np.cos(th) * sv_pos[:, 0] + np.sin(th) * sv_pos[:, 1],
+                -np.sin(th) * sv_pos[:, 0] + np.cos(th) * sv_pos[:, 1],
+                sv_pos[:, 2],
+            ],
+            axis=1,
+        )
         tau = np.linalg.norm(rot - receiver, axis=1) / C
     return C * tau + np.array([clock_m[GROUP[s]] for s in letters]), rot
 
@@ -224,8 +248,14 @@ def test_the_residual_test_counts_one_degree_of_freedom_per_clock(phone_sky):
     rng = np.random.default_rng(39)
     trials = 300
     zero = np.zeros(len(letters))
-    stats = np.array([solve_position_sv(pr + rng.standard_normal(pr.size), sv_pos, zero, letters, sigma_m=1.0,
-                                        raim="chi2", false_alarm=1e-9).test_statistic for _ in range(trials)])
+    stats = np.array(
+        [
+            solve_position_sv(
+                pr + rng.standard_normal(pr.size), sv_pos, zero, letters, sigma_m=1.0, raim="chi2", false_alarm=1e-9
+            ).test_statistic
+            for _ in range(trials)
+        ]
+    )
     dof = len(letters) - 6
     assert abs(stats.mean() - dof) < 4 * np.sqrt(2 * dof / trials)
 
@@ -238,8 +268,7 @@ def test_raim_excludes_a_faulty_galileo_satellite_and_bounds_the_error(phone_sky
     j = int(np.flatnonzero(letters == "E")[1])
     bad = pr + rng.standard_normal(pr.size)
     bad[j] += 80.0
-    fix = solve_position_sv(bad, sv_pos, np.zeros(len(letters)), letters, sigma_m=1.0, raim=method,
-                            false_alarm=1e-5)
+    fix = solve_position_sv(bad, sv_pos, np.zeros(len(letters)), letters, sigma_m=1.0, raim=method, false_alarm=1e-5)
     assert fix.fault_detected and fix.raim == "excluded" and fix.excluded == j and not fix.used[j]
     assert fix.clock_systems == "GEC" and np.isfinite(fix.hpl_m)
     e, n, u = pymap3d.ecef2enu(*fix.position_ecef_m, lat, lon, h)

@@ -18,7 +18,7 @@ def test_rinex2_header_and_span():
     info = read_nav_file_info(DATA / "07590920.05n")
     # ION ALPHA / ION BETA / LEAP SECONDS lines of the file, read by eye.
     assert info.iono.alpha == (1.1180e-08, 1.4900e-08, -5.9600e-08, -5.9600e-08)
-    assert info.iono.beta == (8.8060e+04, 1.6380e+04, -1.9660e+05, -1.3110e+05)
+    assert info.iono.beta == (8.8060e04, 1.6380e04, -1.9660e05, -1.3110e05)
     assert info.iono.dt_ls_s == 13
     # First record 2005-04-01 23:59:44, last 2005-04-03 00:00:00: GPS week 1316 began 2005-03-27.
     assert info.dates() == "2005-04-01 23:59:44 to 2005-04-03 00:00:00 GPS"
@@ -33,7 +33,7 @@ def test_rinex2_header_and_span():
 def test_rinex3_header_takes_the_gps_lines():
     info = read_nav_file_info(DATA / "VILL00ESP_R_20181700000_06H_MN.rnx")
     assert info.iono.alpha == (5.5879e-09, 1.4901e-08, -5.9605e-08, -1.1921e-07)
-    assert info.iono.beta == (8.3968e+04, 9.8304e+04, -6.5536e+04, -5.2429e+05)
+    assert info.iono.beta == (8.3968e04, 9.8304e04, -6.5536e04, -5.2429e05)
     assert info.iono.dt_ls_s == 18
     assert info.dates().startswith("2018-06-19 00:00:00")
     assert info.week_at(2 * 86400 + 3600.0) == 2006  # Tuesday 2018-06-19 is in GPS week 2006

@@ -56,8 +56,11 @@ def _fixes(weighting: str) -> np.ndarray:
 
 
 def test_rtklib_weighting_agrees_with_rtklib_on_its_observations():
-    rows = [line.split() for line in (DATA / "gnssframework_receive_13s.rtklib.pos").read_text().splitlines()
-            if not line.startswith("%")]
+    rows = [
+        line.split()
+        for line in (DATA / "gnssframework_receive_13s.rtklib.pos").read_text().splitlines()
+        if not line.startswith("%")
+    ]
     rtklib = np.array([[float(v) for v in r[2:5]] for r in rows])
     assert len(rows) == len(_epochs()[0]) == 21
     ours = _fixes("rtklib")

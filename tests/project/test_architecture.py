@@ -31,27 +31,62 @@ PACKAGE = "gnssframework"
 #: itself (``gnssframework/__init__.py``, the public facade) is matched exactly.
 #: docs/design-notes.md ("Where code lives") shows the same table.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("foundation", ("gnssframework.errors", "gnssframework.random_streams", "gnssframework.plugin",
-                    "gnssframework.hookspecs", "gnssframework.names", "gnssframework.backend",
-                    "gnssframework.suggest", "gnssframework.progress")),
+    (
+        "foundation",
+        (
+            "gnssframework.errors",
+            "gnssframework.random_streams",
+            "gnssframework.plugin",
+            "gnssframework.hookspecs",
+            "gnssframework.names",
+            "gnssframework.backend",
+            "gnssframework.suggest",
+            "gnssframework.progress",
+        ),
+    ),
     # Generic Gaussian estimation (nothing GNSS) sits below the physical models, which
     # build their measurement models (and compiled twins) from its types.
     ("estimation", ("gnssframework.estimation",)),
     ("physical models", ("gnssframework.signal", "gnssframework.navigation", "gnssframework.inertial")),
-    ("plugin contracts", ("gnssframework.interfaces", "gnssframework.registry", "gnssframework.plugin_ref",
-                          "gnssframework.plugin_ref_rules", "gnssframework.plugin_docs")),
+    (
+        "plugin contracts",
+        (
+            "gnssframework.interfaces",
+            "gnssframework.registry",
+            "gnssframework.plugin_ref",
+            "gnssframework.plugin_ref_rules",
+            "gnssframework.plugin_docs",
+        ),
+    ),
     ("data and truth", ("gnssframework.io", "gnssframework.simulation")),
     ("receiver", ("gnssframework.receiver",)),
     ("experiments", ("gnssframework.experiments",)),
-    ("application", ("gnssframework", "gnssframework.__main__", "gnssframework.cli", "gnssframework.config_schema",
-                     "gnssframework.testing", "gnssframework.plugin_classes", "gnssframework.estimators",
-                     "gnssframework.discriminators", "gnssframework.channel_filters", "gnssframework.nav_filters",
-                     "gnssframework.noise_adapters", "gnssframework.augmentations")),
+    (
+        "application",
+        (
+            "gnssframework",
+            "gnssframework.__main__",
+            "gnssframework.cli",
+            "gnssframework.config_schema",
+            "gnssframework.testing",
+            "gnssframework.plugin_classes",
+            "gnssframework.estimators",
+            "gnssframework.discriminators",
+            "gnssframework.channel_filters",
+            "gnssframework.nav_filters",
+            "gnssframework.noise_adapters",
+            "gnssframework.augmentations",
+        ),
+    ),
 )
 
 #: What ``estimation`` may import besides itself: nothing that knows GNSS.
-ESTIMATION_MAY_IMPORT = ("gnssframework.errors", "gnssframework.plugin", "gnssframework.random_streams",
-                         "gnssframework.backend")
+ESTIMATION_MAY_IMPORT = (
+    "gnssframework.errors",
+    "gnssframework.plugin",
+    "gnssframework.random_streams",
+    "gnssframework.backend",
+)
 #: Third-party packages that are GNSS- or geodesy-specific (refused in ``estimation`` too).
 GNSS_LIBRARIES = ("georinex", "hatanaka", "pymap3d", "pynmea2")
 PLUGIN_PACKAGES = ("gnssframework_plugins", "plugins")
@@ -245,14 +280,18 @@ def graph() -> ImportGraph:
 
 def test_no_import_circle(graph):
     found = circles(graph, set(KNOWN_VIOLATIONS))
-    assert not found, "import circles (break each by moving what both sides share to a module below both):\n" + \
-        "\n\n".join(chain(graph, c) for c in found)
+    assert not found, (
+        "import circles (break each by moving what both sides share to a module below both):\n"
+        + "\n\n".join(chain(graph, c) for c in found)
+    )
 
 
 def test_no_arrow_from_a_lower_layer_to_a_higher_one(graph):
     up = upward_arrows(graph, set(KNOWN_VIOLATIONS))
-    assert not up, "imports from a lower layer to a higher one (layers: tests/project/test_architecture.py LAYERS):\n" + \
-        "\n".join(up)
+    assert not up, (
+        "imports from a lower layer to a higher one (layers: tests/project/test_architecture.py LAYERS):\n"
+        + "\n".join(up)
+    )
 
 
 def test_every_module_is_in_a_layer(graph):
@@ -269,10 +308,16 @@ def test_estimation_imports_nothing_gnss_specific(graph):
     def allowed(b: str) -> bool:
         return b.startswith("gnssframework.estimation") or b in ESTIMATION_MAY_IMPORT
 
-    bad = [f"  {a} -> {b}   ({w})" for (a, b), w in sorted(graph.arrows.items())
-           if a.startswith("gnssframework.estimation") and not allowed(b)]
-    bad += [f"  {a} -> {b}   ({w})" for (a, b), w in sorted(graph.external.items())
-            if a.startswith("gnssframework.estimation") and b in GNSS_LIBRARIES]
+    bad = [
+        f"  {a} -> {b}   ({w})"
+        for (a, b), w in sorted(graph.arrows.items())
+        if a.startswith("gnssframework.estimation") and not allowed(b)
+    ]
+    bad += [
+        f"  {a} -> {b}   ({w})"
+        for (a, b), w in sorted(graph.external.items())
+        if a.startswith("gnssframework.estimation") and b in GNSS_LIBRARIES
+    ]
     assert not bad, "estimation imports GNSS-specific code:\n" + "\n".join(bad)
 
 
@@ -290,6 +335,7 @@ def test_the_design_notes_show_the_same_layers():
 
 # -- the checks themselves catch what they are for ---------------------------------------------
 
+
 def _tree(tmp_path: Path, files: dict[str, str]) -> Path:
     for rel, text in files.items():
         p = tmp_path / "pkg" / rel
@@ -299,13 +345,16 @@ def _tree(tmp_path: Path, files: dict[str, str]) -> Path:
 
 
 def test_the_checks_see_a_circle_through_a_lazy_import_and_an_arrow_up(tmp_path):
-    root = _tree(tmp_path, {
-        "__init__.py": "",
-        "low/__init__.py": "",
-        "low/a.py": "def f():\n    from ..high import b\n",  # lazy, and up a layer
-        "high/__init__.py": "",
-        "high/b.py": "from pkg.low import a\nimport plugins.x\n",
-    })
+    root = _tree(
+        tmp_path,
+        {
+            "__init__.py": "",
+            "low/__init__.py": "",
+            "low/a.py": "def f():\n    from ..high import b\n",  # lazy, and up a layer
+            "high/__init__.py": "",
+            "high/b.py": "from pkg.low import a\nimport plugins.x\n",
+        },
+    )
     g = import_graph(root, "pkg")
     layers = (("low", ("pkg.low",)), ("high", ("pkg.high",)))
     assert circles(g) == [["pkg.high.b", "pkg.low.a", "pkg.high.b"]]
@@ -324,17 +373,20 @@ def test_a_from_import_of_a_module_points_at_the_module(tmp_path):
 def test_hidden_string_imports_are_arrows_too(tmp_path):
     # A lower layer that loads a higher one's class by name, or imports it through
     # importlib, reaches up just as an import statement would: both are caught.
-    root = _tree(tmp_path, {
-        "__init__.py": "",
-        "low/__init__.py": "",
-        "low/by_string.py": 'BASES = {"thing": "pkg.high.b:Thing"}\n',
-        "low/by_importlib.py": "import importlib\n\ndef f():\n    return importlib.import_module('pkg.high.b')\n",
-        "low/relative.py": "from importlib import import_module\n\nm = import_module('..high.b', __package__)\n",
-        "low/sigmf_key.py": 'KEY = "pkg:if_hz"\nTEXT = "see pkg.high.b:Thing for details"\n',
-        "low/plugins_by_name.py": 'import importlib\nimportlib.import_module("gnssframework_plugins.x")\n',
-        "high/__init__.py": "",
-        "high/b.py": "class Thing:\n    pass\n",
-    })
+    root = _tree(
+        tmp_path,
+        {
+            "__init__.py": "",
+            "low/__init__.py": "",
+            "low/by_string.py": 'BASES = {"thing": "pkg.high.b:Thing"}\n',
+            "low/by_importlib.py": "import importlib\n\ndef f():\n    return importlib.import_module('pkg.high.b')\n",
+            "low/relative.py": "from importlib import import_module\n\nm = import_module('..high.b', __package__)\n",
+            "low/sigmf_key.py": 'KEY = "pkg:if_hz"\nTEXT = "see pkg.high.b:Thing for details"\n',
+            "low/plugins_by_name.py": 'import importlib\nimportlib.import_module("gnssframework_plugins.x")\n',
+            "high/__init__.py": "",
+            "high/b.py": "class Thing:\n    pass\n",
+        },
+    )
     g = import_graph(root, "pkg")
     layers = (("low", ("pkg.low",)), ("high", ("pkg.high",)))
     assert upward_arrows(g, layers=layers) == [
@@ -346,4 +398,3 @@ def test_hidden_string_imports_are_arrows_too(tmp_path):
     # package named by importlib is an external import (the core-never-imports check).
     assert not [a for a in g.arrows if a[0] == "pkg.low.sigmf_key"]
     assert ("pkg.low.plugins_by_name", "gnssframework_plugins") in g.external
-

@@ -30,7 +30,7 @@ def test_one_unit_in_the_last_digit_passes_and_two_fail():
     assert check.differences(TABLE, TABLE) == []
     moved = TABLE.replace("2.262 ± 0.1", "2.263 ± 0.1").replace("0.8908", "0.8907").replace("4.6e-05", "4.7e-05")
     assert check.differences(TABLE, moved) == []
-    assert check.differences(TABLE, TABLE.replace("0.8908", "0.8906")) != []   # two units
+    assert check.differences(TABLE, TABLE.replace("0.8908", "0.8906")) != []  # two units
     assert check.differences(TABLE, TABLE.replace("30.75", "30.85")) != []
     # the exponent after a parenthesised mantissa is text: a decade is never "one unit"
     assert check.differences(TABLE, TABLE.replace(")e-07", ")e-06")) != []
@@ -50,8 +50,9 @@ def test_a_repository_table_regenerated_differently_fails_with_a_summary(tmp_pat
     (folder / "t.md").write_text(TABLE)
     (folder / "data.json").write_text('{"x": 0.1}')
     subprocess.run(["git", "-C", str(tmp_path), "add", "."], check=True)
-    subprocess.run(["git", "-C", str(tmp_path), "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "t"],
-                   check=True)
+    subprocess.run(
+        ["git", "-C", str(tmp_path), "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "t"], check=True
+    )
     old_root = check.ROOT
     check.ROOT = tmp_path
     try:

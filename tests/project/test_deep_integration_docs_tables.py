@@ -31,13 +31,15 @@ def test_numbers_tables_are_what_the_script_writes_from_its_summary(md):
 
 
 def test_carrier_table_is_what_the_script_writes_from_its_summary():
-    assert (GENERATED / "deep_integration_carrier.md").read_text() == \
-        deep_integration_carrier.markdown(_summary("deep_integration_carrier"))
+    assert (GENERATED / "deep_integration_carrier.md").read_text() == deep_integration_carrier.markdown(
+        _summary("deep_integration_carrier")
+    )
 
 
 def test_attitude_table_is_what_the_script_writes_from_its_summary():
-    assert (GENERATED / "deep_integration_attitude.md").read_text() == \
-        deep_integration_attitude.markdown(_summary("deep_integration_attitude"))
+    assert (GENERATED / "deep_integration_attitude.md").read_text() == deep_integration_attitude.markdown(
+        _summary("deep_integration_attitude")
+    )
 
 
 def test_paired_difference_is_the_mean_and_standard_error_of_the_differences():
@@ -89,8 +91,9 @@ def test_a_perfect_navigator_makes_the_replica_error_the_same_in_every_run_and_a
 def test_nees_split_table_is_what_the_script_writes_from_its_summary():
     import deep_integration_nees_split
 
-    assert (GENERATED / "deep_integration_nees_split.md").read_text() == \
-        deep_integration_nees_split.markdown(_summary("deep_integration_nees_split"))
+    assert (GENERATED / "deep_integration_nees_split.md").read_text() == deep_integration_nees_split.markdown(
+        _summary("deep_integration_nees_split")
+    )
 
 
 def test_half_normal_moments_match_a_sample():

@@ -43,8 +43,9 @@ def test_boc_figures_read_a_boc_main_peak(make_plots, name):
     np.testing.assert_allclose(d(make_plots._noise_free(d, code=e)), e, atol=1e-9)
 
 
-@pytest.mark.parametrize("name", [n for n in builtin_names("discriminator")
-                                  if gf.registry.get("discriminator", n).unit == "chips"])
+@pytest.mark.parametrize(
+    "name", [n for n in builtin_names("discriminator") if gf.registry.get("discriminator", n).unit == "chips"]
+)
 def test_a_code_discriminator_has_unit_slope_on_the_modulation_it_declares(make_plots, name):
     """`Discriminator.modulation` picks the figures' signal: on its declared modulation's
     noise-free correlators every code discriminator reads a small error as itself (unit slope

@@ -30,11 +30,13 @@ def test_site_config_names_no_remote_script_and_serves_mathjax():
 
 
 def test_remote_references_are_found_and_local_ones_are_not():
-    html = ('<script src="https://cdn.jsdelivr.net/npm/mathjax@3/es5/tex-mml-chtml.js"></script>'
-            '<link rel="stylesheet" href="//fonts.googleapis.com/css?family=Roboto">'
-            "<style>@font-face { src: url('https://fonts.gstatic.com/x.woff2') }</style>"
-            '<script src="javascripts/mathjax/tex-mml-chtml.js"></script>'
-            '<a href="https://doi.org/10.1000/x">a citation link is no fetch</a>')
+    html = (
+        '<script src="https://cdn.jsdelivr.net/npm/mathjax@3/es5/tex-mml-chtml.js"></script>'
+        '<link rel="stylesheet" href="//fonts.googleapis.com/css?family=Roboto">'
+        "<style>@font-face { src: url('https://fonts.gstatic.com/x.woff2') }</style>"
+        '<script src="javascripts/mathjax/tex-mml-chtml.js"></script>'
+        '<a href="https://doi.org/10.1000/x">a citation link is no fetch</a>'
+    )
     found = check.remote_references(html)
     assert len(found) == 3 and "cdn.jsdelivr" in found[0] and "googleapis" in found[1] and "gstatic" in found[2]
 
@@ -68,13 +70,15 @@ def test_a_passing_site_gets_a_one_line_summary_and_a_failing_one_none(tmp_path,
 
 def test_source_listings_stay_out_of_the_search_index_and_scripts_out_of_the_site():
     hook = _load("search_index", ROOT / "docs" / "hooks" / "search_index.py")
-    html = ('<details class="mkdocstrings-source"><summary>Source code in <code>a.py</code></summary>'
-            '<p>prose</p><details class="quote"><summary>Source code in')
+    html = (
+        '<details class="mkdocstrings-source"><summary>Source code in <code>a.py</code></summary>'
+        '<p>prose</p><details class="quote"><summary>Source code in'
+    )
     marked = hook.exclude_source(html)
     assert marked.count("data-search-exclude") == 2 and "<p>prose</p>" in marked
     assert hook.exclude_source(marked) == marked  # once only
     assert hook.exclude_source('<details class="note">') == '<details class="note">'
     text = (ROOT / "mkdocs.yml").read_text()
     assert "- docs/hooks/search_index.py" in text
-    exclude = text[text.index("exclude_docs: |"):text.index("plugins:")]
+    exclude = text[text.index("exclude_docs: |") : text.index("plugins:")]
     assert re.search(r"^\s+\*\.py$", exclude, re.M)  # check_offline.py, the table scripts...

@@ -13,8 +13,14 @@ SCRIPTS = sorted(GALLERY.glob("*.py"))
 
 
 def test_the_gallery_holds_the_six_examples():
-    assert [p.stem for p in SCRIPTS] == ["comparison_sweep", "custom_channel_filter", "custom_discriminator",
-                                         "first_filter", "plugin_to_comparison", "reading_rinex"]
+    assert [p.stem for p in SCRIPTS] == [
+        "comparison_sweep",
+        "custom_channel_filter",
+        "custom_discriminator",
+        "first_filter",
+        "plugin_to_comparison",
+        "reading_rinex",
+    ]
 
 
 @pytest.mark.slow

@@ -25,15 +25,27 @@ def _settings(text: str) -> dict[str, str]:
 
 def test_section_writes_each_setting_in_order() -> None:
     assert section("Tracking_1C", {"pll_bw_hz": 30.0, "item_type": "gr_complex"}).splitlines() == [
-        "Tracking_1C.pll_bw_hz=30.0", "Tracking_1C.item_type=gr_complex"]
+        "Tracking_1C.pll_bw_hz=30.0",
+        "Tracking_1C.item_type=gr_complex",
+    ]
     assert section("X", {}) == ""
 
 
 @pytest.mark.parametrize("item_type,adapter", [("ibyte", "Ibyte_To_Complex"), ("ishort", "Ishort_To_Complex")])
 @pytest.mark.parametrize("pvt_models", [False, True])
 def test_config_holds_what_was_asked(tmp_path: Path, item_type: str, adapter: str, pvt_models: bool) -> None:
-    got = _settings(gnss_sdr_config(tmp_path / "rec.dat", 2.6e6, tmp_path / "out", channels=11, item_type=item_type,
-                                    output_rate_ms=1000, display_rate_ms=500, pvt_models=pvt_models))
+    got = _settings(
+        gnss_sdr_config(
+            tmp_path / "rec.dat",
+            2.6e6,
+            tmp_path / "out",
+            channels=11,
+            item_type=item_type,
+            output_rate_ms=1000,
+            display_rate_ms=500,
+            pvt_models=pvt_models,
+        )
+    )
     assert got["SignalSource.filename"] == str(tmp_path / "rec.dat")
     assert got["SignalSource.sampling_frequency"] == got["GNSS-SDR.internal_fs_sps"] == "2600000"
     assert got["SignalSource.item_type"] == item_type and got["DataTypeAdapter.implementation"] == adapter
@@ -41,7 +53,8 @@ def test_config_holds_what_was_asked(tmp_path: Path, item_type: str, adapter: st
     assert got["PVT.output_path"] == str(tmp_path / "out")
     for block, settings in (("Acquisition_1C", ACQUISITION), ("Tracking_1C", TRACKING)):
         assert {k.split(".", 1)[1]: v for k, v in got.items() if k.startswith(block + ".")} == {
-            k: str(v) for k, v in settings.items()}
+            k: str(v) for k, v in settings.items()
+        }
     assert ("PVT.trop_model" in got) == pvt_models
 
 

@@ -15,15 +15,36 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 @pytest.mark.slow
 def test_wheel_contains_every_module_and_the_entry_point(tmp_path):
     src = tmp_path / "src"
-    shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(
-        ".git", ".venv", "build", "*.egg-info", "site", "__pycache__", ".hypothesis", "examples", "docs"))
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "--no-build-isolation",
-                    "-w", str(tmp_path / "dist"), str(src)], check=True, capture_output=True, text=True)
+    shutil.copytree(
+        ROOT,
+        src,
+        ignore=shutil.ignore_patterns(
+            ".git", ".venv", "build", "*.egg-info", "site", "__pycache__", ".hypothesis", "examples", "docs"
+        ),
+    )
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            "-w",
+            str(tmp_path / "dist"),
+            str(src),
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     (wheel,) = (tmp_path / "dist").glob("gnssframework-*.whl")
     names = set(zipfile.ZipFile(wheel).namelist())
     expected = {p.relative_to(ROOT).as_posix() for p in (ROOT / "gnssframework").rglob("*.py")}
-    expected |= {"gnssframework_plugins/" + p.relative_to(ROOT / "plugins").as_posix()
-                 for p in (ROOT / "plugins").rglob("*.py")}
+    expected |= {
+        "gnssframework_plugins/" + p.relative_to(ROOT / "plugins").as_posix() for p in (ROOT / "plugins").rglob("*.py")
+    }
     assert expected - names == set()
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
     text = zipfile.ZipFile(wheel).read(entry_points).decode()
@@ -77,7 +98,13 @@ def test_the_changelog_is_keep_a_changelog_and_names_the_cited_release():
             assert re.fullmatch(r"\[[^\]]+\]( - \d{4}-\d{2}-\d{2})?", heading[1]), heading
         else:
             assert heading == ("###", heading[1]) and heading[1] in {
-                "Added", "Changed", "Deprecated", "Removed", "Fixed", "Security"}, heading
+                "Added",
+                "Changed",
+                "Deprecated",
+                "Removed",
+                "Fixed",
+                "Security",
+            }, heading
     assert "How to cite" in (ROOT / "README.md").read_text()
 
 
@@ -87,6 +114,6 @@ def test_ci_builds_and_checks_the_wheel_and_sdist_with_the_release_extra():
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
     assert {r.split(">")[0].split("=")[0] for r in extras["release"]} >= {"build", "twine"}
     ci = (ROOT / ".ci" / "run").read_text()
-    release = ci[ci.index("release() {"):ci.index("lane release release")]
+    release = ci[ci.index("release() {") : ci.index("lane release release")]
     assert '.[tune,docs,release]"' in ci
     assert "-m build" in release and "--sdist --wheel" in release and "twine check --strict" in release

@@ -55,8 +55,11 @@ def test_the_tutorial_lists_every_nested_plugin_parameter_of_the_built_ins():
     assert hook.NESTED_MARKER in page
     rendered = hook.on_page_markdown(page, None, None, None)
     table = rendered.split("| plugin | kind | nested parameter | default | takes |")[1].split("\n\n")[0]
-    rows = {tuple(c.strip().strip("`") for c in line.strip("|").split("|"))
-            for line in table.splitlines() if line.startswith("| `")}
+    rows = {
+        tuple(c.strip().strip("`") for c in line.strip("|").split("|"))
+        for line in table.splitlines()
+        if line.startswith("| `")
+    }
     expected = set()
     for info in gf.registry.describe():
         if info.distribution != "gnssframework":

@@ -21,9 +21,21 @@ def test_template_installs_and_registers(tmp_path):
     source = tmp_path / "plugin-template"  # build from a copy: never write into the repository
     shutil.copytree(TEMPLATE, source, ignore=shutil.ignore_patterns("build", "*.egg-info"))
     subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
-         "--target", str(target), str(source)],
-        check=True, capture_output=True, text=True,
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            "--target",
+            str(target),
+            str(source),
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
     )
     probe = (
         "import gnssframework as gf, numpy as np\n"
@@ -39,8 +51,9 @@ def test_template_installs_and_registers(tmp_path):
         "    print('rejected', 'alpha' in str(e))\n"
     )
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(target), os.environ.get("PYTHONPATH", "")])}
-    out = subprocess.run([sys.executable, "-c", probe], check=True, capture_output=True, text=True,
-                         env=env, cwd=tmp_path).stdout.split("\n")
+    out = subprocess.run(
+        [sys.executable, "-c", probe], check=True, capture_output=True, text=True, env=env, cwd=tmp_path
+    ).stdout.split("\n")
     assert out[0] == "gnssframework-fading 0.1.0"
     mean, var = map(float, out[1].split())
     # alpha = 1 is the Kalman filter: prior 2.1, gain 2.1/3.1.

@@ -18,6 +18,5 @@ SCRIPTS = sorted([*ROOT.glob("benchmarks/*.py"), *ROOT.glob("validation/*.py")])
 @pytest.mark.slow
 @pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_script_starts(script: Path) -> None:
-    run = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True, cwd=ROOT,
-                         timeout=120)
+    run = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert run.returncode == 0, f"{script.relative_to(ROOT)} --help exited {run.returncode}:\n{run.stderr[-2000:]}"

@@ -17,8 +17,18 @@ from pathlib import Path
 
 TESTS = Path(__file__).resolve().parents[1]
 #: The package's layers (tests/project/test_architecture.py), the core outside them and the project.
-FOLDERS = ("estimation", "signal", "simulation", "navigation", "inertial", "io", "receiver", "experiments",
-           "core", "project")
+FOLDERS = (
+    "estimation",
+    "signal",
+    "simulation",
+    "navigation",
+    "inertial",
+    "io",
+    "receiver",
+    "experiments",
+    "core",
+    "project",
+)
 
 
 def _test_files() -> list[Path]:
@@ -26,8 +36,11 @@ def _test_files() -> list[Path]:
 
 
 def test_every_test_file_is_in_a_layer_folder():
-    misplaced = [p.relative_to(TESTS).as_posix() for p in _test_files()
-                 if p.parent.parent != TESTS or p.parent.name not in FOLDERS]
+    misplaced = [
+        p.relative_to(TESTS).as_posix()
+        for p in _test_files()
+        if p.parent.parent != TESTS or p.parent.name not in FOLDERS
+    ]
     assert not misplaced, f"test files outside the folders {FOLDERS} (CONTRIBUTING.md, 'Layout'): {misplaced}"
     assert all((TESTS / folder).is_dir() for folder in FOLDERS)
 

@@ -18,11 +18,14 @@ def _machine(monkeypatch, cores: int, available_mb: float) -> None:
     monkeypatch.setattr(psutil, "virtual_memory", lambda: SimpleNamespace(available=available_mb * 2**20))
 
 
-@pytest.mark.parametrize("cores, available_mb, workers", [
-    (2, 22_000, 2),                                   # CI: both cores
-    (16, 6 * conftest.WORKER_BUDGET_MB + 1, 6),       # many cores, the memory holds 6 workers
-    (16, 0.5 * conftest.WORKER_BUDGET_MB, 1),         # never fewer than one
-])
+@pytest.mark.parametrize(
+    "cores, available_mb, workers",
+    [
+        (2, 22_000, 2),  # CI: both cores
+        (16, 6 * conftest.WORKER_BUDGET_MB + 1, 6),  # many cores, the memory holds 6 workers
+        (16, 0.5 * conftest.WORKER_BUDGET_MB, 1),  # never fewer than one
+    ],
+)
 def test_auto_workers_are_the_cores_the_memory_holds(monkeypatch, cores, available_mb, workers):
     _machine(monkeypatch, cores, available_mb)
     assert conftest.pytest_xdist_auto_num_workers(config=None) == workers

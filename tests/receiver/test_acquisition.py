@@ -17,8 +17,11 @@ from gnssframework.signal.constants import CA_CHIP_RATE_HZ, CA_CODE_LENGTH
 from pathlib import Path
 
 DATA = Path(__file__).parents[1] / "data"
-SATS = [SatelliteSignal(3, 46.0, 1234.0, 300.3), SatelliteSignal(17, 44.0, -2780.0, 811.7),
-        SatelliteSignal(28, 45.0, 3310.0, 12.9)]
+SATS = [
+    SatelliteSignal(3, 46.0, 1234.0, 300.3),
+    SatelliteSignal(17, 44.0, -2780.0, 811.7),
+    SatelliteSignal(28, 45.0, 3310.0, 12.9),
+]
 
 
 def _chip_distance(a, b):
@@ -84,12 +87,17 @@ def test_the_real_4mhz_slice_shows_the_same_satellites_50_ms_apart_with_consiste
     satellites. The strong detections must recur 50 ms later at the same Doppler and with
     the code phase moved by the code Doppler (fc fd / f_L1 over 50 ms), within a sample."""
     fs = 4e6
-    rec = open_recording(DATA / "pocketsdr_L1_4MHz_IQ_100ms.bin", format="ci8", sample_rate_hz=fs, if_hz=0.0,
-                         q_sign=-1)
+    rec = open_recording(DATA / "pocketsdr_L1_4MHz_IQ_100ms.bin", format="ci8", sample_rate_hz=fs, if_hz=0.0, q_sign=-1)
     acq = registry.create("acquisition", "pcps", noncoherent=10)
     n = acq.samples_needed(fs)
-    first, later = ({r.prn: r for r in acq.acquire(rec.read(start, n), fs, 0.0)
-                     if r.detected and r.test_statistic > 3 * r.threshold} for start in (0, int(0.05 * fs)))
+    first, later = (
+        {
+            r.prn: r
+            for r in acq.acquire(rec.read(start, n), fs, 0.0)
+            if r.detected and r.test_statistic > 3 * r.threshold
+        }
+        for start in (0, int(0.05 * fs))
+    )
     assert len(first) >= 5 and set(first) == set(later)
     for prn, r in first.items():
         assert abs(later[prn].doppler_hz - r.doppler_hz) <= 250.0
@@ -126,8 +134,24 @@ def test_acquire_command_says_what_it_searched_when_nothing_is_found(tmp_path, c
     x = synthesize_samples(SATS, 0.008, 2.6e6, 0.0, rng)  # read at the wrong rate below
     path = tmp_path / "r.bin"
     path.write_bytes(np.stack([x.real, x.imag], -1).astype(np.float32).tobytes())
-    code = main(["acquire", str(path), "--format", "cf32_le", "--fs", "4e6", "--out", str(tmp_path / "a.csv"),
-                 "--prns", "3", "17", "28", "--noncoherent", "5"])
+    code = main(
+        [
+            "acquire",
+            str(path),
+            "--format",
+            "cf32_le",
+            "--fs",
+            "4e6",
+            "--out",
+            str(tmp_path / "a.csv"),
+            "--prns",
+            "3",
+            "17",
+            "28",
+            "--noncoherent",
+            "5",
+        ]
+    )
     said = capsys.readouterr().out
     assert code == 1 and "nothing found" in said and "PRN 3, 17, 28" in said and "--fs" in said
     assert main(["acquire", str(path), "--format", "ci3", "--fs", "4e6", "--out", str(tmp_path / "a.csv")]) == 2

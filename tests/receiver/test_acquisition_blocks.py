@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 from gnssframework.errors import ConfigError
-from gnssframework.receiver.acquisition.threshold import (blocks_for_detection, detection_probability,
-                                                          threshold_from_pfa)
+from gnssframework.receiver.acquisition.threshold import blocks_for_detection, detection_probability, threshold_from_pfa
 
 T = 0.010
 CELLS = 201 * 2600  # a +-5 kHz search of 10 ms blocks at 2.6 MHz
@@ -23,7 +22,11 @@ TRIALS = 20_000
 def _simulated_pd(cn0_dbhz: float, blocks: int, threshold: float, rng: np.random.Generator) -> float:
     amplitude = np.sqrt(2 * 10 ** (cn0_dbhz / 10) * T)
     phase = rng.uniform(0, 2 * np.pi, (TRIALS, blocks))
-    z = amplitude * np.exp(1j * phase) + rng.standard_normal((TRIALS, blocks)) + 1j * rng.standard_normal((TRIALS, blocks))
+    z = (
+        amplitude * np.exp(1j * phase)
+        + rng.standard_normal((TRIALS, blocks))
+        + 1j * rng.standard_normal((TRIALS, blocks))
+    )
     return float(np.mean(np.sum(np.abs(z) ** 2, axis=1) > threshold))
 
 

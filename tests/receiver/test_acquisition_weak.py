@@ -27,8 +27,9 @@ PRN = 7
 
 
 def _acq():
-    return registry.create("acquisition", "pcps", coherent_ms=10, noncoherent=K, doppler_max_hz=250.0,
-                           alternate_blocks=True)
+    return registry.create(
+        "acquisition", "pcps", coherent_ms=10, noncoherent=K, doppler_max_hz=250.0, alternate_blocks=True
+    )
 
 
 def _theory(cn0_dbhz: float) -> tuple[float, float]:
@@ -44,8 +45,14 @@ def _theory(cn0_dbhz: float) -> tuple[float, float]:
 def _trial(cn0_dbhz: float, seed: int) -> bool:
     rng = np.random.default_rng(seed)
     phase_chips = float(rng.integers(0, 2046)) / 2
-    sat = SatelliteSignal(PRN, cn0_dbhz, 0.0, phase_chips, float(rng.uniform(0, 2 * np.pi)),
-                          first_bit_code_period=int(rng.integers(0, 20)))
+    sat = SatelliteSignal(
+        PRN,
+        cn0_dbhz,
+        0.0,
+        phase_chips,
+        float(rng.uniform(0, 2 * np.pi)),
+        first_bit_code_period=int(rng.integers(0, 20)),
+    )
     x = synthesize_samples([sat], K * T + 0.001, FS, 0.0, rng)
     r = _acq().acquire(x, FS, 0.0, (PRN,))[0]
     # A detection at the signal's cell: its code phase within a sample, its Doppler within a bin.

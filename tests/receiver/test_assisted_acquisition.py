@@ -26,8 +26,18 @@ def _samples(cn0_dbhz: float | None, seed: int) -> np.ndarray:
     n = int(0.08 * FS)  # 10 ms x 8
     x = rng.standard_normal(n) + 1j * rng.standard_normal(n)
     if cn0_dbhz is not None:
-        x += generate_if_samples(PRN, 0.08, FS, 0.0, cn0_dbhz, rng, doppler_hz=DOPPLER_HZ, code_phase_chips=CODE_CHIPS,
-                                 complex_samples=True, noise=False).samples
+        x += generate_if_samples(
+            PRN,
+            0.08,
+            FS,
+            0.0,
+            cn0_dbhz,
+            rng,
+            doppler_hz=DOPPLER_HZ,
+            code_phase_chips=CODE_CHIPS,
+            complex_samples=True,
+            noise=False,
+        ).samples
     return x
 
 

@@ -38,13 +38,15 @@ RATE_HZ = 5.0
 OFFSET_ENU_M = (30e3, 20e3, 500.0)
 
 
-def _record(prn: int, tx_s: np.ndarray, time_s: np.ndarray, prompt_i: np.ndarray, doppler_hz: float,
-            coherent_ms: int = 20) -> ChannelRecord:
+def _record(
+    prn: int, tx_s: np.ndarray, time_s: np.ndarray, prompt_i: np.ndarray, doppler_hz: float, coherent_ms: int = 20
+) -> ChannelRecord:
     """A record of vector rows: a replica at transmit time ``tx_s`` at each row's start."""
     chips = (tx_s * 1e3 % 1.0) * 1023.0
     vector = STAGES.index("vector")
-    rows = [(t, 40.0, 1.0, doppler_hz, p, 0.0, 1, vector, i, 0.0, coherent_ms)
-            for t, p, i in zip(time_s, chips, prompt_i)]
+    rows = [
+        (t, 40.0, 1.0, doppler_hz, p, 0.0, 1, vector, i, 0.0, coherent_ms) for t, p, i in zip(time_s, chips, prompt_i)
+    ]
     return ChannelRecord(prn, rows)
 
 
@@ -88,8 +90,8 @@ def test_a_channel_whose_tow_disagrees_is_left_out(lnav_rows):
     assert list(obs.prn) == [20] and not good.events
     # Pseudoranges of a receiver clock at TOW0 + recording time: c (t_rx - t_SV) at the rows.
     k = np.searchsorted(rec.column("time_s"), obs.sample_time_s[3])
-    t0, t1 = rec.column("time_s")[k - 1:k + 1]
-    t_sv = np.interp(obs.sample_time_s[3], [t0, t1], tx[k - 1:k + 1])
+    t0, t1 = rec.column("time_s")[k - 1 : k + 1]
+    t_sv = np.interp(obs.sample_time_s[3], [t0, t1], tx[k - 1 : k + 1])
     assert obs.pseudorange_m[3, 0] == pytest.approx(C * (TOW0 + obs.sample_time_s[3] - t_sv), abs=1e-3)
     late = VectorSolution(prns=(20,), rx_offset_s=TOW0, replica_tx={20: (end_s, end_tx + 1.0)})
     assert assisted_observables(tracking, late, 1.0) is None
@@ -106,13 +108,26 @@ def test_scalar_rows_are_not_dated(lnav_rows):
 def assisted(tmp_path_factory):
     nav = read_rinex_nav(NAV)
     sats = _strongest(nav, TOW0, 5)
-    path = write_lnav_recording(tmp_path_factory.mktemp("assisted_rinex") / "weak.sigmf-data", sats, TOW0,
-                                DURATION_S, seed=11, cn0_dbhz=CN0_DBHZ)
+    path = write_lnav_recording(
+        tmp_path_factory.mktemp("assisted_rinex") / "weak.sigmf-data",
+        sats,
+        TOW0,
+        DURATION_S,
+        seed=11,
+        cn0_dbhz=CN0_DBHZ,
+    )
     lat, lon, h = pymap3d.ecef2geodetic(*STATION)
     approx = pymap3d.enu2geodetic(*OFFSET_ENU_M, lat, lon, h)
     acq = registry.create("acquisition", "pcps", coherent_ms=10, noncoherent=8, alternate_blocks=True)
-    result = receive(open_recording(path), acq, tracking_config(), rate_hz=RATE_HZ, rinex=nav,
-                     vector=vector_config(solution_rate_hz=RATE_HZ), assist=assistance(approx, WEEK, TOW0))
+    result = receive(
+        open_recording(path),
+        acq,
+        tracking_config(),
+        rate_hz=RATE_HZ,
+        rinex=nav,
+        vector=vector_config(solution_rate_hz=RATE_HZ),
+        assist=assistance(approx, WEEK, TOW0),
+    )
     return result, sats
 
 

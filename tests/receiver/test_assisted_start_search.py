@@ -43,8 +43,12 @@ def test_long_sum_keeps_its_gain_when_it_follows_the_code_doppler():
     still = SatelliteSignal(7, 60.0, 0.0, 100.0, 0.3)
     y = synthesize_samples([still], 4 * T + 0.001, FS, 0.0, np.random.default_rng(2))
     zero = np.array([0.0])
-    np.testing.assert_allclose(search_grid(y, FS, 0.0, (7,), T, 4, zero, code_doppler=True),
-                               search_grid(y, FS, 0.0, (7,), T, 4, zero), rtol=1e-4, atol=1e-3)
+    np.testing.assert_allclose(
+        search_grid(y, FS, 0.0, (7,), T, 4, zero, code_doppler=True),
+        search_grid(y, FS, 0.0, (7,), T, 4, zero),
+        rtol=1e-4,
+        atol=1e-3,
+    )
 
 
 NAV = Path(__file__).resolve().parents[1] / "data" / "VILL00ESP_R_20181700000_06H_MN.rnx"
@@ -68,5 +72,5 @@ def test_predicted_dopplers_are_the_pseudorange_rate_by_finite_differences():
             st = satellite_state(eph, np.array([t]))
             return np.linalg.norm(st.position_m[0] - r) - c * float(st.clock_l1_s[0])
 
-        rate = (pseudorange(tow - 0.075 + 0.5) - pseudorange(tow - 0.075 - 0.5))
+        rate = pseudorange(tow - 0.075 + 0.5) - pseudorange(tow - 0.075 - 0.5)
         assert f == pytest.approx(-rate / GPS_L1CA.wavelength_m, abs=0.5), prn

@@ -46,8 +46,9 @@ def test_sample_tracker_tracks_a_boc11_signal_on_its_spreading_waveform(boc_reco
     acq = registry.create("acquisition", "pcps")
     found = [r for r in acquire_recording(boc_recording, acq, prns=(SAT.prn,), signal=SAT.signal) if r.detected]
     assert [r.prn for r in found] == [SAT.prn]
-    result = SampleTracker(boc_recording, tracking_config(early_late_spacing_chips=0.2, coherent_ms=1), acq,
-                           signal=SAT.signal).run(found)
+    result = SampleTracker(
+        boc_recording, tracking_config(early_late_spacing_chips=0.2, coherent_ms=1), acq, signal=SAT.signal
+    ).run(found)
     ch = result.channels[SAT.prn]
     last = ch.column("time_s") > 0.3
     assert last.sum() > 20
@@ -65,6 +66,7 @@ def test_sample_tracker_tracks_a_boc11_signal_on_its_spreading_waveform(boc_reco
     # a number near the generated one (it was NaN).
     cn0 = ch.column("cn0_dbhz")[last]
     assert np.all(np.isfinite(cn0)) and abs(np.median(cn0) - SAT.cn0_dbhz) < 2.0
+
 
 def test_sample_tracker_refuses_a_cboc_replica_naming_the_boc11_one(boc_recording):
     with pytest.raises(ConfigError, match="boc11"):

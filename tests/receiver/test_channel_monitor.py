@@ -61,15 +61,24 @@ def test_consecutive_failures_exclude_and_consecutive_passes_readmit():
 
 @pytest.fixture(scope="module")
 def fault_runs():
-    scen = get_scenario({"kind": "vector-tracking", "duration_s": 3.0, "channels": 8, "settle_s": 0.5,
-                         "steady_state_s": 2.0, "pcrb": False})
+    scen = get_scenario(
+        {
+            "kind": "vector-tracking",
+            "duration_s": 3.0,
+            "channels": 8,
+            "settle_s": 0.5,
+            "steady_state_s": 2.0,
+            "pcrb": False,
+        }
+    )
     case = {"cn0_dbhz": 45.0, "fault_channel": 0, "fault_start_s": 1.0, "fault_step_m": 60.0}
     scen.check_case(case, "cases[0]")
-    components = {"channel_filter": {"name": "discriminator", "params": {"code_discriminator": "eml-envelope"}},
-                  "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1e-5}}}
+    components = {
+        "channel_filter": {"name": "discriminator", "params": {"code_discriminator": "eml-envelope"}},
+        "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1e-5}},
+    }
     out = {}
-    for name, options in (("none", None), ("monitor", {"channel_monitor": {"false_alarm": 1e-3,
-                                                                           "consecutive": 3}})):
+    for name, options in (("none", None), ("monitor", {"channel_monitor": {"false_alarm": 1e-3, "consecutive": 3}})):
         plugins = scen.build(components, options)
         out[name] = scen.run_batch(case, plugins, 2, draw.run_streams(43, (0,), range(2)))
     return out
@@ -100,11 +109,22 @@ def test_a_step_is_excluded_at_the_update_of_its_consecutive_th_flagged_interval
     edge with consecutive = 3, 2 T after one mid-interval.
     """
     T, runs = 0.01, 3
-    scen = get_scenario({"kind": "vector-tracking", "duration_s": 1.2, "channels": 8, "settle_s": 0.5,
-                         "steady_state_s": 0.6, "pcrb": False, "coherent_time_s": T})
+    scen = get_scenario(
+        {
+            "kind": "vector-tracking",
+            "duration_s": 1.2,
+            "channels": 8,
+            "settle_s": 0.5,
+            "steady_state_s": 0.6,
+            "pcrb": False,
+            "coherent_time_s": T,
+        }
+    )
     case = {"cn0_dbhz": 45.0, "fault_channel": 0, "fault_start_s": start_s, "fault_step_m": 150.0}
-    components = {"channel_filter": {"name": "discriminator", "params": {"code_discriminator": "eml-envelope"}},
-                  "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1e-5}}}
+    components = {
+        "channel_filter": {"name": "discriminator", "params": {"code_discriminator": "eml-envelope"}},
+        "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1e-5}},
+    }
     plugins = scen.build(components, {"channel_monitor": {"false_alarm": 1e-3, "consecutive": consecutive}})
     _, rec = scen.vector_series(case, plugins, runs, draw.run_streams(44, (0,), range(runs)))
     excluded, t = rec.extra["excluded"], rec.time_s  # (epochs, runs, channels), mid-interval times

@@ -26,8 +26,9 @@ pytestmark = pytest.mark.other_machines
 def _scenario_truth(runs=2, duration_s=0.3):
     from gnssframework.experiments import get_scenario
 
-    scen = get_scenario({"kind": "deep-integration", "duration_s": duration_s, "update_interval_s": 0.1,
-                         "settle_s": 0.0, "channels": 6})
+    scen = get_scenario(
+        {"kind": "deep-integration", "duration_s": duration_s, "update_interval_s": 0.1, "settle_s": 0.0, "channels": 6}
+    )
     return scen, scen._truth(scen.flight(), 45.0, runs, np.random.default_rng(3))
 
 
@@ -92,10 +93,16 @@ def test_deep_closer_channel_replica_equals_the_per_interval_range_formulas():
     kin = {}
     for k0 in range(0, K, n_nco):  # a navigator off the truth by a few metres, different at each aiding
         p, v, a = rx(k0 * T)
-        kin[round(k0 * T, 9)] = (p + g.normal(size=(3, 3)) * 5, v + g.normal(size=(3, 3)), a + g.normal(size=(3, 3)),
-                                 g.normal(size=3) * 10, g.normal(size=3))
-    closer = DeepCloser(create("channel_filter", "iq-filter", adapter=None, estimator="ukf", output="equivalent"),
-                        _FixedNavigator(kin))
+        kin[round(k0 * T, 9)] = (
+            p + g.normal(size=(3, 3)) * 5,
+            v + g.normal(size=(3, 3)),
+            a + g.normal(size=(3, 3)),
+            g.normal(size=3) * 10,
+            g.normal(size=3),
+        )
+    closer = DeepCloser(
+        create("channel_filter", "iq-filter", adapter=None, estimator="ukf", output="equivalent"), _FixedNavigator(kin)
+    )
     closer.reset(batch, T, n_nco, n_upd, K, signal=truth.signal, cn0_dbhz=45.0)
     sat = lambda k: truth.sat_state(np.asarray(k * T))  # noqa: E731
     channel = closer.start(sat(0))
@@ -122,9 +129,13 @@ def test_deep_closer_channel_replica_equals_the_per_interval_range_formulas():
         ph1 = theta0 - 2 * np.pi * rho1 / L1_WAVELENGTH_M - carrier_rep_end
         freq_err = (ph1 - ph0) / (2 * np.pi * T)
 
-        err = channel.errors(code_phase_of_range(truth.signal, rho0, k * T),
-                             code_phase_of_range(truth.signal, rho1, (k + 1) * T),
-                             theta0 - 2 * np.pi * rho0 / L1_WAVELENGTH_M, theta0 - 2 * np.pi * rho1 / L1_WAVELENGTH_M, T)
+        err = channel.errors(
+            code_phase_of_range(truth.signal, rho0, k * T),
+            code_phase_of_range(truth.signal, rho1, (k + 1) * T),
+            theta0 - 2 * np.pi * rho0 / L1_WAVELENGTH_M,
+            theta0 - 2 * np.pi * rho1 / L1_WAVELENGTH_M,
+            T,
+        )
         np.testing.assert_array_equal(err.phase_rad, ph0)
         np.testing.assert_array_equal(err.freq_hz, freq_err)
         np.testing.assert_array_equal(closer.shift_hz, shift_hz)
@@ -150,8 +161,9 @@ def test_aided_tracking_same_record_with_and_without_vectorised_receiver_positio
     zero = np.zeros((2, 3))
 
     def run(tr):
-        nav = _OffsetNavigator(lambda t: tr.receiver_state(t), zero + 3.0, zero + 0.1, np.zeros(2), np.zeros(2),
-                               (0.0, 0.0))
+        nav = _OffsetNavigator(
+            lambda t: tr.receiver_state(t), zero + 3.0, zero + 0.1, np.zeros(2), np.zeros(2), (0.0, 0.0)
+        )
         channel = create("channel_filter", "iq-filter", adapter=None, estimator="ukf", output="equivalent")
         carrier = create("channel_filter", "kf-carrier-loop", states=2, q=[0.0, 0.001], r=0.05)
         return run_aided_tracking(channel, nav, tr, np.random.default_rng(4), carrier_filter=carrier)
@@ -177,8 +189,9 @@ def test_strapdown_deferred_transitions_equal_the_per_interval_accumulation():
         # Reference: one transition per IMU interval, multiplied up as it goes (the loop before).
         n = int(round(t_s / ref.dt))
         while ref.k < n:
-            dth, dv = error_model.compensate_increments(ref.dtheta[ref.k], ref.dv[ref.k], ref.gyro_bias,
-                                                        ref.accel_bias, ref.dt)
+            dth, dv = error_model.compensate_increments(
+                ref.dtheta[ref.k], ref.dv[ref.k], ref.gyro_bias, ref.accel_bias, ref.dt
+            )
             f_b = dv / ref.dt
             P, Q = error_model.error_state_transition(ref.state, f_b, ref.dt, ref.grade, method="second-order")
             Phi, Qd = P @ Phi, P @ Qd @ np.swapaxes(P, -1, -2) + Q
@@ -199,8 +212,12 @@ def test_strapdown_deferred_transitions_equal_the_per_interval_accumulation():
 @pytest.mark.parametrize("with_prev", [False, True])
 @pytest.mark.parametrize("backend", ["numba", "numpy"])
 def test_trusted_strapdown_step_equals_the_checked_step(with_prev, backend):
-    from gnssframework.inertial.mechanisation import (MechanisationOptions, NavState, strapdown_step,
-                                                      strapdown_step_trusted)
+    from gnssframework.inertial.mechanisation import (
+        MechanisationOptions,
+        NavState,
+        strapdown_step,
+        strapdown_step_trusted,
+    )
 
     g = np.random.default_rng(11)
     runs = 3
@@ -212,7 +229,11 @@ def test_trusted_strapdown_step_equals_the_checked_step(with_prev, backend):
     opts = MechanisationOptions(backend=backend)
     a = strapdown_step_trusted(state, dth, dv, 0.005, *prev, options=opts)
     b = strapdown_step(state, dth, dv, 0.005, *prev, options=opts)
-    for x, y in ((a.q_b_e, b.q_b_e), (a.velocity_ecef_mps, b.velocity_ecef_mps), (a.position_ecef_m, b.position_ecef_m)):
+    for x, y in (
+        (a.q_b_e, b.q_b_e),
+        (a.velocity_ecef_mps, b.velocity_ecef_mps),
+        (a.position_ecef_m, b.position_ecef_m),
+    ):
         np.testing.assert_array_equal(x, y)
     assert not np.array_equal(a.position_ecef_m, state.position_ecef_m)
 
@@ -232,8 +253,14 @@ def test_interval_fit_equals_the_running_sum_of_the_loop():
         rate, acc = g.normal(size=batch) * 300, g.normal(size=batch) * 50
         rows.append(fit_rows(k0, n_nco, T, n_upd, rho, rate, acc, k0 * T))
         preds.append((rho, rate, acc, k0))
-    outputs = np.stack([g.normal(size=(n_upd,) + batch) * 0.05, g.normal(size=(n_upd,) + batch) * 3,
-                        g.uniform(1e-4, 1e-2, (n_upd,) + batch), g.uniform(1.0, 50.0, (n_upd,) + batch)])
+    outputs = np.stack(
+        [
+            g.normal(size=(n_upd,) + batch) * 0.05,
+            g.normal(size=(n_upd,) + batch) * 3,
+            g.uniform(1e-4, 1e-2, (n_upd,) + batch),
+            g.uniform(1.0, 50.0, (n_upd,) + batch),
+        ]
+    )
     replica = np.stack([g.normal(size=(n_upd,) + batch) * 3 + 2e7, g.normal(size=(n_upd,) + batch) * 300])
     normal, rhs = interval_fit(outputs, replica, rows, GPS_L1CA)
     # The loop before: a running sum, one coherent interval after the other, its rows and

@@ -54,10 +54,12 @@ def test_carrier_prefilter_phase_error_matches_the_loop_jitter(cn0_dbhz):
     truth_only = _carrier_run(cn0_dbhz, runs=2, seconds=0.2)
     truth, rx = _aided_setup(2, 0.2, cn0=cn0_dbhz)
     zero3, zero = np.zeros((2, 3)), np.zeros(2)
-    plain = run_aided_tracking(create("channel_filter", "iq-filter", adapter=None, estimator="ukf",
-                                      output="equivalent"),
-                               _OffsetNavigator(rx, zero3, zero3, zero, zero, (100.0, 0.0)), truth,
-                               np.random.default_rng(3))
+    plain = run_aided_tracking(
+        create("channel_filter", "iq-filter", adapter=None, estimator="ukf", output="equivalent"),
+        _OffsetNavigator(rx, zero3, zero3, zero, zero, (100.0, 0.0)),
+        truth,
+        np.random.default_rng(3),
+    )
     np.testing.assert_allclose(plain.residual_m, truth_only.residual_m, rtol=0, atol=1e-12)
 
 
@@ -66,12 +68,19 @@ def test_carrier_prefilter_without_carrier_outputs_is_refused():
     zero3, zero = np.zeros((1, 3)), np.zeros(1)
     iq = create("channel_filter", "iq-filter", adapter=None, estimator="ukf", output="equivalent")
     with pytest.raises(ConfigError, match="carrier_filter"):
-        run_aided_tracking(iq, _OffsetNavigator(rx, zero3, zero3, zero, zero, (100.0, 0.0)), truth,
-                           np.random.default_rng(0), carrier_filter=iq)
+        run_aided_tracking(
+            iq,
+            _OffsetNavigator(rx, zero3, zero3, zero, zero, (100.0, 0.0)),
+            truth,
+            np.random.default_rng(0),
+            carrier_filter=iq,
+        )
 
 
 def test_ins_ekf_refuses_a_carrier_filter_that_cannot_close_a_carrier_loop():
     with pytest.raises(ConfigError, match=r"ins-ekf'\.carrier_filter.*'iq-filter'.*carrier_freq_hz.*kf-carrier-loop"):
         create("nav_filter", "ins-ekf", carrier_filter="iq-filter")
-    assert create("nav_filter", "ins-ekf", carrier_filter="kf-carrier-loop").params.carrier_filter.name == \
-        "kf-carrier-loop"
+    assert (
+        create("nav_filter", "ins-ekf", carrier_filter="kf-carrier-loop").params.carrier_filter.name
+        == "kf-carrier-loop"
+    )

@@ -30,8 +30,12 @@ class _PromptPower:
 
     def checked_step(self, inputs):
         self.power.append(np.abs(inputs["correlators"].prompt) ** 2)
-        return {"code_error_chips": self.zeros, "code_error_var_chips2": self.zeros + 1e-3,
-                "freq_error_hz": self.zeros, "freq_error_var_hz2": self.zeros + 10.0}
+        return {
+            "code_error_chips": self.zeros,
+            "code_error_var_chips2": self.zeros + 1e-3,
+            "freq_error_hz": self.zeros,
+            "freq_error_var_hz2": self.zeros + 10.0,
+        }
 
 
 def _perfect_navigator(rx, runs):
@@ -74,7 +78,7 @@ def test_the_source_gets_the_run_interval_index_and_the_truths_gains():
     truth, rx = _aided_setup(runs, 0.1)
     K = truth.epochs
     gain = np.ones((K, runs, 6))
-    gain[K // 2:] = 0.0  # the signal gone for the second half
+    gain[K // 2 :] = 0.0  # the signal gone for the second half
     truth = replace(truth, signal_gain=gain)
     pre = _PromptPower()
     mp = pytest.MonkeyPatch()
@@ -86,9 +90,9 @@ def test_the_source_gets_the_run_interval_index_and_the_truths_gains():
     assert seen == list(range(K))
     power = np.stack(pre.power)  # (K, runs, ch)
     # 45 dB-Hz, T = 1 ms: |P|^2 = A^2 + 2 = 2 c T + 2 = 65 with the signal; 2 (noise) without.
-    n = power[K // 2:].size
-    assert abs(power[K // 2:].mean() - 2.0) < 4 * 2.0 / np.sqrt(n)  # exponential law: sd = mean
-    assert power[:K // 2].mean() > 50.0
+    n = power[K // 2 :].size
+    assert abs(power[K // 2 :].mean() - 2.0) < 4 * 2.0 / np.sqrt(n)  # exponential law: sd = mean
+    assert power[: K // 2].mean() > 50.0
 
 
 def test_the_navigator_builds_its_kf_once_and_updates_as_the_one_call_form(monkeypatch):
@@ -113,8 +117,9 @@ def test_the_navigator_builds_its_kf_once_and_updates_as_the_one_call_form(monke
     cov = np.broadcast_to(np.diag([4.0, 0.04]), (runs, n, 2, 2)).copy()
     cn0 = g.uniform(35, 50, (runs, n))
     P0 = np.diag([25.0] * 3 + [1.0] * 3 + [4.0] * 3)
-    nav = PvaNavigator(np.zeros((runs, 3)), np.zeros((runs, 3)), np.zeros((runs, 3)), P0, np.zeros((runs, 2)),
-                       np.eye(2))
+    nav = PvaNavigator(
+        np.zeros((runs, 3)), np.zeros((runs, 3)), np.zeros((runs, 3)), P0, np.zeros((runs, 2)), np.eye(2)
+    )
     assert made == [("estimator", "kf"), ("estimator", "kf")]
     for i in range(3):
         P_before = nav.P.copy()

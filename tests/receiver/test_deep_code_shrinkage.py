@@ -40,14 +40,19 @@ def _gains(**params) -> np.ndarray:
     channel = gf.registry.create("channel_filter", "iq-filter", **{**settings, **params})
     batch = (RUNS, 1)
     cn0 = np.full(batch, 45.0)
-    channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=1.0, epoch_interval_s=T,
-                                    cn0_dbhz=cn0))
+    channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=1.0, epoch_interval_s=T, cn0_dbhz=cn0))
     simulator, amplitude = CorrelatorSimulator(T, 1.0), amplitude_from_cn0(cn0, T)
     zero, phase, code = np.zeros(batch), rng.uniform(-np.pi, np.pi, batch), np.full(batch, CODE_ERROR_CHIPS)
     z = []
     for _ in range(INTERVALS):
-        out = channel.step({"correlators": simulator.draw(code, phase, zero, amplitude, rng),
-                            "nco_shift_chips": zero, "nco_shift_hz": zero, "data_bit": np.ones(batch)})
+        out = channel.step(
+            {
+                "correlators": simulator.draw(code, phase, zero, amplitude, rng),
+                "nco_shift_chips": zero,
+                "nco_shift_hz": zero,
+                "data_bit": np.ones(batch),
+            }
+        )
         z.append(out["code_error_chips"][:, 0])
     return np.mean(z[SKIP:], axis=0) / CODE_ERROR_CHIPS  # past the pull-in
 
@@ -66,9 +71,11 @@ def test_new_information_reports_a_small_code_error_shrunk_towards_zero(new_info
     assert gain + 4 * se < 1.0
 
 
-@pytest.mark.parametrize("params", [{"equivalent_code": "discriminator"},
-                                    {"estimator": {"name": "ukf", "params": {"alpha": 1.0}}}],
-                         ids=["discriminator", "ukf-spread"])
+@pytest.mark.parametrize(
+    "params",
+    [{"equivalent_code": "discriminator"}, {"estimator": {"name": "ukf", "params": {"alpha": 1.0}}}],
+    ids=["discriminator", "ukf-spread"],
+)
 def test_the_alternatives_report_it_unshrunk(new_information, params):
     # The code discriminator (measured 0.92 +- 0.05), or sigma points spread over the prior
     # (alpha = 1: a statistical linearisation of the prompt across the peak; 0.89 +- 0.05).

@@ -8,8 +8,16 @@ from gnssframework import random_streams as draw
 from gnssframework.experiments import get_scenario
 
 G0_M_S2, C_M_S, F_L1_HZ = 9.80665, 299_792_458.0, 1575.42e6
-PULSE = {"profile": "jerk-pulse", "duration_s": 5.0, "settle_s": 1.0, "pulse_accel_g": 30.0, "pulse_jerk_g_s": 50.0,
-         "pulse_start_s": 1.0, "pulse_hold_s": 1.5, "pulse_direction_enu": (0.0, 0.0, 1.0)}
+PULSE = {
+    "profile": "jerk-pulse",
+    "duration_s": 5.0,
+    "settle_s": 1.0,
+    "pulse_accel_g": 30.0,
+    "pulse_jerk_g_s": 50.0,
+    "pulse_start_s": 1.0,
+    "pulse_hold_s": 1.5,
+    "pulse_direction_enu": (0.0, 0.0, 1.0),
+}
 
 
 def _scen(**params):
@@ -91,8 +99,9 @@ def test_misalignment_is_drawn_per_run_and_leaves_the_other_errors_unchanged():
     # Off: nothing drawn, no matrix, every other error the same draw as with it on.
     plain = simulate_imu(dth_true, dv_true, 0.005, grade, draw.run_streams(9, (), range(3)), (3,))
     assert plain[2].gyro_misalignment is None
-    np.testing.assert_allclose(three[0] - plain[0], np.einsum("rij,tj->tri", three[2].gyro_misalignment, dth_true),
-                               rtol=1e-9, atol=1e-18)
+    np.testing.assert_allclose(
+        three[0] - plain[0], np.einsum("rij,tj->tri", three[2].gyro_misalignment, dth_true), rtol=1e-9, atol=1e-18
+    )
 
 
 def test_deep_scenario_takes_the_misalignment_in_its_imu_grade():
@@ -119,20 +128,30 @@ def test_a_case_adds_the_error_sources_to_the_scenarios_truth():
     from gnssframework.experiments.scenarios.deep_integration import DeepIntegrationCase
 
     base = _scen()
-    case = DeepIntegrationCase.model_validate({"name": "e", "cn0_dbhz": 45.0, "gyro_misalignment_mrad": 1.0,
-                                               "oscillator_g_sensitivity_per_g": (0.0, 0.0, 1e-9)})
+    case = DeepIntegrationCase.model_validate(
+        {
+            "name": "e",
+            "cn0_dbhz": 45.0,
+            "gyro_misalignment_mrad": 1.0,
+            "oscillator_g_sensitivity_per_g": (0.0, 0.0, 1e-9),
+        }
+    )
     update = case.scenario_update(base.params)
     assert update["oscillator_g_sensitivity_per_g"] == (0.0, 0.0, 1e-9)
     imu = update["imu"]  # the scenario's grade with the case's misalignment, every other level kept
     assert imu.gyro_misalignment_mrad == 1.0 and imu.accel_misalignment_mrad == base.params.imu.accel_misalignment_mrad
     assert imu.model_dump(exclude={"gyro_misalignment_mrad"}) == base.params.imu.model_dump(
-        exclude={"gyro_misalignment_mrad"})
+        exclude={"gyro_misalignment_mrad"}
+    )
     assert DeepIntegrationCase.model_validate({"cn0_dbhz": 45.0}).scenario_update(base.params) == {}
     # The case's g-sensitivity gives the same truth as the scenario parameter.
     flight = base.flight()
-    by_case = type(base)(base.params.model_copy(update=update))._truth(flight, 45.0, 2, draw.run_streams(7, (), range(2)))
-    by_scen = _scen(oscillator_g_sensitivity_per_g=(0.0, 0.0, 1e-9))._truth(flight, 45.0, 2,
-                                                                          draw.run_streams(7, (), range(2)))
+    by_case = type(base)(base.params.model_copy(update=update))._truth(
+        flight, 45.0, 2, draw.run_streams(7, (), range(2))
+    )
+    by_scen = _scen(oscillator_g_sensitivity_per_g=(0.0, 0.0, 1e-9))._truth(
+        flight, 45.0, 2, draw.run_streams(7, (), range(2))
+    )
     np.testing.assert_array_equal(by_case.clock_m, by_scen.clock_m)
     with pytest.raises(Exception, match="gyro_misalignment_mrad"):
         DeepIntegrationCase.model_validate({"cn0_dbhz": 45.0, "gyro_misalignment_mrad": -1.0})
@@ -146,13 +165,17 @@ def test_a_gnss_only_candidate_has_no_imu_to_misalign_but_its_clock_sees_the_osc
     import gnssframework as gf
 
     scen = _scen(duration_s=0.6, settle_s=0.2)
-    cases = {"nominal": {"cn0_dbhz": 45.0},
-             "misalignment": {"cn0_dbhz": 45.0, "gyro_misalignment_mrad": 1.0, "accel_misalignment_mrad": 1.0},
-             "g-sensitivity": {"cn0_dbhz": 45.0, "oscillator_g_sensitivity_per_g": (0.0, 0.0, 1e-9)}}
+    cases = {
+        "nominal": {"cn0_dbhz": 45.0},
+        "misalignment": {"cn0_dbhz": 45.0, "gyro_misalignment_mrad": 1.0, "accel_misalignment_mrad": 1.0},
+        "g-sensitivity": {"cn0_dbhz": 45.0, "oscillator_g_sensitivity_per_g": (0.0, 0.0, 1e-9)},
+    }
     res = {}
     for name, case in cases.items():
-        plugins = {"channel_filter": gf.registry.create("channel_filter", "iq-filter", output="equivalent"),
-                   "nav_filter": gf.registry.create("nav_filter", "ekf-pva", clock="ocxo")}
+        plugins = {
+            "channel_filter": gf.registry.create("channel_filter", "iq-filter", output="equivalent"),
+            "nav_filter": gf.registry.create("nav_filter", "ekf-pva", clock="ocxo"),
+        }
         res[name] = scen.run_batch(case, plugins, 2, draw.run_streams(4, (0,), range(2))).metrics
     for metric in ("horizontal_position_error_rmse", "vertical_velocity_error_rmse", "freq_tracking_error_rmse"):
         np.testing.assert_array_equal(res["misalignment"][metric], res["nominal"][metric])

@@ -84,8 +84,13 @@ class _LinearErrorIns:
 
 
 def _P0():
-    return np.diag([(0.5 * np.pi / 180) ** 2] * 3 + [0.3**2] * 3 + [5.0**2] * 3 + [(1e-3 * G) ** 2] * 3
-                   + [(1.0 * np.pi / 180 / 3600) ** 2] * 3)
+    return np.diag(
+        [(0.5 * np.pi / 180) ** 2] * 3
+        + [0.3**2] * 3
+        + [5.0**2] * 3
+        + [(1e-3 * G) ** 2] * 3
+        + [(1.0 * np.pi / 180 / 3600) ** 2] * 3
+    )
 
 
 def test_deep_loop_with_ins_navigator_is_consistent_and_converges():

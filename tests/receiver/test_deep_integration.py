@@ -28,6 +28,7 @@ G = 9.80665
 
 # --- NCO aiding --------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("accel_aiding", [True, False])
 def test_constant_jerk_line_of_sight_leaves_the_predicted_residual(accel_aiding):
     # Receiver moving straight at a fixed satellite: the range is an exact cubic in time,
@@ -87,6 +88,7 @@ def test_nco_schedule_refuses_bad_intervals():
 
 
 # --- differencing ------------------------------------------------------------------------
+
 
 def _random_problem(rng, runs=3, n_ch=6, m=15):
     A = rng.normal(size=(m, m)) * 0.05
@@ -187,8 +189,11 @@ def test_differenced_filter_nees_is_consistent_with_its_dimension():
     nees = []
     for _ in range(10):
         x_true = x_true @ F.T + rng.normal(size=(runs, m)) @ Lq.T
-        z = (np.einsum("rij,rj->ri", H, x_true) + rng.normal(size=(runs, n_ch)) * np.sqrt(r_diag)
-             + rng.normal(size=(runs, 1)) * 1e4)
+        z = (
+            np.einsum("rij,rj->ri", H, x_true)
+            + rng.normal(size=(runs, n_ch)) * np.sqrt(r_diag)
+            + rng.normal(size=(runs, 1)) * 1e4
+        )
         x, P = x @ F.T, F @ P @ F.T + Q
         x, P = linear_update(x, P, *difference(z, H, r_diag, ref))
         err = x - x_true
@@ -199,6 +204,7 @@ def test_differenced_filter_nees_is_consistent_with_its_dimension():
 
 
 # --- new information of a prefilter interval -----------------------------------------------
+
 
 def test_new_information_reproduces_the_posterior_and_counts_measurements_once():
     rng = np.random.default_rng(5)
@@ -229,6 +235,7 @@ def test_new_information_refuses_an_interval_without_information():
 
 
 # --- metrics ------------------------------------------------------------------------------
+
 
 def test_enu_errors_against_the_closed_form_local_axes():
     from gnssframework.experiments.scenarios.deep_integration_metrics import enu_errors
@@ -266,6 +273,7 @@ def test_post_settle_rmse_and_max():
 
 # --- aided tracking harness ------------------------------------------------------------------
 
+
 class _OffsetNavigator:
     """Truth plus a known position/velocity and clock offset; records the updates (open loop)."""
 
@@ -296,8 +304,11 @@ def _aided_setup(runs, seconds, T=1e-3, cn0=45.0, jerk=False, accel_g=0.0):
 
     def rx(t):
         p = r0 + v0 * t + a0 * t**2 / 2 + j * t**3 / 6
-        return (np.broadcast_to(p, (runs, 3)), np.broadcast_to(v0 + a0 * t + j * t**2 / 2, (runs, 3)),
-                np.broadcast_to(a0 + j * t, (runs, 3)))
+        return (
+            np.broadcast_to(p, (runs, 3)),
+            np.broadcast_to(v0 + a0 * t + j * t**2 / 2, (runs, 3)),
+            np.broadcast_to(a0 + j * t, (runs, 3)),
+        )
 
     K = int(round(seconds / T))
     clock = np.zeros((K + 1, runs, 2))
@@ -307,8 +318,7 @@ def _aided_setup(runs, seconds, T=1e-3, cn0=45.0, jerk=False, accel_g=0.0):
 
 
 def _iq_filter():
-    return create("channel_filter", "iq-filter", adapter=None, estimator="ukf",
-                                 output="equivalent")
+    return create("channel_filter", "iq-filter", adapter=None, estimator="ukf", output="equivalent")
 
 
 def _aided_nees(output, jerk=False, accel_g=0.0, **harness):
@@ -360,8 +370,12 @@ class _OraclePrefilter:
 
     def checked_step(self, inputs):
         code, freq = inputs["correlators"]
-        return {"code_error_chips": code, "code_error_var_chips2": np.full(code.shape, 1e-4),
-                "freq_error_hz": freq, "freq_error_var_hz2": np.full(freq.shape, 1.0)}
+        return {
+            "code_error_chips": code,
+            "code_error_var_chips2": np.full(code.shape, 1e-4),
+            "freq_error_hz": freq,
+            "freq_error_var_hz2": np.full(freq.shape, 1.0),
+        }
 
 
 @pytest.mark.parametrize("accel_aiding", [False, True])
@@ -387,8 +401,9 @@ def test_residuals_are_taken_against_the_navigator_not_the_replica(monkeypatch, 
     dr, dv = gen.normal(size=(runs, 3)) * 5.0, gen.normal(size=(runs, 3)) * 0.5
     db, dd = gen.normal(size=runs) * 3.0, gen.normal(size=runs) * 0.3
     nav = _OffsetNavigator(rx, dr, dv, db, dd, (100.0, 0.0))
-    rec = deep.run_aided_tracking(_OraclePrefilter(), nav, truth, np.random.default_rng(0), nco_interval_s=0.1,
-                                  accel_aiding=accel_aiding)
+    rec = deep.run_aided_tracking(
+        _OraclePrefilter(), nav, truth, np.random.default_rng(0), nco_interval_s=0.1, accel_aiding=accel_aiding
+    )
     for (t, los), res in zip(nav.updates, rec.residual_m):
         want_rho = np.einsum("rcj,rj->rc", los, dr + dv * t) - db[:, None]
         want_rate = np.einsum("rcj,rj->rc", los, dv) - dd[:, None]
@@ -411,8 +426,9 @@ def test_aided_tracking_refuses_rates_that_are_not_multiples():
     with pytest.raises(ConfigError, match="nco_interval_s"):
         run_aided_tracking(_iq_filter(), nav, truth, np.random.default_rng(0), nco_interval_s=0.0025)
     with pytest.raises(ConfigError, match="update_interval_s"):
-        run_aided_tracking(_iq_filter(), nav, truth, np.random.default_rng(0), nco_interval_s=0.003,
-                           update_interval_s=0.1)
+        run_aided_tracking(
+            _iq_filter(), nav, truth, np.random.default_rng(0), nco_interval_s=0.003, update_interval_s=0.1
+        )
 
 
 def test_integration_measurement_signs_and_clock_recovery_noise_free():
@@ -424,8 +440,13 @@ def test_integration_measurement_signs_and_clock_recovery_noise_free():
     los /= np.linalg.norm(los, axis=-1, keepdims=True)
     dx = rng.normal(size=(runs, 15))
     db, dd = np.array([30.0, -7.0]), np.array([0.4, 2.0])
-    res = np.stack([np.einsum("rcj,rj->rc", los, dx[:, 6:9]) - db[:, None],
-                    np.einsum("rcj,rj->rc", los, dx[:, 3:6]) - dd[:, None]], -1)
+    res = np.stack(
+        [
+            np.einsum("rcj,rj->rc", los, dx[:, 6:9]) - db[:, None],
+            np.einsum("rcj,rj->rc", los, dx[:, 3:6]) - dd[:, None],
+        ],
+        -1,
+    )
     cov = np.broadcast_to(np.diag([4.0, 0.01]), (runs, n, 2, 2)) * rng.uniform(1, 3, (runs, n, 1, 1))
     ref = np.array([0, 3])
     z, H, R = integration_measurement(res, cov, los, ref)
@@ -437,6 +458,7 @@ def test_integration_measurement_signs_and_clock_recovery_noise_free():
 
 
 # --- scalar loops under the paper's jerk -----------------------------------------------------
+
 
 def _jerk_signal(jerk_g_s, runs, T=1e-3, t_on=0.2, t_ramp=0.6, duration_s=1.4):
     """Range with a 300 m/s closing rate, then a constant jerk for ``t_ramp`` s, then constant acceleration."""
@@ -459,8 +481,9 @@ def test_third_order_pll_follows_the_jerk_law_and_slips_under_50_g_per_s():
     # Third-order PLL (Kaplan and Hegarty 2017, table 8.23): steady phase error
     # jerk / w0^3 with B_L = 0.7845 w0; 5 g/s along the line of sight at B_L = 15 Hz: 0.23 rad.
     truth, f0, jerk_rad_s3 = _jerk_signal(5.0, 8)
-    rec = run_closed_loop(create("channel_filter", "scalar", fll_bandwidth_hz=0.0), truth, np.random.default_rng(3),
-                          initial_doppler_hz=f0)
+    rec = run_closed_loop(
+        create("channel_filter", "scalar", fll_bandwidth_hz=0.0), truth, np.random.default_rng(3), initial_doppler_hz=f0
+    )
     phase = (rec.phase_error_rad + np.pi / 2) % np.pi - np.pi / 2  # Costas: modulo half a cycle
     expected = jerk_rad_s3 / (15.0 / 0.7845) ** 3
     assert np.mean(phase[500:800]) == pytest.approx(expected, rel=0.05)
@@ -473,6 +496,7 @@ def test_third_order_pll_follows_the_jerk_law_and_slips_under_50_g_per_s():
 
 
 # --- closed loop: GNSS-only navigator in the harness -------------------------------------------
+
 
 def test_pva_navigator_closes_the_loop_with_consistent_nees():
     from gnssframework.receiver.deep.aided_tracking import run_aided_tracking
@@ -538,8 +562,10 @@ def test_pva_navigator_update_with_a_registry_estimator_equals_the_kalman_update
     cn0 = rng.uniform(35, 50, (runs, n))
     P0 = np.diag([25.0] * 3 + [1.0] * 3 + [4.0] * 3)
     x0 = rng.normal(size=(runs, 9)) * 1e3
-    navs = [PvaNavigator(x0[:, :3], x0[:, 3:6], x0[:, 6:], P0, np.zeros((runs, 2)), np.eye(2), estimator=e)
-            for e in (None, estimator)]
+    navs = [
+        PvaNavigator(x0[:, :3], x0[:, 3:6], x0[:, 6:], P0, np.zeros((runs, 2)), np.eye(2), estimator=e)
+        for e in (None, estimator)
+    ]
     for nav in navs:
         nav.update(0.1, res, cov, los, cn0)
     np.testing.assert_allclose(navs[1].x, navs[0].x, atol=1e-8)

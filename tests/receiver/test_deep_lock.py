@@ -11,21 +11,39 @@ import pytest
 from gnssframework.random_streams import name_key, run_streams
 from gnssframework.experiments.scenarios import get_scenario
 
-DEEP = {"channel_filter": {"name": "iq-filter", "params": {"estimator": "ukf", "adaptive": False,
-                                                            "output": "equivalent"}},
-        "nav_filter": {"name": "ins-ekf", "params": {"carrier_filter": {
-            "name": "kf-carrier-loop", "params": {"states": 2, "q": [0.0, 0.001], "r": 0.05}}}}}
-LOOSE_NO_FLL = {"channel_filter": {"name": "scalar", "params": {"fll_bandwidth_hz": 0.0}},
-                "nav_filter": {"name": "ins-ekf", "params": {}}}
+DEEP = {
+    "channel_filter": {"name": "iq-filter", "params": {"estimator": "ukf", "adaptive": False, "output": "equivalent"}},
+    "nav_filter": {
+        "name": "ins-ekf",
+        "params": {
+            "carrier_filter": {"name": "kf-carrier-loop", "params": {"states": 2, "q": [0.0, 0.001], "r": 0.05}}
+        },
+    },
+}
+LOOSE_NO_FLL = {
+    "channel_filter": {"name": "scalar", "params": {"fll_bandwidth_hz": 0.0}},
+    "nav_filter": {"name": "ins-ekf", "params": {}},
+}
 
 
 def _run(jerk_g_s: float, candidate: dict, runs: int = 2):
     # A 20 g vertical pulse from 0.5 s; at 50 g/s it rises in 0.75 s, holds 0.3 s and falls by 2.3 s.
-    sc = get_scenario({"kind": "deep-integration", "profile": "jerk-pulse", "duration_s": 2.3, "settle_s": 0.3,
-                       "pulse_accel_g": 20.0, "pulse_jerk_g_s": jerk_g_s, "pulse_start_s": 0.5, "pulse_hold_s": 0.3})
+    sc = get_scenario(
+        {
+            "kind": "deep-integration",
+            "profile": "jerk-pulse",
+            "duration_s": 2.3,
+            "settle_s": 0.3,
+            "pulse_accel_g": 20.0,
+            "pulse_jerk_g_s": jerk_g_s,
+            "pulse_start_s": 0.5,
+            "pulse_hold_s": 0.3,
+        }
+    )
     plugins = sc.build(candidate)
-    return sc.run_batch({"name": "45dBHz", "cn0_dbhz": 45.0}, plugins, runs,
-                        run_streams(5, name_key("45dBHz"), range(runs))).metrics
+    return sc.run_batch(
+        {"name": "45dBHz", "cn0_dbhz": 45.0}, plugins, runs, run_streams(5, name_key("45dBHz"), range(runs))
+    ).metrics
 
 
 @pytest.mark.slow

@@ -35,13 +35,22 @@ def test_pv_fix_recovers_the_truth_and_its_covariance_is_consistent():
     start_p = r + g.normal(size=(runs, 3)) * 100.0
     start_v = v + g.normal(size=(runs, 3)) * 5.0
     # Noise free: the fix is the truth whatever the starting point.
-    p, vv, _ = pv_fix(np.broadcast_to(rho, var_r.shape), np.broadcast_to(rate, var_r.shape), var_r, var_v, s, sv,
-                      start_p, start_v)
+    p, vv, _ = pv_fix(
+        np.broadcast_to(rho, var_r.shape), np.broadcast_to(rate, var_r.shape), var_r, var_v, s, sv, start_p, start_v
+    )
     np.testing.assert_allclose(p, np.broadcast_to(r, p.shape), atol=1e-5)
     np.testing.assert_allclose(vv, np.broadcast_to(v, vv.shape), atol=1e-7)
     # With noise: NEES of [position, velocity] averages 6 (Monte Carlo, 4000 draws: SE 0.055).
-    p, vv, cov = pv_fix(rho + g.normal(size=var_r.shape) * np.sqrt(var_r),
-                        rate + g.normal(size=var_v.shape) * np.sqrt(var_v), var_r, var_v, s, sv, start_p, start_v)
+    p, vv, cov = pv_fix(
+        rho + g.normal(size=var_r.shape) * np.sqrt(var_r),
+        rate + g.normal(size=var_v.shape) * np.sqrt(var_v),
+        var_r,
+        var_v,
+        s,
+        sv,
+        start_p,
+        start_v,
+    )
     err = np.concatenate([p - r, vv - v], -1)
     nees = np.einsum("ri,rij,rj->r", err, np.linalg.inv(cov), err)
     assert abs(nees.mean() - 6.0) < 4 * np.sqrt(12 / runs), nees.mean()

@@ -6,8 +6,12 @@ import numpy as np
 import pytest
 
 from gnssframework.experiments.scenarios import get_scenario
-from gnssframework.receiver.deep.loose import (correlated_error_inflation, fix_gate, line_of_sight_accel,
-                                               trailing_rate_measurement)
+from gnssframework.receiver.deep.loose import (
+    correlated_error_inflation,
+    fix_gate,
+    line_of_sight_accel,
+    trailing_rate_measurement,
+)
 from gnssframework.signal.constants import L1_WAVELENGTH_M
 
 
@@ -24,11 +28,16 @@ def test_trailing_rate_is_the_rate_at_the_update_instant_and_reads_nothing_after
     np.testing.assert_allclose(rate, v0 + a * k_edge * T, rtol=0, atol=1e-6)
     # The replica's frequency errors after the edge do not enter; those in the window do, times lambda.
     freq_err[k_edge:] = 1e3
-    np.testing.assert_array_equal(trailing_rate_measurement(record, carrier, k_edge, window, T,
-                                                            np.full((2, 3), a)), rate)
-    freq_err[k_edge - window:k_edge] = 2.0
-    np.testing.assert_allclose(trailing_rate_measurement(record, carrier, k_edge, window, T, np.full((2, 3), a)),
-                               rate + 2.0 * L1_WAVELENGTH_M, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(
+        trailing_rate_measurement(record, carrier, k_edge, window, T, np.full((2, 3), a)), rate
+    )
+    freq_err[k_edge - window : k_edge] = 2.0
+    np.testing.assert_allclose(
+        trailing_rate_measurement(record, carrier, k_edge, window, T, np.full((2, 3), a)),
+        rate + 2.0 * L1_WAVELENGTH_M,
+        rtol=0,
+        atol=1e-6,
+    )
 
 
 def test_line_of_sight_accel_projects_the_relative_acceleration():
@@ -117,13 +126,16 @@ def test_each_loose_option_changes_the_loose_candidate_and_only_it(extra):
     import gnssframework as gf
 
     base = {"kind": "deep-integration", "profile": "straight", "duration_s": 1.0, "settle_s": 0.3, "channels": 6}
-    plugins = {"channel_filter": gf.registry.create("channel_filter", "scalar"),
-               "nav_filter": gf.registry.create("nav_filter", "ins-ekf")}
+    plugins = {
+        "channel_filter": gf.registry.create("channel_filter", "scalar"),
+        "nav_filter": gf.registry.create("nav_filter", "ins-ekf"),
+    }
     out = {}
     for name, params in (("given", base), ("option", {**base, **extra})):
         scenario = get_scenario(params)
         out[name] = scenario.run_batch({"cn0_dbhz": 40.0}, plugins, 2, np.random.default_rng(5)).metrics
     # Same draws, another measurement model: the position errors differ, the tracking does not.
     np.testing.assert_array_equal(out["option"]["code_tracking_error_rmse"], out["given"]["code_tracking_error_rmse"])
-    assert not np.array_equal(out["option"]["horizontal_position_error_rmse"],
-                              out["given"]["horizontal_position_error_rmse"])
+    assert not np.array_equal(
+        out["option"]["horizontal_position_error_rmse"], out["given"]["horizontal_position_error_rmse"]
+    )

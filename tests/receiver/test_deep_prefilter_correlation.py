@@ -21,18 +21,29 @@ RUNS, INTERVALS, SKIP, T = 400, 300, 100, 0.001
 def _equivalent_measurements() -> tuple[np.ndarray, np.ndarray]:
     """Code and frequency equivalent measurements ``(intervals, runs, 2)`` and their variances."""
     rng = np.random.default_rng(2022)
-    channel = gf.registry.create("channel_filter", "iq-filter", estimator="ukf", adaptive=False,
-                                 output="equivalent", q=[0.001, 1e-8, 1e-5, 1e-4, 35.4])
+    channel = gf.registry.create(
+        "channel_filter",
+        "iq-filter",
+        estimator="ukf",
+        adaptive=False,
+        output="equivalent",
+        q=[0.001, 1e-8, 1e-5, 1e-4, 35.4],
+    )
     batch = (RUNS, 1)
     cn0 = np.full(batch, 45.0)
-    channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=1.0, epoch_interval_s=T,
-                                    cn0_dbhz=cn0))
+    channel.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=1.0, epoch_interval_s=T, cn0_dbhz=cn0))
     simulator, amplitude = CorrelatorSimulator(T, 1.0), amplitude_from_cn0(cn0, T)
     zero, phase = np.zeros(batch), rng.uniform(-np.pi, np.pi, batch)
     z, var = [], []
     for _ in range(INTERVALS):  # the replica is exact: every measurement's truth is 0
-        out = channel.step({"correlators": simulator.draw(zero, phase, zero, amplitude, rng),
-                            "nco_shift_chips": zero, "nco_shift_hz": zero, "data_bit": np.ones(batch)})
+        out = channel.step(
+            {
+                "correlators": simulator.draw(zero, phase, zero, amplitude, rng),
+                "nco_shift_chips": zero,
+                "nco_shift_hz": zero,
+                "data_bit": np.ones(batch),
+            }
+        )
         z.append(np.stack([out["code_error_chips"][:, 0], out["freq_error_hz"][:, 0]], -1))
         var.append(np.stack([out["code_error_var_chips2"][:, 0], out["freq_error_var_hz2"][:, 0]], -1))
     return np.array(z)[SKIP:], np.array(var)[SKIP:]  # past the pull-in

@@ -39,12 +39,15 @@ from gnssframework_plugins.channel_filters import PHASE_VAR_UNIFORM_RAD2, _phase
 T = 0.001
 # The failing step's prior (run 6, channel 6; rounded to 7 digits): [A, dtau, dtheta, df, dfdot].
 LOST_MEAN = np.array([1.630965, -0.36156, 3553.299, -6501.333, 423.607])
-LOST_COV = np.array([
-    [2.884378e-03, 8.797204e-03, -8.502085e+01, -1.301623e+01, -6.322290e+00],
-    [8.797204e-03, 4.123431e-02, -3.982761e+02, -6.075051e+01, -2.943727e+01],
-    [-8.502085e+01, -3.982761e+02, 3.847358e+06, 5.870169e+05, 2.845178e+05],
-    [-1.301623e+01, -6.075051e+01, 5.870169e+05, 2.435869e+05, 1.558921e+05],
-    [-6.322290e+00, -2.943727e+01, 2.845178e+05, 1.558921e+05, 1.349594e+05]])
+LOST_COV = np.array(
+    [
+        [2.884378e-03, 8.797204e-03, -8.502085e01, -1.301623e01, -6.322290e00],
+        [8.797204e-03, 4.123431e-02, -3.982761e02, -6.075051e01, -2.943727e01],
+        [-8.502085e01, -3.982761e02, 3.847358e06, 5.870169e05, 2.845178e05],
+        [-1.301623e01, -6.075051e01, 5.870169e05, 2.435869e05, 1.558921e05],
+        [-6.322290e00, -2.943727e01, 2.845178e05, 1.558921e05, 1.349594e05],
+    ]
+)
 # A locked channel at the same amplitude: tenths of a radian and a few Hz.
 LOCKED_MEAN = np.array([1.630965, 0.01, 0.1, 0.5, 2.0])
 LOCKED_COV = np.diag([2.9e-3, 1e-4, 1e-2, 1.0, 25.0])
@@ -52,10 +55,18 @@ LOCKED_COV = np.diag([2.9e-3, 1e-4, 1e-2, 1.0, 25.0])
 
 def _vector_prefilter():
     """The tuned `vector` candidate's prefilter of examples/deep_integration_ci.toml."""
-    channel = gf.registry.create("channel_filter", "iq-filter", estimator="ukf", adaptive=False,
-                                 output="equivalent", q=[0.001, 1e-8, 1e-5, 1e-4, 51.9])
-    channel.reset((1, 1), RunContext(coherent_time_s=T, early_late_spacing_chips=1.0, epoch_interval_s=T,
-                                     cn0_dbhz=np.full((1, 1), 35.0)))
+    channel = gf.registry.create(
+        "channel_filter",
+        "iq-filter",
+        estimator="ukf",
+        adaptive=False,
+        output="equivalent",
+        q=[0.001, 1e-8, 1e-5, 1e-4, 51.9],
+    )
+    channel.reset(
+        (1, 1),
+        RunContext(coherent_time_s=T, early_late_spacing_chips=1.0, epoch_interval_s=T, cn0_dbhz=np.full((1, 1), 35.0)),
+    )
     return channel
 
 
@@ -132,12 +143,23 @@ def test_the_prefilter_steps_on_from_a_lost_channels_state():
     rng = np.random.default_rng(22)
     simulator, amplitude = CorrelatorSimulator(T, 1.0), amplitude_from_cn0(np.full((1, 1), 27.0), T)
     zero = np.zeros((1, 1))
-    channel.step({"correlators": simulator.draw(zero, zero, zero, amplitude, rng),
-                  "nco_shift_chips": zero, "nco_shift_hz": zero, "data_bit": np.ones((1, 1))})
+    channel.step(
+        {
+            "correlators": simulator.draw(zero, zero, zero, amplitude, rng),
+            "nco_shift_chips": zero,
+            "nco_shift_hz": zero,
+            "data_bit": np.ones((1, 1)),
+        }
+    )
     channel.state = Gaussian(LOST_MEAN[None], LOST_COV[None])
     for _ in range(200):
-        out = channel.step({"correlators": simulator.draw(zero, zero, rng.uniform(-500, 500, (1, 1)), amplitude,
-                                                          rng),
-                            "nco_shift_chips": zero, "nco_shift_hz": zero, "data_bit": np.ones((1, 1))})
+        out = channel.step(
+            {
+                "correlators": simulator.draw(zero, zero, rng.uniform(-500, 500, (1, 1)), amplitude, rng),
+                "nco_shift_chips": zero,
+                "nco_shift_hz": zero,
+                "data_bit": np.ones((1, 1)),
+            }
+        )
         assert channel.state.cov[0, 2, 2] < 1e3  # was 3.8e6 rad² and growing
     assert np.all(np.isfinite(out["freq_error_hz"])) and np.all(out["freq_error_var_hz2"] > 0)

@@ -28,12 +28,15 @@ def test_compositions_that_cannot_run_are_refused_naming_the_field():
         sc.check_composition(_plugins("kf-smoother", "ins-ekf"), "candidates[1]")
 
 
-@pytest.mark.parametrize("field, value, match", [
-    ("update_interval_s", 0.0125, "whole multiple"),
-    ("nco_interval_s", 0.0015, "whole multiple"),
-    ("settle_s", 2.0, "settle_s"),
-    ("clock", "rubidium", "allowed"),
-])
+@pytest.mark.parametrize(
+    "field, value, match",
+    [
+        ("update_interval_s", 0.0125, "whole multiple"),
+        ("nco_interval_s", 0.0015, "whole multiple"),
+        ("settle_s", 2.0, "settle_s"),
+        ("clock", "rubidium", "allowed"),
+    ],
+)
 def test_bad_rates_and_settings_get_config_errors(field, value, match):
     with pytest.raises(ConfigError, match=match):
         get_scenario({"kind": "deep-integration", "duration_s": 1.0, "settle_s": 0.5, field: value})

@@ -44,10 +44,25 @@ def test_sample_source_correlators_follow_the_analytic_model_without_noise(code_
     # (truth minus replica) and whose carrier is phase_err rad ahead: the sample source's
     # taps are the model's mean R(err - o) e^{j phase} (sampled triangle: 1 % of A).
     fs, T, cn0 = 4e6, 1e-3, 45.0
-    x = generate_if_samples(3, 2 * T, fs, 0.0, cn0, np.random.default_rng(0), code_phase_chips=10.0,
-                            carrier_phase_rad=0.4, complex_samples=True, noise=False)
-    channel = Channel(GPS_L1CA, np.array([10.0 - code_error_chips]), np.array([GPS_L1CA.chip_rate_hz]),
-                      np.array([0.1]), np.array([0.0]))
+    x = generate_if_samples(
+        3,
+        2 * T,
+        fs,
+        0.0,
+        cn0,
+        np.random.default_rng(0),
+        code_phase_chips=10.0,
+        carrier_phase_rad=0.4,
+        complex_samples=True,
+        noise=False,
+    )
+    channel = Channel(
+        GPS_L1CA,
+        np.array([10.0 - code_error_chips]),
+        np.array([GPS_L1CA.chip_rate_hz]),
+        np.array([0.1]),
+        np.array([0.0]),
+    )
     corr = SampleSource(x.samples, fs, 0.0, GPS_L1CA.code(3)[None, :], T, noise_std=x.noise_std).correlate(channel, 0)
     amp = np.sqrt(2 * 10 ** (cn0 / 10) * T)
     mean = correlator_mean(amp, code_error_chips, 0.3, 0.0, T, np.array([-0.5, 0.0, 0.5]))
@@ -95,8 +110,12 @@ class _FixedChannelFilter:
 
     def checked_step(self, inputs):
         self.inputs = inputs
-        return {"code_error_chips": np.full(self.batch, 0.1), "code_error_var_chips2": np.full(self.batch, 0.01),
-                "freq_error_hz": np.full(self.batch, 0.2), "freq_error_var_hz2": np.full(self.batch, 1.0)}
+        return {
+            "code_error_chips": np.full(self.batch, 0.1),
+            "code_error_var_chips2": np.full(self.batch, 0.01),
+            "freq_error_hz": np.full(self.batch, 0.2),
+            "freq_error_var_hz2": np.full(self.batch, 1.0),
+        }
 
 
 class _CapturingNav:

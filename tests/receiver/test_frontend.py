@@ -10,8 +10,7 @@ import pytest
 
 from conftest import builtin_names
 from gnssframework.errors import ConfigError, DataFileError
-from gnssframework.receiver.frontend import (SatelliteSignal, open_recording, synthesize_samples,
-                                             write_recording)
+from gnssframework.receiver.frontend import SatelliteSignal, open_recording, synthesize_samples, write_recording
 from gnssframework.receiver.frontend.sigmf_meta import read_sigmf_meta
 
 FS = 2.6e6
@@ -31,8 +30,16 @@ def test_every_format_round_trips_with_its_sigmf_metadata(tmp_path, fmt, q_sign)
     x = synthesize_samples([SatelliteSignal(5, 60.0, 1200.0, 100.0)], 0.002, FS, if_hz, rng, complex_samples=cplx)
     levels = fmt.endswith("2")
     scale = 1.0 if levels else (1000.0 if fmt == "ci16_le" else (1.0 if fmt == "cf32_le" else 20.0))
-    path = write_recording(tmp_path / "rec.sigmf-data", x, fmt, FS, if_hz, q_sign=q_sign if cplx else 1,
-                           scale=scale, start_time="2026-01-01T00:00:00Z")
+    path = write_recording(
+        tmp_path / "rec.sigmf-data",
+        x,
+        fmt,
+        FS,
+        if_hz,
+        q_sign=q_sign if cplx else 1,
+        scale=scale,
+        start_time="2026-01-01T00:00:00Z",
+    )
     rec = open_recording(path)  # everything from the metadata
     assert (rec.info.format, rec.info.sample_rate_hz, rec.info.if_hz) == (fmt, FS, if_hz)
     assert rec.info.q_sign == (q_sign if cplx else 1) and rec.info.start_time == "2026-01-01T00:00:00Z"
@@ -49,23 +56,31 @@ def test_every_format_round_trips_with_its_sigmf_metadata(tmp_path, fmt, q_sign)
         assert np.max(np.abs(got - x * scale)) <= tol
 
 
-
 @pytest.mark.parametrize("fmt", sorted(FORMATS))
 def test_components_are_the_samples_as_stored_without_the_q_sign(tmp_path, fmt):
     """`read_components` (what the correlator reads): the SigMF types' own values, not a
     float copy, interleaved I then Q, the Q sign left to the reader; equal to `read`."""
     rng = np.random.default_rng(2)
     cplx = FORMATS[fmt]
-    x = synthesize_samples([SatelliteSignal(5, 60.0, 1200.0, 100.0)], 0.001, FS, 0.0 if cplx else 0.6e6, rng,
-                           complex_samples=cplx)
-    path = write_recording(tmp_path / "rec.sigmf-data", x, fmt, FS, 0.0 if cplx else 0.6e6,
-                           q_sign=-1 if cplx else 1, scale=1.0 if fmt.endswith("2") or fmt == "cf32_le" else 20.0)
+    x = synthesize_samples(
+        [SatelliteSignal(5, 60.0, 1200.0, 100.0)], 0.001, FS, 0.0 if cplx else 0.6e6, rng, complex_samples=cplx
+    )
+    path = write_recording(
+        tmp_path / "rec.sigmf-data",
+        x,
+        fmt,
+        FS,
+        0.0 if cplx else 0.6e6,
+        q_sign=-1 if cplx else 1,
+        scale=1.0 if fmt.endswith("2") or fmt == "cf32_le" else 20.0,
+    )
     rec = open_recording(path)
     comps = rec.read_components(7, 300)
     want = {"ri8": np.int8, "ci8": np.int8, "ci16_le": np.int16, "cf32_le": np.float32}.get(fmt, np.float32)
     assert comps.dtype == want and comps.size == 300 * (2 if cplx else 1)
     z = comps[0::2] + 1j * rec.info.q_sign * comps[1::2].astype(float) if cplx else comps
     np.testing.assert_array_equal(z, rec.read(7, 300))
+
 
 def test_streaming_in_blocks_gives_the_whole_file_once_and_a_truncated_tail_is_reported(tmp_path):
     rng = np.random.default_rng(2)
@@ -105,13 +120,16 @@ def test_the_metadata_is_valid_sigmf_and_states_the_if_as_an_rf_frequency(tmp_pa
     assert read_sigmf_meta(tmp_path / "a.sigmf-meta").if_hz == pytest.approx(0.092e6)
 
 
-@pytest.mark.parametrize("kwargs, field", [
-    ({"format": "ci4"}, "format"),
-    ({"format": "ci8"}, "sample_rate_hz"),
-    ({"format": "ci8", "sample_rate_hz": 1e6}, "sample_rate_hz"),
-    ({"format": "ri8", "sample_rate_hz": FS, "if_hz": 2e6}, "if_hz"),
-    ({"format": "ci8", "sample_rate_hz": FS, "q_sign": 2}, "q_sign"),
-])
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"format": "ci4"}, "format"),
+        ({"format": "ci8"}, "sample_rate_hz"),
+        ({"format": "ci8", "sample_rate_hz": 1e6}, "sample_rate_hz"),
+        ({"format": "ri8", "sample_rate_hz": FS, "if_hz": 2e6}, "if_hz"),
+        ({"format": "ci8", "sample_rate_hz": FS, "q_sign": 2}, "q_sign"),
+    ],
+)
 def test_bad_options_are_named(tmp_path, kwargs, field):
     path = tmp_path / "r.bin"
     path.write_bytes(bytes(100))
@@ -127,6 +145,6 @@ def test_missing_empty_and_broken_metadata_files(tmp_path):
     with pytest.raises(ConfigError, match="no whole sample"):
         open_recording(tmp_path / "one.bin", format="ci8", sample_rate_hz=FS)
     (tmp_path / "bad.sigmf-data").write_bytes(bytes(8))
-    (tmp_path / "bad.sigmf-meta").write_text("{\n  \"global\": \n")
+    (tmp_path / "bad.sigmf-meta").write_text('{\n  "global": \n')
     with pytest.raises(DataFileError, match="bad.sigmf-meta"):
         open_recording(tmp_path / "bad.sigmf-data")

@@ -22,8 +22,14 @@ from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.receiver.channels import ChannelRecord
 from gnssframework.receiver.channels.records import RECORD_FIELDS
 from gnssframework.receiver.frontend import SatelliteSignal, synthesize_samples, write_recording
-from gnssframework.receiver.navigation.inav_stream import (carries_inav, carries_lnav, channel_inav,
-                                                           coherent_periods, require_lnav, symbol_runs)
+from gnssframework.receiver.navigation.inav_stream import (
+    carries_inav,
+    carries_lnav,
+    channel_inav,
+    coherent_periods,
+    require_lnav,
+    symbol_runs,
+)
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.signal.galileo_e1 import GALILEO_E1B, GALILEO_E1B_BOC11, GALILEO_E1C_BOC11
 from gnssframework.signal.gps_l1ca import GPS_L1CA
@@ -36,8 +42,19 @@ WN = 1174
 def _record(prn: int, time_s, prompt_i, code_chips, coherent) -> ChannelRecord:
     rows = []
     for t, p, c, k in zip(time_s, prompt_i, code_chips, coherent):
-        values = dict(time_s=t, cn0_dbhz=45.0, pli=1.0, doppler_hz=0.0, code_phase_chips=c, carrier_phase_cycles=0.0,
-                      lock=1, stage=1, prompt_i=p, prompt_q=0.0, coherent_ms=k)
+        values = dict(
+            time_s=t,
+            cn0_dbhz=45.0,
+            pli=1.0,
+            doppler_hz=0.0,
+            code_phase_chips=c,
+            carrier_phase_cycles=0.0,
+            lock=1,
+            stage=1,
+            prompt_i=p,
+            prompt_q=0.0,
+            coherent_ms=k,
+        )
         rows.append(tuple(values[f] for f in RECORD_FIELDS))
     return ChannelRecord(prn, rows)
 
@@ -53,6 +70,7 @@ def test_signals_by_message_and_the_coherent_default():
         coherent_periods(GALILEO_E1B_BOC11, 10)
     # the library names its parameter; the track command names it as its option
     from gnssframework.cli import option_field
+
     assert option_field("tracking.coherent_ms") == "--coherent-ms-track"
 
 
@@ -84,7 +102,7 @@ def test_channel_inav_decodes_each_run_dates_its_rows_and_reports_a_bad_page():
     rng = np.random.default_rng(39)
     prompt = sym * 5.0 + rng.normal(0.0, 1.0, sym.size)  # Es/N0 = 11 dB: no symbol errors to speak of
     bad = 5 * inav.PAGE_SYMBOLS + 120  # inside the page at 18029 s: flip 40 coded symbols
-    prompt[bad:bad + 40] *= -1
+    prompt[bad : bad + 40] *= -1
     keep = np.r_[np.arange(n1), np.arange(n1 + skip, sym.size)]
     t = 2.5 + keep * 0.004  # recording time of each row (a code epoch)
     code = rng.uniform(0.0, 0.5, keep.size)  # replica code phase past that epoch (chips)
@@ -125,14 +143,41 @@ def test_track_galileo_e1b_reports_the_inav_pages_iodnav_and_gst(tmp_path, capsy
     symbols, lead_s = inav.inav_symbols(rec, WN, TOW0, int(DURATION_S * inav.SYMBOL_RATE_HZ) + 2)
     sym0 = TOW0 - lead_s  # GST at symbol 0's start (18020.6 s in binary falls just short of that edge)
     assert lead_s in (pytest.approx(0.0, abs=1e-9), pytest.approx(0.004, abs=1e-9))
-    sat = SatelliteSignal(**{k: getattr(SAT, k) for k in ("prn", "cn0_dbhz", "doppler_hz", "code_phase_chips",
-                                                          "carrier_phase_rad", "first_bit_code_period", "signal")},
-                          symbols=symbols)
+    sat = SatelliteSignal(
+        **{
+            k: getattr(SAT, k)
+            for k in (
+                "prn",
+                "cn0_dbhz",
+                "doppler_hz",
+                "code_phase_chips",
+                "carrier_phase_rad",
+                "first_bit_code_period",
+                "signal",
+            )
+        },
+        symbols=symbols,
+    )
     x = synthesize_samples([sat], DURATION_S, FS, 0.0, np.random.default_rng(41))
     path = write_recording(tmp_path / "e1b.sigmf-data", x, "ci16_le", FS, 0.0, scale=300.0)
     out = tmp_path / "trk"
-    assert main(["track", str(path), "--signal", "galileo-e1b-boc11", "--prns", "19", "--out", str(out),
-                 "--no-plots", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "track",
+                str(path),
+                "--signal",
+                "galileo-e1b-boc11",
+                "--prns",
+                "19",
+                "--out",
+                str(out),
+                "--no-plots",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     with open(out / "inav.csv", newline="") as f:
         (row,) = list(csv.DictReader(f))
@@ -156,8 +201,11 @@ def test_track_galileo_e1b_reports_the_inav_pages_iodnav_and_gst(tmp_path, capsy
     # with a 2 Hz pull-in DLL, `test_boc_sample_tracker`), nowhere near a code period (4 ms).
     with open(out / "tracking.csv", newline="") as f:
         rows = list(csv.DictReader(f))
-    record = _record(19, *([float(r[c]) for r in rows] for c in ("time_s", "prompt_i", "code_phase_chips")),
-                     [int(r["coherent_ms"]) for r in rows])
+    record = _record(
+        19,
+        *([float(r[c]) for r in rows] for c in ("time_s", "prompt_i", "code_phase_chips")),
+        [int(r["coherent_ms"]) for r in rows],
+    )
     timing = channel_inav(record, GALILEO_E1B_BOC11)
     t = record.column("time_s")[timing.rows]
     truth = sym0 + (t - edge_s) * code_rate  # satellite seconds per receive second: the code rate

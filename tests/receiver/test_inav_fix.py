@@ -28,9 +28,16 @@ def test_receive_positions_generated_galileo_e1b_samples_at_the_station(tmp_path
     nav = galileo_records()
     sats = highest(nav, TOW0, 5)
     path = write_inav_recording(tmp_path / "gal.sigmf-data", sats, TOW0, DURATION_S, seed=7)
-    result = receive(open_recording(path), registry.create("acquisition", "pcps"),
-                     tracking_config(coherent_ms=1, early_late_spacing_chips=0.2), rate_hz=5.0, rinex=nav,
-                     ionosphere=False, reference_week=GPS_WEEK, signal=SIGNAL)
+    result = receive(
+        open_recording(path),
+        registry.create("acquisition", "pcps"),
+        tracking_config(coherent_ms=1, early_late_spacing_chips=0.2),
+        rate_hz=5.0,
+        rinex=nav,
+        ionosphere=False,
+        reference_week=GPS_WEEK,
+        signal=SIGNAL,
+    )
     table = result.positions
     assert table is not None and len(table) >= 10
     assert np.all(table.columns["n_sats"] == 5)

@@ -47,7 +47,7 @@ def _serve(data: bytes, gate=None, chunk: int = 65536) -> int:
             for k in range(0, len(data), chunk):
                 if gate is not None:
                     gate(k)
-                conn.sendall(data[k:k + chunk])
+                conn.sendall(data[k : k + chunk])
         except OSError:
             pass
         finally:
@@ -93,8 +93,21 @@ def test_a_tcp_stream_gives_the_files_fixes_and_sends_them_as_nmea(recording, tm
 
     reader = threading.Thread(target=client, daemon=True)
     reader.start()
-    code = main(["receive", f"tcp://127.0.0.1:{port}", "--format", "ci16_le", "--fs", str(FS), "--out",
-                 str(tmp_path / "live"), "--nmea-out", f"tcp://127.0.0.1:{nmea_port}", *common])
+    code = main(
+        [
+            "receive",
+            f"tcp://127.0.0.1:{port}",
+            "--format",
+            "ci16_le",
+            "--fs",
+            str(FS),
+            "--out",
+            str(tmp_path / "live"),
+            "--nmea-out",
+            f"tcp://127.0.0.1:{nmea_port}",
+            *common,
+        ]
+    )
     reader.join(10)
     out = capsys.readouterr()
     assert code == 0, out.out + out.err
@@ -149,8 +162,14 @@ def test_a_stalled_realtime_consumer_counts_its_overruns_and_still_fixes(recordi
             stall.clear()
 
     try:
-        result = receive(rec, registry.create("acquisition", "pcps"), tracking_config(), rate_hz=5.0,
-                         rinex=read_rinex_nav(NAV), progress=progress)
+        result = receive(
+            rec,
+            registry.create("acquisition", "pcps"),
+            tracking_config(),
+            rate_hz=5.0,
+            rinex=read_rinex_nav(NAV),
+            progress=progress,
+        )
     finally:
         rec.close()
     blocks, samples = rec.overruns()
@@ -165,7 +184,11 @@ def test_a_stalled_realtime_consumer_counts_its_overruns_and_still_fixes(recordi
         assert any(what == "re-acquired" and t >= gap[1] / FS for t, what in ch.events), ch.events
     table = result.positions
     assert table is not None and len(table) >= 3 and np.all(table.sample_time_s > gap[1] / FS), (
-        gap, blocks, result.tracking.duration_s, {p: c.events for p, c in result.tracking.channels.items()})
+        gap,
+        blocks,
+        result.tracking.duration_s,
+        {p: c.events for p, c in result.tracking.channels.items()},
+    )
     err = np.linalg.norm(table.ecef_m - STATION, axis=1)
     # As test_receiver_fix: ~1.7 m of code noise per satellite, PDOP-scaled: a wrong count of
     # samples across the gap (1 sample = 147 m) would be far outside.

@@ -38,7 +38,7 @@ class SlowStream(io.RawIOBase):
 
     def read(self, n: int = -1) -> bytes:
         self.allowed.acquire()
-        chunk = self.data[self.pos:self.pos + n]
+        chunk = self.data[self.pos : self.pos + n]
         self.pos += len(chunk)
         return chunk
 
@@ -77,8 +77,15 @@ def test_realtime_drops_whole_blocks_that_keep_their_place_and_counts_them():
     data = source.encode(x[::2] + 1j * x[1::2])  # 20 blocks of complex samples
     stream = SlowStream(data)
     seen = []
-    live = open_stream(stream, "ci8", FS, realtime=True, block_s=0.001, buffer_s=0.002,
-                       on_overrun=lambda first, n: seen.append((first, n)))
+    live = open_stream(
+        stream,
+        "ci8",
+        FS,
+        realtime=True,
+        block_s=0.001,
+        buffer_s=0.002,
+        on_overrun=lambda first, n: seen.append((first, n)),
+    )
     expected = x[::2] + 1j * x[1::2]
     stream.allowed.release()  # the producer sends block 0
     np.testing.assert_array_equal(live.read(0, 10), expected[:10])
@@ -97,7 +104,7 @@ def test_realtime_drops_whole_blocks_that_keep_their_place_and_counts_them():
     dropped = np.zeros(20 * block, bool)
     for first, count in seen:
         assert first % block == 0 and count == block  # whole blocks
-        dropped[first:first + count] = True
+        dropped[first : first + count] = True
     np.testing.assert_array_equal(got[~dropped], expected[~dropped])  # every other sample at its own index
     assert np.all(got[dropped] == 0)
     run_start = int(np.argmax(dropped))
@@ -148,15 +155,18 @@ def test_rtl_tcp_reads_the_header_sends_the_commands_and_decodes_cu8():
     payload = bytes(range(256)) * 40  # offset-binary I/Q
     commands: list[bytes] = []
     port = _rtl_tcp_server(payload, commands)
-    live = open_stream(f"rtl_tcp://127.0.0.1:{port}", "cu8", 2.048e6,
-                       rtl_tcp=RtlTcpSettings(center_freq_hz=1_575_420_000, sample_rate_hz=2.048e6,
-                                              gain_tenth_db=496))
+    live = open_stream(
+        f"rtl_tcp://127.0.0.1:{port}",
+        "cu8",
+        2.048e6,
+        rtl_tcp=RtlTcpSettings(center_freq_hz=1_575_420_000, sample_rate_hz=2.048e6, gain_tenth_db=496),
+    )
     got = live.read(0, 10_000)
     live.close()
     assert "tuner type 5, 29 gain steps" in live.description
     raw = np.frombuffer(payload, np.uint8).astype(float) - 127.5
     np.testing.assert_array_equal(got, raw[0::2] + 1j * raw[1::2])
-    sent = [struct.unpack(">BI", commands[0][k:k + 5]) for k in range(0, len(commands[0]), 5)]
+    sent = [struct.unpack(">BI", commands[0][k : k + 5]) for k in range(0, len(commands[0]), 5)]
     assert sent == [(2, 2_048_000), (1, 1_575_420_000), (3, 1), (4, 496)]
 
 
@@ -166,8 +176,10 @@ def test_rtl_tcp_refuses_a_server_that_is_not_rtl_tcp():
         open_stream(f"rtl_tcp://127.0.0.1:{port}", "cu8", 2.048e6)
 
 
-@pytest.mark.parametrize("address, message", [("tcp://localhost", "HOST:PORT"), ("tcp://:99999", "HOST:PORT"),
-                                               ("/no/such/fifo", "no such file")])
+@pytest.mark.parametrize(
+    "address, message",
+    [("tcp://localhost", "HOST:PORT"), ("tcp://:99999", "HOST:PORT"), ("/no/such/fifo", "no such file")],
+)
 def test_a_bad_stream_address_is_one_line_naming_it(address, message):
     with pytest.raises(ConfigError, match=message):
         open_stream(address, "ci8", FS)
@@ -200,13 +212,16 @@ def test_the_nmea_server_sends_every_sentence_to_every_client():
         open_nmea_sink("udp://x:1")
 
 
-@pytest.mark.parametrize("extra, message", [
-    ([], "--format"),
-    (["--format", "ci8"], "--fs"),
-    (["--format", "ci8", "--fs", "4e6", "--center-freq", "1575420000"], "rtl_tcp:// server only"),
-    (["--format", "ci8", "--fs", "4e6", "--tracking", "vector"], "live input runs scalar tracking"),
-    (["--format", "ci8", "--fs", "4e6", "--nmea-out", "udp://x:1"], "tcp://"),
-])
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ([], "--format"),
+        (["--format", "ci8"], "--fs"),
+        (["--format", "ci8", "--fs", "4e6", "--center-freq", "1575420000"], "rtl_tcp:// server only"),
+        (["--format", "ci8", "--fs", "4e6", "--tracking", "vector"], "live input runs scalar tracking"),
+        (["--format", "ci8", "--fs", "4e6", "--nmea-out", "udp://x:1"], "tcp://"),
+    ],
+)
 def test_receive_refuses_a_stream_without_what_it_needs_in_one_line(tmp_path, capsys, extra, message):
     from gnssframework.cli import main
 
@@ -223,15 +238,30 @@ def test_receive_reads_standard_input_to_its_end(tmp_path, capsys, monkeypatch):
     from gnssframework.cli import main
 
     rng = np.random.default_rng(3)  # 0.2 s of noise: read to the end, nothing found, no position
-    noise = registry.create("sample_source", "ci8").encode((rng.normal(size=409_200) + 1j * rng.normal(size=409_200))
-                                                           * 20)
+    noise = registry.create("sample_source", "ci8").encode(
+        (rng.normal(size=409_200) + 1j * rng.normal(size=409_200)) * 20
+    )
 
     class Stdin:
         buffer = io.BytesIO(noise)
 
     monkeypatch.setattr("sys.stdin", Stdin)
-    code = main(["receive", "-", "--format", "ci8", "--fs", str(FS), "--out", str(tmp_path / "o"), "--quiet",
-                 "--prns", "1", "2"])
+    code = main(
+        [
+            "receive",
+            "-",
+            "--format",
+            "ci8",
+            "--fs",
+            str(FS),
+            "--out",
+            str(tmp_path / "o"),
+            "--quiet",
+            "--prns",
+            "1",
+            "2",
+        ]
+    )
     out = capsys.readouterr()
     assert code == 1 and "nothing found" in out.out, out.out + out.err
     assert "overruns" not in out.err

@@ -38,10 +38,21 @@ def _write_lnav_recording(path: Path, record, rng) -> Path:
     with open(path, "wb") as out:
         for start in range(0, n_total, chunk):
             t0 = start / FS
-            sig = generate_if_samples(PRN, chunk / FS, FS, 0.0, CN0, rng, doppler_hz=DOPPLER,
-                                      code_phase_chips=(TOW0 * 1e3 % 1.0) * 1023 + rate * t0,
-                                      carrier_phase_rad=0.4 + 2 * np.pi * DOPPLER * t0, complex_samples=True,
-                                      data_bits=symbols, first_bit_edge_s=-into - t0, noise=True)
+            sig = generate_if_samples(
+                PRN,
+                chunk / FS,
+                FS,
+                0.0,
+                CN0,
+                rng,
+                doppler_hz=DOPPLER,
+                code_phase_chips=(TOW0 * 1e3 % 1.0) * 1023 + rate * t0,
+                carrier_phase_rad=0.4 + 2 * np.pi * DOPPLER * t0,
+                complex_samples=True,
+                data_bits=symbols,
+                first_bit_edge_s=-into - t0,
+                noise=True,
+            )
             out.write(source.encode(sig.samples * 300.0))
     write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", FS, 0.0)  # its metadata ...
     path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))  # ... beside ours
@@ -53,8 +64,9 @@ def _write_lnav_recording(path: Path, record, rng) -> Path:
 def tracked(tmp_path_factory):
     record = read_rinex_nav(NAV)
     record = record.subset(np.flatnonzero(record.sv == f"G{PRN:02d}")[:1])
-    path = _write_lnav_recording(tmp_path_factory.mktemp("lnav") / "lnav.sigmf-data", record,
-                                 np.random.default_rng(2025))
+    path = _write_lnav_recording(
+        tmp_path_factory.mktemp("lnav") / "lnav.sigmf-data", record, np.random.default_rng(2025)
+    )
     rec = open_recording(path)
     acq = registry.create("acquisition", "pcps")
     found = [r for r in acquire_recording(rec, acq) if r.detected]

@@ -12,8 +12,7 @@ from gnssframework.receiver.tracking.loop_bandwidth import equivalent_bandwidth_
 def test_pll_bandwidth_is_its_design_bandwidth_when_bt_is_small(order):
     # Analog loop filters (Kaplan & Hegarty's w0 per order) have noise bandwidth B_L by
     # design; discretised at B_L T = 0.004 the difference is below 2 %.
-    pll = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=2.0, pll_order=order,
-                             fll_bandwidth_hz=0.0)
+    pll = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=2.0, pll_order=order, fll_bandwidth_hz=0.0)
     assert equivalent_bandwidth_hz(pll, 0.002, settle_s=0.5, response_s=10.0) == pytest.approx(2.0, rel=0.03)
 
 
@@ -27,12 +26,12 @@ def test_kalman_loop_bandwidth_is_the_kalman_bucy_steady_state():
     kf = gf.registry.create("channel_filter", "kf-carrier-loop", q=[0.0, q_f], r=r)
     w0 = (q_f / T / (r * T)) ** 0.25
     assert equivalent_bandwidth_hz(kf, T, settle_s=4.0, response_s=4.0) == pytest.approx(
-        3 * w0 / (4 * np.sqrt(2)), rel=0.03)
+        3 * w0 / (4 * np.sqrt(2)), rel=0.03
+    )
 
 
 def test_an_unsettled_response_is_refused():
-    pll = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=0.2, pll_order=2,
-                             fll_bandwidth_hz=0.0)
+    pll = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=0.2, pll_order=2, fll_bandwidth_hz=0.0)
     with pytest.raises(gf.ConfigError, match="did not settle"):
         equivalent_bandwidth_hz(pll, 0.01, settle_s=0.1, response_s=0.5)
 
@@ -40,8 +39,12 @@ def test_an_unsettled_response_is_refused():
 @pytest.mark.slow
 def test_a_case_interval_re_creates_the_loop_with_the_same_q_and_r():
     scen = get_scenario({"kind": "scintillation", "duration_s": 2.0, "settle_s": 0.5})
-    cand = {"channel_filter": {"name": "kf-carrier-loop", "params": {
-        "q": [0.01, 0.1], "r": 10.0, "angle_unit": "deg", "dll_bandwidth_hz": 0.5}}}
+    cand = {
+        "channel_filter": {
+            "name": "kf-carrier-loop",
+            "params": {"q": [0.01, 0.1], "r": 10.0, "angle_unit": "deg", "dll_bandwidth_hz": 0.5},
+        }
+    }
     ch = scen.build(cand)["channel_filter"]
     # no interval of its own: the loop runs at the harness's T, nothing to re-create
     assert scen.at_interval(ch, 0.001) is ch and scen.at_interval(ch, 0.01) is ch

@@ -33,9 +33,14 @@ def _spd(rng, batch, k, scale=1.0):
 
 
 @settings(max_examples=60, deadline=None)
-@given(seed=st.integers(0, 2**31 - 1), batch=st.sampled_from([(1,), (7,), (2, 4)]), k=st.integers(1, 6),
-       log_spread=st.floats(-4.0, 4.0), noise=st.floats(0.0, 1.0), bounds=st.sampled_from([(0.01, 100.0),
-                                                                                          (0.25, 4.0)]))
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    batch=st.sampled_from([(1,), (7,), (2, 4)]),
+    k=st.integers(1, 6),
+    log_spread=st.floats(-4.0, 4.0),
+    noise=st.floats(0.0, 1.0),
+    bounds=st.sampled_from([(0.01, 100.0), (0.25, 4.0)]),
+)
 def test_compiled_whole_guard_equals_the_numpy_guard(seed, batch, k, log_spread, noise, bounds):
     # Estimates spread over eight decades around the reference, with indefinite ones
     # (projected), ones below the floor and above the ceiling (clamped) and ones inside
@@ -43,7 +48,7 @@ def test_compiled_whole_guard_equals_the_numpy_guard(seed, batch, k, log_spread,
     # relative to each matrix's largest entry (its eigen-decompositions are not LAPACK's).
     rng = np.random.default_rng(seed)
     ref = _spd(rng, (), k)
-    raw = 10.0 ** log_spread * _spd(rng, batch, k) / k + noise * rng.standard_normal(batch + (k, k))
+    raw = 10.0**log_spread * _spd(rng, batch, k) / k + noise * rng.standard_normal(batch + (k, k))
     outs = []
     for backend in ("numba", "numpy"):
         set_backend(backend)
@@ -68,11 +73,19 @@ def test_compiled_guard_hands_non_finite_estimates_to_the_reference_path():
 
 
 @settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2**31 - 1), window=st.integers(2, 6), steps=st.integers(1, 14),
-       batch=st.sampled_from([(1,), (3,), (2, 4)]), m=st.integers(1, 6), per_element_r=st.booleans(),
-       nan_step=st.integers(-1, 13), hand_over=st.integers(0, 14))
-def test_compiled_innovation_window_is_bitwise_the_numpy_lines(seed, window, steps, batch, m, per_element_r,
-                                                                 nan_step, hand_over):
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    window=st.integers(2, 6),
+    steps=st.integers(1, 14),
+    batch=st.sampled_from([(1,), (3,), (2, 4)]),
+    m=st.integers(1, 6),
+    per_element_r=st.booleans(),
+    nan_step=st.integers(-1, 13),
+    hand_over=st.integers(0, 14),
+)
+def test_compiled_innovation_window_is_bitwise_the_numpy_lines(
+    seed, window, steps, batch, m, per_element_r, nan_step, hand_over
+):
     # The innovation adapter's estimate, mean of the last L v v^T minus (S - R), from the
     # compiled ring and from the deque of the NumPy lines, step by step: bitwise equal,
     # also after a NaN innovation and after handing the window over to the NumPy lines.
@@ -135,8 +148,12 @@ def test_adapter_guard_lean_and_numpy_backends_return_the_same_estimate(spread):
 
 
 @settings(max_examples=30, deadline=None)
-@given(seed=st.integers(0, 2**31 - 1), batch=st.sampled_from([(1,), (5,), (2, 3)]), n=st.integers(1, 6),
-       poison=st.sampled_from(["none", "nan-mean", "inf-cov", "indefinite"]))
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    batch=st.sampled_from([(1,), (5,), (2, 3)]),
+    n=st.integers(1, 6),
+    poison=st.sampled_from(["none", "nan-mean", "inf-cov", "indefinite"]),
+)
 def test_state_check_counts_the_elements_the_numpy_masks_find(seed, batch, n, poison):
     rng = np.random.default_rng(seed)
     mean = rng.standard_normal(batch + (n,))
@@ -162,28 +179,45 @@ def test_state_check_counts_the_elements_the_numpy_masks_find(seed, batch, n, po
 
 
 @settings(max_examples=30, deadline=None)
-@given(seed=st.integers(0, 2**31 - 1), runs=st.integers(1, 4), ch=st.integers(1, 9),
-       broadcast_var=st.booleans())
+@given(seed=st.integers(0, 2**31 - 1), runs=st.integers(1, 4), ch=st.integers(1, 9), broadcast_var=st.booleans())
 def test_ekf_pv_compiled_measurements_and_nco_command_equal_the_numpy_lines(seed, runs, ch, broadcast_var):
     rng = np.random.default_rng(seed)
     nav = registry.create("nav_filter", "ekf-pv", clock="ocxo")
     nav.T = 0.01
     shape = (runs, ch)
     var = np.abs(rng.standard_normal(shape)) * 10.0 ** rng.uniform(-8, 0, shape)  # some below the floors
-    inputs = {"replica_range_m": 2e7 + 1e6 * rng.random(shape), "code_error_chips": rng.standard_normal(shape),
-              "code_error_var_chips2": np.broadcast_to(var[:1], shape) if broadcast_var else var,
-              "replica_rate_m_s": 800 * rng.standard_normal(shape), "freq_error_hz": rng.standard_normal(shape),
-              "freq_error_var_hz2": var[::-1].copy()}
+    inputs = {
+        "replica_range_m": 2e7 + 1e6 * rng.random(shape),
+        "code_error_chips": rng.standard_normal(shape),
+        "code_error_var_chips2": np.broadcast_to(var[:1], shape) if broadcast_var else var,
+        "replica_rate_m_s": 800 * rng.standard_normal(shape),
+        "freq_error_hz": rng.standard_normal(shape),
+        "freq_error_var_hz2": var[::-1].copy(),
+    }
     p = nav.params
     z, R = pv_measurements(
-        inputs["replica_range_m"], inputs["code_error_chips"], inputs["code_error_var_chips2"],
-        inputs["replica_rate_m_s"], inputs["freq_error_hz"], inputs["freq_error_var_hz2"], p.min_code_var_chips2,
-        p.min_freq_var_hz2, CA_CHIP_LENGTH_M, L1_WAVELENGTH_M)
+        inputs["replica_range_m"],
+        inputs["code_error_chips"],
+        inputs["code_error_var_chips2"],
+        inputs["replica_rate_m_s"],
+        inputs["freq_error_hz"],
+        inputs["freq_error_var_hz2"],
+        p.min_code_var_chips2,
+        p.min_freq_var_hz2,
+        CA_CHIP_LENGTH_M,
+        L1_WAVELENGTH_M,
+    )
     z_ref, R_ref = nav._measurements(inputs)
     np.testing.assert_array_equal(z, z_ref)
     np.testing.assert_array_equal(R, R_ref)
-    x = np.concatenate([6.4e6 * rng.standard_normal((runs, 3)), 100 * rng.standard_normal((runs, 3)),
-                        1e3 * rng.standard_normal((runs, 2))], axis=-1)
+    x = np.concatenate(
+        [
+            6.4e6 * rng.standard_normal((runs, 3)),
+            100 * rng.standard_normal((runs, 3)),
+            1e3 * rng.standard_normal((runs, 2)),
+        ],
+        axis=-1,
+    )
     sat_pos, sat_vel = 2.6e7 * rng.standard_normal((ch, 3)), 3e3 * rng.standard_normal((ch, 3))
     rho, rate = pv_nco_command(x, nav.T / 2, sat_pos, sat_vel)
     rho_ref, rate_ref = nav._nco_command(x, sat_pos, sat_vel)
@@ -194,8 +228,9 @@ def test_ekf_pv_compiled_measurements_and_nco_command_equal_the_numpy_lines(seed
 def test_ekf_pv_keeps_a_nan_variance_so_the_filter_names_it():
     shape = (1, 2)
     nan_var = np.array([[np.nan, 1.0]])
-    z, R = pv_measurements(*(np.ones(shape),) * 2, nan_var, *(np.ones(shape),) * 3, 1e-6, 1e-4,
-                                        CA_CHIP_LENGTH_M, L1_WAVELENGTH_M)
+    z, R = pv_measurements(
+        *(np.ones(shape),) * 2, nan_var, *(np.ones(shape),) * 3, 1e-6, 1e-4, CA_CHIP_LENGTH_M, L1_WAVELENGTH_M
+    )
     assert np.isnan(R[0, 0, 0]) and R[0, 1, 1] == CA_CHIP_LENGTH_M**2
 
 
@@ -227,10 +262,21 @@ def test_vector_loop_numba_and_numpy_backends_agree(estimator, monkeypatch):
 
     monkeypatch.setattr(vector, "_BLOCK", 4)
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.3, "channels": 5, "settle_s": 0.0})
-    cfg = {"channel_filter": {"name": "iq-filter", "params": {"estimator": estimator}},
-           "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}}
-    names = ("code_error_chips", "freq_error_hz", "position_error_m", "velocity_error_m_s", "nees",
-             "nees_position", "nees_velocity", "code_output_error_chips", "freq_output_error_hz")
+    cfg = {
+        "channel_filter": {"name": "iq-filter", "params": {"estimator": estimator}},
+        "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+    }
+    names = (
+        "code_error_chips",
+        "freq_error_hz",
+        "position_error_m",
+        "velocity_error_m_s",
+        "nees",
+        "nees_position",
+        "nees_velocity",
+        "code_output_error_chips",
+        "freq_output_error_hz",
+    )
     recs = []
     for backend, nudge in (("numba", None), ("numpy", None), ("numpy", 0), ("numpy", 1)):
         set_backend(backend)
@@ -239,8 +285,9 @@ def test_vector_loop_numba_and_numpy_backends_agree(estimator, monkeypatch):
             if nudge is not None:
                 x0 = testing.ulp_nudges(x0)[nudge]
             plugins = scen.build(cfg)
-            rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0,
-                                  np.random.default_rng(4))
+            rec = run_vector_loop(
+                plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, np.random.default_rng(4)
+            )
             recs.append({name: getattr(rec, name) for name in names})
         finally:
             set_backend(None)
@@ -257,8 +304,12 @@ def test_the_model_in_force_is_built_once_per_step(monkeypatch):
     real = types.NonlinearModel.with_noise
     monkeypatch.setattr(types.NonlinearModel, "with_noise", lambda self, **k: calls.append(1) or real(self, **k))
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.3, "channels": 4, "settle_s": 0.0})
-    plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": "ckf", "warmup": 5}},
-                          "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+    plugins = scen.build(
+        {
+            "channel_filter": {"name": "iq-filter", "params": {"estimator": "ckf", "warmup": 5}},
+            "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+        }
+    )
     truth, x0, P0 = scen.truth(45.0, 1, np.random.default_rng(0))
     run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, np.random.default_rng(1))
     # From the 2nd step on the adapter's Q and R are in force: during the warm-up (5

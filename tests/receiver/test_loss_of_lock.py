@@ -33,10 +33,17 @@ def blanked(tmp_path_factory):
     nav = read_rinex_nav(NAV)
     sats = _strongest(nav, TOW0, 5)
     gone = 2  # index of the blanked satellite
-    path = write_lnav_recording(tmp_path_factory.mktemp("lli") / "blanked.sigmf-data", sats, TOW0, DURATION_S, 77,
-                                blank=(gone, *BLANK_S))
-    result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=RATE_HZ,
-                     rinex=nav, reference_week=WEEK)
+    path = write_lnav_recording(
+        tmp_path_factory.mktemp("lli") / "blanked.sigmf-data", sats, TOW0, DURATION_S, 77, blank=(gone, *BLANK_S)
+    )
+    result = receive(
+        open_recording(path),
+        registry.create("acquisition", "pcps"),
+        tracking_config(),
+        rate_hz=RATE_HZ,
+        rinex=nav,
+        reference_week=WEEK,
+    )
     return result, sats, gone
 
 

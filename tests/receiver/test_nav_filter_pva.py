@@ -47,10 +47,18 @@ def test_ca_model_is_the_exact_discretisation_of_white_jerk(T):
 def _inputs(x_true, code_chips=0.0, freq_hz=0.0, code_var=1e-4, freq_var=1e-2):
     rho, rate, _ = predicted_range(x_true, SAT_POS, SAT_VEL)
     ones = np.ones(len(DIRS))
-    return {"replica_range_m": rho, "replica_rate_m_s": rate,
-            "code_error_chips": code_chips * ones, "code_error_var_chips2": code_var * ones,
-            "freq_error_hz": freq_hz * ones, "freq_error_var_hz2": freq_var * ones,
-            "sat_pos_m": SAT_POS, "sat_vel_m_s": SAT_VEL, "next_sat_pos_m": SAT_POS, "next_sat_vel_m_s": SAT_VEL}
+    return {
+        "replica_range_m": rho,
+        "replica_rate_m_s": rate,
+        "code_error_chips": code_chips * ones,
+        "code_error_var_chips2": code_var * ones,
+        "freq_error_hz": freq_hz * ones,
+        "freq_error_var_hz2": freq_var * ones,
+        "sat_pos_m": SAT_POS,
+        "sat_vel_m_s": SAT_VEL,
+        "next_sat_pos_m": SAT_POS,
+        "next_sat_vel_m_s": SAT_VEL,
+    }
 
 
 def test_one_step_is_the_kalman_update_linearised_at_the_prediction():
@@ -72,10 +80,17 @@ def test_one_step_is_the_kalman_update_linearised_at_the_prediction():
     n = len(DIRS)
     H = np.zeros((2 * n, 11))
     H[:n, 0:3], H[:n, 6], H[n:, 3:6], H[n:, 7] = -e, 1.0, -e, 1.0
-    z = np.concatenate([inputs["replica_range_m"] + CA_CHIP_LENGTH_M * inputs["code_error_chips"],
-                        inputs["replica_rate_m_s"] - L1_WAVELENGTH_M * inputs["freq_error_hz"]])
-    R = np.diag(np.concatenate([inputs["code_error_var_chips2"] * CA_CHIP_LENGTH_M**2,
-                                inputs["freq_error_var_hz2"] * L1_WAVELENGTH_M**2]))
+    z = np.concatenate(
+        [
+            inputs["replica_range_m"] + CA_CHIP_LENGTH_M * inputs["code_error_chips"],
+            inputs["replica_rate_m_s"] - L1_WAVELENGTH_M * inputs["freq_error_hz"],
+        ]
+    )
+    R = np.diag(
+        np.concatenate(
+            [inputs["code_error_var_chips2"] * CA_CHIP_LENGTH_M**2, inputs["freq_error_var_hz2"] * L1_WAVELENGTH_M**2]
+        )
+    )
     K = P_pred @ H.T @ np.linalg.inv(H @ P_pred @ H.T + R)
     x_post = x_pred + K @ (z - np.concatenate([rho, rate]))
     P_post = (np.eye(11) - K @ H) @ P_pred

@@ -142,10 +142,17 @@ def test_correlator_fisher_matches_numerical_derivatives_of_the_correlator_model
 
 def test_no_candidate_beats_the_pcrb_beyond_monte_carlo_noise():
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 3.0, "settle_s": 0.5, "steady_state_s": 1.5})
-    for name, params in (("discriminator", {}), ("iq-filter", {"output": "split"}),
-                         ("iq-filter", {"output": "filtered"})):
-        plugins = scen.build({"channel_filter": {"name": name, "params": params},
-                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+    for name, params in (
+        ("discriminator", {}),
+        ("iq-filter", {"output": "split"}),
+        ("iq-filter", {"output": "filtered"}),
+    ):
+        plugins = scen.build(
+            {
+                "channel_filter": {"name": name, "params": params},
+                "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+            }
+        )
         m = scen.run_batch({"cn0_dbhz": 35.0}, plugins, 6, np.random.default_rng(9)).metrics
         for err, bound in (("position_error_rmse", "pcrb_position"), ("velocity_error_rmse", "pcrb_velocity")):
             # The bound is on the mean square error: the mean of the squared per-run RMS
@@ -157,6 +164,7 @@ def test_no_candidate_beats_the_pcrb_beyond_monte_carlo_noise():
 
 
 # --- The code-only bound ---------------------------------------------------------------
+
 
 def _sky(n_ch: int = 6, seed: int = 4):
     """Satellites at 20 000 km in random directions of the upper half-sphere, moving at
@@ -180,9 +188,17 @@ def test_code_only_bound_of_a_static_receiver_is_the_least_squares_covariance_ov
     s0, _ = _sky()
     cn0, T, K = 40.0, 0.01, 200
     P0 = np.diag([1e8] * 3 + [1e-18] * 3 + [1e8, 1e-18])
-    _, pos, _ = vector_tracking_pcrb(lambda t: np.broadcast_to(s0, np.shape(t) + s0.shape), np.zeros(3),
-                                     np.zeros(3), np.zeros((2, 2)), P0, np.full(len(s0), cn0), T, K,
-                                     measurements="code")
+    _, pos, _ = vector_tracking_pcrb(
+        lambda t: np.broadcast_to(s0, np.shape(t) + s0.shape),
+        np.zeros(3),
+        np.zeros(3),
+        np.zeros((2, 2)),
+        P0,
+        np.full(len(s0), cn0),
+        T,
+        K,
+        measurements="code",
+    )
     e = s0 / np.linalg.norm(s0, axis=1, keepdims=True)
     G = np.hstack([-e, np.ones((len(s0), 1))])
     sigma2 = CA_CHIP_LENGTH_M**2 / correlator_fisher(cn0, T)[0, 0]
@@ -235,8 +251,16 @@ def test_the_carrier_phase_only_adds_information():
     from gnssframework.receiver.tracking.pcrb import vector_tracking_pcrb
 
     s0, sv = _sky()
-    args = (lambda t: s0 + np.asarray(t)[..., None, None] * sv, np.zeros(3), np.zeros(3),
-            np.diag([1e-4, 1e-6]), np.diag([9.0] * 3 + [0.09] * 3 + [9.0, 0.09]), np.full(len(s0), 35.0), 0.01, 300)
+    args = (
+        lambda t: s0 + np.asarray(t)[..., None, None] * sv,
+        np.zeros(3),
+        np.zeros(3),
+        np.diag([1e-4, 1e-6]),
+        np.diag([9.0] * 3 + [0.09] * 3 + [9.0, 0.09]),
+        np.full(len(s0), 35.0),
+        0.01,
+        300,
+    )
     _, pos_code, vel_code = vector_tracking_pcrb(*args, measurements="code")
     _, pos_both, vel_both = vector_tracking_pcrb(*args, measurements="code-and-carrier")
     assert np.array_equal(vector_tracking_pcrb(*args)[1], pos_both)
@@ -249,8 +273,12 @@ def test_the_carrier_phase_only_adds_information():
 def test_scenario_reports_the_code_only_bound_where_it_reports_the_bound():
     kw = {"kind": "vector-tracking", "duration_s": 1.0, "settle_s": 0.2, "steady_state_s": 0.5}
     scen = get_scenario(kw)
-    plugins = scen.build({"channel_filter": {"name": "discriminator", "params": {}},
-                          "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+    plugins = scen.build(
+        {
+            "channel_filter": {"name": "discriminator", "params": {}},
+            "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+        }
+    )
     m = scen.run_batch({"cn0_dbhz": 40.0}, plugins, 2, np.random.default_rng(1)).metrics
     times, code_pos, code_vel = scen.bound(40.0, scen.truth(40.0, 1, np.random.default_rng(0))[2], "code")
     keep = times >= 0.2

@@ -41,8 +41,19 @@ def synthetic():
     prn = np.array([int(s[1:]) for s in sel.sv])
     # Decoded ephemerides: every satellite's known from the start but one, known from epoch 3 on.
     ready = {int(p): [(0.0 if k else 2.5, sel.subset(np.array([k])))] for k, p in enumerate(prn)}
-    obs = Observables(epochs + bias / C, epochs - t0, prn, np.array(tx), np.array(pr), np.zeros((5, prn.size)),
-                      np.zeros((5, prn.size)), np.full((5, prn.size), 45.0), ready, None, 292)
+    obs = Observables(
+        epochs + bias / C,
+        epochs - t0,
+        prn,
+        np.array(tx),
+        np.array(pr),
+        np.zeros((5, prn.size)),
+        np.zeros((5, prn.size)),
+        np.full((5, prn.size), 45.0),
+        ready,
+        None,
+        292,
+    )
     return obs, sel
 
 
@@ -78,8 +89,9 @@ def test_rinex_records_give_the_early_epochs_their_satellite(synthetic):
 
 @pytest.fixture(scope="module")
 def short_recording(tmp_path_factory):
-    x = synthesize_samples([SatelliteSignal(11, 44.0, -1730.0, 517.2, first_bit_code_period=9)], 1.5, 2.6e6, 0.0,
-                           np.random.default_rng(25))
+    x = synthesize_samples(
+        [SatelliteSignal(11, 44.0, -1730.0, 517.2, first_bit_code_period=9)], 1.5, 2.6e6, 0.0, np.random.default_rng(25)
+    )
     return write_recording(tmp_path_factory.mktemp("pos") / "short.sigmf-data", x, "ci16_le", 2.6e6, 0.0, scale=300.0)
 
 
@@ -92,11 +104,14 @@ def test_position_on_a_recording_without_a_whole_subframe_says_why(short_recordi
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("options, message", [
-    (["--truth", "35.6,139.7"], "--truth: LAT,LON,H in degrees and metres, got '35.6,139.7'"),
-    (["--rate", "0"], "--rate: must be > 0 Hz, got 0.0"),
-    (["--ephemeris", "missing.rnx"], "missing.rnx: no such file"),
-])
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (["--truth", "35.6,139.7"], "--truth: LAT,LON,H in degrees and metres, got '35.6,139.7'"),
+        (["--rate", "0"], "--rate: must be > 0 Hz, got 0.0"),
+        (["--ephemeris", "missing.rnx"], "missing.rnx: no such file"),
+    ],
+)
 def test_position_refuses_bad_options_with_one_line(short_recording, tmp_path, capsys, options, message):
     assert main(["position", str(short_recording), "--out", str(tmp_path / "p"), *options]) == 2
     err = capsys.readouterr().err

@@ -14,9 +14,11 @@ from gnssframework.receiver.channels.prefetch import BlockReader
 from gnssframework.receiver.frontend import SatelliteSignal, open_recording, synthesize_samples, write_recording
 
 FS = 2.6e6
-SATS = [SatelliteSignal(3, 45.0, 1200.0, 100.5, first_bit_code_period=2),
-        SatelliteSignal(8, 43.0, -2500.0, 800.25, first_bit_code_period=11),
-        SatelliteSignal(17, 46.0, 300.0, 33.0, first_bit_code_period=17)]
+SATS = [
+    SatelliteSignal(3, 45.0, 1200.0, 100.5, first_bit_code_period=2),
+    SatelliteSignal(8, 43.0, -2500.0, 800.25, first_bit_code_period=11),
+    SatelliteSignal(17, 46.0, 300.0, 33.0, first_bit_code_period=17),
+]
 
 
 @pytest.fixture(scope="module")

@@ -29,9 +29,14 @@ def test_truth_takes_negative_coordinates(parsed, spelling):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("spelling", [["--approx-position", "-33.1,-70.2,-20"],
-                                      ["--approx-position=-33.1,-70.2,-20"],
-                                      ["--approx-position", "-.5,10,0"]])
+@pytest.mark.parametrize(
+    "spelling",
+    [
+        ["--approx-position", "-33.1,-70.2,-20"],
+        ["--approx-position=-33.1,-70.2,-20"],
+        ["--approx-position", "-.5,10,0"],
+    ],
+)
 def test_approx_position_takes_negative_coordinates(parsed, spelling):
     assert cli.main(["receive", "rec.bin", "--out", "o", "--tracking", "vector", *spelling]) == 0
     assert parsed["args"].approx_position == spelling[-1].split("=")[-1]
@@ -40,8 +45,13 @@ def test_approx_position_takes_negative_coordinates(parsed, spelling):
 
 def test_only_the_coordinate_options_take_a_value_that_looks_like_an_option():
     # A negative value after another option, or a real option after --truth, is left to argparse.
-    assert cli.attach_negative_values(["--truth", "--out", "-1", "--rate", "-2"]) == \
-        ["--truth", "--out", "-1", "--rate", "-2"]
+    assert cli.attach_negative_values(["--truth", "--out", "-1", "--rate", "-2"]) == [
+        "--truth",
+        "--out",
+        "-1",
+        "--rate",
+        "-2",
+    ]
     assert cli.attach_negative_values(["--", "--truth", "-1,2,3"]) == ["--", "--truth", "-1,2,3"]
     assert cli.attach_negative_values(["--truth", "-1,2,3", "x"]) == ["--truth=-1,2,3", "x"]
 
@@ -85,8 +95,18 @@ def test_vector_accel_psd_reaches_the_navigation_filter(tiny_recording, tmp_path
 
     seen, stop = received
     with pytest.raises(stop):
-        cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--tracking", "vector",
-                  "--vector-accel-psd", "2.5"])
+        cli.main(
+            [
+                "receive",
+                str(tiny_recording),
+                "--out",
+                str(tmp_path / "o"),
+                "--tracking",
+                "vector",
+                "--vector-accel-psd",
+                "2.5",
+            ]
+        )
     vector = seen["vector"]
     assert vector.nav_params == {"accel_psd": 2.5}
     assert registry.create("nav_filter", vector.nav_filter, **vector.nav_params).params.accel_psd == 2.5
@@ -96,9 +116,14 @@ def test_vector_accel_psd_reaches_the_navigation_filter(tiny_recording, tmp_path
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("extra", [["--tracking", "vector", "--vector-accel-psd", "0"],
-                                   ["--tracking", "vector", "--vector-accel-psd", "nan"],
-                                   ["--vector-accel-psd", "1"]])
+@pytest.mark.parametrize(
+    "extra",
+    [
+        ["--tracking", "vector", "--vector-accel-psd", "0"],
+        ["--tracking", "vector", "--vector-accel-psd", "nan"],
+        ["--vector-accel-psd", "1"],
+    ],
+)
 def test_a_bad_or_misplaced_vector_accel_psd_exits_2_naming_it(tiny_recording, tmp_path, capsys, extra):
     assert cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), *extra]) == 2
     assert "--vector-accel-psd" in capsys.readouterr().err
@@ -107,10 +132,18 @@ def test_a_bad_or_misplaced_vector_accel_psd_exits_2_naming_it(tiny_recording, t
 NAV = __import__("pathlib").Path(__file__).parents[1] / "data" / "07590920.05n"
 #: The header of NAV: ION ALPHA and ION BETA as written there.
 NAV_ALPHA = (1.1180e-08, 1.4900e-08, -5.9600e-08, -5.9600e-08)
-NAV_BETA = (8.8060e+04, 1.6380e+04, -1.9660e+05, -1.3110e+05)
+NAV_BETA = (8.8060e04, 1.6380e04, -1.9660e05, -1.3110e05)
 #: An assisted start in NAV's span (Saturday 2005-04-02 00:05, GPS week 1316) near its station.
-ASSISTED = ["--tracking", "vector", "--ephemeris", str(NAV), "--approx-position", "35.7,139.5,100",
-            "--start-time", "1316,518703.4"]
+ASSISTED = [
+    "--tracking",
+    "vector",
+    "--ephemeris",
+    str(NAV),
+    "--approx-position",
+    "35.7,139.5,100",
+    "--start-time",
+    "1316,518703.4",
+]
 
 
 @pytest.mark.slow
@@ -131,8 +164,9 @@ def test_receive_takes_the_week_of_the_ephemeris_file_without_week(tiny_recordin
         cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--ephemeris", str(NAV)])
     assert seen["reference_week"] == 1316  # NAV's records: 2005-04-01 23:59:44 to 2005-04-03 00:00:00
     with pytest.raises(stop):
-        cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--ephemeris", str(NAV),
-                  "--week", "1317"])
+        cli.main(
+            ["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--ephemeris", str(NAV), "--week", "1317"]
+        )
     assert seen["reference_week"] == 1317  # --week rules
 
 
@@ -151,8 +185,18 @@ def test_the_ephemeris_files_klobuchar_and_the_weighting_reach_the_fixes(tiny_re
     RTKLIB does); ``--weighting rtklib`` picks RTKLIB's error model."""
     seen, stop = received
     with pytest.raises(stop):
-        cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--ephemeris", str(NAV),
-                  "--weighting", "rtklib"])
+        cli.main(
+            [
+                "receive",
+                str(tiny_recording),
+                "--out",
+                str(tmp_path / "o"),
+                "--ephemeris",
+                str(NAV),
+                "--weighting",
+                "rtklib",
+            ]
+        )
     assert seen["iono_fallback"].alpha == NAV_ALPHA and seen["weighting"] == "rtklib"
     with pytest.raises(stop):
         cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--ephemeris", str(NAV), "--no-iono"])
@@ -194,8 +238,11 @@ def test_raim_options_are_read_and_checked(parsed):
     with pytest.raises(ConfigError, match="raim_false_alarm") as refused:  # the library's parameter...
         cli._raim_from_args(parsed["args"])
     assert cli.option_field(refused.value.field) == "--raim-pfa"  # ...the command line's option
-def test_off_a_terminal_receive_prints_a_line_per_phase_and_per_tenth_of_the_signal(tiny_recording, tmp_path,
-                                                                                     capsys, received):
+
+
+def test_off_a_terminal_receive_prints_a_line_per_phase_and_per_tenth_of_the_signal(
+    tiny_recording, tmp_path, capsys, received
+):
     """Issue 41: a log, CI or a notebook cell saw nothing for the whole run."""
     from gnssframework.receiver.channels.records import TrackingResult
     from gnssframework.receiver.navigation import receive as receive_module
@@ -211,8 +258,9 @@ def test_off_a_terminal_receive_prints_a_line_per_phase_and_per_tenth_of_the_sig
     assert cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--prn", "3"]) == 1
     err = capsys.readouterr().err.splitlines()  # capsys: not a terminal
     # A line as each phase ends (the acquisition is faked here: it found nothing).
-    assert err[0].startswith("noise.sigmf-data: acquisition found 0 of 0 PRNs; tracking, decoding LNAV, positioning, "
-                             "0:00:0")
+    assert err[0].startswith(
+        "noise.sigmf-data: acquisition found 0 of 0 PRNs; tracking, decoding LNAV, positioning, 0:00:0"
+    )
     signal_s = 4096 / 2.046e6
     tenths = [line for line in err if " % (" in line]
     # One line per tenth crossed (a report past two tenths prints two lines, both at its

@@ -33,8 +33,24 @@ TRUTH = tuple(float(v) for v in pymap3d.ecef2geodetic(*STATION))
 
 
 def _run(path, out, *extra):
-    return main(["receive", str(path), "--out", str(out), "--ephemeris", str(NAV), "--rate", "10", "--week",
-                 str(WEEK), "--truth", ",".join(f"{v:.10f}" for v in TRUTH), "--quiet", *extra])
+    return main(
+        [
+            "receive",
+            str(path),
+            "--out",
+            str(out),
+            "--ephemeris",
+            str(NAV),
+            "--rate",
+            "10",
+            "--week",
+            str(WEEK),
+            "--truth",
+            ",".join(f"{v:.10f}" for v in TRUTH),
+            "--quiet",
+            *extra,
+        ]
+    )
 
 
 @pytest.fixture(scope="module")
@@ -59,8 +75,10 @@ def test_positions_csv_has_the_columns_and_a_row_per_fix_near_the_station(output
     tow = np.array([float(r["tow_s"]) for r in rows])
     assert np.all((tow > TOW0) & (tow < TOW0 + 9.5))
     assert np.allclose(np.diff(tow), 0.1, atol=1e-3)
-    xyz = np.stack(pymap3d.geodetic2ecef(*(np.array([float(r[k]) for r in rows])
-                                          for k in ("lat_deg", "lon_deg", "height_m"))), axis=1)
+    xyz = np.stack(
+        pymap3d.geodetic2ecef(*(np.array([float(r[k]) for r in rows]) for k in ("lat_deg", "lon_deg", "height_m"))),
+        axis=1,
+    )
     # 45 dB-Hz, 1.7 m of code noise per satellite scaled by the PDOP (under 4 here).
     assert np.all(np.linalg.norm(xyz - STATION, axis=1) < 4 * 4 * 1.7)
     assert all(int(r["n_sats"]) == sats.sv.size for r in rows)
@@ -116,9 +134,16 @@ def test_gsv_gives_each_satellites_elevation_and_azimuth_from_the_station(output
     out, _, sats = outputs
     lines = (out / "nmea.txt").read_text().splitlines()
     parsed = [pynmea2.parse(line, check=True) for line in lines[3:5]]  # the first fix's GSV pages
-    seen = {int(getattr(p, f"sv_prn_num_{i}")): (float(getattr(p, f"elevation_deg_{i}")),
-                                                 float(getattr(p, f"azimuth_{i}")), float(getattr(p, f"snr_{i}")))
-            for p in parsed for i in range(1, 5) if getattr(p, f"sv_prn_num_{i}", None)}
+    seen = {
+        int(getattr(p, f"sv_prn_num_{i}")): (
+            float(getattr(p, f"elevation_deg_{i}")),
+            float(getattr(p, f"azimuth_{i}")),
+            float(getattr(p, f"snr_{i}")),
+        )
+        for p in parsed
+        for i in range(1, 5)
+        if getattr(p, f"sv_prn_num_{i}", None)
+    }
     assert sorted(seen) == sorted(int(s[1:]) for s in sats.sv)
     # The truth: the navigation file's records seen from the station (not the fixes) at the
     # fixture's first epochs; a satellite moves under 0.01 deg/s, the fix is metres off.
@@ -162,8 +187,11 @@ def test_the_outputs_asked_for_read_back_through_their_own_readers(outputs):
         rows = list(csv.DictReader(fh))
     ns = {"k": "http://www.opengis.net/kml/2.2"}
     line = ET.parse(out / "track.kml").getroot().find(".//k:LineString/k:coordinates", ns).text.split()
-    assert np.allclose([[float(v) for v in c.split(",")[:2]] for c in line],
-                       [[float(r["lon_deg"]), float(r["lat_deg"])] for r in rows], atol=1e-9)
+    assert np.allclose(
+        [[float(v) for v in c.split(",")[:2]] for c in line],
+        [[float(r["lon_deg"]), float(r["lat_deg"])] for r in rows],
+        atol=1e-9,
+    )
     frame = pd.read_parquet(out / "tracking.parquet")
     assert set(frame["prn"]) == {int(s[1:]) for s in sats.sv}
     assert frame["time_s"].is_monotonic_increasing and 9.0 < frame["time_s"].max() <= 9.5  # the 9.5 s recording
@@ -177,8 +205,9 @@ def test_the_outputs_asked_for_read_back_through_their_own_readers(outputs):
     # truncated to the microsecond (12.1000000 s reads as 12.099999), and a microsecond is
     # half a millimetre of range at 2.5 kHz of Doppler.
     epochs = [line.split() for line in (out / "observations.rnx").read_text().splitlines() if line.startswith(">")]
-    tow_rnx = np.array([(datetime(*map(int, e[1:6])) - datetime(1980, 1, 6)).total_seconds() % 604_800
-                        + float(e[6]) for e in epochs])
+    tow_rnx = np.array(
+        [(datetime(*map(int, e[1:6])) - datetime(1980, 1, 6)).total_seconds() % 604_800 + float(e[6]) for e in epochs]
+    )
     messages = [msg for _, msg in RTCMReader(io.BytesIO((out / "observations.rtcm3").read_bytes()), validate=1)]
     assert len(messages) == rnx.time.size and all(m.identity == "1077" for m in messages)
     for k, msg in enumerate(messages):
@@ -215,8 +244,14 @@ def test_the_same_recording_gives_the_same_bytes(outputs):
 @pytest.mark.slow
 def test_ekf_pv_on_the_recordings_pseudoranges_is_as_accurate_and_smoother(recording):  # noqa: F811
     path, _ = recording
-    result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=10.0,
-                     rinex=read_rinex_nav(NAV), nav_filter=PluginSpec("nav_filter", "ekf-pv", {}))
+    result = receive(
+        open_recording(path),
+        registry.create("acquisition", "pcps"),
+        tracking_config(),
+        rate_hz=10.0,
+        rinex=read_rinex_nav(NAV),
+        nav_filter=PluginSpec("nav_filter", "ekf-pv", {}),
+    )
     wls, ekf = result.least_squares, result.positions
     assert len(wls) >= 5 and len(ekf) >= len(wls)
     assert ekf.sample_time_s[0] == wls.sample_time_s[0]  # it starts from the first fix
@@ -239,8 +274,10 @@ def test_ekf_pv_on_the_recordings_pseudoranges_is_as_accurate_and_smoother(recor
 def test_the_nav_filter_option_runs_the_filter_and_says_so(recording, tmp_path, capsys):  # noqa: F811
     path, _ = recording
     config = tmp_path / "receiver.toml"
-    config.write_text('[channel_filter]\nname = "scalar"\nparams = { pll_bandwidth_hz = 12.0 }\n\n'
-                      '[nav_filter]\nname = "ekf-pv"\nparams = { accel_psd = 0.5 }\n')
+    config.write_text(
+        '[channel_filter]\nname = "scalar"\nparams = { pll_bandwidth_hz = 12.0 }\n\n'
+        '[nav_filter]\nname = "ekf-pv"\nparams = { accel_psd = 0.5 }\n'
+    )
     assert _run(path, tmp_path / "out", "--config", str(config)) == 0
     out = capsys.readouterr().out
     assert "channel filter scalar, nav filter ekf-pv" in out
@@ -250,19 +287,40 @@ def test_the_nav_filter_option_runs_the_filter_and_says_so(recording, tmp_path, 
 
 def test_position_is_the_same_command(recording, tmp_path, capsys):  # noqa: F811
     path, _ = recording
-    assert main(["position", str(path), "--out", str(tmp_path / "p"), "--ephemeris", str(NAV), "--rate", "10",
-                 "--week", str(WEEK), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "position",
+                str(path),
+                "--out",
+                str(tmp_path / "p"),
+                "--ephemeris",
+                str(NAV),
+                "--rate",
+                "10",
+                "--week",
+                str(WEEK),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     assert (tmp_path / "p" / "report.md").exists()
 
 
-@pytest.mark.parametrize("text, message", [
-    ('[nav_filter]\nname = "ekf-pv"\nparams = { accel_psd = -1 }\n', "nav_filter.params.accel_psd"),
-    ('[nav_filter]\nname = "ekf-p"\n', "did you mean 'ekf-pv'"),
-    ('nav_filter = "position-ca"\n', "nav_filter.name: nav_filter 'position-ca' cannot run on pseudoranges"),
-    ('[channel_filter]\nname = "scalar"\nparams = { pll_bandwidth_hz = 0 }\n',
-     "channel_filter.params.pll_bandwidth_hz"),
-    ('[navfilter]\nname = "ekf-pv"\n', "navfilter: unknown parameter; valid: channel_filter, nav_filter"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ('[nav_filter]\nname = "ekf-pv"\nparams = { accel_psd = -1 }\n', "nav_filter.params.accel_psd"),
+        ('[nav_filter]\nname = "ekf-p"\n', "did you mean 'ekf-pv'"),
+        ('nav_filter = "position-ca"\n', "nav_filter.name: nav_filter 'position-ca' cannot run on pseudoranges"),
+        (
+            '[channel_filter]\nname = "scalar"\nparams = { pll_bandwidth_hz = 0 }\n',
+            "channel_filter.params.pll_bandwidth_hz",
+        ),
+        ('[navfilter]\nname = "ekf-pv"\n', "navfilter: unknown parameter; valid: channel_filter, nav_filter"),
+    ],
+)
 def test_a_bad_receiver_config_names_the_field(tmp_path, text, message):
     path = tmp_path / "receiver.toml"
     path.write_text(text)
@@ -272,14 +330,20 @@ def test_a_bad_receiver_config_names_the_field(tmp_path, text, message):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("options, message", [
-    (["--nav-filter", "ekf-p"], "--nav-filter: unknown nav_filter 'ekf-p'; known: "),
-    (["--nav-filter", "ins-ekf"], "--nav-filter: nav_filter 'ins-ekf' cannot run on pseudoranges and Dopplers"),
-    (["--channel-filter", "scalr"], "--channel-filter: unknown channel_filter 'scalr'"),
-    (["--channel-params", '{"pll_bandwidth_hz": -1}'], "--channel-params.pll_bandwidth_hz"),
-    (["--week", "-3"], "--week: a full GPS week"),
-    (["--tracking", "vector", "--nav-filter", "ekf-pv"], "--tracking: vector tracking runs its own navigation filter"),
-])
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (["--nav-filter", "ekf-p"], "--nav-filter: unknown nav_filter 'ekf-p'; known: "),
+        (["--nav-filter", "ins-ekf"], "--nav-filter: nav_filter 'ins-ekf' cannot run on pseudoranges and Dopplers"),
+        (["--channel-filter", "scalr"], "--channel-filter: unknown channel_filter 'scalr'"),
+        (["--channel-params", '{"pll_bandwidth_hz": -1}'], "--channel-params.pll_bandwidth_hz"),
+        (["--week", "-3"], "--week: a full GPS week"),
+        (
+            ["--tracking", "vector", "--nav-filter", "ekf-pv"],
+            "--tracking: vector tracking runs its own navigation filter",
+        ),
+    ],
+)
 def test_receive_refuses_bad_options_with_one_line(recording, tmp_path, capsys, options, message):  # noqa: F811
     path, _ = recording
     assert main(["receive", str(path), "--out", str(tmp_path / "p"), *options]) == 2
@@ -294,14 +358,42 @@ def test_progress_lines_off_a_terminal_a_bar_on_one(recording, tmp_path, capsys,
     path, _ = recording
 
     def run(out):
-        return main(["receive", str(path), "--out", str(tmp_path / out), "--ephemeris", str(NAV), "--week", str(WEEK),
-                     "--rate", "10"])
+        return main(
+            [
+                "receive",
+                str(path),
+                "--out",
+                str(tmp_path / out),
+                "--ephemeris",
+                str(NAV),
+                "--week",
+                str(WEEK),
+                "--rate",
+                "10",
+            ]
+        )
 
     assert run("a") == 0
     err = capsys.readouterr().err  # captured stderr is no terminal: a line per tenth, no bar
     assert f"{path.name}: 100/100 % (100 %)" in err and "%|" not in err
-    assert main(["receive", str(path), "--out", str(tmp_path / "q"), "--ephemeris", str(NAV), "--week", str(WEEK),
-                 "--rate", "10", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "receive",
+                str(path),
+                "--out",
+                str(tmp_path / "q"),
+                "--ephemeris",
+                str(NAV),
+                "--week",
+                str(WEEK),
+                "--rate",
+                "10",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     assert capsys.readouterr().err == ""
     monkeypatch.setattr(type(sys.stderr), "isatty", lambda self: True, raising=False)
     assert run("b") == 0
@@ -356,15 +448,42 @@ def test_a_run_without_position_keeps_its_tracking_and_says_why(recording, tmp_p
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("extra, start", [([], "a position"),
-                                          (["--tracking", "vector", "--approx-position",
-                                            ",".join(f"{v:.6f}" for v in TRUTH), "--start-time", f"{WEEK},{TOW0}"],
-                                           "an assisted start")])
+@pytest.mark.parametrize(
+    "extra, start",
+    [
+        ([], "a position"),
+        (
+            [
+                "--tracking",
+                "vector",
+                "--approx-position",
+                ",".join(f"{v:.6f}" for v in TRUTH),
+                "--start-time",
+                f"{WEEK},{TOW0}",
+            ],
+            "an assisted start",
+        ),
+    ],
+)
 def test_too_few_satellites_found_is_said_with_the_count(recording, tmp_path, capsys, extra, start):  # noqa: F811
     path, sats = recording
     two = sorted(int(s[1:]) for s in sats.sv)[:2]
-    code = main(["receive", str(path), "--out", str(tmp_path / "o"), "--ephemeris", str(NAV), "--duration", "1",
-                 "--quiet", "--prns", *map(str, two), *extra])
+    code = main(
+        [
+            "receive",
+            str(path),
+            "--out",
+            str(tmp_path / "o"),
+            "--ephemeris",
+            str(NAV),
+            "--duration",
+            "1",
+            "--quiet",
+            "--prns",
+            *map(str, two),
+            *extra,
+        ]
+    )
     said = capsys.readouterr().out
     assert code == 1
     assert f"only 2 satellites found (PRN {two[0]}, {two[1]}): {start} needs 4" in said and "LNAV" not in said
@@ -380,12 +499,19 @@ def test_the_report_says_why_a_tracked_satellite_is_unused(recording, tmp_path):
     nav = read_rinex_nav(NAV)
     gone = sats.sv[0]
     rinex = nav.subset(np.flatnonzero(nav.sv != gone))
-    result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=5.0,
-                     rinex=rinex)
+    result = receive(
+        open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=5.0, rinex=rinex
+    )
     assert len(result.positions) and all(int(gone[1:]) not in u for u in result.positions.used_prns)
     write_receive_report(tmp_path, result, result.positions, None, rinex)
-    rows = {int(r[1]): r for r in (line.split("|") for line in (tmp_path / "report.md").read_text().splitlines()
-                                   if line.startswith("| ") and line[2:4].strip().isdigit())}
+    rows = {
+        int(r[1]): r
+        for r in (
+            line.split("|")
+            for line in (tmp_path / "report.md").read_text().splitlines()
+            if line.startswith("| ") and line[2:4].strip().isdigit()
+        )
+    }
     assert rows[int(gone[1:])][2].strip() == "0"
     assert rows[int(gone[1:])][-2].strip() == "no healthy ephemeris (none decoded, none in --ephemeris)"
     assert all(r[-2].strip() == "-" for prn, r in rows.items() if prn != int(gone[1:]))

@@ -52,8 +52,24 @@ def galileo_run(tmp_path_factory):
     path = write_inav_recording(folder / "gal.sigmf-data", sats, TOW0, DURATION_S, seed=7)
     out = folder / "out"
     prns = [str(int(s[1:])) for s in sats.sv]
-    code = main(["receive", str(path), "--signal", "galileo-e1b-boc11", "--prns", *prns, "--rate", "5",
-                 "--no-iono", "--ephemeris", str(NAV), "--out", str(out), "--quiet"])
+    code = main(
+        [
+            "receive",
+            str(path),
+            "--signal",
+            "galileo-e1b-boc11",
+            "--prns",
+            *prns,
+            "--rate",
+            "5",
+            "--no-iono",
+            "--ephemeris",
+            str(NAV),
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
     return code, out, sats
 
 
@@ -70,8 +86,10 @@ def test_receive_galileo_writes_positions_near_the_station(galileo_run):
     assert np.all((tow > TOW0) & (tow < TOW0 + DURATION_S))
     import pymap3d
 
-    xyz = np.stack(pymap3d.geodetic2ecef(*(np.array([float(r[k]) for r in rows])
-                                          for k in ("lat_deg", "lon_deg", "height_m"))), axis=1)
+    xyz = np.stack(
+        pymap3d.geodetic2ecef(*(np.array([float(r[k]) for r in rows]) for k in ("lat_deg", "lon_deg", "height_m"))),
+        axis=1,
+    )
     hdop, vdop = (np.array([float(r[k]) for r in rows]) for k in ("hdop", "vdop"))
     # test_inav_fix's bound: 4 x (HDOP + VDOP) x 1.7 m (the code noise at 45 dB-Hz).
     assert np.all(np.linalg.norm(xyz - STATION, axis=1) < 4 * (hdop + vdop) * 1.7)
@@ -92,8 +110,9 @@ def test_receive_galileo_observations_are_rinex_galileo_e1b_and_match_the_geomet
         rows = list(csv.DictReader(fh))
     assert obs.time.size == len(rows)
     bias_m = np.array([float(r["clock_bias_m"]) for r in rows])
-    epoch_tow = ((obs.time.values - np.datetime64("1980-01-06")).astype("timedelta64[ns]").astype(float) / 1e9
-                 - GPS_WEEK * 604_800.0)
+    epoch_tow = (obs.time.values - np.datetime64("1980-01-06")).astype("timedelta64[ns]").astype(
+        float
+    ) / 1e9 - GPS_WEEK * 604_800.0
     for e in range(obs.time.size):
         t_true = epoch_tow[e] - bias_m[e] / C  # the receiver clock (the epoch) less its bias
         for k, sv in enumerate(sats.sv):
@@ -128,13 +147,22 @@ def test_receive_galileo_nmea_uses_the_ga_talker_and_galileo_satellite_ids(galil
     utc = datetime(1980, 1, 6) + timedelta(weeks=GPS_WEEK, seconds=float(rows[0]["tow_s"]) - 18)
     stamp = gga[0].timestamp
     # NMEA hhmmss.ss: the hundredths of the UTC second, cut
-    assert (stamp.hour, stamp.minute, stamp.second, stamp.microsecond // 10_000) == \
-        (utc.hour, utc.minute, utc.second, utc.microsecond // 10_000)
+    assert (stamp.hour, stamp.minute, stamp.second, stamp.microsecond // 10_000) == (
+        utc.hour,
+        utc.minute,
+        utc.second,
+        utc.microsecond // 10_000,
+    )
     gsa = [p for p in parsed if p.sentence_type == "GSA"]
     used = {int(getattr(gsa[0], f"sv_id{k:02d}")) for k in range(1, 13) if getattr(gsa[0], f"sv_id{k:02d}")}
     assert used == {int(s[1:]) for s in sats.sv}  # NMEA 4.11: GA satellite ID = Galileo PRN
-    gsv_ids = {int(getattr(p, f"sv_prn_num_{k}")) for p in parsed if p.sentence_type == "GSV"
-               for k in range(1, 5) if getattr(p, f"sv_prn_num_{k}", "")}
+    gsv_ids = {
+        int(getattr(p, f"sv_prn_num_{k}"))
+        for p in parsed
+        if p.sentence_type == "GSV"
+        for k in range(1, 5)
+        if getattr(p, f"sv_prn_num_{k}", "")
+    }
     assert gsv_ids == used
 
 
@@ -164,15 +192,39 @@ def test_decoded_inav_records_write_a_galileo_navigation_file_georinex_reads(tmp
     decoded = inav.decode_inav(symbols).ephemeris
     assert decoded is not None
     ready_tow = 18035.0
-    path = write_rinex_nav(tmp_path / "navigation.rnx", [NavRecord(9, decoded, GPS_WEEK, ready_tow)],
-                           signal=GALILEO_E1B_BOC11)
+    path = write_rinex_nav(
+        tmp_path / "navigation.rnx", [NavRecord(9, decoded, GPS_WEEK, ready_tow)], signal=GALILEO_E1B_BOC11
+    )
     back = _georinex(path).sel(sv="E09").isel(time=0)
     original = _georinex(NAV).sel(sv="E09")
     original = original.isel(time=int(np.flatnonzero(np.isfinite(original["IODnav"].values))[0]))
     assert back.time.values == original.time.values  # the Toc
-    for name in ("SVclockBias", "SVclockDrift", "SVclockDriftRate", "IODnav", "Crs", "DeltaN", "M0", "Cuc",
-                 "Eccentricity", "Cus", "sqrtA", "Toe", "Cic", "Omega0", "Cis", "Io", "Crc", "omega",
-                 "OmegaDot", "IDOT", "GALWeek", "SISA", "health", "BGDe5b"):
+    for name in (
+        "SVclockBias",
+        "SVclockDrift",
+        "SVclockDriftRate",
+        "IODnav",
+        "Crs",
+        "DeltaN",
+        "M0",
+        "Cuc",
+        "Eccentricity",
+        "Cus",
+        "sqrtA",
+        "Toe",
+        "Cic",
+        "Omega0",
+        "Cis",
+        "Io",
+        "Crc",
+        "omega",
+        "OmegaDot",
+        "IDOT",
+        "GALWeek",
+        "SISA",
+        "health",
+        "BGDe5b",
+    ):
         # the file's values are broadcast ones (the ICD's quantisation): D19.12 keeps 13 digits
         assert float(back[name]) == pytest.approx(float(original[name]), rel=1e-11, abs=1e-20), name
     assert float(back["BGDe5b"]) != 0.0

@@ -41,8 +41,22 @@ def mixed_run(tmp_path_factory):
     nav = write_mixed_nav(folder / "mixed.rnx", gps)
     path = write_mixed_recording(folder / "mix.sigmf-data", gps, gal, TOW0, DURATION_S, seed=3)
     out = folder / "out"
-    code = main(["receive", str(path), "--signal", "gps-l1ca,galileo-e1b-boc11", "--rate", "5", "--no-iono",
-                 "--ephemeris", str(nav), "--out", str(out), "--quiet"])
+    code = main(
+        [
+            "receive",
+            str(path),
+            "--signal",
+            "gps-l1ca,galileo-e1b-boc11",
+            "--rate",
+            "5",
+            "--no-iono",
+            "--ephemeris",
+            str(nav),
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
     return code, out, gps, gal
 
 
@@ -72,14 +86,20 @@ def test_gps_and_galileo_fixes_use_all_six_satellites_with_an_inter_system_clock
     assert len(rows) >= 4  # 5 Hz from GPS's first subframe (8.6 s in) to the end (10 s)
     assert all(int(r["n_sats"]) == 6 for r in rows)
     assert {int(r["gps_week"]) for r in rows} == {GPS_WEEK}
-    xyz = np.stack(pymap3d.geodetic2ecef(*(np.array([float(r[k]) for r in rows])
-                                          for k in ("lat_deg", "lon_deg", "height_m"))), axis=1)
+    xyz = np.stack(
+        pymap3d.geodetic2ecef(*(np.array([float(r[k]) for r in rows]) for k in ("lat_deg", "lon_deg", "height_m"))),
+        axis=1,
+    )
     hdop, vdop = (np.array([float(r[k]) for r in rows]) for k in ("hdop", "vdop"))
     assert np.all(np.linalg.norm(xyz - STATION, axis=1) < 4 * (hdop + vdop) * SIGMA_M)
     # The generator has no GGTO and one receiver: the offset is noise about 0, within 4 of its sigma.
-    both = Ephemerides(np.concatenate([gps.sv, gal.sv]), np.concatenate([gps.toc_s, gal.toc_s]),
-                      {k: np.concatenate([gps.elements[k], gal.elements[k]]) for k in gps.elements},
-                      np.concatenate([gps.health, gal.health]), np.concatenate([gps.iode, gal.iode]))
+    both = Ephemerides(
+        np.concatenate([gps.sv, gal.sv]),
+        np.concatenate([gps.toc_s, gal.toc_s]),
+        {k: np.concatenate([gps.elements[k], gal.elements[k]]) for k in gps.elements},
+        np.concatenate([gps.health, gal.health]),
+        np.concatenate([gps.iode, gal.iode]),
+    )
     for r in rows:
         sigma_ns = _offset_sigma_ns(both, float(r["tow_s"]), STATION)
         assert abs(float(r["system_offset_ns"])) < 4 * sigma_ns, (r["system_offset_ns"], sigma_ns)
@@ -101,8 +121,9 @@ def test_the_mixed_observation_file_holds_each_systems_codes_and_the_geometrys_r
         other = codes["E" if sv[0] == "G" else "G"]
         assert np.all(np.isnan(obs[other].sel(sv=sv).values))  # each satellite only its own code
     rows = _rows(out)
-    epoch_tow = ((obs.time.values - np.datetime64("1980-01-06")).astype("timedelta64[ns]").astype(float) / 1e9
-                 - GPS_WEEK * 604_800.0)
+    epoch_tow = (obs.time.values - np.datetime64("1980-01-06")).astype("timedelta64[ns]").astype(
+        float
+    ) / 1e9 - GPS_WEEK * 604_800.0
     fixes = {round(float(r["tow_s"]) + float(r["clock_bias_m"]) / C, 3): r for r in rows}
     checked = 0
     for e, t_clock in enumerate(epoch_tow):
@@ -140,8 +161,12 @@ def test_a_signal_set_names_satellites_by_system_and_refuses_what_it_cannot_posi
     both = SignalSet((GPS_L1CA, GALILEO_E1B_BOC11))
     assert both.rinex_satellite(both.key(0, 5)) == "G05" and both.rinex_satellite(both.key(1, 11)) == "E11"
     assert both.wavelength_m == GPS_L1CA.wavelength_m
-    for bad, word in (((GPS_L1CA,), "two signals"), ((GPS_L1CA, QZSS_L1CA, GPS_L1CA), "twice"),
-                      ((GPS_L1CA, GALILEO_E1C_BOC11), "galileo-e1c-boc11"), ((GPS_L1CA, GPS_L2C), "gps-l2c")):
+    for bad, word in (
+        ((GPS_L1CA,), "two signals"),
+        ((GPS_L1CA, QZSS_L1CA, GPS_L1CA), "twice"),
+        ((GPS_L1CA, GALILEO_E1C_BOC11), "galileo-e1c-boc11"),
+        ((GPS_L1CA, GPS_L2C), "gps-l2c"),
+    ):
         with pytest.raises(ConfigError, match=word) as exc:
             SignalSet(bad)
         assert len(str(exc.value).splitlines()) == 1
@@ -151,10 +176,21 @@ def test_receive_refuses_options_it_does_not_take_with_several_signals(tmp_path,
     from gnssframework.receiver.frontend import write_recording
 
     path = write_recording(tmp_path / "zeros.sigmf-data", np.zeros(4000, complex), "ci16_le", 4e6, 0.0)
-    for extra, word in ((["--prns", "5"], "--prns"), (["--tracking", "vector"], "--tracking vector"),
-                        (["--signal", "gps-l1ca,galileo-e1c-boc11"], "galileo-e1c-boc11")):
-        args = ["receive", str(path), "--signal", "gps-l1ca,galileo-e1b-boc11", "--out", str(tmp_path / "o"),
-                "--quiet", *extra]
+    for extra, word in (
+        (["--prns", "5"], "--prns"),
+        (["--tracking", "vector"], "--tracking vector"),
+        (["--signal", "gps-l1ca,galileo-e1c-boc11"], "galileo-e1c-boc11"),
+    ):
+        args = [
+            "receive",
+            str(path),
+            "--signal",
+            "gps-l1ca,galileo-e1b-boc11",
+            "--out",
+            str(tmp_path / "o"),
+            "--quiet",
+            *extra,
+        ]
         assert main(args) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and word in err[0], err

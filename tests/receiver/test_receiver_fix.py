@@ -18,8 +18,16 @@ from gnssframework.receiver.channels import tracking_config
 from gnssframework.receiver.frontend import open_recording
 
 # The generator's constants and helpers, used here and, through this module, by the vector tests.
-from lnav_recordings import (CHUNK_S, FS, NAV, STATION, TOW0, _satellite_time, _strongest,  # noqa: F401
-                             write_lnav_recording)
+from lnav_recordings import (
+    CHUNK_S,
+    FS,
+    NAV,
+    STATION,
+    TOW0,
+    _satellite_time,
+    _strongest,  # noqa: F401
+    write_lnav_recording,
+)
 
 DURATION_S = 9.5
 
@@ -34,8 +42,13 @@ def recording(tmp_path_factory):
 @pytest.mark.slow
 def test_receive_positions_the_generated_recording_at_the_station(recording):
     path, sats = recording
-    result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=5.0,
-                     rinex=read_rinex_nav(NAV))
+    result = receive(
+        open_recording(path),
+        registry.create("acquisition", "pcps"),
+        tracking_config(),
+        rate_hz=5.0,
+        rinex=read_rinex_nav(NAV),
+    )
     table = result.positions
     assert table is not None and len(table) >= 3
     assert np.all(table.columns["n_sats"] == 5)
@@ -51,8 +64,20 @@ def test_receive_positions_the_generated_recording_at_the_station(recording):
 def test_position_command_writes_positions_rinex_and_nmea(recording, tmp_path, capsys):
     path, _ = recording
     lat, lon, h = (float(v) for v in __import__("pymap3d").ecef2geodetic(*STATION))
-    code = main(["position", str(path), "--out", str(tmp_path / "pos"), "--ephemeris", str(NAV), "--rate", "5",
-                 "--truth", f"{lat},{lon},{h}"])
+    code = main(
+        [
+            "position",
+            str(path),
+            "--out",
+            str(tmp_path / "pos"),
+            "--ephemeris",
+            str(NAV),
+            "--rate",
+            "5",
+            "--truth",
+            f"{lat},{lon},{h}",
+        ]
+    )
     out = capsys.readouterr().out
     assert code == 0, out
     assert "against --truth: horizontal RMS" in out
@@ -64,6 +89,7 @@ def test_position_command_writes_positions_rinex_and_nmea(recording, tmp_path, c
     rows = (tmp_path / "pos" / "positions.csv").read_text().splitlines()
     assert {line.split(",")[0] for line in rows[1:]} == {"1316"}
     assert (tmp_path / "pos" / "nmea.txt").exists()
-    first_epoch = next(line for line in (tmp_path / "pos" / "observations.rnx").read_text().splitlines()
-                       if line.startswith("> "))
+    first_epoch = next(
+        line for line in (tmp_path / "pos" / "observations.rnx").read_text().splitlines() if line.startswith("> ")
+    )
     assert first_epoch.startswith("> 2005 04 02 ")  # Saturday of week 1316: TOW0 is 6 d 0 h 5 min in

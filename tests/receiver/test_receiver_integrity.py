@@ -16,8 +16,12 @@ import pymap3d
 import pytest
 
 from gnssframework.receiver.navigation.filtered import filter_epochs
-from gnssframework.receiver.navigation.fixes import (INTEGRITY_COLUMNS, POSITION_COLUMNS, solve_epochs,
-                                                     write_positions_csv)
+from gnssframework.receiver.navigation.fixes import (
+    INTEGRITY_COLUMNS,
+    POSITION_COLUMNS,
+    solve_epochs,
+    write_positions_csv,
+)
 from station_observables import STATION
 from test_receiver_nav_exclusion import FAULT_EPOCH, SIGMA_M, SIGMA_RATE, _faulty, _scenario
 
@@ -29,8 +33,17 @@ def faulty_run():
     faulty = _faulty(obs, j)
     common = dict(ionosphere=False, sigma_m=SIGMA_M, elevation_mask_deg=10.0, reference_week=1316)
     wls = solve_epochs(faulty, nav, raim="ss", false_alarm=1e-5, **common)
-    filtered = filter_epochs(faulty, wls, "ekf-pv", {"accel_psd": 0.01}, rinex=nav, sigma_rate_m_s=SIGMA_RATE,
-                             innovation_false_alarm=1e-4, integrity_risk=1e-7, **common)
+    filtered = filter_epochs(
+        faulty,
+        wls,
+        "ekf-pv",
+        {"accel_psd": 0.01},
+        rinex=nav,
+        sigma_rate_m_s=SIGMA_RATE,
+        innovation_false_alarm=1e-4,
+        integrity_risk=1e-7,
+        **common,
+    )
     return int(obs.prn[j]), wls, filtered
 
 
@@ -60,8 +73,9 @@ def test_positions_csv_gets_the_integrity_columns(faulty_run, tmp_path):
     with write_positions_csv(tmp_path / "positions.csv", wls).open() as fh:
         rows = list(csv.DictReader(fh))
     assert tuple(rows[0]) == POSITION_COLUMNS + INTEGRITY_COLUMNS
-    assert rows[-1]["raim"] == "excluded" and float(rows[-1]["hpl_m"]) == pytest.approx(wls.columns["hpl_m"][-1],
-                                                                                            abs=0.005)
+    assert rows[-1]["raim"] == "excluded" and float(rows[-1]["hpl_m"]) == pytest.approx(
+        wls.columns["hpl_m"][-1], abs=0.005
+    )
 
 
 def test_rows_without_levels_after_a_hand_over_say_so(faulty_run):
@@ -69,8 +83,13 @@ def test_rows_without_levels_after_a_hand_over_say_so(faulty_run):
     from gnssframework.receiver.navigation.receive import concatenate_tables
 
     _, wls, _ = faulty_run
-    plain = PositionTable({c: wls.columns[c] for c in POSITION_COLUMNS}, wls.ecef_m, wls.sample_time_s + 2000.0,
-                          wls.used_prns, wls.excluded_prn)
+    plain = PositionTable(
+        {c: wls.columns[c] for c in POSITION_COLUMNS},
+        wls.ecef_m,
+        wls.sample_time_s + 2000.0,
+        wls.used_prns,
+        wls.excluded_prn,
+    )
     joined = concatenate_tables(wls, plain, 1000.0)  # every row of wls before the switch
     n = len(wls)
     assert len(joined) == 2 * n

@@ -39,21 +39,33 @@ def _scenario():
     pr, tx, dop = (np.zeros((EPOCHS, prn.size)) for _ in range(3))
     for k, tk in enumerate(t):
         pr[k], tx[k], _, el = geometry(sel, tk, BIAS_M)
-        rate = (geometry(sel, tk + 0.5, BIAS_M)[0] - geometry(sel, tk - 0.5, BIAS_M)[0])
+        rate = geometry(sel, tk + 0.5, BIAS_M)[0] - geometry(sel, tk - 0.5, BIAS_M)[0]
         sin_el = np.sin(el)
         pr[k] += rng.standard_normal(prn.size) * SIGMA_M / sin_el
         dop[k] = -(rate + rng.standard_normal(prn.size) * SIGMA_RATE / sin_el) / L1_WAVELENGTH_M
     _, _, los, el = geometry(sel, T0, BIAS_M)
-    obs = Observables(t + BIAS_M / C, t - T0, prn, tx, pr, dop, np.zeros_like(pr), np.full(pr.shape, 45.0), {},
-                      None, None)
+    obs = Observables(
+        t + BIAS_M / C, t - T0, prn, tx, pr, dop, np.zeros_like(pr), np.full(pr.shape, 45.0), {}, None, None
+    )
     return nav, obs, los, el
 
 
 def _faulty(obs, j):
     pr = obs.pseudorange_m.copy()
     pr[FAULT_EPOCH:, j] += FAULT_M
-    return Observables(obs.rx_time_s, obs.sample_time_s, obs.prn, obs.transmit_s, pr, obs.doppler_hz,
-                       obs.carrier_cycles, obs.cn0_dbhz, {}, None, None)
+    return Observables(
+        obs.rx_time_s,
+        obs.sample_time_s,
+        obs.prn,
+        obs.transmit_s,
+        pr,
+        obs.doppler_hz,
+        obs.carrier_cycles,
+        obs.cn0_dbhz,
+        {},
+        None,
+        None,
+    )
 
 
 def _wls_position_cov(los, el):
@@ -72,10 +84,17 @@ def runs():
     j = int(np.argmax(shift))
     faulty = _faulty(obs, j)
     wls = solve_epochs(faulty, nav, ionosphere=False, sigma_m=SIGMA_M, elevation_mask_deg=10.0, reference_week=1316)
-    common = dict(rinex=nav, ionosphere=False, sigma_m=SIGMA_M, sigma_rate_m_s=SIGMA_RATE,
-                  elevation_mask_deg=10.0, reference_week=1316)
-    gated = filter_epochs(faulty, wls, "ekf-pv", {"accel_psd": 0.01}, exclusion="innovation",
-                          innovation_false_alarm=1e-4, **common)
+    common = dict(
+        rinex=nav,
+        ionosphere=False,
+        sigma_m=SIGMA_M,
+        sigma_rate_m_s=SIGMA_RATE,
+        elevation_mask_deg=10.0,
+        reference_week=1316,
+    )
+    gated = filter_epochs(
+        faulty, wls, "ekf-pv", {"accel_psd": 0.01}, exclusion="innovation", innovation_false_alarm=1e-4, **common
+    )
     ungated = filter_epochs(faulty, wls, "ekf-pv", {"accel_psd": 0.01}, exclusion="none", **common)
     return obs, cov, j, shift[j], gated, ungated
 
@@ -120,8 +139,14 @@ def test_a_fault_free_epoch_passes_and_one_fault_among_many_is_the_one_left_out(
     sat = 2.6e7 * u
     x = np.r_[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 100.0, 1.0]
     rng_m, rate = np.linalg.norm(sat, axis=1) + 100.0, np.full(8, 1.0)
-    m = EpochMeasurements(sat, np.zeros((8, 3)), rng_m + rng.standard_normal(8), rate + 0.1 * rng.standard_normal(8),
-                          np.ones(8), np.full(8, 0.01))
+    m = EpochMeasurements(
+        sat,
+        np.zeros((8, 3)),
+        rng_m + rng.standard_normal(8),
+        rate + 0.1 * rng.standard_normal(8),
+        np.ones(8),
+        np.full(8, 0.01),
+    )
     P = np.diag([1.0] * 3 + [0.01] * 3 + [1.0, 0.01])
     keep, stat = innovation_exclusion(x, P, m, 1e-3)
     assert keep.all() and stat < chi2.ppf(1 - 1e-3, 16)

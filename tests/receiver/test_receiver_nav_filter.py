@@ -17,8 +17,12 @@ import pytest
 from gnssframework import registry
 from gnssframework.errors import ConfigError
 from gnssframework.navigation.ephemeris import satellite_state
-from gnssframework.receiver.navigation.filtered import (EpochMeasurements, check_nav_filter, corrected_measurements,
-                                                        run_nav_filter)
+from gnssframework.receiver.navigation.filtered import (
+    EpochMeasurements,
+    check_nav_filter,
+    corrected_measurements,
+    run_nav_filter,
+)
 from gnssframework.simulation.clock import PRESETS
 from station_observables import C, L1_WAVELENGTH_M, STATION, geometry, visible
 
@@ -108,11 +112,17 @@ def test_corrected_ranges_are_geometry_plus_the_receiver_clock():
     np.testing.assert_allclose(meas.rate_m_s, np.sum(meas.sat_vel_m_s * e, axis=1), atol=0.01)
 
 
-@pytest.mark.parametrize("name, message", [
-    ("ekf-p", "nav_filter: unknown nav_filter 'ekf-p'"),
-    ("position-ca", "nav_filter: nav_filter 'position-ca' cannot run on pseudoranges and Dopplers: it needs "
-                    "position_m; those that can: "),
-])
+@pytest.mark.parametrize(
+    "name, message",
+    [
+        ("ekf-p", "nav_filter: unknown nav_filter 'ekf-p'"),
+        (
+            "position-ca",
+            "nav_filter: nav_filter 'position-ca' cannot run on pseudoranges and Dopplers: it needs "
+            "position_m; those that can: ",
+        ),
+    ],
+)
 def test_a_bad_nav_filter_name_is_refused_naming_the_option(name, message):
     with pytest.raises(ConfigError) as info:
         check_nav_filter(name)
@@ -137,8 +147,9 @@ def test_least_squares_weights_satisfy_their_normal_equations(elevation_weights)
     rng = np.random.default_rng(3)
     pr = geometric - C * clock + 100.0 + rng.standard_normal(sel.sv.size) * 3.0
     tx = t_rx - geometric / C + clock
-    fix = solve_position(pr, tx, sel, sigma_m=3.0, elevation_mask_deg=0.0, false_alarm=1e-12,
-                         elevation_weights=elevation_weights)
+    fix = solve_position(
+        pr, tx, sel, sigma_m=3.0, elevation_mask_deg=0.0, false_alarm=1e-12, elevation_weights=elevation_weights
+    )
     el, az = np.radians(fix.elevation_deg), np.radians(fix.azimuth_deg)
     u = np.stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)], axis=1)
     w = np.sin(el) ** 2 if elevation_weights else np.ones(el.size)
@@ -157,8 +168,17 @@ def test_ekf_pva_runs_through_the_same_harness():
     az, el = np.radians([0, 60, 130, 200, 270, 320]), np.radians([70, 20, 45, 30, 15, 55])
     u = np.stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)], axis=1)
     sat = 2.6e7 * u
-    epochs = [EpochMeasurements(sat, np.zeros((6, 3)), np.linalg.norm(sat, axis=1) + 50.0 + rng.standard_normal(6),
-                                rng.standard_normal(6) * 0.1, np.ones(6), np.full(6, 0.01)) for _ in range(30)]
+    epochs = [
+        EpochMeasurements(
+            sat,
+            np.zeros((6, 3)),
+            np.linalg.norm(sat, axis=1) + 50.0 + rng.standard_normal(6),
+            rng.standard_normal(6) * 0.1,
+            np.ones(6),
+            np.full(6, 0.01),
+        )
+        for _ in range(30)
+    ]
     x0 = np.r_[3.0, -2.0, 4.0, 0.0, 0.0, 0.0, 45.0, 0.0]
     P0 = np.diag([25.0] * 3 + [1.0] * 3 + [100.0, 1.0])
     states = run_nav_filter(registry.create("nav_filter", "ekf-pva"), 1.0, x0, P0, epochs)

@@ -18,8 +18,15 @@ from lnav_recordings import NAV, TOW0
 
 WEEK = 1316
 #: Page 18 as broadcast (IS-GPS-200 20.3.3.5.1.7 scales: the encoder quantizes them).
-IONO = lnav.IonoUtc((1.1176e-08, 7.4506e-09, -5.9605e-08, -5.9605e-08), (90112.0, 16384.0, -196608.0, -65536.0),
-                    9.3e-10, 1.8e-15, 405504.0, 1316 % 256, 14)
+IONO = lnav.IonoUtc(
+    (1.1176e-08, 7.4506e-09, -5.9605e-08, -5.9605e-08),
+    (90112.0, 16384.0, -196608.0, -65536.0),
+    9.3e-10,
+    1.8e-15,
+    405504.0,
+    1316 % 256,
+    14,
+)
 
 
 @pytest.fixture(scope="module")
@@ -120,12 +127,20 @@ def test_no_record_or_another_systems_layout_is_refused(decoded, tmp_path):
 def _table(n=3, used=((3, 7, 11, 19, 28),) * 3, hdop=(0.81, 1.5, 3.0), vdop=(1.2, 2.0, 4.5)):
     from gnssframework.receiver.navigation.fixes import PositionTable
 
-    cols = {"gps_week": np.full(n, 2190), "tow_s": 518_418.0 + np.arange(n),  # 18 leap seconds: 00:00:00 UTC
-            "lat_deg": np.array([35.681298, -33.8688197, 35.9999999999][:n]),
-            "lon_deg": np.array([139.766247, 151.2092955, -0.5][:n]), "height_m": np.array([10.0, 58.25, -20.5][:n]),
-            "vel_e_mps": np.array([1.0, 0.0, np.nan][:n]), "vel_n_mps": np.array([1.0, -2.0, np.nan][:n]),
-            "vel_u_mps": np.zeros(n), "clock_bias_m": np.zeros(n), "n_sats": np.array([len(u) for u in used]),
-            "hdop": np.array(hdop[:n]), "vdop": np.array(vdop[:n])}
+    cols = {
+        "gps_week": np.full(n, 2190),
+        "tow_s": 518_418.0 + np.arange(n),  # 18 leap seconds: 00:00:00 UTC
+        "lat_deg": np.array([35.681298, -33.8688197, 35.9999999999][:n]),
+        "lon_deg": np.array([139.766247, 151.2092955, -0.5][:n]),
+        "height_m": np.array([10.0, 58.25, -20.5][:n]),
+        "vel_e_mps": np.array([1.0, 0.0, np.nan][:n]),
+        "vel_n_mps": np.array([1.0, -2.0, np.nan][:n]),
+        "vel_u_mps": np.zeros(n),
+        "clock_bias_m": np.zeros(n),
+        "n_sats": np.array([len(u) for u in used]),
+        "hdop": np.array(hdop[:n]),
+        "vdop": np.array(vdop[:n]),
+    }
     return PositionTable(cols, np.zeros((n, 3)), np.arange(n, dtype=float), list(used), np.zeros(n, int))
 
 
@@ -165,14 +180,34 @@ def test_gsv_pages_hold_every_satellite_in_view_rounded_as_nmea_writes():
     assert [p.sentence_type for p in parsed[:2]] == ["GGA", "RMC"] and len(gsv) == 2  # six satellites, 4 a page
     assert all(int(p.num_messages) == 2 and int(p.num_sv_in_view) == 6 for p in gsv)
     assert [int(p.msg_num) for p in gsv] == [1, 2]
-    sats = [(getattr(p, f"sv_prn_num_{i}"), getattr(p, f"elevation_deg_{i}"), getattr(p, f"azimuth_{i}"),
-             getattr(p, f"snr_{i}")) for p in gsv for i in range(1, 5) if getattr(p, f"sv_prn_num_{i}", None)]
-    assert sats == [("03", "86", "000", "47"), ("05", "", "", "35"), ("07", "05", "090", "30"),
-                    ("11", "30", "270", "44"), ("19", "45", "181", ""), ("28", "12", "000", "39")]
+    sats = [
+        (
+            getattr(p, f"sv_prn_num_{i}"),
+            getattr(p, f"elevation_deg_{i}"),
+            getattr(p, f"azimuth_{i}"),
+            getattr(p, f"snr_{i}"),
+        )
+        for p in gsv
+        for i in range(1, 5)
+        if getattr(p, f"sv_prn_num_{i}", None)
+    ]
+    assert sats == [
+        ("03", "86", "000", "47"),
+        ("05", "", "", "35"),
+        ("07", "05", "090", "30"),
+        ("11", "30", "270", "44"),
+        ("19", "45", "181", ""),
+        ("28", "12", "000", "39"),
+    ]
     from gnssframework.receiver.navigation.nmea_out import gsa_gsv_sentences
 
-    qzss = gsa_gsv_sentences((193, 195), 1.0, 1.0, SkyView(np.array([193]), np.array([70.0]), np.array([10.0]),
-                                                             np.array([40.0])), talker="GQ")
+    qzss = gsa_gsv_sentences(
+        (193, 195),
+        1.0,
+        1.0,
+        SkyView(np.array([193]), np.array([70.0]), np.array([10.0]), np.array([40.0])),
+        talker="GQ",
+    )
     assert qzss[0].startswith("$GQGSA,A,3,01,03,") and qzss[1].startswith("$GQGSV,1,1,01,01,70,010,40")
     with pytest.raises(ConfigError, match="one SkyView per fix"):
         nmea_sentences(table, sky=[])
@@ -193,7 +228,9 @@ def test_geojson_and_kml_hold_the_track_longitude_first(tmp_path):
     expected = np.stack([c["lon_deg"], c["lat_deg"], c["height_m"]], axis=1)  # RFC 7946: lon, lat, height
     assert np.allclose(line["geometry"]["coordinates"], expected, atol=1e-9)
     assert np.allclose([p["geometry"]["coordinates"] for p in points], expected, atol=1e-9)
-    assert points[0]["properties"]["time_utc"] == "2022-01-01T00:00:00.000Z"  # week 2190 (from 2021-12-26), tow 518418 - 18 s
+    assert (
+        points[0]["properties"]["time_utc"] == "2022-01-01T00:00:00.000Z"
+    )  # week 2190 (from 2021-12-26), tow 518418 - 18 s
     assert points[1]["properties"]["n_sats"] == 5 and points[2]["properties"]["vel_e_mps"] is None
     assert points[0]["properties"]["prns_used"] == [3, 7, 11, 19, 28]
 
@@ -217,8 +254,22 @@ def test_parquet_opens_in_pandas_with_the_channels_rows(tmp_path):
     from gnssframework.receiver.navigation.columnar_out import write_tracking_parquet
 
     def rows(prn, times):
-        return [(t, 40.0 + prn + t, 0.9, -1000.0 * prn, 0.25 * prn, 12.5 * t, t > 0.001, 1 + (t > 0.002),
-                 100.0, -3.0, 1 + 19 * (t > 0.002)) for t in times]
+        return [
+            (
+                t,
+                40.0 + prn + t,
+                0.9,
+                -1000.0 * prn,
+                0.25 * prn,
+                12.5 * t,
+                t > 0.001,
+                1 + (t > 0.002),
+                100.0,
+                -3.0,
+                1 + 19 * (t > 0.002),
+            )
+            for t in times
+        ]
 
     channels = {7: ChannelRecord(7, rows(7, [0.001, 0.002, 0.003])), 3: ChannelRecord(3, rows(3, [0.0015, 0.0025]))}
     tracking = TrackingResult(channels, [], 0.004, "scalar")
@@ -281,8 +332,25 @@ def _rtcm_observables(rx_time_s):
     pr[1, 1] = np.nan  # satellite 2 missing at the second epoch (a gap: its arc restarts)
     cycles[1, 1] = np.nan
     lli = np.zeros((E, 2), np.uint8)
-    return Observables(t, t - t[0], np.array([5, 12]), np.zeros((E, 2)), pr, np.tile(dop, (E, 1)), cycles,
-                       np.full((E, 2), 45.3), {}, None, None, lli), pr0, dop, wavelength
+    return (
+        Observables(
+            t,
+            t - t[0],
+            np.array([5, 12]),
+            np.zeros((E, 2)),
+            pr,
+            np.tile(dop, (E, 1)),
+            cycles,
+            np.full((E, 2), 45.3),
+            {},
+            None,
+            None,
+            lli,
+        ),
+        pr0,
+        dop,
+        wavelength,
+    )
 
 
 def test_msm7_decodes_through_pyrtcm_to_the_observables_within_its_resolution():
@@ -323,8 +391,19 @@ def test_lock_time_indicator_follows_the_table_and_crc_matches_the_spec_example(
     from gnssframework.receiver.navigation.rtcm_out import crc24q, lock_time_indicator
 
     # RTCM 10403.3 table 3.5-79 (DF407): indicator ranges and the lock times they start at.
-    assert [lock_time_indicator(t) for t in (0, 63, 64, 66, 127, 128, 255, 256, 2048, 67_108_863, 10**9)] == \
-           [0, 63, 64, 65, 95, 96, 127, 128, 224, 703, 704]
+    assert [lock_time_indicator(t) for t in (0, 63, 64, 66, 127, 128, 255, 256, 2048, 67_108_863, 10**9)] == [
+        0,
+        63,
+        64,
+        65,
+        95,
+        96,
+        127,
+        128,
+        224,
+        703,
+        704,
+    ]
     # CRC-24Q (the 0x864CFB polynomial) of b"123456789": the catalogue value 0xCDE703.
     assert crc24q(b"123456789") == 0xCDE703
 
@@ -336,8 +415,20 @@ def test_no_msm_for_a_signal_without_one_and_no_file_without_a_pseudorange(tmp_p
     obs = _rtcm_observables(np.array([1.0, 2.0]))[0]
     with pytest.raises(ConfigError, match="no MSM7 signal for"):
         msm7_frames(obs, BEIDOU_B1C)
-    empty = type(obs)(obs.rx_time_s, obs.sample_time_s, obs.prn, obs.transmit_s, np.full_like(obs.pseudorange_m, np.nan),
-                      obs.doppler_hz, obs.carrier_cycles, obs.cn0_dbhz, {}, None, None, obs.lli)
+    empty = type(obs)(
+        obs.rx_time_s,
+        obs.sample_time_s,
+        obs.prn,
+        obs.transmit_s,
+        np.full_like(obs.pseudorange_m, np.nan),
+        obs.doppler_hz,
+        obs.carrier_cycles,
+        obs.cn0_dbhz,
+        {},
+        None,
+        None,
+        obs.lli,
+    )
     with pytest.raises(ConfigError, match="no epoch holds a pseudorange"):
         write_rtcm(tmp_path / "o.rtcm3", empty)
 
@@ -353,16 +444,36 @@ def test_write_extra_outputs_writes_what_is_asked_and_notes_what_it_cannot(decod
 
     records, iono, first = decoded
     obs, _, _, _ = _rtcm_observables(first + 1.0 + np.arange(3.0))
-    obs = type(obs)(*(getattr(obs, f) for f in ("rx_time_s", "sample_time_s", "prn", "transmit_s", "pseudorange_m",
-                                                "doppler_hz", "carrier_cycles", "cn0_dbhz")),
-                    {prn: [(0.5, rec)] for prn, rec in records.items()}, iono, WEEK % 1024, obs.lli)
-    tracking = TrackingResult({5: ChannelRecord(5, [(0.001, 45.0, 0.9, -2500.0, 10.0, 0.5, True, 1, 1.0, 0.0, 1)])},
-                              [], 3.0, "scalar")
+    obs = type(obs)(
+        *(
+            getattr(obs, f)
+            for f in (
+                "rx_time_s",
+                "sample_time_s",
+                "prn",
+                "transmit_s",
+                "pseudorange_m",
+                "doppler_hz",
+                "carrier_cycles",
+                "cn0_dbhz",
+            )
+        ),
+        {prn: [(0.5, rec)] for prn, rec in records.items()},
+        iono,
+        WEEK % 1024,
+        obs.lli,
+    )
+    tracking = TrackingResult(
+        {5: ChannelRecord(5, [(0.001, 45.0, 0.9, -2500.0, 10.0, 0.5, True, 1, 1.0, 0.0, 1)])}, [], 3.0, "scalar"
+    )
     table = _table()
     result = ReceiveResult(tracking, obs, table, table)
     written, notes = write_extra_outputs(tmp_path, result, table, frozenset(OUTPUTS), WEEK)
-    assert sorted(p.name for p in written) == ["navigation.rnx", "observations.rtcm3", "track.geojson", "track.kml",
-                                               "tracking.parquet"] and notes == []
+    assert (
+        sorted(p.name for p in written)
+        == ["navigation.rnx", "observations.rtcm3", "track.geojson", "track.kml", "tracking.parquet"]
+        and notes == []
+    )
     assert sorted(_read_back(tmp_path / "navigation.rnx").sv.values) == sorted(f"G{p:02d}" for p in records)
     assert len(_msm_cells([(tmp_path / "observations.rtcm3").read_bytes()])) == 3
     assert len(json.loads((tmp_path / "track.geojson").read_text())["features"]) == 4
@@ -370,8 +481,10 @@ def test_write_extra_outputs_writes_what_is_asked_and_notes_what_it_cannot(decod
     # Without observables (an assisted start's vector positions alone) or a known week: notes.
     bare = ReceiveResult(tracking, None, table, table)
     written, notes = write_extra_outputs(tmp_path / "b", bare, table, frozenset({"rinex-nav", "rtcm"}), WEEK)
-    assert written == [] and notes == ["no ephemeris decoded from LNAV: no navigation.rnx",
-                                       "no pseudoranges dated in a known week: no observations.rtcm3"]
+    assert written == [] and notes == [
+        "no ephemeris decoded from LNAV: no navigation.rnx",
+        "no pseudoranges dated in a known week: no observations.rtcm3",
+    ]
     written, notes = write_extra_outputs(tmp_path / "c", result, table, frozenset({"rinex-nav"}), -1)
     assert written == [] and notes == ["the GPS week is unknown: no navigation.rnx"]
 

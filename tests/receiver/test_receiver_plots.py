@@ -19,9 +19,19 @@ LOCKED, NEVER = 3, 7
 def _record(prn: int, cn0: float, lock: int) -> ChannelRecord:
     rows = []
     for k in range(50):
-        row = dict(time_s=k * 0.01, cn0_dbhz=cn0 + 0.1 * np.sin(k), pli=0.9 * lock, doppler_hz=1000.0,
-                   code_phase_chips=0.0, carrier_phase_cycles=10.0 * k, lock=lock, stage=1,
-                   prompt_i=100.0 * (-1) ** (k // 20), prompt_q=3.0, coherent_ms=1)
+        row = dict(
+            time_s=k * 0.01,
+            cn0_dbhz=cn0 + 0.1 * np.sin(k),
+            pli=0.9 * lock,
+            doppler_hz=1000.0,
+            code_phase_chips=0.0,
+            carrier_phase_cycles=10.0 * k,
+            lock=lock,
+            stage=1,
+            prompt_i=100.0 * (-1) ** (k // 20),
+            prompt_q=3.0,
+            coherent_ms=1,
+        )
         rows.append(tuple(row[f] for f in RECORD_FIELDS))
     return ChannelRecord(prn, rows)
 

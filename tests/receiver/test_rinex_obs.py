@@ -36,8 +36,12 @@ def test_georinex_reads_back_the_values(tmp_path):
     assert list(data.sv.values) == ["G05", "G13", "G24"]
     times = (data.time.values - np.datetime64("1980-01-06")) / np.timedelta64(1, "s") - 2190 * 604800
     assert np.allclose(times, obs.rx_time_s)
-    for name, values in (("C1C", obs.pseudorange_m), ("L1C", obs.carrier_cycles), ("D1C", obs.doppler_hz),
-                         ("S1C", obs.cn0_dbhz)):
+    for name, values in (
+        ("C1C", obs.pseudorange_m),
+        ("L1C", obs.carrier_cycles),
+        ("D1C", obs.doppler_hz),
+        ("S1C", obs.cn0_dbhz),
+    ):
         got = data[name].values
         values = np.where(np.isnan(obs.pseudorange_m), np.nan, values)  # a satellite without a range is not written
         assert np.array_equal(np.isnan(got), np.isnan(values))
@@ -51,8 +55,19 @@ def test_the_same_observables_give_the_same_bytes_and_bad_input_is_refused(tmp_p
     assert a == write_rinex_obs(tmp_path / "b.rnx", obs, 2190).read_bytes()
     with pytest.raises(ConfigError, match="week"):
         write_rinex_obs(tmp_path / "c.rnx", obs, -1)
-    empty = Observables(obs.rx_time_s, obs.sample_time_s, obs.prn, obs.transmit_s, np.full((4, 3), np.nan),
-                        obs.doppler_hz, obs.carrier_cycles, obs.cn0_dbhz, {}, None, None)
+    empty = Observables(
+        obs.rx_time_s,
+        obs.sample_time_s,
+        obs.prn,
+        obs.transmit_s,
+        np.full((4, 3), np.nan),
+        obs.doppler_hz,
+        obs.carrier_cycles,
+        obs.cn0_dbhz,
+        {},
+        None,
+        None,
+    )
     with pytest.raises(ConfigError, match="no epoch holds a pseudorange"):
         write_rinex_obs(tmp_path / "d.rnx", empty, 2190)
 
@@ -63,12 +78,20 @@ def test_nmea_sentences_read_back_through_the_projects_reader(tmp_path):
     from gnssframework.receiver.navigation.nmea_out import nmea_sentences, write_nmea
 
     n = 3
-    cols = {"gps_week": np.full(n, 2190), "tow_s": 518_418.0 + np.arange(n),  # 18 leap seconds: 00:00:00 UTC on
-            "lat_deg": np.array([35.681298, -33.8688197, 35.9999999999]),
-            "lon_deg": np.array([139.766247, 151.2092955, -0.5]), "height_m": np.array([10.0, 58.25, -20.5]),
-            "vel_e_mps": np.array([1.0, 0.0, np.nan]), "vel_n_mps": np.array([1.0, -2.0, np.nan]),
-            "vel_u_mps": np.zeros(n), "clock_bias_m": np.zeros(n), "n_sats": np.array([10, 7, 4]),
-            "hdop": np.array([0.81, 1.5, 3.0]), "vdop": np.ones(n)}
+    cols = {
+        "gps_week": np.full(n, 2190),
+        "tow_s": 518_418.0 + np.arange(n),  # 18 leap seconds: 00:00:00 UTC on
+        "lat_deg": np.array([35.681298, -33.8688197, 35.9999999999]),
+        "lon_deg": np.array([139.766247, 151.2092955, -0.5]),
+        "height_m": np.array([10.0, 58.25, -20.5]),
+        "vel_e_mps": np.array([1.0, 0.0, np.nan]),
+        "vel_n_mps": np.array([1.0, -2.0, np.nan]),
+        "vel_u_mps": np.zeros(n),
+        "clock_bias_m": np.zeros(n),
+        "n_sats": np.array([10, 7, 4]),
+        "hdop": np.array([0.81, 1.5, 3.0]),
+        "vdop": np.ones(n),
+    }
     table = PositionTable(cols, np.zeros((n, 3)), np.arange(n, dtype=float), [(1,)] * n, np.zeros(n, int))
     path = write_nmea(tmp_path / "nmea.txt", table, leap_seconds=18)
     fixes = read_nmea(path, max_speed_mps=1e8)  # the fixes jump across the globe on purpose
@@ -89,9 +112,25 @@ def test_loss_of_lock_and_strength_indicators_read_back_through_georinex(tmp_pat
     obs = _observables()
     lli = np.zeros((4, 3), dtype=int)
     lli[2, 0], lli[3, 1], lli[1, 1] = 1, 2, 3
-    obs = Observables(*(getattr(obs, f) for f in ("rx_time_s", "sample_time_s", "prn", "transmit_s", "pseudorange_m",
-                                                  "doppler_hz", "carrier_cycles", "cn0_dbhz", "ephemeris",
-                                                  "iono_utc", "week")), lli)
+    obs = Observables(
+        *(
+            getattr(obs, f)
+            for f in (
+                "rx_time_s",
+                "sample_time_s",
+                "prn",
+                "transmit_s",
+                "pseudorange_m",
+                "doppler_hz",
+                "carrier_cycles",
+                "cn0_dbhz",
+                "ephemeris",
+                "iono_utc",
+                "week",
+            )
+        ),
+        lli,
+    )
     path = write_rinex_obs(tmp_path / "observations.rnx", obs, 2190)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FutureWarning)
@@ -114,8 +153,19 @@ def test_a_qzss_file_names_its_system_and_satellites_as_rinex_does(tmp_path):
     from gnssframework.signal.qzss_l1ca import QZSS_L1CA
 
     obs = _observables()
-    obs = Observables(obs.rx_time_s, obs.sample_time_s, np.array([193, 195, 199]), obs.transmit_s, obs.pseudorange_m,
-                      obs.doppler_hz, obs.carrier_cycles, obs.cn0_dbhz, {}, None, 142)
+    obs = Observables(
+        obs.rx_time_s,
+        obs.sample_time_s,
+        np.array([193, 195, 199]),
+        obs.transmit_s,
+        obs.pseudorange_m,
+        obs.doppler_hz,
+        obs.carrier_cycles,
+        obs.cn0_dbhz,
+        {},
+        None,
+        142,
+    )
     path = write_rinex_obs(tmp_path / "qzss.rnx", obs, 2190, signal=QZSS_L1CA)
     assert "J    4 C1C L1C D1C S1C" in path.read_text()
     with warnings.catch_warnings():
@@ -137,10 +187,20 @@ def test_the_nmea_talker_follows_the_signals_systems(tmp_path):
 
     assert nmea_talker() == nmea_talker(GPS_L1CA) == "GP"
     assert nmea_talker(QZSS_L1CA) == "GQ" and nmea_talker(GPS_L1CA, QZSS_L1CA) == "GN"
-    cols = {"gps_week": np.full(1, 2190), "tow_s": np.array([518_418.0]), "lat_deg": np.array([35.681298]),
-            "lon_deg": np.array([139.766247]), "height_m": np.array([10.0]), "vel_e_mps": np.zeros(1),
-            "vel_n_mps": np.zeros(1), "vel_u_mps": np.zeros(1), "clock_bias_m": np.zeros(1), "n_sats": np.array([9]),
-            "hdop": np.array([0.9]), "vdop": np.ones(1)}
+    cols = {
+        "gps_week": np.full(1, 2190),
+        "tow_s": np.array([518_418.0]),
+        "lat_deg": np.array([35.681298]),
+        "lon_deg": np.array([139.766247]),
+        "height_m": np.array([10.0]),
+        "vel_e_mps": np.zeros(1),
+        "vel_n_mps": np.zeros(1),
+        "vel_u_mps": np.zeros(1),
+        "clock_bias_m": np.zeros(1),
+        "n_sats": np.array([9]),
+        "hdop": np.array([0.9]),
+        "vdop": np.ones(1),
+    }
     table = PositionTable(cols, np.zeros((1, 3)), np.zeros(1), [(1,)], np.zeros(1, int))
     path = write_nmea(tmp_path / "nmea.txt", table, talker=nmea_talker(GPS_L1CA, QZSS_L1CA))
     assert path.read_text().startswith("$GNGGA,000000.00,")

@@ -9,8 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from gnssframework.cli import main
-from gnssframework.receiver.acquisition.plausibility import (MAX_DOPPLER_SPREAD_HZ, MAX_VISIBLE_GPS, format_hint,
-                                                             implausible_acquisition)
+from gnssframework.receiver.acquisition.plausibility import (
+    MAX_DOPPLER_SPREAD_HZ,
+    MAX_VISIBLE_GPS,
+    format_hint,
+    implausible_acquisition,
+)
 from gnssframework.receiver.acquisition.search import AcquisitionResult
 
 DATA = Path(__file__).parents[1] / "data"
@@ -95,8 +99,26 @@ def test_receive_refuses_the_wrong_format_before_tracking(tmp_path, capsys):
 def test_detections_that_do_not_recur_where_predicted_are_refused(tmp_path, capsys):
     """Seven PRNs of the ci8 file read as ci16_le: too few for the count and noise-floor
     checks, but none of the six "found" recurs 8 ms later (main reported 6 satellites)."""
-    code = main(["acquire", str(REAL), "--format", "ci16_le", "--fs", "4e6", "--out", str(tmp_path / "a.csv"),
-                 "--prns", "1", "2", "3", "4", "5", "6", "7"])
+    code = main(
+        [
+            "acquire",
+            str(REAL),
+            "--format",
+            "ci16_le",
+            "--fs",
+            "4e6",
+            "--out",
+            str(tmp_path / "a.csv"),
+            "--prns",
+            "1",
+            "2",
+            "3",
+            "4",
+            "5",
+            "6",
+            "7",
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 2 and "are not found again 8 ms later" in err and "--format ci8?" in err
 

@@ -37,8 +37,9 @@ def test_nan_samples_are_zeroed_counted_and_do_not_hide_the_satellites(tmp_path,
     assert FOUND <= found
 
 
-@pytest.mark.parametrize("option, value", [("--if", "nan"), ("--fs", "inf"), ("--doppler-max", "inf"),
-                                           ("--pfa", "nan")])
+@pytest.mark.parametrize(
+    "option, value", [("--if", "nan"), ("--fs", "inf"), ("--doppler-max", "inf"), ("--pfa", "nan")]
+)
 def test_non_finite_options_are_refused_naming_them(option, value, tmp_path, capsys):
     given = {"--fs": "4e6", option: value}
     args = ["acquire", str(REAL), "--format", "ci8", "--out", str(tmp_path / "a.csv")]
@@ -48,8 +49,10 @@ def test_non_finite_options_are_refused_naming_them(option, value, tmp_path, cap
 
 
 def test_smooth_refuses_an_infinite_r(tmp_path, capsys):
-    assert main(["smooth", str(RINEX2), "--prn", "G08", "--filter", "kf", "--r", "inf", "--out",
-                 str(tmp_path / "s.csv")]) == 2
+    assert (
+        main(["smooth", str(RINEX2), "--prn", "G08", "--filter", "kf", "--r", "inf", "--out", str(tmp_path / "s.csv")])
+        == 2
+    )
     assert "--r: must be a finite number" in _one_error_line(capsys)
 
 
@@ -80,14 +83,17 @@ def test_a_full_disk_names_the_output(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("extra, says", [
-    (["--truth", "91,0,0"], "--truth: latitude 91"),
-    (["--truth", "0,200,0"], "--truth: longitude 200"),
-    (["--truth", "nan,nan,nan"], "--truth: LAT,LON,H must be finite"),
-    (["--rate", "1e9"], "--rate: must be at most 1000 Hz"),
-    (["--duration", "1e-9"], "--duration: must be at least"),
-    (["--prns", "1", "1", "1"], "--prns: PRN 1 given more than once"),
-])
+@pytest.mark.parametrize(
+    "extra, says",
+    [
+        (["--truth", "91,0,0"], "--truth: latitude 91"),
+        (["--truth", "0,200,0"], "--truth: longitude 200"),
+        (["--truth", "nan,nan,nan"], "--truth: LAT,LON,H must be finite"),
+        (["--rate", "1e9"], "--rate: must be at most 1000 Hz"),
+        (["--duration", "1e-9"], "--duration: must be at least"),
+        (["--prns", "1", "1", "1"], "--prns: PRN 1 given more than once"),
+    ],
+)
 def test_impossible_receiver_options_are_refused(extra, says, tmp_path, capsys):
     code = main(["receive", str(REAL), "--format", "ci8", "--fs", "4e6", "--out", str(tmp_path / "r")] + extra)
     assert code == 2
@@ -95,8 +101,23 @@ def test_impossible_receiver_options_are_refused(extra, says, tmp_path, capsys):
 
 
 def test_a_channel_that_never_locked_prints_no_nan(tmp_path, capsys):
-    code = main(["track", str(REAL), "--format", "ci8", "--fs", "4e6", "--q-sign", "-1", "--duration", "0.02",
-                 "--no-plots", "--out", str(tmp_path / "t")])
+    code = main(
+        [
+            "track",
+            str(REAL),
+            "--format",
+            "ci8",
+            "--fs",
+            "4e6",
+            "--q-sign",
+            "-1",
+            "--duration",
+            "0.02",
+            "--no-plots",
+            "--out",
+            str(tmp_path / "t"),
+        ]
+    )
     said = capsys.readouterr().out
     assert code == 0 and "PRN 26" in said
     assert "nan" not in said.lower().replace("nan.bin", "")

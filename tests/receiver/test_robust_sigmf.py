@@ -15,10 +15,11 @@ from gnssframework.cli import main
 from gnssframework.receiver.frontend.sigmf_meta import read_sigmf_meta
 
 REAL = Path(__file__).parents[1] / "data" / "pocketsdr_L1_4MHz_IQ_100ms.bin"
-BASE = {"global": {"core:datatype": "ci8", "core:sample_rate": 4e6, "core:version": "1.0.0",
-                   "gnssframework:q_sign": -1},
-        "captures": [{"core:sample_start": 0, "core:frequency": 1575.42e6, "core:datetime": "2021-12-02T08:47:00Z"}],
-        "annotations": []}
+BASE = {
+    "global": {"core:datatype": "ci8", "core:sample_rate": 4e6, "core:version": "1.0.0", "gnssframework:q_sign": -1},
+    "captures": [{"core:sample_start": 0, "core:frequency": 1575.42e6, "core:datetime": "2021-12-02T08:47:00Z"}],
+    "annotations": [],
+}
 
 
 def _global(key, value):
@@ -58,11 +59,14 @@ MALFORMED = {
     "format a number": (_global("gnssframework:format", 3), "gnssframework:format"),
     "sample start negative": (_capture("core:sample_start", -5), "core:sample_start"),
     "sample start a string": (_capture("core:sample_start", "5"), "core:sample_start"),
-    "sample start beyond the data": (_capture("core:sample_start", 10 ** 12), "core:sample_start"),
+    "sample start beyond the data": (_capture("core:sample_start", 10**12), "core:sample_start"),
     "not UTF-8": (b'{"global": {"core:datatype": "ci8\xff\xfe"}}', "not UTF-8"),
     "deeply nested": (b"[" * 100_000 + b"]" * 100_000, "nested too deeply"),
-    "NaN rate": (b'{"global": {"core:datatype": "ci8", "core:sample_rate": NaN, "core:version": "1.0.0"}, '
-                 b'"captures": [], "annotations": []}', "core:sample_rate"),
+    "NaN rate": (
+        b'{"global": {"core:datatype": "ci8", "core:sample_rate": NaN, "core:version": "1.0.0"}, '
+        b'"captures": [], "annotations": []}',
+        "core:sample_rate",
+    ),
 }
 
 
@@ -99,6 +103,18 @@ def test_a_byte_order_mark_is_accepted(recording):
 
 
 def test_non_finite_if_option_is_refused(recording, capsys):
-    code = main(["acquire", str(recording), "--format", "ci8", "--fs", "4e6", "--if", "nan", "--out",
-                 str(recording.parent / "a.csv")])
+    code = main(
+        [
+            "acquire",
+            str(recording),
+            "--format",
+            "ci8",
+            "--fs",
+            "4e6",
+            "--if",
+            "nan",
+            "--out",
+            str(recording.parent / "a.csv"),
+        ]
+    )
     assert code == 2 and "--if" in capsys.readouterr().err

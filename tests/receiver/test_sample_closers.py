@@ -98,8 +98,9 @@ def test_a_signal_description_sets_the_slots_and_the_bit_length(tracked):
 def _ncos(n: int) -> ReplicaNCOs:
     rng = np.random.default_rng(3)
     dop = rng.uniform(-4e3, 4e3, n)
-    return ReplicaNCOs(GPS_L1CA, rng.uniform(0, 1023, n), CHIP_HZ * (1 + dop / L1_HZ), dop, np.zeros(n),
-                       np.zeros(n), np.zeros(n))
+    return ReplicaNCOs(
+        GPS_L1CA, rng.uniform(0, 1023, n), CHIP_HZ * (1 + dop / L1_HZ), dop, np.zeros(n), np.zeros(n), np.zeros(n)
+    )
 
 
 def test_a_range_command_moves_the_replica_by_the_range_difference():

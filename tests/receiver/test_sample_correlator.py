@@ -31,8 +31,16 @@ def test_compiled_kernel_matches_the_reference_within_its_rounding(cplx, taps, s
     codes = np.stack([ca_code(int(p)) for p in prns]).astype(np.float32)
     counts = rng.integers(int(0.5e-3 * fs), int(1.2e-3 * fs), n_ch)
     starts = rng.integers(0, n - counts.max(), n_ch)
-    args = (starts, counts, rng.uniform(-2, 1025, n_ch), 1.023e6 / fs * (1 + rng.uniform(-1e-5, 1e-5, n_ch)),
-            rng.uniform(-3, 3, n_ch), rng.uniform(-0.3, 0.3, n_ch), codes, np.array(taps))
+    args = (
+        starts,
+        counts,
+        rng.uniform(-2, 1025, n_ch),
+        1.023e6 / fs * (1 + rng.uniform(-1e-5, 1e-5, n_ch)),
+        rng.uniform(-3, 3, n_ch),
+        rng.uniform(-0.3, 0.3, n_ch),
+        codes,
+        np.array(taps),
+    )
     got = correlate_channels(x, *args, backend="numba")
     ref = correlate_numpy(x.astype(np.complex128) if cplx else x.astype(float), *args)
     assert got.shape == (n_ch, len(taps))
@@ -42,15 +50,24 @@ def test_compiled_kernel_matches_the_reference_within_its_rounding(cplx, taps, s
 def test_compiled_kernel_agrees_with_correlate_if_on_generated_samples():
     rng = np.random.default_rng(3)
     fs, T = 4e6, 1e-3
-    sig = generate_if_samples(7, 0.003, fs, 0.0, 45.0, rng, doppler_hz=1500.0, code_phase_chips=100.0,
-                              complex_samples=True)
+    sig = generate_if_samples(
+        7, 0.003, fs, 0.0, 45.0, rng, doppler_hz=1500.0, code_phase_chips=100.0, complex_samples=True
+    )
     cr = 1.023e6 * (1 + 1500 / 1575.42e6)
     cp, f, ph = 100.0 + cr * 1000 / fs - 0.2, 1480.0, 0.3  # 0.2 chips behind the signal at sample 1000
     ref = correlate_if(sig, 7, np.array(cp), np.array(cr), np.array(f), np.array(ph), T, start_sample=1000)
     n = int(T * fs)
-    raw = correlate_channels(sig.samples.astype(np.complex64), np.array([1000]), np.array([n]), np.array([cp]),
-                             np.array([cr / fs]), np.array([ph / (2 * np.pi)]), np.array([f / fs]),
-                             ca_code(7)[None].astype(np.float32), np.array([-0.5, 0.0, 0.5]))[0]
+    raw = correlate_channels(
+        sig.samples.astype(np.complex64),
+        np.array([1000]),
+        np.array([n]),
+        np.array([cp]),
+        np.array([cr / fs]),
+        np.array([ph / (2 * np.pi)]),
+        np.array([f / fs]),
+        ca_code(7)[None].astype(np.float32),
+        np.array([-0.5, 0.0, 0.5]),
+    )[0]
     norm = np.sqrt(n * sig.noise_std**2)
     # Beyond the rounding bound, the two may floor a code index differently on a sample
     # that sits on a chip boundary to rounding; each such sample moves a tap by 2|x|.
@@ -75,9 +92,16 @@ def test_whole_code_periods_kernel_matches_the_reference_period_by_period(cplx):
     n_ch = 4
     codes = np.stack([ca_code(p) for p in (3, 9, 17, 30)]).astype(np.float32)
     periods = np.array([1, 10, 4, 7])
-    args = (rng.integers(0, 100, n_ch), periods, rng.uniform(-0.2, 0.2, n_ch),
-            1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, n_ch)), rng.uniform(-2, 2, n_ch),
-            rng.uniform(-2e-3, 2e-3, n_ch), codes, np.array([-0.5, 0.0, 0.5]))
+    args = (
+        rng.integers(0, 100, n_ch),
+        periods,
+        rng.uniform(-0.2, 0.2, n_ch),
+        1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, n_ch)),
+        rng.uniform(-2, 2, n_ch),
+        rng.uniform(-2e-3, 2e-3, n_ch),
+        codes,
+        np.array([-0.5, 0.0, 0.5]),
+    )
     sums, counts = correlate_periods(x, *args, backend="numba")
     ref, ref_counts = correlate_periods_numpy(x.astype(complex) if cplx else x.astype(float), *args)
     np.testing.assert_array_equal(counts, ref_counts)
@@ -87,7 +111,7 @@ def test_whole_code_periods_kernel_matches_the_reference_period_by_period(cplx):
             bound = correlation_error_bound(x, start, ref_counts[c, k], run_before=start - first)
             assert np.all(np.abs(sums[c, k] - ref[c, k]) <= bound)
             start += ref_counts[c, k]
-        assert np.all(counts[c, periods[c]:] == 0)
+        assert np.all(counts[c, periods[c] :] == 0)
 
 
 @pytest.mark.parametrize("dtype", [np.int8, np.int16, np.float32])
@@ -104,8 +128,16 @@ def test_kernels_read_recorded_components_as_the_reference_reads_the_complex_sam
     z = comps[0::2].astype(float) + 1j * q_sign * comps[1::2].astype(float)
     codes = np.stack([ca_code(p) for p in (4, 21)]).astype(np.float32)
     offsets = np.array([-0.5, 0.0, 0.5])
-    args = (np.array([3, 50]), np.array([2, 5]), np.array([0.1, -0.3]), np.full(2, 1.023e6 / fs),
-            np.array([0.25, 0.7]), np.array([1.2e-3, -0.9e-3]), codes, offsets)
+    args = (
+        np.array([3, 50]),
+        np.array([2, 5]),
+        np.array([0.1, -0.3]),
+        np.full(2, 1.023e6 / fs),
+        np.array([0.25, 0.7]),
+        np.array([1.2e-3, -0.9e-3]),
+        codes,
+        offsets,
+    )
     sums, counts = correlate_periods(comps, *args, iq=True, q_sign=q_sign, backend="numba")
     ref, ref_counts = correlate_periods_numpy(z, *args)
     np.testing.assert_array_equal(counts, ref_counts)
@@ -115,10 +147,30 @@ def test_kernels_read_recorded_components_as_the_reference_reads_the_complex_sam
             assert np.all(np.abs(sums[c, k] - ref[c, k]) <= bound)
             start += ref_counts[c, k]
     # The same call on a window of whole samples gives the same sums: the start indexes samples.
-    got = correlate_channels(comps, np.array([10]), np.array([2600]), np.array([5.0]), np.array([1.023e6 / fs]),
-                             np.array([0.1]), np.array([1e-3]), codes[:1], offsets, iq=True, q_sign=q_sign)
-    want = correlate_numpy(z, np.array([10]), np.array([2600]), np.array([5.0]), np.array([1.023e6 / fs]),
-                           np.array([0.1]), np.array([1e-3]), codes[:1], offsets)
+    got = correlate_channels(
+        comps,
+        np.array([10]),
+        np.array([2600]),
+        np.array([5.0]),
+        np.array([1.023e6 / fs]),
+        np.array([0.1]),
+        np.array([1e-3]),
+        codes[:1],
+        offsets,
+        iq=True,
+        q_sign=q_sign,
+    )
+    want = correlate_numpy(
+        z,
+        np.array([10]),
+        np.array([2600]),
+        np.array([5.0]),
+        np.array([1.023e6 / fs]),
+        np.array([0.1]),
+        np.array([1e-3]),
+        codes[:1],
+        offsets,
+    )
     assert np.all(np.abs(got - want) <= correlation_error_bound(z, 10, 2600))
 
 
@@ -161,9 +213,16 @@ def test_channels_in_parallel_give_bit_identical_sums_whatever_the_thread_count(
     fs = 4e6
     comps = rng.integers(-60, 60, 2 * int(fs * 6e-3)).astype(np.int8)
     codes = np.stack([ca_code(p) for p in (2, 7, 11, 19, 25)]).astype(np.float32)
-    args = (rng.integers(0, 200, 5), np.array([5, 3, 4, 5, 1]), rng.uniform(-0.5, 0.5, 5),
-            1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, 5)), rng.uniform(0, 1, 5), rng.uniform(-1e-3, 1e-3, 5),
-            codes, np.array([-0.5, 0.0, 0.5]))
+    args = (
+        rng.integers(0, 200, 5),
+        np.array([5, 3, 4, 5, 1]),
+        rng.uniform(-0.5, 0.5, 5),
+        1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, 5)),
+        rng.uniform(0, 1, 5),
+        rng.uniform(-1e-3, 1e-3, 5),
+        codes,
+        np.array([-0.5, 0.0, 0.5]),
+    )
     before = numba.get_num_threads()
     try:
         runs = []
@@ -200,15 +259,22 @@ def test_the_fused_epl_loop_agrees_with_the_per_tap_loops(recorded):
     mag = np.abs(x[0::2] + 1j * x[1::2].astype(float)) if iq else np.abs(x.astype(float))
     codes = np.stack([ca_code(p) for p in (5, 12, 28)]).astype(np.float32)
     epl = np.array([-0.5, 0.0, 0.5])
-    head = (rng.integers(0, 300, 3), np.array([6, 1, 4]), rng.uniform(-0.5, 0.5, 3),
-            1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, 3)), rng.uniform(0, 1, 3), rng.uniform(-3e-3, 3e-3, 3), codes)
+    head = (
+        rng.integers(0, 300, 3),
+        np.array([6, 1, 4]),
+        rng.uniform(-0.5, 0.5, 3),
+        1.023e6 / fs * (1 + rng.uniform(-3e-6, 3e-6, 3)),
+        rng.uniform(0, 1, 3),
+        rng.uniform(-3e-3, 3e-3, 3),
+        codes,
+    )
     fused, counts = correlate_periods(x, *head, epl, iq=iq, backend="numba")
     per_tap, counts4 = correlate_periods(x, *head, np.append(epl, 0.25), iq=iq, backend="numba")
     np.testing.assert_array_equal(counts, counts4)
     for c in range(3):
         start = head[0][c]
         for k in range(head[1][c]):
-            bound = 2 * ROUNDING * mag[start:start + counts[c, k]].sum()
+            bound = 2 * ROUNDING * mag[start : start + counts[c, k]].sum()
             assert np.abs(fused[c, k] - per_tap[c, k, :3]).max() <= bound
             start += counts[c, k]
     # correlate_channels' driver too (one range per channel, two chunks and more)
@@ -216,5 +282,5 @@ def test_the_fused_epl_loop_agrees_with_the_per_tap_loops(recorded):
     got3 = correlate_channels(x, *args, epl, iq=iq, backend="numba")
     got4 = correlate_channels(x, *args, np.append(epl, 0.25), iq=iq, backend="numba")
     for c in range(3):
-        bound = 2 * ROUNDING * mag[args[0][c]:args[0][c] + args[1][c]].sum()
+        bound = 2 * ROUNDING * mag[args[0][c] : args[0][c] + args[1][c]].sum()
         assert np.abs(got3[c] - got4[c, :3]).max() <= bound

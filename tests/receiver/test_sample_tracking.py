@@ -46,15 +46,18 @@ def one_sat(tmp_path_factory):
     return _recording(tmp_path_factory.mktemp("one"), [SAT], 1.5, 21)
 
 
-@pytest.mark.parametrize("name, params, coherent_ms, phase_lock", [
-    ("scalar", {}, 10, True),
-    # Its q and r are per interval, tuned (Xia et al.) for 1 ms: keep 1 ms integrations.
-    ("kf-carrier-loop", {}, 1, True),
-    ("kf-carrier-loop", {"states": 3, "q": [0.01, 0.1, 1.0]}, 1, True),
-    ("iq-filter", {}, 10, False),
-    ("iq-filter", {"estimator": "ukf", "adapter": None}, 10, False),
-    ("discriminator", {}, 10, False),
-])
+@pytest.mark.parametrize(
+    "name, params, coherent_ms, phase_lock",
+    [
+        ("scalar", {}, 10, True),
+        # Its q and r are per interval, tuned (Xia et al.) for 1 ms: keep 1 ms integrations.
+        ("kf-carrier-loop", {}, 1, True),
+        ("kf-carrier-loop", {"states": 3, "q": [0.01, 0.1, 1.0]}, 1, True),
+        ("iq-filter", {}, 10, False),
+        ("iq-filter", {"estimator": "ukf", "adapter": None}, 10, False),
+        ("discriminator", {}, 10, False),
+    ],
+)
 def test_every_channel_filter_plugin_tracks_generated_samples(one_sat, name, params, coherent_ms, phase_lock):
     result = _track(one_sat, channel_filter=name, channel_params=params, coherent_ms=coherent_ms)
     ch = result.channels[SAT.prn]
@@ -75,8 +78,10 @@ def test_every_channel_filter_plugin_tracks_generated_samples(one_sat, name, par
 @pytest.mark.slow
 @pytest.mark.parametrize("estimator", ["nwpr", "moments", "snv"])
 def test_cn0_estimates_are_within_1_db_of_the_generated_cn0(tmp_path, estimator):
-    sats = [SatelliteSignal(5, 46.0, 850.0, 12.5, first_bit_code_period=3),
-            SatelliteSignal(23, 38.0, -2150.0, 730.0, first_bit_code_period=15)]
+    sats = [
+        SatelliteSignal(5, 46.0, 850.0, 12.5, first_bit_code_period=3),
+        SatelliteSignal(23, 38.0, -2150.0, 730.0, first_bit_code_period=15),
+    ]
     result = _track(_recording(tmp_path, sats, 2.0, 22), cn0_estimator=estimator)
     for sat in sats:
         ch = result.channels[sat.prn]
@@ -114,8 +119,9 @@ def test_a_signal_that_fades_is_lost_and_re_acquired(tmp_path):
 
 
 def test_the_real_4mhz_slice_locks_its_strong_satellites_with_the_inverted_q_branch():
-    rec = open_recording(DATA / "pocketsdr_L1_4MHz_IQ_100ms.bin", format="ci8", sample_rate_hz=4e6, if_hz=0.0,
-                         q_sign=-1)
+    rec = open_recording(
+        DATA / "pocketsdr_L1_4MHz_IQ_100ms.bin", format="ci8", sample_rate_hz=4e6, if_hz=0.0, q_sign=-1
+    )
     result = _track(rec)
     strong = [p for p, ch in result.channels.items() if ch.column("lock")[-10:].all()]
     # The acquisition test finds 5 satellites far above the threshold in this slice.
@@ -138,8 +144,7 @@ def test_track_command_writes_the_csv_summary_and_plots(one_sat, tmp_path, capsy
     out = tmp_path / "trk"
     assert main(["track", str(one_sat.path), "--out", str(out), "--duration", "0.3"]) == 0
     header = (out / "tracking.csv").read_text().splitlines()[0].split(",")
-    assert header[:8] == ["time_s", "prn", "cn0_dbhz", "doppler_hz", "code_phase_chips", "lock", "prompt_i",
-                          "prompt_q"]
+    assert header[:8] == ["time_s", "prn", "cn0_dbhz", "doppler_hz", "code_phase_chips", "lock", "prompt_i", "prompt_q"]
     assert (out / "summary.csv").read_text().splitlines()[1].startswith(f"{SAT.prn},")
     assert (out / "plots" / "cn0_lock_doppler.png").stat().st_size > 0
     assert "locked" in (out / "events.txt").read_text()
@@ -173,8 +178,9 @@ def test_the_real_12mhz_if_slice_gives_strong_satellites_15_ms_apart():
     rec = open_recording(DATA / "pocketsdr_L1_12MHz_I_30ms.bin", format="ri8", sample_rate_hz=fs, if_hz=3e6)
     acq = registry.create("acquisition", "pcps", noncoherent=10)
     n = acq.samples_needed(fs)
-    first, later = ({r.prn: r for r in acq.acquire(rec.read(start, n), fs, 3e6) if r.detected}
-                    for start in (0, int(0.015 * fs)))
+    first, later = (
+        {r.prn: r for r in acq.acquire(rec.read(start, n), fs, 3e6) if r.detected} for start in (0, int(0.015 * fs))
+    )
     strong = {p: r for p, r in first.items() if r.test_statistic > 3 * r.threshold}
     assert len(strong) >= 6 and set(strong) <= set(later)
     for prn, r in strong.items():
@@ -186,8 +192,10 @@ def test_the_numpy_reference_path_tracks_like_the_compiled_one(one_sat):
     the carrier table's effect on the loops, the same code phases and Doppler."""
     acq = registry.create("acquisition", "pcps")
     found = [r for r in acquire_recording(one_sat, acq) if r.detected]
-    runs = {b: SampleTracker(one_sat, tracking_config(), acq, backend=b).run(found, 0.3).channels[SAT.prn]
-            for b in ("numba", "numpy")}
+    runs = {
+        b: SampleTracker(one_sat, tracking_config(), acq, backend=b).run(found, 0.3).channels[SAT.prn]
+        for b in ("numba", "numpy")
+    }
     fast, ref = runs["numba"], runs["numpy"]
     assert [e for _, e in fast.events] == [e for _, e in ref.events]
     np.testing.assert_array_equal(fast.column("stage"), ref.column("stage"))
@@ -207,19 +215,24 @@ def test_track_command_refuses_a_recording_shorter_than_the_acquisition(tmp_path
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name, params, coherent_ms", [
-    ("scalar", {}, 10),
-    ("kf-carrier-loop", {}, 1),
-    ("iq-filter", {}, 10),
-    ("discriminator", {}, 10),
-])
+@pytest.mark.parametrize(
+    "name, params, coherent_ms",
+    [
+        ("scalar", {}, 10),
+        ("kf-carrier-loop", {}, 1),
+        ("iq-filter", {}, 10),
+        ("discriminator", {}, 10),
+    ],
+)
 def test_batched_filter_stepping_gives_the_per_channel_stepping_outputs(tmp_path, name, params, coherent_ms):
     # Channels in one stage step as one batch of their filter; stepping each channel's filter
     # alone (batch=False, the way the tracker stepped them before) must give the same records.
-    sats = [SatelliteSignal(3, 45.0, 1200.0, 100.5, first_bit_code_period=2),
-            SatelliteSignal(8, 43.0, -2500.0, 800.25, first_bit_code_period=11),
-            SatelliteSignal(17, 46.0, 300.0, 33.0, first_bit_code_period=17),
-            SatelliteSignal(26, 41.0, -400.0, 640.0, first_bit_code_period=5)]
+    sats = [
+        SatelliteSignal(3, 45.0, 1200.0, 100.5, first_bit_code_period=2),
+        SatelliteSignal(8, 43.0, -2500.0, 800.25, first_bit_code_period=11),
+        SatelliteSignal(17, 46.0, 300.0, 33.0, first_bit_code_period=17),
+        SatelliteSignal(26, 41.0, -400.0, 640.0, first_bit_code_period=5),
+    ]
     rec = _recording(tmp_path, sats, 1.2, 23)
     acq = registry.create("acquisition", "pcps")
     found = [r for r in acquire_recording(rec, acq) if r.detected]
@@ -246,12 +259,18 @@ def test_batched_filter_stepping_gives_the_per_channel_stepping_outputs(tmp_path
         # relative difference in the C/N0 and PLI, a few 1e-3 in the prompts, far below what
         # the truth tests above allow (the filter stepping itself agrees to rounding: the
         # test below).
-        for field, tol in (("cn0_dbhz", 1e-2), ("pli", 2e-3), ("doppler_hz", 5e-2), ("code_phase_chips", 1e-3),
-                           ("carrier_phase_cycles", 1e-2)):
+        for field, tol in (
+            ("cn0_dbhz", 1e-2),
+            ("pli", 2e-3),
+            ("doppler_hz", 5e-2),
+            ("code_phase_chips", 1e-3),
+            ("carrier_phase_cycles", 1e-2),
+        ):
             np.testing.assert_allclose(mine.column(field)[:n], ch.column(field)[:n], rtol=0, atol=tol, err_msg=field)
         for field in ("prompt_i", "prompt_q"):  # the scale itself: a few 1e-3 between two blocks' power
-            np.testing.assert_allclose(mine.column(field)[:n], ch.column(field)[:n], rtol=5e-3, atol=1e-9,
-                                       err_msg=field)
+            np.testing.assert_allclose(
+                mine.column(field)[:n], ch.column(field)[:n], rtol=5e-3, atol=1e-9, err_msg=field
+            )
 
 
 @pytest.mark.parametrize("name", ["scalar", "kf-carrier-loop", "discriminator"])
@@ -267,8 +286,16 @@ def test_a_filter_batch_steps_like_its_channels_filters_stepped_alone(name):
 
     def make(shape, doppler=0.0):
         f = registry.create("channel_filter", name)
-        f.reset(shape, RunContext(coherent_time_s=1e-3, early_late_spacing_chips=1.0, epoch_interval_s=1e-3,
-                                  cn0_dbhz=42.0, doppler_hz=doppler))
+        f.reset(
+            shape,
+            RunContext(
+                coherent_time_s=1e-3,
+                early_late_spacing_chips=1.0,
+                epoch_interval_s=1e-3,
+                cn0_dbhz=42.0,
+                doppler_hz=doppler,
+            ),
+        )
         return f
 
     def inputs(k):
@@ -301,8 +328,9 @@ def test_a_filter_batch_steps_like_its_channels_filters_stepped_alone(name):
         together = batch.filter.checked_step(part(batch.slots))
         for r, j in enumerate(batch.slots):
             for key, v in together.items():
-                np.testing.assert_allclose(np.asarray(v)[r], np.asarray(singles[j][key])[0], rtol=1e-12,
-                                           atol=1e-12, err_msg=key)
+                np.testing.assert_allclose(
+                    np.asarray(v)[r], np.asarray(singles[j][key])[0], rtol=1e-12, atol=1e-12, err_msg=key
+                )
 
     step_both(None)
     batch = FilterBatch(copy.deepcopy(alone[0]), 0, paths)

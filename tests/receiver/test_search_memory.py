@@ -16,15 +16,17 @@ FS = 2.6e6
 
 def test_one_doppler_bin_per_chunk_and_one_prn_per_group_give_the_same_search(monkeypatch):
     rng = np.random.default_rng(3)
-    x = synthesize_samples([SatelliteSignal(7, 47.0, 1250.0, 300.0), SatelliteSignal(20, 45.0, -2100.0, 40.0)],
-                           0.02, FS, 0.0, rng)
+    x = synthesize_samples(
+        [SatelliteSignal(7, 47.0, 1250.0, 300.0), SatelliteSignal(20, 45.0, -2100.0, 40.0)], 0.02, FS, 0.0, rng
+    )
     dopplers = np.arange(-10, 11) * 500.0
     default = fft_search.search_grid(x, FS, 0.0, (7, 20, 3), 2e-3, 4, dopplers, alternate=True)
     acq = registry.create("acquisition", "pcps", coherent_ms=2, noncoherent=4, alternate_blocks=True)
     found = acq.acquire(x, FS, 0.0, (7, 20, 3))
     monkeypatch.setattr(fft_search, "_CHUNK_ELEMENTS", 1)
     monkeypatch.setattr(pcps_module, "_GRID_ELEMENTS", 1)
-    np.testing.assert_array_equal(fft_search.search_grid(x, FS, 0.0, (7, 20, 3), 2e-3, 4, dopplers, alternate=True),
-                                  default)
+    np.testing.assert_array_equal(
+        fft_search.search_grid(x, FS, 0.0, (7, 20, 3), 2e-3, 4, dopplers, alternate=True), default
+    )
     assert acq.acquire(x, FS, 0.0, (7, 20, 3)) == found
     assert [r.prn for r in found if r.detected] == [7, 20]

@@ -23,8 +23,10 @@ from gnssframework.signal.correlators import Correlators
 from gnssframework.signal.qzss_l1ca import QZSS_L1CA
 
 FS = 2.6e6
-SATS = [SatelliteSignal(195, 45.0, 1730.0, 612.4, first_bit_code_period=4, signal=QZSS_L1CA),
-        SatelliteSignal(199, 45.0, -2240.0, 87.8, first_bit_code_period=11, signal=QZSS_L1CA)]
+SATS = [
+    SatelliteSignal(195, 45.0, 1730.0, 612.4, first_bit_code_period=4, signal=QZSS_L1CA),
+    SatelliteSignal(199, 45.0, -2240.0, 87.8, first_bit_code_period=11, signal=QZSS_L1CA),
+]
 
 
 @pytest.fixture(scope="module")
@@ -52,8 +54,9 @@ def test_acquire_with_signal_finds_the_qzss_satellites(qzss_recording, tmp_path)
     assert main(["acquire", str(qzss_recording), "--out", str(tmp_path / "gps.csv")]) == 1
 
 
-def test_track_with_signal_tracks_the_qzss_satellites_with_one_filter_per_stage(qzss_recording, tmp_path,
-                                                                                 monkeypatch, capsys):
+def test_track_with_signal_tracks_the_qzss_satellites_with_one_filter_per_stage(
+    qzss_recording, tmp_path, monkeypatch, capsys
+):
     """Two channels through pull-in, track and extended: the channel filter plugin is
     constructed once per stage configuration (3: pull-in's, track's, extended's PLL-only),
     not per channel, stage start or layout probe (14 before)."""
@@ -67,8 +70,22 @@ def test_track_with_signal_tracks_the_qzss_satellites_with_one_filter_per_stage(
 
     monkeypatch.setattr(Plugin, "__init__", counting)
     out = tmp_path / "trk"
-    assert main(["track", str(qzss_recording), "--signal", "qzss-l1ca", "--out", str(out), "--duration", "0.6",
-                 "--no-plots"]) == 0
+    assert (
+        main(
+            [
+                "track",
+                str(qzss_recording),
+                "--signal",
+                "qzss-l1ca",
+                "--out",
+                str(out),
+                "--duration",
+                "0.6",
+                "--no-plots",
+            ]
+        )
+        == 0
+    )
     assert len(built) == len(set(built)) == 3, built
     # captured stderr is no terminal: a line per tenth of the recording, the last at 100 %
     assert f"{qzss_recording.name}: 100/100 % (100 %)" in capsys.readouterr().err
@@ -87,10 +104,15 @@ def test_track_with_signal_tracks_the_qzss_satellites_with_one_filter_per_stage(
 
 
 @pytest.mark.parametrize("command", ["acquire", "track", "receive"])
-def test_a_prn_outside_the_signal_is_a_one_line_error_naming_prns_and_the_signal(qzss_recording, tmp_path, capsys,
-                                                                                  command):
-    assert main([command, str(qzss_recording), "--signal", "qzss-l1ca", "--prns", "195", "5", "--out",
-                 str(tmp_path / "x")]) == 2
+def test_a_prn_outside_the_signal_is_a_one_line_error_naming_prns_and_the_signal(
+    qzss_recording, tmp_path, capsys, command
+):
+    assert (
+        main(
+            [command, str(qzss_recording), "--signal", "qzss-l1ca", "--prns", "195", "5", "--out", str(tmp_path / "x")]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--prns" in err and "qzss-l1ca" in err and "193-202" in err, err
     assert main([command, str(qzss_recording), "--prns", "195", "--out", str(tmp_path / "x")]) == 2
@@ -116,8 +138,9 @@ def test_a_factory_copy_steps_like_a_freshly_built_filter(name, params):
     factory = FilterFactory("channel_filter", name, params)
     a, b, fresh = factory.new(), factory.new(), registry.create("channel_filter", name, **params)
     assert a is not b and a is not factory.prototype
-    ctx = RunContext(coherent_time_s=1e-3, early_late_spacing_chips=1.0, epoch_interval_s=1e-3, cn0_dbhz=42.0,
-                     doppler_hz=300.0)
+    ctx = RunContext(
+        coherent_time_s=1e-3, early_late_spacing_chips=1.0, epoch_interval_s=1e-3, cn0_dbhz=42.0, doppler_hz=300.0
+    )
     for f in (a, b, fresh):
         f.reset((2,), ctx)
     rng = np.random.default_rng(3)
@@ -152,8 +175,9 @@ def test_stage_filters_build_each_configuration_once_and_take_a_candidates_plugi
     assert built == ["scalar", "scalar", "scalar"], built  # scalar twice (track, PLL-only), pull-in's scalar
 
 
-def test_an_acquisition_written_to_the_old_contract_is_named_in_one_line(qzss_recording, tmp_path, capsys,
-                                                                          scratch_registry):
+def test_an_acquisition_written_to_the_old_contract_is_named_in_one_line(
+    qzss_recording, tmp_path, capsys, scratch_registry
+):
     """A plugin whose acquire() takes (samples, sample_rate_hz, if_hz, prns), as before the
     signal was added: a one-line error naming it and the change, not a TypeError."""
     import types
@@ -190,8 +214,11 @@ def test_an_acquisition_written_to_the_old_contract_is_named_in_one_line(qzss_re
         def samples_needed(self, sample_rate_hz, signal=None):
             return pcps().samples_needed(sample_rate_hz)
 
-    with pytest.raises(ConfigError, match=r"'half-old' .*its acquire\(\) does not take \(samples, sample_rate_hz, "
-                                          r"if_hz, prns, signal\)"):
+    with pytest.raises(
+        ConfigError,
+        match=r"'half-old' .*its acquire\(\) does not take \(samples, sample_rate_hz, "
+        r"if_hz, prns, signal\)",
+    ):
         acquire_recording(open_recording(qzss_recording), HalfOld())
 
 

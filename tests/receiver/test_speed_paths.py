@@ -34,8 +34,9 @@ def test_deep_loop_evaluates_the_orbits_in_blocks_at_the_epoch_edges():
     def run(tr):
         nav = _OffsetNavigator(rx, zero, zero, np.zeros(runs), np.zeros(runs), (100.0, 0.0))
         channel = create("channel_filter", "iq-filter", adapter=None, estimator="ckf", output="equivalent")
-        return run_aided_tracking(channel, nav, tr, np.random.default_rng(4), nco_interval_s=0.005,
-                                  update_interval_s=0.01), nav
+        return run_aided_tracking(
+            channel, nav, tr, np.random.default_rng(4), nco_interval_s=0.005, update_interval_s=0.01
+        ), nav
 
     rec, nav = run(replace(truth, sat_state=counted))
     K = truth.epochs
@@ -58,10 +59,20 @@ def test_vector_loop_evaluates_the_orbits_once_for_all_epochs():
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 0.05, "channels": 4, "settle_s": 0.0})
     truth, x0, P0 = scen.truth(45.0, 2, np.random.default_rng(0))
     counted = _Counting(truth.sat_state)
-    plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"estimator": "ckf"}},
-                          "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
-    run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], replace(truth, sat_state=counted), x0, P0,
-                    np.random.default_rng(1))
+    plugins = scen.build(
+        {
+            "channel_filter": {"name": "iq-filter", "params": {"estimator": "ckf"}},
+            "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+        }
+    )
+    run_vector_loop(
+        plugins["channel_filter"],
+        plugins["nav_filter"],
+        replace(truth, sat_state=counted),
+        x0,
+        P0,
+        np.random.default_rng(1),
+    )
     # Edges, mid-intervals, and the first NCO command: three calls whatever the epoch count.
     assert len(counted.times) == 3
     assert sorted(t.size for t in counted.times) == [1, truth.epochs, truth.epochs + 1]

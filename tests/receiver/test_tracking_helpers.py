@@ -59,12 +59,20 @@ def test_block_power_is_the_float_sum_of_squares_for_every_stored_type():
 def _arrays(rng, slots=6, window=50):
     from gnssframework.receiver.channels.intervals import ChannelArrays
 
-    return ChannelArrays(rng.uniform(0, 1, slots), rng.uniform(0, 1, slots), rng.uniform(0, 9, slots),
-                         rng.integers(0, 1000, slots), rng.uniform(-1, 1, slots), rng.uniform(0, 99, slots),
-                         rng.standard_normal((slots, window)) + 1j * rng.standard_normal((slots, window)),
-                         rng.integers(0, 500, slots), rng.integers(0, 500, slots),
-                         rng.standard_normal(slots) + 1j * rng.standard_normal(slots), rng.random(slots) < 0.7,
-                         rng.integers(0, 5, (slots, 20)))
+    return ChannelArrays(
+        rng.uniform(0, 1, slots),
+        rng.uniform(0, 1, slots),
+        rng.uniform(0, 9, slots),
+        rng.integers(0, 1000, slots),
+        rng.uniform(-1, 1, slots),
+        rng.uniform(0, 99, slots),
+        rng.standard_normal((slots, window)) + 1j * rng.standard_normal((slots, window)),
+        rng.integers(0, 500, slots),
+        rng.integers(0, 500, slots),
+        rng.standard_normal(slots) + 1j * rng.standard_normal(slots),
+        rng.random(slots) < 0.7,
+        rng.integers(0, 5, (slots, 20)),
+    )
 
 
 def test_compiled_interval_closing_is_bit_identical_to_the_numpy_reference():
@@ -79,9 +87,18 @@ def test_compiled_interval_closing_is_bit_identical_to_the_numpy_reference():
             counts[j, :p] = rng.integers(2590, 2610, p)
         sums = (rng.standard_normal(counts.shape + (3,)) + 1j * rng.standard_normal(counts.shape + (3,))) * 900
         sums[counts == 0] = 0
-        args = (idx, counts, rng.integers(0, 10**6, idx.size), rng.uniform(-0.5, 0.5, idx.size),
-                rng.uniform(0.39, 0.4, idx.size), periods, rng.uniform(-5e3, 5e3, idx.size), float(rng.uniform(1, 9)),
-                2.6e6, 1023)
+        args = (
+            idx,
+            counts,
+            rng.integers(0, 10**6, idx.size),
+            rng.uniform(-0.5, 0.5, idx.size),
+            rng.uniform(0.39, 0.4, idx.size),
+            periods,
+            rng.uniform(-5e3, 5e3, idx.size),
+            float(rng.uniform(1, 9)),
+            2.6e6,
+            1023,
+        )
         a, b = _arrays(np.random.default_rng(trial)), _arrays(np.random.default_rng(trial))
         s_ref, s_new = sums.copy(), sums.copy()
         want = close_periods_numpy(a, args[0], s_ref, *args[1:])

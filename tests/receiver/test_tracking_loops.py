@@ -19,8 +19,9 @@ def _costas_wrap(phase):
 def test_scalar_loop_jitter_matches_the_thermal_noise_formulas(cn0):
     rng = np.random.default_rng(int(cn0))
     truth = SignalTruth.from_dynamics(4.0, T, cn0, doppler_hz=np.full(64, -2500.0), carrier_phase0_rad=0.3)
-    loop = gf.registry.create("channel_filter", "scalar", pll_bandwidth_hz=10.0, pll_order=2, fll_bandwidth_hz=0.0,
-                              dll_bandwidth_hz=1.0)
+    loop = gf.registry.create(
+        "channel_filter", "scalar", pll_bandwidth_hz=10.0, pll_order=2, fll_bandwidth_hz=0.0, dll_bandwidth_hz=1.0
+    )
     rec = run_closed_loop(loop, truth, rng, initial_doppler_hz=-2500.0)
     steady = slice(1000, None)
     pll = np.var(_costas_wrap(rec.phase_error_rad[steady]))
@@ -79,10 +80,13 @@ def test_kf_carrier_loop_error_variance_equals_its_riccati_prediction():
     w = rng.standard_normal((K, runs)) * np.sqrt(q[1])
     omega = 2 * np.pi * 200.0 + np.cumsum(w, axis=0)
     phase = np.concatenate([np.zeros((1, runs)), np.cumsum(omega * T + rng.standard_normal((K, runs)) * 1e-3, 0)])
-    truth = SignalTruth(code_phase_chips=np.zeros((K + 1, runs)) + np.arange(K + 1)[:, None] * 1.023e6 * T,
-                        carrier_phase_rad=phase, cn0_dbhz=cn0, coherent_time_s=T)
-    loop = gf.registry.create("channel_filter", "kf-carrier-loop", q=q, r=r,
-                              initial_std=[0.1, 10.0, 1.0])
+    truth = SignalTruth(
+        code_phase_chips=np.zeros((K + 1, runs)) + np.arange(K + 1)[:, None] * 1.023e6 * T,
+        carrier_phase_rad=phase,
+        cn0_dbhz=cn0,
+        coherent_time_s=T,
+    )
+    loop = gf.registry.create("channel_filter", "kf-carrier-loop", q=q, r=r, initial_std=[0.1, 10.0, 1.0])
     rec = run_closed_loop(loop, truth, rng, initial_doppler_hz=200.0)
     F = np.array([[1.0, T], [0.0, 1.0]])
     H = np.array([1.0, T / 2])

@@ -63,8 +63,14 @@ def test_correlators_give_the_same_bits_on_1_2_and_3_threads(always_split):
     n_ch = 7
     codes = np.stack([ca_code(p) for p in range(3, 3 + n_ch)]).astype(np.float32)
     steps = 1.023e6 / FS * (1 + rng.uniform(-3e-6, 3e-6, n_ch))
-    rest = (rng.uniform(-0.5, 0.5, n_ch), steps, rng.uniform(0, 1, n_ch), rng.uniform(-2e-3, 2e-3, n_ch), codes,
-            np.array([-0.5, 0.0, 0.5]))
+    rest = (
+        rng.uniform(-0.5, 0.5, n_ch),
+        steps,
+        rng.uniform(0, 1, n_ch),
+        rng.uniform(-2e-3, 2e-3, n_ch),
+        codes,
+        np.array([-0.5, 0.0, 0.5]),
+    )
     starts, periods, counts = rng.integers(0, 300, n_ch), rng.integers(1, 11, n_ch), rng.integers(2000, 5000, n_ch)
     one_p = correlate_periods(comps, starts, periods, *rest, iq=True, threads=1)
     one_c = correlate_channels(comps, starts, counts, *rest, iq=True, threads=1)
@@ -83,9 +89,11 @@ def test_correlators_give_the_same_bits_on_1_2_and_3_threads(always_split):
 
 
 def test_tracking_records_are_bit_identical_on_1_and_2_threads(tmp_path, always_split):
-    sats = [SatelliteSignal(3, 45.0, 1200.0, 100.5, first_bit_code_period=2),
-            SatelliteSignal(8, 43.0, -2500.0, 800.25, first_bit_code_period=11),
-            SatelliteSignal(17, 46.0, 300.0, 33.0, first_bit_code_period=17)]
+    sats = [
+        SatelliteSignal(3, 45.0, 1200.0, 100.5, first_bit_code_period=2),
+        SatelliteSignal(8, 43.0, -2500.0, 800.25, first_bit_code_period=11),
+        SatelliteSignal(17, 46.0, 300.0, 33.0, first_bit_code_period=17),
+    ]
     x = synthesize_samples(sats, 0.5, FS, 0.0, np.random.default_rng(7))
     rec = open_recording(write_recording(tmp_path / "three.sigmf-data", x, "ci16_le", FS, 0.0, scale=300.0))
     acq = registry.create("acquisition", "pcps")

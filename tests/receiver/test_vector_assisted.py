@@ -73,8 +73,9 @@ def test_the_scalar_receiver_has_no_fix_at_this_cn0(weak):
 
 @pytest.fixture(scope="module")
 def assisted(weak):
-    return _receive(weak[0], vector=vector_config(solution_rate_hz=5.0),
-                    assist=assistance(approximate_position(), WEEK, fix.TOW0))
+    return _receive(
+        weak[0], vector=vector_config(solution_rate_hz=5.0), assist=assistance(approximate_position(), WEEK, fix.TOW0)
+    )
 
 
 @pytest.mark.slow
@@ -131,8 +132,12 @@ def test_a_far_approximate_position_gives_no_wrong_fix(weak, lat_offset_deg):
     common part goes into the clock); 1700 km off they cannot: either way no loop is closed
     on a wrong fix (a fix far from the approximate position is refused)."""
     lat, lon, h = approximate_position()
-    result = _receive(weak[0], vector=vector_config(solution_rate_hz=5.0), duration_s=2.0,
-                      assist=assistance((lat + lat_offset_deg, lon, h), WEEK, fix.TOW0))
+    result = _receive(
+        weak[0],
+        vector=vector_config(solution_rate_hz=5.0),
+        duration_s=2.0,
+        assist=assistance((lat + lat_offset_deg, lon, h), WEEK, fix.TOW0),
+    )
     table = result.positions
     if result.vector.handover_s is None:
         assert any("assisted fix failed" in text for _, text in result.vector.events)
@@ -169,9 +174,29 @@ def test_position_command_starts_vector_tracking_from_the_assistance(weak, tmp_p
     from gnssframework.cli import main
 
     lat, lon, h = approximate_position()
-    args = ["position", str(weak[0]), "--out", str(tmp_path / "pos"), "--ephemeris", str(fix.NAV), "--rate", "5",
-            "--tracking", "vector", "--coherent-ms", "10", "--noncoherent", "8", "--alternate-blocks",
-            "--approx-position", f"{lat},{lon},{h}", "--start-time", f"{WEEK},{fix.TOW0}", "--duration", "3"]
+    args = [
+        "position",
+        str(weak[0]),
+        "--out",
+        str(tmp_path / "pos"),
+        "--ephemeris",
+        str(fix.NAV),
+        "--rate",
+        "5",
+        "--tracking",
+        "vector",
+        "--coherent-ms",
+        "10",
+        "--noncoherent",
+        "8",
+        "--alternate-blocks",
+        "--approx-position",
+        f"{lat},{lon},{h}",
+        "--start-time",
+        f"{WEEK},{fix.TOW0}",
+        "--duration",
+        "3",
+    ]
     code = main(args)
     out = capsys.readouterr().out
     assert code == 0, out
@@ -181,14 +206,34 @@ def test_position_command_starts_vector_tracking_from_the_assistance(weak, tmp_p
     assert (tmp_path / "pos" / "observations.rnx").read_text().count("\n> ") >= 10
 
 
-@pytest.mark.parametrize("extra", [["--approx-position", "35,139,10"], ["--start-time", "1316,1.5"],
-                                   ["--approx-position", "35,139", "--start-time", "1316,1.5"],
-                                   ["--approx-position", "35,139,10", "--start-time", "1316"]])
+@pytest.mark.parametrize(
+    "extra",
+    [
+        ["--approx-position", "35,139,10"],
+        ["--start-time", "1316,1.5"],
+        ["--approx-position", "35,139", "--start-time", "1316,1.5"],
+        ["--approx-position", "35,139,10", "--start-time", "1316"],
+    ],
+)
 def test_bad_assistance_options_exit_2(weak, tmp_path, extra):
     from gnssframework.cli import main
 
-    assert main(["position", str(weak[0]), "--out", str(tmp_path), "--ephemeris", str(fix.NAV), "--tracking",
-                 "vector", *extra]) == 2
+    assert (
+        main(
+            [
+                "position",
+                str(weak[0]),
+                "--out",
+                str(tmp_path),
+                "--ephemeris",
+                str(fix.NAV),
+                "--tracking",
+                "vector",
+                *extra,
+            ]
+        )
+        == 2
+    )
 
 
 BLANK_S = 3.0  # the first satellite's signal is absent before this
@@ -199,8 +244,9 @@ def blanked(tmp_path_factory):
     """35 dB-Hz, 6 s; the first of the five satellites blanked for its first 3 s."""
     path = tmp_path_factory.mktemp("blanked") / "blanked.sigmf-data"
     prns, _ = write_weak(path, 35.0, 6.0, seed=5, blank_until_s=(0, BLANK_S))
-    result = _receive(path, vector=vector_config(solution_rate_hz=5.0),
-                      assist=assistance(approximate_position(), WEEK, fix.TOW0))
+    result = _receive(
+        path, vector=vector_config(solution_rate_hz=5.0), assist=assistance(approximate_position(), WEEK, fix.TOW0)
+    )
     return prns, result
 
 
@@ -241,10 +287,10 @@ def test_a_blanked_vector_channel_is_dropped_and_reacquired_after_an_assisted_st
     from test_vector_samples import assert_dropped_and_rejoined
 
     sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
-    path = write_lnav_recording(tmp_path / "mid.sigmf-data", sats, fix.TOW0, 7.0, 13, blank=MID_BLANK,
-                                cn0_dbhz=35.0)
-    result = _receive(path, vector=vector_config(solution_rate_hz=5.0),
-                      assist=assistance(approximate_position(), WEEK, fix.TOW0))
+    path = write_lnav_recording(tmp_path / "mid.sigmf-data", sats, fix.TOW0, 7.0, 13, blank=MID_BLANK, cn0_dbhz=35.0)
+    result = _receive(
+        path, vector=vector_config(solution_rate_hz=5.0), assist=assistance(approximate_position(), WEEK, fix.TOW0)
+    )
     gone = int(sats.sv[0][1:])
     assert result.vector.handover_s < 0.5 and gone in result.vector.prns
     assert_dropped_and_rejoined(result, gone, MID_BLANK[1], MID_BLANK[2], settled_s=1.0)
@@ -262,9 +308,15 @@ def test_a_satellite_below_the_elevation_mask_is_tracked_but_not_used(tmp_path):
     nav = read_rinex_nav(fix.NAV)
     sats = nav.select(list(LOW_SET), fix.TOW0)
     path = write_lnav_recording(tmp_path / "low.sigmf-data", sats, fix.TOW0, 2.0, seed=5)
-    result = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=5.0,
-                     rinex=nav, vector=vector_config(solution_rate_hz=5.0),
-                     assist=assistance(approximate_position(), WEEK, fix.TOW0))
+    result = receive(
+        open_recording(path),
+        registry.create("acquisition", "pcps"),
+        tracking_config(),
+        rate_hz=5.0,
+        rinex=nav,
+        vector=vector_config(solution_rate_hz=5.0),
+        assist=assistance(approximate_position(), WEEK, fix.TOW0),
+    )
     solution = result.vector
     assert LOW_PRN in solution.prns and len(solution.prns) == 6
     used = np.asarray(solution.used)

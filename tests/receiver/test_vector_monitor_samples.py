@@ -30,13 +30,24 @@ DURATION_S, FAULT_S, DELAY_M = 13.0, 10.5, 100.0
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
-    path = write_lnav_recording(tmp_path_factory.mktemp("vfault") / "fault.sigmf-data", sats, fix.TOW0, DURATION_S,
-                                seed=7, code_delay=(0, FAULT_S, DELAY_M))
+    path = write_lnav_recording(
+        tmp_path_factory.mktemp("vfault") / "fault.sigmf-data",
+        sats,
+        fix.TOW0,
+        DURATION_S,
+        seed=7,
+        code_delay=(0, FAULT_S, DELAY_M),
+    )
     out = {}
     for name, extra in (("monitor", {"monitor_false_alarm": 1e-3}), ("none", {})):
-        out[name] = receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(),
-                            rate_hz=5.0, rinex=read_rinex_nav(fix.NAV),
-                            vector=vector_config(solution_rate_hz=5.0, **extra))
+        out[name] = receive(
+            open_recording(path),
+            registry.create("acquisition", "pcps"),
+            tracking_config(),
+            rate_hz=5.0,
+            rinex=read_rinex_nav(fix.NAV),
+            vector=vector_config(solution_rate_hz=5.0, **extra),
+        )
     return int(sats.sv[0][1:]), out
 
 

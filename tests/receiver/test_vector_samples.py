@@ -33,15 +33,22 @@ def _cn0(t_s: float) -> float:
 def faded(tmp_path_factory):
     """``fix.recording``'s signals with the C/N0 profile `_cn0`; the true Doppler per chunk."""
     sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
-    path = write_lnav_recording(tmp_path_factory.mktemp("vector") / "faded.sigmf-data", sats, fix.TOW0, DURATION_S,
-                                seed=7, cn0_dbhz=_cn0)
+    path = write_lnav_recording(
+        tmp_path_factory.mktemp("vector") / "faded.sigmf-data", sats, fix.TOW0, DURATION_S, seed=7, cn0_dbhz=_cn0
+    )
     prns = [int(s[1:]) for s in sats.sv]
     return path, prns, true_dopplers(sats, fix.TOW0, DURATION_S)
 
 
 def _receive(path, **kw):
-    return receive(open_recording(path), registry.create("acquisition", "pcps"), tracking_config(), rate_hz=5.0,
-                   rinex=read_rinex_nav(fix.NAV), **kw)
+    return receive(
+        open_recording(path),
+        registry.create("acquisition", "pcps"),
+        tracking_config(),
+        rate_hz=5.0,
+        rinex=read_rinex_nav(fix.NAV),
+        **kw,
+    )
 
 
 @pytest.mark.slow
@@ -66,8 +73,12 @@ CHANNELS = {"discriminator": {}, "iq-filter": {"output": "equivalent", "equivale
 
 @pytest.fixture(scope="module", params=list(CHANNELS))
 def vector_result(faded, request):
-    return _receive(faded[0], vector=vector_config(solution_rate_hz=5.0, channel_filter=request.param,
-                                                   channel_params=CHANNELS[request.param]))
+    return _receive(
+        faded[0],
+        vector=vector_config(
+            solution_rate_hz=5.0, channel_filter=request.param, channel_params=CHANNELS[request.param]
+        ),
+    )
 
 
 @pytest.mark.slow
@@ -124,7 +135,9 @@ def test_vector_channels_follow_the_true_code_and_doppler_at_the_weak_signal(fad
         true_chips = (t_sv * 1e3 % 1.0) * 1023
         code_err_m = ((chips[weak] - true_chips + 511.5) % 1023 - 511.5) * 293.05
         assert np.sqrt(np.mean(code_err_m**2)) < 4 * np.sqrt(np.mean(sigma_range**2)), (
-            np.sqrt(np.mean(code_err_m**2)), np.sqrt(np.mean(sigma_range**2)))
+            np.sqrt(np.mean(code_err_m**2)),
+            np.sqrt(np.mean(sigma_range**2)),
+        )
 
 
 @pytest.mark.slow
@@ -174,8 +187,20 @@ def test_position_command_tracks_vector(faded, tmp_path, capsys):
     from gnssframework.cli import main
 
     path, _, _ = faded
-    code = main(["position", str(path), "--out", str(tmp_path / "pos"), "--ephemeris", str(fix.NAV), "--rate", "5",
-                 "--tracking", "vector"])
+    code = main(
+        [
+            "position",
+            str(path),
+            "--out",
+            str(tmp_path / "pos"),
+            "--ephemeris",
+            str(fix.NAV),
+            "--rate",
+            "5",
+            "--tracking",
+            "vector",
+        ]
+    )
     out = capsys.readouterr().out
     assert code == 0, out
     assert "vector tracking from" in out
@@ -188,19 +213,47 @@ def test_position_command_closes_the_loop_with_the_iq_filter(faded, tmp_path, ca
     from gnssframework.cli import main
 
     path, _, _ = faded
-    code = main(["position", str(path), "--out", str(tmp_path / "pos"), "--ephemeris", str(fix.NAV), "--rate", "5",
-                 "--tracking", "vector", "--vector-channel-filter", "iq-filter", "--vector-channel-params",
-                 '{"output": "equivalent", "equivalent_code": "discriminator"}', "--duration", "10.5"])
+    code = main(
+        [
+            "position",
+            str(path),
+            "--out",
+            str(tmp_path / "pos"),
+            "--ephemeris",
+            str(fix.NAV),
+            "--rate",
+            "5",
+            "--tracking",
+            "vector",
+            "--vector-channel-filter",
+            "iq-filter",
+            "--vector-channel-params",
+            '{"output": "equivalent", "equivalent_code": "discriminator"}',
+            "--duration",
+            "10.5",
+        ]
+    )
     out = capsys.readouterr().out
     assert code == 0, out
     assert "vector tracking from" in out and "(channel filter iq-filter)" in out
 
 
-@pytest.mark.parametrize("extra", [["--tracking", "vector", "--vector-channel-filter", "scalar"],
-                                   ["--tracking", "vector", "--vector-channel-filter", "iq-filter",
-                                    "--vector-channel-params", '{"output": "sideways"}'],
-                                   ["--tracking", "vector", "--vector-channel-params", "[1]"],
-                                   ["--vector-channel-filter", "iq-filter"]])
+@pytest.mark.parametrize(
+    "extra",
+    [
+        ["--tracking", "vector", "--vector-channel-filter", "scalar"],
+        [
+            "--tracking",
+            "vector",
+            "--vector-channel-filter",
+            "iq-filter",
+            "--vector-channel-params",
+            '{"output": "sideways"}',
+        ],
+        ["--tracking", "vector", "--vector-channel-params", "[1]"],
+        ["--vector-channel-filter", "iq-filter"],
+    ],
+)
 def test_bad_vector_channel_options_exit_2(faded, tmp_path, extra):
     from gnssframework.cli import main
 
@@ -222,13 +275,13 @@ BLANK = (0, 10.5, 13.0)
 @pytest.fixture(scope="module")
 def blanked(tmp_path_factory):
     sats = fix._strongest(read_rinex_nav(fix.NAV), fix.TOW0, 5)
-    path = write_lnav_recording(tmp_path_factory.mktemp("vblank") / "blanked.sigmf-data", sats, fix.TOW0, 16.0,
-                                seed=11, blank=BLANK)
+    path = write_lnav_recording(
+        tmp_path_factory.mktemp("vblank") / "blanked.sigmf-data", sats, fix.TOW0, 16.0, seed=11, blank=BLANK
+    )
     return int(sats.sv[0][1:]), _receive(path, vector=vector_config(solution_rate_hz=5.0))
 
 
-def assert_dropped_and_rejoined(result, gone: int, blank_start_s: float, blank_end_s: float,
-                                settled_s: float) -> None:
+def assert_dropped_and_rejoined(result, gone: int, blank_start_s: float, blank_end_s: float, settled_s: float) -> None:
     """Vector channel ``gone``, blanked over ``[blank_start_s, blank_end_s)``: dropped by the
     loss-of-lock rule within the time the rule states, unused from then (and from the moment
     its C/N0 window holds noise only) until it is back, re-acquired by the aided search at

@@ -52,8 +52,16 @@ def test_smooth_record_is_the_joint_posterior_of_a_linear_gaussian_run():
         P = P - G @ H @ P
         mean[k], cov[k] = xm, P
     err = mean - truth
-    record = VectorRecord(np.zeros((K, runs, 1)), np.zeros((K, runs, 1)), err[..., 0:3], err[..., 3:6],
-                          np.zeros((K, runs)), np.arange(K) * 0.01, estimate=mean, estimate_cov=cov)
+    record = VectorRecord(
+        np.zeros((K, runs, 1)),
+        np.zeros((K, runs, 1)),
+        err[..., 0:3],
+        err[..., 3:6],
+        np.zeros((K, runs)),
+        np.arange(K) * 0.01,
+        estimate=mean,
+        estimate_cov=cov,
+    )
     pos, vel, cov_s = smooth_record(record, (F, Q), x0, P0)
     # The joint posterior: minimise |x_0 - x0|²_P0⁻¹ + Σ|x_k - F x_{k-1}|²_Q⁻¹ + Σ|z_k - H x_k|²_R⁻¹.
     N = K * n
@@ -62,7 +70,7 @@ def test_smooth_record_is_the_joint_posterior_of_a_linear_gaussian_run():
 
         def block(k, width, value):  # a (width, N) row block with ``value`` at state k
             a = np.zeros((width, N))
-            a[:, k * n:(k + 1) * n] = value
+            a[:, k * n : (k + 1) * n] = value
             return a
 
         rows.append(block(0, n, np.eye(n)))
@@ -83,20 +91,30 @@ def test_smooth_record_is_the_joint_posterior_of_a_linear_gaussian_run():
         np.testing.assert_allclose(pos[:, r], post[:, 0:3] - truth[:, r, 0:3], atol=1e-9)
         np.testing.assert_allclose(vel[:, r], post[:, 3:6] - truth[:, r, 3:6], atol=1e-9)
         for k in range(K):
-            np.testing.assert_allclose(cov_s[k, r], post_cov[k * n:(k + 1) * n, k * n:(k + 1) * n], atol=1e-9)
+            np.testing.assert_allclose(cov_s[k, r], post_cov[k * n : (k + 1) * n, k * n : (k + 1) * n], atol=1e-9)
 
 
 def test_smoothing_needs_the_stored_estimates():
-    rec = VectorRecord(*(np.zeros((2, 1, 1)),) * 2, np.zeros((2, 1, 3)), np.zeros((2, 1, 3)), np.zeros((2, 1)),
-                       np.zeros(2))
+    rec = VectorRecord(
+        *(np.zeros((2, 1, 1)),) * 2, np.zeros((2, 1, 3)), np.zeros((2, 1, 3)), np.zeros((2, 1)), np.zeros(2)
+    )
     with pytest.raises(ConfigError, match="store_estimates"):
         smooth_record(rec, (np.eye(8), np.eye(8)), np.zeros(8), np.eye(8))
 
 
-BASE = {"kind": "vector-tracking", "duration_s": 2.0, "channels": 8, "settle_s": 0.5, "steady_state_s": 1.0,
-        "pcrb": False, "smoothed": True}
-COMPONENTS = {"channel_filter": {"name": "discriminator", "params": {"code_discriminator": "eml-envelope"}},
-              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1e-5}}}
+BASE = {
+    "kind": "vector-tracking",
+    "duration_s": 2.0,
+    "channels": 8,
+    "settle_s": 0.5,
+    "steady_state_s": 1.0,
+    "pcrb": False,
+    "smoothed": True,
+}
+COMPONENTS = {
+    "channel_filter": {"name": "discriminator", "params": {"code_discriminator": "eml-envelope"}},
+    "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1e-5}},
+}
 
 
 def test_the_scenario_scores_the_smoothed_estimates():

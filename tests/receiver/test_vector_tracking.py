@@ -30,10 +30,12 @@ class OracleChannel(ChannelFilter):
 
     def step(self, inputs):
         code, freq = self.truth()
-        return {"code_error_chips": code + self.sc * self.rng.standard_normal(self.shape),
-                "code_error_var_chips2": np.full(self.shape, self.sc**2),
-                "freq_error_hz": freq + self.sf * self.rng.standard_normal(self.shape),
-                "freq_error_var_hz2": np.full(self.shape, self.sf**2)}
+        return {
+            "code_error_chips": code + self.sc * self.rng.standard_normal(self.shape),
+            "code_error_var_chips2": np.full(self.shape, self.sc**2),
+            "freq_error_hz": freq + self.sf * self.rng.standard_normal(self.shape),
+            "freq_error_var_hz2": np.full(self.shape, self.sf**2),
+        }
 
 
 def test_ekf_pv_is_consistent_when_fed_measurements_with_the_stated_noise(monkeypatch):
@@ -73,8 +75,12 @@ def vector_results():
     scen = get_scenario(SCEN)
     out = {}
     for name, params in (("discriminator", {}), ("iq-filter", {})):
-        plugins = scen.build({"channel_filter": {"name": name, "params": params},
-                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+        plugins = scen.build(
+            {
+                "channel_filter": {"name": name, "params": params},
+                "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+            }
+        )
         out[name] = scen.run_batch({"cn0_dbhz": 45.0}, plugins, 4, np.random.default_rng(1))
     return out
 
@@ -104,8 +110,12 @@ def mode_records():
     for mode in ("split", "equivalent", "filtered", "reset"):
         rng = np.random.default_rng(2)
         truth, x0, P0 = scen.truth(40.0, 4, rng)
-        plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"output": mode}},
-                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+        plugins = scen.build(
+            {
+                "channel_filter": {"name": "iq-filter", "params": {"output": mode}},
+                "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+            }
+        )
         out[mode] = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng)
     return out
 
@@ -146,7 +156,9 @@ def test_reset_mode_forgets_the_frequency_between_intervals(mode_records):
     # output error is much larger than the filtered estimate's and far less correlated.
     reset, filt = mode_records["reset"], mode_records["filtered"]
     s = slice(50, None)
-    assert np.sqrt(np.mean(reset.freq_output_error_hz[s] ** 2)) > 3 * np.sqrt(np.mean(filt.freq_output_error_hz[s] ** 2))
+    assert np.sqrt(np.mean(reset.freq_output_error_hz[s] ** 2)) > 3 * np.sqrt(
+        np.mean(filt.freq_output_error_hz[s] ** 2)
+    )
     assert _lag1(reset.code_output_error_chips[s]) < 0.5
 
 
@@ -154,8 +166,12 @@ def test_decision_directed_bits_track_like_known_bits():
     res = {}
     for bits in ("known", "unknown"):
         scen = get_scenario({**SCEN, "data_bits": bits})
-        plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {}},
-                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+        plugins = scen.build(
+            {
+                "channel_filter": {"name": "iq-filter", "params": {}},
+                "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+            }
+        )
         res[bits] = scen.run_batch({"cn0_dbhz": 45.0}, plugins, 3, np.random.default_rng(5)).metrics
     for metric in ("code_phase_error_rmse", "position_error_rmse"):
         assert np.mean(res["unknown"][metric]) < 1.5 * np.mean(res["known"][metric])
@@ -179,11 +195,20 @@ def test_ekf_pv_converts_channel_errors_to_range_units():
     nav.reset((), gf.RunContext(coherent_time_s=0.01, initial_state=x0, initial_cov=np.diag([1e-8] * 6 + [1e8, 1e8])))
     rho, rate, _ = predicted_range(x0, sat_pos, sat_vel)
     ones = np.ones(len(dirs))
-    out = nav.step({"replica_range_m": rho, "replica_rate_m_s": rate,
-                    "code_error_chips": dtau_chips * ones, "code_error_var_chips2": 1e-4 * ones,
-                    "freq_error_hz": df_hz * ones, "freq_error_var_hz2": 1e-2 * ones,
-                    "sat_pos_m": sat_pos, "sat_vel_m_s": sat_vel,
-                    "next_sat_pos_m": sat_pos, "next_sat_vel_m_s": sat_vel})
+    out = nav.step(
+        {
+            "replica_range_m": rho,
+            "replica_rate_m_s": rate,
+            "code_error_chips": dtau_chips * ones,
+            "code_error_var_chips2": 1e-4 * ones,
+            "freq_error_hz": df_hz * ones,
+            "freq_error_var_hz2": 1e-2 * ones,
+            "sat_pos_m": sat_pos,
+            "sat_vel_m_s": sat_vel,
+            "next_sat_pos_m": sat_pos,
+            "next_sat_vel_m_s": sat_vel,
+        }
+    )
     assert out["clock_m"][0] - x0[6] == pytest.approx(c / f_code * dtau_chips, rel=1e-4)
     assert out["clock_m"][1] - x0[7] == pytest.approx(-c / f_l1 * df_hz, rel=1e-4)
     assert CA_CHIP_LENGTH_M == pytest.approx(c / f_code, rel=1e-12)
@@ -198,15 +223,24 @@ def test_vector_metrics_on_hand_built_series():
     one = np.ones((4, 2))
     pos = np.array([[100.0, 100.0], [3.0, 0.0], [4.0, 0.0], [0.0, 6.0]])
     nees = np.array([[1e6, 1e6], [1.0, 2.0], [2.0, 4.0], [3.0, 6.0]])
-    series = {"code_error_chips": 0.01 * one, "freq_error_hz": 2.0 * one,
-              "position_error_m": pos, "velocity_error_m_s": pos / 10, "nav_nees": nees, "nav_nees_position": nees / 2,
-              "nav_nees_velocity": nees / 4, "code_output_error_chips": 0.03 * one, "freq_output_error_hz": 5.0 * one,
-              "pcrb_position_m": one, "excluded_channel_count": np.array([[4.0, 0.0], [0.0, 1.0], [1.0, 1.0], [2.0, 1.0]]),
-              # Errors and protection levels against the default alert limits, 40 m and 35 m.
-              "horizontal_error_m": np.array([[100.0, 100.0], [3.0, 0.0], [50.0, 0.0], [0.0, 6.0]]),
-              "hpl_m": np.array([[1.0, 1.0], [2.0, 1.0], [45.0, 1.0], [1.0, 50.0]]),
-              "vertical_error_m": np.array([[0.0, 0.0], [36.0, 1.0], [2.0, 0.0], [0.0, 0.0]]),
-              "vpl_m": np.array([[1.0, 1.0], [10.0, 1.0], [1.0, 1.0], [1.0, 36.0]])}
+    series = {
+        "code_error_chips": 0.01 * one,
+        "freq_error_hz": 2.0 * one,
+        "position_error_m": pos,
+        "velocity_error_m_s": pos / 10,
+        "nav_nees": nees,
+        "nav_nees_position": nees / 2,
+        "nav_nees_velocity": nees / 4,
+        "code_output_error_chips": 0.03 * one,
+        "freq_output_error_hz": 5.0 * one,
+        "pcrb_position_m": one,
+        "excluded_channel_count": np.array([[4.0, 0.0], [0.0, 1.0], [1.0, 1.0], [2.0, 1.0]]),
+        # Errors and protection levels against the default alert limits, 40 m and 35 m.
+        "horizontal_error_m": np.array([[100.0, 100.0], [3.0, 0.0], [50.0, 0.0], [0.0, 6.0]]),
+        "hpl_m": np.array([[1.0, 1.0], [2.0, 1.0], [45.0, 1.0], [1.0, 50.0]]),
+        "vertical_error_m": np.array([[0.0, 0.0], [36.0, 1.0], [2.0, 0.0], [0.0, 0.0]]),
+        "vpl_m": np.array([[1.0, 1.0], [10.0, 1.0], [1.0, 1.0], [1.0, 36.0]]),
+    }
     scen = get_scenario({"kind": "vector-tracking", "duration_s": 4.0, "settle_s": 1.0, "steady_state_s": 3.0})
     m = evaluate(METRICS, series, t, scen).metrics
     # RMS over epochs 2-4: sqrt((9 + 16 + 0) / 3) and sqrt(36 / 3); NEES: plain means.
@@ -252,8 +286,12 @@ def test_reset_mode_keeps_r_at_the_correlators_covariance_while_split_adapts_it(
     for mode in ("reset", "split"):
         rng = np.random.default_rng(3)
         truth, x0, P0 = scen.truth(35.0, 2, rng)
-        plugins = scen.build({"channel_filter": {"name": "iq-filter", "params": {"output": mode}},
-                              "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}})
+        plugins = scen.build(
+            {
+                "channel_filter": {"name": "iq-filter", "params": {"output": mode}},
+                "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+            }
+        )
         run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], truth, x0, P0, rng)
         ch = plugins["channel_filter"]
         assert ch.filter_step.step_index == 100  # 1 s of 10-ms intervals
@@ -284,8 +322,12 @@ def test_readme_describes_the_main_job_the_example_runs():
     found = re.search(r"runs (\d+) Monte Carlo runs of (\d+) s x (\d+) cases \([^)]*\) x (\d+) candidates", readme)
     assert found, "README lost its main-job sentence"
     runs, duration, cases, candidates = map(int, found.groups())
-    assert (runs, duration, cases, candidates) == (example["runs"], example["scenario"]["duration_s"],
-                                                   len(example["cases"]), len(example["candidates"]))
+    assert (runs, duration, cases, candidates) == (
+        example["runs"],
+        example["scenario"]["duration_s"],
+        len(example["cases"]),
+        len(example["candidates"]),
+    )
 
 
 def test_discriminator_channel_freq_r_scale_multiplies_only_the_frequency_variance():
@@ -293,7 +335,9 @@ def test_discriminator_channel_freq_r_scale_multiplies_only_the_frequency_varian
     from gnssframework.interfaces import RunContext
     from gnssframework.signal.correlator_model import simulate_correlators
 
-    ctx = RunContext(coherent_time_s=0.01, early_late_spacing_chips=1.0, epoch_interval_s=0.01, cn0_dbhz=np.full(3, 40.0))
+    ctx = RunContext(
+        coherent_time_s=0.01, early_late_spacing_chips=1.0, epoch_interval_s=0.01, cn0_dbhz=np.full(3, 40.0)
+    )
     outs = {}
     for scale in (1.0, 4.0):
         ch = registry.create("channel_filter", "discriminator", freq_r_scale=scale)

@@ -15,8 +15,12 @@ from gnssframework.errors import ConfigError
 from gnssframework.receiver.acquisition.assisted import SearchWindow, window_search
 from gnssframework.receiver.frontend import open_recording
 from gnssframework.signal.beidou_b1c import BEIDOU_B1C
-from gnssframework.signal.beidou_b1c_codes import (b1c_data_code, b1c_pilot_code, b1c_pilot_secondary_code,
-                                                   legendre_sequence)
+from gnssframework.signal.beidou_b1c_codes import (
+    b1c_data_code,
+    b1c_pilot_code,
+    b1c_pilot_secondary_code,
+    legendre_sequence,
+)
 
 DATA = Path(__file__).parents[1] / "data"
 
@@ -62,14 +66,24 @@ def test_pocketsdrs_b1c_satellites_are_found_on_pilot_and_data_at_one_code_epoch
     (its own table of the ICD), searched 40 samples either side of the pilot's code phase,
     peaks on the pilot's very sample: the two components share one code epoch."""
     fs = 4e6
-    x = open_recording(DATA / "pocketsdr_L1_4MHz_IQ_100ms.bin", format="ci8", sample_rate_hz=fs, if_hz=0.0,
-                       q_sign=-1).read(0, 80_000)
+    x = open_recording(
+        DATA / "pocketsdr_L1_4MHz_IQ_100ms.bin", format="ci8", sample_rate_hz=fs, if_hz=0.0, q_sign=-1
+    ).read(0, 80_000)
     acq = registry.create("acquisition", "pcps", noncoherent=1, doppler_max_hz=4000.0, xcorr_margin_db=None)
     found = {r.prn: r for r in acq.acquire(x, fs, 0.0, (27, 30, 36, 45, 1), signal=BEIDOU_B1C)}
     assert {p for p, r in found.items() if r.detected} == {27, 30, 36, 45}
     data_only = replace(BEIDOU_B1C, name="beidou-b1c-data", components=(BEIDOU_B1C.components[1],))
     for prn in (30, 36, 45):
         r = found[prn]
-        d = window_search(x, fs, 0.0, prn, SearchWindow(r.code_phase_samples, r.doppler_hz, 40.0, 50.0),
-                          coherent_ms=1, noncoherent=2, alternate=False, signal=data_only)
+        d = window_search(
+            x,
+            fs,
+            0.0,
+            prn,
+            SearchWindow(r.code_phase_samples, r.doppler_hz, 40.0, 50.0),
+            coherent_ms=1,
+            noncoherent=2,
+            alternate=False,
+            signal=data_only,
+        )
         assert d.detected and d.code_phase_samples == r.code_phase_samples, prn

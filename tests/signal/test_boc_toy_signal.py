@@ -25,8 +25,17 @@ def _toy_code(prn: int) -> np.ndarray:
     return (1 - 2 * np.random.default_rng(1000 + prn).integers(0, 2, 1023)).astype(np.int8)
 
 
-TOY_BOC = SignalSpec("toy-boc11", "X", "1X", 1575.42e6, 1.023e6, 1023, tuple(range(1, 9)),
-                     (Component("pilot", _toy_code),), Subcarrier("boc", 1.0, 1.0))
+TOY_BOC = SignalSpec(
+    "toy-boc11",
+    "X",
+    "1X",
+    1575.42e6,
+    1.023e6,
+    1023,
+    tuple(range(1, 9)),
+    (Component("pilot", _toy_code),),
+    Subcarrier("boc", 1.0, 1.0),
+)
 
 
 class ToyBoc(Signal):
@@ -83,5 +92,6 @@ def test_the_search_summary_names_the_signals_prns_when_none_are_given(tmp_path)
     path = tmp_path / "x.cf32"
     path.write_bytes(np.zeros(16, np.complex64).tobytes())
     rec = open_recording(path, format="cf32_le", sample_rate_hz=4e6, if_hz=0.0)
-    assert "searched PRN 1-8 (8 PRNs) with pcps" in search_summary(rec, registry.create("acquisition", "pcps"), None,
-                                                                   TOY_BOC)
+    assert "searched PRN 1-8 (8 PRNs) with pcps" in search_summary(
+        rec, registry.create("acquisition", "pcps"), None, TOY_BOC
+    )

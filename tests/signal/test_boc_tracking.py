@@ -36,8 +36,9 @@ def test_analytic_boc11_correlation_matches_the_sampled_replica_at_any_lag(prn):
     mean = correlator_mean(1.0, 0.0, 0.0, 0.0, 0.004, np.array(list(taps.values())), signal=SPEC)
     np.testing.assert_allclose(mean.real, numeric, atol=0.05)
     # The closed form of BOC(1,1) (Betz 2016, ch. 12) at the side peaks and the zeros.
-    np.testing.assert_allclose(SPEC.autocorrelation(np.array([0.0, 1 / 3, 0.5, 1.0])), [1.0, 0.0, -0.5, 0.0],
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        SPEC.autocorrelation(np.array([0.0, 1 / 3, 0.5, 1.0])), [1.0, 0.0, -0.5, 0.0], atol=1e-12
+    )
 
 
 def test_extra_taps_are_drawn_with_the_boc_mean_and_covariance():
@@ -79,8 +80,9 @@ def test_boc_eml_noise_variance_matches_monte_carlo():
         assert out.var() == pytest.approx(float(d.noise_variance(cn0)), rel=0.05)
 
 
-@pytest.mark.parametrize("name, params", [("bump-jumping", {"counter_threshold": 8}),
-                                          ("boc-vemlp", {"window_intervals": 8})])
+@pytest.mark.parametrize(
+    "name, params", [("bump-jumping", {"counter_threshold": 8}), ("boc-vemlp", {"window_intervals": 8})]
+)
 def test_side_peak_detectors_jump_towards_the_main_peak_and_not_from_it(name, params):
     d = registry.create("discriminator", name, coherent_time_s=0.004, early_late_spacing_chips=0.2, **params)
     sim = CorrelatorSimulator(0.004, 0.2, extra_taps=d.extra_taps(), signal=SPEC)
@@ -113,8 +115,14 @@ def test_boc_tracking_scenario_detectors_leave_the_side_peaks_eml_keeps():
     scenario = get_scenario({"kind": "boc-tracking", "duration_s": 1.2, "settle_s": 0.8, "lock_window_s": 0.2})
     start = np.array([0.45, -0.45, 0.45, -0.45])
     for name, side in (("boc-eml", 1.0), ("bump-jumping", 0.0), ("boc-vemlp", 0.0)):
-        channel = registry.create("channel_filter", "scalar", pll_bandwidth_hz=10.0, fll_bandwidth_hz=0.0,
-                                  dll_bandwidth_hz=1.0, code_discriminator={"name": name})
+        channel = registry.create(
+            "channel_filter",
+            "scalar",
+            pll_bandwidth_hz=10.0,
+            fll_bandwidth_hz=0.0,
+            dll_bandwidth_hz=1.0,
+            code_discriminator={"name": name},
+        )
         phase, code, T = scenario.track({"cn0_dbhz": 40.0}, channel, start.size, np.random.default_rng(0), start)
         final = np.abs(code[-50:]).mean(0)
         assert np.all((final > 0.4) if side else (final < 0.05)), (name, final)
@@ -134,8 +142,9 @@ def test_boc_scorers_keep_no_state_between_scenarios_or_batches():
     time_s = 0.004 * (1 + np.arange(K))
     code = np.tile([0.2, 0.05], (K, 1))
     series = {"code_error_chips": code, "phase_error_rad": np.zeros((K, 2))}
-    narrow, wide = (get_scenario({"kind": "boc-tracking", "side_peak_chips": s, "lock_window_s": 0.02})
-                    for s in (0.3, 0.5))
+    narrow, wide = (
+        get_scenario({"kind": "boc-tracking", "side_peak_chips": s, "lock_window_s": 0.02}) for s in (0.3, 0.5)
+    )
     first = next(m for m in METRICS if m.name == "side_peak_lock")
     second = BocScore("side_peak_lock", "")
     np.testing.assert_array_equal(first.compute(series, time_s, narrow).value, [1.0, 0.0])

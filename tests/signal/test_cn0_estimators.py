@@ -31,13 +31,22 @@ RUNS = 4000
 CN0S = (15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
 
 
-def draw(cn0_dbhz: float | None, rng: np.random.Generator, runs: int = RUNS, k: int = K,
-         coherent_time_s: float = T_S) -> tuple[np.ndarray, np.ndarray]:
+def draw(
+    cn0_dbhz: float | None, rng: np.random.Generator, runs: int = RUNS, k: int = K, coherent_time_s: float = T_S
+) -> tuple[np.ndarray, np.ndarray]:
     """Prompts and noise-only correlators ``(runs, k)``, phase-locked, bits wiped
     (``cn0_dbhz=None``: pure noise)."""
     amp = np.zeros((runs, k)) if cn0_dbhz is None else None
-    c = simulate_correlators(np.zeros((runs, k)), 0.0, 0.0, 0.0 if cn0_dbhz is None else cn0_dbhz,
-                             coherent_time_s, rng, extra_taps={"noise": -10.0}, amplitude=amp)
+    c = simulate_correlators(
+        np.zeros((runs, k)),
+        0.0,
+        0.0,
+        0.0 if cn0_dbhz is None else cn0_dbhz,
+        coherent_time_s,
+        rng,
+        extra_taps={"noise": -10.0},
+        amplitude=amp,
+    )
     return c.prompt, c.extra["noise"]
 
 
@@ -98,10 +107,15 @@ def test_narrow_wide_on_pure_noise_has_the_beta_mean_and_variance(rng):
 
 def test_m2m4_and_narrow_wide_plugins_are_the_receivers_estimators_on_the_last_axis(rng):
     prompt, _ = draw(35.0, rng, runs=50, k=400, coherent_time_s=0.001)
-    np.testing.assert_allclose(registry.create("cn0_estimator", "m2m4")(prompt, 0.001),
-                               cn0_moments(prompt.T, 0.001), rtol=0, atol=1e-9)
-    np.testing.assert_allclose(registry.create("cn0_estimator", "narrow-wide", m=20)(prompt, 0.001),
-                               cn0_nwpr(prompt.T, 0.001, m=20), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        registry.create("cn0_estimator", "m2m4")(prompt, 0.001), cn0_moments(prompt.T, 0.001), rtol=0, atol=1e-9
+    )
+    np.testing.assert_allclose(
+        registry.create("cn0_estimator", "narrow-wide", m=20)(prompt, 0.001),
+        cn0_nwpr(prompt.T, 0.001, m=20),
+        rtol=0,
+        atol=1e-9,
+    )
 
 
 def test_beaulieu_at_high_cn0_has_the_bias_of_its_inverted_mean(rng):
@@ -152,8 +166,9 @@ def test_the_committed_docs_tables_are_what_the_generator_writes():
     fresh = cn0_tables.render()
     committed = cn0_tables.OUT.read_text()
     assert number.sub("#", fresh) == number.sub("#", committed)
-    np.testing.assert_allclose([float(x) for x in number.findall(committed)],
-                               [float(x) for x in number.findall(fresh)], rtol=0, atol=0.011)
+    np.testing.assert_allclose(
+        [float(x) for x in number.findall(committed)], [float(x) for x in number.findall(fresh)], rtol=0, atol=0.011
+    )
 
 
 def test_the_lock_detector_takes_a_prompt_only_plugin_and_refuses_the_rest(rng):
@@ -161,12 +176,16 @@ def test_the_lock_detector_takes_a_prompt_only_plugin_and_refuses_the_rest(rng):
     from gnssframework.receiver.channels.lock import cn0_estimator_names
 
     assert cn0_estimator_names()[:2] == ["nwpr", "moments"]
-    assert {"snv", "beaulieu", "m2m4"} <= set(cn0_estimator_names()) \
-        and not {"noise-channel", "narrow-wide"} & set(cn0_estimator_names())
+    assert {"snv", "beaulieu", "m2m4"} <= set(cn0_estimator_names()) and not {"noise-channel", "narrow-wide"} & set(
+        cn0_estimator_names()
+    )
     assert tracking_config().cn0_estimator == "nwpr"  # the default is unchanged
     assert tracking_config(cn0_estimator="snv").cn0_estimator == "snv"
-    with pytest.raises(ConfigError, match=r"tracking\.cn0_estimator: .*unknown C/N0 estimator 'snr'.*"
-                                          r"did you mean 'snv'"):
+    with pytest.raises(
+        ConfigError,
+        match=r"tracking\.cn0_estimator: .*unknown C/N0 estimator 'snr'.*"
+        r"did you mean 'snv'",
+    ):
         tracking_config(cn0_estimator="snr")
     with pytest.raises(ConfigError, match=r"tracking\.cn0_estimator: .*'noise-channel'"):
         tracking_config(cn0_estimator="noise-channel")
@@ -186,8 +205,7 @@ def test_noise_floor_of_the_noise_channel_is_its_f_quantile(coherent_time_s, k):
     from gnssframework.signal.cn0_estimator import noise_floor_dbhz
 
     runs = 4000
-    floor = noise_floor_dbhz(registry.create("cn0_estimator", "noise-channel"), coherent_time_s, k, runs=runs,
-                             seed=7)
+    floor = noise_floor_dbhz(registry.create("cn0_estimator", "noise-channel"), coherent_time_s, k, runs=runs, seed=7)
     ratio = (10 ** (floor / 10) * coherent_time_s + 1) * k / (k - 1)
     assert abs(f_dist.cdf(ratio, 2 * k, 2 * k) - 0.95) < Z * np.sqrt(0.05 * 0.95 / runs)
     with pytest.raises(ConfigError, match="percentile"):
@@ -203,8 +221,9 @@ def test_batch_axes_and_data_bits(rng):
         est = registry.create("cn0_estimator", name)
         flat = est.estimate_hz(prompt, T_S, noise=noise)
         assert est.estimate_hz(prompt.reshape(3, 4, 40), T_S, noise=noise.reshape(3, 4, 40)).shape == (3, 4)
-        np.testing.assert_array_equal(est.estimate_hz(prompt.reshape(3, 4, 40), T_S,
-                                                      noise=noise.reshape(3, 4, 40)).ravel(), flat)
+        np.testing.assert_array_equal(
+            est.estimate_hz(prompt.reshape(3, 4, 40), T_S, noise=noise.reshape(3, 4, 40)).ravel(), flat
+        )
         flipped = est.estimate_hz(prompt * bits, T_S, noise=noise)
         if name == "narrow-wide":
             assert np.median(flipped) < 0.5 * np.median(flat)

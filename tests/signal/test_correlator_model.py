@@ -5,14 +5,18 @@ import pytest
 
 from gnssframework.signal.cn0 import cn0_moments, cn0_nwpr
 from gnssframework.signal.correlator_model import (
-    amplitude_from_cn0, code_autocorrelation, simulate_correlators, tap_noise_cov,
+    amplitude_from_cn0,
+    code_autocorrelation,
+    simulate_correlators,
+    tap_noise_cov,
 )
 
 
 def test_noise_is_unit_variance_and_correlated_as_the_autocorrelation(rng):
     n = 200_000
-    c = simulate_correlators(np.zeros(n), 0.0, 0.0, 45.0, 0.001, rng, early_late_spacing_chips=1.0,
-                             amplitude=np.zeros(n))
+    c = simulate_correlators(
+        np.zeros(n), 0.0, 0.0, 45.0, 0.001, rng, early_late_spacing_chips=1.0, amplitude=np.zeros(n)
+    )
     taps = np.stack([c.early, c.prompt, c.late])
     for part in (taps.real, taps.imag):
         cov = np.cov(part)
@@ -27,7 +31,7 @@ def test_signal_amplitude_and_s_curve_follow_the_model(rng):
     A = amplitude_from_cn0(45.0, T)
     assert A == pytest.approx(np.sqrt(2 * 10**4.5 * T))
     np.testing.assert_allclose(np.mean(c.prompt), 0.8 * A * np.exp(0.3j), rtol=0.01)
-    np.testing.assert_allclose(abs(np.mean(c.late)), 0.7 * A, rtol=0.01)   # R(0.2 - 0.5)
+    np.testing.assert_allclose(abs(np.mean(c.late)), 0.7 * A, rtol=0.01)  # R(0.2 - 0.5)
     np.testing.assert_allclose(abs(np.mean(c.early)), 0.3 * A, rtol=0.02)  # R(0.2 + 0.5)
 
 

@@ -31,8 +31,9 @@ def test_code_discriminators_have_unit_slope(name):
     np.testing.assert_allclose(d(_noise_free(code=e)), e, rtol=2e-3)
     # The S-curves inside |e| < d, from the triangle autocorrelation by hand:
     big = np.array([-0.4, -0.1, 0.3])
-    expected = {"eml-envelope": big, "dot-product": big / (1 - np.abs(big)),
-                "eml-power": big * 0.25 / (0.25 + big**2)}[name]
+    expected = {"eml-envelope": big, "dot-product": big / (1 - np.abs(big)), "eml-power": big * 0.25 / (0.25 + big**2)}[
+        name
+    ]
     np.testing.assert_allclose(d(_noise_free(code=big)), expected, rtol=1e-12)
 
 
@@ -109,8 +110,9 @@ PAPER_CODE_CHIPS = {45: 0.010, 30: 0.033}
 def _eml_std(spacing_chips, cn0, rng, n=60_000, bandwidth_hz=None, T=0.01):
     """Monte Carlo standard deviation of eml-envelope's output at zero error, and the formula's."""
     d = gf.registry.create("discriminator", "eml-envelope", coherent_time_s=T, early_late_spacing_chips=spacing_chips)
-    c = simulate_correlators(np.zeros(n), 0.0, 0.0, cn0, T, rng, early_late_spacing_chips=spacing_chips,
-                             bandwidth_hz=bandwidth_hz)
+    c = simulate_correlators(
+        np.zeros(n), 0.0, 0.0, cn0, T, rng, early_late_spacing_chips=spacing_chips, bandwidth_hz=bandwidth_hz
+    )
     return float(np.std(d(c))), float(np.sqrt(d.noise_variance(cn0)))
 
 
@@ -149,8 +151,10 @@ def test_no_spacing_gives_the_papers_ratio_between_30_and_45_dbhz(bandwidth_hz):
     rng = np.random.default_rng(2026)
     paper = PAPER_CODE_CHIPS[30] / PAPER_CODE_CHIPS[45]
     for spacing in (1.0, 0.5, 0.2, 0.1, 0.05):
-        ratio = _eml_std(spacing, 30, rng, bandwidth_hz=bandwidth_hz)[0] / _eml_std(spacing, 45, rng,
-                                                                                   bandwidth_hz=bandwidth_hz)[0]
+        ratio = (
+            _eml_std(spacing, 30, rng, bandwidth_hz=bandwidth_hz)[0]
+            / _eml_std(spacing, 45, rng, bandwidth_hz=bandwidth_hz)[0]
+        )
         assert ratio > 1.5 * paper, (spacing, ratio)
 
 
@@ -161,8 +165,13 @@ def test_the_spacing_that_fits_one_column_misses_the_other():
     from scipy.optimize import brentq
 
     def formula(spacing, cn0):
-        return float(np.sqrt(gf.registry.create("discriminator", "eml-envelope", coherent_time_s=0.01,
-                                                early_late_spacing_chips=spacing).noise_variance(cn0)))
+        return float(
+            np.sqrt(
+                gf.registry.create(
+                    "discriminator", "eml-envelope", coherent_time_s=0.01, early_late_spacing_chips=spacing
+                ).noise_variance(cn0)
+            )
+        )
 
     fit = {cn0: brentq(lambda s, cn0=cn0, v=v: formula(s, cn0) - v, 1e-4, 1.0) for cn0, v in PAPER_CODE_CHIPS.items()}
     assert fit[45] > 2.5 * fit[30]

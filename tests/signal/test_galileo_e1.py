@@ -21,8 +21,12 @@ from gnssframework import registry
 from gnssframework.errors import ConfigError
 from gnssframework.receiver.acquisition import search_grid
 from gnssframework.receiver.frontend.recording import open_recording
-from gnssframework.signal.galileo_codes import (GALILEO_E1C_SECONDARY_CS25, galileo_e1b_code, galileo_e1c_code,
-                                                hex_to_chips)
+from gnssframework.signal.galileo_codes import (
+    GALILEO_E1C_SECONDARY_CS25,
+    galileo_e1b_code,
+    galileo_e1c_code,
+    hex_to_chips,
+)
 from gnssframework.signal.galileo_e1 import GALILEO_E1B, GALILEO_E1B_BOC11, GALILEO_E1C, GALILEO_E1C_BOC11
 
 DATA = Path(__file__).parents[1] / "data"
@@ -69,17 +73,24 @@ def test_the_descriptions_are_registered_and_say_cboc_or_boc11():
     tab_c = GALILEO_E1C.spreading_table(1)[:12]
     assert np.allclose(tab_b, galileo_e1b_code(1)[0] * (a * sc_a + b * sc_b))
     assert np.allclose(tab_c, galileo_e1c_code(1)[0] * (a * sc_a - b * sc_b))
-    assert np.array_equal(GALILEO_E1C_BOC11.spreading_table(1)[:4],
-                          np.repeat(galileo_e1c_code(1)[:2], 2) * np.array([1, -1, 1, -1]))
+    assert np.array_equal(
+        GALILEO_E1C_BOC11.spreading_table(1)[:4], np.repeat(galileo_e1c_code(1)[:2], 2) * np.array([1, -1, 1, -1])
+    )
     # BOC(1,1) autocorrelation: 1 - 3|tau| to half a chip (zero at 1/3), -0.5 at 1/2 (Betz 2016).
     tau = np.array([0.0, 1 / 6, 1 / 3, 0.5, 0.75, 1.0])
     assert np.allclose(GALILEO_E1C_BOC11.autocorrelation(tau), [1, 0.5, 0, -0.5, -0.25, 0], atol=1e-12)
 
 
-def _acquire(path: str, fs: float, if_hz: float, q_sign: int, prns: tuple[int, ...], spec, k: int,
-             doppler_max_hz: float = 3500.0):
-    rec = open_recording(DATA / path, format="ri8" if q_sign == 0 else "ci8", sample_rate_hz=fs, if_hz=if_hz,
-                         **({} if q_sign == 0 else {"q_sign": q_sign}))
+def _acquire(
+    path: str, fs: float, if_hz: float, q_sign: int, prns: tuple[int, ...], spec, k: int, doppler_max_hz: float = 3500.0
+):
+    rec = open_recording(
+        DATA / path,
+        format="ri8" if q_sign == 0 else "ci8",
+        sample_rate_hz=fs,
+        if_hz=if_hz,
+        **({} if q_sign == 0 else {"q_sign": q_sign}),
+    )
     acq = registry.create("acquisition", "pcps", noncoherent=k, doppler_max_hz=doppler_max_hz, xcorr_margin_db=None)
     x = rec.read(0, acq.samples_needed(fs, spec))
     return x, {r.prn: r for r in acq.acquire(x, fs, if_hz, prns=prns, signal=spec)}
@@ -161,27 +172,31 @@ def test_a_boc11_pilot_loop_holds_the_main_peak_at_45_dbhz_with_the_thermal_code
     from gnssframework.signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 
     T, d, runs, cn0_dbhz, settle = 4e-3, 0.2, 64, 45.0, 100
-    truth = LoopTruth.from_dynamics(1.2, T, cn0_dbhz, doppler_hz=np.full(runs, 1200.0), code_phase0_chips=100.3,
-                                    carrier_phase0_rad=0.7)
+    truth = LoopTruth.from_dynamics(
+        1.2, T, cn0_dbhz, doppler_hz=np.full(runs, 1200.0), code_phase0_chips=100.3, carrier_phase0_rad=0.7
+    )
     c = 10 ** (cn0_dbhz / 10)
     k = 3 * (2 - d) / (2 - 3 * d)
     bound = math.sqrt(k * 1.0 * d / (6 * c) * (1 + 1 / (T * c * (2 - 3 * d))))
     for seed, start_error_chips in ((1, 0.1), (2, -0.15)):
-        channel = Channel.start((runs,), truth.code_phase_chips[0] + start_error_chips, 1203.0,
-                                signal=GALILEO_E1C_BOC11)
+        channel = Channel.start(
+            (runs,), truth.code_phase_chips[0] + start_error_chips, 1203.0, signal=GALILEO_E1C_BOC11
+        )
         closer = ScalarCloser(registry.create("channel_filter", "scalar"))
         closer.reset(channel, T, early_late_spacing_chips=d, cn0_dbhz=cn0_dbhz)
         sim = CorrelatorSimulator(T, early_late_spacing_chips=d, signal=GALILEO_E1C_BOC11)
-        rec = run_scalar(closer, AnalyticSource(sim, amplitude_from_cn0(cn0_dbhz, T), np.random.default_rng(seed)),
-                         channel, truth)
+        rec = run_scalar(
+            closer, AnalyticSource(sim, amplitude_from_cn0(cn0_dbhz, T), np.random.default_rng(seed)), channel, truth
+        )
         e = rec.code_error_chips[settle:]
         assert np.abs(e).max() < 1 / 6  # every run on the main peak, never near a side peak (+-1/2)
         assert abs(e.mean()) < 0.1 * bound
         assert 0.85 * bound < e.std() < 1.15 * bound, (e.std(), bound)
 
 
-def _pilot_sync_and_track(x: np.ndarray, fs: float, prn: int, doppler_hz: float, code_start_sample: int,
-                          intervals: int) -> tuple[int, float, np.ndarray]:
+def _pilot_sync_and_track(
+    x: np.ndarray, fs: float, prn: int, doppler_hz: float, code_start_sample: int, intervals: int
+) -> tuple[int, float, np.ndarray]:
     """E1-C (BOC(1,1) replica) of ``prn`` on complex samples ``x`` (IF 0), intervals aligned
     with the primary code (the first starts at ``code_start_sample``, chip 0): the
     secondary-code phase from 24 open-loop prompts (96 ms: the 100 ms slice holds 24 whole
@@ -199,9 +214,17 @@ def _pilot_sync_and_track(x: np.ndarray, fs: float, prn: int, doppler_hz: float,
     from gnssframework.signal.overlay import overlay_sync
 
     T, d, spec = 4e-3, 0.2, GALILEO_E1C_BOC11
-    source = SampleSource(x, fs, 0.0, replica_codes(spec, (prn,)), T, early_late_spacing_chips=d,
-                          noise_std=float(np.std(x.real)), start_sample=code_start_sample,
-                          subchips_per_chip=spec.subchips_per_chip)
+    source = SampleSource(
+        x,
+        fs,
+        0.0,
+        replica_codes(spec, (prn,)),
+        T,
+        early_late_spacing_chips=d,
+        noise_std=float(np.std(x.real)),
+        start_sample=code_start_sample,
+        subchips_per_chip=spec.subchips_per_chip,
+    )
     cs = np.array(GALILEO_E1C_SECONDARY_CS25, float)
     channel = Channel.start((1,), 0.0, doppler_hz, signal=spec)
     prompts = []
@@ -231,8 +254,9 @@ def test_the_generators_secondary_code_is_found_where_it_was_put():
     from gnssframework.receiver.frontend.synthetic import SatelliteSignal, synthesize_samples
 
     fs = 4e6
-    sat = SatelliteSignal(11, 42.0, doppler_hz=512.0, code_phase_chips=6 * 4092 + 4092 - 1000.0,
-                          signal=GALILEO_E1C_BOC11)
+    sat = SatelliteSignal(
+        11, 42.0, doppler_hz=512.0, code_phase_chips=6 * 4092 + 4092 - 1000.0, signal=GALILEO_E1C_BOC11
+    )
     x = synthesize_samples([sat], 0.104, fs, 0.0, np.random.default_rng(5)).astype(np.complex64)
     start = int(round(1000.0 / 1.023e6 * fs))  # chip 0 of the next period: overlay chip 7
     shift, margin, prompts = _pilot_sync_and_track(x, fs, 11, 512.0, start, 24)
@@ -247,12 +271,10 @@ def test_the_real_pilot_is_tracked_after_secondary_code_sync_on_the_4mhz_slice()
     off the engine's scalar loop holds phase lock: every prompt after the pull-in has one
     sign and |I| >> |Q|. validation/galileo_e1_track.py runs the same over the whole 0.5 s."""
     fs, prn = 4e6, 27
-    rec = open_recording(DATA / "pocketsdr_L1_4MHz_IQ_100ms.bin", format="ci8", sample_rate_hz=fs, if_hz=0.0,
-                         q_sign=-1)
+    rec = open_recording(DATA / "pocketsdr_L1_4MHz_IQ_100ms.bin", format="ci8", sample_rate_hz=fs, if_hz=0.0, q_sign=-1)
     x = np.asarray(rec.read(0, rec.n_samples), np.complex64)
     acq = registry.create("acquisition", "pcps", noncoherent=4, doppler_max_hz=3500.0, xcorr_margin_db=None)
-    r = acq.acquire(x[:acq.samples_needed(fs, GALILEO_E1C_BOC11)], fs, 0.0, prns=(prn,),
-                    signal=GALILEO_E1C_BOC11)[0]
+    r = acq.acquire(x[: acq.samples_needed(fs, GALILEO_E1C_BOC11)], fs, 0.0, prns=(prn,), signal=GALILEO_E1C_BOC11)[0]
     shift, margin, prompts = _pilot_sync_and_track(x, fs, prn, r.doppler_hz, r.code_phase_samples, 24)
     assert margin > 2
     after = prompts[8:]

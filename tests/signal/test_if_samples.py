@@ -12,13 +12,25 @@ from gnssframework.signal.navdata import bit_at, random_nav_bits, wipe_off
 FS, IF = 5.0e6, 1.25e6
 
 
-@pytest.mark.parametrize("complex_samples, sample_type", [(False, "float64"), (True, "float64"),
-                                                          (False, "int8"), (True, "int16")])
+@pytest.mark.parametrize(
+    "complex_samples, sample_type", [(False, "float64"), (True, "float64"), (False, "int8"), (True, "int16")]
+)
 def test_noise_free_if_correlators_match_the_analytic_model(rng, complex_samples, sample_type):
     T, cn0, doppler = 0.001, 45.0, 1200.0
-    sig = generate_if_samples(5, 0.002, FS, 0.0 if complex_samples else IF, cn0, rng, doppler_hz=doppler,
-                              code_phase_chips=100.0, carrier_phase_rad=0.4, complex_samples=complex_samples,
-                              sample_type=sample_type, noise=False)
+    sig = generate_if_samples(
+        5,
+        0.002,
+        FS,
+        0.0 if complex_samples else IF,
+        cn0,
+        rng,
+        doppler_hz=doppler,
+        code_phase_chips=100.0,
+        carrier_phase_rad=0.4,
+        complex_samples=complex_samples,
+        sample_type=sample_type,
+        noise=False,
+    )
     code_err = np.array([-0.3, 0.0, 0.2])  # replica delays: true minus replica
     freq_err, phase_err = 30.0, -0.7
     code_rate = CA_CHIP_RATE_HZ * (1 + doppler / L1_FREQ_HZ)
@@ -44,8 +56,7 @@ def test_data_bits_modulate_and_wipe_off_restores(rng):
     sig = generate_if_samples(9, 0.1, FS, IF, 50.0, rng, data_bits=bits, noise=False)
     T = 0.001
     starts = (np.arange(0, 100) * 0.001 * FS).astype(int)
-    prompts = np.array([correlate_if(sig, 9, 0.0, CA_CHIP_RATE_HZ, IF, 0.0, T, start_sample=s).prompt
-                        for s in starts])
+    prompts = np.array([correlate_if(sig, 9, 0.0, CA_CHIP_RATE_HZ, IF, 0.0, T, start_sample=s).prompt for s in starts])
     t = starts / FS
     b = bit_at(t, bits)
     np.testing.assert_array_equal(np.sign(prompts.real), b)

@@ -18,8 +18,40 @@ from gnssframework.signal.qzss_l1ca import QZSS_L1CA
 
 #: IS-GPS-200 Table 3-Ia, "G2 delay (chips)" of PRN 1-32: the same generator rule must give
 #: GPS C/A (whose first chips the project checks against the same table, test_codes.py).
-GPS_G2_DELAY = (5, 6, 7, 8, 17, 18, 139, 140, 141, 251, 252, 254, 255, 256, 257, 258, 469, 470, 471, 472, 473,
-                474, 509, 512, 513, 514, 515, 516, 859, 860, 861, 862)
+GPS_G2_DELAY = (
+    5,
+    6,
+    7,
+    8,
+    17,
+    18,
+    139,
+    140,
+    141,
+    251,
+    252,
+    254,
+    255,
+    256,
+    257,
+    258,
+    469,
+    470,
+    471,
+    472,
+    473,
+    474,
+    509,
+    512,
+    513,
+    514,
+    515,
+    516,
+    859,
+    860,
+    861,
+    862,
+)
 
 
 def test_the_g2_delay_rule_gives_the_gps_ca_codes():
@@ -51,12 +83,15 @@ def test_the_description_and_its_registration():
 
 @pytest.mark.parametrize("fs, if_hz, cplx", [(4e6, 0.0, True), (4e6, 1.25e6, False)])
 def test_a_synthetic_qzss_satellite_is_acquired_at_its_doppler_and_code_phase(fs, if_hz, cplx):
-    sats = [SatelliteSignal(195, 46.0, 1730.0, 612.4, signal=QZSS_L1CA),
-            SatelliteSignal(199, 45.0, -2240.0, 87.8, signal=QZSS_L1CA),
-            SatelliteSignal(5, 46.0, 410.0, 300.0)]  # a GPS satellite in the same recording
+    sats = [
+        SatelliteSignal(195, 46.0, 1730.0, 612.4, signal=QZSS_L1CA),
+        SatelliteSignal(199, 45.0, -2240.0, 87.8, signal=QZSS_L1CA),
+        SatelliteSignal(5, 46.0, 410.0, 300.0),
+    ]  # a GPS satellite in the same recording
     acq = registry.create("acquisition", "pcps")
-    x = synthesize_samples(sats, acq.samples_needed(fs, QZSS_L1CA) / fs, fs, if_hz, np.random.default_rng(5),
-                           complex_samples=cplx)
+    x = synthesize_samples(
+        sats, acq.samples_needed(fs, QZSS_L1CA) / fs, fs, if_hz, np.random.default_rng(5), complex_samples=cplx
+    )
     found = {r.prn: r for r in acq.acquire(x, fs, if_hz, signal=QZSS_L1CA) if r.detected}
     assert set(found) == {195, 199}
     for s in sats[:2]:

@@ -22,8 +22,27 @@ DATA = Path(__file__).parents[1] / "data"
 
 #: RTCA DO-229 Appendix A, "Initial G2 setting (octal)" of PRN 120-138: the G2 register's
 #: content (stage 10 the most significant bit) at the code's first chip.
-DO229_INITIAL_G2_OCTAL = ("1106", "1241", "0267", "0232", "1617", "1076", "1764", "0717", "1532", "1250", "0341",
-                          "0551", "0520", "1731", "0706", "1216", "0740", "1007", "0450")
+DO229_INITIAL_G2_OCTAL = (
+    "1106",
+    "1241",
+    "0267",
+    "0232",
+    "1617",
+    "1076",
+    "1764",
+    "0717",
+    "1532",
+    "1250",
+    "0341",
+    "0551",
+    "0520",
+    "1731",
+    "0706",
+    "1216",
+    "0740",
+    "1007",
+    "0450",
+)
 
 #: PocketSDR's SBAS satellites in both L1 files (../shared/data/README.md), 128 the weaker.
 POCKETSDR_SBAS = {128, 130, 137, 140, 143, 144}
@@ -82,9 +101,13 @@ def _acquire(name, fmt, fs, if_hz, q_sign, signal, noncoherent, prns=None):
     return {r.prn: r for r in acq.acquire(samples, fs, if_hz, prns, signal=signal)}
 
 
-@pytest.mark.parametrize("name, fmt, fs, if_hz, q_sign, noncoherent", [
-    ("pocketsdr_L1_4MHz_IQ_100ms.bin", "ci8", 4e6, 0.0, -1, 10),
-    ("pocketsdr_L1_12MHz_I_30ms.bin", "ri8", 12e6, 3e6, 1, 6)])
+@pytest.mark.parametrize(
+    "name, fmt, fs, if_hz, q_sign, noncoherent",
+    [
+        ("pocketsdr_L1_4MHz_IQ_100ms.bin", "ci8", 4e6, 0.0, -1, 10),
+        ("pocketsdr_L1_12MHz_I_30ms.bin", "ri8", 12e6, 3e6, 1, 6),
+    ],
+)
 def test_the_real_recordings_show_pocketsdrs_sbas_satellites(name, fmt, fs, if_hz, q_sign, noncoherent):
     """PocketSDR's six are detected and are the six strongest of the 39 PRNs; being
     geostationary, their Dopplers are one receiver-clock offset within one coarse bin
@@ -93,7 +116,7 @@ def test_the_real_recordings_show_pocketsdrs_sbas_satellites(name, fmt, fs, if_h
     res = _acquire(name, fmt, fs, if_hz, q_sign, SBAS_L1, noncoherent)
     assert all(res[p].detected for p in POCKETSDR_SBAS)
     ranked = sorted(res.values(), key=lambda r: -r.test_statistic)
-    assert {r.prn for r in ranked[:len(POCKETSDR_SBAS)]} == POCKETSDR_SBAS
+    assert {r.prn for r in ranked[: len(POCKETSDR_SBAS)]} == POCKETSDR_SBAS
     dopplers = [res[p].doppler_hz for p in POCKETSDR_SBAS]
     assert max(dopplers) - min(dopplers) <= 500.0
     qzs3 = _acquire(name, fmt, fs, if_hz, q_sign, QZSS_L1CA, noncoherent, (199,))[199]

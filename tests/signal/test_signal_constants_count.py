@@ -37,29 +37,49 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 #: C/A's names, by the module that defines them.
 CA_NAMES: dict[str, frozenset[str]] = {
-    "gnssframework.signal.constants": frozenset({"CA_CHIP_RATE_HZ", "L1_FREQ_HZ", "L1_WAVELENGTH_M", "CA_CODE_LENGTH",
-                                                 "CA_CODE_PERIOD_S", "CA_CHIP_LENGTH_M", "NAV_BIT_RATE_HZ"}),
+    "gnssframework.signal.constants": frozenset(
+        {
+            "CA_CHIP_RATE_HZ",
+            "L1_FREQ_HZ",
+            "L1_WAVELENGTH_M",
+            "CA_CODE_LENGTH",
+            "CA_CODE_PERIOD_S",
+            "CA_CHIP_LENGTH_M",
+            "NAV_BIT_RATE_HZ",
+        }
+    ),
     "gnssframework.signal.codes": frozenset({"ca_code", "G2_TAPS", "CA_CODE_LENGTH"}),
     "gnssframework.signal.navdata": frozenset({"BIT_PERIOD_S"}),
 }
 #: Where GPS L1 C/A is defined, generated and registered (the LNAV decoder,
 #: gnssframework/navigation/lnav.py, needs none of these names).
-ALLOWED = frozenset({
-    "gnssframework/signal/constants.py",   # the names themselves, read off GPS_L1CA
-    "gnssframework/signal/gps_l1ca.py",    # the description
-    "gnssframework/signal/codes.py",       # the code generator
-    "plugins/signals.py",                  # the registration
-})
+ALLOWED = frozenset(
+    {
+        "gnssframework/signal/constants.py",  # the names themselves, read off GPS_L1CA
+        "gnssframework/signal/gps_l1ca.py",  # the description
+        "gnssframework/signal/codes.py",  # the code generator
+        "plugins/signals.py",  # the registration
+    }
+)
 #: Other signals' descriptions (and `spec.F0_HZ`, the 1.023 MHz every BOC rate is a multiple
 #: of): C/A's numbers are theirs too (QZSS and SBAS L1 are C/A-like, Galileo E1 and BeiDou
 #: B1C share its carrier).
-LITERALS_ALLOWED = ALLOWED | frozenset({
-    "gnssframework/signal/spec.py", "gnssframework/signal/qzss_l1ca.py", "gnssframework/signal/sbas_l1.py",
-    "gnssframework/signal/galileo_e1.py", "gnssframework/signal/beidou_b1c.py",
-})
+LITERALS_ALLOWED = ALLOWED | frozenset(
+    {
+        "gnssframework/signal/spec.py",
+        "gnssframework/signal/qzss_l1ca.py",
+        "gnssframework/signal/sbas_l1.py",
+        "gnssframework/signal/galileo_e1.py",
+        "gnssframework/signal/beidou_b1c.py",
+    }
+)
 #: C/A's own numbers: chip rate, carrier frequency, code length, carrier cycles per chip.
-CA_LITERALS: dict[float, str] = {1.023e6: "1.023e6 (chip rate)", 1575.42e6: "1575.42e6 (L1 carrier)",
-                                 1023: "1023 (code length)", 1540: "1540 (cycles per chip)"}
+CA_LITERALS: dict[float, str] = {
+    1.023e6: "1.023e6 (chip rate)",
+    1575.42e6: "1575.42e6 (L1 carrier)",
+    1023: "1023 (code length)",
+    1540: "1540 (cycles per chip)",
+}
 #: C/A's timing numbers, counted only when bound to a `TIMING_NAME`.
 CA_TIMING = frozenset({1e-3, 0.02, 20, 50})
 # "detect" as a bit detection's name (DETECT_MS, FIRST_DETECT_S), not a missed detection's
@@ -83,7 +103,7 @@ def _source(module: str, is_package: bool, node: ast.ImportFrom) -> str:
     if node.level == 0:
         return node.module or ""
     base = module.split(".") if is_package else module.split(".")[:-1]
-    base = base[:len(base) - (node.level - 1)]
+    base = base[: len(base) - (node.level - 1)]
     return ".".join(base + ([node.module] if node.module else []))
 
 
@@ -120,11 +140,16 @@ def ca_uses_in(text: str, module: str, is_package: bool = False) -> set[str]:
         elif isinstance(node, ast.Import):
             found |= {f"module {a.name}" for a in node.names if a.name in CA_NAMES}
     defaults = _default_nodes(tree)
-    if any(isinstance(n, ast.Name) and n.id == "GPS_L1CA" and isinstance(n.ctx, ast.Load) and id(n) not in defaults
-           for n in ast.walk(tree)):
+    if any(
+        isinstance(n, ast.Name) and n.id == "GPS_L1CA" and isinstance(n.ctx, ast.Load) and id(n) not in defaults
+        for n in ast.walk(tree)
+    ):
         found.add("GPS_L1CA (not as a default)")
-    found |= {f"GPS_L1CA.{n.attr}" for n in ast.walk(tree)
-              if isinstance(n, ast.Attribute) and isinstance(n.value, ast.Name) and n.value.id == "GPS_L1CA"}
+    found |= {
+        f"GPS_L1CA.{n.attr}"
+        for n in ast.walk(tree)
+        if isinstance(n, ast.Attribute) and isinstance(n.value, ast.Name) and n.value.id == "GPS_L1CA"
+    }
     found |= _module_level_default_calls(tree)
     if not any(module == _module(ROOT / f)[0] for f in LITERALS_ALLOWED):
         found |= _literals(tree)
@@ -137,7 +162,7 @@ def _module_level_default_calls(tree: ast.Module) -> set[str]:
     for node in tree.body:
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             args = [*node.args.posonlyargs, *node.args.args]
-            for a, d in zip(args[len(args) - len(node.args.defaults):], node.args.defaults):
+            for a, d in zip(args[len(args) - len(node.args.defaults) :], node.args.defaults):
                 if isinstance(d, ast.Name) and d.id == "GPS_L1CA":
                     signal_param[node.name] = (args.index(a), a.arg)
     found: set[str] = set()
@@ -172,12 +197,15 @@ def _literals(tree: ast.AST) -> set[str]:
             bound.append((n.target.id, value))
         elif isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)):
             args = [*n.args.posonlyargs, *n.args.args]
-            bound += [(a.arg, d) for a, d in zip(args[len(args) - len(n.args.defaults):], n.args.defaults)]
+            bound += [(a.arg, d) for a, d in zip(args[len(args) - len(n.args.defaults) :], n.args.defaults)]
             bound += [(a.arg, d) for a, d in zip(n.args.kwonlyargs, n.args.kw_defaults) if d is not None]
         elif isinstance(n, ast.Call):
             bound += [(k.arg, k.value) for k in n.keywords if k.arg]
-    found |= {f"{name} = {v!r}" for name, value in bound
-              if (v := _number(value)) is not None and v in CA_TIMING and TIMING_NAME.search(name)}
+    found |= {
+        f"{name} = {v!r}"
+        for name, value in bound
+        if (v := _number(value)) is not None and v in CA_TIMING and TIMING_NAME.search(name)
+    }
     return found
 
 
@@ -193,7 +221,8 @@ def test_the_count_of_files_using_ca_constants_does_not_grow():
         "library files that use GPS L1 C/A constants instead of a SignalSpec: "
         + "; ".join(f"{f} ({', '.join(u)})" for f, u in sorted(new.items()))
         + f" (the count is {len(counted)}, at most {len(REMAINING)}: read the constants off the SignalSpec the "
-        "block is handed, with GPS_L1CA only as a default)")
+        "block is handed, with GPS_L1CA only as a default)"
+    )
 
 
 def test_every_listed_file_exists_and_remaining_ones_still_use_ca():
@@ -211,24 +240,37 @@ def test_the_scan_sees_an_import_a_relative_import_and_a_constant_use():
         "from gnssframework.signal.constants import L1_FREQ_HZ\n": {"L1_FREQ_HZ"},
         "from ..signal.codes import ca_code\n": {"ca_code"},
         "from ..signal import constants\n": {"module constants"},
-        "from ..signal.gps_l1ca import GPS_L1CA\nX = GPS_L1CA.chip_rate_hz\n": {"GPS_L1CA (not as a default)",
-                                                                    "GPS_L1CA.chip_rate_hz"},
+        "from ..signal.gps_l1ca import GPS_L1CA\nX = GPS_L1CA.chip_rate_hz\n": {
+            "GPS_L1CA (not as a default)",
+            "GPS_L1CA.chip_rate_hz",
+        },
         "from ..signal.gps_l1ca import GPS_L1CA\ndef f(s=GPS_L1CA):\n    return s\n": set(),
         "# L1_FREQ_HZ in a comment\nfrom ..signal.spec import SPEED_OF_LIGHT_M_S\n": set(),
         # the tightened forms: an attribute of GPS_L1CA even as a default, a fallback, ...
-        "from ..signal.gps_l1ca import GPS_L1CA\nclass C:\n    w: float = GPS_L1CA.wavelength_m\n":
-            {"GPS_L1CA.wavelength_m"},
-        "from ..signal.gps_l1ca import GPS_L1CA\ndef f(w=GPS_L1CA.wavelength_m):\n    return w\n":
-            {"GPS_L1CA.wavelength_m"},
-        "from ..signal.gps_l1ca import GPS_L1CA\ndef f(s=None):\n    return s or GPS_L1CA\n":
-            {"GPS_L1CA (not as a default)"},
+        "from ..signal.gps_l1ca import GPS_L1CA\nclass C:\n    w: float = GPS_L1CA.wavelength_m\n": {
+            "GPS_L1CA.wavelength_m"
+        },
+        "from ..signal.gps_l1ca import GPS_L1CA\ndef f(w=GPS_L1CA.wavelength_m):\n    return w\n": {
+            "GPS_L1CA.wavelength_m"
+        },
+        "from ..signal.gps_l1ca import GPS_L1CA\ndef f(s=None):\n    return s or GPS_L1CA\n": {
+            "GPS_L1CA (not as a default)"
+        },
         # ... a module constant from a default, C/A's numbers, a timing number named as one
-        "from ..signal.gps_l1ca import GPS_L1CA\ndef g(signal=GPS_L1CA):\n    return 1.0\nK = g()\n":
-            {"g() (its GPS_L1CA default)"},
+        "from ..signal.gps_l1ca import GPS_L1CA\ndef g(signal=GPS_L1CA):\n    return 1.0\nK = g()\n": {
+            "g() (its GPS_L1CA default)"
+        },
         "from ..signal.gps_l1ca import GPS_L1CA\ndef g(signal=GPS_L1CA):\n    return 1.0\nK = g(X)\n": set(),
-        "F = 1575.42e6\nR = 1.023e6\nN = 1023\n": {"1575.42e6 (L1 carrier)", "1.023e6 (chip rate)", "1023 (code length)"},
-        "BIT_MS = 20\ndef f(code_period_s=1e-3):\n    return h(bit_period_s=0.02)\n":
-            {"BIT_MS = 20", "code_period_s = 0.001", "bit_period_s = 0.02"},
+        "F = 1575.42e6\nR = 1.023e6\nN = 1023\n": {
+            "1575.42e6 (L1 carrier)",
+            "1.023e6 (chip rate)",
+            "1023 (code length)",
+        },
+        "BIT_MS = 20\ndef f(code_period_s=1e-3):\n    return h(bit_period_s=0.02)\n": {
+            "BIT_MS = 20",
+            "code_period_s = 0.001",
+            "bit_period_s = 0.02",
+        },
         "class P:\n    first_detect_s: float = Field(0.02, gt=0)\n": {"first_detect_s = 0.02"},
         "window = 20\ndef f(pfa=1e-3, m=20):\n    return x * 1e-3\n": set(),
     }

@@ -14,8 +14,12 @@ from gnssframework.errors import ConfigError
 from gnssframework.receiver.channels.lock import BitSync, estimate_cn0
 from gnssframework.signal.channel_model import channel_model, code_to_carrier
 from gnssframework.signal.cn0 import cn0_moments
-from gnssframework.signal.correlator_model import (amplitude_from_cn0, code_autocorrelation, correlator_mean,
-                                                   simulate_correlators)
+from gnssframework.signal.correlator_model import (
+    amplitude_from_cn0,
+    code_autocorrelation,
+    correlator_mean,
+    simulate_correlators,
+)
 from gnssframework.signal.if_samples import correlate_if, generate_if_samples
 from gnssframework.signal.qzss_l1ca import QZSS_L1CA
 from gnssframework.signal.spec import Component, SignalSpec, Subcarrier
@@ -26,10 +30,19 @@ def _code(prn: int) -> np.ndarray:
     return (1 - 2 * np.random.default_rng(prn).integers(0, 2, 1023)).astype(np.int8)
 
 
-BOC = SignalSpec("test-boc11", "X", "1X", 1575.42e6, 1.023e6, 1023, (1, 2), (Component("pilot", _code),),
-                 Subcarrier("boc", 1.0, 1.0))
-SHORT_SYMBOLS = SignalSpec("test-4ms-symbols", "X", "1X", 1575.42e6, 1.023e6, 1023, (1,),
-                           (Component("data", _code, symbol_period_s=4 * 1023 / 1.023e6),))
+BOC = SignalSpec(
+    "test-boc11", "X", "1X", 1575.42e6, 1.023e6, 1023, (1, 2), (Component("pilot", _code),), Subcarrier("boc", 1.0, 1.0)
+)
+SHORT_SYMBOLS = SignalSpec(
+    "test-4ms-symbols",
+    "X",
+    "1X",
+    1575.42e6,
+    1.023e6,
+    1023,
+    (1,),
+    (Component("data", _code, symbol_period_s=4 * 1023 / 1.023e6),),
+)
 
 
 def _boc11(tau):
@@ -54,8 +67,7 @@ def test_simulated_boc_tap_noise_has_the_boc_correlation():
     """Noise only: early and prompt half a chip apart correlate as R(0.5) = -0.5 (BPSK: +0.5)."""
     rng = np.random.default_rng(3)
     n = 20_000
-    c = simulate_correlators(np.zeros(n), np.zeros(n), np.zeros(n), 0.0, 1e-3, rng, amplitude=np.zeros(n),
-                             signal=BOC)
+    c = simulate_correlators(np.zeros(n), np.zeros(n), np.zeros(n), 0.0, 1e-3, rng, amplitude=np.zeros(n), signal=BOC)
     rho = np.corrcoef(c.early.real, c.prompt.real)[0, 1]
     assert rho == pytest.approx(-0.5, abs=4 * (1 - 0.25) / np.sqrt(n))  # 4 standard errors
     rho_el = np.corrcoef(c.early.real, c.late.real)[0, 1]  # one chip apart: R(1) = 0
@@ -65,9 +77,19 @@ def test_simulated_boc_tap_noise_has_the_boc_correlation():
 @pytest.mark.parametrize("complex_samples", [True, False])
 def test_noise_free_if_correlators_of_a_boc_signal_match_the_closed_form(complex_samples):
     fs, if_hz, T, cn0, doppler = 20.46e6, 4.0e6, 1e-3, 45.0, 800.0
-    sig = generate_if_samples(2, 0.002, fs, 0.0 if complex_samples else if_hz, cn0, np.random.default_rng(1),
-                              doppler_hz=doppler, code_phase_chips=100.0, complex_samples=complex_samples,
-                              noise=False, signal=BOC)
+    sig = generate_if_samples(
+        2,
+        0.002,
+        fs,
+        0.0 if complex_samples else if_hz,
+        cn0,
+        np.random.default_rng(1),
+        doppler_hz=doppler,
+        code_phase_chips=100.0,
+        complex_samples=complex_samples,
+        noise=False,
+        signal=BOC,
+    )
     assert sig.spec is BOC
     A = amplitude_from_cn0(cn0, T)
     rate = BOC.code_freq_hz(doppler)
@@ -136,9 +158,17 @@ def test_the_coherent_time_of_a_pilot_with_an_overlay_spans_the_overlay():
 
     from gnssframework.experiments.limits import coherent_time
 
-    pilot = SignalSpec("test-pilot", "X", "1X", 1575.42e6, 1.023e6, 4092, (1,),
-                       (Component("pilot", lambda prn: np.ones(4092, np.int8), secondary_code=(1,) * 25),),
-                       Subcarrier("boc", 1.0, 1.0))
+    pilot = SignalSpec(
+        "test-pilot",
+        "X",
+        "1X",
+        1575.42e6,
+        1.023e6,
+        4092,
+        (1,),
+        (Component("pilot", lambda prn: np.ones(4092, np.int8), secondary_code=(1,) * 25),),
+        Subcarrier("boc", 1.0, 1.0),
+    )
     t = TypeAdapter(coherent_time(pilot))
     assert t.validate_python(0.004) == 0.004 and t.validate_python(0.1) == 0.1
     for bad in (0.002, 0.006, 0.104):
@@ -152,8 +182,19 @@ def test_the_compiled_correlator_runs_a_boc_signal_from_its_sub_chip_table():
     from gnssframework.receiver.channels.correlator import correlate_channels, replica_codes, to_table_units
 
     fs, T, cn0, doppler = 20.46e6, 1e-3, 45.0, 1500.0
-    sig = generate_if_samples(1, 0.003, fs, 0.0, cn0, np.random.default_rng(6), doppler_hz=doppler,
-                              code_phase_chips=100.0, complex_samples=True, noise=False, signal=BOC)
+    sig = generate_if_samples(
+        1,
+        0.003,
+        fs,
+        0.0,
+        cn0,
+        np.random.default_rng(6),
+        doppler_hz=doppler,
+        code_phase_chips=100.0,
+        complex_samples=True,
+        noise=False,
+        signal=BOC,
+    )
     rate = BOC.code_freq_hz(doppler)
     n = int(T * fs)
     A = amplitude_from_cn0(cn0, T)
@@ -164,18 +205,46 @@ def test_the_compiled_correlator_runs_a_boc_signal_from_its_sub_chip_table():
     phase_cycles = (sig.if_hz + doppler) * 1000 / fs  # the signal's carrier at sample 1000
     for code_err in (0.0, 0.2, -0.35):
         cp = 100.0 + rate * 1000 / fs - code_err  # the replica at sample 1000, code_err chips behind
-        raw = correlate_channels(sig.samples.astype(np.complex64), np.array([1000]), np.array([n]),
-                                 to_table_units(np.array([cp]), BOC), to_table_units(np.array([rate / fs]), BOC),
-                                 np.array([phase_cycles]), np.array([(sig.if_hz + doppler) / fs]), codes,
-                                 to_table_units(taps, BOC))[0] / norm
+        raw = (
+            correlate_channels(
+                sig.samples.astype(np.complex64),
+                np.array([1000]),
+                np.array([n]),
+                to_table_units(np.array([cp]), BOC),
+                to_table_units(np.array([rate / fs]), BOC),
+                np.array([phase_cycles]),
+                np.array([(sig.if_hz + doppler) / fs]),
+                codes,
+                to_table_units(taps, BOC),
+            )[0]
+            / norm
+        )
         np.testing.assert_allclose(raw.real, A * _boc11(code_err - taps), atol=0.05 * A)
-        ref = correlate_if(sig, 1, np.array(cp), np.array(rate), np.array(sig.if_hz + doppler),
-                           np.array(2 * np.pi * phase_cycles), T,
-                           start_sample=1000, extra_taps={"e2": -0.25, "l2": 0.25})
-        np.testing.assert_allclose(raw[[0, 2, 4]], [complex(ref.early), complex(ref.prompt), complex(ref.late)],
-                                   atol=1e-3 * A)
-    cboc = SignalSpec("test-cboc", "X", "1X", 1575.42e6, 1.023e6, 1023, (1,), (Component("pilot", _code),),
-                      Subcarrier("cboc", 1.0, 1.0, 6.0, (np.sqrt(10 / 11), np.sqrt(1 / 11))))
+        ref = correlate_if(
+            sig,
+            1,
+            np.array(cp),
+            np.array(rate),
+            np.array(sig.if_hz + doppler),
+            np.array(2 * np.pi * phase_cycles),
+            T,
+            start_sample=1000,
+            extra_taps={"e2": -0.25, "l2": 0.25},
+        )
+        np.testing.assert_allclose(
+            raw[[0, 2, 4]], [complex(ref.early), complex(ref.prompt), complex(ref.late)], atol=1e-3 * A
+        )
+    cboc = SignalSpec(
+        "test-cboc",
+        "X",
+        "1X",
+        1575.42e6,
+        1.023e6,
+        1023,
+        (1,),
+        (Component("pilot", _code),),
+        Subcarrier("cboc", 1.0, 1.0, 6.0, (np.sqrt(10 / 11), np.sqrt(1 / 11))),
+    )
     with pytest.raises(ConfigError, match="not ±1"):
         replica_codes(cboc, [1])
 
@@ -183,15 +252,38 @@ def test_the_compiled_correlator_runs_a_boc_signal_from_its_sub_chip_table():
 def test_the_if_generator_applies_a_pilots_overlay_code_period_by_period():
     """A pilot with a 5-chip overlay: the prompt of code period k carries overlay chip k mod 5."""
     overlay = (1, -1, -1, 1, -1)
-    pilot = SignalSpec("test-overlay", "X", "1X", 1575.42e6, 1.023e6, 1023, (1,),
-                       (Component("pilot", _code, secondary_code=overlay),))
+    pilot = SignalSpec(
+        "test-overlay", "X", "1X", 1575.42e6, 1.023e6, 1023, (1,), (Component("pilot", _code, secondary_code=overlay),)
+    )
     fs, cn0 = 4.092e6, 50.0
     # 4 samples a chip, a quarter chip in: no sample sits on a chip edge (no rounding of the floor).
-    sig = generate_if_samples(1, 0.012, fs, 0.0, cn0, np.random.default_rng(0), code_phase_chips=0.125,
-                              complex_samples=True, noise=False, signal=pilot)
+    sig = generate_if_samples(
+        1,
+        0.012,
+        fs,
+        0.0,
+        cn0,
+        np.random.default_rng(0),
+        code_phase_chips=0.125,
+        complex_samples=True,
+        noise=False,
+        signal=pilot,
+    )
     n = int(round(pilot.code_period_s * fs))
-    prompts = [complex(correlate_if(sig, 1, np.array(0.125), np.array(pilot.chip_rate_hz), np.array(0.0),
-                                    np.array(0.0), pilot.code_period_s, start_sample=k * n).prompt)
-               for k in range(12)]
+    prompts = [
+        complex(
+            correlate_if(
+                sig,
+                1,
+                np.array(0.125),
+                np.array(pilot.chip_rate_hz),
+                np.array(0.0),
+                np.array(0.0),
+                pilot.code_period_s,
+                start_sample=k * n,
+            ).prompt
+        )
+        for k in range(12)
+    ]
     A = amplitude_from_cn0(cn0, pilot.code_period_s)
     np.testing.assert_allclose(np.real(prompts), A * np.array([overlay[k % 5] for k in range(12)]), atol=1e-6 * A)

@@ -43,6 +43,7 @@ def test_a_third_party_signal_registers_through_the_hook(scratch_registry):
 
 def test_a_signal_class_whose_name_differs_from_its_spec_is_refused():
     with pytest.raises(PluginError, match="differs from its spec's name 'gps-l1ca'"):
+
         class Wrong(Signal):  # noqa: F841
             name = "not-gps"
             spec = GPS_L1CA
@@ -57,9 +58,12 @@ def installed_package(tmp_path):
 
     pkg = tmp_path / "thirdsig_pkg"
     pkg.mkdir()
-    (pkg / "__init__.py").write_text("from gnssframework.registry import plugin_hooks, submodules\n\n"
-                                     "globals().update(plugin_hooks(*submodules(__name__, __path__)))\n")
-    (pkg / "toy.py").write_text(textwrap.dedent("""
+    (pkg / "__init__.py").write_text(
+        "from gnssframework.registry import plugin_hooks, submodules\n\n"
+        "globals().update(plugin_hooks(*submodules(__name__, __path__)))\n"
+    )
+    (pkg / "toy.py").write_text(
+        textwrap.dedent("""
         import numpy as np
 
         from gnssframework.signal.registered import Signal
@@ -78,7 +82,8 @@ def installed_package(tmp_path):
             name = "thirdsig-boc"
             spec = TOY_E1
             description = "a third party's BOC(1,1) pilot"
-        """))
+        """)
+    )
     dist = tmp_path / "thirdsig-0.1.dist-info"
     dist.mkdir()
     (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: thirdsig\nVersion: 0.1\n")

@@ -22,8 +22,17 @@ def _random_code(seed: int, length: int = 4092) -> np.ndarray:
 
 def _toy(sub: Subcarrier, length: int = 4092, sign: float = 1.0) -> SignalSpec:
     code = _random_code(1, length)
-    return SignalSpec("toy", "X", "1X", 1575.42e6, 1.023e6, length, (1,),
-                      (Component("pilot", lambda prn: code, subcarrier_sign=sign),), sub)
+    return SignalSpec(
+        "toy",
+        "X",
+        "1X",
+        1575.42e6,
+        1.023e6,
+        length,
+        (1,),
+        (Component("pilot", lambda prn: code, subcarrier_sign=sign),),
+        sub,
+    )
 
 
 def _acf_by_integration(sub: Subcarrier, tau: np.ndarray, sign: float = 1.0, per_chip: int = 24_000) -> np.ndarray:
@@ -112,8 +121,16 @@ def test_a_subcarrier_that_does_not_divide_a_chip_is_refused():
 def test_a_description_that_contradicts_itself_is_refused_naming_the_field():
     code = _random_code(3, 1023)
     with pytest.raises(ConfigError, match="symbol_period_s.*whole number of code periods"):
-        SignalSpec("bad", "X", "1X", 1575.42e6, 1.023e6, 1023, (1,),
-                   (Component("data", lambda prn: code, symbol_period_s=0.0105),))
+        SignalSpec(
+            "bad",
+            "X",
+            "1X",
+            1575.42e6,
+            1.023e6,
+            1023,
+            (1,),
+            (Component("data", lambda prn: code, symbol_period_s=0.0105),),
+        )
     short = SignalSpec("short", "X", "1X", 1575.42e6, 1.023e6, 2046, (1,), (Component("data", lambda prn: code),))
     with pytest.raises(ConfigError, match="gave \\(1023,\\) chips for PRN 1, the description says 2046"):
         short.code(1)

@@ -20,16 +20,35 @@ def _code(length):
 def test_time_slots_cut_each_chip_and_long_components_keep_their_length():
     """Two components alternating chip by chip, one with a code 3 times longer; three slots
     under a sub-carrier of one piece a chip make three pieces (the lcm)."""
-    spec = SignalSpec("toy-tm", "X", "2X", 1227.6e6, 511.5e3, 100, (1,),
-                      (Component("a", _code(100), time_slot=(0, 2)),
-                       Component("b", _code(300), time_slot=(1, 2), code_length_chips=300)))
+    spec = SignalSpec(
+        "toy-tm",
+        "X",
+        "2X",
+        1227.6e6,
+        511.5e3,
+        100,
+        (1,),
+        (
+            Component("a", _code(100), time_slot=(0, 2)),
+            Component("b", _code(300), time_slot=(1, 2), code_length_chips=300),
+        ),
+    )
     assert spec.subchips_per_chip == 2 and not spec.is_bpsk
     np.testing.assert_array_equal(spec.chip_pulse(0), [1, 0])
     np.testing.assert_array_equal(spec.chip_pulse(1), [0, 1])
     assert spec.component_code_length(1) == 300 and spec.spreading_table(1, 1).shape == (600,)
     np.testing.assert_array_equal(spec.spreading_table(1, 1)[1::2], spec.code(1, 1))
-    three = SignalSpec("toy-tm3", "X", "2X", 1227.6e6, 511.5e3, 100, (1,),
-                       (Component("a", _code(100), time_slot=(2, 3)),), Subcarrier("boc", 0.25, 0.5))
+    three = SignalSpec(
+        "toy-tm3",
+        "X",
+        "2X",
+        1227.6e6,
+        511.5e3,
+        100,
+        (1,),
+        (Component("a", _code(100), time_slot=(2, 3)),),
+        Subcarrier("boc", 0.25, 0.5),
+    )
     assert three.subchips_per_chip == 3  # lcm(1, 3)
     np.testing.assert_array_equal(three.chip_pulse(0), [0, 0, 1])
     # Autocorrelation of a pulse 1/3 chip long: a triangle 1/3 chip wide.
@@ -49,8 +68,13 @@ def test_searching_the_prns_in_groups_gives_the_search_of_all_at_once(monkeypatc
     import gnssframework_plugins.acquisition as pcps_module
 
     fs = 2.6e6
-    x = synthesize_samples([SatelliteSignal(7, 45.0, 1200.0, 100.0), SatelliteSignal(21, 42.0, -800.0, 700.0)],
-                           0.004, fs, 0.0, np.random.default_rng(2))
+    x = synthesize_samples(
+        [SatelliteSignal(7, 45.0, 1200.0, 100.0), SatelliteSignal(21, 42.0, -800.0, 700.0)],
+        0.004,
+        fs,
+        0.0,
+        np.random.default_rng(2),
+    )
     acq = registry.create("acquisition", "pcps", noncoherent=4, doppler_max_hz=2000.0)
     whole = acq.acquire(x, fs, 0.0, (3, 7, 21))
     calls = []

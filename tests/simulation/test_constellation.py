@@ -76,8 +76,10 @@ def test_vector_tracking_runs_on_broadcast_ephemeris():
     from gnssframework.experiments import get_scenario
 
     common = {"kind": "vector-tracking", "duration_s": 0.3, "channels": 6, "settle_s": 0.0}
-    plugins = {"channel_filter": {"name": "discriminator", "params": {}},
-               "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}}}
+    plugins = {
+        "channel_filter": {"name": "discriminator", "params": {}},
+        "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo"}},
+    }
     results = []
     for extra in ({}, {"ephemeris_file": str(NAV)}):
         scen = get_scenario({**common, **extra})
@@ -135,9 +137,20 @@ def test_trajectory_errors_name_the_file_and_line(tmp_path):
 def test_vector_loop_tracks_a_moving_receiver(tmp_path):
     from gnssframework.experiments import get_scenario
 
-    scen = get_scenario({"kind": "vector-tracking", "duration_s": 3.0, "channels": 8, "settle_s": 0.5,
-                         "trajectory_file": str(_circle_csv(tmp_path / "traj.csv"))})
-    plugins = scen.build({"channel_filter": {"name": "discriminator", "params": {}},
-                          "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 10.0}}})
+    scen = get_scenario(
+        {
+            "kind": "vector-tracking",
+            "duration_s": 3.0,
+            "channels": 8,
+            "settle_s": 0.5,
+            "trajectory_file": str(_circle_csv(tmp_path / "traj.csv")),
+        }
+    )
+    plugins = scen.build(
+        {
+            "channel_filter": {"name": "discriminator", "params": {}},
+            "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 10.0}},
+        }
+    )
     m = scen.run_batch({"cn0_dbhz": 45.0}, plugins, 2, np.random.default_rng(0)).metrics
     assert np.all(m["position_error_rmse"] < 3.0) and np.all(m["velocity_error_rmse"] < 0.5)

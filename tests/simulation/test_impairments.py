@@ -61,8 +61,9 @@ def test_multipath_bias_of_the_eml_dll_matches_the_closed_form(alpha, delay, in_
     A = amplitude_from_cn0(45.0, 0.001)
 
     def output(e):
-        y = impairments.multipath_correlator_mean(A, e, 0.0, 0.0, 0.001, np.array([-0.5, 0.0, 0.5]), alpha, delay,
-                                                  0.0 if in_phase else np.pi)
+        y = impairments.multipath_correlator_mean(
+            A, e, 0.0, 0.0, 0.001, np.array([-0.5, 0.0, 0.5]), alpha, delay, 0.0 if in_phase else np.pi
+        )
         return float(disc(Correlators(y[0], y[1], y[2])))
 
     null = optimize.brentq(output, -0.3, 0.3)  # where the DLL settles
@@ -82,8 +83,9 @@ def test_clock_allan_variance_matches_its_h_parameters(preset):
     T = 0.01
     bias, _ = model.simulate(100_000, T, np.random.default_rng(5), batch_shape=(6,))
     taus = np.array([0.1, 1.0, 10.0])
-    measured = np.mean([allantools.oadev(bias[:, i], rate=1 / T, data_type="phase", taus=taus)[1] ** 2
-                        for i in range(6)], axis=0)
+    measured = np.mean(
+        [allantools.oadev(bias[:, i], rate=1 / T, data_type="phase", taus=taus)[1] ** 2 for i in range(6)], axis=0
+    )
     # The two-state model has no flicker floor (documented): compare with its own part.
     np.testing.assert_allclose(measured, model.allan_variance(taus, include_flicker=False), rtol=0.15)
     assert np.all(model.allan_variance(taus) > model.allan_variance(taus, include_flicker=False))

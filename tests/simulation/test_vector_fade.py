@@ -28,8 +28,15 @@ from gnssframework.simulation.fade import CN0Fade, lowest_channels
 
 LAT, LON, H = 34.23, 108.3576, 590.6
 T = 0.01
-SCEN = {"kind": "vector-tracking", "duration_s": 3.0, "channels": 8, "settle_s": 0.5, "steady_state_s": 1.0,
-        "pcrb": False, "data_bits": "none"}
+SCEN = {
+    "kind": "vector-tracking",
+    "duration_s": 3.0,
+    "channels": 8,
+    "settle_s": 0.5,
+    "steady_state_s": 1.0,
+    "pcrb": False,
+    "data_bits": "none",
+}
 
 
 class _Recorder(ChannelFilter):
@@ -47,16 +54,21 @@ class _Recorder(ChannelFilter):
     def step(self, inputs):
         self.prompts.append(inputs["correlators"].prompt.copy())
         zero, big = np.zeros(self.shape), np.full(self.shape, 1e8)
-        return {"code_error_chips": zero, "code_error_var_chips2": big, "freq_error_hz": zero,
-                "freq_error_var_hz2": big}
+        return {
+            "code_error_chips": zero,
+            "code_error_var_chips2": big,
+            "freq_error_hz": zero,
+            "freq_error_var_hz2": big,
+        }
 
 
 def _prompts(case: dict, runs: int = 32, seed: int = 5) -> tuple[np.ndarray, object]:
     """The prompts ``(K, runs, ch)`` of a case's truth, the replica on the signal."""
     scen = get_scenario(SCEN)
     c = scen.CaseParams.model_validate(case)
-    truth, _, _ = scen.truth(c.cn0_dbhz, runs, draw.run_streams(seed, (0,), range(runs)), None, c.fade(),
-                             c.fade_channels)
+    truth, _, _ = scen.truth(
+        c.cn0_dbhz, runs, draw.run_streams(seed, (0,), range(runs)), None, c.fade(), c.fade_channels
+    )
     x0 = truth.nav_truth(T / 2, 0)  # exact start: no tracking error to blur the amplitude
     P0 = np.diag([1e-6] * 3 + [1e-8] * 3 + [1e-6, 1e-8])
     rec = _Recorder()
@@ -91,8 +103,13 @@ def _check_window(p: np.ndarray, expected_dbhz: np.ndarray, expected_noise_var: 
 @pytest.mark.parametrize("cause", ["attenuation", "noise-floor"])
 def test_correlator_cn0_follows_the_fade_over_time(cause):
     depth, start, length = 10.0, 1.0, 1.0
-    case = {"cn0_dbhz": 42.0, "fade_depth_db": depth, "fade_start_s": start, "fade_duration_s": length,
-            "fade_cause": cause}
+    case = {
+        "cn0_dbhz": 42.0,
+        "fade_depth_db": depth,
+        "fade_start_s": start,
+        "fade_duration_s": length,
+        "fade_cause": cause,
+    }
     if cause == "attenuation":
         case["fade_channels"] = 3
     prompts, truth = _prompts(case)
@@ -103,8 +120,11 @@ def test_correlator_cn0_follows_the_fade_over_time(cause):
     _, el, _ = pymap3d.ecef2aer(sat[..., 0], sat[..., 1], sat[..., 2], LAT, LON, H)
     faded = np.zeros(ch, bool)
     faded[np.argsort(el)[:3] if cause == "attenuation" else slice(None)] = True
-    windows = {"before": (t_mid >= 0.1) & (t_mid < start), "during": (t_mid >= start) & (t_mid < start + length),
-               "after": t_mid >= start + length}
+    windows = {
+        "before": (t_mid >= 0.1) & (t_mid < start),
+        "during": (t_mid >= start) & (t_mid < start + length),
+        "after": t_mid >= start + length,
+    }
     for name, sel in windows.items():
         loss = depth * faded if name == "during" else np.zeros(ch)
         noise_var = 10 ** (loss / 10) if cause == "noise-floor" else np.ones(ch)
@@ -132,12 +152,12 @@ def test_gains_closed_form():
     t = np.array([0.5, 1.0, 1.5, 2.0, 2.5])
     faded = np.array([[True, False]])
     s, n = CN0Fade(6.0, 1.0, 1.0, "attenuation").gains(t, faded)
-    np.testing.assert_allclose(s[:, 0, 0], [1, 10 ** -0.3, 10 ** -0.3, 1, 1])
+    np.testing.assert_allclose(s[:, 0, 0], [1, 10**-0.3, 10**-0.3, 1, 1])
     np.testing.assert_array_equal(s[:, 0, 1], 1.0)
     np.testing.assert_array_equal(n, 1.0)
     s, n = CN0Fade(6.0, 1.0, None, "noise-floor").gains(t, faded)
     np.testing.assert_array_equal(s, 1.0)
-    np.testing.assert_allclose(n[:, 0, 0], [1, 10 ** 0.3, 10 ** 0.3, 10 ** 0.3, 10 ** 0.3])
+    np.testing.assert_allclose(n[:, 0, 0], [1, 10**0.3, 10**0.3, 10**0.3, 10**0.3])
     mask = lowest_channels(np.array([[80.0, 20.0, 50.0, 15.0]]), 2)
     np.testing.assert_array_equal(mask, [[False, True, False, True]])
     assert lowest_channels(np.array([[80.0, 20.0]]), None).all()
@@ -145,8 +165,10 @@ def test_gains_closed_form():
 
 def _batch(case: dict, seed: int = 3) -> dict[str, np.ndarray]:
     scen = get_scenario({**SCEN, "data_bits": "known"})
-    plugins = {"channel_filter": gf.registry.create("channel_filter", "iq-filter", clock="ocxo"),
-               "nav_filter": gf.registry.create("nav_filter", "ekf-pv", clock="ocxo")}
+    plugins = {
+        "channel_filter": gf.registry.create("channel_filter", "iq-filter", clock="ocxo"),
+        "nav_filter": gf.registry.create("nav_filter", "ekf-pv", clock="ocxo"),
+    }
     return scen.run_batch(case, plugins, 2, draw.run_streams(seed, (0,), range(2))).metrics
 
 
@@ -162,8 +184,12 @@ def test_no_fade_draws_the_same_numbers():
 
 
 def test_a_config_without_fade_keeps_its_identity():
-    base = {"name": "x", "scenario": SCEN, "cases": [{"name": "c", "cn0_dbhz": 40.0}],
-            "candidates": [{"name": "a", "channel_filter": "iq-filter", "nav_filter": "ekf-pv"}]}
+    base = {
+        "name": "x",
+        "scenario": SCEN,
+        "cases": [{"name": "c", "cn0_dbhz": 40.0}],
+        "candidates": [{"name": "a", "channel_filter": "iq-filter", "nav_filter": "ekf-pv"}],
+    }
     with_fade = {**base, "cases": [{"name": "c", "cn0_dbhz": 40.0, "fade_depth_db": 10.0}]}
     a, b = ComparisonConfig.model_validate(base), ComparisonConfig.model_validate(with_fade)
     # The identity hashes the config as written: an unset option is not in it.
@@ -171,14 +197,17 @@ def test_a_config_without_fade_keeps_its_identity():
     assert a.identity() != b.identity()
 
 
-@pytest.mark.parametrize("case, field", [
-    ({"cn0_dbhz": 40.0, "fade_start_s": 2.0}, "fade_start_s"),
-    ({"cn0_dbhz": 40.0, "fade_depth_db": 10.0, "fade_start_s": 3.0}, "fade_start_s"),
-    ({"cn0_dbhz": 40.0, "fade_depth_db": 10.0, "fade_channels": 9}, "fade_channels"),
-    ({"cn0_dbhz": 40.0, "fade_depth_db": 10.0, "fade_cause": "noise-floor", "fade_channels": 2}, "fade_channels"),
-    ({"cn0_dbhz": 40.0, "fade_depth_db": 40.0}, "fade_depth_db"),
-    ({"cn0_dbhz": 40.0, "fade_depth_db": 10.0, "fade_cause": "jamming"}, "fade_cause"),
-])
+@pytest.mark.parametrize(
+    "case, field",
+    [
+        ({"cn0_dbhz": 40.0, "fade_start_s": 2.0}, "fade_start_s"),
+        ({"cn0_dbhz": 40.0, "fade_depth_db": 10.0, "fade_start_s": 3.0}, "fade_start_s"),
+        ({"cn0_dbhz": 40.0, "fade_depth_db": 10.0, "fade_channels": 9}, "fade_channels"),
+        ({"cn0_dbhz": 40.0, "fade_depth_db": 10.0, "fade_cause": "noise-floor", "fade_channels": 2}, "fade_channels"),
+        ({"cn0_dbhz": 40.0, "fade_depth_db": 40.0}, "fade_depth_db"),
+        ({"cn0_dbhz": 40.0, "fade_depth_db": 10.0, "fade_cause": "jamming"}, "fade_cause"),
+    ],
+)
 def test_bad_fade_settings_are_refused_by_field(case, field):
     scen = get_scenario(SCEN)
     with pytest.raises(ConfigError, match=field):
@@ -192,8 +221,9 @@ def test_a_gain_of_the_wrong_shape_is_refused_by_name():
     truth, x0, P0 = scen.truth(40.0, 2, draw.run_streams(1, (0,), range(2)))
     bad = dataclasses.replace(truth, noise_gain=np.ones((3, 2, 8)))
     with pytest.raises(ConfigError, match="truth.noise_gain"):
-        run_vector_loop(_Recorder(), gf.registry.create("nav_filter", "ekf-pv"), bad, x0, P0,
-                        draw.run_streams(2, (0,), range(2)))
+        run_vector_loop(
+            _Recorder(), gf.registry.create("nav_filter", "ekf-pv"), bad, x0, P0, draw.run_streams(2, (0,), range(2))
+        )
 
 
 def test_pcrb_is_refused_with_a_fade():

@@ -35,7 +35,7 @@ def test_figure_eight_derivatives_are_the_numerical_ones_and_its_extremes_the_cl
     # the first half lap, left round the west one in the second: by hand from the closed
     # form, (v x a)_up = -A^2 w^3 sin(wt) (3 - 2 sin^2 wt).
     turn = vel[:, 0] * acc[:, 1] - vel[:, 1] * acc[:, 0]
-    np.testing.assert_allclose(turn, -a**2 * w**3 * np.sin(w * t) * (3 - 2 * np.sin(w * t) ** 2), atol=1e-9)
+    np.testing.assert_allclose(turn, -(a**2) * w**3 * np.sin(w * t) * (3 - 2 * np.sin(w * t) ** 2), atol=1e-9)
     first, second = (t % 20.0 > 0.1) & (t % 20.0 < 9.9), (t % 20.0 > 10.1) & (t % 20.0 < 19.9)
     assert np.all(turn[first] < 0) and np.all(turn[second] > 0)
     assert np.all(pos[first, 0] > 0) and np.all(pos[second, 0] < 0)
@@ -77,16 +77,19 @@ def test_scenario_truth_follows_the_figure_eight_and_its_range_rate_is_the_range
     static_rate = np.sum(sv[:, None] * unit, axis=-1)
     assert np.abs(rate - static_rate).max() > 5.0
     # The nav filter's initial estimate is drawn around the moving truth (speed ~11 m/s).
-    assert np.linalg.norm(x0[:, 3:6], axis=-1) == pytest.approx(np.sqrt(2) * p.figure_eight_half_length_m * w,
-                                                                 abs=3.0)
+    assert np.linalg.norm(x0[:, 3:6], axis=-1) == pytest.approx(np.sqrt(2) * p.figure_eight_half_length_m * w, abs=3.0)
 
 
 def test_a_case_motion_overrides_the_scenarios_and_the_loop_tracks_the_vehicle():
     scen = get_scenario({**SCEN, "duration_s": 4.0})
 
     def plugins():
-        return scen.build({"channel_filter": {"name": "discriminator", "params": {}},
-                           "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1.0}}})
+        return scen.build(
+            {
+                "channel_filter": {"name": "discriminator", "params": {}},
+                "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1.0}},
+            }
+        )
 
     moving = scen.run_batch({"cn0_dbhz": 45.0, "motion": "figure-eight"}, plugins(), 3, np.random.default_rng(5))
     static = scen.run_batch({"cn0_dbhz": 45.0}, plugins(), 3, np.random.default_rng(5))
@@ -100,12 +103,15 @@ def test_a_case_motion_overrides_the_scenarios_and_the_loop_tracks_the_vehicle()
     assert "pcrb_velocity" in static.metrics and "pcrb_velocity" not in moving.metrics
 
 
-@pytest.mark.parametrize("extra, case, field", [
-    ({"motion": "figure-eight", "velocity_enu_m_s": [1.0, 0.0, 0.0]}, None, "scenario.motion"),
-    ({"motion": "figure-eight", "pcrb": True}, None, "scenario.pcrb"),
-    ({"velocity_enu_m_s": [0.0, 2.0, 0.0]}, {"cn0_dbhz": 45.0, "motion": "figure-eight"}, "cases[0].motion"),
-    ({"pcrb": True}, {"cn0_dbhz": 45.0, "motion": "figure-eight"}, "scenario.pcrb"),
-])
+@pytest.mark.parametrize(
+    "extra, case, field",
+    [
+        ({"motion": "figure-eight", "velocity_enu_m_s": [1.0, 0.0, 0.0]}, None, "scenario.motion"),
+        ({"motion": "figure-eight", "pcrb": True}, None, "scenario.pcrb"),
+        ({"velocity_enu_m_s": [0.0, 2.0, 0.0]}, {"cn0_dbhz": 45.0, "motion": "figure-eight"}, "cases[0].motion"),
+        ({"pcrb": True}, {"cn0_dbhz": 45.0, "motion": "figure-eight"}, "scenario.pcrb"),
+    ],
+)
 def test_a_figure_eight_beside_another_motion_or_the_bound_is_refused_naming_the_field(extra, case, field):
     with pytest.raises(ConfigError) as info:
         scen = get_scenario({**SCEN, **extra})
@@ -122,9 +128,13 @@ def test_a_trajectory_file_and_a_figure_eight_are_refused_together(tmp_path):
 
 
 def test_an_unknown_motion_is_a_one_line_config_error():
-    cfg = {"name": "m", "runs": 1, "scenario": SCEN, "cases": [{"name": "a", "cn0_dbhz": 45.0, "motion": "circle"}],
-           "candidates": [{"name": "d", "channel_filter": {"name": "discriminator"},
-                           "nav_filter": {"name": "ekf-pv"}}]}
+    cfg = {
+        "name": "m",
+        "runs": 1,
+        "scenario": SCEN,
+        "cases": [{"name": "a", "cn0_dbhz": 45.0, "motion": "circle"}],
+        "candidates": [{"name": "d", "channel_filter": {"name": "discriminator"}, "nav_filter": {"name": "ekf-pv"}}],
+    }
     with pytest.raises(ConfigError) as info:
         ComparisonConfig.model_validate(cfg)
     assert "motion" in str(info.value) and "\n" not in str(info.value)
@@ -138,12 +148,22 @@ def test_a_comparison_with_moving_and_static_cases_reports_the_bound_where_it_ex
 
     from gnssframework.experiments.results import compare
 
-    cfg = {"name": "bound-where-defined", "runs": 2, "seed": 3, "executor": {"kind": "local", "workers": 1},
-           "scenario": {**SCEN, "duration_s": 2.0},
-           "metrics": ["velocity_error_rmse", "pcrb_velocity"],
-           "cases": [{"name": "static", "cn0_dbhz": 45.0}, {"name": "moving", "cn0_dbhz": 45.0, "motion": "figure-eight"}],
-           "candidates": [{"name": "d", "channel_filter": {"name": "discriminator"},
-                           "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1.0}}}]}
+    cfg = {
+        "name": "bound-where-defined",
+        "runs": 2,
+        "seed": 3,
+        "executor": {"kind": "local", "workers": 1},
+        "scenario": {**SCEN, "duration_s": 2.0},
+        "metrics": ["velocity_error_rmse", "pcrb_velocity"],
+        "cases": [{"name": "static", "cn0_dbhz": 45.0}, {"name": "moving", "cn0_dbhz": 45.0, "motion": "figure-eight"}],
+        "candidates": [
+            {
+                "name": "d",
+                "channel_filter": {"name": "discriminator"},
+                "nav_filter": {"name": "ekf-pv", "params": {"clock": "ocxo", "accel_psd": 1.0}},
+            }
+        ],
+    }
     compare(cfg, tmp_path)
     rows = {(r["case"], r["metric"]): r for r in json.loads((tmp_path / "summary.json").read_text())["rows"]}
     static, moving = rows[("static", "pcrb_velocity")], rows[("moving", "pcrb_velocity")]

@@ -54,14 +54,37 @@ before a run), `loop` (the filter step's compiled checks and the adapters' guard
 from __future__ import annotations
 
 from . import loop
-from .arrays import (ekf_moments, fused_predict, fused_update, linear_predict, measurement_moments, pd_mask,
-                     predict_moments, sigma_points, update, vector_operand)
+from .arrays import (
+    ekf_moments,
+    fused_predict,
+    fused_update,
+    linear_predict,
+    measurement_moments,
+    pd_mask,
+    predict_moments,
+    sigma_points,
+    update,
+    vector_operand,
+)
 from .split import PARALLEL_MIN_BATCH, PD_MASK_PARALLEL_MIN_BATCH
 from .warm import warm_up as warm_up_kernels
 
-__all__ = ["PARALLEL_MIN_BATCH", "PD_MASK_PARALLEL_MIN_BATCH", "sigma_points", "predict_moments",
-           "measurement_moments", "update", "pd_mask", "linear_predict", "ekf_moments", "fused_predict",
-           "fused_update", "vector_operand", "warm_up", "warm_up_kernels"]
+__all__ = [
+    "PARALLEL_MIN_BATCH",
+    "PD_MASK_PARALLEL_MIN_BATCH",
+    "sigma_points",
+    "predict_moments",
+    "measurement_moments",
+    "update",
+    "pd_mask",
+    "linear_predict",
+    "ekf_moments",
+    "fused_predict",
+    "fused_update",
+    "vector_operand",
+    "warm_up",
+    "warm_up_kernels",
+]
 
 
 def warm_up() -> float:

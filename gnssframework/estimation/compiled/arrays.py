@@ -11,8 +11,18 @@ import numpy as np
 
 from . import drivers, split
 
-__all__ = ["sigma_points", "predict_moments", "measurement_moments", "update", "pd_mask", "linear_predict",
-           "ekf_moments", "fused_predict", "fused_update", "vector_operand"]
+__all__ = [
+    "sigma_points",
+    "predict_moments",
+    "measurement_moments",
+    "update",
+    "pd_mask",
+    "linear_predict",
+    "ekf_moments",
+    "fused_predict",
+    "fused_update",
+    "vector_operand",
+]
 
 
 def _operand(a: np.ndarray) -> np.ndarray:
@@ -49,12 +59,12 @@ def _flat(a: np.ndarray, batch: tuple[int, ...], tail: int) -> np.ndarray:
             # The common case, a (B, ...) array straight from the previous step: no reshape.
             if a.ndim == tail + 1:
                 return a if flags.writeable else a.copy()
-            return _operand(a.reshape((-1,) + a.shape[a.ndim - tail:]))
+            return _operand(a.reshape((-1,) + a.shape[a.ndim - tail :]))
     a = np.asarray(a, dtype=float)
-    shape = batch + a.shape[a.ndim - tail:]
+    shape = batch + a.shape[a.ndim - tail :]
     if a.shape != shape:
         a = np.broadcast_to(a, shape)
-    return _operand(np.ascontiguousarray(a).reshape((-1,) + shape[len(batch):]))
+    return _operand(np.ascontiguousarray(a).reshape((-1,) + shape[len(batch) :]))
 
 
 def _flat_mask(mask: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
@@ -125,7 +135,9 @@ def predict_moments(Y: np.ndarray, wm: np.ndarray, wc: np.ndarray, Q: np.ndarray
     B = Yf.shape[1]
     mean = np.empty((B, p))
     cov = np.empty((B, p, p))
-    split.pick(drivers._predict_moments_kernels, B)(_operand(Yf), vector_operand(wm), vector_operand(wc), _flat_shared(Q, batch), mean, cov)
+    split.pick(drivers._predict_moments_kernels, B)(
+        _operand(Yf), vector_operand(wm), vector_operand(wc), _flat_shared(Q, batch), mean, cov
+    )
     if len(batch) == 1:
         return mean, cov
     return mean.reshape(batch + (p,)), cov.reshape(batch + (p, p))
@@ -144,8 +156,15 @@ def measurement_moments(X: np.ndarray, Z: np.ndarray, prior_mean: np.ndarray, wm
     S = np.empty((B, m, m))
     C = np.empty((B, n, m))
     split.pick(drivers._measurement_moments_kernels, B)(
-        _operand(Xf), _operand(Zf), _flat(prior_mean, batch, 1), vector_operand(wm), vector_operand(wc),
-        _flat_shared(R, batch), z_hat, S, C,
+        _operand(Xf),
+        _operand(Zf),
+        _flat(prior_mean, batch, 1),
+        vector_operand(wm),
+        vector_operand(wc),
+        _flat_shared(R, batch),
+        z_hat,
+        S,
+        C,
     )
     if len(batch) == 1:
         return z_hat, S, C
@@ -168,18 +187,39 @@ def update(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph: bool = False, H
         Hf, Rf = _flat_shared(H, batch), _flat_shared(R, batch)
     else:
         Hf, Rf = _unused_operands.get((m, n)) or _unused_operands.setdefault(
-            (m, n), (np.zeros((1, m, n)), np.zeros((1, m, m))))
+            (m, n), (np.zeros((1, m, n)), np.zeros((1, m, m)))
+        )
     mean = np.empty((B, n))
     cov = np.empty((B, n, n))
     gain = np.empty((B, n, m))
     innovation = np.empty((B, m))
     ok = np.empty(B, dtype=np.bool_)
-    args = (pm, _flat(prior_cov, batch, 2), _flat(z, batch, 1), _flat(z_hat, batch, 1), _flat(S, batch, 2),
-            _flat(C, batch, 2), _flat_mask(bad_z, batch), bool(joseph), Hf, Rf, mean, cov, gain, innovation, ok)
+    args = (
+        pm,
+        _flat(prior_cov, batch, 2),
+        _flat(z, batch, 1),
+        _flat(z_hat, batch, 1),
+        _flat(S, batch, 2),
+        _flat(C, batch, 2),
+        _flat_mask(bad_z, batch),
+        bool(joseph),
+        Hf,
+        Rf,
+        mean,
+        cov,
+        gain,
+        innovation,
+        ok,
+    )
     by_work = split.split_by_work(B, n, m)
-    split.run_split(drivers._update_kernels, B, args, lambda: (0, 1, 2, 3, 4, 5, 6) + tuple(
-        i for i in (8, 9) if args[i].shape[0] == B) + tuple(range(10, 15)), by_work=by_work,
-        chunks=split.work_chunks(B, n, m) if by_work else None)
+    split.run_split(
+        drivers._update_kernels,
+        B,
+        args,
+        lambda: (0, 1, 2, 3, 4, 5, 6) + tuple(i for i in (8, 9) if args[i].shape[0] == B) + tuple(range(10, 15)),
+        by_work=by_work,
+        chunks=split.work_chunks(B, n, m) if by_work else None,
+    )
     if len(batch) == 1:
         return mean, cov, gain, innovation, ok
     return (
@@ -198,7 +238,9 @@ def pd_mask(a: np.ndarray) -> np.ndarray:
     batch = a.shape[:-2]
     A = _flat(a, batch, 2)
     ok = np.empty(A.shape[0], dtype=np.bool_)
-    split.pick(drivers._pd_mask_kernels, A.shape[0], max(split.PARALLEL_MIN_BATCH, split.PD_MASK_PARALLEL_MIN_BATCH))(A, ok)
+    split.pick(drivers._pd_mask_kernels, A.shape[0], max(split.PARALLEL_MIN_BATCH, split.PD_MASK_PARALLEL_MIN_BATCH))(
+        A, ok
+    )
     return ok.reshape(batch)
 
 
@@ -210,8 +252,9 @@ def linear_predict(mean, cov, F, Q):
     B = m_.shape[0]
     out_mean = np.empty((B, n))
     out_cov = np.empty((B, n, n))
-    split.pick(drivers._linear_predict_kernels, B)(m_, _flat(cov, batch, 2), vector_operand(F),
-                                      _flat_shared(Q, batch), out_mean, out_cov)
+    split.pick(drivers._linear_predict_kernels, B)(
+        m_, _flat(cov, batch, 2), vector_operand(F), _flat_shared(Q, batch), out_mean, out_cov
+    )
     return out_mean.reshape(batch + (n,)), out_cov.reshape(batch + (n, n))
 
 
@@ -226,8 +269,14 @@ def ekf_moments(mean, cov, compiled, R):
     Rf = _flat_shared(R, batch)
     args = (m_, _flat(cov, batch, 2), vector_operand(compiled.h_params), Rf, z_hat, S, C)
     by_work = split.split_by_work(B, n, m)
-    split.run_split(drivers._ekf_pair(compiled), B, args, lambda: (0, 1) + ((3,) if Rf.shape[0] == B else ()) + (4, 5, 6),
-               by_work=by_work, chunks=split.work_chunks(B, n, m) if by_work else None)
+    split.run_split(
+        drivers._ekf_pair(compiled),
+        B,
+        args,
+        lambda: (0, 1) + ((3,) if Rf.shape[0] == B else ()) + (4, 5, 6),
+        by_work=by_work,
+        chunks=split.work_chunks(B, n, m) if by_work else None,
+    )
     return z_hat.reshape(batch + (m,)), S.reshape(batch + (m, m)), C.reshape(batch + (n, m))
 
 
@@ -243,10 +292,27 @@ def fused_predict(mean, cov, rule, compiled, Q):
     status = np.empty(B, dtype=np.int8)
     counts = np.empty(1, dtype=np.int64)
     Qf = _flat_shared(Q, batch)
-    args = (m_, _flat(cov, batch, 2), root_kind, scale, center, vector_operand(wm), vector_operand(wc),
-            vector_operand(compiled.f_params), Qf, out_mean, out_cov, status)
-    split.run_split(drivers._predict_pair(compiled, n), B, args,
-               lambda: (0, 1, 8, 9, 10, 11) if Qf.shape[0] == B else (0, 1, 9, 10, 11), counts)
+    args = (
+        m_,
+        _flat(cov, batch, 2),
+        root_kind,
+        scale,
+        center,
+        vector_operand(wm),
+        vector_operand(wc),
+        vector_operand(compiled.f_params),
+        Qf,
+        out_mean,
+        out_cov,
+        status,
+    )
+    split.run_split(
+        drivers._predict_pair(compiled, n),
+        B,
+        args,
+        lambda: (0, 1, 8, 9, 10, 11) if Qf.shape[0] == B else (0, 1, 9, 10, 11),
+        counts,
+    )
     if counts[0] == 0:
         status = None  # every root exists
     elif len(batch) != 1:
@@ -283,22 +349,51 @@ def fused_update(mean, cov, z, bad_z, rule, compiled, R):
     m = z.shape[-1]
     m_ = _flat(mean, batch, 1)
     B = m_.shape[0]
-    outs = (np.empty((B, n)), np.empty((B, n, n)), np.empty((B, n, m)), np.empty((B, m)),
-            np.empty((B, m)), np.empty((B, m, m)), np.empty((B, n, m)))
+    outs = (
+        np.empty((B, n)),
+        np.empty((B, n, n)),
+        np.empty((B, n, m)),
+        np.empty((B, m)),
+        np.empty((B, m)),
+        np.empty((B, m, m)),
+        np.empty((B, n, m)),
+    )
     status = np.empty(B, dtype=np.int8)
     ok = np.empty(B, dtype=np.bool_)
     skipped = np.empty(B, dtype=np.bool_)
     counts = np.empty(3, dtype=np.int64)
     bad = _no_bad_z(B) if bad_z is None else _flat_mask(bad_z, batch)
     Rf = _flat_shared(R, batch)
-    args = (m_, _flat(cov, batch, 2), _flat(z, batch, 1), bad,
-            root_kind, scale, center, vector_operand(wm), vector_operand(wc), vector_operand(compiled.h_params),
-            Rf, *outs, status, ok, skipped)
-    split.run_split(drivers._update_pair(compiled, n, m), B, args,
-               lambda: (0, 1, 2, 3) + ((10,) if Rf.shape[0] == B else ()) + tuple(range(11, 21)), counts)
+    args = (
+        m_,
+        _flat(cov, batch, 2),
+        _flat(z, batch, 1),
+        bad,
+        root_kind,
+        scale,
+        center,
+        vector_operand(wm),
+        vector_operand(wc),
+        vector_operand(compiled.h_params),
+        Rf,
+        *outs,
+        status,
+        ok,
+        skipped,
+    )
+    split.run_split(
+        drivers._update_pair(compiled, n, m),
+        B,
+        args,
+        lambda: (0, 1, 2, 3) + ((10,) if Rf.shape[0] == B else ()) + tuple(range(11, 21)),
+        counts,
+    )
     if len(batch) == 1:
         return (*outs, status, ok, skipped, counts.tolist())
     tails = ((n,), (n, n), (n, m), (m,), (m,), (m, m), (n, m))
     return tuple(o.reshape(batch + t) for o, t in zip(outs, tails)) + (
-        status.reshape(batch), ok.reshape(batch), skipped.reshape(batch), counts.tolist())
-
+        status.reshape(batch),
+        ok.reshape(batch),
+        skipped.reshape(batch),
+        counts.tolist(),
+    )

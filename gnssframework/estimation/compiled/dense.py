@@ -16,8 +16,20 @@ import numpy as np
 
 from .specialise import HAVE_NUMBA, jit, with_globals
 
-__all__ = ["all_finite", "row_finite", "cholesky", "jacobi_eigh", "jacobi_eigh_into", "eigh", "eigh_into",
-           "tridiagonal_eigh_into", "chol_solve_rows", "chol_solve_rows_into", "mul_into", "helpers_of_size"]
+__all__ = [
+    "all_finite",
+    "row_finite",
+    "cholesky",
+    "jacobi_eigh",
+    "jacobi_eigh_into",
+    "eigh",
+    "eigh_into",
+    "tridiagonal_eigh_into",
+    "chol_solve_rows",
+    "chol_solve_rows_into",
+    "mul_into",
+    "helpers_of_size",
+]
 
 #: Sizes of a specialised twin (0: read from the operands): state n, measurement m, and
 #: the size k of a helper's square operand.
@@ -181,8 +193,8 @@ def eigh_into(A, w, V, W):
 
 #: ``max|A|`` range in which `tridiagonal_eigh_into` needs no scaling: squares of
 #: entries (and sums of n of them) neither overflow nor leave the normal range.
-_TINY = 2.0 ** -400
-_HUGE = 2.0 ** 400
+_TINY = 2.0**-400
+_HUGE = 2.0**400
 
 
 @jit
@@ -278,7 +290,7 @@ def _implicit_qr(w, W, V, top):
     ``n`` of ``W``), rotations accumulated into ``V``'s columns; False if not converged
     after ``30 n`` steps."""
     n = _FIXED_K if _FIXED_K > 0 else W.shape[1]
-    eps2 = 2.220446049250313e-16 ** 2
+    eps2 = 2.220446049250313e-16**2
     floor2 = eps2 * eps2 * top * top
     hi = n - 1
     steps = 0
@@ -419,7 +431,6 @@ def mul_into(A, Bm, out, transpose_b):
                     out[i, j] += a * Bm[k, j]
 
 
-
 helpers_by_size: dict[int, dict] = {}
 
 
@@ -431,9 +442,15 @@ def helpers_of_size(k: int) -> dict:
     hit = helpers_by_size.get(k)
     if hit is None:
         size = {"_FIXED_K": k}
-        steps = {name: jit(with_globals(fn.py_func, f"_{k}", **size)) for name, fn in (
-            ("_scaled_symmetric_into", _scaled_symmetric_into), ("_householder_tridiagonal", _householder_tridiagonal),
-            ("_householder_accumulate", _householder_accumulate), ("_implicit_qr", _implicit_qr))}
+        steps = {
+            name: jit(with_globals(fn.py_func, f"_{k}", **size))
+            for name, fn in (
+                ("_scaled_symmetric_into", _scaled_symmetric_into),
+                ("_householder_tridiagonal", _householder_tridiagonal),
+                ("_householder_accumulate", _householder_accumulate),
+                ("_implicit_qr", _implicit_qr),
+            )
+        }
         tri = jit(with_globals(tridiagonal_eigh_into.py_func, f"_{k}", **size, **steps))
         hit = helpers_by_size[k] = {
             "all_finite": jit(with_globals(all_finite.py_func, f"_{k}", **size)),
@@ -441,4 +458,3 @@ def helpers_of_size(k: int) -> dict:
             "eigh_into": jit(with_globals(eigh_into.py_func, f"_{k}", tridiagonal_eigh_into=tri)),
         }
     return hit
-

@@ -16,7 +16,6 @@ Each driver is compiled as a (serial, parallel) pair
 function and size by `_model_pair`.
 """
 
-
 from __future__ import annotations
 
 import math
@@ -26,8 +25,7 @@ import zlib
 import numpy as np
 
 from ..compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian
-from .dense import (all_finite, chol_solve_rows_into, cholesky, eigh_into, helpers_of_size, mul_into,
-                    row_finite)
+from .dense import all_finite, chol_solve_rows_into, cholesky, eigh_into, helpers_of_size, mul_into, row_finite
 from .specialise import HAVE_NUMBA, jit, jit_pair, prange, step_jit, with_globals
 
 #: Most chunks a driver splits its batch into (scratch arrays are per chunk).
@@ -87,8 +85,6 @@ def _points_into(mean, cov, b, root_kind, scale, center, Rt, w, V, Wk, X, e):
             X[off + i, e, j] = mean[b, j] + dd
             X[off + n + i, e, j] = mean[b, j] - dd
     return 0
-
-
 
 
 def _predict_moments_into(d, N, wm, wc, Q, q, mu, Acc, out_mean, out_cov, b):
@@ -264,8 +260,17 @@ def _linear_predict_into(mean, cov, b, F, Q, q, FP, M, out_mean, out_cov):
             out_cov[b, l, i] = v
 
 
-_STEPS = (_points_scratch, _points_into, _predict_moments_into, _innovation_moments_into, _gain_mean_into,
-          _posterior_into, _joseph_posterior_into, _keep_prior_into, _linear_predict_into)
+_STEPS = (
+    _points_scratch,
+    _points_into,
+    _predict_moments_into,
+    _innovation_moments_into,
+    _gain_mean_into,
+    _posterior_into,
+    _joseph_posterior_into,
+    _keep_prior_into,
+    _linear_predict_into,
+)
 _steps_by_size: dict[tuple[int, int], dict] = {}
 
 
@@ -289,9 +294,9 @@ def _sigma_points_body(mean, cov, root_kind, scale, center, X, status):
     B, n = mean.shape
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
-      R, w, V, Wk = _points_scratch(n)  # once per chunk of elements, not once per element
-      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-        status[b] = _points_into(mean, cov, b, root_kind, scale, center, R, w, V, Wk, X, b)
+        R, w, V, Wk = _points_scratch(n)  # once per chunk of elements, not once per element
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            status[b] = _points_into(mean, cov, b, root_kind, scale, center, R, w, V, Wk, X, b)
 
 
 def _predict_moments_body(Y, wm, wc, Q, mean, cov):
@@ -301,14 +306,14 @@ def _predict_moments_body(Y, wm, wc, Q, mean, cov):
     shared_q = Q.shape[0] == 1
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
-      mu = np.empty(p)
-      d = np.empty((N, p))
-      Acc = np.empty((p, p))
-      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-        for k in range(N):
-            for j in range(p):
-                d[k, j] = Y[k, b, j]
-        _predict_moments_into(d, N, wm, wc, Q, 0 if shared_q else np.int64(b), mu, Acc, mean, cov, b)
+        mu = np.empty(p)
+        d = np.empty((N, p))
+        Acc = np.empty((p, p))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            for k in range(N):
+                for j in range(p):
+                    d[k, j] = Y[k, b, j]
+            _predict_moments_into(d, N, wm, wc, Q, 0 if shared_q else np.int64(b), mu, Acc, mean, cov, b)
 
 
 def _measurement_moments_body(X, Z, prior_mean, wm, wc, R, z_hat, S, C):
@@ -319,13 +324,30 @@ def _measurement_moments_body(X, Z, prior_mean, wm, wc, R, z_hat, S, C):
     shared_r = R.shape[0] == 1
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
-      mu = np.empty(m)
-      d = np.empty((N, m))
-      SAcc = np.empty((m, m))
-      CAcc = np.empty((n, m))
-      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-        _innovation_moments_into(X, Z, b, d, N, prior_mean, b, wm, wc, R, 0 if shared_r else np.int64(b),
-                                 mu, SAcc, CAcc, z_hat, S[b], C[b])
+        mu = np.empty(m)
+        d = np.empty((N, m))
+        SAcc = np.empty((m, m))
+        CAcc = np.empty((n, m))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            _innovation_moments_into(
+                X,
+                Z,
+                b,
+                d,
+                N,
+                prior_mean,
+                b,
+                wm,
+                wc,
+                R,
+                0 if shared_r else np.int64(b),
+                mu,
+                SAcc,
+                CAcc,
+                z_hat,
+                S[b],
+                C[b],
+            )
 
 
 def _update_body(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph, H, R, mean, cov, gain, innovation, ok):
@@ -339,27 +361,27 @@ def _update_body(prior_mean, prior_cov, z, z_hat, S, C, bad_z, joseph, H, R, mea
     shared_r = R.shape[0] == 1
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
-      L = np.zeros((m, m))
-      Y = np.empty((n, m + 1))
-      KS = np.empty((n, m))
-      M = np.empty((n, n))
-      A = np.empty((n, n))
-      AP = np.empty((n, n))
-      M2 = np.empty((n, n))
-      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-        Sb, Cb, K, P = S[b], C[b], gain[b], prior_cov[b]
-        good = _all_finite_m(Sb) and _cholesky_m(Sb, L)
-        ok[b] = good
-        if bad_z[b] or not good:
-            _keep_prior_into(prior_mean, b, P, Cb, K, innovation, mean, cov)
-            continue
-        _gain_mean_into(L, Cb, K, Y, z, z_hat, prior_mean, b, innovation, mean)
-        if not joseph:
-            _posterior_into(K, Sb, P, KS, M, cov, b)
-        else:
-            _joseph_posterior_into(K, H[0 if shared_h else np.int64(b)], R[0 if shared_r else np.int64(b)], P,
-                                   A, AP, KS, M, M2, cov, b)
-
+        L = np.zeros((m, m))
+        Y = np.empty((n, m + 1))
+        KS = np.empty((n, m))
+        M = np.empty((n, n))
+        A = np.empty((n, n))
+        AP = np.empty((n, n))
+        M2 = np.empty((n, n))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            Sb, Cb, K, P = S[b], C[b], gain[b], prior_cov[b]
+            good = _all_finite_m(Sb) and _cholesky_m(Sb, L)
+            ok[b] = good
+            if bad_z[b] or not good:
+                _keep_prior_into(prior_mean, b, P, Cb, K, innovation, mean, cov)
+                continue
+            _gain_mean_into(L, Cb, K, Y, z, z_hat, prior_mean, b, innovation, mean)
+            if not joseph:
+                _posterior_into(K, Sb, P, KS, M, cov, b)
+            else:
+                _joseph_posterior_into(
+                    K, H[0 if shared_h else np.int64(b)], R[0 if shared_r else np.int64(b)], P, A, AP, KS, M, M2, cov, b
+                )
 
 
 # -- the model's compiled functions ---------------------------------------------------
@@ -431,27 +453,49 @@ def _fused_predict_body(mean, cov, root_kind, scale, center, wm, wc, f_params, Q
     shared_q = Q.shape[0] == 1
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
-      R, w, V, Wk = _points_scratch(n)  # once per chunk of elements, not once per element
-      X = np.empty((N, n))
-      Y = np.empty((N, n))
-      # The steps address points as (N, B, n) batches: these views are a batch of one.
-      X1 = X.reshape((N, 1, n))
-      mu = np.empty(n)
-      Acc = np.empty((n, n))
-      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-        status[b] = _points_into(mean, cov, b, root_kind, scale, center, R, w, V, Wk, X1, 0)
-        if status[b] != 0:
-            continue
-        for k in range(N):
-            _apply_f_row(f_params, X, k, Y)
-        _predict_moments_into(Y, N, wm, wc, Q, 0 if shared_q else np.int64(b), mu, Acc, out_mean, out_cov, b)
+        R, w, V, Wk = _points_scratch(n)  # once per chunk of elements, not once per element
+        X = np.empty((N, n))
+        Y = np.empty((N, n))
+        # The steps address points as (N, B, n) batches: these views are a batch of one.
+        X1 = X.reshape((N, 1, n))
+        mu = np.empty(n)
+        Acc = np.empty((n, n))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            status[b] = _points_into(mean, cov, b, root_kind, scale, center, R, w, V, Wk, X1, 0)
+            if status[b] != 0:
+                continue
+            for k in range(N):
+                _apply_f_row(f_params, X, k, Y)
+            _predict_moments_into(Y, N, wm, wc, Q, 0 if shared_q else np.int64(b), mu, Acc, out_mean, out_cov, b)
     counts[0] = 0
     for b in range(B):
         counts[0] += status[b] != 0
 
 
-def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_params, R,
-                       out_mean, out_cov, gain, innovation, z_hat, S, C, status, ok, skipped, counts):
+def _fused_update_body(
+    mean,
+    cov,
+    z,
+    bad_z,
+    root_kind,
+    scale,
+    center,
+    wm,
+    wc,
+    h_params,
+    R,
+    out_mean,
+    out_cov,
+    gain,
+    innovation,
+    z_hat,
+    S,
+    C,
+    status,
+    ok,
+    skipped,
+    counts,
+):
     """One measurement update per element: points, compiled ``h``, moments, gain, posterior
     (`_points_into`, `_innovation_moments_into`, `_gain_mean_into`, `_posterior_into`).
 
@@ -466,36 +510,37 @@ def _fused_update_body(mean, cov, z, bad_z, root_kind, scale, center, wm, wc, h_
     shared_r = R.shape[0] == 1
     chunks = min(B, _CHUNKS)
     for c in prange(chunks):
-      Rt, w, V, Wk = _points_scratch(n)
-      X = np.empty((N, n))
-      Z = np.empty((N, m))
-      X1 = X.reshape((N, 1, n))  # batches of one, as the steps address points
-      Z1 = Z.reshape((N, 1, m))
-      mu = np.empty(m)
-      L = np.zeros((m, m))
-      KS = np.empty((n, m))
-      ysolve = np.empty((n, m + 1))
-      SAcc = np.empty((m, m))
-      CAcc = np.empty((n, m))
-      KSK = np.empty((n, n))
-      for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
-        P = cov[b]
-        ok[b] = False
-        status[b] = _points_into(mean, cov, b, root_kind, scale, center, Rt, w, V, Wk, X1, 0)
-        if status[b] != 0:
-            continue
-        for k in range(N):
-            _apply_h_row(h_params, X, k, Z, k)
-        Sb, Cb, K = S[b], C[b], gain[b]
-        _innovation_moments_into(X1, Z1, 0, Z, N, mean, b, wm, wc, R, 0 if shared_r else np.int64(b), mu, SAcc,
-                                 CAcc, z_hat, Sb, Cb)
-        good = _all_finite_m(Sb) and _cholesky_m(Sb, L)
-        ok[b] = good
-        if bad_z[b] or not good or not row_finite(z, b):
-            _keep_prior_into(mean, b, P, Cb, K, innovation, out_mean, out_cov)
-            continue
-        _gain_mean_into(L, Cb, K, ysolve, z, z_hat, mean, b, innovation, out_mean)
-        _posterior_into(K, Sb, P, KS, KSK, out_cov, b)
+        Rt, w, V, Wk = _points_scratch(n)
+        X = np.empty((N, n))
+        Z = np.empty((N, m))
+        X1 = X.reshape((N, 1, n))  # batches of one, as the steps address points
+        Z1 = Z.reshape((N, 1, m))
+        mu = np.empty(m)
+        L = np.zeros((m, m))
+        KS = np.empty((n, m))
+        ysolve = np.empty((n, m + 1))
+        SAcc = np.empty((m, m))
+        CAcc = np.empty((n, m))
+        KSK = np.empty((n, n))
+        for b in range((c * B) // chunks, ((c + 1) * B) // chunks):
+            P = cov[b]
+            ok[b] = False
+            status[b] = _points_into(mean, cov, b, root_kind, scale, center, Rt, w, V, Wk, X1, 0)
+            if status[b] != 0:
+                continue
+            for k in range(N):
+                _apply_h_row(h_params, X, k, Z, k)
+            Sb, Cb, K = S[b], C[b], gain[b]
+            _innovation_moments_into(
+                X1, Z1, 0, Z, N, mean, b, wm, wc, R, 0 if shared_r else np.int64(b), mu, SAcc, CAcc, z_hat, Sb, Cb
+            )
+            good = _all_finite_m(Sb) and _cholesky_m(Sb, L)
+            ok[b] = good
+            if bad_z[b] or not good or not row_finite(z, b):
+                _keep_prior_into(mean, b, P, Cb, K, innovation, out_mean, out_cov)
+                continue
+            _gain_mean_into(L, Cb, K, ysolve, z, z_hat, mean, b, innovation, out_mean)
+            _posterior_into(K, Sb, P, KS, KSK, out_cov, b)
     counts[:] = 0
     for b in range(B):  # serial, after the parallel loop
         bz = bad_z[b] or not row_finite(z, b)
@@ -523,7 +568,6 @@ _measurement_moments_kernels = jit_pair(_measurement_moments_body)
 _update_kernels = jit_pair(_update_body)
 _pd_mask_kernels = jit_pair(_pd_mask_body)
 _linear_predict_kernels = jit_pair(_linear_predict_body)
-
 
 
 _linear_f_by_size: dict[int, object] = {}
@@ -568,21 +612,42 @@ def _model_pair(body, functions: dict, n: int = 0, m: int = 0):
     suffix = "".join("_" + _tag(fn) for _, fn in key[1])
     if n:
         hn = helpers_of_size(n)
-        over.update({"_FIXED_N": n, "_all_finite_n": hn["all_finite"], "_cholesky_n": hn["cholesky"],
-                     "eigh_into": hn["eigh_into"]})
+        over.update(
+            {
+                "_FIXED_N": n,
+                "_all_finite_n": hn["all_finite"],
+                "_cholesky_n": hn["cholesky"],
+                "eigh_into": hn["eigh_into"],
+            }
+        )
         if over.get("_apply_f_row") is linear_f:
             over["_apply_f_row"] = _linear_f_of_size(n)
         suffix += f"_{n}"
     if m:
         hm = helpers_of_size(m)
         solve = jit(with_globals(chol_solve_rows_into.py_func, f"_{n}_{m}", _FIXED_N=n, _FIXED_M=m))
-        over.update({"_FIXED_M": m, "_all_finite_m": hm["all_finite"], "_cholesky_m": hm["cholesky"],
-                     "chol_solve_rows_into": solve})
+        over.update(
+            {
+                "_FIXED_M": m,
+                "_all_finite_m": hm["all_finite"],
+                "_cholesky_m": hm["cholesky"],
+                "chol_solve_rows_into": solve,
+            }
+        )
         suffix += f"_{m}"
     if n and body in (_fused_predict_body, _fused_update_body):
         # The steps this twin composes, compiled with its sizes and its sized helpers.
-        over.update(element_steps(n, m, {k: over[k] for k in ("_all_finite_n", "_cholesky_n", "eigh_into",
-                                                              "chol_solve_rows_into") if k in over}))
+        over.update(
+            element_steps(
+                n,
+                m,
+                {
+                    k: over[k]
+                    for k in ("_all_finite_n", "_cholesky_n", "eigh_into", "chol_solve_rows_into")
+                    if k in over
+                },
+            )
+        )
     hit = _model_drivers[key] = jit_pair(with_globals(body, suffix, **over))
     return hit
 
@@ -620,6 +685,7 @@ def _ekf_pair(compiled: CompiledFunctions):
     key = (2, compiled.h, compiled.h_jacobian)
     hit = _pairs.get(key)
     if hit is None:
-        hit = _pairs[key] = _model_pair(_ekf_moments_body, {"_apply_h_row": compiled.h,
-                                                            "_apply_h_jacobian": compiled.h_jacobian})
+        hit = _pairs[key] = _model_pair(
+            _ekf_moments_body, {"_apply_h_row": compiled.h, "_apply_h_jacobian": compiled.h_jacobian}
+        )
     return hit

@@ -168,10 +168,17 @@ def _guard_of_size(k: int):
     h = helpers_of_size(k)
     size = {"_FIXED_K": k}
     spectrum = jit(with_globals(_clipped_spectrum_into.py_func, f"_{k}", eigh_into=h["eigh_into"], **size))
-    return jit(with_globals(
-        _guard_body.py_func, f"_{k}", matrix_finite=h["all_finite"], cholesky=h["cholesky"],
-        _clipped_spectrum_into=spectrum, _mat_mul_into=jit(with_globals(_mat_mul_into.py_func, f"_{k}", **size)),
-        **size))
+    return jit(
+        with_globals(
+            _guard_body.py_func,
+            f"_{k}",
+            matrix_finite=h["all_finite"],
+            cholesky=h["cholesky"],
+            _clipped_spectrum_into=spectrum,
+            _mat_mul_into=jit(with_globals(_mat_mul_into.py_func, f"_{k}", **size)),
+            **size,
+        )
+    )
 
 
 _guard_6_body = _guard_of_size(6)
@@ -260,14 +267,13 @@ def _rows(a: np.ndarray, tail: int) -> np.ndarray | None:
         return a
     if a.ndim < tail:
         return None
-    return a.reshape((-1,) + a.shape[a.ndim - tail:])
+    return a.reshape((-1,) + a.shape[a.ndim - tail :])
 
 
 def all_finite(a: np.ndarray) -> bool:
     """``bool(np.isfinite(a).all())`` in one compiled call (contiguous float64 input;
     anything else goes through NumPy)."""
-    if (HAVE_NUMBA and type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous
-            and a.flags.writeable):
+    if HAVE_NUMBA and type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable:
         return bool(_all_finite_body(a.reshape(-1)))
     return bool(np.isfinite(a).all())
 
@@ -291,8 +297,11 @@ def state_bad_count(mean: np.ndarray, cov: np.ndarray, test_pd: bool) -> int | N
 def _split_here(B: int) -> bool:
     """Split a batch kernel between the calling thread and the helper (as the fused
     kernels do, `gnssframework.estimation.compiled.split.SPLIT`)?"""
-    return (B >= split.PARALLEL_MIN_BATCH and split.SPLIT == "pool"
-            and threading.current_thread() is threading.main_thread())
+    return (
+        B >= split.PARALLEL_MIN_BATCH
+        and split.SPLIT == "pool"
+        and threading.current_thread() is threading.main_thread()
+    )
 
 
 def _split_counts(B: int, run) -> list[int]:
@@ -319,19 +328,30 @@ def _guard_operands_of(ref, ref_eig) -> tuple:
     shared ``(k, k)`` matrix (the caller then runs the reference path)."""
     w, v = ref_eig
     entry = (ref_eig, ref, None, None, None)
-    if (type(ref) is np.ndarray and ref.ndim == 2 and ref.dtype == np.float64 and np.shape(w) == ref.shape[:1]
-            and np.shape(v) == ref.shape):
+    if (
+        type(ref) is np.ndarray
+        and ref.ndim == 2
+        and ref.dtype == np.float64
+        and np.shape(w) == ref.shape[:1]
+        and np.shape(v) == ref.shape
+    ):
         root = np.sqrt(w)
-        entry = (ref_eig, ref, np.ascontiguousarray(v * root[None, :]), np.ascontiguousarray(v.T / root[:, None]),
-                 _as_rows(ref, ref.shape))
+        entry = (
+            ref_eig,
+            ref,
+            np.ascontiguousarray(v * root[None, :]),
+            np.ascontiguousarray(v.T / root[:, None]),
+            _as_rows(ref, ref.shape),
+        )
     if len(_guard_operands) >= 256:
         _guard_operands.clear()
     _guard_operands[id(ref_eig)] = entry
     return entry
 
 
-def guard(raw: np.ndarray, ref: np.ndarray, ref_eig: tuple[np.ndarray, np.ndarray], floor: float,
-          ceiling: float) -> np.ndarray | None:
+def guard(
+    raw: np.ndarray, ref: np.ndarray, ref_eig: tuple[np.ndarray, np.ndarray], floor: float, ceiling: float
+) -> np.ndarray | None:
     """An adapter's whole safeguard (`AdapterRun.guard`) in one compiled pass.
 
     ``ref`` is the regularised reference ``v diag(w) v^T`` and ``ref_eig`` its ``(w, v)``
@@ -398,8 +418,9 @@ class InnovationWindow:
         else:
             Rr = _as_rows(R, shape + (m,)).reshape(-1, m, m)  # broadcast to the batch
         out = np.empty(shape + (m,))
-        _innovation_window_body(vr, Sr, Rr, self.ring, self.pushes % self.size, self.pushes, self.total,
-                                out.reshape(-1, m, m))
+        _innovation_window_body(
+            vr, Sr, Rr, self.ring, self.pushes % self.size, self.pushes, self.total, out.reshape(-1, m, m)
+        )
         self.pushes += 1
         return out
 
@@ -409,8 +430,10 @@ class InnovationWindow:
         if self.ring is None:
             return [], 0.0
         count = min(self.pushes, self.size)
-        items = [self.ring[(self.pushes - count + i) % self.size].reshape(self.batch + self.ring.shape[2:]).copy()
-                 for i in range(count)]
+        items = [
+            self.ring[(self.pushes - count + i) % self.size].reshape(self.batch + self.ring.shape[2:]).copy()
+            for i in range(count)
+        ]
         return items, self.total.reshape(self.batch + self.ring.shape[2:]).copy()
 
 

@@ -83,8 +83,12 @@ class _Helpers:
 
     def ensure(self, n: int) -> None:
         while len(self.threads) < n:
-            t = threading.Thread(target=self._work, args=(self.generation,),
-                                 name=f"gnssframework-kernel-helper-{len(self.threads) + 1}", daemon=True)
+            t = threading.Thread(
+                target=self._work,
+                args=(self.generation,),
+                name=f"gnssframework-kernel-helper-{len(self.threads) + 1}",
+                daemon=True,
+            )
             self.threads.append(t)
             t.start()
 

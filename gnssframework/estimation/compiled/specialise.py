@@ -46,8 +46,9 @@ if HAVE_NUMBA:
         def run_pass(self, state):
             blocks = state.func_ir.blocks
             in_copies, _ = ir_utils.copy_propagate(blocks, state.typemap)
-            ir_utils.apply_copy_propagate(blocks, in_copies, ir_utils.get_name_var_table(blocks), state.typemap,
-                                          state.calltypes)
+            ir_utils.apply_copy_propagate(
+                blocks, in_copies, ir_utils.get_name_var_table(blocks), state.typemap, state.calltypes
+            )
             return True
 
     class _DriverCompiler(CompilerBase):
@@ -109,4 +110,3 @@ def jit_pair(fn):
     serial = numba.njit(cache=True, nogil=True, pipeline_class=_DriverCompiler)(twin(fn, "_serial"))
     parallel = numba.njit(cache=True, nogil=True, parallel=True, pipeline_class=_DriverCompiler)(twin(fn, "_parallel"))
     return serial, parallel
-

@@ -10,8 +10,17 @@ import numpy as np
 
 from . import pool
 
-__all__ = ["PARALLEL_MIN_BATCH", "PD_MASK_PARALLEL_MIN_BATCH", "SPLIT", "SPLIT_CHUNKS", "SPLIT_MIN_WORK",
-           "run_split", "split_by_work", "work_chunks", "pick"]
+__all__ = [
+    "PARALLEL_MIN_BATCH",
+    "PD_MASK_PARALLEL_MIN_BATCH",
+    "SPLIT",
+    "SPLIT_CHUNKS",
+    "SPLIT_MIN_WORK",
+    "run_split",
+    "split_by_work",
+    "work_chunks",
+    "pick",
+]
 
 #: Batch size from which the ``parallel=True`` kernels are used.
 PARALLEL_MIN_BATCH = 256
@@ -39,8 +48,15 @@ SPLIT_CHUNKS = 4
 SPLIT_MIN_WORK = PARALLEL_MIN_BATCH * 5 * 6 * 6
 
 
-def run_split(pair, B: int, args: tuple, batched, counts: np.ndarray | None = None, by_work: bool = False,
-               chunks: int | None = None) -> None:
+def run_split(
+    pair,
+    B: int,
+    args: tuple,
+    batched,
+    counts: np.ndarray | None = None,
+    by_work: bool = False,
+    chunks: int | None = None,
+) -> None:
     """``kernel(*args[, counts])`` of a driver pair: serial below `PARALLEL_MIN_BATCH`
     (unless ``by_work``), above it split by `SPLIT` (``"pool"``: chunks on the calling
     thread and the helper; ``"numba"``: the parallel twin; only from the main thread).
@@ -89,8 +105,9 @@ def work_chunks(B: int, n: int, m: int) -> int | None:
 
 
 def pick(pair, batch: int, min_batch: int | None = None):
-    if batch >= (PARALLEL_MIN_BATCH if min_batch is None else min_batch) and \
-            threading.current_thread() is threading.main_thread():
+    if (
+        batch >= (PARALLEL_MIN_BATCH if min_batch is None else min_batch)
+        and threading.current_thread() is threading.main_thread()
+    ):
         return pair[1]
     return pair[0]
-

@@ -109,8 +109,9 @@ def _flat(a: np.ndarray, batch: tuple, tail: tuple) -> np.ndarray:
     return out if out.flags.writeable else out.copy()
 
 
-def sqrt_terms(point_root: np.ndarray, image_root: np.ndarray,
-               noise_root: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def sqrt_terms(
+    point_root: np.ndarray, image_root: np.ndarray, noise_root: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(G, D, regular)`` of `smoother_sqrt.sqrt_terms` for finite factors, batched over every
     leading axis; where ``regular`` is False, ``G`` and ``D`` are unset (the caller's NumPy path
     handles those elements)."""

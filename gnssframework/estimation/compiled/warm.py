@@ -5,8 +5,17 @@ from __future__ import annotations
 import numpy as np
 
 from ..compiled_model import CompiledFunctions, linear_f, linear_h, linear_h_jacobian
-from .arrays import (ekf_moments, fused_predict, fused_update, linear_predict, measurement_moments, pd_mask,
-                     predict_moments, sigma_points, update)
+from .arrays import (
+    ekf_moments,
+    fused_predict,
+    fused_update,
+    linear_predict,
+    measurement_moments,
+    pd_mask,
+    predict_moments,
+    sigma_points,
+    update,
+)
 from .specialise import HAVE_NUMBA
 from .split import PARALLEL_MIN_BATCH, PD_MASK_PARALLEL_MIN_BATCH
 
@@ -59,4 +68,3 @@ def warm_up() -> float:
         pd_mask(np.broadcast_to(np.eye(2), (max(B, PD_MASK_PARALLEL_MIN_BATCH), 2, 2)))  # its parallel twin
         linear_predict(mean, cov, np.eye(2), np.eye(2))
     return time.perf_counter() - t0
-

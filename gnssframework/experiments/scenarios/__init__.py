@@ -69,16 +69,18 @@ class Scenario(abc.ABC):
         except ValidationError as exc:
             raise validation_message(exc, prefix=where, model=self.CaseParams) from None
 
-    def batch_memory(self, case: dict[str, Any], runs: int, where: str,
-                     candidates: Sequence[dict[str, Any]] = ()) -> tuple[float, str, str] | None:
+    def batch_memory(
+        self, case: dict[str, Any], runs: int, where: str, candidates: Sequence[dict[str, Any]] = ()
+    ) -> tuple[float, str, str] | None:
         """Estimated peak memory of one batch of ``runs`` runs of ``case`` (validated case
         parameters) for the most demanding of ``candidates`` (their plugin references by
         kind, and their ``scenario_options`` dict), for `check_memory`: ``(bytes, field path, the batch's size in words)``, or
         ``None`` when the scenario's memory does not grow with its parameters."""
         return None
 
-    def check_memory(self, case: dict[str, Any], runs: int, where: str,
-                     candidates: Sequence[dict[str, Any]] = ()) -> None:
+    def check_memory(
+        self, case: dict[str, Any], runs: int, where: str, candidates: Sequence[dict[str, Any]] = ()
+    ) -> None:
         """Refuse a case whose batch of ``runs`` runs would exceed the memory budget
         (`gnssframework.experiments.limits`), before anything is allocated."""
         estimate = self.batch_memory(self.CaseParams.model_validate(case).model_dump(), runs, where, candidates)
@@ -93,20 +95,25 @@ class Scenario(abc.ABC):
         except ValidationError as exc:
             raise validation_message(exc, prefix=f"{where}.scenario_options", model=self.CandidateOptions) from None
 
-    def check_candidate(self, components: dict[str, PluginSpec], where: str,
-                        options: dict[str, Any] | None = None) -> dict[str, Any]:
+    def check_candidate(
+        self, components: dict[str, PluginSpec], where: str, options: dict[str, Any] | None = None
+    ) -> dict[str, Any]:
         """Every required kind present, no foreign kind, every plugin creatable, composable,
         and valid ``scenario_options``; returns the plugins created to check them (for
         `check_contexts`)."""
         self.candidate_options(options, where)
         for kind, required in self.components.items():
             if required and kind not in components:
-                raise ConfigError(f"{where}.{kind}", f"required by scenario {self.kind!r} "
-                                  f"(a candidate composes: {self._describe_components()})")
+                raise ConfigError(
+                    f"{where}.{kind}",
+                    f"required by scenario {self.kind!r} (a candidate composes: {self._describe_components()})",
+                )
         for kind in components:
             if kind not in self.components:
-                raise ConfigError(f"{where}.{kind}", f"scenario {self.kind!r} does not use a {kind}; "
-                                  f"it composes: {self._describe_components()}")
+                raise ConfigError(
+                    f"{where}.{kind}",
+                    f"scenario {self.kind!r} does not use a {kind}; it composes: {self._describe_components()}",
+                )
         built = {}
         for kind, ref in components.items():
             try:
@@ -168,8 +175,9 @@ class Scenario(abc.ABC):
         ``cn0_dbhz``...) for the report's assumptions table; the default gives nothing."""
         return {}
 
-    def build(self, candidate: dict[str, Any], options: dict[str, Any] | None = None,
-              case: dict[str, Any] | None = None) -> dict[str, Any]:
+    def build(
+        self, candidate: dict[str, Any], options: dict[str, Any] | None = None, case: dict[str, Any] | None = None
+    ) -> dict[str, Any]:
         """Instantiate a candidate's plugins (fresh objects for every batch): what
         `run_batch` gets. ``candidate`` holds each kind's `PluginSpec` (a resolved
         candidate's, `gnssframework.experiments.candidates`), or a name or ``{name, params}``
@@ -193,8 +201,9 @@ class Scenario(abc.ABC):
         return {}
 
     @abc.abstractmethod
-    def run_batch(self, case: dict[str, Any], plugins: dict[str, Any], runs: int,
-                  rng: RunStreams | np.random.Generator | int) -> BatchResult:
+    def run_batch(
+        self, case: dict[str, Any], plugins: dict[str, Any], runs: int, rng: RunStreams | np.random.Generator | int
+    ) -> BatchResult:
         """Simulate ``runs`` Monte Carlo runs as one array program.
 
         ``rng`` is the runs' random streams: the runner gives `RunStreams` (one generator
@@ -211,7 +220,7 @@ def _config_path(exc: ConfigError, cls: type[Any], where: str) -> ConfigError:
     instead, so the field is written one way."""
     own = f"{cls.kind or 'plugin'} {cls.name!r}"
     if exc.field == own or exc.field.startswith((own + ".", own + "[")):
-        return ConfigError(f"{where}.params{exc.field[len(own):]}", exc.detail)
+        return ConfigError(f"{where}.params{exc.field[len(own) :]}", exc.detail)
     return ConfigError(f"{where}.params", str(exc))
 
 
@@ -267,8 +276,9 @@ def get_scenario(config: dict[str, Any]) -> Scenario:
     kind = config.get("kind")
     kinds = registry.names("scenario")
     if kind not in kinds:
-        raise ConfigError("scenario.kind", f"got {kind!r}; allowed: {', '.join(kinds)}"
-                          f"{did_you_mean(str(kind), kinds, cutoff=0.4)}")
+        raise ConfigError(
+            "scenario.kind", f"got {kind!r}; allowed: {', '.join(kinds)}{did_you_mean(str(kind), kinds, cutoff=0.4)}"
+        )
     cls: type[Scenario] = registry.get("scenario", kind)
     try:
         params = cls.Params.model_validate({k: v for k, v in config.items() if k != "kind"})
@@ -276,4 +286,3 @@ def get_scenario(config: dict[str, Any]) -> Scenario:
         raise validation_message(exc, prefix="scenario", model=cls.Params) from None
     _check_ordered_fields(params, "scenario")
     return cls(params)
-

@@ -61,16 +61,23 @@ class BocTrackingParams(TrackingThresholdParams):
     early_late_spacing_chips: float = Field(0.2, gt=0, le=1.0, description="early-late spacing D (chips)")
     settle_s: float = Field(1.0, ge=0, description="time not scored by code_rms_main_chips (s)")
     lock_window_s: float = Field(0.2, gt=0, description="the last this many seconds decide side-peak lock")
-    initial_code_error_chips: float = Field(0.5, ge=0, le=1.0, description="initial code error drawn uniformly "
-                                            "in +- this (chips)")
-    side_peak_chips: float = Field(0.5, gt=0, le=1.0, description="distance of the first side peak (chips; "
-                                   "n/(2m), 0.5 for BOC(1,1)): a run ending more than half of it off is side-locked")
+    initial_code_error_chips: float = Field(
+        0.5, ge=0, le=1.0, description="initial code error drawn uniformly in +- this (chips)"
+    )
+    side_peak_chips: float = Field(
+        0.5,
+        gt=0,
+        le=1.0,
+        description="distance of the first side peak (chips; "
+        "n/(2m), 0.5 for BOC(1,1)): a run ending more than half of it off is side-locked",
+    )
 
 
 class BocTrackingCase(TrackingThresholdCase):
     signal: ClassVar[SignalSpec] = GALILEO_E1C_BOC11
-    source: Literal["analytic"] = Field("analytic", description="correlators from the analytic model (the only "
-                                        "source of this scenario)")
+    source: Literal["analytic"] = Field(
+        "analytic", description="correlators from the analytic model (the only source of this scenario)"
+    )
 
 
 def boc_scores(code_err: np.ndarray, phase_err: np.ndarray, T: float, p: BocTrackingParams) -> dict:
@@ -81,8 +88,11 @@ def boc_scores(code_err: np.ndarray, phase_err: np.ndarray, T: float, p: BocTrac
     lost = np.mean(np.cos(2 * phase_err[-window:]), axis=0) < p.lock_threshold
     first = min(K - 1, int(math.ceil(p.settle_s / T - 1e-9)))
     rms = np.sqrt(np.mean(code_err[first:] ** 2, axis=0))
-    return {"side_peak_lock": side.astype(float), "code_rms_main_chips": np.where(side, np.nan, rms),
-            "phase_lock_lost": lost.astype(float)}
+    return {
+        "side_peak_lock": side.astype(float),
+        "code_rms_main_chips": np.where(side, np.nan, rms),
+        "phase_lock_lost": lost.astype(float),
+    }
 
 
 class BocScore(SeriesMetric):
@@ -104,12 +114,23 @@ class BocScore(SeriesMetric):
 
 #: The scenario's metrics.
 METRICS = (
-    BocScore("side_peak_lock", "", description="1 if the mean |code error| over the last lock_window_s exceeds "
-             "side_peak_chips / 2 (locked on a side peak), else 0; its mean is the probability of side-peak lock"),
-    BocScore("code_rms_main_chips", "chips", undefined="side-peak lock",
-             description="RMS code error after settle_s on a run that ends on the main peak"),
-    BocScore("phase_lock_lost", "", description="1 if the mean cos(2 phase error) over the last lock_window_s is "
-             "below lock_threshold, else 0"),
+    BocScore(
+        "side_peak_lock",
+        "",
+        description="1 if the mean |code error| over the last lock_window_s exceeds "
+        "side_peak_chips / 2 (locked on a side peak), else 0; its mean is the probability of side-peak lock",
+    ),
+    BocScore(
+        "code_rms_main_chips",
+        "chips",
+        undefined="side-peak lock",
+        description="RMS code error after settle_s on a run that ends on the main peak",
+    ),
+    BocScore(
+        "phase_lock_lost",
+        "",
+        description="1 if the mean cos(2 phase error) over the last lock_window_s is below lock_threshold, else 0",
+    ),
 )
 
 
@@ -131,8 +152,9 @@ class BocTrackingScenario(TrackingThresholdScenario):
         disc = getattr(channel.params, "code_discriminator", None)
         return {} if disc is None else disc.create().extra_taps()
 
-    def track(self, case: dict, channel, runs: int, rng,
-              code_error0: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    def track(
+        self, case: dict, channel, runs: int, rng, code_error0: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, float]:
         """Close ``channel`` over ``runs`` runs of the case from the drawn code errors (or
         ``code_error0``, chips, when given): the unwrapped mid-interval phase error and the
         code error ``(K, runs)``, and T."""
@@ -143,15 +165,22 @@ class BocTrackingScenario(TrackingThresholdScenario):
         a = p.initial_code_error_chips
         if code_error0 is None:
             code_error0 = draw.uniform(draw.child(rng, "initial code error"), -a, a, (runs,))
-        truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=np.full(runs, p.doppler_hz),
-                                        doppler_rate_hz_s=c["rate"], doppler_jerk_hz_s2=c["jerk"],
-                                        signal=self.signal)
+        truth = LoopTruth.from_dynamics(
+            c["duration_s"],
+            T,
+            c["cn0_dbhz"],
+            doppler_hz=np.full(runs, p.doppler_hz),
+            doppler_rate_hz_s=c["rate"],
+            doppler_jerk_hz_s2=c["jerk"],
+            signal=self.signal,
+        )
         simulator = CorrelatorSimulator(T, d, extra_taps=self.taps_of(channel) or None, signal=self.signal)
         source = AnalyticSource(simulator, amplitude_from_cn0(c["cn0_dbhz"], T), rng)
         closer = ScalarCloser(channel)
         assert truth.code_phase_chips is not None  # from_dynamics sets it
-        replica = Channel.start((runs,), truth.code_phase_chips[0] - code_error0,
-                                p.doppler_hz + p.initial_freq_error_hz, signal=self.signal)
+        replica = Channel.start(
+            (runs,), truth.code_phase_chips[0] - code_error0, p.doppler_hz + p.initial_freq_error_hz, signal=self.signal
+        )
         closer.reset(replica, T, early_late_spacing_chips=d, cn0_dbhz=c["cn0_dbhz"])
         code, carrier = truth.code_phase_chips, truth.carrier_phase_rad
         assert code is not None and carrier is not None  # from_dynamics sets both

@@ -30,8 +30,14 @@ from ..metric_components import FalseResets, Rmse, SlipRecovery, evaluate, false
 from ..metric_components import undefined_reasons as _undefined_reasons
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["CarrierSmoothingScenario", "METRICS", "slip_recovery", "slip_recovery_epochs", "false_resets",
-           "BYTES_PER_EPOCH_RUN"]
+__all__ = [
+    "CarrierSmoothingScenario",
+    "METRICS",
+    "slip_recovery",
+    "slip_recovery_epochs",
+    "false_resets",
+    "BYTES_PER_EPOCH_RUN",
+]
 
 #: Peak memory of one run's epoch (the simulated observables and the smoother's outputs;
 #: an upper bound over the candidates: tests/experiments/test_limits.py holds it above the measured peak).
@@ -53,8 +59,12 @@ class CarrierSmoothingParams(ScenarioParams):
     slip_min_cycles: int = Field(10, ge=1)
     slip_max_cycles: int = Field(50, ge=1)
     settle_epochs: int = Field(50, ge=0, description="error_rmse ignores the first epochs")
-    recovery_isolation_epochs: int = Field(400, ge=0, description="slip_recovery_epochs measures only slips with no "
-                                           "earlier slip within this many epochs (a clean reference level)")
+    recovery_isolation_epochs: int = Field(
+        400,
+        ge=0,
+        description="slip_recovery_epochs measures only slips with no "
+        "earlier slip within this many epochs (a clean reference level)",
+    )
 
     @field_validator("slip_max_cycles")
     @classmethod
@@ -66,8 +76,9 @@ class CarrierSmoothingParams(ScenarioParams):
 
 class CarrierSmoothingCase(ScenarioParams):
     name: str | None = None
-    slip_probability: float | None = Field(None, ge=0, le=1, description="chance of a slip at each epoch in this "
-                                           "case (default: the scenario's)")
+    slip_probability: float | None = Field(
+        None, ge=0, le=1, description="chance of a slip at each epoch in this case (default: the scenario's)"
+    )
 
 
 def slip_recovery_epochs(err: np.ndarray, slips: np.ndarray, **kwargs) -> np.ndarray:
@@ -78,16 +89,37 @@ def slip_recovery_epochs(err: np.ndarray, slips: np.ndarray, **kwargs) -> np.nda
 #: The scenario's metrics, each declared once as a component (name, unit, the series it
 #: reduces); ``run_batch`` computes them all once with `evaluate`.
 METRICS = (
-    Rmse("error_rmse", "m", of="range_error_m", skip_epochs="settle_epochs",
-         description="RMS range error of the (smoothed) pseudorange after settle_epochs"),
-    SlipRecovery("slip_recovery_epochs", of="range_error_m", slips="slip", output="mean",
-                 isolation="recovery_isolation_epochs", start="settle_epochs",
-                 description="mean epochs to recover (2 sigma) from isolated, uncensored slips"),
-    SlipRecovery("censored_slips", of="range_error_m", slips="slip", output="censored",
-                 isolation="recovery_isolation_epochs", start="settle_epochs",
-                 description="isolated slips not recovered before the next slip or the end"),
-    FalseResets("false_reset_rate", of="slip_detected", slips="slip",
-                description="slip detections with no slip since the previous detection"),
+    Rmse(
+        "error_rmse",
+        "m",
+        of="range_error_m",
+        skip_epochs="settle_epochs",
+        description="RMS range error of the (smoothed) pseudorange after settle_epochs",
+    ),
+    SlipRecovery(
+        "slip_recovery_epochs",
+        of="range_error_m",
+        slips="slip",
+        output="mean",
+        isolation="recovery_isolation_epochs",
+        start="settle_epochs",
+        description="mean epochs to recover (2 sigma) from isolated, uncensored slips",
+    ),
+    SlipRecovery(
+        "censored_slips",
+        of="range_error_m",
+        slips="slip",
+        output="censored",
+        isolation="recovery_isolation_epochs",
+        start="settle_epochs",
+        description="isolated slips not recovered before the next slip or the end",
+    ),
+    FalseResets(
+        "false_reset_rate",
+        of="slip_detected",
+        slips="slip",
+        description="slip detections with no slip since the previous detection",
+    ),
 )
 
 
@@ -111,14 +143,22 @@ class CarrierSmoothingScenario(Scenario):
 
     def batch_memory(self, case: dict, runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         epochs = self.params.epochs
-        return (BYTES_PER_EPOCH_RUN * epochs * runs, "scenario.epochs",
-                f"a batch of {runs} runs of {where} ({epochs} epochs)")
+        return (
+            BYTES_PER_EPOCH_RUN * epochs * runs,
+            "scenario.epochs",
+            f"a batch of {runs} runs of {where} ({epochs} epochs)",
+        )
 
     def check_composition(self, plugins, where: str) -> None:
         ch = plugins.get("channel_filter")
-        if ch is not None and (not set(ch.requires) <= {"pseudorange_m", "carrier_m"} or "smoothed_m" not in ch.provides):
-            raise ConfigError(f"{where}.channel_filter.name", f"{ch.name!r} does not smooth code with carrier "
-                              "(needs pseudorange_m and carrier_m, provides smoothed_m); use 'hatch' or 'kf-smoother'")
+        if ch is not None and (
+            not set(ch.requires) <= {"pseudorange_m", "carrier_m"} or "smoothed_m" not in ch.provides
+        ):
+            raise ConfigError(
+                f"{where}.channel_filter.name",
+                f"{ch.name!r} does not smooth code with carrier "
+                "(needs pseudorange_m and carrier_m, provides smoothed_m); use 'hatch' or 'kf-smoother'",
+            )
 
     def simulate(self, runs: int, rng: np.random.Generator, slip_probability: float | None = None):
         """True range, pseudorange, carrier (m) and slip epochs, each ``(K, runs)``."""
@@ -131,14 +171,22 @@ class CarrierSmoothingScenario(Scenario):
         rx = np.array(pymap3d.geodetic2ecef(p.lat_deg, p.lon_deg, p.height_m))
         truth = np.broadcast_to(geometric_range(pos[:, 0], rx)[:, None], (p.epochs, runs))
         mp_xi = p.multipath_std_m * np.sqrt(1 - p.multipath_psi**2)
-        code = truth + p.code_noise_std_m * draw.standard_normal(rng, (p.epochs, runs), 1) \
+        code = (
+            truth
+            + p.code_noise_std_m * draw.standard_normal(rng, (p.epochs, runs), 1)
             + ar1_noise(p.multipath_psi, mp_xi, p.epochs, rng, batch_shape=(runs,))
-        ambiguity = draw.integers(rng, -10**6, 10**6, runs, 0) * self.signal.wavelength_m
-        slips_cycles = cycle_slips(p.epochs, slip_probability, rng, p.slip_max_cycles, (runs,),
-                                   min_cycles=p.slip_min_cycles)
+        )
+        ambiguity = draw.integers(rng, -(10**6), 10**6, runs, 0) * self.signal.wavelength_m
+        slips_cycles = cycle_slips(
+            p.epochs, slip_probability, rng, p.slip_max_cycles, (runs,), min_cycles=p.slip_min_cycles
+        )
         happens = np.diff(slips_cycles, axis=0, prepend=0) != 0
-        carrier = truth + ambiguity + p.carrier_noise_std_m * draw.standard_normal(rng, (p.epochs, runs), 1) \
+        carrier = (
+            truth
+            + ambiguity
+            + p.carrier_noise_std_m * draw.standard_normal(rng, (p.epochs, runs), 1)
             + slips_cycles * self.signal.wavelength_m
+        )
         return truth, code, carrier, happens
 
     def assumption_context(self, case: dict) -> dict:
@@ -146,8 +194,11 @@ class CarrierSmoothingScenario(Scenario):
         multipath's stationary variance, $\\sigma_w^2 + \\sigma_{mp}^2$) and the true
         code-minus-carrier drift PSD (0: this scenario has no ionosphere)."""
         p = self.params
-        return {"epoch_interval_s": p.dt_s, "code_noise_variance_m2": p.code_noise_std_m**2 + p.multipath_std_m**2,
-                "code_minus_carrier_drift_psd_m2_s": 0.0}
+        return {
+            "epoch_interval_s": p.dt_s,
+            "code_noise_variance_m2": p.code_noise_std_m**2 + p.multipath_std_m**2,
+            "code_minus_carrier_drift_psd_m2_s": 0.0,
+        }
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
@@ -161,5 +212,9 @@ class CarrierSmoothingScenario(Scenario):
             outs = [ch.checked_step({"pseudorange_m": code[k], "carrier_m": carrier[k]}) for k in range(p.epochs)]
             smoothed = np.stack([o["smoothed_m"] for o in outs])
             detected = np.stack([np.broadcast_to(o.get("slip_detected", False), (runs,)) for o in outs])
-        return evaluate(METRICS, {"range_error_m": smoothed - truth, "slip": slips, "slip_detected": detected},
-                        np.arange(p.epochs) * p.dt_s, self)
+        return evaluate(
+            METRICS,
+            {"range_error_m": smoothed - truth, "slip": slips, "slip_detected": detected},
+            np.arange(p.epochs) * p.dt_s,
+            self,
+        )

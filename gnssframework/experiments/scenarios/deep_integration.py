@@ -57,37 +57,89 @@ __all__ = ["DeepIntegrationScenario", "BYTES_PER_EPOCH_RUN_CHANNEL"]
 #: the measured peak.
 BYTES_PER_EPOCH_RUN_CHANNEL = 256
 
-ERRORS = ("horizontal_position_error", "height_error", "horizontal_velocity_error", "vertical_velocity_error",
-          "attitude_error")
-UNITS = {"horizontal_position_error": "m", "height_error": "m", "horizontal_velocity_error": "m/s",
-         "vertical_velocity_error": "m/s", "attitude_error": "deg"}
-_WHAT = {"horizontal_position_error": "horizontal position error (ENU at the true position)",
-         "height_error": "height error", "horizontal_velocity_error": "horizontal velocity error",
-         "vertical_velocity_error": "vertical velocity error",
-         "attitude_error": "attitude error, the largest of |roll|, |pitch|, |yaw| errors"}
+ERRORS = (
+    "horizontal_position_error",
+    "height_error",
+    "horizontal_velocity_error",
+    "vertical_velocity_error",
+    "attitude_error",
+)
+UNITS = {
+    "horizontal_position_error": "m",
+    "height_error": "m",
+    "horizontal_velocity_error": "m/s",
+    "vertical_velocity_error": "m/s",
+    "attitude_error": "deg",
+}
+_WHAT = {
+    "horizontal_position_error": "horizontal position error (ENU at the true position)",
+    "height_error": "height error",
+    "horizontal_velocity_error": "horizontal velocity error",
+    "vertical_velocity_error": "vertical velocity error",
+    "attitude_error": "attitude error, the largest of |roll|, |pitch|, |yaw| errors",
+}
 
 #: The scenario's metrics, each declared once as a component (name, unit, the per-update series
 #: it reduces, from settle_s on); ``run_batch`` computes them all once with `evaluate`.
 METRICS = (
-    *(Rmse(f"{e}_rmse", UNITS[e], of=e, settle="settle_s", description=f"RMS {_WHAT[e]} after settle_s")
-      for e in ERRORS),
-    *(PostSettleMax(f"{e}_max", UNITS[e], of=e, settle="settle_s", description=f"largest {_WHAT[e]} after settle_s")
-      for e in ERRORS),
-    Rmse("code_tracking_error_rmse", "chips", of="code_tracking_error", settle="settle_s",
-         description="replica code error, RMS over channels and coherent intervals"),
-    Rmse("freq_tracking_error_rmse", "Hz", of="freq_tracking_error", settle="settle_s",
-         description="replica frequency error, RMS over channels and coherent intervals"),
-    Rmse("phase_tracking_error_rmse", "rad", of="phase_tracking_error", settle="settle_s",
-         description="carrier phase error modulo pi (Costas), RMS over channels and coherent intervals"),
-    Mean("loss_of_lock_fraction", "-", of="loss_of_lock", settle="settle_s",
-         description="fraction of channel-epochs out of lock (code > 0.5 chip or frequency > 1/(2T))"),
-    Mean("nees", "-", of="nees_pv", settle="settle_s",
-         description="NEES of the 6 position and velocity states, mean over updates"),
-    Mean("phase_lock_loss_fraction", "-", of="phase_unlocked", settle="settle_s",
-         description="fraction of channel-epochs whose carrier phase error modulo pi exceeds pi/4 (45 deg, "
-         "the Costas tracking threshold of Kaplan and Hegarty 2017)"),
-    Mean("cycle_slip_rate", "1/s", of="cycle_slips", settle="settle_s",
-         description="half-cycle slips of the carrier phase error per channel and second"),
+    *(
+        Rmse(f"{e}_rmse", UNITS[e], of=e, settle="settle_s", description=f"RMS {_WHAT[e]} after settle_s")
+        for e in ERRORS
+    ),
+    *(
+        PostSettleMax(f"{e}_max", UNITS[e], of=e, settle="settle_s", description=f"largest {_WHAT[e]} after settle_s")
+        for e in ERRORS
+    ),
+    Rmse(
+        "code_tracking_error_rmse",
+        "chips",
+        of="code_tracking_error",
+        settle="settle_s",
+        description="replica code error, RMS over channels and coherent intervals",
+    ),
+    Rmse(
+        "freq_tracking_error_rmse",
+        "Hz",
+        of="freq_tracking_error",
+        settle="settle_s",
+        description="replica frequency error, RMS over channels and coherent intervals",
+    ),
+    Rmse(
+        "phase_tracking_error_rmse",
+        "rad",
+        of="phase_tracking_error",
+        settle="settle_s",
+        description="carrier phase error modulo pi (Costas), RMS over channels and coherent intervals",
+    ),
+    Mean(
+        "loss_of_lock_fraction",
+        "-",
+        of="loss_of_lock",
+        settle="settle_s",
+        description="fraction of channel-epochs out of lock (code > 0.5 chip or frequency > 1/(2T))",
+    ),
+    Mean(
+        "nees",
+        "-",
+        of="nees_pv",
+        settle="settle_s",
+        description="NEES of the 6 position and velocity states, mean over updates",
+    ),
+    Mean(
+        "phase_lock_loss_fraction",
+        "-",
+        of="phase_unlocked",
+        settle="settle_s",
+        description="fraction of channel-epochs whose carrier phase error modulo pi exceeds pi/4 (45 deg, "
+        "the Costas tracking threshold of Kaplan and Hegarty 2017)",
+    ),
+    Mean(
+        "cycle_slip_rate",
+        "1/s",
+        of="cycle_slips",
+        settle="settle_s",
+        description="half-cycle slips of the carrier phase error per channel and second",
+    ),
 )
 
 
@@ -97,64 +149,100 @@ class DeepIntegrationParams(SignalCoherentTime, SkyRealismParams):
 
     duration_s: float = Field(50.0, gt=0, le=600, description="flight length (Cai and Guo 2017: 50 s)")
     profile: Literal["pull-up", "straight", "jerk-pulse"] = Field(
-        "pull-up", description="Cai and Guo's (2017) flight (level 10 s, then a pull-up), straight flight, or straight "
-        "flight with one smooth acceleration pulse (pulse_* parameters)")
-    coherent_time_s: float = Field(0.001, description="T of correlators and prefilters (s): whole 1 ms code "
-                                          "periods, 1 to 20 ms")
+        "pull-up",
+        description="Cai and Guo's (2017) flight (level 10 s, then a pull-up), straight flight, or straight "
+        "flight with one smooth acceleration pulse (pulse_* parameters)",
+    )
+    coherent_time_s: float = Field(
+        0.001, description="T of correlators and prefilters (s): whole 1 ms code periods, 1 to 20 ms"
+    )
     imu_interval_s: float = Field(0.005, gt=0, description="IMU increment interval (200 Hz in Cai and Guo 2017)")
     nco_interval_s: float = Field(0.005, gt=0, description="interval at which the NCOs are re-aided (deep)")
     update_interval_s: float = Field(0.1, gt=0, description="integration filter interval (10 Hz)")
-    pull_in_updates: int = Field(1, ge=0, description="first integration intervals whose prefilter output is not "
-                                 "used (prefilters pulling in from acquisition)")
+    pull_in_updates: int = Field(
+        1,
+        ge=0,
+        description="first integration intervals whose prefilter output is not "
+        "used (prefilters pulling in from acquisition)",
+    )
     channels: int = Field(8, ge=5, le=12)
     elevation_mask_deg: float = Field(10.0, ge=0, lt=90)
     start_time_s: float = Field(37800.0, ge=0, description="seconds into the nominal constellation's day")
-    lat_deg: float = Field(34.23, ge=-MAX_START_LAT_DEG, le=MAX_START_LAT_DEG, description="start latitude (deg), "
-                           "within 89 deg of the equator: the flights are integrated in local north/east axes, "
-                           "which degenerate at a pole")
+    lat_deg: float = Field(
+        34.23,
+        ge=-MAX_START_LAT_DEG,
+        le=MAX_START_LAT_DEG,
+        description="start latitude (deg), "
+        "within 89 deg of the equator: the flights are integrated in local north/east axes, "
+        "which degenerate at a pole",
+    )
     lon_deg: float = Field(108.3576, ge=-180, le=360)
     height_m: float = 590.6
-    clock: str = Field("ocxo", description="receiver clock preset (a TCXO's white frequency noise alone gives "
-                       "about 16 Hz of frequency error per 1 ms interval, which no loop removes)")
+    clock: str = Field(
+        "ocxo",
+        description="receiver clock preset (a TCXO's white frequency noise alone gives "
+        "about 16 Hz of frequency error per 1 ms interval, which no loop removes)",
+    )
     oscillator_g_sensitivity_per_g: tuple[float, float, float] = Field(
         (0.0, 0.0, 0.0),
         description="g-sensitivity vector Gamma of the receiver oscillator in body axes (forward, right, down), in "
         "1/g; default 0 (none). The true clock's fractional frequency error gains Gamma . f_b / g0 (f_b the specific "
         "force along the flight, IEEE Std 1193 / Filler 1988: typical crystals 1e-10 to 1e-8 per g; at 30 g and "
-        "1e-9/g that is 3e-8, about 47 Hz of common Doppler at L1); the receiver's clock model does not know it")
+        "1e-9/g that is 3e-8, about 47 Hz of common Doppler at L1); the receiver's clock model does not know it",
+    )
     early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0)
-    initial_position_std_m: float = Field(5.0, gt=0, description="initial position error per axis (not stated "
-                                          "in Cai and Guo 2017)")
+    initial_position_std_m: float = Field(
+        5.0, gt=0, description="initial position error per axis (not stated in Cai and Guo 2017)"
+    )
     initial_velocity_std_m_s: float = Field(0.3, gt=0)
     initial_attitude_std_deg: float = Field(0.5, gt=0)
-    initial_clock_std_m: tuple[float, float] = Field((3.0, 0.3), description="initial clock bias (m) and drift "
-                                                     "(m/s) errors")
-    imu: ImuGrade = Field(default_factory=ImuGrade, description="IMU error levels (Cai and Guo's (2017) as defaults; "
-                          "see gnssframework.inertial.imu for the reading of its white-noise units)")
+    initial_clock_std_m: tuple[float, float] = Field(
+        (3.0, 0.3), description="initial clock bias (m) and drift (m/s) errors"
+    )
+    imu: ImuGrade = Field(
+        default_factory=ImuGrade,
+        description="IMU error levels (Cai and Guo's (2017) as defaults; "
+        "see gnssframework.inertial.imu for the reading of its white-noise units)",
+    )
     settle_s: float = Field(5.0, ge=0, description="metrics (and their _max) count from here on")
     rate_window_s: float = Field(0.02, gt=0, description="loose: window of the scalar loops' carrier-phase rate")
     loose_rate_window: Literal["centred", "trailing"] = Field(
-        "centred", description="loose: the rate window centred on the update instant (reaches rate_window_s/2 past "
+        "centred",
+        description="loose: the rate window centred on the update instant (reaches rate_window_s/2 past "
         "it) or trailing it (ends there; its mean rate carried to the instant with the INS's line-of-sight "
-        "acceleration)")
+        "acceleration)",
+    )
     loose_dll_correlation: Literal["white", "loop"] = Field(
-        "white", description="loose: the fixes' pseudorange variance as the DLL's thermal value (white) or "
+        "white",
+        description="loose: the fixes' pseudorange variance as the DLL's thermal value (white) or "
         "inflated by (1+rho)/(1-rho), rho = exp(-4 B_L update_interval_s), the correlation of a first-order "
-        "loop's error between updates (loop)")
-    loose_gate_probability: float = Field(0.0, ge=0, lt=1, description="loose: false-alarm probability of the "
-                                          "chi-square innovation gate on each fix (0: no gate)")
+        "loop's error between updates (loop)",
+    )
+    loose_gate_probability: float = Field(
+        0.0,
+        ge=0,
+        lt=1,
+        description="loose: false-alarm probability of the chi-square innovation gate on each fix (0: no gate)",
+    )
     pulse_accel_g: float = Field(20.0, gt=0, le=100, description="jerk-pulse profile: peak acceleration (g)")
-    pulse_jerk_g_s: float = Field(50.0, gt=0, le=1000, description="jerk-pulse profile: peak jerk (g/s); the "
-                                  "smooth rise lasts 1.875 pulse_accel_g / pulse_jerk_g_s")
+    pulse_jerk_g_s: float = Field(
+        50.0,
+        gt=0,
+        le=1000,
+        description="jerk-pulse profile: peak jerk (g/s); the smooth rise lasts 1.875 pulse_accel_g / pulse_jerk_g_s",
+    )
     pulse_start_s: float = Field(2.0, ge=0, description="jerk-pulse profile: start of the pulse")
     pulse_hold_s: float = Field(1.0, ge=0, description="jerk-pulse profile: time at peak acceleration")
-    pulse_direction_enu: tuple[float, float, float] = Field((0.0, 0.0, 1.0), description="jerk-pulse profile: "
-                                                            "direction of the acceleration (ENU at the start)")
+    pulse_direction_enu: tuple[float, float, float] = Field(
+        (0.0, 0.0, 1.0), description="jerk-pulse profile: direction of the acceleration (ENU at the start)"
+    )
     geometry: Literal["fixed", "per-run"] = Field(
-        "fixed", description="fixed: every run sees the satellites at start_time_s. per-run: each run draws its "
+        "fixed",
+        description="fixed: every run sees the satellites at start_time_s. per-run: each run draws its "
         "start epoch from its own stream, uniform over the nominal constellation's sidereal day (86164.1 s) among "
         "the epochs with `channels` satellites above the mask, and tracks the highest ones then; the truth grid "
-        "then holds every run's satellites (memory grows with runs x duration_s / coherent_time_s). Default fixed")
+        "then holds every run's satellites (memory grows with runs x duration_s / coherent_time_s). Default fixed",
+    )
 
 
 class DeepIntegrationCase(ScenarioParams):
@@ -163,19 +251,25 @@ class DeepIntegrationCase(ScenarioParams):
     # Error sources a case may add to the scenario's truth, so that a comparison can hold a
     # case with and one without them (on common random numbers: the case's `streams`).
     oscillator_g_sensitivity_per_g: tuple[float, float, float] | None = Field(
-        None, description="this case's oscillator g-sensitivity vector (1/g, body axes; default: the scenario's)")
-    gyro_misalignment_mrad: float | None = Field(None, ge=0, description="this case's gyro misalignment "
-                                                 "(mrad; default: the scenario's imu)")
-    accel_misalignment_mrad: float | None = Field(None, ge=0, description="this case's accelerometer "
-                                                  "misalignment (mrad; default: the scenario's imu)")
+        None, description="this case's oscillator g-sensitivity vector (1/g, body axes; default: the scenario's)"
+    )
+    gyro_misalignment_mrad: float | None = Field(
+        None, ge=0, description="this case's gyro misalignment (mrad; default: the scenario's imu)"
+    )
+    accel_misalignment_mrad: float | None = Field(
+        None, ge=0, description="this case's accelerometer misalignment (mrad; default: the scenario's imu)"
+    )
 
     def scenario_update(self, params: DeepIntegrationParams) -> dict[str, Any]:
         """The scenario parameters this case replaces (empty: none)."""
         update: dict[str, Any] = {}
         if self.oscillator_g_sensitivity_per_g is not None:
             update["oscillator_g_sensitivity_per_g"] = self.oscillator_g_sensitivity_per_g
-        imu = {k: getattr(self, k) for k in ("gyro_misalignment_mrad", "accel_misalignment_mrad")
-               if getattr(self, k) is not None}
+        imu = {
+            k: getattr(self, k)
+            for k in ("gyro_misalignment_mrad", "accel_misalignment_mrad")
+            if getattr(self, k) is not None
+        }
         if imu:
             update["imu"] = params.imu.model_copy(update=imu)
         return update
@@ -198,9 +292,11 @@ def phase_lock_series(phase_error_rad: np.ndarray, n_upd: int, update_interval_s
     cycles = np.rint(doubled / (2 * np.pi))
     slips = np.abs(np.diff(cycles, axis=0, prepend=cycles[:1]))
     by_update = (U, n_upd, runs, -1)
-    return {"phase_tracking_error": np.sqrt(np.mean(wrapped.reshape(by_update) ** 2, axis=(1, 3))),
-            "phase_unlocked": np.mean(np.abs(wrapped.reshape(by_update)) > np.pi / 4, axis=(1, 3)),
-            "cycle_slips": np.sum(slips.reshape(by_update), axis=1).mean(axis=-1) / update_interval_s}
+    return {
+        "phase_tracking_error": np.sqrt(np.mean(wrapped.reshape(by_update) ** 2, axis=(1, 3))),
+        "phase_unlocked": np.mean(np.abs(wrapped.reshape(by_update)) > np.pi / 4, axis=(1, 3)),
+        "cycle_slips": np.sum(slips.reshape(by_update), axis=1).mean(axis=-1) / update_interval_s,
+    }
 
 
 def _kind(plugins: dict[str, Any]) -> str:
@@ -210,13 +306,21 @@ def _kind(plugins: dict[str, Any]) -> str:
             return "deep"
         if all(o in ch.provides for o in NCO_COMMANDS) and "correlators" in ch.requires:
             return "loose"
-        raise ConfigError("channel_filter", f"{ch.name!r} can neither feed deep integration (it would provide "
-                          f"{', '.join(CHANNEL_OUTPUTS)}) nor close a scalar loop (provide "
-                          f"{', '.join(NCO_COMMANDS)})")
+        raise ConfigError(
+            "channel_filter",
+            f"{ch.name!r} can neither feed deep integration (it would provide "
+            f"{', '.join(CHANNEL_OUTPUTS)}) nor close a scalar loop (provide "
+            f"{', '.join(NCO_COMMANDS)})",
+        )
     if all(o in nav.provides for o in NAV_OUTPUTS) and all(o in ch.provides for o in CHANNEL_OUTPUTS):
         return "vector"
-    raise ConfigError("nav_filter", f"{nav.name!r} with {ch.name!r} is neither deep/loose integration (an "
-                      "error-state nav filter, e.g. ins-ekf) nor a vector loop (a nav filter providing " + ", ".join(NAV_OUTPUTS) + ")")
+    raise ConfigError(
+        "nav_filter",
+        f"{nav.name!r} with {ch.name!r} is neither deep/loose integration (an "
+        "error-state nav filter, e.g. ins-ekf) nor a vector loop (a nav filter providing "
+        + ", ".join(NAV_OUTPUTS)
+        + ")",
+    )
 
 
 @register_scenario
@@ -231,30 +335,43 @@ class DeepIntegrationScenario(Scenario):
     metrics = units(METRICS)
     #: The raw per-update series (RMS over channels and the coherent intervals of each update
     #: interval for the tracking errors) that the metrics reduce.
-    outputs = {**UNITS, "code_tracking_error": "chips", "freq_tracking_error": "Hz", "phase_tracking_error": "rad",
-               "loss_of_lock": "-", "nees_pv": "-", "phase_unlocked": "-", "cycle_slips": "1/s"}
+    outputs = {
+        **UNITS,
+        "code_tracking_error": "chips",
+        "freq_tracking_error": "Hz",
+        "phase_tracking_error": "rad",
+        "loss_of_lock": "-",
+        "nees_pv": "-",
+        "phase_unlocked": "-",
+        "cycle_slips": "1/s",
+    }
 
     #: Why a metric can be undefined in a run (summary.json and report.md say it).
-    undefined_reasons = {"phase_lock_loss_fraction": "carrier phase not tracked (deep tracks it only with "
-                         "ins-ekf's carrier_filter set; vector has no carrier loop)",
-                         "cycle_slip_rate": "carrier phase not tracked (deep tracks it only with ins-ekf's "
-                         "carrier_filter set; vector has no carrier loop)",
-                         "attitude_error_rmse": "no attitude estimate (vector tracking has no INS)",
-                         "attitude_error_max": "no attitude estimate (vector tracking has no INS)",
-                         "phase_tracking_error_rmse": "carrier phase not tracked (deep tracks it only with ins-ekf's "
-                         "carrier_filter set; vector has no carrier loop)"}
+    undefined_reasons = {
+        "phase_lock_loss_fraction": "carrier phase not tracked (deep tracks it only with "
+        "ins-ekf's carrier_filter set; vector has no carrier loop)",
+        "cycle_slip_rate": "carrier phase not tracked (deep tracks it only with ins-ekf's "
+        "carrier_filter set; vector has no carrier loop)",
+        "attitude_error_rmse": "no attitude estimate (vector tracking has no INS)",
+        "attitude_error_max": "no attitude estimate (vector tracking has no INS)",
+        "phase_tracking_error_rmse": "carrier phase not tracked (deep tracks it only with ins-ekf's "
+        "carrier_filter set; vector has no carrier loop)",
+    }
 
     def __init__(self, params: DeepIntegrationParams) -> None:
         super().__init__(params)
         p = params
         if p.clock not in PRESETS:
-            raise ConfigError("scenario.clock", f"got {p.clock!r}; allowed: {', '.join(PRESETS)}"
-                              f"{did_you_mean(p.clock, PRESETS)}")
-        for name, small, big in (("imu_interval_s", p.coherent_time_s, p.imu_interval_s),
-                                 ("nco_interval_s", p.coherent_time_s, p.nco_interval_s),
-                                 ("update_interval_s", p.imu_interval_s, p.update_interval_s),
-                                 ("update_interval_s", p.nco_interval_s, p.update_interval_s),
-                                 ("duration_s", p.update_interval_s, p.duration_s)):
+            raise ConfigError(
+                "scenario.clock", f"got {p.clock!r}; allowed: {', '.join(PRESETS)}{did_you_mean(p.clock, PRESETS)}"
+            )
+        for name, small, big in (
+            ("imu_interval_s", p.coherent_time_s, p.imu_interval_s),
+            ("nco_interval_s", p.coherent_time_s, p.nco_interval_s),
+            ("update_interval_s", p.imu_interval_s, p.update_interval_s),
+            ("update_interval_s", p.nco_interval_s, p.update_interval_s),
+            ("duration_s", p.update_interval_s, p.duration_s),
+        ):
             n = big / small
             if abs(n - round(n)) > 1e-6 or round(n) < 1:
                 raise ConfigError(f"scenario.{name}", f"must be a whole multiple of {small} s (got {big})")
@@ -264,13 +381,21 @@ class DeepIntegrationScenario(Scenario):
     def batch_memory(self, case: dict[str, Any], runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         p = self.params
         epochs = int(round(p.duration_s / p.coherent_time_s))
-        return (BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels, "scenario.coherent_time_s",
-                f"a batch of {runs} runs of {where} ({epochs} epochs x {p.channels} channels)")
+        return (
+            BYTES_PER_EPOCH_RUN_CHANNEL * epochs * runs * p.channels,
+            "scenario.coherent_time_s",
+            f"a batch of {runs} runs of {where} ({epochs} epochs x {p.channels} channels)",
+        )
 
     def run_contexts(self, cases: list[dict[str, Any]]) -> list[RunContext]:
         p = self.params
-        return [RunContext(coherent_time_s=p.coherent_time_s, early_late_spacing_chips=p.early_late_spacing_chips,
-                           epoch_interval_s=p.coherent_time_s)]
+        return [
+            RunContext(
+                coherent_time_s=p.coherent_time_s,
+                early_late_spacing_chips=p.early_late_spacing_chips,
+                epoch_interval_s=p.coherent_time_s,
+            )
+        ]
 
     def check_composition(self, plugins: dict[str, Any], where: str) -> None:
         try:
@@ -282,16 +407,22 @@ class DeepIntegrationScenario(Scenario):
     def satellites(self):
         p = self.params
         const = nominal_constellation()
-        return const.subset(const.visible(p.start_time_s, p.lat_deg, p.lon_deg, p.height_m, p.elevation_mask_deg,
-                                          p.channels))
+        return const.subset(
+            const.visible(p.start_time_s, p.lat_deg, p.lon_deg, p.height_m, p.elevation_mask_deg, p.channels)
+        )
 
     def flight(self):
         """Reference 002's flight (or a straight one) from `gnssframework.inertial`."""
         from .deep_integration_flight import make_flight
 
         p = self.params
-        pulse = {"accel_g": p.pulse_accel_g, "jerk_g_s": p.pulse_jerk_g_s, "start_s": p.pulse_start_s,
-                 "hold_s": p.pulse_hold_s, "direction_enu": p.pulse_direction_enu}
+        pulse = {
+            "accel_g": p.pulse_accel_g,
+            "jerk_g_s": p.pulse_jerk_g_s,
+            "start_s": p.pulse_start_s,
+            "hold_s": p.pulse_hold_s,
+            "direction_enu": p.pulse_direction_enu,
+        }
         return make_flight(p.profile, p.lat_deg, p.lon_deg, p.height_m, p.duration_s, pulse=pulse)
 
     def g_sensitivity_frequency_error(self, flight, t_s: np.ndarray) -> np.ndarray | None:
@@ -315,8 +446,16 @@ class DeepIntegrationScenario(Scenario):
         p = self.params
         if p.geometry == "per-run":  # each run its own epoch and satellites, from its own stream
             const = nominal_constellation()
-            start_s, index = draw_epochs(const, draw.child(rng, "geometry"), runs, p.lat_deg, p.lon_deg, p.height_m,
-                                         p.elevation_mask_deg, p.channels)
+            start_s, index = draw_epochs(
+                const,
+                draw.child(rng, "geometry"),
+                runs,
+                p.lat_deg,
+                p.lon_deg,
+                p.height_m,
+                p.elevation_mask_deg,
+                p.channels,
+            )
             sats, start = const.subset(index), start_s[:, None]  # satellites (runs, ch), epochs (runs, 1)
 
             def orbit(t):  # (*t.shape, runs, ch, 3)
@@ -326,6 +465,7 @@ class DeepIntegrationScenario(Scenario):
 
             def orbit(t):
                 return sats.state(p.start_time_s + np.asarray(t))
+
         T = p.coherent_time_s
         K = int(round(p.duration_s / T))
         bias_s, drift = PRESETS[p.clock].simulate(K + 1, T, rng, (runs,))
@@ -364,10 +504,22 @@ class DeepIntegrationScenario(Scenario):
             cn0 = np.full((runs, p.channels), cn0_dbhz)
         range_error = None
         if p.range_residuals_on():  # errors of the truth the receiver's model lacks, from their own stream
-            range_error = range_error_function(draw_residuals(p, draw.child(rng, "range-errors"), runs), sat_state,
-                                               receiver_state, p.lat_deg, p.lon_deg)
-        return DeepTruth(sat_state, receiver_state, clock, cn0, T, receiver_positions=lambda t: receiver_state(t)[0],
-                         range_error_m=range_error)
+            range_error = range_error_function(
+                draw_residuals(p, draw.child(rng, "range-errors"), runs),
+                sat_state,
+                receiver_state,
+                p.lat_deg,
+                p.lon_deg,
+            )
+        return DeepTruth(
+            sat_state,
+            receiver_state,
+            clock,
+            cn0,
+            T,
+            receiver_positions=lambda t: receiver_state(t)[0],
+            range_error_m=range_error,
+        )
 
     # --- candidates ---------------------------------------------------------------------
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
@@ -401,18 +553,21 @@ class DeepIntegrationScenario(Scenario):
             "vertical_velocity_error": np.abs(dv[..., 2]),
         }
         if "body_to_ned" in out:
-            att = attitude_errors_deg(out["body_to_ned"], np.broadcast_to(flight.body_to_ned(t_u)[:, None],
-                                                                            out["body_to_ned"].shape))
+            att = attitude_errors_deg(
+                out["body_to_ned"], np.broadcast_to(flight.body_to_ned(t_u)[:, None], out["body_to_ned"].shape)
+            )
             series["attitude_error"] = np.max(np.abs(att), axis=-1)
         else:
             series["attitude_error"] = np.full(dp.shape[:2], np.nan)
         # Tracking errors: RMS over channels and over the coherent intervals of each update interval.
         code, freq = out["code_error_chips"], out["freq_error_hz"]
         U = len(t_u)
-        series["code_tracking_error"] = np.sqrt(np.mean(code[: U * n_upd].reshape(U, n_upd, runs, -1) ** 2,
-                                                        axis=(1, 3)))
-        series["freq_tracking_error"] = np.sqrt(np.mean(freq[: U * n_upd].reshape(U, n_upd, runs, -1) ** 2,
-                                                        axis=(1, 3)))
+        series["code_tracking_error"] = np.sqrt(
+            np.mean(code[: U * n_upd].reshape(U, n_upd, runs, -1) ** 2, axis=(1, 3))
+        )
+        series["freq_tracking_error"] = np.sqrt(
+            np.mean(freq[: U * n_upd].reshape(U, n_upd, runs, -1) ** 2, axis=(1, 3))
+        )
         lol = loss_of_lock(code, freq, p.coherent_time_s)[: U * n_upd].reshape(U, n_upd, runs, -1)
         series["loss_of_lock"] = lol.mean(axis=(1, 3))
         if "phase_error_rad" in out:
@@ -427,13 +582,27 @@ class DeepIntegrationScenario(Scenario):
         """Vector tracking without INS (``run_vector_loop``), decimated to the integration grid."""
         p = self.params
         T = p.coherent_time_s
-        vt = VectorTruth(lambda t: truth.sat_state(t)[:2], lambda t: truth.receiver_state(t)[:2], truth.clock_m,
-                         truth.cn0_dbhz, T, range_error_m=truth.range_error_m)
+        vt = VectorTruth(
+            lambda t: truth.sat_state(t)[:2],
+            lambda t: truth.receiver_state(t)[:2],
+            truth.clock_m,
+            truth.cn0_dbhz,
+            T,
+            range_error_m=truth.range_error_m,
+        )
         std = np.array([p.initial_position_std_m] * 3 + [p.initial_velocity_std_m_s] * 3 + list(p.initial_clock_std_m))
         P0 = np.diag(std**2)
         x0 = vt.nav_truth(T / 2, 0) + draw.standard_normal(rng, (runs, 8), 0) * std
-        rec = run_vector_loop(plugins["channel_filter"], plugins["nav_filter"], vt, x0, P0, rng,
-                              early_late_spacing_chips=p.early_late_spacing_chips, data_bits="none")
+        rec = run_vector_loop(
+            plugins["channel_filter"],
+            plugins["nav_filter"],
+            vt,
+            x0,
+            P0,
+            rng,
+            early_late_spacing_chips=p.early_late_spacing_chips,
+            data_bits="none",
+        )
         n_upd = int(round(p.update_interval_s / T))
         idx = np.arange(n_upd - 1, truth.epochs, n_upd)  # the interval ending at each update instant
         t_u = (idx + 1) * T
@@ -444,5 +613,11 @@ class DeepIntegrationScenario(Scenario):
         pos = pos + vel * (T / 2)
         # ekf-pv's record keeps the position and velocity marginal NEES (3 + 3), not the joint one.
         nees_pv = rec.nees_position[idx] + rec.nees_velocity[idx]
-        return {"time_s": t_u, "position_m": pos, "velocity_m_s": vel, "code_error_chips": rec.code_error_chips,
-                "freq_error_hz": rec.freq_error_hz, "nees": nees_pv}
+        return {
+            "time_s": t_u,
+            "position_m": pos,
+            "velocity_m_s": vel,
+            "code_error_chips": rec.code_error_chips,
+            "freq_error_hz": rec.freq_error_hz,
+            "nees": nees_pv,
+        }

@@ -26,8 +26,11 @@ class Flight:
         t = np.asarray(t_s, float)
         tr = self.model.evaluate(t.reshape(-1))
         shape = t.shape + (3,)
-        return (tr.position_ecef_m.reshape(shape), tr.velocity_ecef_mps.reshape(shape),
-                tr.acceleration_ecef_mps2.reshape(shape))
+        return (
+            tr.position_ecef_m.reshape(shape),
+            tr.velocity_ecef_mps.reshape(shape),
+            tr.acceleration_ecef_mps2.reshape(shape),
+        )
 
     def body_to_ned(self, t_s) -> np.ndarray:
         """Body-to-local-level (NED at the true position) DCM ``(T, 3, 3)``."""
@@ -50,8 +53,9 @@ def body_to_ned(q_b_e: np.ndarray, position_ecef_m: np.ndarray) -> np.ndarray:
     return np.swapaxes(ned_to_ecef_matrix(lat, lon), -1, -2) @ quat_to_dcm(q_b_e)
 
 
-def make_flight(profile: str, lat_deg: float, lon_deg: float, height_m: float, duration_s: float, *,
-                pulse: dict | None = None) -> Flight:
+def make_flight(
+    profile: str, lat_deg: float, lon_deg: float, height_m: float, duration_s: float, *, pulse: dict | None = None
+) -> Flight:
     """Reference 002's pull-up (`inertial.trajectory.paper_profile`, moved to the given start), straight
     flight, or a ``jerk-pulse``: straight flight at (50, 50, 50) m/s ENU with one smooth acceleration
     pulse ``pulse`` = {accel_g, jerk_g_s, start_s, hold_s, direction_enu}, whose rise takes
@@ -62,9 +66,14 @@ def make_flight(profile: str, lat_deg: float, lon_deg: float, height_m: float, d
     if profile == "pull-up":
         # The whole 50 s flight is defined; a shorter duration_s simulates its first part.
         base = paper_profile()
-        prof = base.model_copy(update={"start_lat_deg": lat_deg, "start_lon_deg": lon_deg,
-                                       "start_height_m": height_m,
-                                       "duration_s": max(duration_s, base.duration_s)})
+        prof = base.model_copy(
+            update={
+                "start_lat_deg": lat_deg,
+                "start_lon_deg": lon_deg,
+                "start_height_m": height_m,
+                "duration_s": max(duration_s, base.duration_s),
+            }
+        )
     elif profile == "straight":
         prof = constant_velocity_profile(lat_deg, lon_deg, height_m, (50.0, 50.0, 50.0), duration_s)
     elif profile == "jerk-pulse":
@@ -73,8 +82,9 @@ def make_flight(profile: str, lat_deg: float, lon_deg: float, height_m: float, d
         u = u / np.linalg.norm(u)
         accel = q.get("accel_g", 20.0) * STANDARD_GRAVITY_MPS2
         rise = 1.875 * q.get("accel_g", 20.0) / q.get("jerk_g_s", 50.0)
-        p = AccelerationPulse(start_s=q.get("start_s", 2.0), rise_s=rise, hold_s=q.get("hold_s", 1.0),
-                              accel_enu_mps2=tuple(accel * u))
+        p = AccelerationPulse(
+            start_s=q.get("start_s", 2.0), rise_s=rise, hold_s=q.get("hold_s", 1.0), accel_enu_mps2=tuple(accel * u)
+        )
         # As for the pull-up, the whole flight is defined; a shorter duration_s simulates its first part.
         prof = constant_velocity_profile(lat_deg, lon_deg, height_m, (50.0, 50.0, 50.0), max(duration_s, p.end_s))
         prof = prof.model_copy(update={"pulses": (p,)})

@@ -16,8 +16,9 @@ from scipy.spatial.transform import Rotation
 __all__ = ["enu_errors", "attitude_errors_deg"]
 
 
-def enu_errors(est_pos_m: np.ndarray, true_pos_m: np.ndarray, est_vel_m_s: np.ndarray, true_vel_m_s: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray]:
+def enu_errors(
+    est_pos_m: np.ndarray, true_pos_m: np.ndarray, est_vel_m_s: np.ndarray, true_vel_m_s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Position and velocity errors (estimate minus truth) in ENU at the true position.
 
     All inputs ``(..., 3)`` ECEF. Returns ``(pos_err_enu_m, vel_err_enu_m_s)``, each ``(..., 3)``.

@@ -17,22 +17,35 @@ from ...interfaces import RunContext
 from ...navigation.geometry import line_of_sight, range_rate
 from ...receiver.deep.aided_tracking import DeepTruth, run_aided_tracking
 from ...receiver.deep.ins_navigator import InsNavigator, loose_update
-from ...receiver.deep.loose import (correlated_error_inflation, line_of_sight_accel, pv_fix, scalar_measurement_variances,
-                                    scalar_measurements, scalar_tracking, trailing_rate_measurement)
+from ...receiver.deep.loose import (
+    correlated_error_inflation,
+    line_of_sight_accel,
+    pv_fix,
+    scalar_measurement_variances,
+    scalar_measurements,
+    scalar_tracking,
+    trailing_rate_measurement,
+)
 from ...receiver.deep.navigators import ClockFilter
 from ...receiver.deep.strapdown import StrapdownIns
 from .deep_integration_flight import Flight, body_to_ned
 
 __all__ = ["run_deep", "run_loose"]
 
+
 def _initial_cov(p) -> np.ndarray:
     """Initial covariance of the 15-state error: the scenario's initial errors and the IMU's bias levels
     (random constant plus Gauss-Markov deviation)."""
     g = p.imu
-    std = np.concatenate([np.full(3, np.radians(p.initial_attitude_std_deg)), np.full(3, p.initial_velocity_std_m_s),
-                          np.full(3, p.initial_position_std_m),
-                          np.full(3, np.hypot(g.gyro_bias_rad_s, g.gyro_markov_sigma_rad_s)),
-                          np.full(3, np.hypot(g.accel_bias_mps2, g.accel_markov_sigma_mps2))])
+    std = np.concatenate(
+        [
+            np.full(3, np.radians(p.initial_attitude_std_deg)),
+            np.full(3, p.initial_velocity_std_m_s),
+            np.full(3, p.initial_position_std_m),
+            np.full(3, np.hypot(g.gyro_bias_rad_s, g.gyro_markov_sigma_rad_s)),
+            np.full(3, np.hypot(g.accel_bias_mps2, g.accel_markov_sigma_mps2)),
+        ]
+    )
     return np.diag(np.maximum(std, 1e-12) ** 2)
 
 
@@ -55,12 +68,15 @@ def _setup_ins(scenario, flight: Flight, runs: int, rng: np.random.Generator):
 def _nav_record(flight: Flight, t_s: float, ins: StrapdownIns, cov: np.ndarray) -> dict[str, np.ndarray]:
     tr = flight.truth(t_s)
     s = ins.state
-    err = np.concatenate([s.velocity_ecef_mps - tr.velocity_ecef_mps[0], s.position_ecef_m - tr.position_ecef_m[0]],
-                         -1)
+    err = np.concatenate([s.velocity_ecef_mps - tr.velocity_ecef_mps[0], s.position_ecef_m - tr.position_ecef_m[0]], -1)
     nees_vp = nees(err, cov[:, 3:9, 3:9])
-    return {"position_m": s.position_ecef_m.copy(), "velocity_m_s": s.velocity_ecef_mps.copy(),
-            "body_to_ned": body_to_ned(s.q_b_e, s.position_ecef_m), "nees": nees_vp,
-            "attitude_cov_ecef": cov[:, 0:3, 0:3].copy()}
+    return {
+        "position_m": s.position_ecef_m.copy(),
+        "velocity_m_s": s.velocity_ecef_mps.copy(),
+        "body_to_ned": body_to_ned(s.q_b_e, s.position_ecef_m),
+        "nees": nees_vp,
+        "attitude_cov_ecef": cov[:, 0:3, 0:3].copy(),
+    }
 
 
 def _stack(records: list[dict[str, np.ndarray]], times: list[float], extra: dict[str, np.ndarray]) -> dict:
@@ -70,8 +86,9 @@ def _stack(records: list[dict[str, np.ndarray]], times: list[float], extra: dict
     return out
 
 
-def run_deep(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int,
-             rng: np.random.Generator) -> dict[str, np.ndarray]:
+def run_deep(
+    scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int, rng: np.random.Generator
+) -> dict[str, np.ndarray]:
     """The ``deep`` / ``deep-no-accel`` candidates: INS-aided NCOs, prefilters, ``ins-ekf`` on differences."""
     p = scenario.params
     ekf = plugins["nav_filter"]
@@ -79,8 +96,9 @@ def run_deep(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth
     ekf.reset((runs,), RunContext(initial_cov=P0))
     aiding = ekf.aiding()  # an ErrorStateNavFilter's contract
     c_std = np.asarray(p.initial_clock_std_m, float)
-    clock = ClockFilter(truth.clock_m[0] + draw.standard_normal(rng, (runs, 2), 0) * c_std, np.diag(c_std**2),
-                        aiding.clock_psd)
+    clock = ClockFilter(
+        truth.clock_m[0] + draw.standard_normal(rng, (runs, 2), 0) * c_std, np.diag(c_std**2), aiding.clock_psd
+    )
     records, times = [], []
 
     def record(t_s, nav):
@@ -89,16 +107,25 @@ def run_deep(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth
 
     nav = InsNavigator(ins, ekf, clock, on_update=record, pull_in_updates=p.pull_in_updates)
     spec = aiding.carrier_filter
-    rec = run_aided_tracking(plugins["channel_filter"], nav, truth, rng, nco_interval_s=p.nco_interval_s,
-                             update_interval_s=p.update_interval_s, accel_aiding=aiding.accel_aiding,
-                             early_late_spacing_chips=p.early_late_spacing_chips,
-                             carrier_filter=None if spec is None else spec.create())
-    return _stack(records, times, {"code_error_chips": rec.code_error_chips, "freq_error_hz": rec.freq_error_hz,
-                                   **rec.extra})
+    rec = run_aided_tracking(
+        plugins["channel_filter"],
+        nav,
+        truth,
+        rng,
+        nco_interval_s=p.nco_interval_s,
+        update_interval_s=p.update_interval_s,
+        accel_aiding=aiding.accel_aiding,
+        early_late_spacing_chips=p.early_late_spacing_chips,
+        carrier_filter=None if spec is None else spec.create(),
+    )
+    return _stack(
+        records, times, {"code_error_chips": rec.code_error_chips, "freq_error_hz": rec.freq_error_hz, **rec.extra}
+    )
 
 
-def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int,
-              rng: np.random.Generator) -> dict[str, np.ndarray]:
+def run_loose(
+    scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int, rng: np.random.Generator
+) -> dict[str, np.ndarray]:
     """The ``loose`` candidate: scalar loops, weighted least-squares fixes at the update rate, ``ins-ekf``."""
     p = scenario.params
     T = p.coherent_time_s
@@ -124,13 +151,25 @@ def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTrut
         rho_rate = rho_rate + np.gradient(carrier_m, T, axis=0)  # the carrier's rate is what the loops read
     rho_c = rho if carrier_rho is None else carrier_rho
     channel = plugins["channel_filter"]
-    track = scalar_tracking(channel, rho, truth.cn0_dbhz, T, rng,
-                            early_late_spacing_chips=p.early_late_spacing_chips, carrier_range_m=carrier_rho)
+    track = scalar_tracking(
+        channel,
+        rho,
+        truth.cn0_dbhz,
+        T,
+        rng,
+        early_late_spacing_chips=p.early_late_spacing_chips,
+        carrier_range_m=carrier_rho,
+    )
     cp = channel.params
     window = int(round(p.rate_window_s / T))
-    var_r, var_v = scalar_measurement_variances(truth.cn0_dbhz, T, getattr(cp, "dll_bandwidth_hz", 1.0),
-                                                getattr(cp, "pll_bandwidth_hz", 15.0), window * T,
-                                                p.early_late_spacing_chips)
+    var_r, var_v = scalar_measurement_variances(
+        truth.cn0_dbhz,
+        T,
+        getattr(cp, "dll_bandwidth_hz", 1.0),
+        getattr(cp, "pll_bandwidth_hz", 15.0),
+        window * T,
+        p.early_late_spacing_chips,
+    )
     if p.loose_dll_correlation == "loop":  # correlated DLL errors between fixes (deep.loose.correlated_error_inflation)
         var_r = var_r * correlated_error_inflation(getattr(cp, "dll_bandwidth_hz", 1.0), p.update_interval_s)
     var_r = np.broadcast_to(var_r, rho.shape[1:])
@@ -149,13 +188,20 @@ def run_loose(scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTrut
             pos0, vel0, acc0 = ins.kinematics()
             if trailing:
                 m_rate = trailing_rate_measurement(
-                    track, rho_c, k_edge, window, T,
-                    line_of_sight_accel(sat_pos[k_edge], sat_acc[k_edge], pos0, acc0))
+                    track, rho_c, k_edge, window, T, line_of_sight_accel(sat_pos[k_edge], sat_acc[k_edge], pos0, acc0)
+                )
             fp, fv, fcov = pv_fix(m_rho, m_rate, var_r, var_v, sat_pos[k_edge], sat_vel[k_edge], pos0, vel0)
             loose_update(ins, ekf, fp, fv, fcov, p.loose_gate_probability)
         else:
             ekf.propagate(*ins.take_error_model())
         records.append(_nav_record(flight, t_u, ins, ekf.cov))
         times.append(t_u)
-    return _stack(records, times, {"code_error_chips": track.code_error_chips, "freq_error_hz": track.freq_error_hz,
-                                   "phase_error_rad": track.phase_error_rad})
+    return _stack(
+        records,
+        times,
+        {
+            "code_error_chips": track.code_error_chips,
+            "freq_error_hz": track.freq_error_hz,
+            "phase_error_rad": track.phase_error_rad,
+        },
+    )

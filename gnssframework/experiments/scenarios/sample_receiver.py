@@ -55,8 +55,9 @@ _NO_FIX = "no fix in the run"
 
 class SampleReceiverParams(ScenarioParams):
     duration_s: float = Field(10.0, gt=0, le=120, description="length of each run's recording (s)")
-    sample_rate_hz: float = Field(2.6e6, ge=2.046e6, le=4.092e6,
-                                  description="sample rate of the recordings (complex int8)")
+    sample_rate_hz: float = Field(
+        2.6e6, ge=2.046e6, le=4.092e6, description="sample rate of the recordings (complex int8)"
+    )
     rate_hz: float = Field(5.0, gt=0, le=50, description="position solutions per second")
     cn0_dbhz: float = Field(45.0, ge=30, le=60, description="C/N0 of every satellite")
     satellites: int = Field(6, ge=4, le=12, description="satellites in the recording: the highest above mask_deg")
@@ -65,12 +66,20 @@ class SampleReceiverParams(ScenarioParams):
     lon_deg: float = Field(108.3576, ge=-180, le=180)
     height_m: float = Field(590.6, ge=-500, le=10_000)
     gps_week: int = Field(2300, ge=0, description="GPS week of the recording")
-    subframe_tow_s: float = Field(345612.0, ge=0, lt=604_800,
-                                  description="GPS time of week of the first subframe boundary in the recording "
-                                  "(a multiple of 6 s; the default starts subframe 3, after the bit transitions "
-                                  "of subframe 2 that bit synchronisation needs)")
-    lead_s: float = Field(1.5, ge=1.0, le=5.0, description="recording time before that boundary (pull-in and bit "
-                          "synchronisation happen in it)")
+    subframe_tow_s: float = Field(
+        345612.0,
+        ge=0,
+        lt=604_800,
+        description="GPS time of week of the first subframe boundary in the recording "
+        "(a multiple of 6 s; the default starts subframe 3, after the bit transitions "
+        "of subframe 2 that bit synchronisation needs)",
+    )
+    lead_s: float = Field(
+        1.5,
+        ge=1.0,
+        le=5.0,
+        description="recording time before that boundary (pull-in and bit synchronisation happen in it)",
+    )
     coherent_ms: int = Field(10, description="coherent integration after bit synchronisation (ms; divides 20)")
     acquisition: str = Field("pcps", description="acquisition plugin searching all 32 PRNs")
 
@@ -99,29 +108,61 @@ class SampleReceiverParams(ScenarioParams):
 
 class SampleReceiverCase(ScenarioParams):
     name: str | None = None
-    cn0_dbhz: float | None = Field(None, ge=30, le=60, description="C/N0 of every satellite in this case "
-                                   "(default: the scenario's)")
+    cn0_dbhz: float | None = Field(
+        None, ge=30, le=60, description="C/N0 of every satellite in this case (default: the scenario's)"
+    )
     satellites: int | None = Field(None, ge=4, le=12, description="satellites in this case (default: the scenario's)")
 
 
 #: The scenario's metrics, each declared once as a component (name, unit, the series it
 #: reduces); ``run_batch`` computes them all once with `evaluate`.
 METRICS = (
-    FiniteRms("horizontal_error_rms", "m", of="horizontal_error_m", undefined=_NO_FIX,
-              description="RMS horizontal position error of the fixes against the generator's receiver position"),
-    FiniteRms("vertical_error_rms", "m", of="vertical_error_m", undefined=_NO_FIX,
-              description="RMS vertical position error of the fixes"),
-    FirstFinite("time_to_first_fix_s", "s", of="fix_time_s", undefined=_NO_FIX,
-                description="recording time of the first fix (the receiver has the ephemerides: one subframe's "
-                "TOW is enough)"),
-    FiniteFraction("fix_fraction", "-", of="fix_time_s",
-                   description="fraction of the epochs k / rate_hz of the recording with a fix"),
-    Last("channels_locked", "-", of="locked_channels",
-         description="channels of the generated satellites in lock at the end of the recording"),
-    Last("false_channels_locked", "-", of="locked_false_channels",
-         description="channels of satellites not in the recording in lock at its end (false acquisitions)"),
-    FiniteRms("cn0_error_rms_db", "dB", of="cn0_error_db", undefined="no channel in lock",
-              description="RMS of the C/N0 estimates of the locked generated channels minus the true C/N0"),
+    FiniteRms(
+        "horizontal_error_rms",
+        "m",
+        of="horizontal_error_m",
+        undefined=_NO_FIX,
+        description="RMS horizontal position error of the fixes against the generator's receiver position",
+    ),
+    FiniteRms(
+        "vertical_error_rms",
+        "m",
+        of="vertical_error_m",
+        undefined=_NO_FIX,
+        description="RMS vertical position error of the fixes",
+    ),
+    FirstFinite(
+        "time_to_first_fix_s",
+        "s",
+        of="fix_time_s",
+        undefined=_NO_FIX,
+        description="recording time of the first fix (the receiver has the ephemerides: one subframe's TOW is enough)",
+    ),
+    FiniteFraction(
+        "fix_fraction",
+        "-",
+        of="fix_time_s",
+        description="fraction of the epochs k / rate_hz of the recording with a fix",
+    ),
+    Last(
+        "channels_locked",
+        "-",
+        of="locked_channels",
+        description="channels of the generated satellites in lock at the end of the recording",
+    ),
+    Last(
+        "false_channels_locked",
+        "-",
+        of="locked_false_channels",
+        description="channels of satellites not in the recording in lock at its end (false acquisitions)",
+    ),
+    FiniteRms(
+        "cn0_error_rms_db",
+        "dB",
+        of="cn0_error_db",
+        undefined="no channel in lock",
+        description="RMS of the C/N0 estimates of the locked generated channels minus the true C/N0",
+    ),
 )
 
 
@@ -146,9 +187,12 @@ class SampleReceiverScenario(Scenario):
         super().check_case(case, where)
         p = self.params
         if p.duration_s < p.lead_s + _SUBFRAME_S + 1.0 / p.rate_hz:
-            raise ConfigError("scenario.duration_s", f"must be at least lead_s + 6 s + one epoch = "
-                              f"{p.lead_s + _SUBFRAME_S + 1.0 / p.rate_hz:g} s (the TOW of a whole subframe gives "
-                              f"the first fix; got {p.duration_s!r})")
+            raise ConfigError(
+                "scenario.duration_s",
+                f"must be at least lead_s + 6 s + one epoch = "
+                f"{p.lead_s + _SUBFRAME_S + 1.0 / p.rate_hz:g} s (the TOW of a whole subframe gives "
+                f"the first fix; got {p.duration_s!r})",
+            )
         self.plan(case, where)
 
     def check_composition(self, plugins, where: str) -> None:
@@ -157,12 +201,16 @@ class SampleReceiverScenario(Scenario):
         ch = plugins["channel_filter"]
         provides = set(ch.provides)
         if "correlators" not in ch.requires or not (set(NCO_COMMANDS) <= provides or set(ERROR_OUTPUTS) <= provides):
-            able = sorted(set(self.capable("channel_filter", NCO_COMMANDS)) | set(self.capable("channel_filter",
-                                                                                                ERROR_OUTPUTS)))
+            able = sorted(
+                set(self.capable("channel_filter", NCO_COMMANDS)) | set(self.capable("channel_filter", ERROR_OUTPUTS))
+            )
             able = [n for n in able if "correlators" in registry.get("channel_filter", n).requires]
-            raise ConfigError(f"{where}.channel_filter.name", f"{ch.name!r} cannot track on samples: it must require "
-                              f"'correlators' and provide {', '.join(NCO_COMMANDS)} or {', '.join(ERROR_OUTPUTS)}; "
-                              f"channel filters that do: {', '.join(able)}")
+            raise ConfigError(
+                f"{where}.channel_filter.name",
+                f"{ch.name!r} cannot track on samples: it must require "
+                f"'correlators' and provide {', '.join(NCO_COMMANDS)} or {', '.join(ERROR_OUTPUTS)}; "
+                f"channel filters that do: {', '.join(able)}",
+            )
         nav = plugins.get("nav_filter")
         if nav is not None:  # one run on the pseudoranges and Dopplers after the first fix
             check_nav_filter(nav.name, f"{where}.nav_filter.name")
@@ -173,10 +221,19 @@ class SampleReceiverScenario(Scenario):
         c = self.CaseParams.model_validate(case)
         satellites = p.satellites if c.satellites is None else c.satellites
         try:
-            return signal_plan(lat_deg=p.lat_deg, lon_deg=p.lon_deg, height_m=p.height_m,
-                               subframe_tow_s=p.subframe_tow_s, lead_s=p.lead_s, week=p.gps_week,
-                               satellites=satellites, cn0_dbhz=p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz,
-                               duration_s=p.duration_s, sample_rate_hz=p.sample_rate_hz, mask_deg=p.mask_deg)
+            return signal_plan(
+                lat_deg=p.lat_deg,
+                lon_deg=p.lon_deg,
+                height_m=p.height_m,
+                subframe_tow_s=p.subframe_tow_s,
+                lead_s=p.lead_s,
+                week=p.gps_week,
+                satellites=satellites,
+                cn0_dbhz=p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz,
+                duration_s=p.duration_s,
+                sample_rate_hz=p.sample_rate_hz,
+                mask_deg=p.mask_deg,
+            )
         except ConfigError as exc:
             field = f"{where}.satellites" if c.satellites is not None else "scenario.satellites"
             raise ConfigError(field, exc.detail) from None
@@ -186,13 +243,22 @@ class SampleReceiverScenario(Scenario):
         p = self.params
         return np.arange(int(np.floor(p.duration_s * p.rate_hz + 1e-9))) / p.rate_hz
 
-    def receive(self, plan: SignalPlan, plugins: dict, path: Path,
-                filters: StageFilters | None = None) -> receive_module.ReceiveResult:
+    def receive(
+        self, plan: SignalPlan, plugins: dict, path: Path, filters: StageFilters | None = None
+    ) -> receive_module.ReceiveResult:
         """`receive_candidate` on one run's recording, with the generator's ephemerides and
         the receiver's ionosphere and troposphere models off (the signals have neither)."""
         recording = open_recording(path, SAMPLE_FORMAT, plan.sample_rate_hz, 0.0)
-        return receive_candidate(recording, plugins, self.params, rinex=plan.ephemerides, ionosphere=False,
-                                 troposphere=False, reference_week=plan.week, filters=filters)
+        return receive_candidate(
+            recording,
+            plugins,
+            self.params,
+            rinex=plan.ephemerides,
+            ionosphere=False,
+            troposphere=False,
+            reference_week=plan.week,
+            filters=filters,
+        )
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
@@ -215,23 +281,43 @@ def candidate_filters(plugins: dict, params) -> StageFilters:
     scenario's ``coherent_ms``) with their stages' filters, built once for a batch: the
     candidate's own plugin is the ``track`` stage's prototype."""
     channel = plugins["channel_filter"]
-    config = tracking_config(channel_filter=channel.name, channel_params=_as_config(channel.params.model_dump(
-        mode="json")), coherent_ms=params.coherent_ms)
+    config = tracking_config(
+        channel_filter=channel.name,
+        channel_params=_as_config(channel.params.model_dump(mode="json")),
+        coherent_ms=params.coherent_ms,
+    )
     return StageFilters(config, channel)
 
 
-def receive_candidate(recording: Recording, plugins: dict, params, *, rinex, ionosphere: bool, troposphere: bool,
-                      reference_week: int | None, filters: StageFilters | None = None) -> receive_module.ReceiveResult:
+def receive_candidate(
+    recording: Recording,
+    plugins: dict,
+    params,
+    *,
+    rinex,
+    ionosphere: bool,
+    troposphere: bool,
+    reference_week: int | None,
+    filters: StageFilters | None = None,
+) -> receive_module.ReceiveResult:
     """`receive` on ``recording`` as a candidate builds it: its ``channel_filter`` (with its
     parameters) in the sample tracker and, when it names one, its ``nav_filter`` on the
     pseudoranges and Dopplers from the first least-squares fix; ``params`` gives the
     scenario's ``acquisition``, ``coherent_ms`` and ``rate_hz``. ``filters``: the
     batch's `candidate_filters` (built here when None)."""
     filters = filters if filters is not None else candidate_filters(plugins, params)
-    return receive_module.receive(recording, registry.create("acquisition", params.acquisition), filters.config,
-                                  rate_hz=params.rate_hz, rinex=rinex, ionosphere=ionosphere, troposphere=troposphere,
-                                  reference_week=reference_week, nav_filter=_spec(plugins.get("nav_filter")),
-                                  filters=filters)
+    return receive_module.receive(
+        recording,
+        registry.create("acquisition", params.acquisition),
+        filters.config,
+        rate_hz=params.rate_hz,
+        rinex=rinex,
+        ionosphere=ionosphere,
+        troposphere=troposphere,
+        reference_week=reference_week,
+        nav_filter=_spec(plugins.get("nav_filter")),
+        filters=filters,
+    )
 
 
 def evaluate_runs(metrics, per_run: list[dict[str, np.ndarray]], time_s: np.ndarray, scenario) -> BatchResult:

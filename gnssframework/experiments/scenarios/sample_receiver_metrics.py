@@ -20,12 +20,19 @@ from ..metrics import MetricValue
 __all__ = ["run_series", "FiniteRms", "FirstFinite", "FiniteFraction", "Last", "SERIES"]
 
 #: The raw series of one run (name -> unit), each ``(K,)``; the scenario stacks runs on axis 1.
-SERIES = {"fix_time_s": "s", "horizontal_error_m": "m", "vertical_error_m": "m", "locked_channels": "-",
-          "locked_false_channels": "-", "cn0_error_db": "dB"}
+SERIES = {
+    "fix_time_s": "s",
+    "horizontal_error_m": "m",
+    "vertical_error_m": "m",
+    "locked_channels": "-",
+    "locked_false_channels": "-",
+    "cn0_error_db": "dB",
+}
 
 
-def run_series(result: ReceiveResult, prns: tuple[int, ...], cn0_dbhz: float, truth_lat_lon_h: tuple,
-               time_s: np.ndarray) -> dict[str, np.ndarray]:
+def run_series(
+    result: ReceiveResult, prns: tuple[int, ...], cn0_dbhz: float, truth_lat_lon_h: tuple, time_s: np.ndarray
+) -> dict[str, np.ndarray]:
     """The series of one run on the epochs ``time_s`` (``(K,)``, s from the first sample).
 
     ``fix_time_s``: the sample time of the fix in the slot ``[t_k, t_k + dt)`` (NaN: none);
@@ -62,8 +69,14 @@ def run_series(result: ReceiveResult, prns: tuple[int, ...], cn0_dbhz: float, tr
             false_locked += lock
     cn0_err = np.full(k, np.nan)
     np.sqrt(sq_sum / np.maximum(n_sq, 1), out=cn0_err, where=n_sq > 0)
-    return {"fix_time_s": fix_t, "horizontal_error_m": horiz, "vertical_error_m": vert, "locked_channels": locked,
-            "locked_false_channels": false_locked, "cn0_error_db": cn0_err}
+    return {
+        "fix_time_s": fix_t,
+        "horizontal_error_m": horiz,
+        "vertical_error_m": vert,
+        "locked_channels": locked,
+        "locked_false_channels": false_locked,
+        "cn0_error_db": cn0_err,
+    }
 
 
 def _per_run(x: np.ndarray, reduce) -> np.ndarray:

@@ -34,8 +34,17 @@ from ...signal.spec import SignalSpec
 from ...simulation.constellation import nominal_constellation
 from ...simulation.propagation import elevation_deg
 
-__all__ = ["SignalPlan", "nominal_ephemerides", "signal_plan", "noise_free_samples", "write_run_recording",
-           "transmit_times", "CHUNK_S", "SAMPLE_FORMAT", "SAMPLE_SCALE"]
+__all__ = [
+    "SignalPlan",
+    "nominal_ephemerides",
+    "signal_plan",
+    "noise_free_samples",
+    "write_run_recording",
+    "transmit_times",
+    "CHUNK_S",
+    "SAMPLE_FORMAT",
+    "SAMPLE_SCALE",
+]
 
 #: Seconds of samples generated at a time (the geometry is updated at each chunk edge:
 #: over 0.5 s a Doppler drifts by under 0.5 Hz for a static receiver).
@@ -64,23 +73,54 @@ def nominal_ephemerides(toe_s: float, week: int) -> Ephemerides:
     s = const.prn.size
     zeros = np.zeros(s)
     wrap = lambda a: (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi  # noqa: E731 - LNAV angles are signed
-    elements = {k: zeros.copy() for k in ("Eccentricity", "omega", "DeltaN", "OmegaDot", "IDOT", "Cuc", "Cus",
-                                           "Crc", "Crs", "Cic", "Cis", "SVclockBias", "SVclockDrift",
-                                           "SVclockDriftRate", "TGD")}
-    elements |= {"sqrtA": np.full(s, np.sqrt(const.radius_m)), "Io": np.full(s, const.inclination_rad),
-                 "M0": wrap(const.arg_lat_rad + const.mean_motion_rad_s * toe_s), "Omega0": wrap(const.raan_rad),
-                 "Toe": np.full(s, toe_s)}
-    raw = Ephemerides(np.array([f"G{p:02d}" for p in const.prn]), np.full(s, toe_s), elements, zeros.copy(),
-                      np.full(s, 17.0), np.full(s, 2.0))
+    elements = {
+        k: zeros.copy()
+        for k in (
+            "Eccentricity",
+            "omega",
+            "DeltaN",
+            "OmegaDot",
+            "IDOT",
+            "Cuc",
+            "Cus",
+            "Crc",
+            "Crs",
+            "Cic",
+            "Cis",
+            "SVclockBias",
+            "SVclockDrift",
+            "SVclockDriftRate",
+            "TGD",
+        )
+    }
+    elements |= {
+        "sqrtA": np.full(s, np.sqrt(const.radius_m)),
+        "Io": np.full(s, const.inclination_rad),
+        "M0": wrap(const.arg_lat_rad + const.mean_motion_rad_s * toe_s),
+        "Omega0": wrap(const.raan_rad),
+        "Toe": np.full(s, toe_s),
+    }
+    raw = Ephemerides(
+        np.array([f"G{p:02d}" for p in const.prn]),
+        np.full(s, toe_s),
+        elements,
+        zeros.copy(),
+        np.full(s, 17.0),
+        np.full(s, 2.0),
+    )
     first_tow = np.floor(toe_s / 30.0) * 30.0  # a frame: subframes 1-5
     decoded = []
     for k in range(s):
         bits = lnav.encode_lnav(raw.subset(np.array([k])), week, first_tow, 5)
         decoded.append(lnav.decode_lnav(1 - 2 * bits.astype(np.int8), int(const.prn[k])).ephemeris)
-    return Ephemerides(np.concatenate([d.sv for d in decoded]), np.concatenate([d.toc_s for d in decoded]),
-                       {k: np.concatenate([d.elements[k] for d in decoded]) for k in decoded[0].elements},
-                       np.concatenate([d.health for d in decoded]), np.concatenate([d.iode for d in decoded]),
-                       np.concatenate([d.accuracy_m for d in decoded]))
+    return Ephemerides(
+        np.concatenate([d.sv for d in decoded]),
+        np.concatenate([d.toc_s for d in decoded]),
+        {k: np.concatenate([d.elements[k] for d in decoded]) for k in decoded[0].elements},
+        np.concatenate([d.health for d in decoded]),
+        np.concatenate([d.iode for d in decoded]),
+        np.concatenate([d.accuracy_m for d in decoded]),
+    )
 
 
 def transmit_times(eph: Ephemerides, receiver_ecef_m: np.ndarray, t_rx_s: float) -> np.ndarray:
@@ -94,8 +134,9 @@ def transmit_times(eph: Ephemerides, receiver_ecef_m: np.ndarray, t_rx_s: float)
         st = satellite_state(eph, t_rx_s - tau)
         th = OMEGA_EARTH_RAD_S * tau
         p = st.position_m
-        rotated = np.stack([np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1],
-                            -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1], p[:, 2]], axis=1)
+        rotated = np.stack(
+            [np.cos(th) * p[:, 0] + np.sin(th) * p[:, 1], -np.sin(th) * p[:, 0] + np.cos(th) * p[:, 1], p[:, 2]], axis=1
+        )
         tau = np.linalg.norm(rotated - receiver_ecef_m, axis=1) / _SPEED_OF_LIGHT_MPS
     return t_rx_s - tau + st.clock_l1_s
 
@@ -119,9 +160,20 @@ class SignalPlan:
     key: tuple
 
 
-def signal_plan(*, lat_deg: float, lon_deg: float, height_m: float, subframe_tow_s: float, lead_s: float,
-                week: int, satellites: int, cn0_dbhz: float, duration_s: float, sample_rate_hz: float,
-                mask_deg: float) -> SignalPlan:
+def signal_plan(
+    *,
+    lat_deg: float,
+    lon_deg: float,
+    height_m: float,
+    subframe_tow_s: float,
+    lead_s: float,
+    week: int,
+    satellites: int,
+    cn0_dbhz: float,
+    duration_s: float,
+    sample_rate_hz: float,
+    mask_deg: float,
+) -> SignalPlan:
     """The ``satellites`` highest satellites above ``mask_deg`` at the recording's start,
     which is ``lead_s`` before the subframe starting at GPS time ``subframe_tow_s``.
 
@@ -130,9 +182,23 @@ def signal_plan(*, lat_deg: float, lon_deg: float, height_m: float, subframe_tow
     ConfigError
         If fewer satellites are above the mask (naming ``satellites``).
     """
-    key = tuple(sorted(dict(lat_deg=lat_deg, lon_deg=lon_deg, height_m=height_m, subframe_tow_s=subframe_tow_s,
-                            lead_s=lead_s, week=week, satellites=satellites, cn0_dbhz=cn0_dbhz,
-                            duration_s=duration_s, sample_rate_hz=sample_rate_hz, mask_deg=mask_deg).items()))
+    key = tuple(
+        sorted(
+            dict(
+                lat_deg=lat_deg,
+                lon_deg=lon_deg,
+                height_m=height_m,
+                subframe_tow_s=subframe_tow_s,
+                lead_s=lead_s,
+                week=week,
+                satellites=satellites,
+                cn0_dbhz=cn0_dbhz,
+                duration_s=duration_s,
+                sample_rate_hz=sample_rate_hz,
+                mask_deg=mask_deg,
+            ).items()
+        )
+    )
     start = subframe_tow_s - lead_s
     eph = nominal_ephemerides(start, week)
     rx = np.array(pymap3d.geodetic2ecef(lat_deg, lon_deg, height_m))
@@ -140,13 +206,25 @@ def signal_plan(*, lat_deg: float, lon_deg: float, height_m: float, subframe_tow
     order = np.argsort(-el)
     above = order[el[order] > mask_deg]
     if above.size < satellites:
-        raise ConfigError("satellites", f"only {above.size} satellites are above the {mask_deg} deg mask at "
-                          f"this place and time; ask for at most {above.size}")
+        raise ConfigError(
+            "satellites",
+            f"only {above.size} satellites are above the {mask_deg} deg mask at "
+            f"this place and time; ask for at most {above.size}",
+        )
     pick = np.sort(above[:satellites])
     sats = eph.subset(pick)
-    return SignalPlan(sats, tuple(int(s[1:]) for s in sats.sv), float(cn0_dbhz), tuple(float(v) for v in rx),
-                      (lat_deg, lon_deg, height_m), float(start), int(week), float(duration_s),
-                      float(sample_rate_hz), key)
+    return SignalPlan(
+        sats,
+        tuple(int(s[1:]) for s in sats.sv),
+        float(cn0_dbhz),
+        tuple(float(v) for v in rx),
+        (lat_deg, lon_deg, height_m),
+        float(start),
+        int(week),
+        float(duration_s),
+        float(sample_rate_hz),
+        key,
+    )
 
 
 def noise_free_samples(plan: SignalPlan) -> np.ndarray:
@@ -166,8 +244,12 @@ def _noise_free(key: tuple, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
     t_sv0 = transmit_times(sats, rx, plan.start_tow_s)
     bits_per_s, periods_per_s = 1.0 / signal.symbol_period_s, 1.0 / signal.code_period_s  # 50, 1000 for C/A
     # Bits from the one in force 0.1 s before the first sample's transmit time on.
-    symbols = [lnav.lnav_symbols(sats.subset(np.array([k])), plan.week, float(t_sv0[k]) - 0.1,
-                                 int(plan.duration_s * bits_per_s) + 20) for k in range(sats.sv.size)]
+    symbols = [
+        lnav.lnav_symbols(
+            sats.subset(np.array([k])), plan.week, float(t_sv0[k]) - 0.1, int(plan.duration_s * bits_per_s) + 20
+        )
+        for k in range(sats.sv.size)
+    ]
     phase = np.zeros(sats.sv.size)
     start = t_sv0
     for c in range(n_chunks):
@@ -176,11 +258,22 @@ def _noise_free(key: tuple, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
         for k, prn in enumerate(plan.prns):
             bits, into = symbols[k]
             first_edge_tsv = float(t_sv0[k]) - 0.1 - into
-            out[c * n:(c + 1) * n] += generate_if_samples(
-                prn, CHUNK_S, fs, 0.0, plan.cn0_dbhz, None, doppler_hz=doppler_hz[k],
+            out[c * n : (c + 1) * n] += generate_if_samples(
+                prn,
+                CHUNK_S,
+                fs,
+                0.0,
+                plan.cn0_dbhz,
+                None,
+                doppler_hz=doppler_hz[k],
                 code_phase_chips=(start[k] * periods_per_s % 1.0) * signal.code_length_chips,
-                carrier_phase_rad=phase[k], complex_samples=True, data_bits=bits,
-                first_bit_edge_s=first_edge_tsv - start[k], noise=False, signal=signal).samples
+                carrier_phase_rad=phase[k],
+                complex_samples=True,
+                data_bits=bits,
+                first_bit_edge_s=first_edge_tsv - start[k],
+                noise=False,
+                signal=signal,
+            ).samples
         phase += 2 * np.pi * doppler_hz * CHUNK_S
         start = end
     return out
@@ -195,7 +288,10 @@ def write_run_recording(plan: SignalPlan, rng: np.random.Generator, path: str | 
     path = Path(path)
     with open(path, "wb") as out:
         for first in range(0, clean.size, n):
-            x = clean[first:first + n] + rng.standard_normal(min(n, clean.size - first)) \
+            x = (
+                clean[first : first + n]
+                + rng.standard_normal(min(n, clean.size - first))
                 + 1j * rng.standard_normal(min(n, clean.size - first))
+            )
             out.write(source.encode(x * SAMPLE_SCALE))
     return path

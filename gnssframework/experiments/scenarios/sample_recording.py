@@ -64,8 +64,15 @@ from . import BatchResult, Scenario, ScenarioParams, register_scenario
 from .sample_receiver import SampleReceiverScenario, candidate_filters, evaluate_runs, receive_candidate
 from .sample_receiver_metrics import FiniteFraction, FiniteRms, FirstFinite, Last, run_series
 
-__all__ = ["SampleRecordingScenario", "METRICS", "SERIES", "segment_bounds", "noise_power", "write_noisy_segment",
-           "NOISY_FORMAT"]
+__all__ = [
+    "SampleRecordingScenario",
+    "METRICS",
+    "SERIES",
+    "segment_bounds",
+    "noise_power",
+    "write_noisy_segment",
+    "NOISY_FORMAT",
+]
 
 #: Where ``validation/gps_sdr_sim_recording.py`` writes the example's recording.
 DEFAULT_RECORDING = "build/gps_sdr_sim_45dbhz.sigmf-data"
@@ -78,33 +85,63 @@ NOISY_FORMAT = "cf32_le"
 _BLOCK_SAMPLES = 1 << 20  # samples read, noised and written at a time (memory of one block)
 
 #: The raw series of one run (name -> unit), each ``(K,)`` on the segment's epochs.
-SERIES = {"fix_time_s": "s", "horizontal_error_m": "m", "vertical_error_m": "m", "horizontal_scatter_m": "m",
-          "vertical_scatter_m": "m", "locked_channels": "-"}
+SERIES = {
+    "fix_time_s": "s",
+    "horizontal_error_m": "m",
+    "vertical_error_m": "m",
+    "horizontal_scatter_m": "m",
+    "vertical_scatter_m": "m",
+    "locked_channels": "-",
+}
 
 
 class SampleRecordingParams(ScenarioParams):
-    recording: str = Field(DEFAULT_RECORDING, description="the recorded file (path from the working directory; "
-                           "default: the one validation/gps_sdr_sim_recording.py writes for the example); its SigMF "
-                           "metadata file, if beside it, gives what format, sample_rate_hz and if_hz leave out")
+    recording: str = Field(
+        DEFAULT_RECORDING,
+        description="the recorded file (path from the working directory; "
+        "default: the one validation/gps_sdr_sim_recording.py writes for the example); its SigMF "
+        "metadata file, if beside it, gives what format, sample_rate_hz and if_hz leave out",
+    )
     format: str | None = Field(None, description="sample format (a sample_source plugin; default: SigMF's)")
     sample_rate_hz: float | None = Field(None, gt=0, description="sample rate (default: SigMF's)")
     if_hz: float | None = Field(None, description="intermediate frequency (default: SigMF's, else 0)")
-    ephemeris: str | None = Field(None, description="RINEX navigation file for fixes before the subframes arrive "
-                                  "(path from the working directory)")
-    truth_lat_lon_h: list[float] | None = Field(None, min_length=3, max_length=3,
-                                                description="known receiver position: latitude, longitude (deg), "
-                                                "height (m); without it the error metrics are undefined")
+    ephemeris: str | None = Field(
+        None,
+        description="RINEX navigation file for fixes before the subframes arrive (path from the working directory)",
+    )
+    truth_lat_lon_h: list[float] | None = Field(
+        None,
+        min_length=3,
+        max_length=3,
+        description="known receiver position: latitude, longitude (deg), "
+        "height (m); without it the error metrics are undefined",
+    )
     start_s: float = Field(0.0, ge=0, description="start of run 0's segment in the file (s)")
-    segment_s: float = Field(12.0, gt=0, le=120, description="length of each run's segment (s); with runs_on = "
-                             "segments, run r starts at start_s + r segment_s")
+    segment_s: float = Field(
+        12.0,
+        gt=0,
+        le=120,
+        description="length of each run's segment (s); with runs_on = segments, run r starts at start_s + r segment_s",
+    )
     runs_on: Literal["segments", "one-segment-with-noise"] = Field(
-        "segments", description="segments: run r is the segment r of the file; one-segment-with-noise: every run "
-        "is the segment at start_s with its own white Gaussian noise added (cn0_reduction_db)")
-    cn0_reduction_db: float = Field(0.0, ge=0, le=30, description="C/N0 reduction by the noise added to every run "
-                                    "(dB; one-segment-with-noise only, where it must be > 0)")
+        "segments",
+        description="segments: run r is the segment r of the file; one-segment-with-noise: every run "
+        "is the segment at start_s with its own white Gaussian noise added (cn0_reduction_db)",
+    )
+    cn0_reduction_db: float = Field(
+        0.0,
+        ge=0,
+        le=30,
+        description="C/N0 reduction by the noise added to every run "
+        "(dB; one-segment-with-noise only, where it must be > 0)",
+    )
     rate_hz: float = Field(1.0, gt=0, le=50, description="position solutions per second")
-    gps_week: int | None = Field(None, ge=0, description="full GPS week near the recording (the decoded 10-bit "
-                                 "week is placed nearest it; needed when no subframe 1 arrives)")
+    gps_week: int | None = Field(
+        None,
+        ge=0,
+        description="full GPS week near the recording (the decoded 10-bit "
+        "week is placed nearest it; needed when no subframe 1 arrives)",
+    )
     ionosphere: bool = Field(True, description="apply the Klobuchar model (decoded page 18)")
     troposphere: bool = Field(False, description="apply the troposphere model (gps-sdr-sim has none)")
     coherent_ms: int = Field(10, description="coherent integration after bit synchronisation (ms; divides 20)")
@@ -131,18 +168,44 @@ class SampleRecordingCase(ScenarioParams):
 
 
 METRICS = (
-    FiniteRms("horizontal_error_rms", "m", of="horizontal_error_m", undefined=_NO_TRUTH,
-              description="RMS horizontal position error of the fixes against truth_lat_lon_h"),
-    FiniteRms("vertical_error_rms", "m", of="vertical_error_m", undefined=_NO_TRUTH,
-              description="RMS vertical position error of the fixes against truth_lat_lon_h"),
-    FiniteRms("horizontal_scatter_rms", "m", of="horizontal_scatter_m", undefined=_NO_FIX,
-              description="RMS horizontal distance of the run's fixes from their mean position (needs no truth)"),
-    FiniteRms("vertical_scatter_rms", "m", of="vertical_scatter_m", undefined=_NO_FIX,
-              description="RMS vertical distance of the run's fixes from their mean position (needs no truth)"),
-    FirstFinite("time_to_first_fix_s", "s", of="fix_time_s", undefined=_NO_FIX,
-                description="time of the first fix from the segment's start"),
-    FiniteFraction("fix_fraction", "-", of="fix_time_s",
-                   description="fraction of the segment's epochs k / rate_hz with a fix"),
+    FiniteRms(
+        "horizontal_error_rms",
+        "m",
+        of="horizontal_error_m",
+        undefined=_NO_TRUTH,
+        description="RMS horizontal position error of the fixes against truth_lat_lon_h",
+    ),
+    FiniteRms(
+        "vertical_error_rms",
+        "m",
+        of="vertical_error_m",
+        undefined=_NO_TRUTH,
+        description="RMS vertical position error of the fixes against truth_lat_lon_h",
+    ),
+    FiniteRms(
+        "horizontal_scatter_rms",
+        "m",
+        of="horizontal_scatter_m",
+        undefined=_NO_FIX,
+        description="RMS horizontal distance of the run's fixes from their mean position (needs no truth)",
+    ),
+    FiniteRms(
+        "vertical_scatter_rms",
+        "m",
+        of="vertical_scatter_m",
+        undefined=_NO_FIX,
+        description="RMS vertical distance of the run's fixes from their mean position (needs no truth)",
+    ),
+    FirstFinite(
+        "time_to_first_fix_s",
+        "s",
+        of="fix_time_s",
+        undefined=_NO_FIX,
+        description="time of the first fix from the segment's start",
+    ),
+    FiniteFraction(
+        "fix_fraction", "-", of="fix_time_s", description="fraction of the segment's epochs k / rate_hz with a fix"
+    ),
     Last("channels_locked", "-", of="locked_channels", description="channels in lock at the segment's end"),
 )
 
@@ -161,9 +224,12 @@ def segment_bounds(recording: Recording, start_s: float, segment_s: float, run: 
     count = int(round(segment_s * fs)) // spc * spc
     if first + count > recording.n_samples:
         fits = max(0, int((recording.duration_s - start_s + 1e-9) // segment_s))
-        raise ConfigError("scenario.segment_s", f"run {run}'s segment ends at {(first + count) / fs:.3f} s, past the "
-                          f"end of {recording.path.name} ({recording.duration_s:.3f} s): the file holds {fits} "
-                          f"segment(s) of {segment_s:g} s from start_s = {start_s:g} s; lower runs or segment_s")
+        raise ConfigError(
+            "scenario.segment_s",
+            f"run {run}'s segment ends at {(first + count) / fs:.3f} s, past the "
+            f"end of {recording.path.name} ({recording.duration_s:.3f} s): the file holds {fits} "
+            f"segment(s) of {segment_s:g} s from start_s = {start_s:g} s; lower runs or segment_s",
+        )
     return first, count
 
 
@@ -188,15 +254,23 @@ class SampleRecordingScenario(SampleReceiverScenario):
         segment_bounds(rec, p.start_s, p.segment_s, 0)
         self.ephemerides()
         if p.runs_on == "segments" and p.cn0_reduction_db:
-            raise ConfigError("scenario.cn0_reduction_db", f"adds noise only with runs_on = "
-                              f"'one-segment-with-noise' (runs_on is 'segments'); got {p.cn0_reduction_db:g}")
+            raise ConfigError(
+                "scenario.cn0_reduction_db",
+                f"adds noise only with runs_on = "
+                f"'one-segment-with-noise' (runs_on is 'segments'); got {p.cn0_reduction_db:g}",
+            )
         if p.runs_on == "one-segment-with-noise":
             if not p.cn0_reduction_db > 0:
-                raise ConfigError("scenario.cn0_reduction_db", "must be > 0 with runs_on = "
-                                  "'one-segment-with-noise' (the runs would be the same samples)")
+                raise ConfigError(
+                    "scenario.cn0_reduction_db",
+                    "must be > 0 with runs_on = 'one-segment-with-noise' (the runs would be the same samples)",
+                )
             if not rec.is_complex:
-                raise ConfigError("scenario.runs_on", f"'one-segment-with-noise' writes complex float32 samples; "
-                                  f"{rec.path.name} holds real ones ({rec.info.format})")
+                raise ConfigError(
+                    "scenario.runs_on",
+                    f"'one-segment-with-noise' writes complex float32 samples; "
+                    f"{rec.path.name} holds real ones ({rec.info.format})",
+                )
 
     def open(self) -> Recording:
         """The recording, with the format, rate and IF of the parameters or its SigMF file."""
@@ -205,8 +279,11 @@ class SampleRecordingScenario(SampleReceiverScenario):
             return open_recording(p.recording, p.format, p.sample_rate_hz, p.if_hz)
         except ConfigError as exc:
             field = exc.field if exc.field in ("format", "sample_rate_hz", "if_hz") else "recording"
-            hint = (" (a gps-sdr-sim recording is made by validation/gps_sdr_sim_recording.py)"
-                    if "no such file" in exc.detail else "")
+            hint = (
+                " (a gps-sdr-sim recording is made by validation/gps_sdr_sim_recording.py)"
+                if "no such file" in exc.detail
+                else ""
+            )
             raise ConfigError(f"scenario.{field}", exc.detail + hint) from None
 
     def ephemerides(self):
@@ -243,10 +320,19 @@ class SampleRecordingScenario(SampleReceiverScenario):
                     segment = open_recording(path, NOISY_FORMAT, rec.info.sample_rate_hz, rec.info.if_hz, 1)
                 else:
                     _copy_segment(rec, *segment_bounds(rec, p.start_s, p.segment_s, run), path)
-                    segment = open_recording(path, rec.info.format, rec.info.sample_rate_hz, rec.info.if_hz,
-                                             rec.info.q_sign)
-                result = receive_candidate(segment, plugins, p, rinex=rinex, ionosphere=p.ionosphere,
-                                           troposphere=p.troposphere, reference_week=p.gps_week, filters=filters)
+                    segment = open_recording(
+                        path, rec.info.format, rec.info.sample_rate_hz, rec.info.if_hz, rec.info.q_sign
+                    )
+                result = receive_candidate(
+                    segment,
+                    plugins,
+                    p,
+                    rinex=rinex,
+                    ionosphere=p.ionosphere,
+                    troposphere=p.troposphere,
+                    reference_week=p.gps_week,
+                    filters=filters,
+                )
                 per_run.append(_series(result, truth, t))
                 path.unlink()
         return evaluate_runs(METRICS, per_run, t, self)
@@ -264,8 +350,9 @@ def noise_power(rec: Recording, first: int, count: int) -> float:
     return (total_sq / count - abs(total / count) ** 2) / 2
 
 
-def write_noisy_segment(rec: Recording, first: int, count: int, sigma: float, rng: np.random.Generator,
-                        path: str | Path) -> Path:
+def write_noisy_segment(
+    rec: Recording, first: int, count: int, sigma: float, rng: np.random.Generator, path: str | Path
+) -> Path:
     """Samples ``[first, first + count)`` of ``rec`` (complex, Q sign applied) plus complex
     white Gaussian noise of ``sigma`` per component drawn from ``rng``, written to ``path``
     as `NOISY_FORMAT` (no metadata file: the caller gives the format).
@@ -299,8 +386,12 @@ def _series(result: receive_module.ReceiveResult, truth: tuple | None, t: np.nda
     if table is not None and len(table):
         mean = tuple(float(v) for v in pymap3d.ecef2geodetic(*table.ecef_m.mean(axis=0)))
     own = run_series(result, _ALL_PRNS, 0.0, mean, t)
-    out = {"fix_time_s": own["fix_time_s"], "horizontal_scatter_m": own["horizontal_error_m"],
-           "vertical_scatter_m": own["vertical_error_m"], "locked_channels": own["locked_channels"]}
+    out = {
+        "fix_time_s": own["fix_time_s"],
+        "horizontal_scatter_m": own["horizontal_error_m"],
+        "vertical_scatter_m": own["vertical_error_m"],
+        "locked_channels": own["locked_channels"],
+    }
     if truth is None:
         out["horizontal_error_m"] = out["vertical_error_m"] = np.full(t.size, np.nan)
     else:

@@ -51,9 +51,11 @@ class ScintillationParams(SignalCoherentTime, ScenarioParams):
     lock_window_s: float = Field(0.2, gt=0, description="block length of the lock test")
     lock_threshold: float = Field(0.5, description="a block whose mean cos(2 phase error) is below is out of lock")
     oscillator: Oscillator = Field(
-        "none", description="receiver oscillator phase noise of every case that sets none: 'none' (an ideal "
+        "none",
+        description="receiver oscillator phase noise of every case that sets none: 'none' (an ideal "
         "clock), or a preset of gnssframework.simulation.clock (tcxo, tcxo-hq, ocxo: its Allan-variance "
-        "h-parameters)")
+        "h-parameters)",
+    )
 
 
 class ScintillationCase(SignalCoherentTime, ScenarioParams):
@@ -65,46 +67,81 @@ class ScintillationCase(SignalCoherentTime, ScenarioParams):
     p: float = Field(2.5, ge=1.5, le=4.0, description="AJ-Stanford spectral slope")
     corner_hz: float = Field(0.1, gt=0, description="AJ-Stanford corner frequency")
     cn0_dbhz: float | None = Field(None, ge=20, le=60, description="C/N0 of this case (default: the scenario's)")
-    coherent_time_s: float | None = Field(None, description="interval T of this case (s; whole 1 ms code "
-                                                 "periods, 1 to 20 ms; default: the scenario's); the candidates' "
-                                                 "loops are re-created at this T")
+    coherent_time_s: float | None = Field(
+        None,
+        description="interval T of this case (s; whole 1 ms code "
+        "periods, 1 to 20 ms; default: the scenario's); the candidates' "
+        "loops are re-created at this T",
+    )
     duration_s: float | None = Field(None, gt=0, le=3600, description="duration of this case (default: the scenario's)")
     # Line-of-sight dynamics in the truth's carrier (and code) phase; all off by default,
     # so a case without them is the static receiver of the reference.
     doppler_rate_hz_s: float | None = Field(
-        None, ge=-1000, le=1000,
+        None,
+        ge=-1000,
+        le=1000,
         description="constant Doppler rate of this case in Hz/s (line-of-sight acceleration / L1 wavelength; "
         "1 Hz/s = 0.19 m/s^2); default: the scenario's doppler_rate_hz_s (0). A 2nd-order loop lags it by "
-        "2 pi fdot / omega_n^2 rad (Kaplan & Hegarty, Understanding GPS/GNSS, 3rd ed., PLL steady-state errors)")
+        "2 pi fdot / omega_n^2 rad (Kaplan & Hegarty, Understanding GPS/GNSS, 3rd ed., PLL steady-state errors)",
+    )
     doppler_jerk_hz_s2: float = Field(
-        0.0, ge=-100, le=100,
+        0.0,
+        ge=-100,
+        le=100,
         description="constant rate of change of the Doppler rate in Hz/s^2 (line-of-sight jerk / L1 wavelength); "
-        "default 0; the carrier gains fddot t^3 / 6 cycles, a ramp error for a 2nd-order loop")
+        "default 0; the carrier gains fddot t^3 / 6 cycles, a ramp error for a 2nd-order loop",
+    )
     los_sine_amplitude_m: float = Field(
-        0.0, ge=0, le=100,
+        0.0,
+        ge=0,
+        le=100,
         description="amplitude in metres of a sinusoidal platform motion along the line of sight, default 0 "
-        "(none); the carrier gains (A / lambda_L1) sin(2 pi f t) cycles")
+        "(none); the carrier gains (A / lambda_L1) sin(2 pi f t) cycles",
+    )
     los_sine_frequency_hz: float = Field(
-        0.5, gt=0, le=20,
-        description="frequency in Hz of that sinusoidal motion, default 0.5 Hz (a vibration or a sway)")
+        0.5,
+        gt=0,
+        le=20,
+        description="frequency in Hz of that sinusoidal motion, default 0.5 Hz (a vibration or a sway)",
+    )
     oscillator: Oscillator | None = Field(
-        None, description="receiver oscillator of this case (default: the scenario's): its clock bias b(t) "
-        "moves carrier and code together by -f_L1 b cycles (gnssframework.simulation.clock.ClockModel)")
+        None,
+        description="receiver oscillator of this case (default: the scenario's): its clock bias b(t) "
+        "moves carrier and code together by -f_L1 b cycles (gnssframework.simulation.clock.ClockModel)",
+    )
 
 
 #: The scenario's metrics, each declared once as a component (name, unit, the series it
 #: reduces); ``run_batch`` computes them all once with `evaluate`.
 METRICS = (
-    Rmse("phase_error_rmse", "rad", of="phase_error_rad", settle="settle_s",
-         description="RMS carrier phase error (wrapped to half a cycle) after settle_s"),
-    Std("discriminator_std", "rad", of="phase_disc_rad", settle="settle_s",
-        description="standard deviation of the phase discriminator's output after settle_s"),
-    LockLossFraction("loss_of_lock_fraction", of="phase_error_rad", window="lock_window_s",
-                     threshold="lock_threshold", settle="settle_s",
-                     description="fraction of lock_window_s blocks whose mean cos(2 phase error) is below "
-                     "lock_threshold"),
-    Mean("equivalent_bandwidth_hz", "Hz", of="loop_noise_bandwidth_hz",
-         description="the loop's steady-state noise bandwidth (gnssframework.receiver.tracking.loop_bandwidth)"),
+    Rmse(
+        "phase_error_rmse",
+        "rad",
+        of="phase_error_rad",
+        settle="settle_s",
+        description="RMS carrier phase error (wrapped to half a cycle) after settle_s",
+    ),
+    Std(
+        "discriminator_std",
+        "rad",
+        of="phase_disc_rad",
+        settle="settle_s",
+        description="standard deviation of the phase discriminator's output after settle_s",
+    ),
+    LockLossFraction(
+        "loss_of_lock_fraction",
+        of="phase_error_rad",
+        window="lock_window_s",
+        threshold="lock_threshold",
+        settle="settle_s",
+        description="fraction of lock_window_s blocks whose mean cos(2 phase error) is below lock_threshold",
+    ),
+    Mean(
+        "equivalent_bandwidth_hz",
+        "Hz",
+        of="loop_noise_bandwidth_hz",
+        description="the loop's steady-state noise bandwidth (gnssframework.receiver.tracking.loop_bandwidth)",
+    ),
 )
 
 
@@ -137,17 +174,23 @@ class ScintillationScenario(Scenario):
             if duration_s <= limit:
                 raise ConfigError(field, f"must be longer than {name} = {limit!r} s (got {duration_s!r})")
         if p.lock_window_s > duration_s - p.settle_s:
-            raise ConfigError("scenario.lock_window_s", f"must be at most duration_s - settle_s = "
-                              f"{duration_s - p.settle_s:g} s of {where} (one whole lock-test block after "
-                              f"settling; got {p.lock_window_s!r})")
+            raise ConfigError(
+                "scenario.lock_window_s",
+                f"must be at most duration_s - settle_s = "
+                f"{duration_s - p.settle_s:g} s of {where} (one whole lock-test block after "
+                f"settling; got {p.lock_window_s!r})",
+            )
 
     def assumption_context(self, case: dict) -> dict:
         """The case's interval T (the loops are re-created at it), its C/N0 and the L1
         wavelength, for the candidates' ``assumptions``."""
         c = self.CaseParams.model_validate({k: v for k, v in case.items() if k != "name"} | {"name": case.get("name")})
         p = self.params
-        return {"coherent_time_s": c.coherent_time_s or p.coherent_time_s,
-                "cn0_dbhz": p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz, "wavelength_m": self.signal.wavelength_m}
+        return {
+            "coherent_time_s": c.coherent_time_s or p.coherent_time_s,
+            "cn0_dbhz": p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz,
+            "wavelength_m": self.signal.wavelength_m,
+        }
 
     def batch_memory(self, case: dict, runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         T = case["coherent_time_s"] or self.params.coherent_time_s
@@ -183,16 +226,28 @@ class ScintillationScenario(Scenario):
             raise self.refuse(exc, where, NCO_COMMANDS + ("phase_disc_rad",)) from None
         T = getattr(ch.params, "coherent_time_s", None)
         if T is not None and abs(T - self.params.coherent_time_s) > 1e-12:
-            raise ConfigError(f"{where}.channel_filter.params.coherent_time_s",
-                              f"is {T} but the scenario integrates over {self.params.coherent_time_s} s; make them equal")
+            raise ConfigError(
+                f"{where}.channel_filter.params.coherent_time_s",
+                f"is {T} but the scenario integrates over {self.params.coherent_time_s} s; make them equal",
+            )
 
-    def _scintillation(self, case: dict, runs: int, rng: np.random.Generator, T: float, duration_s: float) -> np.ndarray:
+    def _scintillation(
+        self, case: dict, runs: int, rng: np.random.Generator, T: float, duration_s: float
+    ) -> np.ndarray:
         fs = 1.0 / T
         duration = duration_s + T  # K+1 boundary samples
         if case.get("model", "aj-stanford") == "cornell":
             return scint.cornell(case["s4"], case.get("tau0_s", 0.8), duration, fs, rng, batch_shape=(runs,))
-        return scint.aj_stanford(case["s4"], case.get("sigma_phi_rad", 0.1), duration, fs, rng,
-                                 p=case.get("p", 2.5), corner_hz=case.get("corner_hz", 0.1), batch_shape=(runs,))
+        return scint.aj_stanford(
+            case["s4"],
+            case.get("sigma_phi_rad", 0.1),
+            duration,
+            fs,
+            rng,
+            p=case.get("p", 2.5),
+            corner_hz=case.get("corner_hz", 0.1),
+            batch_shape=(runs,),
+        )
 
     at_interval = staticmethod(at_interval)  # the loop at the case's T (loop_bandwidth.at_interval)
 
@@ -217,17 +272,26 @@ class ScintillationScenario(Scenario):
         sway = None
         if c["los_sine_amplitude_m"] > 0:
             t = np.arange(K + 1)[:, None] * T
-            sway = (c["los_sine_amplitude_m"] / self.signal.wavelength_m
-                    * np.sin(2 * np.pi * c["los_sine_frequency_hz"] * t))
+            sway = (
+                c["los_sine_amplitude_m"]
+                / self.signal.wavelength_m
+                * np.sin(2 * np.pi * c["los_sine_frequency_hz"] * t)
+            )
         oscillator = c["oscillator"] or p.oscillator
         if oscillator != "none":
             clock = self.oscillator_cycles(oscillator, K, T, draw.child(rng, "oscillator"), runs)
             sway = clock if sway is None else sway + clock
-        truth = SignalTruth.from_dynamics(duration_s, T, cn0_dbhz,
-                                          doppler_hz=np.full(runs, p.doppler_hz),
-                                          doppler_rate_hz_s=rate, doppler_jerk_hz_s2=c["doppler_jerk_hz_s2"],
-                                          extra_cycles=sway,
-                                          extra_phase_rad=phase, amplitude_scale=np.abs(z[:K]))
+        truth = SignalTruth.from_dynamics(
+            duration_s,
+            T,
+            cn0_dbhz,
+            doppler_hz=np.full(runs, p.doppler_hz),
+            doppler_rate_hz_s=rate,
+            doppler_jerk_hz_s2=c["doppler_jerk_hz_s2"],
+            extra_cycles=sway,
+            extra_phase_rad=phase,
+            amplitude_scale=np.abs(z[:K]),
+        )
         return truth, phase
 
     def oscillator_cycles(self, oscillator: str, epochs: int, interval_s: float, rng, runs: int) -> np.ndarray:
@@ -257,6 +321,13 @@ class ScintillationScenario(Scenario):
         t = (np.arange(K) + 0.5) * T
         # Costas loops are blind to half cycles: wrap errors to (-pi/2, pi/2].
         err = (rec.phase_error_rad + np.pi / 2) % np.pi - np.pi / 2
-        return evaluate(METRICS, {"phase_error_rad": err, "phase_disc_rad": rec.outputs["phase_disc_rad"],
-                                  "loop_noise_bandwidth_hz": np.full((K, runs), equivalent_bandwidth_hz(channel, T))},
-                        t, self)
+        return evaluate(
+            METRICS,
+            {
+                "phase_error_rad": err,
+                "phase_disc_rad": rec.outputs["phase_disc_rad"],
+                "loop_noise_bandwidth_hz": np.full((K, runs), equivalent_bandwidth_hz(channel, T)),
+            },
+            t,
+            self,
+        )

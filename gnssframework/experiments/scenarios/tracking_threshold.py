@@ -88,8 +88,14 @@ from ... import random_streams as draw
 from ...errors import ConfigError
 from ...interfaces import RunContext
 from ...receiver.engine.channel import Channel
-from ...receiver.engine.closers import (ESTIMATE_OUTPUTS, NCO_COMMANDS, EstimateCloser, ScalarCloser,
-                                        check_closed_loop, check_estimate_loop)
+from ...receiver.engine.closers import (
+    ESTIMATE_OUTPUTS,
+    NCO_COMMANDS,
+    EstimateCloser,
+    ScalarCloser,
+    check_closed_loop,
+    check_estimate_loop,
+)
 from ...receiver.engine.sources import AnalyticSource
 from ...receiver.engine.truth import LoopTruth
 from ...receiver.tracking.jitter import loop_variance, pll_thermal_variance_rad2
@@ -102,12 +108,25 @@ from ..metric_components import Mean, SeriesMetric, evaluate, units
 from ..metrics import MetricValue
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
 
-__all__ = ["TrackingThresholdScenario", "lock_loss", "code_freq_lock_loss", "count_slips", "lock_scores",
-           "code_freq_lock_scores", "cn0_estimate_error_db", "cn0_readings_dbhz", "median_error_db", "cn0_floor_dbhz",
-           "cn0_lock_loss", "METRICS", "BYTES_PER_EPOCH_RUN"]
+__all__ = [
+    "TrackingThresholdScenario",
+    "lock_loss",
+    "code_freq_lock_loss",
+    "count_slips",
+    "lock_scores",
+    "code_freq_lock_scores",
+    "cn0_estimate_error_db",
+    "cn0_readings_dbhz",
+    "median_error_db",
+    "cn0_floor_dbhz",
+    "cn0_lock_loss",
+    "METRICS",
+    "BYTES_PER_EPOCH_RUN",
+]
 
 #: Peak memory of one run's interval (truth, the record; a generous round number).
 BYTES_PER_EPOCH_RUN = 512
+
 
 class TrackingThresholdParams(SignalCoherentTime, ScenarioParams):
     duration_s: float = Field(10.0, gt=0, le=3600, description="duration of every case (s)")
@@ -117,25 +136,47 @@ class TrackingThresholdParams(SignalCoherentTime, ScenarioParams):
     initial_freq_error_hz: float = Field(0.0, ge=-50, le=50, description="acquisition's Doppler error (Hz)")
     early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0, description="early-late spacing d (chips)")
     settle_s: float = Field(1.0, ge=0, description="pull-in time not scored (s)")
-    lock_window_s: float = Field(0.1, gt=0, description="block length of the lock test: how long the "
-                                 "out-of-lock condition must hold (s)")
-    lock_threshold: float = Field(0.5, gt=-1, lt=1, description="a block whose mean cos(2 phase error) is "
-                                  "below is out of lock")
-    freq_lock_hz: float | None = Field(None, gt=0, description="code-and-frequency lock test (loss_of_code_freq_lock): "
-                                       "a block whose mean |frequency error| exceeds it is out of lock (Hz); "
-                                       "null: 1/(4T), a two-quadrant arctangent FLL's pull-in range")
-    sample_rate_hz: float = Field(2.046e6, ge=1.1e6, le=40e6, description="sample rate of a samples case "
-                                  "(complex baseband, IF 0; T times it must be a whole number)")
+    lock_window_s: float = Field(
+        0.1, gt=0, description="block length of the lock test: how long the out-of-lock condition must hold (s)"
+    )
+    lock_threshold: float = Field(
+        0.5, gt=-1, lt=1, description="a block whose mean cos(2 phase error) is below is out of lock"
+    )
+    freq_lock_hz: float | None = Field(
+        None,
+        gt=0,
+        description="code-and-frequency lock test (loss_of_code_freq_lock): "
+        "a block whose mean |frequency error| exceeds it is out of lock (Hz); "
+        "null: 1/(4T), a two-quadrant arctangent FLL's pull-in range",
+    )
+    sample_rate_hz: float = Field(
+        2.046e6,
+        ge=1.1e6,
+        le=40e6,
+        description="sample rate of a samples case (complex baseband, IF 0; T times it must be a whole number)",
+    )
     prn: int = Field(1, ge=1, le=32, description="PRN of a samples case's signal")
-    slip_capture_rad: float = Field(math.pi / 4, gt=0, lt=math.pi / 2, description="the phase error must come "
-                                    "this close (rad) to a new multiple of pi to count a slip")
-    cn0_estimator: str = Field("m2m4", description="the cn0_estimator plugin reading the prompts "
-                               "(cn0_estimate_bias_db); one that reads the prompt alone")
+    slip_capture_rad: float = Field(
+        math.pi / 4,
+        gt=0,
+        lt=math.pi / 2,
+        description="the phase error must come this close (rad) to a new multiple of pi to count a slip",
+    )
+    cn0_estimator: str = Field(
+        "m2m4",
+        description="the cn0_estimator plugin reading the prompts "
+        "(cn0_estimate_bias_db); one that reads the prompt alone",
+    )
     cn0_window_s: float = Field(0.2, gt=0, le=60, description="window of one C/N0 estimate (s; whole intervals T)")
-    cn0_lock_dbhz: float | None = Field(None, ge=0, le=60, description="the receiver's C/N0 lock test "
-                                        "(loss_of_lock_by_cn0): a window whose reading is below it declares loss "
-                                        "(dB-Hz); null: the cn0_estimator's noise-only floor on the window (95th "
-                                        "percentile on pure noise, cn0_floor_dbhz), the lowest C/N0 it can vouch for")
+    cn0_lock_dbhz: float | None = Field(
+        None,
+        ge=0,
+        le=60,
+        description="the receiver's C/N0 lock test "
+        "(loss_of_lock_by_cn0): a window whose reading is below it declares loss "
+        "(dB-Hz); null: the cn0_estimator's noise-only floor on the window (95th "
+        "percentile on pure noise, cn0_floor_dbhz), the lowest C/N0 it can vouch for",
+    )
 
     @field_validator("cn0_estimator")
     @classmethod
@@ -144,29 +185,46 @@ class TrackingThresholdParams(SignalCoherentTime, ScenarioParams):
 
         estimator = registry.get("cn0_estimator", name)  # an unknown name: the registry's error, with the names
         if tuple(estimator.needs) != ("prompt",):
-            raise ConfigError("cn0_estimator", f"{name!r} reads {', '.join(estimator.needs)}; the scenario simulates "
-                              "the prompt only: choose an estimator of the prompt alone (m2m4, narrow-wide, snv, "
-                              "beaulieu)")
+            raise ConfigError(
+                "cn0_estimator",
+                f"{name!r} reads {', '.join(estimator.needs)}; the scenario simulates "
+                "the prompt only: choose an estimator of the prompt alone (m2m4, narrow-wide, snv, "
+                "beaulieu)",
+            )
         return name
 
 
 class TrackingThresholdCase(SignalCoherentTime, ScenarioParams):
     name: str | None = None
     cn0_dbhz: float | None = Field(None, ge=5, le=60, description="C/N0 of this case (dB-Hz; default the scenario's)")
-    coherent_time_s: float | None = Field(None, description="interval T of this case (default the "
-                                                 "scenario's); the candidates' loops are re-created at it")
+    coherent_time_s: float | None = Field(
+        None, description="interval T of this case (default the scenario's); the candidates' loops are re-created at it"
+    )
     duration_s: float | None = Field(None, gt=0, le=3600, description="duration of this case (default the scenario's)")
-    doppler_rate_hz_s: float = Field(0.0, ge=-1000, le=1000, description="constant Doppler rate (Hz/s; "
-                                     "line-of-sight acceleration / L1 wavelength: 1 Hz/s = 0.19 m/s^2)")
-    doppler_jerk_hz_s2: float = Field(0.0, ge=-100, le=100, description="constant Doppler jerk (Hz/s^2; "
-                                      "line-of-sight jerk / L1 wavelength)")
+    doppler_rate_hz_s: float = Field(
+        0.0,
+        ge=-1000,
+        le=1000,
+        description="constant Doppler rate (Hz/s; line-of-sight acceleration / L1 wavelength: 1 Hz/s = 0.19 m/s^2)",
+    )
+    doppler_jerk_hz_s2: float = Field(
+        0.0, ge=-100, le=100, description="constant Doppler jerk (Hz/s^2; line-of-sight jerk / L1 wavelength)"
+    )
     source: Literal["analytic", "samples"] = Field(
-        "analytic", description="correlators from the analytic model (all runs at once) or from IF samples "
-        "(complex, generated per run, correlated by the compiled kernels; static cases only)")
+        "analytic",
+        description="correlators from the analytic model (all runs at once) or from IF samples "
+        "(complex, generated per run, correlated by the compiled kernels; static cases only)",
+    )
 
 
-def lock_loss(phase_error_rad: np.ndarray, code_error_chips: np.ndarray, first: int, window: int,
-              threshold: float, half_spacing_chips: float) -> tuple[np.ndarray, np.ndarray, int]:
+def lock_loss(
+    phase_error_rad: np.ndarray,
+    code_error_chips: np.ndarray,
+    first: int,
+    window: int,
+    threshold: float,
+    half_spacing_chips: float,
+) -> tuple[np.ndarray, np.ndarray, int]:
     """First out-of-lock block of every run (see the module docstring).
 
     Parameters
@@ -198,8 +256,14 @@ def lock_loss(phase_error_rad: np.ndarray, code_error_chips: np.ndarray, first: 
     return lost, (j + 1) * window, blocks
 
 
-def code_freq_lock_loss(freq_error_hz: np.ndarray, code_error_chips: np.ndarray, first: int, window: int,
-                        freq_limit_hz: float, half_spacing_chips: float) -> tuple[np.ndarray, np.ndarray, int]:
+def code_freq_lock_loss(
+    freq_error_hz: np.ndarray,
+    code_error_chips: np.ndarray,
+    first: int,
+    window: int,
+    freq_limit_hz: float,
+    half_spacing_chips: float,
+) -> tuple[np.ndarray, np.ndarray, int]:
     r"""First block out of *code and frequency* lock of every run (or channel): the criterion
     that a frequency-locked loop (a vector delay/frequency lock loop, whose replica phase is
     not locked) can be judged by, and a phase-locked loop beside it.
@@ -298,17 +362,29 @@ class TrackingThresholdScenario(Scenario):
     params: TrackingThresholdParams  # self.params, as validated
     CaseParams = TrackingThresholdCase
     components = {"channel_filter": True}
-    outputs = {"phase_error_rad": "rad", "code_error_chips": "chips", "freq_error_hz": "Hz",
-               "phase_thermal_std_rad": "rad",
-               "code_thermal_std_chips": "chips", "loop_noise_bandwidth_hz": "Hz", "cn0_error_db": "dB",
-               "cn0_lost": "", "cn0_floor": "dB-Hz"}
+    outputs = {
+        "phase_error_rad": "rad",
+        "code_error_chips": "chips",
+        "freq_error_hz": "Hz",
+        "phase_thermal_std_rad": "rad",
+        "code_thermal_std_chips": "chips",
+        "loop_noise_bandwidth_hz": "Hz",
+        "cn0_error_db": "dB",
+        "cn0_lost": "",
+        "cn0_floor": "dB-Hz",
+    }
 
     def _case(self, case: dict) -> dict:
         c = self.CaseParams.model_validate(case)
         p = self.params
-        return {"T": c.coherent_time_s or p.coherent_time_s, "duration_s": c.duration_s or p.duration_s,
-                "cn0_dbhz": p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz,
-                "rate": c.doppler_rate_hz_s, "jerk": c.doppler_jerk_hz_s2, "source": c.source}
+        return {
+            "T": c.coherent_time_s or p.coherent_time_s,
+            "duration_s": c.duration_s or p.duration_s,
+            "cn0_dbhz": p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz,
+            "rate": c.doppler_rate_hz_s,
+            "jerk": c.doppler_jerk_hz_s2,
+            "source": c.source,
+        }
 
     def check_case(self, case: dict, where: str) -> None:
         """The case's own checks, and its duration against settling and one lock-test block."""
@@ -319,15 +395,23 @@ class TrackingThresholdScenario(Scenario):
         if c["source"] == "samples":
             for key, name in (("rate", "doppler_rate_hz_s"), ("jerk", "doppler_jerk_hz_s2")):
                 if c[key] != 0:
-                    raise ConfigError(f"{where}.{name}", "the samples source simulates a constant Doppler only; "
-                                      f"set it to 0 or use source = \"analytic\" (got {c[key]!r})")
+                    raise ConfigError(
+                        f"{where}.{name}",
+                        "the samples source simulates a constant Doppler only; "
+                        f'set it to 0 or use source = "analytic" (got {c[key]!r})',
+                    )
             n = c["T"] * p.sample_rate_hz
             if abs(n - round(n)) > 1e-6:
-                raise ConfigError("scenario.sample_rate_hz", f"T = {c['T']} s times the sample rate must be a whole "
-                                  f"number of samples (got {n:g})")
+                raise ConfigError(
+                    "scenario.sample_rate_hz",
+                    f"T = {c['T']} s times the sample rate must be a whole number of samples (got {n:g})",
+                )
         if c["duration_s"] - p.settle_s < max(p.lock_window_s, c["T"]):
-            raise ConfigError(field, f"must leave one lock-test block of lock_window_s = {p.lock_window_s!r} s "
-                              f"after settle_s = {p.settle_s!r} s (got {c['duration_s']!r})")
+            raise ConfigError(
+                field,
+                f"must leave one lock-test block of lock_window_s = {p.lock_window_s!r} s "
+                f"after settle_s = {p.settle_s!r} s (got {c['duration_s']!r})",
+            )
 
     def assumption_context(self, case: dict) -> dict:
         c = self._case(case)
@@ -376,8 +460,14 @@ class TrackingThresholdScenario(Scenario):
         if c["source"] == "samples":
             parts = [self._track_samples(c, channel, stream) for stream in rng.generators]
             return {name: np.concatenate([q[name] for q in parts], axis=1) for name in parts[0]}, T
-        truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=np.full(runs, p.doppler_hz),
-                                        doppler_rate_hz_s=c["rate"], doppler_jerk_hz_s2=c["jerk"])
+        truth = LoopTruth.from_dynamics(
+            c["duration_s"],
+            T,
+            c["cn0_dbhz"],
+            doppler_hz=np.full(runs, p.doppler_hz),
+            doppler_rate_hz_s=c["rate"],
+            doppler_jerk_hz_s2=c["jerk"],
+        )
         source = AnalyticSource(CorrelatorSimulator(T, d), amplitude_from_cn0(c["cn0_dbhz"], T), rng)
         return self._close(channel, truth, c, source), T
 
@@ -389,11 +479,27 @@ class TrackingThresholdScenario(Scenario):
 
         p = self.params
         T, fs = c["T"], p.sample_rate_hz
-        x = generate_if_samples(p.prn, c["duration_s"] + 2 * T, fs, 0.0, c["cn0_dbhz"], rng, doppler_hz=p.doppler_hz,
-                                complex_samples=True, sample_type="float32")
+        x = generate_if_samples(
+            p.prn,
+            c["duration_s"] + 2 * T,
+            fs,
+            0.0,
+            c["cn0_dbhz"],
+            rng,
+            doppler_hz=p.doppler_hz,
+            complex_samples=True,
+            sample_type="float32",
+        )
         truth = LoopTruth.from_dynamics(c["duration_s"], T, c["cn0_dbhz"], doppler_hz=np.full(1, p.doppler_hz))
-        source = SampleSource(x.samples, fs, 0.0, self.signal.code(p.prn)[None, :], T,
-                              early_late_spacing_chips=p.early_late_spacing_chips, noise_std=x.noise_std)
+        source = SampleSource(
+            x.samples,
+            fs,
+            0.0,
+            self.signal.code(p.prn)[None, :],
+            T,
+            early_late_spacing_chips=p.early_late_spacing_chips,
+            noise_std=x.noise_std,
+        )
         return self._close(channel, truth, c, source)  # the closer resets the filter
 
     def _close(self, channel, truth: LoopTruth, c: dict, source) -> dict[str, np.ndarray]:
@@ -409,8 +515,9 @@ class TrackingThresholdScenario(Scenario):
         runs = truth.code_phase_chips.shape[1]
         estimate = not all(n in channel.provides for n in NCO_COMMANDS)
         closer = EstimateCloser(channel) if estimate else ScalarCloser(channel)
-        replica = Channel.start((runs,), truth.code_phase_chips[0], p.doppler_hz + p.initial_freq_error_hz,
-                                signal=truth.signal)
+        replica = Channel.start(
+            (runs,), truth.code_phase_chips[0], p.doppler_hz + p.initial_freq_error_hz, signal=truth.signal
+        )
         closer.reset(replica, T, early_late_spacing_chips=d, cn0_dbhz=c["cn0_dbhz"])
         code, carrier = truth.code_phase_chips, truth.carrier_phase_rad
         phase_err, code_err, freq_err = (np.empty((truth.epochs, runs)) for _ in range(3))
@@ -425,8 +532,7 @@ class TrackingThresholdScenario(Scenario):
                 phase_err[k] = EstimateCloser.phase_estimate_error(phase_err[k], out, T)
             code_err[k] = err.code_chips
             freq_err[k] = err.freq_hz
-        return {"phase_error_rad": phase_err, "code_error_chips": code_err, "freq_error_hz": freq_err,
-                "prompt": prompt}
+        return {"phase_error_rad": phase_err, "code_error_chips": code_err, "freq_error_hz": freq_err, "prompt": prompt}
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         c = self._case(case)
@@ -447,11 +553,15 @@ class TrackingThresholdScenario(Scenario):
         floor_dbhz = cn0_floor_dbhz(T, self.params)
         limit = floor_dbhz if self.params.cn0_lock_dbhz is None else self.params.cn0_lock_dbhz
         lost_by_cn0 = cn0_lock_loss(reading_db, limit)
-        series = {**tracked, "cn0_error_db": np.broadcast_to(cn0_error_db, (K, runs)),
-                  "cn0_lost": np.broadcast_to(lost_by_cn0, (K, runs)), "cn0_floor": np.full((K, runs), floor_dbhz),
-                  "phase_thermal_std_rad": np.full((K, runs), thermal_phase),
-                  "code_thermal_std_chips": np.full((K, runs), thermal_code),
-                  "loop_noise_bandwidth_hz": np.full((K, runs), bandwidth)}
+        series = {
+            **tracked,
+            "cn0_error_db": np.broadcast_to(cn0_error_db, (K, runs)),
+            "cn0_lost": np.broadcast_to(lost_by_cn0, (K, runs)),
+            "cn0_floor": np.full((K, runs), floor_dbhz),
+            "phase_thermal_std_rad": np.full((K, runs), thermal_phase),
+            "code_thermal_std_chips": np.full((K, runs), thermal_code),
+            "loop_noise_bandwidth_hz": np.full((K, runs), bandwidth),
+        }
         return evaluate(METRICS, series, (np.arange(K) + 0.5) * T, self)
 
 
@@ -468,7 +578,7 @@ def cn0_readings_dbhz(prompt: np.ndarray, T: float, p: Any) -> np.ndarray:
     first = int(math.ceil(p.settle_s / T - 1e-9))
     width = max(int(round(p.cn0_window_s / T)), estimator.required_intervals())
     windows = max((K - first) // width, 0)
-    blocks = prompt[first:first + windows * width].reshape(windows, width, runs)
+    blocks = prompt[first : first + windows * width].reshape(windows, width, runs)
     estimate_hz = estimator.estimate_hz(np.moveaxis(blocks, 1, -1), T)  # (windows, runs)
     with np.errstate(divide="ignore"):
         return np.where(estimate_hz > 0, 10.0 * np.log10(np.maximum(estimate_hz, 1e-300)), -np.inf)
@@ -525,17 +635,20 @@ def lock_scores(phase_err: np.ndarray, code_err: np.ndarray, T: float, p: Tracki
     K, runs = phase_err.shape
     first = int(math.ceil(p.settle_s / T - 1e-9))
     window = max(1, int(round(p.lock_window_s / T)))
-    lost, end, blocks = lock_loss(phase_err, code_err, first, window, p.lock_threshold,
-                                  p.early_late_spacing_chips / 2)
+    lost, end, blocks = lock_loss(phase_err, code_err, first, window, p.lock_threshold, p.early_late_spacing_chips / 2)
     span_s = (K - first) * T
     scored = phase_err[first:]
     half_slips, whole_slips = count_slips(scored, p.slip_capture_rad)
     wrapped = (scored + np.pi / 2) % np.pi - np.pi / 2
     in_lock = np.where(lost, end - window, end)  # intervals before the first out-of-lock block
-    return {"loss_of_lock": lost.astype(float), "time_to_loss_s": end * T,
-            "half_cycle_slip_rate": half_slips / span_s, "cycle_slip_rate": whole_slips / span_s,
-            "phase_jitter_rad": _rms_before(wrapped, in_lock),
-            "code_jitter_chips": _rms_before(code_err[first:], in_lock)}
+    return {
+        "loss_of_lock": lost.astype(float),
+        "time_to_loss_s": end * T,
+        "half_cycle_slip_rate": half_slips / span_s,
+        "cycle_slip_rate": whole_slips / span_s,
+        "phase_jitter_rad": _rms_before(wrapped, in_lock),
+        "code_jitter_chips": _rms_before(code_err[first:], in_lock),
+    }
 
 
 def code_freq_lock_scores(freq_err: np.ndarray, code_err: np.ndarray, T: float, p: Any) -> dict:
@@ -583,41 +696,92 @@ class LockScore(SeriesMetric):
 
 #: The scenario's metrics, each declared once as a component.
 METRICS = (
-    LockScore("loss_of_lock", "", description="1 if lock was lost after settle_s (a lock_window_s block with mean "
-              "cos(2 phase error) below lock_threshold, or mean |code error| above d/2), else 0; its mean is the "
-              "probability of loss of lock within the case"),
-    LockScore("time_to_loss_s", "s", description="time after settle_s to the end of the first out-of-lock block, "
-              "or the observed span (censored); its mean is the Kaplan-Meier restricted mean time to loss of lock"),
-    CodeFreqLockScore("loss_of_code_freq_lock", "", description="1 if code or frequency lock was lost after "
-                      "settle_s (a lock_window_s block with mean |frequency error| above freq_lock_hz, default "
-                      "1/(4T), or mean |code error| above d/2), else 0: the criterion a frequency-locked vector "
-                      "loop is judged by too"),
-    CodeFreqLockScore("time_to_code_freq_loss_s", "s", description="time after settle_s to the end of the first "
-                      "block out of code or frequency lock, or the observed span (censored)"),
-    LockScore("half_cycle_slip_rate", "1/s", description="half-cycle slips of the true phase error per second "
-              "after settle_s"),
-    LockScore("cycle_slip_rate", "1/s", description="whole-cycle slips of the true phase error per second after "
-              "settle_s"),
-    LockScore("phase_jitter_rad", "rad", undefined="lock lost in the first block",
-              description="RMS phase error (wrapped to half a cycle) while in lock"),
-    Mean("phase_jitter_thermal_rad", "rad", of="phase_thermal_std_rad",
-         description="Costas PLL thermal jitter B_L/c (1 + 1/(2cT)) at the loop's measured noise bandwidth"),
-    LockScore("code_jitter_chips", "chips", undefined="lock lost in the first block",
-              description="RMS code error while in lock"),
-    Mean("code_jitter_thermal_chips", "chips", of="code_thermal_std_chips",
-         description="DLL thermal jitter sqrt(2 B T sigma_D^2) (NaN without dll_bandwidth_hz)"),
-    Mean("cn0_estimate_error_db", "dB", of="cn0_error_db",
-         undefined="no reading in most windows (or no whole cn0_window_s after settle_s)",
-         description="median over the run's windows (cn0_window_s, after settle_s) of the cn0_estimator's reading "
-         "minus the true C/N0; its mean over runs is the estimate's bias: the receiver's own view of the signal "
-         "as lock goes"),
-    Mean("loss_of_lock_by_cn0", "", of="cn0_lost", undefined="no whole cn0_window_s after settle_s",
-         description="1 if a window's C/N0 reading (cn0_window_s, after settle_s) is below cn0_lock_dbhz (default "
-         "cn0_floor_dbhz), else 0: the receiver's own lock test on its estimate"),
-    Mean("cn0_floor_dbhz", "dB-Hz", of="cn0_floor",
-         description="the cn0_estimator's noise-only floor on the window (95th percentile of its readings on pure "
-         "noise): a threshold below it cannot be read off the estimate"),
-    Mean("equivalent_bandwidth_hz", "Hz", of="loop_noise_bandwidth_hz",
-         description="the carrier loop's steady-state noise bandwidth (loop_bandwidth.equivalent_bandwidth_hz)"),
+    LockScore(
+        "loss_of_lock",
+        "",
+        description="1 if lock was lost after settle_s (a lock_window_s block with mean "
+        "cos(2 phase error) below lock_threshold, or mean |code error| above d/2), else 0; its mean is the "
+        "probability of loss of lock within the case",
+    ),
+    LockScore(
+        "time_to_loss_s",
+        "s",
+        description="time after settle_s to the end of the first out-of-lock block, "
+        "or the observed span (censored); its mean is the Kaplan-Meier restricted mean time to loss of lock",
+    ),
+    CodeFreqLockScore(
+        "loss_of_code_freq_lock",
+        "",
+        description="1 if code or frequency lock was lost after "
+        "settle_s (a lock_window_s block with mean |frequency error| above freq_lock_hz, default "
+        "1/(4T), or mean |code error| above d/2), else 0: the criterion a frequency-locked vector "
+        "loop is judged by too",
+    ),
+    CodeFreqLockScore(
+        "time_to_code_freq_loss_s",
+        "s",
+        description="time after settle_s to the end of the first "
+        "block out of code or frequency lock, or the observed span (censored)",
+    ),
+    LockScore(
+        "half_cycle_slip_rate", "1/s", description="half-cycle slips of the true phase error per second after settle_s"
+    ),
+    LockScore(
+        "cycle_slip_rate", "1/s", description="whole-cycle slips of the true phase error per second after settle_s"
+    ),
+    LockScore(
+        "phase_jitter_rad",
+        "rad",
+        undefined="lock lost in the first block",
+        description="RMS phase error (wrapped to half a cycle) while in lock",
+    ),
+    Mean(
+        "phase_jitter_thermal_rad",
+        "rad",
+        of="phase_thermal_std_rad",
+        description="Costas PLL thermal jitter B_L/c (1 + 1/(2cT)) at the loop's measured noise bandwidth",
+    ),
+    LockScore(
+        "code_jitter_chips",
+        "chips",
+        undefined="lock lost in the first block",
+        description="RMS code error while in lock",
+    ),
+    Mean(
+        "code_jitter_thermal_chips",
+        "chips",
+        of="code_thermal_std_chips",
+        description="DLL thermal jitter sqrt(2 B T sigma_D^2) (NaN without dll_bandwidth_hz)",
+    ),
+    Mean(
+        "cn0_estimate_error_db",
+        "dB",
+        of="cn0_error_db",
+        undefined="no reading in most windows (or no whole cn0_window_s after settle_s)",
+        description="median over the run's windows (cn0_window_s, after settle_s) of the cn0_estimator's reading "
+        "minus the true C/N0; its mean over runs is the estimate's bias: the receiver's own view of the signal "
+        "as lock goes",
+    ),
+    Mean(
+        "loss_of_lock_by_cn0",
+        "",
+        of="cn0_lost",
+        undefined="no whole cn0_window_s after settle_s",
+        description="1 if a window's C/N0 reading (cn0_window_s, after settle_s) is below cn0_lock_dbhz (default "
+        "cn0_floor_dbhz), else 0: the receiver's own lock test on its estimate",
+    ),
+    Mean(
+        "cn0_floor_dbhz",
+        "dB-Hz",
+        of="cn0_floor",
+        description="the cn0_estimator's noise-only floor on the window (95th percentile of its readings on pure "
+        "noise): a threshold below it cannot be read off the estimate",
+    ),
+    Mean(
+        "equivalent_bandwidth_hz",
+        "Hz",
+        of="loop_noise_bandwidth_hz",
+        description="the carrier loop's steady-state noise bandwidth (loop_bandwidth.equivalent_bandwidth_hz)",
+    ),
 )
 TrackingThresholdScenario.metrics = units(METRICS)

@@ -43,14 +43,23 @@ __all__ = ["VectorThresholdScenario", "METRICS", "channel_lock_series"]
 
 class VectorThresholdParams(VectorTrackingParams):
     lock_window_s: float = Field(0.1, gt=0, description="block length of the lock test (s)")
-    freq_lock_hz: float | None = Field(None, gt=0, description="a block whose mean |frequency error| exceeds it "
-                                       "is out of lock (Hz); null: 1/(4T), a two-quadrant arctangent FLL's "
-                                       "pull-in range")
+    freq_lock_hz: float | None = Field(
+        None,
+        gt=0,
+        description="a block whose mean |frequency error| exceeds it "
+        "is out of lock (Hz); null: 1/(4T), a two-quadrant arctangent FLL's "
+        "pull-in range",
+    )
 
 
 class VectorThresholdCase(VectorTrackingCase):
-    cn0_dbhz: float = Field(..., ge=5, le=60, description="C/N0 of every channel (dB-Hz; down to 5, below the "
-                            "vector-tracking scenario's 15, for the threshold's grid)")
+    cn0_dbhz: float = Field(
+        ...,
+        ge=5,
+        le=60,
+        description="C/N0 of every channel (dB-Hz; down to 5, below the "
+        "vector-tracking scenario's 15, for the threshold's grid)",
+    )
 
 
 def channel_lock_series(freq_err: np.ndarray, code_err: np.ndarray, T: float, p: Any) -> np.ndarray:
@@ -90,14 +99,28 @@ class _LockFraction(SeriesMetric):
 
 
 LOCK_METRICS = (
-    _LockFraction("loss_of_code_freq_lock", "", "fraction", description="fraction of the run's channels that lost "
-                  "code or frequency lock after settle_s (a lock_window_s block with mean |frequency error| above "
-                  "freq_lock_hz, default 1/(4T), or mean |code error| above d/2); its mean is the probability that "
-                  "a channel loses lock within the case"),
-    _LockFraction("loss_of_code_freq_lock_any", "", "any", description="1 if any channel of the run lost code or "
-                  "frequency lock, else 0"),
-    _LockFraction("time_to_code_freq_loss_s", "s", "time", description="time after settle_s to the first channel's "
-                  "loss of code or frequency lock, or the observed span (censored)"),
+    _LockFraction(
+        "loss_of_code_freq_lock",
+        "",
+        "fraction",
+        description="fraction of the run's channels that lost "
+        "code or frequency lock after settle_s (a lock_window_s block with mean |frequency error| above "
+        "freq_lock_hz, default 1/(4T), or mean |code error| above d/2); its mean is the probability that "
+        "a channel loses lock within the case",
+    ),
+    _LockFraction(
+        "loss_of_code_freq_lock_any",
+        "",
+        "any",
+        description="1 if any channel of the run lost code or frequency lock, else 0",
+    ),
+    _LockFraction(
+        "time_to_code_freq_loss_s",
+        "s",
+        "time",
+        description="time after settle_s to the first channel's "
+        "loss of code or frequency lock, or the observed span (censored)",
+    ),
 )
 METRICS = VECTOR_METRICS + LOCK_METRICS
 
@@ -114,8 +137,9 @@ class VectorThresholdScenario(VectorTrackingScenario):
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         series, rec = self.vector_series(case, plugins, runs, rng)
-        series["channels_out_of_lock"] = channel_lock_series(rec.freq_error_hz, rec.code_error_chips,
-                                                             self.params.coherent_time_s, self.params)
+        series["channels_out_of_lock"] = channel_lock_series(
+            rec.freq_error_hz, rec.code_error_chips, self.params.coherent_time_s, self.params
+        )
         return evaluate(METRICS, series, rec.time_s, self)
 
 

@@ -4,5 +4,13 @@ from .fft_search import code_replica, fine_doppler, search_grid
 from .search import Acquisition, AcquisitionResult
 from .threshold import cell_false_alarm, noise_floor, threshold_from_pfa
 
-__all__ = ["Acquisition", "AcquisitionResult", "search_grid", "fine_doppler", "code_replica", "threshold_from_pfa",
-           "cell_false_alarm", "noise_floor"]
+__all__ = [
+    "Acquisition",
+    "AcquisitionResult",
+    "search_grid",
+    "fine_doppler",
+    "code_replica",
+    "threshold_from_pfa",
+    "cell_false_alarm",
+    "noise_floor",
+]

@@ -41,9 +41,20 @@ class SearchWindow:
     doppler_halfwidth_hz: float
 
 
-def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn: int, window: SearchWindow, *,
-                  coherent_ms: int = 10, noncoherent: int = 8, alternate: bool = True,
-                  pfa: float = 1e-3, signal: SignalSpec = GPS_L1CA, code_doppler: bool = False) -> AcquisitionResult:
+def window_search(
+    samples: np.ndarray,
+    sample_rate_hz: float,
+    if_hz: float,
+    prn: int,
+    window: SearchWindow,
+    *,
+    coherent_ms: int = 10,
+    noncoherent: int = 8,
+    alternate: bool = True,
+    pfa: float = 1e-3,
+    signal: SignalSpec = GPS_L1CA,
+    code_doppler: bool = False,
+) -> AcquisitionResult:
     """Search ``prn`` in ``window`` only (see the module text).
 
     Parameters
@@ -70,8 +81,11 @@ def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn:
         first sample of a code period at it, ``doppler_hz`` the bin centre.
     """
     if window.code_halfwidth_samples < 0 or window.doppler_halfwidth_hz < 0:
-        raise ConfigError("window", f"half widths must be >= 0, got {window.code_halfwidth_samples} samples and "
-                                    f"{window.doppler_halfwidth_hz} Hz")
+        raise ConfigError(
+            "window",
+            f"half widths must be >= 0, got {window.code_halfwidth_samples} samples and "
+            f"{window.doppler_halfwidth_hz} Hz",
+        )
     if alternate and noncoherent % 2:
         raise ConfigError("noncoherent", f"alternate blocks need an even number of blocks, got {noncoherent}")
     signal.check_prn(prn)
@@ -83,8 +97,9 @@ def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn:
     half = int(np.ceil(window.doppler_halfwidth_hz / step))
     dopplers = window.doppler_hz + np.arange(-half, half + 1) * step
     blocks = noncoherent // 2 if alternate else noncoherent
-    grid = search_grid(samples, sample_rate_hz, if_hz, (prn,), T, noncoherent, dopplers, alternate, signal,
-                       code_doppler)[0]
+    grid = search_grid(
+        samples, sample_rate_hz, if_hz, (prn,), T, noncoherent, dopplers, alternate, signal, code_doppler
+    )[0]
     sigma2 = noise_floor(grid, blocks, alternate)
     # Lags within the half width of the predicted start, modulo one code period.
     per_code = sample_rate_hz * signal.code_length_chips / signal.chip_rate_hz
@@ -99,5 +114,6 @@ def window_search(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn:
     # E[S] = K(2 + 2cT duty), as the pcps search's C/N0 (`SignalSpec.replica_duty`).
     c = max((peak / blocks - 2.0) / (2 * T * signal.replica_duty), 1e-3)
     chips = float((-s * signal.chip_rate_hz / sample_rate_hz) % signal.code_length_chips)
-    return AcquisitionResult(int(prn), peak > threshold, float(dopplers[d]), s, chips, float(10 * np.log10(c)),
-                             peak, threshold)
+    return AcquisitionResult(
+        int(prn), peak > threshold, float(dopplers[d]), s, chips, float(10 * np.log10(c)), peak, threshold
+    )

@@ -37,8 +37,9 @@ _CHUNK_ELEMENTS = 1 << 21
 _FINE_TABLE_ELEMENTS = 1 << 22
 
 
-def code_replica(prn: int, n_samples: int, sample_rate_hz: float, chip_offset: float = 0.0,
-                 signal: SignalSpec = GPS_L1CA) -> np.ndarray:
+def code_replica(
+    prn: int, n_samples: int, sample_rate_hz: float, chip_offset: float = 0.0, signal: SignalSpec = GPS_L1CA
+) -> np.ndarray:
     """``n_samples`` of ``signal``'s spreading waveform of ``prn`` (the ±1 code for BPSK)
     sampled at ``sample_rate_hz``, chip 0 at sample 0 (``float32``)."""
     chips = chip_offset + np.arange(n_samples) * (signal.chip_rate_hz / sample_rate_hz)
@@ -46,7 +47,7 @@ def code_replica(prn: int, n_samples: int, sample_rate_hz: float, chip_offset: f
 
 
 def _blocks(samples: np.ndarray, n: int, noncoherent: int) -> np.ndarray:
-    return np.asarray(samples[:n * noncoherent]).reshape(noncoherent, n)
+    return np.asarray(samples[: n * noncoherent]).reshape(noncoherent, n)
 
 
 def _wiped_spectra(blocks: np.ndarray, dopplers_hz: np.ndarray, sample_rate_hz: float, if_hz: float) -> np.ndarray:
@@ -65,9 +66,18 @@ def _sum_blocks(power: np.ndarray, alternate: bool) -> np.ndarray:
     return np.maximum(np.sum(power[:, 0::2], axis=1), np.sum(power[:, 1::2], axis=1))
 
 
-def search_grid(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prns: tuple[int, ...],
-                coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray,
-                alternate: bool = False, signal: SignalSpec = GPS_L1CA, code_doppler: bool = False) -> np.ndarray:
+def search_grid(
+    samples: np.ndarray,
+    sample_rate_hz: float,
+    if_hz: float,
+    prns: tuple[int, ...],
+    coherent_time_s: float,
+    noncoherent: int,
+    dopplers_hz: np.ndarray,
+    alternate: bool = False,
+    signal: SignalSpec = GPS_L1CA,
+    code_doppler: bool = False,
+) -> np.ndarray:
     """Raw grid :math:`\\sum_k |z_k[s]|^2` per PRN, Doppler bin and code lag: ``(n_prn, n_doppler, N)``.
 
     ``samples`` must hold ``noncoherent`` blocks of ``N = round(coherent_time_s * fs)``.
@@ -93,12 +103,12 @@ def search_grid(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prns: 
     out = np.empty((len(prns), dopplers_hz.size, n), np.float32)
     step = max(1, _CHUNK_ELEMENTS // (noncoherent * n))
     for lo in range(0, dopplers_hz.size, step):
-        spectra = _wiped_spectra(blocks, dopplers_hz[lo:lo + step], sample_rate_hz, if_hz)
+        spectra = _wiped_spectra(blocks, dopplers_hz[lo : lo + step], sample_rate_hz, if_hz)
         if code_doppler:
-            spectra *= _code_drift_ramp(dopplers_hz[lo:lo + step], noncoherent, n, signal.carrier_freq_hz)
+            spectra *= _code_drift_ramp(dopplers_hz[lo : lo + step], noncoherent, n, signal.carrier_freq_hz)
         for i in range(len(prns)):
             z = fft.ifft(spectra * codes[i], axis=-1, workers=1)
-            out[i, lo:lo + step] = _sum_blocks(z.real**2 + z.imag**2, alternate)
+            out[i, lo : lo + step] = _sum_blocks(z.real**2 + z.imag**2, alternate)
     return out
 
 
@@ -111,8 +121,9 @@ def _code_drift_ramp(dopplers_hz: np.ndarray, blocks: int, n: int, carrier_hz: f
 
 
 @lru_cache(maxsize=2)
-def _offset_carriers(n: int, noncoherent: int, sample_rate_hz: float, n_offsets: int,
-                     offset_step_hz: float) -> np.ndarray:
+def _offset_carriers(
+    n: int, noncoherent: int, sample_rate_hz: float, n_offsets: int, offset_step_hz: float
+) -> np.ndarray:
     """``(n_offsets, K, n)`` :math:`e^{-j 2\\pi\\, m \\delta f\\, t}` for ``m = 0 .. n_offsets - 1``:
     the fine bins' carriers relative to the first, the same for every PRN of a search."""
     t = (np.arange(noncoherent * n) / sample_rate_hz).reshape(noncoherent, n)
@@ -121,9 +132,18 @@ def _offset_carriers(n: int, noncoherent: int, sample_rate_hz: float, n_offsets:
     return out
 
 
-def fine_doppler(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn: int, code_start_sample: int,
-                 coherent_time_s: float, noncoherent: int, dopplers_hz: np.ndarray,
-                 alternate: bool = False, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
+def fine_doppler(
+    samples: np.ndarray,
+    sample_rate_hz: float,
+    if_hz: float,
+    prn: int,
+    code_start_sample: int,
+    coherent_time_s: float,
+    noncoherent: int,
+    dopplers_hz: np.ndarray,
+    alternate: bool = False,
+    signal: SignalSpec = GPS_L1CA,
+) -> np.ndarray:
     """Raw :math:`\\sum_k |z_k|^2` at one code lag for each of ``dopplers_hz`` (the fine
     search; ``alternate`` as `search_grid`).
 
@@ -145,6 +165,5 @@ def fine_doppler(samples: np.ndarray, sample_rate_hz: float, if_hz: float, prn: 
         wiped = blocks * replica * np.exp(-2j * np.pi * (if_hz + dopplers_hz[0]) * t)
         z = np.einsum("kn,dkn->dk", wiped, _offset_carriers(n, K, float(sample_rate_hz), dopplers_hz.size, step_hz))
     else:
-        z = np.einsum("kn,dkn->dk", blocks * replica,
-                      np.exp(-2j * np.pi * (if_hz + dopplers_hz[:, None, None]) * t))
+        z = np.einsum("kn,dkn->dk", blocks * replica, np.exp(-2j * np.pi * (if_hz + dopplers_hz[:, None, None]) * t))
     return _sum_blocks(np.abs(z) ** 2, alternate)

@@ -35,8 +35,16 @@ from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .search import AcquisitionResult
 
-__all__ = ["MAX_VISIBLE_GPS", "MAX_DOPPLER_SPREAD_HZ", "MIN_PRNS_FOR_FLOOR", "implausible_acquisition",
-           "format_hint", "check_acquisition", "unrepeated", "check_samples"]
+__all__ = [
+    "MAX_VISIBLE_GPS",
+    "MAX_DOPPLER_SPREAD_HZ",
+    "MIN_PRNS_FOR_FLOOR",
+    "implausible_acquisition",
+    "format_hint",
+    "check_acquisition",
+    "unrepeated",
+    "check_samples",
+]
 
 #: More satellites than this found at once is not a GPS sky seen from near the ground
 #: (12-14 is the most the full constellation puts above a horizon; margin for a few at
@@ -70,22 +78,28 @@ def implausible_acquisition(results: Sequence[AcquisitionResult]) -> str | None:
     found = [r for r in results if r.detected]
     reasons = []
     if len(found) > MAX_VISIBLE_GPS:
-        reasons.append(f"{len(found)} of {len(results)} PRNs found, more than the {MAX_VISIBLE_GPS} GPS satellites "
-                       "an antenna can see at once")
+        reasons.append(
+            f"{len(found)} of {len(results)} PRNs found, more than the {MAX_VISIBLE_GPS} GPS satellites "
+            "an antenna can see at once"
+        )
     if len(results) >= MIN_PRNS_FOR_FLOOR:
         stats = np.array([r.test_statistic for r in results], dtype=float)
         threshold = float(np.median([r.threshold for r in results]))
         median = float(np.median(stats)) if np.all(np.isfinite(stats)) else float("nan")
         if not median < threshold:
-            reasons.append(f"the median peak statistic over the PRNs searched ({median:.1f}) is at or above the "
-                           f"detection threshold ({threshold:.1f}), so the samples are not the noise the threshold "
-                           "assumes")
+            reasons.append(
+                f"the median peak statistic over the PRNs searched ({median:.1f}) is at or above the "
+                f"detection threshold ({threshold:.1f}), so the samples are not the noise the threshold "
+                "assumes"
+            )
     if len(found) >= 2:
         dopplers = np.array([r.doppler_hz for r in found])
         spread = float(dopplers.max() - dopplers.min())
         if spread > MAX_DOPPLER_SPREAD_HZ:
-            reasons.append(f"the found Dopplers span {spread:.0f} Hz, more than the {MAX_DOPPLER_SPREAD_HZ:.0f} Hz "
-                           "satellite motion allows")
+            reasons.append(
+                f"the found Dopplers span {spread:.0f} Hz, more than the {MAX_DOPPLER_SPREAD_HZ:.0f} Hz "
+                "satellite motion allows"
+            )
     return "; ".join(reasons) if reasons else None
 
 
@@ -102,8 +116,12 @@ def _integer_format(is_complex: bool, width: int) -> str | None:
 
     for name in registry.names("sample_source"):
         cls = registry.get("sample_source", name)
-        if (cls.is_complex == is_complex and cls.samples_per_chunk == 1 and "i" in cls.sigmf_datatype
-                and _component_bytes(cls) == width):
+        if (
+            cls.is_complex == is_complex
+            and cls.samples_per_chunk == 1
+            and "i" in cls.sigmf_datatype
+            and _component_bytes(cls) == width
+        ):
             return name
     return None
 
@@ -136,18 +154,23 @@ def format_hint(path: str | Path, source, offset: int = 0) -> str:
     floating = "f" in source.sigmf_datatype
     if not floating and width == 2 and levels_low <= 16 and levels_high <= 16 and sign_extension < 0.9:
         eight = _integer_format(source.is_complex, 1)
-        return (f"the bytes look like 8-bit samples ({levels_low} and {levels_high} levels in the low and high bytes "
-                f"of each 16-bit value, no sign extension) read as {name}" + (f": --format {eight}?" if eight else ""))
+        return (
+            f"the bytes look like 8-bit samples ({levels_low} and {levels_high} levels in the low and high bytes "
+            f"of each 16-bit value, no sign extension) read as {name}" + (f": --format {eight}?" if eight else "")
+        )
     if not floating and width == 1 and sign_extension > 0.99 and np.isin(low, (0, -1)).mean() < 0.5:
         sixteen = _integer_format(source.is_complex, 2)
-        return (f"every second byte is 0 or -1 (the sign bits of small 16-bit values) read as {name}"
-                + (f": --format {sixteen}?" if sixteen else ""))
+        return f"every second byte is 0 or -1 (the sign bits of small 16-bit values) read as {name}" + (
+            f": --format {sixteen}?" if sixteen else ""
+        )
     if floating and width == 4:
         values = raw.view("<f4").astype(np.float64)
         odd = ~np.isfinite(values) | (np.abs(values) > 1e20) | ((values != 0) & (np.abs(values) < 1e-30))
         if odd.mean() > 0.01:
-            return (f"{100 * odd.mean():.0f} % of the values read as {name} are non-finite, huge or subnormal: "
-                    "integer samples (an integer --format)?")
+            return (
+                f"{100 * odd.mean():.0f} % of the values read as {name} are non-finite, huge or subnormal: "
+                "integer samples (an integer --format)?"
+            )
     return general
 
 
@@ -163,8 +186,9 @@ REPEAT_DOPPLER_TOL_HZ = 250.0
 REPEAT_CODE_TOL_CHIPS = 1.0
 
 
-def unrepeated(recording, acquisition, results: Sequence[AcquisitionResult],
-               signal: SignalSpec = GPS_L1CA) -> str | None:
+def unrepeated(
+    recording, acquisition, results: Sequence[AcquisitionResult], signal: SignalSpec = GPS_L1CA
+) -> str | None:
     """Search the found satellites again on the samples right after the first search's
     and count those not found where the first search predicts them: same Doppler, code
     phase moved by the code Doppler, ``cp1 = cp0 + dt f_c (1 + f_d / f_L) mod L`` (the
@@ -180,8 +204,7 @@ def unrepeated(recording, acquisition, results: Sequence[AcquisitionResult],
     need = acquisition.samples_needed(fs, signal)
     if len(found) < MIN_FOUND_FOR_REPEAT or recording.n_samples < 2 * need:
         return None
-    again = {r.prn: r for r in acquire_recording(recording, acquisition, tuple(r.prn for r in found), need,
-                                                 signal)}
+    again = {r.prn: r for r in acquire_recording(recording, acquisition, tuple(r.prn for r in found), need, signal)}
     dt = need / fs
     missed = []
     for r in found:
@@ -189,17 +212,21 @@ def unrepeated(recording, acquisition, results: Sequence[AcquisitionResult],
         expect = r.code_phase_chips + dt * signal.code_freq_hz(r.doppler_hz)
         length = signal.code_length_chips
         miss = abs((s.code_phase_chips - expect + length / 2) % length - length / 2)
-        if not (s.detected and miss <= REPEAT_CODE_TOL_CHIPS
-                and abs(s.doppler_hz - r.doppler_hz) <= REPEAT_DOPPLER_TOL_HZ):
+        if not (
+            s.detected and miss <= REPEAT_CODE_TOL_CHIPS and abs(s.doppler_hz - r.doppler_hz) <= REPEAT_DOPPLER_TOL_HZ
+        ):
             missed.append(r.prn)
     if 2 * len(missed) <= len(found):
         return None
-    return (f"{len(missed)} of the {len(found)} satellites found (PRN {', '.join(map(str, missed))}) are not found "
-            f"again {1e3 * dt:.0f} ms later at the Doppler and code phase the first search predicts")
+    return (
+        f"{len(missed)} of the {len(found)} satellites found (PRN {', '.join(map(str, missed))}) are not found "
+        f"again {1e3 * dt:.0f} ms later at the Doppler and code phase the first search predicts"
+    )
 
 
-def check_acquisition(results: Sequence[AcquisitionResult], recording, acquisition=None,
-                      signal: SignalSpec = GPS_L1CA) -> None:
+def check_acquisition(
+    results: Sequence[AcquisitionResult], recording, acquisition=None, signal: SignalSpec = GPS_L1CA
+) -> None:
     """Refuse ``results`` of ``recording`` (a `Recording`) when `implausible_acquisition`
     finds them impossible or, given the ``acquisition`` that made them, `unrepeated` finds
     most of them missing from a second search: a `DataFileError` naming the file, what is
@@ -217,9 +244,12 @@ def check_acquisition(results: Sequence[AcquisitionResult], recording, acquisiti
     if why is None and acquisition is not None:
         why = unrepeated(recording, acquisition, results, signal)
     if why is not None:
-        raise DataFileError(str(recording.path), None,
-                            f"not a GPS sky when read as {recording.info.describe()}: {why}; "
-                            f"{format_hint(recording.path, recording.source)}")
+        raise DataFileError(
+            str(recording.path),
+            None,
+            f"not a GPS sky when read as {recording.info.describe()}: {why}; "
+            f"{format_hint(recording.path, recording.source)}",
+        )
 
 
 def check_samples(recording, acquisition, signal: SignalSpec = GPS_L1CA) -> None:
@@ -243,6 +273,10 @@ def check_samples(recording, acquisition, signal: SignalSpec = GPS_L1CA) -> None
     x = recording.read(0, need)
     recording.nonfinite_zeroed = counted  # the search reads these again and counts them then
     if x.size and np.all(x == x[0]):
-        raise DataFileError(str(recording.path), None, f"the {x.size} samples the search reads (read as "
-                            f"{recording.info.describe()}) are all {x[0]:g}: no noise and no signal (a blank or "
-                            "zero-filled file, or a stuck front end)")
+        raise DataFileError(
+            str(recording.path),
+            None,
+            f"the {x.size} samples the search reads (read as "
+            f"{recording.info.describe()}) are all {x[0]:g}: no noise and no signal (a blank or "
+            "zero-filled file, or a stuck front end)",
+        )

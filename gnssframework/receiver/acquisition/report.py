@@ -16,8 +16,13 @@ __all__ = ["acquire_recording", "write_acquisition_csv", "search_summary", "CSV_
 CSV_COLUMNS = ("prn", "doppler_hz", "code_phase_chips", "code_phase_samples", "cn0_dbhz", "test_statistic")
 
 
-def acquire_recording(recording: Recording, acquisition: Acquisition, prns: tuple[int, ...] | None = None,
-                      start_sample: int = 0, signal: SignalSpec = GPS_L1CA) -> list[AcquisitionResult]:
+def acquire_recording(
+    recording: Recording,
+    acquisition: Acquisition,
+    prns: tuple[int, ...] | None = None,
+    start_sample: int = 0,
+    signal: SignalSpec = GPS_L1CA,
+) -> list[AcquisitionResult]:
     """Run ``acquisition`` for ``signal`` (GPS L1 C/A by default; ``prns`` None: all of its
     PRNs) on the samples it needs from ``start_sample`` of ``recording``."""
     check_contract(acquisition)
@@ -26,16 +31,19 @@ def acquire_recording(recording: Recording, acquisition: Acquisition, prns: tupl
     return acquisition.acquire(samples, fs, recording.info.if_hz, prns, signal)
 
 
-def search_summary(recording: Recording, acquisition: Acquisition, prns: tuple[int, ...] | None,
-                   signal: SignalSpec = GPS_L1CA) -> str:
+def search_summary(
+    recording: Recording, acquisition: Acquisition, prns: tuple[int, ...] | None, signal: SignalSpec = GPS_L1CA
+) -> str:
     """What was searched, for the "nothing found" message (``prns`` None: all of ``signal``'s)."""
     prns = signal.prns if prns is None else prns
     p = acquisition.params
     what = ", ".join(f"{k} {v}" for k, v in p.model_dump().items() if v is not None)
     contiguous = list(prns) == list(range(min(prns), max(prns) + 1))
     which = f"{min(prns)}-{max(prns)}" if contiguous else ", ".join(str(p) for p in prns)
-    return (f"searched PRN {which} ({len(prns)} PRNs) with {acquisition.name} ({what}) in "
-            f"{recording.path.name} read as {recording.info.describe()}")
+    return (
+        f"searched PRN {which} ({len(prns)} PRNs) with {acquisition.name} ({what}) in "
+        f"{recording.path.name} read as {recording.info.describe()}"
+    )
 
 
 def write_acquisition_csv(path: str | Path, results: list[AcquisitionResult]) -> None:
@@ -45,5 +53,13 @@ def write_acquisition_csv(path: str | Path, results: list[AcquisitionResult]) ->
         w.writerow(CSV_COLUMNS)
         for r in results:
             if r.detected:
-                w.writerow([r.prn, f"{r.doppler_hz:.1f}", f"{r.code_phase_chips:.3f}", r.code_phase_samples,
-                            f"{r.cn0_dbhz:.1f}", f"{r.test_statistic:.2f}"])
+                w.writerow(
+                    [
+                        r.prn,
+                        f"{r.doppler_hz:.1f}",
+                        f"{r.code_phase_chips:.3f}",
+                        r.code_phase_samples,
+                        f"{r.cn0_dbhz:.1f}",
+                        f"{r.test_statistic:.2f}",
+                    ]
+                )

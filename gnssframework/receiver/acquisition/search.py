@@ -68,16 +68,24 @@ class Acquisition(Plugin, abc.ABC):
         """Samples the search of ``signal`` reads from the start of the recording."""
 
     @abc.abstractmethod
-    def acquire(self, samples: np.ndarray, sample_rate_hz: float, if_hz: float,
-                prns: tuple[int, ...] | None = None, signal: SignalSpec = GPS_L1CA) -> list[AcquisitionResult]:
+    def acquire(
+        self,
+        samples: np.ndarray,
+        sample_rate_hz: float,
+        if_hz: float,
+        prns: tuple[int, ...] | None = None,
+        signal: SignalSpec = GPS_L1CA,
+    ) -> list[AcquisitionResult]:
         """Search ``prns`` of ``signal`` (all of ``signal.prns`` for ``None``) in ``samples``
         (complex, or real at ``if_hz``); one result per PRN."""
 
 
 #: The contract's methods and the arguments the receiver passes them, by position (the
 #: signal last: added by issue 36).
-CONTRACT = {"samples_needed": ("sample_rate_hz", "signal"),
-            "acquire": ("samples", "sample_rate_hz", "if_hz", "prns", "signal")}
+CONTRACT = {
+    "samples_needed": ("sample_rate_hz", "signal"),
+    "acquire": ("samples", "sample_rate_hz", "if_hz", "prns", "signal"),
+}
 
 
 def check_contract(acquisition: Acquisition) -> Acquisition:
@@ -90,10 +98,12 @@ def check_contract(acquisition: Acquisition) -> Acquisition:
             inspect.signature(getattr(acquisition, method)).bind(*args)
         except TypeError:
             name = getattr(acquisition, "name", "") or type(acquisition).__name__
-            raise ConfigError("acquisition", f"plugin {name!r} is written to the old contract: its {method}() "
-                              f"does not take ({', '.join(args)}); the contract now passes the signal last "
-                              f"(`signal: SignalSpec = GPS_L1CA`): add it to {type(acquisition).__name__}.{method}"
-                              ) from None
+            raise ConfigError(
+                "acquisition",
+                f"plugin {name!r} is written to the old contract: its {method}() "
+                f"does not take ({', '.join(args)}); the contract now passes the signal last "
+                f"(`signal: SignalSpec = GPS_L1CA`): add it to {type(acquisition).__name__}.{method}",
+            ) from None
         except ValueError:  # no signature to read (a builtin): left to the call
             continue
     return acquisition

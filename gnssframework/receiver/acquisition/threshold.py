@@ -51,8 +51,9 @@ def noise_floor(raw_grid: np.ndarray, noncoherent: int, alternate: bool = False)
     return float(np.median(raw_grid) / (2 * special.gammaincinv(noncoherent, 0.5)))
 
 
-def detection_probability(cn0_dbhz: float, coherent_time_s: float, blocks: int, threshold: float,
-                          loss_db: float = 0.0) -> float:
+def detection_probability(
+    cn0_dbhz: float, coherent_time_s: float, blocks: int, threshold: float, loss_db: float = 0.0
+) -> float:
     r"""Probability that a signal's cell exceeds ``threshold`` (the normalised statistic's).
 
     With a signal of :math:`C/N_0` in every one of the ``blocks`` coherent sums of length
@@ -71,8 +72,16 @@ def detection_probability(cn0_dbhz: float, coherent_time_s: float, blocks: int, 
     return float(1.0 - special.chndtr(threshold, 2 * blocks, lam))
 
 
-def blocks_for_detection(cn0_dbhz: float, coherent_time_s: float, pd: float, pfa: float, cells: int,
-                         alternate: bool = False, loss_db: float = 0.0, max_blocks: int = 100) -> int:
+def blocks_for_detection(
+    cn0_dbhz: float,
+    coherent_time_s: float,
+    pd: float,
+    pfa: float,
+    cells: int,
+    alternate: bool = False,
+    loss_db: float = 0.0,
+    max_blocks: int = 100,
+) -> int:
     r"""Fewest non-coherent blocks :math:`K` that detect a signal of ``cn0_dbhz`` with
     probability at least ``pd`` at the threshold of ``pfa`` over ``cells`` (`threshold_from_pfa`).
 
@@ -92,5 +101,8 @@ def blocks_for_detection(cn0_dbhz: float, coherent_time_s: float, pd: float, pfa
         threshold = threshold_from_pfa(pfa, cells, k, alternate)
         if detection_probability(cn0_dbhz, coherent_time_s, k, threshold, loss_db) >= pd:
             return k
-    raise ConfigError("pd", f"{max_blocks} non-coherent blocks of {coherent_time_s * 1e3:g} ms do not detect "
-                            f"{cn0_dbhz} dB-Hz with probability {pd} at pfa {pfa} over {cells} cells")
+    raise ConfigError(
+        "pd",
+        f"{max_blocks} non-coherent blocks of {coherent_time_s * 1e3:g} ms do not detect "
+        f"{cn0_dbhz} dB-Hz with probability {pd} at pfa {pfa} over {cells} cells",
+    )

@@ -10,6 +10,22 @@ from .lock import BitSync, estimate_cn0, phase_lock_indicator
 from .nco import ReplicaNCOs
 from .tracker import RECORD_FIELDS, STAGES, ChannelRecord, SampleTracker, TrackingResult
 
-__all__ = ["ErrorFeedback", "TrackingConfig", "tracking_config", "correlate_channels", "correlate_numpy", "BitSync",
-           "estimate_cn0", "phase_lock_indicator", "SampleTracker", "TrackingResult", "ChannelRecord", "STAGES",
-           "RECORD_FIELDS", "SampleCloser", "ScalarSampleCloser", "SampleChannel", "ReplicaNCOs"]
+__all__ = [
+    "ErrorFeedback",
+    "TrackingConfig",
+    "tracking_config",
+    "correlate_channels",
+    "correlate_numpy",
+    "BitSync",
+    "estimate_cn0",
+    "phase_lock_indicator",
+    "SampleTracker",
+    "TrackingResult",
+    "ChannelRecord",
+    "STAGES",
+    "RECORD_FIELDS",
+    "SampleCloser",
+    "ScalarSampleCloser",
+    "SampleChannel",
+    "ReplicaNCOs",
+]

@@ -28,8 +28,20 @@ from pydantic import BaseModel
 
 __all__ = ["batch_layout", "FilterBatch", "flatten_state"]
 
-_LEAF = (np.ndarray, numbers.Number, str, bytes, type(None), bool, np.generic, type, types.FunctionType,
-         types.MethodType, types.BuiltinFunctionType, functools.partial)
+_LEAF = (
+    np.ndarray,
+    numbers.Number,
+    str,
+    bytes,
+    type(None),
+    bool,
+    np.generic,
+    type,
+    types.FunctionType,
+    types.MethodType,
+    types.BuiltinFunctionType,
+    functools.partial,
+)
 
 
 def flatten_state(obj: Any) -> dict[tuple, Any] | None:
@@ -116,8 +128,12 @@ def _set(obj: Any, path: tuple, value: Any) -> None:
 
 def _equal(a: Any, b: Any) -> bool:
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape and bool(
-            np.array_equal(a, b))
+        return (
+            isinstance(a, np.ndarray)
+            and isinstance(b, np.ndarray)
+            and a.shape == b.shape
+            and bool(np.array_equal(a, b))
+        )
     if a is b:
         return True
     try:
@@ -138,8 +154,9 @@ class FilterBatch:
     def fits(filt: Any, paths: frozenset) -> bool:
         """Whether ``filt`` (one channel) holds every per-channel array of ``paths``, ``(1, ...)``."""
         state = flatten_state(filt)
-        return state is not None and all(p in state and _shape(state[p]) is not None
-                                         and _shape(state[p])[:1] == (1,) for p in paths)
+        return state is not None and all(
+            p in state and _shape(state[p]) is not None and _shape(state[p])[:1] == (1,) for p in paths
+        )
 
     def join(self, filt: Any, slot: int) -> bool:
         """Merge ``filt`` (one channel, ``batch_shape (1,)``) as the last member; ``False``
@@ -152,8 +169,9 @@ class FilterBatch:
                 return False
             if p[-1] in ("<type>", "<dict>", "<seq>") and v != theirs[p]:
                 return False
-            if p in self.paths and (_shape(theirs[p]) is None or _shape(theirs[p])[:1] != (1,)
-                                    or _shape(v)[1:] != _shape(theirs[p])[1:]):
+            if p in self.paths and (
+                _shape(theirs[p]) is None or _shape(theirs[p])[:1] != (1,) or _shape(v)[1:] != _shape(theirs[p])[1:]
+            ):
                 return False
         try:
             for p in self.paths:

@@ -26,11 +26,18 @@ if TYPE_CHECKING:
 __all__ = ["SampleChannel", "NCO_COMMANDS", "supports", "stage_context"]
 
 
-def stage_context(c: TrackingConfig, T: float, cn0_dbhz: float, doppler_hz: float,
-                  signal: SignalSpec | None = None) -> RunContext:
+def stage_context(
+    c: TrackingConfig, T: float, cn0_dbhz: float, doppler_hz: float, signal: SignalSpec | None = None
+) -> RunContext:
     """What a channel filter is reset with at the start of a stage (``signal`` the tracked one)."""
-    return RunContext(coherent_time_s=T, early_late_spacing_chips=c.early_late_spacing_chips, epoch_interval_s=T,
-                      cn0_dbhz=cn0_dbhz, doppler_hz=doppler_hz, signal=signal)
+    return RunContext(
+        coherent_time_s=T,
+        early_late_spacing_chips=c.early_late_spacing_chips,
+        epoch_interval_s=T,
+        cn0_dbhz=cn0_dbhz,
+        doppler_hz=doppler_hz,
+        signal=signal,
+    )
 
 
 class SampleChannel:
@@ -81,8 +88,11 @@ class SampleChannel:
         self.coherent_ms = coherent_ms
         self.filter = self.filters.new(stage)
         T = coherent_ms * self.spec.code_period_s
-        self.closure = (None if supports(type(self.filter), *NCO_COMMANDS)
-                        else ErrorFeedback(c.closure_fll_bandwidth_hz, c.closure_dll_bandwidth_hz, T))
+        self.closure = (
+            None
+            if supports(type(self.filter), *NCO_COMMANDS)
+            else ErrorFeedback(c.closure_fll_bandwidth_hz, c.closure_dll_bandwidth_hz, T)
+        )
         cn0 = self.cn0_dbhz if self.cn0_dbhz > 0 else 40.0
         # A batch of one: the tracker merges it into the batch of its stage (`batch`).
         self.filter.reset((1,), stage_context(c, T, cn0, doppler_hz, self.spec))

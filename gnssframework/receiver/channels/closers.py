@@ -85,10 +85,14 @@ class ScalarSampleCloser(SampleCloser):
         if closure is None:  # NCO commands: the loop engine's scalar closer, on these slots' NCOs
             EngineScalarCloser(filt).step(t.nco.at(slots), correlators)
             return
-        out = filt.checked_step({"correlators": correlators, "nco_shift_chips": t.shift_chips[slots],
-                                 "nco_shift_hz": t.shift_hz[slots]})
-        t.nco.shift(slots, closure.k_code * np.asarray(out["code_error_chips"], float),
-                    closure.k_freq * np.asarray(out["freq_error_hz"], float))
+        out = filt.checked_step(
+            {"correlators": correlators, "nco_shift_chips": t.shift_chips[slots], "nco_shift_hz": t.shift_hz[slots]}
+        )
+        t.nco.shift(
+            slots,
+            closure.k_code * np.asarray(out["code_error_chips"], float),
+            closure.k_freq * np.asarray(out["freq_error_hz"], float),
+        )
 
     def advance(self, c: SampleChannel, t0: float) -> None:
         """The state machine: pull-in -> track -> extended; lost after ``loss_ms`` out of lock."""
@@ -107,8 +111,12 @@ class ScalarSampleCloser(SampleCloser):
             self.lose(c, t0, f"lock lost for {cfg.loss_ms} ms")
             return
         per_bit = c.periods_per_symbol
-        if (c.stage == "track" and cfg.coherent_ms > 1 and c.bit_edge is not None
-                and (int(t.ms_index[c.slot]) + 1) % per_bit == c.bit_edge % per_bit):
+        if (
+            c.stage == "track"
+            and cfg.coherent_ms > 1
+            and c.bit_edge is not None
+            and (int(t.ms_index[c.slot]) + 1) % per_bit == c.bit_edge % per_bit
+        ):
             # The next code period starts a bit: integrations from here on are bit aligned.
             c.record.events.append((t0, f"extended to {cfg.coherent_ms} ms coherent (PLL)"))
             t.start_stage(c, "extended", float(t.doppler[c.slot]), cfg.coherent_ms)

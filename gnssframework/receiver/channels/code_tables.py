@@ -49,8 +49,11 @@ class CodeTables:
 
     def fits(self, n_channels: int, offsets_chips: np.ndarray, n_chips: int) -> bool:
         """Made for ``n_channels`` channels, these taps, and at least ``n_chips`` chips."""
-        return (self.patterns.shape[0] == n_channels and self.n_chips >= n_chips
-                and np.array_equal(self.offsets_chips, np.asarray(offsets_chips, float)))
+        return (
+            self.patterns.shape[0] == n_channels
+            and self.n_chips >= n_chips
+            and np.array_equal(self.offsets_chips, np.asarray(offsets_chips, float))
+        )
 
 
 def _tap_words(offsets_chips: np.ndarray) -> np.ndarray:
@@ -94,5 +97,6 @@ def code_tables(codes: np.ndarray, offsets_chips: np.ndarray, periods: int = 3) 
     negative = np.asarray(codes)[:, idx] < 0
     patterns = np.sum(negative.astype(np.int64) << np.arange(offsets.size), axis=-1).astype(np.int32)
     # C order whatever the shapes (one compiled signature: a layout change recompiles).
-    return CodeTables(np.ascontiguousarray(patterns.reshape(codes.shape[0], -1)), thr.astype(np.int64),
-                      offsets.copy(), n_chips)
+    return CodeTables(
+        np.ascontiguousarray(patterns.reshape(codes.shape[0], -1)), thr.astype(np.int64), offsets.copy(), n_chips
+    )

@@ -31,17 +31,22 @@ class TrackingConfig(BaseModel):
     pull_in_filter: str = Field("scalar", description="channel_filter plugin of the pull-in stage")
     pull_in_params: dict[str, Any] = Field(
         default_factory=lambda: {"pll_bandwidth_hz": 18.0, "fll_bandwidth_hz": 10.0, "dll_bandwidth_hz": 2.0},
-        description="its parameters (an FLL-assisted PLL with wide bandwidths)")
+        description="its parameters (an FLL-assisted PLL with wide bandwidths)",
+    )
     early_late_spacing_chips: float = Field(1.0, gt=0, le=1.0, description="early-to-late correlator spacing")
     coherent_ms: Literal[1, 2, 4, 5, 10, 20] = Field(
-        10, description="coherent integration after bit synchronisation (divides a 20 ms bit)")
+        10, description="coherent integration after bit synchronisation (divides a 20 ms bit)"
+    )
     pull_in_ms: int = Field(500, ge=20, description="time allowed to reach lock before the channel is dropped")
     lock_window_ms: int = Field(40, ge=10, description="window of the phase-lock indicator")
     pli_threshold: float = Field(0.5, ge=-1, le=1, description="phase lock: PLI above this")
     cn0_threshold_dbhz: float = Field(27.0, description="lock: C/N0 estimate above this")
-    cn0_estimator: str = Field("nwpr", description="C/N0 estimator: nwpr (bit-aligned after bit sync, moments "
-                               "before), moments, or a bit-blind cn0_estimator plugin reading the prompt only (snv, "
-                               "beaulieu, m2m4)")
+    cn0_estimator: str = Field(
+        "nwpr",
+        description="C/N0 estimator: nwpr (bit-aligned after bit sync, moments "
+        "before), moments, or a bit-blind cn0_estimator plugin reading the prompt only (snv, "
+        "beaulieu, m2m4)",
+    )
     cn0_window_ms: int = Field(400, ge=40, description="window of the C/N0 estimate")
     loss_ms: int = Field(200, ge=10, description="time out of lock after which a channel is lost")
     bit_sync_votes: int = Field(6, ge=2, description="sign changes needed to decide the bit edge")
@@ -55,8 +60,10 @@ class TrackingConfig(BaseModel):
     def _known_cn0_estimator(cls, value: str) -> str:
         names = cn0_estimator_names()
         if value not in names:
-            raise ValueError(f"unknown C/N0 estimator {value!r}; the lock detector takes {', '.join(names)}"
-                             f"{did_you_mean(value, names)}")
+            raise ValueError(
+                f"unknown C/N0 estimator {value!r}; the lock detector takes {', '.join(names)}"
+                f"{did_you_mean(value, names)}"
+            )
         return value
 
 

@@ -44,8 +44,22 @@ from ...signal.spec import SignalSpec
 from .channel_groups import SPLIT_SAMPLES, run_groups, split_channels
 from .code_tables import _MASK32, MAX_TAPS, CodeTables, _cached_tables, code_tables
 
-__all__ = ["replica_codes", "to_table_units", "correlate_channels", "correlate_numpy", "correlate_periods", "correlate_periods_numpy", "code_tables",
-           "correlation_error_bound", "sum_of_squares", "CodeTables", "CHUNK", "ROUNDING", "MAX_TAPS", "SPLIT_SAMPLES"]
+__all__ = [
+    "replica_codes",
+    "to_table_units",
+    "correlate_channels",
+    "correlate_numpy",
+    "correlate_periods",
+    "correlate_periods_numpy",
+    "code_tables",
+    "correlation_error_bound",
+    "sum_of_squares",
+    "CodeTables",
+    "CHUNK",
+    "ROUNDING",
+    "MAX_TAPS",
+    "SPLIT_SAMPLES",
+]
 
 #: Samples per chunk of the compiled kernel (its carrier restarts exactly every chunk).
 CHUNK = 512
@@ -62,20 +76,28 @@ def correlation_error_bound(samples: np.ndarray, start: int, count: int, run_bef
     :math:`2^{-32}` cycle of the initial word, plus one per sample of the step's rounding,
     over the ``run_before`` samples the carrier ran before this range too), per unit of
     each sample's magnitude."""
-    mag = np.abs(samples[start:start + count])
+    mag = np.abs(samples[start : start + count])
     phase_err = 2 * np.pi * 2.0**-32 * (1 + run_before + np.arange(count))
     return float(np.sum(mag * (ROUNDING + phase_err)) + 1e-9 * np.sum(mag))
 
 
-def correlate_numpy(samples: np.ndarray, starts: np.ndarray, counts: np.ndarray, code_phase_chips: np.ndarray,
-                    code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray, carrier_step_cycles: np.ndarray,
-                    codes: np.ndarray, offsets_chips: np.ndarray) -> np.ndarray:
+def correlate_numpy(
+    samples: np.ndarray,
+    starts: np.ndarray,
+    counts: np.ndarray,
+    code_phase_chips: np.ndarray,
+    code_step_chips: np.ndarray,
+    carrier_phase_cycles: np.ndarray,
+    carrier_step_cycles: np.ndarray,
+    codes: np.ndarray,
+    offsets_chips: np.ndarray,
+) -> np.ndarray:
     """Reference: ``(n_channels, n_taps)`` complex sums, exact carrier (see module docstring)."""
     out = np.zeros((len(starts), len(offsets_chips)), complex)
     n_code = codes.shape[1]
     for c in range(len(starts)):  # the reference: clarity over speed
         i = np.arange(counts[c])
-        x = samples[starts[c]:starts[c] + counts[c]]
+        x = samples[starts[c] : starts[c] + counts[c]]
         base = x * np.exp(-2j * np.pi * (carrier_phase_cycles[c] + i * carrier_step_cycles[c]))
         for t, off in enumerate(offsets_chips):
             idx = np.floor(code_phase_chips[c] + off + i * code_step_chips[c]).astype(np.int64) % n_code
@@ -92,8 +114,9 @@ _M = 1
 _EPL = False
 
 
-def _run(x, q_sign, s, n, ph, dph, u, dp, idp, pat, thr, rot_r, rot_i, br, bi, code, acc_r,
-         acc_i):  # pragma: no cover - compiled
+def _run(
+    x, q_sign, s, n, ph, dph, u, dp, idp, pat, thr, rot_r, rot_i, br, bi, code, acc_r, acc_i
+):  # pragma: no cover - compiled
     # n samples from sample s into acc_r/acc_i (one per tap); returns the carrier and code
     # words after them. Chunk by chunk, loops that vectorise: each sample's pattern index
     # (the prompt's word u + idp[i], idp[i] = i dp, its chip and the taps' thresholds
@@ -120,7 +143,7 @@ def _run(x, q_sign, s, n, ph, dph, u, dp, idp, pat, thr, rot_r, rot_i, br, bi, c
         for i in range(m):
             code[i] = pat[np.uint64(code[i])]  # (unsigned: no negative-index wrap, 1.3x faster)
         if _EPL and _IQ:
-            xs = x[2 * (s + done):2 * (s + done + m)]
+            xs = x[2 * (s + done) : 2 * (s + done + m)]
             e_r = e_i = p_r = p_i = l_r = l_i = np.float32(0.0)
             for i in range(m):
                 cr = c0r * rot_r[i] - c0i * rot_i[i]  # exp(-j phase)
@@ -146,7 +169,7 @@ def _run(x, q_sign, s, n, ph, dph, u, dp, idp, pat, thr, rot_r, rot_i, br, bi, c
             acc_r[2] += l_r
             acc_i[2] += l_i
         elif _EPL:
-            xs = x[s + done:s + done + m]
+            xs = x[s + done : s + done + m]
             e_r = e_i = p_r = p_i = l_r = l_i = np.float32(0.0)
             for i in range(m):
                 a = np.float32(xs[i])
@@ -170,7 +193,7 @@ def _run(x, q_sign, s, n, ph, dph, u, dp, idp, pat, thr, rot_r, rot_i, br, bi, c
             acc_i[2] += l_i
         else:
             if _IQ:
-                xs = x[2 * (s + done):2 * (s + done + m)]
+                xs = x[2 * (s + done) : 2 * (s + done + m)]
                 for i in range(m):
                     cr = c0r * rot_r[i] - c0i * rot_i[i]  # exp(-j phase)
                     ci = c0r * rot_i[i] + c0i * rot_r[i]
@@ -179,7 +202,7 @@ def _run(x, q_sign, s, n, ph, dph, u, dp, idp, pat, thr, rot_r, rot_i, br, bi, c
                     br[i] = a * cr - b * ci
                     bi[i] = a * ci + b * cr
             else:
-                xs = x[s + done:s + done + m]
+                xs = x[s + done : s + done + m]
                 for i in range(m):
                     a = np.float32(xs[i])
                     br[i] = a * (c0r * rot_r[i] - c0i * rot_i[i])
@@ -211,8 +234,9 @@ def _rotations(dph, rot_r, rot_i):  # pragma: no cover - compiled
         zr, zi = zr * wr - zi * wi, zr * wi + zi * wr
 
 
-def _channels(x, q_sign, starts, counts, carrier0, dcarrier, code0, dcode, pat, thr, out_r,
-              out_i):  # pragma: no cover - compiled
+def _channels(
+    x, q_sign, starts, counts, carrier0, dcarrier, code0, dcode, pat, thr, out_r, out_i
+):  # pragma: no cover - compiled
     # counts[c] samples of channel c from starts[c]; channels in parallel in the parallel
     # twin (each channel's arithmetic is the same whichever thread runs it).
     n_taps = out_r.shape[1]
@@ -223,14 +247,33 @@ def _channels(x, q_sign, starts, counts, carrier0, dcarrier, code0, dcode, pat, 
         acc_r, acc_i = np.zeros(n_taps), np.zeros(n_taps)
         _rotations_(dcarrier[c], rot_r, rot_i)
         idp = np.arange(CHUNK) * dcode[c]
-        _run_(x, q_sign, starts[c], counts[c], carrier0[c], dcarrier[c], code0[c], dcode[c], idp, pat[c], thr,
-              rot_r, rot_i, br, bi, code, acc_r, acc_i)
+        _run_(
+            x,
+            q_sign,
+            starts[c],
+            counts[c],
+            carrier0[c],
+            dcarrier[c],
+            code0[c],
+            dcode[c],
+            idp,
+            pat[c],
+            thr,
+            rot_r,
+            rot_i,
+            br,
+            bi,
+            code,
+            acc_r,
+            acc_i,
+        )
         out_r[c] = acc_r
         out_i[c] = acc_i
 
 
-def _periods(x, q_sign, starts, n_periods, carrier0, dcarrier, code0, dcode, wrap, period_word, pat, thr, out_r,
-             out_i, counts):  # pragma: no cover - compiled
+def _periods(
+    x, q_sign, starts, n_periods, carrier0, dcarrier, code0, dcode, wrap, period_word, pat, thr, out_r, out_i, counts
+):  # pragma: no cover - compiled
     # n_periods[c] whole code periods of channel c: a period ends on the sample where the
     # prompt's code word reaches ``wrap`` (the next epoch), i.e. after ceil((wrap - u) / dp)
     # samples; the word then steps back one code length, and the carrier runs on.
@@ -248,8 +291,7 @@ def _periods(x, q_sign, starts, n_periods, carrier0, dcarrier, code0, dcode, wra
             n = (wrap - u + dp - 1) // dp
             acc_r[:] = 0.0
             acc_i[:] = 0.0
-            ph, u = _run_(x, q_sign, s, n, ph, dph, u, dp, idp, pat[c], thr, rot_r, rot_i, br, bi, code, acc_r,
-                          acc_i)
+            ph, u = _run_(x, q_sign, s, n, ph, dph, u, dp, idp, pat[c], thr, rot_r, rot_i, br, bi, code, acc_r, acc_i)
             out_r[c, k] = acc_r
             out_i[c, k] = acc_i
             counts[c, k] = n
@@ -272,8 +314,9 @@ def _kernels(iq: bool, m: int, parallel: bool, n_taps: int = 0) -> tuple:
         run = inline(with_globals(_run, tag, _IQ=iq, _M=m, _EPL=epl))
         rotations = inline(with_globals(_rotations, tag))
         compiled = numba.njit(cache=True, nogil=True, fastmath=True, parallel=parallel)
-        _KERNELS[key] = tuple(compiled(with_globals(fn, tag, _run_=run, _rotations_=rotations))
-                              for fn in (_channels, _periods))
+        _KERNELS[key] = tuple(
+            compiled(with_globals(fn, tag, _run_=run, _rotations_=rotations)) for fn in (_channels, _periods)
+        )
     return _KERNELS[key]
 
 
@@ -292,6 +335,7 @@ try:
 except ImportError:  # pragma: no cover
     HAVE_NUMBA = False
 
+
 def replica_codes(signal: SignalSpec, prns) -> np.ndarray:
     """``(len(prns), code_length_chips * subchips_per_chip)`` ``float32`` tables of
     ``signal``'s spreading waveform (`SignalSpec.spreading_table`) for the kernels.
@@ -304,9 +348,12 @@ def replica_codes(signal: SignalSpec, prns) -> np.ndarray:
     """
     tables = np.stack([signal.spreading_table(p) for p in prns]).astype(np.float32)
     if not np.all(np.abs(tables) == 1.0):
-        raise ConfigError("signal", f"{signal.name}'s spreading waveform is not ±1 ({signal.subcarrier.kind}): "
-                                    "the compiled correlators take ±1 tables (track its BOC(1,1) replica: the -boc11 "
-                                    "signals)")
+        raise ConfigError(
+            "signal",
+            f"{signal.name}'s spreading waveform is not ±1 ({signal.subcarrier.kind}): "
+            "the compiled correlators take ±1 tables (track its BOC(1,1) replica: the -boc11 "
+            "signals)",
+        )
     return tables
 
 
@@ -325,8 +372,7 @@ def _integer_sum_of_squares(values: np.ndarray) -> int:
     return total
 
 
-_compiled_sum_of_squares = (numba.njit(cache=True, nogil=True)(_integer_sum_of_squares) if HAVE_NUMBA
-                            else None)
+_compiled_sum_of_squares = numba.njit(cache=True, nogil=True)(_integer_sum_of_squares) if HAVE_NUMBA else None
 
 
 def sum_of_squares(values: np.ndarray) -> float:
@@ -377,11 +423,23 @@ def _carrier_words(carrier_phase_cycles: np.ndarray, carrier_step_cycles: np.nda
     return carrier0, dcarrier
 
 
-def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarray, code_phase_chips: np.ndarray,
-                       code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray,
-                       carrier_step_cycles: np.ndarray, codes: np.ndarray, offsets_chips: np.ndarray,
-                       backend: str | None = None, tables: CodeTables | None = None, iq: bool = False,
-                       q_sign: int = 1, parallel: bool = False, threads: int | None = None) -> np.ndarray:
+def correlate_channels(
+    samples: np.ndarray,
+    starts: np.ndarray,
+    counts: np.ndarray,
+    code_phase_chips: np.ndarray,
+    code_step_chips: np.ndarray,
+    carrier_phase_cycles: np.ndarray,
+    carrier_step_cycles: np.ndarray,
+    codes: np.ndarray,
+    offsets_chips: np.ndarray,
+    backend: str | None = None,
+    tables: CodeTables | None = None,
+    iq: bool = False,
+    q_sign: int = 1,
+    parallel: bool = False,
+    threads: int | None = None,
+) -> np.ndarray:
     """Correlate every channel over its sample range: ``(n_channels, n_taps)`` complex.
 
     Parameters
@@ -427,13 +485,24 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
     counts = np.asarray(counts, np.int64)
     n_samples = _n_samples(samples, iq)
     if starts.size and (starts.min() < 0 or (starts + counts).max() > n_samples):
-        raise ConfigError("starts", f"a channel's sample range [{starts.min()}, {(starts + counts).max()}) lies "
-                          f"outside the block of {n_samples} samples")
+        raise ConfigError(
+            "starts",
+            f"a channel's sample range [{starts.min()}, {(starts + counts).max()}) lies "
+            f"outside the block of {n_samples} samples",
+        )
     use = backend or get_backend()
     if use != "numba" or not HAVE_NUMBA:
-        return correlate_numpy(_as_complex(samples, iq and not np.iscomplexobj(samples), q_sign), starts, counts,
-                               code_phase_chips, code_step_chips, carrier_phase_cycles, carrier_step_cycles, codes,
-                               offsets_chips)
+        return correlate_numpy(
+            _as_complex(samples, iq and not np.iscomplexobj(samples), q_sign),
+            starts,
+            counts,
+            code_phase_chips,
+            code_step_chips,
+            carrier_phase_cycles,
+            carrier_step_cycles,
+            codes,
+            offsets_chips,
+        )
     x, cplx = _kernel_input(samples, iq)
     n_ch, n_taps = len(starts), len(offsets_chips)
     n_code = codes.shape[1]
@@ -458,17 +527,36 @@ def correlate_channels(samples: np.ndarray, starts: np.ndarray, counts: np.ndarr
     q, pat, thr = np.float32(q_sign), tables.patterns, tables.thresholds
 
     def call(lo: int, hi: int) -> None:
-        kernel(x, q, starts[lo:hi], counts[lo:hi], carrier0[lo:hi], dcarrier[lo:hi], code0[lo:hi], dcode[lo:hi],
-               pat[lo:hi], thr, out_r[lo:hi], out_i[lo:hi])
+        kernel(
+            x,
+            q,
+            starts[lo:hi],
+            counts[lo:hi],
+            carrier0[lo:hi],
+            dcarrier[lo:hi],
+            code0[lo:hi],
+            dcode[lo:hi],
+            pat[lo:hi],
+            thr,
+            out_r[lo:hi],
+            out_i[lo:hi],
+        )
 
     run_groups(groups, call, threads)
     return out_r + 1j * out_i
 
 
-def correlate_periods_numpy(samples: np.ndarray, starts: np.ndarray, n_periods: np.ndarray,
-                            code_phase_chips: np.ndarray, code_step_chips: np.ndarray,
-                            carrier_phase_cycles: np.ndarray, carrier_step_cycles: np.ndarray, codes: np.ndarray,
-                            offsets_chips: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def correlate_periods_numpy(
+    samples: np.ndarray,
+    starts: np.ndarray,
+    n_periods: np.ndarray,
+    code_phase_chips: np.ndarray,
+    code_step_chips: np.ndarray,
+    carrier_phase_cycles: np.ndarray,
+    carrier_step_cycles: np.ndarray,
+    codes: np.ndarray,
+    offsets_chips: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """Reference of `correlate_periods`: period by period with `correlate_numpy`."""
     n_ch, n_code = len(starts), codes.shape[1]
     sums = np.zeros((n_ch, max(1, int(np.max(n_periods, initial=1))), len(offsets_chips)), complex)
@@ -477,9 +565,17 @@ def correlate_periods_numpy(samples: np.ndarray, starts: np.ndarray, n_periods: 
         start, phase, cycles = int(starts[c]), float(code_phase_chips[c]), float(carrier_phase_cycles[c])
         for k in range(int(n_periods[c])):
             n = int(np.ceil((n_code - phase) / code_step_chips[c]))
-            sums[c, k] = correlate_numpy(samples, np.array([start]), np.array([n]), np.array([phase]),
-                                         code_step_chips[c:c + 1], np.array([cycles]), carrier_step_cycles[c:c + 1],
-                                         codes[c:c + 1], offsets_chips)[0]
+            sums[c, k] = correlate_numpy(
+                samples,
+                np.array([start]),
+                np.array([n]),
+                np.array([phase]),
+                code_step_chips[c : c + 1],
+                np.array([cycles]),
+                carrier_step_cycles[c : c + 1],
+                codes[c : c + 1],
+                offsets_chips,
+            )[0]
             counts[c, k] = n
             start += n
             phase += n * code_step_chips[c] - n_code
@@ -487,12 +583,23 @@ def correlate_periods_numpy(samples: np.ndarray, starts: np.ndarray, n_periods: 
     return sums, counts
 
 
-def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.ndarray, code_phase_chips: np.ndarray,
-                      code_step_chips: np.ndarray, carrier_phase_cycles: np.ndarray,
-                      carrier_step_cycles: np.ndarray, codes: np.ndarray, offsets_chips: np.ndarray,
-                      backend: str | None = None, tables: CodeTables | None = None, iq: bool = False,
-                      q_sign: int = 1, parallel: bool = False, threads: int | None = None
-                      ) -> tuple[np.ndarray, np.ndarray]:
+def correlate_periods(
+    samples: np.ndarray,
+    starts: np.ndarray,
+    n_periods: np.ndarray,
+    code_phase_chips: np.ndarray,
+    code_step_chips: np.ndarray,
+    carrier_phase_cycles: np.ndarray,
+    carrier_step_cycles: np.ndarray,
+    codes: np.ndarray,
+    offsets_chips: np.ndarray,
+    backend: str | None = None,
+    tables: CodeTables | None = None,
+    iq: bool = False,
+    q_sign: int = 1,
+    parallel: bool = False,
+    threads: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Correlate ``n_periods[c]`` whole code periods of every channel c, each from code epoch
     to code epoch (the replica's own), with the NCOs held over them.
 
@@ -513,20 +620,32 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
     offsets_chips = np.asarray(offsets_chips, float)
     n_code = codes.shape[1]
     if not np.any(offsets_chips == 0.0) or offsets_chips.size > MAX_TAPS:
-        raise ConfigError("offsets_chips", f"correlate_periods needs a tap at offset 0 (the prompt, whose epochs "
-                          f"end the periods) and at most {MAX_TAPS} taps; got {offsets_chips.tolist()}")
+        raise ConfigError(
+            "offsets_chips",
+            f"correlate_periods needs a tap at offset 0 (the prompt, whose epochs "
+            f"end the periods) and at most {MAX_TAPS} taps; got {offsets_chips.tolist()}",
+        )
     step = np.asarray(code_step_chips, float)
     n_samples = _n_samples(samples, iq)
     need = starts + np.ceil((n_periods * n_code - np.asarray(code_phase_chips, float)) / step + 1).astype(np.int64)
     if starts.size and (starts.min() < 0 or need.max() > n_samples):
-        raise ConfigError("starts", f"a channel's periods [{starts.min()}, {need.max()}) reach outside the block of "
-                          f"{n_samples} samples")
+        raise ConfigError(
+            "starts",
+            f"a channel's periods [{starts.min()}, {need.max()}) reach outside the block of {n_samples} samples",
+        )
     use = backend or get_backend()
     if use != "numba" or not HAVE_NUMBA:
-        return correlate_periods_numpy(_as_complex(samples, iq and not np.iscomplexobj(samples), q_sign), starts,
-                                       n_periods, np.asarray(code_phase_chips, float), step,
-                                       np.asarray(carrier_phase_cycles, float),
-                                       np.asarray(carrier_step_cycles, float), codes, offsets_chips)
+        return correlate_periods_numpy(
+            _as_complex(samples, iq and not np.iscomplexobj(samples), q_sign),
+            starts,
+            n_periods,
+            np.asarray(code_phase_chips, float),
+            step,
+            np.asarray(carrier_phase_cycles, float),
+            np.asarray(carrier_step_cycles, float),
+            codes,
+            offsets_chips,
+        )
     x, cplx = _kernel_input(samples, iq)
     n_ch = len(starts)
     carrier0, dcarrier = _carrier_words(carrier_phase_cycles, carrier_step_cycles)
@@ -548,8 +667,23 @@ def correlate_periods(samples: np.ndarray, starts: np.ndarray, n_periods: np.nda
     q, pat, thr = np.float32(q_sign), tables.patterns, tables.thresholds
 
     def call(lo: int, hi: int) -> None:
-        kernel(x, q, starts[lo:hi], n_periods[lo:hi], carrier0[lo:hi], dcarrier[lo:hi], code0[lo:hi], dcode[lo:hi],
-               2 * period_word, period_word, pat[lo:hi], thr, out_r[lo:hi], out_i[lo:hi], counts[lo:hi])
+        kernel(
+            x,
+            q,
+            starts[lo:hi],
+            n_periods[lo:hi],
+            carrier0[lo:hi],
+            dcarrier[lo:hi],
+            code0[lo:hi],
+            dcode[lo:hi],
+            2 * period_word,
+            period_word,
+            pat[lo:hi],
+            thr,
+            out_r[lo:hi],
+            out_i[lo:hi],
+            counts[lo:hi],
+        )
 
     run_groups(groups, call, threads)
     return out_r + 1j * out_i, counts

@@ -81,8 +81,7 @@ class FilterFactory:
         plugin), never reset; built here when ``None``.
     """
 
-    def __init__(self, kind: str, name: str, params: dict[str, Any] | None = None, *,
-                 prototype: Any = None) -> None:
+    def __init__(self, kind: str, name: str, params: dict[str, Any] | None = None, *, prototype: Any = None) -> None:
         self.kind, self.name = kind, name
         self.params = dict(params or {})
         self.cls = registry.get(kind, name)
@@ -108,8 +107,11 @@ def sample_filter_params(name: str, params: dict[str, Any], *, pll_only: bool = 
     (the ``extended`` stage)."""
     cls = registry.get("channel_filter", name)
     if "correlators" not in cls.requires or not (supports(cls, *NCO_COMMANDS) or supports(cls, *ERROR_OUTPUTS)):
-        raise ConfigError("channel_filter", f"{name!r} cannot track on samples: it must require 'correlators' and "
-                          f"provide {', '.join(NCO_COMMANDS)} or {', '.join(ERROR_OUTPUTS)}")
+        raise ConfigError(
+            "channel_filter",
+            f"{name!r} cannot track on samples: it must require 'correlators' and "
+            f"provide {', '.join(NCO_COMMANDS)} or {', '.join(ERROR_OUTPUTS)}",
+        )
     params = dict(params)
     if pll_only and "fll_bandwidth_hz" in cls.Params.model_fields:
         params["fll_bandwidth_hz"] = 0.0  # the PLL stage: no FLL assist
@@ -139,8 +141,9 @@ class StageFilters:
             checked = sample_filter_params(name, params, pll_only=pll_only)
             key = (name, _key(checked))
             if key not in made:  # built only for a configuration not seen yet
-                made[key] = FilterFactory("channel_filter", name, checked,
-                                          prototype=prototype if checked == dict(params) else None)
+                made[key] = FilterFactory(
+                    "channel_filter", name, checked, prototype=prototype if checked == dict(params) else None
+                )
             return made[key]
 
         self.track = factory(config.channel_filter, config.channel_params, False, channel_filter)

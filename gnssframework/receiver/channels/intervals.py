@@ -59,9 +59,20 @@ class ChannelArrays:
     votes: np.ndarray
 
 
-def close_periods_numpy(a: ChannelArrays, idx: np.ndarray, sums: np.ndarray, counts: np.ndarray, starts: np.ndarray,
-                        phases: np.ndarray, steps: np.ndarray, periods: np.ndarray, doppler_hz: np.ndarray,
-                        power: float, sample_rate_hz: float, code_length: int) -> np.ndarray:
+def close_periods_numpy(
+    a: ChannelArrays,
+    idx: np.ndarray,
+    sums: np.ndarray,
+    counts: np.ndarray,
+    starts: np.ndarray,
+    phases: np.ndarray,
+    steps: np.ndarray,
+    periods: np.ndarray,
+    doppler_hz: np.ndarray,
+    power: float,
+    sample_rate_hz: float,
+    code_length: int,
+) -> np.ndarray:
     """Reference of `close_periods`. ``sums`` ``(n, max periods, taps)`` (tap 1 the prompt)
     and ``counts`` ``(n, max periods)`` as `correlator.correlate_periods` returns them for
     the channels at slots ``idx`` (ascending), which started at ``starts`` with code phase
@@ -93,9 +104,32 @@ def close_periods_numpy(a: ChannelArrays, idx: np.ndarray, sums: np.ndarray, cou
     return sums.sum(axis=1)
 
 
-def _close(idx, sums, counts, starts, phases, steps, periods, doppler_hz, power, fs, code_length, acc_t0, acc_phase,
-           acc_cycles, start_sample, code_phase, doppler_cycles, prompts, n_prompts, ms_index, previous_prompt, voting,
-           votes, interval):  # pragma: no cover - compiled (its Python run is tested against the reference)
+def _close(
+    idx,
+    sums,
+    counts,
+    starts,
+    phases,
+    steps,
+    periods,
+    doppler_hz,
+    power,
+    fs,
+    code_length,
+    acc_t0,
+    acc_phase,
+    acc_cycles,
+    start_sample,
+    code_phase,
+    doppler_cycles,
+    prompts,
+    n_prompts,
+    ms_index,
+    previous_prompt,
+    voting,
+    votes,
+    interval,
+):  # pragma: no cover - compiled (its Python run is tested against the reference)
     window = prompts.shape[1]
     per_bit = votes.shape[1]
     for j in range(idx.size):
@@ -143,17 +177,52 @@ else:  # pragma: no cover
     _close_compiled = None
 
 
-def close_periods(a: ChannelArrays, idx: np.ndarray, sums: np.ndarray, counts: np.ndarray, starts: np.ndarray,
-                  phases: np.ndarray, steps: np.ndarray, periods: np.ndarray, doppler_hz: np.ndarray, power: float,
-                  sample_rate_hz: float, code_length: int, backend: str | None = None) -> np.ndarray:
+def close_periods(
+    a: ChannelArrays,
+    idx: np.ndarray,
+    sums: np.ndarray,
+    counts: np.ndarray,
+    starts: np.ndarray,
+    phases: np.ndarray,
+    steps: np.ndarray,
+    periods: np.ndarray,
+    doppler_hz: np.ndarray,
+    power: float,
+    sample_rate_hz: float,
+    code_length: int,
+    backend: str | None = None,
+) -> np.ndarray:
     """Close the coherent intervals of the channels at slots ``idx`` (arguments as
     `close_periods_numpy`): compiled where numba is the backend, else the reference."""
     if _close_compiled is None or (backend or get_backend()) != "numba":
-        return close_periods_numpy(a, idx, sums, counts, starts, phases, steps, periods, doppler_hz, power,
-                                   sample_rate_hz, code_length)
+        return close_periods_numpy(
+            a, idx, sums, counts, starts, phases, steps, periods, doppler_hz, power, sample_rate_hz, code_length
+        )
     interval = np.empty((idx.size, sums.shape[2]), complex)
-    _close_compiled(idx, sums, counts, starts, phases, steps, periods, doppler_hz, float(power), float(sample_rate_hz),
-                    int(code_length), a.acc_t0, a.acc_phase, a.acc_cycles, a.start_sample, a.code_phase,
-                    a.doppler_cycles, a.prompts, a.n_prompts, a.ms_index, a.previous_prompt, a.voting, a.votes,
-                    interval)
+    _close_compiled(
+        idx,
+        sums,
+        counts,
+        starts,
+        phases,
+        steps,
+        periods,
+        doppler_hz,
+        float(power),
+        float(sample_rate_hz),
+        int(code_length),
+        a.acc_t0,
+        a.acc_phase,
+        a.acc_cycles,
+        a.start_sample,
+        a.code_phase,
+        a.doppler_cycles,
+        a.prompts,
+        a.n_prompts,
+        a.ms_index,
+        a.previous_prompt,
+        a.voting,
+        a.votes,
+        interval,
+    )
     return interval

@@ -29,8 +29,17 @@ from ...signal.cn0 import cn0_moments, cn0_nwpr
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 
-__all__ = ["phase_lock_indicator", "estimate_cn0", "nwpr_block", "cn0_nwpr_bits", "BitSync", "bit_edge_from_votes",
-           "CN0_ESTIMATORS", "cn0_estimator_names", "cn0_plugin"]
+__all__ = [
+    "phase_lock_indicator",
+    "estimate_cn0",
+    "nwpr_block",
+    "cn0_nwpr_bits",
+    "BitSync",
+    "bit_edge_from_votes",
+    "CN0_ESTIMATORS",
+    "cn0_estimator_names",
+    "cn0_plugin",
+]
 
 #: The receiver's own estimators: ``nwpr`` on bit-aligned blocks after bit synchronisation
 #: (moments before), ``moments``. Any other name is a ``cn0_estimator`` plugin.
@@ -42,8 +51,11 @@ def cn0_estimator_names() -> list[str]:
     ``cn0_estimator`` plugins that read the prompt only and are blind to data bits (the
     sample tracker has no noise-only correlator, and its window's prompts keep their bits;
     its own ``nwpr`` aligns its blocks with them)."""
-    plugins = [n for n in registry.names("cn0_estimator")
-               if (cls := registry.get("cn0_estimator", n)).needs == ("prompt",) and cls.bit_blind]
+    plugins = [
+        n
+        for n in registry.names("cn0_estimator")
+        if (cls := registry.get("cn0_estimator", n)).needs == ("prompt",) and cls.bit_blind
+    ]
     return list(dict.fromkeys([*CN0_ESTIMATORS, *plugins]))
 
 
@@ -95,8 +107,7 @@ def estimate_cn0(prompts: np.ndarray, estimator: str, bit_phase: int | None, sig
     return float(cn0_moments(p, period_s))
 
 
-def cn0_nwpr_bits(prompts: np.ndarray, bit_phase: np.ndarray, coherent_time_s: float = 1e-3,
-                  m: int = 20) -> np.ndarray:
+def cn0_nwpr_bits(prompts: np.ndarray, bit_phase: np.ndarray, coherent_time_s: float = 1e-3, m: int = 20) -> np.ndarray:
     """C/N0 (dB-Hz) by the narrow-wide power ratio of many channels' windows at once, each
     on the whole bits from its own bit phase on: `gnssframework.signal.cn0.cn0_nwpr` of
     ``prompts[j, bit_phase[j]:]`` for every row ``j`` (Van Dierendonck 1996), in one pass.

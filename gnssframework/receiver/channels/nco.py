@@ -64,15 +64,26 @@ class ReplicaNCOs:
         self.code_phase[slots] += code_chips
         self.code_rate[slots] = self.spec.code_freq_hz(self.doppler[slots])
 
-    def steer_range(self, slots: np.ndarray, replica_range_m: np.ndarray, range_m: np.ndarray,
-                    range_rate_m_s: np.ndarray, t_s: np.ndarray) -> None:
+    def steer_range(
+        self,
+        slots: np.ndarray,
+        replica_range_m: np.ndarray,
+        range_m: np.ndarray,
+        range_rate_m_s: np.ndarray,
+        t_s: np.ndarray,
+    ) -> None:
         """Move the replicas of ``slots``, which hold the pseudoranges ``replica_range_m`` at
         recording times ``t_s`` (their start samples), to ``range_m`` and ``range_rate_m_s``:
         `engine.channel.Channel.steer_range` on an engine channel at their code phase
         (`code_phase_of_range` of ``replica_range_m``), whose moves the tracker's NCOs take."""
         n = np.size(slots)
-        ch = Channel(self.spec, code_phase_of_range(self.spec, replica_range_m, t_s), self.code_rate[slots],
-                     np.zeros(n), self.doppler[slots])
+        ch = Channel(
+            self.spec,
+            code_phase_of_range(self.spec, replica_range_m, t_s),
+            self.code_rate[slots],
+            np.zeros(n),
+            self.doppler[slots],
+        )
         ch.run_interval(0.0)  # the NCOs are at the start of the interval the command is for
         ch.steer_range(range_m, range_rate_m_s, t_s)
         self.code_phase[slots] += ch.shift_chips
@@ -101,8 +112,9 @@ class SlotNCOs:
     def __init__(self, ncos: ReplicaNCOs, slots: np.ndarray) -> None:
         self.ncos, self.slots = ncos, slots
 
-    def steer_frequency(self, carrier_freq_hz: np.ndarray, code_freq_hz: np.ndarray,
-                        carrier_phase_step_rad: np.ndarray | float = 0.0) -> None:
+    def steer_frequency(
+        self, carrier_freq_hz: np.ndarray, code_freq_hz: np.ndarray, carrier_phase_step_rad: np.ndarray | float = 0.0
+    ) -> None:
         """Next interval from frequency commands: the code NCO runs on (the tracker's
         interval kernel has advanced it), the carrier at ``carrier_freq_hz`` plus the
         phase step; ``shift_chips`` 0 and ``shift_hz`` the frequency change, as the engine's."""

@@ -14,8 +14,19 @@ __all__ = ["STAGES", "RECORD_FIELDS", "ChannelRecord", "TrackingResult"]
 #: Channel states, in the order a channel goes through them.
 STAGES = ("pull-in", "track", "extended", "lost", "vector")
 #: Columns of a channel's record (one row per channel-filter update).
-RECORD_FIELDS = ("time_s", "cn0_dbhz", "pli", "doppler_hz", "code_phase_chips", "carrier_phase_cycles", "lock",
-                 "stage", "prompt_i", "prompt_q", "coherent_ms")
+RECORD_FIELDS = (
+    "time_s",
+    "cn0_dbhz",
+    "pli",
+    "doppler_hz",
+    "code_phase_chips",
+    "carrier_phase_cycles",
+    "lock",
+    "stage",
+    "prompt_i",
+    "prompt_q",
+    "coherent_ms",
+)
 
 
 @dataclass

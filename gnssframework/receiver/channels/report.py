@@ -17,10 +17,30 @@ __all__ = ["TRACKING_COLUMNS", "SUMMARY_COLUMNS", "write_tracking_outputs", "cha
 #: integration's first sample (seconds from the recording's first sample), where the
 #: replica's code phase is ``code_phase_chips`` (a code epoch: within one sample of 0);
 #: ``carrier_phase_cycles`` is the replica's accumulated Doppler phase there.
-TRACKING_COLUMNS = ("time_s", "prn", "cn0_dbhz", "doppler_hz", "code_phase_chips", "lock", "prompt_i", "prompt_q",
-                    "carrier_phase_cycles", "pli", "stage", "coherent_ms")
-SUMMARY_COLUMNS = ("prn", "acq_doppler_hz", "acq_cn0_dbhz", "tracked_s", "locked_fraction", "cn0_dbhz_locked",
-                   "doppler_hz_last", "final_stage")
+TRACKING_COLUMNS = (
+    "time_s",
+    "prn",
+    "cn0_dbhz",
+    "doppler_hz",
+    "code_phase_chips",
+    "lock",
+    "prompt_i",
+    "prompt_q",
+    "carrier_phase_cycles",
+    "pli",
+    "stage",
+    "coherent_ms",
+)
+SUMMARY_COLUMNS = (
+    "prn",
+    "acq_doppler_hz",
+    "acq_cn0_dbhz",
+    "tracked_s",
+    "locked_fraction",
+    "cn0_dbhz_locked",
+    "doppler_hz_last",
+    "final_stage",
+)
 
 
 def channel_summary(result: TrackingResult, code_period_s: float = 1e-3) -> list[dict]:
@@ -35,19 +55,26 @@ def channel_summary(result: TrackingResult, code_period_s: float = 1e-3) -> list
             lock = ch.column("lock").astype(bool)
         span = ch.column("coherent_ms") * code_period_s if ch.rows else np.zeros(0)
         cn0 = ch.column("cn0_dbhz")[lock] if lock.any() else np.zeros(0)
-        out.append({"prn": prn, "acq_doppler_hz": acq[prn].doppler_hz, "acq_cn0_dbhz": acq[prn].cn0_dbhz,
-                    "tracked_s": float(span.sum()),
-                    "locked_fraction": float(span[lock].sum() / span.sum()) if span.sum() else 0.0,
-                    "cn0_dbhz_locked": float(np.median(cn0)) if cn0.size else float("nan"),
-                    "doppler_hz_last": float(ch.column("doppler_hz")[-1]) if ch.rows else float("nan"),
-                    "final_stage": STAGES[int(ch.column("stage")[-1])] if ch.rows else "pull-in"})
+        out.append(
+            {
+                "prn": prn,
+                "acq_doppler_hz": acq[prn].doppler_hz,
+                "acq_cn0_dbhz": acq[prn].cn0_dbhz,
+                "tracked_s": float(span.sum()),
+                "locked_fraction": float(span[lock].sum() / span.sum()) if span.sum() else 0.0,
+                "cn0_dbhz_locked": float(np.median(cn0)) if cn0.size else float("nan"),
+                "doppler_hz_last": float(ch.column("doppler_hz")[-1]) if ch.rows else float("nan"),
+                "final_stage": STAGES[int(ch.column("stage")[-1])] if ch.rows else "pull-in",
+            }
+        )
     return out
 
 
 def locked_channels(result: TrackingResult) -> list[tuple[int, object]]:
     """``(prn, ChannelRecord)`` of the channels that were locked at some row, by PRN."""
-    return [(prn, ch) for prn, ch in sorted(result.channels.items())
-            if ch.rows and ch.column("lock").astype(bool).any()]
+    return [
+        (prn, ch) for prn, ch in sorted(result.channels.items()) if ch.rows and ch.column("lock").astype(bool).any()
+    ]
 
 
 def _fmt(v) -> str:
@@ -58,8 +85,9 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def write_tracking_outputs(out_dir: str | Path, result: TrackingResult, plots: bool = True,
-                           code_period_s: float = 1e-3) -> list[Path]:
+def write_tracking_outputs(
+    out_dir: str | Path, result: TrackingResult, plots: bool = True, code_period_s: float = 1e-3
+) -> list[Path]:
     """Write the files of a tracking run into ``out_dir``; returns their paths
     (``code_period_s``: the tracked signal's, `channel_summary`)."""
     out = Path(out_dir)
@@ -68,8 +96,24 @@ def write_tracking_outputs(out_dir: str | Path, result: TrackingResult, plots: b
     rows = []
     for prn, ch in result.channels.items():
         for r in ch.rows:
-            rec = dict(zip(("time_s", "cn0_dbhz", "pli", "doppler_hz", "code_phase_chips", "carrier_phase_cycles",
-                            "lock", "stage", "prompt_i", "prompt_q", "coherent_ms"), r))
+            rec = dict(
+                zip(
+                    (
+                        "time_s",
+                        "cn0_dbhz",
+                        "pli",
+                        "doppler_hz",
+                        "code_phase_chips",
+                        "carrier_phase_cycles",
+                        "lock",
+                        "stage",
+                        "prompt_i",
+                        "prompt_q",
+                        "coherent_ms",
+                    ),
+                    r,
+                )
+            )
             rec["prn"] = prn
             rec["stage"] = STAGES[rec["stage"]]
             rows.append(rec)
@@ -78,9 +122,22 @@ def write_tracking_outputs(out_dir: str | Path, result: TrackingResult, plots: b
         w = csv.writer(fh)
         w.writerow(TRACKING_COLUMNS)
         for r in rows:
-            w.writerow([f"{r['time_s']:.9f}", r["prn"], f"{r['cn0_dbhz']:.2f}", f"{r['doppler_hz']:.3f}",
-                        f"{r['code_phase_chips']:.6f}", r["lock"], f"{r['prompt_i']:.4f}", f"{r['prompt_q']:.4f}",
-                        f"{r['carrier_phase_cycles']:.6f}", f"{r['pli']:.3f}", r["stage"], r["coherent_ms"]])
+            w.writerow(
+                [
+                    f"{r['time_s']:.9f}",
+                    r["prn"],
+                    f"{r['cn0_dbhz']:.2f}",
+                    f"{r['doppler_hz']:.3f}",
+                    f"{r['code_phase_chips']:.6f}",
+                    r["lock"],
+                    f"{r['prompt_i']:.4f}",
+                    f"{r['prompt_q']:.4f}",
+                    f"{r['carrier_phase_cycles']:.6f}",
+                    f"{r['pli']:.3f}",
+                    r["stage"],
+                    r["coherent_ms"],
+                ]
+            )
     summary = channel_summary(result, code_period_s)
     with atomic_open(written[1], "w", newline="") as fh:
         w = csv.writer(fh)
@@ -114,8 +171,10 @@ def _plots(folder: Path, result: TrackingResult) -> list[Path]:
         axes[1].plot(t, ch.column("pli"))
         axes[2].plot(t, ch.column("doppler_hz"))
     axes[0].set_ylabel("C/N0 (dB-Hz)")
-    axes[0].set_title("channels that locked" + (f" (never locked, not shown: PRN {', '.join(map(str, never))})"
-                                                if never else ""), fontsize=9)
+    axes[0].set_title(
+        "channels that locked" + (f" (never locked, not shown: PRN {', '.join(map(str, never))})" if never else ""),
+        fontsize=9,
+    )
     if locked:
         axes[0].legend(fontsize=7, ncol=4)
     axes[1].set_ylabel("phase-lock indicator")

@@ -60,8 +60,15 @@ from .nco import ReplicaNCOs
 from .prefetch import BlockReader
 from .records import RECORD_FIELDS, STAGES, ChannelRecord, TrackingResult
 from ...signal.cn0 import cn0_moments
-from .lock import (CN0_ESTIMATORS, bit_edge_from_votes, cn0_nwpr_bits, cn0_plugin, estimate_cn0, nwpr_block,
-                   phase_lock_indicator)
+from .lock import (
+    CN0_ESTIMATORS,
+    bit_edge_from_votes,
+    cn0_nwpr_bits,
+    cn0_plugin,
+    estimate_cn0,
+    nwpr_block,
+    phase_lock_indicator,
+)
 
 __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
 
@@ -116,10 +123,18 @@ class SampleTracker:
     `start_stage`, `leave_batch`, `deactivate` and `search`.
     """
 
-    def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
-                 backend: str | None = None, batch: bool = True, read_ahead: bool = True,
-                 closer: SampleCloser | None = None, signal: SignalSpec = GPS_L1CA,
-                 filters: StageFilters | None = None) -> None:
+    def __init__(
+        self,
+        recording: Recording,
+        config: TrackingConfig,
+        acquisition: Acquisition,
+        backend: str | None = None,
+        batch: bool = True,
+        read_ahead: bool = True,
+        closer: SampleCloser | None = None,
+        signal: SignalSpec = GPS_L1CA,
+        filters: StageFilters | None = None,
+    ) -> None:
         self.signal = signal
         self.closer = closer if closer is not None else ScalarSampleCloser()
         self.rec = recording
@@ -171,11 +186,29 @@ class SampleTracker:
         self.last_prompt = np.zeros(n, complex)  # last wiped prompt handed to the filter
         self.shift_chips = np.zeros(n)  # NCO moves of an error-output filter's closure
         self.shift_hz = np.zeros(n)
-        self.nco = ReplicaNCOs(self.signal, self.code_phase, self.code_rate, self.doppler, self.doppler_cycles,
-                               self.shift_chips, self.shift_hz)
-        self.arrays = ChannelArrays(self.acc_t0, self.acc_phase, self.acc_cycles, self.start_sample, self.code_phase,
-                                    self.doppler_cycles, self.prompts, self.n_prompts, self.ms_index,
-                                    self.previous_prompt, self.voting, self.votes)
+        self.nco = ReplicaNCOs(
+            self.signal,
+            self.code_phase,
+            self.code_rate,
+            self.doppler,
+            self.doppler_cycles,
+            self.shift_chips,
+            self.shift_hz,
+        )
+        self.arrays = ChannelArrays(
+            self.acc_t0,
+            self.acc_phase,
+            self.acc_cycles,
+            self.start_sample,
+            self.code_phase,
+            self.doppler_cycles,
+            self.prompts,
+            self.n_prompts,
+            self.ms_index,
+            self.previous_prompt,
+            self.voting,
+            self.votes,
+        )
         self.batches: dict[tuple[str, int], FilterBatch] = {}
         self.layouts: dict[tuple[str, int], frozenset | None] = {}
 
@@ -183,8 +216,9 @@ class SampleTracker:
         """Start (or restart) ``prn``'s channel in ``pull-in`` at its acquisition's code epoch."""
         ch = self.channels.get(prn)
         if ch is None:
-            ch = self.channels[prn] = SampleChannel(prn, self.slot(prn), self.signal,
-                                                    self.records.setdefault(prn, ChannelRecord(prn)), self.filters)
+            ch = self.channels[prn] = SampleChannel(
+                prn, self.slot(prn), self.signal, self.records.setdefault(prn, ChannelRecord(prn)), self.filters
+            )
         i = ch.slot
         self.active[i] = True
         self.start_sample[i] = first_sample + acq.code_phase_samples
@@ -220,7 +254,7 @@ class SampleTracker:
         held = self.buf.shape[0] // per
         if self.buf_start <= lo and hi <= self.buf_start + held:
             return self.buf, self.buf_start
-        keep = self.buf[max(0, lo - self.buf_start) * per:] if lo < self.buf_start + held else self.buf[:0]
+        keep = self.buf[max(0, lo - self.buf_start) * per :] if lo < self.buf_start + held else self.buf[:0]
         first = max(lo, self.buf_start + held) if keep.size else lo
         block = max(hi - first, int(self.config.block_ms * 1e-3 * self.fs))
         new, squares = self.reader.read(first, block)
@@ -230,8 +264,9 @@ class SampleTracker:
             self.power = squares * per / new.size
         return self.buf, self.buf_start
 
-    def run(self, acquisitions: list[AcquisitionResult], duration_s: float | None = None,
-            progress: Any = None) -> TrackingResult:
+    def run(
+        self, acquisitions: list[AcquisitionResult], duration_s: float | None = None, progress: Any = None
+    ) -> TrackingResult:
         """Track every detected satellite of ``acquisitions`` (made on the first samples)
         for ``duration_s`` (default: the whole recording)."""
         ahead = int(self.config.block_ms * 1e-3 * self.fs) if self.read_ahead else 0
@@ -241,8 +276,7 @@ class SampleTracker:
         finally:
             self.reader.close()
 
-    def _track(self, acquisitions: list[AcquisitionResult], duration_s: float | None,
-               progress: Any) -> TrackingResult:
+    def _track(self, acquisitions: list[AcquisitionResult], duration_s: float | None, progress: Any) -> TrackingResult:
         cfg = self.config
         fs = self.fs
         stop = self.rec.n_samples if duration_s is None else min(self.rec.n_samples, int(duration_s * fs))
@@ -301,22 +335,50 @@ class SampleTracker:
             carrier0 = (self.if_hz * starts / fs) % 1.0 + self.doppler_cycles[idx]
             if tables_for is None or not np.array_equal(tables_for, idx):  # channel set changed: new tables
                 tables_for, tables = idx, code_tables(self.codes[idx], self.table_offsets)
-            sums, counts = correlate_periods(buf, starts - first, periods, to_table_units(phases, self.signal),
-                                             to_table_units(steps, self.signal), carrier0,
-                                             (self.if_hz + dop) / fs, self.codes[idx], self.table_offsets,
-                                             backend=self.backend, tables=tables, iq=self.rec.is_complex,
-                                             q_sign=self.rec.info.q_sign)
+            sums, counts = correlate_periods(
+                buf,
+                starts - first,
+                periods,
+                to_table_units(phases, self.signal),
+                to_table_units(steps, self.signal),
+                carrier0,
+                (self.if_hz + dop) / fs,
+                self.codes[idx],
+                self.table_offsets,
+                backend=self.backend,
+                tables=tables,
+                iq=self.rec.is_complex,
+                q_sign=self.rec.info.q_sign,
+            )
             # Normalised sums, NCO bookkeeping, 1 ms prompts and bit-sync votes (`intervals`).
-            interval = close_periods(self.arrays, idx, sums, counts, starts, phases, steps, periods, dop, self.power,
-                                     fs, code_length, backend=self.backend)
+            interval = close_periods(
+                self.arrays,
+                idx,
+                sums,
+                counts,
+                starts,
+                phases,
+                steps,
+                periods,
+                dop,
+                self.power,
+                fs,
+                code_length,
+                backend=self.backend,
+            )
             self._step_filters(idx, interval)
             chans = [self.channels[self.signal.prns[i]] for i in idx.tolist()]
             for c in chans:
                 self._bit_sync(c)
             self._detect(chans)
             # The rows' values as Python floats in one conversion per column.
-            columns = zip(self.acc_t0[idx].tolist(), self.doppler[idx].tolist(), self.acc_phase[idx].tolist(),
-                          self.acc_cycles[idx].tolist(), interval[:, 1])
+            columns = zip(
+                self.acc_t0[idx].tolist(),
+                self.doppler[idx].tolist(),
+                self.acc_phase[idx].tolist(),
+                self.acc_cycles[idx].tolist(),
+                interval[:, 1],
+            )
             for c, values in zip(chans, columns):
                 self._update(c, *values)
             if self.batch:
@@ -356,8 +418,10 @@ class SampleTracker:
         for i, lo, hi in zip(idx.tolist(), starts.tolist(), ends.tolist()):
             gap = self.rec.dropped_between(lo, hi)
             if gap is not None:
-                what = (f"overrun: samples {gap[0]}-{gap[1]} ({(gap[1] - gap[0]) / self.fs:.3f} s) dropped: lost "
-                        "until re-acquired after them")
+                what = (
+                    f"overrun: samples {gap[0]}-{gap[1]} ({(gap[1] - gap[0]) / self.fs:.3f} s) dropped: lost "
+                    "until re-acquired after them"
+                )
                 self.deactivate(self.channels[self.signal.prns[i]], gap[1], (gap[0] / self.fs, what))
                 after = gap[1] if after is None else max(after, gap[1])
         return after
@@ -389,7 +453,7 @@ class SampleTracker:
         for j, i in enumerate(idx.tolist()):
             c = self.channels[prns[i]]
             if c.batch is None:
-                step(c.filter, c.closure, idx[j:j + 1], wiped[j:j + 1])
+                step(c.filter, c.closure, idx[j : j + 1], wiped[j : j + 1])
             elif id(c.batch) not in done:
                 done.add(id(c.batch))
                 slots = np.array(c.batch.slots)
@@ -409,8 +473,9 @@ class SampleTracker:
 
             def step(f: ChannelFilter, k: int) -> None:
                 one = np.ones(k)
-                inputs: dict[str, Any] = {"correlators": Correlators.trusted((5 + 1j) * one, (10 + 2j) * one,
-                                                                              (4 - 1j) * one)}
+                inputs: dict[str, Any] = {
+                    "correlators": Correlators.trusted((5 + 1j) * one, (10 + 2j) * one, (4 - 1j) * one)
+                }
                 if not supports(type(f), *NCO_COMMANDS):
                     inputs.update(nco_shift_chips=0.0 * one, nco_shift_hz=0.0 * one)
                 f.checked_step(inputs)
@@ -461,17 +526,38 @@ class SampleTracker:
             edge = bit_edge_from_votes(self.votes[c.slot], self.config.bit_sync_votes)
             if edge is not None:
                 c.bit_edge = edge
-                c.record.events.append((float(self.acc_t0[c.slot]),
-                                        f"bit sync (edge at ms {edge} mod {c.periods_per_symbol})"))
+                c.record.events.append(
+                    (float(self.acc_t0[c.slot]), f"bit sync (edge at ms {edge} mod {c.periods_per_symbol})")
+                )
 
-    def _update(self, c: SampleChannel, t0: float, doppler_hz: float, code_phase_chips: float, carrier_cycles: float,
-                prompt: complex) -> None:
+    def _update(
+        self,
+        c: SampleChannel,
+        t0: float,
+        doppler_hz: float,
+        code_phase_chips: float,
+        carrier_cycles: float,
+        prompt: complex,
+    ) -> None:
         """Channel ``c``'s coherent interval is complete (its start time ``t0``, its NCOs
         then, its prompt sum; its filter has stepped, its detectors have run): run its state
         machine, record the row."""
         c.stage_ms += c.coherent_ms
-        c.record.rows.append((t0, c.cn0_dbhz, c.pli, doppler_hz, code_phase_chips, carrier_cycles, int(c.locked),
-                              STAGES.index(c.stage), prompt.real, prompt.imag, c.coherent_ms))
+        c.record.rows.append(
+            (
+                t0,
+                c.cn0_dbhz,
+                c.pli,
+                doppler_hz,
+                code_phase_chips,
+                carrier_cycles,
+                int(c.locked),
+                STAGES.index(c.stage),
+                prompt.real,
+                prompt.imag,
+                c.coherent_ms,
+            )
+        )
         self.closer.advance(c, t0)
 
     def _window(self, c: SampleChannel, n: int) -> np.ndarray:
@@ -503,7 +589,7 @@ class SampleTracker:
             return
         slots = np.array([c.slot for c in full])
         win = self.prompts[slots[:, None], (self.n_prompts[slots][:, None] - size + np.arange(size)) % size]
-        lock = win[:, size - min(cfg.lock_window_ms, size):]
+        lock = win[:, size - min(cfg.lock_window_ms, size) :]
         power = np.sum(lock.real**2 + lock.imag**2, axis=1)
         pli = np.sum(lock.real**2 - lock.imag**2, axis=1) / np.where(power > 0, power, 1.0)
         pli[power <= 0] = 0.0
@@ -514,8 +600,11 @@ class SampleTracker:
         cn0 = np.zeros(len(full))
         per_bit = nwpr_block(self.signal)
         period_s = self.signal.code_period_s
-        nwpr = [j for j, bp in enumerate(phases)
-                if cfg.cn0_estimator == "nwpr" and per_bit is not None and bp is not None and size - bp >= per_bit]
+        nwpr = [
+            j
+            for j, bp in enumerate(phases)
+            if cfg.cn0_estimator == "nwpr" and per_bit is not None and bp is not None and size - bp >= per_bit
+        ]
         rest = sorted(set(range(len(full))) - set(nwpr))
         if cfg.cn0_estimator not in CN0_ESTIMATORS:  # a cn0_estimator plugin: every channel's whole window
             rest, cn0 = [], cn0_plugin(cfg.cn0_estimator)(win, period_s)

@@ -101,8 +101,9 @@ def run_aided_tracking(
         ``kf-carrier-loop``): it closes only the carrier loop on top of the aided
         replica; its outputs are frequency and phase corrections to that replica.
     """
-    closer = DeepCloser(channel, navigator, carrier_filter=carrier_filter, accel_aiding=accel_aiding,
-                        pull_in_updates=pull_in_updates)
+    closer = DeepCloser(
+        channel, navigator, carrier_filter=carrier_filter, accel_aiding=accel_aiding, pull_in_updates=pull_in_updates
+    )
     T = truth.coherent_time_s
     n_nco = _steps(nco_interval_s, T, "nco_interval_s")
     n_upd = _steps(update_interval_s, T, "update_interval_s")
@@ -116,12 +117,18 @@ def run_aided_tracking(
     cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), batch)
     # Per-run constants of the correlator draws (tap noise root, amplitude) once, not per interval.
     scale = truth.amplitude_scale
-    source = AnalyticSource(CorrelatorSimulator(T, early_late_spacing_chips), amplitude_from_cn0(cn0, T), rng,
-                            amplitude_scale=None if np.ndim(scale) == 0 and scale == 1.0 else scale,
-                            signal_gain=truth.signal_gain, noise_gain=truth.noise_gain)
+    source = AnalyticSource(
+        CorrelatorSimulator(T, early_late_spacing_chips),
+        amplitude_from_cn0(cn0, T),
+        rng,
+        amplitude_scale=None if np.ndim(scale) == 0 and scale == 1.0 else scale,
+        signal_gain=truth.signal_gain,
+        noise_gain=truth.noise_gain,
+    )
     theta0 = draw.uniform(rng, -np.pi, np.pi, batch, 0)  # unknown initial carrier phase per channel
-    closer.reset(batch, T, n_nco, n_upd, K, signal=truth.signal, early_late_spacing_chips=early_late_spacing_chips,
-                 cn0_dbhz=cn0)
+    closer.reset(
+        batch, T, n_nco, n_upd, K, signal=truth.signal, early_late_spacing_chips=early_late_spacing_chips, cn0_dbhz=cn0
+    )
     replica = closer.start(sat_at(0))
     true_at = _TrueSignal(sat_at, theta0)
     rec: dict[str, list] = {"code": [], "freq": [], "phase": []}
@@ -137,13 +144,19 @@ def run_aided_tracking(
         rec["code"].append(err.code_chips)
         rec["freq"].append(err.freq_hz)
         edge = nxt
-    extra = ({"phase_error_rad": np.angle(np.exp(1j * np.stack(rec["phase"])))}
-             if carrier_filter is not None else {})
+    extra = {"phase_error_rad": np.angle(np.exp(1j * np.stack(rec["phase"])))} if carrier_filter is not None else {}
     updates = closer.updates  # none when the run is shorter than one integration interval
     res = np.stack([u[1] for u in updates]) if updates else np.empty((0,) + batch + (2,))
     cov = np.stack([u[2] for u in updates]) if updates else np.empty((0,) + batch + (2, 2))
-    return DeepRecord(np.stack(rec["code"]), np.stack(rec["freq"]), (np.arange(K) + 0.5) * T,
-                      np.asarray([u[0] for u in updates], float), res, cov, extra)
+    return DeepRecord(
+        np.stack(rec["code"]),
+        np.stack(rec["freq"]),
+        (np.arange(K) + 0.5) * T,
+        np.asarray([u[0] for u in updates], float),
+        res,
+        cov,
+        extra,
+    )
 
 
 class _TrueSignal:
@@ -162,8 +175,10 @@ class _TrueSignal:
         carrier_rho = rho
         if self.sat_at.truth.range_error_m is not None:  # the carrier range differs from the code's (ionosphere)
             carrier_rho = rho + self.sat_at.carrier_minus_code(k)
-        return (code_phase_of_range(self.signal, rho, k * self.T),
-                self.theta0 - 2 * np.pi * carrier_rho / self.signal.wavelength_m)
+        return (
+            code_phase_of_range(self.signal, rho, k * self.T),
+            self.theta0 - 2 * np.pi * carrier_rho / self.signal.wavelength_m,
+        )
 
 
 class _EdgeStates:

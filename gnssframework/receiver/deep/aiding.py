@@ -69,13 +69,15 @@ def line_of_sight_kinematics(
     los
         ``(runs, channels, 3)`` unit vectors from receiver to satellite.
     """
+
     def per_channel(receiver: np.ndarray) -> np.ndarray:  # (runs, 3) against (..., channels, 3)
         return np.asarray(receiver)[..., None, :]
 
     rho_g, e = line_of_sight(sat_pos_m, per_channel(receiver_pos_m))
     rate_g = range_rate(sat_vel_m_s, per_channel(receiver_vel_m_s), e)
-    accel = range_acceleration(sat_acc_m_s2, per_channel(receiver_acc_m_s2), sat_vel_m_s,
-                               per_channel(receiver_vel_m_s), e, rho_g)
+    accel = range_acceleration(
+        sat_acc_m_s2, per_channel(receiver_acc_m_s2), sat_vel_m_s, per_channel(receiver_vel_m_s), e, rho_g
+    )
     bias = np.asarray(clock_bias_m, float)
     drift = np.asarray(clock_drift_m_s, float)
     if bias.ndim:

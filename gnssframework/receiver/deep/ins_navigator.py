@@ -64,8 +64,14 @@ class InsNavigator:
         own ``pull_in_updates`` does the same without calling ``update`` at all.
     """
 
-    def __init__(self, ins: StrapdownSolution, ekf: ErrorStateNavFilter, clock: ClockFilter, on_update=None,
-                 pull_in_updates: int = 0) -> None:
+    def __init__(
+        self,
+        ins: StrapdownSolution,
+        ekf: ErrorStateNavFilter,
+        clock: ClockFilter,
+        on_update=None,
+        pull_in_updates: int = 0,
+    ) -> None:
         self.ins = ins
         self.ekf = ekf
         self.clock = clock
@@ -96,8 +102,16 @@ class InsNavigator:
                 self.on_update(t_s, self)
             return
         Phi, Qd = self.ins.take_error_model()
-        out = self.ekf.step({"transition": Phi, "process_noise": Qd, "residual_m": residual_m,
-                             "residual_cov": residual_cov, "los": los, "cn0_dbhz": cn0_dbhz})
+        out = self.ekf.step(
+            {
+                "transition": Phi,
+                "process_noise": Qd,
+                "residual_m": residual_m,
+                "residual_cov": residual_cov,
+                "los": los,
+                "cn0_dbhz": cn0_dbhz,
+            }
+        )
         dx = out["error_state"]
         self.ins.correct(dx)
         self.clock.predict(t_s)
@@ -110,8 +124,14 @@ class InsNavigator:
 REJECTED_FIX_VAR = 1e12
 
 
-def loose_update(ins: StrapdownSolution, ekf: ErrorStateNavFilter, fix_pos_m: np.ndarray, fix_vel_m_s: np.ndarray,
-                 fix_cov: np.ndarray, gate_probability: float = 0.0) -> np.ndarray:
+def loose_update(
+    ins: StrapdownSolution,
+    ekf: ErrorStateNavFilter,
+    fix_pos_m: np.ndarray,
+    fix_vel_m_s: np.ndarray,
+    fix_cov: np.ndarray,
+    gate_probability: float = 0.0,
+) -> np.ndarray:
     """One loosely coupled update: INS minus a GNSS position/velocity fix into ``ins-ekf``, then correct.
 
     ``fix_cov`` ``(runs, 6, 6)`` over [position, velocity]. With ``gate_probability`` > 0 a
@@ -130,7 +150,8 @@ def loose_update(ins: StrapdownSolution, ekf: ErrorStateNavFilter, fix_pos_m: np
         accepted = fix_gate(z, P[:, idx[:, None], idx] + fix_cov, gate_probability)
         z = np.where(accepted[:, None], z, 0.0)
         fix_cov = np.where(accepted[:, None, None], fix_cov, fix_cov + REJECTED_FIX_VAR * np.eye(6))
-    out = ekf.step({"transition": Phi, "process_noise": Qd, "position_velocity_error": z,
-                    "position_velocity_cov": fix_cov})
+    out = ekf.step(
+        {"transition": Phi, "process_noise": Qd, "position_velocity_error": z, "position_velocity_cov": fix_cov}
+    )
     ins.correct(out["error_state"])
     return out["error_state"]

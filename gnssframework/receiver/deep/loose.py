@@ -28,14 +28,30 @@ from ..engine.loops import TrackingRecord
 from ..engine.truth import SignalTruth, code_phase_of_range
 from ..tracking.scalar import run_closed_loop
 
-__all__ = ["scalar_tracking", "pv_fix", "scalar_measurement_variances", "scalar_measurements",
-           "trailing_rate_measurement", "line_of_sight_accel", "correlated_error_inflation", "fix_gate"]
+__all__ = [
+    "scalar_tracking",
+    "pv_fix",
+    "scalar_measurement_variances",
+    "scalar_measurements",
+    "trailing_rate_measurement",
+    "line_of_sight_accel",
+    "correlated_error_inflation",
+    "fix_gate",
+]
 
 
-def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz: np.ndarray, coherent_time_s: float,
-                    rng: np.random.Generator, *, initial_doppler_error_hz: np.ndarray | float = 0.0,
-                    early_late_spacing_chips: float = 1.0, carrier_range_m: np.ndarray | None = None,
-                    signal: SignalSpec = GPS_L1CA) -> TrackingRecord:
+def scalar_tracking(
+    channel: ChannelFilter,
+    pseudorange_m: np.ndarray,
+    cn0_dbhz: np.ndarray,
+    coherent_time_s: float,
+    rng: np.random.Generator,
+    *,
+    initial_doppler_error_hz: np.ndarray | float = 0.0,
+    early_late_spacing_chips: float = 1.0,
+    carrier_range_m: np.ndarray | None = None,
+    signal: SignalSpec = GPS_L1CA,
+) -> TrackingRecord:
     """Track every channel with its own scalar loop.
 
     Parameters
@@ -61,16 +77,28 @@ def scalar_tracking(channel: ChannelFilter, pseudorange_m: np.ndarray, cn0_dbhz:
     carrier = -2 * np.pi * (rho_c - rho_c[0]) / signal.wavelength_m + draw.uniform(rng, -np.pi, np.pi, rho0.shape, 0)
     t = np.arange(rho.shape[0]).reshape((-1,) + (1,) * (rho.ndim - 1)) * coherent_time_s
     code = code_phase_of_range(signal, rho - rho0, t)
-    truth = SignalTruth(code, carrier, np.broadcast_to(np.asarray(cn0_dbhz, float), rho0.shape), coherent_time_s,
-                        signal=signal)
+    truth = SignalTruth(
+        code, carrier, np.broadcast_to(np.asarray(cn0_dbhz, float), rho0.shape), coherent_time_s, signal=signal
+    )
     doppler0 = -(rho_c[1] - rho_c[0]) / coherent_time_s / signal.wavelength_m
-    return run_closed_loop(channel, truth, rng, initial_doppler_hz=doppler0 + initial_doppler_error_hz,
-                           early_late_spacing_chips=early_late_spacing_chips)
+    return run_closed_loop(
+        channel,
+        truth,
+        rng,
+        initial_doppler_hz=doppler0 + initial_doppler_error_hz,
+        early_late_spacing_chips=early_late_spacing_chips,
+    )
 
 
-def scalar_measurement_variances(cn0_dbhz: np.ndarray, coherent_time_s: float, dll_bandwidth_hz: float,
-                                 pll_bandwidth_hz: float, rate_window_s: float, early_late_spacing_chips: float = 1.0,
-                                 signal: SignalSpec = GPS_L1CA) -> tuple[np.ndarray, np.ndarray]:
+def scalar_measurement_variances(
+    cn0_dbhz: np.ndarray,
+    coherent_time_s: float,
+    dll_bandwidth_hz: float,
+    pll_bandwidth_hz: float,
+    rate_window_s: float,
+    early_late_spacing_chips: float = 1.0,
+    signal: SignalSpec = GPS_L1CA,
+) -> tuple[np.ndarray, np.ndarray]:
     """Thermal-noise variances of a scalar loop's pseudorange (m^2) and range rate (m^2/s^2).
 
     Code: the early-minus-late envelope DLL, $\\sigma_\\tau^2 = \\frac{B_L d}{2 c}\\left(1 +
@@ -89,9 +117,18 @@ def scalar_measurement_variances(cn0_dbhz: np.ndarray, coherent_time_s: float, d
     return var_code, var_rate
 
 
-def pv_fix(range_m: np.ndarray, rate_m_s: np.ndarray, var_range: np.ndarray, var_rate: np.ndarray,
-           sat_pos_m: np.ndarray, sat_vel_m_s: np.ndarray, pos0_m: np.ndarray, vel0_m_s: np.ndarray,
-           *, iterations: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pv_fix(
+    range_m: np.ndarray,
+    rate_m_s: np.ndarray,
+    var_range: np.ndarray,
+    var_rate: np.ndarray,
+    sat_pos_m: np.ndarray,
+    sat_vel_m_s: np.ndarray,
+    pos0_m: np.ndarray,
+    vel0_m_s: np.ndarray,
+    *,
+    iterations: int = 4,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Weighted least-squares position/velocity/clock fix (Groves 2013, sections 9.4.1-9.4.2).
 
     Parameters
@@ -127,8 +164,9 @@ def pv_fix(range_m: np.ndarray, rate_m_s: np.ndarray, var_range: np.ndarray, var
             dx_r = np.linalg.solve(N_r, np.einsum("rci,rc->ri", H, w_r * (range_m - pred_rho))[..., None])[..., 0]
             dx_v = np.linalg.solve(N_v, np.einsum("rci,rc->ri", H, w_v * (rate_m_s - pred_rate))[..., None])[..., 0]
         except np.linalg.LinAlgError:
-            raise NumericalError("pv-fix", [], None, "singular geometry (fewer than 4 independent lines of sight)") \
-                from None
+            raise NumericalError(
+                "pv-fix", [], None, "singular geometry (fewer than 4 independent lines of sight)"
+            ) from None
         r += dx_r[:, :3]
         b += dx_r[:, 3]
         v += dx_v[:, :3]
@@ -139,8 +177,14 @@ def pv_fix(range_m: np.ndarray, rate_m_s: np.ndarray, var_range: np.ndarray, var
     return r, v, cov
 
 
-def scalar_measurements(record: TrackingRecord, pseudorange_m: np.ndarray, rate_m_s: np.ndarray, k: int,
-                        rate_window: int, signal: SignalSpec = GPS_L1CA) -> tuple[np.ndarray, np.ndarray]:
+def scalar_measurements(
+    record: TrackingRecord,
+    pseudorange_m: np.ndarray,
+    rate_m_s: np.ndarray,
+    k: int,
+    rate_window: int,
+    signal: SignalSpec = GPS_L1CA,
+) -> tuple[np.ndarray, np.ndarray]:
     """Pseudorange and range rate the scalar loops read at the edge after interval ``k``.
 
     ``pseudorange_m`` and ``rate_m_s`` ``(runs, ch)`` are the true values there. The
@@ -151,13 +195,21 @@ def scalar_measurements(record: TrackingRecord, pseudorange_m: np.ndarray, rate_
     code = 0.5 * (record.code_error_chips[k] + record.code_error_chips[min(k + 1, len(record.code_error_chips) - 1)])
     lo = max(k + 1 - rate_window // 2, 0)
     hi = min(lo + rate_window, len(record.freq_error_hz))
-    return (pseudorange_m + signal.chip_length_m * code,
-            rate_m_s + signal.wavelength_m * np.mean(record.freq_error_hz[lo:hi], axis=0))
+    return (
+        pseudorange_m + signal.chip_length_m * code,
+        rate_m_s + signal.wavelength_m * np.mean(record.freq_error_hz[lo:hi], axis=0),
+    )
 
 
-def trailing_rate_measurement(record: TrackingRecord, carrier_range_m: np.ndarray, k_edge: int, window: int,
-                              coherent_time_s: float, los_accel_m_s2: np.ndarray, signal: SignalSpec = GPS_L1CA
-                              ) -> np.ndarray:
+def trailing_rate_measurement(
+    record: TrackingRecord,
+    carrier_range_m: np.ndarray,
+    k_edge: int,
+    window: int,
+    coherent_time_s: float,
+    los_accel_m_s2: np.ndarray,
+    signal: SignalSpec = GPS_L1CA,
+) -> np.ndarray:
     """Range rate at edge ``k_edge`` from the carrier phase of the ``window`` intervals before it.
 
     The loops' carrier phase advance over the trailing window (nothing after the update
@@ -171,12 +223,13 @@ def trailing_rate_measurement(record: TrackingRecord, carrier_range_m: np.ndarra
     """
     delta_s = window * coherent_time_s
     mean_rate = (carrier_range_m[k_edge] - carrier_range_m[k_edge - window]) / delta_s
-    error = signal.wavelength_m * np.mean(record.freq_error_hz[k_edge - window:k_edge], axis=0)
+    error = signal.wavelength_m * np.mean(record.freq_error_hz[k_edge - window : k_edge], axis=0)
     return mean_rate + error + los_accel_m_s2 * delta_s / 2
 
 
-def line_of_sight_accel(sat_pos_m: np.ndarray, sat_acc_m_s2: np.ndarray, pos_m: np.ndarray, acc_m_s2: np.ndarray
-                        ) -> np.ndarray:
+def line_of_sight_accel(
+    sat_pos_m: np.ndarray, sat_acc_m_s2: np.ndarray, pos_m: np.ndarray, acc_m_s2: np.ndarray
+) -> np.ndarray:
     """Range acceleration $e\\cdot(a_s - a)$ ``(runs, ch)`` of satellites ``(ch, 3)`` or ``(runs, ch, 3)``
     seen from receivers at ``pos_m`` with acceleration ``acc_m_s2`` ``(runs, 3)`` (the
     turning of the line of sight, $|v_s - v|^2_\\perp / \\rho$, below 0.1 m/s², is left out)."""

@@ -29,8 +29,21 @@ import numpy as np
 
 from ...errors import NumericalError
 
-__all__ = ["reference_channel", "difference_operator", "difference", "linear_update", "LinearUpdate", "new_information",
-           "integration_measurement", "clock_measurement", "ATTITUDE", "VELOCITY", "POSITION", "ACCEL_BIAS", "GYRO_BIAS"]
+__all__ = [
+    "reference_channel",
+    "difference_operator",
+    "difference",
+    "linear_update",
+    "LinearUpdate",
+    "new_information",
+    "integration_measurement",
+    "clock_measurement",
+    "ATTITUDE",
+    "VELOCITY",
+    "POSITION",
+    "ACCEL_BIAS",
+    "GYRO_BIAS",
+]
 
 
 def reference_channel(cn0_dbhz: np.ndarray) -> np.ndarray:
@@ -49,8 +62,9 @@ def difference_operator(n_channels: int, reference: np.ndarray) -> np.ndarray:
     return rows
 
 
-def difference(z: np.ndarray, H: np.ndarray, R: np.ndarray, reference: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def difference(
+    z: np.ndarray, H: np.ndarray, R: np.ndarray, reference: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Differenced measurement, model and correlated covariance.
 
     Parameters
@@ -73,8 +87,7 @@ def difference(z: np.ndarray, H: np.ndarray, R: np.ndarray, reference: np.ndarra
     if R.ndim == z.ndim:
         R = R[..., :, None] * np.eye(n)
     D = difference_operator(n, reference)
-    return (np.einsum("rij,rj->ri", D, z), np.einsum("rij,rjk->rik", D, H),
-            np.einsum("rij,rjk,rlk->ril", D, R, D))
+    return (np.einsum("rij,rj->ri", D, z), np.einsum("rij,rjk->rik", D, H), np.einsum("rij,rjk,rlk->ril", D, R, D))
 
 
 #: The estimator of `linear_update`: the linear Kalman filter's update (Joseph form).
@@ -97,8 +110,9 @@ class LinearUpdate:
 
         self.filter_step = FilterStep(registry.create("estimator", LINEAR_ESTIMATOR), name=name)
 
-    def __call__(self, x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray,
-                 *, step: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(
+        self, x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray, *, step: int | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Updated mean and covariance (see `linear_update`); ``step`` names the update in failures."""
         from ...estimation import Gaussian, LinearModel
 
@@ -110,8 +124,16 @@ class LinearUpdate:
         return post.mean, post.cov
 
 
-def linear_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray,
-                  *, name: str = "ins-ekf", step: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def linear_update(
+    x: np.ndarray,
+    P: np.ndarray,
+    z: np.ndarray,
+    H: np.ndarray,
+    R: np.ndarray,
+    *,
+    name: str = "ins-ekf",
+    step: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Batched Kalman measurement update in Joseph form (Groves 2013, eqs. 3.24-3.27).
 
     ``x (runs, m)``, ``P (runs, m, m)``, ``z (runs, p)``, ``H (runs, p, m)``, ``R (runs, p, p)``.
@@ -132,8 +154,15 @@ def linear_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R:
     return LinearUpdate(name)(x, P, z, H, R, step=step)
 
 
-def new_information(x_prior: np.ndarray, P_prior: np.ndarray, x_post: np.ndarray, P_post: np.ndarray,
-                    *, name: str = "prefilter", step: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def new_information(
+    x_prior: np.ndarray,
+    P_prior: np.ndarray,
+    x_post: np.ndarray,
+    P_post: np.ndarray,
+    *,
+    name: str = "prefilter",
+    step: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Equivalent measurement ``(z, R)`` of what a prefilter learned between prior and posterior.
 
     Updating ``(x_prior, P_prior)`` with ``z`` (unit measurement matrix, covariance
@@ -155,24 +184,43 @@ def new_information(x_prior: np.ndarray, P_prior: np.ndarray, x_post: np.ndarray
     eig = np.linalg.eigvalsh(info_new)
     if np.any(eig <= 0):
         bad = np.argwhere(np.any(eig <= 0, axis=-1).reshape(-1))
-        raise NumericalError(name, [tuple(b) for b in bad], step, "the interval brought no new information "
-                             "(posterior information not above the prior's)")
+        raise NumericalError(
+            name,
+            [tuple(b) for b in bad],
+            step,
+            "the interval brought no new information (posterior information not above the prior's)",
+        )
     R = np.linalg.inv(info_new)
-    z = np.einsum("...ij,...j->...i", R, np.einsum("...ij,...j->...i", info_post, x_post)
-                  - np.einsum("...ij,...j->...i", info_prior, x_prior))
+    z = np.einsum(
+        "...ij,...j->...i",
+        R,
+        np.einsum("...ij,...j->...i", info_post, x_post) - np.einsum("...ij,...j->...i", info_prior, x_prior),
+    )
     return z, R
 
 
 #: Error-state layout of the 15-state integration filter, that of `gnssframework.inertial.error_model`
 #: (Groves 2013, section 14.2.1): attitude (rad), velocity (m/s), position (m), ECEF, then the
 #: residual gyro and accelerometer biases of the compensated IMU output (body axes).
-ATTITUDE, VELOCITY, POSITION, GYRO_BIAS, ACCEL_BIAS = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12),
-                                                       slice(12, 15))
+ATTITUDE, VELOCITY, POSITION, GYRO_BIAS, ACCEL_BIAS = (
+    slice(0, 3),
+    slice(3, 6),
+    slice(6, 9),
+    slice(9, 12),
+    slice(12, 15),
+)
 
 
-def integration_measurement(residual_m: np.ndarray, residual_cov: np.ndarray, los: np.ndarray,
-                            reference: np.ndarray, *, n_states: int = 15, position: slice = POSITION,
-                            velocity: slice = VELOCITY) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def integration_measurement(
+    residual_m: np.ndarray,
+    residual_cov: np.ndarray,
+    los: np.ndarray,
+    reference: np.ndarray,
+    *,
+    n_states: int = 15,
+    position: slice = POSITION,
+    velocity: slice = VELOCITY,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Differenced range and rate residuals as a measurement of the 15-state error.
 
     With the error state $\\delta x$ = estimate minus truth, channel i's residual (true
@@ -209,12 +257,17 @@ def integration_measurement(residual_m: np.ndarray, residual_cov: np.ndarray, lo
     D1 = difference_operator(n, reference)
     D = np.zeros((runs, 2 * (n - 1), 2 * n))
     D[:, : n - 1, :n] = D1
-    D[:, n - 1:, n:] = D1
+    D[:, n - 1 :, n:] = D1
     return (np.einsum("rij,rj->ri", D, z), np.einsum("rij,rjk->rik", D, H), np.einsum("rij,rjk,rlk->ril", D, R, D))
 
 
-def clock_measurement(residual_m: np.ndarray, residual_cov: np.ndarray, los: np.ndarray,
-                      pos_error_m: np.ndarray, vel_error_m_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def clock_measurement(
+    residual_m: np.ndarray,
+    residual_cov: np.ndarray,
+    los: np.ndarray,
+    pos_error_m: np.ndarray,
+    vel_error_m_s: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """Clock bias and drift errors seen by all channels once the navigation error is known.
 
     Generalised least squares over channels of $[e_i\\cdot\\delta\\hat r, e_i\\cdot\\delta\\hat v] - r_i

@@ -26,8 +26,9 @@ __all__ = ["PvaNavigator", "ClockFilter"]
 def _pva_transition(dt: float, jerk_psd: float) -> tuple[np.ndarray, np.ndarray]:
     """Constant-acceleration transition and white-jerk process noise per axis (Bar-Shalom et al. 2001, 6.2.3)."""
     F1 = np.array([[1.0, dt, dt * dt / 2], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
-    Q1 = jerk_psd * np.array([[dt**5 / 20, dt**4 / 8, dt**3 / 6], [dt**4 / 8, dt**3 / 3, dt**2 / 2],
-                              [dt**3 / 6, dt**2 / 2, dt]])
+    Q1 = jerk_psd * np.array(
+        [[dt**5 / 20, dt**4 / 8, dt**3 / 6], [dt**4 / 8, dt**3 / 3, dt**2 / 2], [dt**3 / 6, dt**2 / 2, dt]]
+    )
     # State order [p(3), v(3), a(3)]: kron of the per-axis model with I3.
     return np.kron(F1, np.eye(3)), np.kron(Q1, np.eye(3))
 
@@ -43,8 +44,7 @@ class ClockFilter:
     section 9.4.2), PSDs ``clock_psd`` = (bias m^2/s, drift m^2/s^3).
     """
 
-    def __init__(self, clock_m: np.ndarray, clock_cov: np.ndarray, clock_psd: tuple[float, float] = (0.1, 0.1)
-                 ) -> None:
+    def __init__(self, clock_m: np.ndarray, clock_cov: np.ndarray, clock_psd: tuple[float, float] = (0.1, 0.1)) -> None:
         self.c = np.asarray(clock_m, float).copy()
         runs = self.c.shape[0]
         self.Pc = np.broadcast_to(np.asarray(clock_cov, float), (runs, 2, 2)).copy()
@@ -72,8 +72,9 @@ class ClockFilter:
         """Measure the clock error once the navigation error is known, and remove it."""
         runs = self.c.shape[0]
         zc, Rc = clock_measurement(residual_m, residual_cov, los, pos_error_m, vel_error_m_s)
-        dc, self.Pc = self._update(np.zeros((runs, 2)), self.Pc, zc, np.broadcast_to(np.eye(2), (runs, 2, 2)), Rc,
-                                   step=self.steps)
+        dc, self.Pc = self._update(
+            np.zeros((runs, 2)), self.Pc, zc, np.broadcast_to(np.eye(2), (runs, 2, 2)), Rc, step=self.steps
+        )
         self.c = self.c - dc
         self.steps += 1
 
@@ -101,9 +102,19 @@ class PvaNavigator:
         measurement every one of them must give the Kalman update.
     """
 
-    def __init__(self, position_m, velocity_m_s, acceleration_m_s2, cov, clock_m, clock_cov, *,
-                 jerk_psd_m2_s5: float = 100.0, clock_psd: tuple[float, float] = (0.1, 0.1),
-                 estimator: Any = None) -> None:
+    def __init__(
+        self,
+        position_m,
+        velocity_m_s,
+        acceleration_m_s2,
+        cov,
+        clock_m,
+        clock_cov,
+        *,
+        jerk_psd_m2_s5: float = 100.0,
+        clock_psd: tuple[float, float] = (0.1, 0.1),
+        estimator: Any = None,
+    ) -> None:
         if isinstance(estimator, str):
             estimator = registry.create("estimator", estimator)
         self.estimator = estimator
@@ -143,8 +154,15 @@ class PvaNavigator:
         self.t = t_s
         # Error state dx = estimate - truth; the residuals measure dx (closed loop: subtract it).
         runs = self.x.shape[0]
-        z, H, R = integration_measurement(residual_m, residual_cov, los, reference_channel(cn0_dbhz), n_states=9,
-                                          position=slice(0, 3), velocity=slice(3, 6))
+        z, H, R = integration_measurement(
+            residual_m,
+            residual_cov,
+            los,
+            reference_channel(cn0_dbhz),
+            n_states=9,
+            position=slice(0, 3),
+            velocity=slice(3, 6),
+        )
         if self.estimator is None:
             dx, self.P = self._linear(np.zeros((runs, 9)), self.P, z, H, R, step=self.steps)
         else:

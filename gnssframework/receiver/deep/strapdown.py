@@ -17,6 +17,7 @@ from ...errors import ConfigError
 
 __all__ = ["StrapdownIns"]
 
+
 class StrapdownIns:
     """`ins_navigator.StrapdownSolution` on `gnssframework.inertial`: mechanisation, error model, corrections.
 
@@ -74,11 +75,14 @@ class StrapdownIns:
             return
         states, forces = zip(*self._pending)
         self._pending = []
-        stacked = self.mech.NavState(np.stack([x.q_b_e for x in states]),
-                                     np.stack([x.velocity_ecef_mps for x in states]),
-                                     np.stack([x.position_ecef_m for x in states]))
-        Phi_all, Qd_all = self.em.error_state_transition(stacked, np.stack(forces), self.dt, self.grade,
-                                                         method="second-order")
+        stacked = self.mech.NavState(
+            np.stack([x.q_b_e for x in states]),
+            np.stack([x.velocity_ecef_mps for x in states]),
+            np.stack([x.position_ecef_m for x in states]),
+        )
+        Phi_all, Qd_all = self.em.error_state_transition(
+            stacked, np.stack(forces), self.dt, self.grade, method="second-order"
+        )
         for Phi, Qd in zip(Phi_all, Qd_all):
             self.Phi = Phi @ self.Phi
             self.Qd = Phi @ self.Qd @ np.swapaxes(Phi, -1, -2) + Qd
@@ -87,11 +91,13 @@ class StrapdownIns:
         """Mechanise to ``t_s`` and accumulate the error model's transition and noise."""
         n = int(round(t_s / self.dt))
         if n > self.dtheta.shape[0]:
-            raise ConfigError("StrapdownIns", f"no IMU increments beyond {self.dtheta.shape[0] * self.dt} s "
-                              f"(asked {t_s} s)")
+            raise ConfigError(
+                "StrapdownIns", f"no IMU increments beyond {self.dtheta.shape[0] * self.dt} s (asked {t_s} s)"
+            )
         while self.k < n:
-            dth, dv = self.em.compensate_increments(self.dtheta[self.k], self.dv[self.k], self.gyro_bias,
-                                                    self.accel_bias, self.dt)
+            dth, dv = self.em.compensate_increments(
+                self.dtheta[self.k], self.dv[self.k], self.gyro_bias, self.accel_bias, self.dt
+            )
             self.f_b = dv / self.dt
             self._pending.append((self.state, self.f_b))
             # Increments (from simulate_imu) and state are checked once; a non-finite INS output
@@ -112,5 +118,6 @@ class StrapdownIns:
         return out
 
     def correct(self, dx: np.ndarray) -> None:
-        self.state, self.gyro_bias, self.accel_bias = self.em.correct_state(self.state, dx, self.gyro_bias,
-                                                                            self.accel_bias)
+        self.state, self.gyro_bias, self.accel_bias = self.em.correct_state(
+            self.state, dx, self.gyro_bias, self.accel_bias
+        )

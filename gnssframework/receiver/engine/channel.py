@@ -74,12 +74,21 @@ class Channel:
         channel is steered by range (`from_range`, `steer_range`); ``None`` otherwise.
     """
 
-    def __init__(self, signal: SignalSpec, code_phase_chips: np.ndarray, code_rate_chips_s: np.ndarray,
-                 carrier_phase_rad: np.ndarray, carrier_freq_hz: np.ndarray) -> None:
+    def __init__(
+        self,
+        signal: SignalSpec,
+        code_phase_chips: np.ndarray,
+        code_rate_chips_s: np.ndarray,
+        carrier_phase_rad: np.ndarray,
+        carrier_freq_hz: np.ndarray,
+    ) -> None:
         self.signal = signal
         # The description's rates and lengths, read once (the steering runs every interval).
-        self._chip_rate_hz, self._chip_m, self._wavelength_m = (signal.chip_rate_hz, signal.chip_length_m,
-                                                                signal.wavelength_m)
+        self._chip_rate_hz, self._chip_m, self._wavelength_m = (
+            signal.chip_rate_hz,
+            signal.chip_length_m,
+            signal.wavelength_m,
+        )
         self.code_phase_chips = code_phase_chips
         self.code_rate_chips_s = code_rate_chips_s
         self.carrier_phase_rad = carrier_phase_rad
@@ -100,8 +109,15 @@ class Channel:
     # --- start ---------------------------------------------------------------------------
 
     @classmethod
-    def start(cls, batch: tuple[int, ...], code_phase_chips: np.ndarray | float, doppler_hz: np.ndarray | float,
-              *, signal: SignalSpec = GPS_L1CA, carrier_phase_rad: np.ndarray | float = 0.0) -> Channel:
+    def start(
+        cls,
+        batch: tuple[int, ...],
+        code_phase_chips: np.ndarray | float,
+        doppler_hz: np.ndarray | float,
+        *,
+        signal: SignalSpec = GPS_L1CA,
+        carrier_phase_rad: np.ndarray | float = 0.0,
+    ) -> Channel:
         """Channels started from an acquisition: code phase, Doppler (carrier NCO) and the
         carrier-aided code rate :math:`f_{chip}(1 + f_D / f_L)` (`SignalSpec.code_freq_hz`)."""
         f = np.broadcast_to(np.asarray(doppler_hz, float), batch).copy()
@@ -110,11 +126,19 @@ class Channel:
         return cls(signal, code, signal.code_freq_hz(f), carrier, f)
 
     @classmethod
-    def from_range(cls, batch: tuple[int, ...], range_m: np.ndarray, rate_m_s: np.ndarray, *, t_s: float = 0.0,
-                   signal: SignalSpec = GPS_L1CA) -> Channel:
+    def from_range(
+        cls,
+        batch: tuple[int, ...],
+        range_m: np.ndarray,
+        rate_m_s: np.ndarray,
+        *,
+        t_s: float = 0.0,
+        signal: SignalSpec = GPS_L1CA,
+    ) -> Channel:
         """Channels started from a range command (range at ``t_s`` and its rate), carrier phase 0."""
-        code, code_rate, freq = _range_nco(signal.chip_rate_hz, signal.chip_length_m, signal.wavelength_m,
-                                           range_m, rate_m_s, t_s, batch)
+        code, code_rate, freq = _range_nco(
+            signal.chip_rate_hz, signal.chip_length_m, signal.wavelength_m, range_m, rate_m_s, t_s, batch
+        )
         ch = cls(signal, code, code_rate, np.zeros(batch), freq)
         ch.nco_range_m, ch.nco_range_rate_m_s = range_m, rate_m_s
         return ch
@@ -129,8 +153,14 @@ class Channel:
         self._carrier_end = self.carrier_phase_rad + 2 * np.pi * self.carrier_freq_hz * T
         return self._code_end, self._carrier_end
 
-    def errors(self, code_start: np.ndarray, code_end: np.ndarray, carrier_start: np.ndarray,
-               carrier_end: np.ndarray, coherent_time_s: float) -> ReplicaErrors:
+    def errors(
+        self,
+        code_start: np.ndarray,
+        code_end: np.ndarray,
+        carrier_start: np.ndarray,
+        carrier_end: np.ndarray,
+        coherent_time_s: float,
+    ) -> ReplicaErrors:
         """The replica's errors over the current interval against the true code phase
         (chips) and carrier phase (rad) at its start and end (runs `run_interval`)."""
         rep_code_end, rep_carrier_end = self.run_interval(coherent_time_s)
@@ -140,8 +170,9 @@ class Channel:
 
     # --- steering (after `run_interval` / `errors` of the interval that ends) ------------
 
-    def steer_frequency(self, carrier_freq_hz: np.ndarray, code_freq_hz: np.ndarray,
-                        carrier_phase_step_rad: np.ndarray | float = 0.0) -> None:
+    def steer_frequency(
+        self, carrier_freq_hz: np.ndarray, code_freq_hz: np.ndarray, carrier_phase_step_rad: np.ndarray | float = 0.0
+    ) -> None:
         """Next interval from frequency commands (a scalar loop's ``carrier_freq_hz``,
         ``code_freq_hz`` and optional ``carrier_phase_step_rad``): the code NCO runs on
         from where it ended; the carrier too, plus the phase step."""
@@ -172,8 +203,15 @@ class Channel:
         ``nco_range_m`` at ``t_s`` and ``nco_range_rate_m_s``): the code NCO jumps to the
         commanded range's code phase, the carrier phase runs on (no jump) at the commanded
         rate's Doppler :math:`-\\dot\\rho/\\lambda`. ``t_s`` may differ per channel (an array)."""
-        code, code_rate, f_new = _range_nco(self._chip_rate_hz, self._chip_m, self._wavelength_m, nco_range_m,
-                                            nco_range_rate_m_s, t_s, np.shape(self.code_phase_chips))
+        code, code_rate, f_new = _range_nco(
+            self._chip_rate_hz,
+            self._chip_m,
+            self._wavelength_m,
+            nco_range_m,
+            nco_range_rate_m_s,
+            t_s,
+            np.shape(self.code_phase_chips),
+        )
         self.shift_chips = code - self._code_end
         self.shift_hz = f_new - self.carrier_freq_hz
         self.code_phase_chips, self.code_rate_chips_s = code, code_rate
@@ -182,8 +220,15 @@ class Channel:
         self.nco_range_m, self.nco_range_rate_m_s = nco_range_m, nco_range_rate_m_s
 
 
-def _range_nco(chip_rate_hz: float, chip_m: float, wavelength_m: float, range_m, rate_m_s,
-               t_s: float | np.ndarray, batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _range_nco(
+    chip_rate_hz: float,
+    chip_m: float,
+    wavelength_m: float,
+    range_m,
+    rate_m_s,
+    t_s: float | np.ndarray,
+    batch: tuple[int, ...],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""The NCOs a range command sets (`Channel.from_range`, `Channel.steer_range`): code phase
     :math:`f_{chip} t - \rho/\lambda_{chip}` (`code_phase_of_range`), code rate
     :math:`f_{chip} - \dot\rho/\lambda_{chip}` and Doppler :math:`-\dot\rho/\lambda`, batch shape.

@@ -76,8 +76,9 @@ class ChannelMonitor:
         self.excluded = np.zeros(batch, bool)
         self.statistic = np.zeros(batch)
 
-    def screen(self, innovation_m: np.ndarray, variance_m2: np.ndarray, unit_los: np.ndarray,
-               predicted_cov: np.ndarray) -> np.ndarray:
+    def screen(
+        self, innovation_m: np.ndarray, variance_m2: np.ndarray, unit_los: np.ndarray, predicted_cov: np.ndarray
+    ) -> np.ndarray:
         """One interval: update the counts and return the channels excluded ``(runs, channels)``.
 
         Parameters

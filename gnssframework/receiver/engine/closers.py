@@ -31,9 +31,20 @@ from ...signal.correlators import Correlators
 from .channel import Channel
 from .channel_monitor import IGNORE_VAR, ChannelMonitor
 
-__all__ = ["ScalarCloser", "EstimateCloser", "VectorCloser", "check_closed_loop", "check_estimate_loop",
-           "check_composition", "range_error_chips", "NCO_COMMANDS", "ESTIMATE_OUTPUTS", "CHANNEL_OUTPUTS",
-           "NAV_OUTPUTS", "HARNESS_INPUTS"]
+__all__ = [
+    "ScalarCloser",
+    "EstimateCloser",
+    "VectorCloser",
+    "check_closed_loop",
+    "check_estimate_loop",
+    "check_composition",
+    "range_error_chips",
+    "NCO_COMMANDS",
+    "ESTIMATE_OUTPUTS",
+    "CHANNEL_OUTPUTS",
+    "NAV_OUTPUTS",
+    "HARNESS_INPUTS",
+]
 
 #: Outputs a channel filter needs to steer the NCOs of a closed loop.
 NCO_COMMANDS = (names.CARRIER_FREQ_HZ, names.CODE_FREQ_HZ)
@@ -42,11 +53,23 @@ ESTIMATE_OUTPUTS = (names.CODE_ERROR_CHIPS, names.FREQ_ERROR_HZ, names.PHASE_ERR
 #: What a channel filter must provide to feed a vector loop's nav filter.
 CHANNEL_OUTPUTS = (names.CODE_ERROR_CHIPS, names.CODE_ERROR_VAR_CHIPS2, names.FREQ_ERROR_HZ, names.FREQ_ERROR_VAR_HZ2)
 #: What a nav filter must provide to close a vector loop.
-NAV_OUTPUTS = (names.POSITION_M, names.VELOCITY_M_S, names.CLOCK_M, names.COV, names.NCO_RANGE_M,
-               names.NCO_RANGE_RATE_M_S)
+NAV_OUTPUTS = (
+    names.POSITION_M,
+    names.VELOCITY_M_S,
+    names.CLOCK_M,
+    names.COV,
+    names.NCO_RANGE_M,
+    names.NCO_RANGE_RATE_M_S,
+)
 #: Inputs the vector loop itself gives the nav filter (besides the channel outputs).
-HARNESS_INPUTS = (names.SAT_POS_M, names.SAT_VEL_M_S, names.NEXT_SAT_POS_M, names.NEXT_SAT_VEL_M_S,
-                  names.REPLICA_RANGE_M, names.REPLICA_RATE_M_S)
+HARNESS_INPUTS = (
+    names.SAT_POS_M,
+    names.SAT_VEL_M_S,
+    names.NEXT_SAT_POS_M,
+    names.NEXT_SAT_VEL_M_S,
+    names.REPLICA_RANGE_M,
+    names.REPLICA_RATE_M_S,
+)
 
 
 def range_error_chips(code_error_chips: np.ndarray | float) -> np.ndarray | float:
@@ -67,8 +90,11 @@ def check_closed_loop(channel: ChannelFilter, record: tuple[str, ...] = ()) -> N
     needed = NCO_COMMANDS + tuple(record)
     missing = [n for n in needed if n not in channel.provides]
     if names.CORRELATORS not in channel.requires or missing:
-        raise ConfigError("channel_filter", f"{channel.name!r} cannot close a tracking loop: it must require "
-                          f"'correlators' and provide {', '.join(needed)}")
+        raise ConfigError(
+            "channel_filter",
+            f"{channel.name!r} cannot close a tracking loop: it must require "
+            f"'correlators' and provide {', '.join(needed)}",
+        )
 
 
 def check_estimate_loop(channel: ChannelFilter) -> None:
@@ -81,8 +107,11 @@ def check_estimate_loop(channel: ChannelFilter) -> None:
     """
     missing = [n for n in ESTIMATE_OUTPUTS if n not in channel.provides]
     if names.CORRELATORS not in channel.requires or missing:
-        raise ConfigError("channel_filter", f"{channel.name!r} cannot close a tracking loop by its estimates: it "
-                          f"must require 'correlators' and provide {', '.join(ESTIMATE_OUTPUTS)}")
+        raise ConfigError(
+            "channel_filter",
+            f"{channel.name!r} cannot close a tracking loop by its estimates: it "
+            f"must require 'correlators' and provide {', '.join(ESTIMATE_OUTPUTS)}",
+        )
 
 
 def check_composition(channel: ChannelFilter, nav: NavFilter) -> None:
@@ -95,16 +124,21 @@ def check_composition(channel: ChannelFilter, nav: NavFilter) -> None:
     """
     missing = [n for n in CHANNEL_OUTPUTS if n not in channel.provides]
     if missing:
-        raise ConfigError("channel_filter", f"{channel.name!r} cannot feed a vector loop: it does not provide "
-                          f"{', '.join(missing)}")
+        raise ConfigError(
+            "channel_filter", f"{channel.name!r} cannot feed a vector loop: it does not provide {', '.join(missing)}"
+        )
     unmet = [n for n in nav.requires if n not in channel.provides and n not in HARNESS_INPUTS]
     if unmet:
-        raise ConfigError("nav_filter", f"{nav.name!r} needs {', '.join(unmet)}, which {channel.name!r} does "
-                          f"not provide (it provides {', '.join(channel.provides)})")
+        raise ConfigError(
+            "nav_filter",
+            f"{nav.name!r} needs {', '.join(unmet)}, which {channel.name!r} does "
+            f"not provide (it provides {', '.join(channel.provides)})",
+        )
     missing = [n for n in NAV_OUTPUTS if n not in nav.provides]
     if missing:
-        raise ConfigError("nav_filter", f"{nav.name!r} cannot close a vector loop: it does not provide "
-                          f"{', '.join(missing)}")
+        raise ConfigError(
+            "nav_filter", f"{nav.name!r} cannot close a vector loop: it does not provide {', '.join(missing)}"
+        )
 
 
 class _ChannelFilterCloser:
@@ -112,12 +146,23 @@ class _ChannelFilterCloser:
 
     filter: ChannelFilter
 
-    def reset(self, channel: Channel, coherent_time_s: float, *, early_late_spacing_chips: float = 1.0,
-              cn0_dbhz: np.ndarray | float = 45.0) -> None:
+    def reset(
+        self,
+        channel: Channel,
+        coherent_time_s: float,
+        *,
+        early_late_spacing_chips: float = 1.0,
+        cn0_dbhz: np.ndarray | float = 45.0,
+    ) -> None:
         """Start the filter on ``channel``'s batch; its Doppler prior is the carrier NCO's."""
         T = coherent_time_s
-        context = RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips, epoch_interval_s=T,
-                             cn0_dbhz=cn0_dbhz, doppler_hz=channel.carrier_freq_hz)
+        context = RunContext(
+            coherent_time_s=T,
+            early_late_spacing_chips=early_late_spacing_chips,
+            epoch_interval_s=T,
+            cn0_dbhz=cn0_dbhz,
+            doppler_hz=channel.carrier_freq_hz,
+        )
         self.filter.reset(channel.batch, context)
 
 
@@ -141,8 +186,9 @@ class ScalarCloser(_ChannelFilterCloser):
         """Filter one interval's correlators and steer ``channel`` (after its `Channel.errors`
         or `Channel.run_interval` of the interval); returns the filter's outputs."""
         out = self.filter.checked_step({names.CORRELATORS: correlators})
-        channel.steer_frequency(out[names.CARRIER_FREQ_HZ], out[names.CODE_FREQ_HZ],
-                                out.get("carrier_phase_step_rad", 0.0))
+        channel.steer_frequency(
+            out[names.CARRIER_FREQ_HZ], out[names.CODE_FREQ_HZ], out.get("carrier_phase_step_rad", 0.0)
+        )
         return out
 
 
@@ -171,14 +217,20 @@ class EstimateCloser(_ChannelFilterCloser):
     def step(self, channel: Channel, correlators: Correlators) -> dict[str, np.ndarray]:
         """Filter one interval's correlators and move ``channel`` to the estimate (after its
         `Channel.errors` or `Channel.run_interval` of the interval); returns the outputs."""
-        out = self.filter.checked_step({names.CORRELATORS: correlators, names.NCO_SHIFT_CHIPS: channel.shift_chips,
-                                        names.NCO_SHIFT_HZ: channel.shift_hz})
+        out = self.filter.checked_step(
+            {
+                names.CORRELATORS: correlators,
+                names.NCO_SHIFT_CHIPS: channel.shift_chips,
+                names.NCO_SHIFT_HZ: channel.shift_hz,
+            }
+        )
         channel.steer_by_errors(out[names.CODE_ERROR_CHIPS], out[names.FREQ_ERROR_HZ])
         return out
 
     @staticmethod
-    def phase_estimate_error(true_mid_phase_error_rad: np.ndarray, out: dict[str, np.ndarray],
-                             coherent_time_s: float) -> np.ndarray:
+    def phase_estimate_error(
+        true_mid_phase_error_rad: np.ndarray, out: dict[str, np.ndarray], coherent_time_s: float
+    ) -> np.ndarray:
         r"""The true error of the loop's carrier phase estimate at mid-interval: the replica's
         true error :math:`\delta\theta + \pi\,\delta f\,T` minus the filter's estimate of
         it, :math:`\widehat{\delta\theta} + \pi\widehat{\delta f}T`."""
@@ -201,8 +253,9 @@ class VectorCloser:
         covariance and its ``transition(T)`` if it has one.
     """
 
-    def __init__(self, channel_filter: ChannelFilter, nav_filter: NavFilter,
-                 monitor: ChannelMonitor | None = None) -> None:
+    def __init__(
+        self, channel_filter: ChannelFilter, nav_filter: NavFilter, monitor: ChannelMonitor | None = None
+    ) -> None:
         check_composition(channel_filter, nav_filter)
         self.filter, self.nav, self.monitor = channel_filter, nav_filter, monitor
 
@@ -231,17 +284,27 @@ class VectorCloser:
         for name in (names.CODE_ERROR_VAR_CHIPS2, names.FREQ_ERROR_VAR_HZ2):
             nav_in[name] = np.where(out, IGNORE_VAR, nav_in[name])
 
-    def channel_step(self, channel: Channel, correlators: Correlators,
-                     data_bit: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    def channel_step(
+        self, channel: Channel, correlators: Correlators, data_bit: np.ndarray | None = None
+    ) -> dict[str, np.ndarray]:
         """The channel filters on one interval (told how far the last command moved the NCOs)."""
-        inputs = {names.CORRELATORS: correlators, names.NCO_SHIFT_CHIPS: channel.shift_chips,
-                  names.NCO_SHIFT_HZ: channel.shift_hz}
+        inputs = {
+            names.CORRELATORS: correlators,
+            names.NCO_SHIFT_CHIPS: channel.shift_chips,
+            names.NCO_SHIFT_HZ: channel.shift_hz,
+        }
         if data_bit is not None:
             inputs[names.DATA_BIT] = data_bit
         return self.filter.checked_step(inputs)
 
-    def nav_step(self, channel: Channel, ch_out: dict[str, np.ndarray], geometry: dict[str, np.ndarray],
-                 coherent_time_s: float, next_start_s: float) -> dict[str, np.ndarray]:
+    def nav_step(
+        self,
+        channel: Channel,
+        ch_out: dict[str, np.ndarray],
+        geometry: dict[str, np.ndarray],
+        coherent_time_s: float,
+        next_start_s: float,
+    ) -> dict[str, np.ndarray]:
         """The nav filter on the channel outputs (code error as range error: negated) and
         ``geometry`` (satellite states, `HARNESS_INPUTS` but the replica's), then the range
         command of the interval starting at ``next_start_s`` into ``channel``."""

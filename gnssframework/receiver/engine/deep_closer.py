@@ -69,8 +69,9 @@ class Navigator(Protocol):
     def kinematics(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Receiver position, velocity, acceleration ``(runs, 3)`` and clock bias, drift ``(runs,)``."""
 
-    def update(self, t_s: float, residual_m: np.ndarray, residual_cov: np.ndarray, los: np.ndarray,
-               cn0_dbhz: np.ndarray) -> None:
+    def update(
+        self, t_s: float, residual_m: np.ndarray, residual_cov: np.ndarray, los: np.ndarray, cn0_dbhz: np.ndarray
+    ) -> None:
         """Integration update: residuals ``(runs, ch, 2)`` [range m, rate m/s], covariance ``(runs, ch, 2, 2)``."""
 
 
@@ -78,12 +79,17 @@ def check_deep_prefilters(channel: ChannelFilter, carrier_filter: ChannelFilter 
     """Refuse, naming the field, prefilters that cannot feed deep integration or close a carrier loop."""
     missing = [n for n in CHANNEL_OUTPUTS if n not in channel.provides]
     if missing:
-        raise ConfigError("channel_filter", f"{channel.name!r} cannot feed deep integration: it does not provide "
-                          f"{', '.join(missing)}")
-    if carrier_filter is not None and (names.CORRELATORS not in carrier_filter.requires
-                                       or names.CARRIER_FREQ_HZ not in carrier_filter.provides):
-        raise ConfigError("carrier_filter", f"{carrier_filter.name!r} cannot close a carrier loop: it must take "
-                          "correlators and provide carrier_freq_hz (e.g. kf-carrier-loop)")
+        raise ConfigError(
+            "channel_filter", f"{channel.name!r} cannot feed deep integration: it does not provide {', '.join(missing)}"
+        )
+    if carrier_filter is not None and (
+        names.CORRELATORS not in carrier_filter.requires or names.CARRIER_FREQ_HZ not in carrier_filter.provides
+    ):
+        raise ConfigError(
+            "carrier_filter",
+            f"{carrier_filter.name!r} cannot close a carrier loop: it must take "
+            "correlators and provide carrier_freq_hz (e.g. kf-carrier-loop)",
+        )
 
 
 @dataclass(frozen=True)
@@ -98,8 +104,9 @@ class FitRows:
     outer_rate: np.ndarray
 
 
-def fit_rows(k0: int, n: int, T: float, n_upd: int, rho: np.ndarray, rate: np.ndarray, acc: np.ndarray,
-             t_aid: float) -> FitRows:
+def fit_rows(
+    k0: int, n: int, T: float, n_upd: int, rho: np.ndarray, rate: np.ndarray, acc: np.ndarray, t_aid: float
+) -> FitRows:
     """`FitRows` of the ``n`` coherent intervals from ``k0``, aided at ``t_aid`` with the
     predicted range, rate and acceleration ``rho``, ``rate``, ``acc`` ``(runs, ch)``.
 
@@ -116,12 +123,19 @@ def fit_rows(k0: int, n: int, T: float, n_upd: int, rho: np.ndarray, rate: np.nd
     fit_dt = (ks + 0.5) * T - (ks // n_upd + 1) * n_upd * T
     h_rho = np.stack([np.ones(n), fit_dt, 0.5 * fit_dt * fit_dt], -1)
     h_rate = np.stack([np.zeros(n), np.ones(n), fit_dt], -1)
-    return FitRows(rho + rate * tau + 0.5 * acc * tau2, rate + acc * tau, h_rho, h_rate,
-                   h_rho[:, :, None] * h_rho[:, None, :], h_rate[:, :, None] * h_rate[:, None, :])
+    return FitRows(
+        rho + rate * tau + 0.5 * acc * tau2,
+        rate + acc * tau,
+        h_rho,
+        h_rate,
+        h_rho[:, :, None] * h_rho[:, None, :],
+        h_rate[:, :, None] * h_rate[:, None, :],
+    )
 
 
-def interval_fit(outputs: np.ndarray, replica: np.ndarray, rows: list[FitRows], signal: SignalSpec
-                 ) -> tuple[np.ndarray, np.ndarray]:
+def interval_fit(
+    outputs: np.ndarray, replica: np.ndarray, rows: list[FitRows], signal: SignalSpec
+) -> tuple[np.ndarray, np.ndarray]:
     """Normal matrix ``(runs, ch, 3, 3)`` and right-hand side of one integration interval's fit.
 
     Weighted least squares of [dr(t_u), dr_dot(t_u), dr_ddot] from the interval's new
@@ -143,8 +157,10 @@ def interval_fit(outputs: np.ndarray, replica: np.ndarray, rows: list[FitRows], 
     z_rho = range_error_chips(code) * chip_m + replica[0] - cat("predicted_range_m")
     z_rate = -freq * wavelength_m + replica[1] - cat("predicted_rate_m_s")
     h_rho, h_rate = cat("h_rho")[:, None, None], cat("h_rate")[:, None, None]
-    normal_terms = (w_rho[..., None, None] * cat("outer_rho")[:, None, None]
-                    + w_rate[..., None, None] * cat("outer_rate")[:, None, None])
+    normal_terms = (
+        w_rho[..., None, None] * cat("outer_rho")[:, None, None]
+        + w_rate[..., None, None] * cat("outer_rate")[:, None, None]
+    )
     rhs_terms = (w_rho * z_rho)[..., None] * h_rho + (w_rate * z_rate)[..., None] * h_rate
     return np.add.reduce(normal_terms, axis=0, initial=0.0), np.add.reduce(rhs_terms, axis=0, initial=0.0)
 
@@ -154,8 +170,7 @@ def rotated(corr: Correlators, phase_rad: np.ndarray) -> Correlators:
     rot = np.exp(-1j * phase_rad)
     if not corr.extra and isinstance(corr, Correlators):  # complex taps of one shape: no re-validation
         return Correlators.trusted(corr.early * rot, corr.prompt * rot, corr.late * rot)
-    return type(corr)(corr.early * rot, corr.prompt * rot, corr.late * rot,
-                      {k: v * rot for k, v in corr.extra.items()})
+    return type(corr)(corr.early * rot, corr.prompt * rot, corr.late * rot, {k: v * rot for k, v in corr.extra.items()})
 
 
 def _check_finite(name: str, step: int, *arrays: np.ndarray) -> None:
@@ -165,8 +180,12 @@ def _check_finite(name: str, step: int, *arrays: np.ndarray) -> None:
         a = np.asarray(a, float)
         bad |= ~np.isfinite(a).reshape(a.shape[0], -1).all(axis=1) if a.ndim else ~np.isfinite(a)
     if bad.any():
-        raise NumericalError(name, [(int(i),) for i in np.flatnonzero(bad)], step,
-                             "navigator kinematics (position, velocity, acceleration or clock) not finite")
+        raise NumericalError(
+            name,
+            [(int(i),) for i in np.flatnonzero(bad)],
+            step,
+            "navigator kinematics (position, velocity, acceleration or clock) not finite",
+        )
 
 
 class DeepCloser:
@@ -191,15 +210,31 @@ class DeepCloser:
     interval k+1); `rotation_rad` before `step` gives the carrier loop's correction.
     """
 
-    def __init__(self, channel_filter: ChannelFilter, navigator: Navigator, *,
-                 carrier_filter: ChannelFilter | None = None, accel_aiding: bool = True,
-                 pull_in_updates: int = 0) -> None:
+    def __init__(
+        self,
+        channel_filter: ChannelFilter,
+        navigator: Navigator,
+        *,
+        carrier_filter: ChannelFilter | None = None,
+        accel_aiding: bool = True,
+        pull_in_updates: int = 0,
+    ) -> None:
         check_deep_prefilters(channel_filter, carrier_filter)
         self.filter, self.navigator, self.carrier_filter = channel_filter, navigator, carrier_filter
         self.accel_aiding, self.pull_in_updates = accel_aiding, pull_in_updates
 
-    def reset(self, batch: tuple[int, int], coherent_time_s: float, n_nco: int, n_upd: int, epochs: int, *,
-              signal: SignalSpec, early_late_spacing_chips: float = 1.0, cn0_dbhz: np.ndarray | float = 45.0) -> None:
+    def reset(
+        self,
+        batch: tuple[int, int],
+        coherent_time_s: float,
+        n_nco: int,
+        n_upd: int,
+        epochs: int,
+        *,
+        signal: SignalSpec,
+        early_late_spacing_chips: float = 1.0,
+        cn0_dbhz: np.ndarray | float = 45.0,
+    ) -> None:
         """Start the prefilters on ``batch`` ``(runs, channels)``: ``n_nco`` and ``n_upd``
         coherent intervals per NCO and integration interval, ``epochs`` intervals in all."""
         T = self.T = coherent_time_s
@@ -209,13 +244,27 @@ class DeepCloser:
         # Data bits are wiped off (1 everywhere): as an array of the batch's shape the prefilter's
         # wipe-off takes its unchecked path (the same products as with a scalar 1).
         self.ones = np.ones(batch)
-        self.filter.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips,
-                                            epoch_interval_s=T, cn0_dbhz=self.cn0))
+        self.filter.reset(
+            batch,
+            RunContext(
+                coherent_time_s=T,
+                early_late_spacing_chips=early_late_spacing_chips,
+                epoch_interval_s=T,
+                cn0_dbhz=self.cn0,
+            ),
+        )
         if self.carrier_filter is not None:
             # Its NCO starts on the aided replica: frequency correction 0 (doppler_hz), phase correction 0.
-            self.carrier_filter.reset(batch, RunContext(coherent_time_s=T,
-                                                        early_late_spacing_chips=early_late_spacing_chips,
-                                                        epoch_interval_s=T, cn0_dbhz=self.cn0, doppler_hz=0.0))
+            self.carrier_filter.reset(
+                batch,
+                RunContext(
+                    coherent_time_s=T,
+                    early_late_spacing_chips=early_late_spacing_chips,
+                    epoch_interval_s=T,
+                    cn0_dbhz=self.cn0,
+                    doppler_hz=0.0,
+                ),
+            )
             self.corr_phase_rad = np.zeros(batch)
             self.corr_freq_hz = np.zeros(batch)  # the loop's own NCO frequency
             self.transfer_hz = np.zeros(batch)  # navigator corrections taken back out of the aided replica
@@ -267,14 +316,21 @@ class DeepCloser:
             return None
         return self.corr_phase_rad + np.pi * (self.corr_freq_hz + self.transfer_hz) * self.T
 
-    def step(self, channel: Channel, correlators: Correlators, k: int,
-             sat_next: tuple[np.ndarray, np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:
+    def step(
+        self, channel: Channel, correlators: Correlators, k: int, sat_next: tuple[np.ndarray, np.ndarray, np.ndarray]
+    ) -> dict[str, np.ndarray]:
         """Interval ``k`` (after ``channel``'s `Channel.errors` or `Channel.run_interval`): the
         prefilter, the carrier loop, the fit; at an integration edge the navigator's update;
         then the command of interval k+1 (re-aided at an NCO edge). ``sat_next``: the
         satellites' position, velocity and acceleration at edge k+1. Returns the prefilter's outputs."""
-        out = self.filter.checked_step({names.CORRELATORS: correlators, names.NCO_SHIFT_CHIPS: channel.shift_chips,
-                                        names.NCO_SHIFT_HZ: self.shift_hz, names.DATA_BIT: self.ones})
+        out = self.filter.checked_step(
+            {
+                names.CORRELATORS: correlators,
+                names.NCO_SHIFT_CHIPS: channel.shift_chips,
+                names.NCO_SHIFT_HZ: self.shift_hz,
+                names.DATA_BIT: self.ones,
+            }
+        )
         if self.carrier_filter is not None:
             self._carrier_step(correlators)
         i = k % self.n_upd
@@ -297,8 +353,11 @@ class DeepCloser:
         """Close the carrier loop on the correlators rotated by its corrections."""
         T = self.T
         c_out = self.carrier_filter.checked_step({names.CORRELATORS: rotated(corr, self.rotation_rad())})
-        self.corr_phase_rad = (self.corr_phase_rad + 2 * np.pi * (self.corr_freq_hz + self.transfer_hz) * T
-                               + np.asarray(c_out.get("carrier_phase_step_rad", 0.0), float))
+        self.corr_phase_rad = (
+            self.corr_phase_rad
+            + 2 * np.pi * (self.corr_freq_hz + self.transfer_hz) * T
+            + np.asarray(c_out.get("carrier_phase_step_rad", 0.0), float)
+        )
         self.corr_freq_hz = np.broadcast_to(np.asarray(c_out[names.CARRIER_FREQ_HZ], float), self.batch)
 
     def _integration_update(self, k_edge: int, sat_states: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:

@@ -27,8 +27,9 @@ class TrackingRecord:
     outputs: dict[str, np.ndarray] = field(default_factory=dict)
 
 
-def run_scalar(closer: ScalarCloser, source: CorrelatorSource, channel: Channel, truth: LoopTruth,
-               record: tuple[str, ...] = ()) -> TrackingRecord:
+def run_scalar(
+    closer: ScalarCloser, source: CorrelatorSource, channel: Channel, truth: LoopTruth, record: tuple[str, ...] = ()
+) -> TrackingRecord:
     """Close ``closer`` over ``channel`` on ``source`` for every interval of ``truth``
     (phases form), recording the replica's true errors.
 

@@ -53,13 +53,27 @@ class SampleSource:
         channel's code phase and rate stay in chips.
     """
 
-    def __init__(self, samples: np.ndarray, sample_rate_hz: float, if_hz: float, codes: np.ndarray,
-                 coherent_time_s: float, *, early_late_spacing_chips: float = 1.0, noise_std: float = 1.0,
-                 start_sample: int = 0, backend: str | None = None, subchips_per_chip: int = 1) -> None:
+    def __init__(
+        self,
+        samples: np.ndarray,
+        sample_rate_hz: float,
+        if_hz: float,
+        codes: np.ndarray,
+        coherent_time_s: float,
+        *,
+        early_late_spacing_chips: float = 1.0,
+        noise_std: float = 1.0,
+        start_sample: int = 0,
+        backend: str | None = None,
+        subchips_per_chip: int = 1,
+    ) -> None:
         n = coherent_time_s * sample_rate_hz
         if abs(n - round(n)) > 1e-6:
-            raise ConfigError("sample_rate_hz", f"the coherent time {coherent_time_s} s must hold a whole number of "
-                              f"samples at {sample_rate_hz} Hz, got {n}")
+            raise ConfigError(
+                "sample_rate_hz",
+                f"the coherent time {coherent_time_s} s must hold a whole number of "
+                f"samples at {sample_rate_hz} Hz, got {n}",
+            )
         self.samples, self.fs, self.if_hz = samples, float(sample_rate_hz), float(if_hz)
         self.codes = np.ascontiguousarray(codes, np.float32)
         self.n, self.start = int(round(n)), int(start_sample)
@@ -70,8 +84,9 @@ class SampleSource:
         self.norm = np.sqrt(self.n * noise_std**2 * (1.0 if np.iscomplexobj(samples) else 0.5))
         self.backend = backend
 
-    def correlate(self, channel: Channel, k: int, errors: ReplicaErrors | None = None,
-                  data_bit: np.ndarray | float = 1.0) -> Correlators:
+    def correlate(
+        self, channel: Channel, k: int, errors: ReplicaErrors | None = None, data_bit: np.ndarray | float = 1.0
+    ) -> Correlators:
         batch = channel.batch
         n_ch = int(np.prod(batch, dtype=int))
         if self.codes.shape[0] != n_ch:
@@ -79,10 +94,20 @@ class SampleSource:
         start = self.start + k * self.n
         flat = lambda a: np.broadcast_to(np.asarray(a, float), batch).reshape(-1)  # noqa: E731
         cycles = np.mod(self.if_hz * start / self.fs, 1.0) + flat(channel.carrier_phase_rad) / (2 * np.pi)
-        out = correlate_channels(self.samples, np.full(n_ch, start), np.full(n_ch, self.n),
-                                 flat(channel.code_phase_chips) * self.subchips,
-                                 flat(channel.code_rate_chips_s) * self.subchips / self.fs,
-                                 cycles, (self.if_hz + flat(channel.carrier_freq_hz)) / self.fs, self.codes,
-                                 self.offsets, backend=self.backend) / self.norm
+        out = (
+            correlate_channels(
+                self.samples,
+                np.full(n_ch, start),
+                np.full(n_ch, self.n),
+                flat(channel.code_phase_chips) * self.subchips,
+                flat(channel.code_rate_chips_s) * self.subchips / self.fs,
+                cycles,
+                (self.if_hz + flat(channel.carrier_freq_hz)) / self.fs,
+                self.codes,
+                self.offsets,
+                backend=self.backend,
+            )
+            / self.norm
+        )
         out = out.reshape(batch + (3,))
         return Correlators.trusted(out[..., 0], out[..., 1], out[..., 2])

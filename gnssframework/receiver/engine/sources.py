@@ -32,8 +32,9 @@ __all__ = ["CorrelatorSource", "AnalyticSource"]
 class CorrelatorSource(Protocol):
     """What gives a loop the correlators of interval ``k`` of a channel's replica."""
 
-    def correlate(self, channel: Channel, k: int, errors: ReplicaErrors | None = None,
-                  data_bit: np.ndarray | float = 1.0) -> Correlators:
+    def correlate(
+        self, channel: Channel, k: int, errors: ReplicaErrors | None = None, data_bit: np.ndarray | float = 1.0
+    ) -> Correlators:
         """Correlators of interval ``k`` (batch shape of ``channel``). ``errors``: the
         replica's true errors over it (needed by the analytic source, ignored by samples);
         ``data_bit``: the interval's data symbol (analytic source; samples carry theirs)."""
@@ -57,15 +58,23 @@ class AnalyticSource:
         drawn at ``A g_s / g_n``, then every tap scaled by ``g_n``.
     """
 
-    def __init__(self, simulator: CorrelatorSimulator, amplitude: np.ndarray, rng: np.random.Generator, *,
-                 amplitude_scale: np.ndarray | float | None = None, signal_gain: np.ndarray | None = None,
-                 noise_gain: np.ndarray | None = None) -> None:
+    def __init__(
+        self,
+        simulator: CorrelatorSimulator,
+        amplitude: np.ndarray,
+        rng: np.random.Generator,
+        *,
+        amplitude_scale: np.ndarray | float | None = None,
+        signal_gain: np.ndarray | None = None,
+        noise_gain: np.ndarray | None = None,
+    ) -> None:
         self.simulator, self.amplitude, self.rng = simulator, amplitude, rng
         self.scale = None if amplitude_scale is None else np.asarray(amplitude_scale)
         self.signal_gain, self.noise_gain = signal_gain, noise_gain
 
-    def correlate(self, channel: Channel, k: int, errors: ReplicaErrors | None = None,
-                  data_bit: np.ndarray | float = 1.0) -> Correlators:
+    def correlate(
+        self, channel: Channel, k: int, errors: ReplicaErrors | None = None, data_bit: np.ndarray | float = 1.0
+    ) -> Correlators:
         if errors is None:
             raise ConfigError("errors", "the analytic correlator source needs the replica's true errors")
         amp = self.amplitude
@@ -75,6 +84,7 @@ class AnalyticSource:
             return self.simulator.draw(errors.code_chips, errors.phase_rad, errors.freq_hz, amp, self.rng, data_bit)
         g_s = 1.0 if self.signal_gain is None else self.signal_gain[k]
         g_n = 1.0 if self.noise_gain is None else self.noise_gain[k]
-        c = self.simulator.draw(errors.code_chips, errors.phase_rad, errors.freq_hz, amp * g_s / g_n, self.rng,
-                                data_bit)
+        c = self.simulator.draw(
+            errors.code_chips, errors.phase_rad, errors.freq_hz, amp * g_s / g_n, self.rng, data_bit
+        )
         return Correlators.trusted(c.early * g_n, c.prompt * g_n, c.late * g_n)

@@ -128,12 +128,20 @@ class LoopTruth:
         """
         K = int(round(duration_s / coherent_time_s))
         t = np.arange(K + 1) * coherent_time_s
-        shape = np.broadcast_shapes(np.shape(doppler_hz), np.shape(doppler_rate_hz_s), np.shape(cn0_dbhz),
-                                    np.shape(code_phase0_chips), np.shape(carrier_phase0_rad),
-                                    np.shape(doppler_jerk_hz_s2))
+        shape = np.broadcast_shapes(
+            np.shape(doppler_hz),
+            np.shape(doppler_rate_hz_s),
+            np.shape(cn0_dbhz),
+            np.shape(code_phase0_chips),
+            np.shape(carrier_phase0_rad),
+            np.shape(doppler_jerk_hz_s2),
+        )
         tt = t.reshape((-1,) + (1,) * len(shape))
-        cycles = (np.asarray(doppler_hz) * tt + 0.5 * np.asarray(doppler_rate_hz_s) * tt**2
-                  + np.asarray(doppler_jerk_hz_s2) * tt**3 / 6.0)
+        cycles = (
+            np.asarray(doppler_hz) * tt
+            + 0.5 * np.asarray(doppler_rate_hz_s) * tt**2
+            + np.asarray(doppler_jerk_hz_s2) * tt**3 / 6.0
+        )
         if extra_cycles is not None:
             cycles = cycles + extra_cycles
         carrier = np.asarray(carrier_phase0_rad) + 2 * np.pi * cycles
@@ -141,15 +149,18 @@ class LoopTruth:
             carrier = carrier + extra_phase_rad
         code = np.asarray(code_phase0_chips) + signal.chip_rate_hz * (tt + cycles / signal.carrier_freq_hz)
         full = np.broadcast_shapes((K + 1,) + shape, np.shape(cycles))
-        return cls(code_phase_chips=np.broadcast_to(code, full),
-                   carrier_phase_rad=np.broadcast_to(carrier, np.broadcast_shapes(full, carrier.shape)),
-                   cn0_dbhz=cn0_dbhz, coherent_time_s=coherent_time_s, amplitude_scale=amplitude_scale,
-                   signal=signal)
+        return cls(
+            code_phase_chips=np.broadcast_to(code, full),
+            carrier_phase_rad=np.broadcast_to(carrier, np.broadcast_shapes(full, carrier.shape)),
+            cn0_dbhz=cn0_dbhz,
+            coherent_time_s=coherent_time_s,
+            amplitude_scale=amplitude_scale,
+            signal=signal,
+        )
 
     # --- geometry form -------------------------------------------------------------------
 
-    def pseudorange(self, t: np.ndarray | float, k: np.ndarray | int, sat_pos: np.ndarray | None = None
-                    ) -> np.ndarray:
+    def pseudorange(self, t: np.ndarray | float, k: np.ndarray | int, sat_pos: np.ndarray | None = None) -> np.ndarray:
         """True code pseudorange (m) at time t (epoch index k for the clock): ``(runs, ch)``.
         ``sat_pos`` saves recomputing the satellite positions when the caller has them."""
         s = self.sat_state(t)[0] if sat_pos is None else sat_pos
@@ -203,8 +214,9 @@ class _Constructor:
 
     def __call__(self, *args, **kwargs) -> LoopTruth:
         if len(args) > len(self.fields):
-            raise TypeError(f"{self.__name__}() takes at most {len(self.fields)} positional arguments "
-                            f"({len(args)} given)")
+            raise TypeError(
+                f"{self.__name__}() takes at most {len(self.fields)} positional arguments ({len(args)} given)"
+            )
         return LoopTruth(**dict(zip(self.fields, args)), **kwargs)
 
     def __instancecheck__(self, obj: object) -> bool:
@@ -220,8 +232,9 @@ _GEOMETRY = ("sat_state", "receiver_state", "clock_m", "cn0_dbhz", "coherent_tim
 #: Phases-form truth, ``SignalTruth(code_phase_chips, carrier_phase_rad, cn0_dbhz, coherent_time_s,
 #: amplitude_scale=1.0)`` (the scalar harness's order); ``SignalTruth.from_dynamics`` is
 #: `LoopTruth.from_dynamics`.
-SignalTruth = _Constructor("SignalTruth", ("code_phase_chips", "carrier_phase_rad", "cn0_dbhz", "coherent_time_s",
-                                           "amplitude_scale", "signal"))
+SignalTruth = _Constructor(
+    "SignalTruth", ("code_phase_chips", "carrier_phase_rad", "cn0_dbhz", "coherent_time_s", "amplitude_scale", "signal")
+)
 #: Geometry-form truth, ``VectorTruth(sat_state, receiver_state, clock_m, cn0_dbhz, coherent_time_s,
 #: range_error_m=None, signal_gain=None, noise_gain=None)`` (the vector harness's order).
 VectorTruth = _Constructor("VectorTruth", _GEOMETRY + ("range_error_m", "signal_gain", "noise_gain", "signal"))

@@ -5,5 +5,12 @@ from .source import SampleSource
 from .synthetic import SatelliteSignal, synthesize_samples
 from .writer import write_recording
 
-__all__ = ["SampleSource", "Recording", "RecordingInfo", "open_recording", "write_recording",
-           "SatelliteSignal", "synthesize_samples"]
+__all__ = [
+    "SampleSource",
+    "Recording",
+    "RecordingInfo",
+    "open_recording",
+    "write_recording",
+    "SatelliteSignal",
+    "synthesize_samples",
+]

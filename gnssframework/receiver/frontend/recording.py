@@ -17,8 +17,14 @@ __all__ = ["RecordingInfo", "Recording", "open_recording", "check_recording_info
 
 #: SigMF datatypes whose bytes are the samples' components as they are (SigMF
 #: specification, "Dataset Format"): read without decoding (`Recording.read_components`).
-AS_STORED = {"ci8": np.int8, "ri8": np.int8, "ci16_le": np.dtype("<i2"), "ri16_le": np.dtype("<i2"),
-             "cf32_le": np.dtype("<f4"), "rf32_le": np.dtype("<f4")}
+AS_STORED = {
+    "ci8": np.int8,
+    "ri8": np.int8,
+    "ci16_le": np.dtype("<i2"),
+    "ri16_le": np.dtype("<i2"),
+    "cf32_le": np.dtype("<f4"),
+    "rf32_le": np.dtype("<f4"),
+}
 
 
 @dataclass(frozen=True)
@@ -33,8 +39,9 @@ class RecordingInfo:
 
     def describe(self) -> str:
         """One line for messages: what was assumed about the recording."""
-        return (f"format {self.format}, fs {self.sample_rate_hz:g} Hz, IF {self.if_hz:g} Hz"
-                + (", Q inverted" if self.q_sign < 0 else ""))
+        return f"format {self.format}, fs {self.sample_rate_hz:g} Hz, IF {self.if_hz:g} Hz" + (
+            ", Q inverted" if self.q_sign < 0 else ""
+        )
 
 
 class Recording:
@@ -105,7 +112,7 @@ class Recording:
         first = start // spc
         last = -(-(start + count) // spc)
         raw = self._raw(first * bpc, (last - first) * bpc)
-        x = self.source.decode(raw)[start - first * spc:start - first * spc + count]
+        x = self.source.decode(raw)[start - first * spc : start - first * spc + count]
         if self._floating:
             x = self._zero_nonfinite(x)
         if self.is_complex and self.info.q_sign < 0:
@@ -150,8 +157,14 @@ def _pick(name: str, given, from_meta, default=None):
     raise ConfigError(name, "not given and no SigMF metadata file beside the recording states it")
 
 
-def check_recording_info(format: str, sample_rate_hz: float, if_hz: float = 0.0, q_sign: int = 1,
-                         start_time: str | None = None, fields: dict[str, str] | None = None) -> RecordingInfo:
+def check_recording_info(
+    format: str,
+    sample_rate_hz: float,
+    if_hz: float = 0.0,
+    q_sign: int = 1,
+    start_time: str | None = None,
+    fields: dict[str, str] | None = None,
+) -> RecordingInfo:
     """The `RecordingInfo` of these values once checked (a file's or a live stream's);
     ``fields`` renames a parameter in the errors (where its value came from).
 
@@ -180,8 +193,13 @@ def check_recording_info(format: str, sample_rate_hz: float, if_hz: float = 0.0,
     return RecordingInfo(format, fs, fif, qs, start_time)
 
 
-def open_recording(path: str | Path, format: str | None = None, sample_rate_hz: float | None = None,
-                   if_hz: float | None = None, q_sign: int | None = None) -> Recording:
+def open_recording(
+    path: str | Path,
+    format: str | None = None,
+    sample_rate_hz: float | None = None,
+    if_hz: float | None = None,
+    q_sign: int | None = None,
+) -> Recording:
     """Open ``path``; what is not given comes from its SigMF metadata file if there is one.
 
     Values given here win over the metadata's (a wrong metadata file can be overridden).
@@ -194,13 +212,18 @@ def open_recording(path: str | Path, format: str | None = None, sample_rate_hz: 
     """
     path = Path(path)
     if path.exists() and not path.is_file():
-        raise ConfigError("recording", f"{path}: not a regular file (a device, pipe or folder): give a file of "
-                                       "recorded samples")
+        raise ConfigError(
+            "recording", f"{path}: not a regular file (a device, pipe or folder): give a file of recorded samples"
+        )
     if not path.is_file():
         raise ConfigError("recording", f"{path}: no such file")
     meta_file = meta_path_for(path)
-    meta = read_sigmf_meta(meta_file) if meta_file.is_file() and meta_file != path else SigmfInfo(None, None, None,
-                                                                                                   None, None)
+    meta = (
+        read_sigmf_meta(meta_file)
+        if meta_file.is_file() and meta_file != path
+        else SigmfInfo(None, None, None, None, None)
+    )
+
     def field(parameter: str, given, meta_key: str) -> str:
         """The parameter's name, or the metadata file's field where the value came from it."""
         return parameter if given is not None else f"{meta_file} {meta_key}"
@@ -211,16 +234,26 @@ def open_recording(path: str | Path, format: str | None = None, sample_rate_hz: 
     fs = float(_pick("sample_rate_hz", sample_rate_hz, meta.sample_rate_hz))
     fif = float(_pick("if_hz", if_hz, meta.if_hz, 0.0))
     qs = int(_pick("q_sign", q_sign, meta.q_sign, 1))
-    info = check_recording_info(fmt, fs, fif, qs, meta.start_time, fields={
-        "format": field("format", format, "global core:datatype"),
-        "sample_rate_hz": field("sample_rate_hz", sample_rate_hz, "global core:sample_rate"),
-        "if_hz": field("if_hz", if_hz, "captures[0] core:frequency")})
+    info = check_recording_info(
+        fmt,
+        fs,
+        fif,
+        qs,
+        meta.start_time,
+        fields={
+            "format": field("format", format, "global core:datatype"),
+            "sample_rate_hz": field("sample_rate_hz", sample_rate_hz, "global core:sample_rate"),
+            "if_hz": field("if_hz", if_hz, "captures[0] core:frequency"),
+        },
+    )
     rec = Recording(path, info)
     if rec.n_samples == 0:
         raise ConfigError("recording", f"{path}: holds no whole sample of format {fmt}")
     if meta.sample_start:  # the metadata describes the samples from there on: not read from a later start
         where = "beyond the end of" if meta.sample_start >= rec.n_samples else "inside"
-        raise ConfigError(f"{meta_file} captures[0] core:sample_start",
-                          f"{meta.sample_start} is {where} the {rec.n_samples} samples of {path.name}: a first capture "
-                          "that does not start at sample 0 is not supported (cut the file there and set 0)")
+        raise ConfigError(
+            f"{meta_file} captures[0] core:sample_start",
+            f"{meta.sample_start} is {where} the {rec.n_samples} samples of {path.name}: a first capture "
+            "that does not start at sample 0 is not supported (cut the file there and set 0)",
+        )
     return rec

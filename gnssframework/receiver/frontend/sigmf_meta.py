@@ -78,15 +78,19 @@ def _load_json(path: Path) -> object:
     """The file's JSON, or a `DataFileError` naming it: too large, not UTF-8, not JSON,
     nested too deeply."""
     if path.stat().st_size > MAX_META_BYTES:
-        raise DataFileError(str(path), None, f"{path.stat().st_size} bytes: too large for SigMF metadata "
-                            f"(at most {MAX_META_BYTES})")
+        raise DataFileError(
+            str(path), None, f"{path.stat().st_size} bytes: too large for SigMF metadata (at most {MAX_META_BYTES})"
+        )
     data = path.read_bytes()
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        line = data[:exc.start].count(b"\n") + 1
-        raise DataFileError(str(path), line, f"not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
-                            f"{exc.start}): SigMF metadata is UTF-8 JSON") from None
+        line = data[: exc.start].count(b"\n") + 1
+        raise DataFileError(
+            str(path),
+            line,
+            f"not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start}): SigMF metadata is UTF-8 JSON",
+        ) from None
     try:
         return json.loads(text, parse_constant=lambda c: float(c))
     except json.JSONDecodeError as exc:
@@ -121,24 +125,27 @@ def _check_fields(path: Path, meta: object) -> tuple[dict, list]:
         if key in glob and not isinstance(glob[key], str):
             raise DataFileError(str(path), None, f"global {key} must be a string, got {glob[key]!r}")
     if glob.get("core:datatype") is None and glob.get(FORMAT_KEY) is None:
-        raise DataFileError(str(path), None, "global core:datatype missing: the samples' format (e.g. \"ci8\")")
+        raise DataFileError(str(path), None, 'global core:datatype missing: the samples\' format (e.g. "ci8")')
     _number(path, "global core:sample_rate", glob.get("core:sample_rate"), positive=True, limit=MAX_SAMPLE_RATE_HZ)
     _number(path, f"global {IF_KEY}", glob.get(IF_KEY), limit=MAX_SAMPLE_RATE_HZ)
     first = captures[0] if captures else {}
     _number(path, "captures[0] core:frequency", first.get("core:frequency"), positive=True, limit=MAX_SAMPLE_RATE_HZ)
     start = first.get("core:sample_start")
     if start is not None and (isinstance(start, bool) or not isinstance(start, int) or start < 0):
-        raise DataFileError(str(path), None, f"captures[0] core:sample_start must be a whole number >= 0, got "
-                            f"{start!r}")
+        raise DataFileError(
+            str(path), None, f"captures[0] core:sample_start must be a whole number >= 0, got {start!r}"
+        )
     when = first.get("core:datetime")
     if when is not None and not _is_iso_datetime(when):
-        raise DataFileError(str(path), None, "captures[0] core:datetime must be an ISO 8601 date and time string "
-                            f"(2021-12-02T08:47:00Z), got {when!r}")
+        raise DataFileError(
+            str(path),
+            None,
+            f"captures[0] core:datetime must be an ISO 8601 date and time string (2021-12-02T08:47:00Z), got {when!r}",
+        )
     return glob, captures
 
 
-def read_sigmf_meta(path: str | Path, carrier_freq_hz: float | None = None,
-                    signal: SignalSpec = GPS_L1CA) -> SigmfInfo:
+def read_sigmf_meta(path: str | Path, carrier_freq_hz: float | None = None, signal: SignalSpec = GPS_L1CA) -> SigmfInfo:
     """Read a SigMF metadata file.
 
     Without the ``gnssframework`` IF key, the IF is ``carrier_freq_hz - core:frequency``, with
@@ -181,24 +188,44 @@ def read_sigmf_meta(path: str | Path, carrier_freq_hz: float | None = None,
     if q_sign not in (None, 1, -1) or isinstance(q_sign, bool):
         raise DataFileError(str(path), None, f"{Q_SIGN_KEY} must be 1 or -1, got {q_sign!r}")
     rate = glob.get("core:sample_rate")
-    return SigmfInfo(fmt or glob.get("core:datatype"), None if rate is None else float(rate),
-                     None if if_hz is None else float(if_hz), q_sign, first.get("core:datetime"),
-                     first.get("core:sample_start"))
+    return SigmfInfo(
+        fmt or glob.get("core:datatype"),
+        None if rate is None else float(rate),
+        None if if_hz is None else float(if_hz),
+        q_sign,
+        first.get("core:datetime"),
+        first.get("core:sample_start"),
+    )
 
 
-def write_sigmf_meta(path: str | Path, *, format: str, sigmf_datatype: str, sample_rate_hz: float, if_hz: float,
-                     q_sign: int = 1, start_time: str | None = None, description: str = "",
-                     carrier_freq_hz: float | None = None, signal: SignalSpec = GPS_L1CA) -> Path:
+def write_sigmf_meta(
+    path: str | Path,
+    *,
+    format: str,
+    sigmf_datatype: str,
+    sample_rate_hz: float,
+    if_hz: float,
+    q_sign: int = 1,
+    start_time: str | None = None,
+    description: str = "",
+    carrier_freq_hz: float | None = None,
+    signal: SignalSpec = GPS_L1CA,
+) -> Path:
     """Write the metadata of a recording with ``sigmf`` (validated against its schema);
     ``core:frequency`` is ``carrier_freq_hz - if_hz`` (``carrier_freq_hz``: ``signal``'s by default)."""
     if carrier_freq_hz is None:
         carrier_freq_hz = signal.carrier_freq_hz
     from sigmf.sigmffile import SigMFFile
 
-    glob = {"core:sample_rate": float(sample_rate_hz), "core:version": "1.0.0",
-            "core:description": description or "written by gnssframework", "core:recorder": "gnssframework",
-            IF_KEY: float(if_hz), Q_SIGN_KEY: int(q_sign),
-            "core:extensions": [{"name": "gnssframework", "version": "0.1.0", "optional": True}]}
+    glob = {
+        "core:sample_rate": float(sample_rate_hz),
+        "core:version": "1.0.0",
+        "core:description": description or "written by gnssframework",
+        "core:recorder": "gnssframework",
+        IF_KEY: float(if_hz),
+        Q_SIGN_KEY: int(q_sign),
+        "core:extensions": [{"name": "gnssframework", "version": "0.1.0", "optional": True}],
+    }
     if sigmf_datatype:
         glob["core:datatype"] = sigmf_datatype
     else:  # SigMF has no datatype for it: a placeholder of the same sample width and our own key

@@ -67,9 +67,18 @@ class StreamRecording(Recording):
         Called with ``(first_sample, samples)`` from the reader thread at each dropped block.
     """
 
-    def __init__(self, stream: BinaryIO, info: RecordingInfo, *, block_s: float = 0.01, queue_blocks: int = 100,
-                 retain_s: float = 2.0, realtime: bool = False, description: str = "stream",
-                 on_overrun: Callable[[int, int], None] | None = None) -> None:
+    def __init__(
+        self,
+        stream: BinaryIO,
+        info: RecordingInfo,
+        *,
+        block_s: float = 0.01,
+        queue_blocks: int = 100,
+        retain_s: float = 2.0,
+        realtime: bool = False,
+        description: str = "stream",
+        on_overrun: Callable[[int, int], None] | None = None,
+    ) -> None:
         self.path = Path(description)
         self.description = description
         self.info = info
@@ -159,8 +168,9 @@ class StreamRecording(Recording):
                 self._ended = True
                 self._received = max(self._received, item[1])
                 if self._error is not None:
-                    raise ConfigError("recording", f"{self.description}: reading the stream failed: "
-                                                   f"{self._error}") from None
+                    raise ConfigError(
+                        "recording", f"{self.description}: reading the stream failed: {self._error}"
+                    ) from None
                 break
             first, block = item
             self._blocks.append((first, block))
@@ -172,9 +182,12 @@ class StreamRecording(Recording):
 
     def _held(self, offset_bytes: int, count_bytes: int) -> np.ndarray:
         if offset_bytes < self._low:
-            raise ConfigError("recording", f"{self.description}: sample {self._sample(offset_bytes)} is no longer "
-                                           f"held (a stream keeps the last {self._sample(self.retain_bytes)} samples "
-                                           "before its furthest read)")
+            raise ConfigError(
+                "recording",
+                f"{self.description}: sample {self._sample(offset_bytes)} is no longer "
+                f"held (a stream keeps the last {self._sample(self.retain_bytes)} samples "
+                "before its furthest read)",
+            )
         stop = offset_bytes + count_bytes
         self._pull(stop)
         stop = min(stop, self._received)
@@ -182,7 +195,7 @@ class StreamRecording(Recording):
         for first, block in self._blocks:
             lo, hi = max(first, offset_bytes), min(first + block.size, stop)
             if lo < hi:
-                out[lo - offset_bytes:hi - offset_bytes] = block[lo - first:hi - first]
+                out[lo - offset_bytes : hi - offset_bytes] = block[lo - first : hi - first]
         low = max(self._low, offset_bytes - self.retain_bytes)
         if low > self._low:
             self._low = low
@@ -244,10 +257,20 @@ class StreamRecording(Recording):
                     pass
 
 
-def open_stream(address: str | BinaryIO, format: str, sample_rate_hz: float, if_hz: float = 0.0, q_sign: int = 1,
-                *, realtime: bool = False, block_s: float = 0.01, buffer_s: float = 1.0, retain_s: float = 2.0,
-                rtl_tcp: RtlTcpSettings | None = None,
-                on_overrun: Callable[[int, int], None] | None = None) -> StreamRecording:
+def open_stream(
+    address: str | BinaryIO,
+    format: str,
+    sample_rate_hz: float,
+    if_hz: float = 0.0,
+    q_sign: int = 1,
+    *,
+    realtime: bool = False,
+    block_s: float = 0.01,
+    buffer_s: float = 1.0,
+    retain_s: float = 2.0,
+    rtl_tcp: RtlTcpSettings | None = None,
+    on_overrun: Callable[[int, int], None] | None = None,
+) -> StreamRecording:
     """A `StreamRecording` of ``address`` (`stream_io.connect`'s, or an open binary file
     object); the format, rate, IF and Q sign are checked as `open_recording` checks them.
     ``buffer_s`` of signal is queued between the reader and the receiver (``buffer_s /
@@ -259,5 +282,13 @@ def open_stream(address: str | BinaryIO, format: str, sample_rate_hz: float, if_
         stream, description = connect(address, rtl_tcp)
     else:
         stream, description = address, getattr(address, "name", "stream")
-    return StreamRecording(stream, info, block_s=block_s, queue_blocks=max(1, round(buffer_s / block_s)),
-                           retain_s=retain_s, realtime=realtime, description=str(description), on_overrun=on_overrun)
+    return StreamRecording(
+        stream,
+        info,
+        block_s=block_s,
+        queue_blocks=max(1, round(buffer_s / block_s)),
+        retain_s=retain_s,
+        realtime=realtime,
+        description=str(description),
+        on_overrun=on_overrun,
+    )

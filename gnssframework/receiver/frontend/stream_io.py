@@ -31,8 +31,14 @@ from typing import BinaryIO, cast
 
 from ...errors import ConfigError
 
-__all__ = ["RtlTcpSettings", "RTL_TCP_HEADER_BYTES", "connect", "is_stream_address", "rtl_tcp_command",
-           "parse_host_port"]
+__all__ = [
+    "RtlTcpSettings",
+    "RTL_TCP_HEADER_BYTES",
+    "connect",
+    "is_stream_address",
+    "rtl_tcp_command",
+    "parse_host_port",
+]
 
 #: The sample format an rtl_tcp server sends: 8-bit offset-binary I/Q (the `cu8` source).
 RTL_TCP_FORMAT = "cu8"
@@ -84,7 +90,7 @@ def is_stream_address(address: str) -> bool:
 def parse_host_port(address: str, scheme: str, field: str = "recording", lowest_port: int = 1) -> tuple[str, int]:
     """``(host, port)`` of ``scheme://HOST:PORT`` (host may be empty: all interfaces / localhost;
     a server may take ``lowest_port`` 0: any free port)."""
-    rest = address[len(scheme) + 3:]
+    rest = address[len(scheme) + 3 :]
     host, sep, port = rest.rpartition(":")
     if not sep or not port.isdigit() or not lowest_port <= int(port) < 65536:
         raise ConfigError(field, f"{address}: expected {scheme}://HOST:PORT with a port {lowest_port}-65535")
@@ -117,8 +123,11 @@ def _rtl_tcp(address: str, settings: RtlTcpSettings) -> tuple[BinaryIO, str]:
     header = _read_exact(f, RTL_TCP_HEADER_BYTES)
     if len(header) < RTL_TCP_HEADER_BYTES or header[:4] != b"RTL0":
         sock.close()
-        raise ConfigError("recording", f"{address}: not an rtl_tcp server (its first bytes {header[:4]!r} are not "
-                                       "b'RTL0'); use tcp:// for a raw sample stream")
+        raise ConfigError(
+            "recording",
+            f"{address}: not an rtl_tcp server (its first bytes {header[:4]!r} are not "
+            "b'RTL0'); use tcp:// for a raw sample stream",
+        )
     tuner, gains = struct.unpack(">II", header[4:])
     commands = b""
     if settings.sample_rate_hz is not None:

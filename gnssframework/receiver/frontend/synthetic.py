@@ -43,8 +43,9 @@ class SatelliteSignal:
 
     def __post_init__(self) -> None:
         if self.first_bit_code_period is not None and self.signal.symbol_period_s is None:
-            raise ConfigError("first_bit_code_period", f"{self.signal.name} carries no data symbols (a pilot): "
-                                                       "leave it None")
+            raise ConfigError(
+                "first_bit_code_period", f"{self.signal.name} carries no data symbols (a pilot): leave it None"
+            )
         if self.symbols is not None and self.first_bit_code_period is None:
             raise ConfigError("symbols", "give first_bit_code_period too: the code period the first symbol starts")
 
@@ -56,8 +57,15 @@ class SatelliteSignal:
         return first_epoch + (self.first_bit_code_period or 0) * length / rate
 
 
-def synthesize_samples(satellites: list[SatelliteSignal], duration_s: float, sample_rate_hz: float, if_hz: float,
-                       rng: np.random.Generator, *, complex_samples: bool = True) -> np.ndarray:
+def synthesize_samples(
+    satellites: list[SatelliteSignal],
+    duration_s: float,
+    sample_rate_hz: float,
+    if_hz: float,
+    rng: np.random.Generator,
+    *,
+    complex_samples: bool = True,
+) -> np.ndarray:
     """Samples (``float64`` or ``complex128``) of ``satellites`` in unit-variance white noise."""
     n = int(round(duration_s * sample_rate_hz))
     x = np.zeros(n, complex if complex_samples else float)
@@ -67,15 +75,27 @@ def synthesize_samples(satellites: list[SatelliteSignal], duration_s: float, sam
             need = int(np.ceil((duration_s - sat.first_bit_edge_s()) / sat.signal.symbol_period_s))
             bits = np.asarray(sat.symbols, dtype=float)
             if bits.ndim != 1 or bits.size < need:
-                raise ConfigError("symbols", f"PRN {sat.prn}: {need} symbols cover the recording, got shape "
-                                             f"{bits.shape}")
+                raise ConfigError(
+                    "symbols", f"PRN {sat.prn}: {need} symbols cover the recording, got shape {bits.shape}"
+                )
         elif sat.first_bit_code_period is not None:
             bits = random_nav_bits(int(np.ceil(duration_s * (1.0 / sat.signal.symbol_period_s))) + 2, rng)
-        x += generate_if_samples(sat.prn, duration_s, sample_rate_hz, if_hz, sat.cn0_dbhz, rng,
-                                 doppler_hz=sat.doppler_hz, code_phase_chips=sat.code_phase_chips,
-                                 carrier_phase_rad=sat.carrier_phase_rad, complex_samples=complex_samples,
-                                 data_bits=bits, first_bit_edge_s=sat.first_bit_edge_s() if bits is not None else 0.0,
-                                 noise=False, signal=sat.signal).samples
+        x += generate_if_samples(
+            sat.prn,
+            duration_s,
+            sample_rate_hz,
+            if_hz,
+            sat.cn0_dbhz,
+            rng,
+            doppler_hz=sat.doppler_hz,
+            code_phase_chips=sat.code_phase_chips,
+            carrier_phase_rad=sat.carrier_phase_rad,
+            complex_samples=complex_samples,
+            data_bits=bits,
+            first_bit_edge_s=sat.first_bit_edge_s() if bits is not None else 0.0,
+            noise=False,
+            signal=sat.signal,
+        ).samples
     if complex_samples:
         return x + rng.standard_normal(n) + 1j * rng.standard_normal(n)
     return x + rng.standard_normal(n)

@@ -13,9 +13,18 @@ from .sigmf_meta import meta_path_for, write_sigmf_meta
 __all__ = ["write_recording"]
 
 
-def write_recording(path: str | Path, samples: np.ndarray, format: str, sample_rate_hz: float, if_hz: float,
-                    *, q_sign: int = 1, scale: float = 1.0, start_time: str | None = None,
-                    sigmf: bool = True) -> Path:
+def write_recording(
+    path: str | Path,
+    samples: np.ndarray,
+    format: str,
+    sample_rate_hz: float,
+    if_hz: float,
+    *,
+    q_sign: int = 1,
+    scale: float = 1.0,
+    start_time: str | None = None,
+    sigmf: bool = True,
+) -> Path:
     """Write ``samples * scale`` to ``path`` in ``format`` (and ``path``'s ``.sigmf-meta``).
 
     Parameters
@@ -31,8 +40,11 @@ def write_recording(path: str | Path, samples: np.ndarray, format: str, sample_r
     source = registry.create("sample_source", format)
     samples = np.asarray(samples)
     if source.is_complex != np.iscomplexobj(samples):
-        raise ConfigError("format", f"{format} holds {'complex' if source.is_complex else 'real'} samples, got "
-                          f"{'complex' if np.iscomplexobj(samples) else 'real'} ones")
+        raise ConfigError(
+            "format",
+            f"{format} holds {'complex' if source.is_complex else 'real'} samples, got "
+            f"{'complex' if np.iscomplexobj(samples) else 'real'} ones",
+        )
     if samples.size % source.samples_per_chunk:
         raise ConfigError("samples", f"{format} stores {source.samples_per_chunk} samples a chunk; got {samples.size}")
     x = samples * scale
@@ -41,6 +53,13 @@ def write_recording(path: str | Path, samples: np.ndarray, format: str, sample_r
     path = Path(path)
     path.write_bytes(source.encode(x))
     if sigmf:
-        write_sigmf_meta(meta_path_for(path), format=format, sigmf_datatype=source.sigmf_datatype,
-                         sample_rate_hz=sample_rate_hz, if_hz=if_hz, q_sign=q_sign, start_time=start_time)
+        write_sigmf_meta(
+            meta_path_for(path),
+            format=format,
+            sigmf_datatype=source.sigmf_datatype,
+            sample_rate_hz=sample_rate_hz,
+            if_hz=if_hz,
+            q_sign=q_sign,
+            start_time=start_time,
+        )
     return path

@@ -36,8 +36,9 @@ from .vector_config import Assistance
 __all__ = ["predicted_dopplers", "assisted_search"]
 
 
-def predicted_dopplers(rinex: Ephemerides, assist: Assistance, elevation_mask_deg: float = 5.0,
-                       signal: SignalSpec = GPS_L1CA) -> dict[int, float]:
+def predicted_dopplers(
+    rinex: Ephemerides, assist: Assistance, elevation_mask_deg: float = 5.0, signal: SignalSpec = GPS_L1CA
+) -> dict[int, float]:
     """Doppler (Hz) of every satellite of ``signal`` with a healthy record in ``rinex``
     above ``elevation_mask_deg`` from the assisted position at its start time (see the module text)."""
     r = np.asarray(assist.position_ecef_m, float)
@@ -58,16 +59,28 @@ def predicted_dopplers(rinex: Ephemerides, assist: Assistance, elevation_mask_de
     return out
 
 
-def assisted_search(recording: Recording, rinex: Ephemerides, assist: Assistance, noncoherent: int, *,
-                    coherent_ms: int = 10, doppler_halfwidth_hz: float = 500.0, pfa: float = 1e-3,
-                    elevation_mask_deg: float = 5.0, signal: SignalSpec = GPS_L1CA) -> list[AcquisitionResult]:
+def assisted_search(
+    recording: Recording,
+    rinex: Ephemerides,
+    assist: Assistance,
+    noncoherent: int,
+    *,
+    coherent_ms: int = 10,
+    doppler_halfwidth_hz: float = 500.0,
+    pfa: float = 1e-3,
+    elevation_mask_deg: float = 5.0,
+    signal: SignalSpec = GPS_L1CA,
+) -> list[AcquisitionResult]:
     """Search each satellite `predicted_dopplers` gives in ``doppler_halfwidth_hz`` about its
     Doppler and over the whole code period (`window_search`, 10 ms blocks summed by parity,
     ``noncoherent`` of them, the code Doppler followed) from the recording's first sample;
     ``pfa`` per satellite's window. One result per searched satellite, in PRN order."""
     if coherent_ms != 10 or noncoherent % 2:
-        raise ConfigError("noncoherent", f"the assisted search sums 10 ms blocks by parity: coherent_ms 10 and an "
-                                         f"even noncoherent, got {coherent_ms} and {noncoherent}")
+        raise ConfigError(
+            "noncoherent",
+            f"the assisted search sums 10 ms blocks by parity: coherent_ms 10 and an "
+            f"even noncoherent, got {coherent_ms} and {noncoherent}",
+        )
     fs = recording.info.sample_rate_hz
     n = int(round(coherent_ms * signal.code_period_s * fs))
     samples = recording.read(0, n * noncoherent)
@@ -75,7 +88,19 @@ def assisted_search(recording: Recording, rinex: Ephemerides, assist: Assistance
     results = []
     for prn, doppler in sorted(predicted_dopplers(rinex, assist, elevation_mask_deg, signal).items()):
         window = SearchWindow(0.0, doppler, per_code / 2, doppler_halfwidth_hz)
-        results.append(window_search(samples, fs, recording.info.if_hz, prn, window, coherent_ms=coherent_ms,
-                                     noncoherent=noncoherent, alternate=True, pfa=pfa, signal=signal,
-                                     code_doppler=True))
+        results.append(
+            window_search(
+                samples,
+                fs,
+                recording.info.if_hz,
+                prn,
+                window,
+                coherent_ms=coherent_ms,
+                noncoherent=noncoherent,
+                alternate=True,
+                pfa=pfa,
+                signal=signal,
+                code_doppler=True,
+            )
+        )
     return results

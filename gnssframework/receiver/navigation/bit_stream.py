@@ -51,8 +51,14 @@ class BitRun:
     ms_in_bit: np.ndarray
 
 
-def bit_runs(time_s: np.ndarray, prompt_i: np.ndarray, coherent_ms: np.ndarray, bit_aligned: np.ndarray,
-             min_bits: int = 1, signal: SignalSpec = GPS_L1CA) -> list[BitRun]:
+def bit_runs(
+    time_s: np.ndarray,
+    prompt_i: np.ndarray,
+    coherent_ms: np.ndarray,
+    bit_aligned: np.ndarray,
+    min_bits: int = 1,
+    signal: SignalSpec = GPS_L1CA,
+) -> list[BitRun]:
     """Split a channel's record into gap-free runs of bit-aligned rows and sum them into bits.
 
     Parameters
@@ -70,8 +76,11 @@ def bit_runs(time_s: np.ndarray, prompt_i: np.ndarray, coherent_ms: np.ndarray, 
     time_s, prompt_i = np.asarray(time_s, float), np.asarray(prompt_i, float)
     coherent_ms, aligned = np.asarray(coherent_ms, int), np.asarray(bit_aligned, bool)
     if not time_s.shape == prompt_i.shape == coherent_ms.shape == aligned.shape or time_s.ndim != 1:
-        raise ConfigError("bit_runs", f"columns of one record must be 1-D and of one length, got {time_s.shape}, "
-                          f"{prompt_i.shape}, {coherent_ms.shape}, {aligned.shape}")
+        raise ConfigError(
+            "bit_runs",
+            f"columns of one record must be 1-D and of one length, got {time_s.shape}, "
+            f"{prompt_i.shape}, {coherent_ms.shape}, {aligned.shape}",
+        )
     rows = np.flatnonzero(aligned)
     if rows.size == 0:
         return []
@@ -88,8 +97,9 @@ def bit_runs(time_s: np.ndarray, prompt_i: np.ndarray, coherent_ms: np.ndarray, 
         n_bits = part.size // per_bit  # a last bit not wholly integrated is left out
         if n_bits < min_bits:
             continue
-        r = rows[part[:n_bits * per_bit]]
+        r = rows[part[: n_bits * per_bit]]
         k = np.arange(r.size)
-        out.append(BitRun(prompt_i[r].reshape(n_bits, per_bit).sum(axis=1), r, k // per_bit,
-                          (k % per_bit) * int(c[part[0]])))
+        out.append(
+            BitRun(prompt_i[r].reshape(n_bits, per_bit).sum(axis=1), r, k // per_bit, (k % per_bit) * int(c[part[0]]))
+        )
     return out

@@ -38,8 +38,9 @@ def write_tracking_parquet(path: str | Path, tracking: TrackingResult) -> Path:
         raise ConfigError("outputs", PYARROW_MISSING) from None
     rows = [(prn, *r) for prn, ch in tracking.channels.items() for r in ch.rows]
     names = ("prn", *RECORD_FIELDS)
-    columns = {n: np.array([r[i] for r in rows]) for i, n in enumerate(names)} if rows else \
-        {n: np.zeros(0) for n in names}
+    columns = (
+        {n: np.array([r[i] for r in rows]) for i, n in enumerate(names)} if rows else {n: np.zeros(0) for n in names}
+    )
     order = np.lexsort((columns["prn"], columns["time_s"])) if rows else np.zeros(0, int)
     arrays = {}
     for n in names:
@@ -52,8 +53,9 @@ def write_tracking_parquet(path: str | Path, tracking: TrackingResult) -> Path:
             arrays[n] = pa.array(v.astype(np.int64))
         else:
             arrays[n] = pa.array(v.astype(np.float64))
-    table = pa.table(arrays).replace_schema_metadata({"channel_filter": str(tracking.channel_filter),
-                                                      "duration_s": repr(float(tracking.duration_s))})
+    table = pa.table(arrays).replace_schema_metadata(
+        {"channel_filter": str(tracking.channel_filter), "duration_s": repr(float(tracking.duration_s))}
+    )
     path = Path(path)
     pq.write_table(table, path)
     return path

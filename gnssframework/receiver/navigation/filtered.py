@@ -62,17 +62,35 @@ from .fixes import PositionTable, full_week
 from .fixes import _ephemeris_for as ephemeris_for, _stack as stack_records
 from .observables import Observables
 
-__all__ = ["EpochMeasurements", "MEASUREMENT_INPUTS", "NAV_STATE_OUTPUTS", "EXCLUSIONS", "check_nav_filter",
-           "corrected_measurements", "innovation_exclusion", "run_nav_filter", "filter_epochs"]
+__all__ = [
+    "EpochMeasurements",
+    "MEASUREMENT_INPUTS",
+    "NAV_STATE_OUTPUTS",
+    "EXCLUSIONS",
+    "check_nav_filter",
+    "corrected_measurements",
+    "innovation_exclusion",
+    "run_nav_filter",
+    "filter_epochs",
+]
 
 #: The satellite selections of `filter_epochs` (see the module text).
 EXCLUSIONS = ("innovation", "least-squares", "none")
 
 #: What this harness gives a nav filter at each epoch: the vector loop's harness inputs
 #: and a channel filter's outputs (zero errors with the measurement variances).
-MEASUREMENT_INPUTS = (names.SAT_POS_M, names.SAT_VEL_M_S, names.NEXT_SAT_POS_M, names.NEXT_SAT_VEL_M_S,
-                      names.REPLICA_RANGE_M, names.REPLICA_RATE_M_S, names.CODE_ERROR_CHIPS,
-                      names.CODE_ERROR_VAR_CHIPS2, names.FREQ_ERROR_HZ, names.FREQ_ERROR_VAR_HZ2)
+MEASUREMENT_INPUTS = (
+    names.SAT_POS_M,
+    names.SAT_VEL_M_S,
+    names.NEXT_SAT_POS_M,
+    names.NEXT_SAT_VEL_M_S,
+    names.REPLICA_RANGE_M,
+    names.REPLICA_RATE_M_S,
+    names.CODE_ERROR_CHIPS,
+    names.CODE_ERROR_VAR_CHIPS2,
+    names.FREQ_ERROR_HZ,
+    names.FREQ_ERROR_VAR_HZ2,
+)
 #: What it reads back: ECEF position and velocity, clock bias and drift.
 NAV_STATE_OUTPUTS = (names.POSITION_M, names.VELOCITY_M_S, names.CLOCK_M)
 
@@ -112,8 +130,11 @@ def check_nav_filter(name: str, field: str = "nav_filter") -> None:
     fits = [n for n in registry.names("nav_filter") if not _misfit(registry.get("nav_filter", n))]
     why = _misfit(cls)
     if why:
-        raise ConfigError(field, f"nav_filter {name!r} cannot run on pseudoranges and Dopplers: {why}; those that "
-                                 f"can: {', '.join(fits) or '(none registered)'}")
+        raise ConfigError(
+            field,
+            f"nav_filter {name!r} cannot run on pseudoranges and Dopplers: {why}; those that "
+            f"can: {', '.join(fits) or '(none registered)'}",
+        )
 
 
 def _misfit(cls: type) -> str:
@@ -130,12 +151,21 @@ def _rotate_z(v: np.ndarray, theta_rad: np.ndarray) -> np.ndarray:
     return np.stack([c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1], v[:, 2]], axis=-1)
 
 
-def corrected_measurements(pseudorange_m: np.ndarray, transmit_s: np.ndarray, doppler_hz: np.ndarray,
-                           ephemeris: Ephemerides, receiver_ecef_m: np.ndarray, *, iono: IonoUtc | None = None,
-                           troposphere: bool = False, sigma_m: float = 5.0, sigma_rate_m_s: float = 0.5,
-                           elevation_mask_deg: float = 5.0,
-                           wavelength_m: float | None = None,
-                           signal: SignalSpec = GPS_L1CA) -> tuple[EpochMeasurements, np.ndarray]:
+def corrected_measurements(
+    pseudorange_m: np.ndarray,
+    transmit_s: np.ndarray,
+    doppler_hz: np.ndarray,
+    ephemeris: Ephemerides,
+    receiver_ecef_m: np.ndarray,
+    *,
+    iono: IonoUtc | None = None,
+    troposphere: bool = False,
+    sigma_m: float = 5.0,
+    sigma_rate_m_s: float = 0.5,
+    elevation_mask_deg: float = 5.0,
+    wavelength_m: float | None = None,
+    signal: SignalSpec = GPS_L1CA,
+) -> tuple[EpochMeasurements, np.ndarray]:
     """Correct one epoch's measurements at the receiver position ``receiver_ecef_m`` (see the
     module text).
 
@@ -173,16 +203,21 @@ def corrected_measurements(pseudorange_m: np.ndarray, transmit_s: np.ndarray, do
     az, el = np.asarray(az, float), np.asarray(el, float)
     delay = np.zeros(pr.size)
     if iono is not None:  # at the time pvt.solve_position evaluates it
-        delay += SPEED_OF_LIGHT_M_S * klobuchar_delay_s(iono.alpha, iono.beta, lat, lon, az, el,
-                                                       float(np.median(tx)) + 0.075)
+        delay += SPEED_OF_LIGHT_M_S * klobuchar_delay_s(
+            iono.alpha, iono.beta, lat, lon, az, el, float(np.median(tx)) + 0.075
+        )
     if troposphere:
         delay += troposphere_delay_m(lat, h, el)
     keep = (el >= elevation_mask_deg) & np.isfinite(pr) & np.isfinite(d)
     inv_sin2 = 1.0 / np.sin(np.radians(np.maximum(el, 1.0))) ** 2
-    meas = EpochMeasurements(sat_pos[keep], sat_vel[keep],
-                             (pr + SPEED_OF_LIGHT_M_S * state.clock_l1_s - delay)[keep],
-                             (-wavelength_m * d + SPEED_OF_LIGHT_M_S * state.clock_drift_s_s)[keep],
-                             (sigma_m**2 * inv_sin2)[keep], (sigma_rate_m_s**2 * inv_sin2)[keep])
+    meas = EpochMeasurements(
+        sat_pos[keep],
+        sat_vel[keep],
+        (pr + SPEED_OF_LIGHT_M_S * state.clock_l1_s - delay)[keep],
+        (-wavelength_m * d + SPEED_OF_LIGHT_M_S * state.clock_drift_s_s)[keep],
+        (sigma_m**2 * inv_sin2)[keep],
+        (sigma_rate_m_s**2 * inv_sin2)[keep],
+    )
     return meas, keep
 
 
@@ -191,19 +226,29 @@ def _inputs(m: EpochMeasurements, signal: SignalSpec = GPS_L1CA) -> dict[str, np
     (variances in chips and Hz of ``signal``, whose chip length and wavelength the filter uses)."""
     chip_length_m, wavelength_m = signal.chip_length_m, signal.wavelength_m
     zero = np.zeros((1, m.range_m.size))
-    return {names.SAT_POS_M: m.sat_pos_m, names.SAT_VEL_M_S: m.sat_vel_m_s, names.NEXT_SAT_POS_M: m.sat_pos_m,
-            names.NEXT_SAT_VEL_M_S: m.sat_vel_m_s, names.REPLICA_RANGE_M: m.range_m[None],
-            names.REPLICA_RATE_M_S: m.rate_m_s[None], names.CODE_ERROR_CHIPS: zero,
-            names.CODE_ERROR_VAR_CHIPS2: m.range_var_m2[None] / chip_length_m**2, names.FREQ_ERROR_HZ: zero,
-            names.FREQ_ERROR_VAR_HZ2: m.rate_var_m2_s2[None] / wavelength_m**2}
+    return {
+        names.SAT_POS_M: m.sat_pos_m,
+        names.SAT_VEL_M_S: m.sat_vel_m_s,
+        names.NEXT_SAT_POS_M: m.sat_pos_m,
+        names.NEXT_SAT_VEL_M_S: m.sat_vel_m_s,
+        names.REPLICA_RANGE_M: m.range_m[None],
+        names.REPLICA_RATE_M_S: m.rate_m_s[None],
+        names.CODE_ERROR_CHIPS: zero,
+        names.CODE_ERROR_VAR_CHIPS2: m.range_var_m2[None] / chip_length_m**2,
+        names.FREQ_ERROR_HZ: zero,
+        names.FREQ_ERROR_VAR_HZ2: m.rate_var_m2_s2[None] / wavelength_m**2,
+    }
 
 
 def start_nav_filter(nav: NavFilter, interval_s: float, initial_state: np.ndarray, initial_cov: np.ndarray) -> None:
     """Reset ``nav`` for one run at ``interval_s`` between epochs from the 8-state estimate
     ``initial_state`` ``(8,)`` (at the first epoch it will be given) and ``initial_cov``."""
-    context = RunContext(coherent_time_s=interval_s, epoch_interval_s=interval_s,
-                         initial_state=np.asarray(initial_state, float)[None],
-                         initial_cov=np.asarray(initial_cov, float))
+    context = RunContext(
+        coherent_time_s=interval_s,
+        epoch_interval_s=interval_s,
+        initial_state=np.asarray(initial_state, float)[None],
+        initial_cov=np.asarray(initial_cov, float),
+    )
     nav.reset((1,), context)
 
 
@@ -213,23 +258,40 @@ def step_nav_filter(nav: NavFilter, measurements: EpochMeasurements, signal: Sig
     return _step(nav, measurements, signal)[0]
 
 
-def _step(nav: NavFilter, measurements: EpochMeasurements,
-          signal: SignalSpec = GPS_L1CA) -> tuple[np.ndarray, np.ndarray | None]:
+def _step(
+    nav: NavFilter, measurements: EpochMeasurements, signal: SignalSpec = GPS_L1CA
+) -> tuple[np.ndarray, np.ndarray | None]:
     """One epoch: the 8-state after it and its 8x8 covariance (None if the filter gives none)."""
     out = nav.checked_step(_inputs(measurements, signal))
-    x = np.concatenate([np.reshape(out[names.POSITION_M], 3), np.reshape(out[names.VELOCITY_M_S], 3),
-                        np.reshape(out[names.CLOCK_M], 2)])
+    x = np.concatenate(
+        [
+            np.reshape(out[names.POSITION_M], 3),
+            np.reshape(out[names.VELOCITY_M_S], 3),
+            np.reshape(out[names.CLOCK_M], 2),
+        ]
+    )
     cov = out.get(names.COV)
     return x, None if cov is None else np.reshape(cov, np.shape(cov)[-2:])[:8, :8]
 
 
 def _subset(m: EpochMeasurements, keep: np.ndarray) -> EpochMeasurements:
-    return EpochMeasurements(m.sat_pos_m[keep], m.sat_vel_m_s[keep], m.range_m[keep], m.rate_m_s[keep],
-                             m.range_var_m2[keep], m.rate_var_m2_s2[keep])
+    return EpochMeasurements(
+        m.sat_pos_m[keep],
+        m.sat_vel_m_s[keep],
+        m.range_m[keep],
+        m.rate_m_s[keep],
+        m.range_var_m2[keep],
+        m.rate_var_m2_s2[keep],
+    )
 
 
-def innovation_exclusion(predicted_state: np.ndarray, predicted_cov: np.ndarray, measurements: EpochMeasurements,
-                         false_alarm: float = 1e-3, min_satellites: int = 4) -> tuple[np.ndarray, float]:
+def innovation_exclusion(
+    predicted_state: np.ndarray,
+    predicted_cov: np.ndarray,
+    measurements: EpochMeasurements,
+    false_alarm: float = 1e-3,
+    min_satellites: int = 4,
+) -> tuple[np.ndarray, float]:
     """The satellites that pass the filter's innovation test (see the module text).
 
     Parameters
@@ -283,8 +345,13 @@ def _predict(nav: NavFilter, x: np.ndarray, P: np.ndarray, interval_s: float) ->
     return F @ x, F @ P @ F.T + Q
 
 
-def run_nav_filter(nav: NavFilter, interval_s: float, initial_state: np.ndarray, initial_cov: np.ndarray,
-                   epochs: list[EpochMeasurements]) -> np.ndarray:
+def run_nav_filter(
+    nav: NavFilter,
+    interval_s: float,
+    initial_state: np.ndarray,
+    initial_cov: np.ndarray,
+    epochs: list[EpochMeasurements],
+) -> np.ndarray:
     """Run ``nav`` over consecutive epochs ``interval_s`` apart; returns the states ``(E, 8)``."""
     start_nav_filter(nav, interval_s, initial_state, initial_cov)
     return np.array([step_nav_filter(nav, m) for m in epochs]).reshape(-1, 8)
@@ -293,18 +360,34 @@ def run_nav_filter(nav: NavFilter, interval_s: float, initial_state: np.ndarray,
 def _enu(lat_deg: float, lon_deg: float) -> np.ndarray:
     """Rows: east, north, up unit vectors in ECEF."""
     la, lo = np.radians(lat_deg), np.radians(lon_deg)
-    return np.array([[-np.sin(lo), np.cos(lo), 0.0],
-                     [-np.sin(la) * np.cos(lo), -np.sin(la) * np.sin(lo), np.cos(la)],
-                     [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)]])
+    return np.array(
+        [
+            [-np.sin(lo), np.cos(lo), 0.0],
+            [-np.sin(la) * np.cos(lo), -np.sin(la) * np.sin(lo), np.cos(la)],
+            [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)],
+        ]
+    )
 
 
-def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-pv",
-                  params: dict[str, Any] | None = None, rinex: Ephemerides | None = None, *,
-                  ionosphere: bool = True, troposphere: bool = False, iono: IonoUtc | None = None,
-                  sigma_m: float = 5.0, sigma_rate_m_s: float = 0.5, elevation_mask_deg: float = 5.0,
-                  reference_week: int | None = None, exclusion: str = "innovation",
-                  innovation_false_alarm: float = 1e-3, signal: SignalSpec = GPS_L1CA,
-                  integrity_risk: float | None = None) -> PositionTable:
+def filter_epochs(
+    obs: Observables,
+    wls: PositionTable,
+    nav_filter: str = "ekf-pv",
+    params: dict[str, Any] | None = None,
+    rinex: Ephemerides | None = None,
+    *,
+    ionosphere: bool = True,
+    troposphere: bool = False,
+    iono: IonoUtc | None = None,
+    sigma_m: float = 5.0,
+    sigma_rate_m_s: float = 0.5,
+    elevation_mask_deg: float = 5.0,
+    reference_week: int | None = None,
+    exclusion: str = "innovation",
+    innovation_false_alarm: float = 1e-3,
+    signal: SignalSpec = GPS_L1CA,
+    integrity_risk: float | None = None,
+) -> PositionTable:
     """The registered ``nav_filter`` (with ``params``) on every epoch of ``obs`` from the
     first fix of ``wls`` on (see the module text); the same columns as ``wls``, with
     ``excluded_prn`` the first satellite the innovation test left out at each epoch (0: none).
@@ -330,8 +413,11 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
     nav = registry.create("nav_filter", nav_filter, **(params or {}))
     gate = exclusion == "innovation"
     if gate and not hasattr(nav, "transition"):
-        raise ConfigError("exclusion", f"the innovation test needs the filter's transition(T); nav_filter "
-                                       f"{nav_filter!r} has none: use exclusion 'least-squares' or 'none'")
+        raise ConfigError(
+            "exclusion",
+            f"the innovation test needs the filter's transition(T); nav_filter "
+            f"{nav_filter!r} has none: use exclusion 'least-squares' or 'none'",
+        )
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
     interval_s = float(np.median(np.diff(obs.rx_time_s))) if obs.rx_time_s.size > 1 else 1.0
     wls_row = {int(np.argmin(np.abs(obs.sample_time_s - t))): k for k, t in enumerate(wls.sample_time_s)}
@@ -344,8 +430,7 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
         else:
             prns = obs.prn[np.isfinite(obs.pseudorange_m[e])]
         j = np.flatnonzero(np.isin(obs.prn, prns))
-        records = ephemeris_for(obs.prn[j], obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]),
-                                signal)
+        records = ephemeris_for(obs.prn[j], obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]), signal)
         j = np.array([jj for jj, r in zip(j, records) if r is not None], dtype=int)
         if not running and k is None:
             continue
@@ -356,11 +441,19 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
             x0, P0 = _prior(wls, k, sigma_m, sigma_rate_m_s)
             start_nav_filter(nav, interval_s, x0, P0)
             running, here, predicted = True, x0[:3], (x0, P0)
-        meas, keep = corrected_measurements(obs.pseudorange_m[e, j], obs.transmit_s[e, j], obs.doppler_hz[e, j],
-                                            stack_records([r for r in records if r is not None]), here,
-                                            iono=klobuchar, troposphere=troposphere, sigma_m=sigma_m,
-                                            sigma_rate_m_s=sigma_rate_m_s, elevation_mask_deg=elevation_mask_deg,
-                                            signal=signal)
+        meas, keep = corrected_measurements(
+            obs.pseudorange_m[e, j],
+            obs.transmit_s[e, j],
+            obs.doppler_hz[e, j],
+            stack_records([r for r in records if r is not None]),
+            here,
+            iono=klobuchar,
+            troposphere=troposphere,
+            sigma_m=sigma_m,
+            sigma_rate_m_s=sigma_rate_m_s,
+            elevation_mask_deg=elevation_mask_deg,
+            signal=signal,
+        )
         if not keep.any():
             running = False
             continue
@@ -381,10 +474,17 @@ def filter_epochs(obs: Observables, wls: PositionTable, nav_filter: str = "ekf-p
         dops.append(_dops(meas.sat_pos_m, x[:3]))
         if integrity_risk is not None:
             levels.append(_levels(x, P, integrity_risk))
-    table = _table(obs, np.array(rows, dtype=int), np.array(states).reshape(-1, 8), used,
-                   np.array(dops).reshape(-1, 2), full_week(obs.week, reference_week)
-                   if reference_week is not None or obs.week is not None else int(wls.columns["gps_week"][0]),
-                   np.array(excluded, dtype=int))
+    table = _table(
+        obs,
+        np.array(rows, dtype=int),
+        np.array(states).reshape(-1, 8),
+        used,
+        np.array(dops).reshape(-1, 2),
+        full_week(obs.week, reference_week)
+        if reference_week is not None or obs.week is not None
+        else int(wls.columns["gps_week"][0]),
+        np.array(excluded, dtype=int),
+    )
     if integrity_risk is not None:
         pl = np.array(levels, float).reshape(-1, 2)
         status = np.where(np.isnan(pl[:, 0]), "unavailable", np.where(table.excluded_prn > 0, "excluded", "ok"))
@@ -419,20 +519,37 @@ def _prior(wls: PositionTable, k: int, sigma_m: float, sigma_rate_m_s: float) ->
     return x0, np.diag([var_pos] * 3 + [var_vel] * 3 + [(sigma_m * pdop) ** 2, (sigma_rate_m_s * pdop) ** 2])
 
 
-def _table(obs: Observables, rows: np.ndarray, states: np.ndarray, used: list[tuple[int, ...]], dops: np.ndarray,
-           week: int, excluded: np.ndarray) -> PositionTable:
+def _table(
+    obs: Observables,
+    rows: np.ndarray,
+    states: np.ndarray,
+    used: list[tuple[int, ...]],
+    dops: np.ndarray,
+    week: int,
+    excluded: np.ndarray,
+) -> PositionTable:
     n = rows.size
-    lat, lon, h = (np.asarray(v, float).reshape(-1) for v in
-                   pymap3d.ecef2geodetic(states[:, 0], states[:, 1], states[:, 2]))
+    lat, lon, h = (
+        np.asarray(v, float).reshape(-1) for v in pymap3d.ecef2geodetic(states[:, 0], states[:, 1], states[:, 2])
+    )
     vel = np.array([_enu(lat[i], lon[i]) @ states[i, 3:6] for i in range(n)]).reshape(-1, 3)
     hdop, vdop = dops[:, 0], dops[:, 1]
     bias = states[:, 6]
-    columns = {"gps_week": np.full(n, week), "tow_s": obs.rx_time_s[rows] - bias / SPEED_OF_LIGHT_M_S,
-               "lat_deg": lat, "lon_deg": lon, "height_m": h, "vel_e_mps": vel[:, 0], "vel_n_mps": vel[:, 1],
-               "vel_u_mps": vel[:, 2], "clock_bias_m": bias, "n_sats": np.array([len(u) for u in used], dtype=int),
-               "hdop": hdop, "vdop": vdop}
-    return PositionTable(columns, states[:, :3].copy(), obs.sample_time_s[rows], used, excluded,
-                         states[:, 7].copy())
+    columns = {
+        "gps_week": np.full(n, week),
+        "tow_s": obs.rx_time_s[rows] - bias / SPEED_OF_LIGHT_M_S,
+        "lat_deg": lat,
+        "lon_deg": lon,
+        "height_m": h,
+        "vel_e_mps": vel[:, 0],
+        "vel_n_mps": vel[:, 1],
+        "vel_u_mps": vel[:, 2],
+        "clock_bias_m": bias,
+        "n_sats": np.array([len(u) for u in used], dtype=int),
+        "hdop": hdop,
+        "vdop": vdop,
+    }
+    return PositionTable(columns, states[:, :3].copy(), obs.sample_time_s[rows], used, excluded, states[:, 7].copy())
 
 
 def _dops(sat_pos_m: np.ndarray, r: np.ndarray) -> tuple[float, float]:

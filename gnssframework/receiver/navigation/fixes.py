@@ -27,12 +27,32 @@ from ...navigation.pvt import PositionFix, solve_position
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 
-__all__ = ["PositionTable", "solve_epochs", "write_positions_csv", "POSITION_COLUMNS", "INTEGRITY_COLUMNS", "full_week",
-           "SYSTEM_OFFSET_COLUMN", "ELEVATION_MASK_DEG"]
+__all__ = [
+    "PositionTable",
+    "solve_epochs",
+    "write_positions_csv",
+    "POSITION_COLUMNS",
+    "INTEGRITY_COLUMNS",
+    "full_week",
+    "SYSTEM_OFFSET_COLUMN",
+    "ELEVATION_MASK_DEG",
+]
 
 #: Columns of ``positions.csv`` (one row per solution).
-POSITION_COLUMNS = ("gps_week", "tow_s", "lat_deg", "lon_deg", "height_m", "vel_e_mps", "vel_n_mps", "vel_u_mps",
-                    "clock_bias_m", "n_sats", "hdop", "vdop")
+POSITION_COLUMNS = (
+    "gps_week",
+    "tow_s",
+    "lat_deg",
+    "lon_deg",
+    "height_m",
+    "vel_e_mps",
+    "vel_n_mps",
+    "vel_u_mps",
+    "clock_bias_m",
+    "n_sats",
+    "hdop",
+    "vdop",
+)
 #: Columns added with integrity monitoring: horizontal and vertical protection levels (m;
 #: inf on an alert or with too few satellites) and the outcome (`pvt.RAIM_STATUSES`).
 INTEGRITY_COLUMNS = ("hpl_m", "vpl_m", "raim")
@@ -80,8 +100,14 @@ def full_week(week10: int | None, reference_week: int | None = None) -> int:
 MAX_EPHEMERIS_AGE_S = 4 * 3600.0
 
 
-def _ephemeris_for(prns: np.ndarray, obs: Observables | None, rinex: Ephemerides | None, t_s: float,
-                   sample_time_s: float, signal: SignalSpec = GPS_L1CA) -> list:
+def _ephemeris_for(
+    prns: np.ndarray,
+    obs: Observables | None,
+    rinex: Ephemerides | None,
+    t_s: float,
+    sample_time_s: float,
+    signal: SignalSpec = GPS_L1CA,
+) -> list:
     """Per PRN, a healthy record (the last decoded by ``sample_time_s``, else RINEX's,
     named by ``signal``: QZSS PRN 193 is ``J01``) or None."""
     out = []
@@ -102,20 +128,35 @@ def _ephemeris_for(prns: np.ndarray, obs: Observables | None, rinex: Ephemerides
 
 def _stack(records: list[Ephemerides]) -> Ephemerides:
     # The broadcast accuracy where every record has one (decoded LNAV records may not).
-    accuracy = (None if any(r.accuracy_m is None for r in records)
-                else np.concatenate([r.accuracy_m for r in records]))
-    return Ephemerides(np.concatenate([r.sv for r in records]), np.concatenate([r.toc_s for r in records]),
-                       {k: np.concatenate([r.elements[k] for r in records]) for k in records[0].elements},
-                       np.concatenate([r.health for r in records]), np.concatenate([r.iode for r in records]),
-                       accuracy)
+    accuracy = None if any(r.accuracy_m is None for r in records) else np.concatenate([r.accuracy_m for r in records])
+    return Ephemerides(
+        np.concatenate([r.sv for r in records]),
+        np.concatenate([r.toc_s for r in records]),
+        {k: np.concatenate([r.elements[k] for r in records]) for k in records[0].elements},
+        np.concatenate([r.health for r in records]),
+        np.concatenate([r.iode for r in records]),
+        accuracy,
+    )
 
 
-def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphere: bool = True,
-                 troposphere: bool = False, iono: IonoUtc | None = None, sigma_m: float = 5.0,
-                 elevation_mask_deg: float = ELEVATION_MASK_DEG, reference_week: int | None = None,
-                 elevation_weights: bool = True, weighting: str | None = None,
-                 signal: SignalSpec = GPS_L1CA, raim: str | None = None, false_alarm: float = 1e-3,
-                 missed_detection: float = 1e-3, integrity_risk: float = 1e-7) -> PositionTable:
+def solve_epochs(
+    obs: Observables,
+    rinex: Ephemerides | None = None,
+    *,
+    ionosphere: bool = True,
+    troposphere: bool = False,
+    iono: IonoUtc | None = None,
+    sigma_m: float = 5.0,
+    elevation_mask_deg: float = ELEVATION_MASK_DEG,
+    reference_week: int | None = None,
+    elevation_weights: bool = True,
+    weighting: str | None = None,
+    signal: SignalSpec = GPS_L1CA,
+    raim: str | None = None,
+    false_alarm: float = 1e-3,
+    missed_detection: float = 1e-3,
+    integrity_risk: float = 1e-7,
+) -> PositionTable:
     """Solve every epoch of ``obs`` (see the module text).
 
     ``signal`` names the satellites in ``rinex`` (its `SignalSpec.rinex_satellite`).
@@ -132,19 +173,29 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
     keep_t, used, excluded = [], [], []
     for e in range(obs.rx_time_s.size):
         ok = np.flatnonzero(np.isfinite(obs.pseudorange_m[e]))
-        records = _ephemeris_for(obs.prn[ok], obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]),
-                                 signal)
+        records = _ephemeris_for(obs.prn[ok], obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]), signal)
         have = [j for j, r in enumerate(records) if r is not None]
         if len(have) < 4:
             continue
         idx = ok[have]
-        fix = solve_position(obs.pseudorange_m[e, idx], obs.transmit_s[e, idx], _stack([records[j] for j in have]),
-                             doppler_hz=obs.doppler_hz[e, idx], iono=klobuchar, troposphere=troposphere,
-                             sigma_m=sigma_m, elevation_mask_deg=elevation_mask_deg,
-                             initial_ecef_m=rows[-1].position_ecef_m if rows else None,
-                             elevation_weights=elevation_weights, weighting=weighting, signal=signal,
-                             raim=raim, false_alarm=false_alarm, missed_detection=missed_detection,
-                             integrity_risk=integrity_risk)
+        fix = solve_position(
+            obs.pseudorange_m[e, idx],
+            obs.transmit_s[e, idx],
+            _stack([records[j] for j in have]),
+            doppler_hz=obs.doppler_hz[e, idx],
+            iono=klobuchar,
+            troposphere=troposphere,
+            sigma_m=sigma_m,
+            elevation_mask_deg=elevation_mask_deg,
+            initial_ecef_m=rows[-1].position_ecef_m if rows else None,
+            elevation_weights=elevation_weights,
+            weighting=weighting,
+            signal=signal,
+            raim=raim,
+            false_alarm=false_alarm,
+            missed_detection=missed_detection,
+            integrity_risk=integrity_risk,
+        )
         if fix is None:
             continue
         rows.append(fix)
@@ -155,19 +206,37 @@ def solve_epochs(obs: Observables, rinex: Ephemerides | None = None, *, ionosphe
     bias = np.array([f.clock_bias_m for f in rows])
     tow = obs.rx_time_s[e] - bias / SPEED_OF_LIGHT_MPS if rows else np.zeros(0)
     vel = np.array([f.velocity_enu_mps for f in rows]).reshape(-1, 3)
-    columns = {"gps_week": np.full(len(rows), week), "tow_s": tow,
-               "lat_deg": np.array([f.lat_deg for f in rows]), "lon_deg": np.array([f.lon_deg for f in rows]),
-               "height_m": np.array([f.height_m for f in rows]), "vel_e_mps": vel[:, 0], "vel_n_mps": vel[:, 1],
-               "vel_u_mps": vel[:, 2], "clock_bias_m": bias, "n_sats": np.array([len(u) for u in used], dtype=int),
-               "hdop": np.array([f.hdop for f in rows]), "vdop": np.array([f.vdop for f in rows])}
+    columns = {
+        "gps_week": np.full(len(rows), week),
+        "tow_s": tow,
+        "lat_deg": np.array([f.lat_deg for f in rows]),
+        "lon_deg": np.array([f.lon_deg for f in rows]),
+        "height_m": np.array([f.height_m for f in rows]),
+        "vel_e_mps": vel[:, 0],
+        "vel_n_mps": vel[:, 1],
+        "vel_u_mps": vel[:, 2],
+        "clock_bias_m": bias,
+        "n_sats": np.array([len(u) for u in used], dtype=int),
+        "hdop": np.array([f.hdop for f in rows]),
+        "vdop": np.array([f.vdop for f in rows]),
+    }
     offsets = [next(iter(f.system_offsets_ns.values()), np.nan) for f in rows]
     if np.isfinite(offsets).any():
         columns[SYSTEM_OFFSET_COLUMN] = np.array(offsets, float)
     if raim is not None:
-        columns.update(hpl_m=np.array([f.hpl_m for f in rows], float), vpl_m=np.array([f.vpl_m for f in rows], float),
-                       raim=np.array([f.raim for f in rows], dtype="<U11"))
-    return PositionTable(columns, np.array([f.position_ecef_m for f in rows]).reshape(-1, 3), obs.sample_time_s[e],
-                         used, np.array(excluded, dtype=int), np.array([f.clock_drift_mps for f in rows], float))
+        columns.update(
+            hpl_m=np.array([f.hpl_m for f in rows], float),
+            vpl_m=np.array([f.vpl_m for f in rows], float),
+            raim=np.array([f.raim for f in rows], dtype="<U11"),
+        )
+    return PositionTable(
+        columns,
+        np.array([f.position_ecef_m for f in rows]).reshape(-1, 3),
+        obs.sample_time_s[e],
+        used,
+        np.array(excluded, dtype=int),
+        np.array([f.clock_drift_mps for f in rows], float),
+    )
 
 
 def write_positions_csv(path: str | Path, table: PositionTable) -> Path:
@@ -176,14 +245,35 @@ def write_positions_csv(path: str | Path, table: PositionTable) -> Path:
     path = Path(path)
     if not set(POSITION_COLUMNS) <= set(table.columns):
         raise ConfigError("table", f"lacks {sorted(set(POSITION_COLUMNS) - set(table.columns))}")
-    digits = {"tow_s": 3, "lat_deg": 9, "lon_deg": 9, "height_m": 3, "clock_bias_m": 3, "hdop": 2, "vdop": 2,
-              "hpl_m": 2, "vpl_m": 2, SYSTEM_OFFSET_COLUMN: 2}
-    names = POSITION_COLUMNS + (INTEGRITY_COLUMNS if set(INTEGRITY_COLUMNS) <= set(table.columns) else ()) \
+    digits = {
+        "tow_s": 3,
+        "lat_deg": 9,
+        "lon_deg": 9,
+        "height_m": 3,
+        "clock_bias_m": 3,
+        "hdop": 2,
+        "vdop": 2,
+        "hpl_m": 2,
+        "vpl_m": 2,
+        SYSTEM_OFFSET_COLUMN: 2,
+    }
+    names = (
+        POSITION_COLUMNS
+        + (INTEGRITY_COLUMNS if set(INTEGRITY_COLUMNS) <= set(table.columns) else ())
         + ((SYSTEM_OFFSET_COLUMN,) if SYSTEM_OFFSET_COLUMN in table.columns else ())
+    )
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(names)
         for k in range(len(table)):
-            w.writerow([int(table.columns[c][k]) if c in ("gps_week", "n_sats") else str(table.columns[c][k])
-                        if c == "raim" else f"{table.columns[c][k]:.{digits.get(c, 3)}f}" for c in names])
+            w.writerow(
+                [
+                    int(table.columns[c][k])
+                    if c in ("gps_week", "n_sats")
+                    else str(table.columns[c][k])
+                    if c == "raim"
+                    else f"{table.columns[c][k]:.{digits.get(c, 3)}f}"
+                    for c in names
+                ]
+            )
     return path

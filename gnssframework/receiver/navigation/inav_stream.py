@@ -39,14 +39,37 @@ if TYPE_CHECKING:
     from ..channels import ChannelRecord, TrackingResult
     from .observables import ChannelTiming
 
-__all__ = ["carries_inav", "carries_lnav", "require_lnav", "require_positioning", "symbol_runs", "InavTiming", "channel_inav",
-           "INAV_COLUMNS", "inav_summary", "inav_channel_timing", "write_inav_report", "coherent_periods"]
+__all__ = [
+    "carries_inav",
+    "carries_lnav",
+    "require_lnav",
+    "require_positioning",
+    "symbol_runs",
+    "InavTiming",
+    "channel_inav",
+    "INAV_COLUMNS",
+    "inav_summary",
+    "inav_channel_timing",
+    "write_inav_report",
+    "coherent_periods",
+]
 
 _WEEK_S = 604_800.0
 _PULL_IN = 0  # index of "pull-in" in receiver.channels.STAGES
 #: Columns of the ``track`` command's ``inav.csv``: one row per E1-B channel.
-INAV_COLUMNS = ("prn", "symbols", "pages", "word_types", "crc_failures", "iodnav", "gst_wn", "gst_tow_s",
-                "gst_time_s", "inverted", "ephemeris")
+INAV_COLUMNS = (
+    "prn",
+    "symbols",
+    "pages",
+    "word_types",
+    "crc_failures",
+    "iodnav",
+    "gst_wn",
+    "gst_tow_s",
+    "gst_time_s",
+    "inverted",
+    "ephemeris",
+)
 
 
 def carries_inav(signal: SignalSpec) -> bool:
@@ -58,27 +81,37 @@ def carries_inav(signal: SignalSpec) -> bool:
 def carries_lnav(signal: SignalSpec) -> bool:
     """Whether ``signal`` is an L1 C/A signal of the GPS LNAV format (GPS, QZSS): 1 ms
     code periods, 20 ms bits."""
-    return signal.system in ("G", "J") and signal.code_periods_per_symbol == 20 \
+    return (
+        signal.system in ("G", "J")
+        and signal.code_periods_per_symbol == 20
         and abs(signal.code_period_s - 1e-3) < 1e-12
+    )
 
 
 def require_lnav(signal: SignalSpec) -> None:
     """Refuse, in one line, a signal the receiver's dating and positioning would read as LNAV wrongly."""
     if not carries_lnav(signal):
-        hint = (f"; its I/NAV is decoded by `track --signal {signal.name}` and positioned by `receive --signal "
-                f"{signal.name}`"
-                if carries_inav(signal) else "")
-        raise ConfigError("signal", f"{signal.name}: LNAV dating and positioning take GPS LNAV "
-                                    f"(gps-l1ca, qzss-l1ca) only{hint}")
+        hint = (
+            f"; its I/NAV is decoded by `track --signal {signal.name}` and positioned by `receive --signal "
+            f"{signal.name}`"
+            if carries_inav(signal)
+            else ""
+        )
+        raise ConfigError(
+            "signal", f"{signal.name}: LNAV dating and positioning take GPS LNAV (gps-l1ca, qzss-l1ca) only{hint}"
+        )
 
 
 def require_positioning(signal: SignalSpec) -> None:
     """Refuse, in one line, a signal the ``receive`` command cannot position with: it dates
     GPS/QZSS L1 C/A from LNAV and Galileo E1-B from I/NAV (`carries_lnav`, `carries_inav`)."""
     if not (carries_lnav(signal) or carries_inav(signal)):
-        raise ConfigError("signal", f"{signal.name}: the receive command positions from GPS/QZSS L1 C/A (LNAV: "
-                                    "gps-l1ca, qzss-l1ca) and Galileo E1-B (I/NAV: galileo-e1b-boc11, galileo-e1b) "
-                                    "only")
+        raise ConfigError(
+            "signal",
+            f"{signal.name}: the receive command positions from GPS/QZSS L1 C/A (LNAV: "
+            "gps-l1ca, qzss-l1ca) and Galileo E1-B (I/NAV: galileo-e1b-boc11, galileo-e1b) "
+            "only",
+        )
 
 
 def coherent_periods(signal: SignalSpec, requested: int | None, default: int = 10) -> int | None:
@@ -91,21 +124,26 @@ def coherent_periods(signal: SignalSpec, requested: int | None, default: int = 1
     if requested is None:
         return max(k for k in (1, 2, 4, 5, default) if k <= default and per_symbol % k == 0)
     if per_symbol % requested:
-        raise ConfigError("tracking.coherent_ms", f"{requested} code periods span {signal.name}'s data symbols "
-                                                  f"({per_symbol} code period{'s' if per_symbol > 1 else ''} each): "
-                                                  "give one that divides it")
+        raise ConfigError(
+            "tracking.coherent_ms",
+            f"{requested} code periods span {signal.name}'s data symbols "
+            f"({per_symbol} code period{'s' if per_symbol > 1 else ''} each): "
+            "give one that divides it",
+        )
     return requested
 
 
-def symbol_runs(time_s: np.ndarray, coherent: np.ndarray, code_period_s: float, min_symbols: int = 1
-                ) -> list[np.ndarray]:
+def symbol_runs(
+    time_s: np.ndarray, coherent: np.ndarray, code_period_s: float, min_symbols: int = 1
+) -> list[np.ndarray]:
     """Row indices of the gap-free runs of one-code-period rows: consecutive in the record,
     ``coherent`` 1, each starting one code period after the previous (half a period of
     slack); runs shorter than ``min_symbols`` left out."""
     time_s, coherent = np.asarray(time_s, float), np.asarray(coherent, int)
     if time_s.shape != coherent.shape or time_s.ndim != 1:
-        raise ConfigError("symbol_runs", f"columns of one record must be 1-D and of one length, got {time_s.shape}, "
-                                         f"{coherent.shape}")
+        raise ConfigError(
+            "symbol_runs", f"columns of one record must be 1-D and of one length, got {time_s.shape}, {coherent.shape}"
+        )
     rows = np.flatnonzero(coherent == 1)
     if rows.size == 0:
         return []
@@ -177,10 +215,18 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
         rows.append(run)
         half.append(np.full(run.size, msg.pages[-1].inverted))
     starts = np.zeros(sum(r.size for r in rows), bool)
-    starts[np.cumsum([0] + [r.size for r in rows[:-1]])[:len(rows)]] = True
-    return InavTiming(record.prn, messages, np.concatenate(rows) if rows else np.zeros(0, int),
-                      np.concatenate(tx) if tx else empty, gst, ephemeris,
-                      np.concatenate(half) if half else np.zeros(0, bool), starts, ephemerides)
+    starts[np.cumsum([0] + [r.size for r in rows[:-1]])[: len(rows)]] = True
+    return InavTiming(
+        record.prn,
+        messages,
+        np.concatenate(rows) if rows else np.zeros(0, int),
+        np.concatenate(tx) if tx else empty,
+        gst,
+        ephemeris,
+        np.concatenate(half) if half else np.zeros(0, bool),
+        starts,
+        ephemerides,
+    )
 
 
 def _completed_at(msg: InavMessage) -> int:
@@ -217,10 +263,19 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     # GST week 0 is GPS week 1024 (OS SIS ICD 5.1.2; GST steered to GPS time): the GPS week's
     # low 10 bits, as LNAV's subframe 1 sends them (`fixes.full_week` places them in an era).
     week10 = None if timing.gst is None else (timing.gst[1] + 1024) % 1024
-    return ChannelTiming(record.prn, col("time_s")[r], timing.transmit_s[keep], col("doppler_hz")[r],
-                         col("carrier_phase_cycles")[r], col("cn0_dbhz")[r], timing.half_cycle[keep],
-                         LnavMessage(record.prn, [], None, None, week10), timing.ephemerides, arc_start,
-                         np.ones(r.size, bool))
+    return ChannelTiming(
+        record.prn,
+        col("time_s")[r],
+        timing.transmit_s[keep],
+        col("doppler_hz")[r],
+        col("carrier_phase_cycles")[r],
+        col("cn0_dbhz")[r],
+        timing.half_cycle[keep],
+        LnavMessage(record.prn, [], None, None, week10),
+        timing.ephemerides,
+        arc_start,
+        np.ones(r.size, bool),
+    )
 
 
 def inav_summary(timing: InavTiming, symbols: int) -> dict:
@@ -228,13 +283,19 @@ def inav_summary(timing: InavTiming, symbols: int) -> dict:
     pages = [p for m in timing.messages for p in m.pages]
     iods = sorted({int(p.fields["iodnav"]) for p in pages if "iodnav" in p.fields})
     gst = timing.gst
-    return {"prn": timing.prn, "symbols": symbols, "pages": len(pages),
-            "word_types": " ".join(str(p.word_type) for p in pages), "crc_failures": len(timing.failures),
-            "iodnav": " ".join(str(i) for i in iods),
-            "gst_wn": "" if gst is None else gst[1], "gst_tow_s": "" if gst is None else f"{gst[2]:.0f}",
-            "gst_time_s": "" if gst is None else f"{gst[0]:.9f}",
-            "inverted": " ".join(sorted({str(int(p.inverted)) for p in pages})),
-            "ephemeris": int(timing.ephemeris is not None)}
+    return {
+        "prn": timing.prn,
+        "symbols": symbols,
+        "pages": len(pages),
+        "word_types": " ".join(str(p.word_type) for p in pages),
+        "crc_failures": len(timing.failures),
+        "iodnav": " ".join(str(i) for i in iods),
+        "gst_wn": "" if gst is None else gst[1],
+        "gst_tow_s": "" if gst is None else f"{gst[2]:.0f}",
+        "gst_time_s": "" if gst is None else f"{gst[0]:.9f}",
+        "inverted": " ".join(sorted({str(int(p.inverted)) for p in pages})),
+        "ephemeris": int(timing.ephemeris is not None),
+    }
 
 
 def write_inav_report(out_dir: str | Path, tracking: TrackingResult, signal: SignalSpec) -> tuple[Path, list[dict]]:

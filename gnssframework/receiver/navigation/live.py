@@ -41,17 +41,29 @@ DEFAULT_LEAP_S = 18
 
 def select_epochs(obs: Observables, keep: np.ndarray) -> Observables:
     """The epochs ``keep`` (a boolean mask over ``obs.sample_time_s``) of ``obs``."""
-    per_epoch = ("rx_time_s", "sample_time_s", "transmit_s", "pseudorange_m", "doppler_hz", "carrier_cycles",
-                 "cn0_dbhz", "lli")
+    per_epoch = (
+        "rx_time_s",
+        "sample_time_s",
+        "transmit_s",
+        "pseudorange_m",
+        "doppler_hz",
+        "carrier_cycles",
+        "cn0_dbhz",
+        "lli",
+    )
     return replace(obs, **{f: getattr(obs, f)[keep] for f in per_epoch if getattr(obs, f) is not None})
 
 
 def table_rows(table: PositionTable, keep: np.ndarray) -> PositionTable:
     """The rows ``keep`` (a boolean mask) of ``table``."""
-    return PositionTable({c: v[keep] for c, v in table.columns.items()}, table.ecef_m[keep],
-                         table.sample_time_s[keep], [u for u, k in zip(table.used_prns, keep) if k],
-                         table.excluded_prn[keep],
-                         None if table.clock_drift_mps is None else table.clock_drift_mps[keep])
+    return PositionTable(
+        {c: v[keep] for c, v in table.columns.items()},
+        table.ecef_m[keep],
+        table.sample_time_s[keep],
+        [u for u, k in zip(table.used_prns, keep) if k],
+        table.excluded_prn[keep],
+        None if table.clock_drift_mps is None else table.clock_drift_mps[keep],
+    )
 
 
 class LiveFixes:
@@ -69,14 +81,31 @@ class LiveFixes:
         Epochs are solved up to this long before the slowest active channel.
     """
 
-    def __init__(self, sinks: list[NmeaSink], *, rate_hz: float = 1.0, rinex: Ephemerides | None = None,
-                 ionosphere: bool = True, troposphere: bool = False, reference_week: int | None = None,
-                 weighting: str | None = None, signal: SignalSpec = GPS_L1CA, iono_fallback: IonoUtc | None = None,
-                 every_s: float = 1.0, settle_s: float = 0.1) -> None:
+    def __init__(
+        self,
+        sinks: list[NmeaSink],
+        *,
+        rate_hz: float = 1.0,
+        rinex: Ephemerides | None = None,
+        ionosphere: bool = True,
+        troposphere: bool = False,
+        reference_week: int | None = None,
+        weighting: str | None = None,
+        signal: SignalSpec = GPS_L1CA,
+        iono_fallback: IonoUtc | None = None,
+        every_s: float = 1.0,
+        settle_s: float = 0.1,
+    ) -> None:
         self.sinks = sinks
         self.rate_hz = rate_hz
-        self.solve_args: dict[str, Any] = dict(rinex=rinex, ionosphere=ionosphere, troposphere=troposphere,
-                                               reference_week=reference_week, weighting=weighting, signal=signal)
+        self.solve_args: dict[str, Any] = dict(
+            rinex=rinex,
+            ionosphere=ionosphere,
+            troposphere=troposphere,
+            reference_week=reference_week,
+            weighting=weighting,
+            signal=signal,
+        )
         self.iono_fallback = iono_fallback
         self.signal = signal
         self.every_s = every_s

@@ -60,8 +60,9 @@ class SignalSet:
             raise ConfigError("signal", f"{', '.join(names)}: on different carriers; the fixes' Dopplers take one")
         for s in self.signals:
             if not (carries_lnav(s) or carries_inav(s)):
-                raise ConfigError("signal", f"{s.name}: not positioned here (GPS/QZSS L1 C/A LNAV, Galileo E1-B "
-                                            "I/NAV only)")
+                raise ConfigError(
+                    "signal", f"{s.name}: not positioned here (GPS/QZSS L1 C/A LNAV, Galileo E1-B I/NAV only)"
+                )
 
     @property
     def name(self) -> str:
@@ -88,11 +89,22 @@ class SignalSet:
         return self.signal_of(key).rinex_satellite(int(key) % KEY_STEP)
 
 
-def receive_signals(recording: Recording, acquisition: Acquisition, configs: list[TrackingConfig],
-                    signals: SignalSet, *, duration_s: float | None = None, rate_hz: float = 1.0,
-                    rinex: Ephemerides | None = None, ionosphere: bool = True, troposphere: bool = False,
-                    reference_week: int | None = None, weighting: str | None = None,
-                    iono_fallback: IonoUtc | None = None, progress: Any = None) -> ReceiveResult:
+def receive_signals(
+    recording: Recording,
+    acquisition: Acquisition,
+    configs: list[TrackingConfig],
+    signals: SignalSet,
+    *,
+    duration_s: float | None = None,
+    rate_hz: float = 1.0,
+    rinex: Ephemerides | None = None,
+    ionosphere: bool = True,
+    troposphere: bool = False,
+    reference_week: int | None = None,
+    weighting: str | None = None,
+    iono_fallback: IonoUtc | None = None,
+    progress: Any = None,
+) -> ReceiveResult:
     """Acquire, track and date every signal of ``signals`` (``configs[i]`` tracks the
     ``i``-th) and solve their satellites together (module text). ``rinex`` holds the
     records of every system (`read_rinex_nav` with ``systems="GE"``); the Klobuchar
@@ -121,6 +133,14 @@ def receive_signals(recording: Recording, acquisition: Acquisition, configs: lis
         return ReceiveResult(tracking_all, None, None)
     obs = observables(timings, rate_hz)
     iono = iono_fallback if obs.iono_utc is None else None
-    table = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere, iono=iono,
-                         reference_week=reference_week, weighting=weighting, signal=signals)  # type: ignore[arg-type]
+    table = solve_epochs(
+        obs,
+        rinex,
+        ionosphere=ionosphere,
+        troposphere=troposphere,
+        iono=iono,
+        reference_week=reference_week,
+        weighting=weighting,
+        signal=signals,
+    )  # type: ignore[arg-type]
     return ReceiveResult(tracking_all, obs, table, table)

@@ -54,6 +54,7 @@ def nmea_talker(*signals: SignalSpec, default: SignalSpec = GPS_L1CA) -> str:
         talkers.add(_TALKERS[signal.system])
     return talkers.pop() if len(talkers) == 1 else "GN"
 
+
 _GPS_EPOCH = datetime(1980, 1, 6)
 #: Satellite ID offset of NMEA 0183 4.11 per talker (QZSS PRN 193 is GQ satellite 1).
 _NMEA_ID_OFFSET = {"GQ": 192}
@@ -85,15 +86,27 @@ def _whole(value: float, width: int) -> str:
     return f"{int(round(float(value))):0{width}d}" if np.isfinite(value) else ""
 
 
-def gsa_gsv_sentences(used_prns: tuple[int, ...], hdop: float, vdop: float, sky: SkyView | None,
-                      talker: str = "GP", gsa: bool = True) -> list[str]:
+def gsa_gsv_sentences(
+    used_prns: tuple[int, ...], hdop: float, vdop: float, sky: SkyView | None, talker: str = "GP", gsa: bool = True
+) -> list[str]:
     """The GSA sentence of one fix (``used_prns``, its DOPs; none unless ``gsa``) and its GSV
     sentences (``sky``; none without it). See the module text."""
     offset = _NMEA_ID_OFFSET.get(talker, 0)
     ids = [f"{int(p) - offset:02d}" for p in sorted(used_prns)[:12]]
     pdop = float(np.hypot(hdop, vdop))
-    out = [str(pynmea2.GSA(talker, "GSA", ("A", "3", *ids, *[""] * (12 - len(ids)),
-                                           f"{pdop:.2f}", f"{hdop:.2f}", f"{vdop:.2f}")))] if gsa else []
+    out = (
+        [
+            str(
+                pynmea2.GSA(
+                    talker,
+                    "GSA",
+                    ("A", "3", *ids, *[""] * (12 - len(ids)), f"{pdop:.2f}", f"{hdop:.2f}", f"{vdop:.2f}"),
+                )
+            )
+        ]
+        if gsa
+        else []
+    )
     if sky is None or not np.size(sky.prn):
         return out
     order = np.argsort(sky.prn, kind="stable")
@@ -101,17 +114,25 @@ def gsa_gsv_sentences(used_prns: tuple[int, ...], hdop: float, vdop: float, sky:
     pages = (n + 3) // 4
     for page in range(pages):
         fields = [str(pages), str(page + 1), f"{n:02d}"]
-        for j in order[4 * page:4 * page + 4]:
+        for j in order[4 * page : 4 * page + 4]:
             el = float(sky.elevation_deg[j])
-            fields += [f"{int(sky.prn[j]) - offset:02d}", _whole(el, 2),
-                       _whole(round(float(sky.azimuth_deg[j])) % 360, 3) if np.isfinite(el) else "",
-                       _whole(np.clip(sky.cn0_dbhz[j], 0, 99), 2)]
+            fields += [
+                f"{int(sky.prn[j]) - offset:02d}",
+                _whole(el, 2),
+                _whole(round(float(sky.azimuth_deg[j])) % 360, 3) if np.isfinite(el) else "",
+                _whole(np.clip(sky.cn0_dbhz[j], 0, 99), 2),
+            ]
         out.append(str(pynmea2.GSV(talker, "GSV", tuple(fields))))
     return out
 
 
-def nmea_sentences(table: PositionTable, leap_seconds: int = 18, talker: str = "GP",
-                   sky: list[SkyView] | None = None, gsa: bool = False) -> list[str]:
+def nmea_sentences(
+    table: PositionTable,
+    leap_seconds: int = 18,
+    talker: str = "GP",
+    sky: list[SkyView] | None = None,
+    gsa: bool = False,
+) -> list[str]:
     """A GGA and an RMC sentence per fix of ``table``, from ``talker`` (`nmea_talker`);
     then with ``gsa`` its GSA and with ``sky`` (one `SkyView` per fix) its GSV sentences."""
     if sky is not None and len(sky) != len(table):
@@ -123,24 +144,75 @@ def nmea_sentences(table: PositionTable, leap_seconds: int = 18, talker: str = "
         clock = utc.strftime("%H%M%S.") + f"{utc.microsecond // 10_000:02d}"
         lat, ns = _angle(float(c["lat_deg"][k]), 2, "NS")
         lon, ew = _angle(float(c["lon_deg"][k]), 3, "EW")
-        out.append(str(pynmea2.GGA(talker, "GGA", (clock, lat, ns, lon, ew, "1", f"{int(c['n_sats'][k]):02d}",
-                                                 f"{c['hdop'][k]:.2f}", f"{c['height_m'][k]:.3f}", "M", "0.0", "M",
-                                                 "", ""))))
+        out.append(
+            str(
+                pynmea2.GGA(
+                    talker,
+                    "GGA",
+                    (
+                        clock,
+                        lat,
+                        ns,
+                        lon,
+                        ew,
+                        "1",
+                        f"{int(c['n_sats'][k]):02d}",
+                        f"{c['hdop'][k]:.2f}",
+                        f"{c['height_m'][k]:.3f}",
+                        "M",
+                        "0.0",
+                        "M",
+                        "",
+                        "",
+                    ),
+                )
+            )
+        )
         ve, vn = float(c["vel_e_mps"][k]), float(c["vel_n_mps"][k])
         speed = np.hypot(ve, vn) / _KNOT_MPS if np.isfinite(ve) and np.isfinite(vn) else np.nan
         course = np.degrees(np.arctan2(ve, vn)) % 360.0 if np.isfinite(speed) else np.nan
-        out.append(str(pynmea2.RMC(talker, "RMC", (clock, "A", lat, ns, lon, ew,
-                                                 "" if np.isnan(speed) else f"{speed:.3f}",
-                                                 "" if np.isnan(course) else f"{course:.2f}",
-                                                 utc.strftime("%d%m%y"), "", "", "A"))))
+        out.append(
+            str(
+                pynmea2.RMC(
+                    talker,
+                    "RMC",
+                    (
+                        clock,
+                        "A",
+                        lat,
+                        ns,
+                        lon,
+                        ew,
+                        "" if np.isnan(speed) else f"{speed:.3f}",
+                        "" if np.isnan(course) else f"{course:.2f}",
+                        utc.strftime("%d%m%y"),
+                        "",
+                        "",
+                        "A",
+                    ),
+                )
+            )
+        )
         if gsa or sky is not None:
-            out += gsa_gsv_sentences(table.used_prns[k], float(c["hdop"][k]), float(c["vdop"][k]),
-                                     None if sky is None else sky[k], talker, gsa)
+            out += gsa_gsv_sentences(
+                table.used_prns[k],
+                float(c["hdop"][k]),
+                float(c["vdop"][k]),
+                None if sky is None else sky[k],
+                talker,
+                gsa,
+            )
     return out
 
 
-def write_nmea(path: str | Path, table: PositionTable, leap_seconds: int = 18, talker: str = "GP",
-               sky: list[SkyView] | None = None, gsa: bool = False) -> Path:
+def write_nmea(
+    path: str | Path,
+    table: PositionTable,
+    leap_seconds: int = 18,
+    talker: str = "GP",
+    sky: list[SkyView] | None = None,
+    gsa: bool = False,
+) -> Path:
     """``nmea.txt``: the GGA and RMC sentences of every fix (with ``gsa`` its GSA, with
     ``sky`` its GSV), one per line."""
     path = Path(path)

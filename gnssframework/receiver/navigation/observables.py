@@ -66,8 +66,18 @@ from ...navigation.lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_l
 if TYPE_CHECKING:
     from ..channels import ChannelRecord
 
-__all__ = ["ChannelTiming", "Observables", "channel_timing", "assisted_timing", "observables", "SPEED_OF_LIGHT_MPS",
-           "MAX_BRIDGE_S", "LLI_LOST_LOCK", "LLI_HALF_CYCLE", "TOW_TOLERANCE_S"]
+__all__ = [
+    "ChannelTiming",
+    "Observables",
+    "channel_timing",
+    "assisted_timing",
+    "observables",
+    "SPEED_OF_LIGHT_MPS",
+    "MAX_BRIDGE_S",
+    "LLI_LOST_LOCK",
+    "LLI_HALF_CYCLE",
+    "TOW_TOLERANCE_S",
+]
 
 #: Speed of light, m/s (IS-GPS-200 20.3.4.3).
 SPEED_OF_LIGHT_MPS = 299_792_458.0
@@ -141,8 +151,14 @@ def channel_timing(record: ChannelRecord, causal: bool = True, signal: SignalSpe
     continued = _continued_vector_rows(stage)
     bit_s = data_bit_period_s(signal)
     bridge_bits = round(_BRIDGE_S / bit_s)
-    runs = bit_runs(time_s, col("prompt_i"), col("coherent_ms"), (stage == _EXTENDED) | continued,
-                    min_bits=bridge_bits + 1, signal=signal)
+    runs = bit_runs(
+        time_s,
+        col("prompt_i"),
+        col("coherent_ms"),
+        (stage == _EXTENDED) | continued,
+        min_bits=bridge_bits + 1,
+        signal=signal,
+    )
     doppler = col("doppler_hz")
     rows, tx, inverted, known, messages, ephemerides = [], [], [], [], [], []
     for run in runs:
@@ -163,8 +179,14 @@ def channel_timing(record: ChannelRecord, causal: bool = True, signal: SignalSpe
         else:
             continue
         bit_tow = edge_tow + np.arange(run.symbols.size) * bit_s
-        tx.append((bit_tow[run.bit_of_row] + run.ms_in_bit * signal.code_period_s
-                   + code_chips[run.rows] / signal.chip_rate_hz)[keep] % _WEEK_S)
+        tx.append(
+            (
+                bit_tow[run.bit_of_row]
+                + run.ms_in_bit * signal.code_period_s
+                + code_chips[run.rows] / signal.chip_rate_hz
+            )[keep]
+            % _WEEK_S
+        )
         rows.append(run.rows[keep])
         inverted.append(np.full(int(keep.sum()), is_inverted))
         known.append(polarity)
@@ -179,9 +201,19 @@ def channel_timing(record: ChannelRecord, causal: bool = True, signal: SignalSpe
     starts[np.cumsum([0] + [p.size for p in rows[:-1]])] = True
     # No carrier phase is tracked after the hand-over (a vector FLL): its NCO phase is no carrier phase.
     carrier = np.where(continued[r], np.nan, col("carrier_phase_cycles")[r])
-    return ChannelTiming(record.prn, time_s[r], np.concatenate(tx), doppler[r], carrier,
-                         col("cn0_dbhz")[r], np.concatenate(inverted), _merge(record.prn, messages), ephemerides,
-                         starts, np.concatenate(known))
+    return ChannelTiming(
+        record.prn,
+        time_s[r],
+        np.concatenate(tx),
+        doppler[r],
+        carrier,
+        col("cn0_dbhz")[r],
+        np.concatenate(inverted),
+        _merge(record.prn, messages),
+        ephemerides,
+        starts,
+        np.concatenate(known),
+    )
 
 
 def _continued_vector_rows(stage: np.ndarray) -> np.ndarray:
@@ -197,8 +229,15 @@ def _continued_vector_rows(stage: np.ndarray) -> np.ndarray:
     return vector & np.isin(stretch, stretch[good])
 
 
-def _bridge(rows: list[np.ndarray], tx: list[np.ndarray], time_s: np.ndarray, doppler_hz: np.ndarray, first_row: int,
-            code_chips: float, signal: SignalSpec = GPS_L1CA) -> float | None:
+def _bridge(
+    rows: list[np.ndarray],
+    tx: list[np.ndarray],
+    time_s: np.ndarray,
+    doppler_hz: np.ndarray,
+    first_row: int,
+    code_chips: float,
+    signal: SignalSpec = GPS_L1CA,
+) -> float | None:
     """Satellite time of a new run's first bit edge predicted from the channel's last dated
     row (see the module text), or None without one within `MAX_BRIDGE_S`."""
     last = next((k for k in range(len(rows) - 1, -1, -1) if rows[k].size), None)
@@ -208,14 +247,16 @@ def _bridge(rows: list[np.ndarray], tx: list[np.ndarray], time_s: np.ndarray, do
     elapsed_s = float(time_s[first_row] - time_s[last_row])
     if not 0.0 < elapsed_s <= MAX_BRIDGE_S:
         return None
-    predicted = (last_tx + elapsed_s * (1.0 + doppler_hz[last_row] / signal.carrier_freq_hz)
-                 - code_chips / signal.chip_rate_hz)
+    predicted = (
+        last_tx + elapsed_s * (1.0 + doppler_hz[last_row] / signal.carrier_freq_hz) - code_chips / signal.chip_rate_hz
+    )
     bit_s = data_bit_period_s(signal)
     return float(np.round(predicted / bit_s) * bit_s)
 
 
-def assisted_timing(record: ChannelRecord, end_time_s: float, end_transmit_s: float,
-                    signal: SignalSpec = GPS_L1CA) -> ChannelTiming | None:
+def assisted_timing(
+    record: ChannelRecord, end_time_s: float, end_transmit_s: float, signal: SignalSpec = GPS_L1CA
+) -> ChannelTiming | None:
     r"""The vector-tracked rows of a channel closed by an assisted start, dated from the
     replica's transmit time ``end_transmit_s`` (s of week) at recording time ``end_time_s``
     after its last row (see the module text); None without two such rows.
@@ -245,15 +286,25 @@ def assisted_timing(record: ChannelRecord, end_time_s: float, end_transmit_s: fl
     n = rows.size
     starts = np.zeros(n, dtype=bool)
     starts[0] = True
-    return ChannelTiming(record.prn, time_s, tx % _WEEK_S, doppler, record.column("carrier_phase_cycles")[rows],
-                         record.column("cn0_dbhz")[rows], np.zeros(n, dtype=bool), LnavMessage(record.prn, [], None,
-                                                                                               None, None),
-                         [], starts, np.zeros(n, dtype=bool),
-                         _tow_offset(tx, record.column("prompt_i")[rows], record.column("coherent_ms")[rows], signal))
+    return ChannelTiming(
+        record.prn,
+        time_s,
+        tx % _WEEK_S,
+        doppler,
+        record.column("carrier_phase_cycles")[rows],
+        record.column("cn0_dbhz")[rows],
+        np.zeros(n, dtype=bool),
+        LnavMessage(record.prn, [], None, None, None),
+        [],
+        starts,
+        np.zeros(n, dtype=bool),
+        _tow_offset(tx, record.column("prompt_i")[rows], record.column("coherent_ms")[rows], signal),
+    )
 
 
-def _tow_offset(tx_s: np.ndarray, prompt_i: np.ndarray, coherent_ms: np.ndarray,
-                signal: SignalSpec = GPS_L1CA) -> float | None:
+def _tow_offset(
+    tx_s: np.ndarray, prompt_i: np.ndarray, coherent_ms: np.ndarray, signal: SignalSpec = GPS_L1CA
+) -> float | None:
     """The decoded TOW minus the assisted time at the start of the first subframe found in
     the rows' bits (rows summed into ``signal``'s data bits, 20 ms on L1 C/A, by their transmit
     times; a bit not wholly covered is a zero symbol, which fails parity), or None."""
@@ -279,8 +330,9 @@ def _merge(prn: int, messages: list[LnavMessage]) -> LnavMessage:
     def last(name: str):
         return next((getattr(m, name) for m in reversed(messages) if getattr(m, name) is not None), None)
 
-    return LnavMessage(prn, [s for m in messages for s in m.subframes], last("ephemeris"), last("iono_utc"),
-                       last("week"))
+    return LnavMessage(
+        prn, [s for m in messages for s in m.subframes], last("ephemeris"), last("iono_utc"), last("week")
+    )
 
 
 @dataclass(frozen=True)
@@ -323,8 +375,12 @@ def _interp(t_new: np.ndarray, t: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.where(ok, y[k - 1] + w * (y[k] - y[k - 1]), np.nan)
 
 
-def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0, rx_offset_s: float | None = None,
-                iono_utc: IonoUtc | None = None) -> Observables:
+def observables(
+    timings: list[ChannelTiming | None],
+    rate_hz: float = 1.0,
+    rx_offset_s: float | None = None,
+    iono_utc: IonoUtc | None = None,
+) -> Observables:
     """Pseudorange, Doppler and carrier phase of every channel at common receive epochs.
 
     Parameters
@@ -348,8 +404,11 @@ def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0, rx_of
     if rate_hz <= 0:
         raise ConfigError("rate_hz", f"must be positive, got {rate_hz}")
     if not timings:
-        raise ConfigError("observables", "no channel has a decoded transmit time (no LNAV subframe decoded: track "
-                                         "at least ~8 s of a locked, bit-synchronised signal)")
+        raise ConfigError(
+            "observables",
+            "no channel has a decoded transmit time (no LNAV subframe decoded: track "
+            "at least ~8 s of a locked, bit-synchronised signal)",
+        )
     # Receiver clock: recording time + offset, the offset putting the first pseudoranges near 75 ms.
     if rx_offset_s is None:
         first = [tm.transmit_s[0] - tm.time_s[0] for tm in timings]
@@ -366,12 +425,14 @@ def observables(timings: list[ChannelTiming | None], rate_hz: float = 1.0, rx_of
     lli = np.zeros(shape, dtype=int)
     for j, tm in enumerate(timings):
         # Unwrap the week so the interpolation never straddles the rollover.
-        unwrapped = tm.transmit_s[0] + np.cumsum(np.r_[0.0, (np.diff(tm.transmit_s) + _WEEK_S / 2) % _WEEK_S
-                                                       - _WEEK_S / 2])
+        unwrapped = tm.transmit_s[0] + np.cumsum(
+            np.r_[0.0, (np.diff(tm.transmit_s) + _WEEK_S / 2) % _WEEK_S - _WEEK_S / 2]
+        )
         tx[:, j] = _interp(sample_t, tm.time_s, unwrapped)
         dop[:, j] = _interp(sample_t, tm.time_s, tm.doppler_hz)
-        cyc[:, j] = -_interp(sample_t, tm.time_s, tm.carrier_cycles) + 0.5 * _interp(sample_t, tm.time_s,
-                                                                                      tm.half_cycle.astype(float))
+        cyc[:, j] = -_interp(sample_t, tm.time_s, tm.carrier_cycles) + 0.5 * _interp(
+            sample_t, tm.time_s, tm.half_cycle.astype(float)
+        )
         cn0[:, j] = _interp(sample_t, tm.time_s, tm.cn0_dbhz)
         lli[:, j] = _loss_of_lock(sample_t, tm, np.isfinite(tx[:, j]))
     pr = SPEED_OF_LIGHT_MPS * ((epochs[:, None] - tx + _WEEK_S / 2) % _WEEK_S - _WEEK_S / 2)

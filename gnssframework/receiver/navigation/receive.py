@@ -52,16 +52,30 @@ class ReceiveResult:
     vector: VectorSolution | None = None
 
 
-def receive(recording: Recording, acquisition: Acquisition, config: TrackingConfig, *,
-            prns: tuple[int, ...] | None = None, duration_s: float | None = None, rate_hz: float = 1.0,
-            rinex: Ephemerides | None = None, ionosphere: bool = True, troposphere: bool = False,
-            reference_week: int | None = None, progress: Any = None,
-            nav_filter: PluginSpec | None = None, vector: VectorConfig | None = None,
-            acquisitions: list[AcquisitionResult] | None = None, assist: Assistance | None = None,
-            iono_fallback: IonoUtc | None = None, weighting: str | None = None,
-            signal: SignalSpec = GPS_L1CA, filters: StageFilters | None = None,
-            raim: RaimOptions | None = None,
-            observe: Callable[[SampleTracker], Any] | None = None) -> ReceiveResult:
+def receive(
+    recording: Recording,
+    acquisition: Acquisition,
+    config: TrackingConfig,
+    *,
+    prns: tuple[int, ...] | None = None,
+    duration_s: float | None = None,
+    rate_hz: float = 1.0,
+    rinex: Ephemerides | None = None,
+    ionosphere: bool = True,
+    troposphere: bool = False,
+    reference_week: int | None = None,
+    progress: Any = None,
+    nav_filter: PluginSpec | None = None,
+    vector: VectorConfig | None = None,
+    acquisitions: list[AcquisitionResult] | None = None,
+    assist: Assistance | None = None,
+    iono_fallback: IonoUtc | None = None,
+    weighting: str | None = None,
+    signal: SignalSpec = GPS_L1CA,
+    filters: StageFilters | None = None,
+    raim: RaimOptions | None = None,
+    observe: Callable[[SampleTracker], Any] | None = None,
+) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
     fraction of the recording tracked. With ``nav_filter`` the positions are that filter's
@@ -90,31 +104,57 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
     come, `live.LiveFixes`, read its records from ``progress``)."""
     galileo = carries_inav(signal)  # E1-B: dated from the I/NAV GST (`inav_stream.inav_channel_timing`)
     if galileo and (vector is not None or assist is not None):
-        raise ConfigError("vector", f"{signal.name}: vector tracking and the assisted start hand over from LNAV; "
-                                    "I/NAV positions are the scalar receiver's")
+        raise ConfigError(
+            "vector",
+            f"{signal.name}: vector tracking and the assisted start hand over from LNAV; "
+            "I/NAV positions are the scalar receiver's",
+        )
     if not galileo:
         require_lnav(signal)  # the transmit times below are dated from LNAV subframes
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
-        raise ConfigError("nav_filter", "vector tracking runs its own navigation filter (VectorConfig); "
-                                        "give nav_filter or vector, not both")
+        raise ConfigError(
+            "nav_filter",
+            "vector tracking runs its own navigation filter (VectorConfig); give nav_filter or vector, not both",
+        )
     if acquisitions is None:
         acquisitions = acquire_recording(recording, acquisition, prns or None, signal=signal)  # None: all
     found = [r for r in acquisitions if r.detected]
     if vector is not None:
-        tracker = VectorSampleTracker(recording, config, acquisition, vector, rinex=rinex, ionosphere=ionosphere,
-                                      reference_week=reference_week, assist=assist, iono_fallback=iono_fallback,
-                                      signal=signal, filters=filters)
+        tracker = VectorSampleTracker(
+            recording,
+            config,
+            acquisition,
+            vector,
+            rinex=rinex,
+            ionosphere=ionosphere,
+            reference_week=reference_week,
+            assist=assist,
+            iono_fallback=iono_fallback,
+            signal=signal,
+            filters=filters,
+        )
         tracking = tracker.run(found, duration_s, progress)
         solution = tracker.solution
-        timings = [channel_timing(ch, signal=signal) if assist is not None
-                   else _with_rejoined(channel_timing(ch, signal=signal), ch, solution, signal)
-                   for ch in tracking.channels.values()]  # (an assisted start's are `assisted_observables`)
+        timings = [
+            channel_timing(ch, signal=signal)
+            if assist is not None
+            else _with_rejoined(channel_timing(ch, signal=signal), ch, solution, signal)
+            for ch in tracking.channels.values()
+        ]  # (an assisted start's are `assisted_observables`)
         scalar = None
         if any(t is not None and t.time_s.size > 1 for t in timings):
             obs = observables(timings, rate_hz)
-            scalar = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere,
-                                  iono=_fallback(obs, iono_fallback), reference_week=reference_week,
-                                  weighting=weighting, signal=signal, **_raim_args(raim))
+            scalar = solve_epochs(
+                obs,
+                rinex,
+                ionosphere=ionosphere,
+                troposphere=troposphere,
+                iono=_fallback(obs, iono_fallback),
+                reference_week=reference_week,
+                weighting=weighting,
+                signal=signal,
+                **_raim_args(raim),
+            )
         else:
             obs = None
         vector_rows = solution.table(vector.solution_rate_hz, None if raim is None else raim.integrity_risk)
@@ -122,33 +162,60 @@ def receive(recording: Recording, acquisition: Acquisition, config: TrackingConf
         if assist is not None and solution.replica_tx:
             assisted = assisted_observables(tracking, solution, rate_hz, assist.iono, signal)
             if assisted is not None:  # the vector channels' rows, dated without LNAV
-                least_squares = solve_epochs(assisted, rinex, ionosphere=ionosphere, troposphere=troposphere,
-                                             reference_week=assist.week if reference_week is None else reference_week,
-                                             weighting=weighting, signal=signal)
+                least_squares = solve_epochs(
+                    assisted,
+                    rinex,
+                    ionosphere=ionosphere,
+                    troposphere=troposphere,
+                    reference_week=assist.week if reference_week is None else reference_week,
+                    weighting=weighting,
+                    signal=signal,
+                )
                 return ReceiveResult(tracking, assisted, table, least_squares, solution)
         return ReceiveResult(tracking, obs, table, scalar, solution)
     if assist is not None:
-        raise ConfigError("approx_position", "an approximate position and start time start vector tracking: "
-                                             "give vector as well")
+        raise ConfigError(
+            "approx_position", "an approximate position and start time start vector tracking: give vector as well"
+        )
     scalar_tracker = SampleTracker(recording, config, acquisition, signal=signal, filters=filters)
     if observe is not None:
         observe(scalar_tracker)
     tracking = scalar_tracker.run(found, duration_s, progress)
-    timings = [inav_channel_timing(ch, signal) if galileo else channel_timing(ch, signal=signal)
-               for ch in tracking.channels.values()]
+    timings = [
+        inav_channel_timing(ch, signal) if galileo else channel_timing(ch, signal=signal)
+        for ch in tracking.channels.values()
+    ]
     if not any(t is not None and t.time_s.size > 1 for t in timings):
         return ReceiveResult(tracking, None, None)
     obs = observables(timings, rate_hz)
     iono = _fallback(obs, iono_fallback)
-    table = solve_epochs(obs, rinex, ionosphere=ionosphere, troposphere=troposphere, iono=iono,
-                         reference_week=reference_week, weighting=weighting, signal=signal, **_raim_args(raim))
+    table = solve_epochs(
+        obs,
+        rinex,
+        ionosphere=ionosphere,
+        troposphere=troposphere,
+        iono=iono,
+        reference_week=reference_week,
+        weighting=weighting,
+        signal=signal,
+        **_raim_args(raim),
+    )
     if nav_filter is None:
         return ReceiveResult(tracking, obs, table, table)
-    checks = {} if raim is None else {"innovation_false_alarm": raim.false_alarm,
-                                      "integrity_risk": raim.integrity_risk}
-    filtered = filter_epochs(obs, table, nav_filter.name, nav_filter.params, rinex, ionosphere=ionosphere,
-                             troposphere=troposphere, iono=iono, reference_week=reference_week, signal=signal,
-                             **checks)
+    checks = {} if raim is None else {"innovation_false_alarm": raim.false_alarm, "integrity_risk": raim.integrity_risk}
+    filtered = filter_epochs(
+        obs,
+        table,
+        nav_filter.name,
+        nav_filter.params,
+        rinex,
+        ionosphere=ionosphere,
+        troposphere=troposphere,
+        iono=iono,
+        reference_week=reference_week,
+        signal=signal,
+        **checks,
+    )
     return ReceiveResult(tracking, obs, filtered, table)
 
 
@@ -156,12 +223,17 @@ def _raim_args(raim: RaimOptions | None) -> dict[str, Any]:
     """`fixes.solve_epochs`'s integrity arguments of ``raim`` (none without)."""
     if raim is None:
         return {}
-    return {"raim": raim.method, "false_alarm": raim.false_alarm, "missed_detection": raim.missed_detection,
-            "integrity_risk": raim.integrity_risk}
+    return {
+        "raim": raim.method,
+        "false_alarm": raim.false_alarm,
+        "missed_detection": raim.missed_detection,
+        "integrity_risk": raim.integrity_risk,
+    }
 
 
-def _with_rejoined(timing: ChannelTiming | None, record, solution: VectorSolution,
-                   signal: SignalSpec = GPS_L1CA) -> ChannelTiming | None:
+def _with_rejoined(
+    timing: ChannelTiming | None, record, solution: VectorSolution, signal: SignalSpec = GPS_L1CA
+) -> ChannelTiming | None:
     """``timing`` (`channel_timing`'s) and, where the channel's last stretch of vector rows
     is not in it (a channel that rejoined the loop after re-acquisition: its first row may
     start mid-bit, so no bit run dates it), those rows dated from the replica's transmit time
@@ -173,19 +245,34 @@ def _with_rejoined(timing: ChannelTiming | None, record, solution: VectorSolutio
     if rejoined is None or (timing is not None and timing.time_s[-1] >= rejoined.time_s[0]):
         return timing
     if rejoined.tow_offset_s is not None and abs(rejoined.tow_offset_s) > TOW_TOLERANCE_S:
-        solution.events.append((float(rejoined.time_s[0]), f"PRN {record.prn}: its decoded TOW is "
-                                f"{rejoined.tow_offset_s:+.3f} s from the replica's transmit time: its rows after "
-                                "rejoining left out of the observables"))
+        solution.events.append(
+            (
+                float(rejoined.time_s[0]),
+                f"PRN {record.prn}: its decoded TOW is "
+                f"{rejoined.tow_offset_s:+.3f} s from the replica's transmit time: its rows after "
+                "rejoining left out of the observables",
+            )
+        )
         return timing
     rejoined = replace(rejoined, carrier_cycles=np.full(rejoined.time_s.size, np.nan), tow_offset_s=None)
     if timing is None:
         return rejoined
-    joined = {f: np.concatenate([getattr(timing, f), getattr(rejoined, f)])
-              for f in ("time_s", "transmit_s", "doppler_hz", "carrier_cycles", "cn0_dbhz", "half_cycle")}
-    starts = np.concatenate([timing.arc_start if timing.arc_start is not None
-                             else np.eye(1, timing.time_s.size, dtype=bool)[0], rejoined.arc_start])
-    known = np.concatenate([timing.polarity_known if timing.polarity_known is not None
-                            else np.ones(timing.time_s.size, bool), rejoined.polarity_known])
+    joined = {
+        f: np.concatenate([getattr(timing, f), getattr(rejoined, f)])
+        for f in ("time_s", "transmit_s", "doppler_hz", "carrier_cycles", "cn0_dbhz", "half_cycle")
+    }
+    starts = np.concatenate(
+        [
+            timing.arc_start if timing.arc_start is not None else np.eye(1, timing.time_s.size, dtype=bool)[0],
+            rejoined.arc_start,
+        ]
+    )
+    known = np.concatenate(
+        [
+            timing.polarity_known if timing.polarity_known is not None else np.ones(timing.time_s.size, bool),
+            rejoined.polarity_known,
+        ]
+    )
     return replace(timing, **joined, arc_start=starts, polarity_known=known)
 
 
@@ -194,8 +281,13 @@ def _fallback(obs: Observables, iono: IonoUtc | None) -> IonoUtc | None:
     return iono if obs.iono_utc is None else None
 
 
-def assisted_observables(tracking: TrackingResult, solution: VectorSolution, rate_hz: float,
-                         iono: IonoUtc | None = None, signal: SignalSpec = GPS_L1CA) -> Observables | None:
+def assisted_observables(
+    tracking: TrackingResult,
+    solution: VectorSolution,
+    rate_hz: float,
+    iono: IonoUtc | None = None,
+    signal: SignalSpec = GPS_L1CA,
+) -> Observables | None:
     """Observables of the vector channels of an assisted start (`observables.assisted_timing`),
     the receiver clock at the start time (``solution.rx_offset_s``); None without a dated channel.
 
@@ -209,8 +301,13 @@ def assisted_observables(tracking: TrackingResult, solution: VectorSolution, rat
         if tm is None:
             continue
         if tm.tow_offset_s is not None and abs(tm.tow_offset_s) > TOW_TOLERANCE_S:
-            solution.events.append((float(tm.time_s[-1]), f"PRN {prn}: its decoded TOW is {tm.tow_offset_s:+.3f} s "
-                                    "from the assisted transmit time (a wrong start time?): left out of the observables"))
+            solution.events.append(
+                (
+                    float(tm.time_s[-1]),
+                    f"PRN {prn}: its decoded TOW is {tm.tow_offset_s:+.3f} s "
+                    "from the assisted transmit time (a wrong start time?): left out of the observables",
+                )
+            )
             continue
         timings.append(tm)
     if not any(tm.time_s.size > 1 for tm in timings):
@@ -218,8 +315,9 @@ def assisted_observables(tracking: TrackingResult, solution: VectorSolution, rat
     return observables(timings, rate_hz, rx_offset_s=solution.rx_offset_s, iono_utc=iono)
 
 
-def concatenate_tables(before: PositionTable | None, after: PositionTable | None,
-                       switch_s: float | None) -> PositionTable | None:
+def concatenate_tables(
+    before: PositionTable | None, after: PositionTable | None, switch_s: float | None
+) -> PositionTable | None:
     """The rows of ``before`` up to ``switch_s`` (recording time), then those of ``after``
     (integrity columns that one of them has and the other lacks: inf and ``unavailable`` in the
     rows that lack them)."""
@@ -230,15 +328,19 @@ def concatenate_tables(before: PositionTable | None, after: PositionTable | None
     k = before.sample_time_s < switch_s
     before_columns, after_columns = dict(before.columns), dict(after.columns)
     for c in INTEGRITY_COLUMNS:  # rows without protection levels: inf, "unavailable"
-        for have, lack, rows in ((before_columns, after_columns, len(after)), (after_columns, before_columns,
-                                                                               len(before))):
+        for have, lack, rows in (
+            (before_columns, after_columns, len(after)),
+            (after_columns, before_columns, len(before)),
+        ):
             if c in have and c not in lack:
                 lack[c] = np.full(rows, "unavailable" if c == "raim" else np.inf, dtype=have[c].dtype)
-    return PositionTable({c: np.concatenate([before_columns[c][k], after_columns[c]]) for c in after_columns},
-                         np.concatenate([before.ecef_m[k], after.ecef_m]),
-                         np.concatenate([before.sample_time_s[k], after.sample_time_s]),
-                         [u for u, keep in zip(before.used_prns, k) if keep] + list(after.used_prns),
-                         np.concatenate([before.excluded_prn[k], after.excluded_prn]))
+    return PositionTable(
+        {c: np.concatenate([before_columns[c][k], after_columns[c]]) for c in after_columns},
+        np.concatenate([before.ecef_m[k], after.ecef_m]),
+        np.concatenate([before.sample_time_s[k], after.sample_time_s]),
+        [u for u, keep in zip(before.used_prns, k) if keep] + list(after.used_prns),
+        np.concatenate([before.excluded_prn[k], after.excluded_prn]),
+    )
 
 
 def position_errors(table: PositionTable, truth_lat_lon_h: tuple[float, float, float]) -> np.ndarray:

@@ -60,8 +60,9 @@ def parse_outputs(text: str | None) -> frozenset[str]:
     return frozenset(names)
 
 
-def sky_views(result: ReceiveResult, table: PositionTable, rinex: Ephemerides | None = None,
-              signal: SignalSpec = GPS_L1CA) -> list[SkyView]:
+def sky_views(
+    result: ReceiveResult, table: PositionTable, rinex: Ephemerides | None = None, signal: SignalSpec = GPS_L1CA
+) -> list[SkyView]:
     """Per fix of ``table``, the satellites in view (see the module text; ``signal`` names
     the satellites of ``rinex``)."""
     from .report import sky_tracks
@@ -86,8 +87,15 @@ def sky_views(result: ReceiveResult, table: PositionTable, rinex: Ephemerides | 
     return out
 
 
-def write_extra_outputs(out_dir: str | Path, result: ReceiveResult, table: PositionTable, outputs: frozenset[str],
-                        week: int, leap_seconds: int = 18, signal: SignalSpec = GPS_L1CA) -> tuple[list[Path], list[str]]:
+def write_extra_outputs(
+    out_dir: str | Path,
+    result: ReceiveResult,
+    table: PositionTable,
+    outputs: frozenset[str],
+    week: int,
+    leap_seconds: int = 18,
+    signal: SignalSpec = GPS_L1CA,
+) -> tuple[list[Path], list[str]]:
     """The files of ``outputs`` besides ``nmea.txt`` (whose GSA/GSV its writer adds), and a
     note for each one that could not be written (no decoded ephemeris, unknown week)."""
     out = Path(out_dir)
@@ -98,8 +106,7 @@ def write_extra_outputs(out_dir: str | Path, result: ReceiveResult, table: Posit
         from .rinex_nav import RINEX_NAV_SYSTEMS, decoded_records, write_rinex_nav
 
         if obs is None or not any(obs.ephemeris.values()):
-            notes.append(f"no ephemeris decoded from {'I/NAV' if signal.system == 'E' else 'LNAV'}: "
-                         "no navigation.rnx")
+            notes.append(f"no ephemeris decoded from {'I/NAV' if signal.system == 'E' else 'LNAV'}: no navigation.rnx")
         elif week < 0:
             notes.append("the GPS week is unknown: no navigation.rnx")
         elif signal.system not in RINEX_NAV_SYSTEMS:

@@ -55,7 +55,7 @@ def _check_params(spec: PluginSpec, where: str) -> None:
     except ConfigError as exc:
         own = f"{spec.kind} {spec.name!r}"
         if exc.field == own or exc.field.startswith((own + ".", own + "[")):
-            raise ConfigError(f"{where}{exc.field[len(own):]}", exc.detail) from None
+            raise ConfigError(f"{where}{exc.field[len(own) :]}", exc.detail) from None
         raise ConfigError(where, str(exc)) from None
 
 
@@ -84,9 +84,12 @@ def load_receiver_config(path: str | Path) -> ReceiverFilters:
     return config
 
 
-def receiver_filters(config: str | Path | None = None, channel_filter: str | None = None,
-                     channel_params: dict[str, Any] | None = None, nav_filter: str | None = None
-                     ) -> ReceiverFilters:
+def receiver_filters(
+    config: str | Path | None = None,
+    channel_filter: str | None = None,
+    channel_params: dict[str, Any] | None = None,
+    nav_filter: str | None = None,
+) -> ReceiverFilters:
     """The filters of a run: the file's, overridden by the options ``channel_filter``
     (with ``channel_params``) and ``nav_filter`` where given; the channel filter defaults
     to `TrackingConfig`'s, the nav filter to None (least squares).
@@ -100,8 +103,11 @@ def receiver_filters(config: str | Path | None = None, channel_filter: str | Non
     chosen = load_receiver_config(config) if config is not None else ReceiverFilters()
     updates: dict[str, Any] = {}
     if channel_filter is not None or channel_params:
-        name = channel_filter or (chosen.channel_filter.name if chosen.channel_filter else
-                                  TrackingConfig.model_fields["channel_filter"].default)
+        name = channel_filter or (
+            chosen.channel_filter.name
+            if chosen.channel_filter
+            else TrackingConfig.model_fields["channel_filter"].default
+        )
         try:
             registry.get("channel_filter", name)
         except ConfigError as exc:

@@ -27,8 +27,14 @@ from .fixes import _ephemeris_for as ephemeris_for
 from .observables import channel_timing
 from .receive import ReceiveResult, position_errors
 
-__all__ = ["sky_tracks", "write_receive_report", "write_no_position_report", "no_position_reason", "why_unused",
-           "decoded_lnav"]
+__all__ = [
+    "sky_tracks",
+    "write_receive_report",
+    "write_no_position_report",
+    "no_position_reason",
+    "why_unused",
+    "decoded_lnav",
+]
 
 #: Indices in receiver.channels.STAGES of the bit-aligned stages ("extended", "vector").
 _BIT_ALIGNED = (2, 4)
@@ -36,8 +42,9 @@ _BIT_ALIGNED = (2, 4)
 _NEEDED = 4
 
 
-def sky_tracks(result: ReceiveResult, table: PositionTable, rinex: Ephemerides | None = None,
-               signal: SignalSpec = GPS_L1CA) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+def sky_tracks(
+    result: ReceiveResult, table: PositionTable, rinex: Ephemerides | None = None, signal: SignalSpec = GPS_L1CA
+) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     """Per PRN used in ``table``, azimuth and elevation (degrees) ``(F,)`` at each solution
     (NaN where it has no ephemeris yet), from its ephemeris seen from the solution."""
     obs = result.observables
@@ -61,10 +68,15 @@ def _fmt(value: float, digits: int = 1) -> str:
     return f"{value:.{digits}f}" if np.isfinite(value) else "-"
 
 
-def write_receive_report(out_dir: str | Path, result: ReceiveResult, table: PositionTable,
-                         truth_lat_lon_h: tuple[float, float, float] | None = None,
-                         rinex: Ephemerides | None = None, filters: str = "",
-                         signal: SignalSpec = GPS_L1CA) -> list[Path]:
+def write_receive_report(
+    out_dir: str | Path,
+    result: ReceiveResult,
+    table: PositionTable,
+    truth_lat_lon_h: tuple[float, float, float] | None = None,
+    rinex: Ephemerides | None = None,
+    filters: str = "",
+    signal: SignalSpec = GPS_L1CA,
+) -> list[Path]:
     """Write ``report.md`` and ``plots/*.png`` into ``out_dir`` (see the module text);
     returns their paths. ``filters`` is a line saying which filters ran; ``signal`` names
     the satellites of ``rinex`` (`SignalSpec.rinex_satellite`)."""
@@ -83,26 +95,36 @@ def write_receive_report(out_dir: str | Path, result: ReceiveResult, table: Posi
     lines = ["# Receiver run", ""]
     if filters:
         lines += [filters, ""]
-    lines += [f"- solutions: {len(table)}, GPS week {int(c['gps_week'][0])}, tow {c['tow_s'][0]:.3f} s to "
-              f"{c['tow_s'][-1]:.3f} s",
-              f"- time to first fix: {table.sample_time_s[0]:.2f} s into the recording "
-              f"(tracked {result.tracking.duration_s:.2f} s)",
-              f"- satellites per solution: {int(c['n_sats'].min())}-{int(c['n_sats'].max())}; median HDOP "
-              f"{_fmt(float(np.nanmedian(c['hdop'])), 2)}, VDOP {_fmt(float(np.nanmedian(c['vdop'])), 2)}"]
+    lines += [
+        f"- solutions: {len(table)}, GPS week {int(c['gps_week'][0])}, tow {c['tow_s'][0]:.3f} s to "
+        f"{c['tow_s'][-1]:.3f} s",
+        f"- time to first fix: {table.sample_time_s[0]:.2f} s into the recording "
+        f"(tracked {result.tracking.duration_s:.2f} s)",
+        f"- satellites per solution: {int(c['n_sats'].min())}-{int(c['n_sats'].max())}; median HDOP "
+        f"{_fmt(float(np.nanmedian(c['hdop'])), 2)}, VDOP {_fmt(float(np.nanmedian(c['vdop'])), 2)}",
+    ]
     if err is not None:
         h_rms = float(np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))))
         v_rms = float(np.sqrt(np.mean(err[:, 2] ** 2)))
-        lines.append(f"- against the truth {truth_lat_lon_h[0]:.7f}, {truth_lat_lon_h[1]:.7f}, "
-                     f"{truth_lat_lon_h[2]:.2f} m: horizontal RMS {h_rms:.2f} m, vertical RMS {v_rms:.2f} m")
+        lines.append(
+            f"- against the truth {truth_lat_lon_h[0]:.7f}, {truth_lat_lon_h[1]:.7f}, "
+            f"{truth_lat_lon_h[2]:.2f} m: horizontal RMS {h_rms:.2f} m, vertical RMS {v_rms:.2f} m"
+        )
         if wls is not None and wls is not table and len(wls):  # a nav filter ran: the least squares beside it
             e_wls = position_errors(wls, truth_lat_lon_h)
-            lines.append(f"- the least-squares fixes of the same run ({len(wls)}): horizontal RMS "
-                         f"{np.sqrt(np.mean(np.sum(e_wls[:, :2] ** 2, axis=1))):.2f} m, vertical RMS "
-                         f"{np.sqrt(np.mean(e_wls[:, 2] ** 2)):.2f} m")
-    lines += ["", "## Satellites", "",
-              "| PRN | epochs used | C/N0 locked (dB-Hz) | locked | elevation (deg) | azimuth (deg) | ephemeris "
-              "| why not used |",
-              "|---:|---:|---:|---:|---:|---:|---|---|"]
+            lines.append(
+                f"- the least-squares fixes of the same run ({len(wls)}): horizontal RMS "
+                f"{np.sqrt(np.mean(np.sum(e_wls[:, :2] ** 2, axis=1))):.2f} m, vertical RMS "
+                f"{np.sqrt(np.mean(e_wls[:, 2] ** 2)):.2f} m"
+            )
+    lines += [
+        "",
+        "## Satellites",
+        "",
+        "| PRN | epochs used | C/N0 locked (dB-Hz) | locked | elevation (deg) | azimuth (deg) | ephemeris "
+        "| why not used |",
+        "|---:|---:|---:|---:|---:|---:|---|---|",
+    ]
     obs = result.observables
     for prn, ch in sorted(result.tracking.channels.items()):
         lock = ch.column("lock").astype(bool) if ch.rows else np.zeros(0, bool)
@@ -110,21 +132,30 @@ def write_receive_report(out_dir: str | Path, result: ReceiveResult, table: Posi
         az, el = sky.get(prn, (np.array([np.nan]), np.array([np.nan])))
         first = np.flatnonzero(np.isfinite(el))
         decoded = obs.ephemeris.get(prn) if obs is not None else None
-        source = (f"decoded at {decoded[0][0]:.1f} s" if decoded else "") + \
-                 (" + RINEX" if rinex is not None and prn in used_count and not decoded else "")
+        source = (f"decoded at {decoded[0][0]:.1f} s" if decoded else "") + (
+            " + RINEX" if rinex is not None and prn in used_count and not decoded else ""
+        )
         locked = 100 * lock.mean() if lock.size else 0.0
-        lines.append(f"| {prn} | {used_count.get(prn, 0)} | {_fmt(cn0)} | {locked:.0f} % "
-                     f"| {_fmt(el[first[0]] if first.size else np.nan)} | "
-                     f"{_fmt(az[first[0]] if first.size else np.nan)} | {source.strip(' +') or '-'} | "
-                     f"{why_unused(prn, ch, result, table, rinex, signal) if not used_count.get(prn) else '-'} |")
+        lines.append(
+            f"| {prn} | {used_count.get(prn, 0)} | {_fmt(cn0)} | {locked:.0f} % "
+            f"| {_fmt(el[first[0]] if first.size else np.nan)} | "
+            f"{_fmt(az[first[0]] if first.size else np.nan)} | {source.strip(' +') or '-'} | "
+            f"{why_unused(prn, ch, result, table, rinex, signal) if not used_count.get(prn) else '-'} |"
+        )
     lines += ["", "## Figures", ""] + [f"![{p.stem.replace('_', ' ')}](plots/{p.name})" for p in figures] + [""]
     report = out / "report.md"
     report.write_text("\n".join(lines))
     return [report, *figures]
 
 
-def why_unused(prn: int, ch, result: ReceiveResult, table: PositionTable | None,
-               rinex: Ephemerides | None = None, signal: SignalSpec = GPS_L1CA) -> str:
+def why_unused(
+    prn: int,
+    ch,
+    result: ReceiveResult,
+    table: PositionTable | None,
+    rinex: Ephemerides | None = None,
+    signal: SignalSpec = GPS_L1CA,
+) -> str:
     """Why a tracked satellite is in no solution of ``table``: the first of never locked, no
     LNAV bits or subframe (no transmit time), no pseudorange, no healthy ephemeris, excluded
     by the residual test, below the elevation mask, left out of the vector loop's updates
@@ -141,12 +172,14 @@ def why_unused(prn: int, ch, result: ReceiveResult, table: PositionTable | None,
     valid = np.flatnonzero(np.isfinite(obs.pseudorange_m[:, j]))
     if valid.size == 0:
         return "no pseudorange at any epoch"
-    records = [ephemeris_for(np.array([prn]), obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]),
-                             signal)[0]
-               for e in (valid[0], valid[-1])]
+    records = [
+        ephemeris_for(np.array([prn]), obs, rinex, float(obs.rx_time_s[e]), float(obs.sample_time_s[e]), signal)[0]
+        for e in (valid[0], valid[-1])
+    ]
     if all(r is None for r in records):
-        return "no healthy ephemeris (none decoded" + (", none in --ephemeris)" if rinex is not None else
-                                                       ", no --ephemeris file)")
+        return "no healthy ephemeris (none decoded" + (
+            ", none in --ephemeris)" if rinex is not None else ", no --ephemeris file)"
+        )
     if table is None or len(table) == 0:
         return "no epoch had four usable satellites"
     excluded = int(np.count_nonzero(table.excluded_prn == prn))
@@ -172,9 +205,13 @@ def decoded_lnav(result: ReceiveResult) -> dict[int, dict]:
         tm = channel_timing(ch) if ch.rows else None
         msg = tm.message if tm is not None else None
         subframes = list(msg.subframes) if msg is not None else []
-        out[prn] = {"subframes": len(subframes), "first_tow_s": subframes[0].tow_s if subframes else None,
-                    "ephemeris": bool(tm is not None and tm.ephemerides), "iono": msg is not None
-                    and msg.iono_utc is not None, "week": msg.week if msg is not None else None}
+        out[prn] = {
+            "subframes": len(subframes),
+            "first_tow_s": subframes[0].tow_s if subframes else None,
+            "ephemeris": bool(tm is not None and tm.ephemerides),
+            "iono": msg is not None and msg.iono_utc is not None,
+            "week": msg.week if msg is not None else None,
+        }
     return out
 
 
@@ -192,47 +229,68 @@ def no_position_reason(result: ReceiveResult, nav_info=None, assist=None, refere
     vector = result.vector
     if assist is not None and (vector is None or vector.handover_s is None):
         events = [text for _, text in vector.events] if vector is not None else []
-        return f"the assisted start did not hand over with {len(found)} satellites found" +             (f" (last: {events[-1]})" if events else "")
+        return f"the assisted start did not hand over with {len(found)} satellites found" + (
+            f" (last: {events[-1]})" if events else ""
+        )
     obs = result.observables
     if obs is None:
         locked = sum(1 for ch in result.tracking.channels.values() if ch.rows and ch.column("lock").any())
-        return (f"no LNAV subframe decoded ({locked} of {len(found)} satellites found locked; a subframe takes 6 s "
-                "once a channel is locked and bit-synchronised)")
+        return (
+            f"no LNAV subframe decoded ({locked} of {len(found)} satellites found locked; a subframe takes 6 s "
+            "once a channel is locked and bit-synchronised)"
+        )
     week = full_week(obs.week, reference_week)
     valid = np.flatnonzero(np.isfinite(obs.pseudorange_m).any(axis=1))
     if nav_info is not None and week >= 0 and valid.size:
         tow = float(obs.rx_time_s[valid[0]])
         if not nav_info.covers(week, tow):
-            return (f"the ephemeris does not cover the recording (its records span {nav_info.dates()}; the "
-                    f"recording is at GPS week {week}, tow {tow:.0f} s)")
+            return (
+                f"the ephemeris does not cover the recording (its records span {nav_info.dates()}; the "
+                f"recording is at GPS week {week}, tow {tow:.0f} s)"
+            )
     dated = [int(p) for j, p in enumerate(obs.prn) if np.isfinite(obs.pseudorange_m[:, j]).any()]
-    return (f"fewer than {_NEEDED} satellites with a pseudorange and a decoded or --ephemeris ephemeris at every "
-            f"epoch ({len(dated)} with a transmit time: PRN {', '.join(map(str, dated))})")
+    return (
+        f"fewer than {_NEEDED} satellites with a pseudorange and a decoded or --ephemeris ephemeris at every "
+        f"epoch ({len(dated)} with a transmit time: PRN {', '.join(map(str, dated))})"
+    )
 
 
-def write_no_position_report(out_dir: str | Path, result: ReceiveResult, reason: str,
-                             rinex: Ephemerides | None = None, signal: SignalSpec = GPS_L1CA) -> list[Path]:
+def write_no_position_report(
+    out_dir: str | Path,
+    result: ReceiveResult,
+    reason: str,
+    rinex: Ephemerides | None = None,
+    signal: SignalSpec = GPS_L1CA,
+) -> list[Path]:
     """``report.md`` of a run without a position: the reason, per tracked satellite its
     lock, what its LNAV gave (`decoded_lnav`) and why it was not used, the vector loop's
     events, and the C/N0 figure; returns the paths written."""
     out = Path(out_dir)
     (out / "plots").mkdir(parents=True, exist_ok=True)
     decoded = decoded_lnav(result)
-    lines = ["# Receiver run: no position", "", f"- reason: {reason}",
-             f"- tracked {len(result.tracking.channels)} satellites for {result.tracking.duration_s:.2f} s", "",
-             "## Satellites", "",
-             "| PRN | C/N0 locked (dB-Hz) | locked | LNAV subframes | first TOW (s) | ephemeris decoded "
-             "| page 18 | week (10-bit) | why not used |",
-             "|---:|---:|---:|---:|---:|---|---|---:|---|"]
+    lines = [
+        "# Receiver run: no position",
+        "",
+        f"- reason: {reason}",
+        f"- tracked {len(result.tracking.channels)} satellites for {result.tracking.duration_s:.2f} s",
+        "",
+        "## Satellites",
+        "",
+        "| PRN | C/N0 locked (dB-Hz) | locked | LNAV subframes | first TOW (s) | ephemeris decoded "
+        "| page 18 | week (10-bit) | why not used |",
+        "|---:|---:|---:|---:|---:|---|---|---:|---|",
+    ]
     for prn, ch in sorted(result.tracking.channels.items()):
         lock = ch.column("lock").astype(bool) if ch.rows else np.zeros(0, bool)
         cn0 = float(np.median(ch.column("cn0_dbhz")[lock])) if lock.any() else np.nan
         d = decoded[prn]
         tow = "-" if d["first_tow_s"] is None else f"{d['first_tow_s']:.0f}"
-        lines.append(f"| {prn} | {_fmt(cn0)} | {100 * lock.mean() if lock.size else 0.0:.0f} % | {d['subframes']} | "
-                     f"{tow} | "
-                     f"{'yes' if d['ephemeris'] else 'no'} | {'yes' if d['iono'] else 'no'} | "
-                     f"{'-' if d['week'] is None else d['week']} | {why_unused(prn, ch, result, None, rinex, signal)} |")
+        lines.append(
+            f"| {prn} | {_fmt(cn0)} | {100 * lock.mean() if lock.size else 0.0:.0f} % | {d['subframes']} | "
+            f"{tow} | "
+            f"{'yes' if d['ephemeris'] else 'no'} | {'yes' if d['iono'] else 'no'} | "
+            f"{'-' if d['week'] is None else d['week']} | {why_unused(prn, ch, result, None, rinex, signal)} |"
+        )
     if result.vector is not None and result.vector.events:
         lines += ["", "## Vector tracking", ""] + [f"- {t:.2f} s: {text}" for t, text in result.vector.events]
     figure = _cn0_figure(out / "plots" / "cn0_lock.png", result)
@@ -258,8 +316,11 @@ def _cn0_figure(path: Path, result: ReceiveResult) -> Path:
         axes[1].plot(t[lock], np.full(int(lock.sum()), prn), "|", ms=6)
     never = sorted(set(result.tracking.channels) - {prn for prn, _ in locked})
     axes[0].set_ylabel("C/N0 (dB-Hz)")
-    axes[0].set_title("C/N0 of the channels that locked" + (f" (never locked, not shown: PRN {', '.join(map(str, never))})"
-                                                             if never else ""), fontsize=9)
+    axes[0].set_title(
+        "C/N0 of the channels that locked"
+        + (f" (never locked, not shown: PRN {', '.join(map(str, never))})" if never else ""),
+        fontsize=9,
+    )
     if axes[0].lines:
         axes[0].legend(fontsize=7, ncol=4)
     axes[1].set_ylabel("PRN locked")
@@ -267,8 +328,14 @@ def _cn0_figure(path: Path, result: ReceiveResult) -> Path:
     return _save(fig, path, plt)
 
 
-def _figures(folder: Path, result: ReceiveResult, table: PositionTable, sky: dict, err: np.ndarray | None,
-             truth: tuple[float, float, float] | None) -> list[Path]:
+def _figures(
+    folder: Path,
+    result: ReceiveResult,
+    table: PositionTable,
+    sky: dict,
+    err: np.ndarray | None,
+    truth: tuple[float, float, float] | None,
+) -> list[Path]:
     import matplotlib
 
     matplotlib.use("Agg")

@@ -93,8 +93,9 @@ def _calendar(week: int, tow_s: float) -> datetime:
     return _GPS_EPOCH + timedelta(weeks=int(week), seconds=float(tow_s))
 
 
-def decoded_records(ephemeris: dict[int, list[tuple[float, Ephemerides]]], sample_time_s: np.ndarray,
-                    rx_time_s: np.ndarray, week: int) -> list[NavRecord]:
+def decoded_records(
+    ephemeris: dict[int, list[tuple[float, Ephemerides]]], sample_time_s: np.ndarray, rx_time_s: np.ndarray, week: int
+) -> list[NavRecord]:
     """The distinct records (by PRN, Toc and IODE) of ``Observables.ephemeris``, each with
     the GPS time at which it was ready: the recording time it became known mapped to the
     receiver clock of the observables' epochs (``sample_time_s`` -> ``rx_time_s``, linear),
@@ -127,21 +128,25 @@ def _orbit_lines(nav: NavRecord, system: str) -> list[str]:
     accuracy = float(rec.accuracy_m[0]) if rec.accuracy_m is not None else -1.0
     if system == "E":
         bgd_e5b = e["TGD"]  # the I/NAV record's group delay: BGD(E1,E5b) (`inav_words.words_to_ephemeris`)
-        rows = ((iode, e["Crs"], e["DeltaN"], e["M0"]),
-                (e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]),
-                (e["Toe"], e["Cic"], e["Omega0"], e["Cis"]),
-                (e["Io"], e["Crc"], e["omega"], e["OmegaDot"]),
-                (e["IDOT"], float(INAV_E1B_DATA_SOURCES), float(toe_week), 0.0),  # data sources, GAL week, spare
-                (accuracy, float(rec.health[0]), 0.0, bgd_e5b),  # SISA, health, BGD E5a/E1 (not kept), E5b/E1
-                (nav.tow_s, 0.0))
-        return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
-    rows = ((iode, e["Crs"], e["DeltaN"], e["M0"]),
+        rows = (
+            (iode, e["Crs"], e["DeltaN"], e["M0"]),
             (e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]),
             (e["Toe"], e["Cic"], e["Omega0"], e["Cis"]),
             (e["Io"], e["Crc"], e["omega"], e["OmegaDot"]),
-            (e["IDOT"], 0.0, float(toe_week), 0.0),  # codes on L2, week, L2 P data flag
-            (accuracy, float(rec.health[0]), e["TGD"], iode),  # IODC: see the module text
-            (nav.tow_s, FIT_INTERVAL[system]))
+            (e["IDOT"], float(INAV_E1B_DATA_SOURCES), float(toe_week), 0.0),  # data sources, GAL week, spare
+            (accuracy, float(rec.health[0]), 0.0, bgd_e5b),  # SISA, health, BGD E5a/E1 (not kept), E5b/E1
+            (nav.tow_s, 0.0),
+        )
+        return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
+    rows = (
+        (iode, e["Crs"], e["DeltaN"], e["M0"]),
+        (e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]),
+        (e["Toe"], e["Cic"], e["Omega0"], e["Cis"]),
+        (e["Io"], e["Crc"], e["omega"], e["OmegaDot"]),
+        (e["IDOT"], 0.0, float(toe_week), 0.0),  # codes on L2, week, L2 P data flag
+        (accuracy, float(rec.health[0]), e["TGD"], iode),  # IODC: see the module text
+        (nav.tow_s, FIT_INTERVAL[system]),
+    )
     return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
 
 
@@ -149,22 +154,29 @@ def _header(records: list[NavRecord], iono: IonoUtc | None, signal: SignalSpec) 
     first = records[0]
     stamp = _calendar(first.week, first.tow_s).strftime("%Y%m%d %H%M%S") + " GPS"  # the data's date: same bytes
     system = f"{signal.system}: {RINEX_NAV_SYSTEMS[signal.system]}"
-    out = [_line(f"{'3.04':>9}{'':11}{'N: GNSS NAV DATA':<20}{system:<20}", "RINEX VERSION / TYPE"),
-           _line(f"{'gnssframework':<20}{'':<20}{stamp:<20}", "PGM / RUN BY / DATE")]
+    out = [
+        _line(f"{'3.04':>9}{'':11}{'N: GNSS NAV DATA':<20}{system:<20}", "RINEX VERSION / TYPE"),
+        _line(f"{'gnssframework':<20}{'':<20}{stamp:<20}", "PGM / RUN BY / DATE"),
+    ]
     if iono is not None and signal.system in ("G", "J"):  # LNAV page 18 (a Galileo file has none)
-        out += [_line("GPSA " + "".join(_d12(v) for v in iono.alpha), "IONOSPHERIC CORR"),
-                _line("GPSB " + "".join(_d12(v) for v in iono.beta), "IONOSPHERIC CORR")]
+        out += [
+            _line("GPSA " + "".join(_d12(v) for v in iono.alpha), "IONOSPHERIC CORR"),
+            _line("GPSB " + "".join(_d12(v) for v in iono.beta), "IONOSPHERIC CORR"),
+        ]
         # The 8-bit week of tot placed nearest the records' week (IS-GPS-200 20.3.3.5.2.4).
         wnt = first.week + ((iono.wnt - first.week + 128) % 256) - 128
         a0 = f"{float(iono.a0_s):17.10E}".replace("E", "D")
         a1 = f"{float(iono.a1_s_s):16.9E}".replace("E", "D")
-        out += [_line(f"GPUT {a0}{a1} {int(iono.tot_s):6d} {wnt:4d}", "TIME SYSTEM CORR"),
-                _line(f"{int(iono.dt_ls_s):6d}", "LEAP SECONDS")]
+        out += [
+            _line(f"GPUT {a0}{a1} {int(iono.tot_s):6d} {wnt:4d}", "TIME SYSTEM CORR"),
+            _line(f"{int(iono.dt_ls_s):6d}", "LEAP SECONDS"),
+        ]
     return out + [_line("", "END OF HEADER")]
 
 
-def write_rinex_nav(path: str | Path, records: list[NavRecord], iono: IonoUtc | None = None,
-                    signal: SignalSpec = GPS_L1CA) -> Path:
+def write_rinex_nav(
+    path: str | Path, records: list[NavRecord], iono: IonoUtc | None = None, signal: SignalSpec = GPS_L1CA
+) -> Path:
     """Write ``records`` (`decoded_records`) and the page 18 ``iono`` as a RINEX 3.04
     navigation file of ``signal``'s system (see the module text).
 
@@ -175,23 +187,29 @@ def write_rinex_nav(path: str | Path, records: list[NavRecord], iono: IonoUtc | 
         another system in a Galileo file.
     """
     if signal.system not in RINEX_NAV_SYSTEMS:
-        raise ConfigError("signal", f"no RINEX navigation record layout for system {signal.system!r} "
-                                    f"({signal.name}) here (systems: {', '.join(RINEX_NAV_SYSTEMS)})")
+        raise ConfigError(
+            "signal",
+            f"no RINEX navigation record layout for system {signal.system!r} "
+            f"({signal.name}) here (systems: {', '.join(RINEX_NAV_SYSTEMS)})",
+        )
     if not records:
         raise ConfigError("ephemeris", "no ephemeris was decoded: no navigation file to write")
     if signal.system == "E":  # the Galileo layout's fields (IODnav, BGD, data sources) are I/NAV's
         other = [str(r.record.sv[0]) for r in records if not str(r.record.sv[0]).startswith("E")]
         if other:
-            raise ConfigError("ephemeris", f"{other[0]}: not a Galileo record, not written in {signal.name}'s "
-                                           "navigation file")
+            raise ConfigError(
+                "ephemeris", f"{other[0]}: not a Galileo record, not written in {signal.name}'s navigation file"
+            )
     path = Path(path)
     body = []
     for nav in sorted(records, key=lambda r: (r.prn, r.week, float(r.record.toc_s[0]))):
         rec = nav.record
         toc = _calendar(_week_near(nav.week, nav.tow_s, float(rec.toc_s[0])), float(rec.toc_s[0]))
-        body.append(f"{signal.rinex_satellite(nav.prn)} {toc:%Y %m %d %H %M %S}"
-                    + "".join(_d19(rec.elements[k][0]) for k in ("SVclockBias", "SVclockDrift", "SVclockDriftRate"))
-                    + "\n")
+        body.append(
+            f"{signal.rinex_satellite(nav.prn)} {toc:%Y %m %d %H %M %S}"
+            + "".join(_d19(rec.elements[k][0]) for k in ("SVclockBias", "SVclockDrift", "SVclockDriftRate"))
+            + "\n"
+        )
         body += _orbit_lines(nav, signal.system)
     path.write_text("".join(_header(records, iono, signal) + body))
     return path

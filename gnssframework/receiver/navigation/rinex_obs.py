@@ -58,8 +58,14 @@ def _strength(cn0_dbhz: float) -> int:
     return int(np.clip(np.floor(cn0_dbhz / 6.0), 1, 9))
 
 
-def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m: np.ndarray | None = None,
-                    marker: str = "GNSSFRAMEWORK", signal: SignalSpec = GPS_L1CA) -> Path:
+def write_rinex_obs(
+    path: str | Path,
+    obs: Observables,
+    week: int,
+    approx_ecef_m: np.ndarray | None = None,
+    marker: str = "GNSSFRAMEWORK",
+    signal: SignalSpec = GPS_L1CA,
+) -> Path:
     """Write ``obs`` as a RINEX 3.04 observation file of one signal (GPS L1 C/A by default).
 
     Parameters
@@ -92,18 +98,28 @@ def write_rinex_obs(path: str | Path, obs: Observables, week: int, approx_ecef_m
         _line(f"{'0':<20}{'unknown':<20}", "ANT # / TYPE"),
         _line("".join(f"{v:14.4f}" for v in xyz), "APPROX POSITION XYZ"),
         _line("".join(f"{v:14.4f}" for v in (0.0, 0.0, 0.0)), "ANTENNA: DELTA H/E/N"),
-        *(_line(f"{m.system}{len(m.rinex_obs_types):5d}" + "".join(f" {t}" for t in m.rinex_obs_types),
-                "SYS / # / OBS TYPES") for m in members),
-        _line(f"{first.year:6d}{first.month:6d}{first.day:6d}{first.hour:6d}{first.minute:6d}"
-              f"{first.second + frac:13.7f}{'':5}{TIME_SYSTEMS.get(signal.system, 'GPS')}", "TIME OF FIRST OBS"),
+        *(
+            _line(
+                f"{m.system}{len(m.rinex_obs_types):5d}" + "".join(f" {t}" for t in m.rinex_obs_types),
+                "SYS / # / OBS TYPES",
+            )
+            for m in members
+        ),
+        _line(
+            f"{first.year:6d}{first.month:6d}{first.day:6d}{first.hour:6d}{first.minute:6d}"
+            f"{first.second + frac:13.7f}{'':5}{TIME_SYSTEMS.get(signal.system, 'GPS')}",
+            "TIME OF FIRST OBS",
+        ),
         _line("", "END OF HEADER"),
     ]
     body = []
     for e in rows:
         t, frac = _calendar(week, float(obs.rx_time_s[e]))
         sats = np.flatnonzero(np.isfinite(obs.pseudorange_m[e]))
-        body.append(f"> {t.year:4d} {t.month:02d} {t.day:02d} {t.hour:02d} {t.minute:02d}"
-                    f"{t.second + frac:11.7f}  0{sats.size:3d}\n")
+        body.append(
+            f"> {t.year:4d} {t.month:02d} {t.day:02d} {t.hour:02d} {t.minute:02d}"
+            f"{t.second + frac:11.7f}  0{sats.size:3d}\n"
+        )
         for j in sats:
             ssi = str(_strength(float(obs.cn0_dbhz[e, j]))) if np.isfinite(obs.cn0_dbhz[e, j]) else " "
             lli = int(obs.lli[e, j]) if obs.lli is not None else 0

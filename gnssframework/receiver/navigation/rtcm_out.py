@@ -92,8 +92,7 @@ class _Bits:
 
 def _frame(message: bytes) -> bytes:
     if len(message) > MAX_MESSAGE_BYTES:
-        raise ConfigError("observables", f"an MSM of {len(message)} bytes is longer than a frame's "
-                                         f"{MAX_MESSAGE_BYTES}")
+        raise ConfigError("observables", f"an MSM of {len(message)} bytes is longer than a frame's {MAX_MESSAGE_BYTES}")
     head = bytes([0xD3, (len(message) >> 8) & 0x03, len(message) & 0xFF])
     return head + message + crc24q(head + message).to_bytes(3, "big")
 
@@ -150,8 +149,18 @@ def msm7_frames(obs: Observables, signal: SignalSpec = GPS_L1CA, station_id: int
             continue
         sats = sats[np.argsort(sat_id[sats])]
         b = _Bits()
-        for value, width in ((MSM7_MESSAGE[system], 12), (station_id, 12), (int(t_ms[e]) % _WEEK_MS, 30), (0, 1),
-                             (0, 3), (0, 7), (0, 2), (0, 2), (0, 1), (0, 3)):
+        for value, width in (
+            (MSM7_MESSAGE[system], 12),
+            (station_id, 12),
+            (int(t_ms[e]) % _WEEK_MS, 30),
+            (0, 1),
+            (0, 3),
+            (0, 7),
+            (0, 2),
+            (0, 2),
+            (0, 1),
+            (0, 3),
+        ):
             b.put(value, width)
         b.put(sum(1 << (64 - int(s)) for s in sat_id[sats]), 64)
         b.put(1 << (32 - _SIGNAL_ID[system][signal.rinex_code]), 32)

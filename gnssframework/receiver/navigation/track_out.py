@@ -53,16 +53,25 @@ def track_geojson(table: PositionTable, leap_seconds: int = 18) -> dict:
     c = table.columns
     points = []
     for k in range(len(table)):
-        props: dict[str, object] = {name: (int(c[name][k]) if name in ("gps_week", "n_sats") else
-                        (None if not np.isfinite(c[name][k]) else round(float(c[name][k]), 9)))
-                 for name in POSITION_COLUMNS if name not in ("lat_deg", "lon_deg", "height_m")}
+        props: dict[str, object] = {
+            name: (
+                int(c[name][k])
+                if name in ("gps_week", "n_sats")
+                else (None if not np.isfinite(c[name][k]) else round(float(c[name][k]), 9))
+            )
+            for name in POSITION_COLUMNS
+            if name not in ("lat_deg", "lon_deg", "height_m")
+        }
         props["time_utc"] = _utc(table, k, leap_seconds)
         props["prns_used"] = [int(p) for p in table.used_prns[k]]
-        points.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": _position(table, k)},
-                       "properties": props})
-    line = {"type": "Feature", "geometry": {"type": "LineString",
-                                            "coordinates": [_position(table, k) for k in range(len(table))]},
-            "properties": {"name": "track", "fixes": len(table)}}
+        points.append(
+            {"type": "Feature", "geometry": {"type": "Point", "coordinates": _position(table, k)}, "properties": props}
+        )
+    line = {
+        "type": "Feature",
+        "geometry": {"type": "LineString", "coordinates": [_position(table, k) for k in range(len(table))]},
+        "properties": {"name": "track", "fixes": len(table)},
+    }
     return {"type": "FeatureCollection", "features": [line, *points]}
 
 
@@ -73,8 +82,9 @@ def write_geojson(path: str | Path, table: PositionTable, leap_seconds: int = 18
     return path
 
 
-def write_kml(path: str | Path, table: PositionTable, leap_seconds: int = 18, name: str = "gnssframework track"
-              ) -> Path:
+def write_kml(
+    path: str | Path, table: PositionTable, leap_seconds: int = 18, name: str = "gnssframework track"
+) -> Path:
     """``track.kml``: the track and one placemark per fix (see the module text)."""
     _checked(table)
     ET.register_namespace("", _KML_NS)

@@ -60,8 +60,13 @@ def try_handover(v: VectorSampleCloser) -> None:
         obs = observables(list(timings.values()), rate_hz=10.0)
     except ConfigError:
         return
-    table = solve_epochs(obs, v.rinex, ionosphere=v.ionosphere, reference_week=v.reference_week,
-                         iono=None if obs.iono_utc is not None else v.iono_fallback)
+    table = solve_epochs(
+        obs,
+        v.rinex,
+        ionosphere=v.ionosphere,
+        reference_week=v.reference_week,
+        iono=None if obs.iono_utc is not None else v.iono_fallback,
+    )
     if len(table) == 0:
         return
     records = {p: _ephemeris(v, p, obs, float(table.sample_time_s[-1])) for p in timings}
@@ -84,14 +89,31 @@ def try_handover(v: VectorSampleCloser) -> None:
     t_fix = float(table.sample_time_s[e])
     bias = float(table.columns["clock_bias_m"][e])
     rx_offset = float(table.columns["tow_s"][e] + bias / _C - t_fix)
-    v.nav = VectorNavigator(t, v.vector, v.solution, slots, stack([records[p] for p in prns]),
-                            (obs.iono_utc or v.iono_fallback) if v.ionosphere else None, rx_offset, tx_anchor, chip_anchor)
-    hand_over(v, prns, table.ecef_m[e], bias, t_fix, full_week(obs.week, v.reference_week),
-              f"first fix with {len(table.used_prns[e])} satellites")
+    v.nav = VectorNavigator(
+        t,
+        v.vector,
+        v.solution,
+        slots,
+        stack([records[p] for p in prns]),
+        (obs.iono_utc or v.iono_fallback) if v.ionosphere else None,
+        rx_offset,
+        tx_anchor,
+        chip_anchor,
+    )
+    hand_over(
+        v,
+        prns,
+        table.ecef_m[e],
+        bias,
+        t_fix,
+        full_week(obs.week, v.reference_week),
+        f"first fix with {len(table.used_prns[e])} satellites",
+    )
 
 
-def _assisted_transmit_times(v: VectorSampleCloser, chans: list[SampleChannel], now_s: float, r0: np.ndarray
-                             ) -> tuple[list[SampleChannel], Ephemerides, np.ndarray] | None:
+def _assisted_transmit_times(
+    v: VectorSampleCloser, chans: list[SampleChannel], now_s: float, r0: np.ndarray
+) -> tuple[list[SampleChannel], Ephemerides, np.ndarray] | None:
     r"""The channels of ``chans`` with a healthy RINEX record, their records and each
     replica's transmit time (s of week, satellite time) at its current start sample,
     from the `Assistance`'s start time and position ``r0`` (None with fewer than four
@@ -145,8 +167,7 @@ def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
     next boundary of a ``coherent_ms`` interval within a bit (`VectorSampleCloser.advance`)."""
     t = v.tracker
     sp = t.signal
-    active = sorted((c for c in t.channels.values() if t.active[c.slot] and c.stage != "lost"),
-                    key=lambda c: c.prn)
+    active = sorted((c for c in t.channels.values() if t.active[c.slot] and c.stage != "lost"), key=lambda c: c.prn)
     if len(active) < 4 or any(t.ms_index[c.slot] < _ASSIST_SETTLE_MS for c in active):
         return
     a = v.assist
@@ -167,17 +188,33 @@ def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
         tx_fix = tx_start + (t_fix - t_s) * t.code_rate[slots] / sp.chip_rate_hz
         pr = _C * (a.start_tow_s + t_fix - tx_fix)
         # The residual test at the pull-in code phases' noise, not at a tracked code's.
-        fix = solve_position(pr, tx_fix, eph, iono=a.iono if v.ionosphere else None, elevation_mask_deg=0.0,
-                             initial_ecef_m=a.position_ecef_m, sigma_m=v.vector.assisted_pseudorange_sigma_m)
+        fix = solve_position(
+            pr,
+            tx_fix,
+            eph,
+            iono=a.iono if v.ionosphere else None,
+            elevation_mask_deg=0.0,
+            initial_ecef_m=a.position_ecef_m,
+            sigma_m=v.vector.assisted_pseudorange_sigma_m,
+        )
         if fix is None:
             break
         previous, r0 = tx_start, fix.position_ecef_m
     else:
         fix = None  # the resolution did not settle
-    if (fix is None or not np.all(fix.used) or np.nanmax(np.abs(fix.residuals_m)) > _ASSIST_MAX_RESIDUAL_M
-            or np.linalg.norm(fix.position_ecef_m - a.position_ecef_m) > _ASSIST_RADIUS_M):
-        v.solution.events.append((now_s, "assisted fix failed (no solution, a satellite excluded, residuals "
-                                         "or distance to the approximate position too large): no hand-over"))
+    if (
+        fix is None
+        or not np.all(fix.used)
+        or np.nanmax(np.abs(fix.residuals_m)) > _ASSIST_MAX_RESIDUAL_M
+        or np.linalg.norm(fix.position_ecef_m - a.position_ecef_m) > _ASSIST_RADIUS_M
+    ):
+        v.solution.events.append(
+            (
+                now_s,
+                "assisted fix failed (no solution, a satellite excluded, residuals "
+                "or distance to the approximate position too large): no hand-over",
+            )
+        )
         v.next_assist = now_s + v.vector.try_every_s
         return
     prns = tuple(c.prn for c in chans)
@@ -191,21 +228,45 @@ def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
     chip_anchor = np.zeros(len(t.active))
     tx_anchor[slots] = tx_start
     chip_anchor[slots] = t.ms_index[slots] * sp.code_length_chips + t.code_phase[slots]
-    v.nav = VectorNavigator(t, v.vector, v.solution, slots, eph, a.iono if v.ionosphere else None, a.start_tow_s,
-                            tx_anchor, chip_anchor)
+    v.nav = VectorNavigator(
+        t, v.vector, v.solution, slots, eph, a.iono if v.ionosphere else None, a.start_tow_s, tx_anchor, chip_anchor
+    )
     vc = v.vector
     # A locked loop's Doppler (averaged over its last bit), else the acquisition's: a
     # 1 ms pull-in loop that has not locked may have wandered tens of Hz from it.
-    doppler = np.array([np.mean(c.record.column("doppler_hz")[-c.periods_per_symbol:]) if c.locked
-                        else v.acq_doppler[c.slot] for c in chans])
-    hand_over(v, prns, fix.position_ecef_m, fix.clock_bias_m, t_fix, a.week,
-              f"assisted fix with {int(np.sum(fix.used))} satellites (approximate position and start "
-              "time, RINEX ephemerides)", vc.assisted_pseudorange_sigma_m, vc.assisted_range_rate_sigma_mps, doppler)
+    doppler = np.array(
+        [
+            np.mean(c.record.column("doppler_hz")[-c.periods_per_symbol :]) if c.locked else v.acq_doppler[c.slot]
+            for c in chans
+        ]
+    )
+    hand_over(
+        v,
+        prns,
+        fix.position_ecef_m,
+        fix.clock_bias_m,
+        t_fix,
+        a.week,
+        f"assisted fix with {int(np.sum(fix.used))} satellites (approximate position and start "
+        "time, RINEX ephemerides)",
+        vc.assisted_pseudorange_sigma_m,
+        vc.assisted_range_rate_sigma_mps,
+        doppler,
+    )
 
 
-def hand_over(v: VectorSampleCloser, prns: tuple[int, ...], r: np.ndarray, bias: float, t_fix: float, week: int, why: str,
-              range_sigma_m: float | None = None, rate_sigma_mps: float | None = None,
-              doppler_hz: np.ndarray | None = None) -> None:
+def hand_over(
+    v: VectorSampleCloser,
+    prns: tuple[int, ...],
+    r: np.ndarray,
+    bias: float,
+    t_fix: float,
+    week: int,
+    why: str,
+    range_sigma_m: float | None = None,
+    rate_sigma_mps: float | None = None,
+    doppler_hz: np.ndarray | None = None,
+) -> None:
     """Start the navigation filter (``v.nav``, created with its channels, ephemerides and
     transmit-time anchors) at fix ``r``, ``bias`` (recording time ``t_fix``) and close
     channels ``prns``; the sigmas of the fix default to the config's."""
@@ -219,8 +280,8 @@ def hand_over(v: VectorSampleCloser, prns: tuple[int, ...], r: np.ndarray, bias:
     info = np.linalg.inv(G.T @ G)
     cov0 = np.zeros((8, 8))
     pc, vd = np.r_[0:3, 6], np.r_[3:6, 7]
-    cov0[np.ix_(pc, pc)] = (range_sigma_m or vc.pseudorange_sigma_m)**2 * info
-    cov0[np.ix_(vd, vd)] = (rate_sigma_mps or vc.range_rate_sigma_mps)**2 * info
+    cov0[np.ix_(pc, pc)] = (range_sigma_m or vc.pseudorange_sigma_m) ** 2 * info
+    cov0[np.ix_(vd, vd)] = (rate_sigma_mps or vc.range_rate_sigma_mps) ** 2 * info
     nav.start_at(x0, cov0, t_fix)
     s = v.solution
     s.prns, s.handover_s, s.rx_offset_s, s.week = prns, t_fix, nav.rx_offset, week

@@ -82,9 +82,18 @@ class VectorNavigator:
         had generated ``chip_anchor`` chips (``ms_index * code length + code_phase``).
     """
 
-    def __init__(self, tracker: SampleTracker, vector: VectorConfig, solution: VectorSolution, slots: np.ndarray,
-                 eph: Ephemerides, iono: IonoUtc | None, rx_offset_s: float, tx_anchor: np.ndarray,
-                 chip_anchor: np.ndarray) -> None:
+    def __init__(
+        self,
+        tracker: SampleTracker,
+        vector: VectorConfig,
+        solution: VectorSolution,
+        slots: np.ndarray,
+        eph: Ephemerides,
+        iono: IonoUtc | None,
+        rx_offset_s: float,
+        tx_anchor: np.ndarray,
+        chip_anchor: np.ndarray,
+    ) -> None:
         self.tracker = tracker
         self.vector = vector
         self.solution = solution
@@ -141,11 +150,13 @@ class VectorNavigator:
         pos, *_ = self.satellites(slots, self.replica_tx(slots), r)
         lat, lon, h = pymap3d.ecef2geodetic(*r)
         az, el, _ = pymap3d.ecef2aer(pos[:, 0], pos[:, 1], pos[:, 2], lat, lon, h)
-        return _C * klobuchar_delay_s(self.iono.alpha, self.iono.beta, lat, lon, np.asarray(az), np.asarray(el),
-                                      t_s + self.rx_offset)
+        return _C * klobuchar_delay_s(
+            self.iono.alpha, self.iono.beta, lat, lon, np.asarray(az), np.asarray(el), t_s + self.rx_offset
+        )
 
-    def velocity(self, slots: np.ndarray, r: np.ndarray, doppler_hz: np.ndarray | None = None
-                 ) -> tuple[np.ndarray, float, np.ndarray]:
+    def velocity(
+        self, slots: np.ndarray, r: np.ndarray, doppler_hz: np.ndarray | None = None
+    ) -> tuple[np.ndarray, float, np.ndarray]:
         """Least-squares velocity and clock drift from the channels' Dopplers (their NCOs',
         or ``doppler_hz``) at position ``r``:
         :math:`-\\lambda f = (v_s - v)\\cdot e + d - c\\,\\Delta\\dot t_{SV}`; and the
@@ -159,8 +170,9 @@ class VectorNavigator:
         sol = np.linalg.lstsq(H, y, rcond=None)[0]
         return sol[:3], float(sol[3]), H
 
-    def predict(self, slots: np.ndarray, x: np.ndarray, t_s: np.ndarray, tx_s: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
+    def predict(
+        self, slots: np.ndarray, x: np.ndarray, t_s: np.ndarray, tx_s: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Pseudorange (m) and its rate (m/s) of channels ``slots`` predicted by state ``x``
         (at recording time ``t_s`` per channel, transmit times ``tx_s``)."""
         r = x[:3] + x[3:6] * (t_s - self.t_nav)[:, None]
@@ -179,8 +191,13 @@ class VectorNavigator:
         mid-interval and its Doppler."""
         t = self.tracker
         nco = t.nco
-        out = filt.checked_step({"correlators": Correlators.trusted(w[:, 0], w[:, 1], w[:, 2]),
-                                 "nco_shift_chips": t.shift_chips[slots], "nco_shift_hz": t.shift_hz[slots]})
+        out = filt.checked_step(
+            {
+                "correlators": Correlators.trusted(w[:, 0], w[:, 1], w[:, 2]),
+                "nco_shift_chips": t.shift_chips[slots],
+                "nco_shift_hz": t.shift_hz[slots],
+            }
+        )
         i = int(slots[0])
         t.shift_chips[i] = t.shift_hz[i] = 0.0
         end = int(t.start_sample[i])
@@ -188,9 +205,15 @@ class VectorNavigator:
         # The replica's transmit time at mid-interval: the chips its NCO generated since the
         # hand-over, less the half interval's chips at the rate it ran.
         tx_mid = self.replica_tx(np.array([i]))[0] - (end - mid) / t.fs * t.code_rate[i] / t.signal.chip_rate_hz
-        self.pending[i] = (mid / t.fs, float(nco.range_error_chips(np.ravel(out["code_error_chips"])[0])),
-                           float(np.ravel(out["code_error_var_chips2"])[0]), float(np.ravel(out["freq_error_hz"])[0]),
-                           float(np.ravel(out["freq_error_var_hz2"])[0]), tx_mid, float(t.doppler[i]))
+        self.pending[i] = (
+            mid / t.fs,
+            float(nco.range_error_chips(np.ravel(out["code_error_chips"])[0])),
+            float(np.ravel(out["code_error_var_chips2"])[0]),
+            float(np.ravel(out["freq_error_hz"])[0]),
+            float(np.ravel(out["freq_error_var_hz2"])[0]),
+            tx_mid,
+            float(t.doppler[i]),
+        )
 
     def ready(self) -> bool:
         """Whether every vector channel has a measurement for the next `step`."""
@@ -209,8 +232,12 @@ class VectorNavigator:
             x = self.x_fix.copy()
             x[:3] += x[3:6] * (t_nav - self.t_fix)
             x[6] += x[7] * (t_nav - self.t_fix)
-            self.filter.reset((1,), RunContext(coherent_time_s=T, epoch_interval_s=T, initial_state=x[None],
-                                               initial_cov=self.cov0, signal=sp))
+            self.filter.reset(
+                (1,),
+                RunContext(
+                    coherent_time_s=T, epoch_interval_s=T, initial_state=x[None], initial_cov=self.cov0, signal=sp
+                ),
+            )
             self.started = True
             self.t_nav = t_nav
             self.x = x
@@ -236,16 +263,26 @@ class VectorNavigator:
         var_code = np.where(use, var_code * scale, _IGNORE_VAR)
         var_freq = np.where(use, var_freq * scale, _IGNORE_VAR)
         inputs: dict[str, Any] = {
-            names.CODE_ERROR_CHIPS: code[None], names.CODE_ERROR_VAR_CHIPS2: var_code[None],
-            names.FREQ_ERROR_HZ: freq[None], names.FREQ_ERROR_VAR_HZ2: var_freq[None],
-            names.SAT_POS_M: pos, names.SAT_VEL_M_S: vel, names.NEXT_SAT_POS_M: pos,
-            names.NEXT_SAT_VEL_M_S: vel, names.REPLICA_RANGE_M: (range_rep + clock - self.iono_m)[None],
-            names.REPLICA_RATE_M_S: (rate_rep + drift)[None]}
+            names.CODE_ERROR_CHIPS: code[None],
+            names.CODE_ERROR_VAR_CHIPS2: var_code[None],
+            names.FREQ_ERROR_HZ: freq[None],
+            names.FREQ_ERROR_VAR_HZ2: var_freq[None],
+            names.SAT_POS_M: pos,
+            names.SAT_VEL_M_S: vel,
+            names.NEXT_SAT_POS_M: pos,
+            names.NEXT_SAT_VEL_M_S: vel,
+            names.REPLICA_RANGE_M: (range_rep + clock - self.iono_m)[None],
+            names.REPLICA_RATE_M_S: (rate_rep + drift)[None],
+        }
         out = self.filter.checked_step(inputs)
         x = np.concatenate([out[names.POSITION_M][0], out[names.VELOCITY_M_S][0], out[names.CLOCK_M][0]])
         if not np.all(np.isfinite(x)):
-            raise NumericalError(self.vector.nav_filter, [(0,)], len(self.solution.sample_time_s),
-                                 f"non-finite state at the vector epoch {self.t_nav:.3f} s of the recording")
+            raise NumericalError(
+                self.vector.nav_filter,
+                [(0,)],
+                len(self.solution.sample_time_s),
+                f"non-finite state at the vector epoch {self.t_nav:.3f} s of the recording",
+            )
         self.x = x
         if self.monitor is not None:
             self._cov = np.array(np.asarray(out[names.COV])[0][:8, :8])
@@ -263,8 +300,9 @@ class VectorNavigator:
             s.monitor_excluded.append(out_mask)
         self.command(slots, x)
 
-    def _screen(self, slots: np.ndarray, code_chips: np.ndarray, var_chips2: np.ndarray, sat_pos: np.ndarray,
-                T: float) -> np.ndarray:
+    def _screen(
+        self, slots: np.ndarray, code_chips: np.ndarray, var_chips2: np.ndarray, sat_pos: np.ndarray, T: float
+    ) -> np.ndarray:
         """The channel monitor's verdict on ``slots`` this interval (True: left out): their
         range innovations (the code errors, in metres) against ``R + h P⁻ hᵀ``, ``P⁻`` the
         filter's last covariance carried over ``T`` by its ``transition`` (the hand-over
@@ -284,10 +322,18 @@ class VectorNavigator:
         out = self.monitor.screen(innovation, variance, los, P)[0, slots]
         for s, was, now in zip(slots, before, out):
             if was != now:
-                self.solution.events.append((self.t_nav, f"PRN {sp.prns[int(s)]}: " + (
-                    f"left out of the navigation update by the channel monitor ({self.monitor.consecutive} "
-                    "intervals in a row failed its innovation test)" if now else
-                    "back in the navigation update (its innovations pass the channel monitor again)")))
+                self.solution.events.append(
+                    (
+                        self.t_nav,
+                        f"PRN {sp.prns[int(s)]}: "
+                        + (
+                            f"left out of the navigation update by the channel monitor ({self.monitor.consecutive} "
+                            "intervals in a row failed its innovation test)"
+                            if now
+                            else "back in the navigation update (its innovations pass the channel monitor again)"
+                        ),
+                    )
+                )
         return out
 
     def command(self, slots: np.ndarray, x: np.ndarray) -> None:
@@ -308,6 +354,10 @@ def rotate(v: np.ndarray, tau_s: np.ndarray) -> np.ndarray:
 
 def stack(records: list[Ephemerides]) -> Ephemerides:
     """One `Ephemerides` of several records, in order."""
-    return Ephemerides(np.concatenate([r.sv for r in records]), np.concatenate([r.toc_s for r in records]),
-                       {k: np.concatenate([r.elements[k] for r in records]) for k in records[0].elements},
-                       np.concatenate([r.health for r in records]), np.concatenate([r.iode for r in records]))
+    return Ephemerides(
+        np.concatenate([r.sv for r in records]),
+        np.concatenate([r.toc_s for r in records]),
+        {k: np.concatenate([r.elements[k] for r in records]) for k in records[0].elements},
+        np.concatenate([r.health for r in records]),
+        np.concatenate([r.iode for r in records]),
+    )

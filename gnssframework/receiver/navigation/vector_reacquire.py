@@ -47,8 +47,11 @@ def drop(v: VectorSampleCloser, c: SampleChannel, t0: float) -> None:
     nav.slots = nav.slots[keep]
     nav.pending.pop(i, None)
     why = f"C/N0 estimate below {vc.loss_cn0_dbhz:g} dB-Hz for {vc.loss_ms} ms"
-    t.deactivate(c, int(t.start_sample[i]), (t0, f"lost: {why}; out of the navigation filter, re-acquisition "
-                                                 "aided by the navigation solution"))
+    t.deactivate(
+        c,
+        int(t.start_sample[i]),
+        (t0, f"lost: {why}; out of the navigation filter, re-acquisition aided by the navigation solution"),
+    )
     v.solution.events.append((t0, f"PRN {c.prn} dropped from the vector loop ({why})"))
 
 
@@ -77,9 +80,18 @@ def reacquire(v: VectorSampleCloser, at: int, stop: int) -> None:
         record, window, tx_s, elevation = predicted
         if elevation < p.reacquire_elevation_deg:
             continue
-        acq = window_search(t.rec.read(at, need), t.fs, t.if_hz, prn, window, coherent_ms=p.reacquire_coherent_ms,
-                            noncoherent=p.reacquire_noncoherent, alternate=p.reacquire_coherent_ms == 10,
-                            pfa=p.reacquire_pfa, signal=sp)
+        acq = window_search(
+            t.rec.read(at, need),
+            t.fs,
+            t.if_hz,
+            prn,
+            window,
+            coherent_ms=p.reacquire_coherent_ms,
+            noncoherent=p.reacquire_noncoherent,
+            alternate=p.reacquire_coherent_ms == 10,
+            pfa=p.reacquire_pfa,
+            signal=sp,
+        )
         if not acq.detected:
             continue
         per_code = t.fs * sp.code_length_chips / sp.chip_rate_hz
@@ -87,10 +99,15 @@ def reacquire(v: VectorSampleCloser, at: int, stop: int) -> None:
         t.add(prn, acq, at)
         v.held.pop(t.slot(prn), None)
         c = t.channels[prn]
-        c.record.events.append((t_s, f"re-acquired in the window predicted by the navigation solution "
-                                     f"({code_off:+.1f} samples, {acq.doppler_hz - window.doppler_hz:+.1f} Hz "
-                                     f"from the prediction; window +-{window.code_halfwidth_samples:.1f} samples, "
-                                     f"+-{window.doppler_halfwidth_hz:.1f} Hz)"))
+        c.record.events.append(
+            (
+                t_s,
+                f"re-acquired in the window predicted by the navigation solution "
+                f"({code_off:+.1f} samples, {acq.doppler_hz - window.doppler_hz:+.1f} Hz "
+                f"from the prediction; window +-{window.code_halfwidth_samples:.1f} samples, "
+                f"+-{window.doppler_halfwidth_hz:.1f} Hz)",
+            )
+        )
         v.solution.events.append((t_s, f"PRN {prn} re-acquired by the aided search"))
         join(v, c, record, tx_s + acq.code_phase_samples / t.fs * (1 + window.doppler_hz / sp.carrier_freq_hz))
     t.search(tuple(unpredicted), at, stop)
@@ -135,8 +152,12 @@ def _predict_signal(v: VectorSampleCloser, prn: int, t_s: float):
     n = sp.code_length_chips
     chips = (tx * (1.0 / sp.code_period_s) % 1.0) * n  # sent of the current period at t_s
     code_rate = sp.code_freq_hz(doppler)
-    window = SearchWindow((n - chips) / code_rate * t.fs, doppler,
-                          k * sigma_range / sp.chip_length_m * t.fs / sp.chip_rate_hz, k * sigma_rate / sp.wavelength_m)
+    window = SearchWindow(
+        (n - chips) / code_rate * t.fs,
+        doppler,
+        k * sigma_range / sp.chip_length_m * t.fs / sp.chip_rate_hz,
+        k * sigma_rate / sp.wavelength_m,
+    )
     lat, lon, hgt = pymap3d.ecef2geodetic(*r)
     _, elevation, _ = pymap3d.ecef2aer(*pos[0], lat, lon, hgt)
     return record, window, tx, float(elevation)

@@ -80,9 +80,20 @@ class VectorSolution:
         ve, vn, vu = (np.asarray(v, float) for v in pymap3d.ecef2enuv(x[:, 3], x[:, 4], x[:, 5], lat, lon))
         n_used = np.asarray(self.used)[k].sum(axis=1)  # (rows over the PRN slots)
         dops = np.array([_dops(self.used_sat_pos_m[j], x[i, :3]) for i, j in enumerate(k)]).reshape(-1, 2)
-        columns = {"gps_week": np.full(k.size, self.week), "tow_s": t + self.rx_offset_s - x[:, 6] / _C,
-                   "lat_deg": lat, "lon_deg": lon, "height_m": h, "vel_e_mps": ve, "vel_n_mps": vn, "vel_u_mps": vu,
-                   "clock_bias_m": x[:, 6], "n_sats": n_used.astype(int), "hdop": dops[:, 0], "vdop": dops[:, 1]}
+        columns = {
+            "gps_week": np.full(k.size, self.week),
+            "tow_s": t + self.rx_offset_s - x[:, 6] / _C,
+            "lat_deg": lat,
+            "lon_deg": lon,
+            "height_m": h,
+            "vel_e_mps": ve,
+            "vel_n_mps": vn,
+            "vel_u_mps": vu,
+            "clock_bias_m": x[:, 6],
+            "n_sats": n_used.astype(int),
+            "hdop": dops[:, 0],
+            "vdop": dops[:, 1],
+        }
         used = [tuple(self.slot_prns[int(i)] for i in np.flatnonzero(row)) for row in np.asarray(self.used)[k]]
         excluded_prn = np.zeros(k.size, int)
         if self.monitor_excluded:
@@ -90,27 +101,43 @@ class VectorSolution:
             prns = np.asarray(self.slot_prns)
             excluded_prn = np.where(out.any(axis=1), np.min(np.where(out, prns, np.iinfo(int).max), axis=1), 0)
         if integrity_risk is not None:
-            columns.update(self._integrity(x, np.asarray(self.cov)[k][:, :3, :3], lat, lon, integrity_risk,
-                                           excluded_prn))
+            columns.update(
+                self._integrity(x, np.asarray(self.cov)[k][:, :3, :3], lat, lon, integrity_risk, excluded_prn)
+            )
         return PositionTable(columns, x[:, :3].copy(), t, used, excluded_prn)
 
     @staticmethod
-    def _integrity(x: np.ndarray, cov_ecef: np.ndarray, lat_deg: np.ndarray, lon_deg: np.ndarray,
-                   integrity_risk: float, excluded_prn: np.ndarray) -> dict[str, np.ndarray]:
+    def _integrity(
+        x: np.ndarray,
+        cov_ecef: np.ndarray,
+        lat_deg: np.ndarray,
+        lon_deg: np.ndarray,
+        integrity_risk: float,
+        excluded_prn: np.ndarray,
+    ) -> dict[str, np.ndarray]:
         """`fixes.INTEGRITY_COLUMNS` of rows with states ``x`` and position covariances
         ``cov_ecef`` ``(rows, 3, 3)`` at ``lat_deg``, ``lon_deg`` (see `table`)."""
         from ...navigation.integrity import covariance_protection_levels
 
         lat, lon = np.radians(lat_deg), np.radians(lon_deg)
         sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
-        R = np.stack([np.stack([-so, co, np.zeros_like(lat)], -1), np.stack([-sl * co, -sl * so, cl], -1),
-                      np.stack([cl * co, cl * so, sl], -1)], -2)  # rows east, north, up
+        R = np.stack(
+            [
+                np.stack([-so, co, np.zeros_like(lat)], -1),
+                np.stack([-sl * co, -sl * so, cl], -1),
+                np.stack([cl * co, cl * so, sl], -1),
+            ],
+            -2,
+        )  # rows east, north, up
         finite = np.all(np.isfinite(cov_ecef), axis=(-1, -2))
         C = R @ np.where(finite[:, None, None], cov_ecef, 0.0) @ np.swapaxes(R, -1, -2)
         hpl, vpl = covariance_protection_levels(C, integrity_risk)
         status = np.where(~finite, "unavailable", np.where(excluded_prn > 0, "excluded", "ok"))
-        return {"hpl_m": np.where(finite, hpl, np.inf), "vpl_m": np.where(finite, vpl, np.inf),
-                "raim": status.astype("<U11")}
+        return {
+            "hpl_m": np.where(finite, hpl, np.inf),
+            "vpl_m": np.where(finite, vpl, np.inf),
+            "raim": status.astype("<U11"),
+        }
 
 
 def _dops(sat_pos: np.ndarray, r: np.ndarray) -> tuple[float, float]:

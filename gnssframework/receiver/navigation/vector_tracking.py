@@ -47,8 +47,15 @@ from .vector_navigator import VectorNavigator
 from .vector_reacquire import drop, reacquire
 from .vector_solution import VectorSolution
 
-__all__ = ["VectorConfig", "vector_config", "VectorSampleTracker", "VectorSampleCloser", "VectorSolution", "Assistance",
-           "assistance"]
+__all__ = [
+    "VectorConfig",
+    "vector_config",
+    "VectorSampleTracker",
+    "VectorSampleCloser",
+    "VectorSolution",
+    "Assistance",
+    "assistance",
+]
 
 #: Interval (s) of the assisted start's checks (bit edges, hand-over): each costs an ephemeris evaluation.
 _ASSIST_EVERY_S = 0.1
@@ -77,12 +84,23 @@ class VectorSampleCloser(SampleCloser):
         The run's `VectorSolution`.
     """
 
-    def __init__(self, vector: VectorConfig, *, rinex: Ephemerides | None = None, ionosphere: bool = True,
-                 reference_week: int | None = None, assist: Assistance | None = None,
-                 iono_fallback: IonoUtc | None = None, channel_filter: FilterFactory | None = None) -> None:
+    def __init__(
+        self,
+        vector: VectorConfig,
+        *,
+        rinex: Ephemerides | None = None,
+        ionosphere: bool = True,
+        reference_week: int | None = None,
+        assist: Assistance | None = None,
+        iono_fallback: IonoUtc | None = None,
+        channel_filter: FilterFactory | None = None,
+    ) -> None:
         self.vector = vector
-        self.channel_filter = (channel_filter if channel_filter is not None
-                               else FilterFactory("channel_filter", vector.channel_filter, vector.channel_params))
+        self.channel_filter = (
+            channel_filter
+            if channel_filter is not None
+            else FilterFactory("channel_filter", vector.channel_filter, vector.channel_params)
+        )
         self.rinex = rinex
         self.assist = assist
         self.ionosphere = ionosphere
@@ -117,7 +135,7 @@ class VectorSampleCloser(SampleCloser):
         if c.stage == "vector":
             c.unlocked_ms = 0 if c.locked else c.unlocked_ms + c.coherent_ms
             # Only an estimate over a full window counts (a rejoined channel's first ones are short).
-            low = (t.n_prompts[c.slot] >= t.config.cn0_window_ms and c.cn0_dbhz < self.vector.loss_cn0_dbhz)
+            low = t.n_prompts[c.slot] >= t.config.cn0_window_ms and c.cn0_dbhz < self.vector.loss_cn0_dbhz
             c.low_cn0_ms = c.low_cn0_ms + c.coherent_ms if low else 0
             if c.low_cn0_ms >= self.vector.loss_ms:
                 drop(self, c, t0)
@@ -126,8 +144,9 @@ class VectorSampleCloser(SampleCloser):
             n = t.config.coherent_ms
             if (int(t.ms_index[c.slot]) + 1 - c.bit_edge) % n == 0:
                 c.vector_pending = False
-                c.record.events.append((t0, f"bit edge from the assisted transmit time (ms {c.bit_edge} mod "
-                                            f"{c.periods_per_symbol})"))
+                c.record.events.append(
+                    (t0, f"bit edge from the assisted transmit time (ms {c.bit_edge} mod {c.periods_per_symbol})")
+                )
                 t.start_stage(c, "extended", float(t.doppler[c.slot]), n)
                 start_vector(self, c)
             return
@@ -158,8 +177,9 @@ class VectorSampleCloser(SampleCloser):
         if self.nav is not None:  # what dates the vector channels' rows (`observables.assisted_timing`)
             t, slots = self.tracker, self.nav.slots
             tx = self.nav.replica_tx(slots)
-            self.solution.replica_tx = {t.signal.prns[int(i)]: (float(t.start_sample[i]) / t.fs, float(x))
-                                        for i, x in zip(slots, tx)}
+            self.solution.replica_tx = {
+                t.signal.prns[int(i)]: (float(t.start_sample[i]) / t.fs, float(x)) for i, x in zip(slots, tx)
+            }
 
 
 class VectorSampleTracker(SampleTracker):
@@ -186,21 +206,40 @@ class VectorSampleTracker(SampleTracker):
         Klobuchar coefficients (a RINEX header's) for the LNAV hand-over where no page 18 is decoded.
     """
 
-    def __init__(self, recording: Recording, config: TrackingConfig, acquisition: Acquisition,
-                 vector: VectorConfig | None = None, *, rinex: Ephemerides | None = None, ionosphere: bool = True,
-                 reference_week: int | None = None, assist: Assistance | None = None,
-                 backend: str | None = None, iono_fallback: IonoUtc | None = None, signal: SignalSpec = GPS_L1CA,
-                 filters: StageFilters | None = None) -> None:
+    def __init__(
+        self,
+        recording: Recording,
+        config: TrackingConfig,
+        acquisition: Acquisition,
+        vector: VectorConfig | None = None,
+        *,
+        rinex: Ephemerides | None = None,
+        ionosphere: bool = True,
+        reference_week: int | None = None,
+        assist: Assistance | None = None,
+        backend: str | None = None,
+        iono_fallback: IonoUtc | None = None,
+        signal: SignalSpec = GPS_L1CA,
+        filters: StageFilters | None = None,
+    ) -> None:
         super().__init__(recording, config, acquisition, backend=backend, signal=signal, filters=filters)
         if assist is not None and rinex is None:
-            raise ConfigError("approx_position", "an assisted start needs the ephemerides of a RINEX navigation "
-                                                 "file (--ephemeris)")
+            raise ConfigError(
+                "approx_position", "an assisted start needs the ephemerides of a RINEX navigation file (--ephemeris)"
+            )
         v = vector or VectorConfig()
         self.vector = v
-        self.closer = VectorSampleCloser(v, rinex=rinex, ionosphere=ionosphere, reference_week=reference_week,
-                                         assist=assist, iono_fallback=iono_fallback)
-        check_composition(self.closer.channel_filter.prototype,
-                          registry.create("nav_filter", v.nav_filter, **v.nav_params))
+        self.closer = VectorSampleCloser(
+            v,
+            rinex=rinex,
+            ionosphere=ionosphere,
+            reference_week=reference_week,
+            assist=assist,
+            iono_fallback=iono_fallback,
+        )
+        check_composition(
+            self.closer.channel_filter.prototype, registry.create("nav_filter", v.nav_filter, **v.nav_params)
+        )
 
     @property
     def solution(self) -> VectorSolution:

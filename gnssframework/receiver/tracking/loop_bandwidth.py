@@ -42,8 +42,14 @@ def at_interval(channel: ChannelFilter, coherent_time_s: float) -> ChannelFilter
     return recreated(channel, coherent_time_s=coherent_time_s)
 
 
-def equivalent_bandwidth_hz(channel: ChannelFilter, coherent_time_s: float, *, settle_s: float = 8.0,
-                            response_s: float = 6.0, step_rad: float = 0.02) -> float:
+def equivalent_bandwidth_hz(
+    channel: ChannelFilter,
+    coherent_time_s: float,
+    *,
+    settle_s: float = 8.0,
+    response_s: float = 6.0,
+    step_rad: float = 0.02,
+) -> float:
     """One-sided noise bandwidth (Hz) of ``channel``'s carrier loop at its steady state.
 
     The loop tracks a noise-free signal (120 dB-Hz, no Doppler) for ``settle_s`` (its
@@ -59,8 +65,15 @@ def equivalent_bandwidth_hz(channel: ChannelFilter, coherent_time_s: float, *, s
         the probe, or unstable).
     """
     params = channel.params.model_dump(mode="json") if getattr(channel, "params", None) is not None else {}
-    key = (type(channel).__qualname__, getattr(channel, "name", ""), json.dumps(params, sort_keys=True, default=str),
-           float(coherent_time_s), settle_s, response_s, step_rad)
+    key = (
+        type(channel).__qualname__,
+        getattr(channel, "name", ""),
+        json.dumps(params, sort_keys=True, default=str),
+        float(coherent_time_s),
+        settle_s,
+        response_s,
+        step_rad,
+    )
     if key in _CACHE:
         return _CACHE[key]
     T = coherent_time_s
@@ -74,12 +87,14 @@ def equivalent_bandwidth_hz(channel: ChannelFilter, coherent_time_s: float, *, s
     # True mid-interval phase: 0 before the step, half of it in the interval it falls in.
     true_mid = 0.5 * (extra[:-1, 0] + extra[1:, 0])
     nco_mid = true_mid - rec.phase_error_rad[:, 0]
-    h = np.diff(nco_mid[n0 - 2:]) / step_rad
+    h = np.diff(nco_mid[n0 - 2 :]) / step_rad
     dc = np.sum(h)
     if not abs(dc - 1.0) < 0.02:
-        raise ConfigError(f"channel_filter {getattr(channel, 'name', type(channel).__name__)!r}",
-                          f"its carrier loop did not settle on a phase step within {response_s} s "
-                          f"(DC gain {dc:.3f}); the equivalent bandwidth is undefined")
+        raise ConfigError(
+            f"channel_filter {getattr(channel, 'name', type(channel).__name__)!r}",
+            f"its carrier loop did not settle on a phase step within {response_s} s "
+            f"(DC gain {dc:.3f}); the equivalent bandwidth is undefined",
+        )
     b = float(np.sum(h**2) / (2 * T * dc**2))
     _CACHE[key] = b
     return b

@@ -39,9 +39,12 @@ def check_bandwidth_time(bandwidth_hz: float, update_s: float, field: str) -> No
         Naming ``field`` when ``bandwidth_hz * update_s`` exceeds `MAX_BANDWIDTH_TIME`.
     """
     if bandwidth_hz * update_s > MAX_BANDWIDTH_TIME:
-        raise ConfigError(field, f"B_L T = {bandwidth_hz * update_s:.3g} at T = {update_s:g} s is too large for a "
-                          f"discretised analog loop (at most {MAX_BANDWIDTH_TIME}: {MAX_BANDWIDTH_TIME / update_s:g} "
-                          f"Hz at this T; got {bandwidth_hz!r} Hz)")
+        raise ConfigError(
+            field,
+            f"B_L T = {bandwidth_hz * update_s:.3g} at T = {update_s:g} s is too large for a "
+            f"discretised analog loop (at most {MAX_BANDWIDTH_TIME}: {MAX_BANDWIDTH_TIME / update_s:g} "
+            f"Hz at this T; got {bandwidth_hz!r} Hz)",
+        )
 
 
 def natural_frequency(order: int, bandwidth_hz: float) -> float:
@@ -90,8 +93,9 @@ class LoopFilter:
             self.wf = natural_frequency(self.order - 1, self.assist_bandwidth_hz)
         self.reset(())
 
-    def reset(self, batch_shape: tuple[int, ...], rate0: np.ndarray | float = 0.0,
-              accel0: np.ndarray | float = 0.0) -> None:
+    def reset(
+        self, batch_shape: tuple[int, ...], rate0: np.ndarray | float = 0.0, accel0: np.ndarray | float = 0.0
+    ) -> None:
         """Start a batch; ``rate0`` is the initial rate command (e.g. acquired Doppler)."""
         self.rate = np.broadcast_to(np.asarray(rate0, float), batch_shape).copy()
         self.accel = np.broadcast_to(np.asarray(accel0, float), batch_shape).copy()

@@ -89,8 +89,14 @@ PcrbMeasurements = Literal["code-and-carrier", "code"]
 PCRB_MEASUREMENTS: tuple[str, ...] = ("code-and-carrier", "code")
 
 
-def pcrb_linear(F: np.ndarray, Q: np.ndarray, sqrt_info: Callable[[int], np.ndarray] | np.ndarray, P0: np.ndarray,
-                steps: int, update_first: bool = True) -> np.ndarray:
+def pcrb_linear(
+    F: np.ndarray,
+    Q: np.ndarray,
+    sqrt_info: Callable[[int], np.ndarray] | np.ndarray,
+    P0: np.ndarray,
+    steps: int,
+    update_first: bool = True,
+) -> np.ndarray:
     """Inverse Bayesian information $J_k^{-1}$ of linear-Gaussian dynamics (module docstring).
 
     Parameters
@@ -140,8 +146,9 @@ def pcrb_linear(F: np.ndarray, Q: np.ndarray, sqrt_info: Callable[[int], np.ndar
     return out
 
 
-def correlator_fisher(cn0_dbhz: float, coherent_time_s: float, early_late_spacing_chips: float = 1.0,
-                      signal: SignalSpec = GPS_L1CA) -> np.ndarray:
+def correlator_fisher(
+    cn0_dbhz: float, coherent_time_s: float, early_late_spacing_chips: float = 1.0, signal: SignalSpec = GPS_L1CA
+) -> np.ndarray:
     """Fisher information of one interval's early, prompt and late correlators.
 
     Returns ``2x2`` over (code delay in chips, mid-interval carrier phase in rad) at zero
@@ -153,8 +160,11 @@ def correlator_fisher(cn0_dbhz: float, coherent_time_s: float, early_late_spacin
         For a signal with a sub-carrier (its correlation's slopes differ).
     """
     if not signal.is_bpsk:
-        raise ConfigError("signal", f"the correlator Fisher information assumes BPSK's triangle; {signal.name} has "
-                                    f"a {signal.subcarrier.kind} sub-carrier")
+        raise ConfigError(
+            "signal",
+            f"the correlator Fisher information assumes BPSK's triangle; {signal.name} has "
+            f"a {signal.subcarrier.kind} sub-carrier",
+        )
     d = early_late_spacing_chips / 2
     if not 0 < d < 1:
         raise ConfigError("early_late_spacing_chips", f"must be in (0, 2), got {early_late_spacing_chips}")
@@ -168,11 +178,19 @@ def correlator_fisher(cn0_dbhz: float, coherent_time_s: float, early_late_spacin
     return np.diag([A2 * j_tau, A2 * (r @ Cinv @ r)])
 
 
-def vector_tracking_pcrb(sat_pos: Callable[[np.ndarray], np.ndarray], receiver_pos: np.ndarray,
-                         receiver_vel: np.ndarray, clock_q_m: np.ndarray, P0: np.ndarray, cn0_dbhz: np.ndarray,
-                         coherent_time_s: float, epochs: int, early_late_spacing_chips: float = 1.0,
-                         measurements: PcrbMeasurements = "code-and-carrier", signal: SignalSpec = GPS_L1CA
-                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def vector_tracking_pcrb(
+    sat_pos: Callable[[np.ndarray], np.ndarray],
+    receiver_pos: np.ndarray,
+    receiver_vel: np.ndarray,
+    clock_q_m: np.ndarray,
+    P0: np.ndarray,
+    cn0_dbhz: np.ndarray,
+    coherent_time_s: float,
+    epochs: int,
+    early_late_spacing_chips: float = 1.0,
+    measurements: PcrbMeasurements = "code-and-carrier",
+    signal: SignalSpec = GPS_L1CA,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """PCRB of a vector-tracking run with a constant-velocity receiver (module docstring).
 
     Parameters

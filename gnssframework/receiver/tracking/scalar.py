@@ -62,6 +62,10 @@ def run_closed_loop(
     code0 = truth.code_phase_chips[0] if initial_code_phase_chips is None else initial_code_phase_chips
     replica = Channel.start(batch, code0, initial_doppler_hz, signal=truth.signal)
     closer.reset(replica, T, early_late_spacing_chips=early_late_spacing_chips, cn0_dbhz=truth.cn0_dbhz)
-    source = AnalyticSource(CorrelatorSimulator(T, early_late_spacing_chips), amplitude_from_cn0(truth.cn0_dbhz, T),
-                            rng, amplitude_scale=truth.amplitude_scale)
+    source = AnalyticSource(
+        CorrelatorSimulator(T, early_late_spacing_chips),
+        amplitude_from_cn0(truth.cn0_dbhz, T),
+        rng,
+        amplitude_scale=truth.amplitude_scale,
+    )
     return run_scalar(closer, source, replica, truth, record)

@@ -53,9 +53,18 @@ from ..engine.closers import CHANNEL_OUTPUTS, HARNESS_INPUTS, NAV_OUTPUTS, Vecto
 from ..engine.sources import AnalyticSource
 from ..engine.truth import LoopTruth, VectorTruth, code_phase_of_range
 
-__all__ = ["VectorTruth", "VectorRecord", "run_vector_loop", "check_composition", "predicted_range", "enu_rotation",
-           "smooth_record",
-           "CHANNEL_OUTPUTS", "NAV_OUTPUTS", "HARNESS_INPUTS"]
+__all__ = [
+    "VectorTruth",
+    "VectorRecord",
+    "run_vector_loop",
+    "check_composition",
+    "predicted_range",
+    "enu_rotation",
+    "smooth_record",
+    "CHANNEL_OUTPUTS",
+    "NAV_OUTPUTS",
+    "HARNESS_INPUTS",
+]
 
 
 @dataclass
@@ -157,23 +166,34 @@ def run_vector_loop(
     for name in ("signal_gain", "noise_gain"):
         gain = getattr(truth, name)
         if gain is not None and np.shape(gain) != (K,) + batch:
-            raise ConfigError(f"truth.{name}", f"must have the shape (epochs, runs, channels) = {(K,) + batch}, "
-                              f"got {np.shape(gain)}")
+            raise ConfigError(
+                f"truth.{name}", f"must have the shape (epochs, runs, channels) = {(K,) + batch}, got {np.shape(gain)}"
+            )
 
     theta0 = draw.uniform(rng, -np.pi, np.pi, batch, 0)  # unknown initial carrier phase per channel
     bit_period_s = signal.symbol_period_s
-    bits = (random_nav_bits(int(np.ceil(K * T / bit_period_s)) + 1, rng, batch)
-            if data_bits != "none" else None)
+    bits = random_nav_bits(int(np.ceil(K * T / bit_period_s)) + 1, rng, batch) if data_bits != "none" else None
     bits_f = bits.astype(float) if bits is not None else None
-    context = RunContext(coherent_time_s=T, early_late_spacing_chips=early_late_spacing_chips, epoch_interval_s=T,
-                         cn0_dbhz=cn0, initial_state=initial_state, initial_cov=initial_cov)
+    context = RunContext(
+        coherent_time_s=T,
+        early_late_spacing_chips=early_late_spacing_chips,
+        epoch_interval_s=T,
+        cn0_dbhz=cn0,
+        initial_state=initial_state,
+        initial_cov=initial_cov,
+    )
     # The first NCO command: the initial estimate's range and rate at mid-interval, propagated back to t_0.
     s_mid, sv_mid = truth.sat_state(np.asarray(T / 2))[:2]
     rho0, rate0, _ = predicted_range(initial_state, s_mid, sv_mid)
     replica = Channel.from_range(batch, rho0 - rate0 * T / 2, rate0, t_s=0.0, signal=signal)
     closer.reset(replica, context)
-    source = AnalyticSource(CorrelatorSimulator(T, early_late_spacing_chips), amplitude_from_cn0(cn0, T), rng,
-                            signal_gain=truth.signal_gain, noise_gain=truth.noise_gain)
+    source = AnalyticSource(
+        CorrelatorSimulator(T, early_late_spacing_chips),
+        amplitude_from_cn0(cn0, T),
+        rng,
+        signal_gain=truth.signal_gain,
+        noise_gain=truth.noise_gain,
+    )
     record = _Recorder(K, runs, batch, integrity_risk, store_estimates)
     excluded = np.zeros((K,) + batch, bool) if monitor is not None else None
 
@@ -187,8 +207,12 @@ def run_vector_loop(
             i_bit = int((t_edges[k] + T / 2) // bit_period_s)
             corr = source.correlate(replica, k, err, bits_f[i_bit] if bits_f is not None else 1.0)
             ch_out = closer.channel_step(replica, corr, bits[i_bit] if data_bits == "known" else None)
-            geometry = {names.SAT_POS_M: sat_mids[0][k], names.SAT_VEL_M_S: sat_mids[1][k],
-                        names.NEXT_SAT_POS_M: sat_edges[0][k + 1], names.NEXT_SAT_VEL_M_S: sat_edges[1][k + 1]}
+            geometry = {
+                names.SAT_POS_M: sat_mids[0][k],
+                names.SAT_VEL_M_S: sat_mids[1][k],
+                names.NEXT_SAT_POS_M: sat_edges[0][k + 1],
+                names.NEXT_SAT_VEL_M_S: sat_edges[1][k + 1],
+            }
             nav_out = closer.nav_step(replica, ch_out, geometry, T, t_edges[k + 1])
             record.epoch(k, j, nav_out, x_true[j], ch_out, err.code_chips, err.freq_hz)
             last = getattr(nav, "last_step", None) if innovations else None
@@ -208,8 +232,14 @@ class _Recorder:
     state's error and, per block of epochs, its NEES, its position error in east, north,
     up and (with ``integrity_risk``) the protection levels of its covariance."""
 
-    def __init__(self, K: int, runs: int, batch: tuple[int, int], integrity_risk: float | None = None,
-                 store_estimates: bool = False) -> None:
+    def __init__(
+        self,
+        K: int,
+        runs: int,
+        batch: tuple[int, int],
+        integrity_risk: float | None = None,
+        store_estimates: bool = False,
+    ) -> None:
         self.code, self.freq, self.code_out, self.freq_out = (np.empty((K,) + batch) for _ in range(4))
         self.err = np.empty((K, runs, 8))
         self.nees, self.nees_pos, self.nees_vel = (np.empty((K, runs)) for _ in range(3))
@@ -227,8 +257,16 @@ class _Recorder:
         self.nis: np.ndarray | None = None
         self.nis_dof: np.ndarray | None = None
 
-    def epoch(self, k: int, j: int, nav_out: dict[str, np.ndarray], x_true: np.ndarray, ch_out: dict[str, np.ndarray],
-              code_err: np.ndarray, freq_err: np.ndarray) -> None:
+    def epoch(
+        self,
+        k: int,
+        j: int,
+        nav_out: dict[str, np.ndarray],
+        x_true: np.ndarray,
+        ch_out: dict[str, np.ndarray],
+        code_err: np.ndarray,
+        freq_err: np.ndarray,
+    ) -> None:
         est = np.concatenate([nav_out[names.POSITION_M], nav_out[names.VELOCITY_M_S], nav_out[names.CLOCK_M]], axis=-1)
         np.subtract(est, x_true, out=self.err[k])
         self.cov[j] = nav_out[names.COV]  # a copy: a nav filter may reuse its array
@@ -252,26 +290,41 @@ class _Recorder:
 
     def block_nees(self, k0: int, k1: int) -> None:
         """NEES of the block's epochs in three batched solves instead of three per epoch."""
-        err, cov = self.err[k0:k1], self.cov[:k1 - k0]
+        err, cov = self.err[k0:k1], self.cov[: k1 - k0]
         self.nees[k0:k1] = nees(err, cov)
         self.nees_pos[k0:k1] = nees(err[..., 0:3], cov[..., 0:3, 0:3])
         self.nees_vel[k0:k1] = nees(err[..., 3:6], cov[..., 3:6, 3:6])
-        R = enu_rotation(self.true_pos[:k1 - k0])  # (block, runs, 3, 3), at the true positions
+        R = enu_rotation(self.true_pos[: k1 - k0])  # (block, runs, 3, 3), at the true positions
         self.err_enu[k0:k1] = np.einsum("...ij,...j->...i", R, err[..., 0:3])
         if self.hpl is not None and self.vpl is not None and self.integrity_risk is not None:
             cov_enu = R @ cov[..., 0:3, 0:3] @ np.swapaxes(R, -1, -2)
             self.hpl[k0:k1], self.vpl[k0:k1] = covariance_protection_levels(cov_enu, self.integrity_risk)
 
     def result(self, time_s: np.ndarray) -> VectorRecord:
-        return VectorRecord(self.code, self.freq, self.err[..., 0:3], self.err[..., 3:6], self.nees, time_s,
-                            nees_position=self.nees_pos, nees_velocity=self.nees_vel,
-                            code_output_error_chips=self.code_out, freq_output_error_hz=self.freq_out,
-                            position_error_enu_m=self.err_enu, hpl_m=self.hpl, vpl_m=self.vpl,
-                            estimate=self.est, estimate_cov=self.est_cov, nis=self.nis, nis_dof=self.nis_dof)
+        return VectorRecord(
+            self.code,
+            self.freq,
+            self.err[..., 0:3],
+            self.err[..., 3:6],
+            self.nees,
+            time_s,
+            nees_position=self.nees_pos,
+            nees_velocity=self.nees_vel,
+            code_output_error_chips=self.code_out,
+            freq_output_error_hz=self.freq_out,
+            position_error_enu_m=self.err_enu,
+            hpl_m=self.hpl,
+            vpl_m=self.vpl,
+            estimate=self.est,
+            estimate_cov=self.est_cov,
+            nis=self.nis,
+            nis_dof=self.nis_dof,
+        )
 
 
-def smooth_record(record: VectorRecord, transition: tuple[np.ndarray, np.ndarray], initial_state: np.ndarray,
-                  initial_cov: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def smooth_record(
+    record: VectorRecord, transition: tuple[np.ndarray, np.ndarray], initial_state: np.ndarray, initial_cov: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""Fixed-interval RTS smoothing of a run's nav estimates (`run_vector_loop` with
     ``store_estimates``): the smoothed position and velocity errors ``(K, runs, 3)`` each
     and the smoothed covariances ``(K, runs, 8, 8)``.
@@ -307,9 +360,18 @@ def smooth_record(record: VectorRecord, transition: tuple[np.ndarray, np.ndarray
     prior_cov = np.concatenate([P0[None], F @ P[:-1] @ F.T + Q])
     cross_cov = np.concatenate([P0[None], P[:-1] @ F.T])
     none = np.zeros((K, runs, 0))
-    result = FilterResult(m, P, none, none[..., None], np.broadcast_to(Q, (K, 8, 8)), none[..., None],
-                          np.zeros((K, runs), bool), np.arange(K), time_s=record.time_s,
-                          smoother_inputs=SmootherInputs(prior_mean, prior_cov, cross_cov, Gaussian(x0, P0), "solve"))
+    result = FilterResult(
+        m,
+        P,
+        none,
+        none[..., None],
+        np.broadcast_to(Q, (K, 8, 8)),
+        none[..., None],
+        np.zeros((K, runs), bool),
+        np.arange(K),
+        time_s=record.time_s,
+        smoother_inputs=SmootherInputs(prior_mean, prior_cov, cross_cov, Gaussian(x0, P0), "solve"),
+    )
     s = smooth(result)
     change = s.mean - m  # smoothed minus filtered: the error changes by as much
     return record.position_error_m + change[..., 0:3], record.velocity_error_m_s + change[..., 3:6], s.cov
@@ -323,12 +385,15 @@ def enu_rotation(position_ecef_m: np.ndarray) -> np.ndarray:
     lat, lon = np.radians(lat_deg), np.arctan2(r[..., 1], r[..., 0])
     sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
     zero = np.zeros_like(lat)
-    return np.stack([np.stack([-so, co, zero], -1), np.stack([-sl * co, -sl * so, cl], -1),
-                     np.stack([cl * co, cl * so, sl], -1)], -2)
+    return np.stack(
+        [np.stack([-so, co, zero], -1), np.stack([-sl * co, -sl * so, cl], -1), np.stack([cl * co, cl * so, sl], -1)],
+        -2,
+    )
 
 
-def _block_truth(truth: LoopTruth, sat_pos_edges: np.ndarray, t_edges: np.ndarray, theta0: np.ndarray, k0: int,
-                 k1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _block_truth(
+    truth: LoopTruth, sat_pos_edges: np.ndarray, t_edges: np.ndarray, theta0: np.ndarray, k0: int, k1: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The truth of epochs ``k0..k1`` in a few vectorised calls: the true code phases (chips,
     `code_phase_of_range` of the code pseudoranges) and carrier phases (rad) at the edges,
     and the true nav states at the mid-intervals. Errors the receiver's model lacks
@@ -336,10 +401,10 @@ def _block_truth(truth: LoopTruth, sat_pos_edges: np.ndarray, t_edges: np.ndarra
     rho_edges, x_true = _truth_block(truth, sat_pos_edges, t_edges, k0, k1)
     carrier_edges = rho_edges
     if truth.range_error_m is not None:
-        code_m, carrier_m = truth.range_error_m(t_edges[k0:k1 + 1])
+        code_m, carrier_m = truth.range_error_m(t_edges[k0 : k1 + 1])
         rho_edges, carrier_edges = rho_edges + code_m, rho_edges + carrier_m
     signal = truth.signal
-    code = code_phase_of_range(signal, rho_edges, t_edges[k0:k1 + 1, None, None])
+    code = code_phase_of_range(signal, rho_edges, t_edges[k0 : k1 + 1, None, None])
     return code, theta0 - 2 * np.pi * carrier_edges / signal.wavelength_m, x_true
 
 
@@ -347,15 +412,16 @@ def _block_truth(truth: LoopTruth, sat_pos_edges: np.ndarray, t_edges: np.ndarra
 _BLOCK = 256
 
 
-def _truth_block(truth: LoopTruth, sat_pos_edges: np.ndarray, t_edges: np.ndarray, k0: int, k1: int
-                 ) -> tuple[np.ndarray, np.ndarray]:
+def _truth_block(
+    truth: LoopTruth, sat_pos_edges: np.ndarray, t_edges: np.ndarray, k0: int, k1: int
+) -> tuple[np.ndarray, np.ndarray]:
     """True pseudoranges at the edges ``k0..k1`` ``(k1-k0+1, runs, ch)`` and the true
     navigation states at the mid-intervals ``k0..k1-1`` ``(k1-k0, runs, 8)``: the values of
     `LoopTruth.pseudorange` and `LoopTruth.nav_truth` at each epoch, in one call each."""
     T = truth.coherent_time_s
     edges = np.arange(k0, k1 + 1)
-    r = truth.receiver_state(t_edges[k0:k1 + 1])[0]
-    s = sat_pos_edges[k0:k1 + 1]
+    r = truth.receiver_state(t_edges[k0 : k1 + 1])[0]
+    s = sat_pos_edges[k0 : k1 + 1]
     rho = ranges_from_receivers(s, r) + truth.clock_m[edges, :, 0][..., None]
     tm = t_edges[k0:k1] + T / 2
     ks = edges[:-1]
@@ -365,8 +431,9 @@ def _truth_block(truth: LoopTruth, sat_pos_edges: np.ndarray, t_edges: np.ndarra
     return rho, np.concatenate([r, v, clock], axis=-1)
 
 
-def predicted_range(x: np.ndarray, sat_pos: np.ndarray, sat_vel: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def predicted_range(
+    x: np.ndarray, sat_pos: np.ndarray, sat_vel: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pseudorange, rate and unit line of sight for nav states ``x`` ``(..., 8)``.
 
     States ``[x, y, z, vx, vy, vz, b, d]`` with any leading dimensions (runs, sigma
