@@ -43,6 +43,8 @@ from ...backend import get_backend
 from ...signal.spec import SignalSpec
 from .channel_groups import SPLIT_SAMPLES, run_groups, split_channels
 from .code_tables import _MASK32, MAX_TAPS, CodeTables, _cached_tables, code_tables
+from .sample_power import sum_of_squares
+from .correlator_reference import CHUNK, ROUNDING, correlate_numpy, correlate_periods_numpy, correlation_error_bound
 
 __all__ = [
     "replica_codes",
@@ -61,48 +63,7 @@ __all__ = [
     "SPLIT_SAMPLES",
 ]
 
-#: Samples per chunk of the compiled kernel (its carrier restarts exactly every chunk).
-CHUNK = 512
-#: Relative error of the compiled kernel's float32 arithmetic, per unit of sum |x|: the
-#: carrier phasor (two float32 products, about 4 ulp of 2^-24) and a chunk's float32 sum of
-#: up to CHUNK products (Higham's gamma_n, n = CHUNK + 2 ulp of 2^-24).
-ROUNDING = (CHUNK + 8) * 2.0**-24
 _TWO_PI_2_32 = 2 * math.pi * 2.0**-32
-
-
-def correlation_error_bound(samples: np.ndarray, start: int, count: int, run_before: int = 0) -> float:
-    """Largest difference allowed between the compiled and the reference sums of ``count``
-    samples from ``start``: `ROUNDING` plus the phase rounding of the NCO words (half a
-    :math:`2^{-32}` cycle of the initial word, plus one per sample of the step's rounding,
-    over the ``run_before`` samples the carrier ran before this range too), per unit of
-    each sample's magnitude."""
-    mag = np.abs(samples[start : start + count])
-    phase_err = 2 * np.pi * 2.0**-32 * (1 + run_before + np.arange(count))
-    return float(np.sum(mag * (ROUNDING + phase_err)) + 1e-9 * np.sum(mag))
-
-
-def correlate_numpy(
-    samples: np.ndarray,
-    starts: np.ndarray,
-    counts: np.ndarray,
-    code_phase_chips: np.ndarray,
-    code_step_chips: np.ndarray,
-    carrier_phase_cycles: np.ndarray,
-    carrier_step_cycles: np.ndarray,
-    codes: np.ndarray,
-    offsets_chips: np.ndarray,
-) -> np.ndarray:
-    """Reference: ``(n_channels, n_taps)`` complex sums, exact carrier (see module docstring)."""
-    out = np.zeros((len(starts), len(offsets_chips)), complex)
-    n_code = codes.shape[1]
-    for c in range(len(starts)):  # the reference: clarity over speed
-        i = np.arange(counts[c])
-        x = samples[starts[c] : starts[c] + counts[c]]
-        base = x * np.exp(-2j * np.pi * (carrier_phase_cycles[c] + i * carrier_step_cycles[c]))
-        for t, off in enumerate(offsets_chips):
-            idx = np.floor(code_phase_chips[c] + off + i * code_step_chips[c]).astype(np.int64) % n_code
-            out[c, t] = np.sum(base * codes[c, idx])
-    return out
 
 
 # The kernels are plain functions specialised by `with_globals` (each twin has its own
@@ -364,33 +325,6 @@ def to_table_units(chips, signal: SignalSpec):
     return chips if s == 1 else np.asarray(chips, float) * s
 
 
-def _integer_sum_of_squares(values: np.ndarray) -> int:
-    total = 0
-    for v in values:
-        w = np.int64(v)
-        total += w * w
-    return total
-
-
-_compiled_sum_of_squares = numba.njit(cache=True, nogil=True)(_integer_sum_of_squares) if HAVE_NUMBA else None
-
-
-def sum_of_squares(values: np.ndarray) -> float:
-    """:math:`\\sum_i x_i^2` of a block of recorded sample components (the tracker's noise
-    scale, measured on every block it reads).
-
-    ``int8`` and ``int16`` blocks in one compiled pass of exact ``int64`` arithmetic: the
-    same number as the ``float64`` sum of the squares, which is exact while below
-    :math:`2^{53}` (e.g. 5e11 ``int8`` components); other types as ``float32`` squares
-    summed in ``float64``.
-    """
-    x = np.asarray(values)
-    if _compiled_sum_of_squares is not None and x.dtype in (np.int8, np.int16) and x.ndim == 1:
-        return float(_compiled_sum_of_squares(x))
-    x = x.astype(np.float32)
-    return float(np.sum(x * x, dtype=np.float64))
-
-
 def _as_complex(samples: np.ndarray, iq: bool, q_sign: int) -> np.ndarray:
     """The samples as the reference takes them: complex128 (I/Q) or float64 (real)."""
     if iq:
@@ -544,43 +478,6 @@ def correlate_channels(
 
     run_groups(groups, call, threads)
     return out_r + 1j * out_i
-
-
-def correlate_periods_numpy(
-    samples: np.ndarray,
-    starts: np.ndarray,
-    n_periods: np.ndarray,
-    code_phase_chips: np.ndarray,
-    code_step_chips: np.ndarray,
-    carrier_phase_cycles: np.ndarray,
-    carrier_step_cycles: np.ndarray,
-    codes: np.ndarray,
-    offsets_chips: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Reference of `correlate_periods`: period by period with `correlate_numpy`."""
-    n_ch, n_code = len(starts), codes.shape[1]
-    sums = np.zeros((n_ch, max(1, int(np.max(n_periods, initial=1))), len(offsets_chips)), complex)
-    counts = np.zeros(sums.shape[:2], np.int64)
-    for c in range(n_ch):
-        start, phase, cycles = int(starts[c]), float(code_phase_chips[c]), float(carrier_phase_cycles[c])
-        for k in range(int(n_periods[c])):
-            n = int(np.ceil((n_code - phase) / code_step_chips[c]))
-            sums[c, k] = correlate_numpy(
-                samples,
-                np.array([start]),
-                np.array([n]),
-                np.array([phase]),
-                code_step_chips[c : c + 1],
-                np.array([cycles]),
-                carrier_step_cycles[c : c + 1],
-                codes[c : c + 1],
-                offsets_chips,
-            )[0]
-            counts[c, k] = n
-            start += n
-            phase += n * code_step_chips[c] - n_code
-            cycles += n * carrier_step_cycles[c]
-    return sums, counts
 
 
 def correlate_periods(

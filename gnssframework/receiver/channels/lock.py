@@ -31,6 +31,7 @@ from ...signal.spec import SignalSpec
 
 __all__ = [
     "phase_lock_indicator",
+    "window_detectors",
     "estimate_cn0",
     "nwpr_block",
     "cn0_nwpr_bits",
@@ -169,3 +170,54 @@ class BitSync:
 
     def edge(self) -> int | None:
         return bit_edge_from_votes(self.votes, self.min_votes, self.fraction)
+
+
+def window_detectors(
+    win: np.ndarray, bit_phases: list[int | None], lock_window_ms: int, estimator: str, signal: SignalSpec
+) -> tuple[np.ndarray, np.ndarray]:
+    r"""Phase lock indicator and C/N0 (dB-Hz) of channels with full prompt windows, in one pass.
+
+    Parameters
+    ----------
+    win
+        ``(n_channels, size)`` complex prompts, one code period each, oldest first.
+    bit_phases
+        Per channel, the index in its window of a data bit's first period (None: no bit sync).
+    lock_window_ms
+        Periods (the last ones) the phase lock indicator uses:
+        :math:`(\sum I^2 - Q^2) / (\sum I^2 + Q^2)` (0 where the power is 0).
+    estimator
+        ``"nwpr"``: narrow-wide power ratio on each synchronised channel's whole bits
+        (`cn0_nwpr_bits`), moments (`cn0_moments`, which need no bit phase) on the others;
+        ``"moments"`` on every channel; another name: the registered ``cn0_estimator`` plugin
+        on every channel's whole window.
+    signal
+        The tracked signal (its code period and periods per symbol).
+
+    Returns
+    -------
+    pli, cn0_dbhz
+        ``(n_channels,)`` each.
+    """
+    size = win.shape[1]
+    lock = win[:, size - min(lock_window_ms, size) :]
+    power = np.sum(lock.real**2 + lock.imag**2, axis=1)
+    pli = np.sum(lock.real**2 - lock.imag**2, axis=1) / np.where(power > 0, power, 1.0)
+    pli[power <= 0] = 0.0
+    cn0 = np.zeros(len(win))
+    per_bit = nwpr_block(signal)
+    period_s = signal.code_period_s
+    nwpr = [
+        j
+        for j, bp in enumerate(bit_phases)
+        if estimator == "nwpr" and per_bit is not None and bp is not None and size - bp >= per_bit
+    ]
+    rest = sorted(set(range(len(win))) - set(nwpr))
+    if estimator not in CN0_ESTIMATORS:  # a cn0_estimator plugin: every channel's whole window
+        rest, cn0 = [], cn0_plugin(estimator)(win, period_s)
+    if rest:
+        cn0[rest] = cn0_moments(win[rest].T, period_s)
+    if nwpr:
+        phases = np.array([bit_phases[j] for j in nwpr])
+        cn0[nwpr] = cn0_nwpr_bits(win[nwpr], phases, period_s, m=per_bit if per_bit is not None else 20)
+    return pli, cn0

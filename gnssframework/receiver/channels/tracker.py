@@ -59,16 +59,7 @@ from .intervals import ChannelArrays, close_periods
 from .nco import ReplicaNCOs
 from .prefetch import BlockReader
 from .records import RECORD_FIELDS, STAGES, ChannelRecord, TrackingResult
-from ...signal.cn0 import cn0_moments
-from .lock import (
-    CN0_ESTIMATORS,
-    bit_edge_from_votes,
-    cn0_nwpr_bits,
-    cn0_plugin,
-    estimate_cn0,
-    nwpr_block,
-    phase_lock_indicator,
-)
+from .lock import bit_edge_from_votes, estimate_cn0, phase_lock_indicator, window_detectors
 
 __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
 
@@ -543,21 +534,8 @@ class SampleTracker:
         then, its prompt sum; its filter has stepped, its detectors have run): run its state
         machine, record the row."""
         c.stage_ms += c.coherent_ms
-        c.record.rows.append(
-            (
-                t0,
-                c.cn0_dbhz,
-                c.pli,
-                doppler_hz,
-                code_phase_chips,
-                carrier_cycles,
-                int(c.locked),
-                STAGES.index(c.stage),
-                prompt.real,
-                prompt.imag,
-                c.coherent_ms,
-            )
-        )
+        state = (int(c.locked), STAGES.index(c.stage), prompt.real, prompt.imag, c.coherent_ms)
+        c.record.rows.append((t0, c.cn0_dbhz, c.pli, doppler_hz, code_phase_chips, carrier_cycles, *state))
         self.closer.advance(c, t0)
 
     def _window(self, c: SampleChannel, n: int) -> np.ndarray:
@@ -589,29 +567,8 @@ class SampleTracker:
             return
         slots = np.array([c.slot for c in full])
         win = self.prompts[slots[:, None], (self.n_prompts[slots][:, None] - size + np.arange(size)) % size]
-        lock = win[:, size - min(cfg.lock_window_ms, size) :]
-        power = np.sum(lock.real**2 + lock.imag**2, axis=1)
-        pli = np.sum(lock.real**2 - lock.imag**2, axis=1) / np.where(power > 0, power, 1.0)
-        pli[power <= 0] = 0.0
-        # C/N0: NWPR on each channel's whole bits from its bit phase (index in the window of
-        # a bit's first ms) on, all such channels in one pass; moments, which need no bit
-        # phase, on the others.
         phases = [self._bit_phase(c, int(self.ms_index[c.slot]), size) for c in full]
-        cn0 = np.zeros(len(full))
-        per_bit = nwpr_block(self.signal)
-        period_s = self.signal.code_period_s
-        nwpr = [
-            j
-            for j, bp in enumerate(phases)
-            if cfg.cn0_estimator == "nwpr" and per_bit is not None and bp is not None and size - bp >= per_bit
-        ]
-        rest = sorted(set(range(len(full))) - set(nwpr))
-        if cfg.cn0_estimator not in CN0_ESTIMATORS:  # a cn0_estimator plugin: every channel's whole window
-            rest, cn0 = [], cn0_plugin(cfg.cn0_estimator)(win, period_s)
-        if rest:
-            cn0[rest] = cn0_moments(win[rest].T, period_s)
-        if nwpr:
-            cn0[nwpr] = cn0_nwpr_bits(win[nwpr], np.array([phases[j] for j in nwpr]), period_s, m=per_bit)
+        pli, cn0 = window_detectors(win, phases, cfg.lock_window_ms, cfg.cn0_estimator, self.signal)
         for j, c in enumerate(full):
             c.pli, c.cn0_dbhz = float(pli[j]), float(cn0[j])
             self._lock_decision(c)
