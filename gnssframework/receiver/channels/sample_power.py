@@ -15,8 +15,8 @@ except ImportError:  # pragma: no cover
 __all__ = ["sum_of_squares"]
 
 
-def _integer_sum_of_squares(values: np.ndarray) -> int:
-    total = 0
+def _integer_sum_of_squares(values: np.ndarray) -> np.int64:
+    total = np.int64(0)
     for v in values:
         w = np.int64(v)
         total += w * w

@@ -141,6 +141,6 @@ def receive_signals(
         iono=iono,
         reference_week=reference_week,
         weighting=weighting,
-        signal=signals,
-    )  # type: ignore[arg-type]
+        signal=signals,  # type: ignore[arg-type]
+    )
     return ReceiveResult(tracking_all, obs, table, table)
