@@ -605,9 +605,9 @@ def _cmd_track(args: argparse.Namespace) -> int:
         return 1
     with _recording_progress(args, rec) as progress:
         result = tracker.run(found, args.duration, progress)
-    written = write_tracking_outputs(args.out, result, plots=not args.no_plots, code_period_s=signal.code_period_s)
+    written = write_tracking_outputs(args.out, result, plots=not args.no_plots, signal=signal)
     print(f"tracked {len(found)} satellites for {result.duration_s:.3f} s with {config.channel_filter}:")
-    for s in channel_summary(result, signal.code_period_s):
+    for s in channel_summary(result, signal):
         print(
             f"  PRN {s['prn']:2d}: locked {100 * s['locked_fraction']:5.1f} % of {s['tracked_s']:.2f} s, "
             f"C/N0 {_or_none(s['cn0_dbhz_locked'], '5.1f')} dB-Hz, Doppler {_or_none(s['doppler_hz_last'], '9.1f')} "
@@ -898,7 +898,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
         if table is not None:
             why += _ephemeris_distance(rinex, result.observables)
         out.mkdir(parents=True, exist_ok=True)
-        written = write_tracking_outputs(out, result.tracking, plots=True)
+        written = write_tracking_outputs(out, result.tracking, plots=True, signal=signal)
         written += write_no_position_report(out, result, why, rinex, signal)
         print(
             f"no position: {why}; tracked {len(result.tracking.channels)} satellites for "
@@ -1050,7 +1050,7 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     out.mkdir(parents=True, exist_ok=True)
     table = result.positions
     if table is None or len(table) == 0:
-        written = write_tracking_outputs(out, result.tracking, plots=True)
+        written = write_tracking_outputs(out, result.tracking, plots=True, signal_of=signals.signal_of)
         print(
             f"no position from {signals.name}: tracked {len(result.tracking.channels)} satellites for "
             f"{result.tracking.duration_s:.1f} s (a fix needs 3 + one per time system of satellites with a "

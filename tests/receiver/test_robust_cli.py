@@ -144,3 +144,22 @@ def test_a_never_locked_channel_leaves_its_summary_cells_empty_not_nan(tmp_path)
     assert rows[0]["cn0_dbhz_locked"] == "" and rows[0]["locked_fraction"] == "0"
     assert rows[1]["doppler_hz_last"] == "" and rows[1]["cn0_dbhz_locked"] == ""
     assert "nan" not in (tmp_path / "summary.csv").read_text().lower()
+
+
+def test_a_summary_counts_each_channels_own_code_periods():
+    """Rows count code periods (``coherent_ms``): 1 ms on GPS L1 C/A, 4 ms on Galileo E1, so
+    five one-period rows span 5 ms on the one and 20 ms on the other; with several signals
+    (``signal_of``) each channel gets its own."""
+    from gnssframework.receiver.acquisition.search import AcquisitionResult
+    from gnssframework.receiver.channels.records import ChannelRecord, TrackingResult
+    from gnssframework.receiver.channels.report import channel_summary
+    from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
+    from gnssframework.signal.gps_l1ca import GPS_L1CA
+
+    acq = [AcquisitionResult(p, True, 1000.0, 10, 100.0, 40.0, 30.0, 20.0) for p in (3, 1003)]
+    rows = [(0.001 * k, 40.0, 0.9, 1000.0, 5.0, 0.0, 1, 0, 1.0, 0.0, 1) for k in range(5)]
+    result = TrackingResult({3: ChannelRecord(3, rows=rows), 1003: ChannelRecord(1003, rows=rows)}, acq, 0.02, "scalar")
+    assert [s["tracked_s"] for s in channel_summary(result)] == pytest.approx([0.005, 0.005])
+    assert [s["tracked_s"] for s in channel_summary(result, GALILEO_E1B_BOC11)] == pytest.approx([0.02, 0.02])
+    mixed = channel_summary(result, signal_of=lambda prn: GALILEO_E1B_BOC11 if prn >= 1000 else GPS_L1CA)
+    assert [s["tracked_s"] for s in mixed] == pytest.approx([0.005, 0.02])

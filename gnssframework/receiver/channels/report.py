@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from ...io.files import atomic_open
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from .tracker import STAGES, TrackingResult
 
 __all__ = ["TRACKING_COLUMNS", "SUMMARY_COLUMNS", "write_tracking_outputs", "channel_summary", "locked_channels"]
@@ -43,9 +46,12 @@ SUMMARY_COLUMNS = (
 )
 
 
-def channel_summary(result: TrackingResult, code_period_s: float = 1e-3) -> list[dict]:
-    """One dict per channel (`SUMMARY_COLUMNS`); ``code_period_s`` the tracked signal's
-    (the record's ``coherent_ms`` counts code periods: 4 ms each on Galileo E1)."""
+def channel_summary(
+    result: TrackingResult, signal: SignalSpec = GPS_L1CA, signal_of: Callable[[int], SignalSpec] | None = None
+) -> list[dict]:
+    """One dict per channel (`SUMMARY_COLUMNS`). ``signal`` is the tracked signal, or
+    ``signal_of(prn)`` each channel's when the run tracked several (`multi_receive.SignalSet`):
+    the record's ``coherent_ms`` counts its code periods (4 ms each on Galileo E1)."""
     acq = {a.prn: a for a in result.acquisitions}
     out = []
     for prn, ch in sorted(result.channels.items()):
@@ -53,6 +59,7 @@ def channel_summary(result: TrackingResult, code_period_s: float = 1e-3) -> list
             lock = np.zeros(0)
         else:
             lock = ch.column("lock").astype(bool)
+        code_period_s = (signal_of(prn) if signal_of is not None else signal).code_period_s
         span = ch.column("coherent_ms") * code_period_s if ch.rows else np.zeros(0)
         cn0 = ch.column("cn0_dbhz")[lock] if lock.any() else np.zeros(0)
         out.append(
@@ -86,10 +93,14 @@ def _fmt(v) -> str:
 
 
 def write_tracking_outputs(
-    out_dir: str | Path, result: TrackingResult, plots: bool = True, code_period_s: float = 1e-3
+    out_dir: str | Path,
+    result: TrackingResult,
+    plots: bool = True,
+    signal: SignalSpec = GPS_L1CA,
+    signal_of: Callable[[int], SignalSpec] | None = None,
 ) -> list[Path]:
     """Write the files of a tracking run into ``out_dir``; returns their paths
-    (``code_period_s``: the tracked signal's, `channel_summary`)."""
+    (``signal``, ``signal_of``: the tracked signal or each channel's, `channel_summary`)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "tracking.csv", out / "summary.csv", out / "events.txt"]
@@ -138,7 +149,7 @@ def write_tracking_outputs(
                     r["coherent_ms"],
                 ]
             )
-    summary = channel_summary(result, code_period_s)
+    summary = channel_summary(result, signal, signal_of)
     with atomic_open(written[1], "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(SUMMARY_COLUMNS)
