@@ -9,7 +9,7 @@ import sqlite3
 import sys
 from contextlib import contextmanager
 from pathlib import Path
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 
 from . import registry
 from .errors import ConfigError, DataFileError, GnssFrameworkError
@@ -542,9 +542,27 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
 #: 1 ms intervals; less tracks nothing and reports NaN.
 MIN_DURATION_S = 0.02
 
-#: Largest ``--rate`` (solutions per second): one per 1 ms C/A code period, the shortest
-#: interval a channel delivers a measurement at.
-MAX_RATE_HZ = 1000.0
+
+def max_rate_hz(signals: Iterable[SignalSpec]) -> float:
+    """Largest ``--rate`` (solutions per second): one per code period of the slowest signal,
+    the shortest interval its channels deliver a measurement at (1 kHz on GPS L1 C/A,
+    250 Hz on Galileo E1)."""
+    return min(1.0 / s.code_period_s for s in signals)
+
+
+def _check_rate(rate_hz: float, signals: Iterable[SignalSpec]) -> None:
+    """``--rate`` in (0, `max_rate_hz`], else a one-line error naming the limiting signal."""
+    signals = tuple(signals)
+    if not rate_hz > 0:
+        raise ConfigError("--rate", f"must be > 0 Hz, got {rate_hz:g}")
+    top = max_rate_hz(signals)
+    if not rate_hz <= top:
+        slowest = max(signals, key=lambda s: s.code_period_s)
+        raise ConfigError(
+            "--rate",
+            f"must be at most {top:g} Hz (one solution per {slowest.code_period_s * 1e3:g} ms code period of "
+            f"{slowest.name}), got {rate_hz:g}",
+        )
 
 
 def _both(first: Callable[[float], None] | None, second: Callable[[float], None] | None):
@@ -786,12 +804,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     args.channel_params = json.dumps(filters.channel_filter.params)
     # E1-B: one 4 ms code period a symbol, taps off BOC(1,1)'s side lobes (track's E1 defaults)
     config = _tracking_config_from_args(args, signal if carries_inav(signal) else None)
-    if not args.rate > 0:
-        raise ConfigError("--rate", f"must be > 0 Hz, got {args.rate}")
-    if not args.rate <= MAX_RATE_HZ:
-        raise ConfigError(
-            "--rate", f"must be at most {MAX_RATE_HZ:g} Hz (one solution per 1 ms code period), got {args.rate:g}"
-        )
+    _check_rate(args.rate, (signal,))
     if args.week is not None and not 0 <= args.week < 10_000:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
     truth = _truth_from_args(args)
@@ -1008,8 +1021,7 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     extra = sorted(outputs - {"rinex-nav", "gsa", "gsv", "geojson"})
     if extra:
         raise ConfigError("--outputs", f"{', '.join(extra)}: not written for several signals ({signals.name})")
-    if not args.rate > 0 or not args.rate <= MAX_RATE_HZ:
-        raise ConfigError("--rate", f"must be in (0, {MAX_RATE_HZ:g}] Hz, got {args.rate:g}")
+    _check_rate(args.rate, signals.signals)
     if args.week is not None and not 0 <= args.week < 10_000:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
     try:

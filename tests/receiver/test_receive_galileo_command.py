@@ -180,6 +180,12 @@ def test_receive_refuses_a_signal_it_cannot_position_with_in_one_line(tmp_path, 
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "galileo-e1c-boc11" in err[0]
     assert not out.exists()  # refused before anything is tracked or written
+    # one solution per code period at most: 4 ms on E1 (250 Hz), not C/A's 1 ms
+    for signal, rate in (("galileo-e1b-boc11", "500"), ("gps-l1ca,galileo-e1b-boc11", "300")):
+        assert main(["receive", str(path), "--signal", signal, "--rate", rate, "--out", str(out), "--quiet"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "--rate: must be at most 250 Hz" in err[0] and "galileo-e1b-boc11" in err[0], err
+        assert not out.exists()
 
 
 def test_decoded_inav_records_write_a_galileo_navigation_file_georinex_reads(tmp_path):
