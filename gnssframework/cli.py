@@ -907,7 +907,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     table = result.positions
     out = Path(args.out)
     if table is None or len(table) == 0:
-        why = no_position_reason(result, nav_info, assist, reference_week)
+        why = no_position_reason(result, nav_info, assist, reference_week, signal)
         if table is not None:
             why += _ephemeris_distance(rinex, result.observables)
         out.mkdir(parents=True, exist_ok=True)

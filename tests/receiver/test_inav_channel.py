@@ -226,3 +226,29 @@ def test_an_ephemeris_is_ready_once_the_page_completing_words_1_to_5_has_arrived
     assert ready_s == pytest.approx(1.0 + (18035 - 18019) * 1.0, abs=1e-9)
     assert int(eph.iode[0]) == int(rec.iode[0]) and eph.sv[0] == rec.sv[0]
     assert eph.elements["sqrtA"][0] == pytest.approx(rec.elements["sqrtA"][0], rel=1e-12)
+
+
+def test_a_galileo_run_without_position_reports_its_inav_not_lnav(tmp_path):
+    """A receive run on E1-B whose channels decoded no I/NAV page: the reason and the
+    report speak of I/NAV pages and the GST (what dates E1-B), not of LNAV subframes."""
+    from gnssframework.receiver.acquisition.search import AcquisitionResult
+    from gnssframework.receiver.channels.records import TrackingResult
+    from gnssframework.receiver.navigation.receive import ReceiveResult
+    from gnssframework.receiver.navigation.report import no_position_reason, write_no_position_report
+
+    rng = np.random.default_rng(3)
+    n = 600  # 2.4 s of 4 ms symbols, random signs: no sync pattern, no page
+    channels = {
+        prn: _record(prn, 0.004 * np.arange(n), rng.choice([-1.0, 1.0], n), np.zeros(n), np.ones(n, int))
+        for prn in (4, 11, 19, 27)
+    }
+    acq = [AcquisitionResult(p, True, 1000.0, 10, 100.0, 40.0, 30.0, 20.0) for p in channels]
+    result = ReceiveResult(TrackingResult(channels, acq, 2.4, "scalar"), None, None)
+    reason = no_position_reason(result, signal=GALILEO_E1B_BOC11)
+    assert "no I/NAV page with a GST decoded (4 of 4 satellites found locked" in reason
+    assert "LNAV" not in reason and "LNAV" in no_position_reason(result)  # GPS still speaks LNAV
+    write_no_position_report(tmp_path, result, reason, signal=GALILEO_E1B_BOC11)
+    report = (tmp_path / "report.md").read_text()
+    assert "| I/NAV pages | GST TOW (s) |" in report and "LNAV" not in report
+    rows = [line for line in report.splitlines() if line.startswith("| 4 |")]
+    assert len(rows) == 1 and "| 0 | - |" in rows[0] and "no I/NAV page with a GST decoded" in rows[0]

@@ -24,6 +24,7 @@ from ...signal.spec import SignalSpec
 from ..channels.report import locked_channels
 from .fixes import ELEVATION_MASK_DEG, PositionTable, full_week
 from .fixes import _ephemeris_for as ephemeris_for
+from .inav_stream import carries_inav, channel_inav
 from .observables import channel_timing
 from .receive import ReceiveResult, position_errors
 
@@ -165,6 +166,8 @@ def why_unused(
         return "never locked"
     obs = result.observables
     if obs is None or prn not in obs.prn:
+        if carries_inav(signal):
+            return "no I/NAV page with a GST decoded (no transmit time)"
         if not np.isin(ch.column("stage"), _BIT_ALIGNED).any():
             return "never bit-synchronised (no LNAV bits, no transmit time)"
         return "no LNAV subframe decoded (no transmit time)"
@@ -196,10 +199,14 @@ def why_unused(
     return "its pseudoranges fall only at epochs without a solution"
 
 
-def decoded_lnav(result: ReceiveResult) -> dict[int, dict]:
+def decoded_lnav(result: ReceiveResult, signal: SignalSpec = GPS_L1CA) -> dict[int, dict]:
     """Per tracked PRN what its LNAV gave: ``subframes`` (count), ``first_tow_s`` (of the first
     subframe, None without one), ``ephemeris`` (a complete one decoded), ``iono`` (page 18)
-    and ``week`` (10-bit, subframe 1; None)."""
+    and ``week`` (10-bit, subframe 1; None). On Galileo E1-B (`carries_inav`) its I/NAV:
+    ``subframes`` the pages decoded, ``first_tow_s`` and ``week`` the last GST's TOW and
+    week, ``iono`` None (word 5's NeQuick coefficients are not used)."""
+    if carries_inav(signal):
+        return {prn: _decoded_inav(ch, signal) for prn, ch in sorted(result.tracking.channels.items())}
     out = {}
     for prn, ch in sorted(result.tracking.channels.items()):
         tm = channel_timing(ch) if ch.rows else None
@@ -215,7 +222,26 @@ def decoded_lnav(result: ReceiveResult) -> dict[int, dict]:
     return out
 
 
-def no_position_reason(result: ReceiveResult, nav_info=None, assist=None, reference_week: int | None = None) -> str:
+def _decoded_inav(ch, signal: SignalSpec) -> dict:
+    """`decoded_lnav`'s row of one E1-B channel, from its I/NAV (`channel_inav`)."""
+    timing = channel_inav(ch, signal)
+    gst = timing.gst
+    return {
+        "subframes": timing.pages,
+        "first_tow_s": None if gst is None else gst[2],
+        "ephemeris": timing.ephemeris is not None,
+        "iono": None,
+        "week": None if gst is None else gst[1],
+    }
+
+
+def no_position_reason(
+    result: ReceiveResult,
+    nav_info=None,
+    assist=None,
+    reference_week: int | None = None,
+    signal: SignalSpec = GPS_L1CA,
+) -> str:
     """Why a run gave no position, most basic first: too few satellites found, an assisted
     start that did not hand over, no LNAV subframe, an ephemeris (``nav_info``, a
     `rinex_nav_header.NavFileInfo`) that does not cover the recording, too few usable
@@ -235,6 +261,11 @@ def no_position_reason(result: ReceiveResult, nav_info=None, assist=None, refere
     obs = result.observables
     if obs is None:
         locked = sum(1 for ch in result.tracking.channels.values() if ch.rows and ch.column("lock").any())
+        if carries_inav(signal):
+            return (
+                f"no I/NAV page with a GST decoded ({locked} of {len(found)} satellites found locked; the GST "
+                "comes in word type 0, 5 or 6, one every few 2 s pages once a channel is locked)"
+            )
         return (
             f"no LNAV subframe decoded ({locked} of {len(found)} satellites found locked; a subframe takes 6 s "
             "once a channel is locked and bit-synchronised)"
@@ -267,7 +298,14 @@ def write_no_position_report(
     events, and the C/N0 figure; returns the paths written."""
     out = Path(out_dir)
     (out / "plots").mkdir(parents=True, exist_ok=True)
-    decoded = decoded_lnav(result)
+    decoded = decoded_lnav(result, signal)
+    inav = carries_inav(signal)
+    header = (
+        "| PRN | C/N0 locked (dB-Hz) | locked | I/NAV pages | GST TOW (s) | ephemeris decoded | iono | GST week "
+        if inav
+        else "| PRN | C/N0 locked (dB-Hz) | locked | LNAV subframes | first TOW (s) | ephemeris decoded "
+        "| page 18 | week (10-bit) "
+    )
     lines = [
         "# Receiver run: no position",
         "",
@@ -276,8 +314,7 @@ def write_no_position_report(
         "",
         "## Satellites",
         "",
-        "| PRN | C/N0 locked (dB-Hz) | locked | LNAV subframes | first TOW (s) | ephemeris decoded "
-        "| page 18 | week (10-bit) | why not used |",
+        header + "| why not used |",
         "|---:|---:|---:|---:|---:|---|---|---:|---|",
     ]
     for prn, ch in sorted(result.tracking.channels.items()):
@@ -288,7 +325,7 @@ def write_no_position_report(
         lines.append(
             f"| {prn} | {_fmt(cn0)} | {100 * lock.mean() if lock.size else 0.0:.0f} % | {d['subframes']} | "
             f"{tow} | "
-            f"{'yes' if d['ephemeris'] else 'no'} | {'yes' if d['iono'] else 'no'} | "
+            f"{'yes' if d['ephemeris'] else 'no'} | {'-' if d['iono'] is None else 'yes' if d['iono'] else 'no'} | "
             f"{'-' if d['week'] is None else d['week']} | {why_unused(prn, ch, result, None, rinex, signal)} |"
         )
     if result.vector is not None and result.vector.events:
