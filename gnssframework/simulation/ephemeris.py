@@ -16,29 +16,13 @@ import numpy as np
 
 from ..errors import DataFileError
 from ..io.text import check_input_file
+from ..navigation.ephemeris import ORBIT_FIELDS
 from .constellation import SatelliteSet
 
 __all__ = ["BroadcastEphemeris", "load_rinex_nav", "EPHEMERIS_FIELDS"]
 
 #: georinex variable names of the Keplerian elements used.
-EPHEMERIS_FIELDS = (
-    "sqrtA",
-    "Eccentricity",
-    "Io",
-    "Omega0",
-    "omega",
-    "M0",
-    "DeltaN",
-    "OmegaDot",
-    "IDOT",
-    "Cuc",
-    "Cus",
-    "Crc",
-    "Crs",
-    "Cic",
-    "Cis",
-    "Toe",
-)
+EPHEMERIS_FIELDS = ORBIT_FIELDS
 
 
 @dataclass(frozen=True)
