@@ -57,3 +57,13 @@ def evaluate_stored(tmp_path, claims: str, a, b, top: str = ""):
         for first in (0, 2):
             store.add_batch(key, "only", name, first, {m: values[first : first + 2] for m in config.metric_names})
     return evaluate_claims(config, store), config, store
+
+
+def compare_check(path, out, timeout: float | None = None):
+    """``gnssframework compare PATH --out OUT --quiet --check`` in a fresh interpreter (as a
+    user runs it); the finished process (``returncode``, ``stdout``, ``stderr``)."""
+    import subprocess
+    import sys
+
+    command = [sys.executable, "-m", "gnssframework", "compare", str(path), "--out", str(out), "--quiet", "--check"]
+    return subprocess.run(command, capture_output=True, text=True, timeout=timeout)

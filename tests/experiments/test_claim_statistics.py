@@ -26,7 +26,7 @@ from gnssframework.experiments.claims import Claim, _judge, evaluate_claims
 from gnssframework.experiments.report import write_report
 from gnssframework.experiments.stats import paired_difference
 from gnssframework.experiments.store import ResultStore
-from two_candidates import claim_toml, evaluate_stored, two_candidate_config
+from two_candidates import claim_toml, compare_check, evaluate_stored, two_candidate_config
 
 A = np.array([1.0, 2.0, 3.0, 4.0])
 B = np.array([0.5, 1.5, 2.0, 3.5])  # d = A - B = (0.5, 0.5, 1.0, 0.5): mean 0.625, SE 0.125
@@ -195,8 +195,6 @@ def test_every_run_within_with_a_reference_bounds_each_runs_paired_difference(tm
 
 @pytest.mark.slow
 def test_compare_check_names_a_refused_claim_in_one_line(tmp_path):
-    import subprocess
-    import sys
 
     path = tmp_path / "c.toml"
     claims = _claim(candidate="a", reference="b", metric="lat_error_rmse", direction="lower")
@@ -204,22 +202,7 @@ def test_compare_check_names_a_refused_claim_in_one_line(tmp_path):
     ckf = 'estimator = { name = "ckf" }'
     assert ckf in text
     path.write_text(text.replace(ckf, 'estimator = { name = "kf" }'))  # b is a: the same values in every run
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "gnssframework",
-            "compare",
-            str(path),
-            "--out",
-            str(tmp_path / "o"),
-            "--quiet",
-            "--check",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    proc = compare_check(path, tmp_path / "o", timeout=600)
     (row,) = json.loads((tmp_path / "o" / "summary.json").read_text())["claims"]
     assert row["outcome"] == "refused" and row["p_value"] is None
     assert proc.returncode == 1

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -13,7 +11,7 @@ from scipy import stats
 from gnssframework.errors import ConfigError
 from gnssframework.experiments import load_config
 from gnssframework.experiments.report import write_report
-from two_candidates import claim_toml, evaluate_stored, two_candidate_config
+from two_candidates import claim_toml, compare_check, evaluate_stored, two_candidate_config
 
 
 # Per-run values of candidate a and b: d = a - b = (0.5, 0.5, 1.0, 0.5): mean 0.625,
@@ -125,21 +123,7 @@ def test_compare_check_exits_1_when_a_claim_does_not_hold(tmp_path):
     path.write_text(
         two_candidate_config("claims", top="claims_small_n = true", claims=claims).replace("runs = 4", "runs = 3")
     )
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "gnssframework",
-            "compare",
-            str(path),
-            "--out",
-            str(tmp_path / "o"),
-            "--quiet",
-            "--check",
-        ],
-        capture_output=True,
-        text=True,
-    )
+    proc = compare_check(path, tmp_path / "o")
     outcome = json.loads((tmp_path / "o" / "summary.json").read_text())["claims"][0]["outcome"]
     assert proc.returncode == (0 if outcome == "holds" else 1), proc.stderr
     assert (

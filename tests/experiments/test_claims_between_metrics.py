@@ -9,8 +9,6 @@ last test runs a real comparison where the ordering holds in every run by an ine
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -22,7 +20,7 @@ from gnssframework.experiments import load_config
 from gnssframework.experiments.claims import claim_line, evaluate_claims
 from gnssframework.experiments.report import write_report
 from gnssframework.experiments.store import ResultStore
-from two_candidates import claim_toml, two_candidate_config
+from two_candidates import claim_toml, compare_check, two_candidate_config
 
 # Candidate a's per-run values of two metrics in metres (lat_error_rmse, lon_error_rmse):
 # d = LAT - LON = (0.5, 0.5, 1.0, 0.5): mean 0.625, SD 0.25, SE 0.125, t = 5 with 3 dof,
@@ -248,21 +246,7 @@ def test_compare_check_on_a_real_run_where_the_ordering_holds_in_every_run(tmp_p
     path.write_text(
         two_candidate_config("claims", top="claims_small_n = true", claims=claims).replace("runs = 4", "runs = 3")
     )
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "gnssframework",
-            "compare",
-            str(path),
-            "--out",
-            str(tmp_path / "o"),
-            "--quiet",
-            "--check",
-        ],
-        capture_output=True,
-        text=True,
-    )
+    proc = compare_check(path, tmp_path / "o")
     assert proc.returncode == 1, proc.stderr
     rows = json.loads((tmp_path / "o" / "summary.json").read_text())["claims"]
     assert [r["outcome"] for r in rows] == ["holds", "fails"] and all(r["n"] == 3 for r in rows)
