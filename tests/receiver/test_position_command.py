@@ -108,7 +108,7 @@ def test_position_on_a_recording_without_a_whole_subframe_says_why(short_recordi
     "options, message",
     [
         (["--truth", "35.6,139.7"], "--truth: LAT,LON,H in degrees and metres, got '35.6,139.7'"),
-        (["--rate", "0"], "--rate: must be > 0 Hz, got 0.0"),
+        (["--rate", "0"], "--rate: must be > 0 Hz, got 0"),
         (["--ephemeris", "missing.rnx"], "missing.rnx: no such file"),
     ],
 )
