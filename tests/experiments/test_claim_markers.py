@@ -7,13 +7,16 @@ HTML comment the reader does not see::
     <!-- claim: deep_integration_ci: vector loss_of_lock_fraction every run within [-0.001, 0.001] -->
 
 (``at CASE`` only for a claim of one case; an ordering between cases names the reference
-case: ``... higher than deep in nominal at gsens``). A claim at a sweep's points ends with
+case: ``... higher than deep in nominal at gsens``; one between two metrics of the candidate,
+a ``versus_metric`` claim, names the other metric: ``... lower than its position_error_rmse``).
+A claim at a sweep's points ends with
 ``at SWEEP=POINTS``: ``cn0_dbhz=30..50`` for ``from``/``to`` (either end may be left
 out), ``cn0_dbhz=30`` or ``cn0_dbhz=30,40`` for ``at``, ``cn0_dbhz=all`` for every point::
 
     <!-- claim: vector_tracking_sweep_ci: ackf nees_velocity within [1.0, 5.0] at cn0_dbhz=all -->
 
-This test reads every marker of ``docs/experiments/*.md`` and requires that
+This test reads every marker of ``docs/experiments/*.md`` (and of any other docs page that
+carries one, e.g. the smoothers page's) and requires that
 ``examples/<example>.toml`` holds that ``[[claims]]`` entry and that CI checks that
 example's claims (``gnssframework compare ... --check`` in ``.ci/run``, or
 ``docs/make_experiment_plots.py``, which CI runs and which fails when a claim of its
@@ -37,11 +40,19 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGES = sorted((ROOT / "docs" / "experiments").glob("*.md"))
+#: Pages outside docs/experiments whose claim markers are checked too (their prose is not scanned).
+_HISTORY = ROOT / "docs" / "history.md"  # the changelog's page quotes markers as text
+OTHER_MARKED_PAGES = sorted(
+    p
+    for p in (ROOT / "docs").rglob("*.md")
+    if p.parent != ROOT / "docs" / "experiments" and p != _HISTORY and "<!-- claim:" in p.read_text()
+)
 MARKER = re.compile(r"<!--\s*claim:\s*(?P<body>.*?)\s*-->", re.S)
 _WHERE = r"(?:\s+at\s+(?P<case>[^\s=]+))?(?:\s+at\s+(?P<sweep>[\w.+-]+)=(?P<points>\S+))?$"
 ORDERING = re.compile(
     r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+"
-    r"(?P<direction>lower|higher) than\s+(?P<reference>\S+)(?:\s+in\s+(?P<reference_case>[^\s=]+))?" + _WHERE
+    r"(?P<direction>lower|higher) than\s+(?:its\s+(?P<versus_metric>\w+)|(?P<reference>\S+))"
+    r"(?:\s+in\s+(?P<reference_case>[^\s=]+))?" + _WHERE
 )
 BOUND = re.compile(
     r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+(?P<every>every run )?within\s+"
@@ -61,10 +72,16 @@ THRESHOLD = re.compile(
 
 def _markers() -> list[tuple[str, int, str]]:
     found = []
-    for page in PAGES:
+    for page in PAGES + OTHER_MARKED_PAGES:
         text = page.read_text()
         for m in MARKER.finditer(text):
-            found.append((page.name, text.count("\n", 0, m.start()) + 1, " ".join(m.group("body").split())))
+            found.append(
+                (
+                    str(page.relative_to(ROOT / "docs")),
+                    text.count("\n", 0, m.start()) + 1,
+                    " ".join(m.group("body").split()),
+                )
+            )
     return found
 
 
@@ -121,6 +138,12 @@ def _matches(claim: dict, want: dict) -> bool:
         return False
     if not _same_points(claim, want):
         return False
+    if want.get("versus_metric") or claim.get("versus_metric"):  # two metrics of one candidate
+        return (
+            claim.get("versus_metric") == want.get("versus_metric")
+            and claim.get("direction") == want["direction"]
+            and claim.get("reference") is None
+        )
     if want.get("direction"):  # an ordering between cases names its reference case ("... than deep in nominal")
         reference = claim.get("reference") or (claim["candidate"] if claim.get("reference_case") else None)
         return (
@@ -159,7 +182,7 @@ MARKERS = _markers()
 def test_the_pages_mark_their_orderings():
     # The pages whose orderings rest on claims carry markers; an empty scan would mean the regex broke.
     pages = {page for page, _, _ in MARKERS}
-    assert {"deep-integration.md", "vector-tracking.md"} <= pages
+    assert {"experiments/deep-integration.md", "experiments/vector-tracking.md", "estimators/smoothers.md"} <= pages
 
 
 @pytest.mark.parametrize("page, line, body", MARKERS, ids=[f"{p}:{n}" for p, n, _ in MARKERS])
@@ -210,6 +233,28 @@ def test_a_marker_for_a_missing_claim_is_caught():
     assert not _matches(claims[0], _parse("x: deep horizontal_velocity_error_rmse lower than vector in nominal"))
     with pytest.raises(AssertionError, match="unreadable claim marker"):
         _parse("x: deep beats vector")
+
+
+def test_a_marker_names_a_claim_between_two_metrics():
+    claim = {
+        "candidate": "ekf-pv",
+        "metric": "position_smoothed_error_rmse",
+        "versus_metric": "position_error_rmse",
+        "direction": "lower",
+        "case": "45dBHz",
+    }
+    body = "x: ekf-pv position_smoothed_error_rmse lower than its position_error_rmse"
+    assert _parse(body)["versus_metric"] == "position_error_rmse" and _parse(body)["reference"] is None
+    assert _matches(claim, _parse(body + " at 45dBHz"))
+    assert not _matches(claim, _parse(body))  # the claim is of one case
+    assert not _matches(claim, _parse(body.replace("lower", "higher") + " at 45dBHz"))
+    assert not _matches(
+        claim, _parse(body.replace("its position_error_rmse", "its velocity_error_rmse") + " at 45dBHz")
+    )
+    # an ordering against a candidate is not one against a metric, either way round
+    assert not _matches(claim, _parse("x: ekf-pv position_smoothed_error_rmse lower than ekf-pv at 45dBHz"))
+    between_candidates = {k: v for k, v in claim.items() if k != "versus_metric"} | {"reference": "ekf-pv"}
+    assert not _matches(between_candidates, _parse(body + " at 45dBHz"))
 
 
 def test_a_marker_names_a_claims_sweep_points():
