@@ -25,7 +25,7 @@ from ...interfaces import ErrorStateNavFilter
 from .measurements import POSITION, VELOCITY
 from .navigators import ClockFilter
 
-__all__ = ["StrapdownSolution", "InsNavigator", "loose_update"]
+__all__ = ["StrapdownSolution", "InsNavigator", "loose_update", "tight_update"]
 
 
 class StrapdownSolution(Protocol):
@@ -152,6 +152,90 @@ def loose_update(
         fix_cov = np.where(accepted[:, None, None], fix_cov, fix_cov + REJECTED_FIX_VAR * np.eye(6))
     out = ekf.step(
         {"transition": Phi, "process_noise": Qd, "position_velocity_error": z, "position_velocity_cov": fix_cov}
+    )
+    ins.correct(out["error_state"])
+    return out["error_state"]
+
+
+def tight_update(
+    ins: StrapdownSolution,
+    ekf: ErrorStateNavFilter,
+    range_m: np.ndarray,
+    rate_m_s: np.ndarray,
+    var_range_m2: np.ndarray,
+    var_rate_m2_s2: np.ndarray,
+    sat_pos_m: np.ndarray,
+    sat_vel_m_s: np.ndarray,
+    cn0_dbhz: np.ndarray,
+    gate_probability: float = 0.0,
+) -> np.ndarray:
+    """One tightly coupled update: each channel's pseudorange and rate minus the INS's, differenced, into ``ins-ekf``.
+
+    Tight coupling (Groves 2013, sections 14.1.3 and 14.3.3): the scalar loops' per-channel
+    measurements update the INS error state directly, with no position fix between. With
+    the INS at $\\hat r, \\hat v$ and channel i's unit line of sight $e_i$ (receiver to
+    satellite at $s_i, \\dot s_i$), the residual (measured minus predicted) is
+
+    $$ z_{\\rho,i} = \\tilde\\rho_i - |s_i - \\hat r| = e_i\\cdot\\delta r - \\delta b + w_{\\rho,i}, \\qquad
+       z_{\\dot\\rho,i} = \\tilde{\\dot\\rho}_i - e_i\\cdot(\\dot s_i - \\hat v) = e_i\\cdot\\delta v - \\delta d
+       + w_{\\dot\\rho,i} $$
+
+    ($\\delta x$ = estimate minus truth, $\\delta b, \\delta d$ the receiver clock's bias and
+    drift: the predictions hold no clock). Single differences against the reference channel
+    (the highest C/N0), $D z$, cancel the clock; their covariance is $D R D^T$ with $R$ the
+    channels' diagonal variances (Groves 2013, section 14.3.3), the update that of the deep
+    candidate (`InsNavigator.update`, `measurements.integration_measurement`): rows
+    $D[e^T\\;0]$ on position and $D[0\\;e^T]$ on velocity of the 15-state error. Unlike
+    `loose_update` it needs no fix: with fewer than four channels it still updates the
+    directions their differences see.
+
+    Parameters
+    ----------
+    range_m, rate_m_s, var_range_m2, var_rate_m2_s2
+        ``(runs, ch)`` the scalar loops' pseudoranges (clock included) and range rates and their
+        variances (`loose.scalar_measurements`, `loose.scalar_measurement_variances`).
+    sat_pos_m, sat_vel_m_s
+        ``(ch, 3)`` or ``(runs, ch, 3)`` satellite states at the measurement instant.
+    cn0_dbhz
+        ``(runs, ch)`` or ``(ch,)``: picks the reference channel.
+    gate_probability
+        > 0: a run's whole update (all its differences) that fails the chi-square innovation
+        gate (`loose.fix_gate` on $Dz$ against $DH P^- H^T D^T + D R D^T$, 2(n-1) degrees of
+        freedom) is not used, as `loose_update` refuses a fix: its residuals are set to 0 and
+        its variances raised by `REJECTED_FIX_VAR`.
+
+    Returns
+    -------
+    The applied error estimate ``(runs, 15)`` (subtracted from the INS).
+    """
+    from ...navigation.geometry import line_of_sight, range_rate
+    from .measurements import integration_measurement, reference_channel
+
+    Phi, Qd = ins.take_error_model()
+    p, v, _ = ins.kinematics()
+    geo, los = line_of_sight(sat_pos_m, p[:, None, :])  # (runs, ch), (runs, ch, 3)
+    residual = np.stack([range_m - geo, rate_m_s - range_rate(sat_vel_m_s, v[:, None, :], los)], axis=-1)
+    cov = np.zeros(residual.shape + (2,))
+    cov[..., 0, 0] = var_range_m2
+    cov[..., 1, 1] = var_rate_m2_s2
+    cn0 = np.broadcast_to(np.asarray(cn0_dbhz, float), residual.shape[:-1])
+    if gate_probability > 0:
+        from .loose import fix_gate
+
+        z, H, R = integration_measurement(residual, cov, los, reference_channel(cn0))
+        P = Phi @ ekf.cov @ np.swapaxes(Phi, -1, -2) + Qd
+        accepted = fix_gate(z, H @ P @ np.swapaxes(H, -1, -2) + R, gate_probability)
+        residual = np.where(accepted[:, None, None], residual, 0.0)
+        cov = np.where(accepted[:, None, None, None], cov, cov + REJECTED_FIX_VAR * np.eye(2))
+    out = ekf.step(
+        {
+            "transition": Phi,
+            "process_noise": Qd,
+            "residual_m": residual,
+            "residual_cov": cov,
+            "los": los,
+            "cn0_dbhz": cn0,
+        }
     )
     ins.correct(out["error_state"])
     return out["error_state"]
