@@ -426,11 +426,15 @@ class IntegrationAiding:
         not tracked.
     clock_psd
         White-noise PSDs of the NCO clock filter's bias (m^2/s) and drift (m^2/s^3).
+    coupling
+        With scalar tracking loops (no NCO aiding): ``"loose"`` (position/velocity fixes
+        update the filter) or ``"tight"`` (each channel's pseudorange and rate do).
     """
 
     accel_aiding: bool = True
     carrier_filter: Any = None
     clock_psd: tuple[float, float] = (0.1, 0.1)
+    coupling: str = "loose"
 
 
 class ErrorStateNavFilter(NavFilter):

@@ -1,5 +1,5 @@
 """Built-in navigation filter ``ins-ekf``: the 15-state error-state integration filter of deep
-integration (Cai and Guo 2017) and of its loose-coupling baseline.
+integration (Cai and Guo 2017) and of its loose- and tight-coupling baselines.
 
 The filter estimates the error of a strapdown INS in the layout and sign convention of
 `gnssframework.inertial.error_model`: attitude (rad), velocity (m/s), position (m), ECEF
@@ -12,7 +12,8 @@ Each ``step`` takes the transition ``Phi`` and process noise ``Qd`` of the INS e
 model over the interval since the last update (from the INS, at the INS rate) and one
 of two measurements:
 
-* ``"differenced"`` (deep and vector tracking): every channel's range and rate residual
+* ``"differenced"`` (deep integration, and tight coupling on the scalar loops'
+  pseudoranges and rates, ``coupling = "tight"``): every channel's range and rate residual
   (true minus the navigator's prediction; a prefilter's new information of the
   interval) single-differenced against the reference channel, the highest C/N0, with
   the correlated covariance $D R D^T$ (Cai and Guo 2017, eqs. 9-11; Groves 2013, section
@@ -28,7 +29,7 @@ Another ``estimator`` from the registry runs the update (``kf`` by default; ``ek
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 from collections.abc import Mapping
 
 import numpy as np
@@ -64,6 +65,12 @@ class InsEkfParams(PluginParams):
     )
     clock_psd: tuple[NonNegativeFloat, NonNegativeFloat] = Field(
         (0.1, 0.1), description="white-noise PSDs of the NCO clock filter's bias (m^2/s) and drift (m^2/s^3), each >= 0"
+    )
+    coupling: Literal["loose", "tight"] = Field(
+        "loose",
+        description="with scalar tracking loops (no NCO aiding): update on position/velocity fixes (loose) or on "
+        "each channel's pseudorange and rate, single-differenced (tight; Groves 2013, section 14.1.3). "
+        "Deep integration (a prefilter channel_filter) ignores it",
     )
 
 
@@ -126,7 +133,10 @@ class InsEkf(ErrorStateNavFilter):
         """The deep-integration options this filter's parameters set."""
         p = self.params
         return IntegrationAiding(
-            accel_aiding=p.accel_aiding, carrier_filter=p.carrier_filter, clock_psd=tuple(p.clock_psd)
+            accel_aiding=p.accel_aiding,
+            carrier_filter=p.carrier_filter,
+            clock_psd=tuple(p.clock_psd),
+            coupling=p.coupling,
         )
 
     @property

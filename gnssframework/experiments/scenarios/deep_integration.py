@@ -3,7 +3,7 @@
 GPS L1 C/A channels of the nominal constellation seen from an aircraft flying reference
 002's pull-up (`gnssframework.inertial`; or straight flight, or straight flight with one
 smooth acceleration pulse of given peak jerk, ``profile = "jerk-pulse"``), a receiver
-clock from h-parameters, and four kinds of candidate, told apart by what they compose:
+clock from h-parameters, and five kinds of candidate, told apart by what they compose:
 
 * ``deep`` / ``deep-no-accel``: a prefilter ``channel_filter`` that hands over each
   interval's new information (``iq-filter`` with ``output = "equivalent"``) and the
@@ -16,6 +16,9 @@ clock from h-parameters, and four kinds of candidate, told apart by what they co
 * ``loose``: a scalar loop per channel (a ``channel_filter`` that closes its own loop,
   e.g. ``scalar``) and ``ins-ekf`` fed with position/velocity fixes
   (`receiver.deep.loose`).
+* ``tight``: the same scalar loops and ``ins-ekf`` with ``coupling = "tight"``: each
+  channel's pseudorange and rate update the INS error state, single-differenced
+  (`receiver.deep.ins_navigator.tight_update`); no fix between.
 
 Every series is on the integration filter's grid (10 Hz); errors are in local axes at the
 true position (ENU via pymap3d), attitude as roll/pitch/yaw. Each metric is declared once
@@ -205,16 +208,16 @@ class DeepIntegrationParams(SignalCoherentTime, SkyRealismParams):
         "see gnssframework.inertial.imu for the reading of its white-noise units)",
     )
     settle_s: float = Field(5.0, ge=0, description="metrics (and their _max) count from here on")
-    rate_window_s: float = Field(0.02, gt=0, description="loose: window of the scalar loops' carrier-phase rate")
+    rate_window_s: float = Field(0.02, gt=0, description="loose, tight: window of the scalar loops' carrier-phase rate")
     loose_rate_window: Literal["centred", "trailing"] = Field(
         "centred",
-        description="loose: the rate window centred on the update instant (reaches rate_window_s/2 past "
+        description="loose, tight: the rate window centred on the update instant (reaches rate_window_s/2 past "
         "it) or trailing it (ends there; its mean rate carried to the instant with the INS's line-of-sight "
         "acceleration)",
     )
     loose_dll_correlation: Literal["white", "loop"] = Field(
         "white",
-        description="loose: the fixes' pseudorange variance as the DLL's thermal value (white) or "
+        description="loose, tight: the scalar loops' pseudorange variance as the DLL's thermal value (white) or "
         "inflated by (1+rho)/(1-rho), rho = exp(-4 B_L update_interval_s), the correlation of a first-order "
         "loop's error between updates (loop)",
     )
@@ -222,7 +225,7 @@ class DeepIntegrationParams(SignalCoherentTime, SkyRealismParams):
         0.0,
         ge=0,
         lt=1,
-        description="loose: false-alarm probability of the chi-square innovation gate on each fix (0: no gate)",
+        description="loose, tight: false-alarm probability of the chi-square innovation gate on each fix (tight: on each update's differences together) (0: no gate)",
     )
     pulse_accel_g: float = Field(20.0, gt=0, le=100, description="jerk-pulse profile: peak acceleration (g)")
     pulse_jerk_g_s: float = Field(
@@ -305,7 +308,7 @@ def _kind(plugins: dict[str, Any]) -> str:
         if all(o in ch.provides for o in CHANNEL_OUTPUTS):
             return "deep"
         if all(o in ch.provides for o in NCO_COMMANDS) and "correlators" in ch.requires:
-            return "loose"
+            return "tight" if nav.aiding().coupling == "tight" else "loose"
         raise ConfigError(
             "channel_filter",
             f"{ch.name!r} can neither feed deep integration (it would provide "
@@ -539,7 +542,11 @@ class DeepIntegrationScenario(Scenario):
         else:
             from . import deep_integration_runs
 
-            runner = deep_integration_runs.run_deep if kind == "deep" else deep_integration_runs.run_loose
+            runner = {
+                "deep": deep_integration_runs.run_deep,
+                "loose": deep_integration_runs.run_loose,
+                "tight": deep_integration_runs.run_tight,
+            }[kind]
             out = runner(self, plugins, flight, truth, runs, rng)
         t_u = out["time_s"]
         pos_t, vel_t, _ = flight.kinematics(t_u)

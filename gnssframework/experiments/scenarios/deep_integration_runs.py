@@ -1,8 +1,9 @@
-"""The ``deep-integration`` scenario's runners of the INS candidates (``deep``, ``deep-no-accel``, ``loose``).
+"""The ``deep-integration`` scenario's runners of the INS candidates (``deep``, ``deep-no-accel``, ``loose``, ``tight``).
 
 `run_deep` closes the INS-aided tracking loop of `gnssframework.receiver.deep`;
 `run_loose` runs the scalar loops, forms position/velocity fixes and feeds them to the
-INS's error-state filter (Groves 2013, section 14.1.2).
+INS's error-state filter (Groves 2013, section 14.1.2); `run_tight` runs the same loops
+and feeds each channel's pseudorange and rate to it, single-differenced (section 14.1.3).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from ...estimation.consistency import nees
 from ...interfaces import RunContext
 from ...navigation.geometry import line_of_sight, range_rate
 from ...receiver.deep.aided_tracking import DeepTruth, run_aided_tracking
-from ...receiver.deep.ins_navigator import InsNavigator, loose_update
+from ...receiver.deep.ins_navigator import InsNavigator, loose_update, tight_update
 from ...receiver.deep.loose import (
     correlated_error_inflation,
     line_of_sight_accel,
@@ -30,7 +31,7 @@ from ...receiver.deep.navigators import ClockFilter
 from ...receiver.deep.strapdown import StrapdownIns
 from .deep_integration_flight import Flight, body_to_ned
 
-__all__ = ["run_deep", "run_loose"]
+__all__ = ["run_deep", "run_loose", "run_tight"]
 
 
 def _initial_cov(p) -> np.ndarray:
@@ -127,6 +128,30 @@ def run_loose(
     scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int, rng: np.random.Generator
 ) -> dict[str, np.ndarray]:
     """The ``loose`` candidate: scalar loops, weighted least-squares fixes at the update rate, ``ins-ekf``."""
+    return _run_scalar(scenario, plugins, flight, truth, runs, rng, tight=False)
+
+
+def run_tight(
+    scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int, rng: np.random.Generator
+) -> dict[str, np.ndarray]:
+    """The ``tight`` candidate: the same scalar loops as ``loose``, their per-channel pseudoranges and
+    rates single-differenced into ``ins-ekf`` (`tight_update`) at the update rate, the same
+    variances, inflation and innovation gate (the gate on each update's differences together)."""
+    return _run_scalar(scenario, plugins, flight, truth, runs, rng, tight=True)
+
+
+def _run_scalar(
+    scenario,
+    plugins: dict[str, Any],
+    flight: Flight,
+    truth: DeepTruth,
+    runs: int,
+    rng: np.random.Generator,
+    *,
+    tight: bool,
+) -> dict[str, np.ndarray]:
+    """Scalar loops over the whole flight, then an ``ins-ekf`` update per interval: a fix (loose) or
+    the channels' measurements (tight). The two draw the same numbers in the same order."""
     p = scenario.params
     T = p.coherent_time_s
     K = truth.epochs
@@ -190,8 +215,22 @@ def run_loose(
                 m_rate = trailing_rate_measurement(
                     track, rho_c, k_edge, window, T, line_of_sight_accel(sat_pos[k_edge], sat_acc[k_edge], pos0, acc0)
                 )
-            fp, fv, fcov = pv_fix(m_rho, m_rate, var_r, var_v, sat_pos[k_edge], sat_vel[k_edge], pos0, vel0)
-            loose_update(ins, ekf, fp, fv, fcov, p.loose_gate_probability)
+            if tight:
+                tight_update(
+                    ins,
+                    ekf,
+                    m_rho,
+                    m_rate,
+                    var_r,
+                    var_v,
+                    sat_pos[k_edge],
+                    sat_vel[k_edge],
+                    truth.cn0_dbhz,
+                    p.loose_gate_probability,
+                )
+            else:
+                fp, fv, fcov = pv_fix(m_rho, m_rate, var_r, var_v, sat_pos[k_edge], sat_vel[k_edge], pos0, vel0)
+                loose_update(ins, ekf, fp, fv, fcov, p.loose_gate_probability)
         else:
             ekf.propagate(*ins.take_error_model())
         records.append(_nav_record(flight, t_u, ins, ekf.cov))
