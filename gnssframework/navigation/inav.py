@@ -21,12 +21,14 @@ Symbols are ±1 with bit 0 sent as +1 (the project's convention, as
 :mod:`~gnssframework.navigation.lnav`); a Costas loop may leave every symbol inverted, which
 the sync pattern's sign reveals. :func:`find_pages` searches a stream of soft symbols (one
 per 4 ms code period) for page pairs, decodes them by Viterbi and keeps those whose CRC
-holds; :func:`decode_inav` assembles words 1-5 into an ephemeris and reads the GST. The
+holds; :func:`decode_inav` assembles words 1-5 into an ephemeris, reads the GST and keeps
+words 5, 6 and 10's NeQuick, GST-UTC and GGTO (:mod:`~gnssframework.navigation.inav_params`). The
 TOW of word types 0 and 5 is the GST at the start of the even part of the page that
 carries it (ICD 5.1.2).
 
 :func:`encode_inav` writes the pages of one satellite in the E1-B order of ICD 4.3.3
-(indicative: its word types beyond 0-5 are sent here as word type 0 with the GST), pages
+(indicative: its word types beyond 0-5 are sent here as word type 0 with the GST, but
+word types 6 and 10 when GST-UTC and GGTO are given), pages
 starting on the odd seconds of GST as the ICD's E1-B column does.
 """
 
@@ -39,6 +41,7 @@ import numpy as np
 from ..errors import ConfigError, GnssFrameworkError
 from . import fec
 from .ephemeris import Ephemerides
+from .inav_params import InavIonoTime, iono_time_from_words
 from .inav_words import WORD_BITS, decode_word, encode_word, ephemeris_to_words, words_to_ephemeris
 
 __all__ = [
@@ -100,7 +103,8 @@ class InavMessage:
     record (None without); ``gst``: ``(symbol index, WN, TOW s)`` of the last word 0 or 5,
     the index that of the even part's start the TOW refers to; ``failures``: one line per
     page of the stream's page grid that did not decode (CRC-24Q or Even/Odd flags), so a
-    corrupted page is reported, never used.
+    corrupted page is reported, never used; ``iono_time`` the NeQuick coefficients, GST-UTC
+    and GGTO of the last words 5, 6 and 10 (None without any of them).
     """
 
     pages: list[InavPage]
@@ -108,6 +112,7 @@ class InavMessage:
     gst: tuple[int, int, float] | None
     words: dict[int, dict[str, float]]
     failures: list[str]
+    iono_time: InavIonoTime | None = None
 
 
 def crc_message(parts: np.ndarray) -> np.ndarray:
@@ -254,7 +259,8 @@ def _decode_blocks(
 def decode_inav(symbols: np.ndarray) -> InavMessage:
     """Decode one satellite's E1-B symbol stream (one soft symbol per 4 ms, in order, no
     gaps): pages (:func:`find_pages`), the last words of each type, the ephemeris from the
-    last words 1-4 that share an IODnav (ICD 5.1.9.2) with the last word 5, and the GST."""
+    last words 1-4 that share an IODnav (ICD 5.1.9.2) with the last word 5, the GST, and
+    the NeQuick, GST-UTC and GGTO parameters of the last words 5, 6 and 10."""
     pages, failures = find_pages(symbols)
     words: dict[int, dict[str, float]] = {}
     ephemeris = None
@@ -269,7 +275,7 @@ def decode_inav(symbols: np.ndarray) -> InavMessage:
             and len({words[t]["iodnav"] for t in (1, 2, 3, 4)}) == 1
         ):
             ephemeris = words_to_ephemeris(words)
-    return InavMessage(pages, ephemeris, gst, words, failures)
+    return InavMessage(pages, ephemeris, gst, words, failures, iono_time_from_words(words))
 
 
 def encode_inav(
@@ -279,16 +285,24 @@ def encode_inav(
     n_pages: int,
     bgd_e1e5a_s: float = 0.0,
     ai_sfu: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    iono_time: InavIonoTime | None = None,
 ) -> np.ndarray:
     """±1 symbols (int8, bit 0 as +1) of ``n_pages`` consecutive E1-B pages of one
     satellite, the first starting at GST second of week ``first_tow_s`` (odd: E1-B pages
     start on odd seconds, ICD 4.3.3), in the order of `E1B_SUBFRAME_WORDS`: words 1-5 carry
     ``record`` (:func:`~gnssframework.navigation.inav_words.ephemeris_to_words`), word 5
-    and every other word type go out with the GST of their page (others as word type 0)."""
+    and every other word type go out with the GST of their page (others as word type 0).
+    With ``iono_time``, its ``utc`` goes out as word type 6 (with its page's TOW) and its
+    ``ggto`` as word type 10 in the slot of words 8/10 of every sub-frame (its almanac
+    fields 0), and its ``ai_sfu``, when given, replaces ``ai_sfu``."""
     if first_tow_s % 2 != 1 or not 0 <= first_tow_s < 604_800:
         raise ConfigError("first_tow_s", f"an E1-B page starts on an odd second of the week, got {first_tow_s}")
     if n_pages < 1:
         raise ConfigError("n_pages", f"must be at least 1, got {n_pages}")
+    utc = ggto = None
+    if iono_time is not None:
+        ai_sfu = iono_time.ai_sfu if iono_time.ai_sfu is not None else ai_sfu
+        utc, ggto = iono_time.utc, iono_time.ggto
     base = ephemeris_to_words(record, wn, 0, bgd_e1e5a_s, ai_sfu)
     words = np.empty((n_pages, WORD_BITS), dtype=np.uint8)
     for k in range(n_pages):
@@ -299,6 +313,10 @@ def encode_inav(
             words[k] = encode_word(wt, base[wt])
         elif wt == 5:
             words[k] = encode_word(5, base[5] | {"wn": wn_k, "tow_s": tow})
+        elif wt == 6 and utc is not None:
+            words[k] = encode_word(6, utc.fields() | {"tow_s": tow})
+        elif wt == 8 and ggto is not None:
+            words[k] = encode_word(10, ggto.fields())
         else:
             words[k] = encode_word(0, {"time": 2, "wn": wn_k, "tow_s": tow})
     return encode_pages(words).reshape(-1)
@@ -311,6 +329,7 @@ def inav_symbols(
     n_symbols: int,
     bgd_e1e5a_s: float = 0.0,
     ai_sfu: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    iono_time: InavIonoTime | None = None,
 ) -> tuple[np.ndarray, float]:
     """±1 E1-B symbols (int8, bit 0 as +1) from the one in force at GST ``tow_s`` (week
     ``wn``) on, for the IF generator's ``data_bits`` (`galileo-e1b`: one symbol a 4 ms code
@@ -322,5 +341,5 @@ def inav_symbols(
     into_page_s = (tow_s - first) % 604_800  # in [0, 2)
     skip = int(np.floor(into_page_s * SYMBOL_RATE_HZ))
     n_pages = int(np.ceil((skip + n_symbols) / PAGE_SYMBOLS))
-    symbols = encode_inav(record, wn, first, n_pages, bgd_e1e5a_s, ai_sfu)[skip : skip + n_symbols]
+    symbols = encode_inav(record, wn, first, n_pages, bgd_e1e5a_s, ai_sfu, iono_time)[skip : skip + n_symbols]
     return symbols, float(into_page_s - skip / SYMBOL_RATE_HZ)

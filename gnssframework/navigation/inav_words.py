@@ -1,12 +1,15 @@
-"""Galileo I/NAV word types 0-5 (Galileo OS SIS ICD Issue 2.0/2.1, 4.3.5): fields, scale
-factors and the ephemeris they carry.
+"""Galileo I/NAV word types 0-6 and 10 (Galileo OS SIS ICD Issue 2.0/2.1, 4.3.5): fields,
+scale factors and the ephemeris they carry.
 
 An I/NAV word is 128 bits, its first 6 the word type. Types 1-4 hold the ephemeris and
 clock of the transmitting satellite under one IODnav (5.1.1, 5.1.3, 5.1.9.2), type 3 the
 SISA(E1,E5b) index (the SISA section of ICD 5.1), type 5 the NeQuick coefficients ai0-ai2
 and disturbance flags (5.1.6), BGD(E1,E5a) and BGD(E1,E5b) (5.1.5), the E1-B and E5b
 signal health and data validity (5.1.9.3) and the GST week and time of week (5.1.2); type
-0, with its time field ``10``, GST only. Scale factors are those of the ICD's parameter
+0, with its time field ``10``, GST only; type 6 the GST-UTC conversion (A0, A1, Delta t_LS,
+t0t, WN0t, WN_LSF, DN, Delta t_LSF; 5.1.7) and a TOW, type 10 the GST-GPS conversion
+(A0G, A1G, t0G, WN0G; 5.1.8) after the second half of an almanac (its IODa and the
+health bits of its satellite are read here, the almanac fields are not). Scale factors are those of the ICD's parameter
 tables in 5.1.1-5.1.9 (ephemeris, GST, clock, BGD, ionosphere, health); angles are in
 semicircles, converted with the ICD's value of pi (5.1.1: 3.1415926535898, as IS-GPS-200's).
 
@@ -100,6 +103,29 @@ WORD_LAYOUTS: dict[int, _Layout] = {
         "wn": (74, 12, 1, False),
         "tow_s": (86, 20, 1, False),
     },
+    # GST-UTC conversion (ICD 4.3.5 word type 6; 5.1.7): A0 2^-30 s, A1 2^-50 s/s, t0t 3600 s.
+    6: {
+        "a0_s": (7, 32, 2.0**-30, True),
+        "a1_s_s": (39, 24, 2.0**-50, True),
+        "dt_ls_s": (63, 8, 1, True),
+        "tot_s": (71, 8, 3600, False),
+        "wnt": (79, 8, 1, False),
+        "wn_lsf": (87, 8, 1, False),
+        "dn": (95, 3, 1, False),
+        "dt_lsf_s": (98, 8, 1, True),
+        "tow_s": (106, 20, 1, False),
+    },
+    # Almanac of SVID3 (2/2; its IODa and health only here) and GST-GPS conversion (ICD 4.3.5
+    # word type 10; 5.1.8): A0G 2^-35 s, A1G 2^-51 s/s, t0G 3600 s, WN0G the week's low 6 bits.
+    10: {
+        "iod_a": (7, 4, 1, False),
+        "e5b_hs": (83, 2, 1, False),
+        "e1b_hs": (85, 2, 1, False),
+        "a0g_s": (87, 16, 2.0**-35, True),
+        "a1g_s_s": (103, 12, 2.0**-51, True),
+        "t0g_s": (115, 8, 3600, False),
+        "wn0g": (123, 6, 1, False),
+    },
 }
 #: The LSB of each scaled field (its scale factor), for quantisation bounds.
 LSB = {name: scale for layout in WORD_LAYOUTS.values() for name, (_, _, scale, _) in layout.items()}
@@ -156,7 +182,7 @@ def encode_word(word_type: int, values: dict[str, float]) -> np.ndarray:
 
 def decode_word(bits: np.ndarray) -> tuple[int, dict[str, float]]:
     """Word type and scaled field values (physical units) of 128 bits; types without a
-    layout here (6-10, 16-22, 63, ...) give their type and no fields."""
+    layout here (7-9, 16-22, 63, ...) give their type and no fields."""
     b = np.asarray(bits)
     if b.shape != (WORD_BITS,):
         raise ConfigError("word", f"an I/NAV word is {WORD_BITS} bits, got shape {b.shape}")

@@ -156,6 +156,7 @@ def solve_epochs(
     false_alarm: float = 1e-3,
     missed_detection: float = 1e-3,
     integrity_risk: float = 1e-7,
+    time_offsets_s: dict[str, float] | None = None,
 ) -> PositionTable:
     """Solve every epoch of ``obs`` (see the module text).
 
@@ -166,6 +167,8 @@ def solve_epochs(
     (``rtklib``: RTKLIB's single-point error model). Epochs with fewer than four usable
     satellites give no row. ``raim``, ``false_alarm``, ``missed_detection`` and
     ``integrity_risk`` as `solve_position`'s: with ``raim`` the columns `INTEGRITY_COLUMNS`.
+    ``time_offsets_s`` as `solve_position`'s (e.g. ``{"E": ggto}``, the broadcast GST - GPST:
+    Galileo then takes GPS's clock and no system offset is estimated).
     """
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
     week = full_week(obs.week, reference_week)
@@ -195,6 +198,7 @@ def solve_epochs(
             false_alarm=false_alarm,
             missed_detection=missed_detection,
             integrity_risk=integrity_risk,
+            time_offsets_s=time_offsets_s,
         )
         if fix is None:
             continue

@@ -32,6 +32,7 @@ import numpy as np
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.inav import PAGE_SYMBOLS, InavMessage, decode_inav
+from ...navigation.inav_params import InavIonoTime, merge_iono_time
 from ...navigation.lnav import LnavMessage
 from ...signal.spec import SignalSpec
 
@@ -162,7 +163,8 @@ class InavTiming:
     where its run's pages came inverted (the Costas loop 180 degrees off: the sync pattern
     is sent upright); ``arc_start`` True on the first dated row of each run;
     ``ephemerides`` each run's complete ephemeris with the recording time of the run's
-    last row (when it is surely in hand).
+    last row (when it is surely in hand); ``iono_time`` the NeQuick, GST-UTC and GGTO of
+    the last runs that decoded word types 5, 6 and 10 (each part from the last run with it).
     """
 
     prn: int
@@ -174,6 +176,7 @@ class InavTiming:
     half_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     arc_start: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     ephemerides: list[tuple[float, Ephemerides]] = field(default_factory=list)
+    iono_time: InavIonoTime | None = None
 
     @property
     def pages(self) -> int:
@@ -199,9 +202,11 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
     messages, rows, tx, half = [], [], [], []
     gst, ephemeris = None, None
     ephemerides: list[tuple[float, Ephemerides]] = []
+    iono_time: InavIonoTime | None = None
     for run in symbol_runs(time_s, col("coherent_ms"), period):
         msg = decode_inav(prompt[run])
         messages.append(msg)
+        iono_time = merge_iono_time(iono_time, msg.iono_time)
         if msg.ephemeris is not None:
             ephemeris = msg.ephemeris
             done = min(_completed_at(msg) + PAGE_SYMBOLS, run.size - 1)  # the row after its last page
@@ -226,6 +231,7 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
         np.concatenate(half) if half else np.zeros(0, bool),
         starts,
         ephemerides,
+        iono_time,
     )
 
 
@@ -247,7 +253,8 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     """The rows of an E1-B channel dated from its I/NAV GST (`channel_inav`) as the
     `observables.ChannelTiming` the observables and fixes take (no LNAV message: the GPS
     week's low 10 bits from the GST week, no Klobuchar coefficients; the ephemerides decoded
-    per run); None without a GST."""
+    per run; the NeQuick, GST-UTC and GGTO of word types 5, 6 and 10 as ``inav_iono_time``);
+    None without a GST."""
     from .observables import ChannelTiming
 
     timing = channel_inav(record, signal)
@@ -275,6 +282,7 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
         timing.ephemerides,
         arc_start,
         np.ones(r.size, bool),
+        inav_iono_time=timing.iono_time,
     )
 
 

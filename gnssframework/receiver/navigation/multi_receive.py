@@ -7,6 +7,10 @@ I/NAV), puts every channel's rows on the same receiver epochs (`observables.obse
 and solves each epoch with `pvt.solve_position`, which estimates one receiver clock per
 time system (GPS time, Galileo System Time: the inter-system offset, GGTO plus the
 receiver's inter-system bias, is a state; module text of `gnssframework.navigation.pvt`).
+With ``broadcast_ggto`` the GGTO decoded from I/NAV word type 10 (`inav_params.Ggto`) is
+taken as known instead (`broadcast_time_offsets`): Galileo joins GPS's clock, one state
+fewer, but any receiver inter-system bias (between its L1 C/A and E1-B paths) then goes
+into the fixes unmodelled.
 
 A satellite of the ``i``-th signal is numbered ``i x KEY_STEP + PRN`` in the observables
 and the fixes (`SignalSet.key`): GPS PRN 5 is 5 and Galileo E11 is 1011 in
@@ -27,12 +31,12 @@ from ..acquisition.report import acquire_recording
 from ..acquisition.search import Acquisition
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..frontend.recording import Recording
-from .fixes import solve_epochs
+from .fixes import full_week, solve_epochs
 from .inav_stream import carries_inav, carries_lnav, inav_channel_timing
-from .observables import ChannelTiming, channel_timing, observables
+from .observables import ChannelTiming, Observables, channel_timing, observables
 from .receive import ReceiveResult
 
-__all__ = ["SignalSet", "KEY_STEP", "receive_signals"]
+__all__ = ["SignalSet", "KEY_STEP", "receive_signals", "broadcast_time_offsets"]
 
 #: The satellite numbers of one signal of a `SignalSet` (every signal's PRNs are below it).
 KEY_STEP = 1000
@@ -89,6 +93,18 @@ class SignalSet:
         return self.signal_of(key).rinex_satellite(int(key) % KEY_STEP)
 
 
+def broadcast_time_offsets(obs: Observables, reference_week: int | None = None) -> dict[str, float] | None:
+    """``{"E": GGTO}`` (s, GST - GPST; Galileo OS SIS ICD 5.1.8) from the decoded word type 10
+    (`Observables.galileo`) at the middle epoch of ``obs`` (the receiver clock, its bias of
+    at most a millisecond or so is nothing to a drift A1G of 1e-14 s/s), in the GPS week of
+    `fixes.full_week`; None without a decoded GGTO or a known week."""
+    ggto = obs.galileo.ggto if obs.galileo is not None else None
+    week = full_week(obs.week, reference_week)
+    if ggto is None or week < 0 or obs.rx_time_s.size == 0:
+        return None
+    return {"E": ggto.offset_s(week, float(obs.rx_time_s[obs.rx_time_s.size // 2]))}
+
+
 def receive_signals(
     recording: Recording,
     acquisition: Acquisition,
@@ -104,13 +120,15 @@ def receive_signals(
     weighting: str | None = None,
     iono_fallback: IonoUtc | None = None,
     progress: Any = None,
+    broadcast_ggto: bool = False,
 ) -> ReceiveResult:
     """Acquire, track and date every signal of ``signals`` (``configs[i]`` tracks the
     ``i``-th) and solve their satellites together (module text). ``rinex`` holds the
     records of every system (`read_rinex_nav` with ``systems="GE"``); the Klobuchar
     coefficients of a decoded LNAV page 18 (else ``iono_fallback``) correct every satellite
     (L1 and E1 share the frequency). The result's tracking and observables are keyed by
-    `SignalSet.key`."""
+    `SignalSet.key`. ``broadcast_ggto``: take the decoded GGTO as known
+    (`broadcast_time_offsets`; estimated as before when no word type 10 was decoded)."""
     if len(configs) != len(signals.signals):
         raise ConfigError("configs", f"one tracking config per signal: {len(configs)} for {len(signals.signals)}")
     channels: dict = {}
@@ -133,6 +151,7 @@ def receive_signals(
         return ReceiveResult(tracking_all, None, None)
     obs = observables(timings, rate_hz)
     iono = iono_fallback if obs.iono_utc is None else None
+    offsets = broadcast_time_offsets(obs, reference_week) if broadcast_ggto else None
     table = solve_epochs(
         obs,
         rinex,
@@ -142,5 +161,6 @@ def receive_signals(
         reference_week=reference_week,
         weighting=weighting,
         signal=signals,  # type: ignore[arg-type]
+        time_offsets_s=offsets,
     )
     return ReceiveResult(tracking_all, obs, table, table)

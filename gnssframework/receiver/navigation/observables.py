@@ -61,6 +61,7 @@ from ...signal.navdata import data_bit_period_s
 from ...signal.spec import SignalSpec
 from .bit_stream import bit_ms, bit_runs
 from ...navigation.ephemeris import Ephemerides
+from ...navigation.inav_params import InavIonoTime, merge_iono_time
 from ...navigation.lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_lnav, find_subframes
 
 if TYPE_CHECKING:
@@ -124,6 +125,8 @@ class ChannelTiming:
     #: `assisted_timing` only: the decoded TOW minus the assisted time at the start of the first
     #: subframe found on the rows (None: none found).
     tow_offset_s: float | None = None
+    #: Galileo E1-B only (`inav_stream.inav_channel_timing`): the NeQuick, GST-UTC and GGTO decoded.
+    inav_iono_time: InavIonoTime | None = None
 
 
 def _bit_time(run, time_s: np.ndarray, bit: int, bit_s: float) -> float:
@@ -347,7 +350,9 @@ class Observables:
     is known, ``iono_utc`` the first decoded page 18, ``week`` the decoded 10-bit week.
     ``lli`` ``(E, S)`` the RINEX loss-of-lock bits of the carrier phase (`LLI_LOST_LOCK`,
     `LLI_HALF_CYCLE`; None: not known, written blank). Of an assisted start
-    (`assisted_timing`), ``iono_utc`` is the assistance's and ``week`` None.
+    (`assisted_timing`), ``iono_utc`` is the assistance's and ``week`` None. ``galileo``: the
+    NeQuick, GST-UTC and GGTO decoded from I/NAV (`inav_params.InavIonoTime`, each part
+    from the first channel, in ``timings`` order, that has it; None without I/NAV).
     """
 
     rx_time_s: np.ndarray
@@ -362,6 +367,7 @@ class Observables:
     iono_utc: IonoUtc | None
     week: int | None
     lli: np.ndarray | None = None
+    galileo: InavIonoTime | None = None
 
 
 def _interp(t_new: np.ndarray, t: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -439,7 +445,10 @@ def observables(
     eph = {t.prn: t.ephemerides for t in timings if t.ephemerides}
     iono = next((t.message.iono_utc for t in timings if t.message.iono_utc is not None), iono_utc)
     week = next((t.message.week for t in timings if t.message.week is not None), None)
-    return Observables(epochs % _WEEK_S, sample_t, prn, tx % _WEEK_S, pr, dop, cyc, cn0, eph, iono, week, lli)
+    galileo = None
+    for t in reversed(timings):  # the first channel's parts win
+        galileo = merge_iono_time(galileo, t.inav_iono_time)
+    return Observables(epochs % _WEEK_S, sample_t, prn, tx % _WEEK_S, pr, dop, cyc, cn0, eph, iono, week, lli, galileo)
 
 
 def _loss_of_lock(sample_t: np.ndarray, tm: ChannelTiming, valid: np.ndarray) -> np.ndarray:

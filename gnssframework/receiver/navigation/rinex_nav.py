@@ -27,8 +27,14 @@ af0-af2, Toc and SISA for E5b,E1, the I/NAV clock), ORBIT 6 ``SISA (m; -1 for no
 prediction), SV health, BGD E5a/E1, BGD E5b/E1`` and ORBIT 7 the transmission time (seconds
 of the GAL week at which the receiver had the record) and a spare 0. The decoded record
 keeps BGD(E1,E5b) (its ``TGD``, the E1 user's) but not word 5's BGD(E1,E5a): that field is
-written 0. No ionospheric or time-system header lines (word types 5 and 6's NeQuick, GST-UTC
-and GGTO are not kept). A system of another layout (BeiDou, SBAS) is refused.
+written 0. The header of a Galileo file carries what the receiver decoded of word types 5, 6
+and 10 (`inav_params.InavIonoTime`, each line only when its word arrived): ``IONOSPHERIC
+CORR`` ``GAL `` (ai0, ai1, ai2 and a 0, ``A4,1X,4D12.4``, RINEX 3.04 table A5), ``TIME
+SYSTEM CORR`` ``GAUT`` (A0, A1, t0t, WN0t) and ``GAGP`` (A0G, A1G, t0G, WN0G), both
+``A4,1X,D17.10,D16.9,1X,I6,1X,I4``, and ``LEAP SECONDS`` (Delta t_LS). The weeks, sent as
+their low 8 (WN0t) and 6 (WN0G) bits, are written in full: the week with those low bits
+nearest the first record's (`inav_params.full_week`; GST weeks are GPS weeks - 1024, so
+the low bits agree). A system of another layout (BeiDou, SBAS) is refused.
 """
 
 from __future__ import annotations
@@ -41,6 +47,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides
+from ...navigation.inav_params import InavIonoTime, full_week
 from ...navigation.lnav import WEEK_S, IonoUtc
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
@@ -150,7 +157,31 @@ def _orbit_lines(nav: NavRecord, system: str) -> list[str]:
     return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
 
 
-def _header(records: list[NavRecord], iono: IonoUtc | None, signal: SignalSpec) -> list[str]:
+def _time_corr(kind: str, a0: float, a1: float, t_s: float, week: int) -> str:
+    """A ``TIME SYSTEM CORR`` line: ``A4,1X,D17.10,D16.9,1X,I6,1X,I4`` (RINEX 3.04 table A5)."""
+    a0_txt = f"{float(a0):17.10E}".replace("E", "D")
+    a1_txt = f"{float(a1):16.9E}".replace("E", "D")
+    return _line(f"{kind} {a0_txt}{a1_txt} {int(round(t_s)):6d} {int(week):4d}", "TIME SYSTEM CORR")
+
+
+def _galileo_header(week: int, galileo: InavIonoTime) -> list[str]:
+    """The ionospheric, time-system and leap-second lines of decoded word types 5, 6, 10."""
+    out = []
+    if galileo.ai_sfu is not None:
+        out.append(_line("GAL  " + "".join(_d12(v) for v in (*galileo.ai_sfu, 0.0)), "IONOSPHERIC CORR"))
+    utc, ggto = galileo.utc, galileo.ggto
+    if utc is not None:
+        out.append(_time_corr("GAUT", utc.a0_s, utc.a1_s_s, utc.tot_s, full_week(utc.wnt, 8, week)))
+    if ggto is not None:
+        out.append(_time_corr("GAGP", ggto.a0g_s, ggto.a1g_s_s, ggto.t0g_s, full_week(ggto.wn0g, 6, week)))
+    if utc is not None:
+        out.append(_line(f"{int(utc.dt_ls_s):6d}", "LEAP SECONDS"))
+    return out
+
+
+def _header(
+    records: list[NavRecord], iono: IonoUtc | None, signal: SignalSpec, galileo: InavIonoTime | None = None
+) -> list[str]:
     first = records[0]
     stamp = _calendar(first.week, first.tow_s).strftime("%Y%m%d %H%M%S") + " GPS"  # the data's date: same bytes
     system = f"{signal.system}: {RINEX_NAV_SYSTEMS[signal.system]}"
@@ -165,20 +196,25 @@ def _header(records: list[NavRecord], iono: IonoUtc | None, signal: SignalSpec) 
         ]
         # The 8-bit week of tot placed nearest the records' week (IS-GPS-200 20.3.3.5.2.4).
         wnt = first.week + ((iono.wnt - first.week + 128) % 256) - 128
-        a0 = f"{float(iono.a0_s):17.10E}".replace("E", "D")
-        a1 = f"{float(iono.a1_s_s):16.9E}".replace("E", "D")
         out += [
-            _line(f"GPUT {a0}{a1} {int(iono.tot_s):6d} {wnt:4d}", "TIME SYSTEM CORR"),
+            _time_corr("GPUT", iono.a0_s, iono.a1_s_s, iono.tot_s, wnt),
             _line(f"{int(iono.dt_ls_s):6d}", "LEAP SECONDS"),
         ]
+    if galileo is not None and signal.system == "E":
+        out += _galileo_header(first.week, galileo)
     return out + [_line("", "END OF HEADER")]
 
 
 def write_rinex_nav(
-    path: str | Path, records: list[NavRecord], iono: IonoUtc | None = None, signal: SignalSpec = GPS_L1CA
+    path: str | Path,
+    records: list[NavRecord],
+    iono: IonoUtc | None = None,
+    signal: SignalSpec = GPS_L1CA,
+    galileo: InavIonoTime | None = None,
 ) -> Path:
-    """Write ``records`` (`decoded_records`) and the page 18 ``iono`` as a RINEX 3.04
-    navigation file of ``signal``'s system (see the module text).
+    """Write ``records`` (`decoded_records`) and the page 18 ``iono`` (GPS, QZSS) or the
+    I/NAV words 5, 6 and 10's ``galileo`` (Galileo) as a RINEX 3.04 navigation file of
+    ``signal``'s system (see the module text).
 
     Raises
     ------
@@ -211,5 +247,5 @@ def write_rinex_nav(
             + "\n"
         )
         body += _orbit_lines(nav, signal.system)
-    path.write_text("".join(_header(records, iono, signal) + body))
+    path.write_text("".join(_header(records, iono, signal, galileo) + body))
     return path
