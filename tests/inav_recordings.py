@@ -11,14 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
-from gnssframework import registry
 from gnssframework.navigation import inav
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
-from gnssframework.receiver.frontend import write_recording
 from gnssframework.signal.constants import L1_FREQ_HZ
 from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
 from gnssframework.signal.if_samples import generate_if_samples
 from light_time import signal_flight
+from noisy_recording import write_noisy_recording
 
 WN = 1174  # the GST week of the records (2022-02-20: GPS week 2198)
 GPS_WEEK = WN + 1024
@@ -53,7 +52,6 @@ def write_inav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
     """Write ``duration_s`` of the satellites ``sats`` (an `Ephemerides`) from time ``tow0``."""
     rng = np.random.default_rng(seed)
     n = int(round(CHUNK_S * FS))
-    source = registry.create("sample_source", "ci16_le")
     t_sv0 = satellite_time(sats, np.array(tow0))
     symbols = [
         inav.inav_symbols(
@@ -63,7 +61,8 @@ def write_inav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
     ]
     phase = np.zeros(sats.sv.size)
     period = SIGNAL.code_period_s
-    with open(path, "wb") as out:
+
+    def chunks():
         for c in range(int(round(duration_s / CHUNK_S))):
             t0 = tow0 + c * CHUNK_S
             start = satellite_time(sats, t0)
@@ -89,9 +88,6 @@ def write_inav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
                     signal=SIGNAL,
                 ).samples
                 phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
-            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
-            out.write(source.encode(x * 300.0))
-    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", FS, 0.0)
-    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
-    path.with_suffix(".tmp").unlink()
-    return path
+            yield x
+
+    return write_noisy_recording(path, chunks(), FS, rng)

@@ -17,10 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gnssframework import registry
 from gnssframework.navigation import inav, lnav
 from gnssframework.navigation.ephemeris import Ephemerides, read_rinex_nav, satellite_state
-from gnssframework.receiver.frontend import write_recording
 from gnssframework.receiver.navigation.rinex_nav import NavRecord, write_rinex_nav
 from gnssframework.signal.constants import L1_FREQ_HZ
 from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
@@ -28,6 +26,7 @@ from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.if_samples import generate_if_samples
 from inav_recordings import GPS_WEEK, NAV as GALILEO_NAV, STATION
 from light_time import signal_flight
+from noisy_recording import write_noisy_recording
 
 GPS_NAV = Path(__file__).parent / "data" / "07590920.05n"
 TOE_S = 18000.0
@@ -85,7 +84,6 @@ def write_mixed_recording(
     """Write ``duration_s`` of the GPS records ``gps`` and the Galileo ones ``galileo`` from time ``tow0``."""
     rng = np.random.default_rng(seed)
     n = int(round(CHUNK_S * FS))
-    source = registry.create("sample_source", "ci16_le")
     groups = []
     for sats, signal in ((gps, GPS_L1CA), (galileo, GALILEO_E1B_BOC11)):
         t_sv0 = _satellite_time(sats, np.array(tow0))
@@ -107,7 +105,8 @@ def write_mixed_recording(
                 for k in range(sats.sv.size)
             ]
         groups.append((sats, signal, t_sv0, data, np.zeros(sats.sv.size)))
-    with open(path, "wb") as out:
+
+    def chunks():
         for c in range(int(round(duration_s / CHUNK_S))):
             t0 = tow0 + c * CHUNK_S
             x = np.zeros(n, complex)
@@ -135,9 +134,6 @@ def write_mixed_recording(
                         signal=signal,
                     ).samples
                     phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
-            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
-            out.write(source.encode(x * 300.0))
-    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", FS, 0.0)
-    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
-    path.with_suffix(".tmp").unlink()
-    return path
+            yield x
+
+    return write_noisy_recording(path, chunks(), FS, rng)
