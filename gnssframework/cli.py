@@ -772,13 +772,11 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     import json
     import time
 
-    import numpy as np
-
     from .navigation.ephemeris import SYSTEMS as EPHEMERIS_SYSTEMS, read_rinex_nav
     from .receiver.acquisition.report import search_summary
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
-    from .receiver.navigation.receive import position_errors, receive
+    from .receiver.navigation.receive import receive
     from .receiver.navigation.inav_stream import carries_inav, require_positioning
     from .receiver.navigation.receiver_config import receiver_filters
     from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
@@ -965,11 +963,25 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
         f"Filters: {used}." + (f" Live input {rec.description}: {overruns}." if overruns else ""),
         signal=signal,
     )
+    _print_fix_summary(table, truth, f"({used})")
+    print(f"wrote {', '.join(str(p) for p in written if p.parent == out)} and {out / 'plots'}/")
+    return 0
+
+
+def _print_fix_summary(table, truth, what: str, more: str = "") -> None:
+    """The summary ``receive`` prints of its fixes, with one signal or several: ``N fixes
+    {what} from ...`` (first fix's time, satellites, last position and HDOP) with ``more``
+    at its end, then, with ``--truth``, the horizontal and vertical RMS error (m)."""
+    import numpy as np
+
+    from .receiver.navigation.receive import position_errors
+
+    c = table.columns
     print(
-        f"{len(table)} fixes ({used}) from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
+        f"{len(table)} fixes {what} from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
         f"{int(c['gps_week'][0])}, tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} "
         f"satellites; last {c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP "
-        f"{c['hdop'][-1]:.2f}"
+        f"{c['hdop'][-1]:.2f}{more}"
     )
     if truth is not None:
         err = position_errors(table, truth)
@@ -977,8 +989,6 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             f"against --truth: horizontal RMS {np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))):.2f} m, "
             f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m"
         )
-    print(f"wrote {', '.join(str(p) for p in written if p.parent == out)} and {out / 'plots'}/")
-    return 0
 
 
 def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) -> int:
@@ -999,7 +1009,6 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     from .receiver.navigation.inav_stream import carries_inav
     from .receiver.navigation.multi_receive import SignalSet, receive_signals
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
-    from .receiver.navigation.receive import position_errors
     from .receiver.navigation.report import write_receive_report
     from .receiver.navigation.receiver_config import receiver_filters
     from .receiver.navigation.rinex_obs import write_rinex_obs
@@ -1094,19 +1103,8 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
         signal=signals,
     )  # type: ignore[arg-type]
     offsets = c.get(SYSTEM_OFFSET_COLUMN, np.full(len(table), np.nan))
-    print(
-        f"{len(table)} fixes of {signals.name} from {table.sample_time_s[0]:.1f} s into the recording (GPS week "
-        f"{week}, tow {c['tow_s'][0]:.1f} s), {int(c['n_sats'].min())}-{int(c['n_sats'].max())} satellites; "
-        f"last {c['lat_deg'][-1]:.7f} {c['lon_deg'][-1]:.7f} {c['height_m'][-1]:.2f} m, HDOP {c['hdop'][-1]:.2f}; "
-        f"inter-system clock offset {np.nanmedian(offsets) if np.isfinite(offsets).any() else float('nan'):.1f} ns "
-        "(median)"
-    )
-    if truth is not None:
-        err = position_errors(table, truth)
-        print(
-            f"against --truth: horizontal RMS {np.sqrt(np.mean(np.sum(err[:, :2] ** 2, axis=1))):.2f} m, "
-            f"vertical RMS {np.sqrt(np.mean(err[:, 2] ** 2)):.2f} m"
-        )
+    median_ns = np.nanmedian(offsets) if np.isfinite(offsets).any() else float("nan")
+    _print_fix_summary(table, truth, f"of {signals.name}", f"; inter-system clock offset {median_ns:.1f} ns (median)")
     print(f"wrote {', '.join(str(p) for p in written if p.parent == out)}")
     return 0
 

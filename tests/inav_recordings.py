@@ -11,14 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
-from gnssframework import registry
 from gnssframework.navigation import inav
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
-from gnssframework.receiver.frontend import write_recording
 from gnssframework.signal.constants import L1_FREQ_HZ
 from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
 from gnssframework.signal.if_samples import generate_if_samples
 from light_time import signal_flight
+from noisy_recording import write_noisy_recording
 
 WN = 1174  # the GST week of the records (2022-02-20: GPS week 2198)
 GPS_WEEK = WN + 1024
@@ -49,28 +48,34 @@ def highest(nav, t, n):
     return sel.subset(np.argsort(-el)[:n])
 
 
-def write_inav_recording(path: Path, sats, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0) -> Path:
-    """Write ``duration_s`` of the satellites ``sats`` (an `Ephemerides`) from time ``tow0``."""
-    rng = np.random.default_rng(seed)
-    n = int(round(CHUNK_S * FS))
-    source = registry.create("sample_source", "ci16_le")
-    t_sv0 = satellite_time(sats, np.array(tow0))
-    symbols = [
+def inav_data(sats, t_sv0: np.ndarray, duration_s: float) -> list[tuple[np.ndarray, float]]:
+    """Each satellite's I/NAV symbols (`inav.inav_symbols`) for ``duration_s`` from 0.1 s
+    before its satellite time ``t_sv0``, with the time into the first."""
+    return [
         inav.inav_symbols(
             sats.subset(np.array([k])), WN, float(t_sv0[k]) - 0.1, int(duration_s * inav.SYMBOL_RATE_HZ) + 50
         )
         for k in range(sats.sv.size)
     ]
-    phase = np.zeros(sats.sv.size)
-    period = SIGNAL.code_period_s
-    with open(path, "wb") as out:
-        for c in range(int(round(duration_s / CHUNK_S))):
-            t0 = tow0 + c * CHUNK_S
+
+
+def satellite_chunks(groups, tow0: float, duration_s: float, cn0_dbhz: float, rng: np.random.Generator):
+    """The signals (no noise) of every satellite of ``groups``, ``(records, signal, t_sv0,
+    data)`` with ``t_sv0`` their satellite times at ``tow0`` and ``data`` each one's symbols
+    from 0.1 s before it (`inav_data`, `lnav.lnav_symbols`), in `CHUNK_S` chunks at `FS`
+    from time ``tow0``: code phase, Doppler and symbol timing of the geometry seen from
+    `STATION`, updated every chunk. A generator (`write_noisy_recording` draws each chunk's
+    noise after it)."""
+    n = int(round(CHUNK_S * FS))
+    phases = [np.zeros(sats.sv.size) for sats, *_ in groups]
+    for c in range(int(round(duration_s / CHUNK_S))):
+        t0 = tow0 + c * CHUNK_S
+        x = np.zeros(n, complex)
+        for (sats, signal, t_sv0, data), phase in zip(groups, phases):
             start = satellite_time(sats, t0)
             doppler = L1_FREQ_HZ * ((satellite_time(sats, t0 + CHUNK_S) - start) / CHUNK_S - 1)
-            x = np.zeros(n, complex)
             for k in range(sats.sv.size):
-                bits, into = symbols[k]
+                bits, into = data[k]
                 first_tsv = float(t_sv0[k]) - 0.1 - into  # satellite time of the first symbol's edge
                 x += generate_if_samples(
                     int(sats.sv[k][1:]),
@@ -80,18 +85,21 @@ def write_inav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
                     cn0_dbhz,
                     rng,
                     doppler_hz=doppler[k],
-                    code_phase_chips=(start[k] / period % 1.0) * SIGNAL.code_length_chips,
+                    code_phase_chips=(start[k] / signal.code_period_s % 1.0) * signal.code_length_chips,
                     carrier_phase_rad=phase[k],
                     complex_samples=True,
-                    data_bits=bits.astype(float),
+                    data_bits=np.asarray(bits, float),
                     first_bit_edge_s=first_tsv - start[k],
                     noise=False,
-                    signal=SIGNAL,
+                    signal=signal,
                 ).samples
                 phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
-            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
-            out.write(source.encode(x * 300.0))
-    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", FS, 0.0)
-    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
-    path.with_suffix(".tmp").unlink()
-    return path
+        yield x
+
+
+def write_inav_recording(path: Path, sats, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0) -> Path:
+    """Write ``duration_s`` of the satellites ``sats`` (an `Ephemerides`) from time ``tow0``."""
+    rng = np.random.default_rng(seed)
+    t_sv0 = satellite_time(sats, np.array(tow0))
+    groups = [(sats, SIGNAL, t_sv0, inav_data(sats, t_sv0, duration_s))]
+    return write_noisy_recording(path, satellite_chunks(groups, tow0, duration_s, cn0_dbhz, rng), FS, rng)

@@ -11,13 +11,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from gnssframework import registry
 from gnssframework.navigation import lnav
-from gnssframework.receiver.frontend import write_recording
 from gnssframework.signal.constants import L1_FREQ_HZ
 from gnssframework.signal.if_samples import generate_if_samples
 from gnssframework.navigation.ephemeris import satellite_state
 from light_time import C, signal_flight  # noqa: F401 (C: the receiver tests import it from here)
+from noisy_recording import write_noisy_recording
 
 WEEK = 1316  # the week the generator's LNAV carries
 DATA = Path(__file__).parent / "data"
@@ -77,7 +76,6 @@ def write_lnav_recording(
     start on (a code fault: multipath-like or spoofed)."""
     rng = np.random.default_rng(seed)
     n = int(round(CHUNK_S * FS))
-    source = registry.create("sample_source", "ci16_le")
     t_sv0 = _satellite_time(sats, np.array(tow0))
     symbols = [
         lnav.lnav_symbols(sats.subset(np.array([k])), WEEK, float(t_sv0[k]) - 0.1, int(duration_s * 50) + 20)
@@ -85,7 +83,8 @@ def write_lnav_recording(
     ]
     phase = np.zeros(sats.sv.size)
     cn0_at = cn0_dbhz if callable(cn0_dbhz) else (lambda t_s: cn0_dbhz)
-    with open(path, "wb") as out:
+
+    def chunks():
         for c in range(int(round(duration_s / CHUNK_S))):
             t0 = c * CHUNK_S
             start = _satellite_time(sats, tow0 + t0)
@@ -116,9 +115,6 @@ def write_lnav_recording(
                     noise=False,
                 ).samples
                 phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
-            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
-            out.write(source.encode(x * 300.0))
-    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", FS, 0.0)
-    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
-    path.with_suffix(".tmp").unlink()
-    return path
+            yield x
+
+    return write_noisy_recording(path, chunks(), FS, rng)

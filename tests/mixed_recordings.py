@@ -17,22 +17,16 @@ from pathlib import Path
 
 import numpy as np
 
-from gnssframework import registry
-from gnssframework.navigation import inav, lnav
+from gnssframework.navigation import lnav
 from gnssframework.navigation.ephemeris import Ephemerides, read_rinex_nav, satellite_state
-from gnssframework.receiver.frontend import write_recording
 from gnssframework.receiver.navigation.rinex_nav import NavRecord, write_rinex_nav
-from gnssframework.signal.constants import L1_FREQ_HZ
 from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
 from gnssframework.signal.gps_l1ca import GPS_L1CA
-from gnssframework.signal.if_samples import generate_if_samples
-from inav_recordings import GPS_WEEK, NAV as GALILEO_NAV, STATION
-from light_time import signal_flight
+from inav_recordings import FS, GPS_WEEK, NAV as GALILEO_NAV, STATION, inav_data, satellite_chunks, satellite_time
+from noisy_recording import write_noisy_recording
 
 GPS_NAV = Path(__file__).parent / "data" / "07590920.05n"
 TOE_S = 18000.0
-FS = 4e6
-CHUNK_S = 0.5
 
 
 def moved_gps_records() -> Ephemerides:
@@ -74,70 +68,18 @@ def write_mixed_nav(path: Path, gps: Ephemerides) -> Path:
     return path
 
 
-def _satellite_time(eph, t_rx):
-    tau, clock, _ = signal_flight(eph, t_rx, STATION)
-    return t_rx - tau + clock
-
-
 def write_mixed_recording(
     path: Path, gps, galileo, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0
 ) -> Path:
     """Write ``duration_s`` of the GPS records ``gps`` and the Galileo ones ``galileo`` from time ``tow0``."""
     rng = np.random.default_rng(seed)
-    n = int(round(CHUNK_S * FS))
-    source = registry.create("sample_source", "ci16_le")
-    groups = []
-    for sats, signal in ((gps, GPS_L1CA), (galileo, GALILEO_E1B_BOC11)):
-        t_sv0 = _satellite_time(sats, np.array(tow0))
-        if signal is GPS_L1CA:
-            data = [
-                lnav.lnav_symbols(
-                    sats.subset(np.array([k])), GPS_WEEK, float(t_sv0[k]) - 0.1, int(duration_s * 50) + 20
-                )
-                for k in range(sats.sv.size)
-            ]
-        else:
-            data = [
-                inav.inav_symbols(
-                    sats.subset(np.array([k])),
-                    GPS_WEEK - 1024,
-                    float(t_sv0[k]) - 0.1,
-                    int(duration_s * inav.SYMBOL_RATE_HZ) + 50,
-                )
-                for k in range(sats.sv.size)
-            ]
-        groups.append((sats, signal, t_sv0, data, np.zeros(sats.sv.size)))
-    with open(path, "wb") as out:
-        for c in range(int(round(duration_s / CHUNK_S))):
-            t0 = tow0 + c * CHUNK_S
-            x = np.zeros(n, complex)
-            for sats, signal, t_sv0, data, phase in groups:
-                start = _satellite_time(sats, t0)
-                doppler = L1_FREQ_HZ * ((_satellite_time(sats, t0 + CHUNK_S) - start) / CHUNK_S - 1)
-                for k in range(sats.sv.size):
-                    bits, into = data[k]
-                    first_tsv = float(t_sv0[k]) - 0.1 - into
-                    chips = (start[k] / signal.code_period_s % 1.0) * signal.code_length_chips
-                    x += generate_if_samples(
-                        int(sats.sv[k][1:]),
-                        CHUNK_S,
-                        FS,
-                        0.0,
-                        cn0_dbhz,
-                        rng,
-                        doppler_hz=doppler[k],
-                        code_phase_chips=chips,
-                        carrier_phase_rad=phase[k],
-                        complex_samples=True,
-                        data_bits=np.asarray(bits, float),
-                        first_bit_edge_s=first_tsv - start[k],
-                        noise=False,
-                        signal=signal,
-                    ).samples
-                    phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
-            x += rng.standard_normal(n) + 1j * rng.standard_normal(n)
-            out.write(source.encode(x * 300.0))
-    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", FS, 0.0)
-    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))
-    path.with_suffix(".tmp").unlink()
-    return path
+    t_gps, t_gal = satellite_time(gps, np.array(tow0)), satellite_time(galileo, np.array(tow0))
+    lnav_data = [
+        lnav.lnav_symbols(gps.subset(np.array([k])), GPS_WEEK, float(t_gps[k]) - 0.1, int(duration_s * 50) + 20)
+        for k in range(gps.sv.size)
+    ]
+    groups = [
+        (gps, GPS_L1CA, t_gps, lnav_data),
+        (galileo, GALILEO_E1B_BOC11, t_gal, inav_data(galileo, t_gal, duration_s)),
+    ]
+    return write_noisy_recording(path, satellite_chunks(groups, tow0, duration_s, cn0_dbhz, rng), FS, rng)

@@ -67,8 +67,10 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent / "tests"))  # the IS-GPS-200 LSB table the LNAV tests use
 
 import sim_truth  # noqa: E402
+from lnav_lsb import ALPHA_LSB, BETA_LSB, LSB  # noqa: E402
 
 # NAV and simulate are imported from here by gps_sdr_sim_weak.
 from gps_sdr_sim_run import (
@@ -95,30 +97,6 @@ from gnssframework.receiver.navigation.rtcm_out import write_rtcm  # noqa: E402
 from gnssframework.receiver.channels import tracking_config  # noqa: E402
 from gnssframework.receiver.frontend import open_recording  # noqa: E402
 
-PI = 3.1415926535898
-# One LSB of each field, typed from IS-GPS-200 Tables 20-I and 20-III (angles: semicircles x pi).
-LSB = {
-    "SVclockBias": 2.0**-31,
-    "SVclockDrift": 2.0**-43,
-    "SVclockDriftRate": 2.0**-55,
-    "TGD": 2.0**-31,
-    "Crs": 2.0**-5,
-    "Crc": 2.0**-5,
-    "Cuc": 2.0**-29,
-    "Cus": 2.0**-29,
-    "Cic": 2.0**-29,
-    "Cis": 2.0**-29,
-    "DeltaN": 2.0**-43 * PI,
-    "M0": 2.0**-31 * PI,
-    "Omega0": 2.0**-31 * PI,
-    "Io": 2.0**-31 * PI,
-    "omega": 2.0**-31 * PI,
-    "OmegaDot": 2.0**-43 * PI,
-    "IDOT": 2.0**-43 * PI,
-    "Eccentricity": 2.0**-33,
-    "sqrtA": 2.0**-19,
-    "Toe": 16.0,
-}
 #: rnx2rtkp's options (its configuration file): a single-point solution modelled as ours.
 RTKLIB_OPTIONS = {
     "pos1-posmode": "single",
@@ -133,8 +111,6 @@ RTKLIB_OPTIONS = {
     "out-timeform": "tow",
     "out-timendec": "3",
 }
-ALPHA_LSB = np.array([2.0**-30, 2.0**-27, 2.0**-24, 2.0**-24])
-BETA_LSB = np.array([2.0**11, 2.0**14, 2.0**16, 2.0**16])
 
 
 def rtklib_positions(obs_path: Path, nav_path: Path, work: Path) -> tuple[np.ndarray, np.ndarray] | None:

@@ -15,31 +15,9 @@ from gnssframework.navigation import lnav
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
 from pathlib import Path
 
+from lnav_lsb import ALPHA_LSB, BETA_LSB, LSB
+
 NAV = Path(__file__).parents[1] / "data" / "07590920.05n"
-PI = 3.1415926535898  # IS-GPS-200 20.3.3.4.3
-# The LSB of every field, typed from IS-GPS-200 Tables 20-I and 20-III (angles: semicircles x pi).
-LSB = {
-    "SVclockBias": 2.0**-31,
-    "SVclockDrift": 2.0**-43,
-    "SVclockDriftRate": 2.0**-55,
-    "TGD": 2.0**-31,
-    "Crs": 2.0**-5,
-    "Crc": 2.0**-5,
-    "Cuc": 2.0**-29,
-    "Cus": 2.0**-29,
-    "Cic": 2.0**-29,
-    "Cis": 2.0**-29,
-    "DeltaN": 2.0**-43 * PI,
-    "M0": 2.0**-31 * PI,
-    "Omega0": 2.0**-31 * PI,
-    "Io": 2.0**-31 * PI,
-    "omega": 2.0**-31 * PI,
-    "OmegaDot": 2.0**-43 * PI,
-    "IDOT": 2.0**-43 * PI,
-    "Eccentricity": 2.0**-33,
-    "sqrtA": 2.0**-19,
-    "Toe": 16.0,
-}
 # Klobuchar of the same file's header (ION ALPHA / ION BETA lines).
 IONO = lnav.IonoUtc(
     alpha=(1.118e-08, 1.49e-08, -5.96e-08, -5.96e-08),
@@ -103,10 +81,8 @@ def test_page_18_carries_klobuchar_and_utc(records):
     bits = lnav.encode_lnav(records.subset(np.array([0])), 1316, 18.0, 1, IONO)  # subframe 4
     msg = lnav.decode_lnav(1 - 2 * bits.astype(float), 20)
     iono = msg.iono_utc
-    alpha_lsb = np.array([2.0**-30, 2.0**-27, 2.0**-24, 2.0**-24])
-    beta_lsb = np.array([2.0**11, 2.0**14, 2.0**16, 2.0**16])
-    assert np.all(np.abs(np.array(iono.alpha) - IONO.alpha) <= alpha_lsb / 2)
-    assert np.all(np.abs(np.array(iono.beta) - IONO.beta) <= beta_lsb / 2)
+    assert np.all(np.abs(np.array(iono.alpha) - IONO.alpha) <= ALPHA_LSB / 2)
+    assert np.all(np.abs(np.array(iono.beta) - IONO.beta) <= BETA_LSB / 2)
     assert abs(iono.a0_s - IONO.a0_s) <= 2.0**-31 and abs(iono.a1_s_s - IONO.a1_s_s) <= 2.0**-51
     assert (iono.tot_s, iono.wnt, iono.dt_ls_s) == (503808, 1316 % 256, 13)
 

@@ -15,9 +15,10 @@ from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.receiver.navigation.observables import SPEED_OF_LIGHT_MPS, channel_timing, observables
 from gnssframework.receiver.acquisition.report import acquire_recording
 from gnssframework.receiver.channels import SampleTracker, tracking_config
-from gnssframework.receiver.frontend import open_recording, write_recording
+from gnssframework.receiver.frontend import open_recording
 from gnssframework.signal.constants import CA_CHIP_RATE_HZ, L1_FREQ_HZ
 from gnssframework.signal.if_samples import generate_if_samples
+from noisy_recording import write_noisy_recording
 
 NAV = Path(__file__).parents[1] / "data" / "07590920.05n"
 FS = 2.046e6
@@ -32,10 +33,10 @@ def _write_lnav_recording(path: Path, record, rng) -> Path:
     fraction and the bits those in force; the file is written in 0.5 s chunks."""
     rate = CA_CHIP_RATE_HZ * (1 + DOPPLER / L1_FREQ_HZ)
     symbols, into = lnav.lnav_symbols(record, 1316, TOW0, int(DURATION_S * 50) + 2)
-    source = registry.create("sample_source", "ci16_le")
     chunk = int(0.5 * FS)
     n_total = int(DURATION_S * FS) // chunk * chunk
-    with open(path, "wb") as out:
+
+    def chunks():
         for start in range(0, n_total, chunk):
             t0 = start / FS
             sig = generate_if_samples(
@@ -53,11 +54,9 @@ def _write_lnav_recording(path: Path, record, rng) -> Path:
                 first_bit_edge_s=-into - t0,
                 noise=True,
             )
-            out.write(source.encode(sig.samples * 300.0))
-    write_recording(path.with_suffix(".tmp"), np.zeros(2, complex), "ci16_le", FS, 0.0)  # its metadata ...
-    path.with_suffix(".tmp").with_suffix(".sigmf-meta").rename(path.with_suffix(".sigmf-meta"))  # ... beside ours
-    path.with_suffix(".tmp").unlink()
-    return path
+            yield sig.samples
+
+    return write_noisy_recording(path, chunks(), FS)
 
 
 @pytest.fixture(scope="module")

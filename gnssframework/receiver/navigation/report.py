@@ -24,8 +24,7 @@ from ...signal.spec import SignalSpec
 from ..channels.report import locked_channels
 from .fixes import ELEVATION_MASK_DEG, PositionTable, full_week
 from .fixes import _ephemeris_for as ephemeris_for
-from .inav_stream import carries_inav, channel_inav
-from .observables import channel_timing
+from .decoded import navigation_message
 from .receive import ReceiveResult, position_errors
 
 __all__ = [
@@ -37,8 +36,6 @@ __all__ = [
     "decoded_lnav",
 ]
 
-#: Indices in receiver.channels.STAGES of the bit-aligned stages ("extended", "vector").
-_BIT_ALIGNED = (2, 4)
 #: Satellites a position needs (three coordinates and the receiver clock).
 _NEEDED = 4
 
@@ -166,11 +163,7 @@ def why_unused(
         return "never locked"
     obs = result.observables
     if obs is None or prn not in obs.prn:
-        if carries_inav(signal):
-            return "no I/NAV page with a GST decoded (no transmit time)"
-        if not np.isin(ch.column("stage"), _BIT_ALIGNED).any():
-            return "never bit-synchronised (no LNAV bits, no transmit time)"
-        return "no LNAV subframe decoded (no transmit time)"
+        return navigation_message(signal).no_transmit_time(ch)
     j = int(np.flatnonzero(obs.prn == prn)[0])
     valid = np.flatnonzero(np.isfinite(obs.pseudorange_m[:, j]))
     if valid.size == 0:
@@ -200,39 +193,11 @@ def why_unused(
 
 
 def decoded_lnav(result: ReceiveResult, signal: SignalSpec = GPS_L1CA) -> dict[int, dict]:
-    """Per tracked PRN what its LNAV gave: ``subframes`` (count), ``first_tow_s`` (of the first
-    subframe, None without one), ``ephemeris`` (a complete one decoded), ``iono`` (page 18)
-    and ``week`` (10-bit, subframe 1; None). On Galileo E1-B (`carries_inav`) its I/NAV:
-    ``subframes`` the pages decoded, ``first_tow_s`` and ``week`` the last GST's TOW and
-    week, ``iono`` None (word 5's NeQuick coefficients are not used)."""
-    if carries_inav(signal):
-        return {prn: _decoded_inav(ch, signal) for prn, ch in sorted(result.tracking.channels.items())}
-    out = {}
-    for prn, ch in sorted(result.tracking.channels.items()):
-        tm = channel_timing(ch) if ch.rows else None
-        msg = tm.message if tm is not None else None
-        subframes = list(msg.subframes) if msg is not None else []
-        out[prn] = {
-            "subframes": len(subframes),
-            "first_tow_s": subframes[0].tow_s if subframes else None,
-            "ephemeris": bool(tm is not None and tm.ephemerides),
-            "iono": msg is not None and msg.iono_utc is not None,
-            "week": msg.week if msg is not None else None,
-        }
-    return out
-
-
-def _decoded_inav(ch, signal: SignalSpec) -> dict:
-    """`decoded_lnav`'s row of one E1-B channel, from its I/NAV (`channel_inav`)."""
-    timing = channel_inav(ch, signal)
-    gst = timing.gst
-    return {
-        "subframes": timing.pages,
-        "first_tow_s": None if gst is None else gst[2],
-        "ephemeris": timing.ephemeris is not None,
-        "iono": None,
-        "week": None if gst is None else gst[1],
-    }
+    """Per tracked PRN what its navigation message gave (`decoded.navigation_message` of
+    ``signal``: LNAV, or I/NAV on Galileo E1-B): ``subframes``, ``first_tow_s``,
+    ``ephemeris``, ``iono`` and ``week`` (`decoded.NavMessage`)."""
+    message = navigation_message(signal)
+    return {prn: message.decoded(ch, signal) for prn, ch in sorted(result.tracking.channels.items())}
 
 
 def no_position_reason(
@@ -261,15 +226,7 @@ def no_position_reason(
     obs = result.observables
     if obs is None:
         locked = sum(1 for ch in result.tracking.channels.values() if ch.rows and ch.column("lock").any())
-        if carries_inav(signal):
-            return (
-                f"no I/NAV page with a GST decoded ({locked} of {len(found)} satellites found locked; the GST "
-                "comes in word type 0, 5 or 6, one every few 2 s pages once a channel is locked)"
-            )
-        return (
-            f"no LNAV subframe decoded ({locked} of {len(found)} satellites found locked; a subframe takes 6 s "
-            "once a channel is locked and bit-synchronised)"
-        )
+        return navigation_message(signal).none_decoded(locked, len(found))
     week = full_week(obs.week, reference_week)
     valid = np.flatnonzero(np.isfinite(obs.pseudorange_m).any(axis=1))
     if nav_info is not None and week >= 0 and valid.size:
@@ -294,18 +251,12 @@ def write_no_position_report(
     signal: SignalSpec = GPS_L1CA,
 ) -> list[Path]:
     """``report.md`` of a run without a position: the reason, per tracked satellite its
-    lock, what its LNAV gave (`decoded_lnav`) and why it was not used, the vector loop's
+    lock, what its navigation message gave (`decoded_lnav`) and why it was not used, the vector loop's
     events, and the C/N0 figure; returns the paths written."""
     out = Path(out_dir)
     (out / "plots").mkdir(parents=True, exist_ok=True)
     decoded = decoded_lnav(result, signal)
-    inav = carries_inav(signal)
-    header = (
-        "| PRN | C/N0 locked (dB-Hz) | locked | I/NAV pages | GST TOW (s) | ephemeris decoded | iono | GST week "
-        if inav
-        else "| PRN | C/N0 locked (dB-Hz) | locked | LNAV subframes | first TOW (s) | ephemeris decoded "
-        "| page 18 | week (10-bit) "
-    )
+    header = "| PRN | C/N0 locked (dB-Hz) | locked | " + " | ".join(navigation_message(signal).columns) + " "
     lines = [
         "# Receiver run: no position",
         "",

@@ -1,0 +1,126 @@
+"""What a channel's navigation message gave, per kind of message, for the receiver's reports.
+
+Each message a ``receive`` run decodes (GPS/QZSS LNAV, Galileo I/NAV) is a `NavMessage`: the
+signals that carry it, the columns it fills in the no-position report's satellite table, the
+function giving one channel's row of them, and its words for a channel or a run without a
+transmit time. `navigation_message` looks up a signal's, so
+a report asks one interface what was decoded and never which system it is reading.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ...signal.spec import SignalSpec
+from .inav_stream import carries_inav, carries_lnav, channel_inav
+from .observables import channel_timing
+
+__all__ = ["NavMessage", "LNAV", "INAV", "MESSAGES", "navigation_message", "lnav_decoded", "inav_decoded"]
+
+#: Indices in receiver.channels.STAGES of the bit-aligned stages ("extended", "vector").
+_BIT_ALIGNED = (2, 4)
+
+
+@dataclass(frozen=True)
+class NavMessage:
+    """One kind of navigation message as the reports see it.
+
+    Attributes
+    ----------
+    name
+        ``"LNAV"``, ``"I/NAV"``.
+    carried_by
+        Whether a signal carries it on its tracked component.
+    columns
+        The headers of the satellite table's five decoded cells, in the order of
+        ``decoded``'s keys ``subframes``, ``first_tow_s``, ``ephemeris``, ``iono``, ``week``.
+    decoded
+        ``(channel record, signal) -> row``: the count of subframes or pages, the first (or
+        last) TOW (s, None without one), whether a complete ephemeris was decoded, the
+        ionosphere (bool, or None where the message's is not used) and the week (None).
+    no_transmit_time
+        ``channel record -> reason``: why a locked channel has no transmit time.
+    none_decoded
+        ``(locked, found) -> reason``: why no satellite of a run has a transmit time, with
+        ``locked`` of the ``found`` satellites locked.
+    """
+
+    name: str
+    carried_by: Callable[[SignalSpec], bool]
+    columns: tuple[str, str, str, str, str]
+    decoded: Callable[[Any, SignalSpec], dict]
+    no_transmit_time: Callable[[Any], str]
+    none_decoded: Callable[[int, int], str]
+
+
+def lnav_decoded(ch, signal: SignalSpec) -> dict:
+    """What one channel's LNAV gave: ``subframes`` (count), ``first_tow_s`` (of the first
+    subframe, None without one), ``ephemeris`` (a complete one decoded), ``iono`` (page 18)
+    and ``week`` (10-bit, subframe 1; None)."""
+    tm = channel_timing(ch) if ch.rows else None
+    msg = tm.message if tm is not None else None
+    subframes = list(msg.subframes) if msg is not None else []
+    return {
+        "subframes": len(subframes),
+        "first_tow_s": subframes[0].tow_s if subframes else None,
+        "ephemeris": bool(tm is not None and tm.ephemerides),
+        "iono": msg is not None and msg.iono_utc is not None,
+        "week": msg.week if msg is not None else None,
+    }
+
+
+def inav_decoded(ch, signal: SignalSpec) -> dict:
+    """What one E1-B channel's I/NAV gave (`channel_inav`): ``subframes`` the pages decoded,
+    ``first_tow_s`` and ``week`` the last GST's TOW and week, ``ephemeris`` (a complete one
+    decoded), ``iono`` None (word 5's NeQuick coefficients are not used)."""
+    timing = channel_inav(ch, signal)
+    gst = timing.gst
+    return {
+        "subframes": timing.pages,
+        "first_tow_s": None if gst is None else gst[2],
+        "ephemeris": timing.ephemeris is not None,
+        "iono": None,
+        "week": None if gst is None else gst[1],
+    }
+
+
+def _lnav_no_transmit_time(ch) -> str:
+    if not np.isin(ch.column("stage"), _BIT_ALIGNED).any():
+        return "never bit-synchronised (no LNAV bits, no transmit time)"
+    return "no LNAV subframe decoded (no transmit time)"
+
+
+LNAV = NavMessage(
+    "LNAV",
+    carries_lnav,
+    ("LNAV subframes", "first TOW (s)", "ephemeris decoded", "page 18", "week (10-bit)"),
+    lnav_decoded,
+    _lnav_no_transmit_time,
+    lambda locked, found: (
+        f"no LNAV subframe decoded ({locked} of {found} satellites found locked; a subframe takes 6 s "
+        "once a channel is locked and bit-synchronised)"
+    ),
+)
+INAV = NavMessage(
+    "I/NAV",
+    carries_inav,
+    ("I/NAV pages", "GST TOW (s)", "ephemeris decoded", "iono", "GST week"),
+    inav_decoded,
+    lambda ch: "no I/NAV page with a GST decoded (no transmit time)",
+    lambda locked, found: (
+        f"no I/NAV page with a GST decoded ({locked} of {found} satellites found locked; the GST "
+        "comes in word type 0, 5 or 6, one every few 2 s pages once a channel is locked)"
+    ),
+)
+#: The messages the receiver decodes.
+MESSAGES = (LNAV, INAV)
+
+
+def navigation_message(signal: SignalSpec) -> NavMessage:
+    """The message ``signal`` carries (`MESSAGES`); LNAV for a signal that carries none of
+    them (its channels then report no subframes)."""
+    return next((m for m in MESSAGES if m.carried_by(signal)), LNAV)
