@@ -22,7 +22,9 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...interfaces import ErrorStateNavFilter
-from .measurements import POSITION, VELOCITY
+from ...navigation.geometry import line_of_sight, range_rate
+from .loose import fix_gate
+from .measurements import POSITION, VELOCITY, integration_measurement, reference_channel
 from .navigators import ClockFilter
 
 __all__ = ["StrapdownSolution", "InsNavigator", "loose_update", "tight_update"]
@@ -124,6 +126,11 @@ class InsNavigator:
 REJECTED_FIX_VAR = 1e12
 
 
+def _predicted_cov(ekf: ErrorStateNavFilter, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
+    """The error state's covariance predicted to the update, $\\Phi P \\Phi^T + Q_d$, for the gates."""
+    return Phi @ ekf.cov @ np.swapaxes(Phi, -1, -2) + Qd
+
+
 def loose_update(
     ins: StrapdownSolution,
     ekf: ErrorStateNavFilter,
@@ -143,10 +150,8 @@ def loose_update(
     p, v, _ = ins.kinematics()
     z = np.concatenate([p - fix_pos_m, v - fix_vel_m_s], axis=-1)
     if gate_probability > 0:
-        from .loose import fix_gate
-
         idx = np.r_[np.arange(15)[POSITION], np.arange(15)[VELOCITY]]  # z is [position, velocity]
-        P = Phi @ ekf.cov @ np.swapaxes(Phi, -1, -2) + Qd
+        P = _predicted_cov(ekf, Phi, Qd)
         accepted = fix_gate(z, P[:, idx[:, None], idx] + fix_cov, gate_probability)
         z = np.where(accepted[:, None], z, 0.0)
         fix_cov = np.where(accepted[:, None, None], fix_cov, fix_cov + REJECTED_FIX_VAR * np.eye(6))
@@ -208,9 +213,6 @@ def tight_update(
     -------
     The applied error estimate ``(runs, 15)`` (subtracted from the INS).
     """
-    from ...navigation.geometry import line_of_sight, range_rate
-    from .measurements import integration_measurement, reference_channel
-
     Phi, Qd = ins.take_error_model()
     p, v, _ = ins.kinematics()
     geo, los = line_of_sight(sat_pos_m, p[:, None, :])  # (runs, ch), (runs, ch, 3)
@@ -220,10 +222,8 @@ def tight_update(
     cov[..., 1, 1] = var_rate_m2_s2
     cn0 = np.broadcast_to(np.asarray(cn0_dbhz, float), residual.shape[:-1])
     if gate_probability > 0:
-        from .loose import fix_gate
-
         z, H, R = integration_measurement(residual, cov, los, reference_channel(cn0))
-        P = Phi @ ekf.cov @ np.swapaxes(Phi, -1, -2) + Qd
+        P = _predicted_cov(ekf, Phi, Qd)
         accepted = fix_gate(z, H @ P @ np.swapaxes(H, -1, -2) + R, gate_probability)
         residual = np.where(accepted[:, None, None], residual, 0.0)
         cov = np.where(accepted[:, None, None, None], cov, cov + REJECTED_FIX_VAR * np.eye(2))
