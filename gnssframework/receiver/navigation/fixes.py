@@ -21,6 +21,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides, _wrap_week
+from ...navigation.inav_params import full_week as nearest_week
 from ...navigation.lnav import IonoUtc
 from .observables import SPEED_OF_LIGHT_MPS, Observables
 from ...navigation.pvt import PositionFix, solve_position
@@ -90,7 +91,7 @@ def full_week(week10: int | None, reference_week: int | None = None) -> int:
     if week10 is None:
         return -1 if reference_week is None else int(reference_week)
     if reference_week is not None:
-        return int(reference_week + ((week10 - reference_week + 512) % 1024) - 512)
+        return nearest_week(week10, 10, reference_week)
     return _ERA_START_WEEK + week10 % 1024
 
 

@@ -195,7 +195,7 @@ def _header(
             _line("GPSB " + "".join(_d12(v) for v in iono.beta), "IONOSPHERIC CORR"),
         ]
         # The 8-bit week of tot placed nearest the records' week (IS-GPS-200 20.3.3.5.2.4).
-        wnt = first.week + ((iono.wnt - first.week + 128) % 256) - 128
+        wnt = full_week(iono.wnt, 8, first.week)
         out += [
             _time_corr("GPUT", iono.a0_s, iono.a1_s_s, iono.tot_s, wnt),
             _line(f"{int(iono.dt_ls_s):6d}", "LEAP SECONDS"),
