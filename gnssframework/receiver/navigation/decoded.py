@@ -16,13 +16,14 @@ from typing import Any
 import numpy as np
 
 from ...signal.spec import SignalSpec
+from ..channels.records import STAGES
 from .inav_stream import carries_inav, carries_lnav, channel_inav
 from .observables import channel_timing
 
 __all__ = ["NavMessage", "LNAV", "INAV", "MESSAGES", "navigation_message", "lnav_decoded", "inav_decoded"]
 
-#: Indices in receiver.channels.STAGES of the bit-aligned stages ("extended", "vector").
-_BIT_ALIGNED = (2, 4)
+#: Indices in receiver.channels.STAGES of the bit-aligned stages.
+_BIT_ALIGNED = tuple(STAGES.index(stage) for stage in ("extended", "vector"))
 
 
 @dataclass(frozen=True)
