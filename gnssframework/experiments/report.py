@@ -72,13 +72,18 @@ def mean_cell(row: dict) -> str:
 
 
 def _paired_markdown(config: ComparisonConfig, paired: list[dict], case: str, units: dict[str, str]) -> list[str]:
-    """The case's paired-difference table (candidate minus reference, per metric)."""
+    """The case's paired tables: the differences (candidate minus reference, per metric),
+    then the ratios of means (candidate over reference), each one column per candidate."""
     others = [c.name for c in config.candidates if c.name != config.reference_name]
     if not others:
         return []
     mine = [r for r in paired if r["case"] == case and r["candidate"] in others and r["diff"] is not None]
     counts = [r["n"] for r in mine]
     n_all = max(set(counts), key=counts.count) if counts else None  # the usual n, stated once
+    header = [
+        "| metric | unit | " + " | ".join(others) + " |",
+        "| --- | --- | " + " | ".join("---" for _ in others) + " |",
+    ]
     lines = [
         f"Paired differences to `{config.reference_name}` (candidate minus reference, mean ± SE over "
         + (
@@ -86,24 +91,36 @@ def _paired_markdown(config: ComparisonConfig, paired: list[dict], case: str, un
             if n_all is not None
             else "the n common-random-number runs"
         )
-        + "; ×: ratio of means ± its SE; **\\***: significant, the 95 % paired "
-        "t-interval excludes 0; a difference without ± has no spread over the runs and is not tested):",
+        + "; **\\***: significant, the 95 % paired t-interval excludes 0; a difference without ± "
+        "has no spread over the runs and is not tested):",
         "",
-        "| metric | unit | " + " | ".join(others) + " |",
-        "| --- | --- | " + " | ".join("---" for _ in others) + " |",
+        *header,
     ]
+    ratios = []
     for metric in config.metric_names:
-        cells = []
+        cells, ratio_cells = [], []
         for cand in others:
             r = next(r for r in paired if r["case"] == case and r["candidate"] == cand and r["metric"] == metric)
             if r["diff"] is None:
                 cells.append(f"– ({r['reason']})")
+                ratio_cells.append("–")
                 continue
-            cell = format_estimate(r["diff"], r["se"], sign=True)
-            if r["ratio"] is not None:
-                cell += f" (×{format_estimate(r['ratio'], r['ratio_se'])})"
-            cells.append(cell + (" **\\***" if r["significant"] else "") + ("" if r["n"] == n_all else f" n={r['n']}"))
+            n_note = "" if r["n"] == n_all else f" n={r['n']}"
+            cells.append(
+                format_estimate(r["diff"], r["se"], sign=True) + (" **\\***" if r["significant"] else "") + n_note
+            )
+            ratio_cells.append("–" if r["ratio"] is None else f"×{format_estimate(r['ratio'], r['ratio_se'])}" + n_note)
         lines.append(f"| {metric} | {units.get(metric, '')} | " + " | ".join(cells) + " |")
+        ratios.append(f"| {metric} | {units.get(metric, '')} | " + " | ".join(ratio_cells) + " |")
+    if any(r["ratio"] is not None for r in mine):
+        lines += [
+            "",
+            f"Ratios of means to `{config.reference_name}` (candidate mean over reference mean ± its SE, "
+            "from the same paired runs; –: no ratio, a value is negative or the reference's mean is 0):",
+            "",
+            *header,
+            *ratios,
+        ]
     return lines + [""]
 
 
