@@ -84,11 +84,17 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     try:
         # A bar on a terminal, a line per tenth of the batches in a log or a pipe.
         summary = run_comparison(
-            config, out, progress=not args.quiet, replicate=args.replicate, trials_from=args.trials_from
+            config,
+            out,
+            progress=not args.quiet,
+            replicate=args.replicate,
+            trials_from=args.trials_from,
+            figures=(lambda name: False) if args.no_plots else None,
         )
     except sqlite3.DatabaseError as exc:  # sqlite3 does not say which file: name the store
         raise _store_error(exc, Path(out) / "results.sqlite") from None
-    print(f"wrote {summary}, {summary.parent / 'report.md'} and {summary.parent / 'plots'}/")
+    plots = "" if args.no_plots else f" and {summary.parent / 'plots'}/"
+    print(f"wrote {summary}, {summary.parent / 'report.md'}{plots}")
     return _report_claims(summary, args.check)
 
 
@@ -1345,6 +1351,12 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="also run every case and candidate on a second, disjoint set of runs (the replicate streams, "
         "at the tuned values) and re-check every claim there; with --check, a claim must hold on both",
+    )
+    p.add_argument(
+        "--no-plots",
+        action="store_true",
+        help="write the summary, report and tables but draw no figure (report.md still names them; "
+        "the same command without the flag draws them from the store, nothing rerun)",
     )
     p.add_argument(
         "--trials-from",

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -319,7 +321,7 @@ def cdf_figure(config: ComparisonConfig, store: ResultStore, case: str):
     return panel_grid(panels, f"{config.name} – {case}: distribution over {config.runs} runs")
 
 
-def _plots(config: ComparisonConfig, store: ResultStore, out: Path) -> None:
+def _plots(config: ComparisonConfig, store: ResultStore, out: Path, wanted: Callable[[str], bool]) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -328,12 +330,14 @@ def _plots(config: ComparisonConfig, store: ResultStore, out: Path) -> None:
     plot_dir = out / "plots"
     plot_dir.mkdir(exist_ok=True)
     for case in config.cases:
-        for name, fig in (
-            (f"{case.name}-series.png", series_figure(config, out, case.name)),
-            (f"{case.name}-cdf.png", cdf_figure(config, store, case.name)),
+        for name, draw in (
+            (f"{case.name}-series.png", partial(series_figure, config, out, case.name)),
+            (f"{case.name}-cdf.png", partial(cdf_figure, config, store, case.name)),
         ):
-            _savefig(fig, plot_dir / name)
-            plt.close(fig)
+            if wanted(name):
+                fig = draw()
+                _savefig(fig, plot_dir / name)
+                plt.close(fig)
 
 
 def assumption_rows(config: ComparisonConfig) -> list[dict]:
@@ -548,7 +552,9 @@ def replicate_claims(claims: list[dict], replica: list[dict]) -> None:
         )
 
 
-def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[str]:
+def _tuning_outputs(
+    config: ComparisonConfig, tuning: dict, out: Path, wanted: Callable[[str], bool] = lambda name: True
+) -> list[str]:
     """``tuning/<candidate>.csv`` (every trial), ``plots/tuning-<candidate>.png`` (objective
     against each free parameter) and the report's tuning section."""
     import csv
@@ -592,9 +598,10 @@ def _tuning_outputs(config: ComparisonConfig, tuning: dict, out: Path) -> list[s
             w.writerow(["trial", *res["labels"], "objective"])
             for j, t in enumerate(res["trials"]):
                 w.writerow([j, *t["values"], t["objective"] if np.isfinite(t["objective"]) else ""])
-        fig = tuning_figure(cand, res, config.metric_units.get(res["metric"], "-"))
-        _savefig(fig, out / "plots" / f"tuning-{cand}.png")
-        plt.close(fig)
+        if wanted(f"tuning-{cand}.png"):
+            fig = tuning_figure(cand, res, config.metric_units.get(res["metric"], "-"))
+            _savefig(fig, out / "plots" / f"tuning-{cand}.png")
+            plt.close(fig)
     lines.append("")
     own = {cand: res["own_cases"] for cand, res in tuning.items() if res.get("own_cases")}
     lines += [
@@ -624,9 +631,13 @@ def write_report(
     out: Path,
     tuning: dict | None = None,
     replicate: ComparisonConfig | None = None,
+    figures: Callable[[str], bool] | None = None,
 ) -> Path:
     """Write ``summary.json``, ``report.md`` and ``plots/`` into ``out`` (and the tuning's
-    tables and plots when the comparison was tuned)."""
+    tables and plots when the comparison was tuned). ``figures``, given a plot's file name
+    (``45dBHz-cdf.png``, ``tuning-ckf.png``, ``sweep-cn0-static.png``), says whether to draw
+    it (None: every plot); ``report.md`` names every plot either way."""
+    wanted = figures or (lambda name: True)
     from .tuning import tuning_points
 
     rows = summary_rows(config, store)
@@ -637,7 +648,7 @@ def write_report(
     untuned = [c.name for c in config.candidates if c.name not in tuning] if tuning else []
     given = {c.name for c in config.candidates if c.as_given}
     assumptions = assumption_rows(config)
-    sweeps, sweep_lines = write_sweeps(config, store, out)
+    sweeps, sweep_lines = write_sweeps(config, store, out, wanted)
     summary = out / "summary.json"
     write_json(
         summary,
@@ -658,7 +669,7 @@ def write_report(
             "replicated": replicate is not None,
         },
     )
-    tuning_lines = _tuning_outputs(config, tuning, out) if tuning else []
+    tuning_lines = _tuning_outputs(config, tuning, out, wanted) if tuning else []
     sections = [
         _markdown(config, rows, paired),
         "\n".join(_assumptions_markdown(config, assumptions)),
@@ -667,5 +678,5 @@ def write_report(
         "\n".join(sweep_lines),
     ]
     atomic_write_text(out / "report.md", join_sections(sections))
-    _plots(config, store, out)
+    _plots(config, store, out, wanted)
     return summary

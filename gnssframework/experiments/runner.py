@@ -286,8 +286,10 @@ def run_comparison(
     on_batch: Callable[[Task], None] | None = None,
     replicate: bool = False,
     trials_from: str | Path | None = None,
+    figures: Callable[[str], bool] | None = None,
 ) -> Path:
-    """Run (or resume) ``config`` and write the report into ``out``; with ``replicate``,
+    """Run (or resume) ``config`` and write the report into ``out`` (the plots ``figures``
+    accepts by file name, every one when it is None: `report.write_report`); with ``replicate``,
     also run it on the replicate streams (a second, disjoint set of runs) and re-check
     every claim there (each claim row's ``replicate_outcome``). A tuned comparison also
     writes its trials (``tuning_trials.json``); ``trials_from``, such a file of an earlier
@@ -368,4 +370,4 @@ def run_comparison(
                     bar.update()
         if bar is not None:
             bar.close()
-        return write_report(config, store, out, tuning=tuning, replicate=replica)
+        return write_report(config, store, out, tuning=tuning, replicate=replica, figures=figures)

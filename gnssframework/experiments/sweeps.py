@@ -33,6 +33,7 @@ from __future__ import annotations
 import copy
 import csv
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -488,9 +489,13 @@ def _markdown(config, sweep: dict) -> list[str]:
     return lines
 
 
-def write_sweeps(config, store, out: Path) -> tuple[list[dict], list[str]]:
+def write_sweeps(
+    config, store, out: Path, figures: Callable[[str], bool] | None = None
+) -> tuple[list[dict], list[str]]:
     """Write each sweep's table (``sweeps/<name>.csv`` and ``.json``) and plots
-    (``plots/sweep-<name>-<case>.png``); return the summary entries and report lines."""
+    (``plots/sweep-<name>-<case>.png``, those ``figures`` accepts by file name: every one
+    when it is None); return the summary entries and report lines."""
+    wanted = figures or (lambda name: True)
     if not config.sweeps:
         return [], []
     sweeps = sweep_rows(config, store)
@@ -501,18 +506,18 @@ def write_sweeps(config, store, out: Path) -> tuple[list[dict], list[str]]:
         _write_csv(out / "sweeps" / f"{sweep['name']}.csv", sweep)
         write_json(out / "sweeps" / f"{sweep['name']}.json", sweep)  # strict JSON, atomic
         for case in sweep["cases"]:
-            _plot(out / "plots" / f"sweep-{sweep['name']}-{case}.png", config, sweep, case)
-            if len(config.candidates) > 1:
-                _plot_paired(out / "plots" / f"sweep-{sweep['name']}-{case}-paired.png", config, sweep, case)
+            if wanted(name := f"sweep-{sweep['name']}-{case}.png"):
+                _plot(out / "plots" / name, config, sweep, case)
+            if len(config.candidates) > 1 and wanted(name := f"sweep-{sweep['name']}-{case}-paired.png"):
+                _plot_paired(out / "plots" / name, config, sweep, case)
         lines += _markdown(config, sweep)
     for i, sweep in enumerate(config.sweeps):
         report = threshold_rows(config, store, i)
         if report is None:
             continue
         for entry in report["cases"]:
-            plot_threshold(
-                out / "plots" / f"threshold-{sweep.label}-{entry['case']}.png", config, report, entry, sweeps[i]
-            )
+            if wanted(name := f"threshold-{sweep.label}-{entry['case']}.png"):
+                plot_threshold(out / "plots" / name, config, report, entry, sweeps[i])
         lines += threshold_markdown(config, report)
         sweeps[i]["threshold"] = {k: v for k, v in report.items() if k != "cases"} | {
             "cases": [{k: v for k, v in c.items() if k != "_samples"} for c in report["cases"]]

@@ -129,7 +129,7 @@ def test_atomic_open_leaves_the_old_file_on_an_exception(tmp_path):
 @pytest.mark.parametrize("example", EXAMPLES, ids=[p.stem for p in EXAMPLES])
 def test_every_example_writes_a_strict_json_summary(example, tmp_path):
     config = load_config(_shortened(example, tmp_path))
-    summary = run_comparison(config, tmp_path / "out", progress=False)
+    summary = run_comparison(config, tmp_path / "out", progress=False, figures=lambda name: False)
     doc = loads_strict(summary.read_text())  # raises on a bare NaN or Infinity
     report = (tmp_path / "out" / "report.md").read_text()
     assert "nan" not in report.lower().replace("nanoseconds", "")
