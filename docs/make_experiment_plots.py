@@ -3,6 +3,14 @@
     python docs/make_experiment_plots.py            # what CI runs
     python docs/make_experiment_plots.py --slow     # also the reference-000 C/N0 sweep (~6 min on 2 cores)
     python docs/make_experiment_plots.py --retune   # tune the tuned examples again, rewrite their records
+    python docs/make_experiment_plots.py --all-figures   # every figure of every report, not only the docs'
+    python docs/make_experiment_plots.py NAME ...   # these examples only
+    python docs/make_experiment_plots.py --part 1/2 # every second example from the first (CI's two lanes)
+
+Only the figures a docs page shows (``img/experiments/<name>-<plot>.png`` named in a page
+under docs/) are drawn and copied: drawing is most of this script's time once the stores
+are finished (constrained layouts, log axes), and most report figures are read in
+``results/<name>/report.md``, not on a page. ``--all-figures`` draws them all.
 
 Each comparison writes to results/<name>/ and resumes from its store, so a run that
 the README's main job already made is not repeated. A tuned example with a record of its
@@ -18,6 +26,7 @@ from __future__ import annotations
 import pathlib
 import shutil
 import sys
+import time
 
 from gnssframework.experiments import load_config, run_comparison
 from gnssframework.experiments.trial_record import TRIALS_FILE
@@ -168,6 +177,33 @@ SWEEP_TABLES["tracking_threshold"] = [
 ]
 
 
+def docs_figures() -> str:
+    """Every docs page's text, where a figure this script copies is looked up by name."""
+    return "\n".join(page.read_text(encoding="utf-8") for page in sorted((ROOT / "docs").rglob("*.md")))
+
+
+def selected(argv: list[str]) -> tuple[str, ...]:
+    """The examples to run: those named on the command line (each must be one of the
+    lists above), else every CI example (and the slow ones with ``--slow``); with
+    ``--part K/N``, every N-th of them from the K-th (CI runs ``1/2`` and ``2/2`` in its
+    two lanes: together, the whole list)."""
+    known = EXAMPLES + SLOW_EXAMPLES
+    names = tuple(a for i, a in enumerate(argv) if not a.startswith("--") and (i == 0 or argv[i - 1] != "--part"))
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise SystemExit(
+            f"make_experiment_plots.py: unknown example(s) {', '.join(unknown)}; known: {', '.join(known)}"
+        )
+    names = names or EXAMPLES + (SLOW_EXAMPLES if "--slow" in argv else ())
+    if "--part" not in argv:
+        return names
+    part = argv[argv.index("--part") + 1] if argv.index("--part") + 1 < len(argv) else ""
+    k, _, n = part.partition("/")
+    if not (k.isdigit() and n.isdigit() and 1 <= int(k) <= int(n)):
+        raise SystemExit(f"make_experiment_plots.py: --part takes K/N with 1 <= K <= N, got {part!r}")
+    return names[int(k) - 1 :: int(n)]
+
+
 def main() -> int:
     """Run the examples, copy their figures, and check every example's claims (exit 1 if
     one does not hold: the pages state them)."""
@@ -175,22 +211,29 @@ def main() -> int:
     from gnssframework.io.files import loads_strict
 
     OUT.mkdir(parents=True, exist_ok=True)
+    pages = None if "--all-figures" in sys.argv[1:] else docs_figures()
     failed = []
-    for name in EXAMPLES + (SLOW_EXAMPLES if "--slow" in sys.argv[1:] else ()):
+    for name in selected(sys.argv[1:]):
+        started = time.monotonic()
         config = load_config(ROOT / "examples" / f"{name}.toml")
         record = RECORDS / f"{name}.json"
         recorded = config.tuning is not None and name not in TUNED_BY_MAIN_JOB
         seeded = recorded and record.exists() and "--retune" not in sys.argv[1:]
+
+        def wanted(png: str, name: str = name) -> bool:
+            return pages is None or f"{name}-{png}" in pages
+
         summary = run_comparison(
-            config, ROOT / "results" / name, progress=False, trials_from=record if seeded else None
+            config, ROOT / "results" / name, progress=False, trials_from=record if seeded else None, figures=wanted
         )
         if recorded and not seeded:
             RECORDS.mkdir(exist_ok=True)
             shutil.copy(summary.parent / TRIALS_FILE, record)
             print(f"{name}: tuning record written to {record}")
-        for png in sorted((summary.parent / "plots").glob("*.png")):
+        copied = [png for png in sorted((summary.parent / "plots").glob("*.png")) if wanted(png.name)]
+        for png in copied:
             shutil.copy(png, OUT / f"{name}-{png.name}")
-        print(f"{name}: figures copied")
+        print(f"{name}: {len(copied)} figures copied ({time.monotonic() - started:.0f} s)")
         claims = loads_strict(summary.read_text()).get("claims", [])
         failed += [f"{name}: {claim_line(c)}" for c in claims if c["outcome"] != "holds"]
         failed += [small_n_refusal(name, c["claim"], c["statement"], c["n"]) for c in unstated_small_n(claims)]
