@@ -14,7 +14,7 @@ whose week WN0G is sent modulo 64 (6 bits), as WN0t and WN_LSF are modulo 256 (8
 `Ggto.offset_s` places it within half a 64-week cycle of the week it is asked at. GST
 weeks count from GPS week 1024 (5.1.2), a multiple of 64 and 256, so the sent low bits are
 those of the GPS week as well. The I/NAV weeks here are those low bits (the words' own);
-RINEX wants full weeks (`full_week`).
+RINEX wants full weeks (`weeks.full_week`).
 """
 
 from __future__ import annotations
@@ -22,15 +22,9 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from .lnav import WEEK_S
+from .weeks import full_week
 
-__all__ = ["GstUtc", "Ggto", "InavIonoTime", "full_week", "iono_time_from_words", "merge_iono_time"]
-
-
-def full_week(low_bits: int, bits: int, near_week: int) -> int:
-    """The full week whose low ``bits`` bits are ``low_bits``, within half a ``2**bits``-week
-    cycle of ``near_week`` (e.g. WN0G's 6 bits placed near a record's GPS week)."""
-    cycle = 1 << bits
-    return int(near_week + ((int(low_bits) - near_week + cycle // 2) % cycle) - cycle // 2)
+__all__ = ["GstUtc", "Ggto", "InavIonoTime", "iono_time_from_words", "merge_iono_time"]
 
 
 @dataclass(frozen=True)

@@ -24,11 +24,11 @@ from gnssframework.navigation.inav_params import (
     Ggto,
     GstUtc,
     InavIonoTime,
-    full_week,
     iono_time_from_words,
     merge_iono_time,
 )
 from gnssframework.navigation.rinex_nav_header import read_nav_file_info
+from gnssframework.navigation.weeks import full_week
 
 DATA = Path(__file__).parents[1] / "data"
 FILES = (
@@ -127,14 +127,6 @@ def test_broadcast_header_values_are_whole_icd_lsbs_and_hand_built_words_decode_
         week, tow = wn0g + int((t0g + dt) // 604800), (t0g + dt) % 604800
         bound = _half_digit(a0g, 10) + _half_digit(a1g, 9) * abs(dt) + 1e-20
         assert abs(g.offset_s(week, tow) - info.ggto_s(week, tow)) <= bound
-
-
-def test_full_week_places_the_low_bits_nearest():
-    assert full_week(2198 % 64, 6, 2198) == 2198
-    assert full_week(2198 % 64, 6, 2198 + 31) == 2198
-    assert full_week(2198 % 64, 6, 2198 - 31) == 2198
-    assert full_week(2198 % 64, 6, 2198 + 33) == 2198 + 64
-    assert full_week(0, 8, 1023) == 1024
 
 
 def test_encode_inav_sends_words_6_and_10_that_decode_to_the_same_values():

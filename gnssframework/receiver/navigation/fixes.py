@@ -21,7 +21,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides, _wrap_week
-from ...navigation.inav_params import full_week as nearest_week
+from ...navigation.weeks import full_week as nearest_week
 from ...navigation.lnav import IonoUtc
 from .observables import SPEED_OF_LIGHT_MPS, Observables
 from ...navigation.pvt import PositionFix, solve_position

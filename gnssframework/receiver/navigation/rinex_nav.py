@@ -33,7 +33,7 @@ CORR`` ``GAL `` (ai0, ai1, ai2 and a 0, ``A4,1X,4D12.4``, RINEX 3.04 table A5), 
 SYSTEM CORR`` ``GAUT`` (A0, A1, t0t, WN0t) and ``GAGP`` (A0G, A1G, t0G, WN0G), both
 ``A4,1X,D17.10,D16.9,1X,I6,1X,I4``, and ``LEAP SECONDS`` (Delta t_LS). The weeks, sent as
 their low 8 (WN0t) and 6 (WN0G) bits, are written in full: the week with those low bits
-nearest the first record's (`inav_params.full_week`; GST weeks are GPS weeks - 1024, so
+nearest the first record's (`navigation.weeks.full_week`; GST weeks are GPS weeks - 1024, so
 the low bits agree). A system of another layout (BeiDou, SBAS) is refused.
 """
 
@@ -47,7 +47,8 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides
-from ...navigation.inav_params import InavIonoTime, full_week
+from ...navigation.inav_params import InavIonoTime
+from ...navigation.weeks import full_week
 from ...navigation.lnav import WEEK_S, IonoUtc
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
