@@ -434,7 +434,11 @@ class IntegrationAiding:
     accel_aiding: bool = True
     carrier_filter: Any = None
     clock_psd: tuple[float, float] = (0.1, 0.1)
-    coupling: str = "loose"
+    coupling: Literal["loose", "tight"] = "loose"
+
+    def __post_init__(self) -> None:
+        if self.coupling not in ("loose", "tight"):
+            raise ConfigError("coupling", f"must be 'loose' or 'tight', got {self.coupling!r}")
 
 
 class ErrorStateNavFilter(NavFilter):

@@ -90,6 +90,10 @@ def test_the_ins_filter_is_an_error_state_filter_that_states_its_aiding():
     assert aiding.accel_aiding is False and aiding.clock_psd == (0.2, 0.3)
     assert aiding.carrier_filter.name == "kf-carrier-loop"
     assert IntegrationAiding().accel_aiding is True  # the contract's default
+    assert IntegrationAiding().coupling == "loose"
+    # A third-party INS filter stating another coupling is refused where it states it.
+    with pytest.raises(gf.ConfigError, match=r"^coupling: must be 'loose' or 'tight', got 'deep'$"):
+        IntegrationAiding(coupling="deep")  # type: ignore[arg-type]
 
 
 class _OtherIns(ErrorStateNavFilter):
