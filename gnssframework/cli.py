@@ -783,6 +783,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
     from .receiver.navigation.receive import receive
+    from .receiver.navigation.decoded import navigation_message
     from .receiver.navigation.inav_stream import carries_inav, require_positioning
     from .receiver.navigation.receiver_config import receiver_filters
     from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
@@ -850,7 +851,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
         phase(
             name,
             f"acquisition found {sum(r.detected for r in acquisitions)} of {len(acquisitions)} PRNs; "
-            f"tracking, decoding {'I/NAV' if carries_inav(signal) else 'LNAV'}, positioning",
+            f"tracking, decoding {navigation_message(signal).name}, positioning",
             started,
         )
     iono_fallback = nav_info.iono if nav_info is not None and not args.no_iono else None

@@ -54,3 +54,14 @@ def test_receive_positions_generated_galileo_e1b_samples_at_the_station(tmp_path
 def test_receive_refuses_vector_tracking_on_inav_in_one_line():
     with pytest.raises(ConfigError, match="galileo-e1b-boc11: vector tracking"):
         receive(None, None, None, vector=vector_config(), signal=SIGNAL)
+    with pytest.raises(ConfigError, match=r"I/NAV positions are the scalar receiver's$") as exc:
+        receive(None, None, None, vector=vector_config(), signal=SIGNAL)
+    assert len(str(exc.value).splitlines()) == 1
+
+
+def test_receive_refuses_a_signal_whose_message_it_does_not_decode():
+    from gnssframework.signal.gps_l2c import GPS_L2C
+
+    # L2C carries CNAV, which no receiver message (`decoded.MESSAGES`) dates: refused before any work.
+    with pytest.raises(ConfigError, match=r"^signal: gps-l2c: LNAV dating and positioning take GPS LNAV"):
+        receive(None, None, None, signal=GPS_L2C)

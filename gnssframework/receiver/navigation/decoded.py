@@ -1,10 +1,11 @@
-"""What a channel's navigation message gave, per kind of message, for the receiver's reports.
+"""What a channel's navigation message gives, per kind of message: its transmit times and what the reports show.
 
 Each message a ``receive`` run decodes (GPS/QZSS LNAV, Galileo I/NAV) is a `NavMessage`: the
-signals that carry it, the columns it fills in the no-position report's satellite table, the
-function giving one channel's row of them, and its words for a channel or a run without a
-transmit time. `navigation_message` looks up a signal's, so
-a report asks one interface what was decoded and never which system it is reading.
+signals that carry it, how a channel's rows are dated from it (its transmit times), whether
+vector tracking and the assisted start hand over from it, the columns it fills in the
+no-position report's satellite table, the function giving one channel's row of them, and its
+words for a channel or a run without a transmit time. `navigation_message` looks up a
+signal's, so the receiver and its reports ask one interface and never which system they read.
 """
 
 from __future__ import annotations
@@ -17,8 +18,8 @@ import numpy as np
 
 from ...signal.spec import SignalSpec
 from ..channels.records import STAGES
-from .inav_stream import carries_inav, carries_lnav, channel_inav
-from .observables import channel_timing
+from .inav_stream import carries_inav, carries_lnav, channel_inav, inav_channel_timing
+from .observables import ChannelTiming, channel_timing
 
 __all__ = ["NavMessage", "LNAV", "INAV", "MESSAGES", "navigation_message", "lnav_decoded", "inav_decoded"]
 
@@ -36,6 +37,13 @@ class NavMessage:
         ``"LNAV"``, ``"I/NAV"``.
     carried_by
         Whether a signal carries it on its tracked component.
+    timing
+        ``(channel record, signal) -> ChannelTiming | None``: the channel's rows dated from
+        the message (`observables.channel_timing` from LNAV subframes,
+        `inav_stream.inav_channel_timing` from the I/NAV GST); None without a transmit time.
+    hands_over
+        Whether vector tracking and the assisted start (`vector_tracking`) can take over
+        from it: they are dated from LNAV.
     columns
         The headers of the satellite table's five decoded cells, in the order of
         ``decoded``'s keys ``subframes``, ``first_tow_s``, ``ephemeris``, ``iono``, ``week``.
@@ -52,6 +60,8 @@ class NavMessage:
 
     name: str
     carried_by: Callable[[SignalSpec], bool]
+    timing: Callable[[Any, SignalSpec], ChannelTiming | None]
+    hands_over: bool
     columns: tuple[str, str, str, str, str]
     decoded: Callable[[Any, SignalSpec], dict]
     no_transmit_time: Callable[[Any], str]
@@ -98,6 +108,8 @@ def _lnav_no_transmit_time(ch) -> str:
 LNAV = NavMessage(
     "LNAV",
     carries_lnav,
+    lambda ch, signal: channel_timing(ch, signal=signal),
+    True,
     ("LNAV subframes", "first TOW (s)", "ephemeris decoded", "page 18", "week (10-bit)"),
     lnav_decoded,
     _lnav_no_transmit_time,
@@ -109,6 +121,8 @@ LNAV = NavMessage(
 INAV = NavMessage(
     "I/NAV",
     carries_inav,
+    inav_channel_timing,
+    False,
     ("I/NAV pages", "GST TOW (s)", "ephemeris decoded", "iono", "GST week"),
     inav_decoded,
     lambda ch: "no I/NAV page with a GST decoded (no transmit time)",

@@ -2,8 +2,7 @@
 
 :func:`receive_signals` acquires and tracks each signal of a `SignalSet` in turn over the
 same recording (one scalar `SampleTracker` per signal), dates each channel from its own
-message (`observables.channel_timing` for LNAV, `inav_stream.inav_channel_timing` for
-I/NAV), puts every channel's rows on the same receiver epochs (`observables.observables`)
+message (`decoded.NavMessage.timing`: LNAV subframes, the I/NAV GST), puts every channel's rows on the same receiver epochs (`observables.observables`)
 and solves each epoch with `pvt.solve_position`, which estimates one receiver clock per
 time system (GPS time, Galileo System Time: the inter-system offset, GGTO plus the
 receiver's inter-system bias, is a state; module text of `gnssframework.navigation.pvt`).
@@ -32,8 +31,8 @@ from ..acquisition.search import Acquisition
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..frontend.recording import Recording
 from .fixes import full_week, solve_epochs
-from .inav_stream import carries_inav, carries_lnav, inav_channel_timing
-from .observables import ChannelTiming, Observables, channel_timing, observables
+from .decoded import MESSAGES, navigation_message
+from .observables import ChannelTiming, Observables, observables
 from .receive import ReceiveResult
 
 __all__ = ["SignalSet", "KEY_STEP", "receive_signals", "broadcast_time_offsets"]
@@ -63,7 +62,7 @@ class SignalSet:
         if len(carriers) != 1:
             raise ConfigError("signal", f"{', '.join(names)}: on different carriers; the fixes' Dopplers take one")
         for s in self.signals:
-            if not (carries_lnav(s) or carries_inav(s)):
+            if not any(m.carried_by(s) for m in MESSAGES):
                 raise ConfigError(
                     "signal", f"{s.name}: not positioned here (GPS/QZSS L1 C/A LNAV, Galileo E1-B I/NAV only)"
                 )
@@ -143,7 +142,7 @@ def receive_signals(
         for prn, ch in tracking.channels.items():
             key = signals.key(i, prn)
             channels[key] = ch
-            t = inav_channel_timing(ch, signal) if carries_inav(signal) else channel_timing(ch, signal=signal)
+            t = navigation_message(signal).timing(ch, signal)
             if t is not None:
                 timings.append(replace(t, prn=key))
     tracking_all = TrackingResult(channels, found_all, duration, configs[0].channel_filter)

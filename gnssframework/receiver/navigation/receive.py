@@ -30,7 +30,8 @@ from ...plugin_ref import PluginSpec
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .filtered import filter_epochs
-from .inav_stream import carries_inav, inav_channel_timing, require_lnav
+from .decoded import LNAV, navigation_message
+from .inav_stream import require_lnav
 from .fixes import INTEGRITY_COLUMNS, PositionTable, solve_epochs
 from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
 from .vector_tracking import Assistance, VectorConfig, VectorSampleTracker, VectorSolution
@@ -102,15 +103,15 @@ def receive(
     (`VectorSolution.table`; the monitor is ``vector.monitor_false_alarm``'s).
     ``observe`` is given the scalar tracker before it runs (a live receiver's fixes as they
     come, `live.LiveFixes`, read its records from ``progress``)."""
-    galileo = carries_inav(signal)  # E1-B: dated from the I/NAV GST (`inav_stream.inav_channel_timing`)
-    if galileo and (vector is not None or assist is not None):
+    message = navigation_message(signal)  # dates the channels: LNAV subframes, the I/NAV GST
+    if not message.hands_over and (vector is not None or assist is not None):
         raise ConfigError(
             "vector",
             f"{signal.name}: vector tracking and the assisted start hand over from LNAV; "
-            "I/NAV positions are the scalar receiver's",
+            f"{message.name} positions are the scalar receiver's",
         )
-    if not galileo:
-        require_lnav(signal)  # the transmit times below are dated from LNAV subframes
+    if message is LNAV:
+        require_lnav(signal)  # a signal carrying no message the receiver decodes is refused here
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError(
             "nav_filter",
@@ -181,10 +182,7 @@ def receive(
     if observe is not None:
         observe(scalar_tracker)
     tracking = scalar_tracker.run(found, duration_s, progress)
-    timings = [
-        inav_channel_timing(ch, signal) if galileo else channel_timing(ch, signal=signal)
-        for ch in tracking.channels.values()
-    ]
+    timings = [message.timing(ch, signal) for ch in tracking.channels.values()]
     if not any(t is not None and t.time_s.size > 1 for t in timings):
         return ReceiveResult(tracking, None, None)
     obs = observables(timings, rate_hz)
