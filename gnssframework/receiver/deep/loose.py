@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ... import random_streams as draw
-from ...errors import NumericalError
+from ...errors import ConfigError, NumericalError
 from ...interfaces import ChannelFilter
 from ...navigation.geometry import line_of_sight, range_rate
 from ...signal.gps_l1ca import GPS_L1CA
@@ -37,6 +37,7 @@ __all__ = [
     "line_of_sight_accel",
     "correlated_error_inflation",
     "fix_gate",
+    "select_channels",
 ]
 
 
@@ -50,6 +51,7 @@ def scalar_tracking(
     initial_doppler_error_hz: np.ndarray | float = 0.0,
     early_late_spacing_chips: float = 1.0,
     carrier_range_m: np.ndarray | None = None,
+    amplitude_scale: np.ndarray | None = None,
     signal: SignalSpec = GPS_L1CA,
 ) -> TrackingRecord:
     """Track every channel with its own scalar loop.
@@ -63,6 +65,9 @@ def scalar_tracking(
     carrier_range_m
         ``(K+1, runs, ch)`` true range of the carrier phase when it differs from the code's
         (the ionosphere advances one and delays the other); None: ``pseudorange_m``.
+    amplitude_scale
+        Optional ``(K, runs, ch)`` factor on each interval's signal amplitude (0: the signal is
+        gone, as in a satellite outage); the correlator noise is drawn as without it.
     signal
         The tracked signal (`GPS_L1CA`).
 
@@ -78,7 +83,12 @@ def scalar_tracking(
     t = np.arange(rho.shape[0]).reshape((-1,) + (1,) * (rho.ndim - 1)) * coherent_time_s
     code = code_phase_of_range(signal, rho - rho0, t)
     truth = SignalTruth(
-        code, carrier, np.broadcast_to(np.asarray(cn0_dbhz, float), rho0.shape), coherent_time_s, signal=signal
+        code,
+        carrier,
+        np.broadcast_to(np.asarray(cn0_dbhz, float), rho0.shape),
+        coherent_time_s,
+        1.0 if amplitude_scale is None else amplitude_scale,
+        signal=signal,
     )
     doppler0 = -(rho_c[1] - rho_c[0]) / coherent_time_s / signal.wavelength_m
     return run_closed_loop(
@@ -146,6 +156,8 @@ def pv_fix(
     [position, velocity] (the clock marginalised out).
     """
     runs, n = range_m.shape
+    if n < 4:  # 4 unknowns (position and clock): the normal matrix is singular, whatever rounding says
+        raise NumericalError("pv-fix", [], None, f"singular geometry (fewer than 4 channels: {n})")
     r = np.asarray(pos0_m, float).copy()
     v = np.asarray(vel0_m_s, float).copy()
     b = np.zeros(runs)
@@ -264,3 +276,20 @@ def fix_gate(innovation: np.ndarray, innovation_cov: np.ndarray, false_alarm_pro
 
     d2 = np.einsum("ri,ri->r", innovation, np.linalg.solve(innovation_cov, innovation[..., None])[..., 0])
     return d2 <= chi2.ppf(1.0 - false_alarm_probability, innovation.shape[-1])
+
+
+def select_channels(usable: np.ndarray, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Each run's usable channels of ``arrays``: ``usable`` ``(runs, ch)`` bool with the same
+    count m in every run, each array ``(runs, ch, ...)``; returns them ``(runs, m, ...)``,
+    the channels in their order."""
+    usable = np.asarray(usable, bool)
+    runs = usable.shape[0]
+    m = usable.sum(axis=-1)
+    if np.any(m != m[0]):
+        raise ConfigError("usable", f"every run must keep the same number of channels (got {sorted(set(m.tolist()))})")
+    idx = np.nonzero(usable)[1].reshape(runs, int(m[0]))  # row-major: each run's channels in order
+    out = []
+    for a in arrays:
+        a = np.asarray(a)
+        out.append(np.take_along_axis(a, idx.reshape(idx.shape + (1,) * (a.ndim - 2)), axis=1))
+    return tuple(out)
