@@ -48,6 +48,7 @@ from .vector_tracking import SkyRealismParams, draw_residuals
 from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import draw_epochs, nominal_constellation
+from ...simulation.fade import lowest_channels
 from ...simulation.propagation import cn0_from_elevation, elevation_deg, range_error_function
 from ..limits import SignalCoherentTime
 from ..metric_components import Mean, PostSettleMax, Rmse, evaluate, units
@@ -263,6 +264,24 @@ class DeepIntegrationCase(ScenarioParams):
         None, ge=0, description="this case's accelerometer misalignment (mrad; default: the scenario's imu)"
     )
 
+    outage_channels: int | None = Field(
+        None,
+        ge=1,
+        description="a satellite outage in the truth: this many channels, the lowest elevations first (at the "
+        "start of the flight), lose their signal (correlator signal amplitude 0, noise unchanged) for intervals "
+        "whose middle lies in [outage_start_s, outage_end_s); loose and tight drop them from the first update whose "
+        "measurements reach into the outage and do not reacquire them (an ideal lock detector, no reacquisition). "
+        "Default null (off)",
+    )
+    outage_start_s: float = Field(0.0, ge=0, description="start (s) of the outage")
+    outage_end_s: float | None = Field(None, gt=0, description="end (s) of the outage; null: to the end of the run")
+
+    def outage(self) -> tuple[int, float, float | None] | None:
+        """``(channels, start_s, end_s)`` of the case's outage, or None."""
+        if self.outage_channels is None:
+            return None
+        return self.outage_channels, self.outage_start_s, self.outage_end_s
+
     def scenario_update(self, params: DeepIntegrationParams) -> dict[str, Any]:
         """The scenario parameters this case replaces (empty: none)."""
         update: dict[str, Any] = {}
@@ -381,6 +400,32 @@ class DeepIntegrationScenario(Scenario):
         if p.settle_s >= p.duration_s:
             raise ConfigError("scenario.settle_s", f"must be less than duration_s = {p.duration_s}")
 
+    def check_case(self, case: dict[str, Any], where: str) -> None:
+        """The case's fields, and an outage that does something and fits the flight."""
+        super().check_case(case, where)
+        c = DeepIntegrationCase.model_validate(case)
+        p = self.params
+        given = [f for f in ("outage_start_s", "outage_end_s") if f in c.model_fields_set]
+        if c.outage_channels is None:
+            if given:
+                raise ConfigError(f"{where}.{given[0]}", "has no effect without an outage: set outage_channels")
+            return
+        if c.outage_channels >= p.channels:
+            raise ConfigError(
+                f"{where}.outage_channels",
+                f"must leave at least 1 of the channels = {p.channels} (got {c.outage_channels})",
+            )
+        if c.outage_start_s >= p.duration_s:
+            raise ConfigError(
+                f"{where}.outage_start_s", f"must be below duration_s = {p.duration_s} (got {c.outage_start_s})"
+            )
+        if c.outage_end_s is not None and not c.outage_start_s < c.outage_end_s <= p.duration_s:
+            raise ConfigError(
+                f"{where}.outage_end_s",
+                f"must be after outage_start_s = {c.outage_start_s} and at most duration_s = {p.duration_s} "
+                f"(got {c.outage_end_s})",
+            )
+
     def batch_memory(self, case: dict[str, Any], runs: int, where: str, candidates=()) -> tuple[float, str, str]:
         p = self.params
         epochs = int(round(p.duration_s / p.coherent_time_s))
@@ -445,7 +490,9 @@ class DeepIntegrationScenario(Scenario):
         f_b = flight.truth(np.asarray(t_s, float)).specific_force_b_mps2
         return f_b @ gamma / STANDARD_GRAVITY_MPS2
 
-    def _truth(self, flight, cn0_dbhz: float, runs: int, rng: np.random.Generator):
+    def _truth(self, flight, cn0_dbhz: float, runs: int, rng: np.random.Generator, outage=None):
+        """The truth of a batch; ``outage`` ``(channels, start_s, end_s)`` (`DeepIntegrationCase.outage`)
+        or None: the lowest channels at the start lose their signal then (``signal_gain`` 0)."""
         p = self.params
         if p.geometry == "per-run":  # each run its own epoch and satellites, from its own stream
             const = nominal_constellation()
@@ -500,8 +547,15 @@ class DeepIntegrationScenario(Scenario):
             shape = np.shape(t) + (runs, 3)
             return tuple(np.broadcast_to(np.asarray(x)[..., None, :], shape) for x in (pos, vel, acc))
 
+        el0 = elevation_deg(sat_grid[0][0], rx_grid[0][0], p.lat_deg, p.lon_deg)  # (ch,) or (runs, ch)
+        blocked = None
+        if outage is not None:  # the lowest satellites at the start lose their signal (simulation.fade)
+            from .deep_integration_runs import ChannelOutage
+
+            n_out, start_s, end_s = outage
+            mask = lowest_channels(np.broadcast_to(el0, (runs, p.channels)), n_out)
+            blocked = ChannelOutage(mask, start_s, end_s)
         if p.cn0_model == "elevation":  # per channel, from the elevation at the start of the flight
-            el0 = elevation_deg(sat_grid[0][0], rx_grid[0][0], p.lat_deg, p.lon_deg)  # (ch,) or (runs, ch)
             cn0 = np.broadcast_to(cn0_from_elevation(cn0_dbhz, el0), (runs, p.channels)).copy()
         else:
             cn0 = np.full((runs, p.channels), cn0_dbhz)
@@ -522,32 +576,41 @@ class DeepIntegrationScenario(Scenario):
             T,
             receiver_positions=lambda t: receiver_state(t)[0],
             range_error_m=range_error,
+            signal_gain=None if blocked is None else blocked.signal_gain(K, T),
         )
 
     # --- candidates ---------------------------------------------------------------------
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
-        update = DeepIntegrationCase.model_validate(case).scenario_update(self.params)
+        c = DeepIntegrationCase.model_validate(case)
+        update = c.scenario_update(self.params)
         if update:  # the case's error sources: the same scenario with those parameters replaced
             plain = {"name": case.get("name"), "cn0_dbhz": case["cn0_dbhz"]}
+            plain.update({k: case[k] for k in ("outage_channels", "outage_start_s", "outage_end_s") if k in case})
             return type(self)(self.params.model_copy(update=update)).run_batch(plain, plugins, runs, rng)
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching
         p = self.params
         kind = _kind(plugins)
         flight = self.flight()
         cn0 = float(case["cn0_dbhz"])
-        truth = self._truth(flight, cn0, runs, rng)
+        truth = self._truth(flight, cn0, runs, rng, c.outage())
+        outage = None
+        if c.outage_channels is not None:  # the receiver's side: the channels the truth blocks
+            from .deep_integration_runs import ChannelOutage
+
+            blocked = np.any(truth.signal_gain == 0, axis=0)
+            outage = ChannelOutage(blocked, c.outage_start_s, c.outage_end_s)
         n_upd = int(round(p.update_interval_s / p.coherent_time_s))
         if kind == "vector":
             out = self._run_vector(plugins, truth, runs, rng)
+        elif kind == "deep":
+            from .deep_integration_runs import run_deep
+
+            out = run_deep(self, plugins, flight, truth, runs, rng)
         else:
             from . import deep_integration_runs
 
-            runner = {
-                "deep": deep_integration_runs.run_deep,
-                "loose": deep_integration_runs.run_loose,
-                "tight": deep_integration_runs.run_tight,
-            }[kind]
-            out = runner(self, plugins, flight, truth, runs, rng)
+            runner = {"loose": deep_integration_runs.run_loose, "tight": deep_integration_runs.run_tight}[kind]
+            out = runner(self, plugins, flight, truth, runs, rng, outage)
         t_u = out["time_s"]
         pos_t, vel_t, _ = flight.kinematics(t_u)
         pos_t = np.broadcast_to(pos_t[:, None, :], out["position_m"].shape)
@@ -596,6 +659,7 @@ class DeepIntegrationScenario(Scenario):
             truth.cn0_dbhz,
             T,
             range_error_m=truth.range_error_m,
+            signal_gain=truth.signal_gain,
         )
         std = np.array([p.initial_position_std_m] * 3 + [p.initial_velocity_std_m_s] * 3 + list(p.initial_clock_std_m))
         P0 = np.diag(std**2)

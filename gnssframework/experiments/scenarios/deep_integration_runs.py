@@ -8,6 +8,7 @@ and feeds each channel's pseudorange and rate to it, single-differenced (section
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -25,13 +26,48 @@ from ...receiver.deep.loose import (
     scalar_measurement_variances,
     scalar_measurements,
     scalar_tracking,
+    select_channels,
     trailing_rate_measurement,
 )
 from ...receiver.deep.navigators import ClockFilter
 from ...receiver.deep.strapdown import StrapdownIns
 from .deep_integration_flight import Flight, body_to_ned
 
-__all__ = ["run_deep", "run_loose", "run_tight"]
+__all__ = ["run_deep", "run_loose", "run_tight", "ChannelOutage"]
+
+
+@dataclass(frozen=True)
+class ChannelOutage:
+    """A satellite outage: the channels of ``blocked`` ``(runs, ch)`` have no signal in the
+    intervals whose middle lies in ``[start_s, end_s)`` (``end_s`` None: to the end).
+
+    In the truth the signal's amplitude is 0 there (`signal_gain`, a `CN0Fade` of infinite
+    depth): the correlators hold noise only, drawn as without the outage, so the other
+    channels and runs keep their random numbers. The receiver (`usable`) is an ideal lock
+    detector without reacquisition: a blocked channel is dropped from the first update whose
+    measurements reach into the outage, and not used again.
+    """
+
+    blocked: np.ndarray
+    start_s: float
+    end_s: float | None = None
+
+    def signal_gain(self, epochs: int, coherent_time_s: float) -> np.ndarray:
+        """Amplitude factor of each interval's signal, ``(epochs, runs, ch)``: 0 or 1."""
+        from ...simulation.fade import CN0Fade
+
+        duration = None if self.end_s is None else self.end_s - self.start_s
+        t_mid = (np.arange(epochs) + 0.5) * coherent_time_s
+        return CN0Fade(np.inf, self.start_s, duration).gains(t_mid, self.blocked)[0]
+
+    def usable(self, t_s: float, reach_s: float) -> np.ndarray:
+        """Channels the receiver uses at an update at ``t_s`` whose measurements reach
+        ``reach_s`` past it: ``(runs, ch)`` bool."""
+        return ~(self.blocked & (t_s + reach_s > self.start_s))
+
+
+#: Fewest usable channels an update needs: a loose fix 4 (position and clock), tight differences 2.
+MIN_CHANNELS = {False: 4, True: 2}
 
 
 def _initial_cov(p) -> np.ndarray:
@@ -125,19 +161,33 @@ def run_deep(
 
 
 def run_loose(
-    scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int, rng: np.random.Generator
+    scenario,
+    plugins: dict[str, Any],
+    flight: Flight,
+    truth: DeepTruth,
+    runs: int,
+    rng: np.random.Generator,
+    outage: ChannelOutage | None = None,
 ) -> dict[str, np.ndarray]:
-    """The ``loose`` candidate: scalar loops, weighted least-squares fixes at the update rate, ``ins-ekf``."""
-    return _run_scalar(scenario, plugins, flight, truth, runs, rng, tight=False)
+    """The ``loose`` candidate: scalar loops, weighted least-squares fixes at the update rate, ``ins-ekf``.
+    With fewer than 4 usable channels (``outage``) no fix can be formed: the INS coasts."""
+    return _run_scalar(scenario, plugins, flight, truth, runs, rng, tight=False, outage=outage)
 
 
 def run_tight(
-    scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int, rng: np.random.Generator
+    scenario,
+    plugins: dict[str, Any],
+    flight: Flight,
+    truth: DeepTruth,
+    runs: int,
+    rng: np.random.Generator,
+    outage: ChannelOutage | None = None,
 ) -> dict[str, np.ndarray]:
     """The ``tight`` candidate: the same scalar loops as ``loose``, their per-channel pseudoranges and
     rates single-differenced into ``ins-ekf`` (`tight_update`) at the update rate, the same
-    variances, inflation and innovation gate (the gate on each update's differences together)."""
-    return _run_scalar(scenario, plugins, flight, truth, runs, rng, tight=True)
+    variances, inflation and innovation gate (the gate on each update's differences together).
+    With an ``outage`` it updates on the usable channels while two or more remain."""
+    return _run_scalar(scenario, plugins, flight, truth, runs, rng, tight=True, outage=outage)
 
 
 def _run_scalar(
@@ -149,9 +199,13 @@ def _run_scalar(
     rng: np.random.Generator,
     *,
     tight: bool,
+    outage: ChannelOutage | None = None,
 ) -> dict[str, np.ndarray]:
     """Scalar loops over the whole flight, then an ``ins-ekf`` update per interval: a fix (loose) or
-    the channels' measurements (tight). The two draw the same numbers in the same order."""
+    the channels' measurements (tight). The two draw the same numbers in the same order.
+
+    With an ``outage`` each update uses the channels `ChannelOutage.usable` keeps; with fewer
+    than `MIN_CHANNELS` of them (4 for a fix, 2 for a difference) the filter only propagates."""
     p = scenario.params
     T = p.coherent_time_s
     K = truth.epochs
@@ -184,6 +238,7 @@ def _run_scalar(
         rng,
         early_late_spacing_chips=p.early_late_spacing_chips,
         carrier_range_m=carrier_rho,
+        amplitude_scale=truth.signal_gain,
     )
     cp = channel.params
     window = int(round(p.rate_window_s / T))
@@ -199,7 +254,9 @@ def _run_scalar(
         var_r = var_r * correlated_error_inflation(getattr(cp, "dll_bandwidth_hz", 1.0), p.update_interval_s)
     var_r = np.broadcast_to(var_r, rho.shape[1:])
     var_v = np.broadcast_to(var_v, rho.shape[1:])
+    cn0 = np.broadcast_to(np.asarray(truth.cn0_dbhz, float), rho.shape[1:])
     trailing = p.loose_rate_window == "trailing"
+    reach_s = (1 if trailing else window // 2 + 1) * T  # how far past the update its measurements reach
     ekf = plugins["nav_filter"]
     ins, P0 = _setup_ins(scenario, flight, runs, rng)
     ekf.reset((runs,), RunContext(initial_cov=P0))
@@ -208,28 +265,24 @@ def _run_scalar(
     for u, k_edge in enumerate(range(n_upd, K + 1, n_upd)):
         t_u = k_edge * T
         ins.advance(t_u)
-        if u >= p.pull_in_updates and (k_edge >= window if trailing else k_edge + window // 2 <= K):
+        usable = None if outage is None else outage.usable(t_u, reach_s)
+        enough = usable is None or usable.sum(axis=-1).min() >= MIN_CHANNELS[tight]
+        if enough and u >= p.pull_in_updates and (k_edge >= window if trailing else k_edge + window // 2 <= K):
             m_rho, m_rate = scalar_measurements(track, rho[k_edge], rho_rate[k_edge], k_edge - 1, window)
             pos0, vel0, acc0 = ins.kinematics()
             if trailing:
                 m_rate = trailing_rate_measurement(
                     track, rho_c, k_edge, window, T, line_of_sight_accel(sat_pos[k_edge], sat_acc[k_edge], pos0, acc0)
                 )
+            s_pos = np.broadcast_to(sat_pos[k_edge], rho.shape[1:] + (3,))
+            s_vel = np.broadcast_to(sat_vel[k_edge], rho.shape[1:] + (3,))
+            chans = (m_rho, m_rate, var_r, var_v, s_pos, s_vel, cn0)
+            if usable is not None:  # each run's usable channels only
+                chans = select_channels(usable, *chans)
             if tight:
-                tight_update(
-                    ins,
-                    ekf,
-                    m_rho,
-                    m_rate,
-                    var_r,
-                    var_v,
-                    sat_pos[k_edge],
-                    sat_vel[k_edge],
-                    truth.cn0_dbhz,
-                    p.loose_gate_probability,
-                )
+                tight_update(ins, ekf, *chans, p.loose_gate_probability)
             else:
-                fp, fv, fcov = pv_fix(m_rho, m_rate, var_r, var_v, sat_pos[k_edge], sat_vel[k_edge], pos0, vel0)
+                fp, fv, fcov = pv_fix(*chans[:4], *chans[4:6], pos0, vel0)
                 loose_update(ins, ekf, fp, fv, fcov, p.loose_gate_probability)
         else:
             ekf.propagate(*ins.take_error_model())

@@ -1,0 +1,190 @@
+"""The deep-integration scenario's satellite outage (issue 42): its checks, its truth, and what loose and tight do with it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pymap3d
+import pytest
+
+from gnssframework import random_streams as draw
+from gnssframework.errors import ConfigError
+from gnssframework.experiments.scenarios import get_scenario
+from gnssframework.receiver.deep.loose import scalar_tracking, select_channels
+from gnssframework.receiver.engine.sources import AnalyticSource
+from gnssframework.registry import create
+from gnssframework.signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
+
+BASE = {
+    "kind": "deep-integration",
+    "profile": "pull-up",
+    "channels": 8,
+    "clock": "ocxo",
+    "loose_rate_window": "trailing",
+    "loose_dll_correlation": "loop",
+    "loose_gate_probability": 0.001,
+}
+
+
+def _scenario(**kw):
+    return get_scenario({**BASE, **kw})
+
+
+@pytest.mark.parametrize(
+    "case, field, words",
+    [
+        ({"outage_channels": 8}, "outage_channels", "leave at least 1"),
+        ({"outage_channels": 12}, "outage_channels", "leave at least 1"),
+        ({"outage_channels": 5, "outage_start_s": 20.0}, "outage_start_s", "below duration_s"),
+        ({"outage_channels": 5, "outage_start_s": 8.0, "outage_end_s": 8.0}, "outage_end_s", "after outage_start_s"),
+        ({"outage_channels": 5, "outage_start_s": 8.0, "outage_end_s": 6.0}, "outage_end_s", "after outage_start_s"),
+        ({"outage_channels": 5, "outage_start_s": 8.0, "outage_end_s": 21.0}, "outage_end_s", "at most duration_s"),
+        ({"outage_start_s": 8.0}, "outage_start_s", "without an outage"),
+        ({"outage_end_s": 9.0}, "outage_end_s", "without an outage"),
+        ({"outage_channels": 0}, "outage_channels", ""),
+    ],
+)
+def test_outage_fields_are_checked_with_their_name(case, field, words):
+    sc = _scenario(duration_s=20.0)
+    with pytest.raises(ConfigError) as exc:
+        sc.check_case({"name": "x", "cn0_dbhz": 45.0, **case}, "cases[1]")
+    assert exc.value.field == f"cases[1].{field}"
+    assert words in str(exc.value)
+    assert "\n" not in str(exc.value)
+
+
+def test_a_valid_outage_passes_and_leaves_one_channel():
+    sc = _scenario(duration_s=20.0)
+    sc.check_case({"cn0_dbhz": 45.0, "outage_channels": 7, "outage_start_s": 12.0, "outage_end_s": 20.0}, "cases[0]")
+    sc.check_case({"cn0_dbhz": 45.0, "outage_channels": 5, "outage_start_s": 12.0}, "cases[0]")  # to the end
+
+
+def _elevations_deg(sc):
+    """Each channel's elevation at the start, from pymap3d (not the scenario's own function)."""
+    p = sc.params
+    s, _, _ = sc.satellites().state(np.asarray(p.start_time_s))
+    _, el, _ = pymap3d.ecef2aer(s[:, 0], s[:, 1], s[:, 2], p.lat_deg, p.lon_deg, p.height_m)
+    return np.asarray(el)
+
+
+def test_the_lowest_channels_lose_their_signal_in_the_window_only():
+    sc = _scenario(duration_s=0.6, settle_s=0.1)
+    runs, T = 2, sc.params.coherent_time_s
+    truth = sc._truth(sc.flight(), 45.0, runs, draw.run_streams(5, (), range(runs)), (3, 0.2, 0.45))
+    g = truth.signal_gain
+    assert g.shape == (600, runs, 8)
+    low3 = np.argsort(_elevations_deg(sc))[:3]
+    blocked = np.zeros(8, bool)
+    blocked[low3] = True
+    t_mid = (np.arange(600) + 0.5) * T
+    inside = (t_mid >= 0.2) & (t_mid < 0.45)
+    expected = np.where(inside[:, None, None] & blocked[None, None, :], 0.0, 1.0)
+    np.testing.assert_array_equal(g, np.broadcast_to(expected, g.shape))
+    # The correlators the harnesses draw from that truth: in the outage a blocked channel's prompt holds
+    # noise only (unit-variance I and Q: E|P|^2 = 2); the others keep A^2 = 2 c T = 63 at 45 dB-Hz.
+    source = AnalyticSource(
+        CorrelatorSimulator(T, 1.0),
+        np.broadcast_to(amplitude_from_cn0(45.0, T), (runs, 8)),
+        np.random.default_rng(1),
+        signal_gain=g,
+    )
+
+    class _Zero:  # the replica exactly on the truth
+        code_chips = phase_rad = freq_hz = np.zeros((runs, 8))
+
+    ks = np.nonzero(inside)[0]
+    power = np.stack([np.abs(source.correlate(None, k, _Zero).prompt) ** 2 for k in ks])  # (k, runs, ch)
+    n = power[..., blocked].size  # 250 x 2 x 3 = 1500 draws; |P|^2 of pure noise is exponential, sd 2
+    assert abs(power[..., blocked].mean() - 2.0) < 5 * 2.0 / np.sqrt(n)
+    assert power[..., ~blocked].mean() > 50.0
+
+
+def test_outage_leaves_the_other_channels_random_numbers_alone():
+    # Scalar loops with and without the outage, the same streams: an unblocked channel's errors are the
+    # same to the last bit (its loop never sees the others), and a blocked one's until the outage.
+    K, runs, T = 800, 2, 0.001
+    t = np.arange(K + 1)[:, None, None] * T
+    rho = 2.2e7 + np.arange(8) * 1e5 + (-300.0 + 40.0 * np.arange(8)) * t + np.zeros((1, runs, 1))
+    blocked = np.zeros((runs, 8), bool)
+    blocked[:, [1, 4, 6]] = True
+    t_mid = (np.arange(K) + 0.5) * T
+    gain = np.where(((t_mid >= 0.3) & (t_mid < 0.6))[:, None, None] & blocked, 0.0, 1.0)
+    loop = create("channel_filter", "scalar", pll_bandwidth_hz=20.7, dll_bandwidth_hz=0.21)
+    a = scalar_tracking(loop, rho, 45.0, T, np.random.default_rng(9))
+    b = scalar_tracking(loop, rho, 45.0, T, np.random.default_rng(9), amplitude_scale=gain)
+    np.testing.assert_array_equal(a.code_error_chips[:, ~blocked], b.code_error_chips[:, ~blocked])
+    np.testing.assert_array_equal(a.freq_error_hz[:, ~blocked], b.freq_error_hz[:, ~blocked])
+    before = t_mid < 0.3
+    np.testing.assert_array_equal(a.freq_error_hz[before][:, blocked], b.freq_error_hz[before][:, blocked])
+    # and the blocked loops do see it: noise only drives their frequency away
+    assert np.all(np.any(a.freq_error_hz[~before][:, blocked] != b.freq_error_hz[~before][:, blocked], axis=0))
+
+
+def test_select_channels_keeps_each_runs_usable_channels_in_order():
+    usable = np.array([[True, False, True, True], [False, True, True, True]])
+    x = np.arange(8.0).reshape(2, 4)
+    s = np.arange(24.0).reshape(2, 4, 3)
+    xs, ss = select_channels(usable, x, s)
+    np.testing.assert_array_equal(xs, [[0.0, 2.0, 3.0], [5.0, 6.0, 7.0]])
+    np.testing.assert_array_equal(ss[1], s[1, 1:])
+    np.testing.assert_array_equal(ss[0], s[0, [0, 2, 3]])
+    with pytest.raises(ConfigError, match="same number of channels"):
+        select_channels(np.array([[True, True], [True, False]]), x[:, :2])
+
+
+@pytest.mark.slow
+def test_loose_stops_updating_below_four_channels_and_tight_goes_on_with_three(monkeypatch):
+    # 2 s of the level flight, updates at 0.1, ..., 2.0 s (the first is pull-in); 5 of 8 channels blocked
+    # from 1.0 s. Trailing rate windows end at the update; its code reading reaches one interval (1 ms)
+    # past it, so the update at 1.0 s already sees the outage: loose may fix at 0.2-0.9 s (8 updates)
+    # and never after, tight updates at 0.2-2.0 s (19), on 3 channels from 1.0 s (11).
+    from gnssframework.experiments.scenarios import deep_integration_runs as runs_mod
+
+    calls = {"loose": [], "tight": []}
+    loose_update, tight_update = runs_mod.loose_update, runs_mod.tight_update
+
+    def spy_loose(ins, ekf, fp, fv, fcov, gate):
+        calls["loose"].append(fp.shape)
+        return loose_update(ins, ekf, fp, fv, fcov, gate)
+
+    def spy_tight(ins, ekf, m_rho, *rest):
+        calls["tight"].append(m_rho.shape)
+        dx = tight_update(ins, ekf, m_rho, *rest)
+        calls.setdefault("tight_dx", []).append(np.linalg.norm(dx[:, 6:9], axis=-1))
+        return dx
+
+    monkeypatch.setattr(runs_mod, "loose_update", spy_loose)
+    monkeypatch.setattr(runs_mod, "tight_update", spy_tight)
+    sc = _scenario(duration_s=2.0, settle_s=0.5)
+    case = {"name": "outage", "cn0_dbhz": 45.0, "outage_channels": 5, "outage_start_s": 1.0}
+    sc.check_case(case, "cases[0]")
+    for coupling in ("loose", "tight"):
+        plugins = {
+            "channel_filter": create("channel_filter", "scalar", pll_bandwidth_hz=20.7, dll_bandwidth_hz=0.21),
+            "nav_filter": create("nav_filter", "ins-ekf", coupling=coupling),
+        }
+        res = sc.run_batch(case, plugins, 2, np.random.default_rng(2222))
+        assert np.all(np.isfinite(np.asarray(res.metrics["horizontal_position_error_rmse"])))
+    assert calls["loose"] == [(2, 3)] * 8  # fixes (runs, 3) before the outage only
+    assert calls["tight"] == [(2, 8)] * 8 + [(2, 3)] * 11
+    # tight's 3-channel updates do move the position (not a no-op on an empty measurement)
+    assert np.all(np.stack(calls["tight_dx"][8:]) > 0)
+
+
+def test_pv_fix_refuses_three_channels_whatever_the_rounding():
+    # With 3 channels the 4x4 normal matrix (position and clock) is singular, but LAPACK's solve only
+    # notices an exactly zero pivot: on random geometries it returned corrections of ~1e15 m in about
+    # 80 % of them. The fix refuses by the count instead.
+    from gnssframework.errors import NumericalError
+    from gnssframework.receiver.deep.loose import pv_fix
+
+    rng = np.random.default_rng(0)
+    r = np.array(pymap3d.geodetic2ecef(34.23, 108.3576, 590.6))
+    for _ in range(20):
+        u = rng.normal(size=(3, 3))
+        u[:, 2] = np.abs(u[:, 2])  # above the horizon, roughly
+        s = r + 2.2e7 * u / np.linalg.norm(u, axis=1)[:, None]
+        rho = np.linalg.norm(s - r, axis=1)[None] + rng.normal(size=(1, 3))
+        with pytest.raises(NumericalError, match="fewer than 4 channels"):
+            pv_fix(
+                rho, np.zeros((1, 3)), np.ones((1, 3)), np.ones((1, 3)), s, np.zeros((3, 3)), r[None], np.zeros((1, 3))
+            )
