@@ -57,10 +57,12 @@ def _shortened(path: Path, tmp_path: Path) -> Path:
             section["epochs"] = 60
         if "duration_s" in section:
             section["duration_s"] = min(section["duration_s"], 1.5)
-    for case in data.get("cases", []):  # a C/N0 fade (or a channel fault) starts inside the shortened run
-        for start in ("fade_start_s", "fault_start_s"):
+    for case in data.get("cases", []):  # a C/N0 fade (a channel fault, an outage) starts inside the shortened run
+        for start in ("fade_start_s", "fault_start_s", "outage_start_s"):
             if start in case:
                 case[start] = 0.75
+        if case.get("outage_end_s") is not None:
+            case["outage_end_s"] = 1.5
     if "duration_s" in data["scenario"]:
         data["scenario"]["settle_s"] = 0.5
         if "steady_state_s" in data["scenario"]:
