@@ -35,6 +35,13 @@ SYSTEM CORR`` ``GAUT`` (A0, A1, t0t, WN0t) and ``GAGP`` (A0G, A1G, t0G, WN0G), b
 their low 8 (WN0t) and 6 (WN0G) bits, are written in full: the week with those low bits
 nearest the first record's (`navigation.weeks.full_week`; GST weeks are GPS weeks - 1024, so
 the low bits agree). A system of another layout (BeiDou, SBAS) is refused.
+
+The records of a run of several signals (`multi_receive.SignalSet`, system ``M``) go into
+one mixed file (RINEX 3.04 6.9, ``M: MIXED`` in the first header line), each record in its
+own system's layout above (the satellite's system from `SignalSet.signal_of`), with both
+headers' lines: GPS's ``GPSA``/``GPSB``/``GPUT`` from page 18 and Galileo's ``GAL``/
+``GAUT``/``GAGP`` from word types 5, 6 and 10, each where decoded, and one ``LEAP SECONDS``
+(page 18's, else word 6's: both broadcast the same GPS-UTC leap seconds).
 """
 
 from __future__ import annotations
@@ -57,7 +64,7 @@ __all__ = ["NavRecord", "decoded_records", "write_rinex_nav", "RINEX_NAV_SYSTEMS
 
 #: Systems whose decoded records are written: GPS and QZSS (the LNAV layout) and Galileo
 #: (its I/NAV record layout; see the module text).
-RINEX_NAV_SYSTEMS = {"G": "GPS", "J": "QZSS", "E": "GALILEO"}
+RINEX_NAV_SYSTEMS = {"G": "GPS", "J": "QZSS", "E": "GALILEO", "M": "MIXED"}
 #: RINEX 3.04 Galileo data sources of an I/NAV E1-B record: bit 0 (I/NAV E1-B) and bit 9
 #: (clock parameters for E5b,E1).
 INAV_E1B_DATA_SOURCES = 1 + 512
@@ -158,6 +165,12 @@ def _orbit_lines(nav: NavRecord, system: str) -> list[str]:
     return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
 
 
+def _system_of(signal: SignalSpec, prn: int) -> str:
+    """The RINEX system letter of satellite ``prn`` of ``signal`` (of a `SignalSet`: its signal's)."""
+    signal_of = getattr(signal, "signal_of", None)
+    return signal_of(prn).system if signal_of is not None else signal.system
+
+
 def _time_corr(kind: str, a0: float, a1: float, t_s: float, week: int) -> str:
     """A ``TIME SYSTEM CORR`` line: ``A4,1X,D17.10,D16.9,1X,I6,1X,I4`` (RINEX 3.04 table A5)."""
     a0_txt = f"{float(a0):17.10E}".replace("E", "D")
@@ -165,8 +178,9 @@ def _time_corr(kind: str, a0: float, a1: float, t_s: float, week: int) -> str:
     return _line(f"{kind} {a0_txt}{a1_txt} {int(round(t_s)):6d} {int(week):4d}", "TIME SYSTEM CORR")
 
 
-def _galileo_header(week: int, galileo: InavIonoTime) -> list[str]:
-    """The ionospheric, time-system and leap-second lines of decoded word types 5, 6, 10."""
+def _galileo_header(week: int, galileo: InavIonoTime, leap: bool = True) -> list[str]:
+    """The ionospheric, time-system and (with ``leap``) leap-second lines of decoded word
+    types 5, 6, 10."""
     out = []
     if galileo.ai_sfu is not None:
         out.append(_line("GAL  " + "".join(_d12(v) for v in (*galileo.ai_sfu, 0.0)), "IONOSPHERIC CORR"))
@@ -175,7 +189,7 @@ def _galileo_header(week: int, galileo: InavIonoTime) -> list[str]:
         out.append(_time_corr("GAUT", utc.a0_s, utc.a1_s_s, utc.tot_s, full_week(utc.wnt, 8, week)))
     if ggto is not None:
         out.append(_time_corr("GAGP", ggto.a0g_s, ggto.a1g_s_s, ggto.t0g_s, full_week(ggto.wn0g, 6, week)))
-    if utc is not None:
+    if utc is not None and leap:
         out.append(_line(f"{int(utc.dt_ls_s):6d}", "LEAP SECONDS"))
     return out
 
@@ -190,7 +204,7 @@ def _header(
         _line(f"{'3.04':>9}{'':11}{'N: GNSS NAV DATA':<20}{system:<20}", "RINEX VERSION / TYPE"),
         _line(f"{'gnssframework':<20}{'':<20}{stamp:<20}", "PGM / RUN BY / DATE"),
     ]
-    if iono is not None and signal.system in ("G", "J"):  # LNAV page 18 (a Galileo file has none)
+    if iono is not None and signal.system in ("G", "J", "M"):  # LNAV page 18 (a Galileo file has none)
         out += [
             _line("GPSA " + "".join(_d12(v) for v in iono.alpha), "IONOSPHERIC CORR"),
             _line("GPSB " + "".join(_d12(v) for v in iono.beta), "IONOSPHERIC CORR"),
@@ -201,8 +215,8 @@ def _header(
             _time_corr("GPUT", iono.a0_s, iono.a1_s_s, iono.tot_s, wnt),
             _line(f"{int(iono.dt_ls_s):6d}", "LEAP SECONDS"),
         ]
-    if galileo is not None and signal.system == "E":
-        out += _galileo_header(first.week, galileo)
+    if galileo is not None and signal.system in ("E", "M"):  # a mixed file: one LEAP SECONDS line
+        out += _galileo_header(first.week, galileo, leap=not (signal.system == "M" and iono is not None))
     return out + [_line("", "END OF HEADER")]
 
 
@@ -231,12 +245,12 @@ def write_rinex_nav(
         )
     if not records:
         raise ConfigError("ephemeris", "no ephemeris was decoded: no navigation file to write")
-    if signal.system == "E":  # the Galileo layout's fields (IODnav, BGD, data sources) are I/NAV's
-        other = [str(r.record.sv[0]) for r in records if not str(r.record.sv[0]).startswith("E")]
-        if other:
-            raise ConfigError(
-                "ephemeris", f"{other[0]}: not a Galileo record, not written in {signal.name}'s navigation file"
-            )
+    # The Galileo layout's fields (IODnav, BGD, data sources) are I/NAV's: a record in it must be one.
+    for r in records:
+        sv = str(r.record.sv[0])
+        if (_system_of(signal, r.prn) == "E") != sv.startswith("E"):
+            what = "not a Galileo record" if sv[:1] != "E" else f"a Galileo record as {signal.rinex_satellite(r.prn)}"
+            raise ConfigError("ephemeris", f"{sv}: {what}, not written in {signal.name}'s navigation file")
     path = Path(path)
     body = []
     for nav in sorted(records, key=lambda r: (r.prn, r.week, float(r.record.toc_s[0]))):
@@ -247,6 +261,6 @@ def write_rinex_nav(
             + "".join(_d19(rec.elements[k][0]) for k in ("SVclockBias", "SVclockDrift", "SVclockDriftRate"))
             + "\n"
         )
-        body += _orbit_lines(nav, signal.system)
+        body += _orbit_lines(nav, _system_of(signal, nav.prn))
     path.write_text("".join(_header(records, iono, signal, galileo) + body))
     return path
