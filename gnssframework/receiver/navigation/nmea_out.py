@@ -16,6 +16,16 @@ VDOP², the position block's trace) and by GSV sentences, four satellites each, 
 elevation (deg), azimuth (deg from true north) and SNR (the C/N0 in dB-Hz, empty where not
 measured), all rounded to whole units as NMEA writes them. Satellites are numbered as NMEA
 0183 4.11 does for the talker: the PRN for GPS (1-32), PRN - 192 for QZSS (1-10).
+
+A fix of several systems (``signals``, a `multi_receive.SignalSet`: satellites keyed
+``index x 1000 + PRN``) is sent as NMEA 0183 4.10/4.11 multi-GNSS receivers send it: GGA
+and RMC from ``GN``, then one ``GNGSA`` per system with satellites used (that system's IDs,
+the fix's DOPs, and the GNSS system ID field that 4.10 appended to GSA: 1 GPS, 3 Galileo,
+5 QZSS) and GSV pages per system from its own talker (``GPGSV``, ``GAGSV``) counting that
+system's satellites in view. A Galileo satellite's ID is its SVID (1-36), as NMEA 4.10/4.11
+numbers them under ``GA`` (the numbering of u-blox's NMEA 4.10/4.11 modes and of the
+system-ID table of https://logiqx.github.io/gps-wizard/nmea/lookups/system-id.html; the
+older 301-336 of u-blox's extended NMEA 4.0 is not used).
 """
 
 from __future__ import annotations
@@ -32,7 +42,7 @@ from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .fixes import PositionTable
 
-__all__ = ["nmea_sentences", "write_nmea", "nmea_talker", "SkyView", "gsa_gsv_sentences"]
+__all__ = ["nmea_sentences", "write_nmea", "nmea_talker", "SkyView", "gsa_gsv_sentences", "multi_gsa_gsv_sentences"]
 
 #: NMEA talker of a RINEX system letter (NMEA 0183 4.11; SBAS fixes count as GPS).
 _TALKERS = {"G": "GP", "S": "GP", "E": "GA", "C": "GB", "R": "GL", "J": "GQ", "I": "GI"}
@@ -58,6 +68,8 @@ def nmea_talker(*signals: SignalSpec, default: SignalSpec = GPS_L1CA) -> str:
 _GPS_EPOCH = datetime(1980, 1, 6)
 #: Satellite ID offset of NMEA 0183 4.11 per talker (QZSS PRN 193 is GQ satellite 1).
 _NMEA_ID_OFFSET = {"GQ": 192}
+#: GNSS system ID of NMEA 0183 4.10/4.11 (GSA's last field) per talker.
+_SYSTEM_ID = {"GP": 1, "GL": 2, "GA": 3, "GB": 4, "GQ": 5, "GI": 6}
 _KNOT_MPS = 1852.0 / 3600.0
 
 
@@ -86,6 +98,12 @@ def _whole(value: float, width: int) -> str:
     return f"{int(round(float(value))):0{width}d}" if np.isfinite(value) else ""
 
 
+def _gsa(talker: str, ids: list[str], hdop: float, vdop: float, system_id: int | None = None) -> str:
+    pdop = float(np.hypot(hdop, vdop))
+    fields = ("A", "3", *ids, *[""] * (12 - len(ids)), f"{pdop:.2f}", f"{hdop:.2f}", f"{vdop:.2f}")
+    return str(pynmea2.GSA(talker, "GSA", fields + ((str(system_id),) if system_id is not None else ())))
+
+
 def gsa_gsv_sentences(
     used_prns: tuple[int, ...], hdop: float, vdop: float, sky: SkyView | None, talker: str = "GP", gsa: bool = True
 ) -> list[str]:
@@ -93,20 +111,7 @@ def gsa_gsv_sentences(
     sentences (``sky``; none without it). See the module text."""
     offset = _NMEA_ID_OFFSET.get(talker, 0)
     ids = [f"{int(p) - offset:02d}" for p in sorted(used_prns)[:12]]
-    pdop = float(np.hypot(hdop, vdop))
-    out = (
-        [
-            str(
-                pynmea2.GSA(
-                    talker,
-                    "GSA",
-                    ("A", "3", *ids, *[""] * (12 - len(ids)), f"{pdop:.2f}", f"{hdop:.2f}", f"{vdop:.2f}"),
-                )
-            )
-        ]
-        if gsa
-        else []
-    )
+    out = [_gsa(talker, ids, hdop, vdop)] if gsa else []
     if sky is None or not np.size(sky.prn):
         return out
     order = np.argsort(sky.prn, kind="stable")
@@ -126,15 +131,44 @@ def gsa_gsv_sentences(
     return out
 
 
+def multi_gsa_gsv_sentences(
+    used_keys: tuple[int, ...], hdop: float, vdop: float, sky: SkyView | None, signals, gsa: bool = True
+) -> list[str]:
+    """The GSA sentences (``GN``, one per system with a satellite used, unless not ``gsa``)
+    and the GSV sentences (each system's talker) of one fix of several ``signals`` (a
+    `multi_receive.SignalSet`; ``used_keys`` and ``sky.prn`` its keys). See the module text."""
+    from .multi_receive import KEY_STEP
+
+    used = np.asarray(sorted(used_keys), int)
+    gsa_out: list[str] = []
+    gsv_out: list[str] = []
+    for i, signal in enumerate(signals.signals):
+        talker = nmea_talker(signal)
+        offset = _NMEA_ID_OFFSET.get(talker, 0)
+        mine = used[used // KEY_STEP == i] % KEY_STEP
+        if gsa and mine.size:
+            ids = [f"{int(p) - offset:02d}" for p in mine[:12]]
+            gsa_out.append(_gsa("GN", ids, hdop, vdop, _SYSTEM_ID[talker]))
+        if sky is not None:
+            keys = np.asarray(sky.prn, int)
+            at = keys // KEY_STEP == i
+            part = SkyView(keys[at] % KEY_STEP, sky.elevation_deg[at], sky.azimuth_deg[at], sky.cn0_dbhz[at])
+            gsv_out += gsa_gsv_sentences((), hdop, vdop, part, talker, gsa=False)
+    return gsa_out + gsv_out
+
+
 def nmea_sentences(
     table: PositionTable,
     leap_seconds: int = 18,
     talker: str = "GP",
     sky: list[SkyView] | None = None,
     gsa: bool = False,
+    signals=None,
 ) -> list[str]:
     """A GGA and an RMC sentence per fix of ``table``, from ``talker`` (`nmea_talker`);
-    then with ``gsa`` its GSA and with ``sky`` (one `SkyView` per fix) its GSV sentences."""
+    then with ``gsa`` its GSA and with ``sky`` (one `SkyView` per fix) its GSV sentences;
+    of several ``signals`` (a `multi_receive.SignalSet`) those per system
+    (`multi_gsa_gsv_sentences`)."""
     if sky is not None and len(sky) != len(table):
         raise ConfigError("sky", f"one SkyView per fix: {len(sky)} for {len(table)} fixes")
     out = []
@@ -193,7 +227,16 @@ def nmea_sentences(
                 )
             )
         )
-        if gsa or sky is not None:
+        if signals is not None and (gsa or sky is not None):
+            out += multi_gsa_gsv_sentences(
+                table.used_prns[k],
+                float(c["hdop"][k]),
+                float(c["vdop"][k]),
+                None if sky is None else sky[k],
+                signals,
+                gsa,
+            )
+        elif gsa or sky is not None:
             out += gsa_gsv_sentences(
                 table.used_prns[k],
                 float(c["hdop"][k]),
@@ -212,9 +255,10 @@ def write_nmea(
     talker: str = "GP",
     sky: list[SkyView] | None = None,
     gsa: bool = False,
+    signals=None,
 ) -> Path:
     """``nmea.txt``: the GGA and RMC sentences of every fix (with ``gsa`` its GSA, with
-    ``sky`` its GSV), one per line."""
+    ``sky`` its GSV; per system for several ``signals``), one per line."""
     path = Path(path)
-    path.write_text("".join(s + "\r\n" for s in nmea_sentences(table, leap_seconds, talker, sky, gsa)))
+    path.write_text("".join(s + "\r\n" for s in nmea_sentences(table, leap_seconds, talker, sky, gsa, signals)))
     return path
