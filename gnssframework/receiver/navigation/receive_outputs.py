@@ -8,6 +8,10 @@
 needs pyarrow) and ``rtcm`` RTCM 3 MSM7 observations (``observations.rtcm3``, `rtcm_out`). The satellites in view of each fix (GSV) are those used in some fix, at the
 azimuth and elevation of the report's sky plot (`report.sky_tracks`) with the C/N0 of the
 observables' epoch of the fix.
+
+A run of several signals (``signal`` a `multi_receive.SignalSet`) writes the same files:
+one mixed navigation file of every system's decoded records, the Parquet table with a
+``signal`` column (the PRNs each signal's own) and, per epoch, one MSM7 per system.
 """
 
 from __future__ import annotations
@@ -106,7 +110,8 @@ def write_extra_outputs(
         from .rinex_nav import RINEX_NAV_SYSTEMS, decoded_records, write_rinex_nav
 
         if obs is None or not any(obs.ephemeris.values()):
-            notes.append(f"no ephemeris decoded from {'I/NAV' if signal.system == 'E' else 'LNAV'}: no navigation.rnx")
+            messages = {"E": "I/NAV", "M": "LNAV or I/NAV"}
+            notes.append(f"no ephemeris decoded from {messages.get(signal.system, 'LNAV')}: no navigation.rnx")
         elif week < 0:
             notes.append("the GPS week is unknown: no navigation.rnx")
         elif signal.system not in RINEX_NAV_SYSTEMS:
@@ -125,7 +130,8 @@ def write_extra_outputs(
     if "parquet" in outputs:
         from .columnar_out import write_tracking_parquet
 
-        written.append(write_tracking_parquet(out / "tracking.parquet", result.tracking))
+        signal_of = getattr(signal, "signal_of", None)  # several signals: a signal column, the PRNs their own
+        written.append(write_tracking_parquet(out / "tracking.parquet", result.tracking, signal_of))
     if "rtcm" in outputs:
         from .rtcm_out import write_rtcm
 

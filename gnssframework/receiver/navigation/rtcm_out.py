@@ -26,7 +26,8 @@ start of each arc (lock lost or no phase before) to lie on the pseudorange, as t
 phase range field (±2^-8 ms, ±1171 m about the rough range) requires; a phase that drifts
 outside it is sent invalid. The lock time is the time since that arc's start (a slip
 restarts it, so a decoder sees the loss of lock). A signal without a phase or a Doppler
-sends those fields invalid (the spec's most negative values). The bits are packed here
+sends those fields invalid (the spec's most negative values). Several signals (`multi_receive.SignalSet`) send one
+MSM7 per system and epoch (1077 and 1097), all but the epoch's last with DF393 1. The bits are packed here
 (pyrtcm, the reference decoder of the tests, reads MSMs but does not build them).
 """
 
@@ -119,13 +120,55 @@ def _aligned_phase_m(obs: Observables, pr_m: np.ndarray, phase_m: np.ndarray, wa
 
 
 def msm7_frames(obs: Observables, signal: SignalSpec = GPS_L1CA, station_id: int = 0) -> list[bytes]:
-    """One framed MSM7 per epoch of ``obs`` with a pseudorange (see the module text).
+    """One framed MSM7 per epoch of ``obs`` with a pseudorange (see the module text); of
+    several signals (``signal`` a `multi_receive.SignalSet`), one per system and epoch, the
+    epoch's messages in the set's order, each but the last with DF393 (multiple message) 1.
 
     Raises
     ------
     ConfigError
         For a system or observation code without an MSM7 signal here.
     """
+    signals = getattr(signal, "signals", None)
+    if signals is None:
+        return [frame for _, frame in _msm7(obs, signal, station_id)]
+    from .multi_receive import KEY_STEP
+
+    index = np.asarray(obs.prn, int) // KEY_STEP
+    parts = [_columns(obs, np.flatnonzero(index == i), KEY_STEP) for i in range(len(signals))]
+    sent = [_msm7_epochs(p) for p in parts]
+    frames = []
+    for i, (part, one) in enumerate(zip(parts, signals)):
+        later = np.zeros(obs.rx_time_s.size, bool)
+        for s in sent[i + 1 :]:
+            later |= s
+        frames += [(e, i, f) for e, f in _msm7(part, one, station_id, later)]
+    return [f for _, _, f in sorted(frames, key=lambda x: (x[0], x[1]))]
+
+
+def _columns(obs: Observables, cols: np.ndarray, key_step: int) -> Observables:
+    """The satellites ``cols`` of ``obs``, their keys back to PRNs (``key mod key_step``)."""
+    from dataclasses import replace
+
+    two_d = ("transmit_s", "pseudorange_m", "doppler_hz", "carrier_cycles", "cn0_dbhz")
+    return replace(
+        obs,
+        prn=np.asarray(obs.prn, int)[cols] % key_step,
+        lli=None if obs.lli is None else obs.lli[:, cols],
+        **{f: np.asarray(getattr(obs, f))[:, cols] for f in two_d},
+    )
+
+
+def _msm7_epochs(obs: Observables) -> np.ndarray:
+    """Which epochs of ``obs`` get an MSM: those with a pseudorange an MSM can carry."""
+    pr = np.asarray(obs.pseudorange_m, float)
+    return np.any(np.isfinite(pr) & (pr > 0) & (pr < 255 * _LIGHT_MS_M), axis=1)
+
+
+def _msm7(
+    obs: Observables, signal: SignalSpec, station_id: int = 0, more: np.ndarray | None = None
+) -> list[tuple[int, bytes]]:
+    """``(epoch, frame)`` of `msm7_frames` for one signal, DF393 set at the epochs of ``more``."""
     system = signal.system
     if system not in MSM7_MESSAGE or signal.rinex_code not in _SIGNAL_ID[system]:
         raise ConfigError("signal", f"no MSM7 signal for {signal.name} (RINEX {system} {signal.rinex_code})")
@@ -153,7 +196,7 @@ def msm7_frames(obs: Observables, signal: SignalSpec = GPS_L1CA, station_id: int
             (MSM7_MESSAGE[system], 12),
             (station_id, 12),
             (int(t_ms[e]) % _WEEK_MS, 30),
-            (0, 1),
+            (int(more is not None and more[e]), 1),
             (0, 3),
             (0, 7),
             (0, 2),
@@ -194,7 +237,7 @@ def msm7_frames(obs: Observables, signal: SignalSpec = GPS_L1CA, station_id: int
         fine_rate = np.round((r - rough_rate) / 1e-4)
         for value in fine_rate:
             b.put(int(value) if np.isfinite(value) and abs(value) < 2**14 else -(2**14), 15)
-        frames.append(_frame(b.to_bytes()))
+        frames.append((e, _frame(b.to_bytes())))
     return frames
 
 
