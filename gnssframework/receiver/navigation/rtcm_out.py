@@ -150,12 +150,15 @@ def _columns(obs: Observables, cols: np.ndarray, key_step: int) -> Observables:
     """The satellites ``cols`` of ``obs``, their keys back to PRNs (``key mod key_step``)."""
     from dataclasses import replace
 
-    two_d = ("transmit_s", "pseudorange_m", "doppler_hz", "carrier_cycles", "cn0_dbhz")
     return replace(
         obs,
         prn=np.asarray(obs.prn, int)[cols] % key_step,
+        transmit_s=obs.transmit_s[:, cols],
+        pseudorange_m=obs.pseudorange_m[:, cols],
+        doppler_hz=obs.doppler_hz[:, cols],
+        carrier_cycles=obs.carrier_cycles[:, cols],
+        cn0_dbhz=obs.cn0_dbhz[:, cols],
         lli=None if obs.lli is None else obs.lli[:, cols],
-        **{f: np.asarray(getattr(obs, f))[:, cols] for f in two_d},
     )
 
 
