@@ -122,7 +122,9 @@ def write_extra_outputs(
     if "geojson" in outputs:
         from .track_out import write_geojson
 
-        written.append(write_geojson(out / "track.geojson", table, leap_seconds))
+        # several signals: the satellites by RINEX name (their keys are the run's own numbering)
+        named = getattr(signal, "rinex_satellite", None) if hasattr(signal, "signals") else None
+        written.append(write_geojson(out / "track.geojson", table, leap_seconds, named))
     if "kml" in outputs:
         from .track_out import write_kml
 

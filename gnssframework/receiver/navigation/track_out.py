@@ -47,8 +47,11 @@ def _checked(table: PositionTable) -> None:
         raise ConfigError("table", f"lacks {sorted(set(POSITION_COLUMNS) - set(table.columns))}")
 
 
-def track_geojson(table: PositionTable, leap_seconds: int = 18) -> dict:
-    """The GeoJSON FeatureCollection of ``table``'s fixes (see the module text)."""
+def track_geojson(table: PositionTable, leap_seconds: int = 18, satellite_name=None) -> dict:
+    """The GeoJSON FeatureCollection of ``table``'s fixes (see the module text). With
+    ``satellite_name`` (a `multi_receive.SignalSet`'s ``rinex_satellite``, for fixes of
+    several signals) the satellites used are named (``"satellites_used": ["G05", "E11"]``)
+    instead of listed as ``prns_used``."""
     _checked(table)
     c = table.columns
     points = []
@@ -63,7 +66,10 @@ def track_geojson(table: PositionTable, leap_seconds: int = 18) -> dict:
             if name not in ("lat_deg", "lon_deg", "height_m")
         }
         props["time_utc"] = _utc(table, k, leap_seconds)
-        props["prns_used"] = [int(p) for p in table.used_prns[k]]
+        if satellite_name is None:
+            props["prns_used"] = [int(p) for p in table.used_prns[k]]
+        else:
+            props["satellites_used"] = [satellite_name(int(p)) for p in table.used_prns[k]]
         points.append(
             {"type": "Feature", "geometry": {"type": "Point", "coordinates": _position(table, k)}, "properties": props}
         )
@@ -75,10 +81,11 @@ def track_geojson(table: PositionTable, leap_seconds: int = 18) -> dict:
     return {"type": "FeatureCollection", "features": [line, *points]}
 
 
-def write_geojson(path: str | Path, table: PositionTable, leap_seconds: int = 18) -> Path:
+def write_geojson(path: str | Path, table: PositionTable, leap_seconds: int = 18, satellite_name=None) -> Path:
     """``track.geojson``: `track_geojson` as JSON."""
     path = Path(path)
-    path.write_text(json.dumps(track_geojson(table, leap_seconds), indent=1, allow_nan=False) + "\n")
+    text = json.dumps(track_geojson(table, leap_seconds, satellite_name), indent=1, allow_nan=False)
+    path.write_text(text + "\n")
     return path
 
 
