@@ -1002,7 +1002,9 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     """``receive --signal A,B``: every signal tracked and dated by its own message, one fix
     per epoch of all their satellites with a receiver clock per time system
     (`multi_receive.receive_signals`); positions.csv (with ``system_offset_ns``), a mixed
-    observations.rnx, nmea.txt (GN: GGA, RMC), the report."""
+    observations.rnx, nmea.txt (GN: GGA, RMC; GNGSA and GPGSV/GAGSV per system), the
+    report and the ``--outputs`` files (`receive_outputs`: a mixed navigation.rnx, the
+    track, tracking.parquet with a signal column, MSM7 per system)."""
     import json
     import time
 
@@ -1018,6 +1020,7 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
     from .receiver.navigation.report import write_receive_report
     from .receiver.navigation.receiver_config import receiver_filters
+    from .receiver.navigation.receive_outputs import sky_views, write_extra_outputs
     from .receiver.navigation.rinex_obs import write_rinex_obs
 
     signals = SignalSet(tuple(registry.signal_spec(n) for n in args.signal.split(",")))
@@ -1034,9 +1037,6 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     for option, value in given.items():
         if value:
             raise ConfigError(option, f"not with several signals ({signals.name}): give one --signal for it")
-    extra = sorted(outputs - {"rinex-nav", "gsa", "gsv", "geojson"})
-    if extra:
-        raise ConfigError("--outputs", f"{', '.join(extra)}: not written for several signals ({signals.name})")
     _check_rate(args.rate, signals.signals)
     if args.week is not None and not 0 <= args.week < 10_000:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
@@ -1091,15 +1091,23 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     week = int(c["gps_week"][0])
     obs = result.observables
     written = [write_positions_csv(out / "positions.csv", table)]
+    leap = 18
+    if obs is not None and obs.iono_utc is not None:
+        leap = obs.iono_utc.dt_ls_s
+    elif obs is not None and obs.galileo is not None and obs.galileo.utc is not None:
+        leap = obs.galileo.utc.dt_ls_s  # word type 6's: the same GPS-UTC leap seconds
     if week >= 0 and obs is not None:
-        leap = obs.iono_utc.dt_ls_s if obs.iono_utc is not None else 18
+        sky = sky_views(result, table, rinex, signals) if "gsv" in outputs else None  # type: ignore[arg-type]
         written += [
             write_rinex_obs(out / "observations.rnx", obs, week, table.ecef_m[-1], signal=signals),  # type: ignore[arg-type]
-            write_nmea(out / "nmea.txt", table, leap, nmea_talker(*signals.signals)),
+            write_nmea(out / "nmea.txt", table, leap, nmea_talker(*signals.signals), sky, "gsa" in outputs, signals),
         ]
     else:
         print("note: the GPS week is unknown: no observations.rnx or nmea.txt (give it with --week)")
-    print("note: with several signals no navigation.rnx, GSA, GSV or track.geojson is written (not done)")
+    extra, notes = write_extra_outputs(out, result, table, outputs, week, leap, signals)  # type: ignore[arg-type]
+    written += extra
+    for note in notes:
+        print(f"note: {note}")
     written += write_receive_report(
         out,
         result,
