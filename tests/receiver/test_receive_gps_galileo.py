@@ -52,6 +52,8 @@ def mixed_run(tmp_path_factory):
             "--no-iono",
             "--ephemeris",
             str(nav),
+            "--outputs",
+            "default,kml,parquet,rtcm",
             "--out",
             str(out),
             "--quiet",
@@ -147,7 +149,7 @@ def test_the_mixed_observation_file_holds_each_systems_codes_and_the_geometrys_r
 def test_the_nmea_of_a_two_system_fix_is_from_the_gn_talker(mixed_run):
     _, out, _, _ = mixed_run
     parsed = [pynmea2.parse(line, check=True) for line in (out / "nmea.txt").read_text().splitlines()]
-    assert {p.talker for p in parsed} == {"GN"}
+    assert {p.talker for p in parsed if p.sentence_type in ("GGA", "RMC", "GSA")} == {"GN"}
     rows = _rows(out)
     gga = [p for p in parsed if p.sentence_type == "GGA"]
     assert len(gga) == len(rows)
@@ -155,6 +157,127 @@ def test_the_nmea_of_a_two_system_fix_is_from_the_gn_talker(mixed_run):
         assert g.latitude == pytest.approx(float(r["lat_deg"]), abs=1e-7)
         assert g.longitude == pytest.approx(float(r["lon_deg"]), abs=1e-7)
         assert int(g.num_sats) == 6
+
+
+def _fix_groups(out):
+    """nmea.txt's sentences, one list per fix (from its GGA on)."""
+    groups: list[list] = []
+    for line in (out / "nmea.txt").read_text().splitlines():
+        p = pynmea2.parse(line, check=True)
+        if p.sentence_type == "GGA":
+            groups.append([])
+        groups[-1].append(p)
+    return groups
+
+
+@pytest.mark.slow
+def test_gsa_and_gsv_go_per_system_with_the_satellites_used_at_the_geometrys_elevations(mixed_run):
+    _, out, gps, gal = mixed_run
+    groups = _fix_groups(out)
+    rows = _rows(out)
+    assert len(groups) == len(rows)
+    truth = {"1": sorted(int(s[1:]) for s in gps.sv), "3": sorted(int(s[1:]) for s in gal.sv)}
+    for group, r in zip(groups, rows):
+        gsa = [p for p in group if p.sentence_type == "GSA"]
+        # NMEA 4.10: a GNGSA per system, its system ID last (1 GPS, 3 Galileo), its own IDs
+        assert {p.data[-1]: sorted(int(v) for v in p.data[2:14] if v) for p in gsa} == truth
+        tow = float(r["tow_s"])
+        xyz = np.array(pymap3d.geodetic2ecef(float(r["lat_deg"]), float(r["lon_deg"]), float(r["height_m"])))
+        for talker, sats, system in (("GP", gps, "1"), ("GA", gal, "3")):
+            gsv = [p for p in group if p.sentence_type == "GSV" and p.talker == talker]
+            assert gsv and {int(p.num_sv_in_view) for p in gsv} == {len(truth[system])}  # the satellites used
+            seen = {int(p.data[i]): int(p.data[i + 1]) for p in gsv for i in range(3, len(p.data) - 1, 4) if p.data[i]}
+            assert sorted(seen) == truth[system]
+            pos = satellite_state(sats, tow - 0.075).position_m
+            for k, sv in enumerate(sats.sv):
+                _, el, _ = pymap3d.ecef2aer(*pos[k], *pymap3d.ecef2geodetic(*xyz))
+                assert abs(seen[int(sv[1:])] - float(el)) <= 1.0, (sv, seen, float(el))  # whole degrees
+
+
+def _msm_messages(path):
+    import io
+
+    from pyrtcm import RTCMReader, parse_msm
+
+    out = []
+    for _raw, msg in RTCMReader(io.BytesIO(path.read_bytes()), validate=1):  # checks each CRC-24Q
+        meta, sats, cells = parse_msm(msg)
+        out.append((msg.identity, meta["epoch"], int(msg.DF393), sats, cells))
+    return out
+
+
+@pytest.mark.slow
+def test_rtcm_sends_1077_and_1097_with_the_observation_files_pseudoranges(mixed_run):
+    import georinex
+
+    _, out, gps, gal = mixed_run
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        obs = georinex.load(out / "observations.rnx")
+    # The epochs from the file's own lines (F11.7 s): georinex reads 15.6000000 s as
+    # 15.599999 s (whole microseconds, truncated), and a microsecond is up to 0.8 mm of range.
+    epochs = [ln.split() for ln in (out / "observations.rnx").read_text().splitlines() if ln.startswith("> ")]
+    t_rx = np.array([(int(f[4]) * 60 + int(f[5])) * 60 + float(f[6]) for f in epochs])
+    t_rx += (np.datetime64(f"{epochs[0][1]}-{epochs[0][2]}-{epochs[0][3]}") - np.datetime64("1980-01-06")).astype(
+        "timedelta64[s]"
+    ).astype(float) - GPS_WEEK * 604_800.0
+    assert t_rx.size == obs.time.size
+    messages = _msm_messages(out / "observations.rtcm3")
+    by_epoch: dict[int, list] = {}
+    for m in messages:
+        by_epoch.setdefault(m[1], []).append(m)
+    wavelength = C / 1575.42e6
+    codes = {"1077": ("G", "C1C", "D1C", "1C"), "1097": ("E", "C1B", "D1B", "1B")}
+    checked = {"1077": 0, "1097": 0}
+    for e, t in enumerate(t_rx):
+        epoch_ms = round(t * 1e3)
+        sent = by_epoch.get(epoch_ms, [])
+        has = {k: np.isfinite(obs[codes[k][1]].values[e]).any() for k in codes}
+        assert [m[0] for m in sent] == [k for k in ("1077", "1097") if has[k]]  # the set's order, each once
+        assert [m[2] for m in sent] == [1] * (len(sent) - 1) + [0] * bool(sent)  # DF393: more to come
+        for ident, _, _, sats, cells in sent:
+            letter, code, dop, sig = codes[ident]
+            assert {c["CELLSIG"] for c in cells} == {sig}
+            for sat, cell in zip(sats, cells):
+                sv = f"{letter}{int(cell['CELLPRN']):02d}"
+                pr = float(obs[code].sel(sv=sv).values[e])
+                d = float(obs[dop].sel(sv=sv).values[e])
+                # The MSM's instant is the whole millisecond: the range moved there by the Doppler.
+                expected = pr - wavelength * d * (epoch_ms * 1e-3 - t)
+                got = (sat["DF397"] + sat["DF398"] + cell["DF405"]) * C * 1e-3
+                # half an LSB of DF405 (2^-30 ms, 0.28 mm) and RINEX's 1 mm (F14.3, half of it)
+                assert got == pytest.approx(expected, abs=2.0**-30 * C * 1e-3 + 0.5e-3), (sv, e)
+                checked[ident] += 1
+    assert checked["1077"] >= 3 * len(_rows(out)) and checked["1097"] >= 3 * len(_rows(out))
+    assert {m[0] for m in messages} == {"1077", "1097"}
+    assert sum(m[0] == "1077" for m in messages) == int(np.isfinite(obs["C1C"].values).any(axis=1).sum())
+
+
+@pytest.mark.slow
+def test_the_track_and_the_parquet_table_name_each_systems_satellites(mixed_run):
+    import json
+    import xml.etree.ElementTree as ET
+
+    import pandas as pd
+
+    _, out, gps, gal = mixed_run
+    rows = _rows(out)
+    features = json.loads((out / "track.geojson").read_text())["features"]
+    points = [f for f in features if f["geometry"]["type"] == "Point"]
+    assert len(points) == len(rows)
+    for f, r in zip(points, rows):
+        lon, lat, _ = f["geometry"]["coordinates"]
+        assert (lat, lon) == pytest.approx((float(r["lat_deg"]), float(r["lon_deg"])), abs=1e-9)
+        assert sorted(f["properties"]["satellites_used"]) == sorted(list(gps.sv) + list(gal.sv))
+    kml = ET.parse(out / "track.kml").getroot()
+    placemarks = kml.findall(".//{http://www.opengis.net/kml/2.2}Placemark")
+    assert len(placemarks) == len(rows) + 1  # the line and one per fix
+    table = pd.read_parquet(out / "tracking.parquet")
+    got = {(str(s), int(p)) for s, p in zip(table["signal"], table["prn"])}
+    assert got == {("gps-l1ca", int(s[1:])) for s in gps.sv} | {("galileo-e1b-boc11", int(s[1:])) for s in gal.sv}
+    # The 10 s of each channel: a GPS row per 1 ms integration or more, a Galileo one per 4 ms code period.
+    per = table.groupby(["signal", "prn"])["time_s"].agg(["min", "max"])
+    assert np.all(per["max"] - per["min"] > 0.8 * DURATION_S)
 
 
 def test_a_signal_set_names_satellites_by_system_and_refuses_what_it_cannot_position():
