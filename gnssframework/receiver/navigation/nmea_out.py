@@ -227,24 +227,12 @@ def nmea_sentences(
                 )
             )
         )
-        if signals is not None and (gsa or sky is not None):
-            out += multi_gsa_gsv_sentences(
-                table.used_prns[k],
-                float(c["hdop"][k]),
-                float(c["vdop"][k]),
-                None if sky is None else sky[k],
-                signals,
-                gsa,
-            )
-        elif gsa or sky is not None:
-            out += gsa_gsv_sentences(
-                table.used_prns[k],
-                float(c["hdop"][k]),
-                float(c["vdop"][k]),
-                None if sky is None else sky[k],
-                talker,
-                gsa,
-            )
+        if gsa or sky is not None:
+            fix = (table.used_prns[k], float(c["hdop"][k]), float(c["vdop"][k]), None if sky is None else sky[k])
+            if signals is not None:  # a GSA per system, a GSV per talker
+                out += multi_gsa_gsv_sentences(*fix, signals, gsa)
+            else:
+                out += gsa_gsv_sentences(*fix, talker, gsa)
     return out
 
 
