@@ -77,3 +77,60 @@ def test_warn_only_reports_without_failing(tmp_path, capsys, monkeypatch):
     assert check.main(["generated"]) == 1
     monkeypatch.setattr(check, "check", lambda folders: (3, []))
     assert check.main([]) == 0 and "3 regenerated tables equal the committed ones" in capsys.readouterr().out
+
+
+CHAOTIC = """**45dBHz**
+
+| metric | unit | `deep` | `deep-ukf-spread` |
+| --- | --- | --- | --- |
+| height_error_rmse | m | 0.4259 ± 0.057 | 0.379 ± 0.052 |
+| nees | - | 8.629 ± 1 | 5.467 ± 0.79 |
+| loss_of_lock_fraction | - | 0 | 0 |
+
+| outcome | case | claim | evidence |
+| --- | --- | --- | --- |
+| holds | 45dBHz | deep-ukf-spread: nees lower than deep's | difference -3.16 ± 0.76, ratio 0.633 ± 0.070, n=24, p=0.00037 |
+| holds | 45dBHz | deep-ukf-spread: nees lower than deep-code-disc's | difference -0.01 ± 0.2, n=24, p=0.9 |
+"""
+
+
+def test_a_chaotic_column_is_held_to_its_standard_errors():
+    moved = (
+        CHAOTIC.replace("0.4259 ± 0.057", "0.4742 ± 0.061")  # 0.85 SE: another arithmetic's realisation
+        .replace("8.629 ± 1", "9.1 ± 1.2")
+        .replace("-3.16 ± 0.76, ratio 0.633 ± 0.070, n=24, p=0.00037", "-2.7 ± 0.8, ratio 0.69 ± 0.07, n=24, p=0.002")
+    )
+    assert check.differences(CHAOTIC, moved) != []  # beyond the last digit
+    assert check.differences(CHAOTIC, moved, "deep") == []
+    # beyond SE_TOLERANCE standard errors, or an SE changed by more than SE_FACTOR
+    far = 0.4259 + (check.SE_TOLERANCE + 0.2) * 0.057
+    assert check.differences(CHAOTIC, CHAOTIC.replace("0.4259 ± 0.057", f"{far:.4f} ± 0.057"), "deep") != []
+    assert check.differences(CHAOTIC, CHAOTIC.replace("0.4259 ± 0.057", "0.4259 ± 0.13"), "deep") != []
+    # the other candidates' cells keep their last digit, in the chaotic candidate's table too
+    assert check.differences(CHAOTIC, CHAOTIC.replace("0.379 ± 0.052", "0.381 ± 0.052"), "deep") != []
+    # a row naming the chaotic candidate holds its text and counts: an outcome, n, a lock count
+    assert (
+        check.differences(
+            CHAOTIC,
+            CHAOTIC.replace(
+                "| holds | 45dBHz | deep-ukf-spread: nees lower than deep's",
+                "| fails | 45dBHz | deep-ukf-spread: nees lower than deep's",
+            ),
+            "deep",
+        )
+        != []
+    )
+    assert check.differences(CHAOTIC, CHAOTIC.replace("n=24, p=0.00037", "n=23, p=0.00037"), "deep") != []
+    assert check.differences(CHAOTIC, CHAOTIC.replace("| - | 0 | 0 |", "| - | 0.04 | 0 |"), "deep") != []
+    # a row that does not name it (deep-code-disc is another candidate) keeps its digits
+    assert check.differences(CHAOTIC, CHAOTIC.replace("p=0.9", "p=0.7"), "deep") != []
+
+
+def test_every_chaotic_column_names_a_committed_table_and_its_column():
+    for path, (name, where) in check.CHAOTIC_COLUMNS.items():
+        text = (ROOT / path).read_text(encoding="utf-8")
+        assert f"| `{name}` |" in text, path
+        page, _, section = where.partition(", ")
+        assert (ROOT / page).is_file(), where
+        heading = section.split("'")[1]
+        assert heading in (ROOT / page).read_text(encoding="utf-8"), where
