@@ -116,6 +116,7 @@ def viterbi_decode(
     generators: tuple[int, int] = (G1, G2),
     inverted: tuple[bool, bool] = (False, True),
     terminated: bool = True,
+    start_known: bool = True,
 ) -> np.ndarray:
     """Maximum-likelihood bits ``(..., n)`` (0/1) of soft symbols ``(..., 2n)`` (bit 0 sent as +1).
 
@@ -127,6 +128,10 @@ def viterbi_decode(
     terminated
         The block ends with K - 1 = 6 zero tail bits (the trellis ends in state 0), as every
         I/NAV and F/NAV page part does; False takes the best metric at the end.
+    start_known
+        The register starts at zero (a block code, as I/NAV's parts); False starts every
+        state with one metric, for a window cut out of a continuous stream (SBAS L1), whose
+        first bits then decode from the symbols alone.
 
     Returns
     -------
@@ -144,7 +149,7 @@ def viterbi_decode(
     bm = np.einsum("mkj,rj->mkr", y, _branch_symbols(generators, inverted))
     ns = np.arange(_N_STATES)
     metric = np.full((m, _N_STATES), -np.inf)
-    metric[:, 0] = 0.0
+    metric[:, 0 if start_known else slice(None)] = 0.0
     # State s = (u_{k-1}, ..., u_{k-6}) as 6 bits, u_{k-1} the most significant; entering state
     # ns comes from predecessor ((ns & 31) << 1) | b with register value 2 ns + b.
     pred = ((ns & (_N_STATES // 2 - 1)) << 1)[None, :]
