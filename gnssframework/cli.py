@@ -609,6 +609,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
     from .receiver.navigation.inav_stream import carries_inav, write_inav_report
+    from .receiver.navigation.sbas_stream import carries_sbas, write_sbas_report
 
     _threads_from_args(args)
     rec = _open_recording_from_args(args)
@@ -651,6 +652,17 @@ def _cmd_track(args: argparse.Namespace) -> int:
                 f"{r['crc_failures']} CRC failures, IODnav {r['iodnav'] or 'none'}, {gst}"
                 f"{', ephemeris complete' if r['ephemeris'] else ''}"
             )
+    if carries_sbas(signal):  # SBAS L1: every 2 ms prompt after bit sync a symbol of the 250 bit/s message
+        path, sbas_channels, notes = write_sbas_report(args.out, result, signal)
+        written.append(path)
+        for c in sbas_channels:
+            good = c.good
+            print(
+                f"  PRN {c.prn:3d}: SBAS {len(good)} messages (types "
+                f"{' '.join(str(m.message_type) for m in good) or 'none'}), {len(c.failures)} CRC failures"
+            )
+        for note in notes:
+            print(f"note: {note}")
     _note_nonfinite(rec)
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0
