@@ -1,4 +1,4 @@
-r"""SBAS L1 messages (RTCA DO-229 Appendix A, A.4.3; ICAO Annex 10 Vol. I Appendix B, 3.5.3):
+r"""SBAS L1 messages (RTCA DO-229 Appendix A, A.4; ICAO Annex 10 Vol. I Appendix B, 3.5.2-3.5.3):
 250-bit messages from 500 symbol/s soft symbols and back.
 
 A message is 250 bits sent at 250 bit/s, one a second, first bit first:
@@ -13,10 +13,13 @@ bits    length field
 226-249 24     parity: CRC-24Q (:func:`~gnssframework.navigation.fec.crc24q_bits`) of bits 0-225
 ======= ====== =====================================================================
 
-The bit stream is convolutionally encoded at rate 1/2 with constraint length 7 and the
-generators :math:`G_1 = 171_8`, :math:`G_2 = 133_8` (DO-229 A.4.2.1), the :math:`G_1`
-symbol of each bit first and neither inverted (Galileo I/NAV inverts :math:`G_2`; SBAS
-does not): 500 symbols/s, one symbol 2 ms = 2 code periods of the 1 ms C/A-family code.
+The leading edge of the first symbol that depends on a message's first bit leaves the
+satellite on a whole second of SBAS network time (Annex 10 App. B 3.5.2, message
+synchronization). The bit stream is convolutionally encoded at rate 1/2 with constraint
+length 7 and the generators :math:`G_1 = 171_8`, :math:`G_2 = 133_8` (Annex 10 App. B
+3.5.2, convolutional encoding), the :math:`G_1` symbol of each bit first and neither
+inverted (Galileo I/NAV inverts :math:`G_2`; SBAS does not, as PocketSDR's SBAS decoder
+reads it): 500 symbols/s, one symbol 2 ms = 2 code periods of the 1 ms C/A-family code.
 The encoder runs on without a break from message to message (no tail bits, no block
 boundary), so a receiver cuts a window out of the symbol stream, decodes it by Viterbi
 from an unknown state, and looks for preambles in the decoded bits.
@@ -64,7 +67,7 @@ __all__ = [
     "find_messages",
 ]
 
-#: The three 8-bit preamble parts, in the order successive messages send them (DO-229 A.4.3.1).
+#: The three 8-bit preamble parts, in the order successive messages send them (Annex 10 App. B 3.5.3, preamble).
 PREAMBLES = (0x53, 0x9A, 0xC6)
 #: Bits of one message: preamble 8, type 6, data 212, parity 24.
 MESSAGE_BITS = 250
@@ -74,7 +77,7 @@ MESSAGE_SYMBOLS = 2 * MESSAGE_BITS
 DATA_BITS = 212
 #: Coded symbols per second (one symbol 2 ms).
 SYMBOL_RATE_HZ = 500.0
-#: Convolutional code generators (DO-229 A.4.2.1), octal 171 and 133: the :math:`G_1` symbol first.
+#: Convolutional code generators, octal 171 and 133: the :math:`G_1` symbol first.
 GENERATORS = (fec.G1, fec.G2)
 #: Neither generator's symbol is inverted (unlike Galileo I/NAV's :math:`G_2`).
 INVERTED = (False, False)
@@ -126,7 +129,7 @@ def _crc_holds(bits: np.ndarray) -> np.ndarray:
 def message_bits(preamble_index: int, message_type: int, data: np.ndarray) -> np.ndarray:
     """The 250 bits (0/1) of one message: preamble part ``preamble_index`` (0, 1, 2 for
     ``0x53``, ``0x9A``, ``0xC6``), the 6-bit ``message_type``, the 212 ``data`` bits and
-    the CRC-24Q of those 226 bits (DO-229 A.4.3)."""
+    the CRC-24Q of those 226 bits (Annex 10 App. B 3.5.3)."""
     if preamble_index not in (0, 1, 2):
         raise ConfigError("preamble_index", f"must be 0, 1 or 2 (0x53, 0x9A, 0xC6), got {preamble_index}")
     if not 0 <= int(message_type) < 64 or int(message_type) != message_type:

@@ -1,7 +1,7 @@
 """SBAS L1 messages from a tracked ``sbas-l1`` channel: its prompts, symbol by symbol, to
 250-bit messages (:mod:`~gnssframework.navigation.sbas_message`).
 
-An SBAS L1 symbol is 2 ms, two code periods (RTCA DO-229 A.4.2: 500 symbols/s). After bit
+An SBAS L1 symbol is 2 ms, two code periods (RTCA DO-229 Appendix A: 500 symbols/s). After bit
 synchronisation the tracker integrates whole symbols (``coherent_ms`` 2 code periods, the
 default `inav_stream.coherent_periods` gives ``sbas-l1``), each row starting on a symbol
 edge: such a row's in-phase prompt is one soft symbol. A run of such rows without a gap
