@@ -1516,8 +1516,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Acquire, then track every satellite found with the chosen channel_filter plugin "
         "(pull-in, FLL-assisted PLL, bit synchronisation, extended integration; a channel "
         "that loses lock goes back to acquisition). Writes DIR/tracking.csv, "
-        "DIR/summary.csv, DIR/events.txt and DIR/plots/. Exit 1 when nothing is found, 2 "
-        "for bad options or files.",
+        "DIR/summary.csv, DIR/events.txt and DIR/plots/; with --signal galileo-e1b(-boc11) "
+        "DIR/inav.csv, with --signal sbas-l1 DIR/sbas.csv (one row a message). Exit 1 when "
+        "nothing is found, 2 for bad options or files.",
     )
     _add_recording_options(p)
     p.add_argument("--out", required=True, help="output directory")
