@@ -64,6 +64,7 @@ __all__ = [
     "messages_from_hex",
     "encode_messages",
     "sbas_symbols",
+    "decode_stream",
     "find_messages",
 ]
 
@@ -226,12 +227,58 @@ def _polarity(bits: np.ndarray, starts: np.ndarray) -> np.ndarray:
     return dist_inv < dist
 
 
+#: Bits each window of :func:`decode_stream` keeps, and the bits decoded on either side of
+#: them and dropped (the survivor paths of a K = 7 code merge within a few constraint
+#: lengths; 96 bits is about 14).
+WINDOW_BITS = 4096
+MARGIN_BITS = 96
+_WINDOWS_AT_ONCE = 8
+
+
+def decode_stream(symbols: np.ndarray, window_bits: int = WINDOW_BITS, margin_bits: int = MARGIN_BITS) -> np.ndarray:
+    """Viterbi-decoded bits of a pair-aligned stretch of a continuous stream (``2n`` soft
+    symbols, the first a :math:`G_1` symbol): ``n`` bits (0/1).
+
+    The stream is cut into windows of ``window_bits`` kept bits, each decoded with
+    ``margin_bits`` more on either side (where the stream has them) from an unknown start
+    state to the best end state, and the margins dropped: memory grows with the window,
+    not with the stream (the decoder's branch metrics are 128 values a bit), and the kept
+    bits are those of one decoding of the whole stream once the survivor paths have merged
+    inside the margins. Windows go to the batched decoder a few at a time.
+    """
+    y = np.asarray(symbols, dtype=float)
+    if window_bits < 1 or margin_bits < 0:
+        raise ConfigError(
+            "window_bits", f"needs window_bits >= 1 and margin_bits >= 0, got {window_bits}, {margin_bits}"
+        )
+    n = y.size // 2
+    if y.ndim != 1 or y.size != 2 * n or n == 0:
+        raise ConfigError(
+            "symbols", f"a pair-aligned stream is an even, non-zero number of symbols, got shape {y.shape}"
+        )
+    if n <= window_bits + 2 * margin_bits:
+        return fec.viterbi_decode(y, GENERATORS, INVERTED, terminated=False, start_known=False)
+    out = np.empty(n, dtype=np.uint8)
+    keep = np.arange(0, n, window_bits)
+    span = window_bits + 2 * margin_bits
+    # every window decodes `span` bits: those at the stream's ends are shifted inwards
+    first = np.clip(keep - margin_bits, 0, n - span)
+    for g in range(0, keep.size, _WINDOWS_AT_ONCE):
+        sl = slice(g, g + _WINDOWS_AT_ONCE)
+        idx = 2 * first[sl, None] + np.arange(2 * span)
+        bits = fec.viterbi_decode(y[idx], GENERATORS, INVERTED, terminated=False, start_known=False)
+        for row, k0, f0 in zip(bits, keep[sl], first[sl]):
+            k1 = min(k0 + window_bits, n)
+            out[k0:k1] = row[k0 - f0 : k1 - f0]
+    return out
+
+
 def find_messages(symbols: np.ndarray) -> tuple[list[SbasMessage], list[str]]:
     """Every whole message in a stream of soft SBAS L1 symbols (one per 2 ms, in order, no
     gaps), and one line per message of the stream's message grid whose CRC failed.
 
-    Both symbol-pair alignments are Viterbi-decoded from an unknown start state
-    (``fec.viterbi_decode`` with ``start_known=False``, best end state); in each, every
+    Both symbol-pair alignments are Viterbi-decoded from an unknown start state to the
+    best end state (:func:`decode_stream`, window by window); in each, every
     position whose 8 bits read a preamble (upright or complemented) starts a candidate,
     kept when its CRC-24Q holds. The alignment with more kept candidates wins; its message
     grid is the most common start modulo 250 of those, and every whole message on the grid
@@ -253,9 +300,7 @@ def find_messages(symbols: np.ndarray) -> tuple[list[SbasMessage], list[str]]:
     decoded = []
     for align in (0, 1):
         n_bits = (s.size - align) // 2
-        bits = fec.viterbi_decode(
-            s[align : align + 2 * n_bits], GENERATORS, INVERTED, terminated=False, start_known=False
-        )
+        bits = decode_stream(s[align : align + 2 * n_bits])
         starts, inv = _candidates(bits)
         good = _crc_holds(_blocks(bits, starts, inv)) if starts.size else np.zeros(0, bool)
         decoded.append((int(np.count_nonzero(good)), -align, bits, starts, good))

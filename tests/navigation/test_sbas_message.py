@@ -172,3 +172,31 @@ def test_random_payloads_round_trip(seed, first_preamble, skip, inverted):
     for k, m in enumerate(found):
         np.testing.assert_array_equal(m.bits, msgs[first + k])
         assert m.crc_ok and m.inverted == inverted and m.start == (first + k) * sm.MESSAGE_SYMBOLS - skip
+
+
+@pytest.mark.parametrize("window_bits", [1, 50, 700])
+def test_decoding_window_by_window_gives_the_whole_streams_decoding(window_bits):
+    """`decode_stream` with small windows (96-bit margins) against one Viterbi decoding of
+    the whole noisy stream (Es/N0 1 dB): the same bits, and those are the bits sent but
+    for the decoder's own errors, which are rare at this level."""
+    rng = np.random.default_rng(window_bits)
+    bits = rng.integers(0, 2, 3000).astype(np.uint8)
+    coded = 1.0 - 2.0 * fec.conv_encode(bits, sm.GENERATORS, sm.INVERTED)
+    y = _noisy(coded, 1.0, rng)[40:]  # a stream cut 20 bits in
+    whole = fec.viterbi_decode(y, sm.GENERATORS, sm.INVERTED, terminated=False, start_known=False)
+    windowed = sm.decode_stream(y, window_bits=window_bits)
+    np.testing.assert_array_equal(windowed, whole)
+    assert np.mean(whole != bits[20:]) < 0.01
+    with pytest.raises(ConfigError, match="even"):
+        sm.decode_stream(y[1:])
+
+
+def test_a_stream_longer_than_a_window_decodes_every_message():
+    """All 24 logged messages in one stream (PRN 129's twelve, then 137's: the preambles run
+    on in turn), 12000 symbols, decoded in windows of 4096 bits: all come back."""
+    msgs = np.concatenate([_prn(129)[0], _prn(137)[0]])
+    y = _noisy(sm.encode_messages(msgs).astype(float), 1.0, np.random.default_rng(24))
+    assert y.size // 2 > sm.WINDOW_BITS + 2 * sm.MARGIN_BITS
+    found, failures = sm.find_messages(y)
+    assert failures == [] and len(found) == 24
+    np.testing.assert_array_equal(np.array([m.bits for m in found]), msgs)
