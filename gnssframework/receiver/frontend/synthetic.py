@@ -37,8 +37,8 @@ class SatelliteSignal:
     #: The signal the satellite sends.
     signal: SignalSpec = GPS_L1CA
     #: The ±1 data symbols sent from ``first_bit_code_period`` on (e.g. `inav.inav_symbols`,
-    #: `lnav.lnav_symbols`) instead of random ones; at least one per symbol period of the
-    #: recording after the first edge.
+    #: `lnav.lnav_symbols`, `sbas_message.sbas_symbols`) instead of random ones; at least one
+    #: per symbol period of the recording after the first edge.
     symbols: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
