@@ -130,8 +130,8 @@ def viterbi_decode(
         I/NAV and F/NAV page part does; False takes the best metric at the end.
     start_known
         The register starts at zero (a block code, as I/NAV's parts); False starts every
-        state with one metric, for a window cut out of a continuous stream (SBAS L1), whose
-        first bits then decode from the symbols alone.
+        state with one metric, for a window cut out of a continuous stream (SBAS L1; GPS
+        CNAV, IS-GPS-200 3.3.3.1.1), whose first bits then decode from the symbols alone.
 
     Returns
     -------

@@ -15,9 +15,12 @@ DATA = ROOT / "tests" / "data"
 # Precise orbits (SP3) are a truth for tests/navigation/test_ephemeris_gnss.py, not a recording; raw
 # front-end samples (.bin) are read by the sample sources (tests/receiver/test_frontend.py); RTKLIB's
 # solution (.pos) is a peer's output that tests/navigation/test_rtklib_weighting.py compares with; the
-# SBAS messages as text (.txt, a receiver's log as hex) are a truth for tests/navigation/test_sbas_message.py.
+# SBAS messages as text (.txt, a receiver's log as hex) are a truth for tests/navigation/test_sbas_message.py,
+# GNSSTk's CNAV messages (.hex) for tests/navigation/test_cnav.py.
 FILES = sorted(
-    p for p in DATA.iterdir() if p.name != "README.md" and p.suffix.lower() not in (".sp3", ".bin", ".pos", ".txt")
+    p
+    for p in DATA.iterdir()
+    if p.name != "README.md" and p.suffix.lower() not in (".sp3", ".bin", ".pos", ".txt", ".hex")
 )
 
 KINDS = {
