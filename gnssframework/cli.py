@@ -515,7 +515,7 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
     spacing defaults to `BOC_EARLY_LATE_SPACING_CHIPS`."""
     import json
 
-    from .receiver.channels import tracking_config
+    from .receiver.channels import TrackingConfig, tracking_config
     from .receiver.navigation.inav_stream import coherent_periods
 
     try:
@@ -534,6 +534,15 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
         coherent = coherent_periods(signal, getattr(args, "coherent_ms_track", None))
         if coherent is not None:
             settings["coherent_ms"] = coherent
+        if signal.code_period_s * TrackingConfig().pull_in_params["pll_bandwidth_hz"] > 0.2:
+            # One code period (20 ms on L2 CM) is the shortest interval: the default loops'
+            # B_L T would exceed what a discretised loop takes. Narrower ones, with B_L T
+            # `LONG_PERIOD_B_L_T` at that period (the scalar channel filter's PLL too, unless told).
+            pll_hz = LONG_PERIOD_B_L_T / signal.code_period_s
+            scale = pll_hz / LONG_PERIOD_PULL_IN["pll_bandwidth_hz"]
+            settings["pull_in_params"] = {k: v * scale for k, v in LONG_PERIOD_PULL_IN.items()}
+            if args.channel_filter == "scalar" and "pll_bandwidth_hz" not in params:
+                params["pll_bandwidth_hz"] = pll_hz
         if signal.subcarrier.kind != "bpsk" and getattr(args, "early_late_spacing", None) is None:
             # BOC(1,1)'s main peak is +-1/3 chip wide: taps +-0.5 chip apart sit on its side lobes
             settings["early_late_spacing_chips"] = BOC_EARLY_LATE_SPACING_CHIPS
@@ -542,6 +551,14 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
             "--duration", f"must be at least {MIN_DURATION_S:g} s (tracking's first intervals), got {args.duration:g}"
         )
     return tracking_config(**settings)
+
+
+#: Loop bandwidth times interval of the pull-in PLL (and the scalar filter's) on a signal
+#: whose code period is too long for the defaults (GPS L2 CM, 20 ms: 8 Hz), under the 0.2 a
+#: discretised analog loop takes; the FLL and DLL scaled with it from `LONG_PERIOD_PULL_IN`.
+LONG_PERIOD_B_L_T = 0.16
+#: Ratios of the pull-in loops' bandwidths on such a signal (Hz at a 20 ms period).
+LONG_PERIOD_PULL_IN = {"pll_bandwidth_hz": 8.0, "fll_bandwidth_hz": 4.0, "dll_bandwidth_hz": 1.0}
 
 
 #: Shortest ``--duration`` of ``track`` and ``receive``: the pull-in stage's first
@@ -608,6 +625,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
     from .receiver.acquisition.report import search_summary
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
+    from .receiver.navigation.cnav_stream import carries_cnav, write_cnav_report
     from .receiver.navigation.inav_stream import carries_inav, write_inav_report
     from .receiver.navigation.sbas_stream import carries_sbas, write_sbas_report
 
@@ -663,6 +681,17 @@ def _cmd_track(args: argparse.Namespace) -> int:
             )
         for note in notes:
             print(f"note: {note}")
+    if carries_cnav(signal):  # L2 CM: every 20 ms prompt a symbol of CNAV
+        path, timings = write_cnav_report(args.out, result, signal)
+        written.append(path)
+        for t in timings:
+            types = " ".join(str(m.msg_type) for m in t.messages)
+            good = [m for m in t.messages if m.crc_ok]
+            tow = f", TOW {good[-1].tow_s:.0f} s of the last" if good else ""
+            print(
+                f"  PRN {t.prn:2d}: CNAV {len(t.messages)} messages (types {types or 'none'}), "
+                f"{len(t.failures)} CRC failures{tow}"
+            )
     _note_nonfinite(rec)
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0

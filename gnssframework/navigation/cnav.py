@@ -294,7 +294,10 @@ def decode_cnav(symbols: np.ndarray, prn: int | None = None) -> CnavDecode:
         The messages of the pairing offset and polarity with the most passing CRCs.
     """
     what = "one satellite's CM stream" if prn is None else f"PRN {prn}'s CM stream"
-    y = real_symbols(symbols, what)
+    s = np.asarray(symbols)
+    if s.ndim == 1 and (np.iscomplexobj(s) or not np.all(np.isfinite(s))):
+        raise ConfigError("symbols", f"{what}: must be finite real numbers (±1 or the prompt's in-phase sums)")
+    y = real_symbols(s, what)
     best = CnavDecode([], None, None)
     score = 0
     for offset in (0, 1):

@@ -48,6 +48,7 @@ from .correlator_reference import CHUNK, ROUNDING, correlate_numpy, correlate_pe
 
 __all__ = [
     "replica_codes",
+    "replica_code_pair",
     "to_table_units",
     "correlate_channels",
     "correlate_numpy",
@@ -316,6 +317,26 @@ def replica_codes(signal: SignalSpec, prns) -> np.ndarray:
             "signals)",
         )
     return tables
+
+
+def replica_code_pair(signal: SignalSpec, prns) -> tuple[np.ndarray, np.ndarray | None]:
+    """``signal``'s spreading tables as the kernels take them: `replica_codes` where they
+    are ±1 (second table None); for a time-multiplexed signal whose tracked component's
+    table is 0 in the other components' slots (GPS L2C's CM: ``{-1, 0, +1}``), two ±1
+    tables ``a``, ``b`` with ``(a + b) / 2`` the waveform (``a = b`` on the component's
+    chips, ``+1`` and ``-1`` in the other slots): correlation is linear in the replica, so
+    the mean of the two correlations is the correlation with the waveform.
+
+    Raises
+    ------
+    ConfigError
+        For any other waveform (CBOC's weighted sum), as `replica_codes`.
+    """
+    tables = np.stack([signal.spreading_table(p) for p in prns]).astype(np.float32)
+    if np.all(np.abs(tables) == 1.0) or not np.all(np.isin(tables, (-1.0, 0.0, 1.0))):
+        return replica_codes(signal, prns), None
+    zero = tables == 0.0
+    return np.where(zero, np.float32(1.0), tables), np.where(zero, np.float32(-1.0), tables)
 
 
 def to_table_units(chips, signal: SignalSpec):

@@ -54,7 +54,7 @@ from .channel import NCO_COMMANDS, SampleChannel, stage_context, supports
 from .factory import StageFilters
 from .closers import SampleCloser, ScalarSampleCloser
 from .config import TrackingConfig
-from .correlator import code_tables, correlate_periods, replica_codes, to_table_units
+from .correlator import code_tables, correlate_periods, replica_code_pair, to_table_units
 from .intervals import ChannelArrays, close_periods
 from .nco import ReplicaNCOs
 from .prefetch import BlockReader
@@ -145,7 +145,9 @@ class SampleTracker:
         # One row per slot: the spreading waveform (code times sub-carrier, `replica_codes`), in
         # sub-chips for BOC; the kernels then take phases, steps and tap offsets in its units
         # (`to_table_units`). A CBOC waveform is not ±1 and is refused there (its -boc11 replica is).
-        self.codes = replica_codes(signal, signal.prns)
+        # A time-multiplexed component (L2C's CM, 0 in CL's slots) is two ±1 tables whose mean
+        # it is (`replica_code_pair`): each interval correlates with both and takes the mean.
+        self.codes, self.codes_other = replica_code_pair(signal, signal.prns)
         self.table_offsets = to_table_units(self.offsets, signal)
         #: Prompts a channel holds before its lock detectors first run, and code periods
         #: between two of their runs (`detect_periods`).
@@ -277,7 +279,7 @@ class SampleTracker:
         self.buf = self.rec.read_components(0, 0)
         self.buf_start = 0
         self.power = 1.0
-        tables_for, tables = None, None
+        tables_for, tables, tables_other = None, None, None
         code_length = self.signal.code_length_chips
         self.closer.bind(self)
         for acq in acquisitions:
@@ -326,21 +328,33 @@ class SampleTracker:
             carrier0 = (self.if_hz * starts / fs) % 1.0 + self.doppler_cycles[idx]
             if tables_for is None or not np.array_equal(tables_for, idx):  # channel set changed: new tables
                 tables_for, tables = idx, code_tables(self.codes[idx], self.table_offsets)
-            sums, counts = correlate_periods(
-                buf,
-                starts - first,
-                periods,
-                to_table_units(phases, self.signal),
-                to_table_units(steps, self.signal),
-                carrier0,
-                (self.if_hz + dop) / fs,
-                self.codes[idx],
-                self.table_offsets,
-                backend=self.backend,
-                tables=tables,
-                iq=self.rec.is_complex,
-                q_sign=self.rec.info.q_sign,
-            )
+                if self.codes_other is not None:
+                    tables_other = code_tables(self.codes_other[idx], self.table_offsets)
+
+            pairs = [(self.codes, tables)]
+            if self.codes_other is not None:  # the mean of the two ±1 tables' sums (`replica_code_pair`)
+                pairs.append((self.codes_other, tables_other))
+            results = [
+                correlate_periods(
+                    buf,
+                    starts - first,
+                    periods,
+                    to_table_units(phases, self.signal),
+                    to_table_units(steps, self.signal),
+                    carrier0,
+                    (self.if_hz + dop) / fs,
+                    codes[idx],
+                    self.table_offsets,
+                    backend=self.backend,
+                    tables=code_tables_,
+                    iq=self.rec.is_complex,
+                    q_sign=self.rec.info.q_sign,
+                )
+                for codes, code_tables_ in pairs
+            ]
+            sums, counts = results[0]
+            if len(results) > 1:
+                sums = 0.5 * (sums + results[1][0])
             # Normalised sums, NCO bookkeeping, 1 ms prompts and bit-sync votes (`intervals`).
             interval = close_periods(
                 self.arrays,

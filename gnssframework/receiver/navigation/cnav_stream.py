@@ -1,0 +1,131 @@
+"""GPS CNAV from a tracked L2C channel: its CM prompts, symbol by symbol, to messages.
+
+An L2 CM symbol is one 20 ms CM code period (IS-GPS-200 3.3.3.1.1: 25 bit/s, rate-1/2
+coded to 50 symbol/s), and every row of a channel's record
+(`gnssframework.receiver.channels.ChannelRecord`) starts on a code epoch of its replica:
+a row integrated over one code period (``coherent_ms`` 1) is one soft symbol, with no bit
+synchronisation. A run of such rows without a gap (`inav_stream.symbol_runs`) is one
+continuous stream for :func:`~gnssframework.navigation.cnav.decode_cnav`, which finds
+the symbol pairing, the polarity and the messages; a channel that loses lock starts a new
+run. A message lasts 12 s: a run shorter than that holds none.
+
+Each message is reported with the recording time of the row that starts its first symbol
+(``time_s``) and the SV time of week the ICD gives that instant (``tow_s``: six times the
+TOW count, less the 12 s of the message, `cnav.CnavMessage.tow_s`).
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ...errors import ConfigError
+from ...navigation.cnav import CnavMessage, decode_cnav
+from ...signal.spec import SignalSpec
+from .inav_stream import symbol_runs
+
+if TYPE_CHECKING:
+    from ..channels import ChannelRecord, TrackingResult
+
+__all__ = ["carries_cnav", "CnavTiming", "channel_cnav", "CNAV_COLUMNS", "cnav_rows", "write_cnav_report"]
+
+#: Columns of the ``track`` command's ``cnav.csv``: one row per message found.
+CNAV_COLUMNS = (
+    "prn",
+    "time_s",
+    "msg_type",
+    "prn_field",
+    "tow_count",
+    "tow_s",
+    "alert",
+    "crc_ok",
+    "inverted",
+    "bits_hex",
+)
+
+
+def carries_cnav(signal: SignalSpec) -> bool:
+    """Whether ``signal``'s tracked component is L2 CM with CNAV (GPS or QZSS L2C): one
+    symbol a 20 ms code period."""
+    sym = signal.components[0].symbol_period_s
+    return (
+        signal.system in ("G", "J")
+        and sym is not None
+        and abs(sym - 0.02) < 1e-12
+        and abs(signal.code_period_s - 0.02) < 1e-12
+        and signal.code_periods_per_symbol == 1
+    )
+
+
+@dataclass(frozen=True)
+class CnavTiming:
+    """What one L2C channel's CNAV gave: the messages of every run in order and, for each,
+    the recording time of the row its first symbol starts (s)."""
+
+    prn: int
+    messages: list[CnavMessage]
+    time_s: np.ndarray
+
+    @property
+    def failures(self) -> list[CnavMessage]:
+        return [m for m in self.messages if not m.crc_ok]
+
+
+def channel_cnav(record: ChannelRecord, signal: SignalSpec) -> CnavTiming:
+    """Decode the CNAV of one channel tracking L2 CM (`carries_cnav`), run by run."""
+    if not carries_cnav(signal):
+        raise ConfigError(
+            "signal", f"PRN {record.prn}: {signal.name} carries no CNAV on its tracked component (gps-l2c does)"
+        )
+    if not record.rows:
+        return CnavTiming(record.prn, [], np.zeros(0))
+    col = record.column
+    time_s, prompt = col("time_s"), col("prompt_i")
+    messages, times = [], []
+    for run in symbol_runs(time_s, col("coherent_ms"), signal.code_period_s):
+        for m in decode_cnav(prompt[run], prn=record.prn).messages:
+            messages.append(m)
+            times.append(float(time_s[run[m.start]]))
+    return CnavTiming(record.prn, messages, np.array(times))
+
+
+def cnav_rows(timing: CnavTiming) -> list[dict]:
+    """The rows of ``cnav.csv`` (`CNAV_COLUMNS`) of one channel."""
+    return [
+        {
+            "prn": timing.prn,
+            "time_s": f"{t:.9f}",
+            "msg_type": m.msg_type,
+            "prn_field": m.prn,
+            "tow_count": m.tow_count,
+            "tow_s": f"{m.tow_s:.0f}",
+            "alert": int(m.alert),
+            "crc_ok": int(m.crc_ok),
+            "inverted": int(m.inverted),
+            "bits_hex": m.hex,
+        }
+        for m, t in zip(timing.messages, timing.time_s)
+    ]
+
+
+def write_cnav_report(
+    out_dir: str | Path, tracking: TrackingResult, signal: SignalSpec
+) -> tuple[Path, list[CnavTiming]]:
+    """Decode every channel of ``tracking`` (a `TrackingResult` of L2C) and write
+    ``out_dir/cnav.csv`` (`CNAV_COLUMNS`, one row per message); the path and each
+    channel's `CnavTiming`."""
+    from ...io.files import atomic_open
+
+    timings = [channel_cnav(ch, signal) for _, ch in sorted(tracking.channels.items())]
+    path = Path(out_dir) / "cnav.csv"
+    with atomic_open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(CNAV_COLUMNS)
+        for timing in timings:
+            for r in cnav_rows(timing):
+                w.writerow([r[c] for c in CNAV_COLUMNS])
+    return path, timings

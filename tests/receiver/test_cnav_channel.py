@@ -1,0 +1,153 @@
+"""GPS CNAV from tracked L2C channels (`cnav_stream`), the tracker's L2 CM replica
+(`correlator.replica_code_pair`) and the ``track`` command's ``cnav.csv``.
+
+Truth: the messages `cnav.cnav_symbols` encoded into the generator's samples (their bits,
+types and TOW) and the satellite time the generator put on the signal (symbol 0 starts
+on a code epoch at a known SV time; the SV time then advances one chip per chip of code
+phase); for the replica, the signal's own spreading table (CM chips, 0 in CL's slots).
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+from noisy_recording import write_noisy_recording
+
+from gnssframework.cli import main
+from gnssframework.errors import ConfigError
+from gnssframework.navigation import cnav
+from gnssframework.navigation.ephemeris import read_rinex_nav
+from gnssframework.receiver.channels import ChannelRecord
+from gnssframework.receiver.channels.correlator import replica_code_pair, replica_codes
+from gnssframework.receiver.channels.records import RECORD_FIELDS
+from gnssframework.receiver.navigation.cnav_stream import carries_cnav, channel_cnav, cnav_rows
+from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
+from gnssframework.signal.gps_l1ca import GPS_L1CA
+from gnssframework.signal.gps_l2c import GPS_L2C, QZSS_L2C
+from gnssframework.signal.if_samples import generate_if_samples
+
+DATA = Path(__file__).parents[1] / "data"
+
+
+def _record(prn: int, time_s, prompt_i, coherent) -> ChannelRecord:
+    rows = []
+    for t, p, k in zip(time_s, prompt_i, coherent):
+        values = dict(
+            time_s=t,
+            cn0_dbhz=45.0,
+            pli=1.0,
+            doppler_hz=0.0,
+            code_phase_chips=0.0,
+            carrier_phase_cycles=0.0,
+            lock=1,
+            stage=1,
+            prompt_i=p,
+            prompt_q=0.0,
+            coherent_ms=k,
+        )
+        rows.append(tuple(values[f] for f in RECORD_FIELDS))
+    return ChannelRecord(prn, rows)
+
+
+def test_l2c_carries_cnav_and_other_signals_do_not():
+    assert carries_cnav(GPS_L2C) and carries_cnav(QZSS_L2C)
+    assert not carries_cnav(GPS_L1CA) and not carries_cnav(GALILEO_E1B_BOC11)
+
+
+def test_channel_cnav_refuses_a_signal_without_cnav_in_one_line():
+    with pytest.raises(ConfigError, match=r"signal: PRN 7: gps-l1ca carries no CNAV") as err:
+        channel_cnav(_record(7, [0.0], [1.0], [1]), GPS_L1CA)
+    assert "\n" not in str(err.value)
+
+
+def test_channel_cnav_decodes_each_run_and_dates_each_message():
+    # Two runs (a gap of one period after row 1000): each decodes on its own, in its own
+    # pairing, and a message is dated by the row of its first symbol.
+    rng = np.random.default_rng(5)
+    rows = np.array([cnav.message_bits(9, t, 500 + k, rng.integers(0, 2, 238)) for k, t in enumerate((10, 11, 30, 0))])
+    symbols = cnav.encode_cnav(rows).astype(float)[7:]  # starts mid-bit: pairing offset 1
+    prompt = -40.0 * symbols + rng.standard_normal(symbols.size)  # 180 degrees off
+    time_s = 3.0 + 0.02 * np.arange(symbols.size)
+    time_s[1001:] += 0.02  # a lost period
+    timing = channel_cnav(_record(9, time_s, prompt, np.ones(symbols.size, int)), GPS_L2C)
+    got = [(m.msg_type, m.tow_count, m.crc_ok, m.inverted) for m in timing.messages]
+    # Message k is rows 600 k - 7 to 600 k + 592. Run 1 (rows 0-1000) holds none whole
+    # (message 0 started before row 0, message 1 runs past row 1000); run 2 (rows 1001-2392)
+    # holds messages 2 and 3.
+    assert got == [(30, 502, True, True), (0, 503, True, True)]
+    starts = [1200 - 7, 1800 - 7]  # rows of their first symbols
+    assert timing.time_s == pytest.approx([time_s[s] for s in starts])
+    (r30, r0) = cnav_rows(timing)
+    assert r30["bits_hex"] == cnav.message_from_bits(rows[2]).hex and r0["tow_s"] == f"{(503 * 6 - 12):.0f}"
+    with pytest.raises(ConfigError, match=r"PRN 9's CM stream"):
+        channel_cnav(
+            _record(9, time_s, np.where(np.arange(symbols.size) == 5, np.nan, prompt), np.ones_like(prompt, int)),
+            GPS_L2C,
+        )
+
+
+def test_the_l2_cm_replica_is_the_mean_of_two_plus_minus_one_tables():
+    prns = (1, 5, 32)
+    a, b = replica_code_pair(GPS_L2C, prns)
+    assert b is not None and np.all(np.abs(a) == 1) and np.all(np.abs(b) == 1)
+    for k, prn in enumerate(prns):
+        assert np.array_equal((a[k] + b[k]) / 2, GPS_L2C.spreading_table(prn))  # CM chips, 0 in CL's slots
+    one, none = replica_code_pair(GPS_L1CA, prns)
+    assert none is None and np.array_equal(one, replica_codes(GPS_L1CA, prns))
+
+
+def test_track_gps_l2c_writes_the_cnav_messages_the_samples_carry(tmp_path, capsys):
+    prn, fs, duration_s, chunk_s, doppler_hz = 5, 2.046e6, 13.0, 0.5, 800.0
+    nav = read_rinex_nav(DATA / "07590920.05n")
+    rec = nav.subset(np.flatnonzero(nav.elements["Toe"] % 300 == 0)[:1])  # toe on CNAV's 300 s grid
+    tow0 = 86400.0 - 0.31  # the message of 86400 (type 10: 86400 / 12 is a multiple of 3) starts 0.31 s in
+    symbols, lead_s = cnav.cnav_symbols(prn, tow0, int(duration_s * 50) + 2, rec, wn=1316)
+    sym0 = tow0 - lead_s  # SV time at symbol 0's start, the first code epoch (t = 0)
+    code_rate = 1.0 + doppler_hz / GPS_L2C.carrier_freq_hz  # SV seconds per receive second
+    rng = np.random.default_rng(6)
+
+    def chunks():
+        for c in range(int(round(duration_s / chunk_s))):
+            t0 = c * chunk_s
+            yield generate_if_samples(
+                prn,
+                chunk_s,
+                fs,
+                0.0,
+                45.0,
+                rng,
+                doppler_hz=doppler_hz,
+                code_phase_chips=(GPS_L2C.chip_rate_hz * code_rate * t0) % GPS_L2C.code_length_chips,
+                carrier_phase_rad=2 * np.pi * doppler_hz * t0,
+                complex_samples=True,
+                data_bits=symbols.astype(float),
+                first_bit_edge_s=-t0,
+                noise=False,
+                signal=GPS_L2C,
+            ).samples
+
+    path = write_noisy_recording(tmp_path / "l2c.sigmf-data", chunks(), fs, rng)
+    out = tmp_path / "trk"
+    args = ["track", str(path), "--signal", "gps-l2c", "--prns", str(prn), "--out", str(out), "--no-plots", "--quiet"]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert f"PRN  {prn}: CNAV 1 messages (types 10), 0 CRC failures, TOW 86400 s" in text
+    with open(out / "cnav.csv", newline="") as f:
+        (row,) = list(csv.DictReader(f))
+    assert (row["prn"], row["prn_field"], row["msg_type"], row["tow_count"], row["tow_s"]) == (
+        str(prn),
+        str(prn),
+        "10",
+        str(86412 // 6),
+        "86400",
+    )
+    assert (row["crc_ok"], row["alert"], row["inverted"] in ("0", "1")) == ("1", "0", True)
+    payload10, _ = cnav.ephemeris_payloads(rec, 1316)
+    assert row["bits_hex"] == cnav.message_from_bits(cnav.message_bits(prn, 10, 86412 // 6, payload10)).hex
+    # The row starting the message's first symbol starts on the replica's code epoch where the
+    # SV time is 86400: (86400 - sym0) SV seconds after t = 0, within a sample and the DLL's error.
+    truth_s = (86400.0 - sym0) / code_rate
+    assert abs(float(row["time_s"]) - truth_s) < 1.0 / fs + 0.1 / GPS_L2C.chip_rate_hz
