@@ -546,6 +546,11 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
         if signal.subcarrier.kind != "bpsk" and getattr(args, "early_late_spacing", None) is None:
             # BOC(1,1)'s main peak is +-1/3 chip wide: taps +-0.5 chip apart sit on its side lobes
             settings["early_late_spacing_chips"] = BOC_EARLY_LATE_SPACING_CHIPS
+        slots = signal.tracked.time_slot[1]
+        if slots > 1 and getattr(args, "early_late_spacing", None) is None:
+            # A component sent in 1 of n slots of each chip (L2 CM: 1 of 2) has a peak 1/n chip
+            # wide either side: taps +-0.5 chip apart would sit on its edges, where it is 0.
+            settings["early_late_spacing_chips"] = 1.0 / slots
     if args.duration is not None and not args.duration >= MIN_DURATION_S:
         raise ConfigError(
             "--duration", f"must be at least {MIN_DURATION_S:g} s (tracking's first intervals), got {args.duration:g}"

@@ -28,6 +28,8 @@ unknown, once for each of the two ways of pairing symbols, and (ii) finds the me
 the bits by the preamble and a passing CRC. Both generators have an odd number of taps,
 so a stream received 180 degrees off (every symbol negated) decodes to the complemented
 bits: the preamble then shows as ``01110100`` and the complemented bits are the message.
+(Galileo's code inverts its :math:`G_2` symbol; L2's does not, which PocketSDR's L2 CM
+decoder agrees with: the same polynomials, no inversion.)
 
 Time of a message: its first bit is sent at SV time ``6 x TOW count - 12`` s (the TOW
 count dates the next message, one 12 s message later). As taken here, bit ``k`` of the

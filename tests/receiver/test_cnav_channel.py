@@ -99,6 +99,26 @@ def test_the_l2_cm_replica_is_the_mean_of_two_plus_minus_one_tables():
     assert none is None and np.array_equal(one, replica_codes(GPS_L1CA, prns))
 
 
+def test_tracks_defaults_on_l2c_fit_a_20_ms_period_and_cms_half_chip_peak():
+    from argparse import Namespace
+
+    from gnssframework.cli import _tracking_config_from_args
+
+    def config(signal, **given):
+        args = dict(channel_filter="scalar", channel_params=None, duration=None)
+        return _tracking_config_from_args(Namespace(**{**args, **given}), signal)
+
+    l2c = config(GPS_L2C)
+    # B_L T = 0.16 at T = 20 ms (the 18 Hz default, 0.36, is refused by the loop filter)
+    assert l2c.pull_in_params == {"pll_bandwidth_hz": 8.0, "fll_bandwidth_hz": 4.0, "dll_bandwidth_hz": 1.0}
+    assert l2c.channel_params == {"pll_bandwidth_hz": 8.0} and l2c.early_late_spacing_chips == 0.5
+    assert l2c.coherent_ms == 1  # one CM period a symbol
+    told = config(GPS_L2C, early_late_spacing=0.8, channel_params='{"pll_bandwidth_hz": 5.0}')
+    assert told.early_late_spacing_chips == 0.8 and told.channel_params == {"pll_bandwidth_hz": 5.0}
+    l1 = config(GPS_L1CA)
+    assert l1.pull_in_params["pll_bandwidth_hz"] == 18.0 and l1.early_late_spacing_chips == 1.0
+
+
 def test_track_gps_l2c_writes_the_cnav_messages_the_samples_carry(tmp_path, capsys):
     prn, fs, duration_s, chunk_s, doppler_hz = 5, 2.046e6, 13.0, 0.5, 800.0
     nav = read_rinex_nav(DATA / "07590920.05n")
