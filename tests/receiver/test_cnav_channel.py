@@ -19,7 +19,7 @@ from noisy_recording import write_noisy_recording
 from gnssframework.cli import main
 from gnssframework.errors import ConfigError
 from gnssframework.navigation import cnav
-from gnssframework.navigation.ephemeris import read_rinex_nav
+from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
 from gnssframework.receiver.channels import ChannelRecord
 from gnssframework.receiver.channels.correlator import replica_code_pair, replica_codes
 from gnssframework.receiver.channels.records import RECORD_FIELDS
@@ -119,14 +119,23 @@ def test_tracks_defaults_on_l2c_fit_a_20_ms_period_and_cms_half_chip_peak():
     assert l1.pull_in_params["pll_bandwidth_hz"] == 18.0 and l1.early_late_spacing_chips == 1.0
 
 
-def test_track_gps_l2c_writes_the_cnav_messages_the_samples_carry(tmp_path, capsys):
-    prn, fs, duration_s, chunk_s, doppler_hz = 5, 2.046e6, 13.0, 0.5, 800.0
+FS = 2.046e6
+DOPPLER_HZ = 800.0
+
+
+def _record_ephemeris():
     nav = read_rinex_nav(DATA / "07590920.05n")
-    rec = nav.subset(np.flatnonzero(nav.elements["Toe"] % 300 == 0)[:1])  # toe on CNAV's 300 s grid
-    tow0 = 86400.0 - 0.31  # the message of 86400 (type 10: 86400 / 12 is a multiple of 3) starts 0.31 s in
+    return nav.subset(np.flatnonzero(nav.elements["Toe"] % 300 == 0)[:1])  # toe on CNAV's 300 s grid
+
+
+def _l2c_recording(path, prn: int, tow0: float, duration_s: float, rec) -> tuple:
+    """``duration_s`` of generated L2C (45 dB-Hz, `DOPPLER_HZ`, complex int16 at `FS`) whose
+    CM carries `cnav.cnav_symbols` (types 10, 11, 0 of ``rec``) from SV time ``tow0`` at
+    t = 0, written chunk by chunk; the path, the SV time at symbol 0's start (the first code
+    epoch, t = 0) and the SV seconds per receive second."""
+    chunk_s = 0.5
     symbols, lead_s = cnav.cnav_symbols(prn, tow0, int(duration_s * 50) + 2, rec, wn=1316)
-    sym0 = tow0 - lead_s  # SV time at symbol 0's start, the first code epoch (t = 0)
-    code_rate = 1.0 + doppler_hz / GPS_L2C.carrier_freq_hz  # SV seconds per receive second
+    code_rate = 1.0 + DOPPLER_HZ / GPS_L2C.carrier_freq_hz
     rng = np.random.default_rng(6)
 
     def chunks():
@@ -135,13 +144,13 @@ def test_track_gps_l2c_writes_the_cnav_messages_the_samples_carry(tmp_path, caps
             yield generate_if_samples(
                 prn,
                 chunk_s,
-                fs,
+                FS,
                 0.0,
                 45.0,
                 rng,
-                doppler_hz=doppler_hz,
+                doppler_hz=DOPPLER_HZ,
                 code_phase_chips=(GPS_L2C.chip_rate_hz * code_rate * t0) % GPS_L2C.code_length_chips,
-                carrier_phase_rad=2 * np.pi * doppler_hz * t0,
+                carrier_phase_rad=2 * np.pi * DOPPLER_HZ * t0,
                 complex_samples=True,
                 data_bits=symbols.astype(float),
                 first_bit_edge_s=-t0,
@@ -149,14 +158,23 @@ def test_track_gps_l2c_writes_the_cnav_messages_the_samples_carry(tmp_path, caps
                 signal=GPS_L2C,
             ).samples
 
-    path = write_noisy_recording(tmp_path / "l2c.sigmf-data", chunks(), fs, rng)
-    out = tmp_path / "trk"
+    return write_noisy_recording(path, chunks(), FS, rng), tow0 - lead_s, code_rate
+
+
+def _track(path, prn: int, out) -> list[dict]:
     args = ["track", str(path), "--signal", "gps-l2c", "--prns", str(prn), "--out", str(out), "--no-plots", "--quiet"]
     assert main(args) == 0
+    with open(out / "cnav.csv", newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_track_gps_l2c_writes_the_cnav_messages_the_samples_carry(tmp_path, capsys):
+    prn, rec = 5, _record_ephemeris()
+    # The message of 86400 (type 10: 86400 / 12 is a multiple of 3) starts 0.31 s in.
+    path, sym0, code_rate = _l2c_recording(tmp_path / "l2c.sigmf-data", prn, 86400.0 - 0.31, 13.0, rec)
+    (row,) = _track(path, prn, tmp_path / "trk")
     text = capsys.readouterr().out
     assert f"PRN  {prn}: CNAV 1 messages (types 10), 0 CRC failures, TOW 86400 s" in text
-    with open(out / "cnav.csv", newline="") as f:
-        (row,) = list(csv.DictReader(f))
     assert (row["prn"], row["prn_field"], row["msg_type"], row["tow_count"], row["tow_s"]) == (
         str(prn),
         str(prn),
@@ -170,4 +188,22 @@ def test_track_gps_l2c_writes_the_cnav_messages_the_samples_carry(tmp_path, caps
     # The row starting the message's first symbol starts on the replica's code epoch where the
     # SV time is 86400: (86400 - sym0) SV seconds after t = 0, within a sample and the DLL's error.
     truth_s = (86400.0 - sym0) / code_rate
-    assert abs(float(row["time_s"]) - truth_s) < 1.0 / fs + 0.1 / GPS_L2C.chip_rate_hz
+    assert abs(float(row["time_s"]) - truth_s) < 1.0 / FS + 0.1 / GPS_L2C.chip_rate_hz
+
+
+def test_samples_to_track_to_ephemeris_place_the_satellite_where_lnav_does(tmp_path):
+    # 25 s: messages 10 (86400) and 11 (86412) whole; their ephemeris, decoded from the
+    # tracked prompts, against the LNAV record the generator encoded (rounded to CNAV's
+    # scale factors: within 5 cm, `test_cnav`).
+    prn, rec = 7, _record_ephemeris()
+    path, _, _ = _l2c_recording(tmp_path / "l2c.sigmf-data", prn, 86400.0 - 0.31, 25.0, rec)
+    rows = _track(path, prn, tmp_path / "trk")
+    assert [(r["msg_type"], r["tow_s"], r["crc_ok"]) for r in rows] == [("10", "86400", "1"), ("11", "86412", "1")]
+    m10, m11 = (
+        cnav.message_from_bits(np.array([int(c) for c in bin(int(r["bits_hex"], 16))[2:].zfill(300)], np.uint8))
+        for r in rows
+    )
+    eph = cnav.parse_ephemeris(m10, m11)
+    t = float(rec.elements["Toe"][0]) + np.linspace(-3600.0, 3600.0, 7)
+    lnav = satellite_state(rec, t[:, None]).position_m[:, 0]
+    assert np.max(np.linalg.norm(cnav.cnav_position(eph, t) - lnav, axis=-1)) < 0.05
