@@ -99,6 +99,33 @@ def test_the_l2_cm_replica_is_the_mean_of_two_plus_minus_one_tables():
     assert none is None and np.array_equal(one, replica_codes(GPS_L1CA, prns))
 
 
+def test_the_compiled_mean_of_the_pair_is_the_reference_correlation_with_cms_table():
+    # The tracker's L2C path (two compiled passes, their mean) against the float64 reference
+    # correlating with the ternary table itself (`correlate_periods_numpy`), on noise plus
+    # a CM signal, two code periods of two channels with E/P/L taps.
+    from gnssframework.receiver.channels.correlator import correlate_periods, to_table_units
+    from gnssframework.receiver.channels.correlator_reference import correlate_periods_numpy
+
+    fs, prns = 2.5e6, (3, 11)
+    rng = np.random.default_rng(8)
+    x = generate_if_samples(3, 0.05, fs, 0.0, 50.0, rng, doppler_hz=300.0, complex_samples=True, signal=GPS_L2C)
+    samples = x.samples.astype(np.complex128)
+    phase = to_table_units(np.array([0.3, -0.2]), GPS_L2C)
+    step = to_table_units(np.full(2, GPS_L2C.chip_rate_hz / fs), GPS_L2C)
+    taps = to_table_units(np.array([-0.25, 0.0, 0.25]), GPS_L2C)
+    common = (samples, np.array([0, 1000]), np.array([2, 2]), phase, step, np.zeros(2), np.full(2, 300.0 / fs))
+    a, b = replica_code_pair(GPS_L2C, prns)
+    sums_a, counts = correlate_periods(*common, a, taps, backend="numba")
+    sums_b, counts_b = correlate_periods(*common, b, taps, backend="numba")
+    table = np.stack([GPS_L2C.spreading_table(p) for p in prns])
+    ref, ref_counts = correlate_periods_numpy(*common, table, taps)
+    assert np.array_equal(counts, counts_b) and np.array_equal(counts, ref_counts)
+    bound = 1e-4 * np.abs(ref).max()  # float32 sums of 50,000 samples
+    assert np.max(np.abs(0.5 * (sums_a + sums_b) - ref)) < bound
+    assert np.max(np.abs(sums_a - ref)) > 10 * bound  # one ±1 table alone is not CM's replica
+    assert np.abs(ref[0, :, 1]).min() > 1000 * bound  # PRN 3's prompt holds the signal
+
+
 def test_tracks_defaults_on_l2c_fit_a_20_ms_period_and_cms_half_chip_peak():
     from argparse import Namespace
 
