@@ -37,6 +37,10 @@ stream occupies the symbols ``2k`` and ``2k + 1`` after the pairing offset: the 
 has no delay (:math:`u_k` taps both generators' most significant bit), so a message's
 first bit and its first coded symbol start together.
 
+Clock (types 30-37, Table 30-III: `parse_clock`) and GPS-UTC (type 33, Table 30-IX:
+`parse_utc`) are read too; the other types' data (group delays and ionosphere of type 30,
+almanacs, EOP, differential corrections, GGTO, text) are left as bits.
+
 Ephemeris (IS-GPS-200 30.3.3.1, Tables 30-I and 30-II; message types 10 and 11): the
 elements relative to :math:`A_{REF} = 26\,559\,710` m and
 :math:`\dot\Omega_{REF} = -2.6\times 10^{-9}` semicircles/s, with a rate of the semi-major
@@ -78,6 +82,10 @@ __all__ = [
     "ephemeris_payloads",
     "parse_ephemeris",
     "cnav_position",
+    "CnavClock",
+    "parse_clock",
+    "CnavUtc",
+    "parse_utc",
 ]
 
 #: Preamble of every CNAV message (IS-GPS-200 30.3.3).
@@ -489,3 +497,84 @@ def cnav_position(eph: CnavEphemeris, t_s: np.ndarray | float) -> np.ndarray:
     x_orb, y_orb = r * np.cos(u), r * np.sin(u)
     cn, sn, ci, si = np.cos(node), np.sin(node), np.cos(i), np.sin(i)
     return np.stack([x_orb * cn - y_orb * ci * sn, x_orb * sn + y_orb * ci * cn, y_orb * si], axis=-1)
+
+
+# --- clock (message types 30-37) and UTC (type 33) -------------------------------------
+
+#: The clock fields every message type 30-37 carries (IS-GPS-200 Table 30-III, Figures
+#: 30-3 to 30-10): name, first bit, width, signed, scale factor.
+_CLOCK = (
+    ("top_s", 39, 11, False, 300.0),
+    ("ura_ned0_index", 50, 5, True, 1.0),
+    ("ura_ned1_index", 55, 3, False, 1.0),
+    ("ura_ned2_index", 58, 3, False, 1.0),
+    ("toc_s", 61, 11, False, 300.0),
+    ("af0_s", 72, 26, True, 2.0**-35),
+    ("af1_s_s", 98, 20, True, 2.0**-48),
+    ("af2_s_s2", 118, 10, True, 2.0**-60),
+)
+#: The UTC parameters of message type 33 (IS-GPS-200 Table 30-IX, Figure 30-6).
+_UTC = (
+    ("a0_s", 128, 16, True, 2.0**-35),
+    ("a1_s_s", 144, 13, True, 2.0**-51),
+    ("a2_s_s2", 157, 7, True, 2.0**-68),
+    ("delta_t_ls_s", 164, 8, True, 1.0),
+    ("tot_s", 172, 16, False, 16.0),
+    ("wn_ot", 188, 13, False, 1.0),
+    ("wn_lsf", 201, 13, False, 1.0),
+    ("dn", 214, 4, False, 1.0),
+    ("delta_t_lsf_s", 218, 8, True, 1.0),
+)
+
+
+@dataclass(frozen=True)
+class CnavClock:
+    """The SV clock of message types 30-37 (IS-GPS-200 30.3.3.2, Table 30-III): the
+    correction :math:`a_{f0} + a_{f1} (t - t_{oc}) + a_{f2} (t - t_{oc})^2` (s), ``toc_s``
+    and ``top_s`` seconds of week, the URA_NED indices as broadcast."""
+
+    prn: int
+    msg_type: int
+    top_s: float
+    ura_ned0_index: int
+    ura_ned1_index: int
+    ura_ned2_index: int
+    toc_s: float
+    af0_s: float
+    af1_s_s: float
+    af2_s_s2: float
+
+
+@dataclass(frozen=True)
+class CnavUtc:
+    """GPS-UTC parameters of message type 33 (IS-GPS-200 30.3.3.6, Table 30-IX)."""
+
+    a0_s: float
+    a1_s_s: float
+    a2_s_s2: float
+    delta_t_ls_s: int
+    tot_s: float
+    wn_ot: int
+    wn_lsf: int
+    dn: int
+    delta_t_lsf_s: int
+
+
+def _checked(msg: CnavMessage, types: tuple[int, ...], name: str) -> None:
+    if msg.msg_type not in types:
+        which = f"type {types[0]} does" if len(types) == 1 else f"types {types[0]}-{types[-1]} do"
+        raise ConfigError(name, f"PRN {msg.prn}: message type {msg.msg_type} carries none ({which})")
+    if not msg.crc_ok:
+        raise ConfigError(name, f"PRN {msg.prn}: message type {msg.msg_type} failed its CRC-24Q")
+
+
+def parse_clock(msg: CnavMessage) -> CnavClock:
+    """The clock of a message of type 30-37 with a passing CRC; refused in one line otherwise."""
+    _checked(msg, tuple(range(30, 38)), "msg")
+    return CnavClock(prn=msg.prn, msg_type=msg.msg_type, **_fields(msg.bits, _CLOCK))
+
+
+def parse_utc(msg: CnavMessage) -> CnavUtc:
+    """The UTC parameters of a message of type 33 with a passing CRC; refused in one line otherwise."""
+    _checked(msg, (33,), "msg")
+    return CnavUtc(**_fields(msg.bits, _UTC))

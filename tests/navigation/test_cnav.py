@@ -75,6 +75,7 @@ def test_messages_10_and_11_give_gnsstks_ephemeris():
         e.omega_sc * pi: 0.72637343022039169149,
         (cnav.OMEGA_DOT_REF_SC_S + e.delta_omega_dot_sc_s) * pi: -7.71776500e-09,
         e.i0_dot_sc_s * pi: 1.73221501e-10,
+        e.delta_omega_dot_sc_s * pi: 4.5037590282126179865e-10,
         e.cuc_rad: -6.6496431827545166016e-06,
         e.cus_rad: 1.1029653251171112061e-05,
         e.crc_m: 175.46484375,
@@ -84,6 +85,33 @@ def test_messages_10_and_11_give_gnsstks_ephemeris():
     }
     for got, want in expected.items():
         assert got == pytest.approx(want, rel=1e-8)  # GNSSTk prints some to 9 digits
+
+
+def test_the_clock_of_messages_30_to_37_and_the_utc_of_33_are_gnsstks():
+    msgs = {k: cnav.message_from_bits(b) for k, _, b in _gnsstk_messages()}
+    for kind in (30, 32, 33):  # GNSSTk reads the clock from 30; 32 and 33 send the same one
+        c = cnav.parse_clock(msgs[kind])
+        assert (c.prn, c.msg_type, c.top_s, c.toc_s) == (1, kind, 21600.0, 91800.0)
+        assert (c.ura_ned0_index, c.ura_ned1_index, c.ura_ned2_index) == (-5, 1, 7)
+        assert c.af0_s == pytest.approx(-5.5062846513465046883e-05, rel=1e-12)
+        assert c.af1_s_s == pytest.approx(-1.01287867e-11, rel=1e-8) and c.af2_s_s2 == 0.0
+    u = cnav.parse_utc(msgs[33])
+    assert u.a0_s == pytest.approx(1.9790604711e-09, rel=1e-10) and u.a1_s_s == pytest.approx(
+        7.5495165675e-15, rel=1e-10
+    )
+    assert (u.a2_s_s2, u.delta_t_ls_s, u.tot_s, u.wn_ot, u.wn_lsf, u.dn, u.delta_t_lsf_s) == (
+        0.0,
+        18,
+        21600.0,
+        2060,
+        1929,
+        7,
+        18,
+    )
+    with pytest.raises(ConfigError, match=r"msg: PRN 1: message type 10 carries none \(types 30-37 do\)"):
+        cnav.parse_clock(msgs[10])
+    with pytest.raises(ConfigError, match=r"msg: PRN 1: message type 30 carries none \(type 33 does\)"):
+        cnav.parse_utc(msgs[30])
 
 
 def test_parse_ephemeris_refuses_the_wrong_messages_in_one_line():
