@@ -7,9 +7,11 @@ cost that matters at low sample rates, where a call correlates little); `close_p
 is the reference, on arrays, with the same arithmetic in the same order: the two give
 bit-identical results (tested).
 
-- Normalisation: a 1 ms sum of N samples of mean power P has I and Q noise variance
-  N P / 2 (`gnssframework.receiver.channels.tracker`), so each period's sums are divided
-  by :math:`\\sqrt{N P / 2}` (as NumPy divides a complex by a real: times its reciprocal).
+- Normalisation: a 1 ms sum of N samples of mean power P against a ±1 replica has I and Q
+  noise variance N P / 2 (`gnssframework.receiver.channels.tracker`), so each period's sums
+  are divided by :math:`\\sqrt{N P / 2}` (as NumPy divides a complex by a real: times its
+  reciprocal). ``power`` is the replica's mean square times P: P for a ±1 replica, P d for
+  one that is 0 outside a share d of the time (`SignalSpec.replica_duty`).
 - Bit synchronisation votes (`lock`): a prompt turned by more than 90 degrees from the
   previous one, :math:`\\mathrm{Re}(P_k P_{k-1}^*) < 0`, votes for its code period modulo the
   code periods of a data symbol (the histograms' length; 20 on L1 C/A).

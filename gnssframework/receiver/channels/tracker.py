@@ -31,8 +31,10 @@ tracker and by each channel: its code generator, code length, chip rate, carrier
 and code periods per data symbol (the bit-sync histogram's length) come from it.
 
 Noise scaling: the I and Q noise of a 1 ms sum of N samples of power P (one real or
-complex sample's mean square) against a ±1 code and a unit carrier is N P / 2 per
-component for white noise; the scale is measured on every block read.
+complex sample's mean square) against a replica :math:`r_i` and a unit carrier is
+:math:`P / 2 \\sum_i r_i^2` per component for white noise: N P / 2 for a ±1 code, N P d / 2
+for a component sent in a share d of the time whose replica is 0 elsewhere (GPS L2 CM, d =
+1/2: `SignalSpec.replica_duty`); the scale is measured on every block read.
 """
 
 from __future__ import annotations
@@ -366,7 +368,7 @@ class SampleTracker:
                 steps,
                 periods,
                 dop,
-                self.power,
+                self.power * self.signal.replica_duty,  # the replica's sum of squares per sample
                 fs,
                 code_length,
                 backend=self.backend,
