@@ -63,7 +63,9 @@ class ParallelCodePhaseSearch(Acquisition):
     `gnssframework.signal.correlator_model`, :math:`E[S] = K(2 + 2cT)`, so
     :math:`\\hat c = (S/K - 2)/(2T)`; for a component sent in one of two time slots (GPS L2
     CM) a block holds its energy over :math:`T/2` only, so :math:`2T` becomes :math:`T` (the
-    replica's duty, `SignalSpec.replica_duty`), and :math:`\\hat c` is that component's C/N0.
+    replica's duty, `SignalSpec.replica_duty`), and :math:`\\hat c` is the signal's C/N0
+    (CM and CL together, which share the slots and the power; the tracker reports the same,
+    `gnssframework.receiver.channels.lock.signal_cn0_dbhz`).
     """
 
     name = "pcps"

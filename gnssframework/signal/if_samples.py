@@ -88,7 +88,10 @@ def generate_if_samples(
     duration_s, sample_rate_hz, if_hz
         Length, sample rate and intermediate frequency (0 allowed for complex).
     cn0_dbhz
-        Carrier-to-noise density ratio.
+        Carrier-to-noise density ratio of the whole signal. A component sent in one of
+        several time slots (GPS L2 CM) is sent at the whole signal's amplitude in its slots
+        only (the other components' are not generated), so it holds its share of the power
+        (half on L2C: CM's own C/N0 is 3 dB below).
     rng
         The only source of randomness.
     doppler_hz, code_phase_chips, carrier_phase_rad

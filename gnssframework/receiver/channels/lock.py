@@ -6,7 +6,11 @@ r"""Lock detectors and bit synchronisation on a channel's one-code-period prompt
   :math:`\cos 2\phi \cdot A^2 / (A^2 + 2)` (unit-variance I and Q, :math:`A^2 = 2cT`).
 - C/N0 by the narrow-wide power ratio or by moments: `gnssframework.signal.cn0`; or by
   any ``cn0_estimator`` plugin that reads the prompt only (`cn0_estimator_names`), on the
-  whole window (docs/receiver/cn0-estimators.md: their bias and noise floor).
+  whole window (docs/receiver/cn0-estimators.md: their bias and noise floor). The
+  estimators measure the tracked component's C/N0; the detectors report the signal's
+  (`signal_cn0_dbhz`): the same for a signal sent in every slot (L1 C/A), twice CM's on
+  GPS L2C, whose CM and CL share the slots (IS-GPS-200, sec. 3.2.1.3) and the power
+  (`GPS_L2C`), as the acquisition's C/N0 and the IF generator's ``cn0_dbhz`` do.
 - Bit synchronisation by histogram: every bit change between consecutive 1 ms prompts
   (the prompt turned by more than 90 degrees, :math:`\mathrm{Re}(P_k P_{k-1}^*) < 0`,
   which needs frequency lock only, not phase lock) votes for its millisecond modulo 20;
@@ -33,6 +37,7 @@ __all__ = [
     "phase_lock_indicator",
     "window_detectors",
     "estimate_cn0",
+    "signal_cn0_dbhz",
     "nwpr_block",
     "cn0_nwpr_bits",
     "BitSync",
@@ -88,6 +93,15 @@ def nwpr_block(signal: SignalSpec) -> int | None:
     return m if m is not None and m >= 2 else None
 
 
+def signal_cn0_dbhz(component_cn0_dbhz, signal: SignalSpec):
+    r"""The signal's C/N0 (dB-Hz) from its tracked component's:
+    :math:`C/N_0 = (C/N_0)_{comp} / d`, :math:`d` the component's share of the time
+    (`SignalSpec.replica_duty`: 1 for L1 C/A, 1/2 for GPS L2 CM, whose slots alternate with
+    CL's, IS-GPS-200 sec. 3.2.1.3, at the same power), so :math:`-10 \log_{10} d` dB more;
+    the acquisition's C/N0 divides its block energy by the same duty."""
+    return component_cn0_dbhz - 10.0 * np.log10(signal.replica_duty)
+
+
 def estimate_cn0(prompts: np.ndarray, estimator: str, bit_phase: int | None, signal: SignalSpec = GPS_L1CA) -> float:
     """C/N0 (dB-Hz) of a window of one-code-period prompts (1 ms on L1 C/A).
 
@@ -97,15 +111,16 @@ def estimate_cn0(prompts: np.ndarray, estimator: str, bit_phase: int | None, sig
     symbols or with one code period per symbol (`nwpr_block`), it falls back to
     ``moments``, which bits do not disturb. Any other name is a
     ``cn0_estimator`` plugin on the whole window (`cn0_estimator_names`).
+    The signal's C/N0 (`signal_cn0_dbhz`) of the component's estimate.
     """
     p = np.asarray(prompts)
     period_s = signal.code_period_s
     if estimator not in CN0_ESTIMATORS:
-        return float(cn0_plugin(estimator)(p, period_s))
+        return float(signal_cn0_dbhz(cn0_plugin(estimator)(p, period_s), signal))
     m = nwpr_block(signal)
     if estimator == "nwpr" and m is not None and bit_phase is not None and p.size - bit_phase >= m:
-        return float(cn0_nwpr(p[bit_phase:], period_s, m=m))
-    return float(cn0_moments(p, period_s))
+        return float(signal_cn0_dbhz(cn0_nwpr(p[bit_phase:], period_s, m=m), signal))
+    return float(signal_cn0_dbhz(cn0_moments(p, period_s), signal))
 
 
 def cn0_nwpr_bits(prompts: np.ndarray, bit_phase: np.ndarray, coherent_time_s: float = 1e-3, m: int = 20) -> np.ndarray:
@@ -197,7 +212,7 @@ def window_detectors(
     Returns
     -------
     pli, cn0_dbhz
-        ``(n_channels,)`` each.
+        ``(n_channels,)`` each; the C/N0 the signal's (`signal_cn0_dbhz`).
     """
     size = win.shape[1]
     lock = win[:, size - min(lock_window_ms, size) :]
@@ -220,4 +235,4 @@ def window_detectors(
     if nwpr:
         phases = np.array([bit_phases[j] for j in nwpr])
         cn0[nwpr] = cn0_nwpr_bits(win[nwpr], phases, period_s, m=per_bit if per_bit is not None else 20)
-    return pli, cn0
+    return pli, signal_cn0_dbhz(cn0, signal)
