@@ -1,5 +1,6 @@
 """The C/N0 the ``track`` command writes (``tracking.csv``) against the generator's, and
-against the acquisition's, on GPS L2C (CM tracked) and GPS L1 C/A.
+against the acquisition's, on GPS L2C (CM tracked) and GPS L1 C/A; and the prompts' power
+against the correlator model's (unit-variance noise, amplitude from the generator's C/N0).
 
 Truth: the ``cn0_dbhz`` given to the project's IF generator (`generate_if_samples`): the
 C/N0 of the whole signal, which for L2C is CM and CL together (the generator sends CM's
@@ -109,6 +110,15 @@ def test_tracked_cn0_is_the_generated_signals_and_the_acquisitions(tmp_path, sig
     assert rows and all(r["lock"] == "1" for r in rows)
     tracked = float(np.median([float(r["cn0_dbhz"]) for r in rows]))
     assert abs(tracked - cn0_dbhz) < TOLERANCE_DB, tracked
+    # The normalisation: an interval of k code periods sums k unit-variance prompts of
+    # amplitude sqrt(2 c d T) (c d the component's C/N0, `SignalSpec.replica_duty`), so
+    # E|P|^2 = 2 k + k^2 2 c d T; the signal power is within 0.5 dB of it (CM's was 3 dB off
+    # before the normalisation took the duty; the tracking losses are a few tenths of a dB).
+    k = np.array([float(r["coherent_ms"]) for r in rows])
+    p2 = np.array([float(r["prompt_i"]) ** 2 + float(r["prompt_q"]) ** 2 for r in rows])
+    expected = 2 * 10 ** (cn0_dbhz / 10) * signal.replica_duty * signal.code_period_s
+    power_db = 10 * np.log10(np.mean((p2 - 2 * k) / k**2) / expected)
+    assert abs(power_db) < 0.5, power_db
     # The acquisition's C/N0 is the same quantity, less its grid's loss.
     (acq,) = acquire_recording(open_recording(path), registry.create("acquisition", "pcps"), (prn,), signal=signal)
     assert acq.detected and -TOLERANCE_DB - GRID_LOSS_DB < acq.cn0_dbhz - tracked < TOLERANCE_DB
