@@ -28,19 +28,56 @@ def test_the_last_printed_digit_sets_the_tolerance():
 
 def test_one_unit_in_the_last_digit_passes_and_two_fail():
     assert check.differences(TABLE, TABLE) == []
-    moved = TABLE.replace("2.262 ± 0.1", "2.263 ± 0.1").replace("0.8908", "0.8907").replace("4.6e-05", "4.7e-05")
-    assert check.differences(TABLE, moved) == []
-    assert check.differences(TABLE, TABLE.replace("0.8908", "0.8906")) != []  # two units
-    assert check.differences(TABLE, TABLE.replace("30.75", "30.85")) != []
+    # numbers without a standard error: one unit in the last digit
+    assert (
+        check.differences(TABLE, TABLE.replace("0.8908 ± 0.0088", "0.8907 ± 0.0088").replace("4.6e-05", "4.7e-05"))
+        == []
+    )
+    assert check.differences(TABLE, TABLE.replace("-0.00341 ± 0.00030", "-0.00341 ± 0.00032")) == []
+    bare = "| ratio | - | 0.8908 | 30.75 |"
+    assert check.differences(bare, "| ratio | - | 0.8906 | 30.75 |") != []  # two units
+    assert check.differences(bare, "| ratio | - | 0.8908 | 30.85 |") != []
     # the exponent after a parenthesised mantissa is text: a decade is never "one unit"
     assert check.differences(TABLE, TABLE.replace(")e-07", ")e-06")) != []
     # words, outcomes and structure must match exactly
     assert check.differences(TABLE, TABLE.replace("holds", "fails")) != []
     assert check.differences(TABLE, TABLE.replace("n=12", "n=11")) != []  # counts are exact
     assert check.differences(TABLE, TABLE + "| extra | row |\n") != []
-    # a number printed with one digit more or fewer is compared at the coarser digit
-    assert check.differences(TABLE, TABLE.replace("2.262 ± 0.1", "2.26 ± 0.1")) == []
-    assert check.differences(TABLE, TABLE.replace("2.262 ± 0.1", "2.28 ± 0.1")) != []
+
+
+def test_a_mean_is_held_to_its_standard_error():
+    s = 0.1  # 2.262 ± 0.1
+    within = 2.262 + (check.SE_TOLERANCE - 0.2) * s
+    beyond = 2.262 + (check.SE_TOLERANCE + 0.2) * s
+    assert check.differences(TABLE, TABLE.replace("2.262 ± 0.1", f"{within:.3f} ± 0.1")) == []
+    assert check.differences(TABLE, TABLE.replace("2.262 ± 0.1", f"{beyond:.3f} ± 0.1")) != []
+    # the larger of the two standard errors sets the width
+    assert check.differences(TABLE, TABLE.replace("2.262 ± 0.1", f"{beyond:.3f} ± 0.2")) == []
+    # a paired difference and a ratio of means in a claim's evidence: the same rule
+    moved = TABLE.replace("-0.00341 ± 0.00030, ratio 0.8908 ± 0.0088", "-0.00330 ± 0.00031, ratio 0.8950 ± 0.0090")
+    assert check.differences(TABLE, moved) == []
+    far = TABLE.replace("-0.00341 ± 0.00030", "-0.00241 ± 0.00030")
+    assert check.differences(TABLE, far) != []
+    # a standard error within SE_FACTOR either way, not beyond
+    assert (
+        check.differences(TABLE, TABLE.replace("30.75 ± 0.28", f"30.75 ± {0.28 * (check.SE_FACTOR - 0.5):.2f}")) == []
+    )
+    assert (
+        check.differences(TABLE, TABLE.replace("30.75 ± 0.28", f"30.75 ± {0.28 * (check.SE_FACTOR + 0.5):.2f}")) != []
+    )
+    # a mean in parentheses with a shared exponent
+    assert check.differences(TABLE, TABLE.replace("(6.56 ± 0.39)e-07", "(6.90 ± 0.39)e-07")) == []
+    assert check.differences(TABLE, TABLE.replace("(6.56 ± 0.39)e-07", "(8.56 ± 0.39)e-07")) != []
+
+
+def test_p_values_follow_the_compared_difference_and_counts_stay_exact():
+    row = "| holds | 35dBHz | a: x lower than b's | difference -3.16 ± 0.76, n=24, p=0.00037, Holm-adjusted p=0.0015 of 5 |"
+    assert check.differences(row, row.replace("p=0.00037", "p=0.0021").replace("p=0.0015", "p=0.0044")) == []
+    assert check.differences(row, row.replace("holds", "fails")) != []
+    assert check.differences(row, row.replace("n=24", "n=23")) != []
+    assert check.differences(row, row.replace("of 5", "of 6")) != []
+    lock = "| loss_of_lock_fraction | - | 0 | 0 |"
+    assert check.differences(lock, "| loss_of_lock_fraction | - | 0.04 | 0 |") != []
 
 
 def test_a_repository_table_regenerated_differently_fails_with_a_summary(tmp_path):
@@ -59,7 +96,7 @@ def test_a_repository_table_regenerated_differently_fails_with_a_summary(tmp_pat
         (folder / "data.json").write_text('{"x": 0.10000000000000002}')  # not compared
         (folder / "t.md").write_text(TABLE.replace("0.8908", "0.8909"))
         assert check.check(["generated"]) == (1, [])
-        (folder / "t.md").write_text(TABLE.replace("0.8908", "0.9908"))
+        (folder / "t.md").write_text(TABLE.replace("0.8908", "0.9908"))  # 11 SE
         (folder / "new.md").write_text("| a |\n")
         n, failures = check.check(["generated"])
         assert n == 1 and len(failures) == 2
@@ -77,60 +114,3 @@ def test_warn_only_reports_without_failing(tmp_path, capsys, monkeypatch):
     assert check.main(["generated"]) == 1
     monkeypatch.setattr(check, "check", lambda folders: (3, []))
     assert check.main([]) == 0 and "3 regenerated tables equal the committed ones" in capsys.readouterr().out
-
-
-CHAOTIC = """**45dBHz**
-
-| metric | unit | `deep` | `deep-ukf-spread` |
-| --- | --- | --- | --- |
-| height_error_rmse | m | 0.4259 ± 0.057 | 0.379 ± 0.052 |
-| nees | - | 8.629 ± 1 | 5.467 ± 0.79 |
-| loss_of_lock_fraction | - | 0 | 0 |
-
-| outcome | case | claim | evidence |
-| --- | --- | --- | --- |
-| holds | 45dBHz | deep-ukf-spread: nees lower than deep's | difference -3.16 ± 0.76, ratio 0.633 ± 0.070, n=24, p=0.00037 |
-| holds | 45dBHz | deep-ukf-spread: nees lower than deep-code-disc's | difference -0.01 ± 0.2, n=24, p=0.9 |
-"""
-
-
-def test_a_chaotic_column_is_held_to_its_standard_errors():
-    moved = (
-        CHAOTIC.replace("0.4259 ± 0.057", "0.4742 ± 0.061")  # 0.85 SE: another arithmetic's realisation
-        .replace("8.629 ± 1", "9.1 ± 1.2")
-        .replace("-3.16 ± 0.76, ratio 0.633 ± 0.070, n=24, p=0.00037", "-2.7 ± 0.8, ratio 0.69 ± 0.07, n=24, p=0.002")
-    )
-    assert check.differences(CHAOTIC, moved) != []  # beyond the last digit
-    assert check.differences(CHAOTIC, moved, "deep") == []
-    # beyond SE_TOLERANCE standard errors, or an SE changed by more than SE_FACTOR
-    far = 0.4259 + (check.SE_TOLERANCE + 0.2) * 0.057
-    assert check.differences(CHAOTIC, CHAOTIC.replace("0.4259 ± 0.057", f"{far:.4f} ± 0.057"), "deep") != []
-    assert check.differences(CHAOTIC, CHAOTIC.replace("0.4259 ± 0.057", "0.4259 ± 0.13"), "deep") != []
-    # the other candidates' cells keep their last digit, in the chaotic candidate's table too
-    assert check.differences(CHAOTIC, CHAOTIC.replace("0.379 ± 0.052", "0.381 ± 0.052"), "deep") != []
-    # a row naming the chaotic candidate holds its text and counts: an outcome, n, a lock count
-    assert (
-        check.differences(
-            CHAOTIC,
-            CHAOTIC.replace(
-                "| holds | 45dBHz | deep-ukf-spread: nees lower than deep's",
-                "| fails | 45dBHz | deep-ukf-spread: nees lower than deep's",
-            ),
-            "deep",
-        )
-        != []
-    )
-    assert check.differences(CHAOTIC, CHAOTIC.replace("n=24, p=0.00037", "n=23, p=0.00037"), "deep") != []
-    assert check.differences(CHAOTIC, CHAOTIC.replace("| - | 0 | 0 |", "| - | 0.04 | 0 |"), "deep") != []
-    # a row that does not name it (deep-code-disc is another candidate) keeps its digits
-    assert check.differences(CHAOTIC, CHAOTIC.replace("p=0.9", "p=0.7"), "deep") != []
-
-
-def test_every_chaotic_column_names_a_committed_table_and_its_column():
-    for path, (name, where) in check.CHAOTIC_COLUMNS.items():
-        text = (ROOT / path).read_text(encoding="utf-8")
-        assert f"| `{name}` |" in text, path
-        page, _, section = where.partition(", ")
-        assert (ROOT / page).is_file(), where
-        heading = section.split("'")[1]
-        assert heading in (ROOT / page).read_text(encoding="utf-8"), where
