@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pytest
 
 import gnssframework as gf
+from gnssframework.receiver.channels import ChannelRecord
+from gnssframework.receiver.channels.records import RECORD_FIELDS
 
 #: Memory one pytest-xdist worker may need: in `pytest -n 2` over the whole suite the largest
 #: process peaked at 3.9 GB resident (time -v; the examples run whole in test_result_files),
@@ -108,3 +111,40 @@ def scratch_registry():
     points afterwards, so those plugins do not leak into other tests."""
     yield gf.registry
     gf.registry.reload()
+
+
+def _channel_record(
+    prn: int,
+    time_s: Sequence[float],
+    prompt_i: Sequence[float],
+    coherent_ms: Sequence[int],
+    code_phase_chips: Sequence[float] | None = None,
+) -> ChannelRecord:
+    """A locked channel's record from its prompts (in phase), one row an interval of
+    ``coherent_ms``: the other columns a steady 45 dB-Hz channel's (no Doppler, Q 0)."""
+    n = len(time_s)
+    code = np.zeros(n) if code_phase_chips is None else code_phase_chips
+    rows = []
+    for t, p, c, k in zip(time_s, prompt_i, code, coherent_ms):
+        values = dict(
+            time_s=t,
+            cn0_dbhz=45.0,
+            pli=1.0,
+            doppler_hz=0.0,
+            code_phase_chips=c,
+            carrier_phase_cycles=0.0,
+            lock=1,
+            stage=1,
+            prompt_i=p,
+            prompt_q=0.0,
+            coherent_ms=k,
+        )
+        rows.append(tuple(values[f] for f in RECORD_FIELDS))
+    return ChannelRecord(prn, rows)
+
+
+@pytest.fixture
+def channel_record() -> Callable[..., ChannelRecord]:
+    """`_channel_record`: ``channel_record(prn, time_s, prompt_i, coherent_ms, code_phase_chips=None)``,
+    for the message decoders' tests (I/NAV, SBAS, CNAV) that read prompts as symbols."""
+    return _channel_record

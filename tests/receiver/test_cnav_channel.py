@@ -20,9 +20,7 @@ from gnssframework.cli import main
 from gnssframework.errors import ConfigError
 from gnssframework.navigation import cnav
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
-from gnssframework.receiver.channels import ChannelRecord
 from gnssframework.receiver.channels.correlator import replica_code_pair, replica_codes
-from gnssframework.receiver.channels.records import RECORD_FIELDS
 from gnssframework.receiver.navigation.cnav_stream import carries_cnav, channel_cnav, cnav_rows
 from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
 from gnssframework.signal.gps_l1ca import GPS_L1CA
@@ -32,38 +30,18 @@ from gnssframework.signal.if_samples import generate_if_samples
 DATA = Path(__file__).parents[1] / "data"
 
 
-def _record(prn: int, time_s, prompt_i, coherent) -> ChannelRecord:
-    rows = []
-    for t, p, k in zip(time_s, prompt_i, coherent):
-        values = dict(
-            time_s=t,
-            cn0_dbhz=45.0,
-            pli=1.0,
-            doppler_hz=0.0,
-            code_phase_chips=0.0,
-            carrier_phase_cycles=0.0,
-            lock=1,
-            stage=1,
-            prompt_i=p,
-            prompt_q=0.0,
-            coherent_ms=k,
-        )
-        rows.append(tuple(values[f] for f in RECORD_FIELDS))
-    return ChannelRecord(prn, rows)
-
-
 def test_l2c_carries_cnav_and_other_signals_do_not():
     assert carries_cnav(GPS_L2C) and carries_cnav(QZSS_L2C)
     assert not carries_cnav(GPS_L1CA) and not carries_cnav(GALILEO_E1B_BOC11)
 
 
-def test_channel_cnav_refuses_a_signal_without_cnav_in_one_line():
+def test_channel_cnav_refuses_a_signal_without_cnav_in_one_line(channel_record):
     with pytest.raises(ConfigError, match=r"signal: PRN 7: gps-l1ca carries no CNAV") as err:
-        channel_cnav(_record(7, [0.0], [1.0], [1]), GPS_L1CA)
+        channel_cnav(channel_record(7, [0.0], [1.0], [1]), GPS_L1CA)
     assert "\n" not in str(err.value)
 
 
-def test_channel_cnav_decodes_each_run_and_dates_each_message():
+def test_channel_cnav_decodes_each_run_and_dates_each_message(channel_record):
     # Two runs (a gap of one period after row 1000): each decodes on its own, in its own
     # pairing, and a message is dated by the row of its first symbol.
     rng = np.random.default_rng(5)
@@ -72,7 +50,7 @@ def test_channel_cnav_decodes_each_run_and_dates_each_message():
     prompt = -40.0 * symbols + rng.standard_normal(symbols.size)  # 180 degrees off
     time_s = 3.0 + 0.02 * np.arange(symbols.size)
     time_s[1001:] += 0.02  # a lost period
-    timing = channel_cnav(_record(9, time_s, prompt, np.ones(symbols.size, int)), GPS_L2C)
+    timing = channel_cnav(channel_record(9, time_s, prompt, np.ones(symbols.size, int)), GPS_L2C)
     got = [(m.msg_type, m.tow_count, m.crc_ok, m.inverted) for m in timing.messages]
     # Message k is rows 600 k - 7 to 600 k + 592. Run 1 (rows 0-1000) holds none whole
     # (message 0 started before row 0, message 1 runs past row 1000); run 2 (rows 1001-2392)
@@ -84,7 +62,9 @@ def test_channel_cnav_decodes_each_run_and_dates_each_message():
     assert r30["bits_hex"] == cnav.message_from_bits(rows[2]).hex and r0["tow_s"] == f"{(503 * 6 - 12):.0f}"
     with pytest.raises(ConfigError, match=r"PRN 9's CM stream"):
         channel_cnav(
-            _record(9, time_s, np.where(np.arange(symbols.size) == 5, np.nan, prompt), np.ones_like(prompt, int)),
+            channel_record(
+                9, time_s, np.where(np.arange(symbols.size) == 5, np.nan, prompt), np.ones_like(prompt, int)
+            ),
             GPS_L2C,
         )
 

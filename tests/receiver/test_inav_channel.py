@@ -20,7 +20,6 @@ from gnssframework.errors import ConfigError
 from gnssframework.navigation import inav
 from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.receiver.channels import ChannelRecord
-from gnssframework.receiver.channels.records import RECORD_FIELDS
 from gnssframework.receiver.frontend import SatelliteSignal, synthesize_samples, write_recording
 from gnssframework.receiver.navigation.inav_stream import (
     carries_inav,
@@ -37,26 +36,6 @@ from gnssframework.signal.qzss_l1ca import QZSS_L1CA
 
 NAV = Path(__file__).parents[1] / "data" / "galileo_inav_20feb2022_05h.rnx"
 WN = 1174
-
-
-def _record(prn: int, time_s, prompt_i, code_chips, coherent) -> ChannelRecord:
-    rows = []
-    for t, p, c, k in zip(time_s, prompt_i, code_chips, coherent):
-        values = dict(
-            time_s=t,
-            cn0_dbhz=45.0,
-            pli=1.0,
-            doppler_hz=0.0,
-            code_phase_chips=c,
-            carrier_phase_cycles=0.0,
-            lock=1,
-            stage=1,
-            prompt_i=p,
-            prompt_q=0.0,
-            coherent_ms=k,
-        )
-        rows.append(tuple(values[f] for f in RECORD_FIELDS))
-    return ChannelRecord(prn, rows)
 
 
 def test_signals_by_message_and_the_coherent_default():
@@ -91,7 +70,7 @@ def test_symbol_runs_split_at_gaps_and_longer_integrations():
     assert [r.size for r in symbol_runs(t, k, 0.004, min_symbols=6)] == [10]
 
 
-def test_channel_inav_decodes_each_run_dates_its_rows_and_reports_a_bad_page():
+def test_channel_inav_decodes_each_run_dates_its_rows_and_reports_a_bad_page(channel_record):
     """Two runs of one channel (a gap between them), both inverted; a page of the second
     with a corrupted CRC is reported, not used; every dated row's transmit time is the GST
     of its page start plus 4 ms a row plus its code phase."""
@@ -106,7 +85,7 @@ def test_channel_inav_decodes_each_run_dates_its_rows_and_reports_a_bad_page():
     keep = np.r_[np.arange(n1), np.arange(n1 + skip, sym.size)]
     t = 2.5 + keep * 0.004  # recording time of each row (a code epoch)
     code = rng.uniform(0.0, 0.5, keep.size)  # replica code phase past that epoch (chips)
-    timing = channel_inav(_record(11, t, prompt[keep], code, np.ones(keep.size, int)), GALILEO_E1B_BOC11)
+    timing = channel_inav(channel_record(11, t, prompt[keep], np.ones(keep.size, int), code), GALILEO_E1B_BOC11)
     assert len(timing.messages) == 2
     # encode_inav sends word types beyond 0-5 as type 0 with the GST
     assert [p.word_type for p in timing.messages[0].pages] == [0, 1, 3]  # 18019, 18021, 18023
@@ -138,7 +117,7 @@ SAT = SatelliteSignal(19, 45.0, 730.0, 1200.3, 0.4, first_bit_code_period=0, sig
 
 
 @pytest.mark.slow
-def test_track_galileo_e1b_reports_the_inav_pages_iodnav_and_gst(tmp_path, capsys):
+def test_track_galileo_e1b_reports_the_inav_pages_iodnav_and_gst(tmp_path, capsys, channel_record):
     rec = read_rinex_nav(NAV, systems="E").subset(np.array([0]))
     symbols, lead_s = inav.inav_symbols(rec, WN, TOW0, int(DURATION_S * inav.SYMBOL_RATE_HZ) + 2)
     sym0 = TOW0 - lead_s  # GST at symbol 0's start (18020.6 s in binary falls just short of that edge)
@@ -201,11 +180,8 @@ def test_track_galileo_e1b_reports_the_inav_pages_iodnav_and_gst(tmp_path, capsy
     # with a 2 Hz pull-in DLL, `test_boc_sample_tracker`), nowhere near a code period (4 ms).
     with open(out / "tracking.csv", newline="") as f:
         rows = list(csv.DictReader(f))
-    record = _record(
-        19,
-        *([float(r[c]) for r in rows] for c in ("time_s", "prompt_i", "code_phase_chips")),
-        [int(r["coherent_ms"]) for r in rows],
-    )
+    time_s, prompt_i, code = ([float(r[c]) for r in rows] for c in ("time_s", "prompt_i", "code_phase_chips"))
+    record = channel_record(19, time_s, prompt_i, [int(r["coherent_ms"]) for r in rows], code)
     timing = channel_inav(record, GALILEO_E1B_BOC11)
     t = record.column("time_s")[timing.rows]
     truth = sym0 + (t - edge_s) * code_rate  # satellite seconds per receive second: the code rate
@@ -214,21 +190,21 @@ def test_track_galileo_e1b_reports_the_inav_pages_iodnav_and_gst(tmp_path, capsy
     assert late.sum() > 1000 and np.all(np.abs(err_chips) < 0.1), np.abs(err_chips).max()
 
 
-def test_an_ephemeris_is_ready_once_the_page_completing_words_1_to_5_has_arrived():
+def test_an_ephemeris_is_ready_once_the_page_completing_words_1_to_5_has_arrived(channel_record):
     """One run of nine pages from GST 18019 s (word types 22, 1, 3, 5, 0, 16, 2, 4, 6): the
     record is complete with word 4's page (18033 s), i.e. at the row after that page's last
     symbol, 16 s of pages after the run's first symbol; its fields are the record's."""
     rec = read_rinex_nav(NAV, systems="E").subset(np.array([0]))
     sym = inav.encode_inav(rec, WN, 18019, 9).astype(float) * 4.0
     t = 1.0 + np.arange(sym.size) * 0.004
-    timing = channel_inav(_record(11, t, sym, np.zeros(sym.size), np.ones(sym.size, int)), GALILEO_E1B_BOC11)
+    timing = channel_inav(channel_record(11, t, sym, np.ones(sym.size, int)), GALILEO_E1B_BOC11)
     ((ready_s, eph),) = timing.ephemerides
     assert ready_s == pytest.approx(1.0 + (18035 - 18019) * 1.0, abs=1e-9)
     assert int(eph.iode[0]) == int(rec.iode[0]) and eph.sv[0] == rec.sv[0]
     assert eph.elements["sqrtA"][0] == pytest.approx(rec.elements["sqrtA"][0], rel=1e-12)
 
 
-def test_a_galileo_run_without_position_reports_its_inav_not_lnav(tmp_path):
+def test_a_galileo_run_without_position_reports_its_inav_not_lnav(tmp_path, channel_record):
     """A receive run on E1-B whose channels decoded no I/NAV page: the reason and the
     report speak of I/NAV pages and the GST (what dates E1-B), not of LNAV subframes."""
     from gnssframework.receiver.acquisition.search import AcquisitionResult
@@ -239,7 +215,7 @@ def test_a_galileo_run_without_position_reports_its_inav_not_lnav(tmp_path):
     rng = np.random.default_rng(3)
     n = 600  # 2.4 s of 4 ms symbols, random signs: no sync pattern, no page
     channels = {
-        prn: _record(prn, 0.004 * np.arange(n), rng.choice([-1.0, 1.0], n), np.zeros(n), np.ones(n, int))
+        prn: channel_record(prn, 0.004 * np.arange(n), rng.choice([-1.0, 1.0], n), np.ones(n, int))
         for prn in (4, 11, 19, 27)
     }
     acq = [AcquisitionResult(p, True, 1000.0, 10, 100.0, 40.0, 30.0, 20.0) for p in channels]

@@ -18,7 +18,6 @@ from gnssframework.cli import main
 from gnssframework.errors import ConfigError
 from gnssframework.navigation import sbas_message as sm
 from gnssframework.receiver.channels import ChannelRecord
-from gnssframework.receiver.channels.records import RECORD_FIELDS
 from gnssframework.receiver.frontend import SatelliteSignal, synthesize_samples, write_recording
 from gnssframework.receiver.navigation.inav_stream import coherent_periods
 from gnssframework.receiver.navigation.sbas_stream import SBAS_COLUMNS, carries_sbas, channel_sbas, sbas_rows
@@ -35,33 +34,13 @@ def _messages(prn: int) -> np.ndarray:
     return sm.messages_from_hex([t for t, p in zip(texts, prns) if p == prn])
 
 
-def _record(prn: int, time_s, prompt_i, coherent) -> ChannelRecord:
-    rows = []
-    for t, p, k in zip(time_s, prompt_i, coherent):
-        values = dict(
-            time_s=t,
-            cn0_dbhz=45.0,
-            pli=1.0,
-            doppler_hz=0.0,
-            code_phase_chips=0.0,
-            carrier_phase_cycles=0.0,
-            lock=1,
-            stage=1,
-            prompt_i=p,
-            prompt_q=0.0,
-            coherent_ms=k,
-        )
-        rows.append(tuple(values[f] for f in RECORD_FIELDS))
-    return ChannelRecord(prn, rows)
-
-
 def test_sbas_l1_is_recognised_and_tracked_a_symbol_a_row():
     assert carries_sbas(SBAS_L1)
     assert not carries_sbas(GPS_L1CA) and not carries_sbas(GALILEO_E1B_BOC11)
     assert coherent_periods(SBAS_L1, None) == 2  # one row one 2 ms symbol
 
 
-def test_channel_sbas_reads_each_run_and_dates_each_message_by_its_first_row():
+def test_channel_sbas_reads_each_run_and_dates_each_message_by_its_first_row(channel_record):
     """Pull-in rows of one code period, then two runs of one-symbol rows with a gap: the
     whole messages of each run are read, inverted, each dated by the row of its first
     symbol; a corrupted one is reported, not counted good."""
@@ -76,7 +55,7 @@ def test_channel_sbas_reads_each_run_and_dates_each_message_by_its_first_row():
     t = np.r_[np.arange(pull_in) * 0.001 + t0 - 0.04, t0 + keep * 0.002]
     p = np.r_[rng.standard_normal(pull_in), prompt[keep]]
     k = np.r_[np.ones(pull_in, int), np.full(keep.size, 2)]
-    ch = channel_sbas(_record(129, t, p, k), SBAS_L1)
+    ch = channel_sbas(channel_record(129, t, p, k), SBAS_L1)
     assert ch.symbols == keep.size
     # run 1 holds messages 1-3 whole, run 2 messages 6-11
     starts = [1, 2, 3, 6, 7, 8, 9, 10, 11]
@@ -92,14 +71,14 @@ def test_channel_sbas_reads_each_run_and_dates_each_message_by_its_first_row():
     assert rows[0]["message_hex"] == DATA.read_text().splitlines()[5 + 2].split()[2]
 
 
-def test_too_few_symbols_are_refused_in_one_line_naming_the_prn():
+def test_too_few_symbols_are_refused_in_one_line_naming_the_prn(channel_record):
     t = np.arange(400) * 0.002
     with pytest.raises(ConfigError) as exc:
-        channel_sbas(_record(137, t, np.ones(400), np.full(400, 2)), SBAS_L1)
+        channel_sbas(channel_record(137, t, np.ones(400), np.full(400, 2)), SBAS_L1)
     text = str(exc.value)
     assert "PRN 137" in text and "400" in text and "500" in text and len(text.splitlines()) == 1
     with pytest.raises(ConfigError, match="PRN 133.*0 "):  # 1 ms rows only: no symbol rows
-        channel_sbas(_record(133, np.arange(900) * 0.001, np.ones(900), np.ones(900, int)), SBAS_L1)
+        channel_sbas(channel_record(133, np.arange(900) * 0.001, np.ones(900), np.ones(900, int)), SBAS_L1)
     with pytest.raises(ConfigError, match="no SBAS"):
         channel_sbas(ChannelRecord(3), GPS_L1CA)
 
