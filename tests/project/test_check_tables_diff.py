@@ -114,3 +114,21 @@ def test_warn_only_reports_without_failing(tmp_path, capsys, monkeypatch):
     assert check.main(["generated"]) == 1
     monkeypatch.setattr(check, "check", lambda folders: (3, []))
     assert check.main([]) == 0 and "3 regenerated tables equal the committed ones" in capsys.readouterr().out
+
+
+def test_a_heavy_tailed_mean_keeps_its_sign_only():
+    # one diverged run of a loop that lost lock moved these under another arithmetic
+    row = "| horizontal_velocity_error_rmse | m/s | 0.05912 ± 0.0026 | 21.9 ± 3.9 |"
+    assert check.differences(row, row.replace("21.9 ± 3.9", "49.71 ± 27")) == []
+    assert check.differences(row, row.replace("21.9 ± 3.9", "49.71 ± 3.9")) != []  # not heavy: 7 SE
+    claim = "| holds | 35dBHz | deep: x lower than b's | difference -21.8 ± 3.9, ratio 0.00270 ± 0.00049, n=24 |"
+    heavy = claim.replace("-21.8 ± 3.9, ratio 0.00270 ± 0.00049", "-50 ± 19, ratio 0.00119 ± 0.00065")
+    assert check.differences(claim, heavy) == []
+    assert check.differences(claim, heavy.replace("-50 ± 19", "50 ± 19")) != []  # the sign flipped
+    # a difference within noise of 0 may change sign
+    noise = "| phase | rad | -0.000002 ± 0.000011 |"
+    assert check.differences(noise, noise.replace("-0.000002", "0.000004")) == []
+    # a detectable difference is a multiple of a standard error
+    mdd = "| holds | n=4 (n < 12: detects differences >= 0.47 at power 0.8, >= 0.69 after adjustment) |"
+    assert check.differences(mdd, mdd.replace("0.47", "0.5").replace("0.69", "0.73")) == []
+    assert check.differences(mdd, mdd.replace("0.47", "2.5")) != []
