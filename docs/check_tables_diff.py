@@ -23,12 +23,12 @@ Why standard errors and not the last digit: the seeds are fixed, so on one machi
 tables come out identical, but another x86 arithmetic (numba's target, NumPy's SIMD loops,
 OpenBLAS's kernel) rounds differently, and a closed loop carries a rounding difference into
 every later step. Regenerated under two other arithmetics (numba for generic x86-64 with
-NumPy's AVX2 loops off; numba for haswell with OpenBLAS's Prescott kernel), about 90 table
-lines moved beyond their last digit: a well-behaved loop's means by a few hundredths of
-their standard error, those of a loop that loses lock or of a UKF at alpha 1e-3 on the
-prompt's kink (chaotic, docs/experiments/deep-integration.md) by up to about 2 standard
-errors, their standard errors by up to a factor of 3, and the heavy-tailed means of a
-diverging loop by far more (`HEAVY`). A mean is only claimed to its standard error, so that
+NumPy's AVX2 loops off; numba for haswell with OpenBLAS's Prescott kernel), 74 and 96 table
+lines (in 8 of 42 tables) moved beyond their last digit: a well-behaved loop's means by a
+few hundredths of their standard error, those of a loop that loses lock or of a UKF at
+alpha 1e-3 on the prompt's kink (chaotic, docs/experiments/deep-integration.md) by up to
+about 2 standard errors, their standard errors by up to a factor of 3, and the
+heavy-tailed means of a diverging loop by far more (`HEAVY`). A mean is only claimed to its standard error, so that
 is the tolerance. One claim's verdict moved, a t interval on such a heavy-tailed mean; it is
 now stated by sign (examples/deep_integration_elevation_ci.toml).
 
