@@ -537,11 +537,14 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
         if signal.code_period_s * TrackingConfig().pull_in_params["pll_bandwidth_hz"] > 0.2:
             # One code period (20 ms on L2 CM) is the shortest interval: the default loops'
             # B_L T would exceed what a discretised loop takes. Narrower ones, with B_L T
-            # `LONG_PERIOD_B_L_T` at that period (the scalar channel filter's PLL too, unless told).
+            # `LONG_PERIOD_B_L_T` at that period (a channel filter's PLL too, where it has a
+            # `pll_bandwidth_hz` parameter and is not told one).
             pll_hz = LONG_PERIOD_B_L_T / signal.code_period_s
             scale = pll_hz / LONG_PERIOD_PULL_IN["pll_bandwidth_hz"]
             settings["pull_in_params"] = {k: v * scale for k, v in LONG_PERIOD_PULL_IN.items()}
-            if args.channel_filter == "scalar" and "pll_bandwidth_hz" not in params:
+            name = args.channel_filter or TrackingConfig().channel_filter
+            takes = registry.get("channel_filter", name).Params.model_fields
+            if "pll_bandwidth_hz" in takes and "pll_bandwidth_hz" not in params:
                 params["pll_bandwidth_hz"] = pll_hz
         if signal.subcarrier.kind != "bpsk" and getattr(args, "early_late_spacing", None) is None:
             # BOC(1,1)'s main peak is +-1/3 chip wide: taps +-0.5 chip apart sit on its side lobes
