@@ -21,14 +21,14 @@ same store and resumes like the comparison.
 from __future__ import annotations
 
 import os
-from contextlib import closing
+from contextlib import closing, contextmanager
 import pickle
 import sys
 import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
-from collections.abc import Callable, Generator
+from collections.abc import Callable, Generator, Iterator
 from typing import Any, TypeAlias
 
 import numpy as np
@@ -190,7 +190,8 @@ def _execute(jobs: list[tuple[RunPlan, Task]], executor: Executor) -> Generator[
     pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)))
     finished = False
     try:
-        futures = {pool.submit(run_task_in_worker, d, t): i for i, (d, t) in enumerate(jobs)}
+        with _sigint_deferred():  # the pool forks its workers at the first submit
+            futures = {pool.submit(run_task_in_worker, d, t): i for i, (d, t) in enumerate(jobs)}
         for fut in as_completed(futures):
             i = futures[fut]
             try:
@@ -210,6 +211,31 @@ def _execute(jobs: list[tuple[RunPlan, Task]], executor: Executor) -> Generator[
             pool.shutdown(wait=True)
         else:  # Ctrl-C, a failure, or the consumer stopped: do not wait for the batches in flight
             _stop(pool)
+
+
+@contextmanager
+def _sigint_deferred() -> Iterator[None]:
+    """Hold a SIGINT pending (POSIX, main thread) until the block ends, then raise it.
+
+    A Ctrl-C delivered while ``ProcessPoolExecutor.submit`` forks the workers lands
+    between ``Process.start()`` and the pool recording the process: `_stop` cannot
+    terminate a worker the pool does not know, and that orphan, holding the terminal's
+    pipes, keeps a caller that reads them waiting for ever (CI's real Ctrl-C test, under
+    load). Blocked here, the signal is delivered when the block ends, inside the caller's
+    ``try``, with every worker recorded. The workers inherit the blocked SIGINT: a
+    terminal's Ctrl-C, sent to the whole process group, reaches the parent alone, which
+    ends them."""
+    import signal
+    import threading
+
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _stop(pool: ProcessPoolExecutor) -> None:

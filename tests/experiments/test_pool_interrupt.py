@@ -1,0 +1,54 @@
+"""A Ctrl-C at any moment of a local multi-process run leaves no worker behind.
+
+CI's real Ctrl-C test (tests/core/test_cli_failures.py) hung once under load: the signal
+landed while the pool forked its workers, between ``Process.start()`` and the pool
+recording the process, so the runner's `_stop` could not terminate that worker, and the
+orphan held the test's pipes open. Here the signal is sent at exactly that moment.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from multiprocessing.process import BaseProcess
+
+import pytest
+
+from gnssframework import backend
+from gnssframework.experiments import runner
+from gnssframework.experiments.config import Executor
+
+
+def _wait_in_worker(plan, task):
+    time.sleep(60.0)  # a batch that is still computing when the Ctrl-C comes
+
+
+@pytest.mark.slow
+def test_a_ctrl_c_while_the_pool_forks_its_workers_leaves_none_running(monkeypatch):
+    started: list[BaseProcess] = []
+    start = BaseProcess.start
+
+    def start_then_ctrl_c(self):
+        start(self)
+        started.append(self)
+        if len(started) == 1:  # the first worker forked, not yet recorded by the pool
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(BaseProcess, "start", start_then_ctrl_c)
+    monkeypatch.setattr(runner, "run_task_in_worker", _wait_in_worker)
+    monkeypatch.setattr(backend, "compiled", lambda: False)  # no kernel warm-up: the pool at once
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        results = runner._execute([(None, None)] * 3, Executor(kind="local", workers=2))
+        with pytest.raises(KeyboardInterrupt):
+            next(results)
+        assert len(started) == 2  # the signal waited until the pool had both workers
+        for process in started:
+            process.join(timeout=10.0)
+        assert [p.is_alive() for p in started] == [False, False]
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        for process in started:
+            if process.is_alive():
+                process.kill()
