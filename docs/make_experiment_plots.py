@@ -5,7 +5,7 @@
     python docs/make_experiment_plots.py --retune   # tune the tuned examples again, rewrite their records
     python docs/make_experiment_plots.py --all-figures   # every figure of every report, not only the docs'
     python docs/make_experiment_plots.py NAME ...   # these examples only
-    python docs/make_experiment_plots.py --part 1/2 # every second example from the first (CI's two lanes)
+    python docs/make_experiment_plots.py --part 1/2 # the first of two parts of equal cost (CI's lanes)
 
 Only the figures a docs page shows (``img/experiments/<name>-<plot>.png`` named in a page
 under docs/) are drawn and copied: drawing is most of this script's time once the stores
@@ -59,6 +59,26 @@ EXAMPLES = (
     "deep_integration_lock_bandwidth",
     "tracking_threshold",
 )
+#: Seconds each example costs this script in CI (its run of dfcaeba on 2 cores, the main
+#: block's stores reused: 0 where they make the figures only in a second or so), for
+#: ``--part``'s balance. An example missing here counts as 0; a stale number only
+#: unbalances the lanes, it changes no result.
+CI_COST_S = {
+    "deep_integration_nees_ci": 259,
+    "scintillation": 199,
+    "multipath": 116,
+    "deep_integration_lock_bandwidth": 68,
+    "deep_integration_error_sources": 55,
+    "scintillation_sweep": 51,
+    "tracking_threshold": 29,
+    "carrier_smoothing_sweep": 29,
+    "deep_integration_error_sources_ci": 29,
+    "vector_tracking_spacing": 22,
+    "carrier_smoothing": 14,
+    "vector_tracking": 11,
+    "sweep_demo": 9,
+    "vector_tracking_fade_ci": 7,
+}
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
 #: Examples whose page includes tables generated from the run (docs/experiment_tables.py), with the
@@ -185,8 +205,8 @@ def docs_figures() -> str:
 def selected(argv: list[str]) -> tuple[str, ...]:
     """The examples to run: those named on the command line (each must be one of the
     lists above), else every CI example (and the slow ones with ``--slow``); with
-    ``--part K/N``, every N-th of them from the K-th (CI runs ``1/2`` and ``2/2`` in its
-    two lanes: together, the whole list)."""
+    ``--part K/N``, the K-th of N parts of about equal cost (`balanced_parts`; CI runs
+    ``1/2`` and ``2/2`` in its two lanes: together, the whole list)."""
     known = EXAMPLES + SLOW_EXAMPLES
     names = tuple(a for i, a in enumerate(argv) if not a.startswith("--") and (i == 0 or argv[i - 1] != "--part"))
     unknown = [n for n in names if n not in known]
@@ -201,7 +221,19 @@ def selected(argv: list[str]) -> tuple[str, ...]:
     k, _, n = part.partition("/")
     if not (k.isdigit() and n.isdigit() and 1 <= int(k) <= int(n)):
         raise SystemExit(f"make_experiment_plots.py: --part takes K/N with 1 <= K <= N, got {part!r}")
-    return names[int(k) - 1 :: int(n)]
+    return balanced_parts(names, int(n))[int(k) - 1]
+
+
+def balanced_parts(names: tuple[str, ...], n: int) -> list[tuple[str, ...]]:
+    """Split ``names`` into ``n`` parts of about equal `CI_COST_S` (longest first, each to
+    the part with the least cost so far: Graham's LPT rule, within a third of the optimum
+    makespan); each part keeps the list's order."""
+    totals = [0.0] * n
+    owner: dict[str, int] = {}
+    for name in sorted(names, key=lambda m: -CI_COST_S.get(m, 0)):  # stable: ties in list order
+        owner[name] = totals.index(min(totals))
+        totals[owner[name]] += CI_COST_S.get(name, 0)
+    return [tuple(m for m in names if owner[m] == k) for k in range(n)]
 
 
 def main() -> int:
