@@ -215,27 +215,34 @@ def _execute(jobs: list[tuple[RunPlan, Task]], executor: Executor) -> Generator[
 
 @contextmanager
 def _sigint_deferred() -> Iterator[None]:
-    """Hold a SIGINT pending (POSIX, main thread) until the block ends, then raise it.
+    """Hold a Ctrl-C (SIGINT) until the block ends, then hand it to the previous handler.
 
     A Ctrl-C delivered while ``ProcessPoolExecutor.submit`` forks the workers lands
     between ``Process.start()`` and the pool recording the process: `_stop` cannot
     terminate a worker the pool does not know, and that orphan, holding the terminal's
     pipes, keeps a caller that reads them waiting for ever (CI's real Ctrl-C test, under
-    load). Blocked here, the signal is delivered when the block ends, inside the caller's
-    ``try``, with every worker recorded. The workers inherit the blocked SIGINT: a
-    terminal's Ctrl-C, sent to the whole process group, reaches the parent alone, which
-    ends them."""
+    load). Here the Python-level handler only notes the signal (Python runs handlers in the
+    main thread whichever thread the kernel picked, so a mask, which other threads do not
+    share, would not do); the previous handler gets it when the block ends, inside the
+    caller's ``try``, with every worker recorded. Forked in the block, the workers inherit
+    the noting handler: a terminal's Ctrl-C, sent to the whole process group, stops the
+    parent alone, which ends them. Outside the main thread, or with no Python handler
+    installed, the block runs as it is."""
     import signal
     import threading
 
-    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
         yield
         return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    pending: list[Any] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: pending.append(frame))
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+        signal.signal(signal.SIGINT, previous)
+        if pending:
+            previous(signal.SIGINT, pending[-1])
 
 
 def _stop(pool: ProcessPoolExecutor) -> None:

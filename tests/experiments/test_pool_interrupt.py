@@ -3,13 +3,16 @@
 CI's real Ctrl-C test (tests/core/test_cli_failures.py) hung once under load: the signal
 landed while the pool forked its workers, between ``Process.start()`` and the pool
 recording the process, so the runner's `_stop` could not terminate that worker, and the
-orphan held the test's pipes open. Here the signal is sent at exactly that moment.
+orphan held the test's pipes open. Here the signal is sent at exactly that moment, with a
+second thread alive as in any real process (pytest-xdist's, OpenBLAS's): the kernel may hand
+the signal to that thread, so blocking it in the main thread alone is not a fix.
 """
 
 from __future__ import annotations
 
 import os
 import signal
+import threading
 import time
 from multiprocessing.process import BaseProcess
 
@@ -39,6 +42,9 @@ def test_a_ctrl_c_while_the_pool_forks_its_workers_leaves_none_running(monkeypat
     monkeypatch.setattr(runner, "run_task_in_worker", _wait_in_worker)
     monkeypatch.setattr(backend, "compiled", lambda: False)  # no kernel warm-up: the pool at once
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    other_thread_ends = threading.Event()
+    other_thread = threading.Thread(target=other_thread_ends.wait, daemon=True)
+    other_thread.start()
     try:
         results = runner._execute([(None, None)] * 3, Executor(kind="local", workers=2))
         with pytest.raises(KeyboardInterrupt):
@@ -48,6 +54,7 @@ def test_a_ctrl_c_while_the_pool_forks_its_workers_leaves_none_running(monkeypat
             process.join(timeout=10.0)
         assert [p.is_alive() for p in started] == [False, False]
     finally:
+        other_thread_ends.set()
         signal.signal(signal.SIGINT, previous)
         for process in started:
             if process.is_alive():
