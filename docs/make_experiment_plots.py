@@ -6,6 +6,7 @@
     python docs/make_experiment_plots.py --all-figures   # every figure of every report, not only the docs'
     python docs/make_experiment_plots.py NAME ...   # these examples only
     python docs/make_experiment_plots.py --part 1/2 # the first of two parts of equal cost (CI's lanes)
+    python docs/make_experiment_plots.py --ci-stores # those CI's comparisons made (after them)
 
 Only the figures a docs page shows (``img/experiments/<name>-<plot>.png`` named in a page
 under docs/) are drawn and copied: drawing is most of this script's time once the stores
@@ -59,9 +60,20 @@ EXAMPLES = (
     "deep_integration_lock_bandwidth",
     "tracking_threshold",
 )
-#: Seconds each example costs this script in CI (its run of dfcaeba on 2 cores, the main
-#: block's stores reused: 0 where they make the figures only in a second or so), for
-#: ``--part``'s balance. An example missing here counts as 0; a stale number only
+#: The examples whose stores CI's comparisons make first (``.ci/run`` compares each into
+#: results/<name>/): this script only draws their figures and writes their tables, after those
+#: comparisons (``--ci-stores``); ``--part`` splits the others, which CI runs beside them.
+CI_STORES = (
+    "vector_tracking",
+    "vector_tracking_fade_ci",
+    "deep_integration_ci",
+    "deep_integration_elevation_ci",
+    "deep_integration_lock_ci",
+    "deep_integration_lock_control_ci",
+    "sample_receiver",
+)
+#: Seconds each example not in `CI_STORES` cost this script in CI (its run of dfcaeba on
+#: 2 cores), for ``--part``'s balance. An example missing here counts as 0; a stale number only
 #: unbalances the lanes, it changes no result.
 CI_COST_S = {
     "deep_integration_nees_ci": 259,
@@ -75,9 +87,7 @@ CI_COST_S = {
     "deep_integration_error_sources_ci": 29,
     "vector_tracking_spacing": 22,
     "carrier_smoothing": 14,
-    "vector_tracking": 11,
     "sweep_demo": 9,
-    "vector_tracking_fade_ci": 7,
 }
 #: Too slow for CI; their committed figures are regenerated with --slow.
 SLOW_EXAMPLES = ("vector_tracking_sweep", "deep_integration", "vector_tracking_static", "vector_tracking_moving")
@@ -204,9 +214,11 @@ def docs_figures() -> str:
 
 def selected(argv: list[str]) -> tuple[str, ...]:
     """The examples to run: those named on the command line (each must be one of the
-    lists above), else every CI example (and the slow ones with ``--slow``); with
-    ``--part K/N``, the K-th of N parts of about equal cost (`balanced_parts`; CI runs
-    ``1/2`` and ``2/2`` in its two lanes: together, the whole list)."""
+    lists above), else every CI example (and the slow ones with ``--slow``). With
+    ``--part K/N``, the K-th of N parts of about equal cost (`balanced_parts`) of those not
+    in `CI_STORES`; with ``--ci-stores``, those in it. CI runs ``--part 1/2`` and
+    ``--part 2/2`` beside its comparisons, ``--ci-stores`` after them: together, the whole
+    list, and no two processes on one store."""
     known = EXAMPLES + SLOW_EXAMPLES
     names = tuple(a for i, a in enumerate(argv) if not a.startswith("--") and (i == 0 or argv[i - 1] != "--part"))
     unknown = [n for n in names if n not in known]
@@ -215,8 +227,11 @@ def selected(argv: list[str]) -> tuple[str, ...]:
             f"make_experiment_plots.py: unknown example(s) {', '.join(unknown)}; known: {', '.join(known)}"
         )
     names = names or EXAMPLES + (SLOW_EXAMPLES if "--slow" in argv else ())
+    if "--ci-stores" in argv:
+        return tuple(n for n in names if n in CI_STORES)
     if "--part" not in argv:
         return names
+    names = tuple(n for n in names if n not in CI_STORES)
     part = argv[argv.index("--part") + 1] if argv.index("--part") + 1 < len(argv) else ""
     k, _, n = part.partition("/")
     if not (k.isdigit() and n.isdigit() and 1 <= int(k) <= int(n)):

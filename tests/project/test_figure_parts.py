@@ -1,7 +1,9 @@
-"""CI's two lanes split the figure script's examples by cost (``--part K/N``)."""
+"""CI's lanes split the figure script's examples by cost (``--part K/N``), beside the
+comparisons whose stores the rest reuse (``--ci-stores``, after them)."""
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 
@@ -17,16 +19,27 @@ def _cost(part: tuple[str, ...]) -> int:
     return sum(plots.CI_COST_S.get(name, 0) for name in part)
 
 
-def test_the_two_parts_are_the_whole_list_once_and_of_about_equal_cost():
+def test_the_two_parts_and_the_ci_stores_are_the_whole_list_once_and_the_parts_of_equal_cost():
     first = plots.selected(["--part", "1/2"])
     second = plots.selected(["--part", "2/2"])
-    assert sorted(first + second) == sorted(plots.EXAMPLES)
-    assert not set(first) & set(second)
+    stores = plots.selected(["--ci-stores"])
+    assert sorted(first + second + stores) == sorted(plots.EXAMPLES)
+    assert len(set(first + second + stores)) == len(plots.EXAMPLES)
     # LPT's bound: the parts differ by at most the costliest single example
     assert abs(_cost(first) - _cost(second)) <= max(plots.CI_COST_S.values())
     # better than taking every second example, the split it replaced
     alternate = abs(_cost(plots.EXAMPLES[0::2]) - _cost(plots.EXAMPLES[1::2]))
     assert abs(_cost(first) - _cost(second)) < alternate
+
+
+def test_the_ci_stores_are_the_examples_ci_compares_itself():
+    # the parts run beside .ci/run's comparisons: an example in both would be two processes on
+    # one store; one CI compares but not listed would be computed twice
+    script = (ROOT / ".ci" / "run").read_text()
+    compared = set(re.findall(r"gnssframework compare examples/(\w+)\.toml --out results/\1 ", script))
+    assert "vector_tracking" in compared and "deep_integration_ci" in compared  # the pattern reads it
+    assert set(plots.CI_STORES) == compared & set(plots.EXAMPLES)
+    assert "make_experiment_plots.py --ci-stores" in script
 
 
 def test_a_part_keeps_the_lists_order_and_three_parts_balance_too():

@@ -115,5 +115,5 @@ def test_ci_builds_and_checks_the_wheel_and_sdist_with_the_release_extra():
     assert {r.split(">")[0].split("=")[0] for r in extras["release"]} >= {"build", "twine"}
     ci = (ROOT / ".ci" / "run").read_text()
     release = ci[ci.index("release() {") : ci.index("lane release release")]
-    assert '.[tune,docs,release]"' in ci
+    assert '.[lint,tune,docs,release]"' in ci  # the release extra installed before the lane
     assert "-m build" in release and "--sdist --wheel" in release and "twine check --strict" in release
