@@ -16,6 +16,7 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from gnssframework.cli import main
@@ -355,6 +356,7 @@ COMMANDS = {
 }
 
 
+@pytest.mark.slow
 @settings(
     max_examples=60,
     deadline=None,

@@ -175,6 +175,7 @@ def _track(path, prn: int, out) -> list[dict]:
         return list(csv.DictReader(f))
 
 
+@pytest.mark.slow
 def test_track_gps_l2c_writes_the_cnav_messages_the_samples_carry(tmp_path, capsys):
     prn, rec = 5, _record_ephemeris()
     # The message of 86400 (type 10: 86400 / 12 is a multiple of 3) starts 0.31 s in.
@@ -198,6 +199,7 @@ def test_track_gps_l2c_writes_the_cnav_messages_the_samples_carry(tmp_path, caps
     assert abs(float(row["time_s"]) - truth_s) < 1.0 / FS + 0.1 / GPS_L2C.chip_rate_hz
 
 
+@pytest.mark.slow
 def test_samples_to_track_to_ephemeris_place_the_satellite_where_lnav_does(tmp_path):
     # 25 s: messages 10 (86400) and 11 (86412) whole; their ephemeris, decoded from the
     # tracked prompts, against the LNAV record the generator encoded (rounded to CNAV's

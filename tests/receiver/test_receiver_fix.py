@@ -61,6 +61,7 @@ def test_receive_positions_the_generated_recording_at_the_station(recording):
     assert np.all(speed < 0.5)
 
 
+@pytest.mark.slow
 def test_position_command_writes_positions_rinex_and_nmea(recording, tmp_path, capsys):
     path, _ = recording
     lat, lon, h = (float(v) for v in __import__("pymap3d").ecef2geodetic(*STATION))

@@ -209,6 +209,7 @@ def test_position_command_tracks_vector(faded, tmp_path, capsys):
     assert len(rows) >= 5 * (DURATION_S - 9.0) - 2
 
 
+@pytest.mark.slow
 def test_position_command_closes_the_loop_with_the_iq_filter(faded, tmp_path, capsys):
     from gnssframework.cli import main
 
