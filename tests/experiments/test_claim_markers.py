@@ -6,6 +6,10 @@ HTML comment the reader does not see::
     <!-- claim: deep_integration_ci: deep horizontal_velocity_error_rmse lower than vector at 35dBHz -->
     <!-- claim: deep_integration_ci: vector loss_of_lock_fraction every run within [-0.001, 0.001] -->
 
+An equivalence (``equivalence_margin``, two one-sided tests) names its margin::
+
+    <!-- claim: vector_tracking_realistic: ackf position_error_rmse equivalent to discriminator within 1.0 -->
+
 (``at CASE`` only for a claim of one case; an ordering between cases names the reference
 case: ``... higher than deep in nominal at gsens``; one between two metrics of the candidate,
 a ``versus_metric`` claim, names the other metric: ``... lower than its position_error_rmse``).
@@ -54,6 +58,10 @@ ORDERING = re.compile(
     r"(?P<direction>lower|higher) than\s+(?:its\s+(?P<versus_metric>\w+)|(?P<reference>\S+))"
     r"(?:\s+in\s+(?P<reference_case>[^\s=]+))?" + _WHERE
 )
+EQUIVALENCE = re.compile(
+    r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+equivalent to\s+(?P<reference>\S+)"
+    r"\s+within\s+(?P<margin>[0-9.eE+-]+)" + _WHERE
+)
 BOUND = re.compile(
     r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+(?P<every>every run )?within\s+"
     r"\[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\]" + _WHERE
@@ -89,11 +97,12 @@ def _parse(body: str) -> dict:
     t = THRESHOLD.match(body)
     if t is not None:
         return {**t.groupdict(), "kind": "threshold"}
-    m = ORDERING.match(body) or BOUND.match(body)
+    m = ORDERING.match(body) or EQUIVALENCE.match(body) or BOUND.match(body)
     if m is None:
         raise AssertionError(
             f"unreadable claim marker {body!r}: write '<example>: <candidate> <metric> "
-            "lower|higher than <reference> [at <case>] [at <sweep>=<points>]' or '... within "
+            "lower|higher than <reference> [at <case>] [at <sweep>=<points>]', '... equivalent to "
+            "<reference> within <margin> [at <case>]' or '... within "
             "[low, high] [at <case>] [at <sweep>=<points>]'"
         )
     return m.groupdict()
@@ -143,6 +152,14 @@ def _matches(claim: dict, want: dict) -> bool:
             claim.get("versus_metric") == want.get("versus_metric")
             and claim.get("direction") == want["direction"]
             and claim.get("reference") is None
+        )
+    if want.get("margin") is not None:  # an equivalence: its reference and margin
+        margin = claim.get("equivalence_margin")
+        return (
+            margin is not None
+            and float(margin) == float(want["margin"])
+            and claim.get("reference") == want["reference"]
+            and claim.get("direction") is None
         )
     if want.get("direction"):  # an ordering between cases names its reference case ("... than deep in nominal")
         reference = claim.get("reference") or (claim["candidate"] if claim.get("reference_case") else None)
@@ -471,3 +488,22 @@ def test_a_threshold_marker_names_the_claims_kind_and_interval():
     one = {**claim, "case": "accel"}
     assert _matches(one, _parse("x: kf loss_of_lock threshold lower than pll along cn0 at accel within [-9.0, -5.5]"))
     assert not _matches(one, _parse("x: kf loss_of_lock threshold lower than pll along cn0 within [-9.0, -5.5]"))
+
+
+def test_a_marker_names_an_equivalence_and_its_margin():
+    claim = {
+        "candidate": "ackf",
+        "reference": "discriminator",
+        "metric": "position_error_rmse",
+        "equivalence_margin": 1,
+    }
+    body = "x: ackf position_error_rmse equivalent to discriminator within 1.0"
+    assert _parse(body)["margin"] == "1.0"
+    assert _matches(claim, _parse(body))
+    assert not _matches(claim, _parse(body.replace("1.0", "0.5")))  # another margin
+    assert not _matches(claim, _parse(body.replace("to discriminator", "to ckf")))
+    assert not _matches(claim, _parse(body + " at 45dBHz"))  # the claim is of every case
+    # an ordering is not an equivalence, either way round
+    assert not _matches(claim, _parse("x: ackf position_error_rmse lower than discriminator"))
+    ordering = {k: v for k, v in claim.items() if k != "equivalence_margin"} | {"direction": "lower"}
+    assert not _matches(ordering, _parse(body))
