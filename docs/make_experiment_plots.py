@@ -59,12 +59,14 @@ EXAMPLES = (
     "deep_integration_error_sources",
     "deep_integration_lock_bandwidth",
     "tracking_threshold",
+    "vector_tracking_realistic",
 )
 #: The examples whose stores CI's comparisons make first (``.ci/run`` compares each into
 #: results/<name>/): this script only draws their figures and writes their tables, after those
 #: comparisons (``--ci-stores``); ``--part`` splits the others, which CI runs beside them.
 CI_STORES = (
     "vector_tracking",
+    "vector_tracking_realistic",
     "vector_tracking_fade_ci",
     "deep_integration_ci",
     "deep_integration_elevation_ci",
@@ -108,6 +110,7 @@ _VECTOR_TRACKING_TABLE = [
 ]
 TABLES = {
     "vector_tracking": _VECTOR_TRACKING_TABLE,
+    "vector_tracking_realistic": _VECTOR_TRACKING_TABLE,
     "vector_tracking_static": _VECTOR_TRACKING_TABLE,
     "vector_tracking_moving": _VECTOR_TRACKING_TABLE,
     # The full reference-002 run (--slow): every metric of the example (None).
