@@ -70,10 +70,15 @@ class ChannelOutage:
 MIN_CHANNELS = {False: 4, True: 2}
 
 
+def _filter_imu(p):
+    """The IMU error levels the INS filter assumes: ``filter_imu``, or the truth's ``imu``."""
+    return p.imu if p.filter_imu is None else p.filter_imu
+
+
 def _initial_cov(p) -> np.ndarray:
-    """Initial covariance of the 15-state error: the scenario's initial errors and the IMU's bias levels
-    (random constant plus Gauss-Markov deviation)."""
-    g = p.imu
+    """Initial covariance of the 15-state error: the scenario's initial errors and the bias levels
+    (random constant plus Gauss-Markov deviation) of the IMU the filter assumes (`_filter_imu`)."""
+    g = _filter_imu(p)
     std = np.concatenate(
         [
             np.full(3, np.radians(p.initial_attitude_std_deg)),
@@ -99,7 +104,7 @@ def _setup_ins(scenario, flight: Flight, runs: int, rng: np.random.Generator):
     err0 = draw.standard_normal(rng, (runs, 9), 0) * np.sqrt(np.diag(P0)[:9])
     truth0 = flight.model.evaluate(np.array([0.0])).nav_state(0)
     state0 = apply_navigation_error(truth0.broadcast((runs,)), err0)
-    return StrapdownIns(state0, dtheta_m, dv_m, p.imu_interval_s, p.imu), P0
+    return StrapdownIns(state0, dtheta_m, dv_m, p.imu_interval_s, _filter_imu(p)), P0
 
 
 def _nav_record(flight: Flight, t_s: float, ins: StrapdownIns, cov: np.ndarray) -> dict[str, np.ndarray]:
