@@ -60,6 +60,7 @@ EXAMPLES = (
     "deep_integration_lock_bandwidth",
     "tracking_threshold",
     "vector_tracking_realistic",
+    "deep_integration_realistic_ci",
 )
 #: The examples whose stores CI's comparisons make first (``.ci/run`` compares each into
 #: results/<name>/): this script only draws their figures and writes their tables, after those
@@ -68,6 +69,7 @@ CI_STORES = (
     "vector_tracking",
     "vector_tracking_realistic",
     "vector_tracking_fade_ci",
+    "deep_integration_realistic_ci",
     "deep_integration_ci",
     "deep_integration_elevation_ci",
     "deep_integration_lock_ci",
@@ -143,6 +145,7 @@ TABLES["deep_integration_ci"] = [
     "nees",
 ]
 TABLES["deep_integration_elevation_ci"] = TABLES["deep_integration_ci"]
+TABLES["deep_integration_realistic_ci"] = TABLES["deep_integration_ci"]
 TABLES["deep_integration_lock_ci"] = [
     "loss_of_lock_fraction",
     "phase_lock_loss_fraction",
