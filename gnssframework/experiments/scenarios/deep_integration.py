@@ -276,8 +276,9 @@ class DeepIntegrationCase(ScenarioParams):
         ge=1,
         description="a satellite outage in the truth: this many channels, the lowest elevations first (at the "
         "start of the flight), lose their signal (correlator signal amplitude 0, noise unchanged) for intervals "
-        "whose middle lies in [outage_start_s, outage_end_s); loose and tight drop them from the first update whose "
-        "measurements reach into the outage and do not reacquire them (an ideal lock detector, no reacquisition). "
+        "whose middle lies in [outage_start_s, outage_end_s); every candidate (loose, tight, deep, vector) drops them "
+        "from the first update whose measurements reach into the outage and does not take them back (an ideal "
+        "lock detector, no reacquisition). "
         "Default null (off)",
     )
     outage_start_s: float = Field(0.0, ge=0, description="start (s) of the outage")
@@ -608,11 +609,11 @@ class DeepIntegrationScenario(Scenario):
             outage = ChannelOutage(blocked, c.outage_start_s, c.outage_end_s)
         n_upd = int(round(p.update_interval_s / p.coherent_time_s))
         if kind == "vector":
-            out = self._run_vector(plugins, truth, runs, rng)
+            out = self._run_vector(plugins, truth, runs, rng, outage)
         elif kind == "deep":
             from .deep_integration_runs import run_deep
 
-            out = run_deep(self, plugins, flight, truth, runs, rng)
+            out = run_deep(self, plugins, flight, truth, runs, rng, outage)
         else:
             from . import deep_integration_runs
 
@@ -655,10 +656,20 @@ class DeepIntegrationScenario(Scenario):
         series["nees_pv"] = out["nees"]
         return evaluate(METRICS, series, t_u, self)
 
-    def _run_vector(self, plugins, truth: DeepTruth, runs: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
-        """Vector tracking without INS (``run_vector_loop``), decimated to the integration grid."""
+    def _run_vector(
+        self, plugins, truth: DeepTruth, runs: int, rng: np.random.Generator, outage=None
+    ) -> dict[str, np.ndarray]:
+        """Vector tracking without INS (``run_vector_loop``), decimated to the integration grid.
+        With an ``outage``, each interval's navigation update leaves out the channels blocked
+        by its end (`ScheduledExclusion`, the ideal lock detector ``loose`` and ``tight`` have);
+        their replicas go on being steered by the navigation solution."""
         p = self.params
         T = p.coherent_time_s
+        monitor = None
+        if outage is not None:
+            from ...receiver.engine.channel_monitor import ScheduledExclusion
+
+            monitor = ScheduledExclusion(lambda k: outage.usable(k * T, T))
         vt = VectorTruth(
             lambda t: truth.sat_state(t)[:2],
             lambda t: truth.receiver_state(t)[:2],
@@ -680,6 +691,7 @@ class DeepIntegrationScenario(Scenario):
             rng,
             early_late_spacing_chips=p.early_late_spacing_chips,
             data_bits="none",
+            monitor=monitor,
         )
         n_upd = int(round(p.update_interval_s / T))
         idx = np.arange(n_upd - 1, truth.epochs, n_upd)  # the interval ending at each update instant

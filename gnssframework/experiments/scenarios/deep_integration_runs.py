@@ -129,9 +129,19 @@ def _stack(records: list[dict[str, np.ndarray]], times: list[float], extra: dict
 
 
 def run_deep(
-    scenario, plugins: dict[str, Any], flight: Flight, truth: DeepTruth, runs: int, rng: np.random.Generator
+    scenario,
+    plugins: dict[str, Any],
+    flight: Flight,
+    truth: DeepTruth,
+    runs: int,
+    rng: np.random.Generator,
+    outage: ChannelOutage | None = None,
 ) -> dict[str, np.ndarray]:
-    """The ``deep`` / ``deep-no-accel`` candidates: INS-aided NCOs, prefilters, ``ins-ekf`` on differences."""
+    """The ``deep`` / ``deep-no-accel`` candidates: INS-aided NCOs, prefilters, ``ins-ekf`` on differences.
+
+    With an ``outage``, an update leaves out the blocked channels from the first update
+    whose prefilter outputs reach into it (those of the interval ending at the update), as
+    ``loose`` and ``tight`` do; their NCOs go on being aided by the INS."""
     p = scenario.params
     ekf = plugins["nav_filter"]
     ins, P0 = _setup_ins(scenario, flight, runs, rng)
@@ -147,7 +157,8 @@ def run_deep(
         records.append(_nav_record(flight, t_s, nav.ins, nav.ekf.cov))
         times.append(t_s)
 
-    nav = InsNavigator(ins, ekf, clock, on_update=record, pull_in_updates=p.pull_in_updates)
+    usable = None if outage is None else (lambda t_s: outage.usable(t_s, 0.0))
+    nav = InsNavigator(ins, ekf, clock, on_update=record, pull_in_updates=p.pull_in_updates, channel_usable=usable)
     spec = aiding.carrier_filter
     rec = run_aided_tracking(
         plugins["channel_filter"],

@@ -27,7 +27,7 @@ from .loose import fix_gate
 from .measurements import POSITION, VELOCITY, integration_measurement, reference_channel
 from .navigators import ClockFilter
 
-__all__ = ["StrapdownSolution", "InsNavigator", "loose_update", "tight_update"]
+__all__ = ["StrapdownSolution", "InsNavigator", "exclude_channels", "loose_update", "tight_update"]
 
 
 class StrapdownSolution(Protocol):
@@ -64,6 +64,11 @@ class InsNavigator:
         First updates whose prefilter output is not used (the INS runs free, the
         covariance propagates): the prefilters pull in from acquisition then. The harness's
         own ``pull_in_updates`` does the same without calling ``update`` at all.
+    channel_usable
+        Optional ``t_s -> (runs, ch)`` bool: the channels an update at ``t_s`` may use (a
+        lock detector's verdict; None: all). The others are left out of it
+        (`exclude_channels`): their residuals 0, their variances raised by
+        `REJECTED_FIX_VAR`, never the reference of the differences.
     """
 
     def __init__(
@@ -73,8 +78,10 @@ class InsNavigator:
         clock: ClockFilter,
         on_update=None,
         pull_in_updates: int = 0,
+        channel_usable=None,
     ) -> None:
         self.ins = ins
+        self.channel_usable = channel_usable
         self.ekf = ekf
         self.clock = clock
         self.on_update = on_update
@@ -104,6 +111,10 @@ class InsNavigator:
                 self.on_update(t_s, self)
             return
         Phi, Qd = self.ins.take_error_model()
+        if self.channel_usable is not None:
+            residual_m, residual_cov, cn0_dbhz = exclude_channels(
+                self.channel_usable(t_s), residual_m, residual_cov, cn0_dbhz
+            )
         out = self.ekf.step(
             {
                 "transition": Phi,
@@ -124,6 +135,28 @@ class InsNavigator:
 
 #: Variance (m², (m/s)²) added to a fix the innovation gate rejects: its gain is then nil.
 REJECTED_FIX_VAR = 1e12
+
+
+def exclude_channels(
+    usable: np.ndarray, residual_m: np.ndarray, residual_cov: np.ndarray, cn0_dbhz: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A differenced update's inputs with the channels not ``usable`` left out.
+
+    ``usable`` ``(runs, ch)`` bool; ``residual_m`` ``(runs, ch, 2)`` range and rate residuals,
+    ``residual_cov`` ``(runs, ch, 2, 2)``, ``cn0_dbhz`` ``(runs, ch)`` or ``(ch,)``. A left-out
+    channel's residuals become 0 and its variances grow by `REJECTED_FIX_VAR` (its
+    difference's gain is then nil: about 1e-12 of a used one's), and its C/N0 -inf, so
+    the reference of the differences (`measurements.reference_channel`, the highest C/N0)
+    is a used channel. Each run must keep at least one.
+    """
+    usable = np.asarray(usable, bool)
+    if not np.all(usable.any(axis=-1)):
+        raise ConfigError("channel_usable", "every run must keep at least one channel for the differences' reference")
+    out = ~usable
+    residual = np.where(out[..., None], 0.0, residual_m)
+    cov = np.where(out[..., None, None], residual_cov + REJECTED_FIX_VAR * np.eye(2), residual_cov)
+    cn0 = np.where(out, -np.inf, np.broadcast_to(np.asarray(cn0_dbhz, float), usable.shape))
+    return residual, cov, cn0
 
 
 def _predicted_cov(ekf: ErrorStateNavFilter, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:

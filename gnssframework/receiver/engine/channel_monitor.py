@@ -36,7 +36,7 @@ import numpy as np
 
 from ...errors import ConfigError
 
-__all__ = ["ChannelMonitor", "IGNORE_VAR"]
+__all__ = ["ChannelMonitor", "IGNORE_VAR", "ScheduledExclusion"]
 
 #: Variance (chips², Hz²) given the navigation filter for an excluded channel's outputs.
 IGNORE_VAR = 1e8
@@ -106,4 +106,37 @@ class ChannelMonitor:
         self.flagged_run = np.where(flagged, self.flagged_run + 1, 0)
         self.clear_run = np.where(flagged, 0, self.clear_run + 1)
         self.excluded = np.where(self.excluded, self.clear_run < self.readmit, self.flagged_run >= self.consecutive)
+        return self.excluded
+
+
+class ScheduledExclusion:
+    """The channels a vector loop leaves out at each interval, known beforehand: an ideal lock
+    detector for a scenario whose truth blocks channels (a satellite outage), with the
+    `ChannelMonitor` interface `VectorCloser` calls (``reset``, then ``screen`` once per
+    interval, in order).
+
+    Parameters
+    ----------
+    usable_at
+        ``k -> (runs, channels)`` bool: the channels the update of interval ``k`` (from 0)
+        may use.
+    """
+
+    def __init__(self, usable_at) -> None:
+        self.usable_at = usable_at
+        self.reset((0, 0))
+
+    def reset(self, batch: tuple[int, int]) -> None:
+        """Every channel of ``batch`` admitted; the next interval is the first."""
+        self.excluded = np.zeros(batch, bool)
+        self.statistic = np.zeros(batch)
+        self.interval = 0
+
+    def screen(
+        self, innovation_m: np.ndarray, variance_m2: np.ndarray, unit_los: np.ndarray, predicted_cov: np.ndarray
+    ) -> np.ndarray:
+        """This interval's exclusions ``(runs, channels)`` (the innovations are not read)."""
+        usable = np.asarray(self.usable_at(self.interval), bool)
+        self.excluded = np.broadcast_to(~usable, np.shape(innovation_m)).copy()
+        self.interval += 1
         return self.excluded
