@@ -223,6 +223,11 @@ class KalmanLoopParams(PluginParams):
     angle_unit: Literal["rad", "deg", "cycles"] = Field(
         "rad", description="unit of the phase in q and r (frequency: the same unit per second)"
     )
+    clock: Literal["tcxo", "tcxo-hq", "ocxo"] | None = Field(
+        None,
+        description="receiver clock preset whose h-parameters add their phase and frequency noise to q "
+        "(gnssframework.simulation.clock); null for q alone",
+    )
     phase_discriminator: PluginRef("discriminator", unit="rad") = Field(
         "costas-atan", description="phase discriminator: the filter's measurement z"
     )
@@ -274,6 +279,8 @@ class KalmanCarrierLoop(ChannelFilter):
     Xia et al. do not state its unit. The filter is the ``kf`` estimator run through
     `gnssframework.estimation.FilterStep`, so its failures name the loop, the channel
     and the interval. T and the correlator spacing come from the harness's run context.
+    With ``clock`` set, Q adds the receiver oscillator's phase and frequency noise from its
+    h-parameters (`process_noise`): the loop's model of the clock instead of a hand-set q.
     """
 
     name = "kf-carrier-loop"
@@ -286,7 +293,6 @@ class KalmanCarrierLoop(ChannelFilter):
     def __init__(self, **params: Any) -> None:
         super().__init__(**params)
         p = self.params
-        self.Q = np.diag(p.q)
         self.unit = _TO_RAD[p.angle_unit]
         self.filter_step = FilterStep(registry.create("estimator", "kf"), name=f"{self.name} (kf)")
 
@@ -305,6 +311,8 @@ class KalmanCarrierLoop(ChannelFilter):
         out: dict[str, tuple[Any, str]] = {"carrier loop": (f"Kalman, {p.states} states", "")}
         out.update(_carrier_loop_bandwidth(self, context))
         out["Q and R read in"] = (p.angle_unit, "")
+        if p.clock is not None:
+            out["receiver clock in Q"] = (p.clock, "h-parameters")
         out["phase Q"] = (float(p.q[0] * u2), "rad² per interval")
         out["frequency Q"] = (float(p.q[1] * u2), "(rad/s)² per interval")
         if p.states == 3:
@@ -324,6 +332,21 @@ class KalmanCarrierLoop(ChannelFilter):
     def check_context(self, context: RunContext) -> None:
         _check_bandwidths(self, context, ("dll_bandwidth_hz",))
 
+    def process_noise(self, coherent_time_s: float, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
+        r"""Q per interval in ``angle_unit``: ``diag(q)`` plus, with ``clock`` set, the
+        clock's noise on the carrier phase and frequency, $M\,Q_{trk}\,M$ with $Q_{trk}$
+        the phase (rad) and frequency (Hz) block of `ClockModel.tracking_process_noise` at
+        ``signal``'s carrier and $M = \mathrm{diag}(1, 2\pi)/u$ (a frequency in Hz is
+        $2\pi$ rad/s; $u$ the unit in rad). A 3-state loop's rate state gets none: the
+        two-state clock has no such state."""
+        p = self.params
+        Q = np.diag(np.asarray(p.q, float))
+        if p.clock is not None:
+            trk = PRESETS[p.clock].tracking_process_noise(coherent_time_s, signal.carrier_freq_hz, signal.chip_rate_hz)
+            M = np.diag([1.0, 2 * np.pi]) / self.unit
+            Q[:2, :2] += M @ trk[1:, 1:] @ M
+        return Q
+
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         p = self.params
         who = f"channel_filter {self.name!r}"
@@ -333,7 +356,7 @@ class KalmanCarrierLoop(ChannelFilter):
         self.T = T
         F = np.array([[1.0, T, T * T / 2], [0.0, 1.0, T], [0.0, 0.0, 1.0]])[:n, :n]
         H = np.array([[1.0, T / 2, T * T / 6]])[:, :n]
-        self.model = LinearModel(F, H, self.Q, np.array([[p.r]]))
+        self.model = LinearModel(F, H, self.process_noise(T, _signal_of(context)), np.array([[p.r]]))
         self.phase_disc = p.phase_discriminator.create(coherent_time_s=T)
         P0 = np.diag(np.array(p.initial_std[:n]) ** 2)
         self.state = self.filter_step.start(Gaussian(np.zeros(batch_shape + (n,)), P0), self.model)

@@ -243,8 +243,10 @@ def wilson(p: float, n: int, z: float = 1.959964) -> tuple[float, float]:
 
 def _differences(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Paired resample differences ``a - b``; a resample where both lie beyond the same
-    end of the grid has no difference and is dropped."""
-    d = a - b
+    end of the grid has no difference and is dropped (inf - inf: NaN, by design, so
+    NumPy's warning is silenced)."""
+    with np.errstate(invalid="ignore"):
+        d = a - b
     return d[~np.isnan(d)]
 
 

@@ -25,13 +25,14 @@ $$
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from .. import random_streams as draw
 from ..errors import ConfigError
 
-__all__ = ["ClockModel", "TCXO", "TCXO_HQ", "OCXO", "PRESETS"]
+__all__ = ["ClockModel", "TCXO", "TCXO_HQ", "OCXO", "PRESETS", "Oscillator", "oscillator_cycles"]
 
 
 @dataclass(frozen=True)
@@ -97,3 +98,25 @@ TCXO_HQ = ClockModel(h0=2e-21, h_1=1e-22, h_2=2e-20)
 #: Oven-controlled crystal oscillator (Brown & Hwang's typical values).
 OCXO = ClockModel(h0=2e-25, h_1=7e-25, h_2=6e-25)
 PRESETS = {"tcxo": TCXO, "tcxo-hq": TCXO_HQ, "ocxo": OCXO}
+
+#: A scenario's receiver oscillator: ``none`` (an ideal clock) or the name of a preset above.
+Oscillator = Literal["none", "tcxo", "tcxo-hq", "ocxo"]
+
+
+def oscillator_cycles(
+    oscillator: str, epochs: int, interval_s: float, rng: np.random.Generator, runs: int, carrier_hz: float
+) -> np.ndarray | None:
+    r"""The carrier cycles ``(epochs+1, runs)`` a receiver oscillator adds to a signal's
+    truth, or None for ``"none"`` (an ideal clock).
+
+    A clock bias b (s) delays the replica, so the received carrier moves by $-f_c b$
+    cycles relative to it and the code by $-f_{code} b$ chips: code and carrier together,
+    as a line-of-sight motion of $-c\,b$ would (`ClockModel.tracking_process_noise`).
+    b is the preset's two-state clock (white and random-walk frequency noise, exact over
+    the interval; flicker frequency noise is not simulated), starting at 0 with zero
+    drift: the receiver's frequency offset at acquisition is absorbed in the known Doppler.
+    """
+    if oscillator == "none":
+        return None
+    bias_s, _ = PRESETS[oscillator].simulate(epochs + 1, interval_s, rng, batch_shape=(runs,))
+    return -carrier_hz * bias_s

@@ -24,7 +24,7 @@ from ...receiver.tracking.scalar import NCO_COMMANDS, SignalTruth, check_closed_
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from ...simulation import scintillation as scint
-from ...simulation.clock import PRESETS as CLOCK_PRESETS
+from ...simulation.clock import Oscillator, oscillator_cycles
 from ..limits import SignalCoherentTime
 from ..metric_components import LockLossFraction, Mean, Rmse, Std, evaluate, units
 from . import BatchResult, Scenario, ScenarioParams, register_scenario
@@ -34,11 +34,6 @@ __all__ = ["ScintillationScenario", "METRICS", "BYTES_PER_EPOCH_RUN"]
 #: Peak memory of one run's epoch (the scintillation process, the truth and the closed
 #: loop's record), an upper bound: tests/experiments/test_limits.py holds it above the measured peak.
 BYTES_PER_EPOCH_RUN = 512
-
-
-#: The receiver oscillators a case may have: an ideal clock or a preset of
-#: `gnssframework.simulation.clock` (its white- and random-walk-frequency h-parameters).
-Oscillator = Literal["none", "tcxo", "tcxo-hq", "ocxo"]
 
 
 class ScintillationParams(SignalCoherentTime, ScenarioParams):
@@ -278,8 +273,8 @@ class ScintillationScenario(Scenario):
                 * np.sin(2 * np.pi * c["los_sine_frequency_hz"] * t)
             )
         oscillator = c["oscillator"] or p.oscillator
-        if oscillator != "none":
-            clock = self.oscillator_cycles(oscillator, K, T, draw.child(rng, "oscillator"), runs)
+        clock = oscillator_cycles(oscillator, K, T, draw.child(rng, "oscillator"), runs, self.signal.carrier_freq_hz)
+        if clock is not None:
             sway = clock if sway is None else sway + clock
         truth = SignalTruth.from_dynamics(
             duration_s,
@@ -293,20 +288,6 @@ class ScintillationScenario(Scenario):
             amplitude_scale=np.abs(z[:K]),
         )
         return truth, phase
-
-    def oscillator_cycles(self, oscillator: str, epochs: int, interval_s: float, rng, runs: int) -> np.ndarray:
-        r"""The carrier cycles ``(K+1, runs)`` a receiver oscillator adds to the truth.
-
-        A clock bias b (s) delays the replica, so the received carrier moves by
-        $-f_c b$ cycles relative to it and the code by $-f_{code} b$ chips (code and
-        carrier together, as ``extra_cycles`` does;
-        `gnssframework.simulation.clock.ClockModel.tracking_process_noise`). b is the
-        preset's two-state clock (white and random-walk frequency noise, exact over T;
-        flicker frequency noise is not simulated), starting at 0 with zero drift: the
-        receiver's frequency offset at acquisition is absorbed in the known Doppler.
-        """
-        bias_s, _ = CLOCK_PRESETS[oscillator].simulate(epochs + 1, interval_s, rng, batch_shape=(runs,))
-        return -self.signal.carrier_freq_hz * bias_s
 
     def run_batch(self, case, plugins, runs, rng) -> BatchResult:
         rng = draw.as_run_streams(rng, runs)  # one stream per run: numbers independent of batching

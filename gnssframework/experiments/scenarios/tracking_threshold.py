@@ -73,6 +73,17 @@ Jitter
     steady-state noise bandwidth (`loop_bandwidth.equivalent_bandwidth_hz`), and the
     DLL's :math:`2 B_{DLL} T\,\sigma_D^2` with its code discriminator's thermal variance
     (NaN for a channel filter without ``dll_bandwidth_hz`` and ``code_discriminator``).
+    The thermal formulas leave out the receiver oscillator (below): its jitter adds to them.
+
+Receiver oscillator
+    ``oscillator`` (the scenario's, or a case's own) adds a receiver clock to an analytic
+    case's truth: the two-state clock of a preset of `gnssframework.simulation.clock`
+    (white and random-walk frequency noise from its Allan-variance h-parameters), drawn
+    from each run's own ``"oscillator"`` stream, moving code and carrier together
+    (`gnssframework.simulation.clock.oscillator_cycles`). Its phase jitter in a loop of
+    noise bandwidth :math:`B_L` grows as :math:`B_L` narrows (the white frequency noise's
+    part as :math:`f_c^2 h_0 / B_L`), so it raises the threshold of narrow loops most: the
+    realistic curve beside the ideal clock's control (`ClockModel` for the presets).
 """
 
 from __future__ import annotations
@@ -103,6 +114,7 @@ from ...receiver.tracking.loop_bandwidth import at_interval, equivalent_bandwidt
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from ...signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
+from ...simulation.clock import Oscillator, oscillator_cycles
 from ..limits import SignalCoherentTime
 from ..metric_components import Mean, SeriesMetric, evaluate, units
 from ..metrics import MetricValue
@@ -148,6 +160,12 @@ class TrackingThresholdParams(SignalCoherentTime, ScenarioParams):
         description="code-and-frequency lock test (loss_of_code_freq_lock): "
         "a block whose mean |frequency error| exceeds it is out of lock (Hz); "
         "null: 1/(4T), a two-quadrant arctangent FLL's pull-in range",
+    )
+    oscillator: Oscillator = Field(
+        "none",
+        description="receiver oscillator of every case that sets none: 'none' (an ideal clock) or a preset of "
+        "gnssframework.simulation.clock (tcxo, tcxo-hq, ocxo: its Allan-variance h-parameters), whose clock "
+        "bias moves code and carrier together (analytic cases)",
     )
     sample_rate_hz: float = Field(
         2.046e6,
@@ -209,6 +227,9 @@ class TrackingThresholdCase(SignalCoherentTime, ScenarioParams):
     )
     doppler_jerk_hz_s2: float = Field(
         0.0, ge=-100, le=100, description="constant Doppler jerk (Hz/s^2; line-of-sight jerk / L1 wavelength)"
+    )
+    oscillator: Oscillator | None = Field(
+        None, description="receiver oscillator of this case (default: the scenario's; analytic cases)"
     )
     source: Literal["analytic", "samples"] = Field(
         "analytic",
@@ -383,6 +404,7 @@ class TrackingThresholdScenario(Scenario):
             "cn0_dbhz": p.cn0_dbhz if c.cn0_dbhz is None else c.cn0_dbhz,
             "rate": c.doppler_rate_hz_s,
             "jerk": c.doppler_jerk_hz_s2,
+            "oscillator": c.oscillator or p.oscillator,
             "source": c.source,
         }
 
@@ -400,6 +422,12 @@ class TrackingThresholdScenario(Scenario):
                         "the samples source simulates a constant Doppler only; "
                         f'set it to 0 or use source = "analytic" (got {c[key]!r})',
                     )
+            if c["oscillator"] != "none":
+                raise ConfigError(
+                    f"{where}.oscillator" if case.get("oscillator") else "scenario.oscillator",
+                    "the samples source simulates an ideal clock only; "
+                    f'set it to "none" or use source = "analytic" (got {c["oscillator"]!r})',
+                )
             n = c["T"] * p.sample_rate_hz
             if abs(n - round(n)) > 1e-6:
                 raise ConfigError(
@@ -460,6 +488,10 @@ class TrackingThresholdScenario(Scenario):
         if c["source"] == "samples":
             parts = [self._track_samples(c, channel, stream) for stream in rng.generators]
             return {name: np.concatenate([q[name] for q in parts], axis=1) for name in parts[0]}, T
+        K = int(round(c["duration_s"] / T))
+        clock = oscillator_cycles(
+            c["oscillator"], K, T, draw.child(rng, "oscillator"), runs, self.signal.carrier_freq_hz
+        )
         truth = LoopTruth.from_dynamics(
             c["duration_s"],
             T,
@@ -467,6 +499,7 @@ class TrackingThresholdScenario(Scenario):
             doppler_hz=np.full(runs, p.doppler_hz),
             doppler_rate_hz_s=c["rate"],
             doppler_jerk_hz_s2=c["jerk"],
+            extra_cycles=clock,
         )
         source = AnalyticSource(CorrelatorSimulator(T, d), amplitude_from_cn0(c["cn0_dbhz"], T), rng)
         return self._close(channel, truth, c, source), T
