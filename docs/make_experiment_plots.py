@@ -59,6 +59,7 @@ EXAMPLES = (
     "deep_integration_error_sources",
     "deep_integration_lock_bandwidth",
     "tracking_threshold",
+    "tracking_threshold_oscillator",
     "vector_tracking_realistic",
     "deep_integration_realistic_ci",
 )
@@ -87,6 +88,7 @@ CI_COST_S = {
     "deep_integration_error_sources": 55,
     "scintillation_sweep": 51,
     "tracking_threshold": 29,
+    "tracking_threshold_oscillator": 70,
     "carrier_smoothing_sweep": 29,
     "deep_integration_error_sources_ci": 29,
     "vector_tracking_spacing": 22,
@@ -205,6 +207,8 @@ SWEEP_TABLES["scintillation_sweep"] = ["phase_error_rmse", "loss_of_lock_fractio
 TABLES["carrier_smoothing"] = ["error_rmse", "slip_recovery_epochs", "censored_slips", "false_reset_rate"]
 SWEEP_TABLES["carrier_smoothing_sweep"] = ["error_rmse", "slip_recovery_epochs", "false_reset_rate"]
 # Issue 40 (tracking thresholds): lock along the C/N0 sweep and the receiver's own C/N0 reading there.
+# Issues 40 and 42: the same loops with a receiver oscillator (the ideal clock its control).
+SWEEP_TABLES["tracking_threshold_oscillator"] = ["loss_of_lock", "phase_jitter_rad"]
 SWEEP_TABLES["tracking_threshold"] = [
     "loss_of_lock",
     "loss_of_code_freq_lock",
