@@ -231,6 +231,24 @@ def test_exclude_channels_leaves_a_differenced_update_blind_to_them():
         exclude_channels(np.zeros((runs, ch), bool), residual, cov, cn0)
 
 
+def test_left_out_takes_a_refused_run_as_all_its_channels():
+    # tight_update's gate refuses whole runs ((runs, 1)), exclude_channels single channels
+    # ((runs, ch)): one rule, the same numbers; what is not left out is untouched.
+    from gnssframework.receiver.deep.ins_navigator import REJECTED_FIX_VAR, left_out
+
+    rng = np.random.default_rng(5)
+    z = rng.normal(size=(3, 4, 2))
+    cov = np.broadcast_to(np.diag([4.0, 0.01]), (3, 4, 2, 2))
+    refused = np.array([False, True, False])
+    z_run, cov_run = left_out(z, cov, refused[:, None])
+    z_ch, cov_ch = left_out(z, cov, np.repeat(refused[:, None], 4, axis=1))
+    np.testing.assert_array_equal(z_run, z_ch)
+    np.testing.assert_array_equal(cov_run, cov_ch)
+    assert np.all(z_run[1] == 0) and np.array_equal(z_run[[0, 2]], z[[0, 2]])
+    np.testing.assert_array_equal(cov_run[1], cov[1] + REJECTED_FIX_VAR * np.eye(2))
+    np.testing.assert_array_equal(cov_run[[0, 2]], cov[[0, 2]])
+
+
 def test_scheduled_exclusion_counts_the_intervals_from_its_reset():
     from gnssframework.receiver.engine.channel_monitor import ScheduledExclusion
 

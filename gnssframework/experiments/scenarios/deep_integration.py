@@ -610,15 +610,11 @@ class DeepIntegrationScenario(Scenario):
         n_upd = int(round(p.update_interval_s / p.coherent_time_s))
         if kind == "vector":
             out = self._run_vector(plugins, truth, runs, rng, outage)
-        elif kind == "deep":
-            from .deep_integration_runs import run_deep
-
-            out = run_deep(self, plugins, flight, truth, runs, rng, outage)
-        else:
+        else:  # looked up when called: a script may wrap one (docs/deep_integration_nees_split.py)
             from . import deep_integration_runs
 
-            runner = {"loose": deep_integration_runs.run_loose, "tight": deep_integration_runs.run_tight}[kind]
-            out = runner(self, plugins, flight, truth, runs, rng, outage)
+            run: deep_integration_runs.CandidateRun = getattr(deep_integration_runs, f"run_{kind}")
+            out = run(self, plugins, flight, truth, runs, rng, outage)
         t_u = out["time_s"]
         pos_t, vel_t, _ = flight.kinematics(t_u)
         pos_t = np.broadcast_to(pos_t[:, None, :], out["position_m"].shape)

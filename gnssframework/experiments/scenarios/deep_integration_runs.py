@@ -9,7 +9,7 @@ and feeds each channel's pseudorange and rate to it, single-differenced (section
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -33,7 +33,7 @@ from ...receiver.deep.navigators import ClockFilter
 from ...receiver.deep.strapdown import StrapdownIns
 from .deep_integration_flight import Flight, body_to_ned
 
-__all__ = ["run_deep", "run_loose", "run_tight", "ChannelOutage"]
+__all__ = ["run_deep", "run_loose", "run_tight", "ChannelOutage", "CandidateRun"]
 
 
 @dataclass(frozen=True)
@@ -313,3 +313,22 @@ def _run_scalar(
             "phase_error_rad": track.phase_error_rad,
         },
     )
+
+
+class CandidateRun(Protocol):
+    """What the run of every integrated candidate kind takes and gives (``run_<kind>`` of
+    this module: `run_deep`, `run_loose`, `run_tight`; ``vector`` is the scenario's own):
+    the scenario, the candidate's plugins, the flight, its truth, the runs, their streams
+    and the receiver's view of an outage; the series the scenario scores (``time_s``,
+    ``position_m``, ``velocity_m_s``, ...)."""
+
+    def __call__(
+        self,
+        scenario: Any,
+        plugins: dict[str, Any],
+        flight: Flight,
+        truth: DeepTruth,
+        runs: int,
+        rng: np.random.Generator,
+        outage: ChannelOutage | None = None,
+    ) -> dict[str, np.ndarray]: ...

@@ -27,7 +27,7 @@ from .loose import fix_gate
 from .measurements import POSITION, VELOCITY, integration_measurement, reference_channel
 from .navigators import ClockFilter
 
-__all__ = ["StrapdownSolution", "InsNavigator", "exclude_channels", "loose_update", "tight_update"]
+__all__ = ["StrapdownSolution", "InsNavigator", "exclude_channels", "left_out", "loose_update", "tight_update"]
 
 
 class StrapdownSolution(Protocol):
@@ -152,11 +152,20 @@ def exclude_channels(
     usable = np.asarray(usable, bool)
     if not np.all(usable.any(axis=-1)):
         raise ConfigError("channel_usable", "every run must keep at least one channel for the differences' reference")
-    out = ~usable
-    residual = np.where(out[..., None], 0.0, residual_m)
-    cov = np.where(out[..., None, None], residual_cov + REJECTED_FIX_VAR * np.eye(2), residual_cov)
-    cn0 = np.where(out, -np.inf, np.broadcast_to(np.asarray(cn0_dbhz, float), usable.shape))
+    residual, cov = left_out(residual_m, residual_cov, ~usable)
+    cn0 = np.where(~usable, -np.inf, np.broadcast_to(np.asarray(cn0_dbhz, float), usable.shape))
     return residual, cov, cn0
+
+
+def left_out(z: np.ndarray, cov: np.ndarray, out: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Measurements ``z`` ``(..., m)`` and their covariances ``(..., m, m)`` with the entries
+    ``out`` (bool, broadcast to ``z.shape[:-1]``) left out of an update: z 0 and the variances
+    raised by `REJECTED_FIX_VAR`, so their gain is nil (about 1e-12 of a used one's). One rule
+    for a refused fix (`loose_update`), a refused run (`tight_update`'s gate) and a blocked
+    channel (`exclude_channels`)."""
+    out = np.asarray(out, bool)
+    raised = cov + REJECTED_FIX_VAR * np.eye(z.shape[-1])
+    return np.where(out[..., None], 0.0, z), np.where(out[..., None, None], raised, cov)
 
 
 def _predicted_cov(ekf: ErrorStateNavFilter, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
@@ -186,8 +195,7 @@ def loose_update(
         idx = np.r_[np.arange(15)[POSITION], np.arange(15)[VELOCITY]]  # z is [position, velocity]
         P = _predicted_cov(ekf, Phi, Qd)
         accepted = fix_gate(z, P[:, idx[:, None], idx] + fix_cov, gate_probability)
-        z = np.where(accepted[:, None], z, 0.0)
-        fix_cov = np.where(accepted[:, None, None], fix_cov, fix_cov + REJECTED_FIX_VAR * np.eye(6))
+        z, fix_cov = left_out(z, fix_cov, ~accepted)
     out = ekf.step(
         {"transition": Phi, "process_noise": Qd, "position_velocity_error": z, "position_velocity_cov": fix_cov}
     )
@@ -258,8 +266,7 @@ def tight_update(
         z, H, R = integration_measurement(residual, cov, los, reference_channel(cn0))
         P = _predicted_cov(ekf, Phi, Qd)
         accepted = fix_gate(z, H @ P @ np.swapaxes(H, -1, -2) + R, gate_probability)
-        residual = np.where(accepted[:, None, None], residual, 0.0)
-        cov = np.where(accepted[:, None, None, None], cov, cov + REJECTED_FIX_VAR * np.eye(2))
+        residual, cov = left_out(residual, cov, ~accepted[:, None])
     out = ekf.step(
         {
             "transition": Phi,
