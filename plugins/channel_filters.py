@@ -20,7 +20,7 @@ from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.tracking.loop_filters import MAX_BANDWIDTH_TIME, LoopFilter, check_bandwidth_time
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.spec import SignalSpec
-from gnssframework.simulation.clock import PRESETS
+from gnssframework.simulation.clock import PRESETS, ClockPreset
 
 __all__ = ["ScalarTrackingLoop", "KalmanCarrierLoop", "DiscriminatorChannel", "IqFilter"]
 
@@ -223,7 +223,7 @@ class KalmanLoopParams(PluginParams):
     angle_unit: Literal["rad", "deg", "cycles"] = Field(
         "rad", description="unit of the phase in q and r (frequency: the same unit per second)"
     )
-    clock: Literal["tcxo", "tcxo-hq", "ocxo"] | None = Field(
+    clock: ClockPreset | None = Field(
         None,
         description="receiver clock preset whose h-parameters add their phase and frequency noise to q "
         "(gnssframework.simulation.clock); null for q alone",

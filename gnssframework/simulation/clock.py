@@ -32,7 +32,7 @@ import numpy as np
 from .. import random_streams as draw
 from ..errors import ConfigError
 
-__all__ = ["ClockModel", "TCXO", "TCXO_HQ", "OCXO", "PRESETS", "Oscillator", "oscillator_cycles"]
+__all__ = ["ClockModel", "TCXO", "TCXO_HQ", "OCXO", "PRESETS", "ClockPreset", "Oscillator", "oscillator_cycles"]
 
 
 @dataclass(frozen=True)
@@ -99,8 +99,10 @@ TCXO_HQ = ClockModel(h0=2e-21, h_1=1e-22, h_2=2e-20)
 OCXO = ClockModel(h0=2e-25, h_1=7e-25, h_2=6e-25)
 PRESETS = {"tcxo": TCXO, "tcxo-hq": TCXO_HQ, "ocxo": OCXO}
 
+#: The name of a preset above (a filter's model of its receiver's clock).
+ClockPreset = Literal["tcxo", "tcxo-hq", "ocxo"]
 #: A scenario's receiver oscillator: ``none`` (an ideal clock) or the name of a preset above.
-Oscillator = Literal["none", "tcxo", "tcxo-hq", "ocxo"]
+Oscillator = Literal["none", ClockPreset]
 
 
 def oscillator_cycles(

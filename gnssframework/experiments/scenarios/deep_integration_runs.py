@@ -9,7 +9,8 @@ and feeds each channel's pseudorange and rate to it, single-differenced (section
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Protocol
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -315,20 +316,11 @@ def _run_scalar(
     )
 
 
-class CandidateRun(Protocol):
-    """What the run of every integrated candidate kind takes and gives (``run_<kind>`` of
-    this module: `run_deep`, `run_loose`, `run_tight`; ``vector`` is the scenario's own):
-    the scenario, the candidate's plugins, the flight, its truth, the runs, their streams
-    and the receiver's view of an outage; the series the scenario scores (``time_s``,
-    ``position_m``, ``velocity_m_s``, ...)."""
-
-    def __call__(
-        self,
-        scenario: Any,
-        plugins: dict[str, Any],
-        flight: Flight,
-        truth: DeepTruth,
-        runs: int,
-        rng: np.random.Generator,
-        outage: ChannelOutage | None = None,
-    ) -> dict[str, np.ndarray]: ...
+#: What the run of every integrated candidate kind takes and gives (``run_<kind>`` of this
+#: module: `run_deep`, `run_loose`, `run_tight`; ``vector`` is the scenario's own): the
+#: scenario, the candidate's plugins, the flight, its truth, the runs, their streams and the
+#: receiver's view of an outage; the series the scenario scores (``time_s``, ``position_m``...).
+CandidateRun = Callable[
+    [Any, dict[str, Any], Flight, DeepTruth, int, np.random.Generator, ChannelOutage | None],
+    dict[str, np.ndarray],
+]
