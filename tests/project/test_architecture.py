@@ -9,7 +9,8 @@ by name). The rules:
 * no import circle;
 * no arrow from a lower layer (`LAYERS`) to a higher one, and every module in a layer;
 * the core never imports the built-in plugins (``gnssframework_plugins``);
-* ``estimation`` imports nothing GNSS-specific: only itself and `ESTIMATION_MAY_IMPORT`.
+* ``estimation`` imports nothing GNSS-specific: only itself and `ESTIMATION_MAY_IMPORT`;
+* no module of ``receiver`` is over `RECEIVER_MAX_LINES` lines (issue 36).
 
 A failure prints the offending import chain, each arrow with its file and line.
 """
@@ -324,6 +325,20 @@ def test_estimation_imports_nothing_gnss_specific(graph):
 def test_every_allowed_violation_still_exists(graph):
     gone = [f"  {a} -> {b} ({why})" for (a, b), why in KNOWN_VIOLATIONS.items() if (a, b) not in graph.arrows]
     assert not gone, "fixed; remove from KNOWN_VIOLATIONS in tests/project/test_architecture.py:\n" + "\n".join(gone)
+
+
+#: Issue 36's acceptance: no module of the receiver over this many lines (a larger one holds
+#: more than one idea; split it by what it holds).
+RECEIVER_MAX_LINES = 600
+
+
+def test_no_receiver_module_is_over_600_lines():
+    long = {
+        str(p.relative_to(ROOT)): n
+        for p in sorted((ROOT / PACKAGE / "receiver").rglob("*.py"))
+        if (n := len(p.read_text(encoding="utf-8").splitlines())) > RECEIVER_MAX_LINES
+    }
+    assert not long, f"receiver modules over {RECEIVER_MAX_LINES} lines (split them by what they hold): {long}"
 
 
 def test_the_design_notes_show_the_same_layers():

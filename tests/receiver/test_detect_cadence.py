@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from gnssframework.receiver.channels.tracker import detect_periods
+from gnssframework.receiver.channels.detection import detect_periods
 from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11, GALILEO_E1C_BOC11
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.gps_l2c import GPS_L2C

@@ -61,20 +61,13 @@ from .intervals import ChannelArrays, close_periods
 from .nco import ReplicaNCOs
 from .prefetch import BlockReader
 from .records import RECORD_FIELDS, STAGES, ChannelRecord, TrackingResult
-from .lock import bit_edge_from_votes, estimate_cn0, phase_lock_indicator, window_detectors
+from .detection import detect_periods, run_detectors
+from .lock import bit_edge_from_votes
 
 __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
 
 #: How far (s) a channel may run ahead of the last one before it waits.
 LAG_LIMIT_S = 0.025
-
-
-def detect_periods(signal: SignalSpec) -> int:
-    """Code periods between two runs of a channel's lock detectors on ``signal``, and before
-    the first: one data symbol's (20 on L1 C/A, 1 on Galileo E1-B), on a pilot its overlay
-    code's (25 on E1-C; `SignalSpec.longest_coherent_s`). The detectors' windows are 10-100
-    times longer."""
-    return max(1, round(signal.longest_coherent_s / signal.code_period_s))
 
 
 class SampleTracker:
@@ -377,7 +370,7 @@ class SampleTracker:
             chans = [self.channels[self.signal.prns[i]] for i in idx.tolist()]
             for c in chans:
                 self._bit_sync(c)
-            self._detect(chans)
+            run_detectors(chans, self.arrays, self.config, self.signal, self.detect_periods)
             # The rows' values as Python floats in one conversion per column.
             columns = zip(
                 self.acc_t0[idx].tolist(),
@@ -553,56 +546,3 @@ class SampleTracker:
         state = (int(c.locked), STAGES.index(c.stage), prompt.real, prompt.imag, c.coherent_ms)
         c.record.rows.append((t0, c.cn0_dbhz, c.pli, doppler_hz, code_phase_chips, carrier_cycles, *state))
         self.closer.advance(c, t0)
-
-    def _window(self, c: SampleChannel, n: int) -> np.ndarray:
-        """The last ``n`` 1 ms prompts of channel ``c``, oldest first."""
-        i = c.slot
-        size = self.prompts.shape[1]
-        n = min(n, int(self.n_prompts[i]), size)
-        return self.prompts[i, (self.n_prompts[i] - n + np.arange(n)) % size]
-
-    def _detect(self, chans: list[SampleChannel]) -> None:
-        """Lock detectors of channels ``chans``, evaluated every `detect_periods` code periods
-        (their windows are 10-100 times longer): on arrays over the channels whose prompt
-        window is full."""
-        cfg = self.config
-        size = self.prompts.shape[1]
-        first = self.detect_periods
-        full = []
-        for c in chans:
-            ms = int(self.ms_index[c.slot])
-            if self.n_prompts[c.slot] < min(cfg.lock_window_ms, first):
-                c.locked = False
-            elif ms >= c.next_detect:
-                c.next_detect = ms + first
-                if self.n_prompts[c.slot] >= size:
-                    full.append(c)
-                else:
-                    self._detect_one(c, ms)
-        if not full:
-            return
-        slots = np.array([c.slot for c in full])
-        win = self.prompts[slots[:, None], (self.n_prompts[slots][:, None] - size + np.arange(size)) % size]
-        phases = [self._bit_phase(c, int(self.ms_index[c.slot]), size) for c in full]
-        pli, cn0 = window_detectors(win, phases, cfg.lock_window_ms, cfg.cn0_estimator, self.signal)
-        for j, c in enumerate(full):
-            c.pli, c.cn0_dbhz = float(pli[j]), float(cn0[j])
-            self._lock_decision(c)
-
-    @staticmethod
-    def _bit_phase(c: SampleChannel, ms: int, n: int) -> int | None:
-        """Index in a window of the last ``n`` prompts up to ``ms`` of the first ms of a bit."""
-        return None if c.bit_edge is None else (c.bit_edge - (ms - n + 1)) % c.periods_per_symbol
-
-    def _lock_decision(self, c: SampleChannel) -> None:
-        cfg = self.config
-        strong = c.cn0_dbhz > cfg.cn0_threshold_dbhz
-        c.locked = strong and (c.pli > cfg.pli_threshold or not c.phase_locking)
-
-    def _detect_one(self, c: SampleChannel, ms: int) -> None:
-        """Lock detectors of a channel whose window is not full yet."""
-        cfg = self.config
-        c.pli = phase_lock_indicator(self._window(c, cfg.lock_window_ms))
-        prompts = self._window(c, cfg.cn0_window_ms)
-        c.cn0_dbhz = estimate_cn0(prompts, cfg.cn0_estimator, self._bit_phase(c, ms, prompts.size), self.signal)
-        self._lock_decision(c)
