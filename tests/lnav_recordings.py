@@ -66,6 +66,7 @@ def write_lnav_recording(
     blank: tuple[int, float, float] | None = None,
     cn0_dbhz: float | Callable[[float], float] = 45.0,
     code_delay: tuple[int, float, float] | None = None,
+    sample_rate_hz: float = FS,
 ) -> Path:
     """Write ``duration_s`` of the satellites ``sats`` (an `Ephemerides`) from GPS time
     ``tow0`` to ``path`` (``.sigmf-data`` with its metadata); ``blank`` = (index of a
@@ -73,9 +74,10 @@ def write_lnav_recording(
     ``[start, end)``; ``cn0_dbhz`` a constant or a function of the chunk's start (s into
     the file), every satellite's; ``code_delay`` = (index of a satellite, start s, metres)
     delays that satellite's code (not its carrier) by that many metres in the chunks from
-    start on (a code fault: multipath-like or spoofed)."""
+    start on (a code fault: multipath-like or spoofed); ``sample_rate_hz`` the file's rate
+    (`FS`, 2 samples a chip, by default)."""
     rng = np.random.default_rng(seed)
-    n = int(round(CHUNK_S * FS))
+    n = int(round(CHUNK_S * sample_rate_hz))
     t_sv0 = _satellite_time(sats, np.array(tow0))
     symbols = [
         lnav.lnav_symbols(sats.subset(np.array([k])), WEEK, float(t_sv0[k]) - 0.1, int(duration_s * 50) + 20)
@@ -102,7 +104,7 @@ def write_lnav_recording(
                 x += generate_if_samples(
                     int(sats.sv[k][1:]),
                     CHUNK_S,
-                    FS,
+                    sample_rate_hz,
                     0.0,
                     cn0_at(t0),
                     rng,
@@ -117,4 +119,4 @@ def write_lnav_recording(
                 phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
             yield x
 
-    return write_noisy_recording(path, chunks(), FS, rng)
+    return write_noisy_recording(path, chunks(), sample_rate_hz, rng)

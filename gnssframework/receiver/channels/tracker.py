@@ -60,6 +60,7 @@ from .correlator import code_tables, correlate_periods, replica_code_pair, to_ta
 from .intervals import ChannelArrays, close_periods
 from .nco import ReplicaNCOs
 from .prefetch import BlockReader
+from .sampling import warn_if_commensurate
 from .records import RECORD_FIELDS, STAGES, ChannelRecord, TrackingResult
 from .detection import detect_periods, run_detectors
 from .lock import bit_edge_from_votes
@@ -130,6 +131,7 @@ class SampleTracker:
         self.acquisition = check_contract(acquisition)  # re-acquisition passes it the signal
         self.backend = backend
         self.fs = recording.info.sample_rate_hz
+        warn_if_commensurate(self.fs, signal)
         self.if_hz = recording.info.if_hz
         self.offsets = np.array(list(tap_offsets(config.early_late_spacing_chips).values()))
         # Every stage's filter validated and built once (a bad one refused before any work);
