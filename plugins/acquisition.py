@@ -13,6 +13,7 @@ from gnssframework.receiver.acquisition import (
     AcquisitionResult,
     fine_doppler,
     noise_floor,
+    first_period_lag,
     search_grid,
     threshold_from_pfa,
 )
@@ -150,14 +151,14 @@ class ParallelCodePhaseSearch(Acquisition):
         """Each PRN's peak of its raw ``grid``, its fine Doppler and C/N0."""
         p = self.params
         alt = p.alternate_blocks
-        n = grid.shape[-1]
         # The signal's energy in a coherent block is C T duty, not C T (`SignalSpec.replica_duty`).
         duty = signal.replica_duty
         results = []
         for i, prn in enumerate(prns):
             sigma2 = noise_floor(grid[i], blocks, alt)
-            d, s = np.unravel_index(int(np.argmax(grid[i])), grid[i].shape)
-            stat = float(grid[i, d, s] / sigma2)
+            d, lag = np.unravel_index(int(np.argmax(grid[i])), grid[i].shape)
+            s = first_period_lag(int(lag), sample_rate_hz, signal)
+            stat = float(grid[i, d, lag] / sigma2)
             fine = dopplers[d] + np.arange(-coarse_step, coarse_step + fine_step / 2, fine_step)
             power = (
                 fine_doppler(samples, sample_rate_hz, if_hz, prn, int(s), T, p.noncoherent, fine, alt, signal) / sigma2
@@ -171,7 +172,7 @@ class ParallelCodePhaseSearch(Acquisition):
                     int(prn),
                     stat > threshold,
                     float(fine[j]),
-                    int(s % n),
+                    s,
                     chips,
                     float(10 * np.log10(c)),
                     stat,

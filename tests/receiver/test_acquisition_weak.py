@@ -84,3 +84,32 @@ def test_alternate_blocks_need_an_even_count():
     acq = registry.create("acquisition", "pcps", coherent_ms=10, noncoherent=5, alternate_blocks=True)
     with pytest.raises(ConfigError, match="even"):
         acq.acquire(np.zeros(int(0.05 * FS), complex), FS, 0.0, (1,))
+
+
+def test_a_ten_period_block_reports_the_first_period_start():
+    """A 10 ms block holds 10 copies of the C/A peak, equal but for rounding: the search
+    reports the first (`AcquisitionResult.code_phase_samples` in one code period), the
+    sample chip 0 arrives at, whichever copy the argmax took."""
+    rng = np.random.default_rng(5)
+    phase_chips = 700.5
+    sat = SatelliteSignal(PRN, 45.0, 0.0, phase_chips, 0.3, first_bit_code_period=3)
+    x = synthesize_samples([sat], K * T + 0.001, FS, 0.0, rng)
+    r = _acq().acquire(x, FS, 0.0, (PRN,))[0]
+    per_code = int(round(FS * 1e-3))  # 2046 samples
+    # Chip 0 at sample s: the signal had sent (-s / 2) mod 1023 chips at sample 0.
+    assert r.detected and r.code_phase_samples == round(-phase_chips * 2) % per_code
+
+
+@pytest.mark.parametrize("sample_rate_hz", [FS, 16.3676e6])  # 2046 and 16367.6 samples a period
+def test_every_copy_of_the_peak_is_one_start(sample_rate_hz):
+    from gnssframework.receiver.acquisition import first_period_lag
+
+    per_code = sample_rate_hz * 1e-3
+    for start in (0.0, 3.0, per_code - 1.0):
+        lags = [int(round(start + k * per_code)) for k in range(10)]
+        firsts = {first_period_lag(lag, sample_rate_hz) for lag in lags}
+        # A whole period: one start. Otherwise each copy was rounded to a sample on its own
+        # (half a sample) and its remainder is rounded again: within a sample, modulo a period.
+        tolerance = 0.0 if per_code == round(per_code) else 1.0
+        assert all(abs((f - start + per_code / 2) % per_code - per_code / 2) <= tolerance for f in firsts), firsts
+        assert all(0 <= f < round(per_code) for f in firsts), firsts

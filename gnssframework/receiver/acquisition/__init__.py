@@ -1,6 +1,6 @@
 """Acquisition: parallel code-phase search by FFT, threshold from a false-alarm probability."""
 
-from .fft_search import code_replica, fine_doppler, search_grid
+from .fft_search import code_replica, fine_doppler, first_period_lag, search_grid
 from .search import Acquisition, AcquisitionResult
 from .threshold import cell_false_alarm, noise_floor, threshold_from_pfa
 
@@ -9,6 +9,7 @@ __all__ = [
     "AcquisitionResult",
     "search_grid",
     "fine_doppler",
+    "first_period_lag",
     "code_replica",
     "threshold_from_pfa",
     "cell_false_alarm",

@@ -22,7 +22,7 @@ import numpy as np
 from ...errors import ConfigError
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
-from .fft_search import search_grid
+from .fft_search import first_period_lag, search_grid
 from .search import AcquisitionResult
 from .threshold import noise_floor, threshold_from_pfa
 
@@ -108,7 +108,7 @@ def window_search(
     inside = np.abs(offset) <= window.code_halfwidth_samples + 0.5
     stat = grid[:, inside] / sigma2
     d, j = np.unravel_index(int(np.argmax(stat)), stat.shape)
-    s = int(lag[inside][j])
+    s = first_period_lag(int(lag[inside][j]), sample_rate_hz, signal)
     peak = float(stat[d, j])
     threshold = threshold_from_pfa(pfa, int(stat.size), blocks, alternate)
     # E[S] = K(2 + 2cT duty), as the pcps search's C/N0 (`SignalSpec.replica_duty`).

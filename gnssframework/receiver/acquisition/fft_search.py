@@ -27,7 +27,7 @@ from scipy import fft
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 
-__all__ = ["code_replica", "search_grid", "fine_doppler"]
+__all__ = ["code_replica", "search_grid", "fine_doppler", "first_period_lag"]
 
 #: Complex elements of one Doppler chunk of wiped blocks (16 MB of complex64: bounds the
 #: memory of a search, whose transients are a few times this; the FFTs of a row do not
@@ -51,11 +51,33 @@ def _blocks(samples: np.ndarray, n: int, noncoherent: int) -> np.ndarray:
 
 
 def _wiped_spectra(blocks: np.ndarray, dopplers_hz: np.ndarray, sample_rate_hz: float, if_hz: float) -> np.ndarray:
-    """``(n_doppler, K, N)`` FFTs of the blocks after carrier wipe-off (time continuous across blocks)."""
+    """``(n_doppler, K, N)`` FFTs of the blocks after carrier wipe-off (time continuous across blocks).
+
+    The carrier's phase is computed in cycles in ``float64`` and reduced to one cycle before
+    a ``float32`` cosine and sine (the phase of sample 80 ms into a 4 MHz IF is 3e5 cycles:
+    reduced first, its ``float32`` angle is within 5e-7 rad of the exact one), about six
+    times faster than a ``complex128`` ``exp`` for the same ``complex64`` replica.
+    """
     K, N = blocks.shape
-    t = (np.arange(K * N) / sample_rate_hz).reshape(K, N)
-    carrier = np.exp(-2j * np.pi * (if_hz + dopplers_hz[:, None, None]) * t).astype(np.complex64)
-    return fft.fft(blocks[None].astype(np.complex64) * carrier, axis=-1, workers=1)
+    cycles = np.multiply.outer(if_hz + dopplers_hz, np.arange(K * N) / sample_rate_hz)
+    angle = (2.0 * np.pi) * (cycles - np.floor(cycles)).astype(np.float32)
+    carrier = np.empty(angle.shape, np.complex64)
+    carrier.real = np.cos(angle)
+    carrier.imag = -np.sin(angle)
+    return fft.fft(blocks[None].astype(np.complex64) * carrier.reshape(-1, K, N), axis=-1, workers=1)
+
+
+def first_period_lag(lag: int, sample_rate_hz: float, signal: SignalSpec = GPS_L1CA) -> int:
+    """The first sample at which a code period starts, from a peak ``lag`` of a search grid.
+
+    A block of several code periods (10 ms of the 1 ms C/A code) correlates equally at every
+    period's start: its grid holds a copy of the peak one period apart, and which copy the
+    argmax takes is decided by rounding (another arithmetic, another CPU, another copy). The
+    copies are one start: this is the first, ``lag`` modulo the samples of a code period
+    (`AcquisitionResult.code_phase_samples`), rounded to a sample.
+    """
+    per_code = sample_rate_hz * signal.code_length_chips / signal.chip_rate_hz
+    return int(np.rint(lag % per_code)) % max(1, int(np.rint(per_code)))
 
 
 def _sum_blocks(power: np.ndarray, alternate: bool) -> np.ndarray:
