@@ -7,6 +7,8 @@ test dependency: install it in a virtual environment of your own and run
     pip install dynamax==1.0.3
     python validation/smoother_dynamax.py
 
+(CI does so in its ``oracles`` lane, `.ci/run`.)
+
 Checks, each on a batch of runs (dynamax smooths one at a time), in float64:
 
 - ``kf``: a linear-Gaussian model with a known input: smoothed means and covariances,
