@@ -40,6 +40,17 @@ def test_a_record_belongs_to_its_example_and_holds_the_whole_budget(record):
     assert all(len(rows) == config.tuning.trials for rows in data["trials"].values())
 
 
+#: Relative tolerance of a rerun objective, by record: 1e-6 unless listed. The realistic vector
+#: example's runs put low satellites near their lock threshold (C/N0 from elevation: 22.5 dB-Hz
+#: at the mask in its 30 dB-Hz cases), where a closed loop amplifies rounding: on one AMD EPYC,
+#: three x86 arithmetics (native AVX-512; numba for generic x86-64 with NumPy's SIMD loops off;
+#: numba for Haswell with OpenBLAS's Prescott kernel, .ci/other_machines.sh's variants) moved its
+#: objective by 5.7e-5, 2.3e-5 and 2.5e-4 from the record made on another machine, where the
+#: main example's moved by at most 8e-9. 1e-3 is four times the largest, and a thousandth of
+#: an objective that the trials of a tuning spread over tens of percent.
+REL_TOLERANCE = {"vector_tracking_realistic": 1e-3}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("record", RECORDS, ids=[p.stem for p in RECORDS])
 def test_a_records_best_trial_scores_the_same_on_todays_code(record, tmp_path):
@@ -47,8 +58,9 @@ def test_a_records_best_trial_scores_the_same_on_todays_code(record, tmp_path):
     runs of filters whose arithmetic moves at the rounding level between CPUs: open-loop
     smoothers and position filters, and for scintillation a PLL tuned on the 45 dB-Hz
     cases, where no run loses lock (a cycle slip, which rounding could move, would move
-    the phase error by far more). rel 1e-6 is far above that rounding and far below what
-    a change of the filter or the scenario moves."""
+    the phase error by far more), and the closed vector loop of the main example. rel 1e-6
+    is far above that rounding and far below what a change of the filter or the scenario
+    moves; a record whose runs amplify rounding more states its own (`REL_TOLERANCE`)."""
     config = load_config(ROOT / "examples" / f"{record.stem}.toml")
     cand, rows = next(iter(json.loads(record.read_text())["trials"].items()))
     best = min((r for r in rows if r["objective"] is not None), key=lambda r: r["objective"])
@@ -57,4 +69,4 @@ def test_a_records_best_trial_scores_the_same_on_todays_code(record, tmp_path):
     run_comparison(trial, tmp_path, progress=False)
     rerun = tuning_module._objective(config, ResultStore(tmp_path / "results.sqlite"), trial)
     assert math.isfinite(rerun)
-    assert rerun == pytest.approx(best["objective"], rel=1e-6)
+    assert rerun == pytest.approx(best["objective"], rel=REL_TOLERANCE.get(record.stem, 1e-6))
