@@ -67,6 +67,48 @@ def _wiped_spectra(blocks: np.ndarray, dopplers_hz: np.ndarray, sample_rate_hz: 
     return fft.fft(blocks[None].astype(np.complex64) * carrier.reshape(-1, K, N), axis=-1, workers=1)
 
 
+class _DopplerSpectra:
+    r"""The wiped blocks' FFTs of every Doppler bin, each made once per call of `search_grid` (for every PRN
+    of it) and, where the bins lie whole DFT bins apart, by a shift of a few.
+
+    A Doppler :math:`f_r + m f_s/N` (:math:`f_s/N` the DFT's bin, :math:`1/T` for a block
+    of :math:`T` s) wipes block :math:`k` with :math:`e^{-j2\pi f_r t_n}
+    e^{-j2\pi m (kN + n)/N} = e^{-j2\pi f_r t_n} e^{-j2\pi m n/N}`: the residue's wiped
+    spectrum shifted by :math:`m` bins, :math:`W_m[q] = W_0[(q + m) \bmod N]` (the DFT's shift
+    theorem; the block's own phase :math:`e^{-j2\pi m k}` is 1). A grid at half-bin steps
+    (the searches' default :math:`1/(2T)`) has two residues: two carriers and FFTs per
+    search instead of one per bin. Bins that are not whole DFT bins apart (a block of
+    :math:`N = \mathrm{round}(T f_s)` samples with :math:`T f_s` not whole) are wiped each
+    on its own (`_wiped_spectra`).
+    """
+
+    def __init__(self, blocks: np.ndarray, dopplers_hz: np.ndarray, sample_rate_hz: float, if_hz: float) -> None:
+        self.blocks, self.fs, self.if_hz = blocks, float(sample_rate_hz), float(if_hz)
+        self.dopplers_hz = np.asarray(dopplers_hz, float)
+        n = blocks.shape[1]
+        bin_hz = self.fs / n
+        whole = np.floor(self.dopplers_hz / bin_hz + 1e-9)
+        key = np.round(self.dopplers_hz / bin_hz - whole, 6)
+        residues, self.residue_of = np.unique(key, return_inverse=True)
+        self.base = None
+        if residues.size < self.dopplers_hz.size:
+            first = np.array([np.flatnonzero(self.residue_of == r)[0] for r in range(residues.size)])
+            self.base = _wiped_spectra(blocks, self.dopplers_hz[first], self.fs, self.if_hz)
+            # Each bin's shift from its residue's first bin, exact when the grid is whole bins apart.
+            shift = (self.dopplers_hz - self.dopplers_hz[first][self.residue_of]) / bin_hz
+            self.shift = np.rint(shift).astype(np.int64)
+            if not np.allclose(shift, self.shift, rtol=0, atol=1e-6):
+                self.base = None
+
+    def chunk(self, lo: int, hi: int) -> np.ndarray:
+        """``(hi - lo, K, N)`` spectra of bins ``lo`` to ``hi``."""
+        if self.base is None:
+            return _wiped_spectra(self.blocks, self.dopplers_hz[lo:hi], self.fs, self.if_hz)
+        n = self.blocks.shape[1]
+        index = (np.arange(n)[None, :] + self.shift[lo:hi, None]) % n  # W_m[q] = W_0[q + m]
+        return np.take_along_axis(self.base[self.residue_of[lo:hi]], index[:, None, :], axis=-1)
+
+
 def first_period_lag(lag: int, sample_rate_hz: float, signal: SignalSpec = GPS_L1CA) -> int:
     """The first sample at which a code period starts, from a peak ``lag`` of a search grid.
 
@@ -124,8 +166,9 @@ def search_grid(
     codes = np.stack([fft.fft(code_replica(p, n, sample_rate_hz, signal=signal), workers=1).conj() for p in prns])
     out = np.empty((len(prns), dopplers_hz.size, n), np.float32)
     step = max(1, _CHUNK_ELEMENTS // (noncoherent * n))
+    wiped = _DopplerSpectra(blocks, dopplers_hz, sample_rate_hz, if_hz)
     for lo in range(0, dopplers_hz.size, step):
-        spectra = _wiped_spectra(blocks, dopplers_hz[lo : lo + step], sample_rate_hz, if_hz)
+        spectra = wiped.chunk(lo, lo + step)
         if code_doppler:
             spectra *= _code_drift_ramp(dopplers_hz[lo : lo + step], noncoherent, n, signal.carrier_freq_hz)
         for i in range(len(prns)):
