@@ -132,3 +132,22 @@ def test_a_heavy_tailed_mean_keeps_its_sign_only():
     mdd = "| holds | n=4 (n < 12: detects differences >= 0.47 at power 0.8, >= 0.69 after adjustment) |"
     assert check.differences(mdd, mdd.replace("0.47", "0.5").replace("0.69", "0.73")) == []
     assert check.differences(mdd, mdd.replace("0.47", "2.5")) != []
+
+
+def test_the_adjustments_reported_only_verdicts_follow_the_p_values():
+    """Holm's verdicts follow from the p-values alone (not compared): a p-value that crosses
+    0.05 under another arithmetic changes them, the family's size does not."""
+    row = (
+        "| holds | misalignment-35dBHz | deep: x higher than in nominal-35dBHz | difference +0.0130 ± 0.0020, "
+        "n=12, p=0.029, Holm-adjusted p=0.052 of 13 (not significant after adjustment) |"
+    )
+    crossed = row.replace("p=0.052", "p=0.046").replace(" (not significant after adjustment)", "")
+    assert check.differences(row, crossed) == []
+    assert check.differences(row, crossed.replace("+0.0130 ± 0.0020", "+0.0330 ± 0.0020")) != []
+    assert check.differences(row, row.replace("holds", "fails")) != []
+    summary = (
+        "**Claims**: 21 of 21 hold (95 % intervals). 11 of the 13 tests hold after Holm's adjustment over the example."
+    )
+    assert check.differences(summary, summary.replace("11 of the 13", "13 of the 13")) == []
+    assert check.differences(summary, summary.replace("11 of the 13", "11 of the 14")) != []
+    assert check.differences(summary, summary.replace("21 of 21 hold", "20 of 21 hold")) != []
