@@ -7,12 +7,13 @@ import errno
 import re
 import sqlite3
 import sys
+import warnings
 from contextlib import contextmanager
 from pathlib import Path
 from collections.abc import Callable, Iterable, Iterator, Sequence
 
 from . import registry
-from .errors import ConfigError, DataFileError, GnssFrameworkError
+from .errors import ConfigError, DataFileError, GnssFrameworkError, GnssFrameworkWarning
 from .io.nmea import MAX_ABS_HEIGHT_M, MAX_SPEED_MPS
 from .io.rinex import PSEUDORANGE_MAX_M, PSEUDORANGE_MIN_M
 from .io.skipped import EXIT_STATUS_HELP
@@ -1812,6 +1813,25 @@ def _error_message(exc: GnssFrameworkError, options: frozenset[str]) -> str:
     return str(exc)
 
 
+@contextmanager
+def _one_line_warnings() -> Iterator[None]:
+    """The library's own warnings (`GnssFrameworkWarning`) as one ``warning:`` line on
+    standard error each, once per message, without Python's file, line and source line;
+    any other warning as Python shows it."""
+    shown = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, GnssFrameworkWarning):
+            print(f"warning: {message}", file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("default", GnssFrameworkWarning)
+        warnings.showwarning = show
+        yield
+
+
 def _fail(message: str, status: int) -> int:
     print(f"error: {message}", file=sys.stderr)
     return status
@@ -1898,7 +1918,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     stdout, sys.stdout = sys.stdout, _QuietPipe(sys.stdout)
     interrupted = _CtrlC()
     try:
-        return int(args.func(args) or 0)
+        with _one_line_warnings():
+            return int(args.func(args) or 0)
     except GnssFrameworkError as exc:
         return _fail(_error_message(exc, getattr(args, "command_options", frozenset())), 2)
     except KeyboardInterrupt:

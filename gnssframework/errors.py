@@ -23,11 +23,17 @@ __all__ = [
     "InvalidArgumentError",
     "WorkerError",
     "RunFailure",
+    "GnssFrameworkWarning",
 ]
 
 
 class GnssFrameworkError(Exception):
     """Base class of every exception raised by gnssframework."""
+
+
+class GnssFrameworkWarning(UserWarning):
+    """Base class of the library's warnings: a result that is computed but may mislead (the
+    command line prints each as one ``warning:`` line)."""
 
 
 class ConfigError(GnssFrameworkError):

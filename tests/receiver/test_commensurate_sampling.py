@@ -54,3 +54,22 @@ def test_the_tracker_warns_of_a_commensurate_rate(tmp_path, sample_rate_hz, warn
     if warned:
         text = str(found[0].message)
         assert "2.046 MHz" in text and "2 phases" in text and "±0.25 chip" in text
+
+
+def test_the_command_line_prints_it_as_one_warning_line(tmp_path, capsys):
+    from gnssframework.cli import main
+    from gnssframework.receiver.frontend.synthetic import SatelliteSignal, synthesize_samples
+
+    rng = np.random.default_rng(1)
+    x = synthesize_samples([SatelliteSignal(7, 48.0, 1000.0, 100.0, 0.0, 0)], 0.1, 2.046e6, 0.0, rng)
+    iq = np.empty(2 * x.size, np.int16)
+    iq[0::2], iq[1::2] = np.round(100 * x.real), np.round(100 * x.imag)
+    iq.tofile(tmp_path / "rec.bin")
+    args = ["track", str(tmp_path / "rec.bin"), "--format", "ci16_le", "--fs", "2.046e6", "--if", "0"]
+    assert main([*args, "--out", str(tmp_path / "out"), "--no-plots", "--quiet"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    warned = [line for line in err if "2.046 MHz" in line]
+    assert len(warned) == 1 and warned[0].startswith(
+        "warning: sample rate 2.046 MHz meets gps-l1ca's chips at 2 phases"
+    )
+    assert not any("CommensurateSamplingWarning" in line or "cli.py" in line for line in err)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import warnings
 from fractions import Fraction
 
+from ...errors import GnssFrameworkWarning
 from ...signal.spec import SignalSpec
 
 __all__ = ["CommensurateSamplingWarning", "code_alignments", "warn_if_commensurate", "MIN_ALIGNMENTS"]
@@ -29,7 +30,7 @@ MAX_DENOMINATOR = 64
 MIN_ALIGNMENTS = 20
 
 
-class CommensurateSamplingWarning(UserWarning):
+class CommensurateSamplingWarning(GnssFrameworkWarning):
     """The sample rate is a ratio of small integers with the chip rate (`code_alignments`)."""
 
 
