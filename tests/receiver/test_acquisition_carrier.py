@@ -67,3 +67,16 @@ def test_bins_not_whole_dft_bins_apart_are_wiped_each_on_its_own():
     spectra = _DopplerSpectra(blocks, dopplers_hz, fs, 0.0)
     assert spectra.base is None
     np.testing.assert_array_equal(spectra.chunk(3, 9), _wiped_spectra(blocks, dopplers_hz[3:9], fs, 0.0))
+
+
+def test_residue_spectra_beyond_their_memory_bound_are_wiped_per_bin(monkeypatch):
+    from gnssframework.receiver.acquisition import fft_search
+
+    rng = np.random.default_rng(6)
+    blocks = rng.standard_normal((2, 2600)).astype(np.float32)
+    dopplers_hz = np.arange(-5000.0, 5000.0 + 250.0, 500.0)  # 1 ms blocks: two residues
+    assert fft_search._DopplerSpectra(blocks, dopplers_hz, 2.6e6, 0.0).base.shape[0] == 2
+    monkeypatch.setattr(fft_search, "_RESIDUE_ELEMENTS", 2 * blocks.size - 1)
+    spectra = fft_search._DopplerSpectra(blocks, dopplers_hz, 2.6e6, 0.0)
+    assert spectra.base is None
+    np.testing.assert_array_equal(spectra.chunk(0, 5), _wiped_spectra(blocks, dopplers_hz[:5], 2.6e6, 0.0))

@@ -33,6 +33,9 @@ __all__ = ["code_replica", "search_grid", "fine_doppler", "first_period_lag"]
 #: memory of a search, whose transients are a few times this; the FFTs of a row do not
 #: depend on the chunk).
 _CHUNK_ELEMENTS = 1 << 21
+#: Largest set of residue spectra `_DopplerSpectra` shifts from (complex elements, 32 MB of
+#: complex64; two 80 ms blocks' worth at 26 MHz): a grid with more residues is wiped per bin.
+_RESIDUE_ELEMENTS = 1 << 22
 #: Largest fine-search carrier table kept between calls (complex elements, 64 MB).
 _FINE_TABLE_ELEMENTS = 1 << 22
 
@@ -55,8 +58,9 @@ def _wiped_spectra(blocks: np.ndarray, dopplers_hz: np.ndarray, sample_rate_hz: 
 
     The carrier's phase is computed in cycles in ``float64`` and reduced to one cycle before
     a ``float32`` cosine and sine (the phase of sample 80 ms into a 4 MHz IF is 3e5 cycles:
-    reduced first, its ``float32`` angle is within 5e-7 rad of the exact one), about six
-    times faster than a ``complex128`` ``exp`` for the same ``complex64`` replica.
+    reduced first, its ``float32`` angle is within 5e-7 rad of the exact one): with the
+    FFTs, half the time of a ``complex128`` ``exp`` for the same ``complex64`` replica
+    (`benchmarks/acquisition.py`).
     """
     K, N = blocks.shape
     cycles = np.multiply.outer(if_hz + dopplers_hz, np.arange(K * N) / sample_rate_hz)
@@ -68,8 +72,8 @@ def _wiped_spectra(blocks: np.ndarray, dopplers_hz: np.ndarray, sample_rate_hz: 
 
 
 class _DopplerSpectra:
-    r"""The wiped blocks' FFTs of every Doppler bin, each made once per call of `search_grid` (for every PRN
-    of it) and, where the bins lie whole DFT bins apart, by a shift of a few.
+    r"""The wiped blocks' FFTs of every Doppler bin of a `search_grid` call (for all its PRNs),
+    made, where the bins lie whole DFT bins apart, by shifting a few.
 
     A Doppler :math:`f_r + m f_s/N` (:math:`f_s/N` the DFT's bin, :math:`1/T` for a block
     of :math:`T` s) wipes block :math:`k` with :math:`e^{-j2\pi f_r t_n}
@@ -78,8 +82,9 @@ class _DopplerSpectra:
     theorem; the block's own phase :math:`e^{-j2\pi m k}` is 1). A grid at half-bin steps
     (the searches' default :math:`1/(2T)`) has two residues: two carriers and FFTs per
     search instead of one per bin. Bins that are not whole DFT bins apart (a block of
-    :math:`N = \mathrm{round}(T f_s)` samples with :math:`T f_s` not whole) are wiped each
-    on its own (`_wiped_spectra`).
+    :math:`N = \mathrm{round}(T f_s)` samples with :math:`T f_s` not whole), or whose residues'
+    spectra would hold more than `_RESIDUE_ELEMENTS`, are wiped each on its own
+    (`_wiped_spectra`).
     """
 
     def __init__(self, blocks: np.ndarray, dopplers_hz: np.ndarray, sample_rate_hz: float, if_hz: float) -> None:
@@ -91,7 +96,7 @@ class _DopplerSpectra:
         key = np.round(self.dopplers_hz / bin_hz - whole, 6)
         residues, self.residue_of = np.unique(key, return_inverse=True)
         self.base = None
-        if residues.size < self.dopplers_hz.size:
+        if residues.size < self.dopplers_hz.size and residues.size * blocks.size <= _RESIDUE_ELEMENTS:
             first = np.array([np.flatnonzero(self.residue_of == r)[0] for r in range(residues.size)])
             self.base = _wiped_spectra(blocks, self.dopplers_hz[first], self.fs, self.if_hz)
             # Each bin's shift from its residue's first bin, exact when the grid is whole bins apart.
