@@ -394,7 +394,10 @@ def test_progress_lines_off_a_terminal_a_bar_on_one(recording, tmp_path, capsys,
         )
         == 0
     )
-    assert capsys.readouterr().err == ""
+    # --quiet: no progress; what may still come is the library's warning about the file
+    # (this recording's 2.046 MHz is commensurate with the chip rate), one line.
+    err = capsys.readouterr().err.splitlines()
+    assert all(line.startswith("warning: sample rate 2.046 MHz") for line in err) and len(err) <= 1, err
     monkeypatch.setattr(type(sys.stderr), "isatty", lambda self: True, raising=False)
     assert run("b") == 0
     assert "100%" in capsys.readouterr().err
