@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import argparse
 import os
-import time
+import timeit
 from functools import partial
 
 import numpy as np
@@ -52,22 +52,13 @@ class _PerBin(fft_search._DopplerSpectra):
         self.base = None
 
 
-def _best(fn, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
-
 def _timed(acquire, repeat: int, spectra=None, wiped=None) -> float:
     """``acquire`` timed with ``fft_search``'s spectra class and wipe-off swapped for these."""
     saved = fft_search._DopplerSpectra, fft_search._wiped_spectra
     fft_search._DopplerSpectra = spectra or saved[0]
     fft_search._wiped_spectra = wiped or saved[1]
     try:
-        return _best(acquire, repeat)
+        return min(timeit.repeat(acquire, number=1, repeat=repeat))  # best of `repeat`
     finally:
         fft_search._DopplerSpectra, fft_search._wiped_spectra = saved
 

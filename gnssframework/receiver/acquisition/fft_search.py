@@ -94,10 +94,9 @@ class _DopplerSpectra:
         bin_hz = self.fs / n
         whole = np.floor(self.dopplers_hz / bin_hz + 1e-9)
         key = np.round(self.dopplers_hz / bin_hz - whole, 6)
-        residues, self.residue_of = np.unique(key, return_inverse=True)
+        residues, first, self.residue_of = np.unique(key, return_index=True, return_inverse=True)
         self.base = None
         if residues.size < self.dopplers_hz.size and residues.size * blocks.size <= _RESIDUE_ELEMENTS:
-            first = np.array([np.flatnonzero(self.residue_of == r)[0] for r in range(residues.size)])
             self.base = _wiped_spectra(blocks, self.dopplers_hz[first], self.fs, self.if_hz)
             # Each bin's shift from its residue's first bin, exact when the grid is whole bins apart.
             shift = (self.dopplers_hz - self.dopplers_hz[first][self.residue_of]) / bin_hz
