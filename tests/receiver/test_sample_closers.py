@@ -130,7 +130,7 @@ def test_error_feedback_and_the_navigation_filters_code_error_share_the_sign():
     # the replica; the same error is a range error of -0.2 chip for a navigation filter.
     nco = _ncos(2)
     phase0 = nco.code_phase.copy()
-    nco.shift(np.array([1]), np.array([0.5 * 0.2]), np.array([2.0]))
+    nco.at(np.array([1])).steer_by_errors(np.array([0.5 * 0.2]), np.array([2.0]))
     assert nco.code_phase[1] - phase0[1] == pytest.approx(0.1) and nco.code_phase[0] == phase0[0]
     assert nco.code_rate[1] == pytest.approx(CHIP_HZ * (1 + nco.doppler[1] / L1_HZ), rel=1e-14)
     assert ReplicaNCOs.range_error_chips(0.2) == -0.2

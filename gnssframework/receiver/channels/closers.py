@@ -88,8 +88,7 @@ class ScalarSampleCloser(SampleCloser):
         out = filt.checked_step(
             {"correlators": correlators, "nco_shift_chips": t.shift_chips[slots], "nco_shift_hz": t.shift_hz[slots]}
         )
-        t.nco.shift(
-            slots,
+        t.nco.at(slots).steer_by_errors(
             closure.k_code * np.asarray(out["code_error_chips"], float),
             closure.k_freq * np.asarray(out["freq_error_hz"], float),
         )

@@ -15,11 +15,15 @@ carrier NCO's ``doppler`` (Hz above the intermediate frequency).
   ``code_freq_hz``, optional ``carrier_phase_step_rad``) with the signature and meaning of
   `engine.channel.Channel.steer_frequency`, so that the engine's own
   `engine.closers.ScalarCloser` steps a channel filter on samples;
-- `shift`: the scalar closure of an error-output filter (`closure.ErrorFeedback`) moves
-  the code phase by a gain times its code error and the carrier by a gain times its
-  frequency error (truth minus replica: the replica gains them), code rate carrier-aided;
-- `steer_range`: the vector closer's range and rate command, through the engine's own
-  `Channel.steer_range` on these slots.
+- `at(slots).steer_by_errors`: the scalar closure of an error-output filter
+  (`closure.ErrorFeedback`) moves the code phase by a gain times its code error and the
+  carrier by a gain times its frequency error (truth minus replica: the replica gains
+  them), code rate carrier-aided: `engine.channel.Channel.steer_by_errors`'s moves;
+- `steer_range`: the vector closer's range and rate command, the moves of the engine's
+  `Channel.steer_range` (`engine.channel.range_nco`) on these slots.
+
+`tests/receiver/test_nco_commands.py` holds the three equal to the engine `Channel`'s on
+the same NCO states and commands.
 
 Every move is recorded (``shift_chips``, ``shift_hz``) for the error-output filters'
 ``nco_shift_chips`` and ``nco_shift_hz`` inputs.
@@ -32,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...signal.spec import SignalSpec
-from ..engine.channel import Channel
+from ..engine.channel import range_nco
 from ..engine.closers import range_error_chips
 from ..engine.truth import code_phase_of_range
 
@@ -55,15 +59,6 @@ class ReplicaNCOs:
         """The NCOs of ``slots`` as an engine channel takes frequency commands."""
         return SlotNCOs(self, slots)
 
-    def shift(self, slots: np.ndarray, code_chips: np.ndarray, freq_hz: np.ndarray) -> None:
-        """Advance the code phase by ``code_chips`` and the carrier by ``freq_hz``; the code
-        rate follows the carrier (carrier aiding)."""
-        self.shift_chips[slots] = code_chips
-        self.shift_hz[slots] = freq_hz
-        self.doppler[slots] += freq_hz
-        self.code_phase[slots] += code_chips
-        self.code_rate[slots] = self.spec.code_freq_hz(self.doppler[slots])
-
     def steer_range(
         self,
         slots: np.ndarray,
@@ -74,23 +69,15 @@ class ReplicaNCOs:
     ) -> None:
         """Move the replicas of ``slots``, which hold the pseudoranges ``replica_range_m`` at
         recording times ``t_s`` (their start samples), to ``range_m`` and ``range_rate_m_s``:
-        `engine.channel.Channel.steer_range` on an engine channel at their code phase
-        (`code_phase_of_range` of ``replica_range_m``), whose moves the tracker's NCOs take."""
-        n = np.size(slots)
-        ch = Channel(
-            self.spec,
-            code_phase_of_range(self.spec, replica_range_m, t_s),
-            self.code_rate[slots],
-            np.zeros(n),
-            self.doppler[slots],
-        )
-        ch.run_interval(0.0)  # the NCOs are at the start of the interval the command is for
-        ch.steer_range(range_m, range_rate_m_s, t_s)
-        self.code_phase[slots] += ch.shift_chips
-        self.shift_chips[slots] = ch.shift_chips
-        self.shift_hz[slots] = ch.shift_hz
-        self.doppler[slots] = ch.carrier_freq_hz
-        self.code_rate[slots] = ch.code_rate_chips_s
+        the moves of `engine.channel.Channel.steer_range` (`engine.channel.range_nco`), the
+        code phase by the commanded minus the held range's code phase."""
+        code, code_rate, doppler = range_nco(self.spec, range_m, range_rate_m_s, t_s, (np.size(slots),))
+        shift = code - code_phase_of_range(self.spec, replica_range_m, t_s)
+        self.code_phase[slots] += shift
+        self.shift_chips[slots] = shift
+        self.shift_hz[slots] = doppler - self.doppler[slots]
+        self.doppler[slots] = doppler
+        self.code_rate[slots] = code_rate
 
     def doppler_hz(self, range_rate_m_s: np.ndarray) -> np.ndarray:
         """The carrier Doppler (Hz) of a replica at ``range_rate_m_s``."""
@@ -125,3 +112,14 @@ class SlotNCOs:
         n.doppler[i] = f_new
         n.code_rate[i] = code_freq_hz
         n.doppler_cycles[i] += np.asarray(carrier_phase_step_rad, float) / (2 * np.pi)
+
+    def steer_by_errors(self, code_step_chips: np.ndarray, freq_step_hz: np.ndarray) -> None:
+        """Next interval moved by an estimate of the errors, as `engine.channel.Channel.steer_by_errors`:
+        the code phase jumps by ``code_step_chips``, the carrier frequency by
+        ``freq_step_hz`` (no phase jump), the code rate the new carrier's carrier-aided one."""
+        n, i = self.ncos, self.slots
+        n.shift_chips[i] = code_step_chips
+        n.shift_hz[i] = freq_step_hz
+        n.doppler[i] += freq_step_hz
+        n.code_phase[i] += code_step_chips
+        n.code_rate[i] = n.spec.code_freq_hz(n.doppler[i])

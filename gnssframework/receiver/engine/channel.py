@@ -42,7 +42,7 @@ from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .truth import code_phase_of_range
 
-__all__ = ["Channel", "ReplicaErrors", "code_phase_of_range"]
+__all__ = ["Channel", "ReplicaErrors", "code_phase_of_range", "range_nco"]
 
 
 class ReplicaErrors(NamedTuple):
@@ -218,6 +218,16 @@ class Channel:
         self.carrier_phase_rad = self._carrier_end
         self.carrier_freq_hz = f_new
         self.nco_range_m, self.nco_range_rate_m_s = nco_range_m, nco_range_rate_m_s
+
+
+def range_nco(
+    signal: SignalSpec, range_m, rate_m_s, t_s: float | np.ndarray, batch: tuple[int, ...]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""The code phase (chips), code rate (chips/s) and Doppler (Hz) a range command sets:
+    :math:`f_{chip} t - \rho/\lambda_{chip}`, :math:`f_{chip} - \dot\rho/\lambda_{chip}` and
+    :math:`-\dot\rho/\lambda`, batch shape (what `Channel.steer_range` moves its NCOs to;
+    the sample tracker's `channels.nco.ReplicaNCOs` steers its slots with it)."""
+    return _range_nco(signal.chip_rate_hz, signal.chip_length_m, signal.wavelength_m, range_m, rate_m_s, t_s, batch)
 
 
 def _range_nco(
