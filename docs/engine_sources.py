@@ -1,4 +1,5 @@
-"""One scalar loop on the engine's two correlator sources, side by side (docs/receiver/loop-engine.md).
+"""One scalar loop and one vector loop on the engine's two correlator sources, side by side
+(docs/receiver/loop-engine.md).
 
     python docs/engine_sources.py
 
@@ -8,8 +9,15 @@ the same simulated signal (`generate_if_samples`, complex, 4 MHz) correlated by 
 compiled kernels. Every run draws its own noise (seeded); the table gives, over the runs,
 the mean of each run's mean and standard deviation of the replica's true errors after
 the pull-in, and their standard errors from the spread across runs. Writes
-``docs/experiments/generated/engine_sources.{json,md}``. `tests/receiver/test_engine_sources.py`
-runs the same comparison on fewer runs.
+``docs/experiments/generated/engine_sources.{json,md}``.
+
+The vector loop (`run_vector_loop`: the ``discriminator`` channel filters and the ``ekf-pv``
+navigation filter of `VECTOR_CANDIDATE`, one `VectorCloser`) runs on the analytic model
+and on IF samples of the same truth (`VECTOR_SCENARIO`: the vector-tracking scenario's
+satellites, static receiver and OCXO clock; `truth_samples`); the statistics of each run
+(position and velocity errors, the replicas' code and frequency errors) after the
+settling are compared the same way. Writes ``engine_sources_vector.{json,md}``.
+`tests/receiver/test_engine_sources.py` runs both comparisons on fewer runs.
 """
 
 from __future__ import annotations
@@ -20,12 +28,15 @@ from pathlib import Path
 import numpy as np
 
 from gnssframework import registry
+from gnssframework.experiments import get_scenario
 from gnssframework.receiver.engine.channel import Channel
 from gnssframework.receiver.engine.closers import ScalarCloser
 from gnssframework.receiver.engine.loops import TrackingRecord, run_scalar
 from gnssframework.receiver.engine.samples import SampleSource
 from gnssframework.receiver.engine.sources import AnalyticSource
 from gnssframework.receiver.engine.truth import LoopTruth
+from gnssframework.receiver.engine.truth_samples import truth_samples
+from gnssframework.receiver.tracking.vector import VectorRecord, run_vector_loop
 from gnssframework.signal.correlator_model import CorrelatorSimulator, amplitude_from_cn0
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.if_samples import generate_if_samples
@@ -151,13 +162,159 @@ def table(summ: dict, runs: int, duration_s: float, settle_s: float) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main(runs: int = 24, duration_s: float = 0.6, settle_s: float = 0.2) -> None:
+# --- the vector loop -------------------------------------------------------------------
+
+#: The vector loop's truth: the vector-tracking scenario's geometry (nominal constellation,
+#: the page's site), static receiver, OCXO clock, 10 ms intervals, no data bits.
+VECTOR_SCENARIO = {
+    "kind": "vector-tracking",
+    "channels": 6,
+    "data_bits": "none",
+    "coherent_time_s": 0.01,
+    "settle_s": 0.0,
+}
+#: Its loop: the reference-000 example's discriminator candidate.
+VECTOR_CANDIDATE = {
+    "channel_filter": ("discriminator", {"code_discriminator": "eml-envelope", "freq_discriminator": "cross-product"}),
+    "nav_filter": ("ekf-pv", {"clock": "ocxo"}),
+}
+#: The channels' codes: PRNs whose half-chip code correlation is the model's 1/2 (see the page).
+VECTOR_PRNS = (1, 2, 3, 4, 5, 6)
+VECTOR_CN0_DBHZ = 45.0
+#: Per-run statistics of the vector loop (after the settling).
+VECTOR_STATISTICS = (
+    "position_rms_m",
+    "velocity_rms_m_s",
+    "code_mean_chips",
+    "code_std_chips",
+    "freq_mean_hz",
+    "freq_std_hz",
+)
+
+
+def _vector_loop():
+    ch, nav = (registry.create(kind, name, **params) for kind, (name, params) in VECTOR_CANDIDATE.items())
+    return ch, nav
+
+
+def vector_analytic_runs(runs: int, duration_s: float, seed: int) -> VectorRecord:
+    """All runs at once on the analytic model."""
+    scen = get_scenario({**VECTOR_SCENARIO, "duration_s": duration_s})
+    rng = np.random.default_rng(seed)
+    truth, x0, P0 = scen.truth(VECTOR_CN0_DBHZ, runs, rng)
+    return run_vector_loop(*_vector_loop(), truth, x0, P0, rng, data_bits="none")
+
+
+def vector_sample_runs(
+    runs: int, duration_s: float, seed: int, streams: str = "per-channel", sample_rate_hz: float = SAMPLE_RATE_HZ
+) -> list:
+    """Run by run on complex IF samples of the same truth (`truth_samples`, each run its own
+    clock, initial estimate, carrier phases and noise); ``streams`` as `truth_samples`'s."""
+    scen = get_scenario({**VECTOR_SCENARIO, "duration_s": duration_s})
+    T = scen.params.coherent_time_s
+    codes = np.stack([GPS_L1CA.code(p) for p in VECTOR_PRNS]).astype(np.float32)
+    out = []
+    for r in range(runs):
+        rng = np.random.default_rng([seed, r])
+        truth, x0, P0 = scen.truth(VECTOR_CN0_DBHZ, 1, rng)
+        theta0 = rng.uniform(-np.pi, np.pi, (1, len(VECTOR_PRNS)))
+        x = truth_samples(truth, sample_rate_hz, codes, theta0[0], rng, streams=streams)
+        source = SampleSource(x, sample_rate_hz, 0.0, codes, T)
+        out.append(
+            run_vector_loop(
+                *_vector_loop(), truth, x0, P0, rng, data_bits="none", source=source, initial_carrier_phase_rad=theta0
+            )
+        )
+    return out
+
+
+def vector_statistics(rec: VectorRecord, settle: int) -> dict[str, np.ndarray]:
+    """Each run's statistics after ``settle`` intervals, arrays ``(runs,)``: RMS 3-D position
+    and velocity errors, and the mean and standard deviation of the replicas' code and
+    frequency errors over the channels and intervals."""
+    pos, vel = rec.position_error_m[settle:], rec.velocity_error_m_s[settle:]
+    code, freq = rec.code_error_chips[settle:], rec.freq_error_hz[settle:]
+    runs = pos.shape[1]
+    flat = lambda e: np.moveaxis(e, 1, 0).reshape(runs, -1)  # noqa: E731
+    return {
+        "position_rms_m": np.sqrt(np.mean(np.sum(pos**2, axis=-1), axis=0)),
+        "velocity_rms_m_s": np.sqrt(np.mean(np.sum(vel**2, axis=-1), axis=0)),
+        "code_mean_chips": flat(code).mean(axis=1),
+        "code_std_chips": flat(code).std(axis=1, ddof=1),
+        "freq_mean_hz": flat(freq).mean(axis=1),
+        "freq_std_hz": flat(freq).std(axis=1, ddof=1),
+    }
+
+
+#: The sample sources of the vector comparison: each channel alone in its noise (the
+#: analytic model's assumption), and every satellite in one stream (a receiver's input).
+VECTOR_STREAMS = {"samples": "per-channel", "samples-one-stream": "one"}
+
+
+def vector_both_sources(
+    runs: int, duration_s: float, settle_s: float, seed: int = 1, streams: tuple[str, ...] = tuple(VECTOR_STREAMS)
+) -> dict[str, dict[str, np.ndarray]]:
+    """Per-run statistics (`vector_statistics`) of the vector loop on the analytic source and
+    on the sample sources ``streams`` (keys of `VECTOR_STREAMS`)."""
+    T = VECTOR_SCENARIO["coherent_time_s"]
+    settle = int(round(settle_s / T))
+    out = {"analytic": vector_statistics(vector_analytic_runs(runs, duration_s, seed), settle)}
+    for i, name in enumerate(streams):
+        s = [
+            vector_statistics(r, settle)
+            for r in vector_sample_runs(runs, duration_s, seed + 1 + i, VECTOR_STREAMS[name])
+        ]
+        out[name] = {k: np.concatenate([st[k] for st in s]) for k in VECTOR_STATISTICS}
+    return out
+
+
+def vector_table(summ: dict, runs: int, duration_s: float, settle_s: float) -> str:
+    labels = {
+        "position_rms_m": "RMS position error (m)",
+        "velocity_rms_m_s": "RMS velocity error (m/s)",
+        "code_mean_chips": "mean of replica code error (chips)",
+        "code_std_chips": "std of replica code error (chips)",
+        "freq_mean_hz": "mean of replica frequency error (Hz)",
+        "freq_std_hz": "std of replica frequency error (Hz)",
+    }
+    lines = [
+        f"<!-- generated by docs/engine_sources.py: {runs} runs per source, {duration_s} s, "
+        f"statistics after {settle_s} s -->",
+        "| per-run statistic | analytic source | IF samples, a stream per channel | difference / combined SE "
+        "| IF samples, one stream | difference / combined SE |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
+    for key in VECTOR_STATISTICS:
+        ma, sa = summ["analytic"][key]
+        row = f"| {labels[key]} | {ma:.4g} ± {sa:.2g} "
+        for name in VECTOR_STREAMS:
+            ms, ss = summ[name][key]
+            row += f"| {ms:.4g} ± {ss:.2g} | {(ms - ma) / np.hypot(sa, ss):+.2f} "
+        lines.append(row + "|")
+    return "\n".join(lines) + "\n"
+
+
+def main(
+    runs: int = 24,
+    duration_s: float = 0.6,
+    settle_s: float = 0.2,
+    vector_runs: int = 24,
+    vector_duration_s: float = 2.0,
+    vector_settle_s: float = 0.5,
+) -> None:
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import experiment_tables
 
     summ = summary(both_sources(runs, duration_s, settle_s))
     experiment_tables.save_summary("engine_sources", summ)
     print(experiment_tables.save("engine_sources.md", table(summ, runs, duration_s, settle_s)))
+    summ = summary(vector_both_sources(vector_runs, vector_duration_s, vector_settle_s))
+    experiment_tables.save_summary("engine_sources_vector", summ)
+    print(
+        experiment_tables.save(
+            "engine_sources_vector.md", vector_table(summ, vector_runs, vector_duration_s, vector_settle_s)
+        )
+    )
 
 
 if __name__ == "__main__":

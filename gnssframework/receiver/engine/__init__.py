@@ -5,7 +5,7 @@ every channel's NCOs, fed by prefilters).
 
 Modules: `truth` (`LoopTruth`), `channel` (`Channel`, `ReplicaErrors`, the one NCO and
 sign convention), `sources` (`CorrelatorSource`, `AnalyticSource`), `samples`
-(`SampleSource`), `closers` (`ScalarCloser`, `VectorCloser`), `deep_closer` (`DeepCloser`), `loops` (`run_scalar`,
+(`SampleSource`), `truth_samples` (IF samples of a geometry-form truth), `closers` (`ScalarCloser`, `VectorCloser`), `deep_closer` (`DeepCloser`), `loops` (`run_scalar`,
 `TrackingRecord`). Names are importable from here; the modules are loaded on first use
 (so the channel package's tracker may import the engine without a circle at import time).
 """
@@ -25,6 +25,8 @@ _WHERE = {
     "CorrelatorSource": "sources",
     "AnalyticSource": "sources",
     "SampleSource": "samples",
+    "truth_samples": "truth_samples",
+    "range_nco": "channel",
     "ScalarCloser": "closers",
     "EstimateCloser": "closers",
     "VectorCloser": "closers",

@@ -32,7 +32,11 @@ class SampleSource:
     Parameters
     ----------
     samples
-        ``complex`` or real samples of one stream (all channels see it).
+        ``complex`` or real samples of one stream ``(n,)`` (all channels see it, as in a
+        receiver); or ``(n_channels, n)``, one stream per channel (flattened batch order):
+        channel i correlates stream i only, a signal without the other satellites'
+        cross-correlation, the analytic model's assumption (`truth_samples` with
+        ``streams="per-channel"``).
     sample_rate_hz, if_hz
         Sample rate and intermediate frequency.
     codes
@@ -74,7 +78,12 @@ class SampleSource:
                 f"the coherent time {coherent_time_s} s must hold a whole number of "
                 f"samples at {sample_rate_hz} Hz, got {n}",
             )
-        self.samples, self.fs, self.if_hz = samples, float(sample_rate_hz), float(if_hz)
+        samples = np.asarray(samples)
+        if samples.ndim not in (1, 2):
+            raise ConfigError("samples", f"one stream (n,) or one per channel (channels, n), got shape {samples.shape}")
+        #: Offset of each channel's stream in the flat buffer (0: the one stream).
+        self.stream_offsets = np.arange(samples.shape[0]) * samples.shape[1] if samples.ndim == 2 else None
+        self.samples, self.fs, self.if_hz = samples.reshape(-1), float(sample_rate_hz), float(if_hz)
         self.codes = np.ascontiguousarray(codes, np.float32)
         self.n, self.start = int(round(n)), int(start_sample)
         # A BOC table (`SignalSpec.spreading_table`) holds sub-chips: phases, rates and tap
@@ -91,13 +100,16 @@ class SampleSource:
         n_ch = int(np.prod(batch, dtype=int))
         if self.codes.shape[0] != n_ch:
             raise ConfigError("codes", f"{self.codes.shape[0]} codes for {n_ch} channels")
+        if self.stream_offsets is not None and self.stream_offsets.size != n_ch:
+            raise ConfigError("samples", f"{self.stream_offsets.size} streams for {n_ch} channels")
         start = self.start + k * self.n
+        first = np.full(n_ch, start) if self.stream_offsets is None else self.stream_offsets + start
         flat = lambda a: np.broadcast_to(np.asarray(a, float), batch).reshape(-1)  # noqa: E731
         cycles = np.mod(self.if_hz * start / self.fs, 1.0) + flat(channel.carrier_phase_rad) / (2 * np.pi)
         out = (
             correlate_channels(
                 self.samples,
-                np.full(n_ch, start),
+                first,
                 np.full(n_ch, self.n),
                 flat(channel.code_phase_chips) * self.subchips,
                 flat(channel.code_rate_chips_s) * self.subchips / self.fs,

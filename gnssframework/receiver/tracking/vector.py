@@ -1,7 +1,8 @@
 """Vector tracking: channel filters -> navigation filter -> NCO commands, every epoch.
 
 A composition of the loop engine (`gnssframework.receiver.engine`): `Channel` NCOs steered
-by range, the `AnalyticSource` and a `VectorCloser`. The loop is batched over Monte Carlo
+by range, a correlator source (the `AnalyticSource` by default, or IF samples of the same
+truth: ``source``) and a `VectorCloser`. The loop is batched over Monte Carlo
 runs (axis 0) and channels (axis 1). Each
 coherent interval k, from $t_k$ to $t_{k+1} = t_k + T$:
 
@@ -50,7 +51,7 @@ from ...signal.navdata import random_nav_bits
 from ..engine.channel import Channel
 from ..engine.channel_monitor import ChannelMonitor
 from ..engine.closers import CHANNEL_OUTPUTS, HARNESS_INPUTS, NAV_OUTPUTS, VectorCloser, check_composition
-from ..engine.sources import AnalyticSource
+from ..engine.sources import AnalyticSource, CorrelatorSource
 from ..engine.truth import LoopTruth, VectorTruth, code_phase_of_range
 
 __all__ = [
@@ -118,6 +119,8 @@ def run_vector_loop(
     integrity_risk: float | None = None,
     store_estimates: bool = False,
     innovations: bool = False,
+    source: CorrelatorSource | None = None,
+    initial_carrier_phase_rad: np.ndarray | None = None,
 ) -> VectorRecord:
     """Run the vector tracking loop over all epochs of ``truth``.
 
@@ -149,6 +152,16 @@ def run_vector_loop(
         Record the nav filter's normalised innovation squared each epoch
         (`VectorRecord.nis`; one batched solve of the innovation covariance per epoch) if
         it keeps its ``last_step``.
+    source
+        Where the correlators come from (`gnssframework.receiver.engine.sources`): None,
+        the analytic model at the replica's true errors (`AnalyticSource`, drawn from
+        ``rng`` with the truth's C/N0 and gains); or any other source, e.g. IF samples of
+        this truth (`SampleSource` of `engine.truth_samples.truth_samples`), which carry
+        their own noise, C/N0 and carrier phases (then give those phases below and
+        ``data_bits = "none"``, the samples having no data).
+    initial_carrier_phase_rad
+        ``(runs, channels)`` true carrier phases at t = 0 (rad); None: drawn uniform from
+        ``rng`` (the analytic model's unknown initial phase).
     """
     closer = VectorCloser(channel, nav, monitor)
     if data_bits not in ("none", "known", "unknown"):
@@ -170,7 +183,21 @@ def run_vector_loop(
                 f"truth.{name}", f"must have the shape (epochs, runs, channels) = {(K,) + batch}, got {np.shape(gain)}"
             )
 
-    theta0 = draw.uniform(rng, -np.pi, np.pi, batch, 0)  # unknown initial carrier phase per channel
+    if initial_carrier_phase_rad is None:  # unknown initial carrier phase per channel
+        theta0 = draw.uniform(rng, -np.pi, np.pi, batch, 0)
+    elif np.shape(initial_carrier_phase_rad) != batch:
+        raise ConfigError(
+            "initial_carrier_phase_rad",
+            f"must have the shape (runs, channels) = {batch}, got {np.shape(initial_carrier_phase_rad)}",
+        )
+    else:
+        theta0 = np.asarray(initial_carrier_phase_rad, float)
+    if source is not None and data_bits != "none":
+        raise ConfigError(
+            "data_bits",
+            f"got {data_bits!r} with a correlator source of its own: its samples carry no "
+            "data the loop draws; use 'none'",
+        )
     bit_period_s = signal.symbol_period_s
     bits = random_nav_bits(int(np.ceil(K * T / bit_period_s)) + 1, rng, batch) if data_bits != "none" else None
     bits_f = bits.astype(float) if bits is not None else None
@@ -187,13 +214,14 @@ def run_vector_loop(
     rho0, rate0, _ = predicted_range(initial_state, s_mid, sv_mid)
     replica = Channel.from_range(batch, rho0 - rate0 * T / 2, rate0, t_s=0.0, signal=signal)
     closer.reset(replica, context)
-    source = AnalyticSource(
-        CorrelatorSimulator(T, early_late_spacing_chips),
-        amplitude_from_cn0(cn0, T),
-        rng,
-        signal_gain=truth.signal_gain,
-        noise_gain=truth.noise_gain,
-    )
+    if source is None:
+        source = AnalyticSource(
+            CorrelatorSimulator(T, early_late_spacing_chips),
+            amplitude_from_cn0(cn0, T),
+            rng,
+            signal_gain=truth.signal_gain,
+            noise_gain=truth.noise_gain,
+        )
     record = _Recorder(K, runs, batch, integrity_risk, store_estimates)
     excluded = np.zeros((K,) + batch, bool) if monitor is not None else None
 
