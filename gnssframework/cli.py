@@ -323,8 +323,14 @@ def _open_recording_from_args(args: argparse.Namespace):
         raise DataFileError(
             args.recording, None, "not a regular file (a device, pipe or folder): give a file of recorded samples"
         )
+    names = getattr(args, "signal", None)  # receive's may list several, all on one carrier
     return open_recording(
-        args.recording, format=args.format, sample_rate_hz=args.fs, if_hz=args.if_hz, q_sign=args.q_sign
+        args.recording,
+        format=args.format,
+        sample_rate_hz=args.fs,
+        if_hz=args.if_hz,
+        q_sign=args.q_sign,
+        signal=registry.signal_spec(names.split(",")[0]) if names else None,
     )
 
 

@@ -120,6 +120,30 @@ def test_the_metadata_is_valid_sigmf_and_states_the_if_as_an_rf_frequency(tmp_pa
     assert read_sigmf_meta(tmp_path / "a.sigmf-meta").if_hz == pytest.approx(0.092e6)
 
 
+def test_another_bands_metadata_states_its_carrier_and_is_read_with_its_signal(tmp_path, capsys):
+    # An L2 recording (another tool's metadata: no project IF key) is 1227.6 MHz centred;
+    # read as GPS L1 C/A its IF would be 347.82 MHz: refused in one line naming the field
+    # and the options, read with the L2C signal its IF is the offset from 1227.6 MHz.
+    from gnssframework import registry
+    from gnssframework.cli import main
+
+    l2c = registry.signal_spec("gps-l2c")
+    write_recording(tmp_path / "l2.sigmf-data", np.ones(8, complex), "ci8", FS, 0.05e6, signal=l2c)
+    meta = json.loads((tmp_path / "l2.sigmf-meta").read_text())
+    assert meta["captures"][0]["core:frequency"] == pytest.approx(1227.6e6 - 0.05e6)
+    del meta["global"]["gnssframework:if_hz"]
+    (tmp_path / "l2.sigmf-meta").write_text(json.dumps(meta))
+    with pytest.raises(ConfigError, match=r"l2.sigmf-meta captures\[0\] core:frequency.*347\.87 MHz from gps-l1ca's"):
+        open_recording(tmp_path / "l2.sigmf-data")
+    assert open_recording(tmp_path / "l2.sigmf-data", signal=l2c).info.if_hz == pytest.approx(0.05e6)
+    assert main(["acquire", str(tmp_path / "l2.sigmf-data"), "--out", str(tmp_path / "o")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--signal NAME" in err[0] and "--if-hz" in err[0]
+    # With --signal the recording opens: what stops acquisition is its length, not its IF.
+    main(["acquire", str(tmp_path / "l2.sigmf-data"), "--signal", "gps-l2c", "--out", str(tmp_path / "o")])
+    assert "core:frequency" not in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     "kwargs, field",
     [

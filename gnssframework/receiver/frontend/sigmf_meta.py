@@ -41,6 +41,9 @@ class SigmfInfo:
     q_sign: int | None
     start_time: str | None
     sample_start: int | None = None
+    #: The first capture's ``core:frequency`` (Hz) when the IF was derived from it (no
+    #: project IF key): the IF is then the signal's carrier minus it.
+    centre_freq_hz: float | None = None
 
 
 def meta_path_for(recording: str | Path) -> Path:
@@ -182,8 +185,10 @@ def read_sigmf_meta(path: str | Path, carrier_freq_hz: float | None = None, sign
     first = captures[0] if captures else {}
     freq = first.get("core:frequency")
     if_hz = glob.get(IF_KEY)
+    centre = None
     if if_hz is None and freq is not None:
-        if_hz = (signal.carrier_freq_hz if carrier_freq_hz is None else carrier_freq_hz) - float(freq)
+        centre = float(freq)
+        if_hz = (signal.carrier_freq_hz if carrier_freq_hz is None else carrier_freq_hz) - centre
     q_sign = glob.get(Q_SIGN_KEY)
     if q_sign not in (None, 1, -1) or isinstance(q_sign, bool):
         raise DataFileError(str(path), None, f"{Q_SIGN_KEY} must be 1 or -1, got {q_sign!r}")
@@ -195,6 +200,7 @@ def read_sigmf_meta(path: str | Path, carrier_freq_hz: float | None = None, sign
         q_sign,
         first.get("core:datetime"),
         first.get("core:sample_start"),
+        centre,
     )
 
 

@@ -8,6 +8,8 @@ import numpy as np
 
 from ... import registry
 from ...errors import ConfigError
+from ...signal.gps_l1ca import GPS_L1CA
+from ...signal.spec import SignalSpec
 from .sigmf_meta import meta_path_for, write_sigmf_meta
 
 __all__ = ["write_recording"]
@@ -24,6 +26,7 @@ def write_recording(
     scale: float = 1.0,
     start_time: str | None = None,
     sigmf: bool = True,
+    signal: SignalSpec | None = None,
 ) -> Path:
     """Write ``samples * scale`` to ``path`` in ``format`` (and ``path``'s ``.sigmf-meta``).
 
@@ -36,6 +39,9 @@ def write_recording(
         so reading it back gives ``samples`` again.
     scale
         Factor to the format's units (integer formats are rounded and clipped).
+    signal
+        The signal of the band recorded: the metadata's ``core:frequency`` is its carrier
+        minus ``if_hz`` (None: GPS L1 C/A's).
     """
     source = registry.create("sample_source", format)
     samples = np.asarray(samples)
@@ -61,5 +67,6 @@ def write_recording(
             if_hz=if_hz,
             q_sign=q_sign,
             start_time=start_time,
+            signal=GPS_L1CA if signal is None else signal,
         )
     return path

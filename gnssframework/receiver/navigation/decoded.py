@@ -72,7 +72,7 @@ def lnav_decoded(ch, signal: SignalSpec) -> dict:
     """What one channel's LNAV gave: ``subframes`` (count), ``first_tow_s`` (of the first
     subframe, None without one), ``ephemeris`` (a complete one decoded), ``iono`` (page 18)
     and ``week`` (10-bit, subframe 1; None)."""
-    tm = channel_timing(ch) if ch.rows else None
+    tm = channel_timing(ch, signal=signal) if ch.rows else None
     msg = tm.message if tm is not None else None
     subframes = list(msg.subframes) if msg is not None else []
     return {

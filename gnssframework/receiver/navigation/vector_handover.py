@@ -52,7 +52,7 @@ def try_handover(v: VectorSampleCloser) -> None:
     t = v.tracker
     sp = t.signal
     ready = [c for c in t.channels.values() if c.stage == "extended" and c.locked]
-    timings = {c.prn: channel_timing(c.record) for c in ready}
+    timings = {c.prn: channel_timing(c.record, signal=sp) for c in ready}
     timings = {p: tm for p, tm in timings.items() if tm is not None and tm.time_s.size > 1}
     if len(timings) < 4:
         return
@@ -66,6 +66,7 @@ def try_handover(v: VectorSampleCloser) -> None:
         ionosphere=v.ionosphere,
         reference_week=v.reference_week,
         iono=None if obs.iono_utc is not None else v.iono_fallback,
+        signal=sp,
     )
     if len(table) == 0:
         return
@@ -196,6 +197,7 @@ def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
             elevation_mask_deg=0.0,
             initial_ecef_m=a.position_ecef_m,
             sigma_m=v.vector.assisted_pseudorange_sigma_m,
+            signal=sp,
         )
         if fix is None:
             break
