@@ -26,11 +26,20 @@ data adds it to $\rho_g$.
 from __future__ import annotations
 
 import numpy as np
+import pymap3d
 
 from ..signal.spec import SPEED_OF_LIGHT_M_S
 from .ephemeris import OMEGA_EARTH_RAD_S
 
-__all__ = ["geometric_range", "line_of_sight", "range_rate", "range_acceleration", "ranges_from_receivers", "sagnac_m"]
+__all__ = [
+    "enu_rotation",
+    "geometric_range",
+    "line_of_sight",
+    "range_rate",
+    "range_acceleration",
+    "ranges_from_receivers",
+    "sagnac_m",
+]
 
 
 def geometric_range(sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray) -> np.ndarray:
@@ -107,3 +116,17 @@ def sagnac_m(
     $\\frac{\\omega_{ie}}{c}(s_x r_y - s_y r_x)$ (IS-GPS-200, 20.3.3.4.3.3.2; at most about 40 m)."""
     s, r = np.asarray(sat_pos_m), np.asarray(receiver_pos_m)
     return omega_earth_rad_s / SPEED_OF_LIGHT_M_S * (s[..., 0] * r[..., 1] - s[..., 1] * r[..., 0])
+
+
+def enu_rotation(position_ecef_m: np.ndarray) -> np.ndarray:
+    """Rotations ``(..., 3, 3)`` from ECEF to east, north, up at ECEF positions ``(..., 3)``
+    (geodetic latitude on WGS-84, `pymap3d.ecef2geodetic`): rows east, north, up."""
+    r = np.asarray(position_ecef_m, float)
+    lat_deg = np.asarray(pymap3d.ecef2geodetic(r[..., 0], r[..., 1], r[..., 2])[0], float)
+    lat, lon = np.radians(lat_deg), np.arctan2(r[..., 1], r[..., 0])
+    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+    zero = np.zeros_like(lat)
+    return np.stack(
+        [np.stack([-so, co, zero], -1), np.stack([-sl * co, -sl * so, cl], -1), np.stack([cl * co, cl * so, sl], -1)],
+        -2,
+    )

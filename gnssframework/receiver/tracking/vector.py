@@ -35,14 +35,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import pymap3d
 
 from ... import names
 from ... import random_streams as draw
 from ...errors import ConfigError
 from ...estimation.consistency import nees
 from ...interfaces import ChannelFilter, NavFilter, RunContext
-from ...navigation.geometry import line_of_sight, range_rate, ranges_from_receivers
+from ...navigation.geometry import enu_rotation, line_of_sight, range_rate, ranges_from_receivers
 from ...estimation.types import Update
 from ...navigation.filter_integrity import normalised_innovation_squared
 from ...navigation.integrity import covariance_protection_levels
@@ -403,20 +402,6 @@ def smooth_record(
     s = smooth(result)
     change = s.mean - m  # smoothed minus filtered: the error changes by as much
     return record.position_error_m + change[..., 0:3], record.velocity_error_m_s + change[..., 3:6], s.cov
-
-
-def enu_rotation(position_ecef_m: np.ndarray) -> np.ndarray:
-    """Rotations ``(..., 3, 3)`` from ECEF to east, north, up at ECEF positions ``(..., 3)``
-    (geodetic latitude on WGS-84, `pymap3d.ecef2geodetic`): rows east, north, up."""
-    r = np.asarray(position_ecef_m, float)
-    lat_deg = np.asarray(pymap3d.ecef2geodetic(r[..., 0], r[..., 1], r[..., 2])[0], float)
-    lat, lon = np.radians(lat_deg), np.arctan2(r[..., 1], r[..., 0])
-    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
-    zero = np.zeros_like(lat)
-    return np.stack(
-        [np.stack([-so, co, zero], -1), np.stack([-sl * co, -sl * so, cl], -1), np.stack([cl * co, cl * so, sl], -1)],
-        -2,
-    )
 
 
 def _block_truth(
