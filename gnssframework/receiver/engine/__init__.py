@@ -38,6 +38,7 @@ _WHERE = {
     "CHANNEL_OUTPUTS": "closers",
     "NAV_OUTPUTS": "closers",
     "HARNESS_INPUTS": "closers",
+    "SubFilterBank": "filter_bank",
     "DeepCloser": "deep_closer",
     "Navigator": "deep_closer",
     "TrackingRecord": "loops",

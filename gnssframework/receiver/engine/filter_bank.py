@@ -1,6 +1,6 @@
 r"""A navigation filter and its bank of sub-filters: solution separation that sees a slow ramp.
 
-`navigation.filter_integrity.filter_solution_separation` separates one update: the full
+`gnssframework.navigation.filter_integrity.filter_solution_separation` separates one update: the full
 and the fault-mode solutions share the prior :math:`x^-`, so a fault that has already
 pulled the prior (a slow ramp the filter absorbs as it grows) is in both and hardly
 separates. The remedy (Brenner 1996; Joerger and Pervan 2013) runs, beside the full filter
@@ -17,7 +17,7 @@ every measurement it was given, the sub-filter's among them, so (Brenner 1996, e
     \mathrm{cov}(\hat x_k - \hat x_0) = P_k - P_0 ,
 
 and the separation test and the protection levels are those of a snapshot solution
-separation (`integrity.separation_levels`, Blanch et al. 2015): per east, north, up axis
+separation (`gnssframework.navigation.integrity.separation_levels`, Blanch et al. 2015): per east, north, up axis
 ``q``, :math:`|A(\hat x_k - \hat x_0)|_q > K_{fa}\sigma_{ss,k,q}`,
 :math:`\sigma^2_{ss,k,q} = (A(P_k - P_0)A^T)_{qq}`, with ``A`` the rotation of the
 position to east, north, up at the full filter's position. For an extended or sigma-point
@@ -46,11 +46,11 @@ from typing import Any
 
 import numpy as np
 
-from .. import names
-from ..errors import ConfigError
-from ..interfaces import NavFilter, RunContext
-from .geometry import enu_rotation
-from .integrity import separation_levels
+from ... import names
+from ...errors import ConfigError
+from ...interfaces import NavFilter, RunContext
+from ...navigation.geometry import enu_rotation
+from ...navigation.integrity import separation_levels
 
 __all__ = ["EXCLUDED_VAR", "BankStep", "SubFilterBank"]
 

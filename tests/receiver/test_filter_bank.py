@@ -1,5 +1,5 @@
-"""A navigation filter's bank of sub-filters (`navigation.filter_bank`) checked against
-theory on the ``ekf-pv`` nav filter, on the truth of `test_filter_integrity` (the filter's
+"""A navigation filter's bank of sub-filters (`receiver.engine.filter_bank`) checked against
+theory on the ``ekf-pv`` nav filter, on the truth of `navigation/test_filter_integrity.py` (`nav_filter_truth`) (the filter's
 own model, seven satellites of the nominal constellation, measurements of the variances it
 is told).
 
@@ -21,11 +21,10 @@ from scipy.stats import norm
 from gnssframework import registry
 from gnssframework.errors import ConfigError
 from gnssframework.interfaces import RunContext
-from gnssframework.navigation.filter_bank import SubFilterBank
+from gnssframework.receiver.engine.filter_bank import SubFilterBank
 from gnssframework.navigation.filter_integrity import filter_solution_separation, innovation_test, satellite_modes
 from gnssframework.signal.gps_l1ca import GPS_L1CA
-from test_filter_integrity import CH, CONF, LAT, LON, P0_DIAG, T_S, _enu, _geometry, _h, _interval, _jacobian, _sqrtm
-from test_filter_integrity import _upper
+from nav_filter_truth import CH, CONF, LAT, LON, P0_DIAG, T_S, _enu, _geometry, _h, _interval, _jacobian, _sqrtm, _upper
 
 CHIP, LAM = GPS_L1CA.chip_length_m, GPS_L1CA.wavelength_m
 
