@@ -884,6 +884,10 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     if reference_week is None and nav_info is not None:
         reference_week = int(0.5 * (nav_info.first_s + nav_info.last_s) // WEEK_S)
     vector = None
+    if args.smooth and filters.nav_filter is None:
+        raise ConfigError(
+            "--smooth", "smooths a navigation filter's positions (scalar tracking): give --nav-filter, e.g. ekf-pv"
+        )
     if args.tracking == "vector":
         from .receiver.navigation.vector_tracking import vector_config
 
@@ -949,6 +953,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             signal=signal,
             raim=raim,
             observe=fixes.observe if fixes is not None and vector is None else None,
+            smooth=args.smooth,
         )
     if fixes is not None:
         fixes.finish(result.positions, result.observables)
@@ -1089,6 +1094,7 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
         "--approx-position": args.approx_position,
         "--vector-channel-filter": args.vector_channel_filter,
         "--raim": getattr(args, "raim", None),
+        "--smooth": args.smooth,
     }
     for option, value in given.items():
         if value:
@@ -1615,6 +1621,11 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME",
         help="nav_filter plugin run on the pseudoranges and Dopplers, e.g. ekf-pv (default: least squares per epoch)",
     )
+    p.add_argument(
+        "--smooth",
+        action="store_true",
+        help="with --nav-filter: write its forward-backward (RTS) positions, each using the whole run",
+    )
     p.add_argument("--rate", type=float, default=1.0, metavar="HZ", help="solutions per second (default 1)")
     p.add_argument("--ephemeris", metavar="NAV", help="RINEX navigation file for satellites not yet decoded")
     p.add_argument(
@@ -1772,6 +1783,7 @@ OPTION_OF_PARAMETER = {
     "pseudorange_min_m": "--pseudorange-min",
     "pseudorange_max_m": "--pseudorange-max",
     "raim": "--raim",
+    "smooth": "--smooth",
     "raim_false_alarm": "--raim-pfa",
     "raim_missed_detection": "--raim-pmd",
     "outputs": "--outputs",

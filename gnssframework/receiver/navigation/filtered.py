@@ -58,6 +58,7 @@ from ...navigation.lnav import IonoUtc
 from ...navigation.pvt import chi2_ppf, dop, klobuchar_delay_s, troposphere_delay_m
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SPEED_OF_LIGHT_M_S, SignalSpec
+from .filtered_smoothing import check_smoothable, smooth_runs
 from .fixes import PositionTable, full_week
 from .fixes import _ephemeris_for as ephemeris_for, _stack as stack_records
 from .observables import Observables
@@ -387,6 +388,7 @@ def filter_epochs(
     innovation_false_alarm: float = 1e-3,
     signal: SignalSpec = GPS_L1CA,
     integrity_risk: float | None = None,
+    smooth: bool = False,
 ) -> PositionTable:
     """The registered ``nav_filter`` (with ``params``) on every epoch of ``obs`` from the
     first fix of ``wls`` on (see the module text); the same columns as ``wls``, with
@@ -396,6 +398,9 @@ def filter_epochs(
     ``wls`` is `fixes.solve_epochs` of the same observables and settings; ``exclusion``
     one of `EXCLUSIONS`; ``innovation_false_alarm`` the test's probability ``p``;
     ``integrity_risk`` (None: none) adds the protection levels (see the module text).
+    ``smooth``: the rows are the forward-backward (RTS) estimates of each run of the filter
+    (`filtered_smoothing`), the levels of their covariances; the satellites and exclusions
+    are the forward pass's.
 
     Raises
     ------
@@ -420,6 +425,10 @@ def filter_epochs(
         )
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
     interval_s = float(np.median(np.diff(obs.rx_time_s))) if obs.rx_time_s.size > 1 else 1.0
+    if smooth:
+        F_s, Q_s = check_smoothable(nav, nav_filter, interval_s)
+    covs: list[np.ndarray | None] = []
+    run_starts: list[int] = []
     wls_row = {int(np.argmin(np.abs(obs.sample_time_s - t))): k for k, t in enumerate(wls.sample_time_s)}
     rows, states, used, dops, excluded, levels = [], [], [], [], [], []
     running = False
@@ -441,6 +450,7 @@ def filter_epochs(
             x0, P0 = _prior(wls, k, sigma_m, sigma_rate_m_s)
             start_nav_filter(nav, interval_s, x0, P0)
             running, here, predicted = True, x0[:3], (x0, P0)
+            run_starts.append(len(states))
         meas, keep = corrected_measurements(
             obs.pseudorange_m[e, j],
             obs.transmit_s[e, j],
@@ -469,11 +479,17 @@ def filter_epochs(
         here = x[:3]
         rows.append(e)
         states.append(x)
+        covs.append(P)
         used.append(tuple(int(p) for p in obs.prn[j[keep]]))
         excluded.append(out_prn)
         dops.append(_dops(meas.sat_pos_m, x[:3]))
-        if integrity_risk is not None:
-            levels.append(_levels(x, P, integrity_risk))
+    if smooth and states:
+        if any(P is None for P in covs):
+            raise ConfigError("smooth", f"nav_filter {nav_filter!r} publishes no covariance: nothing to smooth")
+        states_a, covs_a = smooth_runs(np.array(states), np.array(covs), run_starts, F_s, Q_s)
+        states, covs = list(states_a), list(covs_a)
+    if integrity_risk is not None:
+        levels = [_levels(x, P, integrity_risk) for x, P in zip(states, covs)]
     table = _table(
         obs,
         np.array(rows, dtype=int),

@@ -76,6 +76,7 @@ def receive(
     filters: StageFilters | None = None,
     raim: RaimOptions | None = None,
     observe: Callable[[SampleTracker], Any] | None = None,
+    smooth: bool = False,
 ) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
@@ -96,7 +97,8 @@ def receive(
     records of ``rinex`` or the decoded I/NAV ones, no Klobuchar correction unless
     ``iono_fallback``); ``filters`` the stages' channel filters built once for the task
     (`channels.factory.StageFilters` of ``config``; built by the tracker when None).
-    ``raim`` monitors the least-squares fixes' integrity (`pvt.solve_position`'s ``raim``)
+    ``smooth`` (with ``nav_filter``) makes its positions the forward-backward (RTS) estimates
+    (`filtered_smoothing`). ``raim`` monitors the least-squares fixes' integrity (`pvt.solve_position`'s ``raim``)
     and gives the nav filter's rows protection levels from its covariance, its innovation
     test at ``raim.false_alarm`` (`filtered.filter_epochs`); the vector loop's rows get the
     levels of its navigation filter's covariance and its channel monitor's verdict
@@ -117,6 +119,8 @@ def receive(
             "nav_filter",
             "vector tracking runs its own navigation filter (VectorConfig); give nav_filter or vector, not both",
         )
+    if smooth and nav_filter is None:  # checked before the tracking it would come after
+        raise ConfigError("smooth", "smooths a navigation filter's positions: give nav_filter too")
     if acquisitions is None:
         acquisitions = acquire_recording(recording, acquisition, prns or None, signal=signal)  # None: all
     found = [r for r in acquisitions if r.detected]
@@ -212,6 +216,7 @@ def receive(
         iono=iono,
         reference_week=reference_week,
         signal=signal,
+        smooth=smooth,
         **checks,
     )
     return ReceiveResult(tracking, obs, filtered, table)
