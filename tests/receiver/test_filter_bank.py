@@ -69,7 +69,7 @@ def _run_bank(runs, epochs, fault_m=None, seed=0, p_fa=1e-2):
     x = x_hat0 + rng.standard_normal((runs, 8)) * np.sqrt(P0_DIAG)
     Lq = _sqrtm(Q)
     A = _enu(LAT, LON) @ np.eye(3, 8)
-    bank_fault, one_fault, nis_fault, errors = [], [], [], []
+    bank_fault, one_fault, nis_fault, excluded, errors = [], [], [], [], []
     for k in range(epochs):
         if k:
             x = x @ F.T + rng.standard_normal((runs, 8)) @ Lq.T
@@ -89,6 +89,7 @@ def _run_bank(runs, epochs, fault_m=None, seed=0, p_fa=1e-2):
             false_alarm=p_fa,
         )
         bank_fault.append(step.fault)
+        excluded.append(step.excluded)
         one_fault.append(one.detected)
         nis_fault.append(innovation_test(u.innovation[:runs], u.innovation_cov[:runs], p_fa).detected)
         errors.append(step.outputs["position_m"] - x[:, 0:3])
@@ -96,6 +97,7 @@ def _run_bank(runs, epochs, fault_m=None, seed=0, p_fa=1e-2):
         "bank": np.array(bank_fault),
         "one_update": np.array(one_fault),
         "innovation": np.array(nis_fault),
+        "excluded": np.array(excluded),
         "last": step,
         "errors_enu_m": np.array(errors) @ _enu(LAT, LON).T,
     }
@@ -196,6 +198,11 @@ def test_a_slow_ramp_is_found_by_the_bank_as_its_mean_separation_predicts_and_so
     assert np.all(empirical >= bound - band)
     assert bound[-1] > 0.99  # the ramp is caught within the run ...
     assert empirical[onset + 5] < 0.5  # ... not at once
+    # At its first detection the bank excludes the faulty satellite in most runs (measured
+    # 94 % of 2,000; a binomial standard error of 0.5 %).
+    caught = bank_fault.any(0) & (first >= onset)
+    at_first = out["excluded"][first[caught], np.flatnonzero(caught)]
+    assert caught.mean() > 0.95 and (at_first == sat).mean() > 0.9
     # Paired on the same runs: the bank's first detection comes sooner than one update's.
     first_one = np.where(one_fault.any(0), one_fault.argmax(0), epochs)
     d = first_one - first

@@ -21,7 +21,9 @@ separation (`gnssframework.navigation.integrity.separation_levels`, Blanch et al
 ``q``, :math:`|A(\hat x_k - \hat x_0)|_q > K_{fa}\sigma_{ss,k,q}`,
 :math:`\sigma^2_{ss,k,q} = (A(P_k - P_0)A^T)_{qq}`, with ``A`` the rotation of the
 position to east, north, up at the full filter's position. For an extended or sigma-point
-filter the relation holds to the linearisation.
+filter the relation holds to the linearisation. After a detection the mode whose
+separation is largest against its threshold is excluded (a single fault), and its
+sub-filter's position is the solution without the faulty satellite.
 
 `SubFilterBank` runs the ``N + 1`` filters as ONE batched navigation filter (any
 ``nav_filter`` plugin): batch ``(N + 1) runs``, sub-filter ``k``'s inputs those of the full
@@ -75,6 +77,11 @@ class BankStep:
         ``(runs,)`` the largest separation over its threshold, and whether it exceeds 1.
     pl_m, hpl_m, vpl_m
         ``(runs, 3)`` per-axis protection levels, ``(runs,)`` horizontal and vertical.
+    excluded, excluded_position_m
+        ``(runs,)`` where ``fault``: the mode (channel) whose separation is largest against
+        its threshold, the single fault's most likely source, and ``(runs, 3)`` the ECEF
+        position of its sub-filter, the solution without it; elsewhere -1 and the full
+        filter's position.
     """
 
     outputs: dict[str, np.ndarray]
@@ -85,6 +92,8 @@ class BankStep:
     pl_m: np.ndarray
     hpl_m: np.ndarray
     vpl_m: np.ndarray
+    excluded: np.ndarray
+    excluded_position_m: np.ndarray
 
 
 class SubFilterBank:
@@ -178,8 +187,17 @@ class SubFilterBank:
         ratio, pl = separation_levels(
             sep, sig_ss, sig_k, sig_0, valid, self.false_alarm, self.missed_detection, self.integrity_risk
         )
+        # Exclusion: the mode whose separation is least likely fault-free, by its chi-square
+        # statistic Δ^T (A (P_k - P_0) A^T)^-1 Δ (3 degrees of freedom without a fault).
+        d_cov = np.moveaxis(acov[1:] - acov[0], 0, 1)  # (runs, N, 3, 3)
+        d_cov = d_cov + 1e-12 * np.eye(3) * np.trace(d_cov, axis1=-2, axis2=-1)[..., None, None]
+        per_mode = np.einsum("rki,rki->rk", sep, np.linalg.solve(d_cov, sep[..., None])[..., 0])
+        mode = per_mode.argmax(axis=-1)
+        fault = ratio > 1.0
+        excluded = np.where(fault, mode, -1)
+        out_pos = np.where(fault[:, None], pos[1 + mode, np.arange(runs)], pos[0])
         full = {
             k: (np.asarray(v)[:runs] if np.ndim(v) >= 1 and np.shape(v)[0] == (n + 1) * runs else v)
             for k, v in out.items()
         }
-        return BankStep(full, sep, sig_ss, ratio, ratio > 1.0, pl, np.hypot(pl[:, 0], pl[:, 1]), pl[:, 2])
+        return BankStep(full, sep, sig_ss, ratio, fault, pl, np.hypot(pl[:, 0], pl[:, 1]), pl[:, 2], excluded, out_pos)
