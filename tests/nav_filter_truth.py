@@ -7,6 +7,8 @@ import numpy as np
 import pymap3d
 from scipy.stats import binom
 
+from gnssframework.interfaces import RunContext
+from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.simulation.constellation import nominal_constellation
 
 CONF = 1e-4  # probability of a correct implementation failing one check
@@ -66,3 +68,48 @@ def _jacobian(r: np.ndarray, sp: np.ndarray) -> np.ndarray:
     H[:CH, 0:3], H[:CH, 6] = -e, 1.0
     H[CH:, 3:6], H[CH:, 7] = -e, 1.0
     return H
+
+
+def _inputs(pos, vel, z, sigma, runs):
+    """An ``ekf-pv`` step's inputs from ranges then rates ``z`` ``(runs, 2 CH)`` of
+    standard deviations ``sigma``: zero channel errors, the measurements as the replica's."""
+    zero = np.zeros((runs, CH))
+    return {
+        "sat_pos_m": pos,
+        "sat_vel_m_s": vel,
+        "next_sat_pos_m": pos,
+        "next_sat_vel_m_s": vel,
+        "replica_range_m": z[:, :CH],
+        "replica_rate_m_s": z[:, CH:],
+        "code_error_chips": zero,
+        "code_error_var_chips2": np.broadcast_to(sigma[:CH] ** 2 / GPS_L1CA.chip_length_m**2, (runs, CH)),
+        "freq_error_hz": zero,
+        "freq_error_var_hz2": np.broadcast_to(sigma[CH:] ** 2 / GPS_L1CA.wavelength_m**2, (runs, CH)),
+    }
+
+
+def _context(runs, r):
+    """The filter's prior at the start (station ``r``, clock 100 m) and its run context."""
+    x_hat0 = np.r_[r, np.zeros(3), 100.0, 0.0]
+    return x_hat0, RunContext(
+        coherent_time_s=T_S,
+        epoch_interval_s=T_S,
+        initial_state=np.broadcast_to(x_hat0, (runs, 8)).copy(),
+        initial_cov=np.diag(P0_DIAG),
+    )
+
+
+def _epochs(rng, runs, epochs, x_hat0, F, Q, pos, vel, sigma, fault_m=None):
+    """The truth drawn from the filter's model, epoch by epoch: ``(k, x, z)`` with the true
+    states ``x`` ``(runs, 8)`` (prior draw, then white process noise of ``Q``) and the
+    ranges then rates ``z`` ``(runs, 2 CH)`` with noise ``sigma``, plus the range fault
+    ``fault_m[k]`` ``(runs, CH)`` if given."""
+    x = x_hat0 + rng.standard_normal((runs, 8)) * np.sqrt(P0_DIAG)
+    Lq = _sqrtm(Q)
+    for k in range(epochs):
+        if k:
+            x = x @ F.T + rng.standard_normal((runs, 8)) @ Lq.T
+        z = _h(x, pos[k], vel[k]) + rng.standard_normal((runs, 2 * CH)) * sigma
+        if fault_m is not None:
+            z[:, :CH] += fault_m[k]
+        yield k, x, z

@@ -19,10 +19,8 @@ from scipy.stats import chi2, ncx2, norm
 
 from gnssframework import registry
 from gnssframework.errors import ConfigError
-from gnssframework.interfaces import RunContext
 from gnssframework.navigation.filter_integrity import filter_solution_separation, innovation_test, satellite_modes
 from gnssframework.navigation.integrity import covariance_protection_levels
-from gnssframework.signal.gps_l1ca import GPS_L1CA
 
 from nav_filter_truth import (  # the truth shared with receiver/test_filter_bank.py
     CH,
@@ -31,12 +29,13 @@ from nav_filter_truth import (  # the truth shared with receiver/test_filter_ban
     LON,
     P0_DIAG,
     T_S,
+    _context,
     _enu,
+    _epochs,
     _geometry,
-    _h,
+    _inputs,
     _interval,
     _jacobian,
-    _sqrtm,
     _upper,
 )
 
@@ -50,41 +49,11 @@ def _run(runs: int, epochs: int, fault_m: np.ndarray | None = None, seed: int = 
     r, pos, vel, sigma = _geometry(epochs)
     nav = registry.create("nav_filter", "ekf-pv", estimator=estimator)
     F, Q = nav.transition(T_S)
-    x_hat0 = np.r_[r, np.zeros(3), 100.0, 0.0]
-    nav.reset(
-        (runs,),
-        RunContext(
-            coherent_time_s=T_S,
-            epoch_interval_s=T_S,
-            initial_state=np.broadcast_to(x_hat0, (runs, 8)).copy(),
-            initial_cov=np.diag(P0_DIAG),
-        ),
-    )
-    x = x_hat0 + rng.standard_normal((runs, 8)) * np.sqrt(P0_DIAG)
-    Lq = _sqrtm(Q)
-    chip, lam = GPS_L1CA.chip_length_m, GPS_L1CA.wavelength_m
+    x_hat0, ctx = _context(runs, r)
+    nav.reset((runs,), ctx)
     stats, errors = [], []
-    for k in range(epochs):
-        if k:
-            x = x @ F.T + rng.standard_normal((runs, 8)) @ Lq.T
-        z = _h(x, pos[k], vel[k]) + rng.standard_normal((runs, 2 * CH)) * sigma
-        if fault_m is not None:
-            z[:, :CH] += fault_m[k]
-        zero = np.zeros((runs, CH))
-        nav.step(
-            {
-                "sat_pos_m": pos[k],
-                "sat_vel_m_s": vel[k],
-                "next_sat_pos_m": pos[k],
-                "next_sat_vel_m_s": vel[k],
-                "replica_range_m": z[:, :CH],
-                "replica_rate_m_s": z[:, CH:],
-                "code_error_chips": zero,
-                "code_error_var_chips2": np.broadcast_to(sigma[:CH] ** 2 / chip**2, (runs, CH)),
-                "freq_error_hz": zero,
-                "freq_error_var_hz2": np.broadcast_to(sigma[CH:] ** 2 / lam**2, (runs, CH)),
-            }
-        )
+    for k, x, z in _epochs(rng, runs, epochs, x_hat0, F, Q, pos, vel, sigma, fault_m):
+        nav.step(_inputs(pos[k], vel[k], z, sigma, runs))
         u = nav.last_step.update
         stats.append(innovation_test(u.innovation, u.innovation_cov, 1e-2).statistic)
         errors.append(nav.state.mean[:, 0:3] - x[:, 0:3])

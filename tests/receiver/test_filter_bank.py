@@ -24,35 +24,25 @@ from gnssframework.interfaces import RunContext
 from gnssframework.receiver.engine.filter_bank import SubFilterBank
 from gnssframework.navigation.filter_integrity import filter_solution_separation, innovation_test, satellite_modes
 from gnssframework.signal.gps_l1ca import GPS_L1CA
-from nav_filter_truth import CH, CONF, LAT, LON, P0_DIAG, T_S, _enu, _geometry, _h, _interval, _jacobian, _sqrtm, _upper
+from nav_filter_truth import (
+    CH,
+    CONF,
+    LAT,
+    LON,
+    P0_DIAG,
+    T_S,
+    _context,
+    _enu,
+    _epochs,
+    _geometry,
+    _h,
+    _inputs,
+    _interval,
+    _jacobian,
+    _upper,
+)
 
 CHIP, LAM = GPS_L1CA.chip_length_m, GPS_L1CA.wavelength_m
-
-
-def _inputs(pos, vel, z, sigma, runs):
-    zero = np.zeros((runs, CH))
-    return {
-        "sat_pos_m": pos,
-        "sat_vel_m_s": vel,
-        "next_sat_pos_m": pos,
-        "next_sat_vel_m_s": vel,
-        "replica_range_m": z[:, :CH],
-        "replica_rate_m_s": z[:, CH:],
-        "code_error_chips": zero,
-        "code_error_var_chips2": np.broadcast_to(sigma[:CH] ** 2 / CHIP**2, (runs, CH)),
-        "freq_error_hz": zero,
-        "freq_error_var_hz2": np.broadcast_to(sigma[CH:] ** 2 / LAM**2, (runs, CH)),
-    }
-
-
-def _context(runs, r):
-    x_hat0 = np.r_[r, np.zeros(3), 100.0, 0.0]
-    return x_hat0, RunContext(
-        coherent_time_s=T_S,
-        epoch_interval_s=T_S,
-        initial_state=np.broadcast_to(x_hat0, (runs, 8)).copy(),
-        initial_cov=np.diag(P0_DIAG),
-    )
 
 
 def _run_bank(runs, epochs, fault_m=None, seed=0, p_fa=1e-2):
@@ -66,16 +56,9 @@ def _run_bank(runs, epochs, fault_m=None, seed=0, p_fa=1e-2):
     bank = SubFilterBank(nav, CH, false_alarm=p_fa, missed_detection=1e-2, integrity_risk=1e-2)
     x_hat0, ctx = _context(runs, r)
     bank.reset((runs,), ctx)
-    x = x_hat0 + rng.standard_normal((runs, 8)) * np.sqrt(P0_DIAG)
-    Lq = _sqrtm(Q)
     A = _enu(LAT, LON) @ np.eye(3, 8)
     bank_fault, one_fault, nis_fault, excluded, errors = [], [], [], [], []
-    for k in range(epochs):
-        if k:
-            x = x @ F.T + rng.standard_normal((runs, 8)) @ Lq.T
-        z = _h(x, pos[k], vel[k]) + rng.standard_normal((runs, 2 * CH)) * sigma
-        if fault_m is not None:
-            z[:, :CH] += fault_m[k]
+    for k, x, z in _epochs(rng, runs, epochs, x_hat0, F, Q, pos, vel, sigma, fault_m):
         step = bank.step(_inputs(pos[k], vel[k], z, sigma, runs))
         last = nav.last_step
         u, prior = last.update, last.prior
