@@ -330,7 +330,7 @@ def _open_recording_from_args(args: argparse.Namespace):
         sample_rate_hz=args.fs,
         if_hz=args.if_hz,
         q_sign=args.q_sign,
-        signal=registry.signal_spec(names.split(",")[0]) if names else None,
+        **({"signal": registry.signal_spec(names.split(",")[0])} if names else {}),
     )
 
 

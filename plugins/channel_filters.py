@@ -702,11 +702,11 @@ class IqFilter(ChannelFilter):
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         T = context.require("coherent_time_s", f"channel_filter {self.name!r}")
         d = context.get("early_late_spacing_chips", 1.0) / 2
-        taps = tap_noise_cov(np.array([-d, 0.0, d]))
+        signal = _signal_of(context)
+        taps = tap_noise_cov(np.array([-d, 0.0, d]), signal=signal)
         R0 = np.zeros((6, 6))
         R0[:3, :3] = R0[3:, 3:] = taps + 1e-6 * np.eye(3)  # E/P/L share noise; a touch of jitter keeps it PD
         # Same f/h as channel_iq/channel_transition, plus compiled twins (one fused kernel per step).
-        signal = _signal_of(context)
         self.model = channel_model(T, d, self.process_noise(T, signal), R0, signal=signal)
         self.batch_shape = batch_shape
         self._flat_shape = (int(np.prod(batch_shape, dtype=np.int64)),)

@@ -136,7 +136,7 @@ def channel_model(
     Q: np.ndarray,
     R: np.ndarray,
     code_to_carrier: float | None = None,
-    signal: SignalSpec | None = None,
+    signal: SignalSpec = GPS_L1CA,
 ):
     """The channel filter's model (eq. 9 transition, eqs. 2-7 correlators) with compiled twins.
 
@@ -145,29 +145,34 @@ def channel_model(
     in one compiled pass: ``F x`` and `channel_iq_row`. Data bit 1 (after wipe-off),
     ideal triangle autocorrelation.
 
-    ``signal``, when given, sets ``code_to_carrier`` from its rates (without either, GPS L1
-    C/A's, `channel_transition`'s default); the model's triangle
-    is BPSK's, so a BOC or CBOC signal is refused (its correlation is a train of
-    triangles: `SignalSpec.autocorrelation`).
+    ``code_to_carrier`` is ``signal``'s by default (GPS L1 C/A's by default); the model's
+    triangle is BPSK's one-chip one, so a signal with a sub-carrier (BOC, CBOC: a train of
+    triangles, `SignalSpec.autocorrelation`) or with time-multiplexed chips (GPS L2C: a
+    half-chip triangle) is refused.
 
     Raises
     ------
     ConfigError
-        For a signal with a sub-carrier.
+        For a signal whose chip pulse is not BPSK's full-chip rectangle (`SignalSpec.is_bpsk`).
     """
-    if signal is not None:
-        if not signal.is_bpsk:
-            raise ConfigError(
-                "signal",
-                f"the Zou et al. channel model assumes BPSK's triangle autocorrelation; "
-                f"{signal.name} has a {signal.subcarrier.kind} sub-carrier",
-            )
-        code_to_carrier = signal.chip_rate_hz / signal.carrier_freq_hz
+    if not signal.is_bpsk:
+        raise ConfigError(
+            "signal",
+            f"the Zou et al. channel model assumes BPSK's one-chip triangle autocorrelation; "
+            f"{signal.name}'s chip pulse is {_pulse(signal)}",
+        )
     from ..estimation.compiled_model import CompiledFunctions, linear_f
     from ..estimation.types import NonlinearModel
 
-    F = channel_transition(coherent_time_s, code_to_carrier)
+    F = channel_transition(coherent_time_s, code_to_carrier, signal=signal)
     d, T = float(spacing_chips), float(coherent_time_s)
     # Its drivers are compiled for the filter's 5 states and 6 correlator outputs.
     compiled = CompiledFunctions(linear_f, F, channel_iq_row, np.array([[d, T, 1.0]]), sizes=(5, 6))
     return NonlinearModel(lambda x: x @ F.T, lambda x: channel_iq(x, d, T), Q, R, compiled=compiled)
+
+
+def _pulse(signal: SignalSpec) -> str:
+    """What a signal's chip pulse is, where it is not BPSK's full-chip rectangle."""
+    if signal.subcarrier.kind != "bpsk":
+        return f"a {signal.subcarrier.kind} sub-carrier's"
+    return f"in one of {signal.subchips_per_chip} time slots of a chip (time-multiplexed components)"

@@ -127,7 +127,7 @@ def generate_if_samples(
         periods = np.floor(chips / signal.code_length_chips).astype(np.int64)
         sig = sig * np.asarray(overlay, float)[periods % len(overlay)]
     if data_bits is not None:
-        sig = sig * bit_at(t, np.asarray(data_bits), first_bit_edge_s, signal.symbol_period_s)
+        sig = sig * bit_at(t, np.asarray(data_bits), first_bit_edge_s, signal.symbol_period_s, signal=signal)
     phase = 2 * np.pi * (if_hz + doppler_hz) * t + carrier_phase_rad
     if complex_samples:
         x = sig * np.exp(1j * phase)

@@ -150,6 +150,12 @@ def test_the_channel_model_takes_a_bpsk_signal_and_refuses_a_boc_one():
     channel_model(1e-3, 0.5, q, np.eye(6), signal=QZSS_L1CA)
     with pytest.raises(ConfigError, match="boc sub-carrier"):
         channel_model(1e-3, 0.5, q, np.eye(6), signal=BOC)
+    # GPS L2C is BPSK, but CM's chips sit in one of two time slots: its correlation is a
+    # half-chip triangle, not the model's one-chip one.
+    from gnssframework.signal.gps_l2c import GPS_L2C
+
+    with pytest.raises(ConfigError, match="gps-l2c's chip pulse is in one of 2 time slots"):
+        channel_model(1e-2, 0.5, q, np.eye(6), signal=GPS_L2C)
 
 
 def test_the_coherent_time_of_a_pilot_with_an_overlay_spans_the_overlay():

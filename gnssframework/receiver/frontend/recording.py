@@ -201,14 +201,14 @@ def open_recording(
     sample_rate_hz: float | None = None,
     if_hz: float | None = None,
     q_sign: int | None = None,
-    signal: SignalSpec | None = None,
+    signal: SignalSpec = GPS_L1CA,
 ) -> Recording:
     """Open ``path``; what is not given comes from its SigMF metadata file if there is one.
 
     Values given here win over the metadata's (a wrong metadata file can be overridden).
-    Without the project's IF key, a metadata file's IF is ``signal``'s carrier minus its
-    ``core:frequency`` (``signal`` None: GPS L1 C/A's, and a centre frequency too far from
-    it for the sample rate is refused naming the option to give).
+    Without the project's IF key, a metadata file's IF is ``signal``'s carrier (GPS L1 C/A's
+    by default) minus its ``core:frequency``; a centre frequency too far from it for the
+    sample rate is refused naming the options to give.
 
     Raises
     ------
@@ -224,9 +224,8 @@ def open_recording(
     if not path.is_file():
         raise ConfigError("recording", f"{path}: no such file")
     meta_file = meta_path_for(path)
-    carrier = GPS_L1CA if signal is None else signal
     meta = (
-        read_sigmf_meta(meta_file, signal=carrier)
+        read_sigmf_meta(meta_file, signal=signal)
         if meta_file.is_file() and meta_file != path
         else SigmfInfo(None, None, None, None, None)
     )
@@ -244,8 +243,8 @@ def open_recording(
         # The centre frequency is of another band than the signal's carrier: say which.
         raise ConfigError(
             f"{meta_file} captures[0] core:frequency",
-            f"{meta.centre_freq_hz / 1e6:.6g} MHz is {fif / 1e6:.6g} MHz from {carrier.name}'s carrier "
-            f"({carrier.carrier_freq_hz / 1e6:.6g} MHz), beyond what {fs / 1e6:g} MHz samples hold: give the "
+            f"{meta.centre_freq_hz / 1e6:.6g} MHz is {fif / 1e6:.6g} MHz from {signal.name}'s carrier "
+            f"({signal.carrier_freq_hz / 1e6:.6g} MHz), beyond what {fs / 1e6:g} MHz samples hold: give the "
             "signal recorded in that band (signal, --signal NAME) or the IF (if_hz, --if-hz)",
         )
     qs = int(_pick("q_sign", q_sign, meta.q_sign, 1))

@@ -26,7 +26,7 @@ def write_recording(
     scale: float = 1.0,
     start_time: str | None = None,
     sigmf: bool = True,
-    signal: SignalSpec | None = None,
+    signal: SignalSpec = GPS_L1CA,
 ) -> Path:
     """Write ``samples * scale`` to ``path`` in ``format`` (and ``path``'s ``.sigmf-meta``).
 
@@ -41,7 +41,7 @@ def write_recording(
         Factor to the format's units (integer formats are rounded and clipped).
     signal
         The signal of the band recorded: the metadata's ``core:frequency`` is its carrier
-        minus ``if_hz`` (None: GPS L1 C/A's).
+        minus ``if_hz`` (GPS L1 C/A's by default).
     """
     source = registry.create("sample_source", format)
     samples = np.asarray(samples)
@@ -67,6 +67,6 @@ def write_recording(
             if_hz=if_hz,
             q_sign=q_sign,
             start_time=start_time,
-            signal=GPS_L1CA if signal is None else signal,
+            signal=signal,
         )
     return path

@@ -162,14 +162,15 @@ def correlator_fisher(
     if not signal.is_bpsk:
         raise ConfigError(
             "signal",
-            f"the correlator Fisher information assumes BPSK's triangle; {signal.name} has "
-            f"a {signal.subcarrier.kind} sub-carrier",
+            f"the correlator Fisher information assumes BPSK's one-chip triangle; {signal.name}'s "
+            f"chip pulse is not a full-chip rectangle ({signal.subcarrier.kind} sub-carrier, "
+            f"{signal.subchips_per_chip} pieces a chip)",
         )
     d = early_late_spacing_chips / 2
     if not 0 < d < 1:
         raise ConfigError("early_late_spacing_chips", f"must be in (0, 2), got {early_late_spacing_chips}")
     offsets = np.array([-d, 0.0, d])
-    Cinv = np.linalg.inv(tap_noise_cov(offsets))
+    Cinv = np.linalg.inv(tap_noise_cov(offsets, signal=signal))
     r = np.maximum(0.0, 1.0 - np.abs(offsets))
     A2 = float(amplitude_from_cn0(cn0_dbhz, coherent_time_s)) ** 2
     # R(dtau - o) differentiated in dtau at 0: early (o=-d) falls, late rises, prompt
