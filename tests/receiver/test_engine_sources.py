@@ -247,3 +247,11 @@ def test_a_vector_loop_on_a_source_of_its_own_refuses_drawn_data_bits():
         )
     with pytest.raises(ConfigError, match="streams"):
         truth_samples(truth, 4e6, np.ones((6, 1023)), np.zeros(6), np.random.default_rng(0), streams="two")
+    # A pilot's overlay code is not in these samples: refused, not silently left out.
+    import dataclasses
+
+    from gnssframework.signal.galileo_e1 import GALILEO_E1C
+
+    pilot = dataclasses.replace(truth, signal=GALILEO_E1C)
+    with pytest.raises(ConfigError, match="truth.signal: galileo-e1c's tracked component has an overlay"):
+        truth_samples(pilot, 4e6, np.ones((6, 4092)), np.zeros(6), np.random.default_rng(0))

@@ -70,8 +70,9 @@ def truth_samples(
     ----------
     truth
         Geometry form (``sat_state``, ``receiver_state``, ``clock_m``); its ``signal``
-        gives the chip rate, chip length and wavelength; its ``cn0_dbhz`` (broadcast to
-        ``(runs, channels)``) the amplitudes.
+        gives the chip rate, chip length and wavelength (its tracked component without an
+        overlay code: the samples carry neither overlay nor data symbols); its
+        ``cn0_dbhz`` (broadcast to ``(runs, channels)``) the amplitudes.
     sample_rate_hz, if_hz
         Sample rate and intermediate frequency.
     codes
@@ -94,6 +95,12 @@ def truth_samples(
     if streams not in ("one", "per-channel"):
         raise ConfigError("streams", f"got {streams!r}; allowed: one, per-channel")
     signal = truth.signal
+    if signal.tracked.secondary_code:
+        raise ConfigError(
+            "truth.signal",
+            f"{signal.name}'s tracked component has an overlay (secondary) code, which these samples "
+            "do not carry (nor data symbols): give a signal without one",
+        )
     rho_code, rho_carrier = truth_ranges_m(truth, run)
     n_ch = rho_code.shape[1]
     codes = np.asarray(codes)
