@@ -117,7 +117,6 @@ def truth_samples(
     T = truth.coherent_time_s
     n = int(round(truth.epochs * T * sample_rate_hz))
     t_edges = np.arange(truth.epochs + 1) * T
-    subchips = signal.subchips_per_chip
     one = streams == "one"
     x = np.empty(n if one else (n_ch, n), np.complex64)
     for s0 in range(0, n, _CHUNK):
@@ -126,8 +125,7 @@ def truth_samples(
         for i in range(n_ch):
             chips = code_phase_of_range(signal, np.interp(t, t_edges, rho_code[:, i]), t)
             carrier = theta0[i] - 2 * np.pi * np.interp(t, t_edges, rho_carrier[:, i]) / signal.wavelength_m
-            table = codes[i]
-            code = table[np.floor(chips * subchips).astype(np.int64) % table.size]
+            code = signal.spreading_at(codes[i], chips)
             sig = amplitude[i] * code * np.exp(1j * (2 * np.pi * np.mod(if_hz * t, 1.0) + np.mod(carrier, 2 * np.pi)))
             if one:
                 acc += sig
