@@ -420,6 +420,8 @@ def _acquisition_from_args(args: argparse.Namespace):
     }
     if getattr(args, "alternate_blocks", False):
         params["alternate_blocks"] = True
+    if getattr(args, "boc_search", None) is not None:
+        params["boc_search"] = args.boc_search
     from .receiver.acquisition.search import check_contract
 
     return check_contract(registry.create("acquisition", args.acquisition, **params))
@@ -1291,6 +1293,12 @@ def _add_recording_options(p: argparse.ArgumentParser, several_signals: bool = F
         action="store_true",
         help="sum even and odd coherent blocks apart, keep the larger (with --coherent-ms 10: one of them "
         "is free of data-bit transitions; weak signals)",
+    )
+    p.add_argument(
+        "--boc-search",
+        choices=["full", "bpsk-like"],
+        help="a BOC signal's search: full (its spreading waveform, the default) or bpsk-like (the code on "
+        "both sub-carrier side bands: one peak a chip wide, no side peaks, less lost to a narrow front end)",
     )
     if several_signals:  # receive: several signals positioned together
         p.add_argument(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Literal
 
 import numpy as np
 from pydantic import Field
@@ -15,6 +16,8 @@ from gnssframework.receiver.acquisition import (
     noise_floor,
     first_period_lag,
     search_grid,
+    sideband_overlap,
+    sideband_power_fraction,
     threshold_from_pfa,
 )
 from gnssframework.receiver.acquisition.search import searched_prns
@@ -50,6 +53,12 @@ class PcpsParams(PluginParams):
         description="drop a detection whose C/N0 estimate is more than this below the strongest one's: "
         "a C/A cross-correlation sidelobe of a strong signal; null keeps every detection",
     )
+    boc_search: Literal["full", "bpsk-like"] = Field(
+        "full",
+        description="a BOC signal's search: full (its spreading waveform, narrow peak with side peaks) or "
+        "bpsk-like (the code on the upper and lower sub-carrier side bands, powers summed: one peak a chip "
+        "wide either side, 0.9 dB less on the peak; Martin et al. 2003)",
+    )
 
 
 class ParallelCodePhaseSearch(Acquisition):
@@ -67,6 +76,13 @@ class ParallelCodePhaseSearch(Acquisition):
     replica's duty, `SignalSpec.replica_duty`), and :math:`\\hat c` is the signal's C/N0
     (CM and CL together, which share the slots and the power; the tracker reports the same,
     `gnssframework.receiver.channels.lock.signal_cn0_dbhz`).
+
+    ``boc_search = "bpsk-like"`` (a BOC signal) sums the two side bands' correlations
+    (`gnssframework.receiver.acquisition.fft_search`): the noise-only statistic is then
+    chi-square with :math:`4K` degrees of freedom, the threshold and the noise floor are
+    those of :math:`2K` blocks, and :math:`E[S] = K(4 + 2cTg)` with :math:`g` the side
+    bands' share of the signal's power (`sideband_power_fraction`, 0.81 for BOC(1,1)),
+    which the C/N0 divides out.
     """
 
     name = "pcps"
@@ -114,7 +130,8 @@ class ParallelCodePhaseSearch(Acquisition):
         blocks = p.noncoherent // 2 if alt else p.noncoherent  # summed into the statistic
         dopplers = self.dopplers_hz(signal)
         n = int(round(T * sample_rate_hz))
-        threshold = threshold_from_pfa(p.pfa, dopplers.size * n, blocks, alt)
+        sidebands = self._sidebands(signal, n, sample_rate_hz)
+        threshold = threshold_from_pfa(p.pfa, dopplers.size * n, blocks * sidebands, alt)
         fine_step = p.fine_step_hz or 1.0 / (20 * T)
         coarse_step = dopplers[1] - dopplers[0] if dopplers.size > 1 else fine_step
         results = []
@@ -123,7 +140,16 @@ class ParallelCodePhaseSearch(Acquisition):
         group = max(1, _GRID_ELEMENTS // (dopplers.size * n))
         for lo in range(0, len(prns), group):
             grid = search_grid(
-                samples, sample_rate_hz, if_hz, prns[lo : lo + group], T, p.noncoherent, dopplers, alt, signal
+                samples,
+                sample_rate_hz,
+                if_hz,
+                prns[lo : lo + group],
+                T,
+                p.noncoherent,
+                dopplers,
+                alt,
+                signal,
+                bpsk_like=sidebands == 2,
             )
             results += self._peaks(
                 grid,
@@ -145,26 +171,52 @@ class ParallelCodePhaseSearch(Acquisition):
             results = [replace(r, detected=False) if r.detected and r.cn0_dbhz < floor else r for r in results]
         return results
 
+    def _sidebands(self, signal: SignalSpec, n: int, sample_rate_hz: float) -> int:
+        """Correlations summed per block: 1, or 2 for a BPSK-like search, refused in one line
+        for a signal without a sub-carrier or a sample rate that folds the side bands together."""
+        if self.params.boc_search == "full":
+            return 1
+        if signal.subcarrier.kind == "bpsk":
+            raise ConfigError(
+                "acquisition.boc_search",
+                f"'bpsk-like' searches a BOC signal's side bands; {signal.name!r} has no sub-carrier: use 'full'",
+            )
+        overlap = sideband_overlap(n, sample_rate_hz, signal)
+        if overlap > 0.1:
+            raise ConfigError(
+                "acquisition.boc_search",
+                f"'bpsk-like' at {sample_rate_hz / 1e6:g} MHz: the rate folds the two side bands "
+                f"{2 * signal.subcarrier.frequency_hz / 1e6:g} MHz apart onto one frequency (their "
+                f"replicas overlap {overlap:.2f}); use another sample rate or 'full'",
+            )
+        return 2
+
     def _peaks(
         self, grid, prns, samples, sample_rate_hz, if_hz, T, dopplers, threshold, blocks, fine_step, coarse_step, signal
     ) -> list[AcquisitionResult]:
         """Each PRN's peak of its raw ``grid``, its fine Doppler and C/N0."""
         p = self.params
         alt = p.alternate_blocks
-        # The signal's energy in a coherent block is C T duty, not C T (`SignalSpec.replica_duty`).
+        # The signal's energy in a coherent block is C T duty, not C T (`SignalSpec.replica_duty`);
+        # a BPSK-like search's two side bands hold g of it and add two noise terms a block.
         duty = signal.replica_duty
+        n = int(round(T * sample_rate_hz))
+        sidebands = self._sidebands(signal, n, sample_rate_hz)
+        if sidebands == 2:
+            duty *= sideband_power_fraction(prns[0], n, sample_rate_hz, signal)
         results = []
         for i, prn in enumerate(prns):
-            sigma2 = noise_floor(grid[i], blocks, alt)
+            sigma2 = noise_floor(grid[i], blocks * sidebands, alt)
             d, lag = np.unravel_index(int(np.argmax(grid[i])), grid[i].shape)
             s = first_period_lag(int(lag), sample_rate_hz, signal)
             stat = float(grid[i, d, lag] / sigma2)
             fine = dopplers[d] + np.arange(-coarse_step, coarse_step + fine_step / 2, fine_step)
-            power = (
-                fine_doppler(samples, sample_rate_hz, if_hz, prn, int(s), T, p.noncoherent, fine, alt, signal) / sigma2
+            raw = fine_doppler(
+                samples, sample_rate_hz, if_hz, prn, int(s), T, p.noncoherent, fine, alt, signal, sidebands == 2
             )
+            power = raw / sigma2
             j = int(np.argmax(power))
-            c = max((power[j] / blocks - 2.0) / (2 * T * duty), 1e-3)
+            c = max((power[j] / blocks - 2.0 * sidebands) / (2 * T * duty), 1e-3)
             # Chip 0 at sample s: the phase at sample 0 is -s samples' worth of chips.
             chips = float((-s * signal.chip_rate_hz / sample_rate_hz) % signal.code_length_chips)
             results.append(

@@ -15,6 +15,22 @@ The replica :math:`c[n]` is the searched signal's spreading waveform
 the search is the same for every signal a `SignalSpec` describes (a BOC signal is then
 searched with its full, narrow-peaked correlation: the lag grid must resolve its peak,
 two samples a sub-chip or more).
+
+A BOC signal can instead be searched *BPSK-like* (``bpsk_like``): its code without the
+sub-carrier, shifted to the upper and to the lower sub-carrier frequency, is correlated
+with the samples and the two powers are summed,
+
+.. math:: S = \sum_k \big(|z^{+}_k[s]|^2 + |z^{-}_k[s]|^2\big), \qquad
+          r^{\pm}[n] = c(\lfloor x_n \rfloor)\, e^{\pm j 2\pi (m/n) x_n}
+
+at code phase :math:`x_n` chips (Martin, Heiries, Julien, Macabiau, "BOC(x,y) signal
+acquisition techniques and performances", ION GPS/GNSS 2003; Betz, *Engineering Satellite-
+Based Navigation and Timing*, 2016, ch. 19). Each side band's correlation with a BOC(m,n)
+signal is the BPSK triangle, a chip wide either side, not the BOC triangle train: no side
+peaks, and a coarse lag grid straddles less of it. Each side band holds :math:`4/\pi^2` of a
+sine-phased BOC's power (`sideband_power_fraction`), so the two cost 0.9 dB against the
+matched replica when the grid is on the peak, and their noise is independent where the
+sample rate does not alias :math:`2 f_{sc}` to zero (`sideband_overlap`).
 """
 
 from __future__ import annotations
@@ -27,7 +43,15 @@ from scipy import fft
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 
-__all__ = ["code_replica", "search_grid", "fine_doppler", "first_period_lag"]
+__all__ = [
+    "code_replica",
+    "sideband_replicas",
+    "sideband_overlap",
+    "sideband_power_fraction",
+    "search_grid",
+    "fine_doppler",
+    "first_period_lag",
+]
 
 #: Complex elements of one Doppler chunk of wiped blocks (16 MB of complex64: bounds the
 #: memory of a search, whose transients are a few times this; the FFTs of a row do not
@@ -47,6 +71,54 @@ def code_replica(
     sampled at ``sample_rate_hz``, chip 0 at sample 0 (``float32``)."""
     chips = chip_offset + np.arange(n_samples) * (signal.chip_rate_hz / sample_rate_hz)
     return signal.spreading_at(signal.spreading_table(prn), chips).astype(np.float32)
+
+
+def sideband_replicas(
+    prn: int, n_samples: int, sample_rate_hz: float, signal: SignalSpec, chip_offset: float = 0.0
+) -> np.ndarray:
+    r"""``(2, n_samples)`` ``complex64``: the BPSK-like search's replicas of ``prn``, the
+    tracked component's code without its sub-carrier times :math:`e^{+j 2\pi (m/n) x}`
+    (upper side band) and :math:`e^{-j 2\pi (m/n) x}` (lower), at code phase :math:`x`
+    chips (chip 0 at sample 0, as `code_replica`); :math:`m/n` sub-carrier cycles a chip
+    (one for BOC(1,1), the main term of CBOC(6,1,1/11))."""
+    chips = chip_offset + np.arange(n_samples) * (signal.chip_rate_hz / sample_rate_hz)
+    code = signal.code(prn).astype(np.float64)
+    c = code[np.floor(chips).astype(np.int64) % code.size]
+    turns = (signal.subcarrier.m / signal.subcarrier.n) * chips
+    upper = c * np.exp(2j * np.pi * (turns - np.floor(turns)))
+    return np.stack([upper, upper.conj()]).astype(np.complex64)
+
+
+def sideband_overlap(n_samples: int, sample_rate_hz: float, signal: SignalSpec) -> float:
+    r""":math:`|\langle r^+, r^- \rangle| / n`, the normalised inner product of the two side
+    bands' replicas over a block: the correlation of their noises. It is
+    :math:`|\frac{1}{n}\sum_n e^{j 4\pi f_{sc} t_n}|`, near 0 unless the sample rate aliases
+    :math:`2 f_{sc}` to zero (2.046 MHz for BOC(1,1): both replicas the same), where the
+    summed statistic is no longer chi-square with :math:`4K` degrees of freedom."""
+    chips = np.arange(n_samples) * (signal.chip_rate_hz / sample_rate_hz)
+    turns = 2.0 * (signal.subcarrier.m / signal.subcarrier.n) * chips
+    return float(np.abs(np.mean(np.exp(2j * np.pi * (turns - np.floor(turns))))))
+
+
+def sideband_power_fraction(prn: int, n_samples: int, sample_rate_hz: float, signal: SignalSpec) -> float:
+    r"""Share of the signal's power the two side bands' correlations hold together, on the
+    peak: :math:`g = \sum_\pm |\langle s, r^\pm\rangle|^2 / (\|s\|^2 \|r^\pm\|^2)` with
+    :math:`s` the signal's sampled spreading waveform (`code_replica`). A sine-phased
+    BOC(1,1) gives :math:`2 \cdot 4/\pi^2 = 0.81` (each side band the square wave's
+    fundamental, amplitude :math:`2/\pi`), CBOC(6,1,1/11) :math:`10/11` of that. The
+    BPSK-like search's C/N0 divides it out, as the full search's divides out the duty."""
+    s = code_replica(prn, n_samples, sample_rate_hz, signal=signal).astype(np.float64)
+    r = sideband_replicas(prn, n_samples, sample_rate_hz, signal).astype(np.complex128)
+    inner = r.conj() @ s
+    return float(np.sum(np.abs(inner) ** 2) / (s @ s * n_samples))
+
+
+def _replicas(prn: int, n: int, sample_rate_hz: float, signal: SignalSpec, bpsk_like: bool) -> np.ndarray:
+    """``(S, n)`` replicas a search correlates with: the spreading waveform (``S = 1``) or
+    the two side bands (``bpsk_like``)."""
+    if bpsk_like:
+        return sideband_replicas(prn, n, sample_rate_hz, signal)
+    return code_replica(prn, n, sample_rate_hz, signal=signal)[None]
 
 
 def _blocks(samples: np.ndarray, n: int, noncoherent: int) -> np.ndarray:
@@ -145,6 +217,7 @@ def search_grid(
     alternate: bool = False,
     signal: SignalSpec = GPS_L1CA,
     code_doppler: bool = False,
+    bpsk_like: bool = False,
 ) -> np.ndarray:
     """Raw grid :math:`\\sum_k |z_k[s]|^2` per PRN, Doppler bin and code lag: ``(n_prn, n_doppler, N)``.
 
@@ -164,10 +237,13 @@ def search_grid(
     sum, and the grid's lag is block 0's: a long non-coherent sum keeps its gain
     (Kaplan & Hegarty, *Understanding GPS/GNSS*, 3rd ed., sec. 8.4). Without it (the
     default) the blocks are summed at the same lag.
+
+    ``bpsk_like`` (a BOC signal): the sum runs over both side bands' correlations too
+    (module docstring), :math:`2K` terms instead of :math:`K`.
     """
     n = int(round(coherent_time_s * sample_rate_hz))
     blocks = _blocks(samples, n, noncoherent)
-    codes = np.stack([fft.fft(code_replica(p, n, sample_rate_hz, signal=signal), workers=1).conj() for p in prns])
+    codes = [fft.fft(_replicas(p, n, sample_rate_hz, signal, bpsk_like), axis=-1, workers=1).conj() for p in prns]
     out = np.empty((len(prns), dopplers_hz.size, n), np.float32)
     step = max(1, _CHUNK_ELEMENTS // (noncoherent * n))
     wiped = _DopplerSpectra(blocks, dopplers_hz, sample_rate_hz, if_hz)
@@ -176,8 +252,12 @@ def search_grid(
         if code_doppler:
             spectra *= _code_drift_ramp(dopplers_hz[lo : lo + step], noncoherent, n, signal.carrier_freq_hz)
         for i in range(len(prns)):
-            z = fft.ifft(spectra * codes[i], axis=-1, workers=1)
-            out[i, lo : lo + step] = _sum_blocks(z.real**2 + z.imag**2, alternate)
+            z = fft.ifft(spectra * codes[i][0], axis=-1, workers=1)
+            power = z.real**2 + z.imag**2
+            for code in codes[i][1:]:  # the BPSK-like search's second side band
+                z = fft.ifft(spectra * code, axis=-1, workers=1)
+                power += z.real**2 + z.imag**2
+            out[i, lo : lo + step] = _sum_blocks(power, alternate)
     return out
 
 
@@ -212,9 +292,10 @@ def fine_doppler(
     dopplers_hz: np.ndarray,
     alternate: bool = False,
     signal: SignalSpec = GPS_L1CA,
+    bpsk_like: bool = False,
 ) -> np.ndarray:
     """Raw :math:`\\sum_k |z_k|^2` at one code lag for each of ``dopplers_hz`` (the fine
-    search; ``alternate`` as `search_grid`).
+    search; ``alternate`` and ``bpsk_like`` as `search_grid`).
 
     Evenly spaced ``dopplers_hz`` (the fine grid :math:`f_0 + m\\,\\delta f`) split the
     carrier as :math:`e^{-j2\\pi (f_{IF} + f_0) t} \\cdot e^{-j2\\pi m \\delta f t}`: the first
@@ -223,16 +304,22 @@ def fine_doppler(
     """
     n = int(round(coherent_time_s * sample_rate_hz))
     blocks = _blocks(samples, n, noncoherent)
-    replica = np.roll(code_replica(prn, n, sample_rate_hz, signal=signal), code_start_sample)
+    # conj: the correlation is sum x r*, as the grid's conjugated replica spectra (real for BPSK).
+    replicas = np.roll(_replicas(prn, n, sample_rate_hz, signal, bpsk_like), code_start_sample, axis=-1).conj()
     K = blocks.shape[0]
     t = (np.arange(K * n) / sample_rate_hz).reshape(K, n)
     dopplers_hz = np.asarray(dopplers_hz, float)
     steps = np.diff(dopplers_hz)
     even = dopplers_hz.size > 1 and np.allclose(steps, steps[0], rtol=1e-9, atol=1e-9)
-    if even and dopplers_hz.size * K * n <= _FINE_TABLE_ELEMENTS:
+    table = even and dopplers_hz.size * K * n <= _FINE_TABLE_ELEMENTS
+    if table:
         step_hz = float(np.round((dopplers_hz[-1] - dopplers_hz[0]) / (dopplers_hz.size - 1), 9))
-        wiped = blocks * replica * np.exp(-2j * np.pi * (if_hz + dopplers_hz[0]) * t)
-        z = np.einsum("kn,dkn->dk", wiped, _offset_carriers(n, K, float(sample_rate_hz), dopplers_hz.size, step_hz))
+        carriers = _offset_carriers(n, K, float(sample_rate_hz), dopplers_hz.size, step_hz)
+        first = np.exp(-2j * np.pi * (if_hz + dopplers_hz[0]) * t)
     else:
-        z = np.einsum("kn,dkn->dk", blocks * replica, np.exp(-2j * np.pi * (if_hz + dopplers_hz[:, None, None]) * t))
-    return _sum_blocks(np.abs(z) ** 2, alternate)
+        carriers = np.exp(-2j * np.pi * (if_hz + dopplers_hz[:, None, None]) * t)
+    power = np.zeros((dopplers_hz.size, K))
+    for replica in replicas:  # the replica, or the two side bands
+        wiped = blocks * replica * first if table else blocks * replica
+        power += np.abs(np.einsum("kn,dkn->dk", wiped, carriers)) ** 2
+    return _sum_blocks(power, alternate)
