@@ -420,6 +420,8 @@ def _acquisition_from_args(args: argparse.Namespace):
     }
     if getattr(args, "alternate_blocks", False):
         params["alternate_blocks"] = True
+    if getattr(args, "code_doppler", False):
+        params["code_doppler"] = True
     if getattr(args, "boc_search", None) is not None:
         params["boc_search"] = args.boc_search
     from .receiver.acquisition.search import check_contract
@@ -1293,6 +1295,12 @@ def _add_recording_options(p: argparse.ArgumentParser, several_signals: bool = F
         action="store_true",
         help="sum even and odd coherent blocks apart, keep the larger (with --coherent-ms 10: one of them "
         "is free of data-bit transitions; weak signals)",
+    )
+    p.add_argument(
+        "--code-doppler",
+        action="store_true",
+        help="follow the code Doppler across the non-coherent blocks (long weak-signal searches: at 5 kHz "
+        "the L1 code moves half a chip in 154 ms)",
     )
     p.add_argument(
         "--boc-search",

@@ -53,6 +53,11 @@ class PcpsParams(PluginParams):
         description="drop a detection whose C/N0 estimate is more than this below the strongest one's: "
         "a C/A cross-correlation sidelobe of a strong signal; null keeps every detection",
     )
+    code_doppler: bool = Field(
+        False,
+        description="follow the code Doppler across the non-coherent blocks (each block's correlation shifted "
+        "back by its drift, 3.2 chips/s at 5 kHz on L1): a long search (hundreds of ms) keeps its peak",
+    )
     boc_search: Literal["full", "bpsk-like"] = Field(
         "full",
         description="a BOC signal's search: full (its spreading waveform, narrow peak with side peaks) or "
@@ -149,6 +154,7 @@ class ParallelCodePhaseSearch(Acquisition):
                 dopplers,
                 alt,
                 signal,
+                code_doppler=p.code_doppler,
                 bpsk_like=sidebands == 2,
             )
             results += self._peaks(
@@ -212,7 +218,18 @@ class ParallelCodePhaseSearch(Acquisition):
             stat = float(grid[i, d, lag] / sigma2)
             fine = dopplers[d] + np.arange(-coarse_step, coarse_step + fine_step / 2, fine_step)
             raw = fine_doppler(
-                samples, sample_rate_hz, if_hz, prn, int(s), T, p.noncoherent, fine, alt, signal, sidebands == 2
+                samples,
+                sample_rate_hz,
+                if_hz,
+                prn,
+                int(s),
+                T,
+                p.noncoherent,
+                fine,
+                alt,
+                signal,
+                bpsk_like=sidebands == 2,
+                code_doppler=p.code_doppler,
             )
             power = raw / sigma2
             j = int(np.argmax(power))

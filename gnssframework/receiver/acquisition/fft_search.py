@@ -113,12 +113,14 @@ def sideband_power_fraction(prn: int, n_samples: int, sample_rate_hz: float, sig
     return float(np.sum(np.abs(inner) ** 2) / (s @ s * n_samples))
 
 
-def _replicas(prn: int, n: int, sample_rate_hz: float, signal: SignalSpec, bpsk_like: bool) -> np.ndarray:
+def _replicas(
+    prn: int, n: int, sample_rate_hz: float, signal: SignalSpec, bpsk_like: bool, chip_offset: float = 0.0
+) -> np.ndarray:
     """``(S, n)`` replicas a search correlates with: the spreading waveform (``S = 1``) or
-    the two side bands (``bpsk_like``)."""
+    the two side bands (``bpsk_like``), chip ``chip_offset`` at sample 0."""
     if bpsk_like:
-        return sideband_replicas(prn, n, sample_rate_hz, signal)
-    return code_replica(prn, n, sample_rate_hz, signal=signal)[None]
+        return sideband_replicas(prn, n, sample_rate_hz, signal, chip_offset)
+    return code_replica(prn, n, sample_rate_hz, chip_offset, signal=signal)[None]
 
 
 def _blocks(samples: np.ndarray, n: int, noncoherent: int) -> np.ndarray:
@@ -293,9 +295,14 @@ def fine_doppler(
     alternate: bool = False,
     signal: SignalSpec = GPS_L1CA,
     bpsk_like: bool = False,
+    code_doppler: bool = False,
 ) -> np.ndarray:
     """Raw :math:`\\sum_k |z_k|^2` at one code lag for each of ``dopplers_hz`` (the fine
     search; ``alternate`` and ``bpsk_like`` as `search_grid`).
+
+    ``code_doppler``: block :math:`k`'s replica starts :math:`d_k = k N f_D / f_c` samples
+    earlier (`search_grid`'s drift, at the middle of ``dopplers_hz``, a fraction of a sample
+    included), so the code lag ``code_start_sample`` is block 0's, as the grid reports it.
 
     Evenly spaced ``dopplers_hz`` (the fine grid :math:`f_0 + m\\,\\delta f`) split the
     carrier as :math:`e^{-j2\\pi (f_{IF} + f_0) t} \\cdot e^{-j2\\pi m \\delta f t}`: the first
@@ -305,8 +312,14 @@ def fine_doppler(
     n = int(round(coherent_time_s * sample_rate_hz))
     blocks = _blocks(samples, n, noncoherent)
     # conj: the correlation is sum x r*, as the grid's conjugated replica spectra (real for BPSK).
-    replicas = np.roll(_replicas(prn, n, sample_rate_hz, signal, bpsk_like), code_start_sample, axis=-1).conj()
     K = blocks.shape[0]
+    if code_doppler:  # (S, K, n): each block's replica at its drifted start
+        mid_hz = float(np.median(dopplers_hz))
+        drift = np.arange(K) * n * mid_hz / signal.carrier_freq_hz  # samples earlier, block k
+        chips = -(code_start_sample - drift) * (signal.chip_rate_hz / sample_rate_hz)
+        replicas = np.stack([_replicas(prn, n, sample_rate_hz, signal, bpsk_like, c) for c in chips], axis=1).conj()
+    else:
+        replicas = np.roll(_replicas(prn, n, sample_rate_hz, signal, bpsk_like), code_start_sample, axis=-1).conj()
     t = (np.arange(K * n) / sample_rate_hz).reshape(K, n)
     dopplers_hz = np.asarray(dopplers_hz, float)
     steps = np.diff(dopplers_hz)
