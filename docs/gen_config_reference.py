@@ -50,6 +50,10 @@ def render() -> str:
         "",
         "## ComparisonConfig (the file)",
         "",
+        "A file may also hold a `[base]` table (`file`, `drop`, `drop_candidates`, `drop_cases`):",
+        "it is then laid over that other config, as [Comparisons](index.md#a-config-built-on-another-base)",
+        "says; the fields below are those of the config it resolves to.",
+        "",
     ] + _table(schema)
     for name, sub in sorted(schema.get("$defs", {}).items()):
         lines += ["", f"## {name}", ""]

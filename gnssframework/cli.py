@@ -65,9 +65,13 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         config = load_config(args.file, runs=args.runs, seed=args.seed)
     except ConfigError as exc:  # the case or candidate named as written, beside its index
         from .experiments.config import with_names
-        from .io.text import read_toml
+        from .experiments.config_base import read_config_data
 
-        raise with_names(exc, read_toml(args.file)) from None
+        try:
+            data = read_config_data(args.file)
+        except ConfigError:  # the error is the file's own or its [base]'s: as it is
+            data = {}
+        raise with_names(exc, data) from None
     if args.dask_address:  # a scheduler address comes from the person running the comparison, not the config
         config.executor = config.executor.model_copy(update={"kind": "dask", "address": args.dask_address})
     out = args.out or f"results/{config.name}"

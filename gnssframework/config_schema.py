@@ -62,4 +62,13 @@ def comparison_schema() -> dict[str, Any]:
             {"required": ["start", "stop", "step"], "not": {"required": ["num"]}},
             {"required": ["start", "stop", "num"], "not": {"required": ["step"]}},
         ]
+    names = {"type": "array", "items": {"type": "string"}}
+    schema["properties"]["base"] = {  # read by `experiments.config_base`, before the model
+        "type": "object",
+        "additionalProperties": False,
+        "required": ["file"],
+        "properties": {"file": {"type": "string"}, "drop": names, "drop_candidates": names, "drop_cases": names},
+        "description": "another config this one is laid over (its path relative to this file); the other "
+        "fields then hold what differs",
+    }
     return schema

@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError,
 
 from ..errors import ConfigError
 from ..hookspecs import COMPONENT_KINDS
-from ..io.text import read_toml
+from .config_base import read_config_data
 from ..plugin import validation_message
 from ..plugin_ref import PluginSpec, component_metadata
 from .candidates import CandidatePlan, resolve_candidate
@@ -386,7 +386,8 @@ def with_names(exc: ConfigError, data: Any) -> ConfigError:
 
 
 def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
-    """Read and validate a comparison TOML file.
+    """Read and validate a comparison TOML file (with its ``[base]`` resolved:
+    `gnssframework.experiments.config_base`).
 
     Raises
     ------
@@ -396,7 +397,7 @@ def load_config(path: str | Path, **overrides: Any) -> ComparisonConfig:
         For any invalid field, naming it and what it allows.
     """
     path = Path(path)
-    data = read_toml(path)
+    data = read_config_data(path)  # its [base] resolved (`config_base`)
     executor = data.get("executor")
     if isinstance(executor, dict) and executor.get("address"):
         # Dask's protocol carries pickles: a shared config that names a scheduler would make

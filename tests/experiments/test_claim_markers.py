@@ -37,10 +37,11 @@ from __future__ import annotations
 
 import ast
 import re
-import tomllib
 from pathlib import Path
 
 import pytest
+
+from gnssframework.experiments.config_base import read_config_data
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGES = sorted((ROOT / "docs" / "experiments").glob("*.md"))
@@ -207,7 +208,7 @@ def test_every_marked_ordering_is_a_claim_ci_checks(page, line, body):
     want = _parse(body)
     example = ROOT / "examples" / f"{want['example']}.toml"
     assert example.is_file(), f"{page}:{line}: no example {example.name}"
-    claims = tomllib.loads(example.read_text()).get("claims", [])
+    claims = read_config_data(example).get("claims", [])
     assert any(_matches(c, want) for c in claims), f"{page}:{line}: {example.name} has no claim {body!r}"
     assert want["example"] in _checked_in_ci(), (
         f"{page}:{line}: CI does not check the claims of {example.name} (.ci/run's compare --check or "
@@ -459,9 +460,7 @@ def test_ci_examples_evaluate_at_the_tuned_values(example, tuned_by):
     # The CI examples carry the values the slow tuning selected (its generated table, 3
     # significant digits); a retuning that moves them must move the CI example too.
     tuned = _tuned_values(ROOT / "docs" / "experiments" / "generated" / f"{tuned_by}.md")
-    candidates = {
-        c["name"]: c for c in tomllib.loads((ROOT / "examples" / f"{example}.toml").read_text())["candidates"]
-    }
+    candidates = {c["name"]: c for c in read_config_data(ROOT / "examples" / f"{example}.toml")["candidates"]}
     checked = [(name, label) for name, label in tuned if name in candidates]
     assert {name for name, _ in checked} >= {"ackf", "discriminator"}
     for name, label in checked:
