@@ -4,7 +4,7 @@ detectors, C/N0, bit synchronisation and the channel state machine."""
 from .channel import SampleChannel
 from .closers import SampleCloser, ScalarSampleCloser
 from .closure import ErrorFeedback
-from .config import TrackingConfig, tracking_config
+from .config import WEAK_SIGNAL_SETTINGS, TrackingConfig, tracking_config, weak_signal_tracking
 from .correlator import correlate_channels, correlate_numpy
 from .lock import BitSync, estimate_cn0, phase_lock_indicator
 from .nco import ReplicaNCOs
@@ -14,6 +14,8 @@ __all__ = [
     "ErrorFeedback",
     "TrackingConfig",
     "tracking_config",
+    "weak_signal_tracking",
+    "WEAK_SIGNAL_SETTINGS",
     "correlate_channels",
     "correlate_numpy",
     "BitSync",

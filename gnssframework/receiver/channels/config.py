@@ -10,7 +10,7 @@ from ...plugin import validation_message
 from ...suggest import did_you_mean
 from .lock import cn0_estimator_names
 
-__all__ = ["TrackingConfig", "tracking_config"]
+__all__ = ["TrackingConfig", "tracking_config", "WEAK_SIGNAL_SETTINGS", "weak_signal_tracking"]
 
 
 class TrackingConfig(BaseModel):
@@ -50,6 +50,12 @@ class TrackingConfig(BaseModel):
     cn0_window_ms: int = Field(400, ge=40, description="window of the C/N0 estimate")
     loss_ms: int = Field(200, ge=10, description="time out of lock after which a channel is lost")
     bit_sync_votes: int = Field(6, ge=2, description="sign changes needed to decide the bit edge")
+    bit_sync: Literal["histogram", "energy"] = Field(
+        "histogram",
+        description="bit synchronisation: histogram (of sign changes between 1 ms prompts, bit_sync_votes of "
+        "them; needs about 34 dB-Hz) or energy (the edge maximising whole-bit coherent energy over the "
+        "cn0_window_ms of prompts after lock; weak signals)",
+    )
     reacquire_every_ms: int = Field(1000, ge=10, description="interval of re-acquisition of lost satellites")
     closure_fll_bandwidth_hz: float = Field(10.0, gt=0, description="FLL closing an error-output filter")
     closure_dll_bandwidth_hz: float = Field(2.0, gt=0, description="DLL closing an error-output filter")
@@ -73,3 +79,39 @@ def tracking_config(**values: Any) -> TrackingConfig:
         return TrackingConfig(**values)
     except ValidationError as exc:
         raise validation_message(exc, prefix="tracking", model=TrackingConfig) from None
+
+
+#: Tracking settings for signals near 30 dB-Hz, with an unassisted start (issue 40): each
+#: value from what it must survive there (docs/receiver/navigation.md, "An unassisted cold
+#: start at 30 dB-Hz", where the default settings lock 0-2 % of the time and never
+#: synchronise a bit). At 1 ms and 30 dB-Hz (:math:`(C/N_0) T = 1`):
+#:
+#: - no FLL assist: a cross-product FLL's frequency noise there is tens of hertz, more than
+#:   it corrects; the weak search's fine Doppler (5 Hz steps at 10 ms coherent) is within
+#:   the reach of a 15 Hz second-order PLL, and a 10 Hz third-order one tracks;
+#: - the phase-lock indicator's mean locked is :math:`(C/N_0)T / ((C/N_0)T + 1) = 0.5`
+#:   (`lock`), its spread on noise :math:`1/\sqrt{200} = 0.07` over 200 ms: 0.3 between;
+#:   3 s to pull in, 2 s out of lock before a channel is dropped;
+#: - bit synchronisation by whole-bit energy over 1 s of prompts (49 bits a candidate): the
+#:   histogram of 1 ms sign changes does not decide at 30 dB-Hz, and with 19 bits one
+#:   channel in eleven took an edge one period off (300 km of pseudorange) on the
+#:   validation's file.
+WEAK_SIGNAL_SETTINGS: dict[str, Any] = {
+    "pull_in_params": {"pll_bandwidth_hz": 15.0, "pll_order": 2, "fll_bandwidth_hz": 0.0, "dll_bandwidth_hz": 1.0},
+    "channel_params": {"pll_bandwidth_hz": 10.0, "pll_order": 3, "fll_bandwidth_hz": 0.0, "dll_bandwidth_hz": 0.5},
+    "pull_in_ms": 3000,
+    "lock_window_ms": 200,
+    "pli_threshold": 0.3,
+    "loss_ms": 2000,
+    "bit_sync": "energy",
+    "cn0_window_ms": 1000,
+}
+
+
+def weak_signal_tracking(**values: Any) -> TrackingConfig:
+    """`WEAK_SIGNAL_SETTINGS` with ``values`` over them (a ``channel_filter`` other than
+    ``scalar`` without ``channel_params`` takes its own defaults, not the scalar loop's)."""
+    settings = dict(WEAK_SIGNAL_SETTINGS)
+    if values.get("channel_filter", "scalar") != "scalar" and "channel_params" not in values:
+        settings.pop("channel_params")
+    return tracking_config(**{**settings, **values})

@@ -63,7 +63,7 @@ from .prefetch import BlockReader
 from .sampling import warn_if_commensurate
 from .records import RECORD_FIELDS, STAGES, ChannelRecord, TrackingResult
 from .detection import detect_periods, run_detectors
-from .lock import bit_edge_from_votes
+from .lock import bit_edge_by_energy, bit_edge_from_votes
 
 __all__ = ["ChannelRecord", "TrackingResult", "SampleTracker", "STAGES", "RECORD_FIELDS"]
 
@@ -525,12 +525,27 @@ class SampleTracker:
     def _bit_sync(self, c: SampleChannel) -> None:
         """Channel ``c`` in ``track``: its bit edge, once the histogram has decided it."""
         if c.stage == "track" and c.bit_edge is None:
-            edge = bit_edge_from_votes(self.votes[c.slot], self.config.bit_sync_votes)
+            if self.config.bit_sync == "energy":
+                edge = self._energy_edge(c)
+            else:
+                edge = bit_edge_from_votes(self.votes[c.slot], self.config.bit_sync_votes)
             if edge is not None:
                 c.bit_edge = edge
                 c.record.events.append(
                     (float(self.acc_t0[c.slot]), f"bit sync (edge at ms {edge} mod {c.periods_per_symbol})")
                 )
+
+    def _energy_edge(self, c: SampleChannel) -> int | None:
+        """Channel ``c``'s bit edge by whole-bit energy (`lock.bit_edge_by_energy`) over its
+        prompt ring, once the whole ring was tracked in lock (``track``)."""
+        size = self.prompts.shape[1]
+        per_bit = c.periods_per_symbol
+        if c.stage_ms < size or self.n_prompts[c.slot] < size:
+            return None
+        i = c.slot
+        window = self.prompts[i, (self.n_prompts[i] - size + np.arange(size)) % size]
+        first = int(self.ms_index[i]) - size + 1
+        return bit_edge_by_energy(window, first, per_bit, size // per_bit - 1)
 
     def _update(
         self,
