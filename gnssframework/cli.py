@@ -424,6 +424,8 @@ def _acquisition_from_args(args: argparse.Namespace):
     }
     if getattr(args, "alternate_blocks", False):
         params["alternate_blocks"] = True
+    if getattr(args, "weak", False):  # the weak search, where no option says otherwise
+        params = {**WEAK_SEARCH, **params}
     if getattr(args, "code_doppler", False):
         params["code_doppler"] = True
     if getattr(args, "boc_search", None) is not None:
@@ -538,6 +540,15 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
     except json.JSONDecodeError as exc:
         raise ConfigError("--channel-params", f"not JSON: {exc.msg}") from None
     settings = {"channel_filter": args.channel_filter, "channel_params": params}
+    if getattr(args, "weak", False):  # the weak preset under every option given
+        from .receiver.channels import WEAK_SIGNAL_SETTINGS
+
+        weak = dict(WEAK_SIGNAL_SETTINGS)
+        if params or (args.channel_filter or "scalar") != "scalar":
+            weak.pop("channel_params")  # another filter's, or the user's own
+        else:
+            del settings["channel_params"]  # none given: the preset's
+        settings = {**weak, **settings}
     for option, key in (
         ("coherent_ms_track", "coherent_ms"),
         ("cn0_estimator", "cn0_estimator"),
@@ -575,6 +586,11 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
         )
     return tracking_config(**settings)
 
+
+#: ``--weak``'s search: 10 ms blocks by parity following the code Doppler, 9 pairs (what
+#: `threshold.blocks_for_detection` asks for 30 dB-Hz at Pd 0.9 and pfa 1e-3 over +-5 kHz
+#: at 2.6 MHz, with 2.8 dB of worst straddle loss).
+WEAK_SEARCH = {"coherent_ms": 10, "noncoherent": 18, "alternate_blocks": True, "code_doppler": True}
 
 #: Loop bandwidth times interval of the pull-in PLL (and the scalar filter's) on a signal
 #: whose code period is too long for the defaults (GPS L2 CM, 20 ms: 8 Hz), under the 0.2 a
@@ -1299,6 +1315,13 @@ def _add_recording_options(p: argparse.ArgumentParser, several_signals: bool = F
         action="store_true",
         help="sum even and odd coherent blocks apart, keep the larger (with --coherent-ms 10: one of them "
         "is free of data-bit transitions; weak signals)",
+    )
+    p.add_argument(
+        "--weak",
+        action="store_true",
+        help="weak signals, down to about 30 dB-Hz from a cold start: the search of 10 ms blocks by parity, "
+        "18 of them, following the code Doppler, and tracking without FLL assist, with 200 ms lock detectors "
+        "and bit synchronisation by energy (each option given explicitly still applies)",
     )
     p.add_argument(
         "--code-doppler",
