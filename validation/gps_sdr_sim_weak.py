@@ -51,8 +51,10 @@ dB-Hz: no fix at all, even with weak-signal settings):
 With ``--cold-start`` (issue 40): the unassisted receiver instead, as ``gnssframework receive
 --weak`` runs it (no position, time or ephemeris: `cli.WEAK_SEARCH` over all 32 PRNs, then
 `channels.weak_signal_tracking`, LNAV decoded, least-squares fixes), and the same with vector
-tracking handed over at its first fix; checked: a fix, every acquired healthy satellite
-used in some fix, horizontal RMS under 5 m and vertical under 10 m times `noise_scale`.
+tracking handed over at its first fix; checked: a fix on four satellites or more (how many
+of the acquired healthy ones are used is printed: a channel whose ephemeris arrives after
+the file's end, or that is out of lock at the vector hand-over, is not),
+horizontal RMS under 5 m and vertical under 10 m times `noise_scale`.
 A first fix needs subframes 1-3 after bit synchronisation: about 37 s of recording from
 gps-sdr-sim's start (``--duration 42`` in CI).
 
@@ -263,18 +265,16 @@ def cold_start(args, cn0: float, check: Checks, rec_path: Path, healthy: list[in
         )
         table = result.positions
         used = set().union(*map(set, table.used_prns)) if table is not None and len(table) else set()
+        # Four satellites or more: a channel that decodes its ephemeris after the file's end,
+        # or (vector) is out of lock at the hand-over, is not used (docs/receiver/navigation.md).
         check(
-            table is not None and len(table) > 0 and set(acquired_healthy) <= used and h < 5.0 * k and v < 10.0 * k,
-            line + f" (aim: a fix, every acquired healthy satellite used, under {5.0 * k:.1f} and {10.0 * k:.1f} m)",
+            table is not None and len(table) > 0 and len(used) >= 4 and h < 5.0 * k and v < 10.0 * k,
+            line + f" ({len(used & set(acquired_healthy))} of the {len(acquired_healthy)} acquired healthy satellites "
+            f"used; aim: a fix on four or more, under {5.0 * k:.1f} and {10.0 * k:.1f} m)",
         )
         if vector is None and table is not None and len(table):
-            n = table.columns["n_sats"]
-            row = (
-                f"| unassisted (--weak) | {motion} | {cn0:g} | {len(found)} of 32 searched | {table.sample_time_s[0]:.1f} "
-                f"| {len(table)} of {epochs} | {n.min()}-{n.max()} | {h:.2f} | {v:.2f} |"
-            )
-    failed = len(check.failures) - before
-    return row + (" pass |" if failed == 0 else f" {failed} failed |")
+            row = table_row("unassisted (--weak)", motion, cn0, f"{len(found)} of 32 searched", table, epochs, h, v)
+    return row + checks_cell(check, before)
 
 
 def weak_search_pairs(cn0_dbhz: float, fs: float) -> tuple[int, str]:
@@ -509,13 +509,23 @@ def run_one(
         assisted_rinex(check, result, work, rinex, used_by_sim, sats, week, tow0, args.moving, k)
         table = result.positions
         if table is not None and len(table):
-            n = table.columns["n_sats"]
-            row = (
-                f"| assisted vector | {motion} | {cn0:g} | {acquired} | {table.sample_time_s[0]:.1f} | "
-                f"{len(table)} of {epochs} | {n.min()}-{n.max()} | {h:.2f} | {v:.2f} |"
-            )
+            row = table_row("assisted vector", motion, cn0, acquired, table, epochs, h, v)
+    return row + checks_cell(check, before)
+
+
+def table_row(receiver: str, motion: str, cn0: float, acquired: str, table, epochs: int, h: float, v: float) -> str:
+    """The table's row of a receiver with fixes, less its checks cell (`checks_cell`)."""
+    n = table.columns["n_sats"]
+    return (
+        f"| {receiver} | {motion} | {cn0:g} | {acquired} | {table.sample_time_s[0]:.1f} | "
+        f"{len(table)} of {epochs} | {n.min()}-{n.max()} | {h:.2f} | {v:.2f} |"
+    )
+
+
+def checks_cell(check: Checks, before: int) -> str:
+    """The checks cell of a row: pass, or how many checks failed since ``before`` of them."""
     failed = len(check.failures) - before
-    return row + (" pass |" if failed == 0 else f" {failed} failed |")
+    return " pass |" if failed == 0 else f" {failed} failed |"
 
 
 if __name__ == "__main__":
