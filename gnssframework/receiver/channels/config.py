@@ -18,7 +18,8 @@ class TrackingConfig(BaseModel):
 
     The channel state machine: ``pull-in`` (the ``pull_in_filter``, an FLL-assisted PLL
     at 1 ms) until the lock detectors hold for ``lock_window_ms``; then ``track`` (the
-    chosen ``channel_filter`` at 1 ms) while bit synchronisation collects its histogram;
+    chosen ``channel_filter`` at 1 ms) while bit synchronisation collects its histogram
+    (or, with ``bit_sync = "energy"``, a full prompt ring of whole-bit energies);
     then ``extended`` (the same filter re-started with ``coherent_ms`` integrations
     aligned to the bit edges, its FLL assist switched off where it has one: PLL only);
     ``lost`` after ``loss_ms`` without lock, when the channel goes back to acquisition.
