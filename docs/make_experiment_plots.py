@@ -62,6 +62,7 @@ EXAMPLES = (
     "tracking_threshold_oscillator",
     "vector_tracking_realistic",
     "deep_integration_realistic_ci",
+    "deep_integration_threshold_ci",
 )
 #: The examples whose stores CI's comparisons make first (``.ci/run`` compares each into
 #: results/<name>/): this script only draws their figures and writes their tables, after those
@@ -88,6 +89,7 @@ CI_COST_S = {
     "deep_integration_error_sources": 55,
     "scintillation_sweep": 51,
     "tracking_threshold": 29,
+    "deep_integration_threshold_ci": 70,
     "tracking_threshold_oscillator": 70,
     "carrier_smoothing_sweep": 29,
     "deep_integration_error_sources_ci": 29,
@@ -209,6 +211,7 @@ SWEEP_TABLES["carrier_smoothing_sweep"] = ["error_rmse", "slip_recovery_epochs",
 # Issue 40 (tracking thresholds): lock along the C/N0 sweep and the receiver's own C/N0 reading there.
 # Issues 40 and 42: the same loops with a receiver oscillator (the ideal clock its control).
 SWEEP_TABLES["tracking_threshold_oscillator"] = ["loss_of_lock", "phase_jitter_rad"]
+SWEEP_TABLES["deep_integration_threshold_ci"] = ["loss_of_lock_fraction", "phase_lock_loss_fraction"]
 SWEEP_TABLES["tracking_threshold"] = [
     "loss_of_lock",
     "loss_of_code_freq_lock",
