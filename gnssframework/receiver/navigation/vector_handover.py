@@ -23,6 +23,7 @@ from ..channels.channel import SampleChannel, stage_context
 from .fixes import full_week, solve_epochs
 from .observables import SPEED_OF_LIGHT_MPS, channel_timing, observables
 from .vector_navigator import VectorNavigator, rotate, stack
+from .vector_reacquire import join
 
 __all__ = ["try_handover", "try_assisted_handover", "hand_over", "start_vector", "VECTOR"]
 
@@ -75,16 +76,10 @@ def try_handover(v: VectorSampleCloser) -> None:
     if len(prns) < 4:
         return
     slots = np.array([t.slot(p) for p in prns])
-    # Each replica's transmit time at its current start: from its last decoded row,
-    # plus the chips generated since (no code-phase jumps in the extended stage).
     tx_anchor = np.zeros(len(t.active))
     chip_anchor = np.zeros(len(t.active))
     for p, i in zip(prns, slots):
-        tm, rec = timings[p], t.channels[p].record
-        t_row = rec.column("time_s")
-        j = int(np.searchsorted(t_row, tm.time_s[-1]))
-        chips = sp.code_length_chips * rec.column("coherent_ms")[j:].sum() + t.code_phase[i] - rec.rows[j][4]
-        tx_anchor[i] = tm.transmit_s[-1] + chips / sp.chip_rate_hz
+        tx_anchor[i] = _transmit_now(t, timings[p], t.channels[p].record, i)
         chip_anchor[i] = t.ms_index[i] * sp.code_length_chips + t.code_phase[i]
     e = len(table) - 1
     t_fix = float(table.sample_time_s[e])
@@ -110,6 +105,44 @@ def try_handover(v: VectorSampleCloser) -> None:
         full_week(obs.week, v.reference_week),
         f"first fix with {len(table.used_prns[e])} satellites",
     )
+
+
+def _transmit_now(t, timing, record, i: int) -> float:
+    """A channel's transmit time at its replica's current start (slot ``i``): from its last
+    LNAV-dated row, plus the chips generated since (no code-phase jumps in the extended
+    stage)."""
+    sp = t.signal
+    j = int(np.searchsorted(record.column("time_s"), timing.time_s[-1]))
+    chips = sp.code_length_chips * record.column("coherent_ms")[j:].sum() + t.code_phase[i] - record.rows[j][4]
+    return float(timing.transmit_s[-1] + chips / sp.chip_rate_hz)
+
+
+def admit_locked(v: VectorSampleCloser) -> None:
+    """Once the loop runs, a scalar channel outside it that is now locked in the extended
+    stage, dated by its own LNAV and with a healthy ephemeris (decoded, or the RINEX file's)
+    joins it (`vector_reacquire.join`, at its exact transmit time): a channel out of lock at
+    the hand-over is not left out for the rest of the run."""
+    t = v.tracker
+    sp = t.signal
+    in_loop = set(v.nav.slots.tolist())
+    for c in t.channels.values():
+        if c.slot in in_loop or c.stage != "extended" or not c.locked or not t.active[c.slot]:
+            continue
+        timing = channel_timing(c.record, signal=sp)
+        if timing is None or timing.time_s.size < 2:
+            continue
+        try:
+            obs = observables([timing], rate_hz=10.0)
+        except ConfigError:
+            continue
+        record = _ephemeris(v, c.prn, obs, float(t.start_sample[c.slot]) / t.fs)
+        if record is None:
+            continue
+        tx_now = _transmit_now(t, timing, c.record, c.slot)
+        join(v, c, record, tx_now - t.code_phase[c.slot] / sp.chip_rate_hz)
+        v.solution.events.append(
+            (float(t.start_sample[c.slot]) / t.fs, f"PRN {c.prn} joined the loop (locked, LNAV-dated)")
+        )
 
 
 def _assisted_transmit_times(

@@ -42,7 +42,7 @@ from ..channels.factory import FilterFactory, StageFilters
 from ..frontend.recording import Recording
 from ..engine.closers import check_composition
 from .vector_config import Assistance, VectorConfig, assistance, vector_config
-from .vector_handover import VECTOR, start_vector, try_assisted_handover, try_handover
+from .vector_handover import VECTOR, admit_locked, start_vector, try_assisted_handover, try_handover
 from .vector_navigator import VectorNavigator
 from .vector_reacquire import drop, reacquire
 from .vector_solution import VectorSolution
@@ -172,6 +172,7 @@ class VectorSampleCloser(SampleCloser):
             self.scalar.reacquire(at, stop)
         else:
             reacquire(self, at, stop)
+            admit_locked(self)
 
     def finish(self, result: TrackingResult) -> None:
         if self.nav is not None:  # what dates the vector channels' rows (`observables.assisted_timing`)
