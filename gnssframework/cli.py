@@ -544,7 +544,8 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
         from .receiver.channels import WEAK_SIGNAL_SETTINGS
 
         weak = dict(WEAK_SIGNAL_SETTINGS)
-        if params or (args.channel_filter or "scalar") != "scalar":
+        default = TrackingConfig.model_fields["channel_filter"].default  # the filter the preset's params are for
+        if params or (args.channel_filter or default) != default:
             weak.pop("channel_params")  # another filter's, or the user's own
         else:
             del settings["channel_params"]  # none given: the preset's

@@ -110,9 +110,11 @@ WEAK_SIGNAL_SETTINGS: dict[str, Any] = {
 
 
 def weak_signal_tracking(**values: Any) -> TrackingConfig:
-    """`WEAK_SIGNAL_SETTINGS` with ``values`` over them (a ``channel_filter`` other than
-    ``scalar`` without ``channel_params`` takes its own defaults, not the scalar loop's)."""
+    """`WEAK_SIGNAL_SETTINGS` with ``values`` over them (a ``channel_filter`` other than the
+    default one, whose parameters the preset sets, without ``channel_params`` takes its own
+    defaults)."""
     settings = dict(WEAK_SIGNAL_SETTINGS)
-    if values.get("channel_filter", "scalar") != "scalar" and "channel_params" not in values:
+    default = TrackingConfig.model_fields["channel_filter"].default
+    if values.get("channel_filter", default) != default and "channel_params" not in values:
         settings.pop("channel_params")
     return tracking_config(**{**settings, **values})
