@@ -178,8 +178,10 @@ def bit_edge_by_energy(prompts: np.ndarray, first_period: int, per_bit: int, min
     every bit that changes sign (Kaplan & Hegarty, *Understanding GPS/GNSS*, 3rd ed., sec.
     8.9: the maximum-likelihood bit synchroniser). Unlike the histogram of sign changes
     between 1 ms prompts (`BitSync`), which needs each change to stand out of one period's
-    noise (about 34 dB-Hz and up), it integrates every period of the window: at 30 dB-Hz
-    twenty bits find the edge within one period (`tests/receiver/test_bit_sync_energy.py`).
+    noise, it integrates every period of the window. Over 400 ms of random bits (measured,
+    200 windows a point) the histogram decides right in none at 34 dB-Hz, 64 % at 36 and
+    97.5 % at 38; this in all of them from 32 dB-Hz up, and at 30 dB-Hz within one period
+    (`tests/receiver/test_bit_sync_energy.py`).
 
     Parameters
     ----------

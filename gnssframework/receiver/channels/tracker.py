@@ -523,7 +523,8 @@ class SampleTracker:
         c.batch = None
 
     def _bit_sync(self, c: SampleChannel) -> None:
-        """Channel ``c`` in ``track``: its bit edge, once the histogram has decided it."""
+        """Channel ``c`` in ``track``: its bit edge, once the histogram (or, with ``bit_sync =
+        "energy"``, a full ring of prompts in lock) has decided it."""
         if c.stage == "track" and c.bit_edge is None:
             if self.config.bit_sync == "energy":
                 edge = self._energy_edge(c)
