@@ -9,13 +9,13 @@ import signal
 import sqlite3
 import subprocess
 import sys
-import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from gnssframework.experiments import load_config, run_comparison
+from gnssframework.experiments.config_base import read_config_data
 from gnssframework.io.files import atomic_open, dumps_strict, loads_strict, write_json
 from gnssframework.experiments.scenarios.carrier_smoothing import CarrierSmoothingScenario
 
@@ -23,8 +23,9 @@ EXAMPLES = sorted((Path(__file__).resolve().parents[2] / "examples").glob("*.tom
 
 
 def _shortened(path: Path, tmp_path: Path) -> Path:
-    """The example with 2 runs, one worker and short runs (epochs / duration cut)."""
-    data = tomllib.loads(path.read_text())
+    """The example with 2 runs, one worker and short runs (epochs / duration cut); an example
+    built on another (``[base]``) as it resolves."""
+    data = read_config_data(path)
     data.update(runs=2, batch_size=2, executor={"kind": "local", "workers": 1})
     # The first and the last case (the examples order them mildest to harshest): every metric of
     # every candidate is written either way; CI's main job checks its examples' whole summaries
