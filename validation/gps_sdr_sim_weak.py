@@ -305,6 +305,9 @@ def weak_search_pairs(cn0_dbhz: float, fs: float) -> tuple[int, str]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # Each line as it comes, off a terminal too: CI's lane log showed nothing for the cold
+    # start's 10 minutes of search and tracking, block-buffered, until the script ended.
+    sys.stdout.reconfigure(line_buffering=True)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
         "--cn0",
