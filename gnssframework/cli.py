@@ -541,15 +541,9 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
         raise ConfigError("--channel-params", f"not JSON: {exc.msg}") from None
     settings = {"channel_filter": args.channel_filter, "channel_params": params}
     if getattr(args, "weak", False):  # the weak preset under every option given
-        from .receiver.channels import WEAK_SIGNAL_SETTINGS
+        from .receiver.channels.config import weak_signal_settings
 
-        weak = dict(WEAK_SIGNAL_SETTINGS)
-        default = TrackingConfig.model_fields["channel_filter"].default  # the filter the preset's params are for
-        if params or (args.channel_filter or default) != default:
-            weak.pop("channel_params")  # another filter's, or the user's own
-        else:
-            del settings["channel_params"]  # none given: the preset's
-        settings = {**weak, **settings}
+        settings = weak_signal_settings(settings)
     for option, key in (
         ("coherent_ms_track", "coherent_ms"),
         ("cn0_estimator", "cn0_estimator"),

@@ -10,7 +10,7 @@ from ...plugin import validation_message
 from ...suggest import did_you_mean
 from .lock import cn0_estimator_names
 
-__all__ = ["TrackingConfig", "tracking_config", "WEAK_SIGNAL_SETTINGS", "weak_signal_tracking"]
+__all__ = ["TrackingConfig", "tracking_config", "WEAK_SIGNAL_SETTINGS", "weak_signal_settings", "weak_signal_tracking"]
 
 
 class TrackingConfig(BaseModel):
@@ -109,12 +109,18 @@ WEAK_SIGNAL_SETTINGS: dict[str, Any] = {
 }
 
 
-def weak_signal_tracking(**values: Any) -> TrackingConfig:
-    """`WEAK_SIGNAL_SETTINGS` with ``values`` over them (a ``channel_filter`` other than the
-    default one, whose parameters the preset sets, without ``channel_params`` takes its own
-    defaults)."""
+def weak_signal_settings(values: dict[str, Any]) -> dict[str, Any]:
+    """`WEAK_SIGNAL_SETTINGS` with ``values`` over them. The preset's ``channel_params`` are the
+    default channel filter's: another ``channel_filter`` without ``channel_params`` takes its
+    own defaults, and empty ``channel_params`` (none given) take the preset's."""
     settings = dict(WEAK_SIGNAL_SETTINGS)
     default = TrackingConfig.model_fields["channel_filter"].default
+    values = {k: v for k, v in values.items() if v is not None and not (k == "channel_params" and not v)}
     if values.get("channel_filter", default) != default and "channel_params" not in values:
         settings.pop("channel_params")
-    return tracking_config(**{**settings, **values})
+    return {**settings, **values}
+
+
+def weak_signal_tracking(**values: Any) -> TrackingConfig:
+    """A `TrackingConfig` of `weak_signal_settings` (``values`` over the preset)."""
+    return tracking_config(**weak_signal_settings(values))
