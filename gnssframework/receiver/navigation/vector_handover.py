@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import ConfigError
+from ...navigation.coarse_time import solve_coarse_time
 from ...navigation.ephemeris import Ephemerides, satellite_state
 from ...navigation.pvt import solve_position
 from ..channels.channel import SampleChannel, stage_context
@@ -37,6 +38,12 @@ _ASSIST_RADIUS_M = 300e3
 _ASSIST_MAX_RESIDUAL_M = 1000.0
 #: Resolve-and-fix rounds of an assisted hand-over.
 _ASSIST_ITERATIONS = 4
+#: A start time whose coarse-time offset is this many of its standard deviations from zero
+#: is refused (`_start_time_error`): 4 sigma, a false refusal once in 16,000 tries.
+_ASSIST_TIME_SIGMAS = 4.0
+#: ... and within this many seconds (s): a time error is the explanation looked for up to
+#: here (the coarse-time model's steps stay linear to tens of seconds).
+_ASSIST_TIME_RANGE_S = 10.0
 
 
 class _VectorClosure:
@@ -237,6 +244,14 @@ def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
         previous, r0 = tx_start, fix.position_ecef_m
     else:
         fix = None  # the resolution did not settle
+    # A start time seconds off shows as residuals or an excluded satellite too: the time
+    # is named first, with its estimate. It is refused for good: a later try with fewer
+    # satellites (four: the offset is not observable) would hand over on it unchecked.
+    wrong_time = None if fix is None else _start_time_error(v, pr, tx_fix, eph, fix)
+    if wrong_time is not None:
+        v.solution.events.append((now_s, wrong_time))
+        v.next_assist = float("inf")
+        return
     if (
         fix is None
         or not np.all(fix.used)
@@ -287,6 +302,50 @@ def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
         vc.assisted_pseudorange_sigma_m,
         vc.assisted_range_rate_sigma_mps,
         doppler,
+    )
+
+
+def _start_time_error(v: VectorSampleCloser, pr: np.ndarray, tx: np.ndarray, eph: Ephemerides, fix) -> str | None:
+    """Why the `Assistance`'s start time is refused, or None: the coarse-time fix
+    (`coarse_time.solve_coarse_time`) of the assisted pseudoranges estimates the common
+    error of their transmit times, which the millisecond resolution cannot see (it takes
+    whole periods of it into every channel alike). A start time off by a second moves
+    every satellite by kilometres along its orbit and the fix by about as much; the
+    estimate's sigma is that of the pull-in code phases (``assisted_pseudorange_sigma_m``).
+    Needs five satellites (with four, the offset is not observable: no check); with
+    five, the coarse-time fix has no residual to test, so a misresolved millisecond could
+    read as an offset: only one within `_ASSIST_TIME_RANGE_S` whose fix is near the
+    approximate position is named."""
+    if pr.size < 5:
+        return None
+    found = solve_coarse_time(
+        pr,
+        tx,
+        eph,
+        initial_ecef_m=fix.position_ecef_m,
+        sigma_m=v.vector.assisted_pseudorange_sigma_m,
+        iono=v.assist.iono if v.ionosphere else None,
+        elevation_mask_deg=0.0,
+        signal=v.tracker.signal,
+    )
+    if found is None or abs(found.time_offset_s) <= _ASSIST_TIME_SIGMAS * found.time_offset_sigma_s:
+        return None
+    # Named only where a time error explains the pseudoranges: an offset within the range
+    # looked for, and a coarse-time fix that passes the hand-over's own tests (a misresolved
+    # millisecond, 300 km of range, also fits some offset: then the fix fails as before).
+    ct = found.fix
+    if (
+        abs(found.time_offset_s) > _ASSIST_TIME_RANGE_S
+        or not np.all(ct.used)
+        or np.nanmax(np.abs(ct.residuals_m)) > _ASSIST_MAX_RESIDUAL_M
+        or np.linalg.norm(ct.position_ecef_m - v.assist.position_ecef_m) > _ASSIST_RADIUS_M
+    ):
+        return None
+    return (
+        f"assisted start refused: the start time is off by {found.time_offset_s:+.3f} s "
+        f"(± {found.time_offset_sigma_s:.3f} s, coarse-time fix on {pr.size} satellites); "
+        "an assisted start needs it to ~1 ms: correct --start-time, or drop the assistance to hand "
+        "over after LNAV"
     )
 
 
