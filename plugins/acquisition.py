@@ -171,6 +171,7 @@ class ParallelCodePhaseSearch(Acquisition):
                 coarse_step,
                 signal,
             )
+            del grid  # freed before the next group's is made: one grid at a time
         found = [r.cn0_dbhz for r in results if r.detected]
         if p.xcorr_margin_db is not None and found:
             floor = max(found) - p.xcorr_margin_db

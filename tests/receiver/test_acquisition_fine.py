@@ -1,4 +1,4 @@
-"""The fine Doppler search's shared carrier table (`fft_search._offset_carriers`) gives the
+"""The fine Doppler search (`fft_search.fine_doppler`, one carrier matrix for every block) gives the
 statistic of the definition: per bin and block, the sum of samples times code replica
 times the bin's own carrier, computed here directly sample by sample over the bins."""
 

@@ -30,3 +30,34 @@ def test_one_doppler_bin_per_chunk_and_one_prn_per_group_give_the_same_search(mo
     )
     assert acq.acquire(x, FS, 0.0, (7, 20, 3)) == found
     assert [r.prn for r in found if r.detected] == [7, 20]
+
+
+def test_a_weak_search_holds_no_array_of_every_bin_block_and_sample():
+    """The `--weak` search's sizes (18 blocks of 10 ms at 2.6 MHz, code Doppler followed),
+    peak traced allocations (NumPy reports its buffers to `tracemalloc`):
+
+    - the fine search (21 bins) holds one ``(N, bins)`` carrier matrix, not the
+      ``(bins, K, N)`` complex128 table of 150 MB (which it held, and 305 MB at peak,
+      before 5 Dec 2026): under a quarter of that table;
+    - the grid of one PRN (201 bins, 20 MB) is made chunk by chunk: the grid, the residue
+      spectra and six chunks of transients at most (the ramp of the code Doppler is built
+      in complex64, without complex128 temporaries)."""
+    import tracemalloc
+
+    n, k = 26_000, 18
+    rng = np.random.default_rng(1)
+    x = (rng.standard_normal(k * n) + 1j * rng.standard_normal(k * n)).astype(np.complex64)
+    fine = -2775.0 + np.arange(-50.0, 51.0, 5.0)
+    tracemalloc.start()
+    try:
+        fft_search.fine_doppler(x, FS, 0.0, 5, 246, 0.01, k, fine, True, code_doppler=True)
+        fine_peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.reset_peak()
+        dopplers = np.arange(-100, 101) * 50.0
+        fft_search.search_grid(x, FS, 0.0, (5,), 0.01, k, dopplers, True, code_doppler=True)
+        grid_peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert fine_peak < fine.size * k * n * 16 / 4
+    grid, residues, chunk = dopplers.size * n * 4, 2 * k * n * 8, fft_search._CHUNK_ELEMENTS * 8
+    assert grid_peak < grid + residues + 6 * chunk, (grid_peak, grid, chunk)
