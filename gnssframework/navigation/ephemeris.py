@@ -66,6 +66,8 @@ __all__ = [
     "SYSTEM_TIME_OFFSET_S",
     "SYSTEMS",
     "is_bds_geo",
+    "single_frequency_clock_s",
+    "ionosphere_scale",
 ]
 
 #: WGS 84 gravitational constant of IS-GPS-200 (Table 20-IV), m^3/s^2.
@@ -278,6 +280,37 @@ class SatelliteState:
     clock_drift_s_s: np.ndarray
     relativistic_s: np.ndarray
     clock_l1_s: np.ndarray
+
+
+#: GPS L1's carrier (Hz): T_GD's single-frequency user and the Klobuchar model's frequency.
+_L1_HZ = 1575.42e6
+
+
+def single_frequency_clock_s(eph: Ephemerides, state: SatelliteState, carrier_freq_hz: float) -> np.ndarray:
+    r"""The SV clock offset (s) a single-frequency user of a signal at ``carrier_freq_hz``
+    applies.
+
+    GPS and QZSS: :math:`\Delta t_{SV} - \gamma\,T_{GD}`, with
+    :math:`\gamma = (f_{L1}/f)^2` (IS-GPS-200 20.3.3.3.3.2: 1 for L1 C/A, 1.6469 for
+    L2). For L2C this is the L2 P(Y) user's correction, which RTKLIB also takes when there
+    is no CNAV ISC, as in a RINEX LNAV record; IS-GPS-200 30.3.3.3.1.1.1 adds
+    :math:`ISC_{L2C}` where CNAV is decoded. Other systems: ``state.clock_l1_s``, their
+    own single-frequency user's (E1, B1I), whatever ``carrier_freq_hz``.
+    """
+    gamma = ionosphere_scale(carrier_freq_hz)
+    if gamma == 1.0:  # L1 (E1, B1C): the record's own single-frequency clock, as it was
+        return state.clock_l1_s
+    tgd = state.clock_s - state.clock_l1_s
+    gps = np.isin(np.asarray(eph.sv).astype("U1"), ["G", "J"])
+    return np.where(gps, state.clock_s - gamma * tgd, state.clock_l1_s)
+
+
+def ionosphere_scale(carrier_freq_hz: float) -> float:
+    """The factor :math:`(f_{L1}/f)^2` that takes the Klobuchar model's L1 delay to
+    ``carrier_freq_hz`` (a first-order ionospheric delay goes as :math:`1/f^2`; IS-GPS-200
+    20.3.3.5.2.5); exactly 1 within 1e-9 of L1 (a carrier computed back from a wavelength)."""
+    scale = (_L1_HZ / float(carrier_freq_hz)) ** 2
+    return 1.0 if abs(scale - 1.0) < 1e-9 else scale
 
 
 def _wrap_week(dt_s):

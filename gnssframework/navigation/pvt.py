@@ -59,7 +59,14 @@ from ..errors import ConfigError
 from ..signal.gps_l1ca import GPS_L1CA
 from ..signal.spec import SignalSpec
 from ..signal.spec import SPEED_OF_LIGHT_M_S as SPEED_OF_LIGHT_MPS
-from .ephemeris import OMEGA_EARTH_RAD_S, SYSTEMS, Ephemerides, satellite_state
+from .ephemeris import (
+    OMEGA_EARTH_RAD_S,
+    SYSTEMS,
+    Ephemerides,
+    ionosphere_scale,
+    satellite_state,
+    single_frequency_clock_s,
+)
 from .lnav import PI_IS_GPS, IonoUtc
 
 __all__ = [
@@ -274,6 +281,7 @@ def _least_squares(
     weighting="elevation",
     ura_m=None,
     clock_index=None,
+    iono_scale=1.0,
 ):
     """Gauss-Newton on (x, y, z, b_1..b_k) with the satellites ``keep``, weighted as
     ``weighting`` (one of `WEIGHTINGS`); ``clock_index`` ``(S,)`` the clock state of each
@@ -303,7 +311,7 @@ def _least_squares(
             corr = np.zeros(S)
             iono_m = None
             if iono is not None:
-                iono_m = _C * klobuchar_delay_s(iono.alpha, iono.beta, lat, lon, az, el, tow_s)
+                iono_m = iono_scale * _C * klobuchar_delay_s(iono.alpha, iono.beta, lat, lon, az, el, tow_s)
                 corr = corr + iono_m
             if troposphere:
                 corr = corr + troposphere_delay_m(lat, h, el)
@@ -466,9 +474,10 @@ def solve_position(
     if keep.sum() < 4:
         return None
     t = np.where(keep, tx, 0.0)
-    clock = satellite_state(ephemeris, t).clock_l1_s
+    carrier_hz = _C / signal.wavelength_m
+    clock = single_frequency_clock_s(ephemeris, satellite_state(ephemeris, t), carrier_hz)
     state = satellite_state(ephemeris, t - clock)  # t = t_SV - Δt_SV (20.3.3.3.3.1)
-    clock_m = _C * state.clock_l1_s
+    clock_m = _C * single_frequency_clock_s(ephemeris, state, carrier_hz)
     tow = float(np.nanmedian(tx)) + 0.075
     prz = np.where(keep, pr, 0.0)
     offsets = time_offsets_s or {}
@@ -482,7 +491,7 @@ def solve_position(
         letters,
         offsets,
         initial_ecef_m,
-        (sigma_m, iono, troposphere, tow),
+        (sigma_m, iono, troposphere, tow, ionosphere_scale(carrier_hz)),
         (elevation_mask_deg, weighting, ura_m),
         (raim, false_alarm, missed_detection, integrity_risk),
     )
@@ -586,7 +595,7 @@ def solve_position_sv(
         letters,
         offsets,
         initial_ecef_m,
-        (sigma, None, False, 0.0),
+        (sigma, None, False, 0.0, 1.0),
         (elevation_mask_deg, weighting, None),
         (raim, false_alarm, missed_detection, integrity_risk),
     )
@@ -599,7 +608,7 @@ def _solve(prz, sat_pos, clock_m, keep, letters, offsets, initial_ecef_m, model,
     """Least squares, then the residual exclusion or `integrity.raim`: the solution, the
     index excluded (None), the integrity fields and the clocks' letters."""
     raim, false_alarm, missed_detection, integrity_risk = integrity
-    sigma_m, iono, troposphere, tow = model
+    sigma_m, iono, troposphere, tow, iono_scale = model
     elevation_mask_deg, weighting, ura_m = options
     clock_index, clocks = _clock_index(letters, offsets, keep)
     one = len(clocks) == 1
@@ -607,7 +616,9 @@ def _solve(prz, sat_pos, clock_m, keep, letters, offsets, initial_ecef_m, model,
     x0 = np.zeros(3 + k) if initial_ecef_m is None else np.r_[np.asarray(initial_ecef_m, float), np.zeros(k)]
     args = (prz, sat_pos, clock_m)
     index = None if one else clock_index
-    sol = _least_squares(*args, keep, sigma_m, iono, troposphere, tow, x0, elevation_mask_deg, weighting, ura_m, index)
+    sol = _least_squares(
+        *args, keep, sigma_m, iono, troposphere, tow, x0, elevation_mask_deg, weighting, ura_m, index, iono_scale
+    )
     if sol is None:
         return None
     excluded = None
@@ -631,7 +642,18 @@ def _solve(prz, sat_pos, clock_m, keep, letters, offsets, initial_ecef_m, model,
             k_ = keep.copy()
             k_[j] = False
             trial = _least_squares(
-                *args, k_, sigma_m, iono, troposphere, tow, sol[0], elevation_mask_deg, weighting, ura_m, index
+                *args,
+                k_,
+                sigma_m,
+                iono,
+                troposphere,
+                tow,
+                sol[0],
+                elevation_mask_deg,
+                weighting,
+                ura_m,
+                index,
+                iono_scale,
             )
             if trial is not None:
                 trials[int(j)] = trial
@@ -735,7 +757,7 @@ def _raim_solution(sol, args, keep, model, options, method, false_alarm, missed_
         if j >= 0:
             k = keep.copy()
             k[j] = False
-            trial = _least_squares(*args, k, *model, sol[0], *options)
+            trial = _least_squares(*args, k, *model[:4], sol[0], *options, iono_scale=model[4])
             if trial is not None:
                 again = _integrity_of(trial, method, false_alarm, missed_detection, integrity_risk)
                 if not bool(again.detected):

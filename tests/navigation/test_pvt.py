@@ -160,3 +160,31 @@ def test_raim_excludes_a_faulty_satellite_and_its_levels_bound_the_error(visible
     assert np.hypot(e, n) < fix.hpl_m < 100 and abs(u) < fix.vpl_m < 100
     with pytest.raises(ConfigError, match="raim"):
         solve_position(pr, tx, visible, raim="both")
+
+
+def test_an_l2_signal_takes_gamma_tgd_and_the_ionosphere_scaled_to_its_frequency(visible):
+    """IS-GPS-200 20.3.3.3.3.2: a single-frequency user of L2 applies Δt_SV - γ T_GD,
+    γ = (1575.42/1227.6)² = 1.6469, and a first-order ionospheric delay γ times L1's. The
+    pseudoranges here are made that way from the records' own T_GD (not the solver's):
+    solved as GPS L2C they give the station; solved with L1's corrections, not."""
+    from gnssframework.signal.gps_l2c import GPS_L2C
+
+    gamma = (1575.42 / 1227.60) ** 2
+    tgd = visible.elements["TGD"]
+    assert np.max(np.abs(tgd)) * C * (gamma - 1) > 1.0  # metres: a test that could fail
+    flight = signal_flight(visible, T_RX, STATION)
+    clock_l2 = flight.clock_s - (gamma - 1) * tgd  # the helper's clock is L1 C/A's (clock - T_GD)
+    pr = C * flight.tau_s + 1_000.0 - C * clock_l2
+    tx = T_RX - flight.tau_s + clock_l2
+    l2 = solve_position(pr, tx, visible, signal=GPS_L2C, iono=None)
+    assert np.linalg.norm(l2.position_ecef_m - STATION) < 1e-3
+    as_l1 = solve_position(pr, tx, visible, iono=None)
+    assert np.linalg.norm(as_l1.position_ecef_m - STATION) > 0.3
+    first = solve_position(pr, tx, visible, signal=GPS_L2C)
+    delay_l1 = C * klobuchar_delay_s(
+        IONO.alpha, IONO.beta, first.lat_deg, first.lon_deg, first.azimuth_deg, first.elevation_deg, T_RX
+    )
+    with_iono = solve_position(pr + gamma * delay_l1, tx, visible, signal=GPS_L2C, iono=IONO)
+    assert np.linalg.norm(with_iono.position_ecef_m - STATION) < 0.01
+    l1_scaled = solve_position(pr + gamma * delay_l1, tx, visible, iono=IONO)
+    assert np.linalg.norm(l1_scaled.position_ecef_m - STATION) > 1.0

@@ -53,7 +53,13 @@ import pymap3d
 from ... import names, registry
 from ...errors import ConfigError
 from ...interfaces import NavFilter, RunContext
-from ...navigation.ephemeris import OMEGA_EARTH_RAD_S, Ephemerides, satellite_state
+from ...navigation.ephemeris import (
+    OMEGA_EARTH_RAD_S,
+    Ephemerides,
+    ionosphere_scale,
+    satellite_state,
+    single_frequency_clock_s,
+)
 from ...navigation.lnav import IonoUtc
 from ...navigation.pvt import chi2_ppf, dop, klobuchar_delay_s, troposphere_delay_m
 from ...signal.gps_l1ca import GPS_L1CA
@@ -194,7 +200,8 @@ def corrected_measurements(
         wavelength_m = signal.wavelength_m
     pr, tx, d = (np.asarray(a, float) for a in (pseudorange_m, transmit_s, doppler_hz))
     r = np.asarray(receiver_ecef_m, float)
-    clock = satellite_state(ephemeris, tx).clock_l1_s
+    carrier_hz = SPEED_OF_LIGHT_M_S / signal.wavelength_m
+    clock = single_frequency_clock_s(ephemeris, satellite_state(ephemeris, tx), carrier_hz)
     state = satellite_state(ephemeris, tx - clock)  # t = t_SV - Δt_SV (20.3.3.3.3.1)
     tau = np.linalg.norm(state.position_m - r, axis=1) / SPEED_OF_LIGHT_M_S
     sat_pos = _rotate_z(state.position_m, OMEGA_EARTH_RAD_S * tau)
@@ -204,8 +211,10 @@ def corrected_measurements(
     az, el = np.asarray(az, float), np.asarray(el, float)
     delay = np.zeros(pr.size)
     if iono is not None:  # at the time pvt.solve_position evaluates it
-        delay += SPEED_OF_LIGHT_M_S * klobuchar_delay_s(
-            iono.alpha, iono.beta, lat, lon, az, el, float(np.median(tx)) + 0.075
+        delay += (
+            ionosphere_scale(carrier_hz)
+            * SPEED_OF_LIGHT_M_S
+            * klobuchar_delay_s(iono.alpha, iono.beta, lat, lon, az, el, float(np.median(tx)) + 0.075)
         )
     if troposphere:
         delay += troposphere_delay_m(lat, h, el)
@@ -214,7 +223,7 @@ def corrected_measurements(
     meas = EpochMeasurements(
         sat_pos[keep],
         sat_vel[keep],
-        (pr + SPEED_OF_LIGHT_M_S * state.clock_l1_s - delay)[keep],
+        (pr + SPEED_OF_LIGHT_M_S * single_frequency_clock_s(ephemeris, state, carrier_hz) - delay)[keep],
         (-wavelength_m * d + SPEED_OF_LIGHT_M_S * state.clock_drift_s_s)[keep],
         (sigma_m**2 * inv_sin2)[keep],
         (sigma_rate_m_s**2 * inv_sin2)[keep],
