@@ -216,3 +216,54 @@ def test_samples_to_track_to_ephemeris_place_the_satellite_where_lnav_does(tmp_p
     t = float(rec.elements["Toe"][0]) + np.linspace(-3600.0, 3600.0, 7)
     lnav = satellite_state(rec, t[:, None]).position_m[:, 0]
     assert np.max(np.linalg.norm(cnav.cnav_position(eph, t) - lnav, axis=-1)) < 0.05
+
+
+@pytest.mark.slow
+def test_every_row_of_an_l2c_channel_is_dated_from_its_cnav_tow(tmp_path):
+    """`cnav_stream.cnav_channel_timing`: the rows after the pull-in, dated from the first
+    checked message's TOW, each within a sample and a tenth of a CM chip of the SV time the
+    generator sent at that instant; the week's low 10 bits from the type 10 message."""
+    import argparse
+
+    from gnssframework import cli, registry
+    from gnssframework.receiver.acquisition.report import acquire_recording
+    from gnssframework.receiver.channels import SampleTracker
+    from gnssframework.receiver.frontend import open_recording
+    from gnssframework.receiver.navigation.cnav_stream import cnav_channel_timing
+
+    prn, rec = 5, _record_ephemeris()
+    path, sym0, code_rate = _l2c_recording(tmp_path / "l2c.sigmf-data", prn, 86400.0 - 0.31, 13.0, rec)
+    recording = open_recording(path)
+    acq = registry.create("acquisition", "pcps")
+    found = [r for r in acquire_recording(recording, acq, (prn,), signal=GPS_L2C) if r.detected]
+    options = argparse.Namespace(
+        channel_params=None,
+        channel_filter="scalar",
+        weak=False,
+        coherent_ms_track=None,
+        cn0_estimator=None,
+        early_late_spacing=None,
+        duration=None,
+    )
+    config = cli._tracking_config_from_args(options, GPS_L2C)  # track --signal gps-l2c's settings
+    record = SampleTracker(recording, config, acq, signal=GPS_L2C).run(found).channels[prn]
+    timing = cnav_channel_timing(record, GPS_L2C)
+    assert timing is not None and timing.time_s.size > 0.9 * (13.0 - 1.0) / 0.02
+    err_s = timing.transmit_s - (sym0 + code_rate * timing.time_s)
+    assert np.max(np.abs(err_s)) < 1.0 / FS + 0.1 / GPS_L2C.chip_rate_hz
+    assert timing.message.week == 1316 % 1024
+    assert timing.arc_start[0] and np.all(timing.half_cycle == timing.half_cycle[0])
+
+
+def test_a_run_whose_checked_messages_disagree_is_not_dated():
+    """Two CRC-checked messages 600 symbols apart must be 12 s apart in TOW: otherwise the
+    run's time is ambiguous and it is left undated (`cnav_stream._run_epoch`)."""
+    from gnssframework.receiver.navigation.cnav_stream import _run_epoch
+
+    def message(start, tow_count, crc_ok=True):
+        return cnav.CnavMessage(start, 5, 10, tow_count, False, crc_ok, False, np.zeros(300, int))
+
+    assert _run_epoch([message(7, 100), message(607, 102)], 0.02) == (7, 100 * 6.0 - 12.0, False)
+    assert _run_epoch([message(7, 100), message(607, 103)], 0.02) is None
+    assert _run_epoch([message(7, 100, crc_ok=False), message(607, 103)], 0.02) == (607, 103 * 6.0 - 12.0, False)
+    assert _run_epoch([message(7, 100, crc_ok=False)], 0.02) is None

@@ -25,13 +25,28 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...navigation.cnav import CnavMessage, decode_cnav
+from ...navigation.lnav import LnavMessage
 from ...signal.spec import SignalSpec
 from .inav_stream import symbol_runs
 
 if TYPE_CHECKING:
     from ..channels import ChannelRecord, TrackingResult
+    from .observables import ChannelTiming
 
-__all__ = ["carries_cnav", "CnavTiming", "channel_cnav", "CNAV_COLUMNS", "cnav_rows", "write_cnav_report"]
+__all__ = [
+    "carries_cnav",
+    "CnavTiming",
+    "channel_cnav",
+    "cnav_channel_timing",
+    "CNAV_COLUMNS",
+    "cnav_rows",
+    "write_cnav_report",
+]
+
+_WEEK_S = 604_800.0
+_PULL_IN = 0  # index of "pull-in" in receiver.channels.STAGES
+#: Bits 39-51 of a type 10 message: the 13-bit week number (IS-GPS-200 Figure 30-1).
+_WN_FIRST, _WN_BITS = 38, 13
 
 #: Columns of the ``track`` command's ``cnav.csv``: one row per message found.
 CNAV_COLUMNS = (
@@ -91,6 +106,90 @@ def channel_cnav(record: ChannelRecord, signal: SignalSpec) -> CnavTiming:
             messages.append(m)
             times.append(float(time_s[run[m.start]]))
     return CnavTiming(record.prn, messages, np.array(times))
+
+
+def _run_epoch(messages: list[CnavMessage], period_s: float) -> tuple[int, float, bool] | None:
+    """``(start, tow_s, inverted)`` of a run's first CRC-checked message, or None: without
+    one, or where two checked messages disagree on the run's time (their TOWs must differ by
+    their symbols apart times the period: a CRC passed by chance is one in 2^24, a wrong
+    pairing or a slipped symbol would show here)."""
+    good = [m for m in messages if m.crc_ok]
+    if not good:
+        return None
+    first = good[0]
+    for m in good[1:]:
+        apart = ((m.tow_s - first.tow_s) % _WEEK_S) - (m.start - first.start) * period_s
+        if abs(apart) > 1e-6 or m.inverted != first.inverted:
+            return None
+    return first.start, first.tow_s, first.inverted
+
+
+def _week10(messages: list[CnavMessage]) -> int | None:
+    """The low 10 bits of the week of the last checked type 10 message (None without one)."""
+    for m in reversed(messages):
+        if m.crc_ok and m.msg_type == 10:
+            bits = m.bits[_WN_FIRST : _WN_FIRST + _WN_BITS]
+            return int("".join(map(str, bits)), 2) % 1024
+    return None
+
+
+def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTiming | None:
+    """The rows of an L2 CM channel dated from its CNAV (`channel_cnav`) as the
+    `observables.ChannelTiming` the observables and fixes take; None without a dated row.
+
+    A run of one-period rows (`inav_stream.symbol_runs`) is one symbol stream; its first
+    CRC-checked message gives the SV time at the start of its first symbol,
+    ``tow_s`` (six times the TOW count less the message's 12 s, IS-GPS-200 30.3.3.1.1.2),
+    so row ``j`` of the run was sent at ``tow_s + (j - start) x 20 ms`` plus its code phase
+    (every row starts on a CM code epoch, and a CM period is a symbol). A run whose checked
+    messages disagree is not dated. The half-cycle flag is the stream's polarity. The
+    pull-in's rows are not measurements (their code phase is converging). No ephemeris is
+    taken from CNAV here (``--ephemeris`` gives them); the week's low 10 bits come from a
+    type 10 message.
+    """
+    from .observables import ChannelTiming
+
+    if not record.rows:
+        return None
+    timing_messages: list[CnavMessage] = []
+    col = record.column
+    time_s, code_chips, stage = col("time_s"), col("code_phase_chips"), col("stage")
+    period = signal.code_period_s
+    rows, tx, half, starts = [], [], [], []
+    prompt = col("prompt_i")
+    for run in symbol_runs(time_s, col("coherent_ms"), period):
+        messages = decode_cnav(prompt[run], prn=record.prn).messages
+        timing_messages += messages
+        epoch = _run_epoch(messages, period)
+        if epoch is None:
+            continue
+        start, tow, inverted = epoch
+        keep = stage[run] != _PULL_IN
+        k = (np.arange(run.size) - start)[keep]
+        if k.size < 2:
+            continue
+        rows.append(run[keep])
+        tx.append((tow + k * period + code_chips[run[keep]] / signal.chip_rate_hz) % _WEEK_S)
+        half.append(np.full(k.size, inverted))
+        first = np.zeros(k.size, bool)
+        first[0] = True
+        starts.append(first)
+    if not rows:
+        return None
+    r = np.concatenate(rows)
+    return ChannelTiming(
+        record.prn,
+        time_s[r],
+        np.concatenate(tx),
+        col("doppler_hz")[r],
+        col("carrier_phase_cycles")[r],
+        col("cn0_dbhz")[r],
+        np.concatenate(half),
+        LnavMessage(record.prn, [], None, None, _week10(timing_messages)),
+        [],
+        np.concatenate(starts),
+        np.ones(r.size, bool),
+    )
 
 
 def cnav_rows(timing: CnavTiming) -> list[dict]:
