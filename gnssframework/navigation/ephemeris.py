@@ -48,6 +48,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError
+from ..signal.gps_l1ca import GPS_L1CA
+from ..signal.spec import SignalSpec
 
 __all__ = [
     "Ephemerides",
@@ -282,34 +284,35 @@ class SatelliteState:
     clock_l1_s: np.ndarray
 
 
-#: GPS L1's carrier (Hz): T_GD's single-frequency user and the Klobuchar model's frequency.
-_L1_HZ = 1575.42e6
-
-
-def single_frequency_clock_s(eph: Ephemerides, state: SatelliteState, carrier_freq_hz: float) -> np.ndarray:
+def single_frequency_clock_s(
+    eph: Ephemerides, state: SatelliteState, carrier_freq_hz: float, reference: SignalSpec = GPS_L1CA
+) -> np.ndarray:
     r"""The SV clock offset (s) a single-frequency user of a signal at ``carrier_freq_hz``
     applies.
 
     GPS and QZSS: :math:`\Delta t_{SV} - \gamma\,T_{GD}`, with
-    :math:`\gamma = (f_{L1}/f)^2` (IS-GPS-200 20.3.3.3.3.2: 1 for L1 C/A, 1.6469 for
-    L2). For L2C this is the L2 P(Y) user's correction, which RTKLIB also takes when there
-    is no CNAV ISC, as in a RINEX LNAV record; IS-GPS-200 30.3.3.3.1.1.1 adds
-    :math:`ISC_{L2C}` where CNAV is decoded. Other systems: ``state.clock_l1_s``, their
-    own single-frequency user's (E1, B1I), whatever ``carrier_freq_hz``.
+    :math:`\gamma = (f_{ref}/f)^2` and ``reference`` the signal whose user T_GD serves
+    as it is (IS-GPS-200 20.3.3.3.3.2: L1, so :math:`\gamma` is 1 on L1 and
+    :math:`(77/60)^2 = 1.6469` on L2). For L2C this is the L2 P(Y) user's correction, which
+    RTKLIB also takes when there is no CNAV ISC, as in a RINEX LNAV record; IS-GPS-200
+    30.3.3.3.1.1.1 adds :math:`ISC_{L2C}` where CNAV is decoded. Other systems:
+    ``state.clock_l1_s``, their own single-frequency user's (E1, B1I), whatever
+    ``carrier_freq_hz``.
     """
-    gamma = ionosphere_scale(carrier_freq_hz)
-    if gamma == 1.0:  # L1 (E1, B1C): the record's own single-frequency clock, as it was
+    gamma = ionosphere_scale(carrier_freq_hz, reference)
+    if gamma == 1.0:  # the reference's carrier (L1: C/A, E1, B1C): the record's own clock, as it was
         return state.clock_l1_s
     tgd = state.clock_s - state.clock_l1_s
     gps = np.isin(np.asarray(eph.sv).astype("U1"), ["G", "J"])
     return np.where(gps, state.clock_s - gamma * tgd, state.clock_l1_s)
 
 
-def ionosphere_scale(carrier_freq_hz: float) -> float:
-    """The factor :math:`(f_{L1}/f)^2` that takes the Klobuchar model's L1 delay to
-    ``carrier_freq_hz`` (a first-order ionospheric delay goes as :math:`1/f^2`; IS-GPS-200
-    20.3.3.5.2.5); exactly 1 within 1e-9 of L1 (a carrier computed back from a wavelength)."""
-    scale = (_L1_HZ / float(carrier_freq_hz)) ** 2
+def ionosphere_scale(carrier_freq_hz: float, reference: SignalSpec = GPS_L1CA) -> float:
+    """The factor :math:`(f_{ref}/f)^2` that takes a first-order ionospheric delay at
+    ``reference``'s carrier (the Klobuchar model's is L1's, IS-GPS-200 20.3.3.5.2.5) to
+    ``carrier_freq_hz`` (the delay goes as :math:`1/f^2`); exactly 1 within 1e-9 of it (a
+    carrier computed back from a wavelength)."""
+    scale = (reference.carrier_freq_hz / float(carrier_freq_hz)) ** 2
     return 1.0 if abs(scale - 1.0) < 1e-9 else scale
 
 
