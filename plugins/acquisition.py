@@ -178,6 +178,18 @@ class ParallelCodePhaseSearch(Acquisition):
             results = [replace(r, detected=False) if r.detected and r.cn0_dbhz < floor else r for r in results]
         return results
 
+    def _symbol_blocks(self, signal: SignalSpec, alternate: bool) -> bool:
+        """Whether the fine search takes its blocks from the code epoch on: where a coherent
+        block is exactly one data symbol (`SignalSpec.code_periods_per_symbol` equal to
+        ``coherent_ms``), with two blocks or more and not summed by parity."""
+        p = self.params
+        return (
+            signal.code_periods_per_symbol == p.coherent_ms
+            and p.noncoherent >= 2
+            and not alternate
+            and not p.code_doppler
+        )
+
     def _sidebands(self, signal: SignalSpec, n: int, sample_rate_hz: float) -> int:
         """Correlations summed per block: 1, or 2 for a BPSK-like search, refused in one line
         for a signal without a sub-carrier or a sample rate that folds the side bands together."""
@@ -218,14 +230,21 @@ class ParallelCodePhaseSearch(Acquisition):
             s = first_period_lag(int(lag), sample_rate_hz, signal)
             stat = float(grid[i, d, lag] / sigma2)
             fine = dopplers[d] + np.arange(-coarse_step, coarse_step + fine_step / 2, fine_step)
+            # A block that is one data symbol (L2 CM: 20 ms; E1-B: 4 ms) but starts at sample 0
+            # holds the symbol edge at the code epoch s: where the symbols differ its two parts
+            # cancel, and the frequency that maximises the sum is pulled off the true one (21.5 Hz
+            # on an L2C satellite, which then pulled in to a false lock 25 Hz off). The fine
+            # search then takes the whole symbols from s on: one block fewer, none straddling.
+            aligned = self._symbol_blocks(signal, alt)
+            start, fine_blocks = (int(s), p.noncoherent - 1) if aligned else (0, p.noncoherent)
             raw = fine_doppler(
-                samples,
+                samples[start:],
                 sample_rate_hz,
                 if_hz,
                 prn,
-                int(s),
+                0 if aligned else int(s),
                 T,
-                p.noncoherent,
+                fine_blocks,
                 fine,
                 alt,
                 signal,
@@ -234,7 +253,8 @@ class ParallelCodePhaseSearch(Acquisition):
             )
             power = raw / sigma2
             j = int(np.argmax(power))
-            c = max((power[j] / blocks - 2.0 * sidebands) / (2 * T * duty), 1e-3)
+            summed = blocks - 1 if aligned else blocks
+            c = max((power[j] / summed - 2.0 * sidebands) / (2 * T * duty), 1e-3)
             # Chip 0 at sample s: the phase at sample 0 is -s samples' worth of chips.
             chips = float((-s * signal.chip_rate_hz / sample_rate_hz) % signal.code_length_chips)
             results.append(
