@@ -859,6 +859,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
     from .receiver.navigation.receive import receive
     from .receiver.navigation.decoded import navigation_message
+    from .receiver.navigation.cnav_stream import carries_cnav
     from .receiver.navigation.inav_stream import carries_inav, require_positioning
     from .receiver.navigation.receiver_config import receiver_filters
     from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
@@ -883,7 +884,9 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     args.channel_filter = filters.channel_filter.name
     args.channel_params = json.dumps(filters.channel_filter.params)
     # E1-B: one 4 ms code period a symbol, taps off BOC(1,1)'s side lobes (track's E1 defaults)
-    config = _tracking_config_from_args(args, signal if carries_inav(signal) else None)
+    # L2 CM: 20 ms periods, the pull-in's loops narrowed to them (track's L2C defaults)
+    long_symbols = carries_inav(signal) or carries_cnav(signal)
+    config = _tracking_config_from_args(args, signal if long_symbols else None)
     _check_rate(args.rate, (signal,))
     if args.week is not None and not 0 <= args.week < 10_000:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")

@@ -60,8 +60,9 @@ def test_receive_refuses_vector_tracking_on_inav_in_one_line():
 
 
 def test_receive_refuses_a_signal_whose_message_it_does_not_decode():
-    from gnssframework.signal.gps_l2c import GPS_L2C
+    from gnssframework.signal.beidou_b1c import BEIDOU_B1C
 
-    # L2C carries CNAV, which no receiver message (`decoded.MESSAGES`) dates: refused before any work.
-    with pytest.raises(ConfigError, match=r"^signal: gps-l2c: LNAV dating and positioning take GPS LNAV"):
-        receive(None, None, None, signal=GPS_L2C)
+    # B1C carries B-CNAV1, which no receiver message (`decoded.MESSAGES`) dates: refused before
+    # any work. (L2C's CNAV dates its channels: tests/receiver/test_l2c_receive.py.)
+    with pytest.raises(ConfigError, match=r"^signal: beidou-b1c: LNAV dating and positioning take GPS LNAV"):
+        receive(None, None, None, signal=BEIDOU_B1C)

@@ -18,10 +18,21 @@ import numpy as np
 
 from ...signal.spec import SignalSpec
 from ..channels.records import STAGES
+from .cnav_stream import carries_cnav, channel_cnav, cnav_channel_timing
 from .inav_stream import carries_inav, carries_lnav, channel_inav, inav_channel_timing
 from .observables import ChannelTiming, channel_timing
 
-__all__ = ["NavMessage", "LNAV", "INAV", "MESSAGES", "navigation_message", "lnav_decoded", "inav_decoded"]
+__all__ = [
+    "NavMessage",
+    "LNAV",
+    "INAV",
+    "CNAV",
+    "MESSAGES",
+    "navigation_message",
+    "lnav_decoded",
+    "inav_decoded",
+    "cnav_decoded",
+]
 
 #: Indices in receiver.channels.STAGES of the bit-aligned stages.
 _BIT_ALIGNED = tuple(STAGES.index(stage) for stage in ("extended", "vector"))
@@ -99,6 +110,22 @@ def inav_decoded(ch, signal: SignalSpec) -> dict:
     }
 
 
+def cnav_decoded(ch, signal: SignalSpec) -> dict:
+    """What one L2 CM channel's CNAV gave (`channel_cnav`): ``subframes`` the CRC-checked
+    messages, ``first_tow_s`` the first one's (s), ``ephemeris`` whether types 10 and 11 both
+    came (not used: positions take ``--ephemeris``), ``iono`` None (type 30's is not used)
+    and ``week`` the type 10 week's low 10 bits (None)."""
+    good = [m for m in channel_cnav(ch, signal).messages if m.crc_ok]
+    timing = cnav_channel_timing(ch, signal)
+    return {
+        "subframes": len(good),
+        "first_tow_s": good[0].tow_s if good else None,
+        "ephemeris": {10, 11} <= {m.msg_type for m in good},
+        "iono": None,
+        "week": None if timing is None else timing.message.week,
+    }
+
+
 def _lnav_no_transmit_time(ch) -> str:
     if not np.isin(ch.column("stage"), _BIT_ALIGNED).any():
         return "never bit-synchronised (no LNAV bits, no transmit time)"
@@ -131,8 +158,21 @@ INAV = NavMessage(
         "comes in word type 0, 5 or 6, one every few 2 s pages once a channel is locked)"
     ),
 )
+CNAV = NavMessage(
+    "CNAV",
+    carries_cnav,
+    cnav_channel_timing,
+    False,
+    ("CNAV messages", "first TOW (s)", "types 10, 11", "iono", "week (10-bit)"),
+    cnav_decoded,
+    lambda ch: "no CNAV message with a good CRC decoded (no transmit time)",
+    lambda locked, found: (
+        f"no CNAV message with a good CRC decoded ({locked} of {found} satellites found locked; a "
+        "message takes 12 s of a locked channel, on multiples of 12 s of GPS time)"
+    ),
+)
 #: The messages the receiver decodes.
-MESSAGES = (LNAV, INAV)
+MESSAGES = (LNAV, INAV, CNAV)
 
 
 def navigation_message(signal: SignalSpec) -> NavMessage:

@@ -1,0 +1,87 @@
+"""The receiver tests' L2C recordings: the satellites of `lnav_recordings` (real broadcast
+records of tests/data/07590920.05n seen from the station of 07590920.05o), each sending
+GPS L2C with CNAV (types 10, 11 and 0 of its own record, `cnav.cnav_symbols`) on CM, with
+the code phase, Doppler and symbol timing of the geometry at L2, 45 dB-Hz, complex int16
+SigMF at 2.6 MHz (not 2.046, which meets L2C's sub-chips at two phases only: the DLL's dead
+band of ±0.125 CM chip, 73 m, `CommensurateSamplingWarning`).
+
+The satellite's L2 time is its L2 single-frequency user's: the clock's ``γ T_GD``
+(IS-GPS-200 20.3.3.3.3.2) computed here from the record, not by the library; no
+ionosphere (the generator has none)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gnssframework.navigation import cnav
+from gnssframework.signal.gps_l2c import GPS_L2C
+from gnssframework.signal.if_samples import generate_if_samples
+from light_time import signal_flight
+from lnav_recordings import CHUNK_S, STATION
+from noisy_recording import write_noisy_recording
+
+#: The week the generator's type 10 messages carry (the records' week).
+WEEK = 1316
+#: (f_L1 / f_L2)^2: the L2 user's factor on T_GD.
+GAMMA = (1575.42 / 1227.60) ** 2
+#: GPS time of the first sample: a CNAV message (12 s, on multiples of 12 s of SV time)
+#: starts about 0.5 s in, so a 14 s file holds a whole one after the pull-in.
+TOW0 = 518_700.0 - 0.5 + 0.075
+FS = 2.6e6
+
+
+def l2_satellite_time(eph, t_rx) -> np.ndarray:
+    """The L2 SV time of the signal received at true GPS time ``t_rx`` by the station."""
+    flight = signal_flight(eph, t_rx, STATION)
+    return t_rx - flight.tau_s + flight.clock_s - (GAMMA - 1.0) * eph.elements["TGD"]
+
+
+def write_l2c_recording(path: Path, sats, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0):
+    """Write ``duration_s`` of L2C from the satellites ``sats`` (an `Ephemerides`, records on
+    CNAV's 300 s grid of Toe) from GPS time ``tow0`` to ``path`` (``.sigmf-data``)."""
+    rng = np.random.default_rng(seed)
+    n = int(round(CHUNK_S * FS))
+    period = GPS_L2C.code_period_s
+    t_sv0 = l2_satellite_time(sats, np.array(tow0))
+    streams = []
+    for k in range(sats.sv.size):
+        # A record off CNAV's 300 s grid of Toe (518384 s: uploaded 16 s early) cannot be
+        # sent as types 10 and 11: that satellite sends type 0 only (its TOW dates it as well).
+        record = sats.subset(np.array([k])) if sats.elements["Toe"][k] % 300 == 0 else None
+        symbols, into = cnav.cnav_symbols(
+            int(sats.sv[k][1:]), float(t_sv0[k]) - 0.1, int(duration_s / period) + 20, record, WEEK
+        )
+        streams.append((symbols.astype(float), float(t_sv0[k]) - 0.1 - into))  # SV time of the first symbol
+    phase = np.zeros(sats.sv.size)
+
+    def chunks():
+        for c in range(int(round(duration_s / CHUNK_S))):
+            t0 = c * CHUNK_S
+            start = l2_satellite_time(sats, tow0 + t0)
+            end = l2_satellite_time(sats, tow0 + t0 + CHUNK_S)
+            doppler = GPS_L2C.carrier_freq_hz * ((end - start) / CHUNK_S - 1.0)
+            x = np.zeros(n, complex)
+            for k in range(sats.sv.size):
+                symbols, first_tsv = streams[k]
+                x += generate_if_samples(
+                    int(sats.sv[k][1:]),
+                    CHUNK_S,
+                    FS,
+                    0.0,
+                    cn0_dbhz,
+                    rng,
+                    doppler_hz=doppler[k],
+                    code_phase_chips=(start[k] / period % 1.0) * GPS_L2C.code_length_chips,
+                    carrier_phase_rad=phase[k],
+                    complex_samples=True,
+                    data_bits=symbols,
+                    first_bit_edge_s=first_tsv - start[k],
+                    noise=False,
+                    signal=GPS_L2C,
+                ).samples
+                phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
+            yield x
+
+    return write_noisy_recording(path, chunks(), FS, rng)
