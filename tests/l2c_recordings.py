@@ -85,3 +85,22 @@ def write_l2c_recording(path: Path, sats, tow0: float, duration_s: float, seed: 
             yield x
 
     return write_noisy_recording(path, chunks(), FS, rng)
+
+
+def l2c_tracking_config():
+    """`track --signal gps-l2c`'s tracking settings (the CLI's: the pull-in loops narrowed
+    to L2 CM's 20 ms period, taps half a chip apart)."""
+    import argparse
+
+    from gnssframework import cli
+
+    options = argparse.Namespace(
+        channel_params=None,
+        channel_filter="scalar",
+        weak=False,
+        coherent_ms_track=None,
+        cn0_estimator=None,
+        early_late_spacing=None,
+        duration=None,
+    )
+    return cli._tracking_config_from_args(options, GPS_L2C)

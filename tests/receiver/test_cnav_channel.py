@@ -223,9 +223,9 @@ def test_every_row_of_an_l2c_channel_is_dated_from_its_cnav_tow(tmp_path):
     """`cnav_stream.cnav_channel_timing`: the rows after the pull-in, dated from the first
     checked message's TOW, each within a sample and a tenth of a CM chip of the SV time the
     generator sent at that instant; the week's low 10 bits from the type 10 message."""
-    import argparse
+    from l2c_recordings import l2c_tracking_config
 
-    from gnssframework import cli, registry
+    from gnssframework import registry
     from gnssframework.receiver.acquisition.report import acquire_recording
     from gnssframework.receiver.channels import SampleTracker
     from gnssframework.receiver.frontend import open_recording
@@ -236,16 +236,7 @@ def test_every_row_of_an_l2c_channel_is_dated_from_its_cnav_tow(tmp_path):
     recording = open_recording(path)
     acq = registry.create("acquisition", "pcps")
     found = [r for r in acquire_recording(recording, acq, (prn,), signal=GPS_L2C) if r.detected]
-    options = argparse.Namespace(
-        channel_params=None,
-        channel_filter="scalar",
-        weak=False,
-        coherent_ms_track=None,
-        cn0_estimator=None,
-        early_late_spacing=None,
-        duration=None,
-    )
-    config = cli._tracking_config_from_args(options, GPS_L2C)  # track --signal gps-l2c's settings
+    config = l2c_tracking_config()  # track --signal gps-l2c's settings
     record = SampleTracker(recording, config, acq, signal=GPS_L2C).run(found).channels[prn]
     timing = cnav_channel_timing(record, GPS_L2C)
     assert timing is not None and timing.time_s.size > 0.9 * (13.0 - 1.0) / 0.02

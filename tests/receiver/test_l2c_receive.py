@@ -19,7 +19,7 @@ from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.navigation.pvt import dop
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.signal.gps_l2c import GPS_L2C
-from l2c_recordings import FS, TOW0, WEEK, l2_satellite_time, write_l2c_recording
+from l2c_recordings import FS, TOW0, WEEK, l2_satellite_time, l2c_tracking_config, write_l2c_recording
 from lnav_recordings import NAV, STATION, _strongest
 
 pytestmark = pytest.mark.slow  # end to end (the fast lane leaves these out)
@@ -81,26 +81,15 @@ def sats_positions(sats) -> np.ndarray:
 
 
 def _receive(path):
-    import argparse
-
-    from gnssframework import cli, registry
+    from gnssframework import registry
     from gnssframework.receiver.frontend import open_recording
 
-    options = argparse.Namespace(
-        channel_params=None,
-        channel_filter="scalar",
-        weak=False,
-        coherent_ms_track=None,
-        cn0_estimator=None,
-        early_late_spacing=None,
-        duration=None,
-    )
-    config = cli._tracking_config_from_args(options, GPS_L2C)
     acq = registry.create("acquisition", "pcps")
-    rec = open_recording(path)
     sats = _strongest(read_rinex_nav(NAV), TOW0, 5)
     prns = tuple(int(s[1:]) for s in sats.sv)
-    return receive(rec, acq, config, prns=prns, rinex=read_rinex_nav(NAV), signal=GPS_L2C, reference_week=WEEK)
+    rinex = read_rinex_nav(NAV)
+    rec = open_recording(path)
+    return receive(rec, acq, l2c_tracking_config(), prns=prns, rinex=rinex, signal=GPS_L2C, reference_week=WEEK)
 
 
 def test_l2c_positions_need_the_navigation_file(l2c):

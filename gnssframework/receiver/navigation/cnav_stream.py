@@ -27,7 +27,7 @@ from ...errors import ConfigError
 from ...navigation.cnav import CnavMessage, decode_cnav
 from ...navigation.lnav import LnavMessage
 from ...signal.spec import SignalSpec
-from .inav_stream import symbol_runs
+from .inav_stream import _PULL_IN, _WEEK_S, symbol_runs
 
 if TYPE_CHECKING:
     from ..channels import ChannelRecord, TrackingResult
@@ -43,8 +43,6 @@ __all__ = [
     "write_cnav_report",
 ]
 
-_WEEK_S = 604_800.0
-_PULL_IN = 0  # index of "pull-in" in receiver.channels.STAGES
 #: Bits 39-51 of a type 10 message: the 13-bit week number (IS-GPS-200 Figure 30-1).
 _WN_FIRST, _WN_BITS = 38, 13
 
