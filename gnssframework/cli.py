@@ -860,7 +860,8 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     from .receiver.navigation.receive import receive
     from .receiver.navigation.decoded import navigation_message
     from .receiver.navigation.cnav_stream import carries_cnav
-    from .receiver.navigation.inav_stream import carries_inav, require_positioning
+    from .receiver.navigation.decoded import require_positioning
+    from .receiver.navigation.inav_stream import carries_inav
     from .receiver.navigation.receiver_config import receiver_filters
     from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
     from .receiver.channels.report import write_tracking_outputs
@@ -874,7 +875,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     if "," in args.signal:
         return _receive_several(args, live, outputs)
     signal = _signal_from_args(args)
-    require_positioning(signal)  # dated from LNAV or I/NAV: another message would be misread
+    require_positioning(signal)  # dated from LNAV, I/NAV or CNAV: another message would be misread
     prns = _prns_from_args(args, signal)
     try:
         channel_params = json.loads(args.channel_params) if args.channel_params else None

@@ -19,7 +19,7 @@ import pytest
 from gnssframework.cli import main
 from gnssframework.errors import ConfigError
 from gnssframework.navigation import inav
-from gnssframework.receiver.navigation.inav_stream import require_positioning
+from gnssframework.receiver.navigation.decoded import require_positioning
 from gnssframework.receiver.navigation.rinex_nav import NavRecord, write_rinex_nav
 from gnssframework.signal.constants import L1_FREQ_HZ
 from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11, GALILEO_E1C_BOC11

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ...errors import ConfigError
 from ...signal.spec import SignalSpec
 from ..channels.records import STAGES
 from .cnav_stream import carries_cnav, channel_cnav, cnav_channel_timing
@@ -32,6 +33,7 @@ __all__ = [
     "lnav_decoded",
     "inav_decoded",
     "cnav_decoded",
+    "require_positioning",
 ]
 
 #: Indices in receiver.channels.STAGES of the bit-aligned stages.
@@ -179,3 +181,16 @@ def navigation_message(signal: SignalSpec) -> NavMessage:
     """The message ``signal`` carries (`MESSAGES`); LNAV for a signal that carries none of
     them (its channels then report no subframes)."""
     return next((m for m in MESSAGES if m.carried_by(signal)), LNAV)
+
+
+def require_positioning(signal: SignalSpec) -> None:
+    """Refuse, in one line, a signal the ``receive`` command cannot position with: one whose
+    tracked component carries none of `MESSAGES` (GPS/QZSS L1 C/A's LNAV, Galileo E1-B's
+    I/NAV, GPS/QZSS L2C's CNAV)."""
+    if not any(m.carried_by(signal) for m in MESSAGES):
+        raise ConfigError(
+            "signal",
+            f"{signal.name}: the receive command positions from GPS/QZSS L1 C/A (LNAV: "
+            "gps-l1ca, qzss-l1ca), Galileo E1-B (I/NAV: galileo-e1b-boc11, galileo-e1b) "
+            "and GPS/QZSS L2C (CNAV, with --ephemeris: gps-l2c, qzss-l2c) only",
+        )

@@ -44,7 +44,6 @@ __all__ = [
     "carries_inav",
     "carries_lnav",
     "require_lnav",
-    "require_positioning",
     "symbol_runs",
     "InavTiming",
     "channel_inav",
@@ -100,21 +99,6 @@ def require_lnav(signal: SignalSpec) -> None:
         )
         raise ConfigError(
             "signal", f"{signal.name}: LNAV dating and positioning take GPS LNAV (gps-l1ca, qzss-l1ca) only{hint}"
-        )
-
-
-def require_positioning(signal: SignalSpec) -> None:
-    """Refuse, in one line, a signal the ``receive`` command cannot position with: it dates
-    GPS/QZSS L1 C/A from LNAV, Galileo E1-B from I/NAV and GPS/QZSS L2C from CNAV
-    (`carries_lnav`, `carries_inav`, `cnav_stream.carries_cnav`)."""
-    from .cnav_stream import carries_cnav
-
-    if not (carries_lnav(signal) or carries_inav(signal) or carries_cnav(signal)):
-        raise ConfigError(
-            "signal",
-            f"{signal.name}: the receive command positions from GPS/QZSS L1 C/A (LNAV: "
-            "gps-l1ca, qzss-l1ca), Galileo E1-B (I/NAV: galileo-e1b-boc11, galileo-e1b) "
-            "and GPS/QZSS L2C (CNAV, with --ephemeris: gps-l2c, qzss-l2c) only",
         )
 
 
