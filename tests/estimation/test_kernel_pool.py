@@ -102,7 +102,10 @@ def test_every_chunk_runs_once_on_either_thread():
 
             kernel_pool.run_chunks(n_chunks, run)
             assert sorted(seen) == list(range(n_chunks))
-            assert threads <= {threading.current_thread().name, "gnssframework-kernel-helper"}
+            # The caller's thread or a helper ("gnssframework-kernel-helper-<n>", `pool._Helpers`):
+            # which one claims a chunk is a race (a helper that wakes first takes some).
+            main = threading.current_thread().name
+            assert all(t == main or t.startswith("gnssframework-kernel-helper-") for t in threads), threads
 
 
 def _child(queue):
