@@ -49,6 +49,7 @@ import numpy as np
 
 from ..errors import DataFileError
 from ..signal.gps_l1ca import GPS_L1CA
+from ..signal.gps_l2c import GPS_L2C
 from ..signal.spec import SignalSpec
 
 __all__ = [
@@ -70,6 +71,7 @@ __all__ = [
     "is_bds_geo",
     "single_frequency_clock_s",
     "ionosphere_scale",
+    "CNAV_FIELDS",
 ]
 
 #: WGS 84 gravitational constant of IS-GPS-200 (Table 20-IV), m^3/s^2.
@@ -126,6 +128,12 @@ ORBIT_FIELDS = (
 #: For Galileo and BeiDou records ``TGD`` holds the group delay of the single-frequency user
 #: (see :func:`read_rinex_nav`): BGD(E1,E5b) or BGD(E1,E5a), and T_GD1.
 CLOCK_FIELDS = ("SVclockBias", "SVclockDrift", "SVclockDriftRate", "TGD")
+
+#: Elements only a CNAV record has (`cnav_records`, IS-GPS-200 30.3.3.1 and 30.3.3.3.1.1):
+#: the rate of the semi-major axis ``Adot`` (m/s), the rate of the mean motion difference
+#: ``DeltaN0dot`` (rad/s^2) and the L2C inter-signal correction ``ISC_L2C`` (s); with the
+#: value that means "absent" in a record without them (an LNAV-style orbit, no ISC).
+CNAV_FIELDS = {"Adot": 0.0, "DeltaN0dot": 0.0, "ISC_L2C": float("nan")}
 
 
 #: Keplerian and clock fields of a broadcast navigation message (the decoders' names, angles
@@ -214,6 +222,39 @@ class Ephemerides:
     iode: np.ndarray
     accuracy_m: np.ndarray | None = None
 
+    @classmethod
+    def concatenate(cls, records: list[Ephemerides]) -> Ephemerides:
+        """One `Ephemerides` of several, in order; a record without a `CNAV_FIELDS` element
+        another has takes its absent value (the accuracy is kept where every record has one).
+
+        Raises
+        ------
+        ValueError
+            Without a record, or where a record lacks an element that is not a CNAV one.
+        """
+        if not records:
+            raise ValueError("no ephemeris record to concatenate")
+        keys = list(dict.fromkeys(k for r in records for k in r.elements))
+
+        def column(r: Ephemerides, k: str) -> np.ndarray:
+            if k in r.elements:
+                return r.elements[k]
+            if k not in CNAV_FIELDS:
+                raise ValueError(f"ephemeris record of {', '.join(map(str, r.sv))} has no element {k!r}")
+            return np.full(r.sv.shape, CNAV_FIELDS[k])
+
+        accuracy = (
+            None if any(r.accuracy_m is None for r in records) else np.concatenate([r.accuracy_m for r in records])
+        )
+        return cls(
+            np.concatenate([r.sv for r in records]),
+            np.concatenate([r.toc_s for r in records]),
+            {k: np.concatenate([column(r, k) for r in records]) for k in keys},
+            np.concatenate([r.health for r in records]),
+            np.concatenate([r.iode for r in records]),
+            accuracy,
+        )
+
     def subset(self, index: np.ndarray) -> Ephemerides:
         return Ephemerides(
             self.sv[index],
@@ -294,9 +335,10 @@ def single_frequency_clock_s(
     :math:`\gamma = (f_{ref}/f)^2` and ``reference`` the signal whose user T_GD serves
     as it is (IS-GPS-200 20.3.3.3.3.2: L1, so :math:`\gamma` is 1 on L1 and
     :math:`(77/60)^2 = 1.6469` on L2). For L2C this is the L2 P(Y) user's correction, which
-    RTKLIB also takes when there is no CNAV ISC, as in a RINEX LNAV record; IS-GPS-200
-    30.3.3.3.1.1.1 adds :math:`ISC_{L2C}` where CNAV is decoded. Other systems:
-    ``state.clock_l1_s``, their own single-frequency user's (E1, B1I), whatever
+    RTKLIB also takes when there is no CNAV ISC, as in a RINEX LNAV record. A CNAV record
+    (`cnav_records`) with its :math:`ISC_{L2C}` gives an L2 user
+    :math:`\Delta t_{SV} - T_{GD} + ISC_{L2C}` instead (IS-GPS-200 30.3.3.3.1.1.1). Other
+    systems: ``state.clock_l1_s``, their own single-frequency user's (E1, B1I), whatever
     ``carrier_freq_hz``.
     """
     gamma = ionosphere_scale(carrier_freq_hz, reference)
@@ -304,7 +346,11 @@ def single_frequency_clock_s(
         return state.clock_l1_s
     tgd = state.clock_s - state.clock_l1_s
     gps = np.isin(np.asarray(eph.sv).astype("U1"), ["G", "J"])
-    return np.where(gps, state.clock_s - gamma * tgd, state.clock_l1_s)
+    clock = np.where(gps, state.clock_s - gamma * tgd, state.clock_l1_s)
+    isc = eph.elements.get("ISC_L2C")
+    if isc is not None and abs(float(carrier_freq_hz) - GPS_L2C.carrier_freq_hz) < 1.0:
+        clock = np.where(gps & np.isfinite(isc), state.clock_l1_s + np.nan_to_num(isc), clock)
+    return clock
 
 
 def ionosphere_scale(carrier_freq_hz: float, reference: SignalSpec = GPS_L1CA) -> float:
@@ -334,7 +380,9 @@ def satellite_state(eph: Ephemerides, t_s: np.ndarray | float) -> SatelliteState
     Position follows the user algorithm of IS-GPS-200 Table 20-IV (Kepler's equation by
     Newton's method, second-harmonic corrections, Earth-fixed node longitude) with each
     system's GM and Earth rotation rate; BeiDou GEO records (:func:`is_bds_geo`) take the
-    ICD's GEO formula (BDS-SIS-ICD-B1I 3.0 5.2.4.12). Velocity is the time derivative
+    ICD's GEO formula (BDS-SIS-ICD-B1I 3.0 5.2.4.12); a CNAV record (`CNAV_FIELDS`) adds the
+    rates of its semi-major axis and mean motion (IS-GPS-200 Table 30-II, with
+    :math:`A_0` in the relativistic term). Velocity is the time derivative
     (analytic); the clock is af0 + af1 (t - toc) + af2 (t - toc)^2 plus the relativistic
     term F e sqrt(A) sin E (IS-GPS-200 20.3.3.3.3.1; Galileo ICD 5.1.4; BDS ICD 5.2.4.10),
     in the record's system time (BDT = GPST - 14 s).
@@ -361,11 +409,15 @@ def satellite_state(eph: Ephemerides, t_s: np.ndarray | float) -> SatelliteState
     f_rel = np.where(gps, F_RELATIVISTIC_S_SQRTM, F_RELATIVISTIC_GAL_BDS_S_SQRTM)
     offset = np.array([SYSTEM_TIME_OFFSET_S[str(x)] for x in letters], dtype=float).reshape(letters.shape)
     t = np.asarray(t_s, dtype=float) - offset  # GPS time to each record's system time
-    A = e["sqrtA"] ** 2
-    n0 = np.sqrt(gm / A**3)
-    n = n0 + e["DeltaN"]
     tk = _wrap_week(t - e["Toe"])
-    M = e["M0"] + n * tk
+    # A CNAV record's rates (IS-GPS-200 Table 30-II): A_k = A_0 + Adot t_k and
+    # n_A = n_0 + Delta n_0 + Delta n0dot t_k / 2; zero in an LNAV-style record.
+    a_dot, dn_dot = e.get("Adot", 0.0), e.get("DeltaN0dot", 0.0)
+    A0 = e["sqrtA"] ** 2
+    A = A0 + a_dot * tk
+    n0 = np.sqrt(gm / A0**3)
+    n = n0 + e["DeltaN"]
+    M = e["M0"] + (n + 0.5 * dn_dot * tk) * tk
     ecc = e["Eccentricity"]
     E = np.array(M, dtype=float, copy=True)
     for _ in range(10):  # Newton on Kepler's equation; converges in 3-4 steps for e < 0.03
@@ -386,10 +438,10 @@ def satellite_state(eph: Ephemerides, t_s: np.ndarray | float) -> SatelliteState
     y = x_orb * sn + y_orb * ci * cn
     z = y_orb * si
     # Time derivatives of the same chain.
-    E_dot = n / (1 - ecc * cosE)
+    E_dot = (n + dn_dot * tk) / (1 - ecc * cosE)
     phi_dot = np.sqrt(1 - ecc**2) * E_dot / (1 - ecc * cosE)
     u_dot = phi_dot * (1 + 2 * (e["Cus"] * c2 - e["Cuc"] * s2))
-    r_dot = A * ecc * sinE * E_dot + 2 * phi_dot * (e["Crs"] * c2 - e["Crc"] * s2)
+    r_dot = a_dot * (1 - ecc * cosE) + A * ecc * sinE * E_dot + 2 * phi_dot * (e["Crs"] * c2 - e["Crc"] * s2)
     i_dot = e["IDOT"] + 2 * phi_dot * (e["Cis"] * c2 - e["Cic"] * s2)
     xo_dot = r_dot * np.cos(u) - y_orb * u_dot
     yo_dot = r_dot * np.sin(u) + x_orb * u_dot

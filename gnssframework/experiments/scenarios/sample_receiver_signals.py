@@ -113,14 +113,7 @@ def nominal_ephemerides(toe_s: float, week: int) -> Ephemerides:
     for k in range(s):
         bits = lnav.encode_lnav(raw.subset(np.array([k])), week, first_tow, 5)
         decoded.append(lnav.decode_lnav(1 - 2 * bits.astype(np.int8), int(const.prn[k])).ephemeris)
-    return Ephemerides(
-        np.concatenate([d.sv for d in decoded]),
-        np.concatenate([d.toc_s for d in decoded]),
-        {k: np.concatenate([d.elements[k] for d in decoded]) for k in decoded[0].elements},
-        np.concatenate([d.health for d in decoded]),
-        np.concatenate([d.iode for d in decoded]),
-        np.concatenate([d.accuracy_m for d in decoded]),
-    )
+    return Ephemerides.concatenate(decoded)
 
 
 def transmit_times(eph: Ephemerides, receiver_ecef_m: np.ndarray, t_rx_s: float) -> np.ndarray:

@@ -66,7 +66,7 @@ from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SPEED_OF_LIGHT_M_S, SignalSpec
 from .filtered_smoothing import check_smoothable, smooth_runs
 from .fixes import PositionTable, full_week
-from .fixes import _ephemeris_for as ephemeris_for, _stack as stack_records
+from .fixes import _ephemeris_for as ephemeris_for
 from .observables import Observables
 
 __all__ = [
@@ -464,7 +464,7 @@ def filter_epochs(
             obs.pseudorange_m[e, j],
             obs.transmit_s[e, j],
             obs.doppler_hz[e, j],
-            stack_records([r for r in records if r is not None]),
+            Ephemerides.concatenate([r for r in records if r is not None]),
             here,
             iono=klobuchar,
             troposphere=troposphere,

@@ -127,19 +127,6 @@ def _ephemeris_for(
     return out
 
 
-def _stack(records: list[Ephemerides]) -> Ephemerides:
-    # The broadcast accuracy where every record has one (decoded LNAV records may not).
-    accuracy = None if any(r.accuracy_m is None for r in records) else np.concatenate([r.accuracy_m for r in records])
-    return Ephemerides(
-        np.concatenate([r.sv for r in records]),
-        np.concatenate([r.toc_s for r in records]),
-        {k: np.concatenate([r.elements[k] for r in records]) for k in records[0].elements},
-        np.concatenate([r.health for r in records]),
-        np.concatenate([r.iode for r in records]),
-        accuracy,
-    )
-
-
 def solve_epochs(
     obs: Observables,
     rinex: Ephemerides | None = None,
@@ -185,7 +172,7 @@ def solve_epochs(
         fix = solve_position(
             obs.pseudorange_m[e, idx],
             obs.transmit_s[e, idx],
-            _stack([records[j] for j in have]),
+            Ephemerides.concatenate([records[j] for j in have]),
             doppler_hz=obs.doppler_hz[e, idx],
             iono=klobuchar,
             troposphere=troposphere,

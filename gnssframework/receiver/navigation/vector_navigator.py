@@ -31,6 +31,8 @@ the solution) until its innovations agree again; each exclusion and return is an
 
 from __future__ import annotations
 
+import dataclasses
+
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -353,11 +355,6 @@ def rotate(v: np.ndarray, tau_s: np.ndarray) -> np.ndarray:
 
 
 def stack(records: list[Ephemerides]) -> Ephemerides:
-    """One `Ephemerides` of several records, in order."""
-    return Ephemerides(
-        np.concatenate([r.sv for r in records]),
-        np.concatenate([r.toc_s for r in records]),
-        {k: np.concatenate([r.elements[k] for r in records]) for k in records[0].elements},
-        np.concatenate([r.health for r in records]),
-        np.concatenate([r.iode for r in records]),
-    )
+    """One `Ephemerides` of several records, in order (`Ephemerides.concatenate`), without
+    their broadcast accuracy (the vector loop's measurement model does not take it)."""
+    return dataclasses.replace(Ephemerides.concatenate(records), accuracy_m=None)
