@@ -37,9 +37,11 @@ stream occupies the symbols ``2k`` and ``2k + 1`` after the pairing offset: the 
 has no delay (:math:`u_k` taps both generators' most significant bit), so a message's
 first bit and its first coded symbol start together.
 
-Clock (types 30-37, Table 30-III: `parse_clock`) and GPS-UTC (type 33, Table 30-IX:
-`parse_utc`) are read too; the other types' data (group delays and ionosphere of type 30,
-almanacs, EOP, differential corrections, GGTO, text) are left as bits.
+Clock (types 30-37, Table 30-III: `parse_clock`), group delays and Klobuchar coefficients
+(type 30, Table 30-IV: `parse_group_delays`) and GPS-UTC (type 33, Table 30-IX:
+`parse_utc`) are read too; the other types' data (almanacs, EOP, differential
+corrections, GGTO, text) are left as bits. `cnav_records` assembles types 10, 11, 30-37
+and 30 into the `Ephemerides` records positions take.
 
 Ephemeris (IS-GPS-200 30.3.3.1, Tables 30-I and 30-II; message types 10 and 11): the
 elements relative to :math:`A_{REF} = 26\,559\,710` m and
@@ -61,6 +63,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .ephemeris import GM_GPS_M3_S2, OMEGA_EARTH_RAD_S, Ephemerides
+from .lnav import IonoUtc
 from .fec import G1, G2, conv_encode, crc24q_bits, real_symbols, viterbi_decode
 
 __all__ = [
@@ -86,6 +89,9 @@ __all__ = [
     "parse_clock",
     "CnavUtc",
     "parse_utc",
+    "CnavGroupDelays",
+    "parse_group_delays",
+    "clock_payload",
 ]
 
 #: Preamble of every CNAV message (IS-GPS-200 30.3.3).
@@ -238,29 +244,35 @@ def cnav_symbols(
     n_symbols: int,
     ephemeris: Ephemerides | None = None,
     wn: int = 0,
+    iono: IonoUtc | None = None,
+    isc_l2c_s: float | None = None,
 ) -> tuple[np.ndarray, float]:
     """±1 CM symbols (int8) from the one in force at SV time ``tow_s`` on, for the IF
     generator's ``data_bits`` (`gps-l2c`: one symbol a 20 ms code period), and the time
     (s) from the first symbol's start to ``tow_s`` (``first_bit_edge_s = -that``).
 
     Messages start on multiples of 12 s of the week; they cycle through types 10, 11
-    (`ephemeris_payloads` of the one-record ``ephemeris``, week ``wn``) and the default
-    type 0, or send type 0 only without an ephemeris. The encoder starts from a zero
-    register at the start of the message in force.
+    (`ephemeris_payloads` of the one-record ``ephemeris``, week ``wn``) and 30 (its clock,
+    group delays and ``iono``'s Klobuchar coefficients, `clock_payload`), the message of
+    week second ``12 j`` being the ``j mod 3``-th; they send the default type 0 only
+    without an ephemeris. The encoder starts from a zero register at the start of the
+    message in force.
     """
     if n_symbols < 1:
         raise ConfigError("n_symbols", f"must be at least 1, got {n_symbols}")
     first = int(np.floor(tow_s / MESSAGE_S))
     skip = int(np.floor((tow_s - first * MESSAGE_S) * SYMBOL_RATE_HZ))
     n_msg = int(np.ceil((skip + n_symbols) / (2 * MESSAGE_BITS)))
-    payloads = ephemeris_payloads(ephemeris, wn) if ephemeris is not None else None
+    payloads = None
+    if ephemeris is not None:
+        payloads = (*ephemeris_payloads(ephemeris, wn), clock_payload(ephemeris, wn, iono, isc_l2c_s))
     rows = []
     for j in range(first, first + n_msg):
         start_s = (j * MESSAGE_S) % _WEEK_S
         count = int(round(((start_s + MESSAGE_S) % _WEEK_S) / TOW_UNIT_S))
         cycle: list[tuple[int, np.ndarray | None]] = [(_DEFAULT_TYPE, None)]
         if payloads is not None:
-            cycle = [(10, payloads[0]), (11, payloads[1]), (_DEFAULT_TYPE, None)]
+            cycle = [(10, payloads[0]), (11, payloads[1]), (30, payloads[2])]
         msg_type, payload = cycle[j % len(cycle)]
         rows.append(message_bits(prn, msg_type, count, payload))
     symbols = encode_cnav(np.array(rows))[skip : skip + n_symbols]
@@ -426,9 +438,7 @@ def ephemeris_payloads(record: Ephemerides, wn: int) -> tuple[np.ndarray, np.nda
     if record.sv.size != 1:
         raise ConfigError("record", f"needs one record, got {record.sv.size}")
     e = {k: float(v[0]) for k, v in record.elements.items()}
-    toe = e["Toe"]
-    if abs(toe / 300.0 - round(toe / 300.0)) > 1e-9:
-        raise ConfigError("record", f"{record.sv[0]}: toe {toe:g} s is not a multiple of CNAV's 300 s")
+    toe = _on_grid(e["Toe"], "toe", record)
     sc = 1.0 / np.pi
     values10 = {
         "wn": wn % 8192,
@@ -459,16 +469,25 @@ def ephemeris_payloads(record: Ephemerides, wn: int) -> tuple[np.ndarray, np.nda
         "cus_rad": e["Cus"],
         "cuc_rad": e["Cuc"],
     }
-    out = []
-    for table, values in ((_MT10, values10), (_MT11, values11)):
-        b = np.zeros(MESSAGE_BITS, dtype=np.uint8)
-        for name, first, width, signed, scale in table:
-            raw = int(round(values[name] / scale))
-            if not signed and raw < 0:
-                raise ConfigError("record", f"{record.sv[0]}: {name} {values[name]:g} is negative")
-            _put(b, first, width, raw, f"record {record.sv[0]} {name}")
-        out.append(b[38:276])
-    return out[0], out[1]
+    sv = str(record.sv[0])
+    return _payload(_MT10, values10, sv), _payload(_MT11, values11, sv)
+
+
+def _payload(table, values: dict, sv: str) -> np.ndarray:
+    """Data bits 39-276 of ``values`` in the fields of ``table``, rounded to their scales."""
+    b = np.zeros(MESSAGE_BITS, dtype=np.uint8)
+    for name, first, width, signed, scale in table:
+        raw = int(round(values[name] / scale))
+        if not signed and raw < 0:
+            raise ConfigError("record", f"{sv}: {name} {values[name]:g} is negative")
+        _put(b, first, width, raw, f"record {sv} {name}")
+    return b[38:276]
+
+
+def _on_grid(t_s: float, name: str, record: Ephemerides) -> float:
+    if abs(t_s / 300.0 - round(t_s / 300.0)) > 1e-9:
+        raise ConfigError("record", f"{record.sv[0]}: {name} {t_s:g} s is not a multiple of CNAV's 300 s")
+    return float(t_s)
 
 
 def cnav_position(eph: CnavEphemeris, t_s: np.ndarray | float) -> np.ndarray:
@@ -578,3 +597,108 @@ def parse_utc(msg: CnavMessage) -> CnavUtc:
     """The UTC parameters of a message of type 33 with a passing CRC; refused in one line otherwise."""
     _checked(msg, (33,), "msg")
     return CnavUtc(**_fields(msg.bits, _UTC))
+
+
+# --- group delays and ionosphere (type 30) ----------------------------------------------
+
+#: Message type 30's fields after the clock (IS-GPS-200 Table 30-IV, Figure 30-3).
+_TYPE30 = (
+    ("tgd_s", 128, 13, True, 2.0**-35),
+    ("isc_l1ca_s", 141, 13, True, 2.0**-35),
+    ("isc_l2c_s", 154, 13, True, 2.0**-35),
+    ("isc_l5i5_s", 167, 13, True, 2.0**-35),
+    ("isc_l5q5_s", 180, 13, True, 2.0**-35),
+    ("alpha0_s", 193, 8, True, 2.0**-30),
+    ("alpha1_s_sc", 201, 8, True, 2.0**-27),
+    ("alpha2_s_sc2", 209, 8, True, 2.0**-24),
+    ("alpha3_s_sc3", 217, 8, True, 2.0**-24),
+    ("beta0_s", 225, 8, True, 2.0**11),
+    ("beta1_s_sc", 233, 8, True, 2.0**14),
+    ("beta2_s_sc2", 241, 8, True, 2.0**16),
+    ("beta3_s_sc3", 249, 8, True, 2.0**16),
+    ("wnop", 257, 8, False, 1.0),
+)
+#: The group delay fields, whose bit string 1000000000000 (-4096) means "not available"
+#: (IS-GPS-200 30.3.3.3.1.1).
+_DELAY_FIELDS = ("tgd_s", "isc_l1ca_s", "isc_l2c_s", "isc_l5i5_s", "isc_l5q5_s")
+_NOT_AVAILABLE = -4096
+
+
+@dataclass(frozen=True)
+class CnavGroupDelays:
+    """Group delays and Klobuchar coefficients of message type 30 (IS-GPS-200 30.3.3.3.1.1
+    and 30.3.3.3.1.2, Table 30-IV): seconds, NaN where broadcast as not available. The user
+    of L2C corrects its SV clock by :math:`\\Delta t_{SV} - T_{GD} + ISC_{L2C}` (30.3.3.3.1.1.1);
+    ``iono`` holds the Klobuchar coefficients in `lnav.IonoUtc`'s units (L1 delay,
+    20.3.3.5.2.5), its UTC fields zero; ``wnop`` the 8-bit week of ``top``."""
+
+    prn: int
+    tgd_s: float
+    isc_l1ca_s: float
+    isc_l2c_s: float
+    isc_l5i5_s: float
+    isc_l5q5_s: float
+    iono: IonoUtc
+    wnop: int
+
+
+def parse_group_delays(msg: CnavMessage) -> CnavGroupDelays:
+    """The group delays and Klobuchar coefficients of a type 30 message with a passing CRC;
+    refused in one line otherwise."""
+    _checked(msg, (30,), "msg")
+    v = _fields(msg.bits, _TYPE30)
+    for name in _DELAY_FIELDS:
+        if v[name] == _NOT_AVAILABLE * 2.0**-35:
+            v[name] = float("nan")
+    iono = IonoUtc(
+        (v["alpha0_s"], v["alpha1_s_sc"], v["alpha2_s_sc2"], v["alpha3_s_sc3"]),
+        (v["beta0_s"], v["beta1_s_sc"], v["beta2_s_sc2"], v["beta3_s_sc3"]),
+    )
+    tgd, l1ca, l2c, l5i5, l5q5 = (float(v[k]) for k in _DELAY_FIELDS)
+    return CnavGroupDelays(msg.prn, tgd, l1ca, l2c, l5i5, l5q5, iono, int(v["wnop"]))
+
+
+def clock_payload(
+    record: Ephemerides, wn: int, iono: IonoUtc | None = None, isc_l2c_s: float | None = None
+) -> np.ndarray:
+    """Data bits (39-276) of a message type 30 for the one LNAV-style record ``record``: its
+    clock (toc on the 300 s grid, ``top`` = toc, URA_NED indices 0), its T_GD, ``ISC_L1CA``
+    zero (an L1 C/A user's clock as LNAV's), ``isc_l2c_s`` (None: sent as not available, so
+    an L2C user takes :math:`\\gamma T_{GD}`), no L5 ISCs, the Klobuchar coefficients of
+    ``iono`` (None: zeros, which the Klobuchar model turns into its 5 ns night-time delay)
+    and ``wn``'s low 8 bits as WNOP. Values are rounded to the scale factors; a value out of
+    its field is refused in one line."""
+    if record.sv.size != 1:
+        raise ConfigError("record", f"needs one record, got {record.sv.size}")
+    e = {k: float(v[0]) for k, v in record.elements.items()}
+    toc = _on_grid(float(record.toc_s[0]), "toc", record)
+    alpha, beta = (iono.alpha, iono.beta) if iono is not None else ((0.0,) * 4, (0.0,) * 4)
+    na = _NOT_AVAILABLE * 2.0**-35
+    values = {
+        "top_s": toc,
+        "ura_ned0_index": 0,
+        "ura_ned1_index": 0,
+        "ura_ned2_index": 0,
+        "toc_s": toc,
+        "af0_s": e["SVclockBias"],
+        "af1_s_s": e["SVclockDrift"],
+        "af2_s_s2": e["SVclockDriftRate"],
+        "tgd_s": e["TGD"],
+        "isc_l1ca_s": 0.0,
+        "isc_l2c_s": na if isc_l2c_s is None else isc_l2c_s,
+        "isc_l5i5_s": na,
+        "isc_l5q5_s": na,
+        "wnop": wn % 256,
+    }
+    names = (
+        "alpha0_s",
+        "alpha1_s_sc",
+        "alpha2_s_sc2",
+        "alpha3_s_sc3",
+        "beta0_s",
+        "beta1_s_sc",
+        "beta2_s_sc2",
+        "beta3_s_sc3",
+    )
+    values.update(zip(names, (*alpha, *beta)))
+    return _payload(_CLOCK + _TYPE30, values, str(record.sv[0]))
