@@ -1,6 +1,7 @@
 """The receiver tests' L2C recordings: the satellites of `lnav_recordings` (real broadcast
 records of tests/data/07590920.05n seen from the station of 07590920.05o), each sending
-GPS L2C with CNAV (types 10, 11 and 0 of its own record, `cnav.cnav_symbols`) on CM, with
+GPS L2C with CNAV (types 10, 11 and 30 of its own record and the navigation file's
+Klobuchar coefficients, `cnav.cnav_symbols`) on CM, with
 the code phase, Doppler and symbol timing of the geometry at L2, 45 dB-Hz, complex int16
 SigMF at 2.6 MHz (not 2.046, which meets L2C's sub-chips at two phases only: the DLL's dead
 band of ±0.125 CM chip, 73 m, `CommensurateSamplingWarning`).
@@ -16,10 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from gnssframework.navigation import cnav
+from gnssframework.navigation.rinex_nav_header import read_nav_file_info
 from gnssframework.signal.gps_l2c import GPS_L2C
 from gnssframework.signal.if_samples import generate_if_samples
 from light_time import signal_flight
-from lnav_recordings import CHUNK_S, STATION
+from lnav_recordings import CHUNK_S, NAV, STATION
 from noisy_recording import write_noisy_recording
 
 #: The week the generator's type 10 messages carry (the records' week).
@@ -45,13 +47,14 @@ def write_l2c_recording(path: Path, sats, tow0: float, duration_s: float, seed: 
     n = int(round(CHUNK_S * FS))
     period = GPS_L2C.code_period_s
     t_sv0 = l2_satellite_time(sats, np.array(tow0))
+    iono = read_nav_file_info(NAV).iono
     streams = []
     for k in range(sats.sv.size):
         # A record off CNAV's 300 s grid of Toe (518384 s: uploaded 16 s early) cannot be
-        # sent as types 10 and 11: that satellite sends type 0 only (its TOW dates it as well).
+        # sent as types 10, 11 and 30: that satellite sends type 0 only (its TOW dates it as well).
         record = sats.subset(np.array([k])) if sats.elements["Toe"][k] % 300 == 0 else None
         symbols, into = cnav.cnav_symbols(
-            int(sats.sv[k][1:]), float(t_sv0[k]) - 0.1, int(duration_s / period) + 20, record, WEEK
+            int(sats.sv[k][1:]), float(t_sv0[k]) - 0.1, int(duration_s / period) + 20, record, WEEK, iono
         )
         streams.append((symbols.astype(float), float(t_sv0[k]) - 0.1 - into))  # SV time of the first symbol
     phase = np.zeros(sats.sv.size)

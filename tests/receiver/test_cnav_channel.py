@@ -137,7 +137,7 @@ def _record_ephemeris():
 
 def _l2c_recording(path, prn: int, tow0: float, duration_s: float, rec) -> tuple:
     """``duration_s`` of generated L2C (45 dB-Hz, `DOPPLER_HZ`, complex int16 at `FS`) whose
-    CM carries `cnav.cnav_symbols` (types 10, 11, 0 of ``rec``) from SV time ``tow0`` at
+    CM carries `cnav.cnav_symbols` (types 10, 11, 30 of ``rec``) from SV time ``tow0`` at
     t = 0, written chunk by chunk; the path, the SV time at symbol 0's start (the first code
     epoch, t = 0) and the SV seconds per receive second."""
     chunk_s = 0.5

@@ -14,7 +14,6 @@ import pymap3d
 import pytest
 
 from gnssframework.cli import main
-from gnssframework.errors import ConfigError
 from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.navigation.pvt import dop
 from gnssframework.receiver.navigation.receive import receive
@@ -92,13 +91,17 @@ def _receive(path):
     return receive(rec, acq, l2c_tracking_config(), prns=prns, rinex=rinex, signal=GPS_L2C, reference_week=WEEK)
 
 
-def test_l2c_positions_need_the_navigation_file(l2c):
-    from gnssframework import registry
-    from gnssframework.receiver.channels import tracking_config
-    from gnssframework.receiver.frontend import open_recording
-
-    with pytest.raises(ConfigError, match="ephemeris"):
-        receive(open_recording(l2c[0]), registry.create("acquisition", "pcps"), tracking_config(), signal=GPS_L2C)
+def test_without_a_navigation_file_14_s_are_too_short_for_a_cnav_record(l2c, tmp_path, capsys):
+    """A CNAV record takes types 10, 11 and 30 (36 s); this file holds one message of each
+    satellite: no position, exit 1, the tracking written, and each satellite's reason."""
+    path, sats = l2c
+    out = tmp_path / "rx"
+    args = ["receive", str(path), "--signal", "gps-l2c", "--week", str(WEEK), "--out", str(out), "--quiet"]
+    assert main([*args, "--prns", *[str(int(s[1:])) for s in sats.sv]]) == 1
+    assert capsys.readouterr().out.startswith("no position: fewer than 4 satellites with a pseudorange and a decoded")
+    assert (out / "tracking.csv").exists()
+    report = (out / "report.md").read_text()
+    assert report.count("no healthy ephemeris (none decoded, no --ephemeris file)") == 5
 
 
 def test_the_fine_search_takes_whole_symbols(l2c):

@@ -11,7 +11,9 @@ run. A message lasts 12 s: a run shorter than that holds none.
 
 Each message is reported with the recording time of the row that starts its first symbol
 (``time_s``) and the SV time of week the ICD gives that instant (``tow_s``: six times the
-TOW count, less the 12 s of the message, `cnav.CnavMessage.tow_s`).
+TOW count, less the 12 s of the message, `cnav.CnavMessage.tow_s`). The messages of types
+10, 11 and 30-37 give the channel's broadcast records (`cnav_records.cnav_records`), each
+known from the end of the message that completed it.
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...errors import ConfigError
-from ...navigation.cnav import CnavMessage, decode_cnav
+from ...navigation.cnav import MESSAGE_S, CnavMessage, decode_cnav
+from ...navigation.cnav_records import cnav_records
 from ...navigation.lnav import LnavMessage
 from ...signal.spec import SignalSpec
 from .inav_stream import _PULL_IN, _WEEK_S, symbol_runs
@@ -42,9 +45,6 @@ __all__ = [
     "cnav_rows",
     "write_cnav_report",
 ]
-
-#: Bits 39-51 of a type 10 message: the 13-bit week number (IS-GPS-200 Figure 30-1).
-_WN_FIRST, _WN_BITS = 38, 13
 
 #: Columns of the ``track`` command's ``cnav.csv``: one row per message found.
 CNAV_COLUMNS = (
@@ -122,15 +122,6 @@ def _run_epoch(messages: list[CnavMessage], period_s: float) -> tuple[int, float
     return first.start, first.tow_s, first.inverted
 
 
-def _week10(messages: list[CnavMessage]) -> int | None:
-    """The low 10 bits of the week of the last checked type 10 message (None without one)."""
-    for m in reversed(messages):
-        if m.crc_ok and m.msg_type == 10:
-            bits = m.bits[_WN_FIRST : _WN_FIRST + _WN_BITS]
-            return int("".join(map(str, bits)), 2) % 1024
-    return None
-
-
 def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTiming | None:
     """The rows of an L2 CM channel dated from its CNAV (`channel_cnav`) as the
     `observables.ChannelTiming` the observables and fixes take; None without a dated row.
@@ -141,15 +132,18 @@ def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     so row ``j`` of the run was sent at ``tow_s + (j - start) x 20 ms`` plus its code phase
     (every row starts on a CM code epoch, and a CM period is a symbol). A run whose checked
     messages disagree is not dated. The half-cycle flag is the stream's polarity. The
-    pull-in's rows are not measurements (their code phase is converging). No ephemeris is
-    taken from CNAV here (``--ephemeris`` gives them); the week's low 10 bits come from a
-    type 10 message.
+    pull-in's rows are not measurements (their code phase is converging). The channel's
+    records (`cnav_records.cnav_records` of all its runs' messages, named as ``signal``
+    names the satellite) come with the recording time at which the message completing each
+    ended, its ionosphere and GPS-UTC parameters as the message's ``iono_utc``, and the
+    type 10 week's low 10 bits as its week.
     """
     from .observables import ChannelTiming
 
     if not record.rows:
         return None
     timing_messages: list[CnavMessage] = []
+    ready_s: list[float] = []  # recording time at which each message has ended
     col = record.column
     time_s, code_chips, stage = col("time_s"), col("code_phase_chips"), col("stage")
     period = signal.code_period_s
@@ -158,6 +152,7 @@ def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     for run in symbol_runs(time_s, col("coherent_ms"), period):
         messages = decode_cnav(prompt[run], prn=record.prn).messages
         timing_messages += messages
+        ready_s += [float(time_s[run[m.start]]) + MESSAGE_S for m in messages]
         epoch = _run_epoch(messages, period)
         if epoch is None:
             continue
@@ -175,6 +170,9 @@ def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     if not rows:
         return None
     r = np.concatenate(rows)
+    decoded = cnav_records(timing_messages, signal.rinex_satellite(record.prn))
+    ephemerides = [(ready_s[k], rec) for k, rec in decoded.records]
+    week10 = None if decoded.week is None else decoded.week % 1024
     return ChannelTiming(
         record.prn,
         time_s[r],
@@ -183,8 +181,8 @@ def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
         col("carrier_phase_cycles")[r],
         col("cn0_dbhz")[r],
         np.concatenate(half),
-        LnavMessage(record.prn, [], None, None, _week10(timing_messages)),
-        [],
+        LnavMessage(record.prn, [], ephemerides[-1][1] if ephemerides else None, decoded.iono, week10),
+        ephemerides,
         np.concatenate(starts),
         np.ones(r.size, bool),
     )

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import ConfigError
+from ...navigation.cnav_records import cnav_records
 from ...signal.spec import SignalSpec
 from ..channels.records import STAGES
 from .cnav_stream import carries_cnav, channel_cnav, cnav_channel_timing
@@ -113,18 +114,20 @@ def inav_decoded(ch, signal: SignalSpec) -> dict:
 
 
 def cnav_decoded(ch, signal: SignalSpec) -> dict:
-    """What one L2 CM channel's CNAV gave (`channel_cnav`): ``subframes`` the CRC-checked
-    messages, ``first_tow_s`` the first one's (s), ``ephemeris`` whether types 10 and 11 both
-    came (not used: positions take ``--ephemeris``), ``iono`` None (type 30's is not used)
-    and ``week`` the type 10 week's low 10 bits (None)."""
-    good = [m for m in channel_cnav(ch, signal).messages if m.crc_ok]
-    timing = cnav_channel_timing(ch, signal)
+    """What one L2 CM channel's CNAV gave (`channel_cnav`, decoded once): ``subframes`` the
+    CRC-checked messages, ``first_tow_s`` the first one's (s), ``ephemeris`` whether a
+    record was completed (types 10, 11, a clock and a type 30: `cnav_records.cnav_records`),
+    ``iono`` whether a type 30's Klobuchar coefficients came and ``week`` the type 10 week's
+    low 10 bits (None)."""
+    messages = channel_cnav(ch, signal).messages
+    good = [m for m in messages if m.crc_ok]
+    decoded = cnav_records(messages)
     return {
         "subframes": len(good),
         "first_tow_s": good[0].tow_s if good else None,
-        "ephemeris": {10, 11} <= {m.msg_type for m in good},
-        "iono": None,
-        "week": None if timing is None else timing.message.week,
+        "ephemeris": bool(decoded.records),
+        "iono": decoded.iono is not None,
+        "week": None if decoded.week is None else decoded.week % 1024,
     }
 
 
@@ -165,7 +168,7 @@ CNAV = NavMessage(
     carries_cnav,
     cnav_channel_timing,
     False,
-    ("CNAV messages", "first TOW (s)", "types 10, 11", "iono", "week (10-bit)"),
+    ("CNAV messages", "first TOW (s)", "ephemeris decoded", "type 30", "week (10-bit)"),
     cnav_decoded,
     lambda ch: "no CNAV message with a good CRC decoded (no transmit time)",
     lambda locked, found: (
@@ -192,5 +195,5 @@ def require_positioning(signal: SignalSpec) -> None:
             "signal",
             f"{signal.name}: the receive command positions from GPS/QZSS L1 C/A (LNAV: "
             "gps-l1ca, qzss-l1ca), Galileo E1-B (I/NAV: galileo-e1b-boc11, galileo-e1b) "
-            "and GPS/QZSS L2C (CNAV, with --ephemeris: gps-l2c, qzss-l2c) only",
+            "and GPS/QZSS L2C (CNAV: gps-l2c, qzss-l2c) only",
         )

@@ -30,7 +30,7 @@ from ...plugin_ref import PluginSpec
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
 from .filtered import filter_epochs
-from .decoded import CNAV, LNAV, navigation_message
+from .decoded import LNAV, navigation_message
 from .inav_stream import require_lnav
 from .fixes import INTEGRITY_COLUMNS, PositionTable, solve_epochs
 from .observables import TOW_TOLERANCE_S, ChannelTiming, Observables, assisted_timing, channel_timing, observables
@@ -114,12 +114,6 @@ def receive(
         )
     if message is LNAV:
         require_lnav(signal)  # a signal carrying no message the receiver decodes is refused here
-    if message is CNAV and rinex is None:
-        raise ConfigError(
-            "ephemeris",
-            f"{signal.name}: CNAV dates the channels, but its ephemerides are not used for positions: "
-            "give the RINEX navigation file (--ephemeris)",
-        )
     if vector is not None and nav_filter is not None:  # the vector loop closes its own filter
         raise ConfigError(
             "nav_filter",

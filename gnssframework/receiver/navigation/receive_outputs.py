@@ -109,9 +109,17 @@ def write_extra_outputs(
     if "rinex-nav" in outputs:
         from .rinex_nav import RINEX_NAV_SYSTEMS, decoded_records, write_rinex_nav
 
+        from .cnav_stream import carries_cnav
+
+        cnav = not hasattr(signal, "signals") and carries_cnav(signal)
         if obs is None or not any(obs.ephemeris.values()):
             messages = {"E": "I/NAV", "M": "LNAV or I/NAV"}
-            notes.append(f"no ephemeris decoded from {messages.get(signal.system, 'LNAV')}: no navigation.rnx")
+            name = "CNAV" if cnav else messages.get(signal.system, "LNAV")
+            notes.append(f"no ephemeris decoded from {name}: no navigation.rnx")
+        elif cnav:
+            # RINEX 3.04's GPS record is LNAV's: it has no place for CNAV's Adot, Delta n0 rate
+            # and ISC_L2C (RINEX 4's EPH CNAV record has; this writer does not write RINEX 4).
+            notes.append("CNAV records have no RINEX 3.04 layout (Adot, Delta n0 rate, ISC): no navigation.rnx")
         elif week < 0:
             notes.append("the GPS week is unknown: no navigation.rnx")
         elif signal.system not in RINEX_NAV_SYSTEMS:
