@@ -13,7 +13,8 @@ and :math:`\dot A`, :math:`\Delta\dot n_0` kept as the record's ``Adot`` (m/s) a
 type 30-37 message whose :math:`t_{oc}` equals the orbit's :math:`t_{oe}` (or, failing one,
 shares its :math:`t_{op}`: one upload); T_GD and :math:`ISC_{L2C}` come from the last type 30
 (its group delays change with the satellite's hardware, not with the upload), so an L2C
-user's clock is :math:`\Delta t_{SV} - T_{GD} + ISC_{L2C}` (30.3.3.3.1.1.1,
+user's clock is :math:`\Delta t_{SV} - T_{GD} + ISC_{L2C}` and an L1 C/A user's
+:math:`\Delta t_{SV} - T_{GD} + ISC_{L1C/A}` (30.3.3.3.1.1.1,
 `ephemeris.single_frequency_clock_s`; :math:`\gamma T_{GD}` where ISC is broadcast as not
 available, and T_GD 0 where it is, as GNSS-SDR takes it).
 
@@ -87,6 +88,7 @@ def cnav_record(eph: CnavEphemeris, clock: CnavClock, delays: CnavGroupDelays, s
         "TGD": tgd,
         "Adot": eph.a_dot_m_s,
         "DeltaN0dot": eph.delta_n0_dot_sc_s2 * _PI,
+        "ISC_L1CA": delays.isc_l1ca_s,
         "ISC_L2C": delays.isc_l2c_s,
     }
     return Ephemerides(

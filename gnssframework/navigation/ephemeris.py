@@ -131,9 +131,10 @@ CLOCK_FIELDS = ("SVclockBias", "SVclockDrift", "SVclockDriftRate", "TGD")
 
 #: Elements only a CNAV record has (`cnav_records`, IS-GPS-200 30.3.3.1 and 30.3.3.3.1.1):
 #: the rate of the semi-major axis ``Adot`` (m/s), the rate of the mean motion difference
-#: ``DeltaN0dot`` (rad/s^2) and the L2C inter-signal correction ``ISC_L2C`` (s); with the
-#: value that means "absent" in a record without them (an LNAV-style orbit, no ISC).
-CNAV_FIELDS = {"Adot": 0.0, "DeltaN0dot": 0.0, "ISC_L2C": float("nan")}
+#: ``DeltaN0dot`` (rad/s^2) and the inter-signal corrections ``ISC_L1CA`` and ``ISC_L2C``
+#: (s); with the value that means "absent" in a record without them (an LNAV-style orbit,
+#: no ISC).
+CNAV_FIELDS = {"Adot": 0.0, "DeltaN0dot": 0.0, "ISC_L1CA": float("nan"), "ISC_L2C": float("nan")}
 
 
 #: Keplerian and clock fields of a broadcast navigation message (the decoders' names, angles
@@ -336,16 +337,20 @@ def single_frequency_clock_s(
     as it is (IS-GPS-200 20.3.3.3.3.2: L1, so :math:`\gamma` is 1 on L1 and
     :math:`(77/60)^2 = 1.6469` on L2). For L2C this is the L2 P(Y) user's correction, which
     RTKLIB also takes when there is no CNAV ISC, as in a RINEX LNAV record. A CNAV record
-    (`cnav_records`) with its :math:`ISC_{L2C}` gives an L2 user
-    :math:`\Delta t_{SV} - T_{GD} + ISC_{L2C}` instead (IS-GPS-200 30.3.3.3.1.1.1). Other
+    (`cnav_records`) with its inter-signal corrections gives an L2C user
+    :math:`\Delta t_{SV} - T_{GD} + ISC_{L2C}` and an L1 C/A user
+    :math:`\Delta t_{SV} - T_{GD} + ISC_{L1C/A}` instead (IS-GPS-200 30.3.3.3.1.1.1). Other
     systems: ``state.clock_l1_s``, their own single-frequency user's (E1, B1I), whatever
     ``carrier_freq_hz``.
     """
     gamma = ionosphere_scale(carrier_freq_hz, reference)
-    if gamma == 1.0:  # the reference's carrier (L1: C/A, E1, B1C): the record's own clock, as it was
-        return state.clock_l1_s
-    tgd = state.clock_s - state.clock_l1_s
     gps = np.isin(np.asarray(eph.sv).astype("U1"), ["G", "J"])
+    if gamma == 1.0:  # the reference's carrier (L1: C/A, E1, B1C): the record's own clock, as it was
+        isc_l1 = eph.elements.get("ISC_L1CA")
+        if isc_l1 is None or reference is not GPS_L1CA:
+            return state.clock_l1_s
+        return np.where(gps & np.isfinite(isc_l1), state.clock_l1_s + np.nan_to_num(isc_l1), state.clock_l1_s)
+    tgd = state.clock_s - state.clock_l1_s
     clock = np.where(gps, state.clock_s - gamma * tgd, state.clock_l1_s)
     isc = eph.elements.get("ISC_L2C")
     if isc is not None and abs(float(carrier_freq_hz) - GPS_L2C.carrier_freq_hz) < 1.0:

@@ -123,7 +123,7 @@ def test_the_record_of_real_messages_places_and_moves_the_satellite_as_the_cnav_
     assert (got.iono.dt_ls_s, got.iono.wn_lsf, got.iono.dn) == (18, 1929 % 256, 7)
 
 
-def test_an_l2c_user_takes_tgd_and_isc_l2c_and_gamma_tgd_without_isc():
+def test_l2c_and_l1ca_users_take_tgd_and_their_isc_and_gamma_tgd_without_one():
     m = _gnsstk()
     rec = cnav_records([m[10], m[11], m[30]]).records[0][1]
     t = np.array([rec.elements["Toe"][0] + 100.0])
@@ -131,8 +131,16 @@ def test_an_l2c_user_takes_tgd_and_isc_l2c_and_gamma_tgd_without_isc():
     tgd, isc = 5.58793545e-09, -3.14321369e-09
     l2 = single_frequency_clock_s(rec, s, GPS_L2C.carrier_freq_hz)
     assert l2[0] == pytest.approx(s.clock_s[0] - tgd + isc, abs=1e-17)  # IS-GPS-200 30.3.3.3.1.1.1
-    assert single_frequency_clock_s(rec, s, GPS_L1CA.carrier_freq_hz)[0] == s.clock_s[0] - rec.elements["TGD"][0]
-    no_isc = Ephemerides(rec.sv, rec.toc_s, {**rec.elements, "ISC_L2C": np.array([np.nan])}, rec.health, rec.iode)
+    l1 = single_frequency_clock_s(rec, s, GPS_L1CA.carrier_freq_hz)
+    assert l1[0] == pytest.approx(s.clock_s[0] - tgd - 3.49245965e-10, abs=1e-17)  # + ISC_L1CA
+    no_isc = Ephemerides(
+        rec.sv,
+        rec.toc_s,
+        {**rec.elements, "ISC_L1CA": np.array([np.nan]), "ISC_L2C": np.array([np.nan])},
+        rec.health,
+        rec.iode,
+    )
+    assert single_frequency_clock_s(no_isc, s, GPS_L1CA.carrier_freq_hz)[0] == s.clock_s[0] - rec.elements["TGD"][0]
     gamma = (GPS_L1CA.carrier_freq_hz / GPS_L2C.carrier_freq_hz) ** 2
     assert single_frequency_clock_s(no_isc, s, GPS_L2C.carrier_freq_hz)[0] == pytest.approx(
         s.clock_s[0] - gamma * tgd, abs=1e-17
