@@ -59,10 +59,12 @@ from ..errors import ConfigError
 from ..signal.gps_l1ca import GPS_L1CA
 from ..signal.spec import SignalSpec
 from ..signal.spec import SPEED_OF_LIGHT_M_S as SPEED_OF_LIGHT_MPS
+from .dual_frequency import DualFrequency
 from .ephemeris import (
     OMEGA_EARTH_RAD_S,
     SYSTEMS,
     Ephemerides,
+    SatelliteState,
     ionosphere_scale,
     satellite_state,
     single_frequency_clock_s,
@@ -389,6 +391,7 @@ def solve_position(
     integrity_risk: float = 1e-7,
     systems: str | None = None,
     time_offsets_s: dict[str, float] | None = None,
+    dual: DualFrequency | None = None,
 ) -> PositionFix | None:
     """Position, velocity and clock of one epoch.
 
@@ -445,6 +448,11 @@ def solve_position(
         Galileo's broadcast GGTO ``A0G + A1G (t - t0G)`` (Galileo OS SIS ICD 5.1.8): that
         system's pseudoranges are corrected by ``+c offset`` and it takes GPS's clock instead
         of its own (its receiver hardware bias is then taken as GPS's).
+    dual
+        The pseudoranges are the ionosphere-free combination of these two signals
+        (`dual_frequency.DualFrequency`): the satellite clock is the combination's, no
+        ionospheric correction is made (``iono`` is not used), and the Dopplers are those of
+        ``signal`` (give its ``first``).
 
     Returns
     -------
@@ -475,9 +483,18 @@ def solve_position(
         return None
     t = np.where(keep, tx, 0.0)
     carrier_hz = _C / signal.wavelength_m
-    clock = single_frequency_clock_s(ephemeris, satellite_state(ephemeris, t), carrier_hz)
+    iono_scale = ionosphere_scale(carrier_hz)
+
+    def sv_clock_s(st: SatelliteState) -> np.ndarray:
+        if dual is not None:
+            return dual.clock_s(ephemeris, st)
+        return single_frequency_clock_s(ephemeris, st, carrier_hz)
+
+    if dual is not None:  # no first-order ionosphere left to correct
+        iono, iono_scale = None, 0.0
+    clock = sv_clock_s(satellite_state(ephemeris, t))
     state = satellite_state(ephemeris, t - clock)  # t = t_SV - Δt_SV (20.3.3.3.3.1)
-    clock_m = _C * single_frequency_clock_s(ephemeris, state, carrier_hz)
+    clock_m = _C * sv_clock_s(state)
     tow = float(np.nanmedian(tx)) + 0.075
     prz = np.where(keep, pr, 0.0)
     offsets = time_offsets_s or {}
@@ -491,7 +508,7 @@ def solve_position(
         letters,
         offsets,
         initial_ecef_m,
-        (sigma_m, iono, troposphere, tow, ionosphere_scale(carrier_hz)),
+        (sigma_m, iono, troposphere, tow, iono_scale),
         (elevation_mask_deg, weighting, ura_m),
         (raim, false_alarm, missed_detection, integrity_risk),
     )

@@ -21,6 +21,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides, _wrap_week
+from ...navigation.dual_frequency import DualFrequency
 from ...navigation.weeks import full_week as nearest_week
 from ...navigation.lnav import IonoUtc
 from .observables import SPEED_OF_LIGHT_MPS, Observables
@@ -145,6 +146,7 @@ def solve_epochs(
     missed_detection: float = 1e-3,
     integrity_risk: float = 1e-7,
     time_offsets_s: dict[str, float] | None = None,
+    dual: DualFrequency | None = None,
 ) -> PositionTable:
     """Solve every epoch of ``obs`` (see the module text).
 
@@ -157,6 +159,9 @@ def solve_epochs(
     ``integrity_risk`` as `solve_position`'s: with ``raim`` the columns `INTEGRITY_COLUMNS`.
     ``time_offsets_s`` as `solve_position`'s (e.g. ``{"E": ggto}``, the broadcast GST - GPST:
     Galileo then takes GPS's clock and no system offset is estimated).
+    ``dual``: ``obs``'s pseudoranges are this ionosphere-free combination
+    (`dual_frequency.DualFrequency`, `dual_observables.ionosphere_free_observables`), solved
+    with its satellite clock and no ionospheric correction.
     """
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
     week = full_week(obs.week, reference_week)
@@ -187,6 +192,7 @@ def solve_epochs(
             missed_detection=missed_detection,
             integrity_risk=integrity_risk,
             time_offsets_s=time_offsets_s,
+            dual=dual,
         )
         if fix is None:
             continue
