@@ -849,6 +849,85 @@ def _receive(args: argparse.Namespace, stdout_sink) -> int:
             print(overruns, file=sys.stderr)
 
 
+def _check_ionosphere_free(args: argparse.Namespace, signal):
+    """The `DualFrequency` of ``--ionosphere-free`` (None without it), refused in one line with
+    what it cannot be combined with."""
+    from .navigation.dual_frequency import DualFrequency
+
+    if not args.ionosphere_free:
+        if args.second_if_hz is not None or args.second_signal != "gps-l2c":
+            raise ConfigError("--second-signal", "describes the --ionosphere-free recording: give that too")
+        return None
+    for flag, given in (
+        ("--tracking vector", args.tracking == "vector"),
+        ("--nav-filter", args.nav_filter is not None),
+        ("--approx-position", getattr(args, "approx_position", None) is not None),
+        ("--nmea-out", bool(getattr(args, "nmea_out", None))),
+    ):
+        if given:
+            raise ConfigError("--ionosphere-free", f"solves by least squares per epoch after the run: drop {flag}")
+    if not Path(args.ionosphere_free).is_file():
+        raise DataFileError(args.ionosphere_free, None, "no such file")
+    return DualFrequency(signal, registry.signal_spec(args.second_signal))
+
+
+def _ionosphere_free(args: argparse.Namespace, dual, result, acq, prns, rinex, reference_week):
+    """``result`` with the ionosphere-free fixes of its recording and the second's
+    (`dual_observables`, ``dual`` of `_check_ionosphere_free`) as its positions; the second
+    recording received as the first, from its own acquisition."""
+    import dataclasses
+
+    from .receiver.frontend import open_recording
+    from .receiver.navigation.dual_observables import ionosphere_free_fixes, second_observables
+    from .receiver.navigation.receive import receive
+
+    signal, second = dual.first, dual.second
+    rec = open_recording(
+        args.ionosphere_free,
+        format=args.format,
+        sample_rate_hz=args.fs,
+        if_hz=args.second_if_hz,
+        q_sign=args.q_sign,
+        signal=second,
+    )
+    from .receiver.navigation.cnav_stream import carries_cnav
+    from .receiver.navigation.inav_stream import carries_inav
+
+    config = _tracking_config_from_args(args, second if carries_cnav(second) or carries_inav(second) else None)
+    found = _acquire_checked(rec, acq, prns, second)
+    other = receive(
+        rec,
+        acq,
+        config,
+        prns=prns,
+        duration_s=args.duration,
+        rate_hz=args.rate,
+        rinex=rinex,
+        reference_week=reference_week,
+        signal=second,
+        acquisitions=found,
+    )
+    if result.observables is None:
+        raise ConfigError("--ionosphere-free", f"no transmit time decoded from {signal.name}: nothing to combine")
+    obs2 = second_observables(other.tracking, dual, result.observables, args.rate)
+    if obs2 is None:
+        raise ConfigError("--ionosphere-free", f"no transmit time decoded from {second.name} in {args.ionosphere_free}")
+    _, table = ionosphere_free_fixes(
+        result.observables,
+        obs2,
+        dual,
+        rinex,
+        troposphere=args.troposphere,
+        reference_week=reference_week,
+        weighting=args.weighting,
+    )
+    print(
+        f"ionosphere-free: {len(table)} fixes from {signal.name} and {second.name} "
+        f"({len(other.tracking.channels)} satellites tracked in {Path(args.ionosphere_free).name})"
+    )
+    return dataclasses.replace(result, positions=table, least_squares=table)
+
+
 def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int:
     import json
     import time
@@ -873,9 +952,12 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     rec = live.recording
     acq = _acquisition_from_args(args)
     if "," in args.signal:
+        if args.ionosphere_free:
+            raise ConfigError("--ionosphere-free", "combines one signal with --second-signal: give one --signal")
         return _receive_several(args, live, outputs)
     signal = _signal_from_args(args)
     require_positioning(signal)  # dated from LNAV, I/NAV or CNAV: another message would be misread
+    dual = _check_ionosphere_free(args, signal)  # refused before any tracking
     prns = _prns_from_args(args, signal)
     try:
         channel_params = json.loads(args.channel_params) if args.channel_params else None
@@ -978,6 +1060,8 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             observe=fixes.observe if fixes is not None and vector is None else None,
             smooth=args.smooth,
         )
+    if dual is not None:
+        result = _ionosphere_free(args, dual, result, acq, prns, rinex, reference_week)
     if fixes is not None:
         fixes.finish(result.positions, result.observables)
         print(f"NMEA: {fixes.sent} fixes sent to {', '.join(s.description for s in live.sinks)}")
@@ -1684,6 +1768,21 @@ def build_parser() -> argparse.ArgumentParser:
         help="no Klobuchar correction (by default the decoded page 18's, else the --ephemeris file header's)",
     )
     p.add_argument("--troposphere", action="store_true", help="apply the Saastamoinen troposphere")
+    p.add_argument(
+        "--ionosphere-free",
+        metavar="FILE",
+        help="a second recording of the same front end, started together, on another carrier: "
+        "positions.csv then holds the ionosphere-free fixes of the two signals (GPS/QZSS, "
+        "scalar tracking, least squares); opened with --format, --fs and --q-sign, its IF "
+        "from its SigMF metadata or --second-if",
+    )
+    p.add_argument(
+        "--second-signal",
+        metavar="NAME",
+        default="gps-l2c",
+        help="with --ionosphere-free: the second recording's signal (default gps-l2c)",
+    )
+    p.add_argument("--second-if", type=float, dest="second_if_hz", metavar="HZ", help="with --ionosphere-free: its IF")
     p.add_argument(
         "--weighting",
         choices=WEIGHTINGS,

@@ -20,7 +20,7 @@ from gnssframework.navigation import cnav
 from gnssframework.navigation.rinex_nav_header import read_nav_file_info
 from gnssframework.signal.gps_l2c import GPS_L2C
 from gnssframework.signal.if_samples import generate_if_samples
-from light_time import signal_flight
+from light_time import C, signal_flight
 from lnav_recordings import CHUNK_S, NAV, STATION
 from noisy_recording import write_noisy_recording
 
@@ -40,13 +40,18 @@ def l2_satellite_time(eph, t_rx) -> np.ndarray:
     return t_rx - flight.tau_s + flight.clock_s - (GAMMA - 1.0) * eph.elements["TGD"]
 
 
-def write_l2c_recording(path: Path, sats, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0):
+def write_l2c_recording(
+    path: Path, sats, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0, iono_l1_m=None
+):
     """Write ``duration_s`` of L2C from the satellites ``sats`` (an `Ephemerides`, records on
-    CNAV's 300 s grid of Toe) from GPS time ``tow0`` to ``path`` (``.sigmf-data``)."""
+    CNAV's 300 s grid of Toe) from GPS time ``tow0`` to ``path`` (``.sigmf-data``);
+    ``iono_l1_m`` each satellite's ionospheric code delay on L1 (m, constant), sent on L2
+    times ``GAMMA``."""
+    iono_s = np.zeros(sats.sv.size) if iono_l1_m is None else GAMMA * np.asarray(iono_l1_m, float) / C
     rng = np.random.default_rng(seed)
     n = int(round(CHUNK_S * FS))
     period = GPS_L2C.code_period_s
-    t_sv0 = l2_satellite_time(sats, np.array(tow0))
+    t_sv0 = l2_satellite_time(sats, np.array(tow0)) - iono_s
     iono = read_nav_file_info(NAV).iono
     streams = []
     for k in range(sats.sv.size):
@@ -62,8 +67,8 @@ def write_l2c_recording(path: Path, sats, tow0: float, duration_s: float, seed: 
     def chunks():
         for c in range(int(round(duration_s / CHUNK_S))):
             t0 = c * CHUNK_S
-            start = l2_satellite_time(sats, tow0 + t0)
-            end = l2_satellite_time(sats, tow0 + t0 + CHUNK_S)
+            start = l2_satellite_time(sats, tow0 + t0) - iono_s
+            end = l2_satellite_time(sats, tow0 + t0 + CHUNK_S) - iono_s
             doppler = GPS_L2C.carrier_freq_hz * ((end - start) / CHUNK_S - 1.0)
             x = np.zeros(n, complex)
             for k in range(sats.sv.size):

@@ -67,6 +67,7 @@ def write_lnav_recording(
     cn0_dbhz: float | Callable[[float], float] = 45.0,
     code_delay: tuple[int, float, float] | None = None,
     sample_rate_hz: float = FS,
+    iono_m: np.ndarray | None = None,
 ) -> Path:
     """Write ``duration_s`` of the satellites ``sats`` (an `Ephemerides`) from GPS time
     ``tow0`` to ``path`` (``.sigmf-data`` with its metadata); ``blank`` = (index of a
@@ -75,7 +76,9 @@ def write_lnav_recording(
     the file), every satellite's; ``code_delay`` = (index of a satellite, start s, metres)
     delays that satellite's code (not its carrier) by that many metres in the chunks from
     start on (a code fault: multipath-like or spoofed); ``sample_rate_hz`` the file's rate
-    (`FS`, 2 samples a chip, by default)."""
+    (`FS`, 2 samples a chip, by default); ``iono_m`` each satellite's ionospheric code delay
+    on L1 (m, constant: the code and its data bits sent that much earlier, the carrier's
+    advance left out)."""
     rng = np.random.default_rng(seed)
     n = int(round(CHUNK_S * sample_rate_hz))
     t_sv0 = _satellite_time(sats, np.array(tow0))
@@ -98,7 +101,7 @@ def write_lnav_recording(
                     continue
                 bits, into = symbols[k]
                 first_tsv = float(t_sv0[k]) - 0.1 - into  # t_SV of the first bit edge
-                tsv = start[k]
+                tsv = start[k] - (0.0 if iono_m is None else iono_m[k] / C)
                 if code_delay is not None and k == code_delay[0] and t0 >= code_delay[1]:
                     tsv = tsv - code_delay[2] / C  # the code transmitted that much earlier
                 x += generate_if_samples(
@@ -113,7 +116,7 @@ def write_lnav_recording(
                     carrier_phase_rad=phase[k],
                     complex_samples=True,
                     data_bits=bits,
-                    first_bit_edge_s=first_tsv - start[k],
+                    first_bit_edge_s=first_tsv - (start[k] if iono_m is None else tsv),
                     noise=False,
                 ).samples
                 phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
