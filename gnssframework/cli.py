@@ -519,21 +519,16 @@ def _note_nonfinite(rec) -> None:
         )
 
 
-#: The early-to-late spacing (chips) ``track`` uses on a BOC signal unless told
-#: (`docs/receiver/galileo-e1.md`: the spacing the E1 tracking was validated with).
-BOC_EARLY_LATE_SPACING_CHIPS = 0.2
-
-
 def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | None = None):
     """The tracking settings of ``track`` and ``position`` (a command without an option
-    leaves its default), and ``--duration`` checked. With ``signal``, ``--coherent-ms-track``
-    must divide its data symbol and defaults to the largest such up to 10 code periods
-    (`inav_stream.coherent_periods`: 1 on Galileo E1-B), and a BOC signal's early-to-late
-    spacing defaults to `BOC_EARLY_LATE_SPACING_CHIPS`."""
+    leaves its default), and ``--duration`` checked. With ``signal``, what its description
+    implies under the options given (`channels.signal_settings.signal_tracking_settings`:
+    the coherent time dividing its data symbol, the pull-in loops of a long code period, the
+    taps of a BOC or time-slotted component)."""
     import json
 
-    from .receiver.channels import TrackingConfig, tracking_config
-    from .receiver.navigation.inav_stream import coherent_periods
+    from .receiver.channels import tracking_config
+    from .receiver.channels.signal_settings import signal_tracking_settings
 
     try:
         params = json.loads(args.channel_params) if args.channel_params else {}
@@ -552,29 +547,7 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
         if getattr(args, option, None) is not None:
             settings[key] = getattr(args, option)
     if signal is not None:
-        coherent = coherent_periods(signal, getattr(args, "coherent_ms_track", None))
-        if coherent is not None:
-            settings["coherent_ms"] = coherent
-        if signal.code_period_s * TrackingConfig().pull_in_params["pll_bandwidth_hz"] > 0.2:
-            # One code period (20 ms on L2 CM) is the shortest interval: the default loops'
-            # B_L T would exceed what a discretised loop takes. Narrower ones, with B_L T
-            # `LONG_PERIOD_B_L_T` at that period (a channel filter's PLL too, where it has a
-            # `pll_bandwidth_hz` parameter and is not told one).
-            pll_hz = LONG_PERIOD_B_L_T / signal.code_period_s
-            scale = pll_hz / LONG_PERIOD_PULL_IN["pll_bandwidth_hz"]
-            settings["pull_in_params"] = {k: v * scale for k, v in LONG_PERIOD_PULL_IN.items()}
-            name = args.channel_filter or TrackingConfig().channel_filter
-            takes = registry.get("channel_filter", name).Params.model_fields
-            if "pll_bandwidth_hz" in takes and "pll_bandwidth_hz" not in params:
-                params["pll_bandwidth_hz"] = pll_hz
-        if signal.subcarrier.kind != "bpsk" and getattr(args, "early_late_spacing", None) is None:
-            # BOC(1,1)'s main peak is +-1/3 chip wide: taps +-0.5 chip apart sit on its side lobes
-            settings["early_late_spacing_chips"] = BOC_EARLY_LATE_SPACING_CHIPS
-        slots = signal.tracked.time_slot[1]
-        if slots > 1 and getattr(args, "early_late_spacing", None) is None:
-            # A component sent in 1 of n slots of each chip (L2 CM: 1 of 2) has a peak 1/n chip
-            # wide either side: taps +-0.5 chip apart would sit on its edges, where it is 0.
-            settings["early_late_spacing_chips"] = 1.0 / slots
+        settings = signal_tracking_settings(signal, settings)
     if args.duration is not None and not args.duration >= MIN_DURATION_S:
         raise ConfigError(
             "--duration", f"must be at least {MIN_DURATION_S:g} s (tracking's first intervals), got {args.duration:g}"
@@ -586,14 +559,6 @@ def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | No
 #: `threshold.blocks_for_detection` asks for 30 dB-Hz at Pd 0.9 and pfa 1e-3 over +-5 kHz
 #: at 2.6 MHz, with 2.8 dB of worst straddle loss).
 WEAK_SEARCH = {"coherent_ms": 10, "noncoherent": 18, "alternate_blocks": True, "code_doppler": True}
-
-#: Loop bandwidth times interval of the pull-in PLL (and the scalar filter's) on a signal
-#: whose code period is too long for the defaults (GPS L2 CM, 20 ms: 8 Hz), under the 0.2 a
-#: discretised analog loop takes; the FLL and DLL scaled with it from `LONG_PERIOD_PULL_IN`.
-LONG_PERIOD_B_L_T = 0.16
-#: Ratios of the pull-in loops' bandwidths on such a signal (Hz at a 20 ms period).
-LONG_PERIOD_PULL_IN = {"pll_bandwidth_hz": 8.0, "fll_bandwidth_hz": 4.0, "dll_bandwidth_hz": 1.0}
-
 
 #: Shortest ``--duration`` of ``track`` and ``receive``: the pull-in stage's first
 #: 1 ms intervals; less tracks nothing and reports NaN.
@@ -849,13 +814,17 @@ def _receive(args: argparse.Namespace, stdout_sink) -> int:
             print(overruns, file=sys.stderr)
 
 
+#: ``receive --ionosphere-free``'s second signal unless ``--second-signal`` names one.
+SECOND_SIGNAL = "gps-l2c"
+
+
 def _check_ionosphere_free(args: argparse.Namespace, signal):
     """The `DualFrequency` of ``--ionosphere-free`` (None without it), refused in one line with
     what it cannot be combined with."""
     from .navigation.dual_frequency import DualFrequency
 
     if not args.ionosphere_free:
-        if args.second_if_hz is not None or args.second_signal != "gps-l2c":
+        if args.second_if_hz is not None or args.second_signal is not None:
             raise ConfigError("--second-signal", "describes the --ionosphere-free recording: give that too")
         return None
     for flag, given in (
@@ -868,7 +837,7 @@ def _check_ionosphere_free(args: argparse.Namespace, signal):
             raise ConfigError("--ionosphere-free", f"solves by least squares per epoch after the run: drop {flag}")
     if not Path(args.ionosphere_free).is_file():
         raise DataFileError(args.ionosphere_free, None, "no such file")
-    return DualFrequency(signal, registry.signal_spec(args.second_signal))
+    return DualFrequency(signal, registry.signal_spec(args.second_signal or SECOND_SIGNAL))
 
 
 def _ionosphere_free(args: argparse.Namespace, dual, result, acq, prns, rinex, reference_week):
@@ -1779,8 +1748,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--second-signal",
         metavar="NAME",
-        default="gps-l2c",
-        help="with --ionosphere-free: the second recording's signal (default gps-l2c)",
+        help=f"with --ionosphere-free: the second recording's signal (default {SECOND_SIGNAL})",
     )
     p.add_argument("--second-if", type=float, dest="second_if_hz", metavar="HZ", help="with --ionosphere-free: its IF")
     p.add_argument(

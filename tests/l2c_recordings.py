@@ -96,19 +96,8 @@ def write_l2c_recording(
 
 
 def l2c_tracking_config():
-    """`track --signal gps-l2c`'s tracking settings (the CLI's: the pull-in loops narrowed
-    to L2 CM's 20 ms period, taps half a chip apart)."""
-    import argparse
+    """L2C's tracking settings (`channels.signal_tracking_config`: the pull-in loops narrowed
+    to L2 CM's 20 ms period, taps half a chip apart), as ``track --signal gps-l2c`` takes."""
+    from gnssframework.receiver.channels import signal_tracking_config
 
-    from gnssframework import cli
-
-    options = argparse.Namespace(
-        channel_params=None,
-        channel_filter="scalar",
-        weak=False,
-        coherent_ms_track=None,
-        cn0_estimator=None,
-        early_late_spacing=None,
-        duration=None,
-    )
-    return cli._tracking_config_from_args(options, GPS_L2C)
+    return signal_tracking_config(GPS_L2C)

@@ -106,24 +106,30 @@ def test_the_compiled_mean_of_the_pair_is_the_reference_correlation_with_cms_tab
     assert np.abs(ref[0, :, 1]).min() > 1000 * bound  # PRN 3's prompt holds the signal
 
 
-def test_tracks_defaults_on_l2c_fit_a_20_ms_period_and_cms_half_chip_peak():
+def test_l2cs_tracking_settings_fit_a_20_ms_period_and_cms_half_chip_peak():
+    """`signal_tracking_config` reads them from the description; track's CLI takes the same."""
     from argparse import Namespace
 
     from gnssframework.cli import _tracking_config_from_args
+    from gnssframework.receiver.channels import WEAK_SIGNAL_SETTINGS, signal_tracking_config
 
-    def config(signal, **given):
-        args = dict(channel_filter="scalar", channel_params=None, duration=None)
-        return _tracking_config_from_args(Namespace(**{**args, **given}), signal)
-
-    l2c = config(GPS_L2C)
+    l2c = signal_tracking_config(GPS_L2C)
     # B_L T = 0.16 at T = 20 ms (the 18 Hz default, 0.36, is refused by the loop filter)
     assert l2c.pull_in_params == {"pll_bandwidth_hz": 8.0, "fll_bandwidth_hz": 4.0, "dll_bandwidth_hz": 1.0}
     assert l2c.channel_params == {"pll_bandwidth_hz": 8.0} and l2c.early_late_spacing_chips == 0.5
     assert l2c.coherent_ms == 1  # one CM period a symbol
-    told = config(GPS_L2C, early_late_spacing=0.8, channel_params='{"pll_bandwidth_hz": 5.0}')
+    told = signal_tracking_config(GPS_L2C, early_late_spacing_chips=0.8, channel_params={"pll_bandwidth_hz": 5.0})
     assert told.early_late_spacing_chips == 0.8 and told.channel_params == {"pll_bandwidth_hz": 5.0}
-    l1 = config(GPS_L1CA)
+    narrow = signal_tracking_config(GPS_L2C, pull_in_params={"pll_bandwidth_hz": 5.0})
+    assert narrow.pull_in_params == {"pll_bandwidth_hz": 5.0}  # B_L T 0.1: kept
+    weak = signal_tracking_config(GPS_L2C, **WEAK_SIGNAL_SETTINGS)  # its 15 Hz pull-in: B_L T 0.3
+    assert weak.pull_in_params == l2c.pull_in_params and weak.bit_sync == "energy"
+    assert weak.channel_params["pll_bandwidth_hz"] == 10.0  # the preset's own, B_L T 0.2
+    l1 = signal_tracking_config(GPS_L1CA)
     assert l1.pull_in_params["pll_bandwidth_hz"] == 18.0 and l1.early_late_spacing_chips == 1.0
+    assert l1.coherent_ms == 10  # half an LNAV bit
+    args = Namespace(channel_filter="scalar", channel_params=None, duration=None)
+    assert _tracking_config_from_args(args, GPS_L2C) == signal_tracking_config(GPS_L2C, channel_filter="scalar")
 
 
 FS = 2.046e6

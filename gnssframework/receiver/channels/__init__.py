@@ -8,6 +8,7 @@ from .config import WEAK_SIGNAL_SETTINGS, TrackingConfig, tracking_config, weak_
 from .correlator import correlate_channels, correlate_numpy
 from .lock import BitSync, estimate_cn0, phase_lock_indicator
 from .nco import ReplicaNCOs
+from .signal_settings import signal_tracking_config, signal_tracking_settings
 from .tracker import RECORD_FIELDS, STAGES, ChannelRecord, SampleTracker, TrackingResult
 
 __all__ = [
@@ -15,6 +16,8 @@ __all__ = [
     "TrackingConfig",
     "tracking_config",
     "weak_signal_tracking",
+    "signal_tracking_config",
+    "signal_tracking_settings",
     "WEAK_SIGNAL_SETTINGS",
     "correlate_channels",
     "correlate_numpy",

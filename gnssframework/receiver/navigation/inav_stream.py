@@ -35,6 +35,7 @@ from ...navigation.inav import PAGE_SYMBOLS, InavMessage, decode_inav
 from ...navigation.inav_params import InavIonoTime, merge_iono_time
 from ...navigation.lnav import LnavMessage
 from ...signal.spec import SignalSpec
+from ..channels.signal_settings import coherent_periods
 
 if TYPE_CHECKING:
     from ..channels import ChannelRecord, TrackingResult
@@ -100,25 +101,6 @@ def require_lnav(signal: SignalSpec) -> None:
         raise ConfigError(
             "signal", f"{signal.name}: LNAV dating and positioning take GPS LNAV (gps-l1ca, qzss-l1ca) only{hint}"
         )
-
-
-def coherent_periods(signal: SignalSpec, requested: int | None, default: int = 10) -> int | None:
-    """The tracking's coherent code periods after bit sync on ``signal``: ``requested``
-    (None: the largest of 1, 2, 4, 5, ``default`` that divides a data symbol; None on a
-    pilot, the tracking's default), refused where it spans data symbols."""
-    per_symbol = signal.code_periods_per_symbol
-    if per_symbol is None:
-        return requested
-    if requested is None:
-        return max(k for k in (1, 2, 4, 5, default) if k <= default and per_symbol % k == 0)
-    if per_symbol % requested:
-        raise ConfigError(
-            "tracking.coherent_ms",
-            f"{requested} code periods span {signal.name}'s data symbols "
-            f"({per_symbol} code period{'s' if per_symbol > 1 else ''} each): "
-            "give one that divides it",
-        )
-    return requested
 
 
 def symbol_runs(
