@@ -37,3 +37,14 @@ def signal_flight(eph: Ephemerides, t_rx: float | np.ndarray, receiver: np.ndarr
         )
         tau = np.linalg.norm(rot - receiver, axis=1) / C
     return Flight(tau, st.clock_l1_s, rot)
+
+
+def visible_records(nav: Ephemerides, t_rx: float, receiver: np.ndarray, min_elevation_deg: float = 10.0):
+    """Each satellite's record nearest ``t_rx`` of ``nav``, of those above
+    ``min_elevation_deg`` seen from ``receiver`` (ECEF m), and their elevations (rad)."""
+    sel = nav.select(np.unique(nav.sv), t_rx)
+    up = receiver / np.linalg.norm(receiver)
+    los = satellite_state(sel, t_rx).position_m - receiver
+    el = np.arcsin(los @ up / np.linalg.norm(los, axis=1))
+    keep = np.flatnonzero(el > np.radians(min_elevation_deg))
+    return sel.subset(keep), el[keep]

@@ -347,7 +347,7 @@ def single_frequency_clock_s(
     gps = np.isin(np.asarray(eph.sv).astype("U1"), ["G", "J"])
     if gamma == 1.0:  # the reference's carrier (L1: C/A, E1, B1C): the record's own clock, as it was
         isc_l1 = eph.elements.get("ISC_L1CA")
-        if isc_l1 is None or reference is not GPS_L1CA:
+        if isc_l1 is None:  # no CNAV record: T_GD alone, as LNAV's (and E1's, B1I's) user takes it
             return state.clock_l1_s
         return np.where(gps & np.isfinite(isc_l1), state.clock_l1_s + np.nan_to_num(isc_l1), state.clock_l1_s)
     tgd = state.clock_s - state.clock_l1_s

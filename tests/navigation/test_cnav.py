@@ -20,24 +20,13 @@ from hypothesis import strategies as st
 from gnssframework.errors import ConfigError
 from gnssframework.navigation import cnav
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
+from gnsstk_cnav import gnsstk_messages
 
 DATA = Path(__file__).parents[1] / "data"
-GNSSTK = DATA / "gnsstk_cnav_gps_l2_prn1.hex"
-
-
-def _gnsstk_messages() -> list[tuple[int, float, np.ndarray]]:
-    out = []
-    for line in GNSSTK.read_text().splitlines():
-        if line.startswith("#") or not line.strip():
-            continue
-        kind, ct, text = line.split()
-        bits = np.array([int(c) for c in bin(int(text, 16))[2:].zfill(300)], dtype=np.uint8)
-        out.append((int(kind), float(ct), bits))
-    return out
 
 
 def test_gnsstks_real_messages_pass_the_crc_and_parse_as_gnsstk_says():
-    msgs = _gnsstk_messages()
+    msgs = gnsstk_messages()
     assert [k for k, _, _ in msgs] == [10, 11, 30, 32, 33]
     for kind, ct, bits in msgs:
         m = cnav.message_from_bits(bits)
@@ -50,7 +39,7 @@ def test_gnsstks_real_messages_pass_the_crc_and_parse_as_gnsstk_says():
 
 
 def test_a_flipped_bit_fails_the_crc():
-    bits = _gnsstk_messages()[0][2]
+    bits = gnsstk_messages()[0][2]
     for k in (0, 40, 150, 299):
         b = bits.copy()
         b[k] ^= 1
@@ -58,7 +47,7 @@ def test_a_flipped_bit_fails_the_crc():
 
 
 def test_messages_10_and_11_give_gnsstks_ephemeris():
-    msgs = {k: cnav.message_from_bits(b) for k, _, b in _gnsstk_messages()}
+    msgs = {k: cnav.message_from_bits(b) for k, _, b in gnsstk_messages()}
     e = cnav.parse_ephemeris(msgs[10], msgs[11])
     pi = np.pi
     assert (e.prn, e.wn, e.toe_s, e.top_s) == (1, 2060, 91800.0, 21600.0)
@@ -88,7 +77,7 @@ def test_messages_10_and_11_give_gnsstks_ephemeris():
 
 
 def test_the_clock_of_messages_30_to_37_and_the_utc_of_33_are_gnsstks():
-    msgs = {k: cnav.message_from_bits(b) for k, _, b in _gnsstk_messages()}
+    msgs = {k: cnav.message_from_bits(b) for k, _, b in gnsstk_messages()}
     for kind in (30, 32, 33):  # GNSSTk reads the clock from 30; 32 and 33 send the same one
         c = cnav.parse_clock(msgs[kind])
         assert (c.prn, c.msg_type, c.top_s, c.toc_s) == (1, kind, 21600.0, 91800.0)
@@ -115,7 +104,7 @@ def test_the_clock_of_messages_30_to_37_and_the_utc_of_33_are_gnsstks():
 
 
 def test_parse_ephemeris_refuses_the_wrong_messages_in_one_line():
-    msgs = {k: cnav.message_from_bits(b) for k, _, b in _gnsstk_messages()}
+    msgs = {k: cnav.message_from_bits(b) for k, _, b in gnsstk_messages()}
     with pytest.raises(ConfigError, match=r"msg11.*PRN 1: expected message type 11, got 30"):
         cnav.parse_ephemeris(msgs[10], msgs[30])
     bad = msgs[11].bits.copy()
@@ -125,7 +114,7 @@ def test_parse_ephemeris_refuses_the_wrong_messages_in_one_line():
 
 
 def test_the_stream_decodes_from_any_symbol_and_either_polarity():
-    rows = np.array([b for _, _, b in _gnsstk_messages()])
+    rows = np.array([b for _, _, b in gnsstk_messages()])
     symbols = cnav.encode_cnav(rows).astype(float)
     assert symbols.size == 3000
     for cut in (0, 1, 2, 37, 600):
@@ -228,7 +217,7 @@ def test_the_ephemeris_of_messages_10_and_11_places_the_satellite_where_lnav_doe
 
 
 def test_a_non_zero_adot_moves_the_radius_by_adot_times_tk():
-    msgs = {k: cnav.message_from_bits(b) for k, _, b in _gnsstk_messages()}
+    msgs = {k: cnav.message_from_bits(b) for k, _, b in gnsstk_messages()}
     e = cnav.parse_ephemeris(msgs[10], msgs[11])
     t = e.toe_s + 3600.0
     from dataclasses import replace

@@ -28,6 +28,7 @@ from gnssframework.navigation.ephemeris import (
 from gnssframework.navigation.rinex_nav_header import read_nav_file_info
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.gps_l2c import GPS_L2C
+from gnsstk_cnav import gnsstk_cnav
 
 DATA = Path(__file__).parents[1] / "data"
 NAV = DATA / "07590920.05n"
@@ -35,19 +36,8 @@ GM = 3.986005e14
 OMEGA_E = 7.2921151467e-5
 
 
-def _gnsstk() -> dict[int, cnav.CnavMessage]:
-    out = {}
-    for line in (DATA / "gnsstk_cnav_gps_l2_prn1.hex").read_text().splitlines():
-        if line.startswith("#") or not line.strip():
-            continue
-        kind, _, text = line.split()
-        bits = np.array([int(c) for c in bin(int(text, 16))[2:].zfill(300)], dtype=np.uint8)
-        out[int(kind)] = cnav.message_from_bits(bits)
-    return out
-
-
 def test_message_30_gives_gnsstks_group_delays_and_klobuchar_coefficients():
-    d = cnav.parse_group_delays(_gnsstk()[30])
+    d = cnav.parse_group_delays(gnsstk_cnav()[30])
     assert d.prn == 1
     expected = {
         d.tgd_s: 5.58793545e-09,
@@ -61,7 +51,7 @@ def test_message_30_gives_gnsstks_group_delays_and_klobuchar_coefficients():
     assert d.iono.alpha == pytest.approx((4.656612870e-09, 1.490116118e-08, -5.960464478e-08, -1.192092897e-07))
     assert d.iono.beta == (8.192e4, 8.192e4, -6.5536e4, -5.24288e5)
     with pytest.raises(ConfigError, match=r"msg: PRN 1: message type 32 carries none \(type 30 does\)"):
-        cnav.parse_group_delays(_gnsstk()[32])
+        cnav.parse_group_delays(gnsstk_cnav()[32])
 
 
 def _cnav_truth(e: cnav.CnavEphemeris, t: np.ndarray) -> np.ndarray:
@@ -93,7 +83,7 @@ def _cnav_truth(e: cnav.CnavEphemeris, t: np.ndarray) -> np.ndarray:
 
 
 def test_the_record_of_real_messages_places_and_moves_the_satellite_as_the_cnav_algorithm():
-    m = _gnsstk()
+    m = gnsstk_cnav()
     got = cnav_records([m[10], m[11], m[30], m[32], m[33]])
     assert [i for i, _ in got.records] == [2]  # type 30 completes it, as GNSSTk's factory says
     rec = got.records[0][1]
@@ -124,7 +114,7 @@ def test_the_record_of_real_messages_places_and_moves_the_satellite_as_the_cnav_
 
 
 def test_l2c_and_l1ca_users_take_tgd_and_their_isc_and_gamma_tgd_without_one():
-    m = _gnsstk()
+    m = gnsstk_cnav()
     rec = cnav_records([m[10], m[11], m[30]]).records[0][1]
     t = np.array([rec.elements["Toe"][0] + 100.0])
     s = satellite_state(rec, t)
@@ -176,7 +166,7 @@ def test_records_sent_as_types_10_11_and_30_come_back_within_their_scale_factors
 
 
 def test_no_record_without_type_30_or_with_orbits_of_two_uploads():
-    m = _gnsstk()
+    m = gnsstk_cnav()
     assert cnav_records([m[10], m[11], m[32], m[33]]).records == []  # clock, but no group delays
     assert cnav_records([m[10], m[11], m[32], m[33]]).iono is None
     # Type 11 of another toe: no orbit.
@@ -191,7 +181,7 @@ def test_no_record_without_type_30_or_with_orbits_of_two_uploads():
 
 def test_concatenate_fills_the_cnav_elements_an_lnav_record_lacks():
     nav = read_rinex_nav(NAV)
-    m = _gnsstk()
+    m = gnsstk_cnav()
     cnav_rec = cnav_records([m[10], m[11], m[30]]).records[0][1]
     both = Ephemerides.concatenate([nav.subset(np.array([0])), cnav_rec])
     assert both.elements["Adot"][0] == 0.0 and np.isnan(both.elements["ISC_L2C"][0])

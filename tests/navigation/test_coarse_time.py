@@ -13,9 +13,9 @@ from scipy import stats
 
 from gnssframework.errors import ConfigError
 from gnssframework.navigation.coarse_time import solve_coarse_time
-from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
+from gnssframework.navigation.ephemeris import read_rinex_nav
 from gnssframework.navigation.pvt import solve_position
-from light_time import C, signal_flight
+from light_time import C, signal_flight, visible_records
 
 NAV = Path(__file__).parents[1] / "data" / "07590920.05n"
 STATION = np.array([-3976219.5082, 3382372.5671, 3652512.9849])  # the file's header, m
@@ -26,12 +26,7 @@ APPROX = STATION + np.array([50e3, -40e3, 45e3])
 
 @pytest.fixture(scope="module")
 def visible():
-    eph = read_rinex_nav(NAV)
-    sel = eph.select(np.unique(eph.sv), T_RX)
-    up = STATION / np.linalg.norm(STATION)
-    los = satellite_state(sel, T_RX).position_m - STATION
-    el = np.degrees(np.arcsin(los @ up / np.linalg.norm(los, axis=1)))
-    return sel.subset(np.flatnonzero(el > 10))
+    return visible_records(read_rinex_nav(NAV), T_RX, STATION)[0]
 
 
 def _truth(eph, bias_m: float = 3_000.0):

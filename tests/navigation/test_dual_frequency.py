@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from gnssframework.errors import ConfigError
-from gnssframework.navigation import cnav
 from gnssframework.navigation.cnav_records import cnav_records
 from gnssframework.navigation.dual_frequency import DualFrequency
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
@@ -21,7 +20,8 @@ from gnssframework.navigation.pvt import solve_position
 from gnssframework.signal.galileo_e1 import GALILEO_E1B
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.gps_l2c import GPS_L2C
-from light_time import C, signal_flight
+from gnsstk_cnav import gnsstk_cnav
+from light_time import C, signal_flight, visible_records
 
 DATA = Path(__file__).parents[1] / "data"
 NAV = DATA / "07590920.05n"
@@ -33,13 +33,7 @@ L1L2 = DualFrequency(GPS_L1CA, GPS_L2C)
 
 @pytest.fixture(scope="module")
 def visible():
-    eph = read_rinex_nav(NAV)
-    sel = eph.select(np.unique(eph.sv), T_RX)
-    up = STATION / np.linalg.norm(STATION)
-    los = satellite_state(sel, T_RX).position_m - STATION
-    el = np.arcsin(los @ up / np.linalg.norm(los, axis=1))
-    keep = el > np.radians(10)
-    return sel.subset(np.flatnonzero(keep)), el[keep]
+    return visible_records(read_rinex_nav(NAV), T_RX, STATION)
 
 
 def test_gamma_and_the_noise_factor_are_the_icds():
@@ -77,13 +71,7 @@ def test_the_combination_removes_the_ionosphere_and_gives_the_station(visible):
 def test_with_cnav_iscs_the_clock_is_the_icds_combination():
     """IS-GPS-200 30.3.3.3.1.1.2: the L1 C/A and L2C combination's clock is
     Δt_SV - T_GD + (ISC_L2C - γ ISC_L1CA) / (1 - γ), with GNSSTk's ISCs of a real type 30."""
-    msgs = {}
-    for line in (DATA / "gnsstk_cnav_gps_l2_prn1.hex").read_text().splitlines():
-        if line.startswith("#") or not line.strip():
-            continue
-        kind, _, text = line.split()
-        bits = np.array([int(c) for c in bin(int(text, 16))[2:].zfill(300)], dtype=np.uint8)
-        msgs[int(kind)] = cnav.message_from_bits(bits)
+    msgs = gnsstk_cnav()
     rec = cnav_records([msgs[10], msgs[11], msgs[30]]).records[0][1]
     state = satellite_state(rec, np.array([rec.elements["Toe"][0] + 60.0]))
     tgd, isc1, isc2 = 5.58793545e-09, -3.49245965e-10, -3.14321369e-09

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from gnssframework.errors import ConfigError
-from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
-from light_time import C, signal_flight
+from gnssframework.navigation.ephemeris import read_rinex_nav
+from light_time import C, signal_flight, visible_records
 from gnssframework.navigation.lnav import IonoUtc
 from gnssframework.navigation.pvt import dop, klobuchar_delay_s, solve_position, troposphere_delay_m
 
@@ -30,13 +30,7 @@ def _truth(eph, t_rx, receiver, bias_m):
 
 @pytest.fixture(scope="module")
 def visible():
-    eph = read_rinex_nav(NAV)
-    names = np.unique(eph.sv)
-    sel = eph.select(names, T_RX)
-    up = STATION / np.linalg.norm(STATION)
-    los = satellite_state(sel, T_RX).position_m - STATION
-    el = np.degrees(np.arcsin(los @ up / np.linalg.norm(los, axis=1)))
-    return sel.subset(np.flatnonzero(el > 10))
+    return visible_records(read_rinex_nav(NAV), T_RX, STATION)[0]
 
 
 def test_noise_free_pseudoranges_give_the_station_and_clock(visible):
