@@ -847,10 +847,15 @@ def _ionosphere_free(args: argparse.Namespace, dual, result, acq, prns, rinex, r
     import dataclasses
 
     from .receiver.frontend import open_recording
+    from .receiver.navigation.cnav_stream import carries_cnav
     from .receiver.navigation.dual_observables import ionosphere_free_fixes, second_observables
+    from .receiver.navigation.inav_stream import carries_inav
     from .receiver.navigation.receive import receive
 
     signal, second = dual.first, dual.second
+    if result.observables is None:  # the no-position path writes the tracking and says why
+        print(f"note: ionosphere-free: no transmit time decoded from {signal.name}; nothing to combine")
+        return dataclasses.replace(result, positions=None, least_squares=None)
     rec = open_recording(
         args.ionosphere_free,
         format=args.format,
@@ -859,9 +864,6 @@ def _ionosphere_free(args: argparse.Namespace, dual, result, acq, prns, rinex, r
         q_sign=args.q_sign,
         signal=second,
     )
-    from .receiver.navigation.cnav_stream import carries_cnav
-    from .receiver.navigation.inav_stream import carries_inav
-
     config = _tracking_config_from_args(args, second if carries_cnav(second) or carries_inav(second) else None)
     found = _acquire_checked(rec, acq, prns, second)
     other = receive(
@@ -876,11 +878,11 @@ def _ionosphere_free(args: argparse.Namespace, dual, result, acq, prns, rinex, r
         signal=second,
         acquisitions=found,
     )
-    if result.observables is None:
-        raise ConfigError("--ionosphere-free", f"no transmit time decoded from {signal.name}: nothing to combine")
     obs2 = second_observables(other.tracking, dual, result.observables, args.rate)
     if obs2 is None:
-        raise ConfigError("--ionosphere-free", f"no transmit time decoded from {second.name} in {args.ionosphere_free}")
+        name = Path(args.ionosphere_free).name
+        print(f"note: ionosphere-free: no transmit time decoded from {second.name} in {name}; nothing to combine")
+        return dataclasses.replace(result, positions=None, least_squares=None)
     _, table = ionosphere_free_fixes(
         result.observables,
         obs2,

@@ -153,3 +153,15 @@ def test_second_signal_options_need_the_second_recording(recordings, tmp_path, c
     l1, _, _, _ = recordings
     assert main(["receive", str(l1), "--second-signal", "qzss-l2c", "--out", str(tmp_path / "rx")]) == 2
     assert "--second-signal: describes the --ionosphere-free recording" in capsys.readouterr().err
+
+
+def test_without_a_transmit_time_the_tracking_is_written_and_no_fix(recordings, tmp_path, capsys):
+    """5 s hold no LNAV subframe: nothing to combine, said in a note; the run writes its
+    tracking and report and exits 1, as any run without a position."""
+    l1, l2, sats, _ = recordings
+    out = tmp_path / "rx"
+    args = ["receive", str(l1), "--ionosphere-free", str(l2), "--ephemeris", str(NAV), "--duration", "5"]
+    assert main([*args, "--prns", str(int(sats.sv[0][1:])), "--out", str(out), "--quiet"]) == 1
+    text = capsys.readouterr().out
+    assert "note: ionosphere-free: no transmit time decoded from gps-l1ca; nothing to combine" in text
+    assert (out / "tracking.csv").exists() and (out / "report.md").exists()

@@ -10,9 +10,11 @@ solves it (`fixes.solve_epochs` with the combination's satellite clock and no io
 model).
 
 The two recordings must start at the same instant of one sample clock (two channels of one
-front end): a start offset between them would enter every combined pseudorange, times
-:math:`1/(\\gamma - 1) = 1.55` on L1 and L2, as a range error no solution could tell from
-the receiver clock, and a sample-rate difference as a drift.
+front end). A start offset :math:`\\Delta` between them moves every combined pseudorange by
+:math:`-c\\Delta/(\\gamma - 1)` alike, which the receiver clock takes; but each satellite's
+range also moves by :math:`\\dot\\rho_i \\Delta` meanwhile, which enters its combined
+pseudorange times :math:`1/(\\gamma - 1) = 1.55` on L1 and L2: up to 1.2 m per millisecond
+of offset (800 m/s). Two sample clocks that differ in rate would add a drift.
 """
 
 from __future__ import annotations
