@@ -134,7 +134,7 @@ def navigation_file_check(check, obs, week: int, rinex_path: Path, work: Path) -
     RTKLIB's weighting on the same observables and the decoded records."""
     from dataclasses import replace
 
-    from gnssframework.receiver.navigation.fixes import _stack
+    from gnssframework.navigation.ephemeris import Ephemerides
 
     nav_records = decoded_records(obs.ephemeris, obs.sample_time_s, obs.rx_time_s, week)
     nav_path = write_rinex_nav(work / "navigation.rnx", nav_records, obs.iono_utc)
@@ -148,7 +148,7 @@ def navigation_file_check(check, obs, week: int, rinex_path: Path, work: Path) -
     # time each was decoded) and the decoded page 18, RTKLIB's weights, no troposphere.
     ours = solve_epochs(
         replace(obs, ephemeris={}),
-        _stack([r.record for r in nav_records]),
+        Ephemerides.concatenate([r.record for r in nav_records]),
         reference_week=week,
         weighting="rtklib",
         iono=obs.iono_utc,
