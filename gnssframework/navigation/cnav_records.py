@@ -38,6 +38,7 @@ from .cnav import (
     CnavEphemeris,
     CnavGroupDelays,
     CnavMessage,
+    _unsigned,
     parse_clock,
     parse_ephemeris,
     parse_group_delays,
@@ -133,10 +134,10 @@ def cnav_records(messages: list[CnavMessage], sv: str | None = None) -> CnavReco
         if not m.crc_ok or m.bits.size != MESSAGE_BITS:
             continue
         if m.msg_type == 10:
-            orbit10[_toe(m, 71)] = m
-            week = int(sum(int(b) << (12 - j) for j, b in enumerate(m.bits[38:51])))
+            orbit10[300.0 * _unsigned(m.bits, 71, 11)] = m  # toe, 300 s units (Table 30-I)
+            week = _unsigned(m.bits, 39, 13)
         elif m.msg_type == 11:
-            orbit11[_toe(m, 39)] = m
+            orbit11[300.0 * _unsigned(m.bits, 39, 11)] = m
         elif 30 <= m.msg_type <= 37:
             clocks.append(parse_clock(m))
             if m.msg_type == 30:
@@ -172,11 +173,6 @@ def cnav_records(messages: list[CnavMessage], sv: str | None = None) -> CnavReco
                 dt_lsf_s=int(utc.delta_t_lsf_s),
             )
     return CnavRecords(records, iono, week)
-
-
-def _toe(m: CnavMessage, first: int) -> float:
-    """The 11-bit toe (300 s units) of a type 10 (bit 71) or 11 (bit 39) message, s."""
-    return 300.0 * int(sum(int(b) << (10 - j) for j, b in enumerate(m.bits[first - 1 : first + 10])))
 
 
 def _clock_of(eph: CnavEphemeris, clocks: list[CnavClock]) -> CnavClock | None:
