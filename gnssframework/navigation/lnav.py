@@ -421,7 +421,8 @@ class LnavMessage:
     their low 8 bits (IS-GPS-200 20.3.3.4.1), as one record; ``ephemerides`` every such set
     as ``(bit, record)``, ``bit`` the index in the stream just after the subframe that
     completed it (when a receiver has it); ``iono_utc`` the last subframe 4 page 18;
-    ``week`` the 10-bit transmission week of the last subframe 1.
+    ``week`` the 10-bit transmission week of the last subframe 1; ``week_bits`` how many
+    low bits of the week ``week`` holds (10 for LNAV; a CNAV stream gives type 10's 13).
     """
 
     prn: int
@@ -430,6 +431,7 @@ class LnavMessage:
     iono_utc: IonoUtc | None
     week: int | None
     ephemerides: list[tuple[int, Ephemerides]] = field(default_factory=list)
+    week_bits: int = 10
 
 
 def _hard_bits(symbols: np.ndarray) -> np.ndarray:

@@ -84,16 +84,19 @@ def test_cnav_records_position_as_the_navigation_files_own(l2c_long):
 
 
 def test_the_command_positions_without_a_navigation_file(l2c_long, tmp_path, capsys):
-    """What a user types: no ``--ephemeris``. The fixes come once the records are complete;
-    the report says when each satellite's was decoded; no navigation.rnx is written, and the
-    note says why (RINEX 3.04 has no CNAV record)."""
+    """What a user types: no ``--ephemeris`` and no ``--week``. The fixes come once the
+    records are complete, in the records' week (2005's 1316, which type 10's 13 bits carry
+    and no 10-bit week places: that reads as 2340); the report says when each satellite's
+    was decoded; no navigation.rnx is written, and the note says why (RINEX 3.04 has no
+    CNAV record)."""
     path, sats = l2c_long
     out = tmp_path / "rx"
-    args = ["receive", str(path), "--signal", "gps-l2c", "--week", str(WEEK), "--out", str(out)]
+    args = ["receive", str(path), "--signal", "gps-l2c", "--out", str(out)]
     assert main([*args, "--prns", *map(str, _prns(sats)), "--quiet", "--outputs", "rinex-nav"]) == 0
     with open(out / "positions.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) >= 3 and all(int(r["n_sats"]) == 5 for r in rows)
+    assert {int(r["gps_week"]) for r in rows} == {WEEK}
     assert not (out / "navigation.rnx").exists()
     assert "CNAV records have no RINEX 3.04 layout" in capsys.readouterr().out
     report = (out / "report.md").read_text().splitlines()

@@ -81,6 +81,16 @@ def test_full_week_places_the_10_bit_week_in_its_era():
     assert full_week(5) == 2053 and full_week(None) == -1
 
 
+def test_full_week_of_a_13_bit_week_needs_no_reference():
+    """CNAV's type 10 sends 13 bits (IS-GPS-200 30.3.3.1.1.1): weeks 0-8191 are whole, where
+    the 10-bit era would move a 2005 week by 1024; Galileo's GST sends 12 (the GPS week's
+    low 12 bits once shifted by 1024)."""
+    assert full_week(1316, bits=13) == 1316 and full_week(2400, bits=13) == 2400
+    assert full_week(1316 % 1024) == 2340
+    assert full_week(8191, reference_week=8200, bits=13) == 8191
+    assert full_week((1174 + 1024) % 4096, bits=12) == 2198
+
+
 def test_rinex_records_give_the_early_epochs_their_satellite(synthetic):
     obs, sel = synthetic
     table = solve_epochs(obs, read_rinex_nav(DATA / "07590920.05n"), ionosphere=False)

@@ -136,7 +136,7 @@ def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     records (`cnav_records.cnav_records` of all its runs' messages, named as ``signal``
     names the satellite) come with the recording time at which the message completing each
     ended, its ionosphere and GPS-UTC parameters as the message's ``iono_utc``, and the
-    type 10 week's low 10 bits as its week.
+    type 10 week (13 bits) as its week.
     """
     from .observables import ChannelTiming
 
@@ -172,7 +172,6 @@ def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     r = np.concatenate(rows)
     decoded = cnav_records(timing_messages, signal.rinex_satellite(record.prn))
     ephemerides = [(ready_s[k], rec) for k, rec in decoded.records]
-    week10 = None if decoded.week is None else decoded.week % 1024
     return ChannelTiming(
         record.prn,
         time_s[r],
@@ -181,7 +180,9 @@ def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
         col("carrier_phase_cycles")[r],
         col("cn0_dbhz")[r],
         np.concatenate(half),
-        LnavMessage(record.prn, [], ephemerides[-1][1] if ephemerides else None, decoded.iono, week10),
+        LnavMessage(
+            record.prn, [], ephemerides[-1][1] if ephemerides else None, decoded.iono, decoded.week, week_bits=13
+        ),
         ephemerides,
         np.concatenate(starts),
         np.ones(r.size, bool),

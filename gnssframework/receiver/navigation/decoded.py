@@ -117,8 +117,8 @@ def cnav_decoded(ch, signal: SignalSpec) -> dict:
     """What one L2 CM channel's CNAV gave (`channel_cnav`, decoded once): ``subframes`` the
     CRC-checked messages, ``first_tow_s`` the first one's (s), ``ephemeris`` whether a
     record was completed (types 10, 11, a clock and a type 30: `cnav_records.cnav_records`),
-    ``iono`` whether a type 30's Klobuchar coefficients came and ``week`` the type 10 week's
-    low 10 bits (None)."""
+    ``iono`` whether a type 30's Klobuchar coefficients came and ``week`` the type 10 week
+    (13 bits, the full week until 2137; None)."""
     messages = channel_cnav(ch, signal).messages
     good = [m for m in messages if m.crc_ok]
     decoded = cnav_records(messages)
@@ -127,7 +127,7 @@ def cnav_decoded(ch, signal: SignalSpec) -> dict:
         "first_tow_s": good[0].tow_s if good else None,
         "ephemeris": bool(decoded.records),
         "iono": decoded.iono is not None,
-        "week": None if decoded.week is None else decoded.week % 1024,
+        "week": decoded.week,
     }
 
 

@@ -89,6 +89,7 @@ def ionosphere_free_observables(first: Observables, second: Observables, dual: D
         ephemeris=records,
         iono_utc=first.iono_utc if first.iono_utc is not None else second.iono_utc,
         week=first.week if first.week is not None else second.week,
+        week_bits=first.week_bits if first.week is not None else second.week_bits,
         lli=None if first.lli is None else first.lli[pick],
     )
 

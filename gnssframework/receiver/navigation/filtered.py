@@ -505,7 +505,7 @@ def filter_epochs(
         np.array(states).reshape(-1, 8),
         used,
         np.array(dops).reshape(-1, 2),
-        full_week(obs.week, reference_week)
+        full_week(obs.week, reference_week, obs.week_bits)
         if reference_week is not None or obs.week is not None
         else int(wls.columns["gps_week"][0]),
         np.array(excluded, dtype=int),

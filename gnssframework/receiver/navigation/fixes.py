@@ -86,14 +86,17 @@ class PositionTable:
         return int(self.sample_time_s.size)
 
 
-def full_week(week10: int | None, reference_week: int | None = None) -> int:
-    """The full GPS week of a 10-bit week: the one nearest ``reference_week``, else in the
-    era of weeks 2048-3071; without a decoded week, ``reference_week`` itself (-1: unknown)."""
+def full_week(week10: int | None, reference_week: int | None = None, bits: int = 10) -> int:
+    """The full GPS week of a week sent in its low ``bits`` bits (LNAV's 10, CNAV's 13): the
+    one nearest ``reference_week``, else the one in the era holding week 2048 (weeks
+    2048-3071 for 10 bits, 0-8191 for 13); without a decoded week, ``reference_week``
+    itself (-1: unknown)."""
     if week10 is None:
         return -1 if reference_week is None else int(reference_week)
     if reference_week is not None:
-        return nearest_week(week10, 10, reference_week)
-    return _ERA_START_WEEK + week10 % 1024
+        return nearest_week(week10, bits, reference_week)
+    span = 1 << bits
+    return _ERA_START_WEEK // span * span + week10 % span
 
 
 #: Largest distance (s) of a navigation file's record from the epoch it positions: the
@@ -164,7 +167,7 @@ def solve_epochs(
     with its satellite clock and no ionospheric correction.
     """
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
-    week = full_week(obs.week, reference_week)
+    week = full_week(obs.week, reference_week, obs.week_bits)
     rows: list[PositionFix] = []
     keep_t, used, excluded = [], [], []
     for e in range(obs.rx_time_s.size):

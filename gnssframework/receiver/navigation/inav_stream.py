@@ -236,9 +236,9 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     run = np.cumsum(timing.arc_start)[keep]
     arc_start = np.r_[True, np.diff(run) != 0]
     r = timing.rows[keep]
-    # GST week 0 is GPS week 1024 (OS SIS ICD 5.1.2; GST steered to GPS time): the GPS week's
-    # low 10 bits, as LNAV's subframe 1 sends them (`fixes.full_week` places them in an era).
-    week10 = None if timing.gst is None else (timing.gst[1] + 1024) % 1024
+    # GST week 0 is GPS week 1024 (OS SIS ICD 5.1.2; GST steered to GPS time), and GST sends
+    # 12 bits of its week: the GPS week's low 12 bits (`fixes.full_week` makes it whole).
+    week12 = None if timing.gst is None else (timing.gst[1] + 1024) % 4096
     return ChannelTiming(
         record.prn,
         col("time_s")[r],
@@ -247,7 +247,7 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
         col("carrier_phase_cycles")[r],
         col("cn0_dbhz")[r],
         timing.half_cycle[keep],
-        LnavMessage(record.prn, [], None, None, week10),
+        LnavMessage(record.prn, [], None, None, week12, week_bits=12),
         timing.ephemerides,
         arc_start,
         np.ones(r.size, bool),

@@ -98,7 +98,7 @@ def broadcast_time_offsets(obs: Observables, reference_week: int | None = None) 
     at most a millisecond or so is nothing to a drift A1G of 1e-14 s/s), in the GPS week of
     `fixes.full_week`; None without a decoded GGTO or a known week."""
     ggto = obs.galileo.ggto if obs.galileo is not None else None
-    week = full_week(obs.week, reference_week)
+    week = full_week(obs.week, reference_week, obs.week_bits)
     if ggto is None or week < 0 or obs.rx_time_s.size == 0:
         return None
     return {"E": ggto.offset_s(week, float(obs.rx_time_s[obs.rx_time_s.size // 2]))}

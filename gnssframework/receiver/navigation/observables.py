@@ -333,8 +333,14 @@ def _merge(prn: int, messages: list[LnavMessage]) -> LnavMessage:
     def last(name: str):
         return next((getattr(m, name) for m in reversed(messages) if getattr(m, name) is not None), None)
 
+    bits = next((m.week_bits for m in reversed(messages) if m.week is not None), 10)
     return LnavMessage(
-        prn, [s for m in messages for s in m.subframes], last("ephemeris"), last("iono_utc"), last("week")
+        prn,
+        [s for m in messages for s in m.subframes],
+        last("ephemeris"),
+        last("iono_utc"),
+        last("week"),
+        week_bits=bits,
     )
 
 
@@ -347,7 +353,8 @@ class Observables:
     ``prn`` ``(S,)``; ``transmit_s`` satellite time of transmission; ``pseudorange_m``;
     ``doppler_hz``; ``carrier_cycles`` (RINEX sign, half cycle resolved); ``cn0_dbhz``.
     ``ephemeris`` holds each PRN's decoded records with the recording time from which each
-    is known, ``iono_utc`` the first decoded page 18, ``week`` the decoded 10-bit week.
+    is known, ``iono_utc`` the first decoded page 18, ``week`` the decoded week's low
+    ``week_bits`` bits (LNAV's 10, CNAV's 13; `fixes.full_week` makes it whole).
     ``lli`` ``(E, S)`` the RINEX loss-of-lock bits of the carrier phase (`LLI_LOST_LOCK`,
     `LLI_HALF_CYCLE`; None: not known, written blank). Of an assisted start
     (`assisted_timing`), ``iono_utc`` is the assistance's and ``week`` None. ``galileo``: the
@@ -368,6 +375,7 @@ class Observables:
     week: int | None
     lli: np.ndarray | None = None
     galileo: InavIonoTime | None = None
+    week_bits: int = 10
 
 
 def _interp(t_new: np.ndarray, t: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -444,11 +452,14 @@ def observables(
     pr = SPEED_OF_LIGHT_MPS * ((epochs[:, None] - tx + _WEEK_S / 2) % _WEEK_S - _WEEK_S / 2)
     eph = {t.prn: t.ephemerides for t in timings if t.ephemerides}
     iono = next((t.message.iono_utc for t in timings if t.message.iono_utc is not None), iono_utc)
-    week = next((t.message.week for t in timings if t.message.week is not None), None)
+    dated = next((t.message for t in timings if t.message.week is not None), None)
+    week, week_bits = (None, 10) if dated is None else (dated.week, dated.week_bits)
     galileo = None
     for t in reversed(timings):  # the first channel's parts win
         galileo = merge_iono_time(galileo, t.inav_iono_time)
-    return Observables(epochs % _WEEK_S, sample_t, prn, tx % _WEEK_S, pr, dop, cyc, cn0, eph, iono, week, lli, galileo)
+    return Observables(
+        epochs % _WEEK_S, sample_t, prn, tx % _WEEK_S, pr, dop, cyc, cn0, eph, iono, week, lli, galileo, week_bits
+    )
 
 
 def _loss_of_lock(sample_t: np.ndarray, tm: ChannelTiming, valid: np.ndarray) -> np.ndarray:

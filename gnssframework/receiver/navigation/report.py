@@ -227,7 +227,7 @@ def no_position_reason(
     if obs is None:
         locked = sum(1 for ch in result.tracking.channels.values() if ch.rows and ch.column("lock").any())
         return navigation_message(signal).none_decoded(locked, len(found))
-    week = full_week(obs.week, reference_week)
+    week = full_week(obs.week, reference_week, obs.week_bits)
     valid = np.flatnonzero(np.isfinite(obs.pseudorange_m).any(axis=1))
     if nav_info is not None and week >= 0 and valid.size:
         tow = float(obs.rx_time_s[valid[0]])

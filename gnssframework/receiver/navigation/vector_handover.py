@@ -109,7 +109,7 @@ def try_handover(v: VectorSampleCloser) -> None:
         table.ecef_m[e],
         bias,
         t_fix,
-        full_week(obs.week, v.reference_week),
+        full_week(obs.week, v.reference_week, obs.week_bits),
         f"first fix with {len(table.used_prns[e])} satellites",
     )
 
