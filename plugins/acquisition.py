@@ -180,11 +180,14 @@ class ParallelCodePhaseSearch(Acquisition):
 
     def _symbol_blocks(self, signal: SignalSpec, alternate: bool) -> bool:
         """Whether the fine search takes its blocks from the code epoch on: where a coherent
-        block is exactly one data symbol (`SignalSpec.code_periods_per_symbol` equal to
-        ``coherent_ms``), with two blocks or more and not summed by parity."""
+        block is exactly the span over which the tracked component's sign holds, one data
+        symbol (`SignalSpec.code_periods_per_symbol` equal to ``coherent_ms``: L2 CM, E1-B)
+        or, under an overlay code, one code period (E1-C, L5, E5a: the overlay may flip the
+        sign at every code epoch), with two blocks or more and not summed by parity."""
         p = self.params
+        sign_periods = 1 if signal.overlay_length(0) else signal.code_periods_per_symbol
         return (
-            signal.code_periods_per_symbol == p.coherent_ms
+            sign_periods == p.coherent_ms
             and p.noncoherent >= 2
             and not alternate
             and not p.code_doppler

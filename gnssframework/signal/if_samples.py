@@ -17,7 +17,7 @@ $f_{chip} (1 + f_D / f_{L})$ (code Doppler).
 
 The signal is any `SignalSpec` (GPS L1 C/A by default): $c$ is its spreading waveform
 (`SignalSpec.spreading_table`, code times sub-carrier) times the tracked component's
-overlay code (one chip per primary code period, if it has one), $D$ its data symbols.
+overlay code (`SignalSpec.overlay`: the PRN's own where it differs by PRN) (one chip per primary code period, if it has one), $D$ its data symbols.
 """
 
 from __future__ import annotations
@@ -122,7 +122,7 @@ def generate_if_samples(
     table = signal.spreading_table(prn)
     chips = code_phase_chips + signal.chip_rate_hz * (1.0 + doppler_hz / signal.carrier_freq_hz) * t
     sig = a * signal.spreading_at(table, chips)
-    overlay = signal.tracked.secondary_code
+    overlay = signal.overlay(prn)
     if overlay:  # chip k of the overlay over primary period k (modulo its length)
         periods = np.floor(chips / signal.code_length_chips).astype(np.int64)
         sig = sig * np.asarray(overlay, float)[periods % len(overlay)]

@@ -164,6 +164,10 @@ class Component:
         ``code(prn) -> (code_length_chips,) int8`` of ±1 (logic 0 -> +1).
     secondary_code
         Overlay chips (±1), one per primary code period; empty for none.
+    secondary_code_of
+        ``secondary_code_of(prn) -> tuple`` of ±1: an overlay that differs from PRN to PRN
+        (Galileo E5a-Q's CS100_i), every PRN's of one length; None: ``secondary_code``
+        serves every PRN. `SignalSpec.overlay` reads whichever the component has.
     symbol_period_s
         Data symbol period (s); ``None`` on a pilot.
     power_fraction
@@ -185,6 +189,7 @@ class Component:
     code: Callable[[int], np.ndarray]
     secondary_code: tuple[int, ...] = ()
     symbol_period_s: float | None = None
+    secondary_code_of: Callable[[int], tuple[int, ...]] | None = None
     power_fraction: float = 1.0
     subcarrier_sign: float = 1.0
     code_length_chips: int | None = None
@@ -308,7 +313,19 @@ class SignalSpec:
         comp = self.tracked
         if comp.symbol_period_s is not None:
             return comp.symbol_period_s
-        return self.code_period_s * max(1, len(comp.secondary_code))
+        return self.code_period_s * max(1, self.overlay_length(0))
+
+    def overlay(self, prn: int, component: int = 0) -> tuple[int, ...]:
+        """A component's overlay (secondary) code for ``prn``, ±1 chips one a primary period
+        (the per-PRN one where the component has it; empty for none)."""
+        comp = self.components[component]
+        if comp.secondary_code_of is None:
+            return comp.secondary_code
+        return tuple(comp.secondary_code_of(self.check_prn(prn)))
+
+    def overlay_length(self, component: int = 0) -> int:
+        """Chips of a component's overlay (the first PRN's, for a per-PRN overlay; 0: none)."""
+        return len(self.overlay(self.prns[0], component))
 
     def code_freq_hz(self, doppler_hz: np.ndarray | float) -> np.ndarray | float:
         """Code NCO rate (chips/s) carrier-aided by ``doppler_hz``: ``f_c (1 + f_D / f_L)``."""

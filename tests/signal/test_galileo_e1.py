@@ -28,6 +28,7 @@ from gnssframework.signal.galileo_codes import (
     hex_to_chips,
 )
 from gnssframework.signal.galileo_e1 import GALILEO_E1B, GALILEO_E1B_BOC11, GALILEO_E1C, GALILEO_E1C_BOC11
+from pilot_tracking import pilot_sync_and_track
 
 DATA = Path(__file__).parents[1] / "data"
 
@@ -194,60 +195,6 @@ def test_a_boc11_pilot_loop_holds_the_main_peak_at_45_dbhz_with_the_thermal_code
         assert 0.85 * bound < e.std() < 1.15 * bound, (e.std(), bound)
 
 
-def _pilot_sync_and_track(
-    x: np.ndarray, fs: float, prn: int, doppler_hz: float, code_start_sample: int, intervals: int
-) -> tuple[int, float, np.ndarray]:
-    """E1-C (BOC(1,1) replica) of ``prn`` on complex samples ``x`` (IF 0), intervals aligned
-    with the primary code (the first starts at ``code_start_sample``, chip 0): the
-    secondary-code phase from 24 open-loop prompts (96 ms: the 100 ms slice holds 24 whole
-    periods after any code start), whose 23 consecutive products are matched against CS25_1's
-    at each shift (blind to the residual Doppler, whose phase step the best
-    match's angle gives), then the engine's scalar loop with CS25_1 wiped off.
-
-    Returns the secondary phase (the overlay chip of the first interval), its score over the
-    runner-up's, and the wiped prompts of the closed loop."""
-    from gnssframework.receiver.channels.correlator import replica_codes
-    from gnssframework.receiver.engine.channel import Channel
-    from gnssframework.receiver.engine.closers import ScalarCloser
-    from gnssframework.receiver.engine.samples import SampleSource
-    from gnssframework.signal.correlators import Correlators
-    from gnssframework.signal.overlay import overlay_sync
-
-    T, d, spec = 4e-3, 0.2, GALILEO_E1C_BOC11
-    source = SampleSource(
-        x,
-        fs,
-        0.0,
-        replica_codes(spec, (prn,)),
-        T,
-        early_late_spacing_chips=d,
-        noise_std=float(np.std(x.real)),
-        start_sample=code_start_sample,
-        subchips_per_chip=spec.subchips_per_chip,
-    )
-    cs = np.array(GALILEO_E1C_SECONDARY_CS25, float)
-    channel = Channel.start((1,), 0.0, doppler_hz, signal=spec)
-    prompts = []
-    for k in range(24):
-        channel.run_interval(T)
-        prompts.append(complex(np.ravel(source.correlate(channel, k).prompt)[0]))
-        channel.steer_frequency(channel.carrier_freq_hz, channel.code_rate_chips_s)
-    sync = overlay_sync(np.array(prompts), cs, T)
-    shift = sync.shift
-    channel = Channel.start((1,), 0.0, doppler_hz + sync.freq_error_hz, signal=spec)
-    closer = ScalarCloser(registry.create("channel_filter", "scalar"))
-    closer.reset(channel, T, early_late_spacing_chips=d, cn0_dbhz=40.0)
-    tracked = []
-    for k in range(intervals):
-        channel.run_interval(T)
-        c = source.correlate(channel, k)
-        sign = cs[(k + shift) % 25]
-        c = Correlators.trusted(c.early * sign, c.prompt * sign, c.late * sign)
-        tracked.append(complex(np.ravel(c.prompt)[0]))
-        closer.step(channel, c)
-    return shift, sync.margin, np.array(tracked)
-
-
 def test_the_generators_secondary_code_is_found_where_it_was_put():
     """The project's IF generator writes E1-C with CS25_1 (overlay chip 6 over the first
     primary period): the synchronisation used on the real recording finds chip 6."""
@@ -259,7 +206,7 @@ def test_the_generators_secondary_code_is_found_where_it_was_put():
     )
     x = synthesize_samples([sat], 0.104, fs, 0.0, np.random.default_rng(5)).astype(np.complex64)
     start = int(round(1000.0 / 1.023e6 * fs))  # chip 0 of the next period: overlay chip 7
-    shift, margin, prompts = _pilot_sync_and_track(x, fs, 11, 512.0, start, 24)
+    shift, margin, prompts = pilot_sync_and_track(x, fs, GALILEO_E1C_BOC11, 11, 512.0, start, 24, sync_prompts=24)
     assert shift == 7 and margin > 2
     assert np.all(prompts[8:].real * np.sign(prompts[8].real) > 0)
 
@@ -275,7 +222,9 @@ def test_the_real_pilot_is_tracked_after_secondary_code_sync_on_the_4mhz_slice()
     x = np.asarray(rec.read(0, rec.n_samples), np.complex64)
     acq = registry.create("acquisition", "pcps", noncoherent=4, doppler_max_hz=3500.0, xcorr_margin_db=None)
     r = acq.acquire(x[: acq.samples_needed(fs, GALILEO_E1C_BOC11)], fs, 0.0, prns=(prn,), signal=GALILEO_E1C_BOC11)[0]
-    shift, margin, prompts = _pilot_sync_and_track(x, fs, prn, r.doppler_hz, r.code_phase_samples, 24)
+    shift, margin, prompts = pilot_sync_and_track(
+        x, fs, GALILEO_E1C_BOC11, prn, r.doppler_hz, r.code_phase_samples, 24, sync_prompts=24
+    )
     assert margin > 2
     after = prompts[8:]
     assert np.all(np.sign(after.real) == np.sign(after.real[0]))

@@ -154,7 +154,8 @@ class _ChannelFilterCloser:
         early_late_spacing_chips: float = 1.0,
         cn0_dbhz: np.ndarray | float = 45.0,
     ) -> None:
-        """Start the filter on ``channel``'s batch; its Doppler prior is the carrier NCO's."""
+        """Start the filter on ``channel``'s batch; its Doppler prior is the carrier NCO's,
+        its signal the channel's (the chip rate and carrier a carrier-aided DLL scales by)."""
         T = coherent_time_s
         context = RunContext(
             coherent_time_s=T,
@@ -162,6 +163,7 @@ class _ChannelFilterCloser:
             epoch_interval_s=T,
             cn0_dbhz=cn0_dbhz,
             doppler_hz=channel.carrier_freq_hz,
+            signal=channel.signal,
         )
         self.filter.reset(channel.batch, context)
 

@@ -95,7 +95,7 @@ def truth_samples(
     if streams not in ("one", "per-channel"):
         raise ConfigError("streams", f"got {streams!r}; allowed: one, per-channel")
     signal = truth.signal
-    if signal.tracked.secondary_code:
+    if signal.overlay_length(0):
         raise ConfigError(
             "truth.signal",
             f"{signal.name}'s tracked component has an overlay (secondary) code, which these samples "
