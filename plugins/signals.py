@@ -5,11 +5,12 @@ from __future__ import annotations
 from gnssframework.signal.beidou_b1c import BEIDOU_B1C
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.gps_l2c import GPS_L2C, QZSS_L2C
+from gnssframework.signal.gps_l5 import GPS_L5I, GPS_L5Q, QZSS_L5Q
 from gnssframework.signal.qzss_l1ca import QZSS_L1CA
 from gnssframework.signal.registered import Signal
 from gnssframework.signal.sbas_l1 import SBAS_L1
 
-__all__ = ["GpsL1ca", "QzssL1ca", "SbasL1", "GpsL2c", "QzssL2c", "BeidouB1c"]
+__all__ = ["GpsL1ca", "QzssL1ca", "SbasL1", "GpsL2c", "QzssL2c", "GpsL5i", "GpsL5q", "QzssL5q", "BeidouB1c"]
 
 
 class GpsL1ca(Signal):
@@ -53,6 +54,30 @@ class QzssL2c(Signal):
     name = "qzss-l2c"
     spec = QZSS_L2C
     description = "QZSS L2C: CM (10230 chips, 20 ms) in its time slot on 1227.6 MHz, PRN 193-202"
+
+
+class GpsL5i(Signal):
+    """GPS L5, its I5 data component tracked: NH10 overlay, 100 sps CNAV (IS-GPS-705)."""
+
+    name = "gps-l5i"
+    spec = GPS_L5I
+    description = "GPS L5 I5: BPSK(10) at 1176.45 MHz, 10230-chip codes (1 ms), NH10 overlay, 100 sps CNAV, PRN 1-63"
+
+
+class GpsL5q(Signal):
+    """GPS L5, its Q5 pilot tracked: NH20 overlay (IS-GPS-705)."""
+
+    name = "gps-l5q"
+    spec = GPS_L5Q
+    description = "GPS L5 Q5 pilot: BPSK(10) at 1176.45 MHz, 10230-chip codes (1 ms), NH20 overlay, PRN 1-63"
+
+
+class QzssL5q(Signal):
+    """QZSS L5, its Q5 pilot tracked: GPS L5's codes on PRN 193-202 (IS-QZSS-PNT)."""
+
+    name = "qzss-l5q"
+    spec = QZSS_L5Q
+    description = "QZSS L5 Q5 pilot: GPS L5's codes and NH20 overlay on 1176.45 MHz, PRN 193-202"
 
 
 class BeidouB1c(Signal):

@@ -42,10 +42,15 @@ def test_kinds_and_builtin_names():
         "galileo-e1b-boc11",
         "galileo-e1c",
         "galileo-e1c-boc11",
+        "galileo-e5ai",
+        "galileo-e5aq",
         "gps-l1ca",
         "gps-l2c",
+        "gps-l5i",
+        "gps-l5q",
         "qzss-l1ca",
         "qzss-l2c",
+        "qzss-l5q",
         "sbas-l1",
     ]
     assert builtin_names("estimator") == ["ckf", "ekf", "kf", "svd-ckf", "ukf"]

@@ -71,6 +71,7 @@ LITERALS_ALLOWED = ALLOWED | frozenset(
         "gnssframework/signal/sbas_l1.py",
         "gnssframework/signal/galileo_e1.py",
         "gnssframework/signal/beidou_b1c.py",
+        "gnssframework/signal/gps_l5_codes.py",  # a code table: 1540 is Q5 PRN 114's XB advance
     }
 )
 #: C/A's own numbers: chip rate, carrier frequency, code length, carrier cycles per chip.
