@@ -109,8 +109,11 @@ def test_the_12mhz_recording_shows_pocketsdrs_galileo_satellites_on_e1b_and_e1c(
     """E1-B with 4 ms coherent blocks (one symbol) x 2 non-coherent; E1-C, a different code
     family, must put each satellite at the same Doppler and code phase (one sample); PRNs
     PocketSDR does not list stay below the 1e-3 false-alarm threshold. The Doppler tolerance
-    is 1/T = 250 Hz, two bins: a block straddles a symbol (E1-B) or secondary-chip (E1-C)
-    edge, whose sign flip skews a 4 ms block's frequency response (measured up to 150 Hz)."""
+    is 1/T = 250 Hz, two bins: a block that straddles a symbol (E1-B) or secondary-chip
+    (E1-C) edge has its frequency response skewed by the sign flip (up to 150 Hz apart,
+    measured, when the fine search took its blocks from the first sample; from the code
+    epoch, as now, 38 Hz over the full search of validation/galileo_e1_acquire.py), and two
+    blocks leave the fine search one."""
     listed = (3, 8, 13, 15, 25)
     prns = listed + ABSENT_12MHZ
     x, b = _acquire("pocketsdr_L1_12MHz_I_30ms.bin", 12e6, 3e6, 0, prns, GALILEO_E1B_BOC11, 2, 2500.0)
