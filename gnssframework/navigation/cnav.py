@@ -70,6 +70,7 @@ __all__ = [
     "PREAMBLE",
     "MESSAGE_BITS",
     "MESSAGE_S",
+    "L5_MESSAGE_S",
     "SYMBOL_RATE_HZ",
     "TOW_UNIT_S",
     "A_REF_M",
@@ -99,8 +100,10 @@ PREAMBLE = np.array([1, 0, 0, 0, 1, 0, 1, 1], dtype=np.uint8)
 #: Bits of a message; the CRC-24Q covers the first 276.
 MESSAGE_BITS = 300
 _CRC_BITS = 24
-#: Length of a message at 25 bit/s, s.
+#: Length of a message at 25 bit/s (L2C), s.
 MESSAGE_S = 12.0
+#: Length of a message at 50 bit/s (L5 I5, IS-GPS-705 20.3.3: 100 symbols/s), s.
+L5_MESSAGE_S = 6.0
 #: L2 CM's symbol rate (one symbol a 20 ms code period), symbols/s.
 SYMBOL_RATE_HZ = 50.0
 #: Unit of the message TOW count, s.
@@ -122,7 +125,9 @@ class CnavMessage:
 
     ``start`` is the index, in the stream given to `decode_cnav`, of the first symbol of
     the message's first bit; ``inverted`` True where the stream came negated (the bits are
-    given upright); ``crc_ok`` whether the CRC-24Q over bits 1-276 matches bits 277-300.
+    given upright); ``crc_ok`` whether the CRC-24Q over bits 1-276 matches bits 277-300;
+    ``message_s`` how long the message lasts on its signal (12 s on L2C, 6 s on L5: the
+    TOW count dates the next message's start, IS-GPS-200 30.3.3.1.1.2, IS-GPS-705 20.3.3.1.1.2).
     """
 
     start: int
@@ -133,6 +138,7 @@ class CnavMessage:
     crc_ok: bool
     inverted: bool
     bits: np.ndarray = field(repr=False, compare=False)
+    message_s: float = field(default=MESSAGE_S, compare=False)
 
     @property
     def hex(self) -> str:
@@ -142,7 +148,7 @@ class CnavMessage:
     @property
     def tow_s(self) -> float:
         """SV time of week at the start of this message, s (the TOW count dates the next)."""
-        return (self.tow_count * TOW_UNIT_S - MESSAGE_S) % _WEEK_S
+        return (self.tow_count * TOW_UNIT_S - self.message_s) % _WEEK_S
 
 
 @dataclass(frozen=True)
@@ -212,7 +218,9 @@ def message_bits(
     return b
 
 
-def message_from_bits(bits: np.ndarray, start: int = 0, inverted: bool = False) -> CnavMessage:
+def message_from_bits(
+    bits: np.ndarray, start: int = 0, inverted: bool = False, message_s: float = MESSAGE_S
+) -> CnavMessage:
     """The header of a 300-bit message (upright bits) and whether its CRC-24Q passes."""
     b = _check_bits(bits, MESSAGE_BITS, "bits")
     crc_ok = int(crc24q_bits(b[:276])) == _unsigned(b, 277, 24)
@@ -225,6 +233,7 @@ def message_from_bits(bits: np.ndarray, start: int = 0, inverted: bool = False) 
         bool(crc_ok),
         inverted,
         b.copy(),
+        message_s,
     )
 
 
@@ -246,40 +255,48 @@ def cnav_symbols(
     wn: int = 0,
     iono: IonoUtc | None = None,
     isc_l2c_s: float | None = None,
+    *,
+    message_s: float = MESSAGE_S,
+    isc_l5i5_s: float | None = None,
 ) -> tuple[np.ndarray, float]:
-    """±1 CM symbols (int8) from the one in force at SV time ``tow_s`` on, for the IF
-    generator's ``data_bits`` (`gps-l2c`: one symbol a 20 ms code period), and the time
-    (s) from the first symbol's start to ``tow_s`` (``first_bit_edge_s = -that``).
+    """±1 CNAV symbols (int8) from the one in force at SV time ``tow_s`` on, for the IF
+    generator's ``data_bits`` (`gps-l2c`: one symbol a 20 ms code period; with
+    ``message_s = L5_MESSAGE_S``, `gps-l5i`'s 100 symbols/s), and the time (s) from the
+    first symbol's start to ``tow_s`` (``first_bit_edge_s = -that``).
 
-    Messages start on multiples of 12 s of the week; they cycle through types 10, 11
-    (`ephemeris_payloads` of the one-record ``ephemeris``, week ``wn``) and 30 (its clock,
-    group delays and ``iono``'s Klobuchar coefficients, `clock_payload`), the message of
-    week second ``12 j`` being the ``j mod 3``-th; they send the default type 0 only
-    without an ephemeris. The encoder starts from a zero register at the start of the
-    message in force.
+    Messages start on multiples of ``message_s`` (12 s on L2C, 6 s on L5) of the week; they
+    cycle through types 10, 11 (`ephemeris_payloads` of the one-record ``ephemeris``, week
+    ``wn``) and 30 (its clock, group delays, ``isc_l2c_s`` and ``isc_l5i5_s``, and
+    ``iono``'s Klobuchar coefficients, `clock_payload`), the ``j``-th message of the week
+    being the ``j mod 3``-th; they send the default type 0 only without an ephemeris. The
+    encoder starts from a zero register at the start of the message in force.
     """
     if n_symbols < 1:
         raise ConfigError("n_symbols", f"must be at least 1, got {n_symbols}")
-    first = int(np.floor(tow_s / MESSAGE_S))
-    skip = int(np.floor((tow_s - first * MESSAGE_S) * SYMBOL_RATE_HZ))
+    rate = 2 * MESSAGE_BITS / message_s  # symbols/s
+    first = int(np.floor(tow_s / message_s))
+    skip = int(np.floor((tow_s - first * message_s) * rate))
     n_msg = int(np.ceil((skip + n_symbols) / (2 * MESSAGE_BITS)))
     payloads = None
     if ephemeris is not None:
-        payloads = (*ephemeris_payloads(ephemeris, wn), clock_payload(ephemeris, wn, iono, isc_l2c_s))
+        payloads = (
+            *ephemeris_payloads(ephemeris, wn),
+            clock_payload(ephemeris, wn, iono, isc_l2c_s, isc_l5i5_s=isc_l5i5_s),
+        )
     rows = []
     for j in range(first, first + n_msg):
-        start_s = (j * MESSAGE_S) % _WEEK_S
-        count = int(round(((start_s + MESSAGE_S) % _WEEK_S) / TOW_UNIT_S))
+        start_s = (j * message_s) % _WEEK_S
+        count = int(round(((start_s + message_s) % _WEEK_S) / TOW_UNIT_S))
         cycle: list[tuple[int, np.ndarray | None]] = [(_DEFAULT_TYPE, None)]
         if payloads is not None:
             cycle = [(10, payloads[0]), (11, payloads[1]), (30, payloads[2])]
         msg_type, payload = cycle[j % len(cycle)]
         rows.append(message_bits(prn, msg_type, count, payload))
     symbols = encode_cnav(np.array(rows))[skip : skip + n_symbols]
-    return symbols, float(tow_s - first * MESSAGE_S - skip / SYMBOL_RATE_HZ)
+    return symbols, float(tow_s - first * message_s - skip / rate)
 
 
-def _frames(bits: np.ndarray, offset: int, inverted: bool) -> list[CnavMessage]:
+def _frames(bits: np.ndarray, offset: int, inverted: bool, message_s: float) -> list[CnavMessage]:
     """Messages of a decoded bit stream: the first preamble whose CRC passes fixes the
     frame; every 300 bits before and after it is a message (CRC checked)."""
     if bits.size < MESSAGE_BITS:
@@ -294,21 +311,24 @@ def _frames(bits: np.ndarray, offset: int, inverted: bool) -> list[CnavMessage]:
         return []
     p0 = int(hits[np.argmax(ok)]) % MESSAGE_BITS
     return [
-        message_from_bits(bits[p : p + MESSAGE_BITS], offset + 2 * p, inverted)
+        message_from_bits(bits[p : p + MESSAGE_BITS], offset + 2 * p, inverted, message_s)
         for p in range(p0, bits.size - MESSAGE_BITS + 1, MESSAGE_BITS)
     ]
 
 
-def decode_cnav(symbols: np.ndarray, prn: int | None = None) -> CnavDecode:
-    """The CNAV messages of one gap-free run of CM symbols (module text).
+def decode_cnav(symbols: np.ndarray, prn: int | None = None, message_s: float = MESSAGE_S) -> CnavDecode:
+    """The CNAV messages of one gap-free run of CM (or L5 I5) symbols (module text).
 
     Parameters
     ----------
     symbols
-        One soft symbol per 20 ms CM code period (bit 0 as +1, any scale: ±1 or the prompt's
-        in-phase sums), ``(n,)``.
+        One soft symbol per 20 ms CM code period, or per 10 ms of L5 I5 with its NH10
+        overlay wiped off (bit 0 as +1, any scale: ±1 or the prompt's in-phase sums), ``(n,)``.
     prn
         For the error message only: the channel the symbols came from.
+    message_s
+        How long a message lasts on the signal (`MESSAGE_S` on L2C, `L5_MESSAGE_S` on L5):
+        the messages' `CnavMessage.tow_s`.
 
     Returns
     -------
@@ -330,7 +350,7 @@ def decode_cnav(symbols: np.ndarray, prn: int | None = None) -> CnavDecode:
             y[offset : offset + 2 * n_bits], GENERATORS, INVERTED, terminated=False, start_known=False
         )
         for inverted in (False, True):
-            found = _frames(bits ^ np.uint8(inverted), offset, inverted)
+            found = _frames(bits ^ np.uint8(inverted), offset, inverted, message_s)
             good = sum(m.crc_ok for m in found)
             if good > score:
                 best, score = CnavDecode(found, offset, inverted), good
@@ -659,12 +679,18 @@ def parse_group_delays(msg: CnavMessage) -> CnavGroupDelays:
 
 
 def clock_payload(
-    record: Ephemerides, wn: int, iono: IonoUtc | None = None, isc_l2c_s: float | None = None
+    record: Ephemerides,
+    wn: int,
+    iono: IonoUtc | None = None,
+    isc_l2c_s: float | None = None,
+    *,
+    isc_l5i5_s: float | None = None,
 ) -> np.ndarray:
     """Data bits (39-276) of a message type 30 for the one LNAV-style record ``record``: its
     clock (toc on the 300 s grid, ``top`` = toc, URA_NED indices 0), its T_GD, ``ISC_L1CA``
     zero (an L1 C/A user's clock as LNAV's), ``isc_l2c_s`` (None: sent as not available, so
-    an L2C user takes :math:`\\gamma T_{GD}`), no L5 ISCs, the Klobuchar coefficients of
+    an L2C user takes :math:`\\gamma T_{GD}`), ``isc_l5i5_s`` for both L5 ISCs (None: not
+    available), the Klobuchar coefficients of
     ``iono`` (None: zeros, which the Klobuchar model turns into its 5 ns night-time delay)
     and ``wn``'s low 8 bits as WNOP. Values are rounded to the scale factors; a value out of
     its field is refused in one line."""
@@ -686,8 +712,8 @@ def clock_payload(
         "tgd_s": e["TGD"],
         "isc_l1ca_s": 0.0,
         "isc_l2c_s": na if isc_l2c_s is None else isc_l2c_s,
-        "isc_l5i5_s": na,
-        "isc_l5q5_s": na,
+        "isc_l5i5_s": na if isc_l5i5_s is None else isc_l5i5_s,
+        "isc_l5q5_s": na if isc_l5i5_s is None else isc_l5i5_s,
         "wnop": wn % 256,
     }
     names = (

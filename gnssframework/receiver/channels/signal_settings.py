@@ -56,7 +56,17 @@ _MAX_B_L_T = 0.2
 def coherent_periods(signal: SignalSpec, requested: int | None, default: int = 10) -> int | None:
     """The tracking's coherent code periods after bit sync on ``signal``: ``requested``
     (None: the largest of 1, 2, 4, 5, ``default`` that divides a data symbol; None on a
-    pilot, the tracking's default), refused where it spans data symbols."""
+    pilot, the tracking's default), refused where it spans data symbols. Under an overlay
+    code (E1-C, L5, E5a) one code period: the tracker does not wipe an overlay off, and a
+    sum over its chips would cancel (NH10's ten sum to 2), so more is refused."""
+    if signal.overlay_length(0):
+        if requested not in (None, 1):
+            raise ConfigError(
+                "tracking.coherent_ms",
+                f"{requested} code periods span {signal.name}'s overlay code, which the tracker does not "
+                "wipe off: give 1",
+            )
+        return 1
     per_symbol = signal.code_periods_per_symbol
     if per_symbol is None:
         return requested

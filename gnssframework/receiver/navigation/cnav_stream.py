@@ -1,13 +1,17 @@
-"""GPS CNAV from a tracked L2C channel: its CM prompts, symbol by symbol, to messages.
+"""GPS CNAV from a tracked L2C or L5 channel: its prompts, symbol by symbol, to messages.
 
 An L2 CM symbol is one 20 ms CM code period (IS-GPS-200 3.3.3.1.1: 25 bit/s, rate-1/2
 coded to 50 symbol/s), and every row of a channel's record
 (`gnssframework.receiver.channels.ChannelRecord`) starts on a code epoch of its replica:
 a row integrated over one code period (``coherent_ms`` 1) is one soft symbol, with no bit
-synchronisation. A run of such rows without a gap (`inav_stream.symbol_runs`) is one
-continuous stream for :func:`~gnssframework.navigation.cnav.decode_cnav`, which finds
-the symbol pairing, the polarity and the messages; a channel that loses lock starts a new
-run. A message lasts 12 s: a run shorter than that holds none.
+synchronisation. An L5 I5 symbol is ten 1 ms code periods under the NH10 overlay, whose
+first chip starts the symbol (IS-GPS-705 3.3.2.2: 50 bit/s coded to 100 symbols/s): the
+overlay's phase is found on the run's prompts (`signal.overlay.overlay_sync`), wiped off,
+and ten rows summed make a symbol. A run of one-period rows without a gap
+(`inav_stream.symbol_runs`) is one continuous stream for
+:func:`~gnssframework.navigation.cnav.decode_cnav`, which finds the symbol pairing, the
+polarity and the messages; a channel that loses lock starts a new run. A message lasts 12 s
+on L2C and 6 s on L5: a run shorter than that holds none.
 
 Each message is reported with the recording time of the row that starts its first symbol
 (``time_s``) and the SV time of week the ICD gives that instant (``tow_s``: six times the
@@ -26,9 +30,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...errors import ConfigError
-from ...navigation.cnav import MESSAGE_S, CnavMessage, decode_cnav
+from ...navigation.cnav import MESSAGE_BITS, CnavMessage, decode_cnav
 from ...navigation.cnav_records import cnav_records
 from ...navigation.lnav import LnavMessage
+from ...signal.overlay import overlay_sync
 from ...signal.spec import SignalSpec
 from .inav_stream import _PULL_IN, _WEEK_S, symbol_runs
 
@@ -62,16 +67,46 @@ CNAV_COLUMNS = (
 
 
 def carries_cnav(signal: SignalSpec) -> bool:
-    """Whether ``signal``'s tracked component is L2 CM with CNAV (GPS or QZSS L2C): one
-    symbol a 20 ms code period."""
+    """Whether ``signal``'s tracked component carries GPS CNAV: L2 CM (GPS or QZSS L2C, one
+    symbol a 20 ms code period) or L5 I5 (one symbol ten 1 ms code periods under its 10-chip
+    overlay)."""
     sym = signal.components[0].symbol_period_s
-    return (
-        signal.system in ("G", "J")
-        and sym is not None
-        and abs(sym - 0.02) < 1e-12
-        and abs(signal.code_period_s - 0.02) < 1e-12
-        and signal.code_periods_per_symbol == 1
+    if signal.system not in ("G", "J") or sym is None:
+        return False
+    l2cm = abs(sym - 0.02) < 1e-12 and abs(signal.code_period_s - 0.02) < 1e-12
+    l5i5 = (
+        abs(sym - 0.01) < 1e-12
+        and abs(signal.code_period_s - 1e-3) < 1e-12
+        and signal.overlay_length(0) == signal.code_periods_per_symbol == 10
     )
+    return l2cm or l5i5
+
+
+def message_s(signal: SignalSpec) -> float:
+    """How long a CNAV message lasts on ``signal``: 600 symbols (12 s on L2C, 6 s on L5)."""
+    return 2 * MESSAGE_BITS * float(signal.symbol_period_s or 0.0)
+
+
+def cnav_symbols_of_run(
+    prompt_i: np.ndarray, prompt_q: np.ndarray, signal: SignalSpec, prn: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The soft symbols of one gap-free run of one-period rows and, for each, the index in
+    the run of the row its symbol starts on (module text): the rows themselves on L2 CM; on
+    L5 I5 the overlay synchronised, wiped off and ten rows summed (none when the run is too
+    short to synchronise: three overlay periods)."""
+    overlay = np.asarray(signal.overlay(prn), float)
+    if overlay.size == 0:
+        return np.asarray(prompt_i, float), np.arange(np.size(prompt_i))
+    per = int(signal.code_periods_per_symbol or 1)
+    if np.size(prompt_i) < 3 * overlay.size:
+        return np.zeros(0), np.zeros(0, int)
+    p = np.asarray(prompt_i, float) + 1j * np.asarray(prompt_q, float)
+    shift = overlay_sync(p, overlay, signal.code_period_s).shift  # the overlay chip of row 0
+    first = (-shift) % overlay.size  # the first row on chip 0: a symbol's start
+    n = (p.size - first) // per
+    rows = first + np.arange(n * per)
+    wiped = np.asarray(prompt_i, float)[rows] * overlay[(rows + shift) % overlay.size]
+    return wiped.reshape(n, per).sum(axis=1), first + per * np.arange(n)
 
 
 @dataclass(frozen=True)
@@ -89,28 +124,31 @@ class CnavTiming:
 
 
 def channel_cnav(record: ChannelRecord, signal: SignalSpec) -> CnavTiming:
-    """Decode the CNAV of one channel tracking L2 CM (`carries_cnav`), run by run."""
+    """Decode the CNAV of one channel tracking L2 CM or L5 I5 (`carries_cnav`), run by run."""
     if not carries_cnav(signal):
         raise ConfigError(
-            "signal", f"PRN {record.prn}: {signal.name} carries no CNAV on its tracked component (gps-l2c does)"
+            "signal",
+            f"PRN {record.prn}: {signal.name} carries no CNAV on its tracked component (gps-l2c and gps-l5i do)",
         )
     if not record.rows:
         return CnavTiming(record.prn, [], np.zeros(0))
     col = record.column
-    time_s, prompt = col("time_s"), col("prompt_i")
+    time_s, prompt_i, prompt_q = col("time_s"), col("prompt_i"), col("prompt_q")
     messages, times = [], []
     for run in symbol_runs(time_s, col("coherent_ms"), signal.code_period_s):
-        for m in decode_cnav(prompt[run], prn=record.prn).messages:
+        symbols, starts = cnav_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
+        for m in decode_cnav(symbols, prn=record.prn, message_s=message_s(signal)).messages:
             messages.append(m)
-            times.append(float(time_s[run[m.start]]))
+            times.append(float(time_s[run[starts[m.start]]]))
     return CnavTiming(record.prn, messages, np.array(times))
 
 
 def _run_epoch(messages: list[CnavMessage], period_s: float) -> tuple[int, float, bool] | None:
-    """``(start, tow_s, inverted)`` of a run's first CRC-checked message, or None: without
-    one, or where two checked messages disagree on the run's time (their TOWs must differ by
-    their symbols apart times the period: a CRC passed by chance is one in 2^24, a wrong
-    pairing or a slipped symbol would show here)."""
+    """``(start, tow_s, inverted)`` of a run's first CRC-checked message (``start`` its
+    first symbol), or None: without one, or where two checked messages disagree on the run's
+    time (their TOWs must differ by their symbols apart times the symbol period ``period_s``:
+    a CRC passed by chance is one in 2^24, a wrong pairing or a slipped symbol would show
+    here)."""
     good = [m for m in messages if m.crc_ok]
     if not good:
         return None
@@ -123,14 +161,15 @@ def _run_epoch(messages: list[CnavMessage], period_s: float) -> tuple[int, float
 
 
 def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTiming | None:
-    """The rows of an L2 CM channel dated from its CNAV (`channel_cnav`) as the
+    """The rows of an L2 CM or L5 I5 channel dated from its CNAV (`channel_cnav`) as the
     `observables.ChannelTiming` the observables and fixes take; None without a dated row.
 
     A run of one-period rows (`inav_stream.symbol_runs`) is one symbol stream; its first
     CRC-checked message gives the SV time at the start of its first symbol,
-    ``tow_s`` (six times the TOW count less the message's 12 s, IS-GPS-200 30.3.3.1.1.2),
-    so row ``j`` of the run was sent at ``tow_s + (j - start) x 20 ms`` plus its code phase
-    (every row starts on a CM code epoch, and a CM period is a symbol). A run whose checked
+    ``tow_s`` (six times the TOW count less the message's 12 s on L2C, 6 s on L5;
+    IS-GPS-200 30.3.3.1.1.2, IS-GPS-705 20.3.3.1.1.2), on row ``start``; row ``j`` of the
+    run was then sent at ``tow_s + (j - start) T`` plus its code phase (every row starts on a
+    code epoch of period ``T``: 20 ms on L2 CM, 1 ms on L5). A run whose checked
     messages disagree is not dated. The half-cycle flag is the stream's polarity. The
     pull-in's rows are not measurements (their code phase is converging). The channel's
     records (`cnav_records.cnav_records` of all its runs' messages, named as ``signal``
@@ -146,17 +185,19 @@ def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     ready_s: list[float] = []  # recording time at which each message has ended
     col = record.column
     time_s, code_chips, stage = col("time_s"), col("code_phase_chips"), col("stage")
-    period = signal.code_period_s
+    period, duration_s = signal.code_period_s, message_s(signal)
     rows, tx, half, starts = [], [], [], []
-    prompt = col("prompt_i")
+    prompt_i, prompt_q = col("prompt_i"), col("prompt_q")
     for run in symbol_runs(time_s, col("coherent_ms"), period):
-        messages = decode_cnav(prompt[run], prn=record.prn).messages
+        symbols, symbol_rows = cnav_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
+        messages = decode_cnav(symbols, prn=record.prn, message_s=duration_s).messages
         timing_messages += messages
-        ready_s += [float(time_s[run[m.start]]) + MESSAGE_S for m in messages]
-        epoch = _run_epoch(messages, period)
+        ready_s += [float(time_s[run[symbol_rows[m.start]]]) + duration_s for m in messages]
+        epoch = _run_epoch(messages, float(signal.symbol_period_s or period))
         if epoch is None:
             continue
-        start, tow, inverted = epoch
+        first_symbol, tow, inverted = epoch
+        start = int(symbol_rows[first_symbol])
         keep = stage[run] != _PULL_IN
         k = (np.arange(run.size) - start)[keep]
         if k.size < 2:
