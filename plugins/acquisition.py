@@ -186,12 +186,7 @@ class ParallelCodePhaseSearch(Acquisition):
         sign at every code epoch), with two blocks or more and not summed by parity."""
         p = self.params
         sign_periods = 1 if signal.overlay_length(0) else signal.code_periods_per_symbol
-        return (
-            sign_periods == p.coherent_ms
-            and p.noncoherent >= 2
-            and not alternate
-            and not p.code_doppler
-        )
+        return sign_periods == p.coherent_ms and p.noncoherent >= 2 and not alternate and not p.code_doppler
 
     def _sidebands(self, signal: SignalSpec, n: int, sample_rate_hz: float) -> int:
         """Correlations summed per block: 1, or 2 for a BPSK-like search, refused in one line
