@@ -1,14 +1,19 @@
-"""The receiver tests' L2C recordings: the satellites of `lnav_recordings` (real broadcast
-records of tests/data/07590920.05n seen from the station of 07590920.05o), each sending
-GPS L2C with CNAV (types 10, 11 and 30 of its own record and the navigation file's
-Klobuchar coefficients, `cnav.cnav_symbols`) on CM, with
-the code phase, Doppler and symbol timing of the geometry at L2, 45 dB-Hz, complex int16
-SigMF at 2.6 MHz (not 2.046, which meets L2C's sub-chips at two phases only: the DLL's dead
-band of ±0.125 CM chip, 73 m, `CommensurateSamplingWarning`).
+r"""The receiver tests' L2C and L5 recordings: the satellites of `lnav_recordings` (real
+broadcast records of tests/data/07590920.05n seen from the station of 07590920.05o), each
+sending GPS CNAV (types 10, 11 and 30 of its own record and the navigation file's
+Klobuchar coefficients, `cnav.cnav_symbols`) on L2 CM or L5 I5, with the code phase,
+Doppler and symbol timing of the geometry at L2 (L5), 45 dB-Hz, complex int16 SigMF at
+2.6 MHz for L2C (not 2.046, which meets L2C's sub-chips at two phases only: the DLL's dead
+band of ±0.125 CM chip, 73 m, `CommensurateSamplingWarning`) and complex int8 at 10.5 MHz
+for L5 (its main lobe's middle: the file stays small).
 
 The satellite's L2 time is its L2 single-frequency user's: the clock's ``γ T_GD``
-(IS-GPS-200 20.3.3.3.3.2) computed here from the record, not by the library; no
-ionosphere (the generator has none)."""
+(IS-GPS-200 20.3.3.3.3.2) computed here from the record, not by the library. On L5 each
+satellite sends ``ISC_L5I5 = -(γ_5 - 1) T_GD`` (`L5_ISC`), so that the L5 I5 user's clock
+:math:`\Delta t_{SV} - T_{GD} + ISC_{L5I5}` (IS-GPS-705 20.3.3.3.1.2.2) and the rule for
+a record without that ISC (`single_frequency_clock_s`: :math:`\gamma_5 T_{GD}`) agree:
+the navigation file's records and the decoded ones date the signal alike. No ionosphere
+(the generator has none)."""
 
 from __future__ import annotations
 
@@ -19,7 +24,9 @@ import numpy as np
 from gnssframework.navigation import cnav
 from gnssframework.navigation.rinex_nav_header import read_nav_file_info
 from gnssframework.signal.gps_l2c import GPS_L2C
+from gnssframework.signal.gps_l5 import GPS_L5I
 from gnssframework.signal.if_samples import generate_if_samples
+from gnssframework.signal.spec import SignalSpec
 from light_time import C, signal_flight
 from lnav_recordings import CHUNK_S, NAV, STATION
 from noisy_recording import write_noisy_recording
@@ -31,13 +38,32 @@ GAMMA = (1575.42 / 1227.60) ** 2
 #: GPS time of the first sample: a CNAV message (12 s, on multiples of 12 s of SV time)
 #: starts about 0.5 s in, so a 14 s file holds a whole one after the pull-in.
 TOW0 = 518_700.0 - 0.5 + 0.075
+#: The same for L5's 6 s messages, one message later: the first whole one (SV time 518706 s)
+#: is a type 10, not the type 30 whose Klobuchar coefficients the receiver would apply to a
+#: signal the generator sends without an ionosphere.
+TOW0_L5 = TOW0 + 6.0
 FS = 2.6e6
+#: (f_L1 / f_L5)^2 = (154/115)^2: the L5 user's factor on T_GD without an ISC.
+GAMMA_L5 = (154 / 115) ** 2
+L5_FS = 10.5e6
 
 
 def l2_satellite_time(eph, t_rx) -> np.ndarray:
     """The L2 SV time of the signal received at true GPS time ``t_rx`` by the station."""
     flight = signal_flight(eph, t_rx, STATION)
     return t_rx - flight.tau_s + flight.clock_s - (GAMMA - 1.0) * eph.elements["TGD"]
+
+
+def l5_satellite_time(eph, t_rx) -> np.ndarray:
+    """The L5 SV time of the signal received at true GPS time ``t_rx`` by the station (the
+    L5 I5 user's clock with `L5_ISC`: ``γ_5 T_GD`` in all)."""
+    flight = signal_flight(eph, t_rx, STATION)
+    return t_rx - flight.tau_s + flight.clock_s - (GAMMA_L5 - 1.0) * eph.elements["TGD"]
+
+
+def l5_isc_s(record) -> float:
+    """The ISC_L5I5 a test satellite sends: ``-(γ_5 - 1) T_GD`` (module text)."""
+    return float(-(GAMMA_L5 - 1.0) * record.elements["TGD"][0])
 
 
 def write_l2c_recording(
@@ -47,11 +73,32 @@ def write_l2c_recording(
     CNAV's 300 s grid of Toe) from GPS time ``tow0`` to ``path`` (``.sigmf-data``);
     ``iono_l1_m`` each satellite's ionospheric code delay on L1 (m, constant), sent on L2
     times ``GAMMA``."""
-    iono_s = np.zeros(sats.sv.size) if iono_l1_m is None else GAMMA * np.asarray(iono_l1_m, float) / C
+    return write_cnav_recording(path, sats, tow0, duration_s, seed, cn0_dbhz, iono_l1_m, signal=GPS_L2C)
+
+
+def write_cnav_recording(
+    path: Path,
+    sats,
+    tow0: float,
+    duration_s: float,
+    seed: int,
+    cn0_dbhz: float = 45.0,
+    iono_l1_m=None,
+    *,
+    signal: SignalSpec = GPS_L2C,
+):
+    """`write_l2c_recording` for ``signal``: GPS L2C (2.6 MHz, ci16) or L5 I5 (`L5_FS`, ci8;
+    its NH10 overlay chip ``k`` on the ``k``-th millisecond of SV time, a symbol's start on
+    chip 0)."""
+    l5 = signal is GPS_L5I
+    gamma, fs, sv_time = (GAMMA_L5, L5_FS, l5_satellite_time) if l5 else (GAMMA, FS, l2_satellite_time)
+    message_s = cnav.L5_MESSAGE_S if l5 else cnav.MESSAGE_S
+    iono_s = np.zeros(sats.sv.size) if iono_l1_m is None else gamma * np.asarray(iono_l1_m, float) / C
     rng = np.random.default_rng(seed)
-    n = int(round(CHUNK_S * FS))
-    period = GPS_L2C.code_period_s
-    t_sv0 = l2_satellite_time(sats, np.array(tow0)) - iono_s
+    n = int(round(CHUNK_S * fs))
+    period = signal.code_period_s
+    periods = max(1, signal.overlay_length())  # code phase counted over the overlay's period
+    t_sv0 = sv_time(sats, np.array(tow0)) - iono_s
     iono = read_nav_file_info(NAV).iono
     streams = []
     for k in range(sats.sv.size):
@@ -59,7 +106,14 @@ def write_l2c_recording(
         # sent as types 10, 11 and 30: that satellite sends type 0 only (its TOW dates it as well).
         record = sats.subset(np.array([k])) if sats.elements["Toe"][k] % 300 == 0 else None
         symbols, into = cnav.cnav_symbols(
-            int(sats.sv[k][1:]), float(t_sv0[k]) - 0.1, int(duration_s / period) + 20, record, WEEK, iono
+            int(sats.sv[k][1:]),
+            float(t_sv0[k]) - 0.1,
+            int(duration_s / signal.symbol_period_s) + 20,
+            record,
+            WEEK,
+            iono,
+            message_s=message_s,
+            isc_l5i5_s=l5_isc_s(record) if l5 and record is not None else None,
         )
         streams.append((symbols.astype(float), float(t_sv0[k]) - 0.1 - into))  # SV time of the first symbol
     phase = np.zeros(sats.sv.size)
@@ -67,32 +121,32 @@ def write_l2c_recording(
     def chunks():
         for c in range(int(round(duration_s / CHUNK_S))):
             t0 = c * CHUNK_S
-            start = l2_satellite_time(sats, tow0 + t0) - iono_s
-            end = l2_satellite_time(sats, tow0 + t0 + CHUNK_S) - iono_s
-            doppler = GPS_L2C.carrier_freq_hz * ((end - start) / CHUNK_S - 1.0)
+            start = sv_time(sats, tow0 + t0) - iono_s
+            end = sv_time(sats, tow0 + t0 + CHUNK_S) - iono_s
+            doppler = signal.carrier_freq_hz * ((end - start) / CHUNK_S - 1.0)
             x = np.zeros(n, complex)
             for k in range(sats.sv.size):
                 symbols, first_tsv = streams[k]
                 x += generate_if_samples(
                     int(sats.sv[k][1:]),
                     CHUNK_S,
-                    FS,
+                    fs,
                     0.0,
                     cn0_dbhz,
                     rng,
                     doppler_hz=doppler[k],
-                    code_phase_chips=(start[k] / period % 1.0) * GPS_L2C.code_length_chips,
+                    code_phase_chips=(start[k] / period % periods) * signal.code_length_chips,
                     carrier_phase_rad=phase[k],
                     complex_samples=True,
                     data_bits=symbols,
                     first_bit_edge_s=first_tsv - start[k],
                     noise=False,
-                    signal=GPS_L2C,
+                    signal=signal,
                 ).samples
                 phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
             yield x
 
-    return write_noisy_recording(path, chunks(), FS, rng)
+    return write_noisy_recording(path, chunks(), fs, rng, fmt="ci8" if l5 else "ci16_le")
 
 
 def l2c_tracking_config():

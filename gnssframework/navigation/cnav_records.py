@@ -18,8 +18,8 @@ user's clock is :math:`\Delta t_{SV} - T_{GD} + ISC_{L2C}` and an L1 C/A user's
 `ephemeris.single_frequency_clock_s`; :math:`\gamma T_{GD}` where ISC is broadcast as not
 available, and T_GD 0 where it is, as GNSS-SDR takes it).
 
-A record holds the L2 health bit of message type 10 as its health (the receiver decoding
-CNAV tracks L2C), the URA_ED index as its accuracy (the LNAV URA table for indices 0-15,
+A record holds the health bit of message type 10 of the band decoded (L2, or L5 for a
+receiver decoding L5 I5) as its health, the URA_ED index as its accuracy (the LNAV URA table for indices 0-15,
 :math:`2^{1 + N/2}` m below 0, IS-GPS-200 30.3.3.1.1.4), and :math:`t_{oe} / 300` as its issue
 of data (CNAV has no IODE; a new upload has a new :math:`t_{oe}`).
 """
@@ -47,24 +47,29 @@ from .cnav import (
 from .ephemeris import Ephemerides
 from .lnav import URA_M, IonoUtc
 
-__all__ = ["cnav_record", "CnavRecords", "cnav_records", "CNAV_LEAP_S"]
+__all__ = ["cnav_record", "CnavRecords", "cnav_records", "CNAV_LEAP_S", "HEALTH_BIT"]
 
 #: GPS-UTC leap seconds taken where no type 33 message was decoded (as a RINEX header
 #: without LEAP SECONDS, `rinex_nav_header`).
 CNAV_LEAP_S = 18
 _PI = np.pi  # IS-GPS-200's semicircle (the ICD's own value of pi)
-_L2_HEALTH_BIT = 1  # health_l1_l2_l5: L1 the high bit, L2 the middle one, L5 the low one
+#: The bit of message type 10's ``health_l1_l2_l5`` (L1 the high bit, L2 the middle one, L5
+#: the low one) a record holds, by the band of the signal decoded.
+HEALTH_BIT = {"L2": 1, "L5": 0}
 
 
 def _ura_m(index: int) -> float:
     return float(URA_M[index]) if index >= 0 else float(2.0 ** (1 + index / 2))
 
 
-def cnav_record(eph: CnavEphemeris, clock: CnavClock, delays: CnavGroupDelays, sv: str | None = None) -> Ephemerides:
+def cnav_record(
+    eph: CnavEphemeris, clock: CnavClock, delays: CnavGroupDelays, sv: str | None = None, band: str = "L2"
+) -> Ephemerides:
     """One `Ephemerides` record (georinex names, radians) of a satellite's orbit (types 10
     and 11, `cnav.parse_ephemeris`), clock (`cnav.parse_clock`) and group delays
     (`cnav.parse_group_delays`), named ``sv`` (default ``G`` and the PRN: give ``J01`` for
-    QZSS PRN 193). See the module text."""
+    QZSS PRN 193), its health the ``band``'s bit (`HEALTH_BIT`: ``"L2"`` or ``"L5"``). See
+    the module text."""
     tgd = delays.tgd_s if np.isfinite(delays.tgd_s) else 0.0
     elements = {
         "sqrtA": np.sqrt(A_REF_M + eph.delta_a_m),
@@ -91,12 +96,13 @@ def cnav_record(eph: CnavEphemeris, clock: CnavClock, delays: CnavGroupDelays, s
         "DeltaN0dot": eph.delta_n0_dot_sc_s2 * _PI,
         "ISC_L1CA": delays.isc_l1ca_s,
         "ISC_L2C": delays.isc_l2c_s,
+        "ISC_L5I5": delays.isc_l5i5_s,
     }
     return Ephemerides(
         np.array([sv or f"G{eph.prn:02d}"]),
         np.array([float(clock.toc_s)]),
         {k: np.array([float(v)]) for k, v in elements.items()},
-        np.array([float((eph.health_l1_l2_l5 >> _L2_HEALTH_BIT) & 1)]),
+        np.array([float((eph.health_l1_l2_l5 >> HEALTH_BIT[band]) & 1)]),
         np.array([eph.toe_s / 300.0]),
         np.array([_ura_m(eph.ura_ed_index)]),
     )
@@ -117,11 +123,12 @@ class CnavRecords:
     week: int | None
 
 
-def cnav_records(messages: list[CnavMessage], sv: str | None = None) -> CnavRecords:
+def cnav_records(messages: list[CnavMessage], sv: str | None = None, band: str = "L2") -> CnavRecords:
     """The records of one satellite's messages in the order received (`cnav.decode_cnav`'s;
     those failing their CRC are passed over): a record is made once an orbit (types 10 and 11
     of one :math:`t_{oe}`), its clock and a type 30 have arrived, and again at each new
-    orbit or clock (see the module text). ``sv`` names the records (`cnav_record`)."""
+    orbit or clock (see the module text). ``sv`` names the records and ``band`` picks their
+    health bit (`cnav_record`)."""
     orbit10: dict[float, CnavMessage] = {}
     orbit11: dict[float, CnavMessage] = {}
     clocks: list[CnavClock] = []
@@ -154,7 +161,7 @@ def cnav_records(messages: list[CnavMessage], sv: str | None = None) -> CnavReco
             if clock is None or (toe, clock.toc_s) in made:
                 continue
             made.add((toe, clock.toc_s))
-            records.append((index, cnav_record(eph, clock, delays, sv)))
+            records.append((index, cnav_record(eph, clock, delays, sv, band)))
     iono = None
     if delays is not None:
         alpha, beta = delays.iono.alpha, delays.iono.beta

@@ -50,6 +50,7 @@ import numpy as np
 from ..errors import DataFileError
 from ..signal.gps_l1ca import GPS_L1CA
 from ..signal.gps_l2c import GPS_L2C
+from ..signal.gps_l5 import GPS_L5I
 from ..signal.spec import SignalSpec
 
 __all__ = [
@@ -131,10 +132,16 @@ CLOCK_FIELDS = ("SVclockBias", "SVclockDrift", "SVclockDriftRate", "TGD")
 
 #: Elements only a CNAV record has (`cnav_records`, IS-GPS-200 30.3.3.1 and 30.3.3.3.1.1):
 #: the rate of the semi-major axis ``Adot`` (m/s), the rate of the mean motion difference
-#: ``DeltaN0dot`` (rad/s^2) and the inter-signal corrections ``ISC_L1CA`` and ``ISC_L2C``
-#: (s); with the value that means "absent" in a record without them (an LNAV-style orbit,
-#: no ISC).
-CNAV_FIELDS = {"Adot": 0.0, "DeltaN0dot": 0.0, "ISC_L1CA": float("nan"), "ISC_L2C": float("nan")}
+#: ``DeltaN0dot`` (rad/s^2) and the inter-signal corrections ``ISC_L1CA``, ``ISC_L2C`` and
+#: ``ISC_L5I5`` (s; IS-GPS-705 20.3.3.3.1.2); with the value that means "absent" in a record
+#: without them (an LNAV-style orbit, no ISC).
+CNAV_FIELDS = {
+    "Adot": 0.0,
+    "DeltaN0dot": 0.0,
+    "ISC_L1CA": float("nan"),
+    "ISC_L2C": float("nan"),
+    "ISC_L5I5": float("nan"),
+}
 
 
 #: Keplerian and clock fields of a broadcast navigation message (the decoders' names, angles
@@ -339,9 +346,12 @@ def single_frequency_clock_s(
     RTKLIB also takes when there is no CNAV ISC, as in a RINEX LNAV record. A CNAV record
     (`cnav_records`) with its inter-signal corrections gives an L2C user
     :math:`\Delta t_{SV} - T_{GD} + ISC_{L2C}` and an L1 C/A user
-    :math:`\Delta t_{SV} - T_{GD} + ISC_{L1C/A}` instead (IS-GPS-200 30.3.3.3.1.1.1). Other
-    systems: ``state.clock_l1_s``, their own single-frequency user's (E1, B1I), whatever
-    ``carrier_freq_hz``.
+    :math:`\Delta t_{SV} - T_{GD} + ISC_{L1C/A}` instead (IS-GPS-200 30.3.3.3.1.1.1), and an
+    L5 I5 user :math:`\Delta t_{SV} - T_{GD} + ISC_{L5I5}` (IS-GPS-705 20.3.3.3.1.2.2); an L5
+    user without that ISC takes :math:`\gamma T_{GD}` with :math:`\gamma = (154/115)^2`, the
+    same generic rule (no ICD defines it: a record without CNAV's ISCs says nothing of L5).
+    Other systems: ``state.clock_l1_s``, their own single-frequency user's (E1, B1I),
+    whatever ``carrier_freq_hz``.
     """
     gamma = ionosphere_scale(carrier_freq_hz, reference)
     gps = np.isin(np.asarray(eph.sv).astype("U1"), ["G", "J"])
@@ -352,9 +362,10 @@ def single_frequency_clock_s(
         return np.where(gps & np.isfinite(isc_l1), state.clock_l1_s + np.nan_to_num(isc_l1), state.clock_l1_s)
     tgd = state.clock_s - state.clock_l1_s
     clock = np.where(gps, state.clock_s - gamma * tgd, state.clock_l1_s)
-    isc = eph.elements.get("ISC_L2C")
-    if isc is not None and abs(float(carrier_freq_hz) - GPS_L2C.carrier_freq_hz) < 1.0:
-        clock = np.where(gps & np.isfinite(isc), state.clock_l1_s + np.nan_to_num(isc), clock)
+    for name, band in (("ISC_L2C", GPS_L2C), ("ISC_L5I5", GPS_L5I)):
+        isc = eph.elements.get(name)
+        if isc is not None and abs(float(carrier_freq_hz) - band.carrier_freq_hz) < 1.0:
+            clock = np.where(gps & np.isfinite(isc), state.clock_l1_s + np.nan_to_num(isc), clock)
     return clock
 
 

@@ -28,6 +28,7 @@ from gnssframework.navigation.ephemeris import (
 from gnssframework.navigation.rinex_nav_header import read_nav_file_info
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.gps_l2c import GPS_L2C
+from gnssframework.signal.gps_l5 import GPS_L5I
 from gnsstk_cnav import gnsstk_cnav
 
 DATA = Path(__file__).parents[1] / "data"
@@ -107,13 +108,15 @@ def test_the_record_of_real_messages_places_and_moves_the_satellite_as_the_cnav_
         c.af0_s + c.af1_s_s * (t - c.toc_s), abs=1e-15
     )
     assert rec.health[0] == 0  # L2 healthy; the L5 flag GNSSTk reports is not the L2C user's
+    # ... but it is an L5 user's (the record a receiver decoding L5 I5 makes).
+    assert cnav_records([m[10], m[11], m[30]], band="L5").records[0][1].health[0] == 1
     assert rec.accuracy_m[0] == 2.4  # URA_ED index 0: LNAV's URA table (RTKLIB's uravalue), 2.4 m
     assert got.week == 2060
     assert got.iono.alpha == cnav.parse_group_delays(m[30]).iono.alpha
     assert (got.iono.dt_ls_s, got.iono.wn_lsf, got.iono.dn) == (18, 1929 % 256, 7)
 
 
-def test_l2c_and_l1ca_users_take_tgd_and_their_isc_and_gamma_tgd_without_one():
+def test_l2c_l5_and_l1ca_users_take_tgd_and_their_isc_and_gamma_tgd_without_one():
     m = gnsstk_cnav()
     rec = cnav_records([m[10], m[11], m[30]]).records[0][1]
     t = np.array([rec.elements["Toe"][0] + 100.0])
@@ -134,6 +137,14 @@ def test_l2c_and_l1ca_users_take_tgd_and_their_isc_and_gamma_tgd_without_one():
     gamma = (GPS_L1CA.carrier_freq_hz / GPS_L2C.carrier_freq_hz) ** 2
     assert single_frequency_clock_s(no_isc, s, GPS_L2C.carrier_freq_hz)[0] == pytest.approx(
         s.clock_s[0] - gamma * tgd, abs=1e-17
+    )
+    # L5 I5: Δt_SV - T_GD + ISC_L5I5 (IS-GPS-705 20.3.3.3.1.2.2), GNSSTk's ISC; without one,
+    # γ T_GD with γ = (154/115)^2.
+    l5 = single_frequency_clock_s(rec, s, GPS_L5I.carrier_freq_hz)
+    assert l5[0] == pytest.approx(s.clock_s[0] - tgd + 6.43194653e-09, abs=1e-17)
+    no_l5 = Ephemerides(rec.sv, rec.toc_s, {**rec.elements, "ISC_L5I5": np.array([np.nan])}, rec.health, rec.iode)
+    assert single_frequency_clock_s(no_l5, s, GPS_L5I.carrier_freq_hz)[0] == pytest.approx(
+        s.clock_s[0] - (154 / 115) ** 2 * tgd, abs=1e-17
     )
 
 

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...errors import ConfigError
-from ...navigation.cnav import MESSAGE_BITS, CnavMessage, decode_cnav
+from ...navigation.cnav import L5_MESSAGE_S, MESSAGE_BITS, CnavMessage, decode_cnav
 from ...navigation.cnav_records import cnav_records
 from ...navigation.lnav import LnavMessage
 from ...signal.overlay import overlay_sync
@@ -211,7 +211,8 @@ def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     if not rows:
         return None
     r = np.concatenate(rows)
-    decoded = cnav_records(timing_messages, signal.rinex_satellite(record.prn))
+    band = "L5" if abs(message_s(signal) - L5_MESSAGE_S) < 1e-9 else "L2"
+    decoded = cnav_records(timing_messages, signal.rinex_satellite(record.prn), band)
     ephemerides = [(ready_s[k], rec) for k, rec in decoded.records]
     return ChannelTiming(
         record.prn,

@@ -195,5 +195,5 @@ def require_positioning(signal: SignalSpec) -> None:
             "signal",
             f"{signal.name}: the receive command positions from GPS/QZSS L1 C/A (LNAV: "
             "gps-l1ca, qzss-l1ca), Galileo E1-B (I/NAV: galileo-e1b-boc11, galileo-e1b) "
-            "and GPS/QZSS L2C (CNAV: gps-l2c, qzss-l2c) only",
+            "and GPS/QZSS L2C and GPS L5 I5 (CNAV: gps-l2c, qzss-l2c, gps-l5i) only",
         )

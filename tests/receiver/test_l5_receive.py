@@ -1,0 +1,87 @@
+"""`receive --signal gps-l5i`: positions from GPS L5 I5 alone, each channel dated from its
+CNAV TOW on 1 ms rows under NH10 (`cnav_stream.cnav_channel_timing`) and solved with the L5
+I5 user's clock and ionosphere scale (`ephemeris.single_frequency_clock_s`), on the five
+satellites of `l2c_recordings.write_cnav_recording` (real broadcast records seen from the
+station of 07590920.05o, their L5 time computed by the test, not by the library). Truth:
+the station, and each satellite's L5 SV time at every dated row."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pymap3d
+import pytest
+
+from gnssframework import registry
+from gnssframework.cli import main
+from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
+from gnssframework.navigation.pvt import dop
+from gnssframework.receiver.channels import signal_tracking_config
+from gnssframework.receiver.frontend import open_recording
+from gnssframework.receiver.navigation.receive import receive
+from gnssframework.signal.gps_l5 import GPS_L5I
+from l2c_recordings import TOW0_L5, WEEK, l5_satellite_time, write_cnav_recording
+from lnav_recordings import NAV, STATION, _strongest
+
+pytestmark = pytest.mark.slow  # end to end (the fast lane leaves these out)
+
+#: A 6 s L5 message starts about 0.5 s in (SV time 518706 s), so 8 s hold one whole.
+DURATION_S = 8.0
+C = 299_792_458.0
+
+
+@pytest.fixture(scope="module")
+def l5(tmp_path_factory):
+    sats = _strongest(read_rinex_nav(NAV), TOW0_L5, 5)
+    path = tmp_path_factory.mktemp("l5") / "l5.sigmf-data"
+    write_cnav_recording(path, sats, TOW0_L5, DURATION_S, seed=6, signal=GPS_L5I)
+    return path, sats
+
+
+def _prns(sats) -> list[int]:
+    return [int(s[1:]) for s in sats.sv]
+
+
+def test_receive_positions_from_l5_alone(l5):
+    """Every satellite is dated from its first message and used in every fix; each row's
+    transmit time is the generator's L5 SV time within a few hundredths of a chip, and the
+    fixes are on the station within three PDOPs of that error."""
+    path, sats = l5
+    result = receive(
+        open_recording(path),
+        registry.create("acquisition", "pcps"),
+        signal_tracking_config(GPS_L5I),
+        prns=tuple(_prns(sats)),
+        rinex=read_rinex_nav(NAV),
+        signal=GPS_L5I,
+        reference_week=WEEK,
+    )
+    obs, table = result.observables, result.positions
+    assert table is not None and len(table) >= int(DURATION_S) - 2
+    assert all(len(u) == 5 for u in table.used_prns)
+    pr_err = []
+    for j, prn in enumerate(obs.prn):
+        k = _prns(sats).index(int(prn))
+        ok = np.isfinite(obs.transmit_s[:, j])
+        truth = l5_satellite_time(sats.subset(np.array([k])), TOW0_L5 + obs.sample_time_s[ok])
+        pr_err.append((obs.transmit_s[ok, j] - truth) * C)
+    sigma_pr = float(np.std(np.concatenate(pr_err)))
+    assert sigma_pr < 0.03 * GPS_L5I.chip_length_m, sigma_pr
+    lat, lon, h = pymap3d.ecef2geodetic(*STATION)
+    up = np.array([pymap3d.ecef2enu(*p, lat, lon, h) for p in satellite_state(sats, TOW0_L5 + 4.0).position_m])
+    pdop = dop(up / np.linalg.norm(up, axis=1)[:, None])[1]
+    err = np.linalg.norm(table.ecef_m - STATION, axis=1)
+    assert np.sqrt(np.mean(err**2)) < 3 * pdop * sigma_pr, (err, pdop, sigma_pr)
+
+
+def test_the_command_positions_from_l5(l5, tmp_path):
+    """What a user types: the fixes, with the observations written under L5 I5's RINEX codes."""
+    path, sats = l5
+    out = tmp_path / "rx"
+    args = ["receive", str(path), "--signal", "gps-l5i", "--ephemeris", str(NAV), "--week", str(WEEK)]
+    assert main([*args, "--prns", *map(str, _prns(sats)), "--out", str(out), "--quiet"]) == 0
+    with open(out / "positions.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) >= int(DURATION_S) - 2 and all(int(r["n_sats"]) == 5 for r in rows)
+    assert "C5I" in (out / "observations.rnx").read_text()
