@@ -12,6 +12,8 @@ quadrature is stated, not used by a block.
 
 from __future__ import annotations
 
+from typing import Any
+
 from .galileo_e5a_codes import (
     E5A_CODE_LENGTH_CHIPS,
     E5A_PRNS,
@@ -32,7 +34,7 @@ E5AI_DATA = Component(
 #: E5a-Q: the pilot, CS100_i overlay (one per PRN).
 E5AQ_PILOT = Component("Q", galileo_e5aq_code, secondary_code_of=galileo_e5aq_secondary_code, power_fraction=0.5)
 
-_E5A = dict(
+_E5A: dict[str, Any] = dict(
     system="E",
     carrier_freq_hz=L5_FREQ_HZ,
     chip_rate_hz=10.23e6,

@@ -17,6 +17,8 @@ Galileo E5a, on the same carrier, is `galileo_e5a`.
 
 from __future__ import annotations
 
+from typing import Any
+
 from .gps_l5_codes import (
     L5_CODE_LENGTH_CHIPS,
     L5I_NEUMAN_HOFFMAN,
@@ -43,7 +45,7 @@ L5I_DATA = Component("I", gps_l5i_code, secondary_code=L5I_NEUMAN_HOFFMAN, symbo
 #: Q5: the pilot, NH20 overlay, half the power.
 L5Q_PILOT = Component("Q", gps_l5q_code, secondary_code=L5Q_NEUMAN_HOFFMAN, power_fraction=0.5)
 
-_L5 = dict(carrier_freq_hz=L5_FREQ_HZ, chip_rate_hz=10.23e6, code_length_chips=L5_CODE_LENGTH_CHIPS)
+_L5: dict[str, Any] = dict(carrier_freq_hz=L5_FREQ_HZ, chip_rate_hz=10.23e6, code_length_chips=L5_CODE_LENGTH_CHIPS)
 #: GPS PRNs of IS-GPS-705 Tables 3-Ia/3-Ib (1-63); QZSS's 193-202.
 _GPS_PRNS = tuple(range(1, 64))
 _QZSS_PRNS = tuple(range(193, 203))
