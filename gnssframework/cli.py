@@ -572,6 +572,21 @@ def max_rate_hz(signals: Iterable[SignalSpec]) -> float:
     return min(1.0 / s.code_period_s for s in signals)
 
 
+def _fnav_records(rinex, path: str):
+    """The records of a navigation file an E5a-I user can take: those whose clock is for
+    E1,E5a (F/NAV's, ``FNAV`` 1; an I/NAV record's is for E1,E5b, `single_frequency_clock_s`),
+    refused in one line without any."""
+    fnav = rinex.elements.get("FNAV")
+    keep = [] if fnav is None else (fnav == 1.0).nonzero()[0]
+    if len(keep) == 0:
+        raise ConfigError(
+            "--ephemeris",
+            f"{path} holds no Galileo F/NAV record (RINEX data source bit 8: the clock for E5a,E1), "
+            "which an E5a user's clock needs: give a file with F/NAV records, or none (the decoded ones serve)",
+        )
+    return rinex.subset(keep)
+
+
 def _check_rate(rate_hz: float, signals: Iterable[SignalSpec]) -> None:
     """``--rate`` in (0, `max_rate_hz`], else a one-line error naming the limiting signal."""
     signals = tuple(signals)
@@ -625,7 +640,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
     from .receiver.navigation.cnav_stream import carries_cnav, write_cnav_report
-    from .receiver.navigation.inav_stream import carries_inav, write_inav_report
+    from .receiver.navigation.inav_stream import carries_fnav, carries_inav, write_inav_report
     from .receiver.navigation.sbas_stream import carries_sbas, write_sbas_report
 
     _threads_from_args(args)
@@ -655,8 +670,9 @@ def _cmd_track(args: argparse.Namespace) -> int:
             f"C/N0 {_or_none(s['cn0_dbhz_locked'], '5.1f')} dB-Hz, Doppler {_or_none(s['doppler_hz_last'], '9.1f')} "
             f"Hz, {s['final_stage']}"
         )
-    if carries_inav(signal):  # E1-B: every 4 ms prompt a symbol of I/NAV
+    if carries_inav(signal) or carries_fnav(signal):  # E1-B (4 ms symbols of I/NAV), E5a-I (20 ms of F/NAV)
         path, inav_rows = write_inav_report(args.out, result, signal)
+        message, kinds = ("F/NAV", "page types") if carries_fnav(signal) else ("I/NAV", "word types")
         written.append(path)
         for r in inav_rows:
             gst = (
@@ -665,7 +681,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
                 else "no GST"
             )
             print(
-                f"  PRN {r['prn']:2d}: I/NAV {r['pages']} pages (word types {r['word_types'] or 'none'}), "
+                f"  PRN {r['prn']:2d}: {message} {r['pages']} pages ({kinds} {r['word_types'] or 'none'}), "
                 f"{r['crc_failures']} CRC failures, IODnav {r['iodnav'] or 'none'}, {gst}"
                 f"{', ephemeris complete' if r['ephemeris'] else ''}"
             )
@@ -911,7 +927,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     from .receiver.navigation.decoded import navigation_message
     from .receiver.navigation.cnav_stream import carries_cnav
     from .receiver.navigation.decoded import require_positioning
-    from .receiver.navigation.inav_stream import carries_inav
+    from .receiver.navigation.inav_stream import carries_fnav, carries_inav
     from .receiver.navigation.receiver_config import receiver_filters
     from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
     from .receiver.channels.report import write_tracking_outputs
@@ -939,7 +955,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     args.channel_params = json.dumps(filters.channel_filter.params)
     # E1-B: one 4 ms code period a symbol, taps off BOC(1,1)'s side lobes (track's E1 defaults)
     # L2 CM: 20 ms periods, the pull-in's loops narrowed to them (track's L2C defaults)
-    long_symbols = carries_inav(signal) or carries_cnav(signal)
+    long_symbols = carries_inav(signal) or carries_cnav(signal) or carries_fnav(signal)
     config = _tracking_config_from_args(args, signal if long_symbols else None)
     _check_rate(args.rate, (signal,))
     if args.week is not None and not 0 <= args.week < 10_000:
@@ -954,6 +970,8 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             "drop --ephemeris, the decoded LNAV ephemerides serve",
         )
     rinex = read_rinex_nav(args.ephemeris, systems=signal.system) if args.ephemeris else None
+    if rinex is not None and carries_fnav(signal):
+        rinex = _fnav_records(rinex, args.ephemeris)
     nav_info = read_nav_file_info(args.ephemeris) if args.ephemeris else None
     # Without --week, the ephemeris file's (placed at the recording's tow once known, below).
     reference_week = args.week

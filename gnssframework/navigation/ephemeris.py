@@ -73,6 +73,8 @@ __all__ = [
     "single_frequency_clock_s",
     "ionosphere_scale",
     "CNAV_FIELDS",
+    "GALILEO_FIELDS",
+    "OPTIONAL_FIELDS",
 ]
 
 #: WGS 84 gravitational constant of IS-GPS-200 (Table 20-IV), m^3/s^2.
@@ -142,6 +144,12 @@ CNAV_FIELDS = {
     "ISC_L2C": float("nan"),
     "ISC_L5I5": float("nan"),
 }
+#: Elements only some Galileo records have: ``FNAV`` 1 where the record's clock is for the
+#: E1,E5a pair (F/NAV, RINEX data source bit 8; its ``TGD`` BGD(E1,E5a)), 0 for the E1,E5b
+#: pair of I/NAV (and any other system's record).
+GALILEO_FIELDS = {"FNAV": 0.0}
+#: Every element a record may lack, with the value that means "absent".
+OPTIONAL_FIELDS = {**CNAV_FIELDS, **GALILEO_FIELDS}
 
 
 #: Keplerian and clock fields of a broadcast navigation message (the decoders' names, angles
@@ -232,13 +240,14 @@ class Ephemerides:
 
     @classmethod
     def concatenate(cls, records: list[Ephemerides]) -> Ephemerides:
-        """One `Ephemerides` of several, in order; a record without a `CNAV_FIELDS` element
-        another has takes its absent value (the accuracy is kept where every record has one).
+        """One `Ephemerides` of several, in order; a record without an `OPTIONAL_FIELDS`
+        element another has takes its absent value (the accuracy is kept where every record
+        has one).
 
         Raises
         ------
         ValueError
-            Without a record, or where a record lacks an element that is not a CNAV one.
+            Without a record, or where a record lacks an element that is not an optional one.
         """
         if not records:
             raise ValueError("no ephemeris record to concatenate")
@@ -247,9 +256,9 @@ class Ephemerides:
         def column(r: Ephemerides, k: str) -> np.ndarray:
             if k in r.elements:
                 return r.elements[k]
-            if k not in CNAV_FIELDS:
+            if k not in OPTIONAL_FIELDS:
                 raise ValueError(f"ephemeris record of {', '.join(map(str, r.sv))} has no element {k!r}")
-            return np.full(r.sv.shape, CNAV_FIELDS[k])
+            return np.full(r.sv.shape, OPTIONAL_FIELDS[k])
 
         accuracy = (
             None if any(r.accuracy_m is None for r in records) else np.concatenate([r.accuracy_m for r in records])
@@ -350,11 +359,15 @@ def single_frequency_clock_s(
     L5 I5 user :math:`\Delta t_{SV} - T_{GD} + ISC_{L5I5}` (IS-GPS-705 20.3.3.3.1.2.2); an L5
     user without that ISC takes :math:`\gamma T_{GD}` with :math:`\gamma = (154/115)^2`, the
     same generic rule (no ICD defines it: a record without CNAV's ISCs says nothing of L5).
-    Other systems: ``state.clock_l1_s``, their own single-frequency user's (E1, B1I),
-    whatever ``carrier_freq_hz``.
+    Galileo on E5a: :math:`\Delta t_{SV} - (f_{E1}/f_{E5a})^2 BGD(E1,E5a)` from a record whose
+    clock is for E1,E5a (``FNAV`` 1: F/NAV's, OS SIS ICD 5.1.5); NaN from an I/NAV record,
+    whose clock is for E1,E5b (no E5a user's clock can be made of it). Other systems:
+    ``state.clock_l1_s``, their own single-frequency user's (E1, B1I), whatever
+    ``carrier_freq_hz``.
     """
     gamma = ionosphere_scale(carrier_freq_hz, reference)
-    gps = np.isin(np.asarray(eph.sv).astype("U1"), ["G", "J"])
+    letters = np.asarray(eph.sv).astype("U1")
+    gps = np.isin(letters, ["G", "J"])
     if gamma == 1.0:  # the reference's carrier (L1: C/A, E1, B1C): the record's own clock, as it was
         isc_l1 = eph.elements.get("ISC_L1CA")
         if isc_l1 is None:  # no CNAV record: T_GD alone, as LNAV's (and E1's, B1I's) user takes it
@@ -362,6 +375,10 @@ def single_frequency_clock_s(
         return np.where(gps & np.isfinite(isc_l1), state.clock_l1_s + np.nan_to_num(isc_l1), state.clock_l1_s)
     tgd = state.clock_s - state.clock_l1_s
     clock = np.where(gps, state.clock_s - gamma * tgd, state.clock_l1_s)
+    if abs(float(carrier_freq_hz) - GPS_L5I.carrier_freq_hz) < 1.0:  # Galileo E5a (L5's carrier)
+        fnav = eph.elements.get("FNAV", np.zeros(letters.shape))
+        e5a = state.clock_s - gamma * tgd
+        clock = np.where(letters == "E", np.where(fnav == 1.0, e5a, np.nan), clock)
     for name, band in (("ISC_L2C", GPS_L2C), ("ISC_L5I5", GPS_L5I)):
         isc = eph.elements.get(name)
         if isc is not None and abs(float(carrier_freq_hz) - band.carrier_freq_hz) < 1.0:
@@ -517,6 +534,9 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
     """Every complete ephemeris record of the ``systems`` (RINEX letters, ``"G"``,
     ``"GEC"``) in a RINEX 2 or 3 navigation file (georinex).
 
+    A Galileo record also holds ``elements["FNAV"]``: 1 where its clock is for E1,E5a (data
+    source bit 8 without bit 9), 0 otherwise (`GALILEO_FIELDS`).
+
     ``elements["TGD"]`` holds each record's group delay for the single-frequency user:
     GPS T_GD (L1 C/A); Galileo BGD(E1,E5b) for an I/NAV record (RINEX data source bit 9:
     clock for E5b,E1) and BGD(E1,E5a) for an F/NAV one (bit 8), for an E1 user (OS SIS ICD
@@ -595,11 +615,16 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
         # its seconds of week are those of the calendar date, as for GPS.
         # georinex names a second record of the same satellite and epoch "E19_1" (Galileo I/NAV and F/NAV).
         sv = np.array([name.split("_")[0] for name in nav.sv.values[si].astype(str)], dtype=str)
+        elements = {f: values[f][ti, si].astype(float) for f in ORBIT_FIELDS + CLOCK_FIELDS}
+        if letter == "E":  # the clock's pair (data source bits 8, 9): E1,E5a for F/NAV's
+            src = np.nan_to_num(values["DataSrc"][ti, si]).astype(np.int64)
+            elements["FNAV"] = ((src & 256) != 0) & ((src & 512) == 0)
+            elements["FNAV"] = elements["FNAV"].astype(float)
         parts.append(
             (
                 sv,
                 gps_seconds_of_week(nav.time.values[ti]),
-                {f: values[f][ti, si].astype(float) for f in ORBIT_FIELDS + CLOCK_FIELDS},
+                elements,
                 values[health][ti, si].astype(float),
                 values[iod][ti, si].astype(float),
                 acc,
@@ -607,10 +632,14 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
         )
     if not parts or sum(p[0].size for p in parts) == 0:
         raise DataFileError(str(path), None, f"no complete {names} ephemeris record")
+    names_read = list(dict.fromkeys(k for p in parts for k in p[2]))
     return Ephemerides(
         np.concatenate([p[0] for p in parts]),
         np.concatenate([p[1] for p in parts]),
-        {f: np.concatenate([p[2][f] for p in parts]) for f in ORBIT_FIELDS + CLOCK_FIELDS},
+        {
+            f: np.concatenate([p[2].get(f, np.full(p[0].size, OPTIONAL_FIELDS.get(f, np.nan))) for p in parts])
+            for f in names_read
+        },
         np.concatenate([p[3] for p in parts]),
         np.concatenate([p[4] for p in parts]),
         np.concatenate([p[5] for p in parts]),

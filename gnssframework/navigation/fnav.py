@@ -177,20 +177,29 @@ class FnavPage:
     fields: dict[str, float] = field(repr=False)
     bits: np.ndarray = field(repr=False)
 
+    @property
+    def word_type(self) -> int:
+        """The page type, under the name an I/NAV page's type has (the receiver's reports
+        read both)."""
+        return self.page_type
+
 
 @dataclass(frozen=True)
 class FnavMessage:
     """What one satellite's E5a-I symbols decoded to: the pages (CRC passed), the record of
     the last pages 1-4 of one IODnav (None without), ``gst`` ``(symbol index, WN, TOW s)`` of
     the last page with a TOW (its first sync symbol's; the WN of the last page that sent one:
-    page type 4 sends none), the last fields of each page type,
-    and one line per page of the stream's page grid that failed its CRC."""
+    page type 4 sends none), the last fields of each page type, and one line per page of the
+    stream's page grid that failed its CRC. ``iono_time`` is None: page types 1 and 4's
+    NeQuick, GST-UTC and GGTO fields are decoded into ``fields``, not assembled (as I/NAV's
+    are)."""
 
     pages: list[FnavPage]
     ephemeris: Ephemerides | None
     gst: tuple[int, int, float] | None
     fields: dict[int, dict[str, float]]
     failures: list[str]
+    iono_time: None = None
 
 
 def _value(bits: np.ndarray, first: int, n: int) -> int:
@@ -296,7 +305,7 @@ def find_fnav_pages(symbols: np.ndarray, sync_errors: int = 1) -> tuple[list[Fna
 
 def pages_to_ephemeris(fields: dict[int, dict[str, float]]) -> Ephemerides:
     """One `Ephemerides` record (georinex names, radians) from decoded page types 1-4 of one
-    IODnav: its clock for E1,E5a (``TGD`` = BGD(E1,E5a)), SISA and E5a health.
+    IODnav: its clock for E1,E5a (``TGD`` = BGD(E1,E5a), ``FNAV`` 1), SISA and E5a health.
 
     Raises
     ------
@@ -318,6 +327,7 @@ def pages_to_ephemeris(fields: dict[int, dict[str, float]]) -> Ephemerides:
         rinex: np.array([merged[name] * (PI_GALILEO if name in _SEMICIRCLES else 1.0)])
         for name, rinex in _TO_RINEX.items()
     }
+    elements["FNAV"] = np.array([1.0])  # the clock is for E1,E5a (`ephemeris.GALILEO_FIELDS`)
     health = sum(int(merged[k]) << s for k, s in _HEALTH_SHIFT.items())
     return Ephemerides(
         np.array([f"E{int(merged['svid']):02d}"]),

@@ -260,6 +260,7 @@ def words_to_ephemeris(words: dict[int, dict[str, float]]) -> Ephemerides:
         rinex: np.array([merged[name] * (PI_GALILEO if name in _SEMICIRCLES else 1.0)])
         for name, rinex in _TO_RINEX.items()
     }
+    elements["FNAV"] = np.array([0.0])  # the clock is for E1,E5b (`ephemeris.GALILEO_FIELDS`)
     health = sum(int(merged[k]) << s for k, s in _HEALTH_SHIFT.items())
     return Ephemerides(
         np.array([f"E{int(merged['svid']):02d}"]),

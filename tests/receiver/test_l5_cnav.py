@@ -14,11 +14,11 @@ from gnssframework.errors import ConfigError
 from gnssframework.navigation import cnav
 from gnssframework.receiver.channels import signal_tracking_config
 from gnssframework.receiver.channels.signal_settings import coherent_periods
+from gnssframework.receiver.navigation.overlay_symbols import overlay_symbols_of_run
 from gnssframework.receiver.navigation.cnav_stream import (
     carries_cnav,
     channel_cnav,
     cnav_channel_timing,
-    cnav_symbols_of_run,
     message_s,
 )
 from gnssframework.signal.galileo_e5a import GALILEO_E5AI
@@ -55,13 +55,13 @@ def test_the_overlay_is_found_and_ten_rows_make_a_symbol():
     symbols are the encoded ones (negated: the prompts are), each 10 times a row's."""
     rng = np.random.default_rng(3)
     prompts, _ = _l5_prompts(1.0, 5.0, rng)
-    symbols, starts = cnav_symbols_of_run(prompts, np.zeros_like(prompts), GPS_L5I, PRN)
+    symbols, starts = overlay_symbols_of_run(prompts, np.zeros_like(prompts), GPS_L5I, PRN)
     sent, _ = cnav.cnav_symbols(PRN, TOW0, 200, message_s=cnav.L5_MESSAGE_S)
     assert starts[0] == 10 - SKIP_ROWS and np.all(np.diff(starts) == 10)
     np.testing.assert_array_equal(np.sign(symbols), -sent[1 : 1 + symbols.size])
     assert np.mean(np.abs(symbols)) == pytest.approx(50.0, rel=0.05)
     # Too short to synchronise (three overlay periods): no symbols.
-    assert cnav_symbols_of_run(prompts[:29], np.zeros(29), GPS_L5I, PRN)[0].size == 0
+    assert overlay_symbols_of_run(prompts[:29], np.zeros(29), GPS_L5I, PRN)[0].size == 0
 
 
 def test_a_channels_l5_messages_are_decoded_and_every_row_dated(channel_record):

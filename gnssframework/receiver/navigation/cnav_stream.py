@@ -6,8 +6,8 @@ coded to 50 symbol/s), and every row of a channel's record
 a row integrated over one code period (``coherent_ms`` 1) is one soft symbol, with no bit
 synchronisation. An L5 I5 symbol is ten 1 ms code periods under the NH10 overlay, whose
 first chip starts the symbol (IS-GPS-705 3.3.2.2: 50 bit/s coded to 100 symbols/s): the
-overlay's phase is found on the run's prompts (`signal.overlay.overlay_sync`), wiped off,
-and ten rows summed make a symbol. A run of one-period rows without a gap
+overlay's phase is found on the run's prompts, wiped off, and ten rows summed make a symbol
+(`overlay_symbols.overlay_symbols_of_run`). A run of one-period rows without a gap
 (`inav_stream.symbol_runs`) is one continuous stream for
 :func:`~gnssframework.navigation.cnav.decode_cnav`, which finds the symbol pairing, the
 polarity and the messages; a channel that loses lock starts a new run. A message lasts 12 s
@@ -33,9 +33,9 @@ from ...errors import ConfigError
 from ...navigation.cnav import L5_MESSAGE_S, MESSAGE_BITS, CnavMessage, decode_cnav
 from ...navigation.cnav_records import cnav_records
 from ...navigation.lnav import LnavMessage
-from ...signal.overlay import overlay_sync
 from ...signal.spec import SignalSpec
 from .inav_stream import _PULL_IN, _WEEK_S, symbol_runs
+from .overlay_symbols import overlay_symbols_of_run
 
 if TYPE_CHECKING:
     from ..channels import ChannelRecord, TrackingResult
@@ -46,6 +46,7 @@ __all__ = [
     "CnavTiming",
     "channel_cnav",
     "cnav_channel_timing",
+    "message_s",
     "CNAV_COLUMNS",
     "cnav_rows",
     "write_cnav_report",
@@ -87,28 +88,6 @@ def message_s(signal: SignalSpec) -> float:
     return 2 * MESSAGE_BITS * float(signal.symbol_period_s or 0.0)
 
 
-def cnav_symbols_of_run(
-    prompt_i: np.ndarray, prompt_q: np.ndarray, signal: SignalSpec, prn: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """The soft symbols of one gap-free run of one-period rows and, for each, the index in
-    the run of the row its symbol starts on (module text): the rows themselves on L2 CM; on
-    L5 I5 the overlay synchronised, wiped off and ten rows summed (none when the run is too
-    short to synchronise: three overlay periods)."""
-    overlay = np.asarray(signal.overlay(prn), float)
-    if overlay.size == 0:
-        return np.asarray(prompt_i, float), np.arange(np.size(prompt_i))
-    per = int(signal.code_periods_per_symbol or 1)
-    if np.size(prompt_i) < 3 * overlay.size:
-        return np.zeros(0), np.zeros(0, int)
-    p = np.asarray(prompt_i, float) + 1j * np.asarray(prompt_q, float)
-    shift = overlay_sync(p, overlay, signal.code_period_s).shift  # the overlay chip of row 0
-    first = (-shift) % overlay.size  # the first row on chip 0: a symbol's start
-    n = (p.size - first) // per
-    rows = first + np.arange(n * per)
-    wiped = np.asarray(prompt_i, float)[rows] * overlay[(rows + shift) % overlay.size]
-    return wiped.reshape(n, per).sum(axis=1), first + per * np.arange(n)
-
-
 @dataclass(frozen=True)
 class CnavTiming:
     """What one L2C channel's CNAV gave: the messages of every run in order and, for each,
@@ -136,7 +115,7 @@ def channel_cnav(record: ChannelRecord, signal: SignalSpec) -> CnavTiming:
     time_s, prompt_i, prompt_q = col("time_s"), col("prompt_i"), col("prompt_q")
     messages, times = [], []
     for run in symbol_runs(time_s, col("coherent_ms"), signal.code_period_s):
-        symbols, starts = cnav_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
+        symbols, starts = overlay_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
         for m in decode_cnav(symbols, prn=record.prn, message_s=message_s(signal)).messages:
             messages.append(m)
             times.append(float(time_s[run[starts[m.start]]]))
@@ -189,7 +168,7 @@ def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     rows, tx, half, starts = [], [], [], []
     prompt_i, prompt_q = col("prompt_i"), col("prompt_q")
     for run in symbol_runs(time_s, col("coherent_ms"), period):
-        symbols, symbol_rows = cnav_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
+        symbols, symbol_rows = overlay_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
         messages = decode_cnav(symbols, prn=record.prn, message_s=duration_s).messages
         timing_messages += messages
         ready_s += [float(time_s[run[symbol_rows[m.start]]]) + duration_s for m in messages]

@@ -21,7 +21,7 @@ from ...navigation.cnav_records import cnav_records
 from ...signal.spec import SignalSpec
 from ..channels.records import STAGES
 from .cnav_stream import carries_cnav, channel_cnav, cnav_channel_timing
-from .inav_stream import carries_inav, carries_lnav, channel_inav, inav_channel_timing
+from .inav_stream import carries_fnav, carries_inav, carries_lnav, channel_inav, inav_channel_timing
 from .observables import ChannelTiming, channel_timing
 
 __all__ = [
@@ -29,6 +29,7 @@ __all__ = [
     "LNAV",
     "INAV",
     "CNAV",
+    "FNAV",
     "MESSAGES",
     "navigation_message",
     "lnav_decoded",
@@ -168,16 +169,29 @@ CNAV = NavMessage(
     carries_cnav,
     cnav_channel_timing,
     False,
-    ("CNAV messages", "first TOW (s)", "ephemeris decoded", "type 30", "week (10-bit)"),
+    ("CNAV messages", "first TOW (s)", "ephemeris decoded", "type 30", "week"),
     cnav_decoded,
     lambda ch: "no CNAV message with a good CRC decoded (no transmit time)",
     lambda locked, found: (
         f"no CNAV message with a good CRC decoded ({locked} of {found} satellites found locked; a "
-        "message takes 12 s of a locked channel, on multiples of 12 s of GPS time)"
+        "message takes 12 s of a locked L2C channel (6 s on L5), on multiples of 12 s (6 s) of GPS time)"
+    ),
+)
+FNAV = NavMessage(
+    "F/NAV",
+    carries_fnav,
+    inav_channel_timing,
+    False,
+    ("F/NAV pages", "GST TOW (s)", "ephemeris decoded", "iono", "GST week"),
+    inav_decoded,
+    lambda ch: "no F/NAV page with a GST decoded (no transmit time)",
+    lambda locked, found: (
+        f"no F/NAV page with a GST decoded ({locked} of {found} satellites found locked; a page takes "
+        "10 s of a locked channel, on multiples of 10 s of GST)"
     ),
 )
 #: The messages the receiver decodes.
-MESSAGES = (LNAV, INAV, CNAV)
+MESSAGES = (LNAV, INAV, CNAV, FNAV)
 
 
 def navigation_message(signal: SignalSpec) -> NavMessage:
@@ -189,11 +203,12 @@ def navigation_message(signal: SignalSpec) -> NavMessage:
 def require_positioning(signal: SignalSpec) -> None:
     """Refuse, in one line, a signal the ``receive`` command cannot position with: one whose
     tracked component carries none of `MESSAGES` (GPS/QZSS L1 C/A's LNAV, Galileo E1-B's
-    I/NAV, GPS/QZSS L2C's CNAV)."""
+    I/NAV, GPS/QZSS L2C's and GPS L5 I5's CNAV, Galileo E5a-I's F/NAV)."""
     if not any(m.carried_by(signal) for m in MESSAGES):
         raise ConfigError(
             "signal",
             f"{signal.name}: the receive command positions from GPS/QZSS L1 C/A (LNAV: "
-            "gps-l1ca, qzss-l1ca), Galileo E1-B (I/NAV: galileo-e1b-boc11, galileo-e1b) "
-            "and GPS/QZSS L2C and GPS L5 I5 (CNAV: gps-l2c, qzss-l2c, gps-l5i) only",
+            "gps-l1ca, qzss-l1ca), Galileo E1-B (I/NAV: galileo-e1b-boc11, galileo-e1b), "
+            "GPS/QZSS L2C and GPS L5 I5 (CNAV: gps-l2c, qzss-l2c, gps-l5i) and Galileo E5a-I (F/NAV: "
+            "galileo-e5ai) only",
         )

@@ -18,6 +18,12 @@ that page's even part (ICD 5.1.2), the first symbol of the row the decoder names
 (`InavTiming.transmit_s`: satellite time of week, before the clock correction, as
 `observables.channel_timing` gives it for LNAV). Rows of runs without a decoded GST are
 not dated.
+
+F/NAV on E5a-I (`carries_fnav`) is read the same way: a symbol is twenty 1 ms rows under
+the CS20_1 overlay, wiped off and summed (`overlay_symbols.overlay_symbols_of_run`), the
+pages are decoded by :func:`~gnssframework.navigation.fnav.decode_fnav`, and a page's GST is
+the satellite time at its first sync symbol, on the row that symbol starts on; rows are
+then dated every 1 ms from it.
 """
 
 from __future__ import annotations
@@ -30,12 +36,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...errors import ConfigError
+from ...navigation import fnav
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.inav import PAGE_SYMBOLS, InavMessage, decode_inav
 from ...navigation.inav_params import InavIonoTime, merge_iono_time
 from ...navigation.lnav import LnavMessage
 from ...signal.spec import SignalSpec
 from ..channels.signal_settings import coherent_periods
+from .overlay_symbols import overlay_symbols_of_run
 
 if TYPE_CHECKING:
     from ..channels import ChannelRecord, TrackingResult
@@ -43,6 +51,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "carries_inav",
+    "carries_fnav",
     "carries_lnav",
     "require_lnav",
     "symbol_runs",
@@ -77,6 +86,19 @@ def carries_inav(signal: SignalSpec) -> bool:
     """Whether ``signal``'s tracked component is Galileo E1-B (I/NAV, one symbol a 4 ms code period)."""
     sym = signal.components[0].symbol_period_s
     return signal.system == "E" and sym is not None and abs(sym - 0.004) < 1e-9 and signal.code_periods_per_symbol == 1
+
+
+def carries_fnav(signal: SignalSpec) -> bool:
+    """Whether ``signal``'s tracked component is Galileo E5a-I (F/NAV, one symbol twenty 1 ms
+    code periods under a 20-chip overlay)."""
+    sym = signal.components[0].symbol_period_s
+    return (
+        signal.system == "E"
+        and sym is not None
+        and abs(sym - 0.02) < 1e-9
+        and abs(signal.code_period_s - 1e-3) < 1e-12
+        and signal.overlay_length(0) == signal.code_periods_per_symbol == 20
+    )
 
 
 def carries_lnav(signal: SignalSpec) -> bool:
@@ -123,9 +145,9 @@ def symbol_runs(
 
 @dataclass(frozen=True)
 class InavTiming:
-    """What one E1-B channel's I/NAV gave.
+    """What one E1-B channel's I/NAV (or E5a-I channel's F/NAV) gave.
 
-    ``messages``: `InavMessage` per run (`symbol_runs`); ``rows`` and ``transmit_s`` the
+    ``messages``: `InavMessage` (`fnav.FnavMessage`) per run (`symbol_runs`); ``rows`` and ``transmit_s`` the
     record rows dated from a decoded GST and their transmit times (satellite time of week,
     s); ``gst``: the last ``(recording time s of the dated symbol, WN, TOW s)``;
     ``ephemeris`` the last complete one (None without); ``half_cycle`` per dated row, True
@@ -137,7 +159,7 @@ class InavTiming:
     """
 
     prn: int
-    messages: list[InavMessage]
+    messages: list[InavMessage | fnav.FnavMessage]
     rows: np.ndarray
     transmit_s: np.ndarray
     gst: tuple[float, int, float] | None
@@ -157,32 +179,47 @@ class InavTiming:
 
 
 def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
-    """Decode the I/NAV of one channel tracking E1-B (`carries_inav`), run by run, and date
-    the rows of each run that carries a GST (module text)."""
-    if not carries_inav(signal):
-        raise ConfigError("signal", f"{signal.name} carries no I/NAV on its tracked component (galileo-e1b does)")
+    """Decode the I/NAV of one channel tracking E1-B (`carries_inav`), or the F/NAV of one
+    tracking E5a-I (`carries_fnav`), run by run, and date the rows of each run that carries
+    a GST (module text)."""
+    is_fnav = carries_fnav(signal)
+    if not (carries_inav(signal) or is_fnav):
+        raise ConfigError(
+            "signal",
+            f"{signal.name} carries no I/NAV or F/NAV on its tracked component (galileo-e1b and galileo-e5ai do)",
+        )
     empty = np.zeros(0)
     if not record.rows:
         return InavTiming(record.prn, [], np.zeros(0, int), empty, None, None)
     col = record.column
     time_s, code_chips = col("time_s"), col("code_phase_chips")
     period = signal.code_period_s
-    prompt = col("prompt_i")
-    messages, rows, tx, half = [], [], [], []
+    prompt_i, prompt_q = col("prompt_i"), col("prompt_q")
+    page_symbols, needed = (fnav.PAGE_SYMBOLS, {1, 2, 3, 4}) if is_fnav else (PAGE_SYMBOLS, {1, 2, 3, 4, 5})
+    messages: list[InavMessage | fnav.FnavMessage] = []
+    rows, tx, half = [], [], []
     gst, ephemeris = None, None
     ephemerides: list[tuple[float, Ephemerides]] = []
     iono_time: InavIonoTime | None = None
     for run in symbol_runs(time_s, col("coherent_ms"), period):
-        msg = decode_inav(prompt[run])
+        # The symbols and, for each, the index in the run of the row it starts on.
+        symbols, symbol_rows = overlay_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
+        msg: InavMessage | fnav.FnavMessage
+        if is_fnav:
+            msg = fnav.decode_fnav(symbols) if symbols.size else fnav.FnavMessage([], None, None, {}, [])
+        else:
+            msg = decode_inav(symbols)
         messages.append(msg)
         iono_time = merge_iono_time(iono_time, msg.iono_time)
         if msg.ephemeris is not None:
             ephemeris = msg.ephemeris
-            done = min(_completed_at(msg) + PAGE_SYMBOLS, run.size - 1)  # the row after its last page
+            # the row after its last page
+            done = symbol_rows[min(_completed_at(msg, needed) + page_symbols, symbols.size - 1)]
             ephemerides.append((float(time_s[run[done]]), msg.ephemeris))
         if msg.gst is None:
             continue
-        start, wn, tow = msg.gst
+        start_symbol, wn, tow = msg.gst
+        start = int(symbol_rows[start_symbol])
         gst = (float(time_s[run[start]]), wn, tow)
         k = np.arange(run.size) - start
         tx.append((tow + k * period + code_chips[run] / signal.chip_rate_hz) % _WEEK_S)
@@ -204,16 +241,16 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
     )
 
 
-def _completed_at(msg: InavMessage) -> int:
-    """Index (in its run) of the first symbol of the page that completed ``msg``'s
-    ephemeris: the first page by which words 1-5 have all arrived with words 1-4 of the
-    ephemeris's IODnav."""
+def _completed_at(msg: InavMessage | fnav.FnavMessage, needed: set[int]) -> int:
+    """Index (in its symbol stream) of the first symbol of the page that completed ``msg``'s
+    ephemeris: the first page by which the ``needed`` word (page) types have all arrived,
+    types 1-4 of the ephemeris's IODnav (I/NAV: words 1-5; F/NAV: pages 1-4)."""
     iod = int(msg.ephemeris.iode[0]) if msg.ephemeris is not None else -1
     seen: set[int] = set()
     for p in msg.pages:
         if p.word_type == 5 or (p.word_type in (1, 2, 3, 4) and int(p.fields["iodnav"]) == iod):
             seen.add(p.word_type)
-        if seen >= {1, 2, 3, 4, 5}:
+        if seen >= needed:
             return p.start
     return msg.pages[-1].start
 
@@ -276,15 +313,16 @@ def inav_summary(timing: InavTiming, symbols: int) -> dict:
 
 
 def write_inav_report(out_dir: str | Path, tracking: TrackingResult, signal: SignalSpec) -> tuple[Path, list[dict]]:
-    """Decode every channel of ``tracking`` (a `TrackingResult` of E1-B) and write
-    ``out_dir/inav.csv`` (`INAV_COLUMNS`, one row per channel); the path and the rows."""
+    """Decode every channel of ``tracking`` (a `TrackingResult` of E1-B, or of E5a-I) and
+    write ``out_dir/inav.csv`` (``fnav.csv`` for E5a-I; `INAV_COLUMNS`, one row per channel,
+    ``word_types`` the page types of F/NAV); the path and the rows."""
     from ...io.files import atomic_open
 
     rows = []
     for _, ch in sorted(tracking.channels.items()):
         n = int(np.count_nonzero(ch.column("coherent_ms") == 1)) if ch.rows else 0
         rows.append(inav_summary(channel_inav(ch, signal), n))
-    path = Path(out_dir) / "inav.csv"
+    path = Path(out_dir) / ("fnav.csv" if carries_fnav(signal) else "inav.csv")
     with atomic_open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(INAV_COLUMNS)

@@ -27,7 +27,8 @@ af0-af2, Toc and SISA for E5b,E1, the I/NAV clock), ORBIT 6 ``SISA (m; -1 for no
 prediction), SV health, BGD E5a/E1, BGD E5b/E1`` and ORBIT 7 the transmission time (seconds
 of the GAL week at which the receiver had the record) and a spare 0. The decoded record
 keeps BGD(E1,E5b) (its ``TGD``, the E1 user's) but not word 5's BGD(E1,E5a): that field is
-written 0. The header of a Galileo file carries what the receiver decoded of word types 5, 6
+written 0. A record decoded from F/NAV on E5a-I (``FNAV`` 1) takes the data sources 258
+(bit 1: F/NAV E5a-I; bit 8: the clock for E5a,E1) and its BGD(E1,E5a), BGD E5b/E1 0. The header of a Galileo file carries what the receiver decoded of word types 5, 6
 and 10 (`inav_params.InavIonoTime`, each line only when its word arrived): ``IONOSPHERIC
 CORR`` ``GAL `` (ai0, ai1, ai2 and a 0, ``A4,1X,4D12.4``, RINEX 3.04 table A5), ``TIME
 SYSTEM CORR`` ``GAUT`` (A0, A1, t0t, WN0t) and ``GAGP`` (A0G, A1G, t0G, WN0G), both
@@ -68,6 +69,8 @@ RINEX_NAV_SYSTEMS = {"G": "GPS", "J": "QZSS", "E": "GALILEO", "M": "MIXED"}
 #: RINEX 3.04 Galileo data sources of an I/NAV E1-B record: bit 0 (I/NAV E1-B) and bit 9
 #: (clock parameters for E5b,E1).
 INAV_E1B_DATA_SOURCES = 1 + 512
+#: ... and of an F/NAV E5a-I record: bit 1 (F/NAV E5a-I) and bit 8 (clock for E5a,E1).
+FNAV_E5A_DATA_SOURCES = 2 + 256
 _GPS_EPOCH = datetime(1980, 1, 6)
 #: The last field of BROADCAST ORBIT 7 per system: GPS's fit interval in hours (4: the flag
 #: 0 of IS-GPS-200 20.3.3.4.3.1), QZSS's fit interval flag itself (0: 2 hours; RINEX 3.04 A14).
@@ -142,14 +145,18 @@ def _orbit_lines(nav: NavRecord, system: str) -> list[str]:
     iode = float(rec.iode[0])
     accuracy = float(rec.accuracy_m[0]) if rec.accuracy_m is not None else -1.0
     if system == "E":
-        bgd_e5b = e["TGD"]  # the I/NAV record's group delay: BGD(E1,E5b) (`inav_words.words_to_ephemeris`)
+        # An I/NAV record's group delay is BGD(E1,E5b) (`inav_words.words_to_ephemeris`), an
+        # F/NAV record's BGD(E1,E5a) (`fnav.pages_to_ephemeris`); the other is not kept.
+        fnav = e.get("FNAV", 0.0) == 1.0
+        sources = FNAV_E5A_DATA_SOURCES if fnav else INAV_E1B_DATA_SOURCES
+        bgd_e5a, bgd_e5b = (e["TGD"], 0.0) if fnav else (0.0, e["TGD"])
         rows = (
             (iode, e["Crs"], e["DeltaN"], e["M0"]),
             (e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]),
             (e["Toe"], e["Cic"], e["Omega0"], e["Cis"]),
             (e["Io"], e["Crc"], e["omega"], e["OmegaDot"]),
-            (e["IDOT"], float(INAV_E1B_DATA_SOURCES), float(toe_week), 0.0),  # data sources, GAL week, spare
-            (accuracy, float(rec.health[0]), 0.0, bgd_e5b),  # SISA, health, BGD E5a/E1 (not kept), E5b/E1
+            (e["IDOT"], float(sources), float(toe_week), 0.0),  # data sources, GAL week, spare
+            (accuracy, float(rec.health[0]), bgd_e5a, bgd_e5b),  # SISA, health, BGD E5a/E1, E5b/E1
             (nav.tow_s, 0.0),
         )
         return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
