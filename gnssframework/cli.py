@@ -675,10 +675,9 @@ def _cmd_track(args: argparse.Namespace) -> int:
         message, kinds = ("F/NAV", "page types") if carries_fnav(signal) else ("I/NAV", "word types")
         written.append(path)
         for r in inav_rows:
+            week = f"GST week {r['gst_wn']} " if r["gst_wn"] != "" else "GST "  # F/NAV page 4: a TOW, no week
             gst = (
-                f"GST week {r['gst_wn']} TOW {r['gst_tow_s']} s at {float(r['gst_time_s']):.3f} s"
-                if r["gst_wn"] != ""
-                else "no GST"
+                f"{week}TOW {r['gst_tow_s']} s at {float(r['gst_time_s']):.3f} s" if r["gst_tow_s"] != "" else "no GST"
             )
             print(
                 f"  PRN {r['prn']:2d}: {message} {r['pages']} pages ({kinds} {r['word_types'] or 'none'}), "

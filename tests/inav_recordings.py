@@ -13,11 +13,9 @@ import numpy as np
 
 from gnssframework.navigation import inav
 from gnssframework.navigation.ephemeris import read_rinex_nav, satellite_state
-from gnssframework.signal.constants import L1_FREQ_HZ
 from gnssframework.signal.galileo_e1 import GALILEO_E1B_BOC11
-from gnssframework.signal.if_samples import generate_if_samples
 from light_time import signal_flight
-from noisy_recording import write_noisy_recording
+from noisy_recording import signal_chunks, write_noisy_recording
 
 WN = 1174  # the GST week of the records (2022-02-20: GPS week 2198)
 GPS_WEEK = WN + 1024
@@ -25,7 +23,6 @@ NAV = Path(__file__).parent / "data" / "galileo_inav_20feb2022_05h.rnx"
 #: The IGS station VILL (Villafranca, Spain), ECEF (m).
 STATION = np.array([4849833.676, -335048.888, 4116014.971])
 FS = 4e6
-CHUNK_S = 0.5
 SIGNAL = GALILEO_E1B_BOC11
 
 
@@ -64,37 +61,24 @@ def satellite_chunks(groups, tow0: float, duration_s: float, cn0_dbhz: float, rn
     data)`` with ``t_sv0`` their satellite times at ``tow0`` and ``data`` each one's symbols
     from 0.1 s before it (`inav_data`, `lnav.lnav_symbols`), in `CHUNK_S` chunks at `FS`
     from time ``tow0``: code phase, Doppler and symbol timing of the geometry seen from
-    `STATION`, updated every chunk. A generator (`write_noisy_recording` draws each chunk's
-    noise after it)."""
-    n = int(round(CHUNK_S * FS))
-    phases = [np.zeros(sats.sv.size) for sats, *_ in groups]
-    for c in range(int(round(duration_s / CHUNK_S))):
-        t0 = tow0 + c * CHUNK_S
-        x = np.zeros(n, complex)
-        for (sats, signal, t_sv0, data), phase in zip(groups, phases):
-            start = satellite_time(sats, t0)
-            doppler = L1_FREQ_HZ * ((satellite_time(sats, t0 + CHUNK_S) - start) / CHUNK_S - 1)
-            for k in range(sats.sv.size):
-                bits, into = data[k]
-                first_tsv = float(t_sv0[k]) - 0.1 - into  # satellite time of the first symbol's edge
-                x += generate_if_samples(
-                    int(sats.sv[k][1:]),
-                    CHUNK_S,
-                    FS,
-                    0.0,
-                    cn0_dbhz,
-                    rng,
-                    doppler_hz=doppler[k],
-                    code_phase_chips=(start[k] / signal.code_period_s % 1.0) * signal.code_length_chips,
-                    carrier_phase_rad=phase[k],
-                    complex_samples=True,
-                    data_bits=np.asarray(bits, float),
-                    first_bit_edge_s=first_tsv - start[k],
-                    noise=False,
-                    signal=signal,
-                ).samples
-                phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
-        yield x
+    `STATION`, updated every chunk (`noisy_recording.signal_chunks`). A generator
+    (`write_noisy_recording` draws each chunk's noise after it)."""
+    gens = [
+        signal_chunks(
+            sats,
+            tow0,
+            duration_s,
+            signal,
+            FS,
+            satellite_time,
+            [(np.asarray(bits, float), float(t_sv0[k]) - 0.1 - into) for k, (bits, into) in enumerate(data)],
+            cn0_dbhz,
+            rng,
+        )
+        for sats, signal, t_sv0, data in groups
+    ]
+    for parts in zip(*gens):
+        yield sum(parts)
 
 
 def write_inav_recording(path: Path, sats, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0) -> Path:
@@ -103,3 +87,46 @@ def write_inav_recording(path: Path, sats, tow0: float, duration_s: float, seed:
     t_sv0 = satellite_time(sats, np.array(tow0))
     groups = [(sats, SIGNAL, t_sv0, inav_data(sats, t_sv0, duration_s))]
     return write_noisy_recording(path, satellite_chunks(groups, tow0, duration_s, cn0_dbhz, rng), FS, rng)
+
+
+#: The E5a-I recordings' records: the I/NAV file's (no file here holds F/NAV records of
+#: more than three satellites), relabelled as F/NAV ones (``FNAV`` 1: clock for E1,E5a, the
+#: I/NAV record's BGD(E1,E5b) standing for BGD(E1,E5a)). The orbits and clocks are real; the
+#: pairing of clock and group delay is the test's, and generator and receiver share it.
+E5A_FS = 10.5e6
+#: (f_E1 / f_E5a)^2: the E5a single-frequency user's factor on BGD(E1,E5a) (OS SIS ICD 5.1.5).
+E5A_GAMMA = (1575.42 / 1176.45) ** 2
+
+
+def fnav_records():
+    """The I/NAV file's records relabelled as F/NAV ones (see `E5A_FS`'s note)."""
+    nav = galileo_records()
+    return type(nav)(
+        nav.sv, nav.toc_s, {**nav.elements, "FNAV": np.ones(nav.sv.size)}, nav.health, nav.iode, nav.accuracy_m
+    )
+
+
+def e5a_satellite_time(eph, t_rx):
+    """The E5a SV time of the signal received at true time ``t_rx`` by the station: the E1
+    user's clock (``clock - BGD(E1,E5a)`` of an F/NAV record) less ``(γ - 1) BGD(E1,E5a)``,
+    computed here, not by the library."""
+    return satellite_time(eph, t_rx) - (E5A_GAMMA - 1.0) * eph.elements["TGD"]
+
+
+def write_e5a_recording(path: Path, sats, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0) -> Path:
+    """Write ``duration_s`` of Galileo E5a-I (F/NAV pages of each record, `fnav.fnav_symbols`,
+    under CS20_1) from the satellites ``sats`` (F/NAV records) from GPS time ``tow0``, seen
+    from `STATION`, complex int8 at `E5A_FS`."""
+    from gnssframework.navigation import fnav
+    from gnssframework.signal.galileo_e5a import GALILEO_E5AI
+
+    rng = np.random.default_rng(seed)
+    t_sv0 = e5a_satellite_time(sats, np.array(tow0))
+    streams = []
+    for k in range(sats.sv.size):
+        symbols, into = fnav.fnav_symbols(
+            sats.subset(np.array([k])), WN, float(t_sv0[k]) - 0.1, int(duration_s * 50) + 20
+        )
+        streams.append((symbols.astype(float), float(t_sv0[k]) - 0.1 - into))
+    chunks = signal_chunks(sats, tow0, duration_s, GALILEO_E5AI, E5A_FS, e5a_satellite_time, streams, cn0_dbhz, rng)
+    return write_noisy_recording(path, chunks, E5A_FS, rng, fmt="ci8")

@@ -25,11 +25,10 @@ from gnssframework.navigation import cnav
 from gnssframework.navigation.rinex_nav_header import read_nav_file_info
 from gnssframework.signal.gps_l2c import GPS_L2C
 from gnssframework.signal.gps_l5 import GPS_L5I
-from gnssframework.signal.if_samples import generate_if_samples
 from gnssframework.signal.spec import SignalSpec
 from light_time import C, signal_flight
-from lnav_recordings import CHUNK_S, NAV, STATION
-from noisy_recording import write_noisy_recording
+from lnav_recordings import NAV, STATION
+from noisy_recording import signal_chunks, write_noisy_recording
 
 #: The week the generator's type 10 messages carry (the records' week).
 WEEK = 1316
@@ -95,9 +94,6 @@ def write_cnav_recording(
     message_s = cnav.L5_MESSAGE_S if l5 else cnav.MESSAGE_S
     iono_s = np.zeros(sats.sv.size) if iono_l1_m is None else gamma * np.asarray(iono_l1_m, float) / C
     rng = np.random.default_rng(seed)
-    n = int(round(CHUNK_S * fs))
-    period = signal.code_period_s
-    periods = max(1, signal.overlay_length())  # code phase counted over the overlay's period
     t_sv0 = sv_time(sats, np.array(tow0)) - iono_s
     iono = read_nav_file_info(NAV).iono
     streams = []
@@ -116,37 +112,9 @@ def write_cnav_recording(
             isc_l5i5_s=l5_isc_s(record) if l5 and record is not None else None,
         )
         streams.append((symbols.astype(float), float(t_sv0[k]) - 0.1 - into))  # SV time of the first symbol
-    phase = np.zeros(sats.sv.size)
-
-    def chunks():
-        for c in range(int(round(duration_s / CHUNK_S))):
-            t0 = c * CHUNK_S
-            start = sv_time(sats, tow0 + t0) - iono_s
-            end = sv_time(sats, tow0 + t0 + CHUNK_S) - iono_s
-            doppler = signal.carrier_freq_hz * ((end - start) / CHUNK_S - 1.0)
-            x = np.zeros(n, complex)
-            for k in range(sats.sv.size):
-                symbols, first_tsv = streams[k]
-                x += generate_if_samples(
-                    int(sats.sv[k][1:]),
-                    CHUNK_S,
-                    fs,
-                    0.0,
-                    cn0_dbhz,
-                    rng,
-                    doppler_hz=doppler[k],
-                    code_phase_chips=(start[k] / period % periods) * signal.code_length_chips,
-                    carrier_phase_rad=phase[k],
-                    complex_samples=True,
-                    data_bits=symbols,
-                    first_bit_edge_s=first_tsv - start[k],
-                    noise=False,
-                    signal=signal,
-                ).samples
-                phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
-            yield x
-
-    return write_noisy_recording(path, chunks(), fs, rng, fmt="ci8" if l5 else "ci16_le")
+    sv_time_less_iono = lambda eph, t: sv_time(eph, t) - iono_s  # noqa: E731
+    chunks = signal_chunks(sats, tow0, duration_s, signal, fs, sv_time_less_iono, streams, cn0_dbhz, rng)
+    return write_noisy_recording(path, chunks, fs, rng, fmt="ci8" if l5 else "ci16_le")
 
 
 def l2c_tracking_config():

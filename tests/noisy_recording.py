@@ -1,6 +1,7 @@
 """The tail the generated recordings share (`lnav_recordings`, `inav_recordings`,
-`mixed_recordings`, tests/receiver/test_lnav_samples.py): chunks of signal, white noise added,
-written as complex int16 SigMF, chunk by chunk so a long recording never sits in memory."""
+`mixed_recordings`, `l2c_recordings`, tests/receiver/test_lnav_samples.py): chunks of
+signal (`signal_chunks`), white noise added, written as complex int16 (or int8) SigMF,
+chunk by chunk so a long recording never sits in memory."""
 
 from __future__ import annotations
 
@@ -10,11 +11,15 @@ from pathlib import Path
 import numpy as np
 
 from gnssframework import registry
+from gnssframework.signal.if_samples import generate_if_samples
+from gnssframework.signal.spec import SignalSpec
 from gnssframework.receiver.frontend.sigmf_meta import meta_path_for, write_sigmf_meta
 
 #: Factor from the generator's units (unit-variance noise per component) to int16 counts.
 SCALE = 300.0
 FORMAT = "ci16_le"
+#: Seconds of signal a chunk (the geometry is updated every chunk).
+CHUNK_S = 0.5
 #: The noise's standard deviation in counts of each format (int8: 16, as `if_samples` scales it).
 SCALES = {"ci16_le": SCALE, "ci8": 16.0}
 
@@ -37,3 +42,40 @@ def write_noisy_recording(
         meta_path_for(path), format=fmt, sigmf_datatype=source.sigmf_datatype, sample_rate_hz=fs, if_hz=0.0
     )
     return path
+
+
+def signal_chunks(sats, tow0: float, duration_s: float, signal: SignalSpec, fs: float, sv_time, streams, cn0_dbhz, rng):
+    """The noise-free samples of ``sats`` sending ``signal``, chunk by chunk (`CHUNK_S` s):
+    each satellite's code phase, Doppler and symbol timing from ``sv_time(sats, t_rx)`` (its
+    signal's SV time at true time ``t_rx``), its symbols and their first's SV time from
+    ``streams``; the overlay's chip ``k`` on the ``k``-th code period of SV time."""
+    n = int(round(CHUNK_S * fs))
+    period = signal.code_period_s
+    periods = max(1, signal.overlay_length())  # code phase counted over the overlay's period
+    phase = np.zeros(sats.sv.size)
+    for c in range(int(round(duration_s / CHUNK_S))):
+        t0 = c * CHUNK_S
+        start = sv_time(sats, tow0 + t0)
+        end = sv_time(sats, tow0 + t0 + CHUNK_S)
+        doppler = signal.carrier_freq_hz * ((end - start) / CHUNK_S - 1.0)
+        x = np.zeros(n, complex)
+        for k in range(sats.sv.size):
+            symbols, first_tsv = streams[k]
+            x += generate_if_samples(
+                int(sats.sv[k][1:]),
+                CHUNK_S,
+                fs,
+                0.0,
+                cn0_dbhz,
+                rng,
+                doppler_hz=doppler[k],
+                code_phase_chips=(start[k] / period % periods) * signal.code_length_chips,
+                carrier_phase_rad=phase[k],
+                complex_samples=True,
+                data_bits=symbols,
+                first_bit_edge_s=first_tsv - start[k],
+                noise=False,
+                signal=signal,
+            ).samples
+            phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
+        yield x

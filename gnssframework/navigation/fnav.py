@@ -188,15 +188,15 @@ class FnavPage:
 class FnavMessage:
     """What one satellite's E5a-I symbols decoded to: the pages (CRC passed), the record of
     the last pages 1-4 of one IODnav (None without), ``gst`` ``(symbol index, WN, TOW s)`` of
-    the last page with a TOW (its first sync symbol's; the WN of the last page that sent one:
-    page type 4 sends none), the last fields of each page type, and one line per page of the
+    the last page with a TOW (its first sync symbol's; the WN of the last page that sent one,
+    None where no page has: page type 4 sends none), the last fields of each page type, and one line per page of the
     stream's page grid that failed its CRC. ``iono_time`` is None: page types 1 and 4's
     NeQuick, GST-UTC and GGTO fields are decoded into ``fields``, not assembled (as I/NAV's
     are)."""
 
     pages: list[FnavPage]
     ephemeris: Ephemerides | None
-    gst: tuple[int, int, float] | None
+    gst: tuple[int, int | None, float] | None
     fields: dict[int, dict[str, float]]
     failures: list[str]
     iono_time: None = None
@@ -349,10 +349,9 @@ def decode_fnav(symbols: np.ndarray) -> FnavMessage:
     gst = None
     for p in pages:
         fields[p.page_type] = p.fields
-        if "tow_s" in p.fields:  # page type 4 sends a TOW without WN: the last WN serves
+        if "tow_s" in p.fields:  # page type 4 sends a TOW without WN: the last WN serves, or none
             wn = p.fields.get("wn", gst[1] if gst is not None else None)
-            if wn is not None:
-                gst = (p.start, int(wn), float(p.fields["tow_s"]))
+            gst = (p.start, None if wn is None else int(wn), float(p.fields["tow_s"]))
         if (
             p.page_type in (1, 2, 3, 4)
             and all(t in fields for t in (1, 2, 3, 4))

@@ -162,7 +162,7 @@ class InavTiming:
     messages: list[InavMessage | fnav.FnavMessage]
     rows: np.ndarray
     transmit_s: np.ndarray
-    gst: tuple[float, int, float] | None
+    gst: tuple[float, int | None, float] | None
     ephemeris: Ephemerides | None
     half_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     arc_start: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
@@ -275,7 +275,8 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     r = timing.rows[keep]
     # GST week 0 is GPS week 1024 (OS SIS ICD 5.1.2; GST steered to GPS time), and GST sends
     # 12 bits of its week: the GPS week's low 12 bits (`fixes.full_week` makes it whole).
-    week12 = None if timing.gst is None else (timing.gst[1] + 1024) % 4096
+    week = None if timing.gst is None else timing.gst[1]  # None: an F/NAV page type 4 alone (no WN)
+    week12 = None if week is None else (week + 1024) % 4096
     return ChannelTiming(
         record.prn,
         col("time_s")[r],
@@ -304,7 +305,7 @@ def inav_summary(timing: InavTiming, symbols: int) -> dict:
         "word_types": " ".join(str(p.word_type) for p in pages),
         "crc_failures": len(timing.failures),
         "iodnav": " ".join(str(i) for i in iods),
-        "gst_wn": "" if gst is None else gst[1],
+        "gst_wn": "" if gst is None or gst[1] is None else gst[1],
         "gst_tow_s": "" if gst is None else f"{gst[2]:.0f}",
         "gst_time_s": "" if gst is None else f"{gst[0]:.9f}",
         "inverted": " ".join(sorted({str(int(p.inverted)) for p in pages})),

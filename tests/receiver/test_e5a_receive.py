@@ -1,0 +1,105 @@
+"""`receive --signal galileo-e5ai`: positions from Galileo E5a-I alone, each channel dated
+from its F/NAV GST on 1 ms rows under CS20_1 (`inav_stream.channel_inav`) and solved with
+the E5a user's clock (`ephemeris.single_frequency_clock_s`: F/NAV's clock less
+(f_E1/f_E5a)^2 BGD(E1,E5a)), on the five highest satellites of the 2022-02-20 records seen
+from VILL, relabelled as F/NAV records (`inav_recordings.write_e5a_recording`, their E5a
+time computed by the test). Truth: the station, and each satellite's E5a time at every
+dated row."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pymap3d
+import pytest
+
+from gnssframework import registry
+from gnssframework.cli import main
+from gnssframework.navigation.ephemeris import satellite_state
+from gnssframework.navigation.pvt import dop
+from gnssframework.receiver.channels import signal_tracking_config
+from gnssframework.receiver.frontend import open_recording
+from gnssframework.receiver.navigation.receive import receive
+from gnssframework.signal.galileo_e5a import GALILEO_E5AI
+from inav_recordings import (
+    GPS_WEEK,
+    NAV,
+    STATION,
+    e5a_satellite_time,
+    fnav_records,
+    highest,
+    write_e5a_recording,
+)
+
+pytestmark = pytest.mark.slow  # end to end (the fast lane leaves these out)
+
+#: A 10 s page (type 4: a TOW and no week) starts on GST 18030 s, about 0.5 s in.
+TOW0 = 18_030.0 - 0.4
+#: One whole page after the pull-in, and a few fixes.
+DURATION_S = 11.0
+C = 299_792_458.0
+
+
+@pytest.fixture(scope="module")
+def e5a(tmp_path_factory):
+    sats = highest(fnav_records(), TOW0, 5)
+    assert sats.sv.size == 5
+    path = tmp_path_factory.mktemp("e5a") / "e5a.sigmf-data"
+    write_e5a_recording(path, sats, TOW0, DURATION_S, seed=8)
+    return path, sats
+
+
+def _prns(sats) -> list[int]:
+    return [int(s[1:]) for s in sats.sv]
+
+
+def test_receive_positions_from_e5a_alone(e5a):
+    """Every satellite dated from its first page and used in every fix; each row's transmit
+    time is the generator's E5a time within a few hundredths of a chip, and the fixes are
+    on the station within three PDOPs of that error."""
+    path, sats = e5a
+    result = receive(
+        open_recording(path),
+        registry.create("acquisition", "pcps"),
+        signal_tracking_config(GALILEO_E5AI),
+        prns=tuple(_prns(sats)),
+        rinex=fnav_records(),
+        signal=GALILEO_E5AI,
+        reference_week=GPS_WEEK,
+    )
+    obs, table = result.observables, result.positions
+    assert table is not None and len(table) >= int(DURATION_S) - 2
+    assert all(len(u) == 5 for u in table.used_prns)
+    pr_err = []
+    for j, prn in enumerate(obs.prn):
+        k = _prns(sats).index(int(prn))
+        ok = np.isfinite(obs.transmit_s[:, j])
+        truth = e5a_satellite_time(sats.subset(np.array([k])), TOW0 + obs.sample_time_s[ok])
+        pr_err.append((obs.transmit_s[ok, j] - truth) * C)
+    sigma_pr = float(np.std(np.concatenate(pr_err)))
+    assert sigma_pr < 0.03 * GALILEO_E5AI.chip_length_m, sigma_pr
+    lat, lon, h = pymap3d.ecef2geodetic(*STATION)
+    up = np.array([pymap3d.ecef2enu(*p, lat, lon, h) for p in satellite_state(sats, TOW0 + 5.0).position_m])
+    pdop = dop(up / np.linalg.norm(up, axis=1)[:, None])[1]
+    err = np.linalg.norm(table.ecef_m - STATION, axis=1)
+    assert np.sqrt(np.mean(err**2)) < 3 * pdop * sigma_pr, (err, pdop, sigma_pr)
+
+
+def test_the_command_tracks_decodes_and_refuses_a_file_without_fnav_records(e5a, tmp_path, capsys):
+    """What a user types: ``track`` writes each channel's F/NAV pages (``fnav.csv``: the one
+    whole page, type 4, with its TOW and no week, as type 4 sends none); ``receive
+    --ephemeris`` with the I/NAV file (records whose clock is for E1,E5b: no E5a user's
+    clock) is refused in one line naming the file and what it lacks."""
+    path, sats = e5a
+    prns = [str(p) for p in _prns(sats)]
+    out = tmp_path / "trk"
+    assert main(["track", str(path), "--signal", "galileo-e5ai", "--prns", *prns, "--out", str(out), "--quiet"]) == 0
+    with open(out / "fnav.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 5
+    assert all((r["word_types"], r["gst_tow_s"], r["gst_wn"]) == ("4", "18030", "") for r in rows)
+    args = ["receive", str(path), "--signal", "galileo-e5ai", "--ephemeris", str(NAV), "--out", str(tmp_path / "rx")]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "holds no Galileo F/NAV record" in err[0] and NAV.name in err[0]
