@@ -34,8 +34,9 @@ import numpy as np
 
 from ..errors import ConfigError
 from . import fec
-from .ephemeris import Ephemerides
-from .inav_words import PI_GALILEO, sisa_index, sisa_m
+from .bit_fields import Layout, decode_fields, encode_fields, field_integer
+from .ephemeris import KEPLER_TO_RINEX, Ephemerides
+from .inav_words import galileo_record, record_fields, sisa_index
 
 __all__ = [
     "FNAV_SYNC",
@@ -70,8 +71,7 @@ _CRC_COVERED = 214
 _SYNC_PM = 1.0 - 2.0 * FNAV_SYNC
 
 # name -> (first bit, 1-based within the page; length; scale; signed). Page type: bits 1-6.
-_Layout = dict[str, tuple[int, int, float, bool]]
-PAGE_LAYOUTS: dict[int, _Layout] = {
+PAGE_LAYOUTS: dict[int, Layout] = {
     1: {
         "svid": (7, 6, 1, False),
         "iodnav": (13, 10, 1, False),
@@ -137,30 +137,8 @@ PAGE_LAYOUTS: dict[int, _Layout] = {
         "tow_s": (190, 20, 1, False),
     },
 }
-#: Ephemeris fields (the names above) -> georinex names; angles in semicircles.
-_TO_RINEX = {
-    "m0_sc": "M0",
-    "e": "Eccentricity",
-    "sqrt_a_sqrtm": "sqrtA",
-    "omega0_sc": "Omega0",
-    "i0_sc": "Io",
-    "omega_sc": "omega",
-    "omega_dot_sc_s": "OmegaDot",
-    "idot_sc_s": "IDOT",
-    "delta_n_sc_s": "DeltaN",
-    "cuc_rad": "Cuc",
-    "cus_rad": "Cus",
-    "crc_m": "Crc",
-    "crs_m": "Crs",
-    "cic_rad": "Cic",
-    "cis_rad": "Cis",
-    "toe_s": "Toe",
-    "af0_s": "SVclockBias",
-    "af1_s_s": "SVclockDrift",
-    "af2_s_s2": "SVclockDriftRate",
-    "bgd_e1e5a_s": "TGD",
-}
-_SEMICIRCLES = {"m0_sc", "omega0_sc", "i0_sc", "omega_sc", "omega_dot_sc_s", "idot_sc_s", "delta_n_sc_s"}
+#: Ephemeris and clock fields (the names above) -> georinex names; ``TGD`` is BGD(E1,E5a).
+_TO_RINEX = {**KEPLER_TO_RINEX, "bgd_e1e5a_s": "TGD"}
 #: RINEX 3 Galileo SV health bits of the F/NAV fields (RINEX 3.04 Table A8).
 _HEALTH_SHIFT = {"e5a_dvs": 3, "e5a_hs": 4}
 
@@ -202,32 +180,15 @@ class FnavMessage:
     iono_time: None = None
 
 
-def _value(bits: np.ndarray, first: int, n: int) -> int:
-    return int("".join(map(str, bits[first - 1 : first - 1 + n].tolist())) or "0", 2)
-
-
 def encode_page(page_type: int, values: dict[str, float]) -> np.ndarray:
     """The 244 bits (0/1) of one page: ``values`` quantised with the ICD's scale factors
     (fields not given are 0), the CRC-24Q over bits 1-214, a zero tail. A value out of its
     field is refused in one line."""
     if page_type not in PAGE_LAYOUTS:
         raise ConfigError("page_type", f"F/NAV page types {sorted(PAGE_LAYOUTS)} are encoded, got {page_type}")
-    bits = np.zeros(PAGE_BITS, dtype=np.uint8)
-    fields = {"page_type": (1, 6, 1.0, False), **PAGE_LAYOUTS[page_type]}
+    layout = {"page_type": (1, 6, 1.0, False), **PAGE_LAYOUTS[page_type]}
     values = {**values, "page_type": page_type}
-    for name, (first, n, scale, signed) in fields.items():
-        if name not in values:
-            continue
-        q = int(np.round(float(values[name]) / scale))
-        lo, hi = (-(1 << (n - 1)), (1 << (n - 1)) - 1) if signed else (0, (1 << n) - 1)
-        if not lo <= q <= hi:
-            raise ConfigError(
-                f"fnav.page{page_type}.{name}",
-                f"{values[name]!r} does not fit {n} {'signed ' if signed else ''}bits of scale "
-                f"{scale:g} (Galileo OS SIS ICD 4.2.4)",
-            )
-        q &= (1 << n) - 1
-        bits[first - 1 : first - 1 + n] = (q >> np.arange(n - 1, -1, -1)) & 1
+    bits = encode_fields(PAGE_BITS, layout, values, f"fnav.page{page_type}", "Galileo OS SIS ICD 4.2.4")
     crc = int(fec.crc24q_bits(bits[:_CRC_COVERED]))
     bits[_CRC_COVERED : _CRC_COVERED + 24] = (crc >> np.arange(23, -1, -1)) & 1
     return bits
@@ -239,15 +200,9 @@ def decode_page_bits(bits: np.ndarray) -> tuple[int, dict[str, float], bool]:
     b = np.asarray(bits, dtype=np.uint8)
     if b.shape != (PAGE_BITS,):
         raise ConfigError("bits", f"an F/NAV page is {PAGE_BITS} bits, got shape {b.shape}")
-    crc_ok = int(fec.crc24q_bits(b[:_CRC_COVERED])) == _value(b, _CRC_COVERED + 1, 24)
-    page_type = _value(b, 1, 6)
-    out: dict[str, float] = {}
-    for name, (first, n, scale, signed) in PAGE_LAYOUTS.get(page_type, {}).items():
-        q = _value(b, first, n)
-        if signed and q >> (n - 1):
-            q -= 1 << n
-        out[name] = q * scale if scale != 1 else q
-    return page_type, out, crc_ok
+    crc_ok = int(fec.crc24q_bits(b[:_CRC_COVERED])) == field_integer(b, _CRC_COVERED + 1, 24)
+    page_type = field_integer(b, 1, 6)
+    return page_type, decode_fields(b, PAGE_LAYOUTS.get(page_type, {})), crc_ok
 
 
 def page_symbols(pages: np.ndarray) -> np.ndarray:
@@ -323,20 +278,7 @@ def pages_to_ephemeris(fields: dict[int, dict[str, float]]) -> Ephemerides:
                 f"{fields[t]['iodnav']} differs from page 1's {iod} (ICD 5.1.9.2: one IODnav per ephemeris set)",
             )
     merged = {k: v for t in (4, 3, 2, 1) for k, v in fields[t].items()}
-    elements = {
-        rinex: np.array([merged[name] * (PI_GALILEO if name in _SEMICIRCLES else 1.0)])
-        for name, rinex in _TO_RINEX.items()
-    }
-    elements["FNAV"] = np.array([1.0])  # the clock is for E1,E5a (`ephemeris.GALILEO_FIELDS`)
-    health = sum(int(merged[k]) << s for k, s in _HEALTH_SHIFT.items())
-    return Ephemerides(
-        np.array([f"E{int(merged['svid']):02d}"]),
-        np.array([float(merged["toc_s"])]),
-        elements,
-        np.array([float(health)]),
-        np.array([float(iod)]),
-        np.array([sisa_m(int(merged["sisa_index"]))]),
-    )
+    return galileo_record(merged, _TO_RINEX, _HEALTH_SHIFT, fnav=True)
 
 
 def decode_fnav(symbols: np.ndarray) -> FnavMessage:
@@ -367,11 +309,8 @@ def ephemeris_to_pages(
     """Field values of page types 1-4 of one Galileo record whose clock is for E1,E5a
     (``TGD`` as BGD(E1,E5a)); every page's ``wn`` (12 bits sent) and ``tow_s`` are set when
     it is sent (`encode_fnav`). Type 4's time conversions are sent as zero."""
-    if record.sv.size != 1 or not str(record.sv[0]).startswith("E"):
-        raise ConfigError("record", f"one Galileo record is encoded at a time, got {list(record.sv)}")
-    e = {k: float(v[0]) for k, v in record.elements.items()}
-    values = {name: e[rinex] / PI_GALILEO if name in _SEMICIRCLES else e[rinex] for name, rinex in _TO_RINEX.items()}
-    values.update(toc_s=float(record.toc_s[0]), iodnav=int(record.iode[0]), svid=int(str(record.sv[0])[1:]))
+    values = record_fields(record, _TO_RINEX)
+    values.update(iodnav=int(record.iode[0]), svid=int(str(record.sv[0])[1:]))
     acc = float(record.accuracy_m[0]) if record.accuracy_m is not None else np.nan
     health = int(record.health[0])
     values.update(

@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConfigError
+from .bit_fields import Layout, decode_fields, encode_fields, field_integer
 from .ephemeris import KEPLER_TO_RINEX, SEMICIRCLE_FIELDS, Ephemerides
 
 __all__ = [
@@ -39,6 +40,8 @@ __all__ = [
     "words_to_ephemeris",
     "sisa_m",
     "sisa_index",
+    "record_fields",
+    "galileo_record",
     "LSB",
 ]
 
@@ -48,8 +51,7 @@ PI_GALILEO = 3.1415926535898
 WORD_BITS = 128
 
 # name -> (first bit, 1-based within the word; length; scale; signed). Word type: bits 1-6.
-_Layout = dict[str, tuple[int, int, float, bool]]
-WORD_LAYOUTS: dict[int, _Layout] = {
+WORD_LAYOUTS: dict[int, Layout] = {
     0: {"time": (7, 2, 1, False), "wn": (97, 12, 1, False), "tow_s": (109, 20, 1, False)},
     1: {
         "iodnav": (7, 10, 1, False),
@@ -161,23 +163,9 @@ def encode_word(word_type: int, values: dict[str, float]) -> np.ndarray:
     the nearest integer (fields not given are 0, as reserved and spare bits)."""
     if word_type not in WORD_LAYOUTS:
         raise ConfigError("word_type", f"I/NAV word types {sorted(WORD_LAYOUTS)} are encoded, got {word_type}")
-    bits = np.zeros(WORD_BITS, dtype=np.uint8)
-    fields = {"word_type": (1, 6, 1.0, False), **WORD_LAYOUTS[word_type]}
+    layout = {"word_type": (1, 6, 1.0, False), **WORD_LAYOUTS[word_type]}
     values = {**values, "word_type": word_type}
-    for name, (first, n, scale, signed) in fields.items():
-        if name not in values:
-            continue
-        q = int(np.round(float(values[name]) / scale))
-        lo, hi = (-(1 << (n - 1)), (1 << (n - 1)) - 1) if signed else (0, (1 << n) - 1)
-        if not lo <= q <= hi:
-            raise ConfigError(
-                f"inav.word{word_type}.{name}",
-                f"{values[name]!r} does not fit {n} {'signed ' if signed else ''}bits of scale "
-                f"{scale:g} (Galileo OS SIS ICD 4.3.5)",
-            )
-        q &= (1 << n) - 1
-        bits[first - 1 : first - 1 + n] = (q >> np.arange(n - 1, -1, -1)) & 1
-    return bits
+    return encode_fields(WORD_BITS, layout, values, f"inav.word{word_type}", "Galileo OS SIS ICD 4.3.5")
 
 
 def decode_word(bits: np.ndarray) -> tuple[int, dict[str, float]]:
@@ -186,19 +174,8 @@ def decode_word(bits: np.ndarray) -> tuple[int, dict[str, float]]:
     b = np.asarray(bits)
     if b.shape != (WORD_BITS,):
         raise ConfigError("word", f"an I/NAV word is {WORD_BITS} bits, got shape {b.shape}")
-    weights = 1 << np.arange(63, -1, -1, dtype=np.uint64)
-
-    def value(first: int, n: int) -> int:
-        return int(np.sum(b[first - 1 : first - 1 + n].astype(np.uint64) * weights[64 - n :]))
-
-    word_type = value(1, 6)
-    out: dict[str, float] = {}
-    for name, (first, n, scale, signed) in WORD_LAYOUTS.get(word_type, {}).items():
-        q = value(first, n)
-        if signed and q >> (n - 1):
-            q -= 1 << n
-        out[name] = q * scale if scale != 1 else q
-    return word_type, out
+    word_type = field_integer(b, 1, 6)
+    return word_type, decode_fields(b, WORD_LAYOUTS.get(word_type, {}))
 
 
 def ephemeris_to_words(
@@ -212,11 +189,7 @@ def ephemeris_to_words(
     ``TGD`` as BGD(E1,E5b)), SISA, health, and word 5's GST week ``wn`` (12 bits sent) and
     ``tow_s``; ``bgd_e1e5a_s`` and the NeQuick ``ai_sfu`` (ai0, ai1, ai2) are not in an
     :class:`Ephemerides` record and are given apart."""
-    if record.sv.size != 1 or not str(record.sv[0]).startswith("E"):
-        raise ConfigError("record", f"one Galileo record is encoded at a time, got {list(record.sv)}")
-    e = {k: float(v[0]) for k, v in record.elements.items()}
-    fields = {name: e[rinex] / PI_GALILEO if name in _SEMICIRCLES else e[rinex] for name, rinex in _TO_RINEX.items()}
-    fields["toc_s"] = float(record.toc_s[0])
+    fields = record_fields(record, _TO_RINEX)
     iodnav = int(record.iode[0])
     health = int(record.health[0])
     acc = float(record.accuracy_m[0]) if record.accuracy_m is not None else np.nan
@@ -256,17 +229,38 @@ def words_to_ephemeris(words: dict[int, dict[str, float]]) -> Ephemerides:
                 f"{words[t]['iodnav']} differs from word 1's {iod} (ICD 5.1.9.2: one IODnav per ephemeris set)",
             )
     merged = {k: v for t in (1, 2, 3, 4, 5) for k, v in words[t].items()}
+    return galileo_record(merged, _TO_RINEX, _HEALTH_SHIFT, fnav=False)
+
+
+def record_fields(record: Ephemerides, to_rinex: dict[str, str]) -> dict[str, float]:
+    """The broadcast values (semicircles for `SEMICIRCLE_FIELDS`) of one Galileo record's
+    elements named by ``to_rinex`` (broadcast name -> georinex name), with its ``toc_s``."""
+    if record.sv.size != 1 or not str(record.sv[0]).startswith("E"):
+        raise ConfigError("record", f"one Galileo record is encoded at a time, got {list(record.sv)}")
+    e = {k: float(v[0]) for k, v in record.elements.items()}
+    fields = {name: e[rinex] / PI_GALILEO if name in _SEMICIRCLES else e[rinex] for name, rinex in to_rinex.items()}
+    fields["toc_s"] = float(record.toc_s[0])
+    return fields
+
+
+def galileo_record(
+    merged: dict[str, float], to_rinex: dict[str, str], health_shift: dict[str, int], fnav: bool
+) -> Ephemerides:
+    """One `Ephemerides` record (georinex names, radians) from the decoded fields of one
+    ephemeris set (``svid``, ``toc_s``, ``iodnav``, ``sisa_index``, the health fields of
+    ``health_shift`` at their RINEX 3 bits, and ``to_rinex``'s elements); ``fnav`` whether its
+    clock is for E1,E5a (F/NAV) or E1,E5b (I/NAV; `ephemeris.GALILEO_FIELDS`)."""
     elements = {
         rinex: np.array([merged[name] * (PI_GALILEO if name in _SEMICIRCLES else 1.0)])
-        for name, rinex in _TO_RINEX.items()
+        for name, rinex in to_rinex.items()
     }
-    elements["FNAV"] = np.array([0.0])  # the clock is for E1,E5b (`ephemeris.GALILEO_FIELDS`)
-    health = sum(int(merged[k]) << s for k, s in _HEALTH_SHIFT.items())
+    elements["FNAV"] = np.array([1.0 if fnav else 0.0])
+    health = sum(int(merged[k]) << s for k, s in health_shift.items())
     return Ephemerides(
         np.array([f"E{int(merged['svid']):02d}"]),
         np.array([float(merged["toc_s"])]),
         elements,
         np.array([float(health)]),
-        np.array([float(iod)]),
+        np.array([float(merged["iodnav"])]),
         np.array([sisa_m(int(merged["sisa_index"]))]),
     )

@@ -15,6 +15,7 @@ __all__ = [
     "gold_code_by_taps",
     "gold_code_by_g2_delay",
     "bits_to_chips",
+    "shift_register_bits",
     "checked_prn",
 ]
 
@@ -97,6 +98,21 @@ def gold_code_by_g2_delay(delay_chips: int) -> np.ndarray:
     (chip :math:`k` is :math:`G1(k) \\oplus G2(k - d)`), as ±1 ``int8`` (logic 0 -> +1, 1 -> -1)."""
     g1, g2 = _g1_g2_states()
     return bits_to_chips(g1[:, 9] ^ np.roll(g2[:, 9], int(delay_chips)))
+
+
+def shift_register_bits(start: int, taps: int, n: int, stages: int, *, short_cycle: int | None = None) -> np.ndarray:
+    """``n`` output bits (0/1) of a Fibonacci shift register held as a ``stages``-bit integer
+    whose most significant bit is the output stage: each shift moves every bit one place up
+    and the new least significant bit is the parity of the bits under ``taps``. With
+    ``short_cycle``, the state after that one is all ones again (GPS L5's XA, IS-GPS-705
+    3.3.2.1). Run once per code and cached by its callers: not a hot path."""
+    mask = (1 << stages) - 1
+    state = start & mask
+    out = np.empty(n, np.uint8)
+    for i in range(n):
+        out[i] = state >> (stages - 1)
+        state = mask if state == short_cycle else ((state << 1) & mask) | (int(state & taps).bit_count() & 1)
+    return out
 
 
 def checked_prn(prn: object, prns, label: str) -> int:

@@ -52,7 +52,7 @@ from functools import cache
 
 import numpy as np
 
-from .codes import bits_to_chips, checked_prn
+from .codes import bits_to_chips, checked_prn, shift_register_bits
 from .galileo_codes import hex_to_chips
 
 __all__ = [
@@ -161,14 +161,9 @@ E5AQ_SECONDARY_CS100: tuple[str, ...] = (
 
 
 def _register_bits(start: int, poly: int, n: int) -> np.ndarray:
-    """``n`` output bits (0/1) of a 14-stage register from ``start`` (module text)."""
-    taps = poly >> 1  # the terms x^1 .. x^14 as bits 0 .. 13
-    state = start & _MASK
-    out = np.empty(n, np.uint8)
-    for i in range(n):
-        out[i] = state >> (_STAGES - 1)
-        state = ((state << 1) & _MASK) | (int(state & taps).bit_count() & 1)
-    return out
+    """``n`` output bits (0/1) of a 14-stage register from ``start`` (module text): the taps
+    are the polynomial's terms x^1 .. x^14 as bits 0 .. 13."""
+    return shift_register_bits(start, poly >> 1, n, _STAGES)
 
 
 @cache

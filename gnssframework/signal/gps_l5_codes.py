@@ -51,7 +51,7 @@ from functools import cache
 import numpy as np
 
 from ..errors import ConfigError
-from .codes import bits_to_chips, checked_prn
+from .codes import bits_to_chips, checked_prn, shift_register_bits
 
 __all__ = [
     "L5_CODE_LENGTH_CHIPS",
@@ -133,23 +133,10 @@ L5I_NEUMAN_HOFFMAN: tuple[int, ...] = tuple(1 - 2 * int(b) for b in "0000110101"
 L5Q_NEUMAN_HOFFMAN: tuple[int, ...] = tuple(1 - 2 * int(b) for b in "00000100110101001110")
 
 
-def _step(state: int, taps: int) -> int:
-    """One shift of a 13-stage register: stages move up, stage 1 takes the taps' parity."""
-    return ((state << 1) & _MASK) | (int(state & taps).bit_count() & 1)
-
-
-def _run(state: int, taps: int, n: int, *, short_cycle: int | None = None) -> np.ndarray:
-    out = np.empty(n, np.uint8)
-    for i in range(n):
-        out[i] = state >> (_STAGES - 1)  # stage 13
-        state = _MASK if state == short_cycle else _step(state, taps)
-    return out
-
-
 @cache
 def l5_xa_chips() -> np.ndarray:
     """XA's 10230 output bits (0/1) of one code period (all-ones start, short-cycled)."""
-    out = _run(_MASK, _XA_TAPS, L5_CODE_LENGTH_CHIPS, short_cycle=_XA_LAST)
+    out = shift_register_bits(_MASK, _XA_TAPS, L5_CODE_LENGTH_CHIPS, _STAGES, short_cycle=_XA_LAST)
     out.flags.writeable = False
     return out
 
@@ -157,7 +144,7 @@ def l5_xa_chips() -> np.ndarray:
 @cache
 def l5_xb_chips() -> np.ndarray:
     """XB's 10230 output bits (0/1) of one code period from the all-ones state."""
-    out = _run(_MASK, _XB_TAPS, L5_CODE_LENGTH_CHIPS)
+    out = shift_register_bits(_MASK, _XB_TAPS, L5_CODE_LENGTH_CHIPS, _STAGES)
     out.flags.writeable = False
     return out
 
@@ -165,10 +152,9 @@ def l5_xb_chips() -> np.ndarray:
 def l5_xb_state(advance_chips: int) -> str:
     """The XB register after ``advance_chips`` shifts from all ones, as stages 1-13 (the
     ICD's *initial XB code state* column, e.g. ``0101011100100`` for I5 PRN 1)."""
-    state = _MASK
-    for _ in range(int(advance_chips)):
-        state = _step(state, _XB_TAPS)
-    return "".join(str((state >> (k - 1)) & 1) for k in range(1, _STAGES + 1))
+    # The state after r shifts holds the outputs r .. r + 12 with stage 13 (the MSB) first.
+    ahead = shift_register_bits(_MASK, _XB_TAPS, int(advance_chips) + _STAGES, _STAGES)[int(advance_chips) :]
+    return "".join(str(int(b)) for b in ahead[::-1])
 
 
 def _code(advance: tuple[int, ...], prn: int, name: str) -> np.ndarray:
