@@ -48,3 +48,28 @@ def visible_records(nav: Ephemerides, t_rx: float, receiver: np.ndarray, min_ele
     el = np.arcsin(los @ up / np.linalg.norm(los, axis=1))
     keep = np.flatnonzero(el > np.radians(min_elevation_deg))
     return sel.subset(keep), el[keep]
+
+
+def transmit_errors_m(obs, sats: Ephemerides, t0: float, sv_time) -> np.ndarray:
+    """Every dated transmit time of ``obs`` (`observables.Observables`) less the truth,
+    ``sv_time(record, t0 + recording time)`` (the signal's SV time at true time), in metres;
+    ``sats`` the records sent, named ``G05``/``E11`` for their PRN."""
+    prns = [int(s[1:]) for s in sats.sv]
+    errors = []
+    for j, prn in enumerate(obs.prn):
+        k = prns.index(int(prn))
+        ok = np.isfinite(obs.transmit_s[:, j])
+        truth = sv_time(sats.subset(np.array([k])), t0 + obs.sample_time_s[ok])
+        errors.append((obs.transmit_s[ok, j] - truth) * C)
+    return np.concatenate(errors)
+
+
+def position_dop(sats: Ephemerides, t: float, receiver: np.ndarray) -> float:
+    """The PDOP of ``sats`` seen from ``receiver`` (ECEF m) at GPS time ``t``."""
+    import pymap3d
+
+    from gnssframework.navigation.pvt import dop
+
+    lat, lon, h = pymap3d.ecef2geodetic(*receiver)
+    up = np.array([pymap3d.ecef2enu(*p, lat, lon, h) for p in satellite_state(sats, t).position_m])
+    return float(dop(up / np.linalg.norm(up, axis=1)[:, None])[1])

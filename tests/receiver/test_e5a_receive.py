@@ -11,17 +11,15 @@ from __future__ import annotations
 import csv
 
 import numpy as np
-import pymap3d
 import pytest
 
 from gnssframework import registry
 from gnssframework.cli import main
-from gnssframework.navigation.ephemeris import satellite_state
-from gnssframework.navigation.pvt import dop
 from gnssframework.receiver.channels import signal_tracking_config
 from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.receive import receive
 from gnssframework.signal.galileo_e5a import GALILEO_E5AI
+from light_time import position_dop, transmit_errors_m
 from inav_recordings import (
     GPS_WEEK,
     NAV,
@@ -71,17 +69,9 @@ def test_receive_positions_from_e5a_alone(e5a):
     obs, table = result.observables, result.positions
     assert table is not None and len(table) >= int(DURATION_S) - 2
     assert all(len(u) == 5 for u in table.used_prns)
-    pr_err = []
-    for j, prn in enumerate(obs.prn):
-        k = _prns(sats).index(int(prn))
-        ok = np.isfinite(obs.transmit_s[:, j])
-        truth = e5a_satellite_time(sats.subset(np.array([k])), TOW0 + obs.sample_time_s[ok])
-        pr_err.append((obs.transmit_s[ok, j] - truth) * C)
-    sigma_pr = float(np.std(np.concatenate(pr_err)))
+    sigma_pr = float(np.std(transmit_errors_m(obs, sats, TOW0, e5a_satellite_time)))
     assert sigma_pr < 0.03 * GALILEO_E5AI.chip_length_m, sigma_pr
-    lat, lon, h = pymap3d.ecef2geodetic(*STATION)
-    up = np.array([pymap3d.ecef2enu(*p, lat, lon, h) for p in satellite_state(sats, TOW0 + 5.0).position_m])
-    pdop = dop(up / np.linalg.norm(up, axis=1)[:, None])[1]
+    pdop = position_dop(sats, TOW0 + 5.0, STATION)
     err = np.linalg.norm(table.ecef_m - STATION, axis=1)
     assert np.sqrt(np.mean(err**2)) < 3 * pdop * sigma_pr, (err, pdop, sigma_pr)
 
