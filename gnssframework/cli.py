@@ -572,19 +572,19 @@ def max_rate_hz(signals: Iterable[SignalSpec]) -> float:
     return min(1.0 / s.code_period_s for s in signals)
 
 
-def _fnav_records(rinex, path: str):
-    """The records of a navigation file an E5a-I user can take: those whose clock is for
-    E1,E5a (F/NAV's, ``FNAV`` 1; an I/NAV record's is for E1,E5b, `single_frequency_clock_s`),
-    refused in one line without any."""
-    fnav = rinex.elements.get("FNAV")
-    keep = [] if fnav is None else (fnav == 1.0).nonzero()[0]
-    if len(keep) == 0:
+def _records_with_clock(rinex, path: str, signal: SignalSpec):
+    """The records of a navigation file that give ``signal``'s user a clock
+    (`ephemeris.records_with_clock`: on E5a, Galileo F/NAV's), refused in one line without any."""
+    from .navigation.ephemeris import records_with_clock
+
+    usable = records_with_clock(rinex, signal.carrier_freq_hz)
+    if usable is None:
         raise ConfigError(
             "--ephemeris",
             f"{path} holds no Galileo F/NAV record (RINEX data source bit 8: the clock for E5a,E1), "
             "which an E5a user's clock needs: give a file with F/NAV records, or none (the decoded ones serve)",
         )
-    return rinex.subset(keep)
+    return usable
 
 
 def _check_rate(rate_hz: float, signals: Iterable[SignalSpec]) -> None:
@@ -969,8 +969,8 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             "drop --ephemeris, the decoded LNAV ephemerides serve",
         )
     rinex = read_rinex_nav(args.ephemeris, systems=signal.system) if args.ephemeris else None
-    if rinex is not None and carries_fnav(signal):
-        rinex = _fnav_records(rinex, args.ephemeris)
+    if rinex is not None:
+        rinex = _records_with_clock(rinex, args.ephemeris, signal)
     nav_info = read_nav_file_info(args.ephemeris) if args.ephemeris else None
     # Without --week, the ephemeris file's (placed at the recording's tow once known, below).
     reference_week = args.week

@@ -72,6 +72,8 @@ __all__ = [
     "is_bds_geo",
     "single_frequency_clock_s",
     "ionosphere_scale",
+    "clock_defined",
+    "records_with_clock",
     "CNAV_FIELDS",
     "GALILEO_FIELDS",
     "OPTIONAL_FIELDS",
@@ -373,17 +375,33 @@ def single_frequency_clock_s(
         if isc_l1 is None:  # no CNAV record: T_GD alone, as LNAV's (and E1's, B1I's) user takes it
             return state.clock_l1_s
         return np.where(gps & np.isfinite(isc_l1), state.clock_l1_s + np.nan_to_num(isc_l1), state.clock_l1_s)
-    tgd = state.clock_s - state.clock_l1_s
-    clock = np.where(gps, state.clock_s - gamma * tgd, state.clock_l1_s)
-    if abs(float(carrier_freq_hz) - GPS_L5I.carrier_freq_hz) < 1.0:  # Galileo E5a (L5's carrier)
-        fnav = eph.elements.get("FNAV", np.zeros(letters.shape))
-        e5a = state.clock_s - gamma * tgd
-        clock = np.where(letters == "E", np.where(fnav == 1.0, e5a, np.nan), clock)
+    scaled = state.clock_s - gamma * (state.clock_s - state.clock_l1_s)  # Δt_SV - γ T_GD (or BGD)
+    e5a = abs(float(carrier_freq_hz) - GPS_L5I.carrier_freq_hz) < 1.0  # Galileo E5a: L5's carrier
+    clock = np.where(gps | (e5a & (letters == "E")), scaled, state.clock_l1_s)
     for name, band in (("ISC_L2C", GPS_L2C), ("ISC_L5I5", GPS_L5I)):
         isc = eph.elements.get(name)
         if isc is not None and abs(float(carrier_freq_hz) - band.carrier_freq_hz) < 1.0:
             clock = np.where(gps & np.isfinite(isc), state.clock_l1_s + np.nan_to_num(isc), clock)
-    return clock
+    return np.where(clock_defined(eph, carrier_freq_hz), clock, np.nan)
+
+
+def clock_defined(eph: Ephemerides, carrier_freq_hz: float) -> np.ndarray:
+    """``(N,)`` whether each record gives a single-frequency user of ``carrier_freq_hz`` a
+    clock (`single_frequency_clock_s`): every record but a Galileo one whose clock is for
+    E1,E5b (``FNAV`` 0, I/NAV's) on E5a, where only an E1,E5a clock serves."""
+    letters = np.asarray(eph.sv).astype("U1")
+    if abs(float(carrier_freq_hz) - GPS_L5I.carrier_freq_hz) >= 1.0:
+        return np.ones(letters.shape, bool)
+    return (letters != "E") | (eph.elements.get("FNAV", np.zeros(letters.shape)) == 1.0)
+
+
+def records_with_clock(eph: Ephemerides | None, carrier_freq_hz: float) -> Ephemerides | None:
+    """The records of ``eph`` that give a clock on ``carrier_freq_hz`` (`clock_defined`);
+    None without ``eph`` or without any such record."""
+    if eph is None:
+        return None
+    keep = np.flatnonzero(clock_defined(eph, carrier_freq_hz))
+    return eph.subset(keep) if keep.size else None
 
 
 def ionosphere_scale(carrier_freq_hz: float, reference: SignalSpec = GPS_L1CA) -> float:
@@ -618,8 +636,7 @@ def read_rinex_nav(path: str | Path, systems: str = "G") -> Ephemerides:
         elements = {f: values[f][ti, si].astype(float) for f in ORBIT_FIELDS + CLOCK_FIELDS}
         if letter == "E":  # the clock's pair (data source bits 8, 9): E1,E5a for F/NAV's
             src = np.nan_to_num(values["DataSrc"][ti, si]).astype(np.int64)
-            elements["FNAV"] = ((src & 256) != 0) & ((src & 512) == 0)
-            elements["FNAV"] = elements["FNAV"].astype(float)
+            elements["FNAV"] = (((src & 256) != 0) & ((src & 512) == 0)).astype(float)
         parts.append(
             (
                 sv,

@@ -84,3 +84,26 @@ def test_an_e5a_user_takes_the_fnav_clock_and_no_inav_one():
     inav_rec = type(rec)(rec.sv, rec.toc_s, {**rec.elements, "FNAV": np.array([0.0])}, rec.health, rec.iode)
     assert np.isnan(single_frequency_clock_s(inav_rec, s, GALILEO_E5AI.carrier_freq_hz)[0])
     assert single_frequency_clock_s(inav_rec, s, GPS_L1CA.carrier_freq_hz)[0] == s.clock_l1_s[0]
+
+
+def test_records_without_an_e5a_clock_are_left_out_and_a_set_of_none_refused(tmp_path):
+    """`records_with_clock` keeps, on E5a, the Galileo records whose clock is for E1,E5a and
+    every other system's; `receive` given none of them is refused in one line before any
+    work (it ran into the solver's least squares with NaN clocks, deep in a traceback)."""
+    from gnssframework import registry
+    from gnssframework.navigation.ephemeris import Ephemerides, records_with_clock
+    from gnssframework.receiver.frontend import open_recording
+    from gnssframework.receiver.navigation.receive import receive
+    from noisy_recording import write_noisy_recording
+
+    nav = read_rinex_nav(DATA / "VILL00ESP_R_20181700000_06H_MN.rnx", systems="E")
+    kept = records_with_clock(nav, GALILEO_E5AI.carrier_freq_hz)
+    assert kept is not None and kept.sv.size == int(np.sum(nav.elements["FNAV"] == 1.0)) < nav.sv.size
+    assert records_with_clock(nav, GPS_L1CA.carrier_freq_hz).sv.size == nav.sv.size  # E1: both serve
+    inav = nav.subset(np.flatnonzero(nav.elements["FNAV"] == 0.0))
+    assert records_with_clock(inav, GALILEO_E5AI.carrier_freq_hz) is None
+    assert isinstance(inav, Ephemerides)
+    path = write_noisy_recording(tmp_path / "x.sigmf-data", [np.zeros(1000, complex)], 10.5e6, np.random.default_rng(0))
+    with pytest.raises(ConfigError, match=r"^rinex: no record gives a galileo-e5ai user a clock") as err:
+        receive(open_recording(path), registry.create("acquisition", "pcps"), None, rinex=inav, signal=GALILEO_E5AI)
+    assert "\n" not in str(err.value)

@@ -111,15 +111,23 @@ def channel_cnav(record: ChannelRecord, signal: SignalSpec) -> CnavTiming:
         )
     if not record.rows:
         return CnavTiming(record.prn, [], np.zeros(0))
-    col = record.column
-    time_s, prompt_i, prompt_q = col("time_s"), col("prompt_i"), col("prompt_q")
+    time_s = record.column("time_s")
     messages, times = [], []
-    for run in symbol_runs(time_s, col("coherent_ms"), signal.code_period_s):
-        symbols, starts = overlay_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
-        for m in decode_cnav(symbols, prn=record.prn, message_s=message_s(signal)).messages:
-            messages.append(m)
-            times.append(float(time_s[run[starts[m.start]]]))
+    for run, symbol_rows, decoded in _decoded_runs(record, signal):
+        messages += decoded
+        times += [float(time_s[run[symbol_rows[m.start]]]) for m in decoded]
     return CnavTiming(record.prn, messages, np.array(times))
+
+
+def _decoded_runs(record: ChannelRecord, signal: SignalSpec):
+    """Per gap-free run of one-period rows: its row indices, for each symbol the index in the
+    run of the row it starts on (`overlay_symbols.overlay_symbols_of_run`), and the run's
+    messages (`cnav.decode_cnav`)."""
+    col = record.column
+    prompt_i, prompt_q = col("prompt_i"), col("prompt_q")
+    for run in symbol_runs(col("time_s"), col("coherent_ms"), signal.code_period_s):
+        symbols, symbol_rows = overlay_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
+        yield run, symbol_rows, decode_cnav(symbols, prn=record.prn, message_s=message_s(signal)).messages
 
 
 def _run_epoch(messages: list[CnavMessage], period_s: float) -> tuple[int, float, bool] | None:
@@ -166,10 +174,7 @@ def cnav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     time_s, code_chips, stage = col("time_s"), col("code_phase_chips"), col("stage")
     period, duration_s = signal.code_period_s, message_s(signal)
     rows, tx, half, starts = [], [], [], []
-    prompt_i, prompt_q = col("prompt_i"), col("prompt_q")
-    for run in symbol_runs(time_s, col("coherent_ms"), period):
-        symbols, symbol_rows = overlay_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
-        messages = decode_cnav(symbols, prn=record.prn, message_s=duration_s).messages
+    for run, symbol_rows, messages in _decoded_runs(record, signal):
         timing_messages += messages
         ready_s += [float(time_s[run[symbol_rows[m.start]]]) + duration_s for m in messages]
         epoch = _run_epoch(messages, float(signal.symbol_period_s or period))

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ConfigError
-from ...navigation.ephemeris import Ephemerides, _wrap_week
+from ...navigation.ephemeris import Ephemerides, _wrap_week, records_with_clock
 from ...navigation.dual_frequency import DualFrequency
 from ...navigation.weeks import full_week as nearest_week
 from ...navigation.lnav import IonoUtc
@@ -153,7 +153,8 @@ def solve_epochs(
 ) -> PositionTable:
     """Solve every epoch of ``obs`` (see the module text).
 
-    ``signal`` names the satellites in ``rinex`` (its `SignalSpec.rinex_satellite`).
+    ``signal`` names the satellites in ``rinex`` (its `SignalSpec.rinex_satellite`); records
+    that give its user no clock are not used (`ephemeris.records_with_clock`).
 
     ``iono`` overrides the decoded page 18; with ``ionosphere`` False no ionospheric
     correction is made; ``elevation_weights`` and ``weighting`` as `solve_position`'s
@@ -167,6 +168,7 @@ def solve_epochs(
     with its satellite clock and no ionospheric correction.
     """
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
+    rinex = records_with_clock(rinex, signal.carrier_freq_hz)  # an I/NAV record gives no E5a clock
     week = full_week(obs.week, reference_week, obs.week_bits)
     rows: list[PositionFix] = []
     keep_t, used, excluded = [], [], []

@@ -204,11 +204,7 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
     for run in symbol_runs(time_s, col("coherent_ms"), period):
         # The symbols and, for each, the index in the run of the row it starts on.
         symbols, symbol_rows = overlay_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
-        msg: InavMessage | fnav.FnavMessage
-        if is_fnav:
-            msg = fnav.decode_fnav(symbols) if symbols.size else fnav.FnavMessage([], None, None, {}, [])
-        else:
-            msg = decode_inav(symbols)
+        msg: InavMessage | fnav.FnavMessage = fnav.decode_fnav(symbols) if is_fnav else decode_inav(symbols)
         messages.append(msg)
         iono_time = merge_iono_time(iono_time, msg.iono_time)
         if msg.ephemeris is not None:
