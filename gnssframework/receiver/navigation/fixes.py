@@ -168,7 +168,8 @@ def solve_epochs(
     with its satellite clock and no ionospheric correction.
     """
     klobuchar = (iono or obs.iono_utc) if ionosphere else None
-    rinex = records_with_clock(rinex, signal.carrier_freq_hz)  # an I/NAV record gives no E5a clock
+    if isinstance(signal, SignalSpec):  # one signal; a multi_receive.SignalSet is not filtered here
+        rinex = records_with_clock(rinex, signal.carrier_freq_hz)  # an I/NAV record gives no E5a clock
     week = full_week(obs.week, reference_week, obs.week_bits)
     rows: list[PositionFix] = []
     keep_t, used, excluded = [], [], []
