@@ -17,6 +17,7 @@ __all__ = [
     "bits_to_chips",
     "shift_register_bits",
     "checked_prn",
+    "register_states",
 ]
 
 #: Chips in one C/A code period (IS-GPS-200, 3.3.2.3).
@@ -59,25 +60,31 @@ G2_TAPS: dict[int, tuple[int, int]] = {
 }
 
 
-def _register_states(feedback_stages: tuple[int, ...]) -> np.ndarray:
-    """The ``(1023, 10)`` states (stages 1-10, before each shift) over one period of a
-    10-stage register starting all ones, whose new stage 1 is the XOR of ``feedback_stages``
-    (1-based)."""
-    reg = [1] * 10
-    out = np.empty((CA_CODE_LENGTH, 10), np.uint8)
-    for i in range(CA_CODE_LENGTH):  # once per process, cached: not a hot path
+def register_states(
+    feedback_stages: tuple[int, ...], n: int = CA_CODE_LENGTH, stages: int = 10, start: tuple[int, ...] | None = None
+) -> np.ndarray:
+    """The ``(n, stages)`` states (stages 1 to ``stages``, before each shift) of a register
+    starting at ``start`` (stage 1 first; all ones by default) whose new stage 1 is the XOR
+    of ``feedback_stages`` (1-based): the C/A code's G1 and G2 (IS-GPS-200 fig. 3-10) and
+    BeiDou B1I's (BDS-SIS-ICD-B1I 3.0 fig. 5-2). Run once per code and cached by its
+    callers: not a hot path."""
+    reg = list(start) if start is not None else [1] * stages
+    if len(reg) != stages:
+        raise ConfigError("start", f"a {stages}-stage register needs {stages} initial bits, got {len(reg)}")
+    out = np.empty((n, stages), np.uint8)
+    for i in range(n):
         out[i] = reg
         fb = 0
         for stage in feedback_stages:
             fb ^= reg[stage - 1]
-        reg = [fb] + reg[:9]
+        reg = [fb] + reg[:-1]
     return out
 
 
 @lru_cache(maxsize=1)
 def _g1_g2_states() -> tuple[np.ndarray, np.ndarray]:
     # G1 = 1 + x^3 + x^10, G2 = 1 + x^2 + x^3 + x^6 + x^8 + x^9 + x^10, both start all ones.
-    return _register_states((3, 10)), _register_states((2, 3, 6, 8, 9, 10))
+    return register_states((3, 10)), register_states((2, 3, 6, 8, 9, 10))
 
 
 def bits_to_chips(bits: np.ndarray) -> np.ndarray:

@@ -38,6 +38,8 @@ def test_kinds_and_builtin_names():
     assert builtin_names("cn0_estimator") == ["beaulieu", "m2m4", "narrow-wide", "noise-channel", "snv"]
     assert builtin_names("signal") == [
         "beidou-b1c",
+        "beidou-b1i",
+        "beidou-b1i-geo",
         "galileo-e1b",
         "galileo-e1b-boc11",
         "galileo-e1c",
