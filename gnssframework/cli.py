@@ -640,7 +640,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
     from .receiver.navigation.cnav_stream import carries_cnav, write_cnav_report
-    from .receiver.navigation.inav_stream import carries_fnav, carries_inav, write_inav_report
+    from .receiver.navigation.inav_stream import carries_d1, carries_fnav, carries_inav, write_inav_report
     from .receiver.navigation.sbas_stream import carries_sbas, write_sbas_report
 
     _threads_from_args(args)
@@ -670,18 +670,26 @@ def _cmd_track(args: argparse.Namespace) -> int:
             f"C/N0 {_or_none(s['cn0_dbhz_locked'], '5.1f')} dB-Hz, Doppler {_or_none(s['doppler_hz_last'], '9.1f')} "
             f"Hz, {s['final_stage']}"
         )
-    if carries_inav(signal) or carries_fnav(signal):  # E1-B (4 ms symbols of I/NAV), E5a-I (20 ms of F/NAV)
+    # E1-B (4 ms symbols of I/NAV), E5a-I (20 ms of F/NAV), B1I (20 ms bits of D1)
+    if carries_inav(signal) or carries_fnav(signal) or carries_d1(signal):
         path, inav_rows = write_inav_report(args.out, result, signal)
-        message, kinds = ("F/NAV", "page types") if carries_fnav(signal) else ("I/NAV", "word types")
+        message, kinds, time_name = (
+            ("F/NAV", "page types", "GST")
+            if carries_fnav(signal)
+            else ("D1", "subframe IDs", "GPS time (BDT + 14 s)")
+            if carries_d1(signal)
+            else ("I/NAV", "word types", "GST")
+        )
         written.append(path)
         for r in inav_rows:
-            week = f"GST week {r['gst_wn']} " if r["gst_wn"] != "" else "GST "  # F/NAV page 4: a TOW, no week
+            week = f"{time_name} week {r['gst_wn']} " if r["gst_wn"] != "" else f"{time_name} "  # F/NAV page 4: no week
             gst = (
                 f"{week}TOW {r['gst_tow_s']} s at {float(r['gst_time_s']):.3f} s" if r["gst_tow_s"] != "" else "no GST"
             )
             print(
                 f"  PRN {r['prn']:2d}: {message} {r['pages']} pages ({kinds} {r['word_types'] or 'none'}), "
-                f"{r['crc_failures']} CRC failures, IODnav {r['iodnav'] or 'none'}, {gst}"
+                f"{r['crc_failures']} {'inconsistent' if message == 'D1' else 'CRC failures'}, "
+                f"{'AODE' if message == 'D1' else 'IODnav'} {r['iodnav'] or 'none'}, {gst}"
                 f"{', ephemeris complete' if r['ephemeris'] else ''}"
             )
     if carries_sbas(signal):  # SBAS L1: every 2 ms prompt after bit sync a symbol of the 250 bit/s message
@@ -926,7 +934,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     from .receiver.navigation.decoded import navigation_message
     from .receiver.navigation.cnav_stream import carries_cnav
     from .receiver.navigation.decoded import require_positioning
-    from .receiver.navigation.inav_stream import carries_fnav, carries_inav
+    from .receiver.navigation.inav_stream import carries_d1, carries_fnav, carries_inav
     from .receiver.navigation.receiver_config import receiver_filters
     from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
     from .receiver.channels.report import write_tracking_outputs
@@ -954,7 +962,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     args.channel_params = json.dumps(filters.channel_filter.params)
     # E1-B: one 4 ms code period a symbol, taps off BOC(1,1)'s side lobes (track's E1 defaults)
     # L2 CM: 20 ms periods, the pull-in's loops narrowed to them (track's L2C defaults)
-    long_symbols = carries_inav(signal) or carries_cnav(signal) or carries_fnav(signal)
+    long_symbols = carries_inav(signal) or carries_cnav(signal) or carries_fnav(signal) or carries_d1(signal)
     config = _tracking_config_from_args(args, signal if long_symbols else None)
     _check_rate(args.rate, (signal,))
     if args.week is not None and not 0 <= args.week < 10_000:

@@ -130,3 +130,40 @@ def write_e5a_recording(path: Path, sats, tow0: float, duration_s: float, seed: 
         streams.append((symbols.astype(float), float(t_sv0[k]) - 0.1 - into))
     chunks = signal_chunks(sats, tow0, duration_s, GALILEO_E5AI, E5A_FS, e5a_satellite_time, streams, cn0_dbhz, rng)
     return write_noisy_recording(path, chunks, E5A_FS, rng, fmt="ci8")
+
+
+#: The B1I recordings' records: the I/NAV file's, relabelled as BeiDou D1 ones, E nn as
+#: C(nn + 20) (PRN 21-56: MEO numbers, no GEO), their times read as BDT. The orbits and
+#: clocks are real Galileo ones; the BeiDou constants (CGCS2000's Earth rotation, BDT) are
+#: applied to them by generator and receiver alike, and T_GD1 is the record's BGD. Only the
+#: satellites whose af0 fits D1's 24 bits (under 2^-10 s: some Galileo clocks are 5 ms off).
+B1I_FS = 4.2e6  # no ratio of small integers with 2.046 Mchip/s (none of 4.092 MHz's dead band)
+BDT_WEEK = GPS_WEEK - 1356
+
+
+def bds_records():
+    """The I/NAV file's records relabelled as BeiDou ones (see `B1I_FS`'s note)."""
+    nav = galileo_records()
+    nav = nav.subset(np.flatnonzero(np.abs(nav.elements["SVclockBias"]) < 2.0**-10))
+    sv = np.array([f"C{int(s[1:]) + 20:02d}" for s in nav.sv])
+    elements = {k: v for k, v in nav.elements.items() if k != "FNAV"}
+    return type(nav)(sv, nav.toc_s, elements, nav.health, nav.iode, nav.accuracy_m)
+
+
+def write_b1i_recording(path: Path, sats, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0) -> Path:
+    """Write ``duration_s`` of BeiDou B1I (D1 subframes of each record, `d1nav.d1_symbols`,
+    under NH20) from the satellites ``sats`` (BeiDou records) from GPS time ``tow0``, seen
+    from `STATION`, complex int8 at `B1I_FS`. A D1 SOW is BDT: the SV time less 14 s."""
+    from gnssframework.navigation import d1nav
+    from gnssframework.signal.beidou_b1i import BEIDOU_B1I
+
+    rng = np.random.default_rng(seed)
+    t_sv0 = satellite_time(sats, np.array(tow0))
+    streams = []
+    for k in range(sats.sv.size):
+        bits, into = d1nav.d1_symbols(
+            sats.subset(np.array([k])), BDT_WEEK, float(t_sv0[k]) - 14.0 - 0.1, int(duration_s * 50) + 20
+        )
+        streams.append((bits.astype(float), float(t_sv0[k]) - 0.1 - into))
+    chunks = signal_chunks(sats, tow0, duration_s, BEIDOU_B1I, B1I_FS, satellite_time, streams, cn0_dbhz, rng)
+    return write_noisy_recording(path, chunks, B1I_FS, rng, fmt="ci8")

@@ -46,7 +46,7 @@ __all__ = [
     "D1_PREAMBLE",
     "SUBFRAME_BITS",
     "SUBFRAME_S",
-    "BIT_RATE_HZ",
+    "SYMBOL_RATE_HZ",
     "INFO_BITS",
     "BDT_GPS_WEEK_OFFSET",
     "BDT_GPS_OFFSET_S",
@@ -71,7 +71,8 @@ __all__ = [
 D1_PREAMBLE = np.array([1, 1, 1, 0, 0, 0, 1, 0, 0, 1, 0], dtype=np.uint8)
 SUBFRAME_BITS = 300
 SUBFRAME_S = 6.0
-BIT_RATE_HZ = 50.0
+#: D1 at 50 bit/s, uncoded: one symbol a bit.
+SYMBOL_RATE_HZ = 50.0
 #: Information bits of a subframe: word 1's 26 and 22 from each of words 2-10.
 INFO_BITS = 26 + 9 * 22
 #: BDT week 0 began at GPS week 1356 (2006-01-01 00:00:00 UTC), and BDT = GPST - 14 s.
@@ -453,7 +454,7 @@ def d1_symbols(record: Ephemerides, wn: int, sow_s: float, n_bits: int) -> tuple
     the first bit's start to ``sow_s``. Subframes as `encode_d1`."""
     first = int(np.floor(sow_s / SUBFRAME_S)) * 6
     into = sow_s - first
-    skip = int(np.floor(into * BIT_RATE_HZ))
+    skip = int(np.floor(into * SYMBOL_RATE_HZ))
     n_sub = int(np.ceil((skip + n_bits) / SUBFRAME_BITS))
     bits = encode_d1(record, wn, first % _WEEK_S, n_sub)[skip : skip + n_bits]
-    return bits, float(into - skip / BIT_RATE_HZ)
+    return bits, float(into - skip / SYMBOL_RATE_HZ)

@@ -24,6 +24,10 @@ the CS20_1 overlay, wiped off and summed (`overlay_symbols.overlay_symbols_of_ru
 pages are decoded by :func:`~gnssframework.navigation.fnav.decode_fnav`, and a page's GST is
 the satellite time at its first sync symbol, on the row that symbol starts on; rows are
 then dated every 1 ms from it.
+
+BeiDou D1 on B1I (`carries_d1`) the same again: a bit is twenty 1 ms rows under NH20,
+subframes by :func:`~gnssframework.navigation.d1nav.decode_d1`, a subframe's SOW is the BDT
+at its first bit, taken to GPS time (+14 s, week + 1356) before the rows are dated.
 """
 
 from __future__ import annotations
@@ -36,7 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...errors import ConfigError
-from ...navigation import fnav
+from ...navigation import d1nav, fnav
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.inav import PAGE_SYMBOLS, InavMessage, decode_inav
 from ...navigation.inav_params import InavIonoTime, merge_iono_time
@@ -52,6 +56,7 @@ if TYPE_CHECKING:
 __all__ = [
     "carries_inav",
     "carries_fnav",
+    "carries_d1",
     "carries_lnav",
     "require_lnav",
     "symbol_runs",
@@ -94,6 +99,19 @@ def carries_fnav(signal: SignalSpec) -> bool:
     sym = signal.components[0].symbol_period_s
     return (
         signal.system == "E"
+        and sym is not None
+        and abs(sym - 0.02) < 1e-9
+        and abs(signal.code_period_s - 1e-3) < 1e-12
+        and signal.overlay_length(0) == signal.code_periods_per_symbol == 20
+    )
+
+
+def carries_d1(signal: SignalSpec) -> bool:
+    """Whether ``signal``'s tracked component is BeiDou B1I of a D1 satellite (one bit twenty
+    1 ms code periods under NH20)."""
+    sym = signal.components[0].symbol_period_s
+    return (
+        signal.system == "C"
         and sym is not None
         and abs(sym - 0.02) < 1e-9
         and abs(signal.code_period_s - 1e-3) < 1e-12
@@ -145,7 +163,7 @@ def symbol_runs(
 
 @dataclass(frozen=True)
 class InavTiming:
-    """What one E1-B channel's I/NAV (or E5a-I channel's F/NAV) gave.
+    """What one E1-B channel's I/NAV (or E5a-I channel's F/NAV, or B1I channel's D1) gave.
 
     ``messages``: `InavMessage` (`fnav.FnavMessage`) per run (`symbol_runs`); ``rows`` and ``transmit_s`` the
     record rows dated from a decoded GST and their transmit times (satellite time of week,
@@ -159,7 +177,7 @@ class InavTiming:
     """
 
     prn: int
-    messages: list[InavMessage | fnav.FnavMessage]
+    messages: list[InavMessage | fnav.FnavMessage | d1nav.D1Message]
     rows: np.ndarray
     transmit_s: np.ndarray
     gst: tuple[float, int | None, float] | None
@@ -179,14 +197,16 @@ class InavTiming:
 
 
 def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
-    """Decode the I/NAV of one channel tracking E1-B (`carries_inav`), or the F/NAV of one
-    tracking E5a-I (`carries_fnav`), run by run, and date the rows of each run that carries
-    a GST (module text)."""
-    is_fnav = carries_fnav(signal)
-    if not (carries_inav(signal) or is_fnav):
+    """Decode the I/NAV of one channel tracking E1-B (`carries_inav`), the F/NAV of one
+    tracking E5a-I (`carries_fnav`) or the D1 of one tracking B1I (`carries_d1`), run by
+    run, and date the rows of each run that carries a GST (BDT taken to GPS time; module
+    text)."""
+    is_fnav, is_d1 = carries_fnav(signal), carries_d1(signal)
+    if not (carries_inav(signal) or is_fnav or is_d1):
         raise ConfigError(
             "signal",
-            f"{signal.name} carries no I/NAV or F/NAV on its tracked component (galileo-e1b and galileo-e5ai do)",
+            f"{signal.name} carries no I/NAV, F/NAV or D1 on its tracked component (galileo-e1b, galileo-e5ai "
+            "and beidou-b1i do)",
         )
     empty = np.zeros(0)
     if not record.rows:
@@ -195,8 +215,14 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
     time_s, code_chips = col("time_s"), col("code_phase_chips")
     period = signal.code_period_s
     prompt_i, prompt_q = col("prompt_i"), col("prompt_q")
-    page_symbols, needed = (fnav.PAGE_SYMBOLS, {1, 2, 3, 4}) if is_fnav else (PAGE_SYMBOLS, {1, 2, 3, 4, 5})
-    messages: list[InavMessage | fnav.FnavMessage] = []
+    page_symbols, needed = (
+        (fnav.PAGE_SYMBOLS, {1, 2, 3, 4})
+        if is_fnav
+        else (d1nav.SUBFRAME_BITS, {1, 2, 3})
+        if is_d1
+        else (PAGE_SYMBOLS, {1, 2, 3, 4, 5})
+    )
+    messages: list[InavMessage | fnav.FnavMessage | d1nav.D1Message] = []
     rows, tx, half = [], [], []
     gst, ephemeris = None, None
     ephemerides: list[tuple[float, Ephemerides]] = []
@@ -204,7 +230,13 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
     for run in symbol_runs(time_s, col("coherent_ms"), period):
         # The symbols and, for each, the index in the run of the row it starts on.
         symbols, symbol_rows = overlay_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
-        msg: InavMessage | fnav.FnavMessage = fnav.decode_fnav(symbols) if is_fnav else decode_inav(symbols)
+        msg: InavMessage | fnav.FnavMessage | d1nav.D1Message = (
+            fnav.decode_fnav(symbols)
+            if is_fnav
+            else d1nav.decode_d1(symbols, record.prn)
+            if is_d1
+            else decode_inav(symbols)
+        )
         messages.append(msg)
         iono_time = merge_iono_time(iono_time, msg.iono_time)
         if msg.ephemeris is not None:
@@ -237,10 +269,13 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
     )
 
 
-def _completed_at(msg: InavMessage | fnav.FnavMessage, needed: set[int]) -> int:
+def _completed_at(msg: InavMessage | fnav.FnavMessage | d1nav.D1Message, needed: set[int]) -> int:
     """Index (in its symbol stream) of the first symbol of the page that completed ``msg``'s
     ephemeris: the first page by which the ``needed`` word (page) types have all arrived,
-    types 1-4 of the ephemeris's IODnav (I/NAV: words 1-5; F/NAV: pages 1-4)."""
+    types 1-4 of the ephemeris's IODnav (I/NAV: words 1-5; F/NAV: pages 1-4); D1's last
+    subframe 3 (its record is that of one frame's subframes 1-3)."""
+    if isinstance(msg, d1nav.D1Message):
+        return next((p.start for p in reversed(msg.pages) if p.word_type == 3), msg.pages[-1].start)
     iod = int(msg.ephemeris.iode[0]) if msg.ephemeris is not None else -1
     seen: set[int] = set()
     for p in msg.pages:
@@ -271,8 +306,10 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     r = timing.rows[keep]
     # GST week 0 is GPS week 1024 (OS SIS ICD 5.1.2; GST steered to GPS time), and GST sends
     # 12 bits of its week: the GPS week's low 12 bits (`fixes.full_week` makes it whole).
+    # D1's GST is already GPS time (`D1Message.gst`: BDT week + 1356), of 13 bits.
     week = None if timing.gst is None else timing.gst[1]  # None: an F/NAV page type 4 alone (no WN)
-    week12 = None if week is None else (week + 1024) % 4096
+    bits = 13 if carries_d1(signal) else 12
+    week12 = None if week is None else week % 8192 if bits == 13 else (week + 1024) % 4096
     return ChannelTiming(
         record.prn,
         col("time_s")[r],
@@ -281,7 +318,7 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
         col("carrier_phase_cycles")[r],
         col("cn0_dbhz")[r],
         timing.half_cycle[keep],
-        LnavMessage(record.prn, [], None, None, week12, week_bits=12),
+        LnavMessage(record.prn, [], None, None, week12, week_bits=bits),
         timing.ephemerides,
         arc_start,
         np.ones(r.size, bool),
@@ -292,7 +329,9 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
 def inav_summary(timing: InavTiming, symbols: int) -> dict:
     """One row of ``inav.csv`` (`INAV_COLUMNS`) for a channel of ``symbols`` one-period rows."""
     pages = [p for m in timing.messages for p in m.pages]
-    iods = sorted({int(p.fields["iodnav"]) for p in pages if "iodnav" in p.fields})
+    iods = sorted(
+        {int(p.fields.get("iodnav", p.fields.get("aode", 0))) for p in pages if {"iodnav", "aode"} & set(p.fields)}
+    )
     gst = timing.gst
     return {
         "prn": timing.prn,
@@ -319,7 +358,7 @@ def write_inav_report(out_dir: str | Path, tracking: TrackingResult, signal: Sig
     for _, ch in sorted(tracking.channels.items()):
         n = int(np.count_nonzero(ch.column("coherent_ms") == 1)) if ch.rows else 0
         rows.append(inav_summary(channel_inav(ch, signal), n))
-    path = Path(out_dir) / ("fnav.csv" if carries_fnav(signal) else "inav.csv")
+    path = Path(out_dir) / ("fnav.csv" if carries_fnav(signal) else "d1.csv" if carries_d1(signal) else "inav.csv")
     with atomic_open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(INAV_COLUMNS)
