@@ -519,6 +519,17 @@ def _note_nonfinite(rec) -> None:
         )
 
 
+def _long_symbols(signal: SignalSpec) -> bool:
+    """Whether ``signal``'s message is read from one code period a row (E1-B's 4 ms I/NAV
+    symbols; L2 CM's CNAV; the overlaid 1 ms rows of L5 I5, E5a-I and B1I): its tracking then
+    takes the settings its description implies (`_tracking_config_from_args`), where GPS L1
+    C/A keeps the command's defaults."""
+    from .receiver.navigation.cnav_stream import carries_cnav
+    from .receiver.navigation.inav_stream import carries_d1, carries_fnav, carries_inav
+
+    return carries_inav(signal) or carries_cnav(signal) or carries_fnav(signal) or carries_d1(signal)
+
+
 def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | None = None):
     """The tracking settings of ``track`` and ``position`` (a command without an option
     leaves its default), and ``--duration`` checked. With ``signal``, what its description
@@ -932,9 +943,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
     from .receiver.navigation.receive import receive
     from .receiver.navigation.decoded import navigation_message
-    from .receiver.navigation.cnav_stream import carries_cnav
     from .receiver.navigation.decoded import require_positioning
-    from .receiver.navigation.inav_stream import carries_d1, carries_fnav, carries_inav
     from .receiver.navigation.receiver_config import receiver_filters
     from .navigation.rinex_nav_header import WEEK_S, read_nav_file_info
     from .receiver.channels.report import write_tracking_outputs
@@ -962,8 +971,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     args.channel_params = json.dumps(filters.channel_filter.params)
     # E1-B: one 4 ms code period a symbol, taps off BOC(1,1)'s side lobes (track's E1 defaults)
     # L2 CM: 20 ms periods, the pull-in's loops narrowed to them (track's L2C defaults)
-    long_symbols = carries_inav(signal) or carries_cnav(signal) or carries_fnav(signal) or carries_d1(signal)
-    config = _tracking_config_from_args(args, signal if long_symbols else None)
+    config = _tracking_config_from_args(args, signal if _long_symbols(signal) else None)
     _check_rate(args.rate, (signal,))
     if args.week is not None and not 0 <= args.week < 10_000:
         raise ConfigError("--week", f"a full GPS week (e.g. 2190), got {args.week}")
@@ -1179,7 +1187,6 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     from .progress import phase
     from .receiver.channels.report import write_tracking_outputs
     from .receiver.navigation.fixes import SYSTEM_OFFSET_COLUMN, write_positions_csv
-    from .receiver.navigation.inav_stream import carries_inav
     from .receiver.navigation.multi_receive import SignalSet, receive_signals
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
     from .receiver.navigation.report import write_receive_report
@@ -1212,7 +1219,7 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
     filters = receiver_filters(None, args.channel_filter, channel_params, None)
     args.channel_filter = filters.channel_filter.name
     args.channel_params = json.dumps(filters.channel_filter.params)
-    configs = [_tracking_config_from_args(args, s if carries_inav(s) else None) for s in signals.signals]
+    configs = [_tracking_config_from_args(args, s if _long_symbols(s) else None) for s in signals.signals]
     systems = "".join(s.system for s in signals.signals)
     rinex = read_rinex_nav(args.ephemeris, systems=systems) if args.ephemeris else None
     nav_info = read_nav_file_info(args.ephemeris) if args.ephemeris else None

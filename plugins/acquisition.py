@@ -15,6 +15,8 @@ from gnssframework.receiver.acquisition import (
     fine_doppler,
     noise_floor,
     first_period_lag,
+    overlay_doppler,
+    overlay_refine_periods,
     search_grid,
     sideband_overlap,
     sideband_power_fraction,
@@ -100,6 +102,14 @@ class ParallelCodePhaseSearch(Acquisition):
         return self.params.coherent_ms * signal.code_period_s
 
     def samples_needed(self, sample_rate_hz: float, signal: SignalSpec = GPS_L1CA) -> int:
+        """The search's blocks, or the overlay refinement's periods where that is longer
+        (`fft_search.overlay_refine_periods`: 41 ms for B1I's NH20; fewer samples skip the
+        refinement, they are not refused)."""
+        search = int(round(self._coherent_s(signal) * sample_rate_hz)) * self.params.noncoherent
+        refine = int(round((overlay_refine_periods(signal) + 1) * signal.code_period_s * sample_rate_hz))
+        return max(search, refine)
+
+    def _search_samples(self, sample_rate_hz: float, signal: SignalSpec) -> int:
         return int(round(self._coherent_s(signal) * sample_rate_hz)) * self.params.noncoherent
 
     def dopplers_hz(self, signal: SignalSpec = GPS_L1CA) -> np.ndarray:
@@ -119,7 +129,7 @@ class ParallelCodePhaseSearch(Acquisition):
         p = self.params
         prns = searched_prns(prns, signal)
         T = self._coherent_s(signal)
-        need = self.samples_needed(sample_rate_hz, signal)
+        need = self._search_samples(sample_rate_hz, signal)
         if samples.shape[0] < need:
             raise ConfigError(
                 "recording",
@@ -251,6 +261,10 @@ class ParallelCodePhaseSearch(Acquisition):
             )
             power = raw / sigma2
             j = int(np.argmax(power))
+            doppler = float(fine[j])
+            if stat > threshold and overlay_refine_periods(signal):  # a 1 ms overlay: its own detector
+                refined = overlay_doppler(samples, sample_rate_hz, if_hz, prn, int(s), doppler, signal)
+                doppler = doppler if refined is None else refined
             summed = blocks - 1 if aligned else blocks
             c = max((power[j] / summed - 2.0 * sidebands) / (2 * T * duty), 1e-3)
             # Chip 0 at sample s: the phase at sample 0 is -s samples' worth of chips.
@@ -259,7 +273,7 @@ class ParallelCodePhaseSearch(Acquisition):
                 AcquisitionResult(
                     int(prn),
                     stat > threshold,
-                    float(fine[j]),
+                    doppler,
                     s,
                     chips,
                     float(10 * np.log10(c)),

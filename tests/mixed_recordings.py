@@ -83,3 +83,61 @@ def write_mixed_recording(
         (galileo, GALILEO_E1B_BOC11, t_gal, inav_data(galileo, t_gal, duration_s)),
     ]
     return write_noisy_recording(path, satellite_chunks(groups, tow0, duration_s, cn0_dbhz, rng), FS, rng)
+
+
+#: GPS L1 C/A with BeiDou B1I in one complex recording: the band from B1I's lower main-lobe
+#: edge (1559.052 MHz) to L1's upper one (1576.443 MHz), 17.39 MHz, centred in 17.6 MHz.
+#: Each signal is made at a quarter of the rate (4.4 MHz, its own band) and interpolated.
+WIDE_FS = 17.6e6
+WIDE_UP = 4
+WIDE_LO_HZ = 0.5 * ((1561.098e6 - 2.046e6) + (1575.42e6 + 1.023e6))
+
+
+def _shifted_up(chunks, if_hz: float):
+    """Chunks made at ``WIDE_FS / WIDE_UP`` around 0 Hz, interpolated to `WIDE_FS` by a
+    polyphase low-pass (`scipy.signal.resample_poly`: the front end's band of each signal;
+    a few samples at each chunk's edges are tapered) and moved to ``if_hz``, the carrier's
+    phase continuous from chunk to chunk."""
+    from scipy.signal import resample_poly
+
+    start = 0
+    for x in chunks:
+        y = resample_poly(x, WIDE_UP, 1)
+        n = start + np.arange(y.size)
+        yield y * np.exp(2j * np.pi * ((if_hz * n / WIDE_FS) % 1.0))
+        start += y.size
+
+
+def write_gps_bds_recording(
+    path: Path, gps, bds, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0
+) -> Path:
+    """Write ``duration_s`` of the GPS records ``gps`` (L1 C/A, LNAV) and the BeiDou ones
+    ``bds`` (B1I, D1; `inav_recordings.bds_records`) from time ``tow0``, complex int8 at
+    `WIDE_FS` around `WIDE_LO_HZ`: L1 at IF +7.67 MHz (the file's IF), B1I at -6.65 MHz,
+    each at ``cn0_dbhz`` in the white noise of the whole band."""
+    from gnssframework.signal.beidou_b1i import BEIDOU_B1I
+    from inav_recordings import d1_streams
+    from noisy_recording import signal_chunks
+
+    rng = np.random.default_rng(seed)
+    t_gps, t_bds = satellite_time(gps, np.array(tow0)), satellite_time(bds, np.array(tow0))
+    lnav_streams = []
+    for k in range(gps.sv.size):
+        bits, into = lnav.lnav_symbols(
+            gps.subset(np.array([k])), GPS_WEEK, float(t_gps[k]) - 0.1, int(duration_s * 50) + 20
+        )
+        lnav_streams.append((np.asarray(bits, float), float(t_gps[k]) - 0.1 - into))
+    # At a quarter of the rate, the unit noise of the whole band is 4 times each signal's share.
+    cn0_low = cn0_dbhz - 10 * np.log10(WIDE_UP)
+    gens = [
+        _shifted_up(
+            signal_chunks(sats, tow0, duration_s, signal, WIDE_FS / WIDE_UP, satellite_time, streams, cn0_low, rng),
+            signal.carrier_freq_hz - WIDE_LO_HZ,
+        )
+        for sats, signal, streams in (
+            (gps, GPS_L1CA, lnav_streams),
+            (bds, BEIDOU_B1I, d1_streams(bds, t_bds, duration_s)),
+        )
+    ]
+    chunks = (a + b for a, b in zip(*gens))
+    return write_noisy_recording(path, chunks, WIDE_FS, rng, fmt="ci8", if_hz=GPS_L1CA.carrier_freq_hz - WIDE_LO_HZ)

@@ -25,13 +25,18 @@ SCALES = {"ci16_le": SCALE, "ci8": 16.0}
 
 
 def write_noisy_recording(
-    path: Path, chunks: Iterable[np.ndarray], fs: float, rng: np.random.Generator | None = None, fmt: str = FORMAT
+    path: Path,
+    chunks: Iterable[np.ndarray],
+    fs: float,
+    rng: np.random.Generator | None = None,
+    fmt: str = FORMAT,
+    if_hz: float = 0.0,
 ) -> Path:
     """Write the complex ``chunks`` (a generator: each is made when written) to ``path`` as
     ``(x + n) * SCALES[fmt]`` in ``fmt`` (ci16_le, or ci8 for a file half the size), ``n``
     complex white noise of variance 1 per component drawn from ``rng`` after the chunk is
     made (``rng=None``: the chunks carry their noise), and the ``.sigmf-meta`` beside it
-    (rate ``fs``, IF 0) as `write_recording` writes it."""
+    (rate ``fs``, IF ``if_hz``) as `write_recording` writes it."""
     source = registry.create("sample_source", fmt)
     with open(path, "wb") as out:
         for x in chunks:
@@ -39,13 +44,15 @@ def write_noisy_recording(
                 x = x + (rng.standard_normal(x.size) + 1j * rng.standard_normal(x.size))
             out.write(source.encode(x * SCALES[fmt]))
     write_sigmf_meta(
-        meta_path_for(path), format=fmt, sigmf_datatype=source.sigmf_datatype, sample_rate_hz=fs, if_hz=0.0
+        meta_path_for(path), format=fmt, sigmf_datatype=source.sigmf_datatype, sample_rate_hz=fs, if_hz=if_hz
     )
     return path
 
 
-def signal_chunks(sats, tow0: float, duration_s: float, signal: SignalSpec, fs: float, sv_time, streams, cn0_dbhz, rng):
-    """The noise-free samples of ``sats`` sending ``signal``, chunk by chunk (`CHUNK_S` s):
+def signal_chunks(
+    sats, tow0: float, duration_s: float, signal: SignalSpec, fs: float, sv_time, streams, cn0_dbhz, rng, if_hz=0.0
+):
+    """The noise-free samples of ``sats`` sending ``signal`` at IF ``if_hz``, chunk by chunk (`CHUNK_S` s):
     each satellite's code phase, Doppler and symbol timing from ``sv_time(sats, t_rx)`` (its
     signal's SV time at true time ``t_rx``), its symbols and their first's SV time from
     ``streams``; the overlay's chip ``k`` on the ``k``-th code period of SV time."""
@@ -65,7 +72,7 @@ def signal_chunks(sats, tow0: float, duration_s: float, signal: SignalSpec, fs: 
                 int(sats.sv[k][1:]),
                 CHUNK_S,
                 fs,
-                0.0,
+                if_hz,
                 cn0_dbhz,
                 rng,
                 doppler_hz=doppler[k],
@@ -77,5 +84,5 @@ def signal_chunks(sats, tow0: float, duration_s: float, signal: SignalSpec, fs: 
                 noise=False,
                 signal=signal,
             ).samples
-            phase[k] += 2 * np.pi * doppler[k] * CHUNK_S
+            phase[k] += 2 * np.pi * (if_hz + doppler[k]) * CHUNK_S
         yield x

@@ -410,7 +410,10 @@ def solve_position(
         Carrier wavelength of the Dopplers (default ``signal.wavelength_m``).
     signal
         The signal measured (`SignalSpec`; GPS L1 C/A by default): its wavelength is the
-        default ``wavelength_m``.
+        default ``wavelength_m``. A set of signals on different carriers (anything with
+        ``carrier_freq_hz_of(letters)``, `multi_receive.SignalSet`) gives each satellite its
+        own system's carrier: its Doppler's wavelength, its single-frequency clock and its
+        ionospheric scale (``wavelength_m`` must then be None).
     iono
         Broadcast Klobuchar coefficients (None: no ionospheric correction).
     troposphere
@@ -482,13 +485,30 @@ def solve_position(
     if keep.sum() < 4:
         return None
     t = np.where(keep, tx, 0.0)
-    carrier_hz = _C / signal.wavelength_m
-    iono_scale = ionosphere_scale(carrier_hz)
+    # Each satellite's carrier: the signal's, or per system for a set of signals on
+    # different carriers (`multi_receive.SignalSet.carrier_freq_hz_of`).
+    carriers_of = getattr(signal, "carrier_freq_hz_of", None)
+    carriers = carriers_of(letters) if carriers_of is not None else None
+    if carriers is None or np.all(carriers == carriers[0]):
+        carrier_hz = _C / signal.wavelength_m if carriers is None else float(carriers[0])
+        iono_scale: float | np.ndarray = ionosphere_scale(carrier_hz)
+        lam_sv: float | np.ndarray = _C / carrier_hz if wavelength_m is None else wavelength_m
+    else:
+        if wavelength_m is not None:
+            raise ConfigError("wavelength_m", f"{signal.name}: one wavelength given for signals on different carriers")
+        iono_scale = np.array([ionosphere_scale(float(c)) for c in carriers])
+        lam_sv = _C / carriers
 
     def sv_clock_s(st: SatelliteState) -> np.ndarray:
         if dual is not None:
             return dual.clock_s(ephemeris, st)
-        return single_frequency_clock_s(ephemeris, st, carrier_hz)
+        if carriers is None or np.all(carriers == carriers[0]):
+            return single_frequency_clock_s(ephemeris, st, carrier_hz)
+        out = np.full(letters.shape, np.nan)
+        for c in np.unique(carriers):  # each system's own signal
+            mine = carriers == c
+            out = np.where(mine, single_frequency_clock_s(ephemeris, st, float(c)), out)
+        return out
 
     if dual is not None:  # no first-order ionosphere left to correct
         iono, iono_scale = None, 0.0
@@ -525,8 +545,7 @@ def solve_position(
             R = _enu_rotation(float(lat), float(lon))
             # Range rate -λ D = u·(v_sat - v_rx) + ḃ - c Δṫ_SV (satellite velocity rotated as its position).
             v_sat = _rotate_earth(state.velocity_mps, np.linalg.norm(rot - x[:3], axis=1) / _C)
-            lam = signal.wavelength_m if wavelength_m is None else wavelength_m
-            y = -lam * d - np.sum(u * v_sat, axis=1) + _C * state.clock_drift_s_s
+            y = -lam_sv * d - np.sum(u * v_sat, axis=1) + _C * state.clock_drift_s_s
             H = np.hstack([-u, np.ones((u.shape[0], 1))])
             sol_v, *_ = np.linalg.lstsq(H[ok], y[ok], rcond=None)
             vel, drift = R @ sol_v[:3], float(sol_v[3])

@@ -172,3 +172,19 @@ def test_missing_empty_and_broken_metadata_files(tmp_path):
     (tmp_path / "bad.sigmf-meta").write_text('{\n  "global": \n')
     with pytest.raises(DataFileError, match="bad.sigmf-meta"):
         open_recording(tmp_path / "bad.sigmf-data")
+
+
+def test_a_recording_tuned_to_another_if_reads_the_same_samples_and_refuses_one_out_of_band(tmp_path):
+    """`Recording.tuned`: the samples are the file's, the IF the one given (a second
+    signal of a wide-band file); an IF beyond half the sample rate is refused in one line
+    naming the file."""
+    x = np.exp(2j * np.pi * 0.1 * np.arange(4000))
+    path = write_recording(tmp_path / "wide.sigmf-data", x, "cf32_le", 8e6, 1e6)
+    rec = open_recording(path)
+    other = rec.tuned(-2.5e6)
+    assert other.info.if_hz == -2.5e6 and rec.info.if_hz == 1e6
+    assert other.info.sample_rate_hz == rec.info.sample_rate_hz and other.n_samples == rec.n_samples
+    np.testing.assert_array_equal(other.read(100, 50), rec.read(100, 50))
+    with pytest.raises(ConfigError, match="outside the band of wide.sigmf-data") as exc:
+        rec.tuned(4.5e6)
+    assert len(str(exc.value).splitlines()) == 1

@@ -102,15 +102,37 @@ def test_the_descriptions_hold_the_icds_numbers():
 def test_a_generated_d1_satellite_is_acquired_at_its_doppler_and_code_phase():
     """45 dB-Hz of PRN 11 with random D1 bits under NH20, complex samples at 8.184 MHz (four
     a chip); the 1 ms search over 4 non-coherent blocks finds it alone among PRN 6-16, its
-    code epoch within a sample and its Doppler within one bin (500 Hz)."""
-    fs, prn, doppler_hz, phase_chips = 8.184e6, 11, 1320.0, 1500.3
+    code epoch within a sample, and its Doppler (1270 Hz: 230 Hz from the nearest bin)
+    within 25 Hz once the overlay's differential detector refines it
+    (`fft_search.overlay_doppler`, 41 ms read): a 1 ms block alone resolves hundreds of Hz."""
+    fs, prn, doppler_hz, phase_chips = 8.184e6, 11, 1270.0, 1500.3
     sat = SatelliteSignal(
         prn, 45.0, doppler_hz=doppler_hz, code_phase_chips=phase_chips, first_bit_code_period=3, signal=BEIDOU_B1I
     )
-    x = synthesize_samples([sat], 0.01, fs, 0.0, np.random.default_rng(4)).astype(np.complex64)
+    x = synthesize_samples([sat], 0.045, fs, 0.0, np.random.default_rng(4)).astype(np.complex64)
     acq = registry.create("acquisition", "pcps", noncoherent=4, doppler_max_hz=5000.0)
     found = {r.prn: r for r in acq.acquire(x, fs, 0.0, tuple(range(6, 17)), signal=BEIDOU_B1I) if r.detected}
     assert set(found) == {prn}
     expected = (2046 - phase_chips) / BEIDOU_B1I.chip_rate_hz * fs
     assert abs(found[prn].code_phase_samples - expected) <= 1.0
-    assert abs(found[prn].doppler_hz - doppler_hz) <= 500.0
+    assert abs(found[prn].doppler_hz - doppler_hz) <= 25.0
+    short = acq.acquire(x[: int(0.004 * fs)], fs, 0.0, (prn,), signal=BEIDOU_B1I)[0]  # 4 ms: no refinement
+    assert short.detected and abs(short.doppler_hz - doppler_hz) <= 500.0
+
+
+def test_the_overlay_refinement_reads_the_residual_frequency_within_half_a_khz():
+    """`overlay_doppler` from a start 400 Hz off (beyond a two-quadrant loop's 250 Hz) on a
+    generated B1I satellite: within 10 Hz of the truth; None with fewer periods than it needs
+    (41: two NH20 periods and one), and no refinement of a signal without a 1 kHz-class overlay."""
+    from gnssframework.receiver.acquisition.fft_search import overlay_doppler, overlay_refine_periods
+    from gnssframework.signal.galileo_e5a import GALILEO_E5AQ
+    from gnssframework.signal.gps_l1ca import GPS_L1CA
+
+    fs, prn, doppler_hz = 4.2e6, 30, -2310.0
+    sat = SatelliteSignal(prn, 40.0, doppler_hz=doppler_hz, first_bit_code_period=0, signal=BEIDOU_B1I)
+    x = synthesize_samples([sat], 0.045, fs, 0.0, np.random.default_rng(9)).astype(np.complex64)
+    got = overlay_doppler(x, fs, 0.0, prn, 0, doppler_hz + 400.0, BEIDOU_B1I)
+    assert got is not None and abs(got - doppler_hz) < 10.0
+    assert overlay_doppler(x[: int(0.03 * fs)], fs, 0.0, prn, 0, doppler_hz, BEIDOU_B1I) is None
+    assert overlay_refine_periods(BEIDOU_B1I) == 41
+    assert overlay_refine_periods(GPS_L1CA) == 0 and overlay_refine_periods(GALILEO_E5AQ) == 0

@@ -49,6 +49,8 @@ __all__ = [
     "search_grid",
     "fine_doppler",
     "first_period_lag",
+    "overlay_refine_periods",
+    "overlay_doppler",
 ]
 
 #: Complex elements of one Doppler chunk of wiped blocks (8 MB of complex64: bounds the
@@ -321,3 +323,50 @@ def fine_doppler(
     for replica in replicas:  # the replica, or the two side bands
         power += (np.abs((blocks * replica) @ carriers) ** 2).T
     return _sum_blocks(power, alternate)
+
+
+def overlay_refine_periods(signal: SignalSpec) -> int:
+    """Code periods `overlay_doppler` correlates for ``signal``: two overlay periods and one
+    more, for a tracked component whose overlay spans at most 20 ms (NH10, NH20, CS20_1:
+    L5, E5a-I, B1I D1); 0 (no refinement) without an overlay or for a longer one (E1-C's
+    CS25 of 100 ms, E5a-Q's CS100), where the extra samples would outgrow the search."""
+    n = signal.overlay_length(0)
+    return 2 * n + 1 if n and n * signal.code_period_s <= 0.02 + 1e-12 else 0
+
+
+def overlay_doppler(
+    samples: np.ndarray,
+    sample_rate_hz: float,
+    if_hz: float,
+    prn: int,
+    code_start_sample: int,
+    doppler_hz: float,
+    signal: SignalSpec,
+    min_margin: float = 1.5,
+) -> float | None:
+    r"""The Doppler of a found signal under a 1 kHz-class overlay, refined by the overlay's
+    differential detector (`signal.overlay.overlay_sync`): prompts of one code period each
+    from ``code_start_sample`` at ``doppler_hz`` (`overlay_refine_periods` of them), whose
+    neighbour products, matched against the overlay's, give the residual frequency
+    unambiguously within :math:`\pm 1/(2T)` (500 Hz for a 1 ms code).
+
+    Why: a search of 1 ms blocks resolves Doppler only to the width of a 1 ms block's
+    response (hundreds of Hz), and a loop whose discriminator must ignore the overlay's
+    sign flips (a two-quadrant FLL, a Costas PLL) pulls in within :math:`\pm 1/(4T)` = 250
+    Hz: further off, it locks 500 Hz away. None where the samples hold too few periods or
+    the overlay's match does not stand ``min_margin`` times above the next shift's (too
+    weak to trust)."""
+    from ...signal.overlay import overlay_sync
+
+    periods = overlay_refine_periods(signal)
+    n = int(round(signal.code_period_s * sample_rate_hz))
+    starts = code_start_sample + np.round(np.arange(periods) * signal.code_period_s * sample_rate_hz).astype(np.int64)
+    if periods == 0 or starts[-1] + n > samples.shape[0]:
+        return None
+    rate = signal.chip_rate_hz * (1.0 + doppler_hz / signal.carrier_freq_hz) / sample_rate_hz
+    replica = signal.spreading_at(signal.spreading_table(prn), np.arange(n) * rate)
+    idx = starts[:, None] + np.arange(n)
+    x = np.asarray(samples)[idx] * np.exp(-2j * np.pi * (((if_hz + doppler_hz) * idx / sample_rate_hz) % 1.0))
+    prompts = x @ replica
+    sync = overlay_sync(prompts, signal.overlay(prn), signal.code_period_s)
+    return float(doppler_hz + sync.freq_error_hz) if sync.margin >= min_margin else None

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import copy
+from dataclasses import dataclass, replace
 from pathlib import Path
 from collections.abc import Iterator
 
@@ -74,6 +75,21 @@ class Recording:
         self.trailing_bytes = size % bpc
         self.nonfinite_zeroed = 0
         self._floating = "f" in self.source.sigmf_datatype
+
+    def tuned(self, if_hz: float) -> Recording:
+        """The same samples read as if the front end had put the tracked signal at
+        ``if_hz``: a signal on another carrier of a wide-band recording (its IF the first's
+        plus the carriers' difference). A shallow copy: the file, or a live stream's buffer,
+        is shared."""
+        if not np.isfinite(if_hz) or abs(if_hz) >= self.info.sample_rate_hz / 2:
+            raise ConfigError(
+                "if_hz",
+                f"{if_hz:g} Hz is outside the band of {self.path.name} (fs {self.info.sample_rate_hz:g} Hz): "
+                "the signal is not in this recording",
+            )
+        out = copy.copy(self)
+        out.info = replace(self.info, if_hz=float(if_hz))
+        return out
 
     def _zero_nonfinite(self, x: np.ndarray) -> np.ndarray:
         """``x`` (a fresh array) with NaN/inf values set to 0, counted in `nonfinite_zeroed`."""

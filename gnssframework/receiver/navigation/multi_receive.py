@@ -1,4 +1,5 @@
-"""Several signals of one recording to one set of fixes (GPS L1 C/A with Galileo E1-B).
+"""Several signals of one recording to one set of fixes (GPS L1 C/A with Galileo E1-B, or
+with BeiDou B1I on its own carrier).
 
 :func:`receive_signals` acquires and tracks each signal of a `SignalSet` in turn over the
 same recording (one scalar `SampleTracker` per signal), dates each channel from its own
@@ -13,14 +14,23 @@ into the fixes unmodelled.
 
 A satellite of the ``i``-th signal is numbered ``i x KEY_STEP + PRN`` in the observables
 and the fixes (`SignalSet.key`): GPS PRN 5 is 5 and Galileo E11 is 1011 in
-``GPS+Galileo``; `SignalSet.rinex_satellite` names it (``G05``, ``E11``). The signals must
-share a carrier (a Doppler's wavelength): GPS L1 and Galileo E1 both at 1575.42 MHz.
+``GPS+Galileo``; `SignalSet.rinex_satellite` names it (``G05``, ``E11``).
+
+Signals on different carriers (GPS L1 C/A at 1575.42 MHz with BeiDou B1I at 1561.098 MHz)
+are taken from one wide-band recording: its IF (``--if``, the SigMF centre frequency) is the
+first signal's, and each other signal is searched and tracked at that IF plus the
+difference of the carriers (`Recording.tuned`). Each satellite's Doppler, group delay and
+ionospheric scale are then its own signal's (`SignalSet.carrier_freq_hz_of`, read by
+`pvt.solve_position`); a block that takes one wavelength for all (a navigation filter)
+refuses such a set in one line (`SignalSet.wavelength_m`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from typing import Any
+
+import numpy as np
 
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides
@@ -58,13 +68,12 @@ class SignalSet:
         systems = [s.system for s in self.signals]
         if len(set(systems)) != len(systems):
             raise ConfigError("signal", f"one signal per system: {', '.join(names)}")
-        carriers = {s.carrier_freq_hz for s in self.signals}
-        if len(carriers) != 1:
-            raise ConfigError("signal", f"{', '.join(names)}: on different carriers; the fixes' Dopplers take one")
         for s in self.signals:
             if not any(m.carried_by(s) for m in MESSAGES):
                 raise ConfigError(
-                    "signal", f"{s.name}: not positioned here (GPS/QZSS L1 C/A LNAV, Galileo E1-B I/NAV only)"
+                    "signal",
+                    f"{s.name}: not positioned here (a signal whose message the receiver decodes: LNAV, "
+                    "I/NAV, CNAV, F/NAV or D1)",
                 )
 
     @property
@@ -78,7 +87,31 @@ class SignalSet:
 
     @property
     def wavelength_m(self) -> float:
+        """The signals' one carrier wavelength; refused, in one line, for signals on
+        different carriers (a block asking for one wavelength would scale some Dopplers
+        wrongly: `carrier_freq_hz_of` gives each satellite's)."""
+        carriers = {s.carrier_freq_hz for s in self.signals}
+        if len(carriers) != 1:
+            raise ConfigError(
+                "signal",
+                f"{self.name}: on different carriers ({', '.join(f'{c / 1e6:g} MHz' for c in sorted(carriers))}); "
+                "this block takes one wavelength for every satellite: give signals on one carrier",
+            )
         return self.signals[0].wavelength_m
+
+    def carrier_freq_hz_of(self, letters: np.ndarray) -> np.ndarray:
+        """Each satellite's carrier (Hz), by its RINEX system letter (one signal per system)."""
+        by_system = {s.system: s.carrier_freq_hz for s in self.signals}
+        letters = np.asarray(letters).astype("U1")
+        unknown = sorted(set(letters.tolist()) - set(by_system))
+        if unknown:
+            raise ConfigError("systems", f"{self.name} holds no signal of system {', '.join(unknown)}")
+        return np.array([by_system[str(x)] for x in letters.ravel()], float).reshape(letters.shape)
+
+    def if_offset_hz(self, index: int) -> float:
+        """Where the ``index``-th signal lies from the first in a recording of both: the
+        difference of their carriers (Hz)."""
+        return self.signals[index].carrier_freq_hz - self.signals[0].carrier_freq_hz
 
     def key(self, index: int, prn: int) -> int:
         """The number of PRN ``prn`` of the ``index``-th signal."""
@@ -124,8 +157,9 @@ def receive_signals(
     """Acquire, track and date every signal of ``signals`` (``configs[i]`` tracks the
     ``i``-th) and solve their satellites together (module text). ``rinex`` holds the
     records of every system (`read_rinex_nav` with ``systems="GE"``); the Klobuchar
-    coefficients of a decoded LNAV page 18 (else ``iono_fallback``) correct every satellite
-    (L1 and E1 share the frequency). The result's tracking and observables are keyed by
+    coefficients of a decoded LNAV page 18 (else ``iono_fallback``) correct every satellite,
+    scaled to its own carrier. A signal on another carrier than the first is read at the
+    recording's IF plus the carriers' difference (module text). The result's tracking and observables are keyed by
     `SignalSet.key`. ``broadcast_ggto``: take the decoded GGTO as known
     (`broadcast_time_offsets`; estimated as before when no word type 10 was decoded)."""
     if len(configs) != len(signals.signals):
@@ -135,9 +169,11 @@ def receive_signals(
     timings: list[ChannelTiming | None] = []
     duration = 0.0
     for i, (signal, config) in enumerate(zip(signals.signals, configs)):
-        found = [r for r in acquire_recording(recording, acquisition, None, signal=signal) if r.detected]
+        shift = signals.if_offset_hz(i)
+        rec = recording if shift == 0.0 else recording.tuned(recording.info.if_hz + shift)
+        found = [r for r in acquire_recording(rec, acquisition, None, signal=signal) if r.detected]
         found_all += found
-        tracking = SampleTracker(recording, config, acquisition, signal=signal).run(found, duration_s, progress)
+        tracking = SampleTracker(rec, config, acquisition, signal=signal).run(found, duration_s, progress)
         duration = max(duration, tracking.duration_s)
         for prn, ch in tracking.channels.items():
             key = signals.key(i, prn)
