@@ -148,7 +148,7 @@ def test_a_generated_stream_decodes_to_its_record_through_noise_errors_and_inver
     noise at a bit error rate of about 1e-4 and one forced error in a codeword of every
     subframe: every subframe is kept, and the record comes back to the ICD's quantisation."""
     rec = _bds_record()
-    wn = 627  # 2018-06-19 is BDT week 627
+    wn = 650  # 2018-06-19 is GPS week 2006, BDT week 650
     sow0 = int(rec.toc_s[0]) - 60
     bits = d1nav.encode_d1(rec, wn, sow0, 40).astype(float)
     rng = np.random.default_rng(11)

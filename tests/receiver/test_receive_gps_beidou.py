@@ -16,12 +16,14 @@ import numpy as np
 import pytest
 
 from gnssframework import registry
+from gnssframework.cli import main
 from gnssframework.errors import ConfigError
 from gnssframework.navigation.ephemeris import Ephemerides
 from gnssframework.receiver.acquisition.report import acquire_recording
 from gnssframework.receiver.channels import signal_tracking_config, tracking_config
 from gnssframework.receiver.frontend import open_recording
 from gnssframework.receiver.navigation.multi_receive import KEY_STEP, SignalSet, receive_signals
+from gnssframework.receiver.navigation.rinex_nav import NavRecord, write_rinex_nav
 from gnssframework.signal.beidou_b1i import BEIDOU_B1I
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from inav_recordings import bds_records
@@ -130,3 +132,37 @@ def test_a_set_on_two_carriers_gives_each_satellite_its_own_and_refuses_one_wave
         _ = BOTH.wavelength_m
     with pytest.raises(ConfigError, match="no signal of system E"):
         BOTH.carrier_freq_hz_of(np.array(["E"]))
+
+
+def test_the_command_positions_both_and_writes_each_systems_codes_and_records(wide, tmp_path):
+    """What a user types, with a mixed navigation file of the records sent (written by the
+    project's writer: GPS's and BDS's layouts): fixes of all eight satellites; the mixed
+    observation file holds C1C for GPS and C2I for BeiDou (RINEX 3.04: B1I is band 2), each
+    satellite only its own; the NMEA fixes come from the GN talker."""
+    import warnings
+
+    import georinex
+
+    path, gps, bds, _ = wide
+    navs = [NavRecord(int(str(sv)[1:]), gps.subset(np.array([k])), GPS_WEEK, 18_000.0) for k, sv in enumerate(gps.sv)]
+    navs += [
+        NavRecord(KEY_STEP + int(str(sv)[1:]), bds.subset(np.array([k])), GPS_WEEK, 18_000.0)
+        for k, sv in enumerate(bds.sv)
+    ]
+    nav = write_rinex_nav(tmp_path / "gps_bds.rnx", navs, signal=BOTH)  # type: ignore[arg-type]
+    out = tmp_path / "out"
+    args = ["receive", str(path), "--signal", "gps-l1ca,beidou-b1i", "--ephemeris", str(nav), "--rate", "5"]
+    assert main([*args, "--out", str(out), "--quiet"]) == 0
+    rows = (out / "positions.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    used = [r.split(",")[header.index("n_sats")] for r in rows[1:]]
+    assert sum(u == "8" for u in used) >= 5
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        obs = georinex.load(out / "observations.rnx")
+    assert sorted(obs.sv.values) == sorted(list(gps.sv) + list(bds.sv))
+    for sv in obs.sv.values:
+        own, other = ("C1C", "C2I") if sv[0] == "G" else ("C2I", "C1C")
+        assert np.isfinite(obs[own].sel(sv=sv).values).any() and np.all(np.isnan(obs[other].sel(sv=sv).values))
+    nmea = (out / "nmea.txt").read_text().splitlines()
+    assert any(line.startswith("$GNGGA") for line in nmea)

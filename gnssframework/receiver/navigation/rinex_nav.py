@@ -35,7 +35,16 @@ SYSTEM CORR`` ``GAUT`` (A0, A1, t0t, WN0t) and ``GAGP`` (A0G, A1G, t0G, WN0G), b
 ``A4,1X,D17.10,D16.9,1X,I6,1X,I4``, and ``LEAP SECONDS`` (Delta t_LS). The weeks, sent as
 their low 8 (WN0t) and 6 (WN0G) bits, are written in full: the week with those low bits
 nearest the first record's (`navigation.weeks.full_week`; GST weeks are GPS weeks - 1024, so
-the low bits agree). A system of another layout (BeiDou, SBAS) is refused.
+the low bits agree).
+
+BeiDou records decoded from D1 on B1I (`d1nav`) take the BDS record of RINEX 3.04 (table
+A13): the Toc in BDT (its calendar BDT's own: BDT week 0 began with GPS week 1356, 14 s of
+GPS time later), AODE in the first orbit line, BROADCAST ORBIT 5 ``IDOT, spare, BDT week,
+spare``, ORBIT 6 ``SV accuracy (m), SatH1, TGD1, TGD2`` and ORBIT 7 the transmission time
+(seconds of the BDT week at which the receiver had the record, its GPS time less 14 s) and
+AODC, which the decoded record does not keep: written 0. The header takes no BeiDou
+ionospheric line (subframe 1's coefficients are decoded, not kept with the record). A
+system of another layout (SBAS, GLONASS) is refused.
 
 The records of a run of several signals (`multi_receive.SignalSet`, system ``M``) go into
 one mixed file (RINEX 3.04 6.9, ``M: MIXED`` in the first header line), each record in its
@@ -65,7 +74,10 @@ __all__ = ["NavRecord", "decoded_records", "write_rinex_nav", "RINEX_NAV_SYSTEMS
 
 #: Systems whose decoded records are written: GPS and QZSS (the LNAV layout) and Galileo
 #: (its I/NAV record layout; see the module text).
-RINEX_NAV_SYSTEMS = {"G": "GPS", "J": "QZSS", "E": "GALILEO", "M": "MIXED"}
+RINEX_NAV_SYSTEMS = {"G": "GPS", "J": "QZSS", "E": "GALILEO", "C": "BDS", "M": "MIXED"}
+#: BDT week 0 is GPS week 1356, and BDT = GPS time - 14 s (BDS-SIS-ICD-B1I 3.0 5.2.4.2).
+BDT_WEEK_OFFSET = 1356
+BDT_OFFSET_S = 14.0
 #: RINEX 3.04 Galileo data sources of an I/NAV E1-B record: bit 0 (I/NAV E1-B) and bit 9
 #: (clock parameters for E5b,E1).
 INAV_E1B_DATA_SOURCES = 1 + 512
@@ -160,6 +172,19 @@ def _orbit_lines(nav: NavRecord, system: str) -> list[str]:
             (nav.tow_s, 0.0),
         )
         return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
+    if system == "C":  # BDT: its week and seconds (module text)
+        bdt_week, bdt_tow = _bdt(nav.week, nav.tow_s)
+        tgd2 = e.get("TGD2", 0.0)
+        rows = (
+            (iode, e["Crs"], e["DeltaN"], e["M0"]),
+            (e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]),
+            (e["Toe"], e["Cic"], e["Omega0"], e["Cis"]),
+            (e["Io"], e["Crc"], e["omega"], e["OmegaDot"]),
+            (e["IDOT"], 0.0, float(_week_near(bdt_week, bdt_tow, e["Toe"])), 0.0),  # spare, BDT week, spare
+            (accuracy, float(rec.health[0]), e["TGD"], tgd2 if np.isfinite(tgd2) else 0.0),  # SatH1, TGD1, TGD2
+            (bdt_tow, 0.0),  # transmission time, AODC (not kept: 0)
+        )
+        return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
     rows = (
         (iode, e["Crs"], e["DeltaN"], e["M0"]),
         (e["Cuc"], e["Eccentricity"], e["Cus"], e["sqrtA"]),
@@ -170,6 +195,12 @@ def _orbit_lines(nav: NavRecord, system: str) -> list[str]:
         (nav.tow_s, FIT_INTERVAL[system]),
     )
     return ["    " + "".join(_d19(v) for v in row) + "\n" for row in rows]
+
+
+def _bdt(week: int, tow_s: float) -> tuple[int, float]:
+    """BDT week and seconds of week of the GPS time ``(week, tow_s)``."""
+    t = tow_s - BDT_OFFSET_S
+    return week - BDT_WEEK_OFFSET + int(t // WEEK_S), float(t % WEEK_S)
 
 
 def _system_of(signal: SignalSpec, prn: int) -> str:
@@ -241,8 +272,8 @@ def write_rinex_nav(
     Raises
     ------
     ConfigError
-        Without a record, for a system of another layout (BeiDou, SBAS), or for a record of
-        another system in a Galileo file.
+        Without a record, for a system of another layout (SBAS, GLONASS), or for a record of
+        another system in a Galileo or BeiDou file.
     """
     if signal.system not in RINEX_NAV_SYSTEMS:
         raise ConfigError(
@@ -253,16 +284,27 @@ def write_rinex_nav(
     if not records:
         raise ConfigError("ephemeris", "no ephemeris was decoded: no navigation file to write")
     # The Galileo layout's fields (IODnav, BGD, data sources) are I/NAV's: a record in it must be one.
+    # ... and the BeiDou layout's (AODE, TGD1, BDT) a BeiDou record's.
     for r in records:
         sv = str(r.record.sv[0])
-        if (_system_of(signal, r.prn) == "E") != sv.startswith("E"):
-            what = "not a Galileo record" if sv[:1] != "E" else f"a Galileo record as {signal.rinex_satellite(r.prn)}"
-            raise ConfigError("ephemeris", f"{sv}: {what}, not written in {signal.name}'s navigation file")
+        for letter, name in (("E", "Galileo"), ("C", "BeiDou")):
+            if (_system_of(signal, r.prn) == letter) != sv.startswith(letter):
+                what = (
+                    f"not a {name} record"
+                    if sv[:1] != letter
+                    else f"a {name} record as {signal.rinex_satellite(r.prn)}"
+                )
+                raise ConfigError("ephemeris", f"{sv}: {what}, not written in {signal.name}'s navigation file")
     path = Path(path)
     body = []
     for nav in sorted(records, key=lambda r: (r.prn, r.week, float(r.record.toc_s[0]))):
         rec = nav.record
-        toc = _calendar(_week_near(nav.week, nav.tow_s, float(rec.toc_s[0])), float(rec.toc_s[0]))
+        if _system_of(signal, nav.prn) == "C":  # a BDT calendar: BDT week 0 at GPS week 1356
+            bdt_week, bdt_tow = _bdt(nav.week, nav.tow_s)
+            toc_week = _week_near(bdt_week, bdt_tow, float(rec.toc_s[0])) + BDT_WEEK_OFFSET
+        else:
+            toc_week = _week_near(nav.week, nav.tow_s, float(rec.toc_s[0]))
+        toc = _calendar(toc_week, float(rec.toc_s[0]))
         body.append(
             f"{signal.rinex_satellite(nav.prn)} {toc:%Y %m %d %H %M %S}"
             + "".join(_d19(rec.elements[k][0]) for k in ("SVclockBias", "SVclockDrift", "SVclockDriftRate"))
