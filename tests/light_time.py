@@ -73,3 +73,35 @@ def position_dop(sats: Ephemerides, t: float, receiver: np.ndarray) -> float:
     lat, lon, h = pymap3d.ecef2geodetic(*receiver)
     up = np.array([pymap3d.ecef2enu(*p, lat, lon, h) for p in satellite_state(sats, t).position_m])
     return float(dop(up / np.linalg.norm(up, axis=1)[:, None])[1])
+
+
+def assert_one_signal_fixes(path, sats, signal, rinex, week, t0, sv_time, station, *, fixes, chip_fraction):
+    """`receive` on one signal of the recording ``path`` (the satellites ``sats`` sent from
+    true time ``t0``, ``rinex`` the records given, ``week`` the GPS week): at least ``fixes``
+    fixes, every satellite in each; every dated transmit time within ``chip_fraction`` of a
+    chip rms of ``sv_time``'s truth (`transmit_errors_m`); the fixes within three PDOPs of
+    that from ``station``. The L5, E5a and B1I end-to-end tests' check. Returns the
+    transmit times' and the fixes' rms (m) and the PDOP."""
+    from gnssframework import registry
+    from gnssframework.receiver.channels import signal_tracking_config
+    from gnssframework.receiver.frontend import open_recording
+    from gnssframework.receiver.navigation.receive import receive
+
+    result = receive(
+        open_recording(path),
+        registry.create("acquisition", "pcps"),
+        signal_tracking_config(signal),
+        prns=tuple(int(s[1:]) for s in sats.sv),
+        rinex=rinex,
+        signal=signal,
+        reference_week=week,
+    )
+    obs, table = result.observables, result.positions
+    assert table is not None and len(table) >= fixes
+    assert all(len(u) == sats.sv.size for u in table.used_prns)
+    sigma_pr = float(np.std(transmit_errors_m(obs, sats, t0, sv_time)))
+    assert sigma_pr < chip_fraction * signal.chip_length_m, sigma_pr
+    pdop = position_dop(sats, t0 + 4.0, station)
+    rms = float(np.sqrt(np.mean(np.linalg.norm(table.ecef_m - station, axis=1) ** 2)))
+    assert rms < 3 * pdop * sigma_pr, (rms, pdop, sigma_pr)
+    return sigma_pr, rms, pdop

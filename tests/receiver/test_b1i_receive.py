@@ -9,17 +9,12 @@ from __future__ import annotations
 
 import csv
 
-import numpy as np
 import pytest
 
-from gnssframework import registry
 from gnssframework.cli import main
-from gnssframework.receiver.channels import signal_tracking_config
-from gnssframework.receiver.frontend import open_recording
-from gnssframework.receiver.navigation.receive import receive
 from gnssframework.signal.beidou_b1i import BEIDOU_B1I
 from inav_recordings import GPS_WEEK, STATION, bds_records, highest, satellite_time, write_b1i_recording
-from light_time import position_dop, transmit_errors_m
+from light_time import assert_one_signal_fixes
 
 pytestmark = pytest.mark.slow  # end to end (the fast lane leaves these out)
 
@@ -47,23 +42,18 @@ def test_receive_positions_from_b1i_alone(b1i):
     transmit time (GPS time) is the generator's B1I time within a few hundredths of a chip,
     and the fixes are on the station within three PDOPs of that error."""
     path, sats = b1i
-    result = receive(
-        open_recording(path),
-        registry.create("acquisition", "pcps"),
-        signal_tracking_config(BEIDOU_B1I),
-        prns=tuple(_prns(sats)),
-        rinex=bds_records(),
-        signal=BEIDOU_B1I,
-        reference_week=GPS_WEEK,
+    assert_one_signal_fixes(
+        path,
+        sats,
+        BEIDOU_B1I,
+        bds_records(),
+        GPS_WEEK,
+        TOW0,
+        satellite_time,
+        STATION,
+        fixes=int(DURATION_S) - 2,
+        chip_fraction=0.05,
     )
-    obs, table = result.observables, result.positions
-    assert table is not None and len(table) >= int(DURATION_S) - 2
-    assert all(len(u) == 5 for u in table.used_prns)
-    sigma_pr = float(np.std(transmit_errors_m(obs, sats, TOW0, satellite_time)))
-    assert sigma_pr < 0.05 * BEIDOU_B1I.chip_length_m, sigma_pr
-    pdop = position_dop(sats, TOW0 + 4.0, STATION)
-    err = np.linalg.norm(table.ecef_m - STATION, axis=1)
-    assert np.sqrt(np.mean(err**2)) < 3 * pdop * sigma_pr, (err, pdop, sigma_pr)
 
 
 def test_the_track_command_writes_each_channels_d1(b1i, tmp_path):

@@ -10,16 +10,11 @@ from __future__ import annotations
 
 import csv
 
-import numpy as np
 import pytest
 
-from gnssframework import registry
 from gnssframework.cli import main
-from gnssframework.receiver.channels import signal_tracking_config
-from gnssframework.receiver.frontend import open_recording
-from gnssframework.receiver.navigation.receive import receive
 from gnssframework.signal.galileo_e5a import GALILEO_E5AI
-from light_time import position_dop, transmit_errors_m
+from light_time import assert_one_signal_fixes
 from inav_recordings import (
     GPS_WEEK,
     NAV,
@@ -57,23 +52,18 @@ def test_receive_positions_from_e5a_alone(e5a):
     time is the generator's E5a time within a few hundredths of a chip, and the fixes are
     on the station within three PDOPs of that error."""
     path, sats = e5a
-    result = receive(
-        open_recording(path),
-        registry.create("acquisition", "pcps"),
-        signal_tracking_config(GALILEO_E5AI),
-        prns=tuple(_prns(sats)),
-        rinex=fnav_records(),
-        signal=GALILEO_E5AI,
-        reference_week=GPS_WEEK,
+    assert_one_signal_fixes(
+        path,
+        sats,
+        GALILEO_E5AI,
+        fnav_records(),
+        GPS_WEEK,
+        TOW0,
+        e5a_satellite_time,
+        STATION,
+        fixes=int(DURATION_S) - 2,
+        chip_fraction=0.03,
     )
-    obs, table = result.observables, result.positions
-    assert table is not None and len(table) >= int(DURATION_S) - 2
-    assert all(len(u) == 5 for u in table.used_prns)
-    sigma_pr = float(np.std(transmit_errors_m(obs, sats, TOW0, e5a_satellite_time)))
-    assert sigma_pr < 0.03 * GALILEO_E5AI.chip_length_m, sigma_pr
-    pdop = position_dop(sats, TOW0 + 5.0, STATION)
-    err = np.linalg.norm(table.ecef_m - STATION, axis=1)
-    assert np.sqrt(np.mean(err**2)) < 3 * pdop * sigma_pr, (err, pdop, sigma_pr)
 
 
 def test_the_command_tracks_decodes_and_refuses_a_file_without_fnav_records(e5a, tmp_path, capsys):

@@ -9,18 +9,13 @@ from __future__ import annotations
 
 import csv
 
-import numpy as np
 import pytest
 
-from gnssframework import registry
 from gnssframework.cli import main
 from gnssframework.navigation.ephemeris import read_rinex_nav
-from gnssframework.receiver.channels import signal_tracking_config
-from gnssframework.receiver.frontend import open_recording
-from gnssframework.receiver.navigation.receive import receive
 from gnssframework.signal.gps_l5 import GPS_L5I
 from l2c_recordings import TOW0_L5, WEEK, l5_satellite_time, write_cnav_recording
-from light_time import position_dop, transmit_errors_m
+from light_time import assert_one_signal_fixes
 from lnav_recordings import NAV, STATION, _strongest
 
 pytestmark = pytest.mark.slow  # end to end (the fast lane leaves these out)
@@ -47,23 +42,18 @@ def test_receive_positions_from_l5_alone(l5):
     transmit time is the generator's L5 SV time within a few hundredths of a chip, and the
     fixes are on the station within three PDOPs of that error."""
     path, sats = l5
-    result = receive(
-        open_recording(path),
-        registry.create("acquisition", "pcps"),
-        signal_tracking_config(GPS_L5I),
-        prns=tuple(_prns(sats)),
-        rinex=read_rinex_nav(NAV),
-        signal=GPS_L5I,
-        reference_week=WEEK,
+    assert_one_signal_fixes(
+        path,
+        sats,
+        GPS_L5I,
+        read_rinex_nav(NAV),
+        WEEK,
+        TOW0_L5,
+        l5_satellite_time,
+        STATION,
+        fixes=int(DURATION_S) - 2,
+        chip_fraction=0.03,
     )
-    obs, table = result.observables, result.positions
-    assert table is not None and len(table) >= int(DURATION_S) - 2
-    assert all(len(u) == 5 for u in table.used_prns)
-    sigma_pr = float(np.std(transmit_errors_m(obs, sats, TOW0_L5, l5_satellite_time)))
-    assert sigma_pr < 0.03 * GPS_L5I.chip_length_m, sigma_pr
-    pdop = position_dop(sats, TOW0_L5 + 4.0, STATION)
-    err = np.linalg.norm(table.ecef_m - STATION, axis=1)
-    assert np.sqrt(np.mean(err**2)) < 3 * pdop * sigma_pr, (err, pdop, sigma_pr)
 
 
 def test_the_command_positions_from_l5(l5, tmp_path):

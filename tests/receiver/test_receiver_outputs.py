@@ -113,11 +113,15 @@ def test_decoded_records_are_deduplicated_and_dated_by_the_receiver_clock(decode
 def test_no_record_or_another_systems_layout_is_refused(decoded, tmp_path):
     from gnssframework.signal.beidou_b1c import BEIDOU_B1C
     from gnssframework.signal.galileo_e1 import GALILEO_E1B
+    from gnssframework.signal.sbas_l1 import SBAS_L1
 
     records, _, first = decoded
     with pytest.raises(ConfigError, match="no ephemeris"):
         write_rinex_nav(tmp_path / "n.rnx", [])
-    with pytest.raises(ConfigError, match="'C'"):
+    with pytest.raises(ConfigError, match="'S'"):
+        write_rinex_nav(tmp_path / "n.rnx", [NavRecord(120, records[1], WEEK, first)], signal=SBAS_L1)
+    # BeiDou has its own layout (test_rinex_nav_beidou), for BeiDou records only
+    with pytest.raises(ConfigError, match="not a BeiDou record"):
         write_rinex_nav(tmp_path / "n.rnx", [NavRecord(1, records[1], WEEK, first)], signal=BEIDOU_B1C)
     # Galileo has its own layout (test_receive_galileo_command), for Galileo records only
     with pytest.raises(ConfigError, match="not a Galileo record"):

@@ -93,30 +93,29 @@ def carries_inav(signal: SignalSpec) -> bool:
     return signal.system == "E" and sym is not None and abs(sym - 0.004) < 1e-9 and signal.code_periods_per_symbol == 1
 
 
-def carries_fnav(signal: SignalSpec) -> bool:
-    """Whether ``signal``'s tracked component is Galileo E5a-I (F/NAV, one symbol twenty 1 ms
-    code periods under a 20-chip overlay)."""
+def _twenty_periods_a_symbol(signal: SignalSpec, system: str) -> bool:
+    """Whether ``signal`` is of ``system`` and its tracked component sends one symbol every
+    twenty 1 ms code periods under a 20-chip overlay (E5a-I's CS20_1, B1I's NH20)."""
     sym = signal.components[0].symbol_period_s
     return (
-        signal.system == "E"
+        signal.system == system
         and sym is not None
         and abs(sym - 0.02) < 1e-9
         and abs(signal.code_period_s - 1e-3) < 1e-12
         and signal.overlay_length(0) == signal.code_periods_per_symbol == 20
     )
+
+
+def carries_fnav(signal: SignalSpec) -> bool:
+    """Whether ``signal``'s tracked component is Galileo E5a-I (F/NAV, one symbol twenty 1 ms
+    code periods under a 20-chip overlay)."""
+    return _twenty_periods_a_symbol(signal, "E")
 
 
 def carries_d1(signal: SignalSpec) -> bool:
     """Whether ``signal``'s tracked component is BeiDou B1I of a D1 satellite (one bit twenty
     1 ms code periods under NH20)."""
-    sym = signal.components[0].symbol_period_s
-    return (
-        signal.system == "C"
-        and sym is not None
-        and abs(sym - 0.02) < 1e-9
-        and abs(signal.code_period_s - 1e-3) < 1e-12
-        and signal.overlay_length(0) == signal.code_periods_per_symbol == 20
-    )
+    return _twenty_periods_a_symbol(signal, "C")
 
 
 def carries_lnav(signal: SignalSpec) -> bool:

@@ -113,7 +113,7 @@ def write_extra_outputs(
 
         cnav = not hasattr(signal, "signals") and carries_cnav(signal)
         if obs is None or not any(obs.ephemeris.values()):
-            messages = {"E": "I/NAV", "M": "LNAV or I/NAV"}
+            messages = {"E": "I/NAV", "C": "D1", "M": "LNAV, I/NAV or D1"}
             name = "CNAV" if cnav else messages.get(signal.system, "LNAV")
             notes.append(f"no ephemeris decoded from {name}: no navigation.rnx")
         elif cnav:
