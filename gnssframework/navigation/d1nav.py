@@ -55,6 +55,9 @@ __all__ = [
     "D1Message",
     "bch_encode",
     "bch_decode",
+    "info_bits",
+    "sent_bits",
+    "PI_BDS",
     "interleave_subframe",
     "deinterleave_subframe",
     "encode_subframe",
@@ -154,15 +157,17 @@ def _codewords(sent: np.ndarray) -> np.ndarray:
     return np.concatenate([b[..., None, 15:30], pairs], axis=-2)
 
 
-def _info_of(sent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Information bits ``(..., 224)`` of subframes as sent, and the codewords corrected in each."""
+def info_bits(sent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Information bits ``(..., 224)`` of subframes as sent (D1's or D2's), and the codewords
+    corrected in each."""
     info, corrected = bch_decode(_codewords(sent))
     b = np.asarray(sent, dtype=np.uint8)
     return np.concatenate([b[..., :15], info.reshape(*info.shape[:-2], -1)], axis=-1), corrected.sum(axis=-1)
 
 
-def _sent_of(info: np.ndarray) -> np.ndarray:
-    """The 300 bits as sent of 224 information bits (the inverse of `_info_of`)."""
+def sent_bits(info: np.ndarray) -> np.ndarray:
+    """The 300 bits as sent of 224 information bits (the inverse of `info_bits`; D2's
+    subframes are built alike)."""
     i = np.asarray(info, dtype=np.uint8)
     first = bch_encode(i[15:26])
     pairs = bch_encode(i[26:].reshape(18, 11)).reshape(9, 2, 15)
@@ -286,7 +291,7 @@ def encode_subframe(fraid: int, sow: int, values: dict[str, float]) -> np.ndarra
     layout = {**_HEADER, **_SOW, **SUBFRAME_LAYOUTS.get(fraid, {})}
     values = {**values, "preamble": int("11100010010", 2), "rev": 0, "fraid": fraid, "sow": sow}
     info = encode_fields(INFO_BITS, layout, values, f"d1.subframe{fraid}", "BDS-SIS-ICD-B1I 3.0 5.2")
-    return _sent_of(info)
+    return sent_bits(info)
 
 
 def decode_subframe_bits(sent: np.ndarray) -> tuple[int, int, dict[str, float], int]:
@@ -295,7 +300,7 @@ def decode_subframe_bits(sent: np.ndarray) -> tuple[int, int, dict[str, float], 
     b = np.asarray(sent, dtype=np.uint8)
     if b.shape != (SUBFRAME_BITS,):
         raise ConfigError("bits", f"a D1 subframe is {SUBFRAME_BITS} bits, got shape {b.shape}")
-    info, corrected = _info_of(b)
+    info, corrected = info_bits(b)
     fraid = field_integer(info, 16, 3)
     sow = field_integer(info, 19, 20)
     return fraid, sow, decode_fields(info, SUBFRAME_LAYOUTS.get(fraid, {})), int(corrected)
