@@ -525,9 +525,9 @@ def _long_symbols(signal: SignalSpec) -> bool:
     takes the settings its description implies (`_tracking_config_from_args`), where GPS L1
     C/A keeps the command's defaults."""
     from .receiver.navigation.cnav_stream import carries_cnav
-    from .receiver.navigation.inav_stream import carries_d1, carries_fnav, carries_inav
+    from .receiver.navigation.inav_stream import carries_d1, carries_d2, carries_fnav, carries_inav
 
-    return carries_inav(signal) or carries_cnav(signal) or carries_fnav(signal) or carries_d1(signal)
+    return any(f(signal) for f in (carries_inav, carries_cnav, carries_fnav, carries_d1, carries_d2))
 
 
 def _tracking_config_from_args(args: argparse.Namespace, signal: SignalSpec | None = None):
@@ -651,7 +651,7 @@ def _cmd_track(args: argparse.Namespace) -> int:
     from .receiver.channels import SampleTracker
     from .receiver.channels.report import channel_summary, write_tracking_outputs
     from .receiver.navigation.cnav_stream import carries_cnav, write_cnav_report
-    from .receiver.navigation.inav_stream import carries_d1, carries_fnav, carries_inav, write_inav_report
+    from .receiver.navigation.inav_stream import carries_d1, carries_d2, carries_fnav, carries_inav, write_inav_report
     from .receiver.navigation.sbas_stream import carries_sbas, write_sbas_report
 
     _threads_from_args(args)
@@ -682,13 +682,15 @@ def _cmd_track(args: argparse.Namespace) -> int:
             f"Hz, {s['final_stage']}"
         )
     # E1-B (4 ms symbols of I/NAV), E5a-I (20 ms of F/NAV), B1I (20 ms bits of D1)
-    if carries_inav(signal) or carries_fnav(signal) or carries_d1(signal):
+    if carries_inav(signal) or carries_fnav(signal) or carries_d1(signal) or carries_d2(signal):
         path, inav_rows = write_inav_report(args.out, result, signal)
         message, kinds, time_name = (
             ("F/NAV", "page types", "GST")
             if carries_fnav(signal)
             else ("D1", "subframe IDs", "GPS time (BDT + 14 s)")
             if carries_d1(signal)
+            else ("D2", "subframe IDs", "GPS time (BDT + 14 s)")
+            if carries_d2(signal)
             else ("I/NAV", "word types", "GST")
         )
         written.append(path)
@@ -699,8 +701,8 @@ def _cmd_track(args: argparse.Namespace) -> int:
             )
             print(
                 f"  PRN {r['prn']:2d}: {message} {r['pages']} pages ({kinds} {r['word_types'] or 'none'}), "
-                f"{r['crc_failures']} {'inconsistent' if message == 'D1' else 'CRC failures'}, "
-                f"{'AODE' if message == 'D1' else 'IODnav'} {r['iodnav'] or 'none'}, {gst}"
+                f"{r['crc_failures']} {'inconsistent' if message in ('D1', 'D2') else 'CRC failures'}, "
+                f"{'AODE' if message in ('D1', 'D2') else 'IODnav'} {r['iodnav'] or 'none'}, {gst}"
                 f"{', ephemeris complete' if r['ephemeris'] else ''}"
             )
     if carries_sbas(signal):  # SBAS L1: every 2 ms prompt after bit sync a symbol of the 250 bit/s message

@@ -158,13 +158,20 @@ class D2Message:
     """What one GEO satellite's D2 bits decoded to: the subframes kept, the record of the
     last complete page cycle (None without), ``bdt`` ``(bit index, BDT week, BDT s)`` of
     the last subframe kept (its own start; the week of the last page 1 before it), the
-    last fields of each page of subframe 1, and one line per grid subframe not kept."""
+    last fields of each page of subframe 1 (``page_fields``), and one line per grid
+    subframe not kept. ``iono_time`` is None (page 2 is not read)."""
 
     subframes: list[D2Subframe]
     ephemeris: Ephemerides | None
     bdt: tuple[int, int | None, float] | None
-    pages: dict[int, dict[str, float]]
+    page_fields: dict[int, dict[str, float]]
     failures: list[str]
+    iono_time: None = None
+
+    @property
+    def pages(self) -> list[D2Subframe]:
+        """The subframes, under the name I/NAV's and F/NAV's messages give their pages."""
+        return self.subframes
 
     @property
     def gst(self) -> tuple[int, int | None, float] | None:

@@ -21,7 +21,15 @@ from ...navigation.cnav_records import cnav_records
 from ...signal.spec import SignalSpec
 from ..channels.records import STAGES
 from .cnav_stream import carries_cnav, channel_cnav, cnav_channel_timing
-from .inav_stream import carries_d1, carries_fnav, carries_inav, carries_lnav, channel_inav, inav_channel_timing
+from .inav_stream import (
+    carries_d1,
+    carries_d2,
+    carries_fnav,
+    carries_inav,
+    carries_lnav,
+    channel_inav,
+    inav_channel_timing,
+)
 from .observables import ChannelTiming, channel_timing
 
 __all__ = [
@@ -203,8 +211,21 @@ D1 = NavMessage(
         "of a locked channel, on multiples of 6 s of BDT, and an ephemeris subframes 1-3 of a 30 s frame)"
     ),
 )
+D2 = NavMessage(
+    "D2",
+    carries_d2,
+    inav_channel_timing,
+    False,
+    ("D2 subframes", "SOW + 14 s (GPS s)", "ephemeris decoded", "iono", "GPS week"),
+    inav_decoded,
+    lambda ch: "no D2 subframe decoded (no transmit time)",
+    lambda locked, found: (
+        f"no D2 subframe decoded ({locked} of {found} satellites found locked; a subframe takes 0.6 s of "
+        "a locked, bit-synchronised channel, and an ephemeris the ten pages of subframe 1, 30 s)"
+    ),
+)
 #: The messages the receiver decodes.
-MESSAGES = (LNAV, INAV, CNAV, FNAV, D1)
+MESSAGES = (LNAV, INAV, CNAV, FNAV, D1, D2)
 
 
 def navigation_message(signal: SignalSpec) -> NavMessage:
@@ -216,12 +237,12 @@ def navigation_message(signal: SignalSpec) -> NavMessage:
 def require_positioning(signal: SignalSpec) -> None:
     """Refuse, in one line, a signal the ``receive`` command cannot position with: one whose
     tracked component carries none of `MESSAGES` (GPS/QZSS L1 C/A's LNAV, Galileo E1-B's
-    I/NAV, GPS/QZSS L2C's and GPS L5 I5's CNAV, Galileo E5a-I's F/NAV, BeiDou B1I's D1)."""
+    I/NAV, GPS/QZSS L2C's and GPS L5 I5's CNAV, Galileo E5a-I's F/NAV, BeiDou B1I's D1 and D2)."""
     if not any(m.carried_by(signal) for m in MESSAGES):
         raise ConfigError(
             "signal",
             f"{signal.name}: the receive command positions from GPS/QZSS L1 C/A (LNAV: "
             "gps-l1ca, qzss-l1ca), Galileo E1-B (I/NAV: galileo-e1b-boc11, galileo-e1b), "
             "GPS/QZSS L2C and GPS L5 I5 (CNAV: gps-l2c, qzss-l2c, gps-l5i), Galileo E5a-I (F/NAV: "
-            "galileo-e5ai) and BeiDou B1I of MEO/IGSO satellites (D1: beidou-b1i) only",
+            "galileo-e5ai) and BeiDou B1I (D1: beidou-b1i; D2 of GEO satellites: beidou-b1i-geo) only",
         )

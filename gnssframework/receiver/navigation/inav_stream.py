@@ -28,6 +28,10 @@ then dated every 1 ms from it.
 BeiDou D1 on B1I (`carries_d1`) the same again: a bit is twenty 1 ms rows under NH20,
 subframes by :func:`~gnssframework.navigation.d1nav.decode_d1`, a subframe's SOW is the BDT
 at its first bit, taken to GPS time (+14 s, week + 1356) before the rows are dated.
+D2 on a GEO satellite's B1I (`carries_d2`) is read as SBAS L1's symbols are: after bit
+synchronisation each row is one whole 2 ms bit (``coherent_ms`` 2), its in-phase prompt the
+soft bit; a run of such rows goes to :func:`~gnssframework.navigation.d2nav.decode_d2`, and
+the rows are dated every 2 ms from a subframe's start (its frame's SOW + 0.6 s a subframe).
 """
 
 from __future__ import annotations
@@ -40,7 +44,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...errors import ConfigError
-from ...navigation import d1nav, fnav
+from ...navigation import d1nav, d2nav, fnav
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.inav import PAGE_SYMBOLS, InavMessage, decode_inav
 from ...navigation.inav_params import InavIonoTime, merge_iono_time
@@ -57,6 +61,7 @@ __all__ = [
     "carries_inav",
     "carries_fnav",
     "carries_d1",
+    "carries_d2",
     "carries_lnav",
     "require_lnav",
     "symbol_runs",
@@ -118,6 +123,20 @@ def carries_d1(signal: SignalSpec) -> bool:
     return _twenty_periods_a_symbol(signal, "C")
 
 
+def carries_d2(signal: SignalSpec) -> bool:
+    """Whether ``signal``'s tracked component is BeiDou B1I of a GEO satellite (D2: one bit
+    two 1 ms code periods, no overlay)."""
+    sym = signal.components[0].symbol_period_s
+    return (
+        signal.system == "C"
+        and sym is not None
+        and abs(sym - 0.002) < 1e-9
+        and abs(signal.code_period_s - 1e-3) < 1e-12
+        and signal.code_periods_per_symbol == 2
+        and not signal.overlay_length(0)
+    )
+
+
 def carries_lnav(signal: SignalSpec) -> bool:
     """Whether ``signal`` is an L1 C/A signal of the GPS LNAV format (GPS, QZSS): 1 ms
     code periods, 20 ms bits."""
@@ -176,7 +195,7 @@ class InavTiming:
     """
 
     prn: int
-    messages: list[InavMessage | fnav.FnavMessage | d1nav.D1Message]
+    messages: list[InavMessage | fnav.FnavMessage | d1nav.D1Message | d2nav.D2Message]
     rows: np.ndarray
     transmit_s: np.ndarray
     gst: tuple[float, int | None, float] | None
@@ -200,12 +219,12 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
     tracking E5a-I (`carries_fnav`) or the D1 of one tracking B1I (`carries_d1`), run by
     run, and date the rows of each run that carries a GST (BDT taken to GPS time; module
     text)."""
-    is_fnav, is_d1 = carries_fnav(signal), carries_d1(signal)
-    if not (carries_inav(signal) or is_fnav or is_d1):
+    is_fnav, is_d1, is_d2 = carries_fnav(signal), carries_d1(signal), carries_d2(signal)
+    if not (carries_inav(signal) or is_fnav or is_d1 or is_d2):
         raise ConfigError(
             "signal",
-            f"{signal.name} carries no I/NAV, F/NAV or D1 on its tracked component (galileo-e1b, galileo-e5ai "
-            "and beidou-b1i do)",
+            f"{signal.name} carries no I/NAV, F/NAV, D1 or D2 on its tracked component (galileo-e1b, "
+            "galileo-e5ai, beidou-b1i and beidou-b1i-geo do)",
         )
     empty = np.zeros(0)
     if not record.rows:
@@ -218,22 +237,34 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
         (fnav.PAGE_SYMBOLS, {1, 2, 3, 4})
         if is_fnav
         else (d1nav.SUBFRAME_BITS, {1, 2, 3})
-        if is_d1
+        if is_d1 or is_d2
         else (PAGE_SYMBOLS, {1, 2, 3, 4, 5})
     )
-    messages: list[InavMessage | fnav.FnavMessage | d1nav.D1Message] = []
+    messages: list[InavMessage | fnav.FnavMessage | d1nav.D1Message | d2nav.D2Message] = []
     rows, tx, half = [], [], []
     gst, ephemeris = None, None
     ephemerides: list[tuple[float, Ephemerides]] = []
     iono_time: InavIonoTime | None = None
-    for run in symbol_runs(time_s, col("coherent_ms"), period):
+    if is_d2:  # one whole 2 ms bit a row after bit synchronisation (module text)
+        row_s = float(signal.symbol_period_s or 0.002)
+        whole = (col("coherent_ms") == signal.code_periods_per_symbol).astype(int)
+        runs = symbol_runs(time_s, whole, row_s)
+    else:
+        row_s = period
+        runs = symbol_runs(time_s, col("coherent_ms"), period)
+    for run in runs:
         # The symbols and, for each, the index in the run of the row it starts on.
-        symbols, symbol_rows = overlay_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
-        msg: InavMessage | fnav.FnavMessage | d1nav.D1Message = (
+        if is_d2:
+            symbols, symbol_rows = prompt_i[run], np.arange(run.size)
+        else:
+            symbols, symbol_rows = overlay_symbols_of_run(prompt_i[run], prompt_q[run], signal, record.prn)
+        msg: InavMessage | fnav.FnavMessage | d1nav.D1Message | d2nav.D2Message = (
             fnav.decode_fnav(symbols)
             if is_fnav
             else d1nav.decode_d1(symbols, record.prn)
             if is_d1
+            else d2nav.decode_d2(symbols, record.prn)
+            if is_d2
             else decode_inav(symbols)
         )
         messages.append(msg)
@@ -249,7 +280,7 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
         start = int(symbol_rows[start_symbol])
         gst = (float(time_s[run[start]]), wn, tow)
         k = np.arange(run.size) - start
-        tx.append((tow + k * period + code_chips[run] / signal.chip_rate_hz) % _WEEK_S)
+        tx.append((tow + k * row_s + code_chips[run] / signal.chip_rate_hz) % _WEEK_S)
         rows.append(run)
         half.append(np.full(run.size, msg.pages[-1].inverted))
     starts = np.zeros(sum(r.size for r in rows), bool)
@@ -268,13 +299,15 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
     )
 
 
-def _completed_at(msg: InavMessage | fnav.FnavMessage | d1nav.D1Message, needed: set[int]) -> int:
+def _completed_at(msg: InavMessage | fnav.FnavMessage | d1nav.D1Message | d2nav.D2Message, needed: set[int]) -> int:
     """Index (in its symbol stream) of the first symbol of the page that completed ``msg``'s
     ephemeris: the first page by which the ``needed`` word (page) types have all arrived,
     types 1-4 of the ephemeris's IODnav (I/NAV: words 1-5; F/NAV: pages 1-4); D1's last
     subframe 3 (its record is that of one frame's subframes 1-3)."""
     if isinstance(msg, d1nav.D1Message):
         return next((p.start for p in reversed(msg.pages) if p.word_type == 3), msg.pages[-1].start)
+    if isinstance(msg, d2nav.D2Message):  # the last page 10 (its record is one page cycle's)
+        return next((p.start for p in reversed(msg.subframes) if p.pnum == 10), msg.subframes[-1].start)
     iod = int(msg.ephemeris.iode[0]) if msg.ephemeris is not None else -1
     seen: set[int] = set()
     for p in msg.pages:
@@ -305,9 +338,9 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
     r = timing.rows[keep]
     # GST week 0 is GPS week 1024 (OS SIS ICD 5.1.2; GST steered to GPS time), and GST sends
     # 12 bits of its week: the GPS week's low 12 bits (`fixes.full_week` makes it whole).
-    # D1's GST is already GPS time (`D1Message.gst`: BDT week + 1356), of 13 bits.
+    # D1's and D2's GST is already GPS time (`D1Message.gst`: BDT week + 1356), of 13 bits.
     week = None if timing.gst is None else timing.gst[1]  # None: an F/NAV page type 4 alone (no WN)
-    bits = 13 if carries_d1(signal) else 12
+    bits = 13 if carries_d1(signal) or carries_d2(signal) else 12
     week12 = None if week is None else week % 8192 if bits == 13 else (week + 1024) % 4096
     return ChannelTiming(
         record.prn,
@@ -340,7 +373,7 @@ def inav_summary(timing: InavTiming, symbols: int) -> dict:
         "crc_failures": len(timing.failures),
         "iodnav": " ".join(str(i) for i in iods),
         "gst_wn": "" if gst is None or gst[1] is None else gst[1],
-        "gst_tow_s": "" if gst is None else f"{gst[2]:.0f}",
+        "gst_tow_s": "" if gst is None else f"{gst[2]:.3f}".rstrip("0").rstrip("."),  # D2: 0.6 s steps
         "gst_time_s": "" if gst is None else f"{gst[0]:.9f}",
         "inverted": " ".join(sorted({str(int(p.inverted)) for p in pages})),
         "ephemeris": int(timing.ephemeris is not None),
@@ -355,9 +388,11 @@ def write_inav_report(out_dir: str | Path, tracking: TrackingResult, signal: Sig
 
     rows = []
     for _, ch in sorted(tracking.channels.items()):
-        n = int(np.count_nonzero(ch.column("coherent_ms") == 1)) if ch.rows else 0
+        per_row = signal.code_periods_per_symbol if carries_d2(signal) else 1  # D2: 2 ms bits a row
+        n = int(np.count_nonzero(ch.column("coherent_ms") == per_row)) if ch.rows else 0
         rows.append(inav_summary(channel_inav(ch, signal), n))
-    path = Path(out_dir) / ("fnav.csv" if carries_fnav(signal) else "d1.csv" if carries_d1(signal) else "inav.csv")
+    name = "fnav" if carries_fnav(signal) else "d1" if carries_d1(signal) else "d2" if carries_d2(signal) else "inav"
+    path = Path(out_dir) / f"{name}.csv"
     with atomic_open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(INAV_COLUMNS)
