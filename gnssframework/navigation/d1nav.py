@@ -32,7 +32,9 @@ values GNSSTk decodes from them (its test data).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -56,6 +58,7 @@ __all__ = [
     "bch_encode",
     "bch_decode",
     "info_bits",
+    "gps_time_of",
     "sent_bits",
     "PI_BDS",
     "interleave_subframe",
@@ -63,8 +66,11 @@ __all__ = [
     "encode_subframe",
     "decode_subframe_bits",
     "find_d1_subframes",
+    "subframe_grid",
+    "beidou_record",
     "subframes_to_ephemeris",
     "decode_d1",
+    "record_values",
     "ephemeris_to_subframes",
     "encode_d1",
     "d1_symbols",
@@ -227,6 +233,14 @@ SUBFRAME_LAYOUTS: dict[int, Layout] = {
 _TO_RINEX = {**KEPLER_TO_RINEX, "tgd1_s": "TGD"}
 
 
+def gps_time_of(start: int, wn: int | None, sow: float) -> tuple[int, int | None, float]:
+    """``(start, BDT week, BDT s of week)`` as GPS time: ``(start, GPS week, GPS s of week)``
+    (BDT + 14 s, its week + 1356; None for an unknown week)."""
+    t = sow + BDT_GPS_OFFSET_S
+    carry = int(t >= _WEEK_S)
+    return start, None if wn is None else wn + BDT_GPS_WEEK_OFFSET + carry, t - carry * _WEEK_S
+
+
 @dataclass(frozen=True)
 class D1Subframe:
     """One decoded subframe: ``start`` the index of its first bit in the stream,
@@ -272,12 +286,7 @@ class D1Message:
     def gst(self) -> tuple[int, int | None, float] | None:
         """``bdt`` in GPS time, as the receiver dates rows: ``(bit index, GPS week, GPS s
         of week)`` (BDT + 14 s; BDT week + 1356)."""
-        if self.bdt is None:
-            return None
-        start, wn, sow = self.bdt
-        t = sow + BDT_GPS_OFFSET_S
-        carry = int(t >= _WEEK_S)
-        return start, None if wn is None else wn + BDT_GPS_WEEK_OFFSET + carry, t - carry * _WEEK_S
+        return None if self.bdt is None else gps_time_of(*self.bdt)
 
 
 def encode_subframe(fraid: int, sow: int, values: dict[str, float]) -> np.ndarray:
@@ -310,50 +319,78 @@ def _consistent(fraid: int, sow: int) -> bool:
     return 1 <= fraid <= 5 and sow % 6 == 0 and sow < _WEEK_S and (sow // 6) % 5 + 1 == fraid
 
 
-def _decode_at(s: np.ndarray, starts: np.ndarray, polarity: np.ndarray) -> list[tuple[int, int, dict, int, bool]]:
-    """(FraID, SOW, fields, corrected, consistent) of the subframes at ``starts``."""
-    blocks = (s[starts[:, None] + np.arange(SUBFRAME_BITS)] * polarity[:, None] < 0).astype(np.uint8)
-    out = []
-    for b in blocks:
-        fraid, sow, fields, corrected = decode_subframe_bits(b)
-        out.append((fraid, sow, fields, corrected, _consistent(fraid, sow)))
-    return out
+def _d1_at(sent: np.ndarray) -> tuple[tuple[int, int, dict, int], bool]:
+    fraid, sow, fields, corrected = decode_subframe_bits(sent)
+    return (fraid, sow, fields, corrected), _consistent(fraid, sow)
 
 
-def find_d1_subframes(bits: np.ndarray, sync_errors: int = 0) -> tuple[list[D1Subframe], list[str]]:
-    """Every subframe of a stream of soft D1 bits (one per 20 ms, NH20 wiped, bit 0 as +1)
-    whose header is consistent, and one line per subframe of the stream's grid that is not:
-    the candidates where 11 bits match the preamble (either polarity, at most
-    ``sync_errors`` wrong), the grid the most common start modulo 300 of the consistent
-    ones, every whole grid subframe then decoded."""
-    s = fec.real_symbols(bits, "one satellite's D1 bits")
+def subframe_grid(
+    bits: np.ndarray, decode: Callable[[np.ndarray], tuple[Any, bool]], what: str, sync_errors: int = 0
+) -> list[tuple[int, bool, Any, bool]]:
+    """``(start, inverted, decoded, consistent)`` of every whole subframe on the grid of a
+    stream of soft D1 or D2 bits (bit 0 as +1): the candidates where 11 bits match the
+    preamble (either polarity, at most ``sync_errors`` wrong) and whose header ``decode``
+    (of 300 bits as sent) finds consistent give the grid, the most common start modulo 300;
+    [] without one. ``what`` names the stream in a refusal."""
+    s = fec.real_symbols(bits, what)
     if not 0 <= sync_errors < 3:
         raise ConfigError("sync_errors", f"must be 0-2, got {sync_errors}")
     n = s.size
     if n < SUBFRAME_BITS:
-        return [], []
+        return []
     match = np.lib.stride_tricks.sliding_window_view(np.sign(s), D1_PREAMBLE.size) @ _PREAMBLE_PM
     starts = np.arange(n - SUBFRAME_BITS + 1)
     need = D1_PREAMBLE.size - 2 * sync_errors
     up, down = match[starts] >= need, match[starts] <= -need
+
+    def at(first: np.ndarray, polarity: np.ndarray) -> list[tuple[Any, bool]]:
+        blocks = (s[first[:, None] + np.arange(SUBFRAME_BITS)] * polarity[:, None] < 0).astype(np.uint8)
+        return [decode(b) for b in blocks]
+
     cand = np.flatnonzero(up | down)
-    if cand.size == 0:
-        return [], []
-    good = np.array([ok for *_, ok in _decode_at(s, cand, np.where(up[cand], 1.0, -1.0))])
+    good = np.array([ok for _, ok in at(cand, np.where(up[cand], 1.0, -1.0))], bool)
     if not good.any():
-        return [], []
+        return []
     offsets, counts = np.unique(cand[good] % SUBFRAME_BITS, return_counts=True)
     grid = np.arange(int(offsets[np.argmax(counts)]), n - SUBFRAME_BITS + 1, SUBFRAME_BITS)
     pol = np.where(match[grid] >= 0, 1.0, -1.0)
+    return [(int(g), bool(p < 0), d, ok) for g, p, (d, ok) in zip(grid, pol, at(grid, pol))]
+
+
+def find_d1_subframes(bits: np.ndarray, sync_errors: int = 0) -> tuple[list[D1Subframe], list[str]]:
+    """Every subframe of a stream of soft D1 bits (one per 20 ms, NH20 wiped, bit 0 as +1)
+    whose header is consistent, and one line per subframe of the stream's grid that is not
+    (`subframe_grid`)."""
     found, failures = [], []
-    for k, (fraid, sow, fields, corrected, ok) in enumerate(_decode_at(s, grid, pol)):
+    for start, inverted, (fraid, sow, fields, corrected), ok in subframe_grid(
+        bits, _d1_at, "one satellite's D1 bits", sync_errors
+    ):
         if ok:
-            found.append(D1Subframe(int(grid[k]), bool(pol[k] < 0), fraid, sow, fields, corrected))
+            found.append(D1Subframe(start, inverted, fraid, sow, fields, corrected))
         else:
             failures.append(
-                f"D1 subframe at bit {int(grid[k])}: FraID {fraid} and SOW {sow} disagree (or no preamble); not used"
+                f"D1 subframe at bit {start}: FraID {fraid} and SOW {sow} disagree (or no preamble); not used"
             )
     return found, failures
+
+
+def beidou_record(merged: dict[str, float], prn: int) -> Ephemerides:
+    """One `Ephemerides` record of BeiDou ``prn`` from the decoded fields of one D1 or D2
+    ephemeris (`KEPLER_TO_RINEX`'s names, semicircles taken to radians with BeiDou's pi;
+    ``tgd1_s`` as ``TGD``, ``tgd2_s``, ``sath1``, ``aode``, ``urai``)."""
+    elements = {
+        rinex: np.array([merged[name] * (PI_BDS if name in SEMICIRCLE_FIELDS else 1.0)])
+        for name, rinex in _TO_RINEX.items()
+    }
+    elements["TGD2"] = np.array([merged["tgd2_s"]])
+    return Ephemerides(
+        np.array([f"C{prn:02d}"]),
+        np.array([float(merged["toc_s"])]),
+        elements,
+        np.array([float(merged["sath1"])]),
+        np.array([float(merged["aode"])]),
+        np.array([float(URA_M[int(merged["urai"])])]),
+    )
 
 
 def subframes_to_ephemeris(fields: dict[int, dict[str, float]], prn: int) -> Ephemerides:
@@ -374,19 +411,7 @@ def subframes_to_ephemeris(fields: dict[int, dict[str, float]], prn: int) -> Eph
     if toe != fields[1]["toc_s"]:
         raise ConfigError("d1.toe", f"toe {toe:.0f} s differs from subframe 1's toc {fields[1]['toc_s']:.0f} s")
     merged = {k: v for t in (3, 2, 1) for k, v in fields[t].items()} | {"toe_s": toe}
-    elements = {
-        rinex: np.array([merged[name] * (PI_BDS if name in SEMICIRCLE_FIELDS else 1.0)])
-        for name, rinex in _TO_RINEX.items()
-    }
-    elements["TGD2"] = np.array([merged["tgd2_s"]])
-    return Ephemerides(
-        np.array([f"C{prn:02d}"]),
-        np.array([float(merged["toc_s"])]),
-        elements,
-        np.array([float(merged["sath1"])]),
-        np.array([float(merged["aode"])]),
-        np.array([float(URA_M[int(merged["urai"])])]),
-    )
+    return beidou_record(merged, prn)
 
 
 def decode_d1(bits: np.ndarray, prn: int) -> D1Message:
@@ -412,27 +437,35 @@ def decode_d1(bits: np.ndarray, prn: int) -> D1Message:
     return D1Message(subframes, ephemeris, bdt, fields, failures)
 
 
-def ephemeris_to_subframes(record: Ephemerides) -> dict[int, dict[str, float]]:
-    """Field values of subframes 1-3 of one BeiDou record (toc = toe; ``TGD`` as T_GD1,
-    ``TGD2`` where the record has it); the BDT week and SOW are set when sent (`encode_d1`).
-    The Klobuchar coefficients are sent as zero."""
+def record_values(record: Ephemerides) -> dict[str, float]:
+    """The D1 and D2 field values of one BeiDou record (`KEPLER_TO_RINEX`'s names in
+    semicircles, toc = toe, ``tgd1_s`` from ``TGD``, ``tgd2_s`` from ``TGD2`` where the
+    record has it, SatH1, AODE modulo 32, URAI from the accuracy, AODC 0): the inverse of
+    `beidou_record`."""
     values: dict[str, float] = {}
     for name, rinex in _TO_RINEX.items():
         v = float(record.elements[rinex][0])
         values[name] = v / PI_BDS if name in SEMICIRCLE_FIELDS else v
-    toe = int(round(values["toe_s"] / 8))
     acc = float(record.accuracy_m[0]) if record.accuracy_m is not None else np.nan
     tgd2 = record.elements.get("TGD2")
     values.update(
-        toc_s=8.0 * toe,
-        toe_msb=toe >> 15,
-        toe_lsb=toe & 0x7FFF,
+        toc_s=float(values["toe_s"]),
         tgd2_s=0.0 if tgd2 is None or not np.isfinite(tgd2[0]) else float(tgd2[0]),
         sath1=int(record.health[0]),
         aode=int(record.iode[0]) % 32,
         aodc=0,
         urai=int(np.searchsorted(URA_M[:15], acc)) if np.isfinite(acc) and acc >= 0 else 15,
     )
+    return values
+
+
+def ephemeris_to_subframes(record: Ephemerides) -> dict[int, dict[str, float]]:
+    """Field values of subframes 1-3 of one BeiDou record (`record_values`, toe split between
+    subframes 2 and 3); the BDT week and SOW are set when sent (`encode_d1`). The Klobuchar
+    coefficients are sent as zero."""
+    values = record_values(record)
+    toe = int(round(values["toe_s"] / 8))
+    values.update(toc_s=8.0 * toe, toe_msb=toe >> 15, toe_lsb=toe & 0x7FFF)
     return {t: {k: values[k] for k in SUBFRAME_LAYOUTS[t] if k in values} for t in (1, 2, 3)}
 
 

@@ -30,20 +30,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
-from . import fec
 from .bit_fields import Layout, decode_fields, encode_fields, field_integer
 from .d1nav import (
-    BDT_GPS_OFFSET_S,
-    BDT_GPS_WEEK_OFFSET,
-    D1_PREAMBLE,
     INFO_BITS,
-    PI_BDS,
     SUBFRAME_BITS,
+    beidou_record,
+    gps_time_of,
     info_bits,
+    record_values,
     sent_bits,
+    subframe_grid,
 )
-from .ephemeris import KEPLER_TO_RINEX, SEMICIRCLE_FIELDS, Ephemerides
-from .lnav import URA_M
+from .ephemeris import KEPLER_TO_RINEX, Ephemerides
 
 __all__ = [
     "SUBFRAME_S",
@@ -66,7 +64,6 @@ FRAME_S = 3.0
 #: D2 at 500 bit/s, uncoded: one symbol a bit.
 SYMBOL_RATE_HZ = 500.0
 _WEEK_S = 604_800
-_PREAMBLE_PM = 1.0 - 2.0 * D1_PREAMBLE
 _HEADER: Layout = {"preamble": (1, 11, 1, False), "rev": (12, 4, 1, False), "fraid": (16, 3, 1, False)}
 _SOW: Layout = {"sow": (19, 20, 1, False), "pnum": (39, 4, 1, False)}
 #: Subframe 1 page -> name -> (first information bit, 1-based; length; scale; signed).
@@ -176,12 +173,7 @@ class D2Message:
     @property
     def gst(self) -> tuple[int, int | None, float] | None:
         """``bdt`` in GPS time (BDT + 14 s; BDT week + 1356), as the receiver dates rows."""
-        if self.bdt is None:
-            return None
-        start, wn, sow = self.bdt
-        t = sow + BDT_GPS_OFFSET_S
-        carry = int(t >= _WEEK_S)
-        return start, None if wn is None else wn + BDT_GPS_WEEK_OFFSET + carry, t - carry * _WEEK_S
+        return None if self.bdt is None else gps_time_of(*self.bdt)
 
 
 def _consistent(fraid: int, sow: int, pnum: int) -> bool:
@@ -217,46 +209,23 @@ def decode_subframe_bits(sent: np.ndarray) -> tuple[int, int, int, dict[str, flo
     return fraid, sow, pnum, decode_fields(info, PAGE_LAYOUTS.get(pnum, {})), int(corrected)
 
 
-def _decode_at(s: np.ndarray, starts: np.ndarray, polarity: np.ndarray) -> list[tuple]:
-    blocks = (s[starts[:, None] + np.arange(SUBFRAME_BITS)] * polarity[:, None] < 0).astype(np.uint8)
-    out = []
-    for b in blocks:
-        fraid, sow, pnum, fields, corrected = decode_subframe_bits(b)
-        out.append((fraid, sow, pnum, fields, corrected, _consistent(fraid, sow, pnum)))
-    return out
+def _d2_at(sent: np.ndarray) -> tuple[tuple[int, int, int, dict, int], bool]:
+    fraid, sow, pnum, fields, corrected = decode_subframe_bits(sent)
+    return (fraid, sow, pnum, fields, corrected), _consistent(fraid, sow, pnum)
 
 
 def find_d2_subframes(bits: np.ndarray, sync_errors: int = 0) -> tuple[list[D2Subframe], list[str]]:
     """Every subframe of a stream of soft D2 bits (one per 2 ms, bit 0 as +1) whose header is
-    consistent, and one line per subframe of the stream's grid that is not (as
-    `d1nav.find_d1_subframes`)."""
-    s = fec.real_symbols(bits, "one satellite's D2 bits")
-    if not 0 <= sync_errors < 3:
-        raise ConfigError("sync_errors", f"must be 0-2, got {sync_errors}")
-    n = s.size
-    if n < SUBFRAME_BITS:
-        return [], []
-    match = np.lib.stride_tricks.sliding_window_view(np.sign(s), D1_PREAMBLE.size) @ _PREAMBLE_PM
-    starts = np.arange(n - SUBFRAME_BITS + 1)
-    need = D1_PREAMBLE.size - 2 * sync_errors
-    up, down = match[starts] >= need, match[starts] <= -need
-    cand = np.flatnonzero(up | down)
-    if cand.size == 0:
-        return [], []
-    good = np.array([r[-1] for r in _decode_at(s, cand, np.where(up[cand], 1.0, -1.0))])
-    if not good.any():
-        return [], []
-    offsets, counts = np.unique(cand[good] % SUBFRAME_BITS, return_counts=True)
-    grid = np.arange(int(offsets[np.argmax(counts)]), n - SUBFRAME_BITS + 1, SUBFRAME_BITS)
-    pol = np.where(match[grid] >= 0, 1.0, -1.0)
+    consistent, and one line per subframe of the stream's grid that is not
+    (`d1nav.subframe_grid`)."""
     found, failures = [], []
-    for k, (fraid, sow, pnum, fields, corrected, ok) in enumerate(_decode_at(s, grid, pol)):
+    for start, inverted, (fraid, sow, pnum, fields, corrected), ok in subframe_grid(
+        bits, _d2_at, "one satellite's D2 bits", sync_errors
+    ):
         if ok:
-            found.append(D2Subframe(int(grid[k]), bool(pol[k] < 0), fraid, sow, pnum, fields, corrected))
+            found.append(D2Subframe(start, inverted, fraid, sow, pnum, fields, corrected))
         else:
-            failures.append(
-                f"D2 subframe at bit {int(grid[k])}: FraID {fraid}, SOW {sow} and page {pnum} disagree; not used"
-            )
+            failures.append(f"D2 subframe at bit {start}: FraID {fraid}, SOW {sow} and page {pnum} disagree; not used")
     return found, failures
 
 
@@ -282,19 +251,7 @@ def pages_to_ephemeris(pages: dict[int, dict[str, float]], prn: int) -> Ephemeri
         merged[name] = _joined(merged[high], merged[low], n) * scale
     if merged["toe_s"] != merged["toc_s"]:
         raise ConfigError("d2.toe", f"toe {merged['toe_s']:.0f} s differs from page 1's toc {merged['toc_s']:.0f} s")
-    elements = {
-        rinex: np.array([merged[name] * (PI_BDS if name in SEMICIRCLE_FIELDS else 1.0)])
-        for name, rinex in _TO_RINEX.items()
-    }
-    elements["TGD2"] = np.array([merged["tgd2_s"]])
-    return Ephemerides(
-        np.array([f"C{prn:02d}"]),
-        np.array([float(merged["toc_s"])]),
-        elements,
-        np.array([float(merged["sath1"])]),
-        np.array([float(merged["aode"])]),
-        np.array([float(URA_M[int(merged["urai"])])]),
-    )
+    return beidou_record(merged, prn)
 
 
 def decode_d2(bits: np.ndarray, prn: int) -> D2Message:
@@ -322,26 +279,13 @@ def decode_d2(bits: np.ndarray, prn: int) -> D2Message:
 
 
 def ephemeris_to_pages(record: Ephemerides) -> dict[int, dict[str, float]]:
-    """Field values of pages 1-10 of subframe 1 of one BeiDou record (toc = toe; ``TGD`` as
-    T_GD1, ``TGD2`` where the record has it; page 2's ionosphere as zero); the BDT week is
-    set when sent (`encode_d2`)."""
-    values: dict[str, float] = {}
-    for name, rinex in _TO_RINEX.items():
-        v = float(record.elements[rinex][0])
-        values[name] = v / PI_BDS if name in SEMICIRCLE_FIELDS else v
+    """Field values of pages 1-10 of subframe 1 of one BeiDou record (`d1nav.record_values`,
+    the split elements cut in two; page 2's ionosphere as zero); the BDT week is set when
+    sent (`encode_d2`)."""
+    values = record_values(record)
     for name, (high, low, n, scale) in _SPLIT.items():
         q = int(np.round(values[name] / scale))
         values[high], values[low] = q >> n, q & ((1 << n) - 1)
-    acc = float(record.accuracy_m[0]) if record.accuracy_m is not None else np.nan
-    tgd2 = record.elements.get("TGD2")
-    values.update(
-        toc_s=float(values["toe_s"]),
-        tgd2_s=0.0 if tgd2 is None or not np.isfinite(tgd2[0]) else float(tgd2[0]),
-        sath1=int(record.health[0]),
-        aode=int(record.iode[0]) % 32,
-        aodc=0,
-        urai=int(np.searchsorted(URA_M[:15], acc)) if np.isfinite(acc) and acc >= 0 else 15,
-    )
     return {p: {k: values[k] for k in PAGE_LAYOUTS[p] if k in values} for p in PAGE_LAYOUTS}
 
 
