@@ -583,21 +583,6 @@ def max_rate_hz(signals: Iterable[SignalSpec]) -> float:
     return min(1.0 / s.code_period_s for s in signals)
 
 
-def _records_with_clock(rinex, path: str, signal: SignalSpec):
-    """The records of a navigation file that give ``signal``'s user a clock
-    (`ephemeris.records_with_clock`: on E5a, Galileo F/NAV's), refused in one line without any."""
-    from .navigation.ephemeris import records_with_clock
-
-    usable = records_with_clock(rinex, signal.carrier_freq_hz)
-    if usable is None:
-        raise ConfigError(
-            "--ephemeris",
-            f"{path} holds no Galileo F/NAV record (RINEX data source bit 8: the clock for E5a,E1), "
-            "which an E5a user's clock needs: give a file with F/NAV records, or none (the decoded ones serve)",
-        )
-    return usable
-
-
 def _check_rate(rate_hz: float, signals: Iterable[SignalSpec]) -> None:
     """``--rate`` in (0, `max_rate_hz`], else a one-line error naming the limiting signal."""
     signals = tuple(signals)
@@ -939,7 +924,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     import json
     import time
 
-    from .navigation.ephemeris import SYSTEMS as EPHEMERIS_SYSTEMS, read_rinex_nav
+    from .navigation.ephemeris import SYSTEMS as EPHEMERIS_SYSTEMS, read_rinex_nav, require_records_with_clock
     from .receiver.acquisition.report import search_summary
     from .receiver.navigation.fixes import write_positions_csv
     from .receiver.navigation.nmea_out import nmea_talker, write_nmea
@@ -988,7 +973,13 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
         )
     rinex = read_rinex_nav(args.ephemeris, systems=signal.system) if args.ephemeris else None
     if rinex is not None:
-        rinex = _records_with_clock(rinex, args.ephemeris, signal)
+        rinex = require_records_with_clock(
+            rinex,
+            signal,
+            "--ephemeris",
+            args.ephemeris,
+            ": give a file with F/NAV records, or none (the decoded ones serve)",
+        )
     nav_info = read_nav_file_info(args.ephemeris) if args.ephemeris else None
     # Without --week, the ephemeris file's (placed at the recording's tow once known, below).
     reference_week = args.week

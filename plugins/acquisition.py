@@ -105,11 +105,12 @@ class ParallelCodePhaseSearch(Acquisition):
         """The search's blocks, or the overlay refinement's periods where that is longer
         (`fft_search.overlay_refine_periods`: 41 ms for B1I's NH20; fewer samples skip the
         refinement, they are not refused)."""
-        search = int(round(self._coherent_s(signal) * sample_rate_hz)) * self.params.noncoherent
+        # The refinement's periods start up to one period in (at the found code epoch).
         refine = int(round((overlay_refine_periods(signal) + 1) * signal.code_period_s * sample_rate_hz))
-        return max(search, refine)
+        return max(self._search_samples(sample_rate_hz, signal), refine)
 
     def _search_samples(self, sample_rate_hz: float, signal: SignalSpec) -> int:
+        """The search's own blocks: ``coherent_ms`` code periods times ``noncoherent``."""
         return int(round(self._coherent_s(signal) * sample_rate_hz)) * self.params.noncoherent
 
     def dopplers_hz(self, signal: SignalSpec = GPS_L1CA) -> np.ndarray:

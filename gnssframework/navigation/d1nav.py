@@ -108,8 +108,10 @@ def _parity_of(info: int) -> int:
 _P = np.array([[(_parity_of(1 << (10 - i)) >> (3 - j)) & 1 for j in range(4)] for i in range(11)], np.uint8)
 #: Parity-check matrix ``(4, 15)``: ``cw @ H.T`` is 0 for a codeword.
 _H = np.concatenate([_P.T, np.eye(4, dtype=np.uint8)], axis=1)
-#: Syndrome (as an integer, first row the most significant bit) -> the bit it flags.
-_ERROR_AT = {int("".join(map(str, _H[:, j])), 2): j for j in range(15)}
+#: Syndrome (as an integer, first row the most significant bit) -> the bit it flags (the 15
+#: columns of H are the 15 non-zero syndromes; 0 flags none and is not used).
+_ERROR_AT = np.zeros(16, np.int64)
+_ERROR_AT[_H.T @ (1 << np.arange(3, -1, -1))] = np.arange(15)
 
 
 def bch_encode(info: np.ndarray) -> np.ndarray:
@@ -126,7 +128,7 @@ def bch_decode(codewords: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     syndrome = (cw.astype(np.int64) @ _H.T) % 2
     s = syndrome @ (1 << np.arange(3, -1, -1))
     flagged = s != 0
-    pos = np.array([_ERROR_AT.get(int(v), 0) for v in s.ravel()], dtype=np.int64).reshape(s.shape)
+    pos = _ERROR_AT[s]
     rows = np.flatnonzero(flagged.ravel())
     flat = cw.reshape(-1, 15)
     flat[rows, pos.ravel()[rows]] ^= 1

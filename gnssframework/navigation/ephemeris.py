@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataFileError
+from ..errors import ConfigError, DataFileError
 from ..signal.gps_l1ca import GPS_L1CA
 from ..signal.gps_l2c import GPS_L2C
 from ..signal.gps_l5 import GPS_L5I
@@ -74,6 +74,7 @@ __all__ = [
     "ionosphere_scale",
     "clock_defined",
     "records_with_clock",
+    "require_records_with_clock",
     "CNAV_FIELDS",
     "GALILEO_FIELDS",
     "OPTIONAL_FIELDS",
@@ -402,6 +403,22 @@ def records_with_clock(eph: Ephemerides | None, carrier_freq_hz: float) -> Ephem
         return None
     keep = np.flatnonzero(clock_defined(eph, carrier_freq_hz))
     return eph.subset(keep) if keep.size else None
+
+
+def require_records_with_clock(
+    eph: Ephemerides, signal: SignalSpec, field: str, source: str, hint: str = ""
+) -> Ephemerides:
+    """`records_with_clock` of ``eph`` for ``signal``'s carrier, refused in one line naming
+    ``field``, ``source`` (what the records came from) and ``hint`` when none gives its user
+    a clock (`clock_defined`: only E5a refuses, a Galileo record without F/NAV's clock)."""
+    usable = records_with_clock(eph, signal.carrier_freq_hz)
+    if usable is None:
+        raise ConfigError(
+            field,
+            f"no record gives a {signal.name} user a clock: {source} holds no Galileo F/NAV record (RINEX "
+            f"data source bit 8: the clock for E5a,E1), which an E5a user's clock needs{hint}",
+        )
+    return usable
 
 
 def ionosphere_scale(carrier_freq_hz: float, reference: SignalSpec = GPS_L1CA) -> float:

@@ -106,7 +106,8 @@ class SignalSet:
         unknown = sorted(set(letters.tolist()) - set(by_system))
         if unknown:
             raise ConfigError("systems", f"{self.name} holds no signal of system {', '.join(unknown)}")
-        return np.array([by_system[str(x)] for x in letters.ravel()], float).reshape(letters.shape)
+        systems, index = np.unique(letters, return_inverse=True)
+        return np.array([by_system[str(x)] for x in systems], float)[index].reshape(letters.shape)
 
     def if_offset_hz(self, index: int) -> float:
         """Where the ``index``-th signal lies from the first in a recording of both: the

@@ -23,7 +23,7 @@ from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..channels.factory import StageFilters
 from ..frontend.recording import Recording
 from ...errors import ConfigError
-from ...navigation.ephemeris import Ephemerides, records_with_clock
+from ...navigation.ephemeris import Ephemerides, require_records_with_clock
 from ...navigation.integrity import RaimOptions
 from ...navigation.lnav import IonoUtc
 from ...plugin_ref import PluginSpec
@@ -107,14 +107,7 @@ def receive(
     come, `live.LiveFixes`, read its records from ``progress``)."""
     message = navigation_message(signal)  # dates the channels: LNAV subframes, the I/NAV GST
     if rinex is not None:  # only records that give this signal's user a clock (E5a: F/NAV's)
-        usable = records_with_clock(rinex, signal.carrier_freq_hz)
-        if usable is None:
-            raise ConfigError(
-                "rinex",
-                f"no record gives a {signal.name} user a clock (an E5a user needs a Galileo F/NAV record, "
-                "whose clock is for E1,E5a)",
-            )
-        rinex = usable
+        rinex = require_records_with_clock(rinex, signal, "rinex", "the records given")
     if not message.hands_over and (vector is not None or assist is not None):
         raise ConfigError(
             "vector",
