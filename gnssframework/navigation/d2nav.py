@@ -57,6 +57,7 @@ __all__ = [
     "decode_d2",
     "ephemeris_to_pages",
     "encode_d2",
+    "d2_symbols",
 ]
 
 SUBFRAME_S = 0.6
@@ -305,3 +306,15 @@ def encode_d2(record: Ephemerides, wn: int, first_sow: int, n_frames: int) -> np
         out.append(encode_subframe(1, sow, values))
         out += [encode_subframe(f, sow, {}) for f in (2, 3, 4, 5)]
     return (1 - 2 * np.concatenate(out).astype(np.int8)).astype(np.int8)
+
+
+def d2_symbols(record: Ephemerides, wn: int, sow_s: float, n_bits: int) -> tuple[np.ndarray, float]:
+    """±1 D2 bits (int8) from the one in force at BDT ``sow_s`` of week ``wn`` on, for the IF
+    generator's data (`beidou-b1i-geo`: one bit every 2 code periods), and the time (s) from
+    the first bit's start to ``sow_s``. Frames as `encode_d2` (as `d1nav.d1_symbols` for D1)."""
+    first = int(np.floor(sow_s / FRAME_S)) * 3
+    into = sow_s - first
+    skip = int(np.floor(into * SYMBOL_RATE_HZ))
+    n_frames = int(np.ceil((skip + n_bits) / (FRAME_S * SYMBOL_RATE_HZ)))
+    bits = encode_d2(record, wn + first // _WEEK_S, first % _WEEK_S, n_frames)[skip : skip + n_bits]
+    return bits, float(into - skip / SYMBOL_RATE_HZ)

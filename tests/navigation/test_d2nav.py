@@ -113,3 +113,20 @@ def test_a_generated_stream_decodes_to_its_record_through_noise_errors_and_inver
     for name in ("M0", "Omega0", "omega", "Io"):
         assert abs(eph.elements[name][0] - rec.elements[name][0]) <= 0.5001 * PI * 2.0**-31, name
     assert eph.elements["Toe"][0] == rec.elements["Toe"][0]
+
+
+def test_the_generators_bits_are_the_frames_from_the_bit_in_force():
+    """`d2_symbols` from BDT 4.0031 s after a frame start: the stream `encode_d2` sends from
+    that frame on, cut at the bit in force (the 501st of its frame, 2 ms each), and the time
+    from that bit's start, 1.1 ms; at the end of a week, the next week's frames follow."""
+    rec = _geo_record()
+    wn, sow0 = 650, int(rec.toc_s[0]) - 6
+    stream = d2nav.encode_d2(rec, wn, sow0, 4)
+    bits, into = d2nav.d2_symbols(rec, wn, sow0 + 4.0031, 2000)
+    np.testing.assert_array_equal(bits, stream[1500 + 501 : 1500 + 501 + 2000])
+    assert into == pytest.approx(0.0011, abs=1e-9)  # the times as doubles near 1e5 s: 1e-11
+    end = 604_800 - 3
+    bits, into = d2nav.d2_symbols(rec, wn, end + 2.9991, 600)
+    rolled = np.concatenate([d2nav.encode_d2(rec, wn, end, 1), d2nav.encode_d2(rec, wn + 1, 0, 1)])
+    np.testing.assert_array_equal(bits, rolled[1499 : 1499 + 600])
+    assert into == pytest.approx(0.0011, abs=1e-9)
