@@ -1283,8 +1283,11 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
         signal=signals,
     )  # type: ignore[arg-type]
     offsets = c.get(SYSTEM_OFFSET_COLUMN, np.full(len(table), np.nan))
-    median_ns = np.nanmedian(offsets) if np.isfinite(offsets).any() else float("nan")
-    _print_fix_summary(table, truth, f"of {signals.name}", f"; inter-system clock offset {median_ns:.1f} ns (median)")
+    # One system (BeiDou B1I's D1 and GEO satellites): no inter-system offset to report.
+    offset = (
+        f"; inter-system clock offset {np.nanmedian(offsets):.1f} ns (median)" if np.isfinite(offsets).any() else ""
+    )
+    _print_fix_summary(table, truth, f"of {signals.name}", offset)
     print(f"wrote {', '.join(str(p) for p in written if p.parent == out)}")
     return 0
 

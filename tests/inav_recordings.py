@@ -176,3 +176,59 @@ def write_b1i_recording(path: Path, sats, tow0: float, duration_s: float, seed: 
     streams = d1_streams(sats, t_sv0, duration_s)
     chunks = signal_chunks(sats, tow0, duration_s, BEIDOU_B1I, B1I_FS, satellite_time, streams, cn0_dbhz, rng)
     return write_noisy_recording(path, chunks, B1I_FS, rng, fmt="ci8")
+
+
+#: VILL's navigation file of 2018-06-19 (sbf2rin): its one BeiDou GEO record, C05.
+VILL_NAV = Path(__file__).parent / "data" / "VILL00ESP_R_20181700000_06H_MN.rnx"
+
+
+def geo_records(toe_bdt: float = 18_000.0):
+    """Two BeiDou GEO records in view of `STATION` for ``toe_bdt`` (BDT s of week): VILL's
+    real C05 (58.7 deg E, 11 deg up) moved to that Toe with its orbit in ECEF unchanged
+    (Toe and toc shifted alike, Omega0 by the Earth's turn over the shift: the GEO formula
+    of BDS-SIS-ICD-B1I 5.2.4.12 takes Omega0 - omega_e Toe), and the same orbit 38.5 deg
+    further west as C01 (made up: 20 deg E, 33 deg up), so that two GEOs are in view."""
+    from gnssframework.navigation.ephemeris import OMEGA_EARTH_BDS_RAD_S
+
+    nav = read_rinex_nav(VILL_NAV, systems="C")
+    c05 = nav.subset(np.flatnonzero(nav.sv == "C05")[:1])
+    shift = toe_bdt - float(c05.elements["Toe"][0])
+    out = []
+    for sv, west_rad in (("C05", 0.0), ("C01", np.radians(38.5))):
+        el = {k: np.array(v, float, copy=True) for k, v in c05.elements.items()}
+        el["Toe"] = el["Toe"] + shift
+        el["Omega0"] = np.angle(np.exp(1j * (el["Omega0"] + OMEGA_EARTH_BDS_RAD_S * shift - west_rad)))
+        out.append(type(c05)(np.array([sv]), c05.toc_s + shift, el, c05.health, c05.iode, c05.accuracy_m))
+    return type(c05).concatenate(out)
+
+
+def d2_streams(sats, t_sv0: np.ndarray, duration_s: float) -> list[tuple[np.ndarray, float]]:
+    """Each GEO satellite's D2 bits (`d2nav.d2_symbols`) for ``duration_s`` from 0.1 s
+    before its SV time ``t_sv0`` (GPS time), with the SV time of the first bit's start:
+    as `d1_streams` for D1."""
+    from gnssframework.navigation import d2nav
+
+    streams = []
+    for k in range(sats.sv.size):
+        bits, into = d2nav.d2_symbols(
+            sats.subset(np.array([k])), BDT_WEEK, float(t_sv0[k]) - 14.0 - 0.1, int(duration_s * 500) + 200
+        )
+        streams.append((bits.astype(float), float(t_sv0[k]) - 0.1 - into))
+    return streams
+
+
+def write_b1i_geo_recording(
+    path: Path, meo, geo, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0
+) -> Path:
+    """As `write_b1i_recording`, with the GEO satellites ``geo`` beside the D1 ones ``meo``:
+    B1I without NH code carrying D2 at 500 bit/s (`beidou-b1i-geo`), on the same carrier."""
+    from gnssframework.signal.beidou_b1i import BEIDOU_B1I, BEIDOU_B1I_GEO
+
+    rng = np.random.default_rng(seed)
+    parts = []
+    for sats, signal, streams in ((meo, BEIDOU_B1I, d1_streams), (geo, BEIDOU_B1I_GEO, d2_streams)):
+        t_sv0 = satellite_time(sats, np.array(tow0))
+        data = streams(sats, t_sv0, duration_s)
+        parts.append(signal_chunks(sats, tow0, duration_s, signal, B1I_FS, satellite_time, data, cn0_dbhz, rng))
+    chunks = (a + b for a, b in zip(*parts))
+    return write_noisy_recording(path, chunks, B1I_FS, rng, fmt="ci8")

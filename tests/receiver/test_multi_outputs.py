@@ -179,3 +179,26 @@ def test_gsa_and_gsv_of_a_two_system_fix_go_per_system():
     ga_ids = [p.data[i] for p in gsv["GA"] for i in range(3, len(p.data), 4) if p.data[i]]
     assert ga_ids == ["11", "24", "30"]  # Galileo SVIDs 1-36 under GA (NMEA 4.10/4.11)
     assert {p.talker for p in parsed if p.sentence_type == "GSV"} == {"GP", "GA"}
+
+
+def test_gsa_and_gsv_list_b1is_d1_and_geo_satellites_as_one_system():
+    """BeiDou B1I from D1 satellites and GEOs (a `SignalSet` of one observable): one GSA
+    (system ID 4) with both signals' satellites used, one GB GSV group counting all in view."""
+    from gnssframework.receiver.navigation.multi_receive import SignalSet
+    from gnssframework.receiver.navigation.nmea_out import SkyView, nmea_sentences
+    from gnssframework.signal.beidou_b1i import BEIDOU_B1I, BEIDOU_B1I_GEO
+
+    from test_receiver_outputs import _table
+
+    b1i = SignalSet((BEIDOU_B1I, BEIDOU_B1I_GEO))
+    used = (21, 24, 1001, 1005)  # C21, C24 (D1) and C01, C05 (GEO) used
+    keys = np.array([1005, 21, 33, 1001, 24])  # and C33 in view, not used
+    sky = SkyView(keys, np.array([11.0, 40.0, 8.0, 33.0, 61.0]), np.arange(5) * 60.0, np.full(5, 44.0))
+    table = _table(n=1, used=(used,))
+    parsed = [pynmea2.parse(s, check=True) for s in nmea_sentences(table, 18, "GB", [sky], True, b1i)]
+    gsa = [p for p in parsed if p.sentence_type == "GSA"]
+    assert len(gsa) == 1 and gsa[0].data[-1] == "4"
+    assert [s for s in gsa[0].data[2:14] if s] == ["01", "05", "21", "24"]
+    gsv = [p for p in parsed if p.sentence_type == "GSV"]
+    assert {p.talker for p in gsv} == {"GB"} and {int(p.num_messages) for p in gsv} == {len(gsv)} == {2}
+    assert [p.data[i] for p in gsv for i in range(3, len(p.data), 4) if p.data[i]] == ["01", "05", "21", "24", "33"]

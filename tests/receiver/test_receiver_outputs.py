@@ -391,6 +391,25 @@ def test_msm7_decodes_through_pyrtcm_to_the_observables_within_its_resolution():
     assert [c["DF407"] for c in last] == [238, 190]
 
 
+def test_beidou_b1is_d1_and_geo_satellites_go_in_one_1127_dated_in_bdt():
+    """B1I from a D1 satellite (C06) and a GEO (C01), a `SignalSet` of one observable: one
+    BeiDou MSM7 (1127) an epoch holding both on signal 2I (table 3.5-108), its DF427 epoch
+    in BDT (GPS time - 14 s)."""
+    from dataclasses import replace
+
+    from gnssframework.receiver.navigation.multi_receive import SignalSet
+    from gnssframework.receiver.navigation.rtcm_out import msm7_frames
+    from gnssframework.signal.beidou_b1i import BEIDOU_B1I, BEIDOU_B1I_GEO
+
+    b1i = SignalSet((BEIDOU_B1I, BEIDOU_B1I_GEO))
+    t = 345_600.0 + np.array([0.0, 1.0]) + 0.0004
+    obs = replace(_rtcm_observables(t)[0], prn=np.array([b1i.key(0, 6), b1i.key(1, 1)]))
+    messages = _msm_cells(msm7_frames(obs, b1i))  # type: ignore[arg-type]
+    assert [(m[0], m[1]) for m in messages] == [("1127", round(x * 1e3) - 14_000) for x in t]
+    assert [c["CELLPRN"] for c in messages[0][3]] == ["001", "006"]
+    assert {c["CELLSIG"] for m in messages for c in m[3]} == {"2I"}
+
+
 def test_lock_time_indicator_follows_the_table_and_crc_matches_the_spec_example():
     from gnssframework.receiver.navigation.rtcm_out import crc24q, lock_time_indicator
 

@@ -23,6 +23,15 @@ difference of the carriers (`Recording.tuned`). Each satellite's Doppler, group 
 ionospheric scale are then its own signal's (`SignalSet.carrier_freq_hz_of`, read by
 `pvt.solve_position`); a block that takes one wavelength for all (a navigation filter)
 refuses such a set in one line (`SignalSet.wavelength_m`).
+
+Two signals of one system are one observable when they share the carrier and the RINEX
+observation codes and no PRN: BeiDou B1I from the D1 satellites (`beidou-b1i`, NH20) and from
+the GEOs (`beidou-b1i-geo`, D2), two descriptions because a description holds one symbol
+period. Each is searched and dated on its own (D1's SOW, D2's); the satellites share the
+system's receiver clock, and the outputs that list a system once (the RINEX observation
+header, NMEA GSA/GSV, RTCM MSM) take them together (`SignalSet.groups`). Two observables of
+one system (GPS L1 C/A with L2C) are refused: that is the ionosphere-free mode's
+(`dual_observables`).
 """
 
 from __future__ import annotations
@@ -55,7 +64,8 @@ KEY_STEP = 1000
 class SignalSet:
     """Signals positioned together: the `SignalSpec` attributes the fixes and the RINEX
     observation file ask of a signal (``rinex_satellite``, ``wavelength_m``, ``system``,
-    ``name``), over the numbering ``index x KEY_STEP + PRN`` (module text)."""
+    ``name``), over the numbering ``index x KEY_STEP + PRN`` (module text). One signal per
+    system, or several of one observable (`groups`; module text)."""
 
     signals: tuple[SignalSpec, ...]
 
@@ -65,9 +75,15 @@ class SignalSet:
         names = [s.name for s in self.signals]
         if len(set(names)) != len(names):
             raise ConfigError("signal", f"a signal given twice: {', '.join(names)}")
-        systems = [s.system for s in self.signals]
-        if len(set(systems)) != len(systems):
-            raise ConfigError("signal", f"one signal per system: {', '.join(names)}")
+        for i, a in enumerate(self.signals):
+            for b in self.signals[i + 1 :]:
+                if a.system == b.system and not _one_observable(a, b):
+                    raise ConfigError(
+                        "signal",
+                        f"{a.name} and {b.name}: two signals of system {a.system} are positioned together "
+                        "only as one observable (one carrier, the same RINEX observation codes, no PRN in "
+                        "both, as BeiDou B1I's D1 and GEO satellites); give one of them",
+                    )
         for s in self.signals:
             if not any(m.carried_by(s) for m in MESSAGES):
                 raise ConfigError(
@@ -99,8 +115,20 @@ class SignalSet:
             )
         return self.signals[0].wavelength_m
 
+    @property
+    def groups(self) -> tuple[tuple[SignalSpec, tuple[int, ...]], ...]:
+        """Each system's signals, in the set's order of systems: ``(first signal, indices of
+        the system's signals)``. Signals of one system are one observable (``__post_init__``):
+        the outputs that list a system once (a RINEX header's observation types, NMEA's
+        GSA/GSV, an RTCM MSM) take the first signal for all of its satellites."""
+        out: dict[str, tuple[SignalSpec, list[int]]] = {}
+        for i, s in enumerate(self.signals):
+            out.setdefault(s.system, (s, []))[1].append(i)
+        return tuple((s, tuple(idx)) for s, idx in out.values())
+
     def carrier_freq_hz_of(self, letters: np.ndarray) -> np.ndarray:
-        """Each satellite's carrier (Hz), by its RINEX system letter (one signal per system)."""
+        """Each satellite's carrier (Hz), by its RINEX system letter (a system's signals share
+        one carrier)."""
         by_system = {s.system: s.carrier_freq_hz for s in self.signals}
         letters = np.asarray(letters).astype("U1")
         unknown = sorted(set(letters.tolist()) - set(by_system))
@@ -124,6 +152,16 @@ class SignalSet:
     def rinex_satellite(self, key: int) -> str:
         """The RINEX 3 satellite name of ``key`` (``G05``, ``E11``)."""
         return self.signal_of(key).rinex_satellite(int(key) % KEY_STEP)
+
+
+def _one_observable(a: SignalSpec, b: SignalSpec) -> bool:
+    """Whether two signals of one system make one observable: the same carrier and RINEX
+    observation codes, disjoint PRNs (BeiDou B1I from the D1 satellites and from the GEOs)."""
+    return (
+        a.carrier_freq_hz == b.carrier_freq_hz
+        and a.rinex_obs_types == b.rinex_obs_types
+        and not set(a.prns) & set(b.prns)
+    )
 
 
 def broadcast_time_offsets(obs: Observables, reference_week: int | None = None) -> dict[str, float] | None:

@@ -142,16 +142,17 @@ def multi_gsa_gsv_sentences(
     used = np.asarray(sorted(used_keys), int)
     gsa_out: list[str] = []
     gsv_out: list[str] = []
-    for i, signal in enumerate(signals.signals):
+    for signal, indices in signals.groups:  # a system's signals together (one talker)
         talker = nmea_talker(signal)
         offset = _NMEA_ID_OFFSET.get(talker, 0)
-        mine = used[used // KEY_STEP == i] % KEY_STEP
+        mine = np.sort(used[np.isin(used // KEY_STEP, indices)] % KEY_STEP)
         if gsa and mine.size:
             ids = [f"{int(p) - offset:02d}" for p in mine[:12]]
             gsa_out.append(_gsa("GN", ids, hdop, vdop, _SYSTEM_ID[talker]))
         if sky is not None:
             keys = np.asarray(sky.prn, int)
-            at = keys // KEY_STEP == i
+            at = np.flatnonzero(np.isin(keys // KEY_STEP, indices))
+            at = at[np.argsort(keys[at] % KEY_STEP, kind="stable")]
             part = SkyView(keys[at] % KEY_STEP, sky.elevation_deg[at], sky.azimuth_deg[at], sky.cn0_dbhz[at])
             gsv_out += gsa_gsv_sentences((), hdop, vdop, part, talker, gsa=False)
     return gsa_out + gsv_out

@@ -80,8 +80,10 @@ def write_rinex_obs(
     if week < 0:
         raise ConfigError("week", "the GPS week of the epochs is unknown (no subframe 1 decoded and no reference)")
     path = Path(path)
-    # A signal set (`multi_receive.SignalSet`, system "M") lists each system's types on its own line.
-    members = getattr(signal, "signals", (signal,))
+    # A signal set (`multi_receive.SignalSet`, system "M") lists each system's types on its own
+    # line, once for a system of two signals (one observable: `SignalSet.groups`).
+    groups = getattr(signal, "groups", None)
+    members = (signal,) if groups is None else tuple(first for first, _ in groups)
     rows = [e for e in range(obs.rx_time_s.size) if np.isfinite(obs.pseudorange_m[e]).any()]
     if not rows:
         raise ConfigError("observables", "no epoch holds a pseudorange: nothing to write")

@@ -1,14 +1,15 @@
 """RTCM 3 MSM7 observation messages of a receiver's observables (``observations.rtcm3``).
 
 One Multiple Signal Message of type 7 per epoch (RTCM 10403.3 section 3.5.12: 1077 GPS,
-1117 QZSS, 1097 Galileo), in a transport frame (preamble 0xD3, 6 reserved bits, 10-bit
-length, the message, CRC-24Q of section 4). Its fields:
+1117 QZSS, 1097 Galileo, 1127 BeiDou), in a transport frame (preamble 0xD3, 6 reserved
+bits, 10-bit length, the message, CRC-24Q of section 4). Its fields:
 
 * header: DF002 message number, DF003 station 0, DF004 epoch time (the receiver clock's
-  time of week in whole ms, 30 bits), DF393 multiple message 0, DF409 IODS 0, 7 reserved
-  bits, DF411 clock steering 0, DF412 external clock 0, DF417 smoothing 0, DF418 interval 0,
-  DF394 the 64-bit satellite mask, DF395 the 32-bit signal mask (one signal: L1 C/A is
-  signal ID 2, table 3.5-91) and DF396 the cell mask (one bit per satellite);
+  time of week in whole ms, 30 bits; BeiDou's DF427 is in BDT, 14 s less), DF393 multiple
+  message 0, DF409 IODS 0, 7 reserved bits, DF411 clock steering 0, DF412 external clock 0,
+  DF417 smoothing 0, DF418 interval 0, DF394 the 64-bit satellite mask, DF395 the 32-bit
+  signal mask (one signal: L1 C/A is signal ID 2, table 3.5-91; B1I's 2I is 2 too,
+  table 3.5-108) and DF396 the cell mask (one bit per satellite);
 * per satellite: DF397 whole ms of rough range (8 bits), DF419 extended information
   (4 bits, 0), DF398 rough range modulo 1 ms (10 bits, 2^-10 ms), DF399 rough phase range
   rate (14 bits, m/s);
@@ -26,8 +27,11 @@ start of each arc (lock lost or no phase before) to lie on the pseudorange, as t
 phase range field (±2^-8 ms, ±1171 m about the rough range) requires; a phase that drifts
 outside it is sent invalid. The lock time is the time since that arc's start (a slip
 restarts it, so a decoder sees the loss of lock). A signal without a phase or a Doppler
-sends those fields invalid (the spec's most negative values). Several signals (`multi_receive.SignalSet`) send one
-MSM7 per system and epoch (1077 and 1097), all but the epoch's last with DF393 1. The bits are packed here
+sends those fields invalid (the spec's most negative values).
+
+Several signals (`multi_receive.SignalSet`) send one MSM7 per system and epoch (1077 and
+1097), all but the epoch's last with DF393 1; two signals of one system (BeiDou B1I from its
+D1 and GEO satellites: one observable) share their system's. The bits are packed here
 (pyrtcm, the reference decoder of the tests, reads MSMs but does not build them).
 """
 
@@ -46,11 +50,13 @@ from .observables import SPEED_OF_LIGHT_MPS, Observables
 __all__ = ["msm7_frames", "write_rtcm", "crc24q", "lock_time_indicator", "MSM7_MESSAGE"]
 
 #: MSM7 message number per RINEX system letter (RTCM 10403.3 table 3.5-75).
-MSM7_MESSAGE = {"G": 1077, "E": 1097, "J": 1117}
+MSM7_MESSAGE = {"G": 1077, "E": 1097, "J": 1117, "C": 1127}
 #: MSM signal ID of a RINEX observation code, per system (tables 3.5-91, 3.5-99, 3.5-105).
-_SIGNAL_ID = {"G": {"1C": 2}, "E": {"1C": 2, "1B": 4, "1X": 5}, "J": {"1C": 2}}
+_SIGNAL_ID = {"G": {"1C": 2}, "E": {"1C": 2, "1B": 4, "1X": 5}, "J": {"1C": 2}, "C": {"2I": 2}}
 #: MSM satellite ID = PRN - this (QZSS PRN 193 is satellite 1).
-_SATELLITE_OFFSET = {"G": 0, "E": 0, "J": 192}
+_SATELLITE_OFFSET = {"G": 0, "E": 0, "J": 192, "C": 0}
+#: The epoch time's scale: GPS time less this (ms); BeiDou's DF427 is BDT, GPST - 14 s.
+_EPOCH_OFFSET_MS = {"C": 14_000}
 _LIGHT_MS_M = SPEED_OF_LIGHT_MPS * 1e-3
 _WEEK_MS = 604_800_000
 
@@ -129,13 +135,15 @@ def msm7_frames(obs: Observables, signal: SignalSpec = GPS_L1CA, station_id: int
     ConfigError
         For a system or observation code without an MSM7 signal here.
     """
-    signals = getattr(signal, "signals", None)
-    if signals is None:
+    groups = getattr(signal, "groups", None)
+    if groups is None:
         return [frame for _, frame in _msm7(obs, signal, station_id)]
     from .multi_receive import KEY_STEP
 
     index = np.asarray(obs.prn, int) // KEY_STEP
-    parts = [_columns(obs, np.flatnonzero(index == i), KEY_STEP) for i in range(len(signals))]
+    # A system's signals in one MSM (one observable: `SignalSet.groups`).
+    parts = [_columns(obs, np.flatnonzero(np.isin(index, members)), KEY_STEP) for _, members in groups]
+    signals = [first for first, _ in groups]
     sent = [_msm7_epochs(p) for p in parts]
     frames = []
     for i, (part, one) in enumerate(zip(parts, signals)):
@@ -198,7 +206,7 @@ def _msm7(
         for value, width in (
             (MSM7_MESSAGE[system], 12),
             (station_id, 12),
-            (int(t_ms[e]) % _WEEK_MS, 30),
+            ((int(t_ms[e]) - _EPOCH_OFFSET_MS.get(system, 0)) % _WEEK_MS, 30),
             (int(more is not None and more[e]), 1),
             (0, 3),
             (0, 7),
