@@ -40,6 +40,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from . import fec
+from .bds_iono import BdsKlobuchar
 from .bit_fields import Layout, decode_fields, encode_fields, field_integer
 from .ephemeris import KEPLER_TO_RINEX, SEMICIRCLE_FIELDS, Ephemerides
 from .lnav import URA_M
@@ -269,8 +270,9 @@ class D1Message:
     subframes 1-3 of one frame (None without), ``bdt`` ``(bit index, BDT week, SOW)`` of
     the last subframe kept (the week of the last subframe 1 before it; None before one),
     the last fields of each subframe ID, and one line per subframe of the stream's grid
-    that was not kept. ``iono_time`` is None: subframe 1's Klobuchar coefficients (BDS's
-    own model) are decoded into ``fields``, not applied."""
+    that was not kept. ``iono_time`` is None (I/NAV's NeQuick and time parameters have no
+    D1 counterpart here); ``iono`` the Klobuchar coefficients of the last subframe 1
+    (`bds_iono.BdsKlobuchar`, BeiDou's own model)."""
 
     subframes: list[D1Subframe]
     ephemeris: Ephemerides | None
@@ -283,6 +285,11 @@ class D1Message:
     def pages(self) -> list[D1Subframe]:
         """The subframes, under the name I/NAV's and F/NAV's messages give their pages."""
         return self.subframes
+
+    @property
+    def iono(self) -> BdsKlobuchar | None:
+        """The last subframe 1's Klobuchar coefficients (None without a subframe 1)."""
+        return BdsKlobuchar.from_fields(self.fields[1]) if 1 in self.fields else None
 
     @property
     def gst(self) -> tuple[int, int | None, float] | None:

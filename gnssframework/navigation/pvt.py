@@ -69,12 +69,15 @@ from .ephemeris import (
     satellite_state,
     single_frequency_clock_s,
 )
+from .bds_iono import BdsKlobuchar
 from .lnav import PI_IS_GPS, IonoUtc
 
 __all__ = [
     "PositionFix",
     "RAIM_STATUSES",
     "klobuchar_delay_s",
+    "broadcast_iono_delay_s",
+    "iono_reference",
     "troposphere_delay_m",
     "dop",
     "solve_position",
@@ -186,6 +189,27 @@ def klobuchar_delay_s(
     x = 2 * PI_IS_GPS * (t - 50_400.0) / per
     day = F * (5e-9 + amp * (1 - x**2 / 2 + x**4 / 24))
     return np.where(np.abs(x) < 1.57, day, F * 5e-9)
+
+
+def broadcast_iono_delay_s(
+    iono: IonoUtc | BdsKlobuchar,
+    lat_deg: float,
+    lon_deg: float,
+    azimuth_deg: np.ndarray,
+    elevation_deg: np.ndarray,
+    gps_tow_s: float,
+) -> np.ndarray:
+    """The broadcast model's ionospheric delay (s) at its own reference carrier
+    (`iono_reference`): GPS's page 18 by IS-GPS-200's algorithm (`klobuchar_delay_s`, L1),
+    BeiDou's coefficients by the BDS ICD's (`bds_iono.bds_klobuchar_delay_s`, B1I)."""
+    if isinstance(iono, BdsKlobuchar):
+        return iono.delay_s(lat_deg, lon_deg, azimuth_deg, elevation_deg, gps_tow_s)
+    return klobuchar_delay_s(iono.alpha, iono.beta, lat_deg, lon_deg, azimuth_deg, elevation_deg, gps_tow_s)
+
+
+def iono_reference(iono: IonoUtc | BdsKlobuchar | None) -> SignalSpec:
+    """The signal whose delay ``iono``'s model gives: B1I for BeiDou's, L1 C/A otherwise."""
+    return iono.reference if isinstance(iono, BdsKlobuchar) else GPS_L1CA
 
 
 def troposphere_delay_m(
@@ -313,7 +337,7 @@ def _least_squares(
             corr = np.zeros(S)
             iono_m = None
             if iono is not None:
-                iono_m = iono_scale * _C * klobuchar_delay_s(iono.alpha, iono.beta, lat, lon, az, el, tow_s)
+                iono_m = iono_scale * _C * broadcast_iono_delay_s(iono, lat, lon, az, el, tow_s)
                 corr = corr + iono_m
             if troposphere:
                 corr = corr + troposphere_delay_m(lat, h, el)
@@ -376,7 +400,7 @@ def solve_position(
     ephemeris: Ephemerides,
     *,
     doppler_hz: np.ndarray | None = None,
-    iono: IonoUtc | None = None,
+    iono: IonoUtc | BdsKlobuchar | None = None,
     troposphere: bool = False,
     sigma_m: float = 5.0,
     elevation_mask_deg: float = 5.0,
@@ -415,7 +439,10 @@ def solve_position(
         own system's carrier: its Doppler's wavelength, its single-frequency clock and its
         ionospheric scale (``wavelength_m`` must then be None).
     iono
-        Broadcast Klobuchar coefficients (None: no ionospheric correction).
+        Broadcast Klobuchar coefficients (None: no ionospheric correction): GPS's page 18
+        (`lnav.IonoUtc`, IS-GPS-200's model, L1's delay) or BeiDou's (`bds_iono.BdsKlobuchar`,
+        the BDS ICD's model, B1I's delay); each satellite's delay scaled from that signal's
+        carrier to its own (`broadcast_iono_delay_s`).
     troposphere
         Apply `troposphere_delay_m`.
     sigma_m
@@ -491,12 +518,12 @@ def solve_position(
     carriers = carriers_of(letters) if carriers_of is not None else None
     if carriers is None or np.all(carriers == carriers[0]):
         carrier_hz = _C / signal.wavelength_m if carriers is None else float(carriers[0])
-        iono_scale: float | np.ndarray = ionosphere_scale(carrier_hz)
+        iono_scale: float | np.ndarray = ionosphere_scale(carrier_hz, iono_reference(iono))
         lam_sv: float | np.ndarray = _C / carrier_hz if wavelength_m is None else wavelength_m
     else:
         if wavelength_m is not None:
             raise ConfigError("wavelength_m", f"{signal.name}: one wavelength given for signals on different carriers")
-        iono_scale = np.array([ionosphere_scale(float(c)) for c in carriers])
+        iono_scale = np.array([ionosphere_scale(float(c), iono_reference(iono)) for c in carriers])
         lam_sv = _C / carriers
 
     def sv_clock_s(st: SatelliteState) -> np.ndarray:

@@ -95,6 +95,9 @@ def test_every_fix_uses_the_d1_satellites_and_both_geos(geo_meo):
     _, meo, geo, _, result = geo_meo
     obs, table = result.observables, result.positions
     assert sorted(B1I.rinex_satellite(int(k)) for k in obs.prn) == sorted([*meo.sv, *geo.sv])
+    # D1's Klobuchar coefficients reach the fixes (`Observables.bds_iono`): the generator's
+    # subframe 1 sends zeros (and delays nothing: the model's 5 ns at night is left in).
+    assert obs.bds_iono is not None and obs.bds_iono.alpha == (0.0,) * 4
     assert table is not None and len(table) >= 2 * (DURATION_S - 2)
     assert all(len(u) == 5 for u in table.used_prns)
     sigma = []

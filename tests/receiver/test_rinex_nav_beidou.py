@@ -68,3 +68,29 @@ def test_a_gps_record_is_not_written_as_a_bds_one(tmp_path):
     bds = _firsts().subset(np.array([1]))
     with pytest.raises(ConfigError, match="a BeiDou record as G"):
         write_rinex_nav(tmp_path / "n.rnx", [NavRecord(5, bds, GPS_WEEK, 100.0)], signal=GPS_L1CA)
+
+
+def test_d1s_klobuchar_coefficients_go_in_the_header_as_bdsa_and_bdsb(tmp_path):
+    """D1 subframe 1's coefficients (GNSSTk's C06 values) as RINEX 3.04's ``BDSA``/``BDSB``
+    lines, read back by georinex to the written precision (D12.4: 5e-5 relative)."""
+    import warnings
+
+    import georinex
+
+    from gnssframework.navigation.bds_iono import BdsKlobuchar
+
+    iono = BdsKlobuchar(
+        (6.519258e-09, 2.98023223876953125e-08, -2.98023223876953125e-07, 4.17232513427734375e-07),
+        (112640.0, 180224.0, -524288.0, 458752.0),
+    )
+    recs = _firsts()
+    rec = recs.subset(np.array([int(np.flatnonzero(recs.sv == "C11")[0])]))
+    nav = NavRecord(11, rec, GPS_WEEK, (float(rec.toc_s[0]) + 32.0) % 604_800)
+    path = write_rinex_nav(tmp_path / "navigation.rnx", [nav], signal=BEIDOU_B1I, bds_iono=iono)
+    lines = [ln for ln in path.read_text().splitlines() if ln[60:].strip() == "IONOSPHERIC CORR"]
+    assert [ln[:4] for ln in lines] == ["BDSA", "BDSB"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hdr = georinex.rinexheader(path)
+    np.testing.assert_allclose(hdr["IONOSPHERIC CORR"]["BDSA"], iono.alpha, rtol=5e-5)
+    np.testing.assert_allclose(hdr["IONOSPHERIC CORR"]["BDSB"], iono.beta, rtol=5e-5)

@@ -23,6 +23,7 @@ from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides, _wrap_week, records_with_clock
 from ...navigation.dual_frequency import DualFrequency
 from ...navigation.weeks import full_week as nearest_week
+from ...navigation.bds_iono import BdsKlobuchar
 from ...navigation.lnav import IonoUtc
 from .observables import SPEED_OF_LIGHT_MPS, Observables
 from ...navigation.pvt import PositionFix, solve_position
@@ -137,7 +138,7 @@ def solve_epochs(
     *,
     ionosphere: bool = True,
     troposphere: bool = False,
-    iono: IonoUtc | None = None,
+    iono: IonoUtc | BdsKlobuchar | None = None,
     sigma_m: float = 5.0,
     elevation_mask_deg: float = ELEVATION_MASK_DEG,
     reference_week: int | None = None,
@@ -156,7 +157,8 @@ def solve_epochs(
     ``signal`` names the satellites in ``rinex`` (its `SignalSpec.rinex_satellite`); records
     that give its user no clock are not used (`ephemeris.records_with_clock`).
 
-    ``iono`` overrides the decoded page 18; with ``ionosphere`` False no ionospheric
+    ``iono`` overrides the decoded page 18 (and D1's coefficients, `Observables.bds_iono`,
+    taken without a page 18); with ``ionosphere`` False no ionospheric
     correction is made; ``elevation_weights`` and ``weighting`` as `solve_position`'s
     (``rtklib``: RTKLIB's single-point error model). Epochs with fewer than four usable
     satellites give no row. ``raim``, ``false_alarm``, ``missed_detection`` and
@@ -167,7 +169,9 @@ def solve_epochs(
     (`dual_frequency.DualFrequency`, `dual_observables.ionosphere_free_observables`), solved
     with its satellite clock and no ionospheric correction.
     """
-    klobuchar = (iono or obs.iono_utc) if ionosphere else None
+    # GPS's page 18 first (for every satellite, as RTKLIB); else BeiDou's D1 coefficients
+    # by its own model (`bds_iono`).
+    klobuchar = (iono or obs.iono_utc or obs.bds_iono) if ionosphere else None
     if isinstance(signal, SignalSpec):  # one signal; a multi_receive.SignalSet is not filtered here
         rinex = records_with_clock(rinex, signal.carrier_freq_hz)  # an I/NAV record gives no E5a clock
     week = full_week(obs.week, reference_week, obs.week_bits)

@@ -47,6 +47,7 @@ from ...errors import ConfigError
 from ...navigation import d1nav, d2nav, fnav
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.inav import PAGE_SYMBOLS, InavMessage, decode_inav
+from ...navigation.bds_iono import BdsKlobuchar
 from ...navigation.inav_params import InavIonoTime, merge_iono_time
 from ...navigation.lnav import LnavMessage
 from ...signal.spec import SignalSpec
@@ -191,7 +192,8 @@ class InavTiming:
     is sent upright); ``arc_start`` True on the first dated row of each run;
     ``ephemerides`` each run's complete ephemeris with the recording time of the run's
     last row (when it is surely in hand); ``iono_time`` the NeQuick, GST-UTC and GGTO of
-    the last runs that decoded word types 5, 6 and 10 (each part from the last run with it).
+    the last runs that decoded word types 5, 6 and 10 (each part from the last run with it);
+    ``bds_iono`` the Klobuchar coefficients of D1's last subframe 1 (`d1nav.D1Message.iono`).
     """
 
     prn: int
@@ -204,6 +206,7 @@ class InavTiming:
     arc_start: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     ephemerides: list[tuple[float, Ephemerides]] = field(default_factory=list)
     iono_time: InavIonoTime | None = None
+    bds_iono: BdsKlobuchar | None = None
 
     @property
     def pages(self) -> int:
@@ -296,6 +299,7 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
         starts,
         ephemerides,
         iono_time,
+        next((m.iono for m in reversed(messages) if isinstance(m, d1nav.D1Message) and m.iono is not None), None),
     )
 
 
@@ -355,6 +359,7 @@ def inav_channel_timing(record: ChannelRecord, signal: SignalSpec) -> ChannelTim
         arc_start,
         np.ones(r.size, bool),
         inav_iono_time=timing.iono_time,
+        bds_iono=timing.bds_iono,
     )
 
 

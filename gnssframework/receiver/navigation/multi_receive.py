@@ -224,7 +224,7 @@ def receive_signals(
     if not any(t is not None and t.time_s.size > 1 for t in timings):
         return ReceiveResult(tracking_all, None, None)
     obs = observables(timings, rate_hz)
-    iono = iono_fallback if obs.iono_utc is None else None
+    iono = iono_fallback if obs.iono_utc is None and obs.bds_iono is None else None
     offsets = broadcast_time_offsets(obs, reference_week) if broadcast_ggto else None
     table = solve_epochs(
         obs,

@@ -61,6 +61,7 @@ from ...signal.navdata import data_bit_period_s
 from ...signal.spec import SignalSpec
 from .bit_stream import bit_ms, bit_runs
 from ...navigation.ephemeris import Ephemerides
+from ...navigation.bds_iono import BdsKlobuchar
 from ...navigation.inav_params import InavIonoTime, merge_iono_time
 from ...navigation.lnav import BITS_PER_SUBFRAME, IonoUtc, LnavMessage, decode_lnav, find_subframes
 
@@ -127,6 +128,8 @@ class ChannelTiming:
     tow_offset_s: float | None = None
     #: Galileo E1-B only (`inav_stream.inav_channel_timing`): the NeQuick, GST-UTC and GGTO decoded.
     inav_iono_time: InavIonoTime | None = None
+    #: BeiDou B1I only: D1's Klobuchar coefficients (`bds_iono.BdsKlobuchar`).
+    bds_iono: BdsKlobuchar | None = None
 
 
 def _bit_time(run, time_s: np.ndarray, bit: int, bit_s: float) -> float:
@@ -360,6 +363,8 @@ class Observables:
     (`assisted_timing`), ``iono_utc`` is the assistance's and ``week`` None. ``galileo``: the
     NeQuick, GST-UTC and GGTO decoded from I/NAV (`inav_params.InavIonoTime`, each part
     from the first channel, in ``timings`` order, that has it; None without I/NAV).
+    ``bds_iono``: BeiDou's Klobuchar coefficients from D1 (`bds_iono.BdsKlobuchar`, the first
+    channel's that has them; None without).
     """
 
     rx_time_s: np.ndarray
@@ -376,6 +381,7 @@ class Observables:
     lli: np.ndarray | None = None
     galileo: InavIonoTime | None = None
     week_bits: int = 10
+    bds_iono: BdsKlobuchar | None = None
 
 
 def _interp(t_new: np.ndarray, t: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -457,8 +463,9 @@ def observables(
     galileo = None
     for t in reversed(timings):  # the first channel's parts win
         galileo = merge_iono_time(galileo, t.inav_iono_time)
+    bds = next((t.bds_iono for t in timings if t.bds_iono is not None), None)
     return Observables(
-        epochs % _WEEK_S, sample_t, prn, tx % _WEEK_S, pr, dop, cyc, cn0, eph, iono, week, lli, galileo, week_bits
+        epochs % _WEEK_S, sample_t, prn, tx % _WEEK_S, pr, dop, cyc, cn0, eph, iono, week, lli, galileo, week_bits, bds
     )
 
 

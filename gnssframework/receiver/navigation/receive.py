@@ -282,8 +282,9 @@ def _with_rejoined(
 
 
 def _fallback(obs: Observables, iono: IonoUtc | None) -> IonoUtc | None:
-    """``iono`` where no channel decoded page 18 (None keeps the decoded one)."""
-    return iono if obs.iono_utc is None else None
+    """``iono`` where no channel decoded page 18 or D1's coefficients (None keeps the
+    decoded ones)."""
+    return iono if obs.iono_utc is None and obs.bds_iono is None else None
 
 
 def assisted_observables(

@@ -126,7 +126,9 @@ def write_extra_outputs(
             notes.append(f"no RINEX navigation layout for {signal.name}: no navigation.rnx")
         else:
             records = decoded_records(obs.ephemeris, obs.sample_time_s, obs.rx_time_s, week)
-            written.append(write_rinex_nav(out / "navigation.rnx", records, obs.iono_utc, signal, obs.galileo))
+            written.append(
+                write_rinex_nav(out / "navigation.rnx", records, obs.iono_utc, signal, obs.galileo, obs.bds_iono)
+            )
     if "geojson" in outputs:
         from .track_out import write_geojson
 

@@ -42,15 +42,16 @@ A13): the Toc in BDT (its calendar BDT's own: BDT week 0 began with GPS week 135
 GPS time later), AODE in the first orbit line, BROADCAST ORBIT 5 ``IDOT, spare, BDT week,
 spare``, ORBIT 6 ``SV accuracy (m), SatH1, TGD1, TGD2`` and ORBIT 7 the transmission time
 (seconds of the BDT week at which the receiver had the record, its GPS time less 14 s) and
-AODC, which the decoded record does not keep: written 0. The header takes no BeiDou
-ionospheric line (subframe 1's coefficients are decoded, not kept with the record). A
-system of another layout (SBAS, GLONASS) is refused.
+AODC, which the decoded record does not keep: written 0. The header takes D1 subframe 1's
+Klobuchar coefficients as ``IONOSPHERIC CORR`` ``BDSA`` / ``BDSB`` (``A4,1X,4D12.4``, as
+GPS's) where decoded. A system of another layout (SBAS, GLONASS) is refused.
 
 The records of a run of several signals (`multi_receive.SignalSet`, system ``M``) go into
 one mixed file (RINEX 3.04 6.9, ``M: MIXED`` in the first header line), each record in its
 own system's layout above (the satellite's system from `SignalSet.signal_of`), with both
-headers' lines: GPS's ``GPSA``/``GPSB``/``GPUT`` from page 18 and Galileo's ``GAL``/
-``GAUT``/``GAGP`` from word types 5, 6 and 10, each where decoded, and one ``LEAP SECONDS``
+headers' lines: GPS's ``GPSA``/``GPSB``/``GPUT`` from page 18, Galileo's ``GAL``/
+``GAUT``/``GAGP`` from word types 5, 6 and 10 and BeiDou's ``BDSA``/``BDSB`` from D1, each
+where decoded, and one ``LEAP SECONDS``
 (page 18's, else word 6's: both broadcast the same GPS-UTC leap seconds).
 """
 
@@ -63,6 +64,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ConfigError
+from ...navigation.bds_iono import BdsKlobuchar
 from ...navigation.ephemeris import Ephemerides
 from ...navigation.inav_params import InavIonoTime
 from ...navigation.weeks import full_week
@@ -233,7 +235,11 @@ def _galileo_header(week: int, galileo: InavIonoTime, leap: bool = True) -> list
 
 
 def _header(
-    records: list[NavRecord], iono: IonoUtc | None, signal: SignalSpec, galileo: InavIonoTime | None = None
+    records: list[NavRecord],
+    iono: IonoUtc | None,
+    signal: SignalSpec,
+    galileo: InavIonoTime | None = None,
+    bds_iono: BdsKlobuchar | None = None,
 ) -> list[str]:
     first = records[0]
     stamp = _calendar(first.week, first.tow_s).strftime("%Y%m%d %H%M%S") + " GPS"  # the data's date: same bytes
@@ -253,6 +259,11 @@ def _header(
             _time_corr("GPUT", iono.a0_s, iono.a1_s_s, iono.tot_s, wnt),
             _line(f"{int(iono.dt_ls_s):6d}", "LEAP SECONDS"),
         ]
+    if bds_iono is not None and signal.system in ("C", "M"):  # D1 subframe 1's (RINEX 3.04 BDSA/BDSB)
+        out += [
+            _line("BDSA " + "".join(_d12(v) for v in bds_iono.alpha), "IONOSPHERIC CORR"),
+            _line("BDSB " + "".join(_d12(v) for v in bds_iono.beta), "IONOSPHERIC CORR"),
+        ]
     if galileo is not None and signal.system in ("E", "M"):  # a mixed file: one LEAP SECONDS line
         out += _galileo_header(first.week, galileo, leap=not (signal.system == "M" and iono is not None))
     return out + [_line("", "END OF HEADER")]
@@ -264,10 +275,12 @@ def write_rinex_nav(
     iono: IonoUtc | None = None,
     signal: SignalSpec = GPS_L1CA,
     galileo: InavIonoTime | None = None,
+    bds_iono: BdsKlobuchar | None = None,
 ) -> Path:
-    """Write ``records`` (`decoded_records`) and the page 18 ``iono`` (GPS, QZSS) or the
-    I/NAV words 5, 6 and 10's ``galileo`` (Galileo) as a RINEX 3.04 navigation file of
-    ``signal``'s system (see the module text).
+    """Write ``records`` (`decoded_records`) and the page 18 ``iono`` (GPS, QZSS), the
+    I/NAV words 5, 6 and 10's ``galileo`` (Galileo) or D1's Klobuchar ``bds_iono`` (BeiDou,
+    ``BDSA``/``BDSB``) as a RINEX 3.04 navigation file of ``signal``'s system (see the
+    module text).
 
     Raises
     ------
@@ -311,5 +324,5 @@ def write_rinex_nav(
             + "\n"
         )
         body += _orbit_lines(nav, _system_of(signal, nav.prn))
-    path.write_text("".join(_header(records, iono, signal, galileo) + body))
+    path.write_text("".join(_header(records, iono, signal, galileo, bds_iono) + body))
     return path
