@@ -119,6 +119,12 @@ class BdsKlobuchar:
             gps_tow_s - _BDT_OFFSET_S,
         )
 
+    def fields(self) -> dict[str, float]:
+        """D1 subframe 1's field values (`d1nav`'s names): the inverse of `from_fields`."""
+        names = ("alpha0_s", "alpha1_s_sc", "alpha2_s_sc2", "alpha3_s_sc3")
+        out = dict(zip(names, map(float, self.alpha)))
+        return out | dict(zip((n.replace("alpha", "beta") for n in names), map(float, self.beta)))
+
     @classmethod
     def from_fields(cls, fields: dict[str, float]) -> BdsKlobuchar:
         """From D1 subframe 1's decoded fields (`d1nav`: ``alpha0_s``..., ``beta0_s``...)."""

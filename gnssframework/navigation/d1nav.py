@@ -478,13 +478,18 @@ def ephemeris_to_subframes(record: Ephemerides) -> dict[int, dict[str, float]]:
     return {t: {k: values[k] for k in SUBFRAME_LAYOUTS[t] if k in values} for t in (1, 2, 3)}
 
 
-def encode_d1(record: Ephemerides, wn: int, first_sow: int, n_subframes: int) -> np.ndarray:
+def encode_d1(
+    record: Ephemerides, wn: int, first_sow: int, n_subframes: int, iono: BdsKlobuchar | None = None
+) -> np.ndarray:
     """±1 bits (int8, bit 0 as +1) of ``n_subframes`` consecutive subframes of one satellite
     from BDT ``first_sow`` (a multiple of 6 s) of BDT week ``wn`` on: subframes 1-3 carry
-    ``record``, 4 and 5 their header alone."""
+    ``record`` (subframe 1 the Klobuchar coefficients ``iono``, zero without), 4 and 5
+    their header alone."""
     if first_sow % 6 or not 0 <= first_sow < _WEEK_S:
         raise ConfigError("first_sow", f"a D1 subframe starts on a multiple of 6 s of BDT, got {first_sow}")
     base = ephemeris_to_subframes(record)
+    if iono is not None:
+        base[1] = base[1] | iono.fields()
     out = []
     for k in range(n_subframes):
         t = first_sow + 6 * k
@@ -495,13 +500,15 @@ def encode_d1(record: Ephemerides, wn: int, first_sow: int, n_subframes: int) ->
     return (1 - 2 * np.concatenate(out).astype(np.int8)).astype(np.int8)
 
 
-def d1_symbols(record: Ephemerides, wn: int, sow_s: float, n_bits: int) -> tuple[np.ndarray, float]:
+def d1_symbols(
+    record: Ephemerides, wn: int, sow_s: float, n_bits: int, iono: BdsKlobuchar | None = None
+) -> tuple[np.ndarray, float]:
     """±1 D1 bits (int8) from the one in force at BDT ``sow_s`` of week ``wn`` on, for the IF
     generator's data (`beidou-b1i`: one bit every 20 code periods), and the time (s) from
-    the first bit's start to ``sow_s``. Subframes as `encode_d1`."""
+    the first bit's start to ``sow_s``. Subframes as `encode_d1` (``iono`` in subframe 1)."""
     first = int(np.floor(sow_s / SUBFRAME_S)) * 6
     into = sow_s - first
     skip = int(np.floor(into * SYMBOL_RATE_HZ))
     n_sub = int(np.ceil((skip + n_bits) / SUBFRAME_BITS))
-    bits = encode_d1(record, wn, first % _WEEK_S, n_sub)[skip : skip + n_bits]
+    bits = encode_d1(record, wn, first % _WEEK_S, n_sub, iono)[skip : skip + n_bits]
     return bits, float(into - skip / SYMBOL_RATE_HZ)

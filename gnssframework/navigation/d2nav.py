@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
+from .bds_iono import BdsKlobuchar
 from .bit_fields import Layout, decode_fields, encode_fields, field_integer
 from .d1nav import (
     INFO_BITS,
@@ -79,7 +80,17 @@ PAGE_LAYOUTS: dict[int, Layout] = {
         "tgd1_s": (83, 10, 1e-10, True),
         "tgd2_s": (93, 10, 1e-10, True),
     },
-    2: {},
+    # Klobuchar's coefficients, as D1 subframe 1's (BeiDou's own model: `bds_iono`).
+    2: {
+        "alpha0_s": (43, 8, 2.0**-30, True),
+        "alpha1_s_sc": (51, 8, 2.0**-27, True),
+        "alpha2_s_sc2": (59, 8, 2.0**-24, True),
+        "alpha3_s_sc3": (67, 8, 2.0**-24, True),
+        "beta0_s": (75, 8, 2.0**11, True),
+        "beta1_s_sc": (83, 8, 2.0**14, True),
+        "beta2_s_sc2": (91, 8, 2.0**16, True),
+        "beta3_s_sc3": (99, 8, 2.0**16, True),
+    },
     3: {"af0_s": (81, 24, 2.0**-33, True), "af1_msb": (105, 4, 1, True)},
     4: {
         "af1_lsb": (43, 18, 1, False),
@@ -157,7 +168,8 @@ class D2Message:
     last complete page cycle (None without), ``bdt`` ``(bit index, BDT week, BDT s)`` of
     the last subframe kept (its own start; the week of the last page 1 before it), the
     last fields of each page of subframe 1 (``page_fields``), and one line per grid
-    subframe not kept. ``iono_time`` is None (page 2 is not read)."""
+    subframe not kept. ``iono_time`` is None (I/NAV's NeQuick and time parameters have no D2
+    counterpart here); ``iono`` page 2's Klobuchar coefficients (`bds_iono.BdsKlobuchar`)."""
 
     subframes: list[D2Subframe]
     ephemeris: Ephemerides | None
@@ -175,6 +187,11 @@ class D2Message:
     def gst(self) -> tuple[int, int | None, float] | None:
         """``bdt`` in GPS time (BDT + 14 s; BDT week + 1356), as the receiver dates rows."""
         return None if self.bdt is None else gps_time_of(*self.bdt)
+
+    @property
+    def iono(self) -> BdsKlobuchar | None:
+        """The last page 2's Klobuchar coefficients (None without a page 2)."""
+        return BdsKlobuchar.from_fields(self.page_fields[2]) if 2 in self.page_fields else None
 
 
 def _consistent(fraid: int, sow: int, pnum: int) -> bool:
@@ -281,8 +298,8 @@ def decode_d2(bits: np.ndarray, prn: int) -> D2Message:
 
 def ephemeris_to_pages(record: Ephemerides) -> dict[int, dict[str, float]]:
     """Field values of pages 1-10 of subframe 1 of one BeiDou record (`d1nav.record_values`,
-    the split elements cut in two; page 2's ionosphere as zero); the BDT week is set when
-    sent (`encode_d2`)."""
+    the split elements cut in two; page 2's ionosphere as zero, or ``iono`` in `encode_d2`);
+    the BDT week is set when sent (`encode_d2`)."""
     values = record_values(record)
     for name, (high, low, n, scale) in _SPLIT.items():
         q = int(np.round(values[name] / scale))
@@ -290,13 +307,18 @@ def ephemeris_to_pages(record: Ephemerides) -> dict[int, dict[str, float]]:
     return {p: {k: values[k] for k in PAGE_LAYOUTS[p] if k in values} for p in PAGE_LAYOUTS}
 
 
-def encode_d2(record: Ephemerides, wn: int, first_sow: int, n_frames: int) -> np.ndarray:
+def encode_d2(
+    record: Ephemerides, wn: int, first_sow: int, n_frames: int, iono: BdsKlobuchar | None = None
+) -> np.ndarray:
     """±1 bits (int8, bit 0 as +1) of ``n_frames`` consecutive 3 s frames of one GEO
     satellite from BDT ``first_sow`` (a multiple of 3 s) of BDT week ``wn``: subframe 1 the
-    page of each frame, subframes 2-5 their header alone."""
+    page of each frame (page 2 the Klobuchar coefficients ``iono``, zero without),
+    subframes 2-5 their header alone."""
     if first_sow % 3 or not 0 <= first_sow < _WEEK_S:
         raise ConfigError("first_sow", f"a D2 frame starts on a multiple of 3 s of BDT, got {first_sow}")
     base = ephemeris_to_pages(record)
+    if iono is not None:
+        base[2] = base[2] | iono.fields()
     out = []
     for k in range(n_frames):
         t = first_sow + 3 * k
@@ -308,13 +330,16 @@ def encode_d2(record: Ephemerides, wn: int, first_sow: int, n_frames: int) -> np
     return (1 - 2 * np.concatenate(out).astype(np.int8)).astype(np.int8)
 
 
-def d2_symbols(record: Ephemerides, wn: int, sow_s: float, n_bits: int) -> tuple[np.ndarray, float]:
+def d2_symbols(
+    record: Ephemerides, wn: int, sow_s: float, n_bits: int, iono: BdsKlobuchar | None = None
+) -> tuple[np.ndarray, float]:
     """±1 D2 bits (int8) from the one in force at BDT ``sow_s`` of week ``wn`` on, for the IF
     generator's data (`beidou-b1i-geo`: one bit every 2 code periods), and the time (s) from
-    the first bit's start to ``sow_s``. Frames as `encode_d2` (as `d1nav.d1_symbols` for D1)."""
+    the first bit's start to ``sow_s``. Frames as `encode_d2` (``iono`` in page 2; as
+    `d1nav.d1_symbols` for D1)."""
     first = int(np.floor(sow_s / FRAME_S)) * 3
     into = sow_s - first
     skip = int(np.floor(into * SYMBOL_RATE_HZ))
     n_frames = int(np.ceil((skip + n_bits) / (FRAME_S * SYMBOL_RATE_HZ)))
-    bits = encode_d2(record, wn + first // _WEEK_S, first % _WEEK_S, n_frames)[skip : skip + n_bits]
+    bits = encode_d2(record, wn + first // _WEEK_S, first % _WEEK_S, n_frames, iono)[skip : skip + n_bits]
     return bits, float(into - skip / SYMBOL_RATE_HZ)

@@ -156,3 +156,18 @@ def test_a_fix_on_pseudoranges_the_model_delayed_is_exact_with_it():
     assert fix is not None and bare is not None
     assert np.linalg.norm(fix.position_ecef_m - station) < 0.01
     assert np.linalg.norm(bare.position_ecef_m - station) > 1.0
+
+
+def test_d1_sends_the_coefficients_it_is_given():
+    """`d1nav.encode_d1` with an ``iono``: subframe 1 decodes to it within half an LSB of each
+    field (2^-30 s ... 2^16 s); without, to zeros."""
+    nav = read_rinex_nav(DATA / "VILL00ESP_R_20181700000_06H_MN.rnx", systems="C")
+    rec = nav.subset(np.flatnonzero(nav.sv == "C11")[:1])
+    iono = BdsKlobuchar((6.519258e-09, 2.98e-08, -2.98e-07, 4.17e-07), (112_640.0, 180_224.0, -524_288.0, 458_752.0))
+    lsb_a, lsb_b = (2.0**-30, 2.0**-27, 2.0**-24, 2.0**-24), (2.0**11, 2.0**14, 2.0**16, 2.0**16)
+    for sent, want in ((iono, iono), (None, BdsKlobuchar((0.0,) * 4, (0.0,) * 4))):
+        bits = d1nav.encode_d1(rec, 650, 172_800, 3, sent).astype(float)
+        got = d1nav.decode_d1(bits, 11).iono
+        assert got is not None
+        assert np.all(np.abs(np.subtract(got.alpha, want.alpha)) <= 0.5 * np.array(lsb_a))
+        assert np.all(np.abs(np.subtract(got.beta, want.beta)) <= 0.5 * np.array(lsb_b))

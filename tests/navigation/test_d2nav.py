@@ -69,6 +69,14 @@ def test_the_real_pages_decode_to_gnsstks_values():
     for name, value in GNSSTK.items():
         assert eph.elements[name][0] == pytest.approx(value, rel=1e-8, abs=1e-20), name
     assert eph.elements["sqrtA"][0] ** 2 == pytest.approx(4.2164428143935076892e07, rel=1e-15)
+    # Page 2: the Klobuchar coefficients GNSSTk decodes from it (PNBBDSD2NavDataFactory_T,
+    # the iono test: alpha 6.519258e-09 ... beta ... 458752).
+    p2 = decoded[2]
+    alpha = [p2[k] for k in ("alpha0_s", "alpha1_s_sc", "alpha2_s_sc2", "alpha3_s_sc3")]
+    np.testing.assert_allclose(
+        alpha, [6.519258e-09, 2.98023223876953125e-08, -2.98023223876953125e-07, 4.17232513427734375e-07], rtol=1e-7
+    )
+    assert [p2[k] for k in ("beta0_s", "beta1_s_sc", "beta2_s_sc2", "beta3_s_sc3")] == [112640, 180224, -524288, 458752]
 
 
 def test_a_missing_page_or_a_page_out_of_its_frame_is_refused():
@@ -130,3 +138,19 @@ def test_the_generators_bits_are_the_frames_from_the_bit_in_force():
     rolled = np.concatenate([d2nav.encode_d2(rec, wn, end, 1), d2nav.encode_d2(rec, wn + 1, 0, 1)])
     np.testing.assert_array_equal(bits, rolled[1499 : 1499 + 600])
     assert into == pytest.approx(0.0011, abs=1e-9)
+
+
+def test_page_2_sends_and_returns_the_coefficients_given():
+    """`encode_d2` with an ``iono``: a whole page cycle decodes (`D2Message.iono`) to it
+    within half an LSB of each field; without, to zeros."""
+    from gnssframework.navigation.bds_iono import BdsKlobuchar
+
+    rec = _geo_record()
+    iono = BdsKlobuchar((6.5e-09, 2.98e-08, -2.98e-07, 4.17e-07), (112_640.0, 180_224.0, -524_288.0, 458_752.0))
+    lsb = np.array([2.0**-30, 2.0**-27, 2.0**-24, 2.0**-24, 2.0**11, 2.0**14, 2.0**16, 2.0**16])
+    sow0 = int(rec.toc_s[0]) - 6
+    for sent, want in ((iono, iono), (None, BdsKlobuchar((0.0,) * 4, (0.0,) * 4))):
+        msg = d2nav.decode_d2(d2nav.encode_d2(rec, 650, sow0, 12, sent).astype(float), 5)
+        assert msg.iono is not None
+        got = np.r_[msg.iono.alpha, msg.iono.beta]
+        assert np.all(np.abs(got - np.r_[want.alpha, want.beta]) <= 0.5 * lsb)

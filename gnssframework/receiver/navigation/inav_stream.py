@@ -193,7 +193,8 @@ class InavTiming:
     ``ephemerides`` each run's complete ephemeris with the recording time of the run's
     last row (when it is surely in hand); ``iono_time`` the NeQuick, GST-UTC and GGTO of
     the last runs that decoded word types 5, 6 and 10 (each part from the last run with it);
-    ``bds_iono`` the Klobuchar coefficients of D1's last subframe 1 (`d1nav.D1Message.iono`).
+    ``bds_iono`` the Klobuchar coefficients of the last D1 subframe 1 or D2 page 2
+    (`d1nav.D1Message.iono`, `d2nav.D2Message.iono`).
     """
 
     prn: int
@@ -215,6 +216,10 @@ class InavTiming:
     @property
     def failures(self) -> list[str]:
         return [f for m in self.messages for f in m.failures]
+
+
+#: The messages that carry BeiDou's Klobuchar coefficients.
+_BEIDOU = (d1nav.D1Message, d2nav.D2Message)
 
 
 def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
@@ -299,7 +304,7 @@ def channel_inav(record: ChannelRecord, signal: SignalSpec) -> InavTiming:
         starts,
         ephemerides,
         iono_time,
-        next((m.iono for m in reversed(messages) if isinstance(m, d1nav.D1Message) and m.iono is not None), None),
+        next((m.iono for m in reversed(messages) if isinstance(m, _BEIDOU) and m.iono is not None), None),
     )
 
 
