@@ -150,31 +150,54 @@ def bds_records():
     return type(nav)(sv, nav.toc_s, elements, nav.health, nav.iode, nav.accuracy_m)
 
 
-def d1_streams(sats, t_sv0: np.ndarray, duration_s: float) -> list[tuple[np.ndarray, float]]:
-    """Each BeiDou satellite's D1 bits (`d1nav.d1_symbols`) for ``duration_s`` from 0.1 s
-    before its SV time ``t_sv0`` (GPS time; its SOW is BDT, 14 s less), with the SV time
-    (GPS) of the first bit's start: the streams of `noisy_recording.signal_chunks`."""
+def d1_streams(sats, t_sv0: np.ndarray, duration_s: float, iono=None) -> list[tuple[np.ndarray, float]]:
+    """Each BeiDou satellite's D1 bits (`d1nav.d1_symbols`, ``iono`` the Klobuchar
+    coefficients of subframe 1) for ``duration_s`` from 0.1 s before its SV time ``t_sv0``
+    (GPS time; its SOW is BDT, 14 s less), with the SV time (GPS) of the first bit's start:
+    the streams of `noisy_recording.signal_chunks`."""
     from gnssframework.navigation import d1nav
 
     streams = []
     for k in range(sats.sv.size):
         bits, into = d1nav.d1_symbols(
-            sats.subset(np.array([k])), BDT_WEEK, float(t_sv0[k]) - 14.0 - 0.1, int(duration_s * 50) + 20
+            sats.subset(np.array([k])), BDT_WEEK, float(t_sv0[k]) - 14.0 - 0.1, int(duration_s * 50) + 20, iono
         )
         streams.append((bits.astype(float), float(t_sv0[k]) - 0.1 - into))
     return streams
 
 
-def write_b1i_recording(path: Path, sats, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0) -> Path:
+def ionosphere_delayed(sv_time, iono):
+    """``sv_time`` with the ionosphere of the broadcast model ``iono`` between each satellite
+    and `STATION`: the signal received at ``t_rx`` left the satellite the model's delay
+    earlier (the code's group delay; the carrier is delayed alike here, where it should be
+    advanced: the fixes read the code)."""
+    import pymap3d
+
+    lat, lon, h = pymap3d.ecef2geodetic(*STATION)
+
+    def delayed(sats, t_rx):
+        t = np.asarray(t_rx, float)
+        pos = signal_flight(sats, t, STATION).position_m
+        az, el, _ = pymap3d.ecef2aer(pos[..., 0], pos[..., 1], pos[..., 2], lat, lon, h)
+        return sv_time(sats, t) - iono.delay_s(lat, lon, np.asarray(az), np.asarray(el), t)
+
+    return delayed
+
+
+def write_b1i_recording(
+    path: Path, sats, tow0: float, duration_s: float, seed: int, cn0_dbhz: float = 45.0, iono=None
+) -> Path:
     """Write ``duration_s`` of BeiDou B1I (D1 subframes of each record, `d1_streams`, under
     NH20) from the satellites ``sats`` (BeiDou records) from GPS time ``tow0``, seen from
-    `STATION`, complex int8 at `B1I_FS`."""
+    `STATION`, complex int8 at `B1I_FS`; with ``iono`` (a `bds_iono.BdsKlobuchar`) its
+    coefficients in subframe 1 and its delay on every signal (`ionosphere_delayed`)."""
     from gnssframework.signal.beidou_b1i import BEIDOU_B1I
 
     rng = np.random.default_rng(seed)
-    t_sv0 = satellite_time(sats, np.array(tow0))
-    streams = d1_streams(sats, t_sv0, duration_s)
-    chunks = signal_chunks(sats, tow0, duration_s, BEIDOU_B1I, B1I_FS, satellite_time, streams, cn0_dbhz, rng)
+    sv_time = satellite_time if iono is None else ionosphere_delayed(satellite_time, iono)
+    t_sv0 = sv_time(sats, np.array(tow0))
+    streams = d1_streams(sats, t_sv0, duration_s, iono)
+    chunks = signal_chunks(sats, tow0, duration_s, BEIDOU_B1I, B1I_FS, sv_time, streams, cn0_dbhz, rng)
     return write_noisy_recording(path, chunks, B1I_FS, rng, fmt="ci8")
 
 

@@ -81,7 +81,7 @@ def assert_one_signal_fixes(path, sats, signal, rinex, week, t0, sv_time, statio
     fixes, every satellite in each; every dated transmit time within ``chip_fraction`` of a
     chip rms of ``sv_time``'s truth (`transmit_errors_m`); the fixes within three PDOPs of
     that from ``station``. The L5, E5a and B1I end-to-end tests' check. Returns the
-    transmit times' and the fixes' rms (m) and the PDOP."""
+    transmit times' and the fixes' rms (m), the PDOP and the `receive` result."""
     from gnssframework import registry
     from gnssframework.receiver.channels import signal_tracking_config
     from gnssframework.receiver.frontend import open_recording
@@ -104,4 +104,4 @@ def assert_one_signal_fixes(path, sats, signal, rinex, week, t0, sv_time, statio
     pdop = position_dop(sats, t0 + 4.0, station)
     rms = float(np.sqrt(np.mean(np.linalg.norm(table.ecef_m - station, axis=1) ** 2)))
     assert rms < 3 * pdop * sigma_pr, (rms, pdop, sigma_pr)
-    return sigma_pr, rms, pdop
+    return sigma_pr, rms, pdop, result
