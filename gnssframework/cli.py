@@ -1016,7 +1016,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             f"tracking, decoding {navigation_message(signal).name}, positioning",
             started,
         )
-    iono_fallback = nav_info.iono if nav_info is not None and not args.no_iono else None
+    iono_fallback = nav_info.iono_for(signal.system) if nav_info is not None and not args.no_iono else None
     fixes = None
     if live.sinks and vector is None:
         fixes = live.start(
@@ -1235,7 +1235,7 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
             ionosphere=not args.no_iono,
             troposphere=args.troposphere,
             reference_week=reference_week,
-            iono_fallback=nav_info.iono if nav_info is not None and not args.no_iono else None,
+            iono_fallback=nav_info.iono_for(systems) if nav_info is not None and not args.no_iono else None,
             weighting=args.weighting,
             progress=progress,
         )

@@ -4,7 +4,8 @@ header and the dates its records span.
 The header's ionosphere lines are RINEX 2's ``ION ALPHA`` / ``ION BETA`` (``2X,4D12.4``,
 RINEX 2.11 table A4) or RINEX 3's ``IONOSPHERIC CORR`` with ``GPSA`` / ``GPSB``
 (``A4,1X,4D12.4``, RINEX 3.04 table A5), in the units of the broadcast page 18 (s,
-s/semicircle, ...; IS-GPS-200 20.3.3.5.1.7); ``LEAP SECONDS`` (``I6``) the current
+s/semicircle, ...; IS-GPS-200 20.3.3.5.1.7), and BeiDou's ``BDSA`` / ``BDSB`` (the same
+layout; BeiDou's model, `bds_iono`); ``LEAP SECONDS`` (``I6``) the current
 GPS - UTC. RINEX 3's ``TIME SYSTEM CORR`` line ``GPGA`` (3.00-3.03) or ``GAGP`` (3.04,
 ``A4,1X,D17.10,D16.9,1X,I6,1X,I4``) carries Galileo's broadcast GPS-Galileo time offset
 ``A0G, A1G, t0G, WN0G`` (Galileo OS SIS ICD 5.1.8: ``GGTO = GST - GPST = A0G + A1G (t - t0G
@@ -24,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError
+from .bds_iono import BdsKlobuchar
 from .ephemeris import _GPS_EPOCH
 from .lnav import WEEK_S, IonoUtc
 
@@ -44,6 +46,16 @@ class NavFileInfo:
     first_s: float
     last_s: float
     ggto: tuple[float, float, float, int] | None = None
+    #: The header's ``BDSA`` / ``BDSB`` (RINEX 3): BeiDou's coefficients (`bds_iono`).
+    bds_iono: BdsKlobuchar | None = None
+
+    def iono_for(self, systems: str) -> IonoUtc | BdsKlobuchar | None:
+        """The header's model for a fix of ``systems`` (RINEX letters): for BeiDou satellites
+        alone BeiDou's (its own model, `bds_iono`), else GPS's; for any other set GPS's (for
+        every system, as RTKLIB); None without."""
+        if set(systems) == {"C"} and self.bds_iono is not None:
+            return self.bds_iono
+        return self.iono
 
     def ggto_s(self, week: int, tow_s: float) -> float:
         """GST - GPST (s) at GPS time ``(week, tow_s)`` from the header's polynomial (NaN
@@ -104,6 +116,23 @@ def _header_iono(path: Path) -> IonoUtc | None:
     return IonoUtc(tuple(alpha), tuple(beta), dt_ls_s=18 if leap is None else leap)
 
 
+def _header_bds_iono(path: Path) -> BdsKlobuchar | None:
+    parts: dict[str, list[float]] = {}
+    with path.open(errors="replace") as fh:
+        for number, line in enumerate(fh, 1):
+            label = line[60:].strip()
+            if label == "IONOSPHERIC CORR" and line[:4] in ("BDSA", "BDSB"):
+                try:
+                    parts[line[:4]] = _numbers(line, 5)
+                except ValueError:
+                    raise DataFileError(str(path), number, f"{label} {line[:4]}: not four numbers") from None
+            if label == "END OF HEADER" or number > 500:
+                break
+    if len(parts) < 2:
+        return None
+    return BdsKlobuchar(tuple(parts["BDSA"]), tuple(parts["BDSB"]))  # type: ignore[arg-type]
+
+
 def _header_ggto(path: Path) -> tuple[float, float, float, int] | None:
     with path.open(errors="replace") as fh:
         for number, line in enumerate(fh, 1):
@@ -148,4 +177,6 @@ def read_nav_file_info(path: str | Path) -> NavFileInfo:
     if times.size == 0:
         raise DataFileError(str(path), None, "no ephemeris record")
     seconds = (times - _GPS_EPOCH) / np.timedelta64(1, "s")
-    return NavFileInfo(path, iono, float(np.min(seconds)), float(np.max(seconds)), _header_ggto(path))
+    return NavFileInfo(
+        path, iono, float(np.min(seconds)), float(np.max(seconds)), _header_ggto(path), _header_bds_iono(path)
+    )

@@ -72,7 +72,8 @@ def test_a_gps_record_is_not_written_as_a_bds_one(tmp_path):
 
 def test_d1s_klobuchar_coefficients_go_in_the_header_as_bdsa_and_bdsb(tmp_path):
     """D1 subframe 1's coefficients (GNSSTk's C06 values) as RINEX 3.04's ``BDSA``/``BDSB``
-    lines, read back by georinex to the written precision (D12.4: 5e-5 relative)."""
+    lines, read back by georinex and by the project's header reader to the written precision
+    (D12.4: 5e-5 relative); the reader offers them to a BeiDou run only."""
     import warnings
 
     import georinex
@@ -94,3 +95,10 @@ def test_d1s_klobuchar_coefficients_go_in_the_header_as_bdsa_and_bdsb(tmp_path):
         hdr = georinex.rinexheader(path)
     np.testing.assert_allclose(hdr["IONOSPHERIC CORR"]["BDSA"], iono.alpha, rtol=5e-5)
     np.testing.assert_allclose(hdr["IONOSPHERIC CORR"]["BDSB"], iono.beta, rtol=5e-5)
+    # The project's reader: the fallback model of a BeiDou run given this file (none for GPS's).
+    from gnssframework.navigation.rinex_nav_header import read_nav_file_info
+
+    info = read_nav_file_info(path)
+    assert info.iono is None and info.bds_iono is not None
+    np.testing.assert_allclose(info.bds_iono.alpha + info.bds_iono.beta, iono.alpha + iono.beta, rtol=5e-5)
+    assert info.iono_for("C") is info.bds_iono and info.iono_for("GC") is None and info.iono_for("G") is None

@@ -43,6 +43,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides
+from ...navigation.bds_iono import BdsKlobuchar
 from ...navigation.lnav import IonoUtc
 from ...signal.spec import SignalSpec
 from ..acquisition.report import acquire_recording
@@ -189,7 +190,7 @@ def receive_signals(
     troposphere: bool = False,
     reference_week: int | None = None,
     weighting: str | None = None,
-    iono_fallback: IonoUtc | None = None,
+    iono_fallback: IonoUtc | BdsKlobuchar | None = None,
     progress: Any = None,
     broadcast_ggto: bool = False,
 ) -> ReceiveResult:

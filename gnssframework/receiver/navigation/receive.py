@@ -25,6 +25,7 @@ from ..frontend.recording import Recording
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides, require_records_with_clock
 from ...navigation.integrity import RaimOptions
+from ...navigation.bds_iono import BdsKlobuchar
 from ...navigation.lnav import IonoUtc
 from ...plugin_ref import PluginSpec
 from ...signal.gps_l1ca import GPS_L1CA
@@ -70,7 +71,7 @@ def receive(
     vector: VectorConfig | None = None,
     acquisitions: list[AcquisitionResult] | None = None,
     assist: Assistance | None = None,
-    iono_fallback: IonoUtc | None = None,
+    iono_fallback: IonoUtc | BdsKlobuchar | None = None,
     weighting: str | None = None,
     signal: SignalSpec = GPS_L1CA,
     filters: StageFilters | None = None,
