@@ -207,9 +207,10 @@ def broadcast_iono_delay_s(
     return klobuchar_delay_s(iono.alpha, iono.beta, lat_deg, lon_deg, azimuth_deg, elevation_deg, gps_tow_s)
 
 
-def iono_reference(iono: IonoUtc | BdsKlobuchar | None) -> SignalSpec:
-    """The signal whose delay ``iono``'s model gives: B1I for BeiDou's, L1 C/A otherwise."""
-    return iono.reference if isinstance(iono, BdsKlobuchar) else GPS_L1CA
+def iono_reference(iono: IonoUtc | BdsKlobuchar | None, gps: SignalSpec = GPS_L1CA) -> SignalSpec:
+    """The signal whose delay ``iono``'s model gives: B1I for BeiDou's, ``gps`` (L1 C/A, page
+    18's, IS-GPS-200 20.3.3.5.2.5) otherwise."""
+    return iono.reference if isinstance(iono, BdsKlobuchar) else gps
 
 
 def troposphere_delay_m(
