@@ -96,6 +96,20 @@ class VectorConfig(BaseModel):
         "out of the navigation update (as many passed ones bring it back)",
     )
 
+    time_window_s: float = Field(
+        2.0,
+        ge=0,
+        description="an assisted start's time check in the loop (vector_time): seconds of epochs "
+        "pooled per estimate of the start time's error; 0: none",
+    )
+    time_false_alarm: float = Field(
+        1e-4,
+        gt=0,
+        lt=1,
+        description="probability that a window's estimate moves a right start time (Student's t of "
+        "its batch means); the first estimate within it ends the check",
+    )
+
     @field_validator("reacquire_noncoherent")
     @classmethod
     def _even_blocks(cls, value: int, info) -> int:

@@ -14,10 +14,12 @@ hand-over) and its solution.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ...errors import ConfigError
-from ...navigation.coarse_time import solve_coarse_time
+from ...navigation.coarse_time import CoarseTimeFix, solve_coarse_time
 from ...navigation.ephemeris import Ephemerides, satellite_state
 from ...navigation.pvt import solve_position
 from ..channels.channel import SampleChannel, stage_context
@@ -25,6 +27,7 @@ from .fixes import full_week, solve_epochs
 from .observables import SPEED_OF_LIGHT_MPS, channel_timing, observables
 from .vector_navigator import VectorNavigator, rotate, stack
 from .vector_reacquire import join
+from .vector_time import TimeOffsetEstimator
 
 __all__ = ["try_handover", "try_assisted_handover", "hand_over", "start_vector", "VECTOR"]
 
@@ -245,12 +248,28 @@ def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
     else:
         fix = None  # the resolution did not settle
     # A start time seconds off shows as residuals or an excluded satellite too: the time
-    # is named first, with its estimate. It is refused for good: a later try with fewer
+    # is named first, with its estimate. The first time, the start time is corrected by
+    # the estimate and the hand-over tried again at once (the loop refines what is left:
+    # `vector_time`); a second time it is refused for good: a later try with fewer
     # satellites (four: the offset is not observable) would hand over on it unchecked.
-    wrong_time = None if fix is None else _start_time_error(v, pr, tx_fix, eph, fix)
-    if wrong_time is not None:
-        v.solution.events.append((now_s, wrong_time))
-        v.next_assist = float("inf")
+    found = None if fix is None else _start_time_error(v, pr, tx_fix, eph, fix)
+    if found is not None:
+        if v.time_corrected:
+            v.solution.events.append((now_s, _refusal(found, pr.size)))
+            v.next_assist = float("inf")
+            return
+        shift = round(found.time_offset_s, 3)  # whole milliseconds: the code phases give the rest
+        v.assist = replace(a, start_tow_s=a.start_tow_s + shift)
+        v.time_corrected = True
+        v.solution.events.append(
+            (
+                now_s,
+                f"start time corrected by {shift:+.3f} s at the pull-in (coarse-time fix on {pr.size} "
+                f"satellites: {found.time_offset_s:+.3f} ± {found.time_offset_sigma_s:.3f} s); the loop "
+                "checks what is left",
+            )
+        )
+        v.next_assist = now_s
         return
     if (
         fix is None
@@ -281,6 +300,8 @@ def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
     v.nav = VectorNavigator(
         t, v.vector, v.solution, slots, eph, a.iono if v.ionosphere else None, a.start_tow_s, tx_anchor, chip_anchor
     )
+    if v.vector.time_window_s > 0:  # the start time checked in the loop (`vector_time`)
+        v.nav.time = TimeOffsetEstimator(v.vector.time_window_s)
     vc = v.vector
     # A locked loop's Doppler (averaged over its last bit), else the acquisition's: a
     # 1 ms pull-in loop that has not locked may have wandered tens of Hz from it.
@@ -305,8 +326,19 @@ def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
     )
 
 
-def _start_time_error(v: VectorSampleCloser, pr: np.ndarray, tx: np.ndarray, eph: Ephemerides, fix) -> str | None:
-    """Why the `Assistance`'s start time is refused, or None: the coarse-time fix
+def _refusal(found: CoarseTimeFix, satellites: int) -> str:
+    return (
+        f"assisted start refused: the start time is off by {found.time_offset_s:+.3f} s "
+        f"(± {found.time_offset_sigma_s:.3f} s, coarse-time fix on {satellites} satellites) after "
+        "its correction; an assisted start needs it to ~1 s: correct --start-time, or drop the "
+        "assistance to hand over after LNAV"
+    )
+
+
+def _start_time_error(
+    v: VectorSampleCloser, pr: np.ndarray, tx: np.ndarray, eph: Ephemerides, fix
+) -> CoarseTimeFix | None:
+    """The coarse-time fix that finds the `Assistance`'s start time off, or None: the coarse-time fix
     (`coarse_time.solve_coarse_time`) of the assisted pseudoranges estimates the common
     error of their transmit times, which the millisecond resolution cannot see (it takes
     whole periods of it into every channel alike). A start time off by a second moves
@@ -341,12 +373,7 @@ def _start_time_error(v: VectorSampleCloser, pr: np.ndarray, tx: np.ndarray, eph
         or np.linalg.norm(ct.position_ecef_m - v.assist.position_ecef_m) > _ASSIST_RADIUS_M
     ):
         return None
-    return (
-        f"assisted start refused: the start time is off by {found.time_offset_s:+.3f} s "
-        f"(± {found.time_offset_sigma_s:.3f} s, coarse-time fix on {pr.size} satellites); "
-        "an assisted start needs it to ~1 ms: correct --start-time, or drop the assistance to hand "
-        "over after LNAV"
-    )
+    return found
 
 
 def hand_over(

@@ -50,6 +50,7 @@ from ..engine.channel_monitor import ChannelMonitor
 from .observables import SPEED_OF_LIGHT_MPS
 from .vector_config import VectorConfig
 from .vector_solution import VectorSolution
+from .vector_time import FULL_DOF, RELAXATION, TimeOffset, TimeOffsetEstimator
 
 if TYPE_CHECKING:
     from ..channels import SampleTracker
@@ -111,6 +112,10 @@ class VectorNavigator:
         self.iono_m = np.zeros(slots.size)
         self.monitor = None
         self._cov = None
+        self._last_cov: np.ndarray | None = None
+        self._unchecked = False
+        #: An assisted start's in-loop time check (`vector_time`; set by the hand-over).
+        self.time: TimeOffsetEstimator | None = None
         if vector.monitor_false_alarm is not None:
             self.monitor = ChannelMonitor(vector.monitor_false_alarm, vector.monitor_consecutive)
             self.monitor.reset((1, len(tracker.signal.prns)))
@@ -254,14 +259,19 @@ class VectorNavigator:
         prns = [sp.prns[int(s)] for s in slots]
         cn0 = np.array([t.channels[p].cn0_dbhz for p in prns])
         ref = np.array([t.channels[p].cn0_ref for p in prns])
-        use = cn0 >= self.vector.min_cn0_dbhz
         lat, lon, _ = pymap3d.ecef2geodetic(*self.x[:3], deg=False)  # below the mask: driven, not used
         up = np.array([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)])
-        use &= line_of_sight(pos, self.x[:3])[1] @ up >= np.sin(np.radians(self.vector.elevation_mask_deg))
+        in_view = line_of_sight(pos, self.x[:3])[1] @ up >= np.sin(np.radians(self.vector.elevation_mask_deg))
+        use = (cn0 >= self.vector.min_cn0_dbhz) & in_view
         # The thermal variances grow as 1/(C/N0): scale the ones set at the hand-over C/N0.
         scale = 10 ** ((ref - np.maximum(cn0, self.vector.min_cn0_dbhz)) / 10)
         if self.monitor is not None:
-            use &= ~self._screen(slots, code, var_code * scale, pos, T)
+            out_now = self._screen(slots, code, var_code * scale, pos, T)
+            use &= ~out_now
+            in_view &= ~out_now
+        # The time check (`vector_time`) reads every channel in view, weak ones weighted down
+        # by their C/N0 (a wrong start time is what weakens them).
+        var_time = var_code * 10 ** ((ref - cn0) / 10)
         var_code = np.where(use, var_code * scale, _IGNORE_VAR)
         var_freq = np.where(use, var_freq * scale, _IGNORE_VAR)
         inputs: dict[str, Any] = {
@@ -286,8 +296,20 @@ class VectorNavigator:
                 f"non-finite state at the vector epoch {self.t_nav:.3f} s of the recording",
             )
         self.x = x
+        self._last_cov = np.asarray(out[names.COV])[0]
         if self.monitor is not None:
-            self._cov = np.array(np.asarray(out[names.COV])[0][:8, :8])
+            self._cov = np.array(self._last_cov[:8, :8])
+        if self.time is not None:
+            # The measured pseudoranges in the filter's model (h(x) = |s - r| + b), less the
+            # state's: what a wrong start time leaves (`vector_time`).
+            z = range_rep + clock - self.iono_m + sp.chip_length_m * code
+            los = line_of_sight(pos, x[:3])[1]
+            resid = z - np.linalg.norm(pos - x[:3], axis=1) - x[6]
+            rate = np.sum(los * vel, axis=1) - drift
+            found = self.time.add(self.t_nav, resid, sp.chip_length_m**2 * var_time, los, rate, in_view)
+            if found is not None and self._time_checked(found):  # the start time moved
+                self.command(slots, self._shift_time(found, z, tx_nav, use, var_code, T))
+                return  # the filter restarts at this epoch: no state row for it
         s = self.solution
         s.sample_time_s.append(self.t_nav)
         s.state.append(x)
@@ -301,6 +323,92 @@ class VectorNavigator:
             out_mask[slots] = self.monitor.excluded[0, slots]
             s.monitor_excluded.append(out_mask)
         self.command(slots, x)
+
+    def _time_checked(self, found: TimeOffset) -> bool:
+        """What a window's estimate of the start time's error does (`vector_time`): True when
+        it moves the start time (significant at ``time_false_alarm``, at least a code
+        period); the check ends when the estimate is within two of its sigmas of zero on a
+        window of full information (or below a code period); otherwise the next window pools
+        on. A window without five channels says once that the time is not checked."""
+        sp = self.tracker.signal
+        if not np.isfinite(found.sigma_s):
+            if not self._unchecked:
+                self._unchecked = True
+                self.solution.events.append(
+                    (
+                        self.t_nav,
+                        "the start time is not checked in the loop (fewer than five channels in view): "
+                        "a start time off by more than about half a second would put every fix hundreds "
+                        "of metres off unseen",
+                    )
+                )
+            return False
+        moves = found.significant(self.vector.time_false_alarm)
+        if moves and round(found.offset_s / sp.code_period_s) != 0:
+            return True
+        if moves or (found.dof >= FULL_DOF and abs(found.offset_s) < 2.0 * found.sigma_s):
+            self.time = None
+            self.solution.events.append(
+                (
+                    self.t_nav,
+                    f"start time checked in the loop: {found.offset_s:+.4f} ± {found.sigma_s:.4f} s over "
+                    f"{found.epochs} epochs: left as it is",
+                )
+            )
+        return False
+
+    def _shift_time(self, found: TimeOffset, z: np.ndarray, tx_nav: np.ndarray, use, var_code, T: float) -> np.ndarray:
+        """Move every transmit-time label and the receiver time by ``shift_s`` (the pseudoranges
+        unchanged: `vector_time`), re-solve position and clock on this epoch's pseudoranges
+        with the satellites where they now are, restart the filter there (velocity and drift
+        kept) and drop the states before (they were solved at the wrong time); an event."""
+        sp = self.tracker.signal
+        slots = self.slots
+        shift_s = round(RELAXATION * found.offset_s / sp.code_period_s) * sp.code_period_s
+        _, _, old_clock, _ = self.satellites(slots, tx_nav, self.x[:3])
+        self.tx_anchor[self.tx_anchor != 0.0] += shift_s  # every channel anchored (vector or joining)
+        self.rx_offset += shift_s
+        x = self.x.copy()
+        tx_new = tx_nav + shift_s
+        w = np.where(use, 1.0 / (sp.chip_length_m**2 * var_code), 0.0)
+        for _ in range(4):  # Gauss-Newton on position and clock
+            pos, _, clock, _ = self.satellites(slots, tx_new, x[:3])
+            self.iono_m = self.delays(slots, x[:3], self.t_nav)
+            zz = z - old_clock + clock  # the satellite clock at the new labels
+            rng, los = line_of_sight(pos, x[:3])
+            H = np.hstack([-los, np.ones((slots.size, 1))])
+            Hw = H * w[:, None]
+            info = Hw.T @ H
+            dx = np.linalg.solve(info, Hw.T @ (zz - rng - x[6]))
+            x[:3] += dx[:3]
+            x[6] += dx[3]
+        cov = np.zeros((8, 8))
+        pc = np.r_[0:3, 6]
+        cov[np.ix_(pc, pc)] = np.linalg.inv(info)
+        vd = np.r_[3:6, 7]
+        prior = np.asarray(self._last_cov, float)[:8, :8] if self._last_cov is not None else np.asarray(self.cov0)
+        cov[np.ix_(vd, vd)] = prior[np.ix_(vd, vd)]
+        self.filter.reset(
+            (1,),
+            RunContext(coherent_time_s=T, epoch_interval_s=T, initial_state=x[None], initial_cov=cov, signal=sp),
+        )
+        self.x = x
+        s = self.solution
+        dropped = len(s.sample_time_s)
+        for rows in (s.sample_time_s, s.state, s.cov, s.used, s.used_sat_pos_m, s.monitor_excluded):
+            rows.clear()
+        s.rx_offset_s = self.rx_offset
+        if self.time is not None:
+            self.time.restart(self.t_nav)
+        s.events.append(
+            (
+                self.t_nav,
+                f"start time corrected by {shift_s:+.3f} s (estimated {found.offset_s:+.4f} ± "
+                f"{found.sigma_s:.4f} s over {found.epochs} epochs of the vector channels' code errors); "
+                f"the {dropped} states before, solved at the wrong time, dropped",
+            )
+        )
+        return x
 
     def _screen(
         self, slots: np.ndarray, code_chips: np.ndarray, var_chips2: np.ndarray, sat_pos: np.ndarray, T: float

@@ -115,6 +115,7 @@ class VectorSampleCloser(SampleCloser):
         self.nav: VectorNavigator | None = None
         self.next_try = max(self.vector.earliest_s, self.vector.try_every_s)
         self.next_assist = self.vector.earliest_s
+        self.time_corrected = False  # the assisted start time corrected once (`vector_handover`)
         self.acq_doppler = np.zeros(len(tracker.signal.prns))
         self.held: dict[int, Ephemerides] = {}  # the records of dropped vector channels, by slot
 
