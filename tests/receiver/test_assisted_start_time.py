@@ -23,7 +23,6 @@ from gnssframework.receiver.navigation import vector_tracking
 from gnssframework.receiver.navigation.vector_tracking import assistance, vector_config
 from lnav_recordings import WEEK, write_lnav_recording
 
-pytestmark = pytest.mark.slow  # end to end (the fast lane leaves these out)
 
 FS = 2.6e6
 CN0_DBHZ = 32.0
@@ -58,6 +57,7 @@ def _errors_m(result) -> np.ndarray:
     return np.linalg.norm(result.positions.ecef_m - fix.STATION, axis=1)
 
 
+@pytest.mark.slow  # end to end (the fast lane leaves these out)
 def test_a_start_time_half_a_second_off_is_corrected_in_the_loop(recording):
     """0.5 s off (below the pull-in's check): without the loop's check every fix is 300-600 m
     off; with it the corrections add up to the error within 30 ms (measured 3 ms), and the
@@ -71,6 +71,7 @@ def test_a_start_time_half_a_second_off_is_corrected_in_the_loop(recording):
     assert np.all(_errors_m(result)[-5:] < 40.0), _errors_m(result)
 
 
+@pytest.mark.slow  # end to end (the fast lane leaves these out)
 def test_a_start_time_two_seconds_off_is_corrected_at_the_pull_in(recording):
     """2 s off: the pull-in's coarse-time fix (five satellites: sigma 0.41 s) corrects it to
     the millisecond of its estimate, and the loop then has little left: the corrections add up
@@ -85,6 +86,7 @@ def test_a_start_time_two_seconds_off_is_corrected_at_the_pull_in(recording):
     assert np.all(_errors_m(result)[-5:] < 40.0), _errors_m(result)
 
 
+@pytest.mark.slow  # end to end (the fast lane leaves these out)
 def test_the_right_start_time_is_left_alone(recording):
     """No correction of a right start time: the fixes as good as before (under 10 m at the end)."""
     result = _run(recording, 0.0)
@@ -92,6 +94,7 @@ def test_the_right_start_time_is_left_alone(recording):
     assert np.all(_errors_m(result)[-10:] < 10.0), _errors_m(result)
 
 
+@pytest.mark.slow  # end to end (the fast lane leaves these out)
 def test_a_start_time_still_off_after_its_correction_is_refused(recording, monkeypatch):
     """The pull-in corrects once; a start time its coarse-time fix finds off after that is
     refused for good (a later try on four satellites could not check it). Made to happen
@@ -108,3 +111,14 @@ def test_a_start_time_still_off_after_its_correction_is_refused(recording, monke
     assert len(refused) == 1 and result.vector.handover_s is None
     offset, sigma = (float(v) for v in re.search(r"off by ([-+.\d]+) s \(± ([.\d]+) s", refused[0]).groups())
     assert abs(offset - (-2.0)) < 4 * sigma and abs(offset) > 4 * sigma
+
+
+def test_a_correction_across_a_weeks_end_moves_the_week():
+    from gnssframework.receiver.navigation.vector_handover import shifted_start
+
+    a = assistance((45.0, 0.0, 0.0), 2200, 604_799.5)
+    later = shifted_start(a, 1.25)
+    assert (later.week, later.start_tow_s) == (2201, pytest.approx(0.75))
+    earlier = shifted_start(assistance((45.0, 0.0, 0.0), 2200, 0.5), -1.982)
+    assert (earlier.week, earlier.start_tow_s) == (2199, pytest.approx(604_798.518))
+    assert shifted_start(a, -0.5).week == 2200

@@ -25,11 +25,12 @@ from ...navigation.pvt import solve_position
 from ..channels.channel import SampleChannel, stage_context
 from .fixes import full_week, solve_epochs
 from .observables import SPEED_OF_LIGHT_MPS, channel_timing, observables
+from .vector_config import Assistance
 from .vector_navigator import VectorNavigator, rotate, stack
 from .vector_reacquire import join
 from .vector_time import TimeOffsetEstimator
 
-__all__ = ["try_handover", "try_assisted_handover", "hand_over", "start_vector", "VECTOR"]
+__all__ = ["try_handover", "try_assisted_handover", "hand_over", "start_vector", "shifted_start", "VECTOR"]
 
 _C = SPEED_OF_LIGHT_MPS
 #: Code periods every channel runs (its pull-in) before an assisted hand-over.
@@ -39,6 +40,8 @@ _ASSIST_RADIUS_M = 300e3
 #: ... or one with a residual above this (m): pull-in code phases are within a chip (300 m), a wrong
 #: millisecond is 300 km.
 _ASSIST_MAX_RESIDUAL_M = 1000.0
+#: A GPS week (s).
+_WEEK_S = 604_800.0
 #: Resolve-and-fix rounds of an assisted hand-over.
 _ASSIST_ITERATIONS = 4
 #: A start time whose coarse-time offset is this many of its standard deviations from zero
@@ -259,7 +262,7 @@ def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
             v.next_assist = float("inf")
             return
         shift = round(found.time_offset_s, 3)  # whole milliseconds: the code phases give the rest
-        v.assist = replace(a, start_tow_s=a.start_tow_s + shift)
+        v.assist = shifted_start(a, shift)
         v.time_corrected = True
         v.solution.events.append(
             (
@@ -324,6 +327,13 @@ def try_assisted_handover(v: VectorSampleCloser, now_s: float) -> None:
         vc.assisted_range_rate_sigma_mps,
         doppler,
     )
+
+
+def shifted_start(a: Assistance, shift_s: float) -> Assistance:
+    """``a`` with its start time ``shift_s`` later, across a week's end into the next (or
+    previous) GPS week."""
+    week, tow = divmod(a.start_tow_s + shift_s, _WEEK_S)
+    return replace(a, week=a.week + int(week), start_tow_s=float(tow))
 
 
 def _refusal(found: CoarseTimeFix, satellites: int) -> str:
