@@ -307,9 +307,11 @@ class VectorNavigator:
             resid = z - np.linalg.norm(pos - x[:3], axis=1) - x[6]
             rate = np.sum(los * vel, axis=1) - drift
             found = self.time.add(self.t_nav, resid, sp.chip_length_m**2 * var_time, los, rate, in_view)
-            if found is not None and self._time_checked(found):  # the start time moved
-                self.command(slots, self._shift_time(found, z, tx_nav, use, var_code, T))
-                return  # the filter restarts at this epoch: no state row for it
+            if found is not None and self._time_checked(found):  # the start time moves
+                moved = self._shift_time(found, z, tx_nav, in_view, var_time, T)
+                if moved is not None:
+                    self.command(slots, moved)
+                    return  # the filter restarts at this epoch: no state row for it
         s = self.solution
         s.sample_time_s.append(self.t_nav)
         s.state.append(x)
@@ -357,24 +359,32 @@ class VectorNavigator:
             )
         return False
 
-    def _shift_time(self, found: TimeOffset, z: np.ndarray, tx_nav: np.ndarray, use, var_code, T: float) -> np.ndarray:
-        """Move every transmit-time label and the receiver time by ``shift_s`` (the pseudoranges
-        unchanged: `vector_time`), re-solve position and clock on this epoch's pseudoranges
-        with the satellites where they now are, restart the filter there (velocity and drift
-        kept) and drop the states before (they were solved at the wrong time); an event."""
+    def _shift_time(
+        self, found: TimeOffset, z: np.ndarray, tx_nav: np.ndarray, in_view: np.ndarray, var_chips2, T: float
+    ) -> np.ndarray | None:
+        """Move every transmit-time label and the receiver time by `vector_time.RELAXATION`
+        times ``found``'s estimate in whole code periods (the pseudoranges ``z`` unchanged),
+        re-solve position and clock on this epoch's pseudoranges (the channels ``in_view``,
+        weighted by their code variances) with the satellites where they now are, restart
+        the filter there (velocity and drift kept) and drop the states before (they were
+        solved at the wrong time); an event. None, and nothing moved, with fewer than four
+        channels to solve on."""
         sp = self.tracker.signal
         slots = self.slots
+        w = np.where(in_view, 1.0 / (sp.chip_length_m**2 * np.asarray(var_chips2, float)), 0.0)
+        if np.count_nonzero(w > 0) < 4:
+            return None
         shift_s = round(RELAXATION * found.offset_s / sp.code_period_s) * sp.code_period_s
         _, _, old_clock, _ = self.satellites(slots, tx_nav, self.x[:3])
+        old_iono = self.iono_m.copy()
         self.tx_anchor[self.tx_anchor != 0.0] += shift_s  # every channel anchored (vector or joining)
         self.rx_offset += shift_s
         x = self.x.copy()
         tx_new = tx_nav + shift_s
-        w = np.where(use, 1.0 / (sp.chip_length_m**2 * var_code), 0.0)
         for _ in range(4):  # Gauss-Newton on position and clock
             pos, _, clock, _ = self.satellites(slots, tx_new, x[:3])
             self.iono_m = self.delays(slots, x[:3], self.t_nav)
-            zz = z - old_clock + clock  # the satellite clock at the new labels
+            zz = z - old_clock + clock + old_iono - self.iono_m  # the clock and ionosphere at the new labels
             rng, los = line_of_sight(pos, x[:3])
             H = np.hstack([-los, np.ones((slots.size, 1))])
             Hw = H * w[:, None]
