@@ -331,20 +331,8 @@ class VectorNavigator:
         it moves the start time (significant at ``time_false_alarm``, at least a code
         period); the check ends when the estimate is within two of its sigmas of zero on a
         window of full information (or below a code period); otherwise the next window pools
-        on. A window without five channels says once that the time is not checked."""
+        on, and the first such window says so once (the time is not confirmed so far)."""
         sp = self.tracker.signal
-        if not np.isfinite(found.sigma_s):
-            if not self._unchecked:
-                self._unchecked = True
-                self.solution.events.append(
-                    (
-                        self.t_nav,
-                        "the start time is not checked in the loop (fewer than five channels in view): "
-                        "a start time off by more than about half a second would put every fix hundreds "
-                        "of metres off unseen",
-                    )
-                )
-            return False
         moves = found.significant(self.vector.time_false_alarm)
         if moves and round(found.offset_s / sp.code_period_s) != 0:
             return True
@@ -355,6 +343,21 @@ class VectorNavigator:
                     self.t_nav,
                     f"start time checked in the loop: {found.offset_s:+.4f} ± {found.sigma_s:.4f} s over "
                     f"{found.epochs} epochs: left as it is",
+                )
+            )
+        elif not self._unchecked:  # neither moved nor confirmed: said once (a later check may follow)
+            self._unchecked = True
+            so_far = (
+                "fewer than five channels in view"
+                if not np.isfinite(found.sigma_s)
+                else f"{found.offset_s:+.4f} ± {found.sigma_s:.4f} s over {found.epochs} epochs"
+            )
+            self.solution.events.append(
+                (
+                    self.t_nav,
+                    f"the start time is not confirmed in the loop so far ({so_far}): a start time off by "
+                    "more than about half a second loses the channels before it can be estimated, and "
+                    "every fix is then hundreds of metres off",
                 )
             )
         return False
