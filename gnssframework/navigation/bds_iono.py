@@ -40,11 +40,20 @@ from ..errors import ConfigError
 from ..signal.beidou_b1i import BEIDOU_B1I
 from ..signal.spec import SignalSpec
 
-__all__ = ["BdsKlobuchar", "bds_klobuchar_delay_s", "bds_pierce_point", "BDS_SHELL_HEIGHT_M", "BDS_EARTH_RADIUS_M"]
+__all__ = [
+    "FIELD_NAMES",
+    "BdsKlobuchar",
+    "bds_klobuchar_delay_s",
+    "bds_pierce_point",
+    "BDS_SHELL_HEIGHT_M",
+    "BDS_EARTH_RADIUS_M",
+]
 
 #: The ionospheric shell's height and the Earth's radius of the ICD's model (m).
 BDS_SHELL_HEIGHT_M = 375e3
 BDS_EARTH_RADIUS_M = 6378e3
+#: The eight coefficients' field names in D1 subframe 1 and D2 page 2 (`d1nav`, `d2nav`).
+FIELD_NAMES = tuple(f"{c}{n}_s{u}" for c in ("alpha", "beta") for n, u in enumerate(("", "_sc", "_sc2", "_sc3")))
 #: GPS time less BDT (s): BDT = GPST - 14 s.
 _BDT_OFFSET_S = 14.0
 
@@ -120,14 +129,11 @@ class BdsKlobuchar:
         )
 
     def fields(self) -> dict[str, float]:
-        """D1 subframe 1's field values (`d1nav`'s names): the inverse of `from_fields`."""
-        names = ("alpha0_s", "alpha1_s_sc", "alpha2_s_sc2", "alpha3_s_sc3")
-        out = dict(zip(names, map(float, self.alpha)))
-        return out | dict(zip((n.replace("alpha", "beta") for n in names), map(float, self.beta)))
+        """D1 subframe 1's field values (`FIELD_NAMES`): the inverse of `from_fields`."""
+        return dict(zip(FIELD_NAMES, map(float, (*self.alpha, *self.beta))))
 
     @classmethod
     def from_fields(cls, fields: dict[str, float]) -> BdsKlobuchar:
-        """From D1 subframe 1's decoded fields (`d1nav`: ``alpha0_s``..., ``beta0_s``...)."""
-        a = tuple(float(fields[k]) for k in ("alpha0_s", "alpha1_s_sc", "alpha2_s_sc2", "alpha3_s_sc3"))
-        b = tuple(float(fields[k]) for k in ("beta0_s", "beta1_s_sc", "beta2_s_sc2", "beta3_s_sc3"))
-        return cls(a, b)  # type: ignore[arg-type]
+        """From D1 subframe 1's (or D2 page 2's) decoded fields (`FIELD_NAMES`)."""
+        v = tuple(float(fields[k]) for k in FIELD_NAMES)
+        return cls(v[:4], v[4:])  # type: ignore[arg-type]

@@ -30,11 +30,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
-from .bds_iono import BdsKlobuchar
+from .bds_iono import FIELD_NAMES, BdsKlobuchar
 from .bit_fields import Layout, decode_fields, encode_fields, field_integer
 from .d1nav import (
     INFO_BITS,
     SUBFRAME_BITS,
+    SUBFRAME_LAYOUTS,
     beidou_record,
     gps_time_of,
     info_bits,
@@ -80,17 +81,8 @@ PAGE_LAYOUTS: dict[int, Layout] = {
         "tgd1_s": (83, 10, 1e-10, True),
         "tgd2_s": (93, 10, 1e-10, True),
     },
-    # Klobuchar's coefficients, as D1 subframe 1's (BeiDou's own model: `bds_iono`).
-    2: {
-        "alpha0_s": (43, 8, 2.0**-30, True),
-        "alpha1_s_sc": (51, 8, 2.0**-27, True),
-        "alpha2_s_sc2": (59, 8, 2.0**-24, True),
-        "alpha3_s_sc3": (67, 8, 2.0**-24, True),
-        "beta0_s": (75, 8, 2.0**11, True),
-        "beta1_s_sc": (83, 8, 2.0**14, True),
-        "beta2_s_sc2": (91, 8, 2.0**16, True),
-        "beta3_s_sc3": (99, 8, 2.0**16, True),
-    },
+    # Klobuchar's coefficients: D1 subframe 1's fields, 56 information bits earlier.
+    2: {k: (SUBFRAME_LAYOUTS[1][k][0] - 56, *SUBFRAME_LAYOUTS[1][k][1:]) for k in FIELD_NAMES},
     3: {"af0_s": (81, 24, 2.0**-33, True), "af1_msb": (105, 4, 1, True)},
     4: {
         "af1_lsb": (43, 18, 1, False),
