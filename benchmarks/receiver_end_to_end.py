@@ -128,20 +128,35 @@ def ours_in_this_process(path: Path, out: Path, profile: bool, threads: int | No
     out.write_text(json.dumps(found))
 
 
+# A process started straight from this one inherits its peak resident memory: Linux keeps
+# ``ru_maxrss`` across ``execve``, and this process holds the recording it simulated (the
+# first version of this script printed 892 MiB for both receivers). So each receiver is
+# forked from a small launcher interpreter, whose ``wait4`` on it reports its own figures.
+_LAUNCHER = (
+    "import json, os, sys\n"
+    "pid = os.fork()\n"
+    "if pid == 0:\n"
+    "    os.execvp(sys.argv[2], sys.argv[2:])\n"
+    "_, status, ru = os.wait4(pid, 0)\n"
+    "with open(sys.argv[1], 'w') as f:\n"
+    "    json.dump([os.waitstatus_to_exitcode(status), ru.ru_utime + ru.ru_stime, ru.ru_maxrss], f)\n"
+)
+
+
 def timed(cmd: list[str], cwd: Path) -> tuple[subprocess.CompletedProcess, float, float, float, float]:
     """Run ``cmd``: (process, wall s, CPU s of it and its threads, load average before, its
-    peak resident memory in MiB), the CPU and memory from ``wait4`` (that process alone)."""
+    peak resident memory in MiB), the CPU and memory from ``wait4`` on that process alone,
+    read by a launcher it is forked from (`_LAUNCHER`)."""
     load = os.getloadavg()[0]
-    t = time.perf_counter()
-    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
-        proc = subprocess.Popen(cmd, stdout=out, stderr=err, text=True, cwd=cwd)
-        _, status, usage = os.wait4(proc.pid, 0)
+    with tempfile.TemporaryDirectory() as tmp:
+        usage_file = Path(tmp) / "usage.json"
+        launcher = [sys.executable, "-S", "-c", _LAUNCHER, str(usage_file), *cmd]
+        t = time.perf_counter()
+        run = subprocess.run(launcher, capture_output=True, text=True, cwd=cwd)
         wall = time.perf_counter() - t
-        proc.returncode = os.waitstatus_to_exitcode(status)
-        out.seek(0)
-        err.seek(0)
-        run = subprocess.CompletedProcess(cmd, proc.returncode, out.read(), err.read())
-    return run, wall, usage.ru_utime + usage.ru_stime, load, usage.ru_maxrss / 1024  # Linux: KiB
+        returncode, cpu_s, maxrss_kib = json.loads(usage_file.read_text())
+    run = subprocess.CompletedProcess(cmd, returncode, run.stdout, run.stderr)
+    return run, wall, cpu_s, load, maxrss_kib / 1024  # Linux: KiB
 
 
 def run_ours(path: Path, work: Path, profile: bool = False, threads: int | None = None) -> dict:
