@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 from pydantic import Field
-from scipy.stats import chi2
 
 from gnssframework.estimation.robust import RobustUpdate, reweighted_noise, whitened_residual
 from gnssframework.plugin import PluginParams
@@ -160,6 +159,8 @@ class InnovationGate(RobustUpdate):
         return 1
 
     def effective_noise(self, residual, spread, R):
+        from scipy.stats import chi2  # here: scipy.stats' import costs every run of the CLI half a second
+
         S = spread + R
         nis = np.einsum("...i,...i->...", residual, np.linalg.solve(S, residual[..., None])[..., 0])
         rejected = nis > chi2.ppf(1.0 - self.params.false_alarm, residual.shape[-1])
