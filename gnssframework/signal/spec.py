@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Literal
 from collections.abc import Callable
 
@@ -267,18 +268,20 @@ class SignalSpec:
                 )
 
     # --- derived quantities -------------------------------------------------------------
+    # Computed once per description (``cached_property``: the description is frozen): the
+    # sample tracker reads several of them per channel and coherent interval.
 
-    @property
+    @cached_property
     def code_period_s(self) -> float:
         """Primary code period (s): length over chip rate (1 ms for L1 C/A)."""
         return self.code_length_chips / self.chip_rate_hz
 
-    @property
+    @cached_property
     def wavelength_m(self) -> float:
         """Carrier wavelength (m)."""
         return SPEED_OF_LIGHT_M_S / self.carrier_freq_hz
 
-    @property
+    @cached_property
     def chip_length_m(self) -> float:
         """Length of one chip (m)."""
         return SPEED_OF_LIGHT_M_S / self.chip_rate_hz
@@ -288,24 +291,24 @@ class SignalSpec:
         """The component the loops track (the first)."""
         return self.components[0]
 
-    @property
+    @cached_property
     def data(self) -> Component | None:
         """The component carrying navigation data, if any."""
         return next((c for c in self.components if c.symbol_period_s is not None), None)
 
-    @property
+    @cached_property
     def symbol_period_s(self) -> float | None:
         """Data symbol period (s) of the data component (20 ms for L1 C/A), or None."""
         data = self.data
         return None if data is None else data.symbol_period_s
 
-    @property
+    @cached_property
     def code_periods_per_symbol(self) -> int | None:
         """Primary code periods per data symbol (20 for L1 C/A), or None without data."""
         sym = self.symbol_period_s
         return None if sym is None else int(round(sym / self.code_period_s))
 
-    @property
+    @cached_property
     def longest_coherent_s(self) -> float:
         """The longest coherent interval a known symbol or overlay boundary allows without
         wiping off data: the symbol period where the tracked component carries data, the
@@ -358,13 +361,13 @@ class SignalSpec:
         """``prn`` as an ``int``, or a `ConfigError` naming the signal and its PRN range."""
         return checked_prn(prn, self.prns, self.name)
 
-    @property
+    @cached_property
     def subchips_per_chip(self) -> int:
         """Pieces of a chip on which the spreading waveform is constant (1 for BPSK): the
         sub-carrier's, times what the components' time slots need (2 for GPS L2C)."""
         return math.lcm(self.subcarrier.subchips_per_chip, *(c.time_slot[1] for c in self.components))
 
-    @property
+    @cached_property
     def is_bpsk(self) -> bool:
         """Whether the chip pulse is BPSK's full-chip rectangle: no sub-carrier and no time
         multiplexing (the BPSK triangle is then the code's autocorrelation)."""
@@ -381,7 +384,7 @@ class SignalSpec:
         inside = np.floor(centres * slots) == slot
         return self.subcarrier.waveform(centres, comp.subcarrier_sign) * inside
 
-    @property
+    @cached_property
     def replica_duty(self) -> float:
         """The tracked component's mean squared `chip_pulse`: its share of time sent (1; 1/2
         for a component in one of two time slots, GPS L2 CM). A coherent block of T s holds
@@ -420,7 +423,7 @@ class SignalSpec:
         """The RINEX 3 satellite name of ``prn`` (``"G05"``, ``"J01"`` for QZSS PRN 193)."""
         return f"{self.system}{int(prn) - self.rinex_prn_offset:02d}"
 
-    @property
+    @cached_property
     def rinex_obs_types(self) -> tuple[str, str, str, str]:
         """The RINEX 3 observation types of the tracked component: pseudorange, carrier
         phase, Doppler, signal strength (``C1C L1C D1C S1C`` for L1 C/A)."""
