@@ -125,6 +125,7 @@ from .stats import finite_or_none, mean_and_se, paired_difference, paired_values
 
 __all__ = [
     "Claim",
+    "replication_failed",
     "check_claims",
     "check_untuned_claims",
     "evaluate_claims",
@@ -249,6 +250,13 @@ class Claim(BaseModel):
         description=f"the claim is checked on fewer than {MIN_CLAIM_RUNS} runs on "
         "purpose (e.g. a CI example kept short): compare --check accepts it and states its power, "
         "the difference its test detects with probability 0.8; without it such a claim is refused",
+    )
+    replicates: bool = Field(
+        True,
+        strict=True,
+        description="false: the claim is stated to hold on the evaluation runs only (its page says so: "
+        "re-checked on the replicate runs, it did not hold there); compare --check --replicate then checks it on "
+        "the evaluation runs and reports its replicate outcome, marked, without failing on it",
     )
     note: str = Field("", description="where the claim is stated (a docs page, a paper's table)")
 
@@ -1107,7 +1115,20 @@ def claim_evidence(row: dict) -> str:
     rep = row.get("replicate_outcome")
     if rep is not None:
         text += f"; replicate seed set: {rep}"
+        if row.get("replicates") is False:
+            text += " (stated: holds on the evaluation runs only)"
     return text
+
+
+def replication_failed(row: dict) -> bool:
+    """Whether a claim row checked on the replicate runs (``compare --replicate``) fails its
+    replication: a claim stated to replicate (the default) that does not hold there. A claim
+    stated to hold on the evaluation runs only (``replicates = false``) has its replicate
+    outcome reported, not checked: it sits near the edge of significance there (that is
+    why it does not replicate), where another machine's rounding may tip it either way.
+    False for a row not checked on replicate runs."""
+    rep = row.get("replicate_outcome")
+    return rep is not None and rep != "holds" and row.get("replicates", True)
 
 
 def claim_line(row: dict) -> str:

@@ -458,16 +458,20 @@ def _claims_markdown(
     if replicated:
         both = sum(c["outcome"] == "holds" and c.get("replicate_outcome") == "holds" for c in claims)
         one = sum((c["outcome"] == "holds") != (c.get("replicate_outcome") == "holds") for c in claims)
+        stated = sum(c.get("replicates") is False for c in claims)
         lines += [
             f"Replication: every claim re-checked on a second, disjoint set of runs (the replicate streams): "
-            f"{both} hold on both, {one} on one seed set only.",
+            f"{both} hold on both, {one} on one seed set only"
+            + (f" ({stated} stated so: `replicates = false`)" if stated else "")
+            + ".",
             "",
         ]
     lines += ["| outcome | case | claim | evidence |", "| --- | --- | --- | --- |"]
     for c in claims:
         outcome = c["outcome"]
         if replicated and c.get("replicate_outcome") != outcome:
-            outcome += f" (replicate: {c.get('replicate_outcome')})"
+            outcome += f" (replicate: {c.get('replicate_outcome')}"
+            outcome += "; stated: evaluation runs only)" if c.get("replicates") is False else ")"
         lines.append(f"| {outcome} | {claim_where(c)} | {c['statement']} | {claim_evidence(c)} |")
     return lines + [""]
 
@@ -539,11 +543,15 @@ def tuning_figure(cand: str, res: dict, unit: str):
     return fig
 
 
-def replicate_claims(claims: list[dict], replica: list[dict]) -> None:
+def replicate_claims(claims: list[dict], replica: list[dict], stated: list[bool] | None = None) -> None:
     """Add each claim row's outcome on the replicate runs (``replicate_outcome``, and its
     ``replicate_p_value``) and ``replicated``: ``both``, ``first only``, ``replicate only``
-    or ``neither``; ``replica`` is the same claims evaluated on the replicate streams."""
+    or ``neither``; ``replica`` is the same claims evaluated on the replicate streams.
+    ``stated``: per config claim (``row["claim"]``), whether it is stated to replicate
+    (`Claim.replicates`), kept in the row as ``replicates`` (`claims.replication_failed`)."""
     for row, rep in zip(claims, replica, strict=True):
+        if stated is not None:
+            row["replicates"] = stated[row["claim"]]
         row["replicate_outcome"] = rep["outcome"]
         row["replicate_p_value"] = rep.get("p_value")
         first, second = row["outcome"] == "holds", rep["outcome"] == "holds"
@@ -644,7 +652,7 @@ def write_report(
     paired = paired_rows(config, store)
     claims = evaluate_claims(config, store)
     if replicate is not None:
-        replicate_claims(claims, evaluate_claims(replicate, store))
+        replicate_claims(claims, evaluate_claims(replicate, store), [c.replicates for c in config.claims])
     untuned = [c.name for c in config.candidates if c.name not in tuning] if tuning else []
     given = {c.name for c in config.candidates if c.as_given}
     assumptions = assumption_rows(config)
