@@ -1058,7 +1058,19 @@ def claim_where(row: dict) -> str:
 
 
 def claim_evidence(row: dict) -> str:
-    """A claim row's evidence in words."""
+    """A claim row's evidence in words, and its outcome on the replicate runs where it was
+    re-checked there (``compare --replicate``)."""
+    text = _evidence(row)
+    rep = row.get("replicate_outcome")
+    if rep is not None:
+        text += f"; replicate seed set: {rep}"
+        if row.get("replicates") is False:
+            text += " (stated: holds on the evaluation runs only)"
+    return text
+
+
+def _evidence(row: dict) -> str:
+    """A claim row's evidence on the evaluation runs, in words."""
     if row.get("point") == "threshold":
         lo, hi = row["threshold_ci95"]
         est = row["threshold_difference"]
@@ -1112,11 +1124,6 @@ def claim_evidence(row: dict) -> str:
         text += f", {name}-adjusted p={row['p_adjusted']:.2g} of {row['family_size']}"
         if row["outcome"] == "holds" and not row.get("holds_adjusted"):
             text += " (not significant after adjustment)"
-    rep = row.get("replicate_outcome")
-    if rep is not None:
-        text += f"; replicate seed set: {rep}"
-        if row.get("replicates") is False:
-            text += " (stated: holds on the evaluation runs only)"
     return text
 
 

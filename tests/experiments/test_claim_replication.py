@@ -90,3 +90,13 @@ def test_the_report_says_which_claims_are_stated_to_hold_on_one_seed_set():
     text = "\n".join(_claims_markdown(rows, replicated=True))
     assert "1 hold on both, 1 on one seed set only (1 stated so: `replicates = false`)" in text
     assert "| holds (replicate: fails; stated: evaluation runs only) | c | claim 1 |" in text
+
+
+def test_every_kind_of_claim_row_names_its_replicate_outcome():
+    from gnssframework.experiments.claims import claim_evidence
+
+    threshold = {**_row(0), "point": "threshold", "threshold_difference": 1.8, "threshold_ci95": [1.2, 2.2]}
+    refused = {**_row(1, "refused"), "reason": "no spread"}
+    for row in (threshold, refused):
+        replicate_claims([row], [{"outcome": "holds"}], [True, True])
+        assert claim_evidence(row).endswith("; replicate seed set: holds")
