@@ -60,6 +60,7 @@ EXAMPLES = (
     "deep_integration_lock_bandwidth",
     "tracking_threshold",
     "tracking_threshold_oscillator",
+    "tracking_threshold_oscillator_tuned",
     "vector_tracking_realistic",
     "deep_integration_realistic_ci",
     "deep_integration_threshold_ci",
@@ -91,6 +92,7 @@ CI_COST_S = {
     "tracking_threshold": 29,
     "deep_integration_threshold_ci": 70,
     "tracking_threshold_oscillator": 70,
+    "tracking_threshold_oscillator_tuned": 40,
     "carrier_smoothing_sweep": 29,
     "deep_integration_error_sources_ci": 29,
     "vector_tracking_spacing": 22,
@@ -211,6 +213,8 @@ SWEEP_TABLES["carrier_smoothing_sweep"] = ["error_rmse", "slip_recovery_epochs",
 # Issue 40 (tracking thresholds): lock along the C/N0 sweep and the receiver's own C/N0 reading there.
 # Issues 40 and 42: the same loops with a receiver oscillator (the ideal clock its control).
 SWEEP_TABLES["tracking_threshold_oscillator"] = ["loss_of_lock", "phase_jitter_rad"]
+# ... and each loop tuned for its threshold under the GNSS-grade TCXO by the same rule.
+SWEEP_TABLES["tracking_threshold_oscillator_tuned"] = ["loss_of_lock", "phase_jitter_rad"]
 SWEEP_TABLES["deep_integration_threshold_ci"] = ["loss_of_lock_fraction", "phase_lock_loss_fraction"]
 SWEEP_TABLES["tracking_threshold"] = [
     "loss_of_lock",
