@@ -1060,7 +1060,7 @@ def claim_where(row: dict) -> str:
 def claim_evidence(row: dict) -> str:
     """A claim row's evidence in words, and its outcome on the replicate runs where it was
     re-checked there (``compare --replicate``)."""
-    text = _evidence(row)
+    text = _evidence_words(row)
     rep = row.get("replicate_outcome")
     if rep is not None:
         text += f"; replicate seed set: {rep}"
@@ -1069,7 +1069,7 @@ def claim_evidence(row: dict) -> str:
     return text
 
 
-def _evidence(row: dict) -> str:
+def _evidence_words(row: dict) -> str:
     """A claim row's evidence on the evaluation runs, in words."""
     if row.get("point") == "threshold":
         lo, hi = row["threshold_ci95"]
