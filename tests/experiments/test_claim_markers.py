@@ -19,6 +19,10 @@ out), ``cn0_dbhz=30`` or ``cn0_dbhz=30,40`` for ``at``, ``cn0_dbhz=all`` for eve
 
     <!-- claim: vector_tracking_sweep_ci: ackf nees_velocity within [1.0, 5.0] at cn0_dbhz=all -->
 
+A consistency claim (``consistent_states``, the chi-square band) names its states::
+
+    <!-- claim: vector_tracking: ackf nees_position consistent over 3 states -->
+
 This test reads every marker of ``docs/experiments/*.md`` (and of any other docs page that
 carries one, e.g. the smoothers page's) and requires that
 ``examples/<example>.toml`` holds that ``[[claims]]`` entry and that CI checks that
@@ -67,6 +71,12 @@ BOUND = re.compile(
     r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+(?P<every>every run )?within\s+"
     r"\[(?P<low>[^,\]]+),\s*(?P<high>[^\]]+)\]" + _WHERE
 )
+#: A consistency claim (``consistent_states``: the averaged NEES inside its chi-square 95 % band):
+#: ``ackf nees_position consistent over 3 states [at CASE] [at SWEEP=POINTS]``.
+CONSISTENT = re.compile(
+    r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+consistent over\s+(?P<states>\d+)\s+states"
+    + _WHERE
+)
 #: A threshold claim (``threshold`` / ``threshold_difference`` along a sweep with a threshold table):
 #: ``kf loss_of_lock threshold lower than pll along cn0 [within [-9, -5]]`` or
 #: ``kf loss_of_lock threshold within [-1, 1] of pll along cn0`` (``at CASE`` after the sweep for a
@@ -98,13 +108,13 @@ def _parse(body: str) -> dict:
     t = THRESHOLD.match(body)
     if t is not None:
         return {**t.groupdict(), "kind": "threshold"}
-    m = ORDERING.match(body) or EQUIVALENCE.match(body) or BOUND.match(body)
+    m = ORDERING.match(body) or EQUIVALENCE.match(body) or BOUND.match(body) or CONSISTENT.match(body)
     if m is None:
         raise AssertionError(
             f"unreadable claim marker {body!r}: write '<example>: <candidate> <metric> "
             "lower|higher than <reference> [at <case>] [at <sweep>=<points>]', '... equivalent to "
-            "<reference> within <margin> [at <case>]' or '... within "
-            "[low, high] [at <case>] [at <sweep>=<points>]'"
+            "<reference> within <margin> [at <case>]', '... within "
+            "[low, high] [at <case>] [at <sweep>=<points>]' or '... consistent over <n> states [at <case>]'"
         )
     return m.groupdict()
 
@@ -169,6 +179,8 @@ def _matches(claim: dict, want: dict) -> bool:
             and reference == want["reference"]
             and claim.get("reference_case") == want.get("reference_case")
         )
+    if want.get("states") is not None:  # a consistency claim: the chi-square band of n states
+        return claim.get("consistent_states") == int(want["states"]) and claim.get("within") is None
     within = claim.get("every_run_within" if want.get("every") else "within")  # "every run within": every_run_within
     return within is not None and tuple(within) == (float(want["low"]), float(want["high"]))
 
