@@ -125,8 +125,8 @@ def _print_work_estimate(config) -> None:
 
 def _report_claims(summary, check: bool) -> int:
     """Print the claims' outcomes (all with ``--check``, else a tally); 1 if checked and one
-    does not hold, contradicts what it states of its replication (`replication_failed`), or
-    is over fewer than 12 runs without declaring ``small_n``."""
+    does not hold, was stated to replicate and does not hold on the replicate runs
+    (`replication_failed`), or is over fewer than 12 runs without declaring ``small_n``."""
     from .experiments.claims import claim_line, claim_where, replication_failed, small_n_refusal, unstated_small_n
     from .io.files import loads_strict
 
