@@ -74,8 +74,7 @@ BOUND = re.compile(
 #: A consistency claim (``consistent_states``: the averaged NEES inside its chi-square 95 % band):
 #: ``ackf nees_position consistent over 3 states [at CASE] [at SWEEP=POINTS]``.
 CONSISTENT = re.compile(
-    r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+consistent over\s+(?P<states>\d+)\s+states"
-    + _WHERE
+    r"(?P<example>[\w-]+):\s+(?P<candidate>\S+)\s+(?P<metric>\w+)\s+consistent over\s+(?P<states>\d+)\s+states" + _WHERE
 )
 #: A threshold claim (``threshold`` / ``threshold_difference`` along a sweep with a threshold table):
 #: ``kf loss_of_lock threshold lower than pll along cn0 [within [-9, -5]]`` or
