@@ -535,7 +535,8 @@ def tuning_figure(cand: str, res: dict, unit: str):
         ax.tick_params(labelsize=6)
         ax.grid(alpha=0.3)
     for ax in axes[0]:  # units on every axis, on two lines so the label fits the panel's height
-        ax.set_ylabel(f"{res['metric']} ({unit})\n{res['combine']} over cases", fontsize=7)
+        metric = res["metric"] if isinstance(res["metric"], str) else " x ".join(res["metric"])
+        ax.set_ylabel(f"{metric} ({unit})\n{res['combine']} over cases", fontsize=7)
     handles, names = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, names, loc="lower center", fontsize=6, ncol=2, frameon=False)
     fig.suptitle(f"tuning {cand}", fontsize=9)
@@ -607,7 +608,8 @@ def _tuning_outputs(
             for j, t in enumerate(res["trials"]):
                 w.writerow([j, *t["values"], t["objective"] if np.isfinite(t["objective"]) else ""])
         if wanted(f"tuning-{cand}.png"):
-            fig = tuning_figure(cand, res, config.metric_units.get(res["metric"], "-"))
+            metric = res["metric"]  # a composite's objective has no one unit
+            fig = tuning_figure(cand, res, config.metric_units.get(metric, "-") if isinstance(metric, str) else "-")
             _savefig(fig, out / "plots" / f"tuning-{cand}.png")
             plt.close(fig)
     lines.append("")

@@ -132,7 +132,12 @@ class Tuning(BaseModel):
         description="tpe (Optuna's TPE), random (Optuna's random sampler) or grid (the same number of "
         "points per free parameter, at most `trials` in all)",
     )
-    metric: str = Field(..., description="the objective's metric (minimised)")
+    metric: str | list[str] = Field(
+        ...,
+        description="the objective's metric (minimised), or a list of metrics: a stated composite, every "
+        "metric's mean in every case combined by `combine` (with geometric-mean a relative change of any "
+        "metric counts alike, whatever its unit), for a candidate whose claims are about several metrics",
+    )
     cases: list[str] | None = Field(None, min_length=1, description="cases of the objective (default: every case)")
     combine: Literal["geometric-mean", "mean", "max"] = Field(
         "geometric-mean", description="how the cases' mean metrics make one objective"
@@ -143,6 +148,11 @@ class Tuning(BaseModel):
         "(a loop tuned for one regime); sampler, budget, runs, metric and combine stay the same for all",
     )
     free: list[FreeParameter] = Field(..., min_length=1, description="the free parameters")
+
+    @property
+    def metrics(self) -> list[str]:
+        """The objective's metrics: ``metric``, or each of a composite's."""
+        return [self.metric] if isinstance(self.metric, str) else list(self.metric)
 
 
 # -- resolving the free parameters ---------------------------------------------------------------
@@ -253,7 +263,7 @@ def trial_config(config, candidate: str, values: list[Any]):
         runs=tuning.runs,
         reference=None,
         random_stream="tuning",
-        metrics=[tuning.metric],
+        metrics=tuning.metrics,
         name=f"{config.name}-tune-{candidate}",
     )
     cases = objective_cases(tuning, candidate)
@@ -276,10 +286,15 @@ def check_tuning(config) -> None:
     from ..plugin import validation_message
 
     tuning = config.tuning
-    if tuning.metric not in config.metric_names:
-        raise ConfigError(
-            "tuning.metric", f"unknown metric {tuning.metric!r}; allowed: {', '.join(config.metric_names)}"
-        )
+    if not tuning.metrics:
+        raise ConfigError("tuning.metric", "a composite objective needs at least one metric, got []")
+    composite = not isinstance(tuning.metric, str)
+    for j, metric in enumerate(tuning.metrics):
+        if metric not in config.metric_names:
+            raise ConfigError(
+                f"tuning.metric[{j}]" if composite else "tuning.metric",
+                f"unknown metric {metric!r}; allowed: {', '.join(config.metric_names)}",
+            )
     cases = [c.name for c in config.cases]
     for j, case in enumerate(tuning.cases or []):
         if case not in cases:
@@ -332,13 +347,15 @@ def grid_points(params: list[tuple[FreeParameter, tuple, str]], trials: int) -> 
 
 
 def _objective(config, store, trial) -> float:
-    """The combined objective of a finished trial (``inf`` where undefined)."""
+    """The combined objective of a finished trial (``inf`` where undefined): the mean of the
+    metric (of each metric of a composite) in each case, combined by ``combine``."""
     key = trial.identity()
     per_case = []
-    for case in trial.cases:
-        v = store.values(key, case.name, trial.candidates[0].name, config.tuning.metric, trial.runs)
-        m = float(np.mean(v)) if v.size and np.all(np.isfinite(v)) else math.inf
-        per_case.append(m)
+    for metric in config.tuning.metrics:
+        for case in trial.cases:
+            v = store.values(key, case.name, trial.candidates[0].name, metric, trial.runs)
+            m = float(np.mean(v)) if v.size and np.all(np.isfinite(v)) else math.inf
+            per_case.append(m)
     combine = config.tuning.combine
     if any(not math.isfinite(m) for m in per_case):
         return math.inf

@@ -275,3 +275,47 @@ def test_bad_candidate_cases_are_refused_at_load(tmp_path, own, field, message):
     with pytest.raises(ConfigError) as err:
         _config(tmp_path, text=_two_cases(own))
     assert str(err.value).startswith(field) and message in str(err.value), str(err.value)
+
+
+# -- a stated composite objective (issue 42: tune on the metrics the claims use) -----------------
+
+_COMPOSITE = 'metric = ["lat_error_rmse", "lon_error_rmse"]'
+
+
+def test_a_composite_objective_is_the_geometric_mean_over_its_metrics_and_cases(tmp_path):
+    text = _two_cases("").replace('metric = "horizontal_error_rmse"', _COMPOSITE)
+    config = _config(tmp_path, text=text)
+    assert config.tuning.metrics == ["lat_error_rmse", "lon_error_rmse"]
+    trial = trial_config(config, "kf", [1.0])
+    assert sorted(trial.metrics) == ["lat_error_rmse", "lon_error_rmse"]  # the trial records both
+    run_comparison(trial, tmp_path / "trial", progress=False)
+    store = ResultStore(tmp_path / "trial" / "results.sqlite")
+    means = [
+        float(np.mean(store.values(trial.identity(), case, "kf", metric, trial.runs)))
+        for metric in ("lat_error_rmse", "lon_error_rmse")
+        for case in ("only", "other")
+    ]
+    by_hand = math.exp(sum(math.log(m) for m in means) / len(means))
+    assert tuning_module._objective(config, store, trial) == pytest.approx(by_hand, rel=1e-12)
+    # ... and differs from either metric alone (both enter it)
+    alone = [math.exp((math.log(means[2 * k]) + math.log(means[2 * k + 1])) / 2) for k in (0, 1)]
+    assert all(abs(by_hand / a - 1) > 1e-6 for a in alone)
+
+
+def test_a_composite_objective_names_its_unknown_metric(tmp_path):
+    text = BASE.format(sampler="grid", trials=4, path="candidates.*.nav_filter.params.r0").replace(
+        'metric = "horizontal_error_rmse"', 'metric = ["lat_error_rmse", "no_such_metric"]'
+    )
+    with pytest.raises(ConfigError) as err:
+        _config(tmp_path, text=text)
+    assert str(err.value).startswith("tuning.metric[1]") and "no_such_metric" in str(err.value)
+
+
+def test_a_composite_tuning_reports_and_plots_its_objective(tmp_path):
+    text = BASE.format(sampler="grid", trials=2, path="candidates.kf.nav_filter.params.r0").replace(
+        'metric = "horizontal_error_rmse"', _COMPOSITE
+    )
+    summary = json.loads(run_comparison(_config(tmp_path, text=text), tmp_path / "out", progress=False).read_text())
+    (kf,) = summary["tuning"]
+    assert kf["candidate"] == "kf" and kf["trials"] == 2
+    assert (tmp_path / "out" / "plots" / "tuning-kf.png").stat().st_size > 0
