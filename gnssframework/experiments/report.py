@@ -534,8 +534,8 @@ def tuning_figure(cand: str, res: dict, unit: str):
         ax.set_xlabel(parameter_axis_label(label), fontsize=7)
         ax.tick_params(labelsize=6)
         ax.grid(alpha=0.3)
+    metric = res["metric"] if isinstance(res["metric"], str) else " x ".join(res["metric"])  # a composite's
     for ax in axes[0]:  # units on every axis, on two lines so the label fits the panel's height
-        metric = res["metric"] if isinstance(res["metric"], str) else " x ".join(res["metric"])
         ax.set_ylabel(f"{metric} ({unit})\n{res['combine']} over cases", fontsize=7)
     handles, names = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, names, loc="lower center", fontsize=6, ncol=2, frameon=False)
@@ -544,15 +544,14 @@ def tuning_figure(cand: str, res: dict, unit: str):
     return fig
 
 
-def replicate_claims(claims: list[dict], replica: list[dict], stated: list[bool] | None = None) -> None:
+def replicate_claims(claims: list[dict], replica: list[dict], stated: list[bool]) -> None:
     """Add each claim row's outcome on the replicate runs (``replicate_outcome``, and its
     ``replicate_p_value``) and ``replicated``: ``both``, ``first only``, ``replicate only``
     or ``neither``; ``replica`` is the same claims evaluated on the replicate streams.
     ``stated``: per config claim (``row["claim"]``), whether it is stated to replicate
     (`Claim.replicates`), kept in the row as ``replicates`` (`claims.replication_failed`)."""
     for row, rep in zip(claims, replica, strict=True):
-        if stated is not None:
-            row["replicates"] = stated[row["claim"]]
+        row["replicates"] = stated[row["claim"]]
         row["replicate_outcome"] = rep["outcome"]
         row["replicate_p_value"] = rep.get("p_value")
         first, second = row["outcome"] == "holds", rep["outcome"] == "holds"
