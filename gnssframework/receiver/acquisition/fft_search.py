@@ -181,8 +181,13 @@ class _DopplerSpectra:
         if self.base is None:
             return _wiped_spectra(self.blocks, self.dopplers_hz[lo:hi], self.fs, self.if_hz)
         n = self.blocks.shape[1]
-        index = (np.arange(n)[None, :] + self.shift[lo:hi, None]) % n  # W_m[q] = W_0[q + m]
-        return np.take_along_axis(self.base[self.residue_of[lo:hi]], index[:, None, :], axis=-1)
+        out = np.empty((len(self.shift[lo:hi]),) + self.base.shape[1:], self.base.dtype)
+        # W_m[q] = W_0[(q + m) mod N]: two slice copies a bin (a gather by an index array
+        # took ten times as long, a third of a 20 ms code's search)
+        for row, residue, m in zip(out, self.residue_of[lo:hi], self.shift[lo:hi] % n):
+            row[:, : n - m] = self.base[residue, :, m:]
+            row[:, n - m :] = self.base[residue, :, :m]
+        return out
 
 
 def first_period_lag(lag: int, sample_rate_hz: float, signal: SignalSpec = GPS_L1CA) -> int:
