@@ -10,7 +10,14 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 
-from gnss_sdr_config import ACQUISITION, TRACKING, gnss_sdr_config, section  # noqa: E402
+from gnss_sdr_config import (  # noqa: E402
+    ACQUISITION,
+    TRACKING,
+    WEAK_ACQUISITION,
+    WEAK_TRACKING,
+    gnss_sdr_config,
+    section,
+)
 
 
 def _settings(text: str) -> dict[str, str]:
@@ -61,3 +68,14 @@ def test_config_holds_what_was_asked(tmp_path: Path, item_type: str, adapter: st
 def test_unknown_sample_type_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="item_type 'float'"):
         gnss_sdr_config(tmp_path / "rec.dat", 2.6e6, tmp_path, item_type="float")
+
+
+def test_the_weak_settings_override_the_defaults_and_keep_the_rest(tmp_path: Path) -> None:
+    got = _settings(
+        gnss_sdr_config(tmp_path / "rec.dat", 2.6e6, tmp_path, acquisition=WEAK_ACQUISITION, tracking=WEAK_TRACKING)
+    )
+    assert got["Acquisition_1C.coherent_integration_time_ms"] == "10"
+    assert got["Acquisition_1C.doppler_max"] == str(ACQUISITION["doppler_max"])  # kept
+    assert got["Tracking_1C.pll_bw_hz"] == "15.0" and got["Tracking_1C.extend_correlation_symbols"] == "20"
+    assert got["Tracking_1C.implementation"] == TRACKING["implementation"]  # kept
+    assert sum(k.startswith("Tracking_1C.") for k in got) == len(TRACKING | WEAK_TRACKING)
