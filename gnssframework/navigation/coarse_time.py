@@ -45,7 +45,7 @@ from .ephemeris import Ephemerides, satellite_state
 from .lnav import IonoUtc
 from .pvt import PositionFix, solve_position
 
-__all__ = ["CoarseTimeFix", "solve_coarse_time"]
+__all__ = ["CoarseTimeFix", "off_geometry", "solve_coarse_time"]
 
 #: A sigma that no residual reaches: the four-state fixes inside the iteration run without
 #: their residual test (a time error makes every residual large; excluding a satellite
@@ -92,13 +92,14 @@ def _weights(fix: PositionFix, sigma_m: float, elevation_weights: bool) -> np.nd
     return np.sin(np.radians(np.maximum(fix.elevation_deg, 1.0))) ** 2 / sigma_m**2
 
 
-def _orthogonal_rate(rate: np.ndarray, w: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """The range-rate column less its weighted projection on the position and clock
-    columns ``[-u, 1]``."""
+def off_geometry(y: np.ndarray, w: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``y`` (``(n,)`` or ``(n, k)``: columns over ``n`` satellites) less its weighted least-squares
+    projection on the position and clock columns ``[-u, 1]`` (lines of sight ``u``, weights
+    ``w``): what of ``y`` the four-state fix cannot absorb (the Frisch-Waugh-Lovell step; Van
+    Diggelen, *A-GPS*, 2009, ch. 4, for the coarse-time column)."""
     H = np.hstack([-u, np.ones((u.shape[0], 1))])
     Hw = H * w[:, None]
-    coef = np.linalg.solve(Hw.T @ H, Hw.T @ rate)
-    return rate - H @ coef
+    return y - H @ np.linalg.solve(Hw.T @ H, Hw.T @ y)
 
 
 def solve_coarse_time(
@@ -180,7 +181,7 @@ def solve_coarse_time(
         use = used = fix.used
         rate, u = _range_rates(ephemeris, tx + delta, fix.position_ecef_m)
         w = _weights(fix, sigma_m, elevation_weights)[use]
-        perp = _orthogonal_rate(rate[use], w, u[use])
+        perp = off_geometry(rate[use], w, u[use])
         info = float(np.sum(w * perp**2))
         if not info > 0:
             return None

@@ -50,6 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import special  # not scipy.stats: its import costs a second of every run's start-up
+from ...navigation.coarse_time import off_geometry
 
 __all__ = ["TimeOffsetEstimator", "TimeOffset", "BATCHES", "FULL_DOF", "RELAXATION"]
 
@@ -125,10 +126,8 @@ class TimeOffsetEstimator:
         use = np.asarray(use, bool) & np.isfinite(residual_m) & (np.asarray(var_m2) > 0)
         if use.sum() >= 5:
             w = 1.0 / np.asarray(var_m2, float)[use]
-            H = np.hstack([-np.asarray(los, float)[use], np.ones((int(use.sum()), 1))])
-            Hw = H * w[:, None]
             y = np.column_stack([np.asarray(rate_mps, float)[use], np.asarray(residual_m, float)[use]])
-            perp = y - H @ np.linalg.solve(Hw.T @ H, Hw.T @ y)
+            perp = off_geometry(y, w, np.asarray(los, float)[use])
             rate, resid = perp[:, 0], perp[:, 1]
             self._num[b] += float(np.sum(w * rate * resid))
             self._den[b] += float(np.sum(w * rate * rate))
