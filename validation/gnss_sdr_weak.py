@@ -103,13 +103,14 @@ def row(name: str, moving: bool, cn0: float, r: dict, epochs: int, simulated: se
     real = len(simulated & set(r["tracked"]))
     head = (
         f"| GNSS-SDR 0.0.17, {name} settings | {'moving' if moving else 'static'} | {cn0:g} "
-        f"| {len(r['tracked'])} PRNs tracked, {real} of them simulated |"
+        f"| {len(r['tracked'])}, {real} of them simulated |"
     )
     if "fixes" not in r:
         return head + " no fix | 0 | - | - | - |"
     h, v = r["errors_m"]
     lo, hi = r["sats"]
-    return head + f" {r['first_fix_s']:.1f} | {r['fixes']} of {epochs} | {lo}-{hi} | {h:.2f} | {v:.2f} |"
+    after = epochs - int(r["first_fix_s"]) + 1  # the 1 Hz epochs from the first fix to the file's end
+    return head + f" {r['first_fix_s']:.1f} | {r['fixes']} of {after} | {lo}-{hi} | {h:.2f} | {v:.2f} |"
 
 
 def main(argv: list[str] | None = None) -> int:
