@@ -84,7 +84,7 @@ CI_STORES = (
 #: unbalances the lanes, it changes no result.
 CI_COST_S = {
     "deep_integration_nees_ci": 259,
-    "scintillation": 199,
+    "scintillation": 224,
     "multipath": 116,
     "deep_integration_lock_bandwidth": 68,
     "deep_integration_error_sources": 55,
