@@ -50,6 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import special  # not scipy.stats: its import costs a second of every run's start-up
+
 from ...navigation.coarse_time import off_geometry
 
 __all__ = ["TimeOffsetEstimator", "TimeOffset", "BATCHES", "FULL_DOF", "RELAXATION"]
