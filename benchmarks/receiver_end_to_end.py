@@ -37,6 +37,7 @@ Exits 2 when gps-sdr-sim cannot be built or ``gnss-sdr`` is not installed.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 import json
 import os
 import re
@@ -59,6 +60,7 @@ from gnss_sdr_config import gnss_sdr_config  # noqa: E402  (beside this script)
 
 FS_HZ = 2.6e6
 LEAP_S = 18  # GPS - UTC in 2022 (gps-sdr-sim's brdc0010.22n): GNSS-SDR prints UTC
+_TRACKED = re.compile(r"Tracking of GPS L1 C/A signal started on channel \d+ for satellite GPS PRN (\d+)")
 _POSITION = re.compile(
     r"Position at \S+ (\d+):(\d+):([\d.]+) UTC using (\d+) observations is Lat = ([-\d.]+) "
     r"\[deg\], Long = ([-\d.]+) \[deg\], Height\s*=\s*([-\d.]+) \[m\]"
@@ -171,11 +173,27 @@ def run_ours(path: Path, work: Path, profile: bool = False, threads: int | None 
     return {"wall_s": wall, "cpu_s": cpu, "load": load, "peak_mib": peak, **json.loads(out.read_text())}
 
 
-def run_gnss_sdr(path: Path, work: Path, tow0: float) -> dict:
+def run_gnss_sdr(
+    path: Path,
+    work: Path,
+    tow0: float,
+    *,
+    name: str = "gnss-sdr",
+    acquisition: dict[str, object] | None = None,
+    tracking: dict[str, object] | None = None,
+    errors: Callable[[np.ndarray, np.ndarray], tuple[float, float]] | None = None,
+) -> dict:
+    """GNSS-SDR on ``path`` (its config, output folder and log under ``work``, named
+    ``name``; ``acquisition`` and ``tracking`` override the benchmarks' settings,
+    `gnss_sdr_config`): wall and CPU time, load, peak memory, exit code, the PRNs its
+    channels tracked and, with fixes, the first fix's time into the file, the fixes, the
+    satellites used (median, least, most) and ``errors(fixes, t_s)``, horizontal and
+    vertical RMS error of the ``(F, 3)`` latitudes, longitudes and heights at file times
+    ``t_s`` (default: against gps-sdr-sim's static position, `errors_m`)."""
     exe = shutil.which("gnss-sdr")
-    out = work / "gnss-sdr"
+    out = work / name
     out.mkdir(exist_ok=True)
-    conf = work / "gnss-sdr.conf"
+    conf = work / f"{name}.conf"
     conf.write_text(
         gnss_sdr_config(
             path,
@@ -186,11 +204,13 @@ def run_gnss_sdr(path: Path, work: Path, tow0: float) -> dict:
             output_rate_ms=1000,
             display_rate_ms=1000,
             pvt_models=True,
+            acquisition=acquisition,
+            tracking=tracking,
         )
     )
-    run, wall, cpu, load, peak = timed([exe, f"--config_file={conf}"], out)
+    run, wall, cpu, load, peak = timed([exe or "gnss-sdr", f"--config_file={conf}"], out)
     text = run.stdout + run.stderr
-    (work / "gnss-sdr.log").write_text(text)
+    (work / f"{name}.log").write_text(text)
     fixes = [m.groups() for m in _POSITION.finditer(text)]
     found = {
         "wall_s": wall,
@@ -198,25 +218,17 @@ def run_gnss_sdr(path: Path, work: Path, tow0: float) -> dict:
         "load": load,
         "peak_mib": peak,
         "exit": run.returncode,
-        "channels": sorted(
-            {
-                int(p)
-                for p in re.findall(
-                    r"Tracking of GPS L1 C/A signal started on channel \d+ "
-                    r"for satellite GPS PRN (\d+)",
-                    text,
-                )
-            }
-        ),
+        "channels": sorted({int(p) for p in _TRACKED.findall(text)}),
     }
     if fixes:
         f = np.array(fixes, dtype=float)
-        sod = f[:, 0] * 3600 + f[:, 1] * 60 + f[:, 2]
+        t_s = (f[:, 0] * 3600 + f[:, 1] * 60 + f[:, 2] + LEAP_S - tow0 % 86400) % 86400
         found |= {
-            "first_fix_s": float((sod[0] + LEAP_S - tow0 % 86400) % 86400),
+            "first_fix_s": float(t_s[0]),
             "fixes": len(f),
             "sats_median": float(np.median(f[:, 3])),
-            "errors_m": errors_m(f[:, 4], f[:, 5], f[:, 6]),
+            "sats": (int(f[:, 3].min()), int(f[:, 3].max())),
+            "errors_m": (errors or (lambda g, _: errors_m(g[:, 0], g[:, 1], g[:, 2])))(f[:, 4:7], t_s),
         }
     return found
 

@@ -26,7 +26,6 @@ peer and exits 2 only when gps-sdr-sim cannot be built or ``gnss-sdr`` is not in
 from __future__ import annotations
 
 import argparse
-import re
 import shutil
 import subprocess
 import sys
@@ -37,12 +36,11 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "benchmarks"))
-from gnss_sdr_config import WEAK_ACQUISITION, WEAK_TRACKING, gnss_sdr_config  # noqa: E402
+from gnss_sdr_config import WEAK_ACQUISITION, WEAK_TRACKING  # noqa: E402
 from gps_sdr_sim_run import LOCATION, add_noise, circle_truth, parse_log, simulate  # noqa: E402
-from receiver_end_to_end import _POSITION, FS_HZ, LEAP_S, timed  # noqa: E402
+from receiver_end_to_end import FS_HZ, run_gnss_sdr  # noqa: E402
 
 CONFIGS = {"default": ({}, {}), "weak": (WEAK_ACQUISITION, WEAK_TRACKING)}
-_TRACKED = re.compile(r"Tracking of GPS L1 C/A signal started on channel \d+ for satellite GPS PRN (\d+)")
 
 
 def fix_errors_m(fixes: np.ndarray, t_s: np.ndarray, moving: bool) -> tuple[float, float]:
@@ -58,52 +56,26 @@ def fix_errors_m(fixes: np.ndarray, t_s: np.ndarray, moving: bool) -> tuple[floa
 
 
 def run(path: Path, work: Path, tow0: float, name: str, moving: bool) -> dict:
-    """GNSS-SDR with configuration ``name`` on ``path``: tracked PRNs, fixes, errors, wall time."""
+    """GNSS-SDR with configuration ``name`` on ``path`` (`receiver_end_to_end.run_gnss_sdr`)."""
     acquisition, tracking = CONFIGS[name]
-    out = work / f"gnss-sdr-{name}"
-    out.mkdir(exist_ok=True)
-    conf = work / f"{name}.conf"
-    conf.write_text(
-        gnss_sdr_config(
-            path,
-            FS_HZ,
-            out,
-            channels=12,
-            item_type="ishort",
-            output_rate_ms=1000,
-            display_rate_ms=1000,
-            pvt_models=True,
-            acquisition=acquisition,
-            tracking=tracking,
-        )
+    return run_gnss_sdr(
+        path,
+        work,
+        tow0,
+        name=name,
+        acquisition=acquisition,
+        tracking=tracking,
+        errors=lambda fixes, t_s: fix_errors_m(fixes, t_s, moving),
     )
-    done, wall, _, _, _ = timed([shutil.which("gnss-sdr") or "gnss-sdr", f"--config_file={conf}"], out)
-    text = done.stdout + done.stderr
-    (work / f"{name}.log").write_text(text)
-    result: dict = {
-        "tracked": sorted({int(p) for p in _TRACKED.findall(text)}),
-        "wall_s": wall,
-        "exit": done.returncode,
-    }
-    fixes = np.array([m.groups() for m in _POSITION.finditer(text)], dtype=float)
-    if fixes.size:
-        t_s = (fixes[:, 0] * 3600 + fixes[:, 1] * 60 + fixes[:, 2] + LEAP_S - tow0 % 86400) % 86400
-        result |= {
-            "first_fix_s": float(t_s[0]),
-            "fixes": len(fixes),
-            "sats": (int(fixes[:, 3].min()), int(fixes[:, 3].max())),
-            "errors_m": fix_errors_m(fixes[:, 4:7], t_s, moving),
-        }
-    return result
 
 
 def row(name: str, moving: bool, cn0: float, r: dict, epochs: int, simulated: set[int]) -> str:
     """The run's line in the cold-start table of docs/receiver/navigation.md: the PRNs it
     tracked (of them, the simulated ones), first fix, fixes, satellites used, errors."""
-    real = len(simulated & set(r["tracked"]))
+    real = len(simulated & set(r["channels"]))
     head = (
         f"| GNSS-SDR 0.0.17, {name} settings | {'moving' if moving else 'static'} | {cn0:g} "
-        f"| {len(r['tracked'])}, {real} of them simulated |"
+        f"| {len(r['channels'])}, {real} of them simulated |"
     )
     if "fixes" not in r:
         return head + " no fix | 0 | - | - | - |"
