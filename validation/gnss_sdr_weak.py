@@ -77,6 +77,8 @@ def row(name: str, moving: bool, cn0: float, r: dict, epochs: int, simulated: se
         f"| GNSS-SDR 0.0.17, {name} settings | {'moving' if moving else 'static'} | {cn0:g} "
         f"| {len(r['channels'])}, {real} of them simulated |"
     )
+    if r["exit"] != 0:  # a failed run is not a "no fix": its log says why
+        return head + f" GNSS-SDR exited with {r['exit']} (its log beside its config) | - | - | - | - |"
     if "fixes" not in r:
         return head + " no fix | 0 | - | - | - |"
     h, v = r["errors_m"]
