@@ -50,7 +50,7 @@ def render() -> str:
         "",
         "## ComparisonConfig (the file)",
         "",
-        "A file may also hold a `[base]` table (`file`, `drop`, `drop_candidates`, `drop_cases`):",
+        "A file may also hold a `[base]` table (`file`, `drop`, `drop_candidates`, `drop_cases`, `extend`):",
         "it is then laid over that other config, as [Comparisons](index.md#a-config-built-on-another-base)",
         "says; the fields below are those of the config it resolves to.",
         "",

@@ -67,7 +67,13 @@ def comparison_schema() -> dict[str, Any]:
         "type": "object",
         "additionalProperties": False,
         "required": ["file"],
-        "properties": {"file": {"type": "string"}, "drop": names, "drop_candidates": names, "drop_cases": names},
+        "properties": {
+            "file": {"type": "string"},
+            "drop": names,
+            "drop_candidates": names,
+            "drop_cases": names,
+            "extend": names,
+        },
         "description": "another config this one is laid over (its path relative to this file); the other "
         "fields then hold what differs",
     }

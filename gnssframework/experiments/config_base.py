@@ -8,12 +8,15 @@ control and its realistic twin) states only what differs::
     drop = ["published", "claims"]       # the base's top-level keys not taken
     drop_candidates = ["ackf-literal"]   # the base's candidates left out, by name
     drop_cases = []                      # the base's cases left out, by name
+    extend = ["candidates", "tuning.free"]  # arrays this file appends to, not replaces
 
 The base is read (itself resolved first, so bases chain), the dropped keys, candidates and
 cases are removed, and this file's keys are laid over it: a table (``scenario``,
 ``tuning``, ``executor``...) is merged key by key, recursively, this file's values winning;
 anything else, arrays of tables included (``candidates``, ``cases``, ``claims``), replaces
-the base's whole. The result is validated as one config: the same model, the same
+the base's whole, except the arrays named in ``extend`` (dotted paths), which this file's
+entries follow: a variant adds a candidate and its tuned parameters without copying the
+base's. The result is validated as one config: the same model, the same
 identity (`ComparisonConfig.identity`) as the file written out in full.
 """
 
@@ -28,7 +31,7 @@ from ..io.text import read_toml
 __all__ = ["read_config_data", "merge_tables"]
 
 #: The keys ``[base]`` takes.
-BASE_KEYS = ("file", "drop", "drop_candidates", "drop_cases")
+BASE_KEYS = ("file", "drop", "drop_candidates", "drop_cases", "extend")
 
 
 def merge_tables(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
@@ -94,4 +97,21 @@ def read_config_data(path: str | Path, _chain: tuple[Path, ...] = ()) -> dict[st
         del base[key]
     for kind in ("candidates", "cases"):
         _drop_named(base, kind, _names(spec.get(f"drop_{kind}", []), f"base.drop_{kind}"), base_file)
+    for dotted in _names(spec.get("extend", []), "base.extend"):
+        _extend(base, data, dotted, base_file, path)
     return merge_tables(base, data)
+
+
+def _extend(base: dict[str, Any], data: dict[str, Any], dotted: str, base_file: Path, path: Path) -> None:
+    """Put the base's array at ``dotted`` before this file's (both must be arrays)."""
+    *tables, key = dotted.split(".")
+    b, d = base, data
+    for name in tables:
+        b, d = b.get(name, {}), d.get(name, {})
+        if not isinstance(b, dict) or not isinstance(d, dict):
+            raise ConfigError("base.extend", f"{dotted!r}: {name!r} is not a table")
+    if not isinstance(b.get(key), list):
+        raise ConfigError("base.extend", f"{base_file.name} has no array {dotted!r} to extend")
+    if not isinstance(d.get(key), list):
+        raise ConfigError("base.extend", f"{path.name} has no array {dotted!r} to append")
+    d[key] = b[key] + d[key]

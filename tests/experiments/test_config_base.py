@@ -3,7 +3,7 @@
 The truth for the examples built so is the file written out in full: the realistic and CI
 variants were, before they took a base, whole files; each is checked against the same
 config assembled here from its control by the documented rule (tables merged, arrays
-replaced, dropped names gone), independently of the resolver. And the rules' edges: a
+replaced unless extended, dropped names gone), independently of the resolver. And the rules' edges: a
 chain of bases, a base that reaches itself, a dropped name the base lacks, an unknown key.
 """
 
@@ -40,6 +40,12 @@ def _by_hand(variant: str) -> dict:
         del out[key]
     for kind in ("candidates", "cases"):
         out[kind] = [c for c in out[kind] if c["name"] not in spec.get(f"drop_{kind}", [])]
+    for dotted in spec.get("extend", []):  # the base's array first, then the variant's
+        *tables, key = dotted.split(".")
+        mine, theirs = raw, out
+        for t in tables:
+            mine, theirs = mine[t], theirs[t]
+        mine[key] = theirs[key] + mine[key]
     for key, value in raw.items():
         if isinstance(value, dict):
             out[key] = {**out.get(key, {}), **value}  # one level deep: the variants' tables are flat merges
@@ -107,9 +113,32 @@ def test_bases_chain_tables_merge_deeply_and_arrays_replace(tmp_path):
     assert c.scenario["duration_s"] == 0.3 and c.scenario["channels"] == 4
 
 
+def test_extend_appends_to_the_named_arrays_and_others_still_replace(tmp_path):
+    tiny = TINY + '[tuning]\ntrials = 2\nruns = 1\nmetric = "velocity_error_rmse"\n'
+    tiny += '[[tuning.free]]\npath = "candidates.b.nav_filter.params.accel_psd"\nlow = 0.1\nhigh = 1.0\n'
+    (tmp_path / "a.toml").write_text(tiny)
+    (tmp_path / "v.toml").write_text(
+        '[base]\nfile = "a.toml"\nextend = ["candidates", "tuning.free"]\n'
+        '[[candidates]]\nname = "c"\nchannel_filter = "discriminator"\nnav_filter = "ekf-pv"\n'
+        '[[tuning.free]]\npath = "candidates.c.nav_filter.params.accel_psd"\nlow = 0.1\nhigh = 1.0\n'
+        '[[cases]]\nname = "40dBHz"\ncn0_dbhz = 40.0\n'
+    )
+    c = load_config(tmp_path / "v.toml")
+    assert [x.name for x in c.candidates] == ["a", "b", "c"]
+    assert [f.path for f in c.tuning.free] == [
+        "candidates.b.nav_filter.params.accel_psd",
+        "candidates.c.nav_filter.params.accel_psd",
+    ]
+    assert c.tuning.trials == 2  # the table still merges
+    assert [x.name for x in c.cases] == ["40dBHz"]  # an array not named in extend replaces
+
+
 @pytest.mark.parametrize(
     "text, field, words",
     [
+        ('[base]\nfile = "a.toml"\nextend = ["claims"]\n[[claims]]\n', "base.extend", "a.toml has no array 'claims'"),
+        ('[base]\nfile = "a.toml"\nextend = ["cases"]\n', "base.extend", "v.toml has no array 'cases'"),
+        ('[base]\nfile = "a.toml"\nextend = ["name.x"]\n', "base.extend", "'name' is not a table"),
         ('[base]\nfile = "a.toml"\ndrop_candidates = ["z"]\n', "base.drop_candidates", "a.toml has no candidate 'z'"),
         ('[base]\nfile = "a.toml"\ndrop_cases = ["z"]\n', "base.drop_cases", "has no case 'z'"),
         ('[base]\nfile = "a.toml"\ndrop = ["published"]\n', "base.drop", "no key 'published'"),
