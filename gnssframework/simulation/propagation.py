@@ -19,6 +19,8 @@ do not depend on how runs are batched.
   positions, on the ellipsoid's local vertical at a given geodetic latitude/longitude.
 * :class:`RangeErrors`: per-run residuals of the ionosphere, troposphere and broadcast
   orbit/clock, added to the true code (and carrier) ranges.
+* :func:`least_squares_fix_error`: the position and clock error those residuals make in a
+  least-squares fix, the error a receiver's first fix starts its filter with.
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ __all__ = [
     "RangeErrors",
     "draw_range_errors",
     "range_error_function",
+    "least_squares_fix_error",
 ]
 
 #: Receiver antenna attenuation (dB) at boresight angles 0, 5, ..., 180 deg (boresight angle =
@@ -208,3 +211,21 @@ def range_error_function(
         return errors.code_and_carrier_m(elevation_deg(s, r, lat_deg, lon_deg))
 
     return f
+
+
+def least_squares_fix_error(code_m: np.ndarray, sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray) -> np.ndarray:
+    """Position and clock error ``(..., 4)`` (m: x, y, z, clock bias) of a least-squares fix
+    whose pseudoranges carry the errors ``code_m`` ``(..., ch)``.
+
+    Linearised at the true position, a pseudorange error $\\delta\\rho$ moves the fix by
+    $\\delta x = (G^T G)^{-1} G^T \\delta\\rho$ with rows $G_i = [-e_i^T, 1]$ ($e_i$ the unit
+    vector to satellite $i$; Kaplan and Hegarty 2017, section 11.2): the error a receiver's
+    first fix hands its navigation filter when the ranges are biased. Satellites ``(ch, 3)``
+    or ``(..., ch, 3)``, receivers ``(..., 3)``, ECEF metres.
+    """
+    los = np.asarray(sat_pos_m, float) - np.asarray(receiver_pos_m, float)[..., None, :]
+    e = los / np.linalg.norm(los, axis=-1, keepdims=True)
+    G = np.concatenate([-e, np.ones(e.shape[:-1] + (1,))], axis=-1)
+    G = np.broadcast_to(G, np.shape(code_m) + (4,))
+    Gt = np.swapaxes(G, -1, -2)
+    return np.linalg.solve(Gt @ G, (Gt @ np.asarray(code_m, float)[..., None]))[..., 0]

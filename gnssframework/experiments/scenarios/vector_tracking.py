@@ -32,7 +32,13 @@ from ...signal.constants import SPEED_OF_LIGHT_M_S
 from ...simulation.clock import PRESETS
 from ...simulation.constellation import draw_epochs, nominal_constellation
 from ...simulation.fade import CN0Fade, FadeCause, lowest_channels
-from ...simulation.propagation import cn0_from_elevation, draw_range_errors, elevation_deg, range_error_function
+from ...simulation.propagation import (
+    cn0_from_elevation,
+    draw_range_errors,
+    elevation_deg,
+    least_squares_fix_error,
+    range_error_function,
+)
 from ...simulation.trajectory import FigureEight
 from ..limits import SignalCoherentTime
 from ..metric_components import IntegrityOutcome, Mean, Rmse, evaluate, undefined_reasons as _undefined_reasons, units
@@ -151,6 +157,14 @@ class VectorTrackingParams(SignalCoherentTime, SkyRealismParams):
     data_bits: Literal["none", "known", "unknown"] = "known"
     initial_position_std_m: float = Field(3.0, gt=0)
     initial_velocity_std_m_s: float = Field(0.3, gt=0)
+    initial_fix: Literal["independent", "least-squares"] = Field(
+        "independent",
+        description="independent: the nav filter's initial estimate is the truth plus Gaussian errors of "
+        "initial_position_std_m and initial_velocity_std_m_s, independent of the range residuals. least-squares: "
+        "plus the position and clock error the range residuals make in a least-squares fix from the first "
+        "epoch's pseudoranges (gnssframework.simulation.propagation.least_squares_fix_error), as a receiver's "
+        "first fix from the same ranges starts its filter. The same as independent with no residual on",
+    )
     settle_s: float = Field(1.0, ge=0, description="metrics ignore the first settle_s seconds")
     pcrb: bool | None = Field(
         None,
@@ -796,10 +810,15 @@ class VectorTrackingScenario(Scenario):
             faded = lowest_channels(np.broadcast_to(start_elevations(), (runs, p.channels)), fade_channels)
             gains = dict(zip(("signal_gain", "noise_gain"), fade.gains(np.arange(K) * T + T / 2, faded)))
         range_error = None
+        fix_error = np.zeros((runs, 8))
         if p.range_residuals_on():
             range_error = range_error_function(
                 draw_residuals(p, draw.child(rng, "range-errors"), runs), sat_state, receiver_state, lat, lon
             )
+            if p.initial_fix == "least-squares":  # the first fix's error from the same residuals
+                t0 = np.asarray(T / 2)
+                dx = least_squares_fix_error(range_error(t0)[0], sat_state(t0)[0], receiver_state(t0)[0])
+                fix_error[:, 0:3], fix_error[:, 6] = dx[..., 0:3], dx[..., 3]
         if fault is not None:
             range_error = _with_fault(range_error, fault, runs, p.channels)
         truth = VectorTruth(sat_state, receiver_state, clock, cn0, T, range_error_m=range_error, **gains)
@@ -808,7 +827,7 @@ class VectorTrackingScenario(Scenario):
             + [p.initial_velocity_std_m_s**2] * 3
             + [p.initial_position_std_m**2, p.initial_velocity_std_m_s**2]
         )
-        x0 = truth.nav_truth(T / 2, 0) + draw.standard_normal(rng, (runs, 8), 0) @ np.sqrt(P0)
+        x0 = truth.nav_truth(T / 2, 0) + draw.standard_normal(rng, (runs, 8), 0) @ np.sqrt(P0) + fix_error
         return truth, x0, P0
 
     def assumption_context(self, case):
