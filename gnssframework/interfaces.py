@@ -408,6 +408,23 @@ class NavFilter(SequentialFilter):
 
     kind = "nav_filter"
 
+    def fixed_channel_set(self) -> bool:
+        """Whether the filter holds per-channel states (a range bias per satellite), so the
+        channels it is given must stay the same from step to step: a harness whose satellites
+        come and go (the sample receiver) refuses such a filter. Default False."""
+        return False
+
+
+def refuse_fixed_channel_set(nav: NavFilter, field: str) -> None:
+    """Refuse ``nav`` where satellites come and go between steps (`NavFilter.fixed_channel_set`),
+    naming ``field``."""
+    if nav.fixed_channel_set():
+        raise ConfigError(
+            field,
+            f"nav_filter {nav.name!r} holds a range bias per satellite (sisre_std_m > 0), which needs the "
+            "same channels at every step; here satellites come and go: leave sisre_std_m at 0",
+        )
+
 
 # -- capabilities: what a harness asks of a nav filter, by contract rather than by name -------------
 

@@ -16,6 +16,7 @@ from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.tracking.vector import predicted_range
 
 from .nav_filters import EkfPositionVelocity, cv_clock_model
+from .range_bias import RangeBiasParams
 
 __all__ = ["EkfPositionVelocityAcceleration", "ca_clock_model"]
 
@@ -53,7 +54,7 @@ def ca_clock_model(T: float, jerk_psd: float, clock: str) -> tuple[np.ndarray, n
     return F, Q
 
 
-class EkfPvaParams(PluginParams):
+class _EkfPvaOwnParams(PluginParams):
     estimator: PluginRef("estimator", check=handles_nonlinear) = Field(
         "ekf", description="estimator plugin that runs the filter (ekf, ukf, ckf, svd-ckf)"
     )
@@ -67,6 +68,10 @@ class EkfPvaParams(PluginParams):
     clock: str = Field("tcxo", description="clock preset for the clock process noise: tcxo or ocxo")
     min_code_var_chips2: float = Field(1e-6, gt=0, description="floor of the code-error variance fed in as R")
     min_freq_var_hz2: float = Field(1e-4, gt=0, description="floor of the frequency-error variance fed in as R")
+
+
+class EkfPvaParams(RangeBiasParams, _EkfPvaOwnParams):
+    """ekf-pva's parameters: its own, then the range-error budget (`plugins.range_bias`)."""
 
 
 class EkfPositionVelocityAcceleration(EkfPositionVelocity):
@@ -88,7 +93,7 @@ class EkfPositionVelocityAcceleration(EkfPositionVelocity):
     params: EkfPvaParams  # self.params, as validated
 
     def assumptions(self, context):
-        return {"line-of-sight jerk PSD": (self.params.jerk_psd, "m²/s⁵")}
+        return {"line-of-sight jerk PSD": (self.params.jerk_psd, "m²/s⁵"), **self._budget_assumptions()}
 
     def reset(self, batch_shape: tuple[int, ...], context: RunContext) -> None:
         x0 = np.asarray(context.require("initial_state", f"nav_filter {self.name!r}"), float)

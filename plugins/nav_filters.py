@@ -22,12 +22,22 @@ from gnssframework.estimation import (
     register_warm_up,
 )
 from gnssframework.interfaces import BatchPositionFilter, NavFilter, RunContext
+from gnssframework.navigation.geometry import line_of_sight
 from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef, handles_nonlinear
 from gnssframework.receiver.tracking.vector import predicted_range
 from gnssframework.signal.gps_l1ca import GPS_L1CA
 from gnssframework.signal.spec import SPEED_OF_LIGHT_M_S, SignalSpec
 from gnssframework.simulation.clock import PRESETS
+
+from .range_bias import (
+    RangeBiasBudget,
+    RangeBiasParams,
+    check_channels,
+    elevation_deg,
+    least_squares_prior,
+    up_vector,
+)
 
 __all__ = [
     "EkfPositionVelocity",
@@ -197,7 +207,7 @@ def pv_nco_command(
     return rho.reshape(lead + (c,)), rate.reshape(lead + (c,))
 
 
-class EkfPvParams(PluginParams):
+class _EkfPvOwnParams(PluginParams):
     estimator: PluginRef("estimator", check=handles_nonlinear) = Field(
         "ekf", description="estimator plugin that runs the filter (ekf, ukf, ckf, svd-ckf)"
     )
@@ -205,6 +215,10 @@ class EkfPvParams(PluginParams):
     clock: str = Field("tcxo", description="clock preset for the clock process noise: tcxo or ocxo")
     min_code_var_chips2: float = Field(1e-6, gt=0, description="floor of the code-error variance fed in as R")
     min_freq_var_hz2: float = Field(1e-4, gt=0, description="floor of the frequency-error variance fed in as R")
+
+
+class EkfPvParams(RangeBiasParams, _EkfPvOwnParams):
+    """ekf-pv's parameters: its own, then the range-error budget (`plugins.range_bias`)."""
 
 
 class EkfPositionVelocity(NavFilter):
@@ -230,6 +244,12 @@ class EkfPositionVelocity(NavFilter):
     measurement is the residual against the same prediction. The NCO command of the
     next interval is the range and rate predicted half an interval ahead.
 
+    With a range-error budget (``sisre_std_m``, ``iono_vertical_std_m``,
+    ``tropo_zenith_std_m``: `plugins.range_bias`), bias states are appended after the
+    filter's own at the first step, each pseudorange row adds its mapped biases, and the
+    NCO range includes them; the outputs stay the eight states and their marginal
+    covariance. All zero (the default): no bias states, the filter as published.
+
     ``last_step`` is the last step's `StepResult` (None before the first): its
     ``update`` holds the innovation, its covariance and the cross covariance that
     `gnssframework.navigation.filter_integrity` tests.
@@ -244,7 +264,23 @@ class EkfPositionVelocity(NavFilter):
 
     def assumptions(self, context):
         # White acceleration, the same PSD on every axis: any line of sight sees it.
-        return {"line-of-sight acceleration PSD": (self.params.accel_psd, "m²/s³")}
+        return {"line-of-sight acceleration PSD": (self.params.accel_psd, "m²/s³"), **self._budget_assumptions()}
+
+    def _budget_assumptions(self) -> dict[str, tuple[float, str]]:
+        """The range-error budget as assumptions (none when it is off)."""
+        p = self.params
+        if not RangeBiasBudget.wanted(p):
+            return {}
+        return {
+            "range-error budget: SISRE per satellite": (p.sisre_std_m, "m"),
+            "range-error budget: vertical ionospheric residual": (p.iono_vertical_std_m, "m"),
+            "range-error budget: zenith tropospheric residual": (p.tropo_zenith_std_m, "m"),
+        }
+
+    def fixed_channel_set(self) -> bool:
+        """True with per-satellite range-bias states (``sisre_std_m`` > 0): the channels
+        must not change between steps."""
+        return self.params.sisre_std_m > 0
 
     def __init__(self, **params: Any) -> None:
         super().__init__(**params)
@@ -259,6 +295,9 @@ class EkfPositionVelocity(NavFilter):
         T = context.require("coherent_time_s", who)
         self.T = T
         self.F, self.Q = self.transition(T)
+        self._n_core = self.F.shape[0]  # the filter's own states; range-bias states follow them
+        self._bias: RangeBiasBudget | None = None
+        self._up: np.ndarray | None = None
         initial = Gaussian(context.require("initial_state", who), context.require("initial_cov", who))
         self.state = self.filter_step.start(initial)
         self.last_step: StepResult | None = None
@@ -277,14 +316,19 @@ class EkfPositionVelocity(NavFilter):
         """F and Q over one interval ``T`` (s): constant velocity (`cv_clock_model`)."""
         return cv_clock_model(T, self.params.accel_psd, self.params.clock)
 
-    def _model(self, sat_pos, sat_vel, R) -> NonlinearModel:
+    def _model(self, sat_pos, sat_vel, R, bias_rows: np.ndarray | None = None) -> NonlinearModel:
+        """The step's model; ``bias_rows`` ``(..., ch, n_bias)`` adds the range-bias states
+        (after the filter's own ``n_core``) to each pseudorange."""
         F = self.F
+        n_core = self._n_core
 
         def f(x):
             return x @ F.T
 
         def h(x):
             rho, rate, _ = predicted_range(x, sat_pos, sat_vel)
+            if bias_rows is not None:
+                rho = rho + np.einsum("...cn,...n->...c", bias_rows, x[..., n_core:])
             return np.concatenate([rho, rate], axis=-1)
 
         n_x = F.shape[0]  # 8, or more when a subclass appends states after the clock
@@ -297,12 +341,14 @@ class EkfPositionVelocity(NavFilter):
             H[..., :n_ch, 6] = 1.0
             H[..., n_ch:, 3:6] = -e
             H[..., n_ch:, 7] = 1.0
+            if bias_rows is not None:
+                H[..., :n_ch, n_core:] = bias_rows
             return H
 
         # Compiled twins of f (linear) and h (pseudorange/rate) when the satellites are
         # shared by the batch, as in the vector loop: sigma-point engines then run fused.
         compiled = None
-        if np.ndim(sat_pos) == 2 and np.ndim(sat_vel) == 2:
+        if bias_rows is None and np.ndim(sat_pos) == 2 and np.ndim(sat_vel) == 2:
             compiled = CompiledFunctions(
                 linear_f, F, range_rate_row, np.concatenate([sat_pos, sat_vel], axis=-1), range_rate_jacobian
             )
@@ -360,25 +406,70 @@ class EkfPositionVelocity(NavFilter):
             )
         else:
             z, R = self._measurements(inputs)
-        model = self._model(inputs["sat_pos_m"], inputs["sat_vel_m_s"], R)
+        rows = self._bias_rows(inputs)
+        model = self._model(inputs["sat_pos_m"], inputs["sat_vel_m_s"], R, rows)
         # The initial estimate is already at the first mid-interval: no prediction then.
         # The whole step is kept for integrity monitoring (`navigation.filter_integrity`).
         self.last_step = self.filter_step(self.state, z, model, predict=self.filter_step.step_index > 0)
         self.state = self.last_step.posterior
         x = self.state.mean
+        core = x[..., : self._n_core]
         sp, sv = inputs["next_sat_pos_m"], inputs["next_sat_vel_m_s"]
-        if self._compiled and np.ndim(sp) == 2 and np.ndim(sv) == 2 and x.shape[-1] == 8:
-            rho, rate = pv_nco_command(x, self.T / 2, sp, sv)
+        if self._compiled and np.ndim(sp) == 2 and np.ndim(sv) == 2 and core.shape[-1] == 8:
+            rho, rate = pv_nco_command(core, self.T / 2, sp, sv)
         else:
-            rho, rate = self._nco_command(x, sp, sv)
+            rho, rate = self._nco_command(core, sp, sv)
+        if rows is not None:  # the replica follows the biased range the filter predicts
+            rho = rho + np.einsum("...cn,...n->...c", rows, x[..., self._n_core :])
         return {
             "position_m": x[..., 0:3],
             "velocity_m_s": x[..., 3:6],
             "clock_m": x[..., 6:8],
-            "cov": self.state.cov,
+            "cov": self.state.cov[..., :8, :8],
             "nco_range_m": rho,
             "nco_range_rate_m_s": rate,
         }
+
+    def _bias_rows(self, inputs: Mapping[str, np.ndarray]) -> np.ndarray | None:
+        """The mapping of the range-bias states into this step's pseudoranges, appending
+        the states at the first step (None without a budget)."""
+        p = self.params
+        if not RangeBiasBudget.wanted(p):
+            return None
+        channels = int(np.shape(inputs["code_error_chips"])[-1])
+        sat_pos = inputs["sat_pos_m"]
+        if self._bias is None:
+            self._start_bias(channels, sat_pos)
+        assert self._bias is not None and self._up is not None
+        check_channels(self._bias, channels, f"nav_filter {self.name!r}", self.filter_step.step_index)
+        return self._bias.rows(elevation_deg(sat_pos, self.state.mean[..., 0:3], self._up))
+
+    def _start_bias(self, channels: int, sat_pos: np.ndarray) -> None:
+        """Append the budget's bias states (zero mean, their prior variances) to the state,
+        F and Q: random constants or Gauss-Markov (`plugins.range_bias.RangeBiasBudget`);
+        with ``initial_fix_from_ranges``, the prior of `plugins.range_bias.least_squares_prior`."""
+        budget = RangeBiasBudget.of(self.params, channels)
+        x, P, n = self.state.mean, self.state.cov, self._n_core
+        nb = budget.size
+        lead = x.shape[:-1]
+        xa = np.concatenate([x, np.zeros(lead + (nb,))], axis=-1)
+        up = up_vector(x[..., 0:3])
+        P_bias = np.diag(budget.std_m() ** 2)
+        if self.params.initial_fix_from_ranges:
+            _, los = line_of_sight(sat_pos, x[..., None, 0:3])
+            rows = budget.rows(elevation_deg(sat_pos, x[..., 0:3], up))
+            Pa = least_squares_prior(np.broadcast_to(P, lead + (n, n)), P_bias, rows, los, n)
+        else:
+            Pa = np.zeros(lead + (n + nb, n + nb))
+            Pa[..., :n, :n] = P
+            Pa[..., n:, n:] = P_bias
+        psi, q = budget.transition(self.T)
+        F, Q = np.zeros((n + nb, n + nb)), np.zeros((n + nb, n + nb))
+        F[:n, :n], Q[:n, :n] = self.F, self.Q
+        F[n:, n:], Q[n:, n:] = np.diag(psi), np.diag(q)
+        self.F, self.Q = F, Q
+        self._bias, self._up = budget, up
+        self.state = self.filter_step.start(Gaussian(xa, Pa), first_step=self.filter_step.step_index)
 
 
 class PositionCaParams(PluginParams):

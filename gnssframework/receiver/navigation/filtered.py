@@ -52,7 +52,7 @@ import pymap3d
 
 from ... import names, registry
 from ...errors import ConfigError
-from ...interfaces import NavFilter, RunContext
+from ...interfaces import NavFilter, RunContext, refuse_fixed_channel_set
 from ...navigation.ephemeris import (
     OMEGA_EARTH_RAD_S,
     Ephemerides,
@@ -425,6 +425,7 @@ def filter_epochs(
         return wls
     check_nav_filter(nav_filter)
     nav = registry.create("nav_filter", nav_filter, **(params or {}))
+    refuse_fixed_channel_set(nav, "nav_filter.params.sisre_std_m")
     gate = exclusion == "innovation"
     if gate and not hasattr(nav, "transition"):
         raise ConfigError(

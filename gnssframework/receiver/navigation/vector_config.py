@@ -17,6 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from ... import registry
 from ...errors import ConfigError
+from ...interfaces import refuse_fixed_channel_set
 from ...navigation.lnav import IonoUtc
 from ...plugin import validation_message
 from ..engine.closers import check_composition
@@ -125,10 +126,9 @@ def vector_config(**values: Any) -> VectorConfig:
         config = VectorConfig(**values)
     except ValidationError as exc:
         raise validation_message(exc, prefix="vector", model=VectorConfig) from None
-    check_composition(
-        registry.create("channel_filter", config.channel_filter, **config.channel_params),
-        registry.create("nav_filter", config.nav_filter, **config.nav_params),
-    )
+    nav = registry.create("nav_filter", config.nav_filter, **config.nav_params)
+    check_composition(registry.create("channel_filter", config.channel_filter, **config.channel_params), nav)
+    refuse_fixed_channel_set(nav, "vector.nav_params.sisre_std_m")
     return config
 
 

@@ -40,7 +40,7 @@ import pymap3d
 
 from ... import names, registry
 from ...errors import NumericalError
-from ...interfaces import ChannelFilter, RunContext
+from ...interfaces import ChannelFilter, RunContext, refuse_fixed_channel_set
 from ...navigation.ephemeris import Ephemerides, satellite_state
 from ...navigation.geometry import line_of_sight
 from ...navigation.lnav import IonoUtc
@@ -107,6 +107,7 @@ class VectorNavigator:
         self.tx_anchor = tx_anchor
         self.chip_anchor = chip_anchor
         self.filter = registry.create("nav_filter", vector.nav_filter, **vector.nav_params)
+        refuse_fixed_channel_set(self.filter, "vector.nav_params.sisre_std_m")
         self.started = False
         self.pending: dict[int, tuple] = {}
         self.iono_m = np.zeros(slots.size)
