@@ -409,9 +409,11 @@ class NavFilter(SequentialFilter):
     kind = "nav_filter"
 
     def fixed_channel_set(self) -> bool:
-        """Whether the filter holds per-channel states (a range bias per satellite), so the
-        channels it is given must stay the same from step to step: a harness whose satellites
-        come and go (the sample receiver) refuses such a filter. Default False."""
+        """Whether the filter appends states for the channels of its first step (range
+        biases), so it must be given the same channels at every step and read through its
+        outputs only: a harness whose satellites come and go, or that carries the filter's
+        8 states itself (the sample receiver's gate, smoother and hand-over), refuses such a
+        filter. Default False."""
         return False
 
 
@@ -421,8 +423,9 @@ def refuse_fixed_channel_set(nav: NavFilter, field: str) -> None:
     if nav.fixed_channel_set():
         raise ConfigError(
             field,
-            f"nav_filter {nav.name!r} holds a range bias per satellite (sisre_std_m > 0), which needs the "
-            "same channels at every step; here satellites come and go: leave sisre_std_m at 0",
+            f"nav_filter {nav.name!r} appends range-bias states for the channels of its first step, which the "
+            "scenarios' fixed channel sets allow; here satellites come and go and the receiver carries the 8 "
+            "states itself: leave sisre_std_m, iono_vertical_std_m and tropo_zenith_std_m at 0",
         )
 
 

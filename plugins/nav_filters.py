@@ -278,9 +278,9 @@ class EkfPositionVelocity(NavFilter):
         }
 
     def fixed_channel_set(self) -> bool:
-        """True with per-satellite range-bias states (``sisre_std_m`` > 0): the channels
-        must not change between steps."""
-        return self.params.sisre_std_m > 0
+        """True with a range-error budget: its states are appended for the first step's
+        channels (the scenarios' fixed sets)."""
+        return RangeBiasBudget.wanted(self.params)
 
     def __init__(self, **params: Any) -> None:
         super().__init__(**params)

@@ -172,65 +172,60 @@ def test_gauss_markov_bias_states_keep_their_stationary_variance():
     assert np.all(psi == 1.0) and np.all(q == 0.0)  # None: random constants
 
 
-def test_no_budget_adds_no_state():
+def _still_inputs(rx: np.ndarray, sats: np.ndarray) -> dict:
+    """One step's inputs for a receiver at ``rx`` whose replica is right (clock 30 m, 0.2 m/s)."""
+    z = np.zeros(len(sats))
+    return {
+        "replica_range_m": np.linalg.norm(sats - rx, axis=-1) + 30.0,
+        "replica_rate_m_s": z + 0.2,
+        "code_error_chips": z,
+        "code_error_var_chips2": z + 1e-3,
+        "freq_error_hz": z,
+        "freq_error_var_hz2": z + 1e-2,
+        "sat_pos_m": sats,
+        "sat_vel_m_s": np.zeros_like(sats),
+        "next_sat_pos_m": sats,
+        "next_sat_vel_m_s": np.zeros_like(sats),
+    }
+
+
+def _started(**params) -> tuple:
     rx, sats, _ = _sky()
+    nav = gf.registry.create("nav_filter", "ekf-pv", clock="ocxo", **params)
     x0 = np.concatenate([rx, np.zeros(3), [30.0, 0.2]])
-    nav = gf.registry.create("nav_filter", "ekf-pv", clock="ocxo")
     nav.reset((), gf.RunContext(coherent_time_s=T_S, initial_state=x0, initial_cov=P0))
-    ch = len(sats)
-    geo = np.linalg.norm(sats - rx, axis=-1) + 30.0
-    zeros = np.zeros(ch)
-    nav.step(
-        {
-            "replica_range_m": geo,
-            "replica_rate_m_s": zeros + 0.2,
-            "code_error_chips": zeros,
-            "code_error_var_chips2": zeros + 1e-3,
-            "freq_error_hz": zeros,
-            "freq_error_var_hz2": zeros + 1e-2,
-            "sat_pos_m": sats,
-            "sat_vel_m_s": np.zeros_like(sats),
-            "next_sat_pos_m": sats,
-            "next_sat_vel_m_s": np.zeros_like(sats),
-        }
-    )
+    return nav, rx, sats
+
+
+def test_no_budget_adds_no_state():
+    nav, rx, sats = _started()
+    nav.step(_still_inputs(rx, sats))
     assert nav.state.mean.shape == (8,) and not nav.fixed_channel_set()
+    assert _started(iono_vertical_std_m=2.0)[0].fixed_channel_set()
 
 
 def test_a_changing_channel_set_is_refused_naming_the_step():
-    rx, sats, _ = _sky()
-    x0 = np.concatenate([rx, np.zeros(3), [30.0, 0.2]])
-    nav = gf.registry.create("nav_filter", "ekf-pv", clock="ocxo", sisre_std_m=0.6)
-    nav.reset((), gf.RunContext(coherent_time_s=T_S, initial_state=x0, initial_cov=P0))
-
-    def inputs(s):
-        z = np.zeros(len(s))
-        geo = np.linalg.norm(s - rx, axis=-1) + 30.0
-        return {
-            "replica_range_m": geo,
-            "replica_rate_m_s": z + 0.2,
-            "code_error_chips": z,
-            "code_error_var_chips2": z + 1e-3,
-            "freq_error_hz": z,
-            "freq_error_var_hz2": z + 1e-2,
-            "sat_pos_m": s,
-            "sat_vel_m_s": np.zeros_like(s),
-            "next_sat_pos_m": s,
-            "next_sat_vel_m_s": np.zeros_like(s),
-        }
-
-    nav.step(inputs(sats))
+    nav, rx, sats = _started(sisre_std_m=0.6)
+    nav.step(_still_inputs(rx, sats))
     assert nav.fixed_channel_set() and nav.state.mean.shape == (8 + len(sats),)
     with pytest.raises(ConfigError) as info:
-        nav.step(inputs(sats[:-1]))
+        nav.step(_still_inputs(rx, sats[:-1]))
     assert info.value.field == "nav_filter 'ekf-pv'.sisre_std_m"
     assert f"step 1 has {len(sats) - 1} channels, the first had {len(sats)}" in str(info.value)
 
 
-def test_the_receiver_refuses_per_satellite_bias_states_in_one_line():
+@pytest.mark.parametrize("budget", [{"sisre_std_m": 0.6}, {"iono_vertical_std_m": 2.0}])
+def test_the_receiver_refuses_range_bias_states_in_one_line(budget):
     with pytest.raises(ConfigError) as info:
-        vector_config(nav_params={"sisre_std_m": 0.6})
-    assert info.value.field == "vector.nav_params.sisre_std_m"
-    assert "satellites come and go" in str(info.value)
-    # Shared ionospheric and tropospheric states fit any channel set: allowed.
-    vector_config(nav_params={"iono_vertical_std_m": 2.0})
+        vector_config(nav_params=budget)
+    assert info.value.field == "vector.nav_params"
+    assert "satellites come and go" in str(info.value) and "\n" not in str(info.value)
+    vector_config(nav_params={"sisre_std_m": 0.0})  # no budget: accepted
+
+
+def test_the_filtered_positions_refuse_range_bias_states_before_any_epoch():
+    from gnssframework.receiver.navigation.filtered import filter_epochs
+
+    with pytest.raises(ConfigError) as info:
+        filter_epochs(None, [None], "ekf-pv", {"tropo_zenith_std_m": 0.05})
+    assert info.value.field == "nav_filter.params"

@@ -425,7 +425,7 @@ def filter_epochs(
         return wls
     check_nav_filter(nav_filter)
     nav = registry.create("nav_filter", nav_filter, **(params or {}))
-    refuse_fixed_channel_set(nav, "nav_filter.params.sisre_std_m")
+    refuse_fixed_channel_set(nav, "nav_filter.params")
     gate = exclusion == "innovation"
     if gate and not hasattr(nav, "transition"):
         raise ConfigError(

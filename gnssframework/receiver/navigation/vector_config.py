@@ -128,7 +128,7 @@ def vector_config(**values: Any) -> VectorConfig:
         raise validation_message(exc, prefix="vector", model=VectorConfig) from None
     nav = registry.create("nav_filter", config.nav_filter, **config.nav_params)
     check_composition(registry.create("channel_filter", config.channel_filter, **config.channel_params), nav)
-    refuse_fixed_channel_set(nav, "vector.nav_params.sisre_std_m")
+    refuse_fixed_channel_set(nav, "vector.nav_params")
     return config
 
 

@@ -107,7 +107,7 @@ class VectorNavigator:
         self.tx_anchor = tx_anchor
         self.chip_anchor = chip_anchor
         self.filter = registry.create("nav_filter", vector.nav_filter, **vector.nav_params)
-        refuse_fixed_channel_set(self.filter, "vector.nav_params.sisre_std_m")
+        refuse_fixed_channel_set(self.filter, "vector.nav_params")
         self.started = False
         self.pending: dict[int, tuple] = {}
         self.iono_m = np.zeros(slots.size)
