@@ -69,3 +69,20 @@ def test_bad_sample_type_and_if_are_config_errors(rng):
         generate_if_samples(1, 0.001, FS, IF, 45, rng, sample_type="uint4")
     with pytest.raises(gf.ConfigError, match="if_hz"):
         generate_if_samples(1, 0.001, FS, 3e6, 45, rng)
+
+
+@pytest.mark.parametrize("n", [1, 7, 4096, 4097, 1_000_003])
+@pytest.mark.parametrize("hz", [0.0, 1234.5, -4.1e6])
+def test_the_factored_carrier_is_the_direct_exponential(n, hz):
+    from gnssframework.signal.if_samples import carrier_phasor
+
+    fs, theta0 = 10.5e6, 0.7
+    w = 2 * np.pi * hz / fs
+    k = np.arange(n)
+    direct = np.exp(1j * (theta0 + w * k))
+    # Each form rounds its phase to about eps |phase| (the direct one once, the factored one in
+    # its two tables); their product adds a few eps.
+    tol = 8 * np.finfo(float).eps * (abs(theta0) + abs(w) * n + 1.0)
+    got = carrier_phasor(theta0, w, n)
+    assert got.shape == (n,)
+    assert np.max(np.abs(got - direct)) <= tol
