@@ -218,6 +218,18 @@ def signal_samples(
 
 
 @backend.jit
+def _carried(remainder, step, size):
+    """``(remainder + step) % size`` for a remainder in ``[0, size)`` and a small step,
+    by additions."""
+    remainder += step
+    while remainder >= size:
+        remainder -= size
+    while remainder < 0:
+        remainder += size
+    return remainder
+
+
+@backend.jit
 def _signal_kernel(
     out,
     stride,
@@ -259,21 +271,13 @@ def _signal_kernel(
             t = k / fs
             chips = chip0 + chips_per_s * t
             idx = np.int64(np.floor(chips * subchips))
-            r += idx - last
+            r = _carried(r, idx - last, size)
             last = idx
-            while r >= size:
-                r -= size
-            while r < 0:
-                r += size
             v = amplitude * table[r]
             if n_overlay > 0:
                 p = np.int64(np.floor(chips / code_length))
-                rp += p - last_p
+                rp = _carried(rp, p - last_p, n_overlay)
                 last_p = p
-                while rp >= n_overlay:
-                    rp -= n_overlay
-                while rp < 0:
-                    rp += n_overlay
                 v = v * overlay[rp]
             if n_bits > 0:
                 j = np.int64(np.floor((t - first_edge) / period))
