@@ -100,11 +100,14 @@ def _shifted_up(chunks, if_hz: float):
     phase continuous from chunk to chunk."""
     from scipy.signal import resample_poly
 
+    from gnssframework.signal.if_samples import carrier_phasor
+
     start = 0
     for x in chunks:
         y = resample_poly(x, WIDE_UP, 1)
-        n = start + np.arange(y.size)
-        yield y * np.exp(2j * np.pi * ((if_hz * n / WIDE_FS) % 1.0))
+        # The phase at the chunk's first sample in whole turns removed, then its carrier
+        # (two short tables: `carrier_phasor`).
+        yield y * carrier_phasor(2 * np.pi * ((if_hz * start / WIDE_FS) % 1.0), 2 * np.pi * if_hz / WIDE_FS, y.size)
         start += y.size
 
 
