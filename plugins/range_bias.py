@@ -28,9 +28,9 @@ import numpy as np
 from pydantic import Field
 
 from gnssframework.errors import ConfigError
-from gnssframework.navigation.geometry import enu_rotation
+from gnssframework.navigation.geometry import enu_rotation, line_of_sight
 from gnssframework.plugin import PluginParams
-from gnssframework.simulation.propagation import klobuchar_obliquity, tropo_mapping
+from gnssframework.simulation.propagation import klobuchar_obliquity, least_squares_gain, tropo_mapping
 
 __all__ = [
     "RangeBiasBudget",
@@ -138,9 +138,8 @@ def up_vector(position_ecef_m: np.ndarray) -> np.ndarray:
 def elevation_deg(sat_pos_m: np.ndarray, position_ecef_m: np.ndarray, up: np.ndarray) -> np.ndarray:
     """Elevations ``(..., ch)`` of satellites ``(ch, 3)`` or ``(..., ch, 3)`` seen from
     positions ``(..., 3)`` with local up ``(..., 3)``."""
-    los = np.asarray(sat_pos_m, float) - np.asarray(position_ecef_m, float)[..., None, :]
-    sin_e = np.einsum("...ci,...i->...c", los, up) / np.linalg.norm(los, axis=-1)
-    return np.degrees(np.arcsin(np.clip(sin_e, -1.0, 1.0)))
+    _, e = line_of_sight(np.asarray(sat_pos_m, float), np.asarray(position_ecef_m, float)[..., None, :])
+    return np.degrees(np.arcsin(np.clip(np.einsum("...ci,...i->...c", e, up), -1.0, 1.0)))
 
 
 def check_channels(budget: RangeBiasBudget, channels: int, who: str, step: int) -> None:
@@ -172,9 +171,7 @@ def least_squares_prior(
     (``P_bias`` the diagonal prior ``(n_b, n_b)``; A fills the position, 0-2, and clock
     bias, 6, rows of the state).
     """
-    G = np.concatenate([-los, np.ones(los.shape[:-1] + (1,))], axis=-1)
-    Gt = np.swapaxes(G, -1, -2)
-    A4 = np.linalg.solve(Gt @ G, Gt @ rows)  # (..., 4, n_b)
+    A4 = least_squares_gain(los) @ rows  # (..., 4, n_b)
     lead = A4.shape[:-2]
     nb = P_bias.shape[-1]
     A = np.zeros(lead + (n_core, nb))

@@ -43,6 +43,7 @@ __all__ = [
     "RangeErrors",
     "draw_range_errors",
     "range_error_function",
+    "least_squares_gain",
     "least_squares_fix_error",
 ]
 
@@ -213,19 +214,25 @@ def range_error_function(
     return f
 
 
+def least_squares_gain(unit_los: np.ndarray) -> np.ndarray:
+    """$(G^T G)^{-1} G^T$ ``(..., 4, ch)`` with rows $G_i = [-e_i^T, 1]$, ``unit_los``
+    ``(..., ch, 3)`` the unit vectors $e_i$ to the satellites: how range errors move a
+    least-squares fix's position and clock (Kaplan and Hegarty 2017, section 11.2)."""
+    e = np.asarray(unit_los, float)
+    G = np.concatenate([-e, np.ones(e.shape[:-1] + (1,))], axis=-1)
+    Gt = np.swapaxes(G, -1, -2)
+    return np.linalg.solve(Gt @ G, Gt)
+
+
 def least_squares_fix_error(code_m: np.ndarray, sat_pos_m: np.ndarray, receiver_pos_m: np.ndarray) -> np.ndarray:
     """Position and clock error ``(..., 4)`` (m: x, y, z, clock bias) of a least-squares fix
     whose pseudoranges carry the errors ``code_m`` ``(..., ch)``.
 
     Linearised at the true position, a pseudorange error $\\delta\\rho$ moves the fix by
-    $\\delta x = (G^T G)^{-1} G^T \\delta\\rho$ with rows $G_i = [-e_i^T, 1]$ ($e_i$ the unit
-    vector to satellite $i$; Kaplan and Hegarty 2017, section 11.2): the error a receiver's
+    $\\delta x = (G^T G)^{-1} G^T \\delta\\rho$ (`least_squares_gain`): the error a receiver's
     first fix hands its navigation filter when the ranges are biased. Satellites ``(ch, 3)``
     or ``(..., ch, 3)``, receivers ``(..., 3)``, ECEF metres.
     """
     los = np.asarray(sat_pos_m, float) - np.asarray(receiver_pos_m, float)[..., None, :]
-    e = los / np.linalg.norm(los, axis=-1, keepdims=True)
-    G = np.concatenate([-e, np.ones(e.shape[:-1] + (1,))], axis=-1)
-    G = np.broadcast_to(G, np.shape(code_m) + (4,))
-    Gt = np.swapaxes(G, -1, -2)
-    return np.linalg.solve(Gt @ G, (Gt @ np.asarray(code_m, float)[..., None]))[..., 0]
+    gain = least_squares_gain(los / np.linalg.norm(los, axis=-1, keepdims=True))
+    return (gain @ np.asarray(code_m, float)[..., None])[..., 0]
