@@ -183,9 +183,7 @@ def signal_samples(
     table = signal.spreading_table(prn)
     if backend.compiled(backend_override):
         out = np.empty(n, complex if complex_samples else float)
-        b = min(_PHASOR_BLOCK, max(n, 1))
-        inner = np.exp(1j * rad_per_sample * np.arange(b))
-        outer = np.exp(1j * (carrier_phase_rad + rad_per_sample * b * np.arange(-(-n // b))))
+        inner, outer = _phasor_tables(carrier_phase_rad, rad_per_sample, n)
         period = signal.symbol_period_s if signal.symbol_period_s is not None else 1.0
         _signal_kernel(
             out.view(np.float64),
@@ -302,10 +300,17 @@ def carrier_phasor(phase0_rad: float, rad_per_sample: float, n: int) -> np.ndarr
     roundoff (`tests/signal/test_if_samples.py` holds the two together)."""
     if n <= 0:
         return np.zeros(0, complex)
-    b = min(_PHASOR_BLOCK, n)
+    inner, outer = _phasor_tables(phase0_rad, rad_per_sample, n)
+    return (outer[:, None] * inner[None, :]).reshape(-1)[:n]
+
+
+def _phasor_tables(phase0_rad: float, rad_per_sample: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """`carrier_phasor`'s two tables: $e^{j\\omega i}$ for $i < B$ and $e^{j(\\theta_0 + \\omega B m)}$
+    for the blocks that cover ``n`` samples (none for ``n`` = 0)."""
+    b = min(_PHASOR_BLOCK, max(n, 1))
     inner = np.exp(1j * rad_per_sample * np.arange(b))
     outer = np.exp(1j * (phase0_rad + rad_per_sample * b * np.arange(-(-n // b))))
-    return (outer[:, None] * inner[None, :]).reshape(-1)[:n]
+    return inner, outer
 
 
 def correlate_if(
