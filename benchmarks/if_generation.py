@@ -96,10 +96,12 @@ def main(argv: list[str] | None = None) -> None:
         folder = Path(tmp)
         peer = [gps_sdr_sim(args.seconds, args.rate, folder) for _ in range(args.repeat)]
         sats = peer[0][1] if peer[0] is not None else 10
+        print(f"gps-sdr-sim: {'done' if peer[0] is not None else 'not available'}", file=sys.stderr, flush=True)
         ours(0.5, args.rate, 1, folder, "numba")  # compile outside the timing
         rows = {}
         for path in ("numba", "numpy"):
             rows[path] = min(ours(args.seconds, args.rate, sats, folder, path) for _ in range(args.repeat))
+            print(f"ours, {path}: done", file=sys.stderr, flush=True)
     work = sats * args.seconds
     print(f"{sats} satellites x {args.seconds:g} s at {args.rate / 1e6:g} MHz, int8 I/Q (best of {args.repeat})")
     print(f"{'generator':<28}{'CPU s':>8}{'sat-s per CPU s':>18}")
