@@ -95,7 +95,7 @@ def test_compiled_interval_closing_is_bit_identical_to_the_numpy_reference():
             rng.uniform(0.39, 0.4, idx.size),
             periods,
             rng.uniform(-5e3, 5e3, idx.size),
-            float(rng.uniform(1, 9)),
+            rng.uniform(1, 9, idx.size),
             2.6e6,
             1023,
         )
@@ -111,6 +111,6 @@ def test_compiled_interval_closing_is_bit_identical_to_the_numpy_reference():
         # scaled to unit noise (by sqrt(N P / 2)), untouched slots did not move
         fresh = _arrays(np.random.default_rng(trial))
         assert np.all(b.start_sample[idx] == args[2] + counts.sum(axis=1))
-        np.testing.assert_allclose(s_new[0, 0], sums[0, 0] / np.sqrt(counts[0, 0] * args[7] / 2), rtol=1e-15)
+        np.testing.assert_allclose(s_new[0, 0], sums[0, 0] / np.sqrt(counts[0, 0] * args[7][0] / 2), rtol=1e-15)
         others = np.setdiff1d(np.arange(6), idx)
         np.testing.assert_array_equal(b.code_phase[others], fresh.code_phase[others])

@@ -10,8 +10,9 @@ bit-identical results (tested).
 - Normalisation: a 1 ms sum of N samples of mean power P against a ±1 replica has I and Q
   noise variance N P / 2 (`gnssframework.receiver.channels.tracker`), so each period's sums
   are divided by :math:`\\sqrt{N P / 2}` (as NumPy divides a complex by a real: times its
-  reciprocal). ``power`` is the replica's mean square times P: P for a ±1 replica, P d for
-  one that is 0 outside a share d of the time (`SignalSpec.replica_duty`).
+  reciprocal). ``power`` is, per channel, the replica's mean square times P: P for a ±1
+  replica, P d for one that is 0 outside a share d of the time (`SignalSpec.replica_duty`);
+  P is that of the block the channel's interval starts in (`tracker.SampleTracker`).
 - Bit synchronisation votes (`lock`): a prompt turned by more than 90 degrees from the
   previous one, :math:`\\mathrm{Re}(P_k P_{k-1}^*) < 0`, votes for its code period modulo the
   code periods of a data symbol (the histograms' length; 20 on L1 C/A).
@@ -71,18 +72,18 @@ def close_periods_numpy(
     steps: np.ndarray,
     periods: np.ndarray,
     doppler_hz: np.ndarray,
-    power: float,
+    power: np.ndarray,
     sample_rate_hz: float,
     code_length: int,
 ) -> np.ndarray:
     """Reference of `close_periods`. ``sums`` ``(n, max periods, taps)`` (tap 1 the prompt)
     and ``counts`` ``(n, max periods)`` as `correlator.correlate_periods` returns them for
     the channels at slots ``idx`` (ascending), which started at ``starts`` with code phase
-    ``phases``, code step ``steps`` (chips per sample), ``periods`` code periods and
-    ``doppler_hz``. ``sums`` is normalised in place; returns the ``(n, taps)`` interval sums."""
+    ``phases``, code step ``steps`` (chips per sample), ``periods`` code periods,
+    ``doppler_hz`` and the replica's sum of squares per sample ``power``. ``sums`` is normalised in place; returns the ``(n, taps)`` interval sums."""
     fs = sample_rate_hz
     valid = counts > 0
-    sums[valid] /= np.sqrt(counts[valid] * power / 2)[:, None]
+    sums[valid] /= np.sqrt((counts * power[:, None])[valid] / 2)[:, None]
     total = counts.sum(axis=1)
     a.acc_t0[idx] = starts / fs
     a.acc_phase[idx] = phases
@@ -142,7 +143,7 @@ def _close(
             if n > 0:
                 # NumPy's complex / real: the real is a complex with zero imaginary part,
                 # divided as (a + b * 0) * (1 / c) (Smith's method, npymath).
-                scale = 1.0 / np.sqrt(n * power / 2)
+                scale = 1.0 / np.sqrt(n * power[j] / 2)
                 for t in range(sums.shape[2]):
                     z = sums[j, k, t]
                     sums[j, k, t] = complex((z.real + z.imag * 0.0) * scale, (z.imag - z.real * 0.0) * scale)
@@ -189,7 +190,7 @@ def close_periods(
     steps: np.ndarray,
     periods: np.ndarray,
     doppler_hz: np.ndarray,
-    power: float,
+    power: np.ndarray,
     sample_rate_hz: float,
     code_length: int,
     backend: str | None = None,
@@ -210,7 +211,7 @@ def close_periods(
         steps,
         periods,
         doppler_hz,
-        float(power),
+        np.ascontiguousarray(power, float),
         float(sample_rate_hz),
         int(code_length),
         a.acc_t0,

@@ -34,7 +34,11 @@ Noise scaling: the I and Q noise of a 1 ms sum of N samples of power P (one real
 complex sample's mean square) against a replica :math:`r_i` and a unit carrier is
 :math:`P / 2 \\sum_i r_i^2` per component for white noise: N P / 2 for a ±1 code, N P d / 2
 for a component sent in a share d of the time whose replica is 0 elsewhere (GPS L2 CM, d =
-1/2: `SignalSpec.replica_duty`); the scale is measured on every block read.
+1/2: `SignalSpec.replica_duty`); P is measured per block of the block grid (``block_ms``),
+and an interval is scaled by the P of the block it starts in. That, re-acquisition at the
+ticks of its clock and each channel running to its own last interval make a channel's
+records independent of the other channels of its tracker (`groups`: channels split
+between processes).
 """
 
 from __future__ import annotations
@@ -157,6 +161,7 @@ class SampleTracker:
     def _reset_state(self) -> None:
         n, w = len(self.signal.prns), self.config.cn0_window_ms
         self.active = np.zeros(n, bool)
+        self.finished = np.zeros(n, bool)  # active, but its next interval would pass the end
         self.start_sample = np.zeros(n, np.int64)
         self.code_phase = np.zeros(n)  # chips at start_sample
         self.code_rate = np.zeros(n)  # chips/s
@@ -200,6 +205,7 @@ class SampleTracker:
             self.votes,
         )
         self.batches: dict[tuple[str, int], FilterBatch] = {}
+        self.largest_batch = 0  # the most channels a batch has held this run
         self.layouts: dict[tuple[str, int], frozenset | None] = {}
 
     def add(self, prn: int, acq: AcquisitionResult, first_sample: int) -> None:
@@ -211,6 +217,7 @@ class SampleTracker:
             )
         i = ch.slot
         self.active[i] = True
+        self.finished[i] = False
         self.start_sample[i] = first_sample + acq.code_phase_samples
         self.code_phase[i] = 0.0  # a code epoch
         self.doppler[i] = acq.doppler_hz
@@ -237,30 +244,51 @@ class SampleTracker:
         self.voting[i] = stage != "extended"
 
     def _samples(self, lo: int, hi: int) -> tuple[np.ndarray, int]:
-        """A buffer holding samples ``[lo, hi)``, read in blocks as the file stores them
-        (`Recording.read_components`: interleaved I/Q components or real values, no float
-        copy); ``(buffer, its first sample)``."""
+        """A buffer holding samples ``[lo, hi)``, read in whole blocks of the block grid
+        (block ``k`` is samples ``[k B, (k + 1) B)``, B = ``block_ms``) as the file stores
+        them (`Recording.read_components`: interleaved I/Q components or real values, no
+        float copy); ``(buffer, its first sample)``. Each block's mean square is kept
+        beside it (`_block_power`): what a channel's interval is scaled by depends on the
+        samples and the grid only, never on which channels read them (so channels tracked
+        in separate processes, `groups`, get the same numbers)."""
         per = 2 if self.rec.is_complex else 1  # buffer values per sample
+        size = self.block_samples
         held = self.buf.shape[0] // per
         if self.buf_start <= lo and hi <= self.buf_start + held:
             return self.buf, self.buf_start
-        keep = self.buf[max(0, lo - self.buf_start) * per :] if lo < self.buf_start + held else self.buf[:0]
-        first = max(lo, self.buf_start + held) if keep.size else lo
-        block = max(hi - first, int(self.config.block_ms * 1e-3 * self.fs))
-        new, squares = self.reader.read(first, block)
-        self.buf = np.concatenate([keep, new]) if keep.size else new
-        self.buf_start = first - keep.shape[0] // per
-        if new.size:  # mean square of a sample (|I|^2 + |Q|^2 for I/Q); no BLAS call (its threads spin)
-            self.power = squares * per / new.size
+        first_block = lo // size * size
+        if lo < self.buf_start or lo >= self.buf_start + held:  # behind what is held, or past it
+            self.buf, self.buf_start, self.buf_power, held = self.buf[:0], first_block, self.buf_power[:0], 0
+        elif first_block > self.buf_start:  # whole blocks before lo's are done with
+            drop = (first_block - self.buf_start) // size
+            self.buf, self.buf_power = self.buf[drop * size * per :], self.buf_power[drop:]
+            self.buf_start, held = first_block, held - drop * size
+        parts, powers = [self.buf], [self.buf_power]
+        end = self.buf_start + held
+        while end < hi:
+            new, squares = self.reader.read(end, size)
+            if not new.size:
+                break
+            parts.append(new)
+            # mean square of a sample (|I|^2 + |Q|^2 for I/Q); no BLAS call (its threads spin)
+            powers.append(np.array([squares * per / new.size]))
+            end += new.size // per
+            if new.size < size * per:  # the recording's (or a live stream's) end
+                break
+        self.buf, self.buf_power = np.concatenate(parts), np.concatenate(powers)
         return self.buf, self.buf_start
+
+    def _block_power(self, starts: np.ndarray) -> np.ndarray:
+        """Mean square of a sample in the block each of ``starts`` lies in (held by the buffer)."""
+        return self.buf_power[(starts - self.buf_start) // self.block_samples]
 
     def run(
         self, acquisitions: list[AcquisitionResult], duration_s: float | None = None, progress: Any = None
     ) -> TrackingResult:
         """Track every detected satellite of ``acquisitions`` (made on the first samples)
         for ``duration_s`` (default: the whole recording)."""
-        ahead = int(self.config.block_ms * 1e-3 * self.fs) if self.read_ahead else 0
-        self.reader = BlockReader(self.rec, ahead)
+        self.block_samples = int(self.config.block_ms * 1e-3 * self.fs)
+        self.reader = BlockReader(self.rec, self.block_samples if self.read_ahead else 0)
         try:
             return self._track(acquisitions, duration_s, progress)
         finally:
@@ -275,7 +303,7 @@ class SampleTracker:
         self._reset_state()
         self.buf = self.rec.read_components(0, 0)
         self.buf_start = 0
-        self.power = 1.0
+        self.buf_power = np.zeros(0)
         tables_for, tables, tables_other = None, None, None
         code_length = self.signal.code_length_chips
         self.closer.bind(self)
@@ -286,8 +314,8 @@ class SampleTracker:
         next_reacq = every
         lag_limit = int(LAG_LIMIT_S * fs)
         while True:
-            live = np.flatnonzero(self.active)
-            if live.size == 0:  # every channel lost: only re-acquisition can go on
+            live = np.flatnonzero(self.active & ~self.finished)
+            if live.size == 0:  # every channel lost (or at the end): only re-acquisition can go on
                 if not self.channels or next_reacq >= min(stop, self.rec.n_samples):  # (a stream's, once ended)
                     break
                 self.closer.reacquire(next_reacq, stop)
@@ -311,8 +339,12 @@ class SampleTracker:
             periods = self.coherent[idx]
             starts = self.start_sample[idx]
             ends = starts + np.ceil((periods * code_length - phases) / steps + 1).astype(np.int64)
-            if ends.max() > stop:
-                break
+            over = ends > stop
+            if over.any():  # each channel runs to its own last whole interval, whatever the others do
+                for i in idx[over].tolist():
+                    self.finished[i] = True
+                    self.leave_batch(self.channels[self.signal.prns[i]])
+                continue
             buf, first = self._samples(int(starts.min()), int(ends.max()))
             if first + buf.shape[0] // (2 if self.rec.is_complex else 1) < ends.max():
                 break  # a live stream ended
@@ -363,7 +395,7 @@ class SampleTracker:
                 steps,
                 periods,
                 dop,
-                self.power * self.signal.replica_duty,  # the replica's sum of squares per sample
+                self._block_power(starts) * self.signal.replica_duty,  # the replica's sum of squares per sample
                 fs,
                 code_length,
                 backend=self.backend,
@@ -388,8 +420,8 @@ class SampleTracker:
             self.closer.after_interval(idx)
             if progress is not None:
                 progress(int(lead.min()) / stop)
-            if lead.min() >= next_reacq:
-                self.closer.reacquire(int(lead.max()), stop)
+            if lead.min() >= next_reacq:  # at the clock's tick, whichever channels run (`groups`)
+                self.closer.reacquire(next_reacq, stop)
                 next_reacq += every
         stop = min(stop, self.rec.n_samples)  # a live stream's length is known at its end
         result = TrackingResult(self.records, list(acquisitions), stop / fs, cfg.channel_filter)
@@ -509,6 +541,7 @@ class SampleTracker:
                 c.join_tries += 1
                 continue
             c.batch, c.filter = b, None
+            self.largest_batch = max(self.largest_batch, len(b.slots))
 
     def leave_batch(self, c: SampleChannel) -> None:
         """Channel ``c`` steps alone from now on (out of the batch it was in, if any)."""
