@@ -637,6 +637,7 @@ def _recording_progress(
 def _cmd_track(args: argparse.Namespace) -> int:
     from .receiver.acquisition.report import search_summary
     from .receiver.channels import SampleTracker
+    from .receiver.channels.groups import resolve_workers, track_in_groups
     from .receiver.channels.report import channel_summary, write_tracking_outputs
     from .receiver.navigation.cnav_stream import carries_cnav, write_cnav_report
     from .receiver.navigation.inav_stream import carries_d1, carries_d2, carries_fnav, carries_inav, write_inav_report
@@ -660,7 +661,20 @@ def _cmd_track(args: argparse.Namespace) -> int:
         )
         return 1
     with _recording_progress(args, rec) as progress:
-        result = tracker.run(found, args.duration, progress)
+        if resolve_workers(args.workers, len(found)) > 1:
+            result = track_in_groups(
+                rec,
+                config,
+                acq,
+                found,
+                args.duration,
+                workers=args.workers,
+                signal=signal,
+                filters=tracker.filters,
+                progress=progress,
+            )
+        else:
+            result = tracker.run(found, args.duration, progress)
     written = write_tracking_outputs(args.out, result, plots=not args.no_plots, signal=signal)
     print(f"tracked {len(found)} satellites for {result.duration_s:.3f} s with {config.channel_filter}:")
     for s in channel_summary(result, signal):
@@ -1059,6 +1073,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
             raim=raim,
             observe=fixes.observe if fixes is not None and vector is None else None,
             smooth=args.smooth,
+            workers=args.workers,
         )
     if dual is not None:
         result = _ionosphere_free(args, dual, result, acq, prns, rinex, reference_week)
@@ -1355,6 +1370,30 @@ def _add_threads_option(p: argparse.ArgumentParser) -> None:
         type=int,
         metavar="N",
         help="threads correlating the channels (default: the cores available); the results do not depend on it",
+    )
+
+
+def _workers(text: str) -> int | str:
+    """``--workers``: a whole number of at least 1, or ``auto``."""
+    if text == "auto":
+        return text
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a whole number of at least 1, or auto; got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"a whole number of at least 1, or auto; got {text!r}")
+    return value
+
+
+def _add_workers_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--workers",
+        type=_workers,
+        default="auto",
+        metavar="N",
+        help="processes tracking the scalar channels, each a share of them (a number, or auto: the cores "
+        "available; default: auto); the records do not depend on it",
     )
 
 
@@ -1719,6 +1758,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--no-plots", action="store_true", help="no plots")
     _add_threads_option(p)
+    _add_workers_option(p)
     p.add_argument("--quiet", action="store_true", help="no progress (a bar on a terminal, a line per tenth elsewhere)")
     p.set_defaults(func=_cmd_track)
     p = sub.add_parser(
@@ -1848,6 +1888,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="GPS week and time of week (s) of the first sample (to ~1 ms), for --approx-position",
     )
     _add_threads_option(p)
+    _add_workers_option(p)
     p.add_argument(
         "--outputs",
         metavar="LIST",

@@ -65,6 +65,9 @@ class Recording:
         would otherwise spread through a whole FFT search and hide every satellite.
     """
 
+    #: Samples that arrive as they are read (a stream), not a file any process can read.
+    is_live = False
+
     def __init__(self, path: str | Path, info: RecordingInfo) -> None:
         self.path = Path(path)
         self.info = info

@@ -21,6 +21,7 @@ from ..acquisition.report import acquire_recording
 from ..acquisition.search import Acquisition, AcquisitionResult
 from ..channels import SampleTracker, TrackingConfig, TrackingResult
 from ..channels.factory import StageFilters
+from ..channels.groups import resolve_workers, track_in_groups
 from ..frontend.recording import Recording
 from ...errors import ConfigError
 from ...navigation.ephemeris import Ephemerides, require_records_with_clock
@@ -78,6 +79,7 @@ def receive(
     raim: RaimOptions | None = None,
     observe: Callable[[SampleTracker], Any] | None = None,
     smooth: bool = False,
+    workers: int | str | None = None,
 ) -> ReceiveResult:
     """Acquire, track and position (see the module text); ``rinex`` adds ephemerides for
     satellites whose own have not been decoded yet; ``progress`` is called with the
@@ -105,8 +107,12 @@ def receive(
     levels of its navigation filter's covariance and its channel monitor's verdict
     (`VectorSolution.table`; the monitor is ``vector.monitor_false_alarm``'s).
     ``observe`` is given the scalar tracker before it runs (a live receiver's fixes as they
-    come, `live.LiveFixes`, read its records from ``progress``)."""
+    come, `live.LiveFixes`, read its records from ``progress``). ``workers`` (a number, or
+    ``"auto"``: the cores available) tracks the scalar channels in that many forked
+    processes (`channels.groups.track_in_groups`: the same records); one process with
+    ``vector``, ``observe`` or a live stream."""
     message = navigation_message(signal)  # dates the channels: LNAV subframes, the I/NAV GST
+    resolve_workers(workers, 1)  # a bad value refused before any work
     if rinex is not None:  # only records that give this signal's user a clock (E5a: F/NAV's)
         rinex = require_records_with_clock(rinex, signal, "rinex", "the records given")
     if not message.hands_over and (vector is not None or assist is not None):
@@ -185,10 +191,24 @@ def receive(
         raise ConfigError(
             "approx_position", "an approximate position and start time start vector tracking: give vector as well"
         )
-    scalar_tracker = SampleTracker(recording, config, acquisition, signal=signal, filters=filters)
-    if observe is not None:
-        observe(scalar_tracker)
-    tracking = scalar_tracker.run(found, duration_s, progress)
+    n_workers = resolve_workers(workers, len(found))
+    if n_workers > 1 and observe is None:
+        tracking = track_in_groups(
+            recording,
+            config,
+            acquisition,
+            found,
+            duration_s,
+            workers=n_workers,
+            signal=signal,
+            filters=filters,
+            progress=progress,
+        )
+    else:
+        scalar_tracker = SampleTracker(recording, config, acquisition, signal=signal, filters=filters)
+        if observe is not None:
+            observe(scalar_tracker)
+        tracking = scalar_tracker.run(found, duration_s, progress)
     timings = [message.timing(ch, signal) for ch in tracking.channels.values()]
     if not any(t is not None and t.time_s.size > 1 for t in timings):
         return ReceiveResult(tracking, None, None)
