@@ -1,7 +1,7 @@
 """The whole receiver, end to end, against GNSS-SDR on the same gps-sdr-sim file in the same run.
 
     python benchmarks/receiver_end_to_end.py [--seconds 60] [--cn0 45] [--repeat 3] [--work DIR] [--threads N]
-                                             [--profile]
+                                             [--workers N] [--profile]
 
 A static receiver simulated by gps-sdr-sim (built from ``../shared/tools/gps-sdr-sim``, its
 ``brdc0010.22n``, Tokyo, as `validation/gps_sdr_sim_navigation.py`), 2.6 MHz complex int16,
@@ -13,14 +13,16 @@ idle 2-core machine, the recording's simulation included; ``--work`` keeps the r
 for the next run):
 
 - gnssframework: `receive` (acquisition of all 32 PRNs, tracking of every satellite found,
-  LNAV, observables, least-squares positions at 1 Hz from the decoded ephemerides,
-  Klobuchar from page 18, no troposphere: gps-sdr-sim models none);
+  in ``--workers`` processes as the command does by default (`auto`: the cores), LNAV,
+  observables, least-squares positions at 1 Hz from the decoded ephemerides, Klobuchar
+  from page 18, no troposphere: gps-sdr-sim models none);
 - GNSS-SDR 0.0.17 (``gnss-sdr`` on PATH): PCPS acquisition, DLL/PLL tracking, telemetry,
   observables and its RTKLIB PVT (single point) at 1 Hz, 12 channels (more than the
   satellites in view).
 
-Printed per run: wall time, CPU time (the process and its threads), peak resident memory
-(``ru_maxrss`` of that process, from ``wait4``), x real time (signal
+Printed per run: wall time, CPU time (the process, its threads and its tracking
+processes), peak resident memory (``ru_maxrss`` from ``wait4``: the largest of that process
+and its tracking processes, which share the parent's pages), x real time (signal
 seconds per wall second), the load average before the run, gnssframework's start-up CPU
 (interpreter, imports, plugin registry: before the receiver starts) and, for context, each
 receiver's first-fix time (seconds into the file), fixes, satellites used and position
@@ -90,7 +92,9 @@ def simulate(work: Path, seconds: float, cn0_dbhz: float, seed: int) -> tuple[Pa
     return noisy, tow0
 
 
-def ours_in_this_process(path: Path, out: Path, profile: bool, threads: int | None = None) -> None:
+def ours_in_this_process(
+    path: Path, out: Path, profile: bool, threads: int | None = None, workers: int | str = "auto"
+) -> None:
     """Run the library's receiver on ``path``; write what it found to ``out`` (JSON)."""
     from gnssframework import registry
     from gnssframework.backend import set_threads
@@ -105,7 +109,13 @@ def ours_in_this_process(path: Path, out: Path, profile: bool, threads: int | No
 
     def run():
         return receive(
-            open_recording(path), acquisition, tracking_config(), rate_hz=1.0, ionosphere=True, troposphere=False
+            open_recording(path),
+            acquisition,
+            tracking_config(),
+            rate_hz=1.0,
+            ionosphere=True,
+            troposphere=False,
+            workers=workers,
         )
 
     if profile:
@@ -161,10 +171,11 @@ def timed(cmd: list[str], cwd: Path) -> tuple[subprocess.CompletedProcess, float
     return run, wall, cpu_s, load, maxrss_kib / 1024  # Linux: KiB
 
 
-def run_ours(path: Path, work: Path, profile: bool = False, threads: int | None = None) -> dict:
+def run_ours(path: Path, work: Path, profile: bool = False, threads: int | None = None, workers: int | str = 1) -> dict:
     out = work / "ours.json"
     cmd = [sys.executable, str(Path(__file__).resolve()), "--ours-only", str(path), "--result", str(out)]
     cmd += ["--threads", str(threads)] if threads is not None else []
+    cmd += ["--workers", str(workers)]
     run, wall, cpu, load, peak = timed(cmd + (["--profile"] if profile else []), work)
     if run.returncode != 0:
         raise SystemExit(f"gnssframework failed:\n{run.stderr[-3000:]}")
@@ -269,11 +280,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--work", type=Path, help="folder for the recording (kept and reused); default: a temporary one")
     ap.add_argument("--profile", action="store_true", help="print gnssframework's cProfile (slows it)")
     ap.add_argument("--threads", type=int, help="gnssframework's threads (receive --threads; default: the cores)")
+    ap.add_argument(
+        "--workers",
+        default="auto",
+        help="gnssframework's tracking processes (receive --workers: a number, or auto, the default: the cores)",
+    )
     ap.add_argument("--ours-only", type=Path, help=argparse.SUPPRESS)
     ap.add_argument("--result", type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.ours_only:
-        ours_in_this_process(args.ours_only, args.result, args.profile, args.threads)
+        workers = args.workers if args.workers == "auto" else int(args.workers)
+        ours_in_this_process(args.ours_only, args.result, args.profile, args.threads, workers)
         return 0
     if shutil.which("gnss-sdr") is None or not (SIM_DIR / "build.sh").exists():
         print("needs gnss-sdr on PATH and ../shared/tools/gps-sdr-sim beside the repository", file=sys.stderr)
@@ -296,7 +313,9 @@ def main(argv: list[str] | None = None) -> int:
             round_ = {}
             for who in order:
                 round_[who] = (
-                    run_ours(path, work, threads=args.threads) if who == "ours" else run_gnss_sdr(path, work, tow0)
+                    run_ours(path, work, threads=args.threads, workers=args.workers)
+                    if who == "ours"
+                    else run_gnss_sdr(path, work, tow0)
                 )
                 print(line("gnssframework" if who == "ours" else "GNSS-SDR", round_[who], args.seconds), flush=True)
             rows.append(round_)
@@ -309,7 +328,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         if args.profile:
             print("\nwhere gnssframework's time goes (cProfile, a separate untimed run):")
-            run_ours(path, work, profile=True, threads=args.threads)
+            run_ours(path, work, profile=True, threads=args.threads, workers=args.workers)
     return 0
 
 
