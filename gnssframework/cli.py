@@ -1256,6 +1256,7 @@ def _receive_several(args: argparse.Namespace, live, outputs: frozenset[str]) ->
             iono_fallback=nav_info.iono_for(systems) if nav_info is not None and not args.no_iono else None,
             weighting=args.weighting,
             progress=progress,
+            workers=args.workers,
         )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -320,3 +320,33 @@ def test_receive_refuses_options_it_does_not_take_with_several_signals(tmp_path,
     with pytest.raises(SystemExit):  # an unknown name: argparse's usage error
         main(["receive", str(path), "--signal", "gps-l1ca,galileo-e9", "--out", str(tmp_path / "o")])
     assert "galileo-e9" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("workers", ["1", "3"])
+def test_each_signals_channels_in_worker_processes_give_the_same_files(mixed_run, tmp_path, workers):
+    # Each signal's channels in 1 or 3 processes (the fixture: the default, one per core):
+    # the same positions and observations, byte for byte.
+    _, out, *_ = mixed_run
+    path = out.parent / "mix.sigmf-data"
+    code = main(
+        [
+            "receive",
+            str(path),
+            "--signal",
+            "gps-l1ca,galileo-e1b-boc11",
+            "--rate",
+            "5",
+            "--no-iono",
+            "--ephemeris",
+            str(out.parent / "mixed.rnx"),
+            "--workers",
+            workers,
+            "--out",
+            str(tmp_path),
+            "--quiet",
+        ]
+    )
+    assert code == 0
+    for name in ("positions.csv", "observations.rnx", "nmea.txt"):
+        assert (tmp_path / name).read_bytes() == (out / name).read_bytes(), name

@@ -48,7 +48,8 @@ from ...navigation.lnav import IonoUtc
 from ...signal.spec import SignalSpec
 from ..acquisition.report import acquire_recording
 from ..acquisition.search import Acquisition
-from ..channels import SampleTracker, TrackingConfig, TrackingResult
+from ..channels import TrackingConfig, TrackingResult
+from ..channels.groups import track_in_groups
 from ..frontend.recording import Recording
 from .fixes import full_week, solve_epochs
 from .decoded import MESSAGES, navigation_message
@@ -193,6 +194,7 @@ def receive_signals(
     iono_fallback: IonoUtc | BdsKlobuchar | None = None,
     progress: Any = None,
     broadcast_ggto: bool = False,
+    workers: int | str | None = None,
 ) -> ReceiveResult:
     """Acquire, track and date every signal of ``signals`` (``configs[i]`` tracks the
     ``i``-th) and solve their satellites together (module text). ``rinex`` holds the
@@ -201,7 +203,8 @@ def receive_signals(
     scaled to its own carrier. A signal on another carrier than the first is read at the
     recording's IF plus the carriers' difference (module text). The result's tracking and observables are keyed by
     `SignalSet.key`. ``broadcast_ggto``: take the decoded GGTO as known
-    (`broadcast_time_offsets`; estimated as before when no word type 10 was decoded)."""
+    (`broadcast_time_offsets`; estimated as before when no word type 10 was decoded).
+    ``workers``: each signal's channels tracked in that many processes (`receive.receive`'s)."""
     if len(configs) != len(signals.signals):
         raise ConfigError("configs", f"one tracking config per signal: {len(configs)} for {len(signals.signals)}")
     channels: dict = {}
@@ -213,7 +216,9 @@ def receive_signals(
         rec = recording if shift == 0.0 else recording.tuned(recording.info.if_hz + shift)
         found = [r for r in acquire_recording(rec, acquisition, None, signal=signal) if r.detected]
         found_all += found
-        tracking = SampleTracker(rec, config, acquisition, signal=signal).run(found, duration_s, progress)
+        tracking = track_in_groups(
+            rec, config, acquisition, found, duration_s, workers=workers or 1, signal=signal, progress=progress
+        )
         duration = max(duration, tracking.duration_s)
         for prn, ch in tracking.channels.items():
             key = signals.key(i, prn)
