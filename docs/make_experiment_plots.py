@@ -65,6 +65,7 @@ EXAMPLES = (
     "vector_tracking_realistic",
     "deep_integration_realistic_ci",
     "deep_integration_threshold_ci",
+    "scintillation_rate_lock",
 )
 #: The examples whose stores CI's comparisons make first (``.ci/run`` compares each into
 #: results/<name>/): this script only draws their figures and writes their tables, after those
@@ -90,6 +91,7 @@ CI_COST_S = {
     "deep_integration_lock_bandwidth": 68,
     "deep_integration_error_sources": 55,
     "scintillation_sweep": 51,
+    "scintillation_rate_lock": 40,
     "tracking_threshold": 29,
     "deep_integration_threshold_ci": 70,
     "tracking_threshold_oscillator": 70,
@@ -212,6 +214,7 @@ SWEEP_TABLES["multipath"] = ["horizontal_error_rmse"]
 # Reference 003 (scintillation): the main example and its sweeps.
 TABLES["scintillation"] = ["phase_error_rmse", "loss_of_lock_fraction", "discriminator_std", "equivalent_bandwidth_hz"]
 SWEEP_TABLES["scintillation_sweep"] = ["phase_error_rmse", "loss_of_lock_fraction"]
+TABLES["scintillation_rate_lock"] = ["phase_error_rmse", "loss_of_lock_fraction"]
 # Reference 001 (carrier smoothing): the main example's metrics and its slip-rate sweep's.
 TABLES["carrier_smoothing"] = ["error_rmse", "slip_recovery_epochs", "censored_slips", "false_reset_rate"]
 SWEEP_TABLES["carrier_smoothing_sweep"] = ["error_rmse", "slip_recovery_epochs", "false_reset_rate"]
