@@ -34,6 +34,17 @@ C = 299_792_458.0
 SIGMA_M = 1.7  # code noise at 45 dB-Hz (test_receive_command's, test_inav_fix's)
 
 
+def _receive_args(path, nav, out, *more: str) -> list[str]:
+    """The receive command of both signals at 5 Hz (no ionosphere: the generator has none)."""
+    signals = "gps-l1ca,galileo-e1b-boc11"
+    return ["receive", str(path), "--signal", signals, "--rate", "5", "--no-iono", "--ephemeris", str(nav)] + [
+        *more,
+        "--out",
+        str(out),
+        "--quiet",
+    ]
+
+
 @pytest.fixture(scope="module")
 def mixed_run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("mixed")
@@ -41,24 +52,7 @@ def mixed_run(tmp_path_factory):
     nav = write_mixed_nav(folder / "mixed.rnx", gps)
     path = write_mixed_recording(folder / "mix.sigmf-data", gps, gal, TOW0, DURATION_S, seed=3)
     out = folder / "out"
-    code = main(
-        [
-            "receive",
-            str(path),
-            "--signal",
-            "gps-l1ca,galileo-e1b-boc11",
-            "--rate",
-            "5",
-            "--no-iono",
-            "--ephemeris",
-            str(nav),
-            "--outputs",
-            "default,kml,parquet,rtcm",
-            "--out",
-            str(out),
-            "--quiet",
-        ]
-    )
+    code = main(_receive_args(path, nav, out, "--outputs", "default,kml,parquet,rtcm"))
     return code, out, gps, gal
 
 
@@ -328,25 +322,7 @@ def test_each_signals_channels_in_worker_processes_give_the_same_files(mixed_run
     # Each signal's channels in 1 or 3 processes (the fixture: the default, one per core):
     # the same positions and observations, byte for byte.
     _, out, *_ = mixed_run
-    path = out.parent / "mix.sigmf-data"
-    code = main(
-        [
-            "receive",
-            str(path),
-            "--signal",
-            "gps-l1ca,galileo-e1b-boc11",
-            "--rate",
-            "5",
-            "--no-iono",
-            "--ephemeris",
-            str(out.parent / "mixed.rnx"),
-            "--workers",
-            workers,
-            "--out",
-            str(tmp_path),
-            "--quiet",
-        ]
-    )
+    code = main(_receive_args(out.parent / "mix.sigmf-data", out.parent / "mixed.rnx", tmp_path, "--workers", workers))
     assert code == 0
     for name in ("positions.csv", "observations.rnx", "nmea.txt"):
         assert (tmp_path / name).read_bytes() == (out / name).read_bytes(), name
