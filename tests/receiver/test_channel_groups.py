@@ -112,8 +112,10 @@ def test_a_worker_s_error_reaches_the_caller_with_its_type(fading, monkeypatch):
         update(self, *args, **kwargs)
 
     monkeypatch.setattr(SampleTracker, "_update", broken)  # inherited by the forked processes
-    with pytest.raises(ConfigError, match="channel_filter: broken in process [0-9]+"):
+    with pytest.raises(ConfigError, match="channel_filter: broken in process [0-9]+") as raised:
         track_in_groups(rec, config, acq, found, workers=2)
+    (note,) = raised.value.__notes__  # where it was raised, for a bug's traceback
+    assert note.startswith("raised in the process of channel group ") and "in broken" in note
     assert SampleTracker(rec, config, acq).run(found[:1], 0.1).channels  # in this process: not broken
 
 

@@ -108,23 +108,26 @@ def _track_group(
             pickled: bytes | None = pickle.dumps(error)
         except Exception:  # noqa: BLE001 - an exception that cannot be pickled goes as its text
             pickled = None
-        conn.send_bytes(pickle.dumps(("error", (text, pickled))))
-        traceback.print_exc()
+        conn.send_bytes(pickle.dumps(("error", (text, pickled, traceback.format_exc()))))
     finally:
         conn.close()
         os._exit(0)  # no atexit handlers of the parent's state in the child
 
 
-def _rebuilt(slot: int, text: str, pickled: bytes | None) -> BaseException:
-    """The exception a channel group's process raised (its own type where it unpickles)."""
+def _rebuilt(slot: int, text: str, pickled: bytes | None, where: str) -> BaseException:
+    """The exception a channel group's process raised (its own type where it unpickles,
+    else a `RuntimeError` with its text), its traceback there as a note (a bug's traceback
+    shows it; the commands print a library error's one line only)."""
+    error: BaseException | None = None
     if pickled is not None:
         try:
             error = pickle.loads(pickled)
-            if isinstance(error, BaseException):
-                return error
         except Exception:  # noqa: BLE001 - then its text
-            pass
-    return RuntimeError(f"channel group {slot}: {text}")
+            error = None
+    if not isinstance(error, BaseException):
+        error = RuntimeError(f"channel group {slot}: {text}")
+    error.add_note(f"raised in the process of channel group {slot}:\n{where}")
+    return error
 
 
 def merge_results(parts: list[TrackingResult], acquisitions: list[AcquisitionResult]) -> TrackingResult:
@@ -191,7 +194,7 @@ def track_in_groups(
                 try:
                     outcomes[slot] = pickle.loads(pending[slot].recv_bytes())
                 except EOFError:  # the process died (killed, out of memory) before it could answer
-                    outcomes[slot] = ("error", ("it ended without a result (killed?)", None))
+                    outcomes[slot] = ("error", ("it ended without a result (killed?)", None, ""))
                 del pending[slot]
             if progress is not None:
                 progress(min(shared[:]))
