@@ -131,3 +131,24 @@ def test_groups_deal_the_satellites_by_strength_and_workers_are_checked(fading):
     for bad in (0, -1, True, 1.5, "many"):
         with pytest.raises(ConfigError, match="^workers: "):
             resolve_workers(bad, 4)
+
+
+def test_a_lost_channel_is_searched_at_the_next_tick_of_the_clock(fading):
+    # Lost just after a tick or just before the next, it is searched at the next one (not a
+    # whole period later); after failed pull-ins in a row, at the 2nd, 4th ... tick.
+    rec, acq, config, found, _ = fading
+    tracker = SampleTracker(rec, config, acq)
+    tracker.run(found, 0.05)
+    c = tracker.channels[found[0].prn]
+    every = tracker.reacquire_every
+    assert every == int(config.reacquire_every_ms * 1e-3 * FS)
+    for start, stage, failures, ticks in (
+        (5 * every + 1, "track", 0, 1),
+        (6 * every - 1, "track", 0, 1),
+        (5 * every, "track", 0, 1),
+        (5 * every + 1, "pull-in", 2, 4),  # its third failed pull-in
+    ):
+        tracker.start_sample[c.slot] = start
+        c.stage, c.failures = stage, failures
+        tracker.closer.lose(c, start / FS, "a test")
+        assert c.retry_at == (5 + ticks) * every, (start, stage, failures)

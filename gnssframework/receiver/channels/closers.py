@@ -121,14 +121,17 @@ class ScalarSampleCloser(SampleCloser):
             t.start_stage(c, "extended", float(t.doppler[c.slot]), cfg.coherent_ms)
 
     def lose(self, c: SampleChannel, t0: float, why: str) -> None:
-        """Hand the channel back to acquisition. A satellite whose pull-ins keep failing (a
-        false detection, a signal too weak to lock) is searched again after 1, 2, 4 ...
-        up to 32 re-acquisition intervals, so it does not cost a search every interval."""
+        """Hand the channel back to acquisition: it is searched at the next tick of the
+        re-acquisition clock. A satellite whose pull-ins keep failing (a false detection, a
+        signal too weak to lock) is searched at the 2nd, 4th ... up to the 32nd tick after
+        its loss, so it does not cost a search every interval."""
         t = self.tracker
         if c.stage == "pull-in":
             c.failures += 1
-        wait = t.config.reacquire_every_ms * 1e-3 * t.fs * 2 ** min(max(c.failures - 1, 0), 5)
-        t.deactivate(c, int(t.start_sample[c.slot] + wait), (t0, f"lost: {why}; back to acquisition"))
+        ticks = 2 ** min(max(c.failures - 1, 0), 5)
+        every = t.reacquire_every
+        retry_at = (int(t.start_sample[c.slot]) // every + ticks) * every
+        t.deactivate(c, retry_at, (t0, f"lost: {why}; back to acquisition"))
 
     def reacquire(self, at: int, stop: int) -> None:
         """The acquisition's full search for the lost satellites due a retry."""

@@ -310,7 +310,7 @@ class SampleTracker:
         for acq in acquisitions:
             if acq.detected:
                 self.add(acq.prn, acq, 0)
-        every = int(cfg.reacquire_every_ms * 1e-3 * fs)
+        every = self.reacquire_every = int(cfg.reacquire_every_ms * 1e-3 * fs)  # the clock's period (samples)
         next_reacq = every
         lag_limit = int(LAG_LIMIT_S * fs)
         while True:
