@@ -637,7 +637,7 @@ def _recording_progress(
 def _cmd_track(args: argparse.Namespace) -> int:
     from .receiver.acquisition.report import search_summary
     from .receiver.channels import SampleTracker
-    from .receiver.channels.groups import resolve_workers, track_in_groups
+    from .receiver.channels.groups import track_in_groups
     from .receiver.channels.report import channel_summary, write_tracking_outputs
     from .receiver.navigation.cnav_stream import carries_cnav, write_cnav_report
     from .receiver.navigation.inav_stream import carries_d1, carries_d2, carries_fnav, carries_inav, write_inav_report
@@ -660,21 +660,18 @@ def _cmd_track(args: argparse.Namespace) -> int:
             "the format (--format) and --doppler-max; nothing tracked"
         )
         return 1
-    with _recording_progress(args, rec) as progress:
-        if resolve_workers(args.workers, len(found)) > 1:
-            result = track_in_groups(
-                rec,
-                config,
-                acq,
-                found,
-                args.duration,
-                workers=args.workers,
-                signal=signal,
-                filters=tracker.filters,
-                progress=progress,
-            )
-        else:
-            result = tracker.run(found, args.duration, progress)
+    with _recording_progress(args, rec) as progress:  # one process where there is one group
+        result = track_in_groups(
+            rec,
+            config,
+            acq,
+            found,
+            args.duration,
+            workers=args.workers,
+            signal=signal,
+            filters=tracker.filters,
+            progress=progress,
+        )
     written = write_tracking_outputs(args.out, result, plots=not args.no_plots, signal=signal)
     print(f"tracked {len(found)} satellites for {result.duration_s:.3f} s with {config.channel_filter}:")
     for s in channel_summary(result, signal):
@@ -1049,7 +1046,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     elif live.sinks:
         print("note: with --tracking vector the NMEA sentences are sent at the end of the run")
         fixes = live.start(rate_hz=args.rate, signal=signal)
-    streaming = hasattr(rec, "overrun_summary")
+    streaming = rec.is_live
     with _recording_progress(args, rec, quiet=streaming) as progress:
         result = receive(
             rec,

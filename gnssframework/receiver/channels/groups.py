@@ -146,7 +146,7 @@ def track_in_groups(
     acquisitions: list[AcquisitionResult],
     duration_s: float | None = None,
     *,
-    workers: int | str,
+    workers: int | str | None,
     signal: SignalSpec = GPS_L1CA,
     filters: StageFilters | None = None,
     backend: str | None = None,
@@ -154,9 +154,10 @@ def track_in_groups(
 ) -> TrackingResult:
     """Scalar tracking of the detected satellites of ``acquisitions`` (as
     `SampleTracker.run`), their channels split over ``workers`` forked processes
-    (`resolve_workers`: a number, or ``"auto"``; `split_acquisitions`); ``progress`` is called with the slowest process's fraction.
-    One process (this one) where ``workers`` is 1, there is one channel or none, the
-    platform cannot fork, or ``recording`` is a live stream (`Recording.is_live`)."""
+    (`resolve_workers`: a number, ``"auto"``, or None for one; `split_acquisitions`);
+    ``progress`` is called with the slowest process's fraction. One process (this one)
+    where ``workers`` is 1 or None, there is one channel or none, the platform cannot
+    fork, or ``recording`` is a live stream (`Recording.is_live`)."""
     found = [r for r in acquisitions if r.detected]
     filters = filters if filters is not None else StageFilters(config)  # a bad filter refused here, once
 

@@ -80,7 +80,8 @@ def close_periods_numpy(
     and ``counts`` ``(n, max periods)`` as `correlator.correlate_periods` returns them for
     the channels at slots ``idx`` (ascending), which started at ``starts`` with code phase
     ``phases``, code step ``steps`` (chips per sample), ``periods`` code periods,
-    ``doppler_hz`` and the replica's sum of squares per sample ``power``. ``sums`` is normalised in place; returns the ``(n, taps)`` interval sums."""
+    ``doppler_hz`` and the replica's sum of squares per sample ``power``. ``sums`` is
+    normalised in place; returns the ``(n, taps)`` interval sums."""
     fs = sample_rate_hz
     valid = counts > 0
     sums[valid] /= np.sqrt((counts * power[:, None])[valid] / 2)[:, None]

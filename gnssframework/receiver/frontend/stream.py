@@ -8,8 +8,8 @@ it exactly as they read a file (same decoding: the format's ``sample_source`` pl
   ``queue_blocks`` blocks (memory bounded: the queue plus the held window);
 - the receiver pulls blocks when it reads beyond what it holds, and keeps the last
   ``retain_s`` of signal before the furthest read (acquisition's window, a re-acquisition
-  at its clock's tick, just behind the channels' lead): a read further back is refused (`ConfigError`), never
-  answered with other samples;
+  at its clock's tick, just behind the channels' lead): a read further back is refused
+  (`ConfigError`), never answered with other samples;
 - when the receiver lags: by default the reader waits (backpressure: the pipe or socket
   fills and the producer waits); with ``realtime`` it drops the whole block it could not
   queue and counts it (`overruns`). Dropped samples keep their place in the sample count

@@ -217,7 +217,7 @@ def receive_signals(
         found = [r for r in acquire_recording(rec, acquisition, None, signal=signal) if r.detected]
         found_all += found
         tracking = track_in_groups(
-            rec, config, acquisition, found, duration_s, workers=workers or 1, signal=signal, progress=progress
+            rec, config, acquisition, found, duration_s, workers=workers, signal=signal, progress=progress
         )
         duration = max(duration, tracking.duration_s)
         for prn, ch in tracking.channels.items():

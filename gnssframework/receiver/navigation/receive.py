@@ -191,15 +191,14 @@ def receive(
         raise ConfigError(
             "approx_position", "an approximate position and start time start vector tracking: give vector as well"
         )
-    n_workers = resolve_workers(workers, len(found))
-    if n_workers > 1 and observe is None:
+    if observe is None:  # (in one process where there is one group, `track_in_groups`)
         tracking = track_in_groups(
             recording,
             config,
             acquisition,
             found,
             duration_s,
-            workers=n_workers,
+            workers=workers,
             signal=signal,
             filters=filters,
             progress=progress,
