@@ -2018,10 +2018,13 @@ def _one_line_warnings() -> Iterator[None]:
     standard error each, once per message, without Python's file, line and source line;
     any other warning as Python shows it."""
     shown = warnings.showwarning
+    said: set[str] = set()  # Python's "default" is once per place in the code, not per message
 
     def show(message, category, filename, lineno, file=None, line=None):
         if issubclass(category, GnssFrameworkWarning):
-            print(f"warning: {message}", file=sys.stderr)
+            if str(message) not in said:
+                said.add(str(message))
+                print(f"warning: {message}", file=sys.stderr)
         else:
             shown(message, category, filename, lineno, file, line)
 
