@@ -349,18 +349,14 @@ class VectorNavigator:
         elif not self._unchecked:  # neither moved nor confirmed: said once (a later check may follow)
             self._unchecked = True
             so_far = (
-                "fewer than five channels in view"
+                "fewer than five channels in view: the offset is not observable (a start time off by "
+                "more than the pull-in's check sees can lose channels before it is estimated)"
                 if not np.isfinite(found.sigma_s)
-                else f"{found.offset_s:+.4f} ± {found.sigma_s:.4f} s over {found.epochs} epochs"
+                else f"{found.offset_s:+.4f} ± {found.sigma_s:.4f} s over {found.epochs} epochs: neither "
+                f"significant at {self.vector.time_false_alarm:g} nor within two sigmas of zero; later "
+                "windows pool on"
             )
-            self.solution.events.append(
-                (
-                    self.t_nav,
-                    f"the start time is not confirmed in the loop so far ({so_far}): a start time off by "
-                    "more than about half a second loses the channels before it can be estimated, and "
-                    "every fix is then hundreds of metres off",
-                )
-            )
+            self.solution.events.append((self.t_nav, f"the start time is not confirmed in the loop so far ({so_far})"))
         return False
 
     def _shift_time(

@@ -6,8 +6,9 @@ periods from the approximate position and the start time it is given. A start ti
 every channel's transmit time: the pseudoranges keep only a common error (the receiver
 clock's), but every satellite is placed :math:`mT` away along its orbit, and the fix goes
 kilometres off while passing every test (issue 40: 375 m at 0.5 s, 1.8 km at 1.6 s). The
-coarse-time fix of the pull-in pseudoranges (`coarse_time`) sees errors above about a
-second only, its code phases being a chip or so apart from the truth.
+coarse-time fix of the pull-in pseudoranges (`coarse_time`) sees errors above four of its
+sigmas only (`vector_handover.pull_in_code_sigma_m`: 0.3-0.4 s with five satellites at 32
+dB-Hz), its code phases being tens of metres apart from the truth.
 
 Once the navigation filter tracks the code, the error shows in every epoch's code errors:
 the measured pseudorange :math:`z_i` (the replica's range plus its code error) less the
@@ -35,7 +36,9 @@ instead: the window is cut into `BATCHES` equal batches, each gives its own
 \sum_b D_b)`, which holds for any correlation shorter than a batch and scales out a
 channel filter's mis-stated variances. Five channels an epoch are needed (one degree of
 freedom each). When :math:`|\hat\delta| / \sigma_{\hat\delta}` exceeds Student's t for
-:math:`B - 1` degrees of freedom at ``time_false_alarm`` (`VectorConfig`; 6.6 at 1e-4),
+:math:`B_{\mathrm{eff}} - 1` degrees of freedom (:math:`B_{\mathrm{eff}} = (\sum_b D_b)^2 /
+\sum_b D_b^2`, Kish's effective number of batches: a window whose information sits in one
+batch has a variance near zero and no degree of freedom) at ``time_false_alarm`` (`VectorConfig`; 6.6 at 1e-4),
 every transmit-time label moves by :math:`\hat\delta` in whole code periods (the true
 error is whole periods; the code phases give the rest) and the receiver time with it, so
 that the pseudoranges are unchanged and only the satellites move to where they were. The
@@ -73,7 +76,7 @@ FULL_DOF = BATCHES - 3
 class TimeOffset:
     """One window's estimate: ``offset_s`` :math:`\\hat\\delta` (add it to every transmit-time
     label), ``sigma_s`` its standard deviation, ``epochs`` the epochs pooled, ``dof`` the
-    degrees of freedom of ``sigma_s`` (batches with information, less one)."""
+    degrees of freedom of ``sigma_s`` (the effective number of batches with information, less one)."""
 
     offset_s: float
     sigma_s: float
@@ -143,4 +146,8 @@ class TimeOffsetEstimator:
         den, num = den[full], num[full]
         d = float(num.sum() / den.sum())
         var = float(np.sum(den * (num / den - d) ** 2) / ((full.sum() - 1) * den.sum()))
-        return TimeOffset(d, float(np.sqrt(var)), self._epochs, int(full.sum()) - 1)
+        # Degrees of freedom from the batches' effective number (Kish: (sum D)^2 / sum D^2),
+        # not their count: a window whose information is nearly all in one batch has a
+        # batch-means variance near zero and no degree of freedom to trust it with.
+        effective = float(den.sum() ** 2 / np.sum(den**2))
+        return TimeOffset(d, float(np.sqrt(var)), self._epochs, int(np.floor(effective + 1e-9)) - 1)
