@@ -117,10 +117,12 @@ class VectorSampleCloser(SampleCloser):
         self.next_assist = self.vector.earliest_s
         self.time_corrected = False  # the assisted start time corrected once (`vector_handover`)
         self.acq_doppler = np.zeros(len(tracker.signal.prns))
+        self.acq_cn0 = np.zeros(len(tracker.signal.prns))
         self.held: dict[int, Ephemerides] = {}  # the records of dropped vector channels, by slot
 
     def added(self, c: SampleChannel, acq: AcquisitionResult) -> None:
         self.acq_doppler[c.slot] = acq.doppler_hz
+        self.acq_cn0[c.slot] = acq.cn0_dbhz
 
     def step(self, filt: ChannelFilter, closure: Any, slots: np.ndarray, w: np.ndarray) -> None:
         t = self.tracker
