@@ -6,7 +6,7 @@ the time check reads).
 Before, a start time off by less than the pull-in's coarse-time check could see gave fixes
 hundreds of metres off that passed every test, and one off by more was refused. Now the
 pull-in's estimate corrects the start time (its sigma from the pull-in code phases' noise,
-`vector_handover.pull_in_code_sigma_m`: 0.08 s here, so from about 0.3 s), and the loop
+`vector_handover.pull_in_code_sigma_m`: 0.13 s here, so from about 0.5 s), and the loop
 (`vector_time`) corrects what is left from the vector channels' code errors. Truths: the
 generator's start time and station."""
 
@@ -85,13 +85,13 @@ def test_a_start_time_seconds_off_is_corrected_at_the_pull_in(recording, error_s
     """2 s off (refused before), and 1 s (in the former gap: below four sigmas of the pull-in's
     check at its former fixed 100 m, and too far off for the loop, whose channels lost the code:
     every fix 1.07 km off): the pull-in's coarse-time fix, its sigma from the pull-in code
-    phases (under 0.1 s here: measured 0.078 s), corrects it to the millisecond of its
+    phases (under 0.15 s here: measured 0.131 s), corrects it to the millisecond of its
     estimate, within four sigmas of the error (measured 18 ms off). What is left is the loop's:
     the corrections add up to the error within 30 ms, and the last fixes are within 40 m
     (measured 15 m)."""
     result = _run(recording, error_s)
     (offset, sigma), *more = _pull_in_estimates(result)
-    assert not more and sigma < 0.1 and abs(offset - (-error_s)) < 4 * sigma
+    assert not more and sigma < 0.15 and abs(offset - (-error_s)) < 4 * sigma
     total = sum(_corrections(result, ""))
     assert abs(total - (-error_s)) < 0.030, total
     assert result.vector.handover_s is not None

@@ -40,7 +40,7 @@ def test_the_estimate_is_the_offset_and_its_sigma_covers_it_as_students_t_says()
     """300 windows of white code errors (10 m) about an offset of 30 ms: the estimates'
     mean is the offset within four standard errors, and the offset is outside the two-sided
     95 % t-interval of the window's sigma in 5 % of windows (99.9 % binomial bounds: 4 to 30
-    of 300), with the full degrees of freedom of balanced batches."""
+    of 300), with the degrees of freedom of ten balanced batches."""
     rng = np.random.default_rng(40)
     offsets, outside, dofs = [], 0, set()
     for _ in range(300):
@@ -54,7 +54,7 @@ def test_the_estimate_is_the_offset_and_its_sigma_covers_it_as_students_t_says()
     assert abs(offsets.mean() - 0.030) < 4 * offsets.std(ddof=1) / np.sqrt(offsets.size)
     low, high = stats.binom.ppf([0.0005, 0.9995], 300, 0.05)
     assert low <= outside <= high, outside
-    assert dofs == {BATCHES - 1}
+    assert dofs == {BATCHES - 1}  # ten full batches (the window's closing epoch, alone in an eleventh, not counted)
 
 
 def test_a_window_whose_information_is_in_one_batch_moves_nothing():
@@ -62,8 +62,8 @@ def test_a_window_whose_information_is_in_one_batch_moves_nothing():
     information, one of them nearly all of it. Their batch-means variance is near zero (both
     estimate the same offset), and before, with one degree of freedom (batches less one), a
     20 ms offset passed Student's t at 1e-4 (6,366 sigmas): the start time moved on a variance
-    nothing supports. With the batches' effective number (1.1) there is no degree of freedom:
-    not significant."""
+    nothing supports. Now a batch counts with a tenth of the largest batch's information
+    (`MIN_BATCH_SHARE`): no degree of freedom, not significant."""
     rng = np.random.default_rng(7)
     est = TimeOffsetEstimator(WINDOW_S)
     est.restart(0.0)

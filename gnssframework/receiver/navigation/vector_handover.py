@@ -349,8 +349,9 @@ def _refusal(found: CoarseTimeFix, satellites: int) -> str:
 def pull_in_code_sigma_m(v: VectorSampleCloser, chans: list[SampleChannel]) -> float:
     """The standard deviation (m) of the pull-in code phases of ``chans`` at an assisted
     hand-over, the largest over the channels: the acquisition's code phase, a whole sample
-    (uniform over one: :math:`\\Delta/\\sqrt{12}` chips for :math:`\\Delta` chips a
-    sample), decayed by the DLL of bandwidth :math:`B_L` over the channel's pull-in so far
+    within one of the true delay (noise picks the neighbour of a delay between two samples:
+    uniform over two, :math:`\\Delta/\\sqrt{3}` chips for :math:`\\Delta` chips a sample),
+    decayed by the DLL of bandwidth :math:`B_L` over the channel's pull-in so far
     (:math:`e^{-4 B_L t}`, a first-order loop's), and the DLL's thermal jitter
     :math:`\\sqrt{2 B_L T \\sigma_D^2}` (`jitter.loop_variance`) from its discriminator's
     noise variance at the acquisition's C/N0 estimate (biased low: the sigma errs large).
@@ -358,12 +359,13 @@ def pull_in_code_sigma_m(v: VectorSampleCloser, chans: list[SampleChannel]) -> f
     (a plugin of another kind) gives ``assisted_pseudorange_sigma_m`` instead.
 
     Measured (docs/receiver/navigation.md, "A wrong start time is corrected"): on the
-    project's generator at 32 dB-Hz, 2.6 MHz, five satellites, the coarse-time offsets of
-    a right start time scatter within this sigma's."""
+    project's generator at 28-40 dB-Hz, 2.6 MHz, five satellites and start times drawn per
+    run, the coarse-time offsets of a right start time scatter within this sigma's (with
+    half a sample, not one, they did not at 32 dB-Hz: 1.4 times it)."""
     t = v.tracker
     sp = t.signal
     T = sp.code_period_s
-    acquired_chips = sp.chip_rate_hz / t.fs / np.sqrt(12.0)
+    acquired_chips = sp.chip_rate_hz / t.fs / np.sqrt(3.0)
     worst = 0.0
     for c in chans:
         scalar = c.stage in ("pull-in", "track", "extended")  # (a batch's channels hold no filter of their own)
