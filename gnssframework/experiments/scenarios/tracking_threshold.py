@@ -109,7 +109,7 @@ from ...receiver.engine.closers import (
 )
 from ...receiver.engine.sources import AnalyticSource
 from ...receiver.engine.truth import LoopTruth
-from ...receiver.tracking.jitter import loop_variance, pll_thermal_variance_rad2
+from ...receiver.tracking.jitter import code_thermal_std_chips, pll_thermal_variance_rad2
 from ...receiver.tracking.loop_bandwidth import at_interval, equivalent_bandwidth_hz
 from ...signal.gps_l1ca import GPS_L1CA
 from ...signal.spec import SignalSpec
@@ -359,17 +359,6 @@ def _rms_before(x: np.ndarray, end: np.ndarray) -> np.ndarray:
     n = keep.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(n > 0, np.sqrt(np.sum(np.where(keep, x**2, 0.0), axis=0) / n), np.nan)
-
-
-def code_thermal_std_chips(channel, cn0_dbhz: float, T: float, spacing_chips: float) -> float:
-    """The DLL's thermal jitter :math:`\\sqrt{2 B T \\sigma_D^2}` (chips) of a channel filter
-    with ``dll_bandwidth_hz`` and ``code_discriminator`` parameters, else NaN."""
-    p = channel.params
-    bw, disc = getattr(p, "dll_bandwidth_hz", None), getattr(p, "code_discriminator", None)
-    if bw is None or disc is None:
-        return float("nan")
-    d = disc.create(coherent_time_s=T, early_late_spacing_chips=spacing_chips)
-    return float(np.sqrt(loop_variance(d.noise_variance(cn0_dbhz), bw, T)))
 
 
 @register_scenario

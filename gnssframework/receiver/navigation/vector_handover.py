@@ -23,7 +23,7 @@ from ...navigation.coarse_time import CoarseTimeFix, solve_coarse_time
 from ...navigation.ephemeris import Ephemerides, satellite_state
 from ...navigation.pvt import solve_position
 from ..channels.channel import SampleChannel, stage_context
-from ..tracking.jitter import loop_variance
+from ..tracking.jitter import code_thermal_std_chips
 from .fixes import full_week, solve_epochs
 from .observables import SPEED_OF_LIGHT_MPS, channel_timing, observables
 from .vector_config import Assistance
@@ -353,7 +353,7 @@ def pull_in_code_sigma_m(v: VectorSampleCloser, chans: list[SampleChannel]) -> f
     uniform over two, :math:`\\Delta/\\sqrt{3}` chips for :math:`\\Delta` chips a sample),
     decayed by the DLL of bandwidth :math:`B_L` over the channel's pull-in so far
     (:math:`e^{-4 B_L t}`, a first-order loop's), and the DLL's thermal jitter
-    :math:`\\sqrt{2 B_L T \\sigma_D^2}` (`jitter.loop_variance`) from its discriminator's
+    :math:`\\sqrt{2 B_L T \\sigma_D^2}` (`jitter.code_thermal_std_chips`) from its discriminator's
     noise variance at the acquisition's C/N0 estimate (biased low: the sigma errs large).
     A channel filter without ``dll_bandwidth_hz`` and ``code_discriminator`` parameters
     (a plugin of another kind) gives ``assisted_pseudorange_sigma_m`` instead.
@@ -368,15 +368,14 @@ def pull_in_code_sigma_m(v: VectorSampleCloser, chans: list[SampleChannel]) -> f
     acquired_chips = sp.chip_rate_hz / t.fs / np.sqrt(3.0)
     worst = 0.0
     for c in chans:
-        scalar = c.stage in ("pull-in", "track", "extended")  # (a batch's channels hold no filter of their own)
-        p = getattr(t.filters.factory(c.stage).prototype, "params", None) if scalar else None
-        bw, disc = getattr(p, "dll_bandwidth_hz", None), getattr(p, "code_discriminator", None)
-        if bw is None or disc is None:
+        if c.stage not in ("pull-in", "track", "extended"):
             return v.vector.assisted_pseudorange_sigma_m
-        d = disc.create(coherent_time_s=T, early_late_spacing_chips=t.config.early_late_spacing_chips)
-        thermal = float(loop_variance(d.noise_variance(v.acq_cn0[c.slot]), bw, T))
-        left = acquired_chips * np.exp(-4.0 * bw * float(t.ms_index[c.slot]) * T)
-        worst = max(worst, float(np.sqrt(thermal + left**2)))
+        loop = t.filters.factory(c.stage).prototype  # (a batch's channels hold no filter of their own)
+        thermal = float(code_thermal_std_chips(loop, v.acq_cn0[c.slot], T, t.config.early_late_spacing_chips))
+        if not np.isfinite(thermal):  # no DLL parameters to take it from
+            return v.vector.assisted_pseudorange_sigma_m
+        left = acquired_chips * np.exp(-4.0 * loop.params.dll_bandwidth_hz * float(t.ms_index[c.slot]) * T)
+        worst = max(worst, float(np.hypot(thermal, left)))
     return worst * _C / sp.chip_rate_hz
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["loop_variance", "pll_thermal_variance_rad2", "lock_indicator"]
+__all__ = ["loop_variance", "pll_thermal_variance_rad2", "code_thermal_std_chips", "lock_indicator"]
 
 
 def loop_variance(discriminator_variance: np.ndarray, bandwidth_hz: float, update_s: float) -> np.ndarray:
@@ -20,6 +20,19 @@ def pll_thermal_variance_rad2(cn0_dbhz: np.ndarray | float, bandwidth_hz: float,
     """Costas PLL thermal jitter (Kaplan & Hegarty): $\\frac{B_L}{c}\\left(1 + \\frac{1}{2 c T}\\right)$, rad²."""
     c = 10.0 ** (np.asarray(cn0_dbhz, float) / 10.0)
     return bandwidth_hz / c * (1 + 1 / (2 * c * coherent_time_s))
+
+
+def code_thermal_std_chips(channel, cn0_dbhz, T: float, spacing_chips: float) -> float | np.ndarray:
+    """The DLL's thermal jitter :math:`\\sqrt{2 B T \\sigma_D^2}` (chips; `loop_variance`) of a
+    channel filter with ``dll_bandwidth_hz`` and ``code_discriminator`` parameters, at
+    ``cn0_dbhz`` (scalar or array), coherent time ``T`` and early-late spacing; NaN for a
+    filter without them."""
+    p = getattr(channel, "params", None)
+    bw, disc = getattr(p, "dll_bandwidth_hz", None), getattr(p, "code_discriminator", None)
+    if bw is None or disc is None:
+        return float("nan")
+    d = disc.create(coherent_time_s=T, early_late_spacing_chips=spacing_chips)
+    return np.sqrt(loop_variance(d.noise_variance(cn0_dbhz), bw, T))
 
 
 def lock_indicator(prompts: np.ndarray, window: int = 20) -> np.ndarray:
