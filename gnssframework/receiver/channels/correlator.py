@@ -16,8 +16,9 @@ The compiled kernel keeps both NCOs as fixed-point phase words (carrier in :math
 cycles, code in :math:`2^{-32}` chips), as hardware correlators do, and works in chunks of
 `CHUNK` samples: the carrier replica of a chunk is the exact phasor of its first sample's
 phase word times a per-channel table of :math:`e^{-j 2\pi i \Delta\phi}`, :math:`i <`
-`CHUNK` (made by recurrence in float64: the rotator of GNSS-SDR's VOLK kernels, restarted
-exactly every chunk so no error accumulates); the samples are read as recorded (``int8``, ``int16`` or ``float32``
+`CHUNK` (made in float64 by recurrence, the rotator of GNSS-SDR's VOLK kernels, in blocks
+of 32 turned by the block's phasor, and restarted exactly every chunk, so no error
+accumulates); the samples are read as recorded (``int8``, ``int16`` or ``float32``
 components, interleaved I/Q or real), without a float copy of the block. The chunk's
 products and sums are ``float32``, so :math:`|C^{compiled} - C^{exact}| \le` `ROUNDING`
 :math:`\sum_i |x_i|` beyond the fixed-point words' rounding (`correlation_error_bound`).
@@ -43,6 +44,7 @@ from ...backend import get_backend
 from .channel_groups import SPLIT_SAMPLES, run_groups, split_channels
 from .code_tables import _MASK32, MAX_TAPS, CodeTables, _cached_tables, code_tables
 from .replica_tables import replica_code_pair, replica_codes, to_table_units
+from .nco_words import carrier_words, period_words
 from .sample_power import sum_of_squares
 from .correlator_reference import CHUNK, ROUNDING, correlate_numpy, correlate_periods_numpy, correlation_error_bound
 
@@ -65,6 +67,7 @@ __all__ = [
 ]
 
 _TWO_PI_2_32 = 2 * math.pi * 2.0**-32
+_ROT_BLOCK = 32  # the carrier rotation table's recurrence block (`_rotations`)
 
 
 # The kernels are plain functions specialised by `with_globals` (each twin has its own
@@ -114,16 +117,13 @@ def _run(
                 b = q_sign * np.float32(xs[2 * i + 1])
                 zr = a * cr - b * ci
                 zi = a * ci + b * cr
-                cd = code[i]
-                v0 = np.float32(1 - 2 * (cd & 1))
-                v1 = np.float32(1 - 2 * ((cd >> 1) & 1))
-                v2 = np.float32(1 - 2 * ((cd >> 2) & 1))
-                e_r += zr * v0
-                e_i += zi * v0
-                p_r += zr * v1
-                p_i += zi * v1
-                l_r += zr * v2
-                l_i += zi * v2
+                cd = code[i]  # each tap's sign a select: the same products as times ±1, 1.25x faster
+                e_r += -zr if cd & 1 else zr
+                e_i += -zi if cd & 1 else zi
+                p_r += -zr if cd & 2 else zr
+                p_i += -zi if cd & 2 else zi
+                l_r += -zr if cd & 4 else zr
+                l_i += -zi if cd & 4 else zi
             acc_r[0] += e_r
             acc_i[0] += e_i
             acc_r[1] += p_r
@@ -138,15 +138,12 @@ def _run(
                 zr = a * (c0r * rot_r[i] - c0i * rot_i[i])
                 zi = a * (c0r * rot_i[i] + c0i * rot_r[i])
                 cd = code[i]
-                v0 = np.float32(1 - 2 * (cd & 1))
-                v1 = np.float32(1 - 2 * ((cd >> 1) & 1))
-                v2 = np.float32(1 - 2 * ((cd >> 2) & 1))
-                e_r += zr * v0
-                e_i += zi * v0
-                p_r += zr * v1
-                p_i += zi * v1
-                l_r += zr * v2
-                l_i += zi * v2
+                e_r += -zr if cd & 1 else zr
+                e_i += -zi if cd & 1 else zi
+                p_r += -zr if cd & 2 else zr
+                p_i += -zi if cd & 2 else zi
+                l_r += -zr if cd & 4 else zr
+                l_i += -zi if cd & 4 else zi
             acc_r[0] += e_r
             acc_i[0] += e_i
             acc_r[1] += p_r
@@ -185,15 +182,25 @@ def _run(
 
 
 def _rotations(dph, rot_r, rot_i):  # pragma: no cover - compiled
-    # exp(-j 2 pi i dph 2^-32) for the samples i of a chunk, by recurrence in float64 (its
-    # error, about CHUNK float64 ulps, is far below the float32 cast).
+    # exp(-j 2 pi i dph 2^-32) for the samples i of a chunk, in float64: the first
+    # `_ROT_BLOCK` by recurrence, then each further block as those turned by the block's own
+    # phasor (itself by recurrence). No chain is longer than CHUNK / _ROT_BLOCK + _ROT_BLOCK
+    # products, so the error (about that many float64 ulps) stays far below the float32
+    # cast, and the second step's products do not wait on each other.
     theta = _TWO_PI_2_32 * (dph & _MASK32)
     wr, wi = math.cos(theta), -math.sin(theta)
+    fr, fi = np.empty(_ROT_BLOCK), np.empty(_ROT_BLOCK)
     zr, zi = 1.0, 0.0
-    for i in range(CHUNK):
-        rot_r[i] = zr
-        rot_i[i] = zi
+    for i in range(_ROT_BLOCK):
+        fr[i], fi[i] = zr, zi
         zr, zi = zr * wr - zi * wi, zr * wi + zi * wr
+    br, bi = zr, zi  # exp(-j 2 pi _ROT_BLOCK dph 2^-32)
+    zr, zi = 1.0, 0.0
+    for b in range(CHUNK // _ROT_BLOCK):
+        for i in range(_ROT_BLOCK):
+            rot_r[b * _ROT_BLOCK + i] = zr * fr[i] - zi * fi[i]
+            rot_i[b * _ROT_BLOCK + i] = zr * fi[i] + zi * fr[i]
+        zr, zi = zr * br - zi * bi, zr * bi + zi * br
 
 
 def _channels(
@@ -322,14 +329,6 @@ def _n_samples(samples: np.ndarray, iq: bool) -> int:
     return samples.shape[0] // 2 if iq and not np.iscomplexobj(samples) else samples.shape[0]
 
 
-def _carrier_words(carrier_phase_cycles: np.ndarray, carrier_step_cycles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Carrier NCO phase and step as 2^-32-cycle words."""
-    cycles = np.asarray(carrier_phase_cycles, float)
-    carrier0 = np.floor((cycles - np.floor(cycles)) * 2.0**32).astype(np.int64)
-    dcarrier = np.rint(np.mod(np.asarray(carrier_step_cycles, float), 1.0) * 2.0**32).astype(np.int64)
-    return carrier0, dcarrier
-
-
 def correlate_channels(
     samples: np.ndarray,
     starts: np.ndarray,
@@ -413,7 +412,7 @@ def correlate_channels(
     x, cplx = _kernel_input(samples, iq)
     n_ch, n_taps = len(starts), len(offsets_chips)
     n_code = codes.shape[1]
-    carrier0, dcarrier = _carrier_words(carrier_phase_cycles, carrier_step_cycles)
+    carrier0, dcarrier = carrier_words(carrier_phase_cycles, carrier_step_cycles)
     # The prompt's code word (offset 0, the taps' words follow from it, `CodeTables`) in
     # 2^-32 chips from one code period before the table's start (so early taps never
     # index below 0); the phase reduced to [-n/2, n/2): a phase just below a code epoch
@@ -489,19 +488,32 @@ def correlate_periods(
     n_periods = np.asarray(n_periods, np.int64)
     offsets_chips = np.asarray(offsets_chips, float)
     n_code = codes.shape[1]
-    if not np.any(offsets_chips == 0.0) or offsets_chips.size > MAX_TAPS:
+    taps = offsets_chips.tolist()  # (a list's membership test: a tenth of np.any's time)
+    if 0.0 not in taps or len(taps) > MAX_TAPS:
         raise ConfigError(
             "offsets_chips",
             f"correlate_periods needs a tap at offset 0 (the prompt, whose epochs "
-            f"end the periods) and at most {MAX_TAPS} taps; got {offsets_chips.tolist()}",
+            f"end the periods) and at most {MAX_TAPS} taps; got {taps}",
         )
+    phase = np.asarray(code_phase_chips, float)
     step = np.asarray(code_step_chips, float)
+    # The carrier words, the prompt's code word in 2^-32 chips from one code length before
+    # the table's start (a period ends when it reaches two code lengths: its next epoch),
+    # and where the periods reach, in one compiled pass (`nco_words.period_words`).
+    carrier0, dcarrier, code0, dcode, first, reach, p_max, work = period_words(
+        starts,
+        n_periods,
+        phase,
+        step,
+        np.asarray(carrier_phase_cycles, float),
+        np.asarray(carrier_step_cycles, float),
+        n_code,
+    )
     n_samples = _n_samples(samples, iq)
-    need = starts + np.ceil((n_periods * n_code - np.asarray(code_phase_chips, float)) / step + 1).astype(np.int64)
-    if starts.size and (starts.min() < 0 or need.max() > n_samples):
+    if starts.size and (first < 0 or reach > n_samples):
         raise ConfigError(
             "starts",
-            f"a channel's periods [{starts.min()}, {need.max()}) reach outside the block of {n_samples} samples",
+            f"a channel's periods [{first}, {reach}) reach outside the block of {n_samples} samples",
         )
     use = backend or get_backend()
     if use != "numba" or not HAVE_NUMBA:
@@ -509,7 +521,7 @@ def correlate_periods(
             _as_complex(samples, iq and not np.iscomplexobj(samples), q_sign),
             starts,
             n_periods,
-            np.asarray(code_phase_chips, float),
+            phase,
             step,
             np.asarray(carrier_phase_cycles, float),
             np.asarray(carrier_step_cycles, float),
@@ -518,21 +530,14 @@ def correlate_periods(
         )
     x, cplx = _kernel_input(samples, iq)
     n_ch = len(starts)
-    carrier0, dcarrier = _carrier_words(carrier_phase_cycles, carrier_step_cycles)
-    # The prompt's code word in 2^-32 chips from one code length before the table's start;
-    # a period ends when it reaches two code lengths (its next epoch).
-    code0 = np.floor((np.asarray(code_phase_chips, float) + n_code) * 2.0**32).astype(np.int64)
-    dcode = np.rint(step * 2.0**32).astype(np.int64)
     period_word = np.int64(n_code) << np.int64(32)
     if tables is None or not tables.fits(n_ch, offsets_chips, 3 * n_code):
         tables = _cached_tables(codes, offsets_chips, 3)
-    p_max = max(1, int(n_periods.max(initial=1)))
     out_r = np.zeros((n_ch, p_max, offsets_chips.size))
     out_i = np.zeros((n_ch, p_max, offsets_chips.size))
     counts = np.zeros((n_ch, p_max), np.int64)
     par = _parallel(parallel)
     kernel = _kernels(cplx, tables.thresholds.size, par, offsets_chips.size)[1]
-    work = int(n_periods.sum()) * n_code / float(step.min(initial=1.0))
     groups = [(0, n_ch)] if par else split_channels(n_ch, work, threads)
     q, pat, thr = np.float32(q_sign), tables.patterns, tables.thresholds
 
