@@ -1372,15 +1372,14 @@ def _add_threads_option(p: argparse.ArgumentParser) -> None:
 
 
 def _workers(text: str) -> int | str:
-    """``--workers``: a whole number of at least 1, or ``auto``."""
-    if text == "auto":
-        return text
+    """``--workers``: a whole number of at least 1, or ``auto`` (`groups.check_workers`)."""
+    from .receiver.channels.groups import check_workers
+
+    value: int | str = int(text) if text.strip().lstrip("+-").isdigit() else text
     try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"a whole number of at least 1, or auto; got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"a whole number of at least 1, or auto; got {text!r}")
+        check_workers(value)
+    except ConfigError as err:
+        raise argparse.ArgumentTypeError(err.detail) from None
     return value
 
 

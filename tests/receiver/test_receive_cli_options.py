@@ -129,6 +129,20 @@ def test_a_bad_or_misplaced_vector_accel_psd_exits_2_naming_it(tiny_recording, t
     assert "--vector-accel-psd" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("value", ["0", "-2", "1.5", "many"])
+def test_a_bad_workers_value_exits_2_with_the_librarys_message(tiny_recording, tmp_path, capsys, value):
+    from gnssframework.errors import ConfigError
+    from gnssframework.receiver.channels.groups import check_workers
+
+    with pytest.raises(SystemExit) as exit_:  # argparse's exit for an option's bad value
+        cli.main(["receive", str(tiny_recording), "--out", str(tmp_path / "o"), "--workers", value])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    with pytest.raises(ConfigError) as library:
+        check_workers(int(value) if value.lstrip("-").isdigit() else value)
+    assert "--workers" in err and library.value.detail in err
+
+
 NAV = __import__("pathlib").Path(__file__).parents[1] / "data" / "07590920.05n"
 #: The header of NAV: ION ALPHA and ION BETA as written there.
 NAV_ALPHA = (1.1180e-08, 1.4900e-08, -5.9600e-08, -5.9600e-08)

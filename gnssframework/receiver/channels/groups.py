@@ -46,7 +46,7 @@ from .factory import StageFilters
 from .records import TrackingResult
 from .tracker import SampleTracker
 
-__all__ = ["can_fork", "split_acquisitions", "track_in_groups", "resolve_workers"]
+__all__ = ["can_fork", "split_acquisitions", "track_in_groups", "resolve_workers", "check_workers"]
 
 #: Seconds between two looks at the workers' progress.
 POLL_S = 0.5
@@ -65,13 +65,18 @@ def resolve_workers(workers: int | str | None, channels: int) -> int:
     this process). Refuses anything but a whole number of at least 1 or ``"auto"``."""
     if workers is None:
         return 1
-    if workers == "auto":
-        n = available_cores()
-    elif isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ConfigError("workers", f"must be a whole number of at least 1 or 'auto', got {workers!r}")
-    else:
-        n = workers
+    check_workers(workers)
+    n = available_cores() if workers == "auto" else int(workers)
     return max(1, min(n, channels))
+
+
+def check_workers(workers: object) -> None:
+    """Refuse ``workers`` unless a whole number of at least 1 or ``"auto"`` (the library's
+    and the CLI's ``--workers`` check, one message)."""
+    if workers == "auto":
+        return
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ConfigError("workers", f"must be a whole number of at least 1 or 'auto', got {workers!r}")
 
 
 def split_acquisitions(found: list[AcquisitionResult], groups: int) -> list[list[AcquisitionResult]]:
