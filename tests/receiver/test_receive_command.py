@@ -493,6 +493,28 @@ def test_too_few_satellites_found_is_said_with_the_count(recording, tmp_path, ca
 
 
 @pytest.mark.slow
+def test_an_ephemeris_of_another_week_is_named_as_the_reason(recording, tmp_path, capsys):  # noqa: F811
+    # Not an assisted start: NAV's records moved a week later (each epoch's day and each
+    # record's week), and the recording's week given. No LNAV ephemeris is decoded in the
+    # file, so no fix: the reason is the file's dates, not "no LNAV subframe".
+    path, _ = recording
+    lines = NAV.read_text().splitlines(keepends=True)
+    end = next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1
+    for i in range(end, len(lines)):
+        if (i - end) % 8 == 0:  # a record's first line: PRN, YY MM DD ...
+            lines[i] = lines[i][:9] + f"{int(lines[i][9:11]) + 7:2d}" + lines[i][11:]
+        lines[i] = lines[i].replace("1.316000000000D+03", "1.317000000000D+03")
+    later = tmp_path / "later.05n"
+    later.write_text("".join(lines))
+    argv = ["receive", str(path), "--out", str(tmp_path / "o"), "--ephemeris", str(later), "--week", "1316"]
+    assert main([*argv, "--quiet"]) == 1
+    said = capsys.readouterr().out
+    assert "the ephemeris does not cover the recording (its records span 2005-04-08" in said, said
+    assert "recording is at GPS week 1316" in said and "no LNAV" not in said
+    assert "the ephemeris does not cover the recording" in (tmp_path / "o" / "report.md").read_text()
+
+
+@pytest.mark.slow
 def test_the_report_says_why_a_tracked_satellite_is_unused(recording, tmp_path):  # noqa: F811
     """One satellite's records taken out of the ephemeris (none is decoded in the file): the
     other four give the fixes, and the report says why it is in none."""

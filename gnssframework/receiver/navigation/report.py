@@ -229,8 +229,11 @@ def no_position_reason(
         return navigation_message(signal).none_decoded(locked, len(found))
     week = full_week(obs.week, reference_week, obs.week_bits)
     valid = np.flatnonzero(np.isfinite(obs.pseudorange_m).any(axis=1))
-    if nav_info is not None and week >= 0 and valid.size:
-        tow = float(obs.rx_time_s[valid[0]])
+    # The recording's time: its first epoch with a pseudorange, else (no epoch formed, e.g. no
+    # ephemeris for any satellite) the first time of week a channel's message gave.
+    decoded_tows = [d["first_tow_s"] for d in decoded_lnav(result, signal).values() if d["first_tow_s"] is not None]
+    tow = float(obs.rx_time_s[valid[0]]) if valid.size else min(decoded_tows, default=None)
+    if nav_info is not None and week >= 0 and tow is not None:
         if not nav_info.covers(week, tow):
             return (
                 f"the ephemeris does not cover the recording (its records span {nav_info.dates()}; the "
@@ -239,7 +242,7 @@ def no_position_reason(
     dated = [int(p) for j, p in enumerate(obs.prn) if np.isfinite(obs.pseudorange_m[:, j]).any()]
     return (
         f"fewer than {_NEEDED} satellites with a pseudorange and a decoded or --ephemeris ephemeris at every "
-        f"epoch ({len(dated)} with a transmit time: PRN {', '.join(map(str, dated))})"
+        f"epoch ({len(dated)} with a transmit time" + (f": PRN {', '.join(map(str, dated))})" if dated else ")")
     )
 
 
