@@ -1095,6 +1095,8 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
         why = no_position_reason(result, nav_info, assist, reference_week, signal)
         if table is not None:
             why += _ephemeris_distance(rinex, result.observables)
+        if overruns:  # samples dropped by --realtime may be why: said beside the reason
+            why += f"; live input {rec.description}: {overruns}"
         out.mkdir(parents=True, exist_ok=True)
         written = write_tracking_outputs(out, result.tracking, plots=True, signal=signal)
         written += write_no_position_report(out, result, why, rinex, signal)

@@ -15,6 +15,8 @@ known station, with LNAV):
 from __future__ import annotations
 
 import csv
+import os
+import re
 import socket
 import threading
 import time
@@ -121,6 +123,73 @@ def test_a_tcp_stream_gives_the_files_fixes_and_sends_them_as_nmea(recording, tm
     for s, row in zip(gga, rows):  # the same fixes: NMEA's 1e-5 arc minute is 2 cm
         assert abs(s.latitude - float(row["lat_deg"])) < 1e-6 and abs(s.longitude - float(row["lon_deg"])) < 1e-6
         assert int(s.num_sats) == int(row["n_sats"])
+
+
+@pytest.mark.slow
+def test_a_fifo_gives_the_files_fixes_and_nmea_goes_to_standard_output(recording, tmp_path, capsys):  # noqa: F811
+    # The same bytes written into a named pipe by a producer thread (rtl_sdr's way into a
+    # FIFO): the file's fixes byte for byte, and with --nmea-out - each fix's GGA and RMC on
+    # standard output as it comes.
+    path, _ = recording
+    common = ["--ephemeris", str(NAV), "--rate", "5", "--week", str(WEEK), "--quiet"]
+    assert main(["receive", str(path), "--out", str(tmp_path / "file"), *common]) == 0
+    capsys.readouterr()
+    fifo = tmp_path / "samples.fifo"
+    os.mkfifo(fifo)
+    data = path.read_bytes()
+
+    def producer():
+        with open(fifo, "wb") as f:  # blocks until the receiver opens the pipe
+            for k in range(0, len(data), 65536):
+                f.write(data[k : k + 65536])
+
+    writer = threading.Thread(target=producer, daemon=True)
+    writer.start()
+    code = main(
+        [
+            "receive",
+            str(fifo),
+            "--format",
+            "ci16_le",
+            "--fs",
+            str(FS),
+            "--out",
+            str(tmp_path / "live"),
+            "--nmea-out",
+            "-",
+            *common,
+        ]
+    )
+    writer.join(10)
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    assert (tmp_path / "live" / "positions.csv").read_bytes() == (tmp_path / "file" / "positions.csv").read_bytes()
+    rows = _rows(tmp_path / "file" / "positions.csv")
+    sentences = [pynmea2.parse(line) for line in out.out.splitlines() if line.startswith("$")]
+    gga = [s for s in sentences if s.sentence_type == "GGA"]
+    assert len(gga) == len(rows) and len([s for s in sentences if s.sentence_type == "RMC"]) == len(rows)
+    for s, row in zip(gga, rows):
+        assert abs(s.latitude - float(row["lat_deg"])) < 1e-6 and abs(s.longitude - float(row["lon_deg"])) < 1e-6
+
+
+@pytest.mark.slow
+def test_realtime_from_the_command_line_announces_and_reports_its_overruns(recording, tmp_path, capsys):  # noqa: F811
+    # A producer sending the whole recording at once (far faster than its sample rate) into
+    # a 0.05 s buffer: with --realtime the receiver drops whole blocks rather than hold the
+    # producer back, says so on standard error when the first is dropped, and counts them
+    # all at the end (on standard error and in report.md).
+    path, _ = recording
+    port = _serve(path.read_bytes())
+    argv = ["receive", f"tcp://127.0.0.1:{port}", "--format", "ci16_le", "--fs", str(FS), "--realtime"]
+    code = main(
+        [*argv, "--buffer-s", "0.05", "--out", str(tmp_path / "o"), "--ephemeris", str(NAV), "--week", str(WEEK)]
+    )
+    err = capsys.readouterr().err
+    assert code in (0, 1), err  # 1: too much dropped for a fix, said as such
+    assert "overrun: the receiver lags the stream: samples dropped from" in err
+    summary = re.search(r"overruns: (\d+) blocks \(", err)
+    assert summary and int(summary.group(1)) >= 1, err
+    assert f"overruns: {summary.group(1)} blocks (" in (tmp_path / "o" / "report.md").read_text()
 
 
 @pytest.mark.slow
