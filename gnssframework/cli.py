@@ -344,19 +344,22 @@ def _open_recording_from_args(args: argparse.Namespace):
 def _open_stream_from_args(args: argparse.Namespace):
     """``receive``'s live input (`frontend.stream.open_stream`): --format and --fs needed
     (cu8 by default from rtl_tcp); overruns announced on standard error as they begin."""
+    from .receiver.frontend.soapy_io import SOAPY_FORMAT, SOAPY_SCHEME, SoapySettings
     from .receiver.frontend.stream import open_stream
     from .receiver.frontend.stream_io import RTL_TCP_FORMAT, RtlTcpSettings
 
     rtl = args.recording.startswith("rtl_tcp://")
-    fmt = args.format or (RTL_TCP_FORMAT if rtl else None)
+    soapy = args.recording.startswith(SOAPY_SCHEME)
+    fmt = args.format or (RTL_TCP_FORMAT if rtl else SOAPY_FORMAT if soapy else None)
     if fmt is None or args.fs is None:
         raise ConfigError(
             "--format" if fmt is None else "--fs",
             f"{args.recording}: a stream has no SigMF metadata: give --format and --fs",
         )
-    if not rtl and (args.center_freq is not None or args.gain is not None):
+    if not (rtl or soapy) and (args.center_freq is not None or args.gain is not None):
         raise ConfigError(
-            "--center-freq" if args.center_freq is not None else "--gain", "tunes an rtl_tcp:// server only"
+            "--center-freq" if args.center_freq is not None else "--gain",
+            "tunes an rtl_tcp:// server or a soapy:// device only",
         )
     if args.tracking == "vector":
         raise ConfigError("--tracking", "live input runs scalar tracking (vector tracking reads a file)")
@@ -384,6 +387,7 @@ def _open_stream_from_args(args: argparse.Namespace):
         realtime=args.realtime,
         buffer_s=args.buffer_s,
         rtl_tcp=settings,
+        soapy=SoapySettings(args.fs, args.center_freq, args.gain) if soapy else None,
         on_overrun=overrun,
     )
 
@@ -393,7 +397,7 @@ def _add_live_options(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--realtime",
         action="store_true",
-        help="with a stream (-, a FIFO, tcp://HOST:PORT, rtl_tcp://HOST:PORT): drop whole blocks the "
+        help="with a stream (-, a FIFO, tcp://HOST:PORT, rtl_tcp://HOST:PORT, soapy://ARGS): drop whole blocks the "
         "receiver cannot take in time, counted and reported as overruns, instead of holding the "
         "producer back (the default)",
     )
@@ -404,8 +408,8 @@ def _add_live_options(p: argparse.ArgumentParser) -> None:
         metavar="S",
         help="signal queued between the stream reader and the receiver (default %(default)s)",
     )
-    g.add_argument("--center-freq", type=float, metavar="HZ", help="rtl_tcp: tune to HZ (e.g. 1575420000)")
-    g.add_argument("--gain", type=float, metavar="DB", help="rtl_tcp: manual tuner gain (default automatic)")
+    g.add_argument("--center-freq", type=float, metavar="HZ", help="rtl_tcp or soapy: tune to HZ (e.g. 1575420000)")
+    g.add_argument("--gain", type=float, metavar="DB", help="rtl_tcp or soapy: manual tuner gain (default automatic)")
     g.add_argument(
         "--nmea-out",
         metavar="DEST",
@@ -1077,7 +1081,7 @@ def _receive_run(args: argparse.Namespace, live, outputs: frozenset[str]) -> int
     if fixes is not None:
         fixes.finish(result.positions, result.observables)
         print(f"NMEA: {fixes.sent} fixes sent to {', '.join(s.description for s in live.sinks)}")
-    overruns = rec.overrun_summary() if streaming and rec.realtime else ""
+    overruns = rec.overrun_summary() if streaming and (rec.realtime or rec.device_lost) else ""
     if result.vector is not None and result.vector.handover_s is not None:
         print(
             f"vector tracking from {result.vector.handover_s:.1f} s of PRN "
@@ -1419,7 +1423,7 @@ def _add_recording_options(p: argparse.ArgumentParser, several_signals: bool = F
         "recording",
         help="sample file (a SigMF .sigmf-meta beside it gives format, rate and IF); "
         "receive also reads a stream: - (standard input), a FIFO, tcp://HOST:PORT, "
-        "rtl_tcp://HOST:PORT",
+        "rtl_tcp://HOST:PORT, soapy://KEY=VALUE,... (a SoapySDR device, e.g. soapy://driver=rtlsdr)",
     )
     p.add_argument(
         "--format",

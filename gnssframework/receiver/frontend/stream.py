@@ -35,6 +35,7 @@ import numpy as np
 from ... import registry
 from ...errors import ConfigError
 from .recording import Recording, RecordingInfo, check_recording_info
+from .soapy_io import SOAPY_FORMAT, SOAPY_SCHEME, SoapySettings, open_soapy
 from .stream_io import RtlTcpSettings, connect
 
 __all__ = ["StreamRecording", "open_stream", "OPEN_ENDED_SAMPLES"]
@@ -107,6 +108,9 @@ class StreamRecording(Recording):
         self.overrun_blocks = 0
         #: Bytes read from the stream so far by the reader thread (queued, dropped or in a partial block).
         self.stream_bytes = 0
+        self.device_gaps = 0  # runs of samples a device lost, zero-filled by its reader (`soapy_io`)
+        if hasattr(stream, "on_lost"):
+            stream.on_lost = self._device_lost
         self._stop = threading.Event()
         self._lock = threading.Lock()
         self._thread = threading.Thread(target=self._reader, name="gnssframework-stream-reader", daemon=True)
@@ -160,6 +164,13 @@ class StreamRecording(Recording):
         self.overrun_blocks += 1
         if self.on_overrun is not None:
             self.on_overrun(offset // bpc * spc, count // bpc * spc)
+
+    def _device_lost(self, offset: int, count: int) -> None:
+        # Zero samples the device's reader put in for samples it lost (``offset`` is the
+        # stream's byte count, as the reader thread's): a gap like a dropped block's.
+        # Counted and said in `overrun_summary` (not ``on_overrun``: the receiver did not lag).
+        self.gaps.append((offset, offset + count))
+        self.device_gaps += 1
 
     # -- receiver side ----------------------------------------------------------------
     def _pull(self, until_byte: int) -> None:
@@ -228,13 +239,24 @@ class StreamRecording(Recording):
         return self._queue.qsize(), self._queue.maxsize
 
     def overruns(self) -> tuple[int, int]:
-        """``(blocks, samples)`` dropped so far (``realtime`` only)."""
+        """``(blocks, samples)`` dropped so far (``realtime`` only), with a device's lost
+        samples (zero-filled runs, `soapy_io`) counted among the samples."""
         return self.overrun_blocks, sum(self._sample(b) - self._sample(a) for a, b in list(self.gaps))
 
     def overrun_summary(self) -> str:
-        """``"overruns: N blocks (X s of signal) dropped"``."""
+        """``"overruns: N blocks (X s of signal) dropped"``, and what the device lost where
+        its reader counts that (``"; device overflows: ..."``)."""
         blocks, samples = self.overruns()
-        return f"overruns: {blocks} blocks ({samples / self.info.sample_rate_hz:.3f} s of signal) dropped"
+        samples -= getattr(self._stream, "lost_samples", 0)  # the device's, said apart
+        device = getattr(self._stream, "summary", lambda: "")()
+        return f"overruns: {blocks} blocks ({samples / self.info.sample_rate_hz:.3f} s of signal) dropped" + (
+            f"; {device}" if device else ""
+        )
+
+    @property
+    def device_lost(self) -> bool:
+        """Whether the device reported lost samples (overflows), whatever ``realtime``."""
+        return bool(getattr(self._stream, "overflows", 0))
 
     def dropped_between(self, first: int, stop: int) -> tuple[int, int] | None:
         for a, b in list(self.gaps):
@@ -271,6 +293,7 @@ def open_stream(
     buffer_s: float = 1.0,
     retain_s: float = 2.0,
     rtl_tcp: RtlTcpSettings | None = None,
+    soapy: SoapySettings | None = None,
     on_overrun: Callable[[int, int], None] | None = None,
 ) -> StreamRecording:
     """A `StreamRecording` of ``address`` (`stream_io.connect`'s, or an open binary file
@@ -280,7 +303,13 @@ def open_stream(
     info = check_recording_info(format, sample_rate_hz, if_hz, q_sign)
     if not block_s > 0 or not buffer_s >= block_s:
         raise ConfigError("buffer_s", f"need 0 < block_s <= buffer_s, got block_s {block_s:g}, buffer_s {buffer_s:g}")
-    if isinstance(address, str):
+    if isinstance(address, str) and address.startswith(SOAPY_SCHEME):
+        if info.format != SOAPY_FORMAT:
+            raise ConfigError(
+                "--format", f"{address}: a SoapySDR device is read as {SOAPY_FORMAT} (CS16), not {info.format}"
+            )
+        stream, description = open_soapy(address, soapy or SoapySettings(sample_rate_hz))
+    elif isinstance(address, str):
         stream, description = connect(address, rtl_tcp)
     else:
         stream, description = address, getattr(address, "name", "stream")

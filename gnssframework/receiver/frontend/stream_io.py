@@ -9,6 +9,8 @@ a path
     a FIFO (``mkfifo``) or any file read as a stream (read once, front to back);
 ``tcp://HOST:PORT``
     a raw TCP stream of samples (the server sends the samples, nothing else);
+``soapy://KEY=VALUE,...``
+    a SoapySDR device (`soapy_io`, opened by `stream.open_stream`: it needs the rate);
 ``rtl_tcp://HOST:PORT``
     an rtl_tcp server (osmocom rtl-sdr's ``rtl_tcp``): on connection it sends a 12-byte
     header, ``"RTL0"``, the tuner type and the number of gain steps (each a big-endian
@@ -78,8 +80,8 @@ def rtl_tcp_command(command: int, value: int) -> bytes:
 
 
 def is_stream_address(address: str) -> bool:
-    """True for ``-``, a ``tcp://`` or ``rtl_tcp://`` address, or an existing FIFO."""
-    if address == "-" or address.startswith(("tcp://", "rtl_tcp://")):
+    """True for ``-``, a ``tcp://``, ``rtl_tcp://`` or ``soapy://`` address, or an existing FIFO."""
+    if address == "-" or address.startswith(("tcp://", "rtl_tcp://", "soapy://")):
         return True
     try:
         return stat.S_ISFIFO(os.stat(address).st_mode)

@@ -190,4 +190,7 @@ class LiveRun:
             if close is not None:
                 close()
         overruns = getattr(self.recording, "overrun_summary", None)
-        return overruns() if overruns is not None and (self.recording.realtime or self.recording.gaps) else ""
+        if overruns is None:  # a file
+            return ""
+        said = self.recording.realtime or self.recording.gaps or getattr(self.recording, "device_lost", False)
+        return overruns() if said else ""
