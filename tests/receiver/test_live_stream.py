@@ -217,7 +217,10 @@ def test_the_nmea_server_sends_every_sentence_to_every_client():
     [
         ([], "--format"),
         (["--format", "ci8"], "--fs"),
-        (["--format", "ci8", "--fs", "4e6", "--center-freq", "1575420000"], "rtl_tcp:// server only"),
+        (
+            ["--format", "ci8", "--fs", "4e6", "--center-freq", "1575420000"],
+            "rtl_tcp:// server or a soapy:// device only",
+        ),
         (["--format", "ci8", "--fs", "4e6", "--tracking", "vector"], "live input runs scalar tracking"),
         (["--format", "ci8", "--fs", "4e6", "--nmea-out", "udp://x:1"], "tcp://"),
     ],

@@ -195,5 +195,12 @@ def test_no_soapysdr_module_or_a_bad_address_is_one_line(monkeypatch):
         open_stream("soapy://driver=x", "ci16_le", FS)
     with pytest.raises(ConfigError, match=r"expected soapy://KEY=VALUE"):
         open_stream("soapy://driver", "ci16_le", FS)
-    with pytest.raises(ConfigError, match=r"^--format: .* read as ci16_le \(CS16\), not cu8"):
+    with pytest.raises(ConfigError, match=r"^format: .* read as ci16_le \(CS16\), not cu8"):
         open_stream("soapy://driver=x", "cu8", FS)
+
+
+def test_a_rate_the_device_cannot_run_at_is_refused_naming_both(soapy, monkeypatch):
+    monkeypatch.setattr(soapy, "getSampleRate", lambda self, direction, channel: 2.4e6)
+    with pytest.raises(ConfigError, match=r"^sample_rate_hz: .* runs at 2400000 Hz, not the 2046000 Hz asked"):
+        open_stream("soapy://driver=loopback", "ci16_le", FS)
+    assert ("closed", "rx0") in soapy.made[0].calls

@@ -205,7 +205,8 @@ def open_soapy(address: str, settings: SoapySettings) -> tuple[BinaryIO, str]:
         device.deactivateStream(stream)
         device.closeStream(stream)
         raise ConfigError(
-            "--fs", f"{address}: the device runs at {rate:.0f} Hz, not the {settings.sample_rate_hz:.0f} Hz asked"
+            "sample_rate_hz",
+            f"{address}: the device runs at {rate:.0f} Hz, not the {settings.sample_rate_hz:.0f} Hz asked",
         )
     driver = args.get("driver", "first found")
     reader = SoapyReader(soapy, device, stream, rate, f"SoapySDR {driver} {address}")

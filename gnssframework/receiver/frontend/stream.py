@@ -306,7 +306,7 @@ def open_stream(
     if isinstance(address, str) and address.startswith(SOAPY_SCHEME):
         if info.format != SOAPY_FORMAT:
             raise ConfigError(
-                "--format", f"{address}: a SoapySDR device is read as {SOAPY_FORMAT} (CS16), not {info.format}"
+                "format", f"{address}: a SoapySDR device is read as {SOAPY_FORMAT} (CS16), not {info.format}"
             )
         stream, description = open_soapy(address, soapy or SoapySettings(sample_rate_hz))
     elif isinstance(address, str):
