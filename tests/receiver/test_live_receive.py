@@ -71,6 +71,34 @@ def _rows(path):
         return list(csv.DictReader(f))
 
 
+def _live_argv(source, out, nmea_out, common):
+    """``receive`` of the recording's ``ci16_le`` bytes from ``source``, NMEA to ``nmea_out``."""
+    return [
+        "receive",
+        source,
+        "--format",
+        "ci16_le",
+        "--fs",
+        str(FS),
+        "--out",
+        str(out),
+        "--nmea-out",
+        nmea_out,
+        *common,
+    ]
+
+
+def _assert_sentences_are_the_fixes(lines, rows):
+    """A GGA and an RMC per row of ``positions.csv``, GGA at its position (NMEA's 1e-5 arc
+    minute is 2 cm) with its satellite count."""
+    sentences = [pynmea2.parse(line) for line in lines if line.startswith("$")]
+    gga = [s for s in sentences if s.sentence_type == "GGA"]
+    assert len(gga) == len(rows) and len([s for s in sentences if s.sentence_type == "RMC"]) == len(rows)
+    for s, row in zip(gga, rows):
+        assert abs(s.latitude - float(row["lat_deg"])) < 1e-6 and abs(s.longitude - float(row["lon_deg"])) < 1e-6
+        assert int(s.num_sats) == int(row["n_sats"])
+
+
 @pytest.mark.slow
 def test_a_tcp_stream_gives_the_files_fixes_and_sends_them_as_nmea(recording, tmp_path, capsys):  # noqa: F811
     path, _ = recording
@@ -95,34 +123,15 @@ def test_a_tcp_stream_gives_the_files_fixes_and_sends_them_as_nmea(recording, tm
 
     reader = threading.Thread(target=client, daemon=True)
     reader.start()
-    code = main(
-        [
-            "receive",
-            f"tcp://127.0.0.1:{port}",
-            "--format",
-            "ci16_le",
-            "--fs",
-            str(FS),
-            "--out",
-            str(tmp_path / "live"),
-            "--nmea-out",
-            f"tcp://127.0.0.1:{nmea_port}",
-            *common,
-        ]
-    )
+    code = main(_live_argv(f"tcp://127.0.0.1:{port}", tmp_path / "live", f"tcp://127.0.0.1:{nmea_port}", common))
     reader.join(10)
     out = capsys.readouterr()
     assert code == 0, out.out + out.err
     assert (tmp_path / "live" / "positions.csv").read_bytes() == (tmp_path / "file" / "positions.csv").read_bytes()
     assert "overruns" not in out.err  # backpressure: nothing dropped
-    rows = _rows(tmp_path / "file" / "positions.csv")
-    sentences = [pynmea2.parse(line) for line in b"".join(received).decode().split("\r\n") if line]
-    gga = [s for s in sentences if s.sentence_type == "GGA"]
+    lines = b"".join(received).decode().split("\r\n")
     # The client connects while the receiver acquires, before the first fix: it gets every one.
-    assert len(gga) == len(rows) and len([s for s in sentences if s.sentence_type == "RMC"]) == len(rows)
-    for s, row in zip(gga, rows):  # the same fixes: NMEA's 1e-5 arc minute is 2 cm
-        assert abs(s.latitude - float(row["lat_deg"])) < 1e-6 and abs(s.longitude - float(row["lon_deg"])) < 1e-6
-        assert int(s.num_sats) == int(row["n_sats"])
+    _assert_sentences_are_the_fixes(lines, _rows(tmp_path / "file" / "positions.csv"))
 
 
 @pytest.mark.slow
@@ -145,31 +154,12 @@ def test_a_fifo_gives_the_files_fixes_and_nmea_goes_to_standard_output(recording
 
     writer = threading.Thread(target=producer, daemon=True)
     writer.start()
-    code = main(
-        [
-            "receive",
-            str(fifo),
-            "--format",
-            "ci16_le",
-            "--fs",
-            str(FS),
-            "--out",
-            str(tmp_path / "live"),
-            "--nmea-out",
-            "-",
-            *common,
-        ]
-    )
+    code = main(_live_argv(str(fifo), tmp_path / "live", "-", common))
     writer.join(10)
     out = capsys.readouterr()
     assert code == 0, out.err
     assert (tmp_path / "live" / "positions.csv").read_bytes() == (tmp_path / "file" / "positions.csv").read_bytes()
-    rows = _rows(tmp_path / "file" / "positions.csv")
-    sentences = [pynmea2.parse(line) for line in out.out.splitlines() if line.startswith("$")]
-    gga = [s for s in sentences if s.sentence_type == "GGA"]
-    assert len(gga) == len(rows) and len([s for s in sentences if s.sentence_type == "RMC"]) == len(rows)
-    for s, row in zip(gga, rows):
-        assert abs(s.latitude - float(row["lat_deg"])) < 1e-6 and abs(s.longitude - float(row["lon_deg"])) < 1e-6
+    _assert_sentences_are_the_fixes(out.out.splitlines(), _rows(tmp_path / "file" / "positions.csv"))
 
 
 @pytest.mark.slow

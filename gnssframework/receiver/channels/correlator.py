@@ -495,19 +495,13 @@ def correlate_periods(
             f"correlate_periods needs a tap at offset 0 (the prompt, whose epochs "
             f"end the periods) and at most {MAX_TAPS} taps; got {taps}",
         )
-    phase = np.asarray(code_phase_chips, float)
-    step = np.asarray(code_step_chips, float)
+    phase, step = np.asarray(code_phase_chips, float), np.asarray(code_step_chips, float)
+    carrier_phase, carrier_step = np.asarray(carrier_phase_cycles, float), np.asarray(carrier_step_cycles, float)
     # The carrier words, the prompt's code word in 2^-32 chips from one code length before
     # the table's start (a period ends when it reaches two code lengths: its next epoch),
     # and where the periods reach, in one compiled pass (`nco_words.period_words`).
     carrier0, dcarrier, code0, dcode, first, reach, p_max, work = period_words(
-        starts,
-        n_periods,
-        phase,
-        step,
-        np.asarray(carrier_phase_cycles, float),
-        np.asarray(carrier_step_cycles, float),
-        n_code,
+        starts, n_periods, phase, step, carrier_phase, carrier_step, n_code
     )
     n_samples = _n_samples(samples, iq)
     if starts.size and (first < 0 or reach > n_samples):
@@ -519,14 +513,7 @@ def correlate_periods(
     if use != "numba" or not HAVE_NUMBA:
         return correlate_periods_numpy(
             _as_complex(samples, iq and not np.iscomplexobj(samples), q_sign),
-            starts,
-            n_periods,
-            phase,
-            step,
-            np.asarray(carrier_phase_cycles, float),
-            np.asarray(carrier_step_cycles, float),
-            codes,
-            offsets_chips,
+            *(starts, n_periods, phase, step, carrier_phase, carrier_step, codes, offsets_chips),
         )
     x, cplx = _kernel_input(samples, iq)
     n_ch = len(starts)
