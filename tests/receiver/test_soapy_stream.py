@@ -204,3 +204,14 @@ def test_a_rate_the_device_cannot_run_at_is_refused_naming_both(soapy, monkeypat
     with pytest.raises(ConfigError, match=r"^sample_rate_hz: .* runs at 2400000 Hz, not the 2046000 Hz asked"):
         open_stream("soapy://driver=loopback", "ci16_le", FS)
     assert ("closed", "rx0") in soapy.made[0].calls
+
+
+def test_an_overflow_before_the_first_sample_loses_nothing_of_the_run(tmp_path, soapy, monkeypatch):
+    path, rec = _file(tmp_path)
+    monkeypatch.setattr(soapy, "samples", np.fromfile(path, np.int16))
+    monkeypatch.setattr(soapy, "speed", 0.0)
+    monkeypatch.setattr(soapy, "lose", (0, 2_046))  # the driver overran before the first read
+    live = open_stream("soapy://driver=loopback", "ci16_le", FS, block_s=0.001, buffer_s=0.01)
+    np.testing.assert_array_equal(live.read(0, 100), rec.read(2_046, 100))  # the run starts later
+    assert not live.device_lost and live.dropped_between(0, 30_000) is None
+    live.close()

@@ -114,9 +114,9 @@ class SoapyReader:
             if ret == self._timeout:
                 continue
             if ret == self._overflow:
-                self.overflows += 1
-                if self._next_ns is None:
-                    self.unstamped_overflows += 1
+                if self._bytes or self._pending:  # (before the first sample: nothing of the run lost)
+                    self.overflows += 1
+                    self.unstamped_overflows += self._next_ns is None
                 continue
             if ret < 0:
                 raise OSError(f"SoapySDR readStream: {self._soapy.errToStr(ret)} ({ret})")
