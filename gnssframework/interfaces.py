@@ -397,6 +397,14 @@ class ChannelFilter(SequentialFilter):
 
     kind = "channel_filter"
 
+    def restart(self, elements: np.ndarray) -> bool:
+        """Forget what the filter learned for the batch ``elements`` (bool, the batch shape):
+        from its next step each of them starts again from its correlators, as at its first
+        step. A lock detector asks it when a lost signal comes back (the replica held by
+        vector or deep aiding, the filter's state spent on noise). Returns whether the
+        filter did: the default keeps the state and returns False."""
+        return False
+
 
 class NavFilter(SequentialFilter):
     """Plugin kind ``nav_filter``: fuses channel outputs into a navigation state.

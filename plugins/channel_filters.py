@@ -713,6 +713,7 @@ class IqFilter(ChannelFilter):
         self.state = None
         self.T = T
         self.pending_reset = False
+        self._restart: np.ndarray | None = None
         self.code_disc = None
         p = self.params
         field = (
@@ -780,6 +781,24 @@ class IqFilter(ChannelFilter):
             cov[..., i, i] = std[i] ** 2
         return mean, cov
 
+    def restart(self, elements: np.ndarray) -> bool:
+        """From the next step, ``elements`` (bool, the batch shape) start again as at the first
+        step: amplitude and phase from that step's prompt, code, frequency and frequency rate
+        errors 0 against the replica, the covariance ``initial_std``. The adaptive R's
+        innovation window (``adaptive``) is the filter's, not restarted per element."""
+        mask = np.broadcast_to(np.asarray(elements, bool), self.batch_shape).reshape(self._flat_shape)
+        self._restart = mask if self._restart is None else self._restart | mask
+        return True
+
+    def _restarted(self, mean: np.ndarray, cov: np.ndarray, prompt) -> tuple[np.ndarray, np.ndarray]:
+        """``mean`` and ``cov`` with the elements `restart` marked started again from ``prompt``."""
+        m, self._restart = self._restart, None
+        p0 = self._flat(prompt)
+        start = np.zeros_like(mean)
+        start[:, 0], start[:, 2] = np.abs(p0), np.angle(p0)
+        P0 = np.diag(np.square(np.asarray(self.params.initial_std, float)))
+        return np.where(m[:, None], start, mean), np.where(m[:, None, None], P0, cov)
+
     def _flat(self, a) -> np.ndarray:
         """A batch-shaped input (or one broadcast to it) as the flat ``(runs x channels,)``."""
         if type(a) is np.ndarray and a.shape == self.batch_shape:
@@ -826,6 +845,8 @@ class IqFilter(ChannelFilter):
                 # every interval it never leaves warm-up: R stays the correlators' true
                 # covariance (the running step count does not change that).
                 self.filter_step.restart_adapter(self.model, from_model_noise=True, restart_warmup=False)
+            if self._restart is not None and self._restart.any():  # a lost signal back (`restart`)
+                mean, cov = self._restarted(mean, cov, corr.prompt)
             previous = Gaussian(mean, cov)
             prior = self.filter_step.predict(previous, self.model)
         if "data_bit" not in inputs:  # decision-directed wipe-off

@@ -76,6 +76,7 @@ def run_aided_tracking(
     early_late_spacing_chips: float = 1.0,
     pull_in_updates: int = 0,
     carrier_filter: ChannelFilter | None = None,
+    on_correlators=None,
 ) -> DeepRecord:
     """Run the aided tracking loop over all epochs of ``truth`` (data bits wiped off).
 
@@ -100,6 +101,9 @@ def run_aided_tracking(
         provides ``carrier_freq_hz`` and may provide ``carrier_phase_step_rad``, e.g.
         ``kf-carrier-loop``): it closes only the carrier loop on top of the aided
         replica; its outputs are frequency and phase corrections to that replica.
+    on_correlators
+        Optional callable given each interval's correlators before the closer steps on them
+        (a lock detector's ``observe``, whose verdict the navigator's update then reads).
     """
     closer = DeepCloser(
         channel, navigator, carrier_filter=carrier_filter, accel_aiding=accel_aiding, pull_in_updates=pull_in_updates
@@ -137,6 +141,8 @@ def run_aided_tracking(
         nxt = true_at(k + 1)
         err = replica.errors(edge[0], nxt[0], edge[1], nxt[1], T)
         corr = source.correlate(replica, k, err)
+        if on_correlators is not None:
+            on_correlators(corr)
         rot_rad = closer.rotation_rad()
         if rot_rad is not None:  # the carrier loop's phase error at mid-interval (wrapped once at the end)
             rec["phase"].append(err.phase_rad + np.pi * err.freq_hz * T - rot_rad)

@@ -53,6 +53,7 @@ def scalar_tracking(
     carrier_range_m: np.ndarray | None = None,
     amplitude_scale: np.ndarray | None = None,
     signal: SignalSpec = GPS_L1CA,
+    on_correlators=None,
 ) -> TrackingRecord:
     """Track every channel with its own scalar loop.
 
@@ -70,6 +71,8 @@ def scalar_tracking(
         gone, as in a satellite outage); the correlator noise is drawn as without it.
     signal
         The tracked signal (`GPS_L1CA`).
+    on_correlators
+        Optional callable given each interval's correlators (a lock detector's ``observe``).
 
     Returns
     -------
@@ -97,6 +100,7 @@ def scalar_tracking(
         rng,
         initial_doppler_hz=doppler0 + initial_doppler_error_hz,
         early_late_spacing_chips=early_late_spacing_chips,
+        on_correlators=on_correlators,
     )
 
 

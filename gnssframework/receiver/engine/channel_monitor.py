@@ -74,7 +74,11 @@ class ChannelMonitor:
         self.flagged_run = np.zeros(batch, int)
         self.clear_run = np.zeros(batch, int)
         self.excluded = np.zeros(batch, bool)
+        self.returned = np.zeros(batch, bool)  # never: no channel filter is restarted
         self.statistic = np.zeros(batch)
+
+    def observe(self, correlators) -> None:
+        """Each interval's correlators, before `screen` (not read: the test is on the innovations)."""
 
     def screen(
         self, innovation_m: np.ndarray, variance_m2: np.ndarray, unit_los: np.ndarray, predicted_cov: np.ndarray
@@ -112,8 +116,9 @@ class ChannelMonitor:
 class ScheduledExclusion:
     """The channels a vector loop leaves out at each interval, known beforehand: an ideal lock
     detector for a scenario whose truth blocks channels (a satellite outage), with the
-    `ChannelMonitor` interface `VectorCloser` calls (``reset``, then ``screen`` once per
-    interval, in order).
+    `ChannelMonitor` interface `VectorCloser` calls (``reset``, then ``observe`` and ``screen``
+    once per interval, in order). A lock test on the correlators themselves is
+    `gnssframework.receiver.engine.lock_detector.CN0LockDetector`.
 
     Parameters
     ----------
@@ -129,8 +134,12 @@ class ScheduledExclusion:
     def reset(self, batch: tuple[int, int]) -> None:
         """Every channel of ``batch`` admitted; the next interval is the first."""
         self.excluded = np.zeros(batch, bool)
+        self.returned = np.zeros(batch, bool)  # never: no channel filter is restarted
         self.statistic = np.zeros(batch)
         self.interval = 0
+
+    def observe(self, correlators) -> None:
+        """Each interval's correlators, before `screen` (not read: the schedule is known beforehand)."""
 
     def screen(
         self, innovation_m: np.ndarray, variance_m2: np.ndarray, unit_los: np.ndarray, predicted_cov: np.ndarray

@@ -252,7 +252,9 @@ class VectorCloser:
         A `ChannelMonitor` that tests each channel's innovation before the nav filter's
         update and leaves excluded channels out of it (None: every channel used). It works
         for any nav filter: from the channel outputs, the filter's published position and
-        covariance and its ``transition(T)`` if it has one.
+        covariance and its ``transition(T)`` if it has one. Its ``observe`` sees each
+        interval's correlators first (a lock test on them: `CN0LockDetector`), and the
+        channels it marks ``returned`` have their filters restarted (`ChannelFilter.restart`).
     """
 
     def __init__(
@@ -297,6 +299,10 @@ class VectorCloser:
         }
         if data_bit is not None:
             inputs[names.DATA_BIT] = data_bit
+        if self.monitor is not None:  # a lock test on the correlators reads them here
+            self.monitor.observe(correlators)
+            if self.monitor.returned.any():  # a lost signal back: its filter starts again
+                self.filter.restart(self.monitor.returned)
         return self.filter.checked_step(inputs)
 
     def nav_step(

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...signal.correlators import Correlators
 from .channel import Channel
 from .closers import ScalarCloser
 from .sources import CorrelatorSource
@@ -28,12 +30,18 @@ class TrackingRecord:
 
 
 def run_scalar(
-    closer: ScalarCloser, source: CorrelatorSource, channel: Channel, truth: LoopTruth, record: tuple[str, ...] = ()
+    closer: ScalarCloser,
+    source: CorrelatorSource,
+    channel: Channel,
+    truth: LoopTruth,
+    record: tuple[str, ...] = (),
+    on_correlators: Callable[[Correlators], None] | None = None,
 ) -> TrackingRecord:
     """Close ``closer`` over ``channel`` on ``source`` for every interval of ``truth``
     (phases form), recording the replica's true errors.
 
-    The closer must have been reset on ``channel`` (`ScalarCloser.reset`).
+    The closer must have been reset on ``channel`` (`ScalarCloser.reset`). ``on_correlators``
+    sees each interval's correlators before the closer does (a lock detector's ``observe``).
     """
     T = truth.coherent_time_s
     code, carrier = truth.code_phase_chips, truth.carrier_phase_rad
@@ -41,7 +49,10 @@ def run_scalar(
     for k in range(truth.epochs):
         err = channel.errors(code[k], code[k + 1], carrier[k], carrier[k + 1], T)
         fnco = channel.carrier_freq_hz
-        out = closer.step(channel, source.correlate(channel, k, err))
+        corr = source.correlate(channel, k, err)
+        if on_correlators is not None:
+            on_correlators(corr)
+        out = closer.step(channel, corr)
         rec["code"].append(err.code_chips)
         rec["phase"].append(err.mid_phase_rad(T))
         rec["freq"].append(err.freq_hz)

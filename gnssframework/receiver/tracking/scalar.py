@@ -37,6 +37,7 @@ def run_closed_loop(
     initial_code_phase_chips: np.ndarray | float | None = None,
     early_late_spacing_chips: float = 1.0,
     record: tuple[str, ...] = (),
+    on_correlators=None,
 ) -> TrackingRecord:
     """Track ``truth`` with ``channel`` in closed loop.
 
@@ -55,6 +56,8 @@ def run_closed_loop(
         The acquisition's code phase (default: the true one).
     record
         Further channel outputs to keep (e.g. ``("phase_disc_rad",)``).
+    on_correlators
+        Optional callable given each interval's `Correlators` (a lock detector's ``observe``).
     """
     closer = ScalarCloser(channel, record)
     T = truth.coherent_time_s
@@ -68,4 +71,4 @@ def run_closed_loop(
         rng,
         amplitude_scale=truth.amplitude_scale,
     )
-    return run_scalar(closer, source, replica, truth, record)
+    return run_scalar(closer, source, replica, truth, record, on_correlators)
