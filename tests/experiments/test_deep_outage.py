@@ -227,8 +227,12 @@ def test_exclude_channels_leaves_a_differenced_update_blind_to_them():
     np.testing.assert_allclose(dx_g, dx, rtol=0, atol=1e-9 * np.abs(dx).max())
     _, c, n0 = exclude_channels(usable, residual, cov, cn0)
     assert np.all(np.isneginf(n0[:, [0, 2]])) and np.all(c[:, 0, 0, 0] == 4.0 + REJECTED_FIX_VAR)
-    with pytest.raises(ConfigError, match="channel_usable.*at least one channel"):
-        exclude_channels(np.zeros((runs, ch), bool), residual, cov, cn0)
+    # A run that keeps no channel (a lock detector lost them all): its correction is nil, to
+    # 1e-9 of a used update's, while the other runs' are as before.
+    usable[1] = False
+    dx_none, _ = correction(residual)
+    assert np.abs(dx_none[1]).max() < 1e-9 * np.abs(dx).max()
+    np.testing.assert_allclose(np.delete(dx_none, 1, 0), np.delete(dx, 1, 0), rtol=0, atol=1e-9 * np.abs(dx).max())
 
 
 def test_left_out_takes_a_refused_run_as_all_its_channels():

@@ -41,6 +41,8 @@ from ...interfaces import ErrorStateNavFilter, RunContext
 from ...inertial.imu import ImuGrade
 from ...inertial.trajectory import MAX_START_LAT_DEG
 from ...receiver.deep.aided_tracking import DeepTruth, loss_of_lock
+from ...receiver.engine.lock_detector import CN0LockDetector
+from .deep_integration_lock import LOCK_METRICS, LockDetectorParams, check_lock, lock_series, make_lock
 from .deep_integration_metrics import attitude_errors_deg, enu_errors
 from ...receiver.tracking.scalar import NCO_COMMANDS
 from ...receiver.tracking.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_vector_loop
@@ -147,9 +149,10 @@ METRICS = (
 )
 
 
-class DeepIntegrationParams(SignalCoherentTime, SkyRealismParams):
+class DeepIntegrationParams(SignalCoherentTime, SkyRealismParams, LockDetectorParams):
     """The flight and receiver of reference 002; the C/N0 and range-residual options of
-    `SkyRealismParams` (off by default)."""
+    `SkyRealismParams` (off by default); the lock detector of `LockDetectorParams` (ideal by
+    default: `deep_integration_lock`)."""
 
     duration_s: float = Field(50.0, gt=0, le=600, description="flight length (Cai and Guo 2017: 50 s)")
     profile: Literal["pull-up", "straight", "jerk-pulse"] = Field(
@@ -374,6 +377,10 @@ class DeepIntegrationScenario(Scenario):
         "nees_pv": "-",
         "phase_unlocked": "-",
         "cycle_slips": "1/s",
+        # with a C/N0 lock detector (deep_integration_lock.lock_series):
+        "false_exclusion": "-",
+        "missed_exclusion": "-",
+        "channels_in_update": "-",
     }
 
     #: Why a metric can be undefined in a run (summary.json and report.md say it).
@@ -407,6 +414,9 @@ class DeepIntegrationScenario(Scenario):
                 raise ConfigError(f"scenario.{name}", f"must be a whole multiple of {small} s (got {big})")
         if p.settle_s >= p.duration_s:
             raise ConfigError("scenario.settle_s", f"must be less than duration_s = {p.duration_s}")
+        check_lock(p)
+        if p.lock_detector != "ideal":  # the detector's own metrics (deep_integration_lock.LOCK_METRICS)
+            self.metrics = units(METRICS + LOCK_METRICS)
 
     def check_case(self, case: dict[str, Any], where: str) -> None:
         """The case's fields, and an outage that does something and fits the flight."""
@@ -607,6 +617,7 @@ class DeepIntegrationScenario(Scenario):
 
             blocked = np.any(truth.signal_gain == 0, axis=0)
             outage = ChannelOutage(blocked, c.outage_start_s, c.outage_end_s)
+        outage = make_lock(p, outage)  # the ideal detector (the outage itself) or a C/N0 test
         n_upd = int(round(p.update_interval_s / p.coherent_time_s))
         if kind == "vector":
             out = self._run_vector(plugins, truth, runs, rng, outage)
@@ -650,7 +661,10 @@ class DeepIntegrationScenario(Scenario):
             for name in ("phase_tracking_error", "phase_unlocked", "cycle_slips"):
                 series[name] = np.full((U, runs), np.nan)
         series["nees_pv"] = out["nees"]
-        return evaluate(METRICS, series, t_u, self)
+        if p.lock_detector == "ideal":
+            return evaluate(METRICS, series, t_u, self)
+        series.update(lock_series(outage, t_u, truth.signal_gain, n_upd, code.shape[1:]))
+        return evaluate(METRICS + LOCK_METRICS, series, t_u, self)
 
     def _run_vector(
         self, plugins, truth: DeepTruth, runs: int, rng: np.random.Generator, outage=None
@@ -662,7 +676,9 @@ class DeepIntegrationScenario(Scenario):
         p = self.params
         T = p.coherent_time_s
         monitor = None
-        if outage is not None:
+        if isinstance(outage, CN0LockDetector):  # the lock test on the prompts as the loop's monitor
+            monitor = outage
+        elif outage is not None:
             from ...receiver.engine.channel_monitor import ScheduledExclusion
 
             monitor = ScheduledExclusion(lambda k: outage.usable(k * T, T))

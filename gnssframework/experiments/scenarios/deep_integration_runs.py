@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -19,7 +19,7 @@ from ...estimation.consistency import nees
 from ...interfaces import RunContext
 from ...navigation.geometry import line_of_sight, range_rate
 from ...receiver.deep.aided_tracking import DeepTruth, run_aided_tracking
-from ...receiver.deep.ins_navigator import InsNavigator, loose_update, tight_update
+from ...receiver.deep.ins_navigator import REJECTED_FIX_VAR, InsNavigator, loose_update, tight_update
 from ...receiver.deep.loose import (
     correlated_error_inflation,
     line_of_sight_accel,
@@ -34,7 +34,23 @@ from ...receiver.deep.navigators import ClockFilter
 from ...receiver.deep.strapdown import StrapdownIns
 from .deep_integration_flight import Flight, body_to_ned
 
-__all__ = ["run_deep", "run_loose", "run_tight", "ChannelOutage", "CandidateRun"]
+__all__ = ["run_deep", "run_loose", "run_tight", "ChannelOutage", "LockVerdicts", "CandidateRun", "weight_out"]
+
+
+class LockVerdicts(Protocol):
+    """The receiver's lock verdicts a candidate's run reads (its ``outage`` argument): the
+    ideal detector of a satellite outage (`ChannelOutage`) or a lock test on the prompts
+    (`gnssframework.receiver.engine.lock_detector.CN0LockDetector`). The run hands it each
+    interval's correlators (``observe``) and asks which channels an update at ``t_s`` may
+    use (``usable``, ``(runs, ch)`` bool; ``reach_s``: how far past ``t_s`` its
+    measurements reach, which only the ideal detector can know)."""
+
+    def observe(self, correlators: Any) -> None: ...
+
+    def usable(self, t_s: float, reach_s: float) -> np.ndarray: ...
+
+    @property
+    def returned(self) -> np.ndarray | None: ...
 
 
 @dataclass(frozen=True)
@@ -65,6 +81,15 @@ class ChannelOutage:
         """Channels the receiver uses at an update at ``t_s`` whose measurements reach
         ``reach_s`` past it: ``(runs, ch)`` bool."""
         return ~(self.blocked & (t_s + reach_s > self.start_s))
+
+    def observe(self, correlators) -> None:
+        """Each interval's correlators (not read: the schedule is known beforehand). A lock
+        test that reads them is `CN0LockDetector`, which answers `usable` alike."""
+
+    @property
+    def returned(self) -> None:
+        """Channels whose filters restart: none (the ideal detector never readmits)."""
+        return None
 
 
 #: Fewest usable channels an update needs: a loose fix 4 (position and clock), tight differences 2.
@@ -136,7 +161,7 @@ def run_deep(
     truth: DeepTruth,
     runs: int,
     rng: np.random.Generator,
-    outage: ChannelOutage | None = None,
+    outage: LockVerdicts | None = None,
 ) -> dict[str, np.ndarray]:
     """The ``deep`` / ``deep-no-accel`` candidates: INS-aided NCOs, prefilters, ``ins-ekf`` on differences.
 
@@ -171,10 +196,24 @@ def run_deep(
         accel_aiding=aiding.accel_aiding,
         early_late_spacing_chips=p.early_late_spacing_chips,
         carrier_filter=None if spec is None else spec.create(),
+        on_correlators=None if outage is None else _observer(outage, plugins["channel_filter"]),
     )
     return _stack(
         records, times, {"code_error_chips": rec.code_error_chips, "freq_error_hz": rec.freq_error_hz, **rec.extra}
     )
+
+
+def _observer(lock: LockVerdicts, channel):
+    """Each interval's correlators to ``lock``; the channels it marks ``returned`` (a lost
+    signal back) have ``channel``'s filter restarted before it steps on them."""
+
+    def observe(correlators) -> None:
+        lock.observe(correlators)
+        back = lock.returned
+        if back is not None and back.any():
+            channel.restart(back)
+
+    return observe
 
 
 def run_loose(
@@ -184,7 +223,7 @@ def run_loose(
     truth: DeepTruth,
     runs: int,
     rng: np.random.Generator,
-    outage: ChannelOutage | None = None,
+    outage: LockVerdicts | None = None,
 ) -> dict[str, np.ndarray]:
     """The ``loose`` candidate: scalar loops, weighted least-squares fixes at the update rate, ``ins-ekf``.
     With fewer than 4 usable channels (``outage``) no fix can be formed: the INS coasts."""
@@ -198,7 +237,7 @@ def run_tight(
     truth: DeepTruth,
     runs: int,
     rng: np.random.Generator,
-    outage: ChannelOutage | None = None,
+    outage: LockVerdicts | None = None,
 ) -> dict[str, np.ndarray]:
     """The ``tight`` candidate: the same scalar loops as ``loose``, their per-channel pseudoranges and
     rates single-differenced into ``ins-ekf`` (`tight_update`) at the update rate, the same
@@ -216,7 +255,7 @@ def _run_scalar(
     rng: np.random.Generator,
     *,
     tight: bool,
-    outage: ChannelOutage | None = None,
+    outage: LockVerdicts | None = None,
 ) -> dict[str, np.ndarray]:
     """Scalar loops over the whole flight, then an ``ins-ekf`` update per interval: a fix (loose) or
     the channels' measurements (tight). The two draw the same numbers in the same order.
@@ -256,6 +295,7 @@ def _run_scalar(
         early_late_spacing_chips=p.early_late_spacing_chips,
         carrier_range_m=carrier_rho,
         amplitude_scale=truth.signal_gain,
+        on_correlators=None if outage is None else _observer(outage, channel),
     )
     cp = channel.params
     window = int(round(p.rate_window_s / T))
@@ -283,7 +323,9 @@ def _run_scalar(
         t_u = k_edge * T
         ins.advance(t_u)
         usable = None if outage is None else outage.usable(t_u, reach_s)
-        enough = usable is None or usable.sum(axis=-1).min() >= MIN_CHANNELS[tight]
+        counts = None if usable is None else usable.sum(axis=-1)
+        uneven = counts is not None and np.any(counts != counts[0])  # a lock detector's verdicts differ by run
+        enough = counts is None or (counts.max() if uneven else counts.min()) >= MIN_CHANNELS[tight]
         if enough and u >= p.pull_in_updates and (k_edge >= window if trailing else k_edge + window // 2 <= K):
             m_rho, m_rate = scalar_measurements(track, rho[k_edge], rho_rate[k_edge], k_edge - 1, window)
             pos0, vel0, acc0 = ins.kinematics()
@@ -294,12 +336,18 @@ def _run_scalar(
             s_pos = np.broadcast_to(sat_pos[k_edge], rho.shape[1:] + (3,))
             s_vel = np.broadcast_to(sat_vel[k_edge], rho.shape[1:] + (3,))
             chans = (m_rho, m_rate, var_r, var_v, s_pos, s_vel, cn0)
-            if usable is not None:  # each run's usable channels only
+            refused = None
+            if uneven:  # left-out channels weighted out; a run with too few refused as a whole
+                chans, refused = weight_out(usable, MIN_CHANNELS[tight], *chans)
+            elif usable is not None:  # each run's usable channels only
                 chans = select_channels(usable, *chans)
             if tight:
                 tight_update(ins, ekf, *chans, p.loose_gate_probability)
             else:
                 fp, fv, fcov = pv_fix(*chans[:4], *chans[4:6], pos0, vel0)
+                if refused is not None:  # no fix in those runs: the INS's own position, nil gain
+                    fp, fv = np.where(refused[:, None], pos0, fp), np.where(refused[:, None], vel0, fv)
+                    fcov = np.where(refused[:, None, None], fcov + REJECTED_FIX_VAR * np.eye(6), fcov)
                 loose_update(ins, ekf, fp, fv, fcov, p.loose_gate_probability)
         else:
             ekf.propagate(*ins.take_error_model())
@@ -316,11 +364,26 @@ def _run_scalar(
     )
 
 
+def weight_out(usable: np.ndarray, fewest: int, m_rho, m_rate, var_r, var_v, s_pos, s_vel, cn0):
+    """All channels of an update whose runs keep different numbers of them (a lock
+    detector's verdicts): a left-out channel's variances raised by `REJECTED_FIX_VAR` (its
+    weight in a fix, and its difference's gain, nil) and its C/N0 -inf (never the reference
+    of the differences). A run with fewer than ``fewest`` usable channels is returned as
+    ``refused`` ``(runs,)``: its channels are all kept for the arithmetic (a fix needs four)
+    but raised alike, so its update has nil gain."""
+    refused = usable.sum(axis=-1) < fewest
+    out = ~usable | refused[:, None]
+    var_r = np.where(out, var_r + REJECTED_FIX_VAR, var_r)
+    var_v = np.where(out, var_v + REJECTED_FIX_VAR, var_v)
+    cn0 = np.where(out & ~refused[:, None], -np.inf, cn0)
+    return (m_rho, m_rate, var_r, var_v, s_pos, s_vel, cn0), refused
+
+
 #: What the run of every integrated candidate kind takes and gives (``run_<kind>`` of this
 #: module: `run_deep`, `run_loose`, `run_tight`; ``vector`` is the scenario's own): the
 #: scenario, the candidate's plugins, the flight, its truth, the runs, their streams and the
 #: receiver's view of an outage; the series the scenario scores (``time_s``, ``position_m``...).
 CandidateRun = Callable[
-    [Any, dict[str, Any], Flight, DeepTruth, int, np.random.Generator, ChannelOutage | None],
+    [Any, dict[str, Any], Flight, DeepTruth, int, np.random.Generator, LockVerdicts | None],
     dict[str, np.ndarray],
 ]

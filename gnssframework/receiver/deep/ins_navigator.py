@@ -147,13 +147,14 @@ def exclude_channels(
     channel's residuals become 0 and its variances grow by `REJECTED_FIX_VAR` (its
     difference's gain is then nil: about 1e-12 of a used one's), and its C/N0 -inf, so
     the reference of the differences (`measurements.reference_channel`, the highest C/N0)
-    is a used channel. Each run must keep at least one.
+    is a used channel. A run that keeps none (a lock detector can lose every channel) has
+    every channel left out and keeps its C/N0 values: every difference of its update then
+    has nil gain, and the INS coasts in it.
     """
     usable = np.asarray(usable, bool)
-    if not np.all(usable.any(axis=-1)):
-        raise ConfigError("channel_usable", "every run must keep at least one channel for the differences' reference")
     residual, cov = left_out(residual_m, residual_cov, ~usable)
-    cn0 = np.where(~usable, -np.inf, np.broadcast_to(np.asarray(cn0_dbhz, float), usable.shape))
+    none = ~usable.any(axis=-1, keepdims=True)
+    cn0 = np.where(~usable & ~none, -np.inf, np.broadcast_to(np.asarray(cn0_dbhz, float), usable.shape))
     return residual, cov, cn0
 
 
