@@ -36,10 +36,50 @@ import numpy as np
 
 from ...errors import ConfigError
 
-__all__ = ["ChannelMonitor", "IGNORE_VAR", "ScheduledExclusion"]
+__all__ = ["ChannelMonitor", "ExclusionCount", "IGNORE_VAR", "ScheduledExclusion"]
 
 #: Variance (chips², Hz²) given the navigation filter for an excluded channel's outputs.
 IGNORE_VAR = 1e8
+
+
+class ExclusionCount:
+    """Exclusion with hysteresis, batch-first: a channel is excluded after ``consecutive``
+    flagged tests in a row and readmitted after ``readmit`` clear ones in a row (default
+    ``consecutive``). ``fields`` name the two settings in the errors. Shared by
+    `ChannelMonitor` (innovation tests) and the C/N0 lock test
+    (`gnssframework.receiver.engine.lock_detector.CN0LockDetector`).
+
+    Attributes
+    ----------
+    flagged_run, clear_run
+        Flagged and clear tests in a row so far, per channel.
+    excluded
+        The current verdict.
+    """
+
+    def __init__(
+        self, consecutive: int, readmit: int | None, fields: tuple[str, str] = ("consecutive", "readmit")
+    ) -> None:
+        if consecutive < 1:
+            raise ConfigError(fields[0], f"must be at least 1, got {consecutive}")
+        readmit = consecutive if readmit is None else readmit
+        if readmit < 1:
+            raise ConfigError(fields[1], f"must be at least 1, got {readmit}")
+        self.consecutive, self.readmit = int(consecutive), int(readmit)
+        self.reset((0, 0))
+
+    def reset(self, batch: tuple[int, ...]) -> None:
+        """Every channel of ``batch`` admitted, no history."""
+        self.flagged_run = np.zeros(batch, int)
+        self.clear_run = np.zeros(batch, int)
+        self.excluded = np.zeros(batch, bool)
+
+    def update(self, flagged: np.ndarray) -> np.ndarray:
+        """One test per channel: the counts, then the verdict (returned)."""
+        self.flagged_run = np.where(flagged, self.flagged_run + 1, 0)
+        self.clear_run = np.where(flagged, 0, self.clear_run + 1)
+        self.excluded = np.where(self.excluded, self.clear_run < self.readmit, self.flagged_run >= self.consecutive)
+        return self.excluded
 
 
 class ChannelMonitor:
@@ -58,22 +98,17 @@ class ChannelMonitor:
     def __init__(self, false_alarm: float = 1e-3, consecutive: int = 3, readmit: int | None = None) -> None:
         if not 0.0 < false_alarm < 1.0:
             raise ConfigError("channel_monitor.false_alarm", f"must be a probability in (0, 1), got {false_alarm}")
-        if consecutive < 1:
-            raise ConfigError("channel_monitor.consecutive", f"must be at least 1, got {consecutive}")
-        readmit = consecutive if readmit is None else readmit
-        if readmit < 1:
-            raise ConfigError("channel_monitor.readmit", f"must be at least 1, got {readmit}")
+        self.count = ExclusionCount(consecutive, readmit, ("channel_monitor.consecutive", "channel_monitor.readmit"))
         from scipy.special import chdtri
 
-        self.false_alarm, self.consecutive, self.readmit = false_alarm, int(consecutive), int(readmit)
+        self.false_alarm, self.consecutive, self.readmit = false_alarm, self.count.consecutive, self.count.readmit
         self.threshold = float(chdtri(1, false_alarm))  # chi2.isf(false_alarm, 1)
         self.reset((0, 0))
 
     def reset(self, batch: tuple[int, int]) -> None:
         """Every channel of ``batch`` ``(runs, channels)`` admitted, no history."""
-        self.flagged_run = np.zeros(batch, int)
-        self.clear_run = np.zeros(batch, int)
-        self.excluded = np.zeros(batch, bool)
+        self.count.reset(batch)
+        self.excluded = self.count.excluded
         self.returned = np.zeros(batch, bool)  # never: no channel filter is restarted
         self.statistic = np.zeros(batch)
 
@@ -106,10 +141,7 @@ class ChannelMonitor:
         s = np.asarray(variance_m2, float) + hph
         z = np.asarray(innovation_m, float) ** 2 / s
         self.statistic = z
-        flagged = ~(z <= self.threshold)  # NaN flags
-        self.flagged_run = np.where(flagged, self.flagged_run + 1, 0)
-        self.clear_run = np.where(flagged, 0, self.clear_run + 1)
-        self.excluded = np.where(self.excluded, self.clear_run < self.readmit, self.flagged_run >= self.consecutive)
+        self.excluded = self.count.update(~(z <= self.threshold))  # NaN flags
         return self.excluded
 
 

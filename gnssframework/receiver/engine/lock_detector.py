@@ -40,6 +40,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ...signal.cn0_estimator import CN0Estimator, noise_floor_dbhz
+from .channel_monitor import ExclusionCount
 
 __all__ = ["CN0LockDetector", "check_above_floor"]
 
@@ -116,13 +117,13 @@ class CN0LockDetector:
                 "lock_window",
                 f"{estimator.name} needs at least {estimator.required_intervals()} intervals, got {window}",
             )
-        if consecutive < 1:
-            raise ConfigError("lock_consecutive", f"must be at least 1, got {consecutive}")
-        readmit = consecutive if readmit is None else readmit
-        if readmit < 1:
-            raise ConfigError("lock_readmit", f"must be at least 1, got {readmit}")
+        self.count = ExclusionCount(consecutive, readmit, ("lock_consecutive", "lock_readmit"))
         self.estimator, self.T, self.window = estimator, float(coherent_time_s), int(window)
-        self.threshold_dbhz, self.consecutive, self.readmit = float(threshold_dbhz), int(consecutive), int(readmit)
+        self.threshold_dbhz, self.consecutive, self.readmit = (
+            float(threshold_dbhz),
+            int(consecutive),
+            self.count.readmit,
+        )
         self.restart = bool(restart)
         self.reset((0, 0))
 
@@ -131,9 +132,8 @@ class CN0LockDetector:
         self.batch = tuple(batch)
         self._buffer = np.zeros(self.batch + (self.window,), complex)
         self._filled = 0
-        self._below = np.zeros(self.batch, int)
-        self._above = np.zeros(self.batch, int)
-        self.excluded = np.zeros(self.batch, bool)
+        self.count.reset(self.batch)
+        self.excluded = self.count.excluded
         self.returned = np.zeros(self.batch, bool)
         self.verdicts: list[np.ndarray] = []
         self.readings_dbhz: list[np.ndarray] = []
@@ -153,12 +153,10 @@ class CN0LockDetector:
             return
         self._filled = 0
         reading = self.estimator.estimate_dbhz(self._buffer, self.T)
-        below = ~(reading >= self.threshold_dbhz)  # NaN counts as below
-        self._below = np.where(below, self._below + 1, 0)
-        self._above = np.where(below, 0, self._above + 1)
+        was_excluded = self.excluded
+        self.excluded = self.count.update(~(reading >= self.threshold_dbhz))  # NaN counts as below
         if self.restart:  # the first window back: restart its filter
-            self.returned = self.excluded & (self._above == 1)
-        self.excluded = np.where(self.excluded, self._above < self.readmit, self._below >= self.consecutive)
+            self.returned = was_excluded & (self.count.clear_run == 1)
         self.verdicts.append(self.excluded.copy())
         self.readings_dbhz.append(reading)
 
