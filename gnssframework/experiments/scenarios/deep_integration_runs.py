@@ -261,7 +261,10 @@ def _run_scalar(
     the channels' measurements (tight). The two draw the same numbers in the same order.
 
     With an ``outage`` each update uses the channels `ChannelOutage.usable` keeps; with fewer
-    than `MIN_CHANNELS` of them (4 for a fix, 2 for a difference) the filter only propagates."""
+    than `MIN_CHANNELS` of them (4 for a fix, 2 for a difference) the filter only propagates.
+    With a lock test's verdicts (`CN0LockDetector`) each run keeps its own channels, weighted
+    out (`weight_out`), and a run with too few has a nil-gain update: a run's numbers do not
+    depend on the other runs of its batch."""
     p = scenario.params
     T = p.coherent_time_s
     K = truth.epochs
@@ -318,14 +321,16 @@ def _run_scalar(
     ins, P0 = _setup_ins(scenario, flight, runs, rng)
     ekf.reset((runs,), RunContext(initial_cov=P0))
     n_upd = int(round(p.update_interval_s / T))
+    per_run = outage is not None and not isinstance(outage, ChannelOutage)  # a lock test's verdicts
     records, times = [], []
     for u, k_edge in enumerate(range(n_upd, K + 1, n_upd)):
         t_u = k_edge * T
         ins.advance(t_u)
         usable = None if outage is None else outage.usable(t_u, reach_s)
-        counts = None if usable is None else usable.sum(axis=-1)
-        uneven = counts is not None and np.any(counts != counts[0])  # a lock detector's verdicts differ by run
-        enough = counts is None or (counts.max() if uneven else counts.min()) >= MIN_CHANNELS[tight]
+        # An outage's ideal verdicts are the same in every run: the usable channels are selected, and
+        # with too few the filter only propagates. A lock test's differ by run: every run is updated
+        # alike whatever its batch mates (`weight_out`), one with too few with nil gain.
+        enough = per_run or usable is None or usable.sum(axis=-1).min() >= MIN_CHANNELS[tight]
         if enough and u >= p.pull_in_updates and (k_edge >= window if trailing else k_edge + window // 2 <= K):
             m_rho, m_rate = scalar_measurements(track, rho[k_edge], rho_rate[k_edge], k_edge - 1, window)
             pos0, vel0, acc0 = ins.kinematics()
@@ -337,7 +342,7 @@ def _run_scalar(
             s_vel = np.broadcast_to(sat_vel[k_edge], rho.shape[1:] + (3,))
             chans = (m_rho, m_rate, var_r, var_v, s_pos, s_vel, cn0)
             refused = None
-            if uneven:  # left-out channels weighted out; a run with too few refused as a whole
+            if per_run:  # left-out channels weighted out; a run with too few refused as a whole
                 chans, refused = weight_out(usable, MIN_CHANNELS[tight], *chans)
             elif usable is not None:  # each run's usable channels only
                 chans = select_channels(usable, *chans)
@@ -365,7 +370,7 @@ def _run_scalar(
 
 
 def weight_out(usable: np.ndarray, fewest: int, m_rho, m_rate, var_r, var_v, s_pos, s_vel, cn0):
-    """All channels of an update whose runs keep different numbers of them (a lock
+    """All channels of an update whose runs may keep different numbers of them (a lock
     detector's verdicts): a left-out channel's variances raised by `REJECTED_FIX_VAR` (its
     weight in a fix, and its difference's gain, nil) and its C/N0 -inf (never the reference
     of the differences). A run with fewer than ``fewest`` usable channels is returned as
