@@ -93,7 +93,8 @@ class LockDetectorParams(BaseModel):
 
 def lock_estimator(params: LockDetectorParams):
     """The ``cn0_estimator`` plugin the detector uses (default parameters); `ConfigError`
-    naming ``scenario.lock_detector`` for an unknown name or one that needs a noise correlator."""
+    naming ``scenario.lock_detector`` for an unknown name (one that needs a noise correlator
+    is refused by `CN0LockDetector`)."""
     name = params.lock_detector
     names = registry.names("cn0_estimator")
     if name not in names:
@@ -101,12 +102,7 @@ def lock_estimator(params: LockDetectorParams):
             "scenario.lock_detector",
             f"got {name!r}; allowed: ideal, {', '.join(names)}{did_you_mean(name, ['ideal', *names])}",
         )
-    estimator = registry.create("cn0_estimator", name)
-    if tuple(estimator.needs) != ("prompt",):
-        raise ConfigError(
-            "scenario.lock_detector", f"{name} needs {estimator.needs}; the lock test reads the prompt only"
-        )
-    return estimator
+    return registry.create("cn0_estimator", name)
 
 
 def _window(params: Any) -> int:
@@ -127,16 +123,9 @@ def check_lock(params: Any) -> None:
             if f in params.model_fields_set:
                 raise ConfigError(f"scenario.{f}", "has no effect with lock_detector = 'ideal': name a cn0_estimator")
         return
-    estimator = lock_estimator(params)
-    window = _window(params)
-    if window < estimator.required_intervals():
-        raise ConfigError(
-            "scenario.lock_window_s",
-            f"{estimator.name} needs at least {estimator.required_intervals()} intervals of "
-            f"{params.coherent_time_s} s, got {window}",
-        )
+    detector = make_lock(params, None)  # its own checks, under the scenario's field names
     check_above_floor(
-        estimator, params.coherent_time_s, window, params.lock_cn0_threshold_dbhz, "scenario.lock_cn0_threshold_dbhz"
+        detector.estimator, detector.T, detector.window, detector.threshold_dbhz, "scenario.lock_cn0_threshold_dbhz"
     )
 
 
@@ -153,6 +142,7 @@ def make_lock(params: Any, outage: Any):
         params.lock_consecutive,
         params.lock_readmit,
         params.lock_restart,
+        ("scenario.lock_detector", "scenario.lock_window_s", "scenario.lock_consecutive", "scenario.lock_readmit"),
     )
 
 
@@ -163,7 +153,6 @@ def lock_series(
     update time against the truth's signal over the update interval ending there
     (``signal_gain`` ``(K, runs, ch)``, None: always there)."""
     excluded = np.stack([lock.excluded_at(t) for t in t_u]) if len(t_u) else np.zeros((0,) + batch, bool)
-    excluded = np.broadcast_to(excluded, (len(t_u),) + batch)
     U = len(t_u)
     if signal_gain is None:
         present = np.ones((U,) + batch, bool)

@@ -83,6 +83,9 @@ class CN0LockDetector:
     restart
         Mark a returning channel for a filter restart (`returned`); False: never (the
         filter is readmitted with the state it kept through the loss, a control).
+    fields
+        The names its errors give the estimator, the window, ``consecutive`` and ``readmit``
+        (a scenario's own field names).
 
     Attributes
     ----------
@@ -107,24 +110,21 @@ class CN0LockDetector:
         consecutive: int = 1,
         readmit: int | None = None,
         restart: bool = True,
+        fields: tuple[str, str, str, str] = ("lock_cn0_estimator", "lock_window", "lock_consecutive", "lock_readmit"),
     ) -> None:
         if tuple(estimator.needs) != ("prompt",):
             raise ConfigError(
-                "lock_cn0_estimator", f"{estimator.name} needs {estimator.needs}; the lock test reads the prompt only"
+                fields[0], f"{estimator.name} needs {estimator.needs}; the lock test reads the prompt only"
             )
         if window < estimator.required_intervals():
             raise ConfigError(
-                "lock_window",
-                f"{estimator.name} needs at least {estimator.required_intervals()} intervals, got {window}",
+                fields[1],
+                f"{estimator.name} needs at least {estimator.required_intervals()} intervals of {coherent_time_s} s, "
+                f"got {window}",
             )
-        self.count = ExclusionCount(consecutive, readmit, ("lock_consecutive", "lock_readmit"))
+        self.count = ExclusionCount(consecutive, readmit, fields[2:])
         self.estimator, self.T, self.window = estimator, float(coherent_time_s), int(window)
-        self.threshold_dbhz, self.consecutive, self.readmit = (
-            float(threshold_dbhz),
-            int(consecutive),
-            self.count.readmit,
-        )
-        self.restart = bool(restart)
+        self.threshold_dbhz, self.restart = float(threshold_dbhz), bool(restart)
         self.reset((0, 0))
 
     def reset(self, batch: tuple[int, ...]) -> None:
