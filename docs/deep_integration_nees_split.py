@@ -83,7 +83,7 @@ def measure(
     original_run, original_update = deep_integration_runs.run_deep, InsNavigator.update
     noise = np.random.default_rng([seed, 99])
 
-    def run_deep(scenario_, plugins_, flight, truth, runs_, rng, outage=None):
+    def run_deep(scenario_, plugins_, flight, truth, runs_, rng, lock=None):
         def update(self, t_s, residual_m, residual_cov, los, cn0):
             self.ins.advance(t_s)
             s, sv, sa = truth.sat_state(np.asarray(t_s))
@@ -115,7 +115,7 @@ def measure(
 
         InsNavigator.update = update
         try:
-            return original_run(scenario_, plugins_, flight, truth, runs_, rng, outage)
+            return original_run(scenario_, plugins_, flight, truth, runs_, rng, lock)
         finally:
             InsNavigator.update = original_update
 

@@ -279,10 +279,10 @@ class DeepIntegrationCase(ScenarioParams):
         ge=1,
         description="a satellite outage in the truth: this many channels, the lowest elevations first (at the "
         "start of the flight), lose their signal (correlator signal amplitude 0, noise unchanged) for intervals "
-        "whose middle lies in [outage_start_s, outage_end_s); every candidate (loose, tight, deep, vector) drops them "
-        "from the first update whose measurements reach into the outage and does not take them back (an ideal "
-        "lock detector, no reacquisition). "
-        "Default null (off)",
+        "whose middle lies in [outage_start_s, outage_end_s); with the scenario's lock_detector 'ideal' every "
+        "candidate (loose, tight, deep, vector) drops them from the first update whose measurements reach into the "
+        "outage and does not take them back (an ideal lock detector without reacquisition); with a C/N0 test each "
+        "candidate decides from its own prompts. Default null (off)",
     )
     outage_start_s: float = Field(0.0, ge=0, description="start (s) of the outage")
     outage_end_s: float | None = Field(None, gt=0, description="end (s) of the outage; null: to the end of the run")
@@ -612,20 +612,20 @@ class DeepIntegrationScenario(Scenario):
         cn0 = float(case["cn0_dbhz"])
         truth = self._truth(flight, cn0, runs, rng, c.outage())
         outage = None
-        if c.outage_channels is not None:  # the receiver's side: the channels the truth blocks
+        if c.outage_channels is not None:  # the ideal detector's side: the channels the truth blocks
             from .deep_integration_runs import ChannelOutage
 
             blocked = np.any(truth.signal_gain == 0, axis=0)
             outage = ChannelOutage(blocked, c.outage_start_s, c.outage_end_s)
-        outage = make_lock(p, outage)  # the ideal detector (the outage itself) or a C/N0 test
+        lock = make_lock(p, outage)  # the receiver's verdicts: the ideal detector (the outage itself) or a C/N0 test
         n_upd = int(round(p.update_interval_s / p.coherent_time_s))
         if kind == "vector":
-            out = self._run_vector(plugins, truth, runs, rng, outage)
+            out = self._run_vector(plugins, truth, runs, rng, lock)
         else:  # looked up when called: a script may wrap one (docs/deep_integration_nees_split.py)
             from . import deep_integration_runs
 
             run: deep_integration_runs.CandidateRun = getattr(deep_integration_runs, f"run_{kind}")
-            out = run(self, plugins, flight, truth, runs, rng, outage)
+            out = run(self, plugins, flight, truth, runs, rng, lock)
         t_u = out["time_s"]
         pos_t, vel_t, _ = flight.kinematics(t_u)
         pos_t = np.broadcast_to(pos_t[:, None, :], out["position_m"].shape)
@@ -663,25 +663,26 @@ class DeepIntegrationScenario(Scenario):
         series["nees_pv"] = out["nees"]
         if p.lock_detector == "ideal":
             return evaluate(METRICS, series, t_u, self)
-        series.update(lock_series(outage, t_u, truth.signal_gain, n_upd, code.shape[1:]))
+        series.update(lock_series(lock, t_u, truth.signal_gain, n_upd, code.shape[1:]))
         return evaluate(METRICS + LOCK_METRICS, series, t_u, self)
 
     def _run_vector(
-        self, plugins, truth: DeepTruth, runs: int, rng: np.random.Generator, outage=None
+        self, plugins, truth: DeepTruth, runs: int, rng: np.random.Generator, lock=None
     ) -> dict[str, np.ndarray]:
         """Vector tracking without INS (``run_vector_loop``), decimated to the integration grid.
-        With an ``outage``, each interval's navigation update leaves out the channels blocked
-        by its end (`ScheduledExclusion`, the ideal lock detector ``loose`` and ``tight`` have);
-        their replicas go on being steered by the navigation solution."""
+        With ``lock`` verdicts, each interval's navigation update leaves out the channels they
+        exclude: an outage's blocked channels by its end (`ScheduledExclusion`, the ideal lock
+        detector ``loose`` and ``tight`` have) or a lock test's (`CN0LockDetector`, the loop's
+        monitor); their replicas go on being steered by the navigation solution."""
         p = self.params
         T = p.coherent_time_s
         monitor = None
-        if isinstance(outage, CN0LockDetector):  # the lock test on the prompts as the loop's monitor
-            monitor = outage
-        elif outage is not None:
+        if isinstance(lock, CN0LockDetector):  # the lock test on the prompts as the loop's monitor
+            monitor = lock
+        elif lock is not None:
             from ...receiver.engine.channel_monitor import ScheduledExclusion
 
-            monitor = ScheduledExclusion(lambda k: outage.usable(k * T, T))
+            monitor = ScheduledExclusion(lambda k: lock.usable(k * T, T))
         vt = VectorTruth(
             lambda t: truth.sat_state(t)[:2],
             lambda t: truth.receiver_state(t)[:2],

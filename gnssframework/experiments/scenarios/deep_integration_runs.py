@@ -38,7 +38,7 @@ __all__ = ["run_deep", "run_loose", "run_tight", "ChannelOutage", "LockVerdicts"
 
 
 class LockVerdicts(Protocol):
-    """The receiver's lock verdicts a candidate's run reads (its ``outage`` argument): the
+    """The receiver's lock verdicts a candidate's run reads (its ``lock`` argument): the
     ideal detector of a satellite outage (`ChannelOutage`) or a lock test on the prompts
     (`gnssframework.receiver.engine.lock_detector.CN0LockDetector`). The run hands it each
     interval's correlators (``observe``) and asks which channels an update at ``t_s`` may
@@ -161,12 +161,12 @@ def run_deep(
     truth: DeepTruth,
     runs: int,
     rng: np.random.Generator,
-    outage: LockVerdicts | None = None,
+    lock: LockVerdicts | None = None,
 ) -> dict[str, np.ndarray]:
     """The ``deep`` / ``deep-no-accel`` candidates: INS-aided NCOs, prefilters, ``ins-ekf`` on differences.
 
-    With an ``outage``, an update leaves out the blocked channels from the first update
-    whose prefilter outputs reach into it (those of the interval ending at the update), as
+    With ``lock`` verdicts (an outage's ideal detector or a lock test), an update leaves out
+    the channels they exclude from the first update whose prefilter outputs reach into it (those of the interval ending at the update), as
     ``loose`` and ``tight`` do; their NCOs go on being aided by the INS."""
     p = scenario.params
     ekf = plugins["nav_filter"]
@@ -183,7 +183,7 @@ def run_deep(
         records.append(_nav_record(flight, t_s, nav.ins, nav.ekf.cov))
         times.append(t_s)
 
-    usable = None if outage is None else (lambda t_s: outage.usable(t_s, 0.0))
+    usable = None if lock is None else (lambda t_s: lock.usable(t_s, 0.0))
     nav = InsNavigator(ins, ekf, clock, on_update=record, pull_in_updates=p.pull_in_updates, channel_usable=usable)
     spec = aiding.carrier_filter
     rec = run_aided_tracking(
@@ -196,7 +196,7 @@ def run_deep(
         accel_aiding=aiding.accel_aiding,
         early_late_spacing_chips=p.early_late_spacing_chips,
         carrier_filter=None if spec is None else spec.create(),
-        on_correlators=None if outage is None else _observer(outage, plugins["channel_filter"]),
+        on_correlators=None if lock is None else _observer(lock, plugins["channel_filter"]),
     )
     return _stack(
         records, times, {"code_error_chips": rec.code_error_chips, "freq_error_hz": rec.freq_error_hz, **rec.extra}
@@ -223,11 +223,11 @@ def run_loose(
     truth: DeepTruth,
     runs: int,
     rng: np.random.Generator,
-    outage: LockVerdicts | None = None,
+    lock: LockVerdicts | None = None,
 ) -> dict[str, np.ndarray]:
     """The ``loose`` candidate: scalar loops, weighted least-squares fixes at the update rate, ``ins-ekf``.
-    With fewer than 4 usable channels (``outage``) no fix can be formed: the INS coasts."""
-    return _run_scalar(scenario, plugins, flight, truth, runs, rng, tight=False, outage=outage)
+    With fewer than 4 usable channels (``lock``) no fix can be formed: the INS coasts."""
+    return _run_scalar(scenario, plugins, flight, truth, runs, rng, tight=False, lock=lock)
 
 
 def run_tight(
@@ -237,13 +237,13 @@ def run_tight(
     truth: DeepTruth,
     runs: int,
     rng: np.random.Generator,
-    outage: LockVerdicts | None = None,
+    lock: LockVerdicts | None = None,
 ) -> dict[str, np.ndarray]:
     """The ``tight`` candidate: the same scalar loops as ``loose``, their per-channel pseudoranges and
     rates single-differenced into ``ins-ekf`` (`tight_update`) at the update rate, the same
     variances, inflation and innovation gate (the gate on each update's differences together).
-    With an ``outage`` it updates on the usable channels while two or more remain."""
-    return _run_scalar(scenario, plugins, flight, truth, runs, rng, tight=True, outage=outage)
+    With ``lock`` verdicts it updates on the usable channels while two or more remain."""
+    return _run_scalar(scenario, plugins, flight, truth, runs, rng, tight=True, lock=lock)
 
 
 def _run_scalar(
@@ -255,12 +255,12 @@ def _run_scalar(
     rng: np.random.Generator,
     *,
     tight: bool,
-    outage: LockVerdicts | None = None,
+    lock: LockVerdicts | None = None,
 ) -> dict[str, np.ndarray]:
     """Scalar loops over the whole flight, then an ``ins-ekf`` update per interval: a fix (loose) or
     the channels' measurements (tight). The two draw the same numbers in the same order.
 
-    With an ``outage`` each update uses the channels `ChannelOutage.usable` keeps; with fewer
+    With ``lock`` verdicts each update uses the channels they keep (`LockVerdicts.usable`); with fewer
     than `MIN_CHANNELS` of them (4 for a fix, 2 for a difference) the filter only propagates.
     With a lock test's verdicts (`CN0LockDetector`) each run keeps its own channels, weighted
     out (`weight_out`), and a run with too few has a nil-gain update: a run's numbers do not
@@ -298,7 +298,7 @@ def _run_scalar(
         early_late_spacing_chips=p.early_late_spacing_chips,
         carrier_range_m=carrier_rho,
         amplitude_scale=truth.signal_gain,
-        on_correlators=None if outage is None else _observer(outage, channel),
+        on_correlators=None if lock is None else _observer(lock, channel),
     )
     cp = channel.params
     window = int(round(p.rate_window_s / T))
@@ -321,12 +321,12 @@ def _run_scalar(
     ins, P0 = _setup_ins(scenario, flight, runs, rng)
     ekf.reset((runs,), RunContext(initial_cov=P0))
     n_upd = int(round(p.update_interval_s / T))
-    per_run = outage is not None and not isinstance(outage, ChannelOutage)  # a lock test's verdicts
+    per_run = lock is not None and not isinstance(lock, ChannelOutage)  # a lock test's verdicts
     records, times = [], []
     for u, k_edge in enumerate(range(n_upd, K + 1, n_upd)):
         t_u = k_edge * T
         ins.advance(t_u)
-        usable = None if outage is None else outage.usable(t_u, reach_s)
+        usable = None if lock is None else lock.usable(t_u, reach_s)
         # An outage's ideal verdicts are the same in every run: the usable channels are selected, and
         # with too few the filter only propagates. A lock test's differ by run: every run is updated
         # alike whatever its batch mates (`weight_out`), one with too few with nil gain.
@@ -387,7 +387,7 @@ def weight_out(usable: np.ndarray, fewest: int, m_rho, m_rate, var_r, var_v, s_p
 #: What the run of every integrated candidate kind takes and gives (``run_<kind>`` of this
 #: module: `run_deep`, `run_loose`, `run_tight`; ``vector`` is the scenario's own): the
 #: scenario, the candidate's plugins, the flight, its truth, the runs, their streams and the
-#: receiver's view of an outage; the series the scenario scores (``time_s``, ``position_m``...).
+#: receiver's lock verdicts (`LockVerdicts`); the series the scenario scores (``time_s``, ``position_m``...).
 CandidateRun = Callable[
     [Any, dict[str, Any], Flight, DeepTruth, int, np.random.Generator, LockVerdicts | None],
     dict[str, np.ndarray],

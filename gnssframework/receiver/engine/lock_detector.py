@@ -134,7 +134,9 @@ class CN0LockDetector:
         self._filled = 0
         self.count.reset(self.batch)
         self.excluded = self.count.excluded
-        self.returned = np.zeros(self.batch, bool)
+        self._none_returned = np.zeros(self.batch, bool)
+        self._none_returned.flags.writeable = False  # handed out every interval: read only
+        self.returned = self._none_returned
         self.verdicts: list[np.ndarray] = []
         self.readings_dbhz: list[np.ndarray] = []
 
@@ -148,7 +150,7 @@ class CN0LockDetector:
             self.reset(prompt.shape)  # the first interval sets the batch
         self._buffer[..., self._filled] = prompt
         self._filled += 1
-        self.returned = np.zeros(self.batch, bool)
+        self.returned = self._none_returned
         if self._filled < self.window:
             return
         self._filled = 0
