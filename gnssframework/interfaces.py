@@ -142,7 +142,8 @@ class RunContext:
         Early-to-late correlator spacing d of the simulated correlators.
     epoch_interval_s
         Interval between two epochs of observables or positions (smoothing, position
-        filters); equals ``coherent_time_s`` in tracking harnesses.
+        filters) or between an INS filter's updates (``ins-ekf``); equals
+        ``coherent_time_s`` in tracking harnesses.
     cn0_dbhz
         C/N0 of each channel, broadcastable to the batch shape (a receiver would use
         its C/N0 estimate).
@@ -503,6 +504,13 @@ class ErrorStateNavFilter(NavFilter):
         """How the deep-integration harness aids the NCOs around this filter (default: the
         `IntegrationAiding` defaults)."""
         return IntegrationAiding()
+
+    def innovation(self, inputs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """The innovation ``(runs, m)`` of the measurement ``inputs`` (as `step` takes them)
+        against the prediction over their interval, and its covariance $H P^- H^T + R$
+        ``(runs, m, m)``, without updating: what an innovation gate tests (tight coupling's).
+        The default: the filter offers no gate."""
+        raise NotImplementedError(f"nav_filter {self.name!r} gives no innovation for a gate")
 
 
 class BatchPositionFilter(NavFilter):

@@ -23,6 +23,18 @@ of two measurements:
   (estimate of the GNSS solution) and its 6x6 covariance; the measurement is the INS
   minus the fix, $z = [\\delta r, \\delta v] + n$ (Groves 2013, section 14.3.1).
 
+With a range-error budget (``sisre_std_m``, ``iono_vertical_std_m``,
+``tropo_zenith_std_m``: `plugins.range_bias`) the differenced update carries it as states
+appended after the 15: a SISRE bias per channel, a vertical ionospheric and a zenith
+tropospheric residual, random constants or Gauss-Markov, entering channel i's range
+residual as $M_i b$ and the differences as $D [M; 0]$ (`measurements.integration_measurement`).
+They are not INS errors: the closed loop corrects the INS with the first 15 elements and
+keeps the bias estimate (the states of `plugins.range_bias`, after Brown and Hwang 2012,
+section 8.2). Their initial covariance is the budget's, independent of the INS error
+(the INS starts from its own estimate, not from a fix of those ranges). A loose fix
+carries them through its least-squares gain $K$ (``fix_range_gain``, `loose.fix_range_gain`):
+the INS-minus-fix measurement sees $-K_{0:3} M b$ on its position rows.
+
 Another ``estimator`` from the registry runs the update (``kf`` by default; ``ekf``,
 ``ukf``, ``ckf`` give the same numbers on this linear model, which the tests check).
 """
@@ -42,13 +54,15 @@ from gnssframework.plugin import PluginParams
 from gnssframework.plugin_ref import PluginRef
 from gnssframework.receiver.deep.measurements import POSITION, VELOCITY, integration_measurement, reference_channel
 
+from .range_bias import RangeBiasBudget, RangeBiasStates, budget_assumptions, check_channels, up_vector
+
 __all__ = ["InsEkf", "N_ERROR_STATES"]
 
 #: Size of the error state: attitude, velocity, position, gyro bias, accelerometer bias.
 N_ERROR_STATES = 15
 
 
-class InsEkfParams(PluginParams):
+class _InsEkfOwnParams(PluginParams):
     estimator: PluginRef("estimator") = Field(
         "kf", description="estimator plugin that runs the error-state filter (kf, ekf, ukf, ckf, svd-ckf)"
     )
@@ -74,6 +88,10 @@ class InsEkfParams(PluginParams):
     )
 
 
+class InsEkfParams(RangeBiasStates, _InsEkfOwnParams):
+    """ins-ekf's parameters: its own, then the range-error budget (`plugins.range_bias`)."""
+
+
 class InsEkf(ErrorStateNavFilter):
     """15-state closed-loop error-state filter (attitude, velocity, position, gyro and accelerometer biases).
 
@@ -89,7 +107,12 @@ class InsEkf(ErrorStateNavFilter):
       and ``position_velocity_cov`` ``(runs, 6, 6)`` (loose update),
 
     and returns ``error_state`` ``(runs, 15)`` (to subtract from the INS) and ``cov``
-    (the posterior covariance of the INS error after that correction).
+    (the posterior covariance of the INS error after that correction). With a range-error
+    budget an update also takes ``position_m`` ``(runs, 3)`` (the elevations that map the
+    ionospheric and tropospheric states), and a loose one ``fix_range_gain``
+    ``(runs, 3, ch)`` and ``los`` ``(runs, ch, 3)`` (`receiver.deep.loose.fix_range_gain`);
+    the bias states are appended at the first update, for its channels, and ``cov`` stays
+    the 15 INS states' marginal.
     """
 
     name = "ins-ekf"
@@ -128,6 +151,21 @@ class InsEkf(ErrorStateNavFilter):
         runs = batch_shape[0] if batch_shape else 1
         P0 = np.broadcast_to(P0, (runs, N_ERROR_STATES, N_ERROR_STATES)).copy()
         self.state = self.filter_step.start(Gaussian(np.zeros((runs, N_ERROR_STATES)), P0))
+        self._bias: RangeBiasBudget | None = None  # appended at the first differenced update
+        self._interval_s = 0.0  # Gauss-Markov bias states: the interval of its updates (the run context's)
+        if self.params.range_bias_time_s is not None and RangeBiasBudget.wanted(self.params):
+            self._interval_s = float(
+                context.require("epoch_interval_s", f"{who} (range_bias_time_s: its states decay per update)")
+            )
+
+    def assumptions(self, context) -> dict[str, tuple[object, str]]:
+        """The range-error budget, when it is on."""
+        return budget_assumptions(self.params)
+
+    def fixed_channel_set(self) -> bool:
+        """True with a range-error budget: its SISRE states are appended for the first
+        update's channels."""
+        return RangeBiasBudget.wanted(self.params)
 
     def aiding(self) -> IntegrationAiding:
         """The deep-integration options this filter's parameters set."""
@@ -141,51 +179,125 @@ class InsEkf(ErrorStateNavFilter):
 
     @property
     def cov(self) -> np.ndarray:
-        """Covariance of the INS error now (after the last correction)."""
-        return self.state.cov
+        """Covariance of the INS error now (after the last correction): the 15 INS states'
+        marginal (the range-bias states, when there are any, follow them in the state)."""
+        return self.state.cov[..., :N_ERROR_STATES, :N_ERROR_STATES]
+
+    def _augmented(self, transition: np.ndarray, process_noise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The INS error model's ``Phi`` and ``Qd`` with the bias states' transition appended."""
+        runs = self.state.mean.shape[0]
+        F = np.broadcast_to(np.asarray(transition, float), (runs, N_ERROR_STATES, N_ERROR_STATES))
+        Q = np.broadcast_to(np.asarray(process_noise, float), (runs, N_ERROR_STATES, N_ERROR_STATES))
+        if self._bias is None:
+            return F, Q
+        n = N_ERROR_STATES + self._bias.size
+        psi, q = self._bias.transition(self._interval_s)
+        Fa, Qa = np.zeros((runs, n, n)), np.zeros((runs, n, n))
+        Fa[:, :N_ERROR_STATES, :N_ERROR_STATES], Qa[:, :N_ERROR_STATES, :N_ERROR_STATES] = F, Q
+        Fa[:, N_ERROR_STATES:, N_ERROR_STATES:] = np.diag(psi)
+        Qa[:, N_ERROR_STATES:, N_ERROR_STATES:] = np.diag(q)
+        return Fa, Qa
 
     def propagate(self, transition: np.ndarray, process_noise: np.ndarray) -> None:
-        """Propagate the covariance without a measurement (the mean stays zero in closed loop)."""
-        F = np.asarray(transition, float)
-        P = F @ self.state.cov @ np.swapaxes(F, -1, -2) + process_noise
-        self.state = Gaussian(self.state.mean, 0.5 * (P + np.swapaxes(P, -1, -2)))
+        """Propagate the covariance without a measurement (the INS part of the mean stays zero
+        in closed loop; a Gauss-Markov bias estimate decays)."""
+        F, Q = self._augmented(transition, process_noise)
+        P = F @ self.state.cov @ np.swapaxes(F, -1, -2) + Q
+        mean = np.einsum("rij,rj->ri", F, self.state.mean)
+        self.state = Gaussian(mean, 0.5 * (P + np.swapaxes(P, -1, -2)))
+
+    def _start_bias(self, channels: int) -> None:
+        """Append the budget's bias states for ``channels`` channels: zero mean, the budget's
+        variances, independent of the INS error (`plugins.range_bias.RangeBiasBudget`)."""
+        budget = RangeBiasBudget.of(self.params, channels)
+        x, P = self.state.mean, self.state.cov
+        runs, nb = x.shape[0], budget.size
+        n = N_ERROR_STATES + nb
+        xa = np.concatenate([x, np.zeros((runs, nb))], axis=-1)
+        Pa = np.zeros((runs, n, n))
+        Pa[:, :N_ERROR_STATES, :N_ERROR_STATES] = P
+        Pa[:, N_ERROR_STATES:, N_ERROR_STATES:] = np.diag(budget.std_m() ** 2)
+        self._bias = budget
+        self.state = self.filter_step.start(Gaussian(xa, Pa), first_step=self.filter_step.step_index)
+
+    def _range_rows(self, inputs: Mapping[str, np.ndarray], los: np.ndarray) -> np.ndarray | None:
+        """How the bias states enter this update's ranges ``(runs, ch, n_b)`` (None without a
+        budget), appending them at the first differenced update."""
+        if not RangeBiasBudget.wanted(self.params):
+            return None
+        if "position_m" not in inputs:
+            raise InvalidInputError(
+                self.name, "position_m", "the INS position is needed with a range-error budget (the elevations)"
+            )
+        channels = los.shape[-2]
+        if self._bias is None:
+            self._start_bias(channels)
+        assert self._bias is not None
+        check_channels(self._bias, channels, f"nav_filter {self.name!r}", self.filter_step.step_index)
+        position = np.asarray(inputs["position_m"], float)
+        sin_e = np.einsum("rci,ri->rc", los, up_vector(position))
+        return self._bias.rows(np.degrees(np.arcsin(np.clip(sin_e, -1.0, 1.0))))
 
     def _measurement(self, inputs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if "residual_m" in inputs:
             missing = [k for k in ("residual_cov", "los", "cn0_dbhz") if k not in inputs]
             if missing:
                 raise InvalidInputError(self.name, ", ".join(missing), "needed with residual_m (differenced update)")
+            los = np.asarray(inputs["los"], float)
             return integration_measurement(
                 np.asarray(inputs["residual_m"], float),
                 np.asarray(inputs["residual_cov"], float),
-                np.asarray(inputs["los"], float),
+                los,
                 reference_channel(inputs["cn0_dbhz"]),
                 n_states=N_ERROR_STATES,
+                range_rows=self._range_rows(inputs, los),
             )
         if "position_velocity_error" in inputs:
+            rows = None
+            if RangeBiasBudget.wanted(self.params):
+                if "fix_range_gain" not in inputs or "los" not in inputs:
+                    raise InvalidInputError(
+                        self.name,
+                        "fix_range_gain, los",
+                        "a loose update with a range-error budget needs how the channels' ranges move the fix "
+                        "(receiver.deep.loose.fix_range_gain)",
+                    )
+                rows = self._range_rows(inputs, np.asarray(inputs["los"], float))
             z = np.asarray(inputs["position_velocity_error"], float)
             R = np.asarray(inputs["position_velocity_cov"], float)
-            H = np.zeros(z.shape[:-1] + (6, N_ERROR_STATES))
+            H = np.zeros(z.shape[:-1] + (6, self.state.mean.shape[-1]))
             H[..., 0:3, POSITION] = np.eye(3)
             H[..., 3:6, VELOCITY] = np.eye(3)
+            if rows is not None:  # INS minus fix: the fix carries K M b, so z carries -K M b
+                H[..., 0:3, N_ERROR_STATES:] = -np.asarray(inputs["fix_range_gain"], float) @ rows
             return z, H, R
         raise InvalidInputError(
             self.name, "inputs", "give residual_m (differenced update) or position_velocity_error (loose update)"
         )
 
-    def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        runs = self.state.mean.shape[0]
-        F = np.asarray(inputs.get("transition", np.eye(N_ERROR_STATES)), float)
-        Q = np.asarray(inputs.get("process_noise", np.zeros((N_ERROR_STATES, N_ERROR_STATES))), float)
-        z, H, R = self._measurement(inputs)
-        model = LinearModel(
-            F=np.broadcast_to(F, (runs, N_ERROR_STATES, N_ERROR_STATES)),
-            H=H,
-            Q=np.broadcast_to(Q, (runs, N_ERROR_STATES, N_ERROR_STATES)),
-            R=R,
+    def _transition(self, inputs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        return self._augmented(
+            inputs.get("transition", np.eye(N_ERROR_STATES)),
+            inputs.get("process_noise", np.zeros((N_ERROR_STATES, N_ERROR_STATES))),
         )
-        post = self.filter_step(self.state, z, model).posterior
-        dx = post.mean
-        # Closed loop: the caller removes dx from the INS; the error estimate restarts at zero.
-        self.state = Gaussian(np.zeros_like(dx), post.cov)
-        return {"error_state": dx, "cov": post.cov}
+
+    def innovation(self, inputs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """$z - H \\Phi \\hat x$ and $H (\\Phi P \\Phi^T + Q_d) H^T + R$ of ``inputs`` (the range-bias
+        states included: their estimate is the only non-zero part of the mean), not updating."""
+        z, H, R = self._measurement(inputs)
+        F, Q = self._transition(inputs)
+        P = F @ self.state.cov @ np.swapaxes(F, -1, -2) + Q
+        x = np.einsum("rij,rj->ri", F, self.state.mean)
+        return z - np.einsum("rij,rj->ri", H, x), H @ P @ np.swapaxes(H, -1, -2) + R
+
+    def step(self, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        z, H, R = self._measurement(inputs)  # first: it may append the bias states
+        F, Q = self._transition(inputs)
+        post = self.filter_step(self.state, z, LinearModel(F=F, H=H, Q=Q, R=R)).posterior
+        dx = post.mean[:, :N_ERROR_STATES]
+        # Closed loop: the caller removes dx from the INS; the INS error estimate restarts at
+        # zero, the range-bias estimate (not an INS error) is kept.
+        mean = post.mean.copy()
+        mean[:, :N_ERROR_STATES] = 0.0
+        self.state = Gaussian(mean, post.cov)
+        return {"error_state": dx, "cov": post.cov[:, :N_ERROR_STATES, :N_ERROR_STATES]}

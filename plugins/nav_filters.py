@@ -33,6 +33,7 @@ from gnssframework.simulation.clock import PRESETS
 from .range_bias import (
     RangeBiasBudget,
     RangeBiasParams,
+    budget_assumptions,
     check_channels,
     elevation_deg,
     least_squares_prior,
@@ -268,14 +269,7 @@ class EkfPositionVelocity(NavFilter):
 
     def _budget_assumptions(self) -> dict[str, tuple[float, str]]:
         """The range-error budget as assumptions (none when it is off)."""
-        p = self.params
-        if not RangeBiasBudget.wanted(p):
-            return {}
-        return {
-            "range-error budget: SISRE per satellite": (p.sisre_std_m, "m"),
-            "range-error budget: vertical ionospheric residual": (p.iono_vertical_std_m, "m"),
-            "range-error budget: zenith tropospheric residual": (p.tropo_zenith_std_m, "m"),
-        }
+        return budget_assumptions(self.params)
 
     def fixed_channel_set(self) -> bool:
         """True with a range-error budget: its states are appended for the first step's

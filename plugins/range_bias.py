@@ -35,6 +35,8 @@ from gnssframework.simulation.propagation import klobuchar_obliquity, least_squa
 __all__ = [
     "RangeBiasBudget",
     "RangeBiasParams",
+    "RangeBiasStates",
+    "budget_assumptions",
     "check_channels",
     "elevation_deg",
     "least_squares_prior",
@@ -42,8 +44,8 @@ __all__ = [
 ]
 
 
-class RangeBiasParams(PluginParams):
-    """The range-error budget of a nav filter (all zero: no bias states)."""
+class RangeBiasStates(PluginParams):
+    """The range-error budget of a nav filter as states (all zero: no bias states)."""
 
     sisre_std_m: float = Field(
         0.0, ge=0, description="broadcast orbit and clock error per satellite (SISRE), one state per channel (m)"
@@ -54,16 +56,33 @@ class RangeBiasParams(PluginParams):
     tropo_zenith_std_m: float = Field(
         0.0, ge=0, description="zenith tropospheric residual, one state mapped by the tropospheric mapping (m)"
     )
-    initial_fix_from_ranges: bool = Field(
-        False,
-        description="the run's initial estimate is a least-squares fix from the same biased pseudoranges: "
-        "its position and clock error is correlated with the bias states (plugins/range_bias.py)",
-    )
     range_bias_time_s: float | None = Field(
         None,
         gt=0,
         description="correlation time of the range-bias states (first-order Gauss-Markov, s); None: constant",
     )
+
+
+class RangeBiasParams(RangeBiasStates):
+    """The range-error budget of a nav filter whose initial estimate may be a fix from the
+    same ranges (``ekf-pv``, ``ekf-pva``)."""
+
+    initial_fix_from_ranges: bool = Field(
+        False,
+        description="the run's initial estimate is a least-squares fix from the same biased pseudoranges: "
+        "its position and clock error is correlated with the bias states (plugins/range_bias.py)",
+    )
+
+
+def budget_assumptions(params: RangeBiasStates) -> dict[str, tuple[float, str]]:
+    """The range-error budget as a filter's assumptions (none when it is off)."""
+    if not RangeBiasBudget.wanted(params):
+        return {}
+    return {
+        "range-error budget: SISRE per satellite": (params.sisre_std_m, "m"),
+        "range-error budget: vertical ionospheric residual": (params.iono_vertical_std_m, "m"),
+        "range-error budget: zenith tropospheric residual": (params.tropo_zenith_std_m, "m"),
+    }
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,7 +97,7 @@ class RangeBiasBudget:
     channels: int
 
     @classmethod
-    def of(cls, params: RangeBiasParams, channels: int) -> RangeBiasBudget:
+    def of(cls, params: RangeBiasStates, channels: int) -> RangeBiasBudget:
         return cls(
             params.sisre_std_m,
             params.iono_vertical_std_m,
@@ -88,7 +107,7 @@ class RangeBiasBudget:
         )
 
     @staticmethod
-    def wanted(params: RangeBiasParams) -> bool:
+    def wanted(params: RangeBiasStates) -> bool:
         """Whether ``params`` asks for any bias state."""
         return params.sisre_std_m > 0 or params.iono_vertical_std_m > 0 or params.tropo_zenith_std_m > 0
 

@@ -142,9 +142,9 @@ def test_loose_stops_updating_below_four_channels_and_tight_goes_on_with_three(m
     calls = {"loose": [], "tight": []}
     loose_update, tight_update = runs_mod.loose_update, runs_mod.tight_update
 
-    def spy_loose(ins, ekf, fp, fv, fcov, gate):
+    def spy_loose(ins, ekf, fp, fv, fcov, gate, **geometry):
         calls["loose"].append(fp.shape)
-        return loose_update(ins, ekf, fp, fv, fcov, gate)
+        return loose_update(ins, ekf, fp, fv, fcov, gate, **geometry)
 
     def spy_tight(ins, ekf, m_rho, *rest):
         calls["tight"].append(m_rho.shape)

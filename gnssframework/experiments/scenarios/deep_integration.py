@@ -273,6 +273,12 @@ class DeepIntegrationCase(ScenarioParams):
     accel_misalignment_mrad: float | None = Field(
         None, ge=0, description="this case's accelerometer misalignment (mrad; default: the scenario's imu)"
     )
+    gyro_scale_factor_ppm: float | None = Field(
+        None, ge=0, description="this case's gyro scale-factor error (ppm; default: the scenario's imu)"
+    )
+    accel_scale_factor_ppm: float | None = Field(
+        None, ge=0, description="this case's accelerometer scale-factor error (ppm; default: the scenario's imu)"
+    )
 
     outage_channels: int | None = Field(
         None,
@@ -300,7 +306,12 @@ class DeepIntegrationCase(ScenarioParams):
             update["oscillator_g_sensitivity_per_g"] = self.oscillator_g_sensitivity_per_g
         imu = {
             k: getattr(self, k)
-            for k in ("gyro_misalignment_mrad", "accel_misalignment_mrad")
+            for k in (
+                "gyro_misalignment_mrad",
+                "accel_misalignment_mrad",
+                "gyro_scale_factor_ppm",
+                "accel_scale_factor_ppm",
+            )
             if getattr(self, k) is not None
         }
         if imu:

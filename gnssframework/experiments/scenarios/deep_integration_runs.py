@@ -21,6 +21,7 @@ from ...navigation.geometry import line_of_sight, range_rate
 from ...receiver.deep.aided_tracking import DeepTruth, run_aided_tracking
 from ...receiver.deep.ins_navigator import REJECTED_FIX_VAR, InsNavigator, loose_update, tight_update
 from ...receiver.deep.loose import (
+    fix_range_gain,
     correlated_error_inflation,
     line_of_sight_accel,
     pv_fix,
@@ -171,7 +172,7 @@ def run_deep(
     p = scenario.params
     ekf = plugins["nav_filter"]
     ins, P0 = _setup_ins(scenario, flight, runs, rng)
-    ekf.reset((runs,), RunContext(initial_cov=P0))
+    ekf.reset((runs,), RunContext(initial_cov=P0, epoch_interval_s=p.update_interval_s))
     aiding = ekf.aiding()  # an ErrorStateNavFilter's contract
     c_std = np.asarray(p.initial_clock_std_m, float)
     clock = ClockFilter(
@@ -319,7 +320,7 @@ def _run_scalar(
     reach_s = (1 if trailing else window // 2 + 1) * T  # how far past the update its measurements reach
     ekf = plugins["nav_filter"]
     ins, P0 = _setup_ins(scenario, flight, runs, rng)
-    ekf.reset((runs,), RunContext(initial_cov=P0))
+    ekf.reset((runs,), RunContext(initial_cov=P0, epoch_interval_s=p.update_interval_s))
     n_upd = int(round(p.update_interval_s / T))
     per_run = lock is not None and not isinstance(lock, ChannelOutage)  # a lock test's verdicts
     records, times = [], []
@@ -353,7 +354,8 @@ def _run_scalar(
                 if refused is not None:  # no fix in those runs: the INS's own position, nil gain
                     fp, fv = np.where(refused[:, None], pos0, fp), np.where(refused[:, None], vel0, fv)
                     fcov = np.where(refused[:, None, None], fcov + REJECTED_FIX_VAR * np.eye(6), fcov)
-                loose_update(ins, ekf, fp, fv, fcov, p.loose_gate_probability)
+                gain, los_fix = fix_range_gain(chans[2], chans[4], fp)  # a range-bias budget maps through it
+                loose_update(ins, ekf, fp, fv, fcov, p.loose_gate_probability, range_gain=gain, los=los_fix)
         else:
             ekf.propagate(*ins.take_error_model())
         records.append(_nav_record(flight, t_u, ins, ekf.cov))

@@ -24,7 +24,7 @@ from ...errors import ConfigError
 from ...interfaces import ErrorStateNavFilter
 from ...navigation.geometry import line_of_sight, range_rate
 from .loose import fix_gate
-from .measurements import POSITION, VELOCITY, integration_measurement, reference_channel
+from .measurements import POSITION, VELOCITY
 from .navigators import ClockFilter
 
 __all__ = ["StrapdownSolution", "InsNavigator", "exclude_channels", "left_out", "loose_update", "tight_update"]
@@ -123,6 +123,7 @@ class InsNavigator:
                 "residual_cov": residual_cov,
                 "los": los,
                 "cn0_dbhz": cn0_dbhz,
+                "position_m": self.ins.kinematics()[0],  # the elevations of a range-error budget
             }
         )
         dx = out["error_state"]
@@ -169,11 +170,6 @@ def left_out(z: np.ndarray, cov: np.ndarray, out: np.ndarray) -> tuple[np.ndarra
     return np.where(out[..., None], 0.0, z), np.where(out[..., None, None], raised, cov)
 
 
-def _predicted_cov(ekf: ErrorStateNavFilter, Phi: np.ndarray, Qd: np.ndarray) -> np.ndarray:
-    """The error state's covariance predicted to the update, $\\Phi P \\Phi^T + Q_d$, for the gates."""
-    return Phi @ ekf.cov @ np.swapaxes(Phi, -1, -2) + Qd
-
-
 def loose_update(
     ins: StrapdownSolution,
     ekf: ErrorStateNavFilter,
@@ -181,25 +177,34 @@ def loose_update(
     fix_vel_m_s: np.ndarray,
     fix_cov: np.ndarray,
     gate_probability: float = 0.0,
+    *,
+    range_gain: np.ndarray | None = None,
+    los: np.ndarray | None = None,
 ) -> np.ndarray:
     """One loosely coupled update: INS minus a GNSS position/velocity fix into ``ins-ekf``, then correct.
 
     ``fix_cov`` ``(runs, 6, 6)`` over [position, velocity]. With ``gate_probability`` > 0 a
-    run's fix that fails the chi-square innovation gate (`loose.fix_gate`, against the
-    filter's predicted covariance plus ``fix_cov``) is not used: its innovation is set to 0
-    and its covariance raised by `REJECTED_FIX_VAR`. Returns the applied error estimate.
+    run's fix that fails the chi-square innovation gate (`loose.fix_gate` on the filter's
+    innovation, `ErrorStateNavFilter.innovation`: against its predicted covariance plus
+    ``fix_cov``, range-bias states included when the filter has them) is not used: its
+    innovation is set to 0 and its covariance raised by `REJECTED_FIX_VAR`. ``range_gain``
+    ``(runs, 3, ch)`` and ``los`` ``(runs, ch, 3)`` (`loose.fix_range_gain`): how each
+    channel's range error moves the fix, for a filter with range-bias states. Returns the
+    applied error estimate.
     """
     Phi, Qd = ins.take_error_model()
     p, v, _ = ins.kinematics()
     z = np.concatenate([p - fix_pos_m, v - fix_vel_m_s], axis=-1)
+    inputs = {"transition": Phi, "process_noise": Qd, "position_velocity_error": z, "position_velocity_cov": fix_cov}
+    if range_gain is not None:
+        if los is None:
+            raise ConfigError("loose_update", "range_gain needs the fix's lines of sight (los)")
+        inputs.update(fix_range_gain=range_gain, los=los, position_m=fix_pos_m)
     if gate_probability > 0:
-        idx = np.r_[np.arange(15)[POSITION], np.arange(15)[VELOCITY]]  # z is [position, velocity]
-        P = _predicted_cov(ekf, Phi, Qd)
-        accepted = fix_gate(z, P[:, idx[:, None], idx] + fix_cov, gate_probability)
-        z, fix_cov = left_out(z, fix_cov, ~accepted)
-    out = ekf.step(
-        {"transition": Phi, "process_noise": Qd, "position_velocity_error": z, "position_velocity_cov": fix_cov}
-    )
+        innovation, S = ekf.innovation(inputs)
+        accepted = fix_gate(innovation, S, gate_probability)
+        inputs["position_velocity_error"], inputs["position_velocity_cov"] = left_out(z, fix_cov, ~accepted)
+    out = ekf.step(inputs)
     ins.correct(out["error_state"])
     return out["error_state"]
 
@@ -247,8 +252,9 @@ def tight_update(
         ``(runs, ch)`` or ``(ch,)``: picks the reference channel.
     gate_probability
         > 0: a run's whole update (all its differences) that fails the chi-square innovation
-        gate (`loose.fix_gate` on $Dz$ against $DH P^- H^T D^T + D R D^T$, 2(n-1) degrees of
-        freedom) is not used, as `loose_update` refuses a fix: its residuals are set to 0 and
+        gate (`loose.fix_gate` on the filter's innovation, `ErrorStateNavFilter.innovation`:
+        $Dz$ against $DH P^- H^T D^T + D R D^T$, 2(n-1) degrees of freedom, range-bias states
+        included when the filter has them) is not used, as `loose_update` refuses a fix: its residuals are set to 0 and
         its variances raised by `REJECTED_FIX_VAR`.
 
     Returns
@@ -263,20 +269,19 @@ def tight_update(
     cov[..., 0, 0] = var_range_m2
     cov[..., 1, 1] = var_rate_m2_s2
     cn0 = np.broadcast_to(np.asarray(cn0_dbhz, float), residual.shape[:-1])
-    if gate_probability > 0:
-        z, H, R = integration_measurement(residual, cov, los, reference_channel(cn0))
-        P = _predicted_cov(ekf, Phi, Qd)
-        accepted = fix_gate(z, H @ P @ np.swapaxes(H, -1, -2) + R, gate_probability)
-        residual, cov = left_out(residual, cov, ~accepted[:, None])
-    out = ekf.step(
-        {
-            "transition": Phi,
-            "process_noise": Qd,
-            "residual_m": residual,
-            "residual_cov": cov,
-            "los": los,
-            "cn0_dbhz": cn0,
-        }
-    )
+    inputs = {
+        "transition": Phi,
+        "process_noise": Qd,
+        "residual_m": residual,
+        "residual_cov": cov,
+        "los": los,
+        "cn0_dbhz": cn0,
+        "position_m": p,  # the elevations of a range-error budget
+    }
+    if gate_probability > 0:  # the filter's innovation: its range-bias states, if any, included
+        innovation, S = ekf.innovation(inputs)
+        accepted = fix_gate(innovation, S, gate_probability)
+        inputs["residual_m"], inputs["residual_cov"] = left_out(residual, cov, ~accepted[:, None])
+    out = ekf.step(inputs)
     ins.correct(out["error_state"])
     return out["error_state"]

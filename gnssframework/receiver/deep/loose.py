@@ -31,6 +31,7 @@ from ..tracking.scalar import run_closed_loop
 __all__ = [
     "scalar_tracking",
     "pv_fix",
+    "fix_range_gain",
     "scalar_measurement_variances",
     "scalar_measurements",
     "trailing_rate_measurement",
@@ -191,6 +192,35 @@ def pv_fix(
     cov[:, :3, :3] = np.linalg.inv(N_r)[:, :3, :3]
     cov[:, 3:, 3:] = np.linalg.inv(N_v)[:, :3, :3]
     return r, v, cov
+
+
+def fix_range_gain(
+    var_range: np.ndarray, sat_pos_m: np.ndarray, fix_pos_m: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """How each channel's range error moves a `pv_fix` position: the position rows of its
+    weighted least-squares gain at the fix (Groves 2013, section 9.4.1),
+
+    $$ K = (G^T W G)^{-1} G^T W, \\qquad G_i = [-e_i^T,\\; 1], \\quad W = \\mathrm{diag}(1/\\sigma_i^2), $$
+
+    so that a range error $\\delta\\rho$ ``(runs, ch)`` moves the fix by $K_{0:3}\\,\\delta\\rho$.
+
+    Parameters
+    ----------
+    var_range
+        ``(runs, ch)`` the fix's range variances.
+    sat_pos_m
+        ``(ch, 3)`` or ``(runs, ch, 3)``.
+    fix_pos_m
+        ``(runs, 3)`` the fix.
+
+    Returns
+    -------
+    The gain ``(runs, 3, ch)`` (m/m) and the unit lines of sight ``(runs, ch, 3)`` (receiver to satellite).
+    """
+    _, e = line_of_sight(sat_pos_m, np.asarray(fix_pos_m, float)[:, None, :])
+    G = np.concatenate([-e, np.ones(e.shape[:-1] + (1,))], axis=-1)  # (runs, ch, 4)
+    GtW = np.swapaxes(G, -1, -2) / np.asarray(var_range, float)[:, None, :]
+    return np.linalg.solve(GtW @ G, GtW)[:, :3, :], e
 
 
 def scalar_measurements(

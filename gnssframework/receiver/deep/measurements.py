@@ -220,6 +220,7 @@ def integration_measurement(
     n_states: int = 15,
     position: slice = POSITION,
     velocity: slice = VELOCITY,
+    range_rows: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Differenced range and rate residuals as a measurement of the 15-state error.
 
@@ -238,10 +239,15 @@ def integration_measurement(
         ``(runs,)`` reference channel.
     n_states, position, velocity
         Error-state size and where position and velocity sit (15-state layout by default).
+    range_rows
+        ``(runs, ch, n_b)``: range-bias states appended after the ``n_states``, entering
+        channel i's range residual as $M_i b$ (`plugins.range_bias.RangeBiasBudget.rows`;
+        the rates see none). Their columns of H are $D [M; 0]$: what the differences leave
+        of them (a bias common to all channels cancels like the clock).
 
     Returns
     -------
-    z ``(runs, 2(n-1))`` ordered [ranges..., rates...], H ``(runs, 2(n-1), n_states)`` and the
+    z ``(runs, 2(n-1))`` ordered [ranges..., rates...], H ``(runs, 2(n-1), n_states + n_b)`` and the
     correlated covariance ``(runs, 2(n-1), 2(n-1))``.
     """
     runs, n, _ = residual_m.shape
@@ -251,9 +257,12 @@ def integration_measurement(
     for a in range(2):
         for b in range(2):
             R[:, a * n + idx, b * n + idx] = residual_cov[..., a, b]
-    H = np.zeros((runs, 2 * n, n_states))
+    n_b = 0 if range_rows is None else range_rows.shape[-1]
+    H = np.zeros((runs, 2 * n, n_states + n_b))
     H[:, :n, position] = los
     H[:, n:, velocity] = los
+    if range_rows is not None:
+        H[:, :n, n_states:] = range_rows
     D1 = difference_operator(n, reference)
     D = np.zeros((runs, 2 * (n - 1), 2 * n))
     D[:, : n - 1, :n] = D1
