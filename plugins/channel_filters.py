@@ -784,10 +784,15 @@ class IqFilter(ChannelFilter):
     def restart(self, elements: np.ndarray) -> bool:
         """From the next step, ``elements`` (bool, the batch shape) start again as at the first
         step: amplitude and phase from that step's prompt, code, frequency and frequency rate
-        errors 0 against the replica, the covariance ``initial_std``. The adaptive R's
-        innovation window (``adaptive``) is the filter's, not restarted per element."""
+        errors 0 against the replica, the covariance ``initial_std``. With an adaptive R
+        (``adaptive``) they are held on the correlators' own R for the adapter's window
+        (`FilterStep.hold_model_noise`), so that the R they adapt to next comes from their
+        new innovations only, as a filter started afresh there would (with its warm-up one
+        step shorter than its window: ``tests/receiver/test_lock_detector.py``)."""
         mask = np.broadcast_to(np.asarray(elements, bool), self.batch_shape).reshape(self._flat_shape)
         self._restart = mask if self._restart is None else self._restart | mask
+        if self.adapter is not None:
+            self.filter_step.hold_model_noise(mask, int(getattr(self.adapter.params, "window", self.params.window)))
         return True
 
     def _restarted(self, mean: np.ndarray, cov: np.ndarray, prompt) -> tuple[np.ndarray, np.ndarray]:

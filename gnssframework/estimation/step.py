@@ -249,6 +249,7 @@ class FilterStep:
         self._Q: np.ndarray | None = None
         self._R: np.ndarray | None = None
         self._in_force_cache: tuple[Any, ...] | None = None
+        self._hold: np.ndarray | None = None  # steps left on the model's own noise, per element
         self._lean = backend.compiled()
 
     def start(self, initial: Gaussian, model: Model | None = None, *, first_step: int = 0) -> Gaussian:
@@ -280,6 +281,7 @@ class FilterStep:
         self.step_index = first_step
         self._adapted = 0
         self._Q = self._R = None
+        self._hold = None
         self._run = None
         if self.adapter is not None:
             if model is None:
@@ -313,10 +315,27 @@ class FilterStep:
             if restart_warmup:
                 self._adapted = 0
 
+    def hold_model_noise(self, elements: np.ndarray, steps: int) -> None:
+        """For the next ``steps`` steps the batch ``elements`` (bool, broadcast to the state's
+        batch shape) use the model's own Q and R instead of the adapter's, while the adapter
+        goes on for every element: a filter that starts some elements again
+        (`ChannelFilter.restart`) holds them there until a windowed adapter's window (e.g.
+        ``innovation``'s, ``steps`` its length) holds their new innovations only. A recursive
+        adapter (Sage-Husa's) still remembers the old ones through its forgetting factor.
+        Does nothing without an adapter."""
+        if self.adapter is None or steps <= 0:
+            return
+        new = np.where(np.asarray(elements, bool), int(steps), 0)
+        self._hold = new if self._hold is None else np.maximum(self._hold, new)
+
     def in_force(self, model: Model) -> Model:
-        """``model`` with the adapter's latest Q and R (unchanged before it has estimated)."""
+        """``model`` with the adapter's latest Q and R (unchanged before it has estimated;
+        the model's own for the elements `hold_model_noise` holds)."""
         if self._Q is None:
             return model
+        if self._hold is not None and self._R is not None:  # not cached: the held elements change per step
+            held = (self._hold > 0)[..., None, None]
+            return model.with_noise(Q=np.where(held, model.Q, self._Q), R=np.where(held, model.R, self._R))
         # predict and update of one step use the same model: build it once.
         hit = self._in_force_cache
         if hit is not None and hit[0] is model and hit[1] is self._Q and hit[2] is self._R:
@@ -392,6 +411,10 @@ class FilterStep:
                 self.step_index,
             )
             self._adapted += 1
+        if self._hold is not None:  # one step of the hold spent
+            self._hold = self._hold - 1
+            if not any_true(self._hold > 0):
+                self._hold = None
         self.step_index += 1
         if skipped.shape != posterior.batch_shape:
             skipped = np.broadcast_to(skipped, posterior.batch_shape)

@@ -131,3 +131,50 @@ def test_a_restarted_iq_filter_finds_the_returning_signal_and_leaves_the_others_
 def test_a_filter_that_cannot_restart_says_so():
     f = create("channel_filter", "scalar")
     assert f.restart(np.ones((2, 3), bool)) is False
+
+
+def _adaptive_run(batch, corrs, restart_at, mask, whole_adapter=False):
+    """An adaptive iq-filter (window 10, warm-up 9) over ``corrs``; ``mask`` restarted at
+    ``restart_at``; with ``whole_adapter`` its adapter is started afresh there too. Returns
+    the amplitudes and, after each step, each element's R in force for the next."""
+    f = create("channel_filter", "iq-filter", adaptive=True, window=10, warmup=9, output="equivalent")
+    f.reset(batch, RunContext(coherent_time_s=T, early_late_spacing_chips=1.0, cn0_dbhz=45.0))
+    zero = np.zeros(batch)
+    amp, R = [], []
+    for k, corr in enumerate(corrs):
+        if k == restart_at:
+            assert f.restart(mask)
+            if whole_adapter:
+                f.filter_step.restart_adapter(f.model, from_model_noise=True)
+        amp.append(f.checked_step({"correlators": corr, "nco_shift_chips": zero, "nco_shift_hz": zero})["amplitude"])
+        r = f.filter_step.in_force(f.model).R
+        R.append(np.broadcast_to(r, (int(np.prod(batch)), 6, 6)).copy())
+    return np.array(amp), np.array(R)
+
+
+def test_a_restarted_adaptive_iq_filter_adapts_on_its_new_innovations_only():
+    # The oracle: a one-element filter whose whole adapter starts afresh with the element
+    # (window 10, warm-up 9: the model's R for 10 steps, then the mean of the 10 new
+    # innovations). Restarted in a batch of two, the element holds the correlators' own R for
+    # the window and then adapts as that filter does, while its neighbour keeps adapting.
+    gain = np.r_[np.ones(300), np.zeros(600), np.ones(200)]
+    corrs = list(_correlators(gain, 45.0, np.random.default_rng(6), batch=(1, 2), code=0.05))
+    mask = np.array([[True, False]])
+    amp, R = _adaptive_run((1, 2), corrs, 900, mask)
+    alone = [type(c)(**{k: getattr(c, k)[:, :1] for k in ("early", "prompt", "late")}) for c in corrs]
+    amp1, R1 = _adaptive_run((1, 1), alone, 900, np.array([[True]]), whole_adapter=True)
+    held = R[900:909, 0]  # after steps 900-908: the R of steps 901-909, the model's
+    np.testing.assert_array_equal(held, R1[900:909, 0])
+    np.testing.assert_array_equal(held, np.broadcast_to(held[0], held.shape))
+    assert not np.allclose(R[900:909, 1], held)  # the neighbour keeps its adapted R
+    # Tolerates: the adapter's running window sum (an O(1) update: add the new, subtract the
+    # oldest) still carries the rounding of the innovations that left it, which a fresh
+    # window does not; through the loop that moved the amplitude by 9e-11 relative over the
+    # 200 steps here, and R's entries (of order 1) by up to 8e-10. 1e-8 is ten to a hundred
+    # times that; without the hold they differ by more than 1e-3 (below).
+    np.testing.assert_allclose(amp[900:, 0, 0], amp1[900:, 0, 0], rtol=1e-8)
+    np.testing.assert_allclose(R[909:, 0], R1[909:, 0], rtol=1e-8, atol=1e-8)
+    assert not np.allclose(R[909, 0], held[0])  # it adapts again after the window
+    # Without the hold (the adapter's window still full of the 0.6 s of noise) it does not.
+    _, R_kept = _adaptive_run((1, 2), corrs, None, mask)
+    assert not np.allclose(R_kept[909:960, 0], R1[909:960, 0], rtol=1e-3)
