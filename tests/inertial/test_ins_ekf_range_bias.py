@@ -17,12 +17,18 @@ M = 15
 BUDGET = {"sisre_std_m": 0.6, "iono_vertical_std_m": 2.0, "tropo_zenith_std_m": 0.05}
 
 
+def _satellites(n):
+    """Positions and velocities ``(n, 3)`` of the ``n`` highest satellites at the place."""
+    const = nominal_constellation()
+    sats = const.subset(const.visible(0.0, LAT, LON, H, 10.0, n))
+    s, sv, _ = sats.state(np.asarray(0.0))
+    return s, sv
+
+
 def _geometry(n):
     """Unit lines of sight (receiver to satellite) and elevations (deg) of ``n`` satellites,
     the elevations from pymap3d (not from the library's own geometry)."""
-    const = nominal_constellation()
-    sats = const.subset(const.visible(0.0, LAT, LON, H, 10.0, n))
-    s, _, _ = sats.state(np.asarray(0.0))
+    s, _ = _satellites(n)
     r = np.array(pymap3d.geodetic2ecef(LAT, LON, H))
     e = (s - r) / np.linalg.norm(s - r, axis=-1, keepdims=True)
     _, el, _ = pymap3d.ecef2aer(s[:, 0], s[:, 1], s[:, 2], LAT, LON, H)
@@ -285,9 +291,7 @@ def test_tight_coupling_gate_weighs_the_bias_states_it_carries():
 
     n = 6
     r, e, el = _geometry(n)
-    const = nominal_constellation()
-    sats = const.subset(const.visible(0.0, LAT, LON, H, 10.0, n))
-    s, sv, _ = sats.state(np.asarray(0.0))
+    s, sv = _satellites(n)
     cols = _bias_columns(el)
     b = np.concatenate([[3.0, 0.05], 1.2 * np.where(np.arange(n) % 2 == 0, 1.0, -1.0)])
     rho = np.linalg.norm(s - r, axis=-1) + 40.0 + cols @ b  # clock 40 m, biases
@@ -319,9 +323,7 @@ def test_fix_range_gain_is_how_a_range_error_moves_the_least_squares_fix():
 
     n = 6
     r, e, _ = _geometry(n)
-    const = nominal_constellation()
-    sats = const.subset(const.visible(0.0, LAT, LON, H, 10.0, n))
-    s, sv, _ = sats.state(np.asarray(0.0))
+    s, sv = _satellites(n)
     g = np.random.default_rng(2)
     var_r = g.uniform(0.5, 3.0, (1, n))
     rho = np.linalg.norm(s - r, axis=-1)[None] + 12.0
