@@ -42,7 +42,7 @@ from ...inertial.imu import ImuGrade
 from ...inertial.trajectory import MAX_START_LAT_DEG
 from ...receiver.deep.aided_tracking import DeepTruth, loss_of_lock
 from ...receiver.engine.lock_detector import CN0LockDetector
-from .deep_integration_lock import LOCK_METRICS, LockDetectorParams, check_lock, lock_series, make_lock
+from .deep_integration_lock import LOCK_METRICS, LockDetectorParams, check_lock, lock_series, make_lock, whole_multiple
 from .deep_integration_metrics import attitude_errors_deg, enu_errors
 from ...receiver.tracking.scalar import NCO_COMMANDS
 from ...receiver.tracking.vector import CHANNEL_OUTPUTS, NAV_OUTPUTS, VectorTruth, run_vector_loop
@@ -420,9 +420,7 @@ class DeepIntegrationScenario(Scenario):
             ("update_interval_s", p.nco_interval_s, p.update_interval_s),
             ("duration_s", p.update_interval_s, p.duration_s),
         ):
-            n = big / small
-            if abs(n - round(n)) > 1e-6 or round(n) < 1:
-                raise ConfigError(f"scenario.{name}", f"must be a whole multiple of {small} s (got {big})")
+            whole_multiple(name, big, small, f"{small} s")
         if p.settle_s >= p.duration_s:
             raise ConfigError("scenario.settle_s", f"must be less than duration_s = {p.duration_s}")
         check_lock(p)

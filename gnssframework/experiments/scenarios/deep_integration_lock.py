@@ -36,7 +36,15 @@ from ...receiver.engine.lock_detector import CN0LockDetector, check_above_floor
 from ...suggest import did_you_mean
 from ..metric_components import Mean
 
-__all__ = ["LockDetectorParams", "LOCK_METRICS", "lock_estimator", "check_lock", "make_lock", "lock_series"]
+__all__ = [
+    "LockDetectorParams",
+    "LOCK_METRICS",
+    "lock_estimator",
+    "check_lock",
+    "make_lock",
+    "lock_series",
+    "whole_multiple",
+]
 
 #: The metrics the scenario adds when its lock detector is a C/N0 test.
 LOCK_METRICS = (
@@ -105,14 +113,20 @@ def lock_estimator(params: LockDetectorParams):
     return registry.create("cn0_estimator", name)
 
 
+def whole_multiple(field: str, big_s: float, small_s: float, small: str) -> int:
+    """``big_s`` / ``small_s`` when it is a whole number of at least 1; else a `ConfigError`
+    naming ``scenario.<field>`` and ``small`` (how the message names the smaller interval)."""
+    n = big_s / small_s
+    if abs(n - round(n)) > 1e-6 or round(n) < 1:
+        raise ConfigError(f"scenario.{field}", f"must be a whole multiple of {small} (got {big_s})")
+    return int(round(n))
+
+
 def _window(params: Any) -> int:
     window_s = params.update_interval_s if params.lock_window_s is None else params.lock_window_s
-    n = window_s / params.coherent_time_s
-    if abs(n - round(n)) > 1e-6 or round(n) < 1:
-        raise ConfigError(
-            "scenario.lock_window_s", f"must be a whole multiple of coherent_time_s = {params.coherent_time_s} s"
-        )
-    return int(round(n))
+    return whole_multiple(
+        "lock_window_s", window_s, params.coherent_time_s, f"coherent_time_s = {params.coherent_time_s} s"
+    )
 
 
 def check_lock(params: Any) -> None:
