@@ -372,3 +372,44 @@ def test_loose_update_with_range_bias_states_is_gaussian_conditioning_by_hand():
     np.testing.assert_allclose(out["error_state"][0], (gain @ z)[:M], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(ekf.state.mean[0, M:], (gain @ z)[M:], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(ekf.state.cov[0], P0 - gain @ S @ gain.T, rtol=1e-8, atol=1e-12)
+
+
+def test_without_a_budget_the_filters_innovation_is_the_15_state_gates_to_the_bit():
+    # A filter that gives no innovation of its own (the contract's default) is gated on the
+    # 15 INS states' predicted covariance; ins-ekf's own innovation, without range-bias
+    # states, is the same numbers (so the examples' gated runs did not move).
+    from gnssframework.receiver.deep.ins_navigator import gate_innovation
+
+    n = 6
+    r, e, _ = _geometry(n)
+    g = np.random.default_rng(13)
+    P_ins, _ = _prior(n)
+    L = g.normal(size=(M, M)) * 0.1
+    Phi = (np.eye(M) + L)[None]
+    Qd = (L @ L.T)[None]
+    cov = np.zeros((1, n, 2, 2))
+    cov[..., 0, 0], cov[..., 1, 1] = 1.0, 0.01
+    differenced = {
+        "transition": Phi,
+        "process_noise": Qd,
+        "residual_m": g.normal(size=(1, n, 2)),
+        "residual_cov": cov,
+        "los": e[None],
+        "cn0_dbhz": np.linspace(40.0, 46.0, n)[None],
+        "position_m": r[None],
+    }
+    loose = {
+        "transition": Phi,
+        "process_noise": Qd,
+        "position_velocity_error": g.normal(size=(1, 6)),
+        "position_velocity_cov": np.eye(6)[None],
+    }
+    ekf = _ekf(P_ins[None], 1)
+    plugin_cls = type(ekf)
+    no_own = type("NoOwnInnovation", (plugin_cls,), {"innovation": lambda self, inputs: None})
+    other = no_own()
+    other.reset((1,), RunContext(initial_cov=P_ins[None]))
+    for inputs in (differenced, loose):
+        own, fallback = gate_innovation(ekf, dict(inputs)), gate_innovation(other, dict(inputs))
+        np.testing.assert_array_equal(own[0], fallback[0])
+        np.testing.assert_array_equal(own[1], fallback[1])

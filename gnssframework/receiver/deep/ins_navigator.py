@@ -24,10 +24,18 @@ from ...errors import ConfigError
 from ...interfaces import ErrorStateNavFilter
 from ...navigation.geometry import line_of_sight, range_rate
 from .loose import fix_gate
-from .measurements import POSITION, VELOCITY
+from .measurements import POSITION, VELOCITY, integration_measurement, reference_channel
 from .navigators import ClockFilter
 
-__all__ = ["StrapdownSolution", "InsNavigator", "exclude_channels", "left_out", "loose_update", "tight_update"]
+__all__ = [
+    "StrapdownSolution",
+    "InsNavigator",
+    "exclude_channels",
+    "gate_innovation",
+    "left_out",
+    "loose_update",
+    "tight_update",
+]
 
 
 class StrapdownSolution(Protocol):
@@ -170,6 +178,24 @@ def left_out(z: np.ndarray, cov: np.ndarray, out: np.ndarray) -> tuple[np.ndarra
     return np.where(out[..., None], 0.0, z), np.where(out[..., None, None], raised, cov)
 
 
+def gate_innovation(ekf: ErrorStateNavFilter, inputs: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """What an innovation gate tests: the filter's own `ErrorStateNavFilter.innovation`, or,
+    for a filter that gives none, the measurement against the 15 INS states' predicted
+    covariance $\\Phi P \\Phi^T + Q_d$ (its mean is zero between closed-loop updates)."""
+    own = ekf.innovation(inputs)
+    if own is not None:
+        return own
+    Phi, Qd = inputs["transition"], inputs["process_noise"]
+    P = Phi @ ekf.cov @ np.swapaxes(Phi, -1, -2) + Qd
+    if "residual_m" in inputs:
+        z, H, R = integration_measurement(
+            inputs["residual_m"], inputs["residual_cov"], inputs["los"], reference_channel(inputs["cn0_dbhz"])
+        )
+        return z, H @ P @ np.swapaxes(H, -1, -2) + R
+    idx = np.r_[np.arange(15)[POSITION], np.arange(15)[VELOCITY]]  # z is [position, velocity]
+    return inputs["position_velocity_error"], P[:, idx[:, None], idx] + inputs["position_velocity_cov"]
+
+
 def loose_update(
     ins: StrapdownSolution,
     ekf: ErrorStateNavFilter,
@@ -184,8 +210,8 @@ def loose_update(
     """One loosely coupled update: INS minus a GNSS position/velocity fix into ``ins-ekf``, then correct.
 
     ``fix_cov`` ``(runs, 6, 6)`` over [position, velocity]. With ``gate_probability`` > 0 a
-    run's fix that fails the chi-square innovation gate (`loose.fix_gate` on the filter's
-    innovation, `ErrorStateNavFilter.innovation`: against its predicted covariance plus
+    run's fix that fails the chi-square innovation gate (`loose.fix_gate` on
+    `gate_innovation`: against the filter's predicted covariance plus
     ``fix_cov``, range-bias states included when the filter has them) is not used: its
     innovation is set to 0 and its covariance raised by `REJECTED_FIX_VAR`. ``range_gain``
     ``(runs, 3, ch)`` and ``los`` ``(runs, ch, 3)`` (`loose.fix_range_gain`): how each
@@ -201,7 +227,7 @@ def loose_update(
             raise ConfigError("loose_update", "range_gain needs the fix's lines of sight (los)")
         inputs.update(fix_range_gain=range_gain, los=los, position_m=fix_pos_m)
     if gate_probability > 0:
-        innovation, S = ekf.innovation(inputs)
+        innovation, S = gate_innovation(ekf, inputs)
         accepted = fix_gate(innovation, S, gate_probability)
         inputs["position_velocity_error"], inputs["position_velocity_cov"] = left_out(z, fix_cov, ~accepted)
     out = ekf.step(inputs)
@@ -252,7 +278,7 @@ def tight_update(
         ``(runs, ch)`` or ``(ch,)``: picks the reference channel.
     gate_probability
         > 0: a run's whole update (all its differences) that fails the chi-square innovation
-        gate (`loose.fix_gate` on the filter's innovation, `ErrorStateNavFilter.innovation`:
+        gate (`loose.fix_gate` on `gate_innovation`:
         $Dz$ against $DH P^- H^T D^T + D R D^T$, 2(n-1) degrees of freedom, range-bias states
         included when the filter has them) is not used, as `loose_update` refuses a fix: its residuals are set to 0 and
         its variances raised by `REJECTED_FIX_VAR`.
@@ -279,7 +305,7 @@ def tight_update(
         "position_m": p,  # the elevations of a range-error budget
     }
     if gate_probability > 0:  # the filter's innovation: its range-bias states, if any, included
-        innovation, S = ekf.innovation(inputs)
+        innovation, S = gate_innovation(ekf, inputs)
         accepted = fix_gate(innovation, S, gate_probability)
         inputs["residual_m"], inputs["residual_cov"] = left_out(residual, cov, ~accepted[:, None])
     out = ekf.step(inputs)
